@@ -1,0 +1,31 @@
+# Third-party dependencies, all Debian packages (see README "Dependencies").
+find_package(PkgConfig REQUIRED)
+
+# zstd: the Debian CMake config exports libzstd_static / libzstd_shared.
+find_package(zstd CONFIG QUIET)
+if(TARGET zstd::libzstd_static)
+  set(RGS_ZSTD_TARGET zstd::libzstd_static)
+elseif(TARGET zstd::libzstd_shared)
+  set(RGS_ZSTD_TARGET zstd::libzstd_shared)
+else()
+  pkg_check_modules(RGS_ZSTD REQUIRED IMPORTED_TARGET libzstd)
+  set(RGS_ZSTD_TARGET PkgConfig::RGS_ZSTD)
+endif()
+
+# xxHash has no CMake config on Debian 12; link the static archive so GPU binaries stay self-contained.
+find_path(RGS_XXHASH_INCLUDE_DIR xxhash.h REQUIRED)
+find_library(RGS_XXHASH_LIBRARY NAMES libxxhash.a xxhash REQUIRED)
+add_library(rgs_xxhash INTERFACE)
+target_include_directories(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_INCLUDE_DIR}>")
+target_link_libraries(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_LIBRARY}>")
+
+if(RGS_BUILD_TOOLS)
+  find_package(CLI11 CONFIG REQUIRED)
+  find_package(nlohmann_json CONFIG REQUIRED)
+endif()
+find_package(Threads REQUIRED)
+
+if(RGS_BUILD_TESTS)
+  find_package(doctest CONFIG REQUIRED)
+  include(doctest)  # doctest_discover_tests()
+endif()

@@ -1,0 +1,72 @@
+// Reads trained 3DGS scenes from PLY (INRIA layout or any property order) into float Gaussians.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/status.h"
+
+namespace rgs::converter {
+
+/// What to do with Gaussians whose values cannot be rendered (docs/INPUT_HYGIENE.md).
+enum class InvalidPolicy {
+  /// Fail with kCorruptData, naming the counts and the first bad vertex (default).
+  kReject,
+  /// Drop such Gaussians and report how many were dropped.
+  kSanitize,
+};
+
+/// Counts of problem values found in the input, reported whatever the policy.
+struct InputHygiene {
+  /// Non-finite (NaN or ±inf) values in means, f_dc/f_rest, scales or rotations.
+  uint64_t nonfinite_values = 0;
+  /// Gaussians with at least one such value.
+  uint64_t gaussians_with_nonfinite = 0;
+  /// Gaussians whose rotation quaternion has zero (or subnormal-squared) norm, so normalize() fails.
+  uint64_t zero_norm_quaternions = 0;
+  /// Opacity logits that are ±inf. These are well defined (sigmoid gives exactly 1 or 0) and are kept
+  /// under every policy; NaN opacity counts as non-finite above.
+  uint64_t infinite_opacity_logits = 0;
+  /// Gaussians removed under kSanitize (0 under kReject).
+  uint64_t dropped_gaussians = 0;
+  /// Index (in the file) of the first Gaussian that is non-finite or has a zero quaternion; -1 if none.
+  int64_t first_invalid_index = -1;
+};
+
+struct PlyReadOptions {
+  InvalidPolicy invalid_policy = InvalidPolicy::kReject;
+  /// Refuse files declaring more vertices than this (kLimitExceeded) before allocating.
+  uint64_t max_gaussians = uint64_t{1} << 28;
+};
+
+/// A PLY scene and what was learned while reading it.
+struct PlyScene {
+  /// Activated float Gaussians (GaussianCloud documents the layout).
+  format::GaussianCloud cloud;
+  InputHygiene hygiene;
+  /// Size of the PLY file in bytes and its storage format ("binary_little_endian", "binary_big_endian",
+  /// "ascii").
+  uint64_t file_bytes = 0;
+  std::string storage_format;
+  /// Number of vertices declared in the header (before sanitizing).
+  uint64_t declared_vertices = 0;
+};
+
+/// Reads a 3DGS PLY file. Properties are found by name (x y z, f_dc_0..2, f_rest_0..M-1 with M in {0, 9,
+/// 24, 45} giving SH degree 0..3, opacity, scale_0..2, rot_0..3); other properties (nx ny nz, ...) are
+/// ignored. Storage: binary_little_endian, binary_big_endian or ascii; property types char/uchar/short/
+/// ushort/int/uint/float/double and their int8..float64 aliases. Elements other than `vertex` are
+/// allowed only after it. Activations as the INRIA code applies them at load: opacity = sigmoid,
+/// scale = exp, rotation = normalize (w, x, y, z); SH reordered from channel-major f_rest to [N, K, 3].
+/// Errors name `path` and the cause: kIoError (missing, unreadable, file shorter than the header says),
+/// kCorruptData (not a PLY, malformed header, face before vertex, bad ascii token, invalid values under
+/// kReject), kUnsupportedFeature (unknown property type, list property in vertex, f_rest count not 0/9/
+/// 24/45, missing required property), kLimitExceeded (vertex count above max_gaussians).
+Result<PlyScene> read_ply(const std::string& path, const PlyReadOptions& options = {});
+
+/// Same as read_ply on bytes in memory (tests, fuzzing). `name` is used in error messages.
+Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                const PlyReadOptions& options = {});
+
+}  // namespace rgs::converter

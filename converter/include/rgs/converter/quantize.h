@@ -1,0 +1,39 @@
+// Quantizes float Gaussians into the .rgs runtime profile (paper §"Compact Attribute Storage").
+#pragma once
+
+#include <cstdint>
+
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+
+namespace rgs::converter {
+
+struct QuantizeOptions {
+  /// How scales are stored in FP16 (metadata.h explains the trade-off).
+  format::ScaleEncoding scale_encoding = format::ScaleEncoding::kLinear;
+  /// SH scale rule: 100 = max |SH| / 127 (paper Eq. quant); P in (0, 100) uses the P-th percentile of
+  /// |SH| per (degree, channel) and clips larger coefficients to ±127 (counted in the report).
+  float sh_clip_percentile = 100.0f;
+};
+
+/// What quantization did to the SH, per degree d and channel c.
+struct ShQuantizationReport {
+  /// Coefficients whose |q| would exceed 127 and were clipped (only with percentile clipping).
+  uint64_t clipped[4][3] = {};
+};
+
+/// Quantizes `cloud` (which must be consistent and finite): FP32 means copied bit-exactly, rotations
+/// normalized then FP16, scales and activated opacities FP16, SH symmetric INT8 with s[d][c] =
+/// max_i |SH[i][d][c]| / 127 (or the chosen percentile), q = round-half-away(SH / s) clamped to ±127.
+/// Fills metadata: SH degree, conventions, bounds (compute_bounds) and the quantization.
+/// Errors: kInvalidArgument (inconsistent cloud, percentile outside (0, 100]).
+Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
+                                      ShQuantizationReport* report = nullptr);
+
+/// Bounds of the means: AABB, and a sphere centred on the AABB centre whose radius is the largest
+/// distance to a mean (computed in double, rounded up, so every mean is inside in float32).
+format::SceneBounds compute_bounds(const format::GaussianCloud& cloud);
+
+}  // namespace rgs::converter

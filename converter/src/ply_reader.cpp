@@ -1,0 +1,796 @@
+// PLY reader: header validation, binary (LE/BE, any scalar types, any property order) and ascii vertex
+// decoding, INRIA activations and input hygiene (docs/INPUT_HYGIENE.md).
+//
+// Memory: read_ply() streams the vertex data with pread() through reusable buffers of 8 MB in total
+// (split over the worker threads), so the peak is the decoded cloud plus 8 MB, not the file (mmap'd
+// pages would count toward RSS); read_ply_bytes() decodes the caller's span in place.
+#include "rgs/converter/ply_reader.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <new>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include "internal_parallel.h"
+#include "internal_ply_header.h"
+
+namespace rgs::converter {
+
+namespace {
+
+using detail::PlyElement;
+using detail::PlyHeader;
+using detail::PlyProperty;
+using detail::PlyStorage;
+using detail::PlyType;
+
+constexpr bool kHostLittleEndian = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;
+/// Bytes of vertex data buffered at once, over all workers (rounded down to whole rows, at least one).
+constexpr size_t kChunkBytes = size_t{8} << 20;
+/// Bytes of ascii text scanned per window.
+constexpr size_t kAsciiWindowBytes = size_t{1} << 20;
+/// Longest ascii token accepted (numbers are far shorter); bounds the carried-over partial token.
+constexpr size_t kMaxAsciiToken = 256;
+/// Rows per worker below which decoding stays on one thread.
+constexpr uint64_t kMinRowsPerWorker = 8192;
+/// Most SH values per Gaussian (degree 3: 16 coefficients × 3 channels).
+constexpr uint32_t kMaxShValues = 48;
+
+// ---------------------------------------------------------------------------------------------------
+// Vertex layout: where each needed value lives in a row.
+
+/// One needed value: byte offset in a binary row, type, and index among the vertex properties (ascii).
+struct FieldSource {
+  uint32_t offset = 0;
+  uint32_t index = 0;
+  PlyType type = PlyType::kFloat32;
+};
+
+struct VertexLayout {
+  uint32_t sh_degree = 0;
+  uint32_t sh_values = 3;  ///< K·3
+  FieldSource mean[3];
+  FieldSource opacity;
+  FieldSource scale[3];
+  FieldSource rot[4];
+  /// SH in cloud order: entry k·3 + c is coefficient k of channel c.
+  FieldSource sh[kMaxShValues];
+  size_t stride = 0;          ///< binary row size
+  size_t property_count = 0;  ///< values per ascii row
+  /// Every needed value is float32 and the file is little-endian on a little-endian host.
+  bool all_float_native = false;
+};
+
+/// Validates the vertex properties and locates the ones the cloud needs.
+Status resolve_layout(const PlyElement& vertex, PlyStorage storage, VertexLayout* layout) {
+  std::unordered_map<std::string_view, size_t> by_name;
+  size_t offset = 0;
+  std::vector<uint32_t> offsets(vertex.properties.size());
+  for (size_t p = 0; p < vertex.properties.size(); ++p) {
+    const PlyProperty& prop = vertex.properties[p];
+    if (prop.is_list) {
+      return Status(StatusCode::kUnsupportedFeature,
+                    "PLY header line " + std::to_string(prop.header_line) + ": vertex property '" + prop.name +
+                        "' is a list; 3DGS vertices have scalar properties only");
+    }
+    if (!prop.known_type) {
+      return Status(StatusCode::kUnsupportedFeature,
+                    "PLY header line " + std::to_string(prop.header_line) + ": unknown type '" + prop.type_name +
+                        "' of vertex property '" + prop.name +
+                        "' (known: char uchar short ushort int uint float double and int8..float64)");
+    }
+    offsets[p] = static_cast<uint32_t>(offset);
+    offset += detail::ply_type_size(prop.type);
+    by_name.emplace(prop.name, p);
+  }
+  layout->stride = offset;
+  layout->property_count = vertex.properties.size();
+
+  auto find = [&](const std::string& name, FieldSource* out) -> Status {
+    auto it = by_name.find(name);
+    if (it == by_name.end()) {
+      return Status(StatusCode::kUnsupportedFeature,
+                    "missing required vertex property '" + name +
+                        "' (3DGS PLY needs x y z f_dc_0..2 opacity scale_0..2 rot_0..3)");
+    }
+    out->index = static_cast<uint32_t>(it->second);
+    out->offset = offsets[it->second];
+    out->type = vertex.properties[it->second].type;
+    return Status();
+  };
+  static const char* const kAxes[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a) RGS_RETURN_IF_ERROR(find(kAxes[a], &layout->mean[a]));
+  for (int c = 0; c < 3; ++c) RGS_RETURN_IF_ERROR(find("f_dc_" + std::to_string(c), &layout->sh[c]));
+  RGS_RETURN_IF_ERROR(find("opacity", &layout->opacity));
+  for (int a = 0; a < 3; ++a) RGS_RETURN_IF_ERROR(find("scale_" + std::to_string(a), &layout->scale[a]));
+  for (int a = 0; a < 4; ++a) RGS_RETURN_IF_ERROR(find("rot_" + std::to_string(a), &layout->rot[a]));
+
+  // f_rest_0..M-1, M in {0, 9, 24, 45}; indices must be canonical decimal and contiguous.
+  size_t rest_count = 0;
+  const PlyProperty* first_rest = nullptr;
+  for (const PlyProperty& prop : vertex.properties) {
+    if (prop.name.rfind("f_rest_", 0) != 0) continue;
+    ++rest_count;
+    if (first_rest == nullptr) first_rest = &prop;
+  }
+  uint32_t degree = 0;
+  switch (rest_count) {
+    case 0: degree = 0; break;
+    case 9: degree = 1; break;
+    case 24: degree = 2; break;
+    case 45: degree = 3; break;
+    default:
+      return Status(StatusCode::kUnsupportedFeature,
+                    "vertex has " + std::to_string(rest_count) +
+                        " f_rest_* properties; 3DGS files have 0, 9, 24 or 45 (SH degree 0..3)");
+  }
+  const uint32_t k_count = format::sh_coefficient_count(degree);
+  for (size_t r = 0; r < rest_count; ++r) {
+    FieldSource src;
+    const std::string name = "f_rest_" + std::to_string(r);
+    if (by_name.find(name) == by_name.end()) {
+      return Status(StatusCode::kUnsupportedFeature,
+                    "vertex has " + std::to_string(rest_count) + " f_rest_* properties but no '" + name +
+                        "'; expected exactly f_rest_0..f_rest_" + std::to_string(rest_count - 1));
+    }
+    RGS_RETURN_IF_ERROR(find(name, &src));
+    // f_rest is channel-major: f_rest[c·(K−1) + k−1] is coefficient k of channel c.
+    const uint32_t c = static_cast<uint32_t>(r / (k_count - 1));
+    const uint32_t k = static_cast<uint32_t>(r % (k_count - 1)) + 1;
+    layout->sh[k * 3 + c] = src;
+  }
+  layout->sh_degree = degree;
+  layout->sh_values = k_count * 3;
+
+  bool all_float = kHostLittleEndian && storage == PlyStorage::kBinaryLittleEndian;
+  auto check = [&all_float](const FieldSource& f) { all_float = all_float && f.type == PlyType::kFloat32; };
+  for (const auto& f : layout->mean) check(f);
+  for (const auto& f : layout->scale) check(f);
+  for (const auto& f : layout->rot) check(f);
+  check(layout->opacity);
+  for (uint32_t j = 0; j < layout->sh_values; ++j) check(layout->sh[j]);
+  layout->all_float_native = all_float;
+  return Status();
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Activation and hygiene, shared by every storage format.
+
+/// The raw PLY values of one Gaussian, converted to float32.
+struct RawGaussian {
+  float mean[3];
+  float opacity;
+  float scale[3];
+  float rot[4];
+  float sh[kMaxShValues];
+};
+
+/// Hygiene counts of one slice of vertices; merged in slice order.
+struct HygieneCounts {
+  uint64_t nonfinite_values = 0;
+  uint64_t gaussians_with_nonfinite = 0;
+  uint64_t zero_norm_quaternions = 0;
+  uint64_t infinite_opacity_logits = 0;
+  /// File indices of invalid Gaussians, ascending.
+  std::vector<uint64_t> invalid;
+};
+
+inline bool is_finite_bits(float v) {
+  uint32_t u;
+  std::memcpy(&u, &v, 4);
+  return (u & 0x7f800000u) != 0x7f800000u;
+}
+
+/// Converts to float32 without the undefined behaviour of casting an out-of-range double.
+inline float to_float(double v) {
+  constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
+  if (v > kMax) return std::numeric_limits<float>::infinity();
+  if (v < -kMax) return -std::numeric_limits<float>::infinity();
+  return static_cast<float>(v);
+}
+
+/// Applies the INRIA activations to Gaussian `i` and stores it; counts problems into `counts`.
+inline void activate_and_store(const RawGaussian& g, uint64_t i, uint32_t sh_values, format::GaussianCloud* cloud,
+                               HygieneCounts* counts) {
+  uint64_t bad = 0;
+  float* mean = cloud->means.data() + i * 3;
+  for (int a = 0; a < 3; ++a) {
+    mean[a] = g.mean[a];
+    bad += !is_finite_bits(g.mean[a]);
+  }
+  float* sh = cloud->sh.data() + i * sh_values;
+  for (uint32_t j = 0; j < sh_values; ++j) {
+    sh[j] = g.sh[j];
+    bad += !is_finite_bits(g.sh[j]);
+  }
+  float* scale = cloud->scales.data() + i * 3;
+  for (int a = 0; a < 3; ++a) {
+    // exp(-inf) = 0 is a valid (degenerate) scale, the PLY encoding of scale 0; exp overflow is not.
+    scale[a] = to_float(std::exp(static_cast<double>(g.scale[a])));
+    bad += !is_finite_bits(scale[a]);
+  }
+  const float logit = g.opacity;
+  if (std::isnan(logit)) {
+    ++bad;
+    cloud->opacities[i] = logit;
+  } else {
+    counts->infinite_opacity_logits += std::isinf(logit);
+    // sigmoid; ±inf give exactly 1 and 0.
+    cloud->opacities[i] = static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(logit))));
+  }
+  float* rot = cloud->rotations.data() + i * 4;
+  bool rot_finite = true;
+  for (int a = 0; a < 4; ++a) rot_finite = rot_finite && is_finite_bits(g.rot[a]);
+  bool zero_norm = false;
+  if (!rot_finite) {
+    for (int a = 0; a < 4; ++a) {
+      rot[a] = g.rot[a];
+      bad += !is_finite_bits(g.rot[a]);
+    }
+  } else {
+    double n2 = 0;
+    for (int a = 0; a < 4; ++a) n2 += static_cast<double>(g.rot[a]) * g.rot[a];
+    // A norm² that is zero or subnormal in float32 cannot be normalized by float code (the INRIA
+    // loader's F.normalize would leave a non-unit quaternion), so such rotations are invalid.
+    if (n2 < static_cast<double>(std::numeric_limits<float>::min())) {
+      zero_norm = true;
+      for (int a = 0; a < 4; ++a) rot[a] = g.rot[a];
+    } else {
+      const double inv = 1.0 / std::sqrt(n2);
+      for (int a = 0; a < 4; ++a) rot[a] = static_cast<float>(g.rot[a] * inv);
+    }
+  }
+  counts->nonfinite_values += bad;
+  counts->gaussians_with_nonfinite += bad != 0;
+  counts->zero_norm_quaternions += zero_norm;
+  if (bad != 0 || zero_norm) counts->invalid.push_back(i);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Binary rows.
+
+template <typename T>
+inline T load_raw(const uint8_t* p, bool swap) {
+  uint8_t bytes[sizeof(T)];
+  std::memcpy(bytes, p, sizeof(T));
+  if (swap) std::reverse(bytes, bytes + sizeof(T));
+  T v;
+  std::memcpy(&v, bytes, sizeof(T));
+  return v;
+}
+
+inline float load_value(const uint8_t* row, const FieldSource& f, bool swap) {
+  const uint8_t* p = row + f.offset;
+  switch (f.type) {
+    case PlyType::kInt8: return static_cast<float>(load_raw<int8_t>(p, false));
+    case PlyType::kUint8: return static_cast<float>(load_raw<uint8_t>(p, false));
+    case PlyType::kInt16: return static_cast<float>(load_raw<int16_t>(p, swap));
+    case PlyType::kUint16: return static_cast<float>(load_raw<uint16_t>(p, swap));
+    case PlyType::kInt32: return static_cast<float>(load_raw<int32_t>(p, swap));
+    case PlyType::kUint32: return static_cast<float>(load_raw<uint32_t>(p, swap));
+    case PlyType::kFloat32: return load_raw<float>(p, swap);
+    case PlyType::kFloat64: return to_float(load_raw<double>(p, swap));
+  }
+  return 0.0f;
+}
+
+inline float load_float_native(const uint8_t* row, const FieldSource& f) {
+  float v;
+  std::memcpy(&v, row + f.offset, 4);
+  return v;
+}
+
+/// Decodes rows [0, n) starting at `rows` into cloud indices [first, first + n).
+template <bool kAllFloatNative>
+void decode_binary_rows(const uint8_t* rows, uint64_t n, uint64_t first, const VertexLayout& layout, bool swap,
+                        format::GaussianCloud* cloud, HygieneCounts* counts) {
+  RawGaussian g;
+  const uint32_t sh_values = layout.sh_values;
+  for (uint64_t r = 0; r < n; ++r) {
+    const uint8_t* row = rows + r * layout.stride;
+    auto get = [&](const FieldSource& f) {
+      if constexpr (kAllFloatNative) {
+        return load_float_native(row, f);
+      } else {
+        return load_value(row, f, swap);
+      }
+    };
+    for (int a = 0; a < 3; ++a) g.mean[a] = get(layout.mean[a]);
+    for (int a = 0; a < 3; ++a) g.scale[a] = get(layout.scale[a]);
+    for (int a = 0; a < 4; ++a) g.rot[a] = get(layout.rot[a]);
+    g.opacity = get(layout.opacity);
+    for (uint32_t j = 0; j < sh_values; ++j) g.sh[j] = get(layout.sh[j]);
+    activate_and_store(g, first + r, sh_values, cloud, counts);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Byte sources: a memory span, or a file read through one reusable buffer.
+
+class ByteSource {
+ public:
+  virtual ~ByteSource() = default;
+  /// Bytes [offset, offset + n), valid until the next call. The caller keeps the range inside size().
+  /// Not thread safe.
+  virtual Result<const uint8_t*> view(uint64_t offset, size_t n) = 0;
+  /// The whole content when it is already in memory, else null.
+  virtual const uint8_t* memory() const = 0;
+  /// Copies bytes [offset, offset + n) into `dst`. Thread safe.
+  virtual Status read_into(uint64_t offset, size_t n, uint8_t* dst) const = 0;
+  virtual uint64_t size() const = 0;
+};
+
+class MemorySource final : public ByteSource {
+ public:
+  MemorySource(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+  Result<const uint8_t*> view(uint64_t offset, size_t /*n*/) override { return data_ + offset; }
+  const uint8_t* memory() const override { return data_; }
+  Status read_into(uint64_t offset, size_t n, uint8_t* dst) const override {
+    if (n != 0) std::memcpy(dst, data_ + offset, n);
+    return Status();
+  }
+  uint64_t size() const override { return size_; }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+};
+
+std::string errno_text(int err) {
+  if (err == ENOENT) return "no such file or directory";
+  if (err == EACCES) return "permission denied";
+  if (err == EISDIR) return "is a directory";
+  return std::strerror(err);
+}
+
+class FileSource final : public ByteSource {
+ public:
+  ~FileSource() override {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Status open(const std::string& path) {
+    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd_ < 0) return Status(StatusCode::kIoError, "cannot open: " + errno_text(errno));
+    struct stat st;
+    if (::fstat(fd_, &st) != 0) return Status(StatusCode::kIoError, "cannot stat: " + errno_text(errno));
+    if (S_ISDIR(st.st_mode)) return Status(StatusCode::kIoError, "is a directory, not a PLY file");
+    if (!S_ISREG(st.st_mode)) return Status(StatusCode::kIoError, "not a regular file");
+    size_ = static_cast<uint64_t>(st.st_size);
+    return Status();
+  }
+  Result<const uint8_t*> view(uint64_t offset, size_t n) override {
+    if (buffer_.size() < n) {
+      buffer_.clear();
+      buffer_.shrink_to_fit();
+      buffer_.resize(n);
+    }
+    RGS_RETURN_IF_ERROR(read_into(offset, n, buffer_.data()));
+    return buffer_.data();
+  }
+  const uint8_t* memory() const override { return nullptr; }
+  Status read_into(uint64_t offset, size_t n, uint8_t* dst) const override {
+    size_t done = 0;
+    while (done < n) {
+      const ssize_t got = ::pread(fd_, dst + done, n - done, static_cast<off_t>(offset + done));
+      if (got < 0) {
+        if (errno == EINTR) continue;
+        return Status(StatusCode::kIoError, "read of " + std::to_string(n) + " bytes at offset " +
+                                                std::to_string(offset) + " failed: " + errno_text(errno));
+      }
+      if (got == 0) {
+        return Status(StatusCode::kIoError, "file ends at byte " + std::to_string(offset + done) + ", expected " +
+                                                std::to_string(offset + n) + " (file changed while reading?)");
+      }
+      done += static_cast<size_t>(got);
+    }
+    return Status();
+  }
+  uint64_t size() const override { return size_; }
+
+ private:
+  int fd_ = -1;
+  uint64_t size_ = 0;
+  std::vector<uint8_t> buffer_;
+};
+
+/// Decodes the binary vertex rows. Workers take contiguous slices of the vertices; with a file source
+/// each worker reads its slice through its own buffer of kChunkBytes / workers (pread is thread safe),
+/// so reading and decoding both run in parallel and memory stays at one chunk in total. Counts are
+/// merged in slice order, so the result does not depend on the number of workers.
+Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n, const VertexLayout& layout,
+                     bool swap, format::GaussianCloud* cloud, HygieneCounts* total) {
+  const unsigned workers = detail::worker_count(n, kMinRowsPerWorker);
+  const size_t stride = layout.stride;
+  const uint64_t chunk_rows = std::max<uint64_t>(1, kChunkBytes / workers / stride);
+  std::vector<HygieneCounts> parts(workers);
+  std::vector<Status> errors(workers);
+  std::vector<std::vector<uint8_t>> buffers(source.memory() ? 0 : workers);
+  for (auto& b : buffers) b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
+  auto decode = [&](const uint8_t* rows, uint64_t count, uint64_t first, HygieneCounts* counts) {
+    if (layout.all_float_native) {
+      decode_binary_rows<true>(rows, count, first, layout, swap, cloud, counts);
+    } else {
+      decode_binary_rows<false>(rows, count, first, layout, swap, cloud, counts);
+    }
+  };
+  detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
+    try {  // nothing may escape a worker thread; the invalid-index list can grow
+      if (const uint8_t* memory = source.memory()) {
+        decode(memory + data_offset + b * stride, e - b, b, &parts[t]);
+        return;
+      }
+      for (uint64_t first = b; first < e; first += chunk_rows) {
+        const uint64_t rows = std::min(chunk_rows, e - first);
+        errors[t] = source.read_into(data_offset + first * stride, static_cast<size_t>(rows * stride), buffers[t].data());
+        if (!errors[t].ok()) return;
+        decode(buffers[t].data(), rows, first, &parts[t]);
+      }
+    } catch (const std::bad_alloc&) {
+      errors[t] = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
+    }
+  });
+  for (const Status& s : errors) RGS_RETURN_IF_ERROR(s);
+  for (HygieneCounts& p : parts) {
+    total->nonfinite_values += p.nonfinite_values;
+    total->gaussians_with_nonfinite += p.gaussians_with_nonfinite;
+    total->zero_norm_quaternions += p.zero_norm_quaternions;
+    total->infinite_opacity_logits += p.infinite_opacity_logits;
+    total->invalid.insert(total->invalid.end(), p.invalid.begin(), p.invalid.end());
+  }
+  return Status();
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Ascii rows.
+
+/// Whitespace tokenizer over a ByteSource window that slides forward, tracking line numbers.
+class AsciiTokenizer {
+ public:
+  AsciiTokenizer(ByteSource* source, uint64_t start, size_t first_line)
+      : source_(source), pos_(start), win_start_(start), win_end_(start), line_(first_line) {}
+
+  size_t line() const { return line_; }
+
+  /// Next token into *token; *eof when the file ends first.
+  Status next(std::string_view* token, bool* eof) {
+    *eof = false;
+    for (;;) {  // skip whitespace
+      if (pos_ == win_end_) {
+        if (win_end_ == source_->size()) {
+          *eof = true;
+          return Status();
+        }
+        RGS_RETURN_IF_ERROR(slide(pos_));
+      }
+      const uint8_t ch = win_[pos_ - win_start_];
+      if (ch == '\n') {
+        ++line_;
+      } else if (ch != ' ' && ch != '\t' && ch != '\r' && ch != '\f' && ch != '\v') {
+        break;
+      }
+      ++pos_;
+    }
+    for (;;) {
+      const uint64_t start = pos_;
+      uint64_t p = pos_;
+      while (p < win_end_) {
+        const uint8_t ch = win_[p - win_start_];
+        if (ch == ' ' || ch == '\n' || ch == '\t' || ch == '\r' || ch == '\f' || ch == '\v') break;
+        ++p;
+      }
+      if (p - start > kMaxAsciiToken) {
+        return Status(StatusCode::kCorruptData,
+                      "line " + std::to_string(line_) + ": token longer than " + std::to_string(kMaxAsciiToken) + " bytes");
+      }
+      if (p == win_end_ && win_end_ < source_->size() && win_start_ != start) {
+        RGS_RETURN_IF_ERROR(slide(start));  // token may continue past the window: re-read from its start
+        continue;
+      }
+      if (p == win_end_ && win_end_ < source_->size()) {
+        // Window starts at the token and still ends inside it: the token is absurdly long.
+        return Status(StatusCode::kCorruptData,
+                      "line " + std::to_string(line_) + ": token longer than " + std::to_string(kMaxAsciiToken) + " bytes");
+      }
+      *token = std::string_view(reinterpret_cast<const char*>(win_ + (start - win_start_)), p - start);
+      pos_ = p;
+      return Status();
+    }
+  }
+
+ private:
+  Status slide(uint64_t at) {
+    const size_t n = static_cast<size_t>(std::min<uint64_t>(kAsciiWindowBytes, source_->size() - at));
+    RGS_ASSIGN_OR_RETURN(win_, source_->view(at, n));
+    win_start_ = at;
+    win_end_ = at + n;
+    return Status();
+  }
+
+  ByteSource* source_;
+  const uint8_t* win_ = nullptr;
+  uint64_t pos_;
+  uint64_t win_start_;
+  uint64_t win_end_;
+  size_t line_;
+};
+
+const char* type_name(PlyType t) {
+  switch (t) {
+    case PlyType::kInt8: return "char";
+    case PlyType::kUint8: return "uchar";
+    case PlyType::kInt16: return "short";
+    case PlyType::kUint16: return "ushort";
+    case PlyType::kInt32: return "int";
+    case PlyType::kUint32: return "uint";
+    case PlyType::kFloat32: return "float";
+    case PlyType::kFloat64: return "double";
+  }
+  return "?";
+}
+
+/// Parses one ascii token as `type` (locale independent). Returns false on a malformed or out-of-range
+/// token. Floats accept "inf", "-inf", "nan" (any case) and a leading '+'.
+bool parse_ascii_value(std::string_view tok, PlyType type, float* out) {
+  const char* first = tok.data();
+  const char* last = first + tok.size();
+  if (first != last && *first == '+' && last - first > 1 && first[1] != '-' && first[1] != '+') ++first;
+  switch (type) {
+    case PlyType::kFloat32: {
+      float v;
+      auto [p, ec] = std::from_chars(first, last, v);
+      if (p != last) return false;
+      if (ec == std::errc::result_out_of_range) {
+        // Under/overflow in float: parse as double and round (gives 0, a subnormal or ±inf).
+        double d;
+        auto [p2, ec2] = std::from_chars(first, last, d);
+        if (ec2 != std::errc() || p2 != last) return false;
+        v = to_float(d);
+      } else if (ec != std::errc()) {
+        return false;
+      }
+      *out = v;
+      return true;
+    }
+    case PlyType::kFloat64: {
+      double d;
+      auto [p, ec] = std::from_chars(first, last, d);
+      if (ec != std::errc() || p != last) return false;
+      *out = to_float(d);
+      return true;
+    }
+    default: {
+      int64_t v;
+      auto [p, ec] = std::from_chars(first, last, v);
+      if (ec != std::errc() || p != last) return false;
+      int64_t lo = 0, hi = 0;
+      switch (type) {
+        case PlyType::kInt8: lo = INT8_MIN, hi = INT8_MAX; break;
+        case PlyType::kUint8: lo = 0, hi = UINT8_MAX; break;
+        case PlyType::kInt16: lo = INT16_MIN, hi = INT16_MAX; break;
+        case PlyType::kUint16: lo = 0, hi = UINT16_MAX; break;
+        case PlyType::kInt32: lo = INT32_MIN, hi = INT32_MAX; break;
+        default: lo = 0, hi = UINT32_MAX; break;
+      }
+      if (v < lo || v > hi) return false;
+      *out = static_cast<float>(v);
+      return true;
+    }
+  }
+}
+
+Status decode_ascii(ByteSource* source, const PlyHeader& header, const PlyElement& vertex, const VertexLayout& layout,
+                    format::GaussianCloud* cloud, HygieneCounts* counts) {
+  AsciiTokenizer tokens(source, header.data_offset, header.header_lines + 1);
+  std::vector<float> values(layout.property_count);
+  RawGaussian g;
+  const uint64_t n = vertex.count;
+  for (uint64_t i = 0; i < n; ++i) {
+    for (size_t p = 0; p < layout.property_count; ++p) {
+      std::string_view tok;
+      bool eof = false;
+      RGS_RETURN_IF_ERROR(tokens.next(&tok, &eof));
+      const PlyProperty& prop = vertex.properties[p];
+      if (eof) {
+        return Status(StatusCode::kIoError, "line " + std::to_string(tokens.line()) + ": file ends in vertex " +
+                                                std::to_string(i) + " of " + std::to_string(n) + " (property '" +
+                                                prop.name + "' missing)");
+      }
+      if (!parse_ascii_value(tok, prop.type, &values[p])) {
+        std::string shown(tok.substr(0, 40));
+        return Status(StatusCode::kCorruptData, "line " + std::to_string(tokens.line()) + ": bad value '" + shown +
+                                                    "' for property '" + prop.name + "' (" + type_name(prop.type) +
+                                                    ") of vertex " + std::to_string(i));
+      }
+    }
+    for (int a = 0; a < 3; ++a) g.mean[a] = values[layout.mean[a].index];
+    for (int a = 0; a < 3; ++a) g.scale[a] = values[layout.scale[a].index];
+    for (int a = 0; a < 4; ++a) g.rot[a] = values[layout.rot[a].index];
+    g.opacity = values[layout.opacity.index];
+    for (uint32_t j = 0; j < layout.sh_values; ++j) g.sh[j] = values[layout.sh[j].index];
+    activate_and_store(g, i, layout.sh_values, cloud, counts);
+  }
+  return Status();
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The whole read.
+
+/// Removes the Gaussians at the ascending indices `drop`, keeping the order of the others.
+void compact(const std::vector<uint64_t>& drop, format::GaussianCloud* cloud) {
+  const uint64_t n = cloud->size();
+  const uint64_t sv = uint64_t{cloud->sh_coefficients()} * 3;
+  uint64_t out = 0;
+  size_t d = 0;
+  for (uint64_t i = 0; i < n; ++i) {
+    if (d < drop.size() && drop[d] == i) {
+      ++d;
+      continue;
+    }
+    if (out != i) {
+      std::memmove(&cloud->means[out * 3], &cloud->means[i * 3], 3 * sizeof(float));
+      std::memmove(&cloud->rotations[out * 4], &cloud->rotations[i * 4], 4 * sizeof(float));
+      std::memmove(&cloud->scales[out * 3], &cloud->scales[i * 3], 3 * sizeof(float));
+      cloud->opacities[out] = cloud->opacities[i];
+      std::memmove(&cloud->sh[out * sv], &cloud->sh[i * sv], sv * sizeof(float));
+    }
+    ++out;
+  }
+  cloud->resize(out);
+}
+
+Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& options) {
+  const uint64_t file_size = source->size();
+  // Header: look for end_header in the first bytes, growing the window up to kMaxPlyHeaderBytes.
+  size_t window = static_cast<size_t>(std::min<uint64_t>(file_size, 64 * 1024));
+  RGS_ASSIGN_OR_RETURN(const uint8_t* head, source->view(0, window));
+  if (!detail::starts_with_ply_magic(head, window)) {
+    return Status(StatusCode::kCorruptData, "not a PLY file (first line is not 'ply')");
+  }
+  size_t header_end = detail::find_ply_header_end(head, window);
+  while (header_end == 0 && window < file_size && window < detail::kMaxPlyHeaderBytes) {
+    window = static_cast<size_t>(std::min<uint64_t>(file_size, std::min<size_t>(window * 4, detail::kMaxPlyHeaderBytes)));
+    RGS_ASSIGN_OR_RETURN(head, source->view(0, window));
+    header_end = detail::find_ply_header_end(head, window);
+  }
+  if (header_end == 0) {
+    if (window >= file_size) {
+      return Status(StatusCode::kCorruptData,
+                    "PLY header has no 'end_header' line (file is " + std::to_string(file_size) + " bytes)");
+    }
+    return Status(StatusCode::kCorruptData, "PLY header has no 'end_header' line in its first " +
+                                                std::to_string(detail::kMaxPlyHeaderBytes) + " bytes");
+  }
+  PlyHeader header;
+  RGS_RETURN_IF_ERROR(detail::parse_ply_header(head, header_end, &header));
+
+  // Elements before the vertex element are allowed only when empty (they would shift its data).
+  const PlyElement* vertex = nullptr;
+  for (const PlyElement& element : header.elements) {
+    if (element.name != "vertex") continue;
+    if (vertex != nullptr) {
+      return Status(StatusCode::kCorruptData,
+                    "PLY header line " + std::to_string(element.header_line) + ": second 'vertex' element");
+    }
+    vertex = &element;
+  }
+  if (vertex == nullptr) return Status(StatusCode::kCorruptData, "PLY header declares no 'vertex' element");
+  for (const PlyElement& element : header.elements) {
+    if (&element == vertex) break;
+    if (element.count > 0) {
+      return Status(StatusCode::kCorruptData,
+                    "PLY header line " + std::to_string(element.header_line) + ": element '" + element.name +
+                        "' precedes 'vertex' (" + std::to_string(element.count) +
+                        " entries); only elements after the vertex data are supported");
+    }
+  }
+
+  VertexLayout layout;
+  RGS_RETURN_IF_ERROR(resolve_layout(*vertex, header.storage, &layout));
+
+  const uint64_t n = vertex->count;
+  if (n > options.max_gaussians) {
+    return Status(StatusCode::kLimitExceeded, "PLY declares " + std::to_string(n) + " vertices, above the limit of " +
+                                                  std::to_string(options.max_gaussians));
+  }
+  const uint64_t remaining = file_size - header.data_offset;
+  if (header.storage == PlyStorage::kAscii) {
+    // Each value takes at least one character and one separator.
+    const uint64_t per_vertex = 2 * uint64_t{layout.property_count};
+    if (n > 0 && (n > (remaining + 1) / per_vertex)) {
+      return Status(StatusCode::kIoError,
+                    "file has " + std::to_string(remaining) + " bytes after the header but " + std::to_string(n) +
+                        " ascii vertices of " + std::to_string(layout.property_count) + " values need at least " +
+                        (n <= UINT64_MAX / per_vertex ? std::to_string(n * per_vertex - 1) : std::string("2^64")) +
+                        " (truncated file?)");
+    }
+  } else if (n > remaining / layout.stride) {
+    return Status(StatusCode::kIoError,
+                  "file has " + std::to_string(remaining) + " bytes after the header but " + std::to_string(n) +
+                      " vertices × " + std::to_string(layout.stride) + " bytes need " +
+                      (n <= UINT64_MAX / layout.stride ? std::to_string(n * layout.stride) : std::string("more than 2^64")) +
+                      " (truncated file?)");
+  }
+
+  PlyScene scene;
+  scene.file_bytes = file_size;
+  scene.storage_format = detail::ply_storage_name(header.storage);
+  scene.declared_vertices = n;
+  scene.cloud.sh_degree = layout.sh_degree;
+  scene.cloud.resize(static_cast<size_t>(n));
+
+  HygieneCounts counts;
+  if (header.storage == PlyStorage::kAscii) {
+    RGS_RETURN_IF_ERROR(decode_ascii(source, header, *vertex, layout, &scene.cloud, &counts));
+  } else {
+    const bool swap = (header.storage == PlyStorage::kBinaryBigEndian) == kHostLittleEndian;
+    RGS_RETURN_IF_ERROR(decode_binary(*source, header.data_offset, n, layout, swap, &scene.cloud, &counts));
+  }
+
+  InputHygiene& h = scene.hygiene;
+  h.nonfinite_values = counts.nonfinite_values;
+  h.gaussians_with_nonfinite = counts.gaussians_with_nonfinite;
+  h.zero_norm_quaternions = counts.zero_norm_quaternions;
+  h.infinite_opacity_logits = counts.infinite_opacity_logits;
+  h.first_invalid_index = counts.invalid.empty() ? -1 : static_cast<int64_t>(counts.invalid.front());
+  if (!counts.invalid.empty()) {
+    if (options.invalid_policy == InvalidPolicy::kReject) {
+      return Status(StatusCode::kCorruptData,
+                    std::to_string(h.gaussians_with_nonfinite) + " Gaussians have non-finite values (" +
+                        std::to_string(h.nonfinite_values) + " values) and " + std::to_string(h.zero_norm_quaternions) +
+                        " have zero-norm quaternions (first: vertex " + std::to_string(h.first_invalid_index) +
+                        "); rerun with --sanitize to drop them");
+    }
+    compact(counts.invalid, &scene.cloud);
+    h.dropped_gaussians = counts.invalid.size();
+  }
+  return scene;
+}
+
+/// Runs `fn`, turning allocation failure into kOutOfMemory (libraries never throw across the API).
+template <typename Fn>
+Result<PlyScene> guarded(const std::string& name, Fn&& fn) {
+  try {
+    Result<PlyScene> r = fn();
+    if (!r.ok()) {
+      Status s = std::move(r).status();
+      return std::move(s.prepend(name));
+    }
+    return r;
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the PLY");
+  } catch (const std::length_error&) {
+    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the PLY");
+  }
+}
+
+}  // namespace
+
+Result<PlyScene> read_ply(const std::string& path, const PlyReadOptions& options) {
+  return guarded(path, [&]() -> Result<PlyScene> {
+    FileSource source;
+    RGS_RETURN_IF_ERROR(source.open(path));
+    return read_from_source(&source, options);
+  });
+}
+
+Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                const PlyReadOptions& options) {
+  return guarded(name, [&]() -> Result<PlyScene> {
+    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
+    MemorySource source(data, size);
+    return read_from_source(&source, options);
+  });
+}
+
+}  // namespace rgs::converter

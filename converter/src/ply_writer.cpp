@@ -1,0 +1,127 @@
+// PLY writer: the exact layout of the INRIA 3DGS `GaussianModel.save_ply` (plyfile, binary little endian).
+#include "rgs/converter/ply_writer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <new>
+#include <string>
+
+#include "rgs/format/file_io.h"
+
+namespace rgs::converter {
+
+namespace {
+
+/// Gaussians serialized per chunk handed to the file sink.
+constexpr uint64_t kRowsPerChunk = 16384;
+
+/// Floats per row: x y z nx ny nz f_dc×3 f_rest×(3K−3) opacity scale×3 rot×4.
+uint64_t row_floats(uint32_t k_count) { return 3 + 3 + 3 + 3 * (uint64_t{k_count} - 1) + 1 + 3 + 4; }
+
+Status check_cloud(const format::GaussianCloud& cloud) {
+  if (cloud.sh_degree > 3) {
+    return Status(StatusCode::kInvalidArgument, "cloud SH degree " + std::to_string(cloud.sh_degree) + " > 3");
+  }
+  if (!cloud.is_consistent()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "cloud arrays are inconsistent: " + std::to_string(cloud.means.size()) + " mean values, " +
+                      std::to_string(cloud.rotations.size()) + " rotation values, " +
+                      std::to_string(cloud.scales.size()) + " scale values, " +
+                      std::to_string(cloud.opacities.size()) + " opacities, " + std::to_string(cloud.sh.size()) +
+                      " SH values at SH degree " + std::to_string(cloud.sh_degree));
+  }
+  return Status();
+}
+
+/// The header text INRIA's save_ply (through plyfile) writes, byte for byte.
+std::string header_text(const format::GaussianCloud& cloud) {
+  const uint32_t k_count = cloud.sh_coefficients();
+  std::string h = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(cloud.size()) + "\n";
+  auto prop = [&h](const std::string& name) { h += "property float " + name + "\n"; };
+  for (const char* name : {"x", "y", "z", "nx", "ny", "nz"}) prop(name);
+  for (int c = 0; c < 3; ++c) prop("f_dc_" + std::to_string(c));
+  for (uint32_t r = 0; r < 3 * (k_count - 1); ++r) prop("f_rest_" + std::to_string(r));
+  prop("opacity");
+  for (int a = 0; a < 3; ++a) prop("scale_" + std::to_string(a));
+  for (int a = 0; a < 4; ++a) prop("rot_" + std::to_string(a));
+  h += "end_header\n";
+  return h;
+}
+
+inline uint8_t* put_f32_le(uint8_t* out, float v) {
+  std::memcpy(out, &v, 4);
+  if constexpr (__BYTE_ORDER__ == __ORDER_BIG_ENDIAN__) std::reverse(out, out + 4);
+  return out + 4;
+}
+
+/// Inverse sigmoid with the clamp that keeps opacity 1 (exact in FP16) finite: ±13.8155.
+inline float opacity_logit(float o) {
+  const double c = std::clamp(static_cast<double>(o), 1e-6, 1.0 - 1e-6);
+  return static_cast<float>(std::log(c / (1.0 - c)));
+}
+
+/// Serializes Gaussians [first, first + n) into `out` (n · row_floats · 4 bytes).
+void serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64_t n, uint8_t* out) {
+  const uint32_t k_count = cloud.sh_coefficients();
+  for (uint64_t i = first; i < first + n; ++i) {
+    for (int a = 0; a < 3; ++a) out = put_f32_le(out, cloud.means[i * 3 + a]);
+    for (int a = 0; a < 3; ++a) out = put_f32_le(out, 0.0f);
+    const float* sh = cloud.sh.data() + i * k_count * 3;
+    for (int c = 0; c < 3; ++c) out = put_f32_le(out, sh[c]);
+    // f_rest channel-major: f_rest[c·(K−1) + k−1] = SH coefficient k of channel c.
+    for (int c = 0; c < 3; ++c) {
+      for (uint32_t k = 1; k < k_count; ++k) out = put_f32_le(out, sh[k * 3 + c]);
+    }
+    out = put_f32_le(out, opacity_logit(cloud.opacities[i]));
+    for (int a = 0; a < 3; ++a) {
+      out = put_f32_le(out, static_cast<float>(std::log(static_cast<double>(cloud.scales[i * 3 + a]))));
+    }
+    for (int a = 0; a < 4; ++a) out = put_f32_le(out, cloud.rotations[i * 4 + a]);
+  }
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud) {
+  RGS_RETURN_IF_ERROR(check_cloud(cloud));
+  try {
+    const std::string header = header_text(cloud);
+    const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
+    std::vector<uint8_t> bytes(header.size() + cloud.size() * row_bytes);
+    std::memcpy(bytes.data(), header.data(), header.size());
+    serialize_rows(cloud, 0, cloud.size(), bytes.data() + header.size());
+    return bytes;
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + std::to_string(cloud.size()) +
+                                                " Gaussians to PLY");
+  }
+}
+
+Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud) {
+  Status valid = check_cloud(cloud);
+  if (!valid.ok()) return std::move(valid.prepend(path));
+  uint64_t written = 0;
+  try {
+    const std::string header = header_text(cloud);
+    const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
+    std::vector<uint8_t> chunk(static_cast<size_t>(std::min<uint64_t>(cloud.size(), kRowsPerChunk) * row_bytes));
+    Status s = format::write_file_atomic(path, [&](const format::ChunkSink& sink) -> Status {
+      RGS_RETURN_IF_ERROR(sink(header.data(), header.size()));
+      written = header.size();
+      for (uint64_t first = 0; first < cloud.size(); first += kRowsPerChunk) {
+        const uint64_t n = std::min(kRowsPerChunk, cloud.size() - first);
+        serialize_rows(cloud, first, n, chunk.data());
+        RGS_RETURN_IF_ERROR(sink(chunk.data(), static_cast<size_t>(n * row_bytes)));
+        written += n * row_bytes;
+      }
+      return Status();
+    });
+    RGS_RETURN_IF_ERROR(s);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, path + ": out of memory writing the PLY");
+  }
+  return written;
+}
+
+}  // namespace rgs::converter

@@ -1,0 +1,312 @@
+// Quantization of float Gaussians into the .rgs runtime profile (paper "Compact Attribute Storage").
+//
+// Determinism: every output value depends only on its own inputs and on the per-(degree, channel) SH
+// scales, which come from a max (order independent) or a percentile (nth_element on a buffer filled in
+// index order), so the result does not depend on the number of worker threads.
+#include "rgs/converter/quantize.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <new>
+#include <string>
+
+#include "internal_parallel.h"
+#include "rgs/format/half.h"
+
+namespace rgs::converter {
+
+namespace {
+
+constexpr uint64_t kMinGaussiansPerWorker = 32768;
+/// Largest float32 that rounds to a finite binary16 (65504); 65520 and above round to inf.
+constexpr float kHalfOverflow = 65520.0f;
+/// Most negative finite binary16, stored for log(0) = −inf so the section stays finite (exp gives 0).
+constexpr float kLowestHalf = -65504.0f;
+
+bool finite(float v) { return std::isfinite(v); }
+
+/// First problem found in a slice of the cloud (index UINT64_MAX when none) and the SH maxima.
+struct ScanResult {
+  uint64_t bad_index = std::numeric_limits<uint64_t>::max();
+  std::string why;
+  float max_abs[4][3] = {};
+};
+
+void scan_slice(const format::GaussianCloud& cloud, const QuantizeOptions& options, uint64_t begin, uint64_t end,
+                ScanResult* out) {
+  const uint32_t sh_values = cloud.sh_coefficients() * 3;
+  float max_value[48] = {};  // max |SH| per value index k·3 + c over the slice
+  auto fail = [out](uint64_t i, std::string why) {
+    out->bad_index = i;
+    out->why = std::move(why);
+  };
+  for (uint64_t i = begin; i < end; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      if (!finite(cloud.means[i * 3 + a])) return fail(i, "mean component " + std::to_string(a) + " is not finite");
+    }
+    double n2 = 0;
+    for (int a = 0; a < 4; ++a) {
+      const float q = cloud.rotations[i * 4 + a];
+      if (!finite(q)) return fail(i, "rotation component " + std::to_string(a) + " is not finite");
+      n2 += static_cast<double>(q) * q;
+    }
+    if (n2 < static_cast<double>(std::numeric_limits<float>::min())) return fail(i, "rotation has zero norm");
+    for (int a = 0; a < 3; ++a) {
+      const float s = cloud.scales[i * 3 + a];
+      if (!finite(s) || s < 0.0f) {
+        return fail(i, "scale " + std::to_string(a) + " = " + std::to_string(s) + " is not finite and >= 0");
+      }
+      if (options.scale_encoding == format::ScaleEncoding::kLinear && s >= kHalfOverflow) {
+        return fail(i, "scale " + std::to_string(a) + " = " + std::to_string(s) +
+                           " overflows FP16 (max 65504); use the log scale encoding");
+      }
+    }
+    const float o = cloud.opacities[i];
+    if (!(o >= 0.0f && o <= 1.0f)) {
+      return fail(i, "opacity " + std::to_string(o) + " is outside [0, 1] (expected the activated opacity)");
+    }
+    const float* sh = cloud.sh.data() + i * sh_values;
+    bool sh_finite = true;
+    for (uint32_t j = 0; j < sh_values; ++j) {
+      sh_finite = sh_finite && finite(sh[j]);
+      max_value[j] = std::max(max_value[j], std::fabs(sh[j]));
+    }
+    if (!sh_finite) {
+      for (uint32_t j = 0; j < sh_values; ++j) {
+        if (!finite(sh[j])) {
+          return fail(i, "SH coefficient " + std::to_string(j / 3) + " channel " + std::to_string(j % 3) +
+                             " is not finite");
+        }
+      }
+    }
+  }
+  for (uint32_t j = 0; j < sh_values; ++j) {
+    float& m = out->max_abs[format::sh_degree_of_coefficient(j / 3)][j % 3];
+    m = std::max(m, max_value[j]);
+  }
+}
+
+/// s = m / 127 stored as float32, nudged up (only when float rounding went down far enough) so that
+/// round(m / s) <= 127 holds in the double arithmetic that quantize_value() uses.
+float scale_for(float m) {
+  if (!(m > 0.0f)) return 0.0f;
+  float s = static_cast<float>(static_cast<double>(m) / 127.0);
+  while (s == 0.0f || static_cast<double>(m) / static_cast<double>(s) >= 127.5) {
+    s = std::nextafter(s, std::numeric_limits<float>::infinity());
+  }
+  return s;
+}
+
+/// q = clamp(round_half_away(v / s), −127, 127) for s > 0 (s = +inf gives 0), exactly as with a double
+/// division, but computed as v · (1/s): the product is within 2 ulps of the quotient, which can change
+/// the result only when the quotient lies within a few ulps of a rounding boundary k + 0.5, and there the
+/// exact division is redone. *clipped when |v / s| >= 127.5 (the clamp changed the rounded value).
+/// Rounding is inline rather than std::round (a libm call here): for a in [0, 127], a − trunc(a) is exact.
+inline int8_t quantize_value(float v, double s, double inv_s, bool* clipped) {
+  double x = static_cast<double>(v) * inv_s;
+  double ax = std::fabs(x);
+  if (ax < 128.0) {
+    const double frac = ax - static_cast<double>(static_cast<int>(ax));
+    if (std::fabs(frac - 0.5) < 1e-12) {
+      x = static_cast<double>(v) / s;
+      ax = std::fabs(x);
+    }
+  }
+  *clipped = !(ax < 127.5);
+  const double a = std::min(ax, 127.0);
+  int r = static_cast<int>(a);
+  r += (a - r) >= 0.5;
+  return static_cast<int8_t>(x < 0 ? -r : r);
+}
+
+}  // namespace
+
+format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
+  format::SceneBounds b;
+  const size_t n = cloud.size();
+  if (n == 0) return b;
+  for (int a = 0; a < 3; ++a) b.aabb_min[a] = b.aabb_max[a] = cloud.means[a];
+  for (size_t i = 1; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      const float v = cloud.means[i * 3 + a];
+      b.aabb_min[a] = std::min(b.aabb_min[a], v);
+      b.aabb_max[a] = std::max(b.aabb_max[a], v);
+    }
+  }
+  double center[3];
+  for (int a = 0; a < 3; ++a) {
+    b.sphere_center[a] =
+        static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
+    center[a] = b.sphere_center[a];
+  }
+  double r2 = 0;
+  for (size_t i = 0; i < n; ++i) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double d = static_cast<double>(cloud.means[i * 3 + a]) - center[a];
+      d2 += d * d;
+    }
+    r2 = std::max(r2, d2);
+  }
+  // Margin of 1e-6 relative (a few float32 ulps) so |mean − center| <= radius also holds when a
+  // consumer evaluates the distance in float32, then round up to float.
+  const double r = std::sqrt(r2) * (1.0 + 1e-6);
+  float rf = static_cast<float>(r);
+  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
+  b.sphere_radius = rf;
+  return b;
+}
+
+Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
+                                      ShQuantizationReport* report) {
+  if (!cloud.is_consistent()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "cloud arrays are inconsistent with " + std::to_string(cloud.size()) + " Gaussians at SH degree " +
+                      std::to_string(cloud.sh_degree));
+  }
+  const float pct = options.sh_clip_percentile;
+  if (!(pct > 0.0f && pct <= 100.0f)) {
+    return Status(StatusCode::kInvalidArgument,
+                  "SH clip percentile " + std::to_string(pct) + " is outside (0, 100]");
+  }
+  if (options.scale_encoding != format::ScaleEncoding::kLinear && options.scale_encoding != format::ScaleEncoding::kLog) {
+    return Status(StatusCode::kInvalidArgument,
+                  "unknown scale encoding " + std::to_string(static_cast<int>(options.scale_encoding)));
+  }
+  try {
+    const uint64_t n = cloud.size();
+    const uint32_t degree = cloud.sh_degree;
+    const uint32_t k_count = cloud.sh_coefficients();
+    const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
+
+    // Pass 1: validate and find max |SH| per (degree, channel).
+    std::vector<ScanResult> scans(workers);
+    detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
+      scan_slice(cloud, options, b, e, &scans[t]);
+    });
+    float max_abs[4][3] = {};
+    for (const ScanResult& s : scans) {
+      if (s.bad_index != std::numeric_limits<uint64_t>::max()) {
+        return Status(StatusCode::kInvalidArgument, "cannot quantize Gaussian " + std::to_string(s.bad_index) + ": " + s.why);
+      }
+      for (int d = 0; d < 4; ++d) {
+        for (int c = 0; c < 3; ++c) max_abs[d][c] = std::max(max_abs[d][c], s.max_abs[d][c]);
+      }
+    }
+
+    // SH scales: max rule, or the P-th percentile of |SH| (nearest rank) per (degree, channel).
+    format::ShQuantization shq;
+    shq.bits = 8;
+    shq.clip_percentile = pct;
+    std::vector<float> magnitudes;
+    for (uint32_t d = 0; d <= degree; ++d) {
+      const uint32_t k_begin = d * d;
+      const uint32_t k_end = (d + 1) * (d + 1);
+      for (uint32_t c = 0; c < 3; ++c) {
+        float m = max_abs[d][c];
+        if (pct < 100.0f && n > 0) {
+          const uint64_t count = n * (k_end - k_begin);
+          magnitudes.resize(static_cast<size_t>(count));
+          size_t w = 0;
+          for (uint64_t i = 0; i < n; ++i) {
+            for (uint32_t k = k_begin; k < k_end; ++k) magnitudes[w++] = std::fabs(cloud.sh[(i * k_count + k) * 3 + c]);
+          }
+          const double rank = std::ceil(static_cast<double>(pct) / 100.0 * static_cast<double>(count));
+          const uint64_t r = static_cast<uint64_t>(std::clamp(rank, 1.0, static_cast<double>(count)));
+          std::nth_element(magnitudes.begin(), magnitudes.begin() + static_cast<ptrdiff_t>(r - 1), magnitudes.end());
+          m = magnitudes[r - 1];
+        }
+        shq.scales[d][c] = scale_for(m);
+      }
+    }
+    magnitudes.clear();
+    magnitudes.shrink_to_fit();
+
+    format::EncodedScene out;
+    out.count = n;
+    out.metadata.sh_degree = degree;
+    out.metadata.scale_encoding = options.scale_encoding;
+    out.metadata.sh_quantization = shq;
+    out.metadata.bounds = compute_bounds(cloud);
+    std::string why;
+    if (!format::is_valid_quantization(shq, degree, &why)) {
+      return Status(StatusCode::kInvalidArgument, "computed SH quantization is invalid: " + why);
+    }
+    out.means = cloud.means;
+    out.rotations.resize(n * 4);
+    out.scales.resize(n * 3);
+    out.opacities.resize(n);
+    out.sh.resize(n * k_count * 3);
+
+    // Pass 2: encode.
+    std::vector<ShQuantizationReport> clipped(workers);
+    const bool log_scale = options.scale_encoding == format::ScaleEncoding::kLog;
+    // Scale of each of the K·3 values of a Gaussian, in double as the division uses it.
+    const uint32_t sh_values = k_count * 3;
+    double divisor[48];
+    double reciprocal[48];
+    bool zero_scale[48];
+    for (uint32_t j = 0; j < sh_values; ++j) {
+      const float sj = shq.scales[format::sh_degree_of_coefficient(j / 3)][j % 3];
+      zero_scale[j] = sj == 0.0f;
+      divisor[j] = sj == 0.0f ? std::numeric_limits<double>::infinity() : static_cast<double>(sj);
+      reciprocal[j] = 1.0 / divisor[j];
+    }
+    detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
+      ShQuantizationReport& rep = clipped[t];
+      uint64_t clip_count[48] = {};
+      const float* sh_in = cloud.sh.data();
+      int8_t* sh_out = out.sh.data();
+      for (uint64_t i = b; i < e; ++i) {
+        double q[4];
+        double n2 = 0;
+        for (int a = 0; a < 4; ++a) {
+          q[a] = cloud.rotations[i * 4 + a];
+          n2 += q[a] * q[a];
+        }
+        const double inv = 1.0 / std::sqrt(n2);
+        for (int a = 0; a < 4; ++a) {
+          out.rotations[i * 4 + a] = format::float_to_half_bits(static_cast<float>(q[a] * inv));
+        }
+        for (int a = 0; a < 3; ++a) {
+          const float s = cloud.scales[i * 3 + a];
+          float v = s;
+          if (log_scale) v = s > 0.0f ? static_cast<float>(std::log(static_cast<double>(s))) : kLowestHalf;
+          out.scales[i * 3 + a] = format::float_to_half_bits(v);
+        }
+        out.opacities[i] = format::float_to_half_bits(cloud.opacities[i]);
+        // Codes go through a local buffer: int8_t stores may alias anything, and writing them straight
+        // to the output would make the compiler reload the tables after every store.
+        const float* sh = sh_in + i * sh_values;
+        int8_t codes[48];
+        for (uint32_t j = 0; j < sh_values; ++j) {
+          // Branch-free; a zero scale divides by +inf (q = 0) and counts every non-zero coefficient
+          // as clipped.
+          bool clip = false;
+          codes[j] = quantize_value(sh[j], divisor[j], reciprocal[j], &clip);
+          clip_count[j] += static_cast<uint32_t>(clip) | static_cast<uint32_t>(zero_scale[j] & (sh[j] != 0.0f));
+        }
+        std::memcpy(sh_out + i * sh_values, codes, sh_values);
+      }
+      for (uint32_t j = 0; j < sh_values; ++j) {
+        rep.clipped[format::sh_degree_of_coefficient(j / 3)][j % 3] += clip_count[j];
+      }
+    });
+    if (report != nullptr) {
+      *report = ShQuantizationReport();
+      for (const ShQuantizationReport& r : clipped) {
+        for (int d = 0; d < 4; ++d) {
+          for (int c = 0; c < 3; ++c) report->clipped[d][c] += r.clipped[d][c];
+        }
+      }
+    }
+    return out;
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory,
+                  "out of memory quantizing " + std::to_string(cloud.size()) + " Gaussians");
+  }
+}
+
+}  // namespace rgs::converter

@@ -1,0 +1,74 @@
+// Scene metadata stored in the .rgs metadata section (SPEC.md §4.1) and the provenance section (§4.2).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace rgs::format {
+
+/// World frame of means, rotations and cameras. kColmap: the frame the scene was trained in, with
+/// COLMAP/INRIA cameras (x right, y down, z forward).
+enum class CoordinateFrame : uint8_t { kColmap = 1 };
+/// Component order of the rotation quaternions. kWxyz: PLY rot_0..rot_3 = (w, x, y, z).
+enum class QuaternionOrder : uint8_t { kWxyz = 1 };
+/// How the scales section encodes a scale. kLinear: exp(PLY scale) (FP16 underflows below ~6e-8 and
+/// loses relative precision below ~6e-5); kLog: the PLY's natural-log scale as is.
+enum class ScaleEncoding : uint8_t { kLinear = 1, kLog = 2 };
+/// How the opacities section encodes opacity. kSigmoid: activated, sigmoid(PLY opacity) in [0, 1].
+enum class OpacityEncoding : uint8_t { kSigmoid = 1 };
+/// Order of SH coefficients. kCoefficientMajor: [N, K, 3], channel fastest, k = l^2 + l + m with the
+/// 3DGS basis signs (DESIGN.md), k = 0 the DC term.
+enum class ShLayout : uint8_t { kCoefficientMajor = 1 };
+
+/// Symmetric INT8 SH quantization (paper Eq. quant): q = round(SH / s[d][c]), SH^ = s[d][c] * q, with
+/// one scale per SH degree d (0..3; d = 0 is the DC term) and colour channel c (R, G, B).
+struct ShQuantization {
+  /// Bits per quantized coefficient; version 1.0 knows only 8 (q in [-127, 127]).
+  uint32_t bits = 8;
+  /// Percentile of |SH| that maps to 127: 100 means the maximum (the paper's rule); below 100 clips the
+  /// tail to ±127. In (0, 100].
+  float clip_percentile = 100.0f;
+  /// s[d][c], finite and >= 0; 0 when every coefficient of (d, c) is 0; rows d > sh_degree are 0.
+  float scales[4][3] = {};
+};
+
+/// Axis-aligned box and bounding sphere of the Gaussian means, world units. The renderer derives a
+/// camera's depth range [z_near, z_far] for the 32-bit depth key from the sphere (SPEC.md §4.1.2).
+struct SceneBounds {
+  float aabb_min[3] = {0, 0, 0};
+  float aabb_max[3] = {0, 0, 0};
+  float sphere_center[3] = {0, 0, 0};
+  /// Contains every mean: |mean - center| <= radius holds in float32 for all Gaussians.
+  float sphere_radius = 0;
+};
+
+/// Content of the metadata section.
+struct SceneMetadata {
+  uint32_t sh_degree = 0;  ///< 0..3
+  CoordinateFrame frame = CoordinateFrame::kColmap;
+  QuaternionOrder quaternion_order = QuaternionOrder::kWxyz;
+  ScaleEncoding scale_encoding = ScaleEncoding::kLinear;
+  OpacityEncoding opacity_encoding = OpacityEncoding::kSigmoid;
+  ShLayout sh_layout = ShLayout::kCoefficientMajor;
+  SceneBounds bounds;
+  ShQuantization sh_quantization;
+};
+
+/// Ordered key/value strings (UTF-8) saying where a file came from: source file name, size and hash,
+/// converter version, options. Never a timestamp or host name, so conversions stay deterministic.
+using Provenance = std::vector<std::pair<std::string, std::string>>;
+
+/// Shared by writer and reader (STYLE.md §4): true when `q` is a valid quantization for `sh_degree`.
+/// On false, `why` (if not null) receives the reason.
+bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::string* why);
+
+/// Short names for tools ("colmap", "wxyz", "linear", "log", "sigmoid", "coefficient-major").
+const char* to_string(CoordinateFrame v);
+const char* to_string(QuaternionOrder v);
+const char* to_string(ScaleEncoding v);
+const char* to_string(OpacityEncoding v);
+const char* to_string(ShLayout v);
+
+}  // namespace rgs::format

@@ -1,0 +1,123 @@
+// Reads .rgs files: structural checks up front, sections as zero-copy views or decoded on demand.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/file_io.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/spec.h"
+#include "rgs/format/status.h"
+
+namespace rgs::format {
+
+/// Bounds applied before any allocation sized by file content (STYLE.md §4). Exceeding one gives
+/// kLimitExceeded naming the value and the limit.
+struct ReadLimits {
+  uint64_t max_gaussians = uint64_t{1} << 28;          ///< 268M
+  uint64_t max_file_bytes = uint64_t{1} << 40;         ///< 1 TiB
+  uint64_t max_section_raw_bytes = uint64_t{1} << 38;  ///< decoded size of one section
+  uint32_t max_sections = 64;
+  uint32_t max_sh_degree = 3;
+  uint64_t max_provenance_bytes = uint64_t{1} << 20;
+};
+
+struct ReadOptions {
+  ReadLimits limits;
+  /// Verify each section's XXH64 when its bytes are accessed (the header + table checksum is always
+  /// verified). Turn off only to measure its cost.
+  bool verify_checksums = true;
+};
+
+/// §2 Header fields as read (magic and reserved bytes already checked).
+struct FileHeader {
+  uint16_t major = 0;
+  uint16_t minor = 0;
+  uint32_t required_flags = 0;
+  uint32_t optional_flags = 0;
+  uint64_t gaussian_count = 0;
+  uint32_t section_count = 0;
+  uint64_t table_offset = 0;
+  uint64_t file_size = 0;
+  uint64_t checksum = 0;  ///< XXH64 over header bytes [0, 56) and the section table
+};
+
+/// §3.1 One section-table entry as read.
+struct SectionEntry {
+  SectionId id{};
+  Codec codec = Codec::kNone;
+  ElementType element_type = ElementType::kBytes;
+  uint32_t components = 0;     ///< components per element (3 for means, 4 for rotations, 3K for sh; §3.2)
+  uint64_t element_count = 0;  ///< N for per-Gaussian sections, raw_size for byte sections
+  uint64_t offset = 0;
+  uint64_t stored_size = 0;
+  uint64_t raw_size = 0;
+  uint64_t checksum = 0;       ///< XXH64 of the stored bytes
+};
+
+/// Non-owning byte range.
+struct ByteView {
+  const uint8_t* data = nullptr;
+  size_t size = 0;
+};
+
+/// An opened .rgs file. Opening checks the header, the section table (bounds, alignment, overlap, sizes
+/// implied by count and SH degree), the header checksum, and decodes metadata and provenance; section
+/// payloads are only touched when asked for. Copies share the underlying mapping; thread-safe for reads.
+class RgsFile {
+ public:
+  /// Memory-maps and opens `path`. Errors name the path: kIoError, kNotRgsFile, kUnsupportedVersion,
+  /// kUnsupportedFeature, kCorruptData, kChecksumMismatch, kLimitExceeded.
+  static Result<RgsFile> open(const std::string& path, const ReadOptions& options = {});
+  /// Opens bytes owned by the caller, which must outlive the RgsFile and its views. `name` is used in
+  /// error messages.
+  static Result<RgsFile> from_bytes(const uint8_t* data, size_t size, const ReadOptions& options = {},
+                                    const std::string& name = "<memory>");
+
+  const FileHeader& header() const { return header_; }
+  const std::vector<SectionEntry>& sections() const { return sections_; }
+  const SceneMetadata& metadata() const { return metadata_; }
+  const Provenance& provenance() const { return provenance_; }
+  uint64_t gaussian_count() const { return header_.gaussian_count; }
+  const std::string& name() const { return name_; }
+  size_t file_size() const { return size_; }
+
+  /// The table entry for `id`, or nullptr if the file has no such section.
+  const SectionEntry* find(SectionId id) const;
+  /// Zero-copy view of a section's stored bytes (compressed if its codec is not kNone), checksum
+  /// verified when enabled. Errors: kInvalidArgument (no such section), kChecksumMismatch.
+  Result<ByteView> stored_bytes(SectionId id) const;
+  /// Decodes a section's raw bytes into `dst`, which must hold exactly raw_size bytes (e.g. a pinned
+  /// upload buffer). Errors: kInvalidArgument (no section, wrong size), kChecksumMismatch, kCorruptData.
+  Status decode_section(SectionId id, void* dst, size_t dst_size) const;
+  /// Decodes every runtime section into an EncodedScene (host memory).
+  Result<EncodedScene> read_scene() const;
+
+ private:
+  RgsFile() = default;
+  std::shared_ptr<const MappedFile> mapping_;  // null for from_bytes
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0;
+  std::string name_;
+  ReadOptions options_;
+  FileHeader header_;
+  std::vector<SectionEntry> sections_;
+  SceneMetadata metadata_;
+  Provenance provenance_;
+  friend struct RgsFileAccess;
+};
+
+/// Full validation (backs `rgs-info --check`, tests and fuzzers): everything open() checks, plus every
+/// section checksum, every codec frame decoded to its raw size, and the values of the runtime sections
+/// (SPEC §5.4: finite means inside the AABB and bounding sphere, finite non-zero rotations, scales finite
+/// and not negative when linear (0 is FP16 underflow, SPEC §4.5), opacities in [0, 1], SH values in
+/// [-127, 127]). Returns the first problem found with its code, the message naming `name`; ok when the
+/// file is valid. Memory: zstd sections are decoded in chunks of about 1 MiB.
+Status validate(const uint8_t* data, size_t size, const ReadLimits& limits = {},
+                const std::string& name = "<memory>");
+
+}  // namespace rgs::format

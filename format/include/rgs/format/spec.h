@@ -1,0 +1,89 @@
+// Constants of the .rgs container, version 1.0. Normative text: format/SPEC.md; section numbers below
+// refer to it.
+#pragma once
+
+#include <cstdint>
+
+namespace rgs::format {
+
+/// §2 Magic: "\x89RGS\r\n\x1a\n". The non-ASCII first byte and the CR LF / ^Z bytes catch text-mode
+/// transfers and 7-bit channels, as in PNG.
+inline constexpr uint8_t kMagic[8] = {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0a};
+
+/// §2 Version this library writes. Readers accept any minor of kFormatMajor; newer majors are refused
+/// with kUnsupportedVersion.
+inline constexpr uint16_t kFormatMajor = 1;
+inline constexpr uint16_t kFormatMinor = 0;
+
+/// §6 A format version, compared as (major, minor).
+struct FormatVersion {
+  uint16_t major = 0;
+  uint16_t minor = 0;
+};
+/// True when `v` is `min` or newer.
+constexpr bool version_at_least(FormatVersion v, FormatVersion min) {
+  return v.major > min.major || (v.major == min.major && v.minor >= min.minor);
+}
+
+/// §6 Feature gates: the first version in which each feature may appear. The writer stamps a file with
+/// the newest version any feature it uses requires (1.0 for everything version 1.0 defines); a reader
+/// rejects a feature in a file stamped older than its gate with kCorruptData.
+inline constexpr FormatVersion kMinVersionForZstdCodec{1, 0};
+inline constexpr FormatVersion kMinVersionForProvenance{1, 0};
+inline constexpr FormatVersion kMinVersionForLogScales{1, 0};
+
+/// §2 Fixed sizes, in bytes.
+inline constexpr uint32_t kHeaderSize = 64;
+inline constexpr uint32_t kSectionEntrySize = 64;
+/// §4.1 Size of the metadata record (the metadata section's raw size).
+inline constexpr uint32_t kMetadataSize = 128;
+/// §3 Every section starts at a multiple of this (mmap + one cudaMemcpy per section).
+inline constexpr uint64_t kSectionAlignment = 256;
+
+/// §2.2 Flag bits. Required bits this reader does not know give kUnsupportedFeature; unknown optional
+/// bits are ignored. Version 1.0 defines none of either.
+inline constexpr uint32_t kKnownRequiredFlags = 0;
+inline constexpr uint32_t kKnownOptionalFlags = 0;
+
+/// §4 Section identifiers. Readers skip (but still bounds- and checksum-check) ids they do not know.
+enum class SectionId : uint32_t {
+  kMetadata = 1,     ///< §4.1 conventions, bounds, SH quantization scales
+  kProvenance = 2,   ///< §4.2 key/value strings: source file, converter version, options
+  kMeans = 16,       ///< §4.3 [N, 3] float32
+  kRotations = 17,   ///< §4.4 [N, 4] float16 (w, x, y, z), normalized
+  kScales = 18,      ///< §4.5 [N, 3] float16, linear or log per metadata
+  kOpacities = 19,   ///< §4.6 [N] float16, sigmoid-activated
+  kSh = 20,          ///< §4.7 [N, K, 3] int8, symmetric per (degree, channel) scale
+};
+
+/// §3.1 How a section's stored bytes encode its raw bytes.
+enum class Codec : uint16_t {
+  kNone = 0,  ///< stored == raw
+  kZstd = 1,  ///< one zstd frame with content size and content checksum
+};
+
+/// §3.1 Element type of a section's raw bytes, little-endian.
+enum class ElementType : uint16_t {
+  kBytes = 0,    ///< opaque bytes (metadata, provenance); components = 1
+  kInt8 = 1,
+  kFloat16 = 2,  ///< IEEE 754 binary16
+  kFloat32 = 3,  ///< IEEE 754 binary32
+};
+
+/// Size in bytes of one component of `type`, or 0 for an unknown value.
+constexpr uint32_t element_type_size(ElementType type) {
+  switch (type) {
+    case ElementType::kBytes: return 1;
+    case ElementType::kInt8: return 1;
+    case ElementType::kFloat16: return 2;
+    case ElementType::kFloat32: return 4;
+  }
+  return 0;
+}
+
+/// Human-readable names for tools ("means", "zstd", "f16"); "unknown" for other values.
+const char* section_name(SectionId id);
+const char* codec_name(Codec codec);
+const char* element_type_name(ElementType type);
+
+}  // namespace rgs::format

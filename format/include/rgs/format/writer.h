@@ -1,0 +1,39 @@
+// Serializes an EncodedScene into .rgs version 1.0 bytes (SPEC.md §2–§4).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/spec.h"
+#include "rgs/format/status.h"
+
+namespace rgs::format {
+
+/// Storage choices of a conversion. Both are lossless; the runtime profile's default is kNone, so a
+/// loader can map the file and copy each section to the GPU without decoding.
+struct WriteOptions {
+  /// Codec per section id; sections not listed are stored with Codec::kNone.
+  std::map<SectionId, Codec> codecs;
+  /// zstd compression level, 1..22 (ZSTD_maxCLevel()).
+  int zstd_level = 19;
+};
+
+/// Serializes `scene` (SPEC §3 layout, sections in the order metadata, provenance if non-empty, means,
+/// rotations, scales, opacities, sh). Deterministic: the same scene and options give identical bytes (no
+/// timestamps; zstd single-threaded; SPEC §7). Peak memory: the output plus the zstd frames.
+/// Errors: kInvalidArgument for inconsistent arrays, an invalid quantization (is_valid_quantization), an
+/// SH degree above 3, unknown enum values, non-finite or unordered bounds, a zstd level out of range, a
+/// codec for an unknown section, or any value validate() would reject (SPEC §4.3–§4.7: non-finite means
+/// or means outside the bounds, zero or non-finite rotations, negative linear scales, opacities outside
+/// [0, 1], SH value -128) -- the writer never produces a file that fails validation. kOutOfMemory.
+Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options = {});
+
+/// serialize_scene() + write_file_atomic(): no partial file on failure, an existing `path` untouched.
+/// Returns the number of bytes written. Errors: as serialize_scene, kIoError naming `path`.
+Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene,
+                                  const WriteOptions& options = {});
+
+}  // namespace rgs::format

@@ -1,0 +1,54 @@
+#include "rgs/format/encoded_scene.h"
+
+#include <cmath>
+
+#include "rgs/format/half.h"
+
+namespace rgs::format {
+
+bool EncodedScene::is_consistent() const {
+  if (metadata.sh_degree > 3) return false;
+  const uint64_t n = count;
+  const uint64_t k = sh_coefficient_count(metadata.sh_degree);
+  return means.size() == n * 3 && rotations.size() == n * 4 && scales.size() == n * 3 &&
+         opacities.size() == n && sh.size() == n * k * 3;
+}
+
+Status dequantize_range(const EncodedScene& scene, uint64_t first, uint64_t count, GaussianCloud* out) {
+  RGS_RETURN_ERROR_IF(!scene.is_consistent(), StatusCode::kCorruptData,
+                      "encoded scene arrays do not match count " + std::to_string(scene.count) +
+                          " and SH degree " + std::to_string(scene.metadata.sh_degree));
+  RGS_RETURN_ERROR_IF(first > scene.count || count > scene.count - first, StatusCode::kInvalidArgument,
+                      "range [" + std::to_string(first) + ", +" + std::to_string(count) +
+                          ") outside a scene of " + std::to_string(scene.count) + " Gaussians");
+  out->sh_degree = scene.metadata.sh_degree;
+  out->resize(count);
+  const uint32_t k_count = out->sh_coefficients();
+  const bool log_scale = scene.metadata.scale_encoding == ScaleEncoding::kLog;
+  const auto& s = scene.metadata.sh_quantization.scales;
+  for (uint64_t j = 0; j < count; ++j) {
+    const uint64_t i = first + j;
+    for (int a = 0; a < 3; ++a) out->means[j * 3 + a] = scene.means[i * 3 + a];
+    for (int a = 0; a < 4; ++a) out->rotations[j * 4 + a] = half_bits_to_float(scene.rotations[i * 4 + a]);
+    for (int a = 0; a < 3; ++a) {
+      const float v = half_bits_to_float(scene.scales[i * 3 + a]);
+      out->scales[j * 3 + a] = log_scale ? std::exp(v) : v;
+    }
+    out->opacities[j] = half_bits_to_float(scene.opacities[i]);
+    for (uint32_t k = 0; k < k_count; ++k) {
+      const uint32_t d = sh_degree_of_coefficient(k);
+      for (uint32_t c = 0; c < 3; ++c) {
+        out->sh[(j * k_count + k) * 3 + c] = s[d][c] * static_cast<float>(scene.sh[(i * k_count + k) * 3 + c]);
+      }
+    }
+  }
+  return Status();
+}
+
+Result<GaussianCloud> dequantize(const EncodedScene& scene) {
+  GaussianCloud cloud;
+  RGS_RETURN_IF_ERROR(dequantize_range(scene, 0, scene.count, &cloud));
+  return cloud;
+}
+
+}  // namespace rgs::format

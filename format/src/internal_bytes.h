@@ -1,0 +1,181 @@
+// Bounds-checked little-endian field I/O and overflow-safe size arithmetic (STYLE.md §4). Every .rgs
+// field goes through ByteReader/ByteWriter one scalar at a time; no struct is ever copied as bytes.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <string>
+
+namespace rgs::format::detail {
+
+#if defined(__BYTE_ORDER__) && defined(__ORDER_BIG_ENDIAN__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+inline constexpr bool kHostLittleEndian = false;
+#else
+inline constexpr bool kHostLittleEndian = true;
+#endif
+
+/// a + b into *out; false (and *out untouched) when the sum does not fit in 64 bits.
+[[nodiscard]] inline bool checked_add(uint64_t a, uint64_t b, uint64_t* out) {
+  if (a > UINT64_MAX - b) return false;
+  *out = a + b;
+  return true;
+}
+
+/// a * b into *out; false (and *out untouched) when the product does not fit in 64 bits.
+[[nodiscard]] inline bool checked_mul(uint64_t a, uint64_t b, uint64_t* out) {
+  if (a != 0 && b > UINT64_MAX / a) return false;
+  *out = a * b;
+  return true;
+}
+
+/// Smallest multiple of `alignment` (a power of two) that is >= value; false on overflow.
+[[nodiscard]] inline bool checked_align_up(uint64_t value, uint64_t alignment, uint64_t* out) {
+  uint64_t sum = 0;
+  if (!checked_add(value, alignment - 1, &sum)) return false;
+  *out = sum & ~(alignment - 1);
+  return true;
+}
+
+inline uint16_t load_u16_le(const uint8_t* p) {
+  return static_cast<uint16_t>(p[0] | (p[1] << 8));
+}
+inline uint32_t load_u32_le(const uint8_t* p) {
+  return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) |
+         (static_cast<uint32_t>(p[2]) << 16) | (static_cast<uint32_t>(p[3]) << 24);
+}
+inline uint64_t load_u64_le(const uint8_t* p) {
+  return static_cast<uint64_t>(load_u32_le(p)) | (static_cast<uint64_t>(load_u32_le(p + 4)) << 32);
+}
+inline float load_f32_le(const uint8_t* p) {
+  const uint32_t bits = load_u32_le(p);
+  float f;
+  std::memcpy(&f, &bits, 4);  // a scalar bit cast, not a struct copy
+  return f;
+}
+inline void store_u16_le(uint8_t* p, uint16_t v) {
+  p[0] = static_cast<uint8_t>(v);
+  p[1] = static_cast<uint8_t>(v >> 8);
+}
+inline void store_u32_le(uint8_t* p, uint32_t v) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+inline void store_u64_le(uint8_t* p, uint64_t v) {
+  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+inline void store_f32_le(uint8_t* p, float v) {
+  uint32_t bits;
+  std::memcpy(&bits, &v, 4);
+  store_u32_le(p, bits);
+}
+
+/// Reads little-endian scalars from a byte range. A read past the end returns false, leaves the
+/// output untouched and does not move the position.
+class ByteReader {
+ public:
+  ByteReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+
+  size_t position() const { return pos_; }
+  size_t remaining() const { return size_ - pos_; }
+
+  [[nodiscard]] bool read_u8(uint8_t* out) {
+    if (remaining() < 1) return false;
+    *out = data_[pos_++];
+    return true;
+  }
+  [[nodiscard]] bool read_u16(uint16_t* out) { return read_with(2, out, load_u16_le); }
+  [[nodiscard]] bool read_u32(uint32_t* out) { return read_with(4, out, load_u32_le); }
+  [[nodiscard]] bool read_u64(uint64_t* out) { return read_with(8, out, load_u64_le); }
+  [[nodiscard]] bool read_f32(float* out) { return read_with(4, out, load_f32_le); }
+  /// Points *out at the next n bytes (no copy) and advances past them.
+  [[nodiscard]] bool read_view(size_t n, const uint8_t** out) {
+    if (remaining() < n) return false;
+    *out = data_ + pos_;
+    pos_ += n;
+    return true;
+  }
+  [[nodiscard]] bool skip(size_t n) {
+    if (remaining() < n) return false;
+    pos_ += n;
+    return true;
+  }
+
+ private:
+  template <typename T, typename Load>
+  bool read_with(size_t n, T* out, Load load) {
+    if (remaining() < n) return false;
+    *out = load(data_ + pos_);
+    pos_ += n;
+    return true;
+  }
+
+  const uint8_t* data_;
+  size_t size_;
+  size_t pos_ = 0;
+};
+
+/// Writes little-endian scalars into a caller-sized byte range. A write past the end is dropped and
+/// makes ok() false for good; the writer sizes buffers exactly, so that is a programming error the
+/// caller turns into a Status.
+class ByteWriter {
+ public:
+  ByteWriter(uint8_t* data, size_t size) : data_(data), size_(size) {}
+
+  bool ok() const { return ok_; }
+  size_t position() const { return pos_; }
+
+  void put_u8(uint8_t v) {
+    if (uint8_t* p = claim(1)) *p = v;
+  }
+  void put_u16(uint16_t v) {
+    if (uint8_t* p = claim(2)) store_u16_le(p, v);
+  }
+  void put_u32(uint32_t v) {
+    if (uint8_t* p = claim(4)) store_u32_le(p, v);
+  }
+  void put_u64(uint64_t v) {
+    if (uint8_t* p = claim(8)) store_u64_le(p, v);
+  }
+  void put_f32(float v) {
+    if (uint8_t* p = claim(4)) store_f32_le(p, v);
+  }
+  void put_zeros(size_t n) {
+    if (uint8_t* p = claim(n)) std::memset(p, 0, n);
+  }
+  void put_bytes(const void* src, size_t n) {
+    if (n == 0) return;
+    if (uint8_t* p = claim(n)) std::memcpy(p, src, n);
+  }
+
+ private:
+  uint8_t* claim(size_t n) {
+    if (!ok_ || size_ - pos_ < n) {
+      ok_ = false;
+      return nullptr;
+    }
+    uint8_t* p = data_ + pos_;
+    pos_ += n;
+    return p;
+  }
+
+  uint8_t* data_;
+  size_t size_;
+  size_t pos_ = 0;
+  bool ok_ = true;
+};
+
+/// "0x" followed by 16 lowercase hex digits, for checksums in messages.
+inline std::string hex64(uint64_t v) {
+  static const char kDigits[] = "0123456789abcdef";
+  std::string s = "0x";
+  for (int shift = 60; shift >= 0; shift -= 4) s += kDigits[(v >> shift) & 0xf];
+  return s;
+}
+
+/// "0x" followed by 8 lowercase hex digits, for flags and 32-bit magics in messages.
+inline std::string hex32(uint32_t v) { return "0x" + hex64(v).substr(10); }
+
+/// Decimal string of an unsigned 64-bit value.
+inline std::string dec(uint64_t v) { return std::to_string(v); }
+
+}  // namespace rgs::format::detail

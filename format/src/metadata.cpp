@@ -1,0 +1,45 @@
+#include "rgs/format/metadata.h"
+
+#include <cmath>
+
+namespace rgs::format {
+
+bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::string* why) {
+  auto fail = [why](std::string reason) {
+    if (why) *why = std::move(reason);
+    return false;
+  };
+  if (sh_degree > 3) return fail("SH degree " + std::to_string(sh_degree) + " > 3");
+  if (q.bits != 8) return fail("SH quantization bits " + std::to_string(q.bits) + " (only 8 is defined)");
+  if (!(q.clip_percentile > 0.0f && q.clip_percentile <= 100.0f)) {
+    return fail("SH clip percentile " + std::to_string(q.clip_percentile) + " outside (0, 100]");
+  }
+  for (uint32_t d = 0; d < 4; ++d) {
+    for (uint32_t c = 0; c < 3; ++c) {
+      const float s = q.scales[d][c];
+      if (!std::isfinite(s) || s < 0.0f) {
+        return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) + "] = " +
+                    std::to_string(s) + " is not finite and >= 0");
+      }
+      if (d > sh_degree && s != 0.0f) {
+        return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) +
+                    "] is non-zero above SH degree " + std::to_string(sh_degree));
+      }
+    }
+  }
+  return true;
+}
+
+const char* to_string(CoordinateFrame v) { return v == CoordinateFrame::kColmap ? "colmap" : "unknown"; }
+const char* to_string(QuaternionOrder v) { return v == QuaternionOrder::kWxyz ? "wxyz" : "unknown"; }
+const char* to_string(ScaleEncoding v) {
+  switch (v) {
+    case ScaleEncoding::kLinear: return "linear";
+    case ScaleEncoding::kLog: return "log";
+  }
+  return "unknown";
+}
+const char* to_string(OpacityEncoding v) { return v == OpacityEncoding::kSigmoid ? "sigmoid" : "unknown"; }
+const char* to_string(ShLayout v) { return v == ShLayout::kCoefficientMajor ? "coefficient-major" : "unknown"; }
+
+}  // namespace rgs::format

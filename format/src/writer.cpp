@@ -1,0 +1,318 @@
+// Serializes an EncodedScene into .rgs 1.0 bytes (SPEC.md §2–§4, §7).
+#include "rgs/format/writer.h"
+
+#include <zstd.h>
+
+#include <algorithm>
+#include <memory>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "internal_bytes.h"
+#include "internal_sections.h"
+#include "rgs/format/file_io.h"
+
+namespace rgs::format {
+namespace detail {
+
+void encode_metadata(const SceneMetadata& m, uint8_t* out) {
+  ByteWriter w(out, kMetadataSize);
+  w.put_u32(m.sh_degree);
+  w.put_u8(static_cast<uint8_t>(m.frame));
+  w.put_u8(static_cast<uint8_t>(m.quaternion_order));
+  w.put_u8(static_cast<uint8_t>(m.scale_encoding));
+  w.put_u8(static_cast<uint8_t>(m.opacity_encoding));
+  w.put_u8(static_cast<uint8_t>(m.sh_layout));
+  w.put_zeros(7);
+  for (float v : m.bounds.aabb_min) w.put_f32(v);
+  for (float v : m.bounds.aabb_max) w.put_f32(v);
+  for (float v : m.bounds.sphere_center) w.put_f32(v);
+  w.put_f32(m.bounds.sphere_radius);
+  w.put_u32(m.sh_quantization.bits);
+  w.put_f32(m.sh_quantization.clip_percentile);
+  for (const auto& row : m.sh_quantization.scales) {
+    for (float v : row) w.put_f32(v);
+  }
+  w.put_zeros(16);
+}
+
+bool provenance_size(const Provenance& provenance, uint64_t* size, std::string* why) {
+  if (provenance.size() > UINT32_MAX) {
+    *why = "provenance has " + dec(provenance.size()) + " entries, more than a u32 count holds";
+    return false;
+  }
+  uint64_t total = 4;
+  for (size_t i = 0; i < provenance.size(); ++i) {
+    const auto& [key, value] = provenance[i];
+    if (key.size() > UINT32_MAX || value.size() > UINT32_MAX) {
+      *why = "provenance entry " + dec(i) + " has a key or value longer than a u32 length holds";
+      return false;
+    }
+    if (!checked_add(total, 8, &total) || !checked_add(total, key.size(), &total) ||
+        !checked_add(total, value.size(), &total)) {
+      *why = "provenance size overflows 64 bits";
+      return false;
+    }
+  }
+  *size = total;
+  return true;
+}
+
+void encode_provenance(const Provenance& provenance, uint8_t* out, size_t size) {
+  ByteWriter w(out, size);
+  w.put_u32(static_cast<uint32_t>(provenance.size()));
+  for (const auto& [key, value] : provenance) {
+    w.put_u32(static_cast<uint32_t>(key.size()));
+    w.put_bytes(key.data(), key.size());
+    w.put_u32(static_cast<uint32_t>(value.size()));
+    w.put_bytes(value.data(), value.size());
+  }
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::ByteWriter;
+using detail::dec;
+
+struct ZstdCCtxDeleter {
+  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
+};
+using ZstdCCtxPtr = std::unique_ptr<ZSTD_CCtx, ZstdCCtxDeleter>;
+
+/// One section as it will be written: raw bytes (a view into the scene, or owned when they had to be
+/// encoded), the zstd frame when compressed, and its place in the file.
+struct PlannedSection {
+  SectionId id{};
+  Codec codec = Codec::kNone;
+  ElementType element_type = ElementType::kBytes;
+  uint32_t components = 1;
+  uint64_t element_count = 0;
+  const uint8_t* raw = nullptr;
+  uint64_t raw_size = 0;
+  std::vector<uint8_t> owned_raw;
+  std::vector<uint8_t> compressed;
+  uint64_t offset = 0;
+
+  const uint8_t* stored() const { return codec == Codec::kZstd ? compressed.data() : raw; }
+  uint64_t stored_size() const { return codec == Codec::kZstd ? compressed.size() : raw_size; }
+};
+
+Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
+
+/// The writer refuses anything validate() would reject, so every file it writes passes --check.
+Status check_scene(const EncodedScene& scene) {
+  if (Status s = detail::check_metadata(scene.metadata); !s.ok()) return invalid("metadata: " + s.message());
+  if (!scene.is_consistent()) {
+    const uint64_t k = sh_coefficient_count(scene.metadata.sh_degree);
+    return invalid("encoded scene arrays do not match count " + dec(scene.count) + " and SH degree " +
+                   dec(scene.metadata.sh_degree) + ": means " + dec(scene.means.size()) + " (expected " +
+                   dec(scene.count * 3) + "), rotations " + dec(scene.rotations.size()) + " (" +
+                   dec(scene.count * 4) + "), scales " + dec(scene.scales.size()) + " (" + dec(scene.count * 3) +
+                   "), opacities " + dec(scene.opacities.size()) + " (" + dec(scene.count) + "), sh " +
+                   dec(scene.sh.size()) + " (" + dec(scene.count * k * 3) + ")");
+  }
+  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    Status s = detail::check_mean(&scene.means[i * 3], i, scene.metadata.bounds);
+    if (s.ok()) s = detail::check_rotation(&scene.rotations[i * 4], i);
+    if (s.ok()) s = detail::check_scale(&scene.scales[i * 3], i, scene.metadata.scale_encoding);
+    if (s.ok()) s = detail::check_opacity(scene.opacities[i], i);
+    if (s.ok()) s = detail::check_sh(&scene.sh[i * k3], k3, i);
+    if (!s.ok()) return invalid(s.message());
+  }
+  return Status();
+}
+
+Status check_options(const WriteOptions& options) {
+  if (options.zstd_level < 1 || options.zstd_level > ZSTD_maxCLevel()) {
+    return invalid("zstd level " + std::to_string(options.zstd_level) + " outside 1.." +
+                   std::to_string(ZSTD_maxCLevel()));
+  }
+  for (const auto& [id, codec] : options.codecs) {
+    if (!detail::is_known_section(id)) {
+      return invalid("codec requested for unknown section id " + dec(static_cast<uint32_t>(id)));
+    }
+    if (codec != Codec::kNone && codec != Codec::kZstd) {
+      return invalid("unknown codec " + dec(static_cast<uint16_t>(codec)) + " requested for section " +
+                     section_name(id));
+    }
+  }
+  return Status();
+}
+
+/// Points a section at a typed array's raw little-endian bytes: the array itself on little-endian
+/// hosts, an encoded copy otherwise.
+template <typename T>
+void set_array_raw(PlannedSection* s, const std::vector<T>& values) {
+  s->raw_size = uint64_t{values.size()} * sizeof(T);
+  if constexpr (detail::kHostLittleEndian || sizeof(T) == 1) {
+    s->raw = reinterpret_cast<const uint8_t*>(values.data());
+  } else {
+    s->owned_raw.resize(s->raw_size);
+    ByteWriter w(s->owned_raw.data(), s->owned_raw.size());
+    for (T v : values) {
+      if constexpr (sizeof(T) == 2) {
+        w.put_u16(v);
+      } else {
+        w.put_f32(v);
+      }
+    }
+    s->raw = s->owned_raw.data();
+  }
+}
+
+Status compress_section(ZSTD_CCtx* cctx, PlannedSection* s) {
+  const size_t bound = ZSTD_compressBound(s->raw_size);
+  if (ZSTD_isError(bound)) {
+    return invalid(std::string(section_name(s->id)) + ": " + dec(s->raw_size) + " bytes are too large for zstd");
+  }
+  s->compressed.resize(bound);
+  const size_t n = ZSTD_compress2(cctx, s->compressed.data(), bound, s->raw, s->raw_size);
+  if (ZSTD_isError(n)) {
+    return Status(StatusCode::kOutOfMemory,
+                  std::string("zstd compression of section ") + section_name(s->id) + " failed: " + ZSTD_getErrorName(n));
+  }
+  s->compressed.resize(n);
+  s->compressed.shrink_to_fit();
+  return Status();
+}
+
+Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const WriteOptions& options) {
+  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(check_scene(scene));
+  uint64_t provenance_bytes = 0;
+  std::string why;
+  if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return invalid(why);
+
+  const uint64_t n = scene.count;
+  const uint32_t k = sh_coefficient_count(scene.metadata.sh_degree);
+  // §4 Section order: metadata, provenance (only when non-empty), then the runtime sections.
+  std::vector<PlannedSection> plan;
+  plan.reserve(7);
+  auto add = [&](SectionId id, ElementType type, uint32_t components, uint64_t count) -> PlannedSection& {
+    PlannedSection& s = plan.emplace_back();
+    s.id = id;
+    s.element_type = type;
+    s.components = components;
+    s.element_count = count;
+    const auto it = options.codecs.find(id);
+    s.codec = it == options.codecs.end() ? Codec::kNone : it->second;
+    return s;
+  };
+  {
+    PlannedSection& s = add(SectionId::kMetadata, ElementType::kBytes, 1, kMetadataSize);
+    s.owned_raw.resize(kMetadataSize);
+    detail::encode_metadata(scene.metadata, s.owned_raw.data());
+    s.raw = s.owned_raw.data();
+    s.raw_size = kMetadataSize;
+  }
+  if (!scene.provenance.empty()) {
+    PlannedSection& s = add(SectionId::kProvenance, ElementType::kBytes, 1, provenance_bytes);
+    s.owned_raw.resize(provenance_bytes);
+    detail::encode_provenance(scene.provenance, s.owned_raw.data(), s.owned_raw.size());
+    s.raw = s.owned_raw.data();
+    s.raw_size = provenance_bytes;
+  }
+  set_array_raw(&add(SectionId::kMeans, ElementType::kFloat32, 3, n), scene.means);
+  set_array_raw(&add(SectionId::kRotations, ElementType::kFloat16, 4, n), scene.rotations);
+  set_array_raw(&add(SectionId::kScales, ElementType::kFloat16, 3, n), scene.scales);
+  set_array_raw(&add(SectionId::kOpacities, ElementType::kFloat16, 1, n), scene.opacities);
+  set_array_raw(&add(SectionId::kSh, ElementType::kInt8, 3 * k, n), scene.sh);
+
+  // §6 Stamp the oldest version that has every feature this file uses.
+  FormatVersion version{kFormatMajor, 0};
+  auto require = [&version](FormatVersion v) {
+    if (!version_at_least(version, v)) version = v;
+  };
+  if (!scene.provenance.empty()) require(kMinVersionForProvenance);
+  if (scene.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
+
+  ZstdCCtxPtr cctx;
+  for (PlannedSection& s : plan) {
+    if (s.codec != Codec::kZstd) continue;
+    require(kMinVersionForZstdCodec);
+    if (!cctx) {
+      cctx.reset(ZSTD_createCCtx());
+      if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
+      // §7 Single-threaded, content size and checksum in every frame: deterministic, self-checking.
+      for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, options.zstd_level},
+                                  std::pair{ZSTD_c_checksumFlag, 1}, std::pair{ZSTD_c_contentSizeFlag, 1},
+                                  std::pair{ZSTD_c_nbWorkers, 0}}) {
+        const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
+        if (ZSTD_isError(r)) return invalid(std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
+      }
+    }
+    RGS_RETURN_IF_ERROR(compress_section(cctx.get(), &s));
+  }
+
+  // §3 Layout: table after the header, each section at the next multiple of kSectionAlignment.
+  const uint64_t table_end = kHeaderSize + uint64_t{kSectionEntrySize} * plan.size();
+  uint64_t end = table_end;
+  for (PlannedSection& s : plan) {
+    if (!detail::checked_align_up(end, kSectionAlignment, &s.offset) ||
+        !detail::checked_add(s.offset, s.stored_size(), &end)) {
+      return invalid("file size overflows 64 bits");
+    }
+  }
+  if (end > SIZE_MAX) return Status(StatusCode::kOutOfMemory, "file of " + dec(end) + " bytes exceeds memory");
+  const uint64_t file_size = end;
+
+  std::vector<uint8_t> out(static_cast<size_t>(file_size));  // zero-filled: padding and reserved fields
+  ByteWriter header(out.data(), kHeaderSize);
+  for (uint8_t b : kMagic) header.put_u8(b);
+  header.put_u16(version.major);
+  header.put_u16(version.minor);
+  header.put_u32(kHeaderSize);
+  header.put_u32(0);  // required flags: none defined in 1.0
+  header.put_u32(0);  // optional flags
+  header.put_u64(n);
+  header.put_u32(static_cast<uint32_t>(plan.size()));
+  header.put_u32(0);  // reserved
+  header.put_u64(kHeaderSize);  // table offset
+  header.put_u64(file_size);
+  ByteWriter table(out.data() + kHeaderSize, static_cast<size_t>(table_end - kHeaderSize));
+  for (const PlannedSection& s : plan) {
+    if (s.stored_size() > 0) std::copy_n(s.stored(), s.stored_size(), out.data() + s.offset);
+    table.put_u32(static_cast<uint32_t>(s.id));
+    table.put_u16(static_cast<uint16_t>(s.codec));
+    table.put_u16(static_cast<uint16_t>(s.element_type));
+    table.put_u32(s.components);
+    table.put_u32(0);  // reserved
+    table.put_u64(s.element_count);
+    table.put_u64(s.offset);
+    table.put_u64(s.stored_size());
+    table.put_u64(s.raw_size);
+    table.put_u64(detail::xxh64(out.data() + s.offset, s.stored_size()));
+    table.put_u64(0);  // reserved
+  }
+  header.put_u64(detail::header_checksum(out.data(), out.data() + kHeaderSize, table_end - kHeaderSize));
+  if (!header.ok() || !table.ok() || header.position() != kHeaderSize || table.position() != table_end - kHeaderSize) {
+    return Status(StatusCode::kInvalidArgument, "internal error: header or table size mismatch");
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options) {
+  try {
+    return serialize_checked(scene, options);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
+  } catch (const std::length_error&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
+  }
+}
+
+Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options) {
+  auto bytes = serialize_scene(scene, options);
+  if (!bytes.ok()) return Status(bytes.status()).prepend(path);
+  RGS_RETURN_IF_ERROR(write_file_atomic(path, bytes->data(), bytes->size()));
+  return static_cast<uint64_t>(bytes->size());
+}
+
+}  // namespace rgs::format

@@ -1,0 +1,119 @@
+// Pinhole cameras for the renderers: the camera model, INRIA cameras.json loading and orbit generation.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+
+namespace rgs::runtime {
+
+/// A pinhole camera in the COLMAP/INRIA convention the 3DGS scenes were trained with (DESIGN.md "Numeric
+/// conventions"; ../shared/data/SOURCES.md): camera frame x right, y down, z forward; no distortion.
+///
+/// - World to camera: p_cam = R·p + t, R = `rotation` (row-major [3, 3], orthonormal, det +1), t =
+///   `translation` (world units). The camera centre is −Rᵀ·t (camera_centre()).
+/// - Projection to pixels: px = fx·x/z + cx − 0.5, py = fy·y/z + cy − 0.5, so pixel (i, j) has its centre at
+///   integer coordinates (i, j). cx = width/2, cy = height/2 is the 3DGS case (principal point at the image
+///   centre); loaders and orbit_cameras() produce exactly that.
+/// - EWA clamp (3DGS clamps x/z, y/z to ±1.3·tan(fov/2) before the Jacobian): taken per side from the actual
+///   image extents, x/z ∈ [−1.3·cx/fx, 1.3·(width − cx)/fx] and y/z ∈ [−1.3·cy/fy, 1.3·(height − cy)/fy]
+///   (kernels/shared/projection.h ewa_clamp_for). For cx = width/2 both sides are 1.3·tan(fov_x/2).
+/// - Gaussians with view-space depth z ≤ near_plane are culled (3DGS: 0.2).
+struct Camera {
+  /// World-to-camera rotation R, row-major [3, 3].
+  std::array<float, 9> rotation = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  /// World-to-camera translation t (world units).
+  std::array<float, 3> translation = {0, 0, 0};
+  /// Focal lengths in pixels.
+  float fx = 0, fy = 0;
+  /// Principal point in pixels, measured from the image's left/top edge (see the projection above).
+  float cx = 0, cy = 0;
+  /// Image size in pixels; any size ≥ 1 (not only multiples of 16).
+  uint32_t width = 0, height = 0;
+  /// Depth (view-space z, world units) at and below which Gaussians are culled.
+  float near_plane = 0.2f;
+  /// Label for file names and messages (cameras.json img_name, or "orbit_007").
+  std::string name;
+};
+
+/// Camera centre in world coordinates, −Rᵀ·t (computed in double, rounded to float).
+std::array<float, 3> camera_centre(const Camera& camera);
+
+/// Field of view (radians) that a focal length `focal` (pixels) gives over `pixels` pixels:
+/// 2·atan(pixels / (2·focal)).
+double fov_from_focal(double focal, double pixels);
+
+/// Focal length (pixels) that gives field of view `fov_rad` over `pixels` pixels: pixels / (2·tan(fov/2)).
+double focal_from_fov(double fov_rad, double pixels);
+
+/// Checks that a camera can be rendered: width and height in [1, 32768], fx, fy finite and > 0, cx, cy and
+/// the translation finite, near_plane finite and > 0, rotation orthonormal with det +1 (to 1e−3).
+/// @return kInvalidArgument naming the first problem.
+Status validate_camera(const Camera& camera);
+
+/// The same view at another resolution, keeping the field of view on each axis and the principal point's
+/// relative position: fx' = fx·W'/W, fy' = fy·H'/H, cx' = cx·W'/W, cy' = cy·H'/H (3DGS -r does this).
+/// `width`, `height` ≥ 1; the aspect ratio may change (pixels then become non-square).
+Camera resize_camera(const Camera& camera, uint32_t width, uint32_t height);
+
+/// Which cameras of a cameras.json to load, and at what resolution.
+struct InriaCameraOptions {
+  /// Take every k-th camera of the file (0, k, 2k, ...); 1 = all. Must be ≥ 1.
+  uint32_t every_kth = 1;
+  /// If not empty: exactly these file indices, in this order (every_kth must then be 1).
+  std::vector<uint32_t> indices;
+  /// Output resolution. Both 0: the file's width/height divided by `downscale` and rounded (3DGS -r).
+  /// One of them 0: derived from the other keeping the file's aspect ratio (rounded). Field of view kept.
+  uint32_t width = 0, height = 0;
+  /// Resolution divisor used when width and height are 0; must be finite and > 0. 8 gives the 1/8
+  /// resolution the flowers scene was trained at (5025×3312 → 628×414).
+  double downscale = 1.0;
+  /// near_plane of the produced cameras.
+  float near_plane = 0.2f;
+};
+
+/// Loads an INRIA 3DGS cameras.json (a JSON array of {id, img_name, width, height, position[3],
+/// rotation[3][3], fx, fy}). `rotation` is camera-to-world (its rows as JSON arrays; its columns are the camera
+/// axes in world coordinates) and `position` the camera centre, so R = rotationᵀ and t = −R·position (double,
+/// then float); fx, fy in pixels; principal point at the image centre (cx = W/2, cy = H/2).
+/// @return the selected cameras in order. Errors name `path` (and the camera index): kIoError (cannot open or
+/// read), kLimitExceeded (file above 256 MiB), kCorruptData (not JSON, not an array, empty, a field missing
+/// or of the wrong type, non-finite or non-positive values, rotation not orthonormal), kInvalidArgument
+/// (bad options, an index beyond the camera count).
+Result<std::vector<Camera>> load_inria_cameras(const std::string& path, const InriaCameraOptions& options = {});
+
+/// Same as load_inria_cameras on JSON text in memory; `name` is used in error messages.
+Result<std::vector<Camera>> parse_inria_cameras(const std::string& json_text, const std::string& name,
+                                                const InriaCameraOptions& options = {});
+
+/// How orbit_cameras() places its ring.
+struct OrbitOptions {
+  /// Vertical field of view in degrees, (0, 180).
+  double fov_y_deg = 50.0;
+  /// Height of the ring above the horizontal plane through the target, in degrees, (−89, 89). "Up" is −y
+  /// (the scenes' +y points down, SOURCES.md), so a positive elevation looks down on the scene.
+  double elevation_deg = 20.0;
+  /// Camera distance as a multiple of the distance at which the bounding sphere just fits the narrower field
+  /// of view (r / sin(fov_min/2)). Below 1 moves in (sphere radii are inflated by floaters). Must be > 0.
+  double distance_factor = 1.0;
+  /// Azimuth of the first camera in degrees; cameras follow at 360/count spacing. Azimuth 0 with elevation
+  /// 0 sits on the −z side of the target looking along +z.
+  double start_azimuth_deg = 0.0;
+  /// near_plane of the produced cameras.
+  float near_plane = 0.2f;
+};
+
+/// A ring of `count` cameras looking at the centre of `bounds.sphere` from distance
+/// distance_factor·r/sin(min(fov_x, fov_y)/2), equally spaced in azimuth around the world −y (up) axis,
+/// width × height pixels, square pixels (fx = fy), principal point at the image centre. Deterministic. Names
+/// are "orbit_000", "orbit_001", ...
+/// @return kInvalidArgument for count 0, a zero size, non-finite or non-positive sphere radius or options
+/// out of range.
+Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uint32_t count, uint32_t width,
+                                          uint32_t height, const OrbitOptions& options = {});
+
+}  // namespace rgs::runtime

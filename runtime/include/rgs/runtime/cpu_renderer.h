@@ -1,0 +1,184 @@
+// CPU reference renderer: the original 3DGS rasterizer's math written out in spec order, plus a RoofGS mode
+// that mirrors the GPU pipeline's math with each technique switchable (docs/RENDERER.md).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+#include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/projection.h"
+#include "rgs/kernels/shared/sort_key.h"
+#include "rgs/runtime/camera.h"
+
+namespace rgs::runtime {
+
+/// RoofGS techniques of the renderer (DESIGN.md "RoofGS pipeline"); each switch is independent, and with all
+/// of them off the renderer is the 3DGS baseline, bit for bit. Compact attributes (item 1) need no switch:
+/// render the dequantized cloud of a .rgs file.
+struct RoofgsOptions {
+  /// 32-bit keys (item 2): tile id in the high b_t = ceil(log2(num_tiles)) bits, depth quantized to
+  /// b_d = 32 − b_t bits over [z_near, z_far] = [max(near, d_c − r), d_c + r] from the scene's bounding sphere
+  /// (centre at view depth d_c, radius r); Gaussians outside that range are culled. Stable sort (ties keep
+  /// Gaussian index order). Needs RenderOptions::scene_bounds.
+  bool key32 = false;
+  /// SnugBox + AccuTile (item 4): cull o ≤ 1/255, and give each Gaussian exactly the tiles whose pixel
+  /// centres its alpha ≥ 1/255 ellipse reaches (kernels/shared/tile_culling.h) instead of the 3DGS rectangle.
+  bool snugbox_accutile = false;
+  /// With snugbox_accutile: also limit the tiles to the baseline 3DGS rectangle, so culling only removes
+  /// tiles (at o close to 1 the 1/255 ellipse reaches 3.33σ, past the baseline's 3σ radius). Off reproduces
+  /// Speedy-Splat, which then adds contributions the baseline does not have.
+  bool accutile_within_baseline_rect = true;
+  /// Folded coefficients C1..C6 in tile-local coordinates with the dual-pixel update (item 5): each
+  /// "thread" shades (x, y) and (x, y+1), the second through P(x, y+1) = P(x, y) + C2·x + C3·(2y+1) + C5.
+  /// α = min(0.99, exp(P)) with P = power + ln(o); a pair is skipped when P > 0 (the folded form of the
+  /// baseline's power > 0 guard).
+  bool folded_coefficients = false;
+  /// Schraudolph fast exp (item 6): α = min(0.99, exp̂(P)), P = power + ln(o) (folded or not).
+  bool fast_exp = false;
+  /// σ of the fast exp: kFastExpSigmaMinMax (0.045677, the paper's) or e.g. kFastExpSigmaZeroMean.
+  float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
+
+  /// All four techniques on (the paper's combination), default σ.
+  static RoofgsOptions all() {
+    RoofgsOptions o;
+    o.key32 = o.snugbox_accutile = o.folded_coefficients = o.fast_exp = true;
+    return o;
+  }
+};
+
+/// Options of render_cpu().
+struct RenderOptions {
+  /// Background colour (linear RGB, as 3DGS: out = C + T·bg).
+  std::array<float, 3> background = {0.f, 0.f, 0.f};
+  /// Worker threads; 0 = std::thread::hardware_concurrency(). Results do not depend on it (bit for bit).
+  unsigned num_threads = 0;
+  /// RoofGS techniques; default all off = the 3DGS baseline.
+  RoofgsOptions roofgs;
+  /// Scene bounds (the .rgs metadata, or converter::compute_bounds of a PLY); required by roofgs.key32.
+  std::optional<format::SceneBounds> scene_bounds;
+};
+
+/// Per-Gaussian result of the preprocess stage (3DGS preprocessCUDA), in pixel units.
+struct ProjectedGaussian {
+  /// Number of (tile, Gaussian) pairs this Gaussian emits; 0 when it is culled (then the rest is unspecified).
+  uint32_t tiles_touched = 0;
+  /// View-space depth z (world units).
+  float depth = 0;
+  /// Projected mean (px, py); pixel centres are at integers.
+  float mean[2] = {0, 0};
+  /// Dilated 2D covariance (pixels²) and its determinant.
+  kernels::Cov2 cov{0, 0, 0};
+  float det = 0;
+  /// Conic (a, b, c) = inverse covariance.
+  kernels::Conic conic{0, 0, 0};
+  /// Activated opacity o and ln(o) (folded into C6 / the fast exp argument).
+  float opacity = 0;
+  float log_opacity = 0;
+  /// RGB colour from SH, max(Σ sh·Y + 0.5, 0); not clamped above.
+  float rgb[3] = {0, 0, 0};
+  /// 3DGS radius ceil(3·sqrt(λmax)) and rectangle getRect(); with SnugBox + AccuTile, `rect` is the SnugBox
+  /// tile rectangle that AccuTile walked.
+  int radius = 0;
+  kernels::TileRect rect{0, 0, 0, 0};
+  /// SnugBox threshold 2·ln(255·o) (0 unless snugbox_accutile).
+  float snug_t = 0;
+  /// 32-bit key depth bin (0 unless key32).
+  uint32_t depth_bin = 0;
+};
+
+/// Frame-wide parameters of one render.
+struct FrameSetup {
+  uint32_t width = 0, height = 0;
+  /// Tile grid ceil(W/16) × ceil(H/16).
+  int tiles_x = 0, tiles_y = 0;
+  /// EWA clamp of the camera (camera.h).
+  kernels::EwaClamp ewa_clamp{0, 0, 0, 0};
+  /// 32-bit key layout (key32 only): tile bits, depth bits, depth range and quantizer.
+  int key_tile_bits = 0, key_depth_bits = 0;
+  kernels::DepthQuantizer quantizer{0, 0, 0, 0, 0};
+  /// True when the depth range [z_near, z_far] is empty (the scene sphere is behind the camera): nothing is
+  /// visible.
+  bool empty_depth_range = false;
+};
+
+/// Sorted (tile, Gaussian) pairs.
+struct TileBins {
+  /// [P] sort keys after the stable sort: 64-bit baseline keys tile << 32 | float_bits(depth), or the 32-bit
+  /// RoofGS keys (zero-extended).
+  std::vector<uint64_t> keys;
+  /// [P] Gaussian index of each pair.
+  std::vector<uint32_t> values;
+  /// [tiles_x·tiles_y + 1] offsets: the pairs of tile id (ty·tiles_x + tx) are [tile_begin[id], tile_begin[id+1]).
+  std::vector<uint64_t> tile_begin;
+};
+
+/// Counts of one render.
+struct RenderStats {
+  uint64_t gaussians = 0;         ///< input Gaussians
+  uint64_t visible = 0;           ///< Gaussians with at least one tile
+  uint64_t pairs = 0;             ///< (tile, Gaussian) pairs sorted
+  uint64_t culled_near = 0;       ///< z ≤ near plane
+  uint64_t culled_depth_range = 0;///< outside [z_near, z_far] (key32)
+  uint64_t culled_opacity = 0;    ///< o ≤ 1/255 (snugbox_accutile)
+  int tiles_x = 0, tiles_y = 0;
+  int key_tile_bits = 0, key_depth_bits = 0;  ///< key32 only
+  float z_near = 0, z_far = 0;                ///< key32 only
+};
+
+/// Output of render_cpu(). Images are row-major, top row first.
+struct RenderResult {
+  uint32_t width = 0, height = 0;
+  /// [H, W, 3] float32 linear RGB, C + T·bg (not clamped; SH colours can exceed 1).
+  std::vector<float> rgb;
+  /// [H, W] float32 accumulated opacity 1 − T (T = final transmittance).
+  std::vector<float> alpha;
+  /// [H, W] float32 expected view-space depth Σ wᵢ·zᵢ / Σ wᵢ over the blended Gaussians, wᵢ = αᵢ·Tᵢ (the
+  /// same weights as the colour; Σ wᵢ = 1 − T). 0 where nothing was blended. z is the Gaussian mean's
+  /// view-space depth (world units), not the per-pixel ray depth.
+  std::vector<float> depth;
+  RenderStats stats;
+};
+
+/// Renders `cloud` from `camera` on the CPU. Stages, in the order of the spec (DESIGN.md):
+/// preprocess (cull z ≤ near, project, EWA clamp, cov2D + 0.3, cull det == 0, conic, radius, tile rect, SH
+/// colour) → pairs per touched tile with keys → stable sort → per-tile ranges → per-pixel front-to-back
+/// blending in 16×16 tiles (skip power > 0, α = min(0.99, o·exp(power)), skip α < 1/255, stop before the
+/// Gaussian that would make T < 1e-4, out = C + T·bg).
+/// @param cloud   activated float Gaussians (GaussianCloud), e.g. a PLY or a dequantized .rgs; SH degree 0..3.
+/// @param camera  any size up to 32768² (validate_camera); not only multiples of 16.
+/// Deterministic: the same inputs give the same bits for any num_threads.
+/// @return kInvalidArgument (inconsistent cloud, invalid camera, key32 without scene_bounds, fast exp σ not in
+/// [0, 1)), kLimitExceeded (more than 2^32 − 1 Gaussians, or a tile grid too large for a 32-bit key with at least
+/// 8 depth bits), kOutOfMemory (pair buffer allocation failed).
+Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
+                                const RenderOptions& options = {});
+
+/// Stage 0: checks the inputs and derives the frame parameters (tile grid, EWA clamp, key layout and depth
+/// range for key32). Errors as render_cpu().
+Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera& camera,
+                               const RenderOptions& options);
+
+/// Stage 1 (3DGS preprocessCUDA): one ProjectedGaussian per input Gaussian, in input order. Multithreaded
+/// over Gaussians; deterministic. `frame` comes from setup_frame() for the same inputs.
+std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera,
+                                              const FrameSetup& frame, const RenderOptions& options,
+                                              RenderStats* stats);
+
+/// Stages 2–4 (3DGS duplicateWithKeys, radix sort, identifyTileRanges): emits the pairs of every Gaussian in
+/// index order (its tiles row-major, or in AccuTile's walk order), sorts them stably by key (equal keys keep
+/// Gaussian index order), and computes per-tile ranges.
+/// @return kOutOfMemory if the pair buffers cannot be allocated.
+Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
+                                  const RenderOptions& options);
+
+/// Stage 5 (3DGS renderCUDA): blends every pixel front to back from its tile's sorted list. Multithreaded over
+/// tile rows; deterministic. Writes result->rgb/alpha/depth (resized to the frame).
+void blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
+               const RenderOptions& options, RenderResult* result);
+
+}  // namespace rgs::runtime

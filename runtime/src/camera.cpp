@@ -1,0 +1,171 @@
+// Camera model helpers and the orbit generator (camera.h).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "rgs/runtime/camera.h"
+
+namespace rgs::runtime {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr uint32_t kMaxImageSide = 32768;
+
+bool finite(double v) { return std::isfinite(v); }
+
+std::string num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::array<float, 3> camera_centre(const Camera& camera) {
+  const auto& R = camera.rotation;
+  const auto& t = camera.translation;
+  std::array<float, 3> c{};
+  for (int j = 0; j < 3; ++j) {
+    const double v = -(double(R[0 * 3 + j]) * t[0] + double(R[1 * 3 + j]) * t[1] + double(R[2 * 3 + j]) * t[2]);
+    c[j] = static_cast<float>(v);
+  }
+  return c;
+}
+
+double fov_from_focal(double focal, double pixels) { return 2.0 * std::atan(pixels / (2.0 * focal)); }
+
+double focal_from_fov(double fov_rad, double pixels) { return pixels / (2.0 * std::tan(fov_rad / 2.0)); }
+
+Status validate_camera(const Camera& camera) {
+  const std::string who = camera.name.empty() ? std::string("camera") : "camera '" + camera.name + "'";
+  RGS_RETURN_ERROR_IF(camera.width < 1 || camera.width > kMaxImageSide || camera.height < 1 ||
+                          camera.height > kMaxImageSide,
+                      StatusCode::kInvalidArgument,
+                      who + ": image size " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+                          " outside [1, " + std::to_string(kMaxImageSide) + "]");
+  RGS_RETURN_ERROR_IF(!finite(camera.fx) || !finite(camera.fy) || !(camera.fx > 0) || !(camera.fy > 0),
+                      StatusCode::kInvalidArgument,
+                      who + ": focal lengths fx=" + num(camera.fx) + " fy=" + num(camera.fy) +
+                          " must be finite and > 0");
+  RGS_RETURN_ERROR_IF(!finite(camera.cx) || !finite(camera.cy), StatusCode::kInvalidArgument,
+                      who + ": principal point (" + num(camera.cx) + ", " + num(camera.cy) + ") is not finite");
+  RGS_RETURN_ERROR_IF(!finite(camera.near_plane) || !(camera.near_plane > 0), StatusCode::kInvalidArgument,
+                      who + ": near_plane " + num(camera.near_plane) + " must be finite and > 0");
+  for (int i = 0; i < 3; ++i) {
+    RGS_RETURN_ERROR_IF(!finite(camera.translation[i]), StatusCode::kInvalidArgument,
+                        who + ": translation[" + std::to_string(i) + "] is not finite");
+  }
+  const auto& R = camera.rotation;
+  for (int i = 0; i < 9; ++i) {
+    RGS_RETURN_ERROR_IF(!finite(R[i]), StatusCode::kInvalidArgument,
+                        who + ": rotation[" + std::to_string(i) + "] is not finite");
+  }
+  double worst = 0;
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      double dot = 0;
+      for (int j = 0; j < 3; ++j) dot += double(R[i * 3 + j]) * R[k * 3 + j];
+      worst = std::max(worst, std::fabs(dot - (i == k ? 1.0 : 0.0)));
+    }
+  }
+  const double det = double(R[0]) * (double(R[4]) * R[8] - double(R[5]) * R[7]) -
+                     double(R[1]) * (double(R[3]) * R[8] - double(R[5]) * R[6]) +
+                     double(R[2]) * (double(R[3]) * R[7] - double(R[4]) * R[6]);
+  RGS_RETURN_ERROR_IF(worst > 1e-3 || det < 0, StatusCode::kInvalidArgument,
+                      who + ": rotation is not a proper rotation (max |R·Rᵀ − I| = " + num(worst) +
+                          ", det = " + num(det) + ")");
+  return Status::ok_status();
+}
+
+Camera resize_camera(const Camera& camera, uint32_t width, uint32_t height) {
+  Camera out = camera;
+  const double sx = double(width) / double(camera.width);
+  const double sy = double(height) / double(camera.height);
+  out.width = width;
+  out.height = height;
+  out.fx = static_cast<float>(camera.fx * sx);
+  out.fy = static_cast<float>(camera.fy * sy);
+  out.cx = static_cast<float>(camera.cx * sx);
+  out.cy = static_cast<float>(camera.cy * sy);
+  return out;
+}
+
+Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uint32_t count, uint32_t width,
+                                          uint32_t height, const OrbitOptions& options) {
+  RGS_RETURN_ERROR_IF(count == 0, StatusCode::kInvalidArgument, "orbit: camera count must be >= 1");
+  RGS_RETURN_ERROR_IF(width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide,
+                      StatusCode::kInvalidArgument,
+                      "orbit: image size " + std::to_string(width) + "x" + std::to_string(height) +
+                          " outside [1, " + std::to_string(kMaxImageSide) + "]");
+  const double r = bounds.sphere_radius;
+  RGS_RETURN_ERROR_IF(!finite(r) || !(r > 0), StatusCode::kInvalidArgument,
+                      "orbit: scene bounding sphere radius " + num(r) + " must be finite and > 0");
+  for (int i = 0; i < 3; ++i) {
+    RGS_RETURN_ERROR_IF(!finite(bounds.sphere_center[i]), StatusCode::kInvalidArgument,
+                        "orbit: scene bounding sphere centre is not finite");
+  }
+  RGS_RETURN_ERROR_IF(!(options.fov_y_deg > 0 && options.fov_y_deg < 180), StatusCode::kInvalidArgument,
+                      "orbit: fov_y_deg " + num(options.fov_y_deg) + " outside (0, 180)");
+  RGS_RETURN_ERROR_IF(!(options.elevation_deg > -89 && options.elevation_deg < 89), StatusCode::kInvalidArgument,
+                      "orbit: elevation_deg " + num(options.elevation_deg) + " outside (-89, 89)");
+  RGS_RETURN_ERROR_IF(!finite(options.distance_factor) || !(options.distance_factor > 0),
+                      StatusCode::kInvalidArgument,
+                      "orbit: distance_factor " + num(options.distance_factor) + " must be finite and > 0");
+  RGS_RETURN_ERROR_IF(!finite(options.start_azimuth_deg), StatusCode::kInvalidArgument,
+                      "orbit: start_azimuth_deg is not finite");
+  RGS_RETURN_ERROR_IF(!finite(options.near_plane) || !(options.near_plane > 0), StatusCode::kInvalidArgument,
+                      "orbit: near_plane " + num(options.near_plane) + " must be finite and > 0");
+
+  const double fov_y = options.fov_y_deg * kPi / 180.0;
+  const double fy = focal_from_fov(fov_y, height);
+  const double fx = fy;  // square pixels
+  const double fov_x = fov_from_focal(fx, width);
+  const double fov_min = std::min(fov_x, fov_y);
+  const double distance = options.distance_factor * r / std::sin(fov_min / 2.0);
+  const double el = options.elevation_deg * kPi / 180.0;
+  const double c[3] = {bounds.sphere_center[0], bounds.sphere_center[1], bounds.sphere_center[2]};
+
+  std::vector<Camera> cameras;
+  cameras.reserve(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    const double az = (options.start_azimuth_deg + 360.0 * double(i) / double(count)) * kPi / 180.0;
+    // Eye on a sphere around the target; world up is −y, so a positive elevation means a smaller y.
+    const double dir[3] = {std::cos(el) * std::sin(az), -std::sin(el), -std::cos(el) * std::cos(az)};
+    const double eye[3] = {c[0] + distance * dir[0], c[1] + distance * dir[1], c[2] + distance * dir[2]};
+    // Camera axes in world coordinates: z forward (towards the target), x right = z × up, y down = z × x.
+    const double z_axis[3] = {-dir[0], -dir[1], -dir[2]};
+    const double up[3] = {0.0, -1.0, 0.0};
+    double x_axis[3] = {z_axis[1] * up[2] - z_axis[2] * up[1], z_axis[2] * up[0] - z_axis[0] * up[2],
+                        z_axis[0] * up[1] - z_axis[1] * up[0]};
+    const double xn = std::sqrt(x_axis[0] * x_axis[0] + x_axis[1] * x_axis[1] + x_axis[2] * x_axis[2]);
+    for (double& v : x_axis) v /= xn;
+    const double y_axis[3] = {z_axis[1] * x_axis[2] - z_axis[2] * x_axis[1],
+                              z_axis[2] * x_axis[0] - z_axis[0] * x_axis[2],
+                              z_axis[0] * x_axis[1] - z_axis[1] * x_axis[0]};
+    Camera cam;
+    const double* rows[3] = {x_axis, y_axis, z_axis};
+    for (int row = 0; row < 3; ++row) {
+      double t = 0;
+      for (int j = 0; j < 3; ++j) {
+        cam.rotation[row * 3 + j] = static_cast<float>(rows[row][j]);
+        t -= rows[row][j] * eye[j];
+      }
+      cam.translation[row] = static_cast<float>(t);
+    }
+    cam.fx = static_cast<float>(fx);
+    cam.fy = static_cast<float>(fy);
+    cam.cx = static_cast<float>(width / 2.0);
+    cam.cy = static_cast<float>(height / 2.0);
+    cam.width = width;
+    cam.height = height;
+    cam.near_plane = options.near_plane;
+    char name[32];
+    std::snprintf(name, sizeof name, "orbit_%03u", i);
+    cam.name = name;
+    cameras.push_back(std::move(cam));
+  }
+  return cameras;
+}
+
+}  // namespace rgs::runtime

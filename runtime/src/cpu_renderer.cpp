@@ -1,0 +1,453 @@
+// CPU reference renderer (cpu_renderer.h). Written to read like DESIGN.md's list of 3DGS conventions, stage by
+// stage; not tuned. All per-Gaussian and per-pixel math lives in kernels/shared/ so the CUDA kernels use the
+// same definitions.
+#include <algorithm>
+#include <cmath>
+#include <new>
+#include <string>
+
+#include "internal_parallel.h"
+#include "rgs/kernels/shared/blend_math.h"
+#include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/projection.h"
+#include "rgs/kernels/shared/sort_key.h"
+#include "rgs/kernels/shared/spherical_harmonics.h"
+#include "rgs/kernels/shared/tile_culling.h"
+#include "rgs/runtime/cpu_renderer.h"
+
+namespace rgs::runtime {
+namespace {
+
+namespace k = rgs::kernels;
+
+/// A 32-bit key must keep at least this many depth bits (b_t ≤ 24); every image validate_camera accepts
+/// (32768² → 22 tile bits) satisfies it.
+constexpr int kMinKeyDepthBits = 8;
+/// Gaussians per preprocess/duplication work item.
+constexpr uint64_t kGaussianChunk = 4096;
+
+/// Tiles a visible Gaussian may receive: the grid, limited to the baseline rectangle when requested.
+k::TileRect accutile_limit(const FrameSetup& frame, const RoofgsOptions& roofgs, const k::TileRect& baseline_rect) {
+  const k::TileRect grid{0, 0, frame.tiles_x, frame.tiles_y};
+  return roofgs.accutile_within_baseline_rect ? k::intersect(grid, baseline_rect) : grid;
+}
+
+/// Calls emit(tile_x, tile_y) for every tile of a visible Gaussian, in the order the pairs are emitted.
+template <typename Emit>
+void for_each_tile_of(const ProjectedGaussian& g, const FrameSetup& frame, const RoofgsOptions& roofgs,
+                      Emit&& emit) {
+  if (roofgs.snugbox_accutile) {
+    const k::SnugBox box = k::make_snugbox(g.mean[0], g.mean[1], g.cov, g.snug_t);
+    const k::TileRect baseline_rect = k::tile_rect(g.mean[0], g.mean[1], g.radius, frame.tiles_x, frame.tiles_y);
+    k::for_each_accutile_tile(box, accutile_limit(frame, roofgs, baseline_rect), emit);
+    return;
+  }
+  for (int ty = g.rect.y_min; ty < g.rect.y_max; ++ty) {
+    for (int tx = g.rect.x_min; tx < g.rect.x_max; ++tx) emit(tx, ty);
+  }
+}
+
+/// What the rasterizer reads per Gaussian of a tile, gathered once per tile into a contiguous array (the CPU
+/// counterpart of 3DGS's shared-memory batch: collected_xy, collected_conic_opacity, features, depth; with
+/// folded coefficients the C1..C6 are folded at this load, as RoofGS does).
+struct TileGaussian {
+  float mean[2];
+  k::Conic conic;
+  float opacity, log_opacity;
+  float rgb[3];
+  float depth;
+  k::FoldedCoefficients folded;
+};
+
+/// Gathers the `count` Gaussians `ids` of tile (tx, ty) in list order.
+void gather_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t* ids, uint64_t count, int tx,
+                 int ty, bool fold, std::vector<TileGaussian>* out) {
+  const float origin_x = static_cast<float>(tx * k::kTileSize);
+  const float origin_y = static_cast<float>(ty * k::kTileSize);
+  out->resize(count);
+  for (uint64_t j = 0; j < count; ++j) {
+    const ProjectedGaussian& g = gaussians[ids[j]];
+    TileGaussian& t = (*out)[j];
+    t.mean[0] = g.mean[0];
+    t.mean[1] = g.mean[1];
+    t.conic = g.conic;
+    t.opacity = g.opacity;
+    t.log_opacity = g.log_opacity;
+    for (int c = 0; c < 3; ++c) t.rgb[c] = g.rgb[c];
+    t.depth = g.depth;
+    // Tile-local mean (u, v) = mean − tile origin; pixels are then at tile-local (0..15, 0..15).
+    t.folded = fold ? k::fold_coefficients(g.conic, g.mean[0] - origin_x, g.mean[1] - origin_y, g.log_opacity)
+                    : k::FoldedCoefficients{0, 0, 0, 0, 0, 0};
+  }
+}
+
+/// Running state of one pixel during blending.
+struct PixelState {
+  float T = 1.f;                 // transmittance
+  float C[3] = {0.f, 0.f, 0.f};  // accumulated colour
+  float depth_sum = 0.f;         // Σ w·z
+  float weight_sum = 0.f;        // Σ w
+  bool done = false;
+};
+
+/// One front-to-back step with an alpha that passed the 1/255 test: stop before the Gaussian if it would make
+/// T < 1e-4 (it is then not added), else C += c·α·T, T *= (1 − α).
+inline void blend_step(PixelState& s, float alpha, const TileGaussian& g) {
+  const float test_T = s.T * (1.f - alpha);
+  if (test_T < k::kTransmittanceMin) {
+    s.done = true;
+    return;
+  }
+  for (int c = 0; c < 3; ++c) s.C[c] += g.rgb[c] * alpha * s.T;
+  const float w = alpha * s.T;
+  s.depth_sum += g.depth * w;
+  s.weight_sum += w;
+  s.T = test_T;
+}
+
+/// Pairs whose exponent (power, or P = power + ln o) is below this can never reach alpha 1/255:
+/// exp(−6) = 0.00248 < 1/255 = 0.00392 for any opacity ≤ 1, and the fast exp's ≤ 3.2 % error keeps it below
+/// too. Skipping them before the exponential changes no result (they would fail the α < 1/255 test); it only
+/// spares the CPU most of its expf calls.
+constexpr float kNeverVisiblePower = -6.f;
+
+/// Alpha of Gaussian g at pixel (x, y) on the unfolded path, or a negative value when the pair is skipped
+/// (power > 0 or α < 1/255).
+inline float unfolded_alpha(const TileGaussian& g, float x, float y, const RoofgsOptions& roofgs) {
+  const float dx = g.mean[0] - x;
+  const float dy = g.mean[1] - y;
+  const float power = k::baseline_power(g.conic, dx, dy);
+  if (power > 0.f) return -1.f;
+  if (power < kNeverVisiblePower) return -1.f;  // α < 1/255 for sure (see above)
+  const float alpha = roofgs.fast_exp ? fminf(k::kAlphaMax, k::fast_exp(power + g.log_opacity, roofgs.fast_exp_sigma))
+                                      : fminf(k::kAlphaMax, g.opacity * std::exp(power));
+  return alpha < k::kAlphaMin ? -1.f : alpha;
+}
+
+/// Alpha from a folded power P = power + ln(o), or a negative value when skipped (P > 0 or α < 1/255).
+inline float folded_alpha(float P, const RoofgsOptions& roofgs) {
+  if (P > 0.f) return -1.f;
+  if (P < kNeverVisiblePower) return -1.f;  // α < 1/255 for sure
+  const float alpha = roofgs.fast_exp ? fminf(k::kAlphaMax, k::fast_exp(P, roofgs.fast_exp_sigma))
+                                      : fminf(k::kAlphaMax, std::exp(P));
+  return alpha < k::kAlphaMin ? -1.f : alpha;
+}
+
+/// Writes a finished pixel: rgb = C + T·bg, alpha = 1 − T, depth = Σ w·z / Σ w (0 without contributions).
+inline void store_pixel(const PixelState& s, uint32_t x, uint32_t y, const RenderOptions& options,
+                        RenderResult* out) {
+  const size_t p = size_t(y) * out->width + x;
+  for (int c = 0; c < 3; ++c) out->rgb[p * 3 + c] = s.C[c] + s.T * options.background[c];
+  out->alpha[p] = 1.f - s.T;
+  out->depth[p] = s.weight_sum > 0.f ? s.depth_sum / s.weight_sum : 0.f;
+}
+
+/// Baseline per-pixel loop over one tile (3DGS renderCUDA, one pixel per thread).
+void blend_tile_baseline(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
+                         RenderResult* out) {
+  const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
+  const uint32_t x1 = std::min<uint32_t>(x0 + k::kTileSize, out->width);
+  const uint32_t y1 = std::min<uint32_t>(y0 + k::kTileSize, out->height);
+  for (uint32_t y = y0; y < y1; ++y) {
+    for (uint32_t x = x0; x < x1; ++x) {
+      PixelState s;
+      const float pixf_x = static_cast<float>(x), pixf_y = static_cast<float>(y);
+      for (size_t j = 0; j < list.size() && !s.done; ++j) {
+        const float alpha = unfolded_alpha(list[j], pixf_x, pixf_y, options.roofgs);
+        if (alpha < 0.f) continue;
+        blend_step(s, alpha, list[j]);
+      }
+      store_pixel(s, x, y, options, out);
+    }
+  }
+}
+
+/// RoofGS folded loop over one tile: tile-local coordinates, each "thread" shading (x, y) and (x, y+1) with the
+/// dual-pixel update P(x, y+1) = P(x, y) + C2·x + C3·(2y+1) + C5.
+void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
+                       RenderResult* out) {
+  const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
+  for (int ly = 0; ly < k::kTileSize; ly += 2) {
+    for (int lx = 0; lx < k::kTileSize; ++lx) {
+      const uint32_t x = x0 + uint32_t(lx), y = y0 + uint32_t(ly);
+      PixelState first, second;
+      first.done = x >= out->width || y >= out->height;
+      second.done = x >= out->width || y + 1 >= out->height;
+      const k::PixelTerms terms = k::pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
+      for (size_t j = 0; j < list.size() && !(first.done && second.done); ++j) {
+        const TileGaussian& g = list[j];
+        const float p_first = k::folded_power(g.folded, terms);
+        const float p_second = k::dual_pixel_power(p_first, g.folded, terms);
+        if (!first.done) {
+          const float alpha = folded_alpha(p_first, options.roofgs);
+          if (alpha >= 0.f) blend_step(first, alpha, g);
+        }
+        if (!second.done) {
+          const float alpha = folded_alpha(p_second, options.roofgs);
+          if (alpha >= 0.f) blend_step(second, alpha, g);
+        }
+      }
+      if (x < out->width && y < out->height) store_pixel(first, x, y, options, out);
+      if (x < out->width && y + 1 < out->height) store_pixel(second, x, y + 1, options, out);
+    }
+  }
+}
+
+}  // namespace
+
+Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera& camera,
+                               const RenderOptions& options) {
+  RGS_RETURN_ERROR_IF(!cloud.is_consistent(), StatusCode::kInvalidArgument,
+                      "render: Gaussian cloud arrays do not match its size " + std::to_string(cloud.size()) +
+                          " and SH degree " + std::to_string(cloud.sh_degree));
+  RGS_RETURN_ERROR_IF(cloud.size() > uint64_t{0xffffffffu}, StatusCode::kLimitExceeded,
+                      "render: " + std::to_string(cloud.size()) + " Gaussians exceed the 2^32 - 1 index limit");
+  RGS_RETURN_IF_ERROR(validate_camera(camera));
+  const RoofgsOptions& roofgs = options.roofgs;
+  RGS_RETURN_ERROR_IF(!(roofgs.fast_exp_sigma >= 0.f && roofgs.fast_exp_sigma < 1.f), StatusCode::kInvalidArgument,
+                      "render: fast_exp_sigma " + std::to_string(roofgs.fast_exp_sigma) + " outside [0, 1)");
+  for (float c : options.background) {
+    RGS_RETURN_ERROR_IF(!std::isfinite(c), StatusCode::kInvalidArgument, "render: background is not finite");
+  }
+
+  FrameSetup frame;
+  frame.width = camera.width;
+  frame.height = camera.height;
+  frame.tiles_x = k::tile_count_for(int(camera.width));
+  frame.tiles_y = k::tile_count_for(int(camera.height));
+  frame.ewa_clamp = k::ewa_clamp_for(camera.fx, camera.fy, camera.cx, camera.cy, static_cast<float>(camera.width),
+                                     static_cast<float>(camera.height));
+  if (roofgs.key32) {
+    RGS_RETURN_ERROR_IF(!options.scene_bounds, StatusCode::kInvalidArgument,
+                        "render: the 32-bit key needs scene bounds (RenderOptions::scene_bounds)");
+    const format::SceneBounds& b = *options.scene_bounds;
+    RGS_RETURN_ERROR_IF(!std::isfinite(b.sphere_radius) || b.sphere_radius < 0 || !std::isfinite(b.sphere_center[0]) ||
+                            !std::isfinite(b.sphere_center[1]) || !std::isfinite(b.sphere_center[2]),
+                        StatusCode::kInvalidArgument, "render: scene bounding sphere is not finite");
+    const uint32_t num_tiles = uint32_t(frame.tiles_x) * uint32_t(frame.tiles_y);
+    frame.key_tile_bits = k::key32_tile_bits(num_tiles);
+    frame.key_depth_bits = 32 - frame.key_tile_bits;
+    RGS_RETURN_ERROR_IF(frame.key_depth_bits < kMinKeyDepthBits, StatusCode::kLimitExceeded,
+                        "render: " + std::to_string(num_tiles) + " tiles leave only " +
+                            std::to_string(frame.key_depth_bits) + " depth bits in a 32-bit key");
+    // View-space depth of the sphere centre: the z row of R·c + t (double, once per camera).
+    const auto& R = camera.rotation;
+    const double d_c = double(R[6]) * b.sphere_center[0] + double(R[7]) * b.sphere_center[1] +
+                       double(R[8]) * b.sphere_center[2] + camera.translation[2];
+    const float z_near = static_cast<float>(std::max<double>(camera.near_plane, d_c - b.sphere_radius));
+    const float z_far = static_cast<float>(d_c + b.sphere_radius);
+    frame.empty_depth_range = !(z_far > z_near);
+    frame.quantizer = k::make_depth_quantizer(z_near, frame.empty_depth_range ? z_near + 1.f : z_far,
+                                              frame.key_depth_bits);
+  }
+  return frame;
+}
+
+std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera,
+                                              const FrameSetup& frame, const RenderOptions& options,
+                                              RenderStats* stats) {
+  const uint64_t n = cloud.size();
+  const RoofgsOptions& roofgs = options.roofgs;
+  const int sh_degree = int(cloud.sh_degree);
+  const uint64_t sh_stride = uint64_t(cloud.sh_coefficients()) * 3;
+  const std::array<float, 3> centre = camera_centre(camera);
+  std::vector<ProjectedGaussian> out(n);
+  // Per-chunk culling counters, summed in chunk order afterwards (integer sums: order-independent anyway).
+  const uint64_t chunks = (n + kGaussianChunk - 1) / kGaussianChunk;
+  std::vector<uint64_t> culled_near(chunks, 0), culled_range(chunks, 0), culled_opacity(chunks, 0);
+
+  detail::parallel_chunks(n, kGaussianChunk, detail::resolve_thread_count(options.num_threads),
+                          [&](uint64_t begin, uint64_t end) {
+    const uint64_t chunk = begin / kGaussianChunk;
+    for (uint64_t i = begin; i < end; ++i) {
+      ProjectedGaussian& g = out[i];
+      const float* mean = &cloud.means[i * 3];
+      // 1. View transform; cull at the near plane (3DGS in_frustum: z <= 0.2). NaN is culled too.
+      float p_cam[3];
+      k::world_to_camera(camera.rotation.data(), camera.translation.data(), mean, p_cam);
+      if (!(p_cam[2] > camera.near_plane)) {
+        ++culled_near[chunk];
+        continue;
+      }
+      // 1b. RoofGS 32-bit key: cull outside the camera's quantization range [z_near, z_far].
+      if (roofgs.key32 &&
+          (frame.empty_depth_range || p_cam[2] < frame.quantizer.z_near || p_cam[2] > frame.quantizer.z_far)) {
+        ++culled_range[chunk];
+        continue;
+      }
+      // 2. 3D covariance Σ = R·S·Sᵀ·Rᵀ, then EWA 2D covariance with the Jacobian clamp and the 0.3 dilation.
+      float cov3d[6];
+      k::covariance_3d(&cloud.scales[i * 3], &cloud.rotations[i * 4], cov3d);
+      const k::Cov2 cov = k::ewa_covariance_2d(cov3d, camera.rotation.data(), p_cam, camera.fx, camera.fy,
+                                               frame.ewa_clamp);
+      // 3. Cull only det == 0; conic = (c, −b, a) / det.
+      const float det = k::determinant(cov);
+      if (det == 0.f) continue;
+      const k::Conic conic = k::conic_from_covariance(cov, det);
+      // 4. Radius ceil(3·sqrt(λmax)), pixel mean fx·x/z + cx − 0.5, tile rectangle with (int) truncation.
+      const int radius = k::screen_radius(cov, det);
+      float px, py;
+      k::project_to_pixel(p_cam, camera.fx, camera.fy, camera.cx, camera.cy, &px, &py);
+      // Guard (not in 3DGS; no effect on finite input): non-finite projections cannot be rasterized.
+      if (!std::isfinite(px) || !std::isfinite(py) || !std::isfinite(conic.a) || !std::isfinite(conic.b) ||
+          !std::isfinite(conic.c)) {
+        continue;
+      }
+      const k::TileRect rect = k::tile_rect(px, py, radius, frame.tiles_x, frame.tiles_y);
+      if (k::tile_area(rect) == 0) continue;
+
+      g.depth = p_cam[2];
+      g.mean[0] = px;
+      g.mean[1] = py;
+      g.cov = cov;
+      g.det = det;
+      g.conic = conic;
+      g.opacity = cloud.opacities[i];
+      g.log_opacity = std::log(g.opacity);
+      g.radius = radius;
+      g.rect = rect;
+
+      // 5. RoofGS SnugBox + AccuTile: cull o <= 1/255, count the exact tiles.
+      uint32_t tiles = uint32_t(k::tile_area(rect));
+      if (roofgs.snugbox_accutile) {
+        float t = 0.f;
+        if (!k::snugbox_threshold(g.opacity, &t)) {
+          ++culled_opacity[chunk];
+          continue;
+        }
+        g.snug_t = t;
+        const k::SnugBox box = k::make_snugbox(px, py, cov, t);
+        const k::TileRect limit = accutile_limit(frame, roofgs, rect);
+        g.rect = k::snugbox_rect(box, limit);
+        tiles = k::for_each_accutile_tile(box, limit, [](int, int) {});
+        if (tiles == 0) continue;
+      }
+
+      // 6. Colour from SH along dir = normalize(mean − camera centre); max(Σ + 0.5, 0).
+      float dir[3] = {mean[0] - centre[0], mean[1] - centre[1], mean[2] - centre[2]};
+      const float length = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+      for (float& d : dir) d = d / length;
+      k::sh_to_colour(&cloud.sh[i * sh_stride], sh_degree, dir[0], dir[1], dir[2], g.rgb);
+
+      if (roofgs.key32) g.depth_bin = k::quantize_depth(g.depth, frame.quantizer);
+      g.tiles_touched = tiles;
+    }
+  });
+
+  if (stats != nullptr) {
+    stats->gaussians = n;
+    for (uint64_t c = 0; c < chunks; ++c) {
+      stats->culled_near += culled_near[c];
+      stats->culled_depth_range += culled_range[c];
+      stats->culled_opacity += culled_opacity[c];
+    }
+    stats->visible = 0;
+    for (const ProjectedGaussian& g : out) stats->visible += g.tiles_touched > 0 ? 1 : 0;
+  }
+  return out;
+}
+
+Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
+                                  const RenderOptions& options) {
+  const uint64_t n = gaussians.size();
+  const RoofgsOptions& roofgs = options.roofgs;
+  const unsigned threads = detail::resolve_thread_count(options.num_threads);
+
+  // Offsets of each Gaussian's pairs: exclusive prefix sum of tiles_touched, in index order.
+  std::vector<uint64_t> offsets(n + 1, 0);
+  for (uint64_t i = 0; i < n; ++i) offsets[i + 1] = offsets[i] + gaussians[i].tiles_touched;
+  const uint64_t pairs = offsets[n];
+
+  struct Pair {
+    uint64_t key;
+    uint32_t value;
+  };
+  std::vector<Pair> list;
+  TileBins bins;
+  const uint64_t num_tiles = uint64_t(frame.tiles_x) * uint64_t(frame.tiles_y);
+  try {
+    list.resize(pairs);
+    bins.keys.resize(pairs);
+    bins.values.resize(pairs);
+    bins.tile_begin.assign(num_tiles + 1, 0);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory,
+                  "render: cannot allocate " + std::to_string(pairs) + " (tile, Gaussian) pairs");
+  }
+
+  // Duplicate with keys (3DGS duplicateWithKeys): Gaussian i writes [offsets[i], offsets[i+1]).
+  detail::parallel_chunks(n, kGaussianChunk, threads, [&](uint64_t begin, uint64_t end) {
+    for (uint64_t i = begin; i < end; ++i) {
+      const ProjectedGaussian& g = gaussians[i];
+      if (g.tiles_touched == 0) continue;
+      uint64_t off = offsets[i];
+      for_each_tile_of(g, frame, roofgs, [&](int tx, int ty) {
+        const uint32_t tile = uint32_t(ty) * uint32_t(frame.tiles_x) + uint32_t(tx);
+        const uint64_t key = roofgs.key32 ? k::make_key32(tile, g.depth_bin, frame.key_depth_bits)
+                                          : k::make_key64(tile, g.depth);
+        list[off++] = Pair{key, uint32_t(i)};
+      });
+    }
+  });
+
+  // Stable sort by key: equal keys (same tile, same depth or depth bin) keep Gaussian index order, as CUB's
+  // radix sort does in 3DGS.
+  std::stable_sort(list.begin(), list.end(), [](const Pair& a, const Pair& b) { return a.key < b.key; });
+
+  // Per-tile ranges (3DGS identifyTileRanges), as offsets.
+  const int tile_shift = roofgs.key32 ? frame.key_depth_bits : 32;
+  for (uint64_t p = 0; p < pairs; ++p) {
+    bins.keys[p] = list[p].key;
+    bins.values[p] = list[p].value;
+    const uint64_t tile = tile_shift >= 64 ? 0 : (list[p].key >> tile_shift);
+    ++bins.tile_begin[tile + 1];
+  }
+  for (uint64_t t = 0; t < num_tiles; ++t) bins.tile_begin[t + 1] += bins.tile_begin[t];
+  return bins;
+}
+
+void blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
+               const RenderOptions& options, RenderResult* result) {
+  const size_t pixels = size_t(frame.width) * frame.height;
+  result->width = frame.width;
+  result->height = frame.height;
+  result->rgb.assign(pixels * 3, 0.f);
+  result->alpha.assign(pixels, 0.f);
+  result->depth.assign(pixels, 0.f);
+  const bool folded = options.roofgs.folded_coefficients;
+  detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),
+                       [&](uint64_t row) {
+    std::vector<TileGaussian> list;  // per worker, reused across the row's tiles
+    const int ty = int(row);
+    for (int tx = 0; tx < frame.tiles_x; ++tx) {
+      const uint64_t id = uint64_t(ty) * uint64_t(frame.tiles_x) + uint64_t(tx);
+      const uint64_t begin = bins.tile_begin[id], end = bins.tile_begin[id + 1];
+      gather_tile(gaussians, bins.values.data() + begin, end - begin, tx, ty, folded, &list);
+      if (folded) {
+        blend_tile_folded(list, tx, ty, options, result);
+      } else {
+        blend_tile_baseline(list, tx, ty, options, result);
+      }
+    }
+  });
+}
+
+Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
+                                const RenderOptions& options) {
+  RGS_ASSIGN_OR_RETURN(const FrameSetup frame, setup_frame(cloud, camera, options));
+  RenderResult result;
+  const std::vector<ProjectedGaussian> gaussians = preprocess_cpu(cloud, camera, frame, options, &result.stats);
+  RGS_ASSIGN_OR_RETURN(const TileBins bins, bin_and_sort_cpu(gaussians, frame, options));
+  blend_cpu(gaussians, bins, frame, options, &result);
+  RenderStats& s = result.stats;
+  s.pairs = bins.values.size();
+  s.tiles_x = frame.tiles_x;
+  s.tiles_y = frame.tiles_y;
+  s.key_tile_bits = frame.key_tile_bits;
+  s.key_depth_bits = frame.key_depth_bits;
+  s.z_near = options.roofgs.key32 ? frame.quantizer.z_near : 0.f;
+  s.z_far = options.roofgs.key32 && !frame.empty_depth_range ? frame.quantizer.z_far : 0.f;
+  return result;
+}
+
+}  // namespace rgs::runtime

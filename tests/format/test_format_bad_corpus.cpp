@@ -1,0 +1,230 @@
+// The must-fail corpus tests/data/bad/*.rgs (STYLE.md §8): each file fails with its named code, at the
+// stage SPEC §5 puts its check, with a message naming the file and the cause. The corpus, its manifest
+// (bad_rgs_corpus.md) and the table below must agree.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "format_test_util.h"
+#include "rgs/format/reader.h"
+
+namespace {
+
+using namespace rgs;
+using namespace rgs::format;
+
+enum class Stage { kOpen, kValidate };
+
+struct BadFile {
+  const char* name;
+  StatusCode code;
+  Stage stage;
+  const char* fragment;  ///< a piece of the expected message
+};
+
+constexpr Stage kOpen = Stage::kOpen;
+constexpr Stage kValidate = Stage::kValidate;
+using C = StatusCode;
+
+const BadFile kBadFiles[] = {
+    {"bad_magic", C::kNotRgsFile, kOpen, "not an .rgs file: first bytes are 89 72 47 53"},
+    {"empty", C::kNotRgsFile, kOpen, "it is empty"},
+    {"ply_text", C::kNotRgsFile, kOpen, "first bytes are 70 6c 79"},
+    {"truncated_header", C::kCorruptData, kOpen, "truncated: 40 bytes, shorter than the 64-byte header"},
+    {"future_major", C::kUnsupportedVersion, kOpen, "format version 2.0 is newer than this reader (1.x)"},
+    {"major_zero", C::kUnsupportedVersion, kOpen, "format version 0.0 was never released"},
+    {"unknown_required_flag", C::kUnsupportedFeature, kOpen, "unknown required flag bits 0x00000100 (this reader knows 0x00000000)"},
+    {"header_size_mismatch", C::kCorruptData, kOpen, "header_size is 72, must be 64"},
+    {"header_reserved_nonzero", C::kCorruptData, kOpen, "header reserved field (bytes 36..39) is 1"},
+    {"table_offset_mismatch", C::kCorruptData, kOpen, "table_offset is 128, must be 64"},
+    {"truncated", C::kCorruptData, kOpen, "header says the file is 3056 bytes but it is 2956 (truncated)"},
+    {"trailing_bytes", C::kCorruptData, kOpen, "3056 bytes but it is 3072 (trailing bytes)"},
+    {"trailing_after_last_section", C::kCorruptData, kOpen, "the last section ends at 3056 but the file is 3072"},
+    {"too_many_sections", C::kLimitExceeded, kOpen, "65 sections exceed the limit of 64"},
+    {"table_past_eof", C::kCorruptData, kOpen, "section table of 47 entries ends at 3072 > file size 3056"},
+    {"header_checksum", C::kChecksumMismatch, kOpen, "header checksum"},
+    {"header_checksum_count", C::kChecksumMismatch, kOpen, "does not match the computed"},
+    {"gaussian_count_over_limit", C::kLimitExceeded, kOpen, "1099511627776 Gaussians exceed the limit of 268435456"},
+    {"table_reserved_nonzero", C::kCorruptData, kOpen, "section 2 (means): reserved table fields are 1 and 0"},
+    {"duplicate_section", C::kCorruptData, kOpen, "section 2 (means) repeats the id of section 1"},
+    {"missing_required_section", C::kCorruptData, kOpen, "required section opacities (id 19) is missing"},
+    {"misaligned_section", C::kCorruptData, kOpen, "section 2 (means): offset 1028 is not a multiple of 256"},
+    {"overlapping_sections", C::kCorruptData, kOpen,
+     "section 3 (rotations) starts at 1024, inside section 2 (means), which ends at 1276"},
+    {"section_gap", C::kCorruptData, kOpen, "section 6 (sh) starts at 2304, expected 2048"},
+    {"section_past_eof", C::kCorruptData, kOpen, "section 6 (sh) ends at 3312 > file size 3056"},
+    {"padding_nonzero", C::kCorruptData, kOpen, "padding byte at 640 before section 1 (provenance) is 90"},
+    {"raw_size_mismatch", C::kCorruptData, kOpen,
+     "section 3 (rotations): raw_size 176 != element_count 21 x components 4 x 2 bytes = 168"},
+    {"stored_size_mismatch", C::kCorruptData, kOpen, "codec none but stored_size 124 != raw_size 128"},
+    {"element_count_mismatch", C::kCorruptData, kOpen, "section 2 (means): element_count 21 != gaussian_count 20"},
+    {"wrong_element_type", C::kCorruptData, kOpen, "section 2 (means): element type f16 x 6, expected f32 x 3"},
+    {"unknown_codec", C::kUnsupportedFeature, kOpen, "section 3 (rotations): codec 7 is unknown"},
+    {"unknown_scale_encoding", C::kUnsupportedFeature, kOpen, "section 0 (metadata): scale encoding 9 is unknown"},
+    {"metadata_reserved_nonzero", C::kCorruptData, kOpen, "section 0 (metadata): reserved byte 120 of the metadata record is 1, must be 0"},
+    {"metadata_bad_quantization", C::kCorruptData, kOpen, "SH quantization bits 7"},
+    {"sh_degree_mismatch", C::kCorruptData, kOpen, "section 6 (sh): element type i8 x 48, expected i8 x 27 for SH degree 2"},
+    {"sh_degree_unsupported", C::kUnsupportedFeature, kOpen, "SH degree 4 is above 3"},
+    {"metadata_nan_radius", C::kCorruptData, kOpen, "bounding sphere radius nan"},
+    {"metadata_checksum", C::kChecksumMismatch, kOpen, "section 0 (metadata): checksum"},
+    {"provenance_overrun", C::kCorruptData, kOpen, "section 1 (provenance): entry 0: key of 65535 bytes runs past the record (183 bytes left)"},
+    {"provenance_count_overrun", C::kCorruptData, kOpen, "section 1 (provenance): the record declares 1073741824 entries but only 187 bytes follow"},
+    {"section_checksum", C::kChecksumMismatch, kValidate, "section 2 (means): checksum"},
+    {"nan_mean", C::kCorruptData, kValidate, "section 2 (means): Gaussian 5: mean (1, nan, 2.625) is not finite"},
+    {"mean_outside_bounds", C::kCorruptData, kValidate, "Gaussian 0: mean (-1.5, -0.5, 100) lies outside the AABB"},
+    {"zero_rotation", C::kCorruptData, kValidate, "section 3 (rotations): Gaussian 2: rotation quaternion is zero"},
+    {"negative_linear_scale", C::kCorruptData, kValidate, "Gaussian 1: linear scale component 0 is -0.125, negative"},
+    {"opacity_above_one", C::kCorruptData, kValidate, "Gaussian 4: opacity 1.00097656 is outside [0, 1]"},
+    {"sh_minus_128", C::kCorruptData, kValidate, "Gaussian 0: SH value -128 (coefficient 2, channel 1)"},
+    {"zstd_no_checksum_flag", C::kCorruptData, kOpen, "section 2 (means): zstd frame has no content checksum"},
+    {"zstd_content_size", C::kCorruptData, kOpen, "zstd frame content size 1024 != raw_size 768"},
+    {"zstd_bad_magic", C::kCorruptData, kOpen, "not a zstd frame: magic 0xfd2fb5d7, expected 0xfd2fb528"},
+    {"zstd_window_too_large", C::kCorruptData, kOpen,
+     "section 2 (means): zstd frame window of 268435456 bytes exceeds the 134217728 SPEC §3.1 allows"},
+    {"zstd_reserved_block", C::kCorruptData, kValidate, "section 2 (means): zstd frame: zstd:"},
+    {"zstd_content_checksum", C::kChecksumMismatch, kValidate, "zstd content checksum does not match"},
+    {"zstd_checksum_field", C::kChecksumMismatch, kValidate, "zstd content checksum does not match"},
+};
+
+const BadFile* find_bad(const std::string& name) {
+  for (const BadFile& b : kBadFiles) {
+    if (name == b.name) return &b;
+  }
+  return nullptr;
+}
+
+std::string bad_path(const std::string& name) { return test::data_path("bad/" + name + ".rgs"); }
+
+/// Opens through the mapping and from memory, validates, and checks code, stage and message.
+void check_bad_file(const char* name) {
+  const BadFile* bad = find_bad(name);
+  REQUIRE_MESSAGE(bad != nullptr, "no table row for " << name);
+  const std::string path = bad_path(name);
+  const std::vector<uint8_t> bytes = test::read_file_bytes(path);
+  auto opened = RgsFile::open(path);
+  auto from_memory = RgsFile::from_bytes(bytes.data(), bytes.size(), {}, path);
+  CHECK(opened.ok() == from_memory.ok());
+  const Status validated = validate(bytes.data(), bytes.size(), ReadLimits{}, path);
+  if (bad->stage == Stage::kOpen) {
+    REQUIRE_FALSE(opened.ok());
+    CHECK_MESSAGE(opened.status().code() == bad->code, opened.status().to_string());
+    CHECK(from_memory.status().to_string() == opened.status().to_string());
+  } else {
+    REQUIRE_MESSAGE(opened.ok(), opened.status().to_string());
+  }
+  REQUIRE_FALSE(validated.ok());
+  CHECK_MESSAGE(validated.code() == bad->code, validated.to_string());
+  CHECK_MESSAGE(validated.message().rfind(path + ": ", 0) == 0, "message does not name the file: " << validated.message());
+  CHECK_MESSAGE(validated.message().find(bad->fragment) != std::string::npos,
+                "expected \"" << bad->fragment << "\" in: " << validated.message());
+  if (opened.ok()) {
+    // What open() accepted must not crash the payload paths either.
+    (void)opened->read_scene();
+  }
+}
+
+}  // namespace
+
+TEST_CASE("bad/bad_magic.rgs") { check_bad_file("bad_magic"); }
+TEST_CASE("bad/empty.rgs") { check_bad_file("empty"); }
+TEST_CASE("bad/ply_text.rgs") { check_bad_file("ply_text"); }
+TEST_CASE("bad/truncated_header.rgs") { check_bad_file("truncated_header"); }
+TEST_CASE("bad/future_major.rgs") { check_bad_file("future_major"); }
+TEST_CASE("bad/major_zero.rgs") { check_bad_file("major_zero"); }
+TEST_CASE("bad/unknown_required_flag.rgs") { check_bad_file("unknown_required_flag"); }
+TEST_CASE("bad/header_size_mismatch.rgs") { check_bad_file("header_size_mismatch"); }
+TEST_CASE("bad/header_reserved_nonzero.rgs") { check_bad_file("header_reserved_nonzero"); }
+TEST_CASE("bad/table_offset_mismatch.rgs") { check_bad_file("table_offset_mismatch"); }
+TEST_CASE("bad/truncated.rgs") { check_bad_file("truncated"); }
+TEST_CASE("bad/trailing_bytes.rgs") { check_bad_file("trailing_bytes"); }
+TEST_CASE("bad/trailing_after_last_section.rgs") { check_bad_file("trailing_after_last_section"); }
+TEST_CASE("bad/too_many_sections.rgs") { check_bad_file("too_many_sections"); }
+TEST_CASE("bad/table_past_eof.rgs") { check_bad_file("table_past_eof"); }
+TEST_CASE("bad/header_checksum.rgs") { check_bad_file("header_checksum"); }
+TEST_CASE("bad/header_checksum_count.rgs") { check_bad_file("header_checksum_count"); }
+TEST_CASE("bad/gaussian_count_over_limit.rgs") { check_bad_file("gaussian_count_over_limit"); }
+TEST_CASE("bad/table_reserved_nonzero.rgs") { check_bad_file("table_reserved_nonzero"); }
+TEST_CASE("bad/duplicate_section.rgs") { check_bad_file("duplicate_section"); }
+TEST_CASE("bad/missing_required_section.rgs") { check_bad_file("missing_required_section"); }
+TEST_CASE("bad/misaligned_section.rgs") { check_bad_file("misaligned_section"); }
+TEST_CASE("bad/overlapping_sections.rgs") { check_bad_file("overlapping_sections"); }
+TEST_CASE("bad/section_gap.rgs") { check_bad_file("section_gap"); }
+TEST_CASE("bad/section_past_eof.rgs") { check_bad_file("section_past_eof"); }
+TEST_CASE("bad/padding_nonzero.rgs") { check_bad_file("padding_nonzero"); }
+TEST_CASE("bad/raw_size_mismatch.rgs") { check_bad_file("raw_size_mismatch"); }
+TEST_CASE("bad/stored_size_mismatch.rgs") { check_bad_file("stored_size_mismatch"); }
+TEST_CASE("bad/element_count_mismatch.rgs") { check_bad_file("element_count_mismatch"); }
+TEST_CASE("bad/wrong_element_type.rgs") { check_bad_file("wrong_element_type"); }
+TEST_CASE("bad/unknown_codec.rgs") { check_bad_file("unknown_codec"); }
+TEST_CASE("bad/unknown_scale_encoding.rgs") { check_bad_file("unknown_scale_encoding"); }
+TEST_CASE("bad/metadata_reserved_nonzero.rgs") { check_bad_file("metadata_reserved_nonzero"); }
+TEST_CASE("bad/metadata_bad_quantization.rgs") { check_bad_file("metadata_bad_quantization"); }
+TEST_CASE("bad/sh_degree_mismatch.rgs") { check_bad_file("sh_degree_mismatch"); }
+TEST_CASE("bad/sh_degree_unsupported.rgs") { check_bad_file("sh_degree_unsupported"); }
+TEST_CASE("bad/metadata_nan_radius.rgs") { check_bad_file("metadata_nan_radius"); }
+TEST_CASE("bad/metadata_checksum.rgs") { check_bad_file("metadata_checksum"); }
+TEST_CASE("bad/provenance_overrun.rgs") { check_bad_file("provenance_overrun"); }
+TEST_CASE("bad/provenance_count_overrun.rgs") { check_bad_file("provenance_count_overrun"); }
+TEST_CASE("bad/section_checksum.rgs") { check_bad_file("section_checksum"); }
+TEST_CASE("bad/nan_mean.rgs") { check_bad_file("nan_mean"); }
+TEST_CASE("bad/mean_outside_bounds.rgs") { check_bad_file("mean_outside_bounds"); }
+TEST_CASE("bad/zero_rotation.rgs") { check_bad_file("zero_rotation"); }
+TEST_CASE("bad/negative_linear_scale.rgs") { check_bad_file("negative_linear_scale"); }
+TEST_CASE("bad/opacity_above_one.rgs") { check_bad_file("opacity_above_one"); }
+TEST_CASE("bad/sh_minus_128.rgs") { check_bad_file("sh_minus_128"); }
+TEST_CASE("bad/zstd_no_checksum_flag.rgs") { check_bad_file("zstd_no_checksum_flag"); }
+TEST_CASE("bad/zstd_content_size.rgs") { check_bad_file("zstd_content_size"); }
+TEST_CASE("bad/zstd_bad_magic.rgs") { check_bad_file("zstd_bad_magic"); }
+TEST_CASE("bad/zstd_window_too_large.rgs") { check_bad_file("zstd_window_too_large"); }
+TEST_CASE("bad/zstd_reserved_block.rgs") { check_bad_file("zstd_reserved_block"); }
+TEST_CASE("bad/zstd_content_checksum.rgs") { check_bad_file("zstd_content_checksum"); }
+TEST_CASE("bad/zstd_checksum_field.rgs") { check_bad_file("zstd_checksum_field"); }
+
+TEST_CASE("bad corpus: table, manifest and files agree, and each file has its TEST_CASE") {
+  // Every .rgs in tests/data/bad is listed in the table (other libraries keep *.ply there).
+  std::set<std::string> on_disk;
+  for (const auto& entry : std::filesystem::directory_iterator(test::data_path("bad"))) {
+    if (entry.path().extension() == ".rgs") on_disk.insert(entry.path().stem().string());
+  }
+  std::set<std::string> in_table;
+  for (const BadFile& b : kBadFiles) CHECK_MESSAGE(in_table.insert(b.name).second, "duplicate row " << b.name);
+  CHECK(on_disk == in_table);
+
+  // The generator's manifest states the same code and stage for each file.
+  std::ifstream manifest(test::repo_path("tests/format/bad_rgs_corpus.md"));
+  REQUIRE(manifest.good());
+  std::string line;
+  size_t rows = 0;
+  while (std::getline(manifest, line)) {
+    if (line.rfind("| ", 0) != 0 || line.find(".rgs |") == std::string::npos) continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line.substr(2));
+    std::string cell;
+    while (std::getline(ss, cell, '|')) {
+      const size_t a = cell.find_first_not_of(' '), b = cell.find_last_not_of(' ');
+      cells.push_back(a == std::string::npos ? "" : cell.substr(a, b - a + 1));
+    }
+    REQUIRE(cells.size() >= 3);
+    const std::string name = cells[0].substr(0, cells[0].size() - 4);
+    const BadFile* bad = find_bad(name);
+    REQUIRE_MESSAGE(bad != nullptr, "manifest row without a table row: " << name);
+    CHECK_MESSAGE(cells[1] == status_code_name(bad->code), name);
+    CHECK_MESSAGE(cells[2] == (bad->stage == Stage::kOpen ? "open" : "validate"), name);
+    ++rows;
+  }
+  CHECK(rows == std::size(kBadFiles));
+
+  // And this file has a TEST_CASE line for each table row.
+  std::ifstream self(test::repo_path("tests/format/test_format_bad_corpus.cpp"));
+  std::stringstream source;
+  source << self.rdbuf();
+  for (const BadFile& b : kBadFiles) {
+    CHECK_MESSAGE(source.str().find("TEST_CASE(\"bad/" + std::string(b.name) + ".rgs\")") != std::string::npos,
+                  "no TEST_CASE for " << b.name);
+  }
+}

@@ -1,0 +1,218 @@
+// Cameras: INRIA cameras.json loading (real flowers file, subsets, resolution scaling, errors) and orbits.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "render_test_util.h"
+#include "rgs/kernels/shared/projection.h"
+#include "rgs/runtime/camera.h"
+
+namespace rgs::test {
+namespace {
+
+using runtime::Camera;
+using runtime::InriaCameraOptions;
+
+/// Pixel position of world point p in camera cam.
+std::pair<float, float> project(const Camera& cam, const float p[3]) {
+  float pc[3], px, py;
+  kernels::world_to_camera(cam.rotation.data(), cam.translation.data(), p, pc);
+  kernels::project_to_pixel(pc, cam.fx, cam.fy, cam.cx, cam.cy, &px, &py);
+  return {px, py};
+}
+
+TEST_CASE("cameras.json: the flowers cameras (rotation is camera-to-world, position the centre)") {
+  const std::string path = shared_scene("mipnerf360_flowers_cameras.json");
+  if (path.empty()) return;
+  auto all = runtime::load_inria_cameras(path);
+  REQUIRE_MESSAGE(all.ok(), all.status().to_string());
+  REQUIRE(all->size() == 173);
+  const Camera& c0 = (*all)[0];
+  CHECK(c0.name == "_DSC9040");
+  CHECK(c0.width == 5025);
+  CHECK(c0.height == 3312);
+  CHECK(c0.fx == doctest::Approx(4328.590804346088));
+  CHECK(c0.fy == doctest::Approx(4285.457130435278));
+  CHECK(c0.cx == 2512.5f);
+  CHECK(c0.cy == 1656.f);
+  // R = rotationᵀ: JSON rotation[0][1] = -0.010911420501731165 is R[1][0].
+  CHECK(c0.rotation[1 * 3 + 0] == doctest::Approx(-0.010911420501731165));
+  CHECK(c0.rotation[0 * 3 + 1] == doctest::Approx(-0.023242959401519596));
+  // The centre −Rᵀ·t is the JSON position.
+  const auto centre = runtime::camera_centre(c0);
+  CHECK(centre[0] == doctest::Approx(-0.04455056000361698).epsilon(1e-5));
+  CHECK(centre[1] == doctest::Approx(1.4236172811064223).epsilon(1e-5));
+  CHECK(centre[2] == doctest::Approx(2.9266059657391703).epsilon(1e-5));
+  // A point 5 units along the camera's forward axis (third column of the camera-to-world rotation) lands on the
+  // principal point minus the half-pixel offset.
+  const float ahead[3] = {centre[0] + 5.f * 0.05793089468482287f, centre[1] + 5.f * -0.21669617569047375f,
+                          centre[2] + 5.f * -0.9745187421913132f};
+  const auto [px, py] = project(c0, ahead);
+  CHECK(px == doctest::Approx(2512.0).epsilon(1e-4));
+  CHECK(py == doctest::Approx(1655.5).epsilon(1e-4));
+  for (const Camera& c : *all) CHECK(runtime::validate_camera(c).ok());
+}
+
+TEST_CASE("cameras.json: subsets and resolution scaling keep the field of view") {
+  const std::string path = shared_scene("mipnerf360_flowers_cameras.json");
+  if (path.empty()) return;
+  InriaCameraOptions every20;
+  every20.every_kth = 20;
+  auto nine = runtime::load_inria_cameras(path, every20);
+  REQUIRE(nine.ok());
+  REQUIRE(nine->size() == 9);  // 0, 20, ..., 160
+  auto all = runtime::load_inria_cameras(path);
+  REQUIRE(all.ok());
+  CHECK((*nine)[8].name == (*all)[160].name);
+
+  InriaCameraOptions picked;
+  picked.indices = {5, 0};
+  auto two = runtime::load_inria_cameras(path, picked);
+  REQUIRE(two.ok());
+  REQUIRE(two->size() == 2);
+  CHECK((*two)[0].name == (*all)[5].name);
+  CHECK((*two)[1].name == "_DSC9040");
+
+  InriaCameraOptions eighth;
+  eighth.downscale = 8;
+  auto small = runtime::load_inria_cameras(path, eighth);
+  REQUIRE(small.ok());
+  const Camera& s0 = (*small)[0];
+  const Camera& f0 = (*all)[0];
+  CHECK(s0.width == 628);  // round(5025/8 = 628.1)
+  CHECK(s0.height == 414);
+  CHECK(s0.cx == 314.f);
+  CHECK(s0.cy == 207.f);
+  CHECK(runtime::fov_from_focal(s0.fx, s0.width) == doctest::Approx(runtime::fov_from_focal(f0.fx, f0.width)));
+  CHECK(runtime::fov_from_focal(s0.fy, s0.height) == doctest::Approx(runtime::fov_from_focal(f0.fy, f0.height)));
+  CHECK(s0.fx == doctest::Approx(4328.590804346088 * 628 / 5025));
+
+  InriaCameraOptions hd;
+  hd.width = 1920;
+  hd.height = 1080;
+  auto full_hd = runtime::load_inria_cameras(path, hd);
+  REQUIRE(full_hd.ok());
+  CHECK((*full_hd)[0].width == 1920);
+  CHECK((*full_hd)[0].height == 1080);
+  CHECK((*full_hd)[0].fy == doctest::Approx(4285.457130435278 * 1080 / 3312));
+  InriaCameraOptions width_only;
+  width_only.width = 1920;
+  auto keep_aspect = runtime::load_inria_cameras(path, width_only);
+  REQUIRE(keep_aspect.ok());
+  CHECK((*keep_aspect)[0].height == 1265);  // round(3312·1920/5025 = 1265.4)
+
+  // resize_camera does the same on an already loaded camera.
+  const Camera r = runtime::resize_camera(f0, 628, 414);
+  CHECK(r.fx == doctest::Approx(s0.fx));
+  CHECK(r.cy == doctest::Approx(s0.cy));
+}
+
+TEST_CASE("cameras.json: errors name the file, the camera and the cause") {
+  const std::string name = "cams.json";
+  auto parse = [&](const std::string& text, const InriaCameraOptions& o = {}) {
+    return runtime::parse_inria_cameras(text, name, o).status();
+  };
+  const std::string good =
+      R"({"id": 0, "img_name": "a", "width": 64, "height": 48, "position": [0, 0, 0],
+          "rotation": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "fx": 50, "fy": 50})";
+  CHECK(parse("[" + good + "]").ok());
+  Status s = parse("[" + good + ",");
+  CHECK(s.code() == StatusCode::kCorruptData);
+  CHECK(s.message().find("cams.json: not valid JSON") == 0);
+  CHECK(parse("{}").code() == StatusCode::kCorruptData);
+  CHECK(parse("[]").code() == StatusCode::kCorruptData);
+  CHECK(parse("[1]").code() == StatusCode::kCorruptData);
+
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string text = good;
+    const size_t at = text.find(from);
+    REQUIRE(at != std::string::npos);
+    text.replace(at, from.size(), to);
+    return parse("[" + good + ", " + text + "]");
+  };
+  s = with(R"("fx": 50)", R"("fx": -50)");
+  CHECK(s.code() == StatusCode::kCorruptData);
+  CHECK(s.message().find("cams.json: camera 1") == 0);
+  CHECK(with(R"("fx": 50, )", "").code() == StatusCode::kCorruptData);  // missing
+  CHECK(with(R"("width": 64)", R"("width": "64")").code() == StatusCode::kCorruptData);
+  CHECK(with(R"("width": 64)", R"("width": 0)").code() == StatusCode::kCorruptData);
+  CHECK(with(R"("width": 64)", R"("width": 64.5)").code() == StatusCode::kCorruptData);
+  CHECK(with(R"("position": [0, 0, 0])", R"("position": [0, 0])").code() == StatusCode::kCorruptData);
+  CHECK(with(R"([0, 1, 0])", R"([0, 2, 0])").code() == StatusCode::kCorruptData);   // not orthonormal
+  CHECK(with(R"([0, 0, 1]])", R"([0, 0, -1]])").code() == StatusCode::kCorruptData);  // reflection
+  CHECK(with(R"([0, 1, 0])", R"([0, "x", 0])").code() == StatusCode::kCorruptData);
+
+  InriaCameraOptions bad;
+  bad.indices = {1};
+  s = parse("[" + good + "]", bad);
+  CHECK(s.code() == StatusCode::kInvalidArgument);
+  CHECK(s.message().find("camera index 1 >= camera count 1") != std::string::npos);
+  bad = {};
+  bad.every_kth = 0;
+  CHECK(parse("[" + good + "]", bad).code() == StatusCode::kInvalidArgument);
+  bad = {};
+  bad.downscale = 0;
+  CHECK(parse("[" + good + "]", bad).code() == StatusCode::kInvalidArgument);
+
+  const std::string missing = (std::filesystem::temp_directory_path() / "rgs_no_such_cameras.json").string();
+  s = runtime::load_inria_cameras(missing).status();
+  CHECK(s.code() == StatusCode::kIoError);
+  CHECK(s.message().find(missing) == 0);
+}
+
+TEST_CASE("orbit cameras: look at the sphere centre from a ring, up = -y, deterministic") {
+  format::SceneBounds bounds;
+  bounds.sphere_center[0] = 1.f;
+  bounds.sphere_center[1] = -2.f;
+  bounds.sphere_center[2] = 3.f;
+  bounds.sphere_radius = 2.f;
+  runtime::OrbitOptions options;
+  auto ring = runtime::orbit_cameras(bounds, 4, 320, 240, options);
+  REQUIRE_MESSAGE(ring.ok(), ring.status().to_string());
+  REQUIRE(ring->size() == 4);
+  const double fov_min = std::min(runtime::fov_from_focal((*ring)[0].fx, 320), 50.0 * M_PI / 180.0);
+  const double distance = 2.0 / std::sin(fov_min / 2);
+  for (size_t i = 0; i < ring->size(); ++i) {
+    CAPTURE(i);
+    const Camera& cam = (*ring)[i];
+    CHECK(runtime::validate_camera(cam).ok());
+    CHECK(cam.fx == cam.fy);
+    CHECK(cam.cx == 160.f);
+    CHECK(cam.cy == 120.f);
+    CHECK(runtime::fov_from_focal(cam.fy, 240) == doctest::Approx(50.0 * M_PI / 180.0));
+    const auto c = runtime::camera_centre(cam);
+    const double d = std::sqrt(std::pow(c[0] - 1.0, 2) + std::pow(c[1] + 2.0, 2) + std::pow(c[2] - 3.0, 2));
+    CHECK(d == doctest::Approx(distance).epsilon(1e-5));
+    CHECK(c[1] < -2.f);  // 20° above the target, and "above" is −y
+    // The target projects to the image centre; a point above it (−y) projects higher (smaller row).
+    const float target[3] = {1.f, -2.f, 3.f};
+    const float above[3] = {1.f, -2.5f, 3.f};
+    const auto [tx, ty] = project(cam, target);
+    CHECK(tx == doctest::Approx(159.5).epsilon(1e-4));
+    CHECK(ty == doctest::Approx(119.5).epsilon(1e-4));
+    CHECK(project(cam, above).second < ty - 10.f);
+  }
+  // Azimuth 0 sits on the −z side; consecutive cameras are 90° apart.
+  CHECK(runtime::camera_centre((*ring)[0])[2] < 3.f);
+  CHECK(runtime::camera_centre((*ring)[1])[0] > 1.f);
+  auto again = runtime::orbit_cameras(bounds, 4, 320, 240, options);
+  REQUIRE(again.ok());
+  for (size_t i = 0; i < 4; ++i) {
+    CHECK((*again)[i].rotation == (*ring)[i].rotation);
+    CHECK((*again)[i].translation == (*ring)[i].translation);
+  }
+  CHECK((*ring)[3].name == "orbit_003");
+
+  CHECK(runtime::orbit_cameras(bounds, 0, 320, 240).status().code() == StatusCode::kInvalidArgument);
+  CHECK(runtime::orbit_cameras(bounds, 4, 0, 240).status().code() == StatusCode::kInvalidArgument);
+  format::SceneBounds point = bounds;
+  point.sphere_radius = 0.f;
+  CHECK(runtime::orbit_cameras(point, 4, 320, 240).status().code() == StatusCode::kInvalidArgument);
+  runtime::OrbitOptions steep;
+  steep.elevation_deg = 90;
+  CHECK(runtime::orbit_cameras(bounds, 4, 320, 240, steep).status().code() == StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace rgs::test

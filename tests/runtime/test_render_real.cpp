@@ -1,0 +1,274 @@
+// Renders of real scenes: the flowers scene from its own cameras (sanity, determinism, PPM for a look), the
+// RoofGS switches against the baseline, and the fast exp's per-pixel colour bound.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "render_test_util.h"
+#include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/runtime/camera.h"
+#include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/image_io.h"
+
+namespace rgs::test {
+namespace {
+
+using runtime::Camera;
+using runtime::RenderOptions;
+using runtime::RenderResult;
+using runtime::RoofgsOptions;
+
+/// Flowers cameras 0, 20, ..., 160 (the 9 views of DESIGN.md's quality table) at 1/8 of 5025×3312 =
+/// 628×414, the resolution the scene was trained at; 628 and 414 are not multiples of 16.
+std::vector<Camera> flowers_cameras(const FlowersScene& scene) {
+  runtime::InriaCameraOptions options;
+  options.every_kth = 20;
+  options.downscale = 8;
+  auto cams = runtime::load_inria_cameras(scene.cameras_path, options);
+  REQUIRE_MESSAGE(cams.ok(), cams.status().to_string());
+  REQUIRE(cams->size() == 9);
+  return std::move(cams).value();
+}
+
+RenderOptions with_bounds(const FlowersScene& scene, RoofgsOptions roofgs = {}) {
+  RenderOptions options;
+  options.scene_bounds = scene.bounds;
+  options.roofgs = roofgs;
+  return options;
+}
+
+std::string tmp_path(const std::string& file) { return (std::filesystem::temp_directory_path() / file).string(); }
+
+TEST_CASE("flowers, camera 0, 628x414: a plausible image, identical bits for any thread count") {
+  const FlowersScene& scene = flowers();
+  if (!scene.available) return;
+  const Camera cam = flowers_cameras(scene)[0];
+  CHECK(cam.width == 628);
+  CHECK(cam.height == 414);
+  RenderOptions options = with_bounds(scene);
+  options.num_threads = 1;
+  const RenderResult one = render_ok(scene.cloud, cam, options);
+  for (unsigned threads : {2u, 3u, 8u}) {
+    options.num_threads = threads;
+    const RenderResult many = render_ok(scene.cloud, cam, options);
+    CHECK(many.rgb == one.rgb);  // std::vector<float> ==: every value equal
+    CHECK(many.alpha == one.alpha);
+    CHECK(many.depth == one.depth);
+  }
+
+  const size_t pixels = size_t(one.width) * one.height;
+  double mean[3] = {0, 0, 0}, opaque = 0, covered = 0, mean_alpha = 0, mean_depth = 0;
+  for (size_t p = 0; p < pixels; ++p) {
+    for (int c = 0; c < 3; ++c) mean[c] += std::clamp(one.rgb[p * 3 + c], 0.f, 1.f);
+    opaque += one.alpha[p] > 0.99f ? 1 : 0;
+    covered += one.alpha[p] > 0.9f ? 1 : 0;
+    mean_alpha += one.alpha[p];
+    mean_depth += one.depth[p];
+  }
+  for (double& m : mean) m /= double(pixels);
+  MESSAGE("flowers cam 0 628x414: visible " << one.stats.visible << " / " << one.stats.gaussians << ", pairs "
+                                            << one.stats.pairs << ", mean RGB " << mean[0] << " " << mean[1] << " "
+                                            << mean[2] << ", mean alpha " << mean_alpha / double(pixels) << ", alpha > 0.99 on "
+                                            << 100.0 * opaque / double(pixels) << " %, > 0.9 on "
+                                            << 100.0 * covered / double(pixels) << " % of pixels, mean depth "
+                                            << mean_depth / double(pixels));
+  // A daylight photo of a flower bed: mid-range colours, green-ish foliage (G not the weakest channel).
+  for (double m : mean) {
+    CHECK(m > 0.15);
+    CHECK(m < 0.85);
+  }
+  CHECK(mean[1] > mean[2]);
+  // Mostly covered; this lightly trained model (38k Gaussians, no densification) is thin in the lawn and sky.
+  CHECK(mean_alpha > 0.85);
+  CHECK(covered > 0.6 * double(pixels));
+  CHECK(one.stats.visible > 10000);  // about half of the scene is in front of this camera
+  CHECK(one.stats.pairs > one.stats.visible);
+
+  const std::string ppm = tmp_path("rgs_flowers_cam0_628x414.ppm");
+  Status written = runtime::write_ppm(ppm, one.width, one.height, runtime::to_8bit(one.rgb));
+  CHECK_MESSAGE(written.ok(), written.to_string());
+  std::vector<float> alpha_rgb(pixels * 3);
+  for (size_t p = 0; p < pixels; ++p) alpha_rgb[p * 3 + 0] = alpha_rgb[p * 3 + 1] = alpha_rgb[p * 3 + 2] = one.alpha[p];
+  const std::string alpha_ppm = tmp_path("rgs_flowers_cam0_628x414_alpha.ppm");
+  written = runtime::write_ppm(alpha_ppm, one.width, one.height, runtime::to_8bit(alpha_rgb));
+  CHECK_MESSAGE(written.ok(), written.to_string());
+  MESSAGE("wrote " << ppm << " and " << alpha_ppm);
+}
+
+TEST_CASE("RoofGS with every switch off is the baseline, bit for bit") {
+  const FlowersScene& scene = flowers();
+  if (!scene.available) return;
+  const Camera cam = flowers_cameras(scene)[0];
+  const RenderResult base = render_ok(scene.cloud, cam, with_bounds(scene));
+  RoofgsOptions off;  // every technique off, the unused knobs set to non-defaults
+  off.accutile_within_baseline_rect = false;
+  off.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
+  const RenderResult same = render_ok(scene.cloud, cam, with_bounds(scene, off));
+  CHECK(same.rgb == base.rgb);
+  CHECK(same.alpha == base.alpha);
+  CHECK(same.depth == base.depth);
+  CHECK(same.stats.pairs == base.stats.pairs);
+}
+
+struct Switch {
+  std::string name;
+  RoofgsOptions options;
+  /// Minimum PSNR over the 9 views, dB (justification in the test below).
+  double min_psnr;
+};
+
+std::vector<Switch> switches() {
+  std::vector<Switch> s;
+  RoofgsOptions o;
+  o.key32 = true;
+  s.push_back({"32-bit key", o, 45.0});
+  o = {};
+  o.snugbox_accutile = true;
+  s.push_back({"SnugBox+AccuTile (within baseline rect)", o, 80.0});
+  o.accutile_within_baseline_rect = false;
+  s.push_back({"SnugBox+AccuTile (unclipped, Speedy-Splat)", o, 61.0});
+  o = {};
+  o.folded_coefficients = true;
+  s.push_back({"folded C1..C6 + dual pixel", o, 90.0});
+  o = {};
+  o.fast_exp = true;
+  s.push_back({"fast exp sigma=0.045677", o, 45.0});
+  o.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
+  s.push_back({"fast exp sigma=0.05798", o, 47.5});
+  s.push_back({"all four", RoofgsOptions::all(), 43.0});
+  return s;
+}
+
+TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the baseline (flowers, 9 views)") {
+  // Budgets, from DESIGN.md's CPU-emulation table (1920×1080, 9 flowers cameras, min over views):
+  // 32-bit key 47.5, SnugBox+AccuTile 63.7 (as Speedy-Splat, tiles beyond the 3DGS rectangle), fast exp 48.2
+  // (σ = 0.05798: 50.0), the paper's combination 45.8, folded coefficients tile-local 94–98. Here at 628×414 the
+  // key keeps 21 depth bits (40×26 = 1,040 tiles → 11 tile bits) instead of 19, so it can only be better;
+  // thresholds sit ~2.5 dB under the 1080p minima to absorb the change of resolution (folded: 90). AccuTile
+  // within the baseline rectangle only drops tiles where no pixel reaches alpha 1/255, so the image must be
+  // identical up to FP32 ties at the 1/255 boundary (80 dB; measured: identical on all 9 views).
+  const FlowersScene& scene = flowers();
+  if (!scene.available) return;
+  const std::vector<Camera> cams = flowers_cameras(scene);
+  std::vector<RenderResult> base;
+  for (const Camera& cam : cams) base.push_back(render_ok(scene.cloud, cam, with_bounds(scene)));
+  for (const Switch& sw : switches()) {
+    CAPTURE(sw.name);
+    double min_psnr = std::numeric_limits<double>::infinity(), sum_psnr = 0, worst_diff = 0;
+    uint64_t pairs = 0, base_pairs = 0;
+    int finite_views = 0;
+    for (size_t v = 0; v < cams.size(); ++v) {
+      const RenderResult r = render_ok(scene.cloud, cams[v], with_bounds(scene, sw.options));
+      const double p = psnr(r.rgb, base[v].rgb);
+      min_psnr = std::min(min_psnr, p);
+      if (std::isfinite(p)) {
+        sum_psnr += p;
+        ++finite_views;
+      }
+      worst_diff = std::max(worst_diff, max_abs_diff(r.rgb, base[v].rgb));
+      pairs += r.stats.pairs;
+      base_pairs += base[v].stats.pairs;
+    }
+    MESSAGE(sw.name << ": PSNR min " << min_psnr << " dB, mean over finite views "
+                    << (finite_views ? sum_psnr / finite_views : std::numeric_limits<double>::infinity()) << " ("
+                    << finite_views << "/9 finite), max |diff| " << worst_diff << ", pairs " << pairs << " vs "
+                    << base_pairs);
+    CHECK(min_psnr >= sw.min_psnr);
+  }
+}
+
+TEST_CASE("fast exp: per-pixel colour error stays within the paper's bound on real renders") {
+  // Paper (§Range-Aware Fast Exponential): α̂ = α(1 + ε), |ε| ≤ ε_max, gives |ΔC|∞ ≤ ε_max per pixel for colours
+  // in [0, 1]. The exact form of that argument: the output C = Σ cₖαₖTₖ + T·bg is affine in each αₖ, so changing
+  // the alphas one at a time (front to back) telescopes to ΔC = Σₖ T̂ₖ(α̂ₖ − αₖ)(cₖ − Rₖ), where T̂ₖ is the
+  // transmittance with the already-changed alphas and Rₖ the colour seen behind Gaussian k (a convex combination
+  // of colours and bg). With colours in [0, 1], |cₖ − Rₖ| ≤ 1, and |α̂ₖ − αₖ| ≤ ε·αₖ (min(0.99, ·) is
+  // 1-Lipschitz), so |ΔC| ≤ ε·Σ T̂ₖαₖ ≤ ε/(1 − ε)·Σ T̂ₖα̂ₖ ≤ ε/(1 − ε). With ε = 0.0315 (the tested relative
+  // error) the bound is 0.0325. The argument ignores the discontinuous rules: a pair crossing the 1/255 skip
+  // (worth ≤ (1/255)·T) or a pixel stopping one Gaussian earlier or later (≤ T_stop ≤ 0.01). The test therefore
+  // compares colours clamped to [0, 1] and checks the ε/(1 − ε) bound; the measured maximum is printed.
+  const FlowersScene& scene = flowers();
+  if (!scene.available) return;
+  const double eps = kernels::kFastExpMaxRelativeError;
+  const double bound = eps / (1.0 - eps);
+  double worst = 0;
+  uint64_t over_first_order = 0, values = 0;
+  for (const Camera& cam : flowers_cameras(scene)) {
+    const RenderResult exact = render_ok(scene.cloud, cam, with_bounds(scene));
+    RoofgsOptions fast;
+    fast.fast_exp = true;
+    const RenderResult approx = render_ok(scene.cloud, cam, with_bounds(scene, fast));
+    for (size_t i = 0; i < exact.rgb.size(); ++i) {
+      const double d = std::fabs(double(std::clamp(exact.rgb[i], 0.f, 1.f)) - std::clamp(approx.rgb[i], 0.f, 1.f));
+      worst = std::max(worst, d);
+      over_first_order += d > eps ? 1 : 0;
+      ++values;
+    }
+  }
+  MESSAGE("fast exp on 9 flowers views: max |dC| = " << worst << " (bound eps/(1-eps) = " << bound << "), "
+                                                     << over_first_order << " of " << values
+                                                     << " values above eps = " << eps);
+  CHECK(worst <= bound);
+}
+
+/// Wall time of render_cpu (best and mean of 3 after a warm-up) and the last result.
+RenderResult time_render(const format::GaussianCloud& cloud, const Camera& cam, const RenderOptions& options,
+                         const std::string& what) {
+  render_ok(cloud, cam, options);  // warm-up
+  double best = 1e30, total = 0;
+  const int runs = 3;
+  RenderResult r;
+  for (int i = 0; i < runs; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    r = render_ok(cloud, cam, options);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    best = std::min(best, s);
+    total += s;
+  }
+  MESSAGE(what << ": " << cloud.size() << " Gaussians, " << r.stats.visible << " visible, " << r.stats.pairs
+               << " pairs, " << std::thread::hardware_concurrency() << " hardware threads: best " << best
+               << " s, mean " << total / runs << " s per frame");
+  return r;
+}
+
+/// Timing at 1920×1080 on this machine; skipped by default. Run: test_runtime -tc="timing*" --no-skip
+TEST_CASE("timing: flowers and daffodils at 1920x1080" * doctest::skip()) {
+  const FlowersScene& scene = flowers();
+  if (scene.available) {
+    runtime::InriaCameraOptions hd;
+    hd.width = 1920;
+    hd.height = 1080;
+    hd.indices = {0};
+    auto cams = runtime::load_inria_cameras(scene.cameras_path, hd);
+    REQUIRE(cams.ok());
+    const RenderResult r = time_render(scene.cloud, (*cams)[0], with_bounds(scene), "flowers cam 0 1920x1080 baseline");
+    time_render(scene.cloud, (*cams)[0], with_bounds(scene, RoofgsOptions::all()), "flowers cam 0 1920x1080 RoofGS all");
+    CHECK(runtime::write_ppm(tmp_path("rgs_flowers_cam0_1920x1080.ppm"), r.width, r.height, runtime::to_8bit(r.rgb)).ok());
+  }
+  const std::string daffodils = shared_scene("playcanvas_flowers_lod0.ply");
+  if (daffodils.empty()) return;
+  auto ply = converter::read_ply(daffodils);
+  REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+  const format::GaussianCloud& cloud = ply->cloud;
+  RenderOptions options;
+  options.scene_bounds = converter::compute_bounds(cloud);
+  auto orbit = runtime::orbit_cameras(*options.scene_bounds, 4, 1920, 1080);
+  REQUIRE(orbit.ok());
+  for (size_t v = 0; v < orbit->size(); ++v) {
+    const RenderResult r = time_render(cloud, (*orbit)[v], options, "daffodils " + (*orbit)[v].name + " 1920x1080 baseline");
+    CHECK(runtime::write_ppm(tmp_path("rgs_daffodils_" + (*orbit)[v].name + "_1920x1080.ppm"), r.width, r.height,
+                             runtime::to_8bit(r.rgb)).ok());
+    if (v == 0) {
+      RenderOptions all = options;
+      all.roofgs = RoofgsOptions::all();
+      time_render(cloud, (*orbit)[v], all, "daffodils " + (*orbit)[v].name + " 1920x1080 RoofGS all");
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rgs::test
