@@ -1,7 +1,9 @@
 // Per-attribute error metrics between a source cloud and its decoded version (audit, tests, CLI).
 //
-// Accumulation is sequential in Gaussian order with double sums, so measure_quantization_errors() (which
-// walks the scene in chunks) returns exactly what measure_attribute_errors() does on the whole scene.
+// Both entry points accumulate per fixed chunk of kChunkGaussians (chunks in parallel, each sequential in
+// Gaussian order with double sums) and merge the chunks in order, so results depend on neither the thread
+// count nor the entry point: measure_quantization_errors() equals measure_attribute_errors() on the
+// dequantized scene bit for bit.
 #include "rgs/converter/attribute_errors.h"
 
 #include <algorithm>
@@ -9,6 +11,9 @@
 #include <limits>
 #include <new>
 #include <string>
+#include <vector>
+
+#include "internal_parallel.h"
 
 namespace rgs::converter {
 
@@ -29,6 +34,11 @@ struct Accumulator {
     sum_sq += e * e;
     ++samples;
   }
+  void merge(const Accumulator& other) {
+    if (!(other.max <= max)) max = other.max;
+    sum_sq += other.sum_sq;
+    samples += other.samples;
+  }
   ErrorStats stats() const {
     ErrorStats s;
     s.max = max;
@@ -42,6 +52,17 @@ struct Accumulators {
   Accumulator position, rotation, scale, opacity;
   Accumulator sh[4];
   Accumulator sh_channel[4][3];
+
+  void merge(const Accumulators& o) {
+    position.merge(o.position);
+    rotation.merge(o.rotation);
+    scale.merge(o.scale);
+    opacity.merge(o.opacity);
+    for (int d = 0; d < 4; ++d) {
+      sh[d].merge(o.sh[d]);
+      for (int c = 0; c < 3; ++c) sh_channel[d][c].merge(o.sh_channel[d][c]);
+    }
+  }
 
   AttributeErrors result() const {
     AttributeErrors r;
@@ -86,12 +107,14 @@ double rotation_angle_deg(const float* q1f, const float* q2f) {
   return 4.0 * std::atan2(std::sqrt(diff), std::sqrt(sum)) * kRadToDeg;
 }
 
-/// Adds Gaussians [0, count) of `test` compared with Gaussians [first, first + count) of `ref`.
-void accumulate(const format::GaussianCloud& ref, uint64_t first, const format::GaussianCloud& test, uint64_t count,
-                Accumulators* acc) {
+/// Adds Gaussians [test_first, test_first + count) of `test` compared with Gaussians [first, first + count)
+/// of `ref`.
+void accumulate(const format::GaussianCloud& ref, uint64_t first, const format::GaussianCloud& test,
+                uint64_t test_first, uint64_t count, Accumulators* acc) {
   const uint32_t k_count = ref.sh_coefficients();
-  for (uint64_t j = 0; j < count; ++j) {
-    const uint64_t i = first + j;
+  for (uint64_t jj = 0; jj < count; ++jj) {
+    const uint64_t i = first + jj;
+    const uint64_t j = test_first + jj;
     double d2 = 0;
     for (int a = 0; a < 3; ++a) {
       const double d = static_cast<double>(test.means[j * 3 + a]) - ref.means[i * 3 + a];
@@ -126,6 +149,28 @@ Status check_reference(const format::GaussianCloud& reference) {
   return Status();
 }
 
+/// Runs `chunk_fn(first, count, &acc)` for every chunk of kChunkGaussians Gaussians of [0, n), chunks spread
+/// over the available cores, and merges the per-chunk accumulators in chunk order. `chunk_fn` returns a
+/// Status; the first error in chunk order is returned.
+template <typename ChunkFn>
+Result<AttributeErrors> accumulate_chunks(uint64_t n, ChunkFn&& chunk_fn) {
+  const uint64_t chunks = (n + kChunkGaussians - 1) / kChunkGaussians;
+  std::vector<Accumulators> partial(chunks);
+  std::vector<Status> status(chunks);
+  detail::parallel_slices(chunks, detail::worker_count(chunks, 1), [&](unsigned, uint64_t begin, uint64_t end) {
+    for (uint64_t c = begin; c < end; ++c) {
+      const uint64_t first = c * kChunkGaussians;
+      status[c] = chunk_fn(first, std::min(kChunkGaussians, n - first), &partial[c]);
+    }
+  });
+  Accumulators total;
+  for (uint64_t c = 0; c < chunks; ++c) {
+    RGS_RETURN_IF_ERROR(status[c]);
+    total.merge(partial[c]);
+  }
+  return total.result();
+}
+
 }  // namespace
 
 Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& reference,
@@ -142,9 +187,14 @@ Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& re
                       std::to_string(reference.sh_degree) + " with " + std::to_string(test.size()) +
                       " at SH degree " + std::to_string(test.sh_degree));
   }
-  Accumulators acc;
-  accumulate(reference, 0, test, test.size(), &acc);
-  return acc.result();
+  try {
+    return accumulate_chunks(test.size(), [&](uint64_t first, uint64_t count, Accumulators* acc) {
+      accumulate(reference, first, test, first, count, acc);
+      return Status();
+    });
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory measuring attribute errors");
+  }
 }
 
 Result<AttributeErrors> measure_quantization_errors(const format::GaussianCloud& reference,
@@ -157,14 +207,16 @@ Result<AttributeErrors> measure_quantization_errors(const format::GaussianCloud&
                       std::to_string(encoded.count) + " at SH degree " + std::to_string(encoded.metadata.sh_degree));
   }
   try {
-    Accumulators acc;
-    format::GaussianCloud chunk;
-    for (uint64_t first = 0; first < encoded.count; first += kChunkGaussians) {
-      const uint64_t count = std::min(kChunkGaussians, encoded.count - first);
-      RGS_RETURN_IF_ERROR(format::dequantize_range(encoded, first, count, &chunk));
-      accumulate(reference, first, chunk, count, &acc);
-    }
-    return acc.result();
+    return accumulate_chunks(encoded.count, [&](uint64_t first, uint64_t count, Accumulators* acc) {
+      try {
+        format::GaussianCloud chunk;  // one chunk per call: a worker holds at most one at a time
+        RGS_RETURN_IF_ERROR(format::dequantize_range(encoded, first, count, &chunk));
+        accumulate(reference, first, chunk, 0, count, acc);
+        return Status();
+      } catch (const std::bad_alloc&) {
+        return Status(StatusCode::kOutOfMemory, "out of memory dequantizing a chunk for error measurement");
+      }
+    });
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory, "out of memory measuring quantization errors");
   }

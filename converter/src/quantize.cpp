@@ -11,6 +11,7 @@
 #include <limits>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "internal_parallel.h"
 #include "rgs/format/half.h"
@@ -89,7 +90,7 @@ void scan_slice(const format::GaussianCloud& cloud, const QuantizeOptions& optio
 }
 
 /// s = m / 127 stored as float32, nudged up (only when float rounding went down far enough) so that
-/// round(m / s) <= 127 holds in the double arithmetic that quantize_value() uses.
+/// m / s < 127.5 (exactly, as quantize_value() decides), i.e. the largest coefficient gets q = ±127.
 float scale_for(float m) {
   if (!(m > 0.0f)) return 0.0f;
   float s = static_cast<float>(static_cast<double>(m) / 127.0);
@@ -99,40 +100,55 @@ float scale_for(float m) {
   return s;
 }
 
-/// q = clamp(round_half_away(v / s), −127, 127) for s > 0 (s = +inf gives 0), exactly as with a double
-/// division, but computed as v · (1/s): the product is within 2 ulps of the quotient, which can change
-/// the result only when the quotient lies within a few ulps of a rounding boundary k + 0.5, and there the
-/// exact division is redone. *clipped when |v / s| >= 127.5 (the clamp changed the rounded value).
-/// Rounding is inline rather than std::round (a libm call here): for a in [0, 127], a − trunc(a) is exact.
+/// q = clamp(round_half_away(v / s), −127, 127) for s > 0 (s = +inf gives 0); *clipped when the
+/// clamp changed the rounded value (|v / s| >= 127.5).
+///
+/// Exact without a division, and branch-free (the sign of v is random, so a branch on it mispredicts
+/// half the time): k = trunc(|v| · (1/s)) is floor(|v| / s) or off by one next to an integer, and
+/// q = k + (|v| >= (k + 0.5)·s) is then the exactly rounded quotient, because (k + 0.5)·s is exact in
+/// double ((2k + 1) has <= 9 bits, s 24) and |v| is exact too. This equals round_half_away of the double
+/// quotient fl(v / s): for float v and s the true quotient is either exactly k + 0.5 or at least 2^-32
+/// (relative) away from it, far more than fl()'s 2^-53, so fl(v / s) never crosses a rounding boundary.
 inline int8_t quantize_value(float v, double s, double inv_s, bool* clipped) {
-  double x = static_cast<double>(v) * inv_s;
-  double ax = std::fabs(x);
-  if (ax < 128.0) {
-    const double frac = ax - static_cast<double>(static_cast<int>(ax));
-    if (std::fabs(frac - 0.5) < 1e-12) {
-      x = static_cast<double>(v) / s;
-      ax = std::fabs(x);
-    }
-  }
-  *clipped = !(ax < 127.5);
-  const double a = std::min(ax, 127.0);
-  int r = static_cast<int>(a);
-  r += (a - r) >= 0.5;
-  return static_cast<int8_t>(x < 0 ? -r : r);
+  const double av = std::fabs(static_cast<double>(v));
+  const int k = static_cast<int>(std::min(av * inv_s, 128.0));
+  const int q = k + static_cast<int>(av >= (k + 0.5) * s);
+  *clipped = q > 127;
+  const int qc = std::min(q, 127);
+  const int neg = -static_cast<int>(std::signbit(v));
+  return static_cast<int8_t>((qc ^ neg) - neg);
 }
 
 }  // namespace
 
 format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   format::SceneBounds b;
-  const size_t n = cloud.size();
+  const uint64_t n = cloud.size();
   if (n == 0) return b;
-  for (int a = 0; a < 3; ++a) b.aabb_min[a] = b.aabb_max[a] = cloud.means[a];
-  for (size_t i = 1; i < n; ++i) {
-    for (int a = 0; a < 3; ++a) {
-      const float v = cloud.means[i * 3 + a];
-      b.aabb_min[a] = std::min(b.aabb_min[a], v);
-      b.aabb_max[a] = std::max(b.aabb_max[a], v);
+  // Both passes are min/max reductions over parallel slices: the result does not depend on the split.
+  const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
+  struct Box {
+    float lo[3], hi[3];
+  };
+  std::vector<Box> boxes(workers);
+  detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
+    Box box;
+    for (int a = 0; a < 3; ++a) box.lo[a] = box.hi[a] = cloud.means[begin * 3 + a];
+    for (uint64_t i = begin; i < end; ++i) {
+      for (int a = 0; a < 3; ++a) {
+        const float v = cloud.means[i * 3 + a];
+        box.lo[a] = std::min(box.lo[a], v);
+        box.hi[a] = std::max(box.hi[a], v);
+      }
+    }
+    boxes[t] = box;
+  });
+  for (int a = 0; a < 3; ++a) {
+    b.aabb_min[a] = boxes[0].lo[a];
+    b.aabb_max[a] = boxes[0].hi[a];
+    for (const Box& box : boxes) {
+      b.aabb_min[a] = std::min(b.aabb_min[a], box.lo[a]);
+      b.aabb_max[a] = std::max(b.aabb_max[a], box.hi[a]);
     }
   }
   double center[3];
@@ -141,15 +157,20 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
         static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
     center[a] = b.sphere_center[a];
   }
-  double r2 = 0;
-  for (size_t i = 0; i < n; ++i) {
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double d = static_cast<double>(cloud.means[i * 3 + a]) - center[a];
-      d2 += d * d;
+  std::vector<double> r2s(workers, 0.0);
+  detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
+    double r2 = 0;
+    for (uint64_t i = begin; i < end; ++i) {
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double d = static_cast<double>(cloud.means[i * 3 + a]) - center[a];
+        d2 += d * d;
+      }
+      r2 = std::max(r2, d2);
     }
-    r2 = std::max(r2, d2);
-  }
+    r2s[t] = r2;
+  });
+  const double r2 = *std::max_element(r2s.begin(), r2s.end());
   // Margin of 1e-6 relative (a few float32 ulps) so |mean − center| <= radius also holds when a
   // consumer evaluates the distance in float32, then round up to float.
   const double r = std::sqrt(r2) * (1.0 + 1e-6);

@@ -239,6 +239,11 @@ Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera&
     frame.empty_depth_range = !(z_far > z_near);
     frame.quantizer = k::make_depth_quantizer(z_near, frame.empty_depth_range ? z_near + 1.f : z_far,
                                               frame.key_depth_bits);
+    // Means inside the sphere can still round to a depth just outside [z_near, z_far] through the view
+    // transform; keep them (their bin clamps) rather than cull them.
+    const double margin = 1e-5 * (std::fabs(d_c) + b.sphere_radius) + 1e-6;
+    frame.cull_z_min = static_cast<float>(double(z_near) - margin);
+    frame.cull_z_max = static_cast<float>(double(z_far) + margin);
   }
   return frame;
 }
@@ -269,9 +274,9 @@ std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud
         ++culled_near[chunk];
         continue;
       }
-      // 1b. RoofGS 32-bit key: cull outside the camera's quantization range [z_near, z_far].
+      // 1b. RoofGS 32-bit key: cull outside the camera's quantization range [z_near, z_far] (plus margin).
       if (roofgs.key32 &&
-          (frame.empty_depth_range || p_cam[2] < frame.quantizer.z_near || p_cam[2] > frame.quantizer.z_far)) {
+          (frame.empty_depth_range || p_cam[2] < frame.cull_z_min || p_cam[2] > frame.cull_z_max)) {
         ++culled_range[chunk];
         continue;
       }

@@ -192,6 +192,32 @@ TEST_CASE("quantize: edge cases") {
     CHECK(enc.scales[3] == 0);  // 1e-9 underflows linear FP16 (documented)
     CHECK(check_quantization_bounds(cloud, enc) == 0);
   }
+  SUBCASE("ties round half away from zero, exactly at the boundary") {
+    // max |DC red| = 127·2^-7, so s = 2^-7 exactly and (k + 0.5)·s are exact floats.
+    format::GaussianCloud ties;
+    ties.resize(2 * 128 + 1);
+    const float s = std::ldexp(1.0f, -7);
+    for (size_t i = 0; i < ties.size(); ++i) {
+      ties.rotations[i * 4] = 1.0f;
+      ties.opacities[i] = 0.5f;
+    }
+    ties.sh[0] = 127 * s;
+    for (int k = 0; k < 127; ++k) {
+      const float half = (static_cast<float>(k) + 0.5f) * s;
+      ties.sh[(1 + 2 * k) * 3] = (k % 2 ? -half : half);                                   // tie
+      ties.sh[(2 + 2 * k) * 3] = std::nextafter(half, 0.0f) * (k % 2 ? -1.0f : 1.0f);      // just below
+    }
+    const auto enc = quantize_ok(ties);
+    REQUIRE(enc.metadata.sh_quantization.scales[0][0] == s);
+    CHECK(enc.sh[0] == 127);
+    for (int k = 0; k < 127; ++k) {
+      CAPTURE(k);
+      const int sign = k % 2 ? -1 : 1;
+      CHECK(enc.sh[(1 + 2 * k) * 3] == sign * (k + 1));
+      CHECK(enc.sh[(2 + 2 * k) * 3] == sign * k);
+    }
+    CHECK(check_quantization_bounds(ties, enc) == 0);
+  }
   SUBCASE("log scale keeps tiny scales and stores log(0) as the lowest finite half") {
     QuantizeOptions log_options;
     log_options.scale_encoding = format::ScaleEncoding::kLog;

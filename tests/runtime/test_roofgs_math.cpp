@@ -1,7 +1,10 @@
 // RoofGS math against independent formulations: AccuTile tile sets vs a brute-force per-tile ellipse test,
 // 32-bit key bit allocation and depth quantization, folded coefficients and the dual-pixel update vs direct
 // evaluation, and the fast exp's error bound.
+#include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <limits>
 #include <random>
 #include <set>
 #include <utility>
@@ -202,6 +205,45 @@ TEST_CASE("32-bit key: resolution-adaptive bits at 1080p, 4K and 8K") {
   const k::DepthQuantizer q = k::make_depth_quantizer(1.f, 81.f, 19);
   CHECK(q.max_bin == (1u << 19) - 1);
   CHECK(k::make_key32(8159, q.max_bin, 19) == 0xffffffffu - ((8191u - 8159u) << 19));
+}
+
+TEST_CASE("32-bit key: Gaussians outside the scene sphere's depth range are culled, its surface is kept") {
+  // Sphere centre (0, 0, 5), radius 2, identity camera: [z_near, z_far] = [3, 7].
+  format::GaussianCloud cloud;
+  for (float z : {2.5f, 3.f, 5.f, 7.f, 7.5f}) add_gaussian(&cloud, 0.f, 0.f, z, 0.05f, 0.9f, 0.f, 0.f, 0.f);
+  runtime::RenderOptions options;
+  options.roofgs.key32 = true;
+  format::SceneBounds bounds;
+  bounds.sphere_center[2] = 5.f;
+  bounds.sphere_radius = 2.f;
+  options.scene_bounds = bounds;
+  const runtime::Camera cam = identity_camera(64, 48, 50.f);
+  auto frame = runtime::setup_frame(cloud, cam, options);
+  REQUIRE(frame.ok());
+  runtime::RenderStats stats;
+  const auto g = runtime::preprocess_cpu(cloud, cam, *frame, options, &stats);
+  CHECK(g[0].tiles_touched == 0);  // z = 2.5 < 3
+  CHECK(g[1].tiles_touched > 0);   // on the near surface: bin 0
+  CHECK(g[1].depth_bin == 0);
+  CHECK(g[2].depth_bin == uint32_t(std::floor(0.5 * frame->quantizer.max_level)));
+  CHECK(g[3].tiles_touched > 0);  // on the far surface: the last bin
+  CHECK(g[3].depth_bin == frame->quantizer.max_bin);
+  CHECK(g[4].tiles_touched == 0);  // z = 7.5 > 7
+  CHECK(stats.culled_depth_range == 2);
+  // The rendered keys carry the bins: 64×48 → 4×3 = 12 tiles → 4 tile bits, 28 depth bits.
+  CHECK(frame->key_tile_bits == 4);
+  auto bins = runtime::bin_and_sort_cpu(g, *frame, options);
+  REQUIRE(bins.ok());
+  for (size_t p = 0; p < bins->keys.size(); ++p) {
+    CHECK(bins->keys[p] < (uint64_t{1} << 32));
+    CHECK((bins->keys[p] & ((1u << 28) - 1)) == g[bins->values[p]].depth_bin);
+  }
+  // Sphere behind the camera: nothing is visible, no error.
+  bounds.sphere_center[2] = -10.f;
+  options.scene_bounds = bounds;
+  const auto out = render_ok(cloud, cam, options);
+  CHECK(out.stats.visible == 0);
+  CHECK(out.stats.culled_depth_range == 5);
 }
 
 TEST_CASE("depth quantization: monotonic, clamped, and ordered by tile first") {

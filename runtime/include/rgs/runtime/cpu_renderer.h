@@ -23,8 +23,9 @@ namespace rgs::runtime {
 struct RoofgsOptions {
   /// 32-bit keys (item 2): tile id in the high b_t = ceil(log2(num_tiles)) bits, depth quantized to
   /// b_d = 32 − b_t bits over [z_near, z_far] = [max(near, d_c − r), d_c + r] from the scene's bounding sphere
-  /// (centre at view depth d_c, radius r); Gaussians outside that range are culled. Stable sort (ties keep
-  /// Gaussian index order). Needs RenderOptions::scene_bounds.
+  /// (centre at view depth d_c, radius r); Gaussians outside that range (up to a rounding margin,
+  /// FrameSetup::cull_z_min/max) are culled. Stable sort (ties keep Gaussian index order). Needs
+  /// RenderOptions::scene_bounds.
   bool key32 = false;
   /// SnugBox + AccuTile (item 4): cull o ≤ 1/255, and give each Gaussian exactly the tiles whose pixel
   /// centres its alpha ≥ 1/255 ellipse reaches (kernels/shared/tile_culling.h) instead of the 3DGS rectangle.
@@ -104,6 +105,10 @@ struct FrameSetup {
   /// True when the depth range [z_near, z_far] is empty (the scene sphere is behind the camera): nothing is
   /// visible.
   bool empty_depth_range = false;
+  /// key32 culls Gaussians with view depth outside [cull_z_min, cull_z_max]: [z_near, z_far] widened by
+  /// 1e-5·(|d_c| + r) + 1e-6, so that a Gaussian on the sphere's surface whose z rounds just outside is kept
+  /// (its bin clamps to 0 or 2^b_d − 1, the clamp the paper keeps "against numerical round-off").
+  float cull_z_min = 0, cull_z_max = 0;
 };
 
 /// Sorted (tile, Gaussian) pairs.
