@@ -8,4 +8,12 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${RGS_BUILD_DIR:-$root/build}"
 "$root/scripts/install_deps.sh"
 "$root/scripts/build.sh" "$@"
-ctest --test-dir "$build" --output-on-failure --parallel "$(nproc)"
+status=0
+ctest --test-dir "$build" --output-on-failure --parallel "$(nproc)" || status=$?
+# CTest hides the output of passing tests; list what was skipped (no GPU, no ../shared/data) so it is seen.
+log="$build/Testing/Temporary/LastTest.log"
+if [ -f "$log" ] && grep -q "skipped:" "$log"; then
+  echo; echo "Skipped parts of passing tests:"
+  grep -ho "skipped: .*" "$log" | sort | uniq -c | sed 's/^/  /'
+fi
+exit "$status"

@@ -90,8 +90,9 @@ TEST_CASE("end to end: every real scene of ../shared/data through .rgs bytes and
   for (const Scene& s : {Scene{"mipnerf360_flowers_c3dgs.ply", 38347, 3},
                          Scene{"tiny_unknown_inria_sh3_it7000.ply", 9080, 3}, Scene{"guitar.ply", 90854, 0},
                          Scene{"biker.ply", 152746, 0}, Scene{"playcanvas_flowers_lod0.ply", 542104, 2}}) {
-    CAPTURE(s.file);
-    const std::string path = test::shared_scene(s.file);
+    const std::string file = s.file;
+    CAPTURE(file);
+    const std::string path = test::shared_scene(file);
     if (path.empty()) continue;
     check_end_to_end(path, s.count, s.degree);
   }
