@@ -159,7 +159,7 @@ TEST_CASE("MappedFile: contents, empty files, and errors naming the path") {
   CHECK(piped.status().message().find("not a regular file") != std::string::npos);
 }
 
-TEST_CASE("write_scene_file: round trip through disk; failures leave an existing file untouched") {
+TEST_CASE("write_scene_file: round trip through disk, and failures leave an existing file untouched") {
   TempDir dir;
   const std::string path = dir.file("scene.rgs");
   const EncodedScene scene = test::make_random_scene(64, 1, 77);
