@@ -123,9 +123,9 @@ int convert_ply_to_rgs(const Options& opt) {
   quantize_options.scale_encoding =
       opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
   quantize_options.sh_clip_percentile = opt.sh_clip_percentile;
-  converter::ShQuantizationReport sh_report;
+  converter::QuantizationReport report;
   const auto t_quantize_start = Clock::now();
-  auto encoded = converter::quantize(ply->cloud, quantize_options, &sh_report);
+  auto encoded = converter::quantize(ply->cloud, quantize_options, &report);
   if (!encoded.ok()) return tools::report_error(kTool, Status(encoded.status()).prepend(opt.input));
   const double t_quantize = tools::seconds_since(t_quantize_start);
 
@@ -183,8 +183,9 @@ int convert_ply_to_rgs(const Options& opt) {
                     {"scale", {encoded->metadata.sh_quantization.scales[d][0],
                                encoded->metadata.sh_quantization.scales[d][1],
                                encoded->metadata.sh_quantization.scales[d][2]}},
-                    {"clipped", {sh_report.clipped[d][0], sh_report.clipped[d][1], sh_report.clipped[d][2]}}});
+                    {"clipped", {report.sh_clipped[d][0], report.sh_clipped[d][1], report.sh_clipped[d][2]}}});
     }
+    j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero}};
     j["errors"] = {{"position", stats_json(errors->position)},
                    {"rotation_deg", stats_json(errors->rotation_deg)},
                    {"scale_relative", stats_json(errors->scale_relative)},
@@ -216,11 +217,15 @@ int convert_ply_to_rgs(const Options& opt) {
   std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
   print_stats_row("position", errors->position, "scene units (FP32, exact)");
   print_stats_row("rotation", errors->rotation_deg, "degrees");
-  print_stats_row("scale", errors->scale_relative, "relative");
+  const std::string scale_note =
+      "relative; " + tools::group_digits(report.scales_subnormal) + " values FP16-subnormal (< 6.1e-5), " +
+      tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
+      (report.scales_subnormal + report.scales_flushed_to_zero ? " (--scale-encoding log keeps them)" : "");
+  print_stats_row("scale", errors->scale_relative, scale_note.c_str());
   print_stats_row("opacity", errors->opacity, "absolute");
   for (uint32_t d = 0; d <= degree; ++d) {
     const std::string name = "SH degree " + std::to_string(d);
-    const uint64_t clipped = sh_report.clipped[d][0] + sh_report.clipped[d][1] + sh_report.clipped[d][2];
+    const uint64_t clipped = report.sh_clipped[d][0] + report.sh_clipped[d][1] + report.sh_clipped[d][2];
     const std::string note = "absolute, INT8" + (clipped ? ", " + tools::group_digits(clipped) + " clipped"
                                                          : std::string());
     print_stats_row(name.c_str(), errors->sh[d], note.c_str());

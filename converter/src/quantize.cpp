@@ -181,7 +181,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
 }
 
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
-                                      ShQuantizationReport* report) {
+                                      QuantizationReport* report) {
   if (!cloud.is_consistent()) {
     return Status(StatusCode::kInvalidArgument,
                   "cloud arrays are inconsistent with " + std::to_string(cloud.size()) + " Gaussians at SH degree " +
@@ -262,7 +262,7 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     out.sh.resize(n * k_count * 3);
 
     // Pass 2: encode.
-    std::vector<ShQuantizationReport> clipped(workers);
+    std::vector<QuantizationReport> clipped(workers);
     const bool log_scale = options.scale_encoding == format::ScaleEncoding::kLog;
     // Scale of each of the K·3 values of a Gaussian, in double as the division uses it.
     const uint32_t sh_values = k_count * 3;
@@ -276,7 +276,7 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
       reciprocal[j] = 1.0 / divisor[j];
     }
     detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
-      ShQuantizationReport& rep = clipped[t];
+      QuantizationReport& rep = clipped[t];
       uint64_t clip_count[48] = {};
       const float* sh_in = cloud.sh.data();
       int8_t* sh_out = out.sh.data();
@@ -312,15 +312,20 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
         std::memcpy(sh_out + i * sh_values, codes, sh_values);
       }
       for (uint32_t j = 0; j < sh_values; ++j) {
-        rep.clipped[format::sh_degree_of_coefficient(j / 3)][j % 3] += clip_count[j];
+        rep.sh_clipped[format::sh_degree_of_coefficient(j / 3)][j % 3] += clip_count[j];
       }
     });
     if (report != nullptr) {
-      *report = ShQuantizationReport();
-      for (const ShQuantizationReport& r : clipped) {
+      *report = QuantizationReport();
+      for (const QuantizationReport& r : clipped) {
         for (int d = 0; d < 4; ++d) {
-          for (int c = 0; c < 3; ++c) report->clipped[d][c] += r.clipped[d][c];
+          for (int c = 0; c < 3; ++c) report->sh_clipped[d][c] += r.sh_clipped[d][c];
         }
+      }
+      for (size_t j = 0; j < out.scales.size(); ++j) {
+        const uint16_t magnitude = out.scales[j] & 0x7fffu;
+        if (magnitude >= 0x0400u || cloud.scales[j] == 0.0f || log_scale) continue;  // normal, exact 0, or log
+        ++(magnitude == 0 ? report->scales_flushed_to_zero : report->scales_subnormal);
       }
     }
     return out;

@@ -15,7 +15,7 @@ namespace rgs::test {
 namespace {
 
 using converter::QuantizeOptions;
-using converter::ShQuantizationReport;
+using converter::QuantizationReport;
 
 format::GaussianCloud load_cloud(const std::string& path) {
   auto r = converter::read_ply(path);
@@ -24,7 +24,7 @@ format::GaussianCloud load_cloud(const std::string& path) {
 }
 
 format::EncodedScene quantize_ok(const format::GaussianCloud& cloud, const QuantizeOptions& options = {},
-                                 ShQuantizationReport* report = nullptr) {
+                                 QuantizationReport* report = nullptr) {
   auto e = converter::quantize(cloud, options, report);
   REQUIRE_MESSAGE(e.ok(), e.status().to_string());
   return std::move(e).value();
@@ -53,7 +53,7 @@ void check_scene(const format::GaussianCloud& cloud, const std::string& label) {
     CAPTURE(format::to_string(encoding));
     QuantizeOptions options;
     options.scale_encoding = encoding;
-    ShQuantizationReport report;
+    QuantizationReport report;
     const format::EncodedScene enc = quantize_ok(cloud, options, &report);
     CHECK(check_quantization_bounds(cloud, enc) == 0);
     const auto& m = enc.metadata;
@@ -68,7 +68,7 @@ void check_scene(const format::GaussianCloud& cloud, const std::string& label) {
     std::string why;
     CHECK_MESSAGE(format::is_valid_quantization(m.sh_quantization, m.sh_degree, &why), why);
     for (int d = 0; d < 4; ++d) {
-      for (int c = 0; c < 3; ++c) CHECK(report.clipped[d][c] == 0);
+      for (int c = 0; c < 3; ++c) CHECK(report.sh_clipped[d][c] == 0);
     }
     // Max rule: each (d, c) uses ±127 somewhere (when not all zero).
     const uint32_t k_count = cloud.sh_coefficients();
@@ -138,7 +138,7 @@ TEST_CASE("quantize: percentile clipping") {
   const auto cloud = load_cloud(repo_path("samples/guitar.ply"));
   QuantizeOptions options;
   options.sh_clip_percentile = 99.0f;
-  ShQuantizationReport report;
+  QuantizationReport report;
   const auto enc = quantize_ok(cloud, options, &report);
   CHECK(enc.metadata.sh_quantization.clip_percentile == 99.0f);
   CHECK(same_encoded(enc, quantize_ok(cloud, options)));
@@ -162,7 +162,7 @@ TEST_CASE("quantize: percentile clipping") {
         CHECK(std::fabs(static_cast<double>(s) * q - v) <= 0.5 * s * (1 + 1e-12));
       }
     }
-    CHECK(clipped == report.clipped[0][c]);
+    CHECK(clipped == report.sh_clipped[0][c]);
     CHECK(clipped > n / 200);
     CHECK(clipped <= n / 100);
   }
@@ -329,6 +329,35 @@ TEST_CASE("measure_attribute_errors: exact values and argument errors") {
   enc.count = 2;
   enc.metadata.sh_degree = 1;
   CHECK(converter::measure_quantization_errors(a, enc).status().code() == StatusCode::kCorruptData);
+}
+
+TEST_CASE("quantize: the report counts linear scales that FP16 stores as subnormals or flushes to zero") {
+  auto ply = converter::read_ply(repo_path("samples/guitar.ply"));
+  REQUIRE(ply.ok());
+  const format::GaussianCloud& cloud = ply->cloud;
+  converter::QuantizationReport linear_report;
+  auto linear = converter::quantize(cloud, {}, &linear_report);
+  REQUIRE(linear.ok());
+  // Independent count from the source values: below 2^-25 rounds to 0, [2^-25, 2^-14) is subnormal
+  // (values within half an ulp below 2^-14 round up to the smallest normal, values at 2^-25 tie to 0).
+  uint64_t flushed = 0, subnormal = 0;
+  for (float s : cloud.scales) {
+    if (s == 0.0f) continue;
+    if (s <= std::ldexp(1.0f, -25)) {
+      ++flushed;
+    } else if (s < std::ldexp(1.0f, -14) - std::ldexp(1.0f, -25)) {
+      ++subnormal;
+    }
+  }
+  CHECK(linear_report.scales_flushed_to_zero == flushed);
+  CHECK(linear_report.scales_subnormal == subnormal);
+  CHECK(flushed == 101);  // the shipped sample has 101 scales below 3e-8
+  converter::QuantizeOptions log_options;
+  log_options.scale_encoding = format::ScaleEncoding::kLog;
+  converter::QuantizationReport log_report;
+  REQUIRE(converter::quantize(cloud, log_options, &log_report).ok());
+  CHECK(log_report.scales_flushed_to_zero == 0);
+  CHECK(log_report.scales_subnormal == 0);
 }
 
 }  // namespace

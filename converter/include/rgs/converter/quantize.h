@@ -18,10 +18,16 @@ struct QuantizeOptions {
   float sh_clip_percentile = 100.0f;
 };
 
-/// What quantization did to the SH, per degree d and channel c.
-struct ShQuantizationReport {
-  /// Coefficients whose |q| would exceed 127 and were clipped (only with percentile clipping).
-  uint64_t clipped[4][3] = {};
+/// What quantization did beyond rounding, for the conversion summary and the audit.
+struct QuantizationReport {
+  /// SH coefficients per degree d and channel c whose |q| would exceed 127 and were clipped (only with
+  /// percentile clipping).
+  uint64_t sh_clipped[4][3] = {};
+  /// Non-zero scale values stored as binary16 subnormals (|v| < 2^-14 ≈ 6.1e-5), where the relative
+  /// precision falls below 2^-11. Only linear scales get there in practice.
+  uint64_t scales_subnormal = 0;
+  /// Non-zero scale values that rounded to binary16 zero (linear scales below 2^-25 ≈ 3e-8).
+  uint64_t scales_flushed_to_zero = 0;
 };
 
 /// Quantizes `cloud` (which must be consistent and finite): FP32 means copied bit-exactly, rotations
@@ -30,7 +36,7 @@ struct ShQuantizationReport {
 /// Fills metadata: SH degree, conventions, bounds (compute_bounds) and the quantization.
 /// Errors: kInvalidArgument (inconsistent cloud, percentile outside (0, 100]).
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
-                                      ShQuantizationReport* report = nullptr);
+                                      QuantizationReport* report = nullptr);
 
 /// Bounds of the means: AABB, and a sphere centred on the AABB centre whose radius is the largest
 /// distance to a mean (computed in double, rounded up, so every mean is inside in float32).
