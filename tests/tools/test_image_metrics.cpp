@@ -1,0 +1,97 @@
+// PSNR and SSIM of rgs-audit on identical images, constant images (closed form) and against a direct
+// (non-separable, per-window) evaluation of the SSIM definition.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "image_metrics.h"
+
+namespace {
+
+using rgs::tools::psnr_rgb;
+using rgs::tools::ssim_rgb;
+
+std::vector<float> random_image(uint32_t w, uint32_t h, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<float> img(size_t{w} * h * 3);
+  for (float& v : img) v = u(rng);
+  return img;
+}
+
+/// SSIM straight from the definition: every valid 11×11 window, 2D Gaussian weights, per channel.
+double direct_ssim(const std::vector<float>& a, const std::vector<float>& b, int w, int h) {
+  double g[11], sum = 0;
+  for (int i = -5; i <= 5; ++i) sum += g[i + 5] = std::exp(-(i * i) / (2 * 1.5 * 1.5));
+  for (double& v : g) v /= sum;
+  double total = 0;
+  for (int c = 0; c < 3; ++c) {
+    double acc = 0;
+    int windows = 0;
+    for (int y0 = 0; y0 + 11 <= h; ++y0) {
+      for (int x0 = 0; x0 + 11 <= w; ++x0) {
+        double mx = 0, my = 0, xx = 0, yy = 0, xy = 0;
+        for (int j = 0; j < 11; ++j) {
+          for (int i = 0; i < 11; ++i) {
+            const double wt = g[i] * g[j];
+            const size_t k = (size_t(y0 + j) * w + x0 + i) * 3 + c;
+            const double x = a[k], y = b[k];
+            mx += wt * x; my += wt * y; xx += wt * x * x; yy += wt * y * y; xy += wt * x * y;
+          }
+        }
+        const double vx = xx - mx * mx, vy = yy - my * my, cxy = xy - mx * my;
+        acc += (2 * mx * my + 1e-4) * (2 * cxy + 9e-4) / ((mx * mx + my * my + 1e-4) * (vx + vy + 9e-4));
+        ++windows;
+      }
+    }
+    total += acc / windows;
+  }
+  return total / 3;
+}
+
+TEST_CASE("identical images: PSNR inf, SSIM 1") {
+  const auto a = random_image(32, 20, 1);
+  auto p = psnr_rgb(a, a, 32, 20);
+  REQUIRE(p.ok());
+  CHECK(std::isinf(*p));
+  CHECK(*p > 0);
+  auto s = ssim_rgb(a, a, 32, 20);
+  REQUIRE(s.ok());
+  CHECK(*s == doctest::Approx(1.0).epsilon(1e-12));
+}
+
+TEST_CASE("constant images: closed form") {
+  // a = 0.5, b = 0.25 everywhere: MSE = 1/16 -> PSNR = 10·log10(16); variances 0, so SSIM is the luminance
+  // term (2·0.5·0.25 + C1) / (0.25 + 0.0625 + C1) = 0.2501 / 0.3126.
+  const std::vector<float> a(size_t{12} * 11 * 3, 0.5f), b(size_t{12} * 11 * 3, 0.25f);
+  CHECK(*psnr_rgb(a, b, 12, 11) == doctest::Approx(10 * std::log10(16.0)).epsilon(1e-12));
+  CHECK(*ssim_rgb(a, b, 12, 11) == doctest::Approx(0.2501 / 0.3126).epsilon(1e-12));
+}
+
+TEST_CASE("values are clamped to [0, 1] before comparing") {
+  std::vector<float> a(size_t{11} * 11 * 3, 1.0f), b(size_t{11} * 11 * 3, 3.0f);
+  a[0] = -2.f;  // clamps to 0; b's 3 clamps to 1: one value differs by 1
+  CHECK(*psnr_rgb(a, b, 11, 11) == doctest::Approx(10 * std::log10(363.0)).epsilon(1e-12));
+}
+
+TEST_CASE("separable SSIM equals the per-window definition") {
+  const auto a = random_image(23, 17, 2);
+  auto b = a;
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.f, 0.1f);
+  for (float& v : b) v = std::clamp(v + noise(rng), 0.f, 1.f);
+  const double expected = direct_ssim(a, b, 23, 17);
+  CHECK(*ssim_rgb(a, b, 23, 17) == doctest::Approx(expected).epsilon(1e-12));
+  CHECK(expected < 0.95);
+}
+
+TEST_CASE("bad sizes are kInvalidArgument") {
+  const auto a = random_image(10, 10, 4);
+  CHECK(ssim_rgb(a, a, 10, 10).status().code() == rgs::StatusCode::kInvalidArgument);
+  CHECK(psnr_rgb(a, a, 11, 10).status().code() == rgs::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
