@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "cli_common.h"
+#include "error_stats_output.h"
 #include "image_metrics.h"
 #include "image_write.h"
 #include "rgs/config.h"
@@ -46,15 +47,6 @@ struct Options {
   double min_psnr = -1;
   bool min_psnr_set = false;
 };
-
-nlohmann::json stats_json(const converter::ErrorStats& s) {
-  return {{"max", s.max}, {"rms", s.rms}, {"samples", s.samples}};
-}
-
-void print_stats_row(const std::string& name, const converter::ErrorStats& s, const std::string& unit) {
-  std::printf("  %-22s %12s %12s  %s\n", name.c_str(), tools::sci(s.max).c_str(), tools::sci(s.rms).c_str(),
-              unit.c_str());
-}
 
 std::string db(double v) { return std::isinf(v) ? std::string("inf") : tools::fixed(v, 2); }
 nlohmann::json db_json(double v) { return std::isinf(v) ? nlohmann::json("inf") : nlohmann::json(v); }
@@ -198,15 +190,17 @@ int run(Options opt) {
   converter::ErrorStats pos_mm = errors->position;
   pos_mm.max *= 1000;
   pos_mm.rms *= 1000;
-  print_stats_row("position x1000", pos_mm, "scene units x 1000 (mm if the scene is metric)");
-  print_stats_row("rotation", errors->rotation_deg, "degrees");
-  print_stats_row("scale", errors->scale_relative, "relative");
-  print_stats_row("opacity", errors->opacity, "absolute");
+  tools::print_stats_row("position x1000", pos_mm, "scene units x 1000 (mm if the scene is metric)", 22);
+  tools::print_stats_row("rotation", errors->rotation_deg, "degrees", 22);
+  tools::print_stats_row("scale", errors->scale_relative, "relative", 22);
+  tools::print_stats_row("opacity", errors->opacity, "absolute", 22);
   for (uint32_t d = 0; d <= degree; ++d) {
-    print_stats_row("SH degree " + std::to_string(d), errors->sh[d], "absolute (all channels)");
+    tools::print_stats_row("SH degree " + std::to_string(d), errors->sh[d], "absolute (all channels)", 22);
     for (uint32_t c = 0; c < 3; ++c) {
-      print_stats_row("  " + std::string(channel_names[c]), errors->sh_channel[d][c],
-                      "scale " + tools::sci(shq.scales[d][c]) + ", " + tools::group_digits(clipped[d][c]) + " clipped");
+      tools::print_stats_row("  " + std::string(channel_names[c]), errors->sh_channel[d][c],
+                             "scale " + tools::sci(shq.scales[d][c]) + ", " +
+                                 tools::group_digits(clipped[d][c]) + " clipped",
+                             22);
     }
   }
   std::printf("  %-22s %10s %10s %10s %8s\n", "view", "PSNR dB", "SSIM", "max |d|", "s");
@@ -244,15 +238,15 @@ int run(Options opt) {
     for (uint32_t d = 0; d <= degree; ++d) {
       nlohmann::json ch = nlohmann::json::array();
       for (uint32_t c = 0; c < 3; ++c) {
-        ch.push_back({{"channel", channel_names[c]}, {"error", stats_json(errors->sh_channel[d][c])},
+        ch.push_back({{"channel", channel_names[c]}, {"error", tools::stats_json(errors->sh_channel[d][c])},
                       {"scale", shq.scales[d][c]}, {"clipped", clipped[d][c]}});
       }
-      sh.push_back({{"degree", d}, {"error", stats_json(errors->sh[d])}, {"channels", ch}});
+      sh.push_back({{"degree", d}, {"error", tools::stats_json(errors->sh[d])}, {"channels", ch}});
     }
-    j["errors"] = {{"position_scene_units", stats_json(errors->position)},
-                   {"rotation_deg", stats_json(errors->rotation_deg)},
-                   {"scale_relative", stats_json(errors->scale_relative)},
-                   {"opacity", stats_json(errors->opacity)},
+    j["errors"] = {{"position_scene_units", tools::stats_json(errors->position)},
+                   {"rotation_deg", tools::stats_json(errors->rotation_deg)},
+                   {"scale_relative", tools::stats_json(errors->scale_relative)},
+                   {"opacity", tools::stats_json(errors->opacity)},
                    {"sh", sh}};
     nlohmann::json vj = nlohmann::json::array();
     for (const ViewResult& r : views) {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "cli_common.h"
+#include "error_stats_output.h"
 #include "rgs/config.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/ply_reader.h"
@@ -98,14 +99,6 @@ std::string hex64(uint64_t v) {
   return buf;
 }
 
-nlohmann::json stats_json(const converter::ErrorStats& s) {
-  return {{"max", s.max}, {"rms", s.rms}, {"samples", s.samples}};
-}
-
-void print_stats_row(const char* name, const converter::ErrorStats& s, const char* unit) {
-  std::printf("  %-16s %12s %12s  %s\n", name, tools::sci(s.max).c_str(), tools::sci(s.rms).c_str(), unit);
-}
-
 /// PLY -> .rgs: read, quantize, write atomically, measure, print the summary.
 int convert_ply_to_rgs(const Options& opt) {
   const auto t_start = Clock::now();
@@ -179,17 +172,17 @@ int convert_ply_to_rgs(const Options& opt) {
                     {"dropped_gaussians", hygiene.dropped_gaussians}};
     nlohmann::json sh = nlohmann::json::array();
     for (uint32_t d = 0; d <= degree; ++d) {
-      sh.push_back({{"degree", d}, {"error", stats_json(errors->sh[d])},
+      sh.push_back({{"degree", d}, {"error", tools::stats_json(errors->sh[d])},
                     {"scale", {encoded->metadata.sh_quantization.scales[d][0],
                                encoded->metadata.sh_quantization.scales[d][1],
                                encoded->metadata.sh_quantization.scales[d][2]}},
                     {"clipped", {report.sh_clipped[d][0], report.sh_clipped[d][1], report.sh_clipped[d][2]}}});
     }
     j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero}};
-    j["errors"] = {{"position", stats_json(errors->position)},
-                   {"rotation_deg", stats_json(errors->rotation_deg)},
-                   {"scale_relative", stats_json(errors->scale_relative)},
-                   {"opacity", stats_json(errors->opacity)},
+    j["errors"] = {{"position", tools::stats_json(errors->position)},
+                   {"rotation_deg", tools::stats_json(errors->rotation_deg)},
+                   {"scale_relative", tools::stats_json(errors->scale_relative)},
+                   {"opacity", tools::stats_json(errors->opacity)},
                    {"sh", sh}};
     j["seconds"] = {{"read", t_read}, {"quantize", t_quantize}, {"write", t_write},
                     {"measure", t_measure}, {"total", t_total}};
@@ -215,20 +208,20 @@ int convert_ply_to_rgs(const Options& opt) {
               tools::group_digits(hygiene.infinite_opacity_logits).c_str(),
               tools::group_digits(hygiene.dropped_gaussians).c_str());
   std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
-  print_stats_row("position", errors->position, "scene units (FP32, exact)");
-  print_stats_row("rotation", errors->rotation_deg, "degrees");
+  tools::print_stats_row("position", errors->position, "scene units (FP32, exact)");
+  tools::print_stats_row("rotation", errors->rotation_deg, "degrees");
   const std::string scale_note =
       "relative; " + tools::group_digits(report.scales_subnormal) + " values FP16-subnormal (< 6.1e-5), " +
       tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
       (report.scales_subnormal + report.scales_flushed_to_zero ? " (--scale-encoding log keeps them)" : "");
-  print_stats_row("scale", errors->scale_relative, scale_note.c_str());
-  print_stats_row("opacity", errors->opacity, "absolute");
+  tools::print_stats_row("scale", errors->scale_relative, scale_note.c_str());
+  tools::print_stats_row("opacity", errors->opacity, "absolute");
   for (uint32_t d = 0; d <= degree; ++d) {
     const std::string name = "SH degree " + std::to_string(d);
     const uint64_t clipped = report.sh_clipped[d][0] + report.sh_clipped[d][1] + report.sh_clipped[d][2];
     const std::string note = "absolute, INT8" + (clipped ? ", " + tools::group_digits(clipped) + " clipped"
                                                          : std::string());
-    print_stats_row(name.c_str(), errors->sh[d], note.c_str());
+    tools::print_stats_row(name.c_str(), errors->sh[d], note.c_str());
   }
   std::printf("  time             %s s (read %s, quantize %s, write %s, measure %s)\n",
               tools::fixed(t_total, 3).c_str(), tools::fixed(t_read, 3).c_str(),
