@@ -1,0 +1,73 @@
+// A scene in GPU memory: the .rgs runtime profile uploaded section by section, plus the FP32 attributes the
+// baseline pipeline reads. Available only with RGS_WITH_CUDA.
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include <cstdint>
+#include <optional>
+
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/status.h"
+#include "rgs/kernels/device_scene.h"
+#include "rgs/runtime/device_buffer.h"
+
+namespace rgs::runtime {
+
+/// Gaussians in device memory. Move-only; owns its allocations.
+///
+/// From a .rgs file, the runtime sections (means, rotations, scales, opacities, SH; format/SPEC.md §4) are
+/// copied to the device as they are stored, one copy per section and no CPU decode: uncompressed sections
+/// go straight from the memory-mapped file, zstd sections are decoded into a pinned upload buffer first.
+/// The FP32 attributes of the baseline are then widened on the GPU (kernels::dequantize, the same values as
+/// format::dequantize() on the host). From a GaussianCloud (a PLY, say), the FP32 arrays are uploaded and
+/// there is no compact profile.
+class GpuScene {
+ public:
+  /// Uploads the runtime profile of `file` on `stream` and waits for it. Errors: those of reading the
+  /// sections (kChecksumMismatch, kCorruptData; the file's name in the message), kLimitExceeded (≥ 2^31
+  /// Gaussians), kOutOfMemory / kCudaError from the device.
+  static Result<GpuScene> from_rgs(const format::RgsFile& file, cudaStream_t stream = nullptr);
+
+  /// Uploads FP32 Gaussians on `stream` and waits for it. `bounds` (e.g. converter::compute_bounds) is
+  /// kept for the RoofGS depth key; without it bounds() is empty. Errors: kInvalidArgument (inconsistent
+  /// cloud), kLimitExceeded (≥ 2^31 Gaussians), kOutOfMemory / kCudaError.
+  static Result<GpuScene> from_cloud(const format::GaussianCloud& cloud,
+                                     const std::optional<format::SceneBounds>& bounds = std::nullopt,
+                                     cudaStream_t stream = nullptr);
+
+  GpuScene(GpuScene&&) noexcept = default;
+  GpuScene& operator=(GpuScene&&) noexcept = default;
+
+  uint32_t size() const { return count_; }
+  uint32_t sh_degree() const { return sh_degree_; }
+  /// Scene AABB and bounding sphere (the .rgs metadata, or what from_cloud() was given).
+  const std::optional<format::SceneBounds>& bounds() const { return bounds_; }
+  /// True for scenes from a .rgs file: compact() is then valid.
+  bool has_compact() const { return has_compact_; }
+  /// Device bytes held (compact sections + FP32 arrays).
+  uint64_t device_bytes() const;
+
+  /// FP32 view for the baseline pipeline.
+  kernels::Fp32GaussiansView fp32() const;
+  /// Compact view of the .rgs sections (valid only when has_compact()).
+  kernels::CompactGaussiansView compact() const { return compact_view_; }
+
+ private:
+  GpuScene() = default;
+
+  uint32_t count_ = 0;
+  uint32_t sh_degree_ = 0;
+  std::optional<format::SceneBounds> bounds_;
+  bool has_compact_ = false;
+  kernels::CompactGaussiansView compact_view_;
+  // FP32 arrays (means are shared with the compact profile, which stores them as FP32 already).
+  DeviceBuffer<float> means_, rotations_, scales_, opacities_, sh_;
+  // Compact sections, byte for byte as in the file.
+  DeviceBuffer<uint16_t> rotations_fp16_, scales_fp16_, opacities_fp16_;
+  DeviceBuffer<int8_t> sh_int8_;
+};
+
+}  // namespace rgs::runtime

@@ -1,0 +1,153 @@
+// GpuScene: upload of the .rgs runtime sections (one copy each) or of FP32 Gaussians.
+#include "rgs/runtime/gpu_scene.h"
+
+#include <algorithm>
+#include <string>
+
+#include "rgs/format/spec.h"
+#include "rgs/kernels/baseline_pipeline.h"
+
+namespace rgs::runtime {
+namespace {
+
+constexpr uint64_t kMaxGpuGaussians = (uint64_t{1} << 31) - 1;  // kernels index Gaussians with uint32/int
+
+Status check_count(uint64_t count, const std::string& name) {
+  RGS_RETURN_ERROR_IF(count > kMaxGpuGaussians, StatusCode::kLimitExceeded,
+                      name + ": " + std::to_string(count) + " Gaussians exceed the GPU renderer's limit of " +
+                          std::to_string(kMaxGpuGaussians));
+  return Status();
+}
+
+/// Copies one section of `file` into `dst` (raw_size bytes): straight from the mapping when stored
+/// uncompressed, else decoded into the pinned `staging` buffer and copied from there. Synchronous.
+Status upload_section(const format::RgsFile& file, format::SectionId id, void* dst, size_t dst_bytes,
+                      PinnedBuffer* staging, cudaStream_t stream) {
+  const format::SectionEntry* entry = file.find(id);
+  RGS_RETURN_ERROR_IF(entry == nullptr, StatusCode::kCorruptData,
+                      file.name() + ": runtime section " + std::to_string(uint32_t(id)) + " is missing");
+  RGS_RETURN_ERROR_IF(entry->raw_size != dst_bytes, StatusCode::kCorruptData,
+                      file.name() + ": section " + std::to_string(uint32_t(id)) + " holds " +
+                          std::to_string(entry->raw_size) + " bytes, expected " + std::to_string(dst_bytes));
+  if (dst_bytes == 0) return Status();
+  const std::string what = file.name() + ": upload of section " + std::to_string(uint32_t(id));
+  if (entry->codec == format::Codec::kNone) {
+    RGS_ASSIGN_OR_RETURN(const format::ByteView bytes, file.stored_bytes(id));
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(dst, bytes.data, bytes.size, cudaMemcpyHostToDevice, stream), what);
+  } else {
+    RGS_RETURN_IF_ERROR(staging->reserve(dst_bytes, what));
+    RGS_RETURN_IF_ERROR(file.decode_section(id, staging->data(), dst_bytes));
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(dst, staging->data(), dst_bytes, cudaMemcpyHostToDevice, stream),
+                             what);
+  }
+  // The staging buffer (and the mapping) must stay untouched until the copy is done.
+  RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), what);
+  return Status();
+}
+
+template <typename T>
+Status upload_vector(const std::vector<T>& host, DeviceBuffer<T>* device, const std::string& what,
+                     cudaStream_t stream) {
+  RGS_RETURN_IF_ERROR(device->allocate_exactly(host.size(), what));
+  if (host.empty()) return Status();
+  RGS_RETURN_IF_CUDA_ERROR(
+      cudaMemcpyAsync(device->data(), host.data(), host.size() * sizeof(T), cudaMemcpyHostToDevice, stream), what);
+  return Status();
+}
+
+}  // namespace
+
+Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t stream) {
+  const uint64_t n = file.gaussian_count();
+  RGS_RETURN_IF_ERROR(check_count(n, file.name()));
+  const format::SceneMetadata& meta = file.metadata();
+  const uint64_t k = format::sh_coefficient_count(meta.sh_degree);
+
+  GpuScene scene;
+  scene.count_ = uint32_t(n);
+  scene.sh_degree_ = meta.sh_degree;
+  scene.bounds_ = meta.bounds;
+  scene.has_compact_ = true;
+  const std::string& name = file.name();
+  RGS_RETURN_IF_ERROR(scene.means_.allocate_exactly(n * 3, name + ": means"));
+  RGS_RETURN_IF_ERROR(scene.rotations_fp16_.allocate_exactly(n * 4, name + ": rotations"));
+  RGS_RETURN_IF_ERROR(scene.scales_fp16_.allocate_exactly(n * 3, name + ": scales"));
+  RGS_RETURN_IF_ERROR(scene.opacities_fp16_.allocate_exactly(n, name + ": opacities"));
+  RGS_RETURN_IF_ERROR(scene.sh_int8_.allocate_exactly(n * k * 3, name + ": SH"));
+
+  PinnedBuffer staging;
+  using format::SectionId;
+  RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kMeans, scene.means_.data(), scene.means_.bytes(), &staging,
+                                     stream));
+  RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kRotations, scene.rotations_fp16_.data(),
+                                     scene.rotations_fp16_.bytes(), &staging, stream));
+  RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kScales, scene.scales_fp16_.data(),
+                                     scene.scales_fp16_.bytes(), &staging, stream));
+  RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kOpacities, scene.opacities_fp16_.data(),
+                                     scene.opacities_fp16_.bytes(), &staging, stream));
+  RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kSh, scene.sh_int8_.data(), scene.sh_int8_.bytes(), &staging,
+                                     stream));
+
+  kernels::CompactGaussiansView& view = scene.compact_view_;
+  view.means = scene.means_.data();
+  view.rotations = scene.rotations_fp16_.data();
+  view.scales = scene.scales_fp16_.data();
+  view.opacities = scene.opacities_fp16_.data();
+  view.sh = scene.sh_int8_.data();
+  for (int d = 0; d < 4; ++d) {
+    for (int c = 0; c < 3; ++c) view.sh_scales[d][c] = meta.sh_quantization.scales[d][c];
+  }
+  view.scale_encoding = meta.scale_encoding == format::ScaleEncoding::kLog ? kernels::CompactScaleEncoding::kLog
+                                                                         : kernels::CompactScaleEncoding::kLinear;
+  view.sh_degree = meta.sh_degree;
+  view.count = uint32_t(n);
+
+  // FP32 attributes for the baseline, widened on the device.
+  RGS_RETURN_IF_ERROR(scene.rotations_.allocate_exactly(n * 4, name + ": FP32 rotations"));
+  RGS_RETURN_IF_ERROR(scene.scales_.allocate_exactly(n * 3, name + ": FP32 scales"));
+  RGS_RETURN_IF_ERROR(scene.opacities_.allocate_exactly(n, name + ": FP32 opacities"));
+  RGS_RETURN_IF_ERROR(scene.sh_.allocate_exactly(n * k * 3, name + ": FP32 SH"));
+  RGS_RETURN_IF_CUDA_ERROR(kernels::dequantize(view, scene.rotations_.data(), scene.scales_.data(),
+                                               scene.opacities_.data(), scene.sh_.data(), stream),
+                           name + ": dequantize kernel");
+  RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), name + ": dequantize kernel");
+  return scene;
+}
+
+Result<GpuScene> GpuScene::from_cloud(const format::GaussianCloud& cloud,
+                                      const std::optional<format::SceneBounds>& bounds, cudaStream_t stream) {
+  RGS_RETURN_ERROR_IF(!cloud.is_consistent(), StatusCode::kInvalidArgument,
+                      "GpuScene: Gaussian cloud arrays do not match its size " + std::to_string(cloud.size()) +
+                          " and SH degree " + std::to_string(cloud.sh_degree));
+  RGS_RETURN_IF_ERROR(check_count(cloud.size(), "GpuScene"));
+  GpuScene scene;
+  scene.count_ = uint32_t(cloud.size());
+  scene.sh_degree_ = cloud.sh_degree;
+  scene.bounds_ = bounds;
+  RGS_RETURN_IF_ERROR(upload_vector(cloud.means, &scene.means_, "GpuScene: means", stream));
+  RGS_RETURN_IF_ERROR(upload_vector(cloud.rotations, &scene.rotations_, "GpuScene: rotations", stream));
+  RGS_RETURN_IF_ERROR(upload_vector(cloud.scales, &scene.scales_, "GpuScene: scales", stream));
+  RGS_RETURN_IF_ERROR(upload_vector(cloud.opacities, &scene.opacities_, "GpuScene: opacities", stream));
+  RGS_RETURN_IF_ERROR(upload_vector(cloud.sh, &scene.sh_, "GpuScene: SH", stream));
+  RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuScene: upload");
+  return scene;
+}
+
+uint64_t GpuScene::device_bytes() const {
+  return means_.bytes() + rotations_.bytes() + scales_.bytes() + opacities_.bytes() + sh_.bytes() +
+         rotations_fp16_.bytes() + scales_fp16_.bytes() + opacities_fp16_.bytes() + sh_int8_.bytes();
+}
+
+kernels::Fp32GaussiansView GpuScene::fp32() const {
+  kernels::Fp32GaussiansView view;
+  view.means = means_.data();
+  view.rotations = rotations_.data();
+  view.scales = scales_.data();
+  view.opacities = opacities_.data();
+  view.sh = sh_.data();
+  view.sh_degree = sh_degree_;
+  view.count = count_;
+  return view;
+}
+
+}  // namespace rgs::runtime
