@@ -195,6 +195,36 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
 
 }  // namespace
 
+Status setup_depth_key(const Camera& camera, const std::optional<format::SceneBounds>& bounds, FrameSetup* frame) {
+  RGS_RETURN_ERROR_IF(!bounds, StatusCode::kInvalidArgument,
+                      "render: the 32-bit key needs scene bounds (RenderOptions::scene_bounds)");
+  const format::SceneBounds& b = *bounds;
+  RGS_RETURN_ERROR_IF(!std::isfinite(b.sphere_radius) || b.sphere_radius < 0 || !std::isfinite(b.sphere_center[0]) ||
+                          !std::isfinite(b.sphere_center[1]) || !std::isfinite(b.sphere_center[2]),
+                      StatusCode::kInvalidArgument, "render: scene bounding sphere is not finite");
+  const uint32_t num_tiles = uint32_t(frame->tiles_x) * uint32_t(frame->tiles_y);
+  frame->key_tile_bits = k::key32_tile_bits(num_tiles);
+  frame->key_depth_bits = 32 - frame->key_tile_bits;
+  RGS_RETURN_ERROR_IF(frame->key_depth_bits < kMinKeyDepthBits, StatusCode::kLimitExceeded,
+                      "render: " + std::to_string(num_tiles) + " tiles leave only " +
+                          std::to_string(frame->key_depth_bits) + " depth bits in a 32-bit key");
+  // View-space depth of the sphere centre: the z row of R·c + t (double, once per camera).
+  const auto& R = camera.rotation;
+  const double d_c = double(R[6]) * b.sphere_center[0] + double(R[7]) * b.sphere_center[1] +
+                     double(R[8]) * b.sphere_center[2] + camera.translation[2];
+  const float z_near = static_cast<float>(std::max<double>(camera.near_plane, d_c - b.sphere_radius));
+  const float z_far = static_cast<float>(d_c + b.sphere_radius);
+  frame->empty_depth_range = !(z_far > z_near);
+  frame->quantizer = k::make_depth_quantizer(z_near, frame->empty_depth_range ? z_near + 1.f : z_far,
+                                            frame->key_depth_bits);
+  // Means inside the sphere can still round to a depth just outside [z_near, z_far] through the view
+  // transform; keep them (their bin clamps) rather than cull them.
+  const double margin = 1e-5 * (std::fabs(d_c) + b.sphere_radius) + 1e-6;
+  frame->cull_z_min = static_cast<float>(double(z_near) - margin);
+  frame->cull_z_max = static_cast<float>(double(z_far) + margin);
+  return Status();
+}
+
 Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera& camera,
                                const RenderOptions& options) {
   RGS_RETURN_ERROR_IF(!cloud.is_consistent(), StatusCode::kInvalidArgument,
@@ -217,34 +247,7 @@ Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera&
   frame.tiles_y = k::tile_count_for(int(camera.height));
   frame.ewa_clamp = k::ewa_clamp_for(camera.fx, camera.fy, camera.cx, camera.cy, static_cast<float>(camera.width),
                                      static_cast<float>(camera.height));
-  if (roofgs.key32) {
-    RGS_RETURN_ERROR_IF(!options.scene_bounds, StatusCode::kInvalidArgument,
-                        "render: the 32-bit key needs scene bounds (RenderOptions::scene_bounds)");
-    const format::SceneBounds& b = *options.scene_bounds;
-    RGS_RETURN_ERROR_IF(!std::isfinite(b.sphere_radius) || b.sphere_radius < 0 || !std::isfinite(b.sphere_center[0]) ||
-                            !std::isfinite(b.sphere_center[1]) || !std::isfinite(b.sphere_center[2]),
-                        StatusCode::kInvalidArgument, "render: scene bounding sphere is not finite");
-    const uint32_t num_tiles = uint32_t(frame.tiles_x) * uint32_t(frame.tiles_y);
-    frame.key_tile_bits = k::key32_tile_bits(num_tiles);
-    frame.key_depth_bits = 32 - frame.key_tile_bits;
-    RGS_RETURN_ERROR_IF(frame.key_depth_bits < kMinKeyDepthBits, StatusCode::kLimitExceeded,
-                        "render: " + std::to_string(num_tiles) + " tiles leave only " +
-                            std::to_string(frame.key_depth_bits) + " depth bits in a 32-bit key");
-    // View-space depth of the sphere centre: the z row of R·c + t (double, once per camera).
-    const auto& R = camera.rotation;
-    const double d_c = double(R[6]) * b.sphere_center[0] + double(R[7]) * b.sphere_center[1] +
-                       double(R[8]) * b.sphere_center[2] + camera.translation[2];
-    const float z_near = static_cast<float>(std::max<double>(camera.near_plane, d_c - b.sphere_radius));
-    const float z_far = static_cast<float>(d_c + b.sphere_radius);
-    frame.empty_depth_range = !(z_far > z_near);
-    frame.quantizer = k::make_depth_quantizer(z_near, frame.empty_depth_range ? z_near + 1.f : z_far,
-                                              frame.key_depth_bits);
-    // Means inside the sphere can still round to a depth just outside [z_near, z_far] through the view
-    // transform; keep them (their bin clamps) rather than cull them.
-    const double margin = 1e-5 * (std::fabs(d_c) + b.sphere_radius) + 1e-6;
-    frame.cull_z_min = static_cast<float>(double(z_near) - margin);
-    frame.cull_z_max = static_cast<float>(double(z_far) + margin);
-  }
+  if (roofgs.key32) RGS_RETURN_IF_ERROR(setup_depth_key(camera, options.scene_bounds, &frame));
   return frame;
 }
 
@@ -358,9 +361,16 @@ Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussian
   const RoofgsOptions& roofgs = options.roofgs;
   const unsigned threads = detail::resolve_thread_count(options.num_threads);
 
-  // Offsets of each Gaussian's pairs: exclusive prefix sum of tiles_touched, in index order.
+  // Emission order: Gaussian index, or (depth, index) with depth_order (a stable sort by depth).
+  std::vector<uint32_t> order(n);
+  for (uint64_t i = 0; i < n; ++i) order[i] = uint32_t(i);
+  if (roofgs.depth_order) {
+    std::stable_sort(order.begin(), order.end(),
+                     [&](uint32_t a, uint32_t b) { return gaussians[a].depth < gaussians[b].depth; });
+  }
+  // Offsets of each emitted Gaussian's pairs: exclusive prefix sum of tiles_touched in emission order.
   std::vector<uint64_t> offsets(n + 1, 0);
-  for (uint64_t i = 0; i < n; ++i) offsets[i + 1] = offsets[i] + gaussians[i].tiles_touched;
+  for (uint64_t t = 0; t < n; ++t) offsets[t + 1] = offsets[t] + gaussians[order[t]].tiles_touched;
   const uint64_t pairs = offsets[n];
 
   struct Pair {
@@ -380,12 +390,13 @@ Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussian
                   "render: cannot allocate " + std::to_string(pairs) + " (tile, Gaussian) pairs");
   }
 
-  // Duplicate with keys (3DGS duplicateWithKeys): Gaussian i writes [offsets[i], offsets[i+1]).
+  // Duplicate with keys (3DGS duplicateWithKeys): the t-th emitted Gaussian writes [offsets[t], offsets[t+1]).
   detail::parallel_chunks(n, kGaussianChunk, threads, [&](uint64_t begin, uint64_t end) {
-    for (uint64_t i = begin; i < end; ++i) {
+    for (uint64_t t = begin; t < end; ++t) {
+      const uint32_t i = order[t];
       const ProjectedGaussian& g = gaussians[i];
       if (g.tiles_touched == 0) continue;
-      uint64_t off = offsets[i];
+      uint64_t off = offsets[t];
       for_each_tile_of(g, frame, roofgs, [&](int tx, int ty) {
         const uint32_t tile = uint32_t(ty) * uint32_t(frame.tiles_x) + uint32_t(tx);
         const uint64_t key = roofgs.key32 ? k::make_key32(tile, g.depth_bin, frame.key_depth_bits)

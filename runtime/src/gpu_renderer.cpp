@@ -2,10 +2,13 @@
 // needed, every CUDA call checked.
 #include "rgs/runtime/gpu_renderer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/kernels/shared/projection.h"
+#include "rgs/runtime/cpu_renderer.h"
 
 namespace rgs::runtime {
 namespace {
@@ -84,12 +87,20 @@ Result<HostImage> download(const DeviceImage& image, cudaStream_t stream) {
 
 struct GpuRenderer::Buffers {
   // Per Gaussian.
-  DeviceBuffer<float> depths, means2d, conic_opacity, rgb;
+  DeviceBuffer<float> depths, means2d, conic_opacity, rgb, log_opacities, cov2d, snug_t;
   DeviceBuffer<int32_t> radii;
+  DeviceBuffer<uint32_t> depth_bins;
   DeviceBuffer<uint64_t> tiles_touched, offsets;
   DeviceBuffer<uint8_t> scan_temp;
-  // Per pair.
-  DeviceBuffer<uint64_t> keys, keys_sorted;
+  // Depth order: keys, sorted keys, identity values, the order itself, sort scratch.
+  DeviceBuffer<uint32_t> order_keys, order_keys_sorted, order_identity, order;
+  DeviceBuffer<uint8_t> order_temp;
+  // Fused kernel scratch: ticket, one status word per block, pair total.
+  DeviceBuffer<uint32_t> fused_ticket;
+  DeviceBuffer<unsigned long long> fused_status, fused_total;
+  // Per pair (64-bit keys for the baseline and key32 off, 32-bit keys otherwise).
+  DeviceBuffer<uint64_t> keys64, keys64_sorted;
+  DeviceBuffer<uint32_t> keys32, keys32_sorted;
   DeviceBuffer<uint32_t> values, values_sorted;
   DeviceBuffer<uint8_t> sort_temp;
   // Per tile: [begin, end) pairs.
@@ -106,17 +117,83 @@ struct GpuRenderer::Buffers {
   }
 
   void release_pairs() {
-    keys.release();
-    keys_sorted.release();
+    keys64.release();
+    keys64_sorted.release();
+    keys32.release();
+    keys32_sorted.release();
     values.release();
     values_sorted.release();
     sort_temp.release();
   }
 
   uint64_t bytes() const {
-    return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + radii.bytes() +
-           tiles_touched.bytes() + offsets.bytes() + scan_temp.bytes() + keys.bytes() + keys_sorted.bytes() +
-           values.bytes() + values_sorted.bytes() + sort_temp.bytes() + ranges.bytes();
+    return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + log_opacities.bytes() +
+           cov2d.bytes() + snug_t.bytes() + radii.bytes() + depth_bins.bytes() + tiles_touched.bytes() +
+           offsets.bytes() + scan_temp.bytes() + order_keys.bytes() + order_keys_sorted.bytes() +
+           order_identity.bytes() + order.bytes() + order_temp.bytes() + fused_ticket.bytes() +
+           fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() + keys32.bytes() +
+           keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() + ranges.bytes();
+  }
+
+  /// Per-Gaussian arrays both pipelines use.
+  Status reserve_common(uint32_t n) {
+    RGS_RETURN_IF_ERROR(depths.reserve(n, "GpuRenderer: depths"));
+    RGS_RETURN_IF_ERROR(means2d.reserve(size_t(n) * 2, "GpuRenderer: 2D means"));
+    RGS_RETURN_IF_ERROR(conic_opacity.reserve(size_t(n) * 4, "GpuRenderer: conics"));
+    RGS_RETURN_IF_ERROR(rgb.reserve(size_t(n) * 3, "GpuRenderer: colours"));
+    RGS_RETURN_IF_ERROR(radii.reserve(n, "GpuRenderer: radii"));
+    RGS_RETURN_IF_ERROR(tiles_touched.reserve(n, "GpuRenderer: tiles touched"));
+    RGS_RETURN_IF_ERROR(offsets.reserve(n, "GpuRenderer: pair offsets"));
+    return Status();
+  }
+
+  /// Pair buffers for `pairs` pairs with 32- or 64-bit keys, and the sort scratch for them. On failure all
+  /// pair buffers are dropped, so the renderer stays usable for smaller frames.
+  Status reserve_pairs(uint64_t pairs, bool key32, int sort_bits, cudaStream_t stream) {
+    const std::string count = std::to_string(pairs) + " pairs";
+    Status grown = key32 ? keys32.reserve(pairs, "GpuRenderer: keys of " + count)
+                         : keys64.reserve(pairs, "GpuRenderer: keys of " + count);
+    if (grown.ok()) {
+      grown = key32 ? keys32_sorted.reserve(pairs, "GpuRenderer: sorted keys of " + count)
+                    : keys64_sorted.reserve(pairs, "GpuRenderer: sorted keys of " + count);
+    }
+    if (grown.ok()) grown = values.reserve(pairs, "GpuRenderer: values of " + count);
+    if (grown.ok()) grown = values_sorted.reserve(pairs, "GpuRenderer: sorted values of " + count);
+    size_t sort_bytes = 0;
+    if (grown.ok()) {
+      const cudaError_t query =
+          key32 ? kernels::sort_pairs(nullptr, &sort_bytes, keys32.data(), keys32_sorted.data(), values.data(),
+                                      values_sorted.data(), pairs, sort_bits, stream)
+                : kernels::sort_pairs(nullptr, &sort_bytes, keys64.data(), keys64_sorted.data(), values.data(),
+                                      values_sorted.data(), pairs, sort_bits, stream);
+      grown = cuda_status(query, "GpuRenderer: sort size query");
+    }
+    if (grown.ok()) grown = sort_temp.reserve(sort_bytes, "GpuRenderer: sort scratch");
+    if (!grown.ok()) release_pairs();
+    return grown;
+  }
+
+  /// Inclusive scan of tiles_touched into offsets, and the pair count read back to the host (one wait).
+  Result<uint64_t> scan_and_count(uint32_t n, cudaStream_t stream) {
+    size_t scan_bytes = 0;
+    RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(nullptr, &scan_bytes, tiles_touched.data(), offsets.data(), n,
+                                                     stream),
+                             "GpuRenderer: scan size query");
+    RGS_RETURN_IF_ERROR(scan_temp.reserve(scan_bytes, "GpuRenderer: scan scratch"));
+    scan_bytes = scan_temp.bytes();
+    RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(scan_temp.data(), &scan_bytes, tiles_touched.data(),
+                                                     offsets.data(), n, stream),
+                             "GpuRenderer: offset scan");
+    return read_back(offsets.data() + (n - 1), stream);
+  }
+
+  /// Reads one uint64 from the device (waits for the stream).
+  Result<uint64_t> read_back(const void* device_value, cudaStream_t stream) {
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(pair_count.data(), device_value, sizeof(uint64_t),
+                                             cudaMemcpyDeviceToHost, stream),
+                             "GpuRenderer: pair count read-back");
+    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: preprocess");
+    return *static_cast<const uint64_t*>(pair_count.data());
   }
 
   kernels::ProjectedArrays projected() const {
@@ -126,6 +203,21 @@ struct GpuRenderer::Buffers {
     p.conic_opacity = conic_opacity.data();
     p.rgb = rgb.data();
     p.radii = radii.data();
+    p.tiles_touched = tiles_touched.data();
+    return p;
+  }
+
+  kernels::RoofgsProjected roofgs_projected() const {
+    kernels::RoofgsProjected p;
+    p.depths = depths.data();
+    p.means2d = means2d.data();
+    p.conic_opacity = conic_opacity.data();
+    p.log_opacities = log_opacities.data();
+    p.rgb = rgb.data();
+    p.cov2d = cov2d.data();
+    p.snug_t = snug_t.data();
+    p.radii = radii.data();
+    p.depth_bins = depth_bins.data();
     p.tiles_touched = tiles_touched.data();
     return p;
   }
@@ -158,96 +250,19 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
   }
   RGS_RETURN_IF_ERROR(image->resize(camera.width, camera.height, image->has_depth()));
 
-  Buffers& b = *buffers_;
   const kernels::FrameParams frame = make_frame_params(camera, options);
-  const uint32_t n = scene.size();
-  const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
-  cudaEvent_t* ev = b.events;
   const bool timed = options.time_stages;
-
   GpuRenderStats stats;
-  stats.gaussians = n;
+  stats.gaussians = scene.size();
   stats.tiles_x = frame.tiles_x;
   stats.tiles_y = frame.tiles_y;
-  stats.sort_bits = 32 + ceil_log2(num_tiles);
-
+  cudaEvent_t* ev = buffers_->events;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[0], stream), "GpuRenderer: cudaEventRecord");
-
-  // 1. Preprocess and 2. offsets, pair count, duplication.
-  uint64_t pairs = 0;
-  if (n > 0) {
-    RGS_RETURN_IF_ERROR(b.depths.reserve(n, "GpuRenderer: depths"));
-    RGS_RETURN_IF_ERROR(b.means2d.reserve(size_t(n) * 2, "GpuRenderer: 2D means"));
-    RGS_RETURN_IF_ERROR(b.conic_opacity.reserve(size_t(n) * 4, "GpuRenderer: conics"));
-    RGS_RETURN_IF_ERROR(b.rgb.reserve(size_t(n) * 3, "GpuRenderer: colours"));
-    RGS_RETURN_IF_ERROR(b.radii.reserve(n, "GpuRenderer: radii"));
-    RGS_RETURN_IF_ERROR(b.tiles_touched.reserve(n, "GpuRenderer: tiles touched"));
-    RGS_RETURN_IF_ERROR(b.offsets.reserve(n, "GpuRenderer: pair offsets"));
-    const kernels::ProjectedArrays projected = b.projected();
-    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), frame, projected, stream),
-                             "GpuRenderer: preprocess kernel");
-    size_t scan_bytes = 0;
-    RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(nullptr, &scan_bytes, b.tiles_touched.data(),
-                                                     b.offsets.data(), n, stream),
-                             "GpuRenderer: scan size query");
-    RGS_RETURN_IF_ERROR(b.scan_temp.reserve(scan_bytes, "GpuRenderer: scan scratch"));
-    scan_bytes = b.scan_temp.bytes();
-    RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(b.scan_temp.data(), &scan_bytes, b.tiles_touched.data(),
-                                                     b.offsets.data(), n, stream),
-                             "GpuRenderer: offset scan");
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(b.pair_count.data(), b.offsets.data() + (n - 1), sizeof(uint64_t),
-                                             cudaMemcpyDeviceToHost, stream),
-                             "GpuRenderer: pair count read-back");
-    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: preprocess");
-    pairs = *static_cast<const uint64_t*>(b.pair_count.data());
+  if (options.pipeline == GpuPipeline::kRoofgs) {
+    RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options.roofgs, timed, image, &stats, stream));
+  } else {
+    RGS_RETURN_IF_ERROR(render_baseline(scene, frame, timed, image, &stats, stream));
   }
-  stats.pairs = pairs;
-
-  if (pairs > 0) {
-    // Pair buffers; on failure drop them all so the renderer stays usable for smaller frames.
-    Status grown = b.keys.reserve(pairs, "GpuRenderer: keys of " + std::to_string(pairs) + " pairs");
-    if (grown.ok()) grown = b.keys_sorted.reserve(pairs, "GpuRenderer: sorted keys of " + std::to_string(pairs) + " pairs");
-    if (grown.ok()) grown = b.values.reserve(pairs, "GpuRenderer: values of " + std::to_string(pairs) + " pairs");
-    if (grown.ok()) {
-      grown = b.values_sorted.reserve(pairs, "GpuRenderer: sorted values of " + std::to_string(pairs) + " pairs");
-    }
-    size_t sort_bytes = 0;
-    if (grown.ok()) {
-      grown = cuda_status(kernels::sort_pairs(nullptr, &sort_bytes, b.keys.data(), b.keys_sorted.data(),
-                                              b.values.data(), b.values_sorted.data(), pairs, stats.sort_bits,
-                                              stream),
-                          "GpuRenderer: sort size query");
-    }
-    if (grown.ok()) grown = b.sort_temp.reserve(sort_bytes, "GpuRenderer: sort scratch");
-    if (!grown.ok()) {
-      b.release_pairs();
-      return grown;
-    }
-    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, frame, b.keys.data(),
-                                                         b.values.data(), stream),
-                             "GpuRenderer: duplicate kernel");
-    if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
-    // 3. Stable radix sort over 32 + ceil(log2(tiles)) bits.
-    sort_bytes = b.sort_temp.bytes();
-    RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys.data(), b.keys_sorted.data(),
-                                                 b.values.data(), b.values_sorted.data(), pairs, stats.sort_bits,
-                                                 stream),
-                             "GpuRenderer: radix sort");
-  } else if (timed) {
-    RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
-  }
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
-
-  // 4. Per-tile ranges.
-  RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
-  RGS_RETURN_IF_CUDA_ERROR(kernels::tile_ranges(b.keys_sorted.data(), pairs, 32, num_tiles, b.ranges.data(), stream),
-                           "GpuRenderer: tile ranges kernel");
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
-
-  // 5. Blend.
-  RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.ranges.data(), b.values_sorted.data(), b.projected(), frame,
-                                                    image->view(), stream),
-                           "GpuRenderer: render kernel");
   if (timed) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[4], stream), "GpuRenderer: cudaEventRecord");
     RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(ev[4]), "GpuRenderer: frame");
@@ -261,6 +276,189 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
     stats.timed = true;
   }
   return stats;
+}
+
+Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, bool timed,
+                                    DeviceImage* image, GpuRenderStats* stats, cudaStream_t stream) {
+  Buffers& b = *buffers_;
+  cudaEvent_t* ev = b.events;
+  const uint32_t n = scene.size();
+  const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
+  stats->sort_bits = 32 + ceil_log2(num_tiles);
+
+  // 1. Preprocess, 2. offsets, pair count, duplication.
+  uint64_t pairs = 0;
+  if (n > 0) {
+    RGS_RETURN_IF_ERROR(b.reserve_common(n));
+    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), frame, b.projected(), stream),
+                             "GpuRenderer: preprocess kernel");
+    RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));
+  }
+  stats->pairs = pairs;
+  if (pairs > 0) {
+    RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, false, stats->sort_bits, stream));
+    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, frame, b.keys64.data(),
+                                                         b.values.data(), stream),
+                             "GpuRenderer: duplicate kernel");
+  }
+  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
+  // 3. Stable radix sort over 32 + ceil(log2(tiles)) bits.
+  if (pairs > 0) {
+    size_t sort_bytes = b.sort_temp.bytes();
+    RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(),
+                                                 b.keys64_sorted.data(), b.values.data(), b.values_sorted.data(),
+                                                 pairs, stats->sort_bits, stream),
+                             "GpuRenderer: radix sort");
+  }
+  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
+  // 4. Per-tile ranges.
+  RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
+  RGS_RETURN_IF_CUDA_ERROR(kernels::tile_ranges(b.keys64_sorted.data(), pairs, 32, num_tiles, b.ranges.data(),
+                                                stream),
+                           "GpuRenderer: tile ranges kernel");
+  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
+  // 5. Blend.
+  RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.ranges.data(), b.values_sorted.data(), b.projected(), frame,
+                                                    image->view(), stream),
+                           "GpuRenderer: render kernel");
+  return Status();
+}
+
+Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
+                                  const GpuRoofgsOptions& options, bool timed, DeviceImage* image,
+                                  GpuRenderStats* stats, cudaStream_t stream) {
+  Buffers& b = *buffers_;
+  cudaEvent_t* ev = b.events;
+  const RoofgsOptions& t = options.techniques;
+  const uint32_t n = scene.size();
+  const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
+  RGS_RETURN_ERROR_IF(!(t.fast_exp_sigma >= 0.f && t.fast_exp_sigma < 1.f), StatusCode::kInvalidArgument,
+                      "GpuRenderer: fast_exp_sigma " + std::to_string(t.fast_exp_sigma) + " outside [0, 1)");
+  RGS_RETURN_ERROR_IF(options.compact_attributes && !scene.has_compact(), StatusCode::kInvalidArgument,
+                      "GpuRenderer: compact attributes asked for a scene without them (load a .rgs file)");
+
+  // Technique switches and the 32-bit key layout (the CPU reference's setup_depth_key).
+  kernels::RoofgsFrame rf;
+  rf.compact = options.compact_attributes;
+  rf.key32 = t.key32;
+  rf.snugbox_accutile = t.snugbox_accutile;
+  rf.accutile_within_baseline_rect = t.accutile_within_baseline_rect;
+  rf.fast_exp = t.fast_exp;
+  rf.fast_exp_sigma = t.fast_exp_sigma;
+  if (t.key32) {
+    FrameSetup setup;
+    setup.tiles_x = int(frame.tiles_x);
+    setup.tiles_y = int(frame.tiles_y);
+    RGS_RETURN_IF_ERROR(setup_depth_key(camera, scene.bounds(), &setup));
+    rf.key_depth_bits = setup.key_depth_bits;
+    rf.quantizer = setup.quantizer;
+    rf.cull_z_min = setup.cull_z_min;
+    rf.cull_z_max = setup.cull_z_max;
+    rf.empty_depth_range = setup.empty_depth_range;
+    stats->key_tile_bits = setup.key_tile_bits;
+    stats->key_depth_bits = setup.key_depth_bits;
+    stats->z_near = setup.quantizer.z_near;
+    stats->z_far = setup.empty_depth_range ? setup.quantizer.z_near : setup.quantizer.z_far;
+  }
+  stats->sort_bits = t.key32 ? 32 : 32 + ceil_log2(num_tiles);
+  kernels::GaussianSource source;
+  source.fp32 = scene.fp32();
+  if (scene.has_compact()) source.compact = scene.compact();
+  source.count = n;
+
+  uint64_t pairs = 0;
+  if (n > 0) {
+    RGS_RETURN_IF_ERROR(b.reserve_common(n));
+    RGS_RETURN_IF_ERROR(b.log_opacities.reserve(n, "GpuRenderer: log opacities"));
+    // Depth order: Gaussians stably sorted by view depth (32-bit float keys, one sort of N).
+    const uint32_t* order = nullptr;
+    if (t.depth_order) {
+      RGS_RETURN_IF_ERROR(b.order_keys.reserve(n, "GpuRenderer: depth keys"));
+      RGS_RETURN_IF_ERROR(b.order_keys_sorted.reserve(n, "GpuRenderer: sorted depth keys"));
+      RGS_RETURN_IF_ERROR(b.order_identity.reserve(n, "GpuRenderer: Gaussian ids"));
+      RGS_RETURN_IF_ERROR(b.order.reserve(n, "GpuRenderer: depth order"));
+      RGS_RETURN_IF_CUDA_ERROR(kernels::depth_sort_keys(source.fp32.means, n, frame, b.order_keys.data(),
+                                                        b.order_identity.data(), stream),
+                               "GpuRenderer: depth key kernel");
+      size_t bytes = 0;
+      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(nullptr, &bytes, b.order_keys.data(), b.order_keys_sorted.data(),
+                                                   b.order_identity.data(), b.order.data(), n, 32, stream),
+                               "GpuRenderer: depth sort size query");
+      RGS_RETURN_IF_ERROR(b.order_temp.reserve(bytes, "GpuRenderer: depth sort scratch"));
+      bytes = b.order_temp.bytes();
+      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.order_temp.data(), &bytes, b.order_keys.data(),
+                                                   b.order_keys_sorted.data(), b.order_identity.data(),
+                                                   b.order.data(), n, 32, stream),
+                               "GpuRenderer: depth sort");
+      order = b.order.data();
+    }
+    const kernels::RoofgsProjected projected = b.roofgs_projected();
+    if (options.fused_preprocess) {
+      const uint32_t blocks = kernels::fused_blocks(n);
+      RGS_RETURN_IF_ERROR(b.fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
+      RGS_RETURN_IF_ERROR(b.fused_status.reserve(blocks, "GpuRenderer: fused block status"));
+      RGS_RETURN_IF_ERROR(b.fused_total.reserve(1, "GpuRenderer: fused pair total"));
+      const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
+      // Capacity: what the pair buffers hold now (sized by earlier frames), at least 4 pairs per Gaussian.
+      uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 4);
+      for (int attempt = 0;; ++attempt) {
+        RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, stats->sort_bits, stream));
+        capacity = b.values.size();
+        RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, order, projected, scratch,
+                                                                  capacity, b.keys64.data(), b.keys32.data(),
+                                                                  b.values.data(), stream),
+                                 "GpuRenderer: fused preprocess kernel");
+        RGS_ASSIGN_OR_RETURN(pairs, b.read_back(b.fused_total.data(), stream));
+        if (pairs <= capacity) break;
+        RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
+                            "GpuRenderer: fused kernel pair count changed between identical runs");
+        capacity = pairs;
+        ++stats->fused_relaunches;
+      }
+    } else {
+      RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
+      RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
+      RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
+      RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, order, projected, stream),
+                               "GpuRenderer: preprocess kernel");
+      RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));
+      if (pairs > 0) {
+        RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, stats->sort_bits, stream));
+        RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), order, n, frame, rf,
+                                                           b.keys64.data(), b.keys32.data(), b.values.data(),
+                                                           stream),
+                                 "GpuRenderer: duplicate kernel");
+      }
+    }
+  }
+  stats->pairs = pairs;
+  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
+
+  // Stable radix sort: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
+  if (pairs > 0) {
+    size_t sort_bytes = b.sort_temp.bytes();
+    const cudaError_t sorted =
+        t.key32 ? kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys32.data(), b.keys32_sorted.data(),
+                                      b.values.data(), b.values_sorted.data(), pairs, stats->sort_bits, stream)
+                : kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(), b.keys64_sorted.data(),
+                                      b.values.data(), b.values_sorted.data(), pairs, stats->sort_bits, stream);
+    RGS_RETURN_IF_CUDA_ERROR(sorted, "GpuRenderer: radix sort");
+  }
+  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
+
+  RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
+  const cudaError_t ranged =
+      t.key32 ? kernels::tile_ranges(b.keys32_sorted.data(), pairs, rf.key_depth_bits, num_tiles, b.ranges.data(),
+                                     stream)
+              : kernels::tile_ranges(b.keys64_sorted.data(), pairs, 32, num_tiles, b.ranges.data(), stream);
+  RGS_RETURN_IF_CUDA_ERROR(ranged, "GpuRenderer: tile ranges kernel");
+  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
+
+  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp};
+  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), b.values_sorted.data(), b.roofgs_projected(), frame,
+                                                  rf, raster, image->view(), stream),
+                           "GpuRenderer: render kernel");
+  return Status();
 }
 
 }  // namespace rgs::runtime

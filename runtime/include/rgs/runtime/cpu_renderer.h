@@ -10,47 +10,12 @@
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
-#include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
 #include "rgs/runtime/camera.h"
+#include "rgs/runtime/roofgs_options.h"
 
 namespace rgs::runtime {
-
-/// RoofGS techniques of the renderer (DESIGN.md "RoofGS pipeline"); each switch is independent, and with all
-/// of them off the renderer is the 3DGS baseline, bit for bit. Compact attributes (item 1) need no switch:
-/// render the dequantized cloud of a .rgs file.
-struct RoofgsOptions {
-  /// 32-bit keys (item 2): tile id in the high b_t = ceil(log2(num_tiles)) bits, depth quantized to
-  /// b_d = 32 − b_t bits over [z_near, z_far] = [max(near, d_c − r), d_c + r] from the scene's bounding sphere
-  /// (centre at view depth d_c, radius r); Gaussians outside that range (up to a rounding margin,
-  /// FrameSetup::cull_z_min/max) are culled. Stable sort (ties keep Gaussian index order). Needs
-  /// RenderOptions::scene_bounds.
-  bool key32 = false;
-  /// SnugBox + AccuTile (item 4): cull o ≤ 1/255, and give each Gaussian exactly the tiles whose pixel
-  /// centres its alpha ≥ 1/255 ellipse reaches (kernels/shared/tile_culling.h) instead of the 3DGS rectangle.
-  bool snugbox_accutile = false;
-  /// With snugbox_accutile: also limit the tiles to the baseline 3DGS rectangle, so culling only removes
-  /// tiles (at o close to 1 the 1/255 ellipse reaches 3.33σ, past the baseline's 3σ radius). Off reproduces
-  /// Speedy-Splat, which then adds contributions the baseline does not have.
-  bool accutile_within_baseline_rect = true;
-  /// Folded coefficients C1..C6 in tile-local coordinates with the dual-pixel update (item 5): each
-  /// "thread" shades (x, y) and (x, y+1), the second through P(x, y+1) = P(x, y) + C2·x + C3·(2y+1) + C5.
-  /// α = min(0.99, exp(P)) with P = power + ln(o); a pair is skipped when P > 0 (the folded form of the
-  /// baseline's power > 0 guard).
-  bool folded_coefficients = false;
-  /// Schraudolph fast exp (item 6): α = min(0.99, exp̂(P)), P = power + ln(o) (folded or not).
-  bool fast_exp = false;
-  /// σ of the fast exp: kFastExpSigmaMinMax (0.045677, the paper's) or e.g. kFastExpSigmaZeroMean.
-  float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
-
-  /// All four techniques on (the paper's combination), default σ.
-  static RoofgsOptions all() {
-    RoofgsOptions o;
-    o.key32 = o.snugbox_accutile = o.folded_coefficients = o.fast_exp = true;
-    return o;
-  }
-};
 
 /// Options of render_cpu().
 struct RenderOptions {
@@ -168,6 +133,12 @@ Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera
 Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera& camera,
                                const RenderOptions& options);
 
+/// The 32-bit key's layout for `camera` (frame->tiles_x/y already set): tile and depth bits, the depth range
+/// [z_near, z_far] from the bounding sphere, its quantizer and culling bounds (RoofgsOptions::key32). Shared
+/// with the GPU renderer. Errors: kInvalidArgument (no bounds, non-finite sphere), kLimitExceeded (fewer
+/// than 8 depth bits left).
+Status setup_depth_key(const Camera& camera, const std::optional<format::SceneBounds>& bounds, FrameSetup* frame);
+
 /// Stage 1 (3DGS preprocessCUDA): one ProjectedGaussian per input Gaussian, in input order. Multithreaded
 /// over Gaussians; deterministic. `frame` comes from setup_frame() for the same inputs.
 std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera,
@@ -175,7 +146,8 @@ std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud
                                               RenderStats* stats);
 
 /// Stages 2–4 (3DGS duplicateWithKeys, radix sort, identifyTileRanges): emits the pairs of every Gaussian in
-/// index order (its tiles row-major, or in AccuTile's walk order), sorts them stably by key (equal keys keep
+/// index order, or (depth, index) order with RoofgsOptions::depth_order (its tiles row-major, or in
+/// AccuTile's walk order), sorts them stably by key (equal keys keep
 /// Gaussian index order), and computes per-tile ranges.
 /// @return kOutOfMemory if the pair buffers cannot be allocated.
 Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,

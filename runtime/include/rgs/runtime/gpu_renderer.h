@@ -14,6 +14,7 @@
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/device_buffer.h"
 #include "rgs/runtime/gpu_scene.h"
+#include "rgs/runtime/roofgs_options.h"
 
 namespace rgs::runtime {
 
@@ -49,8 +50,31 @@ struct HostImage {
 /// Copies `image` to the host on `stream` and waits. Errors: kCudaError.
 Result<HostImage> download(const DeviceImage& image, cudaStream_t stream = nullptr);
 
+/// Which pipeline renders a frame.
+enum class GpuPipeline {
+  kBaseline,  ///< the 3DGS rasterizer, faithfully (kernels/baseline_pipeline.h)
+  kRoofgs,    ///< the RoofGS pipeline with the techniques of GpuRoofgsOptions (kernels/roofgs_pipeline.h)
+};
+
+/// Techniques of the RoofGS pipeline; every combination is valid (ablation). All off renders what the
+/// baseline renders.
+struct GpuRoofgsOptions {
+  /// Read the compact .rgs sections (FP16 geometry, INT8 SH) straight from device memory and dequantize in
+  /// registers (paper item 1); needs GpuScene::has_compact(). Off: read the FP32 arrays.
+  bool compact_attributes = true;
+  /// One fused kernel for preprocess + tile duplication + keys, pairs allocated in Gaussian order by a
+  /// decoupled look-back (deterministic); off: separate preprocess, scan and duplicate kernels.
+  bool fused_preprocess = true;
+  /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
+  /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
+  RoofgsOptions techniques = RoofgsOptions::all();
+};
+
 /// Options of GpuRenderer::render().
 struct GpuRenderOptions {
+  GpuPipeline pipeline = GpuPipeline::kBaseline;
+  /// Used when pipeline == kRoofgs.
+  GpuRoofgsOptions roofgs;
   /// Background colour (linear RGB, out = C + T·bg).
   std::array<float, 3> background = {0.f, 0.f, 0.f};
   /// Record CUDA events around each stage and fill GpuRenderStats::times (waits for the frame to finish).
@@ -68,14 +92,17 @@ struct GpuRenderStats {
   uint64_t gaussians = 0;      ///< input Gaussians
   uint64_t pairs = 0;          ///< (tile, Gaussian) pairs sorted
   uint32_t tiles_x = 0, tiles_y = 0;
-  int sort_bits = 0;           ///< key bits the radix sort covered (32 + ceil(log2(tiles)) for the baseline)
+  int sort_bits = 0;           ///< key bits the radix sort covered (32 + ceil(log2(tiles)) for 64-bit keys, 32)
+  int key_tile_bits = 0, key_depth_bits = 0;  ///< 32-bit key layout (0 without it)
+  float z_near = 0, z_far = 0; ///< 32-bit key depth range (0 without it)
+  uint32_t fused_relaunches = 0;  ///< fused kernel runs repeated because the pair buffer had to grow
   bool timed = false;          ///< times is valid (GpuRenderOptions::time_stages)
   StageTimes times;
 };
 
-/// Renders scenes with the 3DGS baseline pipeline (kernels/baseline_pipeline.h): the same conventions and
-/// per-Gaussian bits as render_cpu() (runtime/cpu_renderer.h); pixels differ from it only through the
-/// device's expf. Keeps its scratch buffers between frames and grows them as needed (by a quarter more
+/// Renders scenes with the 3DGS baseline pipeline or the RoofGS pipeline (GpuRenderOptions::pipeline). Both
+/// follow render_cpu() (runtime/cpu_renderer.h) with the same RoofgsOptions: the same conventions and
+/// per-Gaussian bits; pixels differ from it only through the device's expf and logf. Keeps its scratch buffers between frames and grows them as needed (by a quarter more
 /// than asked), so a steady sequence of frames allocates nothing. Not thread-safe; one renderer per
 /// stream. Move-only.
 ///
@@ -91,7 +118,9 @@ class GpuRenderer {
 
   /// Renders `scene` from `camera` into `image`, resized to the camera's size (with a depth plane if it
   /// already had one), all work on `stream`. When it returns ok the frame is enqueued (and finished if
-  /// options.time_stages). Errors: kInvalidArgument (validate_camera(), background not finite),
+  /// options.time_stages). Errors: kInvalidArgument (validate_camera(), background not finite, fast exp σ
+  /// outside [0, 1), compact attributes of a scene without them, the 32-bit key without scene bounds),
+  /// kLimitExceeded (an image too large for the 32-bit key),
   /// kOutOfMemory (pair buffers too large for the device: the message gives the pair count; the renderer
   /// frees what it held and stays usable), kCudaError (a failed launch or copy, naming the stage).
   Result<GpuRenderStats> render(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
@@ -103,6 +132,11 @@ class GpuRenderer {
  private:
   GpuRenderer() = default;
   struct Buffers;
+  Status render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, bool timed, DeviceImage* image,
+                         GpuRenderStats* stats, cudaStream_t stream);
+  Status render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
+                       const GpuRoofgsOptions& options, bool timed, DeviceImage* image, GpuRenderStats* stats,
+                       cudaStream_t stream);
   std::unique_ptr<Buffers> buffers_;  // scratch buffers and events (gpu_renderer.cpp)
 };
 

@@ -1,0 +1,123 @@
+// The RoofGS pipeline's stages as host-callable CUDA launches (paper §§ "Compact attributes",
+// "Resolution-Adaptive Sorting-Key Encoding", "Fused preprocessing", "Rasterization Reorganization for
+// Dual-Pixel ILP", "Range-aware fast exponential"; DESIGN.md "RoofGS pipeline"), each technique switchable
+// at run time through RoofgsFrame so that every ablation runs the same code. With every switch off the stages
+// compute exactly what the baseline's do. The CPU reference's RoofGS mode (runtime/cpu_renderer.h) does the
+// same math on the host; kernels are compiled with --fmad=false to match it term by term.
+//
+//   [depth_order]            Gaussians stably sorted by view depth (optional; see RoofgsFrame::depth_order)
+//   preprocess_roofgs        per Gaussian, as the baseline, plus SnugBox culling, depth bins, ln o
+//   + inclusive_scan + duplicate_roofgs      (separate stages), or
+//   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs
+//   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
+//   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
+//                            the fast exp
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include <cstddef>
+#include <cstdint>
+
+#include "rgs/kernels/baseline_pipeline.h"
+#include "rgs/kernels/device_scene.h"
+#include "rgs/kernels/shared/sort_key.h"
+
+namespace rgs::kernels {
+
+/// Technique switches and per-frame key layout of a RoofGS frame (passed by value).
+struct RoofgsFrame {
+  /// Read the compact .rgs sections (FP16 geometry, INT8 SH) and dequantize in registers; else FP32.
+  bool compact = false;
+  /// 32-bit keys: tile << b_d | depth bin; Gaussians with depth outside [cull_z_min, cull_z_max] culled.
+  bool key32 = false;
+  /// SnugBox + AccuTile tile culling (kernels/shared/tile_culling.h); cull o ≤ 1/255.
+  bool snugbox_accutile = false;
+  /// With snugbox_accutile: limit the tiles to the baseline rectangle (see runtime::RoofgsOptions).
+  bool accutile_within_baseline_rect = true;
+  /// Fast exp α = min(0.99, exp̂(P)) with this σ (kernels/shared/fast_exp.h).
+  bool fast_exp = false;
+  float fast_exp_sigma = 0.045677f;
+  /// key32 layout: depth bits b_d (tile bits 32 − b_d) and the per-camera quantizer.
+  int key_depth_bits = 0;
+  DepthQuantizer quantizer{0, 0, 0, 0, 0};
+  float cull_z_min = 0, cull_z_max = 0;
+  bool empty_depth_range = false;
+};
+
+/// Per-Gaussian outputs of the RoofGS preprocess, device arrays indexed by Gaussian id (N entries each),
+/// except tiles_touched, which is indexed by emission position (see `order` below).
+struct RoofgsProjected {
+  float* depths = nullptr;          ///< [N] view-space z
+  float* means2d = nullptr;         ///< [N, 2] pixel mean
+  float* conic_opacity = nullptr;   ///< [N, 4] conic (a, b, c) and opacity o
+  float* log_opacities = nullptr;   ///< [N] ln o (folded into C6 / the fast exp's argument)
+  float* rgb = nullptr;             ///< [N, 3]
+  float* cov2d = nullptr;           ///< [N, 3] dilated 2D covariance (xx, xy, yy) for SnugBox (separate stages)
+  float* snug_t = nullptr;          ///< [N] SnugBox threshold 2·ln(255·o) (separate stages)
+  int32_t* radii = nullptr;         ///< [N] 3DGS radius; 0 = culled
+  uint32_t* depth_bins = nullptr;   ///< [N] key32 depth bin
+  uint64_t* tiles_touched = nullptr;///< [N] tiles of Gaussian order[t] at position t; 0 = culled
+};
+
+/// Source attributes of a frame: `compact` when RoofgsFrame::compact, else `fp32`.
+struct GaussianSource {
+  Fp32GaussiansView fp32;
+  CompactGaussiansView compact;
+  uint32_t count = 0;
+};
+
+/// Writes keys[i] = float bits of Gaussian i's view depth (0xFFFFFFFF when z ≤ near or not finite: such
+/// Gaussians are culled later anyway) and values[i] = i, for sort_pairs(…, 32 bits) → an emission `order`
+/// by (depth, index): with it, pairs whose 32-bit keys tie (same tile and depth bin) keep exact depth order
+/// through the stable pair sort, which removes the depth-key quantization's ordering loss.
+cudaError_t depth_sort_keys(const float* means, uint32_t count, const FrameParams& frame, uint32_t* keys,
+                            uint32_t* values, cudaStream_t stream);
+
+/// Preprocess (separate stages). Thread t handles Gaussian g = order ? order[t] : t: writes its per-Gaussian
+/// outputs at g and its tile count at tiles_touched[t] (0 when culled).
+cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& frame, const RoofgsFrame& roofgs,
+                              const uint32_t* order, const RoofgsProjected& out, cudaStream_t stream);
+
+/// Duplication (separate stages). Thread t handles Gaussian g = order ? order[t] : t and writes its pairs
+/// at [offsets[t−1], offsets[t]) (inclusive scan of tiles_touched): its tiles in row-major order, or in
+/// AccuTile's walk order; key = key32 ? tile << b_d | bin : tile << 32 | float_bits(depth); value = g.
+cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* offsets, const uint32_t* order,
+                             uint32_t count, const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t* keys64,
+                             uint32_t* keys32, uint32_t* values, cudaStream_t stream);
+
+/// Scratch of the fused kernel's order-preserving allocation (decoupled look-back over thread blocks).
+struct FusedScratch {
+  uint32_t* block_ticket = nullptr;        ///< [1], zeroed by the launcher
+  unsigned long long* block_status = nullptr;  ///< [blocks], zeroed by the launcher
+  unsigned long long* total_pairs = nullptr;   ///< [1] out: pairs of the frame (even beyond capacity)
+};
+
+/// Number of FusedScratch::block_status entries for `count` Gaussians.
+uint32_t fused_blocks(uint32_t count);
+
+/// One kernel for preprocess + tile count + allocation + key/value generation (paper's fused kernel). Block
+/// b's pairs start after all pairs of blocks < b (decoupled look-back, one status word per block), so pairs
+/// come out in emission order exactly as with the separate stages: output is deterministic. Pairs at
+/// positions ≥ capacity are not written; *total_pairs always receives the full count, and the caller runs
+/// the kernel again with enough capacity when it exceeds `capacity`.
+cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
+                                    const RoofgsFrame& roofgs, const uint32_t* order, const RoofgsProjected& out,
+                                    const FusedScratch& scratch, uint64_t capacity, uint64_t* keys64,
+                                    uint32_t* keys32, uint32_t* values, cudaStream_t stream);
+
+/// Rasterizer switches.
+struct RasterOptions {
+  /// Folded C1..C6 in tile-local coordinates, hoisted pixel terms, two vertically adjacent pixels per thread.
+  bool folded = false;
+  /// Fast exp (σ from RoofgsFrame) instead of expf.
+  bool fast_exp = false;
+};
+
+/// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,
+/// α = min(0.99, exp(P)), P = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 (skip P > 0), 16×8 threads per tile.
+cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values, const RoofgsProjected& projected,
+                          const FrameParams& frame, const RoofgsFrame& roofgs, const RasterOptions& raster,
+                          const ImageView& image, cudaStream_t stream);
+
+}  // namespace rgs::kernels

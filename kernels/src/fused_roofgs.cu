@@ -1,0 +1,114 @@
+// The fused RoofGS kernel: preprocess + tile count + allocation + key/value generation in one pass. Pair
+// space is allocated per thread block in block order by a decoupled look-back (Merrill & Garland, "Single-pass
+// Parallel Prefix Scan with Decoupled Look-back", 2016): block b publishes its pair count, then adds its
+// predecessors' counts until it meets one that published an inclusive prefix. Pairs therefore land exactly
+// where the separate stages (scan + duplicate) put them, in emission order, and every frame is deterministic
+// (an atomicAdd per block, as the public RoofGS code uses, orders blocks by arrival instead).
+#include <cub/block/block_scan.cuh>
+
+#include "launch_util.cuh"
+#include "roofgs_gaussian.cuh"
+
+namespace rgs::kernels {
+namespace {
+
+// Status word of a block: flag in the top 2 bits, pair count in the low 62.
+constexpr unsigned long long kFlagAggregate = 1ull << 62;
+constexpr unsigned long long kFlagInclusive = 2ull << 62;
+constexpr unsigned long long kValueMask = (1ull << 62) - 1;
+
+__device__ inline void publish(unsigned long long* word, unsigned long long value) {
+  __threadfence();
+  atomicExch(word, value);
+}
+
+/// Exclusive prefix of block `block` (sum of the pair counts of blocks < block); publishes its own
+/// aggregate first and its inclusive prefix last. Called by one thread per block.
+__device__ unsigned long long look_back(unsigned long long* status, uint32_t block, unsigned long long aggregate) {
+  if (block == 0) {
+    publish(&status[0], kFlagInclusive | aggregate);
+    return 0;
+  }
+  publish(&status[block], kFlagAggregate | aggregate);
+  unsigned long long exclusive = 0;
+  for (int64_t j = int64_t(block) - 1; j >= 0;) {
+    const unsigned long long word = atomicAdd(&status[j], 0ull);  // coherent read
+    if (word == 0) continue;  // block j has not published yet: spin (it started before us, so it will)
+    exclusive += word & kValueMask;
+    if ((word & ~kValueMask) == kFlagInclusive) break;
+    --j;
+  }
+  publish(&status[block], kFlagInclusive | (exclusive + aggregate));
+  return exclusive;
+}
+
+template <bool kCompact>
+__global__ void __launch_bounds__(detail::kBlockSize)
+    fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, const uint32_t* order,
+                 RoofgsProjected out, FusedScratch scratch, uint64_t capacity, uint64_t* keys64, uint32_t* keys32,
+                 uint32_t* values) {
+  using BlockScan = cub::BlockScan<uint32_t, detail::kBlockSize>;
+  __shared__ typename BlockScan::TempStorage scan_storage;
+  __shared__ uint32_t block_id;
+  __shared__ unsigned long long block_base;
+
+  // Blocks take ids in the order they start, so every predecessor a block waits for is already running.
+  if (threadIdx.x == 0) block_id = atomicAdd(scratch.block_ticket, 1u);
+  __syncthreads();
+  const uint32_t block = block_id;
+  const uint32_t t = block * detail::kBlockSize + threadIdx.x;
+
+  detail::ProjectedRegs p;
+  p.tiles = 0;
+  uint32_t g = 0;
+  if (t < src.count) {
+    g = order != nullptr ? order[t] : t;
+    if (detail::project_gaussian<kCompact>(src, g, frame, roofgs, &p)) {
+      detail::store_projected(p, g, out);
+    } else {
+      out.radii[g] = 0;
+      p.tiles = 0;
+    }
+  }
+
+  // Per-thread tile counts are < 2^17 · 2^15 at most; a block's sum fits in 32 bits (256 · 2^32 would not,
+  // but one Gaussian never exceeds the grid's tile count, ≤ 2^22 for 32768² images).
+  uint32_t local_offset = 0, block_total = 0;
+  BlockScan(scan_storage).ExclusiveSum(p.tiles, local_offset, block_total);
+  if (threadIdx.x == 0) {
+    const unsigned long long exclusive = look_back(scratch.block_status, block, block_total);
+    block_base = exclusive;
+    if (block == gridDim.x - 1) *scratch.total_pairs = exclusive + block_total;
+  }
+  __syncthreads();
+  if (p.tiles > 0) {
+    detail::emit_pairs(p, g, block_base + local_offset, capacity, frame, roofgs, keys64, keys32, values);
+  }
+}
+
+}  // namespace
+
+uint32_t fused_blocks(uint32_t count) { return detail::blocks_for(count); }
+
+cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
+                                    const RoofgsFrame& roofgs, const uint32_t* order, const RoofgsProjected& out,
+                                    const FusedScratch& scratch, uint64_t capacity, uint64_t* keys64,
+                                    uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
+  const uint32_t blocks = fused_blocks(source.count);
+  cudaError_t result = cudaMemsetAsync(scratch.block_ticket, 0, sizeof(uint32_t), stream);
+  if (result == cudaSuccess) {
+    result = cudaMemsetAsync(scratch.block_status, 0, sizeof(unsigned long long) * blocks, stream);
+  }
+  if (result == cudaSuccess) result = cudaMemsetAsync(scratch.total_pairs, 0, sizeof(unsigned long long), stream);
+  if (result != cudaSuccess || source.count == 0) return result;
+  if (roofgs.compact) {
+    fused_kernel<true><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch,
+                                                                  capacity, keys64, keys32, values);
+  } else {
+    fused_kernel<false><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch,
+                                                                   capacity, keys64, keys32, values);
+  }
+  return detail::launch_result();
+}
+
+}  // namespace rgs::kernels

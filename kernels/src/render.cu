@@ -1,0 +1,234 @@
+// The render stage (3DGS renderCUDA and its RoofGS reorganization). One thread block per 16×16 tile; the
+// tile's sorted Gaussians are fetched in batches into shared memory and blended front to back. Per-pixel
+// rules and their order are the CPU reference's (runtime/src/cpu_renderer.cpp blend_tile_baseline and
+// blend_tile_folded): skip power > 0 (P > 0), α = min(0.99, ·), skip α < 1/255, stop before the Gaussian
+// that would make T < 1e−4, out = C + T·bg; the block stops when all its pixels are done.
+#include "launch_util.cuh"
+#include "rgs/kernels/roofgs_pipeline.h"
+#include "rgs/kernels/shared/blend_math.h"
+#include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/tile_culling.h"
+
+namespace rgs::kernels {
+namespace {
+
+constexpr int kTilePixels = kTileSize * kTileSize;
+/// Threads per tile of the dual-pixel kernel: 16 × 8, each shading (x, y) and (x, y + 1).
+constexpr int kDualThreads = kTilePixels / 2;
+
+/// Per-Gaussian inputs of the render stage (device arrays indexed by Gaussian id).
+struct RenderInputs {
+  const float2* means2d;
+  const float4* conic_opacity;
+  const float* log_opacities;  // fast exp / folded only
+  const float* rgb;
+  const float* depths;
+};
+
+/// Running state of one pixel.
+struct Pixel {
+  float T = 1.f;
+  float C[3] = {0.f, 0.f, 0.f};
+  float depth_sum = 0.f, weight_sum = 0.f;
+  bool done = false;
+};
+
+/// Front-to-back step with an α that passed the 1/255 test (cpu_renderer.cpp blend_step).
+template <bool kDepth>
+__device__ inline void blend(Pixel& s, float alpha, float r, float g, float b, float depth) {
+  const float test_T = s.T * (1.f - alpha);
+  if (test_T < kTransmittanceMin) {
+    s.done = true;
+    return;
+  }
+  s.C[0] += r * alpha * s.T;
+  s.C[1] += g * alpha * s.T;
+  s.C[2] += b * alpha * s.T;
+  if (kDepth) {
+    const float w = alpha * s.T;
+    s.depth_sum += depth * w;
+    s.weight_sum += w;
+  }
+  s.T = test_T;
+}
+
+template <bool kDepth>
+__device__ inline void store(const Pixel& s, uint32_t x, uint32_t y, const FrameParams& frame, float4* rgba,
+                             float* depth) {
+  const uint64_t pix = uint64_t(y) * frame.width + x;
+  rgba[pix] = make_float4(s.C[0] + s.T * frame.background[0], s.C[1] + s.T * frame.background[1],
+                          s.C[2] + s.T * frame.background[2], 1.f - s.T);
+  if (kDepth) depth[pix] = s.weight_sum > 0.f ? s.depth_sum / s.weight_sum : 0.f;
+}
+
+/// One pixel per thread, unfolded power (3DGS renderCUDA). kFastExp: α = min(0.99, exp̂(power + ln o)).
+template <bool kFastExp, bool kDepth>
+__global__ void __launch_bounds__(kTilePixels)
+    render_pixel_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
+                        FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
+  const uint32_t tile = blockIdx.y * frame.tiles_x + blockIdx.x;
+  const uint32_t px = blockIdx.x * kTileSize + threadIdx.x;
+  const uint32_t py = blockIdx.y * kTileSize + threadIdx.y;
+  const uint32_t rank = threadIdx.y * kTileSize + threadIdx.x;
+  const bool inside = px < frame.width && py < frame.height;
+  const float pixf_x = static_cast<float>(px), pixf_y = static_cast<float>(py);
+  const uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
+
+  __shared__ uint32_t collected_id[kTilePixels];
+  __shared__ float2 collected_xy[kTilePixels];
+  __shared__ float4 collected_conic_opacity[kTilePixels];
+  __shared__ float collected_log_opacity[kFastExp ? kTilePixels : 1];
+
+  Pixel s;
+  s.done = !inside;
+  for (uint64_t batch = begin; batch < end; batch += kTilePixels) {
+    if (__syncthreads_count(s.done) == kTilePixels) break;
+    const uint64_t p = batch + rank;
+    if (p < end) {
+      const uint32_t id = values[p];
+      collected_id[rank] = id;
+      collected_xy[rank] = in.means2d[id];
+      collected_conic_opacity[rank] = in.conic_opacity[id];
+      if (kFastExp) collected_log_opacity[rank] = in.log_opacities[id];
+    }
+    __syncthreads();
+    const int in_batch = static_cast<int>(end - batch < kTilePixels ? end - batch : kTilePixels);
+    for (int j = 0; !s.done && j < in_batch; ++j) {
+      const float2 xy = collected_xy[j];
+      const float4 co = collected_conic_opacity[j];
+      const float power = baseline_power(Conic{co.x, co.y, co.z}, xy.x - pixf_x, xy.y - pixf_y);
+      if (power > 0.f) continue;
+      const float alpha = kFastExp ? fminf(kAlphaMax, fast_exp(power + collected_log_opacity[j], sigma))
+                                   : fminf(kAlphaMax, co.w * expf(power));
+      if (alpha < kAlphaMin) continue;
+      const uint32_t id = collected_id[j];
+      blend<kDepth>(s, alpha, in.rgb[3 * id], in.rgb[3 * id + 1], in.rgb[3 * id + 2], kDepth ? in.depths[id] : 0.f);
+    }
+  }
+  if (inside) store<kDepth>(s, px, py, frame, out_rgba, out_depth);
+}
+
+/// α of a folded power P, or a negative value when the pair is skipped (P > 0 or α < 1/255).
+template <bool kFastExp>
+__device__ inline float folded_alpha(float P, float sigma) {
+  if (P > 0.f) return -1.f;
+  const float alpha = fminf(kAlphaMax, kFastExp ? fast_exp(P, sigma) : expf(P));
+  return alpha < kAlphaMin ? -1.f : alpha;
+}
+
+/// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local
+/// coordinates; pixel terms hoisted; each thread shades (x, y) and (x, y + 1) with
+/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5.
+template <bool kFastExp, bool kDepth>
+__global__ void __launch_bounds__(kDualThreads)
+    render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
+                         FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
+  const uint32_t tile = blockIdx.y * frame.tiles_x + blockIdx.x;
+  const int lx = int(threadIdx.x), ly = 2 * int(threadIdx.y);
+  const uint32_t x = blockIdx.x * kTileSize + uint32_t(lx);
+  const uint32_t y = blockIdx.y * kTileSize + uint32_t(ly);
+  const uint32_t rank = threadIdx.y * kTileSize + threadIdx.x;
+  const float origin_x = static_cast<float>(blockIdx.x * kTileSize);
+  const float origin_y = static_cast<float>(blockIdx.y * kTileSize);
+  const PixelTerms terms = pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
+  const uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
+
+  __shared__ float4 collected_c1234[kDualThreads];
+  __shared__ float2 collected_c56[kDualThreads];
+  __shared__ float4 collected_rgbd[kDualThreads];  // r, g, b, depth
+
+  Pixel first, second;
+  first.done = !(x < frame.width && y < frame.height);
+  second.done = !(x < frame.width && y + 1 < frame.height);
+  for (uint64_t batch = begin; batch < end; batch += kDualThreads) {
+    if (__syncthreads_count(first.done && second.done) == kDualThreads) break;
+    const uint64_t p = batch + rank;
+    if (p < end) {
+      const uint32_t id = values[p];
+      const float2 mean = in.means2d[id];
+      const float4 co = in.conic_opacity[id];
+      const FoldedCoefficients f =
+          fold_coefficients(Conic{co.x, co.y, co.z}, mean.x - origin_x, mean.y - origin_y, in.log_opacities[id]);
+      collected_c1234[rank] = make_float4(f.c1, f.c2, f.c3, f.c4);
+      collected_c56[rank] = make_float2(f.c5, f.c6);
+      collected_rgbd[rank] = make_float4(in.rgb[3 * id], in.rgb[3 * id + 1], in.rgb[3 * id + 2],
+                                         kDepth ? in.depths[id] : 0.f);
+    }
+    __syncthreads();
+    const int in_batch = static_cast<int>(end - batch < kDualThreads ? end - batch : kDualThreads);
+    for (int j = 0; !(first.done && second.done) && j < in_batch; ++j) {
+      const float4 c1234 = collected_c1234[j];
+      const float2 c56 = collected_c56[j];
+      const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56.x, c56.y};
+      const float p_first = folded_power(f, terms);
+      const float p_second = dual_pixel_power(p_first, f, terms);
+      const float a_first = first.done ? -1.f : folded_alpha<kFastExp>(p_first, sigma);
+      const float a_second = second.done ? -1.f : folded_alpha<kFastExp>(p_second, sigma);
+      if (a_first >= 0.f || a_second >= 0.f) {
+        const float4 c = collected_rgbd[j];
+        if (a_first >= 0.f) blend<kDepth>(first, a_first, c.x, c.y, c.z, c.w);
+        if (a_second >= 0.f) blend<kDepth>(second, a_second, c.x, c.y, c.z, c.w);
+      }
+    }
+  }
+  if (x < frame.width && y < frame.height) store<kDepth>(first, x, y, frame, out_rgba, out_depth);
+  if (x < frame.width && y + 1 < frame.height) store<kDepth>(second, x, y + 1, frame, out_rgba, out_depth);
+}
+
+template <bool kFastExp>
+void launch_pixel(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
+                  float sigma, const ImageView& image, cudaStream_t stream) {
+  const dim3 grid(frame.tiles_x, frame.tiles_y), block(kTileSize, kTileSize);
+  auto* rgba = reinterpret_cast<float4*>(image.rgba);
+  if (image.depth != nullptr) {
+    render_pixel_kernel<kFastExp, true><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
+  } else {
+    render_pixel_kernel<kFastExp, false><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
+  }
+}
+
+template <bool kFastExp>
+void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
+                   float sigma, const ImageView& image, cudaStream_t stream) {
+  const dim3 grid(frame.tiles_x, frame.tiles_y), block(kTileSize, kTileSize / 2);
+  auto* rgba = reinterpret_cast<float4*>(image.rgba);
+  if (image.depth != nullptr) {
+    render_folded_kernel<kFastExp, true><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
+  } else {
+    render_folded_kernel<kFastExp, false><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
+  }
+}
+
+}  // namespace
+
+cudaError_t render_baseline(const uint64_t* ranges, const uint32_t* sorted_values, const ProjectedArrays& projected,
+                            const FrameParams& frame, const ImageView& image, cudaStream_t stream) {
+  const RenderInputs in{reinterpret_cast<const float2*>(projected.means2d),
+                        reinterpret_cast<const float4*>(projected.conic_opacity), nullptr, projected.rgb,
+                        projected.depths};
+  launch_pixel<false>(ranges, sorted_values, in, frame, 0.f, image, stream);
+  return detail::launch_result();
+}
+
+cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values, const RoofgsProjected& projected,
+                          const FrameParams& frame, const RoofgsFrame& roofgs, const RasterOptions& raster,
+                          const ImageView& image, cudaStream_t stream) {
+  const RenderInputs in{reinterpret_cast<const float2*>(projected.means2d),
+                        reinterpret_cast<const float4*>(projected.conic_opacity), projected.log_opacities,
+                        projected.rgb, projected.depths};
+  const float sigma = roofgs.fast_exp_sigma;
+  if (raster.folded) {
+    if (raster.fast_exp) {
+      launch_folded<true>(ranges, sorted_values, in, frame, sigma, image, stream);
+    } else {
+      launch_folded<false>(ranges, sorted_values, in, frame, sigma, image, stream);
+    }
+  } else if (raster.fast_exp) {
+    launch_pixel<true>(ranges, sorted_values, in, frame, sigma, image, stream);
+  } else {
+    launch_pixel<false>(ranges, sorted_values, in, frame, sigma, image, stream);
+  }
+  return detail::launch_result();
+}
+
+}  // namespace rgs::kernels

@@ -1,0 +1,51 @@
+// Switches of the RoofGS techniques, shared by the CPU reference renderer and the GPU renderer.
+#pragma once
+
+#include "rgs/kernels/shared/fast_exp.h"
+
+namespace rgs::runtime {
+
+/// RoofGS techniques of the renderer (DESIGN.md "RoofGS pipeline"); each switch is independent, and with all
+/// of them off the renderer is the 3DGS baseline, bit for bit. On the CPU, compact attributes (item 1) need
+/// no switch: render the dequantized cloud of a .rgs file. The GPU renderer adds the switches that only
+/// exist there (compact attributes read in registers, the fused kernel: gpu_renderer.h).
+struct RoofgsOptions {
+  /// 32-bit keys (item 2): tile id in the high b_t = ceil(log2(num_tiles)) bits, depth quantized to
+  /// b_d = 32 − b_t bits over [z_near, z_far] = [max(near, d_c − r), d_c + r] from the scene's bounding sphere
+  /// (centre at view depth d_c, radius r); Gaussians outside that range (up to a rounding margin,
+  /// FrameSetup::cull_z_min/max) are culled. Stable sort (ties keep Gaussian index order). Needs
+  /// RenderOptions::scene_bounds.
+  bool key32 = false;
+  /// SnugBox + AccuTile (item 4): cull o ≤ 1/255, and give each Gaussian exactly the tiles whose pixel
+  /// centres its alpha ≥ 1/255 ellipse reaches (kernels/shared/tile_culling.h) instead of the 3DGS rectangle.
+  bool snugbox_accutile = false;
+  /// With snugbox_accutile: also limit the tiles to the baseline 3DGS rectangle, so culling only removes
+  /// tiles (at o close to 1 the 1/255 ellipse reaches 3.33σ, past the baseline's 3σ radius). Off reproduces
+  /// Speedy-Splat, which then adds contributions the baseline does not have.
+  bool accutile_within_baseline_rect = true;
+  /// Folded coefficients C1..C6 in tile-local coordinates with the dual-pixel update (item 5): each
+  /// "thread" shades (x, y) and (x, y+1), the second through P(x, y+1) = P(x, y) + C2·x + C3·(2y+1) + C5.
+  /// α = min(0.99, exp(P)) with P = power + ln(o); a pair is skipped when P > 0 (the folded form of the
+  /// baseline's power > 0 guard).
+  bool folded_coefficients = false;
+  /// Schraudolph fast exp (item 6): α = min(0.99, exp̂(P)), P = power + ln(o) (folded or not).
+  bool fast_exp = false;
+  /// σ of the fast exp: kFastExpSigmaMinMax (0.045677, the paper's) or e.g. kFastExpSigmaZeroMean.
+  float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
+
+  /// Emit pairs in order of (view depth, Gaussian index) instead of Gaussian index (RoofGS+, beyond the
+  /// paper): pairs whose 32-bit keys tie (same tile and depth bin) then keep exact depth order through the
+  /// stable sort, which removes the quantized key's ordering loss (DESIGN.md: 47.5 dB on the worst flowers
+  /// view). Costs one sort of N Gaussians per frame on the GPU. No effect on the image without key32,
+  /// except for Gaussians at exactly equal depth.
+  bool depth_order = false;
+
+  /// All four techniques on (the paper's combination), default σ.
+  static RoofgsOptions all() {
+    RoofgsOptions o;
+    o.key32 = o.snugbox_accutile = o.folded_coefficients = o.fast_exp = true;
+    return o;
+  }
+};
+
+}  // namespace rgs::runtime
