@@ -392,7 +392,12 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                "GpuRenderer: depth sort");
       order = b.order.data();
     }
-    const kernels::RoofgsProjected projected = b.roofgs_projected();
+    if (!options.fused_preprocess) {
+      RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
+      RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
+      RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
+    }
+    const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
     if (options.fused_preprocess) {
       const uint32_t blocks = kernels::fused_blocks(n);
       RGS_RETURN_IF_ERROR(b.fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
@@ -416,9 +421,6 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
         ++stats->fused_relaunches;
       }
     } else {
-      RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
-      RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
-      RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
       RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, order, projected, stream),
                                "GpuRenderer: preprocess kernel");
       RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));

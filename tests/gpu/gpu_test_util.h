@@ -1,0 +1,219 @@
+// Helpers of the GPU suite: device detection with a visible skip, scenes on both sides (host cloud for the
+// CPU reference, GpuScene for the GPU), NaN-poisoned GPU renders, and image comparisons.
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <doctest/doctest.h>
+
+#include "render_test_util.h"  // tests/runtime: identity_camera, add_gaussian, read_ply access
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/writer.h"
+#include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/cuda_device.h"
+#include "rgs/runtime/gpu_renderer.h"
+#include "rgs/runtime/gpu_scene.h"
+#include "test_data.h"
+
+namespace rgs::test {
+
+/// True when a CUDA device is usable; otherwise prints the visible "skipped: no CUDA device" line.
+inline bool have_gpu() {
+  std::string why;
+  if (runtime::cuda_device_count(&why) > 0) return true;
+  MESSAGE("skipped: no CUDA device (" << why << ")");
+  return false;
+}
+
+/// A scene as the CPU reference sees it (FP32 cloud) and as the GPU holds it.
+struct GpuScenePair {
+  bool available = false;
+  format::GaussianCloud cloud;
+  format::SceneBounds bounds;
+  std::string cameras_path;  // flowers only
+  std::unique_ptr<runtime::GpuScene> gpu;
+};
+
+/// A cloud quantized in memory into a .rgs: the file (bytes owned here) and its dequantized values.
+struct CompactScene {
+  std::vector<uint8_t> bytes;
+  std::unique_ptr<format::RgsFile> file;
+  format::GaussianCloud dequantized;
+  format::SceneBounds bounds;
+};
+
+inline CompactScene make_compact(const format::GaussianCloud& cloud, bool zstd) {
+  CompactScene s;
+  auto encoded = converter::quantize(cloud, converter::QuantizeOptions{});
+  REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
+  format::WriteOptions options;
+  if (zstd) {
+    for (format::SectionId id : {format::SectionId::kMeans, format::SectionId::kRotations, format::SectionId::kScales,
+                                 format::SectionId::kOpacities, format::SectionId::kSh}) {
+      options.codecs[id] = format::Codec::kZstd;
+    }
+    options.zstd_level = 3;
+  }
+  auto bytes = format::serialize_scene(*encoded, options);
+  REQUIRE_MESSAGE(bytes.ok(), bytes.status().to_string());
+  s.bytes = std::move(bytes).value();
+  auto file = format::RgsFile::from_bytes(s.bytes.data(), s.bytes.size(), {}, "in-memory.rgs");
+  REQUIRE_MESSAGE(file.ok(), file.status().to_string());
+  s.file = std::make_unique<format::RgsFile>(std::move(file).value());
+  auto dequantized = format::dequantize(*encoded);
+  REQUIRE_MESSAGE(dequantized.ok(), dequantized.status().to_string());
+  s.dequantized = std::move(dequantized).value();
+  s.bounds = encoded->metadata.bounds;
+  return s;
+}
+
+/// Loads a PLY (FP32 on both sides) or a .rgs (dequantized on the host, compact sections on the GPU).
+inline GpuScenePair load_pair(const std::string& path) {
+  GpuScenePair s;
+  if (std::filesystem::path(path).extension() == ".rgs") {
+    auto file = format::RgsFile::open(path);
+    REQUIRE_MESSAGE(file.ok(), file.status().to_string());
+    auto encoded = file->read_scene();
+    REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
+    auto cloud = format::dequantize(*encoded);
+    REQUIRE_MESSAGE(cloud.ok(), cloud.status().to_string());
+    s.cloud = std::move(cloud).value();
+    s.bounds = file->metadata().bounds;
+    auto gpu = runtime::GpuScene::from_rgs(*file);
+    REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
+    s.gpu = std::make_unique<runtime::GpuScene>(std::move(gpu).value());
+  } else {
+    auto ply = converter::read_ply(path);
+    REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+    s.cloud = std::move(ply->cloud);
+    s.bounds = converter::compute_bounds(s.cloud);
+    auto gpu = runtime::GpuScene::from_cloud(s.cloud, s.bounds);
+    REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
+    s.gpu = std::make_unique<runtime::GpuScene>(std::move(gpu).value());
+  }
+  s.available = true;
+  return s;
+}
+
+/// A shared scene by stem: `<stem>.ply`, else `<stem>.rgs` (the GPU host gets big scenes as .rgs).
+inline std::string shared_scene_any(const std::string& stem) {
+  for (const char* ext : {".ply", ".rgs"}) {
+    const auto path = shared_data_dir() / (stem + ext);
+    if (std::filesystem::exists(path)) return path.string();
+  }
+  MESSAGE("skipped: " << stem << ".ply/.rgs not found in " << shared_data_dir().string());
+  return {};
+}
+
+inline const GpuScenePair& guitar() {
+  static const GpuScenePair s = load_pair(repo_path("samples/guitar.ply"));
+  return s;
+}
+
+inline const GpuScenePair& flowers_fp32() {
+  static const GpuScenePair s = [] {
+    const std::string ply = shared_scene("mipnerf360_flowers_c3dgs.ply");
+    const std::string cams = shared_scene("mipnerf360_flowers_cameras.json");
+    if (ply.empty() || cams.empty()) return GpuScenePair{};
+    GpuScenePair p = load_pair(ply);
+    p.cameras_path = cams;
+    return p;
+  }();
+  return s;
+}
+
+inline const GpuScenePair& daffodils() {
+  static const GpuScenePair s = [] {
+    const std::string path = shared_scene_any("playcanvas_flowers_lod0");
+    return path.empty() ? GpuScenePair{} : load_pair(path);
+  }();
+  return s;
+}
+
+struct GpuFrame {
+  std::vector<float> rgba;   // [H, W, 4]
+  std::vector<float> depth;  // [H, W] when asked for
+  runtime::GpuRenderStats stats;
+};
+
+/// Renders on the GPU into planes poisoned with NaN (0xFF bytes), so unwritten pixels fail comparisons.
+inline GpuFrame render_gpu(runtime::GpuRenderer& renderer, const runtime::GpuScene& scene,
+                           const runtime::Camera& camera, const runtime::GpuRenderOptions& options,
+                           bool with_depth) {
+  runtime::DeviceImage image;
+  REQUIRE(image.resize(camera.width, camera.height, with_depth).ok());
+  const size_t pixels = size_t(camera.width) * camera.height;
+  REQUIRE(cudaMemset(image.rgba(), 0xff, pixels * 4 * sizeof(float)) == cudaSuccess);
+  if (with_depth) REQUIRE(cudaMemset(image.depth(), 0xff, pixels * sizeof(float)) == cudaSuccess);
+  auto stats = renderer.render(scene, camera, options, &image);
+  REQUIRE_MESSAGE(stats.ok(), stats.status().to_string());
+  auto host = runtime::download(image);
+  REQUIRE_MESSAGE(host.ok(), host.status().to_string());
+  return GpuFrame{std::move(host->rgba), std::move(host->depth), *stats};
+}
+
+/// PSNR (values clamped to [0, 1], peak 1) and max |Δ| of the RGB channels of a GPU RGBA image against an
+/// RGB image; any NaN in the GPU image is reported.
+struct Diff {
+  double psnr = std::numeric_limits<double>::infinity();
+  double max_abs = 0;
+  bool any_nan = false;
+};
+
+inline Diff compare_rgb(const std::vector<float>& rgba, const std::vector<float>& rgb) {
+  REQUIRE(rgba.size() / 4 == rgb.size() / 3);
+  Diff d;
+  double se = 0;
+  const size_t pixels = rgb.size() / 3;
+  for (size_t p = 0; p < pixels; ++p) {
+    for (int c = 0; c < 3; ++c) {
+      const float g = rgba[p * 4 + c], r = rgb[p * 3 + c];
+      if (std::isnan(g)) d.any_nan = true;
+      d.max_abs = std::max(d.max_abs, std::fabs(double(g) - double(r)));
+      const double e = double(std::clamp(g, 0.f, 1.f)) - double(std::clamp(r, 0.f, 1.f));
+      se += e * e;
+    }
+  }
+  if (se > 0) d.psnr = 10.0 * std::log10(double(pixels * 3) / se);
+  if (d.any_nan) d.psnr = -std::numeric_limits<double>::infinity();
+  return d;
+}
+
+inline std::vector<float> rgb_of(const std::vector<float>& rgba) {
+  std::vector<float> rgb(rgba.size() / 4 * 3);
+  for (size_t p = 0; p < rgba.size() / 4; ++p) {
+    for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = rgba[p * 4 + c];
+  }
+  return rgb;
+}
+
+/// True when every pixel is exactly (bg, alpha 0).
+inline bool all_background(const std::vector<float>& rgba, const std::array<float, 3>& bg) {
+  for (size_t p = 0; p < rgba.size() / 4; ++p) {
+    if (rgba[p * 4] != bg[0] || rgba[p * 4 + 1] != bg[1] || rgba[p * 4 + 2] != bg[2] || rgba[p * 4 + 3] != 0.f) {
+      return false;
+    }
+  }
+  return true;
+}
+
+/// Copies `count` floats from device memory.
+inline std::vector<float> download_floats(const float* device, size_t count) {
+  std::vector<float> host(count);
+  if (count > 0) {
+    REQUIRE(cudaMemcpy(host.data(), device, count * sizeof(float), cudaMemcpyDeviceToHost) == cudaSuccess);
+  }
+  return host;
+}
+
+}  // namespace rgs::test
