@@ -28,13 +28,14 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
 fi
 
 if [ "$what" = bench ] || [ "$what" = all ]; then
-  flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply"
+  flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
+  modes=(--mode baseline --mode roofgs)
   "$bin/rgs-bench" "$flowers" --cameras "$cameras" --every 8 --resolution 1920x1080 --resolution 3840x2160 \
-    --warmup 5 --repeat 20 --json "$out/bench_flowers.json" >"$out/bench_flowers.log" 2>&1 || status=1
+    "${modes[@]}" --warmup 5 --repeat 10 --json "$out/bench_flowers.json" >"$out/bench_flowers.log" 2>&1 || status=1
   "$bin/rgs-bench" "$daffodils" --orbit 8 --resolution 1920x1080 --resolution 3840x2160 \
-    --warmup 5 --repeat 20 --json "$out/bench_daffodils.json" >"$out/bench_daffodils.log" 2>&1 || status=1
+    "${modes[@]}" --warmup 5 --repeat 10 --json "$out/bench_daffodils.json" >"$out/bench_daffodils.log" 2>&1 || status=1
   tail -n 30 "$out/bench_flowers.log" "$out/bench_daffodils.log" | tee -a "$summary"
 fi
 echo

@@ -29,6 +29,8 @@ for exe in "$stage"/bin/*; do
 done
 
 cp "$data/mipnerf360_flowers_c3dgs.ply" "$data/mipnerf360_flowers_cameras.json" "$stage/data/"
+# flowers also as a .rgs, so the benchmark's RoofGS mode reads compact attributes.
+"$build/tools/rgs-convert" -q "$data/mipnerf360_flowers_c3dgs.ply" "$stage/data/mipnerf360_flowers_c3dgs.rgs"
 daffodils="$stage/data/playcanvas_flowers_lod0.rgs"
 if [ ! -f "$daffodils" ] || [ "$data/playcanvas_flowers_lod0.ply" -nt "$daffodils" ]; then
   "$build/tools/rgs-convert" -q "$data/playcanvas_flowers_lod0.ply" "$daffodils" --zstd all --zstd-level 3
