@@ -5,6 +5,7 @@
 #include <cuda_runtime_api.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -19,6 +20,7 @@
 #include "rgs/converter/quantize.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
+#include "rgs/runtime/camera.h"
 #include "rgs/runtime/cpu_renderer.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_renderer.h"
@@ -77,30 +79,39 @@ inline CompactScene make_compact(const format::GaussianCloud& cloud, bool zstd) 
   return s;
 }
 
-/// Loads a PLY (FP32 on both sides) or a .rgs (dequantized on the host, compact sections on the GPU).
-inline GpuScenePair load_pair(const std::string& path) {
+/// The pair of a .rgs file: the GPU uploads its compact sections and dequantizes them on the device
+/// (GpuScene::from_rgs); the CPU reference renders format::dequantize(file.read_scene()), the same values
+/// bit for bit. The file (and the bytes behind it) may go away afterwards.
+inline GpuScenePair pair_from_rgs(const format::RgsFile& file) {
   GpuScenePair s;
+  auto encoded = file.read_scene();
+  REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
+  auto cloud = format::dequantize(*encoded);
+  REQUIRE_MESSAGE(cloud.ok(), cloud.status().to_string());
+  s.cloud = std::move(cloud).value();
+  s.bounds = file.metadata().bounds;
+  auto gpu = runtime::GpuScene::from_rgs(file);
+  REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
+  s.gpu = std::make_unique<runtime::GpuScene>(std::move(gpu).value());
+  s.available = true;
+  return s;
+}
+
+/// Loads a PLY (FP32 on both sides) or a .rgs (pair_from_rgs).
+inline GpuScenePair load_pair(const std::string& path) {
   if (std::filesystem::path(path).extension() == ".rgs") {
     auto file = format::RgsFile::open(path);
     REQUIRE_MESSAGE(file.ok(), file.status().to_string());
-    auto encoded = file->read_scene();
-    REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
-    auto cloud = format::dequantize(*encoded);
-    REQUIRE_MESSAGE(cloud.ok(), cloud.status().to_string());
-    s.cloud = std::move(cloud).value();
-    s.bounds = file->metadata().bounds;
-    auto gpu = runtime::GpuScene::from_rgs(*file);
-    REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
-    s.gpu = std::make_unique<runtime::GpuScene>(std::move(gpu).value());
-  } else {
-    auto ply = converter::read_ply(path);
-    REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
-    s.cloud = std::move(ply->cloud);
-    s.bounds = converter::compute_bounds(s.cloud);
-    auto gpu = runtime::GpuScene::from_cloud(s.cloud, s.bounds);
-    REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
-    s.gpu = std::make_unique<runtime::GpuScene>(std::move(gpu).value());
+    return pair_from_rgs(*file);
   }
+  GpuScenePair s;
+  auto ply = converter::read_ply(path);
+  REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+  s.cloud = std::move(ply->cloud);
+  s.bounds = converter::compute_bounds(s.cloud);
+  auto gpu = runtime::GpuScene::from_cloud(s.cloud, s.bounds);
+  REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
+  s.gpu = std::make_unique<runtime::GpuScene>(std::move(gpu).value());
   s.available = true;
   return s;
 }
@@ -132,12 +143,47 @@ inline const GpuScenePair& flowers_fp32() {
   return s;
 }
 
+/// Flowers as a .rgs for the baseline's device-dequantization path: the staged
+/// `mipnerf360_flowers_c3dgs.rgs` when RGS_DATA_DIR has one (the GPU host does), else the PLY quantized in
+/// memory with zstd sections (which also exercises from_rgs's pinned zstd upload).
+inline const GpuScenePair& flowers_rgs() {
+  static const GpuScenePair s = [] {
+    const std::string cams = shared_scene("mipnerf360_flowers_cameras.json");
+    if (cams.empty()) return GpuScenePair{};
+    const auto staged = shared_data_dir() / "mipnerf360_flowers_c3dgs.rgs";
+    GpuScenePair p;
+    if (std::filesystem::exists(staged)) {
+      p = load_pair(staged.string());
+    } else {
+      const GpuScenePair& fp32 = flowers_fp32();
+      if (!fp32.available) return GpuScenePair{};
+      const CompactScene compact = make_compact(fp32.cloud, true);
+      p = pair_from_rgs(*compact.file);
+    }
+    p.cameras_path = cams;
+    return p;
+  }();
+  return s;
+}
+
 inline const GpuScenePair& daffodils() {
   static const GpuScenePair s = [] {
     const std::string path = shared_scene_any("playcanvas_flowers_lod0");
     return path.empty() ? GpuScenePair{} : load_pair(path);
   }();
   return s;
+}
+
+/// Cameras of an INRIA cameras.json (every `every`-th, from the first), scaled to width × height.
+inline std::vector<runtime::Camera> flowers_cameras(const std::string& path, uint32_t every, uint32_t width,
+                                                    uint32_t height) {
+  runtime::InriaCameraOptions options;
+  options.every_kth = every;
+  options.width = width;
+  options.height = height;
+  auto cams = runtime::load_inria_cameras(path, options);
+  REQUIRE_MESSAGE(cams.ok(), cams.status().to_string());
+  return std::move(cams).value();
 }
 
 struct GpuFrame {
@@ -163,7 +209,7 @@ inline GpuFrame render_gpu(runtime::GpuRenderer& renderer, const runtime::GpuSce
 }
 
 /// PSNR (values clamped to [0, 1], peak 1) and max |Δ| of the RGB channels of a GPU RGBA image against an
-/// RGB image; any NaN in the GPU image is reported.
+/// RGB image; a NaN anywhere in the GPU image (RGB or alpha: the poison of an unwritten pixel) is reported.
 struct Diff {
   double psnr = std::numeric_limits<double>::infinity();
   double max_abs = 0;
@@ -176,9 +222,10 @@ inline Diff compare_rgb(const std::vector<float>& rgba, const std::vector<float>
   double se = 0;
   const size_t pixels = rgb.size() / 3;
   for (size_t p = 0; p < pixels; ++p) {
+    if (std::isnan(rgba[p * 4 + 3])) d.any_nan = true;  // an unwritten alpha (poison) counts too
     for (int c = 0; c < 3; ++c) {
       const float g = rgba[p * 4 + c], r = rgb[p * 3 + c];
-      if (std::isnan(g)) d.any_nan = true;
+      if (std::isnan(g)) d.any_nan = true;  // std::max below would drop a NaN silently
       d.max_abs = std::max(d.max_abs, std::fabs(double(g) - double(r)));
       const double e = double(std::clamp(g, 0.f, 1.f)) - double(std::clamp(r, 0.f, 1.f));
       se += e * e;

@@ -50,16 +50,6 @@ const CompactFlowers& compact_flowers() {
   return scene;
 }
 
-std::vector<Camera> flowers_cameras(const std::string& path, uint32_t every, uint32_t width, uint32_t height) {
-  runtime::InriaCameraOptions options;
-  options.every_kth = every;
-  options.width = width;
-  options.height = height;
-  auto cams = runtime::load_inria_cameras(path, options);
-  REQUIRE_MESSAGE(cams.ok(), cams.status().to_string());
-  return std::move(cams).value();
-}
-
 GpuRenderOptions roofgs_options(const RoofgsOptions& techniques, bool compact = true, bool fused = true) {
   GpuRenderOptions o;
   o.pipeline = GpuPipeline::kRoofgs;
