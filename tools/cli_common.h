@@ -27,6 +27,19 @@ std::string sci(double value);
 /// Seconds since `start`.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
+/// An image size in pixels.
+struct Resolution {
+  uint32_t width = 0, height = 0;
+};
+
+/// Parses "WIDTHxHEIGHT" ("1920x1080", 'X' also accepted) or a name: 720p (1280x720), 1080p (1920x1080),
+/// 1440p (2560x1440), 4k or 2160p (3840x2160). Each side must be in [1, 32768].
+/// @return kInvalidArgument naming `text` and the accepted forms.
+Result<Resolution> parse_resolution(const std::string& text);
+
+/// "1920x1080".
+std::string resolution_string(const Resolution& resolution);
+
 /// Lower-case file extension including the dot (".ply"), "" when none.
 std::string extension_of(const std::string& path);
 

@@ -1,70 +1,82 @@
+// image_write.h: the library-free formats (PPM/PGM, PFM) and the dispatch by extension.
 #include "image_write.h"
 
-#include <OpenImageIO/imageio.h>
+#include <cstring>
 
-#include <filesystem>
-#include <memory>
-#include <system_error>
+#include "cli_common.h"
+#include "rgs/format/file_io.h"
 
 namespace rgs::tools {
 
-namespace {
-
-/// Writes through a temporary named "<dir>/.<file>.tmp" with the format chosen by name, then renames.
-Status write_image(const std::string& path, const char* format_name, const OIIO::ImageSpec& spec,
-                   OIIO::TypeDesc type, const void* data) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path tmp = target.parent_path() / ("." + target.filename().string() + ".tmp");
-  auto out = OIIO::ImageOutput::create(format_name);
-  if (!out) return Status(StatusCode::kIoError, path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
-  if (!out->open(tmp.string(), spec)) {
-    return Status(StatusCode::kIoError, path + ": cannot write: " + out->geterror());
-  }
-  const bool written = out->write_image(type, data);
-  const bool closed = out->close();
-  if (!written || !closed) {
-    const std::string why = out->geterror();
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    return Status(StatusCode::kIoError, path + ": write failed: " + why);
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    return Status(StatusCode::kIoError, path + ": cannot rename the temporary into place: " + ec.message());
-  }
-  return Status::ok_status();
+Status no_openimageio_error(const std::string& path, const std::string& what) {
+  return Status(StatusCode::kUnsupportedFeature,
+                path + ": " + what + " needs OpenImageIO, and this build has none (RGS_WITH_OPENIMAGEIO=OFF); "
+                "write PPM/PGM (8-bit) or PFM (float) instead");
 }
 
-}  // namespace
-
-Status write_png8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                  const std::vector<uint8_t>& pixels) {
+Status write_netpbm8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+                     const std::vector<uint8_t>& pixels) {
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || (channels != 1 && channels != 3) ||
                           pixels.size() != size_t{width} * height * channels,
-                      StatusCode::kInvalidArgument, path + ": image size does not match its pixel buffer");
-  OIIO::ImageSpec spec(static_cast<int>(width), static_cast<int>(height), static_cast<int>(channels),
-                       OIIO::TypeDesc::UINT8);
-  return write_image(path, "png", spec, OIIO::TypeDesc::UINT8, pixels.data());
+                      StatusCode::kInvalidArgument,
+                      path + ": " + std::to_string(pixels.size()) + " bytes given for a " + std::to_string(width) +
+                          "x" + std::to_string(height) + "x" + std::to_string(channels) + " image");
+  std::string bytes = (channels == 3 ? "P6\n" : "P5\n") + std::to_string(width) + " " + std::to_string(height) +
+                      "\n255\n";
+  const size_t header = bytes.size();
+  bytes.resize(header + pixels.size());
+  std::memcpy(bytes.data() + header, pixels.data(), pixels.size());
+  return format::write_file_atomic(path, bytes.data(), bytes.size());
 }
 
-Status write_exr_rgba(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
-                      const std::vector<float>& alpha) {
-  const size_t n = size_t{width} * height;
-  RGS_RETURN_ERROR_IF(n == 0 || rgb.size() != n * 3 || alpha.size() != n, StatusCode::kInvalidArgument,
-                      path + ": image size does not match its pixel buffers");
-  std::vector<float> rgba(n * 4);
-  for (size_t i = 0; i < n; ++i) {
-    rgba[i * 4 + 0] = rgb[i * 3 + 0];
-    rgba[i * 4 + 1] = rgb[i * 3 + 1];
-    rgba[i * 4 + 2] = rgb[i * 3 + 2];
-    rgba[i * 4 + 3] = alpha[i];
+Status write_pfm_rgb(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb) {
+  const size_t row = size_t{width} * 3;
+  RGS_RETURN_ERROR_IF(width == 0 || height == 0 || rgb.size() != row * height, StatusCode::kInvalidArgument,
+                      path + ": " + std::to_string(rgb.size()) + " floats given for a " + std::to_string(width) +
+                          "x" + std::to_string(height) + " RGB image");
+  static_assert(sizeof(float) == 4, "PFM stores IEEE float32");
+  // Scale −1.0 declares little-endian samples: written byte by byte, whatever the host's order.
+  std::string bytes = "PF\n" + std::to_string(width) + " " + std::to_string(height) + "\n-1.0\n";
+  size_t at = bytes.size();
+  bytes.resize(at + rgb.size() * 4);
+  for (uint32_t y = 0; y < height; ++y) {  // PFM rows run bottom to top
+    const float* src = rgb.data() + (height - 1 - y) * row;
+    for (size_t i = 0; i < row; ++i) {
+      uint32_t u;
+      std::memcpy(&u, &src[i], 4);
+      for (int b = 0; b < 4; ++b) bytes[at++] = static_cast<char>((u >> (8 * b)) & 0xffu);
+    }
   }
-  OIIO::ImageSpec spec(static_cast<int>(width), static_cast<int>(height), 4, OIIO::TypeDesc::FLOAT);
-  spec.alpha_channel = 3;
-  return write_image(path, "openexr", spec, OIIO::TypeDesc::FLOAT, rgba.data());
+  return format::write_file_atomic(path, bytes.data(), bytes.size());
+}
+
+Status check_image8_path(const std::string& path, uint32_t channels) {
+  const std::string ext = extension_of(path);
+  if (ext == ".png") return have_openimageio() ? Status::ok_status() : no_openimageio_error(path, "PNG output");
+  if (ext == ".ppm") return Status::ok_status();
+  if (ext == ".pgm") {
+    RGS_RETURN_ERROR_IF(channels != 1, StatusCode::kInvalidArgument,
+                        path + ": PGM holds grey images; write a " + std::to_string(channels) +
+                            "-channel image as .ppm" + (have_openimageio() ? " or .png" : ""));
+    return Status::ok_status();
+  }
+  return Status(StatusCode::kInvalidArgument,
+                path + ": unknown image extension '" + ext + "' (use " +
+                    (have_openimageio() ? ".png, " : "") + ".ppm or .pgm)");
+}
+
+Status write_image8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+                    const std::vector<uint8_t>& pixels) {
+  RGS_RETURN_IF_ERROR(check_image8_path(path, channels));
+  const std::string ext = extension_of(path);
+  if (ext == ".png") return write_png8(path, width, height, channels, pixels);
+  if (ext == ".pgm" || channels == 3) return write_netpbm8(path, width, height, channels, pixels);
+  // .ppm of a grey image: repeat the grey into RGB.
+  RGS_RETURN_ERROR_IF(channels != 1 || pixels.size() != size_t{width} * height, StatusCode::kInvalidArgument,
+                      path + ": image size does not match its pixel buffer");
+  std::vector<uint8_t> rgb(pixels.size() * 3);
+  for (size_t i = 0; i < pixels.size(); ++i) rgb[i * 3] = rgb[i * 3 + 1] = rgb[i * 3 + 2] = pixels[i];
+  return write_netpbm8(path, width, height, 3, rgb);
 }
 
 }  // namespace rgs::tools

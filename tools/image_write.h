@@ -1,4 +1,7 @@
-// PNG and EXR output through OpenImageIO (host-only tools; GPU binaries use runtime/image_io.h instead).
+// Image output of rgs-render and rgs-audit. PPM/PGM (8-bit) and PFM (float) are written here without any
+// library, so they exist in every build; PNG and EXR go through OpenImageIO and exist only when the build has
+// it (CMake option RGS_WITH_OPENIMAGEIO; GPU-host builds leave it OFF, GPU.md). Every writer is atomic: a
+// temporary in the same directory, renamed over `path` on success (format::write_file_atomic).
 #pragma once
 
 #include <cstdint>
@@ -9,16 +12,49 @@
 
 namespace rgs::tools {
 
-/// Writes an 8-bit PNG atomically (a temporary in the same directory, renamed on success).
+/// True when this build writes PNG and EXR (linked with OpenImageIO).
+bool have_openimageio();
+
+/// The error every PNG/EXR request gets in a build without OpenImageIO: kUnsupportedFeature naming `path`,
+/// the option that asked for it and the PPM/PFM alternative.
+Status no_openimageio_error(const std::string& path, const std::string& what);
+
+/// Writes an 8-bit PNG. Needs OpenImageIO.
 /// @param pixels  [H, W, channels] uint8, row-major, top row first; channels 1 (grey) or 3 (RGB).
-/// @return kInvalidArgument on a size mismatch; kIoError naming `path` with OpenImageIO's message.
+/// @return kInvalidArgument on a size mismatch; kIoError naming `path` with OpenImageIO's message;
+///         kUnsupportedFeature in a build without OpenImageIO.
 Status write_png8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                   const std::vector<uint8_t>& pixels);
 
-/// Writes a float32 RGBA OpenEXR file atomically: linear RGB as rendered (not clamped) and alpha = 1 − T.
+/// Writes a float32 RGBA OpenEXR file: linear RGB as rendered (not clamped) and alpha = 1 − T. Needs
+/// OpenImageIO.
 /// @param rgb    [H, W, 3] float32.  @param alpha  [H, W] float32.
-/// @return kInvalidArgument on a size mismatch; kIoError naming `path`.
+/// @return kInvalidArgument on a size mismatch; kIoError naming `path`; kUnsupportedFeature in a build
+///         without OpenImageIO.
 Status write_exr_rgba(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
                       const std::vector<float>& alpha);
+
+/// Writes a binary Netpbm image: P6 (PPM) for 3 channels, P5 (PGM) for 1, maxval 255, top row first.
+/// @param pixels  [H, W, channels] uint8, row-major; channels 1 or 3.
+/// @return kInvalidArgument on a size mismatch; kIoError naming `path`.
+Status write_netpbm8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+                     const std::vector<uint8_t>& pixels);
+
+/// Writes a colour PFM ("PF", scale −1.0 = little-endian): float32 RGB, linear, not clamped. PFM stores the
+/// bottom row first; `rgb` is top row first as everywhere else and is flipped on writing. No alpha channel.
+/// @param rgb  [H, W, 3] float32.
+/// @return kInvalidArgument on a size mismatch; kIoError naming `path`.
+Status write_pfm_rgb(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb);
+
+/// Checks, before any work, that write_image8 can write `path` with `channels` channels in this build.
+/// @return kInvalidArgument for an unknown extension or .pgm with 3 channels; kUnsupportedFeature for .png
+///         without OpenImageIO.
+Status check_image8_path(const std::string& path, uint32_t channels);
+
+/// Writes an 8-bit image in the format its extension names: .png (OpenImageIO), .ppm (P6; grey is repeated
+/// into RGB) or .pgm (P5, 1 channel only).
+/// @return kInvalidArgument for another extension or .pgm with 3 channels; the writer's errors otherwise.
+Status write_image8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+                    const std::vector<uint8_t>& pixels);
 
 }  // namespace rgs::tools

@@ -59,6 +59,10 @@ struct ViewResult {
 
 int run(Options opt) {
   const auto t_start = Clock::now();
+  if (!opt.heatmap_path.empty()) {
+    Status heatmap_ok = tools::check_image8_path(opt.heatmap_path, 1);
+    if (!heatmap_ok.ok()) return tools::report_error(kTool, heatmap_ok);
+  }
   auto ply = converter::read_ply(opt.ply_path);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
   auto file = format::RgsFile::open(opt.rgs_path);
@@ -157,7 +161,7 @@ int run(Options opt) {
   const double ssim_mean = ssim_sum / static_cast<double>(views.size());
 
   if (!opt.heatmap_path.empty()) {
-    Status st = tools::write_png8(opt.heatmap_path, worst_w, worst_h, 1, worst_heat);
+    Status st = tools::write_image8(opt.heatmap_path, worst_w, worst_h, 1, worst_heat);
     if (!st.ok()) return tools::report_error(kTool, st);
   }
 
@@ -289,7 +293,8 @@ int main(int argc, char** argv) {
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
   app.add_option("--json", opt.json_path, "Write the report as JSON");
-  app.add_option("--heatmap", opt.heatmap_path, "Write |difference| of the worst view as a grey PNG");
+  app.add_option("--heatmap", opt.heatmap_path,
+                 "Write |difference| of the worst view as a grey image: .png (needs OpenImageIO), .pgm or .ppm");
   auto* minp = app.add_option("--min-psnr", opt.min_psnr, "Exit 1 when the lowest per-view PSNR is below DB");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {

@@ -23,9 +23,11 @@ bool has_rgs_magic(const std::string& path) {
 }
 }  // namespace
 
+bool is_rgs_path(const std::string& path) { return has_rgs_magic(path) || extension_of(path) == ".rgs"; }
+
 Result<LoadedScene> load_scene(const std::string& path) {
   LoadedScene scene;
-  if (has_rgs_magic(path) || extension_of(path) == ".rgs") {
+  if (is_rgs_path(path)) {
     RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
     RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
     auto cloud = format::dequantize(encoded);

@@ -23,6 +23,10 @@ struct LoadedScene {
   uint64_t file_bytes = 0;
 };
 
+/// True when `path` is to be read as a .rgs file: it starts with the .rgs magic or ends in .rgs (so a
+/// missing or truncated "x.rgs" still gets the .rgs reader's error).
+bool is_rgs_path(const std::string& path);
+
 /// Loads `path`: a .rgs file (RgsFile::open + read_scene + dequantize) when it starts with the .rgs magic or
 /// ends in .rgs, otherwise a 3DGS PLY (converter::read_ply, invalid values rejected). Errors name `path`.
 Result<LoadedScene> load_scene(const std::string& path);

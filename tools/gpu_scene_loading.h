@@ -1,0 +1,34 @@
+// Loading a scene straight into GPU memory for rgs-render --backend cuda and rgs-bench. Built only with
+// RGS_WITH_CUDA (rgs/config.h: RGS_HAS_CUDA).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+#include "rgs/runtime/gpu_scene.h"
+
+namespace rgs::tools {
+
+/// A scene in device memory, with what the tools print about it.
+struct LoadedGpuScene {
+  runtime::GpuScene scene;
+  /// .rgs: the file's metadata bounds; PLY: converter::compute_bounds (also given to the GpuScene).
+  format::SceneBounds bounds;
+  /// True for a .rgs input (then scene.has_compact()); sniffed by its magic or the .rgs extension.
+  bool is_rgs = false;
+  uint64_t file_bytes = 0;
+};
+
+/// Checks that a CUDA device can be used and makes `ordinal` current. Errors: kUnsupportedFeature when the
+/// CUDA runtime sees no device (the message carries runtime::cuda_device_count's reason) or `ordinal` is out
+/// of range; kCudaError from cudaSetDevice.
+Status require_cuda_device(int ordinal = 0);
+
+/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open and
+/// runtime::GpuScene::from_rgs (sections uploaded as stored, no host decode), otherwise a 3DGS PLY through
+/// converter::read_ply and GpuScene::from_cloud with converter::compute_bounds. Errors name `path`.
+Result<LoadedGpuScene> load_gpu_scene(const std::string& path);
+
+}  // namespace rgs::tools

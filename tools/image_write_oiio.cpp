@@ -1,0 +1,73 @@
+// image_write.h: PNG and EXR through OpenImageIO (built only with RGS_WITH_OPENIMAGEIO).
+#include "image_write.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <filesystem>
+#include <memory>
+#include <system_error>
+
+namespace rgs::tools {
+
+namespace {
+
+/// Writes through a temporary named "<dir>/.<file>.tmp" with the format chosen by name, then renames.
+Status write_image(const std::string& path, const char* format_name, const OIIO::ImageSpec& spec,
+                   OIIO::TypeDesc type, const void* data) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  const fs::path tmp = target.parent_path() / ("." + target.filename().string() + ".tmp");
+  auto out = OIIO::ImageOutput::create(format_name);
+  if (!out) return Status(StatusCode::kIoError, path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
+  if (!out->open(tmp.string(), spec)) {
+    return Status(StatusCode::kIoError, path + ": cannot write: " + out->geterror());
+  }
+  const bool written = out->write_image(type, data);
+  const bool closed = out->close();
+  if (!written || !closed) {
+    const std::string why = out->geterror();
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    return Status(StatusCode::kIoError, path + ": write failed: " + why);
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    return Status(StatusCode::kIoError, path + ": cannot rename the temporary into place: " + ec.message());
+  }
+  return Status::ok_status();
+}
+
+}  // namespace
+
+bool have_openimageio() { return true; }
+
+Status write_png8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+                  const std::vector<uint8_t>& pixels) {
+  RGS_RETURN_ERROR_IF(width == 0 || height == 0 || (channels != 1 && channels != 3) ||
+                          pixels.size() != size_t{width} * height * channels,
+                      StatusCode::kInvalidArgument, path + ": image size does not match its pixel buffer");
+  OIIO::ImageSpec spec(static_cast<int>(width), static_cast<int>(height), static_cast<int>(channels),
+                       OIIO::TypeDesc::UINT8);
+  return write_image(path, "png", spec, OIIO::TypeDesc::UINT8, pixels.data());
+}
+
+Status write_exr_rgba(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
+                      const std::vector<float>& alpha) {
+  const size_t n = size_t{width} * height;
+  RGS_RETURN_ERROR_IF(n == 0 || rgb.size() != n * 3 || alpha.size() != n, StatusCode::kInvalidArgument,
+                      path + ": image size does not match its pixel buffers");
+  std::vector<float> rgba(n * 4);
+  for (size_t i = 0; i < n; ++i) {
+    rgba[i * 4 + 0] = rgb[i * 3 + 0];
+    rgba[i * 4 + 1] = rgb[i * 3 + 1];
+    rgba[i * 4 + 2] = rgb[i * 3 + 2];
+    rgba[i * 4 + 3] = alpha[i];
+  }
+  OIIO::ImageSpec spec(static_cast<int>(width), static_cast<int>(height), 4, OIIO::TypeDesc::FLOAT);
+  spec.alpha_channel = 3;
+  return write_image(path, "openexr", spec, OIIO::TypeDesc::FLOAT, rgba.data());
+}
+
+}  // namespace rgs::tools

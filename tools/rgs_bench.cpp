@@ -1,0 +1,456 @@
+// rgs-bench: per-stage GPU frame times of the CUDA renderer (GPU.md "Time with CUDA events after warm-up,
+// median of many frames over several camera views"). Built only with RGS_WITH_CUDA; never links OpenImageIO,
+// so it runs on the GPU host.
+//
+//   rgs-bench scene.rgs --cameras cameras.json --every 8 --resolution 1080p --resolution 4k --json bench.json
+//   rgs-bench scene.ply --orbit 16 --warmup 10 --repeat 50
+//   rgs-bench scene.rgs --orbit 16 --mode baseline --mode roofgs --mode only-snugbox
+//
+// For every mode and resolution: W warm-up frames, then R repetitions of every view (views in turn), each
+// frame timed with CUDA events per stage (GpuRenderOptions::time_stages). Reported: the median over
+// views × repetitions of each stage separately (so the stage medians need not add up to the total's), FPS =
+// 1000 / median total, the mean (tile, Gaussian) pair count over views, with the device, scene, Gaussian
+// count and date. Exit status: 0 ok, 1 failure (no device, scene, render), 2 usage error.
+
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "cli_common.h"
+#include "gpu_scene_loading.h"
+#include "rgs/config.h"
+#include "rgs/format/file_io.h"
+#include "rgs/runtime/camera.h"
+#include "rgs/runtime/cuda_device.h"
+#include "rgs/runtime/gpu_renderer.h"
+#include "scene_loading.h"
+
+namespace {
+
+using namespace rgs;
+using Clock = std::chrono::steady_clock;
+constexpr const char* kTool = "rgs-bench";
+
+// ---------------------------------------------------------------------------------------------------------
+// Modes: what is benchmarked. Each turns into GpuRenderOptions for a scene (or says why it cannot run on it);
+// new variants go in all_modes().
+
+struct BenchMode {
+  std::string name;
+  std::string description;
+  /// Render options for `scene`, or why the mode cannot run on it (kInvalidArgument).
+  std::function<Result<runtime::GpuRenderOptions>(const tools::LoadedGpuScene& scene)> options;
+};
+
+/// The RoofGS pipeline with the given switches; compact attributes need a .rgs scene.
+Result<runtime::GpuRenderOptions> roofgs_options(const tools::LoadedGpuScene& scene, bool compact, bool fused,
+                                                 const runtime::RoofgsOptions& techniques, const char* mode) {
+  RGS_RETURN_ERROR_IF(compact && !scene.scene.has_compact(), StatusCode::kInvalidArgument,
+                      std::string("mode ") + mode + " reads compact attributes, which only a .rgs scene has");
+  runtime::GpuRenderOptions o;
+  o.pipeline = runtime::GpuPipeline::kRoofgs;
+  o.roofgs.compact_attributes = compact;
+  o.roofgs.fused_preprocess = fused;
+  o.roofgs.techniques = techniques;
+  return o;
+}
+
+/// One RoofGS technique alone, for the ablation ("only-<name>").
+BenchMode only_mode(const std::string& name, const std::string& what, bool compact, bool fused,
+                    void (*set)(runtime::RoofgsOptions&)) {
+  return {"only-" + name, "RoofGS pipeline with only " + what + " on",
+          [=](const tools::LoadedGpuScene& scene) {
+            runtime::RoofgsOptions t;  // all off
+            if (set != nullptr) set(t);
+            return roofgs_options(scene, compact, fused, t, ("only-" + name).c_str());
+          }};
+}
+
+const std::vector<BenchMode>& all_modes() {
+  static const std::vector<BenchMode> modes = {
+      {"baseline", "3DGS rasterizer (FP32 attributes, 64-bit keys, 3-sigma rectangles, expf)",
+       [](const tools::LoadedGpuScene&) -> Result<runtime::GpuRenderOptions> {
+         runtime::GpuRenderOptions o;
+         o.pipeline = runtime::GpuPipeline::kBaseline;
+         return o;
+       }},
+      {"roofgs", "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused "
+                 "kernel, 32-bit key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677)",
+       [](const tools::LoadedGpuScene& scene) {
+         return roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(), "roofgs");
+       }},
+      {"roofgs+", "roofgs with depth order and fast exp sigma 0.05798",
+       [](const tools::LoadedGpuScene& scene) {
+         runtime::RoofgsOptions t = runtime::RoofgsOptions::all();
+         t.depth_order = true;
+         t.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
+         return roofgs_options(scene, scene.scene.has_compact(), true, t, "roofgs+");
+       }},
+      {"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)",
+       [](const tools::LoadedGpuScene& scene) {
+         return roofgs_options(scene, false, false, runtime::RoofgsOptions{}, "roofgs-none");
+       }},
+      only_mode("compact", "compact attributes (needs a .rgs scene)", true, false, nullptr),
+      only_mode("fused", "the fused preprocess kernel", false, true, nullptr),
+      only_mode("key32", "the 32-bit key", false, false, [](runtime::RoofgsOptions& t) { t.key32 = true; }),
+      only_mode("snugbox", "SnugBox + AccuTile", false, false,
+                [](runtime::RoofgsOptions& t) { t.snugbox_accutile = true; }),
+      only_mode("folded", "the folded dual-pixel rasterizer", false, false,
+                [](runtime::RoofgsOptions& t) { t.folded_coefficients = true; }),
+      only_mode("fastexp", "the fast exp", false, false, [](runtime::RoofgsOptions& t) { t.fast_exp = true; }),
+  };
+  return modes;
+}
+
+const BenchMode* find_mode(const std::string& name) {
+  for (const BenchMode& m : all_modes()) {
+    if (m.name == name) return &m;
+  }
+  return nullptr;
+}
+
+std::vector<std::string> mode_names() {
+  std::vector<std::string> names;
+  for (const BenchMode& m : all_modes()) names.push_back(m.name);
+  return names;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+struct Options {
+  std::string input;
+  tools::CameraChoice cameras;
+  std::vector<std::string> resolutions;  ///< as given; parsed (and checked) at parse time
+  std::vector<std::string> modes = {"baseline"};
+  uint32_t warmup = 5;
+  uint32_t repeat = 20;
+  int device = 0;
+  std::string json_path;
+};
+
+constexpr int kStages = 5;
+constexpr const char* kStageNames[kStages] = {"preprocess", "sort", "ranges", "render", "total"};
+
+float stage_ms(const runtime::StageTimes& t, int stage) {
+  switch (stage) {
+    case 0: return t.preprocess_ms;
+    case 1: return t.sort_ms;
+    case 2: return t.ranges_ms;
+    case 3: return t.render_ms;
+    default: return t.total_ms;
+  }
+}
+
+/// Median, mean, min and max of one stage's samples.
+struct Summary {
+  double median = 0, mean = 0, min = 0, max = 0;
+};
+
+Summary summarize(std::vector<float> v) {
+  Summary s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  s.median = (n % 2 == 1) ? v[n / 2] : 0.5 * (double(v[n / 2 - 1]) + double(v[n / 2]));
+  double sum = 0;
+  for (float x : v) sum += x;
+  s.mean = sum / double(n);
+  s.min = v.front();
+  s.max = v.back();
+  return s;
+}
+
+nlohmann::json summary_json(const Summary& s) {
+  return {{"median", s.median}, {"mean", s.mean}, {"min", s.min}, {"max", s.max}};
+}
+
+struct ViewResult {
+  std::string name;
+  uint32_t width = 0, height = 0;
+  uint64_t pairs = 0;
+  int sort_bits = 0;
+  std::vector<float> samples[kStages];  ///< one per repetition
+};
+
+/// One mode at one resolution.
+struct RunResult {
+  std::string mode;
+  std::string resolution;  ///< "1920x1080", or "native" for cameras.json sizes
+  std::vector<ViewResult> views;
+  Summary stages[kStages];
+  double fps = 0;
+  double mean_pairs = 0;
+};
+
+/// A group of cameras at one resolution.
+struct CameraSet {
+  std::string label;
+  std::vector<runtime::Camera> cameras;
+};
+
+Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format::SceneBounds& bounds) {
+  std::vector<tools::Resolution> sizes;
+  for (const std::string& text : opt.resolutions) {
+    RGS_ASSIGN_OR_RETURN(tools::Resolution r, tools::parse_resolution(text));
+    sizes.push_back(r);
+  }
+  std::vector<CameraSet> sets;
+  if (!opt.cameras.cameras_path.empty()) {
+    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> native, tools::make_cameras(opt.cameras, bounds));
+    RGS_RETURN_ERROR_IF(native.empty(), StatusCode::kInvalidArgument,
+                        opt.cameras.cameras_path + ": no views selected");
+    if (sizes.empty()) {
+      sets.push_back({"native", std::move(native)});
+      return sets;
+    }
+    for (const tools::Resolution& r : sizes) {
+      CameraSet set{tools::resolution_string(r), {}};
+      for (const runtime::Camera& c : native) set.cameras.push_back(runtime::resize_camera(c, r.width, r.height));
+      sets.push_back(std::move(set));
+    }
+    return sets;
+  }
+  if (sizes.empty()) sizes.push_back({opt.cameras.orbit_width, opt.cameras.orbit_height});
+  for (const tools::Resolution& r : sizes) {
+    tools::CameraChoice choice = opt.cameras;
+    choice.width = r.width;
+    choice.height = r.height;
+    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> cams, tools::make_cameras(choice, bounds));
+    sets.push_back({tools::resolution_string(r), std::move(cams)});
+  }
+  return sets;
+}
+
+/// Runs one mode over one camera set: warm-up, then `repeat` rounds over the views.
+Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runtime::GpuRenderOptions& base_options,
+                          const tools::LoadedGpuScene& scene, const CameraSet& set, runtime::GpuRenderer& renderer,
+                          runtime::DeviceImage& image) {
+  runtime::GpuRenderOptions options = base_options;
+  options.time_stages = true;
+  const size_t n = set.cameras.size();
+  for (uint32_t i = 0; i < opt.warmup; ++i) {
+    const runtime::Camera& cam = set.cameras[i % n];
+    auto stats = renderer.render(scene.scene, cam, options, &image);
+    if (!stats.ok()) return Status(stats.status()).prepend("warm-up, view " + cam.name);
+  }
+  RunResult run;
+  run.mode = mode.name;
+  run.resolution = set.label;
+  run.views.resize(n);
+  for (size_t v = 0; v < n; ++v) {
+    run.views[v].name = set.cameras[v].name;
+    run.views[v].width = set.cameras[v].width;
+    run.views[v].height = set.cameras[v].height;
+  }
+  for (uint32_t r = 0; r < opt.repeat; ++r) {
+    for (size_t v = 0; v < n; ++v) {
+      const runtime::Camera& cam = set.cameras[v];
+      auto stats = renderer.render(scene.scene, cam, options, &image);
+      if (!stats.ok()) return Status(stats.status()).prepend("view " + cam.name);
+      RGS_RETURN_ERROR_IF(!stats->timed, StatusCode::kCudaError, "view " + cam.name + ": the frame was not timed");
+      ViewResult& vr = run.views[v];
+      vr.pairs = stats->pairs;
+      vr.sort_bits = stats->sort_bits;
+      for (int s = 0; s < kStages; ++s) vr.samples[s].push_back(stage_ms(stats->times, s));
+    }
+  }
+  double pair_sum = 0;
+  for (int s = 0; s < kStages; ++s) {
+    std::vector<float> all;
+    for (const ViewResult& vr : run.views) all.insert(all.end(), vr.samples[s].begin(), vr.samples[s].end());
+    run.stages[s] = summarize(std::move(all));
+  }
+  for (const ViewResult& vr : run.views) pair_sum += double(vr.pairs);
+  run.mean_pairs = pair_sum / double(n);
+  run.fps = run.stages[4].median > 0 ? 1000.0 / run.stages[4].median : 0.0;
+  return run;
+}
+
+std::string format_time(const char* pattern, bool utc) {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  if (utc) {
+    gmtime_r(&now, &tm);
+  } else {
+    localtime_r(&now, &tm);
+  }
+  char buf[64];
+  std::strftime(buf, sizeof(buf), pattern, &tm);
+  return buf;
+}
+
+int run(const Options& opt) {
+  const auto t_start = Clock::now();
+  Status device_ok = tools::require_cuda_device(opt.device);
+  if (!device_ok.ok()) return tools::report_error(kTool, device_ok);
+  auto device = runtime::cuda_device_info(opt.device);
+  if (!device.ok()) return tools::report_error(kTool, device.status());
+  auto renderer = runtime::GpuRenderer::create();
+  if (!renderer.ok()) return tools::report_error(kTool, renderer.status());
+
+  auto scene = tools::load_gpu_scene(opt.input);
+  if (!scene.ok()) return tools::report_error(kTool, scene.status());
+  auto sets = make_camera_sets(opt, scene->bounds);
+  if (!sets.ok()) return tools::report_error(kTool, sets.status());
+
+  const std::string date = format_time("%Y-%m-%d", false);
+  const size_t view_count = sets->front().cameras.size();
+  runtime::DeviceImage image;
+  std::vector<RunResult> results;
+  for (const std::string& mode_name : opt.modes) {
+    const BenchMode* mode = find_mode(mode_name);  // names were checked at parse time
+    auto options = mode->options(*scene);
+    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend("mode " + mode->name));
+    for (const CameraSet& set : *sets) {
+      std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode->name.c_str(), set.label.c_str(),
+                   opt.warmup, set.cameras.size(), opt.repeat);
+      auto result = run_one(opt, *mode, *options, *scene, set, *renderer, image);
+      if (!result.ok()) {
+        return tools::report_error(kTool, Status(result.status()).prepend(opt.input + ", mode " + mode->name + ", " +
+                                                                          set.label));
+      }
+      results.push_back(std::move(result).value());
+    }
+  }
+
+  // Table.
+  std::printf("%s %s\n", kTool, opt.input.c_str());
+  std::printf("  device           %s (sm_%d%d, %d SMs), %s\n", device->name.c_str(), device->compute_major,
+              device->compute_minor, device->multiprocessors, date.c_str());
+  std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
+              tools::group_digits(scene->scene.size()).c_str(), scene->scene.sh_degree(),
+              scene->is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene->scene.device_bytes()) / 1e6, 1).c_str());
+  std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", view_count,
+              opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json", opt.warmup, opt.repeat);
+  std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", "mode", "resolution", "preprocess", "sort", "ranges",
+              "render", "total", "FPS", "mean pairs");
+  for (const RunResult& r : results) {
+    std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", r.mode.c_str(), r.resolution.c_str(),
+                tools::fixed(r.stages[0].median, 3).c_str(), tools::fixed(r.stages[1].median, 3).c_str(),
+                tools::fixed(r.stages[2].median, 3).c_str(), tools::fixed(r.stages[3].median, 3).c_str(),
+                tools::fixed(r.stages[4].median, 3).c_str(), tools::fixed(r.fps, 1).c_str(),
+                tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
+  }
+
+  if (!opt.json_path.empty()) {
+    nlohmann::json j;
+    j["tool"] = kTool;
+    j["version"] = RGS_VERSION_STRING;
+    j["date"] = date;
+    j["timestamp_utc"] = format_time("%Y-%m-%dT%H:%M:%SZ", true);
+    j["device"] = {{"ordinal", device->ordinal},
+                   {"name", device->name},
+                   {"compute_capability", std::to_string(device->compute_major) + "." +
+                                              std::to_string(device->compute_minor)},
+                   {"multiprocessors", device->multiprocessors},
+                   {"global_memory_bytes", device->global_memory_bytes},
+                   {"l2_cache_bytes", device->l2_cache_bytes},
+                   {"driver_version", device->driver_version},
+                   {"runtime_version", device->runtime_version}};
+    j["scene"] = {{"path", opt.input},
+                  {"format", scene->is_rgs ? "rgs" : "ply"},
+                  {"file_bytes", scene->file_bytes},
+                  {"gaussians", scene->scene.size()},
+                  {"sh_degree", scene->scene.sh_degree()},
+                  {"device_bytes", scene->scene.device_bytes()}};
+    j["cameras"] = {{"source", opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json"},
+                    {"path", opt.cameras.cameras_path},
+                    {"every", opt.cameras.every},
+                    {"views", view_count}};
+    j["warmup_frames"] = opt.warmup;
+    j["repetitions"] = opt.repeat;
+    j["statistic"] = "median over views x repetitions, per stage separately; fps = 1000 / median total_ms";
+    nlohmann::json runs = nlohmann::json::array();
+    for (const RunResult& r : results) {
+      nlohmann::json stages, views = nlohmann::json::array();
+      nlohmann::json median;
+      for (int s = 0; s < kStages; ++s) {
+        stages[std::string(kStageNames[s]) + "_ms"] = summary_json(r.stages[s]);
+        median[std::string(kStageNames[s]) + "_ms"] = r.stages[s].median;
+      }
+      for (const ViewResult& v : r.views) {
+        nlohmann::json samples;
+        for (int s = 0; s < kStages; ++s) samples[std::string(kStageNames[s]) + "_ms"] = v.samples[s];
+        views.push_back({{"name", v.name},
+                         {"width", v.width},
+                         {"height", v.height},
+                         {"pairs", v.pairs},
+                         {"sort_bits", v.sort_bits},
+                         {"median_total_ms", summarize(v.samples[4]).median},
+                         {"samples", samples}});
+      }
+      const BenchMode* mode = find_mode(r.mode);
+      runs.push_back({{"mode", r.mode},
+                      {"mode_description", mode ? mode->description : ""},
+                      {"resolution", r.resolution},
+                      {"views", r.views.size()},
+                      {"frames", r.views.size() * opt.repeat},
+                      {"median_ms", median},
+                      {"stages", stages},
+                      {"fps", r.fps},
+                      {"mean_pairs", r.mean_pairs},
+                      {"per_view", views}});
+    }
+    j["results"] = runs;
+    const std::string text = j.dump(2) + "\n";
+    Status st = format::write_file_atomic(opt.json_path, text.data(), text.size());
+    if (!st.ok()) return tools::report_error(kTool, st);
+    std::printf("  json             %s\n", opt.json_path.c_str());
+  }
+  std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
+  return tools::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  std::string mode_help = "Mode to benchmark (repeatable; default baseline):";
+  for (const BenchMode& m : all_modes()) mode_help += "\n  " + m.name + ": " + m.description;
+  CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
+               "repetitions, FPS, pair counts, per mode and resolution; a table on stdout and the full results as "
+               "JSON.",
+               kTool};
+  app.add_option("scene", opt.input, "Scene: .rgs (uploaded as stored) or 3DGS .ply")->required();
+  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
+  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
+      ->check(CLI::PositiveNumber)->needs(cams);
+  app.add_option("--limit", opt.cameras.limit, "Use at most N views")->check(CLI::PositiveNumber);
+  auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere")
+                    ->check(CLI::PositiveNumber)->excludes(cams);
+  cams->excludes(orbit);
+  app.add_option("--resolution", opt.resolutions,
+                 "WIDTHxHEIGHT or 720p/1080p/1440p/4k (repeatable). Cameras are resized keeping the field of view; "
+                 "default: the cameras' own size, or 1920x1080 for --orbit")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            auto r = rgs::tools::parse_resolution(text);
+            return r.ok() ? std::string() : r.status().message();
+          },
+          "RESOLUTION"));
+  app.add_option("--warmup", opt.warmup, "Warm-up frames per mode and resolution (views in turn), not timed")
+      ->capture_default_str();
+  app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names()));
+  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
+  app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  try {
+    app.parse(argc, argv);
+    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {
+      throw CLI::ValidationError("one of --cameras or --orbit is required");
+    }
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
+  }
+  return run(opt);
+}
