@@ -7,7 +7,6 @@
 // it was), 2 on a usage error.
 
 #include <CLI/CLI.hpp>
-#include <xxhash.h>
 
 #include <chrono>
 #include <cstdio>
@@ -77,22 +76,6 @@ Result<format::WriteOptions> make_write_options(const Options& opt) {
   return write;
 }
 
-/// Streams a file through XXH64 (for provenance) without mapping it, so peak memory stays flat.
-Result<uint64_t> hash_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  RGS_RETURN_ERROR_IF(!in, StatusCode::kIoError, path + ": cannot open for hashing");
-  std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> state(XXH64_createState(), XXH64_freeState);
-  RGS_RETURN_ERROR_IF(!state, StatusCode::kOutOfMemory, "XXH64_createState failed");
-  XXH64_reset(state.get(), 0);
-  std::vector<char> buffer(size_t{4} << 20);
-  while (in) {
-    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    XXH64_update(state.get(), buffer.data(), static_cast<size_t>(in.gcount()));
-  }
-  RGS_RETURN_ERROR_IF(in.bad(), StatusCode::kIoError, path + ": read error while hashing");
-  return static_cast<uint64_t>(XXH64_digest(state.get()));
-}
-
 std::string hex64(uint64_t v) {
   char buf[17];
   std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(v));
@@ -108,6 +91,7 @@ int convert_ply_to_rgs(const Options& opt) {
   converter::PlyReadOptions read_options;
   read_options.invalid_policy =
       opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+  read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
   auto ply = converter::read_ply(opt.input, read_options);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
   const double t_read = tools::seconds_since(t_start);
@@ -117,13 +101,12 @@ int convert_ply_to_rgs(const Options& opt) {
       opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
   quantize_options.sh_clip_percentile = opt.sh_clip_percentile;
   converter::QuantizationReport report;
+  converter::AttributeErrors errors;  // measured inside quantize(), in the pass that encodes
   const auto t_quantize_start = Clock::now();
-  auto encoded = converter::quantize(ply->cloud, quantize_options, &report);
+  auto encoded = converter::quantize(ply->cloud, quantize_options, &report, &errors);
   if (!encoded.ok()) return tools::report_error(kTool, Status(encoded.status()).prepend(opt.input));
   const double t_quantize = tools::seconds_since(t_quantize_start);
 
-  auto source_hash = hash_file(opt.input);
-  if (!source_hash.ok()) return tools::report_error(kTool, source_hash.status());
   std::ostringstream options_text;
   options_text << "scale_encoding=" << opt.scale_encoding << " sh_clip_percentile=" << opt.sh_clip_percentile
                << " sanitize=" << (opt.sanitize ? 1 : 0) << " zstd_level=" << opt.zstd_level << " zstd=";
@@ -131,7 +114,7 @@ int convert_ply_to_rgs(const Options& opt) {
   encoded->provenance = {
       {"source_file", std::filesystem::path(opt.input).filename().string()},
       {"source_bytes", std::to_string(ply->file_bytes)},
-      {"source_xxh64", hex64(*source_hash)},
+      {"source_xxh64", hex64(ply->file_xxh64.value_or(0))},
       {"source_storage", ply->storage_format},
       {"converter", std::string("rgs-convert ") + RGS_VERSION_STRING},
       {"options", options_text.str()},
@@ -143,10 +126,6 @@ int convert_ply_to_rgs(const Options& opt) {
   if (!written.ok()) return tools::report_error(kTool, written.status());
   const double t_write = tools::seconds_since(t_write_start);
 
-  const auto t_measure_start = Clock::now();
-  auto errors = converter::measure_quantization_errors(ply->cloud, *encoded);
-  if (!errors.ok()) return tools::report_error(kTool, errors.status());
-  const double t_measure = tools::seconds_since(t_measure_start);
   const double t_total = tools::seconds_since(t_start);
 
   const uint64_t n = encoded->count;
@@ -172,20 +151,20 @@ int convert_ply_to_rgs(const Options& opt) {
                     {"dropped_gaussians", hygiene.dropped_gaussians}};
     nlohmann::json sh = nlohmann::json::array();
     for (uint32_t d = 0; d <= degree; ++d) {
-      sh.push_back({{"degree", d}, {"error", tools::stats_json(errors->sh[d])},
+      sh.push_back({{"degree", d}, {"error", tools::stats_json(errors.sh[d])},
                     {"scale", {encoded->metadata.sh_quantization.scales[d][0],
                                encoded->metadata.sh_quantization.scales[d][1],
                                encoded->metadata.sh_quantization.scales[d][2]}},
                     {"clipped", {report.sh_clipped[d][0], report.sh_clipped[d][1], report.sh_clipped[d][2]}}});
     }
     j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero}};
-    j["errors"] = {{"position", tools::stats_json(errors->position)},
-                   {"rotation_deg", tools::stats_json(errors->rotation_deg)},
-                   {"scale_relative", tools::stats_json(errors->scale_relative)},
-                   {"opacity", tools::stats_json(errors->opacity)},
+    j["errors"] = {{"position", tools::stats_json(errors.position)},
+                   {"rotation_deg", tools::stats_json(errors.rotation_deg)},
+                   {"scale_relative", tools::stats_json(errors.scale_relative)},
+                   {"opacity", tools::stats_json(errors.opacity)},
                    {"sh", sh}};
-    j["seconds"] = {{"read", t_read}, {"quantize", t_quantize}, {"write", t_write},
-                    {"measure", t_measure}, {"total", t_total}};
+    // "quantize" includes the error measurement, which runs in the same pass.
+    j["seconds"] = {{"read", t_read}, {"quantize", t_quantize}, {"write", t_write}, {"total", t_total}};
     const std::string text = j.dump(2) + "\n";
     Status s = format::write_file_atomic(opt.json_path, text.data(), text.size());
     if (!s.ok()) return tools::report_error(kTool, s);
@@ -208,25 +187,24 @@ int convert_ply_to_rgs(const Options& opt) {
               tools::group_digits(hygiene.infinite_opacity_logits).c_str(),
               tools::group_digits(hygiene.dropped_gaussians).c_str());
   std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
-  tools::print_stats_row("position", errors->position, "scene units (FP32, exact)");
-  tools::print_stats_row("rotation", errors->rotation_deg, "degrees");
+  tools::print_stats_row("position", errors.position, "scene units (FP32, exact)");
+  tools::print_stats_row("rotation", errors.rotation_deg, "degrees");
   const std::string scale_note =
       "relative; " + tools::group_digits(report.scales_subnormal) + " values FP16-subnormal (< 6.1e-5), " +
       tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
       (report.scales_subnormal + report.scales_flushed_to_zero ? " (--scale-encoding log keeps them)" : "");
-  tools::print_stats_row("scale", errors->scale_relative, scale_note.c_str());
-  tools::print_stats_row("opacity", errors->opacity, "absolute");
+  tools::print_stats_row("scale", errors.scale_relative, scale_note.c_str());
+  tools::print_stats_row("opacity", errors.opacity, "absolute");
   for (uint32_t d = 0; d <= degree; ++d) {
     const std::string name = "SH degree " + std::to_string(d);
     const uint64_t clipped = report.sh_clipped[d][0] + report.sh_clipped[d][1] + report.sh_clipped[d][2];
     const std::string note = "absolute, INT8" + (clipped ? ", " + tools::group_digits(clipped) + " clipped"
                                                          : std::string());
-    tools::print_stats_row(name.c_str(), errors->sh[d], note.c_str());
+    tools::print_stats_row(name.c_str(), errors.sh[d], note.c_str());
   }
-  std::printf("  time             %s s (read %s, quantize %s, write %s, measure %s)\n",
+  std::printf("  time             %s s (read %s, quantize + measure %s, write %s)\n",
               tools::fixed(t_total, 3).c_str(), tools::fixed(t_read, 3).c_str(),
-              tools::fixed(t_quantize, 3).c_str(), tools::fixed(t_write, 3).c_str(),
-              tools::fixed(t_measure, 3).c_str());
+              tools::fixed(t_quantize, 3).c_str(), tools::fixed(t_write, 3).c_str());
   return tools::kExitOk;
 }
 

@@ -13,99 +13,16 @@
 #include <string>
 #include <vector>
 
+#include "internal_error_accumulators.h"
 #include "internal_parallel.h"
 
 namespace rgs::converter {
 
 namespace {
 
-constexpr uint64_t kChunkGaussians = 65536;
-constexpr double kRadToDeg = 57.29577951308232;
-
-/// Running max and sum of squares of one measure.
-struct Accumulator {
-  double max = 0;
-  double sum_sq = 0;
-  uint64_t samples = 0;
-
-  void add(double e) {
-    // NaN propagates into max (a NaN error must not look like a perfect match).
-    if (!(e <= max)) max = e;
-    sum_sq += e * e;
-    ++samples;
-  }
-  void merge(const Accumulator& other) {
-    if (!(other.max <= max)) max = other.max;
-    sum_sq += other.sum_sq;
-    samples += other.samples;
-  }
-  ErrorStats stats() const {
-    ErrorStats s;
-    s.max = max;
-    s.samples = samples;
-    s.rms = samples ? std::sqrt(sum_sq / static_cast<double>(samples)) : 0.0;
-    return s;
-  }
-};
-
-struct Accumulators {
-  Accumulator position, rotation, scale, opacity;
-  Accumulator sh[4];
-  Accumulator sh_channel[4][3];
-
-  void merge(const Accumulators& o) {
-    position.merge(o.position);
-    rotation.merge(o.rotation);
-    scale.merge(o.scale);
-    opacity.merge(o.opacity);
-    for (int d = 0; d < 4; ++d) {
-      sh[d].merge(o.sh[d]);
-      for (int c = 0; c < 3; ++c) sh_channel[d][c].merge(o.sh_channel[d][c]);
-    }
-  }
-
-  AttributeErrors result() const {
-    AttributeErrors r;
-    r.position = position.stats();
-    r.rotation_deg = rotation.stats();
-    r.scale_relative = scale.stats();
-    r.opacity = opacity.stats();
-    for (int d = 0; d < 4; ++d) {
-      r.sh[d] = sh[d].stats();
-      for (int c = 0; c < 3; ++c) r.sh_channel[d][c] = sh_channel[d][c].stats();
-    }
-    return r;
-  }
-};
-
-/// Rotation angle in degrees between the orientations of two quaternions (normalized here).
-double rotation_angle_deg(const float* q1f, const float* q2f) {
-  double q1[4], q2[4];
-  double n1 = 0, n2 = 0, dot = 0;
-  for (int a = 0; a < 4; ++a) {
-    q1[a] = q1f[a];
-    q2[a] = q2f[a];
-    n1 += q1[a] * q1[a];
-    n2 += q2[a] * q2[a];
-  }
-  // A zero quaternion has no orientation: equal to another zero one, maximally far from anything else.
-  if (n1 == 0 || n2 == 0) return n1 == n2 ? 0.0 : 180.0;
-  n1 = 1.0 / std::sqrt(n1);
-  n2 = 1.0 / std::sqrt(n2);
-  for (int a = 0; a < 4; ++a) {
-    q1[a] *= n1;
-    q2[a] *= n2;
-    dot += q1[a] * q2[a];
-  }
-  const double sign = dot < 0 ? -1.0 : 1.0;  // q and −q are the same rotation
-  double diff = 0, sum = 0;
-  for (int a = 0; a < 4; ++a) {
-    const double b = sign * q2[a];
-    diff += (q1[a] - b) * (q1[a] - b);
-    sum += (q1[a] + b) * (q1[a] + b);
-  }
-  return 4.0 * std::atan2(std::sqrt(diff), std::sqrt(sum)) * kRadToDeg;
-}
+using detail::Accumulators;
+using detail::GaussianView;
+constexpr uint64_t kChunkGaussians = detail::kErrorChunkGaussians;
 
 /// Adds Gaussians [test_first, test_first + count) of `test` compared with Gaussians [first, first + count)
 /// of `ref`.
@@ -115,28 +32,11 @@ void accumulate(const format::GaussianCloud& ref, uint64_t first, const format::
   for (uint64_t jj = 0; jj < count; ++jj) {
     const uint64_t i = first + jj;
     const uint64_t j = test_first + jj;
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double d = static_cast<double>(test.means[j * 3 + a]) - ref.means[i * 3 + a];
-      d2 += d * d;
-    }
-    acc->position.add(std::sqrt(d2));
-    acc->rotation.add(rotation_angle_deg(&ref.rotations[i * 4], &test.rotations[j * 4]));
-    for (int a = 0; a < 3; ++a) {
-      const double s = ref.scales[i * 3 + a];
-      const double t = test.scales[j * 3 + a];
-      acc->scale.add(t == s ? 0.0 : std::fabs(t - s) / s);
-    }
-    acc->opacity.add(std::fabs(static_cast<double>(test.opacities[j]) - ref.opacities[i]));
-    for (uint32_t k = 0; k < k_count; ++k) {
-      const uint32_t d = format::sh_degree_of_coefficient(k);
-      for (uint32_t c = 0; c < 3; ++c) {
-        const double e = std::fabs(static_cast<double>(test.sh[(j * k_count + k) * 3 + c]) -
-                                   ref.sh[(i * k_count + k) * 3 + c]);
-        acc->sh[d].add(e);
-        acc->sh_channel[d][c].add(e);
-      }
-    }
+    const GaussianView r{&ref.means[i * 3], &ref.rotations[i * 4], &ref.scales[i * 3], ref.opacities[i],
+                         &ref.sh[i * k_count * 3]};
+    const GaussianView t{&test.means[j * 3], &test.rotations[j * 4], &test.scales[j * 3], test.opacities[j],
+                         &test.sh[j * k_count * 3]};
+    detail::accumulate_gaussian(r, t, k_count, acc);
   }
 }
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <exception>
 #include <system_error>
@@ -67,6 +68,18 @@ void parallel_slices(uint64_t n, unsigned workers, Fn&& fn) {
   fn(0u, bound(0), bound(1));
   for (unsigned t : inline_slices) fn(t, bound(t), bound(t + 1));
   for (std::thread& th : threads) th.join();
+}
+
+/// Calls fn(worker, item) once for every item of [0, items), `workers` threads taking the next unclaimed
+/// item in turn (balances items of uneven cost). Which worker runs an item varies between runs, so results
+/// must be stored per item, not per worker. Threads that cannot be started leave their share to the others;
+/// `fn` must not throw.
+template <typename Fn>
+void parallel_items(uint64_t items, unsigned workers, Fn&& fn) {
+  std::atomic<uint64_t> next{0};
+  parallel_slices(workers, workers, [&](unsigned t, uint64_t, uint64_t) {
+    for (uint64_t item = next.fetch_add(1); item < items; item = next.fetch_add(1)) fn(t, item);
+  });
 }
 
 }  // namespace rgs::converter::detail

@@ -1,27 +1,35 @@
 // PLY reader: header validation, binary (LE/BE, any scalar types, any property order) and ascii vertex
 // decoding, INRIA activations and input hygiene (docs/INPUT_HYGIENE.md).
 //
-// Memory: read_ply() streams the vertex data with pread() through reusable buffers of 8 MB in total
-// (split over the worker threads), so the peak is the decoded cloud plus 8 MB, not the file (mmap'd
-// pages would count toward RSS); read_ply_bytes() decodes the caller's span in place.
+// Memory: read_ply() streams the vertex data with pread() through one reusable 1 MB buffer per worker
+// thread, so the peak is the decoded cloud plus a few MB, not the file (mmap'd pages would count toward
+// RSS); read_ply_bytes() decodes the caller's span in place. With PlyReadOptions::hash_file the same
+// pass feeds the bytes to XXH64 in file order, so the file is read once.
 #include "rgs/converter/ply_reader.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <xxhash.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <new>
 #include <string>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
 
+#include "internal_huge_pages.h"
 #include "internal_parallel.h"
 #include "internal_ply_header.h"
 
@@ -36,8 +44,9 @@ using detail::PlyStorage;
 using detail::PlyType;
 
 constexpr bool kHostLittleEndian = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;
-/// Bytes of vertex data buffered at once, over all workers (rounded down to whole rows, at least one).
-constexpr size_t kChunkBytes = size_t{8} << 20;
+/// Bytes of vertex data a worker reads from a file at once (rounded down to whole rows, at least one):
+/// small enough that a chunk is still in cache when it is hashed and decoded.
+constexpr size_t kFileChunkBytes = size_t{1} << 20;
 /// Bytes of ascii text scanned per window.
 constexpr size_t kAsciiWindowBytes = size_t{1} << 20;
 /// Longest ascii token accepted (numbers are far shorter); bounds the carried-over partial token.
@@ -404,19 +413,49 @@ class FileSource final : public ByteSource {
   std::vector<uint8_t> buffer_;
 };
 
-/// Decodes the binary vertex rows. Workers take contiguous slices of the vertices; with a file source
-/// each worker reads its slice through its own buffer of kChunkBytes / workers (pread is thread safe),
-/// so reading and decoding both run in parallel and memory stays at one chunk in total. Counts are
-/// merged in slice order, so the result does not depend on the number of workers.
+/// Feeds file bytes to XXH64 in file order while workers read chunks in parallel: chunk c is hashed only
+/// after chunks 0..c-1. Chunks are claimed in increasing order by running workers, so the owner of the
+/// lowest unhashed chunk never waits and the handoff cannot deadlock; abort() releases every waiter.
+class OrderedHasher {
+ public:
+  explicit OrderedHasher(XXH64_state_t* state) : state_(state) {}
+  /// Waits for chunk `index`'s turn, hashes [data, data + size) and passes the turn on. False after abort().
+  bool update(uint64_t index, const uint8_t* data, size_t size) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    turn_.wait(lock, [&] { return aborted_ || next_ == index; });
+    if (aborted_) return false;
+    XXH64_update(state_, data, size);
+    ++next_;
+    lock.unlock();
+    turn_.notify_all();
+    return true;
+  }
+  void abort() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      aborted_ = true;
+    }
+    turn_.notify_all();
+  }
+
+ private:
+  XXH64_state_t* state_;
+  std::mutex mutex_;
+  std::condition_variable turn_;
+  uint64_t next_ = 0;
+  bool aborted_ = false;
+};
+
+/// Decodes the binary vertex rows. From memory, workers take contiguous slices. From a file, workers
+/// claim chunks of about kFileChunkBytes in file order, each reading into its own buffer (pread is thread
+/// safe), so reading and decoding both run in parallel while memory stays at one buffer per worker; when
+/// `hasher` is set, each chunk is also fed to it in file order right after it is read (still in cache).
+/// Counts are kept per slice or chunk and merged in file order, so the result does not depend on the
+/// number of workers or on which worker decoded a chunk.
 Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n, const VertexLayout& layout,
-                     bool swap, format::GaussianCloud* cloud, HygieneCounts* total) {
+                     bool swap, OrderedHasher* hasher, format::GaussianCloud* cloud, HygieneCounts* total) {
   const unsigned workers = detail::worker_count(n, kMinRowsPerWorker);
   const size_t stride = layout.stride;
-  const uint64_t chunk_rows = std::max<uint64_t>(1, kChunkBytes / workers / stride);
-  std::vector<HygieneCounts> parts(workers);
-  std::vector<Status> errors(workers);
-  std::vector<std::vector<uint8_t>> buffers(source.memory() ? 0 : workers);
-  for (auto& b : buffers) b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
   auto decode = [&](const uint8_t* rows, uint64_t count, uint64_t first, HygieneCounts* counts) {
     if (layout.all_float_native) {
       decode_binary_rows<true>(rows, count, first, layout, swap, cloud, counts);
@@ -424,22 +463,48 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
       decode_binary_rows<false>(rows, count, first, layout, swap, cloud, counts);
     }
   };
-  detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
-    try {  // nothing may escape a worker thread; the invalid-index list can grow
-      if (const uint8_t* memory = source.memory()) {
+  std::vector<HygieneCounts> parts;
+  std::vector<Status> errors;
+  if (const uint8_t* memory = source.memory()) {
+    parts.resize(workers);
+    errors.resize(workers);
+    detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
+      try {  // nothing may escape a worker thread; the invalid-index list can grow
         decode(memory + data_offset + b * stride, e - b, b, &parts[t]);
+      } catch (const std::bad_alloc&) {
+        errors[t] = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
+      }
+    });
+  } else {
+    const uint64_t chunk_rows = std::max<uint64_t>(1, kFileChunkBytes / stride);
+    const uint64_t chunks = n == 0 ? 0 : (n - 1) / chunk_rows + 1;
+    parts.resize(static_cast<size_t>(chunks));
+    errors.resize(static_cast<size_t>(chunks));
+    std::vector<std::vector<uint8_t>> buffers(workers);
+    for (auto& b : buffers) b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
+    std::atomic<bool> failed{false};
+    detail::parallel_items(chunks, workers, [&](unsigned t, uint64_t c) {
+      if (failed.load(std::memory_order_relaxed)) return;
+      const uint64_t first = c * chunk_rows;
+      const uint64_t rows = std::min(chunk_rows, n - first);
+      const size_t bytes = static_cast<size_t>(rows * stride);
+      Status s = source.read_into(data_offset + first * stride, bytes, buffers[t].data());
+      if (s.ok() && hasher != nullptr && !hasher->update(c, buffers[t].data(), bytes)) return;  // aborted
+      if (!s.ok()) {
+        errors[c] = std::move(s);
+        failed = true;
+        if (hasher != nullptr) hasher->abort();
         return;
       }
-      for (uint64_t first = b; first < e; first += chunk_rows) {
-        const uint64_t rows = std::min(chunk_rows, e - first);
-        errors[t] = source.read_into(data_offset + first * stride, static_cast<size_t>(rows * stride), buffers[t].data());
-        if (!errors[t].ok()) return;
-        decode(buffers[t].data(), rows, first, &parts[t]);
+      try {
+        decode(buffers[t].data(), rows, first, &parts[c]);
+      } catch (const std::bad_alloc&) {
+        errors[c] = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
+        failed = true;
+        if (hasher != nullptr) hasher->abort();
       }
-    } catch (const std::bad_alloc&) {
-      errors[t] = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
-    }
-  });
+    });
+  }
   for (const Status& s : errors) RGS_RETURN_IF_ERROR(s);
   for (HygieneCounts& p : parts) {
     total->nonfinite_values += p.nonfinite_values;
@@ -447,6 +512,21 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
     total->zero_norm_quaternions += p.zero_norm_quaternions;
     total->infinite_opacity_logits += p.infinite_opacity_logits;
     total->invalid.insert(total->invalid.end(), p.invalid.begin(), p.invalid.end());
+  }
+  return Status();
+}
+
+/// Feeds bytes [begin, end) of `source` to `state` in order, through view() windows of kFileChunkBytes.
+Status hash_range(ByteSource* source, uint64_t begin, uint64_t end, XXH64_state_t* state) {
+  if (const uint8_t* memory = source->memory()) {
+    XXH64_update(state, memory + begin, static_cast<size_t>(end - begin));
+    return Status();
+  }
+  for (uint64_t at = begin; at < end;) {
+    const size_t size = static_cast<size_t>(std::min<uint64_t>(kFileChunkBytes, end - at));
+    RGS_ASSIGN_OR_RETURN(const uint8_t* bytes, source->view(at, size));
+    XXH64_update(state, bytes, size);
+    at += size;
   }
   return Status();
 }
@@ -727,15 +807,42 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
   scene.storage_format = detail::ply_storage_name(header.storage);
   scene.declared_vertices = n;
   scene.cloud.sh_degree = layout.sh_degree;
-  scene.cloud.resize(static_cast<size_t>(n));
+  {
+    format::GaussianCloud& c = scene.cloud;
+    const size_t count = static_cast<size_t>(n);
+    detail::resize_huge(c.means, count * 3);
+    detail::resize_huge(c.rotations, count * 4);
+    detail::resize_huge(c.scales, count * 3);
+    detail::resize_huge(c.opacities, count);
+    detail::resize_huge(c.sh, count * layout.sh_values);
+  }
+
+  std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> hash_state(nullptr, XXH64_freeState);
+  if (options.hash_file) {
+    hash_state.reset(XXH64_createState());
+    if (!hash_state) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
+    XXH64_reset(hash_state.get(), 0);
+  }
 
   HygieneCounts counts;
   if (header.storage == PlyStorage::kAscii) {
     RGS_RETURN_IF_ERROR(decode_ascii(source, header, *vertex, layout, &scene.cloud, &counts));
+    // Ascii files are tokenized through a sliding window; hash them in a second, sequential pass.
+    if (hash_state) RGS_RETURN_IF_ERROR(hash_range(source, 0, file_size, hash_state.get()));
   } else {
     const bool swap = (header.storage == PlyStorage::kBinaryBigEndian) == kHostLittleEndian;
-    RGS_RETURN_IF_ERROR(decode_binary(*source, header.data_offset, n, layout, swap, &scene.cloud, &counts));
+    if (hash_state) RGS_RETURN_IF_ERROR(hash_range(source, 0, header.data_offset, hash_state.get()));
+    OrderedHasher hasher(hash_state.get());
+    // The memory source hashes its vertex bytes in one call below instead of chunk by chunk.
+    const bool hash_chunks = hash_state && source->memory() == nullptr;
+    RGS_RETURN_IF_ERROR(decode_binary(*source, header.data_offset, n, layout, swap, hash_chunks ? &hasher : nullptr,
+                                      &scene.cloud, &counts));
+    if (hash_state) {
+      const uint64_t vertex_end = header.data_offset + n * layout.stride;
+      RGS_RETURN_IF_ERROR(hash_range(source, hash_chunks ? vertex_end : header.data_offset, file_size, hash_state.get()));
+    }
   }
+  if (hash_state) scene.file_xxh64 = static_cast<uint64_t>(XXH64_digest(hash_state.get()));
 
   InputHygiene& h = scene.hygiene;
   h.nonfinite_values = counts.nonfinite_values;

@@ -2,7 +2,8 @@
 //
 // Determinism: every output value depends only on its own inputs and on the per-(degree, channel) SH
 // scales, which come from a max (order independent) or a percentile (nth_element on a buffer filled in
-// index order), so the result does not depend on the number of worker threads.
+// index order), so the result does not depend on the number of worker threads. The optional error
+// measurement follows attribute_errors.cpp's chunking exactly, so it equals measure_quantization_errors().
 #include "rgs/converter/quantize.h"
 
 #include <algorithm>
@@ -13,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "internal_error_accumulators.h"
+#include "internal_huge_pages.h"
 #include "internal_parallel.h"
 #include "rgs/format/half.h"
 
@@ -181,7 +184,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
 }
 
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
-                                      QuantizationReport* report) {
+                                      QuantizationReport* report, AttributeErrors* errors) {
   if (!cloud.is_consistent()) {
     return Status(StatusCode::kInvalidArgument,
                   "cloud arrays are inconsistent with " + std::to_string(cloud.size()) + " Gaussians at SH degree " +
@@ -255,29 +258,43 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     if (!format::is_valid_quantization(shq, degree, &why)) {
       return Status(StatusCode::kInvalidArgument, "computed SH quantization is invalid: " + why);
     }
-    out.means = cloud.means;
-    out.rotations.resize(n * 4);
-    out.scales.resize(n * 3);
-    out.opacities.resize(n);
-    out.sh.resize(n * k_count * 3);
+    detail::resize_huge(out.means, cloud.means.size());
+    if (!cloud.means.empty()) std::memcpy(out.means.data(), cloud.means.data(), cloud.means.size() * sizeof(float));
+    detail::resize_huge(out.rotations, n * 4);
+    detail::resize_huge(out.scales, n * 3);
+    detail::resize_huge(out.opacities, n);
+    detail::resize_huge(out.sh, n * k_count * 3);
 
-    // Pass 2: encode.
-    std::vector<QuantizationReport> clipped(workers);
+    // Pass 2: encode, in chunks of kErrorChunkGaussians taken by the workers in turn. Per chunk: clip and
+    // FP16 counts (integers) and, when asked, the error accumulators of the dequantized values (merged in
+    // chunk order below), so nothing depends on which worker ran a chunk.
     const bool log_scale = options.scale_encoding == format::ScaleEncoding::kLog;
     // Scale of each of the K·3 values of a Gaussian, in double as the division uses it.
     const uint32_t sh_values = k_count * 3;
     double divisor[48];
     double reciprocal[48];
     bool zero_scale[48];
+    float dequant_scale[48];  // float32 s[d][c], as dequantize_range() multiplies it
     for (uint32_t j = 0; j < sh_values; ++j) {
       const float sj = shq.scales[format::sh_degree_of_coefficient(j / 3)][j % 3];
       zero_scale[j] = sj == 0.0f;
       divisor[j] = sj == 0.0f ? std::numeric_limits<double>::infinity() : static_cast<double>(sj);
       reciprocal[j] = 1.0 / divisor[j];
+      dequant_scale[j] = sj;
     }
-    detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
-      QuantizationReport& rep = clipped[t];
+    const uint64_t chunks = (n + detail::kErrorChunkGaussians - 1) / detail::kErrorChunkGaussians;
+    struct ChunkResult {
       uint64_t clip_count[48] = {};
+      uint64_t scales_subnormal = 0;
+      uint64_t scales_flushed_to_zero = 0;
+      detail::Accumulators errors;
+    };
+    std::vector<ChunkResult> chunk_results(static_cast<size_t>(chunks));
+    const bool measure = errors != nullptr;
+    detail::parallel_items(chunks, workers, [&](unsigned, uint64_t chunk) {
+      ChunkResult& res = chunk_results[chunk];
+      const uint64_t b = chunk * detail::kErrorChunkGaussians;
+      const uint64_t e = std::min(n, b + detail::kErrorChunkGaussians);
       const float* sh_in = cloud.sh.data();
       int8_t* sh_out = out.sh.data();
       for (uint64_t i = b; i < e; ++i) {
@@ -288,16 +305,24 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
           n2 += q[a] * q[a];
         }
         const double inv = 1.0 / std::sqrt(n2);
-        for (int a = 0; a < 4; ++a) {
-          out.rotations[i * 4 + a] = format::float_to_half_bits(static_cast<float>(q[a] * inv));
-        }
+        uint16_t rot_bits[4];
+        for (int a = 0; a < 4; ++a) rot_bits[a] = format::float_to_half_bits(static_cast<float>(q[a] * inv));
+        std::memcpy(&out.rotations[i * 4], rot_bits, sizeof(rot_bits));
+        uint16_t scale_bits[3];
         for (int a = 0; a < 3; ++a) {
           const float s = cloud.scales[i * 3 + a];
           float v = s;
           if (log_scale) v = s > 0.0f ? static_cast<float>(std::log(static_cast<double>(s))) : kLowestHalf;
-          out.scales[i * 3 + a] = format::float_to_half_bits(v);
+          scale_bits[a] = format::float_to_half_bits(v);
+          // Linear scales stored as FP16 subnormals or flushed to zero (normal, exact 0 and log are not).
+          const uint16_t magnitude = scale_bits[a] & 0x7fffu;
+          if (!log_scale && magnitude < 0x0400u && s != 0.0f) {
+            ++(magnitude == 0 ? res.scales_flushed_to_zero : res.scales_subnormal);
+          }
         }
-        out.opacities[i] = format::float_to_half_bits(cloud.opacities[i]);
+        std::memcpy(&out.scales[i * 3], scale_bits, sizeof(scale_bits));
+        const uint16_t opacity_bits = format::float_to_half_bits(cloud.opacities[i]);
+        out.opacities[i] = opacity_bits;
         // Codes go through a local buffer: int8_t stores may alias anything, and writing them straight
         // to the output would make the compiler reload the tables after every store.
         const float* sh = sh_in + i * sh_values;
@@ -307,27 +332,37 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
           // as clipped.
           bool clip = false;
           codes[j] = quantize_value(sh[j], divisor[j], reciprocal[j], &clip);
-          clip_count[j] += static_cast<uint32_t>(clip) | static_cast<uint32_t>(zero_scale[j] & (sh[j] != 0.0f));
+          res.clip_count[j] += static_cast<uint32_t>(clip) | static_cast<uint32_t>(zero_scale[j] & (sh[j] != 0.0f));
         }
         std::memcpy(sh_out + i * sh_values, codes, sh_values);
-      }
-      for (uint32_t j = 0; j < sh_values; ++j) {
-        rep.sh_clipped[format::sh_degree_of_coefficient(j / 3)][j % 3] += clip_count[j];
-      }
-    });
-    if (report != nullptr) {
-      *report = QuantizationReport();
-      for (const QuantizationReport& r : clipped) {
-        for (int d = 0; d < 4; ++d) {
-          for (int c = 0; c < 3; ++c) report->sh_clipped[d][c] += r.sh_clipped[d][c];
+        if (measure) {
+          // Dequantize exactly as format::dequantize_range() does, then compare with the source.
+          float rot_f[4], scale_f[3], sh_f[48];
+          for (int a = 0; a < 4; ++a) rot_f[a] = format::half_bits_to_float(rot_bits[a]);
+          for (int a = 0; a < 3; ++a) {
+            const float v = format::half_bits_to_float(scale_bits[a]);
+            scale_f[a] = log_scale ? std::exp(v) : v;
+          }
+          for (uint32_t j = 0; j < sh_values; ++j) sh_f[j] = dequant_scale[j] * static_cast<float>(codes[j]);
+          const float* mean = &cloud.means[i * 3];  // stored bit for bit
+          const detail::GaussianView ref{mean, &cloud.rotations[i * 4], &cloud.scales[i * 3], cloud.opacities[i], sh};
+          const detail::GaussianView test{mean, rot_f, scale_f, format::half_bits_to_float(opacity_bits), sh_f};
+          detail::accumulate_gaussian(ref, test, k_count, &res.errors);
         }
       }
-      for (size_t j = 0; j < out.scales.size(); ++j) {
-        const uint16_t magnitude = out.scales[j] & 0x7fffu;
-        if (magnitude >= 0x0400u || cloud.scales[j] == 0.0f || log_scale) continue;  // normal, exact 0, or log
-        ++(magnitude == 0 ? report->scales_flushed_to_zero : report->scales_subnormal);
+    });
+    detail::Accumulators total_errors;
+    QuantizationReport total_report;
+    for (const ChunkResult& r : chunk_results) {
+      for (uint32_t j = 0; j < sh_values; ++j) {
+        total_report.sh_clipped[format::sh_degree_of_coefficient(j / 3)][j % 3] += r.clip_count[j];
       }
+      total_report.scales_subnormal += r.scales_subnormal;
+      total_report.scales_flushed_to_zero += r.scales_flushed_to_zero;
+      total_errors.merge(r.errors);
     }
+    if (report != nullptr) *report = total_report;
+    if (errors != nullptr) *errors = total_errors.result();
     return out;
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,

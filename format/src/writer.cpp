@@ -4,10 +4,13 @@
 #include <zstd.h>
 
 #include <algorithm>
+#include <functional>
 #include <memory>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <vector>
 
 #include "internal_bytes.h"
@@ -104,7 +107,8 @@ struct PlannedSection {
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
 
 /// The writer refuses anything validate() would reject, so every file it writes passes --check.
-Status check_scene(const EncodedScene& scene) {
+/// Array shapes and metadata; the values are checked by check_values().
+Status check_scene_shape(const EncodedScene& scene) {
   if (Status s = detail::check_metadata(scene.metadata); !s.ok()) return invalid("metadata: " + s.message());
   if (!scene.is_consistent()) {
     const uint64_t k = sh_coefficient_count(scene.metadata.sh_degree);
@@ -115,8 +119,13 @@ Status check_scene(const EncodedScene& scene) {
                    "), opacities " + dec(scene.opacities.size()) + " (" + dec(scene.count) + "), sh " +
                    dec(scene.sh.size()) + " (" + dec(scene.count * k * 3) + ")");
   }
+  return Status();
+}
+
+/// Checks the values of Gaussians [begin, end) (SPEC §4.3–§4.7); the first bad one in index order.
+Status check_values(const EncodedScene& scene, uint64_t begin, uint64_t end) {
   const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
-  for (uint64_t i = 0; i < scene.count; ++i) {
+  for (uint64_t i = begin; i < end; ++i) {
     Status s = detail::check_mean(&scene.means[i * 3], i, scene.metadata.bounds);
     if (s.ok()) s = detail::check_rotation(&scene.rotations[i * 4], i);
     if (s.ok()) s = detail::check_scale(&scene.scales[i * 3], i, scene.metadata.scale_encoding);
@@ -125,6 +134,23 @@ Status check_scene(const EncodedScene& scene) {
     if (!s.ok()) return invalid(s.message());
   }
   return Status();
+}
+
+/// Runs `first` on the calling thread and `second` on another one (inline afterwards when no thread can be
+/// started). Both must not throw. Used to halve the serial checking and hashing of a large scene.
+template <typename A, typename B>
+void run_pair(A&& first, B&& second) {
+  std::thread thread;
+  try {
+    thread = std::thread(second);
+  } catch (const std::system_error&) {
+  }
+  first();
+  if (thread.joinable()) {
+    thread.join();
+  } else {
+    second();
+  }
 }
 
 Status check_options(const WriteOptions& options) {
@@ -181,9 +207,18 @@ Status compress_section(ZSTD_CCtx* cctx, PlannedSection* s) {
   return Status();
 }
 
-Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const WriteOptions& options) {
+/// A file ready to be written: its sections (stored bytes, checksums, offsets) and its header + table.
+struct PlannedFile {
+  std::vector<PlannedSection> sections;
+  /// Header and section table, kHeaderSize + entries × kSectionEntrySize bytes; sections follow.
+  std::vector<uint8_t> head;
+  uint64_t file_size = 0;
+};
+
+/// Checks `scene` and `options` and lays the file out: everything but copying the section bytes.
+Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& options) {
   RGS_RETURN_IF_ERROR(check_options(options));
-  RGS_RETURN_IF_ERROR(check_scene(scene));
+  RGS_RETURN_IF_ERROR(check_scene_shape(scene));
   uint64_t provenance_bytes = 0;
   std::string why;
   if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return invalid(why);
@@ -191,7 +226,8 @@ Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const 
   const uint64_t n = scene.count;
   const uint32_t k = sh_coefficient_count(scene.metadata.sh_degree);
   // §4 Section order: metadata, provenance (only when non-empty), then the runtime sections.
-  std::vector<PlannedSection> plan;
+  PlannedFile file;
+  std::vector<PlannedSection>& plan = file.sections;
   plan.reserve(7);
   auto add = [&](SectionId id, ElementType type, uint32_t components, uint64_t count) -> PlannedSection& {
     PlannedSection& s = plan.emplace_back();
@@ -259,10 +295,35 @@ Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const 
     }
   }
   if (end > SIZE_MAX) return Status(StatusCode::kOutOfMemory, "file of " + dec(end) + " bytes exceeds memory");
-  const uint64_t file_size = end;
+  file.file_size = end;
 
-  std::vector<uint8_t> out(static_cast<size_t>(file_size));  // zero-filled: padding and reserved fields
-  ByteWriter header(out.data(), kHeaderSize);
+  // Value checks (SPEC §4.3–§4.7) and section checksums (§3.2), each split over two threads: the first
+  // half of the Gaussians and the sh section on this thread, the rest on another. The first bad Gaussian
+  // in index order is reported, as a sequential check would.
+  std::vector<uint64_t> checksums(plan.size());
+  const size_t sh_index = plan.size() - 1;
+  Status first_half, second_half;
+  const auto guarded_check = [&scene](uint64_t from, uint64_t to) {
+    try {  // nothing may escape a thread: error messages allocate
+      return check_values(scene, from, to);
+    } catch (const std::exception&) {
+      return Status(StatusCode::kOutOfMemory, "out of memory reporting an invalid Gaussian");
+    }
+  };
+  run_pair(
+      [&] {
+        first_half = guarded_check(0, n / 2);
+        checksums[sh_index] = detail::xxh64(plan[sh_index].stored(), plan[sh_index].stored_size());
+      },
+      [&] {
+        second_half = guarded_check(n / 2, n);
+        for (size_t i = 0; i < sh_index; ++i) checksums[i] = detail::xxh64(plan[i].stored(), plan[i].stored_size());
+      });
+  RGS_RETURN_IF_ERROR(first_half);
+  RGS_RETURN_IF_ERROR(second_half);
+
+  file.head.resize(static_cast<size_t>(table_end));  // zero-filled: reserved fields
+  ByteWriter header(file.head.data(), kHeaderSize);
   for (uint8_t b : kMagic) header.put_u8(b);
   header.put_u16(version.major);
   header.put_u16(version.minor);
@@ -273,10 +334,10 @@ Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const 
   header.put_u32(static_cast<uint32_t>(plan.size()));
   header.put_u32(0);  // reserved
   header.put_u64(kHeaderSize);  // table offset
-  header.put_u64(file_size);
-  ByteWriter table(out.data() + kHeaderSize, static_cast<size_t>(table_end - kHeaderSize));
-  for (const PlannedSection& s : plan) {
-    if (s.stored_size() > 0) std::copy_n(s.stored(), s.stored_size(), out.data() + s.offset);
+  header.put_u64(file.file_size);
+  ByteWriter table(file.head.data() + kHeaderSize, static_cast<size_t>(table_end - kHeaderSize));
+  for (size_t i = 0; i < plan.size(); ++i) {
+    const PlannedSection& s = plan[i];
     table.put_u32(static_cast<uint32_t>(s.id));
     table.put_u16(static_cast<uint16_t>(s.codec));
     table.put_u16(static_cast<uint16_t>(s.element_type));
@@ -286,13 +347,38 @@ Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const 
     table.put_u64(s.offset);
     table.put_u64(s.stored_size());
     table.put_u64(s.raw_size);
-    table.put_u64(detail::xxh64(out.data() + s.offset, s.stored_size()));
+    table.put_u64(checksums[i]);
     table.put_u64(0);  // reserved
   }
-  header.put_u64(detail::header_checksum(out.data(), out.data() + kHeaderSize, table_end - kHeaderSize));
+  header.put_u64(detail::header_checksum(file.head.data(), file.head.data() + kHeaderSize, table_end - kHeaderSize));
   if (!header.ok() || !table.ok() || header.position() != kHeaderSize || table.position() != table_end - kHeaderSize) {
     return Status(StatusCode::kInvalidArgument, "internal error: header or table size mismatch");
   }
+  return file;
+}
+
+/// Emits the planned file in order: header + table, then each section after its zero padding.
+Status emit_file(const PlannedFile& file, const std::function<Status(const void*, size_t)>& sink) {
+  static const uint8_t kZeros[kSectionAlignment] = {};
+  RGS_RETURN_IF_ERROR(sink(file.head.data(), file.head.size()));
+  uint64_t position = file.head.size();
+  for (const PlannedSection& s : file.sections) {
+    if (s.offset > position) RGS_RETURN_IF_ERROR(sink(kZeros, static_cast<size_t>(s.offset - position)));
+    if (s.stored_size() > 0) RGS_RETURN_IF_ERROR(sink(s.stored(), static_cast<size_t>(s.stored_size())));
+    position = s.offset + s.stored_size();
+  }
+  return Status();
+}
+
+Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const WriteOptions& options) {
+  RGS_ASSIGN_OR_RETURN(PlannedFile file, plan_file(scene, options));
+  std::vector<uint8_t> out;
+  out.reserve(static_cast<size_t>(file.file_size));
+  RGS_RETURN_IF_ERROR(emit_file(file, [&out](const void* data, size_t size) {
+    const uint8_t* bytes = static_cast<const uint8_t*>(data);
+    out.insert(out.end(), bytes, bytes + size);
+    return Status();
+  }));
   return out;
 }
 
@@ -309,10 +395,19 @@ Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const Wr
 }
 
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options) {
-  auto bytes = serialize_scene(scene, options);
-  if (!bytes.ok()) return Status(bytes.status()).prepend(path);
-  RGS_RETURN_IF_ERROR(write_file_atomic(path, bytes->data(), bytes->size()));
-  return static_cast<uint64_t>(bytes->size());
+  // Streams the sections from the scene's own arrays (no serialized copy of the whole file in memory).
+  auto file = [&]() -> Result<PlannedFile> {
+    try {
+      return plan_file(scene, options);
+    } catch (const std::bad_alloc&) {
+      return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
+    } catch (const std::length_error&) {
+      return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
+    }
+  }();
+  if (!file.ok()) return Status(file.status()).prepend(path);
+  RGS_RETURN_IF_ERROR(write_file_atomic(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
+  return file->file_size;
 }
 
 }  // namespace rgs::format

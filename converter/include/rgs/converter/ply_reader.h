@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "rgs/format/gaussian_cloud.h"
@@ -38,6 +39,9 @@ struct PlyReadOptions {
   InvalidPolicy invalid_policy = InvalidPolicy::kReject;
   /// Refuse files declaring more vertices than this (kLimitExceeded) before allocating.
   uint64_t max_gaussians = uint64_t{1} << 28;
+  /// Also compute XXH64 (seed 0) of the whole file into PlyScene::file_xxh64 (provenance). Binary files
+  /// are hashed in the reading pass, chunk by chunk in file order, so they are read only once.
+  bool hash_file = false;
 };
 
 /// A PLY scene and what was learned while reading it.
@@ -51,6 +55,8 @@ struct PlyScene {
   std::string storage_format;
   /// Number of vertices declared in the header (before sanitizing).
   uint64_t declared_vertices = 0;
+  /// XXH64 (seed 0) of every byte of the file, when PlyReadOptions::hash_file was set; else empty.
+  std::optional<uint64_t> file_xxh64;
 };
 
 /// Reads a 3DGS PLY file. Properties are found by name (x y z, f_dc_0..2, f_rest_0..M-1 with M in {0, 9,

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 
+#include "rgs/converter/attribute_errors.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
@@ -34,9 +35,12 @@ struct QuantizationReport {
 /// normalized then FP16, scales and activated opacities FP16, SH symmetric INT8 with s[d][c] =
 /// max_i |SH[i][d][c]| / 127 (or the chosen percentile), q = round-half-away(SH / s) clamped to ±127.
 /// Fills metadata: SH degree, conventions, bounds (compute_bounds) and the quantization.
+/// When `errors` is not null it also receives the per-attribute errors of the result, measured in the same
+/// pass while the values are in cache: bit-identical to measure_quantization_errors(cloud, result).
+/// Deterministic whatever the number of threads (report and errors included).
 /// Errors: kInvalidArgument (inconsistent cloud, percentile outside (0, 100]).
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
-                                      QuantizationReport* report = nullptr);
+                                      QuantizationReport* report = nullptr, AttributeErrors* errors = nullptr);
 
 /// Bounds of the means: AABB, and a sphere centred on the AABB centre whose radius is the largest
 /// distance to a mean (computed in double, rounded up, so every mean is inside in float32).

@@ -1,0 +1,33 @@
+// Large arrays backed by transparent huge pages where the kernel offers them (private to rgs_converter).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+namespace rgs::converter::detail {
+
+/// Resizes `v` to `n` zero-initialized elements, asking the kernel (madvise MADV_HUGEPAGE, Linux) to back
+/// a fresh allocation with 2 MiB pages before it is first touched: a 100 MB cloud then takes about 50 page
+/// faults instead of 25,000, which is most of the cost of allocating it. Only a hint: the contents and
+/// the result are the same without it. Throws std::bad_alloc like resize().
+template <typename T>
+void resize_huge(std::vector<T>& v, size_t n) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr uintptr_t kHugePage = uintptr_t{2} << 20;
+  if (v.empty() && n * sizeof(T) >= 2 * kHugePage) {
+    v.reserve(n);  // allocates (mmap) without touching the pages
+    const uintptr_t begin = reinterpret_cast<uintptr_t>(v.data());
+    const uintptr_t end = begin + n * sizeof(T);
+    const uintptr_t aligned = (begin + kHugePage - 1) & ~(kHugePage - 1);
+    if (end > aligned) (void)::madvise(reinterpret_cast<void*>(aligned), end - aligned, MADV_HUGEPAGE);
+  }
+#endif
+  v.resize(n);
+}
+
+}  // namespace rgs::converter::detail
