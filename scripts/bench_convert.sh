@@ -19,6 +19,8 @@ convert="$build/tools/rgs-convert"
 [ -f "$ply" ] || { echo "bench_convert: $ply: no such file" >&2; exit 1; }
 command -v /usr/bin/time >/dev/null || { echo "bench_convert: needs GNU time (apt-get install time)" >&2; exit 1; }
 
+# Other work on the machine shows up directly in the wall times: print the load so a noisy run is visible.
+echo "load average before the runs: $(cut -d' ' -f1-3 /proc/loadavg) ($(nproc) CPUs)"
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 "$convert" -q "$ply" "$out/warmup.rgs" "$@"

@@ -203,6 +203,43 @@ TEST_CASE("read_ply: ascii streaming across window boundaries equals binary") {
   CHECK(same_cloud(from_file->cloud, read_ok(build_ply("binary_little_endian", inria_props(3), src.count, value)).cloud));
 }
 
+TEST_CASE("read_ply: hash_file gives the same XXH64 from a file (chunked, in the read pass) as from memory") {
+  // Binary with data after the vertex element (hashed after the chunks) and larger than one 1 MB chunk per
+  // worker, plus ascii (hashed in a separate pass); the in-memory path hashes the whole buffer at once.
+  const Sh3FromGuitar src(20000);
+  auto value = [&src](uint64_t i, const std::string& n) { return src(i, n); };
+  const std::string face_header = "element face 1\nproperty list uchar int vertex_indices\n";
+  const std::string faces("\x03\0\0\0\0\x01\0\0\0\x02\0\0\0", 13);
+  for (const char* storage : {"binary_little_endian", "binary_big_endian", "ascii"}) {
+    const auto bytes = build_ply(storage, inria_props(3), src.count, value, "\n",
+                                 std::string(storage) == "ascii" ? std::string() : face_header,
+                                 std::string(storage) == "ascii" ? std::string() : faces);
+    const auto path = (std::filesystem::temp_directory_path() / "rgs_test_converter_hash.ply").string();
+    {
+      std::ofstream out(path, std::ios::binary);
+      out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    }
+    PlyReadOptions options;
+    options.hash_file = true;
+    auto from_file = read_ply(path, options);
+    std::filesystem::remove(path);
+    REQUIRE_MESSAGE(from_file.ok(), from_file.status().to_string());
+    auto from_memory = read_ply_bytes(bytes.data(), bytes.size(), "hash.ply", options);
+    REQUIRE(from_memory.ok());
+    INFO(storage);
+    REQUIRE(from_file->file_xxh64.has_value());
+    REQUIRE(from_memory->file_xxh64.has_value());
+    CHECK(*from_file->file_xxh64 == *from_memory->file_xxh64);
+    CHECK(same_cloud(from_file->cloud, from_memory->cloud));
+    CHECK_FALSE(read_ok(bytes).file_xxh64.has_value());  // only on request
+    // A one-byte change anywhere (here: the last byte) changes the hash.
+    auto changed = bytes;
+    changed.back() ^= 1;
+    auto other = read_ply_bytes(changed.data(), changed.size(), "hash.ply", options);
+    if (other.ok()) CHECK(*other->file_xxh64 != *from_memory->file_xxh64);
+  }
+}
+
 TEST_CASE("read_ply: elements after vertex are ignored, empty ones before it are allowed") {
   const Sh3FromGuitar src(10);
   auto value = [&src](uint64_t i, const std::string& n) { return src(i, n); };

@@ -93,6 +93,15 @@ void check_scene(const format::GaussianCloud& cloud, const std::string& label) {
     auto whole = converter::measure_attribute_errors(cloud, *deq);
     REQUIRE(whole.ok());
     CHECK(std::memcmp(&*chunked, &*whole, sizeof(converter::AttributeErrors)) == 0);
+    // The measurement fused into quantize() gives the same bits, and the same report.
+    converter::AttributeErrors fused;
+    converter::QuantizationReport fused_report, plain_report;
+    auto enc_fused = converter::quantize(cloud, options, &fused_report, &fused);
+    REQUIRE(enc_fused.ok());
+    REQUIRE(converter::quantize(cloud, options, &plain_report).ok());
+    CHECK(same_encoded(enc, *enc_fused));
+    CHECK(std::memcmp(&fused, &*chunked, sizeof(converter::AttributeErrors)) == 0);
+    CHECK(std::memcmp(&fused_report, &plain_report, sizeof(converter::QuantizationReport)) == 0);
     CHECK(chunked->position.max == 0.0);
     CHECK(chunked->rotation_deg.max < 0.2);
     if (encoding == format::ScaleEncoding::kLinear) CHECK(chunked->opacity.max <= std::ldexp(1.0, -11));
