@@ -1,38 +1,30 @@
 // Widening of the compact .rgs runtime profile into the FP32 arrays of the baseline pipeline, the device
-// twin of format::dequantize() (format/src/encoded_scene.cpp): same operations, same bits (FP16 → FP32 is
-// exact; SH = s[d][c]·q is one rounded product; log scales go through expf, which may differ from the
+// twin of format::dequantize() (format/src/encoded_scene.cpp). It reads through the same functions the RoofGS
+// kernels use to dequantize in registers (roofgs_gaussian.cuh), so both paths see the same values: FP16 → FP32
+// is exact, SH = s[d][c]·q is one rounded product, and log scales go through expf (which may differ from the
 // host's std::exp by an ulp).
-#include <cuda_fp16.h>
-
 #include "launch_util.cuh"
-#include "rgs/kernels/baseline_pipeline.h"
-#include "rgs/kernels/shared/spherical_harmonics.h"
+#include "roofgs_gaussian.cuh"
 
 namespace rgs::kernels {
 namespace {
-
-__device__ inline float half_to_float(uint16_t bits) { return __half2float(__ushort_as_half(bits)); }
-
-/// Degree of SH coefficient k: 0 for k = 0, 1 for 1..3, 2 for 4..8, 3 for 9..15.
-__device__ inline int sh_degree_of(int k) { return k == 0 ? 0 : k < 4 ? 1 : k < 9 ? 2 : 3; }
 
 __global__ void __launch_bounds__(detail::kBlockSize)
     dequantize_kernel(CompactGaussiansView c, float* rotations, float* scales, float* opacities, float* sh) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= c.count) return;
-  for (int a = 0; a < 4; ++a) rotations[4 * i + a] = half_to_float(c.rotations[4 * i + a]);
-  for (int a = 0; a < 3; ++a) {
-    const float v = half_to_float(c.scales[3 * i + a]);
-    scales[3 * i + a] = c.scale_encoding == CompactScaleEncoding::kLog ? expf(v) : v;
-  }
-  opacities[i] = half_to_float(c.opacities[i]);
-  const int k_count = sh_coefficients_for(int(c.sh_degree));
-  const uint64_t base = uint64_t(i) * uint64_t(k_count) * 3;
-  for (int k = 0; k < k_count; ++k) {
-    const int d = sh_degree_of(k);
-    for (int ch = 0; ch < 3; ++ch) {
-      sh[base + 3 * k + ch] = c.sh_scales[d][ch] * static_cast<float>(c.sh[base + 3 * k + ch]);
-    }
+  GaussianSource src{};
+  src.compact = c;
+  float mean[3], scale[3], q[4], opacity;
+  detail::load_geometry<true>(src, i, mean, scale, q, &opacity);
+  for (int a = 0; a < 4; ++a) rotations[4 * uint64_t(i) + a] = q[a];
+  for (int a = 0; a < 3; ++a) scales[3 * uint64_t(i) + a] = scale[a];
+  opacities[i] = opacity;
+  const int values = sh_coefficients_for(int(c.sh_degree)) * 3;
+  // Unrolled to the largest block so every s[d][c] index is a compile-time constant (no local-memory copy).
+#pragma unroll
+  for (int j = 0; j < kMaxShCoefficients * 3; ++j) {
+    if (j < values) sh[uint64_t(i) * uint64_t(values) + uint64_t(j)] = detail::dequantize_sh(c, i, j);
   }
 }
 

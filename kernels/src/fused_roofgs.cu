@@ -71,8 +71,8 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     }
   }
 
-  // Per-thread tile counts are < 2^17 · 2^15 at most; a block's sum fits in 32 bits (256 · 2^32 would not,
-  // but one Gaussian never exceeds the grid's tile count, ≤ 2^22 for 32768² images).
+  // 32-bit block sums: one Gaussian touches at most the whole grid, ≤ 2^22 tiles for the largest image
+  // validate_camera accepts (32768², 2048² tiles), so 256 Gaussians stay below 2^30.
   uint32_t local_offset = 0, block_total = 0;
   BlockScan(scan_storage).ExclusiveSum(p.tiles, local_offset, block_total);
   if (threadIdx.x == 0) {

@@ -33,6 +33,14 @@ struct ProjectedRegs {
 
 __device__ inline float half_bits_to_float(uint16_t bits) { return __half2float(__ushort_as_half(bits)); }
 
+/// Value j of Gaussian g's SH block [K, 3] (j = 3k + c), dequantized as s[degree(k)][c]·q: one rounded
+/// product, as format::dequantize on the host.
+__device__ inline float dequantize_sh(const CompactGaussiansView& c, uint32_t g, int j) {
+  const uint64_t k_count = uint64_t(sh_coefficients_for(int(c.sh_degree)));
+  const int8_t q = c.sh[uint64_t(g) * k_count * 3 + uint64_t(j)];
+  return c.sh_scales[sh_degree_of_coefficient(j / 3)][j % 3] * static_cast<float>(q);
+}
+
 /// Gaussian g's geometry and opacity, dequantized in registers when compact (same values as
 /// kernels::dequantize and format::dequantize: FP16 widened exactly, exp of log scales).
 template <bool kCompact>
@@ -73,15 +81,9 @@ __device__ inline void load_colour(const GaussianSource& src, uint32_t g, float 
   const uint32_t degree = kCompact ? src.compact.sh_degree : src.fp32.sh_degree;
   const int k_count = sh_coefficients_for(int(degree));
   if constexpr (kCompact) {
-    const CompactGaussiansView& c = src.compact;
-    const int8_t* q = c.sh + uint64_t(g) * uint64_t(k_count) * 3;
     float sh[kMaxShCoefficients * 3];
 #pragma unroll
-    for (int j = 0; j < kMaxShCoefficients * 3; ++j) {
-      const int k = j / 3, ch = j % 3;
-      const int d = k == 0 ? 0 : k < 4 ? 1 : k < 9 ? 2 : 3;
-      sh[j] = j < k_count * 3 ? c.sh_scales[d][ch] * static_cast<float>(q[j]) : 0.f;
-    }
+    for (int j = 0; j < kMaxShCoefficients * 3; ++j) sh[j] = j < k_count * 3 ? dequantize_sh(src.compact, g, j) : 0.f;
     sh_to_colour(sh, int(degree), x, y, z, rgb);
   } else {
     sh_to_colour(src.fp32.sh + uint64_t(g) * uint64_t(k_count) * 3, int(degree), x, y, z, rgb);

@@ -50,6 +50,20 @@ const CompactFlowers& compact_flowers() {
   return scene;
 }
 
+/// The compact flowers scene uploaded to the GPU, and a renderer for it.
+struct Rig {
+  runtime::GpuScene scene;
+  runtime::GpuRenderer renderer;
+};
+
+Rig make_rig(const CompactFlowers& flowers) {
+  auto scene = runtime::GpuScene::from_rgs(*flowers.compact.file);
+  REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
+  auto renderer = runtime::GpuRenderer::create();
+  REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
+  return Rig{std::move(scene).value(), std::move(renderer).value()};
+}
+
 GpuRenderOptions roofgs_options(const RoofgsOptions& techniques, bool compact = true, bool fused = true) {
   GpuRenderOptions o;
   o.pipeline = GpuPipeline::kRoofgs;
@@ -91,10 +105,7 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference's RoofGS mode, technique by 
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
-  auto gpu_scene = runtime::GpuScene::from_rgs(*scene.compact.file);
-  REQUIRE_MESSAGE(gpu_scene.ok(), gpu_scene.status().to_string());
-  auto renderer = runtime::GpuRenderer::create();
-  REQUIRE(renderer.ok());
+  Rig rig = make_rig(scene);
   const std::vector<Camera> cams = flowers_cameras(scene.cameras_path, 60, 628, 414);  // cameras 0, 60, 120
   for (const Mode& mode : modes()) {
     CAPTURE(mode.name);
@@ -107,7 +118,7 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference's RoofGS mode, technique by 
       REQUIRE_MESSAGE(cpu.ok(), cpu.status().to_string());
       for (bool fused : {true, false}) {
         CAPTURE(fused);
-        const GpuFrame gpu = render_gpu(*renderer, *gpu_scene, cam, roofgs_options(mode.techniques, true, fused), false);
+        const GpuFrame gpu = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, fused), false);
         const Diff d = compare_rgb(gpu.rgba, cpu->rgb);
         MESSAGE(mode.name << std::string(fused ? " fused" : " separate") << ", " << cam.name << ": PSNR " << d.psnr
                           << " dB, max |diff| " << d.max_abs << ", pairs " << gpu.stats.pairs);
@@ -124,16 +135,13 @@ TEST_CASE("fused and separate stages give the same bytes, and frames are determi
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
-  auto gpu_scene = runtime::GpuScene::from_rgs(*scene.compact.file);
-  REQUIRE(gpu_scene.ok());
-  auto renderer = runtime::GpuRenderer::create();
-  REQUIRE(renderer.ok());
+  Rig rig = make_rig(scene);
   const Camera cam = flowers_cameras(scene.cameras_path, 1000, 1920, 1080)[0];
   for (const Mode& mode : modes()) {
     CAPTURE(mode.name);
-    const GpuFrame fused = render_gpu(*renderer, *gpu_scene, cam, roofgs_options(mode.techniques, true, true), false);
-    const GpuFrame again = render_gpu(*renderer, *gpu_scene, cam, roofgs_options(mode.techniques, true, true), false);
-    const GpuFrame separate = render_gpu(*renderer, *gpu_scene, cam, roofgs_options(mode.techniques, true, false), false);
+    const GpuFrame fused = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, true), false);
+    const GpuFrame again = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, true), false);
+    const GpuFrame separate = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, false), false);
     CHECK(std::memcmp(fused.rgba.data(), again.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
     CHECK(std::memcmp(fused.rgba.data(), separate.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
     CHECK(fused.stats.pairs == separate.stats.pairs);
@@ -147,10 +155,7 @@ TEST_CASE("32-bit key with depth order renders exactly the baseline's image at 1
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
-  auto gpu_scene = runtime::GpuScene::from_rgs(*scene.compact.file);
-  REQUIRE(gpu_scene.ok());
-  auto renderer = runtime::GpuRenderer::create();
-  REQUIRE(renderer.ok());
+  Rig rig = make_rig(scene);
   RoofgsOptions ordered;
   ordered.key32 = true;
   ordered.depth_order = true;
@@ -159,10 +164,10 @@ TEST_CASE("32-bit key with depth order renders exactly the baseline's image at 1
   for (int s = 0; s < 3; ++s) {
     const Camera cam = flowers_cameras(scene.cameras_path, 1000, sizes[s][0], sizes[s][1])[0];
     CAPTURE(cam.width);
-    const GpuFrame base = render_gpu(*renderer, *gpu_scene, cam, GpuRenderOptions{}, false);
+    const GpuFrame base = render_gpu(rig.renderer, rig.scene, cam, GpuRenderOptions{}, false);
     for (bool compact : {false, true}) {
       CAPTURE(compact);
-      const GpuFrame key32 = render_gpu(*renderer, *gpu_scene, cam, roofgs_options(ordered, compact, true), false);
+      const GpuFrame key32 = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(ordered, compact, true), false);
       CHECK(key32.stats.key_tile_bits == tile_bits[s]);
       CHECK(key32.stats.pairs == base.stats.pairs);
       CHECK(std::memcmp(key32.rgba.data(), base.rgba.data(), base.rgba.size() * sizeof(float)) == 0);
@@ -170,7 +175,7 @@ TEST_CASE("32-bit key with depth order renders exactly the baseline's image at 1
     // Without depth order the key quantizes depth: close to the baseline, not identical.
     RoofgsOptions plain;
     plain.key32 = true;
-    const GpuFrame quantized = render_gpu(*renderer, *gpu_scene, cam, roofgs_options(plain, true, true), false);
+    const GpuFrame quantized = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(plain, true, true), false);
     const Diff d = compare_rgb(quantized.rgba, rgb_of(base.rgba));
     MESSAGE(cam.width << "x" << cam.height << " 32-bit key without depth order vs baseline: PSNR " << d.psnr);
     CHECK(d.psnr >= 40.0);
@@ -184,10 +189,7 @@ TEST_CASE("RoofGS quality against the GPU baseline, every 20th flowers camera at
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
   const runtime::GpuScene& fp32_scene = *flowers_fp32().gpu;
-  auto compact_scene = runtime::GpuScene::from_rgs(*scene.compact.file);
-  REQUIRE(compact_scene.ok());
-  auto renderer = runtime::GpuRenderer::create();
-  REQUIRE(renderer.ok());
+  Rig rig = make_rig(scene);
   const std::vector<Camera> cams = flowers_cameras(scene.cameras_path, 20, 1920, 1080);
   RoofgsOptions better = RoofgsOptions::all();
   better.depth_order = true;
@@ -203,8 +205,8 @@ TEST_CASE("RoofGS quality against the GPU baseline, every 20th flowers camera at
     CAPTURE(target.name);
     double sum = 0, min = std::numeric_limits<double>::infinity();
     for (const Camera& cam : cams) {
-      const GpuFrame base = render_gpu(*renderer, fp32_scene, cam, GpuRenderOptions{}, false);
-      const GpuFrame fast = render_gpu(*renderer, *compact_scene, cam, roofgs_options(target.techniques), false);
+      const GpuFrame base = render_gpu(rig.renderer, fp32_scene, cam, GpuRenderOptions{}, false);
+      const GpuFrame fast = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(target.techniques), false);
       const double p = compare_rgb(fast.rgba, rgb_of(base.rgba)).psnr;
       sum += p;
       min = std::min(min, p);

@@ -34,6 +34,10 @@ constexpr float kShColourOffset = 0.5f;
 /// Number of coefficients per channel of an SH degree: (degree + 1)².
 RGS_HOST_DEVICE int sh_coefficients_for(int degree) { return (degree + 1) * (degree + 1); }
 
+/// Degree l of coefficient index k = l² + l + m: 0 for k = 0, 1 for 1..3, 2 for 4..8, 3 for 9..15 (the index
+/// of the .rgs per-degree SH quantization scale).
+RGS_HOST_DEVICE int sh_degree_of_coefficient(int k) { return k == 0 ? 0 : k < 4 ? 1 : k < 9 ? 2 : 3; }
+
 /// Basis values Y_k(dir) for k < (degree+1)², dir = (x, y, z) a unit vector (world frame, from the camera
 /// centre to the Gaussian mean). Entries k >= (degree+1)² are set to 0. `degree` is clamped to [0, 3].
 ///   Y0 = C0;  Y1 = −C1·y, Y2 = C1·z, Y3 = −C1·x;
