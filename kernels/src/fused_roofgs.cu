@@ -45,8 +45,7 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
 template <bool kCompact>
 __global__ void __launch_bounds__(detail::kBlockSize)
     fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, const uint32_t* order,
-                 RoofgsProjected out, FusedScratch scratch, uint64_t capacity, uint64_t* keys64, uint32_t* keys32,
-                 uint32_t* values) {
+                 RoofgsProjected out, FusedScratch scratch, LargeGaussianList large, detail::PairSink sink) {
   using BlockScan = cub::BlockScan<uint32_t, detail::kBlockSize>;
   __shared__ typename BlockScan::TempStorage scan_storage;
   __shared__ uint32_t block_id;
@@ -58,8 +57,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   const uint32_t block = block_id;
   const uint32_t t = block * detail::kBlockSize + threadIdx.x;
 
-  detail::ProjectedRegs p;
-  p.tiles = 0;
+  detail::ProjectedRegs p{};
   uint32_t g = 0;
   if (t < src.count) {
     g = order != nullptr ? order[t] : t;
@@ -81,9 +79,16 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     if (block == gridDim.x - 1) *scratch.total_pairs = exclusive + block_total;
   }
   __syncthreads();
-  if (p.tiles > 0) {
-    detail::emit_pairs(p, g, block_base + local_offset, capacity, frame, roofgs, keys64, keys32, values);
+  if (p.tiles == 0) return;
+  if (p.tiles > kSerialTileLimit) {  // emit_large_gaussians rebuilds the walk from these
+    out.cov2d[3 * uint64_t(g)] = p.cov.xx;
+    out.cov2d[3 * uint64_t(g) + 1] = p.cov.xy;
+    out.cov2d[3 * uint64_t(g) + 2] = p.cov.yy;
+    out.snug_t[g] = p.snug_t;
+    out.depth_bins[g] = p.depth_bin;
   }
+  const detail::PairSource source{g, p.depth_bin, p.depth, block_base + local_offset};
+  detail::emit_or_defer(detail::make_tile_walk(p, frame, roofgs), source, p.tiles, sink, large, frame, roofgs);
 }
 
 }  // namespace
@@ -92,21 +97,23 @@ uint32_t fused_blocks(uint32_t count) { return detail::blocks_for(count); }
 
 cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
                                     const RoofgsFrame& roofgs, const uint32_t* order, const RoofgsProjected& out,
-                                    const FusedScratch& scratch, uint64_t capacity, uint64_t* keys64,
-                                    uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
+                                    const FusedScratch& scratch, const LargeGaussianList& large, uint64_t capacity,
+                                    uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
   const uint32_t blocks = fused_blocks(source.count);
   cudaError_t result = cudaMemsetAsync(scratch.block_ticket, 0, sizeof(uint32_t), stream);
   if (result == cudaSuccess) {
     result = cudaMemsetAsync(scratch.block_status, 0, sizeof(unsigned long long) * blocks, stream);
   }
   if (result == cudaSuccess) result = cudaMemsetAsync(scratch.total_pairs, 0, sizeof(unsigned long long), stream);
+  if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(uint32_t), stream);
   if (result != cudaSuccess || source.count == 0) return result;
+  const detail::PairSink sink{capacity, keys64, keys32, values};
   if (roofgs.compact) {
-    fused_kernel<true><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch,
-                                                                  capacity, keys64, keys32, values);
+    fused_kernel<true><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch, large,
+                                                                  sink);
   } else {
-    fused_kernel<false><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch,
-                                                                   capacity, keys64, keys32, values);
+    fused_kernel<false><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch, large,
+                                                                   sink);
   }
   return detail::launch_result();
 }

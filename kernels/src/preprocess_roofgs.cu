@@ -42,22 +42,13 @@ __global__ void __launch_bounds__(detail::kBlockSize)
 
 __global__ void __launch_bounds__(detail::kBlockSize)
     duplicate_roofgs_kernel(RoofgsProjected in, const uint64_t* offsets, const uint32_t* order, uint32_t count,
-                            FrameParams frame, RoofgsFrame roofgs, uint64_t* keys64, uint32_t* keys32,
-                            uint32_t* values) {
+                            FrameParams frame, RoofgsFrame roofgs, LargeGaussianList large, detail::PairSink sink) {
   const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
   if (t >= count || in.tiles_touched[t] == 0) return;
   const uint32_t g = order != nullptr ? order[t] : t;
-  detail::ProjectedRegs p;
-  const float2 mean = reinterpret_cast<const float2*>(in.means2d)[g];
-  p.px = mean.x;
-  p.py = mean.y;
-  p.cov = Cov2{in.cov2d[3 * uint64_t(g)], in.cov2d[3 * uint64_t(g) + 1], in.cov2d[3 * uint64_t(g) + 2]};
-  p.snug_t = in.snug_t[g];
-  p.rect = tile_rect(p.px, p.py, in.radii[g], int(frame.tiles_x), int(frame.tiles_y));
-  p.depth = in.depths[g];
-  p.depth_bin = in.depth_bins[g];
-  const uint64_t begin = t == 0 ? 0 : offsets[t - 1];
-  detail::emit_pairs(p, g, begin, ~uint64_t{0}, frame, roofgs, keys64, keys32, values);
+  const detail::PairSource source{g, in.depth_bins[g], in.depths[g], t == 0 ? 0 : offsets[t - 1]};
+  detail::emit_or_defer(detail::load_tile_walk(in, g, frame, roofgs), source, uint32_t(in.tiles_touched[t]), sink,
+                        large, frame, roofgs);
 }
 
 }  // namespace
@@ -83,11 +74,13 @@ cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& f
 }
 
 cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* offsets, const uint32_t* order,
-                             uint32_t count, const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t* keys64,
-                             uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
-  if (count == 0) return cudaSuccess;
+                             uint32_t count, const FrameParams& frame, const RoofgsFrame& roofgs,
+                             const LargeGaussianList& large, uint64_t* keys64, uint32_t* keys32, uint32_t* values,
+                             cudaStream_t stream) {
+  const cudaError_t zeroed = cudaMemsetAsync(large.count, 0, sizeof(uint32_t), stream);
+  if (zeroed != cudaSuccess || count == 0) return zeroed;
   duplicate_roofgs_kernel<<<detail::blocks_for(count), detail::kBlockSize, 0, stream>>>(
-      projected, offsets, order, count, frame, roofgs, keys64, keys32, values);
+      projected, offsets, order, count, frame, roofgs, large, detail::PairSink{~uint64_t{0}, keys64, keys32, values});
   return detail::launch_result();
 }
 

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 
+#include "launch_util.cuh"
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/projection.h"
@@ -166,37 +167,107 @@ __device__ inline void store_projected(const ProjectedRegs& p, uint32_t g, const
   out.radii[g] = p.radius;
 }
 
-/// Calls emit(tile_x, tile_y) for each tile of a visible Gaussian in emission order: its 3DGS rectangle
-/// row-major, or AccuTile's walk (cpu_renderer.cpp for_each_tile_of).
-template <typename Emit>
-__device__ inline void for_each_tile(float px, float py, const Cov2& cov, float snug_t, const TileRect& rect,
-                                     const FrameParams& frame, const RoofgsFrame& roofgs, Emit&& emit) {
-  if (roofgs.snugbox_accutile) {
-    const SnugBox box = make_snugbox(px, py, cov, snug_t);
-    for_each_accutile_tile(box, accutile_limit(frame, roofgs, rect), emit);
-    return;
+/// The tiles of a visible Gaussian as slices: AccuTile's walk (SnugBox + AccuTile), or the rows of its 3DGS
+/// rectangle. Emission order is slice by slice, ascending along each slice, which is the CPU reference's
+/// order (cpu_renderer.cpp for_each_tile_of) whether the slices are walked by one thread or by a block.
+struct TileWalk {
+  bool accutile;
+  AccutileWalk walk;  ///< accutile only
+  TileRect rect;      ///< rectangle only: slices are its rows
+
+  __device__ int slice_begin() const { return accutile ? walk.u_first : rect.y_min; }
+  __device__ int slice_end() const { return accutile ? walk.u_end : rect.y_max; }
+  /// Tiles [*first, *end) of slice k along the slice.
+  __device__ void span(int k, int* first, int* end) const {
+    if (accutile) {
+      accutile_slice(walk, k, first, end);
+    } else {
+      *first = rect.x_min;
+      *end = rect.x_max;
+    }
   }
-  for (int ty = rect.y_min; ty < rect.y_max; ++ty) {
-    for (int tx = rect.x_min; tx < rect.x_max; ++tx) emit(tx, ty);
+  /// Tile id of position v in slice k.
+  __device__ uint32_t tile(int k, int v, uint32_t tiles_x) const {
+    const bool k_is_row = !accutile || walk.walk_rows;
+    return k_is_row ? uint32_t(k) * tiles_x + uint32_t(v) : uint32_t(v) * tiles_x + uint32_t(k);
+  }
+};
+
+__device__ inline TileWalk make_tile_walk(const ProjectedRegs& p, const FrameParams& frame,
+                                          const RoofgsFrame& roofgs) {
+  TileWalk w;
+  w.accutile = roofgs.snugbox_accutile;
+  w.rect = p.rect;
+  if (w.accutile) {
+    w.walk = make_accutile_walk(make_snugbox(p.px, p.py, p.cov, p.snug_t), accutile_limit(frame, roofgs, p.rect));
+  }
+  return w;
+}
+
+/// What a pair needs besides its tile: the Gaussian, its key's depth part, and where its pairs start.
+struct PairSource {
+  uint32_t g;
+  uint32_t depth_bin;  ///< key32
+  float depth;         ///< 64-bit keys
+  uint64_t offset;     ///< position of the Gaussian's first pair
+};
+
+/// Destination of the pairs: 32- or 64-bit keys, values, and the capacity (positions ≥ capacity are skipped,
+/// so an undersized buffer is detected by the caller from the pair total without out-of-bounds writes).
+struct PairSink {
+  uint64_t capacity;
+  uint64_t* keys64;
+  uint32_t* keys32;
+  uint32_t* values;
+
+  __device__ void write(uint64_t position, uint32_t tile, const PairSource& s, const RoofgsFrame& roofgs) const {
+    if (position >= capacity) return;
+    if (roofgs.key32) {
+      keys32[position] = make_key32(tile, s.depth_bin, roofgs.key_depth_bits);
+    } else {
+      keys64[position] = make_key64(tile, s.depth);
+    }
+    values[position] = s.g;
+  }
+};
+
+/// Writes all pairs of one Gaussian from the calling thread.
+__device__ inline void emit_pairs_serial(const TileWalk& w, const PairSource& s, const PairSink& sink,
+                                         const FrameParams& frame, const RoofgsFrame& roofgs) {
+  uint64_t position = s.offset;
+  for (int k = w.slice_begin(); k < w.slice_end(); ++k) {
+    int first, end;
+    w.span(k, &first, &end);
+    for (int v = first; v < end; ++v) sink.write(position++, w.tile(k, v, frame.tiles_x), s, roofgs);
   }
 }
 
-/// Writes the pairs of one Gaussian starting at `offset` (skipping positions ≥ capacity).
-__device__ inline void emit_pairs(const ProjectedRegs& p, uint32_t g, uint64_t offset, uint64_t capacity,
-                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t* keys64,
-                                  uint32_t* keys32, uint32_t* values) {
-  for_each_tile(p.px, p.py, p.cov, p.snug_t, p.rect, frame, roofgs, [&](int tx, int ty) {
-    if (offset < capacity) {
-      const uint32_t tile = uint32_t(ty) * frame.tiles_x + uint32_t(tx);
-      if (roofgs.key32) {
-        keys32[offset] = make_key32(tile, p.depth_bin, roofgs.key_depth_bits);
-      } else {
-        keys64[offset] = make_key64(tile, p.depth);
-      }
-      values[offset] = g;
-    }
-    ++offset;
-  });
+/// Rebuilds the tile walk of Gaussian g from the per-Gaussian arrays (what duplicate_roofgs and
+/// emit_large_gaussians read): the same inputs as in the preprocess, so the same walk.
+__device__ inline TileWalk load_tile_walk(const RoofgsProjected& in, uint32_t g, const FrameParams& frame,
+                                          const RoofgsFrame& roofgs) {
+  ProjectedRegs p;
+  const float2 mean = reinterpret_cast<const float2*>(in.means2d)[g];
+  p.px = mean.x;
+  p.py = mean.y;
+  p.cov = Cov2{in.cov2d[3 * uint64_t(g)], in.cov2d[3 * uint64_t(g) + 1], in.cov2d[3 * uint64_t(g) + 2]};
+  p.snug_t = in.snug_t[g];
+  p.rect = tile_rect(p.px, p.py, in.radii[g], int(frame.tiles_x), int(frame.tiles_y));
+  return make_tile_walk(p, frame, roofgs);
+}
+
+/// Emits the pairs of Gaussian g (kSerialTileLimit tiles or fewer) from this thread, or lists it for
+/// emit_large_gaussians, which spreads a large Gaussian over a thread block. Without the list, one thread
+/// would write a screen-filling Gaussian's 32,400 pairs at 4K while the rest of the GPU waits for it.
+__device__ inline void emit_or_defer(const TileWalk& walk, const PairSource& source, uint32_t tiles,
+                                     const PairSink& sink, const LargeGaussianList& large, const FrameParams& frame,
+                                     const RoofgsFrame& roofgs) {
+  if (tiles > kSerialTileLimit) {
+    const uint32_t i = atomicAdd(large.count, 1u);
+    if (i < large.capacity) large.items[i] = LargeGaussian{source.offset, source.g, 0u};
+  } else if (tiles > 0) {
+    emit_pairs_serial(walk, source, sink, frame, roofgs);
+  }
 }
 
 }  // namespace rgs::kernels::detail

@@ -95,6 +95,9 @@ struct GpuRenderer::Buffers {
   // Depth order: keys, sorted keys, identity values, the order itself, sort scratch.
   DeviceBuffer<uint32_t> order_keys, order_keys_sorted, order_identity, order;
   DeviceBuffer<uint8_t> order_temp;
+  // Gaussians with many tiles, emitted a thread block each: [N] list and its count.
+  DeviceBuffer<kernels::LargeGaussian> large_items;
+  DeviceBuffer<uint32_t> large_count;
   // Fused kernel scratch: ticket, one status word per block, pair total.
   DeviceBuffer<uint32_t> fused_ticket;
   DeviceBuffer<unsigned long long> fused_status, fused_total;
@@ -107,6 +110,9 @@ struct GpuRenderer::Buffers {
   DeviceBuffer<uint64_t> ranges;
   // Pair count read back from the device.
   PinnedBuffer pair_count;
+  // The last frame's pairs and key width (download_sorted_pairs).
+  uint64_t last_pairs = 0;
+  bool last_key32 = false;
   // Stage boundaries: start, after duplicate, after sort, after ranges, after render.
   cudaEvent_t events[5] = {nullptr, nullptr, nullptr, nullptr, nullptr};
 
@@ -130,7 +136,8 @@ struct GpuRenderer::Buffers {
     return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + log_opacities.bytes() +
            cov2d.bytes() + snug_t.bytes() + radii.bytes() + depth_bins.bytes() + tiles_touched.bytes() +
            offsets.bytes() + scan_temp.bytes() + order_keys.bytes() + order_keys_sorted.bytes() +
-           order_identity.bytes() + order.bytes() + order_temp.bytes() + fused_ticket.bytes() +
+           order_identity.bytes() + order.bytes() + order_temp.bytes() + large_items.bytes() + large_count.bytes() +
+           fused_ticket.bytes() +
            fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() + keys32.bytes() +
            keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() + ranges.bytes();
   }
@@ -239,6 +246,33 @@ GpuRenderer::~GpuRenderer() = default;
 
 uint64_t GpuRenderer::scratch_bytes() const { return buffers_ ? buffers_->bytes() : 0; }
 
+Status GpuRenderer::download_sorted_pairs(std::vector<uint64_t>* keys, std::vector<uint32_t>* values,
+                                          cudaStream_t stream) const {
+  RGS_RETURN_ERROR_IF(buffers_ == nullptr, StatusCode::kInvalidArgument, "GpuRenderer: used after move");
+  const Buffers& b = *buffers_;
+  const uint64_t pairs = b.last_pairs;
+  keys->assign(pairs, 0);
+  values->assign(pairs, 0);
+  if (pairs == 0) return Status();
+  if (b.last_key32) {
+    std::vector<uint32_t> keys32(pairs);
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys32.data(), b.keys32_sorted.data(), pairs * sizeof(uint32_t),
+                                             cudaMemcpyDeviceToHost, stream),
+                             "GpuRenderer: sorted keys read-back");
+    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: sorted keys read-back");
+    std::copy(keys32.begin(), keys32.end(), keys->begin());
+  } else {
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys->data(), b.keys64_sorted.data(), pairs * sizeof(uint64_t),
+                                             cudaMemcpyDeviceToHost, stream),
+                             "GpuRenderer: sorted keys read-back");
+  }
+  RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(values->data(), b.values_sorted.data(), pairs * sizeof(uint32_t),
+                                           cudaMemcpyDeviceToHost, stream),
+                           "GpuRenderer: sorted values read-back");
+  RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: sorted pairs read-back");
+  return Status();
+}
+
 Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& camera,
                                            const GpuRenderOptions& options, DeviceImage* image,
                                            cudaStream_t stream) {
@@ -257,12 +291,15 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
   stats.tiles_x = frame.tiles_x;
   stats.tiles_y = frame.tiles_y;
   cudaEvent_t* ev = buffers_->events;
+  buffers_->last_pairs = 0;  // until this frame's pairs are sorted
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[0], stream), "GpuRenderer: cudaEventRecord");
   if (options.pipeline == GpuPipeline::kRoofgs) {
     RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options.roofgs, timed, image, &stats, stream));
   } else {
     RGS_RETURN_IF_ERROR(render_baseline(scene, frame, timed, image, &stats, stream));
   }
+  buffers_->last_pairs = stats.pairs;
+  buffers_->last_key32 = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.techniques.key32;
   if (timed) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[4], stream), "GpuRenderer: cudaEventRecord");
     RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(ev[4]), "GpuRenderer: frame");
@@ -392,11 +429,13 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                "GpuRenderer: depth sort");
       order = b.order.data();
     }
-    if (!options.fused_preprocess) {
-      RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
-      RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
-      RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
-    }
+    // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
+    RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
+    RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
+    RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
+    RGS_RETURN_IF_ERROR(b.large_items.reserve(n, "GpuRenderer: large Gaussian list"));
+    RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
+    const kernels::LargeGaussianList large{b.large_items.data(), b.large_count.data(), n};
     const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
     if (options.fused_preprocess) {
       const uint32_t blocks = kernels::fused_blocks(n);
@@ -409,10 +448,13 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       for (int attempt = 0;; ++attempt) {
         RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, stats->sort_bits, stream));
         capacity = b.values.size();
-        RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, order, projected, scratch,
+        RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, order, projected, scratch, large,
                                                                   capacity, b.keys64.data(), b.keys32.data(),
                                                                   b.values.data(), stream),
                                  "GpuRenderer: fused preprocess kernel");
+        RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.keys64.data(),
+                                                               b.keys32.data(), b.values.data(), stream),
+                                 "GpuRenderer: large Gaussian kernel");
         RGS_ASSIGN_OR_RETURN(pairs, b.read_back(b.fused_total.data(), stream));
         if (pairs <= capacity) break;
         RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
@@ -426,10 +468,13 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));
       if (pairs > 0) {
         RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, stats->sort_bits, stream));
-        RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), order, n, frame, rf,
+        RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), order, n, frame, rf, large,
                                                            b.keys64.data(), b.keys32.data(), b.values.data(),
                                                            stream),
                                  "GpuRenderer: duplicate kernel");
+        RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.keys64.data(),
+                                                               b.keys32.data(), b.values.data(), stream),
+                                 "GpuRenderer: large Gaussian kernel");
       }
     }
   }

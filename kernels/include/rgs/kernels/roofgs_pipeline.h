@@ -9,6 +9,7 @@
 //   preprocess_roofgs        per Gaussian, as the baseline, plus SnugBox culling, depth bins, ln o
 //   + inclusive_scan + duplicate_roofgs      (separate stages), or
 //   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs
+//   emit_large_gaussians     pairs of the Gaussians with many tiles, a thread block each (after either)
 //   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
 //   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
 //                            the fast exp
@@ -53,10 +54,12 @@ struct RoofgsProjected {
   float* conic_opacity = nullptr;   ///< [N, 4] conic (a, b, c) and opacity o
   float* log_opacities = nullptr;   ///< [N] ln o (folded into C6 / the fast exp's argument)
   float* rgb = nullptr;             ///< [N, 3]
-  float* cov2d = nullptr;           ///< [N, 3] dilated 2D covariance (xx, xy, yy) for SnugBox (separate stages)
-  float* snug_t = nullptr;          ///< [N] SnugBox threshold 2·ln(255·o) (separate stages)
+  // The tile walk's inputs: written for every visible Gaussian by preprocess_roofgs, and by the fused kernel
+  // only for Gaussians it lists as large (emit_large_gaussians reads them).
+  float* cov2d = nullptr;           ///< [N, 3] dilated 2D covariance (xx, xy, yy) for SnugBox
+  float* snug_t = nullptr;          ///< [N] SnugBox threshold 2·ln(255·o)
   int32_t* radii = nullptr;         ///< [N] 3DGS radius; 0 = culled
-  uint32_t* depth_bins = nullptr;   ///< [N] key32 depth bin
+  uint32_t* depth_bins = nullptr;   ///< [N] key32 depth bin (0 without key32)
   uint64_t* tiles_touched = nullptr;///< [N] tiles of Gaussian order[t] at position t; 0 = culled
 };
 
@@ -66,6 +69,34 @@ struct GaussianSource {
   CompactGaussiansView compact;
   uint32_t count = 0;
 };
+
+/// Pair emission (duplicate_roofgs and the fused kernel): a Gaussian with at most this many tiles is written
+/// by its own thread; a larger one is listed and written by emit_large_gaussians with a whole thread block,
+/// in the same positions and order.
+constexpr uint32_t kSerialTileLimit = 32;
+
+/// A Gaussian with more than kSerialTileLimit tiles, listed for emit_large_gaussians.
+struct LargeGaussian {
+  uint64_t offset;  ///< position of its first pair
+  uint32_t g;       ///< Gaussian id
+  uint32_t unused;
+};
+
+/// Large Gaussians of a frame, in any order (each entry carries its pairs' positions, so the order does not
+/// reach the output). At most one entry per Gaussian: capacity = N suffices.
+struct LargeGaussianList {
+  LargeGaussian* items = nullptr;  ///< [capacity]
+  uint32_t* count = nullptr;       ///< [1] entries listed; zeroed by duplicate_roofgs / fused_preprocess_roofgs
+  uint32_t capacity = 0;
+};
+
+/// Writes the pairs of every listed large Gaussian, one thread block per Gaussian (a persistent grid takes
+/// the entries in turn): each thread finds the tiles of one slice of the Gaussian's tile walk (an AccuTile
+/// slice or a rectangle row), a block scan places the slices, and the pairs are dealt round-robin over the
+/// threads. Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
+cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGaussianList& large,
+                                 const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
+                                 uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
 
 /// Writes keys[i] = float bits of Gaussian i's view depth (0xFFFFFFFF when z ≤ near or not finite: such
 /// Gaussians are culled later anyway) and values[i] = i, for sort_pairs(…, 32 bits) → an emission `order`
@@ -82,9 +113,11 @@ cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& f
 /// Duplication (separate stages). Thread t handles Gaussian g = order ? order[t] : t and writes its pairs
 /// at [offsets[t−1], offsets[t]) (inclusive scan of tiles_touched): its tiles in row-major order, or in
 /// AccuTile's walk order; key = key32 ? tile << b_d | bin : tile << 32 | float_bits(depth); value = g.
+/// Gaussians with more than kSerialTileLimit tiles go to `large` instead (emit_large_gaussians writes them).
 cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* offsets, const uint32_t* order,
-                             uint32_t count, const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t* keys64,
-                             uint32_t* keys32, uint32_t* values, cudaStream_t stream);
+                             uint32_t count, const FrameParams& frame, const RoofgsFrame& roofgs,
+                             const LargeGaussianList& large, uint64_t* keys64, uint32_t* keys32, uint32_t* values,
+                             cudaStream_t stream);
 
 /// Scratch of the fused kernel's order-preserving allocation (decoupled look-back over thread blocks).
 struct FusedScratch {
@@ -100,11 +133,13 @@ uint32_t fused_blocks(uint32_t count);
 /// b's pairs start after all pairs of blocks < b (decoupled look-back, one status word per block), so pairs
 /// come out in emission order exactly as with the separate stages: output is deterministic. Pairs at
 /// positions ≥ capacity are not written; *total_pairs always receives the full count, and the caller runs
-/// the kernel again with enough capacity when it exceeds `capacity`.
+/// the kernel again with enough capacity when it exceeds `capacity`. Gaussians with more than
+/// kSerialTileLimit tiles are listed in `large` (with their cov2d, snug_t and depth bin stored), and
+/// emit_large_gaussians must follow to write their pairs.
 cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
                                     const RoofgsFrame& roofgs, const uint32_t* order, const RoofgsProjected& out,
-                                    const FusedScratch& scratch, uint64_t capacity, uint64_t* keys64,
-                                    uint32_t* keys32, uint32_t* values, cudaStream_t stream);
+                                    const FusedScratch& scratch, const LargeGaussianList& large, uint64_t capacity,
+                                    uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
 
 /// Rasterizer switches.
 struct RasterOptions {

@@ -129,6 +129,14 @@ class GpuRenderer {
   /// Device bytes held by the scratch buffers now.
   uint64_t scratch_bytes() const;
 
+  /// The last frame's (tile, Gaussian) pairs after the sort, copied to the host for tests and debugging (the
+  /// CPU reference's TileBins::keys/values, term by term). Waits for `stream`.
+  /// @return keys [P] widened to 64 bits (the baseline's tile << 32 | depth bits, or the 32-bit RoofGS key),
+  /// values [P] Gaussian ids; P = GpuRenderStats::pairs of the last render (0 before the first one).
+  /// Errors: kCudaError (a failed copy).
+  Status download_sorted_pairs(std::vector<uint64_t>* keys, std::vector<uint32_t>* values,
+                               cudaStream_t stream = nullptr) const;
+
  private:
   GpuRenderer() = default;
   struct Buffers;

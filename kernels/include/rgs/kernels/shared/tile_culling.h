@@ -110,60 +110,91 @@ RGS_HOST_DEVICE void ellipse_line_intersections(float s_uu, float s_uv, float de
   *dv_hi = (s_uv * h + root) / s_uu;
 }
 
-/// AccuTile along axis u (the walked axis) with v the other axis. Emits emit(u_tile, v_tile) for every tile
-/// of rect [u_first, u_end) × [v_first, v_end) whose pixel-centre rectangle meets the ellipse.
-template <typename Emit>
-RGS_HOST_DEVICE uint32_t accutile_walk(float mean_u, float mean_v, float half_u, float half_v, float s_uu,
-                                       float s_vv, float s_uv, float det, float t, int u_first, int u_end,
-                                       int v_first, int v_end, Emit&& emit) {
+}  // namespace detail
+
+/// AccuTile's walk of one SnugBox: the box's tile rectangle cut into slices along its shorter side (tile
+/// rows when it has no more rows than columns, else columns). Axis u is the walked one (slice k covers tile
+/// u = k), v the other; `slice_span` gives the tiles of one slice, so slices can be walked in any order or
+/// in parallel (the fused kernel spreads a large Gaussian's slices over a thread block).
+struct AccutileWalk {
+  bool walk_rows;               ///< u = y (slices are tile rows), else u = x
+  int u_first, u_end;           ///< slices [u_first, u_end)
+  int v_first, v_end;           ///< the rectangle's extent along v
+  float mean_u, mean_v;         ///< projected mean along u and v (pixels)
+  float half_u, half_v;         ///< SnugBox half extents along u and v
+  float s_uu, s_vv, s_uv;       ///< Σ in (u, v) order
+  float det, t;                 ///< accurate det(Σ), SnugBox threshold
+  float du_at_vmax;             ///< u-offset of the ellipse's max-v point (its min-v point is at the negation)
+};
+
+/// The walk of `box` inside `limit`; no slices (u_end ≤ u_first) when the SnugBox rectangle is empty.
+RGS_HOST_DEVICE AccutileWalk make_accutile_walk(const SnugBox& box, const TileRect& limit) {
+  const TileRect r = snugbox_rect(box, limit);
+  AccutileWalk w;
+  w.walk_rows = (r.y_max - r.y_min) <= (r.x_max - r.x_min);
+  if (w.walk_rows) {
+    w.u_first = r.y_min, w.u_end = r.y_max, w.v_first = r.x_min, w.v_end = r.x_max;
+    w.mean_u = box.mean_y, w.mean_v = box.mean_x, w.half_u = box.half_y, w.half_v = box.half_x;
+    w.s_uu = box.cov.yy, w.s_vv = box.cov.xx;
+  } else {
+    w.u_first = r.x_min, w.u_end = r.x_max, w.v_first = r.y_min, w.v_end = r.y_max;
+    w.mean_u = box.mean_x, w.mean_v = box.mean_y, w.half_u = box.half_x, w.half_v = box.half_y;
+    w.s_uu = box.cov.xx, w.s_vv = box.cov.yy;
+  }
+  if (is_empty(r)) w.u_end = w.u_first;
+  w.s_uv = box.cov.xy;
+  w.det = box.det;
+  w.t = box.t;
+  w.du_at_vmax = w.s_uv * w.half_v / w.s_vv;
+  return w;
+}
+
+/// Tiles [*first, *end) along v of slice k (u_first ≤ k < u_end) whose pixel-centre rectangles meet the
+/// ellipse; empty when *end ≤ *first.
+RGS_HOST_DEVICE void accutile_slice(const AccutileWalk& w, int k, int* first, int* end) {
   const float tile = static_cast<float>(kTileSize);
-  // u-offset of the ellipse's max-v point; its min-v point is at the negated offset.
-  const float du_at_vmax = s_uv * half_v / s_vv;
+  // The slice's pixel centres span [16k, 16k + 15] in u; keep the part inside the ellipse's u-range.
+  const float lo = fmaxf(static_cast<float>(k) * tile, w.mean_u - w.half_u);
+  const float hi = fminf(static_cast<float>(k) * tile + (tile - 1.f), w.mean_u + w.half_u);
+  if (!(lo <= hi)) {
+    *first = *end = w.v_first;
+    return;
+  }
+  const float h_lo = lo - w.mean_u;
+  const float h_hi = hi - w.mean_u;
+  float lo_at_lo, hi_at_lo, lo_at_hi, hi_at_hi;
+  detail::ellipse_line_intersections(w.s_uu, w.s_uv, w.det, w.t, h_lo, &lo_at_lo, &hi_at_lo);
+  detail::ellipse_line_intersections(w.s_uu, w.s_uv, w.det, w.t, h_hi, &lo_at_hi, &hi_at_hi);
+  // The ellipse part inside the slice is convex: its v-extremes are the ellipse's own extreme points when
+  // they lie inside the slice, otherwise on the slice's boundary lines.
+  const float dv_max =
+      (h_lo <= w.du_at_vmax && w.du_at_vmax <= h_hi) ? w.half_v : fmaxf(hi_at_lo, hi_at_hi);
+  const float dv_min =
+      (h_lo <= -w.du_at_vmax && -w.du_at_vmax <= h_hi) ? -w.half_v : fminf(lo_at_lo, lo_at_hi);
+  tiles_meeting_interval(w.mean_v + dv_min, w.mean_v + dv_max, w.v_first, w.v_end, first, end);
+}
+
+/// SnugBox + AccuTile: calls emit(tile_x, tile_y) once for every tile inside `limit` whose pixel-centre
+/// rectangle meets the ellipse of `box`, and returns how many. Walks the slices of make_accutile_walk in
+/// order, intersecting the ellipse with each slice's two boundary lines. Emission order: row-major when
+/// walking rows, column-major otherwise (the sort key orders pairs, so the order does not reach the image).
+template <typename Emit>
+RGS_HOST_DEVICE uint32_t for_each_accutile_tile(const SnugBox& box, const TileRect& limit, Emit&& emit) {
+  const AccutileWalk w = make_accutile_walk(box, limit);
   uint32_t count = 0;
-  for (int k = u_first; k < u_end; ++k) {
-    // The slice's pixel centres span [16k, 16k + 15] in u; keep the part inside the ellipse's u-range.
-    const float lo = fmaxf(static_cast<float>(k) * tile, mean_u - half_u);
-    const float hi = fminf(static_cast<float>(k) * tile + (tile - 1.f), mean_u + half_u);
-    if (!(lo <= hi)) continue;
-    const float h_lo = lo - mean_u;
-    const float h_hi = hi - mean_u;
-    float lo_at_lo, hi_at_lo, lo_at_hi, hi_at_hi;
-    ellipse_line_intersections(s_uu, s_uv, det, t, h_lo, &lo_at_lo, &hi_at_lo);
-    ellipse_line_intersections(s_uu, s_uv, det, t, h_hi, &lo_at_hi, &hi_at_hi);
-    // The ellipse part inside the slice is convex: its v-extremes are the ellipse's own extreme points when
-    // they lie inside the slice, otherwise on the slice's boundary lines.
-    const float dv_max = (h_lo <= du_at_vmax && du_at_vmax <= h_hi) ? half_v : fmaxf(hi_at_lo, hi_at_hi);
-    const float dv_min = (h_lo <= -du_at_vmax && -du_at_vmax <= h_hi) ? -half_v : fminf(lo_at_lo, lo_at_hi);
+  for (int k = w.u_first; k < w.u_end; ++k) {
     int first, end;
-    tiles_meeting_interval(mean_v + dv_min, mean_v + dv_max, v_first, v_end, &first, &end);
+    accutile_slice(w, k, &first, &end);
     for (int v = first; v < end; ++v) {
-      emit(k, v);
+      if (w.walk_rows) {
+        emit(v, k);
+      } else {
+        emit(k, v);
+      }
       ++count;
     }
   }
   return count;
-}
-
-}  // namespace detail
-
-/// SnugBox + AccuTile: calls emit(tile_x, tile_y) once for every tile inside `limit` whose pixel-centre
-/// rectangle meets the ellipse of `box`, and returns how many. Walks the SnugBox rectangle along its shorter
-/// side (tile rows when it has no more rows than columns, else columns), intersecting the ellipse with each
-/// slice's two boundary lines. Emission order: row-major when walking rows, column-major otherwise (the sort
-/// key orders pairs, so the order does not reach the image).
-template <typename Emit>
-RGS_HOST_DEVICE uint32_t for_each_accutile_tile(const SnugBox& box, const TileRect& limit, Emit&& emit) {
-  const TileRect r = snugbox_rect(box, limit);
-  if (is_empty(r)) return 0;
-  const bool walk_rows = (r.y_max - r.y_min) <= (r.x_max - r.x_min);
-  if (walk_rows) {
-    return detail::accutile_walk(box.mean_y, box.mean_x, box.half_y, box.half_x, box.cov.yy, box.cov.xx,
-                                 box.cov.xy, box.det, box.t, r.y_min, r.y_max, r.x_min, r.x_max,
-                                 [&emit](int ty, int tx) { emit(tx, ty); });
-  }
-  return detail::accutile_walk(box.mean_x, box.mean_y, box.half_x, box.half_y, box.cov.xx, box.cov.yy,
-                               box.cov.xy, box.det, box.t, r.x_min, r.x_max, r.y_min, r.y_max,
-                               [&emit](int tx, int ty) { emit(tx, ty); });
 }
 
 /// Intersection of two tile rectangles (may be empty).
