@@ -40,4 +40,12 @@ Result<LoadedGpuScene> load_gpu_scene(const std::string& path) {
   return LoadedGpuScene{std::move(scene).value(), bounds, false, ply.file_bytes};
 }
 
+Result<LoadedGpuScene> upload_replicated_scene(const ReplicatedScene& replicated, const std::string& name) {
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(replicated.rgs_bytes.data(),
+                                                                         replicated.rgs_bytes.size(), {}, name));
+  auto scene = runtime::GpuScene::from_rgs(file);
+  if (!scene.ok()) return naming(scene.status(), name);
+  return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, replicated.source_file_bytes};
+}
+
 }  // namespace rgs::tools

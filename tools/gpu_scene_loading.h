@@ -8,6 +8,7 @@
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 #include "rgs/runtime/gpu_scene.h"
+#include "scene_loading.h"
 
 namespace rgs::tools {
 
@@ -30,5 +31,11 @@ Status require_cuda_device(int ordinal = 0);
 /// runtime::GpuScene::from_rgs (sections uploaded as stored, no host decode), otherwise a 3DGS PLY through
 /// converter::read_ply and GpuScene::from_cloud with converter::compute_bounds. Errors name `path`.
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path);
+
+/// Uploads a replicate_scene_file() result onto the current device through format::RgsFile::from_bytes and
+/// runtime::GpuScene::from_rgs (compact sections and the FP32 arrays widened on the GPU); `name` appears in
+/// errors. The bytes may be freed once this returns. is_rgs is true (the scene has compact attributes),
+/// file_bytes the source file's size.
+Result<LoadedGpuScene> upload_replicated_scene(const ReplicatedScene& replicated, const std::string& name);
 
 }  // namespace rgs::tools

@@ -5,12 +5,22 @@
 //   rgs-bench scene.rgs --cameras cameras.json --every 8 --resolution 1080p --resolution 4k --json bench.json
 //   rgs-bench scene.ply --orbit 16 --warmup 10 --repeat 50
 //   rgs-bench scene.rgs --orbit 16 --mode baseline --mode roofgs --mode only-snugbox
+//   rgs-bench daffodils.rgs --orbit 8 --replicate 4 --resolution 4k --mode baseline --mode roofgs
 //
 // For every mode and resolution: W warm-up frames, then R repetitions of every view (views in turn), each
 // frame timed with CUDA events per stage (GpuRenderOptions::time_stages). Reported: the median over
 // views × repetitions of each stage separately (so the stage medians need not add up to the total's), FPS =
 // 1000 / median total, the mean (tile, Gaussian) pair count over views, with the device, scene, Gaussian
-// count and date. Exit status: 0 ok, 1 failure (no device, scene, render), 2 usage error.
+// count and date.
+//
+// Roofline (docs/ROOFLINE.md): the device's memory and FP32 peaks are measured first in the same run
+// (runtime::measure_device_peaks: a 1 GiB device-to-device copy, an FMA loop), and every stage of every mode
+// and resolution is placed against them with the analytic bytes and FLOPs of roofline_model.h (mean over the
+// views' pair counts) and the stage's median time: GB/s, GFLOP/s, FLOP/B, % of each peak, the bounding roof.
+//
+// --replicate K tiles the scene K times (converter::replicate, tools::replicate_scene_file) before the
+// upload, keeping compact attributes, so that multi-million-Gaussian scenes can be timed; orbit cameras frame
+// the replicated bounds. Exit status: 0 ok, 1 failure (no device, scene, render), 2 usage error.
 
 #include <CLI/CLI.hpp>
 
@@ -26,9 +36,11 @@
 #include "cli_common.h"
 #include "gpu_scene_loading.h"
 #include "rgs/config.h"
+#include "roofline_model.h"
 #include "rgs/format/file_io.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
+#include "rgs/runtime/device_peaks.h"
 #include "rgs/runtime/gpu_renderer.h"
 #include "scene_loading.h"
 
@@ -131,6 +143,7 @@ struct Options {
   std::vector<std::string> modes = {"baseline"};
   uint32_t warmup = 5;
   uint32_t repeat = 20;
+  uint32_t replicate = 1;
   int device = 0;
   std::string json_path;
 };
@@ -176,12 +189,14 @@ struct ViewResult {
   uint32_t width = 0, height = 0;
   uint64_t pairs = 0;
   int sort_bits = 0;
+  uint32_t tiles_x = 0, tiles_y = 0;
   std::vector<float> samples[kStages];  ///< one per repetition
 };
 
 /// One mode at one resolution.
 struct RunResult {
   std::string mode;
+  runtime::GpuRenderOptions options;
   std::string resolution;  ///< "1920x1080", or "native" for cameras.json sizes
   std::vector<ViewResult> views;
   Summary stages[kStages];
@@ -242,6 +257,7 @@ Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runti
   }
   RunResult run;
   run.mode = mode.name;
+  run.options = base_options;
   run.resolution = set.label;
   run.views.resize(n);
   for (size_t v = 0; v < n; ++v) {
@@ -258,6 +274,8 @@ Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runti
       ViewResult& vr = run.views[v];
       vr.pairs = stats->pairs;
       vr.sort_bits = stats->sort_bits;
+      vr.tiles_x = stats->tiles_x;
+      vr.tiles_y = stats->tiles_y;
       for (int s = 0; s < kStages; ++s) vr.samples[s].push_back(stage_ms(stats->times, s));
     }
   }
@@ -273,6 +291,119 @@ Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runti
   return run;
 }
 
+// ---------------------------------------------------------------------------------------------------------
+// Roofline: the model's bytes and FLOPs (roofline_model.h) per stage, against the measured peaks.
+
+/// The model's inputs for one view of a run. The renderer does not report how many Gaussians survive
+/// culling, so `visible` is N (an upper bound, docs/ROOFLINE.md).
+tools::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const runtime::GpuScene& scene,
+                                   const ViewResult& v) {
+  tools::FrameWorkInputs in;
+  in.roofgs = o.pipeline == runtime::GpuPipeline::kRoofgs;
+  if (in.roofgs) {
+    in.compact = o.roofgs.compact_attributes;
+    in.fused = o.roofgs.fused_preprocess;
+    in.key32 = o.roofgs.techniques.key32;
+    in.snugbox = o.roofgs.techniques.snugbox_accutile;
+    in.folded = o.roofgs.techniques.folded_coefficients;
+    in.fast_exp = o.roofgs.techniques.fast_exp;
+    in.depth_order = o.roofgs.techniques.depth_order;
+  }
+  in.depth_plane = false;  // rgs-bench's DeviceImage has no depth plane
+  in.gaussians = scene.size();
+  in.visible = scene.size();
+  in.large_gaussians = 0;  // not reported either: their extra traffic is left out (docs/ROOFLINE.md)
+  in.sh_degree = scene.sh_degree();
+  in.pairs = v.pairs;
+  in.sort_bits = v.sort_bits;
+  in.tiles = uint64_t(v.tiles_x) * v.tiles_y;
+  in.pixels = uint64_t(v.width) * v.height;
+  return in;
+}
+
+/// One run on the roofline: the model's work per frame (mean over views) and each stage's point.
+struct RunRoofline {
+  tools::FrameWorkInputs inputs;  ///< of the first view (pairs replaced by the mean)
+  double mean_pairs = 0;
+  tools::StageWork work[tools::kRooflineStages];
+  tools::RooflinePoint points[tools::kRooflineStages];
+};
+
+RunRoofline roofline_of(const RunResult& r, const runtime::GpuScene& scene, const tools::RooflinePeaks& peaks) {
+  RunRoofline out;
+  for (const ViewResult& v : r.views) {
+    const tools::FrameWork w = tools::frame_work(work_inputs(r.options, scene, v));
+    for (int s = 0; s < tools::kRooflineStages; ++s) {
+      out.work[s].bytes += w.stages[s].bytes / double(r.views.size());
+      out.work[s].flops += w.stages[s].flops / double(r.views.size());
+    }
+  }
+  if (!r.views.empty()) out.inputs = work_inputs(r.options, scene, r.views.front());
+  out.mean_pairs = r.mean_pairs;
+  for (int s = 0; s < tools::kRooflineStages; ++s) {
+    out.points[s] = tools::roofline_point(out.work[s], r.stages[s].median, peaks);
+  }
+  return out;
+}
+
+nlohmann::json peaks_json(const runtime::DevicePeaks& p) {
+  return {{"memory",
+           {{"method", "cudaMemcpyAsync device to device, CUDA events, median; bytes = read + write"},
+            {"copy_bytes", p.copy_bytes},
+            {"samples_ms", p.copy_ms},
+            {"median_ms", p.copy_median_ms},
+            {"gbps", p.memory_gbps}}},
+          {"compute",
+           {{"method", "FP32 FMA loop (kernels/device_peaks.h), 2 FLOPs per FMA, CUDA events, median"},
+            {"blocks", p.fma_blocks},
+            {"blocks_per_sm", p.fma_blocks_per_sm},
+            {"threads_per_block", p.fma_threads_per_block},
+            {"iterations", p.fma_iterations},
+            {"chains_per_thread", p.fma_chains_per_thread},
+            {"flops_per_launch", p.fma_flops},
+            {"samples_ms", p.fma_ms},
+            {"median_ms", p.fma_median_ms},
+            {"gflops", p.fp32_gflops}}},
+          {"ridge_flop_per_byte", p.ridge_flop_per_byte()}};
+}
+
+nlohmann::json roofline_json(const RunRoofline& rl) {
+  const tools::FrameWorkInputs& in = rl.inputs;
+  nlohmann::json inputs = {{"pipeline", in.roofgs ? "roofgs" : "baseline"},
+                           {"attributes", in.compact ? "compact" : "fp32"},
+                           {"fused", in.fused},
+                           {"key_bits", in.roofgs && in.key32 ? 32 : 64},
+                           {"snugbox_accutile", in.snugbox},
+                           {"folded", in.folded},
+                           {"fast_exp", in.fast_exp},
+                           {"depth_order", in.depth_order},
+                           {"depth_plane", in.depth_plane},
+                           {"gaussians", in.gaussians},
+                           {"visible_assumed", in.visible},
+                           {"large_gaussians_assumed", in.large_gaussians},
+                           {"sh_degree", in.sh_degree},
+                           {"mean_pairs", rl.mean_pairs},
+                           {"sort_bits", in.sort_bits},
+                           {"radix_passes", tools::radix_passes(in.sort_bits)},
+                           {"tiles", in.tiles},
+                           {"pixels", in.pixels}};
+  nlohmann::json stages;
+  for (int s = 0; s < tools::kRooflineStages; ++s) {
+    const tools::RooflinePoint& p = rl.points[s];
+    stages[tools::roofline_stage_name(tools::RooflineStage(s))] = {
+        {"median_ms", p.ms},          {"bytes", p.bytes},
+        {"flops", p.flops},           {"gbps", p.gbps},
+        {"gflops", p.gflops},         {"flop_per_byte", p.intensity},
+        {"pct_memory_peak", p.pct_bandwidth}, {"pct_compute_peak", p.pct_compute},
+        {"bound", p.bound},           {"attainable_gflops", p.attainable_gflops},
+        {"pct_of_roof", p.pct_of_roof}};
+  }
+  return {{"model", "docs/ROOFLINE.md: bytes requested from global memory and FP32 FLOPs per frame (mean over "
+                    "views), visible = all Gaussians, render FLOPs without early termination (upper bounds)"},
+          {"inputs", inputs},
+          {"stages", stages}};
+}
+
 std::string format_time(const char* pattern, bool utc) {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
@@ -286,16 +417,39 @@ std::string format_time(const char* pattern, bool utc) {
   return buf;
 }
 
+/// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
+Result<tools::LoadedGpuScene> load_scene(const Options& opt, tools::ReplicatedScene* replicated) {
+  if (opt.replicate <= 1) return tools::load_gpu_scene(opt.input);
+  auto scene = tools::upload_replicated_scene(*replicated, opt.input + " x" + std::to_string(opt.replicate));
+  replicated->rgs_bytes = std::vector<uint8_t>();  // uploaded: free the host copy
+  return scene;
+}
+
 int run(const Options& opt) {
   const auto t_start = Clock::now();
+  // Replication is host work and checks the Gaussian count before the device is touched.
+  tools::ReplicatedScene replicated;
+  if (opt.replicate > 1) {
+    std::fprintf(stderr, "replicating %s x%u ...\n", opt.input.c_str(), opt.replicate);
+    auto r = tools::replicate_scene_file(opt.input, opt.replicate);
+    if (!r.ok()) return tools::report_error(kTool, Status(r.status()).prepend("--replicate " +
+                                                                              std::to_string(opt.replicate)));
+    replicated = std::move(r).value();
+  }
   Status device_ok = tools::require_cuda_device(opt.device);
   if (!device_ok.ok()) return tools::report_error(kTool, device_ok);
   auto device = runtime::cuda_device_info(opt.device);
   if (!device.ok()) return tools::report_error(kTool, device.status());
+
+  // Peaks first, while the device memory is free.
+  std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
+  auto peaks = runtime::measure_device_peaks();
+  if (!peaks.ok()) return tools::report_error(kTool, Status(peaks.status()).prepend("device peaks"));
+  const tools::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops};
+
   auto renderer = runtime::GpuRenderer::create();
   if (!renderer.ok()) return tools::report_error(kTool, renderer.status());
-
-  auto scene = tools::load_gpu_scene(opt.input);
+  auto scene = load_scene(opt, &replicated);
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
   auto sets = make_camera_sets(opt, scene->bounds);
   if (!sets.ok()) return tools::report_error(kTool, sets.status());
@@ -319,14 +473,25 @@ int run(const Options& opt) {
       results.push_back(std::move(result).value());
     }
   }
+  std::vector<RunRoofline> rooflines;
+  for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene->scene, roofs));
 
   // Table.
   std::printf("%s %s\n", kTool, opt.input.c_str());
   std::printf("  device           %s (sm_%d%d, %d SMs), %s\n", device->name.c_str(), device->compute_major,
               device->compute_minor, device->multiprocessors, date.c_str());
-  std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
-              tools::group_digits(scene->scene.size()).c_str(), scene->scene.sh_degree(),
-              scene->is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene->scene.device_bytes()) / 1e6, 1).c_str());
+  if (opt.replicate > 1) {
+    std::printf("  gaussians        %s = %u copies of %s (SH degree %u, %s source, %s MB on the device)\n",
+                tools::group_digits(scene->scene.size()).c_str(), opt.replicate,
+                tools::group_digits(replicated.source_gaussians).c_str(), scene->scene.sh_degree(),
+                replicated.source_is_rgs ? ".rgs" : "PLY",
+                tools::fixed(double(scene->scene.device_bytes()) / 1e6, 1).c_str());
+    std::printf("  replicated       %s\n", replicated.quantization.c_str());
+  } else {
+    std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
+                tools::group_digits(scene->scene.size()).c_str(), scene->scene.sh_degree(),
+                scene->is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene->scene.device_bytes()) / 1e6, 1).c_str());
+  }
   std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", view_count,
               opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json", opt.warmup, opt.repeat);
   std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", "mode", "resolution", "preprocess", "sort", "ranges",
@@ -337,6 +502,27 @@ int run(const Options& opt) {
                 tools::fixed(r.stages[2].median, 3).c_str(), tools::fixed(r.stages[3].median, 3).c_str(),
                 tools::fixed(r.stages[4].median, 3).c_str(), tools::fixed(r.fps, 1).c_str(),
                 tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
+  }
+
+  // Roofline table.
+  std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
+              "FP32 %s GFLOP/s (FMA loop, median of %zu); ridge %s FLOP/B\n",
+              tools::fixed(peaks->memory_gbps, 1).c_str(), tools::group_digits(peaks->copy_bytes >> 20).c_str(),
+              peaks->copy_ms.size(), tools::fixed(peaks->fp32_gflops, 0).c_str(), peaks->fma_ms.size(),
+              tools::fixed(peaks->ridge_flop_per_byte(), 2).c_str());
+  std::printf("  roofline         model: docs/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
+  std::printf("  %-12s %-10s %-10s %8s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage", "ms",
+              "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
+  for (size_t i = 0; i < results.size(); ++i) {
+    for (int s = 0; s < tools::kRooflineStages; ++s) {
+      const tools::RooflinePoint& p = rooflines[i].points[s];
+      std::printf("  %-12s %-10s %-10s %8s %10s %10s %9s %9s %8s %6s %6s %-7s\n", results[i].mode.c_str(),
+                  results[i].resolution.c_str(), tools::roofline_stage_name(tools::RooflineStage(s)),
+                  tools::fixed(p.ms, 3).c_str(), tools::fixed(p.bytes / 1e6, 2).c_str(),
+                  tools::fixed(p.flops / 1e6, 1).c_str(), tools::fixed(p.gbps, 1).c_str(),
+                  tools::fixed(p.gflops, 1).c_str(), tools::fixed(p.intensity, 2).c_str(),
+                  tools::fixed(p.pct_bandwidth, 1).c_str(), tools::fixed(p.pct_compute, 1).c_str(), p.bound);
+    }
   }
 
   if (!opt.json_path.empty()) {
@@ -354,12 +540,22 @@ int run(const Options& opt) {
                    {"l2_cache_bytes", device->l2_cache_bytes},
                    {"driver_version", device->driver_version},
                    {"runtime_version", device->runtime_version}};
+    j["device_peaks"] = peaks_json(*peaks);
     j["scene"] = {{"path", opt.input},
                   {"format", scene->is_rgs ? "rgs" : "ply"},
                   {"file_bytes", scene->file_bytes},
                   {"gaussians", scene->scene.size()},
                   {"sh_degree", scene->scene.sh_degree()},
-                  {"device_bytes", scene->scene.device_bytes()}};
+                  {"device_bytes", scene->scene.device_bytes()},
+                  {"replicate", opt.replicate}};
+    if (opt.replicate > 1) {
+      j["scene"]["format"] = replicated.source_is_rgs ? "rgs" : "ply";
+      j["scene"]["source_gaussians"] = replicated.source_gaussians;
+      j["scene"]["replicated_quantization"] = replicated.quantization;
+      const format::SceneBounds& b = scene->bounds;
+      j["scene"]["bounds"] = {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max},
+                              {"sphere_center", b.sphere_center}, {"sphere_radius", b.sphere_radius}};
+    }
     j["cameras"] = {{"source", opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json"},
                     {"path", opt.cameras.cameras_path},
                     {"every", opt.cameras.every},
@@ -368,7 +564,8 @@ int run(const Options& opt) {
     j["repetitions"] = opt.repeat;
     j["statistic"] = "median over views x repetitions, per stage separately; fps = 1000 / median total_ms";
     nlohmann::json runs = nlohmann::json::array();
-    for (const RunResult& r : results) {
+    for (size_t i = 0; i < results.size(); ++i) {
+      const RunResult& r = results[i];
       nlohmann::json stages, views = nlohmann::json::array();
       nlohmann::json median;
       for (int s = 0; s < kStages; ++s) {
@@ -396,6 +593,7 @@ int run(const Options& opt) {
                       {"stages", stages},
                       {"fps", r.fps},
                       {"mean_pairs", r.mean_pairs},
+                      {"roofline", roofline_json(rooflines[i])},
                       {"per_view", views}});
     }
     j["results"] = runs;
@@ -415,8 +613,9 @@ int main(int argc, char** argv) {
   std::string mode_help = "Mode to benchmark (repeatable; default baseline):";
   for (const BenchMode& m : all_modes()) mode_help += "\n  " + m.name + ": " + m.description;
   CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
-               "repetitions, FPS, pair counts, per mode and resolution; a table on stdout and the full results as "
-               "JSON.",
+               "repetitions, FPS, pair counts, per mode and resolution, and a per-stage roofline (analytic bytes "
+               "and FLOPs, docs/ROOFLINE.md, against the device's memory and FP32 peaks measured in the same "
+               "run); a table on stdout and the full results as JSON.",
                kTool};
   app.add_option("scene", opt.input, "Scene: .rgs (uploaded as stored) or 3DGS .ply")->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
@@ -440,6 +639,13 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names()));
+  app.add_option("--replicate", opt.replicate,
+                 "Tile the scene K times on a grid in the x-z plane (converter::replicate) before timing, keeping "
+                 "compact attributes: a .rgs as stored, a PLY quantized with rgs-convert's defaults. Orbit cameras "
+                 "frame the replicated scene; --cameras views are used as they are. K x Gaussians must stay "
+                 "<= 2^31 - 1")
+      ->check(CLI::Range(uint32_t{1}, uint32_t{0x7fffffff}))
+      ->capture_default_str();
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);

@@ -8,9 +8,11 @@
 #include "cli_common.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/converter/replicate.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
+#include "rgs/format/writer.h"
 
 namespace rgs::tools {
 
@@ -43,6 +45,51 @@ Result<LoadedScene> load_scene(const std::string& path) {
   scene.bounds = converter::compute_bounds(scene.cloud);
   scene.file_bytes = ply.file_bytes;
   return scene;
+}
+
+namespace {
+Status check_replicated_count(const std::string& path, uint64_t count, uint32_t copies) {
+  RGS_RETURN_ERROR_IF(copies == 0, StatusCode::kInvalidArgument, "replicate: the number of copies must be >= 1");
+  const uint64_t total = count * uint64_t(copies);  // < 2^64: count < 2^63 from any reader, copies < 2^32
+  RGS_RETURN_ERROR_IF(count > kMaxGpuGaussians || total > kMaxGpuGaussians, StatusCode::kLimitExceeded,
+                      path + ": " + std::to_string(copies) + " copies of " + group_digits(count) + " Gaussians = " +
+                          group_digits(total) + " exceed the 32-bit Gaussian count limit of " +
+                          group_digits(kMaxGpuGaussians));
+  return Status();
+}
+}  // namespace
+
+Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies) {
+  ReplicatedScene out;
+  out.copies = copies;
+  format::EncodedScene source;
+  if (is_rgs_path(path)) {
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+    RGS_RETURN_IF_ERROR(check_replicated_count(path, file.gaussian_count(), copies));
+    RGS_ASSIGN_OR_RETURN(source, file.read_scene());
+    out.source_is_rgs = true;
+    out.source_file_bytes = file.file_size();
+    out.quantization = "as stored in the source .rgs (attributes copied unchanged)";
+  } else {
+    RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+    RGS_RETURN_IF_ERROR(check_replicated_count(path, ply.cloud.size(), copies));
+    auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
+    if (!encoded.ok()) return Status(encoded.status()).prepend(path);
+    source = std::move(encoded).value();
+    out.source_file_bytes = ply.file_bytes;
+    out.quantization = "rgs-convert defaults (linear FP16 scales, SH scale = max |SH| / 127)";
+  }
+  out.source_gaussians = source.count;
+  auto replicated = converter::replicate(source, copies);
+  if (!replicated.ok()) return Status(replicated.status()).prepend(path);
+  source = format::EncodedScene{};  // free the single copy before serializing the K copies
+  out.gaussians = replicated->count;
+  out.sh_degree = replicated->metadata.sh_degree;
+  out.bounds = replicated->metadata.bounds;
+  auto bytes = format::serialize_scene(*replicated);
+  if (!bytes.ok()) return Status(bytes.status()).prepend(path + " x" + std::to_string(copies));
+  out.rgs_bytes = std::move(bytes).value();
+  return out;
 }
 
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds) {

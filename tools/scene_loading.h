@@ -31,6 +31,37 @@ bool is_rgs_path(const std::string& path);
 /// ends in .rgs, otherwise a 3DGS PLY (converter::read_ply, invalid values rejected). Errors name `path`.
 Result<LoadedScene> load_scene(const std::string& path);
 
+/// Largest Gaussian count a scene may have on the GPU (GpuScene and converter::replicate: 2^31 − 1).
+inline constexpr uint64_t kMaxGpuGaussians = 0x7fffffff;
+
+/// A scene tiled K times for benchmarks (rgs-bench --replicate), as the bytes of a complete .rgs file so that
+/// the GPU loads it through the path of a file (format::RgsFile::from_bytes, runtime::GpuScene::from_rgs):
+/// the compact attributes come with it.
+struct ReplicatedScene {
+  /// A .rgs file (SPEC v1.0), every section uncompressed; provenance gains "replicated" = K.
+  std::vector<uint8_t> rgs_bytes;
+  /// Bounds of all copies (the .rgs metadata): orbit cameras framed on them see the whole grid.
+  format::SceneBounds bounds;
+  uint64_t source_gaussians = 0;
+  uint64_t gaussians = 0;  ///< copies × source_gaussians
+  uint32_t copies = 1;
+  uint32_t sh_degree = 0;
+  bool source_is_rgs = false;
+  uint64_t source_file_bytes = 0;
+  /// How the copies were quantized: the source .rgs's own quantization (attributes copied unchanged), or
+  /// converter::quantize with the default QuantizeOptions for a PLY source.
+  std::string quantization;
+};
+
+/// Reads `path` and tiles it `copies` times with converter::replicate (a grid in the x–z plane, see
+/// replicate.h). A .rgs source is replicated as stored (its quantized sections, scales and provenance kept);
+/// a PLY source is first quantized with the default QuantizeOptions (linear scales, SH max scale), exactly
+/// what `rgs-convert in.ply out.rgs` writes without options. For a .rgs file the Gaussian count is checked
+/// from the header before any section is read.
+/// Errors: kInvalidArgument (copies 0), kLimitExceeded (copies × Gaussians > kMaxGpuGaussians, naming both
+/// numbers), those of reading `path` (which they name) and of quantizing/serializing.
+Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies);
+
 /// Which views to render.
 struct CameraChoice {
   /// INRIA cameras.json; empty: an orbit.

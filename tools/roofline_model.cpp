@@ -1,0 +1,162 @@
+// The per-stage bytes and FLOPs model of rgs-bench (roofline_model.h; docs/ROOFLINE.md derives each term).
+// Notation: N Gaussians, V visible, K = (degree + 1)² SH coefficients per channel, A attribute bytes per
+// Gaussian, P pairs, kb key bytes (8 or 4), T tiles, X pixels.
+#include "roofline_model.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rgs::tools {
+
+namespace {
+
+double sh_coefficients(uint32_t degree) {
+  const double d = std::min<uint32_t>(degree, 3);
+  return (d + 1) * (d + 1);
+}
+
+/// The sort of a pair array of `count` entries with `key_bytes`-byte keys and 4-byte values over `bits`
+/// bits (CUB onesweep): one histogram pass reads every key once, then each 8-bit pass reads and writes keys
+/// and values.
+double sort_bytes(double count, double key_bytes, int bits) {
+  if (count <= 0 || bits <= 0) return 0;
+  return count * key_bytes + double(radix_passes(bits)) * 2.0 * count * (key_bytes + 4.0);
+}
+
+}  // namespace
+
+const char* roofline_stage_name(RooflineStage stage) {
+  switch (stage) {
+    case RooflineStage::kPreprocess: return "preprocess";
+    case RooflineStage::kSort: return "sort";
+    case RooflineStage::kRanges: return "ranges";
+    case RooflineStage::kRender: return "render";
+  }
+  return "?";
+}
+
+double sh_colour_flops(uint32_t degree) {
+  static constexpr double kBasis[4] = {0, 3, 18, 48};
+  return kBasis[std::min<uint32_t>(degree, 3)] + 6.0 * sh_coefficients(degree);
+}
+
+double attribute_bytes(bool compact, uint32_t degree) {
+  const double k = sh_coefficients(degree);
+  return compact ? 28.0 + 3.0 * k : 44.0 + 12.0 * k;
+}
+
+int radix_passes(int sort_bits) { return sort_bits <= 0 ? 0 : (sort_bits + 7) / 8; }
+
+double render_eval_flops(bool folded, bool fast_exp, bool depth_plane) {
+  const double exp_flops = fast_exp ? kFlopsFastExp : kFlopsExpf;
+  // Unfolded: dx, dy (2) + power (9) + exp + (o·e or power + ln o: 1). Folded: 15 FLOPs per two pixels.
+  const double power = folded ? 7.5 : 2.0 + 9.0 + 1.0;
+  return power + exp_flops + kFlopsBlend + (depth_plane ? kFlopsBlendDepth : 0.0);
+}
+
+FrameWork frame_work(const FrameWorkInputs& in) {
+  const double n = double(in.gaussians);
+  const double v = double(std::min(in.visible, in.gaussians));
+  const double p = double(in.pairs);
+  const double t = double(in.tiles);
+  const double x = double(in.pixels);
+  const double k = sh_coefficients(in.sh_degree);
+  const bool roofgs = in.roofgs;
+  const bool compact = roofgs && in.compact;
+  const bool key32 = roofgs && in.key32;
+  const bool folded = roofgs && in.folded;
+  const bool fast_exp = roofgs && in.fast_exp;
+  const double kb = key32 ? 4.0 : 8.0;
+  const double a = attribute_bytes(compact, in.sh_degree);
+  FrameWork w;
+
+  // Preprocess: everything before the sort.
+  StageWork& pre = w.stages[int(RooflineStage::kPreprocess)];
+  double flops_visible = kFlopsProjectVisible + sh_colour_flops(in.sh_degree);
+  if (!roofgs) {
+    // preprocess_baseline: means of all (12N), the rest of the attributes of the visible ((A − 12)V),
+    // radii + tiles_touched of all (12N), depth/means2d/conic+opacity/rgb of the visible (40V);
+    // inclusive scan of N uint64 (16N); duplicate_baseline: radii (4N), offsets/means2d/depth (20V) and the
+    // pairs (P·(8 + 4)).
+    pre.bytes = 12 * n + (a - 12) * v + 12 * n + 40 * v + 16 * n + 4 * n + 20 * v + p * (8 + 4);
+    pre.flops = kFlopsViewTransform * n + (flops_visible + kFlopsTileRect) * v;
+  } else {
+    flops_visible += kFlopsLogf;                              // ln o for the folded/fast-exp alpha
+    if (compact) flops_visible += 3 * k;                      // SH = s[d][c]·q
+    if (key32) flops_visible += kFlopsDepthBin;
+    if (in.snugbox) flops_visible += kFlopsSnugThreshold + 2 * kFlopsAccutileSetup;  // count walk + emit walk
+    // AccuTile slices: a footprint of P/V tiles walked along its shorter side has about sqrt(P/V) slices,
+    // walked twice (count, then emit): 2·sqrt(P·V) slices in all.
+    const double slices = in.snugbox ? 2.0 * std::sqrt(p * v) : 0.0;
+    const double order_reads = in.depth_order ? 4 * n : 0.0;  // order[t] per thread
+    // Large Gaussians (> 32 tiles): listed (16 B entry), then emit_large_gaussians reads the entry and
+    // means2d, cov2d, snug_t, radius, depth bin, depth (52 B) and every one of its 128 threads rebuilds the
+    // walk (tile rectangle, and the AccuTile setup); its slices are the emission walk counted above.
+    const double large = double(std::min(in.large_gaussians, in.gaussians));
+    const double large_flops =
+        large * kLargeBlockThreads * (kFlopsTileRect + (in.snugbox ? kFlopsAccutileSetup : 0.0));
+    if (in.fused) {
+      // fused kernel: means of all, rest of the visible; radii of the culled (4(N − V)); store_projected of
+      // the visible (depth 4, means2d 8, conic+opacity 16, ln o 4, rgb 12, radius 4 = 48V); pairs P·(kb + 4).
+      // A large Gaussian also stores cov2d, snug_t and its depth bin (20 B) for emit_large_gaussians.
+      pre.bytes = 12 * n + (a - 12) * v + 4 * (n - v) + 48 * v + p * (kb + 4) + order_reads + (20 + 16 + 52) * large;
+      pre.flops = kFlopsViewTransform * n + flops_visible * v + kFlopsAccutileSlice * slices + large_flops;
+    } else {
+      // preprocess_roofgs: as the fused kernel's reads; writes radii + tiles_touched of all (12N) and 64V
+      // (store_projected without the radius, plus cov2d 12, snug_t 4, depth bin 4); scan 16N;
+      // duplicate_roofgs: tiles_touched (8N), offsets/means2d/cov2d/snug_t/radius/depth/depth bin (44V),
+      // pairs P·(kb + 4); each kernel reads order[t] with depth order.
+      pre.bytes = 12 * n + (a - 12) * v + 12 * n + 64 * v + 16 * n + 8 * n + 44 * v + p * (kb + 4) + 2 * order_reads +
+                  (16 + 52) * large;
+      pre.flops = kFlopsViewTransform * n + (flops_visible + kFlopsTileRect) * v + kFlopsAccutileSlice * slices +
+                  large_flops;
+    }
+    if (in.depth_order) {
+      // depth_sort_keys: means (12N) → keys and ids (8N); a 32-bit sort of N pairs; its view transforms.
+      pre.bytes += 12 * n + 8 * n + sort_bytes(n, 4, 32);
+      pre.flops += kFlopsViewTransform * n;
+    }
+  }
+
+  // Sort: CUB onesweep over sort_bits bits, no FP32 arithmetic.
+  w.stages[int(RooflineStage::kSort)].bytes = sort_bytes(p, kb, in.sort_bits);
+
+  // Ranges: clear 2 uint64 per tile (16T), read every sorted key (P·kb), write at most both ends of every
+  // tile's range (16T).
+  w.stages[int(RooflineStage::kRanges)].bytes = 16 * t + p * kb + 16 * t;
+
+  // Render: per pair its value (4) and the gathered per-Gaussian record — means2d 8, conic+opacity 16,
+  // rgb 12, + ln o 4 (fast exp or folded), + depth 4 (depth plane) — each pair's record fetched once per
+  // tile; the ranges (16T); the output RGBA float (16X) and depth (4X).
+  StageWork& render = w.stages[int(RooflineStage::kRender)];
+  const double record = 36.0 + ((folded || fast_exp) ? 4.0 : 0.0) + (in.depth_plane ? 4.0 : 0.0);
+  render.bytes = p * (4 + record) + 16 * t + x * (16 + (in.depth_plane ? 4 : 0));
+  // 256 pixel evaluations per pair (every pixel of the tile, no early termination: an upper bound), plus
+  // the folding per pair.
+  render.flops = p * (256.0 * render_eval_flops(folded, fast_exp, in.depth_plane) + (folded ? kFlopsFoldPair : 0.0));
+  return w;
+}
+
+RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePeaks& peaks) {
+  RooflinePoint pt;
+  pt.ms = ms;
+  pt.bytes = work.bytes;
+  pt.flops = work.flops;
+  pt.intensity = work.bytes > 0 ? work.flops / work.bytes : 0.0;
+  if (ms > 0) {
+    pt.gbps = work.bytes / (ms * 1e-3) / 1e9;
+    pt.gflops = work.flops / (ms * 1e-3) / 1e9;
+  }
+  if (peaks.memory_gbps > 0) pt.pct_bandwidth = 100.0 * pt.gbps / peaks.memory_gbps;
+  if (peaks.compute_gflops > 0) pt.pct_compute = 100.0 * pt.gflops / peaks.compute_gflops;
+  if (peaks.ridge() > 0) pt.bound = pt.intensity < peaks.ridge() ? "memory" : "compute";
+  pt.attainable_gflops = std::min(peaks.compute_gflops, pt.intensity * peaks.memory_gbps);
+  if (work.flops > 0) {
+    pt.pct_of_roof = pt.attainable_gflops > 0 ? 100.0 * pt.gflops / pt.attainable_gflops : 0.0;
+  } else {
+    pt.pct_of_roof = pt.pct_bandwidth;
+  }
+  return pt;
+}
+
+}  // namespace rgs::tools

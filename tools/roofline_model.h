@@ -1,0 +1,153 @@
+// Analytic bytes moved and FLOPs per stage of one frame of the CUDA renderer, for rgs-bench's roofline
+// (docs/ROOFLINE.md "How the counts are derived" explains every term and its assumptions).
+//
+// The model counts what the kernels *request* from global memory and the FP32 arithmetic they *issue*, from
+// quantities rgs-bench knows: Gaussian count, SH degree, attribute format, pair count, sort bits, tiles and
+// pixels. It mirrors the kernels of kernels/src as of this file's last change: a kernel that changes what it
+// reads, writes or computes must change the model with it. It is not a measurement: caches (L1, the 50 MB L2
+// of an H100) serve part of the requested bytes, so "achieved GB/s" against the DRAM copy peak can exceed
+// 100 % for data that stays in L2; early termination makes the render FLOPs an upper bound.
+//
+// FLOP counting convention (per PTX-level FP32 instruction, the work the FP32 pipes do): add, sub, mul, div,
+// sqrt = 1; fma = 2; min, max, compare, floor/ceil, conversions and negation = 0; expf = 10 (CUDA 13
+// libdevice: 4 fma + 1 add + 1 mul around an ex2.approx that runs on the SFU and is not counted); logf = 27
+// (12 fma + 1 add + 2 mul); the Schraudolph fast exp = 2 (one fma). The FMA peak is counted the same way
+// (2 per FMA), so the two sides of the roofline agree.
+#pragma once
+
+#include <cstdint>
+
+namespace rgs::tools {
+
+/// Stages timed by rgs-bench (runtime::StageTimes without the total).
+enum class RooflineStage : int { kPreprocess = 0, kSort = 1, kRanges = 2, kRender = 3 };
+inline constexpr int kRooflineStages = 4;
+
+/// "preprocess", "sort", "ranges", "render".
+const char* roofline_stage_name(RooflineStage stage);
+
+/// What one frame does, as the model needs it.
+struct FrameWorkInputs {
+  /// The RoofGS pipeline (kernels/roofgs_pipeline.h); false: the baseline pipeline (baseline_pipeline.h).
+  bool roofgs = false;
+  // RoofGS switches (ignored for the baseline pipeline).
+  bool compact = false;      ///< compact attributes (FP16 geometry, INT8 SH) instead of FP32
+  bool fused = false;        ///< fused preprocess kernel instead of preprocess + scan + duplicate
+  bool key32 = false;        ///< 32-bit keys (else 64-bit)
+  bool snugbox = false;      ///< SnugBox + AccuTile tile culling
+  bool folded = false;       ///< folded dual-pixel rasterizer
+  bool fast_exp = false;     ///< Schraudolph exp in the rasterizer
+  bool depth_order = false;  ///< Gaussians sorted by depth before the preprocess (RoofGS+)
+  /// The image has a depth plane (rgs-bench renders without one).
+  bool depth_plane = false;
+
+  uint64_t gaussians = 0;    ///< N, Gaussians in the scene
+  /// V ≤ N, Gaussians that survive culling and reach the tile stage. The renderer does not report it;
+  /// rgs-bench passes N, which makes every V term an upper bound.
+  uint64_t visible = 0;
+  uint32_t sh_degree = 0;    ///< 0..3; K = (degree + 1)² coefficients per channel
+  /// L, RoofGS Gaussians with more than kernels::kSerialTileLimit (32) tiles, whose pairs
+  /// emit_large_gaussians writes with a thread block each. The renderer does not report it; rgs-bench passes
+  /// 0, so the model then leaves out their extra traffic (88 B fused, 68 B separate) and walk rebuilds.
+  uint64_t large_gaussians = 0;
+  uint64_t pairs = 0;        ///< P, (tile, Gaussian) pairs sorted
+  int sort_bits = 0;         ///< key bits the radix sort covers (GpuRenderStats::sort_bits)
+  uint64_t tiles = 0;        ///< T = tiles_x · tiles_y (16×16 pixels each)
+  uint64_t pixels = 0;       ///< W · H
+};
+
+/// Bytes requested from global memory (reads + writes) and FP32 FLOPs of one stage of one frame.
+struct StageWork {
+  double bytes = 0;
+  double flops = 0;
+};
+
+/// The four stages of one frame, indexed by RooflineStage.
+struct FrameWork {
+  StageWork stages[kRooflineStages];
+  const StageWork& operator[](RooflineStage s) const { return stages[static_cast<int>(s)]; }
+};
+
+// Per-item FLOP counts of the model (docs/ROOFLINE.md has the derivation of each).
+
+/// expf as compiled by CUDA 13 (4 fma + add + mul; the SFU ex2 is not counted).
+inline constexpr double kFlopsExpf = 10;
+/// logf as compiled by CUDA 13 (12 fma + add + 2 mul).
+inline constexpr double kFlopsLogf = 27;
+/// Schraudolph fast exp: one fma (clamps and floor are not FLOPs).
+inline constexpr double kFlopsFastExp = 2;
+/// View transform p_cam = R·p + t, done for every Gaussian (9 mul + 9 add).
+inline constexpr double kFlopsViewTransform = 18;
+/// The rest of the 3DGS projection of a visible Gaussian: 3D covariance 78, EWA 2D covariance 77,
+/// determinant 3, conic 4, radius 9, pixel mean 8, tile rectangle 18, SH view direction 12.
+inline constexpr double kFlopsProjectVisible = 209;
+/// Tile rectangle recomputed by a separate duplicate kernel.
+inline constexpr double kFlopsTileRect = 18;
+/// Depth bin of the 32-bit key (2 sub, div, mul).
+inline constexpr double kFlopsDepthBin = 4;
+/// SnugBox threshold 2·ln(255·o): 2 mul + logf.
+inline constexpr double kFlopsSnugThreshold = 2 + kFlopsLogf;
+/// One AccuTile walk's setup: SnugBox (2 mul, 2 sqrt, Kahan determinant 6) and the walk's rectangle and
+/// extreme point (14).
+inline constexpr double kFlopsAccutileSetup = 24;
+/// One AccuTile slice: interval ends 7, two ellipse–line intersections 20, tile interval 6.
+inline constexpr double kFlopsAccutileSlice = 33;
+/// Front-to-back blend of one pixel: T·(1 − α) 2, C += c·α·T for 3 channels 9.
+inline constexpr double kFlopsBlend = 11;
+/// Extra blend work with a depth plane: w = α·T, depth·w, 2 sums.
+inline constexpr double kFlopsBlendDepth = 4;
+/// Folding C1..C6 of one (Gaussian, tile) pair at the shared-memory load (tile-local mean 2, C1..C6 19).
+inline constexpr double kFlopsFoldPair = 21;
+/// Threads of emit_large_gaussians' block, each of which rebuilds the large Gaussian's walk.
+inline constexpr double kLargeBlockThreads = 128;
+
+/// FLOPs of SH colour of degree d: basis (0, 3, 18, 48) + 3 channels × (K products, K − 1 sums, + 0.5).
+double sh_colour_flops(uint32_t degree);
+
+/// Bytes per Gaussian of the attributes the preprocess reads: FP32 44 + 12·K (mean 12, rotation 16, scale 12,
+/// opacity 4, SH 12·K), compact 28 + 3·K (mean 12, rotation 8, scale 6, opacity 2, SH 3·K).
+double attribute_bytes(bool compact, uint32_t degree);
+
+/// Radix-sort passes of CUB's onesweep DeviceRadixSort over `sort_bits` key bits: ceil(sort_bits / 8)
+/// (8-bit digits, ONESWEEP_RADIX_BITS of CUB's tuning policies for keys of ≥ 4 bytes); 0 for 0 bits.
+int radix_passes(int sort_bits);
+
+/// FLOPs of one (pair, pixel) evaluation in the render stage, every evaluation assumed to blend (upper
+/// bound): unfolded 2 (dx, dy) + 9 (power) + exp, then o·e (expf: 1) or power + ln o (fast exp: 1), + blend;
+/// folded 7.5 (5 fma for the first pixel, 2 fma + 1 add for the second, halved) + exp + blend.
+/// Baseline 33, fast exp 25, folded 28.5, folded + fast exp 20.5; + 4 with a depth plane.
+double render_eval_flops(bool folded, bool fast_exp, bool depth_plane);
+
+/// Bytes and FLOPs of every stage of one frame (formulas in roofline_model.cpp and docs/ROOFLINE.md).
+FrameWork frame_work(const FrameWorkInputs& in);
+
+/// Measured roofs, 10^9 units.
+struct RooflinePeaks {
+  double memory_gbps = 0;     ///< bandwidth roof, GB/s
+  double compute_gflops = 0;  ///< FP32 compute roof, GFLOP/s
+  /// Ridge point, FLOP per byte: compute_gflops / memory_gbps (0 without a bandwidth).
+  double ridge() const { return memory_gbps > 0 ? compute_gflops / memory_gbps : 0.0; }
+};
+
+/// One stage placed on the roofline.
+struct RooflinePoint {
+  double ms = 0;             ///< measured stage time (median)
+  double bytes = 0, flops = 0;
+  double gbps = 0;           ///< bytes / time
+  double gflops = 0;         ///< flops / time
+  double intensity = 0;      ///< FLOP per byte (0 when no bytes)
+  double pct_bandwidth = 0;  ///< gbps / peak bandwidth · 100
+  double pct_compute = 0;    ///< gflops / peak compute · 100
+  /// The roof above the point: "memory" when intensity < ridge (the bandwidth roof is the lower one there),
+  /// else "compute"; "unknown" without both peaks.
+  const char* bound = "unknown";
+  /// Attainable GFLOP/s at this intensity, min(compute peak, intensity · bandwidth peak), and the share of it
+  /// the stage reached (for a stage without FLOPs: pct_bandwidth).
+  double attainable_gflops = 0;
+  double pct_of_roof = 0;
+};
+
+/// Places `work`, timed at `ms` milliseconds, against `peaks`. A non-positive time gives zero rates.
+RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePeaks& peaks);
+
+}  // namespace rgs::tools
