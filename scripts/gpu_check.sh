@@ -28,15 +28,31 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
 fi
 
 if [ "$what" = bench ] || [ "$what" = all ]; then
+  # Per-stage times and the roofline (device peaks measured in each run; docs/ROOFLINE.md), JSON under $out
+  # (plot on a host: scripts/plot_roofline.py bench_X.json bench_X.png). Each run's wall time goes to the
+  # summary; the replicated scene runs fewer repetitions to keep the whole bench part short.
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode baseline --mode roofgs)
-  "$bin/rgs-bench" "$flowers" --cameras "$cameras" --every 8 --resolution 1920x1080 --resolution 3840x2160 \
-    "${modes[@]}" --warmup 5 --repeat 10 --json "$out/bench_flowers.json" >"$out/bench_flowers.log" 2>&1 || status=1
-  "$bin/rgs-bench" "$daffodils" --orbit 8 --resolution 1920x1080 --resolution 3840x2160 \
-    "${modes[@]}" --warmup 5 --repeat 10 --json "$out/bench_daffodils.json" >"$out/bench_daffodils.log" 2>&1 || status=1
-  tail -n 30 "$out/bench_flowers.log" "$out/bench_daffodils.log" | tee -a "$summary"
+  modes=(--mode baseline --mode roofgs --mode roofgs+)
+  sizes=(--resolution 1920x1080 --resolution 3840x2160)
+  bench() {  # NAME ARGS...: one rgs-bench run, its log and JSON under $out, its wall time in the summary
+    local name="$1"
+    shift
+    local t0 rc=0
+    t0=$(date +%s)
+    "$bin/rgs-bench" "$@" --json "$out/bench_$name.json" >"$out/bench_$name.log" 2>&1 || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "bench_$name: exit $rc in $(( $(date +%s) - t0 )) s"
+  }
+  bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${modes[@]}" --warmup 5 --repeat 10
+  bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 5 --repeat 10
+  # 542,104 x 4 = 2,168,416 Gaussians (converter::replicate, compact attributes kept); fewer repetitions.
+  bench daffodils_x4 "$daffodils" --replicate 4 --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 3 --repeat 5
+  for name in flowers daffodils daffodils_x4; do
+    # The tables without the progress lines ("... x N ...").
+    grep -v -e ' \.\.\.$' "$out/bench_$name.log" | tee -a "$summary"
+  done
 fi
 echo
 echo "=== summary ==="
