@@ -58,15 +58,12 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   const uint32_t t = block * detail::kBlockSize + threadIdx.x;
 
   detail::ProjectedRegs p{};
+  detail::TileWalk walk{};
   uint32_t g = 0;
-  if (t < src.count) {
-    g = order != nullptr ? order[t] : t;
-    if (detail::project_gaussian<kCompact>(src, g, frame, roofgs, &p)) {
-      detail::store_projected(p, g, out);
-    } else {
-      out.radii[g] = 0;
-      p.tiles = 0;
-    }
+  if (detail::preprocess_gaussian<kCompact>(src, t, order, frame, roofgs, &g, &p, &walk)) {
+    detail::store_projected(p, g, out);
+  } else if (t < src.count) {
+    out.radii[g] = 0;
   }
 
   // 32-bit block sums: one Gaussian touches at most the whole grid, ≤ 2^22 tiles for the largest image
@@ -80,7 +77,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   }
   __syncthreads();
   if (p.tiles == 0) return;
-  if (p.tiles > kSerialTileLimit) {  // emit_large_gaussians rebuilds the walk from these
+  if (p.tiles > kSerialTileLimit && large.capacity > 0) {  // emit_large_gaussians rebuilds the walk from these
     out.cov2d[3 * uint64_t(g)] = p.cov.xx;
     out.cov2d[3 * uint64_t(g) + 1] = p.cov.xy;
     out.cov2d[3 * uint64_t(g) + 2] = p.cov.yy;
@@ -88,7 +85,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     out.depth_bins[g] = p.depth_bin;
   }
   const detail::PairSource source{g, p.depth_bin, p.depth, block_base + local_offset};
-  detail::emit_or_defer(detail::make_tile_walk(p, frame, roofgs), source, p.tiles, sink, large, frame, roofgs);
+  detail::emit_or_defer(walk, source, p.tiles, sink, large, frame, roofgs);
 }
 
 }  // namespace

@@ -19,17 +19,20 @@ constexpr int kBlocksPerSm = 16;
 
 /// Writes the pairs of one Gaussian with the whole block (uniform control flow: every thread calls it with
 /// the same walk). Round r takes slices [begin + 128r, begin + 128r + 128): each thread measures one slice,
-/// a block scan turns the lengths into positions, then the round's pairs are dealt round-robin; a pair's
-/// slice is the last one whose prefix is ≤ its rank (empty slices share their successor's prefix).
-/// Positions and order equal emit_pairs_serial's.
+/// a block scan turns the lengths into positions, then each warp writes whole slices in turn, its lanes on
+/// consecutive tiles (coalesced stores, no search for a pair's slice). Positions and order equal
+/// emit_pairs_serial's.
 __device__ void emit_walk_with_block(const detail::TileWalk& walk, const detail::PairSource& source,
                                      const detail::PairSink& sink, const FrameParams& frame,
                                      const RoofgsFrame& roofgs) {
   using SliceScan = cub::BlockScan<uint32_t, kLargeBlockSize>;
+  constexpr int kWarps = kLargeBlockSize / 32;
   __shared__ typename SliceScan::TempStorage scan;
   __shared__ int slice_first[kLargeBlockSize];
+  __shared__ uint32_t slice_length[kLargeBlockSize];
   __shared__ uint32_t slice_offset[kLargeBlockSize];
 
+  const int lane = int(threadIdx.x) % 32, warp = int(threadIdx.x) / 32;
   uint64_t base = source.offset;
   for (int round = walk.slice_begin(); round < walk.slice_end(); round += kLargeBlockSize) {
     const int k = round + int(threadIdx.x);
@@ -39,21 +42,15 @@ __device__ void emit_walk_with_block(const detail::TileWalk& walk, const detail:
     uint32_t offset = 0, total = 0;
     SliceScan(scan).ExclusiveSum(length, offset, total);
     slice_first[threadIdx.x] = first;
+    slice_length[threadIdx.x] = length;
     slice_offset[threadIdx.x] = offset;
     __syncthreads();
     const int slices = min(kLargeBlockSize, walk.slice_end() - round);
-    for (uint32_t j = threadIdx.x; j < total; j += kLargeBlockSize) {
-      int lo = 0, hi = slices - 1;
-      while (lo < hi) {
-        const int mid = (lo + hi + 1) / 2;
-        if (slice_offset[mid] <= j) {
-          lo = mid;
-        } else {
-          hi = mid - 1;
-        }
+    for (int s = warp; s < slices; s += kWarps) {
+      const uint64_t at = base + slice_offset[s];
+      for (uint32_t i = uint32_t(lane); i < slice_length[s]; i += 32) {
+        sink.write(at + i, walk.tile(round + s, slice_first[s] + int(i), frame.tiles_x), source, roofgs);
       }
-      const int v = slice_first[lo] + int(j - slice_offset[lo]);
-      sink.write(base + j, walk.tile(round + lo, v, frame.tiles_x), source, roofgs);
     }
     base += total;
     __syncthreads();  // the slice arrays and the scan storage are reused by the next round

@@ -23,10 +23,13 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     preprocess_roofgs_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, const uint32_t* order,
                              RoofgsProjected out) {
   const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  uint32_t g = 0;
+  detail::ProjectedRegs p{};
+  detail::TileWalk walk{};
+  // Every lane takes part: the tile count is shared by the warp.
+  const bool visible = detail::preprocess_gaussian<kCompact>(src, t, order, frame, roofgs, &g, &p, &walk);
   if (t >= src.count) return;
-  const uint32_t g = order != nullptr ? order[t] : t;
-  detail::ProjectedRegs p;
-  if (!detail::project_gaussian<kCompact>(src, g, frame, roofgs, &p)) {
+  if (!visible) {
     out.radii[g] = 0;
     out.tiles_touched[t] = 0;
     return;

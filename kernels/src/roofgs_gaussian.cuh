@@ -99,7 +99,8 @@ __device__ inline TileRect accutile_limit(const FrameParams& frame, const Roofgs
   return roofgs.accutile_within_baseline_rect ? intersect(grid, baseline_rect) : grid;
 }
 
-/// Projects Gaussian g (preprocess_cpu's steps and order). Returns false when it is culled.
+/// Projects Gaussian g (preprocess_cpu's steps and order). Returns false when it is culled. With SnugBox +
+/// AccuTile the tile count is left at 0 for count_accutile_tiles_warp (preprocess_gaussian does both).
 template <bool kCompact>
 __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
                                         const RoofgsFrame& roofgs, ProjectedRegs* p) {
@@ -142,9 +143,7 @@ __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, c
     float t = 0.f;
     if (!snugbox_threshold(opacity, &t)) return false;
     p->snug_t = t;
-    const SnugBox box = make_snugbox(px, py, cov, t);
-    p->tiles = for_each_accutile_tile(box, accutile_limit(frame, roofgs, rect), [](int, int) {});
-    if (p->tiles == 0) return false;
+    p->tiles = 0;
   }
   float dir[3] = {mean[0] - frame.camera_centre[0], mean[1] - frame.camera_centre[1],
                   mean[2] - frame.camera_centre[2]};
@@ -242,6 +241,82 @@ __device__ inline void emit_pairs_serial(const TileWalk& w, const PairSource& s,
   }
 }
 
+/// Lane `source`'s AccuTile walk, for every lane of the warp.
+__device__ inline AccutileWalk shuffle_walk(const AccutileWalk& w, int source) {
+  constexpr unsigned kAll = 0xffffffffu;
+  AccutileWalk r;
+  r.walk_rows = __shfl_sync(kAll, int(w.walk_rows), source) != 0;
+  r.u_first = __shfl_sync(kAll, w.u_first, source);
+  r.u_end = __shfl_sync(kAll, w.u_end, source);
+  r.v_first = __shfl_sync(kAll, w.v_first, source);
+  r.v_end = __shfl_sync(kAll, w.v_end, source);
+  r.mean_u = __shfl_sync(kAll, w.mean_u, source);
+  r.mean_v = __shfl_sync(kAll, w.mean_v, source);
+  r.half_u = __shfl_sync(kAll, w.half_u, source);
+  r.half_v = __shfl_sync(kAll, w.half_v, source);
+  r.s_uu = __shfl_sync(kAll, w.s_uu, source);
+  r.s_vv = __shfl_sync(kAll, w.s_vv, source);
+  r.s_uv = __shfl_sync(kAll, w.s_uv, source);
+  r.det = __shfl_sync(kAll, w.det, source);
+  r.t = __shfl_sync(kAll, w.t, source);
+  r.du_at_vmax = __shfl_sync(kAll, w.du_at_vmax, source);
+  return r;
+}
+
+/// Tiles of slices [first, end) of an AccuTile walk, stepping by `step`.
+__device__ inline uint32_t count_slices(const AccutileWalk& w, int first, int end, int step) {
+  uint32_t count = 0;
+  for (int k = first; k < end; k += step) {
+    int lo, hi;
+    accutile_slice(w, k, &lo, &hi);
+    count += hi > lo ? uint32_t(hi - lo) : 0u;
+  }
+  return count;
+}
+
+/// A lane counts the tiles of a walk with at most this many slices alone; longer walks get the warp's help.
+constexpr int kSoloSlices = 4;
+
+/// Tile count of each lane's AccuTile walk (the count for_each_accutile_tile returns). A walk with more than
+/// kSoloSlices slices is counted by the whole warp, its slices dealt over the lanes, so that a Gaussian
+/// spanning the screen (135 slices at 4K, each with two square roots and four divisions) does not hold its
+/// warp for the time of 135 slices. All 32 lanes must call it; `active` false for a lane without a walk.
+__device__ inline uint32_t count_accutile_tiles_warp(const AccutileWalk& walk, bool active) {
+  const int lane = int(threadIdx.x % 32);
+  const int slices = active ? walk.u_end - walk.u_first : 0;
+  const bool helped = slices > kSoloSlices;
+  uint32_t count = active && !helped ? count_slices(walk, walk.u_first, walk.u_end, 1) : 0u;
+  for (unsigned pending = __ballot_sync(0xffffffffu, helped); pending != 0; pending &= pending - 1) {
+    const int leader = __ffs(int(pending)) - 1;
+    const AccutileWalk w = shuffle_walk(walk, leader);
+    const uint32_t total = __reduce_add_sync(0xffffffffu, count_slices(w, w.u_first + lane, w.u_end, 32));
+    if (lane == leader) count = total;
+  }
+  return count;
+}
+
+/// The preprocess of the Gaussian at emission position t (g = order ? order[t] : t): projection, tile walk
+/// and tile count. Called by all 32 lanes of a warp (count_accutile_tiles_warp); lanes with t ≥ count get
+/// nothing. Returns true when the Gaussian is visible (p->tiles > 0).
+template <bool kCompact>
+__device__ inline bool preprocess_gaussian(const GaussianSource& src, uint32_t t, const uint32_t* order,
+                                           const FrameParams& frame, const RoofgsFrame& roofgs, uint32_t* g,
+                                           ProjectedRegs* p, TileWalk* walk) {
+  bool visible = false;
+  *g = 0;
+  if (t < src.count) {
+    *g = order != nullptr ? order[t] : t;
+    visible = project_gaussian<kCompact>(src, *g, frame, roofgs, p);
+  }
+  if (visible) *walk = make_tile_walk(*p, frame, roofgs);
+  if (roofgs.snugbox_accutile) {  // the same for the whole launch
+    p->tiles = count_accutile_tiles_warp(walk->walk, visible);
+    visible = visible && p->tiles > 0;
+  }
+  if (!visible) p->tiles = 0;
+  return visible;
+}
+
 /// Rebuilds the tile walk of Gaussian g from the per-Gaussian arrays (what duplicate_roofgs and
 /// emit_large_gaussians read): the same inputs as in the preprocess, so the same walk.
 __device__ inline TileWalk load_tile_walk(const RoofgsProjected& in, uint32_t g, const FrameParams& frame,
@@ -262,7 +337,7 @@ __device__ inline TileWalk load_tile_walk(const RoofgsProjected& in, uint32_t g,
 __device__ inline void emit_or_defer(const TileWalk& walk, const PairSource& source, uint32_t tiles,
                                      const PairSink& sink, const LargeGaussianList& large, const FrameParams& frame,
                                      const RoofgsFrame& roofgs) {
-  if (tiles > kSerialTileLimit) {
+  if (tiles > kSerialTileLimit && large.capacity > 0) {
     const uint32_t i = atomicAdd(large.count, 1u);
     if (i < large.capacity) large.items[i] = LargeGaussian{source.offset, source.g, 0u};
   } else if (tiles > 0) {

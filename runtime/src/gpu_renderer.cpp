@@ -435,7 +435,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
     RGS_RETURN_IF_ERROR(b.large_items.reserve(n, "GpuRenderer: large Gaussian list"));
     RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
-    const kernels::LargeGaussianList large{b.large_items.data(), b.large_count.data(), n};
+    const kernels::LargeGaussianList large{b.large_items.data(), b.large_count.data(),
+                                           options.balanced_emission ? n : 0u};
     const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
     if (options.fused_preprocess) {
       const uint32_t blocks = kernels::fused_blocks(n);

@@ -133,7 +133,7 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference's RoofGS mode, technique by 
   }
 }
 
-TEST_CASE("fused and separate stages give the same bytes, and frames are deterministic") {
+TEST_CASE("fused and separate stages, and balanced and one-thread emission, give the same bytes; frames are deterministic") {
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
@@ -144,9 +144,14 @@ TEST_CASE("fused and separate stages give the same bytes, and frames are determi
     const GpuFrame fused = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, true), false);
     const GpuFrame again = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, true), false);
     const GpuFrame separate = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, false), false);
+    GpuRenderOptions one_thread_each = roofgs_options(mode.techniques);
+    one_thread_each.roofgs.balanced_emission = false;
+    const GpuFrame unbalanced = render_gpu(rig.renderer, rig.scene, cam, one_thread_each, false);
     CHECK(std::memcmp(fused.rgba.data(), again.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
     CHECK(std::memcmp(fused.rgba.data(), separate.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
+    CHECK(std::memcmp(fused.rgba.data(), unbalanced.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
     CHECK(fused.stats.pairs == separate.stats.pairs);
+    CHECK(fused.stats.pairs == unbalanced.stats.pairs);
   }
 }
 

@@ -83,7 +83,8 @@ struct LargeGaussian {
 };
 
 /// Large Gaussians of a frame, in any order (each entry carries its pairs' positions, so the order does not
-/// reach the output). At most one entry per Gaussian: capacity = N suffices.
+/// reach the output). At most one entry per Gaussian: capacity = N suffices. Capacity 0 turns the list off:
+/// every Gaussian is then written by its own thread (the ablation of the load balancing).
 struct LargeGaussianList {
   LargeGaussian* items = nullptr;  ///< [capacity]
   uint32_t* count = nullptr;       ///< [1] entries listed; zeroed by duplicate_roofgs / fused_preprocess_roofgs
@@ -92,8 +93,8 @@ struct LargeGaussianList {
 
 /// Writes the pairs of every listed large Gaussian, one thread block per Gaussian (a persistent grid takes
 /// the entries in turn): each thread finds the tiles of one slice of the Gaussian's tile walk (an AccuTile
-/// slice or a rectangle row), a block scan places the slices, and the pairs are dealt round-robin over the
-/// threads. Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
+/// slice or a rectangle row), a block scan places the slices, and each warp writes whole slices, a tile per
+/// lane. Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
 cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGaussianList& large,
                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
                                  uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);

@@ -65,6 +65,9 @@ struct GpuRoofgsOptions {
   /// One fused kernel for preprocess + tile duplication + keys, pairs allocated in Gaussian order by a
   /// decoupled look-back (deterministic); off: separate preprocess, scan and duplicate kernels.
   bool fused_preprocess = true;
+  /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by a thread block each
+  /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
+  bool balanced_emission = true;
   /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
   /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
   RoofgsOptions techniques = RoofgsOptions::all();
