@@ -33,22 +33,28 @@ struct Pixel {
   bool done = false;
 };
 
-/// Front-to-back step with an α that passed the 1/255 test (cpu_renderer.cpp blend_step).
-template <bool kDepth>
+/// Front-to-back step with an α that passed the 1/255 test (cpu_renderer.cpp blend_step). kFma: the RoofGS
+/// form (blend_step_fma), w = α·T once and C += c·w as one FMA per channel, 4 instructions instead of 9.
+template <bool kDepth, bool kFma = false>
 __device__ inline void blend(Pixel& s, float alpha, float r, float g, float b, float depth) {
   const float test_T = s.T * (1.f - alpha);
   if (test_T < kTransmittanceMin) {
     s.done = true;
     return;
   }
-  s.C[0] += r * alpha * s.T;
-  s.C[1] += g * alpha * s.T;
-  s.C[2] += b * alpha * s.T;
-  if (kDepth) {
-    const float w = alpha * s.T;
-    s.depth_sum += depth * w;
-    s.weight_sum += w;
+  const float w = alpha * s.T;
+  if (kFma) {
+    s.C[0] = fmaf(r, w, s.C[0]);
+    s.C[1] = fmaf(g, w, s.C[1]);
+    s.C[2] = fmaf(b, w, s.C[2]);
+    if (kDepth) s.depth_sum = fmaf(depth, w, s.depth_sum);
+  } else {
+    s.C[0] += r * alpha * s.T;
+    s.C[1] += g * alpha * s.T;
+    s.C[2] += b * alpha * s.T;
+    if (kDepth) s.depth_sum += depth * w;
   }
+  if (kDepth) s.weight_sum += w;
   s.T = test_T;
 }
 
@@ -118,7 +124,7 @@ __device__ inline float folded_alpha(float P, float sigma) {
 
 /// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local
 /// coordinates; pixel terms hoisted; each thread shades (x, y) and (x, y + 1) with
-/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5.
+/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; colours accumulated with FMAs.
 template <bool kFastExp, bool kDepth>
 __global__ void __launch_bounds__(kDualThreads)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
@@ -166,8 +172,8 @@ __global__ void __launch_bounds__(kDualThreads)
       const float a_second = second.done ? -1.f : folded_alpha<kFastExp>(p_second, sigma);
       if (a_first >= 0.f || a_second >= 0.f) {
         const float4 c = collected_rgbd[j];
-        if (a_first >= 0.f) blend<kDepth>(first, a_first, c.x, c.y, c.z, c.w);
-        if (a_second >= 0.f) blend<kDepth>(second, a_second, c.x, c.y, c.z, c.w);
+        if (a_first >= 0.f) blend<kDepth, true>(first, a_first, c.x, c.y, c.z, c.w);
+        if (a_second >= 0.f) blend<kDepth, true>(second, a_second, c.x, c.y, c.z, c.w);
       }
     }
   }

@@ -105,6 +105,21 @@ inline void blend_step(PixelState& s, float alpha, const TileGaussian& g) {
   s.T = test_T;
 }
 
+/// blend_step in the RoofGS rasterizer's form (render.cu blend<…, kFma>): w = α·T once, C += c·w as one
+/// fused multiply-add per channel (the folded loop's accumulation).
+inline void blend_step_fma(PixelState& s, float alpha, const TileGaussian& g) {
+  const float test_T = s.T * (1.f - alpha);
+  if (test_T < k::kTransmittanceMin) {
+    s.done = true;
+    return;
+  }
+  const float w = alpha * s.T;
+  for (int c = 0; c < 3; ++c) s.C[c] = std::fmaf(g.rgb[c], w, s.C[c]);
+  s.depth_sum = std::fmaf(g.depth, w, s.depth_sum);
+  s.weight_sum += w;
+  s.T = test_T;
+}
+
 /// Pairs whose exponent (power, or P = power + ln o) is below this can never reach alpha 1/255:
 /// exp(−6) = 0.00248 < 1/255 = 0.00392 for any opacity ≤ 1, and the fast exp's ≤ 3.2 % error keeps it below
 /// too. Skipping them before the exponential changes no result (they would fail the α < 1/255 test); it only
@@ -180,11 +195,11 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
         const float p_second = k::dual_pixel_power(p_first, g.folded, terms);
         if (!first.done) {
           const float alpha = folded_alpha(p_first, options.roofgs);
-          if (alpha >= 0.f) blend_step(first, alpha, g);
+          if (alpha >= 0.f) blend_step_fma(first, alpha, g);
         }
         if (!second.done) {
           const float alpha = folded_alpha(p_second, options.roofgs);
-          if (alpha >= 0.f) blend_step(second, alpha, g);
+          if (alpha >= 0.f) blend_step_fma(second, alpha, g);
         }
       }
       if (x < out->width && y < out->height) store_pixel(first, x, y, options, out);
