@@ -132,7 +132,8 @@ def main():
     fig, ax = plt.subplots(figsize=(10, 7))
     xs = [x_lo, ridge, x_hi]
     ax.plot(xs, [min(compute, x * memory) for x in xs], color="black", linewidth=2)
-    ax.text(x_lo * 1.2, x_lo * 1.2 * memory * 1.15, f"memory {memory:,.0f} GB/s", rotation=0, fontsize=9)
+    x_label = math.sqrt(x_lo * ridge)  # halfway up the memory roof (log scale), clear of the left edge
+    ax.text(x_label, x_label * memory * 1.3, f"memory {memory:,.0f} GB/s", ha="right", fontsize=9)
     ax.text(x_hi / 1.2, compute * 1.1, f"FP32 {compute / 1000:,.1f} TFLOP/s", ha="right", fontsize=9)
     ax.axvline(ridge, color="grey", linestyle=":", linewidth=1)
     ax.text(ridge * 1.05, y_lo * 1.5, f"ridge {ridge:.1f} FLOP/B", fontsize=8, color="grey")

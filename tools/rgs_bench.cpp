@@ -323,7 +323,7 @@ tools::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const run
 
 /// One run on the roofline: the model's work per frame (mean over views) and each stage's point.
 struct RunRoofline {
-  tools::FrameWorkInputs inputs;  ///< of the first view (pairs replaced by the mean)
+  tools::FrameWorkInputs inputs;  ///< of the first view (for the JSON; mean_pairs is over all views)
   double mean_pairs = 0;
   tools::StageWork work[tools::kRooflineStages];
   tools::RooflinePoint points[tools::kRooflineStages];
@@ -418,7 +418,7 @@ std::string format_time(const char* pattern, bool utc) {
 }
 
 /// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
-Result<tools::LoadedGpuScene> load_scene(const Options& opt, tools::ReplicatedScene* replicated) {
+Result<tools::LoadedGpuScene> load_bench_scene(const Options& opt, tools::ReplicatedScene* replicated) {
   if (opt.replicate <= 1) return tools::load_gpu_scene(opt.input);
   auto scene = tools::upload_replicated_scene(*replicated, opt.input + " x" + std::to_string(opt.replicate));
   replicated->rgs_bytes = std::vector<uint8_t>();  // uploaded: free the host copy
@@ -449,7 +449,7 @@ int run(const Options& opt) {
 
   auto renderer = runtime::GpuRenderer::create();
   if (!renderer.ok()) return tools::report_error(kTool, renderer.status());
-  auto scene = load_scene(opt, &replicated);
+  auto scene = load_bench_scene(opt, &replicated);
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
   auto sets = make_camera_sets(opt, scene->bounds);
   if (!sets.ok()) return tools::report_error(kTool, sets.status());
