@@ -92,10 +92,14 @@ inline constexpr double kFlopsSnugThreshold = 2 + kFlopsLogf;
 inline constexpr double kFlopsAccutileSetup = 24;
 /// One AccuTile slice: interval ends 7, two ellipse–line intersections 20, tile interval 6.
 inline constexpr double kFlopsAccutileSlice = 33;
-/// Front-to-back blend of one pixel: T·(1 − α) 2, C += c·α·T for 3 channels 9.
+/// Front-to-back blend of one pixel, baseline form: T·(1 − α) 2, C += c·α·T for 3 channels 9.
 inline constexpr double kFlopsBlend = 11;
-/// Extra blend work with a depth plane: w = α·T, depth·w, 2 sums.
+/// The folded rasterizer's blend (blend_step_fma): T·(1 − α) 2, w = α·T 1, C = fma(c, w, C) for 3 channels 6.
+inline constexpr double kFlopsBlendFma = 9;
+/// Extra blend work with a depth plane: w = α·T, depth·w and 2 sums (baseline form); fma(depth, w, ·) and
+/// one sum (folded form, w already there).
 inline constexpr double kFlopsBlendDepth = 4;
+inline constexpr double kFlopsBlendDepthFma = 3;
 /// Folding C1..C6 of one (Gaussian, tile) pair at the shared-memory load (tile-local mean 2, C1..C6 19).
 inline constexpr double kFlopsFoldPair = 21;
 /// Threads of emit_large_gaussians' block, each of which rebuilds the large Gaussian's walk.
@@ -113,9 +117,9 @@ double attribute_bytes(bool compact, uint32_t degree);
 int radix_passes(int sort_bits);
 
 /// FLOPs of one (pair, pixel) evaluation in the render stage, every evaluation assumed to blend (upper
-/// bound): unfolded 2 (dx, dy) + 9 (power) + exp, then o·e (expf: 1) or power + ln o (fast exp: 1), + blend;
-/// folded 7.5 (5 fma for the first pixel, 2 fma + 1 add for the second, halved) + exp + blend.
-/// Baseline 33, fast exp 25, folded 28.5, folded + fast exp 20.5; + 4 with a depth plane.
+/// bound): unfolded 2 (dx, dy) + 9 (power) + exp, then o·e (expf: 1) or power + ln o (fast exp: 1), + blend
+/// (11); folded 7.5 (5 fma for the first pixel, 2 fma + 1 add for the second, halved) + exp + FMA blend (9).
+/// Baseline 33, fast exp 25, folded 26.5, folded + fast exp 18.5; + 4 (folded: + 3) with a depth plane.
 double render_eval_flops(bool folded, bool fast_exp, bool depth_plane);
 
 /// Bytes and FLOPs of every stage of one frame (formulas in roofline_model.cpp and docs/ROOFLINE.md).
