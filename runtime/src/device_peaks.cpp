@@ -103,7 +103,8 @@ Status measure_fma(const DevicePeakOptions& options, const EventPair& ev, cudaSt
   params.threads_per_block = options.fma_threads_per_block;
   params.iterations = options.fma_iterations;
   DeviceBuffer<float> sink;
-  RGS_RETURN_IF_ERROR(sink.allocate_exactly(size_t(params.blocks) * params.threads_per_block, "device peaks: FMA sink"));
+  RGS_RETURN_IF_ERROR(
+      sink.allocate_exactly(size_t(params.blocks) * params.threads_per_block, "device peaks: FMA sink"));
   params.out = sink.data();
   RGS_ASSIGN_OR_RETURN(out->fma_ms, time_repeats(options.repeats, ev, stream, "device peaks: FMA loop kernel",
                                                  [&] { return kernels::launch_fma_peak(params, stream); }));
