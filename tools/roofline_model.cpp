@@ -85,7 +85,9 @@ FrameWork frame_work(const FrameWorkInputs& in) {
     flops_visible += kFlopsLogf;                              // ln o for the folded/fast-exp alpha
     if (compact) flops_visible += 3 * k;                      // SH = s[d][c]·q
     if (key32) flops_visible += kFlopsDepthBin;
-    if (in.snugbox) flops_visible += kFlopsSnugThreshold + 2 * kFlopsAccutileSetup;  // count walk + emit walk
+    // SnugBox threshold, and the AccuTile walk's setup: built once by the fused kernel (for the count and the
+    // emission), twice by the separate stages (preprocess, then duplicate_roofgs rebuilds it).
+    if (in.snugbox) flops_visible += kFlopsSnugThreshold + (in.fused ? 1 : 2) * kFlopsAccutileSetup;
     // AccuTile slices: a footprint of P/V tiles walked along its shorter side has about sqrt(P/V) slices,
     // walked twice (count, then emit): 2·sqrt(P·V) slices in all.
     const double slices = in.snugbox ? 2.0 * std::sqrt(p * v) : 0.0;

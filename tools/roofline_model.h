@@ -88,7 +88,7 @@ inline constexpr double kFlopsDepthBin = 4;
 /// SnugBox threshold 2·ln(255·o): 2 mul + logf.
 inline constexpr double kFlopsSnugThreshold = 2 + kFlopsLogf;
 /// One AccuTile walk's setup: SnugBox (2 mul, 2 sqrt, Kahan determinant 6) and the walk's rectangle and
-/// extreme point (14).
+/// extreme point (14). Once per visible Gaussian in the fused kernel, twice with the separate stages.
 inline constexpr double kFlopsAccutileSetup = 24;
 /// One AccuTile slice: interval ends 7, two ellipse–line intersections 20, tile interval 6.
 inline constexpr double kFlopsAccutileSlice = 33;
