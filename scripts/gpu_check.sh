@@ -34,7 +34,10 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode baseline --mode roofgs --mode roofgs+)
+  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs-serial)
+  # The ablation: every technique alone, all off, and the load balancing off (roofgs-serial, above).
+  ablation=("${modes[@]}" --mode roofgs-none --mode only-compact --mode only-fused --mode only-key32
+            --mode only-snugbox --mode only-folded --mode only-fastexp)
   sizes=(--resolution 1920x1080 --resolution 3840x2160)
   bench() {  # NAME ARGS...: one rgs-bench run, its log and JSON under $out, its wall time in the summary
     local name="$1"
@@ -45,11 +48,15 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     [ $rc -ne 0 ] && status=1
     note "bench_$name: exit $rc in $(( $(date +%s) - t0 )) s"
   }
-  bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${modes[@]}" --warmup 5 --repeat 10
-  bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 5 --repeat 10
+  bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10
+  bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10
   # 542,104 x 4 = 2,168,416 Gaussians (converter::replicate, compact attributes kept); fewer repetitions.
   bench daffodils_x4 "$daffodils" --replicate 4 --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 3 --repeat 5
-  for name in flowers daffodils daffodils_x4; do
+  # 7680x4320 (17 tile bits + 15 depth bits in the 32-bit key).
+  bench flowers_8k "$flowers" --cameras "$cameras" --every 24 --resolution 7680x4320 "${modes[@]}" --warmup 2 \
+    --repeat 3
+  bench daffodils_8k "$daffodils" --orbit 4 --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3
+  for name in flowers daffodils daffodils_x4 flowers_8k daffodils_8k; do
     # The tables without the progress lines ("... x N ...").
     grep -v -e ' \.\.\.$' "$out/bench_$name.log" | tee -a "$summary"
   done

@@ -47,8 +47,7 @@ struct FrameWorkInputs {
   uint64_t visible = 0;
   uint32_t sh_degree = 0;    ///< 0..3; K = (degree + 1)² coefficients per channel
   /// L, RoofGS Gaussians with more than kernels::kSerialTileLimit (32) tiles, whose pairs
-  /// emit_large_gaussians writes with a thread block each. The renderer does not report it; rgs-bench passes
-  /// 0, so the model then leaves out their extra traffic (88 B fused, 68 B separate) and walk rebuilds.
+  /// emit_large_gaussians writes with a thread block each (GpuRenderStats::large_gaussians of the view).
   uint64_t large_gaussians = 0;
   uint64_t pairs = 0;        ///< P, (tile, Gaussian) pairs sorted
   int sort_bits = 0;         ///< key bits the radix sort covers (GpuRenderStats::sort_bits)

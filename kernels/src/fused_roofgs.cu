@@ -1,7 +1,7 @@
 // The fused RoofGS kernel: preprocess + tile count + allocation + key/value generation in one pass. Pair
 // space is allocated per thread block in block order by a decoupled look-back (Merrill & Garland, "Single-pass
-// Parallel Prefix Scan with Decoupled Look-back", 2016): block b publishes its pair count, then adds its
-// predecessors' counts until it meets one that published an inclusive prefix. Pairs therefore land exactly
+// Parallel Prefix Scan with Decoupled Look-back", 2016): block b publishes its pair count, then its first
+// warp adds its predecessors' counts, 32 at a time, until it meets one that published an inclusive prefix. Pairs therefore land exactly
 // where the separate stages (scan + duplicate) put them, in emission order, and every frame is deterministic
 // (an atomicAdd per block, as the public RoofGS code uses, orders blocks by arrival instead).
 #include <cub/block/block_scan.cuh>
@@ -23,22 +23,34 @@ __device__ inline void publish(unsigned long long* word, unsigned long long valu
 }
 
 /// Exclusive prefix of block `block` (sum of the pair counts of blocks < block); publishes its own
-/// aggregate first and its inclusive prefix last. Called by one thread per block.
+/// aggregate first and its inclusive prefix last. Called by the 32 lanes of the block's first warp, which
+/// read 32 predecessors' status words at once (lane i reads block − 1 − i, spinning until it has published:
+/// it started before us, so it will), add those up to the nearest inclusive prefix, and move the window
+/// back by 32 until they meet one. Returns the prefix in every lane.
 __device__ unsigned long long look_back(unsigned long long* status, uint32_t block, unsigned long long aggregate) {
+  const int lane = int(threadIdx.x);
   if (block == 0) {
-    publish(&status[0], kFlagInclusive | aggregate);
+    if (lane == 0) publish(&status[0], kFlagInclusive | aggregate);
     return 0;
   }
-  publish(&status[block], kFlagAggregate | aggregate);
+  if (lane == 0) publish(&status[block], kFlagAggregate | aggregate);
   unsigned long long exclusive = 0;
-  for (int64_t j = int64_t(block) - 1; j >= 0;) {
-    const unsigned long long word = atomicAdd(&status[j], 0ull);  // coherent read
-    if (word == 0) continue;  // block j has not published yet: spin (it started before us, so it will)
-    exclusive += word & kValueMask;
-    if ((word & ~kValueMask) == kFlagInclusive) break;
-    --j;
+  for (int64_t window = int64_t(block) - 1;; window -= 32) {
+    const int64_t j = window - lane;
+    unsigned long long word = kFlagInclusive;  // before block 0: an empty inclusive prefix
+    if (j >= 0) {
+      do {
+        word = atomicAdd(&status[j], 0ull);  // coherent read
+      } while (word == 0);
+    }
+    const unsigned inclusive = __ballot_sync(0xffffffffu, (word & ~kValueMask) == kFlagInclusive);
+    const int last = inclusive != 0 ? __ffs(int(inclusive)) - 1 : 31;  // lanes 0..last count
+    unsigned long long value = lane <= last ? (word & kValueMask) : 0ull;
+    for (int offset = 16; offset > 0; offset /= 2) value += __shfl_xor_sync(0xffffffffu, value, offset);
+    exclusive += value;
+    if (inclusive != 0) break;
   }
-  publish(&status[block], kFlagInclusive | (exclusive + aggregate));
+  if (lane == 0) publish(&status[block], kFlagInclusive | (exclusive + aggregate));
   return exclusive;
 }
 
@@ -70,10 +82,12 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   // validate_camera accepts (32768², 2048² tiles), so 256 Gaussians stay below 2^30.
   uint32_t local_offset = 0, block_total = 0;
   BlockScan(scan_storage).ExclusiveSum(p.tiles, local_offset, block_total);
-  if (threadIdx.x == 0) {
+  if (threadIdx.x < 32) {
     const unsigned long long exclusive = look_back(scratch.block_status, block, block_total);
-    block_base = exclusive;
-    if (block == gridDim.x - 1) *scratch.total_pairs = exclusive + block_total;
+    if (threadIdx.x == 0) {
+      block_base = exclusive;
+      if (block == gridDim.x - 1) *scratch.total_pairs = exclusive + block_total;
+    }
   }
   __syncthreads();
   if (p.tiles == 0) return;

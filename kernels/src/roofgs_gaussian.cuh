@@ -169,10 +169,18 @@ __device__ inline void store_projected(const ProjectedRegs& p, uint32_t g, const
 /// The tiles of a visible Gaussian as slices: AccuTile's walk (SnugBox + AccuTile), or the rows of its 3DGS
 /// rectangle. Emission order is slice by slice, ascending along each slice, which is the CPU reference's
 /// order (cpu_renderer.cpp for_each_tile_of) whether the slices are walked by one thread or by a block.
+/// A lane counts the tiles of a walk with at most this many slices alone, and keeps their spans for the
+/// emission; longer walks get the warp's help (count_accutile_tiles_warp).
+constexpr int kSoloSlices = 4;
+
 struct TileWalk {
   bool accutile;
   AccutileWalk walk;  ///< accutile only
   TileRect rect;      ///< rectangle only: slices are its rows
+  /// accutile: the spans of slices u_first + i (i < kSoloSlices) kept from the count (empty past u_end), so
+  /// the emission does not intersect the ellipse again. Set by count_accutile_tiles_warp for short walks.
+  bool spans_kept = false;
+  int kept_first[kSoloSlices], kept_end[kSoloSlices];
 
   __device__ int slice_begin() const { return accutile ? walk.u_first : rect.y_min; }
   __device__ int slice_end() const { return accutile ? walk.u_end : rect.y_max; }
@@ -234,6 +242,15 @@ struct PairSink {
 __device__ inline void emit_pairs_serial(const TileWalk& w, const PairSource& s, const PairSink& sink,
                                          const FrameParams& frame, const RoofgsFrame& roofgs) {
   uint64_t position = s.offset;
+  if (w.spans_kept) {
+#pragma unroll
+    for (int i = 0; i < kSoloSlices; ++i) {  // unrolled: the kept spans stay in registers
+      for (int v = w.kept_first[i]; v < w.kept_end[i]; ++v) {
+        sink.write(position++, w.tile(w.walk.u_first + i, v, frame.tiles_x), s, roofgs);
+      }
+    }
+    return;
+  }
   for (int k = w.slice_begin(); k < w.slice_end(); ++k) {
     int first, end;
     w.span(k, &first, &end);
@@ -274,18 +291,28 @@ __device__ inline uint32_t count_slices(const AccutileWalk& w, int first, int en
   return count;
 }
 
-/// A lane counts the tiles of a walk with at most this many slices alone; longer walks get the warp's help.
-constexpr int kSoloSlices = 4;
-
 /// Tile count of each lane's AccuTile walk (the count for_each_accutile_tile returns). A walk with more than
 /// kSoloSlices slices is counted by the whole warp, its slices dealt over the lanes, so that a Gaussian
 /// spanning the screen (135 slices at 4K, each with two square roots and four divisions) does not hold its
-/// warp for the time of 135 slices. All 32 lanes must call it; `active` false for a lane without a walk.
-__device__ inline uint32_t count_accutile_tiles_warp(const AccutileWalk& walk, bool active) {
+/// warp for the time of 135 slices; a shorter one is counted by its lane, which keeps the spans in the walk
+/// (TileWalk::kept_first/kept_end). All 32 lanes must call it; `active` false for a lane without a walk.
+__device__ inline uint32_t count_accutile_tiles_warp(TileWalk* tile_walk, bool active) {
+  const AccutileWalk& walk = tile_walk->walk;
   const int lane = int(threadIdx.x % 32);
   const int slices = active ? walk.u_end - walk.u_first : 0;
   const bool helped = slices > kSoloSlices;
-  uint32_t count = active && !helped ? count_slices(walk, walk.u_first, walk.u_end, 1) : 0u;
+  uint32_t count = 0;
+  if (active && !helped) {
+#pragma unroll
+    for (int i = 0; i < kSoloSlices; ++i) {
+      int first = 0, end = 0;
+      if (i < slices) accutile_slice(walk, walk.u_first + i, &first, &end);
+      tile_walk->kept_first[i] = first;
+      tile_walk->kept_end[i] = end;
+      count += end > first ? uint32_t(end - first) : 0u;
+    }
+    tile_walk->spans_kept = true;
+  }
   for (unsigned pending = __ballot_sync(0xffffffffu, helped); pending != 0; pending &= pending - 1) {
     const int leader = __ffs(int(pending)) - 1;
     const AccutileWalk w = shuffle_walk(walk, leader);
@@ -310,7 +337,7 @@ __device__ inline bool preprocess_gaussian(const GaussianSource& src, uint32_t t
   }
   if (visible) *walk = make_tile_walk(*p, frame, roofgs);
   if (roofgs.snugbox_accutile) {  // the same for the whole launch
-    p->tiles = count_accutile_tiles_warp(walk->walk, visible);
+    p->tiles = count_accutile_tiles_warp(walk, visible);
     visible = visible && p->tiles > 0;
   }
   if (!visible) p->tiles = 0;

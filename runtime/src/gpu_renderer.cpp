@@ -311,6 +311,15 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
     RGS_RETURN_IF_CUDA_ERROR(cudaEventElapsedTime(&stats.times.total_ms, ev[0], ev[4]),
                              "GpuRenderer: cudaEventElapsedTime");
     stats.timed = true;
+    const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
+    if (listed && scene.size() > 0) {
+      uint32_t large = 0;
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->large_count.data(), sizeof(uint32_t),
+                                               cudaMemcpyDeviceToHost, stream),
+                               "GpuRenderer: large Gaussian count read-back");
+      RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
+      stats.large_gaussians = large;
+    }
   }
   return stats;
 }

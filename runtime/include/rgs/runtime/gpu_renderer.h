@@ -99,6 +99,9 @@ struct GpuRenderStats {
   int key_tile_bits = 0, key_depth_bits = 0;  ///< 32-bit key layout (0 without it)
   float z_near = 0, z_far = 0; ///< 32-bit key depth range (0 without it)
   uint32_t fused_relaunches = 0;  ///< fused kernel runs repeated because the pair buffer had to grow
+  /// RoofGS with balanced emission: Gaussians with more than kernels::kSerialTileLimit tiles, written by
+  /// emit_large_gaussians. Read back only for timed frames (time_stages); 0 otherwise.
+  uint64_t large_gaussians = 0;
   bool timed = false;          ///< times is valid (GpuRenderOptions::time_stages)
   StageTimes times;
 };
