@@ -1,9 +1,10 @@
 // The fused RoofGS kernel: preprocess + tile count + allocation + key/value generation in one pass. Pair
 // space is allocated per thread block in block order by a decoupled look-back (Merrill & Garland, "Single-pass
 // Parallel Prefix Scan with Decoupled Look-back", 2016): block b publishes its pair count, then its first
-// warp adds its predecessors' counts, 32 at a time, until it meets one that published an inclusive prefix. Pairs therefore land exactly
-// where the separate stages (scan + duplicate) put them, in emission order, and every frame is deterministic
-// (an atomicAdd per block, as the public RoofGS code uses, orders blocks by arrival instead).
+// warp adds its predecessors' counts, 32 at a time, until it meets one that published an inclusive prefix.
+// Pairs therefore land exactly where the separate stages (scan + duplicate) put them, in emission order,
+// and every frame is deterministic (an atomicAdd per block, as the public RoofGS code uses, orders blocks by
+// arrival instead).
 #include <cub/block/block_scan.cuh>
 
 #include "launch_util.cuh"
