@@ -88,9 +88,11 @@ FrameWork frame_work(const FrameWorkInputs& in) {
     // SnugBox threshold, and the AccuTile walk's setup: built once by the fused kernel (for the count and the
     // emission), twice by the separate stages (preprocess, then duplicate_roofgs rebuilds it).
     if (in.snugbox) flops_visible += kFlopsSnugThreshold + (in.fused ? 1 : 2) * kFlopsAccutileSetup;
-    // AccuTile slices: a footprint of P/V tiles walked along its shorter side has about sqrt(P/V) slices,
-    // walked twice (count, then emit): 2·sqrt(P·V) slices in all.
-    const double slices = in.snugbox ? 2.0 * std::sqrt(p * v) : 0.0;
+    // AccuTile slices: a footprint of P/V tiles walked along its shorter side has about sqrt(P/V) slices:
+    // sqrt(P·V) in all per walk. The separate stages walk twice (count, then emit); the fused kernel once,
+    // since a walk of at most 4 slices keeps its spans from the count for the emission (the longer walks'
+    // second pass, a small share of the walks, is left out).
+    const double slices = in.snugbox ? (in.fused ? 1.0 : 2.0) * std::sqrt(p * v) : 0.0;
     const double order_reads = in.depth_order ? 4 * n : 0.0;  // order[t] per thread
     // Large Gaussians (> 32 tiles): listed (16 B entry), then emit_large_gaussians reads the entry and
     // means2d, cov2d, snug_t, radius, depth bin, depth (52 B) and every one of its 128 threads rebuilds the

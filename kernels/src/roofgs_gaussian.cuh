@@ -166,13 +166,13 @@ __device__ inline void store_projected(const ProjectedRegs& p, uint32_t g, const
   out.radii[g] = p.radius;
 }
 
-/// The tiles of a visible Gaussian as slices: AccuTile's walk (SnugBox + AccuTile), or the rows of its 3DGS
-/// rectangle. Emission order is slice by slice, ascending along each slice, which is the CPU reference's
-/// order (cpu_renderer.cpp for_each_tile_of) whether the slices are walked by one thread or by a block.
 /// A lane counts the tiles of a walk with at most this many slices alone, and keeps their spans for the
 /// emission; longer walks get the warp's help (count_accutile_tiles_warp).
 constexpr int kSoloSlices = 4;
 
+/// The tiles of a visible Gaussian as slices: AccuTile's walk (SnugBox + AccuTile), or the rows of its 3DGS
+/// rectangle. Emission order is slice by slice, ascending along each slice, which is the CPU reference's
+/// order (cpu_renderer.cpp for_each_tile_of) whether the slices are walked by one thread or by a block.
 struct TileWalk {
   bool accutile;
   AccutileWalk walk;  ///< accutile only

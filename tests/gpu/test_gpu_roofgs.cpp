@@ -157,9 +157,9 @@ TEST_CASE("fused and separate stages, and balanced and one-thread emission, give
 
 TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaussians emitted by whole blocks") {
   // Pairs of Gaussians above kSerialTileLimit tiles are written by a thread block together (a slice per
-  // thread, 256 slices per round); their positions and order must be the serial ones. The keys and values
+  // thread, 128 slices per round); their positions and order must be the serial ones. The keys and values
   // after the stable sort are therefore the CPU's TileBins exactly. Flowers has Gaussians covering the whole
-  // grid: at 8K that is 270 tile rows, more than one round of slices.
+  // grid: at 4K that is 135 tile rows and at 8K 270, more than one round of slices.
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
@@ -198,8 +198,8 @@ TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaus
         std::vector<uint32_t> values;
         const Status downloaded = rig.renderer.download_sorted_pairs(&keys, &values);
         REQUIRE_MESSAGE(downloaded.ok(), downloaded.to_string());
-        MESSAGE(mode.name << std::string(fused ? " fused" : " separate") << " at " << cam.width << "x" << cam.height << ": "
-                          << keys.size() << " pairs, largest Gaussian " << largest << " tiles");
+        MESSAGE(mode.name << std::string(fused ? " fused" : " separate") << " at " << cam.width << "x"
+                          << cam.height << ": " << keys.size() << " pairs, largest Gaussian " << largest << " tiles");
         CHECK(largest > kernels::kSerialTileLimit);  // the block path ran
         REQUIRE(keys.size() == bins->keys.size());
         CHECK(keys == bins->keys);
