@@ -34,7 +34,7 @@ struct Pixel {
 };
 
 /// Front-to-back step with an α that passed the 1/255 test (cpu_renderer.cpp blend_step). kFma: the RoofGS
-/// form (blend_step_fma), w = α·T once and C += c·w as one FMA per channel, 4 instructions instead of 9.
+/// form (blend_step_fma), w = α·T once and C += c·w as one FMA per channel, 4 arithmetic operations instead of 9.
 template <bool kDepth, bool kFma = false>
 __device__ inline void blend(Pixel& s, float alpha, float r, float g, float b, float depth) {
   const float test_T = s.T * (1.f - alpha);

@@ -254,13 +254,11 @@ Status GpuRenderer::download_sorted_pairs(std::vector<uint64_t>* keys, std::vect
   keys->assign(pairs, 0);
   values->assign(pairs, 0);
   if (pairs == 0) return Status();
+  std::vector<uint32_t> keys32(b.last_key32 ? pairs : 0);
   if (b.last_key32) {
-    std::vector<uint32_t> keys32(pairs);
     RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys32.data(), b.keys32_sorted.data(), pairs * sizeof(uint32_t),
                                              cudaMemcpyDeviceToHost, stream),
                              "GpuRenderer: sorted keys read-back");
-    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: sorted keys read-back");
-    std::copy(keys32.begin(), keys32.end(), keys->begin());
   } else {
     RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys->data(), b.keys64_sorted.data(), pairs * sizeof(uint64_t),
                                              cudaMemcpyDeviceToHost, stream),
@@ -270,6 +268,7 @@ Status GpuRenderer::download_sorted_pairs(std::vector<uint64_t>* keys, std::vect
                                            cudaMemcpyDeviceToHost, stream),
                            "GpuRenderer: sorted values read-back");
   RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: sorted pairs read-back");
+  std::copy(keys32.begin(), keys32.end(), keys->begin());  // widened; nothing with 64-bit keys
   return Status();
 }
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -191,6 +192,11 @@ struct GpuFrame {
   std::vector<float> depth;  // [H, W] when asked for
   runtime::GpuRenderStats stats;
 };
+
+/// True when two planes have the same size and the same bits.
+inline bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
 
 /// Renders on the GPU into planes poisoned with NaN (0xFF bytes), so unwritten pixels fail comparisons.
 inline GpuFrame render_gpu(runtime::GpuRenderer& renderer, const runtime::GpuScene& scene,

@@ -32,7 +32,6 @@
 // fails every comparison.
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -105,10 +104,6 @@ void check_against_cpu(const GpuScenePair& scene, const Camera& cam, const std::
 void check_all_background(const GpuFrame& f, const std::array<float, 3>& bg) {
   CHECK(all_background(f.rgba, bg));
   CHECK(std::all_of(f.depth.begin(), f.depth.end(), [](float z) { return z == 0.f; }));
-}
-
-bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
 TEST_CASE("baseline GPU vs CPU reference: guitar, orbit views, sizes including non-multiples of 16") {

@@ -13,7 +13,6 @@
 //   channel, PSNR ≥ 70 dB (measured: see the MESSAGE lines).
 // Quality against the GPU baseline: the CPU-measured budgets of tests/runtime/test_render_real.cpp.
 #include <algorithm>
-#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -147,9 +146,9 @@ TEST_CASE("fused and separate stages, and balanced and one-thread emission, give
     GpuRenderOptions one_thread_each = roofgs_options(mode.techniques);
     one_thread_each.roofgs.balanced_emission = false;
     const GpuFrame unbalanced = render_gpu(rig.renderer, rig.scene, cam, one_thread_each, false);
-    CHECK(std::memcmp(fused.rgba.data(), again.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
-    CHECK(std::memcmp(fused.rgba.data(), separate.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
-    CHECK(std::memcmp(fused.rgba.data(), unbalanced.rgba.data(), fused.rgba.size() * sizeof(float)) == 0);
+    CHECK(same_bits(fused.rgba, again.rgba));
+    CHECK(same_bits(fused.rgba, separate.rgba));
+    CHECK(same_bits(fused.rgba, unbalanced.rgba));
     CHECK(fused.stats.pairs == separate.stats.pairs);
     CHECK(fused.stats.pairs == unbalanced.stats.pairs);
   }
@@ -231,7 +230,7 @@ TEST_CASE("32-bit key with depth order renders exactly the baseline's image at 1
       const GpuFrame key32 = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(ordered, compact, true), false);
       CHECK(key32.stats.key_tile_bits == tile_bits[s]);
       CHECK(key32.stats.pairs == base.stats.pairs);
-      CHECK(std::memcmp(key32.rgba.data(), base.rgba.data(), base.rgba.size() * sizeof(float)) == 0);
+      CHECK(same_bits(key32.rgba, base.rgba));
     }
     // Without depth order the key quantizes depth: close to the baseline, not identical.
     RoofgsOptions plain;
