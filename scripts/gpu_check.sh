@@ -34,8 +34,9 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs-serial)
-  # The ablation: every technique alone, all off, and the load balancing off (roofgs-serial, above).
+  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs-serial --mode roofgs-tile)
+  # The ablation: every technique alone, all off, and the load balancing and sub-tile culling off (roofgs-serial,
+  # roofgs-tile, above).
   ablation=("${modes[@]}" --mode roofgs-none --mode only-compact --mode only-fused --mode only-key32
             --mode only-snugbox --mode only-folded --mode only-fastexp)
   sizes=(--resolution 1920x1080 --resolution 3840x2160)

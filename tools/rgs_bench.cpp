@@ -114,6 +114,14 @@ const std::vector<BenchMode>& all_modes() {
          if (o.ok()) o->roofgs.balanced_emission = false;
          return o;
        }},
+      {"roofgs-tile", "roofgs without sub-tile culling (every warp of a tile walks all of the tile's pairs, as "
+                      "in the paper)",
+       [](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
+         auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
+                                 "roofgs-tile");
+         if (o.ok()) o->roofgs.subtile_culling = false;
+         return o;
+       }},
       {"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)",
        [](const tools::LoadedGpuScene& scene) {
          return roofgs_options(scene, false, false, runtime::RoofgsOptions{}, "roofgs-none");

@@ -33,28 +33,22 @@ struct Pixel {
   bool done = false;
 };
 
-/// Front-to-back step with an α that passed the 1/255 test (cpu_renderer.cpp blend_step). kFma: the RoofGS
-/// form (blend_step_fma), w = α·T once and C += c·w as one FMA per channel, 4 arithmetic operations instead of 9.
-template <bool kDepth, bool kFma = false>
+/// Front-to-back step with an α that passed the 1/255 test (cpu_renderer.cpp blend_step).
+template <bool kDepth>
 __device__ inline void blend(Pixel& s, float alpha, float r, float g, float b, float depth) {
   const float test_T = s.T * (1.f - alpha);
   if (test_T < kTransmittanceMin) {
     s.done = true;
     return;
   }
-  const float w = alpha * s.T;
-  if (kFma) {
-    s.C[0] = fmaf(r, w, s.C[0]);
-    s.C[1] = fmaf(g, w, s.C[1]);
-    s.C[2] = fmaf(b, w, s.C[2]);
-    if (kDepth) s.depth_sum = fmaf(depth, w, s.depth_sum);
-  } else {
-    s.C[0] += r * alpha * s.T;
-    s.C[1] += g * alpha * s.T;
-    s.C[2] += b * alpha * s.T;
-    if (kDepth) s.depth_sum += depth * w;
+  s.C[0] += r * alpha * s.T;
+  s.C[1] += g * alpha * s.T;
+  s.C[2] += b * alpha * s.T;
+  if (kDepth) {
+    const float w = alpha * s.T;
+    s.depth_sum += depth * w;
+    s.weight_sum += w;
   }
-  if (kDepth) s.weight_sum += w;
   s.T = test_T;
 }
 
@@ -114,71 +108,143 @@ __global__ void __launch_bounds__(kTilePixels)
   if (inside) store<kDepth>(s, px, py, frame, out_rgba, out_depth);
 }
 
-/// α of a folded power P, or a negative value when the pair is skipped (P > 0 or α < 1/255).
+/// Whether a pair passes at a pixel of folded power P (P ≤ 0 and α ≥ 1/255), and its α = min(0.99, ·) when it
+/// does. The fast exp goes through fast_exp_alpha_passes (integer-domain tests, the same decisions and bits as
+/// fminf(0.99, fast_exp(P)) and its 1/255 test).
 template <bool kFastExp>
-__device__ inline float folded_alpha(float P, float sigma) {
-  if (P > 0.f) return -1.f;
-  const float alpha = fminf(kAlphaMax, kFastExp ? fast_exp(P, sigma) : expf(P));
-  return alpha < kAlphaMin ? -1.f : alpha;
+__device__ inline bool folded_alpha(float P, float fast_exp_bias, float* alpha) {
+  if (kFastExp) return fast_exp_alpha_passes(P, fast_exp_bias, alpha);
+  *alpha = fminf(kAlphaMax, expf(P));
+  return !(P > 0.f) && *alpha >= kAlphaMin;
+}
+
+/// Running state of one pixel of the folded loop: the sign of T holds the stop flag (T < 0: the pixel is done
+/// and −T is its final transmittance; a live T never drops below 1e−4), which saves the loop a flag and its
+/// predicate juggling.
+struct FoldedPixel {
+  float T = 1.f;
+  float C[3] = {0.f, 0.f, 0.f};
+  float depth_sum = 0.f, weight_sum = 0.f;
+
+  __device__ bool live() const { return T > 0.f; }
+  /// The final state in the pixel kernel's form, for store().
+  __device__ Pixel finished() const {
+    Pixel p;
+    p.T = fabsf(T);
+    p.C[0] = C[0], p.C[1] = C[1], p.C[2] = C[2];
+    p.depth_sum = depth_sum, p.weight_sum = weight_sum;
+    return p;
+  }
+};
+
+/// Front-to-back step of the folded loop, the RoofGS form of cpu_renderer.cpp blend_step_fma (w = α·T,
+/// T' = T − w, C += c·w as one FMA per channel), without branches since a warp's pixels rarely agree: a pair
+/// that does not pass (`pass` false, or the pixel is done) or that stops the pixel adds c·0 (exact: C + 0 = C)
+/// and keeps |T|, so the results are bitwise those of blend_step_fma, at the same instructions for every pixel
+/// instead of divergent paths.
+template <bool kDepth>
+__device__ inline void blend_predicated(FoldedPixel& s, bool pass, float alpha, const float4& rgbd) {
+  const bool hit = pass && s.live();
+  const float w = alpha * s.T;
+  const float test_T = s.T - w;
+  const bool stop = hit && test_T < kTransmittanceMin;
+  const bool take = hit && !stop;
+  const float w_taken = take ? w : 0.f;
+  s.C[0] = fmaf(rgbd.x, w_taken, s.C[0]);
+  s.C[1] = fmaf(rgbd.y, w_taken, s.C[1]);
+  s.C[2] = fmaf(rgbd.z, w_taken, s.C[2]);
+  if (kDepth) {
+    s.depth_sum = fmaf(rgbd.w, w_taken, s.depth_sum);
+    s.weight_sum += w_taken;
+  }
+  s.T = take ? test_T : (stop ? -s.T : s.T);
 }
 
 /// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local
 /// coordinates; pixel terms hoisted; each thread shades (x, y) and (x, y + 1) with
-/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; colours accumulated with FMAs.
-template <bool kFastExp, bool kDepth>
+/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; alpha tested in the integer domain (fast_exp_alpha);
+/// blending without branches (blend_predicated). 128 threads per tile, warp w shading the 8×8 quadrant
+/// (w mod 2, w / 2), lane l its pixels (l mod 8, 2·(l / 8)) and the one below. kSubtile (beyond the paper):
+/// the thread that loads a pair also computes its subtile_mask, and each warp walks only the pairs whose mask
+/// holds its quadrant, compacted with a ballot; the other pairs cannot pass the 1/255 test on its pixels, so
+/// the output bits are the same.
+template <bool kFastExp, bool kDepth, bool kSubtile>
 __global__ void __launch_bounds__(kDualThreads)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
                          FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
+  constexpr int kWarps = kDualThreads / 32;
   const uint32_t tile = blockIdx.y * frame.tiles_x + blockIdx.x;
-  const int lx = int(threadIdx.x), ly = 2 * int(threadIdx.y);
+  const int rank = int(threadIdx.x), warp = rank / 32, lane = rank % 32;
+  const int lx = (warp % 2) * kSubtileSize + lane % kSubtileSize;
+  const int ly = (warp / 2) * kSubtileSize + 2 * (lane / kSubtileSize);
   const uint32_t x = blockIdx.x * kTileSize + uint32_t(lx);
   const uint32_t y = blockIdx.y * kTileSize + uint32_t(ly);
-  const uint32_t rank = threadIdx.y * kTileSize + threadIdx.x;
   const float origin_x = static_cast<float>(blockIdx.x * kTileSize);
   const float origin_y = static_cast<float>(blockIdx.y * kTileSize);
   const PixelTerms terms = pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
+  const float fast_exp_bias = kFastExp ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
   const uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
 
   __shared__ float4 collected_c1234[kDualThreads];
   __shared__ float2 collected_c56[kDualThreads];
   __shared__ float4 collected_rgbd[kDualThreads];  // r, g, b, depth
+  __shared__ uint32_t collected_mask[kSubtile ? kDualThreads : 1];
+  __shared__ uint8_t warp_pairs[kSubtile ? kWarps : 1][kDualThreads];  // batch slots each warp walks
 
-  Pixel first, second;
-  first.done = !(x < frame.width && y < frame.height);
-  second.done = !(x < frame.width && y + 1 < frame.height);
+  FoldedPixel first, second;
+  if (!(x < frame.width && y < frame.height)) first.T = -1.f;  // outside the image: done from the start
+  if (!(x < frame.width && y + 1 < frame.height)) second.T = -1.f;
   for (uint64_t batch = begin; batch < end; batch += kDualThreads) {
-    if (__syncthreads_count(first.done && second.done) == kDualThreads) break;
-    const uint64_t p = batch + rank;
+    if (__syncthreads_count(!first.live() && !second.live()) == kDualThreads) break;
+    const uint64_t p = batch + uint64_t(rank);
+    uint32_t mask = 0;
     if (p < end) {
       const uint32_t id = values[p];
       const float2 mean = in.means2d[id];
       const float4 co = in.conic_opacity[id];
-      const FoldedCoefficients f =
-          fold_coefficients(Conic{co.x, co.y, co.z}, mean.x - origin_x, mean.y - origin_y, in.log_opacities[id]);
+      const Conic conic{co.x, co.y, co.z};
+      const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = in.log_opacities[id];
+      const FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
       collected_c1234[rank] = make_float4(f.c1, f.c2, f.c3, f.c4);
       collected_c56[rank] = make_float2(f.c5, f.c6);
       collected_rgbd[rank] = make_float4(in.rgb[3 * id], in.rgb[3 * id + 1], in.rgb[3 * id + 2],
                                          kDepth ? in.depths[id] : 0.f);
+      if (kSubtile) mask = subtile_mask(conic, u, v, log_opacity);
     }
+    if (kSubtile) collected_mask[rank] = mask;
     __syncthreads();
     const int in_batch = static_cast<int>(end - batch < kDualThreads ? end - batch : kDualThreads);
-    for (int j = 0; !(first.done && second.done) && j < in_batch; ++j) {
+    int count = in_batch;
+    if (kSubtile) {
+      // This warp's slots in batch order: slot s is kept when bit `warp` of its mask is set.
+      count = 0;
+      for (int base = 0; base < in_batch; base += 32) {
+        const bool keep = (collected_mask[base + lane] >> warp) & 1u;
+        const uint32_t kept = __ballot_sync(0xffffffffu, keep);
+        if (keep) warp_pairs[warp][count + __popc(kept & ((1u << lane) - 1u))] = uint8_t(base + lane);
+        count += __popc(kept);
+      }
+      __syncwarp();
+    }
+    for (int k = 0; (first.live() || second.live()) && k < count; ++k) {
+      const int j = kSubtile ? warp_pairs[warp][k] : k;
       const float4 c1234 = collected_c1234[j];
       const float2 c56 = collected_c56[j];
       const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56.x, c56.y};
       const float p_first = folded_power(f, terms);
       const float p_second = dual_pixel_power(p_first, f, terms);
-      const float a_first = first.done ? -1.f : folded_alpha<kFastExp>(p_first, sigma);
-      const float a_second = second.done ? -1.f : folded_alpha<kFastExp>(p_second, sigma);
-      if (a_first >= 0.f || a_second >= 0.f) {
-        const float4 c = collected_rgbd[j];
-        if (a_first >= 0.f) blend<kDepth, true>(first, a_first, c.x, c.y, c.z, c.w);
-        if (a_second >= 0.f) blend<kDepth, true>(second, a_second, c.x, c.y, c.z, c.w);
-      }
+      float a_first, a_second;
+      const bool hit_first = folded_alpha<kFastExp>(p_first, fast_exp_bias, &a_first);
+      const bool hit_second = folded_alpha<kFastExp>(p_second, fast_exp_bias, &a_second);
+      const float4 rgbd = collected_rgbd[j];
+      blend_predicated<kDepth>(first, hit_first, a_first, rgbd);
+      blend_predicated<kDepth>(second, hit_second, a_second, rgbd);
     }
   }
-  if (x < frame.width && y < frame.height) store<kDepth>(first, x, y, frame, out_rgba, out_depth);
-  if (x < frame.width && y + 1 < frame.height) store<kDepth>(second, x, y + 1, frame, out_rgba, out_depth);
+  if (x < frame.width && y < frame.height) store<kDepth>(first.finished(), x, y, frame, out_rgba, out_depth);
+  if (x < frame.width && y + 1 < frame.height) {
+    store<kDepth>(second.finished(), x, y + 1, frame, out_rgba, out_depth);
+  }
 }
 
 template <bool kFastExp>
@@ -193,15 +259,27 @@ void launch_pixel(const uint64_t* ranges, const uint32_t* values, const RenderIn
   }
 }
 
-template <bool kFastExp>
+template <bool kFastExp, bool kSubtile>
 void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
                    float sigma, const ImageView& image, cudaStream_t stream) {
-  const dim3 grid(frame.tiles_x, frame.tiles_y), block(kTileSize, kTileSize / 2);
+  const dim3 grid(frame.tiles_x, frame.tiles_y), block(kDualThreads);
   auto* rgba = reinterpret_cast<float4*>(image.rgba);
   if (image.depth != nullptr) {
-    render_folded_kernel<kFastExp, true><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
+    render_folded_kernel<kFastExp, true, kSubtile>
+        <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
   } else {
-    render_folded_kernel<kFastExp, false><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
+    render_folded_kernel<kFastExp, false, kSubtile>
+        <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
+  }
+}
+
+template <bool kFastExp>
+void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
+                   float sigma, bool subtile, const ImageView& image, cudaStream_t stream) {
+  if (subtile) {
+    launch_folded<kFastExp, true>(ranges, values, in, frame, sigma, image, stream);
+  } else {
+    launch_folded<kFastExp, false>(ranges, values, in, frame, sigma, image, stream);
   }
 }
 
@@ -225,9 +303,9 @@ cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values,
   const float sigma = roofgs.fast_exp_sigma;
   if (raster.folded) {
     if (raster.fast_exp) {
-      launch_folded<true>(ranges, sorted_values, in, frame, sigma, image, stream);
+      launch_folded<true>(ranges, sorted_values, in, frame, sigma, raster.subtile_culling, image, stream);
     } else {
-      launch_folded<false>(ranges, sorted_values, in, frame, sigma, image, stream);
+      launch_folded<false>(ranges, sorted_values, in, frame, sigma, raster.subtile_culling, image, stream);
     }
   } else if (raster.fast_exp) {
     launch_pixel<true>(ranges, sorted_values, in, frame, sigma, image, stream);

@@ -9,11 +9,11 @@ namespace {
 
 template <typename Key>
 cudaError_t sort_pairs_impl(void* temp, size_t* temp_bytes, const Key* keys_in, Key* keys_out,
-                            const uint32_t* values_in, uint32_t* values_out, uint64_t count, int end_bit,
-                            cudaStream_t stream) {
+                            const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit,
+                            int end_bit, cudaStream_t stream) {
   // CUB takes the item count as a template type: uint64_t keeps pair counts beyond 2^31 correct.
-  return cub::DeviceRadixSort::SortPairs(temp, *temp_bytes, keys_in, keys_out, values_in, values_out, count, 0,
-                                         end_bit, stream);
+  return cub::DeviceRadixSort::SortPairs(temp, *temp_bytes, keys_in, keys_out, values_in, values_out, count,
+                                         begin_bit, end_bit, stream);
 }
 
 }  // namespace
@@ -24,15 +24,17 @@ cudaError_t inclusive_scan(void* temp, size_t* temp_bytes, const uint64_t* in, u
 }
 
 cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, uint64_t* keys_out,
-                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int end_bit,
-                       cudaStream_t stream) {
-  return sort_pairs_impl(temp, temp_bytes, keys_in, keys_out, values_in, values_out, count, end_bit, stream);
+                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit,
+                       int end_bit, cudaStream_t stream) {
+  return sort_pairs_impl(temp, temp_bytes, keys_in, keys_out, values_in, values_out, count, begin_bit, end_bit,
+                         stream);
 }
 
 cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint32_t* keys_in, uint32_t* keys_out,
-                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int end_bit,
-                       cudaStream_t stream) {
-  return sort_pairs_impl(temp, temp_bytes, keys_in, keys_out, values_in, values_out, count, end_bit, stream);
+                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit,
+                       int end_bit, cudaStream_t stream) {
+  return sort_pairs_impl(temp, temp_bytes, keys_in, keys_out, values_in, values_out, count, begin_bit, end_bit,
+                         stream);
 }
 
 }  // namespace rgs::kernels

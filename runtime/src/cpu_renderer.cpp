@@ -105,15 +105,16 @@ inline void blend_step(PixelState& s, float alpha, const TileGaussian& g) {
   s.T = test_T;
 }
 
-/// blend_step in the RoofGS rasterizer's form (render.cu blend<…, kFma>): w = α·T once, C += c·w as one
-/// fused multiply-add per channel (the folded loop's accumulation).
+/// blend_step in the RoofGS rasterizer's form (render.cu blend_predicated): w = α·T once, the transmittance
+/// after the Gaussian as T − w, and C += c·w as one fused multiply-add per channel (the folded loop's
+/// accumulation, 2 fewer operations per pixel than blend_step).
 inline void blend_step_fma(PixelState& s, float alpha, const TileGaussian& g) {
-  const float test_T = s.T * (1.f - alpha);
+  const float w = alpha * s.T;
+  const float test_T = s.T - w;
   if (test_T < k::kTransmittanceMin) {
     s.done = true;
     return;
   }
-  const float w = alpha * s.T;
   for (int c = 0; c < 3; ++c) s.C[c] = std::fmaf(g.rgb[c], w, s.C[c]);
   s.depth_sum = std::fmaf(g.depth, w, s.depth_sum);
   s.weight_sum += w;

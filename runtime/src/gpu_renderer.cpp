@@ -38,6 +38,11 @@ kernels::FrameParams make_frame_params(const Camera& camera, const GpuRenderOpti
 }
 
 /// ceil(log2(n)) for n ≥ 1.
+/// Key bits [begin, end) a radix sort covers.
+struct SortBits {
+  int begin = 0, end = 0;
+};
+
 int ceil_log2(uint64_t n) {
   int bits = 0;
   while ((uint64_t{1} << bits) < n) ++bits;
@@ -115,11 +120,18 @@ struct GpuRenderer::Buffers {
   bool last_key32 = false;
   // Stage boundaries: start, after duplicate, after sort, after ranges, after render.
   cudaEvent_t events[5] = {nullptr, nullptr, nullptr, nullptr, nullptr};
+  // The fused kernel's pair total is copied on its own stream once that kernel has finished (fused_done),
+  // while the large-Gaussian kernel still runs, so the host waits for the count and enqueues the sort while
+  // the GPU is busy (read_back_at).
+  cudaEvent_t fused_done = nullptr;
+  cudaStream_t readback_stream = nullptr;
 
   ~Buffers() {
     for (cudaEvent_t& e : events) {
       if (e != nullptr) cudaEventDestroy(e);
     }
+    if (fused_done != nullptr) cudaEventDestroy(fused_done);
+    if (readback_stream != nullptr) cudaStreamDestroy(readback_stream);
   }
 
   void release_pairs() {
@@ -156,7 +168,7 @@ struct GpuRenderer::Buffers {
 
   /// Pair buffers for `pairs` pairs with 32- or 64-bit keys, and the sort scratch for them. On failure all
   /// pair buffers are dropped, so the renderer stays usable for smaller frames.
-  Status reserve_pairs(uint64_t pairs, bool key32, int sort_bits, cudaStream_t stream) {
+  Status reserve_pairs(uint64_t pairs, bool key32, const SortBits& bits, cudaStream_t stream) {
     const std::string count = std::to_string(pairs) + " pairs";
     Status grown = key32 ? keys32.reserve(pairs, "GpuRenderer: keys of " + count)
                          : keys64.reserve(pairs, "GpuRenderer: keys of " + count);
@@ -170,9 +182,9 @@ struct GpuRenderer::Buffers {
     if (grown.ok()) {
       const cudaError_t query =
           key32 ? kernels::sort_pairs(nullptr, &sort_bytes, keys32.data(), keys32_sorted.data(), values.data(),
-                                      values_sorted.data(), pairs, sort_bits, stream)
+                                      values_sorted.data(), pairs, bits.begin, bits.end, stream)
                 : kernels::sort_pairs(nullptr, &sort_bytes, keys64.data(), keys64_sorted.data(), values.data(),
-                                      values_sorted.data(), pairs, sort_bits, stream);
+                                      values_sorted.data(), pairs, bits.begin, bits.end, stream);
       grown = cuda_status(query, "GpuRenderer: sort size query");
     }
     if (grown.ok()) grown = sort_temp.reserve(sort_bytes, "GpuRenderer: sort scratch");
@@ -200,6 +212,17 @@ struct GpuRenderer::Buffers {
                                              cudaMemcpyDeviceToHost, stream),
                              "GpuRenderer: pair count read-back");
     RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: preprocess");
+    return *static_cast<const uint64_t*>(pair_count.data());
+  }
+
+  /// Reads one uint64 from the device once `event` (recorded on the render stream) has completed, on
+  /// readback_stream: work enqueued on the render stream after the event keeps running meanwhile.
+  Result<uint64_t> read_back_at(const void* device_value, cudaEvent_t event) {
+    RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(readback_stream, event, 0), "GpuRenderer: read-back wait");
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(pair_count.data(), device_value, sizeof(uint64_t),
+                                             cudaMemcpyDeviceToHost, readback_stream),
+                             "GpuRenderer: pair count read-back");
+    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(readback_stream), "GpuRenderer: preprocess");
     return *static_cast<const uint64_t*>(pair_count.data());
   }
 
@@ -234,9 +257,14 @@ Result<GpuRenderer> GpuRenderer::create() {
   GpuRenderer renderer;
   renderer.buffers_ = std::make_unique<Buffers>();
   RGS_RETURN_IF_ERROR(renderer.buffers_->pair_count.reserve(sizeof(uint64_t), "GpuRenderer: pair count"));
-  for (cudaEvent_t& e : renderer.buffers_->events) {
+  Buffers& b = *renderer.buffers_;
+  for (cudaEvent_t& e : b.events) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventCreate(&e), "GpuRenderer: cudaEventCreate");
   }
+  RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&b.fused_done, cudaEventDisableTiming),
+                           "GpuRenderer: cudaEventCreateWithFlags");
+  RGS_RETURN_IF_CUDA_ERROR(cudaStreamCreateWithFlags(&b.readback_stream, cudaStreamNonBlocking),
+                           "GpuRenderer: cudaStreamCreateWithFlags");
   return renderer;
 }
 
@@ -329,7 +357,8 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   cudaEvent_t* ev = b.events;
   const uint32_t n = scene.size();
   const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
-  stats->sort_bits = 32 + ceil_log2(num_tiles);
+  const SortBits sort_bits{0, 32 + ceil_log2(num_tiles)};
+  stats->sort_bits = sort_bits.end;
 
   // 1. Preprocess, 2. offsets, pair count, duplication.
   uint64_t pairs = 0;
@@ -341,7 +370,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   }
   stats->pairs = pairs;
   if (pairs > 0) {
-    RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, false, stats->sort_bits, stream));
+    RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, false, sort_bits, stream));
     RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, frame, b.keys64.data(),
                                                          b.values.data(), stream),
                              "GpuRenderer: duplicate kernel");
@@ -352,7 +381,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
     size_t sort_bytes = b.sort_temp.bytes();
     RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(),
                                                  b.keys64_sorted.data(), b.values.data(), b.values_sorted.data(),
-                                                 pairs, stats->sort_bits, stream),
+                                                 pairs, sort_bits.begin, sort_bits.end, stream),
                              "GpuRenderer: radix sort");
   }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
@@ -405,7 +434,12 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     stats->z_near = setup.quantizer.z_near;
     stats->z_far = setup.empty_depth_range ? setup.quantizer.z_near : setup.quantizer.z_far;
   }
-  stats->sort_bits = t.key32 ? 32 : 32 + ceil_log2(num_tiles);
+  // Key bits the pair sort covers: the whole key, or with depth order only the tile bits above the depth
+  // (pairs are emitted in depth order, so each tile's pairs already are in key order; roofgs_pipeline.h).
+  const int depth_bits = t.key32 ? rf.key_depth_bits : 32;
+  const int key_bits = t.key32 ? 32 : 32 + ceil_log2(num_tiles);
+  const SortBits sort_bits{t.depth_order && depth_bits < key_bits ? depth_bits : 0, key_bits};
+  stats->sort_bits = sort_bits.end - sort_bits.begin;
   kernels::GaussianSource source;
   source.fp32 = scene.fp32();
   if (scene.has_compact()) source.compact = scene.compact();
@@ -427,13 +461,13 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                "GpuRenderer: depth key kernel");
       size_t bytes = 0;
       RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(nullptr, &bytes, b.order_keys.data(), b.order_keys_sorted.data(),
-                                                   b.order_identity.data(), b.order.data(), n, 32, stream),
+                                                   b.order_identity.data(), b.order.data(), n, 0, 32, stream),
                                "GpuRenderer: depth sort size query");
       RGS_RETURN_IF_ERROR(b.order_temp.reserve(bytes, "GpuRenderer: depth sort scratch"));
       bytes = b.order_temp.bytes();
       RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.order_temp.data(), &bytes, b.order_keys.data(),
                                                    b.order_keys_sorted.data(), b.order_identity.data(),
-                                                   b.order.data(), n, 32, stream),
+                                                   b.order.data(), n, 0, 32, stream),
                                "GpuRenderer: depth sort");
       order = b.order.data();
     }
@@ -455,16 +489,18 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       // Capacity: what the pair buffers hold now (sized by earlier frames), at least 4 pairs per Gaussian.
       uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 4);
       for (int attempt = 0;; ++attempt) {
-        RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, stats->sort_bits, stream));
+        RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, sort_bits, stream));
         capacity = b.values.size();
         RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, order, projected, scratch, large,
                                                                   capacity, b.keys64.data(), b.keys32.data(),
                                                                   b.values.data(), stream),
                                  "GpuRenderer: fused preprocess kernel");
+        RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.fused_done, stream), "GpuRenderer: cudaEventRecord");
         RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.keys64.data(),
                                                                b.keys32.data(), b.values.data(), stream),
                                  "GpuRenderer: large Gaussian kernel");
-        RGS_ASSIGN_OR_RETURN(pairs, b.read_back(b.fused_total.data(), stream));
+        // The total is final when the fused kernel ends; read it while the large-Gaussian kernel runs.
+        RGS_ASSIGN_OR_RETURN(pairs, b.read_back_at(b.fused_total.data(), b.fused_done));
         if (pairs <= capacity) break;
         RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
                             "GpuRenderer: fused kernel pair count changed between identical runs");
@@ -476,7 +512,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                "GpuRenderer: preprocess kernel");
       RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));
       if (pairs > 0) {
-        RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, stats->sort_bits, stream));
+        RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, sort_bits, stream));
         RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), order, n, frame, rf, large,
                                                            b.keys64.data(), b.keys32.data(), b.values.data(),
                                                            stream),
@@ -490,14 +526,17 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   stats->pairs = pairs;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
 
-  // Stable radix sort: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
+  // Stable radix sort over sort_bits: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)); with depth
+  // order only the tile bits.
   if (pairs > 0) {
     size_t sort_bytes = b.sort_temp.bytes();
     const cudaError_t sorted =
         t.key32 ? kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys32.data(), b.keys32_sorted.data(),
-                                      b.values.data(), b.values_sorted.data(), pairs, stats->sort_bits, stream)
+                                      b.values.data(), b.values_sorted.data(), pairs, sort_bits.begin, sort_bits.end,
+                                      stream)
                 : kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(), b.keys64_sorted.data(),
-                                      b.values.data(), b.values_sorted.data(), pairs, stats->sort_bits, stream);
+                                      b.values.data(), b.values_sorted.data(), pairs, sort_bits.begin, sort_bits.end,
+                                      stream);
     RGS_RETURN_IF_CUDA_ERROR(sorted, "GpuRenderer: radix sort");
   }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
@@ -510,7 +549,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   RGS_RETURN_IF_CUDA_ERROR(ranged, "GpuRenderer: tile ranges kernel");
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
 
-  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp};
+  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, options.subtile_culling};
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), b.values_sorted.data(), b.roofgs_projected(), frame,
                                                   rf, raster, image->view(), stream),
                            "GpuRenderer: render kernel");

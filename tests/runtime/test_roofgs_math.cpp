@@ -369,5 +369,91 @@ TEST_CASE("fast exp: max relative error <= 0.0315 over [-ln 255, 0] (1e6+1 point
   CHECK(k::fast_exp(-30.f) < k::kAlphaMin);
 }
 
+/// The reference form of the folded fast-exp alpha (cpu_renderer.cpp folded_alpha with fast_exp on).
+float reference_fast_exp_alpha(float P, float sigma) {
+  if (P > 0.f) return -1.f;
+  const float alpha = fminf(k::kAlphaMax, k::fast_exp(P, sigma));
+  return alpha < k::kAlphaMin ? -1.f : alpha;
+}
+
+TEST_CASE("fast_exp_alpha: bit for bit the reference alpha for every tested non-NaN float, three sigmas") {
+  // σ = 0 makes exp̂(0) = 1, so the 0.99 clamp is reached (with the two calibrated σ, exp̂(P ≤ 0) ≤ 0.97).
+  for (float sigma : {k::kFastExpSigmaMinMax, k::kFastExpSigmaZeroMean, 0.f}) {
+    const float bias = k::fast_exp_bias(sigma);
+    uint64_t probes = 0, mismatches = 0, contributing = 0, clamped = 0;
+    const auto probe = [&](uint32_t bits) {
+      const float P = k::uint_as_float(bits);
+      if (std::isnan(P)) return;  // the reference leaves NaN to libm's fmaxf; fast_exp_alpha skips it (below)
+      const float expected = reference_fast_exp_alpha(P, sigma);
+      mismatches += k::float_as_uint(expected) != k::float_as_uint(k::fast_exp_alpha(P, bias));
+      contributing += expected >= 0.f;
+      clamped += expected == k::kAlphaMax;
+      ++probes;
+    };
+    // Every 257th bit pattern of the float line (16.7 million values: both signs, zeros, subnormals,
+    // infinities, NaNs), then every pattern around the points where exp̂ crosses 1/255 and 0.99, fast_exp's
+    // clamp at -87, and 0.
+    for (uint64_t u = 0; u <= 0xffffffffull; u += 257) probe(uint32_t(u));
+    for (float edge : {std::log(k::kAlphaMin), std::log(k::kAlphaMax), k::kFastExpClampMin, 0.f, -0.f}) {
+      const int64_t u = k::float_as_uint(edge);
+      for (int64_t d = -20000; d <= 20000; ++d) probe(uint32_t(u + d));
+    }
+    CHECK_MESSAGE(mismatches == 0, "sigma " << sigma << ": " << mismatches << " of " << probes);
+    // The probes reach all outcomes: skipped, exp̂(P) itself and, with σ = 0, the clamp to 0.99.
+    CHECK(probes > contributing);
+    CHECK(contributing > clamped);
+    CHECK((clamped > 0) == (sigma == 0.f));
+  }
+  const float bias = k::fast_exp_bias(k::kFastExpSigmaMinMax);
+  CHECK(k::fast_exp_alpha(std::numeric_limits<float>::quiet_NaN(), bias) == -1.f);
+  CHECK(k::fast_exp_alpha(1e-30f, bias) == -1.f);
+  CHECK(k::fast_exp_alpha(-std::numeric_limits<float>::infinity(), bias) == -1.f);
+  CHECK(k::fast_exp_alpha(0.f, bias) == k::fast_exp(0.f));
+}
+
+TEST_CASE("subtile_mask: no pixel of a cleared quadrant passes the 1/255 test (random Gaussians, needles too)") {
+  // Means up to 40 px outside the tile, covariance eigenvalues 1e-3..1e4 px² at any angle, opacities 0.004..1;
+  // every pixel of every quadrant the mask clears is evaluated as the rasterizer does (folded P, then the fast
+  // exp with σ = 0, the most generous one, and with the paper's σ, and expf).
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<double> local(-40.0, 56.0), unit(0.0, 1.0);
+  const float bias_zero = k::fast_exp_bias(0.f), bias_paper = k::fast_exp_bias(k::kFastExpSigmaMinMax);
+  uint64_t quadrants = 0, cleared = 0, kept_without_pixel = 0, violations = 0;
+  for (int iter = 0; iter < 20000; ++iter) {
+    const k::Cov2 cov = random_cov(rng);
+    const float det = k::determinant(cov);
+    if (!(det > 0)) continue;
+    const k::Conic conic = k::conic_from_covariance(cov, det);
+    const float log_o = std::log(float(0.004 + 0.996 * unit(rng)));
+    const float u = float(local(rng)), v = float(local(rng));
+    const k::FoldedCoefficients f = k::fold_coefficients(conic, u, v, log_o);
+    const uint32_t mask = k::subtile_mask(conic, u, v, log_o);
+    for (int q = 0; q < 4; ++q) {
+      bool any_pixel = false;
+      for (int y = (q / 2) * 8; y < (q / 2) * 8 + 8; ++y) {
+        for (int x = (q % 2) * 8; x < (q % 2) * 8 + 8; ++x) {
+          const float P = k::folded_power(f, k::pixel_terms(float(x), float(y)));
+          const bool passes = k::fast_exp_alpha(P, bias_zero) >= 0.f || k::fast_exp_alpha(P, bias_paper) >= 0.f ||
+                              (P <= 0.f && std::fmin(k::kAlphaMax, std::exp(P)) >= k::kAlphaMin);
+          any_pixel = any_pixel || passes;
+        }
+      }
+      ++quadrants;
+      if (!(mask >> q & 1u)) {
+        ++cleared;
+        violations += any_pixel;
+      } else {
+        kept_without_pixel += !any_pixel;
+      }
+    }
+  }
+  MESSAGE("subtile_mask: " << cleared << " of " << quadrants << " quadrants cleared, " << kept_without_pixel
+                           << " kept without a passing pixel (the margin and the box's continuous extent)");
+  CHECK(violations == 0);
+  // It culls (a mask of all ones would pass the check above), and keeps few quadrants it could have cleared.
+  CHECK(cleared > quadrants / 4);
+  CHECK(kept_without_pixel < (quadrants - cleared) / 10);
+}
+
 }  // namespace
 }  // namespace rgs::test

@@ -49,16 +49,18 @@ cudaError_t inclusive_scan(void* temp, size_t* temp_bytes, const uint64_t* in, u
 cudaError_t duplicate_baseline(const ProjectedArrays& projected, const uint64_t* offsets, uint32_t count,
                                const FrameParams& frame, uint64_t* keys, uint32_t* values, cudaStream_t stream);
 
-/// Stage 3: stable LSD radix sort of `count` (key, value) pairs by key bits [0, end_bit) (CUB
-/// DeviceRadixSort::SortPairs; equal keys keep their input order). Inputs are left unchanged; sorted pairs
-/// go to keys_out/values_out. Call with temp == nullptr to get *temp_bytes (it depends on count).
+/// Stage 3: stable LSD radix sort of `count` (key, value) pairs by key bits [begin_bit, end_bit) (CUB
+/// DeviceRadixSort::SortPairs; keys equal in those bits keep their input order). The baseline sorts bits
+/// [0, 32 + ceil(log2 tiles)); RoofGS with depth order only the tile bits (RoofgsFrame::depth_order). Inputs
+/// are left unchanged; sorted pairs go to keys_out/values_out. Call with temp == nullptr to get *temp_bytes
+/// (it depends on count).
 cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, uint64_t* keys_out,
-                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int end_bit,
+                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit, int end_bit,
                        cudaStream_t stream);
 
-/// The 32-bit-key variant of sort_pairs (RoofGS keys; bits [0, end_bit) with end_bit ≤ 32).
+/// The 32-bit-key variant of sort_pairs (RoofGS keys; end_bit ≤ 32).
 cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint32_t* keys_in, uint32_t* keys_out,
-                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int end_bit,
+                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit, int end_bit,
                        cudaStream_t stream);
 
 /// Stage 4 (3DGS identifyTileRanges): ranges[2·t], ranges[2·t + 1] = [begin, end) of tile t's pairs in the

@@ -10,7 +10,7 @@
 //   + inclusive_scan + duplicate_roofgs      (separate stages), or
 //   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs
 //   emit_large_gaussians     pairs of the Gaussians with many tiles, a thread block each (after either)
-//   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
+//   sort_pairs (32 or 64-bit keys; with depth order only the tile bits), tile_ranges (baseline_pipeline.h)
 //   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
 //                            the fast exp
 #pragma once
@@ -102,7 +102,9 @@ cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGa
 /// Writes keys[i] = float bits of Gaussian i's view depth (0xFFFFFFFF when z ≤ near or not finite: such
 /// Gaussians are culled later anyway) and values[i] = i, for sort_pairs(…, 32 bits) → an emission `order`
 /// by (depth, index): with it, pairs whose 32-bit keys tie (same tile and depth bin) keep exact depth order
-/// through the stable pair sort, which removes the depth-key quantization's ordering loss.
+/// through the stable pair sort, which removes the depth-key quantization's ordering loss. Pairs emitted in
+/// that order are already in key order within each tile (depth bins and float bits are non-decreasing in
+/// the same z), so the pair sort then needs only the tile bits: the same result in fewer radix passes.
 cudaError_t depth_sort_keys(const float* means, uint32_t count, const FrameParams& frame, uint32_t* keys,
                             uint32_t* values, cudaStream_t stream);
 
@@ -148,10 +150,14 @@ struct RasterOptions {
   bool folded = false;
   /// Fast exp (σ from RoofgsFrame) instead of expf.
   bool fast_exp = false;
+  /// With `folded` (beyond the paper): each warp skips the pairs that cannot reach alpha 1/255 on its 8×8
+  /// quadrant of the tile (subtile_mask in shared/tile_culling.h). Same output bits, fewer iterations.
+  bool subtile_culling = false;
 };
 
 /// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,
-/// α = min(0.99, exp(P)), P = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 (skip P > 0), 16×8 threads per tile.
+/// α = min(0.99, exp(P)), P = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 (skip P > 0), 128 threads per tile
+/// (a warp per 8×8 quadrant, two vertically adjacent pixels per thread).
 cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values, const RoofgsProjected& projected,
                           const FrameParams& frame, const RoofgsFrame& roofgs, const RasterOptions& raster,
                           const ImageView& image, cudaStream_t stream);

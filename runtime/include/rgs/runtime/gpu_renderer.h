@@ -68,6 +68,9 @@ struct GpuRoofgsOptions {
   /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by a thread block each
   /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
   bool balanced_emission = true;
+  /// With folded coefficients: each warp of the rasterizer skips the pairs that cannot reach alpha 1/255 on
+  /// its 8×8 quadrant of the tile (kernels::RasterOptions::subtile_culling); same image bits.
+  bool subtile_culling = true;
   /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
   /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
   RoofgsOptions techniques = RoofgsOptions::all();
@@ -95,7 +98,9 @@ struct GpuRenderStats {
   uint64_t gaussians = 0;      ///< input Gaussians
   uint64_t pairs = 0;          ///< (tile, Gaussian) pairs sorted
   uint32_t tiles_x = 0, tiles_y = 0;
-  int sort_bits = 0;           ///< key bits the radix sort covered (32 + ceil(log2(tiles)) for 64-bit keys, 32)
+  /// Key bits the pair sort covered: 32 + ceil(log2(tiles)) for 64-bit keys, 32 for 32-bit keys, only the
+  /// tile bits with depth order.
+  int sort_bits = 0;
   int key_tile_bits = 0, key_depth_bits = 0;  ///< 32-bit key layout (0 without it)
   float z_near = 0, z_far = 0; ///< 32-bit key depth range (0 without it)
   uint32_t fused_relaunches = 0;  ///< fused kernel runs repeated because the pair buffer had to grow

@@ -3,6 +3,7 @@
 // Eqs. coeff, dot, dual_pixel; DESIGN.md RoofGS item 5).
 #pragma once
 
+#include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/host_device.h"
 #include "rgs/kernels/shared/projection.h"
 
@@ -10,6 +11,8 @@ namespace rgs::kernels {
 
 /// Alpha is clamped to this before blending (3DGS min(0.99, ·)).
 constexpr float kAlphaMax = 0.99f;
+/// The smallest alpha a Gaussian may contribute with (3DGS skips alpha < 1/255).
+constexpr float kAlphaMin = 1.0f / 255.0f;
 /// A pixel stops before the Gaussian that would bring its transmittance below this (3DGS 0.0001).
 constexpr float kTransmittanceMin = 0.0001f;
 
@@ -61,6 +64,37 @@ RGS_HOST_DEVICE float folded_power(const FoldedCoefficients& k, const PixelTerms
 /// P + fma(C2, x, fma(C3, 2y + 1, C5)).
 RGS_HOST_DEVICE float dual_pixel_power(float p_xy, const FoldedCoefficients& k, const PixelTerms& p) {
   return p_xy + fmaf(k.c2, p.x, fmaf(k.c3, 2.f * p.y + 1.f, k.c5));
+}
+
+/// The folded rasterizer's fast-exp alpha test in the form the GPU's inner loop evaluates it: returns whether
+/// the pair passes (P ≤ 0 and exp̂(P) ≥ 1/255) and sets *alpha = min(0.99, exp̂(P)) when it does (otherwise
+/// *alpha is unspecified, possibly NaN). exp̂'s bit pattern I = floor(P·2^23·log2 e + bias) is compared and
+/// clamped as an integer, which orders like the floats it encodes while they are positive; any I below the
+/// pattern of 1/255 fails, including the negative and saturated I of P below fast_exp's clamp at −87, so that
+/// clamp and the float conversion are not needed. fast_exp_alpha below states the equivalence with the
+/// reference form.
+/// @param P     folded power (power + ln o), any float.
+/// @param bias  fast_exp_bias(σ), computed once per frame.
+RGS_HOST_DEVICE bool fast_exp_alpha_passes(float P, float bias, float* alpha) {
+  const float v = fmaf(P, fast_exp_scale(), bias);
+#if defined(__CUDA_ARCH__)
+  const int32_t bits = __float2int_rd(v);  // one F2I.FLOOR; NaN gives 0, out-of-range values saturate
+#else
+  // v < 2^31 whenever P ≤ 0; NaN, negative and too large v (P > 0) all land below 1/255's pattern.
+  const int32_t bits = (v >= 0.f && v < 2147483648.f) ? static_cast<int32_t>(floorf(v)) : -1;
+#endif
+  const int32_t min_bits = static_cast<int32_t>(float_as_uint(kAlphaMin));
+  const int32_t max_bits = static_cast<int32_t>(float_as_uint(kAlphaMax));
+  *alpha = uint_as_float(static_cast<uint32_t>(min_int(bits, max_bits)));
+  return !(P > 0.f) && bits >= min_bits;
+}
+
+/// fast_exp_alpha_passes as one value: α = min(0.99, exp̂(P)), or −1 when the pair is skipped (P > 0 or
+/// exp̂(P) < 1/255); bit for bit equal to  P > 0 ? −1 : (a = fminf(kAlphaMax, fast_exp(P, σ)), a < kAlphaMin ? −1 : a)
+/// for every float P but NaN, which is skipped (tested).
+RGS_HOST_DEVICE float fast_exp_alpha(float P, float bias) {
+  float alpha;
+  return fast_exp_alpha_passes(P, bias, &alpha) ? alpha : -1.f;
 }
 
 }  // namespace rgs::kernels

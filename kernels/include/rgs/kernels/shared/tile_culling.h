@@ -23,13 +23,12 @@
 // baseline would not visit.
 #pragma once
 
+#include "rgs/kernels/shared/blend_math.h"  // kAlphaMin
+#include "rgs/kernels/shared/fast_exp.h"    // kFastExpRangeMin
 #include "rgs/kernels/shared/host_device.h"
 #include "rgs/kernels/shared/projection.h"
 
 namespace rgs::kernels {
-
-/// The smallest alpha a Gaussian may contribute with (3DGS skips alpha < 1/255).
-constexpr float kAlphaMin = 1.0f / 255.0f;
 
 /// SnugBox threshold t = 2·ln(255·o) of a Gaussian with opacity o: its pixels reach alpha ≥ 1/255 only where
 /// the quadratic form q ≤ t. Returns false (cull the Gaussian) when o ≤ 1/255 or t is not positive, since such
@@ -195,6 +194,68 @@ RGS_HOST_DEVICE uint32_t for_each_accutile_tile(const SnugBox& box, const TileRe
     }
   }
   return count;
+}
+
+/// Side of the sub-tiles of the folded rasterizer: each warp shades one 8×8 quadrant of a 16×16 tile.
+constexpr int kSubtileSize = kTileSize / 2;
+
+/// Margin (in the folded power P = power + ln o) by which subtile_mask keeps sub-tiles: the fast exp exceeds
+/// exp by at most a factor (1 + f)/2^f ≤ 1.0615 for any σ in [0, 1) (ln 1.0615 = 0.0597), and the folded P a
+/// pixel computes differs from the exact quadratic form by ≤ 5e−4 on real scenes (test_roofgs_math.cpp);
+/// 0.1 covers both with room to spare.
+constexpr float kSubtilePowerMargin = 0.1f;
+
+namespace detail {
+
+/// Minimum over s ∈ [lo, hi] of the conic's quadratic form along a box edge where the other offset is `fixed`,
+/// written without cancellation as q = k·(s − s*)² + (D/k)·fixed² with s* = slope·fixed, slope = −b/k, k the
+/// coefficient of s² (a along a row, c along a column) and D = a·c − b² (both terms ≥ 0, so needle-like
+/// Gaussians, whose expanded terms reach ~1e7 for q ~ 10, lose no precision).
+RGS_HOST_DEVICE float edge_min_quadratic(float k, float slope, float d_over_k, float fixed, float lo, float hi) {
+  const float s_star = slope * fixed;
+  const float d = fminf(fmaxf(s_star, lo), hi) - s_star;
+  return fmaf(k * d, d, d_over_k * (fixed * fixed));
+}
+
+}  // namespace detail
+
+/// Sub-tile culling of the folded rasterizer (beyond the paper): bit (qx + 2·qy) of the result is set when the
+/// Gaussian may reach alpha ≥ 1/255 at some pixel centre of the tile's 8×8 quadrant (qx, qy), i.e. when the
+/// largest P = ln o − q/2 over the quadrant's pixel-centre box [8·qx, 8·qx + 7] × [8·qy, 8·qy + 7] (tile-local)
+/// is at least ln(1/255) − kSubtilePowerMargin. q = a·dx² + 2b·dx·dy + c·dy² is the conic's quadratic form,
+/// (dx, dy) = pixel − mean; its minimum over a box is 0 when the box holds the mean, else on an edge
+/// (detail::edge_min_quadratic). A cleared bit is conservative: every pixel of that quadrant fails the 1/255
+/// test (fast exp or expf), so skipping the pair there changes no output bit (tested on real scenes in
+/// test_roofgs_math.cpp, and on the GPU).
+/// @param conic        conic (a, b, c) of the Gaussian (positive definite), pixel⁻² units
+/// @param u, v         tile-local projected mean (mean − 16·(tx, ty)), pixels
+/// @param log_opacity  ln o
+RGS_HOST_DEVICE uint32_t subtile_mask(const Conic& conic, float u, float v, float log_opacity) {
+  // D = a·c − b² with Kahan's FMA algorithm (accurate_determinant): it stays accurate for thin ellipses.
+  const float w = conic.b * conic.b;
+  const float det = fmaf(conic.a, conic.c, -w) + fmaf(-conic.b, conic.b, w);
+  const float inv_a = 1.f / conic.a, inv_c = 1.f / conic.c;
+  const float slope_x = -conic.b * inv_a, d_over_a = det * inv_a;
+  const float slope_y = -conic.b * inv_c, d_over_c = det * inv_c;
+  // P = ln o − q/2 ≥ ln(1/255) − margin  ⟺  q ≤ 2·(ln o + ln 255 + margin).
+  const float q_limit = 2.f * (log_opacity - kFastExpRangeMin + kSubtilePowerMargin);
+  constexpr float kLast = static_cast<float>(kSubtileSize - 1);
+  uint32_t mask = 0;
+  for (int qy = 0; qy < 2; ++qy) {
+    const float dy0 = static_cast<float>(qy * kSubtileSize) - v, dy1 = dy0 + kLast;
+    for (int qx = 0; qx < 2; ++qx) {
+      const float dx0 = static_cast<float>(qx * kSubtileSize) - u, dx1 = dx0 + kLast;
+      float q_min = 0.f;
+      if (!(dx0 <= 0.f && 0.f <= dx1 && dy0 <= 0.f && 0.f <= dy1)) {
+        q_min = fminf(fminf(detail::edge_min_quadratic(conic.a, slope_x, d_over_a, dy0, dx0, dx1),
+                            detail::edge_min_quadratic(conic.a, slope_x, d_over_a, dy1, dx0, dx1)),
+                      fminf(detail::edge_min_quadratic(conic.c, slope_y, d_over_c, dx0, dy0, dy1),
+                            detail::edge_min_quadratic(conic.c, slope_y, d_over_c, dx1, dy0, dy1)));
+      }
+      if (q_min <= q_limit) mask |= 1u << (qx + 2 * qy);
+    }
+  }
+  return mask;
 }
 
 /// Intersection of two tile rectangles (may be empty).
