@@ -93,8 +93,8 @@ inline constexpr double kFlopsAccutileSetup = 24;
 inline constexpr double kFlopsAccutileSlice = 33;
 /// Front-to-back blend of one pixel, baseline form: T·(1 − α) 2, C += c·α·T for 3 channels 9.
 inline constexpr double kFlopsBlend = 11;
-/// The folded rasterizer's blend (blend_step_fma): T·(1 − α) 2, w = α·T 1, C = fma(c, w, C) for 3 channels 6.
-inline constexpr double kFlopsBlendFma = 9;
+/// The folded rasterizer's blend (blend_step_fma): w = α·T 1, T − w 1, C = fma(c, w, C) for 3 channels 6.
+inline constexpr double kFlopsBlendFma = 8;
 /// Extra blend work with a depth plane: w = α·T, depth·w and 2 sums (baseline form); fma(depth, w, ·) and
 /// one sum (folded form, w already there).
 inline constexpr double kFlopsBlendDepth = 4;
