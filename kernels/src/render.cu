@@ -162,12 +162,12 @@ __device__ inline void blend_predicated(FoldedPixel& s, bool pass, float alpha, 
 
 /// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local
 /// coordinates; pixel terms hoisted; each thread shades (x, y) and (x, y + 1) with
-/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; alpha tested in the integer domain (fast_exp_alpha);
+/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; alpha tested in the integer domain (fast_exp_alpha_passes);
 /// blending without branches (blend_predicated). 128 threads per tile, warp w shading the 8×8 quadrant
 /// (w mod 2, w / 2), lane l its pixels (l mod 8, 2·(l / 8)) and the one below. kSubtile (beyond the paper):
 /// the thread that loads a pair also computes its subtile_mask, and each warp walks only the pairs whose mask
 /// holds its quadrant, compacted with a ballot; the other pairs cannot pass the 1/255 test on its pixels, so
-/// the output bits are the same.
+/// the output bits are the same (up to the caveat of subtile_mask).
 template <bool kFastExp, bool kDepth, bool kSubtile>
 __global__ void __launch_bounds__(kDualThreads)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,

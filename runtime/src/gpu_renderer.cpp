@@ -37,12 +37,12 @@ kernels::FrameParams make_frame_params(const Camera& camera, const GpuRenderOpti
   return f;
 }
 
-/// ceil(log2(n)) for n ≥ 1.
 /// Key bits [begin, end) a radix sort covers.
 struct SortBits {
   int begin = 0, end = 0;
 };
 
+/// ceil(log2(n)) for n ≥ 1.
 int ceil_log2(uint64_t n) {
   int bits = 0;
   while ((uint64_t{1} << bits) < n) ++bits;

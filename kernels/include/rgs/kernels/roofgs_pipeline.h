@@ -151,7 +151,8 @@ struct RasterOptions {
   /// Fast exp (σ from RoofgsFrame) instead of expf.
   bool fast_exp = false;
   /// With `folded` (beyond the paper): each warp skips the pairs that cannot reach alpha 1/255 on its 8×8
-  /// quadrant of the tile (subtile_mask in shared/tile_culling.h). Same output bits, fewer iterations.
+  /// quadrant of the tile (subtile_mask in shared/tile_culling.h). Fewer iterations, the same output bits
+  /// (up to subtile_mask's caveat on pairs whose folded P is dominated by its own FP32 rounding).
   bool subtile_culling = false;
 };
 

@@ -69,7 +69,8 @@ struct GpuRoofgsOptions {
   /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
   bool balanced_emission = true;
   /// With folded coefficients: each warp of the rasterizer skips the pairs that cannot reach alpha 1/255 on
-  /// its 8×8 quadrant of the tile (kernels::RasterOptions::subtile_culling); same image bits.
+  /// its 8×8 quadrant of the tile (kernels::RasterOptions::subtile_culling); the same image bits on every
+  /// SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
   bool subtile_culling = true;
   /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
   /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().

@@ -225,8 +225,11 @@ RGS_HOST_DEVICE float edge_min_quadratic(float k, float slope, float d_over_k, f
 /// is at least ln(1/255) − kSubtilePowerMargin. q = a·dx² + 2b·dx·dy + c·dy² is the conic's quadratic form,
 /// (dx, dy) = pixel − mean; its minimum over a box is 0 when the box holds the mean, else on an edge
 /// (detail::edge_min_quadratic). A cleared bit is conservative: every pixel of that quadrant fails the 1/255
-/// test (fast exp or expf), so skipping the pair there changes no output bit (tested on real scenes in
-/// test_roofgs_math.cpp, and on the GPU).
+/// test (fast exp or expf), so skipping the pair there changes no output bit (tested on real pairs in
+/// test_render_real.cpp, on random Gaussians in test_roofgs_math.cpp, and on the GPU). Caveat: the test is
+/// against the exact quadratic form; where the rasterizer's folded FP32 P is itself off by more than the margin
+/// (needle-like Gaussians on tiles ~1,000 px from their mean, which only 3σ rectangles hand them), a pixel
+/// that passed by rounding alone is skipped (one pixel of one 4K flowers view, by 0.0015).
 /// @param conic        conic (a, b, c) of the Gaussian (positive definite), pixel⁻² units
 /// @param u, v         tile-local projected mean (mean − 16·(tx, ty)), pixels
 /// @param log_opacity  ln o
