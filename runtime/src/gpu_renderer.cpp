@@ -219,11 +219,7 @@ struct GpuRenderer::Buffers {
   /// readback_stream: work enqueued on the render stream after the event keeps running meanwhile.
   Result<uint64_t> read_back_at(const void* device_value, cudaEvent_t event) {
     RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(readback_stream, event, 0), "GpuRenderer: read-back wait");
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(pair_count.data(), device_value, sizeof(uint64_t),
-                                             cudaMemcpyDeviceToHost, readback_stream),
-                             "GpuRenderer: pair count read-back");
-    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(readback_stream), "GpuRenderer: preprocess");
-    return *static_cast<const uint64_t*>(pair_count.data());
+    return read_back(device_value, readback_stream);
   }
 
   kernels::ProjectedArrays projected() const {

@@ -201,8 +201,9 @@ constexpr int kSubtileSize = kTileSize / 2;
 
 /// Margin (in the folded power P = power + ln o) by which subtile_mask keeps sub-tiles: the fast exp exceeds
 /// exp by at most a factor (1 + f)/2^f ≤ 1.0615 for any σ in [0, 1) (ln 1.0615 = 0.0597), and the folded P a
-/// pixel computes differs from the exact quadratic form by ≤ 5e−4 on real scenes (test_roofgs_math.cpp);
-/// 0.1 covers both with room to spare.
+/// pixel computes differs from the exact quadratic form by < 5e−4 at contributing pixels (asserted on 3,000
+/// random Gaussians up to 40 px outside the tile in test_roofgs_math.cpp); 0.1 covers both with room
+/// to spare.
 constexpr float kSubtilePowerMargin = 0.1f;
 
 namespace detail {
@@ -210,7 +211,7 @@ namespace detail {
 /// Minimum over s ∈ [lo, hi] of the conic's quadratic form along a box edge where the other offset is `fixed`,
 /// written without cancellation as q = k·(s − s*)² + (D/k)·fixed² with s* = slope·fixed, slope = −b/k, k the
 /// coefficient of s² (a along a row, c along a column) and D = a·c − b² (both terms ≥ 0, so needle-like
-/// Gaussians, whose expanded terms reach ~1e7 for q ~ 10, lose no precision).
+/// Gaussians, whose expanded terms reach ~1e6 for q ~ 10 on flowers at 4K, lose no precision).
 RGS_HOST_DEVICE float edge_min_quadratic(float k, float slope, float d_over_k, float fixed, float lo, float hi) {
   const float s_star = slope * fixed;
   const float d = fminf(fmaxf(s_star, lo), hi) - s_star;
