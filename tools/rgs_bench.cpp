@@ -95,7 +95,7 @@ const std::vector<BenchMode>& all_modes() {
        }},
       {"roofgs", "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused "
                  "kernel, 32-bit key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians "
-                 "with many tiles emitted a thread block each (every RoofGS mode but roofgs-serial); sub-tile "
+                 "with many tiles emitted by thread blocks (every RoofGS mode but roofgs-serial); sub-tile "
                  "culling in the folded rasterizer (every mode with it but roofgs-tile)",
        [](const tools::LoadedGpuScene& scene) {
          return roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(), "roofgs");
@@ -206,7 +206,7 @@ struct ViewResult {
   std::string name;
   uint32_t width = 0, height = 0;
   uint64_t pairs = 0;
-  uint64_t large_gaussians = 0;  ///< GpuRenderStats::large_gaussians
+  uint64_t large_chunks = 0;    ///< GpuRenderStats::large_chunks
   int sort_bits = 0;
   uint32_t tiles_x = 0, tiles_y = 0;
   std::vector<float> samples[kStages];  ///< one per repetition
@@ -292,7 +292,7 @@ Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runti
       RGS_RETURN_ERROR_IF(!stats->timed, StatusCode::kCudaError, "view " + cam.name + ": the frame was not timed");
       ViewResult& vr = run.views[v];
       vr.pairs = stats->pairs;
-      vr.large_gaussians = stats->large_gaussians;
+      vr.large_chunks = stats->large_chunks;
       vr.sort_bits = stats->sort_bits;
       vr.tiles_x = stats->tiles_x;
       vr.tiles_y = stats->tiles_y;
@@ -332,7 +332,7 @@ tools::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const run
   in.depth_plane = false;  // rgs-bench's DeviceImage has no depth plane
   in.gaussians = scene.size();
   in.visible = scene.size();
-  in.large_gaussians = v.large_gaussians;  // GpuRenderStats::large_gaussians (timed frames)
+  in.large_chunks = v.large_chunks;  // GpuRenderStats::large_chunks (timed frames)
   in.sh_degree = scene.sh_degree();
   in.pairs = v.pairs;
   in.sort_bits = v.sort_bits;
@@ -400,7 +400,7 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
                            {"depth_plane", in.depth_plane},
                            {"gaussians", in.gaussians},
                            {"visible_assumed", in.visible},
-                           {"large_gaussians", in.large_gaussians},
+                           {"large_chunks", in.large_chunks},
                            {"sh_degree", in.sh_degree},
                            {"mean_pairs", rl.mean_pairs},
                            {"sort_bits", in.sort_bits},

@@ -93,38 +93,36 @@ FrameWork frame_work(const FrameWorkInputs& in) {
     // since a walk of at most 4 slices keeps its spans from the count for the emission (the longer walks'
     // second pass, a small share of the walks, is left out).
     const double slices = in.snugbox ? (in.fused ? 1.0 : 2.0) * std::sqrt(p * v) : 0.0;
-    const double order_reads = in.depth_order ? 4 * n : 0.0;  // order[t] per thread
     // Large Gaussians (> 32 tiles): listed (16 B entry), then emit_large_gaussians reads the entry and
-    // means2d, cov2d, snug_t, radius, depth bin, depth (52 B) and every one of its 128 threads rebuilds the
-    // walk (tile rectangle, and the AccuTile setup); its slices are the emission walk counted above.
-    const double large = double(std::min(in.large_gaussians, in.gaussians));
+    // means2d, cov2d, snug_t, radius, depth bin, depth (52 B) and the 128 threads of a block rebuild the walk
+    // (tile rectangle, and the AccuTile setup), counted for one block (a Gaussian of more than 16 slices takes
+    // one per chunk of 16 slices: not reported); its slices are the emission walk counted above.
+    const double large = double(std::min(in.large_chunks, in.gaussians));
     const double large_flops =
         large * kLargeBlockThreads * (kFlopsTileRect + (in.snugbox ? kFlopsAccutileSetup : 0.0));
     if (in.fused) {
       // fused kernel: means of all, rest of the visible; radii of the culled (4(N − V)); store_projected of
       // the visible (depth 4, means2d 8, conic+opacity 16, ln o 4, rgb 12, radius 4 = 48V); pairs P·(kb + 4).
       // A large Gaussian also stores cov2d, snug_t and its depth bin (20 B) for emit_large_gaussians.
-      pre.bytes = 12 * n + (a - 12) * v + 4 * (n - v) + 48 * v + p * (kb + 4) + order_reads + (20 + 16 + 52) * large;
+      pre.bytes = 12 * n + (a - 12) * v + 4 * (n - v) + 48 * v + p * (kb + 4) + (20 + 16 + 52) * large;
       pre.flops = kFlopsViewTransform * n + flops_visible * v + kFlopsAccutileSlice * slices + large_flops;
     } else {
       // preprocess_roofgs: as the fused kernel's reads; writes radii + tiles_touched of all (12N) and 64V
       // (store_projected without the radius, plus cov2d 12, snug_t 4, depth bin 4); scan 16N;
       // duplicate_roofgs: tiles_touched (8N), offsets/means2d/cov2d/snug_t/radius/depth/depth bin (44V),
-      // pairs P·(kb + 4); each kernel reads order[t] with depth order.
-      pre.bytes = 12 * n + (a - 12) * v + 12 * n + 64 * v + 16 * n + 8 * n + 44 * v + p * (kb + 4) + 2 * order_reads +
-                  (16 + 52) * large;
+      // pairs P·(kb + 4).
+      pre.bytes =
+          12 * n + (a - 12) * v + 12 * n + 64 * v + 16 * n + 8 * n + 44 * v + p * (kb + 4) + (16 + 52) * large;
       pre.flops = kFlopsViewTransform * n + (flops_visible + kFlopsTileRect) * v + kFlopsAccutileSlice * slices +
                   large_flops;
     }
-    if (in.depth_order) {
-      // depth_sort_keys: means (12N) → keys and ids (8N); a 32-bit sort of N pairs; its view transforms.
-      pre.bytes += 12 * n + 8 * n + sort_bytes(n, 4, 32);
-      pre.flops += kFlopsViewTransform * n;
-    }
   }
 
-  // Sort: CUB onesweep over sort_bits bits, no FP32 arithmetic.
-  w.stages[int(RooflineStage::kSort)].bytes = sort_bytes(p, kb, in.sort_bits);
+  // Sort: CUB onesweep over sort_bits bits, no FP32 arithmetic. Depth order with the 32-bit key adds
+  // order_equal_keys_by_depth: each pair's key, value in and value out (12P; the reads of tied runs and of
+  // their depths are left out).
+  w.stages[int(RooflineStage::kSort)].bytes =
+      sort_bytes(p, kb, in.sort_bits) + (key32 && in.depth_order ? 12 * p : 0.0);
 
   // Ranges: clear 2 uint64 per tile (16T), read every sorted key (P·kb), write at most both ends of every
   // tile's range (16T).

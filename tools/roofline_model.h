@@ -37,7 +37,7 @@ struct FrameWorkInputs {
   bool snugbox = false;      ///< SnugBox + AccuTile tile culling
   bool folded = false;       ///< folded dual-pixel rasterizer
   bool fast_exp = false;     ///< Schraudolph exp in the rasterizer
-  bool depth_order = false;  ///< Gaussians sorted by depth before the preprocess (RoofGS+)
+  bool depth_order = false;  ///< tied 32-bit keys put in depth order after the sort (RoofGS+)
   /// The image has a depth plane (rgs-bench renders without one).
   bool depth_plane = false;
 
@@ -46,9 +46,9 @@ struct FrameWorkInputs {
   /// rgs-bench passes N, which makes every V term an upper bound.
   uint64_t visible = 0;
   uint32_t sh_degree = 0;    ///< 0..3; K = (degree + 1)² coefficients per channel
-  /// L, RoofGS Gaussians with more than kernels::kSerialTileLimit (32) tiles, whose pairs
-  /// emit_large_gaussians writes with a thread block each (GpuRenderStats::large_gaussians of the view).
-  uint64_t large_gaussians = 0;
+  /// L, work items of emit_large_gaussians: chunks of up to 16 slices of the RoofGS Gaussians with more than
+  /// kernels::kSerialTileLimit (32) tiles, a thread block each (GpuRenderStats::large_chunks of the view).
+  uint64_t large_chunks = 0;
   uint64_t pairs = 0;        ///< P, (tile, Gaussian) pairs sorted
   int sort_bits = 0;         ///< key bits the radix sort covers (GpuRenderStats::sort_bits)
   uint64_t tiles = 0;        ///< T = tiles_x · tiles_y (16×16 pixels each)

@@ -7,6 +7,8 @@
 // arrival instead).
 #include <cub/block/block_scan.cuh>
 
+#include <algorithm>
+
 #include "launch_util.cuh"
 #include "roofgs_gaussian.cuh"
 
@@ -17,6 +19,10 @@ namespace {
 constexpr unsigned long long kFlagAggregate = 1ull << 62;
 constexpr unsigned long long kFlagInclusive = 2ull << 62;
 constexpr unsigned long long kValueMask = (1ull << 62) - 1;
+
+/// Threads per block: half the other kernels' 256, so that a small scene (flowers: 38k Gaussians, one wave)
+/// spreads over twice as many blocks and a block waits at its barriers for 4 warps instead of 8.
+constexpr uint32_t kFusedBlockSize = 128;
 
 __device__ inline void publish(unsigned long long* word, unsigned long long value) {
   __threadfence();
@@ -56,10 +62,9 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
 }
 
 template <bool kCompact>
-__global__ void __launch_bounds__(detail::kBlockSize)
-    fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, const uint32_t* order,
-                 RoofgsProjected out, FusedScratch scratch, LargeGaussianList large, detail::PairSink sink) {
-  using BlockScan = cub::BlockScan<uint32_t, detail::kBlockSize>;
+__global__ void __launch_bounds__(kFusedBlockSize)
+    fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out, FusedScratch scratch, LargeGaussianList large, detail::PairSink sink) {
+  using BlockScan = cub::BlockScan<uint32_t, kFusedBlockSize>;
   __shared__ typename BlockScan::TempStorage scan_storage;
   __shared__ uint32_t block_id;
   __shared__ unsigned long long block_base;
@@ -68,19 +73,18 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   if (threadIdx.x == 0) block_id = atomicAdd(scratch.block_ticket, 1u);
   __syncthreads();
   const uint32_t block = block_id;
-  const uint32_t t = block * detail::kBlockSize + threadIdx.x;
+  const uint32_t g = block * kFusedBlockSize + threadIdx.x;
 
   detail::ProjectedRegs p{};
   detail::TileWalk walk{};
-  uint32_t g = 0;
-  if (detail::preprocess_gaussian<kCompact>(src, t, order, frame, roofgs, &g, &p, &walk)) {
+  if (detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, &p, &walk)) {
     detail::store_projected(p, g, out);
-  } else if (t < src.count) {
+  } else if (g < src.count) {
     out.radii[g] = 0;
   }
 
   // 32-bit block sums: one Gaussian touches at most the whole grid, ≤ 2^22 tiles for the largest image
-  // validate_camera accepts (32768², 2048² tiles), so 256 Gaussians stay below 2^30.
+  // validate_camera accepts (32768², 2048² tiles), so 128 Gaussians stay below 2^29.
   uint32_t local_offset = 0, block_total = 0;
   BlockScan(scan_storage).ExclusiveSum(p.tiles, local_offset, block_total);
   if (threadIdx.x < 32) {
@@ -105,10 +109,10 @@ __global__ void __launch_bounds__(detail::kBlockSize)
 
 }  // namespace
 
-uint32_t fused_blocks(uint32_t count) { return detail::blocks_for(count); }
+uint32_t fused_blocks(uint32_t count) { return std::max(1u, (count + kFusedBlockSize - 1) / kFusedBlockSize); }
 
 cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
-                                    const RoofgsFrame& roofgs, const uint32_t* order, const RoofgsProjected& out,
+                                    const RoofgsFrame& roofgs, const RoofgsProjected& out,
                                     const FusedScratch& scratch, const LargeGaussianList& large, uint64_t capacity,
                                     uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
   const uint32_t blocks = fused_blocks(source.count);
@@ -117,14 +121,14 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
     result = cudaMemsetAsync(scratch.block_status, 0, sizeof(unsigned long long) * blocks, stream);
   }
   if (result == cudaSuccess) result = cudaMemsetAsync(scratch.total_pairs, 0, sizeof(unsigned long long), stream);
-  if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(uint32_t), stream);
+  if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
   if (result != cudaSuccess || source.count == 0) return result;
   const detail::PairSink sink{capacity, keys64, keys32, values};
   if (roofgs.compact) {
-    fused_kernel<true><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch, large,
+    fused_kernel<true><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large,
                                                                   sink);
   } else {
-    fused_kernel<false><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, order, out, scratch, large,
+    fused_kernel<false><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large,
                                                                    sink);
   }
   return detail::launch_result();

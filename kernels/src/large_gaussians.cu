@@ -1,6 +1,7 @@
-// Pair emission of the Gaussians with many tiles (emit_large_gaussians): one thread block per Gaussian, so
-// that a Gaussian covering the screen (32,400 tiles at 4K) no longer keeps a single thread writing while the
-// rest of the GPU waits for it.
+// Pair emission of the Gaussians with many tiles (emit_large_gaussians): thread blocks on chunks of their
+// tile walks, so that a Gaussian covering the screen (32,400 tiles at 4K) is written by many blocks instead of
+// one thread (or one block) while the rest of the GPU waits for it.
+#include <cub/block/block_reduce.cuh>
 #include <cub/block/block_scan.cuh>
 
 #include <algorithm>
@@ -11,63 +12,76 @@
 namespace rgs::kernels {
 namespace {
 
-/// Threads per block: one slice of the tile walk each per round (a 4K frame has at most 135 slices, since
-/// the walk runs along the shorter side).
+/// Threads per block.
 constexpr int kLargeBlockSize = 128;
 /// Resident blocks per multiprocessor the persistent grid asks for.
 constexpr int kBlocksPerSm = 16;
 
-/// Writes the pairs of one Gaussian with the whole block (uniform control flow: every thread calls it with
-/// the same walk). Round r takes slices [begin + 128r, begin + 128r + 128): each thread measures one slice,
-/// a block scan turns the lengths into positions, then each warp writes whole slices in turn, its lanes on
-/// consecutive tiles (coalesced stores, no search for a pair's slice). Positions and order equal
-/// emit_pairs_serial's.
-__device__ void emit_walk_with_block(const detail::TileWalk& walk, const detail::PairSource& source,
-                                     const detail::PairSink& sink, const FrameParams& frame,
-                                     const RoofgsFrame& roofgs) {
+/// Writes the pairs of slices [chunk_first, chunk_first + kLargeChunkSlices) of one Gaussian's walk with the whole
+/// block (uniform control flow: every thread calls it with the same walk). The chunk's first position is the
+/// Gaussian's plus the lengths of the slices before the chunk (a block reduction over them); a block scan
+/// places the chunk's slices; each warp then writes whole slices in turn, its lanes on consecutive tiles
+/// (coalesced stores). Positions and order equal emit_pairs_serial's.
+__device__ void emit_chunk_with_block(const detail::TileWalk& walk, int chunk_first, const detail::PairSource& source,
+                                      const detail::PairSink& sink, const FrameParams& frame,
+                                      const RoofgsFrame& roofgs) {
+  using LengthReduce = cub::BlockReduce<uint64_t, kLargeBlockSize>;
   using SliceScan = cub::BlockScan<uint32_t, kLargeBlockSize>;
   constexpr int kWarps = kLargeBlockSize / 32;
+  __shared__ typename LengthReduce::TempStorage reduce;
   __shared__ typename SliceScan::TempStorage scan;
-  __shared__ int slice_first[kLargeBlockSize];
-  __shared__ uint32_t slice_length[kLargeBlockSize];
-  __shared__ uint32_t slice_offset[kLargeBlockSize];
+  __shared__ uint64_t chunk_base;
+  __shared__ int slice_first[kLargeChunkSlices];
+  __shared__ uint32_t slice_length[kLargeChunkSlices];
+  __shared__ uint32_t slice_offset[kLargeChunkSlices];
 
   const int lane = int(threadIdx.x) % 32, warp = int(threadIdx.x) / 32;
-  uint64_t base = source.offset;
-  for (int round = walk.slice_begin(); round < walk.slice_end(); round += kLargeBlockSize) {
-    const int k = round + int(threadIdx.x);
-    int first = 0, end = 0;
-    if (k < walk.slice_end()) walk.span(k, &first, &end);
-    const uint32_t length = end > first ? uint32_t(end - first) : 0u;
-    uint32_t offset = 0, total = 0;
-    SliceScan(scan).ExclusiveSum(length, offset, total);
+  const auto length_of = [&](int k, int* first) {
+    int end = 0;
+    walk.span(k, first, &end);
+    return end > *first ? uint32_t(end - *first) : 0u;
+  };
+  uint64_t before = 0;  // lengths of this thread's share of the slices before the chunk
+  for (int k = walk.slice_begin() + int(threadIdx.x); k < chunk_first; k += kLargeBlockSize) {
+    int first = 0;
+    before += length_of(k, &first);
+  }
+  const uint64_t base = LengthReduce(reduce).Sum(before);
+  const int k = chunk_first + int(threadIdx.x);
+  int first = 0;
+  const uint32_t length = threadIdx.x < kLargeChunkSlices && k < walk.slice_end() ? length_of(k, &first) : 0u;
+  uint32_t offset = 0;
+  SliceScan(scan).ExclusiveSum(length, offset);
+  if (threadIdx.x == 0) chunk_base = source.offset + base;
+  if (threadIdx.x < kLargeChunkSlices) {
     slice_first[threadIdx.x] = first;
     slice_length[threadIdx.x] = length;
     slice_offset[threadIdx.x] = offset;
-    __syncthreads();
-    const int slices = min(kLargeBlockSize, walk.slice_end() - round);
-    for (int s = warp; s < slices; s += kWarps) {
-      const uint64_t at = base + slice_offset[s];
-      for (uint32_t i = uint32_t(lane); i < slice_length[s]; i += 32) {
-        sink.write(at + i, walk.tile(round + s, slice_first[s] + int(i), frame.tiles_x), source, roofgs);
-      }
-    }
-    base += total;
-    __syncthreads();  // the slice arrays and the scan storage are reused by the next round
   }
+  __syncthreads();
+  const int slices = min(kLargeChunkSlices, walk.slice_end() - chunk_first);
+  for (int s = warp; s < slices; s += kWarps) {
+    const uint64_t at = chunk_base + slice_offset[s];
+    for (uint32_t i = uint32_t(lane); i < slice_length[s]; i += 32) {
+      sink.write(at + i, walk.tile(chunk_first + s, slice_first[s] + int(i), frame.tiles_x), source, roofgs);
+    }
+  }
+  __syncthreads();  // the shared arrays and the collectives' storage are reused by the next chunk
 }
 
+/// Block-per-item loop over the list (items marked kNoLargeGaussian are skipped).
 __global__ void __launch_bounds__(kLargeBlockSize)
     emit_large_kernel(RoofgsProjected in, LargeGaussianList large, FrameParams frame, RoofgsFrame roofgs,
                       detail::PairSink sink) {
-  const uint32_t listed = min(*large.count, large.capacity);
-  for (uint32_t i = blockIdx.x; i < listed; i += gridDim.x) {
-    const LargeGaussian entry = large.items[i];
-    const uint32_t g = entry.g;
+  const uint64_t items = min(*large.count, static_cast<unsigned long long>(large.capacity));
+  for (uint64_t w = blockIdx.x; w < items; w += gridDim.x) {
+    const LargeGaussian item = large.items[w];
+    if (item.g == kNoLargeGaussian) continue;  // uniform over the block
     // Every thread rebuilds the same walk from the same stored inputs.
-    const detail::TileWalk walk = detail::load_tile_walk(in, g, frame, roofgs);
-    const detail::PairSource source{g, in.depth_bins[g], in.depths[g], entry.offset};
-    emit_walk_with_block(walk, source, sink, frame, roofgs);
+    const detail::TileWalk walk = detail::load_tile_walk(in, item.g, frame, roofgs);
+    const detail::PairSource source{item.g, in.depth_bins[item.g], in.depths[item.g], item.offset};
+    emit_chunk_with_block(walk, walk.slice_begin() + int(item.chunk * kLargeChunkSlices), source, sink, frame,
+                          roofgs);
   }
 }
 

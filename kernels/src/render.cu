@@ -138,26 +138,65 @@ struct FoldedPixel {
 };
 
 /// Front-to-back step of the folded loop, the RoofGS form of cpu_renderer.cpp blend_step_fma (w = α·T,
-/// T' = T − w, C += c·w as one FMA per channel), without branches since a warp's pixels rarely agree: a pair
-/// that does not pass (`pass` false, or the pixel is done) or that stops the pixel adds c·0 (exact: C + 0 = C)
-/// and keeps |T|, so the results are bitwise those of blend_step_fma, at the same instructions for every pixel
-/// instead of divergent paths.
+/// T' = T − w, C += c·w as one FMA per channel), without branches since a warp's pixels rarely agree. `alpha`
+/// is the pair's α when it passes and 0 when it does not; no separate liveness test is needed:
+/// - live pixel, α = 0: w = +0, T' = T ≥ 1e−4 (a live T never drops below it), so nothing stops and C gains c·0;
+/// - live pixel, α > 0: blend_step_fma's take or stop;
+/// - done pixel (T < 0): T' = T·(1 − α) < 0 < 1e−4 counts as a stop, which adds c·0 and keeps T = −|T|.
+/// So the bits are those of blend_step_fma (C + 0 = C exactly), at the same instructions for every pixel.
 template <bool kDepth>
-__device__ inline void blend_predicated(FoldedPixel& s, bool pass, float alpha, const float4& rgbd) {
-  const bool hit = pass && s.live();
+__device__ inline void blend_predicated(FoldedPixel& s, float alpha, float r, float g, float b, float depth) {
   const float w = alpha * s.T;
   const float test_T = s.T - w;
-  const bool stop = hit && test_T < kTransmittanceMin;
-  const bool take = hit && !stop;
-  const float w_taken = take ? w : 0.f;
-  s.C[0] = fmaf(rgbd.x, w_taken, s.C[0]);
-  s.C[1] = fmaf(rgbd.y, w_taken, s.C[1]);
-  s.C[2] = fmaf(rgbd.z, w_taken, s.C[2]);
+  const bool stop = test_T < kTransmittanceMin;
+  const float w_taken = stop ? 0.f : w;
+  s.C[0] = fmaf(r, w_taken, s.C[0]);
+  s.C[1] = fmaf(g, w_taken, s.C[1]);
+  s.C[2] = fmaf(b, w_taken, s.C[2]);
   if (kDepth) {
-    s.depth_sum = fmaf(rgbd.w, w_taken, s.depth_sum);
+    s.depth_sum = fmaf(depth, w_taken, s.depth_sum);
     s.weight_sum += w_taken;
   }
-  s.T = take ? test_T : (stop ? -s.T : s.T);
+  s.T = stop ? -fabsf(s.T) : test_T;
+}
+
+/// One (Gaussian, tile) pair as the folded loop reads it from shared memory: three 16-byte words at one base
+/// address, [C1 C2 C3 C4] [C5 C6 r g] [b depth · ·], so a pair costs three loads and no address arithmetic.
+struct alignas(16) PairRecord {
+  float4 c1234;
+  float4 c56rg;
+  float4 bd;
+};
+constexpr int kRecordBytes = static_cast<int>(sizeof(PairRecord));
+/// A record that never passes: P = −1e30 at every pixel (no infinities, so 0·x stays 0), below exp̂'s
+/// 1/255 pattern and below expf's. The loop pads its pair lists with it to a multiple of kUnroll.
+constexpr float kNeverPasses = -1e30f;
+/// Pairs per step of the folded loop: the pixels' liveness is tested once per step (a done pixel is left
+/// unchanged by blend_predicated, so testing less often changes no bit) and the loads of the step overlap.
+constexpr int kUnroll = 4;
+
+/// Blends the pairs at byte offsets offset_of(0), …, offset_of(padded − 1) of `record_bytes` (padded: a
+/// multiple of kUnroll) into the thread's two pixels, testing their liveness once per kUnroll pairs.
+template <bool kFastExp, bool kDepth, typename OffsetOf>
+__device__ inline void blend_pairs(const char* record_bytes, int padded, OffsetOf offset_of, const PixelTerms& terms,
+                                   float fast_exp_bias, FoldedPixel& first, FoldedPixel& second) {
+  for (int k = 0; k < padded; k += kUnroll) {
+    if (!first.live() && !second.live()) break;
+#pragma unroll
+    for (int i = 0; i < kUnroll; ++i) {
+      const PairRecord& r = *reinterpret_cast<const PairRecord*>(record_bytes + offset_of(k + i));
+      const float4 c1234 = r.c1234, c56rg = r.c56rg;
+      const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};
+      const float p_first = folded_power(f, terms);
+      const float p_second = dual_pixel_power(p_first, f, terms);
+      float a_first, a_second;
+      const bool hit_first = folded_alpha<kFastExp>(p_first, fast_exp_bias, &a_first);
+      const bool hit_second = folded_alpha<kFastExp>(p_second, fast_exp_bias, &a_second);
+      const float4 bd = r.bd;
+      blend_predicated<kDepth>(first, hit_first ? a_first : 0.f, c56rg.z, c56rg.w, bd.x, bd.y);
+      blend_predicated<kDepth>(second, hit_second ? a_second : 0.f, c56rg.z, c56rg.w, bd.x, bd.y);
+    }
+  }
 }
 
 /// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local
@@ -167,7 +206,8 @@ __device__ inline void blend_predicated(FoldedPixel& s, bool pass, float alpha, 
 /// (w mod 2, w / 2), lane l its pixels (l mod 8, 2·(l / 8)) and the one below. kSubtile (beyond the paper):
 /// the thread that loads a pair also computes its subtile_mask, and each warp walks only the pairs whose mask
 /// holds its quadrant, compacted with a ballot; the other pairs cannot pass the 1/255 test on its pixels, so
-/// the output bits are the same (up to the caveat of subtile_mask).
+/// the output bits are the same (up to the caveat of subtile_mask). A warp that keeps every pair of a batch
+/// walks the slots directly, without the compacted list.
 template <bool kFastExp, bool kDepth, bool kSubtile>
 __global__ void __launch_bounds__(kDualThreads)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
@@ -185,11 +225,15 @@ __global__ void __launch_bounds__(kDualThreads)
   const float fast_exp_bias = kFastExp ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
   const uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
 
-  __shared__ float4 collected_c1234[kDualThreads];
-  __shared__ float2 collected_c56[kDualThreads];
-  __shared__ float4 collected_rgbd[kDualThreads];  // r, g, b, depth
+  // Slot s < kDualThreads holds the batch's pair s; slot kDualThreads is the padding record.
+  __shared__ PairRecord records[kDualThreads + 1];
   __shared__ uint32_t collected_mask[kSubtile ? kDualThreads : 1];
-  __shared__ uint8_t warp_pairs[kSubtile ? kWarps : 1][kDualThreads];  // batch slots each warp walks
+  // Byte offsets into `records` of the slots each warp walks, in batch order, padded to a multiple of kUnroll.
+  __shared__ uint16_t warp_offsets[kSubtile ? kWarps : 1][kDualThreads];
+  const PairRecord never{make_float4(0.f, 0.f, 0.f, 0.f), make_float4(0.f, kNeverPasses, 0.f, 0.f),
+                         make_float4(0.f, 0.f, 0.f, 0.f)};
+  if (rank == 0) records[kDualThreads] = never;  // visible after the first barrier below
+  const char* record_bytes = reinterpret_cast<const char*>(records);
 
   FoldedPixel first, second;
   if (!(x < frame.width && y < frame.height)) first.T = -1.f;  // outside the image: done from the start
@@ -198,6 +242,7 @@ __global__ void __launch_bounds__(kDualThreads)
     if (__syncthreads_count(!first.live() && !second.live()) == kDualThreads) break;
     const uint64_t p = batch + uint64_t(rank);
     uint32_t mask = 0;
+    PairRecord record = never;
     if (p < end) {
       const uint32_t id = values[p];
       const float2 mean = in.means2d[id];
@@ -205,12 +250,12 @@ __global__ void __launch_bounds__(kDualThreads)
       const Conic conic{co.x, co.y, co.z};
       const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = in.log_opacities[id];
       const FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
-      collected_c1234[rank] = make_float4(f.c1, f.c2, f.c3, f.c4);
-      collected_c56[rank] = make_float2(f.c5, f.c6);
-      collected_rgbd[rank] = make_float4(in.rgb[3 * id], in.rgb[3 * id + 1], in.rgb[3 * id + 2],
-                                         kDepth ? in.depths[id] : 0.f);
+      record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
+      record.c56rg = make_float4(f.c5, f.c6, in.rgb[3 * id], in.rgb[3 * id + 1]);
+      record.bd = make_float4(in.rgb[3 * id + 2], kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
       if (kSubtile) mask = subtile_mask(conic, u, v, log_opacity);
     }
+    records[rank] = record;  // slots past the batch's end get the padding record
     if (kSubtile) collected_mask[rank] = mask;
     __syncthreads();
     const int in_batch = static_cast<int>(end - batch < kDualThreads ? end - batch : kDualThreads);
@@ -221,24 +266,24 @@ __global__ void __launch_bounds__(kDualThreads)
       for (int base = 0; base < in_batch; base += 32) {
         const bool keep = (collected_mask[base + lane] >> warp) & 1u;
         const uint32_t kept = __ballot_sync(0xffffffffu, keep);
-        if (keep) warp_pairs[warp][count + __popc(kept & ((1u << lane) - 1u))] = uint8_t(base + lane);
+        if (keep) {
+          warp_offsets[warp][count + __popc(kept & ((1u << lane) - 1u))] = uint16_t((base + lane) * kRecordBytes);
+        }
         count += __popc(kept);
+      }
+      if (lane < kUnroll && count % kUnroll != 0 && lane >= count % kUnroll) {
+        warp_offsets[warp][count - count % kUnroll + lane] = uint16_t(kDualThreads * kRecordBytes);
       }
       __syncwarp();
     }
-    for (int k = 0; (first.live() || second.live()) && k < count; ++k) {
-      const int j = kSubtile ? warp_pairs[warp][k] : k;
-      const float4 c1234 = collected_c1234[j];
-      const float2 c56 = collected_c56[j];
-      const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56.x, c56.y};
-      const float p_first = folded_power(f, terms);
-      const float p_second = dual_pixel_power(p_first, f, terms);
-      float a_first, a_second;
-      const bool hit_first = folded_alpha<kFastExp>(p_first, fast_exp_bias, &a_first);
-      const bool hit_second = folded_alpha<kFastExp>(p_second, fast_exp_bias, &a_second);
-      const float4 rgbd = collected_rgbd[j];
-      blend_predicated<kDepth>(first, hit_first, a_first, rgbd);
-      blend_predicated<kDepth>(second, hit_second, a_second, rgbd);
+    const int padded = (count + kUnroll - 1) / kUnroll * kUnroll;  // ≤ kDualThreads
+    if (!kSubtile || count == in_batch) {  // warp-uniform
+      blend_pairs<kFastExp, kDepth>(record_bytes, padded, [](int k) { return k * kRecordBytes; }, terms,
+                                    fast_exp_bias, first, second);
+    } else {
+      const uint16_t* offsets = warp_offsets[warp];
+      blend_pairs<kFastExp, kDepth>(record_bytes, padded, [offsets](int k) { return int(offsets[k]); }, terms,
+                                    fast_exp_bias, first, second);
     }
   }
   if (x < frame.width && y < frame.height) store<kDepth>(first.finished(), x, y, frame, out_rgba, out_depth);

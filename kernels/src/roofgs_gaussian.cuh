@@ -322,19 +322,13 @@ __device__ inline uint32_t count_accutile_tiles_warp(TileWalk* tile_walk, bool a
   return count;
 }
 
-/// The preprocess of the Gaussian at emission position t (g = order ? order[t] : t): projection, tile walk
-/// and tile count. Called by all 32 lanes of a warp (count_accutile_tiles_warp); lanes with t ≥ count get
-/// nothing. Returns true when the Gaussian is visible (p->tiles > 0).
+/// The preprocess of Gaussian g: projection, tile walk and tile count. Called by all 32 lanes of a warp
+/// (count_accutile_tiles_warp); lanes with g ≥ count get nothing. Returns true when the Gaussian is visible
+/// (p->tiles > 0).
 template <bool kCompact>
-__device__ inline bool preprocess_gaussian(const GaussianSource& src, uint32_t t, const uint32_t* order,
-                                           const FrameParams& frame, const RoofgsFrame& roofgs, uint32_t* g,
-                                           ProjectedRegs* p, TileWalk* walk) {
-  bool visible = false;
-  *g = 0;
-  if (t < src.count) {
-    *g = order != nullptr ? order[t] : t;
-    visible = project_gaussian<kCompact>(src, *g, frame, roofgs, p);
-  }
+__device__ inline bool preprocess_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
+                                           const RoofgsFrame& roofgs, ProjectedRegs* p, TileWalk* walk) {
+  bool visible = g < src.count && project_gaussian<kCompact>(src, g, frame, roofgs, p);
   if (visible) *walk = make_tile_walk(*p, frame, roofgs);
   if (roofgs.snugbox_accutile) {  // the same for the whole launch
     p->tiles = count_accutile_tiles_warp(walk, visible);
@@ -365,11 +359,17 @@ __device__ inline void emit_or_defer(const TileWalk& walk, const PairSource& sou
                                      const PairSink& sink, const LargeGaussianList& large, const FrameParams& frame,
                                      const RoofgsFrame& roofgs) {
   if (tiles > kSerialTileLimit && large.capacity > 0) {
-    const uint32_t i = atomicAdd(large.count, 1u);
-    if (i < large.capacity) large.items[i] = LargeGaussian{source.offset, source.g, 0u};
-  } else if (tiles > 0) {
-    emit_pairs_serial(walk, source, sink, frame, roofgs);
+    const uint32_t chunks = (uint32_t(walk.slice_end() - walk.slice_begin()) + kLargeChunkSlices - 1) /
+                            kLargeChunkSlices;
+    const unsigned long long i = atomicAdd(large.count, static_cast<unsigned long long>(chunks));
+    const bool fits = i + chunks <= large.capacity;
+    // Items of a Gaussian that does not fit whole are marked unused, and its thread writes the pairs itself.
+    for (uint32_t c = 0; c < chunks && i + c < large.capacity; ++c) {
+      large.items[i + c] = LargeGaussian{source.offset, fits ? source.g : kNoLargeGaussian, c};
+    }
+    if (fits) return;
   }
+  if (tiles > 0) emit_pairs_serial(walk, source, sink, frame, roofgs);
 }
 
 }  // namespace rgs::kernels::detail

@@ -37,11 +37,6 @@ kernels::FrameParams make_frame_params(const Camera& camera, const GpuRenderOpti
   return f;
 }
 
-/// Key bits [begin, end) a radix sort covers.
-struct SortBits {
-  int begin = 0, end = 0;
-};
-
 /// ceil(log2(n)) for n ≥ 1.
 int ceil_log2(uint64_t n) {
   int bits = 0;
@@ -97,27 +92,26 @@ struct GpuRenderer::Buffers {
   DeviceBuffer<uint32_t> depth_bins;
   DeviceBuffer<uint64_t> tiles_touched, offsets;
   DeviceBuffer<uint8_t> scan_temp;
-  // Depth order: keys, sorted keys, identity values, the order itself, sort scratch.
-  DeviceBuffer<uint32_t> order_keys, order_keys_sorted, order_identity, order;
-  DeviceBuffer<uint8_t> order_temp;
-  // Gaussians with many tiles, emitted a thread block each: [N] list and its count.
+  // Gaussians with many tiles, emitted by thread blocks on chunks of their walks: [N] list and its count.
   DeviceBuffer<kernels::LargeGaussian> large_items;
-  DeviceBuffer<uint32_t> large_count;
+  DeviceBuffer<unsigned long long> large_count;
   // Fused kernel scratch: ticket, one status word per block, pair total.
   DeviceBuffer<uint32_t> fused_ticket;
   DeviceBuffer<unsigned long long> fused_status, fused_total;
   // Per pair (64-bit keys for the baseline and key32 off, 32-bit keys otherwise).
   DeviceBuffer<uint64_t> keys64, keys64_sorted;
   DeviceBuffer<uint32_t> keys32, keys32_sorted;
+  // With depth order, values_sorted's ties in exact depth order are written back into `values`.
   DeviceBuffer<uint32_t> values, values_sorted;
   DeviceBuffer<uint8_t> sort_temp;
   // Per tile: [begin, end) pairs.
   DeviceBuffer<uint64_t> ranges;
   // Pair count read back from the device.
   PinnedBuffer pair_count;
-  // The last frame's pairs and key width (download_sorted_pairs).
+  // The last frame's pairs, key width and where its final values are (download_sorted_pairs).
   uint64_t last_pairs = 0;
   bool last_key32 = false;
+  bool last_values_reordered = false;
   // Stage boundaries: start, after duplicate, after sort, after ranges, after render.
   cudaEvent_t events[5] = {nullptr, nullptr, nullptr, nullptr, nullptr};
   // The fused kernel's pair total is copied on its own stream once that kernel has finished (fused_done),
@@ -147,9 +141,7 @@ struct GpuRenderer::Buffers {
   uint64_t bytes() const {
     return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + log_opacities.bytes() +
            cov2d.bytes() + snug_t.bytes() + radii.bytes() + depth_bins.bytes() + tiles_touched.bytes() +
-           offsets.bytes() + scan_temp.bytes() + order_keys.bytes() + order_keys_sorted.bytes() +
-           order_identity.bytes() + order.bytes() + order_temp.bytes() + large_items.bytes() + large_count.bytes() +
-           fused_ticket.bytes() +
+           offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + fused_ticket.bytes() +
            fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() + keys32.bytes() +
            keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() + ranges.bytes();
   }
@@ -168,7 +160,7 @@ struct GpuRenderer::Buffers {
 
   /// Pair buffers for `pairs` pairs with 32- or 64-bit keys, and the sort scratch for them. On failure all
   /// pair buffers are dropped, so the renderer stays usable for smaller frames.
-  Status reserve_pairs(uint64_t pairs, bool key32, const SortBits& bits, cudaStream_t stream) {
+  Status reserve_pairs(uint64_t pairs, bool key32, int key_bits, cudaStream_t stream) {
     const std::string count = std::to_string(pairs) + " pairs";
     Status grown = key32 ? keys32.reserve(pairs, "GpuRenderer: keys of " + count)
                          : keys64.reserve(pairs, "GpuRenderer: keys of " + count);
@@ -182,9 +174,9 @@ struct GpuRenderer::Buffers {
     if (grown.ok()) {
       const cudaError_t query =
           key32 ? kernels::sort_pairs(nullptr, &sort_bytes, keys32.data(), keys32_sorted.data(), values.data(),
-                                      values_sorted.data(), pairs, bits.begin, bits.end, stream)
+                                      values_sorted.data(), pairs, 0, key_bits, stream)
                 : kernels::sort_pairs(nullptr, &sort_bytes, keys64.data(), keys64_sorted.data(), values.data(),
-                                      values_sorted.data(), pairs, bits.begin, bits.end, stream);
+                                      values_sorted.data(), pairs, 0, key_bits, stream);
       grown = cuda_status(query, "GpuRenderer: sort size query");
     }
     if (grown.ok()) grown = sort_temp.reserve(sort_bytes, "GpuRenderer: sort scratch");
@@ -288,7 +280,8 @@ Status GpuRenderer::download_sorted_pairs(std::vector<uint64_t>* keys, std::vect
                                              cudaMemcpyDeviceToHost, stream),
                              "GpuRenderer: sorted keys read-back");
   }
-  RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(values->data(), b.values_sorted.data(), pairs * sizeof(uint32_t),
+  const uint32_t* final_values = b.last_values_reordered ? b.values.data() : b.values_sorted.data();
+  RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(values->data(), final_values, pairs * sizeof(uint32_t),
                                            cudaMemcpyDeviceToHost, stream),
                            "GpuRenderer: sorted values read-back");
   RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: sorted pairs read-back");
@@ -315,6 +308,7 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
   stats.tiles_y = frame.tiles_y;
   cudaEvent_t* ev = buffers_->events;
   buffers_->last_pairs = 0;  // until this frame's pairs are sorted
+  buffers_->last_values_reordered = false;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[0], stream), "GpuRenderer: cudaEventRecord");
   if (options.pipeline == GpuPipeline::kRoofgs) {
     RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options.roofgs, timed, image, &stats, stream));
@@ -336,12 +330,12 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
     stats.timed = true;
     const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
     if (listed && scene.size() > 0) {
-      uint32_t large = 0;
-      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->large_count.data(), sizeof(uint32_t),
+      unsigned long long large = 0;
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->large_count.data(), sizeof(large),
                                                cudaMemcpyDeviceToHost, stream),
                                "GpuRenderer: large Gaussian count read-back");
       RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
-      stats.large_gaussians = large;
+      stats.large_chunks = large;
     }
   }
   return stats;
@@ -353,8 +347,8 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   cudaEvent_t* ev = b.events;
   const uint32_t n = scene.size();
   const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
-  const SortBits sort_bits{0, 32 + ceil_log2(num_tiles)};
-  stats->sort_bits = sort_bits.end;
+  const int key_bits = 32 + ceil_log2(num_tiles);
+  stats->sort_bits = key_bits;
 
   // 1. Preprocess, 2. offsets, pair count, duplication.
   uint64_t pairs = 0;
@@ -366,7 +360,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   }
   stats->pairs = pairs;
   if (pairs > 0) {
-    RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, false, sort_bits, stream));
+    RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, false, key_bits, stream));
     RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, frame, b.keys64.data(),
                                                          b.values.data(), stream),
                              "GpuRenderer: duplicate kernel");
@@ -377,7 +371,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
     size_t sort_bytes = b.sort_temp.bytes();
     RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(),
                                                  b.keys64_sorted.data(), b.values.data(), b.values_sorted.data(),
-                                                 pairs, sort_bits.begin, sort_bits.end, stream),
+                                                 pairs, 0, key_bits, stream),
                              "GpuRenderer: radix sort");
   }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
@@ -430,12 +424,12 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     stats->z_near = setup.quantizer.z_near;
     stats->z_far = setup.empty_depth_range ? setup.quantizer.z_near : setup.quantizer.z_far;
   }
-  // Key bits the pair sort covers: the whole key, or with depth order only the tile bits above the depth
-  // (pairs are emitted in depth order, so each tile's pairs already are in key order; roofgs_pipeline.h).
-  const int depth_bits = t.key32 ? rf.key_depth_bits : 32;
+  // Key bits the pair sort covers (the whole key). Depth order changes no key: with the 32-bit key it puts
+  // each run of tied keys in exact depth order after the sort (order_equal_keys_by_depth); the 64-bit key
+  // holds the exact depth already.
   const int key_bits = t.key32 ? 32 : 32 + ceil_log2(num_tiles);
-  const SortBits sort_bits{t.depth_order && depth_bits < key_bits ? depth_bits : 0, key_bits};
-  stats->sort_bits = sort_bits.end - sort_bits.begin;
+  const bool reorder_ties = t.key32 && t.depth_order;
+  stats->sort_bits = key_bits;
   kernels::GaussianSource source;
   source.fp32 = scene.fp32();
   if (scene.has_compact()) source.compact = scene.compact();
@@ -445,36 +439,18 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
     RGS_RETURN_IF_ERROR(b.log_opacities.reserve(n, "GpuRenderer: log opacities"));
-    // Depth order: Gaussians stably sorted by view depth (32-bit float keys, one sort of N).
-    const uint32_t* order = nullptr;
-    if (t.depth_order) {
-      RGS_RETURN_IF_ERROR(b.order_keys.reserve(n, "GpuRenderer: depth keys"));
-      RGS_RETURN_IF_ERROR(b.order_keys_sorted.reserve(n, "GpuRenderer: sorted depth keys"));
-      RGS_RETURN_IF_ERROR(b.order_identity.reserve(n, "GpuRenderer: Gaussian ids"));
-      RGS_RETURN_IF_ERROR(b.order.reserve(n, "GpuRenderer: depth order"));
-      RGS_RETURN_IF_CUDA_ERROR(kernels::depth_sort_keys(source.fp32.means, n, frame, b.order_keys.data(),
-                                                        b.order_identity.data(), stream),
-                               "GpuRenderer: depth key kernel");
-      size_t bytes = 0;
-      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(nullptr, &bytes, b.order_keys.data(), b.order_keys_sorted.data(),
-                                                   b.order_identity.data(), b.order.data(), n, 0, 32, stream),
-                               "GpuRenderer: depth sort size query");
-      RGS_RETURN_IF_ERROR(b.order_temp.reserve(bytes, "GpuRenderer: depth sort scratch"));
-      bytes = b.order_temp.bytes();
-      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.order_temp.data(), &bytes, b.order_keys.data(),
-                                                   b.order_keys_sorted.data(), b.order_identity.data(),
-                                                   b.order.data(), n, 0, 32, stream),
-                               "GpuRenderer: depth sort");
-      order = b.order.data();
-    }
     // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
     RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
     RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
     RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
-    RGS_RETURN_IF_ERROR(b.large_items.reserve(n, "GpuRenderer: large Gaussian list"));
     RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
-    const kernels::LargeGaussianList large{b.large_items.data(), b.large_count.data(),
-                                           options.balanced_emission ? n : 0u};
+    // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
+    const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
+      if (!options.balanced_emission) return kernels::LargeGaussianList{nullptr, b.large_count.data(), 0};
+      const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
+      RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list"));
+      return kernels::LargeGaussianList{b.large_items.data(), b.large_count.data(), capacity};
+    };
     const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
     if (options.fused_preprocess) {
       const uint32_t blocks = kernels::fused_blocks(n);
@@ -485,9 +461,10 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       // Capacity: what the pair buffers hold now (sized by earlier frames), at least 4 pairs per Gaussian.
       uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 4);
       for (int attempt = 0;; ++attempt) {
-        RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, sort_bits, stream));
+        RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, key_bits, stream));
         capacity = b.values.size();
-        RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, order, projected, scratch, large,
+        RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(capacity));
+        RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, projected, scratch, large,
                                                                   capacity, b.keys64.data(), b.keys32.data(),
                                                                   b.values.data(), stream),
                                  "GpuRenderer: fused preprocess kernel");
@@ -504,12 +481,13 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
         ++stats->fused_relaunches;
       }
     } else {
-      RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, order, projected, stream),
+      RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, projected, stream),
                                "GpuRenderer: preprocess kernel");
       RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));
       if (pairs > 0) {
-        RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, sort_bits, stream));
-        RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), order, n, frame, rf, large,
+        RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, key_bits, stream));
+        RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
+        RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), n, frame, rf, large,
                                                            b.keys64.data(), b.keys32.data(), b.values.data(),
                                                            stream),
                                  "GpuRenderer: duplicate kernel");
@@ -522,19 +500,24 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   stats->pairs = pairs;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
 
-  // Stable radix sort over sort_bits: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)); with depth
-  // order only the tile bits.
+  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)); with depth
+  // order and key32, the ties put in exact depth order (into `values`, free once sorted).
   if (pairs > 0) {
     size_t sort_bytes = b.sort_temp.bytes();
     const cudaError_t sorted =
         t.key32 ? kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys32.data(), b.keys32_sorted.data(),
-                                      b.values.data(), b.values_sorted.data(), pairs, sort_bits.begin, sort_bits.end,
-                                      stream)
+                                      b.values.data(), b.values_sorted.data(), pairs, 0, key_bits, stream)
                 : kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(), b.keys64_sorted.data(),
-                                      b.values.data(), b.values_sorted.data(), pairs, sort_bits.begin, sort_bits.end,
-                                      stream);
+                                      b.values.data(), b.values_sorted.data(), pairs, 0, key_bits, stream);
     RGS_RETURN_IF_CUDA_ERROR(sorted, "GpuRenderer: radix sort");
+    if (reorder_ties) {
+      RGS_RETURN_IF_CUDA_ERROR(kernels::order_equal_keys_by_depth(b.keys32_sorted.data(), b.values_sorted.data(),
+                                                                  b.depths.data(), pairs, b.values.data(), stream),
+                               "GpuRenderer: depth order kernel");
+      b.last_values_reordered = true;
+    }
   }
+  const uint32_t* sorted_values = reorder_ties ? b.values.data() : b.values_sorted.data();
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
 
   RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
@@ -546,8 +529,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
 
   const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, options.subtile_culling};
-  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), b.values_sorted.data(), b.roofgs_projected(), frame,
-                                                  rf, raster, image->view(), stream),
+  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), sorted_values, b.roofgs_projected(), frame, rf,
+                                                  raster, image->view(), stream),
                            "GpuRenderer: render kernel");
   return Status();
 }

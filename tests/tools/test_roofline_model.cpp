@@ -101,7 +101,7 @@ TEST_CASE("roofline model: large Gaussians (emit_large_gaussians) add their list
   in.pairs = 3200;
   in.sort_bits = 40;
   const FrameWork without = frame_work(in);
-  in.large_gaussians = 10;
+  in.large_chunks = 10;
   const FrameWork with = frame_work(in);
   // Fused: 20 B stored + 16 B entry + 52 B read per large Gaussian; 128 threads × (18 + 24) FLOPs.
   CHECK(stage(with, RooflineStage::kPreprocess).bytes - stage(without, RooflineStage::kPreprocess).bytes == 880);
@@ -109,7 +109,7 @@ TEST_CASE("roofline model: large Gaussians (emit_large_gaussians) add their list
   in.fused = false;
   in.snugbox = false;
   const FrameWork separate = frame_work(in);
-  in.large_gaussians = 0;
+  in.large_chunks = 0;
   const FrameWork separate_without = frame_work(in);
   // Separate: 16 B entry + 52 B read; 128 × 18 FLOPs.
   CHECK(stage(separate, RooflineStage::kPreprocess).bytes -
@@ -121,7 +121,8 @@ TEST_CASE("roofline model: large Gaussians (emit_large_gaussians) add their list
 
 TEST_CASE("roofline model: separate stages, FP32 attributes, depth order") {
   // The separate RoofGS stages with every technique off except depth order: N = V = 100, degree 1 (A = 92),
-  // P = 400, 64-bit keys over 40 bits (5 passes).
+  // P = 400, 64-bit keys over 40 bits (5 passes). The 64-bit key holds the exact depth, so depth order adds
+  // nothing; with the 32-bit key it adds order_equal_keys_by_depth to the sort.
   FrameWorkInputs in;
   in.roofgs = in.depth_order = true;
   in.gaussians = in.visible = 100;
@@ -131,13 +132,18 @@ TEST_CASE("roofline model: separate stages, FP32 attributes, depth order") {
   in.tiles = 16;
   in.pixels = 64 * 64;
   const FrameWork w = frame_work(in);
-  // 12N + 80V + 12N + 64V + 16N + 8N + 44V + 12P + 2·4N (order) = 1,200 + 8,000 + 1,200 + 6,400 + 1,600
-  //   + 800 + 4,400 + 4,800 + 800; depth order: 12N + 8N + (4N + 4 · 2 · 8N) = 1,200 + 800 + 6,800.
-  CHECK(stage(w, RooflineStage::kPreprocess).bytes == 38000);
-  // 18N + (209 + 27 + 27 + 18)V + 18N (depth keys).
-  CHECK(stage(w, RooflineStage::kPreprocess).flops == 31700);
+  // 12N + 80V + 12N + 64V + 16N + 8N + 44V + 12P = 1,200 + 8,000 + 1,200 + 6,400 + 1,600 + 800 + 4,400
+  //   + 4,800.
+  CHECK(stage(w, RooflineStage::kPreprocess).bytes == 28400);
+  // 18N + (209 + 27 + 27 + 18)V.
+  CHECK(stage(w, RooflineStage::kPreprocess).flops == 29900);
   // 8P + 5 · 2 · 12P.
   CHECK(stage(w, RooflineStage::kSort).bytes == 51200);
+  // 32-bit keys over 32 bits: 4P + 4 · 2 · 8P, and 12P for the depth order pass.
+  in.key32 = true;
+  in.sort_bits = 32;
+  const FrameWork w32 = frame_work(in);
+  CHECK(stage(w32, RooflineStage::kSort).bytes == 1600 + 25600 + 4800);
   // P(4 + 36) + 16T + 16X; 256 · 33 per pair.
   CHECK(stage(w, RooflineStage::kRender).bytes == 16000 + 256 + 65536);
   CHECK(stage(w, RooflineStage::kRender).flops == 400.0 * 256 * 33);

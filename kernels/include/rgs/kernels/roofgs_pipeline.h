@@ -5,12 +5,12 @@
 // compute exactly what the baseline's do. The CPU reference's RoofGS mode (runtime/cpu_renderer.h) does the
 // same math on the host; kernels are compiled with --fmad=false to match it term by term.
 //
-//   [depth_order]            Gaussians stably sorted by view depth (optional; see RoofgsFrame::depth_order)
 //   preprocess_roofgs        per Gaussian, as the baseline, plus SnugBox culling, depth bins, ln o
 //   + inclusive_scan + duplicate_roofgs      (separate stages), or
 //   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs
-//   emit_large_gaussians     pairs of the Gaussians with many tiles, a thread block each (after either)
-//   sort_pairs (32 or 64-bit keys; with depth order only the tile bits), tile_ranges (baseline_pipeline.h)
+//   emit_large_gaussians     pairs of the Gaussians with many tiles, by thread blocks (after either)
+//   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
+//   [order_equal_keys_by_depth]  optional with the 32-bit key: tied keys in exact depth order (RoofGS+)
 //   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
 //                            the fast exp
 #pragma once
@@ -46,8 +46,7 @@ struct RoofgsFrame {
   bool empty_depth_range = false;
 };
 
-/// Per-Gaussian outputs of the RoofGS preprocess, device arrays indexed by Gaussian id (N entries each),
-/// except tiles_touched, which is indexed by emission position (see `order` below).
+/// Per-Gaussian outputs of the RoofGS preprocess, device arrays indexed by Gaussian id (N entries each).
 struct RoofgsProjected {
   float* depths = nullptr;          ///< [N] view-space z
   float* means2d = nullptr;         ///< [N, 2] pixel mean
@@ -60,7 +59,7 @@ struct RoofgsProjected {
   float* snug_t = nullptr;          ///< [N] SnugBox threshold 2·ln(255·o)
   int32_t* radii = nullptr;         ///< [N] 3DGS radius; 0 = culled
   uint32_t* depth_bins = nullptr;   ///< [N] key32 depth bin (0 without key32)
-  uint64_t* tiles_touched = nullptr;///< [N] tiles of Gaussian order[t] at position t; 0 = culled
+  uint64_t* tiles_touched = nullptr;///< [N] tile count (separate stages); 0 = culled
 };
 
 /// Source attributes of a frame: `compact` when RoofgsFrame::compact, else `fp32`.
@@ -75,50 +74,54 @@ struct GaussianSource {
 /// in the same positions and order.
 constexpr uint32_t kSerialTileLimit = 32;
 
-/// A Gaussian with more than kSerialTileLimit tiles, listed for emit_large_gaussians.
-struct LargeGaussian {
-  uint64_t offset;  ///< position of its first pair
-  uint32_t g;       ///< Gaussian id
-  uint32_t unused;
-};
+/// A large Gaussian's tile walk is listed in chunks of this many slices, a work item each.
+constexpr uint32_t kLargeChunkSlices = 16;
 
-/// Large Gaussians of a frame, in any order (each entry carries its pairs' positions, so the order does not
-/// reach the output). At most one entry per Gaussian: capacity = N suffices. Capacity 0 turns the list off:
-/// every Gaussian is then written by its own thread (the ablation of the load balancing).
+/// One work item of emit_large_gaussians: chunk `chunk` (slices [first + 16·chunk, first + 16·chunk + 16) of
+/// the walk) of a Gaussian with more than kSerialTileLimit tiles.
+struct LargeGaussian {
+  uint64_t offset;  ///< position of the Gaussian's first pair
+  uint32_t g;       ///< Gaussian id, or kNoLargeGaussian for an unused item
+  uint32_t chunk;
+};
+constexpr uint32_t kNoLargeGaussian = 0xffffffffu;
+
+/// Work items of a frame, in any order (each carries its pairs' positions, so the order does not reach the
+/// output). A Gaussian that finds no room for its items (the list holds `capacity`) writes its pairs from its
+/// own thread, as does every Gaussian when capacity is 0 (the ablation of the load balancing).
 struct LargeGaussianList {
   LargeGaussian* items = nullptr;  ///< [capacity]
-  uint32_t* count = nullptr;       ///< [1] entries listed; zeroed by duplicate_roofgs / fused_preprocess_roofgs
-  uint32_t capacity = 0;
+  unsigned long long* count = nullptr;  ///< [1] items taken (may exceed capacity); zeroed by the launchers
+  uint64_t capacity = 0;
 };
 
-/// Writes the pairs of every listed large Gaussian, one thread block per Gaussian (a persistent grid takes
-/// the entries in turn): each thread finds the tiles of one slice of the Gaussian's tile walk (an AccuTile
-/// slice or a rectangle row), a block scan places the slices, and each warp writes whole slices, a tile per
+/// List capacity for a frame of `gaussians` Gaussians and at most `pairs` pairs: one item per Gaussian plus
+/// one per kLargeChunkSlices pairs covers every walk whose slices all hold a tile (an AccuTile slice clipped
+/// by the grid can be empty, hence the serial fallback).
+inline uint64_t large_list_capacity(uint32_t gaussians, uint64_t pairs) {
+  return uint64_t(gaussians) + pairs / kLargeChunkSlices + 1;
+}
+
+/// Writes the pairs of every listed large Gaussian, one thread block per work item (a chunk of up to
+/// kLargeChunkSlices consecutive slices of its tile walk; a persistent grid takes them in turn), so that a
+/// Gaussian covering the frame is written by many blocks at once: a block adds up the lengths of the slices
+/// before its chunk, a block scan places the chunk's slices, and each warp writes whole slices, a tile per
 /// lane. Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
 cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGaussianList& large,
                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
                                  uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
 
-/// Writes keys[i] = float bits of Gaussian i's view depth (0xFFFFFFFF when z ≤ near or not finite: such
-/// Gaussians are culled later anyway) and values[i] = i, for sort_pairs(…, 32 bits) → an emission `order`
-/// by (depth, index): with it, pairs whose 32-bit keys tie (same tile and depth bin) keep exact depth order
-/// through the stable pair sort, which removes the depth-key quantization's ordering loss. Pairs emitted in
-/// that order are already in key order within each tile (depth bins and float bits are non-decreasing in
-/// the same z), so the pair sort then needs only the tile bits: the same result in fewer radix passes.
-cudaError_t depth_sort_keys(const float* means, uint32_t count, const FrameParams& frame, uint32_t* keys,
-                            uint32_t* values, cudaStream_t stream);
-
-/// Preprocess (separate stages). Thread t handles Gaussian g = order ? order[t] : t: writes its per-Gaussian
-/// outputs at g and its tile count at tiles_touched[t] (0 when culled).
+/// Preprocess (separate stages). Thread g writes Gaussian g's per-Gaussian outputs and its tile count
+/// tiles_touched[g] (0 when culled).
 cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& frame, const RoofgsFrame& roofgs,
-                              const uint32_t* order, const RoofgsProjected& out, cudaStream_t stream);
+                              const RoofgsProjected& out, cudaStream_t stream);
 
-/// Duplication (separate stages). Thread t handles Gaussian g = order ? order[t] : t and writes its pairs
-/// at [offsets[t−1], offsets[t]) (inclusive scan of tiles_touched): its tiles in row-major order, or in
+/// Duplication (separate stages). Thread g writes Gaussian g's pairs at [offsets[g−1], offsets[g])
+/// (inclusive scan of tiles_touched): its tiles in row-major order, or in
 /// AccuTile's walk order; key = key32 ? tile << b_d | bin : tile << 32 | float_bits(depth); value = g.
 /// Gaussians with more than kSerialTileLimit tiles go to `large` instead (emit_large_gaussians writes them).
-cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* offsets, const uint32_t* order,
-                             uint32_t count, const FrameParams& frame, const RoofgsFrame& roofgs,
+cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* offsets, uint32_t count,
+                             const FrameParams& frame, const RoofgsFrame& roofgs,
                              const LargeGaussianList& large, uint64_t* keys64, uint32_t* keys32, uint32_t* values,
                              cudaStream_t stream);
 
@@ -140,9 +143,23 @@ uint32_t fused_blocks(uint32_t count);
 /// kSerialTileLimit tiles are listed in `large` (with their cov2d, snug_t and depth bin stored), and
 /// emit_large_gaussians must follow to write their pairs.
 cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
-                                    const RoofgsFrame& roofgs, const uint32_t* order, const RoofgsProjected& out,
+                                    const RoofgsFrame& roofgs, const RoofgsProjected& out,
                                     const FusedScratch& scratch, const LargeGaussianList& large, uint64_t capacity,
                                     uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
+
+/// Depth order (RoofGS+, beyond the paper) after the stable sort of 32-bit keys. Pairs whose keys tie (same
+/// tile and depth bin) leave the sort in emission order, i.e. by Gaussian id, which is the 32-bit key's
+/// ordering loss (DESIGN.md); this writes the sorted values with each run of tied keys put in (view depth, id)
+/// order, so that every tile is in the order of the baseline's 64-bit key (tile, float depth) — depth bins
+/// are non-decreasing in depth, so ordering within the runs orders the tile. Keys are unchanged.
+/// @param sorted_keys    [count] 32-bit keys, sorted
+/// @param sorted_values  [count] Gaussian ids, stably sorted with them
+/// @param depths         [N] view-space z per Gaussian (RoofgsProjected::depths)
+/// @param values_out     [count] the reordered ids (not aliasing sorted_values)
+/// Each pair of a run of length L costs O(L) reads (the render's loop over the tile costs as much).
+cudaError_t order_equal_keys_by_depth(const uint32_t* sorted_keys, const uint32_t* sorted_values,
+                                      const float* depths, uint64_t count, uint32_t* values_out,
+                                      cudaStream_t stream);
 
 /// Rasterizer switches.
 struct RasterOptions {

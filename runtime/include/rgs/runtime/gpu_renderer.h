@@ -65,7 +65,7 @@ struct GpuRoofgsOptions {
   /// One fused kernel for preprocess + tile duplication + keys, pairs allocated in Gaussian order by a
   /// decoupled look-back (deterministic); off: separate preprocess, scan and duplicate kernels.
   bool fused_preprocess = true;
-  /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by a thread block each
+  /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by thread blocks
   /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
   bool balanced_emission = true;
   /// With folded coefficients: each warp of the rasterizer skips the pairs that cannot reach alpha 1/255 on
@@ -105,9 +105,10 @@ struct GpuRenderStats {
   int key_tile_bits = 0, key_depth_bits = 0;  ///< 32-bit key layout (0 without it)
   float z_near = 0, z_far = 0; ///< 32-bit key depth range (0 without it)
   uint32_t fused_relaunches = 0;  ///< fused kernel runs repeated because the pair buffer had to grow
-  /// RoofGS with balanced emission: Gaussians with more than kernels::kSerialTileLimit tiles, written by
-  /// emit_large_gaussians. Read back only for timed frames (time_stages); 0 otherwise.
-  uint64_t large_gaussians = 0;
+  /// RoofGS with balanced emission: work items of emit_large_gaussians, one per chunk of up to
+  /// kernels::kLargeChunkSlices slices of a Gaussian with more than kernels::kSerialTileLimit tiles. Read
+  /// back only for timed frames (time_stages); 0 otherwise.
+  uint64_t large_chunks = 0;
   bool timed = false;          ///< times is valid (GpuRenderOptions::time_stages)
   StageTimes times;
 };
