@@ -68,6 +68,7 @@ __global__ void __launch_bounds__(kFusedBlockSize)
   __shared__ typename BlockScan::TempStorage scan_storage;
   __shared__ uint32_t block_id;
   __shared__ unsigned long long block_base;
+  __shared__ detail::LongWalks<kFusedBlockSize> long_walks;
 
   // Blocks take ids in the order they start, so every predecessor a block waits for is already running.
   if (threadIdx.x == 0) block_id = atomicAdd(scratch.block_ticket, 1u);
@@ -77,7 +78,7 @@ __global__ void __launch_bounds__(kFusedBlockSize)
 
   detail::ProjectedRegs p{};
   detail::TileWalk walk{};
-  if (detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, &p, &walk)) {
+  if (detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk)) {
     detail::store_projected(p, g, out);
   } else if (g < src.count) {
     out.radii[g] = 0;

@@ -11,8 +11,9 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   const uint32_t g = blockIdx.x * blockDim.x + threadIdx.x;
   detail::ProjectedRegs p{};
   detail::TileWalk walk{};
-  // Every lane takes part: the tile count is shared by the warp.
-  const bool visible = detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, &p, &walk);
+  __shared__ detail::LongWalks<detail::kBlockSize> long_walks;
+  // Every thread takes part: the long walks' tile counts are shared by the block.
+  const bool visible = detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk);
   if (g >= src.count) return;
   if (!visible) {
     out.radii[g] = 0;

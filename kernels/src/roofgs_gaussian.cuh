@@ -100,7 +100,7 @@ __device__ inline TileRect accutile_limit(const FrameParams& frame, const Roofgs
 }
 
 /// Projects Gaussian g (preprocess_cpu's steps and order). Returns false when it is culled. With SnugBox +
-/// AccuTile the tile count is left at 0 for count_accutile_tiles_warp (preprocess_gaussian does both).
+/// AccuTile the tile count is left at 0 for count_accutile_tiles_block (preprocess_gaussian does both).
 template <bool kCompact>
 __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
                                         const RoofgsFrame& roofgs, ProjectedRegs* p) {
@@ -167,7 +167,7 @@ __device__ inline void store_projected(const ProjectedRegs& p, uint32_t g, const
 }
 
 /// A lane counts the tiles of a walk with at most this many slices alone, and keeps their spans for the
-/// emission; longer walks get the warp's help (count_accutile_tiles_warp).
+/// emission; longer walks get the block's help (count_accutile_tiles_block).
 constexpr int kSoloSlices = 4;
 
 /// The tiles of a visible Gaussian as slices: AccuTile's walk (SnugBox + AccuTile), or the rows of its 3DGS
@@ -178,7 +178,7 @@ struct TileWalk {
   AccutileWalk walk;  ///< accutile only
   TileRect rect;      ///< rectangle only: slices are its rows
   /// accutile: the spans of slices u_first + i (i < kSoloSlices) kept from the count (empty past u_end), so
-  /// the emission does not intersect the ellipse again. Set by count_accutile_tiles_warp for short walks.
+  /// the emission does not intersect the ellipse again. Set by count_accutile_tiles_block for short walks.
   bool spans_kept = false;
   int kept_first[kSoloSlices], kept_end[kSoloSlices];
 
@@ -258,51 +258,31 @@ __device__ inline void emit_pairs_serial(const TileWalk& w, const PairSource& s,
   }
 }
 
-/// Lane `source`'s AccuTile walk, for every lane of the warp.
-__device__ inline AccutileWalk shuffle_walk(const AccutileWalk& w, int source) {
-  constexpr unsigned kAll = 0xffffffffu;
-  AccutileWalk r;
-  r.walk_rows = __shfl_sync(kAll, int(w.walk_rows), source) != 0;
-  r.u_first = __shfl_sync(kAll, w.u_first, source);
-  r.u_end = __shfl_sync(kAll, w.u_end, source);
-  r.v_first = __shfl_sync(kAll, w.v_first, source);
-  r.v_end = __shfl_sync(kAll, w.v_end, source);
-  r.mean_u = __shfl_sync(kAll, w.mean_u, source);
-  r.mean_v = __shfl_sync(kAll, w.mean_v, source);
-  r.half_u = __shfl_sync(kAll, w.half_u, source);
-  r.half_v = __shfl_sync(kAll, w.half_v, source);
-  r.s_uu = __shfl_sync(kAll, w.s_uu, source);
-  r.s_vv = __shfl_sync(kAll, w.s_vv, source);
-  r.s_uv = __shfl_sync(kAll, w.s_uv, source);
-  r.det = __shfl_sync(kAll, w.det, source);
-  r.t = __shfl_sync(kAll, w.t, source);
-  r.du_at_vmax = __shfl_sync(kAll, w.du_at_vmax, source);
-  return r;
-}
+/// Shared memory of count_accutile_tiles_block for a block of kThreads threads: the block's long walks, their
+/// slices' running offsets in one flat range, and their tile counts.
+template <int kThreads>
+struct LongWalks {
+  AccutileWalk walk[kThreads];
+  uint32_t first_slice[kThreads + 1];  ///< walk h's slices are flat indices [first_slice[h], first_slice[h + 1])
+  uint32_t count[kThreads];
+  uint32_t size;
+};
 
-/// Tiles of slices [first, end) of an AccuTile walk, stepping by `step`.
-__device__ inline uint32_t count_slices(const AccutileWalk& w, int first, int end, int step) {
-  uint32_t count = 0;
-  for (int k = first; k < end; k += step) {
-    int lo, hi;
-    accutile_slice(w, k, &lo, &hi);
-    count += hi > lo ? uint32_t(hi - lo) : 0u;
-  }
-  return count;
-}
-
-/// Tile count of each lane's AccuTile walk (the count for_each_accutile_tile returns). A walk with more than
-/// kSoloSlices slices is counted by the whole warp, its slices dealt over the lanes, so that a Gaussian
-/// spanning the screen (135 slices at 4K, each with two square roots and four divisions) does not hold its
-/// warp for the time of 135 slices; a shorter one is counted by its lane, which keeps the spans in the walk
-/// (TileWalk::kept_first/kept_end). All 32 lanes must call it; `active` false for a lane without a walk.
-__device__ inline uint32_t count_accutile_tiles_warp(TileWalk* tile_walk, bool active) {
+/// Tile count of each thread's AccuTile walk (the count for_each_accutile_tile returns). A walk of at most
+/// kSoloSlices slices is counted by its thread, which keeps the spans in the walk (TileWalk::kept_first/
+/// kept_end) for the emission. The longer walks of the block are counted by the whole block: their slices
+/// are laid end to end and dealt over the threads, so that a Gaussian spanning the screen (135 slices at 4K,
+/// each with two square roots and four divisions), or a warp with ten of them, does not hold the block for
+/// the time of all their slices in one thread or one warp. All threads of the block must call it; `active`
+/// false for a thread without a walk. Counts are integer sums, so the order of the atomics does not matter.
+template <int kThreads>
+__device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool active, LongWalks<kThreads>& shared) {
   const AccutileWalk& walk = tile_walk->walk;
-  const int lane = int(threadIdx.x % 32);
+  const uint32_t thread = threadIdx.x;
   const int slices = active ? walk.u_end - walk.u_first : 0;
-  const bool helped = slices > kSoloSlices;
+  const bool long_walk = slices > kSoloSlices;
   uint32_t count = 0;
-  if (active && !helped) {
+  if (active && !long_walk) {
 #pragma unroll
     for (int i = 0; i < kSoloSlices; ++i) {
       int first = 0, end = 0;
@@ -313,25 +293,57 @@ __device__ inline uint32_t count_accutile_tiles_warp(TileWalk* tile_walk, bool a
     }
     tile_walk->spans_kept = true;
   }
-  for (unsigned pending = __ballot_sync(0xffffffffu, helped); pending != 0; pending &= pending - 1) {
-    const int leader = __ffs(int(pending)) - 1;
-    const AccutileWalk w = shuffle_walk(walk, leader);
-    const uint32_t total = __reduce_add_sync(0xffffffffu, count_slices(w, w.u_first + lane, w.u_end, 32));
-    if (lane == leader) count = total;
+  if (thread == 0) shared.size = 0;
+  __syncthreads();
+  uint32_t h = 0;
+  if (long_walk) {
+    h = atomicAdd(&shared.size, 1u);
+    shared.walk[h] = walk;
+    shared.count[h] = 0;
   }
-  return count;
+  __syncthreads();
+  const uint32_t longs = shared.size;
+  if (longs == 0) return count;  // uniform over the block
+  if (thread < 32) {  // running offsets of the long walks' slices, 32 walks per step
+    uint32_t carry = 0;
+    for (uint32_t base = 0; base < longs; base += 32) {
+      const uint32_t i = base + thread;
+      const uint32_t own = i < longs ? uint32_t(shared.walk[i].u_end - shared.walk[i].u_first) : 0u;
+      uint32_t inclusive = own;
+      for (int offset = 1; offset < 32; offset *= 2) {
+        const uint32_t up = __shfl_up_sync(0xffffffffu, inclusive, offset);
+        if (int(thread) >= offset) inclusive += up;
+      }
+      if (i < longs) shared.first_slice[i] = carry + inclusive - own;
+      carry += __shfl_sync(0xffffffffu, inclusive, 31);
+    }
+    if (thread == 0) shared.first_slice[longs] = carry;
+  }
+  __syncthreads();
+  const uint32_t total = shared.first_slice[longs];
+  uint32_t walk_of = 0;  // the long walk of flat slice f: first_slice[walk_of] ≤ f < first_slice[walk_of + 1]
+  for (uint32_t f = thread; f < total; f += kThreads) {
+    while (shared.first_slice[walk_of + 1] <= f) ++walk_of;  // f only grows
+    const AccutileWalk& w = shared.walk[walk_of];
+    int lo, hi;
+    accutile_slice(w, w.u_first + int(f - shared.first_slice[walk_of]), &lo, &hi);
+    if (hi > lo) atomicAdd(&shared.count[walk_of], uint32_t(hi - lo));
+  }
+  __syncthreads();
+  return long_walk ? shared.count[h] : count;
 }
 
-/// The preprocess of Gaussian g: projection, tile walk and tile count. Called by all 32 lanes of a warp
-/// (count_accutile_tiles_warp); lanes with g ≥ count get nothing. Returns true when the Gaussian is visible
-/// (p->tiles > 0).
-template <bool kCompact>
+/// The preprocess of Gaussian g: projection, tile walk and tile count. Called by every thread of the block
+/// (count_accutile_tiles_block); threads with g ≥ count get nothing. Returns true when the Gaussian is
+/// visible (p->tiles > 0).
+template <bool kCompact, int kThreads>
 __device__ inline bool preprocess_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
-                                           const RoofgsFrame& roofgs, ProjectedRegs* p, TileWalk* walk) {
+                                           const RoofgsFrame& roofgs, LongWalks<kThreads>& long_walks,
+                                           ProjectedRegs* p, TileWalk* walk) {
   bool visible = g < src.count && project_gaussian<kCompact>(src, g, frame, roofgs, p);
   if (visible) *walk = make_tile_walk(*p, frame, roofgs);
   if (roofgs.snugbox_accutile) {  // the same for the whole launch
-    p->tiles = count_accutile_tiles_warp(walk, visible);
+    p->tiles = count_accutile_tiles_block(walk, visible, long_walks);
     visible = visible && p->tiles > 0;
   }
   if (!visible) p->tiles = 0;
