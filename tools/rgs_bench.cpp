@@ -95,7 +95,7 @@ const std::vector<BenchMode>& all_modes() {
        }},
       {"roofgs", "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused "
                  "kernel, 32-bit key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians "
-                 "with many tiles emitted by thread blocks (every RoofGS mode but roofgs-serial); sub-tile "
+                 "with many tiles emitted by warps (every RoofGS mode but roofgs-serial); sub-tile "
                  "culling in the folded rasterizer (every mode with it but roofgs-tile)",
        [](const tools::LoadedGpuScene& scene) {
          return roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(), "roofgs");

@@ -93,13 +93,14 @@ FrameWork frame_work(const FrameWorkInputs& in) {
     // since a walk of at most 4 slices keeps its spans from the count for the emission (the longer walks'
     // second pass, a small share of the walks, is left out).
     const double slices = in.snugbox ? (in.fused ? 1.0 : 2.0) * std::sqrt(p * v) : 0.0;
-    // Large Gaussians (> 32 tiles): listed (16 B entry), then emit_large_gaussians reads the entry and
-    // means2d, cov2d, snug_t, radius, depth bin, depth (52 B) and the 128 threads of a block rebuild the walk
-    // (tile rectangle, and the AccuTile setup), counted for one block (a Gaussian of more than 16 slices takes
-    // one per chunk of 16 slices: not reported); its slices are the emission walk counted above.
-    const double large = double(std::min(in.large_chunks, in.gaussians));
+    // Large Gaussians (> 32 tiles), counted per work item (a chunk of up to 16 slices of a walk): a 16 B
+    // list entry, then emit_large_gaussians reads the entry and means2d, cov2d, snug_t, radius, depth bin,
+    // depth (52 B) and the 32 lanes of a warp rebuild the walk (tile rectangle, and the AccuTile setup); the
+    // fused kernel's 20 B per large Gaussian are counted per item too (an upper bound); the slices are the
+    // emission walk counted above.
+    const double large = double(in.large_chunks);
     const double large_flops =
-        large * kLargeBlockThreads * (kFlopsTileRect + (in.snugbox ? kFlopsAccutileSetup : 0.0));
+        large * kLargeItemThreads * (kFlopsTileRect + (in.snugbox ? kFlopsAccutileSetup : 0.0));
     if (in.fused) {
       // fused kernel: means of all, rest of the visible; radii of the culled (4(N − V)); store_projected of
       // the visible (depth 4, means2d 8, conic+opacity 16, ln o 4, rgb 12, radius 4 = 48V); pairs P·(kb + 4).

@@ -47,7 +47,7 @@ struct FrameWorkInputs {
   uint64_t visible = 0;
   uint32_t sh_degree = 0;    ///< 0..3; K = (degree + 1)² coefficients per channel
   /// L, work items of emit_large_gaussians: chunks of up to 16 slices of the RoofGS Gaussians with more than
-  /// kernels::kSerialTileLimit (32) tiles, a thread block each (GpuRenderStats::large_chunks of the view).
+  /// kernels::kSerialTileLimit (32) tiles, a warp each (GpuRenderStats::large_chunks of the view).
   uint64_t large_chunks = 0;
   uint64_t pairs = 0;        ///< P, (tile, Gaussian) pairs sorted
   int sort_bits = 0;         ///< key bits the radix sort covers (GpuRenderStats::sort_bits)
@@ -101,8 +101,8 @@ inline constexpr double kFlopsBlendDepth = 4;
 inline constexpr double kFlopsBlendDepthFma = 3;
 /// Folding C1..C6 of one (Gaussian, tile) pair at the shared-memory load (tile-local mean 2, C1..C6 19).
 inline constexpr double kFlopsFoldPair = 21;
-/// Threads of emit_large_gaussians' block, each of which rebuilds the large Gaussian's walk.
-inline constexpr double kLargeBlockThreads = 128;
+/// Lanes of the warp emit_large_gaussians gives a work item, each of which rebuilds the large Gaussian's walk.
+inline constexpr double kLargeItemThreads = 32;
 
 /// FLOPs of SH colour of degree d: basis (0, 3, 18, 48) + 3 channels × (K products, K − 1 sums, + 0.5).
 double sh_colour_flops(uint32_t degree);

@@ -1,9 +1,6 @@
-// Pair emission of the Gaussians with many tiles (emit_large_gaussians): thread blocks on chunks of their
-// tile walks, so that a Gaussian covering the screen (32,400 tiles at 4K) is written by many blocks instead of
-// one thread (or one block) while the rest of the GPU waits for it.
-#include <cub/block/block_reduce.cuh>
-#include <cub/block/block_scan.cuh>
-
+// Pair emission of the Gaussians with many tiles (emit_large_gaussians): a warp per chunk of a tile walk, so
+// that a Gaussian covering the screen (32,400 tiles at 4K) is written by many warps instead of one thread
+// while the rest of the GPU waits for it, and the chunks of many Gaussians are in flight at once.
 #include <algorithm>
 
 #include "launch_util.cuh"
@@ -12,76 +9,70 @@
 namespace rgs::kernels {
 namespace {
 
-/// Threads per block.
+/// Threads per block (warps take work items independently; the block only groups them).
 constexpr int kLargeBlockSize = 128;
+constexpr int kWarpsPerBlock = kLargeBlockSize / 32;
 /// Resident blocks per multiprocessor the persistent grid asks for.
 constexpr int kBlocksPerSm = 16;
+static_assert(kLargeChunkSlices <= 32, "a chunk's slices are measured one per lane");
 
-/// Writes the pairs of slices [chunk_first, chunk_first + kLargeChunkSlices) of one Gaussian's walk with the whole
-/// block (uniform control flow: every thread calls it with the same walk). The chunk's first position is the
-/// Gaussian's plus the lengths of the slices before the chunk (a block reduction over them); a block scan
-/// places the chunk's slices; each warp then writes whole slices in turn, its lanes on consecutive tiles
-/// (coalesced stores). Positions and order equal emit_pairs_serial's.
-__device__ void emit_chunk_with_block(const detail::TileWalk& walk, int chunk_first, const detail::PairSource& source,
-                                      const detail::PairSink& sink, const FrameParams& frame,
-                                      const RoofgsFrame& roofgs) {
-  using LengthReduce = cub::BlockReduce<uint64_t, kLargeBlockSize>;
-  using SliceScan = cub::BlockScan<uint32_t, kLargeBlockSize>;
-  constexpr int kWarps = kLargeBlockSize / 32;
-  __shared__ typename LengthReduce::TempStorage reduce;
-  __shared__ typename SliceScan::TempStorage scan;
-  __shared__ uint64_t chunk_base;
-  __shared__ int slice_first[kLargeChunkSlices];
-  __shared__ uint32_t slice_length[kLargeChunkSlices];
-  __shared__ uint32_t slice_offset[kLargeChunkSlices];
+constexpr unsigned kAllLanes = 0xffffffffu;
 
-  const int lane = int(threadIdx.x) % 32, warp = int(threadIdx.x) / 32;
+/// Writes the pairs of slices [chunk_first, chunk_first + kLargeChunkSlices) of one Gaussian's walk with the
+/// calling warp (every lane calls it with the same walk). The chunk's first position is the Gaussian's plus
+/// the lengths of the slices before the chunk (lanes take every 32nd slice, then a warp sum); lane i measures
+/// the chunk's slice i, a warp scan places them, and the warp writes each slice in turn, its lanes on
+/// consecutive tiles (coalesced stores). Positions and order equal emit_pairs_serial's.
+__device__ void emit_chunk_with_warp(const detail::TileWalk& walk, int chunk_first, const detail::PairSource& source,
+                                     const detail::PairSink& sink, const FrameParams& frame,
+                                     const RoofgsFrame& roofgs) {
+  const int lane = int(threadIdx.x % 32);
   const auto length_of = [&](int k, int* first) {
     int end = 0;
     walk.span(k, first, &end);
     return end > *first ? uint32_t(end - *first) : 0u;
   };
-  uint64_t before = 0;  // lengths of this thread's share of the slices before the chunk
-  for (int k = walk.slice_begin() + int(threadIdx.x); k < chunk_first; k += kLargeBlockSize) {
+  // A walk holds at most 2048 × 2048 tiles (validate_camera's largest image), so 32-bit sums suffice.
+  uint32_t before = 0;
+  for (int k = walk.slice_begin() + lane; k < chunk_first; k += 32) {
     int first = 0;
     before += length_of(k, &first);
   }
-  const uint64_t base = LengthReduce(reduce).Sum(before);
-  const int k = chunk_first + int(threadIdx.x);
+  const uint64_t chunk_base = source.offset + __reduce_add_sync(kAllLanes, before);
+  const int k = chunk_first + lane;
   int first = 0;
-  const uint32_t length = threadIdx.x < kLargeChunkSlices && k < walk.slice_end() ? length_of(k, &first) : 0u;
-  uint32_t offset = 0;
-  SliceScan(scan).ExclusiveSum(length, offset);
-  if (threadIdx.x == 0) chunk_base = source.offset + base;
-  if (threadIdx.x < kLargeChunkSlices) {
-    slice_first[threadIdx.x] = first;
-    slice_length[threadIdx.x] = length;
-    slice_offset[threadIdx.x] = offset;
+  const uint32_t length = lane < int(kLargeChunkSlices) && k < walk.slice_end() ? length_of(k, &first) : 0u;
+  uint32_t inclusive = length;
+  for (int offset = 1; offset < 32; offset *= 2) {
+    const uint32_t up = __shfl_up_sync(kAllLanes, inclusive, offset);
+    if (lane >= offset) inclusive += up;
   }
-  __syncthreads();
-  const int slices = min(kLargeChunkSlices, walk.slice_end() - chunk_first);
-  for (int s = warp; s < slices; s += kWarps) {
-    const uint64_t at = chunk_base + slice_offset[s];
-    for (uint32_t i = uint32_t(lane); i < slice_length[s]; i += 32) {
-      sink.write(at + i, walk.tile(chunk_first + s, slice_first[s] + int(i), frame.tiles_x), source, roofgs);
+  const uint32_t exclusive = inclusive - length;
+  const int slices = min(int(kLargeChunkSlices), walk.slice_end() - chunk_first);
+  for (int s = 0; s < slices; ++s) {
+    const int slice_first = __shfl_sync(kAllLanes, first, s);
+    const uint32_t slice_length = __shfl_sync(kAllLanes, length, s);
+    const uint64_t at = chunk_base + __shfl_sync(kAllLanes, exclusive, s);
+    for (uint32_t i = uint32_t(lane); i < slice_length; i += 32) {
+      sink.write(at + i, walk.tile(chunk_first + s, slice_first + int(i), frame.tiles_x), source, roofgs);
     }
   }
-  __syncthreads();  // the shared arrays and the collectives' storage are reused by the next chunk
 }
 
-/// Block-per-item loop over the list (items marked kNoLargeGaussian are skipped).
+/// Warp-per-item loop over the list (items marked kNoLargeGaussian are skipped).
 __global__ void __launch_bounds__(kLargeBlockSize)
     emit_large_kernel(RoofgsProjected in, LargeGaussianList large, FrameParams frame, RoofgsFrame roofgs,
                       detail::PairSink sink) {
   const uint64_t items = min(*large.count, static_cast<unsigned long long>(large.capacity));
-  for (uint64_t w = blockIdx.x; w < items; w += gridDim.x) {
+  const uint64_t warps = uint64_t(gridDim.x) * kWarpsPerBlock;
+  for (uint64_t w = uint64_t(blockIdx.x) * kWarpsPerBlock + threadIdx.x / 32; w < items; w += warps) {
     const LargeGaussian item = large.items[w];
-    if (item.g == kNoLargeGaussian) continue;  // uniform over the block
-    // Every thread rebuilds the same walk from the same stored inputs.
+    if (item.g == kNoLargeGaussian) continue;  // uniform over the warp
+    // Every lane rebuilds the same walk from the same stored inputs.
     const detail::TileWalk walk = detail::load_tile_walk(in, item.g, frame, roofgs);
     const detail::PairSource source{item.g, in.depth_bins[item.g], in.depths[item.g], item.offset};
-    emit_chunk_with_block(walk, walk.slice_begin() + int(item.chunk * kLargeChunkSlices), source, sink, frame,
-                          roofgs);
+    emit_chunk_with_warp(walk, walk.slice_begin() + int(item.chunk * kLargeChunkSlices), source, sink, frame,
+                         roofgs);
   }
 }
 
@@ -95,7 +86,8 @@ cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGa
   cudaError_t result = cudaGetDevice(&device);
   if (result == cudaSuccess) result = cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
   if (result != cudaSuccess) return result;
-  const unsigned blocks = unsigned(std::min<uint64_t>(large.capacity, uint64_t(sms) * kBlocksPerSm));
+  const uint64_t warp_blocks = (large.capacity + kWarpsPerBlock - 1) / kWarpsPerBlock;
+  const unsigned blocks = unsigned(std::min<uint64_t>(warp_blocks, uint64_t(sms) * kBlocksPerSm));
   emit_large_kernel<<<blocks, kLargeBlockSize, 0, stream>>>(projected, large, frame, roofgs,
                                                             detail::PairSink{capacity, keys64, keys32, values});
   return detail::launch_result();

@@ -92,7 +92,7 @@ struct GpuRenderer::Buffers {
   DeviceBuffer<uint32_t> depth_bins;
   DeviceBuffer<uint64_t> tiles_touched, offsets;
   DeviceBuffer<uint8_t> scan_temp;
-  // Gaussians with many tiles, emitted by thread blocks on chunks of their walks: [N] list and its count.
+  // Gaussians with many tiles, emitted a warp per chunk of their walks: the work list and its count.
   DeviceBuffer<kernels::LargeGaussian> large_items;
   DeviceBuffer<unsigned long long> large_count;
   // Fused kernel scratch: ticket, one status word per block, pair total.

@@ -103,19 +103,19 @@ TEST_CASE("roofline model: large Gaussians (emit_large_gaussians) add their list
   const FrameWork without = frame_work(in);
   in.large_chunks = 10;
   const FrameWork with = frame_work(in);
-  // Fused: 20 B stored + 16 B entry + 52 B read per large Gaussian; 128 threads × (18 + 24) FLOPs.
+  // Fused: 20 B stored + 16 B entry + 52 B read per work item; 32 lanes × (18 + 24) FLOPs.
   CHECK(stage(with, RooflineStage::kPreprocess).bytes - stage(without, RooflineStage::kPreprocess).bytes == 880);
-  CHECK(stage(with, RooflineStage::kPreprocess).flops - stage(without, RooflineStage::kPreprocess).flops == 53760);
+  CHECK(stage(with, RooflineStage::kPreprocess).flops - stage(without, RooflineStage::kPreprocess).flops == 13440);
   in.fused = false;
   in.snugbox = false;
   const FrameWork separate = frame_work(in);
   in.large_chunks = 0;
   const FrameWork separate_without = frame_work(in);
-  // Separate: 16 B entry + 52 B read; 128 × 18 FLOPs.
+  // Separate: 16 B entry + 52 B read; 32 × 18 FLOPs.
   CHECK(stage(separate, RooflineStage::kPreprocess).bytes -
             stage(separate_without, RooflineStage::kPreprocess).bytes == 680);
   CHECK(stage(separate, RooflineStage::kPreprocess).flops -
-            stage(separate_without, RooflineStage::kPreprocess).flops == 23040);
+            stage(separate_without, RooflineStage::kPreprocess).flops == 5760);
   CHECK(stage(separate, RooflineStage::kRender).bytes == stage(separate_without, RooflineStage::kRender).bytes);
 }
 

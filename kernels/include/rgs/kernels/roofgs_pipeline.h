@@ -8,7 +8,7 @@
 //   preprocess_roofgs        per Gaussian, as the baseline, plus SnugBox culling, depth bins, ln o
 //   + inclusive_scan + duplicate_roofgs      (separate stages), or
 //   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs
-//   emit_large_gaussians     pairs of the Gaussians with many tiles, by thread blocks (after either)
+//   emit_large_gaussians     pairs of the Gaussians with many tiles, a warp per chunk (after either)
 //   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
 //   [order_equal_keys_by_depth]  optional with the 32-bit key: tied keys in exact depth order (RoofGS+)
 //   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
@@ -102,11 +102,11 @@ inline uint64_t large_list_capacity(uint32_t gaussians, uint64_t pairs) {
   return uint64_t(gaussians) + pairs / kLargeChunkSlices + 1;
 }
 
-/// Writes the pairs of every listed large Gaussian, one thread block per work item (a chunk of up to
+/// Writes the pairs of every listed large Gaussian, one warp per work item (a chunk of up to
 /// kLargeChunkSlices consecutive slices of its tile walk; a persistent grid takes them in turn), so that a
-/// Gaussian covering the frame is written by many blocks at once: a block adds up the lengths of the slices
-/// before its chunk, a block scan places the chunk's slices, and each warp writes whole slices, a tile per
-/// lane. Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
+/// Gaussian covering the frame is written by many warps at once: a warp adds up the lengths of the slices
+/// before its chunk, a warp scan places the chunk's slices, and the warp writes each slice, a tile per lane.
+/// Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
 cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGaussianList& large,
                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
                                  uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);

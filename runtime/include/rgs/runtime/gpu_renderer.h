@@ -65,7 +65,7 @@ struct GpuRoofgsOptions {
   /// One fused kernel for preprocess + tile duplication + keys, pairs allocated in Gaussian order by a
   /// decoupled look-back (deterministic); off: separate preprocess, scan and duplicate kernels.
   bool fused_preprocess = true;
-  /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by thread blocks
+  /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by warps
   /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
   bool balanced_emission = true;
   /// With folded coefficients: each warp of the rasterizer skips the pairs that cannot reach alpha 1/255 on
