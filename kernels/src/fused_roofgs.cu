@@ -63,7 +63,8 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
 
 template <bool kCompact>
 __global__ void __launch_bounds__(kFusedBlockSize)
-    fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out, FusedScratch scratch, LargeGaussianList large, detail::PairSink sink) {
+    fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,
+                 FusedScratch scratch, LargeGaussianList large, detail::PairSink sink) {
   using BlockScan = cub::BlockScan<uint32_t, kFusedBlockSize>;
   __shared__ typename BlockScan::TempStorage scan_storage;
   __shared__ uint32_t block_id;
@@ -126,11 +127,9 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
   if (result != cudaSuccess || source.count == 0) return result;
   const detail::PairSink sink{capacity, keys64, keys32, values};
   if (roofgs.compact) {
-    fused_kernel<true><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large,
-                                                                  sink);
+    fused_kernel<true><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink);
   } else {
-    fused_kernel<false><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large,
-                                                                   sink);
+    fused_kernel<false><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink);
   }
   return detail::launch_result();
 }

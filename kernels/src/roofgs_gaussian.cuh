@@ -276,7 +276,8 @@ struct LongWalks {
 /// the time of all their slices in one thread or one warp. All threads of the block must call it; `active`
 /// false for a thread without a walk. Counts are integer sums, so the order of the atomics does not matter.
 template <int kThreads>
-__device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool active, LongWalks<kThreads>& shared) {
+__device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool active,
+                                                      LongWalks<kThreads>& shared) {
   const AccutileWalk& walk = tile_walk->walk;
   const uint32_t thread = threadIdx.x;
   const int slices = active ? walk.u_end - walk.u_first : 0;
