@@ -172,7 +172,7 @@ constexpr int kSoloSlices = 4;
 
 /// The tiles of a visible Gaussian as slices: AccuTile's walk (SnugBox + AccuTile), or the rows of its 3DGS
 /// rectangle. Emission order is slice by slice, ascending along each slice, which is the CPU reference's
-/// order (cpu_renderer.cpp for_each_tile_of) whether the slices are walked by one thread or by a block.
+/// order (cpu_renderer.cpp for_each_tile_of) whether the slices are walked by one thread or by warps.
 struct TileWalk {
   bool accutile;
   AccutileWalk walk;  ///< accutile only
@@ -366,8 +366,9 @@ __device__ inline TileWalk load_tile_walk(const RoofgsProjected& in, uint32_t g,
 }
 
 /// Emits the pairs of Gaussian g (kSerialTileLimit tiles or fewer) from this thread, or lists it for
-/// emit_large_gaussians, which spreads a large Gaussian over a thread block. Without the list, one thread
-/// would write a screen-filling Gaussian's 32,400 pairs at 4K while the rest of the GPU waits for it.
+/// emit_large_gaussians, which spreads a large Gaussian over warps, one per chunk of its walk. Without the
+/// list, one thread would write a screen-filling Gaussian's 32,400 pairs at 4K while the rest of the GPU
+/// waits for it. A Gaussian whose items do not all fit the list writes its pairs itself.
 __device__ inline void emit_or_defer(const TileWalk& walk, const PairSource& source, uint32_t tiles,
                                      const PairSink& sink, const LargeGaussianList& large, const FrameParams& frame,
                                      const RoofgsFrame& roofgs) {

@@ -213,11 +213,11 @@ TEST_CASE("sub-tile culling changes no output byte with SnugBox + AccuTile (flow
   }
 }
 
-TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaussians emitted by whole blocks") {
-  // Pairs of Gaussians above kSerialTileLimit tiles are written by a thread block together (a slice per
-  // thread, 128 slices per round); their positions and order must be the serial ones. The keys and values
-  // after the stable sort are therefore the CPU's TileBins exactly. Flowers has Gaussians covering the whole
-  // grid: at 4K that is 135 tile rows and at 8K 270, more than one round of slices.
+TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaussians emitted in chunks") {
+  // Pairs of Gaussians above kSerialTileLimit tiles are written a warp per chunk of 16 slices of their walk
+  // (each warp adds up the slices before its chunk); their positions and order must be the serial ones. The
+  // keys and values after the stable sort are therefore the CPU's TileBins exactly. Flowers has Gaussians
+  // covering the whole grid: at 4K that is 135 tile rows (9 chunks) and at 8K 270 (17).
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
@@ -258,7 +258,7 @@ TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaus
         REQUIRE_MESSAGE(downloaded.ok(), downloaded.to_string());
         MESSAGE(mode.name << std::string(fused ? " fused" : " separate") << " at " << cam.width << "x"
                           << cam.height << ": " << keys.size() << " pairs, largest Gaussian " << largest << " tiles");
-        CHECK(largest > kernels::kSerialTileLimit);  // the block path ran
+        CHECK(largest > kernels::kSerialTileLimit);  // the chunked path ran
         REQUIRE(keys.size() == bins->keys.size());
         CHECK(keys == bins->keys);
         CHECK(values == bins->values);

@@ -241,7 +241,8 @@ TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant passes
           ++cleared;
           for (int y = (q / 2) * 8; y < (q / 2) * 8 + 8; ++y) {
             for (int x = (q % 2) * 8; x < (q % 2) * 8 + 8; ++x) {
-              violations += kernels::fast_exp_alpha(kernels::folded_power(f, kernels::pixel_terms(x, y)), bias) >= 0.f;
+              const kernels::PixelTerms terms = kernels::pixel_terms(static_cast<float>(x), static_cast<float>(y));
+              violations += kernels::fast_exp_alpha(kernels::folded_power(f, terms), bias) >= 0.f;
             }
           }
         }

@@ -70,8 +70,8 @@ struct GaussianSource {
 };
 
 /// Pair emission (duplicate_roofgs and the fused kernel): a Gaussian with at most this many tiles is written
-/// by its own thread; a larger one is listed and written by emit_large_gaussians with a whole thread block,
-/// in the same positions and order.
+/// by its own thread; a larger one is listed and written by emit_large_gaussians, a warp per chunk of its
+/// walk, in the same positions and order.
 constexpr uint32_t kSerialTileLimit = 32;
 
 /// A large Gaussian's tile walk is listed in chunks of this many slices, a work item each.

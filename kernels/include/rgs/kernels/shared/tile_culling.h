@@ -114,7 +114,8 @@ RGS_HOST_DEVICE void ellipse_line_intersections(float s_uu, float s_uv, float de
 /// AccuTile's walk of one SnugBox: the box's tile rectangle cut into slices along its shorter side (tile
 /// rows when it has no more rows than columns, else columns). Axis u is the walked one (slice k covers tile
 /// u = k), v the other; `slice_span` gives the tiles of one slice, so slices can be walked in any order or
-/// in parallel (the fused kernel spreads a large Gaussian's slices over a thread block).
+/// in parallel (the preprocess counts long walks' slices over a thread block, emit_large_gaussians writes
+/// them a warp per chunk).
 struct AccutileWalk {
   bool walk_rows;               ///< u = y (slices are tile rows), else u = x
   int u_first, u_end;           ///< slices [u_first, u_end)
