@@ -34,9 +34,9 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs-serial --mode roofgs-tile)
-  # The ablation: every technique alone, all off, and the load balancing and sub-tile culling off (roofgs-serial,
-  # roofgs-tile, above).
+  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs-serial --mode roofgs-tile --mode roofgs-subtile)
+  # The ablation: every technique alone, all off, the load balancing off (roofgs-serial) and sub-tile culling
+  # off or on in every frame instead of chosen per frame (roofgs-tile, roofgs-subtile; above).
   ablation=("${modes[@]}" --mode roofgs-none --mode only-compact --mode only-fused --mode only-key32
             --mode only-snugbox --mode only-folded --mode only-fastexp)
   sizes=(--resolution 1920x1080 --resolution 3840x2160)
@@ -53,11 +53,14 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10
   # 542,104 x 4 = 2,168,416 Gaussians (converter::replicate, compact attributes kept); fewer repetitions.
   bench daffodils_x4 "$daffodils" --replicate 4 --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 3 --repeat 5
+  # 38,347 x 53 = 2,032,391 Gaussians seen from flowers' own cameras (its neighbours fill the background).
+  bench flowers_x53 "$flowers" --cameras "$cameras" --every 8 --replicate 53 "${sizes[@]}" "${modes[@]}" --warmup 2 \
+    --repeat 3
   # 7680x4320 (17 tile bits + 15 depth bits in the 32-bit key).
   bench flowers_8k "$flowers" --cameras "$cameras" --every 24 --resolution 7680x4320 "${modes[@]}" --warmup 2 \
     --repeat 3
   bench daffodils_8k "$daffodils" --orbit 4 --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3
-  for name in flowers daffodils daffodils_x4 flowers_8k daffodils_8k; do
+  for name in flowers daffodils daffodils_x4 flowers_x53 flowers_8k daffodils_8k; do
     # The tables without the progress lines ("... x N ...").
     grep -v -e ' \.\.\.$' "$out/bench_$name.log" | tee -a "$summary"
   done

@@ -13,7 +13,7 @@ bench="$stage/bin/rgs-bench"
 data="$stage/data"
 ncu="$(command -v ncu || echo /usr/local/cuda/bin/ncu)"
 # The frame's kernels (the device-peak kernels rgs-bench also runs are left out).
-frame_kernels='regex:fused|emit_large|render_|Onesweep|Histogram|Exclusive|ranges|depth|preprocess|duplicate'
+frame_kernels='regex:fused|emit_large|render_|Onesweep|Histogram|Exclusive|ranges|order_|preprocess|duplicate'
 full_kernels="${KERNELS:-regex:fused_kernel|emit_large|render_folded}"
 
 profile() {  # NAME ARGS...: one view at 3840x2160, one frame (no warm-up), every frame kernel timed

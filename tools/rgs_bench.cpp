@@ -96,7 +96,8 @@ const std::vector<BenchMode>& all_modes() {
       {"roofgs", "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused "
                  "kernel, 32-bit key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians "
                  "with many tiles emitted by warps (every RoofGS mode but roofgs-serial); sub-tile "
-                 "culling in the folded rasterizer (every mode with it but roofgs-tile)",
+                 "culling in the folded rasterizer chosen per frame (off when more than half the pairs belong "
+                 "to Gaussians with more than 32 tiles; every mode but roofgs-tile and roofgs-subtile)",
        [](const tools::LoadedGpuScene& scene) {
          return roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(), "roofgs");
        }},
@@ -120,7 +121,14 @@ const std::vector<BenchMode>& all_modes() {
        [](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
          auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
                                  "roofgs-tile");
-         if (o.ok()) o->roofgs.subtile_culling = false;
+         if (o.ok()) o->roofgs.subtile_culling = runtime::SubtileCulling::kOff;
+         return o;
+       }},
+      {"roofgs-subtile", "roofgs with sub-tile culling on in every frame",
+       [](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
+         auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
+                                 "roofgs-subtile");
+         if (o.ok()) o->roofgs.subtile_culling = runtime::SubtileCulling::kOn;
          return o;
        }},
       {"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)",
@@ -207,6 +215,8 @@ struct ViewResult {
   uint32_t width = 0, height = 0;
   uint64_t pairs = 0;
   uint64_t large_chunks = 0;    ///< GpuRenderStats::large_chunks
+  uint64_t large_pairs = 0;     ///< GpuRenderStats::large_pairs
+  bool subtile_culling = false; ///< GpuRenderStats::subtile_culling
   int sort_bits = 0;
   uint32_t tiles_x = 0, tiles_y = 0;
   std::vector<float> samples[kStages];  ///< one per repetition
@@ -293,6 +303,8 @@ Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runti
       ViewResult& vr = run.views[v];
       vr.pairs = stats->pairs;
       vr.large_chunks = stats->large_chunks;
+      vr.large_pairs = stats->large_pairs;
+      vr.subtile_culling = stats->subtile_culling;
       vr.sort_bits = stats->sort_bits;
       vr.tiles_x = stats->tiles_x;
       vr.tiles_y = stats->tiles_y;
@@ -599,6 +611,8 @@ int run(const Options& opt) {
                          {"width", v.width},
                          {"height", v.height},
                          {"pairs", v.pairs},
+                         {"large_pairs", v.large_pairs},
+                         {"subtile_culling", v.subtile_culling},
                          {"sort_bits", v.sort_bits},
                          {"median_total_ms", summarize(v.samples[4]).median},
                          {"samples", samples}});

@@ -93,7 +93,7 @@ FrameWork frame_work(const FrameWorkInputs& in) {
     // since a walk of at most 4 slices keeps its spans from the count for the emission (the longer walks'
     // second pass, a small share of the walks, is left out).
     const double slices = in.snugbox ? (in.fused ? 1.0 : 2.0) * std::sqrt(p * v) : 0.0;
-    // Large Gaussians (> 32 tiles), counted per work item (a chunk of up to 16 slices of a walk): a 16 B
+    // Large Gaussians (> 8 tiles), counted per work item (a chunk of up to 16 slices of a walk): a 16 B
     // list entry, then emit_large_gaussians reads the entry and means2d, cov2d, snug_t, radius, depth bin,
     // depth (52 B) and the 32 lanes of a warp rebuild the walk (tile rectangle, and the AccuTile setup); the
     // fused kernel's 20 B per large Gaussian are counted per item too (an upper bound); the slices are the
@@ -119,15 +119,14 @@ FrameWork frame_work(const FrameWorkInputs& in) {
     }
   }
 
-  // Sort: CUB onesweep over sort_bits bits, no FP32 arithmetic. Depth order with the 32-bit key adds
-  // order_equal_keys_by_depth: each pair's key, value in and value out (12P; the reads of tied runs and of
-  // their depths are left out).
-  w.stages[int(RooflineStage::kSort)].bytes =
-      sort_bytes(p, kb, in.sort_bits) + (key32 && in.depth_order ? 12 * p : 0.0);
+  // Sort: CUB onesweep over sort_bits bits, no FP32 arithmetic.
+  w.stages[int(RooflineStage::kSort)].bytes = sort_bytes(p, kb, in.sort_bits);
 
   // Ranges: clear 2 uint64 per tile (16T), read every sorted key (P·kb), write at most both ends of every
-  // tile's range (16T).
-  w.stages[int(RooflineStage::kRanges)].bytes = 16 * t + p * kb + 16 * t;
+  // tile's range (16T). Depth order with the 32-bit key does it in order_equal_keys_by_depth, which also
+  // reads and writes each value (8P; the reads inside runs of tied keys and their depths are left out).
+  w.stages[int(RooflineStage::kRanges)].bytes =
+      16 * t + p * kb + 16 * t + (key32 && in.depth_order ? 8 * p : 0.0);
 
   // Render: per pair its value (4) and the gathered per-Gaussian record — means2d 8, conic+opacity 16,
   // rgb 12, + ln o 4 (fast exp or folded), + depth 4 (depth plane) — each pair's record fetched once per

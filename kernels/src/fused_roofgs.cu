@@ -93,8 +93,13 @@ __global__ void __launch_bounds__(kFusedBlockSize)
     const unsigned long long exclusive = look_back(scratch.block_status, block, block_total);
     if (threadIdx.x == 0) {
       block_base = exclusive;
-      if (block == gridDim.x - 1) *scratch.total_pairs = exclusive + block_total;
+      if (block == gridDim.x - 1) scratch.totals[0] = exclusive + block_total;
     }
+  }
+  // Pairs of large Gaussians (totals[1]): a warp sum, one atomic per warp that has any.
+  const uint32_t large_tiles = __reduce_add_sync(0xffffffffu, p.tiles > kSubtileLargeTiles ? p.tiles : 0u);
+  if (large_tiles != 0 && threadIdx.x % 32 == 0) {
+    atomicAdd(&scratch.totals[1], static_cast<unsigned long long>(large_tiles));
   }
   __syncthreads();
   if (p.tiles == 0) return;
@@ -122,7 +127,7 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
   if (result == cudaSuccess) {
     result = cudaMemsetAsync(scratch.block_status, 0, sizeof(unsigned long long) * blocks, stream);
   }
-  if (result == cudaSuccess) result = cudaMemsetAsync(scratch.total_pairs, 0, sizeof(unsigned long long), stream);
+  if (result == cudaSuccess) result = cudaMemsetAsync(scratch.totals, 0, 2 * sizeof(unsigned long long), stream);
   if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
   if (result != cudaSuccess || source.count == 0) return result;
   const detail::PairSink sink{capacity, keys64, keys32, values};

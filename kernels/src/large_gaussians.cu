@@ -18,14 +18,15 @@ static_assert(kLargeChunkSlices <= 32, "a chunk's slices are measured one per la
 
 constexpr unsigned kAllLanes = 0xffffffffu;
 
-/// Writes the pairs of slices [chunk_first, chunk_first + kLargeChunkSlices) of one Gaussian's walk with the
+/// Writes the pairs of slices [chunk_first, chunk_first + chunk_slices) of one Gaussian's walk with the
 /// calling warp (every lane calls it with the same walk). The chunk's first position is the Gaussian's plus
 /// the lengths of the slices before the chunk (lanes take every 32nd slice, then a warp sum); lane i measures
-/// the chunk's slice i, a warp scan places them, and the warp writes each slice in turn, its lanes on
-/// consecutive tiles (coalesced stores). Positions and order equal emit_pairs_serial's.
-__device__ void emit_chunk_with_warp(const detail::TileWalk& walk, int chunk_first, const detail::PairSource& source,
-                                     const detail::PairSink& sink, const FrameParams& frame,
-                                     const RoofgsFrame& roofgs) {
+/// the chunk's slice i, a warp scan places them, and the warp writes the chunk's pairs 32 at a time, lanes on
+/// consecutive positions (coalesced stores) whatever the slices' lengths. Positions and order equal
+/// emit_pairs_serial's.
+__device__ void emit_chunk_with_warp(const detail::TileWalk& walk, int chunk_first, int chunk_slices,
+                                     const detail::PairSource& source, const detail::PairSink& sink,
+                                     const FrameParams& frame, const RoofgsFrame& roofgs) {
   const int lane = int(threadIdx.x % 32);
   const auto length_of = [&](int k, int* first) {
     int end = 0;
@@ -41,20 +42,30 @@ __device__ void emit_chunk_with_warp(const detail::TileWalk& walk, int chunk_fir
   const uint64_t chunk_base = source.offset + __reduce_add_sync(kAllLanes, before);
   const int k = chunk_first + lane;
   int first = 0;
-  const uint32_t length = lane < int(kLargeChunkSlices) && k < walk.slice_end() ? length_of(k, &first) : 0u;
+  const uint32_t length = lane < chunk_slices && k < walk.slice_end() ? length_of(k, &first) : 0u;
   uint32_t inclusive = length;
   for (int offset = 1; offset < 32; offset *= 2) {
     const uint32_t up = __shfl_up_sync(kAllLanes, inclusive, offset);
     if (lane >= offset) inclusive += up;
   }
   const uint32_t exclusive = inclusive - length;
-  const int slices = min(int(kLargeChunkSlices), walk.slice_end() - chunk_first);
-  for (int s = 0; s < slices; ++s) {
+  const uint32_t total = __shfl_sync(kAllLanes, inclusive, 31);
+  // The chunk's pairs laid end to end, 32 per step: lane i writes pair f = step + i, found in slice s (its
+  // cursor only moves forward, since f does), so short slices do not leave lanes idle.
+  int s = 0;
+  for (uint32_t step = 0; step < total; step += 32) {
+    const uint32_t f = step + uint32_t(lane);
+    for (;;) {  // advance s while pair f lies past slice s (lanes past `total` stay put)
+      const uint32_t next_start = __shfl_sync(kAllLanes, exclusive, min(s + 1, 31));
+      const bool advance = f < total && s + 1 < chunk_slices && f >= next_start;
+      if (!__any_sync(kAllLanes, advance)) break;
+      if (advance) ++s;
+    }
     const int slice_first = __shfl_sync(kAllLanes, first, s);
-    const uint32_t slice_length = __shfl_sync(kAllLanes, length, s);
-    const uint64_t at = chunk_base + __shfl_sync(kAllLanes, exclusive, s);
-    for (uint32_t i = uint32_t(lane); i < slice_length; i += 32) {
-      sink.write(at + i, walk.tile(chunk_first + s, slice_first + int(i), frame.tiles_x), source, roofgs);
+    const uint32_t slice_start = __shfl_sync(kAllLanes, exclusive, s);
+    if (f < total) {
+      sink.write(chunk_base + f, walk.tile(chunk_first + s, slice_first + int(f - slice_start), frame.tiles_x),
+                 source, roofgs);
     }
   }
 }
@@ -71,7 +82,7 @@ __global__ void __launch_bounds__(kLargeBlockSize)
     // Every lane rebuilds the same walk from the same stored inputs.
     const detail::TileWalk walk = detail::load_tile_walk(in, item.g, frame, roofgs);
     const detail::PairSource source{item.g, in.depth_bins[item.g], in.depths[item.g], item.offset};
-    emit_chunk_with_warp(walk, walk.slice_begin() + int(item.chunk * kLargeChunkSlices), source, sink, frame,
+    emit_chunk_with_warp(walk, walk.slice_begin() + int(item.first_slice), int(item.slices), source, sink, frame,
                          roofgs);
   }
 }

@@ -7,13 +7,19 @@ namespace {
 
 template <bool kCompact>
 __global__ void __launch_bounds__(detail::kBlockSize)
-    preprocess_roofgs_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out) {
+    preprocess_roofgs_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,
+                             unsigned long long* large_pairs) {
   const uint32_t g = blockIdx.x * blockDim.x + threadIdx.x;
   detail::ProjectedRegs p{};
   detail::TileWalk walk{};
   __shared__ detail::LongWalks<detail::kBlockSize> long_walks;
   // Every thread takes part: the long walks' tile counts are shared by the block.
   const bool visible = detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk);
+  // Pairs of large Gaussians: a warp sum, one atomic per warp that has any.
+  const uint32_t large_tiles = __reduce_add_sync(0xffffffffu, p.tiles > kSubtileLargeTiles ? p.tiles : 0u);
+  if (large_tiles != 0 && threadIdx.x % 32 == 0) {
+    atomicAdd(large_pairs, static_cast<unsigned long long>(large_tiles));
+  }
   if (g >= src.count) return;
   if (!visible) {
     out.radii[g] = 0;
@@ -42,13 +48,16 @@ __global__ void __launch_bounds__(detail::kBlockSize)
 }  // namespace
 
 cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& frame, const RoofgsFrame& roofgs,
-                              const RoofgsProjected& out, cudaStream_t stream) {
-  if (source.count == 0) return cudaSuccess;
+                              const RoofgsProjected& out, unsigned long long* large_pairs, cudaStream_t stream) {
+  const cudaError_t zeroed = cudaMemsetAsync(large_pairs, 0, sizeof(*large_pairs), stream);
+  if (zeroed != cudaSuccess || source.count == 0) return zeroed;
   const unsigned blocks = detail::blocks_for(source.count);
   if (roofgs.compact) {
-    preprocess_roofgs_kernel<true><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out);
+    preprocess_roofgs_kernel<true><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out,
+                                                                              large_pairs);
   } else {
-    preprocess_roofgs_kernel<false><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out);
+    preprocess_roofgs_kernel<false><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out,
+                                                                               large_pairs);
   }
   return detail::launch_result();
 }

@@ -373,13 +373,16 @@ __device__ inline void emit_or_defer(const TileWalk& walk, const PairSource& sou
                                      const PairSink& sink, const LargeGaussianList& large, const FrameParams& frame,
                                      const RoofgsFrame& roofgs) {
   if (tiles > kSerialTileLimit && large.capacity > 0) {
-    const uint32_t chunks = (uint32_t(walk.slice_end() - walk.slice_begin()) + kLargeChunkSlices - 1) /
-                            kLargeChunkSlices;
+    const uint32_t slices = uint32_t(walk.slice_end() - walk.slice_begin());
+    const uint32_t per_chunk = large_chunk_slices(slices, tiles);
+    const uint32_t chunks = (slices + per_chunk - 1) / per_chunk;
     const unsigned long long i = atomicAdd(large.count, static_cast<unsigned long long>(chunks));
     const bool fits = i + chunks <= large.capacity;
     // Items of a Gaussian that does not fit whole are marked unused, and its thread writes the pairs itself.
     for (uint32_t c = 0; c < chunks && i + c < large.capacity; ++c) {
-      large.items[i + c] = LargeGaussian{source.offset, fits ? source.g : kNoLargeGaussian, c};
+      const uint32_t first = c * per_chunk;
+      large.items[i + c] = LargeGaussian{source.offset, fits ? source.g : kNoLargeGaussian, uint16_t(first),
+                                         uint16_t(min(per_chunk, slices - first))};
     }
     if (fits) return;
   }

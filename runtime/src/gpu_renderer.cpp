@@ -13,6 +13,13 @@
 namespace rgs::runtime {
 namespace {
 
+/// Counts a frame reads back before its sort: its pairs and, for RoofGS, those of the Gaussians with more than
+/// kernels::kSubtileLargeTiles tiles (0 for the baseline).
+struct FrameCounts {
+  uint64_t pairs = 0;
+  uint64_t large_pairs = 0;
+};
+
 /// Largest image side the renderer accepts (validate_camera's bound as well).
 constexpr uint32_t kMaxImageSide = 32768;
 
@@ -95,7 +102,9 @@ struct GpuRenderer::Buffers {
   // Gaussians with many tiles, emitted a warp per chunk of their walks: the work list and its count.
   DeviceBuffer<kernels::LargeGaussian> large_items;
   DeviceBuffer<unsigned long long> large_count;
-  // Fused kernel scratch: ticket, one status word per block, pair total.
+  // Pairs of the large Gaussians (separate stages; the fused kernel counts them in fused_total[1]).
+  DeviceBuffer<unsigned long long> large_pairs;
+  // Fused kernel scratch: ticket, one status word per block, pair totals (all pairs, large Gaussians' pairs).
   DeviceBuffer<uint32_t> fused_ticket;
   DeviceBuffer<unsigned long long> fused_status, fused_total;
   // Per pair (64-bit keys for the baseline and key32 off, 32-bit keys otherwise).
@@ -106,7 +115,7 @@ struct GpuRenderer::Buffers {
   DeviceBuffer<uint8_t> sort_temp;
   // Per tile: [begin, end) pairs.
   DeviceBuffer<uint64_t> ranges;
-  // Pair count read back from the device.
+  // Counts read back from the device: the pair count and (RoofGS) the large Gaussians' pairs.
   PinnedBuffer pair_count;
   // The last frame's pairs, key width and where its final values are (download_sorted_pairs).
   uint64_t last_pairs = 0;
@@ -141,9 +150,10 @@ struct GpuRenderer::Buffers {
   uint64_t bytes() const {
     return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + log_opacities.bytes() +
            cov2d.bytes() + snug_t.bytes() + radii.bytes() + depth_bins.bytes() + tiles_touched.bytes() +
-           offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + fused_ticket.bytes() +
-           fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() + keys32.bytes() +
-           keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() + ranges.bytes();
+           offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + large_pairs.bytes() +
+           fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() +
+           keys32.bytes() + keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() +
+           ranges.bytes();
   }
 
   /// Per-Gaussian arrays both pipelines use.
@@ -184,8 +194,9 @@ struct GpuRenderer::Buffers {
     return grown;
   }
 
-  /// Inclusive scan of tiles_touched into offsets, and the pair count read back to the host (one wait).
-  Result<uint64_t> scan_and_count(uint32_t n, cudaStream_t stream) {
+  /// Inclusive scan of tiles_touched into offsets, and the pair count read back to the host (one wait), with
+  /// the counter at `second` (device uint64, or null) read in the same wait.
+  Result<FrameCounts> scan_and_count(uint32_t n, const void* second, cudaStream_t stream) {
     size_t scan_bytes = 0;
     RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(nullptr, &scan_bytes, tiles_touched.data(), offsets.data(), n,
                                                      stream),
@@ -195,23 +206,34 @@ struct GpuRenderer::Buffers {
     RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(scan_temp.data(), &scan_bytes, tiles_touched.data(),
                                                      offsets.data(), n, stream),
                              "GpuRenderer: offset scan");
-    return read_back(offsets.data() + (n - 1), stream);
+    return read_back(offsets.data() + (n - 1), second, stream);
   }
 
-  /// Reads one uint64 from the device (waits for the stream).
-  Result<uint64_t> read_back(const void* device_value, cudaStream_t stream) {
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(pair_count.data(), device_value, sizeof(uint64_t),
-                                             cudaMemcpyDeviceToHost, stream),
+  /// Reads the uint64 at `first` and, unless null, the one at `second` from the device (waits for the stream).
+  Result<FrameCounts> read_back(const void* first, const void* second, cudaStream_t stream) {
+    auto* host = static_cast<uint64_t*>(pair_count.data());
+    host[1] = 0;
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host, first, sizeof(uint64_t), cudaMemcpyDeviceToHost, stream),
                              "GpuRenderer: pair count read-back");
+    if (second != nullptr) {
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host + 1, second, sizeof(uint64_t), cudaMemcpyDeviceToHost, stream),
+                               "GpuRenderer: pair count read-back");
+    }
     RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: preprocess");
-    return *static_cast<const uint64_t*>(pair_count.data());
+    return FrameCounts{host[0], host[1]};
   }
 
-  /// Reads one uint64 from the device once `event` (recorded on the render stream) has completed, on
-  /// readback_stream: work enqueued on the render stream after the event keeps running meanwhile.
-  Result<uint64_t> read_back_at(const void* device_value, cudaEvent_t event) {
+  /// Reads the two adjacent uint64 at `device_values` once `event` (recorded on the render stream) has
+  /// completed, on readback_stream: work enqueued on the render stream after the event keeps running
+  /// meanwhile.
+  Result<FrameCounts> read_back_at(const unsigned long long* device_values, cudaEvent_t event) {
     RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(readback_stream, event, 0), "GpuRenderer: read-back wait");
-    return read_back(device_value, readback_stream);
+    auto* host = static_cast<uint64_t*>(pair_count.data());
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host, device_values, 2 * sizeof(uint64_t), cudaMemcpyDeviceToHost,
+                                             readback_stream),
+                             "GpuRenderer: pair count read-back");
+    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(readback_stream), "GpuRenderer: preprocess");
+    return FrameCounts{host[0], host[1]};
   }
 
   kernels::ProjectedArrays projected() const {
@@ -244,7 +266,7 @@ struct GpuRenderer::Buffers {
 Result<GpuRenderer> GpuRenderer::create() {
   GpuRenderer renderer;
   renderer.buffers_ = std::make_unique<Buffers>();
-  RGS_RETURN_IF_ERROR(renderer.buffers_->pair_count.reserve(sizeof(uint64_t), "GpuRenderer: pair count"));
+  RGS_RETURN_IF_ERROR(renderer.buffers_->pair_count.reserve(2 * sizeof(uint64_t), "GpuRenderer: pair count"));
   Buffers& b = *renderer.buffers_;
   for (cudaEvent_t& e : b.events) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventCreate(&e), "GpuRenderer: cudaEventCreate");
@@ -356,7 +378,8 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
     RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), frame, b.projected(), stream),
                              "GpuRenderer: preprocess kernel");
-    RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));
+    RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, nullptr, stream));
+    pairs = counts.pairs;
   }
   stats->pairs = pairs;
   if (pairs > 0) {
@@ -435,10 +458,11 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   if (scene.has_compact()) source.compact = scene.compact();
   source.count = n;
 
-  uint64_t pairs = 0;
+  uint64_t pairs = 0, large_pairs = 0;
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
     RGS_RETURN_IF_ERROR(b.log_opacities.reserve(n, "GpuRenderer: log opacities"));
+    RGS_RETURN_IF_ERROR(b.large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
     // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
     RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
     RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
@@ -456,7 +480,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       const uint32_t blocks = kernels::fused_blocks(n);
       RGS_RETURN_IF_ERROR(b.fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
       RGS_RETURN_IF_ERROR(b.fused_status.reserve(blocks, "GpuRenderer: fused block status"));
-      RGS_RETURN_IF_ERROR(b.fused_total.reserve(1, "GpuRenderer: fused pair total"));
+      RGS_RETURN_IF_ERROR(b.fused_total.reserve(2, "GpuRenderer: fused pair totals"));
       const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
       // Capacity: what the pair buffers hold now (sized by earlier frames), at least 4 pairs per Gaussian.
       uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 4);
@@ -473,7 +497,9 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                                                b.keys32.data(), b.values.data(), stream),
                                  "GpuRenderer: large Gaussian kernel");
         // The total is final when the fused kernel ends; read it while the large-Gaussian kernel runs.
-        RGS_ASSIGN_OR_RETURN(pairs, b.read_back_at(b.fused_total.data(), b.fused_done));
+        RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.read_back_at(b.fused_total.data(), b.fused_done));
+        pairs = counts.pairs;
+        large_pairs = counts.large_pairs;
         if (pairs <= capacity) break;
         RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
                             "GpuRenderer: fused kernel pair count changed between identical runs");
@@ -481,9 +507,11 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
         ++stats->fused_relaunches;
       }
     } else {
-      RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, projected, stream),
+      RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, projected, b.large_pairs.data(), stream),
                                "GpuRenderer: preprocess kernel");
-      RGS_ASSIGN_OR_RETURN(pairs, b.scan_and_count(n, stream));
+      RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, b.large_pairs.data(), stream));
+      pairs = counts.pairs;
+      large_pairs = counts.large_pairs;
       if (pairs > 0) {
         RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, key_bits, stream));
         RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
@@ -498,10 +526,10 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     }
   }
   stats->pairs = pairs;
+  stats->large_pairs = large_pairs;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
 
-  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)); with depth
-  // order and key32, the ties put in exact depth order (into `values`, free once sorted).
+  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
   if (pairs > 0) {
     size_t sort_bytes = b.sort_temp.bytes();
     const cudaError_t sorted =
@@ -510,25 +538,33 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                 : kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(), b.keys64_sorted.data(),
                                       b.values.data(), b.values_sorted.data(), pairs, 0, key_bits, stream);
     RGS_RETURN_IF_CUDA_ERROR(sorted, "GpuRenderer: radix sort");
-    if (reorder_ties) {
-      RGS_RETURN_IF_CUDA_ERROR(kernels::order_equal_keys_by_depth(b.keys32_sorted.data(), b.values_sorted.data(),
-                                                                  b.depths.data(), pairs, b.values.data(), stream),
-                               "GpuRenderer: depth order kernel");
-      b.last_values_reordered = true;
-    }
   }
-  const uint32_t* sorted_values = reorder_ties ? b.values.data() : b.values_sorted.data();
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
 
+  // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order
+  // (into `values`, free once sorted).
   RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
-  const cudaError_t ranged =
-      t.key32 ? kernels::tile_ranges(b.keys32_sorted.data(), pairs, rf.key_depth_bits, num_tiles, b.ranges.data(),
-                                     stream)
-              : kernels::tile_ranges(b.keys64_sorted.data(), pairs, 32, num_tiles, b.ranges.data(), stream);
-  RGS_RETURN_IF_CUDA_ERROR(ranged, "GpuRenderer: tile ranges kernel");
+  if (reorder_ties) {
+    RGS_RETURN_IF_CUDA_ERROR(kernels::order_equal_keys_by_depth(b.keys32_sorted.data(), b.values_sorted.data(),
+                                                                b.depths.data(), pairs, rf.key_depth_bits, num_tiles,
+                                                                b.values.data(), b.ranges.data(), stream),
+                             "GpuRenderer: depth order kernel");
+    b.last_values_reordered = true;
+  } else {
+    const cudaError_t ranged =
+        t.key32 ? kernels::tile_ranges(b.keys32_sorted.data(), pairs, rf.key_depth_bits, num_tiles,
+                                       b.ranges.data(), stream)
+                : kernels::tile_ranges(b.keys64_sorted.data(), pairs, 32, num_tiles, b.ranges.data(), stream);
+    RGS_RETURN_IF_CUDA_ERROR(ranged, "GpuRenderer: tile ranges kernel");
+  }
+  const uint32_t* sorted_values = reorder_ties ? b.values.data() : b.values_sorted.data();
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
 
-  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, options.subtile_culling};
+  const bool subtile = options.subtile_culling == SubtileCulling::kOn ||
+                       (options.subtile_culling == SubtileCulling::kAuto &&
+                        double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs));
+  stats->subtile_culling = t.folded_coefficients && subtile;
+  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile};
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), sorted_values, b.roofgs_projected(), frame, rf,
                                                   raster, image->view(), stream),
                            "GpuRenderer: render kernel");

@@ -172,8 +172,9 @@ TEST_CASE("sub-tile culling changes no output byte with SnugBox + AccuTile (flow
     plus.depth_order = true;
     for (const RoofgsOptions& techniques : {RoofgsOptions::all(), plus, folded_only}) {
       GpuRenderOptions culled = roofgs_options(techniques, scene.has_compact());
+      culled.roofgs.subtile_culling = runtime::SubtileCulling::kOn;
       GpuRenderOptions whole_tile = culled;
-      whole_tile.roofgs.subtile_culling = false;
+      whole_tile.roofgs.subtile_culling = runtime::SubtileCulling::kOff;
       for (const Camera& cam : cams) {
         CAPTURE(cam.name);
         CAPTURE(cam.width);
@@ -181,6 +182,8 @@ TEST_CASE("sub-tile culling changes no output byte with SnugBox + AccuTile (flow
         CAPTURE(techniques.depth_order);
         const GpuFrame a = render_gpu(*renderer, scene, cam, culled, true);
         const GpuFrame b = render_gpu(*renderer, scene, cam, whole_tile, true);
+        CHECK(a.stats.subtile_culling);
+        CHECK_FALSE(b.stats.subtile_culling);
         CHECK(a.stats.pairs == b.stats.pairs);
         if (techniques.snugbox_accutile) {
           CHECK(same_bits(a.rgba, b.rgba));
@@ -199,17 +202,28 @@ TEST_CASE("sub-tile culling changes no output byte with SnugBox + AccuTile (flow
       }
     }
   };
+  // The automatic choice (the default): off where large Gaussians hold most pairs (flowers: 89-92 % at 4K),
+  // on where they hold few (daffodils: 5 %).
+  const auto automatic = [&](const runtime::GpuScene& scene, const Camera& cam) {
+    const GpuFrame frame = render_gpu(*renderer, scene, cam, roofgs_options(RoofgsOptions::all(), true), false);
+    MESSAGE(cam.name << " at " << cam.width << "x" << cam.height << ": " << frame.stats.large_pairs << " of "
+                     << frame.stats.pairs << " pairs from large Gaussians, sub-tile culling "
+                     << std::string(frame.stats.subtile_culling ? "on" : "off"));
+    return frame.stats.subtile_culling;
+  };
   const GpuScenePair& flowers = flowers_rgs();
   if (flowers.available) {
     std::vector<Camera> cams = flowers_cameras(flowers.cameras_path, 60, 1920, 1080);
     cams.push_back(flowers_cameras(flowers.cameras_path, 1000, 3840, 2160)[0]);
     check_scene(*flowers.gpu, cams);
+    CHECK_FALSE(automatic(*flowers.gpu, cams.back()));
   }
   const GpuScenePair& daffodils_scene = daffodils();
   if (daffodils_scene.available) {
     auto cams = runtime::orbit_cameras(daffodils_scene.bounds, 4, 3840, 2160);
     REQUIRE(cams.ok());
     check_scene(*daffodils_scene.gpu, {(*cams)[0], (*cams)[1]});
+    CHECK(automatic(*daffodils_scene.gpu, (*cams)[0]));
   }
 }
 
@@ -249,9 +263,19 @@ TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaus
       for (const auto& g : projected) largest = std::max(largest, g.tiles_touched);
       auto bins = runtime::bin_and_sort_cpu(projected, *setup, cpu_options);
       REQUIRE_MESSAGE(bins.ok(), bins.status().to_string());
+      // Pairs of the Gaussians above kSubtileLargeTiles tiles: what the preprocess counts for SubtileCulling::kAuto.
+      uint64_t large_pairs = 0;
+      for (const auto& g : projected) {
+        if (g.tiles_touched > kernels::kSubtileLargeTiles) large_pairs += g.tiles_touched;
+      }
+      const double pairs = double(bins->keys.size());
+      const bool auto_subtile = double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * pairs;
       for (bool fused : {true, false}) {
         CAPTURE(fused);
-        render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, fused), false);
+        const GpuFrame frame =
+            render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, fused), false);
+        CHECK(frame.stats.large_pairs == large_pairs);
+        CHECK(frame.stats.subtile_culling == (mode.techniques.folded_coefficients && auto_subtile));
         std::vector<uint64_t> keys;
         std::vector<uint32_t> values;
         const Status downloaded = rig.renderer.download_sorted_pairs(&keys, &values);
@@ -263,6 +287,78 @@ TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaus
         CHECK(keys == bins->keys);
         CHECK(values == bins->values);
       }
+    }
+  }
+}
+
+TEST_CASE("depth order orders runs of tied keys of every length, across thread blocks, and writes the ranges") {
+  // order_equal_keys_by_depth ranks each pair of a run of tied keys over the whole run, wherever the run's
+  // ends lie, and writes the tile ranges. Real scenes tie in runs of at most ~7 pairs; here three clusters of
+  // Gaussians in front of a 64x64 camera (16 tiles, 28 depth bits of 3.9e-7 units) give runs of ~200 (1,000
+  // Gaussians 2e-6 deep; some longer than a 256-thread block), of ~10 (2,000 Gaussians 5e-5 deep) and of 1–2
+  // (4,000 Gaussians 3e-3 deep), with indices in no depth order. The frame must also equal the baseline's.
+  if (!have_gpu()) return;
+  format::GaussianCloud cloud;
+  cloud.sh_degree = 0;
+  uint32_t hash = 12345;
+  const auto next = [&hash] {  // xorshift32 in [0, 1)
+    hash ^= hash << 13;
+    hash ^= hash >> 17;
+    hash ^= hash << 5;
+    return float(hash >> 8) / float(1u << 24);
+  };
+  for (int i = 0; i < 7000; ++i) {
+    const float z = i % 7 == 3 ? 6.f + 2e-6f * next() : i % 7 < 3 ? 5.5f + 5e-5f * next() : 5.f + 3e-3f * next();
+    add_gaussian(&cloud, 0.02f * (next() - 0.5f), 0.02f * (next() - 0.5f), z, 1.f, 0.5f + 0.4f * next(),
+                 next() - 0.5f, next() - 0.5f, next() - 0.5f);
+  }
+  // Out of view, they widen the scene's bounding sphere and hence each depth bin.
+  add_gaussian(&cloud, -100.f, 0.f, 5.f, 0.1f, 0.5f, 0.f, 0.f, 0.f);
+  add_gaussian(&cloud, 100.f, 0.f, 5.f, 0.1f, 0.5f, 0.f, 0.f, 0.f);
+  const format::SceneBounds bounds = converter::compute_bounds(cloud);
+  auto scene = runtime::GpuScene::from_cloud(cloud, bounds);
+  REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
+  auto renderer = runtime::GpuRenderer::create();
+  REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
+  const Camera cam = identity_camera(64, 64, 60.f);
+  RoofgsOptions key_only;
+  key_only.key32 = true;
+  key_only.depth_order = true;
+  RoofgsOptions all = RoofgsOptions::all();
+  all.depth_order = true;
+  for (const RoofgsOptions& techniques : {key_only, all}) {
+    CAPTURE(techniques.snugbox_accutile);
+    runtime::RenderOptions cpu_options;
+    cpu_options.scene_bounds = bounds;
+    cpu_options.roofgs = techniques;
+    auto setup = runtime::setup_frame(cloud, cam, cpu_options);
+    REQUIRE_MESSAGE(setup.ok(), setup.status().to_string());
+    runtime::RenderStats cpu_stats;
+    const auto projected = runtime::preprocess_cpu(cloud, cam, *setup, cpu_options, &cpu_stats);
+    auto bins = runtime::bin_and_sort_cpu(projected, *setup, cpu_options);
+    REQUIRE_MESSAGE(bins.ok(), bins.status().to_string());
+    // Runs of tied keys in the reference: both paths of the pass must be taken.
+    size_t longest = 0, short_runs = 0;
+    for (size_t a = 0, b = 0; a < bins->keys.size(); a = b) {
+      for (b = a + 1; b < bins->keys.size() && bins->keys[b] == bins->keys[a];) ++b;
+      longest = std::max(longest, b - a);
+      short_runs += b - a > 1 && b - a <= 32;
+    }
+    const GpuFrame frame = render_gpu(*renderer, *scene, cam, roofgs_options(techniques, false), false);
+    std::vector<uint64_t> keys;
+    std::vector<uint32_t> values;
+    const Status downloaded = renderer->download_sorted_pairs(&keys, &values);
+    REQUIRE_MESSAGE(downloaded.ok(), downloaded.to_string());
+    MESSAGE("depth order, synthetic runs: " << keys.size() << " pairs, " << short_runs
+                                            << " runs of 2-32 tied keys, longest run " << longest);
+    CHECK(longest > 256);
+    CHECK(short_runs > 100);
+    REQUIRE(keys.size() == bins->keys.size());
+    CHECK(keys == bins->keys);
+    CHECK(values == bins->values);
+    if (!techniques.snugbox_accutile) {  // the 32-bit key + depth order alone: the baseline's frame, bit for bit
+      const GpuFrame base = render_gpu(*renderer, *scene, cam, GpuRenderOptions{}, false);
+      CHECK(same_bits(frame.rgba, base.rgba));
     }
   }
 }

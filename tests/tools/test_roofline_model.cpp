@@ -139,11 +139,12 @@ TEST_CASE("roofline model: separate stages, FP32 attributes, depth order") {
   CHECK(stage(w, RooflineStage::kPreprocess).flops == 29900);
   // 8P + 5 · 2 · 12P.
   CHECK(stage(w, RooflineStage::kSort).bytes == 51200);
-  // 32-bit keys over 32 bits: 4P + 4 · 2 · 8P, and 12P for the depth order pass.
+  // 32-bit keys over 32 bits: 4P + 4 · 2 · 8P; the ranges with the depth order pass: 16T + 4P + 16T + 8P.
   in.key32 = true;
   in.sort_bits = 32;
   const FrameWork w32 = frame_work(in);
-  CHECK(stage(w32, RooflineStage::kSort).bytes == 1600 + 25600 + 4800);
+  CHECK(stage(w32, RooflineStage::kSort).bytes == 1600 + 25600);
+  CHECK(stage(w32, RooflineStage::kRanges).bytes == 256 + 1600 + 256 + 3200);
   // P(4 + 36) + 16T + 16X; 256 · 33 per pair.
   CHECK(stage(w, RooflineStage::kRender).bytes == 16000 + 256 + 65536);
   CHECK(stage(w, RooflineStage::kRender).flops == 400.0 * 256 * 33);

@@ -65,7 +65,8 @@ cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint32_t* keys_in, 
 
 /// Stage 4 (3DGS identifyTileRanges): ranges[2·t], ranges[2·t + 1] = [begin, end) of tile t's pairs in the
 /// sorted keys, tile = key >> tile_shift (32 for the 64-bit key, b_d for the 32-bit one). `ranges` holds
-/// 2·num_tiles entries and is zeroed here first, so tiles without pairs get [0, 0).
+/// 2·num_tiles entries and is zeroed here first, so tiles without pairs get [0, 0). `sorted_keys` must be
+/// 16-byte aligned (as cudaMalloc returns; read 16 bytes at a time), else cudaErrorMisalignedAddress.
 cudaError_t tile_ranges(const uint64_t* sorted_keys, uint64_t count, int tile_shift, uint32_t num_tiles,
                         uint64_t* ranges, cudaStream_t stream);
 cudaError_t tile_ranges(const uint32_t* sorted_keys, uint64_t count, int tile_shift, uint32_t num_tiles,

@@ -10,7 +10,8 @@
 //   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs
 //   emit_large_gaussians     pairs of the Gaussians with many tiles, a warp per chunk (after either)
 //   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
-//   [order_equal_keys_by_depth]  optional with the 32-bit key: tied keys in exact depth order (RoofGS+)
+//   [order_equal_keys_by_depth]  optional with the 32-bit key: tied keys in exact depth order, and the
+//                            ranges (RoofGS+; replaces tile_ranges)
 //   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
 //                            the fast exp
 #pragma once
@@ -72,17 +73,30 @@ struct GaussianSource {
 /// Pair emission (duplicate_roofgs and the fused kernel): a Gaussian with at most this many tiles is written
 /// by its own thread; a larger one is listed and written by emit_large_gaussians, a warp per chunk of its
 /// walk, in the same positions and order.
-constexpr uint32_t kSerialTileLimit = 32;
+constexpr uint32_t kSerialTileLimit = 8;
 
-/// A large Gaussian's tile walk is listed in chunks of this many slices, a work item each.
+/// A large Gaussian's tile walk is listed in chunks of consecutive slices, a work item each: at most
+/// kLargeChunkSlices slices (a warp measures one per lane) and about kLargeChunkPairs pairs, so that the
+/// longest item — the critical path of emit_large_gaussians — stays short where slices are long (the
+/// Gaussian covering flowers at 4K: 135 slices of 240 tiles, 135 items of one slice instead of 9 of 16).
 constexpr uint32_t kLargeChunkSlices = 16;
+constexpr uint32_t kLargeChunkPairs = 256;
 
-/// One work item of emit_large_gaussians: chunk `chunk` (slices [first + 16·chunk, first + 16·chunk + 16) of
-/// the walk) of a Gaussian with more than kSerialTileLimit tiles.
+/// Slices per chunk of a walk of `slices` slices and `tiles` tiles (both ≥ 1):
+/// clamp(floor(kLargeChunkPairs · slices / tiles), 1, kLargeChunkSlices). A chunk then holds
+/// kLargeChunkPairs / 2 to kLargeChunkPairs pairs on average, or kLargeChunkSlices slices, or one slice.
+RGS_HOST_DEVICE uint32_t large_chunk_slices(uint32_t slices, uint32_t tiles) {
+  const uint64_t by_pairs = uint64_t(kLargeChunkPairs) * slices / tiles;
+  return by_pairs < 1 ? 1u : by_pairs > kLargeChunkSlices ? kLargeChunkSlices : uint32_t(by_pairs);
+}
+
+/// One work item of emit_large_gaussians: slices [walk's first + first_slice, + slices) of a Gaussian with
+/// more than kSerialTileLimit tiles (slices ≤ kLargeChunkSlices; a walk has at most 2,048 slices).
 struct LargeGaussian {
   uint64_t offset;  ///< position of the Gaussian's first pair
   uint32_t g;       ///< Gaussian id, or kNoLargeGaussian for an unused item
-  uint32_t chunk;
+  uint16_t first_slice;
+  uint16_t slices;
 };
 constexpr uint32_t kNoLargeGaussian = 0xffffffffu;
 
@@ -96,25 +110,27 @@ struct LargeGaussianList {
 };
 
 /// List capacity for a frame of `gaussians` Gaussians and at most `pairs` pairs: one item per Gaussian plus
-/// one per kLargeChunkSlices pairs covers every walk whose slices all hold a tile (an AccuTile slice clipped
+/// one per kLargeChunkSlices pairs covers every walk whose slices all hold a tile (a chunk of fewer than
+/// kLargeChunkSlices slices holds at least kLargeChunkPairs / 2 pairs on average; an AccuTile slice clipped
 /// by the grid can be empty, hence the serial fallback).
 inline uint64_t large_list_capacity(uint32_t gaussians, uint64_t pairs) {
   return uint64_t(gaussians) + pairs / kLargeChunkSlices + 1;
 }
 
-/// Writes the pairs of every listed large Gaussian, one warp per work item (a chunk of up to
-/// kLargeChunkSlices consecutive slices of its tile walk; a persistent grid takes them in turn), so that a
-/// Gaussian covering the frame is written by many warps at once: a warp adds up the lengths of the slices
-/// before its chunk, a warp scan places the chunk's slices, and the warp writes each slice, a tile per lane.
+/// Writes the pairs of every listed large Gaussian, one warp per work item (a chunk of consecutive slices of
+/// its tile walk; a persistent grid takes them in turn), so that a Gaussian covering the frame is written by
+/// many warps at once: a warp adds up the lengths of the slices before its chunk, a warp scan places the
+/// chunk's slices, and the warp writes the chunk's pairs, one per lane.
 /// Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
 cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGaussianList& large,
                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
                                  uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
 
 /// Preprocess (separate stages). Thread g writes Gaussian g's per-Gaussian outputs and its tile count
-/// tiles_touched[g] (0 when culled).
+/// tiles_touched[g] (0 when culled); *large_pairs ([1], zeroed here) receives the pairs of the Gaussians with
+/// more than kSubtileLargeTiles tiles, as FusedScratch::totals[1].
 cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& frame, const RoofgsFrame& roofgs,
-                              const RoofgsProjected& out, cudaStream_t stream);
+                              const RoofgsProjected& out, unsigned long long* large_pairs, cudaStream_t stream);
 
 /// Duplication (separate stages). Thread g writes Gaussian g's pairs at [offsets[g−1], offsets[g])
 /// (inclusive scan of tiles_touched): its tiles in row-major order, or in
@@ -129,7 +145,9 @@ cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* o
 struct FusedScratch {
   uint32_t* block_ticket = nullptr;        ///< [1], zeroed by the launcher
   unsigned long long* block_status = nullptr;  ///< [blocks], zeroed by the launcher
-  unsigned long long* total_pairs = nullptr;   ///< [1] out: pairs of the frame (even beyond capacity)
+  /// [2] out: [0] pairs of the frame (even beyond capacity); [1] of them, the pairs of Gaussians with more
+  /// than kSubtileLargeTiles tiles (the automatic sub-tile culling's measure)
+  unsigned long long* totals = nullptr;
 };
 
 /// Number of FusedScratch::block_status entries for `count` Gaussians.
@@ -138,7 +156,7 @@ uint32_t fused_blocks(uint32_t count);
 /// One kernel for preprocess + tile count + allocation + key/value generation (paper's fused kernel). Block
 /// b's pairs start after all pairs of blocks < b (decoupled look-back, one status word per block), so pairs
 /// come out in emission order exactly as with the separate stages: output is deterministic. Pairs at
-/// positions ≥ capacity are not written; *total_pairs always receives the full count, and the caller runs
+/// positions ≥ capacity are not written; totals[0] always receives the full count, and the caller runs
 /// the kernel again with enough capacity when it exceeds `capacity`. Gaussians with more than
 /// kSerialTileLimit tiles are listed in `large` (with their cov2d, snug_t and depth bin stored), and
 /// emit_large_gaussians must follow to write their pairs.
@@ -147,19 +165,34 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
                                     const FusedScratch& scratch, const LargeGaussianList& large, uint64_t capacity,
                                     uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
 
-/// Depth order (RoofGS+, beyond the paper) after the stable sort of 32-bit keys. Pairs whose keys tie (same
-/// tile and depth bin) leave the sort in emission order, i.e. by Gaussian id, which is the 32-bit key's
-/// ordering loss (DESIGN.md); this writes the sorted values with each run of tied keys put in (view depth, id)
-/// order, so that every tile is in the order of the baseline's 64-bit key (tile, float depth) — depth bins
-/// are non-decreasing in depth, so ordering within the runs orders the tile. Keys are unchanged.
+/// Depth order (RoofGS+, beyond the paper) after the stable sort of 32-bit keys, with the tile ranges. Pairs
+/// whose keys tie (same tile and depth bin) leave the sort in emission order, i.e. by Gaussian id, which is
+/// the 32-bit key's ordering loss (DESIGN.md); this writes the sorted values with each run of tied keys put in
+/// (view depth, id) order, so that every tile is in the order of the baseline's 64-bit key (tile, float
+/// depth) — depth bins are non-decreasing in depth, so ordering within the runs orders the tile. Keys are
+/// unchanged. It reads every key and its neighbours, so it also writes what tile_ranges would (same
+/// arguments), and a RoofGS+ frame runs no separate ranges kernel.
 /// @param sorted_keys    [count] 32-bit keys, sorted
 /// @param sorted_values  [count] Gaussian ids, stably sorted with them
 /// @param depths         [N] view-space z per Gaussian (RoofgsProjected::depths)
+/// @param tile_shift     the key's depth bits (tile = key >> tile_shift)
 /// @param values_out     [count] the reordered ids (not aliasing sorted_values)
+/// @param ranges         [num_tiles, 2] out: per tile [begin, end) of its pairs, (0, 0) when it has none
 /// Each pair of a run of length L costs O(L) reads (the render's loop over the tile costs as much).
 cudaError_t order_equal_keys_by_depth(const uint32_t* sorted_keys, const uint32_t* sorted_values,
-                                      const float* depths, uint64_t count, uint32_t* values_out,
-                                      cudaStream_t stream);
+                                      const float* depths, uint64_t count, int tile_shift, uint32_t num_tiles,
+                                      uint32_t* values_out, uint64_t* ranges, cudaStream_t stream);
+
+/// Sub-tile culling pays only where a frame's pairs come from Gaussians small next to an 8×8 quadrant: the
+/// quadrants of a large Gaussian's interior tiles are all covered, so its pairs cost the mask and gain nothing.
+/// The automatic choice (runtime::SubtileCulling::kAuto) turns it off when more than
+/// kSubtileMaxLargePairFraction of the pairs belong to Gaussians with more than kSubtileLargeTiles tiles.
+/// Fractions measured with the CPU reference's preprocess (SnugBox + AccuTile, 3 views each): flowers
+/// 0.66–0.71 at 1080p, 0.89–0.92 at 4K, 0.98 at 8K; flowers ×53 0.60 / 0.82; daffodils 0.01 / 0.05;
+/// daffodils ×4 0.003 / 0.02 (1080p / 4K). On the H100 the culling made the render 1.3–1.9× faster on
+/// daffodils and 2–20 % slower on flowers at 4K and 8K and on flowers ×53 (docs/BENCHMARKS.md).
+constexpr uint32_t kSubtileLargeTiles = 32;
+constexpr double kSubtileMaxLargePairFraction = 0.5;
 
 /// Rasterizer switches.
 struct RasterOptions {

@@ -56,6 +56,15 @@ enum class GpuPipeline {
   kRoofgs,    ///< the RoofGS pipeline with the techniques of GpuRoofgsOptions (kernels/roofgs_pipeline.h)
 };
 
+/// Sub-tile culling in the folded rasterizer (beyond the paper).
+enum class SubtileCulling {
+  kOff,
+  kOn,
+  /// Per frame: on unless more than kernels::kSubtileMaxLargePairFraction of the pairs belong to Gaussians with
+  /// more than kernels::kSubtileLargeTiles tiles (counted by the preprocess; read back with the pair count).
+  kAuto,
+};
+
 /// Techniques of the RoofGS pipeline; every combination is valid (ablation). All off renders what the
 /// baseline renders.
 struct GpuRoofgsOptions {
@@ -68,10 +77,10 @@ struct GpuRoofgsOptions {
   /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by warps
   /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
   bool balanced_emission = true;
-  /// With folded coefficients: each warp of the rasterizer skips the pairs that cannot reach alpha 1/255 on
-  /// its 8×8 quadrant of the tile (kernels::RasterOptions::subtile_culling); the same image bits on every
-  /// SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
-  bool subtile_culling = true;
+  /// With folded coefficients: whether each warp of the rasterizer skips the pairs that cannot reach alpha
+  /// 1/255 on its 8×8 quadrant of the tile (kernels::RasterOptions::subtile_culling); the same image bits on
+  /// every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
+  SubtileCulling subtile_culling = SubtileCulling::kAuto;
   /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
   /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
   RoofgsOptions techniques = RoofgsOptions::all();
@@ -109,6 +118,10 @@ struct GpuRenderStats {
   /// kernels::kLargeChunkSlices slices of a Gaussian with more than kernels::kSerialTileLimit tiles. Read
   /// back only for timed frames (time_stages); 0 otherwise.
   uint64_t large_chunks = 0;
+  /// RoofGS: pairs of the Gaussians with more than kernels::kSubtileLargeTiles tiles (SubtileCulling::kAuto's
+  /// measure), and whether the rasterizer culled sub-tiles.
+  uint64_t large_pairs = 0;
+  bool subtile_culling = false;
   bool timed = false;          ///< times is valid (GpuRenderOptions::time_stages)
   StageTimes times;
 };
