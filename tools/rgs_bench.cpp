@@ -96,8 +96,9 @@ const std::vector<BenchMode>& all_modes() {
       {"roofgs", "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused "
                  "kernel, 32-bit key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians "
                  "with many tiles emitted by warps (every RoofGS mode but roofgs-serial); sub-tile "
-                 "culling in the folded rasterizer chosen per frame (off when more than half the pairs belong "
-                 "to Gaussians with more than 32 tiles; every mode but roofgs-tile and roofgs-subtile)",
+                 "culling in the folded rasterizer chosen per frame (off when SnugBox+AccuTile is on and more "
+                 "than half the pairs belong to Gaussians with more than 32 tiles; every mode but roofgs-tile "
+                 "and roofgs-subtile)",
        [](const tools::LoadedGpuScene& scene) {
          return roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(), "roofgs");
        }},

@@ -560,9 +560,12 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   const uint32_t* sorted_values = reorder_ties ? b.values.data() : b.values_sorted.data();
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
 
+  // kAuto: with SnugBox + AccuTile a large Gaussian's tiles are those its ellipse reaches, so its quadrants
+  // are nearly all covered; with 3σ rectangles its corner tiles are not, and the culling pays for them.
   const bool subtile = options.subtile_culling == SubtileCulling::kOn ||
                        (options.subtile_culling == SubtileCulling::kAuto &&
-                        double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs));
+                        (!t.snugbox_accutile ||
+                         double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs)));
   stats->subtile_culling = t.folded_coefficients && subtile;
   const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile};
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), sorted_values, b.roofgs_projected(), frame, rf,

@@ -183,10 +183,12 @@ cudaError_t order_equal_keys_by_depth(const uint32_t* sorted_keys, const uint32_
                                       const float* depths, uint64_t count, int tile_shift, uint32_t num_tiles,
                                       uint32_t* values_out, uint64_t* ranges, cudaStream_t stream);
 
-/// Sub-tile culling pays only where a frame's pairs come from Gaussians small next to an 8×8 quadrant: the
-/// quadrants of a large Gaussian's interior tiles are all covered, so its pairs cost the mask and gain nothing.
-/// The automatic choice (runtime::SubtileCulling::kAuto) turns it off when more than
-/// kSubtileMaxLargePairFraction of the pairs belong to Gaussians with more than kSubtileLargeTiles tiles.
+/// With SnugBox + AccuTile, sub-tile culling pays only where a frame's pairs come from Gaussians small next to
+/// an 8×8 quadrant: a large Gaussian's tiles are those its ellipse reaches, their quadrants nearly all covered,
+/// so its pairs cost the mask and gain nothing (with 3σ rectangles its corner tiles are empty, and the culling
+/// pays). The automatic choice (runtime::SubtileCulling::kAuto) turns it off when SnugBox + AccuTile is on and
+/// more than kSubtileMaxLargePairFraction of the pairs belong to Gaussians with more than kSubtileLargeTiles
+/// tiles.
 /// Fractions measured with the CPU reference's preprocess (SnugBox + AccuTile, 3 views each): flowers
 /// 0.66–0.71 at 1080p, 0.89–0.92 at 4K, 0.98 at 8K; flowers ×53 0.60 / 0.82; daffodils 0.01 / 0.05;
 /// daffodils ×4 0.003 / 0.02 (1080p / 4K). On the H100 the culling made the render 1.3–1.9× faster on

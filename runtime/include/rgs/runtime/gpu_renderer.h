@@ -60,8 +60,9 @@ enum class GpuPipeline {
 enum class SubtileCulling {
   kOff,
   kOn,
-  /// Per frame: on unless more than kernels::kSubtileMaxLargePairFraction of the pairs belong to Gaussians with
-  /// more than kernels::kSubtileLargeTiles tiles (counted by the preprocess; read back with the pair count).
+  /// Per frame: on, unless SnugBox + AccuTile is on and more than kernels::kSubtileMaxLargePairFraction of the
+  /// pairs belong to Gaussians with more than kernels::kSubtileLargeTiles tiles (counted by the preprocess;
+  /// read back with the pair count).
   kAuto,
 };
 
