@@ -12,8 +12,6 @@ namespace {
 /// Threads per block (warps take work items independently; the block only groups them).
 constexpr int kLargeBlockSize = 128;
 constexpr int kWarpsPerBlock = kLargeBlockSize / 32;
-/// Resident blocks per multiprocessor the persistent grid asks for.
-constexpr int kBlocksPerSm = 16;
 static_assert(kLargeChunkSlices <= 32, "a chunk's slices are measured one per lane");
 
 constexpr unsigned kAllLanes = 0xffffffffu;
@@ -93,12 +91,17 @@ cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGa
                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
                                  uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
   if (large.capacity == 0) return cudaSuccess;
-  int device = 0, sms = 0;
+  // A persistent grid of as many blocks as fit at once: the items are dealt evenly over its warps, so a block
+  // that had to wait for a free slot would finish its share last.
+  int device = 0, sms = 0, per_sm = 0;
   cudaError_t result = cudaGetDevice(&device);
   if (result == cudaSuccess) result = cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
+  if (result == cudaSuccess) {
+    result = cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, emit_large_kernel, kLargeBlockSize, 0);
+  }
   if (result != cudaSuccess) return result;
   const uint64_t warp_blocks = (large.capacity + kWarpsPerBlock - 1) / kWarpsPerBlock;
-  const unsigned blocks = unsigned(std::min<uint64_t>(warp_blocks, uint64_t(sms) * kBlocksPerSm));
+  const unsigned blocks = unsigned(std::min<uint64_t>(warp_blocks, uint64_t(sms) * uint64_t(std::max(per_sm, 1))));
   emit_large_kernel<<<blocks, kLargeBlockSize, 0, stream>>>(projected, large, frame, roofgs,
                                                             detail::PairSink{capacity, keys64, keys32, values});
   return detail::launch_result();
