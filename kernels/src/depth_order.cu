@@ -4,6 +4,7 @@
 // 64-bit key. It reads the sorted keys anyway, so it also writes the tile ranges (tile_ranges' job).
 #include "launch_util.cuh"
 #include "rgs/kernels/roofgs_pipeline.h"
+#include "tile_ranges.cuh"
 
 namespace rgs::kernels {
 namespace {
@@ -21,17 +22,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   const uint32_t g = values_in[p];
   const uint32_t previous_key = p > 0 ? keys[p - 1] : 0u;
   // Tile ranges, as tile_ranges_kernel (the shift is done in 64 bits: a single-tile key has 32 depth bits).
-  const uint64_t tile = uint64_t(key) >> tile_shift;
-  if (p == 0) {
-    ranges[2 * tile] = 0;
-  } else {
-    const uint64_t previous_tile = uint64_t(previous_key) >> tile_shift;
-    if (tile != previous_tile) {
-      ranges[2 * previous_tile + 1] = p;
-      ranges[2 * tile] = p;
-    }
-  }
-  if (p == count - 1) ranges[2 * tile + 1] = count;
+  detail::record_tile_range(ranges, p, count, uint64_t(key) >> tile_shift, uint64_t(previous_key) >> tile_shift);
 
   const bool tied_before = p > 0 && previous_key == key;
   const bool tied_after = p + 1 < count && keys[p + 1] == key;
@@ -57,7 +48,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
 cudaError_t order_equal_keys_by_depth(const uint32_t* sorted_keys, const uint32_t* sorted_values,
                                       const float* depths, uint64_t count, int tile_shift, uint32_t num_tiles,
                                       uint32_t* values_out, uint64_t* ranges, cudaStream_t stream) {
-  const cudaError_t cleared = cudaMemsetAsync(ranges, 0, sizeof(uint64_t) * 2 * size_t(num_tiles), stream);
+  const cudaError_t cleared = detail::clear_tile_ranges(ranges, num_tiles, stream);
   if (cleared != cudaSuccess || count == 0) return cleared;
   order_equal_keys_kernel<<<detail::blocks_for(count), detail::kBlockSize, 0, stream>>>(
       sorted_keys, sorted_values, depths, count, tile_shift, values_out, ranges);

@@ -4,6 +4,7 @@
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
+#include "tile_ranges.cuh"
 
 namespace rgs::kernels {
 namespace {
@@ -48,15 +49,8 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   }
   uint64_t previous = first > 0 ? uint64_t(keys[first - 1]) >> tile_shift : 0;
   for (int i = 0; i < kItems && first + i < count; ++i) {
-    const uint64_t p = first + uint64_t(i);
     const uint64_t tile = uint64_t(k[i]) >> tile_shift;
-    if (p == 0) {
-      ranges[2 * tile] = 0;
-    } else if (tile != previous) {
-      ranges[2 * previous + 1] = p;
-      ranges[2 * tile] = p;
-    }
-    if (p == count - 1) ranges[2 * tile + 1] = count;
+    detail::record_tile_range(ranges, first + uint64_t(i), count, tile, previous);
     previous = tile;
   }
 }
@@ -65,7 +59,7 @@ template <typename Key>
 cudaError_t launch_tile_ranges(const Key* sorted_keys, uint64_t count, int tile_shift, uint32_t num_tiles,
                                uint64_t* ranges, cudaStream_t stream) {
   if (reinterpret_cast<uintptr_t>(sorted_keys) % 16 != 0) return cudaErrorMisalignedAddress;
-  const cudaError_t cleared = cudaMemsetAsync(ranges, 0, sizeof(uint64_t) * 2 * size_t(num_tiles), stream);
+  const cudaError_t cleared = detail::clear_tile_ranges(ranges, num_tiles, stream);
   if (cleared != cudaSuccess || count == 0) return cleared;
   constexpr uint64_t kItems = 16 / sizeof(Key);
   tile_ranges_kernel<Key><<<detail::blocks_for((count + kItems - 1) / kItems), detail::kBlockSize, 0, stream>>>(

@@ -96,11 +96,7 @@ __global__ void __launch_bounds__(kFusedBlockSize)
       if (block == gridDim.x - 1) scratch.totals[0] = exclusive + block_total;
     }
   }
-  // Pairs of large Gaussians (totals[1]): a warp sum, one atomic per warp that has any.
-  const uint32_t large_tiles = __reduce_add_sync(0xffffffffu, p.tiles > kSubtileLargeTiles ? p.tiles : 0u);
-  if (large_tiles != 0 && threadIdx.x % 32 == 0) {
-    atomicAdd(&scratch.totals[1], static_cast<unsigned long long>(large_tiles));
-  }
+  detail::count_large_pairs(p.tiles, &scratch.totals[1]);
   __syncthreads();
   if (p.tiles == 0) return;
   if (p.tiles > kSerialTileLimit && large.capacity > 0) {  // emit_large_gaussians rebuilds the walk from these

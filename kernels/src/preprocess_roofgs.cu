@@ -15,11 +15,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   __shared__ detail::LongWalks<detail::kBlockSize> long_walks;
   // Every thread takes part: the long walks' tile counts are shared by the block.
   const bool visible = detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk);
-  // Pairs of large Gaussians: a warp sum, one atomic per warp that has any.
-  const uint32_t large_tiles = __reduce_add_sync(0xffffffffu, p.tiles > kSubtileLargeTiles ? p.tiles : 0u);
-  if (large_tiles != 0 && threadIdx.x % 32 == 0) {
-    atomicAdd(large_pairs, static_cast<unsigned long long>(large_tiles));
-  }
+  detail::count_large_pairs(p.tiles, large_pairs);
   if (g >= src.count) return;
   if (!visible) {
     out.radii[g] = 0;

@@ -351,6 +351,14 @@ __device__ inline bool preprocess_gaussian(const GaussianSource& src, uint32_t g
   return visible;
 }
 
+/// Adds the tiles of the calling warp's Gaussians with more than kSubtileLargeTiles tiles to *counter
+/// (the automatic sub-tile culling's measure): a warp sum, one atomic per warp that has any. Every lane of the
+/// warp calls it, with 0 for a culled Gaussian.
+__device__ inline void count_large_pairs(uint32_t tiles, unsigned long long* counter) {
+  const uint32_t large_tiles = __reduce_add_sync(0xffffffffu, tiles > kSubtileLargeTiles ? tiles : 0u);
+  if (large_tiles != 0 && threadIdx.x % 32 == 0) atomicAdd(counter, static_cast<unsigned long long>(large_tiles));
+}
+
 /// Rebuilds the tile walk of Gaussian g from the per-Gaussian arrays (what duplicate_roofgs and
 /// emit_large_gaussians read): the same inputs as in the preprocess, so the same walk.
 __device__ inline TileWalk load_tile_walk(const RoofgsProjected& in, uint32_t g, const FrameParams& frame,

@@ -228,10 +228,11 @@ TEST_CASE("sub-tile culling changes no output byte with SnugBox + AccuTile (flow
 }
 
 TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaussians emitted in chunks") {
-  // Pairs of Gaussians above kSerialTileLimit tiles are written a warp per chunk of 16 slices of their walk
-  // (each warp adds up the slices before its chunk); their positions and order must be the serial ones. The
-  // keys and values after the stable sort are therefore the CPU's TileBins exactly. Flowers has Gaussians
-  // covering the whole grid: at 4K that is 135 tile rows (9 chunks) and at 8K 270 (17).
+  // Pairs of Gaussians above kSerialTileLimit tiles are written a warp per chunk of their walk (at most
+  // kLargeChunkSlices slices and about kLargeChunkPairs pairs; each warp adds up the slices before its chunk);
+  // their positions and order must be the serial ones. The keys and values after the stable sort are therefore
+  // the CPU's TileBins exactly. Flowers has Gaussians covering the whole grid: at 4K that is 135 tile rows of
+  // 240 tiles (a chunk each) and at 8K 270 of 480.
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
