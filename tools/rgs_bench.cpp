@@ -74,6 +74,17 @@ Result<runtime::GpuRenderOptions> roofgs_options(const tools::LoadedGpuScene& sc
   return o;
 }
 
+/// `roofgs` with one option of the pipeline (not of the shared techniques) changed by `set`.
+BenchMode roofgs_variant(const std::string& name, const std::string& description,
+                         void (*set)(runtime::GpuRoofgsOptions&)) {
+  return {name, description, [=](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
+            auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
+                                    name.c_str());
+            if (o.ok()) set(o->roofgs);
+            return o;
+          }};
+}
+
 /// One RoofGS technique alone, for the ablation ("only-<name>").
 BenchMode only_mode(const std::string& name, const std::string& what, bool compact, bool fused,
                     void (*set)(runtime::RoofgsOptions&)) {
@@ -109,29 +120,16 @@ const std::vector<BenchMode>& all_modes() {
          t.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
          return roofgs_options(scene, scene.scene.has_compact(), true, t, "roofgs+");
        }},
-      {"roofgs-serial", "roofgs with each Gaussian's pairs written by its own thread (balanced emission off: "
-                        "the paper's fused kernel as published)",
-       [](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
-         auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
-                                 "roofgs-serial");
-         if (o.ok()) o->roofgs.balanced_emission = false;
-         return o;
-       }},
-      {"roofgs-tile", "roofgs without sub-tile culling (every warp of a tile walks all of the tile's pairs, as "
-                      "in the paper)",
-       [](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
-         auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
-                                 "roofgs-tile");
-         if (o.ok()) o->roofgs.subtile_culling = runtime::SubtileCulling::kOff;
-         return o;
-       }},
-      {"roofgs-subtile", "roofgs with sub-tile culling on in every frame",
-       [](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
-         auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
-                                 "roofgs-subtile");
-         if (o.ok()) o->roofgs.subtile_culling = runtime::SubtileCulling::kOn;
-         return o;
-       }},
+      roofgs_variant("roofgs-serial",
+                     "roofgs with each Gaussian's pairs written by its own thread (balanced emission off: the "
+                     "paper's fused kernel as published)",
+                     [](runtime::GpuRoofgsOptions& o) { o.balanced_emission = false; }),
+      roofgs_variant("roofgs-tile",
+                     "roofgs without sub-tile culling (every warp of a tile walks all of the tile's pairs, as in "
+                     "the paper)",
+                     [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOff; }),
+      roofgs_variant("roofgs-subtile", "roofgs with sub-tile culling on in every frame",
+                     [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOn; }),
       {"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)",
        [](const tools::LoadedGpuScene& scene) {
          return roofgs_options(scene, false, false, runtime::RoofgsOptions{}, "roofgs-none");
