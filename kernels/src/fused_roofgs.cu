@@ -29,18 +29,20 @@ __device__ inline void publish(unsigned long long* word, unsigned long long valu
   atomicExch(word, value);
 }
 
-/// Exclusive prefix of block `block` (sum of the pair counts of blocks < block); publishes its own
-/// aggregate first and its inclusive prefix last. Called by the 32 lanes of the block's first warp, which
-/// read 32 predecessors' status words at once (lane i reads block − 1 − i, spinning until it has published:
-/// it started before us, so it will), add those up to the nearest inclusive prefix, and move the window
-/// back by 32 until they meet one. Returns the prefix in every lane.
+/// Publishes block `block`'s pair count for its successors' look-back: as its inclusive prefix for block 0,
+/// else as an aggregate. Called by one thread, as soon as the count is known.
+__device__ void publish_aggregate(unsigned long long* status, uint32_t block, unsigned long long aggregate) {
+  publish(&status[block], (block == 0 ? kFlagInclusive : kFlagAggregate) | aggregate);
+}
+
+/// Exclusive prefix of block `block` (sum of the pair counts of blocks < block), after publish_aggregate;
+/// publishes its inclusive prefix last. Called by the 32 lanes of the block's first warp, which read 32
+/// predecessors' status words at once (lane i reads block − 1 − i, spinning until it has published: it
+/// started before us, so it will), add those up to the nearest inclusive prefix, and move the window back by
+/// 32 until they meet one. Returns the prefix in every lane.
 __device__ unsigned long long look_back(unsigned long long* status, uint32_t block, unsigned long long aggregate) {
   const int lane = int(threadIdx.x);
-  if (block == 0) {
-    if (lane == 0) publish(&status[0], kFlagInclusive | aggregate);
-    return 0;
-  }
-  if (lane == 0) publish(&status[block], kFlagAggregate | aggregate);
+  if (block == 0) return 0;
   unsigned long long exclusive = 0;
   for (int64_t window = int64_t(block) - 1;; window -= 32) {
     const int64_t j = window - lane;
@@ -79,7 +81,8 @@ __global__ void __launch_bounds__(kFusedBlockSize)
 
   detail::ProjectedRegs p{};
   detail::TileWalk walk{};
-  if (detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk)) {
+  const bool visible = detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk);
+  if (visible) {
     detail::store_projected(p, g, out);
   } else if (g < src.count) {
     out.radii[g] = 0;
@@ -89,6 +92,11 @@ __global__ void __launch_bounds__(kFusedBlockSize)
   // validate_camera accepts (32768², 2048² tiles), so 128 Gaussians stay below 2^29.
   uint32_t local_offset = 0, block_total = 0;
   BlockScan(scan_storage).ExclusiveSum(p.tiles, local_offset, block_total);
+  // The count goes out before the colours are computed: the successors' look-backs wait for it, and the
+  // SH work of every warp overlaps that wait (before this order, half the kernel's stall samples on flowers
+  // at 4K were warps at the barrier below waiting for the look-back).
+  if (threadIdx.x == 0) publish_aggregate(scratch.block_status, block, block_total);
+  if (visible) detail::shade_gaussian<kCompact>(src, g, frame, out);
   if (threadIdx.x < 32) {
     const unsigned long long exclusive = look_back(scratch.block_status, block, block_total);
     if (threadIdx.x == 0) {

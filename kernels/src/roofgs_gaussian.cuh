@@ -3,6 +3,8 @@
 // walking its tiles in emission order.
 #pragma once
 
+#include <cooperative_groups.h>
+#include <cooperative_groups/scan.h>
 #include <cuda_fp16.h>
 
 #include <cstdint>
@@ -17,14 +19,15 @@
 
 namespace rgs::kernels::detail {
 
-/// A projected Gaussian in registers.
+namespace cg = cooperative_groups;
+
+/// A projected Gaussian in registers (its colour is computed apart: shade_gaussian).
 struct ProjectedRegs {
   float depth;
   float px, py;
   Cov2 cov;
   Conic conic;
   float opacity, log_opacity;
-  float rgb[3];
   int radius;
   TileRect rect;     ///< 3DGS rectangle
   float snug_t;      ///< SnugBox threshold (snugbox_accutile)
@@ -42,6 +45,12 @@ __device__ inline float dequantize_sh(const CompactGaussiansView& c, uint32_t g,
   return c.sh_scales[sh_degree_of_coefficient(j / 3)][j % 3] * static_cast<float>(q);
 }
 
+/// Gaussian g's mean [3] (float32 in both profiles).
+__device__ inline void load_mean(const GaussianSource& src, bool compact, uint32_t g, float mean[3]) {
+  const float* means = compact ? src.compact.means : src.fp32.means;
+  for (int a = 0; a < 3; ++a) mean[a] = means[3 * uint64_t(g) + a];
+}
+
 /// Gaussian g's geometry and opacity, dequantized in registers when compact (same values as
 /// kernels::dequantize and format::dequantize: FP16 widened exactly, exp of log scales).
 template <bool kCompact>
@@ -49,7 +58,7 @@ __device__ inline void load_geometry(const GaussianSource& src, uint32_t g, floa
                                      float q[4], float* opacity) {
   if constexpr (kCompact) {
     const CompactGaussiansView& c = src.compact;
-    for (int a = 0; a < 3; ++a) mean[a] = c.means[3 * uint64_t(g) + a];
+    load_mean(src, true, g, mean);
     // 8-byte rotation and 2-byte loads; the 6-byte scale is read as three halves.
     const uint2 r = *reinterpret_cast<const uint2*>(c.rotations + 4 * uint64_t(g));
     q[0] = half_bits_to_float(uint16_t(r.x & 0xffffu));
@@ -63,7 +72,7 @@ __device__ inline void load_geometry(const GaussianSource& src, uint32_t g, floa
     *opacity = half_bits_to_float(c.opacities[g]);
   } else {
     const Fp32GaussiansView& f = src.fp32;
-    for (int a = 0; a < 3; ++a) mean[a] = f.means[3 * uint64_t(g) + a];
+    load_mean(src, false, g, mean);
     const float4 r = *reinterpret_cast<const float4*>(f.rotations + 4 * uint64_t(g));
     q[0] = r.x;
     q[1] = r.y;
@@ -74,17 +83,50 @@ __device__ inline void load_geometry(const GaussianSource& src, uint32_t g, floa
   }
 }
 
+/// Gaussian g's compact SH block, 3K int8 values (j = 3k + c) at byte 3K·g of the [N, K, 3] array, as words
+/// in block order: byte b of words[i] is value 4i + b (words past the block's end hold the next Gaussian's
+/// bytes or the array's zero padding). The block starts at any byte (27 bytes a Gaussian at degree 2), so it
+/// is read with the aligned 32-bit words that cover it (16-byte words at degree 3, whose 48-byte blocks are
+/// aligned), realigned with funnel shifts: at most 13 loads instead of one per value, and 12 registers in
+/// flight instead of 48. Reads stay inside the allocation, which is padded to kCompactShPadding bytes.
+__device__ inline void load_sh_words(const CompactGaussiansView& c, uint32_t g, int values, uint32_t words[12]) {
+  const uint64_t start = uint64_t(g) * uint64_t(values);
+  if (values == 3 * kMaxShCoefficients) {
+    const uint4* block = reinterpret_cast<const uint4*>(c.sh + start);
+#pragma unroll
+    for (int i = 0; i < 3; ++i) {
+      const uint4 v = __ldg(block + i);
+      words[4 * i] = v.x, words[4 * i + 1] = v.y, words[4 * i + 2] = v.z, words[4 * i + 3] = v.w;
+    }
+    return;
+  }
+  const uint32_t* aligned = reinterpret_cast<const uint32_t*>(c.sh + (start & ~uint64_t(3)));
+  const int covering = (int(start & 3u) + values + 3) / 4;
+  uint32_t raw[13];
+#pragma unroll
+  for (int i = 0; i < 13; ++i) raw[i] = i < covering ? __ldg(aligned + i) : 0u;
+  const uint32_t shift = uint32_t(start & 3u) * 8u;
+#pragma unroll
+  for (int i = 0; i < 12; ++i) words[i] = __funnelshift_r(raw[i], raw[i + 1], shift);
+}
+
 /// Colour of Gaussian g along the unit direction (x, y, z): the SH coefficients dequantized in registers
-/// when compact (s[d][c]·q, one rounded product as on the host), then sh_to_colour.
+/// when compact (s[d][c]·q, one rounded product as format::dequantize on the host), then sh_to_colour.
 template <bool kCompact>
 __device__ inline void load_colour(const GaussianSource& src, uint32_t g, float x, float y, float z,
                                    float rgb[3]) {
   const uint32_t degree = kCompact ? src.compact.sh_degree : src.fp32.sh_degree;
   const int k_count = sh_coefficients_for(int(degree));
   if constexpr (kCompact) {
+    const CompactGaussiansView& c = src.compact;
+    uint32_t words[12];
+    load_sh_words(c, g, k_count * 3, words);
     float sh[kMaxShCoefficients * 3];
 #pragma unroll
-    for (int j = 0; j < kMaxShCoefficients * 3; ++j) sh[j] = j < k_count * 3 ? dequantize_sh(src.compact, g, j) : 0.f;
+    for (int j = 0; j < kMaxShCoefficients * 3; ++j) {
+      const auto q = static_cast<int8_t>(uint8_t(words[j / 4] >> (8 * (j % 4))));
+      sh[j] = j < k_count * 3 ? c.sh_scales[sh_degree_of_coefficient(j / 3)][j % 3] * static_cast<float>(q) : 0.f;
+    }
     sh_to_colour(sh, int(degree), x, y, z, rgb);
   } else {
     sh_to_colour(src.fp32.sh + uint64_t(g) * uint64_t(k_count) * 3, int(degree), x, y, z, rgb);
@@ -99,8 +141,9 @@ __device__ inline TileRect accutile_limit(const FrameParams& frame, const Roofgs
   return roofgs.accutile_within_baseline_rect ? intersect(grid, baseline_rect) : grid;
 }
 
-/// Projects Gaussian g (preprocess_cpu's steps and order). Returns false when it is culled. With SnugBox +
-/// AccuTile the tile count is left at 0 for count_accutile_tiles_block (preprocess_gaussian does both).
+/// Projects Gaussian g (preprocess_cpu's steps and order, all but the colour: shade_gaussian). Returns false
+/// when it is culled. With SnugBox + AccuTile the tile count is left at 0 for count_accutile_tiles_block
+/// (preprocess_gaussian does both).
 template <bool kCompact>
 __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
                                         const RoofgsFrame& roofgs, ProjectedRegs* p) {
@@ -145,24 +188,35 @@ __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, c
     p->snug_t = t;
     p->tiles = 0;
   }
-  float dir[3] = {mean[0] - frame.camera_centre[0], mean[1] - frame.camera_centre[1],
-                  mean[2] - frame.camera_centre[2]};
-  const float length = sqrtf(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-  for (float& d : dir) d = d / length;
-  load_colour<kCompact>(src, g, dir[0], dir[1], dir[2], p->rgb);
   p->depth_bin = roofgs.key32 ? quantize_depth(p->depth, roofgs.quantizer) : 0u;
   return true;
 }
 
-/// Stores the per-Gaussian outputs the later stages read.
+/// Colour of visible Gaussian g, stored to out.rgb: its SH seen along the unit direction from the camera
+/// centre to its mean (preprocess_cpu's last step). Apart from project_gaussian so that the fused kernel can
+/// publish its block's pair count before this work, the SH being needed by the rasterizer only.
+template <bool kCompact>
+__device__ inline void shade_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
+                                      const RoofgsProjected& out) {
+  float mean[3];
+  load_mean(src, kCompact, g, mean);
+  float dir[3] = {mean[0] - frame.camera_centre[0], mean[1] - frame.camera_centre[1],
+                  mean[2] - frame.camera_centre[2]};
+  const float length = sqrtf(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+  for (float& d : dir) d = d / length;
+  float rgb[3];
+  load_colour<kCompact>(src, g, dir[0], dir[1], dir[2], rgb);
+  out.rgb[3 * uint64_t(g)] = rgb[0];
+  out.rgb[3 * uint64_t(g) + 1] = rgb[1];
+  out.rgb[3 * uint64_t(g) + 2] = rgb[2];
+}
+
+/// Stores the per-Gaussian outputs the later stages read, but the colour (shade_gaussian).
 __device__ inline void store_projected(const ProjectedRegs& p, uint32_t g, const RoofgsProjected& out) {
   out.depths[g] = p.depth;
   reinterpret_cast<float2*>(out.means2d)[g] = make_float2(p.px, p.py);
   reinterpret_cast<float4*>(out.conic_opacity)[g] = make_float4(p.conic.a, p.conic.b, p.conic.c, p.opacity);
   out.log_opacities[g] = p.log_opacity;
-  out.rgb[3 * uint64_t(g)] = p.rgb[0];
-  out.rgb[3 * uint64_t(g) + 1] = p.rgb[1];
-  out.rgb[3 * uint64_t(g) + 2] = p.rgb[2];
   out.radii[g] = p.radius;
 }
 
@@ -334,7 +388,7 @@ __device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool 
   return long_walk ? shared.count[h] : count;
 }
 
-/// The preprocess of Gaussian g: projection, tile walk and tile count. Called by every thread of the block
+/// The preprocess of Gaussian g but its colour (shade_gaussian): projection, tile walk and tile count. Called by every thread of the block
 /// (count_accutile_tiles_block); threads with g ≥ count get nothing. Returns true when the Gaussian is
 /// visible (p->tiles > 0).
 template <bool kCompact, int kThreads>
@@ -384,7 +438,15 @@ __device__ inline void emit_or_defer(const TileWalk& walk, const PairSource& sou
     const uint32_t slices = uint32_t(walk.slice_end() - walk.slice_begin());
     const uint32_t per_chunk = large_chunk_slices(slices, tiles);
     const uint32_t chunks = (slices + per_chunk - 1) / per_chunk;
-    const unsigned long long i = atomicAdd(large.count, static_cast<unsigned long long>(chunks));
+    // One atomic per group of converged lanes (all on one counter, which serialized them), each lane
+    // taking its place in the group's range; the items' order does not reach the output.
+    const cg::coalesced_group lanes = cg::coalesced_threads();
+    const uint32_t before = cg::exclusive_scan(lanes, chunks);
+    unsigned long long first = 0;
+    if (lanes.thread_rank() == lanes.num_threads() - 1) {
+      first = atomicAdd(large.count, static_cast<unsigned long long>(before + chunks));
+    }
+    const unsigned long long i = lanes.shfl(first, lanes.num_threads() - 1) + before;
     const bool fits = i + chunks <= large.capacity;
     // Items of a Gaussian that does not fit whole are marked unused, and its thread writes the pairs itself.
     for (uint32_t c = 0; c < chunks && i + c < large.capacity; ++c) {

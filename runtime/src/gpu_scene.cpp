@@ -73,7 +73,14 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t st
   RGS_RETURN_IF_ERROR(scene.rotations_fp16_.allocate_exactly(n * 4, name + ": rotations"));
   RGS_RETURN_IF_ERROR(scene.scales_fp16_.allocate_exactly(n * 3, name + ": scales"));
   RGS_RETURN_IF_ERROR(scene.opacities_fp16_.allocate_exactly(n, name + ": opacities"));
-  RGS_RETURN_IF_ERROR(scene.sh_int8_.allocate_exactly(n * k * 3, name + ": SH"));
+  const uint64_t sh_bytes = n * k * 3;
+  const uint64_t padded_sh_bytes = (sh_bytes + kernels::kCompactShPadding - 1) / kernels::kCompactShPadding *
+                                   kernels::kCompactShPadding;
+  RGS_RETURN_IF_ERROR(scene.sh_int8_.allocate_exactly(padded_sh_bytes, name + ": SH"));
+  if (padded_sh_bytes > sh_bytes) {  // zeros, so that no kernel reads uninitialized bytes
+    RGS_RETURN_IF_CUDA_ERROR(
+        cudaMemsetAsync(scene.sh_int8_.data() + sh_bytes, 0, padded_sh_bytes - sh_bytes, stream), name + ": SH padding");
+  }
 
   PinnedBuffer staging;
   using format::SectionId;
@@ -85,8 +92,7 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t st
                                      scene.scales_fp16_.bytes(), &staging, stream));
   RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kOpacities, scene.opacities_fp16_.data(),
                                      scene.opacities_fp16_.bytes(), &staging, stream));
-  RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kSh, scene.sh_int8_.data(), scene.sh_int8_.bytes(), &staging,
-                                     stream));
+  RGS_RETURN_IF_ERROR(upload_section(file, SectionId::kSh, scene.sh_int8_.data(), sh_bytes, &staging, stream));
 
   kernels::CompactGaussiansView& view = scene.compact_view_;
   view.means = scene.means_.data();

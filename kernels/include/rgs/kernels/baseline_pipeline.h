@@ -50,15 +50,16 @@ cudaError_t duplicate_baseline(const ProjectedArrays& projected, const uint64_t*
                                const FrameParams& frame, uint64_t* keys, uint32_t* values, cudaStream_t stream);
 
 /// Stage 3: stable LSD radix sort of `count` (key, value) pairs by key bits [begin_bit, end_bit) (CUB
-/// DeviceRadixSort::SortPairs; keys equal in those bits keep their input order). The baseline sorts bits
-/// [0, 32 + ceil(log2 tiles)); RoofGS with depth order only the tile bits (RoofgsFrame::depth_order). Inputs
-/// are left unchanged; sorted pairs go to keys_out/values_out. Call with temp == nullptr to get *temp_bytes
-/// (it depends on count).
+/// DeviceRadixSort::SortPairs with CUB's own policies, as 3DGS calls it; keys equal in those bits keep their
+/// input order). The baseline sorts bits [0, 32 + ceil(log2 tiles)). Inputs are left unchanged; sorted pairs
+/// go to keys_out/values_out. Call with temp == nullptr to get *temp_bytes (it depends on count; a size
+/// queried for a count serves every smaller count).
 cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, uint64_t* keys_out,
                        const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit, int end_bit,
                        cudaStream_t stream);
 
-/// The 32-bit-key variant of sort_pairs (RoofGS keys; end_bit ≤ 32).
+/// The 32-bit-key variant of sort_pairs (RoofGS keys; end_bit ≤ 32): the same CUB onesweep sort, with
+/// 32-bit offsets and the histogram and onesweep block sizes measured faster on an H100 (kernels/src/sort.cu).
 cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint32_t* keys_in, uint32_t* keys_out,
                        const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit, int end_bit,
                        cudaStream_t stream);

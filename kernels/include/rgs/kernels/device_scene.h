@@ -28,12 +28,17 @@ struct Fp32GaussiansView {
 /// How the compact scales section encodes a scale (format/SPEC.md §4.5).
 enum class CompactScaleEncoding : uint32_t { kLinear = 1, kLog = 2 };
 
+/// Bytes to which the compact SH array's allocation is padded (CompactGaussiansView::sh).
+constexpr uint64_t kCompactShPadding = 16;
+
 /// The .rgs runtime profile in device memory, each array the raw bytes of its section (format/SPEC.md §4):
 /// - means      [N, 3] float32;
 /// - rotations  [N, 4] binary16 bits, (w, x, y, z), normalized before rounding;
 /// - scales     [N, 3] binary16 bits, `scale_encoding` (linear, or natural log of the linear scale);
 /// - opacities  [N]    binary16 bits of the activated opacity;
-/// - sh         [N, K, 3] int8, value = sh_scales[d][c]·q (paper Eq. quant), d the degree of coefficient k.
+/// - sh         [N, K, 3] int8, value = sh_scales[d][c]·q (paper Eq. quant), d the degree of coefficient k;
+///   its allocation is padded with zeros to a multiple of kCompactShPadding bytes, so that a kernel may read
+///   a Gaussian's block with the aligned words that cover it.
 struct CompactGaussiansView {
   const float* means = nullptr;
   const uint16_t* rotations = nullptr;
