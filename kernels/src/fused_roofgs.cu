@@ -6,6 +6,7 @@
 // and every frame is deterministic (an atomicAdd per block, as the public RoofGS code uses, orders blocks by
 // arrival instead).
 #include <cub/block/block_scan.cuh>
+#include <cuda/atomic>
 
 #include <algorithm>
 
@@ -48,9 +49,10 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
     const int64_t j = window - lane;
     unsigned long long word = kFlagInclusive;  // before block 0: an empty inclusive prefix
     if (j >= 0) {
-      do {
-        word = atomicAdd(&status[j], 0ull);  // coherent read
-      } while (word == 0);
+      // Relaxed loads at device scope (L2, not the SM's L1): the word carries its value, no other data hangs
+      // on it. A predecessor still counting costs a short sleep per poll instead of a stream of L2 requests.
+      const cuda::atomic_ref<unsigned long long, cuda::thread_scope_device> ref(status[j]);
+      while ((word = ref.load(cuda::std::memory_order_relaxed)) == 0) __nanosleep(64);
     }
     const unsigned inclusive = __ballot_sync(0xffffffffu, (word & ~kValueMask) == kFlagInclusive);
     const int last = inclusive != 0 ? __ffs(int(inclusive)) - 1 : 31;  // lanes 0..last count
