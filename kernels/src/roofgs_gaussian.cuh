@@ -388,9 +388,9 @@ __device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool 
   return long_walk ? shared.count[h] : count;
 }
 
-/// The preprocess of Gaussian g but its colour (shade_gaussian): projection, tile walk and tile count. Called by every thread of the block
-/// (count_accutile_tiles_block); threads with g ≥ count get nothing. Returns true when the Gaussian is
-/// visible (p->tiles > 0).
+/// The preprocess of Gaussian g but its colour (shade_gaussian): projection, tile walk and tile count. Called
+/// by every thread of the block (count_accutile_tiles_block); threads with g ≥ count get nothing. Returns true
+/// when the Gaussian is visible (p->tiles > 0).
 template <bool kCompact, int kThreads>
 __device__ inline bool preprocess_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
                                            const RoofgsFrame& roofgs, LongWalks<kThreads>& long_walks,

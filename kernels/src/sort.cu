@@ -21,7 +21,8 @@ namespace {
 ///   384 threads, 116 of 512; 0.107 → 0.099 ms), else 384 (2.0M: 0.122 against 0.139 ms with 512).
 /// Smaller counts keep CUB's own policies (405k pairs: 0.083 ms, against 0.084 with the histogram change and
 /// 0.086 with 512 threads). The other policies are CUB's; the onesweep path never runs them, but the
-/// dispatch instantiates them.
+/// dispatch instantiates them. DispatchRadixSort and cub::detail's policy hub are those of the CCCL in CUDA
+/// 13.0 (the toolkit of the build hosts); a CCCL that renames them fails to compile here, not at run time.
 template <int kOnesweepThreads>
 struct PairSortPolicies {
   using Cub = cub::detail::radix::policy_hub<uint32_t, uint32_t, uint32_t>::Policy900;

@@ -78,8 +78,8 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t st
                                    kernels::kCompactShPadding;
   RGS_RETURN_IF_ERROR(scene.sh_int8_.allocate_exactly(padded_sh_bytes, name + ": SH"));
   if (padded_sh_bytes > sh_bytes) {  // zeros, so that no kernel reads uninitialized bytes
-    RGS_RETURN_IF_CUDA_ERROR(
-        cudaMemsetAsync(scene.sh_int8_.data() + sh_bytes, 0, padded_sh_bytes - sh_bytes, stream), name + ": SH padding");
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemsetAsync(scene.sh_int8_.data() + sh_bytes, 0, padded_sh_bytes - sh_bytes, stream),
+                             name + ": SH padding");
   }
 
   PinnedBuffer staging;
