@@ -4,7 +4,7 @@
 // warp adds its predecessors' counts, 32 at a time, until it meets one that published an inclusive prefix.
 // Pairs therefore land exactly where the separate stages (scan + duplicate) put them, in emission order,
 // and every frame is deterministic (an atomicAdd per block, as the public RoofGS code uses, orders blocks by
-// arrival instead).
+// arrival instead: PairAllocation::kArrivalOrder, for frames whose depth order pass makes the order moot).
 #include <cub/block/block_scan.cuh>
 #include <cuda/atomic>
 
@@ -68,7 +68,7 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
 template <bool kCompact>
 __global__ void __launch_bounds__(kFusedBlockSize)
     fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,
-                 FusedScratch scratch, LargeGaussianList large, detail::PairSink sink) {
+                 FusedScratch scratch, LargeGaussianList large, detail::PairSink sink, bool arrival_order) {
   using BlockScan = cub::BlockScan<uint32_t, kFusedBlockSize>;
   __shared__ typename BlockScan::TempStorage scan_storage;
   __shared__ uint32_t block_id;
@@ -97,9 +97,13 @@ __global__ void __launch_bounds__(kFusedBlockSize)
   // The count goes out before the colours are computed: the successors' look-backs wait for it, and the
   // SH work of every warp overlaps this block's own wait (before this order, 37 % of the kernel's stall
   // samples on flowers at 4K were warps at the barrier below and 8 % the look-back's polls).
-  if (threadIdx.x == 0) publish_aggregate(scratch.block_status, block, block_total);
+  if (arrival_order) {  // uniform over the launch
+    if (threadIdx.x == 0) block_base = atomicAdd(&scratch.totals[0], static_cast<unsigned long long>(block_total));
+  } else if (threadIdx.x == 0) {
+    publish_aggregate(scratch.block_status, block, block_total);
+  }
   if (visible) detail::shade_gaussian<kCompact>(src, g, frame, out);
-  if (threadIdx.x < 32) {
+  if (!arrival_order && threadIdx.x < 32) {
     const unsigned long long exclusive = look_back(scratch.block_status, block, block_total);
     if (threadIdx.x == 0) {
       block_base = exclusive;
@@ -127,7 +131,8 @@ uint32_t fused_blocks(uint32_t count) { return std::max(1u, (count + kFusedBlock
 cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
                                     const RoofgsFrame& roofgs, const RoofgsProjected& out,
                                     const FusedScratch& scratch, const LargeGaussianList& large, uint64_t capacity,
-                                    uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
+                                    PairAllocation allocation, uint64_t* keys64, uint32_t* keys32, uint32_t* values,
+                                    cudaStream_t stream) {
   const uint32_t blocks = fused_blocks(source.count);
   cudaError_t result = cudaMemsetAsync(scratch.block_ticket, 0, sizeof(uint32_t), stream);
   if (result == cudaSuccess) {
@@ -137,10 +142,13 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
   if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
   if (result != cudaSuccess || source.count == 0) return result;
   const detail::PairSink sink{capacity, keys64, keys32, values};
+  const bool arrival = allocation == PairAllocation::kArrivalOrder;
   if (roofgs.compact) {
-    fused_kernel<true><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink);
+    fused_kernel<true><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink,
+                                                                arrival);
   } else {
-    fused_kernel<false><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink);
+    fused_kernel<false><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink,
+                                                                 arrival);
   }
   return detail::launch_result();
 }

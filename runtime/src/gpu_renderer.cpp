@@ -488,9 +488,13 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
         RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, key_bits, stream));
         capacity = b.values.size();
         RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(capacity));
+        // With depth order the final order of tied pairs does not depend on the order they are emitted in,
+        // so blocks need not wait for their predecessors' counts (PairAllocation::kArrivalOrder).
+        const auto allocation =
+            reorder_ties ? kernels::PairAllocation::kArrivalOrder : kernels::PairAllocation::kBlockOrder;
         RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, projected, scratch, large,
-                                                                  capacity, b.keys64.data(), b.keys32.data(),
-                                                                  b.values.data(), stream),
+                                                                  capacity, allocation, b.keys64.data(),
+                                                                  b.keys32.data(), b.values.data(), stream),
                                  "GpuRenderer: fused preprocess kernel");
         RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.fused_done, stream), "GpuRenderer: cudaEventRecord");
         RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.keys64.data(),

@@ -153,17 +153,28 @@ struct FusedScratch {
 /// Number of FusedScratch::block_status entries for `count` Gaussians.
 uint32_t fused_blocks(uint32_t count);
 
-/// One kernel for preprocess + tile count + allocation + key/value generation (paper's fused kernel). Block
-/// b's pairs start after all pairs of blocks < b (decoupled look-back, one status word per block), so pairs
-/// come out in emission order exactly as with the separate stages: output is deterministic. Pairs at
-/// positions ≥ capacity are not written; totals[0] always receives the full count, and the caller runs
-/// the kernel again with enough capacity when it exceeds `capacity`. Gaussians with more than
-/// kSerialTileLimit tiles are listed in `large` (with their cov2d, snug_t and depth bin stored), and
-/// emit_large_gaussians must follow to write their pairs.
+/// Where the fused kernel puts the pairs of each thread block.
+enum class PairAllocation {
+  /// After all pairs of the blocks before it (decoupled look-back): pairs come out in emission order, as with
+  /// the separate stages, so equal keys leave the stable sort in the same order every run.
+  kBlockOrder,
+  /// Where the block arrives (one atomicAdd, as the public RoofGS code allocates): no block waits for its
+  /// predecessors, but pairs with equal keys leave the sort in an order that varies between runs. Only for
+  /// frames whose tied keys order_equal_keys_by_depth reorders afterwards: its (depth, id) order of each run
+  /// does not depend on the order it receives, so the final pairs and image are the same as with kBlockOrder.
+  kArrivalOrder,
+};
+
+/// One kernel for preprocess + tile count + allocation + key/value generation (paper's fused kernel). Each
+/// block's pairs are allocated as `allocation` says. Pairs at positions ≥ capacity are not written;
+/// totals[0] always receives the full count, and the caller runs the kernel again with enough capacity when
+/// it exceeds `capacity`. Gaussians with more than kSerialTileLimit tiles are listed in `large` (with their
+/// cov2d, snug_t and depth bin stored), and emit_large_gaussians must follow to write their pairs.
 cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FrameParams& frame,
                                     const RoofgsFrame& roofgs, const RoofgsProjected& out,
                                     const FusedScratch& scratch, const LargeGaussianList& large, uint64_t capacity,
-                                    uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
+                                    PairAllocation allocation, uint64_t* keys64, uint32_t* keys32, uint32_t* values,
+                                    cudaStream_t stream);
 
 /// Depth order (RoofGS+, beyond the paper) after the stable sort of 32-bit keys, with the tile ranges. Pairs
 /// whose keys tie (same tile and depth bin) leave the sort in emission order, i.e. by Gaussian id, which is
