@@ -113,7 +113,8 @@ const std::vector<BenchMode>& all_modes() {
        [](const tools::LoadedGpuScene& scene) {
          return roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(), "roofgs");
        }},
-      {"roofgs+", "roofgs with depth order and fast exp sigma 0.05798",
+      {"roofgs+", "roofgs with depth order and fast exp sigma 0.05798 (the fused kernel then allocates pairs in "
+                  "arrival order: the depth order makes their emission order moot)",
        [](const tools::LoadedGpuScene& scene) {
          runtime::RoofgsOptions t = runtime::RoofgsOptions::all();
          t.depth_order = true;
