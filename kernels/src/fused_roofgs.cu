@@ -134,15 +134,15 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
                                     PairAllocation allocation, uint64_t* keys64, uint32_t* keys32, uint32_t* values,
                                     cudaStream_t stream) {
   const uint32_t blocks = fused_blocks(source.count);
+  const bool arrival = allocation == PairAllocation::kArrivalOrder;
   cudaError_t result = cudaMemsetAsync(scratch.block_ticket, 0, sizeof(uint32_t), stream);
-  if (result == cudaSuccess) {
+  if (result == cudaSuccess && !arrival) {  // the look-back's status words (arrival order reads none)
     result = cudaMemsetAsync(scratch.block_status, 0, sizeof(unsigned long long) * blocks, stream);
   }
   if (result == cudaSuccess) result = cudaMemsetAsync(scratch.totals, 0, 2 * sizeof(unsigned long long), stream);
   if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
   if (result != cudaSuccess || source.count == 0) return result;
   const detail::PairSink sink{capacity, keys64, keys32, values};
-  const bool arrival = allocation == PairAllocation::kArrivalOrder;
   if (roofgs.compact) {
     fused_kernel<true><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink,
                                                                 arrival);

@@ -41,11 +41,7 @@ __device__ void emit_chunk_with_warp(const detail::TileWalk& walk, int chunk_fir
   const int k = chunk_first + lane;
   int first = 0;
   const uint32_t length = lane < chunk_slices && k < walk.slice_end() ? length_of(k, &first) : 0u;
-  uint32_t inclusive = length;
-  for (int offset = 1; offset < 32; offset *= 2) {
-    const uint32_t up = __shfl_up_sync(kAllLanes, inclusive, offset);
-    if (lane >= offset) inclusive += up;
-  }
+  const uint32_t inclusive = detail::warp_inclusive_sum(length, lane);
   const uint32_t exclusive = inclusive - length;
   const uint32_t total = __shfl_sync(kAllLanes, inclusive, 31);
   // The chunk's pairs laid end to end, 32 per step: lane i writes pair f = step + i, found in slice s (its

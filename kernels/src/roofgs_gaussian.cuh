@@ -37,12 +37,25 @@ struct ProjectedRegs {
 
 __device__ inline float half_bits_to_float(uint16_t bits) { return __half2float(__ushort_as_half(bits)); }
 
-/// Value j of Gaussian g's SH block [K, 3] (j = 3k + c), dequantized as s[degree(k)][c]·q: one rounded
+/// The SH value q at index j = 3k + c of a block [K, 3], dequantized as s[degree(k)][c]·q: one rounded
 /// product, as format::dequantize on the host.
+__device__ inline float dequantize_sh_value(const CompactGaussiansView& c, int j, int8_t q) {
+  return c.sh_scales[sh_degree_of_coefficient(j / 3)][j % 3] * static_cast<float>(q);
+}
+
+/// Value j of Gaussian g's SH block [K, 3] (j = 3k + c), dequantized (dequantize_sh_value).
 __device__ inline float dequantize_sh(const CompactGaussiansView& c, uint32_t g, int j) {
   const uint64_t k_count = uint64_t(sh_coefficients_for(int(c.sh_degree)));
-  const int8_t q = c.sh[uint64_t(g) * k_count * 3 + uint64_t(j)];
-  return c.sh_scales[sh_degree_of_coefficient(j / 3)][j % 3] * static_cast<float>(q);
+  return dequantize_sh_value(c, j, c.sh[uint64_t(g) * k_count * 3 + uint64_t(j)]);
+}
+
+/// Inclusive sum of `value` over lanes 0..lane of the calling warp (all 32 lanes call it).
+__device__ inline uint32_t warp_inclusive_sum(uint32_t value, int lane) {
+  for (int offset = 1; offset < 32; offset *= 2) {
+    const uint32_t up = __shfl_up_sync(0xffffffffu, value, offset);
+    if (lane >= offset) value += up;
+  }
+  return value;
 }
 
 /// Gaussian g's mean [3] (float32 in both profiles).
@@ -125,7 +138,7 @@ __device__ inline void load_colour(const GaussianSource& src, uint32_t g, float 
 #pragma unroll
     for (int j = 0; j < kMaxShCoefficients * 3; ++j) {
       const auto q = static_cast<int8_t>(uint8_t(words[j / 4] >> (8 * (j % 4))));
-      sh[j] = j < k_count * 3 ? c.sh_scales[sh_degree_of_coefficient(j / 3)][j % 3] * static_cast<float>(q) : 0.f;
+      sh[j] = j < k_count * 3 ? dequantize_sh_value(c, j, q) : 0.f;
     }
     sh_to_colour(sh, int(degree), x, y, z, rgb);
   } else {
@@ -364,11 +377,7 @@ __device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool 
     for (uint32_t base = 0; base < longs; base += 32) {
       const uint32_t i = base + thread;
       const uint32_t own = i < longs ? uint32_t(shared.walk[i].u_end - shared.walk[i].u_first) : 0u;
-      uint32_t inclusive = own;
-      for (int offset = 1; offset < 32; offset *= 2) {
-        const uint32_t up = __shfl_up_sync(0xffffffffu, inclusive, offset);
-        if (int(thread) >= offset) inclusive += up;
-      }
+      const uint32_t inclusive = warp_inclusive_sum(own, int(thread));
       if (i < longs) shared.first_slice[i] = carry + inclusive - own;
       carry += __shfl_sync(0xffffffffu, inclusive, 31);
     }

@@ -203,7 +203,7 @@ cudaError_t order_equal_keys_by_depth(const uint32_t* sorted_keys, const uint32_
 /// Fractions measured with the CPU reference's preprocess (SnugBox + AccuTile, 3 views each): flowers
 /// 0.66–0.71 at 1080p, 0.89–0.92 at 4K, 0.98 at 8K; flowers ×53 0.60 / 0.82; daffodils 0.01 / 0.05;
 /// daffodils ×4 0.003 / 0.02 (1080p / 4K). In the final H100 run of docs/BENCHMARKS.md the culling made the
-/// render 1.3–1.9× faster on daffodils and daffodils ×4, and 1–12 % slower on flowers at 4K and 8K and on
+/// render 1.3–1.9× faster on daffodils and daffodils ×4, and 2–12 % slower on flowers at 4K and 8K and on
 /// flowers ×53.
 constexpr uint32_t kSubtileLargeTiles = 32;
 constexpr double kSubtileMaxLargePairFraction = 0.5;

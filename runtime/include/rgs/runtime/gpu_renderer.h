@@ -73,7 +73,9 @@ struct GpuRoofgsOptions {
   /// registers (paper item 1); needs GpuScene::has_compact(). Off: read the FP32 arrays.
   bool compact_attributes = true;
   /// One fused kernel for preprocess + tile duplication + keys, pairs allocated in Gaussian order by a
-  /// decoupled look-back (deterministic); off: separate preprocess, scan and duplicate kernels.
+  /// decoupled look-back (deterministic), or in the blocks' arrival order with depth order and the 32-bit key,
+  /// whose final order does not depend on it (kernels::PairAllocation); off: separate preprocess, scan and
+  /// duplicate kernels.
   bool fused_preprocess = true;
   /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by warps
   /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
@@ -109,8 +111,8 @@ struct GpuRenderStats {
   uint64_t gaussians = 0;      ///< input Gaussians
   uint64_t pairs = 0;          ///< (tile, Gaussian) pairs sorted
   uint32_t tiles_x = 0, tiles_y = 0;
-  /// Key bits the pair sort covered: 32 + ceil(log2(tiles)) for 64-bit keys, 32 for 32-bit keys, only the
-  /// tile bits with depth order.
+  /// Key bits the pair sort covered: 32 + ceil(log2(tiles)) for 64-bit keys, 32 for 32-bit keys (with or
+  /// without depth order).
   int sort_bits = 0;
   int key_tile_bits = 0, key_depth_bits = 0;  ///< 32-bit key layout (0 without it)
   float z_near = 0, z_far = 0; ///< 32-bit key depth range (0 without it)
