@@ -5,7 +5,7 @@
 #
 # Default PLY: $RGS_DATA_DIR/playcanvas_flowers_lod0.ply (the 542k-Gaussian daffodils scene), 5 repeats after
 # one unmeasured warm-up run (so the input is in the page cache: this measures the converter, not the disk).
-# Prints one line per run and a Markdown summary row with the medians and the memory budget of issue 2:
+# Prints one line per run and a Markdown summary row with the medians and the converter's memory budget:
 # peak RSS <= input bytes + output bytes + 64 MiB.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -1,26 +1,49 @@
 #!/usr/bin/env bash
-# Installs the Debian packages RoofGS builds against (Debian 12 or newer). Idempotent: skips apt when
-# everything is already installed. Uses sudo when not run as root.
+# Installs the Debian packages RoofGS needs (Debian 12 or newer), and nothing else.
+# Usage: scripts/install_deps.sh [sample|tests]
+#   sample  what rgs-convert and rgs-info need to build (the README's first command)
+#   tests   everything the whole test suite needs (default): the render and audit tools' image I/O, doctest,
+#           python3 for the corpus generators, clang's libFuzzer and sanitizers for the bounded fuzzing run
+# Idempotent: skips apt when everything is present. Uses sudo when not run as root. Waits (up to 10 minutes)
+# for another apt or dpkg to release its lock, as happens right after a fresh machine boots.
 set -euo pipefail
 
-packages=(
-  build-essential cmake ninja-build pkg-config time
-  libzstd-dev libxxhash-dev libdraco-dev libglm-dev
-  libopenimageio-dev openimageio-tools
-  doctest-dev nlohmann-json3-dev libcli11-dev libtbb-dev
+profile="${1:-tests}"
+sample=(
+  build-essential cmake ninja-build pkg-config
+  libzstd-dev libxxhash-dev nlohmann-json3-dev libcli11-dev
 )
+tests=(
+  "${sample[@]}"
+  doctest-dev libopenimageio-dev
+  python3 time
+  clang libclang-rt-14-dev llvm
+)
+case "$profile" in
+  sample) packages=("${sample[@]}") ;;
+  tests) packages=("${tests[@]}") ;;
+  *) echo "install_deps.sh: unknown profile '$profile' (expected sample or tests)" >&2; exit 2 ;;
+esac
 
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -eq 0 ]; then
-  echo "install_deps: all ${#packages[@]} packages present"
+  echo "install_deps: all ${#packages[@]} packages of '$profile' present"
   exit 0
 fi
 
 sudo=""
 if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+lock_timeout=600
 echo "install_deps: installing ${missing[*]}"
-$sudo apt-get update -qq
-DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+# apt-get update has no lock timeout of its own: retry while another apt holds the lists lock.
+for attempt in $(seq 1 60); do
+  if $sudo apt-get -o DPkg::Lock::Timeout="$lock_timeout" update -qq; then break; fi
+  if [ "$attempt" -eq 60 ]; then echo "install_deps: apt-get update kept failing" >&2; exit 1; fi
+  echo "install_deps: apt-get update failed (another apt running?); retrying in 10 s" >&2
+  sleep 10
+done
+DEBIAN_FRONTEND=noninteractive $sudo apt-get -o DPkg::Lock::Timeout="$lock_timeout" install -y -qq \
+  --no-install-recommends "${missing[@]}"

@@ -12,7 +12,7 @@ namespace {
 
 /// CUB's policies for the RoofGS sort of 32-bit keys and values with 32-bit offsets (the onesweep radix sort
 /// CUB runs on sm_89 and sm_90, 8 bits a pass), changed where H100 runs of a standalone program measured a
-/// difference (docs/BENCHMARKS.md, session 7; tile-ordered keys, medians of 50), for counts whose 384-thread
+/// difference (docs/BENCHMARKS.md; tile-ordered keys, medians of 50), for counts whose 384-thread
 /// onesweep tiles (CUB's choice for sm_90, 23 keys a thread) are more than one per SM:
 /// - the digit histograms are built by 1,024-thread blocks instead of 128: the kernel runs as many blocks as
 ///   fit and each adds its 4 × 256 counts into the same global bins with atomics, so 8× fewer blocks make

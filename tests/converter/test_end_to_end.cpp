@@ -1,5 +1,5 @@
 // End to end through real .rgs bytes: PLY -> quantize -> serialize -> validate -> parse -> dequantize -> PLY,
-// on the shipped sample and on every real scene of ../shared/data (issue 2's acceptance list).
+// on the shipped sample and on every real scene of $RGS_DATA_DIR.
 #include <doctest/doctest.h>
 
 #include <string>

@@ -1,4 +1,4 @@
-// GPU baseline pipeline (issue 4) against the CPU reference renderer on real scenes and edge cases.
+// GPU baseline pipeline (the 3DGS rasterizer) against the CPU reference renderer on real scenes and edge cases.
 //
 // Tolerances (each real-scene view checks all of them; measured values on the H100: docs/BENCHMARKS.md and
 // the MESSAGE lines):

@@ -1,4 +1,4 @@
-// GPU RoofGS pipeline (issue 5): term-by-term agreement with the CPU reference's RoofGS mode, structural
+// GPU RoofGS pipeline: term-by-term agreement with the CPU reference's RoofGS mode, structural
 // identities (fused = separate stages, 32-bit key + depth order = baseline at 1080p, 4K and 8K, frames
 // deterministic), and quality against the GPU baseline.
 //
@@ -400,7 +400,7 @@ TEST_CASE("32-bit key with depth order renders exactly the baseline's image at 1
 }
 
 TEST_CASE("RoofGS quality against the GPU baseline, every 20th flowers camera at 1920x1080") {
-  // Issue 5's quality targets: the paper's combination mean ≥ 48 dB, min ≥ 45 dB; with depth order and
+  // Quality floors: the paper's combination mean ≥ 48 dB, min ≥ 45 dB; with depth order and
   // σ = 0.05798 (beyond the paper) mean ≥ 50, min ≥ 48. Against the FP32 baseline of the PLY itself.
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
