@@ -11,7 +11,7 @@ data="${1:-$root/../shared/data}"
 build="$root/build-gpu"
 stage="$root/.device_data"
 
-cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
   -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=OFF \
   -DRGS_INSTALL=OFF >/dev/null
 cmake --build "$build" -j"$(nproc)" --target test_gpu rgs-render rgs-bench rgs-convert

@@ -428,7 +428,8 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
         {"gflops", p.gflops},         {"flop_per_byte", p.intensity},
         {"pct_memory_peak", p.pct_bandwidth}, {"pct_compute_peak", p.pct_compute},
         {"bound", p.bound},           {"attainable_gflops", p.attainable_gflops},
-        {"pct_of_roof", p.pct_of_roof}};
+        {"pct_of_roof", p.pct_of_roof}, {"floor_ms", p.floor_ms},
+        {"times_floor", p.times_floor}};
   }
   return {{"model", "docs/ROOFLINE.md: bytes requested from global memory and FP32 FLOPs per frame (mean over "
                     "views), visible = all Gaussians, render FLOPs without early termination (upper bounds)"},
@@ -543,14 +544,15 @@ int run(const Options& opt) {
               peaks->copy_ms.size(), tools::fixed(peaks->fp32_gflops, 0).c_str(), peaks->fma_ms.size(),
               tools::fixed(peaks->ridge_flop_per_byte(), 2).c_str());
   std::printf("  roofline         model: docs/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
-  std::printf("  %-12s %-10s %-10s %8s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage", "ms",
-              "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
+  std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage",
+              "ms", "floor ms", "x floor", "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
   for (size_t i = 0; i < results.size(); ++i) {
     for (int s = 0; s < tools::kRooflineStages; ++s) {
       const tools::RooflinePoint& p = rooflines[i].points[s];
-      std::printf("  %-12s %-10s %-10s %8s %10s %10s %9s %9s %8s %6s %6s %-7s\n", results[i].mode.c_str(),
+      std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", results[i].mode.c_str(),
                   results[i].resolution.c_str(), tools::roofline_stage_name(tools::RooflineStage(s)),
-                  tools::fixed(p.ms, 3).c_str(), tools::fixed(p.bytes / 1e6, 2).c_str(),
+                  tools::fixed(p.ms, 3).c_str(), tools::fixed(p.floor_ms, 3).c_str(),
+                  tools::fixed(p.times_floor, 1).c_str(), tools::fixed(p.bytes / 1e6, 2).c_str(),
                   tools::fixed(p.flops / 1e6, 1).c_str(), tools::fixed(p.gbps, 1).c_str(),
                   tools::fixed(p.gflops, 1).c_str(), tools::fixed(p.intensity, 2).c_str(),
                   tools::fixed(p.pct_bandwidth, 1).c_str(), tools::fixed(p.pct_compute, 1).c_str(), p.bound);

@@ -159,6 +159,10 @@ RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePea
   } else {
     pt.pct_of_roof = pt.pct_bandwidth;
   }
+  if (peaks.memory_gbps > 0 && peaks.compute_gflops > 0) {
+    pt.floor_ms = std::max(work.bytes / (peaks.memory_gbps * 1e6), work.flops / (peaks.compute_gflops * 1e6));
+  }
+  if (pt.floor_ms > 0) pt.times_floor = ms / pt.floor_ms;
   return pt;
 }
 

@@ -148,6 +148,10 @@ struct RooflinePoint {
   /// the stage reached (for a stage without FLOPs: pct_bandwidth).
   double attainable_gflops = 0;
   double pct_of_roof = 0;
+  /// The stage's roofline floor, ms: max(bytes / bandwidth peak, FLOPs / compute peak), the time the model's
+  /// work takes at the roof (0 without both peaks); and the measured time over it (0 when the floor is 0).
+  double floor_ms = 0;
+  double times_floor = 0;
 };
 
 /// Places `work`, timed at `ms` milliseconds, against `peaks`. A non-positive time gives zero rates.

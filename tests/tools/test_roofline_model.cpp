@@ -176,11 +176,16 @@ TEST_CASE("roofline point: rates, percentages and the bounding roof") {
   CHECK(std::strcmp(p.bound, "memory") == 0);
   CHECK(p.attainable_gflops == doctest::Approx(40000));
   CHECK(p.pct_of_roof == doctest::Approx(50));
+  // Floor: 1 GB at 2000 GB/s = 0.5 ms > 20 GFLOP at 50,000 GFLOP/s = 0.4 ms; measured 1 ms is 2x the floor.
+  CHECK(p.floor_ms == doctest::Approx(0.5));
+  CHECK(p.times_floor == doctest::Approx(2.0));
   // 100 FLOP/B: compute bound, attainable = the compute peak.
   p = roofline_point(StageWork{1e8, 1e10}, 0.5, peaks);
   CHECK(std::strcmp(p.bound, "compute") == 0);
   CHECK(p.attainable_gflops == doctest::Approx(50000));
   CHECK(p.pct_of_roof == doctest::Approx(40));
+  CHECK(p.floor_ms == doctest::Approx(0.2));  // 10 GFLOP at 50,000 GFLOP/s; the 0.1 GB take 0.05 ms
+  CHECK(p.times_floor == doctest::Approx(2.5));
   // No FLOPs (the sort): memory bound, the share of the roof is the share of the bandwidth.
   p = roofline_point(StageWork{3e9, 0}, 2.0, peaks);
   CHECK(p.intensity == 0);
@@ -190,6 +195,8 @@ TEST_CASE("roofline point: rates, percentages and the bounding roof") {
   p = roofline_point(StageWork{1e9, 1e9}, 0.0, RooflinePeaks{});
   CHECK(p.gbps == 0);
   CHECK(std::strcmp(p.bound, "unknown") == 0);
+  CHECK(p.floor_ms == 0);
+  CHECK(p.times_floor == 0);
 }
 
 }  // namespace
