@@ -253,7 +253,8 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
     RGS_RETURN_IF_ERROR(get_index(node, "mesh", &mesh, true, where));
     const json& meshes = member(doc_, "meshes");
     if (!meshes.is_array() || mesh >= meshes.size()) return corrupt(where + " names mesh " + std::to_string(mesh) + ", which does not exist");
-    const json& prims = meshes[mesh].value("primitives", json::array());
+    const json& prims = member(meshes[mesh], "primitives");  // a reference: primitives are kept by address
+    if (!prims.is_array()) return corrupt("glTF mesh " + std::to_string(mesh) + " has no primitives array");
     for (const json& p : prims) {
       if (!p.is_object()) continue;
       auto ext = p.find("extensions");
@@ -440,7 +441,9 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
     }
   } else if (doc_.contains("meshes") && member(doc_, "meshes").is_array()) {
     for (const json& m : member(doc_, "meshes")) {
-      for (const json& p : m.value("primitives", json::array())) {
+      const json& prims = member(m, "primitives");
+      if (!prims.is_array()) continue;
+      for (const json& p : prims) {
         if (p.is_object() && p.contains("extensions") && p["extensions"].is_object() &&
             p["extensions"].contains(detail::kKhrGaussianSplatting)) {
           Primitive prim{&p, {}};

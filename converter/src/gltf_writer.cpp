@@ -18,7 +18,8 @@ namespace rgs::converter {
 
 namespace {
 
-using nlohmann::json;
+// ordered_json keeps "asset" first, where content sniffers look for it.
+using json = nlohmann::ordered_json;
 
 constexpr double kShC0 = 0.28209479177387814;
 
