@@ -19,9 +19,12 @@ add_library(rgs_xxhash INTERFACE)
 target_include_directories(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_INCLUDE_DIR}>")
 target_link_libraries(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_LIBRARY}>")
 
+# zlib: gzip-wrapped SPZ versions 2 and 3 (rgs_converter only).
+find_package(ZLIB REQUIRED)
+# nlohmann-json: the glTF reader and writer of rgs_converter (header-only), and the tools.
+find_package(nlohmann_json CONFIG REQUIRED)
 if(RGS_BUILD_TOOLS)
   find_package(CLI11 CONFIG REQUIRED)
-  find_package(nlohmann_json CONFIG REQUIRED)
 endif()
 find_package(Threads REQUIRED)
 

@@ -1,0 +1,744 @@
+// glTF reader for KHR_gaussian_splatting: GLB container or .gltf JSON, bounds-checked accessors, node
+// transforms, frame conversion from glTF's y-up axes.
+#include "rgs/converter/gltf_reader.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "internal_gltf.h"
+#include "internal_interop.h"
+
+namespace rgs::converter {
+
+namespace {
+
+using nlohmann::json;
+
+/// Deepest node hierarchy followed (cycles are errors anyway; this bounds the recursion).
+constexpr int kMaxNodeDepth = 64;
+
+Status corrupt(const std::string& msg) { return Status(StatusCode::kCorruptData, msg); }
+
+/// obj[key], or null when absent (const operator[] of a missing key is undefined behaviour).
+const json& member(const json& obj, const char* key) {
+  static const json kNull;
+  if (!obj.is_object()) return kNull;
+  auto it = obj.find(key);
+  return it == obj.end() ? kNull : *it;
+}
+
+/// A non-negative integer member, or `fallback` when absent.
+Status get_index(const json& obj, const char* key, uint64_t* out, bool required, const std::string& where,
+                 uint64_t fallback = 0) {
+  auto it = obj.find(key);
+  if (it == obj.end()) {
+    if (required) return corrupt(where + " has no '" + key + "'");
+    *out = fallback;
+    return Status();
+  }
+  if (!it->is_number_unsigned() && !(it->is_number_integer() && it->get<int64_t>() >= 0)) {
+    return corrupt(where + " '" + key + "' is not a non-negative integer");
+  }
+  *out = it->get<uint64_t>();
+  return Status();
+}
+
+struct Accessor {
+  const uint8_t* base = nullptr;  ///< null: no bufferView, every value is 0
+  uint64_t stride = 0;
+  uint64_t count = 0;
+  int component_type = detail::kGltfFloat;
+  int components = 0;
+  bool normalized = false;
+
+  float get(uint64_t i, int c) const {
+    if (base == nullptr) return 0.0f;
+    const uint8_t* p = base + i * stride;
+    switch (component_type) {
+      case detail::kGltfFloat: return detail::le_f32(p + 4 * c);
+      case detail::kGltfByte: {
+        const float v = static_cast<int8_t>(p[c]);
+        return normalized ? std::max(v / 127.0f, -1.0f) : v;
+      }
+      case detail::kGltfUnsignedByte: return normalized ? p[c] / 255.0f : static_cast<float>(p[c]);
+      case detail::kGltfShort: {
+        const float v = static_cast<int16_t>(detail::le_u16(p + 2 * c));
+        return normalized ? std::max(v / 32767.0f, -1.0f) : v;
+      }
+      case detail::kGltfUnsignedShort: {
+        const float v = detail::le_u16(p + 2 * c);
+        return normalized ? v / 65535.0f : v;
+      }
+      default: return static_cast<float>(detail::le_u32(p + 4 * c));
+    }
+  }
+};
+
+int component_bytes(int type) {
+  switch (type) {
+    case detail::kGltfByte:
+    case detail::kGltfUnsignedByte: return 1;
+    case detail::kGltfShort:
+    case detail::kGltfUnsignedShort: return 2;
+    case detail::kGltfUnsignedInt:
+    case detail::kGltfFloat: return 4;
+    default: return 0;
+  }
+}
+
+/// Accepted (componentType, normalized) pairs of one attribute.
+struct Allowed {
+  bool float_ok = true;
+  bool byte_norm = false, short_norm = false;    // signed, normalized
+  bool ubyte = false, ubyte_norm = false, ushort = false, ushort_norm = false;
+  bool byte_raw = false, short_raw = false;
+  bool ok(int type, bool norm) const {
+    switch (type) {
+      case detail::kGltfFloat: return float_ok && !norm;
+      case detail::kGltfByte: return norm ? byte_norm : byte_raw;
+      case detail::kGltfShort: return norm ? short_norm : short_raw;
+      case detail::kGltfUnsignedByte: return norm ? ubyte_norm : ubyte;
+      case detail::kGltfUnsignedShort: return norm ? ushort_norm : ushort;
+      default: return false;
+    }
+  }
+};
+
+std::string base64_error(const std::string& where) { return where + " has a malformed base64 data URI"; }
+
+bool base64_decode(const std::string& in, size_t start, std::vector<uint8_t>* out) {
+  auto value = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+' || c == '-') return 62;
+    if (c == '/' || c == '_') return 63;
+    return -1;
+  };
+  uint32_t acc = 0;
+  int bits = 0;
+  for (size_t i = start; i < in.size(); ++i) {
+    const char c = in[i];
+    if (c == '=') break;
+    const int v = value(c);
+    if (v < 0) return false;
+    acc = (acc << 6) | static_cast<uint32_t>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out->push_back(static_cast<uint8_t>(acc >> bits));
+    }
+  }
+  return true;
+}
+
+class Reader {
+ public:
+  Reader(const json& doc, const uint8_t* bin, uint64_t bin_size, std::string base_dir, const InteropReadOptions& o)
+      : doc_(doc), bin_(bin), bin_size_(bin_size), base_dir_(std::move(base_dir)), options_(o) {}
+
+  Result<InteropScene> read(const std::string& container, uint64_t file_bytes);
+
+ private:
+  struct Primitive {
+    const json* prim;
+    double world[16];  ///< column-major
+  };
+
+  Status check_asset();
+  Status collect(const json& nodes_list);
+  Status visit(uint64_t node, const double parent[16], int depth);
+  Status buffer(uint64_t index, const uint8_t** data, uint64_t* size);
+  Status accessor(const json& attributes, const std::string& semantic, const char* type, int components,
+                  const Allowed& allowed, Accessor* out);
+
+  const json& doc_;
+  const uint8_t* bin_;
+  uint64_t bin_size_;
+  std::string base_dir_;
+  const InteropReadOptions& options_;
+  std::map<uint64_t, std::vector<uint8_t>> loaded_;
+  std::vector<Primitive> prims_;
+  std::vector<std::string> notes_;
+};
+
+Status Reader::check_asset() {
+  auto asset = doc_.find("asset");
+  if (asset == doc_.end() || !asset->is_object()) return corrupt("glTF has no 'asset' object");
+  auto version = asset->find("version");
+  if (version == asset->end() || !version->is_string()) return corrupt("glTF asset has no 'version' string");
+  const std::string v = version->get<std::string>();
+  if (v.rfind("2.", 0) != 0) {
+    return Status(StatusCode::kUnsupportedVersion, "glTF asset version '" + v + "' is not supported (2.x)");
+  }
+  auto req = doc_.find("extensionsRequired");
+  if (req != doc_.end()) {
+    if (!req->is_array()) return corrupt("glTF 'extensionsRequired' is not an array");
+    for (const json& e : *req) {
+      if (!e.is_string() || e.get<std::string>() != detail::kKhrGaussianSplatting) {
+        return Status(StatusCode::kUnsupportedFeature,
+                      "glTF requires extension " + (e.is_string() ? e.get<std::string>() : e.dump()) +
+                          ", which this reader does not implement (only KHR_gaussian_splatting)");
+      }
+    }
+  }
+  return Status();
+}
+
+void identity(double m[16]) {
+  for (int i = 0; i < 16; ++i) m[i] = (i % 5 == 0) ? 1.0 : 0.0;
+}
+
+void multiply(const double a[16], const double b[16], double out[16]) {
+  double r[16];
+  for (int c = 0; c < 4; ++c) {
+    for (int row = 0; row < 4; ++row) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += a[k * 4 + row] * b[c * 4 + k];
+      r[c * 4 + row] = s;
+    }
+  }
+  std::memcpy(out, r, sizeof(r));
+}
+
+Status numbers(const json& obj, const char* key, size_t n, double* out, const std::string& where) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return Status();
+  if (!it->is_array() || it->size() != n) return corrupt(where + " '" + key + "' is not an array of " + std::to_string(n));
+  for (size_t i = 0; i < n; ++i) {
+    if (!(*it)[i].is_number()) return corrupt(where + " '" + key + "' holds a non-number");
+    out[i] = (*it)[i].get<double>();
+  }
+  return Status();
+}
+
+Status Reader::visit(uint64_t index, const double parent[16], int depth) {
+  const json& nodes = member(doc_, "nodes");
+  if (!nodes.is_array() || index >= nodes.size()) return corrupt("glTF node " + std::to_string(index) + " does not exist");
+  if (depth > kMaxNodeDepth) return corrupt("glTF node hierarchy deeper than " + std::to_string(kMaxNodeDepth) + " (cycle?)");
+  const json& node = nodes[index];
+  const std::string where = "glTF node " + std::to_string(index);
+  if (!node.is_object()) return corrupt(where + " is not an object");
+  double local[16];
+  identity(local);
+  if (node.contains("matrix")) {
+    RGS_RETURN_IF_ERROR(numbers(node, "matrix", 16, local, where));
+  } else {
+    double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+    RGS_RETURN_IF_ERROR(numbers(node, "translation", 3, t, where));
+    RGS_RETURN_IF_ERROR(numbers(node, "rotation", 4, q, where));
+    RGS_RETURN_IF_ERROR(numbers(node, "scale", 3, s, where));
+    const double x = q[0], y = q[1], z = q[2], w = q[3];
+    const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + w * z),     2 * (x * z - w * y),
+                         2 * (x * y - w * z),     1 - 2 * (x * x + z * z), 2 * (y * z + w * x),
+                         2 * (x * z + w * y),     2 * (y * z - w * x),     1 - 2 * (x * x + y * y)};  // columns
+    for (int c = 0; c < 3; ++c) {
+      for (int row = 0; row < 3; ++row) local[c * 4 + row] = r[c * 3 + row] * s[c];
+    }
+    for (int a = 0; a < 3; ++a) local[12 + a] = t[a];
+  }
+  double world[16];
+  multiply(parent, local, world);
+  if (node.contains("mesh")) {
+    uint64_t mesh = 0;
+    RGS_RETURN_IF_ERROR(get_index(node, "mesh", &mesh, true, where));
+    const json& meshes = member(doc_, "meshes");
+    if (!meshes.is_array() || mesh >= meshes.size()) return corrupt(where + " names mesh " + std::to_string(mesh) + ", which does not exist");
+    const json& prims = member(meshes[mesh], "primitives");  // a reference: primitives are kept by address
+    if (!prims.is_array()) return corrupt("glTF mesh " + std::to_string(mesh) + " has no primitives array");
+    for (const json& p : prims) {
+      if (!p.is_object()) continue;
+      auto ext = p.find("extensions");
+      if (ext == p.end() || !ext->is_object() || !ext->contains(detail::kKhrGaussianSplatting)) continue;
+      Primitive prim{&p, {}};
+      std::memcpy(prim.world, world, sizeof(world));
+      prims_.push_back(prim);
+    }
+  }
+  if (node.contains("children")) {
+    const json& children = node["children"];
+    if (!children.is_array()) return corrupt(where + " 'children' is not an array");
+    for (const json& c : children) {
+      if (!c.is_number_unsigned()) return corrupt(where + " has a child that is not a node index");
+      RGS_RETURN_IF_ERROR(visit(c.get<uint64_t>(), world, depth + 1));
+    }
+  }
+  return Status();
+}
+
+Status Reader::collect(const json& scene_nodes) {
+  double id[16];
+  identity(id);
+  for (const json& n : scene_nodes) {
+    if (!n.is_number_unsigned()) return corrupt("glTF scene lists a node that is not an index");
+    RGS_RETURN_IF_ERROR(visit(n.get<uint64_t>(), id, 0));
+  }
+  return Status();
+}
+
+Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
+  const json& buffers = member(doc_, "buffers");
+  const std::string where = "glTF buffer " + std::to_string(index);
+  if (!buffers.is_array() || index >= buffers.size()) return corrupt(where + " does not exist");
+  const json& b = buffers[index];
+  uint64_t length = 0;
+  RGS_RETURN_IF_ERROR(get_index(b, "byteLength", &length, true, where));
+  auto uri = b.find("uri");
+  if (uri == b.end()) {
+    if (index != 0 || bin_ == nullptr) return corrupt(where + " has no uri and there is no GLB BIN chunk");
+    if (length > bin_size_) {
+      return Status(StatusCode::kIoError, where + " declares " + std::to_string(length) + " bytes but the BIN chunk has " +
+                                              std::to_string(bin_size_));
+    }
+    *data = bin_;
+    *size = length;
+    return Status();
+  }
+  if (!uri->is_string()) return corrupt(where + " uri is not a string");
+  auto cached = loaded_.find(index);
+  if (cached == loaded_.end()) {
+    const std::string u = uri->get<std::string>();
+    std::vector<uint8_t> bytes;
+    if (u.rfind("data:", 0) == 0) {
+      const size_t comma = u.find(',');
+      if (comma == std::string::npos || u.substr(0, comma).find(";base64") == std::string::npos ||
+          !base64_decode(u, comma + 1, &bytes)) {
+        return corrupt(base64_error(where));
+      }
+    } else {
+      if (base_dir_.empty()) {
+        return Status(StatusCode::kUnsupportedFeature, where + " refers to external file '" + u +
+                                                           "', which cannot be resolved for data in memory");
+      }
+      if (u.find("://") != std::string::npos || (!u.empty() && u[0] == '/')) {
+        return Status(StatusCode::kUnsupportedFeature, where + " uri '" + u + "' is not a relative path");
+      }
+      std::string decoded;
+      for (size_t i = 0; i < u.size(); ++i) {
+        if (u[i] == '%' && i + 2 < u.size() && std::isxdigit(static_cast<unsigned char>(u[i + 1])) &&
+            std::isxdigit(static_cast<unsigned char>(u[i + 2]))) {
+          decoded += static_cast<char>(std::stoi(u.substr(i + 1, 2), nullptr, 16));
+          i += 2;
+        } else {
+          decoded += u[i];
+        }
+      }
+      const std::string file = (std::filesystem::path(base_dir_) / decoded).string();
+      std::ifstream in(file, std::ios::binary);
+      if (!in) return Status(StatusCode::kIoError, where + ": cannot open '" + file + "'");
+      bytes.resize(static_cast<size_t>(length));
+      in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(length));
+      if (static_cast<uint64_t>(in.gcount()) != length) {
+        return Status(StatusCode::kIoError, where + ": '" + file + "' has " + std::to_string(in.gcount()) +
+                                                " bytes, less than the declared " + std::to_string(length));
+      }
+    }
+    if (bytes.size() < length) {
+      return Status(StatusCode::kIoError, where + " declares " + std::to_string(length) + " bytes but its data has " +
+                                              std::to_string(bytes.size()));
+    }
+    cached = loaded_.emplace(index, std::move(bytes)).first;
+  }
+  *data = cached->second.data();
+  *size = length;
+  return Status();
+}
+
+Status Reader::accessor(const json& attributes, const std::string& semantic, const char* type, int components,
+                        const Allowed& allowed, Accessor* out) {
+  auto it = attributes.find(semantic);
+  if (it == attributes.end()) return corrupt("glTF splat primitive has no '" + semantic + "' attribute");
+  if (!it->is_number_unsigned()) return corrupt("glTF attribute '" + semantic + "' is not an accessor index");
+  const uint64_t index = it->get<uint64_t>();
+  const json& accessors = member(doc_, "accessors");
+  const std::string where = "glTF accessor " + std::to_string(index) + " ('" + semantic + "')";
+  if (!accessors.is_array() || index >= accessors.size()) return corrupt(where + " does not exist");
+  const json& a = accessors[index];
+  if (!a.is_object()) return corrupt(where + " is not an object");
+  if (a.contains("sparse")) return Status(StatusCode::kUnsupportedFeature, where + " is sparse");
+  if (!a.contains("type") || !a["type"].is_string() || a["type"].get<std::string>() != type) {
+    return corrupt(where + " has type " + (a.contains("type") ? a["type"].dump() : std::string("(none)")) +
+                   ", expected " + type);
+  }
+  uint64_t ctype = 0, count = 0, offset = 0;
+  RGS_RETURN_IF_ERROR(get_index(a, "componentType", &ctype, true, where));
+  RGS_RETURN_IF_ERROR(get_index(a, "count", &count, true, where));
+  RGS_RETURN_IF_ERROR(get_index(a, "byteOffset", &offset, false, where));
+  const bool normalized = a.value("normalized", false);
+  if (!allowed.ok(static_cast<int>(ctype), normalized)) {
+    return corrupt(where + " has componentType " + std::to_string(ctype) + (normalized ? " normalized" : "") +
+                   ", which KHR_gaussian_splatting does not allow for this attribute");
+  }
+  out->component_type = static_cast<int>(ctype);
+  out->components = components;
+  out->normalized = normalized;
+  out->count = count;
+  out->base = nullptr;
+  const uint64_t elem = uint64_t(component_bytes(out->component_type)) * components;
+  if (!a.contains("bufferView")) return Status();  // all zeros, as glTF defines
+  uint64_t view_index = 0;
+  RGS_RETURN_IF_ERROR(get_index(a, "bufferView", &view_index, true, where));
+  const json& views = member(doc_, "bufferViews");
+  if (!views.is_array() || view_index >= views.size()) {
+    return corrupt(where + " names bufferView " + std::to_string(view_index) + ", which does not exist");
+  }
+  const json& v = views[view_index];
+  const std::string vwhere = "glTF bufferView " + std::to_string(view_index);
+  uint64_t buf = 0, voff = 0, vlen = 0, stride = 0;
+  RGS_RETURN_IF_ERROR(get_index(v, "buffer", &buf, true, vwhere));
+  RGS_RETURN_IF_ERROR(get_index(v, "byteOffset", &voff, false, vwhere));
+  RGS_RETURN_IF_ERROR(get_index(v, "byteLength", &vlen, true, vwhere));
+  RGS_RETURN_IF_ERROR(get_index(v, "byteStride", &stride, false, vwhere));
+  if (stride != 0 && (stride < elem || stride > 252)) {
+    return corrupt(vwhere + " byteStride " + std::to_string(stride) + " is below the element size " +
+                   std::to_string(elem) + " or above 252");
+  }
+  if (stride == 0) stride = elem;
+  const uint8_t* data = nullptr;
+  uint64_t size = 0;
+  RGS_RETURN_IF_ERROR(buffer(buf, &data, &size));
+  uint64_t vend = 0;
+  if (!detail::add_u64(voff, vlen, &vend) || vend > size) {
+    return corrupt(vwhere + " spans bytes " + std::to_string(voff) + "+" + std::to_string(vlen) + ", beyond its buffer of " +
+                   std::to_string(size));
+  }
+  if (count > 0) {
+    uint64_t last = 0, end = 0;
+    if (!detail::mul_u64(stride, count - 1, &last) || !detail::add_u64(last, offset, &end) ||
+        !detail::add_u64(end, elem, &end) || end > vlen) {
+      return corrupt(where + ": " + std::to_string(count) + " elements of " + std::to_string(elem) + " bytes every " +
+                     std::to_string(stride) + " from offset " + std::to_string(offset) +
+                     " do not fit bufferView " + std::to_string(view_index) + " of " + std::to_string(vlen) + " bytes");
+    }
+  }
+  out->base = data + voff + offset;
+  out->stride = stride;
+  return Status();
+}
+
+Result<InteropScene> Reader::read(const std::string& container, uint64_t file_bytes) {
+  if (!doc_.is_object()) return corrupt("glTF JSON is not an object");
+  RGS_RETURN_IF_ERROR(check_asset());
+  // Primitives of the default scene, or of every mesh when there is no scene.
+  auto scenes = doc_.find("scenes");
+  if (scenes != doc_.end() && scenes->is_array() && !scenes->empty()) {
+    uint64_t s = 0;
+    RGS_RETURN_IF_ERROR(get_index(doc_, "scene", &s, false, "glTF"));
+    if (s >= scenes->size()) return corrupt("glTF default scene " + std::to_string(s) + " does not exist");
+    const json& scene = (*scenes)[s];
+    if (scene.contains("nodes")) {
+      if (!scene["nodes"].is_array()) return corrupt("glTF scene 'nodes' is not an array");
+      RGS_RETURN_IF_ERROR(collect(scene["nodes"]));
+    }
+  } else if (doc_.contains("meshes") && member(doc_, "meshes").is_array()) {
+    for (const json& m : member(doc_, "meshes")) {
+      const json& prims = member(m, "primitives");
+      if (!prims.is_array()) continue;
+      for (const json& p : prims) {
+        if (p.is_object() && p.contains("extensions") && p["extensions"].is_object() &&
+            p["extensions"].contains(detail::kKhrGaussianSplatting)) {
+          Primitive prim{&p, {}};
+          identity(prim.world);
+          prims_.push_back(prim);
+        }
+      }
+    }
+  }
+  if (prims_.empty()) {
+    return Status(StatusCode::kUnsupportedFeature, "glTF has no mesh primitive with the KHR_gaussian_splatting extension");
+  }
+  Allowed position_types;
+  position_types.byte_norm = position_types.short_norm = position_types.ubyte = position_types.ubyte_norm = true;
+  position_types.ushort = position_types.ushort_norm = position_types.byte_raw = position_types.short_raw = true;
+  Allowed rotation_types;
+  rotation_types.byte_norm = rotation_types.short_norm = true;
+  Allowed scale_types;
+  scale_types.ubyte = scale_types.ubyte_norm = scale_types.ushort = scale_types.ushort_norm = true;
+  Allowed opacity_types;
+  opacity_types.ubyte_norm = opacity_types.ushort_norm = true;
+  const Allowed sh_types;
+
+  struct Decoded {
+    Accessor pos, rot, scale, opacity;
+    std::vector<Accessor> sh;  // per coefficient k
+    uint32_t degree = 0;
+    const double* world = nullptr;
+  };
+  std::vector<Decoded> parts;
+  uint64_t total = 0;
+  for (size_t pi = 0; pi < prims_.size(); ++pi) {
+    const json& p = *prims_[pi].prim;
+    const std::string where = "glTF splat primitive " + std::to_string(pi);
+    const json& ext = p["extensions"][detail::kKhrGaussianSplatting];
+    if (!ext.is_object()) return corrupt(where + ": KHR_gaussian_splatting is not an object");
+    const std::string kernel = ext.value("kernel", std::string());
+    if (kernel != "ellipse") {
+      return Status(StatusCode::kUnsupportedFeature, where + " has kernel '" + kernel + "' (supported: ellipse)");
+    }
+    const std::string color_space = ext.value("colorSpace", std::string());
+    if (color_space != "srgb_rec709_display") {
+      notes_.push_back(where + ": colorSpace '" + color_space + "' kept as stored; RoofGS renders colours as 3DGS "
+                       "does (srgb_rec709_display)");
+    }
+    if (ext.value("projection", std::string("perspective")) != "perspective" ||
+        ext.value("sortingMethod", std::string("cameraDistance")) != "cameraDistance") {
+      notes_.push_back(where + ": projection/sortingMethod other than perspective/cameraDistance ignored");
+    }
+    uint64_t mode = 4;
+    RGS_RETURN_IF_ERROR(get_index(p, "mode", &mode, false, where, 4));
+    if (mode != 0) return corrupt(where + " has mode " + std::to_string(mode) + "; splats must be POINTS (0)");
+    if (!p.contains("attributes") || !p["attributes"].is_object()) return corrupt(where + " has no attributes");
+    const json& attrs = p["attributes"];
+    Decoded d;
+    d.world = prims_[pi].world;
+    RGS_RETURN_IF_ERROR(accessor(attrs, "POSITION", "VEC3", 3, position_types, &d.pos));
+    RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:ROTATION", "VEC4", 4, rotation_types, &d.rot));
+    RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:SCALE", "VEC3", 3, scale_types, &d.scale));
+    RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:OPACITY", "SCALAR", 1, opacity_types, &d.opacity));
+    // SH: degree l is present when any of its coefficients is; then all of them and all lower degrees must be.
+    for (uint32_t l = 0; l <= 3; ++l) {
+      int present = 0;
+      for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
+        present += attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m));
+      }
+      if (present == 0) {
+        if (l == 0) return corrupt(where + " has no KHR_gaussian_splatting:SH_DEGREE_0_COEF_0");
+        for (uint32_t h = l + 1; h <= 3; ++h) {
+          if (attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(h) + "_COEF_0")) {
+            return corrupt(where + " has SH degree " + std::to_string(h) + " without degree " + std::to_string(l));
+          }
+        }
+        break;
+      }
+      if (present != detail::kGltfShCoefs[l]) {
+        return corrupt(where + " defines " + std::to_string(present) + " of the " +
+                       std::to_string(detail::kGltfShCoefs[l]) + " coefficients of SH degree " + std::to_string(l));
+      }
+      for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
+        Accessor a;
+        RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" +
+                                                std::to_string(m), "VEC3", 3, sh_types, &a));
+        d.sh.push_back(a);
+      }
+      d.degree = l;
+    }
+    const uint64_t n = d.pos.count;
+    for (const Accessor* a : {&d.rot, &d.scale, &d.opacity}) {
+      if (a->count != n) {
+        return corrupt(where + ": attribute counts differ (" + std::to_string(n) + " positions, " +
+                       std::to_string(a->count) + " in another attribute)");
+      }
+    }
+    for (const Accessor& a : d.sh) {
+      if (a.count != n) return corrupt(where + ": SH accessor holds " + std::to_string(a.count) + " values, POSITION " + std::to_string(n));
+    }
+    if (!parts.empty() && parts.front().degree != d.degree) {
+      return Status(StatusCode::kUnsupportedFeature, where + " has SH degree " + std::to_string(d.degree) +
+                                                         ", primitive 0 has " + std::to_string(parts.front().degree));
+    }
+    total += n;
+    if (total > options_.max_gaussians) {
+      return Status(StatusCode::kLimitExceeded, "glTF declares " + std::to_string(total) +
+                                                    " or more Gaussians, above the limit of " +
+                                                    std::to_string(options_.max_gaussians));
+    }
+    parts.push_back(std::move(d));
+  }
+
+  InteropScene scene;
+  scene.format = container;
+  scene.format_version = 2;
+  scene.file_bytes = file_bytes;
+  scene.declared_gaussians = total;
+  scene.stored_frame = "LUF";
+  format::GaussianCloud& cloud = scene.cloud;
+  cloud.sh_degree = parts.front().degree;
+  cloud.resize(static_cast<size_t>(total));
+  const uint32_t k_count = cloud.sh_coefficients();
+  uint64_t at = 0, bad_opacity = 0, bad_scale = 0;
+  for (size_t pi = 0; pi < parts.size(); ++pi) {
+    const Decoded& d = parts[pi];
+    // World transform: M = R·s (uniform s > 0), applied when not the identity.
+    const double* m = d.world;
+    double col[3];
+    for (int c = 0; c < 3; ++c) col[c] = std::sqrt(m[c * 4] * m[c * 4] + m[c * 4 + 1] * m[c * 4 + 1] + m[c * 4 + 2] * m[c * 4 + 2]);
+    const double s = col[0];
+    bool is_identity = true;
+    for (int i = 0; i < 16; ++i) is_identity = is_identity && std::fabs(m[i] - ((i % 5 == 0) ? 1.0 : 0.0)) < 1e-12;
+    double qr[4] = {1, 0, 0, 0};  // (w, x, y, z) of R
+    if (!is_identity) {
+      const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
+                         m[8] * (m[1] * m[6] - m[5] * m[2]);
+      if (!(s > 0) || std::fabs(col[1] - s) > 1e-6 * s || std::fabs(col[2] - s) > 1e-6 * s || det <= 0 ||
+          std::fabs(m[3]) + std::fabs(m[7]) + std::fabs(m[11]) > 1e-12 || std::fabs(m[15] - 1) > 1e-12) {
+        return Status(StatusCode::kUnsupportedFeature, "glTF splat primitive " + std::to_string(pi) +
+                                                           " has a node transform that is not rotation + uniform "
+                                                           "positive scale + translation");
+      }
+      // Rotation matrix R = M / s (column-major), to a quaternion.
+      const double r00 = m[0] / s, r10 = m[1] / s, r20 = m[2] / s, r01 = m[4] / s, r11 = m[5] / s, r21 = m[6] / s,
+                   r02 = m[8] / s, r12 = m[9] / s, r22 = m[10] / s;
+      const double tr = r00 + r11 + r22;
+      if (tr > 0) {
+        const double t = std::sqrt(tr + 1.0) * 2;
+        qr[0] = 0.25 * t, qr[1] = (r21 - r12) / t, qr[2] = (r02 - r20) / t, qr[3] = (r10 - r01) / t;
+      } else if (r00 > r11 && r00 > r22) {
+        const double t = std::sqrt(1.0 + r00 - r11 - r22) * 2;
+        qr[0] = (r21 - r12) / t, qr[1] = 0.25 * t, qr[2] = (r01 + r10) / t, qr[3] = (r02 + r20) / t;
+      } else if (r11 > r22) {
+        const double t = std::sqrt(1.0 + r11 - r00 - r22) * 2;
+        qr[0] = (r02 - r20) / t, qr[1] = (r01 + r10) / t, qr[2] = 0.25 * t, qr[3] = (r12 + r21) / t;
+      } else {
+        const double t = std::sqrt(1.0 + r22 - r00 - r11) * 2;
+        qr[0] = (r10 - r01) / t, qr[1] = (r02 + r20) / t, qr[2] = (r12 + r21) / t, qr[3] = 0.25 * t;
+      }
+      const bool rotates = std::fabs(std::fabs(qr[0]) - 1.0) > 1e-9;
+      if (rotates && d.degree > 0) {
+        return Status(StatusCode::kUnsupportedFeature,
+                      "glTF splat primitive " + std::to_string(pi) + " is rotated by its node and has SH degree " +
+                          std::to_string(d.degree) + "; rotating SH coefficients is not supported");
+      }
+    }
+    const uint64_t n = d.pos.count;
+    for (uint64_t i = 0; i < n; ++i, ++at) {
+      double p[3], q[4], sc[3];
+      for (int a = 0; a < 3; ++a) p[a] = d.pos.get(i, a);
+      for (int a = 0; a < 3; ++a) sc[a] = d.scale.get(i, a);
+      // glTF (x, y, z, w) → (w, x, y, z)
+      q[0] = d.rot.get(i, 3), q[1] = d.rot.get(i, 0), q[2] = d.rot.get(i, 1), q[3] = d.rot.get(i, 2);
+      if (!is_identity) {
+        double t[3];
+        for (int r = 0; r < 3; ++r) t[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+        std::memcpy(p, t, sizeof(t));
+        for (double& v : sc) v *= s;
+        const double w = qr[0] * q[0] - qr[1] * q[1] - qr[2] * q[2] - qr[3] * q[3];
+        const double x = qr[0] * q[1] + qr[1] * q[0] + qr[2] * q[3] - qr[3] * q[2];
+        const double y = qr[0] * q[2] - qr[1] * q[3] + qr[2] * q[0] + qr[3] * q[1];
+        const double z = qr[0] * q[3] + qr[1] * q[2] - qr[2] * q[1] + qr[3] * q[0];
+        q[0] = w, q[1] = x, q[2] = y, q[3] = z;
+      }
+      for (int a = 0; a < 3; ++a) {
+        cloud.means[at * 3 + a] = static_cast<float>(p[a]);
+        cloud.scales[at * 3 + a] = static_cast<float>(sc[a]);
+        bad_scale += sc[a] < 0;
+      }
+      for (int a = 0; a < 4; ++a) cloud.rotations[at * 4 + a] = static_cast<float>(q[a]);
+      const float o = d.opacity.get(i, 0);
+      bad_opacity += o < 0.0f || o > 1.0f;
+      cloud.opacities[at] = o;
+      for (uint32_t k = 0; k < k_count; ++k) {
+        for (int c = 0; c < 3; ++c) cloud.sh[(at * k_count + k) * 3 + c] = d.sh[k].get(i, c);
+      }
+    }
+  }
+  if (bad_opacity != 0 || bad_scale != 0) {
+    return corrupt(std::to_string(bad_opacity) + " opacities outside [0, 1] and " + std::to_string(bad_scale) +
+                   " negative scales (KHR_gaussian_splatting stores activated values)");
+  }
+  if (options_.convert_frame) {
+    detail::AxisFlip flip;
+    detail::flip_to_rdf("LUF", &flip);
+    detail::apply_axis_flip(flip, &cloud);
+    scene.frame_converted = true;
+  }
+  scene.notes = std::move(notes_);
+  RGS_RETURN_IF_ERROR(detail::finish_hygiene(options_.invalid_policy, "Gaussian", &cloud, &scene.hygiene));
+  return scene;
+}
+
+Result<InteropScene> read_document(const uint8_t* data, size_t size, const std::string& base_dir,
+                                   const InteropReadOptions& options) {
+  const uint8_t* json_begin = data;
+  uint64_t json_size = size;
+  const uint8_t* bin = nullptr;
+  uint64_t bin_size = 0;
+  std::string container = "gltf";
+  if (size >= 4 && detail::le_u32(data) == detail::kGlbMagic) {
+    container = "glb";
+    if (size < detail::kGlbHeaderBytes + 8) {
+      return Status(StatusCode::kIoError, "GLB file of " + std::to_string(size) + " bytes ends inside its header");
+    }
+    const uint32_t version = detail::le_u32(data + 4);
+    if (version != 2) {
+      return Status(StatusCode::kUnsupportedVersion, "GLB version " + std::to_string(version) + " is not supported (2)");
+    }
+    const uint32_t length = detail::le_u32(data + 8);
+    if (length > size) {
+      return Status(StatusCode::kIoError, "GLB header declares " + std::to_string(length) + " bytes but the file has " +
+                                              std::to_string(size) + " (truncated file?)");
+    }
+    uint64_t at = detail::kGlbHeaderBytes;
+    bool have_json = false;
+    while (at + 8 <= length) {
+      const uint64_t chunk = detail::le_u32(data + at);
+      const uint32_t type = detail::le_u32(data + at + 4);
+      if (chunk > length - at - 8) {
+        return Status(StatusCode::kIoError, "GLB chunk at byte " + std::to_string(at) + " declares " +
+                                                std::to_string(chunk) + " bytes, past the end at " + std::to_string(length));
+      }
+      if (!have_json) {
+        if (type != detail::kGlbChunkJson) return corrupt("GLB's first chunk is not JSON");
+        json_begin = data + at + 8;
+        json_size = chunk;
+        have_json = true;
+      } else if (type == detail::kGlbChunkBin && bin == nullptr) {
+        bin = data + at + 8;
+        bin_size = chunk;
+      }
+      at += 8 + chunk;
+    }
+    if (!have_json) return corrupt("GLB has no JSON chunk");
+  } else {
+    // JSON glTF: skip a UTF-8 byte-order mark.
+    if (size >= 3 && data[0] == 0xEF && data[1] == 0xBB && data[2] == 0xBF) json_begin += 3, json_size -= 3;
+  }
+  if (json_size > kMaxGltfJsonBytes) {
+    return Status(StatusCode::kLimitExceeded, "glTF JSON of " + std::to_string(json_size) + " bytes exceeds " +
+                                                  std::to_string(kMaxGltfJsonBytes));
+  }
+  json doc = json::parse(json_begin, json_begin + json_size, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) return corrupt(container == "glb" ? "GLB JSON chunk is not valid JSON" : "not glTF: invalid JSON");
+  Reader reader(doc, bin, bin_size, base_dir, options);
+  return reader.read(container, size);
+}
+
+}  // namespace
+
+bool looks_like_gltf(const uint8_t* head, size_t n) {
+  if (head == nullptr) return false;
+  if (n >= 8 && detail::le_u32(head) == detail::kGlbMagic) return detail::le_u32(head + 4) == 2;
+  size_t i = 0;
+  if (n >= 3 && head[0] == 0xEF && head[1] == 0xBB && head[2] == 0xBF) i = 3;
+  while (i < n && (head[i] == ' ' || head[i] == '\t' || head[i] == '\r' || head[i] == '\n')) ++i;
+  if (i >= n || head[i] != '{') return false;
+  const std::string text(reinterpret_cast<const char*>(head) + i, n - i);
+  return text.find("\"asset\"") != std::string::npos || text.find(detail::kKhrGaussianSplatting) != std::string::npos;
+}
+
+Result<InteropScene> read_gltf(const std::string& path, const InteropReadOptions& options) {
+  RGS_ASSIGN_OR_RETURN(auto file, detail::map_input(path));  // its errors name the path
+  return detail::guarded<InteropScene>(path, "decoding the glTF file", [&]() -> Result<InteropScene> {
+    std::string dir = std::filesystem::path(path).parent_path().string();
+    if (dir.empty()) dir = ".";
+    return read_document(file->data(), file->size(), dir, options);
+  });
+}
+
+Result<InteropScene> read_gltf_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                     const InteropReadOptions& options) {
+  return detail::guarded<InteropScene>(name, "decoding the glTF file", [&]() -> Result<InteropScene> {
+    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
+    return read_document(data, size, std::string(), options);
+  });
+}
+
+}  // namespace rgs::converter

@@ -1,0 +1,225 @@
+// GLB writer for KHR_gaussian_splatting: one float accessor per attribute, one buffer in the BIN chunk.
+#include "rgs/converter/gltf_writer.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "internal_gltf.h"
+#include "internal_interop.h"
+#include "rgs/format/file_io.h"
+
+namespace rgs::converter {
+
+namespace {
+
+// ordered_json keeps "asset" first, where content sniffers look for it.
+using json = nlohmann::ordered_json;
+
+constexpr double kShC0 = 0.28209479177387814;
+
+uint64_t align4(uint64_t n) { return (n + 3) & ~uint64_t{3}; }
+
+/// One accessor's data, already little-endian.
+struct Segment {
+  std::string semantic;
+  std::vector<uint8_t> data;
+  int component_type = detail::kGltfFloat;
+  const char* type = "VEC3";
+  bool normalized = false;
+  uint64_t count = 0;
+  json min, max;
+};
+
+Segment float_segment(std::string semantic, const char* type, uint64_t count, size_t width) {
+  Segment s;
+  s.semantic = std::move(semantic);
+  s.type = type;
+  s.count = count;
+  s.data.resize(static_cast<size_t>(count * width * 4));
+  return s;
+}
+
+/// sRGB transfer function decoded to linear (IEC 61966-2-1).
+double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const GltfWriteOptions& o,
+                                       GltfWriteSummary* summary) {
+  RGS_RETURN_IF_ERROR(detail::check_writable_cloud(cloud));
+  const uint64_t n = cloud.size();
+  if (n > UINT32_MAX) {
+    return Status(StatusCode::kInvalidArgument, std::to_string(n) + " Gaussians exceed a glTF accessor's count");
+  }
+  detail::AxisFlip flip;
+  if (o.convert_frame) detail::flip_to_rdf("LUF", &flip);  // LUF ↔ RDF is one self-inverse 180° turn about z
+  format::GaussianCloud out = cloud;
+  detail::apply_axis_flip(flip, &out);
+  const uint32_t k_count = out.sh_coefficients();
+
+  std::vector<Segment> segs;
+  {
+    Segment s = float_segment("POSITION", "VEC3", n, 3);
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::numeric_limits<float>::infinity();
+      hi[a] = -std::numeric_limits<float>::infinity();
+    }
+    for (uint64_t i = 0; i < n; ++i) {
+      for (int a = 0; a < 3; ++a) {
+        const float v = out.means[i * 3 + a];
+        detail::put_f32(s.data.data() + (i * 3 + a) * 4, v);
+        lo[a] = std::min(lo[a], v);
+        hi[a] = std::max(hi[a], v);
+      }
+    }
+    if (n > 0) {
+      s.min = json::array({lo[0], lo[1], lo[2]});
+      s.max = json::array({hi[0], hi[1], hi[2]});
+    }
+    segs.push_back(std::move(s));
+  }
+  if (o.color_fallback) {
+    Segment s;
+    s.semantic = "COLOR_0";
+    s.type = "VEC4";
+    s.component_type = detail::kGltfUnsignedByte;
+    s.normalized = true;
+    s.count = n;
+    s.data.resize(static_cast<size_t>(n * 4));
+    for (uint64_t i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) {
+        const double srgb = std::clamp(0.5 + kShC0 * out.sh[i * k_count * 3 + c], 0.0, 1.0);
+        s.data[i * 4 + c] = static_cast<uint8_t>(std::lround(srgb_to_linear(srgb) * 255.0));
+      }
+      s.data[i * 4 + 3] = static_cast<uint8_t>(std::lround(std::clamp<double>(out.opacities[i], 0.0, 1.0) * 255.0));
+    }
+    segs.push_back(std::move(s));
+  }
+  {
+    Segment s = float_segment("KHR_gaussian_splatting:ROTATION", "VEC4", n, 4);
+    for (uint64_t i = 0; i < n; ++i) {
+      const float* q = out.rotations.data() + i * 4;  // (w, x, y, z) → glTF's (x, y, z, w)
+      const float xyzw[4] = {q[1], q[2], q[3], q[0]};
+      for (int a = 0; a < 4; ++a) detail::put_f32(s.data.data() + (i * 4 + a) * 4, xyzw[a]);
+    }
+    segs.push_back(std::move(s));
+  }
+  {
+    Segment s = float_segment("KHR_gaussian_splatting:SCALE", "VEC3", n, 3);
+    for (uint64_t j = 0; j < n * 3; ++j) detail::put_f32(s.data.data() + j * 4, out.scales[j]);
+    segs.push_back(std::move(s));
+  }
+  {
+    Segment s = float_segment("KHR_gaussian_splatting:OPACITY", "SCALAR", n, 1);
+    for (uint64_t i = 0; i < n; ++i) detail::put_f32(s.data.data() + i * 4, out.opacities[i]);
+    segs.push_back(std::move(s));
+  }
+  uint32_t k = 0;
+  for (uint32_t l = 0; l <= out.sh_degree; ++l) {
+    for (int m = 0; m < detail::kGltfShCoefs[l]; ++m, ++k) {
+      Segment s = float_segment("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m),
+                                "VEC3", n, 3);
+      for (uint64_t i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) detail::put_f32(s.data.data() + (i * 3 + c) * 4, out.sh[(i * k_count + k) * 3 + c]);
+      }
+      segs.push_back(std::move(s));
+    }
+  }
+
+  json buffer_views = json::array(), accessors = json::array(), attributes = json::object();
+  uint64_t bin_bytes = 0;
+  for (size_t v = 0; v < segs.size(); ++v) {
+    const Segment& s = segs[v];
+    buffer_views.push_back({{"buffer", 0},
+                            {"byteOffset", bin_bytes},
+                            {"byteLength", s.data.size()},
+                            {"target", detail::kGltfArrayBuffer}});
+    json acc = {{"bufferView", v}, {"componentType", s.component_type}, {"count", s.count}, {"type", s.type}};
+    if (s.normalized) acc["normalized"] = true;
+    if (!s.min.is_null()) {
+      acc["min"] = s.min;
+      acc["max"] = s.max;
+    }
+    accessors.push_back(std::move(acc));
+    attributes[s.semantic] = v;
+    bin_bytes += align4(s.data.size());
+  }
+  json ext = {{"kernel", "ellipse"},
+              {"colorSpace", "srgb_rec709_display"},
+              {"projection", "perspective"},
+              {"sortingMethod", "cameraDistance"}};
+  json gltf = {
+      {"asset", {{"version", "2.0"}, {"generator", o.generator}}},
+      {"extensionsUsed", json::array({detail::kKhrGaussianSplatting})},
+      {"scene", 0},
+      {"scenes", json::array({{{"nodes", json::array({0})}}})},
+      {"nodes", json::array({{{"mesh", 0}}})},
+      {"meshes", json::array({{{"primitives", json::array({{{"attributes", attributes},
+                                                             {"mode", 0},
+                                                             {"extensions", {{detail::kKhrGaussianSplatting, ext}}}}})}}})},
+      {"buffers", json::array({{{"byteLength", bin_bytes}}})},
+      {"bufferViews", buffer_views},
+      {"accessors", accessors},
+  };
+  std::string text = gltf.dump();
+  while (text.size() % 4 != 0) text += ' ';  // the JSON chunk is padded with spaces
+  const uint64_t total = detail::kGlbHeaderBytes + 8 + text.size() + 8 + bin_bytes;
+  if (total > UINT32_MAX) {
+    return Status(StatusCode::kInvalidArgument, "GLB of " + std::to_string(total) + " bytes exceeds the 4 GiB the "
+                                                "format's 32-bit length field allows");
+  }
+  std::vector<uint8_t> bytes(static_cast<size_t>(total), 0);
+  uint8_t* p = bytes.data();
+  detail::put_u32(p, detail::kGlbMagic);
+  detail::put_u32(p + 4, 2);
+  detail::put_u32(p + 8, static_cast<uint32_t>(total));
+  detail::put_u32(p + 12, static_cast<uint32_t>(text.size()));
+  detail::put_u32(p + 16, detail::kGlbChunkJson);
+  std::memcpy(p + 20, text.data(), text.size());
+  uint8_t* bin = p + 20 + text.size();
+  detail::put_u32(bin, static_cast<uint32_t>(bin_bytes));
+  detail::put_u32(bin + 4, detail::kGlbChunkBin);
+  uint64_t at = 8;
+  for (const Segment& s : segs) {
+    if (!s.data.empty()) std::memcpy(bin + at, s.data.data(), s.data.size());
+    at += align4(s.data.size());  // padding stays zero
+  }
+  *summary = GltfWriteSummary{};
+  summary->sh_degree = cloud.sh_degree;
+  summary->gaussians = n;
+  summary->bytes = total;
+  summary->limitations.push_back("all attributes stored as float32: nothing is quantized");
+  summary->limitations.push_back(o.convert_frame
+                                     ? "frame: converted to glTF's y-up axes (x and y negated)"
+                                     : "frame: stored unconverted (RDF, y down), which glTF viewers show upside down");
+  summary->limitations.push_back("colorSpace declared srgb_rec709_display, as 3DGS training assumes");
+  return bytes;
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> serialize_glb(const format::GaussianCloud& cloud, const GltfWriteOptions& options,
+                                           GltfWriteSummary* summary) {
+  GltfWriteSummary local;
+  return detail::guarded<std::vector<uint8_t>>("", "encoding GLB", [&]() {
+    return serialize(cloud, options, summary ? summary : &local);
+  });
+}
+
+Result<GltfWriteSummary> write_glb(const std::string& path, const format::GaussianCloud& cloud,
+                                   const GltfWriteOptions& options) {
+  GltfWriteSummary summary;
+  auto bytes = detail::guarded<std::vector<uint8_t>>(path, "encoding GLB", [&]() {
+    return serialize(cloud, options, &summary);
+  });
+  if (!bytes.ok()) return std::move(bytes).status();
+  RGS_RETURN_IF_ERROR(format::write_file_atomic(path, bytes->data(), bytes->size()));
+  return summary;
+}
+
+}  // namespace rgs::converter

@@ -1,0 +1,112 @@
+// Helpers shared by the SPZ, .splat and glTF readers and writers (private to rgs_converter).
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <stdexcept>
+#include <string>
+
+#include "rgs/converter/interop.h"
+#include "rgs/format/file_io.h"
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/status.h"
+
+namespace rgs::converter::detail {
+
+inline uint16_t le_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
+inline uint32_t le_u32(const uint8_t* p) {
+  return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) | (static_cast<uint32_t>(p[2]) << 16) |
+         (static_cast<uint32_t>(p[3]) << 24);
+}
+inline uint64_t le_u64(const uint8_t* p) {
+  return static_cast<uint64_t>(le_u32(p)) | (static_cast<uint64_t>(le_u32(p + 4)) << 32);
+}
+inline float le_f32(const uint8_t* p) {
+  const uint32_t bits = le_u32(p);
+  float f;
+  std::memcpy(&f, &bits, 4);  // scalar bit cast
+  return f;
+}
+inline void put_u16(uint8_t* p, uint16_t v) {
+  p[0] = static_cast<uint8_t>(v);
+  p[1] = static_cast<uint8_t>(v >> 8);
+}
+inline void put_u32(uint8_t* p, uint32_t v) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+inline void put_u64(uint8_t* p, uint64_t v) {
+  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+inline void put_f32(uint8_t* p, float v) {
+  uint32_t bits;
+  std::memcpy(&bits, &v, 4);
+  put_u32(p, bits);
+}
+
+/// a + b and a * b into *out; false when the result does not fit in 64 bits.
+[[nodiscard]] inline bool add_u64(uint64_t a, uint64_t b, uint64_t* out) {
+  if (a > UINT64_MAX - b) return false;
+  *out = a + b;
+  return true;
+}
+[[nodiscard]] inline bool mul_u64(uint64_t a, uint64_t b, uint64_t* out) {
+  if (a != 0 && b > UINT64_MAX / a) return false;
+  *out = a * b;
+  return true;
+}
+
+/// Axis signs taking one frame to another: x' = sx·x, y' = sy·y, z' = sz·z (each ±1).
+struct AxisFlip {
+  float s[3] = {1, 1, 1};
+  bool identity() const { return s[0] > 0 && s[1] > 0 && s[2] > 0; }
+};
+
+/// Parses a three-letter frame name of the flip-only family ("RDF", "RUB", "LUF", ...: x Right/Left,
+/// y Up/Down, z Back/Front) into the flip that takes it to RDF. False for any other string.
+bool flip_to_rdf(const std::string& frame, AxisFlip* flip);
+
+/// Applies an axis flip to every Gaussian of `cloud`: means x' = S·x; the rotation matrix R' = S·R·S,
+/// which for a unit quaternion (w, x, y, z) keeps w and scales (x, y, z) by (sy·sz, sx·sz, sx·sy)
+/// (for a proper rotation S that is the vector part rotated by S); scales unchanged (S·diag·S = diag);
+/// SH coefficient k >= 1 multiplied by the parity of its basis polynomial under S (DESIGN.md's basis:
+/// y, z, x, xy, yz, 1, xz, 1, y, xyz, y, z, x, z, x up to sign and even factors).
+void apply_axis_flip(const AxisFlip& flip, format::GaussianCloud* cloud);
+
+/// Normalizes the quaternions of `cloud` and applies the InputHygiene rules of the PLY reader
+/// (docs/INPUT_HYGIENE.md): counts non-finite values (means, SH, scales, rotations; NaN opacity) and
+/// zero-norm quaternions, then fails with kCorruptData (kReject, same message as read_ply) or drops
+/// those Gaussians (kSanitize). `what` names a Gaussian in messages ("splat", "vertex").
+Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCloud* cloud, InputHygiene* hygiene);
+
+/// Maps `path` for reading. Errors: kIoError naming the OS cause.
+Result<std::shared_ptr<const format::MappedFile>> map_input(const std::string& path);
+
+inline std::string prefix(const std::string& name) { return name.empty() ? std::string() : name + ": "; }
+
+/// Runs `fn` (returning Result<T>), prefixing errors with `name` and turning allocation failures and
+/// stray exceptions into statuses (libraries never throw across their API).
+template <typename T, typename Fn>
+Result<T> guarded(const std::string& name, const char* activity, Fn&& fn) {
+  try {
+    Result<T> r = fn();
+    if (!r.ok()) {
+      Status s = std::move(r).status();
+      if (!name.empty()) s.prepend(name);
+      return s;
+    }
+    return r;
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, prefix(name) + "out of memory while " + activity);
+  } catch (const std::length_error&) {
+    return Status(StatusCode::kOutOfMemory, prefix(name) + "out of memory while " + activity);
+  } catch (const std::exception& e) {
+    return Status(StatusCode::kCorruptData, prefix(name) + activity + " failed: " + e.what());
+  }
+}
+
+/// Checks that `cloud` is consistent and finite (the writers' precondition). Errors: kInvalidArgument.
+Status check_writable_cloud(const format::GaussianCloud& cloud);
+
+}  // namespace rgs::converter::detail

@@ -1,0 +1,170 @@
+// Frame flips, input hygiene and file mapping shared by the SPZ, .splat and glTF readers and writers.
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "internal_interop.h"
+
+namespace rgs::converter::detail {
+
+namespace {
+
+/// Exponents (x, y, z) mod 2 of the polynomial of SH basis k = 1..15 (DESIGN.md "Numeric conventions"):
+/// only the parity matters under an axis flip, and the even factors (x², 2z² − x² − y², ...) keep sign.
+constexpr uint8_t kShParity[16][3] = {
+    {0, 0, 0},  // 0: constant
+    {0, 1, 0},  // 1: y
+    {0, 0, 1},  // 2: z
+    {1, 0, 0},  // 3: x
+    {1, 1, 0},  // 4: xy
+    {0, 1, 1},  // 5: yz
+    {0, 0, 0},  // 6: 2z² − x² − y²
+    {1, 0, 1},  // 7: xz
+    {0, 0, 0},  // 8: x² − y²
+    {0, 1, 0},  // 9: y(3x² − y²)
+    {1, 1, 1},  // 10: xyz
+    {0, 1, 0},  // 11: y(4z² − x² − y²)
+    {0, 0, 1},  // 12: z(2z² − 3x² − 3y²)
+    {1, 0, 0},  // 13: x(4z² − x² − y²)
+    {0, 0, 1},  // 14: z(x² − y²)
+    {1, 0, 0},  // 15: x(x² − 3y²)
+};
+
+inline bool finite_bits(float v) {
+  uint32_t u;
+  std::memcpy(&u, &v, 4);
+  return (u & 0x7f800000u) != 0x7f800000u;
+}
+
+}  // namespace
+
+bool flip_to_rdf(const std::string& frame, AxisFlip* flip) {
+  if (frame.size() != 3) return false;
+  const char x = frame[0], y = frame[1], z = frame[2];
+  if ((x != 'R' && x != 'L') || (y != 'U' && y != 'D') || (z != 'F' && z != 'B')) return false;
+  flip->s[0] = x == 'R' ? 1.0f : -1.0f;
+  flip->s[1] = y == 'D' ? 1.0f : -1.0f;
+  flip->s[2] = z == 'F' ? 1.0f : -1.0f;
+  return true;
+}
+
+void apply_axis_flip(const AxisFlip& flip, format::GaussianCloud* cloud) {
+  if (flip.identity()) return;
+  const float* s = flip.s;
+  const float qs[3] = {s[1] * s[2], s[0] * s[2], s[0] * s[1]};
+  const uint32_t k_count = cloud->sh_coefficients();
+  float sh_sign[16];
+  for (uint32_t k = 0; k < 16; ++k) {
+    float sign = 1.0f;
+    for (int a = 0; a < 3; ++a) {
+      if (kShParity[k][a]) sign *= s[a];
+    }
+    sh_sign[k] = sign;
+  }
+  const size_t n = cloud->size();
+  for (size_t i = 0; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) cloud->means[i * 3 + a] *= s[a];
+    for (int a = 0; a < 3; ++a) cloud->rotations[i * 4 + 1 + a] *= qs[a];
+    float* sh = cloud->sh.data() + i * k_count * 3;
+    for (uint32_t k = 1; k < k_count; ++k) {
+      for (int c = 0; c < 3; ++c) sh[k * 3 + c] *= sh_sign[k];
+    }
+  }
+}
+
+Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCloud* cloud, InputHygiene* h) {
+  const size_t n = cloud->size();
+  const size_t sv = size_t{cloud->sh_coefficients()} * 3;
+  std::vector<uint64_t> invalid;
+  for (size_t i = 0; i < n; ++i) {
+    uint64_t bad = 0;
+    for (int a = 0; a < 3; ++a) bad += !finite_bits(cloud->means[i * 3 + a]);
+    for (size_t j = 0; j < sv; ++j) bad += !finite_bits(cloud->sh[i * sv + j]);
+    for (int a = 0; a < 3; ++a) bad += !finite_bits(cloud->scales[i * 3 + a]);
+    bad += std::isnan(cloud->opacities[i]);
+    float* q = cloud->rotations.data() + i * 4;
+    bool q_finite = true;
+    for (int a = 0; a < 4; ++a) {
+      const bool f = finite_bits(q[a]);
+      bad += !f;
+      q_finite = q_finite && f;
+    }
+    bool zero_norm = false;
+    if (q_finite) {
+      double n2 = 0;
+      for (int a = 0; a < 4; ++a) n2 += static_cast<double>(q[a]) * q[a];
+      if (n2 < static_cast<double>(std::numeric_limits<float>::min())) {
+        zero_norm = true;
+      } else {
+        const double inv = 1.0 / std::sqrt(n2);
+        for (int a = 0; a < 4; ++a) q[a] = static_cast<float>(q[a] * inv);
+      }
+    }
+    h->nonfinite_values += bad;
+    h->gaussians_with_nonfinite += bad != 0;
+    h->zero_norm_quaternions += zero_norm;
+    if (bad != 0 || zero_norm) invalid.push_back(i);
+  }
+  h->first_invalid_index = invalid.empty() ? -1 : static_cast<int64_t>(invalid.front());
+  if (invalid.empty()) return Status();
+  if (policy == InvalidPolicy::kReject) {
+    return Status(StatusCode::kCorruptData,
+                  std::to_string(h->gaussians_with_nonfinite) + " Gaussians have non-finite values (" +
+                      std::to_string(h->nonfinite_values) + " values) and " + std::to_string(h->zero_norm_quaternions) +
+                      " have zero-norm quaternions (first: " + what + " " + std::to_string(h->first_invalid_index) +
+                      "); rerun with --sanitize to drop them");
+  }
+  // Drop the invalid Gaussians, keeping the order of the others.
+  size_t out = 0, d = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (d < invalid.size() && invalid[d] == i) {
+      ++d;
+      continue;
+    }
+    if (out != i) {
+      std::memmove(&cloud->means[out * 3], &cloud->means[i * 3], 3 * sizeof(float));
+      std::memmove(&cloud->rotations[out * 4], &cloud->rotations[i * 4], 4 * sizeof(float));
+      std::memmove(&cloud->scales[out * 3], &cloud->scales[i * 3], 3 * sizeof(float));
+      cloud->opacities[out] = cloud->opacities[i];
+      std::memmove(&cloud->sh[out * sv], &cloud->sh[i * sv], sv * sizeof(float));
+    }
+    ++out;
+  }
+  cloud->resize(out);
+  h->dropped_gaussians = invalid.size();
+  return Status();
+}
+
+Result<std::shared_ptr<const format::MappedFile>> map_input(const std::string& path) {
+  return format::MappedFile::open(path);
+}
+
+Status check_writable_cloud(const format::GaussianCloud& cloud) {
+  if (cloud.sh_degree > 3 || !cloud.is_consistent()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "cloud arrays are inconsistent: " + std::to_string(cloud.means.size()) + " mean values, " +
+                      std::to_string(cloud.rotations.size()) + " rotation values, " +
+                      std::to_string(cloud.scales.size()) + " scale values, " +
+                      std::to_string(cloud.opacities.size()) + " opacities, " + std::to_string(cloud.sh.size()) +
+                      " SH values at SH degree " + std::to_string(cloud.sh_degree));
+  }
+  auto check = [](const std::vector<float>& v, const char* name) -> Status {
+    for (size_t j = 0; j < v.size(); ++j) {
+      if (!finite_bits(v[j])) {
+        return Status(StatusCode::kInvalidArgument,
+                      std::string("cloud has a non-finite ") + name + " value at index " + std::to_string(j));
+      }
+    }
+    return Status();
+  };
+  RGS_RETURN_IF_ERROR(check(cloud.means, "mean"));
+  RGS_RETURN_IF_ERROR(check(cloud.rotations, "rotation"));
+  RGS_RETURN_IF_ERROR(check(cloud.scales, "scale"));
+  RGS_RETURN_IF_ERROR(check(cloud.opacities, "opacity"));
+  RGS_RETURN_IF_ERROR(check(cloud.sh, "SH"));
+  return Status();
+}
+
+}  // namespace rgs::converter::detail

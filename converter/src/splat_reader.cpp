@@ -1,0 +1,108 @@
+// .splat reader: 32-byte records of position, linear scale, RGBA8 colour and u8 quaternion.
+#include "rgs/converter/splat_reader.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "internal_interop.h"
+
+namespace rgs::converter {
+
+namespace {
+
+/// SH degree-0 basis constant (DESIGN.md "Numeric conventions").
+constexpr double kShC0 = 0.28209479177387814;
+
+Result<InteropScene> read_records(const uint8_t* data, size_t size, const InteropReadOptions& options) {
+  if (size == 0 || size % kSplatRecordBytes != 0) {
+    return Status(StatusCode::kCorruptData, "a .splat file holds 32-byte records, but this one has " +
+                                                std::to_string(size) + " bytes (" +
+                                                std::to_string(size % kSplatRecordBytes) + " left over)");
+  }
+  const uint64_t n = size / kSplatRecordBytes;
+  if (n > options.max_gaussians) {
+    return Status(StatusCode::kLimitExceeded, ".splat file holds " + std::to_string(n) +
+                                                  " Gaussians, above the limit of " + std::to_string(options.max_gaussians));
+  }
+  InteropScene scene;
+  scene.format = "splat";
+  scene.format_version = 0;
+  scene.file_bytes = size;
+  scene.declared_gaussians = n;
+  scene.stored_frame = "RDF";
+  scene.frame_converted = options.convert_frame;  // RDF to RDF: nothing to do
+  format::GaussianCloud& cloud = scene.cloud;
+  cloud.sh_degree = 0;
+  cloud.resize(static_cast<size_t>(n));
+  for (uint64_t i = 0; i < n; ++i) {
+    const uint8_t* r = data + i * kSplatRecordBytes;
+    for (int a = 0; a < 3; ++a) {
+      cloud.means[i * 3 + a] = detail::le_f32(r + 4 * a);
+      cloud.scales[i * 3 + a] = detail::le_f32(r + 12 + 4 * a);
+    }
+    for (int c = 0; c < 3; ++c) {
+      cloud.sh[i * 3 + c] = static_cast<float>((r[24 + c] / 255.0 - 0.5) / kShC0);
+    }
+    cloud.opacities[i] = static_cast<float>(r[27]) / 255.0f;
+    for (int a = 0; a < 4; ++a) cloud.rotations[i * 4 + a] = (static_cast<float>(r[28 + a]) - 128.0f) / 128.0f;
+  }
+  // Negative scales have no meaning (the writer stores exp of the log scale).
+  uint64_t negative = 0;
+  for (float s : cloud.scales) negative += s < 0;
+  if (negative != 0) {
+    return Status(StatusCode::kCorruptData, std::to_string(negative) + " scale values are negative");
+  }
+  RGS_RETURN_IF_ERROR(detail::finish_hygiene(options.invalid_policy, "splat", &cloud, &scene.hygiene));
+  scene.notes.push_back(".splat carries SH degree 0 only, colours and opacity as 8 bits");
+  return scene;
+}
+
+bool starts_with(const uint8_t* head, size_t n, const char* s) {
+  const size_t len = std::strlen(s);
+  return n >= len && std::memcmp(head, s, len) == 0;
+}
+
+}  // namespace
+
+bool looks_like_splat(const uint8_t* head, size_t n, uint64_t file_size) {
+  if (head == nullptr || file_size == 0 || file_size % kSplatRecordBytes != 0 || n < kSplatRecordBytes) return false;
+  if (starts_with(head, n, "ply") || starts_with(head, n, "NGSP") || starts_with(head, n, "glTF") ||
+      (head[0] == 0x1f && head[1] == 0x8b) || head[0] == '{' || head[0] == '[') {
+    return false;
+  }
+  const size_t records = std::min<uint64_t>(n, file_size) / kSplatRecordBytes;
+  for (size_t i = 0; i < records; ++i) {
+    const uint8_t* r = head + i * kSplatRecordBytes;
+    for (int a = 0; a < 3; ++a) {
+      const float p = detail::le_f32(r + 4 * a);
+      const float s = detail::le_f32(r + 12 + 4 * a);
+      if (!(std::fabs(p) < 1e7f) || !(s >= 0.0f && s < 1e6f)) return false;
+    }
+    double n2 = 0;
+    for (int a = 0; a < 4; ++a) {
+      const double q = (r[28 + a] - 128.0) / 128.0;
+      n2 += q * q;
+    }
+    if (n2 < 0.49 || n2 > 1.69) return false;
+  }
+  return true;
+}
+
+Result<InteropScene> read_splat(const std::string& path, const InteropReadOptions& options) {
+  RGS_ASSIGN_OR_RETURN(auto file, detail::map_input(path));  // its errors name the path
+  return detail::guarded<InteropScene>(path, "decoding the .splat file", [&]() -> Result<InteropScene> {
+    return read_records(file->data(), file->size(), options);
+  });
+}
+
+Result<InteropScene> read_splat_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                      const InteropReadOptions& options) {
+  return detail::guarded<InteropScene>(name, "decoding the .splat file", [&]() -> Result<InteropScene> {
+    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
+    return read_records(data, size, options);
+  });
+}
+
+}  // namespace rgs::converter
