@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 #include "rgs/kernels/roofgs_pipeline.h"
@@ -115,6 +116,8 @@ struct GpuRenderer::Buffers {
   DeviceBuffer<uint8_t> sort_temp;
   // Per tile: [begin, end) pairs.
   DeviceBuffer<uint64_t> ranges;
+  // The frame rendered for an OutputImage that the render kernel cannot write directly (converted after).
+  DeviceImage staging;
   // Counts read back from the device: the pair count and (RoofGS) the large Gaussians' pairs.
   PinnedBuffer pair_count;
   // The last frame's pairs, key width and where its final values are (download_sorted_pairs).
@@ -153,7 +156,7 @@ struct GpuRenderer::Buffers {
            offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + large_pairs.bytes() +
            fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() +
            keys32.bytes() + keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() +
-           ranges.bytes();
+           ranges.bytes() + uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
   }
 
   /// Per-Gaussian arrays both pipelines use.
@@ -311,16 +314,87 @@ Status GpuRenderer::download_sorted_pairs(std::vector<uint64_t>* keys, std::vect
   return Status();
 }
 
+Status validate_output_image(const OutputImage& target, uint32_t width, uint32_t height) {
+  const std::string size = std::to_string(target.width) + "x" + std::to_string(target.height);
+  RGS_RETURN_ERROR_IF(target.width != width || target.height != height, StatusCode::kInvalidArgument,
+                      "output image: size " + size + " differs from the camera's " + std::to_string(width) + "x" +
+                          std::to_string(height));
+  RGS_RETURN_ERROR_IF(target.color == nullptr, StatusCode::kInvalidArgument, "output image: colour pointer is null");
+  const int format = int(target.format);
+  RGS_RETURN_ERROR_IF(format < 0 || format > 2, StatusCode::kInvalidArgument,
+                      "output image: unknown pixel format " + std::to_string(format));
+  const size_t row = size_t(target.width) * bytes_per_pixel(target.format);
+  const size_t channel = bytes_per_pixel(target.format) / 4;
+  RGS_RETURN_ERROR_IF(target.color_pitch < row, StatusCode::kInvalidArgument,
+                      "output image: colour pitch " + std::to_string(target.color_pitch) + " < " +
+                          std::to_string(row) + " bytes of a row");
+  RGS_RETURN_ERROR_IF(target.color_pitch % channel != 0 || reinterpret_cast<uintptr_t>(target.color) % channel != 0,
+                      StatusCode::kInvalidArgument,
+                      "output image: colour pointer or pitch " + std::to_string(target.color_pitch) +
+                          " not a multiple of the channel size " + std::to_string(channel));
+  if (target.depth != nullptr) {
+    RGS_RETURN_ERROR_IF(target.depth_pitch < size_t(target.width) * 4 || target.depth_pitch % 4 != 0 ||
+                            reinterpret_cast<uintptr_t>(target.depth) % 4 != 0,
+                        StatusCode::kInvalidArgument,
+                        "output image: depth pitch " + std::to_string(target.depth_pitch) +
+                            " is not a multiple of 4 of at least " + std::to_string(size_t(target.width) * 4) +
+                            " bytes, or the depth pointer is misaligned");
+  }
+  return Status();
+}
+
 Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& camera,
                                            const GpuRenderOptions& options, DeviceImage* image,
                                            cudaStream_t stream) {
   RGS_RETURN_ERROR_IF(buffers_ == nullptr, StatusCode::kInvalidArgument, "GpuRenderer: used after move");
   RGS_RETURN_ERROR_IF(image == nullptr, StatusCode::kInvalidArgument, "GpuRenderer: no output image");
   RGS_RETURN_IF_ERROR(validate_camera(camera));
+  RGS_RETURN_IF_ERROR(image->resize(camera.width, camera.height, image->has_depth()));
+  return render_frame(scene, camera, options, image->view(), nullptr, stream);
+}
+
+Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& camera,
+                                           const GpuRenderOptions& options, const OutputImage& target,
+                                           cudaStream_t stream) {
+  RGS_RETURN_ERROR_IF(buffers_ == nullptr, StatusCode::kInvalidArgument, "GpuRenderer: used after move");
+  RGS_RETURN_IF_ERROR(validate_camera(camera));
+  RGS_RETURN_IF_ERROR(validate_output_image(target, camera.width, camera.height));
+  const bool packed_depth = target.depth == nullptr || target.depth_pitch == size_t(target.width) * 4;
+  const bool direct = target.format == PixelFormat::kRgba32f && target.write_alpha &&
+                      target.color_pitch == size_t(target.width) * 16 && packed_depth;
+  if (direct) {
+    return render_frame(scene, camera, options, kernels::ImageView{static_cast<float*>(target.color), target.depth},
+                        nullptr, stream);
+  }
+  DeviceImage& staging = buffers_->staging;
+  RGS_RETURN_IF_ERROR(staging.resize(camera.width, camera.height, target.depth != nullptr));
+  kernels::OutputConvertParams convert;
+  convert.rgba = staging.rgba();
+  convert.depth = staging.depth();
+  convert.width = target.width;
+  convert.height = target.height;
+  convert.color = target.color;
+  convert.color_pitch = target.color_pitch;
+  convert.format = target.format;
+  convert.write_alpha = target.write_alpha;
+  convert.depth_out = target.depth;
+  convert.depth_pitch = target.depth_pitch;
+  return render_frame(scene, camera, options, staging.view(), &convert, stream);
+}
+
+Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Camera& camera,
+                                                 const GpuRenderOptions& options, const kernels::ImageView& view,
+                                                 const kernels::OutputConvertParams* convert, cudaStream_t stream) {
   for (float c : options.background) {
     RGS_RETURN_ERROR_IF(!std::isfinite(c), StatusCode::kInvalidArgument, "GpuRenderer: background is not finite");
   }
-  RGS_RETURN_IF_ERROR(image->resize(camera.width, camera.height, image->has_depth()));
+  const bool reads_fp32 = options.pipeline == GpuPipeline::kBaseline || !options.roofgs.compact_attributes;
+  RGS_RETURN_ERROR_IF(reads_fp32 && !scene.has_fp32(), StatusCode::kInvalidArgument,
+                      std::string("GpuRenderer: the ") +
+                          (options.pipeline == GpuPipeline::kBaseline ? "baseline pipeline"
+                                                                      : "RoofGS pipeline without compact attributes") +
+                          " reads FP32 attributes, and this scene was uploaded without them "
+                          "(GpuSceneOptions::fp32_attributes)");
 
   const kernels::FrameParams frame = make_frame_params(camera, options);
   const bool timed = options.time_stages;
@@ -333,9 +407,12 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
   buffers_->last_values_reordered = false;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[0], stream), "GpuRenderer: cudaEventRecord");
   if (options.pipeline == GpuPipeline::kRoofgs) {
-    RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options.roofgs, timed, image, &stats, stream));
+    RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options.roofgs, timed, view, &stats, stream));
   } else {
-    RGS_RETURN_IF_ERROR(render_baseline(scene, frame, timed, image, &stats, stream));
+    RGS_RETURN_IF_ERROR(render_baseline(scene, frame, timed, view, &stats, stream));
+  }
+  if (convert != nullptr) {
+    RGS_RETURN_IF_CUDA_ERROR(kernels::launch_convert_output(*convert, stream), "GpuRenderer: output conversion kernel");
   }
   buffers_->last_pairs = stats.pairs;
   buffers_->last_key32 = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.techniques.key32;
@@ -364,7 +441,7 @@ Result<GpuRenderStats> GpuRenderer::render(const GpuScene& scene, const Camera& 
 }
 
 Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, bool timed,
-                                    DeviceImage* image, GpuRenderStats* stats, cudaStream_t stream) {
+                                    const kernels::ImageView& view, GpuRenderStats* stats, cudaStream_t stream) {
   Buffers& b = *buffers_;
   cudaEvent_t* ev = b.events;
   const uint32_t n = scene.size();
@@ -406,13 +483,13 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
   // 5. Blend.
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.ranges.data(), b.values_sorted.data(), b.projected(), frame,
-                                                    image->view(), stream),
+                                                    view, stream),
                            "GpuRenderer: render kernel");
   return Status();
 }
 
 Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
-                                  const GpuRoofgsOptions& options, bool timed, DeviceImage* image,
+                                  const GpuRoofgsOptions& options, bool timed, const kernels::ImageView& view,
                                   GpuRenderStats* stats, cudaStream_t stream) {
   Buffers& b = *buffers_;
   cudaEvent_t* ev = b.events;
@@ -573,7 +650,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   stats->subtile_culling = t.folded_coefficients && subtile;
   const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile};
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), sorted_values, b.roofgs_projected(), frame, rf,
-                                                  raster, image->view(), stream),
+                                                  raster, view, stream),
                            "GpuRenderer: render kernel");
   return Status();
 }

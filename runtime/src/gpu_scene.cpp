@@ -58,6 +58,11 @@ Status upload_vector(const std::vector<T>& host, DeviceBuffer<T>* device, const 
 }  // namespace
 
 Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t stream) {
+  return from_rgs(file, GpuSceneOptions{}, stream);
+}
+
+Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneOptions& options,
+                                    cudaStream_t stream) {
   const uint64_t n = file.gaussian_count();
   RGS_RETURN_IF_ERROR(check_count(n, file.name()));
   const format::SceneMetadata& meta = file.metadata();
@@ -108,6 +113,9 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t st
   view.sh_degree = meta.sh_degree;
   view.count = uint32_t(n);
 
+  scene.runtime_section_bytes_ = n * (12 + 8 + 6 + 2) + sh_bytes;
+  if (!options.fp32_attributes) return scene;
+
   // FP32 attributes for the baseline, widened on the device.
   RGS_RETURN_IF_ERROR(scene.rotations_.allocate_exactly(n * 4, name + ": FP32 rotations"));
   RGS_RETURN_IF_ERROR(scene.scales_.allocate_exactly(n * 3, name + ": FP32 scales"));
@@ -117,6 +125,7 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t st
                                                scene.opacities_.data(), scene.sh_.data(), stream),
                            name + ": dequantize kernel");
   RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), name + ": dequantize kernel");
+  scene.has_fp32_ = true;
   return scene;
 }
 
@@ -130,6 +139,7 @@ Result<GpuScene> GpuScene::from_cloud(const format::GaussianCloud& cloud,
   scene.count_ = uint32_t(cloud.size());
   scene.sh_degree_ = cloud.sh_degree;
   scene.bounds_ = bounds;
+  scene.has_fp32_ = true;
   RGS_RETURN_IF_ERROR(upload_vector(cloud.means, &scene.means_, "GpuScene: means", stream));
   RGS_RETURN_IF_ERROR(upload_vector(cloud.rotations, &scene.rotations_, "GpuScene: rotations", stream));
   RGS_RETURN_IF_ERROR(upload_vector(cloud.scales, &scene.scales_, "GpuScene: scales", stream));
@@ -147,10 +157,10 @@ uint64_t GpuScene::device_bytes() const {
 kernels::Fp32GaussiansView GpuScene::fp32() const {
   kernels::Fp32GaussiansView view;
   view.means = means_.data();
-  view.rotations = rotations_.data();
-  view.scales = scales_.data();
-  view.opacities = opacities_.data();
-  view.sh = sh_.data();
+  view.rotations = has_fp32_ ? rotations_.data() : nullptr;
+  view.scales = has_fp32_ ? scales_.data() : nullptr;
+  view.opacities = has_fp32_ ? opacities_.data() : nullptr;
+  view.sh = has_fp32_ ? sh_.data() : nullptr;
   view.sh_degree = sh_degree_;
   view.count = count_;
   return view;

@@ -11,6 +11,7 @@
 
 #include "rgs/format/status.h"
 #include "rgs/kernels/baseline_pipeline.h"
+#include "rgs/kernels/output_convert.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/device_buffer.h"
 #include "rgs/runtime/gpu_scene.h"
@@ -49,6 +50,42 @@ struct HostImage {
 
 /// Copies `image` to the host on `stream` and waits. Errors: kCudaError.
 Result<HostImage> download(const DeviceImage& image, cudaStream_t stream = nullptr);
+
+/// Pixel format of a caller's colour image (OutputImage): RGBA32F, RGBA16F or RGBA8, channels R, G, B, A.
+using PixelFormat = kernels::OutputPixelFormat;
+
+/// Bytes per pixel of `format` (16, 8 or 4).
+inline size_t bytes_per_pixel(PixelFormat format) {
+  return format == PixelFormat::kRgba32f ? 16 : format == PixelFormat::kRgba16f ? 8 : 4;
+}
+
+/// A caller-owned image in device memory that GpuRenderer::render() writes one frame into. The renderer
+/// never allocates, frees or keeps it; it must stay valid until the frame's work on the stream is done.
+///
+/// - Colour: row y (top row first) starts at `color` + y·`color_pitch` bytes, `width` pixels of `format`
+///   (kernels/output_convert.h gives each format's rounding). RGB = C + T·bg as rendered (the values the
+///   3DGS rasterizer outputs, no sRGB transfer applied); A = 1 − T, or 1 when `write_alpha` is false.
+///   `color_pitch` ≥ width·bytes_per_pixel(format) and a multiple of the channel size; `color` aligned to the
+///   channel size (cudaMalloc and cudaMallocPitch give both).
+/// - Depth (optional): float32 expected view-space depth Σ wᵢzᵢ / Σ wᵢ (world units, 0 where nothing
+///   blended), row y at `depth` + y·`depth_pitch` bytes; `depth_pitch` ≥ 4·width, multiple of 4.
+///
+/// A tightly packed RGBA32F image with alpha (pitch = 16·width; depth, if any, pitch = 4·width) is written
+/// by the render kernel directly; any other target costs one conversion pass over the frame (one read of
+/// 16 B and one write of bytes_per_pixel per pixel) from the renderer's own scratch frame.
+struct OutputImage {
+  uint32_t width = 0, height = 0;  ///< must equal the camera's width and height
+  void* color = nullptr;
+  size_t color_pitch = 0;
+  PixelFormat format = PixelFormat::kRgba32f;
+  bool write_alpha = true;
+  float* depth = nullptr;
+  size_t depth_pitch = 0;
+};
+
+/// Checks an OutputImage against a width × height frame: non-null colour, pitches and alignments as
+/// documented there. @return kInvalidArgument naming the first problem.
+Status validate_output_image(const OutputImage& target, uint32_t width, uint32_t height);
 
 /// Which pipeline renders a frame.
 enum class GpuPipeline {
@@ -155,6 +192,16 @@ class GpuRenderer {
   Result<GpuRenderStats> render(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
                                 DeviceImage* image, cudaStream_t stream = nullptr);
 
+  /// Renders `scene` from `camera` into the caller's device image `target` (OutputImage: format, pitch,
+  /// optional alpha and depth), all work enqueued on `stream`; nothing synchronizes the device. The only
+  /// waits are those of render(): the per-frame pair-count read-back (a wait on `stream`, or on the
+  /// renderer's own read-back stream after an event), and time_stages. Scratch buffers that must grow
+  /// are allocated with cudaMalloc (which may synchronize the device), so only the first frames of a
+  /// sequence, or a larger frame, allocate. Errors: those of render(), and kInvalidArgument from
+  /// validate_output_image() or a target size other than the camera's.
+  Result<GpuRenderStats> render(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
+                                const OutputImage& target, cudaStream_t stream = nullptr);
+
   /// Device bytes held by the scratch buffers now.
   uint64_t scratch_bytes() const;
 
@@ -169,11 +216,14 @@ class GpuRenderer {
  private:
   GpuRenderer() = default;
   struct Buffers;
-  Status render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, bool timed, DeviceImage* image,
-                         GpuRenderStats* stats, cudaStream_t stream);
+  Result<GpuRenderStats> render_frame(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
+                                      const kernels::ImageView& view, const kernels::OutputConvertParams* convert,
+                                      cudaStream_t stream);
+  Status render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, bool timed,
+                         const kernels::ImageView& view, GpuRenderStats* stats, cudaStream_t stream);
   Status render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
-                       const GpuRoofgsOptions& options, bool timed, DeviceImage* image, GpuRenderStats* stats,
-                       cudaStream_t stream);
+                       const GpuRoofgsOptions& options, bool timed, const kernels::ImageView& view,
+                       GpuRenderStats* stats, cudaStream_t stream);
   std::unique_ptr<Buffers> buffers_;  // scratch buffers and events (gpu_renderer.cpp)
 };
 

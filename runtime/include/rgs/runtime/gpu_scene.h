@@ -1,5 +1,5 @@
-// A scene in GPU memory: the .rgs runtime profile uploaded section by section, plus the FP32 attributes the
-// baseline pipeline reads. Available only with RGS_WITH_CUDA.
+// A scene in GPU memory: the .rgs runtime profile uploaded section by section, plus (optionally) the FP32
+// attributes the baseline pipeline reads. Available only with RGS_WITH_CUDA.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -16,6 +16,15 @@
 
 namespace rgs::runtime {
 
+/// What GpuScene::from_rgs() keeps on the device besides the compact sections.
+struct GpuSceneOptions {
+  /// Also widen the compact attributes into FP32 arrays (rotations, scales, opacities, SH; means are FP32 in
+  /// the file already and shared). Only the baseline pipeline and the RoofGS pipeline with
+  /// GpuRoofgsOptions::compact_attributes off read them; without them a .rgs scene holds its runtime sections
+  /// only (about 76 B per Gaussian at SH degree 3 instead of about 300 B).
+  bool fp32_attributes = true;
+};
+
 /// Gaussians in device memory. Move-only; owns its allocations.
 ///
 /// From a .rgs file, the runtime sections (means, rotations, scales, opacities, SH; format/SPEC.md §4) are
@@ -30,6 +39,10 @@ class GpuScene {
   /// sections (kChecksumMismatch, kCorruptData; the file's name in the message), kLimitExceeded (≥ 2^31
   /// Gaussians), kOutOfMemory / kCudaError from the device.
   static Result<GpuScene> from_rgs(const format::RgsFile& file, cudaStream_t stream = nullptr);
+
+  /// Same, keeping the FP32 arrays only when options.fp32_attributes (has_fp32()).
+  static Result<GpuScene> from_rgs(const format::RgsFile& file, const GpuSceneOptions& options,
+                                   cudaStream_t stream = nullptr);
 
   /// Uploads FP32 Gaussians on `stream` and waits for it. `bounds` (e.g. converter::compute_bounds) is
   /// kept for the RoofGS depth key; without it bounds() is empty. Errors: kInvalidArgument (inconsistent
@@ -47,10 +60,16 @@ class GpuScene {
   const std::optional<format::SceneBounds>& bounds() const { return bounds_; }
   /// True for scenes from a .rgs file: compact() is then valid.
   bool has_compact() const { return has_compact_; }
-  /// Device bytes held (compact sections + FP32 arrays).
+  /// True when the FP32 arrays are on the device (from_cloud(), or from_rgs() with fp32_attributes): the
+  /// baseline pipeline and the RoofGS pipeline without compact attributes need them.
+  bool has_fp32() const { return has_fp32_; }
+  /// Device bytes held (compact sections, with the SH allocation's padding, + FP32 arrays).
   uint64_t device_bytes() const;
+  /// Bytes of the runtime sections as the .rgs file states them uncompressed (means, rotations, scales,
+  /// opacities, SH: format/SPEC.md §4): N·(12 + 8 + 6 + 2 + 3K) with K = (degree + 1)². 0 for from_cloud().
+  uint64_t runtime_section_bytes() const { return runtime_section_bytes_; }
 
-  /// FP32 view for the baseline pipeline.
+  /// FP32 view for the baseline pipeline. Without has_fp32() only `means` is set (the rest null).
   kernels::Fp32GaussiansView fp32() const;
   /// Compact view of the .rgs sections (valid only when has_compact()).
   kernels::CompactGaussiansView compact() const { return compact_view_; }
@@ -62,6 +81,8 @@ class GpuScene {
   uint32_t sh_degree_ = 0;
   std::optional<format::SceneBounds> bounds_;
   bool has_compact_ = false;
+  bool has_fp32_ = false;
+  uint64_t runtime_section_bytes_ = 0;
   kernels::CompactGaussiansView compact_view_;
   // FP32 arrays (means are shared with the compact profile, which stores them as FP32 already).
   DeviceBuffer<float> means_, rotations_, scales_, opacities_, sh_;

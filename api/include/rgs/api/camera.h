@@ -1,0 +1,96 @@
+// Cameras from the conventions applications use: INRIA/COLMAP, OpenCV K + [R|t], OpenGL and Vulkan view +
+// projection matrices. Each builder returns a runtime::Camera (COLMAP frame, x right, y down, z forward;
+// pixel centres at integer coordinates: px = fx·x/z + cx − 0.5, runtime/camera.h).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "rgs/format/status.h"
+#include "rgs/runtime/camera.h"
+
+namespace rgs::api {
+
+using runtime::Camera;
+
+/// Settings every camera builder takes.
+struct CameraOptions {
+  /// Gaussians at view depth z ≤ near_plane (world units) are culled; 0.2 is the 3DGS rasterizer's value.
+  /// The near and far planes of a projection matrix are not used: 3DGS has no far plane, and a
+  /// projection's near plane (often 0.01) would keep Gaussians 3DGS culls.
+  float near_plane = 0.2f;
+  /// Label of the camera (messages, file names).
+  std::string name;
+};
+
+/// INRIA 3DGS cameras.json entry: `rotation` camera-to-world, row-major [3, 3] (its columns are the camera
+/// axes in world coordinates), `position` the camera centre (world units), fx, fy in pixels, principal point
+/// at the image centre. R = rotationᵀ, t = −R·position.
+/// @return kInvalidArgument (validate_camera(): non-orthonormal rotation, focal ≤ 0, size 0 or > 32768, ...).
+Result<Camera> camera_from_inria(const std::array<double, 9>& rotation_c2w, const std::array<double, 3>& position,
+                                 double fx, double fy, uint32_t width, uint32_t height,
+                                 const CameraOptions& options = {});
+
+/// COLMAP images.txt / cameras.txt (PINHOLE or SIMPLE_PINHOLE): `qvec` the world-to-camera rotation as a unit
+/// quaternion (w, x, y, z) (normalized here; zero-norm is an error), `tvec` the world-to-camera translation,
+/// fx, fy, cx, cy in COLMAP's pixel convention (origin at the top-left corner of the image, so the centre of
+/// the top-left pixel is (0.5, 0.5); cx = width/2 is the image centre). p_cam = R(q)·p + t.
+/// @return kInvalidArgument (zero quaternion, validate_camera()).
+Result<Camera> camera_from_colmap(const std::array<double, 4>& qvec_wxyz, const std::array<double, 3>& tvec,
+                                  double fx, double fy, double cx, double cy, uint32_t width, uint32_t height,
+                                  const CameraOptions& options = {});
+
+/// OpenCV: intrinsics K, row-major [3, 3] = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]], and extrinsics [R|t]
+/// (world to camera, x right, y down, z forward: p_cam = R·p + t, R row-major [3, 3]). OpenCV puts pixel
+/// centres at integer coordinates (cx = (width − 1)/2 is the image centre), so the camera's cx is K's + 0.5
+/// (likewise cy). Distortion is not modelled.
+/// @return kInvalidArgument (non-zero skew K[0][1], K's last row not (0, 0, 1), validate_camera()).
+Result<Camera> camera_from_opencv(const std::array<double, 9>& K, const std::array<double, 9>& R,
+                                  const std::array<double, 3>& t, uint32_t width, uint32_t height,
+                                  const CameraOptions& options = {});
+
+/// Which clip-space convention a projection matrix follows.
+enum class ClipConvention {
+  /// OpenGL: clip y points up (window row 0 at the bottom, y_ndc = +1 at the top of the image), depth −1..1.
+  kOpenGL,
+  /// Vulkan: clip y points down (y_ndc = −1 at the top row), depth 0..1 (both the usual GLM
+  /// GLM_FORCE_DEPTH_ZERO_TO_ONE + flipped P[1][1] matrices and y-up matrices rendered with a negative
+  /// viewport height are described by the matrix's own sign of P[1][1] under this convention).
+  kVulkan,
+};
+
+/// A 4×4 matrix in OpenGL memory order: column-major, element (row r, column c) at index 4·c + r (what
+/// glm::value_ptr gives and glUniformMatrix4fv takes with transpose = GL_FALSE).
+using Mat4ColumnMajor = std::array<float, 16>;
+
+/// OpenGL / Vulkan camera: `view` world to eye (eye frame x right, y up, camera looking down −z: the
+/// glm::lookAt convention), `projection` a perspective matrix (glm::perspective, glm::frustum, or an
+/// off-centre one) in `convention`. The COLMAP camera is R = diag(1, −1, −1)·V₃ₓ₃, t = diag(1, −1, −1)·V_t;
+/// with P = projection (P[r][c] row r, column c): fx = P[0][0]·W/2, cx = W/2·(1 − P[0][2]); OpenGL
+/// fy = P[1][1]·H/2, cy = H/2·(1 + P[1][2]); Vulkan fy = −P[1][1]·H/2, cy = H/2·(1 − P[1][2]).
+/// The image is width × height pixels, top row first, whatever the API's window origin.
+/// @return kInvalidArgument (not a perspective projection: P's last row not (0, 0, −1, 0), non-zero
+/// P[0][1] or P[1][0] (skew), a resulting focal length ≤ 0 (e.g. a Vulkan matrix passed as OpenGL, which
+/// would flip the image), a view matrix with scale or shear (validate_camera()), non-finite values).
+Result<Camera> camera_from_view_projection(const Mat4ColumnMajor& view, const Mat4ColumnMajor& projection,
+                                           uint32_t width, uint32_t height, ClipConvention convention,
+                                           const CameraOptions& options = {});
+
+/// camera_from_view_projection(..., ClipConvention::kOpenGL, ...).
+Result<Camera> camera_from_opengl(const Mat4ColumnMajor& view, const Mat4ColumnMajor& projection, uint32_t width,
+                                  uint32_t height, const CameraOptions& options = {});
+
+/// camera_from_view_projection(..., ClipConvention::kVulkan, ...).
+Result<Camera> camera_from_vulkan(const Mat4ColumnMajor& view, const Mat4ColumnMajor& projection, uint32_t width,
+                                  uint32_t height, const CameraOptions& options = {});
+
+/// The OpenGL view matrix (column-major, as camera_from_opengl reads it) of `camera`: the inverse of the
+/// conversion above (for drawing other geometry with the same camera).
+Mat4ColumnMajor opengl_view_matrix(const Camera& camera);
+
+/// An OpenGL projection matrix (column-major) for `camera` with the given depth range (0 < z_near < z_far);
+/// camera_from_opengl(opengl_view_matrix(c), opengl_projection_matrix(c, n, f), W, H) gives c back.
+Mat4ColumnMajor opengl_projection_matrix(const Camera& camera, float z_near, float z_far);
+
+}  // namespace rgs::api

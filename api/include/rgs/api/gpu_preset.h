@@ -1,0 +1,37 @@
+// GPU render options of the presets, and the named variants rgs-bench measures (ablations included), in one
+// place for the tools and the library. Available only with RGS_WITH_CUDA.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "rgs/api/preset.h"
+#include "rgs/format/status.h"
+#include "rgs/runtime/gpu_renderer.h"
+
+namespace rgs::api {
+
+/// GpuRenderOptions of `preset` (background black, no stage timing). `scene_has_compact`: whether the scene
+/// holds the compact .rgs sections; the RoofGS presets read them when present and fall back to the FP32
+/// arrays otherwise (a scene uploaded from a float cloud).
+runtime::GpuRenderOptions gpu_render_options(Preset preset, bool scene_has_compact);
+
+/// One named GPU configuration (rgs-bench --mode).
+struct GpuMode {
+  std::string name;         ///< e.g. "baseline", "roofgs+", "only-key32"
+  std::string description;  ///< one line for --help and reports
+  /// True when the mode must read compact attributes (fails on a scene without them).
+  bool requires_compact = false;
+};
+
+/// Every named configuration, in rgs-bench's order: baseline, roofgs, roofgs+, roofgs-serial, roofgs-tile,
+/// roofgs-subtile, roofgs-none, only-compact, only-fused, only-key32, only-snugbox, only-folded,
+/// only-fastexp. Preset kFastest is "roofgs+", kFaithful is "baseline" (gpu_render_options()).
+const std::vector<GpuMode>& gpu_modes();
+
+/// Options of the mode called `name` for a scene with or without compact attributes.
+/// @return kInvalidArgument for an unknown name, or a mode that needs compact attributes on a scene
+/// without them (the message says so).
+Result<runtime::GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_has_compact);
+
+}  // namespace rgs::api

@@ -1,0 +1,44 @@
+// Loading a scene straight into GPU memory, shared by the tools and the front door. Available only with
+// RGS_WITH_CUDA (rgs/config.h: RGS_HAS_CUDA).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "rgs/api/scene_loading.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+#include "rgs/runtime/gpu_scene.h"
+
+namespace rgs::api {
+
+/// A scene in device memory, with what the tools print about it.
+struct LoadedGpuScene {
+  runtime::GpuScene scene;
+  /// .rgs: the file's metadata bounds; PLY: converter::compute_bounds (also given to the GpuScene).
+  format::SceneBounds bounds;
+  /// True for a .rgs input (then scene.has_compact()); sniffed by its magic or the .rgs extension.
+  bool is_rgs = false;
+  uint64_t file_bytes = 0;
+};
+
+/// Checks that a CUDA device can be used and makes `ordinal` current on the calling thread. Errors:
+/// kUnsupportedFeature when the CUDA runtime sees no device (the message carries its reason) or `ordinal`
+/// is out of range; kCudaError from cudaSetDevice.
+Status require_cuda_device(int ordinal = 0);
+
+/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open and
+/// runtime::GpuScene::from_rgs(options) (sections uploaded as stored, no host decode; FP32 arrays only with
+/// options.fp32_attributes), otherwise a 3DGS PLY through converter::read_ply and GpuScene::from_cloud with
+/// converter::compute_bounds (FP32 only). Synchronous on `stream`. Errors name `path`.
+Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options = {},
+                                      cudaStream_t stream = nullptr);
+
+/// Uploads a replicate_scene_file() result (or any complete .rgs file in memory) onto the current device
+/// through format::RgsFile::from_bytes and GpuScene::from_rgs(options); `name` appears in errors. The bytes
+/// may be freed once this returns. is_rgs is true, file_bytes = `source_file_bytes`.
+Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, uint64_t source_file_bytes,
+                                        const std::string& name, const runtime::GpuSceneOptions& options = {},
+                                        cudaStream_t stream = nullptr);
+
+}  // namespace rgs::api

@@ -1,0 +1,49 @@
+// Named render configurations: the three presets of the front door, and every variant rgs-bench measures.
+// Header usable without CUDA (runtime::RenderOptions of the CPU reference); the GPU options are in
+// gpu_preset.h.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "rgs/format/status.h"
+#include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/roofgs_options.h"
+
+namespace rgs::api {
+
+/// What a frame is rendered with. The same preset gives the same techniques on the GPU and on the CPU
+/// reference (which renders the dequantized attributes, equal to the GPU's compact reads).
+enum class Preset {
+  /// The fastest configuration measured (rgs-bench's "roofgs+"): RoofGS pipeline on the compact .rgs
+  /// attributes, fused kernel, 32-bit keys with depth order (ties in exact depth order), SnugBox + AccuTile
+  /// within the 3DGS rectangle, folded dual-pixel rasterizer, fast exp with the zero-mean σ = 0.05798,
+  /// warp-balanced emission, per-frame sub-tile culling. Reads only the runtime sections.
+  kFastest = 0,
+  /// The 3DGS rasterizer, rule by rule (FP32 attributes, 64-bit keys, 3σ rectangles, expf): the reference
+  /// the others are measured against. Needs the FP32 attributes on the GPU (LoadOptions::presets).
+  kFaithful = 1,
+  /// The paper's combination as published: compact attributes, fused kernel, 32-bit key, SnugBox +
+  /// AccuTile (Speedy-Splat's, not limited to the 3DGS rectangle), folded dual-pixel rasterizer, fast exp
+  /// with the paper's σ = 0.045677; no depth order, no warp-balanced emission, no sub-tile culling.
+  kPaper = 2,
+};
+
+/// "fastest", "faithful" or "paper".
+const char* preset_name(Preset preset);
+
+/// Parses preset_name()'s strings. @return kInvalidArgument naming the accepted names.
+Result<Preset> parse_preset(const std::string& name);
+
+/// The shared technique switches of `preset` (RoofgsOptions; all off for kFaithful).
+runtime::RoofgsOptions preset_techniques(Preset preset);
+
+/// CPU reference options for `preset`: its techniques, `bounds` (required by the 32-bit key of kFastest and
+/// kPaper), background black, all hardware threads.
+runtime::RenderOptions cpu_render_options(Preset preset, const format::SceneBounds& bounds);
+
+/// True when `preset`'s GPU pipeline reads the FP32 attributes (kFaithful), false when it reads only the
+/// compact runtime sections of a .rgs scene.
+bool preset_reads_fp32(Preset preset);
+
+}  // namespace rgs::api

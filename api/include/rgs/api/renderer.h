@@ -1,0 +1,153 @@
+// The front door's renderer: one call renders a Scene with a preset into the caller's memory, on the GPU
+// (caller's device pointer, on the caller's CUDA stream) or with the CPU reference (caller's host pointer).
+//
+// Thread safety: a Renderer is not thread-safe: use one per thread (and per CUDA stream). Scenes may be
+// shared between Renderers (scene.h). An Image is owned by one thread at a time.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include "rgs/api/camera.h"
+#include "rgs/api/preset.h"
+#include "rgs/api/scene.h"
+#include "rgs/format/status.h"
+
+/// The CUDA runtime's stream type without including CUDA headers: cudaStream_t is `CUstream_st*`, so a
+/// cudaStream_t converts to api::Stream and back implicitly.
+struct CUstream_st;
+
+namespace rgs::api {
+
+/// A CUDA stream (cudaStream_t). nullptr is the default stream.
+using Stream = CUstream_st*;
+
+/// Pixel formats of a colour image; four channels R, G, B, A in that order in memory.
+enum class PixelFormat {
+  kRgba32f = 0,  ///< 4 × float32 (16 B/pixel), values as rendered (not clamped)
+  kRgba16f = 1,  ///< 4 × IEEE binary16 (8 B/pixel), round to nearest even
+  kRgba8 = 2,    ///< 4 × uint8 (4 B/pixel), floor(clamp(v, 0, 1)·255 + 0.5) (the 3DGS 8-bit rule)
+};
+
+/// Bytes per pixel of `format` (16, 8 or 4).
+size_t bytes_per_pixel(PixelFormat format);
+
+/// "rgba32f", "rgba16f", "rgba8"; parse_pixel_format() accepts these. @return kInvalidArgument otherwise.
+const char* pixel_format_name(PixelFormat format);
+Result<PixelFormat> parse_pixel_format(const std::string& name);
+
+/// The caller's image a frame is rendered into: device memory for a GPU scene, host memory for a CPU scene.
+/// The library never allocates, frees or keeps it; on the GPU it must stay valid until the frame's work on
+/// the stream is done.
+/// - Colour: row y (top row first) at `color` + y·`color_pitch` bytes, `width` pixels of `format`. RGB =
+///   C + T·bg, the values the 3DGS rasterizer outputs (no sRGB transfer applied; linear for the renderer).
+///   A = 1 − T (coverage), or 1 when `write_alpha` is false. `color_pitch` ≥ width·bytes_per_pixel(format)
+///   and a multiple of the channel size, `color` aligned to the channel size (cudaMallocPitch gives both).
+/// - Depth (optional, null for none): float32 expected view-space depth Σ wᵢzᵢ / Σ wᵢ (world units; 0 where
+///   nothing blended), row y at `depth` + y·`depth_pitch` bytes; `depth_pitch` ≥ 4·width, multiple of 4.
+struct ImageTarget {
+  uint32_t width = 0, height = 0;  ///< must equal the camera's size
+  void* color = nullptr;
+  size_t color_pitch = 0;
+  PixelFormat format = PixelFormat::kRgba32f;
+  bool write_alpha = true;
+  float* depth = nullptr;
+  size_t depth_pitch = 0;
+};
+
+/// How a frame is rendered.
+struct RenderSettings {
+  Preset preset = Preset::kFastest;
+  /// Background colour (out = C + T·bg), finite.
+  std::array<float, 3> background = {0.f, 0.f, 0.f};
+  /// CPU renderer threads; 0 = all hardware threads. The image does not depend on it.
+  unsigned cpu_threads = 0;
+};
+
+/// Counts of one frame.
+struct FrameStats {
+  uint64_t gaussians = 0;  ///< input Gaussians
+  uint64_t pairs = 0;      ///< (tile, Gaussian) pairs sorted
+};
+
+/// An image owned by the library (Renderer::render_image): device memory for GPU scenes (cudaMalloc), host
+/// memory for CPU scenes. Move-only. Tightly packed: pitch = width·bytes_per_pixel.
+class Image {
+ public:
+  Image();
+  Image(Image&&) noexcept;
+  Image& operator=(Image&&) noexcept;
+  ~Image();
+
+  Device device() const;
+  int cuda_device() const;  ///< ordinal of the device holding a GPU image (0 for CPU images)
+  uint32_t width() const;
+  uint32_t height() const;
+  PixelFormat format() const;
+  /// [H, W, 4] colour in `format()`, tightly packed.
+  void* color() const;
+  size_t color_pitch() const;
+  /// [H, W] float32 depth, or null when not requested.
+  float* depth() const;
+  /// This image as an ImageTarget (to render into it again).
+  ImageTarget target() const;
+
+  /// GPU images: makes `consumer` wait (cudaStreamWaitEvent, no host wait) until the render that produced
+  /// this image is done; a no-op for CPU images. Errors: kCudaError.
+  Status make_stream_wait(Stream consumer) const;
+  /// GPU images: waits on the host until the render is done. Errors: kCudaError.
+  Status synchronize() const;
+  /// Copies colour (and depth, if both exist) to host memory, tightly packed; waits for the render first.
+  /// `color_out` holds height·width·bytes_per_pixel bytes, `depth_out` height·width floats (or null).
+  Status copy_to_host(void* color_out, float* depth_out) const;
+
+  struct Impl;
+
+ private:
+  friend class Renderer;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Renders Scenes with presets. Create one per thread/stream; it keeps scratch buffers between frames
+/// (a steady sequence of frames allocates nothing on the GPU).
+class Renderer {
+ public:
+  /// A renderer for scenes on `device` (kCuda: on CUDA device `cuda_device`, made current on the calling
+  /// thread). Errors: kUnsupportedFeature (no CUDA in this build, or no usable device), kCudaError.
+  static Result<Renderer> create(Device device = Device::kCuda, int cuda_device = 0);
+
+  Renderer(Renderer&&) noexcept;
+  Renderer& operator=(Renderer&&) noexcept;
+  ~Renderer();
+
+  Device device() const;
+
+  /// Renders `scene` from `camera` with `settings` into `target`.
+  /// GPU: every step is enqueued on `stream`; no device-wide synchronization. Like the 3DGS rasterizer it
+  /// reads the frame's pair count back to the host once (a wait for this frame's preprocess on `stream`), so
+  /// the call returns once the sort and blend are enqueued; the image is complete when `stream` reaches
+  /// that point (use cudaStreamSynchronize or an event). Scratch buffers that must grow (first frames, a
+  /// larger frame) are allocated with cudaMalloc. CPU: synchronous; `stream` is ignored.
+  /// @return kInvalidArgument (scene on another device than the renderer, an invalid camera or target, a
+  /// preset whose data the scene was loaded without: LoadOptions::presets), kLimitExceeded, kOutOfMemory,
+  /// kCudaError.
+  Result<FrameStats> render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                            const ImageTarget& target, Stream stream = nullptr);
+
+  /// Renders into a new library-owned Image of the camera's size (with a depth plane when `with_depth`),
+  /// like render(). GPU images are complete once `stream` reaches the end of the frame (Image::synchronize,
+  /// make_stream_wait).
+  Result<Image> render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                             PixelFormat format = PixelFormat::kRgba32f, bool with_depth = false,
+                             Stream stream = nullptr);
+
+  struct Impl;
+
+ private:
+  explicit Renderer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rgs::api

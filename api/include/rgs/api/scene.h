@@ -1,0 +1,140 @@
+// The front door: load a scene from any supported file, convert files. Usable without CUDA headers; GPU
+// scenes exist only in builds with RGS_HAS_CUDA (rgs/config.h).
+//
+// Thread safety: a Scene is immutable once loaded; copies share it (reference counted), and one Scene may be
+// rendered by several Renderers on several threads at once. load() and convert() are reentrant.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rgs/api/preset.h"
+#include "rgs/converter/attribute_errors.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+
+namespace rgs::runtime {
+class GpuScene;
+}
+
+namespace rgs::api {
+
+/// Where a scene lives and is rendered.
+enum class Device {
+  kCpu = 0,   ///< host memory, rendered by the CPU reference renderer (runtime::render_cpu)
+  kCuda = 1,  ///< device memory, rendered by runtime::GpuRenderer
+};
+
+/// "cpu" or "cuda".
+const char* device_name(Device device);
+
+/// Parses "cpu" / "cuda" (also "gpu"). @return kInvalidArgument otherwise.
+Result<Device> parse_device(const std::string& name);
+
+/// Options of load().
+struct LoadOptions {
+  Device device = Device::kCuda;
+  /// CUDA device ordinal (made current on the calling thread while loading).
+  int cuda_device = 0;
+  /// Presets the scene will be rendered with: the GPU copy holds only what their pipelines read. With the
+  /// default (kFastest, or kPaper) a .rgs scene holds its runtime sections only; adding kFaithful adds the
+  /// FP32 arrays (about 4× the bytes at SH degree 3). Rendering a preset not listed here may fail with
+  /// kInvalidArgument. Ignored on the CPU.
+  std::vector<Preset> presets = {Preset::kFastest};
+  /// Files other than .rgs (a 3DGS PLY): true quantizes them in memory with the converter's defaults (what
+  /// `rgs-convert in.ply out.rgs` writes, converter::QuantizeOptions{}), so that they render exactly as the
+  /// converted file would and the GPU holds the compact profile; false keeps the PLY's float values (GPU:
+  /// FP32 arrays only; the RoofGS presets then read FP32).
+  bool quantize_other_formats = true;
+};
+
+/// What load() produced.
+struct SceneInfo {
+  std::string path;
+  Device device = Device::kCpu;
+  uint64_t gaussians = 0;
+  uint32_t sh_degree = 0;
+  /// Scene AABB and bounding sphere (the .rgs metadata, or converter::compute_bounds of a PLY).
+  format::SceneBounds bounds;
+  /// True when the file was a .rgs (sniffed by magic or extension).
+  bool source_is_rgs = false;
+  uint64_t file_bytes = 0;
+  /// GPU scenes: whether the compact runtime sections and the FP32 arrays are on the device.
+  bool has_compact = false;
+  bool has_fp32 = false;
+  /// GPU scenes: device bytes the scene holds (runtime::GpuScene::device_bytes()); CPU scenes: host bytes of
+  /// the float arrays.
+  uint64_t memory_bytes = 0;
+  /// Bytes of the .rgs runtime sections (means, rotations, scales, opacities, SH) uncompressed, 0 for a
+  /// scene kept in FP32: the footprint a compact GPU scene is measured against.
+  uint64_t runtime_section_bytes = 0;
+};
+
+/// A loaded scene. Cheap to copy (shared, immutable).
+class Scene {
+ public:
+  const SceneInfo& info() const;
+  Device device() const { return info().device; }
+  uint64_t size() const { return info().gaussians; }
+  /// CPU scenes: the activated float Gaussians rendered (format::GaussianCloud layout); null for GPU scenes.
+  const format::GaussianCloud* cloud() const;
+  /// GPU scenes: the device scene for the expert API (runtime/gpu_scene.h); null for CPU scenes.
+  const runtime::GpuScene* gpu_scene() const;
+
+  struct Impl;
+  explicit Scene(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+
+ private:
+  std::shared_ptr<const Impl> impl_;
+};
+
+/// Loads `path` (a .rgs file, or a 3DGS PLY through the converter) for `options.device`.
+/// - CUDA, .rgs: sections uploaded as stored (runtime::GpuScene::from_rgs), FP32 arrays only when a listed
+///   preset reads them; CUDA, PLY: quantized in memory then uploaded the same way (or FP32, see options).
+/// - CPU: the dequantized float Gaussians (the values the GPU's compact reads produce).
+/// Synchronous (the upload is complete on return).
+/// @return errors naming `path`: kIoError, kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded,
+/// kOutOfMemory; kUnsupportedFeature for device kCuda in a build without CUDA or on a host without a
+/// usable device (the message says which); kCudaError.
+Result<Scene> load(const std::string& path, const LoadOptions& options = {});
+
+/// Options of convert(); the defaults are rgs-convert's.
+struct ConvertOptions {
+  /// FP16 scales stored linear (activated) or as the natural log.
+  format::ScaleEncoding scale_encoding = format::ScaleEncoding::kLinear;
+  /// SH scale: 100 = max |SH| / 127 (paper Eq. quant); lower clips the tail (converter::QuantizeOptions).
+  float sh_clip_percentile = 100.0f;
+  /// Sections compressed with zstd: "all" or names among metadata, provenance, means, rotations, scales,
+  /// opacities, sh. Empty: every section stored raw (the runtime copies it to the GPU as is).
+  std::vector<std::string> zstd_sections;
+  int zstd_level = 19;
+  /// Drop Gaussians with NaN/Inf values or zero-norm quaternions instead of failing.
+  bool sanitize = false;
+};
+
+/// What convert() did.
+struct ConvertReport {
+  /// "ply->rgs" or "rgs->ply".
+  std::string direction;
+  uint64_t gaussians = 0;
+  uint32_t sh_degree = 0;
+  uint64_t input_bytes = 0, output_bytes = 0;
+  /// ply->rgs: Gaussians dropped by `sanitize`.
+  uint64_t dropped_gaussians = 0;
+  /// ply->rgs: per-attribute errors of the .rgs against the PLY, and what quantization clipped or flushed.
+  converter::AttributeErrors errors;
+  converter::QuantizationReport quantization;
+};
+
+/// Converts `src` to `dst`: a 3DGS PLY to .rgs (read, quantize, write atomically; provenance records the
+/// source and options), or a .rgs to a standard INRIA PLY (every checksum verified, dequantized). The
+/// direction follows `src` (is_rgs_path). A failed conversion leaves an existing `dst` untouched.
+/// @return kInvalidArgument (bad options, an unknown zstd section name), and the errors of reading `src` and
+/// writing `dst` (kIoError naming it).
+Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
+
+}  // namespace rgs::api

@@ -1,0 +1,83 @@
+// Scene and camera loading for the host: the implementation the tools (rgs-render, rgs-audit, rgs-bench)
+// and the front door (scene.h) share.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+#include "rgs/runtime/camera.h"
+
+namespace rgs::api {
+
+/// A scene in host memory: float Gaussians and their bounds.
+struct HostScene {
+  /// Activated float Gaussians (a PLY as read, or a .rgs dequantized: format::GaussianCloud's layout).
+  format::GaussianCloud cloud;
+  /// .rgs: the file's metadata bounds; PLY: converter::compute_bounds.
+  format::SceneBounds bounds;
+  /// True when the input was a .rgs file (sniffed by its magic, not its extension).
+  bool is_rgs = false;
+  uint64_t file_bytes = 0;
+};
+
+/// True when `path` is to be read as a .rgs file: it starts with the .rgs magic or ends in .rgs (so a
+/// missing or truncated "x.rgs" still gets the .rgs reader's error).
+bool is_rgs_path(const std::string& path);
+
+/// Loads `path` into host memory: a .rgs file (RgsFile::open + read_scene + dequantize, checksums verified)
+/// when is_rgs_path(), otherwise a 3DGS PLY (converter::read_ply, invalid values rejected). Errors name
+/// `path`: kIoError, kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded, kOutOfMemory, ...
+Result<HostScene> load_host_scene(const std::string& path);
+
+/// Largest Gaussian count a scene may have on the GPU (GpuScene and converter::replicate: 2^31 − 1).
+inline constexpr uint64_t kMaxGpuGaussians = 0x7fffffff;
+
+/// A scene tiled K times for benchmarks, as the bytes of a complete .rgs file so that the GPU loads it
+/// through the path of a file (format::RgsFile::from_bytes, runtime::GpuScene::from_rgs).
+struct ReplicatedScene {
+  /// A .rgs file (SPEC v1.0), every section uncompressed; provenance gains "replicated" = K.
+  std::vector<uint8_t> rgs_bytes;
+  /// Bounds of all copies (the .rgs metadata).
+  format::SceneBounds bounds;
+  uint64_t source_gaussians = 0;
+  uint64_t gaussians = 0;  ///< copies × source_gaussians
+  uint32_t copies = 1;
+  uint32_t sh_degree = 0;
+  bool source_is_rgs = false;
+  uint64_t source_file_bytes = 0;
+  /// How the copies were quantized (the source .rgs's own quantization, or the converter's defaults).
+  std::string quantization;
+};
+
+/// Reads `path` and tiles it `copies` times with converter::replicate (a grid in the x–z plane). A .rgs
+/// source is replicated as stored; a PLY source is first quantized with the default QuantizeOptions (what
+/// `rgs-convert in.ply out.rgs` writes). For a .rgs file the count is checked from the header first.
+/// Errors: kInvalidArgument (copies 0), kLimitExceeded (copies × Gaussians > kMaxGpuGaussians, naming both
+/// numbers), those of reading `path` (which they name) and of quantizing/serializing.
+Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies);
+
+/// Which views to render.
+struct CameraChoice {
+  /// INRIA cameras.json; empty: an orbit.
+  std::string cameras_path;
+  uint32_t every = 1;  ///< every k-th camera of the file
+  uint32_t limit = 0;  ///< at most this many views (0 = all)
+  uint32_t orbit = 0;  ///< orbit camera count when cameras_path is empty
+  /// Requested size; 0 = default (cameras: the file's own; orbit: `orbit_width` × `orbit_height`). With only
+  /// one side given, the other keeps the default's aspect ratio.
+  uint32_t width = 0, height = 0;
+  uint32_t orbit_width = 1920, orbit_height = 1080;
+};
+
+/// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize) or runtime::orbit_cameras
+/// around `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0 cameras.
+Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
+
+/// `n` with thousands separators ("2,725,620,000"), as the tools print counts.
+std::string group_digits(uint64_t n);
+
+}  // namespace rgs::api

@@ -1,0 +1,122 @@
+// GPU options of the presets and of rgs-bench's named modes.
+#include "rgs/api/gpu_preset.h"
+
+#include <functional>
+
+namespace rgs::api {
+namespace {
+
+using runtime::GpuRenderOptions;
+using runtime::RoofgsOptions;
+
+GpuRenderOptions roofgs_pipeline(bool compact, bool fused, const RoofgsOptions& techniques) {
+  GpuRenderOptions o;
+  o.pipeline = runtime::GpuPipeline::kRoofgs;
+  o.roofgs.compact_attributes = compact;
+  o.roofgs.fused_preprocess = fused;
+  o.roofgs.techniques = techniques;
+  return o;
+}
+
+struct ModeEntry {
+  GpuMode mode;
+  /// Options for a scene with (true) or without compact attributes.
+  std::function<GpuRenderOptions(bool compact)> options;
+};
+
+ModeEntry roofgs_variant(const std::string& name, const std::string& description,
+                         void (*set)(runtime::GpuRoofgsOptions&)) {
+  return {{name, description, false}, [set](bool compact) {
+            GpuRenderOptions o = roofgs_pipeline(compact, true, RoofgsOptions::all());
+            set(o.roofgs);
+            return o;
+          }};
+}
+
+ModeEntry only_mode(const std::string& name, const std::string& what, bool compact, bool fused,
+                    void (*set)(RoofgsOptions&)) {
+  return {{"only-" + name, "RoofGS pipeline with only " + what + " on", compact}, [=](bool) {
+            RoofgsOptions t;  // all off
+            if (set != nullptr) set(t);
+            return roofgs_pipeline(compact, fused, t);
+          }};
+}
+
+const std::vector<ModeEntry>& entries() {
+  static const std::vector<ModeEntry> modes = {
+      {{"baseline", "3DGS rasterizer (FP32 attributes, 64-bit keys, 3-sigma rectangles, expf)", false},
+       [](bool) { return gpu_render_options(Preset::kFaithful, false); }},
+      {{"roofgs",
+        "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused kernel, 32-bit "
+        "key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians with many tiles emitted "
+        "by warps (every RoofGS mode but roofgs-serial); sub-tile culling in the folded rasterizer chosen per "
+        "frame (off when SnugBox+AccuTile is on and more than half the pairs belong to Gaussians with more than "
+        "32 tiles; every mode but roofgs-tile and roofgs-subtile)",
+        false},
+       [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
+      {{"roofgs+",
+        "roofgs with depth order and fast exp sigma 0.05798 (the fused kernel then allocates pairs in arrival "
+        "order: the depth order makes their emission order moot)",
+        false},
+       [](bool compact) { return gpu_render_options(Preset::kFastest, compact); }},
+      roofgs_variant("roofgs-serial",
+                     "roofgs with each Gaussian's pairs written by its own thread (balanced emission off: the "
+                     "paper's fused kernel as published)",
+                     [](runtime::GpuRoofgsOptions& o) { o.balanced_emission = false; }),
+      roofgs_variant("roofgs-tile",
+                     "roofgs without sub-tile culling (every warp of a tile walks all of the tile's pairs, as in "
+                     "the paper)",
+                     [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOff; }),
+      roofgs_variant("roofgs-subtile", "roofgs with sub-tile culling on in every frame",
+                     [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOn; }),
+      {{"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)", false},
+       [](bool) { return roofgs_pipeline(false, false, RoofgsOptions{}); }},
+      only_mode("compact", "compact attributes (needs a .rgs scene)", true, false, nullptr),
+      only_mode("fused", "the fused preprocess kernel", false, true, nullptr),
+      only_mode("key32", "the 32-bit key", false, false, [](RoofgsOptions& t) { t.key32 = true; }),
+      only_mode("snugbox", "SnugBox + AccuTile", false, false, [](RoofgsOptions& t) { t.snugbox_accutile = true; }),
+      only_mode("folded", "the folded dual-pixel rasterizer", false, false,
+                [](RoofgsOptions& t) { t.folded_coefficients = true; }),
+      only_mode("fastexp", "the fast exp", false, false, [](RoofgsOptions& t) { t.fast_exp = true; }),
+  };
+  return modes;
+}
+
+}  // namespace
+
+GpuRenderOptions gpu_render_options(Preset preset, bool scene_has_compact) {
+  if (preset == Preset::kFaithful) {
+    GpuRenderOptions o;
+    o.pipeline = runtime::GpuPipeline::kBaseline;
+    return o;
+  }
+  GpuRenderOptions o = roofgs_pipeline(scene_has_compact, true, preset_techniques(preset));
+  if (preset == Preset::kPaper) {
+    o.roofgs.balanced_emission = false;
+    o.roofgs.subtile_culling = runtime::SubtileCulling::kOff;
+  }
+  return o;
+}
+
+const std::vector<GpuMode>& gpu_modes() {
+  static const std::vector<GpuMode> modes = [] {
+    std::vector<GpuMode> m;
+    for (const ModeEntry& e : entries()) m.push_back(e.mode);
+    return m;
+  }();
+  return modes;
+}
+
+Result<GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_has_compact) {
+  for (const ModeEntry& e : entries()) {
+    if (e.mode.name != name) continue;
+    RGS_RETURN_ERROR_IF(e.mode.requires_compact && !scene_has_compact, StatusCode::kInvalidArgument,
+                        "mode " + name + " reads compact attributes, which only a .rgs scene has");
+    return e.options(scene_has_compact);
+  }
+  std::string names;
+  for (const ModeEntry& e : entries()) names += (names.empty() ? "" : ", ") + e.mode.name;
+  return Status(StatusCode::kInvalidArgument, "unknown GPU mode '" + name + "' (use " + names + ")");
+}
+
+}  // namespace rgs::api

@@ -1,0 +1,300 @@
+// Renderer and Image: presets rendered into caller memory on the GPU (runtime::GpuRenderer) or the CPU
+// (runtime::render_cpu).
+#include "rgs/api/renderer.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "internal_scene.h"
+#include "rgs/format/half.h"
+#include "rgs/runtime/cpu_renderer.h"
+
+#if RGS_HAS_CUDA
+#include "rgs/api/gpu_preset.h"
+#include "rgs/api/gpu_scene_loading.h"
+#include "rgs/runtime/cuda_device.h"
+#include "rgs/runtime/gpu_renderer.h"
+#endif
+
+namespace rgs::api {
+
+size_t bytes_per_pixel(PixelFormat format) {
+  return format == PixelFormat::kRgba32f ? 16 : format == PixelFormat::kRgba16f ? 8 : 4;
+}
+
+const char* pixel_format_name(PixelFormat format) {
+  switch (format) {
+    case PixelFormat::kRgba32f: return "rgba32f";
+    case PixelFormat::kRgba16f: return "rgba16f";
+    case PixelFormat::kRgba8: return "rgba8";
+  }
+  return "unknown";
+}
+
+Result<PixelFormat> parse_pixel_format(const std::string& name) {
+  for (PixelFormat f : {PixelFormat::kRgba32f, PixelFormat::kRgba16f, PixelFormat::kRgba8}) {
+    if (name == pixel_format_name(f)) return f;
+  }
+  return Status(StatusCode::kInvalidArgument, "unknown pixel format '" + name + "' (use rgba32f, rgba16f or rgba8)");
+}
+
+namespace {
+
+/// Host-side checks of a target (the GPU path repeats them in runtime::validate_output_image).
+Status check_target(const ImageTarget& t, const Camera& camera) {
+  RGS_RETURN_ERROR_IF(t.width != camera.width || t.height != camera.height, StatusCode::kInvalidArgument,
+                      "image target: size " + std::to_string(t.width) + "x" + std::to_string(t.height) +
+                          " differs from the camera's " + std::to_string(camera.width) + "x" +
+                          std::to_string(camera.height));
+  RGS_RETURN_ERROR_IF(t.color == nullptr, StatusCode::kInvalidArgument, "image target: colour pointer is null");
+  const size_t row = size_t(t.width) * bytes_per_pixel(t.format);
+  const size_t channel = bytes_per_pixel(t.format) / 4;
+  RGS_RETURN_ERROR_IF(t.color_pitch < row || t.color_pitch % channel != 0 ||
+                          reinterpret_cast<uintptr_t>(t.color) % channel != 0,
+                      StatusCode::kInvalidArgument,
+                      "image target: colour pitch " + std::to_string(t.color_pitch) + " must be >= " +
+                          std::to_string(row) + " and, like the pointer, a multiple of " + std::to_string(channel));
+  if (t.depth != nullptr) {
+    RGS_RETURN_ERROR_IF(t.depth_pitch < size_t(t.width) * 4 || t.depth_pitch % 4 != 0 ||
+                            reinterpret_cast<uintptr_t>(t.depth) % 4 != 0,
+                        StatusCode::kInvalidArgument,
+                        "image target: depth pitch " + std::to_string(t.depth_pitch) +
+                            " must be a multiple of 4 of at least " + std::to_string(size_t(t.width) * 4));
+  }
+  return Status();
+}
+
+uint8_t to_unorm8(float v) {
+  const float c = std::fmin(std::fmax(v, 0.f), 1.f);  // NaN becomes 0
+  return static_cast<uint8_t>(std::floor(c * 255.f + 0.5f));
+}
+
+/// Writes a CPU render into a host target (the rules of kernels/output_convert.h).
+void write_host_target(const runtime::RenderResult& r, const ImageTarget& t) {
+  for (uint32_t y = 0; y < t.height; ++y) {
+    char* row = static_cast<char*>(t.color) + size_t(y) * t.color_pitch;
+    for (uint32_t x = 0; x < t.width; ++x) {
+      const size_t p = size_t(y) * t.width + x;
+      const float v[4] = {r.rgb[p * 3], r.rgb[p * 3 + 1], r.rgb[p * 3 + 2], t.write_alpha ? r.alpha[p] : 1.f};
+      if (t.format == PixelFormat::kRgba32f) {
+        std::memcpy(row + size_t(x) * 16, v, 16);
+      } else if (t.format == PixelFormat::kRgba16f) {
+        uint16_t h[4];
+        for (int c = 0; c < 4; ++c) h[c] = format::float_to_half_bits(v[c]);
+        std::memcpy(row + size_t(x) * 8, h, 8);
+      } else {
+        uint8_t* out = reinterpret_cast<uint8_t*>(row) + size_t(x) * 4;
+        for (int c = 0; c < 4; ++c) out[c] = to_unorm8(v[c]);
+      }
+    }
+    if (t.depth != nullptr) {
+      float* drow = reinterpret_cast<float*>(reinterpret_cast<char*>(t.depth) + size_t(y) * t.depth_pitch);
+      std::memcpy(drow, r.depth.data() + size_t(y) * t.width, size_t(t.width) * sizeof(float));
+    }
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+// Image
+
+Image::Impl::~Impl() {
+#if RGS_HAS_CUDA
+  if (ready != nullptr) cudaEventDestroy(ready);
+  if (device_color != nullptr) cudaFree(device_color);
+  if (device_depth != nullptr) cudaFree(device_depth);
+#endif
+}
+
+Image::Image() : impl_(std::make_unique<Impl>()) {}
+Image::Image(Image&&) noexcept = default;
+Image& Image::operator=(Image&&) noexcept = default;
+Image::~Image() = default;
+
+Device Image::device() const { return impl_->device; }
+int Image::cuda_device() const { return impl_->cuda_device; }
+uint32_t Image::width() const { return impl_->width; }
+uint32_t Image::height() const { return impl_->height; }
+PixelFormat Image::format() const { return impl_->format; }
+void* Image::color() const {
+  return impl_->device == Device::kCuda ? impl_->device_color : static_cast<void*>(impl_->host_color.data());
+}
+size_t Image::color_pitch() const { return size_t(impl_->width) * bytes_per_pixel(impl_->format); }
+float* Image::depth() const {
+  if (!impl_->with_depth) return nullptr;
+  return impl_->device == Device::kCuda ? impl_->device_depth : impl_->host_depth.data();
+}
+ImageTarget Image::target() const {
+  ImageTarget t;
+  t.width = width();
+  t.height = height();
+  t.color = color();
+  t.color_pitch = color_pitch();
+  t.format = format();
+  t.depth = depth();
+  t.depth_pitch = size_t(width()) * sizeof(float);
+  return t;
+}
+
+Status Image::make_stream_wait(Stream consumer) const {
+#if RGS_HAS_CUDA
+  if (impl_->device == Device::kCuda && impl_->ready != nullptr) {
+    RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(consumer, impl_->ready, 0), "Image: cudaStreamWaitEvent");
+  }
+#else
+  (void)consumer;
+#endif
+  return Status();
+}
+
+Status Image::synchronize() const {
+#if RGS_HAS_CUDA
+  if (impl_->device == Device::kCuda && impl_->ready != nullptr) {
+    RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(impl_->ready), "Image: cudaEventSynchronize");
+  }
+#endif
+  return Status();
+}
+
+Status Image::copy_to_host(void* color_out, float* depth_out) const {
+  const size_t bytes = size_t(width()) * height() * bytes_per_pixel(format());
+  const size_t depth_bytes = size_t(width()) * height() * sizeof(float);
+  if (impl_->device == Device::kCpu) {
+    std::memcpy(color_out, impl_->host_color.data(), bytes);
+    if (depth_out != nullptr && impl_->with_depth) std::memcpy(depth_out, impl_->host_depth.data(), depth_bytes);
+    return Status();
+  }
+#if RGS_HAS_CUDA
+  RGS_RETURN_IF_ERROR(synchronize());
+  RGS_RETURN_IF_CUDA_ERROR(cudaMemcpy(color_out, impl_->device_color, bytes, cudaMemcpyDeviceToHost),
+                           "Image: colour download");
+  if (depth_out != nullptr && impl_->with_depth) {
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpy(depth_out, impl_->device_depth, depth_bytes, cudaMemcpyDeviceToHost),
+                             "Image: depth download");
+  }
+#endif
+  return Status();
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Renderer
+
+struct Renderer::Impl {
+  Device device = Device::kCpu;
+  int cuda_device = 0;
+#if RGS_HAS_CUDA
+  std::optional<runtime::GpuRenderer> gpu;
+#endif
+};
+
+Renderer::Renderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Renderer::Renderer(Renderer&&) noexcept = default;
+Renderer& Renderer::operator=(Renderer&&) noexcept = default;
+Renderer::~Renderer() = default;
+
+Device Renderer::device() const { return impl_->device; }
+
+Result<Renderer> Renderer::create(Device device, int cuda_device) {
+  auto impl = std::make_unique<Impl>();
+  impl->device = device;
+  impl->cuda_device = cuda_device;
+  if (device == Device::kCuda) {
+#if RGS_HAS_CUDA
+    RGS_RETURN_IF_ERROR(require_cuda_device(cuda_device));
+    RGS_ASSIGN_OR_RETURN(runtime::GpuRenderer gpu, runtime::GpuRenderer::create());
+    impl->gpu.emplace(std::move(gpu));
+#else
+    return Status(StatusCode::kUnsupportedFeature,
+                  "Renderer: device cuda: this build has no CUDA support (RGS_WITH_CUDA=OFF); use device cpu");
+#endif
+  }
+  return Renderer(std::move(impl));
+}
+
+Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                                    const ImageTarget& target, Stream stream) {
+  RGS_RETURN_ERROR_IF(impl_ == nullptr, StatusCode::kInvalidArgument, "Renderer: used after move");
+  RGS_RETURN_ERROR_IF(scene.device() != impl_->device, StatusCode::kInvalidArgument,
+                      std::string("Renderer: the scene is on ") + device_name(scene.device()) +
+                          " and the renderer on " + device_name(impl_->device));
+  RGS_RETURN_IF_ERROR(runtime::validate_camera(camera));
+  RGS_RETURN_IF_ERROR(check_target(target, camera));
+  for (float c : settings.background) {
+    RGS_RETURN_ERROR_IF(!std::isfinite(c), StatusCode::kInvalidArgument, "Renderer: background is not finite");
+  }
+  const SceneInfo& info = scene.info();
+  FrameStats stats;
+  if (impl_->device == Device::kCpu) {
+    runtime::RenderOptions options = cpu_render_options(settings.preset, info.bounds);
+    options.background = settings.background;
+    options.num_threads = settings.cpu_threads;
+    RGS_ASSIGN_OR_RETURN(runtime::RenderResult result, runtime::render_cpu(*scene.cloud(), camera, options));
+    write_host_target(result, target);
+    stats.gaussians = result.stats.gaussians;
+    stats.pairs = result.stats.pairs;
+    return stats;
+  }
+#if RGS_HAS_CUDA
+  RGS_RETURN_ERROR_IF(preset_reads_fp32(settings.preset) && !info.has_fp32, StatusCode::kInvalidArgument,
+                      std::string("Renderer: preset ") + preset_name(settings.preset) +
+                          " reads FP32 attributes, and " + info.path +
+                          " was loaded without them: list it in LoadOptions::presets");
+  runtime::GpuRenderOptions options = gpu_render_options(settings.preset, info.has_compact);
+  options.background = settings.background;
+  runtime::OutputImage out;
+  out.width = target.width;
+  out.height = target.height;
+  out.color = target.color;
+  out.color_pitch = target.color_pitch;
+  out.format = static_cast<runtime::PixelFormat>(static_cast<uint32_t>(target.format));
+  out.write_alpha = target.write_alpha;
+  out.depth = target.depth;
+  out.depth_pitch = target.depth_pitch;
+  RGS_ASSIGN_OR_RETURN(runtime::GpuRenderStats gpu_stats,
+                       impl_->gpu->render(*scene.gpu_scene(), camera, options, out, stream));
+  stats.gaussians = gpu_stats.gaussians;
+  stats.pairs = gpu_stats.pairs;
+  return stats;
+#else
+  (void)stream;
+  return Status(StatusCode::kUnsupportedFeature, "Renderer: this build has no CUDA support");
+#endif
+}
+
+Result<Image> Renderer::render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                                     PixelFormat format, bool with_depth, Stream stream) {
+  RGS_RETURN_ERROR_IF(impl_ == nullptr, StatusCode::kInvalidArgument, "Renderer: used after move");
+  RGS_RETURN_IF_ERROR(runtime::validate_camera(camera));
+  Image image;
+  Image::Impl& im = *image.impl_;
+  im.device = impl_->device;
+  im.cuda_device = impl_->cuda_device;
+  im.width = camera.width;
+  im.height = camera.height;
+  im.format = format;
+  im.with_depth = with_depth;
+  const size_t pixels = size_t(camera.width) * camera.height;
+  const size_t color_bytes = pixels * bytes_per_pixel(format);
+  if (impl_->device == Device::kCpu) {
+    im.host_color.resize(color_bytes);
+    if (with_depth) im.host_depth.resize(pixels);
+  } else {
+#if RGS_HAS_CUDA
+    RGS_RETURN_IF_CUDA_ERROR(cudaMalloc(&im.device_color, color_bytes),
+                             "Image: cannot allocate " + std::to_string(color_bytes) + " bytes on the GPU");
+    if (with_depth) {
+      RGS_RETURN_IF_CUDA_ERROR(cudaMalloc(reinterpret_cast<void**>(&im.device_depth), pixels * sizeof(float)),
+                               "Image: depth plane");
+    }
+    RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&im.ready, cudaEventDisableTiming), "Image: event");
+#endif
+  }
+  RGS_RETURN_IF_ERROR(render(scene, camera, settings, image.target(), stream).status());
+#if RGS_HAS_CUDA
+  if (im.ready != nullptr) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(im.ready, stream), "Image: event record");
+#endif
+  return image;
+}
+
+}  // namespace rgs::api

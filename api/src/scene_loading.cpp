@@ -1,0 +1,136 @@
+// Host scene loading, replication and camera choice (shared by the tools and the front door).
+#include "rgs/api/scene_loading.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/converter/replicate.h"
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/spec.h"
+#include "rgs/format/writer.h"
+
+namespace rgs::api {
+
+namespace {
+bool has_rgs_magic(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[8] = {};
+  in.read(head, 8);
+  return in.gcount() == 8 && std::memcmp(head, format::kMagic, 8) == 0;
+}
+
+bool ends_with_rgs(const std::string& path) {
+  if (path.size() < 4) return false;
+  std::string ext = path.substr(path.size() - 4);
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".rgs";
+}
+
+Status check_replicated_count(const std::string& path, uint64_t count, uint32_t copies) {
+  RGS_RETURN_ERROR_IF(copies == 0, StatusCode::kInvalidArgument, "replicate: the number of copies must be >= 1");
+  const uint64_t total = count * uint64_t(copies);  // < 2^64: count < 2^63 from any reader, copies < 2^32
+  RGS_RETURN_ERROR_IF(count > kMaxGpuGaussians || total > kMaxGpuGaussians, StatusCode::kLimitExceeded,
+                      path + ": " + std::to_string(copies) + " copies of " + group_digits(count) + " Gaussians = " +
+                          group_digits(total) + " exceed the 32-bit Gaussian count limit of " +
+                          group_digits(kMaxGpuGaussians));
+  return Status();
+}
+}  // namespace
+
+std::string group_digits(uint64_t n) {
+  std::string digits = std::to_string(n);
+  std::string out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+bool is_rgs_path(const std::string& path) { return has_rgs_magic(path) || ends_with_rgs(path); }
+
+Result<HostScene> load_host_scene(const std::string& path) {
+  HostScene scene;
+  if (is_rgs_path(path)) {
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+    RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
+    auto cloud = format::dequantize(encoded);
+    if (!cloud.ok()) return Status(cloud.status()).prepend(path);
+    scene.cloud = std::move(cloud).value();
+    scene.bounds = file.metadata().bounds;
+    scene.is_rgs = true;
+    scene.file_bytes = file.file_size();
+    return scene;
+  }
+  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+  scene.cloud = std::move(ply.cloud);
+  scene.bounds = converter::compute_bounds(scene.cloud);
+  scene.file_bytes = ply.file_bytes;
+  return scene;
+}
+
+Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies) {
+  ReplicatedScene out;
+  out.copies = copies;
+  format::EncodedScene source;
+  if (is_rgs_path(path)) {
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+    RGS_RETURN_IF_ERROR(check_replicated_count(path, file.gaussian_count(), copies));
+    RGS_ASSIGN_OR_RETURN(source, file.read_scene());
+    out.source_is_rgs = true;
+    out.source_file_bytes = file.file_size();
+    out.quantization = "as stored in the source .rgs (attributes copied unchanged)";
+  } else {
+    RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+    RGS_RETURN_IF_ERROR(check_replicated_count(path, ply.cloud.size(), copies));
+    auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
+    if (!encoded.ok()) return Status(encoded.status()).prepend(path);
+    source = std::move(encoded).value();
+    out.source_file_bytes = ply.file_bytes;
+    out.quantization = "rgs-convert defaults (linear FP16 scales, SH scale = max |SH| / 127)";
+  }
+  out.source_gaussians = source.count;
+  auto replicated = converter::replicate(source, copies);
+  if (!replicated.ok()) return Status(replicated.status()).prepend(path);
+  source = format::EncodedScene{};  // free the single copy before serializing the K copies
+  out.gaussians = replicated->count;
+  out.sh_degree = replicated->metadata.sh_degree;
+  out.bounds = replicated->metadata.bounds;
+  auto bytes = format::serialize_scene(*replicated);
+  if (!bytes.ok()) return Status(bytes.status()).prepend(path + " x" + std::to_string(copies));
+  out.rgs_bytes = std::move(bytes).value();
+  return out;
+}
+
+Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds) {
+  std::vector<runtime::Camera> cameras;
+  if (!choice.cameras_path.empty()) {
+    runtime::InriaCameraOptions options;
+    options.every_kth = choice.every;
+    options.width = choice.width;
+    options.height = choice.height;
+    RGS_ASSIGN_OR_RETURN(cameras, runtime::load_inria_cameras(choice.cameras_path, options));
+  } else {
+    RGS_RETURN_ERROR_IF(choice.orbit == 0, StatusCode::kInvalidArgument, "--orbit needs at least 1 camera");
+    uint32_t w = choice.width, h = choice.height;
+    if (w == 0 && h == 0) {
+      w = choice.orbit_width;
+      h = choice.orbit_height;
+    } else if (h == 0) {
+      h = static_cast<uint32_t>(std::max(1.0, std::round(double(w) * choice.orbit_height / choice.orbit_width)));
+    } else if (w == 0) {
+      w = static_cast<uint32_t>(std::max(1.0, std::round(double(h) * choice.orbit_width / choice.orbit_height)));
+    }
+    RGS_ASSIGN_OR_RETURN(cameras, runtime::orbit_cameras(bounds, choice.orbit, w, h));
+  }
+  if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
+  return cameras;
+}
+
+}  // namespace rgs::api

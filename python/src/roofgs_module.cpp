@@ -1,0 +1,516 @@
+// Python bindings of the RoofGS front door (rgs/api). Errors become roofgs.Error (a RuntimeError) carrying
+// .code (the StatusCode number) and .code_name ("kIoError", ...). GPU images implement the DLPack protocol
+// (__dlpack__, __dlpack_device__), so torch.from_dlpack() shares their memory without a copy.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rgs/api/roofgs.h"
+#include "rgs/api/scene_loading.h"
+#include "rgs/converter/attribute_errors.h"
+#include "rgs/format/reader.h"
+
+namespace py = pybind11;
+using namespace rgs;
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------------------
+// Errors
+
+struct StatusError {
+  Status status;
+};
+
+PyObject* g_error_type = nullptr;
+
+[[noreturn]] void raise(const Status& status) { throw StatusError{status}; }
+
+template <typename T>
+T unwrap(Result<T> result) {
+  if (!result.ok()) raise(result.status());
+  return std::move(result).value();
+}
+
+void check(const Status& status) {
+  if (!status.ok()) raise(status);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// DLPack (the ABI-stable structs of the DLPack specification, v0.8)
+
+enum DLDeviceType : int32_t { kDLCPU = 1, kDLCUDA = 2 };
+struct DLDevice {
+  DLDeviceType device_type;
+  int32_t device_id;
+};
+struct DLDataType {
+  uint8_t code;  // 0 int, 1 uint, 2 float
+  uint8_t bits;
+  uint16_t lanes;
+};
+struct DLTensor {
+  void* data;
+  DLDevice device;
+  int32_t ndim;
+  DLDataType dtype;
+  int64_t* shape;
+  int64_t* strides;
+  uint64_t byte_offset;
+};
+struct DLManagedTensor {
+  DLTensor dl_tensor;
+  void* manager_ctx;
+  void (*deleter)(DLManagedTensor* self);
+};
+
+/// A rendered image shared by the Python objects that view it (colour and depth planes).
+using SharedImage = std::shared_ptr<api::Image>;
+
+/// One plane of a library image: colour [H, W, 4] or depth [H, W].
+struct ImagePlane {
+  SharedImage image;
+  bool depth = false;
+
+  std::vector<int64_t> shape() const {
+    if (depth) return {int64_t(image->height()), int64_t(image->width())};
+    return {int64_t(image->height()), int64_t(image->width()), 4};
+  }
+  DLDataType dtype() const {
+    if (depth) return {2, 32, 1};
+    switch (image->format()) {
+      case api::PixelFormat::kRgba32f: return {2, 32, 1};
+      case api::PixelFormat::kRgba16f: return {2, 16, 1};
+      case api::PixelFormat::kRgba8: return {1, 8, 1};
+    }
+    return {2, 32, 1};
+  }
+  std::string dtype_name() const {
+    const DLDataType t = dtype();
+    return t.code == 1 ? "uint8" : t.bits == 16 ? "float16" : "float32";
+  }
+  void* data() const { return depth ? static_cast<void*>(image->depth()) : image->color(); }
+};
+
+struct DLContext {
+  SharedImage image;
+  std::vector<int64_t> shape;
+  DLManagedTensor tensor{};
+};
+
+void delete_managed(DLManagedTensor* self) { delete static_cast<DLContext*>(self->manager_ctx); }
+
+void capsule_destructor(PyObject* capsule) {
+  // Only a capsule nobody consumed still carries the name "dltensor" (consumers rename it).
+  if (PyCapsule_IsValid(capsule, "dltensor")) {
+    auto* managed = static_cast<DLManagedTensor*>(PyCapsule_GetPointer(capsule, "dltensor"));
+    if (managed != nullptr && managed->deleter != nullptr) managed->deleter(managed);
+  }
+}
+
+py::object plane_dlpack(const ImagePlane& plane, py::object stream) {
+  if (plane.image->device() == api::Device::kCuda) {
+    // DLPack: None means the legacy default stream (1); -1 asks for no synchronization.
+    int64_t s = stream.is_none() ? 1 : stream.cast<int64_t>();
+    if (s != -1) check(plane.image->make_stream_wait(reinterpret_cast<api::Stream>(static_cast<uintptr_t>(s))));
+  }
+  auto* ctx = new DLContext;
+  ctx->image = plane.image;
+  ctx->shape = plane.shape();
+  DLTensor& t = ctx->tensor.dl_tensor;
+  t.data = plane.data();
+  t.device = {plane.image->device() == api::Device::kCuda ? kDLCUDA : kDLCPU,
+              plane.image->device() == api::Device::kCuda ? plane.image->cuda_device() : 0};
+  t.ndim = int32_t(ctx->shape.size());
+  t.dtype = plane.dtype();
+  t.shape = ctx->shape.data();
+  t.strides = nullptr;  // compact row-major
+  t.byte_offset = 0;
+  ctx->tensor.manager_ctx = ctx;
+  ctx->tensor.deleter = delete_managed;
+  PyObject* capsule = PyCapsule_New(&ctx->tensor, "dltensor", capsule_destructor);
+  if (capsule == nullptr) {
+    delete ctx;
+    throw py::error_already_set();
+  }
+  return py::reinterpret_steal<py::object>(capsule);
+}
+
+py::array plane_numpy(const ImagePlane& plane) {
+  std::vector<py::ssize_t> shape;
+  for (int64_t d : plane.shape()) shape.push_back(py::ssize_t(d));
+  py::array out;
+  const DLDataType t = plane.dtype();
+  if (t.code == 1) {
+    out = py::array_t<uint8_t>(shape);
+  } else if (t.bits == 16) {
+    out = py::array(py::dtype("float16"), shape);
+  } else {
+    out = py::array_t<float>(shape);
+  }
+  if (plane.depth) {
+    std::vector<uint8_t> scratch(size_t(plane.image->width()) * plane.image->height() *
+                                 api::bytes_per_pixel(plane.image->format()));
+    check(plane.image->copy_to_host(scratch.data(), static_cast<float*>(out.mutable_data())));
+  } else {
+    check(plane.image->copy_to_host(out.mutable_data(), nullptr));
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Matrices and cameras
+
+/// M[row][col] of a numpy-like r × c matrix.
+std::vector<double> matrix(const py::object& obj, size_t rows, size_t cols, const char* what) {
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!a || size_t(a.size()) != rows * cols) {
+    raise(Status(StatusCode::kInvalidArgument, std::string(what) + ": expected " + std::to_string(rows) + "x" +
+                                                   std::to_string(cols) + " numbers"));
+  }
+  return std::vector<double>(a.data(), a.data() + a.size());
+}
+
+template <size_t N>
+std::array<double, N> arr(const py::object& obj, const char* what) {
+  const auto v = matrix(obj, N, 1, what);
+  std::array<double, N> out{};
+  for (size_t i = 0; i < N; ++i) out[i] = v[i];
+  return out;
+}
+
+api::Mat4ColumnMajor gl_matrix(const py::object& obj, const char* what) {
+  const auto m = matrix(obj, 4, 4, what);
+  api::Mat4ColumnMajor out{};
+  for (size_t r = 0; r < 4; ++r) {
+    for (size_t c = 0; c < 4; ++c) out[4 * c + r] = float(m[4 * r + c]);
+  }
+  return out;
+}
+
+api::CameraOptions camera_options(float near_plane, const std::string& name) {
+  api::CameraOptions o;
+  o.near_plane = near_plane;
+  o.name = name;
+  return o;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Scenes
+
+py::dict error_stats(const converter::ErrorStats& e) {
+  py::dict d;
+  d["max"] = e.max;
+  d["rms"] = e.rms;
+  d["samples"] = e.samples;
+  return d;
+}
+
+py::dict attribute_errors(const converter::AttributeErrors& e) {
+  py::dict d;
+  d["position"] = error_stats(e.position);
+  d["rotation_deg"] = error_stats(e.rotation_deg);
+  d["scale_relative"] = error_stats(e.scale_relative);
+  d["opacity"] = error_stats(e.opacity);
+  py::list sh;
+  for (const auto& s : e.sh) sh.append(error_stats(s));
+  d["sh_by_degree"] = sh;
+  return d;
+}
+
+py::dict scene_info(const api::SceneInfo& info) {
+  py::dict d;
+  d["path"] = info.path;
+  d["device"] = api::device_name(info.device);
+  d["gaussians"] = info.gaussians;
+  d["sh_degree"] = info.sh_degree;
+  d["source_is_rgs"] = info.source_is_rgs;
+  d["file_bytes"] = info.file_bytes;
+  d["has_compact"] = info.has_compact;
+  d["has_fp32"] = info.has_fp32;
+  d["memory_bytes"] = info.memory_bytes;
+  d["runtime_section_bytes"] = info.runtime_section_bytes;
+  d["sphere_center"] = std::vector<float>(info.bounds.sphere_center, info.bounds.sphere_center + 3);
+  d["sphere_radius"] = info.bounds.sphere_radius;
+  return d;
+}
+
+/// A scene and the renderer Python uses for it (created on first render; calls serialized by a mutex).
+struct PyScene {
+  api::Scene scene;
+  std::unique_ptr<api::Renderer> renderer;
+  std::mutex mutex;
+
+  explicit PyScene(api::Scene s) : scene(std::move(s)) {}
+
+  py::object render(const api::Camera& camera_in, const std::string& preset, std::optional<uint32_t> width,
+                    std::optional<uint32_t> height, std::array<float, 3> background, const std::string& format,
+                    bool depth, py::object stream) {
+    api::Camera camera = camera_in;
+    if (width || height) {
+      const uint32_t w = width.value_or(camera.width), h = height.value_or(camera.height);
+      if (w != camera.width || h != camera.height) camera = runtime::resize_camera(camera, w, h);
+    }
+    api::RenderSettings settings;
+    settings.preset = unwrap(api::parse_preset(preset));
+    settings.background = background;
+    const api::PixelFormat pixel_format = unwrap(api::parse_pixel_format(format));
+    const api::Stream s =
+        stream.is_none() ? nullptr : reinterpret_cast<api::Stream>(static_cast<uintptr_t>(stream.cast<int64_t>()));
+    Result<api::Image> image = Status(StatusCode::kInvalidArgument, "not rendered");
+    {
+      py::gil_scoped_release release;
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!renderer) {
+        auto created = api::Renderer::create(scene.device(), 0);
+        if (!created.ok()) {
+          image = created.status();
+        } else {
+          renderer = std::make_unique<api::Renderer>(std::move(created).value());
+        }
+      }
+      if (renderer) image = renderer->render_image(scene, camera, settings, pixel_format, depth, s);
+    }
+    auto shared = std::make_shared<api::Image>(unwrap(std::move(image)));
+    ImagePlane colour{shared, false};
+    if (scene.device() == api::Device::kCpu) {
+      py::array rgba = plane_numpy(colour);
+      if (!depth) return rgba;
+      return py::make_tuple(rgba, plane_numpy(ImagePlane{shared, true}));
+    }
+    if (!depth) return py::cast(colour);
+    return py::make_tuple(py::cast(colour), py::cast(ImagePlane{shared, true}));
+  }
+};
+
+}  // namespace
+
+PYBIND11_MODULE(roofgs, m) {
+  m.doc() = "RoofGS: load .rgs / 3DGS PLY scenes, render them with presets on the GPU or the CPU reference";
+  m.attr("__version__") = RGS_VERSION_STRING;
+  m.attr("has_cuda") = bool(RGS_HAS_CUDA);
+
+  static py::exception<StatusError> error_type(m, "Error", PyExc_RuntimeError);
+  g_error_type = error_type.ptr();
+  error_type.doc() = "A RoofGS operation failed; .code is the StatusCode number, .code_name its name";
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const StatusError& e) {
+      const std::string message = e.status.to_string();
+      PyObject* exc = PyObject_CallFunction(g_error_type, "s", message.c_str());
+      if (exc == nullptr) return;
+      PyObject_SetAttrString(exc, "code", py::int_(int(e.status.code())).ptr());
+      PyObject_SetAttrString(exc, "code_name", py::str(status_code_name(e.status.code())).ptr());
+      PyObject_SetAttrString(exc, "message", py::str(e.status.message()).ptr());
+      PyErr_SetObject(g_error_type, exc);
+      Py_DECREF(exc);
+    }
+  });
+
+  py::class_<api::Camera>(m, "Camera", "Pinhole camera, COLMAP frame (x right, y down, z forward)")
+      .def_property_readonly("rotation",
+                             [](const api::Camera& c) {
+                               py::array_t<float> r({3, 3});
+                               std::copy(c.rotation.begin(), c.rotation.end(), r.mutable_data());
+                               return r;
+                             },
+                             "world-to-camera R [3, 3]")
+      .def_property_readonly("translation", [](const api::Camera& c) { return std::vector<float>(c.translation.begin(), c.translation.end()); })
+      .def_readonly("fx", &api::Camera::fx)
+      .def_readonly("fy", &api::Camera::fy)
+      .def_readonly("cx", &api::Camera::cx)
+      .def_readonly("cy", &api::Camera::cy)
+      .def_readonly("width", &api::Camera::width)
+      .def_readonly("height", &api::Camera::height)
+      .def_readonly("near_plane", &api::Camera::near_plane)
+      .def_readonly("name", &api::Camera::name)
+      .def("project",
+           [](const api::Camera& c, std::array<double, 3> p) {
+             double q[3];
+             for (int r = 0; r < 3; ++r) {
+               q[r] = c.translation[size_t(r)];
+               for (int k = 0; k < 3; ++k) q[r] += double(c.rotation[size_t(3 * r + k)]) * p[size_t(k)];
+             }
+             return std::make_tuple(c.fx * q[0] / q[2] + c.cx - 0.5, c.fy * q[1] / q[2] + c.cy - 0.5, q[2]);
+           },
+           "Pixel (x, y) with pixel centres at integers, and view depth z, of a world point")
+      .def("resized", [](const api::Camera& c, uint32_t w, uint32_t h) { return runtime::resize_camera(c, w, h); })
+      .def("__repr__", [](const api::Camera& c) {
+        return "<roofgs.Camera " + std::to_string(c.width) + "x" + std::to_string(c.height) + " fx=" +
+               std::to_string(c.fx) + " '" + c.name + "'>";
+      });
+
+  m.def("camera_from_inria",
+        [](py::object rotation_c2w, py::object position, double fx, double fy, uint32_t width, uint32_t height,
+           float near_plane, const std::string& name) {
+          return unwrap(api::camera_from_inria(arr<9>(rotation_c2w, "rotation"), arr<3>(position, "position"), fx,
+                                               fy, width, height, camera_options(near_plane, name)));
+        },
+        py::arg("rotation_c2w"), py::arg("position"), py::arg("fx"), py::arg("fy"), py::arg("width"),
+        py::arg("height"), py::arg("near_plane") = 0.2f, py::arg("name") = "",
+        "INRIA cameras.json entry: camera-to-world rotation [3, 3], camera centre, focal lengths in pixels");
+  m.def("camera_from_colmap",
+        [](py::object qvec, py::object tvec, double fx, double fy, double cx, double cy, uint32_t width,
+           uint32_t height, float near_plane, const std::string& name) {
+          return unwrap(api::camera_from_colmap(arr<4>(qvec, "qvec"), arr<3>(tvec, "tvec"), fx, fy, cx, cy, width,
+                                                height, camera_options(near_plane, name)));
+        },
+        py::arg("qvec"), py::arg("tvec"), py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"),
+        py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f, py::arg("name") = "",
+        "COLMAP: world-to-camera quaternion (w, x, y, z), translation, PINHOLE intrinsics (origin at the corner)");
+  m.def("camera_from_opencv",
+        [](py::object K, py::object R, py::object t, uint32_t width, uint32_t height, float near_plane,
+           const std::string& name) {
+          return unwrap(api::camera_from_opencv(arr<9>(K, "K"), arr<9>(R, "R"), arr<3>(t, "t"), width, height,
+                                                camera_options(near_plane, name)));
+        },
+        py::arg("K"), py::arg("R"), py::arg("t"), py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f,
+        py::arg("name") = "", "OpenCV: K [3, 3], world-to-camera R [3, 3] and t; pixel centres at integers");
+  m.def("camera_from_opengl",
+        [](py::object view, py::object projection, uint32_t width, uint32_t height, float near_plane,
+           const std::string& name) {
+          return unwrap(api::camera_from_opengl(gl_matrix(view, "view"), gl_matrix(projection, "projection"), width,
+                                                height, camera_options(near_plane, name)));
+        },
+        py::arg("view"), py::arg("projection"), py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f,
+        py::arg("name") = "",
+        "OpenGL view and projection matrices, 4x4 indexed [row, column] as written in math (M @ p); "
+        "np.array(glm_matrix).T for a column-major GLM/pyglm matrix");
+  m.def("camera_from_vulkan",
+        [](py::object view, py::object projection, uint32_t width, uint32_t height, float near_plane,
+           const std::string& name) {
+          return unwrap(api::camera_from_vulkan(gl_matrix(view, "view"), gl_matrix(projection, "projection"), width,
+                                                height, camera_options(near_plane, name)));
+        },
+        py::arg("view"), py::arg("projection"), py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f,
+        py::arg("name") = "", "Vulkan (clip y down) view and projection matrices, [row, column]");
+  m.def("load_cameras",
+        [](const std::string& path) { return unwrap(runtime::load_inria_cameras(path)); }, py::arg("path"),
+        "Cameras of an INRIA 3DGS cameras.json");
+
+  py::class_<ImagePlane>(m, "DeviceImage",
+                         "A rendered image plane in GPU memory; supports DLPack (torch.from_dlpack) without a copy")
+      .def_property_readonly("shape", [](const ImagePlane& p) { return p.shape(); })
+      .def_property_readonly("dtype", &ImagePlane::dtype_name)
+      .def_property_readonly("device", [](const ImagePlane& p) { return api::device_name(p.image->device()); })
+      .def_property_readonly("data_ptr", [](const ImagePlane& p) { return reinterpret_cast<uintptr_t>(p.data()); })
+      .def("__dlpack__", [](const ImagePlane& p, py::object stream, py::kwargs) { return plane_dlpack(p, stream); },
+           py::arg("stream") = py::none())
+      .def("__dlpack_device__",
+           [](const ImagePlane& p) {
+             const bool cuda = p.image->device() == api::Device::kCuda;
+             return py::make_tuple(int(cuda ? kDLCUDA : kDLCPU), cuda ? p.image->cuda_device() : 0);
+           })
+      .def("synchronize", [](const ImagePlane& p) { check(p.image->synchronize()); })
+      .def("numpy", &plane_numpy, "Copy to a NumPy array (waits for the render)");
+
+  py::class_<PyScene>(m, "Scene", "A loaded scene (immutable; share it freely)")
+      .def_property_readonly("info", [](const PyScene& s) { return scene_info(s.scene.info()); })
+      .def_property_readonly("device", [](const PyScene& s) { return api::device_name(s.scene.device()); })
+      .def("__len__", [](const PyScene& s) { return s.scene.size(); })
+      .def("orbit_cameras",
+           [](const PyScene& s, uint32_t count, uint32_t width, uint32_t height) {
+             return unwrap(runtime::orbit_cameras(s.scene.info().bounds, count, width, height));
+           },
+           py::arg("count"), py::arg("width") = 1920, py::arg("height") = 1080,
+           "A ring of cameras around the scene's bounding sphere")
+      .def("render", &PyScene::render, py::arg("camera"), py::arg("preset") = "fastest",
+           py::arg("width") = py::none(), py::arg("height") = py::none(),
+           py::arg("background") = std::array<float, 3>{0.f, 0.f, 0.f}, py::arg("format") = "rgba32f",
+           py::arg("depth") = false, py::arg("stream") = py::none(),
+           "Render from `camera` (resized to width x height if given). CPU: a NumPy array [H, W, 4]; CUDA: a "
+           "DeviceImage (DLPack). depth=True returns (rgba, depth). `stream`: a CUDA stream handle (int, e.g. "
+           "torch.cuda.current_stream().cuda_stream); the render is enqueued on it");
+
+  m.def("load",
+        [](const std::string& path, const std::string& device, std::vector<std::string> presets,
+           bool quantize_other_formats, int cuda_device) {
+          api::LoadOptions options;
+          options.device = unwrap(api::parse_device(device));
+          options.cuda_device = cuda_device;
+          options.quantize_other_formats = quantize_other_formats;
+          options.presets.clear();
+          for (const std::string& p : presets) options.presets.push_back(unwrap(api::parse_preset(p)));
+          Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
+          {
+            py::gil_scoped_release release;
+            scene = api::load(path, options);
+          }
+          return std::make_unique<PyScene>(unwrap(std::move(scene)));
+        },
+        py::arg("path"), py::arg("device") = "cuda", py::arg("presets") = std::vector<std::string>{"fastest"},
+        py::arg("quantize_other_formats") = true, py::arg("cuda_device") = 0,
+        "Load a .rgs file (or a 3DGS PLY through the converter) onto device 'cuda' or 'cpu'; the GPU copy holds "
+        "only what `presets` read");
+
+  m.def("convert",
+        [](const std::string& src, const std::string& dst, const std::string& scale_encoding,
+           float sh_clip_percentile, std::vector<std::string> zstd, int zstd_level, bool sanitize) {
+          api::ConvertOptions o;
+          if (scale_encoding == "log") {
+            o.scale_encoding = format::ScaleEncoding::kLog;
+          } else if (scale_encoding != "linear") {
+            raise(Status(StatusCode::kInvalidArgument, "scale_encoding must be 'linear' or 'log'"));
+          }
+          o.sh_clip_percentile = sh_clip_percentile;
+          o.zstd_sections = std::move(zstd);
+          o.zstd_level = zstd_level;
+          o.sanitize = sanitize;
+          Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
+          {
+            py::gil_scoped_release release;
+            r = api::convert(src, dst, o);
+          }
+          const api::ConvertReport report = unwrap(std::move(r));
+          py::dict d;
+          d["direction"] = report.direction;
+          d["gaussians"] = report.gaussians;
+          d["sh_degree"] = report.sh_degree;
+          d["input_bytes"] = report.input_bytes;
+          d["output_bytes"] = report.output_bytes;
+          d["dropped_gaussians"] = report.dropped_gaussians;
+          if (report.direction == "ply->rgs") d["errors"] = attribute_errors(report.errors);
+          return d;
+        },
+        py::arg("src"), py::arg("dst"), py::kw_only(), py::arg("scale_encoding") = "linear",
+        py::arg("sh_clip_percentile") = 100.0f, py::arg("zstd") = std::vector<std::string>{},
+        py::arg("zstd_level") = 19, py::arg("sanitize") = false,
+        "Convert a 3DGS PLY to .rgs (or a .rgs back to PLY); returns a dict with sizes and attribute errors");
+
+  m.def("audit",
+        [](const std::string& source, const std::string& rgs_path) {
+          api::HostScene a = unwrap(api::load_host_scene(source));
+          api::HostScene b = unwrap(api::load_host_scene(rgs_path));
+          const converter::AttributeErrors e = unwrap(converter::measure_attribute_errors(a.cloud, b.cloud));
+          format::RgsFile file = unwrap(format::RgsFile::open(rgs_path));
+          py::dict d;
+          d["gaussians"] = b.cloud.size();
+          d["sh_degree"] = b.cloud.sh_degree;
+          d["source_bytes"] = a.file_bytes;
+          d["rgs_bytes"] = b.file_bytes;
+          d["bytes_per_gaussian"] = b.cloud.size() ? double(b.file_bytes) / double(b.cloud.size()) : 0.0;
+          py::list sections;
+          for (const auto& s : file.sections()) {
+            py::dict sd;
+            sd["id"] = uint32_t(s.id);
+            sd["stored_bytes"] = s.stored_size;
+            sd["raw_bytes"] = s.raw_size;
+            sections.append(sd);
+          }
+          d["sections"] = sections;
+          d["errors"] = attribute_errors(e);
+          return d;
+        },
+        py::arg("source"), py::arg("rgs"),
+        "What a conversion cost: sizes per section and per Gaussian, per-attribute errors of `rgs` against "
+        "`source`, as a dict");
+}

@@ -1,0 +1,136 @@
+# The roofgs module: conversion, loading, cameras in every convention, CPU renders as NumPy arrays, errors
+# with codes, audits as dicts; GPU renders through DLPack (skipped visibly without a device).
+import math
+import pathlib
+import re
+
+import numpy as np
+import pytest
+
+from conftest import SOURCE_DIR, roofgs
+
+
+def test_convert_reports_sizes_and_errors(guitar_rgs, tmp_path):
+    report = roofgs.convert(str(SOURCE_DIR / "samples" / "guitar.ply"), str(tmp_path / "g.rgs"),
+                            scale_encoding="log", zstd=["sh"])
+    assert report["direction"] == "ply->rgs"
+    assert report["output_bytes"] < report["input_bytes"]
+    assert report["errors"]["position"]["max"] == 0.0
+    back = roofgs.convert(guitar_rgs, str(tmp_path / "back.ply"))
+    assert back["direction"] == "rgs->ply" and back["gaussians"] == 90854
+
+
+def test_errors_carry_codes(tmp_path):
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.load(str(tmp_path / "missing.rgs"), device="cpu")
+    assert e.value.code_name == "kIoError" and e.value.code == 1
+    assert isinstance(e.value, RuntimeError)
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.load(str(SOURCE_DIR / "tests" / "data" / "bad" / "section_checksum.rgs"), device="cpu")
+    assert e.value.code_name == "kChecksumMismatch"
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.load(str(SOURCE_DIR / "samples" / "guitar.ply"), device="tpu")
+    assert e.value.code_name == "kInvalidArgument"
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.convert(str(SOURCE_DIR / "samples" / "guitar.ply"), str(tmp_path / "x.rgs"), zstd=["colours"])
+    assert e.value.code_name == "kInvalidArgument" and "colours" in str(e.value)
+
+
+def test_cameras_in_every_convention():
+    # INRIA: identity orientation at (1, 2, 3); the point 10 units ahead lands on the centre pixel.
+    c = roofgs.camera_from_inria(np.eye(3), [1, 2, 3], 100, 100, 200, 100)
+    assert c.project([1, 2, 13]) == pytest.approx((99.5, 49.5, 10))
+    # COLMAP: 90 degrees about z, principal point as given (corner origin).
+    s = math.sqrt(0.5)
+    c = roofgs.camera_from_colmap([s, 0, 0, s], [0, 0, 4], 50, 60, 30, 20, 64, 48)
+    assert c.project([1, 0, 0]) == pytest.approx((29.5, 34.5, 4))
+    # OpenCV: pixel centres at integers, u = fx x/z + cx.
+    K = [[500, 0, 319.5], [0, 400, 239.5], [0, 0, 1]]
+    c = roofgs.camera_from_opencv(K, np.eye(3), [0, 0, 2], 640, 480)
+    assert c.project([0.2, -0.1, 0]) == pytest.approx((369.5, 219.5, 2))
+    # OpenGL: eye at (0, 0, 5), perspective(90 deg, aspect 2); world (1, 1, 0) -> window (110, 60 from the
+    # bottom) -> pixel (109.5, 39.5) counted from the top.
+    view = np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, -5], [0, 0, 0, 1]], dtype=float)
+    proj = np.array([[0.5, 0, 0, 0], [0, 1, 0, 0], [0, 0, -100.1 / 99.9, -20 / 99.9], [0, 0, -1, 0]])
+    c = roofgs.camera_from_opengl(view, proj, 200, 100)
+    assert c.project([1, 1, 0]) == pytest.approx((109.5, 39.5, 5))
+    vk = proj.copy()
+    vk[1, 1] = -1
+    c = roofgs.camera_from_vulkan(view, vk, 200, 100)
+    assert c.project([1, 1, 0]) == pytest.approx((109.5, 39.5, 5))
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.camera_from_opengl(view, vk, 200, 100)
+    assert e.value.code_name == "kInvalidArgument"
+
+
+def test_cpu_render_returns_numpy(guitar_rgs):
+    scene = roofgs.load(guitar_rgs, device="cpu")
+    assert len(scene) == 90854
+    info = scene.info
+    assert info["device"] == "cpu" and info["source_is_rgs"]
+    camera = scene.orbit_cameras(1, 64, 36)[0]
+    rgba = scene.render(camera)
+    assert rgba.shape == (36, 64, 4) and rgba.dtype == np.float32
+    assert rgba[..., 3].max() > 0.5
+    rgba8, depth = scene.render(camera, preset="faithful", format="rgba8", depth=True, width=32, height=18)
+    assert rgba8.shape == (18, 32, 4) and rgba8.dtype == np.uint8
+    assert depth.shape == (18, 32) and depth.dtype == np.float32 and depth.max() > 0
+    half = scene.render(camera, preset="paper", format="rgba16f")
+    assert half.dtype == np.float16
+    # The same preset gives the same frame in every format (8-bit: the 3DGS rounding rule).
+    fastest32 = scene.render(camera, format="rgba32f")
+    fastest8 = scene.render(camera, format="rgba8")
+    expected8 = np.floor(np.clip(fastest32, 0, 1) * 255 + 0.5).astype(np.uint8)
+    assert np.array_equal(fastest8, expected8)
+    with pytest.raises(roofgs.Error) as e:
+        scene.render(camera, preset="slowest")
+    assert e.value.code_name == "kInvalidArgument"
+
+
+def test_audit_is_a_dict(guitar_rgs):
+    report = roofgs.audit(str(SOURCE_DIR / "samples" / "guitar.ply"), guitar_rgs)
+    assert report["gaussians"] == 90854
+    assert 30 < report["bytes_per_gaussian"] < 60
+    assert report["errors"]["opacity"]["max"] < 1e-3
+    assert len(report["sections"]) >= 5
+
+
+def test_embedding_doc_python_example(guitar_rgs, tmp_path, monkeypatch):
+    """Runs the Python example of docs/EMBEDDING.md as written (with its scene path pointed at the sample)."""
+    text = (SOURCE_DIR / "docs" / "EMBEDDING.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks, "docs/EMBEDDING.md has no python example"
+    monkeypatch.chdir(tmp_path)
+    pathlib.Path("scene.rgs").write_bytes(pathlib.Path(guitar_rgs).read_bytes())
+    exec(compile(blocks[0].replace('device="cuda"', 'device=DEVICE'), "EMBEDDING.md", "exec"),
+         {"DEVICE": "cuda" if roofgs.has_cuda and _cuda_ok() else "cpu"})
+
+
+def _cuda_ok():
+    from conftest import cuda_available
+    return cuda_available()[0]
+
+
+def test_gpu_render_dlpack(guitar_rgs, cuda):
+    torch = pytest.importorskip("torch")
+    scene = roofgs.load(guitar_rgs, device="cuda")
+    info = scene.info
+    assert not info["has_fp32"]
+    assert info["memory_bytes"] <= 1.1 * info["runtime_section_bytes"]
+    camera = scene.orbit_cameras(1, 320, 180)[0]
+    stream = torch.cuda.Stream()
+    image = scene.render(camera, stream=stream.cuda_stream)
+    assert image.shape == [180, 320, 4] and image.dtype == "float32"
+    with torch.cuda.stream(stream):
+        t = torch.from_dlpack(image)  # no copy: the tensor views the renderer's output
+    assert t.data_ptr() == image.data_ptr and t.is_cuda and tuple(t.shape) == (180, 320, 4)
+    cpu_scene = roofgs.load(guitar_rgs, device="cpu")
+    ref = cpu_scene.render(camera)
+    mse = float(((t.cpu().numpy().astype(np.float64) - ref) ** 2).mean())
+    assert mse == 0 or 10 * math.log10(1 / mse) > 50
+    with pytest.raises(roofgs.Error) as e:
+        scene.render(camera, preset="faithful")
+    assert e.value.code_name == "kInvalidArgument"
+    both = roofgs.load(guitar_rgs, device="cuda", presets=["fastest", "faithful"])
+    rgba8 = both.render(camera, preset="faithful", format="rgba8").numpy()
+    assert rgba8.dtype == np.uint8 and rgba8.shape == (180, 320, 4)
