@@ -1,36 +1,41 @@
-// rgs-audit: what a conversion cost. Sizes per section, per-attribute errors, and PSNR/SSIM of the .rgs render
-// against the FP32 render of the source PLY (CPU reference renderer, baseline settings).
+// rgs-audit: what a conversion or a format costs. A thin front end of rgs::audit (audit/): sizes per section and
+// per Gaussian, per-attribute errors, per-view PSNR/SSIM/max |d| of each candidate's render against the
+// source's (3DGS baseline, FP32), on the GPU when one is present, else on the CPU reference; JSON always next
+// to the report, and a self-contained HTML report drawn by scripts/audit_report.py (python3-matplotlib).
 //
-//   rgs-audit scene.ply scene.rgs --cameras cameras.json --every 20 --width 1256 --json report.json
-//   rgs-audit scene.ply scene.rgs --min-psnr 40          CI gate: exit 1 when a view is below 40 dB
+//   rgs-audit scene.ply scene.rgs --cameras cameras.json                 every camera, native size
+//   rgs-audit scene.ply a.rgs b.rgs c.rgs --label max --label p99 ...     one run, several candidates
+//   rgs-audit scene.ply scene.rgs --min-psnr 40 --report ci/audit.html    CI gate: exit 1 below 40 dB
+//   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
 //
-// Without a camera option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure or PSNR below --min-psnr,
-// 2 usage error.
+// Exit status: 0 ok, 1 failure or a PSNR below --min-psnr, 2 usage error.
 
 #include <CLI/CLI.hpp>
 
-#include <algorithm>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <limits>
-#include <nlohmann/json.hpp>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "cli_common.h"
 #include "error_stats_output.h"
-#include "image_metrics.h"
 #include "image_write.h"
+#include "rgs/audit/audit.h"
+#include "rgs/audit/audit_report.h"
+#include "rgs/audit/audit_scene.h"
 #include "rgs/config.h"
-#include "rgs/converter/attribute_errors.h"
-#include "rgs/converter/ply_reader.h"
-#include "rgs/format/encoded_scene.h"
 #include "rgs/format/file_io.h"
-#include "rgs/format/reader.h"
-#include "rgs/format/spec.h"
-#include "rgs/runtime/cpu_renderer.h"
 #include "scene_loading.h"
+
+extern char** environ;
 
 namespace {
 
@@ -39,237 +44,289 @@ using Clock = std::chrono::steady_clock;
 constexpr const char* kTool = "rgs-audit";
 
 struct Options {
-  std::string ply_path;
-  std::string rgs_path;
+  std::vector<std::string> scenes;  // source, then candidates
+  std::vector<std::string> labels;
   tools::CameraChoice cameras;
+  std::string backend = "auto";
+  int device = 0;
+  std::string report_path;
+  bool no_report = false;
+  std::string report_from;
   std::string json_path;
   std::string heatmap_path;
+  uint32_t worst = 3;
+  uint32_t image_size = 1024;
+  unsigned threads = 0;
   double min_psnr = -1;
   bool min_psnr_set = false;
+  bool quiet = false;
+  std::string command_line;
 };
 
-std::string db(double v) { return std::isinf(v) ? std::string("inf") : tools::fixed(v, 2); }
-nlohmann::json db_json(double v) { return std::isinf(v) ? nlohmann::json("inf") : nlohmann::json(v); }
+std::string db(double v) { return std::isinf(v) ? std::string(v > 0 ? "inf" : "-inf") : tools::fixed(v, 2); }
 
-struct ViewResult {
-  std::string name;
-  double psnr = 0, ssim = 0, seconds = 0;
-  float max_abs_diff = 0;
-};
+/// The HTML script: $RGS_AUDIT_REPORT_SCRIPT, else scripts/audit_report.py of this source tree, else
+/// ../share/rgs/audit_report.py beside the executable.
+std::string report_script() {
+  if (const char* env = std::getenv("RGS_AUDIT_REPORT_SCRIPT"); env && *env) return env;
+  const std::filesystem::path in_tree = RGS_AUDIT_REPORT_SCRIPT_IN_TREE;
+  if (std::filesystem::exists(in_tree)) return in_tree.string();
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const auto installed = exe.parent_path() / ".." / "share" / "rgs" / "audit_report.py";
+    if (std::filesystem::exists(installed)) return installed.string();
+  }
+  return in_tree.string();
+}
 
-int run(Options opt) {
+/// Runs `PYTHON SCRIPT json html` ($RGS_PYTHON, else /usr/bin/python3 when present, else python3 from PATH);
+/// ok when it exits 0. Its own messages go to stderr.
+Status render_html(const std::string& json_path, const std::string& html_path) {
+  const std::string script = report_script();
+  // Debian's python3-matplotlib lives under /usr/bin/python3, which a python3 earlier in PATH may lack.
+  std::string python = "python3";
+  if (const char* env = std::getenv("RGS_PYTHON"); env && *env) {
+    python = env;
+  } else if (std::filesystem::exists("/usr/bin/python3")) {
+    python = "/usr/bin/python3";
+  }
+  std::vector<std::string> args = {python, script, json_path, html_path};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ);
+  RGS_RETURN_ERROR_IF(spawned != 0, StatusCode::kUnsupportedFeature,
+                      "cannot run " + python + " for the HTML report: " + std::string(std::strerror(spawned)));
+  int wstatus = 0;
+  RGS_RETURN_ERROR_IF(waitpid(pid, &wstatus, 0) != pid, StatusCode::kIoError, "waiting for " + script + " failed");
+  RGS_RETURN_ERROR_IF(!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0, StatusCode::kUnsupportedFeature,
+                      python + " " + script + " " + json_path + " " + html_path + " failed (exit " +
+                          std::to_string(WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1) + ")");
+  return Status();
+}
+
+/// "out.html" -> "out.json"; "out_files/" for the images.
+std::string with_suffix(const std::string& html, const std::string& suffix) {
+  std::filesystem::path p(html);
+  return (p.parent_path() / (p.stem().string() + suffix)).string();
+}
+
+void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::CandidateResult& c) {
+  const char* channel_names[3] = {"R", "G", "B"};
+  const double per_g = c.scene.gaussians ? 1.0 / double(c.scene.gaussians) : 0.0;
+  std::fprintf(out, "candidate %s (%s, %s)\n", c.scene.label.c_str(), c.scene.path.c_str(), c.scene.format.c_str());
+  std::fprintf(out, "  gaussians        %s (SH degree %u)\n", tools::group_digits(c.scene.gaussians).c_str(),
+               c.scene.sh_degree);
+  std::fprintf(out, "  size             %s bytes  (%s B/Gaussian), ratio %sx\n",
+               tools::group_digits(c.scene.file_bytes).c_str(), tools::fixed(double(c.scene.file_bytes) * per_g, 1).c_str(),
+               tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str());
+  if (!c.scene.sections.empty()) {
+    std::fprintf(out, "  %-22s %8s %14s %12s\n", "section", "codec", "bytes", "B/Gaussian");
+    for (const auto& s : c.scene.sections) {
+      std::fprintf(out, "  %-22s %8s %14s %12s\n", s.name.c_str(), s.codec.c_str(),
+                   tools::group_digits(s.stored_bytes).c_str(), tools::fixed(double(s.stored_bytes) * per_g, 3).c_str());
+    }
+    std::fprintf(out, "  %-22s %8s %14s %12s\n", "header, table, padding", "",
+                 tools::group_digits(c.scene.overhead_bytes).c_str(),
+                 tools::fixed(double(c.scene.overhead_bytes) * per_g, 3).c_str());
+  }
+  if (c.attributes) {
+    const converter::AttributeErrors& e = c.attributes->errors;
+    auto row = [&](const std::string& name, const converter::ErrorStats& s, const std::string& unit) {
+      std::fprintf(out, "  %-22s %12s %12s  %s\n", name.c_str(), tools::sci(s.max).c_str(), tools::sci(s.rms).c_str(),
+                   unit.c_str());
+    };
+    std::fprintf(out, "  %-22s %12s %12s\n", "error", "max", "rms");
+    converter::ErrorStats pos = e.position;
+    pos.max *= 1000;
+    pos.rms *= 1000;
+    row("position x1000", pos, "scene units x 1000 (mm if the scene is metric)");
+    row("rotation", e.rotation_deg, "degrees");
+    row("scale", e.scale_relative, "relative");
+    row("opacity", e.opacity, "absolute");
+    for (uint32_t d = 0; d <= c.scene.sh_degree && d < 4; ++d) {
+      row("SH degree " + std::to_string(d), e.sh[d], "absolute (all channels)");
+      for (uint32_t ch = 0; ch < 3; ++ch) {
+        std::string note;
+        if (c.attributes->sh_quantization) {
+          note = "scale " + tools::sci(c.attributes->sh_quantization->scales[d][ch]) + ", " +
+                 tools::group_digits(c.attributes->clipped[d][ch]) + " clipped";
+        }
+        row("  " + std::string(channel_names[ch]), e.sh_channel[d][ch], note);
+      }
+    }
+  } else {
+    std::fprintf(out, "  %s\n", c.attributes_note.c_str());
+  }
+}
+
+int run_report_only(const Options& opt) {
+  if (opt.report_path.empty()) {
+    std::fprintf(stderr, "%s: error: --report-from needs --report OUT.html\n", kTool);
+    return tools::kExitUsage;
+  }
+  Status st = render_html(opt.report_from, opt.report_path);
+  if (!st.ok()) return tools::report_error(kTool, st);
+  std::fprintf(stderr, "%s: report %s\n", kTool, opt.report_path.c_str());
+  return tools::kExitOk;
+}
+
+int run(const Options& opt) {
   const auto t_start = Clock::now();
   if (!opt.heatmap_path.empty()) {
     Status heatmap_ok = tools::check_image8_path(opt.heatmap_path, 1);
     if (!heatmap_ok.ok()) return tools::report_error(kTool, heatmap_ok);
   }
-  auto ply = converter::read_ply(opt.ply_path);
-  if (!ply.ok()) return tools::report_error(kTool, ply.status());
-  auto file = format::RgsFile::open(opt.rgs_path);
-  if (!file.ok()) return tools::report_error(kTool, file.status());
-  auto encoded = file->read_scene();
-  if (!encoded.ok()) return tools::report_error(kTool, encoded.status());
-  auto rgs_cloud = format::dequantize(*encoded);
-  if (!rgs_cloud.ok()) return tools::report_error(kTool, Status(rgs_cloud.status()).prepend(opt.rgs_path));
-  const format::GaussianCloud& ref = ply->cloud;
-  const uint64_t n = ref.size();
-  if (rgs_cloud->size() != n || rgs_cloud->sh_degree != ref.sh_degree) {
-    return tools::report_error(
-        kTool, Status(StatusCode::kInvalidArgument,
-                      opt.rgs_path + ": " + std::to_string(rgs_cloud->size()) + " Gaussians of SH degree " +
-                          std::to_string(rgs_cloud->sh_degree) + ", but " + opt.ply_path + " has " +
-                          std::to_string(n) + " of degree " + std::to_string(ref.sh_degree) +
-                          ": not a conversion of this file"));
-  }
-  auto errors = converter::measure_attribute_errors(ref, *rgs_cloud);
-  if (!errors.ok()) return tools::report_error(kTool, errors.status());
-
-  // Clipped SH coefficients: |SH| / s >= 127.5 (round-half-away would exceed 127), or s = 0 with SH != 0.
-  const format::ShQuantization& shq = encoded->metadata.sh_quantization;
-  uint64_t clipped[4][3] = {};
-  const uint32_t k_count = ref.sh_coefficients();
-  for (uint64_t i = 0; i < n; ++i) {
-    for (uint32_t k = 0; k < k_count; ++k) {
-      const uint32_t d = format::sh_degree_of_coefficient(k);
-      for (uint32_t c = 0; c < 3; ++c) {
-        const double v = std::fabs(static_cast<double>(ref.sh[(i * k_count + k) * 3 + c]));
-        const double s = shq.scales[d][c];
-        clipped[d][c] += (s > 0) ? (v >= 127.5 * s) : (v != 0.0);
-      }
+  // Backend first: an explicit --backend cuda without a device fails before any loading.
+  audit::AuditOptions options;
+  std::string why;
+  const bool have_cuda = audit::cuda_backend_available(&why);
+  if (opt.backend == "cuda" || (opt.backend == "auto" && have_cuda)) {
+    options.backend = audit::Backend::kCuda;
+    if (!have_cuda) {
+      return tools::report_error(kTool, Status(StatusCode::kUnsupportedFeature, "--backend cuda: " + why));
     }
   }
+  options.cuda_device = opt.device;
+  options.worst_views = opt.worst;
+  options.image_max_side = opt.image_size;
+  options.keep_worst_heatmap = !opt.heatmap_path.empty();
+  options.cpu_threads = opt.threads;
 
-  // Renders: FP32 PLY vs dequantized .rgs, both baseline.
-  auto cameras = tools::make_cameras(opt.cameras, file->metadata().bounds);
+  // Every scene goes through audit::load_audit_scene, the one place that picks a reader.
+  auto source = audit::load_audit_scene(opt.scenes[0], "source");
+  if (!source.ok()) return tools::report_error(kTool, source.status());
+  std::vector<audit::AuditScene> candidates;
+  for (size_t i = 1; i < opt.scenes.size(); ++i) {
+    const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
+    auto scene = audit::load_audit_scene(opt.scenes[i], label);
+    if (!scene.ok()) return tools::report_error(kTool, scene.status());
+    candidates.push_back(std::move(scene).value());
+  }
+  auto cameras = tools::make_cameras(opt.cameras, source->bounds);
   if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
-  if (cameras->empty()) return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
-  runtime::RenderOptions render_options;
-  std::vector<ViewResult> views;
-  std::vector<uint8_t> worst_heat;
-  uint32_t worst_w = 0, worst_h = 0;
-  size_t worst = 0;
-  for (size_t v = 0; v < cameras->size(); ++v) {
-    const runtime::Camera& cam = (*cameras)[v];
-    const auto t_view = Clock::now();
-    auto a = runtime::render_cpu(ref, cam, render_options);
-    if (!a.ok()) return tools::report_error(kTool, Status(a.status()).prepend(opt.ply_path + ", view " + cam.name));
-    auto b = runtime::render_cpu(*rgs_cloud, cam, render_options);
-    if (!b.ok()) return tools::report_error(kTool, Status(b.status()).prepend(opt.rgs_path + ", view " + cam.name));
-    ViewResult r;
-    r.name = cam.name;
-    auto p = tools::psnr_rgb(a->rgb, b->rgb, cam.width, cam.height);
-    if (!p.ok()) return tools::report_error(kTool, p.status());
-    auto s = tools::ssim_rgb(a->rgb, b->rgb, cam.width, cam.height);
-    if (!s.ok()) return tools::report_error(kTool, Status(s.status()).prepend("view " + cam.name));
-    r.psnr = *p;
-    r.ssim = *s;
-    // |difference| per pixel, max over RGB, of the clamped images.
-    const size_t pixels = size_t{cam.width} * cam.height;
-    std::vector<float> diff(pixels, 0.f);
-    for (size_t i = 0; i < pixels; ++i) {
-      for (int c = 0; c < 3; ++c) {
-        const float x = std::isnan(a->rgb[i * 3 + c]) ? 0.f : std::clamp(a->rgb[i * 3 + c], 0.f, 1.f);
-        const float y = std::isnan(b->rgb[i * 3 + c]) ? 0.f : std::clamp(b->rgb[i * 3 + c], 0.f, 1.f);
-        diff[i] = std::max(diff[i], std::fabs(x - y));
-      }
-      r.max_abs_diff = std::max(r.max_abs_diff, diff[i]);
-    }
-    r.seconds = tools::seconds_since(t_view);
-    views.push_back(r);
-    if (views.size() == 1 || r.psnr < views[worst].psnr) {
-      worst = v;
-      worst_w = cam.width;
-      worst_h = cam.height;
-      worst_heat.assign(pixels, 0);
-      if (r.max_abs_diff > 0) {
-        for (size_t i = 0; i < pixels; ++i) {
-          worst_heat[i] = static_cast<uint8_t>(std::floor(diff[i] / r.max_abs_diff * 255.f + 0.5f));
-        }
-      }
-    }
-    std::fprintf(stderr, "view %zu/%zu %s PSNR %s dB SSIM %s %s s\n", v + 1, cameras->size(), cam.name.c_str(),
-                 db(r.psnr).c_str(), tools::fixed(r.ssim, 5).c_str(), tools::fixed(r.seconds, 1).c_str());
-  }
-  double psnr_sum = 0, ssim_sum = 0, psnr_min = std::numeric_limits<double>::infinity(), ssim_min = 1e300;
-  for (const ViewResult& r : views) {
-    psnr_sum += r.psnr;
-    ssim_sum += r.ssim;
-    psnr_min = std::min(psnr_min, r.psnr);
-    ssim_min = std::min(ssim_min, r.ssim);
-  }
-  const double psnr_mean = psnr_sum / static_cast<double>(views.size());
-  const double ssim_mean = ssim_sum / static_cast<double>(views.size());
 
+  std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
+               audit::backend_name(options.backend),
+               options.backend == audit::Backend::kCpu && opt.backend == "auto" ? (" (no CUDA device: " + why + ")").c_str() : "",
+               cameras->size(), candidates.size(), candidates.size() == 1 ? "" : "s");
+  auto last_print = Clock::now() - std::chrono::hours(1);
+  options.progress = [&](const audit::AuditProgress& p) {
+    const auto now = Clock::now();
+    if (p.views_done != p.views_total && now - last_print < std::chrono::seconds(1)) return;
+    last_print = now;
+    std::string psnrs;
+    for (double v : p.psnr_db) psnrs += " " + db(v);
+    std::fprintf(stderr, "view %zu/%zu %s PSNR%s dB | %s s elapsed, ~%s s left\n", p.views_done, p.views_total,
+                 p.view.c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
+                 tools::fixed(p.remaining_s, 0).c_str());
+  };
+  auto result = audit::run_audit(*source, candidates, *cameras, options);
+  if (!result.ok()) return tools::report_error(kTool, result.status());
+  const audit::AuditResult& r = *result;
+
+  // Outputs: images and JSON next to the report, the JSON also at --json (or stdout), the heatmap.
+  audit::ReportOptions ro;
+  ro.tool_version = RGS_VERSION_STRING;
+  ro.command_line = opt.command_line;
+  if (opt.min_psnr_set) ro.min_psnr_db = opt.min_psnr;
+  std::string report_json;
+  if (!opt.no_report) {
+    report_json = with_suffix(opt.report_path, ".json");
+    const std::string files = with_suffix(opt.report_path, "_files");
+    ro.image_dir = std::filesystem::path(files).filename().string() + "/";
+    Status st = audit::write_report_images(r, files);
+    if (!st.ok()) return tools::report_error(kTool, st);
+  }
   if (!opt.heatmap_path.empty()) {
-    Status st = tools::write_image8(opt.heatmap_path, worst_w, worst_h, 1, worst_heat);
+    const audit::Image8& h = r.candidates[0].worst_heatmap;
+    Status st = tools::write_image8(opt.heatmap_path, h.width, h.height, 1, h.pixels);
+    if (!st.ok()) return tools::report_error(kTool, st);
+  }
+  ro.total_seconds = tools::seconds_since(t_start);
+  const std::string text = audit::audit_json(r, ro);
+  if (!report_json.empty()) {
+    Status st = format::write_file_atomic(report_json, text.data(), text.size());
+    if (!st.ok()) return tools::report_error(kTool, st);
+  }
+  const bool json_stdout = opt.json_path == "-";
+  if (!opt.json_path.empty() && !json_stdout) {
+    ro.image_dir.clear();  // image paths are relative to the report's JSON
+    const std::string plain = audit::audit_json(r, ro);
+    Status st = format::write_file_atomic(opt.json_path, plain.data(), plain.size());
     if (!st.ok()) return tools::report_error(kTool, st);
   }
 
-  // Sizes.
-  const double per_g = n ? 1.0 / static_cast<double>(n) : 0.0;
-  const double in_bytes = static_cast<double>(ply->file_bytes);
-  const double out_bytes = static_cast<double>(file->file_size());
-  uint64_t section_total = 0;
-  for (const auto& e : file->sections()) section_total += e.stored_size;
-  const uint64_t overhead = file->file_size() - section_total;
-  const uint32_t degree = ref.sh_degree;
-  const char* channel_names[3] = {"R", "G", "B"};
-
-  std::printf("%s %s vs %s\n", kTool, opt.ply_path.c_str(), opt.rgs_path.c_str());
-  std::printf("  gaussians        %s (SH degree %u)\n", tools::group_digits(n).c_str(), degree);
-  std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(ply->file_bytes).c_str(),
-              tools::fixed(in_bytes * per_g, 1).c_str());
-  std::printf("  output           %s bytes  (%s B/Gaussian), ratio %sx\n",
-              tools::group_digits(file->file_size()).c_str(), tools::fixed(out_bytes * per_g, 1).c_str(),
-              tools::fixed(out_bytes > 0 ? in_bytes / out_bytes : 0.0, 2).c_str());
-  std::printf("  %-22s %8s %14s %12s\n", "section", "codec", "bytes", "B/Gaussian");
-  for (const auto& e : file->sections()) {
-    std::printf("  %-22s %8s %14s %12s\n", format::section_name(e.id), format::codec_name(e.codec),
-                tools::group_digits(e.stored_size).c_str(),
-                tools::fixed(static_cast<double>(e.stored_size) * per_g, 3).c_str());
+  // The table (stderr when stdout carries the JSON).
+  std::FILE* out = json_stdout ? stderr : stdout;
+  if (!opt.quiet) {
+    std::fprintf(out, "%s %s (%s, %s Gaussians, %s bytes)\n", kTool, r.source.path.c_str(), r.source.format.c_str(),
+                 tools::group_digits(r.source.gaussians).c_str(), tools::group_digits(r.source.file_bytes).c_str());
+    std::fprintf(out, "  backend          %s (%s)\n", audit::backend_name(r.backend), r.device.c_str());
+    for (const auto& c : r.candidates) print_candidate(out, r, c);
+    std::fprintf(out, "  %-22s", "view");
+    for (const auto& c : r.candidates) std::fprintf(out, " %12.12s", c.scene.label.c_str());
+    std::fprintf(out, "   PSNR dB\n");
+    for (size_t v = 0; v < r.views.size(); ++v) {
+      std::fprintf(out, "  %-22s", r.views[v].name.c_str());
+      for (const auto& c : r.candidates) std::fprintf(out, " %12s", db(c.views[v].psnr_db).c_str());
+      std::fprintf(out, "\n");
+    }
+    std::fprintf(out, "  %-16s %8s %14s %8s %9s %9s %10s %10s %9s\n", "candidate", "format", "bytes", "B/G", "ratio",
+                 "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
+    for (const auto& c : r.candidates) {
+      const double per_g = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
+      std::fprintf(out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", c.scene.label.c_str(), c.scene.format.c_str(),
+                   tools::group_digits(c.scene.file_bytes).c_str(), tools::fixed(per_g, 1).c_str(),
+                   tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
+                   db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(),
+                   tools::fixed(c.summary.ssim_mean, 5).c_str(), tools::fixed(c.summary.max_abs_diff, 4).c_str());
+    }
+    const audit::ViewInfo& first = r.views.front();
+    for (const auto& c : r.candidates) {
+      const std::string suffix = r.candidates.size() > 1 ? "  [" + c.scene.label + "]" : "";
+      std::fprintf(out, "  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)%s\n",
+                   db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(), r.views.size(), first.width,
+                   first.height, r.views[c.summary.worst_view].name.c_str(), suffix.c_str());
+      std::fprintf(out, "  SSIM             mean %s, min %s%s\n", tools::fixed(c.summary.ssim_mean, 5).c_str(),
+                   tools::fixed(c.summary.ssim_min, 5).c_str(), suffix.c_str());
+    }
+    if (!opt.heatmap_path.empty()) {
+      std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n", opt.heatmap_path.c_str(),
+                   r.views[r.candidates[0].summary.worst_view].name.c_str(),
+                   tools::fixed(r.candidates[0].summary.max_abs_diff > 0
+                                    ? r.candidates[0].views[r.candidates[0].summary.worst_view].max_abs_diff : 0.f, 4).c_str());
+    }
+    if (!report_json.empty()) std::fprintf(out, "  json             %s\n", report_json.c_str());
+    std::fprintf(out, "  time             %s s (views %s s)\n", tools::fixed(tools::seconds_since(t_start), 1).c_str(),
+                 tools::fixed(r.render_seconds, 1).c_str());
   }
-  std::printf("  %-22s %8s %14s %12s\n", "header, table, padding", "", tools::group_digits(overhead).c_str(),
-              tools::fixed(static_cast<double>(overhead) * per_g, 3).c_str());
-  std::printf("  %-22s %12s %12s\n", "error", "max", "rms");
-  converter::ErrorStats pos_mm = errors->position;
-  pos_mm.max *= 1000;
-  pos_mm.rms *= 1000;
-  tools::print_stats_row("position x1000", pos_mm, "scene units x 1000 (mm if the scene is metric)", 22);
-  tools::print_stats_row("rotation", errors->rotation_deg, "degrees", 22);
-  tools::print_stats_row("scale", errors->scale_relative, "relative", 22);
-  tools::print_stats_row("opacity", errors->opacity, "absolute", 22);
-  for (uint32_t d = 0; d <= degree; ++d) {
-    tools::print_stats_row("SH degree " + std::to_string(d), errors->sh[d], "absolute (all channels)", 22);
-    for (uint32_t c = 0; c < 3; ++c) {
-      tools::print_stats_row("  " + std::string(channel_names[c]), errors->sh_channel[d][c],
-                             "scale " + tools::sci(shq.scales[d][c]) + ", " +
-                                 tools::group_digits(clipped[d][c]) + " clipped",
-                             22);
+  if (json_stdout) {
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    std::fflush(stdout);
+  }
+
+  if (!opt.no_report) {
+    Status st = render_html(report_json, opt.report_path);
+    if (st.ok()) {
+      if (!opt.quiet) std::fprintf(out, "  report           %s\n", opt.report_path.c_str());
+    } else {
+      // The JSON and the images are written; the HTML can be made on another host.
+      std::fprintf(stderr, "%s: warning: no HTML report (%s); on a host with python3-matplotlib run: %s --report-from %s "
+                   "--report %s\n", kTool, st.message().c_str(), kTool, report_json.c_str(), opt.report_path.c_str());
     }
   }
-  std::printf("  %-22s %10s %10s %10s %8s\n", "view", "PSNR dB", "SSIM", "max |d|", "s");
-  for (const ViewResult& r : views) {
-    std::printf("  %-22s %10s %10s %10s %8s\n", r.name.c_str(), db(r.psnr).c_str(), tools::fixed(r.ssim, 5).c_str(),
-                tools::fixed(r.max_abs_diff, 4).c_str(), tools::fixed(r.seconds, 1).c_str());
-  }
-  const runtime::Camera& first = cameras->front();
-  std::printf("  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)\n", db(psnr_mean).c_str(),
-              db(psnr_min).c_str(), views.size(), first.width, first.height, views[worst].name.c_str());
-  std::printf("  SSIM             mean %s, min %s\n", tools::fixed(ssim_mean, 5).c_str(), tools::fixed(ssim_min, 5).c_str());
-  if (!opt.heatmap_path.empty()) {
-    std::printf("  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n", opt.heatmap_path.c_str(),
-                views[worst].name.c_str(), tools::fixed(views[worst].max_abs_diff, 4).c_str());
-  }
-  std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
 
-  if (!opt.json_path.empty()) {
-    nlohmann::json j;
-    j["input"] = {{"path", opt.ply_path}, {"bytes", ply->file_bytes}};
-    j["output"] = {{"path", opt.rgs_path}, {"bytes", file->file_size()}};
-    j["gaussians"] = n;
-    j["sh_degree"] = degree;
-    j["bytes_per_gaussian"] = {{"input", in_bytes * per_g}, {"output", out_bytes * per_g}};
-    j["ratio"] = out_bytes > 0 ? in_bytes / out_bytes : 0.0;
-    nlohmann::json sections = nlohmann::json::array();
-    for (const auto& e : file->sections()) {
-      sections.push_back({{"name", format::section_name(e.id)}, {"codec", format::codec_name(e.codec)},
-                          {"bytes", e.stored_size}, {"raw_bytes", e.raw_size},
-                          {"bytes_per_gaussian", static_cast<double>(e.stored_size) * per_g}});
-    }
-    j["sections"] = sections;
-    j["header_table_padding_bytes"] = overhead;
-    nlohmann::json sh = nlohmann::json::array();
-    for (uint32_t d = 0; d <= degree; ++d) {
-      nlohmann::json ch = nlohmann::json::array();
-      for (uint32_t c = 0; c < 3; ++c) {
-        ch.push_back({{"channel", channel_names[c]}, {"error", tools::stats_json(errors->sh_channel[d][c])},
-                      {"scale", shq.scales[d][c]}, {"clipped", clipped[d][c]}});
+  if (opt.min_psnr_set && !audit::passes_gate(r, opt.min_psnr)) {
+    for (const auto& c : r.candidates) {
+      if (c.summary.psnr_min_db < opt.min_psnr) {
+        std::fprintf(stderr, "%s: error: %s: min PSNR %s dB (view %s) is below --min-psnr %s dB\n", kTool,
+                     c.scene.label.c_str(), db(c.summary.psnr_min_db).c_str(),
+                     r.views[c.summary.worst_view].name.c_str(), tools::fixed(opt.min_psnr, 2).c_str());
       }
-      sh.push_back({{"degree", d}, {"error", tools::stats_json(errors->sh[d])}, {"channels", ch}});
     }
-    j["errors"] = {{"position_scene_units", tools::stats_json(errors->position)},
-                   {"rotation_deg", tools::stats_json(errors->rotation_deg)},
-                   {"scale_relative", tools::stats_json(errors->scale_relative)},
-                   {"opacity", tools::stats_json(errors->opacity)},
-                   {"sh", sh}};
-    nlohmann::json vj = nlohmann::json::array();
-    for (const ViewResult& r : views) {
-      vj.push_back({{"name", r.name}, {"psnr_db", db_json(r.psnr)}, {"ssim", r.ssim},
-                    {"max_abs_diff", r.max_abs_diff}, {"seconds", r.seconds}});
-    }
-    j["views"] = vj;
-    j["resolution"] = {first.width, first.height};
-    j["psnr_db"] = {{"mean", db_json(psnr_mean)}, {"min", db_json(psnr_min)}};
-    j["ssim"] = {{"mean", ssim_mean}, {"min", ssim_min}};
-    j["worst_view"] = views[worst].name;
-    const std::string text = j.dump(2) + "\n";
-    Status st = format::write_file_atomic(opt.json_path, text.data(), text.size());
-    if (!st.ok()) return tools::report_error(kTool, st);
-  }
-
-  if (opt.min_psnr_set && psnr_min < opt.min_psnr) {
-    std::fprintf(stderr, "%s: error: min PSNR %s dB (view %s) is below --min-psnr %s dB\n", kTool,
-                 db(psnr_min).c_str(), views[worst].name.c_str(), tools::fixed(opt.min_psnr, 2).c_str());
     return tools::kExitFailure;
   }
   return tools::kExitOk;
@@ -279,23 +336,40 @@ int run(Options opt) {
 
 int main(int argc, char** argv) {
   Options opt;
-  CLI::App app{"Audit a conversion: bytes per section and per Gaussian, per-attribute errors, and PSNR/SSIM of the "
-               ".rgs render against the FP32 render of the source PLY (CPU reference renderer, baseline). Without "
-               "a camera option: --orbit 4 at 960x540.",
+  for (int i = 0; i < argc; ++i) opt.command_line += (i ? " " : "") + std::string(argv[i]);
+  CLI::App app{"Audit conversions and formats: bytes per section and per Gaussian, per-attribute errors, and per-view "
+               "PSNR/SSIM/max |d| of each candidate's render against the source's (3DGS baseline, FP32). Renders on the "
+               "GPU when a CUDA device is present (--backend), else on the CPU reference. Writes a JSON next to an "
+               "HTML report (default <first candidate>.audit.html). Without a camera option: --orbit 4 at 960x540.",
                kTool};
-  app.add_option("input", opt.ply_path, "Source 3DGS .ply")->required();
-  app.add_option("output", opt.rgs_path, ".rgs converted from it")->required();
-  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
+  app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: any scene files it reads (.ply, .rgs)");
+  app.add_option("--label", opt.labels, "Name of a candidate in tables and plots (repeat, in candidate order)");
+  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json (native size by default)");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")->check(CLI::PositiveNumber)->needs(cams);
+  app.add_option("--limit", opt.cameras.limit, "At most N views")->check(CLI::PositiveNumber);
   auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras (default 4, at 960x540)")
                     ->check(CLI::PositiveNumber)->excludes(cams);
   cams->excludes(orbit);
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
-  app.add_option("--json", opt.json_path, "Write the report as JSON");
+  app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
+      ->check(CLI::IsMember({"auto", "cuda", "cpu"}));
+  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", opt.threads, "CPU backend threads (0 = all cores)");
+  auto* report = app.add_option("--report", opt.report_path,
+                                "HTML report; its JSON (.json) and images (_files/) go next to it");
+  auto* no_report = app.add_flag("--no-report", opt.no_report, "Write no report, JSON or images (see --json)");
+  report->excludes(no_report);
+  app.add_option("--report-from", opt.report_from, "Only make the HTML (--report) from the JSON of an earlier run");
+  app.add_option("--json", opt.json_path, "Also write the JSON here ('-': stdout; the table then goes to stderr)");
   app.add_option("--heatmap", opt.heatmap_path,
-                 "Write |difference| of the worst view as a grey image: .png (needs OpenImageIO), .pgm or .ppm");
-  auto* minp = app.add_option("--min-psnr", opt.min_psnr, "Exit 1 when the lowest per-view PSNR is below DB");
+                 "Full-size |difference| of the first candidate's worst view as a grey image: .png (OpenImageIO), .pgm, .ppm");
+  app.add_option("--worst", opt.worst, "Worst views per candidate shown in the report (default 3)");
+  app.add_option("--image-size", opt.image_size, "Largest side of the report's images (default 1024)")
+      ->check(CLI::Range(16, 32768));
+  auto* minp = app.add_option("--min-psnr", opt.min_psnr,
+                              "CI gate: exit 1 when any candidate's lowest per-view PSNR is below DB");
+  app.add_flag("-q,--quiet", opt.quiet, "No table");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);
@@ -303,7 +377,20 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
   }
+  if (!opt.report_from.empty()) return run_report_only(opt);
+  if (opt.scenes.size() < 2) {
+    std::fprintf(stderr, "%s: error: give a source and at least one candidate scene (see --help)\n", kTool);
+    return rgs::tools::kExitUsage;
+  }
+  if (opt.labels.size() > opt.scenes.size() - 1) {
+    std::fprintf(stderr, "%s: error: %zu --label for %zu candidates\n", kTool, opt.labels.size(), opt.scenes.size() - 1);
+    return rgs::tools::kExitUsage;
+  }
   opt.min_psnr_set = minp->count() > 0;
+  if (opt.report_path.empty() && !opt.no_report) {
+    const std::filesystem::path first(opt.scenes[1]);
+    opt.report_path = (first.parent_path() / (first.stem().string() + ".audit.html")).string();
+  }
   if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) opt.cameras.orbit = 4;
   opt.cameras.orbit_width = 960;
   opt.cameras.orbit_height = 540;

@@ -1,18 +1,18 @@
-// PSNR and SSIM of rgs-audit on identical images, constant images (closed form) and against a direct
-// (non-separable, per-window) evaluation of the SSIM definition.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+// CPU image metrics of the audit on hand-made images: identical images, constant images (closed form), clamping,
+// a direct (non-separable, per-window) evaluation of the SSIM definition, RGBA input and the difference map.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
 
-#include "image_metrics.h"
+#include "rgs/audit/image_metrics.h"
 
 namespace {
 
-using rgs::tools::psnr_rgb;
-using rgs::tools::ssim_rgb;
+using rgs::audit::psnr_rgb;
+using rgs::audit::ssim_rgb;
 
 std::vector<float> random_image(uint32_t w, uint32_t h, unsigned seed) {
   std::mt19937 rng(seed);
@@ -92,6 +92,51 @@ TEST_CASE("bad sizes are kInvalidArgument") {
   const auto a = random_image(10, 10, 4);
   CHECK(ssim_rgb(a, a, 10, 10).status().code() == rgs::StatusCode::kInvalidArgument);
   CHECK(psnr_rgb(a, a, 11, 10).status().code() == rgs::StatusCode::kInvalidArgument);
+}
+
+TEST_CASE("the SSIM window is normalized and symmetric") {
+  const auto g = rgs::audit::ssim_window_weights();
+  double sum = 0;
+  for (double v : g) sum += v;
+  CHECK(sum == doctest::Approx(1.0).epsilon(1e-15));
+  for (int i = 0; i < 5; ++i) CHECK(g[size_t(i)] == g[size_t(10 - i)]);
+  CHECK(g[5] > g[4]);
+}
+
+TEST_CASE("compare_images: RGBA input, maximum difference and its map") {
+  const uint32_t w = 16, h = 12;
+  const auto rgb = random_image(w, h, 5);
+  std::vector<float> rgba(size_t{w} * h * 4);
+  for (size_t p = 0; p < size_t{w} * h; ++p) {
+    for (int c = 0; c < 3; ++c) rgba[p * 4 + c] = rgb[p * 3 + c];
+    rgba[p * 4 + 3] = 0.25f;  // alpha: ignored
+  }
+  auto other = rgb;
+  other[(size_t{3} * w + 7) * 3 + 1] += 0.5f;  // pixel (7, 3), green
+  other[(size_t{9} * w + 2) * 3 + 2] = 2.f;    // pixel (2, 9), blue: clamps to 1
+  const float expected_blue = 1.f - rgb[(size_t{9} * w + 2) * 3 + 2];
+  const float expected_green =
+      std::min(1.f, rgb[(size_t{3} * w + 7) * 3 + 1] + 0.5f) - rgb[(size_t{3} * w + 7) * 3 + 1];
+  std::vector<float> diff;
+  auto m = rgs::audit::compare_images({rgba.data(), w, h, 4}, {other.data(), w, h, 3}, &diff);
+  REQUIRE(m.ok());
+  CHECK(m->max_abs_diff == doctest::Approx(std::max(expected_blue, expected_green)));
+  REQUIRE(diff.size() == size_t{w} * h);
+  CHECK(diff[size_t{3} * w + 7] == doctest::Approx(expected_green));
+  CHECK(diff[size_t{9} * w + 2] == doctest::Approx(expected_blue));
+  CHECK(diff[0] == 0.f);
+  CHECK(m->psnr_db == *psnr_rgb(rgb, other, w, h));
+  CHECK(m->ssim == *ssim_rgb(rgb, other, w, h));
+}
+
+TEST_CASE("compare_images: bad inputs are kInvalidArgument") {
+  const auto a = random_image(12, 12, 6);
+  CHECK(rgs::audit::compare_images({a.data(), 12, 12, 3}, {a.data(), 12, 11, 3}).status().code() ==
+        rgs::StatusCode::kInvalidArgument);
+  CHECK(rgs::audit::compare_images({a.data(), 12, 12, 2}, {a.data(), 12, 12, 3}).status().code() ==
+        rgs::StatusCode::kInvalidArgument);
+  CHECK(rgs::audit::compare_images({nullptr, 12, 12, 3}, {a.data(), 12, 12, 3}).status().code() ==
+        rgs::StatusCode::kInvalidArgument);
 }
 
 }  // namespace

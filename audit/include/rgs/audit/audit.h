@@ -1,0 +1,139 @@
+// The per-view audit: renders a source scene and one or more candidate scenes from the same cameras with the
+// faithful 3DGS baseline (FP32, black background) on the CPU reference or the CUDA renderer, and compares
+// each candidate's image with the source's (PSNR, SSIM, maximum difference). Also per-attribute errors,
+// sizes, and small images of the worst views for the report.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rgs/audit/audit_scene.h"
+#include "rgs/converter/attribute_errors.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+#include "rgs/runtime/camera.h"
+
+namespace rgs::audit {
+
+/// Where the views are rendered and compared.
+enum class Backend {
+  kCpu,   ///< runtime::render_cpu and compare_images (the reference)
+  kCuda,  ///< runtime::GpuRenderer (baseline pipeline) and the GPU metrics (gpu_image_metrics.h)
+};
+
+/// "cpu" or "cuda".
+const char* backend_name(Backend backend);
+
+/// True when this build has CUDA and the runtime sees a device; otherwise false, with the reason in `why`
+/// ("built without CUDA", or the CUDA runtime's message). Never an error.
+bool cuda_backend_available(std::string* why = nullptr);
+
+/// Reported after every view.
+struct AuditProgress {
+  size_t views_done = 0, views_total = 0;
+  std::string view;             ///< name of the view just finished
+  std::vector<double> psnr_db;  ///< that view's PSNR per candidate
+  double elapsed_s = 0;         ///< since run_audit started rendering
+  double remaining_s = 0;       ///< elapsed / done × (total − done)
+};
+
+/// Options of run_audit().
+struct AuditOptions {
+  Backend backend = Backend::kCpu;
+  int cuda_device = 0;  ///< device ordinal for kCuda
+  /// Worst views (lowest PSNR) per candidate kept as small images for the report; 0 keeps none.
+  uint32_t worst_views = 3;
+  /// Largest side of the kept images: a view is reduced by the smallest integer factor that fits (box mean
+  /// for the colour images, box maximum for the difference so that single pixels stay visible).
+  uint32_t image_max_side = 1024;
+  /// Keep the full-size difference image of the first candidate's worst view (worst_heatmap).
+  bool keep_worst_heatmap = false;
+  /// CPU backend worker threads (runtime::RenderOptions::num_threads; 0 = all cores).
+  unsigned cpu_threads = 0;
+  /// Called after each view on the calling thread; may be empty.
+  std::function<void(const AuditProgress&)> progress;
+};
+
+/// Metrics of one view of one candidate.
+struct ViewMetrics {
+  double psnr_db = 0;   ///< +inf when the clamped images are equal
+  double ssim = 0;
+  float max_abs_diff = 0;
+  double seconds = 0;   ///< wall time of this candidate's render and comparison (CPU: both renders' share)
+};
+
+/// An 8-bit image, row-major, top row first.
+struct Image8 {
+  uint32_t width = 0, height = 0, channels = 0;  ///< channels 1 (grey) or 3 (RGB)
+  std::vector<uint8_t> pixels;                   ///< [H, W, channels]
+};
+
+/// Reduced images of one view for the report.
+struct ViewImages {
+  size_t view = 0;     ///< index into AuditResult::views
+  double psnr_db = 0;
+  Image8 source;       ///< clamped linear RGB × 255, 3DGS rounding floor(v·255 + 0.5)
+  Image8 candidate;
+  /// Grey: per-pixel max over R, G, B of |Δ| (box maximum when reduced), scaled so heat_scale is 255.
+  Image8 difference;
+  float heat_scale = 0;  ///< the |Δ| that maps to 255 (the view's maximum; 0 when the images are equal)
+};
+
+/// Per-attribute errors of a candidate against the source (only when both have the same Gaussians).
+struct AttributeReport {
+  converter::AttributeErrors errors;
+  /// Candidate .rgs only: SH scales s[d][c] and the source's coefficients clipped by them
+  /// (|SH| ≥ 127.5·s, or s = 0 with SH ≠ 0).
+  std::optional<format::ShQuantization> sh_quantization;
+  uint64_t clipped[4][3] = {};
+};
+
+/// Mean and minimum over views.
+struct Summary {
+  double psnr_mean_db = 0, psnr_min_db = 0;  ///< the mean of the per-view dB values
+  double ssim_mean = 0, ssim_min = 0;
+  float max_abs_diff = 0;  ///< over all views
+  size_t worst_view = 0;   ///< lowest PSNR (first of equals)
+};
+
+/// Everything about one candidate.
+struct CandidateResult {
+  SceneInfo scene;
+  std::optional<AttributeReport> attributes;
+  std::string attributes_note;  ///< why there are no attribute errors (different Gaussian count, ...)
+  std::vector<ViewMetrics> views;  ///< one per AuditResult::views entry
+  Summary summary;
+  std::vector<ViewImages> worst;  ///< lowest PSNR first, at most AuditOptions::worst_views
+  Image8 worst_heatmap;  ///< full-size difference of the worst view (keep_worst_heatmap, first candidate)
+};
+
+/// A view as rendered.
+struct ViewInfo {
+  std::string name;
+  uint32_t width = 0, height = 0;
+};
+
+/// Result of run_audit().
+struct AuditResult {
+  Backend backend = Backend::kCpu;
+  std::string device;  ///< "CPU reference (N threads)" or the CUDA device's name
+  SceneInfo source;
+  std::vector<ViewInfo> views;
+  std::vector<CandidateResult> candidates;
+  double render_seconds = 0;  ///< the per-view loop (uploads and CUDA set-up included)
+};
+
+/// Renders every camera for the source and every candidate, compares, and summarizes. The source is
+/// rendered once per view. Candidates may have any Gaussian count; attribute errors only for equal counts and
+/// SH degrees.
+/// @return kInvalidArgument (no cameras, no candidates, a camera below 11 pixels a side),
+///         kUnsupportedFeature (kCuda in a build without CUDA or with no device), the renderers' errors
+///         (naming the scene and the view), kCudaError / kOutOfMemory from the GPU.
+Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditScene>& candidates,
+                              const std::vector<runtime::Camera>& cameras, const AuditOptions& options);
+
+}  // namespace rgs::audit

@@ -1,0 +1,47 @@
+// Machine-readable output of an audit: versioned JSON, and the worst views' images as binary PPM/PGM files
+// that the HTML report (scripts/audit_report.py) embeds.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "rgs/audit/audit.h"
+#include "rgs/format/status.h"
+
+namespace rgs::audit {
+
+/// The JSON's "schema" value.
+inline constexpr const char* kAuditSchemaName = "rgs-audit";
+/// The JSON's "schema_version": raised when a field changes meaning or goes away; new fields do not raise it.
+/// Version 1 was the single-candidate report of earlier rgs-audit releases (no schema field).
+inline constexpr int kAuditSchemaVersion = 2;
+
+/// What the JSON carries besides the result.
+struct ReportOptions {
+  std::string tool_version;        ///< e.g. RGS_VERSION_STRING
+  std::string command_line;        ///< as run, for the record
+  std::optional<double> min_psnr_db;  ///< the gate, when one was asked for
+  double total_seconds = 0;        ///< loading included
+  /// Folder of the images relative to the JSON file (e.g. "flowers_files/"), as written by
+  /// write_report_images; empty: the JSON names no images.
+  std::string image_dir;
+};
+
+/// True when every candidate's minimum per-view PSNR is at least `min_psnr_db` (an identical image's +inf
+/// passes any gate).
+bool passes_gate(const AuditResult& result, double min_psnr_db);
+
+/// The audit as JSON text (UTF-8, 2-space indent, newline at the end). PSNR +inf is written as the string
+/// "inf". Field reference: docs/AUDITS.md "JSON".
+std::string audit_json(const AuditResult& result, const ReportOptions& options);
+
+/// Writes every candidate's worst-view images into `dir` (created if missing): c<i>_v<view>_source.ppm,
+/// _candidate.ppm and _diff.pgm, the names audit_json() gives under ReportOptions::image_dir. Each file is
+/// written atomically (format::write_file_atomic). Errors: kIoError naming the path.
+Status write_report_images(const AuditResult& result, const std::string& dir);
+
+/// Writes `image` as binary PPM (P6, 3 channels) or PGM (P5, 1 channel), maxval 255, atomically.
+/// Errors: kInvalidArgument (size or channel mismatch), kIoError naming `path`.
+Status write_netpbm(const std::string& path, const Image8& image);
+
+}  // namespace rgs::audit

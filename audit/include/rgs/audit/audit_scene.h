@@ -1,0 +1,54 @@
+// Scenes the audit compares: any file it can read, as float Gaussians plus what its file says about sizes.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+
+namespace rgs::audit {
+
+/// Stored size of one section of a sectioned file (.rgs: the section table).
+struct SectionSize {
+  std::string name;   ///< e.g. "sh" (format::section_name)
+  std::string codec;  ///< e.g. "none", "zstd" (format::codec_name)
+  uint64_t stored_bytes = 0;  ///< bytes in the file (after the codec)
+  uint64_t raw_bytes = 0;     ///< bytes after decoding
+};
+
+/// What the audit reports about one scene file.
+struct SceneInfo {
+  std::string path;
+  std::string label;   ///< short name for tables and plots (default: the file name)
+  std::string format;  ///< "rgs" or "ply"
+  uint64_t file_bytes = 0;
+  uint64_t gaussians = 0;
+  uint32_t sh_degree = 0;
+  /// Per-section sizes (.rgs); empty for formats without a section table.
+  std::vector<SectionSize> sections;
+  /// file_bytes minus the sections' stored bytes (header, table, padding); 0 without sections.
+  uint64_t overhead_bytes = 0;
+};
+
+/// A scene loaded for the audit: decoded float Gaussians as a renderer sees them.
+struct AuditScene {
+  SceneInfo info;
+  /// Activated float Gaussians (a PLY as read, a .rgs dequantized: format::dequantize).
+  format::GaussianCloud cloud;
+  /// .rgs: the metadata bounds; otherwise converter::compute_bounds.
+  format::SceneBounds bounds;
+  /// .rgs only: the SH quantization, for counting clipped coefficients against a source.
+  std::optional<format::ShQuantization> sh_quantization;
+};
+
+/// Loads any scene file the audit can compare: a .rgs (by its magic, or the .rgs extension so a truncated
+/// file gets the .rgs reader's error) through format::RgsFile and format::dequantize, anything else through
+/// converter::read_ply. This is the one place that chooses a reader. `label` defaults to the file name.
+/// Errors: those of the readers, naming `path`.
+Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label = {});
+
+}  // namespace rgs::audit

@@ -1,0 +1,162 @@
+#include "rgs/audit/audit_report.h"
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <system_error>
+
+#include "rgs/format/file_io.h"
+
+namespace rgs::audit {
+
+namespace {
+
+using nlohmann::json;
+
+json db_json(double v) { return std::isinf(v) ? json(v > 0 ? "inf" : "-inf") : json(v); }
+
+json stats_json(const converter::ErrorStats& s) { return {{"max", s.max}, {"rms", s.rms}, {"samples", s.samples}}; }
+
+std::string image_name(size_t candidate, size_t view, const char* what, const char* ext) {
+  return "c" + std::to_string(candidate) + "_v" + std::to_string(view) + "_" + what + ext;
+}
+
+json scene_json(const SceneInfo& s, uint64_t source_bytes) {
+  const double per_g = s.gaussians ? 1.0 / double(s.gaussians) : 0.0;
+  json j = {{"path", s.path},
+            {"label", s.label},
+            {"format", s.format},
+            {"bytes", s.file_bytes},
+            {"gaussians", s.gaussians},
+            {"sh_degree", s.sh_degree},
+            {"bytes_per_gaussian", double(s.file_bytes) * per_g}};
+  if (source_bytes > 0) j["ratio"] = s.file_bytes > 0 ? double(source_bytes) / double(s.file_bytes) : 0.0;
+  json sections = json::array();
+  for (const SectionSize& e : s.sections) {
+    sections.push_back({{"name", e.name}, {"codec", e.codec}, {"bytes", e.stored_bytes}, {"raw_bytes", e.raw_bytes},
+                        {"bytes_per_gaussian", double(e.stored_bytes) * per_g}});
+  }
+  j["sections"] = sections;
+  if (!s.sections.empty()) j["header_table_padding_bytes"] = s.overhead_bytes;
+  return j;
+}
+
+json attributes_json(const AttributeReport& a, uint32_t degree) {
+  static const char* kChannels[3] = {"R", "G", "B"};
+  json sh = json::array();
+  for (uint32_t d = 0; d <= degree && d < 4; ++d) {
+    json ch = json::array();
+    for (uint32_t c = 0; c < 3; ++c) {
+      json e = {{"channel", kChannels[c]}, {"error", stats_json(a.errors.sh_channel[d][c])}};
+      if (a.sh_quantization) {
+        e["scale"] = a.sh_quantization->scales[d][c];
+        e["clipped"] = a.clipped[d][c];
+      }
+      ch.push_back(e);
+    }
+    sh.push_back({{"degree", d}, {"error", stats_json(a.errors.sh[d])}, {"channels", ch}});
+  }
+  return {{"position_scene_units", stats_json(a.errors.position)},
+          {"rotation_deg", stats_json(a.errors.rotation_deg)},
+          {"scale_relative", stats_json(a.errors.scale_relative)},
+          {"opacity", stats_json(a.errors.opacity)},
+          {"sh", sh}};
+}
+
+}  // namespace
+
+bool passes_gate(const AuditResult& result, double min_psnr_db) {
+  for (const CandidateResult& c : result.candidates) {
+    if (c.summary.psnr_min_db < min_psnr_db) return false;
+  }
+  return true;
+}
+
+std::string audit_json(const AuditResult& r, const ReportOptions& options) {
+  json j;
+  j["schema"] = kAuditSchemaName;
+  j["schema_version"] = kAuditSchemaVersion;
+  j["tool_version"] = options.tool_version;
+  if (!options.command_line.empty()) j["command"] = options.command_line;
+  j["backend"] = backend_name(r.backend);
+  j["device"] = r.device;
+  j["renderer"] = "3DGS baseline, FP32, black background";
+  j["metrics"] = {{"psnr", "clamped [0,1] RGB, peak 1, MSE in float64"},
+                  {"ssim", "11x11 Gaussian window, sigma 1.5, C1 0.01^2, C2 0.03^2, valid windows, mean of R,G,B"},
+                  {"max_abs_diff", "max over pixels of max over RGB of |a-b|, clamped"}};
+  j["source"] = scene_json(r.source, 0);
+  json views = json::array();
+  for (const ViewInfo& v : r.views) views.push_back({{"name", v.name}, {"width", v.width}, {"height", v.height}});
+  j["views"] = views;
+  json cands = json::array();
+  for (size_t i = 0; i < r.candidates.size(); ++i) {
+    const CandidateResult& c = r.candidates[i];
+    json cj = scene_json(c.scene, r.source.file_bytes);
+    if (c.attributes) {
+      cj["errors"] = attributes_json(*c.attributes, c.scene.sh_degree);
+    } else {
+      cj["errors"] = nullptr;
+      cj["errors_note"] = c.attributes_note;
+    }
+    json vj = json::array();
+    for (size_t v = 0; v < c.views.size(); ++v) {
+      const ViewMetrics& m = c.views[v];
+      vj.push_back({{"name", r.views[v].name}, {"psnr_db", db_json(m.psnr_db)}, {"ssim", m.ssim},
+                    {"max_abs_diff", m.max_abs_diff}, {"seconds", m.seconds}});
+    }
+    cj["views"] = vj;
+    cj["psnr_db"] = {{"mean", db_json(c.summary.psnr_mean_db)}, {"min", db_json(c.summary.psnr_min_db)}};
+    cj["ssim"] = {{"mean", c.summary.ssim_mean}, {"min", c.summary.ssim_min}};
+    cj["max_abs_diff"] = c.summary.max_abs_diff;
+    cj["worst_view"] = r.views.empty() ? std::string() : r.views[c.summary.worst_view].name;
+    json worst = json::array();
+    for (const ViewImages& w : c.worst) {
+      json wj = {{"view", w.view}, {"name", r.views[w.view].name}, {"psnr_db", db_json(w.psnr_db)},
+                 {"heat_scale", w.heat_scale}, {"image_width", w.source.width}, {"image_height", w.source.height}};
+      if (!options.image_dir.empty()) {
+        wj["source_image"] = options.image_dir + image_name(i, w.view, "source", ".ppm");
+        wj["candidate_image"] = options.image_dir + image_name(i, w.view, "candidate", ".ppm");
+        wj["diff_image"] = options.image_dir + image_name(i, w.view, "diff", ".pgm");
+      }
+      worst.push_back(wj);
+    }
+    cj["worst_views"] = worst;
+    cands.push_back(cj);
+  }
+  j["candidates"] = cands;
+  j["time_seconds"] = {{"total", options.total_seconds}, {"views", r.render_seconds}};
+  if (options.min_psnr_db) {
+    j["gate"] = {{"min_psnr_db", *options.min_psnr_db}, {"passed", passes_gate(r, *options.min_psnr_db)}};
+  }
+  return j.dump(2) + "\n";
+}
+
+Status write_netpbm(const std::string& path, const Image8& image) {
+  RGS_RETURN_ERROR_IF(image.channels != 1 && image.channels != 3, StatusCode::kInvalidArgument,
+                      path + ": netpbm images have 1 or 3 channels, not " + std::to_string(image.channels));
+  RGS_RETURN_ERROR_IF(image.pixels.size() != size_t(image.width) * image.height * image.channels ||
+                          image.width == 0 || image.height == 0,
+                      StatusCode::kInvalidArgument, path + ": pixel count does not match the image size");
+  const std::string header = std::string(image.channels == 3 ? "P6" : "P5") + "\n" + std::to_string(image.width) +
+                             " " + std::to_string(image.height) + "\n255\n";
+  std::vector<uint8_t> bytes(header.begin(), header.end());
+  bytes.insert(bytes.end(), image.pixels.begin(), image.pixels.end());
+  return format::write_file_atomic(path, bytes.data(), bytes.size());
+}
+
+Status write_report_images(const AuditResult& r, const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  RGS_RETURN_ERROR_IF(ec, StatusCode::kIoError, dir + ": cannot create the image folder: " + ec.message());
+  for (size_t i = 0; i < r.candidates.size(); ++i) {
+    for (const ViewImages& w : r.candidates[i].worst) {
+      const std::string base = (std::filesystem::path(dir) / "").string();
+      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "source", ".ppm"), w.source));
+      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "candidate", ".ppm"), w.candidate));
+      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "diff", ".pgm"), w.difference));
+    }
+  }
+  return Status();
+}
+
+}  // namespace rgs::audit

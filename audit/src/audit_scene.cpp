@@ -1,0 +1,81 @@
+#include "rgs/audit/audit_scene.h"
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/spec.h"
+
+namespace rgs::audit {
+
+namespace {
+
+bool has_rgs_magic(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[8] = {};
+  in.read(head, 8);
+  return in.gcount() == 8 && std::memcmp(head, format::kMagic, 8) == 0;
+}
+
+bool is_rgs(const std::string& path) {
+  if (has_rgs_magic(path)) return true;
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".rgs";
+}
+
+Status naming(Status status, const std::string& path) {
+  if (status.message().find(path) == std::string::npos) status.prepend(path);
+  return status;
+}
+
+Result<AuditScene> load_rgs(const std::string& path) {
+  AuditScene scene;
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+  auto encoded = file.read_scene();
+  if (!encoded.ok()) return naming(encoded.status(), path);
+  auto cloud = format::dequantize(*encoded);
+  if (!cloud.ok()) return naming(cloud.status(), path);
+  scene.cloud = std::move(cloud).value();
+  scene.bounds = file.metadata().bounds;
+  scene.sh_quantization = encoded->metadata.sh_quantization;
+  scene.info.format = "rgs";
+  scene.info.file_bytes = file.file_size();
+  uint64_t stored = 0;
+  for (const format::SectionEntry& e : file.sections()) {
+    scene.info.sections.push_back(
+        SectionSize{format::section_name(e.id), format::codec_name(e.codec), e.stored_size, e.raw_size});
+    stored += e.stored_size;
+  }
+  scene.info.overhead_bytes = scene.info.file_bytes >= stored ? scene.info.file_bytes - stored : 0;
+  return scene;
+}
+
+Result<AuditScene> load_ply(const std::string& path) {
+  AuditScene scene;
+  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+  scene.cloud = std::move(ply.cloud);
+  scene.bounds = converter::compute_bounds(scene.cloud);
+  scene.info.format = "ply";
+  scene.info.file_bytes = ply.file_bytes;
+  return scene;
+}
+
+}  // namespace
+
+Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label) {
+  auto loaded = is_rgs(path) ? load_rgs(path) : load_ply(path);
+  if (!loaded.ok()) return loaded.status();
+  AuditScene scene = std::move(loaded).value();
+  scene.info.path = path;
+  scene.info.label = label.empty() ? std::filesystem::path(path).filename().string() : label;
+  scene.info.gaussians = scene.cloud.size();
+  scene.info.sh_degree = scene.cloud.sh_degree;
+  return scene;
+}
+
+}  // namespace rgs::audit

@@ -1,0 +1,140 @@
+// The audit loop on the CPU reference: sizes, attribute errors, per-view metrics, worst-view images, JSON and
+// the gate, on the bundled guitar and a conversion of it made in memory.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "audit_test_util.h"
+#include "rgs/audit/audit.h"
+#include "rgs/audit/audit_report.h"
+#include "rgs/runtime/camera.h"
+
+namespace {
+
+using namespace rgs;
+
+std::vector<runtime::Camera> small_orbit(const format::SceneBounds& bounds, uint32_t views) {
+  auto cams = runtime::orbit_cameras(bounds, views, 160, 90);
+  REQUIRE_MESSAGE(cams.ok(), cams.status().to_string());
+  return std::move(cams).value();
+}
+
+const audit::AuditScene& guitar() {
+  static const audit::AuditScene s = test::audit_scene(test::repo_path("samples/guitar.ply"));
+  return s;
+}
+
+TEST_CASE("CPU audit of guitar against its conversion") {
+  const audit::AuditScene& source = guitar();
+  std::vector<audit::AuditScene> candidates;
+  candidates.push_back(test::converted_scene(source, "rgs_test_audit_guitar.rgs"));
+  const auto cams = small_orbit(source.bounds, 4);
+  audit::AuditOptions options;
+  options.worst_views = 2;
+  options.image_max_side = 64;  // 160x90 -> factor 3 -> 53x30
+  options.keep_worst_heatmap = true;
+  size_t progress_calls = 0;
+  options.progress = [&](const audit::AuditProgress& p) {
+    ++progress_calls;
+    CHECK(p.views_done == progress_calls);
+    CHECK(p.views_total == 4);
+    CHECK(p.psnr_db.size() == 1);
+    CHECK(p.remaining_s >= 0);
+  };
+  auto result = audit::run_audit(source, candidates, cams, options);
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  CHECK(progress_calls == 4);
+  CHECK(result->backend == audit::Backend::kCpu);
+  REQUIRE(result->candidates.size() == 1);
+  const audit::CandidateResult& c = result->candidates[0];
+  CHECK(c.scene.format == "rgs");
+  CHECK(c.scene.gaussians == source.info.gaussians);
+  CHECK(!c.scene.sections.empty());
+  uint64_t stored = c.scene.overhead_bytes;
+  for (const auto& s : c.scene.sections) stored += s.stored_bytes;
+  CHECK(stored == c.scene.file_bytes);
+  REQUIRE(c.attributes.has_value());
+  CHECK(c.attributes->sh_quantization.has_value());
+  CHECK(c.attributes->errors.position.max == 0.0);  // means are stored as FP32
+  CHECK(c.attributes->errors.sh[0].max > 0.0);
+  REQUIRE(c.views.size() == 4);
+  for (const auto& v : c.views) {
+    CHECK(std::isfinite(v.psnr_db));
+    CHECK(v.psnr_db > 50.0);  // INT8 SH and FP16 geometry: far above visible loss
+    CHECK(v.ssim > 0.999);
+    CHECK(v.max_abs_diff > 0.f);
+    CHECK(v.max_abs_diff < 0.05f);
+  }
+  CHECK(c.summary.psnr_min_db == c.views[c.summary.worst_view].psnr_db);
+  REQUIRE(c.worst.size() == 2);
+  CHECK(c.worst[0].view == c.summary.worst_view);
+  CHECK(c.worst[0].psnr_db <= c.worst[1].psnr_db);
+  CHECK(c.worst[0].source.width == 53);
+  CHECK(c.worst[0].source.height == 30);
+  CHECK(c.worst[0].difference.channels == 1);
+  CHECK(c.worst[0].heat_scale == c.views[c.worst[0].view].max_abs_diff);
+  CHECK(c.worst_heatmap.width == 160);
+  CHECK(c.worst_heatmap.height == 90);
+
+  audit::ReportOptions ro;
+  ro.tool_version = "test";
+  ro.min_psnr_db = 40.0;
+  ro.image_dir = "imgs/";
+  const auto j = nlohmann::json::parse(audit::audit_json(*result, ro));
+  CHECK(j["schema"] == "rgs-audit");
+  CHECK(j["schema_version"] == audit::kAuditSchemaVersion);
+  CHECK(j["backend"] == "cpu");
+  CHECK(j["views"].size() == 4);
+  CHECK(j["candidates"][0]["views"].size() == 4);
+  CHECK(j["candidates"][0]["worst_views"].size() == 2);
+  CHECK(j["candidates"][0]["worst_views"][0]["source_image"].get<std::string>().rfind("imgs/c0_v", 0) == 0);
+  CHECK(j["gate"]["passed"] == true);
+  CHECK(audit::passes_gate(*result, 40.0));
+  CHECK(!audit::passes_gate(*result, 200.0));
+
+  const auto dir = std::filesystem::temp_directory_path() / "rgs_test_audit_images";
+  std::filesystem::remove_all(dir);
+  REQUIRE(audit::write_report_images(*result, dir.string()).ok());
+  const auto first = dir / j["candidates"][0]["worst_views"][0]["diff_image"].get<std::string>().substr(5);
+  CHECK(std::filesystem::exists(first));
+  CHECK(std::filesystem::file_size(first) == 53 * 30 + std::string("P5\n53 30\n255\n").size());
+}
+
+TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference; two candidates in one run") {
+  const audit::AuditScene& source = guitar();
+  std::vector<audit::AuditScene> candidates;
+  candidates.push_back(test::audit_scene(test::repo_path("samples/guitar.ply")));
+  candidates.push_back(test::converted_scene(source, "rgs_test_audit_guitar2.rgs"));
+  audit::AuditOptions options;
+  options.worst_views = 1;
+  auto result = audit::run_audit(source, candidates, small_orbit(source.bounds, 2), options);
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  REQUIRE(result->candidates.size() == 2);
+  for (const auto& v : result->candidates[0].views) {
+    CHECK(std::isinf(v.psnr_db));
+    CHECK(v.ssim == doctest::Approx(1.0).epsilon(1e-12));
+    CHECK(v.max_abs_diff == 0.f);
+  }
+  CHECK(result->candidates[0].worst[0].heat_scale == 0.f);
+  CHECK(std::isfinite(result->candidates[1].summary.psnr_min_db));
+  CHECK(audit::passes_gate(*result, 45.0));
+  const auto j = nlohmann::json::parse(audit::audit_json(*result, {}));
+  CHECK(j["candidates"][0]["psnr_db"]["min"] == "inf");
+  CHECK(j["candidates"][0]["ratio"].get<double>() == doctest::Approx(1.0));
+}
+
+TEST_CASE("bad audits are errors") {
+  const audit::AuditScene& source = guitar();
+  std::vector<audit::AuditScene> none;
+  auto cams = small_orbit(source.bounds, 1);
+  CHECK(audit::run_audit(source, none, cams, {}).status().code() == StatusCode::kInvalidArgument);
+  std::vector<audit::AuditScene> one;
+  one.push_back(test::audit_scene(test::repo_path("samples/guitar.ply")));
+  CHECK(audit::run_audit(source, one, {}, {}).status().code() == StatusCode::kInvalidArgument);
+  cams[0].width = 10;
+  CHECK(audit::run_audit(source, one, cams, {}).status().code() == StatusCode::kInvalidArgument);
+  CHECK(audit::load_audit_scene("/nonexistent/x.rgs").status().code() == StatusCode::kIoError);
+}
+
+}  // namespace
