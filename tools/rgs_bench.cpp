@@ -654,10 +654,10 @@ int main(int argc, char** argv) {
   app.add_option("scene", opt.input, "Scene: .rgs (uploaded as stored) or 3DGS .ply")->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::PositiveNumber)->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "Use at most N views")->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 2147483647))->needs(cams);
+  app.add_option("--limit", opt.cameras.limit, "Use at most N views")->check(CLI::Range(1, 2147483647));
   auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere")
-                    ->check(CLI::PositiveNumber)->excludes(cams);
+                    ->check(CLI::Range(1, 100000))->excludes(cams);
   cams->excludes(orbit);
   app.add_option("--resolution", opt.resolutions,
                  "WIDTHxHEIGHT or 720p/1080p/1440p/4k (repeatable). Cameras are resized keeping the field of view; "
@@ -670,7 +670,7 @@ int main(int argc, char** argv) {
           "RESOLUTION"));
   app.add_option("--warmup", opt.warmup, "Warm-up frames per mode and resolution (views in turn), not timed")
       ->capture_default_str();
-  app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::PositiveNumber)
+  app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names()));
   app.add_option("--replicate", opt.replicate,
