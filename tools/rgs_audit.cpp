@@ -4,8 +4,9 @@
 //   rgs-audit scene.ply scene.rgs --cameras cameras.json --every 20 --width 1256 --json report.json
 //   rgs-audit scene.ply scene.rgs --min-psnr 40          CI gate: exit 1 when a view is below 40 dB
 //
-// Without a camera option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure or PSNR below --min-psnr,
-// 2 usage error.
+// Without a camera option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure (no output written), 2 usage
+// error, 3 a view below --min-psnr (the audit itself succeeded: its --json and --heatmap are written),
+// 128 + N on signal N. --json - prints the JSON report on standard output instead of the text report.
 
 #include <CLI/CLI.hpp>
 
@@ -37,6 +38,8 @@ namespace {
 using namespace rgs;
 using Clock = std::chrono::steady_clock;
 constexpr const char* kTool = "rgs-audit";
+/// Exit code of a completed audit whose lowest PSNR is below --min-psnr.
+constexpr int kExitBelowMinPsnr = 3;
 
 struct Options {
   std::string ply_path;
@@ -59,10 +62,32 @@ struct ViewResult {
 
 int run(Options opt) {
   const auto t_start = Clock::now();
+  const bool json_to_stdout = opt.json_path == "-";
   if (!opt.heatmap_path.empty()) {
     Status heatmap_ok = tools::check_image8_path(opt.heatmap_path, 1);
     if (!heatmap_ok.ok()) return tools::report_error(kTool, heatmap_ok);
   }
+  // Every identity is checked before any work: no report may replace an input or the other report.
+  format::OutputSet outputs;
+  for (const std::string& input : {opt.ply_path, opt.rgs_path, opt.cameras.cameras_path}) {
+    if (input.empty()) continue;
+    Status declared = outputs.add_input(input);
+    if (!declared.ok()) return tools::report_usage_error(kTool, declared);
+  }
+  for (const std::string& output : {opt.json_path, opt.heatmap_path}) {
+    if (output.empty() || (output == opt.json_path && json_to_stdout)) continue;
+    Status declared = outputs.add_output(output);
+    if (!declared.ok()) {
+      return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
+                                                             : tools::report_error(kTool, declared);
+    }
+  }
+  for (const std::string& input : {opt.ply_path, opt.rgs_path, opt.cameras.cameras_path}) {
+    if (input.empty()) continue;
+    Status readable = tools::check_input_file(input);
+    if (!readable.ok()) return tools::report_error(kTool, readable);
+  }
+  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
   auto ply = converter::read_ply(opt.ply_path);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
   auto file = format::RgsFile::open(opt.rgs_path);
@@ -147,7 +172,8 @@ int run(Options opt) {
         }
       }
     }
-    std::fprintf(stderr, "view %zu/%zu %s PSNR %s dB SSIM %s %s s\n", v + 1, cameras->size(), cam.name.c_str(),
+    std::fprintf(stderr, "view %zu/%zu %s PSNR %s dB SSIM %s %s s\n", v + 1, cameras->size(),
+                 tools::escape_text(cam.name).c_str(),
                  db(r.psnr).c_str(), tools::fixed(r.ssim, 5).c_str(), tools::fixed(r.seconds, 1).c_str());
   }
   double psnr_sum = 0, ssim_sum = 0, psnr_min = std::numeric_limits<double>::infinity(), ssim_min = 1e300;
@@ -161,7 +187,7 @@ int run(Options opt) {
   const double ssim_mean = ssim_sum / static_cast<double>(views.size());
 
   if (!opt.heatmap_path.empty()) {
-    Status st = tools::write_image8(opt.heatmap_path, worst_w, worst_h, 1, worst_heat);
+    Status st = tools::write_image8(opt.heatmap_path, worst_w, worst_h, 1, worst_heat);  // staged in `outputs`
     if (!st.ok()) return tools::report_error(kTool, st);
   }
 
@@ -175,52 +201,56 @@ int run(Options opt) {
   const uint32_t degree = ref.sh_degree;
   const char* channel_names[3] = {"R", "G", "B"};
 
-  std::printf("%s %s vs %s\n", kTool, opt.ply_path.c_str(), opt.rgs_path.c_str());
-  std::printf("  gaussians        %s (SH degree %u)\n", tools::group_digits(n).c_str(), degree);
-  std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(ply->file_bytes).c_str(),
-              tools::fixed(in_bytes * per_g, 1).c_str());
-  std::printf("  output           %s bytes  (%s B/Gaussian), ratio %sx\n",
-              tools::group_digits(file->file_size()).c_str(), tools::fixed(out_bytes * per_g, 1).c_str(),
-              tools::fixed(out_bytes > 0 ? in_bytes / out_bytes : 0.0, 2).c_str());
-  std::printf("  %-22s %8s %14s %12s\n", "section", "codec", "bytes", "B/Gaussian");
-  for (const auto& e : file->sections()) {
-    std::printf("  %-22s %8s %14s %12s\n", format::section_name(e.id), format::codec_name(e.codec),
-                tools::group_digits(e.stored_size).c_str(),
-                tools::fixed(static_cast<double>(e.stored_size) * per_g, 3).c_str());
-  }
-  std::printf("  %-22s %8s %14s %12s\n", "header, table, padding", "", tools::group_digits(overhead).c_str(),
-              tools::fixed(static_cast<double>(overhead) * per_g, 3).c_str());
-  std::printf("  %-22s %12s %12s\n", "error", "max", "rms");
-  converter::ErrorStats pos_mm = errors->position;
-  pos_mm.max *= 1000;
-  pos_mm.rms *= 1000;
-  tools::print_stats_row("position x1000", pos_mm, "scene units x 1000 (mm if the scene is metric)", 22);
-  tools::print_stats_row("rotation", errors->rotation_deg, "degrees", 22);
-  tools::print_stats_row("scale", errors->scale_relative, "relative", 22);
-  tools::print_stats_row("opacity", errors->opacity, "absolute", 22);
-  for (uint32_t d = 0; d <= degree; ++d) {
-    tools::print_stats_row("SH degree " + std::to_string(d), errors->sh[d], "absolute (all channels)", 22);
-    for (uint32_t c = 0; c < 3; ++c) {
-      tools::print_stats_row("  " + std::string(channel_names[c]), errors->sh_channel[d][c],
-                             "scale " + tools::sci(shq.scales[d][c]) + ", " +
-                                 tools::group_digits(clipped[d][c]) + " clipped",
-                             22);
-    }
-  }
-  std::printf("  %-22s %10s %10s %10s %8s\n", "view", "PSNR dB", "SSIM", "max |d|", "s");
-  for (const ViewResult& r : views) {
-    std::printf("  %-22s %10s %10s %10s %8s\n", r.name.c_str(), db(r.psnr).c_str(), tools::fixed(r.ssim, 5).c_str(),
-                tools::fixed(r.max_abs_diff, 4).c_str(), tools::fixed(r.seconds, 1).c_str());
-  }
   const runtime::Camera& first = cameras->front();
-  std::printf("  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)\n", db(psnr_mean).c_str(),
-              db(psnr_min).c_str(), views.size(), first.width, first.height, views[worst].name.c_str());
-  std::printf("  SSIM             mean %s, min %s\n", tools::fixed(ssim_mean, 5).c_str(), tools::fixed(ssim_min, 5).c_str());
-  if (!opt.heatmap_path.empty()) {
-    std::printf("  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n", opt.heatmap_path.c_str(),
-                views[worst].name.c_str(), tools::fixed(views[worst].max_abs_diff, 4).c_str());
+  if (!json_to_stdout) {
+    std::printf("%s %s vs %s\n", kTool, tools::escape_text(opt.ply_path).c_str(),
+                tools::escape_text(opt.rgs_path).c_str());
+    std::printf("  gaussians        %s (SH degree %u)\n", tools::group_digits(n).c_str(), degree);
+    std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(ply->file_bytes).c_str(),
+                tools::fixed(in_bytes * per_g, 1).c_str());
+    std::printf("  output           %s bytes  (%s B/Gaussian), ratio %sx\n",
+                tools::group_digits(file->file_size()).c_str(), tools::fixed(out_bytes * per_g, 1).c_str(),
+                tools::fixed(out_bytes > 0 ? in_bytes / out_bytes : 0.0, 2).c_str());
+    std::printf("  %-22s %8s %14s %12s\n", "section", "codec", "bytes", "B/Gaussian");
+    for (const auto& e : file->sections()) {
+      std::printf("  %-22s %8s %14s %12s\n", format::section_name(e.id), format::codec_name(e.codec),
+                  tools::group_digits(e.stored_size).c_str(),
+                  tools::fixed(static_cast<double>(e.stored_size) * per_g, 3).c_str());
+    }
+    std::printf("  %-22s %8s %14s %12s\n", "header, table, padding", "", tools::group_digits(overhead).c_str(),
+                tools::fixed(static_cast<double>(overhead) * per_g, 3).c_str());
+    std::printf("  %-22s %12s %12s\n", "error", "max", "rms");
+    converter::ErrorStats pos_mm = errors->position;
+    pos_mm.max *= 1000;
+    pos_mm.rms *= 1000;
+    tools::print_stats_row("position x1000", pos_mm, "scene units x 1000 (mm if the scene is metric)", 22);
+    tools::print_stats_row("rotation", errors->rotation_deg, "degrees", 22);
+    tools::print_stats_row("scale", errors->scale_relative, "relative", 22);
+    tools::print_stats_row("opacity", errors->opacity, "absolute", 22);
+    for (uint32_t d = 0; d <= degree; ++d) {
+      tools::print_stats_row("SH degree " + std::to_string(d), errors->sh[d], "absolute (all channels)", 22);
+      for (uint32_t c = 0; c < 3; ++c) {
+        tools::print_stats_row("  " + std::string(channel_names[c]), errors->sh_channel[d][c],
+                               "scale " + tools::sci(shq.scales[d][c]) + ", " +
+                                   tools::group_digits(clipped[d][c]) + " clipped",
+                               22);
+      }
+    }
+    std::printf("  %-22s %10s %10s %10s %8s\n", "view", "PSNR dB", "SSIM", "max |d|", "s");
+    for (const ViewResult& r : views) {
+      std::printf("  %-22s %10s %10s %10s %8s\n", tools::escape_text(r.name).c_str(), db(r.psnr).c_str(), tools::fixed(r.ssim, 5).c_str(),
+                  tools::fixed(r.max_abs_diff, 4).c_str(), tools::fixed(r.seconds, 1).c_str());
+    }
+      std::printf("  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)\n", db(psnr_mean).c_str(),
+                db(psnr_min).c_str(), views.size(), first.width, first.height,
+                tools::escape_text(views[worst].name).c_str());
+    std::printf("  SSIM             mean %s, min %s\n", tools::fixed(ssim_mean, 5).c_str(), tools::fixed(ssim_min, 5).c_str());
+    if (!opt.heatmap_path.empty()) {
+      std::printf("  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n", tools::escape_text(opt.heatmap_path).c_str(),
+                  tools::escape_text(views[worst].name).c_str(), tools::fixed(views[worst].max_abs_diff, 4).c_str());
+    }
+    std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
   }
-  std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
 
   if (!opt.json_path.empty()) {
     nlohmann::json j;
@@ -262,17 +292,27 @@ int run(Options opt) {
     j["psnr_db"] = {{"mean", db_json(psnr_mean)}, {"min", db_json(psnr_min)}};
     j["ssim"] = {{"mean", ssim_mean}, {"min", ssim_min}};
     j["worst_view"] = views[worst].name;
-    const std::string text = j.dump(2) + "\n";
-    Status st = format::write_file_atomic(opt.json_path, text.data(), text.size());
-    if (!st.ok()) return tools::report_error(kTool, st);
+    const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    if (json_to_stdout) {
+      std::fwrite(text.data(), 1, text.size(), stdout);
+    } else {
+      Status st = outputs.write(opt.json_path, text.data(), text.size());
+      if (!st.ok()) return tools::report_error(kTool, st);
+    }
   }
 
-  if (opt.min_psnr_set && psnr_min < opt.min_psnr) {
+  const bool below_gate = opt.min_psnr_set && psnr_min < opt.min_psnr;
+  if (below_gate) {
     std::fprintf(stderr, "%s: error: min PSNR %s dB (view %s) is below --min-psnr %s dB\n", kTool,
-                 db(psnr_min).c_str(), views[worst].name.c_str(), tools::fixed(opt.min_psnr, 2).c_str());
-    return tools::kExitFailure;
+                 db(psnr_min).c_str(), tools::escape_text(views[worst].name).c_str(),
+                 tools::fixed(opt.min_psnr, 2).c_str());
   }
-  return tools::kExitOk;
+  // The report must have reached stdout before the files appear (a failed report leaves none).
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
+  return below_gate ? kExitBelowMinPsnr : tools::kExitOk;
 }
 
 }  // namespace
@@ -286,26 +326,27 @@ int main(int argc, char** argv) {
   app.add_option("input", opt.ply_path, "Source 3DGS .ply")->required();
   app.add_option("output", opt.rgs_path, ".rgs converted from it")->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")->check(CLI::PositiveNumber)->needs(cams);
+  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")->check(CLI::Range(1, 2147483647))->needs(cams);
   auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras (default 4, at 960x540)")
-                    ->check(CLI::PositiveNumber)->excludes(cams);
+                    ->check(CLI::Range(1, 100000))->excludes(cams);
   cams->excludes(orbit);
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
-  app.add_option("--json", opt.json_path, "Write the report as JSON");
+  app.add_option("--json", opt.json_path, "Write the report as JSON to this file; - prints it on standard output "
+                                          "instead of the text report");
   app.add_option("--heatmap", opt.heatmap_path,
                  "Write |difference| of the worst view as a grey image: .png (needs OpenImageIO), .pgm or .ppm");
-  auto* minp = app.add_option("--min-psnr", opt.min_psnr, "Exit 1 when the lowest per-view PSNR is below DB");
+  auto* minp = app.add_option("--min-psnr", opt.min_psnr, "Exit 3 when the lowest per-view PSNR is below DB (the reports are still written)");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
   }
   opt.min_psnr_set = minp->count() > 0;
   if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) opt.cameras.orbit = 4;
   opt.cameras.orbit_width = 960;
   opt.cameras.orbit_height = 540;
-  return run(opt);
+  rgs::tools::install_interrupt_cleanup();
+  return rgs::tools::finish(kTool, run(opt));
 }
