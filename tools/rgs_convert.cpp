@@ -314,6 +314,13 @@ InputKind sniff(const std::string& head) {
   return InputKind::kUnknown;
 }
 
+/// What an input's extension promises; kUnknown for any other name (content decides).
+InputKind expected_kind(const std::string& extension) {
+  if (extension == ".ply") return InputKind::kPly;
+  if (extension == ".rgs") return InputKind::kRgs;
+  return InputKind::kUnknown;
+}
+
 /// Declares an output; an alias of an input or of another output, or a device, is a usage error.
 int declare_output(format::OutputSet* outputs, const std::string& path) {
   Status s = outputs->add_output(path);
@@ -356,6 +363,13 @@ int run(const Options& opt) {
   if (kind == InputKind::kUnknown) {
     // Neither signature: let the reader the extension asks for explain what is wrong with the file.
     kind = tools::extension_of(opt.input) == ".rgs" ? InputKind::kRgs : InputKind::kPly;
+  } else if (const InputKind named = expected_kind(tools::extension_of(opt.input));
+             named != InputKind::kUnknown && kind != named) {
+    // The content contradicts the input's name: a problem of the file, not of the command line.
+    return tools::report_error(kTool, Status(StatusCode::kNotRgsFile,
+                                             opt.input + ": is named " + tools::extension_of(opt.input) +
+                                                 " but holds a " + (kind == InputKind::kPly ? "PLY" : ".rgs") +
+                                                 " file"));
   } else if (kind == InputKind::kPly && out_ext != ".rgs") {
     return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
                                                    opt.input + ": is a PLY file, which converts to .rgs; name the "
