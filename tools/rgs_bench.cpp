@@ -36,8 +36,8 @@
 #include "cli_common.h"
 #include "gpu_scene_loading.h"
 #include "rgs/config.h"
-#include "roofline_model.h"
 #include "rgs/format/file_io.h"
+#include "roofline_model.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_peaks.h"
@@ -459,6 +459,23 @@ Result<tools::LoadedGpuScene> load_bench_scene(const Options& opt, tools::Replic
 
 int run(const Options& opt) {
   const auto t_start = Clock::now();
+  // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
+  format::OutputSet outputs;
+  for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
+    if (input.empty()) continue;
+    Status readable = tools::check_input_file(input);
+    if (!readable.ok()) return tools::report_error(kTool, readable);
+    Status declared = outputs.add_input(input);
+    if (!declared.ok()) return tools::report_usage_error(kTool, declared);
+  }
+  if (!opt.json_path.empty()) {
+    Status declared = outputs.add_output(opt.json_path);
+    if (!declared.ok()) {
+      return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
+                                                             : tools::report_error(kTool, declared);
+    }
+    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  }
   // Replication is host work and checks the Gaussian count before the device is touched.
   tools::ReplicatedScene replicated;
   if (opt.replicate > 1) {
@@ -631,12 +648,17 @@ int run(const Options& opt) {
                       {"per_view", views}});
     }
     j["results"] = runs;
-    const std::string text = j.dump(2) + "\n";
-    Status st = format::write_file_atomic(opt.json_path, text.data(), text.size());
+    const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    Status st = outputs.write(opt.json_path, text.data(), text.size());
     if (!st.ok()) return tools::report_error(kTool, st);
-    std::printf("  json             %s\n", opt.json_path.c_str());
+    std::printf("  json             %s\n", tools::escape_text(opt.json_path).c_str());
   }
   std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
+  // The report must have reached stdout before the JSON appears (a failed report leaves none).
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
   return tools::kExitOk;
 }
 
@@ -680,7 +702,7 @@ int main(int argc, char** argv) {
                  "<= 2^31 - 1")
       ->check(CLI::Range(uint32_t{1}, uint32_t{0x7fffffff}))
       ->capture_default_str();
-  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
@@ -689,8 +711,8 @@ int main(int argc, char** argv) {
       throw CLI::ValidationError("one of --cameras or --orbit is required");
     }
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
   }
-  return run(opt);
+  rgs::tools::install_interrupt_cleanup();
+  return rgs::tools::finish(kTool, run(opt));
 }

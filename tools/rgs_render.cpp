@@ -426,7 +426,7 @@ int main(int argc, char** argv) {
   app.add_flag("--pfm", opt.pfm, "Also write <view>.pfm (float RGB PFM, linear, not clamped, no alpha)");
   app.add_option("--backend", opt.backend, "Renderer: cpu (reference) or cuda")
       ->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
-  app.add_option("--device", opt.device, "CUDA device ordinal (--backend cuda)")->check(CLI::NonNegativeNumber)
+  app.add_option("--device", opt.device, "CUDA device ordinal (--backend cuda)")->check(CLI::Range(0, 1023))
       ->capture_default_str();
   app.add_flag("--roofgs-key", opt.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
   app.add_flag("--accutile", opt.accutile, "RoofGS: SnugBox + AccuTile tile sets");
