@@ -1,14 +1,220 @@
 #include "cli_common.h"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+
+#include "rgs/format/file_io.h"
 
 namespace rgs::tools {
 
+namespace {
+
+void append_hex_byte(std::string* out, unsigned char byte) {
+  static const char kDigits[] = "0123456789abcdef";
+  out->append("\\x");
+  out->push_back(kDigits[byte >> 4]);
+  out->push_back(kDigits[byte & 15]);
+}
+
+/// Length of the well-formed UTF-8 sequence at text[i] (no overlongs, surrogates or values above U+10FFFF)
+/// and its code point; 0 when the bytes there are not UTF-8.
+size_t decode_utf8(std::string_view text, size_t i, uint32_t* code_point) {
+  const auto byte = [&](size_t k) { return static_cast<unsigned char>(text[k]); };
+  const unsigned char lead = byte(i);
+  size_t length = 0;
+  uint32_t cp = 0, min = 0;
+  if (lead >= 0xc2 && lead <= 0xdf) {
+    length = 2, cp = lead & 0x1f, min = 0x80;
+  } else if (lead >= 0xe0 && lead <= 0xef) {
+    length = 3, cp = lead & 0x0f, min = 0x800;
+  } else if (lead >= 0xf0 && lead <= 0xf4) {
+    length = 4, cp = lead & 0x07, min = 0x10000;
+  } else {
+    return 0;
+  }
+  if (i + length > text.size()) return 0;
+  for (size_t k = 1; k < length; ++k) {
+    if ((byte(i + k) & 0xc0) != 0x80) return 0;
+    cp = (cp << 6) | (byte(i + k) & 0x3f);
+  }
+  if (cp < min || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff)) return 0;
+  *code_point = cp;
+  return length;
+}
+
+void print_error_line(const char* tool, const Status& status) {
+  const std::string text = escape_text(status.to_string());
+  std::fprintf(stderr, "%s: error: %s\n", tool, text.c_str());
+}
+
+/// Set once a signal handler runs, so that a second signal does not start the cleanup again.
+volatile sig_atomic_t g_interrupted = 0;
+
+void on_interrupt(int signal_number) {
+  if (g_interrupted == 0) {
+    g_interrupted = 1;
+    format::remove_pending_temporaries();
+  }
+  ::_exit(128 + signal_number);
+}
+
+}  // namespace
+
+std::string escape_text(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size();) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) {
+      append_hex_byte(&out, c);
+      ++i;
+      continue;
+    }
+    if (c < 0x80) {
+      out.push_back(static_cast<char>(c));
+      ++i;
+      continue;
+    }
+    uint32_t cp = 0;
+    const size_t length = decode_utf8(text, i, &cp);
+    if (length == 0) {
+      append_hex_byte(&out, c);
+      ++i;
+      continue;
+    }
+    // C1 controls (8-bit CSI and friends) and the bidirectional overrides that can reorder what is shown.
+    if (cp <= 0x9f || (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2066 && cp <= 0x2069)) {
+      char buf[16];
+      std::snprintf(buf, sizeof(buf), "\\u%04x", static_cast<unsigned>(cp));
+      out += buf;
+    } else {
+      out.append(text.substr(i, length));
+    }
+    i += length;
+  }
+  return out;
+}
+
 int report_error(const char* tool, const Status& status) {
-  std::fprintf(stderr, "%s: error: %s\n", tool, status.to_string().c_str());
+  print_error_line(tool, status);
   return kExitFailure;
+}
+
+int report_usage_error(const char* tool, const Status& status) {
+  print_error_line(tool, status);
+  std::fprintf(stderr, "Run with --help for more information.\n");
+  return kExitUsage;
+}
+
+void report_note(const char* tool, const std::string& note) {
+  std::fprintf(stderr, "%s: %s\n", tool, escape_text(note).c_str());
+}
+
+Status flush_standard_streams() {
+  const char* failed = nullptr;
+  int err = 0;
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    failed = "standard output";
+    err = errno;
+  } else if (std::fflush(stderr) != 0 || std::ferror(stderr)) {
+    failed = "standard error";
+    err = errno;
+  }
+  if (failed == nullptr) return Status();
+  return Status(StatusCode::kIoError,
+                std::string("cannot write to ") + failed + (err != 0 ? std::string(": ") + std::strerror(err) : ""));
+}
+
+int finish(const char* tool, int code) {
+  Status flushed = flush_standard_streams();
+  // A failed run has reported its error already (or found stderr broken while doing so).
+  if (flushed.ok() || code != kExitOk) return code;
+  print_error_line(tool, flushed);
+  return kExitFailure;
+}
+
+void install_interrupt_cleanup() {
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+    struct sigaction current {};
+    if (::sigaction(signal_number, nullptr, &current) == 0 && current.sa_handler == SIG_IGN) continue;
+    struct sigaction action {};
+    action.sa_handler = on_interrupt;
+    sigemptyset(&action.sa_mask);
+    ::sigaction(signal_number, &action, nullptr);
+  }
+}
+
+Status check_input_file(const std::string& path) {
+  int fd;
+  do {
+    // O_NONBLOCK: a FIFO without a writer must not block the open; regular files ignore the flag.
+    fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) {
+    const int err = errno;
+    if (err == ENOENT) return Status(StatusCode::kIoError, path + ": no such file");
+    return Status(StatusCode::kIoError, path + ": cannot open for reading: " + std::strerror(err));
+  }
+  struct stat st {};
+  const int stat_result = ::fstat(fd, &st);
+  const int stat_errno = errno;
+  ::close(fd);
+  if (stat_result != 0) return Status(StatusCode::kIoError, path + ": cannot stat: " + std::strerror(stat_errno));
+  if (S_ISREG(st.st_mode)) return Status();
+  if (S_ISDIR(st.st_mode)) return Status(StatusCode::kIoError, path + ": is a directory, not a file");
+  const char* what = S_ISFIFO(st.st_mode)  ? "a FIFO (named pipe)"
+                     : S_ISCHR(st.st_mode) ? "a character device"
+                     : S_ISBLK(st.st_mode) ? "a block device"
+                     : S_ISSOCK(st.st_mode) ? "a socket"
+                                             : "not a regular file";
+  return Status(StatusCode::kIoError, path + ": is " + std::string(what) +
+                                          "; the tools read regular files (or - for standard input where the "
+                                          "tool accepts it)");
+}
+
+Result<std::vector<uint8_t>> read_standard_input() {
+  std::vector<uint8_t> bytes;
+  uint8_t buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(STDIN_FILENO, buffer, sizeof(buffer));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return Status(StatusCode::kIoError, std::string("-: cannot read standard input: ") + std::strerror(errno));
+    }
+    if (n == 0) break;
+    try {
+      bytes.insert(bytes.end(), buffer, buffer + n);
+    } catch (const std::bad_alloc&) {
+      return Status(StatusCode::kOutOfMemory, "-: out of memory after " + std::to_string(bytes.size()) +
+                                                  " bytes of standard input");
+    }
+  }
+  return bytes;
+}
+
+std::string read_file_head(const std::string& path, size_t bytes) {
+  std::string head(bytes, '\0');
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
+  if (fd < 0) return std::string();
+  size_t got = 0;
+  while (got < bytes) {
+    const ssize_t n = ::read(fd, head.data() + got, bytes - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    got += static_cast<size_t>(n);
+  }
+  ::close(fd);
+  head.resize(got);
+  return head;
 }
 
 std::string group_digits(uint64_t value) {

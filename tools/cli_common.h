@@ -1,21 +1,68 @@
-// Helpers shared by the command-line tools: error reporting and number formatting.
+// Helpers shared by the command-line tools: error reporting, terminal-safe text, standard streams, input
+// checks, interrupt cleanup and number formatting.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "rgs/format/status.h"
 
 namespace rgs::tools {
 
-/// Exit codes of every tool: 0 success, 1 the operation failed (message on stderr), 2 usage error.
+/// Exit codes of every tool: 0 success, 1 the operation failed (message on stderr), 2 usage error; an
+/// interrupt exits 128 + the signal number (130 SIGINT, 143 SIGTERM, 129 SIGHUP).
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitUsage = 2;
 
-/// Prints "<tool>: error: <message> [kCode]" to stderr and returns kExitFailure.
+/// Makes bytes from files, paths and arguments safe to print: control characters (C0, DEL, C1), bidirectional
+/// overrides and bytes that are not UTF-8 become "\xNN" or "\uNNNN"; other UTF-8 text is kept. A NUL no
+/// longer cuts the text short and escape sequences never reach the terminal.
+std::string escape_text(std::string_view text);
+
+/// Prints "<tool>: error: <message> [kCode]" (escaped) to stderr and returns kExitFailure.
 int report_error(const char* tool, const Status& status);
+
+/// Prints "<tool>: error: <message> [kCode]" (escaped) and a --help hint to stderr; returns kExitUsage.
+int report_usage_error(const char* tool, const Status& status);
+
+/// Prints "<tool>: <note>" (escaped) to stderr.
+void report_note(const char* tool, const std::string& note);
+
+/// The exit code of a CLI11 parse error: --help and --version print through the app and give kExitOk;
+/// anything else prints "<tool>: error: <what>" and a --help hint to stderr and gives kExitUsage.
+template <typename App, typename ParseError>
+int exit_for_parse_error(App& app, const ParseError& error, const char* tool) {
+  if (error.get_exit_code() == 0) return app.exit(error) == 0 ? kExitOk : kExitUsage;
+  return report_usage_error(tool, Status(StatusCode::kInvalidArgument, error.what()));
+}
+
+/// Flushes stdout and stderr. @return kIoError when a write to either failed (a full disk, a closed pipe),
+/// so that a tool never exits 0 with its report lost.
+Status flush_standard_streams();
+
+/// A tool's last step: flush_standard_streams(), and kExitFailure instead of kExitOk when that failed (the
+/// message goes to stderr if stderr still works). A non-zero `code` is returned as is.
+int finish(const char* tool, int code);
+
+/// Installs handlers for SIGINT, SIGTERM and SIGHUP that remove this run's temporaries
+/// (format::remove_pending_temporaries) and exit with 128 + the signal number. A signal the parent set to
+/// be ignored (nohup, background jobs) stays ignored.
+void install_interrupt_cleanup();
+
+/// Checks, without blocking, that `path` is a regular file that can be opened for reading: a FIFO, device,
+/// socket or directory is refused at once instead of hanging the tool or being misread.
+/// @return kIoError naming `path` and what it is ("no such file", "is a directory", "is a FIFO ...").
+Status check_input_file(const std::string& path);
+
+/// Reads all of standard input (the tools' "-" input). @return kIoError with the OS cause.
+Result<std::vector<uint8_t>> read_standard_input();
+
+/// Peeks the first bytes of a regular file (call check_input_file first). Fewer when the file is shorter.
+std::string read_file_head(const std::string& path, size_t bytes);
 
 /// 1234567 -> "1,234,567".
 std::string group_digits(uint64_t value);

@@ -3,40 +3,29 @@
 
 #include <OpenImageIO/imageio.h>
 
-#include <filesystem>
 #include <memory>
-#include <system_error>
+
+#include "rgs/format/file_io.h"
 
 namespace rgs::tools {
 
 namespace {
 
-/// Writes through a temporary named "<dir>/.<file>.tmp" with the format chosen by name, then renames.
+/// Writes through format::write_file_atomic_by_name (a temporary renamed over `path`, or staged in the run's
+/// OutputSet), with the format chosen by name rather than by the temporary's extension.
 Status write_image(const std::string& path, const char* format_name, const OIIO::ImageSpec& spec,
                    OIIO::TypeDesc type, const void* data) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path tmp = target.parent_path() / ("." + target.filename().string() + ".tmp");
-  auto out = OIIO::ImageOutput::create(format_name);
-  if (!out) return Status(StatusCode::kIoError, path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
-  if (!out->open(tmp.string(), spec)) {
-    return Status(StatusCode::kIoError, path + ": cannot write: " + out->geterror());
-  }
-  const bool written = out->write_image(type, data);
-  const bool closed = out->close();
-  if (!written || !closed) {
-    const std::string why = out->geterror();
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    return Status(StatusCode::kIoError, path + ": write failed: " + why);
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    return Status(StatusCode::kIoError, path + ": cannot rename the temporary into place: " + ec.message());
-  }
-  return Status::ok_status();
+  return format::write_file_atomic_by_name(path, [&](const std::string& temp) -> Status {
+    auto out = OIIO::ImageOutput::create(format_name);
+    if (!out) {
+      return Status(StatusCode::kIoError, path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
+    }
+    if (!out->open(temp, spec)) return Status(StatusCode::kIoError, path + ": cannot write: " + out->geterror());
+    const bool written = out->write_image(type, data);
+    const bool closed = out->close();
+    if (!written || !closed) return Status(StatusCode::kIoError, path + ": write failed: " + out->geterror());
+    return Status::ok_status();
+  });
 }
 
 }  // namespace

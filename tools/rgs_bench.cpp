@@ -36,8 +36,8 @@
 #include "cli_common.h"
 #include "gpu_scene_loading.h"
 #include "rgs/config.h"
-#include "roofline_model.h"
 #include "rgs/format/file_io.h"
+#include "roofline_model.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_peaks.h"
@@ -460,6 +460,23 @@ Result<tools::LoadedGpuScene> load_bench_scene(const Options& opt, tools::Replic
 
 int run(const Options& opt) {
   const auto t_start = Clock::now();
+  // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
+  format::OutputSet outputs;
+  for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
+    if (input.empty()) continue;
+    Status readable = tools::check_input_file(input);
+    if (!readable.ok()) return tools::report_error(kTool, readable);
+    Status declared = outputs.add_input(input);
+    if (!declared.ok()) return tools::report_usage_error(kTool, declared);
+  }
+  if (!opt.json_path.empty()) {
+    Status declared = outputs.add_output(opt.json_path);
+    if (!declared.ok()) {
+      return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
+                                                             : tools::report_error(kTool, declared);
+    }
+    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  }
   // Replication is host work and checks the Gaussian count before the device is touched.
   tools::ReplicatedScene replicated;
   if (opt.replicate > 1) {
@@ -633,12 +650,17 @@ int run(const Options& opt) {
                       {"per_view", views}});
     }
     j["results"] = runs;
-    const std::string text = j.dump(2) + "\n";
-    Status st = format::write_file_atomic(opt.json_path, text.data(), text.size());
+    const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    Status st = outputs.write(opt.json_path, text.data(), text.size());
     if (!st.ok()) return tools::report_error(kTool, st);
-    std::printf("  json             %s\n", opt.json_path.c_str());
+    std::printf("  json             %s\n", tools::escape_text(opt.json_path).c_str());
   }
   std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
+  // The report must have reached stdout before the JSON appears (a failed report leaves none).
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
   return tools::kExitOk;
 }
 
@@ -656,10 +678,10 @@ int main(int argc, char** argv) {
   app.add_option("scene", opt.input, "Scene: .rgs (uploaded as stored) or 3DGS .ply")->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::PositiveNumber)->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "Use at most N views")->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 2147483647))->needs(cams);
+  app.add_option("--limit", opt.cameras.limit, "Use at most N views")->check(CLI::Range(1, 2147483647));
   auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere")
-                    ->check(CLI::PositiveNumber)->excludes(cams);
+                    ->check(CLI::Range(1, 100000))->excludes(cams);
   cams->excludes(orbit);
   app.add_option("--resolution", opt.resolutions,
                  "WIDTHxHEIGHT or 720p/1080p/1440p/4k (repeatable). Cameras are resized keeping the field of view; "
@@ -672,7 +694,7 @@ int main(int argc, char** argv) {
           "RESOLUTION"));
   app.add_option("--warmup", opt.warmup, "Warm-up frames per mode and resolution (views in turn), not timed")
       ->capture_default_str();
-  app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::PositiveNumber)
+  app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names()));
   app.add_option("--replicate", opt.replicate,
@@ -682,7 +704,7 @@ int main(int argc, char** argv) {
                  "<= 2^31 - 1")
       ->check(CLI::Range(uint32_t{1}, uint32_t{0x7fffffff}))
       ->capture_default_str();
-  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
@@ -691,8 +713,8 @@ int main(int argc, char** argv) {
       throw CLI::ValidationError("one of --cameras or --orbit is required");
     }
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
   }
-  return run(opt);
+  rgs::tools::install_interrupt_cleanup();
+  return rgs::tools::finish(kTool, run(opt));
 }

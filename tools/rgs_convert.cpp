@@ -2,16 +2,16 @@
 //
 //   rgs-convert point_cloud.ply scene.rgs [options]   quantize and print what it cost
 //   rgs-convert scene.rgs restored.ply                dequantize to a PLY other 3DGS tools load
+//   cat scene.ply | rgs-convert - scene.rgs --json -  read standard input, JSON summary on standard output
 //
-// Exit status: 0 on success, 1 when the conversion failed (nothing written, an existing output left as
-// it was), 2 on a usage error.
+// Exit status: 0 on success (every output written), 1 when the conversion failed (no output written, an
+// existing one left as it was), 2 on a usage error (nothing read or written), 128 + N on signal N.
 
 #include <CLI/CLI.hpp>
 
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -25,6 +25,7 @@
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/ply_writer.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
 #include "rgs/format/writer.h"
@@ -43,9 +44,41 @@ struct Options {
   std::vector<std::string> zstd_sections;
   int zstd_level = 19;
   bool sanitize = false;
+  bool allow_empty = false;
   bool quiet = false;
-  std::string json_path;
+  std::string json_path;  ///< "-": standard output, instead of the text summary
+
+  bool json_to_stdout() const { return json_path == "-"; }
+  /// The text summary goes to stdout unless -q or the JSON takes its place.
+  bool print_summary() const { return !quiet && !json_to_stdout(); }
 };
+
+/// The input: a file, or standard input ("-") read into memory.
+struct Input {
+  std::string path;
+  std::vector<uint8_t> bytes;  ///< standard input's content when path is "-"
+  bool from_stdin() const { return path == "-"; }
+};
+
+/// Writes the JSON summary: staged as an output of `outputs`, or printed when it goes to stdout.
+Status emit_json(const Options& opt, const nlohmann::json& j, format::OutputSet* outputs) {
+  const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  if (opt.json_to_stdout()) {
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    return Status();
+  }
+  return outputs->write(opt.json_path, text.data(), text.size());
+}
+
+/// The last steps of a conversion whose outputs are staged: the printed report must have reached stdout
+/// before the files change, so that a failed report (a full disk, a closed pipe) leaves no output behind.
+int commit_outputs(format::OutputSet* outputs) {
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs->commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
+  return tools::kExitOk;
+}
 
 /// Sections a user may name in --zstd.
 const std::vector<std::pair<std::string, format::SectionId>> kSectionNames = {
@@ -82,8 +115,8 @@ std::string hex64(uint64_t v) {
   return buf;
 }
 
-/// PLY -> .rgs: read, quantize, write atomically, measure, print the summary.
-int convert_ply_to_rgs(const Options& opt) {
+/// PLY -> .rgs: read, quantize, stage the outputs, measure, print the summary, commit.
+int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet* outputs) {
   const auto t_start = Clock::now();
   auto write_options = make_write_options(opt);
   if (!write_options.ok()) return tools::report_error(kTool, write_options.status());
@@ -92,9 +125,19 @@ int convert_ply_to_rgs(const Options& opt) {
   read_options.invalid_policy =
       opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
   read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
-  auto ply = converter::read_ply(opt.input, read_options);
+  auto ply = input.from_stdin()
+                 ? converter::read_ply_bytes(input.bytes.data(), input.bytes.size(), input.path, read_options)
+                 : converter::read_ply(opt.input, read_options);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
   const double t_read = tools::seconds_since(t_start);
+  if (ply->cloud.size() == 0 && !opt.allow_empty) {
+    const std::string why = ply->hygiene.dropped_gaussians > 0
+                                ? "--sanitize dropped all " + tools::group_digits(ply->hygiene.dropped_gaussians) +
+                                      " Gaussians, so the scene is empty"
+                                : "the PLY has no Gaussians";
+    return tools::report_error(kTool, Status(StatusCode::kInvalidArgument,
+                                             opt.input + ": " + why + "; --allow-empty writes an empty scene"));
+  }
 
   converter::QuantizeOptions quantize_options;
   quantize_options.scale_encoding =
@@ -122,6 +165,7 @@ int convert_ply_to_rgs(const Options& opt) {
   };
 
   const auto t_write_start = Clock::now();
+  // Staged in `outputs` (declared there): renamed into place by commit_outputs().
   auto written = format::write_scene_file(opt.output, *encoded, *write_options);
   if (!written.ok()) return tools::report_error(kTool, written.status());
   const double t_write = tools::seconds_since(t_write_start);
@@ -165,13 +209,12 @@ int convert_ply_to_rgs(const Options& opt) {
                    {"sh", sh}};
     // "quantize" includes the error measurement, which runs in the same pass.
     j["seconds"] = {{"read", t_read}, {"quantize", t_quantize}, {"write", t_write}, {"total", t_total}};
-    const std::string text = j.dump(2) + "\n";
-    Status s = format::write_file_atomic(opt.json_path, text.data(), text.size());
+    Status s = emit_json(opt, j, outputs);
     if (!s.ok()) return tools::report_error(kTool, s);
   }
-  if (opt.quiet) return tools::kExitOk;
+  if (!opt.print_summary()) return commit_outputs(outputs);
 
-  std::printf("%s %s -> %s\n", kTool, opt.input.c_str(), opt.output.c_str());
+  std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output).c_str());
   std::printf("  gaussians        %s (SH degree %u, %s PLY)\n", tools::group_digits(n).c_str(), degree,
               ply->storage_format.c_str());
   std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(ply->file_bytes).c_str(),
@@ -205,16 +248,23 @@ int convert_ply_to_rgs(const Options& opt) {
   std::printf("  time             %s s (read %s, quantize + measure %s, write %s)\n",
               tools::fixed(t_total, 3).c_str(), tools::fixed(t_read, 3).c_str(),
               tools::fixed(t_quantize, 3).c_str(), tools::fixed(t_write, 3).c_str());
-  return tools::kExitOk;
+  return commit_outputs(outputs);
 }
 
-/// .rgs -> PLY: validate fully (checksums, codecs, values), dequantize, write a standard INRIA PLY atomically.
-int convert_rgs_to_ply(const Options& opt) {
+/// .rgs -> PLY: validate fully (checksums, codecs, values), dequantize, stage a standard INRIA PLY (and the
+/// JSON summary), print, commit.
+int convert_rgs_to_ply(const Options& opt, const Input& input, format::OutputSet* outputs) {
   const auto t_start = Clock::now();
-  auto mapping = format::MappedFile::open(opt.input);
-  if (!mapping.ok()) return tools::report_error(kTool, mapping.status());
-  const uint8_t* bytes = (*mapping)->data();
-  const size_t size = (*mapping)->size();
+  std::shared_ptr<const format::MappedFile> mapping;
+  const uint8_t* bytes = input.bytes.data();
+  size_t size = input.bytes.size();
+  if (!input.from_stdin()) {
+    auto mapped = format::MappedFile::open(opt.input);
+    if (!mapped.ok()) return tools::report_error(kTool, mapped.status());
+    mapping = std::move(mapped).value();
+    bytes = mapping->data();
+    size = mapping->size();
+  }
   Status valid = format::validate(bytes, size, format::ReadLimits{}, opt.input);
   if (!valid.ok()) return tools::report_error(kTool, valid);
   auto file = format::RgsFile::from_bytes(bytes, size, format::ReadOptions{}, opt.input);
@@ -223,30 +273,119 @@ int convert_rgs_to_ply(const Options& opt) {
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
   auto cloud = format::dequantize(*scene);
   if (!cloud.ok()) return tools::report_error(kTool, Status(cloud.status()).prepend(opt.input));
+  if (cloud->size() == 0 && !opt.allow_empty) {
+    return tools::report_error(kTool, Status(StatusCode::kInvalidArgument,
+                                             opt.input + ": the scene has no Gaussians; --allow-empty writes an "
+                                                         "empty PLY"));
+  }
+  // Staged in `outputs` (declared there): renamed into place by commit_outputs().
   auto written = converter::write_ply(opt.output, *cloud);
   if (!written.ok()) return tools::report_error(kTool, written.status());
-  if (!opt.quiet) {
-    std::printf("%s %s -> %s\n", kTool, opt.input.c_str(), opt.output.c_str());
+  const double t_total = tools::seconds_since(t_start);
+  if (!opt.json_path.empty()) {
+    nlohmann::json j;
+    j["input"] = {{"path", opt.input}, {"bytes", file->file_size()}, {"format", "rgs"}};
+    j["output"] = {{"path", opt.output}, {"bytes", *written}, {"format", "INRIA PLY, dequantized"}};
+    j["gaussians"] = cloud->size();
+    j["sh_degree"] = cloud->sh_degree;
+    j["seconds"] = {{"total", t_total}};
+    Status s = emit_json(opt, j, outputs);
+    if (!s.ok()) return tools::report_error(kTool, s);
+  }
+  if (opt.print_summary()) {
+    std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(),
+                tools::escape_text(opt.output).c_str());
     std::printf("  gaussians        %s (SH degree %u)\n", tools::group_digits(cloud->size()).c_str(),
                 cloud->sh_degree);
     std::printf("  input            %s bytes\n", tools::group_digits(file->file_size()).c_str());
     std::printf("  output           %s bytes (INRIA PLY, dequantized)\n", tools::group_digits(*written).c_str());
-    std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 3).c_str());
+    std::printf("  time             %s s\n", tools::fixed(t_total, 3).c_str());
   }
-  return tools::kExitOk;
+  return commit_outputs(outputs);
 }
 
-/// Sniffs the input's first bytes: .rgs magic, "ply" or neither.
+/// The input's kind from its first bytes: .rgs magic, "ply" or neither.
 enum class InputKind { kPly, kRgs, kUnknown };
-InputKind sniff(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  char head[8] = {};
-  in.read(head, 8);
-  if (in.gcount() == 8 && std::equal(head, head + 8, reinterpret_cast<const char*>(format::kMagic))) {
+InputKind sniff(const std::string& head) {
+  if (head.size() >= 8 && std::equal(head.begin(), head.begin() + 8, reinterpret_cast<const char*>(format::kMagic))) {
     return InputKind::kRgs;
   }
-  if (in.gcount() >= 3 && head[0] == 'p' && head[1] == 'l' && head[2] == 'y') return InputKind::kPly;
+  if (head.size() >= 3 && head.compare(0, 3, "ply") == 0) return InputKind::kPly;
   return InputKind::kUnknown;
+}
+
+/// What an input's extension promises; kUnknown for any other name (content decides).
+InputKind expected_kind(const std::string& extension) {
+  if (extension == ".ply") return InputKind::kPly;
+  if (extension == ".rgs") return InputKind::kRgs;
+  return InputKind::kUnknown;
+}
+
+/// Declares an output; an alias of an input or of another output, or a device, is a usage error.
+int declare_output(format::OutputSet* outputs, const std::string& path) {
+  Status s = outputs->add_output(path);
+  if (s.ok()) return tools::kExitOk;
+  return s.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, s) : tools::report_error(kTool, s);
+}
+
+int run(const Options& opt) {
+  // Every identity is checked before anything is read or written.
+  format::OutputSet outputs;
+  if (opt.input != "-") {
+    Status s = outputs.add_input(opt.input);
+    if (!s.ok()) return tools::report_usage_error(kTool, s);
+  }
+  if (opt.output == "-") {
+    return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
+                                                   "the output cannot be standard output (-): name a .rgs or .ply "
+                                                   "file (it is written atomically, by rename)"));
+  }
+  if (int code = declare_output(&outputs, opt.output); code != tools::kExitOk) return code;
+  if (!opt.json_path.empty() && !opt.json_to_stdout()) {
+    if (int code = declare_output(&outputs, opt.json_path); code != tools::kExitOk) return code;
+  }
+
+  Input input{opt.input, {}};
+  std::string head;
+  if (input.from_stdin()) {
+    auto bytes = tools::read_standard_input();
+    if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
+    input.bytes = std::move(bytes).value();
+    head.assign(input.bytes.begin(), input.bytes.begin() + std::min<size_t>(8, input.bytes.size()));
+  } else {
+    Status readable = tools::check_input_file(opt.input);
+    if (!readable.ok()) return tools::report_error(kTool, readable);
+    head = tools::read_file_head(opt.input, 8);
+  }
+
+  const std::string out_ext = tools::extension_of(opt.output);
+  InputKind kind = sniff(head);
+  if (kind == InputKind::kUnknown) {
+    // Neither signature: let the reader the extension asks for explain what is wrong with the file.
+    kind = tools::extension_of(opt.input) == ".rgs" ? InputKind::kRgs : InputKind::kPly;
+  } else if (const InputKind named = expected_kind(tools::extension_of(opt.input));
+             named != InputKind::kUnknown && kind != named) {
+    // The content contradicts the input's name: a problem of the file, not of the command line.
+    return tools::report_error(kTool, Status(StatusCode::kNotRgsFile,
+                                             opt.input + ": is named " + tools::extension_of(opt.input) +
+                                                 " but holds a " + (kind == InputKind::kPly ? "PLY" : ".rgs") +
+                                                 " file"));
+  } else if (kind == InputKind::kPly && out_ext != ".rgs") {
+    return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
+                                                   opt.input + ": is a PLY file, which converts to .rgs; name the "
+                                                               "output *.rgs (not " + opt.output + ")"));
+  } else if (kind == InputKind::kRgs && out_ext != ".ply") {
+    return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
+                                                   opt.input + ": is a .rgs file, which converts to PLY; name the "
+                                                               "output *.ply (not " + opt.output + ")"));
+  }
+  if (!opt.quiet) {
+    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  } else {
+    (void)outputs.remove_stale_temporaries();
+  }
+  return kind == InputKind::kRgs ? convert_rgs_to_ply(opt, input, &outputs)
+                                 : convert_ply_to_rgs(opt, input, &outputs);
 }
 
 }  // namespace
@@ -257,7 +396,7 @@ int main(int argc, char** argv) {
                "degree and channel, FP16 rotation/scale/opacity, FP32 means), or a .rgs back into a standard "
                "INRIA PLY. The direction follows the input's content; the output must end in .rgs or .ply.",
                kTool};
-  app.add_option("input", opt.input, "Input .ply (INRIA 3DGS) or .rgs file")->required();
+  app.add_option("input", opt.input, "Input .ply (INRIA 3DGS) or .rgs file; - reads standard input")->required();
   app.add_option("output", opt.output, "Output .rgs or .ply file (replaced atomically on success only)")
       ->required();
   app.add_option("--scale-encoding", opt.scale_encoding,
@@ -279,45 +418,19 @@ int main(int argc, char** argv) {
   app.add_flag("--sanitize", opt.sanitize,
                "Drop Gaussians with NaN/Inf values or zero-norm quaternions instead of failing "
                "(docs/INPUT_HYGIENE.md)");
-  app.add_option("--json", opt.json_path, "Also write the summary as JSON to this file (PLY -> .rgs only)");
+  app.add_flag("--allow-empty", opt.allow_empty,
+               "Write a scene with no Gaussians (an empty input, or --sanitize dropping everything) instead of "
+               "failing");
+  app.add_option("--json", opt.json_path,
+                 "Also write the summary as JSON to this file, committed together with the output; - prints it on "
+                 "standard output instead of the text summary");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
   }
-
-  std::error_code ec;
-  if (std::filesystem::equivalent(opt.input, opt.output, ec)) {
-    return rgs::tools::report_error(
-        kTool, rgs::Status(rgs::StatusCode::kInvalidArgument, opt.output + ": output is the input file"));
-  }
-  if (!std::filesystem::exists(opt.input, ec)) {
-    return rgs::tools::report_error(kTool, rgs::Status(rgs::StatusCode::kIoError,
-                                                       opt.input + ": no such file"));
-  }
-  const std::string out_ext = rgs::tools::extension_of(opt.output);
-  switch (sniff(opt.input)) {
-    case InputKind::kPly:
-      if (out_ext != ".rgs") {
-        return rgs::tools::report_error(kTool, rgs::Status(rgs::StatusCode::kInvalidArgument,
-                                                           opt.input + ": is a PLY file, which converts to .rgs; "
-                                                                       "name the output *.rgs (not " + opt.output + ")"));
-      }
-      return convert_ply_to_rgs(opt);
-    case InputKind::kRgs:
-      if (out_ext != ".ply") {
-        return rgs::tools::report_error(kTool, rgs::Status(rgs::StatusCode::kInvalidArgument,
-                                                           opt.input + ": is a .rgs file, which converts to PLY; "
-                                                                       "name the output *.ply (not " + opt.output + ")"));
-      }
-      return convert_rgs_to_ply(opt);
-    case InputKind::kUnknown:
-      break;
-  }
-  // Neither signature: let the reader the extension asks for explain what is wrong with the file.
-  if (rgs::tools::extension_of(opt.input) == ".rgs") return convert_rgs_to_ply(opt);
-  return convert_ply_to_rgs(opt);
+  rgs::tools::install_interrupt_cleanup();
+  return rgs::tools::finish(kTool, run(opt));
 }

@@ -1,5 +1,6 @@
 // rgs-info: prints a .rgs file's header, sections, conventions, bounds, SH scales and provenance.
 // With --check it validates everything (checksums, codecs, values) and exits 1 on the first problem.
+// "-" reads the file from standard input. Strings from the file (provenance) are printed escaped.
 
 #include <CLI/CLI.hpp>
 
@@ -9,7 +10,9 @@
 
 #include "cli_common.h"
 #include "rgs/config.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
+#include "rgs/format/spec.h"
 
 namespace {
 
@@ -58,7 +61,7 @@ void print_text(const format::RgsFile& file) {
   const auto& m = file.metadata();
   const auto& b = m.bounds;
   const uint64_t n = h.gaussian_count;
-  std::printf("%s\n", file.name().c_str());
+  std::printf("%s\n", tools::escape_text(file.name()).c_str());
   std::printf("  format           .rgs %u.%u, flags required 0x%08x optional 0x%08x\n", h.major, h.minor,
               h.required_flags, h.optional_flags);
   std::printf("  size             %s bytes (%s B/Gaussian)\n", tools::group_digits(file.file_size()).c_str(),
@@ -90,8 +93,58 @@ void print_text(const format::RgsFile& file) {
   }
   if (!file.provenance().empty()) {
     std::printf("  provenance\n");
-    for (const auto& [key, value] : file.provenance()) std::printf("    %-16s %s\n", key.c_str(), value.c_str());
+    for (const auto& [key, value] : file.provenance()) {
+      std::printf("    %-16s %s\n", tools::escape_text(key).c_str(), tools::escape_text(value).c_str());
+    }
   }
+}
+
+/// The file's bytes: mapped, or standard input's content for "-".
+struct Source {
+  std::shared_ptr<const format::MappedFile> mapping;
+  std::vector<uint8_t> stdin_bytes;
+  const uint8_t* data() const { return mapping ? mapping->data() : stdin_bytes.data(); }
+  size_t size() const { return mapping ? mapping->size() : stdin_bytes.size(); }
+};
+
+int run(const std::string& path, bool check, bool json) {
+  Source source;
+  if (path == "-") {
+    auto bytes = tools::read_standard_input();
+    if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
+    source.stdin_bytes = std::move(bytes).value();
+  } else {
+    Status readable = tools::check_input_file(path);
+    if (!readable.ok()) return tools::report_error(kTool, readable);
+    auto mapping = format::MappedFile::open(path);
+    if (!mapping.ok()) return tools::report_error(kTool, mapping.status());
+    source.mapping = std::move(mapping).value();
+  }
+  auto file = format::RgsFile::from_bytes(source.data(), source.size(), format::ReadOptions{}, path);
+  if (!file.ok()) {
+    // Name the common mix-up instead of only the magic mismatch.
+    if (file.status().code() == StatusCode::kNotRgsFile && source.size() >= 4 &&
+        std::equal(source.data(), source.data() + 4, reinterpret_cast<const uint8_t*>("ply\n"))) {
+      return tools::report_error(kTool, Status(StatusCode::kNotRgsFile,
+                                               path + ": this is a PLY file, not .rgs; rgs-info reads .rgs files "
+                                                      "(convert it with: rgs-convert " + path + " out.rgs)"));
+    }
+    return tools::report_error(kTool, file.status());
+  }
+  Status check_status;
+  if (check) check_status = format::validate(source.data(), source.size(), format::ReadLimits{}, path);
+  if (json) {
+    nlohmann::json j = to_json(*file);
+    if (check) j["check"] = check_status.ok() ? "ok" : check_status.to_string();
+    std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
+  } else {
+    print_text(*file);
+    if (check && check_status.ok()) {
+      std::printf("  check            ok (header, table, every section checksum, codec and value)\n");
+    }
+  }
+  if (!check_status.ok()) return tools::report_error(kTool, check_status);
+  return tools::kExitOk;
 }
 
 }  // namespace
@@ -103,35 +156,14 @@ int main(int argc, char** argv) {
   CLI::App app{"Print a .rgs file's header, sections, conventions and provenance; --check validates every "
                "checksum, codec frame and value.",
                kTool};
-  app.add_option("file", path, ".rgs file")->required();
+  app.add_option("file", path, ".rgs file; - reads standard input")->required();
   app.add_flag("--check", check, "Validate fully; exit 1 and name the first problem if the file is invalid");
   app.add_flag("--json", json, "Print JSON instead of text");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? tools::kExitOk : tools::kExitUsage;
+    return tools::finish(kTool, tools::exit_for_parse_error(app, e, kTool));
   }
-
-  auto file = format::RgsFile::open(path);
-  if (!file.ok()) return tools::report_error(kTool, file.status());
-  Status check_status;
-  if (check) {
-    auto mapping = format::MappedFile::open(path);
-    if (!mapping.ok()) return tools::report_error(kTool, mapping.status());
-    check_status = format::validate((*mapping)->data(), (*mapping)->size(), format::ReadLimits{}, path);
-  }
-  if (json) {
-    nlohmann::json j = to_json(*file);
-    if (check) j["check"] = check_status.ok() ? "ok" : check_status.to_string();
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
-    print_text(*file);
-    if (check && check_status.ok()) {
-      std::printf("  check            ok (header, table, every section checksum, codec and value)\n");
-    }
-  }
-  if (!check_status.ok()) return tools::report_error(kTool, check_status);
-  return tools::kExitOk;
+  return tools::finish(kTool, run(path, check, json));
 }

@@ -6,11 +6,13 @@
 //   rgs-render scene.rgs --orbit 8 -o out/ --backend cuda    the same on the GPU (baseline pipeline)
 //   rgs-render scene.rgs --orbit 8 -o out/ --format ppm --pfm    no OpenImageIO needed (GPU-host builds)
 //
-// Exit status: 0 on success, 1 when loading, rendering or writing failed or the build lacks what was asked
-// for (CUDA, OpenImageIO; message naming the cause), 2 on a usage error.
+// Exit status: 0 on success (every image written), 1 when loading, rendering or writing failed or the build
+// lacks what was asked for (CUDA, OpenImageIO; message naming the cause; no image written or changed), 2 on a
+// usage error, 128 + N on signal N. The images of a run are committed together (format::OutputSet).
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -22,6 +24,7 @@
 #include "cli_common.h"
 #include "image_write.h"
 #include "rgs/config.h"
+#include "rgs/format/file_io.h"
 #include "rgs/runtime/cpu_renderer.h"
 #include "rgs/runtime/image_io.h"
 #include "scene_loading.h"
@@ -244,6 +247,14 @@ Status check_outputs(const Options& opt) {
   return Status::ok_status();
 }
 
+/// The files of one view: "<base>.png" or ".ppm", and ".exr", ".pfm" when asked for.
+std::vector<std::string> view_files(const Options& opt, const std::string& base) {
+  std::vector<std::string> files{base + (opt.image_format == "png" ? ".png" : ".ppm")};
+  if (opt.exr) files.push_back(base + ".exr");
+  if (opt.pfm) files.push_back(base + ".pfm");
+  return files;
+}
+
 Status write_view(const Options& opt, const std::string& base, const RenderedView& view) {
   const std::vector<uint8_t> rgb8 = runtime::to_8bit(view.rgb);
   if (opt.image_format == "png") {
@@ -256,6 +267,31 @@ Status write_view(const Options& opt, const std::string& base, const RenderedVie
   return Status::ok_status();
 }
 
+/// Removes the output directory at scope exit if this run created it and left it empty (a failed run).
+class CreatedDirectory {
+ public:
+  /// Creates `path` (and its parents) when missing. @return kIoError naming `path`.
+  Status create(const std::string& path) {
+    std::error_code ec;
+    const bool existed = std::filesystem::exists(path, ec);
+    std::filesystem::create_directories(path, ec);
+    if (ec || !std::filesystem::is_directory(path)) {
+      return Status(StatusCode::kIoError,
+                    path + ": cannot create output directory" + (ec ? ": " + ec.message() : std::string()));
+    }
+    if (!existed) path_ = path;
+    return Status();
+  }
+  void keep() { path_.clear(); }
+  ~CreatedDirectory() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove(path_, ec);  // only removes an empty directory
+  }
+
+ private:
+  std::string path_;
+};
+
 std::string output_kinds(const Options& opt) {
   std::string s = opt.image_format == "png" ? "PNG" : "PPM";
   if (opt.exr) s += " + EXR";
@@ -266,9 +302,23 @@ std::string output_kinds(const Options& opt) {
 int run(Options opt) {
   if (opt.image_format.empty()) opt.image_format = tools::have_openimageio() ? "png" : "ppm";
   auto background = parse_background(opt.background);
-  if (!background.ok()) return tools::report_error(kTool, background.status());
-  Status outputs = check_outputs(opt);
-  if (!outputs.ok()) return tools::report_error(kTool, outputs);
+  if (!background.ok()) return tools::report_usage_error(kTool, background.status());
+  Status supported = check_outputs(opt);
+  if (!supported.ok()) return tools::report_error(kTool, supported);
+
+  // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
+  // them. The output directory is removed again if the run fails after creating it (declared first, so it
+  // is destroyed after the OutputSet has removed the temporaries).
+  CreatedDirectory created_directory;
+  format::OutputSet outputs;
+  for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
+    if (input.empty()) continue;
+    Status readable = tools::check_input_file(input);
+    if (!readable.ok()) return tools::report_error(kTool, readable);
+    Status declared = outputs.add_input(input);
+    if (!declared.ok()) return tools::report_usage_error(kTool, declared);
+  }
+
   auto backend_or = make_backend(opt, *background);
   if (!backend_or.ok()) return tools::report_error(kTool, backend_or.status());
   Backend& backend = **backend_or;
@@ -283,14 +333,26 @@ int run(Options opt) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
   }
 
-  std::error_code ec;
-  std::filesystem::create_directories(opt.output_dir, ec);
-  if (ec || !std::filesystem::is_directory(opt.output_dir)) {
-    return tools::report_error(kTool, Status(StatusCode::kIoError, opt.output_dir + ": cannot create output directory" +
-                                                                       (ec ? ": " + ec.message() : std::string())));
-  }
-
+  Status created = created_directory.create(opt.output_dir);
+  if (!created.ok()) return tools::report_error(kTool, created);
+  // One file base per view; a camera name used twice gets its index, so that no view replaces another.
   const size_t count = cameras->size();
+  std::vector<std::string> bases;
+  for (size_t i = 0; i < count; ++i) {
+    std::string name = tools::file_safe_name((*cameras)[i].name, i);
+    std::string base = (std::filesystem::path(opt.output_dir) / name).string();
+    if (std::find(bases.begin(), bases.end(), base) != bases.end()) base += "_" + std::to_string(i);
+    for (const std::string& file : view_files(opt, base)) {
+      Status declared = outputs.add_output(file);
+      if (!declared.ok()) {
+        return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
+                                                               : tools::report_error(kTool, declared);
+      }
+    }
+    bases.push_back(base);
+  }
+  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+
   double render_ms = 0;
   uint64_t total_pairs = 0;
   for (size_t i = 0; i < count; ++i) {
@@ -299,18 +361,16 @@ int run(Options opt) {
     if (!view.ok()) return tools::report_error(kTool, Status(view.status()).prepend(opt.input + ", view " + cam.name));
     render_ms += view->render_ms;
     total_pairs += view->pairs;
-    const std::string base =
-        (std::filesystem::path(opt.output_dir) / tools::file_safe_name(cam.name, i)).string();
-    Status s = write_view(opt, base, *view);
+    Status s = write_view(opt, bases[i], *view);  // staged in `outputs`
     if (!s.ok()) return tools::report_error(kTool, s);
-    std::fprintf(stderr, "view %zu/%zu %s %s ms (%s), %s pairs\n", i + 1, count, cam.name.c_str(),
+    std::fprintf(stderr, "view %zu/%zu %s %s ms (%s), %s pairs\n", i + 1, count, tools::escape_text(cam.name).c_str(),
                  tools::fixed(view->render_ms, view->render_ms < 100 ? 3 : 0).c_str(), backend.time_label(),
                  tools::group_digits(view->pairs).c_str());
   }
 
   const runtime::Camera& first = cameras->front();
   const double ms_per_frame = render_ms / static_cast<double>(count);
-  std::printf("%s %s -> %s\n", kTool, opt.input.c_str(), opt.output_dir.c_str());
+  std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output_dir).c_str());
   std::printf("  views            %zu (%s, %s)\n", count, output_kinds(opt).c_str(),
               opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json");
   std::printf("  resolution       %ux%u\n", first.width, first.height);
@@ -321,6 +381,12 @@ int run(Options opt) {
   std::printf("  time             %s ms/frame (%s), %s s total\n",
               tools::fixed(ms_per_frame, ms_per_frame < 100 ? 3 : 0).c_str(), backend.time_label(),
               tools::fixed(tools::seconds_since(t_start), 2).c_str());
+  // The report must have reached stdout before the images appear (a failed report leaves none).
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
+  created_directory.keep();
   return tools::kExitOk;
 }
 
@@ -340,11 +406,11 @@ int main(int argc, char** argv) {
       ->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::PositiveNumber)->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "Render at most N views")->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 2147483647))->needs(cams);
+  app.add_option("--limit", opt.cameras.limit, "Render at most N views")->check(CLI::Range(1, 2147483647));
   auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere "
                                                             "(default size 1920x1080)")
-                    ->check(CLI::PositiveNumber)->excludes(cams);
+                    ->check(CLI::Range(1, 100000))->excludes(cams);
   cams->excludes(orbit);
   app.add_option("-o,--output", opt.output_dir, "Output directory (created if missing)")->required();
   app.add_option("--width", opt.cameras.width, "Image width; the field of view is kept (height follows the aspect "
@@ -360,7 +426,7 @@ int main(int argc, char** argv) {
   app.add_flag("--pfm", opt.pfm, "Also write <view>.pfm (float RGB PFM, linear, not clamped, no alpha)");
   app.add_option("--backend", opt.backend, "Renderer: cpu (reference) or cuda")
       ->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
-  app.add_option("--device", opt.device, "CUDA device ordinal (--backend cuda)")->check(CLI::NonNegativeNumber)
+  app.add_option("--device", opt.device, "CUDA device ordinal (--backend cuda)")->check(CLI::Range(0, 1023))
       ->capture_default_str();
   app.add_flag("--roofgs-key", opt.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
   app.add_flag("--accutile", opt.accutile, "RoofGS: SnugBox + AccuTile tile sets");
@@ -376,8 +442,8 @@ int main(int argc, char** argv) {
       throw CLI::ValidationError("one of --cameras or --orbit is required");
     }
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
   }
-  return run(opt);
+  rgs::tools::install_interrupt_cleanup();
+  return rgs::tools::finish(kTool, run(opt));
 }

@@ -1,0 +1,47 @@
+// cli_common: the escaping every tool applies to bytes from files and arguments before printing them, and the
+// error line of report_error (a NUL no longer cuts it short and drops the error code).
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <string>
+
+#include "cli_common.h"
+
+using rgs::Status;
+using rgs::StatusCode;
+using rgs::tools::escape_text;
+
+TEST_CASE("escape_text: control bytes, C1 controls, bidi overrides and invalid UTF-8 are escaped") {
+  CHECK(escape_text("plain scene.ply") == "plain scene.ply");
+  CHECK(escape_text(std::string("a\0b", 3)) == "a\\x00b");
+  CHECK(escape_text("\x1b[31mred\x1b[0m") == "\\x1b[31mred\\x1b[0m");
+  CHECK(escape_text("line\nbreak\ttab\x7f") == "line\\x0abreak\\x09tab\\x7f");
+  CHECK(escape_text("\xc2\x9b" "2J") == "\\u009b2J");               // C1 CSI encoded in UTF-8
+  CHECK(escape_text("\x9b" "2J") == "\\x9b2J");                     // raw 8-bit CSI: not UTF-8
+  CHECK(escape_text("evil\xe2\x80\xaetxt.ply") == "evil\\u202etxt.ply");  // right-to-left override
+  CHECK(escape_text("caf\xc3\xa9 \xe6\x97\xa5\xf0\x9f\x98\x80") == "caf\xc3\xa9 \xe6\x97\xa5\xf0\x9f\x98\x80");
+  CHECK(escape_text("\xc0\xaf") == "\\xc0\\xaf");                   // overlong '/'
+  CHECK(escape_text("\xed\xa0\x80") == "\\xed\\xa0\\x80");          // surrogate
+  CHECK(escape_text("cut\xe6\x97") == "cut\\xe6\\x97");             // truncated sequence
+}
+
+TEST_CASE("report_error: the whole message and its code reach stderr, escaped") {
+  std::FILE* capture = std::tmpfile();
+  REQUIRE(capture != nullptr);
+  std::fflush(stderr);
+  const int saved = ::dup(STDERR_FILENO);
+  REQUIRE(::dup2(::fileno(capture), STDERR_FILENO) >= 0);
+  const int code = rgs::tools::report_error("rgs-test", Status(StatusCode::kCorruptData,
+                                                               std::string("name\0\x1b]0;pwned\x07 tail", 20)));
+  std::fflush(stderr);
+  ::dup2(saved, STDERR_FILENO);
+  ::close(saved);
+  std::rewind(capture);
+  char buffer[256] = {};
+  const size_t n = std::fread(buffer, 1, sizeof(buffer) - 1, capture);
+  std::fclose(capture);
+  CHECK(code == rgs::tools::kExitFailure);
+  CHECK(std::string(buffer, n) == "rgs-test: error: name\\x00\\x1b]0;pwned\\x07 tail [kCorruptData]\n");
+}
