@@ -65,7 +65,7 @@ int run(Options opt) {
   }
   auto ply = converter::read_ply(opt.ply_path);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
-  auto file = format::RgsFile::open(opt.rgs_path);
+  auto file = format::RgsFile::open(opt.rgs_path, tools::read_options());
   if (!file.ok()) return tools::report_error(kTool, file.status());
   auto encoded = file->read_scene();
   if (!encoded.ok()) return tools::report_error(kTool, encoded.status());
@@ -297,6 +297,7 @@ int main(int argc, char** argv) {
                  "Write |difference| of the worst view as a grey image: .png (needs OpenImageIO), .pgm or .ppm");
   auto* minp = app.add_option("--min-psnr", opt.min_psnr, "Exit 1 when the lowest per-view PSNR is below DB");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

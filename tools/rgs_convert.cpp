@@ -20,6 +20,7 @@
 
 #include "cli_common.h"
 #include "error_stats_output.h"
+#include "read_limits_option.h"
 #include "rgs/config.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/ply_reader.h"
@@ -215,9 +216,9 @@ int convert_rgs_to_ply(const Options& opt) {
   if (!mapping.ok()) return tools::report_error(kTool, mapping.status());
   const uint8_t* bytes = (*mapping)->data();
   const size_t size = (*mapping)->size();
-  Status valid = format::validate(bytes, size, format::ReadLimits{}, opt.input);
+  Status valid = format::validate(bytes, size, tools::read_limits(), opt.input);
   if (!valid.ok()) return tools::report_error(kTool, valid);
-  auto file = format::RgsFile::from_bytes(bytes, size, format::ReadOptions{}, opt.input);
+  auto file = format::RgsFile::from_bytes(bytes, size, tools::read_options(), opt.input);
   if (!file.ok()) return tools::report_error(kTool, file.status());
   auto scene = file->read_scene();
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
@@ -281,6 +282,7 @@ int main(int argc, char** argv) {
                "(docs/INPUT_HYGIENE.md)");
   app.add_option("--json", opt.json_path, "Also write the summary as JSON to this file (PLY -> .rgs only)");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "cli_common.h"
+#include "read_limits_option.h"
 #include "rgs/config.h"
 #include "rgs/format/reader.h"
 
@@ -107,6 +108,7 @@ int main(int argc, char** argv) {
   app.add_flag("--check", check, "Validate fully; exit 1 and name the first problem if the file is invalid");
   app.add_flag("--json", json, "Print JSON instead of text");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -114,13 +116,13 @@ int main(int argc, char** argv) {
     return code == 0 ? tools::kExitOk : tools::kExitUsage;
   }
 
-  auto file = format::RgsFile::open(path);
+  auto file = format::RgsFile::open(path, tools::read_options());
   if (!file.ok()) return tools::report_error(kTool, file.status());
   Status check_status;
   if (check) {
     auto mapping = format::MappedFile::open(path);
     if (!mapping.ok()) return tools::report_error(kTool, mapping.status());
-    check_status = format::validate((*mapping)->data(), (*mapping)->size(), format::ReadLimits{}, path);
+    check_status = format::validate((*mapping)->data(), (*mapping)->size(), tools::read_limits(), path);
   }
   if (json) {
     nlohmann::json j = to_json(*file);
