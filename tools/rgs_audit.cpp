@@ -196,7 +196,7 @@ int run(Options opt) {
   pos_mm.rms *= 1000;
   tools::print_stats_row("position x1000", pos_mm, "scene units x 1000 (mm if the scene is metric)", 22);
   tools::print_stats_row("rotation", errors->rotation_deg, "degrees", 22);
-  tools::print_stats_row("scale", errors->scale_relative, "relative", 22);
+  tools::print_stats_row("scale", errors->scale_of_largest_axis, "of the Gaussian's largest axis", 22);
   tools::print_stats_row("opacity", errors->opacity, "absolute", 22);
   for (uint32_t d = 0; d <= degree; ++d) {
     tools::print_stats_row("SH degree " + std::to_string(d), errors->sh[d], "absolute (all channels)", 22);
@@ -250,6 +250,7 @@ int run(Options opt) {
     j["errors"] = {{"position_scene_units", tools::stats_json(errors->position)},
                    {"rotation_deg", tools::stats_json(errors->rotation_deg)},
                    {"scale_relative", tools::stats_json(errors->scale_relative)},
+                   {"scale_of_largest_axis", tools::stats_json(errors->scale_of_largest_axis)},
                    {"opacity", tools::stats_json(errors->opacity)},
                    {"sh", sh}};
     nlohmann::json vj = nlohmann::json::array();

@@ -158,10 +158,12 @@ int convert_ply_to_rgs(const Options& opt) {
                                encoded->metadata.sh_quantization.scales[d][2]}},
                     {"clipped", {report.sh_clipped[d][0], report.sh_clipped[d][1], report.sh_clipped[d][2]}}});
     }
-    j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero}};
+    j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero},
+                        {"max_flushed_of_largest_axis", report.max_flushed_of_largest_axis}};
     j["errors"] = {{"position", tools::stats_json(errors.position)},
                    {"rotation_deg", tools::stats_json(errors.rotation_deg)},
                    {"scale_relative", tools::stats_json(errors.scale_relative)},
+                   {"scale_of_largest_axis", tools::stats_json(errors.scale_of_largest_axis)},
                    {"opacity", tools::stats_json(errors.opacity)},
                    {"sh", sh}};
     // "quantize" includes the error measurement, which runs in the same pass.
@@ -191,10 +193,12 @@ int convert_ply_to_rgs(const Options& opt) {
   tools::print_stats_row("position", errors.position, "scene units (FP32, exact)");
   tools::print_stats_row("rotation", errors.rotation_deg, "degrees");
   const std::string scale_note =
-      "relative; " + tools::group_digits(report.scales_subnormal) + " values FP16-subnormal (< 6.1e-5), " +
-      tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
-      (report.scales_subnormal + report.scales_flushed_to_zero ? " (--scale-encoding log keeps them)" : "");
-  tools::print_stats_row("scale", errors.scale_relative, scale_note.c_str());
+      "of the Gaussian's largest axis; " + tools::group_digits(report.scales_subnormal) +
+      " axes FP16-subnormal (< 6.1e-5), " + tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
+      (report.scales_flushed_to_zero ? " (each < 3e-8, at most " + tools::sci(report.max_flushed_of_largest_axis) +
+                                           " of its largest axis: no visible effect)"
+                                     : std::string());
+  tools::print_stats_row("scale", errors.scale_of_largest_axis, scale_note.c_str());
   tools::print_stats_row("opacity", errors.opacity, "absolute");
   for (uint32_t d = 0; d <= degree; ++d) {
     const std::string name = "SH degree " + std::to_string(d);
@@ -224,7 +228,8 @@ int convert_rgs_to_ply(const Options& opt) {
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
   auto cloud = format::dequantize(*scene);
   if (!cloud.ok()) return tools::report_error(kTool, Status(cloud.status()).prepend(opt.input));
-  auto written = converter::write_ply(opt.output, *cloud);
+  converter::PlyWriteReport ply_report;
+  auto written = converter::write_ply(opt.output, *cloud, &ply_report);
   if (!written.ok()) return tools::report_error(kTool, written.status());
   if (!opt.quiet) {
     std::printf("%s %s -> %s\n", kTool, opt.input.c_str(), opt.output.c_str());
@@ -232,6 +237,8 @@ int convert_rgs_to_ply(const Options& opt) {
                 cloud->sh_degree);
     std::printf("  input            %s bytes\n", tools::group_digits(file->file_size()).c_str());
     std::printf("  output           %s bytes (INRIA PLY, dequantized)\n", tools::group_digits(*written).c_str());
+    std::printf("  zero scales      %s (FP16 underflow) written as log-scale %.4f, not -inf\n",
+                tools::group_digits(ply_report.zero_scales).c_str(), static_cast<double>(converter::kZeroScaleLog));
     std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 3).c_str());
   }
   return tools::kExitOk;

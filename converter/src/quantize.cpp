@@ -290,6 +290,7 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
       uint64_t clip_count[48] = {};
       uint64_t scales_subnormal = 0;
       uint64_t scales_flushed_to_zero = 0;
+      double max_flushed_of_largest_axis = 0;
       detail::Accumulators errors;
     };
     std::vector<ChunkResult> chunk_results(static_cast<size_t>(chunks));
@@ -312,6 +313,8 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
         for (int a = 0; a < 4; ++a) rot_bits[a] = format::float_to_half_bits(static_cast<float>(q[a] * inv));
         std::memcpy(&out.rotations[i * 4], rot_bits, sizeof(rot_bits));
         uint16_t scale_bits[3];
+        const float largest_axis =
+            std::max(std::max(cloud.scales[i * 3], cloud.scales[i * 3 + 1]), cloud.scales[i * 3 + 2]);
         for (int a = 0; a < 3; ++a) {
           const float s = cloud.scales[i * 3 + a];
           float v = s;
@@ -321,6 +324,10 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
           const uint16_t magnitude = scale_bits[a] & 0x7fffu;
           if (!log_scale && magnitude < 0x0400u && s != 0.0f) {
             ++(magnitude == 0 ? res.scales_flushed_to_zero : res.scales_subnormal);
+            if (magnitude == 0) {
+              res.max_flushed_of_largest_axis =
+                  std::max(res.max_flushed_of_largest_axis, static_cast<double>(s) / largest_axis);
+            }
           }
         }
         std::memcpy(&out.scales[i * 3], scale_bits, sizeof(scale_bits));
@@ -362,6 +369,8 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
       }
       total_report.scales_subnormal += r.scales_subnormal;
       total_report.scales_flushed_to_zero += r.scales_flushed_to_zero;
+      total_report.max_flushed_of_largest_axis =
+          std::max(total_report.max_flushed_of_largest_axis, r.max_flushed_of_largest_axis);
       total_errors.merge(r.errors);
     }
     if (report != nullptr) *report = total_report;

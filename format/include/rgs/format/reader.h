@@ -31,7 +31,7 @@ struct ReadLimits {
   /// The known sections (SPEC §3.2) may decode to at most this many bytes per byte of file, counting the
   /// file as at least kDecompressionRatioMinBytes. A zstd frame may legally claim 32768 times its size;
   /// this bound makes what a reader allocates follow what the file's bytes can hold (real scenes compress
-  /// 1.1-1.5x), so a file under 1 MiB never decodes to more than 8 MiB by default.
+  /// less than 2x), so a file under 1 MiB never decodes to more than 8 MiB by default.
   uint32_t max_decompression_ratio = 8;
 };
 
