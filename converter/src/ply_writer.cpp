@@ -72,7 +72,9 @@ Status serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64
     bool finite = true;
     for (int a = 0; a < 3; ++a) finite = finite && std::isfinite(cloud.means[i * 3 + a]);
     for (int a = 0; a < 4; ++a) finite = finite && std::isfinite(cloud.rotations[i * 4 + a]);
-    for (int a = 0; a < 3; ++a) finite = finite && std::isfinite(cloud.scales[i * 3 + a]) && cloud.scales[i * 3 + a] >= 0;
+    for (int a = 0; a < 3; ++a) {
+      finite = finite && std::isfinite(cloud.scales[i * 3 + a]) && cloud.scales[i * 3 + a] >= 0;
+    }
     finite = finite && !std::isnan(cloud.opacities[i]);
     for (uint64_t j = 0; j < sh_values; ++j) finite = finite && std::isfinite(cloud.sh[i * sh_values + j]);
     if (!finite) {

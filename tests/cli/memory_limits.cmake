@@ -27,7 +27,8 @@ if(CMAKE_SCRIPT_MODE_FILE)
   string(REPLACE "|" ";" args "${ARGS}")
   execute_process(COMMAND ${PRLIMIT} --as=${limit_bytes} ${TOOL} ${args}
                   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  message("address space ${limit} MiB (baseline ${baseline} + ${HEADROOM_MIB})\nexit ${rc}\n--- stdout\n${out}--- stderr\n${err}")
+  message("address space ${limit} MiB (baseline ${baseline} + ${HEADROOM_MIB})\n"
+          "exit ${rc}\n--- stdout\n${out}--- stderr\n${err}")
   if(NOT "${rc}" STREQUAL "${EXPECT_EXIT}")
     message(FATAL_ERROR "expected exit ${EXPECT_EXIT}, got ${rc}")
   endif()
@@ -101,7 +102,8 @@ else()
 endif()
 
 # --max-gaussians below a real scene's count.
-rgs_cli_case(memory_max_gaussians CMD "${render}|--max-gaussians|1000|${cli_dir}/guitar.rgs|--orbit|1|-o|${cli_dir}/memory_max"
+rgs_cli_case(memory_max_gaussians
+  CMD "${render}|--max-gaussians|1000|${cli_dir}/guitar.rgs|--orbit|1|-o|${cli_dir}/memory_max"
   EXIT 1 REGEX "guitar.rgs: 90854 Gaussians exceed the limit of 1000 \\[kLimitExceeded\\]" REQUIRES guitar_rgs)
 rgs_cli_case(memory_max_gaussians_help CMD "${info}|--help" REGEX "--max-gaussians.*--max-decompression-ratio")
 
