@@ -3,6 +3,7 @@
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/reader.h"
+#include "read_limits_option.h"
 #include "rgs/runtime/cuda_device.h"
 #include "scene_loading.h"
 
@@ -28,8 +29,8 @@ Status require_cuda_device(int ordinal) {
 
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path) {
   if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
-    auto scene = runtime::GpuScene::from_rgs(file);
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, read_options()));
+    auto scene = runtime::GpuScene::from_rgs(file);  // checks checksums, frames and values first
     if (!scene.ok()) return naming(scene.status(), path);
     return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, file.file_size()};
   }

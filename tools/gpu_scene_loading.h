@@ -27,8 +27,9 @@ struct LoadedGpuScene {
 /// of range; kCudaError from cudaSetDevice.
 Status require_cuda_device(int ordinal = 0);
 
-/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open and
-/// runtime::GpuScene::from_rgs (sections uploaded as stored, no host decode), otherwise a 3DGS PLY through
+/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open (with read_limits()) and
+/// runtime::GpuScene::from_rgs (sections checked on the host, including the value rules of SPEC §4.3-4.7,
+/// then uploaded as stored), otherwise a 3DGS PLY through
 /// converter::read_ply and GpuScene::from_cloud with converter::compute_bounds. Errors name `path`.
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path);
 

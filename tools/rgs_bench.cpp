@@ -707,6 +707,7 @@ int main(int argc, char** argv) {
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   try {
     app.parse(argc, argv);
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {

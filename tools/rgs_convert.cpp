@@ -20,6 +20,7 @@
 
 #include "cli_common.h"
 #include "error_stats_output.h"
+#include "read_limits_option.h"
 #include "rgs/config.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/ply_reader.h"
@@ -201,10 +202,12 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
                                encoded->metadata.sh_quantization.scales[d][2]}},
                     {"clipped", {report.sh_clipped[d][0], report.sh_clipped[d][1], report.sh_clipped[d][2]}}});
     }
-    j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero}};
+    j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero},
+                        {"max_flushed_of_largest_axis", report.max_flushed_of_largest_axis}};
     j["errors"] = {{"position", tools::stats_json(errors.position)},
                    {"rotation_deg", tools::stats_json(errors.rotation_deg)},
                    {"scale_relative", tools::stats_json(errors.scale_relative)},
+                   {"scale_of_largest_axis", tools::stats_json(errors.scale_of_largest_axis)},
                    {"opacity", tools::stats_json(errors.opacity)},
                    {"sh", sh}};
     // "quantize" includes the error measurement, which runs in the same pass.
@@ -233,10 +236,12 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
   tools::print_stats_row("position", errors.position, "scene units (FP32, exact)");
   tools::print_stats_row("rotation", errors.rotation_deg, "degrees");
   const std::string scale_note =
-      "relative; " + tools::group_digits(report.scales_subnormal) + " values FP16-subnormal (< 6.1e-5), " +
-      tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
-      (report.scales_subnormal + report.scales_flushed_to_zero ? " (--scale-encoding log keeps them)" : "");
-  tools::print_stats_row("scale", errors.scale_relative, scale_note.c_str());
+      "of the Gaussian's largest axis; " + tools::group_digits(report.scales_subnormal) +
+      " axes FP16-subnormal (< 6.1e-5), " + tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
+      (report.scales_flushed_to_zero ? " (each < 3e-8, at most " + tools::sci(report.max_flushed_of_largest_axis) +
+                                           " of its largest axis: no visible effect)"
+                                     : std::string());
+  tools::print_stats_row("scale", errors.scale_of_largest_axis, scale_note.c_str());
   tools::print_stats_row("opacity", errors.opacity, "absolute");
   for (uint32_t d = 0; d <= degree; ++d) {
     const std::string name = "SH degree " + std::to_string(d);
@@ -265,9 +270,9 @@ int convert_rgs_to_ply(const Options& opt, const Input& input, format::OutputSet
     bytes = mapping->data();
     size = mapping->size();
   }
-  Status valid = format::validate(bytes, size, format::ReadLimits{}, opt.input);
+  Status valid = format::validate(bytes, size, tools::read_limits(), opt.input);
   if (!valid.ok()) return tools::report_error(kTool, valid);
-  auto file = format::RgsFile::from_bytes(bytes, size, format::ReadOptions{}, opt.input);
+  auto file = format::RgsFile::from_bytes(bytes, size, tools::read_options(), opt.input);
   if (!file.ok()) return tools::report_error(kTool, file.status());
   auto scene = file->read_scene();
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
@@ -279,7 +284,8 @@ int convert_rgs_to_ply(const Options& opt, const Input& input, format::OutputSet
                                                          "empty PLY"));
   }
   // Staged in `outputs` (declared there): renamed into place by commit_outputs().
-  auto written = converter::write_ply(opt.output, *cloud);
+  converter::PlyWriteReport ply_report;
+  auto written = converter::write_ply(opt.output, *cloud, &ply_report);
   if (!written.ok()) return tools::report_error(kTool, written.status());
   const double t_total = tools::seconds_since(t_start);
   if (!opt.json_path.empty()) {
@@ -288,6 +294,7 @@ int convert_rgs_to_ply(const Options& opt, const Input& input, format::OutputSet
     j["output"] = {{"path", opt.output}, {"bytes", *written}, {"format", "INRIA PLY, dequantized"}};
     j["gaussians"] = cloud->size();
     j["sh_degree"] = cloud->sh_degree;
+    j["zero_scales"] = ply_report.zero_scales;
     j["seconds"] = {{"total", t_total}};
     Status s = emit_json(opt, j, outputs);
     if (!s.ok()) return tools::report_error(kTool, s);
@@ -299,6 +306,8 @@ int convert_rgs_to_ply(const Options& opt, const Input& input, format::OutputSet
                 cloud->sh_degree);
     std::printf("  input            %s bytes\n", tools::group_digits(file->file_size()).c_str());
     std::printf("  output           %s bytes (INRIA PLY, dequantized)\n", tools::group_digits(*written).c_str());
+    std::printf("  zero scales      %s (FP16 underflow) written as log-scale %.4f, not -inf\n",
+                tools::group_digits(ply_report.zero_scales).c_str(), static_cast<double>(converter::kZeroScaleLog));
     std::printf("  time             %s s\n", tools::fixed(t_total, 3).c_str());
   }
   return commit_outputs(outputs);
@@ -425,6 +434,7 @@ int main(int argc, char** argv) {
                  "Also write the summary as JSON to this file, committed together with the output; - prints it on "
                  "standard output instead of the text summary");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "cli_common.h"
+#include "read_limits_option.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
@@ -120,7 +121,7 @@ int run(const std::string& path, bool check, bool json) {
     if (!mapping.ok()) return tools::report_error(kTool, mapping.status());
     source.mapping = std::move(mapping).value();
   }
-  auto file = format::RgsFile::from_bytes(source.data(), source.size(), format::ReadOptions{}, path);
+  auto file = format::RgsFile::from_bytes(source.data(), source.size(), tools::read_options(), path);
   if (!file.ok()) {
     // Name the common mix-up instead of only the magic mismatch.
     if (file.status().code() == StatusCode::kNotRgsFile && source.size() >= 4 &&
@@ -132,7 +133,7 @@ int run(const std::string& path, bool check, bool json) {
     return tools::report_error(kTool, file.status());
   }
   Status check_status;
-  if (check) check_status = format::validate(source.data(), source.size(), format::ReadLimits{}, path);
+  if (check) check_status = format::validate(source.data(), source.size(), tools::read_limits(), path);
   if (json) {
     nlohmann::json j = to_json(*file);
     if (check) j["check"] = check_status.ok() ? "ok" : check_status.to_string();
@@ -160,6 +161,7 @@ int main(int argc, char** argv) {
   app.add_flag("--check", check, "Validate fully; exit 1 and name the first problem if the file is invalid");
   app.add_flag("--json", json, "Print JSON instead of text");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -436,6 +436,7 @@ int main(int argc, char** argv) {
   app.footer("With --backend cuda, any RoofGS flag selects the RoofGS pipeline with those techniques (compact "
              "attributes read on the GPU for .rgs input); without one, the 3DGS baseline pipeline.");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   try {
     app.parse(argc, argv);
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {

@@ -30,7 +30,8 @@ bool is_rgs_path(const std::string& path) { return has_rgs_magic(path) || extens
 Result<LoadedScene> load_scene(const std::string& path) {
   LoadedScene scene;
   if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, read_options()));
+    // read_scene checks every section's checksum, frame and values (SPEC §5.4) before it allocates.
     RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
     auto cloud = format::dequantize(encoded);
     if (!cloud.ok()) return Status(cloud.status()).prepend(path);
@@ -64,7 +65,7 @@ Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t c
   out.copies = copies;
   format::EncodedScene source;
   if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, read_options()));
     RGS_RETURN_IF_ERROR(check_replicated_count(path, file.gaussian_count(), copies));
     RGS_ASSIGN_OR_RETURN(source, file.read_scene());
     out.source_is_rgs = true;

@@ -8,6 +8,7 @@
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
+#include "read_limits_option.h"
 #include "rgs/runtime/camera.h"
 
 namespace rgs::tools {
@@ -27,8 +28,9 @@ struct LoadedScene {
 /// missing or truncated "x.rgs" still gets the .rgs reader's error).
 bool is_rgs_path(const std::string& path);
 
-/// Loads `path`: a .rgs file (RgsFile::open + read_scene + dequantize) when it starts with the .rgs magic or
-/// ends in .rgs, otherwise a 3DGS PLY (converter::read_ply, invalid values rejected). Errors name `path`.
+/// Loads `path`: a .rgs file (RgsFile::open with read_limits() + read_scene, which checks checksums, frames
+/// and the value rules of SPEC §4.3-4.7 before allocating, + dequantize) when it starts with the .rgs magic
+/// or ends in .rgs, otherwise a 3DGS PLY (converter::read_ply, invalid values rejected). Errors name `path`.
 Result<LoadedScene> load_scene(const std::string& path);
 
 /// Largest Gaussian count a scene may have on the GPU (GpuScene and converter::replicate: 2^31 − 1).

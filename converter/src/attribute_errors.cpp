@@ -57,12 +57,13 @@ Result<AttributeErrors> accumulate_chunks(uint64_t n, ChunkFn&& chunk_fn) {
   const uint64_t chunks = (n + kChunkGaussians - 1) / kChunkGaussians;
   std::vector<Accumulators> partial(chunks);
   std::vector<Status> status(chunks);
-  detail::parallel_slices(chunks, detail::worker_count(chunks, 1), [&](unsigned, uint64_t begin, uint64_t end) {
-    for (uint64_t c = begin; c < end; ++c) {
-      const uint64_t first = c * kChunkGaussians;
-      status[c] = chunk_fn(first, std::min(kChunkGaussians, n - first), &partial[c]);
-    }
-  });
+  RGS_RETURN_IF_ERROR(
+      detail::parallel_slices(chunks, detail::worker_count(chunks, 1), [&](unsigned, uint64_t begin, uint64_t end) {
+        for (uint64_t c = begin; c < end; ++c) {
+          const uint64_t first = c * kChunkGaussians;
+          status[c] = chunk_fn(first, std::min(kChunkGaussians, n - first), &partial[c]);
+        }
+      }));
   Accumulators total;
   for (uint64_t c = 0; c < chunks; ++c) {
     RGS_RETURN_IF_ERROR(status[c]);

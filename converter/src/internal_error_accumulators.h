@@ -45,7 +45,7 @@ struct Accumulator {
 };
 
 struct Accumulators {
-  Accumulator position, rotation, scale, opacity;
+  Accumulator position, rotation, scale, scale_of_largest, opacity;
   Accumulator sh[4];
   Accumulator sh_channel[4][3];
 
@@ -53,6 +53,7 @@ struct Accumulators {
     position.merge(o.position);
     rotation.merge(o.rotation);
     scale.merge(o.scale);
+    scale_of_largest.merge(o.scale_of_largest);
     opacity.merge(o.opacity);
     for (int d = 0; d < 4; ++d) {
       sh[d].merge(o.sh[d]);
@@ -65,6 +66,7 @@ struct Accumulators {
     r.position = position.stats();
     r.rotation_deg = rotation.stats();
     r.scale_relative = scale.stats();
+    r.scale_of_largest_axis = scale_of_largest.stats();
     r.opacity = opacity.stats();
     for (int d = 0; d < 4; ++d) {
       r.sh[d] = sh[d].stats();
@@ -122,10 +124,12 @@ inline void accumulate_gaussian(const GaussianView& ref, const GaussianView& tes
   }
   acc->position.add(std::sqrt(d2));
   acc->rotation.add(rotation_angle_deg(ref.rotation, test.rotation));
+  const double largest = std::fmax(std::fmax(ref.scale[0], ref.scale[1]), ref.scale[2]);
   for (int a = 0; a < 3; ++a) {
     const double s = ref.scale[a];
     const double t = test.scale[a];
     acc->scale.add(t == s ? 0.0 : std::fabs(t - s) / s);
+    acc->scale_of_largest.add(t == s ? 0.0 : std::fabs(t - s) / largest);
   }
   acc->opacity.add(std::fabs(static_cast<double>(test.opacity) - ref.opacity));
   for (uint32_t k = 0; k < k_count; ++k) {

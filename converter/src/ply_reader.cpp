@@ -468,13 +468,13 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
   if (const uint8_t* memory = source.memory()) {
     parts.resize(workers);
     errors.resize(workers);
-    detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
-      try {  // nothing may escape a worker thread; the invalid-index list can grow
+    RGS_RETURN_IF_ERROR(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
+      try {  // the invalid-index list can grow; name what ran out
         decode(memory + data_offset + b * stride, e - b, b, &parts[t]);
       } catch (const std::bad_alloc&) {
         errors[t] = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
       }
-    });
+    }));
   } else {
     const uint64_t chunk_rows = std::max<uint64_t>(1, kFileChunkBytes / stride);
     const uint64_t chunks = n == 0 ? 0 : (n - 1) / chunk_rows + 1;
@@ -483,7 +483,7 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
     std::vector<std::vector<uint8_t>> buffers(workers);
     for (auto& b : buffers) b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
     std::atomic<bool> failed{false};
-    detail::parallel_items(chunks, workers, [&](unsigned t, uint64_t c) {
+    RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned t, uint64_t c) {
       if (failed.load(std::memory_order_relaxed)) return;
       const uint64_t first = c * chunk_rows;
       const uint64_t rows = std::min(chunk_rows, n - first);
@@ -503,7 +503,7 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
         failed = true;
         if (hasher != nullptr) hasher->abort();
       }
-    });
+    }));
   }
   for (const Status& s : errors) RGS_RETURN_IF_ERROR(s);
   for (HygieneCounts& p : parts) {

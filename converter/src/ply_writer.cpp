@@ -61,10 +61,27 @@ inline float opacity_logit(float o) {
   return static_cast<float>(std::log(c / (1.0 - c)));
 }
 
-/// Serializes Gaussians [first, first + n) into `out` (n · row_floats · 4 bytes).
-void serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64_t n, uint8_t* out) {
+/// Serializes Gaussians [first, first + n) into `out` (n · row_floats · 4 bytes), counting zero scales in
+/// `report`. Fails on the first Gaussian with a value a PLY reader would reject (non-finite, or a negative
+/// scale, whose log is NaN), before its row is written.
+Status serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64_t n, uint8_t* out,
+                      PlyWriteReport* report) {
   const uint32_t k_count = cloud.sh_coefficients();
+  const uint64_t sh_values = uint64_t{k_count} * 3;
   for (uint64_t i = first; i < first + n; ++i) {
+    bool finite = true;
+    for (int a = 0; a < 3; ++a) finite = finite && std::isfinite(cloud.means[i * 3 + a]);
+    for (int a = 0; a < 4; ++a) finite = finite && std::isfinite(cloud.rotations[i * 4 + a]);
+    for (int a = 0; a < 3; ++a) {
+      finite = finite && std::isfinite(cloud.scales[i * 3 + a]) && cloud.scales[i * 3 + a] >= 0;
+    }
+    finite = finite && !std::isnan(cloud.opacities[i]);
+    for (uint64_t j = 0; j < sh_values; ++j) finite = finite && std::isfinite(cloud.sh[i * sh_values + j]);
+    if (!finite) {
+      return Status(StatusCode::kInvalidArgument,
+                    "Gaussian " + std::to_string(i) + " has a non-finite value or a negative scale; a PLY holds "
+                    "only finite values");
+    }
     for (int a = 0; a < 3; ++a) out = put_f32_le(out, cloud.means[i * 3 + a]);
     for (int a = 0; a < 3; ++a) out = put_f32_le(out, 0.0f);
     const float* sh = cloud.sh.data() + i * k_count * 3;
@@ -75,22 +92,27 @@ void serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64_t
     }
     out = put_f32_le(out, opacity_logit(cloud.opacities[i]));
     for (int a = 0; a < 3; ++a) {
-      out = put_f32_le(out, static_cast<float>(std::log(static_cast<double>(cloud.scales[i * 3 + a]))));
+      const float s = cloud.scales[i * 3 + a];
+      if (s == 0.0f) ++report->zero_scales;
+      out = put_f32_le(out, s == 0.0f ? kZeroScaleLog : static_cast<float>(std::log(static_cast<double>(s))));
     }
     for (int a = 0; a < 4; ++a) out = put_f32_le(out, cloud.rotations[i * 4 + a]);
   }
+  return Status();
 }
 
 }  // namespace
 
-Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud) {
+Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, PlyWriteReport* report) {
   RGS_RETURN_IF_ERROR(check_cloud(cloud));
   try {
     const std::string header = header_text(cloud);
     const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
     std::vector<uint8_t> bytes(header.size() + cloud.size() * row_bytes);
     std::memcpy(bytes.data(), header.data(), header.size());
-    serialize_rows(cloud, 0, cloud.size(), bytes.data() + header.size());
+    PlyWriteReport counts;
+    RGS_RETURN_IF_ERROR(serialize_rows(cloud, 0, cloud.size(), bytes.data() + header.size(), &counts));
+    if (report != nullptr) *report = counts;
     return bytes;
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory, "out of memory serializing " + std::to_string(cloud.size()) +
@@ -98,10 +120,11 @@ Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud) {
   }
 }
 
-Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud) {
+Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud, PlyWriteReport* report) {
   Status valid = check_cloud(cloud);
   if (!valid.ok()) return std::move(valid.prepend(path));
   uint64_t written = 0;
+  PlyWriteReport counts;
   try {
     const std::string header = header_text(cloud);
     const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
@@ -111,7 +134,8 @@ Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud&
       written = header.size();
       for (uint64_t first = 0; first < cloud.size(); first += kRowsPerChunk) {
         const uint64_t n = std::min(kRowsPerChunk, cloud.size() - first);
-        serialize_rows(cloud, first, n, chunk.data());
+        Status rows = serialize_rows(cloud, first, n, chunk.data(), &counts);
+        if (!rows.ok()) return rows.prepend(path);
         RGS_RETURN_IF_ERROR(sink(chunk.data(), static_cast<size_t>(n * row_bytes)));
         written += n * row_bytes;
       }
@@ -121,6 +145,7 @@ Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud&
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory, path + ": out of memory writing the PLY");
   }
+  if (report != nullptr) *report = counts;
   return written;
 }
 

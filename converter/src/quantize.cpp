@@ -133,8 +133,10 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   struct Box {
     float lo[3], hi[3];
   };
-  std::vector<Box> boxes(workers);
-  detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
+  // Fixed arrays (worker_count() is at most kMaxWorkers) and slices that allocate nothing: neither can
+  // fail, so the pool's status is always ok.
+  Box boxes[detail::kMaxWorkers];
+  static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
     Box box;
     for (int a = 0; a < 3; ++a) box.lo[a] = box.hi[a] = cloud.means[begin * 3 + a];
     for (uint64_t i = begin; i < end; ++i) {
@@ -145,11 +147,12 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
       }
     }
     boxes[t] = box;
-  });
+  }));
   for (int a = 0; a < 3; ++a) {
     b.aabb_min[a] = boxes[0].lo[a];
     b.aabb_max[a] = boxes[0].hi[a];
-    for (const Box& box : boxes) {
+    for (unsigned t = 0; t < workers; ++t) {
+      const Box& box = boxes[t];
       b.aabb_min[a] = std::min(b.aabb_min[a], box.lo[a]);
       b.aabb_max[a] = std::max(b.aabb_max[a], box.hi[a]);
     }
@@ -160,8 +163,8 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
         static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
     center[a] = b.sphere_center[a];
   }
-  std::vector<double> r2s(workers, 0.0);
-  detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
+  double r2s[detail::kMaxWorkers] = {};
+  static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
     double r2 = 0;
     for (uint64_t i = begin; i < end; ++i) {
       double d2 = 0;
@@ -172,8 +175,8 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
       r2 = std::max(r2, d2);
     }
     r2s[t] = r2;
-  });
-  const double r2 = *std::max_element(r2s.begin(), r2s.end());
+  }));
+  const double r2 = *std::max_element(r2s, r2s + workers);
   // Margin of 1e-6 relative (a few float32 ulps) so |mean − center| <= radius also holds when a
   // consumer evaluates the distance in float32, then round up to float.
   const double r = std::sqrt(r2) * (1.0 + 1e-6);
@@ -207,9 +210,9 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
 
     // Pass 1: validate and find max |SH| per (degree, channel).
     std::vector<ScanResult> scans(workers);
-    detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
+    RGS_RETURN_IF_ERROR(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
       scan_slice(cloud, options, b, e, &scans[t]);
-    });
+    }));
     float max_abs[4][3] = {};
     for (const ScanResult& s : scans) {
       if (s.bad_index != std::numeric_limits<uint64_t>::max()) {
@@ -287,11 +290,12 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
       uint64_t clip_count[48] = {};
       uint64_t scales_subnormal = 0;
       uint64_t scales_flushed_to_zero = 0;
+      double max_flushed_of_largest_axis = 0;
       detail::Accumulators errors;
     };
     std::vector<ChunkResult> chunk_results(static_cast<size_t>(chunks));
     const bool measure = errors != nullptr;
-    detail::parallel_items(chunks, workers, [&](unsigned, uint64_t chunk) {
+    RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned, uint64_t chunk) {
       ChunkResult& res = chunk_results[chunk];
       const uint64_t b = chunk * detail::kErrorChunkGaussians;
       const uint64_t e = std::min(n, b + detail::kErrorChunkGaussians);
@@ -309,6 +313,8 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
         for (int a = 0; a < 4; ++a) rot_bits[a] = format::float_to_half_bits(static_cast<float>(q[a] * inv));
         std::memcpy(&out.rotations[i * 4], rot_bits, sizeof(rot_bits));
         uint16_t scale_bits[3];
+        const float largest_axis =
+            std::max(std::max(cloud.scales[i * 3], cloud.scales[i * 3 + 1]), cloud.scales[i * 3 + 2]);
         for (int a = 0; a < 3; ++a) {
           const float s = cloud.scales[i * 3 + a];
           float v = s;
@@ -318,6 +324,10 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
           const uint16_t magnitude = scale_bits[a] & 0x7fffu;
           if (!log_scale && magnitude < 0x0400u && s != 0.0f) {
             ++(magnitude == 0 ? res.scales_flushed_to_zero : res.scales_subnormal);
+            if (magnitude == 0) {
+              res.max_flushed_of_largest_axis =
+                  std::max(res.max_flushed_of_largest_axis, static_cast<double>(s) / largest_axis);
+            }
           }
         }
         std::memcpy(&out.scales[i * 3], scale_bits, sizeof(scale_bits));
@@ -350,7 +360,7 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
           detail::accumulate_gaussian(ref, test, k_count, &res.errors);
         }
       }
-    });
+    }));
     detail::Accumulators total_errors;
     QuantizationReport total_report;
     for (const ChunkResult& r : chunk_results) {
@@ -359,6 +369,8 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
       }
       total_report.scales_subnormal += r.scales_subnormal;
       total_report.scales_flushed_to_zero += r.scales_flushed_to_zero;
+      total_report.max_flushed_of_largest_axis =
+          std::max(total_report.max_flushed_of_largest_axis, r.max_flushed_of_largest_axis);
       total_errors.merge(r.errors);
     }
     if (report != nullptr) *report = total_report;

@@ -1,6 +1,8 @@
 #include "rgs/format/encoded_scene.h"
 
 #include <cmath>
+#include <new>
+#include <string>
 
 #include "rgs/format/half.h"
 
@@ -22,7 +24,14 @@ Status dequantize_range(const EncodedScene& scene, uint64_t first, uint64_t coun
                       "range [" + std::to_string(first) + ", +" + std::to_string(count) +
                           ") outside a scene of " + std::to_string(scene.count) + " Gaussians");
   out->sh_degree = scene.metadata.sh_degree;
-  out->resize(count);
+  try {
+    out->resize(count);
+  } catch (const std::bad_alloc&) {
+    *out = GaussianCloud{};
+    return Status(StatusCode::kOutOfMemory,
+                  "out of memory dequantizing " + std::to_string(count) + " Gaussians at SH degree " +
+                      std::to_string(scene.metadata.sh_degree));
+  }
   const uint32_t k_count = out->sh_coefficients();
   const bool log_scale = scene.metadata.scale_encoding == ScaleEncoding::kLog;
   const auto& s = scene.metadata.sh_quantization.scales;

@@ -7,6 +7,8 @@
 #include <zstd.h>
 #include <zstd_errors.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -212,6 +214,7 @@ struct RgsFileAccess {
   static Status parse_table(RgsFile* f);
   static Status check_placement(const RgsFile& f);
   static Status check_entry(const RgsFile& f, size_t index);
+  static Status check_decoded_total(const RgsFile& f);
   static Status check_layout(const RgsFile& f, size_t index, uint32_t sh_degree);
   static Status read_small_section(const RgsFile& f, size_t index, uint64_t max_raw, std::vector<uint8_t>* raw);
 
@@ -405,6 +408,26 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
   return Status();
 }
 
+Status RgsFileAccess::check_decoded_total(const RgsFile& f) {
+  // §5.5 A zstd frame may claim up to 32768 times its own size, and readers allocate what the table
+  // claims; bound the total by the file's size before anything is allocated from it.
+  uint64_t total = 0;
+  for (const SectionEntry& e : f.sections_) {
+    if (detail::is_known_section(e.id) && !detail::checked_add(total, e.raw_size, &total)) total = UINT64_MAX;
+  }
+  const ReadLimits& limits = f.options_.limits;
+  const uint64_t basis = std::max<uint64_t>(f.size_, kDecompressionRatioMinBytes);
+  uint64_t allowed = 0;
+  if (!detail::checked_mul(basis, limits.max_decompression_ratio, &allowed)) allowed = UINT64_MAX;
+  RGS_RETURN_ERROR_IF(total > allowed, StatusCode::kLimitExceeded,
+                      "the sections decode to " + dec(total) + " bytes, more than the decompression-ratio limit of " +
+                          dec(limits.max_decompression_ratio) + " x " + dec(basis) + " bytes (" +
+                          (f.size_ < kDecompressionRatioMinBytes ? "1 MiB, the least a file counts as"
+                                                                 : std::string("the file's size")) +
+                          ", SPEC 5.5) allows; raise ReadLimits::max_decompression_ratio to read it");
+  return Status();
+}
+
 Status RgsFileAccess::check_layout(const RgsFile& f, size_t index, uint32_t sh_degree) {
   // §4 Known sections have a fixed element type and component count; per-Gaussian ones hold N elements.
   const SectionEntry& e = f.sections_[index];
@@ -479,6 +502,7 @@ Status RgsFileAccess::parse(RgsFile* f) {
   RGS_RETURN_IF_ERROR(parse_table(f));
   RGS_RETURN_IF_ERROR(check_placement(*f));
   for (size_t i = 0; i < f->sections_.size(); ++i) RGS_RETURN_IF_ERROR(check_entry(*f, i));
+  RGS_RETURN_IF_ERROR(check_decoded_total(*f));
   for (SectionId id : {SectionId::kMetadata, SectionId::kMeans, SectionId::kRotations, SectionId::kScales,
                        SectionId::kOpacities, SectionId::kSh}) {
     RGS_RETURN_ERROR_IF(f->find(id) == nullptr, StatusCode::kCorruptData,
@@ -609,6 +633,12 @@ Result<EncodedScene> RgsFile::read_scene() const {
     scene.metadata = metadata_;
     scene.provenance = provenance_;
     scene.count = header_.gaussian_count;
+    // Checksums, frames and values first, in bounded memory: a damaged frame or an invalid value fails
+    // before the arrays it claims are allocated, and no path renders values the spec rules out.
+    for (SectionId id : {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
+                         SectionId::kSh}) {
+      RGS_RETURN_IF_ERROR(verify_section(id));
+    }
     RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kMeans, &scene.means));
     RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kRotations, &scene.rotations));
     RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kScales, &scene.scales));

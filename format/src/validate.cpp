@@ -246,6 +246,17 @@ Status validate_section(const RgsFile& file, size_t index) {
 
 }  // namespace
 
+Status RgsFile::verify_section(SectionId id) const {
+  const SectionEntry* e = find(id);
+  RGS_RETURN_ERROR_IF(e == nullptr, StatusCode::kInvalidArgument,
+                      name_ + ": no section " + section_name(id) + " (id " + dec(static_cast<uint32_t>(id)) + ")");
+  try {
+    return validate_section(*this, static_cast<size_t>(e - sections_.data()));
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, name_ + ": out of memory checking " + section_name(id));
+  }
+}
+
 Status validate(const uint8_t* data, size_t size, const ReadLimits& limits, const std::string& name) {
   try {
     ReadOptions options;

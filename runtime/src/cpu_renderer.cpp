@@ -267,21 +267,22 @@ Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera&
   return frame;
 }
 
-std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera,
-                                              const FrameSetup& frame, const RenderOptions& options,
-                                              RenderStats* stats) {
+namespace {
+
+Status preprocess_into(const format::GaussianCloud& cloud, const Camera& camera, const FrameSetup& frame,
+                       const RenderOptions& options, RenderStats* stats, std::vector<ProjectedGaussian>& out) {
   const uint64_t n = cloud.size();
   const RoofgsOptions& roofgs = options.roofgs;
   const int sh_degree = int(cloud.sh_degree);
   const uint64_t sh_stride = uint64_t(cloud.sh_coefficients()) * 3;
   const std::array<float, 3> centre = camera_centre(camera);
-  std::vector<ProjectedGaussian> out(n);
+  out.assign(n, ProjectedGaussian{});
   // Per-chunk culling counters, summed in chunk order afterwards (integer sums: order-independent anyway).
   const uint64_t chunks = (n + kGaussianChunk - 1) / kGaussianChunk;
   std::vector<uint64_t> culled_near(chunks, 0), culled_range(chunks, 0), culled_opacity(chunks, 0);
 
-  detail::parallel_chunks(n, kGaussianChunk, detail::resolve_thread_count(options.num_threads),
-                          [&](uint64_t begin, uint64_t end) {
+  Status work = detail::parallel_chunks(n, kGaussianChunk, detail::resolve_thread_count(options.num_threads),
+                                        [&](uint64_t begin, uint64_t end) {
     const uint64_t chunk = begin / kGaussianChunk;
     for (uint64_t i = begin; i < end; ++i) {
       ProjectedGaussian& g = out[i];
@@ -357,6 +358,7 @@ std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud
       g.tiles_touched = tiles;
     }
   });
+  RGS_RETURN_IF_ERROR(work);
 
   if (stats != nullptr) {
     stats->gaussians = n;
@@ -368,11 +370,41 @@ std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud
     stats->visible = 0;
     for (const ProjectedGaussian& g : out) stats->visible += g.tiles_touched > 0 ? 1 : 0;
   }
+  return Status();
+}
+
+}  // namespace
+
+Status preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera, const FrameSetup& frame,
+                      const RenderOptions& options, RenderStats* stats, std::vector<ProjectedGaussian>* out) {
+  RGS_RETURN_ERROR_IF(out == nullptr, StatusCode::kInvalidArgument, "render: null preprocess output");
+  try {
+    Status s = preprocess_into(cloud, camera, frame, options, stats, *out);
+    if (!s.ok()) {
+      *out = {};
+      return s.prepend("render: preprocess of " + std::to_string(cloud.size()) + " Gaussians");
+    }
+    return s;
+  } catch (const std::bad_alloc&) {
+    *out = {};
+    return Status(StatusCode::kOutOfMemory,
+                  "render: out of memory preprocessing " + std::to_string(cloud.size()) + " Gaussians");
+  }
+}
+
+std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera,
+                                              const FrameSetup& frame, const RenderOptions& options,
+                                              RenderStats* stats) {
+  std::vector<ProjectedGaussian> out;
+  const Status s = preprocess_cpu(cloud, camera, frame, options, stats, &out);
+  if (s.code() == StatusCode::kOutOfMemory) throw std::bad_alloc();
   return out;
 }
 
-Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
-                                  const RenderOptions& options) {
+namespace {
+
+Result<TileBins> bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
+                              const RenderOptions& options) {
   const uint64_t n = gaussians.size();
   const RoofgsOptions& roofgs = options.roofgs;
   const unsigned threads = detail::resolve_thread_count(options.num_threads);
@@ -407,7 +439,7 @@ Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussian
   }
 
   // Duplicate with keys (3DGS duplicateWithKeys): the t-th emitted Gaussian writes [offsets[t], offsets[t+1]).
-  detail::parallel_chunks(n, kGaussianChunk, threads, [&](uint64_t begin, uint64_t end) {
+  Status work = detail::parallel_chunks(n, kGaussianChunk, threads, [&](uint64_t begin, uint64_t end) {
     for (uint64_t t = begin; t < end; ++t) {
       const uint32_t i = order[t];
       const ProjectedGaussian& g = gaussians[i];
@@ -421,6 +453,7 @@ Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussian
       });
     }
   });
+  RGS_RETURN_IF_ERROR(work);
 
   // Stable sort by key: equal keys (same tile, same depth or depth bin) keep Gaussian index order, as CUB's
   // radix sort does in 3DGS.
@@ -438,17 +471,34 @@ Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussian
   return bins;
 }
 
-void blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
-               const RenderOptions& options, RenderResult* result) {
+}  // namespace
+
+Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
+                                  const RenderOptions& options) {
+  try {
+    return bin_and_sort(gaussians, frame, options);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory,
+                  "render: out of memory binning " + std::to_string(gaussians.size()) + " Gaussians into tiles");
+  }
+}
+
+Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
+                 const RenderOptions& options, RenderResult* result) {
   const size_t pixels = size_t(frame.width) * frame.height;
   result->width = frame.width;
   result->height = frame.height;
-  result->rgb.assign(pixels * 3, 0.f);
-  result->alpha.assign(pixels, 0.f);
-  result->depth.assign(pixels, 0.f);
+  try {
+    result->rgb.assign(pixels * 3, 0.f);
+    result->alpha.assign(pixels, 0.f);
+    result->depth.assign(pixels, 0.f);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "render: out of memory allocating a " + std::to_string(frame.width) +
+                                                "x" + std::to_string(frame.height) + " image");
+  }
   const bool folded = options.roofgs.folded_coefficients;
-  detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),
-                       [&](uint64_t row) {
+  Status work = detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),
+                                     [&](uint64_t row) {
     std::vector<TileGaussian> list;  // per worker, reused across the row's tiles
     const int ty = int(row);
     for (int tx = 0; tx < frame.tiles_x; ++tx) {
@@ -462,15 +512,18 @@ void blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& 
       }
     }
   });
+  return work.ok() ? work : work.prepend("render: blending");
 }
 
-Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
-                                const RenderOptions& options) {
+namespace {
+
+Result<RenderResult> render(const format::GaussianCloud& cloud, const Camera& camera, const RenderOptions& options) {
   RGS_ASSIGN_OR_RETURN(const FrameSetup frame, setup_frame(cloud, camera, options));
   RenderResult result;
-  const std::vector<ProjectedGaussian> gaussians = preprocess_cpu(cloud, camera, frame, options, &result.stats);
+  std::vector<ProjectedGaussian> gaussians;
+  RGS_RETURN_IF_ERROR(preprocess_cpu(cloud, camera, frame, options, &result.stats, &gaussians));
   RGS_ASSIGN_OR_RETURN(const TileBins bins, bin_and_sort_cpu(gaussians, frame, options));
-  blend_cpu(gaussians, bins, frame, options, &result);
+  RGS_RETURN_IF_ERROR(blend_cpu(gaussians, bins, frame, options, &result));
   RenderStats& s = result.stats;
   s.pairs = bins.values.size();
   s.tiles_x = frame.tiles_x;
@@ -480,6 +533,18 @@ Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera
   s.z_near = options.roofgs.key32 ? frame.quantizer.z_near : 0.f;
   s.z_far = options.roofgs.key32 && !frame.empty_depth_range ? frame.quantizer.z_far : 0.f;
   return result;
+}
+
+}  // namespace
+
+Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
+                                const RenderOptions& options) {
+  try {
+    return render(cloud, camera, options);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory,
+                  "render: out of memory rendering " + std::to_string(cloud.size()) + " Gaussians");
+  }
 }
 
 }  // namespace rgs::runtime

@@ -67,6 +67,13 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   RGS_RETURN_IF_ERROR(check_count(n, file.name()));
   const format::SceneMetadata& meta = file.metadata();
   const uint64_t k = format::sh_coefficient_count(meta.sh_degree);
+  // Checksums, zstd frames and the value rules of SPEC §4.3-4.7 first, in bounded host memory: the kernels
+  // never see a value the spec rules out (NaN means, zero quaternions, negative scales, opacity above 1),
+  // and a damaged frame fails before device memory is sized by what it claims.
+  for (format::SectionId id : {format::SectionId::kMeans, format::SectionId::kRotations, format::SectionId::kScales,
+                               format::SectionId::kOpacities, format::SectionId::kSh}) {
+    RGS_RETURN_IF_ERROR(file.verify_section(id));
+  }
 
   GpuScene scene;
   scene.count_ = uint32_t(n);

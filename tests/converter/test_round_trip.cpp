@@ -3,11 +3,13 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 
 #include "ply_test_util.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/ply_writer.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/format/half.h"
 #include "test_data.h"
 
 namespace rgs::test {
@@ -85,13 +87,31 @@ TEST_CASE("serialize_ply: exact INRIA header and layout") {
   CHECK(raw.get(0, "opacity") == 0.0f);
   CHECK(raw.get(1, "opacity") == static_cast<float>(std::log((1 - 1e-6) / 1e-6)));  // 13.8155
   CHECK(raw.get(0, "scale_1") == static_cast<float>(std::log(2.0)));
-  CHECK(std::isinf(raw.get(0, "scale_2")));  // log(0) = -inf, read back as scale 0
+  // A zero scale (linear FP16 underflow) is written as ln(2^-25), finite, not log(0) = -inf.
+  CHECK(raw.get(0, "scale_2") == converter::kZeroScaleLog);
+  CHECK(std::isfinite(raw.get(0, "scale_2")));
   CHECK(raw.get(1, "rot_3") == 0.5f);
-  CHECK(read_cloud_bytes(bytes).scales[2] == 0.0f);
+  const float restored = read_cloud_bytes(bytes).scales[2];
+  CHECK(restored == doctest::Approx(std::ldexp(1.0, -25)).epsilon(1e-6));
+  CHECK(format::float_to_half_bits(restored) == 0);  // linear FP16 makes it 0 again: stable round trip
+  converter::PlyWriteReport report;
+  REQUIRE(converter::serialize_ply(cloud, &report).ok());
+  CHECK(report.zero_scales == 1);
 
   auto broken = cloud;
   broken.opacities.pop_back();
   CHECK(converter::serialize_ply(broken).status().code() == StatusCode::kInvalidArgument);
+  // Nothing non-finite reaches a PLY.
+  for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), -1.0f}) {
+    auto with_bad = cloud;
+    with_bad.scales[4] = bad;
+    auto s = converter::serialize_ply(with_bad);
+    CHECK(s.status().code() == StatusCode::kInvalidArgument);
+    CHECK(s.status().message().find("Gaussian 1") != std::string::npos);
+  }
+  auto nan_mean = cloud;
+  nan_mean.means[0] = std::numeric_limits<float>::quiet_NaN();
+  CHECK(converter::serialize_ply(nan_mean).status().code() == StatusCode::kInvalidArgument);
 }
 
 TEST_CASE("serialize_ply: INRIA files re-serialize to the same header and the same raw means/SH") {

@@ -24,8 +24,14 @@ struct AttributeErrors {
   /// 4·atan2(|q1 − q2|, |q1 + q2|) with q2's sign chosen so q1·q2 >= 0 (q and −q are the same rotation);
   /// equal to 2·acos(|q1·q2|) but accurate for tiny angles.
   ErrorStats rotation_deg;
-  /// Relative scale error |s' − s| / s per axis (linear scales).
+  /// Relative scale error |s' − s| / s per axis (linear scales). Large for axes far thinner than the
+  /// Gaussian's others (FP16 subnormals and flushed zeros below 6.1e-5) without any visible effect: those
+  /// axes vanish under the renderers' 0.3 px² dilation. scale_of_largest_axis is the one to act on.
   ErrorStats scale_relative;
+  /// Scale error per axis relative to the Gaussian's largest axis, |s' − s| / max(s0, s1, s2) (0 when both
+  /// are 0): how much the footprint of the Gaussian changes, in units of its size, which is what a render
+  /// sees. A thin axis that FP16 flushes to 0 contributes its own (tiny) size here, not 100 %.
+  ErrorStats scale_of_largest_axis;
   /// Absolute error of activated opacity.
   ErrorStats opacity;
   /// Absolute error per SH coefficient, grouped by degree 0..3 (degrees above the cloud's are empty).

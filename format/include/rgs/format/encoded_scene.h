@@ -32,12 +32,14 @@ struct EncodedScene {
 
 /// Decodes the runtime profile into float32 Gaussians, the way both renderers see them: FP16 widened,
 /// scales exp'd when stored as log, SH = s[d][c] * q (paper Eq. quant). Rotations are returned as stored
-/// (not renormalized). Errors: kCorruptData when the arrays are inconsistent with count and degree.
+/// (not renormalized). Errors: kCorruptData when the arrays are inconsistent with count and degree,
+/// kOutOfMemory when the float arrays cannot be allocated.
 Result<GaussianCloud> dequantize(const EncodedScene& scene);
 
 /// Dequantizes Gaussians [first, first + count) of `scene` into `out` (resized to count, sh_degree set),
 /// as dequantize() does for the whole scene; lets callers bound memory by working in chunks.
-/// Errors: kCorruptData (inconsistent arrays), kInvalidArgument (range outside [0, scene.count)).
+/// Errors: kCorruptData (inconsistent arrays), kInvalidArgument (range outside [0, scene.count)),
+/// kOutOfMemory (`out` is then left empty).
 Status dequantize_range(const EncodedScene& scene, uint64_t first, uint64_t count, GaussianCloud* out);
 
 /// Degree d of SH coefficient index k (0 for k = 0, 1 for 1..3, 2 for 4..8, 3 for 9..15).

@@ -15,8 +15,12 @@
 
 namespace rgs::format {
 
-/// Bounds applied before any allocation sized by file content (STYLE.md §4). Exceeding one gives
-/// kLimitExceeded naming the value and the limit.
+/// File size below which max_decompression_ratio is applied to this many bytes instead (SPEC §5.5): any
+/// file may decode to max_decompression_ratio MiB, however small it is.
+inline constexpr uint64_t kDecompressionRatioMinBytes = uint64_t{1} << 20;
+
+/// Bounds applied before any allocation sized by file content (STYLE.md §4, SPEC §5.5). Exceeding one
+/// gives kLimitExceeded naming the value and the limit.
 struct ReadLimits {
   uint64_t max_gaussians = uint64_t{1} << 28;          ///< 268M
   uint64_t max_file_bytes = uint64_t{1} << 40;         ///< 1 TiB
@@ -24,6 +28,11 @@ struct ReadLimits {
   uint32_t max_sections = 64;
   uint32_t max_sh_degree = 3;
   uint64_t max_provenance_bytes = uint64_t{1} << 20;
+  /// The known sections (SPEC §3.2) may decode to at most this many bytes per byte of file, counting the
+  /// file as at least kDecompressionRatioMinBytes. A zstd frame may legally claim 32768 times its size;
+  /// this bound makes what a reader allocates follow what the file's bytes can hold (real scenes compress
+  /// less than 2x), so a file under 1 MiB never decodes to more than 8 MiB by default.
+  uint32_t max_decompression_ratio = 8;
 };
 
 struct ReadOptions {
@@ -94,7 +103,17 @@ class RgsFile {
   /// Decodes a section's raw bytes into `dst`, which must hold exactly raw_size bytes (e.g. a pinned
   /// upload buffer). Errors: kInvalidArgument (no section, wrong size), kChecksumMismatch, kCorruptData.
   Status decode_section(SectionId id, void* dst, size_t dst_size) const;
-  /// Decodes every runtime section into an EncodedScene (host memory).
+  /// Checks one section as validate() does, without allocating its raw size: the XXH64 of its stored bytes
+  /// (kChecksumMismatch), for a known codec the whole frame decoded in chunks of about 1 MiB (kCorruptData,
+  /// kChecksumMismatch for the zstd content checksum), and for runtime sections the value rules of SPEC
+  /// §4.3-4.7 (kCorruptData naming the Gaussian and the value). Errors name the file and the section;
+  /// kInvalidArgument when there is no such section. Loaders call it before allocating memory or device
+  /// memory for a section, so that memory follows what a frame really decodes to.
+  Status verify_section(SectionId id) const;
+  /// Decodes every runtime section into an EncodedScene (host memory). Each section is first checked
+  /// with verify_section() (checksums, frames, value rules), so a scene this returns holds only values
+  /// the renderers accept, and a damaged zstd frame fails before its raw size is allocated.
+  /// Errors: those of verify_section(), kOutOfMemory.
   Result<EncodedScene> read_scene() const;
 
  private:

@@ -124,7 +124,7 @@ struct RenderResult {
 /// Deterministic: the same inputs give the same bits for any num_threads.
 /// @return kInvalidArgument (inconsistent cloud, invalid camera, key32 without scene_bounds, fast exp σ not in
 /// [0, 1)), kLimitExceeded (more than 2^32 − 1 Gaussians, or a tile grid too large for a 32-bit key with at least
-/// 8 depth bits), kOutOfMemory (pair buffer allocation failed).
+/// 8 depth bits), kOutOfMemory (any allocation failed, on any worker thread).
 Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
                                 const RenderOptions& options = {});
 
@@ -139,8 +139,16 @@ Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera&
 /// than 8 depth bits left).
 Status setup_depth_key(const Camera& camera, const std::optional<format::SceneBounds>& bounds, FrameSetup* frame);
 
-/// Stage 1 (3DGS preprocessCUDA): one ProjectedGaussian per input Gaussian, in input order. Multithreaded
-/// over Gaussians; deterministic. `frame` comes from setup_frame() for the same inputs.
+/// Stage 1 (3DGS preprocessCUDA): one ProjectedGaussian per input Gaussian, in input order, into `*out`
+/// (resized to the cloud's size). Multithreaded over Gaussians; deterministic. `frame` comes from
+/// setup_frame() for the same inputs.
+/// @return kInvalidArgument (null `out`), kOutOfMemory (on any thread; `*out` is then empty).
+Status preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera, const FrameSetup& frame,
+                      const RenderOptions& options, RenderStats* stats, std::vector<ProjectedGaussian>* out);
+
+/// preprocess_cpu() returning the vector, for tests and callers that treat memory exhaustion as fatal:
+/// it throws std::bad_alloc when memory runs out, as a standard container would. render_cpu() and
+/// library code use the Status form.
 std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud, const Camera& camera,
                                               const FrameSetup& frame, const RenderOptions& options,
                                               RenderStats* stats);
@@ -149,13 +157,14 @@ std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud
 /// index order, or (depth, index) order with RoofgsOptions::depth_order (its tiles row-major, or in
 /// AccuTile's walk order), sorts them stably by key (equal keys keep
 /// Gaussian index order), and computes per-tile ranges.
-/// @return kOutOfMemory if the pair buffers cannot be allocated.
+/// @return kOutOfMemory if the pair buffers (or the per-thread work) cannot be allocated.
 Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
                                   const RenderOptions& options);
 
 /// Stage 5 (3DGS renderCUDA): blends every pixel front to back from its tile's sorted list. Multithreaded over
 /// tile rows; deterministic. Writes result->rgb/alpha/depth (resized to the frame).
-void blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
-               const RenderOptions& options, RenderResult* result);
+/// @return kOutOfMemory when the images or a thread's tile list cannot be allocated.
+Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
+                 const RenderOptions& options, RenderResult* result);
 
 }  // namespace rgs::runtime

@@ -35,9 +35,11 @@ struct GpuSceneOptions {
 /// there is no compact profile.
 class GpuScene {
  public:
-  /// Uploads the runtime profile of `file` on `stream` and waits for it. Errors: those of reading the
-  /// sections (kChecksumMismatch, kCorruptData; the file's name in the message), kLimitExceeded (≥ 2^31
-  /// Gaussians), kOutOfMemory / kCudaError from the device.
+  /// Uploads the runtime profile of `file` on `stream` and waits for it. Every runtime section is first
+  /// checked on the host with RgsFile::verify_section() (checksum, whole zstd frame in bounded memory, the
+  /// value rules of SPEC §4.3-4.7), before any device allocation. Errors: those of verify_section()
+  /// (kChecksumMismatch, kCorruptData naming the Gaussian; the file's name in the message), kLimitExceeded
+  /// (≥ 2^31 Gaussians), kOutOfMemory / kCudaError from the device.
   static Result<GpuScene> from_rgs(const format::RgsFile& file, cudaStream_t stream = nullptr);
 
   /// Same, keeping the FP32 arrays only when options.fp32_attributes (has_fp32()).

@@ -1,0 +1,118 @@
+# Memory follows what a file proves (format/SPEC.md §5.5), checked on the tools themselves.
+#
+# Included from tests/cli/CMakeLists.txt, this file registers the cases. Run with -P (one case), it finds
+# the tool's baseline address space (the smallest multiple of 16 MiB in which `TOOL --help` runs: shared
+# libraries such as OpenImageIO's take hundreds of MiB of it), then runs `prlimit --as=<baseline + 64 MiB>
+# TOOL ARGS...` and checks the exit code and output. So a pass means: the tool allocated less than 64 MiB
+# beyond its baseline, or reported the failed allocation as kOutOfMemory with exit 1 (never SIGABRT).
+#   TOOL, ARGS ('|'-separated), EXPECT_EXIT, EXPECT_REGEX, PRLIMIT, HEADROOM_MIB (default 64)
+if(CMAKE_SCRIPT_MODE_FILE)
+  if(NOT HEADROOM_MIB)
+    set(HEADROOM_MIB 64)
+  endif()
+  set(baseline 0)
+  foreach(mib RANGE 16 4096 16)
+    math(EXPR bytes "${mib} * 1048576")
+    execute_process(COMMAND ${PRLIMIT} --as=${bytes} ${TOOL} --help RESULT_VARIABLE rc OUTPUT_QUIET ERROR_QUIET)
+    if(rc EQUAL 0)
+      set(baseline ${mib})
+      break()
+    endif()
+  endforeach()
+  if(baseline EQUAL 0)
+    message(FATAL_ERROR "${TOOL} --help does not run in 4 GiB of address space")
+  endif()
+  math(EXPR limit "${baseline} + ${HEADROOM_MIB}")
+  math(EXPR limit_bytes "${limit} * 1048576")
+  string(REPLACE "|" ";" args "${ARGS}")
+  execute_process(COMMAND ${PRLIMIT} --as=${limit_bytes} ${TOOL} ${args}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  message("address space ${limit} MiB (baseline ${baseline} + ${HEADROOM_MIB})\n"
+          "exit ${rc}\n--- stdout\n${out}--- stderr\n${err}")
+  if(NOT "${rc}" STREQUAL "${EXPECT_EXIT}")
+    message(FATAL_ERROR "expected exit ${EXPECT_EXIT}, got ${rc}")
+  endif()
+  if(EXPECT_REGEX AND NOT "${out}${err}" MATCHES "${EXPECT_REGEX}")
+    message(FATAL_ERROR "output does not match '${EXPECT_REGEX}'")
+  endif()
+  return()
+endif()
+
+# Files built by tests/format/memory_corpus.h (test_format checks they are up to date):
+#   rle:   65 KB, valid, 2^26 Gaussians in zstd RLE frames (32768:1), 2 GB decoded
+#   bogus: 254 KB, 2^28 Gaussians, every runtime frame fails after its first 128 KiB block
+set(memory_rle ${bad}/memory/zstd_rle_2p26_gaussians.rgs)
+set(memory_bogus ${bad}/memory/zstd_bogus_frames_2p28_gaussians.rgs)
+find_program(RGS_PRLIMIT prlimit)
+
+# rgs_memory_case(<name> TOOL <exe> ARGS <a|b> EXIT <n> REGEX <re>)
+function(rgs_memory_case name)
+  cmake_parse_arguments(ARG "" "TOOL;ARGS;EXIT;REGEX" "" ${ARGN})
+  add_test(NAME cli.memory.${name}
+    COMMAND ${CMAKE_COMMAND} -DTOOL=${ARG_TOOL} "-DARGS=${ARG_ARGS}" -DEXPECT_EXIT=${ARG_EXIT}
+            "-DEXPECT_REGEX=${ARG_REGEX}" -DPRLIMIT=${RGS_PRLIMIT} -P ${CMAKE_CURRENT_LIST_DIR}/memory_limits.cmake)
+  set_tests_properties(cli.memory.${name} PROPERTIES LABELS "cli;memory" TIMEOUT 300)
+endfunction()
+
+if(NOT RGS_PRLIMIT)
+  message(STATUS "prlimit not found: the cli.memory.* address-space tests are not registered")
+else()
+  set(ratio_limit "decompression-ratio limit of 8 x 1048576 bytes.*\\[kLimitExceeded\\]")
+  set(raise "--max-decompression-ratio|32768")
+  # Default limits: every tool refuses the 65 KB file before allocating anything sized by it.
+  rgs_memory_case(convert_rle TOOL ${convert} ARGS "${memory_rle}|${cli_dir}/memory_rle.ply" EXIT 1
+    REGEX "rgs-convert: error: .*zstd_rle_2p26_gaussians.rgs: .*${ratio_limit}")
+  rgs_memory_case(info_rle TOOL ${info} ARGS "--check|${memory_rle}" EXIT 1 REGEX "rgs-info: error: .*${ratio_limit}")
+  rgs_memory_case(render_rle TOOL ${render}
+    ARGS "${memory_rle}|--backend|cpu|--orbit|1|--width|64|--height|36|-o|${cli_dir}/memory_render" EXIT 1
+    REGEX "rgs-render: error: .*${ratio_limit}")
+  rgs_memory_case(audit_rle TOOL ${audit} ARGS "${sample}|${memory_rle}|--orbit|1|--width|64|--height|36" EXIT 1
+    REGEX "rgs-audit: error: .*${ratio_limit}")
+  # Limit raised to zstd's own 32768:1: --check streams the valid file in bounded memory; the tools that
+  # need it decoded report the failed allocation as kOutOfMemory, exit 1.
+  rgs_memory_case(info_rle_raised TOOL ${info} ARGS "--check|${raise}|${memory_rle}" EXIT 0 REGEX "check +ok")
+  rgs_memory_case(convert_rle_raised TOOL ${convert} ARGS "${raise}|${memory_rle}|${cli_dir}/memory_rle.ply" EXIT 1
+    REGEX "rgs-convert: error: .*zstd_rle_2p26_gaussians.rgs.*\\[kOutOfMemory\\]")
+  rgs_memory_case(render_rle_raised TOOL ${render}
+    ARGS "${memory_rle}|${raise}|--backend|cpu|--orbit|1|--width|64|--height|36|-o|${cli_dir}/memory_render" EXIT 1
+    REGEX "rgs-render: error: .*\\[kOutOfMemory\\]")
+  rgs_memory_case(audit_rle_raised TOOL ${audit}
+    ARGS "${sample}|${memory_rle}|${raise}|--orbit|1|--width|64|--height|36" EXIT 1
+    REGEX "rgs-audit: error: .*\\[kOutOfMemory\\]")
+  # A few more Gaussians than the ratio limit allows, but --max-gaussians below the count: refused by it.
+  rgs_memory_case(info_rle_max_gaussians TOOL ${info} ARGS "--check|${raise}|--max-gaussians|1000000|${memory_rle}"
+    EXIT 1 REGEX "67108864 Gaussians exceed the limit of 1000000 \\[kLimitExceeded\\]")
+  # Bogus frames claiming 2^28 Gaussians (8 GB): corrupt, found while streaming, with either limit.
+  foreach(limits IN ITEMS default raised)
+    if(limits STREQUAL "raised")
+      set(extra "${raise}|")
+      set(expect "section 1 \\(means\\).*\\[kCorruptData\\]")
+    else()
+      set(extra "")
+      set(expect "${ratio_limit}")
+    endif()
+    rgs_memory_case(convert_bogus_${limits} TOOL ${convert} ARGS "${extra}${memory_bogus}|${cli_dir}/memory_bogus.ply"
+      EXIT 1 REGEX "rgs-convert: error: .*zstd_bogus_frames_2p28_gaussians.rgs: .*${expect}")
+    rgs_memory_case(info_bogus_${limits} TOOL ${info} ARGS "--check|${extra}${memory_bogus}" EXIT 1
+      REGEX "rgs-info: error: .*${expect}")
+    rgs_memory_case(render_bogus_${limits} TOOL ${render}
+      ARGS "${extra}${memory_bogus}|--backend|cpu|--orbit|1|--width|64|--height|36|-o|${cli_dir}/memory_render"
+      EXIT 1 REGEX "rgs-render: error: .*${expect}")
+  endforeach()
+endif()
+
+# --max-gaussians below a real scene's count.
+rgs_cli_case(memory_max_gaussians
+  CMD "${render}|--max-gaussians|1000|${cli_dir}/guitar.rgs|--orbit|1|-o|${cli_dir}/memory_max"
+  EXIT 1 REGEX "guitar.rgs: 90854 Gaussians exceed the limit of 1000 \\[kLimitExceeded\\]" REQUIRES guitar_rgs)
+rgs_cli_case(memory_max_gaussians_help CMD "${info}|--help" REGEX "--max-gaussians.*--max-decompression-ratio")
+
+# Every loading path applies the value rules of SPEC §4.3-4.6: the CPU render and the audit refuse files
+# whose checksums are valid but whose values are not (as rgs-convert and rgs-info --check do above).
+foreach(name IN ITEMS nan_mean zero_rotation negative_linear_scale opacity_above_one)
+  rgs_cli_case(values_render_${name}
+    CMD "${render}|${bad}/${name}.rgs|--backend|cpu|--orbit|1|--width|64|--height|36|-o|${cli_dir}/values_${name}"
+    EXIT 1 REGEX "rgs-render: error: .*${name}.rgs: section [0-9]+ \\([a-z]+\\): Gaussian [0-9]+: .*\\[kCorruptData\\]")
+  rgs_cli_case(values_audit_${name} CMD "${audit}|${sample}|${bad}/${name}.rgs|--orbit|1|--width|64|--height|36"
+    EXIT 1 REGEX "rgs-audit: error: .*${name}.rgs: section [0-9]+ \\([a-z]+\\): Gaussian [0-9]+: .*\\[kCorruptData\\]")
+endforeach()
