@@ -19,10 +19,20 @@ add_library(rgs_xxhash INTERFACE)
 target_include_directories(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_INCLUDE_DIR}>")
 target_link_libraries(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_LIBRARY}>")
 
+# nlohmann-json (header only): the converter reads SOG meta.json / lod-meta.json; the tools write JSON.
+find_package(nlohmann_json CONFIG REQUIRED)
 if(RGS_BUILD_TOOLS)
   find_package(CLI11 CONFIG REQUIRED)
-  find_package(nlohmann_json CONFIG REQUIRED)
 endif()
+
+# libwebp decodes the SOG images and zlib inflates deflated entries of bundled .sog archives (Debian
+# libwebp-dev, zlib1g-dev). Both are linked from their static archives when those exist, so binaries
+# that run on the GPU host need no shared libraries beyond libc/libstdc++; installed consumers link them
+# by name.
+find_path(RGS_WEBP_INCLUDE_DIR webp/decode.h REQUIRED)
+find_library(RGS_WEBP_LIBRARY NAMES libwebp.a webp REQUIRED)
+find_path(RGS_ZLIB_INCLUDE_DIR zlib.h REQUIRED)
+find_library(RGS_ZLIB_LIBRARY NAMES libz.a z REQUIRED)
 find_package(Threads REQUIRED)
 
 if(RGS_BUILD_TESTS)

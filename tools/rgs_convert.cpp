@@ -14,6 +14,7 @@
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/ply_writer.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
@@ -45,6 +47,7 @@ struct Options {
   bool sanitize = false;
   bool quiet = false;
   std::string json_path;
+  std::optional<uint32_t> lod;
 };
 
 /// Sections a user may name in --zstd.
@@ -88,11 +91,12 @@ int convert_ply_to_rgs(const Options& opt) {
   auto write_options = make_write_options(opt);
   if (!write_options.ok()) return tools::report_error(kTool, write_options.status());
 
-  converter::PlyReadOptions read_options;
+  converter::SceneReadOptions read_options;
   read_options.invalid_policy =
       opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
   read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
-  auto ply = converter::read_ply(opt.input, read_options);
+  read_options.lod = opt.lod;
+  auto ply = converter::read_scene(opt.input, read_options);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
   const double t_read = tools::seconds_since(t_start);
 
@@ -172,8 +176,8 @@ int convert_ply_to_rgs(const Options& opt) {
   if (opt.quiet) return tools::kExitOk;
 
   std::printf("%s %s -> %s\n", kTool, opt.input.c_str(), opt.output.c_str());
-  std::printf("  gaussians        %s (SH degree %u, %s PLY)\n", tools::group_digits(n).c_str(), degree,
-              ply->storage_format.c_str());
+  std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(n).c_str(), degree,
+              ply->description.c_str());
   std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(ply->file_bytes).c_str(),
               tools::fixed(in_bytes * per_gaussian, 1).c_str());
   std::printf("  output           %s bytes  (%s B/Gaussian), ratio %sx\n",
@@ -257,7 +261,10 @@ int main(int argc, char** argv) {
                "degree and channel, FP16 rotation/scale/opacity, FP32 means), or a .rgs back into a standard "
                "INRIA PLY. The direction follows the input's content; the output must end in .rgs or .ply.",
                kTool};
-  app.add_option("input", opt.input, "Input .ply (INRIA 3DGS) or .rgs file")->required();
+  app.add_option("input", opt.input,
+                 "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "
+                 "compressed PLY, SOG meta.json/.sog/folder, streamed SOG lod-meta.json)")
+      ->required();
   app.add_option("output", opt.output, "Output .rgs or .ply file (replaced atomically on success only)")
       ->required();
   app.add_option("--scale-encoding", opt.scale_encoding,
@@ -280,6 +287,8 @@ int main(int argc, char** argv) {
                "Drop Gaussians with NaN/Inf values or zero-norm quaternions instead of failing "
                "(docs/INPUT_HYGIENE.md)");
   app.add_option("--json", opt.json_path, "Also write the summary as JSON to this file (PLY -> .rgs only)");
+  app.add_option("--lod", opt.lod, "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest "
+                                  "(default)");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
