@@ -223,6 +223,49 @@ TEST_CASE("SOG: bundled (stored and deflated), folder and streamed forms decode 
   }
 }
 
+TEST_CASE("SOG: SH palettes (shN) expand channel-major f_rest into [N, K, 3]") {
+  // guitar_crop_sh3 = guitar_crop + a synthetic 3-band palette (make_sog_sh_fixture.cpp states the rule).
+  // splat-transform 3.7.0 decodes it to the same values (checked once when the fixture was made).
+  const InputScene plain = read_ok(sog_data("guitar_crop"));
+  const InputScene scene = read_ok(sog_data("guitar_crop_sh3"));
+  const format::GaussianCloud& cloud = scene.cloud;
+  REQUIRE(cloud.size() == 877);
+  REQUIRE(cloud.sh_degree == 3);
+  CHECK(cloud.means == plain.cloud.means);
+  CHECK(cloud.rotations == plain.cloud.rotations);
+  CHECK(cloud.opacities == plain.cloud.opacities);
+  uint64_t wrong = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const size_t label = (i * 37) % 100;
+    for (size_t c = 0; c < 3; ++c) {
+      wrong += cloud.sh[(i * 16) * 3 + c] != plain.cloud.sh[i * 3 + c];
+      for (size_t j = 0; j < 15; ++j) {
+        const size_t code = (31 * label + 7 * j + 101 * c) % 256;
+        wrong += cloud.sh[(i * 16 + j + 1) * 3 + c] != static_cast<float>((double(code) - 127.5) / 64);
+      }
+    }
+  }
+  CHECK(wrong == 0);
+  // A palette larger than the centroids image holds, and a label past the palette, are corrupt.
+  SogFolderCopy copy;
+  for (const char* f : {"shN_centroids.webp", "shN_labels.webp"}) {
+    fs::copy_file(sog_data(std::string("guitar_crop_sh3/") + f), copy.dir.file(f));
+  }
+  const std::string meta = read_text(sog_data("guitar_crop_sh3/meta.json"));
+  write_text(copy.meta, replace_once(meta, "\"count\":100,", "\"count\":129,"));
+  Status s = read_status(copy.meta);
+  CHECK(s.code() == StatusCode::kCorruptData);
+  CHECK_MESSAGE(s.message().find("129 palette entries need 3") != std::string::npos, s.to_string());
+  write_text(copy.meta, replace_once(meta, "\"count\":100,", "\"count\":50,"));
+  s = read_status(copy.meta);
+  CHECK(s.code() == StatusCode::kCorruptData);
+  CHECK_MESSAGE(s.message().find("but the palette has 50 entries") != std::string::npos, s.to_string());
+  write_text(copy.meta, replace_once(meta, "\"bands\":3,", "\"bands\":2,"));
+  s = read_status(copy.meta);
+  CHECK(s.code() == StatusCode::kCorruptData);
+  CHECK_MESSAGE(s.message().find("2 SH bands need 512") != std::string::npos, s.to_string());
+}
+
 TEST_CASE("SOG: file hashes are deterministic and cover every file read") {
   SceneReadOptions options;
   options.hash_file = true;

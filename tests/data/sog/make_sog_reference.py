@@ -15,6 +15,11 @@ Reference decodes come from PlayCanvas splat-transform 3.7.0, run once by hand (
     # taebak (not shipped: only a sample of its decoded values is kept, see below)
     $ST -w $RGS_DATA_DIR/taebak_lod0_sog/lod-meta.json -L 0 /tmp/taebak_ref.ply
 
+guitar_crop_sh3/ adds a synthetic 3-band SH palette to guitar_crop/ (make_sog_sh_fixture.cpp, whose header
+says how to build and run it); `$ST -w tests/data/sog/guitar_crop_sh3/meta.json /tmp/sh3.ply` decodes it to the
+values the test derives from the fixture's rule (checked when it was made: SH, means, scales and opacities
+identical, rotations within 6e-8).
+
 The streamed (1 level) output's chunk 0_0 is byte-identical to guitar_crop/, so only its lod-meta.json is
 kept, as guitar_crop_lod-meta.json with `filenames` pointing at guitar_crop/meta.json.
 
