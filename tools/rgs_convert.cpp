@@ -328,5 +328,10 @@ int main(int argc, char** argv) {
   }
   // Neither signature: let the reader the extension asks for explain what is wrong with the file.
   if (rgs::tools::extension_of(opt.input) == ".rgs") return convert_rgs_to_ply(opt);
+  if (out_ext != ".rgs") {  // other scene formats (SOG, ...) convert to .rgs too
+    return rgs::tools::report_error(kTool, rgs::Status(rgs::StatusCode::kInvalidArgument,
+                                                       opt.input + ": scenes convert to .rgs; name the output "
+                                                                   "*.rgs (not " + opt.output + ")"));
+  }
   return convert_ply_to_rgs(opt);
 }

@@ -31,17 +31,18 @@ Status open_regular(const std::string& path, int* fd, uint64_t* size) {
   return Status();
 }
 
-Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n) {
+Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0) {
   size_t done = 0;
   while (done < n) {
-    const ssize_t got = ::pread(fd, dst + done, n - done, static_cast<off_t>(done));
+    const ssize_t got = ::pread(fd, dst + done, n - done, static_cast<off_t>(offset + done));
     if (got < 0) {
       if (errno == EINTR) continue;
       return Status(StatusCode::kIoError, path + ": read failed: " + errno_message(errno));
     }
     if (got == 0) {
-      return Status(StatusCode::kIoError, path + ": file ends at byte " + std::to_string(done) + ", expected " +
-                                              std::to_string(n) + " (file changed while reading?)");
+      return Status(StatusCode::kIoError, path + ": file ends at byte " + std::to_string(offset + done) +
+                                              ", expected " + std::to_string(offset + n) +
+                                              " (file changed while reading?)");
     }
     done += static_cast<size_t>(got);
   }
@@ -83,6 +84,22 @@ Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uin
   RGS_RETURN_IF_ERROR(open_regular(path, &fd, file_size));
   out->resize(static_cast<size_t>(std::min<uint64_t>(*file_size, max_bytes)));
   Status s = read_exact(fd, path, out->data(), out->size());
+  ::close(fd);
+  return s;
+}
+
+Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std::vector<uint8_t>* out) {
+  int fd = -1;
+  uint64_t size = 0;
+  RGS_RETURN_IF_ERROR(open_regular(path, &fd, &size));
+  Status s;
+  if (offset > size || n > size - offset) {
+    s = Status(StatusCode::kIoError, path + ": bytes [" + std::to_string(offset) + ", " + std::to_string(offset + n) +
+                                         ") lie past the end of the " + std::to_string(size) + "-byte file");
+  } else {
+    out->resize(static_cast<size_t>(n));
+    s = read_exact(fd, path, out->data(), out->size(), offset);
+  }
   ::close(fd);
   return s;
 }

@@ -18,6 +18,10 @@ Status read_whole_file(const std::string& path, uint64_t max_bytes, std::vector<
 /// Errors as read_whole_file (kIoError only).
 Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uint8_t>* out, uint64_t* file_size);
 
+/// Reads bytes [offset, offset + n) of `path` into `out`. Errors as read_whole_file (kIoError when the file
+/// is shorter).
+Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std::vector<uint8_t>* out);
+
 /// Text of errno values used in messages ("no such file or directory", ...).
 std::string errno_message(int err);
 

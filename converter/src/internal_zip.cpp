@@ -33,11 +33,13 @@ bool has_zip_magic(const uint8_t* data, size_t size) {
   return sig == kLocalHeaderSignature || sig == kEndSignature;
 }
 
-Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std::string& name) {
+Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std::string& name,
+                                     uint64_t base_offset) {
   ZipArchive zip;
   zip.data_ = data;
   zip.size_ = size;
   zip.name_ = name;
+  zip.base_offset_ = base_offset;
   if (size < kEndRecordBytes) {
     return Status(StatusCode::kCorruptData,
                   name + ": ZIP archive of " + std::to_string(size) + " bytes is too short for an end record");
@@ -64,12 +66,16 @@ Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std
   if (disk != 0 || cd_disk != 0 || disk_entries != entries) {
     return Status(StatusCode::kUnsupportedFeature, name + ": multi-disk ZIP archives are not supported");
   }
-  if (uint64_t{cd_offset} + cd_size > end) {
+  if (cd_offset < base_offset) {
+    return Status(StatusCode::kCorruptData, name + ": ZIP central directory starts at " + std::to_string(cd_offset) +
+                                                ", before the " + std::to_string(size) + " bytes read");
+  }
+  if (uint64_t{cd_offset} + cd_size > base_offset + end) {
     return Status(StatusCode::kCorruptData, name + ": ZIP central directory [" + std::to_string(cd_offset) + ", " +
                                                 std::to_string(uint64_t{cd_offset} + cd_size) +
                                                 ") overlaps the end record at " + std::to_string(end));
   }
-  const uint8_t* p = data + cd_offset;
+  const uint8_t* p = data + (cd_offset - base_offset);
   const uint8_t* cd_end = p + cd_size;
   zip.entries_.reserve(entries);
   for (uint32_t i = 0; i < entries; ++i) {
@@ -119,6 +125,9 @@ const ZipEntry* ZipArchive::find(const std::string& name) const {
 
 Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vector<uint8_t>* out) const {
   const std::string where = name_ + ": ZIP entry '" + entry.name + "'";
+  if (base_offset_ != 0) {
+    return Status(StatusCode::kInvalidArgument, where + ": the archive was parsed from its tail only");
+  }
   if (entry.uncompressed_size > max_bytes) {
     return Status(StatusCode::kLimitExceeded, where + " is " + std::to_string(entry.uncompressed_size) +
                                                   " bytes, above the limit of " + std::to_string(max_bytes));

@@ -27,7 +27,10 @@ class ZipArchive {
   /// Parses the end-of-central-directory record and the central directory, checking every offset and size
   /// against `size`. Errors name `name`: kCorruptData (no or malformed directory, offsets outside the
   /// archive), kUnsupportedFeature (ZIP64, multi-disk, encrypted entries).
-  static Result<ZipArchive> parse(const uint8_t* data, size_t size, const std::string& name);
+  /// `data` may also be only the end of the file, from byte `base_offset` on (detection reads a tail): the
+  /// entries are then listed, but extract() needs the whole file (base_offset 0).
+  static Result<ZipArchive> parse(const uint8_t* data, size_t size, const std::string& name,
+                                  uint64_t base_offset = 0);
 
   const std::vector<ZipEntry>& entries() const { return entries_; }
   /// The entry named exactly `name`, or null.
@@ -41,6 +44,7 @@ class ZipArchive {
  private:
   const uint8_t* data_ = nullptr;
   size_t size_ = 0;
+  uint64_t base_offset_ = 0;
   std::string name_;
   std::vector<ZipEntry> entries_;
 };

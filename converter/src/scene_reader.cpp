@@ -26,6 +26,8 @@ using nlohmann::json;
 
 /// Bytes read for detection (a PLY header longer than this is still detected as PLY by its first line).
 constexpr size_t kHeadBytes = 64 * 1024;
+/// Bytes read from the end of a ZIP archive to list its entries (end record, comment, central directory).
+constexpr uint64_t kZipTailBytes = 1024 * 1024;
 /// JSON files larger than this are not parsed for detection.
 constexpr uint64_t kMaxDetectJsonBytes = uint64_t{64} << 20;
 
@@ -35,6 +37,10 @@ struct Probe {
   std::string path;
   std::vector<uint8_t> head;  ///< the first kHeadBytes bytes (fewer for a shorter file)
   uint64_t size = 0;
+  /// For a ZIP archive: the names of its entries (read from the central directory at its end), and why they
+  /// could not be listed.
+  std::vector<std::string> zip_entries;
+  std::string zip_error;
   /// The whole file parsed as JSON, when it starts like a JSON object and parses.
   std::optional<json> json_root;
   std::string json_error;  ///< parse error when it starts like JSON but does not parse
@@ -72,7 +78,13 @@ bool detect_compressed_ply(const Probe& p) {
 /// Any other PLY goes to read_ply, which explains what is wrong with it if it is not a 3DGS scene.
 bool detect_ply(const Probe& p) { return detail::starts_with_ply_magic(p.head.data(), p.head.size()); }
 
-bool detect_sog_bundle(const Probe& p) { return detail::has_zip_magic(p.head.data(), p.head.size()); }
+/// A ZIP archive with meta.json at its top level. One whose directory cannot be read goes to the bundle
+/// reader too, which names the damage (a truncated .sog should say so, not "unsupported format").
+bool detect_sog_bundle(const Probe& p) {
+  if (!detail::has_zip_magic(p.head.data(), p.head.size())) return false;
+  return !p.zip_error.empty() ||
+         std::find(p.zip_entries.begin(), p.zip_entries.end(), "meta.json") != p.zip_entries.end();
+}
 
 bool json_has(const Probe& p, std::initializer_list<const char*> keys) {
   if (!p.json_root || !p.json_root->is_object()) return false;
@@ -157,6 +169,17 @@ std::string describe_unknown(const Probe& p) {
   if (head_starts_with(p, "glTF")) return "a binary glTF (.glb)";
   if (head_starts_with(p, "RIFF") && head_starts_with(p, "WEBP", 8)) return "a WebP image";
   if (head_starts_with(p, "\x89PNG")) return "a PNG image";
+  if (detail::has_zip_magic(p.head.data(), p.head.size())) {
+    std::string names;
+    bool npy = !p.zip_entries.empty();
+    for (size_t i = 0; i < p.zip_entries.size(); ++i) {
+      const std::string& e = p.zip_entries[i];
+      npy = npy && e.size() > 4 && e.compare(e.size() - 4, 4, ".npy") == 0;
+      if (i < 6) names += (i ? ", " : "") + e;
+    }
+    if (p.zip_entries.size() > 6) names += ", ...";
+    return std::string(npy ? "a NumPy .npz archive" : "a ZIP archive") + " without meta.json (entries: " + names + ")";
+  }
   if (!p.json_error.empty()) return "a file that starts like JSON but does not parse (" + p.json_error + ")";
   if (p.json_root) {
     if (!p.json_root->is_object()) return std::string("a JSON ") + p.json_root->type_name();
@@ -194,6 +217,18 @@ Status make_probe(const std::string& path, Probe* probe) {
     }
   }
   RGS_RETURN_IF_ERROR(detail::read_file_head(probe->path, kHeadBytes, &probe->head, &probe->size));
+  if (detail::has_zip_magic(probe->head.data(), probe->head.size())) {
+    // The central directory is at the end: read the tail (the whole file when it is small).
+    std::vector<uint8_t> tail;
+    const uint64_t tail_offset = probe->size > kZipTailBytes ? probe->size - kZipTailBytes : 0;
+    RGS_RETURN_IF_ERROR(detail::read_file_range(probe->path, tail_offset, probe->size - tail_offset, &tail));
+    auto zip = detail::ZipArchive::parse(tail.data(), tail.size(), probe->path, tail_offset);
+    if (zip.ok()) {
+      for (const detail::ZipEntry& e : zip->entries()) probe->zip_entries.push_back(e.name);
+    } else {
+      probe->zip_error = zip.status().message();
+    }
+  }
   // JSON: an object, possibly after a UTF-8 byte order mark and whitespace.
   size_t i = 0;
   if (probe->head.size() >= 3 && probe->head[0] == 0xef && probe->head[1] == 0xbb && probe->head[2] == 0xbf) i = 3;

@@ -861,7 +861,10 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
               [](const LodReference& a, const LodReference& b) { return a.offset < b.offset; });
     const std::string meta_path = (dir / names[file]).string();
     std::vector<uint8_t> meta_bytes;
-    RGS_RETURN_IF_ERROR(detail::read_whole_file(meta_path, kMaxMetaBytes, &meta_bytes));
+    Status read = detail::read_whole_file(meta_path, kMaxMetaBytes, &meta_bytes);
+    if (!read.ok()) {
+      return std::move(read.prepend(path + ": LOD " + std::to_string(lod) + " chunk '" + names[file] + "'"));
+    }
     if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
     scene.file_bytes += meta_bytes.size();
     ++scene.file_count;

@@ -184,6 +184,20 @@ TEST_CASE("read_scene names what an unsupported input looks like and lists the s
     CHECK_MESSAGE(s.message().find("; supported: ") != std::string::npos, s.message());
     CHECK_MESSAGE(s.message().find("PlayCanvas streamed SOG") != std::string::npos, s.message());
   }
+  {
+    // A ZIP archive without meta.json: guitar_crop.sog with that entry renamed (its name appears twice).
+    auto zip = load_bytes(sog_data("guitar_crop.sog"));
+    std::string text(zip.begin(), zip.end());
+    for (size_t at = text.find("meta.json"); at != std::string::npos; at = text.find("meta.json", at + 1)) {
+      zip[at + 2] = 'x';
+    }
+    write_bytes(tmp.file("archive.sog"), zip);
+    const Status s = read_status(tmp.file("archive.sog"));
+    CHECK(s.code() == StatusCode::kInvalidArgument);
+    CHECK_MESSAGE(s.message().find("a ZIP archive without meta.json (entries: means_l.webp, means_u.webp") !=
+                      std::string::npos,
+                  s.message());
+  }
   fs::create_directories(tmp.path / "empty_dir");
   const Status dir = read_status((tmp.path / "empty_dir").string());
   CHECK(dir.code() == StatusCode::kInvalidArgument);
@@ -412,7 +426,7 @@ TEST_CASE("streamed SOG: taebak LOD 0 (4,249,286 Gaussians) against a sample of 
   lod1.lod = 1;  // referenced, but this copy holds LOD 0 only: the missing chunk is named
   const Status missing = read_status(path, lod1);
   CHECK(missing.code() == StatusCode::kIoError);
-  CHECK(missing.message().find("1_0/meta.json") != std::string::npos);
+  CHECK_MESSAGE(missing.message().find("LOD 1 chunk '1_0/meta.json'") != std::string::npos, missing.message());
   SceneReadOptions lod9;
   lod9.lod = 9;
   const Status beyond = read_status(path, lod9);
