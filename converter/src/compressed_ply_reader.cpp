@@ -49,10 +49,12 @@ Status property_offset(const ElementData& e, const std::string& name, PlyType ty
   for (const PlyProperty& p : e.element->properties) {
     if (p.name == name) {
       if (!p.known_type || p.is_list || p.type != type) {
-        return Status(StatusCode::kUnsupportedFeature,
-                      "PLY header line " + std::to_string(p.header_line) + ": property '" + name + "' of element '" +
-                          e.element->name + "' is '" + p.type_name + "'; compressed PLY stores it as " +
-                          (type == PlyType::kFloat32 ? "float" : type == PlyType::kUint32 ? "uint" : "uchar"));
+        return Status(StatusCode::kUnsupportedFeature, "PLY header line " + std::to_string(p.header_line) +
+                                                           ": property '" + name + "' of element '" + e.element->name +
+                                                           "' is '" + p.type_name + "'; compressed PLY stores it as " +
+                                                           (type == PlyType::kFloat32  ? "float"
+                                                            : type == PlyType::kUint32 ? "uint"
+                                                                                       : "uchar"));
       }
       *offset = at;
       return Status();
@@ -112,16 +114,16 @@ Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& op
       if (!p.is_list && p.known_type) stride += detail::ply_type_size(p.type);
     }
     if (needed && first_list != nullptr) {
-      return Status(StatusCode::kUnsupportedFeature,
-                    "PLY header line " + std::to_string(first_list->header_line) + ": property '" + first_list->name +
-                        "' is a list or of unknown type, so element '" + element.name +
-                        "' cannot be located; compressed PLY elements are scalar");
+      return Status(StatusCode::kUnsupportedFeature, "PLY header line " + std::to_string(first_list->header_line) +
+                                                         ": property '" + first_list->name +
+                                                         "' is a list or of unknown type, so element '" + element.name +
+                                                         "' cannot be located; compressed PLY elements are scalar");
     }
     if (first_list != nullptr) continue;  // not needed, and nothing after it can be located
     if (needed && ((element.name == "chunk" && chunk.element) || (element.name == "vertex" && vertex.element) ||
                    (element.name == "sh" && sh.element))) {
-      return Status(StatusCode::kCorruptData,
-                    "PLY header line " + std::to_string(element.header_line) + ": second '" + element.name + "' element");
+      return Status(StatusCode::kCorruptData, "PLY header line " + std::to_string(element.header_line) + ": second '" +
+                                                  element.name + "' element");
     }
     if (element.name == "vertex" && element.count > options.max_gaussians) {
       return Status(StatusCode::kLimitExceeded, "PLY declares " + std::to_string(element.count) +
@@ -171,17 +173,25 @@ Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& op
     size_t rest_count = 0;
     for (const PlyProperty& p : sh.element->properties) rest_count += p.name.rfind("f_rest_", 0) == 0;
     switch (rest_count) {
-      case 0: degree = 0; break;
-      case 9: degree = 1; break;
-      case 24: degree = 2; break;
-      case 45: degree = 3; break;
+      case 0:
+        degree = 0;
+        break;
+      case 9:
+        degree = 1;
+        break;
+      case 24:
+        degree = 2;
+        break;
+      case 45:
+        degree = 3;
+        break;
       default:
-        return Status(StatusCode::kUnsupportedFeature, "element 'sh' has " + std::to_string(rest_count) +
-                                                           " f_rest_* properties; expected 9, 24 or 45");
+        return Status(StatusCode::kUnsupportedFeature,
+                      "element 'sh' has " + std::to_string(rest_count) + " f_rest_* properties; expected 9, 24 or 45");
     }
     if (sh.element->count != n) {
-      return Status(StatusCode::kCorruptData, "element 'sh' has " + std::to_string(sh.element->count) +
-                                                  " rows for " + std::to_string(n) + " vertices");
+      return Status(StatusCode::kCorruptData, "element 'sh' has " + std::to_string(sh.element->count) + " rows for " +
+                                                  std::to_string(n) + " vertices");
     }
     sh_offsets.resize(rest_count);
     for (size_t r = 0; r < rest_count; ++r) {
@@ -197,12 +207,12 @@ Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& op
     for (int f = 0; f < fields; ++f) {
       const float v = load_f32(row + chunk_offsets[f]);
       const bool scale_field = f >= 6 && f < 12;
-      if (!std::isfinite(v) || (scale_field && std::exp(static_cast<double>(v)) >
-                                                   static_cast<double>(std::numeric_limits<float>::max()))) {
+      if (!std::isfinite(v) ||
+          (scale_field && std::exp(static_cast<double>(v)) > static_cast<double>(std::numeric_limits<float>::max()))) {
         return Status(StatusCode::kCorruptData, "chunk " + std::to_string(c) + " has " +
                                                     (std::isfinite(v) ? "an overflowing " : "a non-finite ") +
-                                                    (f < 12 ? kChunkFields[f] : kChunkColorFields[f - 12]) +
-                                                    " (" + std::to_string(v) + ")");
+                                                    (f < 12 ? kChunkFields[f] : kChunkColorFields[f - 12]) + " (" +
+                                                    std::to_string(v) + ")");
       }
       bounds[c].lo[f] = static_cast<double>(v);
     }
@@ -269,7 +279,7 @@ Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& op
         g_sh[c] = static_cast<float>((value - 0.5) / kShC0);
       }
       const double alpha = (col & 255) / 255.0;
-      const double logit = alpha <= 0 ? -kMaxOpacityLogit
+      const double logit = alpha <= 0   ? -kMaxOpacityLogit
                            : alpha >= 1 ? kMaxOpacityLogit
                                         : std::clamp(-std::log(1.0 / alpha - 1.0), -kMaxOpacityLogit, kMaxOpacityLogit);
       const float stored_logit = static_cast<float>(logit);

@@ -4,9 +4,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <algorithm>
 #include <new>
 
 namespace rgs::converter::detail {
@@ -65,8 +65,8 @@ Status read_whole_file(const std::string& path, uint64_t max_bytes, std::vector<
   RGS_RETURN_IF_ERROR(open_regular(path, &fd, &size));
   Status s;
   if (size > max_bytes) {
-    s = Status(StatusCode::kLimitExceeded, path + ": file is " + std::to_string(size) +
-                                               " bytes, above the limit of " + std::to_string(max_bytes));
+    s = Status(StatusCode::kLimitExceeded,
+               path + ": file is " + std::to_string(size) + " bytes, above the limit of " + std::to_string(max_bytes));
   } else {
     try {
       out->resize(static_cast<size_t>(size));

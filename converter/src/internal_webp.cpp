@@ -50,16 +50,15 @@ Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, c
   try {
     out->rgba.resize(static_cast<size_t>(pixels) * 4);
   } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, name + ": cannot allocate " + std::to_string(pixels * 4) +
-                                                " bytes for the decoded WebP image");
+    return Status(StatusCode::kOutOfMemory,
+                  name + ": cannot allocate " + std::to_string(pixels * 4) + " bytes for the decoded WebP image");
   }
   const int stride = features.width * 4;
   if (WebPDecodeRGBAInto(data, static_cast<size_t>(riff_bytes), out->rgba.data(), out->rgba.size(), stride) ==
       nullptr) {
-    return Status(StatusCode::kCorruptData, name + ": WebP image data is corrupt or truncated (" +
-                                                std::to_string(features.width) + " x " +
-                                                std::to_string(features.height) + ", " +
-                                                std::to_string(riff_bytes) + " bytes)");
+    return Status(StatusCode::kCorruptData,
+                  name + ": WebP image data is corrupt or truncated (" + std::to_string(features.width) + " x " +
+                      std::to_string(features.height) + ", " + std::to_string(riff_bytes) + " bytes)");
   }
   return Status();
 }

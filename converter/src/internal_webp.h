@@ -23,7 +23,6 @@ struct RgbaImage {
 /// The RIFF container's declared size is checked against `size` and the dimensions against `max_pixels`
 /// before anything is allocated. Errors name `name`: kCorruptData (not a WebP, truncated, undecodable),
 /// kLimitExceeded (more than max_pixels pixels), kOutOfMemory.
-Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, const std::string& name,
-                        RgbaImage* out);
+Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, const std::string& name, RgbaImage* out);
 
 }  // namespace rgs::converter::detail

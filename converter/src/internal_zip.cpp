@@ -33,8 +33,7 @@ bool has_zip_magic(const uint8_t* data, size_t size) {
   return sig == kLocalHeaderSignature || sig == kEndSignature;
 }
 
-Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std::string& name,
-                                     uint64_t base_offset) {
+Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std::string& name, uint64_t base_offset) {
   ZipArchive zip;
   zip.data_ = data;
   zip.size_ = size;
@@ -106,9 +105,9 @@ Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std
     }
     if (entry.local_header_offset + kLocalHeaderBytes + entry.compressed_size > cd_offset) {
       return Status(StatusCode::kCorruptData,
-                    name + ": ZIP entry '" + entry.name + "' (" + std::to_string(entry.compressed_size) +
-                        " bytes at " + std::to_string(entry.local_header_offset) +
-                        ") extends past the central directory at " + std::to_string(cd_offset));
+                    name + ": ZIP entry '" + entry.name + "' (" + std::to_string(entry.compressed_size) + " bytes at " +
+                        std::to_string(entry.local_header_offset) + ") extends past the central directory at " +
+                        std::to_string(cd_offset));
     }
     zip.entries_.push_back(std::move(entry));
     p += record;
@@ -147,7 +146,8 @@ Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vecto
   try {
     out->resize(static_cast<size_t>(entry.uncompressed_size));
   } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, where + ": cannot allocate " + std::to_string(entry.uncompressed_size) + " bytes");
+    return Status(StatusCode::kOutOfMemory,
+                  where + ": cannot allocate " + std::to_string(entry.uncompressed_size) + " bytes");
   }
   if (entry.method == 0) {
     if (entry.compressed_size != entry.uncompressed_size) {
@@ -170,19 +170,18 @@ Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vecto
     const uint64_t produced = z.total_out;
     inflateEnd(&z);
     if (rc != Z_STREAM_END || produced != entry.uncompressed_size) {
-      return Status(StatusCode::kCorruptData,
-                    where + ": deflate stream is corrupt or does not give the declared " +
-                        std::to_string(entry.uncompressed_size) + " bytes (zlib status " + std::to_string(rc) +
-                        ", " + std::to_string(produced) + " bytes)");
+      return Status(StatusCode::kCorruptData, where + ": deflate stream is corrupt or does not give the declared " +
+                                                  std::to_string(entry.uncompressed_size) + " bytes (zlib status " +
+                                                  std::to_string(rc) + ", " + std::to_string(produced) + " bytes)");
     }
   } else {
-    return Status(StatusCode::kUnsupportedFeature,
-                  where + " uses compression method " + std::to_string(entry.method) + " (supported: 0 stored, 8 deflate)");
+    return Status(StatusCode::kUnsupportedFeature, where + " uses compression method " + std::to_string(entry.method) +
+                                                       " (supported: 0 stored, 8 deflate)");
   }
   const uLong crc = crc32(crc32(0L, Z_NULL, 0), out->data(), static_cast<uInt>(out->size()));
   if (static_cast<uint32_t>(crc) != entry.crc32) {
     return Status(StatusCode::kChecksumMismatch, where + ": CRC-32 mismatch (stored " + std::to_string(entry.crc32) +
-                                                ", computed " + std::to_string(static_cast<uint32_t>(crc)) + ")");
+                                                     ", computed " + std::to_string(static_cast<uint32_t>(crc)) + ")");
   }
   return Status();
 }

@@ -29,8 +29,7 @@ class ZipArchive {
   /// archive), kUnsupportedFeature (ZIP64, multi-disk, encrypted entries).
   /// `data` may also be only the end of the file, from byte `base_offset` on (detection reads a tail): the
   /// entries are then listed, but extract() needs the whole file (base_offset 0).
-  static Result<ZipArchive> parse(const uint8_t* data, size_t size, const std::string& name,
-                                  uint64_t base_offset = 0);
+  static Result<ZipArchive> parse(const uint8_t* data, size_t size, const std::string& name, uint64_t base_offset = 0);
 
   const std::vector<ZipEntry>& entries() const { return entries_; }
   /// The entry named exactly `name`, or null.

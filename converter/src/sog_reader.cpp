@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -54,9 +55,8 @@ constexpr size_t kMaxTreeDepth = 256;
 // meta.json
 
 enum ImageSlot : size_t { kMeansLow, kMeansHigh, kQuats, kScales, kSh0, kCentroids, kLabels, kImageSlots };
-const char* const kSlotNames[kImageSlots] = {"means.files[0]", "means.files[1]", "quats.files[0]",
-                                             "scales.files[0]", "sh0.files[0]",   "shN.files[0]",
-                                             "shN.files[1]"};
+const char* const kSlotNames[kImageSlots] = {"means.files[0]", "means.files[1]", "quats.files[0]", "scales.files[0]",
+                                             "sh0.files[0]",   "shN.files[0]",   "shN.files[1]"};
 
 /// The fields of one meta.json that decoding needs.
 struct SogMeta {
@@ -84,8 +84,7 @@ Status corrupt(const std::string& where, const std::string& what) {
 
 std::string type_name(const json& j) { return j.type_name(); }
 
-Result<const json*> member(const json& obj, const std::string& key, const std::string& where,
-                           const std::string& path) {
+Result<const json*> member(const json& obj, const std::string& key, const std::string& where, const std::string& path) {
   auto it = obj.find(key);
   if (it == obj.end()) return corrupt(where, "missing field '" + path + key + "'");
   return &*it;
@@ -165,8 +164,8 @@ Status file_names(const json& obj, const std::string& group, size_t expected, co
   RGS_ASSIGN_OR_RETURN(const json* v, member(obj, "files", where, group + "."));
   const std::string name = group + ".files";
   if (!v->is_array() || v->size() < expected) {
-    return corrupt(where, "field '" + name + "' must be an array of at least " + std::to_string(expected) +
-                              " file names");
+    return corrupt(where,
+                   "field '" + name + "' must be an array of at least " + std::to_string(expected) + " file names");
   }
   for (size_t i = 0; i < expected; ++i) {
     const json& f = (*v)[i];
@@ -194,8 +193,8 @@ Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta)
   } else {
     RGS_ASSIGN_OR_RETURN(uint64_t version, count_value(*version_it, where, "version"));
     if (version != 2) {
-      return Status(StatusCode::kUnsupportedVersion,
-                    where + ": SOG meta version " + std::to_string(version) + " (supported: 2 and the unversioned layout)");
+      return Status(StatusCode::kUnsupportedVersion, where + ": SOG meta version " + std::to_string(version) +
+                                                         " (supported: 2 and the unversioned layout)");
     }
     meta->version = 2;
   }
@@ -337,18 +336,16 @@ inline double inverse_log_transform(double v) {
   return v < 0 ? -e : e;
 }
 
-inline float to_float_checked(double v) { return static_cast<float>(v); }
-
 /// Everything per-value decoding reads, precomputed per chunk.
 struct Tables {
   std::vector<float> means[3];  ///< 65,536 per axis
   float scales[3][256];         ///< linear
   float dc[3][256];
   float opacity[256];
-  float quat[256];              ///< (v/255·2 − 1)/√2
-  uint32_t rest = 0;            ///< SH coefficients beyond DC (K − 1)
+  float quat[256];    ///< (v/255·2 − 1)/√2
+  uint32_t rest = 0;  ///< SH coefficients beyond DC (K − 1)
   uint64_t palette_count = 0;
-  std::vector<float> palette;   ///< [palette_count, rest, 3], channel fastest
+  std::vector<float> palette;  ///< [palette_count, rest, 3], channel fastest
 };
 
 inline float sigmoid_of_logit(double logit) {
@@ -381,7 +378,8 @@ Status build_tables(const SogMeta& meta, const std::string& where, Tables* t) {
       t->opacity[v] = sigmoid_of_logit(std::log(e / (1.0 - e)));
     } else {
       for (int a = 0; a < 3; ++a) {
-        const float log_scale = static_cast<float>(meta.scales_min[a] + (meta.scales_max[a] - meta.scales_min[a]) * unit);
+        const float log_scale =
+            static_cast<float>(meta.scales_min[a] + (meta.scales_max[a] - meta.scales_min[a]) * unit);
         t->scales[a][v] = static_cast<float>(std::exp(static_cast<double>(log_scale)));
       }
       for (int c = 0; c < 3; ++c) {
@@ -401,16 +399,21 @@ Status build_tables(const SogMeta& meta, const std::string& where, Tables* t) {
 }
 
 /// Expands the SH palette from the centroids image (after checking its size).
-Status build_palette(const SogMeta& meta, const detail::RgbaImage& centroids, const std::string& where,
-                     Tables* t) {
+Status build_palette(const SogMeta& meta, const detail::RgbaImage& centroids, const std::string& where, Tables* t) {
   uint32_t bands = meta.sh_bands;
   uint64_t entries = meta.palette_count;
   if (meta.version != 2) {
     // The earlier layout names no band count: the centroids image width gives it (64 entries per row).
     switch (centroids.width) {
-      case 192: bands = 1; break;
-      case 512: bands = 2; break;
-      case 960: bands = 3; break;
+      case 192:
+        bands = 1;
+        break;
+      case 512:
+        bands = 2;
+        break;
+      case 960:
+        bands = 3;
+        break;
       default:
         return corrupt(where, "shN centroids image is " + std::to_string(centroids.width) +
                                   " pixels wide; expected 192, 512 or 960 (SH bands 1, 2, 3)");
@@ -451,8 +454,8 @@ struct DecodedImages {
 };
 
 /// Expands Gaussians [begin, end) of the chunk's concatenated ranges. Returns the first bad one's message.
-Status expand_gaussians(const ChunkJob& job, const DecodedImages& img, const Tables& t, uint64_t begin,
-                        uint64_t end, format::GaussianCloud* cloud) {
+Status expand_gaussians(const ChunkJob& job, const DecodedImages& img, const Tables& t, uint64_t begin, uint64_t end,
+                        format::GaussianCloud* cloud) {
   const uint32_t k_count = cloud->sh_coefficients();
   const uint32_t rest = k_count - 1;
   const uint8_t* lo = img.image[kMeansLow].rgba.data();
@@ -566,12 +569,14 @@ Status decode_chunk(ChunkJob* job, unsigned workers, format::GaussianCloud* clou
     }
   }
   if (meta.has_shn) {
-    RGS_RETURN_IF_ERROR(build_palette(meta, images.image[kCentroids], job->files->display(meta.files[kCentroids]),
-                                      &tables));
+    RGS_RETURN_IF_ERROR(
+        build_palette(meta, images.image[kCentroids], job->files->display(meta.files[kCentroids]), &tables));
   }
   if (tables.rest + 1 != cloud->sh_coefficients()) {
-    return corrupt(where, "has " + std::to_string(tables.rest) + " SH coefficients beyond DC per channel, but the "
-                              "scene has " + std::to_string(cloud->sh_coefficients() - 1));
+    return corrupt(where, "has " + std::to_string(tables.rest) +
+                              " SH coefficients beyond DC per channel, but the "
+                              "scene has " +
+                              std::to_string(cloud->sh_coefficients() - 1));
   }
 
   const uint64_t n = total_count(job->ranges);
@@ -620,9 +625,15 @@ Status resolve_earlier_bands(SogMeta* meta, const SogFiles& files) {
   RGS_RETURN_IF_ERROR(detail::decode_webp_rgba(bytes.data(), bytes.size(), uint64_t{1} << 24,
                                                files.display(meta->files[kCentroids]), &image));
   switch (image.width) {
-    case 192: meta->sh_bands = 1; break;
-    case 512: meta->sh_bands = 2; break;
-    case 960: meta->sh_bands = 3; break;
+    case 192:
+      meta->sh_bands = 1;
+      break;
+    case 512:
+      meta->sh_bands = 2;
+      break;
+    case 960:
+      meta->sh_bands = 3;
+      break;
     default:
       return corrupt(files.display(meta->files[kCentroids]),
                      "shN centroids image is " + std::to_string(image.width) +
@@ -655,9 +666,9 @@ Result<InputScene> guarded(const std::string& path, Fn&& fn) {
 
 Status reject_lod(const SceneReadOptions& options, const std::string& path, const char* what) {
   if (options.lod.has_value()) {
-    return Status(StatusCode::kInvalidArgument,
-                  path + ": a level of detail (" + std::to_string(*options.lod) +
-                      ") applies only to streamed SOG (lod-meta.json); this input is " + what);
+    return Status(StatusCode::kInvalidArgument, path + ": a level of detail (" + std::to_string(*options.lod) +
+                                                    ") applies only to streamed SOG (lod-meta.json); this input is " +
+                                                    what);
   }
   return Status();
 }
@@ -711,7 +722,7 @@ Result<InputScene> read_sog_impl(const std::string& path_in, const SceneReadOpti
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
   job.ranges.push_back(Range{0, job.meta.count, 0});
   RGS_RETURN_IF_ERROR(allocate_cloud(job.meta.count, declared_degree(job.meta), &scene.cloud));
-  RGS_RETURN_IF_ERROR(decode_chunk(&job, detail::worker_count(1u << 30, 1), &scene.cloud));
+  RGS_RETURN_IF_ERROR(decode_chunk(&job, detail::worker_count(UINT64_MAX, 1), &scene.cloud));
   if (!bundled) {
     scene.file_bytes += job.bytes_read;
     scene.file_count += job.files_read;
@@ -723,9 +734,9 @@ Result<InputScene> read_sog_impl(const std::string& path_in, const SceneReadOpti
   scene.storage_format = scene.format_id;
   scene.declared_vertices = job.meta.count;
   const std::string layout = job.meta.version == 2 ? "v2" : "unversioned (v1)";
-  scene.description = bundled ? "PlayCanvas SOG " + layout + " (bundled .sog)"
-                              : "PlayCanvas SOG " + layout + " (meta.json + " + std::to_string(job.files_read) +
-                                    " WebP images)";
+  scene.description =
+      bundled ? "PlayCanvas SOG " + layout + " (bundled .sog)"
+              : "PlayCanvas SOG " + layout + " (meta.json + " + std::to_string(job.files_read) + " WebP images)";
   return scene;
 }
 
@@ -808,9 +819,9 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
   if (levels == 0 || levels > 64) return corrupt(path, "'lodLevels' is " + std::to_string(levels) + " (valid: 1..64)");
   const uint32_t lod = options.lod.value_or(0);
   if (lod >= levels) {
-    return Status(StatusCode::kInvalidArgument, path + ": LOD " + std::to_string(lod) + " requested, but the scene has " +
-                                                    std::to_string(levels) + " levels (0.." +
-                                                    std::to_string(levels - 1) + ")");
+    return Status(StatusCode::kInvalidArgument, path + ": LOD " + std::to_string(lod) +
+                                                    " requested, but the scene has " + std::to_string(levels) +
+                                                    " levels (0.." + std::to_string(levels - 1) + ")");
   }
   RGS_ASSIGN_OR_RETURN(const json* names_json, member(root, "filenames", path, ""));
   if (!names_json->is_array()) return corrupt(path, "'filenames' is not an array");
@@ -831,9 +842,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
   uint64_t total = 0;
   for (const LodReference& r : refs) {
     if (r.count > options.max_gaussians || total > options.max_gaussians - r.count) {
-      return Status(StatusCode::kLimitExceeded, path + ": LOD " + std::to_string(lod) +
-                                                    " references more than " + std::to_string(options.max_gaussians) +
-                                                    " Gaussians (the limit)");
+      return Status(StatusCode::kLimitExceeded, path + ": LOD " + std::to_string(lod) + " references more than " +
+                                                    std::to_string(options.max_gaussians) + " Gaussians (the limit)");
     }
     total += r.count;
     if (r.count > 0) by_file[r.file].push_back(r);
@@ -904,9 +914,11 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
 
   RGS_RETURN_IF_ERROR(allocate_cloud(total, degree, &scene.cloud));
   std::vector<Status> errors(jobs.size());
+  const unsigned threads = detail::worker_count(UINT64_MAX, 1);  // every CPU this process may use (≤ 16)
   const unsigned workers = detail::worker_count(jobs.size(), 1);
-  // With fewer chunks than threads, each chunk decodes its images and expands in parallel too.
-  const unsigned inner = jobs.size() >= workers ? 1u : std::max(1u, detail::worker_count(1u << 30, 1) / std::max<unsigned>(1, static_cast<unsigned>(jobs.size())));
+  // With fewer chunks than threads, each chunk also decodes its images and expands in parallel.
+  const unsigned busy = static_cast<unsigned>(std::max<size_t>(1, std::min<size_t>(jobs.size(), threads)));
+  const unsigned inner = std::max(1u, threads / busy);
   detail::parallel_items(jobs.size(), workers, [&](unsigned, uint64_t item) {
     errors[item] = decode_chunk(&jobs[item], inner, &scene.cloud);
   });
@@ -923,8 +935,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
   scene.format_id = "sog_lod";
   scene.storage_format = scene.format_id;
   scene.declared_vertices = total;
-  scene.description = "PlayCanvas streamed SOG, LOD " + std::to_string(lod) + " of " + std::to_string(levels) +
-                      " (" + std::to_string(jobs.size()) + (jobs.size() == 1 ? " chunk)" : " chunks)");
+  scene.description = "PlayCanvas streamed SOG, LOD " + std::to_string(lod) + " of " + std::to_string(levels) + " (" +
+                      std::to_string(jobs.size()) + (jobs.size() == 1 ? " chunk)" : " chunks)");
   return scene;
 }
 

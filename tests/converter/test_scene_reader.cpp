@@ -60,8 +60,7 @@ double worst_ratio(const std::vector<float>& a, const std::vector<float>& b, dou
 /// log scales, logits and unnormalized quaternions as float32; read_ply activates them).
 /// `opacity_atol` covers opacities of exactly 1 in a reference that keeps the logit +inf of 8-bit alpha 255
 /// (splat-transform's compressed PLY decode), where this reader clamps the logit to 13.8155: 1 − 1e-6.
-void check_same_decode(const format::GaussianCloud& got, const format::GaussianCloud& ref,
-                       double opacity_atol = 1e-6) {
+void check_same_decode(const format::GaussianCloud& got, const format::GaussianCloud& ref, double opacity_atol = 1e-6) {
   REQUIRE(got.size() == ref.size());
   REQUIRE(got.sh_degree == ref.sh_degree);
   CHECK(worst_ratio(got.means, ref.means, 1e-7, 1e-6) <= 1.0);
@@ -122,12 +121,9 @@ TEST_CASE("read_scene detects every format by content, not by extension") {
     std::string path, id;
   };
   const std::vector<Case> cases = {
-      {repo_path("samples/guitar.ply"), "ply"},
-      {sog_data("guitar_crop.compressed.ply"), "compressed_ply"},
-      {sog_data("guitar_crop.sog"), "sog_bundle"},
-      {sog_data("guitar_crop_deflate.sog"), "sog_bundle"},
-      {sog_data("guitar_crop/meta.json"), "sog"},
-      {sog_data("guitar_crop"), "sog"},
+      {repo_path("samples/guitar.ply"), "ply"},           {sog_data("guitar_crop.compressed.ply"), "compressed_ply"},
+      {sog_data("guitar_crop.sog"), "sog_bundle"},        {sog_data("guitar_crop_deflate.sog"), "sog_bundle"},
+      {sog_data("guitar_crop/meta.json"), "sog"},         {sog_data("guitar_crop"), "sog"},
       {sog_data("guitar_crop_lod-meta.json"), "sog_lod"},
   };
   TempDir tmp;
@@ -172,7 +168,9 @@ TEST_CASE("read_scene names what an unsupported input looks like and lists the s
       {"scene.glb", bytes("glTF\x02\0\0\0"), "binary glTF"},
       {"keys.json", bytes("{\"camera\": 1, \"frames\": []}"), "a JSON object with keys {camera, frames}"},
       {"broken.json", bytes("{\"means\": "), "starts like JSON but does not parse"},
-      {"noise.ply", {0xde, 0xad, 0xbe, 0xef, 1, 2, 3, 4, 5}, "unrecognized data (first bytes: de ad be ef 01 02 03 04)"},
+      {"noise.ply",
+       {0xde, 0xad, 0xbe, 0xef, 1, 2, 3, 4, 5},
+       "unrecognized data (first bytes: de ad be ef 01 02 03 04)"},
   };
   for (const Case& c : cases) {
     const std::string path = tmp.file(c.name);
@@ -194,9 +192,9 @@ TEST_CASE("read_scene names what an unsupported input looks like and lists the s
     write_bytes(tmp.file("archive.sog"), zip);
     const Status s = read_status(tmp.file("archive.sog"));
     CHECK(s.code() == StatusCode::kInvalidArgument);
-    CHECK_MESSAGE(s.message().find("a ZIP archive without meta.json (entries: means_l.webp, means_u.webp") !=
-                      std::string::npos,
-                  s.message());
+    CHECK_MESSAGE(
+        s.message().find("a ZIP archive without meta.json (entries: means_l.webp, means_u.webp") != std::string::npos,
+        s.message());
   }
   fs::create_directories(tmp.path / "empty_dir");
   const Status dir = read_status((tmp.path / "empty_dir").string());
@@ -339,7 +337,9 @@ TEST_CASE("compressed PLY: guitar.compressed.ply matches guitar.ply within each 
   REQUIRE(got.sh_degree == 0);
   // The chunk bounds are the min/max of each chunk's values, so the decoded extremes span them.
   auto mean = [](const format::GaussianCloud& c, size_t i, int a) { return double(c.means[i * 3 + a]); };
-  auto log_scale = [](const format::GaussianCloud& c, size_t i, int a) { return std::log(double(c.scales[i * 3 + a])); };
+  auto log_scale = [](const format::GaussianCloud& c, size_t i, int a) {
+    return std::log(double(c.scales[i * 3 + a]));
+  };
   auto dc = [](const format::GaussianCloud& c, size_t i, int ch) { return double(c.sh[i * 3 + ch]); };
   const int bits_of_axis[3] = {2047, 1023, 2047};  // 11-10-11
   uint64_t outside = 0;
@@ -438,9 +438,9 @@ TEST_CASE("SOG: broken folders, metas and images fail with a named code") {
   const std::string base_meta = read_text(sog_data("guitar_crop/meta.json"));
   struct Case {
     const char* what;
-    std::string meta;            // replacement meta.json ("" keeps it)
-    const char* truncate_file;   // image to cut in half, or null
-    const char* remove_file;     // image to delete, or null
+    std::string meta;           // replacement meta.json ("" keeps it)
+    const char* truncate_file;  // image to cut in half, or null
+    const char* remove_file;    // image to delete, or null
     StatusCode code;
     const char* message_part;
   };
@@ -546,8 +546,8 @@ TEST_CASE("streamed SOG: broken lod-meta.json files fail with a named code") {
        "names file 3"},
       {"level key out of range", replace_once(base, "\"lods\":{\"0\"", "\"lods\":{\"7\""), StatusCode::kCorruptData,
        "not a level"},
-      {"count over the limit", replace_once(base, "\"count\":877}", "\"count\":300000000}"),
-       StatusCode::kLimitExceeded, "the limit"},
+      {"count over the limit", replace_once(base, "\"count\":877}", "\"count\":300000000}"), StatusCode::kLimitExceeded,
+       "the limit"},
       {"newer version", replace_once(base, "\"version\":1", "\"version\":2"), StatusCode::kUnsupportedVersion,
        "version 2"},
       {"absolute chunk path", replace_once(base, "\"guitar_crop/meta.json\"", "\"/etc/meta.json\""),
@@ -593,8 +593,8 @@ TEST_CASE("compressed PLY: broken files fail with a named code") {
       {"truncated", truncated, StatusCode::kIoError, "truncated file"},
       {"chunk count", with_header("element chunk 4", "element chunk 3"), StatusCode::kCorruptData,
        "expected 4 (one per 256)"},
-      {"vertex count over the data", with_header("element vertex 877", "element vertex 1000000"),
-       StatusCode::kIoError, "truncated file"},
+      {"vertex count over the data", with_header("element vertex 877", "element vertex 1000000"), StatusCode::kIoError,
+       "truncated file"},
       {"packed type", with_header("property uint packed_color", "property int packed_color"),
        StatusCode::kUnsupportedFeature, "packed_color"},
   };

@@ -42,9 +42,11 @@ struct InputScene {
   uint64_t file_count = 0;
   /// Number of Gaussians the input declares (before any are dropped).
   uint64_t declared_vertices = 0;
-  /// With SceneReadOptions::hash_file: XXH64 (seed 0) of the file for single-file inputs; for inputs made
-  /// of several files (SOG folders, streamed SOG), XXH64 over the little-endian XXH64 of each file read, in
-  /// reading order (the meta file first, then the images, chunk by chunk). Else empty.
+  /// With SceneReadOptions::hash_file: XXH64 (seed 0) of the file for single-file inputs (PLY, compressed
+  /// PLY, bundled .sog); for inputs made of several files, XXH64 over the little-endian XXH64 of each file
+  /// read, in a fixed order: SOG folder: meta.json, then its images (means low, means high, quats, scales,
+  /// sh0[, shN centroids, shN labels]); streamed SOG: lod-meta.json, the level's chunk meta.json files in
+  /// file-index order, then each chunk's images in the same order. Else empty.
   std::optional<uint64_t> file_xxh64;
 };
 
