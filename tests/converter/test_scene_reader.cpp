@@ -614,3 +614,55 @@ TEST_CASE("compressed PLY: broken files fail with a named code") {
 
 }  // namespace
 }  // namespace rgs::test
+
+namespace rgs::test {
+namespace {
+
+TEST_CASE("seeded corruption and truncation of PlayCanvas inputs give errors, never crashes") {
+  TempDir tmp;
+  std::mt19937 rng(20261122);
+  struct Input {
+    std::string source, name;
+  };
+  const std::vector<Input> inputs = {{sog_data("guitar_crop.sog"), "x.sog"},
+                                     {sog_data("guitar_crop_deflate.sog"), "y.sog"},
+                                     {sog_data("guitar_crop.compressed.ply"), "z.compressed.ply"},
+                                     {sog_data("guitar_crop_sh3/meta.json"), "meta.json"},
+                                     {sog_data("guitar_crop_sh3/shN_centroids.webp"), "shN_centroids.webp"}};
+  // The SH3 folder's other files, so that a damaged meta.json or image is read with its images.
+  for (const auto& e : fs::directory_iterator(sog_data("guitar_crop_sh3"))) {
+    fs::copy_file(e.path(), tmp.path / e.path().filename());
+  }
+  uint64_t failures = 0, runs = 0;
+  for (const Input& input : inputs) {
+    const auto good = load_bytes(input.source);
+    const std::string target = input.name == "shN_centroids.webp" ? tmp.file("meta.json") : tmp.file(input.name);
+    for (int trial = 0; trial < 60; ++trial) {
+      auto bytes = good;
+      if (trial % 3 == 0) {
+        bytes.resize(std::uniform_int_distribution<size_t>(0, bytes.size() - 1)(rng));
+      } else {
+        const int flips = 1 + trial % 8;
+        for (int f = 0; f < flips; ++f) {
+          bytes[std::uniform_int_distribution<size_t>(0, bytes.size() - 1)(rng)] ^=
+              static_cast<uint8_t>(1u << std::uniform_int_distribution<int>(0, 7)(rng));
+        }
+      }
+      write_bytes(tmp.file(input.name), bytes);
+      auto r = read_scene(target);
+      ++runs;
+      failures += !r.ok();
+      if (!r.ok()) {
+        CHECK(r.status().code() != StatusCode::kOk);
+        CHECK(!r.status().message().empty());
+      } else {
+        CHECK(r->cloud.is_consistent());
+      }
+    }
+    write_bytes(tmp.file(input.name), good);
+  }
+  MESSAGE(failures << " of " << runs << " damaged inputs were rejected; the rest still decoded consistently");
+}
+
+}  // namespace
+}  // namespace rgs::test
