@@ -278,6 +278,17 @@ TEST_CASE("SOG: SH palettes (shN) expand channel-major f_rest into [N, K, 3]") {
   CHECK_MESSAGE(s.message().find("2 SH bands need 512") != std::string::npos, s.to_string());
 }
 
+TEST_CASE("SOG: the earlier unversioned layout (per-channel ranges, logit in sh0) decodes like splat-transform") {
+  // guitar_crop's images under a hand-written unversioned meta.json (make_sog_reference.py says how the
+  // reference was made).
+  SogFolderCopy copy;
+  write_text(copy.meta, read_text(sog_data("guitar_crop_v1_meta.json")));
+  const InputScene scene = read_ok(copy.meta);
+  CHECK(scene.description == "PlayCanvas SOG unversioned (v1) (meta.json + 5 WebP images)");
+  check_same_decode(scene.cloud, read_reference(sog_data("guitar_crop_v1_reference.ply")));
+  CHECK(scene.cloud.means == read_ok(sog_data("guitar_crop")).cloud.means);  // same means encoding as v2
+}
+
 TEST_CASE("SOG: file hashes are deterministic and cover every file read") {
   SceneReadOptions options;
   options.hash_file = true;

@@ -20,6 +20,10 @@ says how to build and run it); `$ST -w tests/data/sog/guitar_crop_sh3/meta.json 
 values the test derives from the fixture's rule (checked when it was made: SH, means, scales and opacities
 identical, rotations within 6e-8).
 
+guitar_crop_v1_meta.json is a hand-written meta.json of the earlier unversioned layout (means.shape, per-channel
+scales/sh0 mins and maxs, sh0's fourth channel the opacity logit) over guitar_crop's images;
+guitar_crop_v1_reference.ply is `$ST -w <folder with it as meta.json and the images>/meta.json <out.ply>`.
+
 The streamed (1 level) output's chunk 0_0 is byte-identical to guitar_crop/, so only its lod-meta.json is
 kept, as guitar_crop_lod-meta.json with `filenames` pointing at guitar_crop/meta.json.
 
