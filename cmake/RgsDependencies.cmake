@@ -19,13 +19,23 @@ add_library(rgs_xxhash INTERFACE)
 target_include_directories(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_INCLUDE_DIR}>")
 target_link_libraries(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_LIBRARY}>")
 
-# zlib: gzip-wrapped SPZ versions 2 and 3 (rgs_converter only).
+# zlib: gzip-wrapped SPZ versions 2 and 3 and deflated entries of bundled .sog archives (rgs_converter; the
+# converter tests also make gzip inputs with it).
 find_package(ZLIB REQUIRED)
-# nlohmann-json: the glTF reader and writer of rgs_converter (header-only), and the tools.
+# nlohmann-json (header only): the converter reads SOG meta.json / lod-meta.json and glTF; the tools write JSON.
 find_package(nlohmann_json CONFIG REQUIRED)
 if(RGS_BUILD_TOOLS)
   find_package(CLI11 CONFIG REQUIRED)
 endif()
+
+# libwebp decodes the SOG images and zlib inflates deflated entries of bundled .sog archives (Debian
+# libwebp-dev, zlib1g-dev). Both are linked from their static archives when those exist, so binaries
+# that run on the GPU host need no shared libraries beyond libc/libstdc++; installed consumers link them
+# by name.
+find_path(RGS_WEBP_INCLUDE_DIR webp/decode.h REQUIRED)
+find_library(RGS_WEBP_LIBRARY NAMES libwebp.a webp REQUIRED)
+find_path(RGS_ZLIB_INCLUDE_DIR zlib.h REQUIRED)
+find_library(RGS_ZLIB_LIBRARY NAMES libz.a z REQUIRED)
 find_package(Threads REQUIRED)
 
 if(RGS_BUILD_TESTS)

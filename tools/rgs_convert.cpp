@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -25,6 +26,7 @@
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/ply_writer.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
@@ -48,6 +50,7 @@ struct Options {
   bool allow_empty = false;
   bool quiet = false;
   std::string json_path;  ///< "-": standard output, instead of the text summary
+  std::optional<uint32_t> lod;
 
   bool json_to_stdout() const { return json_path == "-"; }
   /// The text summary goes to stdout unless -q or the JSON takes its place.
@@ -60,6 +63,27 @@ struct Input {
   std::vector<uint8_t> bytes;  ///< standard input's content when path is "-"
   bool from_stdin() const { return path == "-"; }
 };
+
+/// A PLY given on standard input, as read_scene would describe it (other formats need a file).
+Result<converter::InputScene> read_ply_from_memory(const Input& input, const converter::SceneReadOptions& options) {
+  converter::PlyReadOptions ply_options;
+  ply_options.invalid_policy = options.invalid_policy;
+  ply_options.max_gaussians = options.max_gaussians;
+  ply_options.hash_file = options.hash_file;
+  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply,
+                       converter::read_ply_bytes(input.bytes.data(), input.bytes.size(), input.path, ply_options));
+  converter::InputScene scene;
+  scene.cloud = std::move(ply.cloud);
+  scene.hygiene = ply.hygiene;
+  scene.format_id = "ply";
+  scene.description = ply.storage_format + " PLY";
+  scene.storage_format = ply.storage_format;
+  scene.file_bytes = ply.file_bytes;
+  scene.file_count = 1;
+  scene.declared_vertices = ply.declared_vertices;
+  scene.file_xxh64 = ply.file_xxh64;
+  return scene;
+}
 
 /// Writes the JSON summary: staged as an output of `outputs`, or printed when it goes to stdout.
 Status emit_json(const Options& opt, const nlohmann::json& j, format::OutputSet* outputs) {
@@ -122,13 +146,11 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
   auto write_options = make_write_options(opt);
   if (!write_options.ok()) return tools::report_error(kTool, write_options.status());
 
-  converter::PlyReadOptions read_options;
+  converter::SceneReadOptions read_options;
   read_options.invalid_policy =
       opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
   read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
-  auto ply = input.from_stdin()
-                 ? converter::read_ply_bytes(input.bytes.data(), input.bytes.size(), input.path, read_options)
-                 : converter::read_ply(opt.input, read_options);
+  auto ply = input.from_stdin() ? read_ply_from_memory(input, read_options) : converter::read_scene(opt.input, read_options);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
   const double t_read = tools::seconds_since(t_start);
   if (ply->cloud.size() == 0 && !opt.allow_empty) {
@@ -218,8 +240,8 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
   if (!opt.print_summary()) return commit_outputs(outputs);
 
   std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output).c_str());
-  std::printf("  gaussians        %s (SH degree %u, %s PLY)\n", tools::group_digits(n).c_str(), degree,
-              ply->storage_format.c_str());
+  std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(n).c_str(), degree,
+              ply->description.c_str());
   std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(ply->file_bytes).c_str(),
               tools::fixed(in_bytes * per_gaussian, 1).c_str());
   std::printf("  output           %s bytes  (%s B/Gaussian), ratio %sx\n",
@@ -370,8 +392,14 @@ int run(const Options& opt) {
   const std::string out_ext = tools::extension_of(opt.output);
   InputKind kind = sniff(head);
   if (kind == InputKind::kUnknown) {
-    // Neither signature: let the reader the extension asks for explain what is wrong with the file.
+    // Neither signature: another scene format (read_scene detects it by content) or a damaged file, which the
+    // reader the extension asks for explains.
     kind = tools::extension_of(opt.input) == ".rgs" ? InputKind::kRgs : InputKind::kPly;
+    if (kind == InputKind::kPly && out_ext != ".rgs") {
+      return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
+                                                     opt.input + ": scenes convert to .rgs; name the output *.rgs "
+                                                                 "(not " + opt.output + ")"));
+    }
   } else if (const InputKind named = expected_kind(tools::extension_of(opt.input));
              named != InputKind::kUnknown && kind != named) {
     // The content contradicts the input's name: a problem of the file, not of the command line.
@@ -405,7 +433,11 @@ int main(int argc, char** argv) {
                "degree and channel, FP16 rotation/scale/opacity, FP32 means), or a .rgs back into a standard "
                "INRIA PLY. The direction follows the input's content; the output must end in .rgs or .ply.",
                kTool};
-  app.add_option("input", opt.input, "Input .ply (INRIA 3DGS) or .rgs file; - reads standard input")->required();
+  app.add_option("input", opt.input,
+                 "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "
+                 "compressed PLY, SOG meta.json/.sog/folder, streamed SOG lod-meta.json, SPZ, .splat, glTF/GLB); "
+                 "- reads a PLY or .rgs from standard input")
+      ->required();
   app.add_option("output", opt.output, "Output .rgs or .ply file (replaced atomically on success only)")
       ->required();
   app.add_option("--scale-encoding", opt.scale_encoding,
@@ -433,6 +465,8 @@ int main(int argc, char** argv) {
   app.add_option("--json", opt.json_path,
                  "Also write the summary as JSON to this file, committed together with the output; - prints it on "
                  "standard output instead of the text summary");
+  app.add_option("--lod", opt.lod, "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest "
+                                  "(default)");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
   rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);

@@ -9,6 +9,7 @@
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/replicate.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
@@ -41,7 +42,7 @@ Result<LoadedScene> load_scene(const std::string& path) {
     scene.file_bytes = file.file_size();
     return scene;
   }
-  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene ply, converter::read_scene(path));
   scene.cloud = std::move(ply.cloud);
   scene.bounds = converter::compute_bounds(scene.cloud);
   scene.file_bytes = ply.file_bytes;
@@ -72,7 +73,7 @@ Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t c
     out.source_file_bytes = file.file_size();
     out.quantization = "as stored in the source .rgs (attributes copied unchanged)";
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, converter::read_scene(path));
     RGS_RETURN_IF_ERROR(check_replicated_count(path, ply.cloud.size(), copies));
     auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);

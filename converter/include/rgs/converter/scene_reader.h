@@ -1,0 +1,77 @@
+// Reads a trained 3DGS scene in any supported input format, found by content rather than by extension.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rgs/converter/ply_reader.h"
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/status.h"
+
+namespace rgs::converter {
+
+/// Options shared by every input reader.
+struct SceneReadOptions {
+  /// What to do with Gaussians whose values cannot be rendered (PLY; the other readers reject them).
+  InvalidPolicy invalid_policy = InvalidPolicy::kReject;
+  /// Refuse inputs declaring more Gaussians than this (kLimitExceeded) before allocating for them.
+  uint64_t max_gaussians = uint64_t{1} << 28;
+  /// Also compute InputScene::file_xxh64 (provenance).
+  bool hash_file = false;
+  /// Level of detail of a streamed SOG (lod-meta.json): 0 is the finest. Unset reads LOD 0. Setting it for
+  /// any other input is an error (kInvalidArgument), so a user's --lod is never silently ignored.
+  std::optional<uint32_t> lod;
+};
+
+/// A scene read from any input format, and what was learned while reading it.
+struct InputScene {
+  /// Activated float Gaussians (GaussianCloud documents the layout).
+  format::GaussianCloud cloud;
+  InputHygiene hygiene;
+  /// Short identifier of the input format: "ply", "compressed_ply", "sog", "sog_bundle", "sog_lod".
+  std::string format_id;
+  /// The format in words for summaries, e.g. "binary_little_endian PLY", "PlayCanvas SOG v2 (bundled .sog)",
+  /// "PlayCanvas streamed SOG, LOD 0 of 5 (8 chunks)".
+  std::string description;
+  /// PLY inputs: the storage format of the `format` line ("binary_little_endian", ...). Others: format_id.
+  std::string storage_format;
+  /// Bytes of every file read (meta files, images and chunks included) and how many files that was.
+  uint64_t file_bytes = 0;
+  uint64_t file_count = 0;
+  /// Number of Gaussians the input declares (before any are dropped).
+  uint64_t declared_vertices = 0;
+  /// With SceneReadOptions::hash_file: XXH64 (seed 0) of the file for single-file inputs (PLY, compressed
+  /// PLY, bundled .sog); for inputs made of several files, XXH64 over the little-endian XXH64 of each file
+  /// read, in a fixed order: SOG folder: meta.json, then its images (means low, means high, quats, scales,
+  /// sh0[, shN centroids, shN labels]); streamed SOG: lod-meta.json, the level's chunk meta.json files in
+  /// file-index order, then each chunk's images in the same order. Else empty.
+  std::optional<uint64_t> file_xxh64;
+};
+
+/// Reads the scene at `path`, detecting its format from its content (magic bytes, PLY header elements,
+/// JSON keys), never from its extension:
+/// - 3DGS PLY (read_ply: INRIA layout or any property order; binary or ascii);
+/// - PlayCanvas compressed PLY (`chunk` + packed `vertex` [+ `sh`] elements);
+/// - PlayCanvas SOG: a meta.json (or the folder holding it) with its WebP images, v2 (codebooks) or the
+///   earlier unversioned layout; a bundled `.sog` (ZIP of meta.json and the images, stored or deflated);
+/// - PlayCanvas streamed SOG: a lod-meta.json (or the folder holding it) and its chunk folders; one level of
+///   detail is read (SceneReadOptions::lod, default 0).
+/// A directory is read through the lod-meta.json or meta.json it contains.
+/// Errors name `path` and the cause: kInvalidArgument "unsupported format: <what it looks like>; supported:
+/// <list>" for other content (.rgs files included: read those with format::RgsFile), and for a lod given
+/// for a non-streamed input; otherwise the errors of the format's reader (kIoError, kCorruptData,
+/// kUnsupportedFeature, kLimitExceeded, kChecksumMismatch, kOutOfMemory).
+/// Thread safety: may be called concurrently; decodes on up to 16 threads of its own.
+Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options = {});
+
+/// What read_scene would do with `path`: the format_id of the reader it picks (e.g. "sog_lod"), or the
+/// kInvalidArgument "unsupported format" error (kIoError when `path` cannot be read). Reads only the start
+/// of the file (and a JSON file whole).
+Result<std::string> detect_scene_format(const std::string& path);
+
+/// One line per supported input format, for help texts: "3DGS PLY (.ply)", ...
+std::vector<std::string> supported_scene_formats();
+
+}  // namespace rgs::converter

@@ -1,0 +1,328 @@
+// PlayCanvas compressed PLY reader: per-chunk (256 Gaussians) float bounds, packed 32-bit vertex words and
+// optional 8-bit SH, as written by PlayCanvas SuperSplat / splat-transform.
+#include <xxhash.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <new>
+#include <string>
+#include <vector>
+
+#include "internal_huge_pages.h"
+#include "internal_input_file.h"
+#include "internal_parallel.h"
+#include "internal_ply_header.h"
+#include "rgs/converter/playcanvas_readers.h"
+
+namespace rgs::converter {
+
+namespace {
+
+using detail::PlyElement;
+using detail::PlyHeader;
+using detail::PlyProperty;
+using detail::PlyType;
+
+constexpr uint64_t kGaussiansPerChunk = 256;
+constexpr uint64_t kMaxFileBytes = uint64_t{1} << 40;
+constexpr uint64_t kMinGaussiansPerWorker = 65536;
+constexpr double kMaxOpacityLogit = 13.815509557963773;  // logit(1 − 1e-6)
+constexpr double kShC0 = 0.28209479177387814;
+
+const char* const kChunkFields[] = {"min_x",       "min_y",       "min_z",       "max_x",
+                                    "max_y",       "max_z",       "min_scale_x", "min_scale_y",
+                                    "min_scale_z", "max_scale_x", "max_scale_y", "max_scale_z"};
+const char* const kChunkColorFields[] = {"min_r", "min_g", "min_b", "max_r", "max_g", "max_b"};
+const char* const kVertexFields[] = {"packed_position", "packed_rotation", "packed_scale", "packed_color"};
+
+/// Byte offset of each element's data and its row size (scalar properties only).
+struct ElementData {
+  const PlyElement* element = nullptr;
+  uint64_t offset = 0;
+  uint64_t stride = 0;
+};
+
+Status property_offset(const ElementData& e, const std::string& name, PlyType type, uint64_t* offset) {
+  uint64_t at = 0;
+  for (const PlyProperty& p : e.element->properties) {
+    if (p.name == name) {
+      if (!p.known_type || p.is_list || p.type != type) {
+        return Status(StatusCode::kUnsupportedFeature, "PLY header line " + std::to_string(p.header_line) +
+                                                           ": property '" + name + "' of element '" + e.element->name +
+                                                           "' is '" + p.type_name + "'; compressed PLY stores it as " +
+                                                           (type == PlyType::kFloat32  ? "float"
+                                                            : type == PlyType::kUint32 ? "uint"
+                                                                                       : "uchar"));
+      }
+      *offset = at;
+      return Status();
+    }
+    at += detail::ply_type_size(p.type);
+  }
+  return Status(StatusCode::kCorruptData,
+                "element '" + e.element->name + "' has no property '" + name + "' (compressed PLY)");
+}
+
+inline float load_f32(const uint8_t* p) {
+  float v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+inline uint32_t load_u32(const uint8_t* p) {
+  return uint32_t{p[0]} | (uint32_t{p[1]} << 8) | (uint32_t{p[2]} << 16) | (uint32_t{p[3]} << 24);
+}
+
+/// The decoded bounds of one chunk.
+struct ChunkBounds {
+  double lo[12 + 6];
+};
+
+inline double lerp(double a, double b, double t) { return a * (1 - t) + b * t; }
+
+Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& options) {
+  if (options.lod.has_value()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "a level of detail applies only to streamed SOG (lod-meta.json); this input is a compressed PLY");
+  }
+  std::vector<uint8_t> bytes;
+  RGS_RETURN_IF_ERROR(detail::read_whole_file(path, kMaxFileBytes, &bytes));
+  const uint8_t* data = bytes.data();
+  const size_t size = bytes.size();
+  if (!detail::starts_with_ply_magic(data, size)) {
+    return Status(StatusCode::kCorruptData, "not a PLY file (first line is not 'ply')");
+  }
+  const size_t header_end = detail::find_ply_header_end(data, std::min(size, detail::kMaxPlyHeaderBytes));
+  if (header_end == 0) return Status(StatusCode::kCorruptData, "PLY header has no 'end_header' line");
+  PlyHeader header;
+  RGS_RETURN_IF_ERROR(detail::parse_ply_header(data, header_end, &header));
+  if (header.storage != detail::PlyStorage::kBinaryLittleEndian) {
+    return Status(StatusCode::kUnsupportedFeature, std::string("compressed PLY must be binary_little_endian, not ") +
+                                                       detail::ply_storage_name(header.storage));
+  }
+
+  // Lay out the elements; those after a list property cannot be located (and are not needed then).
+  ElementData chunk, vertex, sh;
+  uint64_t at = header.data_offset;
+  const PlyProperty* first_list = nullptr;
+  for (const PlyElement& element : header.elements) {
+    const bool needed = element.name == "chunk" || element.name == "vertex" || element.name == "sh";
+    uint64_t stride = 0;
+    for (const PlyProperty& p : element.properties) {
+      if ((p.is_list || !p.known_type) && first_list == nullptr) first_list = &p;
+      if (!p.is_list && p.known_type) stride += detail::ply_type_size(p.type);
+    }
+    if (needed && first_list != nullptr) {
+      return Status(StatusCode::kUnsupportedFeature, "PLY header line " + std::to_string(first_list->header_line) +
+                                                         ": property '" + first_list->name +
+                                                         "' is a list or of unknown type, so element '" + element.name +
+                                                         "' cannot be located; compressed PLY elements are scalar");
+    }
+    if (first_list != nullptr) continue;  // not needed, and nothing after it can be located
+    if (needed && ((element.name == "chunk" && chunk.element) || (element.name == "vertex" && vertex.element) ||
+                   (element.name == "sh" && sh.element))) {
+      return Status(StatusCode::kCorruptData, "PLY header line " + std::to_string(element.header_line) + ": second '" +
+                                                  element.name + "' element");
+    }
+    if (element.name == "vertex" && element.count > options.max_gaussians) {
+      return Status(StatusCode::kLimitExceeded, "PLY declares " + std::to_string(element.count) +
+                                                    " vertices, above the limit of " +
+                                                    std::to_string(options.max_gaussians));
+    }
+    if (stride != 0 && element.count > (size - std::min<uint64_t>(at, size)) / stride) {
+      return Status(StatusCode::kIoError, "element '" + element.name + "' needs " + std::to_string(element.count) +
+                                              " rows × " + std::to_string(stride) + " bytes from offset " +
+                                              std::to_string(at) + ", but the file has " + std::to_string(size) +
+                                              " bytes (truncated file?)");
+    }
+    ElementData d{&element, at, stride};
+    if (element.name == "chunk") chunk = d;
+    if (element.name == "vertex") vertex = d;
+    if (element.name == "sh") sh = d;
+    at += element.count * stride;
+  }
+  if (chunk.element == nullptr || vertex.element == nullptr) {
+    return Status(StatusCode::kCorruptData, "compressed PLY needs elements 'chunk' and 'vertex'");
+  }
+  const uint64_t n = vertex.element->count;
+  const uint64_t chunks = (n + kGaussiansPerChunk - 1) / kGaussiansPerChunk;
+  if (chunk.element->count != chunks) {
+    return Status(StatusCode::kCorruptData, "compressed PLY has " + std::to_string(chunk.element->count) +
+                                                " chunks for " + std::to_string(n) + " vertices; expected " +
+                                                std::to_string(chunks) + " (one per 256)");
+  }
+  uint64_t chunk_offsets[18];
+  for (int f = 0; f < 12; ++f) {
+    RGS_RETURN_IF_ERROR(property_offset(chunk, kChunkFields[f], PlyType::kFloat32, &chunk_offsets[f]));
+  }
+  bool chunk_colors = false;
+  for (const PlyProperty& p : chunk.element->properties) chunk_colors = chunk_colors || p.name == "min_r";
+  if (chunk_colors) {
+    for (int f = 0; f < 6; ++f) {
+      RGS_RETURN_IF_ERROR(property_offset(chunk, kChunkColorFields[f], PlyType::kFloat32, &chunk_offsets[12 + f]));
+    }
+  }
+  uint64_t vertex_offsets[4];
+  for (int f = 0; f < 4; ++f) {
+    RGS_RETURN_IF_ERROR(property_offset(vertex, kVertexFields[f], PlyType::kUint32, &vertex_offsets[f]));
+  }
+  uint32_t degree = 0;
+  std::vector<uint64_t> sh_offsets;
+  if (sh.element) {
+    size_t rest_count = 0;
+    for (const PlyProperty& p : sh.element->properties) rest_count += p.name.rfind("f_rest_", 0) == 0;
+    switch (rest_count) {
+      case 0:
+        degree = 0;
+        break;
+      case 9:
+        degree = 1;
+        break;
+      case 24:
+        degree = 2;
+        break;
+      case 45:
+        degree = 3;
+        break;
+      default:
+        return Status(StatusCode::kUnsupportedFeature,
+                      "element 'sh' has " + std::to_string(rest_count) + " f_rest_* properties; expected 9, 24 or 45");
+    }
+    if (sh.element->count != n) {
+      return Status(StatusCode::kCorruptData, "element 'sh' has " + std::to_string(sh.element->count) + " rows for " +
+                                                  std::to_string(n) + " vertices");
+    }
+    sh_offsets.resize(rest_count);
+    for (size_t r = 0; r < rest_count; ++r) {
+      RGS_RETURN_IF_ERROR(property_offset(sh, "f_rest_" + std::to_string(r), PlyType::kUint8, &sh_offsets[r]));
+    }
+  }
+
+  // Chunk bounds, checked finite (and the log-scale bounds small enough for float32 exp).
+  std::vector<ChunkBounds> bounds(static_cast<size_t>(chunks));
+  const int fields = chunk_colors ? 18 : 12;
+  for (uint64_t c = 0; c < chunks; ++c) {
+    const uint8_t* row = data + chunk.offset + c * chunk.stride;
+    for (int f = 0; f < fields; ++f) {
+      const float v = load_f32(row + chunk_offsets[f]);
+      const bool scale_field = f >= 6 && f < 12;
+      if (!std::isfinite(v) ||
+          (scale_field && std::exp(static_cast<double>(v)) > static_cast<double>(std::numeric_limits<float>::max()))) {
+        return Status(StatusCode::kCorruptData, "chunk " + std::to_string(c) + " has " +
+                                                    (std::isfinite(v) ? "an overflowing " : "a non-finite ") +
+                                                    (f < 12 ? kChunkFields[f] : kChunkColorFields[f - 12]) + " (" +
+                                                    std::to_string(v) + ")");
+      }
+      bounds[c].lo[f] = static_cast<double>(v);
+    }
+  }
+
+  InputScene scene;
+  scene.cloud.sh_degree = degree;
+  {
+    format::GaussianCloud& cl = scene.cloud;
+    const size_t count = static_cast<size_t>(n);
+    detail::resize_huge(cl.means, count * 3);
+    detail::resize_huge(cl.rotations, count * 4);
+    detail::resize_huge(cl.scales, count * 3);
+    detail::resize_huge(cl.opacities, count);
+    detail::resize_huge(cl.sh, count * cl.sh_coefficients() * 3);
+  }
+  // 8-bit SH: 0 and 255 are the ends of the range exactly, the others bin centres.
+  float sh_lut[256];
+  for (int v = 0; v < 256; ++v) {
+    const double unit = v == 0 ? 0.0 : v == 255 ? 1.0 : (v + 0.5) / 256.0;
+    sh_lut[v] = static_cast<float>((unit - 0.5) * 8.0);
+  }
+  const uint32_t k_count = scene.cloud.sh_coefficients();
+  const uint32_t rest = k_count - 1;
+  format::GaussianCloud* cloud = &scene.cloud;
+  const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
+  detail::parallel_slices(n, workers, [&](unsigned, uint64_t begin, uint64_t end) {
+    for (uint64_t i = begin; i < end; ++i) {
+      const ChunkBounds& b = bounds[static_cast<size_t>(i / kGaussiansPerChunk)];
+      const uint8_t* row = data + vertex.offset + i * vertex.stride;
+      const uint32_t pos = load_u32(row + vertex_offsets[0]);
+      const uint32_t rot = load_u32(row + vertex_offsets[1]);
+      const uint32_t scl = load_u32(row + vertex_offsets[2]);
+      const uint32_t col = load_u32(row + vertex_offsets[3]);
+      // 11-10-11 unorm position and log scale within the chunk's bounds.
+      const double unit[3] = {((pos >> 21) & 2047) / 2047.0, ((pos >> 11) & 1023) / 1023.0, (pos & 2047) / 2047.0};
+      const double sunit[3] = {((scl >> 21) & 2047) / 2047.0, ((scl >> 11) & 1023) / 1023.0, (scl & 2047) / 2047.0};
+      for (int a = 0; a < 3; ++a) {
+        cloud->means[i * 3 + a] = static_cast<float>(lerp(b.lo[a], b.lo[3 + a], unit[a]));
+        const float log_scale = static_cast<float>(lerp(b.lo[6 + a], b.lo[9 + a], sunit[a]));
+        cloud->scales[i * 3 + a] = static_cast<float>(std::exp(static_cast<double>(log_scale)));
+      }
+      // Smallest three: 2-bit index of the largest component (0 = w), the others as 10-bit unorm of
+      // ±1/√2, in w x y z order.
+      const double kNorm = std::sqrt(2.0);
+      double q[4];
+      const int largest = static_cast<int>(rot >> 30);
+      double sum = 0;
+      int shift = 20;
+      for (int c = 0; c < 4; ++c) {
+        if (c == largest) continue;
+        q[c] = (((rot >> shift) & 1023) / 1023.0 - 0.5) * kNorm;
+        sum += q[c] * q[c];
+        shift -= 10;
+      }
+      q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
+      const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
+      for (int c = 0; c < 4; ++c) cloud->rotations[i * 4 + c] = static_cast<float>(q[c] * inv);
+      // Colour (8-8-8) and opacity (8): colour within the chunk's colour bounds when it has them.
+      float* g_sh = cloud->sh.data() + i * k_count * 3;
+      for (int c = 0; c < 3; ++c) {
+        const double u = ((col >> (24 - 8 * c)) & 255) / 255.0;
+        const double value = chunk_colors ? lerp(b.lo[12 + c], b.lo[15 + c], u) : u;
+        g_sh[c] = static_cast<float>((value - 0.5) / kShC0);
+      }
+      const double alpha = (col & 255) / 255.0;
+      const double logit = alpha <= 0   ? -kMaxOpacityLogit
+                           : alpha >= 1 ? kMaxOpacityLogit
+                                        : std::clamp(-std::log(1.0 / alpha - 1.0), -kMaxOpacityLogit, kMaxOpacityLogit);
+      const float stored_logit = static_cast<float>(logit);
+      cloud->opacities[i] = static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(stored_logit))));
+      if (rest) {
+        // f_rest is channel-major: f_rest[c·rest + k − 1] is coefficient k of channel c.
+        const uint8_t* sh_row = data + sh.offset + i * sh.stride;
+        for (uint32_t c = 0; c < 3; ++c) {
+          for (uint32_t k = 1; k <= rest; ++k) {
+            g_sh[k * 3 + c] = sh_lut[sh_row[sh_offsets[c * rest + k - 1]]];
+          }
+        }
+      }
+    }
+  });
+
+  scene.format_id = "compressed_ply";
+  scene.storage_format = "binary_little_endian";
+  scene.description = "PlayCanvas compressed PLY";
+  scene.file_bytes = size;
+  scene.file_count = 1;
+  scene.declared_vertices = n;
+  if (options.hash_file) scene.file_xxh64 = XXH64(data, size, 0);
+  return scene;
+}
+
+}  // namespace
+
+Result<InputScene> read_compressed_ply(const std::string& path, const SceneReadOptions& options) {
+  try {
+    Result<InputScene> r = read_impl(path, options);
+    if (!r.ok()) {
+      Status s = std::move(r).status();
+      // read_whole_file already names the path.
+      if (s.message().rfind(path, 0) != 0) s.prepend(path);
+      return s;
+    }
+    return r;
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, path + ": out of memory while decoding the compressed PLY");
+  } catch (const std::length_error&) {
+    return Status(StatusCode::kOutOfMemory, path + ": out of memory while decoding the compressed PLY");
+  }
+}
+
+}  // namespace rgs::converter

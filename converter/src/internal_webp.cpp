@@ -1,0 +1,66 @@
+#include "internal_webp.h"
+
+#include <webp/decode.h>
+
+#include <new>
+
+namespace rgs::converter::detail {
+
+namespace {
+uint32_t load_u32le(const uint8_t* p) {
+  return uint32_t{p[0]} | (uint32_t{p[1]} << 8) | (uint32_t{p[2]} << 16) | (uint32_t{p[3]} << 24);
+}
+}  // namespace
+
+Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, const std::string& name,
+                        RgbaImage* out) {
+  // RIFF header: "RIFF" <u32 payload size> "WEBP"; the payload follows the first 8 bytes.
+  if (size < 12 || std::string(reinterpret_cast<const char*>(data), 4) != "RIFF" ||
+      std::string(reinterpret_cast<const char*>(data) + 8, 4) != "WEBP") {
+    return Status(StatusCode::kCorruptData,
+                  name + ": not a WebP image (" + std::to_string(size) + " bytes, no RIFF/WEBP header)");
+  }
+  const uint64_t riff_bytes = uint64_t{load_u32le(data + 4)} + 8;
+  if (riff_bytes > size) {
+    return Status(StatusCode::kCorruptData, name + ": WebP image is truncated: its RIFF header declares " +
+                                                std::to_string(riff_bytes) + " bytes, the file has " +
+                                                std::to_string(size));
+  }
+  WebPBitstreamFeatures features;
+  const VP8StatusCode got = WebPGetFeatures(data, static_cast<size_t>(riff_bytes), &features);
+  if (got != VP8_STATUS_OK) {
+    return Status(StatusCode::kCorruptData,
+                  name + ": invalid WebP header (libwebp status " + std::to_string(static_cast<int>(got)) + ")");
+  }
+  if (features.has_animation) {
+    return Status(StatusCode::kCorruptData, name + ": animated WebP images are not SOG attribute images");
+  }
+  if (features.width <= 0 || features.height <= 0) {
+    return Status(StatusCode::kCorruptData, name + ": WebP image has no pixels (" + std::to_string(features.width) +
+                                                " x " + std::to_string(features.height) + ")");
+  }
+  const uint64_t pixels = uint64_t(features.width) * uint64_t(features.height);
+  if (pixels > max_pixels) {
+    return Status(StatusCode::kLimitExceeded, name + ": WebP image is " + std::to_string(features.width) + " x " +
+                                                  std::to_string(features.height) + " = " + std::to_string(pixels) +
+                                                  " pixels, above the limit of " + std::to_string(max_pixels));
+  }
+  out->width = static_cast<uint32_t>(features.width);
+  out->height = static_cast<uint32_t>(features.height);
+  try {
+    out->rgba.resize(static_cast<size_t>(pixels) * 4);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory,
+                  name + ": cannot allocate " + std::to_string(pixels * 4) + " bytes for the decoded WebP image");
+  }
+  const int stride = features.width * 4;
+  if (WebPDecodeRGBAInto(data, static_cast<size_t>(riff_bytes), out->rgba.data(), out->rgba.size(), stride) ==
+      nullptr) {
+    return Status(StatusCode::kCorruptData,
+                  name + ": WebP image data is corrupt or truncated (" + std::to_string(features.width) + " x " +
+                      std::to_string(features.height) + ", " + std::to_string(riff_bytes) + " bytes)");
+  }
+  return Status();
+}
+
+}  // namespace rgs::converter::detail

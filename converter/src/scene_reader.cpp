@@ -1,0 +1,276 @@
+// Input format detection and dispatch. To add a format: write a detector (content only, never the
+// extension) and a reader, and add one row to kFormats; the "unsupported format" message lists the rows.
+#include "rgs/converter/scene_reader.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "internal_input_file.h"
+#include "internal_ply_header.h"
+#include "internal_zip.h"
+#include "rgs/converter/playcanvas_readers.h"
+#include "rgs/format/spec.h"
+
+namespace rgs::converter {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// Bytes read for detection (a PLY header longer than this is still detected as PLY by its first line).
+constexpr size_t kHeadBytes = 64 * 1024;
+/// Bytes read from the end of a ZIP archive to list its entries (end record, comment, central directory).
+constexpr uint64_t kZipTailBytes = 1024 * 1024;
+/// JSON files larger than this are not parsed for detection.
+constexpr uint64_t kMaxDetectJsonBytes = uint64_t{64} << 20;
+
+/// What a detector sees of an input.
+struct Probe {
+  /// The file to read: `path` itself, or the meta file found in the directory `path`.
+  std::string path;
+  std::vector<uint8_t> head;  ///< the first kHeadBytes bytes (fewer for a shorter file)
+  uint64_t size = 0;
+  /// For a ZIP archive: the names of its entries (read from the central directory at its end), and why they
+  /// could not be listed.
+  std::vector<std::string> zip_entries;
+  std::string zip_error;
+  /// The whole file parsed as JSON, when it starts like a JSON object and parses.
+  std::optional<json> json_root;
+  std::string json_error;  ///< parse error when it starts like JSON but does not parse
+};
+
+bool head_starts_with(const Probe& p, const char* magic, size_t offset = 0) {
+  const size_t n = std::strlen(magic);
+  return p.head.size() >= offset + n && std::memcmp(p.head.data() + offset, magic, n) == 0;
+}
+
+// --- detectors ------------------------------------------------------------------------------------
+
+/// The PLY header's elements, when the file is a PLY whose header fits the probe.
+std::optional<detail::PlyHeader> ply_header(const Probe& p) {
+  if (!detail::starts_with_ply_magic(p.head.data(), p.head.size())) return std::nullopt;
+  const size_t end = detail::find_ply_header_end(p.head.data(), p.head.size());
+  if (end == 0) return std::nullopt;
+  detail::PlyHeader header;
+  if (!detail::parse_ply_header(p.head.data(), end, &header).ok()) return std::nullopt;
+  return header;
+}
+
+bool detect_compressed_ply(const Probe& p) {
+  const auto header = ply_header(p);
+  if (!header) return false;
+  bool chunk = false, packed = false;
+  for (const auto& e : header->elements) {
+    chunk = chunk || e.name == "chunk";
+    if (e.name != "vertex") continue;
+    for (const auto& prop : e.properties) packed = packed || prop.name == "packed_position";
+  }
+  return chunk && packed;
+}
+
+/// Any other PLY goes to read_ply, which explains what is wrong with it if it is not a 3DGS scene.
+bool detect_ply(const Probe& p) { return detail::starts_with_ply_magic(p.head.data(), p.head.size()); }
+
+/// A ZIP archive with meta.json at its top level. One whose directory cannot be read goes to the bundle
+/// reader too, which names the damage (a truncated .sog should say so, not "unsupported format").
+bool detect_sog_bundle(const Probe& p) {
+  if (!detail::has_zip_magic(p.head.data(), p.head.size())) return false;
+  return !p.zip_error.empty() ||
+         std::find(p.zip_entries.begin(), p.zip_entries.end(), "meta.json") != p.zip_entries.end();
+}
+
+bool json_has(const Probe& p, std::initializer_list<const char*> keys) {
+  if (!p.json_root || !p.json_root->is_object()) return false;
+  return std::all_of(keys.begin(), keys.end(), [&](const char* k) { return p.json_root->contains(k); });
+}
+
+/// "means" plus any other attribute group, so that a SOG meta missing a field gets the SOG reader's error.
+bool detect_sog_meta(const Probe& p) {
+  return json_has(p, {"means"}) && (json_has(p, {"quats"}) || json_has(p, {"scales"}) || json_has(p, {"sh0"}));
+}
+
+bool detect_sog_lod(const Probe& p) { return json_has(p, {"lodLevels", "filenames", "tree"}); }
+
+// --- readers not in playcanvas_readers.h ----------------------------------------------------------
+
+Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOptions& options) {
+  if (options.lod.has_value()) {
+    return Status(StatusCode::kInvalidArgument,
+                  path + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
+  }
+  PlyReadOptions ply_options;
+  ply_options.invalid_policy = options.invalid_policy;
+  ply_options.max_gaussians = options.max_gaussians;
+  ply_options.hash_file = options.hash_file;
+  RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply(path, ply_options));
+  InputScene scene;
+  scene.cloud = std::move(ply.cloud);
+  scene.hygiene = ply.hygiene;
+  scene.format_id = "ply";
+  scene.description = ply.storage_format + " PLY";
+  scene.storage_format = ply.storage_format;
+  scene.file_bytes = ply.file_bytes;
+  scene.file_count = 1;
+  scene.declared_vertices = ply.declared_vertices;
+  scene.file_xxh64 = ply.file_xxh64;
+  return scene;
+}
+
+// --- the table ------------------------------------------------------------------------------------
+
+struct SceneFormat {
+  const char* id;           ///< InputScene::format_id
+  const char* description;  ///< for "supported: ..." and help texts
+  bool (*detect)(const Probe&);
+  Result<InputScene> (*read)(const std::string& path, const SceneReadOptions& options);
+};
+
+/// First match wins: more specific detectors come before the general ones of the same family.
+const SceneFormat kFormats[] = {
+    {"compressed_ply", "PlayCanvas compressed PLY (.compressed.ply)", detect_compressed_ply, read_compressed_ply},
+    {"ply", "3DGS PLY (.ply, INRIA layout or any property order)", detect_ply, read_ply_scene},
+    {"sog_bundle", "PlayCanvas bundled SOG (.sog)", detect_sog_bundle, read_sog},
+    {"sog", "PlayCanvas SOG (meta.json with its WebP images, or their folder)", detect_sog_meta, read_sog},
+    {"sog_lod", "PlayCanvas streamed SOG (lod-meta.json, or its folder; --lod picks the level)", detect_sog_lod,
+     read_sog_lod},
+};
+
+std::string supported_list() {
+  std::string s;
+  for (const SceneFormat& f : kFormats) s += (s.empty() ? "" : ", ") + std::string(f.description);
+  return s;
+}
+
+std::string hex_bytes(const std::vector<uint8_t>& head, size_t n) {
+  std::string s;
+  char buf[4];
+  for (size_t i = 0; i < std::min(n, head.size()); ++i) {
+    std::snprintf(buf, sizeof(buf), "%02x", head[i]);
+    s += (i ? " " : "") + std::string(buf);
+  }
+  return s;
+}
+
+/// What an input no reader accepts looks like, in words.
+std::string describe_unknown(const Probe& p) {
+  if (p.size == 0) return "an empty file";
+  if (p.head.size() >= 8 && std::memcmp(p.head.data(), format::kMagic, 8) == 0) {
+    return "a RoofGS .rgs file (read it with format::RgsFile; rgs-convert turns it into a PLY)";
+  }
+  if (head_starts_with(p, "NGSP")) return "a Niantic SPZ file";
+  if (p.head.size() >= 2 && p.head[0] == 0x1f && p.head[1] == 0x8b) return "gzip data (an SPZ file before v4?)";
+  if (head_starts_with(p, "glTF")) return "a binary glTF (.glb)";
+  if (head_starts_with(p, "RIFF") && head_starts_with(p, "WEBP", 8)) return "a WebP image";
+  if (head_starts_with(p, "\x89PNG")) return "a PNG image";
+  if (detail::has_zip_magic(p.head.data(), p.head.size())) {
+    std::string names;
+    bool npy = !p.zip_entries.empty();
+    for (size_t i = 0; i < p.zip_entries.size(); ++i) {
+      const std::string& e = p.zip_entries[i];
+      npy = npy && e.size() > 4 && e.compare(e.size() - 4, 4, ".npy") == 0;
+      if (i < 6) names += (i ? ", " : "") + e;
+    }
+    if (p.zip_entries.size() > 6) names += ", ...";
+    return std::string(npy ? "a NumPy .npz archive" : "a ZIP archive") + " without meta.json (entries: " + names + ")";
+  }
+  if (!p.json_error.empty()) return "a file that starts like JSON but does not parse (" + p.json_error + ")";
+  if (p.json_root) {
+    if (!p.json_root->is_object()) return std::string("a JSON ") + p.json_root->type_name();
+    if (p.json_root->contains("asset") && p.json_root->contains("accessors")) return "a glTF JSON (.gltf)";
+    std::string keys;
+    size_t shown = 0;
+    for (auto it = p.json_root->begin(); it != p.json_root->end() && shown < 8; ++it, ++shown) {
+      keys += (keys.empty() ? "" : ", ") + it.key();
+    }
+    if (p.json_root->size() > shown) keys += ", ...";
+    return "a JSON object with keys {" + keys + "}";
+  }
+  return "unrecognized data (first bytes: " + hex_bytes(p.head, 8) + ")";
+}
+
+Status unsupported(const std::string& path, const std::string& what) {
+  return Status(StatusCode::kInvalidArgument,
+                path + ": unsupported format: " + what + "; supported: " + supported_list());
+}
+
+/// Fills `probe` for `path`, resolving a directory to the meta file inside it.
+Status make_probe(const std::string& path, Probe* probe) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) return Status(StatusCode::kIoError, path + ": no such file or directory");
+  probe->path = path;
+  if (fs::is_directory(st)) {
+    const fs::path dir(path);
+    if (fs::is_regular_file(dir / "lod-meta.json", ec)) {
+      probe->path = (dir / "lod-meta.json").string();
+    } else if (fs::is_regular_file(dir / "meta.json", ec)) {
+      probe->path = (dir / "meta.json").string();
+    } else {
+      return unsupported(path, "a directory without lod-meta.json or meta.json");
+    }
+  }
+  RGS_RETURN_IF_ERROR(detail::read_file_head(probe->path, kHeadBytes, &probe->head, &probe->size));
+  if (detail::has_zip_magic(probe->head.data(), probe->head.size())) {
+    // The central directory is at the end: read the tail (the whole file when it is small).
+    std::vector<uint8_t> tail;
+    const uint64_t tail_offset = probe->size > kZipTailBytes ? probe->size - kZipTailBytes : 0;
+    RGS_RETURN_IF_ERROR(detail::read_file_range(probe->path, tail_offset, probe->size - tail_offset, &tail));
+    auto zip = detail::ZipArchive::parse(tail.data(), tail.size(), probe->path, tail_offset);
+    if (zip.ok()) {
+      for (const detail::ZipEntry& e : zip->entries()) probe->zip_entries.push_back(e.name);
+    } else {
+      probe->zip_error = zip.status().message();
+    }
+  }
+  // JSON: an object, possibly after a UTF-8 byte order mark and whitespace.
+  size_t i = 0;
+  if (probe->head.size() >= 3 && probe->head[0] == 0xef && probe->head[1] == 0xbb && probe->head[2] == 0xbf) i = 3;
+  while (i < probe->head.size() && std::strchr(" \t\r\n", probe->head[i]) != nullptr && probe->head[i] != 0) ++i;
+  if (i < probe->head.size() && probe->head[i] == '{' && probe->size <= kMaxDetectJsonBytes) {
+    std::vector<uint8_t> bytes;
+    RGS_RETURN_IF_ERROR(detail::read_whole_file(probe->path, kMaxDetectJsonBytes, &bytes));
+    try {
+      probe->json_root = json::parse(bytes.begin() + static_cast<std::ptrdiff_t>(i), bytes.end());
+    } catch (const json::exception& e) {
+      probe->json_error = e.what();
+    }
+  }
+  return Status();
+}
+
+Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
+  RGS_RETURN_IF_ERROR(make_probe(path, probe));
+  for (const SceneFormat& f : kFormats) {
+    if (f.detect(*probe)) return &f;
+  }
+  return unsupported(path, describe_unknown(*probe));
+}
+
+}  // namespace
+
+Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options) {
+  Probe probe;
+  RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
+  return format->read(probe.path, options);
+}
+
+Result<std::string> detect_scene_format(const std::string& path) {
+  Probe probe;
+  RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
+  return std::string(format->id);
+}
+
+std::vector<std::string> supported_scene_formats() {
+  std::vector<std::string> out;
+  for (const SceneFormat& f : kFormats) out.emplace_back(f.description);
+  return out;
+}
+
+}  // namespace rgs::converter

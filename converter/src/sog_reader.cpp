@@ -1,0 +1,953 @@
+// PlayCanvas SOG readers: meta.json + WebP images (a folder or a bundled .sog ZIP), and streamed SOG
+// (lod-meta.json over chunk folders). Layout as written by PlayCanvas splat-transform (its README's SOG
+// section and its SOG writer): every attribute image holds one Gaussian per pixel in row-major order.
+//
+// Decoding goes straight into the output cloud: per chunk the images are decoded (libwebp) and each
+// Gaussian is expanded through small lookup tables (65,536 mean values per axis, 256 per codebook,
+// the SH palette expanded once), so a chunk costs its image decode plus a few table reads per value.
+#include <xxhash.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <memory>
+#include <new>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "internal_huge_pages.h"
+#include "internal_input_file.h"
+#include "internal_parallel.h"
+#include "internal_webp.h"
+#include "internal_zip.h"
+#include "rgs/converter/playcanvas_readers.h"
+
+namespace rgs::converter {
+
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+constexpr uint64_t kMaxMetaBytes = uint64_t{64} << 20;
+constexpr uint64_t kMaxImageFileBytes = uint64_t{1} << 30;
+constexpr uint64_t kMaxBundleBytes = uint64_t{4} << 30;
+/// logit(1 − 1e-6): opacities of exactly 0 or 1 are clamped to ±this (DESIGN/SOURCES: ±13.8155).
+constexpr double kMaxOpacityLogit = 13.815509557963773;
+/// Entries of every v2 codebook (one per 8-bit code).
+constexpr size_t kCodebookSize = 256;
+/// Largest SH palette: labels are 16-bit.
+constexpr uint64_t kMaxPaletteEntries = 65536;
+/// Palette entries per row of the centroids image.
+constexpr uint32_t kPaletteColumns = 64;
+/// Gaussians per worker below which a single SOG's expansion stays on one thread.
+constexpr uint64_t kMinGaussiansPerWorker = 65536;
+/// Deepest lod-meta.json tree accepted (guards the traversal against hostile nesting).
+constexpr size_t kMaxTreeDepth = 256;
+
+// ---------------------------------------------------------------------------------------------------
+// meta.json
+
+enum ImageSlot : size_t { kMeansLow, kMeansHigh, kQuats, kScales, kSh0, kCentroids, kLabels, kImageSlots };
+const char* const kSlotNames[kImageSlots] = {"means.files[0]", "means.files[1]", "quats.files[0]", "scales.files[0]",
+                                             "sh0.files[0]",   "shN.files[0]",   "shN.files[1]"};
+
+/// The fields of one meta.json that decoding needs.
+struct SogMeta {
+  /// 2, or 1 for the earlier layout without a "version" field.
+  int version = 2;
+  uint64_t count = 0;
+  double means_min[3] = {}, means_max[3] = {};
+  /// Image file names by ImageSlot; the shN ones are empty without SH bands.
+  std::string files[kImageSlots];
+  // v2 codebooks, as float32 (what the writer quantized to).
+  std::vector<float> scales_codebook, sh0_codebook, shn_codebook;
+  // Earlier layout: per-channel ranges (sh0 channel 3 is the opacity logit) and one SH range.
+  double scales_min[3] = {}, scales_max[3] = {}, sh0_min[4] = {}, sh0_max[4] = {};
+  double shn_min = 0, shn_max = 0;
+  /// SH bands beyond DC (0..3). For the earlier layout known only once the centroids image is decoded.
+  uint32_t sh_bands = 0;
+  bool has_shn = false;
+  /// v2: palette entries (shN.count).
+  uint64_t palette_count = 0;
+};
+
+Status corrupt(const std::string& where, const std::string& what) {
+  return Status(StatusCode::kCorruptData, where + ": " + what);
+}
+
+std::string type_name(const json& j) { return j.type_name(); }
+
+Result<const json*> member(const json& obj, const std::string& key, const std::string& where, const std::string& path) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return corrupt(where, "missing field '" + path + key + "'");
+  return &*it;
+}
+
+Result<const json*> object_member(const json& obj, const std::string& key, const std::string& where) {
+  RGS_ASSIGN_OR_RETURN(const json* v, member(obj, key, where, ""));
+  if (!v->is_object()) return corrupt(where, "field '" + key + "' is a " + type_name(*v) + ", not an object");
+  return v;
+}
+
+/// A finite number field of `obj` (named `name` in messages).
+Result<double> finite_number(const json& v, const std::string& where, const std::string& name) {
+  if (!v.is_number()) return corrupt(where, "field '" + name + "' is a " + type_name(v) + ", not a number");
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) return corrupt(where, "field '" + name + "' is not finite");
+  return d;
+}
+
+/// A non-negative integer field below 2^53.
+Result<uint64_t> count_value(const json& v, const std::string& where, const std::string& name) {
+  if (v.is_number_unsigned()) return v.get<uint64_t>();
+  if (v.is_number_integer() && v.get<int64_t>() >= 0) return static_cast<uint64_t>(v.get<int64_t>());
+  if (v.is_number_float()) {
+    const double d = v.get<double>();
+    if (d >= 0 && d < 9007199254740992.0 && std::floor(d) == d) return static_cast<uint64_t>(d);
+  }
+  return corrupt(where, "field '" + name + "' is not a non-negative integer");
+}
+
+Status number_array(const json& obj, const std::string& key, size_t expected, const std::string& where,
+                    const std::string& prefix, std::vector<double>* out) {
+  RGS_ASSIGN_OR_RETURN(const json* v, member(obj, key, where, prefix));
+  const std::string name = prefix + key;
+  if (!v->is_array()) return corrupt(where, "field '" + name + "' is a " + type_name(*v) + ", not an array");
+  if (v->size() != expected) {
+    return corrupt(where, "field '" + name + "' has " + std::to_string(v->size()) + " entries, expected " +
+                              std::to_string(expected));
+  }
+  out->clear();
+  for (size_t i = 0; i < v->size(); ++i) {
+    RGS_ASSIGN_OR_RETURN(double d, finite_number((*v)[i], where, name + "[" + std::to_string(i) + "]"));
+    out->push_back(d);
+  }
+  return Status();
+}
+
+/// A codebook: exactly 256 finite numbers, kept as float32.
+Status codebook(const json& obj, const std::string& where, const std::string& prefix, std::vector<float>* out) {
+  std::vector<double> values;
+  RGS_RETURN_IF_ERROR(number_array(obj, "codebook", kCodebookSize, where, prefix, &values));
+  out->resize(values.size());
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (std::fabs(values[i]) > static_cast<double>(std::numeric_limits<float>::max())) {
+      return corrupt(where, "field '" + prefix + "codebook[" + std::to_string(i) + "]' overflows float32");
+    }
+    (*out)[i] = static_cast<float>(values[i]);
+  }
+  return Status();
+}
+
+/// Checks that a file name from a meta file stays below the meta file's folder (relative, no "..").
+Status check_relative_name(const std::string& name, const std::string& where, const std::string& field) {
+  if (name.empty()) return corrupt(where, "field '" + field + "' is an empty file name");
+  const fs::path p(name);
+  if (p.is_absolute() || p.has_root_name() || p.has_root_directory()) {
+    return corrupt(where, "field '" + field + "' names the absolute path '" + name + "'");
+  }
+  for (const fs::path& part : p) {
+    if (part == "..") return corrupt(where, "field '" + field + "' leaves the scene folder ('" + name + "')");
+  }
+  return Status();
+}
+
+Status file_names(const json& obj, const std::string& group, size_t expected, const std::string& where,
+                  std::string* out) {
+  RGS_ASSIGN_OR_RETURN(const json* v, member(obj, "files", where, group + "."));
+  const std::string name = group + ".files";
+  if (!v->is_array() || v->size() < expected) {
+    return corrupt(where,
+                   "field '" + name + "' must be an array of at least " + std::to_string(expected) + " file names");
+  }
+  for (size_t i = 0; i < expected; ++i) {
+    const json& f = (*v)[i];
+    const std::string field = name + "[" + std::to_string(i) + "]";
+    if (!f.is_string()) return corrupt(where, "field '" + field + "' is a " + type_name(f) + ", not a string");
+    out[i] = f.get<std::string>();
+    RGS_RETURN_IF_ERROR(check_relative_name(out[i], where, field));
+  }
+  return Status();
+}
+
+Result<json> parse_json(const std::vector<uint8_t>& bytes, const std::string& where) {
+  try {
+    return json::parse(bytes.begin(), bytes.end());
+  } catch (const json::parse_error& e) {
+    return corrupt(where, std::string("invalid JSON: ") + e.what());
+  }
+}
+
+Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta) {
+  if (!root.is_object()) return corrupt(where, "top level is a " + type_name(root) + ", not an object");
+  auto version_it = root.find("version");
+  if (version_it == root.end()) {
+    meta->version = 1;
+  } else {
+    RGS_ASSIGN_OR_RETURN(uint64_t version, count_value(*version_it, where, "version"));
+    if (version != 2) {
+      return Status(StatusCode::kUnsupportedVersion, where + ": SOG meta version " + std::to_string(version) +
+                                                         " (supported: 2 and the unversioned layout)");
+    }
+    meta->version = 2;
+  }
+  RGS_ASSIGN_OR_RETURN(const json* means, object_member(root, "means", where));
+  RGS_ASSIGN_OR_RETURN(const json* scales, object_member(root, "scales", where));
+  RGS_ASSIGN_OR_RETURN(const json* quats, object_member(root, "quats", where));
+  RGS_ASSIGN_OR_RETURN(const json* sh0, object_member(root, "sh0", where));
+  if (meta->version == 2) {
+    RGS_ASSIGN_OR_RETURN(const json* count, member(root, "count", where, ""));
+    RGS_ASSIGN_OR_RETURN(meta->count, count_value(*count, where, "count"));
+  } else {
+    std::vector<double> shape;
+    RGS_RETURN_IF_ERROR(number_array(*means, "shape", 2, where, "means.", &shape));
+    if (shape[0] < 0 || shape[0] >= 9007199254740992.0 || std::floor(shape[0]) != shape[0]) {
+      return corrupt(where, "field 'means.shape[0]' is not a Gaussian count");
+    }
+    meta->count = static_cast<uint64_t>(shape[0]);
+  }
+  std::vector<double> values;
+  RGS_RETURN_IF_ERROR(number_array(*means, "mins", 3, where, "means.", &values));
+  std::copy(values.begin(), values.end(), meta->means_min);
+  RGS_RETURN_IF_ERROR(number_array(*means, "maxs", 3, where, "means.", &values));
+  std::copy(values.begin(), values.end(), meta->means_max);
+  RGS_RETURN_IF_ERROR(file_names(*means, "means", 2, where, &meta->files[kMeansLow]));
+  RGS_RETURN_IF_ERROR(file_names(*quats, "quats", 1, where, &meta->files[kQuats]));
+  RGS_RETURN_IF_ERROR(file_names(*scales, "scales", 1, where, &meta->files[kScales]));
+  RGS_RETURN_IF_ERROR(file_names(*sh0, "sh0", 1, where, &meta->files[kSh0]));
+  if (meta->version == 2) {
+    RGS_RETURN_IF_ERROR(codebook(*scales, where, "scales.", &meta->scales_codebook));
+    RGS_RETURN_IF_ERROR(codebook(*sh0, where, "sh0.", &meta->sh0_codebook));
+  } else {
+    RGS_RETURN_IF_ERROR(number_array(*scales, "mins", 3, where, "scales.", &values));
+    std::copy(values.begin(), values.end(), meta->scales_min);
+    RGS_RETURN_IF_ERROR(number_array(*scales, "maxs", 3, where, "scales.", &values));
+    std::copy(values.begin(), values.end(), meta->scales_max);
+    RGS_RETURN_IF_ERROR(number_array(*sh0, "mins", 4, where, "sh0.", &values));
+    std::copy(values.begin(), values.end(), meta->sh0_min);
+    RGS_RETURN_IF_ERROR(number_array(*sh0, "maxs", 4, where, "sh0.", &values));
+    std::copy(values.begin(), values.end(), meta->sh0_max);
+  }
+  auto shn_it = root.find("shN");
+  if (shn_it != root.end() && !shn_it->is_null()) {
+    const json& shn = *shn_it;
+    if (!shn.is_object()) return corrupt(where, "field 'shN' is a " + type_name(shn) + ", not an object");
+    if (meta->version == 2) {
+      RGS_ASSIGN_OR_RETURN(const json* bands, member(shn, "bands", where, "shN."));
+      RGS_ASSIGN_OR_RETURN(uint64_t b, count_value(*bands, where, "shN.bands"));
+      if (b > 3) return corrupt(where, "field 'shN.bands' is " + std::to_string(b) + " (SH bands are 0..3)");
+      meta->sh_bands = static_cast<uint32_t>(b);
+      meta->has_shn = b > 0;
+      if (meta->has_shn) {
+        RGS_ASSIGN_OR_RETURN(const json* count, member(shn, "count", where, "shN."));
+        RGS_ASSIGN_OR_RETURN(meta->palette_count, count_value(*count, where, "shN.count"));
+        if (meta->palette_count == 0 || meta->palette_count > kMaxPaletteEntries) {
+          return corrupt(where, "field 'shN.count' is " + std::to_string(meta->palette_count) +
+                                    "; SH palettes have 1.." + std::to_string(kMaxPaletteEntries) +
+                                    " entries (16-bit labels)");
+        }
+        RGS_RETURN_IF_ERROR(codebook(shn, where, "shN.", &meta->shn_codebook));
+      }
+    } else {
+      meta->has_shn = true;
+      RGS_ASSIGN_OR_RETURN(const json* mins, member(shn, "mins", where, "shN."));
+      RGS_ASSIGN_OR_RETURN(meta->shn_min, finite_number(*mins, where, "shN.mins"));
+      RGS_ASSIGN_OR_RETURN(const json* maxs, member(shn, "maxs", where, "shN."));
+      RGS_ASSIGN_OR_RETURN(meta->shn_max, finite_number(*maxs, where, "shN.maxs"));
+    }
+    if (meta->has_shn) RGS_RETURN_IF_ERROR(file_names(shn, "shN", 2, where, &meta->files[kCentroids]));
+  }
+  return Status();
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Where a chunk's files come from: a folder, or a ZIP archive in memory.
+
+class SogFiles {
+ public:
+  virtual ~SogFiles() = default;
+  /// Reads file `name` (relative to the meta file) into `out`; errors name it.
+  virtual Status read(const std::string& name, std::vector<uint8_t>* out) const = 0;
+  /// How `name` appears in messages.
+  virtual std::string display(const std::string& name) const = 0;
+};
+
+class FolderFiles final : public SogFiles {
+ public:
+  explicit FolderFiles(fs::path dir) : dir_(std::move(dir)) {}
+  Status read(const std::string& name, std::vector<uint8_t>* out) const override {
+    return detail::read_whole_file(display(name), kMaxImageFileBytes, out);
+  }
+  std::string display(const std::string& name) const override { return (dir_ / name).string(); }
+
+ private:
+  fs::path dir_;
+};
+
+class ZipFiles final : public SogFiles {
+ public:
+  ZipFiles(const detail::ZipArchive* zip, std::string archive) : zip_(zip), archive_(std::move(archive)) {}
+  Status read(const std::string& name, std::vector<uint8_t>* out) const override {
+    const detail::ZipEntry* entry = zip_->find(name);
+    if (entry == nullptr) {
+      return Status(StatusCode::kIoError, archive_ + ": the archive has no entry '" + name + "'");
+    }
+    return zip_->extract(*entry, kMaxImageFileBytes, out);
+  }
+  std::string display(const std::string& name) const override { return archive_ + ":" + name; }
+
+ private:
+  const detail::ZipArchive* zip_;
+  std::string archive_;
+};
+
+// ---------------------------------------------------------------------------------------------------
+// Decoding one SOG (one chunk of a streamed SOG) into the cloud.
+
+/// Gaussians [src, src + count) of a chunk go to cloud indices [dst, dst + count).
+struct Range {
+  uint64_t src = 0;
+  uint64_t count = 0;
+  uint64_t dst = 0;
+};
+
+struct ChunkJob {
+  std::string meta_name;  ///< for messages
+  SogMeta meta;
+  const SogFiles* files = nullptr;
+  std::vector<Range> ranges;
+  bool hash = false;
+  /// Filled by decode_chunk: bytes and XXH64 of each image file read, in ImageSlot order.
+  uint64_t bytes_read = 0;
+  uint64_t files_read = 0;
+  std::vector<uint64_t> file_hashes;
+};
+
+/// Inverse of the writer's log transform sign(x)·ln(|x| + 1).
+inline double inverse_log_transform(double v) {
+  const double e = std::exp(std::fabs(v)) - 1.0;
+  return v < 0 ? -e : e;
+}
+
+/// Everything per-value decoding reads, precomputed per chunk.
+struct Tables {
+  std::vector<float> means[3];  ///< 65,536 per axis
+  float scales[3][256];         ///< linear
+  float dc[3][256];
+  float opacity[256];
+  float quat[256];    ///< (v/255·2 − 1)/√2
+  uint32_t rest = 0;  ///< SH coefficients beyond DC (K − 1)
+  uint64_t palette_count = 0;
+  std::vector<float> palette;  ///< [palette_count, rest, 3], channel fastest
+};
+
+inline float sigmoid_of_logit(double logit) {
+  // Through float32, as a reader of the logit stored in a float PLY would see it.
+  const float stored = static_cast<float>(logit);
+  return static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(stored))));
+}
+
+Status build_tables(const SogMeta& meta, const std::string& where, Tables* t) {
+  for (int a = 0; a < 3; ++a) {
+    const double lo = meta.means_min[a];
+    const double span = (meta.means_max[a] - meta.means_min[a]) != 0 ? meta.means_max[a] - meta.means_min[a] : 1.0;
+    t->means[a].resize(65536);
+    for (uint32_t v = 0; v < 65536; ++v) {
+      t->means[a][v] = static_cast<float>(inverse_log_transform(lo + span * (static_cast<double>(v) / 65535.0)));
+    }
+    if (!std::isfinite(t->means[a][0]) || !std::isfinite(t->means[a][65535])) {
+      return corrupt(where, std::string("means range of axis ") + "xyz"[a] + " [" + std::to_string(meta.means_min[a]) +
+                                ", " + std::to_string(meta.means_max[a]) + "] overflows float32 positions");
+    }
+  }
+  for (uint32_t v = 0; v < 256; ++v) {
+    const double unit = static_cast<double>(v) / 255.0;
+    t->quat[v] = static_cast<float>((unit * 2.0 - 1.0) / std::sqrt(2.0));
+    if (meta.version == 2) {
+      const double log_scale = static_cast<double>(meta.scales_codebook[v]);
+      for (int a = 0; a < 3; ++a) t->scales[a][v] = static_cast<float>(std::exp(log_scale));
+      for (int c = 0; c < 3; ++c) t->dc[c][v] = meta.sh0_codebook[v];
+      const double e = std::min(1.0 - 1e-6, std::max(1e-6, unit));
+      t->opacity[v] = sigmoid_of_logit(std::log(e / (1.0 - e)));
+    } else {
+      for (int a = 0; a < 3; ++a) {
+        const float log_scale =
+            static_cast<float>(meta.scales_min[a] + (meta.scales_max[a] - meta.scales_min[a]) * unit);
+        t->scales[a][v] = static_cast<float>(std::exp(static_cast<double>(log_scale)));
+      }
+      for (int c = 0; c < 3; ++c) {
+        t->dc[c][v] = static_cast<float>(meta.sh0_min[c] + (meta.sh0_max[c] - meta.sh0_min[c]) * unit);
+      }
+      const double logit = meta.sh0_min[3] + (meta.sh0_max[3] - meta.sh0_min[3]) * unit;
+      t->opacity[v] = sigmoid_of_logit(std::max(-kMaxOpacityLogit, std::min(kMaxOpacityLogit, logit)));
+    }
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(t->scales[a][v])) {
+        return corrupt(where, "scale code " + std::to_string(v) + " gives a scale that overflows float32");
+      }
+      if (!std::isfinite(t->dc[a][v])) return corrupt(where, "sh0 code " + std::to_string(v) + " overflows float32");
+    }
+  }
+  return Status();
+}
+
+/// Expands the SH palette from the centroids image (after checking its size).
+Status build_palette(const SogMeta& meta, const detail::RgbaImage& centroids, const std::string& where, Tables* t) {
+  uint32_t bands = meta.sh_bands;
+  uint64_t entries = meta.palette_count;
+  if (meta.version != 2) {
+    // The earlier layout names no band count: the centroids image width gives it (64 entries per row).
+    switch (centroids.width) {
+      case 192:
+        bands = 1;
+        break;
+      case 512:
+        bands = 2;
+        break;
+      case 960:
+        bands = 3;
+        break;
+      default:
+        return corrupt(where, "shN centroids image is " + std::to_string(centroids.width) +
+                                  " pixels wide; expected 192, 512 or 960 (SH bands 1, 2, 3)");
+    }
+    entries = uint64_t{kPaletteColumns} * centroids.height;
+  }
+  const uint32_t rest = format::sh_coefficient_count(bands) - 1;
+  if (centroids.width != kPaletteColumns * rest) {
+    return corrupt(where, "shN centroids image is " + std::to_string(centroids.width) + " pixels wide; " +
+                              std::to_string(bands) + " SH bands need " + std::to_string(kPaletteColumns * rest));
+  }
+  const uint64_t rows_needed = (entries + kPaletteColumns - 1) / kPaletteColumns;
+  if (centroids.height < rows_needed) {
+    return corrupt(where, "shN centroids image has " + std::to_string(centroids.height) + " rows; " +
+                              std::to_string(entries) + " palette entries need " + std::to_string(rows_needed));
+  }
+  t->rest = rest;
+  t->palette_count = entries;
+  t->palette.resize(static_cast<size_t>(entries) * rest * 3);
+  for (uint64_t p = 0; p < entries; ++p) {
+    const uint64_t row = p / kPaletteColumns;
+    const uint64_t column0 = (p % kPaletteColumns) * rest;
+    for (uint32_t j = 0; j < rest; ++j) {
+      const uint8_t* px = centroids.rgba.data() + (row * centroids.width + column0 + j) * 4;
+      for (uint32_t c = 0; c < 3; ++c) {
+        const float v = meta.version == 2
+                            ? meta.shn_codebook[px[c]]
+                            : static_cast<float>(meta.shn_min + (meta.shn_max - meta.shn_min) * (px[c] / 255.0));
+        t->palette[(p * rest + j) * 3 + c] = v;
+      }
+    }
+  }
+  return Status();
+}
+
+struct DecodedImages {
+  detail::RgbaImage image[kImageSlots];
+};
+
+/// Expands Gaussians [begin, end) of the chunk's concatenated ranges. Returns the first bad one's message.
+Status expand_gaussians(const ChunkJob& job, const DecodedImages& img, const Tables& t, uint64_t begin, uint64_t end,
+                        format::GaussianCloud* cloud) {
+  const uint32_t k_count = cloud->sh_coefficients();
+  const uint32_t rest = k_count - 1;
+  const uint8_t* lo = img.image[kMeansLow].rgba.data();
+  const uint8_t* hi = img.image[kMeansHigh].rgba.data();
+  const uint8_t* qt = img.image[kQuats].rgba.data();
+  const uint8_t* sc = img.image[kScales].rgba.data();
+  const uint8_t* c0 = img.image[kSh0].rgba.data();
+  const uint8_t* lb = rest ? img.image[kLabels].rgba.data() : nullptr;
+  float* means = cloud->means.data();
+  float* rotations = cloud->rotations.data();
+  float* scales = cloud->scales.data();
+  float* opacities = cloud->opacities.data();
+  float* sh = cloud->sh.data();
+  uint64_t offset = 0;  // position in the concatenated ranges
+  for (const Range& range : job.ranges) {
+    const uint64_t r_begin = std::max(begin, offset), r_end = std::min(end, offset + range.count);
+    for (uint64_t at = r_begin; at < r_end; ++at) {
+      const uint64_t s = range.src + (at - offset);
+      const uint64_t d = range.dst + (at - offset);
+      const size_t p = static_cast<size_t>(s) * 4;
+      for (int a = 0; a < 3; ++a) means[d * 3 + a] = t.means[a][lo[p + a] | (hi[p + a] << 8)];
+      const uint8_t tag = qt[p + 3];
+      if (tag < 252) {
+        return corrupt(job.files->display(job.meta.files[kQuats]),
+                       "Gaussian " + std::to_string(s) + " has quaternion tag " + std::to_string(tag) +
+                           " (valid: 252..255, the index of the largest component + 252)");
+      }
+      const int largest = tag - 252;
+      double q[4];
+      int next = 0;
+      double sum = 0;
+      for (int c = 0; c < 4; ++c) {
+        if (c == largest) continue;
+        q[c] = static_cast<double>(t.quat[qt[p + next]]);
+        sum += q[c] * q[c];
+        ++next;
+      }
+      q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
+      const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
+      for (int c = 0; c < 4; ++c) rotations[d * 4 + c] = static_cast<float>(q[c] * inv);
+      for (int a = 0; a < 3; ++a) scales[d * 3 + a] = t.scales[a][sc[p + a]];
+      float* g_sh = sh + d * k_count * 3;
+      for (int c = 0; c < 3; ++c) g_sh[c] = t.dc[c][c0[p + c]];
+      opacities[d] = t.opacity[c0[p + 3]];
+      if (rest) {
+        const uint32_t label = lb[p] | (uint32_t{lb[p + 1]} << 8);
+        if (label >= t.palette_count) {
+          return corrupt(job.files->display(job.meta.files[kLabels]),
+                         "Gaussian " + std::to_string(s) + " has SH palette label " + std::to_string(label) +
+                             ", but the palette has " + std::to_string(t.palette_count) + " entries");
+        }
+        std::memcpy(g_sh + 3, &t.palette[static_cast<size_t>(label) * rest * 3], sizeof(float) * rest * 3);
+      }
+    }
+    offset += range.count;
+  }
+  return Status();
+}
+
+uint64_t total_count(const std::vector<Range>& ranges) {
+  uint64_t n = 0;
+  for (const Range& r : ranges) n += r.count;
+  return n;
+}
+
+/// Reads and decodes the chunk's images and expands its ranges into `cloud`. `workers` > 1 decodes the
+/// images and expands the Gaussians in parallel (used when there is a single chunk).
+Status decode_chunk(ChunkJob* job, unsigned workers, format::GaussianCloud* cloud) {
+  const SogMeta& meta = job->meta;
+  const std::string& where = job->meta_name;
+  Tables tables;
+  RGS_RETURN_IF_ERROR(build_tables(meta, where, &tables));
+
+  std::vector<size_t> slots = {kMeansLow, kMeansHigh, kQuats, kScales, kSh0};
+  if (meta.has_shn) {
+    slots.push_back(kCentroids);
+    slots.push_back(kLabels);
+  }
+  // Per-Gaussian images need count pixels; allow generous padding but not a decompression bomb.
+  const uint64_t max_pixels = 2 * meta.count + (uint64_t{1} << 20);
+  DecodedImages images;
+  std::vector<Status> errors(kImageSlots);
+  std::vector<uint64_t> sizes(kImageSlots, 0), hashes(kImageSlots, 0);
+  const unsigned image_workers = std::min<unsigned>(workers, static_cast<unsigned>(slots.size()));
+  detail::parallel_items(slots.size(), image_workers, [&](unsigned, uint64_t item) {
+    const size_t slot = slots[item];
+    std::vector<uint8_t> bytes;
+    Status s = job->files->read(meta.files[slot], &bytes);
+    if (s.ok()) {
+      sizes[slot] = bytes.size();
+      if (job->hash) hashes[slot] = XXH64(bytes.data(), bytes.size(), 0);
+      s = detail::decode_webp_rgba(bytes.data(), bytes.size(), max_pixels, job->files->display(meta.files[slot]),
+                                   &images.image[slot]);
+    }
+    errors[slot] = std::move(s);
+  });
+  for (size_t slot : slots) RGS_RETURN_IF_ERROR(errors[slot]);
+  for (size_t slot : slots) {
+    job->bytes_read += sizes[slot];
+    ++job->files_read;
+    if (job->hash) job->file_hashes.push_back(hashes[slot]);
+  }
+  for (size_t slot : slots) {
+    if (slot == kCentroids) continue;
+    const detail::RgbaImage& image = images.image[slot];
+    if (image.pixels() < meta.count) {
+      return corrupt(job->files->display(meta.files[slot]),
+                     std::string(kSlotNames[slot]) + " image is " + std::to_string(image.width) + " x " +
+                         std::to_string(image.height) + " = " + std::to_string(image.pixels()) +
+                         " pixels, fewer than the " + std::to_string(meta.count) + " Gaussians of " + where);
+    }
+  }
+  if (meta.has_shn) {
+    RGS_RETURN_IF_ERROR(
+        build_palette(meta, images.image[kCentroids], job->files->display(meta.files[kCentroids]), &tables));
+  }
+  if (tables.rest + 1 != cloud->sh_coefficients()) {
+    return corrupt(where, "has " + std::to_string(tables.rest) +
+                              " SH coefficients beyond DC per channel, but the "
+                              "scene has " +
+                              std::to_string(cloud->sh_coefficients() - 1));
+  }
+
+  const uint64_t n = total_count(job->ranges);
+  const unsigned expand_workers = std::min(workers, detail::worker_count(n, kMinGaussiansPerWorker));
+  std::vector<Status> slice_errors(std::max(1u, expand_workers));
+  detail::parallel_slices(n, expand_workers, [&](unsigned slice, uint64_t begin, uint64_t end) {
+    slice_errors[slice] = expand_gaussians(*job, images, tables, begin, end, cloud);
+  });
+  for (Status& s : slice_errors) RGS_RETURN_IF_ERROR(s);
+  return Status();
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Whole reads.
+
+uint64_t combine_hashes(const std::vector<uint64_t>& hashes) {
+  std::vector<uint8_t> bytes;
+  bytes.reserve(hashes.size() * 8);
+  for (uint64_t h : hashes) {
+    for (int b = 0; b < 8; ++b) bytes.push_back(static_cast<uint8_t>(h >> (8 * b)));
+  }
+  return XXH64(bytes.data(), bytes.size(), 0);
+}
+
+Status allocate_cloud(uint64_t n, uint32_t sh_degree, format::GaussianCloud* cloud) {
+  cloud->sh_degree = sh_degree;
+  const size_t count = static_cast<size_t>(n);
+  detail::resize_huge(cloud->means, count * 3);
+  detail::resize_huge(cloud->rotations, count * 4);
+  detail::resize_huge(cloud->scales, count * 3);
+  detail::resize_huge(cloud->opacities, count);
+  detail::resize_huge(cloud->sh, count * cloud->sh_coefficients() * 3);
+  return Status();
+}
+
+/// SH degree a meta file implies; the earlier layout names it only through its centroids image, so its
+/// scenes report the degree decode_chunk checks against (`bands` from the image, see build_palette).
+uint32_t declared_degree(const SogMeta& meta) { return meta.has_shn ? meta.sh_bands : 0; }
+
+/// Reads the earlier layout's centroids image header to learn its SH bands before the cloud is allocated.
+Status resolve_earlier_bands(SogMeta* meta, const SogFiles& files) {
+  if (meta->version == 2 || !meta->has_shn) return Status();
+  std::vector<uint8_t> bytes;
+  RGS_RETURN_IF_ERROR(files.read(meta->files[kCentroids], &bytes));
+  detail::RgbaImage image;
+  RGS_RETURN_IF_ERROR(detail::decode_webp_rgba(bytes.data(), bytes.size(), uint64_t{1} << 24,
+                                               files.display(meta->files[kCentroids]), &image));
+  switch (image.width) {
+    case 192:
+      meta->sh_bands = 1;
+      break;
+    case 512:
+      meta->sh_bands = 2;
+      break;
+    case 960:
+      meta->sh_bands = 3;
+      break;
+    default:
+      return corrupt(files.display(meta->files[kCentroids]),
+                     "shN centroids image is " + std::to_string(image.width) +
+                         " pixels wide; expected 192, 512 or 960 (SH bands 1, 2, 3)");
+  }
+  return Status();
+}
+
+Status check_count(uint64_t count, const SceneReadOptions& options, const std::string& where) {
+  if (count > options.max_gaussians) {
+    return Status(StatusCode::kLimitExceeded, where + ": declares " + std::to_string(count) +
+                                                  " Gaussians, above the limit of " +
+                                                  std::to_string(options.max_gaussians));
+  }
+  return Status();
+}
+
+template <typename Fn>
+Result<InputScene> guarded(const std::string& path, Fn&& fn) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, path + ": out of memory while decoding");
+  } catch (const std::length_error&) {
+    return Status(StatusCode::kOutOfMemory, path + ": out of memory while decoding");
+  } catch (const json::exception& e) {
+    return Status(StatusCode::kCorruptData, path + ": malformed JSON field: " + e.what());
+  }
+}
+
+Status reject_lod(const SceneReadOptions& options, const std::string& path, const char* what) {
+  if (options.lod.has_value()) {
+    return Status(StatusCode::kInvalidArgument, path + ": a level of detail (" + std::to_string(*options.lod) +
+                                                    ") applies only to streamed SOG (lod-meta.json); this input is " +
+                                                    what);
+  }
+  return Status();
+}
+
+Result<InputScene> read_sog_impl(const std::string& path_in, const SceneReadOptions& options) {
+  std::string path = path_in;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) path = (fs::path(path) / "meta.json").string();
+  std::vector<uint8_t> bytes;
+  RGS_RETURN_IF_ERROR(detail::read_whole_file(path, kMaxBundleBytes, &bytes));
+  InputScene scene;
+  std::unique_ptr<SogFiles> files;
+  detail::ZipArchive zip;
+  std::vector<uint8_t> meta_bytes;
+  const bool bundled = detail::has_zip_magic(bytes.data(), bytes.size());
+  std::vector<uint64_t> hashes;
+  if (bundled) {
+    RGS_RETURN_IF_ERROR(reject_lod(options, path, "a bundled SOG (.sog)"));
+    RGS_ASSIGN_OR_RETURN(zip, detail::ZipArchive::parse(bytes.data(), bytes.size(), path));
+    const detail::ZipEntry* entry = zip.find("meta.json");
+    if (entry == nullptr) {
+      return Status(StatusCode::kCorruptData, path + ": ZIP archive has no meta.json, so it is not a bundled SOG");
+    }
+    RGS_RETURN_IF_ERROR(zip.extract(*entry, kMaxMetaBytes, &meta_bytes));
+    files = std::make_unique<ZipFiles>(&zip, path);
+    scene.format_id = "sog_bundle";
+    if (options.hash_file) scene.file_xxh64 = XXH64(bytes.data(), bytes.size(), 0);
+    scene.file_bytes = bytes.size();
+    scene.file_count = 1;
+  } else {
+    RGS_RETURN_IF_ERROR(reject_lod(options, path, "a SOG meta.json"));
+    if (bytes.size() > kMaxMetaBytes) {
+      return Status(StatusCode::kLimitExceeded, path + ": meta file is " + std::to_string(bytes.size()) +
+                                                    " bytes, above the limit of " + std::to_string(kMaxMetaBytes));
+    }
+    meta_bytes = std::move(bytes);
+    files = std::make_unique<FolderFiles>(fs::path(path).parent_path());
+    scene.format_id = "sog";
+    if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
+    scene.file_bytes = meta_bytes.size();
+    scene.file_count = 1;
+  }
+  const std::string meta_name = bundled ? path + ":meta.json" : path;
+  ChunkJob job;
+  job.meta_name = meta_name;
+  job.files = files.get();
+  job.hash = options.hash_file && !bundled;
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(meta_bytes, meta_name));
+  RGS_RETURN_IF_ERROR(parse_sog_meta(root, meta_name, &job.meta));
+  RGS_RETURN_IF_ERROR(check_count(job.meta.count, options, meta_name));
+  RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
+  job.ranges.push_back(Range{0, job.meta.count, 0});
+  RGS_RETURN_IF_ERROR(allocate_cloud(job.meta.count, declared_degree(job.meta), &scene.cloud));
+  RGS_RETURN_IF_ERROR(decode_chunk(&job, detail::worker_count(UINT64_MAX, 1), &scene.cloud));
+  if (!bundled) {
+    scene.file_bytes += job.bytes_read;
+    scene.file_count += job.files_read;
+    if (options.hash_file) {
+      hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
+      scene.file_xxh64 = combine_hashes(hashes);
+    }
+  }
+  scene.storage_format = scene.format_id;
+  scene.declared_vertices = job.meta.count;
+  const std::string layout = job.meta.version == 2 ? "v2" : "unversioned (v1)";
+  scene.description =
+      bundled ? "PlayCanvas SOG " + layout + " (bundled .sog)"
+              : "PlayCanvas SOG " + layout + " (meta.json + " + std::to_string(job.files_read) + " WebP images)";
+  return scene;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Streamed SOG.
+
+struct LodReference {
+  uint64_t file = 0, offset = 0, count = 0;
+};
+
+Status collect_references(const json& tree, uint64_t levels, uint64_t files, uint32_t lod, const std::string& where,
+                          std::vector<LodReference>* out) {
+  std::vector<std::pair<const json*, size_t>> stack = {{&tree, 0}};
+  while (!stack.empty()) {
+    const auto [node, depth] = stack.back();
+    stack.pop_back();
+    if (!node->is_object()) return corrupt(where, "a 'tree' node is a " + type_name(*node) + ", not an object");
+    if (depth > kMaxTreeDepth) return corrupt(where, "'tree' is nested deeper than " + std::to_string(kMaxTreeDepth));
+    auto lods = node->find("lods");
+    if (lods != node->end()) {
+      if (!lods->is_object()) return corrupt(where, "a node's 'lods' is a " + type_name(*lods) + ", not an object");
+      for (auto it = lods->begin(); it != lods->end(); ++it) {
+        const std::string& key = it.key();
+        uint64_t level = 0;
+        bool numeric = !key.empty() && key.size() < 10;
+        for (char ch : key) numeric = numeric && ch >= '0' && ch <= '9';
+        if (numeric) level = std::stoull(key);
+        if (!numeric || level >= levels) {
+          return corrupt(where, "LOD reference key '" + key + "' is not a level in 0.." + std::to_string(levels - 1));
+        }
+        const json& ref = it.value();
+        if (!ref.is_object()) return corrupt(where, "LOD reference '" + key + "' is not an object");
+        LodReference r;
+        const std::string field = "tree..lods." + key;
+        for (const char* name : {"file", "offset", "count"}) {
+          auto f = ref.find(name);
+          if (f == ref.end()) return corrupt(where, "LOD reference '" + key + "' has no '" + name + "'");
+          RGS_ASSIGN_OR_RETURN(uint64_t v, count_value(*f, where, field + "." + name));
+          (name[0] == 'f' ? r.file : name[0] == 'o' ? r.offset : r.count) = v;
+        }
+        if (r.file >= files) {
+          return corrupt(where, "LOD reference names file " + std::to_string(r.file) + ", but 'filenames' has " +
+                                    std::to_string(files) + " entries");
+        }
+        if (level == lod) out->push_back(r);
+      }
+    }
+    auto children = node->find("children");
+    if (children != node->end()) {
+      if (!children->is_array()) return corrupt(where, "a node's 'children' is not an array");
+      for (auto c = children->rbegin(); c != children->rend(); ++c) stack.push_back({&*c, depth + 1});
+    }
+  }
+  return Status();
+}
+
+Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneReadOptions& options) {
+  std::string path = path_in;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) path = (fs::path(path) / "lod-meta.json").string();
+  std::vector<uint8_t> bytes;
+  RGS_RETURN_IF_ERROR(detail::read_whole_file(path, kMaxMetaBytes, &bytes));
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, path));
+  if (!root.is_object()) return corrupt(path, "top level is a " + type_name(root) + ", not an object");
+  InputScene scene;
+  std::vector<uint64_t> hashes;
+  if (options.hash_file) hashes.push_back(XXH64(bytes.data(), bytes.size(), 0));
+  scene.file_bytes = bytes.size();
+  scene.file_count = 1;
+
+  if (auto v = root.find("version"); v != root.end()) {
+    RGS_ASSIGN_OR_RETURN(uint64_t version, count_value(*v, path, "version"));
+    if (version != 1) {
+      return Status(StatusCode::kUnsupportedVersion,
+                    path + ": lod-meta.json version " + std::to_string(version) + " (supported: 1 and unversioned)");
+    }
+  }
+  RGS_ASSIGN_OR_RETURN(const json* levels_json, member(root, "lodLevels", path, ""));
+  RGS_ASSIGN_OR_RETURN(uint64_t levels, count_value(*levels_json, path, "lodLevels"));
+  if (levels == 0 || levels > 64) return corrupt(path, "'lodLevels' is " + std::to_string(levels) + " (valid: 1..64)");
+  const uint32_t lod = options.lod.value_or(0);
+  if (lod >= levels) {
+    return Status(StatusCode::kInvalidArgument, path + ": LOD " + std::to_string(lod) +
+                                                    " requested, but the scene has " + std::to_string(levels) +
+                                                    " levels (0.." + std::to_string(levels - 1) + ")");
+  }
+  RGS_ASSIGN_OR_RETURN(const json* names_json, member(root, "filenames", path, ""));
+  if (!names_json->is_array()) return corrupt(path, "'filenames' is not an array");
+  std::vector<std::string> names;
+  for (size_t i = 0; i < names_json->size(); ++i) {
+    const json& n = (*names_json)[i];
+    const std::string field = "filenames[" + std::to_string(i) + "]";
+    if (!n.is_string()) return corrupt(path, "field '" + field + "' is not a string");
+    names.push_back(n.get<std::string>());
+    RGS_RETURN_IF_ERROR(check_relative_name(names.back(), path, field));
+  }
+  RGS_ASSIGN_OR_RETURN(const json* tree, member(root, "tree", path, ""));
+  std::vector<LodReference> refs;
+  RGS_RETURN_IF_ERROR(collect_references(*tree, levels, names.size(), lod, path, &refs));
+
+  // Group by file (ascending), ranges by offset; check totals before allocating anything for them.
+  std::map<uint64_t, std::vector<LodReference>> by_file;
+  uint64_t total = 0;
+  for (const LodReference& r : refs) {
+    if (r.count > options.max_gaussians || total > options.max_gaussians - r.count) {
+      return Status(StatusCode::kLimitExceeded, path + ": LOD " + std::to_string(lod) + " references more than " +
+                                                    std::to_string(options.max_gaussians) + " Gaussians (the limit)");
+    }
+    total += r.count;
+    if (r.count > 0) by_file[r.file].push_back(r);
+  }
+  if (auto counts = root.find("counts"); counts != root.end()) {
+    if (!counts->is_array() || counts->size() != levels) {
+      return corrupt(path, "'counts' must be an array of " + std::to_string(levels) + " counts");
+    }
+    RGS_ASSIGN_OR_RETURN(uint64_t declared, count_value((*counts)[lod], path, "counts[" + std::to_string(lod) + "]"));
+    if (declared != total) {
+      return corrupt(path, "'counts[" + std::to_string(lod) + "]' is " + std::to_string(declared) +
+                               ", but the tree references " + std::to_string(total) + " Gaussians for that level");
+    }
+  }
+
+  const fs::path dir = fs::path(path).parent_path();
+  std::vector<std::unique_ptr<FolderFiles>> folders;
+  std::vector<ChunkJob> jobs;
+  jobs.reserve(by_file.size());
+  uint64_t next_dst = 0;
+  uint32_t degree = 0;
+  std::string degree_source;
+  for (auto& [file, file_refs] : by_file) {
+    std::sort(file_refs.begin(), file_refs.end(),
+              [](const LodReference& a, const LodReference& b) { return a.offset < b.offset; });
+    const std::string meta_path = (dir / names[file]).string();
+    std::vector<uint8_t> meta_bytes;
+    Status read = detail::read_whole_file(meta_path, kMaxMetaBytes, &meta_bytes);
+    if (!read.ok()) {
+      return std::move(read.prepend(path + ": LOD " + std::to_string(lod) + " chunk '" + names[file] + "'"));
+    }
+    if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
+    scene.file_bytes += meta_bytes.size();
+    ++scene.file_count;
+    RGS_ASSIGN_OR_RETURN(json chunk_root, parse_json(meta_bytes, meta_path));
+    ChunkJob job;
+    job.meta_name = meta_path;
+    RGS_RETURN_IF_ERROR(parse_sog_meta(chunk_root, meta_path, &job.meta));
+    folders.push_back(std::make_unique<FolderFiles>(fs::path(meta_path).parent_path()));
+    job.files = folders.back().get();
+    job.hash = options.hash_file;
+    RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *job.files));
+    uint64_t covered = 0;
+    for (const LodReference& r : file_refs) {
+      if (r.offset < covered) {
+        return corrupt(path, "LOD " + std::to_string(lod) + " ranges of '" + names[file] + "' overlap at offset " +
+                                 std::to_string(r.offset));
+      }
+      if (r.offset > job.meta.count || r.count > job.meta.count - r.offset) {
+        return corrupt(path, "LOD " + std::to_string(lod) + " range [" + std::to_string(r.offset) + ", " +
+                                 std::to_string(r.offset + r.count) + ") of '" + names[file] + "' exceeds its " +
+                                 std::to_string(job.meta.count) + " Gaussians");
+      }
+      job.ranges.push_back(Range{r.offset, r.count, next_dst});
+      next_dst += r.count;
+      covered = r.offset + r.count;
+    }
+    const uint32_t d = declared_degree(job.meta);
+    if (jobs.empty()) {
+      degree = d;
+      degree_source = names[file];
+    } else if (d != degree) {
+      return corrupt(path, "chunk '" + names[file] + "' has SH degree " + std::to_string(d) + ", chunk '" +
+                               degree_source + "' has " + std::to_string(degree));
+    }
+    jobs.push_back(std::move(job));
+  }
+
+  RGS_RETURN_IF_ERROR(allocate_cloud(total, degree, &scene.cloud));
+  std::vector<Status> errors(jobs.size());
+  const unsigned threads = detail::worker_count(UINT64_MAX, 1);  // every CPU this process may use (≤ 16)
+  const unsigned workers = detail::worker_count(jobs.size(), 1);
+  // With fewer chunks than threads, each chunk also decodes its images and expands in parallel.
+  const unsigned busy = static_cast<unsigned>(std::max<size_t>(1, std::min<size_t>(jobs.size(), threads)));
+  const unsigned inner = std::max(1u, threads / busy);
+  detail::parallel_items(jobs.size(), workers, [&](unsigned, uint64_t item) {
+    errors[item] = decode_chunk(&jobs[item], inner, &scene.cloud);
+  });
+  for (Status& s : errors) RGS_RETURN_IF_ERROR(s);
+  for (const ChunkJob& job : jobs) {
+    scene.file_bytes += job.bytes_read;
+    scene.file_count += job.files_read;
+  }
+  if (options.hash_file) {
+    // Meta files first (read above, in file order), then each chunk's images in file order.
+    for (const ChunkJob& job : jobs) hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
+    scene.file_xxh64 = combine_hashes(hashes);
+  }
+  scene.format_id = "sog_lod";
+  scene.storage_format = scene.format_id;
+  scene.declared_vertices = total;
+  scene.description = "PlayCanvas streamed SOG, LOD " + std::to_string(lod) + " of " + std::to_string(levels) + " (" +
+                      std::to_string(jobs.size()) + (jobs.size() == 1 ? " chunk)" : " chunks)");
+  return scene;
+}
+
+}  // namespace
+
+Result<InputScene> read_sog(const std::string& path, const SceneReadOptions& options) {
+  return guarded(path, [&] { return read_sog_impl(path, options); });
+}
+
+Result<InputScene> read_sog_lod(const std::string& path, const SceneReadOptions& options) {
+  return guarded(path, [&] { return read_sog_lod_impl(path, options); });
+}
+
+}  // namespace rgs::converter
