@@ -5,19 +5,26 @@
 //
 //   rgs-audit scene.ply scene.rgs --cameras cameras.json                 every camera, native size
 //   rgs-audit scene.ply a.rgs b.rgs c.rgs --label max --label p99 ...     one run, several candidates
-//   rgs-audit scene.ply scene.rgs --min-psnr 40 --report ci/audit.html    CI gate: exit 1 below 40 dB
+//   rgs-audit scene.ply scene.rgs --min-psnr 40 --report ci/audit.html    CI gate: exit 3 below 40 dB
 //   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
 //
-// Exit status: 0 ok, 1 failure or a PSNR below --min-psnr, 2 usage error.
+// Every output of a run (the HTML report, its JSON, its images, --json, --heatmap) is declared before any work,
+// may not be an input or another output, and is committed together at the end (format::OutputSet); the HTML
+// script writes into the report's staged temporary. Exit status: 0 ok, 1 failure (no output written or
+// changed), 2 usage error, 3 a candidate below --min-psnr (the audit itself succeeded: its reports are
+// written), 128 + N on signal N. --json - prints the JSON on standard output and the table on standard error.
 
 #include <CLI/CLI.hpp>
 
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -42,6 +49,8 @@ namespace {
 using namespace rgs;
 using Clock = std::chrono::steady_clock;
 constexpr const char* kTool = "rgs-audit";
+/// Exit code of a completed audit in which a candidate's lowest PSNR is below --min-psnr (reports written).
+constexpr int kExitBelowMinPsnr = 3;
 
 struct Options {
   std::vector<std::string> scenes;  // source, then candidates
@@ -81,8 +90,10 @@ std::string report_script() {
 }
 
 /// Runs `PYTHON SCRIPT json html` ($RGS_PYTHON, else /usr/bin/python3 when present, else python3 from PATH);
-/// ok when it exits 0. Its own messages go to stderr.
-Status render_html(const std::string& json_path, const std::string& html_path) {
+/// ok when it exits 0. Its own messages go to stderr. A failure names the command with `shown_json` and
+/// `shown_html`, the files the user knows, instead of the scratch or staged paths the script was given.
+Status render_html(const std::string& json_path, const std::string& html_path, const std::string& shown_json,
+                   const std::string& shown_html) {
   const std::string script = report_script();
   // Debian's python3-matplotlib lives under /usr/bin/python3, which a python3 earlier in PATH may lack.
   std::string python = "python3";
@@ -91,18 +102,54 @@ Status render_html(const std::string& json_path, const std::string& html_path) {
   } else if (std::filesystem::exists("/usr/bin/python3")) {
     python = "/usr/bin/python3";
   }
+  // The interpreter is looked up here, so that the child only makes async-signal-safe calls before exec.
+  std::string program = python;
+  if (program.find('/') == std::string::npos) {
+    const char* path_env = std::getenv("PATH");
+    std::string dirs = path_env ? path_env : "/usr/local/bin:/usr/bin:/bin";
+    for (size_t begin = 0; begin <= dirs.size();) {
+      size_t end = dirs.find(':', begin);
+      if (end == std::string::npos) end = dirs.size();
+      const std::string dir = end > begin ? dirs.substr(begin, end - begin) : ".";
+      const std::string candidate = dir + "/" + python;
+      if (access(candidate.c_str(), X_OK) == 0) {
+        program = candidate;
+        break;
+      }
+      begin = end + 1;
+    }
+  }
+  RGS_RETURN_ERROR_IF(access(program.c_str(), X_OK) != 0, StatusCode::kUnsupportedFeature,
+                      "cannot run " + python + " for the HTML report: " + std::strerror(errno));
   std::vector<std::string> args = {python, script, json_path, html_path};
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int spawned = posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ);
-  RGS_RETURN_ERROR_IF(spawned != 0, StatusCode::kUnsupportedFeature,
-                      "cannot run " + python + " for the HTML report: " + std::string(std::strerror(spawned)));
+  // The script dies with this process (an interrupt removes the staged HTML; an orphaned script would write
+  // it again after that cleanup).
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  RGS_RETURN_ERROR_IF(pid < 0, StatusCode::kIoError,
+                      "cannot start " + python + " for the HTML report: " + std::strerror(errno));
+  if (pid == 0) {
+    // Until exec, a signal must not run this process's cleanup handler, which removes the parent's temporaries.
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+      struct sigaction current {};
+      if (sigaction(sig, nullptr, &current) == 0 && current.sa_handler != SIG_IGN) signal(sig, SIG_DFL);
+    }
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) _exit(127);
+    execve(program.c_str(), argv.data(), environ);
+    _exit(127);
+  }
   int wstatus = 0;
-  RGS_RETURN_ERROR_IF(waitpid(pid, &wstatus, 0) != pid, StatusCode::kIoError, "waiting for " + script + " failed");
+  pid_t waited = 0;
+  do {
+    waited = waitpid(pid, &wstatus, 0);
+  } while (waited < 0 && errno == EINTR);
+  RGS_RETURN_ERROR_IF(waited != pid, StatusCode::kIoError, "waiting for " + script + " failed");
   RGS_RETURN_ERROR_IF(!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0, StatusCode::kUnsupportedFeature,
-                      python + " " + script + " " + json_path + " " + html_path + " failed (exit " +
+                      python + " " + script + " " + shown_json + " " + shown_html + " failed (exit " +
                           std::to_string(WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1) + ")");
   return Status();
 }
@@ -116,7 +163,8 @@ std::string with_suffix(const std::string& html, const std::string& suffix) {
 void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::CandidateResult& c) {
   const char* channel_names[3] = {"R", "G", "B"};
   const double per_g = c.scene.gaussians ? 1.0 / double(c.scene.gaussians) : 0.0;
-  std::fprintf(out, "candidate %s (%s, %s)\n", c.scene.label.c_str(), c.scene.path.c_str(), c.scene.format.c_str());
+  std::fprintf(out, "candidate %s (%s, %s)\n", tools::escape_text(c.scene.label).c_str(),
+               tools::escape_text(c.scene.path).c_str(), tools::escape_text(c.scene.format).c_str());
   std::fprintf(out, "  gaussians        %s (SH degree %u)\n", tools::group_digits(c.scene.gaussians).c_str(),
                c.scene.sh_degree);
   std::fprintf(out, "  size             %s bytes  (%s B/Gaussian), ratio %sx\n",
@@ -158,27 +206,157 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
       }
     }
   } else {
-    std::fprintf(out, "  %s\n", c.attributes_note.c_str());
+    std::fprintf(out, "  %s\n", tools::escape_text(c.attributes_note).c_str());
   }
+}
+
+/// Reports a failed OutputSet::add_output: a path that aliases an input or another output, or names a device,
+/// is a usage error (exit 2); an existing directory or an OS error is a failure (exit 1).
+int report_output_error(const Status& status) {
+  return status.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, status)
+                                                       : tools::report_error(kTool, status);
+}
+
+/// Checks `path` without blocking (a FIFO or device is refused at once) and declares it as an input of `outputs`.
+int declare_input(format::OutputSet& outputs, const std::string& path) {
+  Status readable = tools::check_input_file(path);
+  if (!readable.ok()) return tools::report_error(kTool, readable);
+  Status declared = outputs.add_input(path);
+  if (!declared.ok()) return tools::report_usage_error(kTool, declared);
+  return tools::kExitOk;
+}
+
+/// The report's image folder: created when missing, and removed again at scope exit when this run created it
+/// and left it empty (a failed run). Declared before the OutputSet, so that it is destroyed after the set has
+/// removed its temporaries.
+class CreatedDirectory {
+ public:
+  /// Creates `path` (and its parents) when missing. @return kIoError naming `path`.
+  Status create(const std::string& path) {
+    std::error_code ec;
+    const bool existed = std::filesystem::exists(path, ec);
+    std::filesystem::create_directories(path, ec);
+    if (ec || !std::filesystem::is_directory(path)) {
+      return Status(StatusCode::kIoError,
+                    path + ": cannot create the report's image folder" + (ec ? ": " + ec.message() : std::string()));
+    }
+    if (!existed) path_ = path;
+    return Status();
+  }
+  void keep() { path_.clear(); }
+  ~CreatedDirectory() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove(path_, ec);  // only removes an empty directory
+  }
+
+ private:
+  std::string path_;
+};
+
+/// A private folder under the system's temporary directory, removed with everything in it at scope exit.
+/// The HTML script reads the JSON and its images from here, because the report's own files are still staged
+/// under temporary names until the commit.
+class ScratchDirectory {
+ public:
+  Status create() {
+    std::error_code ec;
+    std::string pattern = (std::filesystem::temp_directory_path(ec) / "rgs-audit.XXXXXX").string();
+    if (ec) pattern = "/tmp/rgs-audit.XXXXXX";
+    std::vector<char> name(pattern.begin(), pattern.end());
+    name.push_back('\0');
+    RGS_RETURN_ERROR_IF(mkdtemp(name.data()) == nullptr, StatusCode::kIoError,
+                        pattern + ": cannot create a scratch folder: " + std::strerror(errno));
+    path_ = name.data();
+    return Status();
+  }
+  const std::string& path() const { return path_; }
+  ~ScratchDirectory() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove_all(path_, ec);
+  }
+
+ private:
+  std::string path_;
+};
+
+/// The HTML of the report whose JSON is `report_json` (naming its images relative to itself), made by the
+/// script from a scratch copy of the JSON and the images and staged in `outputs` as `html_path`.
+Status stage_html(format::OutputSet& outputs, const audit::AuditResult& r, const std::string& report_json,
+                  const std::string& text, const std::string& html_path) {
+  ScratchDirectory scratch;
+  RGS_RETURN_IF_ERROR(scratch.create());
+  const std::filesystem::path json_name = std::filesystem::path(report_json).filename();
+  const std::string scratch_json = (std::filesystem::path(scratch.path()) / json_name).string();
+  RGS_RETURN_IF_ERROR(audit::write_report_images(r, with_suffix(scratch_json, "_files")));
+  RGS_RETURN_IF_ERROR(format::write_file_atomic(scratch_json, text.data(), text.size()));
+  return outputs.write_by_name(html_path, [&](const std::string& temp_path) {
+    return render_html(scratch_json, temp_path, report_json, html_path);
+  });
 }
 
 int run_report_only(const Options& opt) {
   if (opt.report_path.empty()) {
-    std::fprintf(stderr, "%s: error: --report-from needs --report OUT.html\n", kTool);
-    return tools::kExitUsage;
+    return tools::report_usage_error(kTool,
+                                     Status(StatusCode::kInvalidArgument, "--report-from needs --report OUT.html"));
   }
-  Status st = render_html(opt.report_from, opt.report_path);
+  format::OutputSet outputs;
+  if (int code = declare_input(outputs, opt.report_from); code != tools::kExitOk) return code;
+  Status declared = outputs.add_output(opt.report_path);
+  if (!declared.ok()) return report_output_error(declared);
+  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  Status st = outputs.write_by_name(opt.report_path,
+                                    [&](const std::string& temp_path) {
+                                      return render_html(opt.report_from, temp_path, opt.report_from, opt.report_path);
+                                    });
   if (!st.ok()) return tools::report_error(kTool, st);
-  std::fprintf(stderr, "%s: report %s\n", kTool, opt.report_path.c_str());
+  tools::report_note(kTool, "report " + opt.report_path);
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
   return tools::kExitOk;
 }
 
 int run(const Options& opt) {
   const auto t_start = Clock::now();
+  const bool json_stdout = opt.json_path == "-";
   if (!opt.heatmap_path.empty()) {
     Status heatmap_ok = tools::check_image8_path(opt.heatmap_path, 1);
     if (!heatmap_ok.ok()) return tools::report_error(kTool, heatmap_ok);
   }
+
+  // Every identity is checked before any work: no output may replace an input or another output. The report's
+  // image files are named by the audit's worst views, so they are declared once it has run (before writing).
+  CreatedDirectory created_images;
+  format::OutputSet outputs;
+  for (const std::string& input : opt.scenes) {
+    if (int code = declare_input(outputs, input); code != tools::kExitOk) return code;
+  }
+  if (!opt.cameras.cameras_path.empty()) {
+    if (int code = declare_input(outputs, opt.cameras.cameras_path); code != tools::kExitOk) return code;
+  }
+  std::string report_json, report_files;
+  if (!opt.no_report) {
+    report_json = with_suffix(opt.report_path, ".json");
+    report_files = with_suffix(opt.report_path, "_files");
+  }
+  for (const std::string& output : {opt.report_path, report_json, opt.json_path, opt.heatmap_path}) {
+    if (output.empty() || (output == opt.json_path && json_stdout)) continue;
+    Status declared = outputs.add_output(output);
+    if (!declared.ok()) return report_output_error(declared);
+  }
+  if (!report_files.empty()) {
+    std::error_code ec;
+    const auto kind = std::filesystem::status(report_files, ec).type();
+    if (kind != std::filesystem::file_type::not_found && kind != std::filesystem::file_type::directory) {
+      return tools::report_usage_error(
+          kTool, Status(StatusCode::kInvalidArgument,
+                        report_files + ": the report's image folder exists and is not a directory (choose another "
+                                       "--report, or --no-report)"));
+    }
+  }
+  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+
   // Backend first: an explicit --backend cuda without a device fails before any loading.
   audit::AuditOptions options;
   std::string why;
@@ -210,7 +388,8 @@ int run(const Options& opt) {
 
   std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
                audit::backend_name(options.backend),
-               options.backend == audit::Backend::kCpu && opt.backend == "auto" ? (" (no CUDA device: " + why + ")").c_str() : "",
+               options.backend == audit::Backend::kCpu && opt.backend == "auto"
+                   ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
                cameras->size(), candidates.size(), candidates.size() == 1 ? "" : "s");
   auto last_print = Clock::now() - std::chrono::hours(1);
   options.progress = [&](const audit::AuditProgress& p) {
@@ -220,24 +399,35 @@ int run(const Options& opt) {
     std::string psnrs;
     for (double v : p.psnr_db) psnrs += " " + db(v);
     std::fprintf(stderr, "view %zu/%zu %s PSNR%s dB | %s s elapsed, ~%s s left\n", p.views_done, p.views_total,
-                 p.view.c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
+                 tools::escape_text(p.view).c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
                  tools::fixed(p.remaining_s, 0).c_str());
   };
   auto result = audit::run_audit(*source, candidates, *cameras, options);
   if (!result.ok()) return tools::report_error(kTool, result.status());
   const audit::AuditResult& r = *result;
 
-  // Outputs: images and JSON next to the report, the JSON also at --json (or stdout), the heatmap.
+  // Outputs, all staged in `outputs`: images and JSON next to the report, the JSON also at --json (or stdout),
+  // the heatmap; the HTML below.
   audit::ReportOptions ro;
   ro.tool_version = RGS_VERSION_STRING;
   ro.command_line = opt.command_line;
   if (opt.min_psnr_set) ro.min_psnr_db = opt.min_psnr;
-  std::string report_json;
   if (!opt.no_report) {
-    report_json = with_suffix(opt.report_path, ".json");
-    const std::string files = with_suffix(opt.report_path, "_files");
-    ro.image_dir = std::filesystem::path(files).filename().string() + "/";
-    Status st = audit::write_report_images(r, files);
+    ro.image_dir = std::filesystem::path(report_files).filename().string() + "/";
+    // The files write_report_images writes (its documented names), each staged in `outputs`.
+    for (size_t i = 0; i < r.candidates.size(); ++i) {
+      for (const audit::ViewImages& w : r.candidates[i].worst) {
+        for (const char* kind : {"_source.ppm", "_candidate.ppm", "_diff.pgm"}) {
+          const std::string name = "c" + std::to_string(i) + "_v" + std::to_string(w.view) + kind;
+          Status declared = outputs.add_output((std::filesystem::path(report_files) / name).string());
+          if (!declared.ok()) return report_output_error(declared);
+        }
+      }
+    }
+    Status created = created_images.create(report_files);
+    if (!created.ok()) return tools::report_error(kTool, created);
+    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+    Status st = audit::write_report_images(r, report_files);
     if (!st.ok()) return tools::report_error(kTool, st);
   }
   if (!opt.heatmap_path.empty()) {
@@ -248,29 +438,30 @@ int run(const Options& opt) {
   ro.total_seconds = tools::seconds_since(t_start);
   const std::string text = audit::audit_json(r, ro);
   if (!report_json.empty()) {
-    Status st = format::write_file_atomic(report_json, text.data(), text.size());
+    Status st = outputs.write(report_json, text.data(), text.size());
     if (!st.ok()) return tools::report_error(kTool, st);
   }
-  const bool json_stdout = opt.json_path == "-";
   if (!opt.json_path.empty() && !json_stdout) {
     ro.image_dir.clear();  // image paths are relative to the report's JSON
     const std::string plain = audit::audit_json(r, ro);
-    Status st = format::write_file_atomic(opt.json_path, plain.data(), plain.size());
+    Status st = outputs.write(opt.json_path, plain.data(), plain.size());
     if (!st.ok()) return tools::report_error(kTool, st);
   }
 
   // The table (stderr when stdout carries the JSON).
   std::FILE* out = json_stdout ? stderr : stdout;
   if (!opt.quiet) {
-    std::fprintf(out, "%s %s (%s, %s Gaussians, %s bytes)\n", kTool, r.source.path.c_str(), r.source.format.c_str(),
+    std::fprintf(out, "%s %s (%s, %s Gaussians, %s bytes)\n", kTool,
+                 tools::escape_text(r.source.path).c_str(), tools::escape_text(r.source.format).c_str(),
                  tools::group_digits(r.source.gaussians).c_str(), tools::group_digits(r.source.file_bytes).c_str());
-    std::fprintf(out, "  backend          %s (%s)\n", audit::backend_name(r.backend), r.device.c_str());
+    std::fprintf(out, "  backend          %s (%s)\n", audit::backend_name(r.backend),
+                 tools::escape_text(r.device).c_str());
     for (const auto& c : r.candidates) print_candidate(out, r, c);
     std::fprintf(out, "  %-22s", "view");
-    for (const auto& c : r.candidates) std::fprintf(out, " %12.12s", c.scene.label.c_str());
+    for (const auto& c : r.candidates) std::fprintf(out, " %12.12s", tools::escape_text(c.scene.label).c_str());
     std::fprintf(out, "   PSNR dB\n");
     for (size_t v = 0; v < r.views.size(); ++v) {
-      std::fprintf(out, "  %-22s", r.views[v].name.c_str());
+      std::fprintf(out, "  %-22s", tools::escape_text(r.views[v].name).c_str());
       for (const auto& c : r.candidates) std::fprintf(out, " %12s", db(c.views[v].psnr_db).c_str());
       std::fprintf(out, "\n");
     }
@@ -278,58 +469,69 @@ int run(const Options& opt) {
                  "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
     for (const auto& c : r.candidates) {
       const double per_g = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
-      std::fprintf(out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", c.scene.label.c_str(), c.scene.format.c_str(),
-                   tools::group_digits(c.scene.file_bytes).c_str(), tools::fixed(per_g, 1).c_str(),
+      std::fprintf(out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", tools::escape_text(c.scene.label).c_str(),
+                   tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),
+                   tools::fixed(per_g, 1).c_str(),
                    tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
                    db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(),
                    tools::fixed(c.summary.ssim_mean, 5).c_str(), tools::fixed(c.summary.max_abs_diff, 4).c_str());
     }
     const audit::ViewInfo& first = r.views.front();
     for (const auto& c : r.candidates) {
-      const std::string suffix = r.candidates.size() > 1 ? "  [" + c.scene.label + "]" : "";
+      const std::string suffix = r.candidates.size() > 1 ? "  [" + tools::escape_text(c.scene.label) + "]" : "";
       std::fprintf(out, "  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)%s\n",
                    db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(), r.views.size(), first.width,
-                   first.height, r.views[c.summary.worst_view].name.c_str(), suffix.c_str());
+                   first.height, tools::escape_text(r.views[c.summary.worst_view].name).c_str(), suffix.c_str());
       std::fprintf(out, "  SSIM             mean %s, min %s%s\n", tools::fixed(c.summary.ssim_mean, 5).c_str(),
                    tools::fixed(c.summary.ssim_min, 5).c_str(), suffix.c_str());
     }
     if (!opt.heatmap_path.empty()) {
-      std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n", opt.heatmap_path.c_str(),
-                   r.views[r.candidates[0].summary.worst_view].name.c_str(),
+      std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n",
+                   tools::escape_text(opt.heatmap_path).c_str(),
+                   tools::escape_text(r.views[r.candidates[0].summary.worst_view].name).c_str(),
                    tools::fixed(r.candidates[0].summary.max_abs_diff > 0
                                     ? r.candidates[0].views[r.candidates[0].summary.worst_view].max_abs_diff : 0.f, 4).c_str());
     }
-    if (!report_json.empty()) std::fprintf(out, "  json             %s\n", report_json.c_str());
+    if (!report_json.empty()) std::fprintf(out, "  json             %s\n", tools::escape_text(report_json).c_str());
     std::fprintf(out, "  time             %s s (views %s s)\n", tools::fixed(tools::seconds_since(t_start), 1).c_str(),
                  tools::fixed(r.render_seconds, 1).c_str());
   }
   if (json_stdout) {
     std::fwrite(text.data(), 1, text.size(), stdout);
-    std::fflush(stdout);
+    std::fflush(stdout);  // before the HTML script runs, which shares stdout
   }
 
   if (!opt.no_report) {
-    Status st = render_html(report_json, opt.report_path);
+    Status st = stage_html(outputs, r, report_json, text, opt.report_path);
     if (st.ok()) {
-      if (!opt.quiet) std::fprintf(out, "  report           %s\n", opt.report_path.c_str());
+      if (!opt.quiet) std::fprintf(out, "  report           %s\n", tools::escape_text(opt.report_path).c_str());
     } else {
-      // The JSON and the images are written; the HTML can be made on another host.
+      // The JSON and the images are still committed; the HTML can be made on another host.
       std::fprintf(stderr, "%s: warning: no HTML report (%s); on a host with python3-matplotlib run: %s --report-from %s "
-                   "--report %s\n", kTool, st.message().c_str(), kTool, report_json.c_str(), opt.report_path.c_str());
+                   "--report %s\n", kTool, tools::escape_text(st.message()).c_str(), kTool,
+                   tools::escape_text(report_json).c_str(), tools::escape_text(opt.report_path).c_str());
     }
   }
 
-  if (opt.min_psnr_set && !audit::passes_gate(r, opt.min_psnr)) {
+  const bool below_gate = opt.min_psnr_set && !audit::passes_gate(r, opt.min_psnr);
+  if (below_gate) {
     for (const auto& c : r.candidates) {
       if (c.summary.psnr_min_db < opt.min_psnr) {
         std::fprintf(stderr, "%s: error: %s: min PSNR %s dB (view %s) is below --min-psnr %s dB\n", kTool,
-                     c.scene.label.c_str(), db(c.summary.psnr_min_db).c_str(),
-                     r.views[c.summary.worst_view].name.c_str(), tools::fixed(opt.min_psnr, 2).c_str());
+                     tools::escape_text(c.scene.label).c_str(), db(c.summary.psnr_min_db).c_str(),
+                     tools::escape_text(r.views[c.summary.worst_view].name).c_str(),
+                     tools::fixed(opt.min_psnr, 2).c_str());
       }
     }
-    return tools::kExitFailure;
   }
-  return tools::kExitOk;
+  // The table and the JSON on stdout must have been written before the files appear (a failed report leaves
+  // none).
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
+  created_images.keep();
+  return below_gate ? kExitBelowMinPsnr : tools::kExitOk;
 }
 
 }  // namespace
@@ -340,21 +542,23 @@ int main(int argc, char** argv) {
   CLI::App app{"Audit conversions and formats: bytes per section and per Gaussian, per-attribute errors, and per-view "
                "PSNR/SSIM/max |d| of each candidate's render against the source's (3DGS baseline, FP32). Renders on the "
                "GPU when a CUDA device is present (--backend), else on the CPU reference. Writes a JSON next to an "
-               "HTML report (default <first candidate>.audit.html). Without a camera option: --orbit 4 at 960x540.",
+               "HTML report (default <first candidate>.audit.html), all committed together at the end. Without a camera "
+               "option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure (nothing written), 2 usage error, 3 below "
+               "--min-psnr (reports written).",
                kTool};
   app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: any scene files it reads (.ply, .rgs)");
   app.add_option("--label", opt.labels, "Name of a candidate in tables and plots (repeat, in candidate order)");
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json (native size by default)");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")->check(CLI::PositiveNumber)->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "At most N views")->check(CLI::PositiveNumber);
+  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")->check(CLI::Range(1, 2147483647))->needs(cams);
+  app.add_option("--limit", opt.cameras.limit, "At most N views")->check(CLI::Range(1, 2147483647));
   auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras (default 4, at 960x540)")
-                    ->check(CLI::PositiveNumber)->excludes(cams);
+                    ->check(CLI::Range(1, 100000))->excludes(cams);
   cams->excludes(orbit);
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
   app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
       ->check(CLI::IsMember({"auto", "cuda", "cpu"}));
-  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::NonNegativeNumber);
+  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023));
   app.add_option("--threads", opt.threads, "CPU backend threads (0 = all cores)");
   auto* report = app.add_option("--report", opt.report_path,
                                 "HTML report; its JSON (.json) and images (_files/) go next to it");
@@ -368,23 +572,34 @@ int main(int argc, char** argv) {
   app.add_option("--image-size", opt.image_size, "Largest side of the report's images (default 1024)")
       ->check(CLI::Range(16, 32768));
   auto* minp = app.add_option("--min-psnr", opt.min_psnr,
-                              "CI gate: exit 1 when any candidate's lowest per-view PSNR is below DB");
+                              "CI gate: exit 3 when any candidate's lowest per-view PSNR is below DB (the reports are "
+                              "still written)");
   app.add_flag("-q,--quiet", opt.quiet, "No table");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? rgs::tools::kExitOk : rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
   }
-  if (!opt.report_from.empty()) return run_report_only(opt);
+  using rgs::Status;
+  using rgs::StatusCode;
+  rgs::tools::install_interrupt_cleanup();
+  if (!opt.report_from.empty()) {
+    if (!opt.scenes.empty()) {
+      return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
+          kTool, Status(StatusCode::kInvalidArgument, "--report-from makes the HTML of an earlier run and takes no "
+                                                      "scenes")));
+    }
+    return rgs::tools::finish(kTool, run_report_only(opt));
+  }
   if (opt.scenes.size() < 2) {
-    std::fprintf(stderr, "%s: error: give a source and at least one candidate scene (see --help)\n", kTool);
-    return rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
+        kTool, Status(StatusCode::kInvalidArgument, "give a source and at least one candidate scene")));
   }
   if (opt.labels.size() > opt.scenes.size() - 1) {
-    std::fprintf(stderr, "%s: error: %zu --label for %zu candidates\n", kTool, opt.labels.size(), opt.scenes.size() - 1);
-    return rgs::tools::kExitUsage;
+    return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
+        kTool, Status(StatusCode::kInvalidArgument, std::to_string(opt.labels.size()) + " --label for " +
+                                                        std::to_string(opt.scenes.size() - 1) + " candidates")));
   }
   opt.min_psnr_set = minp->count() > 0;
   if (opt.report_path.empty() && !opt.no_report) {
@@ -394,5 +609,5 @@ int main(int argc, char** argv) {
   if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) opt.cameras.orbit = 4;
   opt.cameras.orbit_width = 960;
   opt.cameras.orbit_height = 540;
-  return run(opt);
+  return rgs::tools::finish(kTool, run(opt));
 }
