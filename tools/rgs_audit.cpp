@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "cli_common.h"
+#include "read_limits_option.h"
 #include "error_stats_output.h"
 #include "image_write.h"
 #include "rgs/audit/audit.h"
@@ -374,12 +375,12 @@ int run(const Options& opt) {
   options.cpu_threads = opt.threads;
 
   // Every scene goes through audit::load_audit_scene, the one place that picks a reader.
-  auto source = audit::load_audit_scene(opt.scenes[0], "source");
+  auto source = audit::load_audit_scene(opt.scenes[0], "source", tools::read_options());
   if (!source.ok()) return tools::report_error(kTool, source.status());
   std::vector<audit::AuditScene> candidates;
   for (size_t i = 1; i < opt.scenes.size(); ++i) {
     const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
-    auto scene = audit::load_audit_scene(opt.scenes[i], label);
+    auto scene = audit::load_audit_scene(opt.scenes[i], label, tools::read_options());
     if (!scene.ok()) return tools::report_error(kTool, scene.status());
     candidates.push_back(std::move(scene).value());
   }
@@ -559,6 +560,7 @@ int main(int argc, char** argv) {
   app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
       ->check(CLI::IsMember({"auto", "cuda", "cpu"}));
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023));
+  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   app.add_option("--threads", opt.threads, "CPU backend threads (0 = all cores)");
   auto* report = app.add_option("--report", opt.report_path,
                                 "HTML report; its JSON (.json) and images (_files/) go next to it");

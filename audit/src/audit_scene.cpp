@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
@@ -33,9 +33,9 @@ Status naming(Status status, const std::string& path) {
   return status;
 }
 
-Result<AuditScene> load_rgs(const std::string& path) {
+Result<AuditScene> load_rgs(const std::string& path, const format::ReadOptions& options) {
   AuditScene scene;
-  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, options));
   auto encoded = file.read_scene();
   if (!encoded.ok()) return naming(encoded.status(), path);
   auto cloud = format::dequantize(*encoded);
@@ -55,20 +55,23 @@ Result<AuditScene> load_rgs(const std::string& path) {
   return scene;
 }
 
-Result<AuditScene> load_ply(const std::string& path) {
+Result<AuditScene> load_other(const std::string& path, const format::ReadOptions& options) {
   AuditScene scene;
-  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
-  scene.cloud = std::move(ply.cloud);
+  converter::SceneReadOptions read_options;
+  read_options.max_gaussians = options.limits.max_gaussians;
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
+  scene.cloud = std::move(input.cloud);
   scene.bounds = converter::compute_bounds(scene.cloud);
-  scene.info.format = "ply";
-  scene.info.file_bytes = ply.file_bytes;
+  scene.info.format = input.format_id;
+  scene.info.file_bytes = input.file_bytes;
   return scene;
 }
 
 }  // namespace
 
-Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label) {
-  auto loaded = is_rgs(path) ? load_rgs(path) : load_ply(path);
+Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label,
+                                    const format::ReadOptions& options) {
+  auto loaded = is_rgs(path) ? load_rgs(path, options) : load_other(path, options);
   if (!loaded.ok()) return loaded.status();
   AuditScene scene = std::move(loaded).value();
   scene.info.path = path;

@@ -8,6 +8,7 @@
 
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/status.h"
 
 namespace rgs::audit {
@@ -46,9 +47,11 @@ struct AuditScene {
 };
 
 /// Loads any scene file the audit can compare: a .rgs (by its magic, or the .rgs extension so a truncated
-/// file gets the .rgs reader's error) through format::RgsFile and format::dequantize, anything else through
-/// converter::read_ply. This is the one place that chooses a reader. `label` defaults to the file name.
-/// Errors: those of the readers, naming `path`.
-Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label = {});
+/// file gets the .rgs reader's error) through format::RgsFile (with `options`' limits and checks) and
+/// format::dequantize, anything else through converter::read_scene (any format it detects by content: PLY,
+/// compressed PLY, SOG, SPZ, .splat, glTF). This is the one place that chooses a reader. `label` defaults to
+/// the file name. Errors: those of the readers, naming `path`.
+Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label = {},
+                                    const format::ReadOptions& options = {});
 
 }  // namespace rgs::audit
