@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
-# GPU host: runs every GPU test and the benchmark from a folder staged by scripts/stage_gpu.sh, writing full
-# logs and JSON under OUT_DIR and printing a short summary last (GPU.md "One build, two hosts").
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|all]   (default all)
+# GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
+# writing full logs and JSON under OUT_DIR and printing a short summary last (GPU.md "One build, two hosts").
+# taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|audit|all]   (default all)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
 out="$2"
 what="${3:-all}"
 mkdir -p "$out"
 bin="$stage/bin"
+if [ -f "$stage/bin.tar.xz" ]; then tar -C "$stage" -xJf "$stage/bin.tar.xz"; fi
 export RGS_DATA_DIR="$stage/data"
+taebak_dir=/tmp/rgs_taebak
+taebak="$taebak_dir/taebak.rgs"
+taebak_cameras="$RGS_DATA_DIR/taebak_cameras.json"
 summary="$out/summary.txt"
 : >"$summary"
 note() { echo "$*" | tee -a "$summary"; }
@@ -25,6 +30,26 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
   note "test_gpu: exit $rc in $(( $(date +%s) - start )) s; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu.log" | tr '\n' ' ')"
   grep -h "MESSAGE: " "$out/test_gpu.log" | sed 's/.*MESSAGE: //' >"$out/test_gpu_messages.txt"
   grep -E "ERROR|FAILED|skipped" "$out/test_gpu.log" | head -20 | tee -a "$summary"
+  # The front door (render into caller memory, presets, GPU memory per scene) and the GPU audit metrics.
+  for suite in test_api test_audit; do
+    start=$(date +%s)
+    rc=0
+    if [ -f "$taebak" ]; then
+      RGS_TAEBAK_RGS="$taebak" "$bin/$suite" -s >"$out/$suite.log" 2>&1 || rc=$?
+    else
+      "$bin/$suite" -s >"$out/$suite.log" 2>&1 || rc=$?
+    fi
+    [ $rc -ne 0 ] && status=1
+    note "$suite: exit $rc in $(( $(date +%s) - start )) s; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/$suite.log" | tr '\n' ' ')"
+    grep -E "ERROR|FAILED|skipped" "$out/$suite.log" | head -10 | tee -a "$summary"
+    grep -h "MESSAGE: " "$out/$suite.log" | sed 's/.*MESSAGE: //' >"$out/${suite}_messages.txt"
+  done
+  # The embedding sample renders a frame into its own pitched buffer on its own stream.
+  rc=0
+  "$bin/rgs_sample_render_frame" "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs" cuda "$out/render_frame.ppm" \
+    >"$out/render_frame.log" 2>&1 || rc=$?
+  [ $rc -ne 0 ] && status=1
+  note "rgs_sample_render_frame (cuda): exit $rc; $(tail -1 "$out/render_frame.log")"
 fi
 
 if [ "$what" = bench ] || [ "$what" = all ]; then
@@ -60,10 +85,40 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   bench flowers_8k "$flowers" --cameras "$cameras" --every 24 --resolution 7680x4320 "${modes[@]}" --warmup 2 \
     --repeat 3
   bench daffodils_8k "$daffodils" --orbit 4 --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3
-  for name in flowers daffodils daffodils_x4 flowers_x53 flowers_8k daffodils_8k; do
+  names=(flowers daffodils daffodils_x4 flowers_x53 flowers_8k daffodils_8k)
+  if [ -f "$taebak" ]; then
+    # The real multi-million-Gaussian scene: its 8 cameras at 1080p and the same poses at 4K (with the ablation)
+    # and 8K.
+    bench taebak "$taebak" --cameras "$taebak_cameras" --resolution 1920x1080 "${modes[@]}" --warmup 3 --repeat 5
+    bench taebak_4k "$taebak" --cameras "$taebak_cameras" --resolution 3840x2160 "${ablation[@]}" --warmup 3 \
+      --repeat 5
+    bench taebak_8k "$taebak" --cameras "$taebak_cameras" --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3
+    names+=(taebak taebak_4k taebak_8k)
+  fi
+  for name in "${names[@]}"; do
     # The tables without the progress lines ("... x N ...").
     grep -v -e ' \.\.\.$' "$out/bench_$name.log" | tee -a "$summary"
   done
+fi
+if [ "$what" = audit ] || [ "$what" = all ]; then
+  # What the conversion cost, on the GPU: every flowers camera at its native 5025x3312, and taebak's cameras
+  # at 4K against its SOG source. The HTML step needs matplotlib, which the GPU host lacks: the JSON comes
+  # back and `rgs-audit --report-from` draws the report on a development host.
+  audit() {  # NAME ARGS...
+    local name="$1"
+    shift
+    local t0 rc=0
+    t0=$(date +%s%N)
+    "$bin/rgs-audit" "$@" --backend cuda --report "$out/audit_$name.html" >"$out/audit_$name.log" 2>&1 || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "audit_$name: exit $rc in $(( ($(date +%s%N) - t0) / 1000000 )) ms wall; $(grep -E '^  PSNR ' "$out/audit_$name.log" | head -1)"
+  }
+  audit flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs" \
+    --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
+  if [ -f "$taebak" ]; then
+    audit taebak_4k "$taebak_dir/taebak_lod0_sog/lod-meta.json" "$taebak" --cameras "$taebak_cameras" --width 3840 \
+      --height 2160
+  fi
 fi
 echo
 echo "=== summary ==="

@@ -1,23 +1,35 @@
 #!/usr/bin/env bash
-# Development host: builds the GPU binaries (CUDA on, no OpenImageIO: GPU.md) into build-gpu and stages them
-# with the scenes they need into .device_data/ (ignored; carried to the GPU host, < 64 MiB in all):
-#   .device_data/bin/   test_gpu, rgs-render, rgs-bench
-#   .device_data/data/  flowers PLY + cameras.json, the 542k daffodils scene as a zstd .rgs
-# Then, on the GPU host: scripts/gpu_check.sh .device_data "$OUT".
+# Development host: builds the GPU binaries (CUDA on, no OpenImageIO: GPU.md) into build-gpu and stages what
+# the GPU host needs into two ignored folders, each small enough to travel in one call (< 64 MiB with the
+# repository):
+#   .device_data/bin.tar.xz  test_gpu, test_api, test_audit, rgs-render, rgs-bench, rgs-convert, rgs-audit and
+#                            the render_frame sample, stripped
+#   .device_data/data/       flowers PLY + cameras.json, flowers and the 542k daffodils scene as .rgs,
+#                            taebak_cameras.json
+#   .device_taebak/          the 4.25M-Gaussian taebak scene as streamed SOG (55 MB) and rgs-convert, which
+#                            converts it on the GPU host (scripts/gpu_prepare_taebak.sh)
+# Then, on the GPU host: scripts/gpu_prepare_taebak.sh .device_taebak (one call), and
+# scripts/gpu_check.sh .device_data "$OUT" (the next call, while the machine is still warm).
 # Usage: scripts/stage_gpu.sh [DATA_DIR]   (DATA_DIR: the real scenes, default ../shared/data)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 data="${1:-$root/../shared/data}"
 build="$root/build-gpu"
 stage="$root/.device_data"
+taebak_stage="$root/.device_taebak"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
-  -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=OFF \
+  -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
   -DRGS_INSTALL=OFF >/dev/null
-cmake --build "$build" -j"$(nproc)" --target test_gpu rgs-render rgs-bench rgs-convert
+exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render tools/rgs-bench tools/rgs-convert
+      tools/rgs-audit samples/rgs_sample_render_frame)
+targets=()
+for exe in "${exes[@]}"; do targets+=("$(basename "$exe")"); done
+cmake --build "$build" -j"$(nproc)" --target "${targets[@]}"
 
-mkdir -p "$stage/bin" "$stage/data"
-for exe in tests/gpu/test_gpu tools/rgs-render tools/rgs-bench; do
+rm -rf "$stage/bin" "$stage/bin.tar.xz"
+mkdir -p "$stage/bin" "$stage/data" "$taebak_stage"
+for exe in "${exes[@]}"; do
   cp "$build/$exe" "$stage/bin/"
   strip "$stage/bin/$(basename "$exe")"
 done
@@ -27,12 +39,19 @@ for exe in "$stage"/bin/*; do
     echo "stage_gpu.sh: $exe links more than the C/C++ runtime:" >&2; ldd "$exe" >&2; exit 1
   fi
 done
+xz -c "$stage/bin/rgs-convert" >"$taebak_stage/rgs-convert.xz"  # every byte counts in that call
+tar -C "$stage" -cJf "$stage/bin.tar.xz" bin
+rm -rf "$stage/bin"
 
-cp "$data/mipnerf360_flowers_c3dgs.ply" "$data/mipnerf360_flowers_cameras.json" "$stage/data/"
+cp "$data/mipnerf360_flowers_c3dgs.ply" "$data/mipnerf360_flowers_cameras.json" "$data/taebak_cameras.json" \
+  "$stage/data/"
 # flowers also as a .rgs, so the benchmark's RoofGS mode reads compact attributes.
 "$build/tools/rgs-convert" -q "$data/mipnerf360_flowers_c3dgs.ply" "$stage/data/mipnerf360_flowers_c3dgs.rgs"
 daffodils="$stage/data/playcanvas_flowers_lod0.rgs"
 if [ ! -f "$daffodils" ] || [ "$data/playcanvas_flowers_lod0.ply" -nt "$daffodils" ]; then
   "$build/tools/rgs-convert" -q "$data/playcanvas_flowers_lod0.ply" "$daffodils" --zstd all --zstd-level 3
 fi
-du -sh "$stage"
+rm -rf "$taebak_stage/taebak_lod0_sog"
+cp -r "$data/taebak_lod0_sog" "$taebak_stage/"
+chmod -R u+w "$taebak_stage"
+du -sh "$stage" "$taebak_stage"
