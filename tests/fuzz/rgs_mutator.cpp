@@ -153,8 +153,9 @@ void resize_gaussians(Rng& rng, LooseContainer& c) {
     case 0: m = kChoices[pick(rng, std::size(kChoices))]; break;
     case 1: m = n / 2; break;
     case 2: m = n + 1; break;
-    default: m = std::min<uint64_t>(n * 2 + 1, 4096); break;
+    default: m = n * 2 + 1; break;
   }
+  m = std::min<uint64_t>(m, 4096);  // the header may declare anything; the products below must not wrap
   for (LooseSection& s : c.sections) {
     if (s.id() < kIdMeans || s.id() > kIdSh) continue;
     std::vector<uint8_t> raw;
@@ -162,7 +163,7 @@ void resize_gaussians(Rng& rng, LooseContainer& c) {
     if (!raw_bytes(s, &raw, &was_zstd)) continue;
     const uint64_t per = uint64_t{rgs::fuzz::element_size(static_cast<uint16_t>(s.get(ef::kElementType, 2)))} *
                          s.get(ef::kComponents, 4);
-    if (per == 0 || per > 4096 || m * per > kMaxRawBytes) continue;
+    if (per == 0 || per > 4096 || m > kMaxRawBytes / per) continue;
     std::vector<uint8_t> out(m * per);
     for (uint64_t i = 0; i < m && !raw.empty(); ++i) {
       const uint64_t from = (i % std::max<uint64_t>(raw.size() / per, 1)) * per;
@@ -192,7 +193,7 @@ void change_sh_degree(Rng& rng, LooseContainer& c) {
   const uint64_t k_new = uint64_t{d + 1} * (d + 1) * 3;
   const uint64_t k_old = sh->get(ef::kComponents, 4);
   const uint64_t n = c.get(hf::kGaussianCount, 8);
-  if (k_old == 0 || n * k_new > kMaxRawBytes || sh_raw.size() < n * k_old) return;
+  if (k_old == 0 || k_old > 4096 || n > kMaxRawBytes / 48 || sh_raw.size() < n * k_old) return;
   std::vector<uint8_t> out(n * k_new, 0);
   for (uint64_t i = 0; i < n; ++i) {
     std::memcpy(&out[i * k_new], &sh_raw[i * k_old], std::min(k_old, k_new));
