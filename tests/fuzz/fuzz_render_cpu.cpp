@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <string>
 
 #include "fuzz_check.h"
 #include "rgs/converter/quantize.h"
@@ -137,9 +138,22 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   options.scene_bounds = rgs::converter::compute_bounds(*cloud);
 
   auto image = rgs::runtime::render_cpu(*cloud, camera, options);
-  if (!image.ok()) return 0;
+  if (!image.ok()) {
+    // The only documented refusal for a consistent cloud and a valid camera at this size: key32 needs a
+    // finite bounding sphere, and means near the float range give an infinite radius.
+    const rgs::format::SceneBounds& b = *options.scene_bounds;
+    const bool sphere_finite = std::isfinite(b.sphere_radius) && std::isfinite(b.sphere_center[0]) &&
+                               std::isfinite(b.sphere_center[1]) && std::isfinite(b.sphere_center[2]);
+    RGS_FUZZ_CHECK(options.roofgs.key32 && !sphere_finite, image.status().to_string());
+    return 0;
+  }
   const size_t pixels = size_t{camera.width} * camera.height;
   RGS_FUZZ_CHECK(image->rgb.size() == pixels * 3 && image->alpha.size() == pixels && image->depth.size() == pixels,
                  "render_cpu returned images of the wrong size");
+  // Blending keeps the transmittance T in (0, 1], so alpha = 1 - T is in [0, 1] whatever the Gaussians.
+  for (size_t p = 0; p < pixels; ++p) {
+    RGS_FUZZ_CHECK(image->alpha[p] >= 0.f && image->alpha[p] <= 1.f,
+                   "pixel " + std::to_string(p) + " alpha " + std::to_string(image->alpha[p]));
+  }
   return 0;
 }

@@ -2,8 +2,9 @@
 // Status: never a crash, hang, leak or undefined behaviour. For inputs that validate() accepts it also
 // checks the promises the API makes about valid files:
 //   - from_bytes(), every section accessor, read_scene() and dequantize() succeed;
-//   - the writer takes the decoded scene back (it refuses only what validate() rejects, SPEC §5.4) and
-//     writes a file that validates and is byte-identical when written twice;
+//   - the writer takes the decoded scene back (it refuses only what validate() rejects, SPEC §5.4), with
+//     codec none or (by the last input byte) zstd, and writes a file that validates and is byte-identical
+//     when written twice;
 //   - the PLY export reads back with the same number of Gaussians (some may be dropped as invalid, never
 //     lost silently).
 // The libFuzzer build adds a container-aware mutator (rgs_mutator.cpp) that recomputes the checksums.
@@ -21,8 +22,18 @@
 namespace {
 
 void check_round_trips(const rgs::format::EncodedScene& scene, const rgs::format::GaussianCloud& cloud,
-                       const rgs::format::ReadLimits& limits) {
-  auto written = rgs::format::serialize_scene(scene);
+                       const rgs::format::ReadLimits& limits, bool zstd) {
+  rgs::format::WriteOptions write_options;
+  if (zstd) {  // every section compressed, at a fast level
+    write_options.zstd_level = 1;
+    for (rgs::format::SectionId id :
+         {rgs::format::SectionId::kMetadata, rgs::format::SectionId::kProvenance, rgs::format::SectionId::kMeans,
+          rgs::format::SectionId::kRotations, rgs::format::SectionId::kScales,
+          rgs::format::SectionId::kOpacities, rgs::format::SectionId::kSh}) {
+      write_options.codecs[id] = rgs::format::Codec::kZstd;
+    }
+  }
+  auto written = rgs::format::serialize_scene(scene, write_options);
   RGS_FUZZ_CHECK(written.ok(), written.status().to_string());
   const rgs::Status rewritten_valid = rgs::format::validate(written->data(), written->size(), limits);
   RGS_FUZZ_CHECK(rewritten_valid.ok(), rewritten_valid.to_string());
@@ -30,7 +41,7 @@ void check_round_trips(const rgs::format::EncodedScene& scene, const rgs::format
   RGS_FUZZ_CHECK(reread.ok(), reread.status().to_string());
   auto scene2 = reread->read_scene();
   RGS_FUZZ_CHECK(scene2.ok(), scene2.status().to_string());
-  auto written2 = rgs::format::serialize_scene(*scene2);
+  auto written2 = rgs::format::serialize_scene(*scene2, write_options);
   RGS_FUZZ_CHECK(written2.ok() && *written2 == *written, "writing the re-read scene gave other bytes");
 
   auto ply = rgs::converter::serialize_ply(cloud);
@@ -69,6 +80,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!scene.ok()) return 0;
   auto cloud = rgs::format::dequantize(*scene);
   if (valid.ok()) RGS_FUZZ_CHECK(cloud.ok(), cloud.status().to_string());
-  if (valid.ok()) check_round_trips(*scene, *cloud, options.limits);
+  if (valid.ok()) check_round_trips(*scene, *cloud, options.limits, (data[size - 1] & 1) != 0);
   return 0;
 }
