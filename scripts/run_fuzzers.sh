@@ -17,7 +17,7 @@ seconds="${1:-60}"
 build="${RGS_BUILD_DIR:-$root/build-fuzz}"
 out="${RGS_FUZZ_OUT:-$build/fuzz-out}"
 jobs="${RGS_FUZZ_JOBS:-$(nproc)}"
-targets=(rgs_read ply_read render_cpu)
+targets=(rgs_read ply_read render_cpu camera_json)
 
 if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
   echo "run_fuzzers: seconds per target must be a positive integer, got '$seconds'" >&2
@@ -37,9 +37,11 @@ cmake --build "$build" --parallel "$jobs" --target "${targets[@]/#/fuzz_}"
 seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$root/tests/data/bad")
 seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
 seeds_render_cpu=("$root/tests/fuzz/corpus/render_cpu")
+seeds_camera_json=("$root/tests/fuzz/corpus/camera_json")
 args_rgs_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_rgs_read.dict")
 args_ply_read=(-max_len=8192 "-dict=$root/tests/fuzz/fuzz_ply_read.dict")
 args_render_cpu=(-max_len=4096)
+args_camera_json=(-max_len=4096 "-dict=$root/tests/fuzz/fuzz_camera_json.dict")
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:allocator_may_return_null=1}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"

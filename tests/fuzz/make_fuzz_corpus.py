@@ -9,6 +9,8 @@ samples/guitar.ply (the only scene the project may ship, ../shared/data/SOURCES.
                double means, SH degree 3 (f_rest as above), and a face element after the vertices.
   render_cpu/  inputs of fuzz_render_cpu.cpp: a camera looking at a guitar crop, with the RoofGS switches off,
                all on, and with SH degree 1.
+  camera_json/ inputs of fuzz_camera_json.cpp: loader options and an INRIA cameras.json of a ring of cameras
+               around the guitar crop (guitar has no cameras of its own).
 
 The .rgs container is written by tests/data/make_rgs_corpus.py (the independent SPEC implementation that
 writes the golden files). Output is deterministic: rerunning gives identical bytes; --check reports stale
@@ -164,6 +166,28 @@ def render_input(rows, switches, degree):
     return out
 
 
+def cameras_input(downscale, width, height, every_kth, count):
+    """Bytes in the order fuzz_camera_json.cpp reads them: loader options, then an INRIA cameras.json of
+    `count` cameras on a ring around the guitar crop (camera-to-world rotation rows, position, fx, fy)."""
+    scene = quantize(read_guitar(64), 0, log_scales=False)
+    c = scene["metadata"]["sphere_center"]
+    r = 3.0 * scene["metadata"]["sphere_radius"]
+    cams = []
+    for i in range(count):
+        a = 2 * math.pi * i / count
+        forward = [-math.sin(a), 0.0, math.cos(a)]   # looks at the centre from -forward * r
+        right = [math.cos(a), 0.0, math.sin(a)]
+        down = [0.0, 1.0, 0.0]
+        rows = [[right[j], down[j], forward[j]] for j in range(3)]  # columns are the camera axes
+        pos = [c[j] - r * forward[j] for j in range(3)]
+        cams.append('{"id": %d, "img_name": "guitar_%03d", "width": 640, "height": 480, "position": [%s], '
+                    '"rotation": [%s], "fy": 500.0, "fx": 500.0}'
+                    % (i, i, ", ".join(repr(v) for v in pos),
+                       ", ".join("[" + ", ".join(repr(v) for v in row) + "]" for row in rows)))
+    text = "[" + ",\n ".join(cams) + "]\n"
+    return struct.pack("<dHHB", downscale, width, height, every_kth) + text.encode("ascii")
+
+
 def build():
     g64 = read_guitar(64)
     files = {}
@@ -194,6 +218,9 @@ def build():
     add("render_cpu", "guitar32_baseline.bin", render_input(g64[:32], 0x00, 0))
     add("render_cpu", "guitar32_roofgs_all.bin", render_input(g64[:32], 0x1f, 0))
     add("render_cpu", "guitar16_sh1_key32.bin", render_input(g64[:16], 0x01, 1))
+    add("camera_json", "guitar_ring3.bin", cameras_input(1.0, 0, 0, 0, 3))
+    add("camera_json", "guitar_ring4_downscale8_every2.bin", cameras_input(8.0, 0, 0, 1, 4))
+    add("camera_json", "guitar_ring2_width64.bin", cameras_input(1.0, 64, 0, 0, 2))
     return files
 
 
