@@ -4,7 +4,8 @@
 // The input is read as a camera, render switches and up to 64 Gaussians in the .rgs runtime profile
 // (FP16 rotations, scales and opacities, INT8 SH with per-degree scales), forced into the value ranges
 // validate() accepts (SPEC §4.3-§4.7) and then dequantized, so every scene rendered here is one a valid
-// .rgs file can hold. Images are at most 48 x 48 pixels and rendered with one thread.
+// .rgs file can hold. Images are at most 48 x 48 pixels and rendered with one thread. The orbit cameras
+// rgs-render makes for the scene's bounds must pass validate_camera().
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -136,6 +137,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto cloud = rgs::format::dequantize(scene);
   RGS_FUZZ_CHECK(cloud.ok(), cloud.status().to_string());
   options.scene_bounds = rgs::converter::compute_bounds(*cloud);
+  // orbit_cameras() (rgs-render --orbit) on the same bounds: whatever it returns must be renderable.
+  auto orbit = rgs::runtime::orbit_cameras(*options.scene_bounds, 2, camera.width, camera.height);
+  if (orbit.ok()) {
+    for (const rgs::runtime::Camera& c : *orbit) {
+      const rgs::Status valid = rgs::runtime::validate_camera(c);
+      RGS_FUZZ_CHECK(valid.ok(), valid.to_string());
+    }
+  }
 
   auto image = rgs::runtime::render_cpu(*cloud, camera, options);
   if (!image.ok()) {
