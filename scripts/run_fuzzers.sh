@@ -24,7 +24,10 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
   exit 2
 fi
 for tool in clang clang++; do
-  command -v "$tool" >/dev/null || { echo "run_fuzzers: $tool not found (apt-get install clang libclang-rt-dev llvm)" >&2; exit 2; }
+  if ! command -v "$tool" >/dev/null; then
+    echo "run_fuzzers: $tool not found (apt-get install clang libclang-rt-14-dev llvm)" >&2
+    exit 2
+  fi
 done
 
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -45,8 +48,8 @@ args_camera_json=(-max_len=4096 "-dict=$root/tests/fuzz/fuzz_camera_json.dict")
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:allocator_may_return_null=1}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
-symbolizer="$(command -v llvm-symbolizer || true)"
-[ -n "$symbolizer" ] && export ASAN_SYMBOLIZER_PATH="$symbolizer"
+symbolizer="$(command -v llvm-symbolizer || ls /usr/lib/llvm-*/bin/llvm-symbolizer 2>/dev/null | tail -n 1 || true)"
+if [ -n "$symbolizer" ]; then export ASAN_SYMBOLIZER_PATH="$symbolizer"; fi
 
 failed=()
 summary=()
@@ -63,7 +66,8 @@ for t in "${targets[@]}"; do
   (cd "$crashes" && "$build/tests/fuzz/fuzz_$t" "${!args_var}" -max_total_time="$seconds" -timeout=10 \
       -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$crashes/" "$corpus" "${!seeds_var}") \
       >"$log" 2>&1 || status=$?
-  cov="$(grep -Eo '(DONE|INITED) +cov: [0-9]+' "$log" | tail -n 1 | grep -Eo '[0-9]+$' || echo '?')"
+  # Edges: the final DONE line, or the last report before a crash.
+  cov="$(grep -Eo 'cov: [0-9]+' "$log" | tail -n 1 | grep -Eo '[0-9]+$' || echo '?')"
   execs="$(grep -Eo 'stat::number_of_executed_units: [0-9]+' "$log" | grep -Eo '[0-9]+$' || echo '?')"
   units="$(ls "$corpus" | wc -l)"
   line="fuzz_$t: cov $cov edges, $execs executions in ${seconds}s, corpus $units files"

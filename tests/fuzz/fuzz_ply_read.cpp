@@ -1,7 +1,8 @@
 // Fuzz target: parse untrusted PLY bytes (header, binary and ascii bodies) under both invalid-value
 // policies. Any input must give ok or an error Status: never a crash, hang, leak or undefined behaviour.
 // kSanitize must keep only renderable Gaussians, and what it keeps is then converted as rgs-convert does
-// (quantize, write, validate): conversion must succeed and the file must pass validate(). Dictionary of PLY keywords: fuzz_ply_read.dict.
+// (quantize, write, validate): conversion must succeed and the file must pass validate(). Dictionary of PLY
+// keywords: fuzz_ply_read.dict.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>

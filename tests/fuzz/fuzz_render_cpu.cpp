@@ -105,7 +105,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   rgs::format::EncodedScene scene;
   scene.metadata.sh_degree = (switches >> 6) & 3;
-  scene.metadata.scale_encoding = (in.u8() & 1) ? rgs::format::ScaleEncoding::kLog : rgs::format::ScaleEncoding::kLinear;
+  scene.metadata.scale_encoding =
+      (in.u8() & 1) ? rgs::format::ScaleEncoding::kLog : rgs::format::ScaleEncoding::kLinear;
   for (uint32_t d = 0; d <= scene.metadata.sh_degree; ++d) {
     for (float& s : scene.metadata.sh_quantization.scales[d]) s = std::fabs(in.finite_f32());
   }
