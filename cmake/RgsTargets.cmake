@@ -12,6 +12,20 @@ if(RGS_SANITIZE)
   add_link_options(-fsanitize=address,undefined)
 endif()
 
+# RGS_BUILD_FUZZERS (clang only): every C/C++ target, the libraries included, is built with ASan + UBSan and
+# libFuzzer's coverage instrumentation without its main (-fsanitize=fuzzer-no-link), so the fuzzers are
+# guided by the edges of the parsers and decoders and not only by those of their harness. tests/fuzz links
+# the fuzz_* executables with -fsanitize=fuzzer; the replay executables get the sanitizer runtimes only.
+if(RGS_BUILD_FUZZERS)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "RGS_BUILD_FUZZERS needs clang (libFuzzer): configure with CC=clang CXX=clang++")
+  endif()
+  add_compile_options(
+    "$<$<COMPILE_LANGUAGE:C,CXX>:-fsanitize=fuzzer-no-link,address,undefined;-fno-omit-frame-pointer>"
+    "$<$<COMPILE_LANGUAGE:C,CXX>:-fno-sanitize-recover=undefined>")
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
 # rgs_add_library(<layer> SOURCES <files...>): the library rgs_<layer> with alias rgs::<layer>, C++17,
 # position-independent, include/ public (build and install interfaces) and src/ private, project warnings.
 function(rgs_add_library layer)

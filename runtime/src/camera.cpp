@@ -163,6 +163,8 @@ Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uin
     char name[32];
     std::snprintf(name, sizeof name, "orbit_%03u", i);
     cam.name = name;
+    // A sphere close to the float range puts the eye beyond it: refuse instead of returning an unusable camera.
+    RGS_RETURN_IF_ERROR(validate_camera(cam));
     cameras.push_back(std::move(cam));
   }
   return cameras;

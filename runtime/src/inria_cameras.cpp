@@ -1,5 +1,6 @@
 // INRIA 3DGS cameras.json loader (camera.h). nlohmann::json exceptions are caught here and never leave the
 // library; every value is type- and range-checked before use.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -63,7 +64,8 @@ Status get_vector(const json& v, size_t n, const std::string& what, double* out)
 
 /// Output resolution for a camera of the file's size under `options`.
 void output_size(uint32_t w, uint32_t h, const InriaCameraOptions& options, uint32_t* out_w, uint32_t* out_h) {
-  auto at_least_one = [](double v) { return static_cast<uint32_t>(std::max(1.0, std::round(v))); };
+  // Clamped so that the cast stays defined for any downscale > 0; validate_camera() refuses sides over the limit.
+  auto at_least_one = [](double v) { return uint32_t(std::clamp(std::round(v), 1.0, kMaxImageSide + 1.0)); };
   if (options.width != 0 && options.height != 0) {
     *out_w = options.width;
     *out_h = options.height;
@@ -131,7 +133,7 @@ Result<Camera> parse_camera(const json& cam, size_t index, const std::string& na
                                                                : "camera_" + std::to_string(index);
   Status valid = validate_camera(camera);
   if (!valid.ok()) {
-    // Only the rotation can fail here (sizes and focals were checked): that is a property of the file.
+    // The rotation, or a size above the limit from a tiny downscale, fails here (focals were checked).
     return corrupt(where, valid.message());
   }
   return camera;

@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# Builds the fuzz configuration with clang (libraries instrumented with -fsanitize=fuzzer-no-link, ASan and
+# UBSan; cmake/RgsTargets.cmake) and runs every libFuzzer target of tests/fuzz for a bounded time, one after
+# the other. Prints the edges covered (libFuzzer's final `cov:`) and the executions of each target, and
+# exits non-zero if any target crashed, leaked, hit undefined behaviour, timed out or broke a property
+# check. Crashing inputs are kept in $RGS_FUZZ_OUT/crashes/<target>/ and listed at the end.
+#
+#   scripts/run_fuzzers.sh [seconds-per-target]          # default 60
+#
+# Environment: RGS_BUILD_DIR (default build-fuzz), RGS_FUZZ_OUT (default $RGS_BUILD_DIR/fuzz-out, where the
+# corpus each run grows is kept between runs), RGS_FUZZ_JOBS (build parallelism, default nproc).
+# Needs clang, libclang-rt-dev (libFuzzer and the sanitizer runtimes) and llvm (llvm-symbolizer for the
+# stack traces), besides the packages of scripts/install_deps.sh.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+seconds="${1:-60}"
+build="${RGS_BUILD_DIR:-$root/build-fuzz}"
+out="${RGS_FUZZ_OUT:-$build/fuzz-out}"
+jobs="${RGS_FUZZ_JOBS:-$(nproc)}"
+targets=(rgs_read ply_read render_cpu camera_json)
+
+if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
+  echo "run_fuzzers: seconds per target must be a positive integer, got '$seconds'" >&2
+  exit 2
+fi
+for tool in clang clang++; do
+  if ! command -v "$tool" >/dev/null; then
+    echo "run_fuzzers: $tool not found (apt-get install clang libclang-rt-14-dev llvm)" >&2
+    exit 2
+  fi
+done
+
+CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DRGS_BUILD_FUZZERS=ON -DRGS_WITH_CUDA=OFF -DRGS_BUILD_TESTS=ON -DRGS_BUILD_TOOLS=OFF \
+  -DRGS_BUILD_SAMPLES=OFF -DRGS_INSTALL=OFF -DRGS_WITH_OPENIMAGEIO=OFF >/dev/null
+cmake --build "$build" --parallel "$jobs" --target "${targets[@]/#/fuzz_}"
+
+# Seed corpora: tests/fuzz/corpus/<target>/ (made from guitar by tests/fuzz/make_fuzz_corpus.py) and the golden
+# and must-fail files of tests/data. libFuzzer writes what it finds into the first directory only.
+seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$root/tests/data/bad")
+seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
+seeds_render_cpu=("$root/tests/fuzz/corpus/render_cpu")
+seeds_camera_json=("$root/tests/fuzz/corpus/camera_json")
+args_rgs_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_rgs_read.dict")
+args_ply_read=(-max_len=8192 "-dict=$root/tests/fuzz/fuzz_ply_read.dict")
+args_render_cpu=(-max_len=4096)
+args_camera_json=(-max_len=4096 "-dict=$root/tests/fuzz/fuzz_camera_json.dict")
+
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:allocator_may_return_null=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+symbolizer="$(command -v llvm-symbolizer || ls /usr/lib/llvm-*/bin/llvm-symbolizer 2>/dev/null | tail -n 1 || true)"
+if [ -n "$symbolizer" ]; then export ASAN_SYMBOLIZER_PATH="$symbolizer"; fi
+
+failed=()
+summary=()
+for t in "${targets[@]}"; do
+  corpus="$out/corpus/$t"
+  crashes="$out/crashes/$t"
+  log="$out/logs/$t.log"
+  mkdir -p "$corpus" "$crashes" "$(dirname "$log")"
+  seeds_var="seeds_${t}[@]"
+  args_var="args_${t}[@]"
+  echo "== fuzz_$t for ${seconds}s (log: $log)"
+  status=0
+  # -timeout: an input running over 10 s is a hang; -rss_limit_mb: one over 2 GiB is a memory blow-up.
+  (cd "$crashes" && "$build/tests/fuzz/fuzz_$t" "${!args_var}" -max_total_time="$seconds" -timeout=10 \
+      -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$crashes/" "$corpus" "${!seeds_var}") \
+      >"$log" 2>&1 || status=$?
+  # Edges: the final DONE line, or the last report before a crash.
+  cov="$(grep -Eo 'cov: [0-9]+' "$log" | tail -n 1 | grep -Eo '[0-9]+$' || echo '?')"
+  execs="$(grep -Eo 'stat::number_of_executed_units: [0-9]+' "$log" | grep -Eo '[0-9]+$' || echo '?')"
+  units="$(ls "$corpus" | wc -l)"
+  line="fuzz_$t: cov $cov edges, $execs executions in ${seconds}s, corpus $units files"
+  if [ "$status" -ne 0 ]; then
+    line="$line: FAILED (exit $status)"
+    failed+=("$t")
+    grep -E '^(==[0-9]+==ERROR|SUMMARY|.*runtime error|.*fuzz property failed|artifact_prefix|Test unit written)' \
+      "$log" | head -n 8 | sed 's/^/    /'
+  fi
+  echo "$line"
+  summary+=("$line")
+done
+
+echo
+echo "Fuzzing summary (${seconds}s per target):"
+printf '  %s\n' "${summary[@]}"
+if [ ${#failed[@]} -ne 0 ]; then
+  echo "Crashing inputs kept under $out/crashes/:"
+  find "$out/crashes" -type f | sed 's/^/  /'
+  exit 1
+fi
