@@ -3,7 +3,9 @@
 # Usage: scripts/install_deps.sh [sample|tests]
 #   sample  what rgs-convert and rgs-info need to build (the README's first command)
 #   tests   everything the whole test suite needs (default): the render and audit tools' image I/O, doctest,
-#           python3 for the corpus generators, clang's libFuzzer and sanitizers for the bounded fuzzing run
+#           GLM (camera tests of the front door), python3 with pybind11, NumPy and pytest (the roofgs module),
+#           matplotlib and chromium (the audit's HTML report and its headless screenshot test), clang's
+#           libFuzzer and sanitizers (scripts/run_fuzzers.sh)
 # Idempotent: skips apt when everything is present. Uses sudo when not run as root. Waits (up to 10 minutes)
 # for another apt or dpkg to release its lock, as happens right after a fresh machine boots.
 set -euo pipefail
@@ -11,12 +13,13 @@ set -euo pipefail
 profile="${1:-tests}"
 sample=(
   build-essential cmake ninja-build pkg-config
-  libzstd-dev libxxhash-dev zlib1g-dev nlohmann-json3-dev libcli11-dev
+  libzstd-dev libxxhash-dev zlib1g-dev libwebp-dev nlohmann-json3-dev libcli11-dev
 )
 tests=(
   "${sample[@]}"
-  doctest-dev libopenimageio-dev
-  python3 time
+  doctest-dev libopenimageio-dev libglm-dev
+  python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib time
+  chromium
   clang libclang-rt-14-dev llvm
 )
 case "$profile" in
