@@ -65,7 +65,7 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
   return exclusive;
 }
 
-template <bool kCompact>
+template <bool kCompact, int kDegree>
 __global__ void __launch_bounds__(kFusedBlockSize)
     fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,
                  FusedScratch scratch, LargeGaussianList large, detail::PairSink sink, bool arrival_order) {
@@ -102,7 +102,7 @@ __global__ void __launch_bounds__(kFusedBlockSize)
   } else if (threadIdx.x == 0) {
     publish_aggregate(scratch.block_status, block, block_total);
   }
-  if (visible) detail::shade_gaussian<kCompact>(src, g, frame, out);
+  if (visible) detail::shade_gaussian<kCompact, kDegree>(src, g, frame, out);
   if (!arrival_order && threadIdx.x < 32) {
     const unsigned long long exclusive = look_back(scratch.block_status, block, block_total);
     if (threadIdx.x == 0) {
@@ -143,14 +143,17 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
   if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
   if (result != cudaSuccess || source.count == 0) return result;
   const detail::PairSink sink{capacity, keys64, keys32, values};
-  if (roofgs.compact) {
-    fused_kernel<true><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink,
-                                                                arrival);
-  } else {
-    fused_kernel<false><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large, sink,
-                                                                 arrival);
-  }
-  return detail::launch_result();
+  const uint32_t degree = roofgs.compact ? source.compact.sh_degree : source.fp32.sh_degree;
+  const cudaError_t launched = detail::with_sh_degree(degree, [&](auto d) {
+    if (roofgs.compact) {
+      fused_kernel<true, decltype(d)::value><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch, large,
+                                                                         sink, arrival);
+    } else {
+      fused_kernel<false, decltype(d)::value><<<blocks, kFusedBlockSize, 0, stream>>>(source, frame, roofgs, out, scratch,
+                                                                          large, sink, arrival);
+    }
+  });
+  return launched != cudaSuccess ? launched : detail::launch_result();
 }
 
 }  // namespace rgs::kernels

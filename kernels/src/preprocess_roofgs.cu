@@ -5,7 +5,7 @@
 namespace rgs::kernels {
 namespace {
 
-template <bool kCompact>
+template <bool kCompact, int kDegree>
 __global__ void __launch_bounds__(detail::kBlockSize)
     preprocess_roofgs_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,
                              unsigned long long* large_pairs) {
@@ -23,7 +23,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     return;
   }
   detail::store_projected(p, g, out);
-  detail::shade_gaussian<kCompact>(src, g, frame, out);
+  detail::shade_gaussian<kCompact, kDegree>(src, g, frame, out);
   out.cov2d[3 * uint64_t(g)] = p.cov.xx;
   out.cov2d[3 * uint64_t(g) + 1] = p.cov.xy;
   out.cov2d[3 * uint64_t(g) + 2] = p.cov.yy;
@@ -49,14 +49,17 @@ cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& f
   const cudaError_t zeroed = cudaMemsetAsync(large_pairs, 0, sizeof(*large_pairs), stream);
   if (zeroed != cudaSuccess || source.count == 0) return zeroed;
   const unsigned blocks = detail::blocks_for(source.count);
-  if (roofgs.compact) {
-    preprocess_roofgs_kernel<true><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out,
-                                                                              large_pairs);
-  } else {
-    preprocess_roofgs_kernel<false><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out,
-                                                                               large_pairs);
-  }
-  return detail::launch_result();
+  const uint32_t degree = roofgs.compact ? source.compact.sh_degree : source.fp32.sh_degree;
+  const cudaError_t launched = detail::with_sh_degree(degree, [&](auto d) {
+    if (roofgs.compact) {
+      preprocess_roofgs_kernel<true, decltype(d)::value><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out,
+                                                                                       large_pairs);
+    } else {
+      preprocess_roofgs_kernel<false, decltype(d)::value><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs,
+                                                                                        out, large_pairs);
+    }
+  });
+  return launched != cudaSuccess ? launched : detail::launch_result();
 }
 
 cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* offsets, uint32_t count,

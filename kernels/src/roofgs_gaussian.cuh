@@ -8,6 +8,7 @@
 #include <cuda_fp16.h>
 
 #include <cstdint>
+#include <type_traits>
 
 #include "launch_util.cuh"
 #include "rgs/kernels/roofgs_pipeline.h"
@@ -96,53 +97,69 @@ __device__ inline void load_geometry(const GaussianSource& src, uint32_t g, floa
   }
 }
 
-/// Gaussian g's compact SH block, 3K int8 values (j = 3k + c) at byte 3K·g of the [N, K, 3] array, as words
-/// in block order: byte b of words[i] is value 4i + b (words past the block's end hold the next Gaussian's
-/// bytes or the array's zero padding). The block starts at any byte (27 bytes a Gaussian at degree 2), so it
-/// is read with the aligned 32-bit words that cover it (16-byte words at degree 3, whose 48-byte blocks are
-/// aligned), realigned with funnel shifts: at most 13 loads instead of one per value, and 12 registers in
-/// flight instead of 48. Reads stay inside the allocation, which is padded to kCompactShPadding bytes.
-__device__ inline void load_sh_words(const CompactGaussiansView& c, uint32_t g, int values, uint32_t words[12]) {
-  const uint64_t start = uint64_t(g) * uint64_t(values);
-  if (values == 3 * kMaxShCoefficients) {
+/// Gaussian g's compact SH block, kValues = 3K int8 values (j = 3k + c) at byte 3K·g of the [N, K, 3] array,
+/// as words in block order: byte b of words[i] is value 4i + b (bytes past the block's end are the next
+/// Gaussian's or the array's zero padding). The block starts at any byte (27 bytes a Gaussian at degree 2), so
+/// it is read with the aligned 32-bit words that cover it (16-byte words at degree 3, whose 48-byte blocks are
+/// aligned), realigned with funnel shifts: at most ⌈(kValues + 3) / 4⌉ + 1 loads instead of one per value
+/// (2 at degree 0). Reads stay inside the allocation, which is padded to kCompactShPadding bytes.
+template <int kValues>
+__device__ inline void load_sh_words(const CompactGaussiansView& c, uint32_t g, uint32_t words[(kValues + 3) / 4]) {
+  constexpr int kWords = (kValues + 3) / 4;
+  const uint64_t start = uint64_t(g) * uint64_t(kValues);
+  if constexpr (kValues == 3 * kMaxShCoefficients) {
     const uint4* block = reinterpret_cast<const uint4*>(c.sh + start);
 #pragma unroll
     for (int i = 0; i < 3; ++i) {
       const uint4 v = __ldg(block + i);
       words[4 * i] = v.x, words[4 * i + 1] = v.y, words[4 * i + 2] = v.z, words[4 * i + 3] = v.w;
     }
-    return;
+  } else {
+    const uint32_t* aligned = reinterpret_cast<const uint32_t*>(c.sh + (start & ~uint64_t(3)));
+    const int covering = (int(start & 3u) + kValues + 3) / 4;
+    uint32_t raw[kWords + 1];
+#pragma unroll
+    for (int i = 0; i < kWords + 1; ++i) raw[i] = i < covering ? __ldg(aligned + i) : 0u;
+    const uint32_t shift = uint32_t(start & 3u) * 8u;
+#pragma unroll
+    for (int i = 0; i < kWords; ++i) words[i] = __funnelshift_r(raw[i], raw[i + 1], shift);
   }
-  const uint32_t* aligned = reinterpret_cast<const uint32_t*>(c.sh + (start & ~uint64_t(3)));
-  const int covering = (int(start & 3u) + values + 3) / 4;
-  uint32_t raw[13];
-#pragma unroll
-  for (int i = 0; i < 13; ++i) raw[i] = i < covering ? __ldg(aligned + i) : 0u;
-  const uint32_t shift = uint32_t(start & 3u) * 8u;
-#pragma unroll
-  for (int i = 0; i < 12; ++i) words[i] = __funnelshift_r(raw[i], raw[i + 1], shift);
 }
 
-/// Colour of Gaussian g along the unit direction (x, y, z): the SH coefficients dequantized in registers
-/// when compact (s[d][c]·q, one rounded product as format::dequantize on the host), then sh_to_colour.
-template <bool kCompact>
+/// Colour of Gaussian g along the unit direction (x, y, z) at SH degree kDegree (the scene's, chosen at
+/// launch: the loads, registers and basis terms are those of that degree only): the SH coefficients
+/// dequantized in registers when compact (s[d][c]·q, one rounded product as format::dequantize on the host),
+/// then sh_to_colour.
+template <bool kCompact, int kDegree>
 __device__ inline void load_colour(const GaussianSource& src, uint32_t g, float x, float y, float z,
                                    float rgb[3]) {
-  const uint32_t degree = kCompact ? src.compact.sh_degree : src.fp32.sh_degree;
-  const int k_count = sh_coefficients_for(int(degree));
+  constexpr int kValues = 3 * (kDegree + 1) * (kDegree + 1);
   if constexpr (kCompact) {
     const CompactGaussiansView& c = src.compact;
-    uint32_t words[12];
-    load_sh_words(c, g, k_count * 3, words);
-    float sh[kMaxShCoefficients * 3];
+    uint32_t words[(kValues + 3) / 4];
+    load_sh_words<kValues>(c, g, words);
+    float sh[kMaxShCoefficients * 3];  // sh_to_colour's shape; entries past kValues are never read
 #pragma unroll
-    for (int j = 0; j < kMaxShCoefficients * 3; ++j) {
+    for (int j = 0; j < kValues; ++j) {
       const auto q = static_cast<int8_t>(uint8_t(words[j / 4] >> (8 * (j % 4))));
-      sh[j] = j < k_count * 3 ? dequantize_sh_value(c, j, q) : 0.f;
+      sh[j] = dequantize_sh_value(c, j, q);
     }
-    sh_to_colour(sh, int(degree), x, y, z, rgb);
+    sh_to_colour(sh, kDegree, x, y, z, rgb);
   } else {
-    sh_to_colour(src.fp32.sh + uint64_t(g) * uint64_t(k_count) * 3, int(degree), x, y, z, rgb);
+    sh_to_colour(src.fp32.sh + uint64_t(g) * uint64_t(kValues), kDegree, x, y, z, rgb);
+  }
+}
+
+/// Calls launch(std::integral_constant<int, d>{}) for SH degree d in 0..3, the degree the kernels are
+/// specialized for; cudaErrorInvalidValue for any other degree (the format allows none).
+template <typename Launch>
+inline cudaError_t with_sh_degree(uint32_t degree, Launch&& launch) {
+  switch (degree) {
+    case 0: launch(std::integral_constant<int, 0>{}); return cudaSuccess;
+    case 1: launch(std::integral_constant<int, 1>{}); return cudaSuccess;
+    case 2: launch(std::integral_constant<int, 2>{}); return cudaSuccess;
+    case 3: launch(std::integral_constant<int, 3>{}); return cudaSuccess;
+    default: return cudaErrorInvalidValue;
   }
 }
 
@@ -208,7 +225,7 @@ __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, c
 /// Colour of visible Gaussian g, stored to out.rgb: its SH seen along the unit direction from the camera
 /// centre to its mean (preprocess_cpu's last step). Apart from project_gaussian so that the fused kernel can
 /// publish its block's pair count before this work, the SH being needed by the rasterizer only.
-template <bool kCompact>
+template <bool kCompact, int kDegree>
 __device__ inline void shade_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
                                       const RoofgsProjected& out) {
   float mean[3];
@@ -218,7 +235,7 @@ __device__ inline void shade_gaussian(const GaussianSource& src, uint32_t g, con
   const float length = sqrtf(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
   for (float& d : dir) d = d / length;
   float rgb[3];
-  load_colour<kCompact>(src, g, dir[0], dir[1], dir[2], rgb);
+  load_colour<kCompact, kDegree>(src, g, dir[0], dir[1], dir[2], rgb);
   out.rgb[3 * uint64_t(g)] = rgb[0];
   out.rgb[3 * uint64_t(g) + 1] = rgb[1];
   out.rgb[3 * uint64_t(g) + 2] = rgb[2];
