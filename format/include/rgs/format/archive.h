@@ -12,7 +12,7 @@ namespace rgs::format {
 
 /// Default largest position error of the archive profile, relative to the scene extent (the longest
 /// side of the means' AABB): each axis is quantized with a step of 2 * error * extent. 2^-17 (7.6e-6)
-/// gives 16-bit Draco positions and stays above 55 dB in the audits of docs/AUDITS.md.
+/// gives 17-bit Draco positions (measured in docs/AUDITS.md).
 inline constexpr double kDefaultArchivePositionError = 1.0 / 131072.0;
 
 /// Choices of the archive profile (SPEC §3.3). The defaults are the measured ones of docs/AUDITS.md.
@@ -22,14 +22,14 @@ struct ArchiveOptions {
   /// (at most 30, Draco's limit).
   double position_error = kDefaultArchivePositionError;
   /// Bits per smallest-three quaternion component, 4..16 (§3.3.2 transform 1).
-  uint32_t rotation_bits = 11;
+  uint32_t rotation_bits = 10;
   /// Bits per log-scale code, 4..16 (§3.3.2 transform 2).
-  uint32_t scale_bits = 10;
+  uint32_t scale_bits = 9;
   /// Bits per opacity code, 4..16 (§3.3.2 transform 3).
-  uint32_t opacity_bits = 9;
+  uint32_t opacity_bits = 8;
   /// Multiplier of the INT8 SH step per degree 0..3, 1..127 (§3.3.2 transform 4); 1 keeps the runtime's
   /// INT8 values.
-  std::array<uint32_t, 4> sh_step_multipliers = {1, 2, 3, 4};
+  std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
   /// zstd level 1..22 of the coded sections.
   int zstd_level = 6;
   /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
