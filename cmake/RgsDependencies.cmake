@@ -19,6 +19,14 @@ add_library(rgs_xxhash INTERFACE)
 target_include_directories(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_INCLUDE_DIR}>")
 target_link_libraries(rgs_xxhash INTERFACE "$<BUILD_INTERFACE:${RGS_XXHASH_LIBRARY}>")
 
+# Draco (Debian libdraco-dev) codes the means of the archive profile (format/SPEC.md 3.3.1). Linked from its
+# static archive so GPU binaries need no libdraco shared library.
+find_path(RGS_DRACO_INCLUDE_DIR draco/compression/decode.h REQUIRED)
+find_library(RGS_DRACO_LIBRARY NAMES libdraco.a draco REQUIRED)
+add_library(rgs_draco INTERFACE)
+target_include_directories(rgs_draco SYSTEM INTERFACE "$<BUILD_INTERFACE:${RGS_DRACO_INCLUDE_DIR}>")
+target_link_libraries(rgs_draco INTERFACE "$<BUILD_INTERFACE:${RGS_DRACO_LIBRARY}>")
+
 # zlib: gzip-wrapped SPZ versions 2 and 3 and deflated entries of bundled .sog archives (rgs_converter; the
 # converter tests also make gzip inputs with it).
 find_package(ZLIB REQUIRED)

@@ -4,7 +4,7 @@
 include(CMakePackageConfigHelpers)
 
 set(RGS_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/RoofGS)
-set(rgs_export_targets rgs_format rgs_converter rgs_xxhash)
+set(rgs_export_targets rgs_format rgs_converter rgs_xxhash rgs_draco)
 foreach(t IN ITEMS rgs_kernels_shared rgs_runtime rgs_kernels rgs_api)
   if(TARGET ${t})
     list(APPEND rgs_export_targets ${t})
@@ -14,6 +14,9 @@ endforeach()
 # The xxHash archive is found at build time; consumers link it by name.
 target_link_libraries(rgs_xxhash INTERFACE "$<INSTALL_INTERFACE:xxhash>")
 set_target_properties(rgs_xxhash PROPERTIES EXPORT_NAME xxhash)
+# Likewise the Draco archive (archive codecs of rgs_format).
+target_link_libraries(rgs_draco INTERFACE "$<INSTALL_INTERFACE:draco>")
+set_target_properties(rgs_draco PROPERTIES EXPORT_NAME draco)
 
 install(TARGETS ${rgs_export_targets} EXPORT RoofGSTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}

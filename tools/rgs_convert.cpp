@@ -51,6 +51,8 @@ struct Options {
   bool quiet = false;
   std::string json_path;  ///< "-": standard output, instead of the text summary
   std::optional<uint32_t> lod;
+  std::string profile = "runtime";
+  double position_error = format::kDefaultArchivePositionError;
 
   bool json_to_stdout() const { return json_path == "-"; }
   /// The text summary goes to stdout unless -q or the JSON takes its place.
@@ -115,6 +117,10 @@ const std::vector<std::pair<std::string, format::SectionId>> kSectionNames = {
 Result<format::WriteOptions> make_write_options(const Options& opt) {
   format::WriteOptions write;
   write.zstd_level = opt.zstd_level;
+  if (opt.profile == "archive") {
+    write.profile = format::StorageProfile::kArchive;
+    write.archive.position_error = opt.position_error;
+  }
   for (const std::string& name : opt.zstd_sections) {
     if (name == "all") {
       for (const auto& [n, id] : kSectionNames) write.codecs[id] = format::Codec::kZstd;
@@ -247,6 +253,15 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
   std::printf("  output           %s bytes  (%s B/Gaussian), ratio %sx\n",
               tools::group_digits(*written).c_str(), tools::fixed(out_bytes * per_gaussian, 1).c_str(),
               tools::fixed(out_bytes > 0 ? in_bytes / out_bytes : 0.0, 2).c_str());
+  if (write_options->profile == format::StorageProfile::kArchive) {
+    const auto pq = format::choose_position_quantization(encoded->metadata.bounds, opt.position_error);
+    std::printf("  profile          archive: %s B/Gaussian, position step %s (%u bits, error <= %s of the "
+                "extent); the errors below are the runtime quantization's, before the archive codecs\n",
+                tools::fixed(out_bytes * per_gaussian, 2).c_str(), tools::sci(pq.ok() ? pq->step : 0.0).c_str(),
+                pq.ok() ? pq->bits : 0u, tools::sci(opt.position_error).c_str());
+  } else {
+    std::printf("  profile          runtime\n");
+  }
   std::printf("  input hygiene    %s non-finite values in %s Gaussians, %s zero-norm quaternions, "
               "%s infinite opacity logits (kept), %s Gaussians dropped\n",
               tools::group_digits(hygiene.nonfinite_values).c_str(),
@@ -453,6 +468,16 @@ int main(int argc, char** argv) {
                  "Compress these sections losslessly with zstd: all, or a comma list of metadata, provenance, "
                  "means, rotations, scales, opacities, sh (default: none, so the runtime maps the file as is)")
       ->delimiter(',');
+  app.add_option("--profile", opt.profile,
+                 "Storage profile: runtime (lossless sections, mapped as is) or archive (lossy: Draco means, "
+                 "quantized rotations, scales, opacities and SH; decoded at load, format/SPEC.md 3.3)")
+      ->check(CLI::IsMember({"runtime", "archive"}))
+      ->capture_default_str();
+  app.add_option("--position-error", opt.position_error,
+                 "Archive profile: largest position error relative to the scene extent (longest AABB side); "
+                 "sets the Draco quantization bits")
+      ->check(CLI::Range(1e-9, 0.5))
+      ->capture_default_str();
   app.add_option("--zstd-level", opt.zstd_level, "zstd level 1..22")
       ->check(CLI::Range(1, 22))
       ->capture_default_str();

@@ -20,6 +20,8 @@ const char* codec_name(Codec codec) {
   switch (codec) {
     case Codec::kNone: return "none";
     case Codec::kZstd: return "zstd";
+    case Codec::kDraco: return "draco";
+    case Codec::kQuantized: return "quantized";
   }
   return "unknown";
 }

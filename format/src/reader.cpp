@@ -15,6 +15,7 @@
 #include <new>
 #include <string>
 
+#include "internal_archive.h"
 #include "internal_bytes.h"
 #include "internal_sections.h"
 
@@ -229,7 +230,9 @@ struct RgsFileAccess {
 
 namespace {
 
-bool is_known_codec(Codec c) { return c == Codec::kNone || c == Codec::kZstd; }
+bool is_known_codec(Codec c) {
+  return c == Codec::kNone || c == Codec::kZstd || c == Codec::kDraco || c == Codec::kQuantized;
+}
 
 }  // namespace
 
@@ -374,7 +377,7 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
   if (!is_known_codec(e.codec)) {
     RGS_RETURN_ERROR_IF(known, StatusCode::kUnsupportedFeature,
                         label + ": codec " + dec(static_cast<uint16_t>(e.codec)) +
-                            " is unknown (this reader knows 0 = none, 1 = zstd)");
+                            " is unknown (this reader knows 0 = none, 1 = zstd, 2 = draco, 3 = quantized)");
   }
   const uint32_t type_size = element_type_size(e.element_type);
   if (type_size != 0) {
@@ -404,6 +407,24 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
                             "-byte zstd frame (at most " + dec(detail::kZstdMaxExpansion) + "x expansion)");
     Status s = detail::check_zstd_frame_header(f.data_ + e.offset, static_cast<size_t>(e.stored_size), e.raw_size);
     if (!s.ok()) return Status(s).prepend(label);
+  } else if (e.codec == Codec::kDraco || e.codec == Codec::kQuantized) {
+    // §3.3 Archive codecs: gated by version and the required flag, only on their sections, headers
+    // checked here (the point or code count before anything is allocated from it).
+    RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForArchiveCodecs), StatusCode::kCorruptData,
+                        label + ": " + codec_name(e.codec) + " codec in a version " + dec(version.major) + "." +
+                            dec(version.minor) + " file");
+    RGS_RETURN_ERROR_IF((f.header_.required_flags & kRequiredFlagArchiveCodecs) == 0, StatusCode::kCorruptData,
+                        label + ": " + codec_name(e.codec) + " codec without the archive-codecs required flag");
+    RGS_RETURN_ERROR_IF(!detail::archive_codec_allowed(e.id, e.codec), StatusCode::kCorruptData,
+                        label + ": codec " + codec_name(e.codec) + " is not allowed on this section (SPEC 3.3)");
+    RGS_RETURN_ERROR_IF(e.element_count != f.header_.gaussian_count, StatusCode::kCorruptData,
+                        label + ": element_count " + dec(e.element_count) + " != gaussian_count " +
+                            dec(f.header_.gaussian_count));
+    const uint8_t* src = f.data_ + e.offset;
+    const size_t size = static_cast<size_t>(e.stored_size);
+    Status s = e.codec == Codec::kDraco ? detail::check_draco_header(src, size, e.element_count)
+                                        : detail::check_quantized_header(e.id, src, size, e.element_count, e.components);
+    if (!s.ok()) return Status(s).prepend(label);
   }
   return Status();
 }
@@ -413,14 +434,19 @@ Status RgsFileAccess::check_decoded_total(const RgsFile& f) {
   // claims; bound the total by the file's size before anything is allocated from it.
   uint64_t total = 0;
   for (const SectionEntry& e : f.sections_) {
-    if (detail::is_known_section(e.id) && !detail::checked_add(total, e.raw_size, &total)) total = UINT64_MAX;
+    if (!detail::is_known_section(e.id)) continue;
+    // §5.5 Archive-coded sections count a fraction of their raw size (internal_archive.h).
+    const bool archive = e.codec == Codec::kDraco || e.codec == Codec::kQuantized;
+    const uint64_t counted = archive ? e.raw_size / detail::kArchiveRatioAllowance : e.raw_size;
+    if (!detail::checked_add(total, counted, &total)) total = UINT64_MAX;
   }
   const ReadLimits& limits = f.options_.limits;
   const uint64_t basis = std::max<uint64_t>(f.size_, kDecompressionRatioMinBytes);
   uint64_t allowed = 0;
   if (!detail::checked_mul(basis, limits.max_decompression_ratio, &allowed)) allowed = UINT64_MAX;
   RGS_RETURN_ERROR_IF(total > allowed, StatusCode::kLimitExceeded,
-                      "the sections decode to " + dec(total) + " bytes, more than the decompression-ratio limit of " +
+                      "the sections decode to " + dec(total) + " bytes (archive sections counted at 1/" +
+                          dec(detail::kArchiveRatioAllowance) + "), more than the decompression-ratio limit of " +
                           dec(limits.max_decompression_ratio) + " x " + dec(basis) + " bytes (" +
                           (f.size_ < kDecompressionRatioMinBytes ? "1 MiB, the least a file counts as"
                                                                  : std::string("the file's size")) +
@@ -484,6 +510,14 @@ Status RgsFileAccess::decode(const RgsFile& f, size_t index, void* dst, size_t d
   if (e.codec == Codec::kNone) {
     if (stored.size > 0) std::memcpy(dst, stored.data, stored.size);
     return Status();
+  }
+  if (e.codec == Codec::kDraco || e.codec == Codec::kQuantized) {
+    Status s = e.codec == Codec::kDraco
+                   ? detail::decode_draco_means(stored.data, stored.size, e.element_count, static_cast<uint8_t*>(dst),
+                                                dst_size)
+                   : detail::decode_quantized(e.id, f.metadata_, stored.data, stored.size, e.element_count,
+                                              e.components, static_cast<uint8_t*>(dst), dst_size);
+    return s.ok() ? s : s.prepend(label);
   }
   Status s = detail::decode_zstd_frame(stored.data, stored.size, static_cast<uint8_t*>(dst), dst_size);
   return s.ok() ? s : s.prepend(label);

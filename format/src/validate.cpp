@@ -226,7 +226,8 @@ Status stream_zstd(const uint8_t* src, size_t stored_size, uint64_t raw_size, si
 Status validate_section(const RgsFile& file, size_t index) {
   const SectionEntry& e = file.sections()[index];
   RGS_ASSIGN_OR_RETURN(ByteView stored, file.stored_bytes(e.id));  // message names the file
-  if (e.codec != Codec::kNone && e.codec != Codec::kZstd) return Status();  // unknown section, unknown codec
+  const bool archive = e.codec == Codec::kDraco || e.codec == Codec::kQuantized;
+  if (e.codec != Codec::kNone && e.codec != Codec::kZstd && !archive) return Status();  // unknown section and codec
   const bool runtime = e.id == SectionId::kMeans || e.id == SectionId::kRotations || e.id == SectionId::kScales ||
                        e.id == SectionId::kOpacities || e.id == SectionId::kSh;
   // Runtime sections are checked one Gaussian (record) at a time; other sections only decode.
@@ -237,6 +238,13 @@ Status validate_section(const RgsFile& file, size_t index) {
   Status s;
   if (e.codec == Codec::kNone) {
     if (active && e.raw_size > 0) s = checker.visit(stored.data, static_cast<size_t>(e.raw_size / record_size), 0);
+  } else if (archive) {
+    // §3.3 Archive sections decode whole (their raw size is bounded by the read limits at open), then
+    // their values are checked like any runtime section's.
+    std::vector<uint8_t> raw(static_cast<size_t>(e.raw_size));
+    s = file.decode_section(e.id, raw.data(), raw.size());
+    if (!s.ok()) return s;  // names the file and the section already
+    if (active && e.raw_size > 0) s = checker.visit(raw.data(), static_cast<size_t>(e.raw_size / record_size), 0);
   } else {
     s = stream_zstd(stored.data, stored.size, e.raw_size, record_size > 0 ? record_size : 1, active);
   }

@@ -7,12 +7,14 @@
 #include <functional>
 #include <memory>
 #include <new>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <system_error>
 #include <thread>
 #include <vector>
 
+#include "internal_archive.h"
 #include "internal_bytes.h"
 #include "internal_sections.h"
 #include "rgs/format/file_io.h"
@@ -100,8 +102,8 @@ struct PlannedSection {
   std::vector<uint8_t> compressed;
   uint64_t offset = 0;
 
-  const uint8_t* stored() const { return codec == Codec::kZstd ? compressed.data() : raw; }
-  uint64_t stored_size() const { return codec == Codec::kZstd ? compressed.size() : raw_size; }
+  const uint8_t* stored() const { return codec != Codec::kNone ? compressed.data() : raw; }
+  uint64_t stored_size() const { return codec != Codec::kNone ? compressed.size() : raw_size; }
 };
 
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
@@ -215,8 +217,9 @@ struct PlannedFile {
   uint64_t file_size = 0;
 };
 
-/// Checks `scene` and `options` and lays the file out: everything but copying the section bytes.
-Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& options) {
+/// Checks `scene` and `options` and lays the file out: everything but copying the section bytes. With
+/// `archive`, `scene` is its decoded scene and the runtime sections take its stored bytes (moved out).
+Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& options, ArchiveScene* archive) {
   RGS_RETURN_IF_ERROR(check_options(options));
   RGS_RETURN_IF_ERROR(check_scene_shape(scene));
   uint64_t provenance_bytes = 0;
@@ -258,6 +261,18 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
   set_array_raw(&add(SectionId::kScales, ElementType::kFloat16, 3, n), scene.scales);
   set_array_raw(&add(SectionId::kOpacities, ElementType::kFloat16, 1, n), scene.opacities);
   set_array_raw(&add(SectionId::kSh, ElementType::kInt8, 3 * k, n), scene.sh);
+  uint32_t required_flags = 0;
+  if (archive != nullptr) {
+    // §3.3 The per-Gaussian sections, in the order means, rotations, scales, opacities, sh, take the
+    // archive codecs; an empty scene keeps codec none (nothing to code).
+    const size_t first = plan.size() - 5;
+    for (size_t i = 0; i < 5; ++i) {
+      PlannedSection& s = plan[first + i];
+      s.codec = n == 0 ? Codec::kNone : i == 0 ? Codec::kDraco : Codec::kQuantized;
+      if (n > 0) s.compressed = std::move(archive->stored[i]);
+    }
+    if (n > 0) required_flags |= kRequiredFlagArchiveCodecs;
+  }
 
   // §6 Stamp the oldest version that has every feature this file uses.
   FormatVersion version{kFormatMajor, 0};
@@ -266,6 +281,7 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
   };
   if (!scene.provenance.empty()) require(kMinVersionForProvenance);
   if (scene.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
+  if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
 
   ZstdCCtxPtr cctx;
   for (PlannedSection& s : plan) {
@@ -328,7 +344,7 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
   header.put_u16(version.major);
   header.put_u16(version.minor);
   header.put_u32(kHeaderSize);
-  header.put_u32(0);  // required flags: none defined in 1.0
+  header.put_u32(required_flags);  // §2.2
   header.put_u32(0);  // optional flags
   header.put_u64(n);
   header.put_u32(static_cast<uint32_t>(plan.size()));
@@ -370,8 +386,22 @@ Status emit_file(const PlannedFile& file, const std::function<Status(const void*
   return Status();
 }
 
+/// Plans the file of `scene` in the chosen profile; `archive` keeps the archive-coded scene alive while the
+/// plan points into it.
+Result<PlannedFile> plan_profile(const EncodedScene& scene, const WriteOptions& options,
+                                 std::optional<ArchiveScene>* archive) {
+  if (options.profile != StorageProfile::kArchive) return plan_file(scene, options, nullptr);
+  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(check_scene_shape(scene));
+  RGS_RETURN_IF_ERROR(check_values(scene, 0, scene.count));
+  RGS_ASSIGN_OR_RETURN(ArchiveScene encoded, encode_archive(scene, options.archive));
+  archive->emplace(std::move(encoded));
+  return plan_file((*archive)->decoded, options, &**archive);
+}
+
 Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const WriteOptions& options) {
-  RGS_ASSIGN_OR_RETURN(PlannedFile file, plan_file(scene, options));
+  std::optional<ArchiveScene> archive;
+  RGS_ASSIGN_OR_RETURN(PlannedFile file, plan_profile(scene, options, &archive));
   std::vector<uint8_t> out;
   out.reserve(static_cast<size_t>(file.file_size));
   RGS_RETURN_IF_ERROR(emit_file(file, [&out](const void* data, size_t size) {
@@ -396,9 +426,10 @@ Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const Wr
 
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options) {
   // Streams the sections from the scene's own arrays (no serialized copy of the whole file in memory).
+  std::optional<ArchiveScene> archive;
   auto file = [&]() -> Result<PlannedFile> {
     try {
-      return plan_file(scene, options);
+      return plan_profile(scene, options, &archive);
     } catch (const std::bad_alloc&) {
       return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
     } catch (const std::length_error&) {

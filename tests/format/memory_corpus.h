@@ -150,7 +150,7 @@ inline std::vector<uint8_t> make_zstd_memory_bomb(uint64_t n, bool bogus_frames)
   }
   std::vector<uint8_t> file(format::kMagic, format::kMagic + 8);
   append_le(file, format::kFormatMajor, 2);
-  append_le(file, format::kFormatMinor, 2);
+  append_le(file, 0, 2);  // a version 1.0 file
   append_le(file, format::kHeaderSize, 4);
   append_le(file, 0, 4);  // required flags
   append_le(file, 0, 4);  // optional flags

@@ -13,7 +13,7 @@ inline constexpr uint8_t kMagic[8] = {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0
 /// §2 Version this library writes. Readers accept any minor of kFormatMajor; newer majors are refused
 /// with kUnsupportedVersion.
 inline constexpr uint16_t kFormatMajor = 1;
-inline constexpr uint16_t kFormatMinor = 0;
+inline constexpr uint16_t kFormatMinor = 1;
 
 /// §6 A format version, compared as (major, minor).
 struct FormatVersion {
@@ -31,6 +31,8 @@ constexpr bool version_at_least(FormatVersion v, FormatVersion min) {
 inline constexpr FormatVersion kMinVersionForZstdCodec{1, 0};
 inline constexpr FormatVersion kMinVersionForProvenance{1, 0};
 inline constexpr FormatVersion kMinVersionForLogScales{1, 0};
+/// §3.3 Codecs 2 (draco) and 3 (quantized), the archive profile; they also set kRequiredFlagArchiveCodecs.
+inline constexpr FormatVersion kMinVersionForArchiveCodecs{1, 1};
 
 /// §2 Fixed sizes, in bytes.
 inline constexpr uint32_t kHeaderSize = 64;
@@ -41,8 +43,11 @@ inline constexpr uint32_t kMetadataSize = 128;
 inline constexpr uint64_t kSectionAlignment = 256;
 
 /// §2.2 Flag bits. Required bits this reader does not know give kUnsupportedFeature; unknown optional
-/// bits are ignored. Version 1.0 defines none of either.
-inline constexpr uint32_t kKnownRequiredFlags = 0;
+/// bits are ignored. Version 1.0 defines none of either; 1.1 defines one required bit.
+/// §2.2 Set when any section uses codec 2 or 3 (§3.3), so that a 1.0 reader refuses the file
+/// (kUnsupportedFeature) instead of failing on an unknown codec deeper in the table.
+inline constexpr uint32_t kRequiredFlagArchiveCodecs = 1u << 0;
+inline constexpr uint32_t kKnownRequiredFlags = kRequiredFlagArchiveCodecs;
 inline constexpr uint32_t kKnownOptionalFlags = 0;
 
 /// §4 Section identifiers. Readers skip (but still bounds- and checksum-check) ids they do not know.
@@ -60,6 +65,8 @@ enum class SectionId : uint32_t {
 enum class Codec : uint16_t {
   kNone = 0,  ///< stored == raw
   kZstd = 1,  ///< one zstd frame with content size and content checksum
+  kDraco = 2,      ///< §3.3.1 means only: a Draco point cloud (quantized positions), archive profile
+  kQuantized = 3,  ///< §3.3.2 rotations, scales, opacities, sh: transform header + zstd frame of codes
 };
 
 /// §3.1 Element type of a section's raw bytes, little-endian.

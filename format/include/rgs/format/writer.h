@@ -6,17 +6,29 @@
 #include <string>
 #include <vector>
 
+#include "rgs/format/archive.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/spec.h"
 #include "rgs/format/status.h"
 
 namespace rgs::format {
 
-/// Storage choices of a conversion. Both are lossless; the runtime profile's default is kNone, so a
-/// loader can map the file and copy each section to the GPU without decoding.
+/// What the per-Gaussian sections store (SPEC §3.3).
+enum class StorageProfile {
+  kRuntime,  ///< the runtime arrays as they are (codec none or zstd: lossless)
+  kArchive,  ///< lossy archive codecs (Draco means, quantized sections) decoding into the runtime arrays
+};
+
+/// Storage choices of a conversion. The runtime profile is lossless and its default codec is kNone, so
+/// a loader can map the file and copy each section to the GPU without decoding.
 struct WriteOptions {
-  /// Codec per section id; sections not listed are stored with Codec::kNone.
+  /// Codec per section id; sections not listed are stored with Codec::kNone. With the archive profile only
+  /// metadata and provenance follow it (the runtime sections take the archive codecs).
   std::map<SectionId, Codec> codecs;
+  StorageProfile profile = StorageProfile::kRuntime;
+  /// Choices of the archive profile (used when profile is kArchive). The file holds the scene as
+  /// encode_archive() decodes it: in Draco's point order, with the bounds of the decoded means.
+  ArchiveOptions archive;
   /// zstd compression level, 1..22 (ZSTD_maxCLevel()).
   int zstd_level = 19;
 };

@@ -1,0 +1,72 @@
+// The archive profile: lossy storage that decodes into the runtime profile's arrays (SPEC.md §3.3).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/status.h"
+
+namespace rgs::format {
+
+/// Default largest position error of the archive profile, relative to the scene extent (the longest
+/// side of the means' AABB): each axis is quantized with a step of 2 * error * extent. 2^-17 (7.6e-6)
+/// gives 17-bit Draco positions (measured in docs/AUDITS.md).
+inline constexpr double kDefaultArchivePositionError = 1.0 / 131072.0;
+
+/// Choices of the archive profile (SPEC §3.3). The defaults are the measured ones of docs/AUDITS.md.
+struct ArchiveOptions {
+  /// Largest |decoded - source| per mean component, relative to the extent (the longest AABB side), in
+  /// (0, 0.5]. The Draco quantization bits are the fewest whose step is at most 2 * error * extent
+  /// (at most 30, Draco's limit).
+  double position_error = kDefaultArchivePositionError;
+  /// Bits per smallest-three quaternion component, 4..16 (§3.3.2 transform 1).
+  uint32_t rotation_bits = 10;
+  /// Bits per log-scale code, 4..16 (§3.3.2 transform 2).
+  uint32_t scale_bits = 9;
+  /// Bits per opacity code, 4..16 (§3.3.2 transform 3).
+  uint32_t opacity_bits = 8;
+  /// Multiplier of the INT8 SH step per degree 0..3, 1..127 (§3.3.2 transform 4); 1 keeps the runtime's
+  /// INT8 values.
+  std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
+  /// zstd level 1..22 of the coded sections.
+  int zstd_level = 6;
+  /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
+  int draco_speed = 6;
+  /// Worker threads for encoding (the sections are coded in parallel); the bytes do not depend on it.
+  uint32_t threads = 2;
+};
+
+/// Position quantization of the archive profile for a scene of the given AABB (SPEC §3.3.1).
+struct ArchivePositionQuantization {
+  uint32_t bits = 0;       ///< Draco quantization bits, 1..30
+  float origin[3] = {};    ///< quantization origin: the AABB minimum
+  float range = 0;         ///< longest AABB side (the extent); 0 for a single point
+  double step = 0;         ///< range / (2^bits - 1), world units
+};
+
+/// Chooses the position quantization for `bounds` and `position_error` (see ArchiveOptions).
+/// Errors: kInvalidArgument when the error is outside (0, 0.5] or not finite.
+Result<ArchivePositionQuantization> choose_position_quantization(const SceneBounds& bounds, double position_error);
+
+/// An archive-coded scene: what a reader will decode, and the stored bytes of each per-Gaussian section.
+struct ArchiveScene {
+  /// The scene as RgsFile::read_scene returns it from the archive file, in file order: means decoded
+  /// from Draco, the other arrays through their transforms; metadata bounds recomputed from the decoded
+  /// means, the SH scales those of the source.
+  EncodedScene decoded;
+  /// Gaussian i of `decoded` is Gaussian source_index[i] of the source (Draco's kd-tree order, SPEC §3.3.1).
+  std::vector<uint64_t> source_index;
+  ArchivePositionQuantization position;
+  /// Stored bytes of the means (draco), rotations, scales, opacities and sh (quantized) sections.
+  std::array<std::vector<uint8_t>, 5> stored;
+};
+
+/// Encodes `scene` (a valid runtime-profile scene) into the archive profile and decodes it back, so
+/// that `decoded` is exactly what readers of the file will see. Deterministic: same scene and options,
+/// same bytes, whatever `threads`. Errors: kInvalidArgument (options out of range, an inconsistent
+/// scene), kOutOfMemory.
+Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options);
+
+}  // namespace rgs::format

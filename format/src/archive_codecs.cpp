@@ -1,0 +1,271 @@
+// Decoders of the archive codecs: Draco means (SPEC §3.3.1) and quantized sections (§3.3.2).
+#include <zstd.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+#include <draco/compression/decode.h>
+#include <draco/core/decoder_buffer.h>
+#include <draco/point_cloud/point_cloud.h>
+
+#include "internal_archive.h"
+#include "internal_bytes.h"
+#include "internal_sections.h"
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/half.h"
+
+namespace rgs::format::detail {
+
+namespace {
+
+/// §3.3.1 Draco bitstream header: "DRACO", version 2.3, encoder type 0 (point cloud), method 1 (kd-tree),
+/// flags u16 (0: no metadata), then the kd-tree geometry starts with an int32 point count.
+constexpr uint8_t kDracoMagic[5] = {'D', 'R', 'A', 'C', 'O'};
+constexpr size_t kDracoHeaderSize = 11;
+
+uint32_t code_width(uint32_t bits) { return bits <= 8 ? 1 : 2; }
+
+/// Expected transform, component count and parameter count of a quantized section (§3.3.2 table).
+bool quantized_layout(SectionId id, uint32_t components, QuantizedTransform* transform, uint32_t* params) {
+  switch (id) {
+    case SectionId::kRotations: *transform = QuantizedTransform::kSmallestThree; *params = 0; return components == 4;
+    case SectionId::kScales: *transform = QuantizedTransform::kLogUniform; *params = 6; return components == 3;
+    case SectionId::kOpacities: *transform = QuantizedTransform::kUniform; *params = 0; return components == 1;
+    case SectionId::kSh: *transform = QuantizedTransform::kShMultiplier; *params = 4; return components % 3 == 0;
+    default: return false;
+  }
+}
+
+uint32_t read_code(const uint8_t* plane, uint32_t width, uint64_t n, uint64_t i) {
+  return width == 1 ? plane[i] : static_cast<uint32_t>(plane[i]) | static_cast<uint32_t>(plane[n + i]) << 8;
+}
+
+}  // namespace
+
+bool archive_codec_allowed(SectionId id, Codec codec) {
+  if (codec == Codec::kDraco) return id == SectionId::kMeans;
+  if (codec == Codec::kQuantized) {
+    return id == SectionId::kRotations || id == SectionId::kScales || id == SectionId::kOpacities ||
+           id == SectionId::kSh;
+  }
+  return false;
+}
+
+Status check_draco_header(const uint8_t* src, size_t size, uint64_t n) {
+  RGS_RETURN_ERROR_IF(size < kDracoHeaderSize + 4, StatusCode::kCorruptData,
+                      "Draco stream of " + dec(size) + " bytes is shorter than its " + dec(kDracoHeaderSize + 4) +
+                          "-byte header");
+  RGS_RETURN_ERROR_IF(std::memcmp(src, kDracoMagic, 5) != 0, StatusCode::kCorruptData,
+                      "Draco stream does not start with \"DRACO\"");
+  RGS_RETURN_ERROR_IF(src[5] != 2 || src[6] != 3, StatusCode::kCorruptData,
+                      "Draco bitstream version " + dec(src[5]) + "." + dec(src[6]) + ", expected 2.3");
+  RGS_RETURN_ERROR_IF(src[7] != 0 || src[8] != 1, StatusCode::kCorruptData,
+                      "Draco encoder type " + dec(src[7]) + " method " + dec(src[8]) +
+                          ", expected a kd-tree point cloud (0, 1)");
+  const uint16_t flags = load_u16_le(src + 9);
+  RGS_RETURN_ERROR_IF(flags != 0, StatusCode::kCorruptData, "Draco header flags " + dec(flags) + ", expected 0");
+  const uint32_t points = load_u32_le(src + kDracoHeaderSize);
+  RGS_RETURN_ERROR_IF(points != n, StatusCode::kCorruptData,
+                      "Draco stream holds " + dec(points) + " points, expected " + dec(n));
+  return Status();
+}
+
+Status decode_draco_means(const uint8_t* src, size_t size, uint64_t n, uint8_t* dst, size_t raw_size) {
+  RGS_RETURN_ERROR_IF(raw_size != n * 12, StatusCode::kInvalidArgument,
+                      "means buffer of " + dec(raw_size) + " bytes for " + dec(n) + " Gaussians");
+  // The point count is checked before Draco allocates anything from it.
+  RGS_RETURN_IF_ERROR(check_draco_header(src, size, n));
+  try {
+    draco::DecoderBuffer buffer;
+    buffer.Init(reinterpret_cast<const char*>(src), size);
+    draco::Decoder decoder;
+    auto decoded = decoder.DecodePointCloudFromBuffer(&buffer);
+    RGS_RETURN_ERROR_IF(!decoded.ok(), StatusCode::kCorruptData,
+                        "Draco refuses the stream: " + decoded.status().error_msg_string());
+    const std::unique_ptr<draco::PointCloud> pc = std::move(decoded).value();
+    RGS_RETURN_ERROR_IF(pc->num_points() != n, StatusCode::kCorruptData,
+                        "Draco decoded " + dec(pc->num_points()) + " points, expected " + dec(n));
+    RGS_RETURN_ERROR_IF(pc->num_attributes() != 1, StatusCode::kCorruptData,
+                        "Draco stream has " + dec(static_cast<uint64_t>(pc->num_attributes())) +
+                            " attributes, expected 1 (positions)");
+    const draco::PointAttribute* att = pc->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+    RGS_RETURN_ERROR_IF(att == nullptr || att->num_components() != 3, StatusCode::kCorruptData,
+                        "Draco stream has no 3-component position attribute");
+    for (uint64_t i = 0; i < n; ++i) {
+      float xyz[3];
+      const draco::AttributeValueIndex value = att->mapped_index(draco::PointIndex(static_cast<uint32_t>(i)));
+      const bool converted = att->ConvertValue<float, 3>(value, xyz);
+      RGS_RETURN_ERROR_IF(!converted, StatusCode::kCorruptData, "Draco position " + dec(i) + " cannot be read as float32");
+      for (int a = 0; a < 3; ++a) store_f32_le(dst + i * 12 + a * 4, xyz[a]);
+    }
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory decoding " + dec(n) + " Draco positions");
+  }
+  return Status();
+}
+
+namespace {
+
+struct QuantizedHeader {
+  QuantizedTransform transform{};
+  uint32_t bits = 0;
+  uint32_t components = 0;
+  float params[6] = {};
+  uint32_t param_count = 0;
+  const uint8_t* frame = nullptr;
+  size_t frame_size = 0;
+  uint64_t codes_size = 0;  ///< n x components x code width
+};
+
+Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
+                       QuantizedHeader* h) {
+  RGS_RETURN_ERROR_IF(size < kQuantizedHeaderSize, StatusCode::kCorruptData,
+                      "quantized section of " + dec(size) + " bytes is shorter than its 8-byte header");
+  QuantizedTransform want{};
+  uint32_t want_params = 0;
+  if (!quantized_layout(id, components, &want, &want_params)) {
+    return Status(StatusCode::kCorruptData, "the quantized codec does not apply to " + dec(components) +
+                                                "-component section " + section_name(id));
+  }
+  h->transform = static_cast<QuantizedTransform>(src[0]);
+  h->bits = src[1];
+  h->param_count = load_u16_le(src + 2);
+  h->components = load_u32_le(src + 4);
+  RGS_RETURN_ERROR_IF(h->transform != want, StatusCode::kCorruptData,
+                      "quantized transform " + dec(src[0]) + ", expected " + dec(static_cast<uint8_t>(want)) +
+                          " for section " + section_name(id));
+  const bool sh = want == QuantizedTransform::kShMultiplier;
+  RGS_RETURN_ERROR_IF(sh ? h->bits != 8 : (h->bits < 4 || h->bits > 16), StatusCode::kCorruptData,
+                      "quantized code bits " + dec(h->bits) + " outside " + (sh ? "8..8" : "4..16"));
+  RGS_RETURN_ERROR_IF(h->param_count != want_params, StatusCode::kCorruptData,
+                      "quantized parameter count " + dec(h->param_count) + ", expected " + dec(want_params));
+  RGS_RETURN_ERROR_IF(h->components != components, StatusCode::kCorruptData,
+                      "quantized component count " + dec(h->components) + ", expected " + dec(components));
+  const size_t header = kQuantizedHeaderSize + 4 * size_t{h->param_count};
+  RGS_RETURN_ERROR_IF(size < header, StatusCode::kCorruptData,
+                      "quantized section of " + dec(size) + " bytes is shorter than its " + dec(header) +
+                          "-byte header");
+  for (uint32_t p = 0; p < h->param_count; ++p) {
+    h->params[p] = load_f32_le(src + kQuantizedHeaderSize + 4 * p);
+    RGS_RETURN_ERROR_IF(!std::isfinite(h->params[p]), StatusCode::kCorruptData,
+                        "quantized parameter " + dec(p) + " is not finite");
+  }
+  if (want == QuantizedTransform::kLogUniform) {
+    for (int a = 0; a < 3; ++a) {
+      RGS_RETURN_ERROR_IF(!(h->params[3 + a] >= 0.0f), StatusCode::kCorruptData,
+                          "log-scale step " + dec(a) + " is negative");
+    }
+  }
+  if (sh) {
+    for (int d = 0; d < 4; ++d) {
+      const float m = h->params[d];
+      RGS_RETURN_ERROR_IF(!(m >= 1.0f && m <= 127.0f && m == std::floor(m)), StatusCode::kCorruptData,
+                          "SH step multiplier of degree " + dec(d) + " is not an integer in 1..127");
+    }
+  }
+  uint64_t codes = 0;
+  const bool fits = checked_mul(n, components, &codes) && checked_mul(codes, code_width(h->bits), &codes);
+  RGS_RETURN_ERROR_IF(!fits, StatusCode::kCorruptData, "quantized code size overflows 64 bits");
+  h->codes_size = codes;
+  h->frame = src + header;
+  h->frame_size = size - header;
+  Status s = check_zstd_frame_header(h->frame, h->frame_size, codes);
+  return s.ok() ? s : s.prepend("codes");
+}
+
+}  // namespace
+
+Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components) {
+  QuantizedHeader h;
+  return parse_quantized(id, src, size, n, components, &h);
+}
+
+Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8_t* src, size_t size, uint64_t n,
+                        uint32_t components, uint8_t* dst, size_t raw_size) {
+  QuantizedHeader h;
+  RGS_RETURN_IF_ERROR(parse_quantized(id, src, size, n, components, &h));
+  std::vector<uint8_t> codes;
+  try {
+    codes.resize(static_cast<size_t>(h.codes_size));
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory for " + dec(h.codes_size) + " bytes of codes");
+  }
+  {
+    Status s = decode_zstd_frame(h.frame, h.frame_size, codes.data(), codes.size());
+    if (!s.ok()) return s.prepend("codes");
+  }
+  const uint32_t width = code_width(h.bits);
+  const uint32_t max_code = (1u << h.bits) - 1;
+  const uint64_t plane = n * width;
+  auto code_at = [&](uint32_t c, uint64_t i) { return read_code(codes.data() + c * plane, width, n, i); };
+  auto bad_code = [&](uint64_t i, uint32_t c, uint32_t code) {
+    return Status(StatusCode::kCorruptData, "Gaussian " + dec(i) + ": code " + dec(code) + " of component " +
+                                                dec(c) + " is out of range");
+  };
+  switch (h.transform) {
+    case QuantizedTransform::kSmallestThree: {
+      RGS_RETURN_ERROR_IF(raw_size != n * 8, StatusCode::kInvalidArgument, "rotation buffer size mismatch");
+      const double scale = std::sqrt(2.0) / max_code, lo = -std::sqrt(0.5);
+      for (uint64_t i = 0; i < n; ++i) {
+        const uint32_t largest = code_at(0, i);
+        if (largest > 3) return bad_code(i, 0, largest);
+        double q[4];
+        double sum = 0;
+        for (uint32_t c = 1, slot = 0; c < 4; ++c, ++slot) {
+          if (slot == largest) ++slot;
+          const uint32_t code = code_at(c, i);
+          if (code > max_code) return bad_code(i, c, code);
+          q[slot] = lo + code * scale;
+          sum += q[slot] * q[slot];
+        }
+        q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
+        for (int a = 0; a < 4; ++a) store_u16_le(dst + i * 8 + a * 2, float_to_half_bits(static_cast<float>(q[a])));
+      }
+      break;
+    }
+    case QuantizedTransform::kLogUniform: {
+      RGS_RETURN_ERROR_IF(raw_size != n * 6, StatusCode::kInvalidArgument, "scale buffer size mismatch");
+      const bool log = metadata.scale_encoding == ScaleEncoding::kLog;
+      for (uint64_t i = 0; i < n; ++i) {
+        for (uint32_t a = 0; a < 3; ++a) {
+          const uint32_t code = code_at(a, i);
+          if (code > max_code) return bad_code(i, a, code);
+          const double v = static_cast<double>(h.params[a]) + code * static_cast<double>(h.params[3 + a]);
+          store_u16_le(dst + i * 6 + a * 2, float_to_half_bits(static_cast<float>(log ? v : std::exp(v))));
+        }
+      }
+      break;
+    }
+    case QuantizedTransform::kUniform: {
+      RGS_RETURN_ERROR_IF(raw_size != n * 2, StatusCode::kInvalidArgument, "opacity buffer size mismatch");
+      for (uint64_t i = 0; i < n; ++i) {
+        const uint32_t code = code_at(0, i);
+        if (code > max_code) return bad_code(i, 0, code);
+        store_u16_le(dst + i * 2, float_to_half_bits(static_cast<float>(static_cast<double>(code) / max_code)));
+      }
+      break;
+    }
+    case QuantizedTransform::kShMultiplier: {
+      RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
+      for (uint32_t c = 0; c < components; ++c) {
+        const int m = static_cast<int>(h.params[sh_degree_of_coefficient(c / 3)]);
+        // Gaussian-major records, unlike the planes of the other transforms.
+        for (uint64_t i = 0; i < n; ++i) {
+          const uint8_t code = codes[i * components + c];
+          const int q = static_cast<int8_t>(code) * m;
+          if (q < -127 || q > 127) return bad_code(i, c, code);
+          dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(q));
+        }
+      }
+      break;
+    }
+  }
+  return Status();
+}
+
+}  // namespace rgs::format::detail

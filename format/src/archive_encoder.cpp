@@ -1,0 +1,449 @@
+// Encoder of the archive profile (SPEC §3.3): Draco means in kd-tree order, quantized other sections.
+//
+// Determinism: Draco runs single-threaded; each quantized section is one single-threaded zstd frame with
+// fixed parameters; sections are coded on parallel threads but each one's bytes depend only on its input,
+// so the output does not depend on the number of threads.
+#include <zstd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <limits>
+#include <new>
+#include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
+
+#include <draco/attributes/attribute_quantization_transform.h>
+#include <draco/compression/decode.h>
+#include <draco/compression/encode.h>
+#include <draco/core/decoder_buffer.h>
+#include <draco/core/encoder_buffer.h>
+#include <draco/core/quantization_utils.h>
+#include <draco/point_cloud/point_cloud_builder.h>
+
+#include "internal_archive.h"
+#include "internal_bytes.h"
+#include "internal_sections.h"
+#include "rgs/format/archive.h"
+#include "rgs/format/half.h"
+
+namespace rgs::format {
+
+namespace {
+
+using detail::dec;
+
+Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
+
+Status check_options(const ArchiveOptions& o) {
+  for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
+                            std::pair{"opacity", o.opacity_bits}}) {
+    if (bits < 4 || bits > 16) return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16");
+  }
+  for (size_t d = 0; d < 4; ++d) {
+    if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
+      return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
+                     " outside 1..127");
+    }
+  }
+  if (o.zstd_level < 1 || o.zstd_level > ZSTD_maxCLevel()) {
+    return invalid("zstd level " + std::to_string(o.zstd_level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
+  }
+  if (o.draco_speed < 0 || o.draco_speed > 10) return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
+  return Status();
+}
+
+/// One zstd frame with content size and checksum, single-threaded (SPEC §3.1, §7).
+Status compress_frame(const std::vector<uint8_t>& raw, int level, std::vector<uint8_t>* out) {
+  std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
+  if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
+  for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, level}, std::pair{ZSTD_c_checksumFlag, 1},
+                              std::pair{ZSTD_c_contentSizeFlag, 1}, std::pair{ZSTD_c_nbWorkers, 0}}) {
+    const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
+    if (ZSTD_isError(r)) return invalid(std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
+  }
+  const size_t start = out->size();
+  const size_t bound = ZSTD_compressBound(raw.size());
+  out->resize(start + bound);
+  const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw.data(), raw.size());
+  if (ZSTD_isError(n)) return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
+  out->resize(start + n);
+  return Status();
+}
+
+/// Planar code buffer of §3.3.2: `components` planes of n codes, 1 byte each (bits <= 8) or two byte
+/// planes (low bytes, then high bytes).
+struct CodePlanes {
+  uint64_t n = 0;
+  uint32_t width = 1;
+  std::vector<uint8_t> bytes;
+  CodePlanes(uint64_t count, uint32_t components, uint32_t bits)
+      : n(count), width(bits <= 8 ? 1 : 2), bytes(static_cast<size_t>(count * components * (bits <= 8 ? 1 : 2))) {}
+  void set(uint32_t c, uint64_t i, uint32_t code) {
+    uint8_t* plane = bytes.data() + c * n * width;
+    plane[i] = static_cast<uint8_t>(code);
+    if (width == 2) plane[n + i] = static_cast<uint8_t>(code >> 8);
+  }
+};
+
+/// Header (§3.3.2) + zstd frame of the codes.
+Status finish_quantized(detail::QuantizedTransform transform, uint32_t bits, uint32_t components,
+                        const std::vector<float>& params, const CodePlanes& codes, int level,
+                        std::vector<uint8_t>* out) {
+  out->assign(detail::kQuantizedHeaderSize + 4 * params.size(), 0);
+  (*out)[0] = static_cast<uint8_t>(transform);
+  (*out)[1] = static_cast<uint8_t>(bits);
+  detail::store_u16_le(out->data() + 2, static_cast<uint16_t>(params.size()));
+  detail::store_u32_le(out->data() + 4, components);
+  for (size_t p = 0; p < params.size(); ++p) detail::store_f32_le(out->data() + 8 + 4 * p, params[p]);
+  return compress_frame(codes.bytes, level, out);
+}
+
+uint32_t round_code(double v, uint32_t max_code) {
+  const double r = std::floor(v + 0.5);
+  return r <= 0 ? 0u : r >= max_code ? max_code : static_cast<uint32_t>(r);
+}
+
+/// Gaussian `i` of the output comes from `order[i]` of the scene.
+Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                        std::vector<uint8_t>* out) {
+  const uint64_t n = s.count;
+  const uint32_t max_code = (1u << o.rotation_bits) - 1;
+  CodePlanes codes(n, 4, o.rotation_bits);
+  const double inv = max_code / std::sqrt(2.0), lo = -std::sqrt(0.5);
+  for (uint64_t i = 0; i < n; ++i) {
+    const uint16_t* h = &s.rotations[order[i] * 4];
+    double q[4], n2 = 0;
+    for (int a = 0; a < 4; ++a) {
+      q[a] = half_bits_to_float(h[a]);
+      n2 += q[a] * q[a];
+    }
+    const double norm = std::sqrt(n2);
+    uint32_t largest = 0;
+    for (uint32_t a = 1; a < 4; ++a) {
+      if (std::fabs(q[a]) > std::fabs(q[largest])) largest = a;
+    }
+    const double sign = q[largest] < 0 ? -1.0 : 1.0;  // q and -q are the same rotation
+    codes.set(0, i, largest);
+    for (uint32_t a = 0, c = 1; a < 4; ++a) {
+      if (a == largest) continue;
+      codes.set(c++, i, round_code((sign * q[a] / norm - lo) * inv, max_code));
+    }
+  }
+  return finish_quantized(detail::QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes, o.zstd_level, out);
+}
+
+Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                     std::vector<uint8_t>* out) {
+  const uint64_t n = s.count;
+  const bool log = s.metadata.scale_encoding == ScaleEncoding::kLog;
+  const uint32_t max_code = (1u << o.scale_bits) - 1;
+  auto ln = [&](uint16_t bits) {
+    const double v = half_bits_to_float(bits);
+    return log ? v : v > 0 ? std::log(v) : -std::numeric_limits<double>::infinity();
+  };
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::numeric_limits<double>::infinity();
+    hi[a] = -std::numeric_limits<double>::infinity();
+  }
+  for (uint64_t i = 0; i < n * 3; ++i) {
+    const double v = ln(s.scales[i]);
+    if (!std::isfinite(v)) continue;
+    lo[i % 3] = std::min(lo[i % 3], v);
+    hi[i % 3] = std::max(hi[i % 3], v);
+  }
+  std::vector<float> params(6);
+  for (int a = 0; a < 3; ++a) {
+    if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;  // every value zero: any offset decodes near 0
+    // Offsets and steps are stored as float32; codes are computed against the stored values.
+    params[a] = static_cast<float>(lo[a]);
+    params[3 + a] = static_cast<float>((hi[a] - params[a]) / max_code);
+  }
+  CodePlanes codes(n, 3, o.scale_bits);
+  for (uint64_t i = 0; i < n; ++i) {
+    for (uint32_t a = 0; a < 3; ++a) {
+      const double v = ln(s.scales[order[i] * 3 + a]);
+      const double step = params[3 + a];
+      codes.set(a, i, !std::isfinite(v) || step == 0 ? 0 : round_code((v - params[a]) / step, max_code));
+    }
+  }
+  return finish_quantized(detail::QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes, o.zstd_level, out);
+}
+
+Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                        std::vector<uint8_t>* out) {
+  const uint32_t max_code = (1u << o.opacity_bits) - 1;
+  CodePlanes codes(s.count, 1, o.opacity_bits);
+  for (uint64_t i = 0; i < s.count; ++i) {
+    codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * double{max_code}, max_code));
+  }
+  return finish_quantized(detail::QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes, o.zstd_level, out);
+}
+
+Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                 std::vector<uint8_t>* out) {
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree);
+  CodePlanes codes(s.count, values, 8);
+  for (uint32_t c = 0; c < values; ++c) {
+    const int m = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
+    const int limit = 127 / m;
+    for (uint64_t i = 0; i < s.count; ++i) {
+      const int q = s.sh[order[i] * values + c];
+      // Round half away from zero, as the runtime quantizer does.
+      int code = (std::abs(q) + m / 2) / m;
+      code = std::min(code, limit);
+      // SH codes are stored Gaussian-major (one record of 3K codes per Gaussian, §3.3.2): scenes whose
+      // SH come from a codebook repeat whole records, which zstd finds as matches.
+      codes.bytes[i * values + c] = static_cast<uint8_t>(static_cast<int8_t>(q < 0 ? -code : code));
+    }
+  }
+  std::vector<float> params(4);
+  for (int d = 0; d < 4; ++d) params[d] = static_cast<float>(o.sh_step_multipliers[d]);
+  return finish_quantized(detail::QuantizedTransform::kShMultiplier, 8, values, params, codes, o.zstd_level, out);
+}
+
+struct QuantKey {
+  int32_t q[3];
+  uint64_t index;
+  bool operator<(const QuantKey& b) const {
+    if (q[0] != b.q[0]) return q[0] < b.q[0];
+    if (q[1] != b.q[1]) return q[1] < b.q[1];
+    if (q[2] != b.q[2]) return q[2] < b.q[2];
+    return index < b.index;
+  }
+  bool same_point(const QuantKey& b) const { return q[0] == b.q[0] && q[1] == b.q[1] && q[2] == b.q[2]; }
+};
+
+/// §3.3.1 Draco-codes the means and finds, for each decoded point, the source Gaussian it came from: the
+/// kd-tree coder emits points in its own order. Points are matched by their quantized coordinates
+/// (computed with Draco's own quantizer); points with equal coordinates decode to equal means, so any
+/// pairing among them is exact.
+Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, const ArchiveOptions& o,
+                    std::vector<uint8_t>* stored, std::vector<float>* decoded_means, std::vector<uint64_t>* order) {
+  const uint64_t n = s.count;
+  draco::PointCloudBuilder builder;
+  builder.Start(static_cast<uint32_t>(n));
+  const int att = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+  builder.SetAttributeValuesForAllPoints(att, s.means.data(), 12);
+  std::unique_ptr<draco::PointCloud> pc = builder.Finalize(false);
+  if (!pc) return Status(StatusCode::kOutOfMemory, "Draco point cloud construction failed");
+  draco::Encoder encoder;
+  encoder.SetAttributeExplicitQuantization(draco::GeometryAttribute::POSITION, static_cast<int>(pq->bits), 3,
+                                           pq->origin, pq->range);
+  encoder.SetSpeedOptions(o.draco_speed, o.draco_speed);
+  encoder.SetEncodingMethod(draco::POINT_CLOUD_KD_TREE_ENCODING);
+  draco::EncoderBuffer buffer;
+  const draco::Status st = encoder.EncodePointCloudToBuffer(*pc, &buffer);
+  if (!st.ok()) return invalid("Draco encoding failed: " + st.error_msg_string());
+  pc.reset();
+  stored->assign(reinterpret_cast<const uint8_t*>(buffer.data()),
+                 reinterpret_cast<const uint8_t*>(buffer.data()) + buffer.size());
+  decoded_means->resize(static_cast<size_t>(n * 3));
+  RGS_RETURN_IF_ERROR(detail::decode_draco_means(stored->data(), stored->size(), n,
+                                                 reinterpret_cast<uint8_t*>(decoded_means->data()), n * 12));
+  if constexpr (!detail::kHostLittleEndian) {
+    for (float& v : *decoded_means) v = detail::load_f32_le(reinterpret_cast<const uint8_t*>(&v));
+  }
+
+  // Draco's own quantized coordinates of the decoded points, and the parameters it really used (its
+  // kd-tree coder derives them itself), so that the source points are quantized exactly as it did.
+  draco::DecoderBuffer raw_buffer;
+  raw_buffer.Init(buffer.data(), buffer.size());
+  draco::Decoder raw_decoder;
+  raw_decoder.SetSkipAttributeTransform(draco::GeometryAttribute::POSITION);
+  auto raw = raw_decoder.DecodePointCloudFromBuffer(&raw_buffer);
+  if (!raw.ok()) return invalid("internal error: Draco cannot decode its own stream: " + raw.status().error_msg_string());
+  const std::unique_ptr<draco::PointCloud> qpc = std::move(raw).value();
+  const draco::PointAttribute* qatt = qpc->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+  draco::AttributeQuantizationTransform transform;
+  if (qatt == nullptr || !transform.InitFromAttribute(*qatt) || transform.quantization_bits() != static_cast<int>(pq->bits)) {
+    return invalid("internal error: Draco's stream lacks the position quantization");
+  }
+  for (int a = 0; a < 3; ++a) pq->origin[a] = transform.min_value(a);
+  pq->range = transform.range();
+  pq->step = static_cast<double>(pq->range) / static_cast<double>((uint64_t{1} << pq->bits) - 1);
+  draco::Quantizer quantizer;
+  quantizer.Init(transform.range(), static_cast<int32_t>((uint32_t{1} << pq->bits) - 1));
+  std::vector<QuantKey> src(n), dst(n);
+  for (uint64_t i = 0; i < n; ++i) {
+    src[i].index = dst[i].index = i;
+    int32_t q[3] = {};
+    qatt->GetMappedValue(draco::PointIndex(static_cast<uint32_t>(i)), q);
+    for (int a = 0; a < 3; ++a) {
+      src[i].q[a] = quantizer.QuantizeFloat(s.means[i * 3 + a] - transform.min_value(a));
+      dst[i].q[a] = q[a];
+    }
+  }
+  std::sort(src.begin(), src.end());
+  std::sort(dst.begin(), dst.end());
+  order->assign(static_cast<size_t>(n), 0);
+  for (uint64_t i = 0; i < n; ++i) {
+    if (!src[i].same_point(dst[i])) {
+      return invalid("internal error: Draco's decoded points do not match the quantized means (point " +
+                     dec(dst[i].index) + ")");
+    }
+    (*order)[dst[i].index] = src[i].index;
+  }
+  return Status();
+}
+
+/// The bounds of §4.1.1 for the decoded means, as the converter computes them (AABB centre, radius in
+/// double with a 1e-6 relative margin, rounded up to float32).
+SceneBounds bounds_of(const std::vector<float>& means) {
+  SceneBounds b;
+  const size_t n = means.size() / 3;
+  if (n == 0) return b;
+  for (int a = 0; a < 3; ++a) b.aabb_min[a] = b.aabb_max[a] = means[a];
+  for (size_t i = 0; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      b.aabb_min[a] = std::min(b.aabb_min[a], means[i * 3 + a]);
+      b.aabb_max[a] = std::max(b.aabb_max[a], means[i * 3 + a]);
+    }
+  }
+  double center[3];
+  for (int a = 0; a < 3; ++a) {
+    b.sphere_center[a] =
+        static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
+    center[a] = b.sphere_center[a];
+  }
+  double r2 = 0;
+  for (size_t i = 0; i < n; ++i) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double d = static_cast<double>(means[i * 3 + a]) - center[a];
+      d2 += d * d;
+    }
+    r2 = std::max(r2, d2);
+  }
+  const double r = std::sqrt(r2) * (1.0 + 1e-6);
+  float rf = static_cast<float>(r);
+  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
+  b.sphere_radius = rf;
+  return b;
+}
+
+/// Runs the jobs on up to `threads` threads; each job's result goes to its own slot.
+void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, std::vector<Status>* results) {
+  results->assign(jobs.size(), Status());
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (size_t j; (j = next.fetch_add(1)) < jobs.size();) {
+      try {
+        (*results)[j] = jobs[j]();
+      } catch (const std::exception&) {
+        (*results)[j] = Status(StatusCode::kOutOfMemory, "out of memory encoding the archive");
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < std::max<uint32_t>(1, threads); ++t) {
+    try {
+      pool.emplace_back(worker);
+    } catch (const std::system_error&) {
+      break;
+    }
+  }
+  worker();
+  for (std::thread& t : pool) t.join();
+}
+
+}  // namespace
+
+Result<ArchivePositionQuantization> choose_position_quantization(const SceneBounds& bounds, double position_error) {
+  if (!(position_error > 0.0 && position_error <= 0.5)) {
+    return invalid("position error " + std::to_string(position_error) + " outside (0, 0.5]");
+  }
+  ArchivePositionQuantization q;
+  double extent = 0;
+  for (int a = 0; a < 3; ++a) {
+    q.origin[a] = bounds.aabb_min[a];
+    extent = std::max(extent, static_cast<double>(bounds.aabb_max[a]) - bounds.aabb_min[a]);
+  }
+  q.range = static_cast<float>(extent);
+  if (static_cast<double>(q.range) < extent) q.range = std::nextafter(q.range, std::numeric_limits<float>::infinity());
+  if (!(q.range > 0.0f)) q.range = 1.0f;  // a single position: any grid holds it exactly
+  // Fewest bits whose step range / (2^bits - 1) is at most 2 * error * extent.
+  const double levels = 1.0 / (2.0 * position_error);
+  q.bits = 1;
+  while (q.bits < 30 && static_cast<double>((uint64_t{1} << q.bits) - 1) < levels) ++q.bits;
+  q.step = static_cast<double>(q.range) / static_cast<double>((uint64_t{1} << q.bits) - 1);
+  return q;
+}
+
+Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options) {
+  RGS_RETURN_IF_ERROR(check_options(options));
+  if (!scene.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
+  if (scene.count > UINT32_MAX / 2) return invalid("Draco holds at most 2^31 points; the scene has " + dec(scene.count));
+  try {
+    ArchiveScene out;
+    RGS_ASSIGN_OR_RETURN(out.position, choose_position_quantization(scene.metadata.bounds, options.position_error));
+    EncodedScene& d = out.decoded;
+    d.metadata = scene.metadata;
+    d.provenance = scene.provenance;
+    d.count = scene.count;
+    const uint64_t n = scene.count;
+    if (n == 0) return out;  // the writer stores an empty scene with codec none
+
+    // Draco fixes the order, so it runs first; the other sections follow its order, in parallel.
+    RGS_RETURN_IF_ERROR(encode_means(scene, &out.position, options, &out.stored[0], &d.means, &out.source_index));
+    d.metadata.bounds = bounds_of(d.means);
+    const std::vector<uint64_t>& order = out.source_index;
+    std::vector<std::function<Status()>> jobs = {
+        [&] { return encode_sh(scene, order, options, &out.stored[4]); },
+        [&] { return encode_rotations(scene, order, options, &out.stored[1]); },
+        [&] { return encode_scales(scene, order, options, &out.stored[2]); },
+        [&] { return encode_opacities(scene, order, options, &out.stored[3]); },
+    };
+    std::vector<Status> results;
+    run_jobs(jobs, options.threads, &results);
+    for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+
+    // Decode what was written: `decoded` is bit for bit what readers get.
+    const uint32_t values = 3 * sh_coefficient_count(d.metadata.sh_degree);
+    d.rotations.resize(n * 4);
+    d.scales.resize(n * 3);
+    d.opacities.resize(n);
+    d.sh.resize(n * values);
+    struct Target {
+      SectionId id;
+      size_t slot;
+      uint32_t components;
+      uint8_t* dst;
+      size_t size;
+    };
+    const Target targets[] = {
+        {SectionId::kRotations, 1, 4, reinterpret_cast<uint8_t*>(d.rotations.data()), d.rotations.size() * 2},
+        {SectionId::kScales, 2, 3, reinterpret_cast<uint8_t*>(d.scales.data()), d.scales.size() * 2},
+        {SectionId::kOpacities, 3, 1, reinterpret_cast<uint8_t*>(d.opacities.data()), d.opacities.size() * 2},
+        {SectionId::kSh, 4, values, reinterpret_cast<uint8_t*>(d.sh.data()), d.sh.size()},
+    };
+    jobs.clear();
+    for (const Target& t : targets) {
+      jobs.push_back([&d, &out, t, n] {
+        Status s = detail::decode_quantized(t.id, d.metadata, out.stored[t.slot].data(), out.stored[t.slot].size(), n,
+                                            t.components, t.dst, t.size);
+        return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(t.id));
+      });
+    }
+    run_jobs(jobs, options.threads, &results);
+    for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+    if constexpr (!detail::kHostLittleEndian) {
+      for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {
+        for (uint16_t& x : *v) x = detail::load_u16_le(reinterpret_cast<const uint8_t*>(&x));
+      }
+    }
+    return out;
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory encoding " + dec(scene.count) + " Gaussians");
+  } catch (const std::length_error&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory encoding " + dec(scene.count) + " Gaussians");
+  }
+}
+
+}  // namespace rgs::format

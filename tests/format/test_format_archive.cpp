@@ -1,0 +1,140 @@
+// Archive profile (SPEC §3.3): round-trip bounds, determinism, must-fail files (truncated Draco stream,
+// wrong counts, unknown codec, missing required flag).
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "format_test_util.h"
+#include "rgs/format/archive.h"
+#include "rgs/format/half.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/writer.h"
+
+namespace {
+
+using namespace rgs;
+using namespace rgs::test;
+
+format::WriteOptions archive_options() {
+  format::WriteOptions o;
+  o.profile = format::StorageProfile::kArchive;
+  return o;
+}
+
+/// Index of the table entry of section `id` in a serialized file.
+size_t entry_index(const std::vector<uint8_t>& b, format::SectionId id) {
+  const uint32_t count = get_u32(b, 32);
+  for (size_t i = 0; i < count; ++i) {
+    if (get_u32(b, entry_at(i)) == static_cast<uint32_t>(id)) return i;
+  }
+  return SIZE_MAX;
+}
+
+}  // namespace
+
+TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to encode_archive's scene") {
+  const format::EncodedScene scene = make_random_scene(5000, 3, 7);
+  const format::ArchiveOptions options;
+  auto archive = format::encode_archive(scene, options);
+  REQUIRE(archive.ok());
+  auto bytes = format::serialize_scene(scene, archive_options());
+  REQUIRE(bytes.ok());
+  CHECK(format::validate(bytes->data(), bytes->size()).ok());
+  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+  REQUIRE(file.ok());
+  CHECK(file->header().minor == 1);
+  CHECK(file->header().required_flags == format::kRequiredFlagArchiveCodecs);
+  CHECK(file->find(format::SectionId::kMeans)->codec == format::Codec::kDraco);
+  CHECK(file->find(format::SectionId::kSh)->codec == format::Codec::kQuantized);
+  auto read = file->read_scene();
+  REQUIRE(read.ok());
+  check_same_scene(*read, archive->decoded);
+
+  const auto& d = archive->decoded;
+  const double step = archive->position.step;
+  for (uint64_t i = 0; i < d.count; ++i) {
+    const uint64_t s = archive->source_index[i];
+    for (int a = 0; a < 3; ++a) {
+      CHECK(std::fabs(d.means[i * 3 + a] - scene.means[s * 3 + a]) <= 0.5 * step * 1.05 + 1e-6);  // plus Draco's float32 arithmetic
+    }
+    // Rotation: same rotation up to sign, within the smallest-three step.
+    double dot = 0;
+    for (int a = 0; a < 4; ++a) {
+      dot += format::half_bits_to_float(d.rotations[i * 4 + a]) * format::half_bits_to_float(scene.rotations[s * 4 + a]);
+    }
+    CHECK(std::fabs(dot) > 0.999);
+    CHECK(std::fabs(format::half_bits_to_float(d.opacities[i]) - format::half_bits_to_float(scene.opacities[s])) <=
+          0.5 / 255 + 1e-3);
+    const uint32_t values = 48;
+    for (uint32_t c = 0; c < values; ++c) {
+      const int m = static_cast<int>(options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]);
+      CHECK(std::abs(d.sh[i * values + c] - scene.sh[s * values + c]) <= m);
+    }
+  }
+}
+
+TEST_CASE("archive: deterministic whatever the thread count") {
+  const format::EncodedScene scene = make_random_scene(3000, 2, 11);
+  format::WriteOptions one = archive_options(), four = archive_options();
+  one.archive.threads = 1;
+  four.archive.threads = 4;
+  auto a = format::serialize_scene(scene, one), b = format::serialize_scene(scene, four),
+       c = format::serialize_scene(scene, one);
+  REQUIRE(a.ok());
+  REQUIRE(b.ok());
+  REQUIRE(c.ok());
+  CHECK(*a == *b);
+  CHECK(*a == *c);
+}
+
+TEST_CASE("archive: must-fail files") {
+  const format::EncodedScene scene = make_random_scene(2000, 1, 3);
+  auto good = format::serialize_scene(scene, archive_options());
+  REQUIRE(good.ok());
+  const size_t means = entry_index(*good, format::SectionId::kMeans);
+  const size_t sh = entry_index(*good, format::SectionId::kSh);
+  REQUIRE(means != SIZE_MAX);
+
+  SUBCASE("truncated Draco stream") {
+    std::vector<uint8_t> b = *good;
+    // Keep the header and the point count, zero the rest of the stream: Draco must refuse it.
+    const uint64_t off = get_u64(b, entry_at(means) + 24), size = get_u64(b, entry_at(means) + 32);
+    for (uint64_t i = off + 40; i < off + size; ++i) b[i] = 0;
+    fix_all_checksums(b);
+    const Status s = format::validate(b.data(), b.size());
+    CHECK(s.code() == StatusCode::kCorruptData);
+  }
+  SUBCASE("Draco point count differs from N") {
+    std::vector<uint8_t> b = *good;
+    const uint64_t off = get_u64(b, entry_at(means) + 24);
+    put_u32(b, off + 11, 1999);
+    fix_all_checksums(b);
+    CHECK(format::validate(b.data(), b.size()).code() == StatusCode::kCorruptData);
+  }
+  SUBCASE("quantized component count wrong") {
+    std::vector<uint8_t> b = *good;
+    const uint64_t off = get_u64(b, entry_at(sh) + 24);
+    put_u32(b, off + 4, 13);
+    fix_all_checksums(b);
+    CHECK(format::validate(b.data(), b.size()).code() == StatusCode::kCorruptData);
+  }
+  SUBCASE("unknown codec on a known section") {
+    std::vector<uint8_t> b = *good;
+    put_u16(b, entry_at(means) + 4, 9);
+    fix_all_checksums(b);
+    CHECK(format::validate(b.data(), b.size()).code() == StatusCode::kUnsupportedFeature);
+  }
+  SUBCASE("archive codec without the required flag") {
+    std::vector<uint8_t> b = *good;
+    put_u32(b, 16, 0);
+    fix_header_checksum(b);
+    CHECK(format::validate(b.data(), b.size()).code() == StatusCode::kCorruptData);
+  }
+  SUBCASE("draco codec on a section other than means") {
+    std::vector<uint8_t> b = *good;
+    put_u16(b, entry_at(sh) + 4, static_cast<uint16_t>(format::Codec::kDraco));
+    fix_all_checksums(b);
+    CHECK(format::validate(b.data(), b.size()).code() == StatusCode::kCorruptData);
+  }
+}
