@@ -50,6 +50,12 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
     >"$out/render_frame.log" 2>&1 || rc=$?
   [ $rc -ne 0 ] && status=1
   note "rgs_sample_render_frame (cuda): exit $rc; $(tail -1 "$out/render_frame.log")"
+  # The Python module, compiled here for this host's Python, and its tests (GPU cases through DLPack).
+  rc=0
+  "$(dirname "${BASH_SOURCE[0]}")/gpu_python.sh" "$stage" "$out" >"$out/python.log" 2>&1 || rc=$?
+  [ $rc -ne 0 ] && status=1
+  note "python (roofgs module, pytest): exit $rc; $(grep -E '(passed|failed|error)' "$out/python.log" | tail -1)"
+  grep -E "SKIPPED|FAILED|Error" "$out/python.log" | head -10 | tee -a "$summary"
 fi
 
 if [ "$what" = bench ] || [ "$what" = all ]; then

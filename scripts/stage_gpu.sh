@@ -6,6 +6,9 @@
 #                            the render_frame sample, stripped
 #   .device_data/data/       flowers PLY + cameras.json, flowers and the 542k daffodils scene as .rgs,
 #                            taebak_cameras.json
+#   .device_data/py.tar.xz   the Python module's parts for the GPU host's own Python (3.12 there, 3.11 here):
+#                            libroofgs_core.so (every RoofGS library, code generated here), pybind11's headers
+#                            and the generated config.h; scripts/gpu_python.sh compiles the module there
 #   .device_taebak/          the 4.25M-Gaussian taebak scene as streamed SOG (55 MB) and rgs-convert, which
 #                            converts it on the GPU host (scripts/gpu_prepare_taebak.sh)
 # Then, on the GPU host: scripts/gpu_prepare_taebak.sh .device_taebak (one call), and
@@ -20,12 +23,31 @@ taebak_stage="$root/.device_taebak"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
   -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
-  -DRGS_INSTALL=OFF >/dev/null
+  -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON >/dev/null
 exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render tools/rgs-bench tools/rgs-convert
       tools/rgs-audit samples/rgs_sample_render_frame)
 targets=()
 for exe in "${exes[@]}"; do targets+=("$(basename "$exe")"); done
-cmake --build "$build" -j"$(nproc)" --target "${targets[@]}"
+cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api
+
+# The Python module: a Python extension built here would be for this host's Python, so the libraries go over
+# as one shared library with their code generated here (LTO resolved by this compiler), and the GPU host
+# compiles only the bindings against its own Python headers (scripts/gpu_python.sh). zstd and zlib come from
+# the host's libzstd.so.1 and libz.so.1 (Debian's libzstd.a and libz.a are not position-independent).
+py="$stage/py"
+rm -rf "$py"
+mkdir -p "$py/include"
+libs=(api/librgs_api.a converter/librgs_converter.a runtime/librgs_runtime.a format/librgs_format.a
+      kernels/librgs_kernels.a)
+(cd "$build" && c++ -shared -fPIC -O3 -flto -o "$py/libroofgs_core.so" -Wl,--whole-archive "${libs[@]}" \
+  -Wl,--no-whole-archive /usr/lib/x86_64-linux-gnu/libwebp.a \
+  /usr/lib/x86_64-linux-gnu/libxxhash.a /usr/lib/x86_64-linux-gnu/libdraco.a \
+  /usr/local/cuda/lib/libcudart_static.a -l:libzstd.so.1 -l:libz.so.1 -ldl -lrt -lpthread)
+strip "$py/libroofgs_core.so"
+cp -r /usr/include/pybind11 "$py/include/"
+cp -r "$build/generated/rgs" "$py/include/"
+tar -C "$stage" -cJf "$stage/py.tar.xz" py
+rm -rf "$py"
 
 rm -rf "$stage/bin" "$stage/bin.tar.xz"
 mkdir -p "$stage/bin" "$stage/data" "$taebak_stage"
