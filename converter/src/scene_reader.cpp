@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -378,6 +379,28 @@ Result<std::string> detect_scene_format(const std::string& path) {
   RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
   if (std::strcmp(format->id, "gltf") == 0 && head_starts_with(probe, "glTF")) return std::string("glb");
   return std::string(format->id);
+}
+
+Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {
+  RGS_RETURN_ERROR_IF(degree > 3, StatusCode::kInvalidArgument,
+                      "SH degree " + std::to_string(degree) + " is above 3, the highest a cloud holds");
+  RGS_RETURN_ERROR_IF(!cloud->is_consistent(), StatusCode::kInvalidArgument,
+                      "reduce_sh_degree: the cloud's arrays disagree with its size and SH degree");
+  if (cloud->sh_degree <= degree) return Status();
+  const size_t n = cloud->size();
+  const size_t from = cloud->sh_coefficients() * 3;
+  const size_t to = format::sh_coefficient_count(degree) * 3;
+  // In place, front to back: Gaussian i's kept values move to i * to, which is never after i * from.
+  float* sh = cloud->sh.data();
+  for (size_t i = 1; i < n; ++i) std::memmove(sh + i * to, sh + i * from, to * sizeof(float));
+  try {
+    cloud->sh.resize(n * to);
+    cloud->sh.shrink_to_fit();
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "reduce_sh_degree: no memory for the smaller SH array");
+  }
+  cloud->sh_degree = degree;
+  return Status();
 }
 
 std::vector<std::string> supported_scene_formats() {

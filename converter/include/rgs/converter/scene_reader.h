@@ -85,6 +85,11 @@ Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& o
 /// of the file (and a JSON file whole).
 Result<std::string> detect_scene_format(const std::string& path);
 
+/// Drops the SH bands of `cloud` above `degree` (a no-op when the cloud's degree is not above it), keeping
+/// the lower coefficients bit for bit: what `rgs-convert --sh-degree N` does before writing any output.
+/// Errors: kInvalidArgument for `degree` above 3 or an inconsistent cloud; kOutOfMemory.
+Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree);
+
 /// One line per supported input format, for help texts: "3DGS PLY (.ply)", ...
 std::vector<std::string> supported_scene_formats();
 
