@@ -217,17 +217,6 @@ std::string read_file_head(const std::string& path, size_t bytes) {
   return head;
 }
 
-std::string group_digits(uint64_t value) {
-  std::string digits = std::to_string(value);
-  std::string out;
-  const size_t n = digits.size();
-  for (size_t i = 0; i < n; ++i) {
-    out.push_back(digits[i]);
-    if ((n - 1 - i) % 3 == 0 && i + 1 < n) out.push_back(',');
-  }
-  return out;
-}
-
 std::string fixed(double value, int digits) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*f", digits, value);

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "rgs/api/scene_loading.h"
 #include "rgs/format/status.h"
 
 namespace rgs::tools {
@@ -64,8 +65,8 @@ Result<std::vector<uint8_t>> read_standard_input();
 /// Peeks the first bytes of a regular file (call check_input_file first). Fewer when the file is shorter.
 std::string read_file_head(const std::string& path, size_t bytes);
 
-/// 1234567 -> "1,234,567".
-std::string group_digits(uint64_t value);
+/// 1234567 -> "1,234,567" (the front door's, so that tools and library messages agree).
+using api::group_digits;
 /// Fixed-point with `digits` decimals ("%.*f").
 std::string fixed(double value, int digits);
 /// Scientific with 3 significant decimals ("1.234e-05"), or "0" for zero.

@@ -41,7 +41,7 @@
 #include "rgs/audit/audit_scene.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
-#include "scene_loading.h"
+#include "rgs/api/scene_loading.h"
 
 extern char** environ;
 
@@ -56,7 +56,7 @@ constexpr int kExitBelowMinPsnr = 3;
 struct Options {
   std::vector<std::string> scenes;  // source, then candidates
   std::vector<std::string> labels;
-  tools::CameraChoice cameras;
+  api::CameraChoice cameras;
   std::string backend = "auto";
   int device = 0;
   std::string report_path;
@@ -384,7 +384,7 @@ int run(const Options& opt) {
     if (!scene.ok()) return tools::report_error(kTool, scene.status());
     candidates.push_back(std::move(scene).value());
   }
-  auto cameras = tools::make_cameras(opt.cameras, source->bounds);
+  auto cameras = api::make_cameras(opt.cameras, source->bounds);
   if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
 
   std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,

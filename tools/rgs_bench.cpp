@@ -15,10 +15,10 @@
 //
 // Roofline (docs/ROOFLINE.md): the device's memory and FP32 peaks are measured first in the same run
 // (runtime::measure_device_peaks: a 1 GiB device-to-device copy, an FMA loop), and every stage of every mode
-// and resolution is placed against them with the analytic bytes and FLOPs of roofline_model.h (mean over the
+// and resolution is placed against them with the analytic bytes and FLOPs of runtime/roofline_model.h (mean over the
 // views' pair counts) and the stage's median time: GB/s, GFLOP/s, FLOP/B, % of each peak, the bounding roof.
 //
-// --replicate K tiles the scene K times (converter::replicate, tools::replicate_scene_file) before the
+// --replicate K tiles the scene K times (converter::replicate, api::replicate_scene_file) before the
 // upload, keeping compact attributes, so that multi-million-Gaussian scenes can be timed; orbit cameras frame
 // the replicated bounds. Exit status: 0 ok, 1 failure (no device, scene, render), 2 usage error.
 
@@ -34,15 +34,17 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "gpu_scene_loading.h"
+#include "read_limits_option.h"
+#include "rgs/api/gpu_preset.h"
+#include "rgs/api/gpu_scene_loading.h"
+#include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
-#include "roofline_model.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_peaks.h"
 #include "rgs/runtime/gpu_renderer.h"
-#include "scene_loading.h"
+#include "rgs/runtime/roofline_model.h"
 
 namespace {
 
@@ -50,105 +52,12 @@ using namespace rgs;
 using Clock = std::chrono::steady_clock;
 constexpr const char* kTool = "rgs-bench";
 
-// ---------------------------------------------------------------------------------------------------------
-// Modes: what is benchmarked. Each turns into GpuRenderOptions for a scene (or says why it cannot run on it);
-// new variants go in all_modes().
+// Modes: what is benchmarked, api::gpu_modes() (new variants go there); api::gpu_mode_options() turns one into
+// GpuRenderOptions for a scene, or says why it cannot run on it.
 
-struct BenchMode {
-  std::string name;
-  std::string description;
-  /// Render options for `scene`, or why the mode cannot run on it (kInvalidArgument).
-  std::function<Result<runtime::GpuRenderOptions>(const tools::LoadedGpuScene& scene)> options;
-};
-
-/// The RoofGS pipeline with the given switches; compact attributes need a .rgs scene.
-Result<runtime::GpuRenderOptions> roofgs_options(const tools::LoadedGpuScene& scene, bool compact, bool fused,
-                                                 const runtime::RoofgsOptions& techniques, const char* mode) {
-  RGS_RETURN_ERROR_IF(compact && !scene.scene.has_compact(), StatusCode::kInvalidArgument,
-                      std::string("mode ") + mode + " reads compact attributes, which only a .rgs scene has");
-  runtime::GpuRenderOptions o;
-  o.pipeline = runtime::GpuPipeline::kRoofgs;
-  o.roofgs.compact_attributes = compact;
-  o.roofgs.fused_preprocess = fused;
-  o.roofgs.techniques = techniques;
-  return o;
-}
-
-/// `roofgs` with one option of the pipeline (not of the shared techniques) changed by `set`.
-BenchMode roofgs_variant(const std::string& name, const std::string& description,
-                         void (*set)(runtime::GpuRoofgsOptions&)) {
-  return {name, description, [=](const tools::LoadedGpuScene& scene) -> Result<runtime::GpuRenderOptions> {
-            auto o = roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(),
-                                    name.c_str());
-            if (o.ok()) set(o->roofgs);
-            return o;
-          }};
-}
-
-/// One RoofGS technique alone, for the ablation ("only-<name>").
-BenchMode only_mode(const std::string& name, const std::string& what, bool compact, bool fused,
-                    void (*set)(runtime::RoofgsOptions&)) {
-  return {"only-" + name, "RoofGS pipeline with only " + what + " on",
-          [=](const tools::LoadedGpuScene& scene) {
-            runtime::RoofgsOptions t;  // all off
-            if (set != nullptr) set(t);
-            return roofgs_options(scene, compact, fused, t, ("only-" + name).c_str());
-          }};
-}
-
-const std::vector<BenchMode>& all_modes() {
-  static const std::vector<BenchMode> modes = {
-      {"baseline", "3DGS rasterizer (FP32 attributes, 64-bit keys, 3-sigma rectangles, expf)",
-       [](const tools::LoadedGpuScene&) -> Result<runtime::GpuRenderOptions> {
-         runtime::GpuRenderOptions o;
-         o.pipeline = runtime::GpuPipeline::kBaseline;
-         return o;
-       }},
-      {"roofgs", "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused "
-                 "kernel, 32-bit key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians "
-                 "with many tiles emitted by warps (every RoofGS mode but roofgs-serial); sub-tile "
-                 "culling in the folded rasterizer chosen per frame (off when SnugBox+AccuTile is on and more "
-                 "than half the pairs belong to Gaussians with more than 32 tiles; every mode but roofgs-tile "
-                 "and roofgs-subtile)",
-       [](const tools::LoadedGpuScene& scene) {
-         return roofgs_options(scene, scene.scene.has_compact(), true, runtime::RoofgsOptions::all(), "roofgs");
-       }},
-      {"roofgs+", "roofgs with depth order and fast exp sigma 0.05798 (the fused kernel then allocates pairs in "
-                  "arrival order: the depth order makes their emission order moot)",
-       [](const tools::LoadedGpuScene& scene) {
-         runtime::RoofgsOptions t = runtime::RoofgsOptions::all();
-         t.depth_order = true;
-         t.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
-         return roofgs_options(scene, scene.scene.has_compact(), true, t, "roofgs+");
-       }},
-      roofgs_variant("roofgs-serial",
-                     "roofgs with each Gaussian's pairs written by its own thread (balanced emission off: the "
-                     "paper's fused kernel as published)",
-                     [](runtime::GpuRoofgsOptions& o) { o.balanced_emission = false; }),
-      roofgs_variant("roofgs-tile",
-                     "roofgs without sub-tile culling (every warp of a tile walks all of the tile's pairs, as in "
-                     "the paper)",
-                     [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOff; }),
-      roofgs_variant("roofgs-subtile", "roofgs with sub-tile culling on in every frame",
-                     [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOn; }),
-      {"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)",
-       [](const tools::LoadedGpuScene& scene) {
-         return roofgs_options(scene, false, false, runtime::RoofgsOptions{}, "roofgs-none");
-       }},
-      only_mode("compact", "compact attributes (needs a .rgs scene)", true, false, nullptr),
-      only_mode("fused", "the fused preprocess kernel", false, true, nullptr),
-      only_mode("key32", "the 32-bit key", false, false, [](runtime::RoofgsOptions& t) { t.key32 = true; }),
-      only_mode("snugbox", "SnugBox + AccuTile", false, false,
-                [](runtime::RoofgsOptions& t) { t.snugbox_accutile = true; }),
-      only_mode("folded", "the folded dual-pixel rasterizer", false, false,
-                [](runtime::RoofgsOptions& t) { t.folded_coefficients = true; }),
-      only_mode("fastexp", "the fast exp", false, false, [](runtime::RoofgsOptions& t) { t.fast_exp = true; }),
-  };
-  return modes;
-}
-
-const BenchMode* find_mode(const std::string& name) {
-  for (const BenchMode& m : all_modes()) {
+/// The mode called `name` (names are checked at parse time against the same list).
+const api::GpuMode* find_mode(const std::string& name) {
+  for (const api::GpuMode& m : api::gpu_modes()) {
     if (m.name == name) return &m;
   }
   return nullptr;
@@ -156,7 +65,7 @@ const BenchMode* find_mode(const std::string& name) {
 
 std::vector<std::string> mode_names() {
   std::vector<std::string> names;
-  for (const BenchMode& m : all_modes()) names.push_back(m.name);
+  for (const api::GpuMode& m : api::gpu_modes()) names.push_back(m.name);
   return names;
 }
 
@@ -164,7 +73,7 @@ std::vector<std::string> mode_names() {
 
 struct Options {
   std::string input;
-  tools::CameraChoice cameras;
+  api::CameraChoice cameras;
   std::vector<std::string> resolutions;  ///< as given; parsed (and checked) at parse time
   std::vector<std::string> modes = {"baseline"};
   uint32_t warmup = 5;
@@ -247,7 +156,7 @@ Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format
   }
   std::vector<CameraSet> sets;
   if (!opt.cameras.cameras_path.empty()) {
-    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> native, tools::make_cameras(opt.cameras, bounds));
+    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> native, api::make_cameras(opt.cameras, bounds));
     RGS_RETURN_ERROR_IF(native.empty(), StatusCode::kInvalidArgument,
                         opt.cameras.cameras_path + ": no views selected");
     if (sizes.empty()) {
@@ -263,18 +172,18 @@ Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format
   }
   if (sizes.empty()) sizes.push_back({opt.cameras.orbit_width, opt.cameras.orbit_height});
   for (const tools::Resolution& r : sizes) {
-    tools::CameraChoice choice = opt.cameras;
+    api::CameraChoice choice = opt.cameras;
     choice.width = r.width;
     choice.height = r.height;
-    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> cams, tools::make_cameras(choice, bounds));
+    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> cams, api::make_cameras(choice, bounds));
     sets.push_back({tools::resolution_string(r), std::move(cams)});
   }
   return sets;
 }
 
 /// Runs one mode over one camera set: warm-up, then `repeat` rounds over the views.
-Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runtime::GpuRenderOptions& base_options,
-                          const tools::LoadedGpuScene& scene, const CameraSet& set, runtime::GpuRenderer& renderer,
+Result<RunResult> run_one(const Options& opt, const api::GpuMode& mode, const runtime::GpuRenderOptions& base_options,
+                          const api::LoadedGpuScene& scene, const CameraSet& set, runtime::GpuRenderer& renderer,
                           runtime::DeviceImage& image) {
   runtime::GpuRenderOptions options = base_options;
   options.time_stages = true;
@@ -324,13 +233,13 @@ Result<RunResult> run_one(const Options& opt, const BenchMode& mode, const runti
 }
 
 // ---------------------------------------------------------------------------------------------------------
-// Roofline: the model's bytes and FLOPs (roofline_model.h) per stage, against the measured peaks.
+// Roofline: the model's bytes and FLOPs (runtime/roofline_model.h) per stage, against the measured peaks.
 
 /// The model's inputs for one view of a run. The renderer does not report how many Gaussians survive
 /// culling, so `visible` is N (an upper bound, docs/ROOFLINE.md).
-tools::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const runtime::GpuScene& scene,
+runtime::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const runtime::GpuScene& scene,
                                    const ViewResult& v) {
-  tools::FrameWorkInputs in;
+  runtime::FrameWorkInputs in;
   in.roofgs = o.pipeline == runtime::GpuPipeline::kRoofgs;
   if (in.roofgs) {
     in.compact = o.roofgs.compact_attributes;
@@ -355,25 +264,25 @@ tools::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const run
 
 /// One run on the roofline: the model's work per frame (mean over views) and each stage's point.
 struct RunRoofline {
-  tools::FrameWorkInputs inputs;  ///< of the first view (for the JSON; mean_pairs is over all views)
+  runtime::FrameWorkInputs inputs;  ///< of the first view (for the JSON; mean_pairs is over all views)
   double mean_pairs = 0;
-  tools::StageWork work[tools::kRooflineStages];
-  tools::RooflinePoint points[tools::kRooflineStages];
+  runtime::StageWork work[runtime::kRooflineStages];
+  runtime::RooflinePoint points[runtime::kRooflineStages];
 };
 
-RunRoofline roofline_of(const RunResult& r, const runtime::GpuScene& scene, const tools::RooflinePeaks& peaks) {
+RunRoofline roofline_of(const RunResult& r, const runtime::GpuScene& scene, const runtime::RooflinePeaks& peaks) {
   RunRoofline out;
   for (const ViewResult& v : r.views) {
-    const tools::FrameWork w = tools::frame_work(work_inputs(r.options, scene, v));
-    for (int s = 0; s < tools::kRooflineStages; ++s) {
+    const runtime::FrameWork w = runtime::frame_work(work_inputs(r.options, scene, v));
+    for (int s = 0; s < runtime::kRooflineStages; ++s) {
       out.work[s].bytes += w.stages[s].bytes / double(r.views.size());
       out.work[s].flops += w.stages[s].flops / double(r.views.size());
     }
   }
   if (!r.views.empty()) out.inputs = work_inputs(r.options, scene, r.views.front());
   out.mean_pairs = r.mean_pairs;
-  for (int s = 0; s < tools::kRooflineStages; ++s) {
-    out.points[s] = tools::roofline_point(out.work[s], r.stages[s].median, peaks);
+  for (int s = 0; s < runtime::kRooflineStages; ++s) {
+    out.points[s] = runtime::roofline_point(out.work[s], r.stages[s].median, peaks);
   }
   return out;
 }
@@ -400,7 +309,7 @@ nlohmann::json peaks_json(const runtime::DevicePeaks& p) {
 }
 
 nlohmann::json roofline_json(const RunRoofline& rl) {
-  const tools::FrameWorkInputs& in = rl.inputs;
+  const runtime::FrameWorkInputs& in = rl.inputs;
   nlohmann::json inputs = {{"pipeline", in.roofgs ? "roofgs" : "baseline"},
                            {"attributes", in.compact ? "compact" : "fp32"},
                            {"fused", in.fused},
@@ -416,13 +325,13 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
                            {"sh_degree", in.sh_degree},
                            {"mean_pairs", rl.mean_pairs},
                            {"sort_bits", in.sort_bits},
-                           {"radix_passes", tools::radix_passes(in.sort_bits)},
+                           {"radix_passes", runtime::radix_passes(in.sort_bits)},
                            {"tiles", in.tiles},
                            {"pixels", in.pixels}};
   nlohmann::json stages;
-  for (int s = 0; s < tools::kRooflineStages; ++s) {
-    const tools::RooflinePoint& p = rl.points[s];
-    stages[tools::roofline_stage_name(tools::RooflineStage(s))] = {
+  for (int s = 0; s < runtime::kRooflineStages; ++s) {
+    const runtime::RooflinePoint& p = rl.points[s];
+    stages[runtime::roofline_stage_name(runtime::RooflineStage(s))] = {
         {"median_ms", p.ms},          {"bytes", p.bytes},
         {"flops", p.flops},           {"gbps", p.gbps},
         {"gflops", p.gflops},         {"flop_per_byte", p.intensity},
@@ -451,9 +360,13 @@ std::string format_time(const char* pattern, bool utc) {
 }
 
 /// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
-Result<tools::LoadedGpuScene> load_bench_scene(const Options& opt, tools::ReplicatedScene* replicated) {
-  if (opt.replicate <= 1) return tools::load_gpu_scene(opt.input);
-  auto scene = tools::upload_replicated_scene(*replicated, opt.input + " x" + std::to_string(opt.replicate));
+/// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
+Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::ReplicatedScene* replicated, bool fp32) {
+  runtime::GpuSceneOptions scene_options;
+  scene_options.fp32_attributes = fp32;
+  if (opt.replicate <= 1) return api::load_gpu_scene(opt.input, scene_options, nullptr, tools::read_options());
+  auto scene = api::upload_rgs_bytes(replicated->rgs_bytes, replicated->source_file_bytes,
+                                     opt.input + " x" + std::to_string(opt.replicate), scene_options);
   replicated->rgs_bytes = std::vector<uint8_t>();  // uploaded: free the host copy
   return scene;
 }
@@ -478,15 +391,24 @@ int run(const Options& opt) {
     for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
   }
   // Replication is host work and checks the Gaussian count before the device is touched.
-  tools::ReplicatedScene replicated;
+  api::ReplicatedScene replicated;
   if (opt.replicate > 1) {
     std::fprintf(stderr, "replicating %s x%u ...\n", opt.input.c_str(), opt.replicate);
-    auto r = tools::replicate_scene_file(opt.input, opt.replicate);
+    auto r = api::replicate_scene_file(opt.input, opt.replicate, tools::read_options());
     if (!r.ok()) return tools::report_error(kTool, Status(r.status()).prepend("--replicate " +
                                                                               std::to_string(opt.replicate)));
     replicated = std::move(r).value();
   }
-  Status device_ok = tools::require_cuda_device(opt.device);
+  // Which modes read the FP32 arrays: the scene keeps them on the device only for those. A .rgs scene (or a
+  // replicated one) has the compact sections; other formats are uploaded as FP32 arrays only.
+  const bool compact_scene = opt.replicate > 1 || api::is_rgs_path(opt.input);
+  bool fp32 = !compact_scene;
+  for (const std::string& mode_name : opt.modes) {
+    auto options = api::gpu_mode_options(mode_name, compact_scene);
+    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend(opt.input));
+    fp32 = fp32 || api::reads_fp32_attributes(*options);
+  }
+  Status device_ok = api::require_cuda_device(opt.device);
   if (!device_ok.ok()) return tools::report_error(kTool, device_ok);
   auto device = runtime::cuda_device_info(opt.device);
   if (!device.ok()) return tools::report_error(kTool, device.status());
@@ -495,11 +417,11 @@ int run(const Options& opt) {
   std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
   auto peaks = runtime::measure_device_peaks();
   if (!peaks.ok()) return tools::report_error(kTool, Status(peaks.status()).prepend("device peaks"));
-  const tools::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops};
+  const runtime::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops};
 
   auto renderer = runtime::GpuRenderer::create();
   if (!renderer.ok()) return tools::report_error(kTool, renderer.status());
-  auto scene = load_bench_scene(opt, &replicated);
+  auto scene = load_bench_scene(opt, &replicated, fp32);
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
   auto sets = make_camera_sets(opt, scene->bounds);
   if (!sets.ok()) return tools::report_error(kTool, sets.status());
@@ -509,8 +431,8 @@ int run(const Options& opt) {
   runtime::DeviceImage image;
   std::vector<RunResult> results;
   for (const std::string& mode_name : opt.modes) {
-    const BenchMode* mode = find_mode(mode_name);  // names were checked at parse time
-    auto options = mode->options(*scene);
+    const api::GpuMode* mode = find_mode(mode_name);  // names were checked at parse time
+    auto options = api::gpu_mode_options(mode->name, scene->scene.has_compact());
     if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend("mode " + mode->name));
     for (const CameraSet& set : *sets) {
       std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode->name.c_str(), set.label.c_str(),
@@ -564,10 +486,10 @@ int run(const Options& opt) {
   std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage",
               "ms", "floor ms", "x floor", "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
   for (size_t i = 0; i < results.size(); ++i) {
-    for (int s = 0; s < tools::kRooflineStages; ++s) {
-      const tools::RooflinePoint& p = rooflines[i].points[s];
+    for (int s = 0; s < runtime::kRooflineStages; ++s) {
+      const runtime::RooflinePoint& p = rooflines[i].points[s];
       std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", results[i].mode.c_str(),
-                  results[i].resolution.c_str(), tools::roofline_stage_name(tools::RooflineStage(s)),
+                  results[i].resolution.c_str(), runtime::roofline_stage_name(runtime::RooflineStage(s)),
                   tools::fixed(p.ms, 3).c_str(), tools::fixed(p.floor_ms, 3).c_str(),
                   tools::fixed(p.times_floor, 1).c_str(), tools::fixed(p.bytes / 1e6, 2).c_str(),
                   tools::fixed(p.flops / 1e6, 1).c_str(), tools::fixed(p.gbps, 1).c_str(),
@@ -636,7 +558,7 @@ int run(const Options& opt) {
                          {"median_total_ms", summarize(v.samples[4]).median},
                          {"samples", samples}});
       }
-      const BenchMode* mode = find_mode(r.mode);
+      const api::GpuMode* mode = find_mode(r.mode);
       runs.push_back({{"mode", r.mode},
                       {"mode_description", mode ? mode->description : ""},
                       {"resolution", r.resolution},
@@ -669,13 +591,13 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   std::string mode_help = "Mode to benchmark (repeatable; default baseline):";
-  for (const BenchMode& m : all_modes()) mode_help += "\n  " + m.name + ": " + m.description;
+  for (const api::GpuMode& m : api::gpu_modes()) mode_help += "\n  " + m.name + ": " + m.description;
   CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
                "repetitions, FPS, pair counts, per mode and resolution, and a per-stage roofline (analytic bytes "
                "and FLOPs, docs/ROOFLINE.md, against the device's memory and FP32 peaks measured in the same "
                "run); a table on stdout and the full results as JSON.",
                kTool};
-  app.add_option("scene", opt.input, "Scene: .rgs (uploaded as stored) or 3DGS .ply")->required();
+  app.add_option("scene", opt.input, "Scene: .rgs (uploaded as stored), or any format converter::read_scene detects (uploaded as FP32 arrays)")->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
       ->check(CLI::Range(1, 2147483647))->needs(cams);

@@ -1,8 +1,13 @@
-// rgs-convert: trained 3DGS PLY -> .rgs runtime profile, and .rgs -> standard INRIA PLY.
+// rgs-convert: any supported scene (3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .splat, .rgs) into
+// a .rgs runtime profile, an INRIA PLY, an SPZ v4 file or a KHR_gaussian_splatting GLB.
 //
 //   rgs-convert point_cloud.ply scene.rgs [options]   quantize and print what it cost
 //   rgs-convert scene.rgs restored.ply                dequantize to a PLY other 3DGS tools load
+//   rgs-convert scene.sog scene.spz --sh-degree 1     any input to any output, dropping SH bands
 //   cat scene.ply | rgs-convert - scene.rgs --json -  read standard input, JSON summary on standard output
+//
+// The output format follows --to, else the output's extension (.rgs, .ply, .spz, .glb); a name whose
+// extension is another of these four than --to says is a usage error.
 //
 // Exit status: 0 on success (every output written), 1 when the conversion failed (no output written, an
 // existing one left as it was), 2 on a usage error (nothing read or written), 128 + N on signal N.
@@ -18,6 +23,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include <xxhash.h>
 
 #include "cli_common.h"
 #include "error_stats_output.h"
@@ -25,9 +31,11 @@
 #include "rgs/config.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/ply_reader.h"
+#include "rgs/converter/gltf_writer.h"
 #include "rgs/converter/ply_writer.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/converter/spz_writer.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
@@ -53,6 +61,9 @@ struct Options {
   std::optional<uint32_t> lod;
   std::string profile = "runtime";
   double position_error = format::kDefaultArchivePositionError;
+  std::string to;                     ///< --to: rgs, ply, spz or glb; empty: the output's extension decides
+  std::optional<uint32_t> sh_degree;  ///< --sh-degree: drop the SH bands above it
+  bool keep_frame = false;            ///< --keep-frame: SPZ axes as stored (no RUB <-> RDF turn)
 
   bool json_to_stdout() const { return json_path == "-"; }
   /// The text summary goes to stdout unless -q or the JSON takes its place.
@@ -85,6 +96,73 @@ Result<converter::InputScene> read_ply_from_memory(const Input& input, const con
   scene.declared_vertices = ply.declared_vertices;
   scene.file_xxh64 = ply.file_xxh64;
   return scene;
+}
+
+/// A .rgs input (a file, or standard input's bytes): validated fully (checksums, codecs, values), then
+/// dequantized, and described as read_scene describes the other formats.
+Result<converter::InputScene> read_rgs_input(const Options& opt, const Input& input) {
+  std::shared_ptr<const format::MappedFile> mapping;
+  const uint8_t* bytes = input.bytes.data();
+  size_t size = input.bytes.size();
+  if (!input.from_stdin()) {
+    RGS_ASSIGN_OR_RETURN(mapping, format::MappedFile::open(opt.input));
+    bytes = mapping->data();
+    size = mapping->size();
+  }
+  RGS_RETURN_IF_ERROR(format::validate(bytes, size, tools::read_limits(), opt.input));
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(bytes, size, tools::read_options(), opt.input));
+  RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
+  auto cloud = format::dequantize(encoded);
+  if (!cloud.ok()) return Status(cloud.status()).prepend(opt.input);
+  converter::InputScene scene;
+  scene.cloud = std::move(cloud).value();
+  scene.format_id = "rgs";
+  scene.description = "RoofGS .rgs, dequantized";
+  scene.storage_format = "rgs";
+  scene.file_bytes = file.file_size();
+  scene.file_count = 1;
+  scene.declared_vertices = file.gaussian_count();
+  scene.file_xxh64 = XXH64(bytes, size, 0);
+  return scene;
+}
+
+/// The input as float Gaussians, whatever its format, with --sh-degree applied.
+Result<converter::InputScene> read_input(const Options& opt, const Input& input, bool is_rgs) {
+  converter::InputScene scene;
+  if (is_rgs) {
+    RGS_ASSIGN_OR_RETURN(scene, read_rgs_input(opt, input));
+  } else {
+    converter::SceneReadOptions read_options;
+    read_options.invalid_policy =
+        opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+    read_options.max_gaussians = tools::read_limits().max_gaussians;
+    read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
+    read_options.lod = opt.lod;
+    read_options.convert_spz_frame = !opt.keep_frame;
+    RGS_ASSIGN_OR_RETURN(scene, input.from_stdin() ? read_ply_from_memory(input, read_options)
+                                                  : converter::read_scene(opt.input, read_options));
+  }
+  if (opt.sh_degree && *opt.sh_degree < scene.cloud.sh_degree) {
+    scene.notes.push_back("SH degree " + std::to_string(scene.cloud.sh_degree) + " reduced to " +
+                          std::to_string(*opt.sh_degree) + " (--sh-degree)");
+    RGS_RETURN_IF_ERROR(converter::reduce_sh_degree(&scene.cloud, *opt.sh_degree));
+  }
+  return scene;
+}
+
+/// The error for an empty scene unless --allow-empty.
+Status check_not_empty(const Options& opt, const converter::InputScene& scene) {
+  if (scene.cloud.size() != 0 || opt.allow_empty) return Status();
+  const std::string why = scene.hygiene.dropped_gaussians > 0
+                              ? "--sanitize dropped all " + tools::group_digits(scene.hygiene.dropped_gaussians) +
+                                    " Gaussians, so the scene is empty"
+                              : "the input has no Gaussians";
+  return Status(StatusCode::kInvalidArgument, opt.input + ": " + why + "; --allow-empty writes an empty scene");
+}
+
+/// The input's notes, one line each, in the text summary.
+void print_notes(const char* label, const std::vector<std::string>& notes) {
+  for (const std::string& note : notes) std::printf("  %-16s %s\n", label, tools::escape_text(note).c_str());
 }
 
 /// Writes the JSON summary: staged as an output of `outputs`, or printed when it goes to stdout.
@@ -146,27 +224,16 @@ std::string hex64(uint64_t v) {
   return buf;
 }
 
-/// PLY -> .rgs: read, quantize, stage the outputs, measure, print the summary, commit.
-int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet* outputs) {
+/// Any input -> .rgs: read, quantize, stage the outputs, measure, print the summary, commit.
+int convert_to_rgs(const Options& opt, const Input& input, bool is_rgs, format::OutputSet* outputs) {
   const auto t_start = Clock::now();
   auto write_options = make_write_options(opt);
   if (!write_options.ok()) return tools::report_error(kTool, write_options.status());
 
-  converter::SceneReadOptions read_options;
-  read_options.invalid_policy =
-      opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
-  read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
-  auto ply = input.from_stdin() ? read_ply_from_memory(input, read_options) : converter::read_scene(opt.input, read_options);
+  auto ply = read_input(opt, input, is_rgs);
   if (!ply.ok()) return tools::report_error(kTool, ply.status());
   const double t_read = tools::seconds_since(t_start);
-  if (ply->cloud.size() == 0 && !opt.allow_empty) {
-    const std::string why = ply->hygiene.dropped_gaussians > 0
-                                ? "--sanitize dropped all " + tools::group_digits(ply->hygiene.dropped_gaussians) +
-                                      " Gaussians, so the scene is empty"
-                                : "the PLY has no Gaussians";
-    return tools::report_error(kTool, Status(StatusCode::kInvalidArgument,
-                                             opt.input + ": " + why + "; --allow-empty writes an empty scene"));
-  }
+  if (Status empty = check_not_empty(opt, *ply); !empty.ok()) return tools::report_error(kTool, empty);
 
   converter::QuantizeOptions quantize_options;
   quantize_options.scale_encoding =
@@ -183,6 +250,8 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
   options_text << "scale_encoding=" << opt.scale_encoding << " sh_clip_percentile=" << opt.sh_clip_percentile
                << " sanitize=" << (opt.sanitize ? 1 : 0) << " zstd_level=" << opt.zstd_level << " zstd=";
   for (size_t i = 0; i < opt.zstd_sections.size(); ++i) options_text << (i ? "," : "") << opt.zstd_sections[i];
+  if (opt.sh_degree) options_text << " sh_degree=" << *opt.sh_degree;
+  if (opt.keep_frame) options_text << " keep_frame=1";
   encoded->provenance = {
       {"source_file", std::filesystem::path(opt.input).filename().string()},
       {"source_bytes", std::to_string(ply->file_bytes)},
@@ -211,8 +280,8 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
   if (!opt.json_path.empty()) {
     nlohmann::json j;
     j["input"] = {{"path", opt.input}, {"bytes", ply->file_bytes}, {"storage", ply->storage_format},
-                  {"declared_vertices", ply->declared_vertices}};
-    j["output"] = {{"path", opt.output}, {"bytes", *written}};
+                  {"format", ply->format_id}, {"declared_vertices", ply->declared_vertices}, {"notes", ply->notes}};
+    j["output"] = {{"path", opt.output}, {"bytes", *written}, {"format", "rgs"}};
     j["gaussians"] = n;
     j["sh_degree"] = degree;
     j["bytes_per_gaussian"] = {{"input", in_bytes * per_gaussian}, {"output", out_bytes * per_gaussian}};
@@ -269,6 +338,7 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
               tools::group_digits(hygiene.zero_norm_quaternions).c_str(),
               tools::group_digits(hygiene.infinite_opacity_logits).c_str(),
               tools::group_digits(hygiene.dropped_gaussians).c_str());
+  print_notes("input note", ply->notes);
   std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
   tools::print_stats_row("position", errors.position, "scene units (FP32, exact)");
   tools::print_stats_row("rotation", errors.rotation_deg, "degrees");
@@ -293,59 +363,111 @@ int convert_ply_to_rgs(const Options& opt, const Input& input, format::OutputSet
   return commit_outputs(outputs);
 }
 
-/// .rgs -> PLY: validate fully (checksums, codecs, values), dequantize, stage a standard INRIA PLY (and the
-/// JSON summary), print, commit.
-int convert_rgs_to_ply(const Options& opt, const Input& input, format::OutputSet* outputs) {
+/// Output formats.
+enum class OutputKind { kRgs, kPly, kSpz, kGlb };
+
+/// What a float-format writer kept and lost, for the summary.
+struct WrittenOutput {
+  uint64_t bytes = 0;
+  std::string format;  ///< in words, e.g. "INRIA PLY, dequantized"
+  std::vector<std::string> limitations;
+  nlohmann::json details = nlohmann::json::object();  ///< clamp counts and the like, for --json
+};
+
+/// Writes `cloud` as PLY, SPZ or GLB to opt.output (staged in the OutputSet that declared it).
+Result<WrittenOutput> write_float_output(const Options& opt, OutputKind kind, const converter::InputScene& scene) {
+  WrittenOutput out;
+  const bool dequantized = scene.format_id == "rgs";
+  if (kind == OutputKind::kPly) {
+    converter::PlyWriteReport report;
+    RGS_ASSIGN_OR_RETURN(out.bytes, converter::write_ply(opt.output, scene.cloud, &report));
+    out.format = dequantized ? "INRIA PLY, dequantized" : "INRIA PLY";
+    out.details["zero_scales"] = report.zero_scales;
+    if (report.zero_scales > 0) {
+      char log_scale[32];
+      std::snprintf(log_scale, sizeof(log_scale), "%.4f", static_cast<double>(converter::kZeroScaleLog));
+      out.limitations.push_back(tools::group_digits(report.zero_scales) + " zero scales written as log-scale " +
+                                log_scale + ", not -inf");
+    }
+  } else if (kind == OutputKind::kSpz) {
+    converter::SpzWriteOptions options;
+    options.convert_frame = !opt.keep_frame;
+    RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary summary, converter::write_spz(opt.output, scene.cloud, options));
+    out.bytes = summary.bytes;
+    out.format = "SPZ v" + std::to_string(summary.version) + (opt.keep_frame ? " (axes kept)" : "");
+    out.limitations = summary.limitations;
+    auto clamped = [&](uint64_t n, const char* what) {
+      if (n > 0) out.limitations.push_back(tools::group_digits(n) + " " + what + " clamped to the SPZ range");
+    };
+    clamped(summary.scales_clamped, "scale values");
+    clamped(summary.colors_clamped, "DC colour values");
+    clamped(summary.sh_clamped, "SH rest values");
+    out.details = {{"version", summary.version},
+                   {"fractional_bits", summary.fractional_bits},
+                   {"position_step", summary.position_step},
+                   {"scales_clamped", summary.scales_clamped},
+                   {"colors_clamped", summary.colors_clamped},
+                   {"sh_clamped", summary.sh_clamped},
+                   {"frame_converted", !opt.keep_frame}};
+  } else {
+    RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary summary, converter::write_glb(opt.output, scene.cloud));
+    out.bytes = summary.bytes;
+    out.format = "KHR_gaussian_splatting GLB";
+    out.limitations = summary.limitations;
+  }
+  return out;
+}
+
+/// Any input -> PLY, SPZ or GLB: read, stage the output (and the JSON summary), print, commit.
+int convert_to_float_format(const Options& opt, const Input& input, bool is_rgs, OutputKind kind,
+                            format::OutputSet* outputs) {
   const auto t_start = Clock::now();
-  std::shared_ptr<const format::MappedFile> mapping;
-  const uint8_t* bytes = input.bytes.data();
-  size_t size = input.bytes.size();
-  if (!input.from_stdin()) {
-    auto mapped = format::MappedFile::open(opt.input);
-    if (!mapped.ok()) return tools::report_error(kTool, mapped.status());
-    mapping = std::move(mapped).value();
-    bytes = mapping->data();
-    size = mapping->size();
-  }
-  Status valid = format::validate(bytes, size, tools::read_limits(), opt.input);
-  if (!valid.ok()) return tools::report_error(kTool, valid);
-  auto file = format::RgsFile::from_bytes(bytes, size, tools::read_options(), opt.input);
-  if (!file.ok()) return tools::report_error(kTool, file.status());
-  auto scene = file->read_scene();
+  auto scene = read_input(opt, input, is_rgs);
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
-  auto cloud = format::dequantize(*scene);
-  if (!cloud.ok()) return tools::report_error(kTool, Status(cloud.status()).prepend(opt.input));
-  if (cloud->size() == 0 && !opt.allow_empty) {
-    return tools::report_error(kTool, Status(StatusCode::kInvalidArgument,
-                                             opt.input + ": the scene has no Gaussians; --allow-empty writes an "
-                                                         "empty PLY"));
-  }
-  // Staged in `outputs` (declared there): renamed into place by commit_outputs().
-  converter::PlyWriteReport ply_report;
-  auto written = converter::write_ply(opt.output, *cloud, &ply_report);
+  if (Status empty = check_not_empty(opt, *scene); !empty.ok()) return tools::report_error(kTool, empty);
+  const double t_read = tools::seconds_since(t_start);
+  auto written = write_float_output(opt, kind, *scene);
   if (!written.ok()) return tools::report_error(kTool, written.status());
   const double t_total = tools::seconds_since(t_start);
+  const format::GaussianCloud& cloud = scene->cloud;
+  const auto& hygiene = scene->hygiene;
   if (!opt.json_path.empty()) {
     nlohmann::json j;
-    j["input"] = {{"path", opt.input}, {"bytes", file->file_size()}, {"format", "rgs"}};
-    j["output"] = {{"path", opt.output}, {"bytes", *written}, {"format", "INRIA PLY, dequantized"}};
-    j["gaussians"] = cloud->size();
-    j["sh_degree"] = cloud->sh_degree;
-    j["zero_scales"] = ply_report.zero_scales;
-    j["seconds"] = {{"total", t_total}};
+    j["input"] = {{"path", opt.input},         {"bytes", scene->file_bytes},
+                  {"format", scene->format_id}, {"storage", scene->storage_format},
+                  {"declared_vertices", scene->declared_vertices}, {"notes", scene->notes}};
+    j["output"] = {{"path", opt.output},
+                   {"bytes", written->bytes},
+                   {"format", written->format},
+                   {"limitations", written->limitations},
+                   {"details", written->details}};
+    j["gaussians"] = cloud.size();
+    j["sh_degree"] = cloud.sh_degree;
+    if (kind == OutputKind::kPly) j["zero_scales"] = written->details["zero_scales"];
+    j["hygiene"] = {{"nonfinite_values", hygiene.nonfinite_values},
+                    {"gaussians_with_nonfinite", hygiene.gaussians_with_nonfinite},
+                    {"zero_norm_quaternions", hygiene.zero_norm_quaternions},
+                    {"infinite_opacity_logits", hygiene.infinite_opacity_logits},
+                    {"dropped_gaussians", hygiene.dropped_gaussians}};
+    j["seconds"] = {{"read", t_read}, {"total", t_total}};
     Status s = emit_json(opt, j, outputs);
     if (!s.ok()) return tools::report_error(kTool, s);
   }
   if (opt.print_summary()) {
     std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(),
                 tools::escape_text(opt.output).c_str());
-    std::printf("  gaussians        %s (SH degree %u)\n", tools::group_digits(cloud->size()).c_str(),
-                cloud->sh_degree);
-    std::printf("  input            %s bytes\n", tools::group_digits(file->file_size()).c_str());
-    std::printf("  output           %s bytes (INRIA PLY, dequantized)\n", tools::group_digits(*written).c_str());
-    std::printf("  zero scales      %s (FP16 underflow) written as log-scale %.4f, not -inf\n",
-                tools::group_digits(ply_report.zero_scales).c_str(), static_cast<double>(converter::kZeroScaleLog));
-    std::printf("  time             %s s\n", tools::fixed(t_total, 3).c_str());
+    std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(cloud.size()).c_str(),
+                cloud.sh_degree, scene->description.c_str());
+    std::printf("  input            %s bytes\n", tools::group_digits(scene->file_bytes).c_str());
+    std::printf("  output           %s bytes (%s)\n", tools::group_digits(written->bytes).c_str(),
+                written->format.c_str());
+    if (hygiene.dropped_gaussians > 0) {
+      std::printf("  input hygiene    %s Gaussians dropped\n", tools::group_digits(hygiene.dropped_gaussians).c_str());
+    }
+    print_notes("input note", scene->notes);
+    print_notes("output note", written->limitations);
+    std::printf("  time             %s s (read %s)\n", tools::fixed(t_total, 3).c_str(),
+                tools::fixed(t_read, 3).c_str());
   }
   return commit_outputs(outputs);
 }
@@ -374,6 +496,42 @@ int declare_output(format::OutputSet* outputs, const std::string& path) {
   return s.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, s) : tools::report_error(kTool, s);
 }
 
+/// The output formats, by --to name and by extension.
+struct OutputFormatName {
+  const char* name;
+  const char* extension;
+  OutputKind kind;
+};
+constexpr OutputFormatName kOutputFormats[] = {{"rgs", ".rgs", OutputKind::kRgs},
+                                               {"ply", ".ply", OutputKind::kPly},
+                                               {"spz", ".spz", OutputKind::kSpz},
+                                               {"glb", ".glb", OutputKind::kGlb}};
+
+/// The output format: --to, else the output's extension. An extension naming another of the four formats
+/// than --to is refused (a GLB called scene.rgs would mislead every later reader of the name); any other
+/// extension is accepted with --to.
+Result<OutputKind> output_kind(const Options& opt) {
+  const std::string ext = tools::extension_of(opt.output);
+  const OutputFormatName* by_ext = nullptr;
+  const OutputFormatName* by_to = nullptr;
+  for (const OutputFormatName& f : kOutputFormats) {
+    if (ext == f.extension) by_ext = &f;
+    if (opt.to == f.name) by_to = &f;
+  }
+  if (opt.to.empty()) {
+    RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
+                        opt.output + ": cannot tell the output format from this name; name the output *.rgs, "
+                                     "*.ply, *.spz or *.glb, or give --to rgs|ply|spz|glb");
+    return by_ext->kind;
+  }
+  RGS_RETURN_ERROR_IF(by_to == nullptr, StatusCode::kInvalidArgument,
+                      "--to " + opt.to + ": unknown output format (use rgs, ply, spz or glb)");
+  RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext != by_to, StatusCode::kInvalidArgument,
+                      opt.output + ": the name says " + by_ext->name + " but --to says " + by_to->name +
+                          "; name the output *" + by_to->extension + " or drop --to");
+  return by_to->kind;
+}
+
 int run(const Options& opt) {
   // Every identity is checked before anything is read or written.
   format::OutputSet outputs;
@@ -383,8 +541,14 @@ int run(const Options& opt) {
   }
   if (opt.output == "-") {
     return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
-                                                   "the output cannot be standard output (-): name a .rgs or .ply "
-                                                   "file (it is written atomically, by rename)"));
+                                                   "the output cannot be standard output (-): name a .rgs, .ply, "
+                                                   ".spz or .glb file (it is written atomically, by rename)"));
+  }
+  const auto out_kind = output_kind(opt);
+  if (!out_kind.ok()) return tools::report_usage_error(kTool, out_kind.status());
+  if (opt.keep_frame && *out_kind != OutputKind::kSpz && tools::extension_of(opt.input) != ".spz") {
+    // Content decides the input's format, so a misnamed SPZ input still gets the flag; only say what it is for.
+    if (!opt.quiet) tools::report_note(kTool, "--keep-frame applies to SPZ inputs and outputs only");
   }
   if (int code = declare_output(&outputs, opt.output); code != tools::kExitOk) return code;
   if (!opt.json_path.empty() && !opt.json_to_stdout()) {
@@ -404,17 +568,11 @@ int run(const Options& opt) {
     head = tools::read_file_head(opt.input, 8);
   }
 
-  const std::string out_ext = tools::extension_of(opt.output);
   InputKind kind = sniff(head);
   if (kind == InputKind::kUnknown) {
     // Neither signature: another scene format (read_scene detects it by content) or a damaged file, which the
     // reader the extension asks for explains.
     kind = tools::extension_of(opt.input) == ".rgs" ? InputKind::kRgs : InputKind::kPly;
-    if (kind == InputKind::kPly && out_ext != ".rgs") {
-      return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
-                                                     opt.input + ": scenes convert to .rgs; name the output *.rgs "
-                                                                 "(not " + opt.output + ")"));
-    }
   } else if (const InputKind named = expected_kind(tools::extension_of(opt.input));
              named != InputKind::kUnknown && kind != named) {
     // The content contradicts the input's name: a problem of the file, not of the command line.
@@ -422,39 +580,44 @@ int run(const Options& opt) {
                                              opt.input + ": is named " + tools::extension_of(opt.input) +
                                                  " but holds a " + (kind == InputKind::kPly ? "PLY" : ".rgs") +
                                                  " file"));
-  } else if (kind == InputKind::kPly && out_ext != ".rgs") {
-    return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
-                                                   opt.input + ": is a PLY file, which converts to .rgs; name the "
-                                                               "output *.rgs (not " + opt.output + ")"));
-  } else if (kind == InputKind::kRgs && out_ext != ".ply") {
-    return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
-                                                   opt.input + ": is a .rgs file, which converts to PLY; name the "
-                                                               "output *.ply (not " + opt.output + ")"));
   }
   if (!opt.quiet) {
     for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
   } else {
     (void)outputs.remove_stale_temporaries();
   }
-  return kind == InputKind::kRgs ? convert_rgs_to_ply(opt, input, &outputs)
-                                 : convert_ply_to_rgs(opt, input, &outputs);
+  const bool is_rgs = kind == InputKind::kRgs;
+  return *out_kind == OutputKind::kRgs ? convert_to_rgs(opt, input, is_rgs, &outputs)
+                                       : convert_to_float_format(opt, input, is_rgs, *out_kind, &outputs);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Options opt;
-  CLI::App app{"Convert a trained 3DGS PLY into the compact .rgs runtime format (INT8 SH with a scale per "
-               "degree and channel, FP16 rotation/scale/opacity, FP32 means), or a .rgs back into a standard "
-               "INRIA PLY. The direction follows the input's content; the output must end in .rgs or .ply.",
+  CLI::App app{"Convert a trained 3DGS scene into the compact .rgs runtime format (INT8 SH with a scale per "
+               "degree and channel, FP16 rotation/scale/opacity, FP32 means), a standard INRIA PLY, an SPZ v4 "
+               "file or a KHR_gaussian_splatting GLB. The input's format follows its content (a .rgs input is "
+               "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb).",
                kTool};
   app.add_option("input", opt.input,
                  "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "
                  "compressed PLY, SOG meta.json/.sog/folder, streamed SOG lod-meta.json, SPZ, .splat, glTF/GLB); "
                  "- reads a PLY or .rgs from standard input")
       ->required();
-  app.add_option("output", opt.output, "Output .rgs or .ply file (replaced atomically on success only)")
+  app.add_option("output", opt.output,
+                 "Output .rgs, .ply, .spz or .glb file (replaced atomically on success only)")
       ->required();
+  app.add_option("--to", opt.to,
+                 "Output format: rgs, ply (INRIA PLY), spz (SPZ v4) or glb (KHR_gaussian_splatting); default: the "
+                 "output's extension. A name ending in another of these four is a usage error")
+      ->check(CLI::IsMember({"rgs", "ply", "spz", "glb"}));
+  app.add_option("--sh-degree", opt.sh_degree,
+                 "Drop the SH bands above this degree (0..3) before writing any output")
+      ->check(CLI::Range(0, 3));
+  app.add_flag("--keep-frame", opt.keep_frame,
+               "SPZ input and output: keep the stored axes instead of turning between SPZ's RUB and RoofGS's RDF "
+               "frame (for SPZ writers that skip the conversion: converter/INTEROP.md)");
   app.add_option("--scale-encoding", opt.scale_encoding,
                  "FP16 scale encoding: linear (exp applied; best quality) or log (wider range)")
       ->check(CLI::IsMember({"linear", "log"}))

@@ -26,10 +26,11 @@
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "read_limits_option.h"
+#include "rgs/api/scene_loading.h"
 #include "rgs/runtime/image_io.h"
-#include "scene_loading.h"
 #if RGS_HAS_CUDA
-#include "gpu_scene_loading.h"
+#include "rgs/api/gpu_scene_loading.h"
 #include "rgs/runtime/gpu_renderer.h"
 #endif
 
@@ -42,7 +43,7 @@ constexpr const char* kTool = "rgs-render";
 struct Options {
   std::string input;
   std::string output_dir;
-  tools::CameraChoice cameras;
+  api::CameraChoice cameras;
   std::string background = "0,0,0";
   std::string image_format;  ///< "png" or "ppm"; empty: png when the build has OpenImageIO, else ppm
   bool exr = false;
@@ -131,9 +132,9 @@ class CpuBackend final : public Backend {
     options_.roofgs = opt.roofgs();
   }
   Status load(const std::string& path) override {
-    RGS_ASSIGN_OR_RETURN(scene_, tools::load_scene(path));
+    RGS_ASSIGN_OR_RETURN(scene_, api::load_host_scene(path, tools::read_options()));
     options_.scene_bounds = scene_.bounds;
-    summary_ = {scene_.cloud.size(), scene_.cloud.sh_degree, scene_.is_rgs ? ".rgs dequantized" : "PLY",
+    summary_ = {scene_.cloud.size(), scene_.cloud.sh_degree, scene_.is_rgs ? ".rgs dequantized" : scene_.description,
                 scene_.bounds};
     return Status::ok_status();
   }
@@ -154,7 +155,7 @@ class CpuBackend final : public Backend {
   const char* time_label() const override { return "render"; }
 
  private:
-  tools::LoadedScene scene_;
+  api::HostScene scene_;
   runtime::RenderOptions options_;
   SceneSummary summary_;
 };
@@ -171,18 +172,22 @@ class CudaBackend final : public Backend {
     }
   }
   Status load(const std::string& path) override {
-    Status device = tools::require_cuda_device(device_);
+    Status device = api::require_cuda_device(device_);
     if (!device.ok()) return device.prepend("--backend cuda");
     auto renderer = runtime::GpuRenderer::create();
     if (!renderer.ok()) return renderer.status();
     renderer_ = std::make_unique<runtime::GpuRenderer>(std::move(renderer).value());
-    auto loaded = tools::load_gpu_scene(path);
+    // The FP32 arrays of a .rgs scene only for the baseline pipeline: the RoofGS one reads the compact
+    // sections. Other formats are uploaded as FP32 arrays (GpuScene::from_cloud) either way.
+    runtime::GpuSceneOptions scene_options;
+    scene_options.fp32_attributes = options_.pipeline == runtime::GpuPipeline::kBaseline;
+    auto loaded = api::load_gpu_scene(path, scene_options, nullptr, tools::read_options());
     if (!loaded.ok()) return loaded.status();
-    scene_ = std::make_unique<tools::LoadedGpuScene>(std::move(loaded).value());
-    // Compact sections exist only for .rgs input; a PLY renders the RoofGS techniques from FP32 arrays.
+    scene_ = std::make_unique<api::LoadedGpuScene>(std::move(loaded).value());
+    // Compact sections exist only for .rgs input; other formats render the RoofGS techniques from FP32 arrays.
     options_.roofgs.compact_attributes = scene_->scene.has_compact();
     summary_ = {scene_->scene.size(), scene_->scene.sh_degree(),
-                scene_->is_rgs ? ".rgs on the GPU" : "PLY on the GPU", scene_->bounds};
+                scene_->is_rgs ? ".rgs on the GPU" : scene_->description + " on the GPU", scene_->bounds};
     return Status::ok_status();
   }
   const SceneSummary& scene() const override { return summary_; }
@@ -216,7 +221,7 @@ class CudaBackend final : public Backend {
   int device_ = 0;
   runtime::GpuRenderOptions options_;
   std::unique_ptr<runtime::GpuRenderer> renderer_;
-  std::unique_ptr<tools::LoadedGpuScene> scene_;
+  std::unique_ptr<api::LoadedGpuScene> scene_;
   runtime::DeviceImage image_;
   SceneSummary summary_;
 };
@@ -327,7 +332,7 @@ int run(Options opt) {
   Status loaded = backend.load(opt.input);
   if (!loaded.ok()) return tools::report_error(kTool, loaded);
   const SceneSummary& scene = backend.scene();
-  auto cameras = tools::make_cameras(opt.cameras, scene.bounds);
+  auto cameras = api::make_cameras(opt.cameras, scene.bounds);
   if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
   if (cameras->empty()) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
@@ -339,7 +344,7 @@ int run(Options opt) {
   const size_t count = cameras->size();
   std::vector<std::string> bases;
   for (size_t i = 0; i < count; ++i) {
-    std::string name = tools::file_safe_name((*cameras)[i].name, i);
+    std::string name = api::file_safe_name((*cameras)[i].name, i);
     std::string base = (std::filesystem::path(opt.output_dir) / name).string();
     if (std::find(bases.begin(), bases.end(), base) != bases.end()) base += "_" + std::to_string(i);
     for (const std::string& file : view_files(opt, base)) {
@@ -402,7 +407,7 @@ int main(int argc, char** argv) {
                    (oiio ? "writes PNG/EXR (OpenImageIO) and PPM/PFM." : "has no OpenImageIO: PPM/PFM only.") +
                    (RGS_HAS_CUDA ? " CUDA: yes." : " CUDA: no (--backend cpu only)."),
                kTool};
-  app.add_option("scene", opt.input, "Scene: .rgs or 3DGS .ply (cpu: dequantized on the host; cuda: uploaded)")
+  app.add_option("scene", opt.input, "Scene: .rgs, or any format converter::read_scene detects (3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF/GLB, .splat); cpu: dequantized on the host; cuda: uploaded")
       ->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")

@@ -119,4 +119,8 @@ Result<GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_ha
   return Status(StatusCode::kInvalidArgument, "unknown GPU mode '" + name + "' (use " + names + ")");
 }
 
+bool reads_fp32_attributes(const GpuRenderOptions& options) {
+  return options.pipeline == runtime::GpuPipeline::kBaseline || !options.roofgs.compact_attributes;
+}
+
 }  // namespace rgs::api

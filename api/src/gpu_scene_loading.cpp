@@ -27,18 +27,18 @@ Status require_cuda_device(int ordinal) {
 }
 
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options,
-                                      cudaStream_t stream) {
+                                      cudaStream_t stream, const format::ReadOptions& read_options) {
   if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
-    auto scene = runtime::GpuScene::from_rgs(file, options, stream);
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, read_options));
+    auto scene = runtime::GpuScene::from_rgs(file, options, stream);  // checks checksums, frames and values first
     if (!scene.ok()) return naming(scene.status(), path);
-    return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, file.file_size()};
+    return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, file.file_size(), "RoofGS .rgs"};
   }
-  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
-  const format::SceneBounds bounds = converter::compute_bounds(ply.cloud);
-  auto scene = runtime::GpuScene::from_cloud(ply.cloud, bounds, stream);
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_other_format(path, read_options));
+  const format::SceneBounds bounds = converter::compute_bounds(input.cloud);
+  auto scene = runtime::GpuScene::from_cloud(input.cloud, bounds, stream);
   if (!scene.ok()) return naming(scene.status(), path);
-  return LoadedGpuScene{std::move(scene).value(), bounds, false, ply.file_bytes};
+  return LoadedGpuScene{std::move(scene).value(), bounds, false, input.file_bytes, input.description};
 }
 
 Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, uint64_t source_file_bytes,
@@ -47,7 +47,7 @@ Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, u
   RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(rgs_bytes.data(), rgs_bytes.size(), {}, name));
   auto scene = runtime::GpuScene::from_rgs(file, options, stream);
   if (!scene.ok()) return naming(scene.status(), name);
-  return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, source_file_bytes};
+  return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, source_file_bytes, "RoofGS .rgs"};
 }
 
 }  // namespace rgs::api

@@ -7,6 +7,7 @@
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/ply_writer.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
@@ -53,13 +54,13 @@ Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
   auto impl = std::make_shared<Scene::Impl>();
   SceneInfo& info = impl->info;
   if (is_rgs_path(path) || !options.quantize_other_formats) {
-    RGS_ASSIGN_OR_RETURN(HostScene host, load_host_scene(path));
+    RGS_ASSIGN_OR_RETURN(HostScene host, load_host_scene(path, options.read_options));
     impl->cloud = std::move(host.cloud);
     info.bounds = host.bounds;
     info.source_is_rgs = host.is_rgs;
     info.file_bytes = host.file_bytes;
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_other_format(path, options.read_options));
     auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
     auto cloud = format::dequantize(*encoded);
@@ -88,10 +89,10 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
 
   std::optional<LoadedGpuScene> loaded;
   if (is_rgs_path(path) || !options.quantize_other_formats) {
-    RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, load_gpu_scene(path, gpu_options));
+    RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, load_gpu_scene(path, gpu_options, nullptr, options.read_options));
     loaded.emplace(std::move(l));
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_other_format(path, options.read_options));
     auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
     ply.cloud = format::GaussianCloud{};
@@ -182,11 +183,11 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
   }
   report.direction = "ply->rgs";
   RGS_ASSIGN_OR_RETURN(format::WriteOptions write, write_options(options));
-  converter::PlyReadOptions read_options;
+  converter::SceneReadOptions read_options;
   read_options.invalid_policy =
       options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
   read_options.hash_file = true;
-  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(src, read_options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene ply, converter::read_scene(src, read_options));
   converter::QuantizeOptions quantize_options;
   quantize_options.scale_encoding = options.scale_encoding;
   quantize_options.sh_clip_percentile = options.sh_clip_percentile;

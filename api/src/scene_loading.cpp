@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/replicate.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
@@ -55,10 +57,17 @@ std::string group_digits(uint64_t n) {
 
 bool is_rgs_path(const std::string& path) { return has_rgs_magic(path) || ends_with_rgs(path); }
 
-Result<HostScene> load_host_scene(const std::string& path) {
+Result<converter::InputScene> read_other_format(const std::string& path, const format::ReadOptions& options) {
+  converter::SceneReadOptions read_options;
+  read_options.max_gaussians = options.limits.max_gaussians;
+  return converter::read_scene(path, read_options);
+}
+
+Result<HostScene> load_host_scene(const std::string& path, const format::ReadOptions& options) {
   HostScene scene;
   if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+    // read_scene checks every section's checksum, frame and values (SPEC §5.4) before it allocates.
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, options));
     RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
     auto cloud = format::dequantize(encoded);
     if (!cloud.ok()) return Status(cloud.status()).prepend(path);
@@ -66,28 +75,33 @@ Result<HostScene> load_host_scene(const std::string& path) {
     scene.bounds = file.metadata().bounds;
     scene.is_rgs = true;
     scene.file_bytes = file.file_size();
+    scene.format_id = "rgs";
+    scene.description = "RoofGS .rgs";
     return scene;
   }
-  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
-  scene.cloud = std::move(ply.cloud);
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_other_format(path, options));
+  scene.cloud = std::move(input.cloud);
   scene.bounds = converter::compute_bounds(scene.cloud);
-  scene.file_bytes = ply.file_bytes;
+  scene.file_bytes = input.file_bytes;
+  scene.format_id = std::move(input.format_id);
+  scene.description = std::move(input.description);
   return scene;
 }
 
-Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies) {
+Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies,
+                                             const format::ReadOptions& options) {
   ReplicatedScene out;
   out.copies = copies;
   format::EncodedScene source;
   if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path));
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, options));
     RGS_RETURN_IF_ERROR(check_replicated_count(path, file.gaussian_count(), copies));
     RGS_ASSIGN_OR_RETURN(source, file.read_scene());
     out.source_is_rgs = true;
     out.source_file_bytes = file.file_size();
     out.quantization = "as stored in the source .rgs (attributes copied unchanged)";
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::PlyScene ply, converter::read_ply(path));
+    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_other_format(path, options));
     RGS_RETURN_IF_ERROR(check_replicated_count(path, ply.cloud.size(), copies));
     auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
@@ -131,6 +145,20 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
   }
   if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
   return cameras;
+}
+
+std::string file_safe_name(const std::string& name, size_t index) {
+  if (name.empty()) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "view_%03zu", index);
+    return buf;
+  }
+  std::string out = name;
+  for (char& ch : out) {
+    if (ch == '/' || ch == '\\' || static_cast<unsigned char>(ch) < 32) ch = '_';
+  }
+  if (out == "." || out == "..") out = "view_" + std::to_string(index);
+  return out;
 }
 
 }  // namespace rgs::api

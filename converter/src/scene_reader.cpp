@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,8 +16,12 @@
 #include "internal_input_file.h"
 #include "internal_ply_header.h"
 #include "internal_zip.h"
+#include "rgs/converter/gltf_reader.h"
 #include "rgs/converter/playcanvas_readers.h"
+#include "rgs/converter/splat_reader.h"
+#include "rgs/converter/spz_reader.h"
 #include "rgs/format/spec.h"
+#include <xxhash.h>
 
 namespace rgs::converter {
 
@@ -98,6 +104,18 @@ bool detect_sog_meta(const Probe& p) {
 
 bool detect_sog_lod(const Probe& p) { return json_has(p, {"lodLevels", "filenames", "tree"}); }
 
+/// A .rgs file: matched so that no later detector (.splat has no signature) takes it; refused with the
+/// "unsupported format" error, since read_scene returns float clouds and .rgs files are read with RgsFile.
+bool detect_rgs(const Probe& p) {
+  return p.head.size() >= 8 && std::memcmp(p.head.data(), format::kMagic, 8) == 0;
+}
+
+bool detect_spz(const Probe& p) { return looks_like_spz(p.head.data(), p.head.size()); }
+
+bool detect_gltf(const Probe& p) { return looks_like_gltf(p.head.data(), p.head.size()); }
+
+bool detect_splat(const Probe& p) { return looks_like_splat(p.head.data(), p.head.size(), p.size); }
+
 // --- readers not in playcanvas_readers.h ----------------------------------------------------------
 
 Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOptions& options) {
@@ -123,28 +141,121 @@ Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOption
   return scene;
 }
 
+Status refuse_lod(const std::string& path, const SceneReadOptions& options, const char* what) {
+  RGS_RETURN_ERROR_IF(options.lod.has_value(), StatusCode::kInvalidArgument,
+                      path + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is " +
+                          what);
+  return Status();
+}
+
+/// XXH64 (seed 0) of the file at `path`, read in 1 MiB pieces.
+Result<uint64_t> hash_whole_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  RGS_RETURN_ERROR_IF(!in, StatusCode::kIoError, path + ": cannot open for hashing");
+  XXH64_state_t* state = XXH64_createState();
+  RGS_RETURN_ERROR_IF(state == nullptr, StatusCode::kOutOfMemory, path + ": no memory for the hash state");
+  XXH64_reset(state, 0);
+  std::vector<char> buffer(size_t{1} << 20);
+  while (in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    if (in.gcount() > 0) XXH64_update(state, buffer.data(), static_cast<size_t>(in.gcount()));
+  }
+  const bool failed = in.bad();
+  const uint64_t digest = XXH64_digest(state);
+  XXH64_freeState(state);
+  RGS_RETURN_ERROR_IF(failed, StatusCode::kIoError, path + ": read error while hashing");
+  return digest;
+}
+
+/// An InteropScene (SPZ, glTF, .splat) as an InputScene.
+Result<InputScene> to_input_scene(const std::string& path, InteropScene interop, const SceneReadOptions& options,
+                                  std::string description) {
+  InputScene scene;
+  scene.cloud = std::move(interop.cloud);
+  scene.hygiene = interop.hygiene;
+  scene.format_id = interop.format;
+  scene.storage_format =
+      interop.format_version ? interop.format + " v" + std::to_string(interop.format_version) : interop.format;
+  if (!interop.stored_frame.empty() && interop.stored_frame != "RDF") {
+    description += interop.frame_converted ? " (stored " + interop.stored_frame + ", turned to RDF)"
+                                           : " (stored " + interop.stored_frame + " axes kept)";
+    if (!interop.frame_converted) {
+      interop.notes.push_back("axes kept as stored (" + interop.stored_frame +
+                              "), not turned into RoofGS's RDF frame");
+    }
+  }
+  scene.description = std::move(description);
+  scene.file_bytes = interop.file_bytes;
+  scene.file_count = 1;
+  scene.declared_vertices = interop.declared_gaussians;
+  scene.notes = std::move(interop.notes);
+  if (options.hash_file) {
+    RGS_ASSIGN_OR_RETURN(uint64_t digest, hash_whole_file(path));
+    scene.file_xxh64 = digest;
+  }
+  return scene;
+}
+
+InteropReadOptions interop_options(const SceneReadOptions& options) {
+  InteropReadOptions o;
+  o.invalid_policy = options.invalid_policy;
+  o.max_gaussians = options.max_gaussians;
+  return o;
+}
+
+Result<InputScene> read_spz_scene(const std::string& path, const SceneReadOptions& options) {
+  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "an SPZ file"));
+  InteropReadOptions o = interop_options(options);
+  o.convert_frame = options.convert_spz_frame;
+  RGS_ASSIGN_OR_RETURN(InteropScene spz, read_spz(path, o));
+  const std::string description = "Niantic SPZ v" + std::to_string(spz.format_version);
+  return to_input_scene(path, std::move(spz), options, description);
+}
+
+Result<InputScene> read_gltf_scene(const std::string& path, const SceneReadOptions& options) {
+  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a glTF file"));
+  RGS_ASSIGN_OR_RETURN(InteropScene gltf, read_gltf(path, interop_options(options)));
+  const std::string description =
+      std::string(gltf.format == "glb" ? "binary glTF (GLB)" : "glTF") + " with KHR_gaussian_splatting";
+  return to_input_scene(path, std::move(gltf), options, description);
+}
+
+Result<InputScene> read_splat_scene(const std::string& path, const SceneReadOptions& options) {
+  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a .splat file"));
+  RGS_ASSIGN_OR_RETURN(InteropScene splat, read_splat(path, interop_options(options)));
+  return to_input_scene(path, std::move(splat), options, "antimatter15 .splat");
+}
+
 // --- the table ------------------------------------------------------------------------------------
 
 struct SceneFormat {
-  const char* id;           ///< InputScene::format_id
-  const char* description;  ///< for "supported: ..." and help texts
+  const char* id;           ///< InputScene::format_id (the reader may refine it: "glb" or "gltf")
+  const char* description;  ///< for "supported: ..." and help texts; null for a refusal row
   bool (*detect)(const Probe&);
+  /// Null for a refusal row: content recognized in order to be refused ("unsupported format").
   Result<InputScene> (*read)(const std::string& path, const SceneReadOptions& options);
 };
 
-/// First match wins: more specific detectors come before the general ones of the same family.
+/// First match wins: more specific detectors come before the general ones of the same family, and .splat,
+/// which has no signature, comes last.
 const SceneFormat kFormats[] = {
     {"compressed_ply", "PlayCanvas compressed PLY (.compressed.ply)", detect_compressed_ply, read_compressed_ply},
     {"ply", "3DGS PLY (.ply, INRIA layout or any property order)", detect_ply, read_ply_scene},
+    {"rgs", nullptr, detect_rgs, nullptr},
     {"sog_bundle", "PlayCanvas bundled SOG (.sog)", detect_sog_bundle, read_sog},
     {"sog", "PlayCanvas SOG (meta.json with its WebP images, or their folder)", detect_sog_meta, read_sog},
     {"sog_lod", "PlayCanvas streamed SOG (lod-meta.json, or its folder; --lod picks the level)", detect_sog_lod,
      read_sog_lod},
+    {"spz", "Niantic SPZ v2-v4 (.spz)", detect_spz, read_spz_scene},
+    {"gltf", "KHR_gaussian_splatting glTF (.glb, .gltf)", detect_gltf, read_gltf_scene},
+    {"splat", "antimatter15 .splat (32-byte records)", detect_splat, read_splat_scene},
 };
 
 std::string supported_list() {
   std::string s;
-  for (const SceneFormat& f : kFormats) s += (s.empty() ? "" : ", ") + std::string(f.description);
+  for (const SceneFormat& f : kFormats) {
+    if (f.description != nullptr) s += (s.empty() ? "" : ", ") + std::string(f.description);
+  }
   return s;
 }
 
@@ -248,7 +359,9 @@ Status make_probe(const std::string& path, Probe* probe) {
 Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
   RGS_RETURN_IF_ERROR(make_probe(path, probe));
   for (const SceneFormat& f : kFormats) {
-    if (f.detect(*probe)) return &f;
+    if (!f.detect(*probe)) continue;
+    if (f.read == nullptr) break;  // recognized, and refused
+    return &f;
   }
   return unsupported(path, describe_unknown(*probe));
 }
@@ -264,12 +377,37 @@ Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& o
 Result<std::string> detect_scene_format(const std::string& path) {
   Probe probe;
   RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
+  if (std::strcmp(format->id, "gltf") == 0 && head_starts_with(probe, "glTF")) return std::string("glb");
   return std::string(format->id);
+}
+
+Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {
+  RGS_RETURN_ERROR_IF(degree > 3, StatusCode::kInvalidArgument,
+                      "SH degree " + std::to_string(degree) + " is above 3, the highest a cloud holds");
+  RGS_RETURN_ERROR_IF(!cloud->is_consistent(), StatusCode::kInvalidArgument,
+                      "reduce_sh_degree: the cloud's arrays disagree with its size and SH degree");
+  if (cloud->sh_degree <= degree) return Status();
+  const size_t n = cloud->size();
+  const size_t from = cloud->sh_coefficients() * 3;
+  const size_t to = format::sh_coefficient_count(degree) * 3;
+  // In place, front to back: Gaussian i's kept values move to i * to, which is never after i * from.
+  float* sh = cloud->sh.data();
+  for (size_t i = 1; i < n; ++i) std::memmove(sh + i * to, sh + i * from, to * sizeof(float));
+  try {
+    cloud->sh.resize(n * to);
+    cloud->sh.shrink_to_fit();
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "reduce_sh_degree: no memory for the smaller SH array");
+  }
+  cloud->sh_degree = degree;
+  return Status();
 }
 
 std::vector<std::string> supported_scene_formats() {
   std::vector<std::string> out;
-  for (const SceneFormat& f : kFormats) out.emplace_back(f.description);
+  for (const SceneFormat& f : kFormats) {
+    if (f.description != nullptr) out.emplace_back(f.description);
+  }
   return out;
 }
 

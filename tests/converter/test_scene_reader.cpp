@@ -16,6 +16,7 @@
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/spec.h"
 #include "test_data.h"
 
 namespace rgs::test {
@@ -164,8 +165,7 @@ TEST_CASE("read_scene names what an unsupported input looks like and lists the s
   const std::vector<Case> cases = {
       {"empty.ply", {}, "an empty file"},
       {"scene.rgs", {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0}, "a RoofGS .rgs file"},
-      {"scene.spz", bytes("NGSP\x04\0\0\0"), "SPZ"},
-      {"scene.glb", bytes("glTF\x02\0\0\0"), "binary glTF"},
+      {"image.ply", bytes("\x89PNG\r\n\x1a\n\0\0"), "a PNG image"},
       {"keys.json", bytes("{\"camera\": 1, \"frames\": []}"), "a JSON object with keys {camera, frames}"},
       {"broken.json", bytes("{\"means\": "), "starts like JSON but does not parse"},
       {"noise.ply",
@@ -202,7 +202,83 @@ TEST_CASE("read_scene names what an unsupported input looks like and lists the s
   CHECK(dir.message().find("a directory without lod-meta.json or meta.json") != std::string::npos);
   const Status missing = read_status(tmp.file("missing.ply"));
   CHECK(missing.code() == StatusCode::kIoError);
-  CHECK(converter::supported_scene_formats().size() >= 5);
+  CHECK(converter::supported_scene_formats().size() >= 8);
+}
+
+TEST_CASE("read_scene detects and reads SPZ, glTF/GLB and .splat files") {
+  struct Case {
+    std::string file, id, storage;
+  };
+  const std::vector<Case> cases = {
+      {"guitar_256_splat_transform_v3.spz", "spz", "spz v3"},
+      {"guitar_256_splat_transform_v4.spz", "spz", "spz v4"},
+      {"guitar_256_splat_transform.glb", "glb", "glb v2"},
+      {"guitar_256_splat_transform.splat", "splat", "splat"},
+  };
+  const uint64_t expected = read_reference(repo_path("tests/data/interop/guitar_256.ply")).size();
+  REQUIRE(expected == 256);
+  TempDir tmp;
+  size_t index = 0;
+  for (const Case& c : cases) {
+    CAPTURE(c.file);
+    const std::string path = repo_path("tests/data/interop/" + c.file);
+    auto id = converter::detect_scene_format(path);
+    REQUIRE_MESSAGE(id.ok(), id.status().to_string());
+    CHECK(*id == c.id);
+    SceneReadOptions options;
+    options.hash_file = true;
+    const InputScene scene = read_ok(path, options);
+    CHECK(scene.format_id == c.id);
+    CHECK(scene.storage_format == c.storage);
+    CHECK(scene.cloud.size() == expected);
+    CHECK(scene.declared_vertices == expected);
+    CHECK(scene.file_bytes == fs::file_size(path));
+    CHECK(scene.file_xxh64.has_value());
+    // The content decides, whatever the name says.
+    const std::string renamed = tmp.file("scene_" + std::to_string(index++) + ".ply.txt");
+    fs::copy_file(path, renamed);
+    auto again = converter::detect_scene_format(renamed);
+    REQUIRE(again.ok());
+    CHECK(*again == c.id);
+    // A level of detail is refused for these formats.
+    SceneReadOptions lod;
+    lod.lod = 1;
+    CHECK(read_status(path, lod).code() == StatusCode::kInvalidArgument);
+  }
+  // The SPZ axes: kept as stored on request (converter/INTEROP.md), y and z then opposite.
+  const std::string spz = repo_path("tests/data/interop/guitar_256_splat_transform_v4.spz");
+  SceneReadOptions keep;
+  keep.convert_spz_frame = false;
+  const InputScene turned = read_ok(spz), kept = read_ok(spz, keep);
+  REQUIRE(turned.cloud.size() == kept.cloud.size());
+  CHECK(kept.cloud.means[0] == turned.cloud.means[0]);
+  CHECK(kept.cloud.means[1] == -turned.cloud.means[1]);
+  CHECK(kept.cloud.means[2] == -turned.cloud.means[2]);
+  CHECK_FALSE(kept.notes.empty());
+  // A file of 32-byte records that are not plausible Gaussians is not taken for .splat.
+  std::vector<uint8_t> noise(64, 0xff);
+  write_bytes(tmp.file("noise.splat"), noise);
+  const Status s = read_status(tmp.file("noise.splat"));
+  CHECK(s.code() == StatusCode::kInvalidArgument);
+  CHECK(s.message().find("unsupported format") != std::string::npos);
+  // A .rgs file is refused even when its size would suit .splat.
+  std::vector<uint8_t> rgs(64, 0);
+  std::copy(format::kMagic, format::kMagic + 8, rgs.begin());
+  write_bytes(tmp.file("scene.splat"), rgs);
+  const Status r = read_status(tmp.file("scene.splat"));
+  CHECK(r.code() == StatusCode::kInvalidArgument);
+  CHECK(r.message().find("a RoofGS .rgs file") != std::string::npos);
+}
+
+TEST_CASE("read_scene reads biker.spz (real scene)") {
+  const std::string path = shared_scene("biker.spz");
+  if (path.empty()) return;
+  auto id = converter::detect_scene_format(path);
+  REQUIRE(id.ok());
+  CHECK(*id == "spz");
+  const InputScene scene = read_ok(path);
+  CHECK(scene.cloud.size() == 152746);
+  CHECK(scene.format_id == "spz");
 }
 
 TEST_CASE("SOG: bundled (stored and deflated), folder and streamed forms decode like splat-transform") {

@@ -1,14 +1,14 @@
-// The roofline model of rgs-bench (tools/roofline_model.h) against values computed by hand from the formulas
+// The roofline model of rgs-bench (runtime/include/rgs/runtime/roofline_model.h) against values computed by hand from the formulas
 // of docs/ROOFLINE.md, so that a changed term shows up here.
 #include <doctest/doctest.h>
 
 #include <cstring>
 
-#include "roofline_model.h"
+#include "rgs/runtime/roofline_model.h"
 
 namespace {
 
-using namespace rgs::tools;
+using namespace rgs::runtime;
 
 const StageWork& stage(const FrameWork& w, RooflineStage s) { return w[s]; }
 

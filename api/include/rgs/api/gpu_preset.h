@@ -34,4 +34,8 @@ const std::vector<GpuMode>& gpu_modes();
 /// without them (the message says so).
 Result<runtime::GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_has_compact);
 
+/// True when rendering with `options` reads the scene's FP32 arrays (the baseline pipeline, or the RoofGS one
+/// without compact attributes): what runtime::GpuSceneOptions::fp32_attributes must be for it.
+bool reads_fp32_attributes(const runtime::GpuRenderOptions& options);
+
 }  // namespace rgs::api

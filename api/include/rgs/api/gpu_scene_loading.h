@@ -15,11 +15,13 @@ namespace rgs::api {
 /// A scene in device memory, with what the tools print about it.
 struct LoadedGpuScene {
   runtime::GpuScene scene;
-  /// .rgs: the file's metadata bounds; PLY: converter::compute_bounds (also given to the GpuScene).
+  /// .rgs: the file's metadata bounds; other formats: converter::compute_bounds (also given to the GpuScene).
   format::SceneBounds bounds;
   /// True for a .rgs input (then scene.has_compact()); sniffed by its magic or the .rgs extension.
   bool is_rgs = false;
   uint64_t file_bytes = 0;
+  /// The format in words, as HostScene::description.
+  std::string description;
 };
 
 /// Checks that a CUDA device can be used and makes `ordinal` current on the calling thread. Errors:
@@ -27,12 +29,13 @@ struct LoadedGpuScene {
 /// is out of range; kCudaError from cudaSetDevice.
 Status require_cuda_device(int ordinal = 0);
 
-/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open and
+/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open(read_options) and
 /// runtime::GpuScene::from_rgs(options) (sections uploaded as stored, no host decode; FP32 arrays only with
-/// options.fp32_attributes), otherwise a 3DGS PLY through converter::read_ply and GpuScene::from_cloud with
-/// converter::compute_bounds (FP32 only). Synchronous on `stream`. Errors name `path`.
+/// options.fp32_attributes), otherwise any format converter::read_scene detects (read_other_format, with
+/// read_options' max_gaussians) through GpuScene::from_cloud with converter::compute_bounds (FP32 only).
+/// Synchronous on `stream`. Errors name `path`.
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options = {},
-                                      cudaStream_t stream = nullptr);
+                                      cudaStream_t stream = nullptr, const format::ReadOptions& read_options = {});
 
 /// Uploads a replicate_scene_file() result (or any complete .rgs file in memory) onto the current device
 /// through format::RgsFile::from_bytes and GpuScene::from_rgs(options); `name` appears in errors. The bytes

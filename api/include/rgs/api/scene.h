@@ -15,6 +15,7 @@
 #include "rgs/converter/quantize.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/status.h"
 
 namespace rgs::runtime {
@@ -45,11 +46,14 @@ struct LoadOptions {
   /// FP32 arrays (about 4× the bytes at SH degree 3). Rendering a preset not listed here may fail with
   /// kInvalidArgument. Ignored on the CPU.
   std::vector<Preset> presets = {Preset::kFastest};
-  /// Files other than .rgs (a 3DGS PLY): true quantizes them in memory with the converter's defaults (what
+  /// Files other than .rgs (any format converter::read_scene detects): true quantizes them in memory with the converter's defaults (what
   /// `rgs-convert in.ply out.rgs` writes, converter::QuantizeOptions{}), so that they render exactly as the
   /// converted file would and the GPU holds the compact profile; false keeps the PLY's float values (GPU:
   /// FP32 arrays only; the RoofGS presets then read FP32).
   bool quantize_other_formats = true;
+  /// Read limits: a .rgs file is opened with them (format::RgsFile::open); other formats are refused above
+  /// read_options.limits.max_gaussians (converter::read_scene).
+  format::ReadOptions read_options;
 };
 
 /// What load() produced.
@@ -92,9 +96,10 @@ class Scene {
   std::shared_ptr<const Impl> impl_;
 };
 
-/// Loads `path` (a .rgs file, or a 3DGS PLY through the converter) for `options.device`.
+/// Loads `path` (a .rgs file, or any format converter::read_scene detects: 3DGS PLY, PlayCanvas compressed
+/// PLY / SOG, SPZ, glTF, .splat) for `options.device`.
 /// - CUDA, .rgs: sections uploaded as stored (runtime::GpuScene::from_rgs), FP32 arrays only when a listed
-///   preset reads them; CUDA, PLY: quantized in memory then uploaded the same way (or FP32, see options).
+///   preset reads them; CUDA, other formats: quantized in memory then uploaded the same way (or FP32, see options).
 /// - CPU: the dequantized float Gaussians (the values the GPU's compact reads produce).
 /// Synchronous (the upload is complete on return).
 /// @return errors naming `path`: kIoError, kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded,
@@ -118,7 +123,7 @@ struct ConvertOptions {
 
 /// What convert() did.
 struct ConvertReport {
-  /// "ply->rgs" or "rgs->ply".
+  /// "ply->rgs" (any input other than .rgs) or "rgs->ply".
   std::string direction;
   uint64_t gaussians = 0;
   uint32_t sh_degree = 0;
@@ -130,7 +135,7 @@ struct ConvertReport {
   converter::QuantizationReport quantization;
 };
 
-/// Converts `src` to `dst`: a 3DGS PLY to .rgs (read, quantize, write atomically; provenance records the
+/// Converts `src` to `dst`: a scene in any format converter::read_scene detects to .rgs (read, quantize, write atomically; provenance records the
 /// source and options), or a .rgs to a standard INRIA PLY (every checksum verified, dequantized). The
 /// direction follows `src` (is_rgs_path). A failed conversion leaves an existing `dst` untouched.
 /// @return kInvalidArgument (bad options, an unknown zstd section name), and the errors of reading `src` and

@@ -8,30 +8,42 @@
 
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/status.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/runtime/camera.h"
 
 namespace rgs::api {
 
 /// A scene in host memory: float Gaussians and their bounds.
 struct HostScene {
-  /// Activated float Gaussians (a PLY as read, or a .rgs dequantized: format::GaussianCloud's layout).
+  /// Activated float Gaussians (another format as read, or a .rgs dequantized: format::GaussianCloud's layout).
   format::GaussianCloud cloud;
-  /// .rgs: the file's metadata bounds; PLY: converter::compute_bounds.
+  /// .rgs: the file's metadata bounds; other formats: converter::compute_bounds.
   format::SceneBounds bounds;
   /// True when the input was a .rgs file (sniffed by its magic, not its extension).
   bool is_rgs = false;
   uint64_t file_bytes = 0;
+  /// "rgs", or converter::InputScene::format_id ("ply", "sog", "spz", ...).
+  std::string format_id;
+  /// The format in words ("RoofGS .rgs", "binary_little_endian PLY", "Niantic SPZ v4 ...").
+  std::string description;
 };
 
 /// True when `path` is to be read as a .rgs file: it starts with the .rgs magic or ends in .rgs (so a
 /// missing or truncated "x.rgs" still gets the .rgs reader's error).
 bool is_rgs_path(const std::string& path);
 
-/// Loads `path` into host memory: a .rgs file (RgsFile::open + read_scene + dequantize, checksums verified)
-/// when is_rgs_path(), otherwise a 3DGS PLY (converter::read_ply, invalid values rejected). Errors name
-/// `path`: kIoError, kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded, kOutOfMemory, ...
-Result<HostScene> load_host_scene(const std::string& path);
+/// Loads `path` into host memory: a .rgs file (RgsFile::open with `options` + read_scene + dequantize, checksums
+/// verified unless `options` says otherwise) when is_rgs_path(), otherwise any format converter::read_scene
+/// detects (3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .splat; invalid values rejected), refused
+/// above options.limits.max_gaussians. Errors name `path`: kIoError, kInvalidArgument (unsupported format),
+/// kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded, kOutOfMemory, ...
+Result<HostScene> load_host_scene(const std::string& path, const format::ReadOptions& options = {});
+
+/// converter::read_scene for a non-.rgs `path` with the limits of `options` (max_gaussians), invalid values
+/// rejected: the reading every loader of this library shares. Errors: those of read_scene.
+Result<converter::InputScene> read_other_format(const std::string& path, const format::ReadOptions& options = {});
 
 /// Largest Gaussian count a scene may have on the GPU (GpuScene and converter::replicate: 2^31 − 1).
 inline constexpr uint64_t kMaxGpuGaussians = 0x7fffffff;
@@ -54,11 +66,13 @@ struct ReplicatedScene {
 };
 
 /// Reads `path` and tiles it `copies` times with converter::replicate (a grid in the x–z plane). A .rgs
-/// source is replicated as stored; a PLY source is first quantized with the default QuantizeOptions (what
-/// `rgs-convert in.ply out.rgs` writes). For a .rgs file the count is checked from the header first.
+/// source (opened with `options`) is replicated as stored; a source in another format (read_other_format) is
+/// first quantized with the default QuantizeOptions (what `rgs-convert in.ply out.rgs` writes). For a .rgs
+/// file the count is checked from the header first.
 /// Errors: kInvalidArgument (copies 0), kLimitExceeded (copies × Gaussians > kMaxGpuGaussians, naming both
 /// numbers), those of reading `path` (which they name) and of quantizing/serializing.
-Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies);
+Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies,
+                                             const format::ReadOptions& options = {});
 
 /// Which views to render.
 struct CameraChoice {
@@ -77,7 +91,12 @@ struct CameraChoice {
 /// around `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0 cameras.
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
 
-/// `n` with thousands separators ("2,725,620,000"), as the tools print counts.
+/// `n` with thousands separators ("2,725,620,000"), as the tools print counts (the one copy: the tools use
+/// it too).
 std::string group_digits(uint64_t n);
+
+/// A view name usable as a file name: '/', '\\' and control characters replaced by '_'; "view_<i>" (three
+/// digits) if empty, "view_<i>" for "." and "..".
+std::string file_safe_name(const std::string& name, size_t index);
 
 }  // namespace rgs::api

@@ -23,6 +23,10 @@ struct SceneReadOptions {
   /// Level of detail of a streamed SOG (lod-meta.json): 0 is the finest. Unset reads LOD 0. Setting it for
   /// any other input is an error (kInvalidArgument), so a user's --lod is never silently ignored.
   std::optional<uint32_t> lod;
+  /// SPZ inputs: convert from the stored axes (RUB, or the frame a SPZ_ADOBE_coordinate_system extension
+  /// names) into RoofGS's RDF frame. False keeps the stored axes, for files whose writer skipped the
+  /// conversion (converter/INTEROP.md; InteropReadOptions::convert_frame). Other formats ignore it.
+  bool convert_spz_frame = true;
 };
 
 /// A scene read from any input format, and what was learned while reading it.
@@ -30,12 +34,14 @@ struct InputScene {
   /// Activated float Gaussians (GaussianCloud documents the layout).
   format::GaussianCloud cloud;
   InputHygiene hygiene;
-  /// Short identifier of the input format: "ply", "compressed_ply", "sog", "sog_bundle", "sog_lod".
+  /// Short identifier of the input format: "ply", "compressed_ply", "sog", "sog_bundle", "sog_lod", "spz",
+  /// "glb", "gltf", "splat".
   std::string format_id;
   /// The format in words for summaries, e.g. "binary_little_endian PLY", "PlayCanvas SOG v2 (bundled .sog)",
   /// "PlayCanvas streamed SOG, LOD 0 of 5 (8 chunks)".
   std::string description;
-  /// PLY inputs: the storage format of the `format` line ("binary_little_endian", ...). Others: format_id.
+  /// PLY inputs: the storage format of the `format` line ("binary_little_endian", ...). Others: format_id
+  /// (SPZ and glTF with their version: "spz v4", "glb v2").
   std::string storage_format;
   /// Bytes of every file read (meta files, images and chunks included) and how many files that was.
   uint64_t file_bytes = 0;
@@ -48,16 +54,24 @@ struct InputScene {
   /// sh0[, shN centroids, shN labels]); streamed SOG: lod-meta.json, the level's chunk meta.json files in
   /// file-index order, then each chunk's images in the same order. Else empty.
   std::optional<uint64_t> file_xxh64;
+  /// What the input said that the cloud cannot hold or that was ignored, and the frame conversion applied,
+  /// one sentence each (SPZ, glTF, .splat: InteropScene::notes); empty for the other formats.
+  std::vector<std::string> notes;
 };
 
 /// Reads the scene at `path`, detecting its format from its content (magic bytes, PLY header elements,
-/// JSON keys), never from its extension:
+/// JSON keys, file size), never from its extension:
 /// - 3DGS PLY (read_ply: INRIA layout or any property order; binary or ascii);
 /// - PlayCanvas compressed PLY (`chunk` + packed `vertex` [+ `sh`] elements);
 /// - PlayCanvas SOG: a meta.json (or the folder holding it) with its WebP images, v2 (codebooks) or the
 ///   earlier unversioned layout; a bundled `.sog` (ZIP of meta.json and the images, stored or deflated);
 /// - PlayCanvas streamed SOG: a lod-meta.json (or the folder holding it) and its chunk folders; one level of
-///   detail is read (SceneReadOptions::lod, default 0).
+///   detail is read (SceneReadOptions::lod, default 0);
+/// - Niantic SPZ v2-v4 (read_spz; frame converted unless SceneReadOptions::convert_spz_frame is false);
+/// - KHR_gaussian_splatting glTF, binary (.glb) or JSON (.gltf) with its buffers (read_gltf);
+/// - antimatter15 .splat (read_splat), tried last: the format has no signature, so a file is taken as .splat
+///   only when no other detector matched and looks_like_splat accepts its size and first records.
+/// The order of the checks: PLY family, .rgs refusal, SOG family, SPZ, glTF, .splat.
 /// A directory is read through the lod-meta.json or meta.json it contains.
 /// Errors name `path` and the cause: kInvalidArgument "unsupported format: <what it looks like>; supported:
 /// <list>" for other content (.rgs files included: read those with format::RgsFile), and for a lod given
@@ -70,6 +84,11 @@ Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& o
 /// kInvalidArgument "unsupported format" error (kIoError when `path` cannot be read). Reads only the start
 /// of the file (and a JSON file whole).
 Result<std::string> detect_scene_format(const std::string& path);
+
+/// Drops the SH bands of `cloud` above `degree` (a no-op when the cloud's degree is not above it), keeping
+/// the lower coefficients bit for bit: what `rgs-convert --sh-degree N` does before writing any output.
+/// Errors: kInvalidArgument for `degree` above 3 or an inconsistent cloud; kOutOfMemory.
+Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree);
 
 /// One line per supported input format, for help texts: "3DGS PLY (.ply)", ...
 std::vector<std::string> supported_scene_formats();
