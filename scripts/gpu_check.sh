@@ -81,7 +81,7 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     note "bench_$name: exit $rc in $(( $(date +%s) - t0 )) s"
   }
   bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10
-  bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10
+  bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 --front-door
   # 542,104 x 4 = 2,168,416 Gaussians (converter::replicate, compact attributes kept); fewer repetitions.
   bench daffodils_x4 "$daffodils" --replicate 4 --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 3 --repeat 5
   # 38,347 x 53 = 2,032,391 Gaussians seen from flowers' own cameras (its neighbours fill the background).
@@ -97,7 +97,7 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     # and 8K.
     bench taebak "$taebak" --cameras "$taebak_cameras" --resolution 1920x1080 "${modes[@]}" --warmup 3 --repeat 5
     bench taebak_4k "$taebak" --cameras "$taebak_cameras" --resolution 3840x2160 "${ablation[@]}" --warmup 3 \
-      --repeat 5
+      --repeat 5 --front-door
     bench taebak_8k "$taebak" --cameras "$taebak_cameras" --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3
     names+=(taebak taebak_4k taebak_8k)
   fi

@@ -36,6 +36,8 @@
 #include "cli_common.h"
 #include "read_limits_option.h"
 #include "rgs/api/gpu_preset.h"
+#include "rgs/api/renderer.h"
+#include "rgs/api/scene.h"
 #include "rgs/api/gpu_scene_loading.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
@@ -81,6 +83,7 @@ struct Options {
   uint32_t replicate = 1;
   int device = 0;
   std::string json_path;
+  bool front_door = false;
 };
 
 constexpr int kStages = 5;
@@ -361,6 +364,72 @@ std::string format_time(const char* pattern, bool utc) {
 
 /// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
 /// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
+/// One way of rendering a frame for the front-door comparison: ms per frame, host wall clock from the call to
+/// the device's completion (each path waits once per frame for its pair count anyway).
+struct FrontDoorRow {
+  std::string path;
+  std::string resolution;
+  double median_ms = 0;
+};
+
+/// The front door (api::Renderer, preset fastest, into a caller buffer on the caller's stream) against the
+/// expert path (runtime::GpuRenderer with roofgs+'s options into its own DeviceImage), the same views and
+/// frames, interleaved per frame so that clocks and caches treat both alike.
+Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const api::LoadedGpuScene& expert_scene,
+                                                      const std::vector<CameraSet>& sets,
+                                                      runtime::GpuRenderer& renderer) {
+  api::LoadOptions load;
+  load.device = api::Device::kCuda;
+  load.cuda_device = opt.device;
+  load.presets = {api::Preset::kFastest};
+  load.read_options = tools::read_options();
+  RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
+  RGS_ASSIGN_OR_RETURN(api::Renderer front, api::Renderer::create(api::Device::kCuda, opt.device));
+  RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions expert_options,
+                       api::gpu_mode_options("roofgs+", expert_scene.scene.has_compact()));
+  std::vector<FrontDoorRow> rows;
+  runtime::DeviceImage image;
+  for (const CameraSet& set : sets) {
+    const runtime::Camera& first = set.cameras.front();
+    runtime::DeviceBuffer<uint8_t> buffer;
+    RGS_RETURN_IF_ERROR(buffer.reserve(size_t(first.width) * first.height * 16, "front-door target"));
+    const api::PixelFormat formats[2] = {api::PixelFormat::kRgba32f, api::PixelFormat::kRgba8};
+    std::vector<float> samples[3];
+    for (uint32_t round = 0; round < opt.warmup + opt.repeat; ++round) {
+      for (const runtime::Camera& cam : set.cameras) {
+        for (int path = 0; path < 3; ++path) {
+          const auto t0 = std::chrono::steady_clock::now();
+          if (path == 0) {
+            RGS_ASSIGN_OR_RETURN(runtime::GpuRenderStats stats, renderer.render(expert_scene.scene, cam,
+                                                                                 expert_options, &image));
+            (void)stats;
+          } else {
+            api::ImageTarget target;
+            target.width = cam.width;
+            target.height = cam.height;
+            target.format = formats[path - 1];
+            target.color = buffer.data();
+            target.color_pitch = size_t(cam.width) * api::bytes_per_pixel(target.format);
+            RGS_ASSIGN_OR_RETURN(api::FrameStats stats, front.render(scene, cam, api::RenderSettings{}, target,
+                                                                     nullptr));
+            (void)stats;
+          }
+          const cudaError_t synced = cudaDeviceSynchronize();
+          RGS_RETURN_ERROR_IF(synced != cudaSuccess, StatusCode::kCudaError,
+                              std::string("cudaDeviceSynchronize: ") + cudaGetErrorString(synced));
+          const float ms = float(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                                     .count());
+          if (round >= opt.warmup) samples[path].push_back(ms);
+        }
+      }
+    }
+    const char* names[3] = {"GpuRenderer roofgs+ (own image)", "api fastest, caller RGBA32F",
+                            "api fastest, caller RGBA8"};
+    for (int path = 0; path < 3; ++path) rows.push_back({names[path], set.label, summarize(samples[path]).median});
+  }
+  return rows;
+}
+
 Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::ReplicatedScene* replicated, bool fp32) {
   runtime::GpuSceneOptions scene_options;
   scene_options.fp32_attributes = fp32;
@@ -447,6 +516,13 @@ int run(const Options& opt) {
   }
   std::vector<RunRoofline> rooflines;
   for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene->scene, roofs));
+  std::vector<FrontDoorRow> front_door;
+  if (opt.front_door && opt.replicate <= 1) {
+    std::fprintf(stderr, "front door against GpuRenderer: %u warm-up + %u rounds ...\n", opt.warmup, opt.repeat);
+    auto rows = compare_front_door(opt, *scene, *sets, *renderer);
+    if (!rows.ok()) return tools::report_error(kTool, Status(rows.status()).prepend("--front-door"));
+    front_door = std::move(rows).value();
+  }
 
   // Table.
   std::printf("%s %s\n", kTool, opt.input.c_str());
@@ -498,6 +574,13 @@ int run(const Options& opt) {
     }
   }
 
+  if (!front_door.empty()) {
+    std::printf("  front door       ms per frame, host wall clock to device completion, median (same views, "
+                "interleaved)\n");
+    for (const FrontDoorRow& r : front_door) {
+      std::printf("  %-34s %-10s %8s\n", r.path.c_str(), r.resolution.c_str(), tools::fixed(r.median_ms, 3).c_str());
+    }
+  }
   if (!opt.json_path.empty()) {
     nlohmann::json j;
     j["tool"] = kTool;
@@ -572,6 +655,9 @@ int run(const Options& opt) {
                       {"per_view", views}});
     }
     j["results"] = runs;
+    for (const FrontDoorRow& r : front_door) {
+      j["front_door"].push_back({{"path", r.path}, {"resolution", r.resolution}, {"median_ms", r.median_ms}});
+    }
     const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
     Status st = outputs.write(opt.json_path, text.data(), text.size());
     if (!st.ok()) return tools::report_error(kTool, st);
@@ -628,6 +714,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
+  app.add_flag("--front-door", opt.front_door,
+               "Also time the front door (api::Renderer, preset fastest, into a caller RGBA32F and RGBA8 buffer) "
+               "against GpuRenderer with roofgs+'s options, per frame, same views (needs --replicate 1)");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   try {

@@ -239,7 +239,7 @@ Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& op
   const uint32_t rest = k_count - 1;
   format::GaussianCloud* cloud = &scene.cloud;
   const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
-  detail::parallel_slices(n, workers, [&](unsigned, uint64_t begin, uint64_t end) {
+  RGS_RETURN_IF_ERROR(detail::parallel_slices(n, workers, [&](unsigned, uint64_t begin, uint64_t end) {
     for (uint64_t i = begin; i < end; ++i) {
       const ChunkBounds& b = bounds[static_cast<size_t>(i / kGaussiansPerChunk)];
       const uint8_t* row = data + vertex.offset + i * vertex.stride;
@@ -294,7 +294,7 @@ Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& op
         }
       }
     }
-  });
+  }));
 
   scene.format_id = "compressed_ply";
   scene.storage_format = "binary_little_endian";

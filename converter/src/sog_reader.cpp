@@ -540,7 +540,7 @@ Status decode_chunk(ChunkJob* job, unsigned workers, format::GaussianCloud* clou
   std::vector<Status> errors(kImageSlots);
   std::vector<uint64_t> sizes(kImageSlots, 0), hashes(kImageSlots, 0);
   const unsigned image_workers = std::min<unsigned>(workers, static_cast<unsigned>(slots.size()));
-  detail::parallel_items(slots.size(), image_workers, [&](unsigned, uint64_t item) {
+  RGS_RETURN_IF_ERROR(detail::parallel_items(slots.size(), image_workers, [&](unsigned, uint64_t item) {
     const size_t slot = slots[item];
     std::vector<uint8_t> bytes;
     Status s = job->files->read(meta.files[slot], &bytes);
@@ -551,7 +551,7 @@ Status decode_chunk(ChunkJob* job, unsigned workers, format::GaussianCloud* clou
                                    &images.image[slot]);
     }
     errors[slot] = std::move(s);
-  });
+  }));
   for (size_t slot : slots) RGS_RETURN_IF_ERROR(errors[slot]);
   for (size_t slot : slots) {
     job->bytes_read += sizes[slot];
@@ -582,9 +582,9 @@ Status decode_chunk(ChunkJob* job, unsigned workers, format::GaussianCloud* clou
   const uint64_t n = total_count(job->ranges);
   const unsigned expand_workers = std::min(workers, detail::worker_count(n, kMinGaussiansPerWorker));
   std::vector<Status> slice_errors(std::max(1u, expand_workers));
-  detail::parallel_slices(n, expand_workers, [&](unsigned slice, uint64_t begin, uint64_t end) {
+  RGS_RETURN_IF_ERROR(detail::parallel_slices(n, expand_workers, [&](unsigned slice, uint64_t begin, uint64_t end) {
     slice_errors[slice] = expand_gaussians(*job, images, tables, begin, end, cloud);
-  });
+  }));
   for (Status& s : slice_errors) RGS_RETURN_IF_ERROR(s);
   return Status();
 }
@@ -919,9 +919,9 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
   // With fewer chunks than threads, each chunk also decodes its images and expands in parallel.
   const unsigned busy = static_cast<unsigned>(std::max<size_t>(1, std::min<size_t>(jobs.size(), threads)));
   const unsigned inner = std::max(1u, threads / busy);
-  detail::parallel_items(jobs.size(), workers, [&](unsigned, uint64_t item) {
+  RGS_RETURN_IF_ERROR(detail::parallel_items(jobs.size(), workers, [&](unsigned, uint64_t item) {
     errors[item] = decode_chunk(&jobs[item], inner, &scene.cloud);
-  });
+  }));
   for (Status& s : errors) RGS_RETURN_IF_ERROR(s);
   for (const ChunkJob& job : jobs) {
     scene.file_bytes += job.bytes_read;
