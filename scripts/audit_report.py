@@ -193,7 +193,10 @@ def candidate_section(doc, i, c, base_dir):
         out.append("<table><tr><th>attribute error</th><th>max</th><th>rms</th><th>unit</th></tr>")
         out.append(stats_row("position", e["position_scene_units"], "scene units"))
         out.append(stats_row("rotation", e["rotation_deg"], "degrees"))
-        out.append(stats_row("scale", e["scale_relative"], "relative"))
+        if "scale_of_largest_axis" in e:  # reports before it existed show the per-axis relative error
+            out.append(stats_row("scale", e["scale_of_largest_axis"], "of the Gaussian's largest axis"))
+        else:
+            out.append(stats_row("scale", e["scale_relative"], "relative"))
         out.append(stats_row("opacity", e["opacity"], "absolute"))
         for d in e["sh"]:
             out.append(stats_row(f"SH degree {d['degree']}", d["error"], "absolute"))

@@ -193,7 +193,7 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
     pos.rms *= 1000;
     row("position x1000", pos, "scene units x 1000 (mm if the scene is metric)");
     row("rotation", e.rotation_deg, "degrees");
-    row("scale", e.scale_relative, "relative");
+    row("scale", e.scale_of_largest_axis, "of the Gaussian's largest axis");
     row("opacity", e.opacity, "absolute");
     for (uint32_t d = 0; d <= c.scene.sh_degree && d < 4; ++d) {
       row("SH degree " + std::to_string(d), e.sh[d], "absolute (all channels)");

@@ -59,6 +59,7 @@ json attributes_json(const AttributeReport& a, uint32_t degree) {
   return {{"position_scene_units", stats_json(a.errors.position)},
           {"rotation_deg", stats_json(a.errors.rotation_deg)},
           {"scale_relative", stats_json(a.errors.scale_relative)},
+          {"scale_of_largest_axis", stats_json(a.errors.scale_of_largest_axis)},
           {"opacity", stats_json(a.errors.opacity)},
           {"sh", sh}};
 }
