@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs dependencies, builds everything (CUDA parts only when nvcc is found) and runs the whole test
-# suite with CTest, one line per test as it finishes. Extra arguments are CMake arguments for the build. GPU tests report "skipped: no CUDA device" on machines without a GPU. Tests on the
+# suite with CTest, one line per test as it finishes. Extra arguments are CMake arguments for the build. GPU
+# tests report "skipped: no CUDA device" on machines without a GPU. Tests on the
 # real scenes that are not shipped look in $RGS_DATA_DIR (default ../shared/data) and are skipped
 # visibly when it is absent.
 set -euo pipefail

@@ -99,13 +99,17 @@ void start_writeback(int fd, uint64_t offset, size_t size) {
 // --- Temporaries an interrupt must remove ------------------------------------------------------------------
 //
 // A fixed table of C strings that a signal handler can walk without locks or allocation. A slot holds a path
-// from strdup() while its temporary exists. A path is freed on removal from the table only if no handler has
-// started walking it (g_walking): a handler on another thread may still be reading it otherwise.
+// from strdup() while its temporary exists. A path is freed on removal from the table only while no handler is
+// walking the table (g_walkers): a handler on another thread may still be reading it otherwise. A walker counts
+// itself in before it loads any slot, and a removal empties its slot before it looks at the count, so a walker
+// that starts after the check can no longer see the path (sequentially consistent atomics).
 
 constexpr size_t kMaxTemporaries = size_t{1} << 16;
 std::atomic<char*> g_temporaries[kMaxTemporaries];
 std::atomic<size_t> g_temporaries_used{0};  ///< slots at or above this index were never used
-std::atomic<bool> g_walking{false};
+std::atomic<int> g_walkers{0};
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<char*>::is_always_lock_free,
+              "signal handlers may only touch lock-free atomics");
 std::mutex g_temporaries_mutex;
 
 /// Registers `path`; returns its slot, or kMaxTemporaries when the table is full (or out of memory).
@@ -127,7 +131,7 @@ size_t register_temporary(const std::string& path) {
 void unregister_temporary(size_t slot) {
   if (slot >= kMaxTemporaries) return;
   char* path = g_temporaries[slot].exchange(nullptr);
-  if (path != nullptr && !g_walking.load()) std::free(path);
+  if (path != nullptr && g_walkers.load() == 0) std::free(path);
 }
 
 bool is_registered_temporary(const std::string& path) {
@@ -650,12 +654,13 @@ Status OutputSet::commit() {
 bool OutputSet::has_output(const std::string& path) const { return state_->find(path) != nullptr; }
 
 void remove_pending_temporaries() noexcept {
-  g_walking.store(true);
+  g_walkers.fetch_add(1);
   const size_t used = g_temporaries_used.load();
   for (size_t i = 0; i < used && i < kMaxTemporaries; ++i) {
     const char* path = g_temporaries[i].load();
     if (path != nullptr) ::unlink(path);
   }
+  g_walkers.fetch_sub(1);
 }
 
 }  // namespace rgs::format
