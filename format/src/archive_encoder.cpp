@@ -51,6 +51,9 @@ Status check_options(const ArchiveOptions& o) {
                      " outside 1..127");
     }
   }
+  if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
+    return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
+  }
   if (o.zstd_level < 1 || o.zstd_level > ZSTD_maxCLevel()) {
     return invalid("zstd level " + std::to_string(o.zstd_level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
   }
@@ -206,6 +209,187 @@ Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, cons
   std::vector<float> params(4);
   for (int d = 0; d < 4; ++d) params[d] = static_cast<float>(o.sh_step_multipliers[d]);
   return finish_quantized(detail::QuantizedTransform::kShMultiplier, 8, values, params, codes, o.zstd_level, out);
+}
+
+/// One cell of the SH codebook's splitting tree: Gaussians ids[begin, end) and the exact integer sums of
+/// their rest values (so every statistic, hence the tree, is the same whatever the thread count).
+struct ShCell {
+  uint32_t begin = 0, end = 0;
+  int32_t left = -1, right = -1;  ///< children (node indices), -1 for a leaf
+  double sse = 0;                 ///< weighted squared error of the cell around its mean
+  uint32_t split_dim = 0;
+};
+
+/// §3.3.3 Builds the SH codebook: a variance-splitting tree over the per-Gaussian rest vectors (runtime i8
+/// values, each dimension weighted by its dequantization step squared, so the error is the real SH
+/// error, and each Gaussian by an integer importance). The cell of largest error is split first, on its
+/// dimension of largest error, at the weighted mean; the leaves are the entries, numbered depth first so
+/// that similar entries get near indices. Entries are the rounded weighted leaf means; every Gaussian
+/// takes its leaf's index. Cost O(N R log K), single-threaded (it runs beside the other sections); all
+/// sums are integers, so the tree does not depend on evaluation order.
+struct ShCodebook {
+  std::vector<int8_t> entries;   ///< [K, R]
+  std::vector<uint16_t> index;   ///< [N] entry of each Gaussian (output order)
+};
+
+ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, uint32_t target_size) {
+  const uint64_t n = s.count;
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
+  // Rest vectors in output order, contiguous (better locality than gathering through `order`).
+  std::vector<int8_t> v(static_cast<size_t>(n * rest));
+  for (uint64_t i = 0; i < n; ++i) std::memcpy(&v[i * rest], &s.sh[order[i] * values + 3], rest);
+  std::vector<double> weight(rest);
+  for (uint32_t j = 0; j < rest; ++j) {
+    const double step = s.metadata.sh_quantization.scales[sh_degree_of_coefficient(1 + j / 3)][j % 3];
+    weight[j] = step * step;
+  }
+  // Importance of each Gaussian: opacity x (scale product)^(2/3), a proxy of the screen area it covers,
+  // as an integer weight 1..4096 relative to the mean (integers keep the sums exact).
+  std::vector<uint32_t> wt(static_cast<size_t>(n));
+  {
+    const bool log = s.metadata.scale_encoding == ScaleEncoding::kLog;
+    std::vector<double> imp(static_cast<size_t>(n));
+    double total = 0;
+    for (uint64_t i = 0; i < n; ++i) {
+      const uint64_t src = order[i];
+      double ln_volume = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double v = half_bits_to_float(s.scales[src * 3 + a]);
+        ln_volume += log ? v : std::log(std::max(v, 1e-30));
+      }
+      imp[i] = half_bits_to_float(s.opacities[src]) * std::exp(2.0 / 3.0 * ln_volume);
+      total += imp[i];
+    }
+    const double unit = total > 0 ? 64.0 * static_cast<double>(n) / total : 0;
+    for (uint64_t i = 0; i < n; ++i) wt[i] = static_cast<uint32_t>(std::clamp(std::floor(imp[i] * unit + 0.5), 1.0, 4096.0));
+  }
+  std::vector<uint32_t> ids(static_cast<size_t>(n));
+  for (uint64_t i = 0; i < n; ++i) ids[i] = static_cast<uint32_t>(i);
+  std::vector<ShCell> cells;
+  const size_t stride = 2 * size_t{rest} + 1;
+  std::vector<int64_t> sums;  // [cells, 2R + 1]: weighted sum and sum of squares per dimension, total weight
+  cells.reserve(2 * size_t{target_size});
+  sums.reserve(2 * size_t{target_size} * stride);
+  auto finish_cell = [&](size_t c) {
+    const int64_t* sm = &sums[c * stride];
+    const double count = static_cast<double>(sm[2 * rest]);
+    double total = 0, best = -1;
+    for (uint32_t j = 0; j < rest; ++j) {
+      const double e = weight[j] * (static_cast<double>(sm[rest + j]) - static_cast<double>(sm[j]) * sm[j] / count);
+      total += e;
+      if (e > best) best = e, cells[c].split_dim = j;
+    }
+    cells[c].sse = total;
+  };
+  auto add_cell = [&](uint32_t begin, uint32_t end) {
+    cells.push_back(ShCell{begin, end});
+    sums.resize(cells.size() * stride, 0);
+    return cells.size() - 1;
+  };
+  auto accumulate = [&](size_t c) {
+    int64_t* sm = &sums[c * stride];
+    for (uint32_t p = cells[c].begin; p < cells[c].end; ++p) {
+      const int8_t* x = &v[size_t{ids[p]} * rest];
+      const int64_t w = wt[ids[p]];
+      for (uint32_t j = 0; j < rest; ++j) {
+        sm[j] += w * x[j];
+        sm[rest + j] += w * (x[j] * x[j]);
+      }
+      sm[2 * rest] += w;
+    }
+  };
+  accumulate(add_cell(0, static_cast<uint32_t>(n)));
+  finish_cell(0);
+  // Max-heap on (error, -node): ties go to the older node, so the order is fully determined.
+  auto less = [&](uint32_t a, uint32_t b) { return cells[a].sse < cells[b].sse || (cells[a].sse == cells[b].sse && a > b); };
+  std::vector<uint32_t> heap = {0};
+  uint32_t leaves = 1;
+  while (leaves < target_size && !heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end(), less);
+    const uint32_t c = heap.back();
+    heap.pop_back();
+    if (!(cells[c].sse > 0)) break;  // every remaining cell holds one repeated vector
+    const uint32_t j = cells[c].split_dim, begin = cells[c].begin, end = cells[c].end;
+    const int64_t sum = sums[size_t{c} * stride + j];
+    const int64_t count = sums[size_t{c} * stride + 2 * rest];
+    // x <= weighted mean  <=>  x * total weight <= weighted sum: exact in integers.
+    const uint32_t* mid = std::partition(ids.data() + begin, ids.data() + end, [&](uint32_t id) {
+      return int64_t{v[size_t{id} * rest + j]} * count <= sum;
+    });
+    const uint32_t split = static_cast<uint32_t>(mid - ids.data());
+    if (split == begin || split == end) continue;  // cannot happen with a positive variance; stay a leaf
+    const size_t l = add_cell(begin, split), r = add_cell(split, end);
+    cells[c].left = static_cast<int32_t>(l);
+    cells[c].right = static_cast<int32_t>(r);
+    // Sum the smaller child, the other is the parent minus it (exact).
+    const size_t small = split - begin <= end - split ? l : r, large = small == l ? r : l;
+    accumulate(small);
+    for (size_t k = 0; k < stride; ++k) sums[large * stride + k] = sums[size_t{c} * stride + k] - sums[small * stride + k];
+    for (size_t child : {l, r}) {
+      finish_cell(child);
+      heap.push_back(static_cast<uint32_t>(child));
+      std::push_heap(heap.begin(), heap.end(), less);
+    }
+    ++leaves;
+  }
+  ShCodebook book;
+  book.entries.reserve(size_t{leaves} * rest);
+  book.index.resize(static_cast<size_t>(n));
+  std::vector<uint32_t> stack = {0};
+  while (!stack.empty()) {
+    const uint32_t c = stack.back();
+    stack.pop_back();
+    if (cells[c].left >= 0) {
+      stack.push_back(static_cast<uint32_t>(cells[c].right));
+      stack.push_back(static_cast<uint32_t>(cells[c].left));
+      continue;
+    }
+    const uint16_t e = static_cast<uint16_t>(book.entries.size() / rest);
+    const int64_t count = sums[size_t{c} * stride + 2 * rest];
+    for (uint32_t j = 0; j < rest; ++j) {
+      // Round half away from zero; a mean of values in [-127, 127] stays in it.
+      const int64_t sm = sums[size_t{c} * stride + j];
+      const int64_t q = sm >= 0 ? (2 * sm + count) / (2 * count) : -((-2 * sm + count) / (2 * count));
+      book.entries.push_back(static_cast<int8_t>(q));
+    }
+    for (uint32_t p = cells[c].begin; p < cells[c].end; ++p) book.index[ids[p]] = e;
+  }
+  return book;
+}
+
+/// §3.3.3 The sh section with transform 5: codebook entries, DC codes, index planes in one zstd frame.
+Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                          std::vector<uint8_t>* out) {
+  const uint64_t n = s.count;
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
+  const ShCodebook book = build_sh_codebook(s, order, static_cast<uint32_t>(std::min<uint64_t>(o.sh_codebook_size, n)));
+  const uint64_t k = book.entries.size() / rest;
+  uint32_t bits = 1;
+  while ((uint64_t{1} << bits) < k) ++bits;
+  const uint32_t width = bits <= 8 ? 1 : 2;
+  std::vector<uint8_t> frame(static_cast<size_t>(k * rest + n * (3 + width)));
+  std::memcpy(frame.data(), book.entries.data(), book.entries.size());
+  uint8_t* dc = frame.data() + k * rest;
+  uint8_t* index = dc + n * 3;
+  const int m = static_cast<int>(o.sh_step_multipliers[0]);
+  const int limit = 127 / m;
+  for (uint64_t i = 0; i < n; ++i) {
+    for (uint32_t c = 0; c < 3; ++c) {
+      const int q = s.sh[order[i] * values + c];
+      const int code = std::min((std::abs(q) + m / 2) / m, limit);
+      dc[i * 3 + c] = static_cast<uint8_t>(static_cast<int8_t>(q < 0 ? -code : code));
+    }
+    index[i] = static_cast<uint8_t>(book.index[i]);
+    if (width == 2) index[n + i] = static_cast<uint8_t>(book.index[i] >> 8);
+  }
+  out->assign(detail::kQuantizedHeaderSize + 8, 0);
+  (*out)[0] = static_cast<uint8_t>(detail::QuantizedTransform::kShCodebook);
+  (*out)[1] = static_cast<uint8_t>(bits);
+  detail::store_u16_le(out->data() + 2, 1);
+  detail::store_u32_le(out->data() + 4, values);
+  detail::store_f32_le(out->data() + 8, static_cast<float>(m));
+  detail::store_u32_le(out->data() + 12, static_cast<uint32_t>(k));
+  return compress_frame(frame, o.zstd_level, out);
 }
 
 struct QuantKey {
@@ -395,7 +579,11 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     d.metadata.bounds = bounds_of(d.means);
     const std::vector<uint64_t>& order = out.source_index;
     std::vector<std::function<Status()>> jobs = {
-        [&] { return encode_sh(scene, order, options, &out.stored[4]); },
+        [&] {
+          return scene.metadata.sh_degree > 0 && options.sh_codebook_size > 0
+                     ? encode_sh_codebook(scene, order, options, &out.stored[4])
+                     : encode_sh(scene, order, options, &out.stored[4]);
+        },
         [&] { return encode_rotations(scene, order, options, &out.stored[1]); },
         [&] { return encode_scales(scene, order, options, &out.stored[2]); },
         [&] { return encode_opacities(scene, order, options, &out.stored[3]); },
