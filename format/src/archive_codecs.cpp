@@ -28,7 +28,7 @@ namespace {
 constexpr uint8_t kDracoMagic[5] = {'D', 'R', 'A', 'C', 'O'};
 constexpr size_t kDracoHeaderSize = 11;
 
-uint32_t code_width(uint32_t bits) { return bits <= 8 ? 1 : 2; }
+uint32_t code_width(uint32_t bits) { return (bits + 7) / 8; }
 
 /// Expected transform, component count and parameter count of a quantized section (§3.3.2 table).
 bool quantized_layout(SectionId id, uint32_t components, QuantizedTransform* transform, uint32_t* params) {
@@ -42,7 +42,9 @@ bool quantized_layout(SectionId id, uint32_t components, QuantizedTransform* tra
 }
 
 uint32_t read_code(const uint8_t* plane, uint32_t width, uint64_t n, uint64_t i) {
-  return width == 1 ? plane[i] : static_cast<uint32_t>(plane[i]) | static_cast<uint32_t>(plane[n + i]) << 8;
+  uint32_t code = 0;
+  for (uint32_t b = 0; b < width; ++b) code |= static_cast<uint32_t>(plane[b * n + i]) << (8 * b);
+  return code;
 }
 
 }  // namespace
@@ -141,7 +143,7 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
   const bool codebook = id == SectionId::kSh && h->transform == QuantizedTransform::kShCodebook;
   if (codebook) {
     want = QuantizedTransform::kShCodebook;
-    want_params = 1;
+    want_params = 4;
     RGS_RETURN_ERROR_IF(components < 12, StatusCode::kCorruptData,
                         "SH codebook transform on a " + dec(components) + "-value section (needs SH degree >= 1)");
   }
@@ -150,8 +152,8 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
                           (id == SectionId::kSh ? " or 5" : "") + " for section " + section_name(id));
   const bool sh = want == QuantizedTransform::kShMultiplier;
   if (codebook) {
-    RGS_RETURN_ERROR_IF(h->bits < 1 || h->bits > 16, StatusCode::kCorruptData,
-                        "SH codebook index bits " + dec(h->bits) + " outside 1..16");
+    RGS_RETURN_ERROR_IF(h->bits < 1 || h->bits > 24, StatusCode::kCorruptData,
+                        "SH codebook index bits " + dec(h->bits) + " outside 1..24");
   } else {
     RGS_RETURN_ERROR_IF(sh ? h->bits != 8 : (h->bits < 4 || h->bits > 16), StatusCode::kCorruptData,
                         "quantized code bits " + dec(h->bits) + " outside " + (sh ? "8..8" : "4..16"));
@@ -176,17 +178,14 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
     }
   }
   if (codebook) {
-    const float m = h->params[0];
-    RGS_RETURN_ERROR_IF(!(m >= 1.0f && m <= 127.0f && m == std::floor(m)), StatusCode::kCorruptData,
-                        "SH DC step multiplier is not an integer in 1..127");
-    h->codebook_size = load_u32_le(src + kQuantizedHeaderSize + 4);
+    h->codebook_size = load_u32_le(src + kQuantizedHeaderSize + 4 * size_t{h->param_count});
     RGS_RETURN_ERROR_IF(h->codebook_size < 1 || h->codebook_size > (uint64_t{1} << h->bits) ||
                             h->codebook_size > n,
                         StatusCode::kCorruptData,
                         "SH codebook of " + dec(h->codebook_size) + " entries: expected 1..min(2^" + dec(h->bits) +
                             ", N = " + dec(n) + ")");
   }
-  if (sh) {
+  if (sh || codebook) {
     for (int d = 0; d < 4; ++d) {
       const float m = h->params[d];
       RGS_RETURN_ERROR_IF(!(m >= 1.0f && m <= 127.0f && m == std::floor(m)), StatusCode::kCorruptData,
@@ -196,8 +195,8 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
   uint64_t codes = 0;
   bool fits = false;
   if (codebook) {
-    // K entries of C - 3 rest values, N x 3 DC codes, N indices of w bytes. K <= N and C >= 12, so this
-    // is at most N x (C + 2) <= 1.17 x the raw size (§3.3.3).
+    // K entries of C - 3 rest codes, N x 3 DC codes, N indices of w bytes. K <= N and C >= 12, so this
+    // is at most N x (C + 3) <= 1.25 x the raw size (§3.3.3).
     uint64_t entries = 0, per_gaussian = 3 + code_width(h->bits);
     fits = checked_mul(h->codebook_size, components - 3, &entries) && checked_mul(n, per_gaussian, &codes) &&
            checked_add(codes, entries, &codes);
@@ -305,11 +304,17 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
       const uint8_t* entries = codes.data();
       const uint8_t* dc = entries + k * rest;
       const uint8_t* index = dc + n * 3;
+      // Entries decode in place of their codes: value = code x m[deg] (checked like transform 4's codes).
+      std::vector<uint8_t>& book = codes;
       for (uint64_t e = 0; e < k * rest; ++e) {
-        if (entries[e] == 0x80) {
-          return Status(StatusCode::kCorruptData, "SH codebook entry " + dec(e / rest) + ": value " +
-                                                      dec(e % rest) + " is -128");
+        const uint32_t j = static_cast<uint32_t>(e % rest);
+        const int q = static_cast<int8_t>(book[e]) * static_cast<int>(h.params[sh_degree_of_coefficient(1 + j / 3)]);
+        if (q < -127 || q > 127) {
+          return Status(StatusCode::kCorruptData, "SH codebook entry " + dec(e / rest) + ": code " +
+                                                      std::to_string(static_cast<int8_t>(book[e])) + " of value " + dec(j) +
+                                                      " is out of range");
         }
+        book[e] = static_cast<uint8_t>(static_cast<int8_t>(q));
       }
       const int m = static_cast<int>(h.params[0]);
       for (uint64_t i = 0; i < n; ++i) {

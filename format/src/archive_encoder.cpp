@@ -18,6 +18,8 @@
 #include <thread>
 #include <vector>
 
+#include <xxhash.h>
+
 #include <draco/attributes/attribute_quantization_transform.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
@@ -43,7 +45,9 @@ Status invalid(const std::string& message) { return Status(StatusCode::kInvalidA
 Status check_options(const ArchiveOptions& o) {
   for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
                             std::pair{"opacity", o.opacity_bits}}) {
-    if (bits < 4 || bits > 16) return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16");
+    if (bits != 0 && (bits < 4 || bits > 16)) {
+      return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16 (or 0: by scene size)");
+    }
   }
   for (size_t d = 0; d < 4; ++d) {
     if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
@@ -76,6 +80,7 @@ Status compress_frame(const std::vector<uint8_t>& raw, int level, std::vector<ui
   const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw.data(), raw.size());
   if (ZSTD_isError(n)) return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
   out->resize(start + n);
+  out->shrink_to_fit();  // the bound can be twice the frame; the section is kept until the file is written
   return Status();
 }
 
@@ -357,44 +362,118 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
   return book;
 }
 
-/// §3.3.3 The sh section with transform 5: codebook entries, DC codes, index planes in one zstd frame.
-Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
-                          std::vector<uint8_t>* out) {
+/// Transform-4 code of runtime value q with multiplier m: round half away from zero, clamped to 127 / m.
+int8_t sh_code(int q, int m) {
+  const int code = std::min((std::abs(q) + m / 2) / m, 127 / m);
+  return static_cast<int8_t>(q < 0 ? -code : code);
+}
+
+/// §3.3.3 Distinct rest-code records in first-occurrence order: `first[e]` is the first Gaussian (output
+/// order) holding entry e, `index[i]` the entry of Gaussian i. An open-addressing table of entry ids
+/// (4 bytes a slot) compares records by recomputing them, so no copy of the records is kept. Returns
+/// false as soon as more than `max_entries` records are distinct.
+bool dedup_sh_records(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                      uint64_t max_entries, std::vector<uint32_t>* first, std::vector<uint32_t>* index) {
   const uint64_t n = s.count;
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
-  const ShCodebook book = build_sh_codebook(s, order, static_cast<uint32_t>(std::min<uint64_t>(o.sh_codebook_size, n)));
-  const uint64_t k = book.entries.size() / rest;
+  int mult[45];
+  for (uint32_t j = 0; j < rest; ++j) mult[j] = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]);
+  auto codes_of = [&](uint64_t i, int8_t* record) {
+    const int8_t* q = &s.sh[order[i] * values + 3];
+    for (uint32_t j = 0; j < rest; ++j) record[j] = sh_code(q[j], mult[j]);
+  };
+  uint64_t slots = 1024;
+  while (slots < 2 * max_entries + 2) slots *= 2;
+  std::vector<uint32_t> table(static_cast<size_t>(slots), 0);  // entry id + 1, 0 = empty
+  first->clear();
+  index->resize(static_cast<size_t>(n));
+  int8_t record[45], other[45];
+  for (uint64_t i = 0; i < n; ++i) {
+    codes_of(i, record);
+    uint64_t slot = XXH64(record, rest, 0) & (slots - 1);
+    for (;; slot = (slot + 1) & (slots - 1)) {
+      const uint32_t id = table[slot];
+      if (id == 0) {
+        if (first->size() >= max_entries) return false;
+        table[slot] = static_cast<uint32_t>(first->size() + 1);
+        (*index)[i] = static_cast<uint32_t>(first->size());
+        first->push_back(static_cast<uint32_t>(i));
+        break;
+      }
+      codes_of((*first)[id - 1], other);
+      if (std::memcmp(other, record, rest) == 0) {
+        (*index)[i] = id - 1;
+        break;
+      }
+    }
+  }
+  return true;
+}
+
+/// §3.3.3 The sh section with transform 5: entry codes, DC codes and index planes in one zstd frame. With
+/// sh_codebook_size 0 the entries are the distinct records of transform-4 codes (the same decoded values
+/// as transform 4), used only when at most kShDedupMaxShare of the Gaussians hold distinct records
+/// (`*used` false otherwise: the caller writes transform 4); otherwise the lossy tree codebook.
+constexpr double kShDedupMaxShare = 0.75;
+
+Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                          std::vector<uint8_t>* out, bool* used) {
+  const uint64_t n = s.count;
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
+  std::vector<int8_t> entries;
+  std::vector<uint32_t> index, first;
+  if (o.sh_codebook_size == 0) {
+    const uint64_t max_entries = static_cast<uint64_t>(kShDedupMaxShare * static_cast<double>(n));
+    *used = dedup_sh_records(s, order, o, std::min<uint64_t>(max_entries, uint64_t{1} << 24), &first, &index);
+    if (!*used) return Status();
+  } else {
+    *used = true;
+    ShCodebook book = build_sh_codebook(s, order, static_cast<uint32_t>(std::min<uint64_t>(o.sh_codebook_size, n)));
+    entries = std::move(book.entries);
+    for (size_t e = 0; e < entries.size(); ++e) {
+      const uint32_t j = static_cast<uint32_t>(e % rest);
+      entries[e] = sh_code(entries[e], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]));
+    }
+    index.assign(book.index.begin(), book.index.end());
+  }
+  const uint64_t k = first.empty() ? entries.size() / rest : first.size();
   uint32_t bits = 1;
   while ((uint64_t{1} << bits) < k) ++bits;
-  const uint32_t width = bits <= 8 ? 1 : 2;
+  const uint32_t width = (bits + 7) / 8;
   std::vector<uint8_t> frame(static_cast<size_t>(k * rest + n * (3 + width)));
-  std::memcpy(frame.data(), book.entries.data(), book.entries.size());
-  uint8_t* dc = frame.data() + k * rest;
-  uint8_t* index = dc + n * 3;
-  const int m = static_cast<int>(o.sh_step_multipliers[0]);
-  const int limit = 127 / m;
-  for (uint64_t i = 0; i < n; ++i) {
-    for (uint32_t c = 0; c < 3; ++c) {
-      const int q = s.sh[order[i] * values + c];
-      const int code = std::min((std::abs(q) + m / 2) / m, limit);
-      dc[i * 3 + c] = static_cast<uint8_t>(static_cast<int8_t>(q < 0 ? -code : code));
+  if (first.empty()) {
+    std::memcpy(frame.data(), entries.data(), entries.size());
+  } else {
+    for (uint64_t e = 0; e < k; ++e) {
+      const int8_t* q = &s.sh[order[first[e]] * values + 3];
+      for (uint32_t j = 0; j < rest; ++j) {
+        frame[e * rest + j] = static_cast<uint8_t>(
+            sh_code(q[j], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)])));
+      }
     }
-    index[i] = static_cast<uint8_t>(book.index[i]);
-    if (width == 2) index[n + i] = static_cast<uint8_t>(book.index[i] >> 8);
+    first = {};
   }
-  out->assign(detail::kQuantizedHeaderSize + 8, 0);
+  uint8_t* dc = frame.data() + k * rest;
+  uint8_t* planes = dc + n * 3;
+  const int m = static_cast<int>(o.sh_step_multipliers[0]);
+  for (uint64_t i = 0; i < n; ++i) {
+    for (uint32_t c = 0; c < 3; ++c) dc[i * 3 + c] = static_cast<uint8_t>(sh_code(s.sh[order[i] * values + c], m));
+    for (uint32_t b = 0; b < width; ++b) planes[b * n + i] = static_cast<uint8_t>(index[i] >> (8 * b));
+  }
+  out->assign(detail::kQuantizedHeaderSize + 20, 0);
   (*out)[0] = static_cast<uint8_t>(detail::QuantizedTransform::kShCodebook);
   (*out)[1] = static_cast<uint8_t>(bits);
-  detail::store_u16_le(out->data() + 2, 1);
+  detail::store_u16_le(out->data() + 2, 4);
   detail::store_u32_le(out->data() + 4, values);
-  detail::store_f32_le(out->data() + 8, static_cast<float>(m));
-  detail::store_u32_le(out->data() + 12, static_cast<uint32_t>(k));
+  for (int d = 0; d < 4; ++d) detail::store_f32_le(out->data() + 8 + 4 * d, static_cast<float>(o.sh_step_multipliers[d]));
+  detail::store_u32_le(out->data() + 24, static_cast<uint32_t>(k));
   return compress_frame(frame, o.zstd_level, out);
 }
 
+/// 16 bytes: Draco's quantized coordinates (< 2^30) and the point index (< 2^31, checked by the caller).
 struct QuantKey {
   int32_t q[3];
-  uint64_t index;
+  uint32_t index;
   bool operator<(const QuantKey& b) const {
     if (q[0] != b.q[0]) return q[0] < b.q[0];
     if (q[1] != b.q[1]) return q[1] < b.q[1];
@@ -456,7 +535,7 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
   quantizer.Init(transform.range(), static_cast<int32_t>((uint32_t{1} << pq->bits) - 1));
   std::vector<QuantKey> src(n), dst(n);
   for (uint64_t i = 0; i < n; ++i) {
-    src[i].index = dst[i].index = i;
+    src[i].index = dst[i].index = static_cast<uint32_t>(i);
     int32_t q[3] = {};
     qatt->GetMappedValue(draco::PointIndex(static_cast<uint32_t>(i)), q);
     for (int a = 0; a < 3; ++a) {
@@ -539,6 +618,15 @@ void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, std:
 
 }  // namespace
 
+ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians) {
+  ArchiveOptions o = options;
+  const bool dense = gaussians >= kArchiveDenseGaussians;
+  if (o.rotation_bits == 0) o.rotation_bits = dense ? 7 : 10;
+  if (o.scale_bits == 0) o.scale_bits = dense ? 7 : 9;
+  if (o.opacity_bits == 0) o.opacity_bits = dense ? 6 : 8;
+  return o;
+}
+
 Result<ArchivePositionQuantization> choose_position_quantization(const SceneBounds& bounds, double position_error) {
   if (!(position_error > 0.0 && position_error <= 0.5)) {
     return invalid("position error " + std::to_string(position_error) + " outside (0, 0.5]");
@@ -560,8 +648,9 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
   return q;
 }
 
-Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options) {
-  RGS_RETURN_IF_ERROR(check_options(options));
+Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options_in) {
+  RGS_RETURN_IF_ERROR(check_options(options_in));
+  const ArchiveOptions options = resolve_archive_options(options_in, scene.count);
   if (!scene.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
   if (scene.count > UINT32_MAX / 2) return invalid("Draco holds at most 2^31 points; the scene has " + dec(scene.count));
   try {
@@ -580,9 +669,11 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     const std::vector<uint64_t>& order = out.source_index;
     std::vector<std::function<Status()>> jobs = {
         [&] {
-          return scene.metadata.sh_degree > 0 && options.sh_codebook_size > 0
-                     ? encode_sh_codebook(scene, order, options, &out.stored[4])
-                     : encode_sh(scene, order, options, &out.stored[4]);
+          bool codebook = false;
+          if (scene.metadata.sh_degree > 0) {
+            RGS_RETURN_IF_ERROR(encode_sh_codebook(scene, order, options, &out.stored[4], &codebook));
+          }
+          return codebook ? Status() : encode_sh(scene, order, options, &out.stored[4]);
         },
         [&] { return encode_rotations(scene, order, options, &out.stored[1]); },
         [&] { return encode_scales(scene, order, options, &out.stored[2]); },

@@ -1,6 +1,6 @@
 // Archive SH codebook (SPEC §3.3.3, quantized transform 5): round trip, determinism, and the must-fail
 // files tests/data/bad/archive/*.rgs (truncated frame, wrong sizes, codebook index out of range, an
-// entry of -128). The files are made here from a small codebook-coded scene; RGS_WRITE_BAD_ARCHIVE=1
+// entry code out of range). The files are made here from a small codebook-coded scene; RGS_WRITE_BAD_ARCHIVE=1
 // rewrites them, otherwise the committed files are checked.
 #include <doctest/doctest.h>
 #include <zstd.h>
@@ -44,6 +44,13 @@ format::EncodedScene patterned_scene(uint64_t n, uint32_t degree, uint32_t patte
   return s;
 }
 
+/// The value transform 4 decodes for runtime value q with multiplier m (SPEC §3.3.2).
+int transform4(int q, uint32_t m) {
+  const int mi = static_cast<int>(m);
+  const int code = std::min((std::abs(q) + mi / 2) / mi, 127 / mi);
+  return (q < 0 ? -code : code) * mi;
+}
+
 size_t entry_of(const std::vector<uint8_t>& b, format::SectionId id) {
   for (size_t i = 0; i < get_u32(b, 32); ++i) {
     if (get_u32(b, entry_at(i)) == static_cast<uint32_t>(id)) return i;
@@ -57,7 +64,7 @@ size_t entry_of(const std::vector<uint8_t>& b, format::SectionId id) {
 struct ShFrame {
   size_t entry = 0;
   uint64_t offset = 0, stored = 0;
-  size_t header = 16;  // transform-5 header: 8 bytes, the DC multiplier, the codebook size
+  size_t header = 28;  // transform-5 header: 8 bytes, 4 multipliers, the codebook size
   std::vector<uint8_t> content;
 };
 
@@ -109,7 +116,7 @@ struct BadArchive {
 
 const BadArchive kBadArchives[] = {
     {"codebook_index_out_of_range", StatusCode::kCorruptData, "SH codebook index"},
-    {"codebook_entry_minus_128", StatusCode::kCorruptData, "is -128"},
+    {"codebook_entry_out_of_range", StatusCode::kCorruptData, "SH codebook entry 0: code -128"},
     {"codebook_size_over_n", StatusCode::kCorruptData, "SH codebook of"},
     {"codebook_wrong_content_size", StatusCode::kCorruptData, "codes"},
     {"codebook_truncated_frame", StatusCode::kCorruptData, "sh"},
@@ -118,21 +125,21 @@ const BadArchive kBadArchives[] = {
 std::vector<uint8_t> make_bad_archive(const std::string& name) {
   std::vector<uint8_t> b = good_codebook_file();
   ShFrame f = read_sh_frame(b);
-  const uint32_t k = get_u32(b, f.offset + 12);
+  const uint32_t k = get_u32(b, f.offset + 24);
   const uint32_t values = get_u32(b, f.offset + 4), rest = values - 3;
   const size_t n = (f.content.size() - size_t{k} * rest) / 4;  // 3 DC codes + a 1-byte index each
   if (name == "codebook_index_out_of_range") {
     f.content[size_t{k} * rest + 3 * n + 17] = static_cast<uint8_t>(k);  // Gaussian 17 names entry K
     return write_sh_frame(b, f);
   }
-  if (name == "codebook_entry_minus_128") {
+  if (name == "codebook_entry_out_of_range") {
     f.content[5] = 0x80;
     return write_sh_frame(b, f);
   }
   if (name == "codebook_size_over_n") {
-    put_u32(b, f.offset + 12, static_cast<uint32_t>(n + 1));
+    put_u32(b, f.offset + 24, static_cast<uint32_t>(n + 1));
   } else if (name == "codebook_wrong_content_size") {
-    put_u32(b, f.offset + 12, k - 1);  // the frame holds K entries, the header now claims K - 1
+    put_u32(b, f.offset + 24, k - 1);  // the frame holds K entries, the header now claims K - 1
   } else if (name == "codebook_truncated_frame") {
     // The section (the last one) and the file end in the middle of the frame.
     const uint64_t keep = f.header + (f.stored - f.header) / 2;
@@ -168,17 +175,37 @@ TEST_CASE("archive codebook: exact when the codebook holds every rest vector; fi
     const uint64_t s = archive->source_index[i];
     for (uint32_t c = 0; c < values; ++c) {
       const int want = scene.sh[s * values + c], got = d.sh[i * values + c];
-      if (c < 3) {
-        CHECK(std::abs(got - want) <= static_cast<int>(options.sh_step_multipliers[0]) / 2);
-      } else {
-        REQUIRE(got == want);  // 50 patterns, 64 entries: every leaf holds one vector
-      }
+      // 50 patterns, 64 entries: every leaf holds one vector, so every value is transform 4's.
+      REQUIRE(got == transform4(want, options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]));
     }
   }
-  // The section is far smaller than per-coefficient codes of the same scene.
-  auto plain = format::serialize_scene(scene, codebook_options(0));
+}
+
+TEST_CASE("archive codebook: the default codes repeated records once, decoding exactly transform 4's values") {
+  const format::EncodedScene scene = patterned_scene(5000, 2, 300, 13);
+  const format::ArchiveOptions options;  // sh_codebook_size 0: distinct records when they repeat
+  auto archive = format::encode_archive(scene, options);
+  REQUIRE(archive.ok());
+  const std::vector<uint8_t>& sh = archive->stored[4];
+  REQUIRE(sh.size() > 28);
+  CHECK(sh[0] == 5);                    // transform 5
+  CHECK(get_u32(sh, 24) == 300);        // one entry per distinct record
+  CHECK(sh[1] == 9);                    // 9 index bits
+  const uint32_t values = 27;
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    const uint64_t s = archive->source_index[i];
+    for (uint32_t c = 0; c < values; ++c) {
+      const uint32_t m = options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)];
+      REQUIRE(archive->decoded.sh[i * values + c] == transform4(scene.sh[s * values + c], m));
+    }
+  }
+  auto bytes = format::serialize_scene(scene, codebook_options(0));
+  REQUIRE(bytes.ok());
+  CHECK(format::validate(bytes->data(), bytes->size()).ok());
+  // Records that do not repeat keep transform 4.
+  auto plain = format::encode_archive(make_random_scene(2000, 2, 4), options);
   REQUIRE(plain.ok());
-  CHECK(bytes->size() < plain->size());
+  CHECK(plain->stored[4][0] == 4);
 }
 
 TEST_CASE("archive codebook: bounded error with fewer entries than vectors, deterministic whatever the threads") {
