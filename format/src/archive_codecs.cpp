@@ -196,7 +196,7 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
   bool fits = false;
   if (codebook) {
     // K entries of C - 3 rest codes, N x 3 DC codes, N indices of w bytes. K <= N and C >= 12, so this
-    // is at most N x (C + 3) <= 1.25 x the raw size (§3.3.3).
+    // is at most N x (C + 3) <= 1.25 x the raw size (§3.3.4).
     uint64_t entries = 0, per_gaussian = 3 + code_width(h->bits);
     fits = checked_mul(h->codebook_size, components - 3, &entries) && checked_mul(n, per_gaussian, &codes) &&
            checked_add(codes, entries, &codes);

@@ -31,10 +31,11 @@ struct ArchiveOptions {
   /// Multiplier of the INT8 SH step per degree 0..3, 1..127 (§3.3.2 transform 4); 1 keeps the runtime's
   /// INT8 values.
   std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
-  /// Entries of the SH codebook (§3.3.3, transform 5) for SH degree >= 1, 2..65536 (at most N are used);
-  /// 0 (default) keeps per-coefficient codes (transform 4). Off by default: on the measured scenes the
-  /// codebook costs 10+ dB of PSNR for its bytes (docs/AUDITS.md). The DC codes use
-  /// sh_step_multipliers[0]; the codebook replaces the other multipliers.
+  /// SH codebook (§3.3.3, transform 5), for SH degree >= 1. 0 (default): each distinct record of rest
+  /// codes is stored once (exact: the values of transform 4), when at most 3/4 of the records are
+  /// distinct; otherwise transform 4. 2..65536: a lossy codebook of that many entries (at most N), a
+  /// variance-splitting tree over the rest vectors; not a default, since on the measured scenes it costs
+  /// 10+ dB of PSNR for its bytes (docs/AUDITS.md). 1 is refused.
   uint32_t sh_codebook_size = 0;
   /// zstd level 1..22 of the coded sections.
   int zstd_level = 6;
