@@ -259,8 +259,8 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
       const uint64_t src = order[i];
       double ln_volume = 0;
       for (int a = 0; a < 3; ++a) {
-        const double v = half_bits_to_float(s.scales[src * 3 + a]);
-        ln_volume += log ? v : std::log(std::max(v, 1e-30));
+        const double scale = half_bits_to_float(s.scales[src * 3 + a]);
+        ln_volume += log ? scale : std::log(std::max(scale, 1e-30));
       }
       imp[i] = half_bits_to_float(s.opacities[src]) * std::exp(2.0 / 3.0 * ln_volume);
       total += imp[i];
@@ -280,7 +280,7 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
     const double count = static_cast<double>(sm[2 * rest]);
     double total = 0, best = -1;
     for (uint32_t j = 0; j < rest; ++j) {
-      const double e = weight[j] * (static_cast<double>(sm[rest + j]) - static_cast<double>(sm[j]) * sm[j] / count);
+      const double e = weight[j] * (static_cast<double>(sm[rest + j]) - static_cast<double>(sm[j]) * static_cast<double>(sm[j]) / count);
       total += e;
       if (e > best) best = e, cells[c].split_dim = j;
     }
