@@ -460,6 +460,7 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     for (uint32_t c = 0; c < 3; ++c) dc[i * 3 + c] = static_cast<uint8_t>(sh_code(s.sh[order[i] * values + c], m));
     for (uint32_t b = 0; b < width; ++b) planes[b * n + i] = static_cast<uint8_t>(index[i] >> (8 * b));
   }
+  index = {};  // before the frame's compression buffer is allocated
   out->assign(detail::kQuantizedHeaderSize + 20, 0);
   (*out)[0] = static_cast<uint8_t>(detail::QuantizedTransform::kShCodebook);
   (*out)[1] = static_cast<uint8_t>(bits);
@@ -703,7 +704,25 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         {SectionId::kSh, 4, values, reinterpret_cast<uint8_t*>(d.sh.data()), d.sh.size()},
     };
     jobs.clear();
+    // Transform 4 and the exact transform 5 decode to the transform-4 value of every source value, so the
+    // SH values are computed here instead of decompressing the section again (saving its code buffer,
+    // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
+    const bool sh_exact = options.sh_codebook_size == 0;
+    if (sh_exact) {
+      jobs.push_back([&d, &scene, &order, &options, values, n] {
+        int mult[48];
+        for (uint32_t c = 0; c < values; ++c) {
+          mult[c] = static_cast<int>(options.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
+        }
+        for (uint64_t i = 0; i < n; ++i) {
+          const int8_t* q = &scene.sh[order[i] * values];
+          for (uint32_t c = 0; c < values; ++c) d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
+        }
+        return Status();
+      });
+    }
     for (const Target& t : targets) {
+      if (sh_exact && t.id == SectionId::kSh) continue;
       jobs.push_back([&d, &out, t, n] {
         Status s = detail::decode_quantized(t.id, d.metadata, out.stored[t.slot].data(), out.stored[t.slot].size(), n,
                                             t.components, t.dst, t.size);
