@@ -245,6 +245,7 @@ int convert_to_rgs(const Options& opt, const Input& input, bool is_rgs, format::
   auto encoded = converter::quantize(ply->cloud, quantize_options, &report, &errors);
   if (!encoded.ok()) return tools::report_error(kTool, Status(encoded.status()).prepend(opt.input));
   const double t_quantize = tools::seconds_since(t_quantize_start);
+  ply->cloud = {};  // the float copy is not read again; freed before the writer's buffers exist (peak RSS)
 
   std::ostringstream options_text;
   options_text << "scale_encoding=" << opt.scale_encoding << " sh_clip_percentile=" << opt.sh_clip_percentile

@@ -28,7 +28,7 @@ namespace {
 constexpr uint8_t kDracoMagic[5] = {'D', 'R', 'A', 'C', 'O'};
 constexpr size_t kDracoHeaderSize = 11;
 
-uint32_t code_width(uint32_t bits) { return bits <= 8 ? 1 : 2; }
+uint32_t code_width(uint32_t bits) { return (bits + 7) / 8; }
 
 /// Expected transform, component count and parameter count of a quantized section (§3.3.2 table).
 bool quantized_layout(SectionId id, uint32_t components, QuantizedTransform* transform, uint32_t* params) {
@@ -42,7 +42,9 @@ bool quantized_layout(SectionId id, uint32_t components, QuantizedTransform* tra
 }
 
 uint32_t read_code(const uint8_t* plane, uint32_t width, uint64_t n, uint64_t i) {
-  return width == 1 ? plane[i] : static_cast<uint32_t>(plane[i]) | static_cast<uint32_t>(plane[n + i]) << 8;
+  uint32_t code = 0;
+  for (uint32_t b = 0; b < width; ++b) code |= static_cast<uint32_t>(plane[b * n + i]) << (8 * b);
+  return code;
 }
 
 }  // namespace
@@ -119,7 +121,8 @@ struct QuantizedHeader {
   uint32_t param_count = 0;
   const uint8_t* frame = nullptr;
   size_t frame_size = 0;
-  uint64_t codes_size = 0;  ///< n x components x code width
+  uint64_t codes_size = 0;     ///< decoded frame size: n x components x code width (codebook: §3.3.3)
+  uint64_t codebook_size = 0;  ///< K, transform 5 only
 };
 
 Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
@@ -136,17 +139,30 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
   h->bits = src[1];
   h->param_count = load_u16_le(src + 2);
   h->components = load_u32_le(src + 4);
+  // §3.3.2 The sh section takes either transform 4 or the codebook transform 5 (§3.3.3, degree >= 1).
+  const bool codebook = id == SectionId::kSh && h->transform == QuantizedTransform::kShCodebook;
+  if (codebook) {
+    want = QuantizedTransform::kShCodebook;
+    want_params = 4;
+    RGS_RETURN_ERROR_IF(components < 12, StatusCode::kCorruptData,
+                        "SH codebook transform on a " + dec(components) + "-value section (needs SH degree >= 1)");
+  }
   RGS_RETURN_ERROR_IF(h->transform != want, StatusCode::kCorruptData,
                       "quantized transform " + dec(src[0]) + ", expected " + dec(static_cast<uint8_t>(want)) +
-                          " for section " + section_name(id));
+                          (id == SectionId::kSh ? " or 5" : "") + " for section " + section_name(id));
   const bool sh = want == QuantizedTransform::kShMultiplier;
-  RGS_RETURN_ERROR_IF(sh ? h->bits != 8 : (h->bits < 4 || h->bits > 16), StatusCode::kCorruptData,
-                      "quantized code bits " + dec(h->bits) + " outside " + (sh ? "8..8" : "4..16"));
+  if (codebook) {
+    RGS_RETURN_ERROR_IF(h->bits < 1 || h->bits > 24, StatusCode::kCorruptData,
+                        "SH codebook index bits " + dec(h->bits) + " outside 1..24");
+  } else {
+    RGS_RETURN_ERROR_IF(sh ? h->bits != 8 : (h->bits < 4 || h->bits > 16), StatusCode::kCorruptData,
+                        "quantized code bits " + dec(h->bits) + " outside " + (sh ? "8..8" : "4..16"));
+  }
   RGS_RETURN_ERROR_IF(h->param_count != want_params, StatusCode::kCorruptData,
                       "quantized parameter count " + dec(h->param_count) + ", expected " + dec(want_params));
   RGS_RETURN_ERROR_IF(h->components != components, StatusCode::kCorruptData,
                       "quantized component count " + dec(h->components) + ", expected " + dec(components));
-  const size_t header = kQuantizedHeaderSize + 4 * size_t{h->param_count};
+  const size_t header = kQuantizedHeaderSize + 4 * size_t{h->param_count} + (codebook ? 4 : 0);
   RGS_RETURN_ERROR_IF(size < header, StatusCode::kCorruptData,
                       "quantized section of " + dec(size) + " bytes is shorter than its " + dec(header) +
                           "-byte header");
@@ -161,7 +177,15 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
                           "log-scale step " + dec(a) + " is negative");
     }
   }
-  if (sh) {
+  if (codebook) {
+    h->codebook_size = load_u32_le(src + kQuantizedHeaderSize + 4 * size_t{h->param_count});
+    RGS_RETURN_ERROR_IF(h->codebook_size < 1 || h->codebook_size > (uint64_t{1} << h->bits) ||
+                            h->codebook_size > n,
+                        StatusCode::kCorruptData,
+                        "SH codebook of " + dec(h->codebook_size) + " entries: expected 1..min(2^" + dec(h->bits) +
+                            ", N = " + dec(n) + ")");
+  }
+  if (sh || codebook) {
     for (int d = 0; d < 4; ++d) {
       const float m = h->params[d];
       RGS_RETURN_ERROR_IF(!(m >= 1.0f && m <= 127.0f && m == std::floor(m)), StatusCode::kCorruptData,
@@ -169,7 +193,16 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
     }
   }
   uint64_t codes = 0;
-  const bool fits = checked_mul(n, components, &codes) && checked_mul(codes, code_width(h->bits), &codes);
+  bool fits = false;
+  if (codebook) {
+    // K entries of C - 3 rest codes, N x 3 DC codes, N indices of w bytes. K <= N and C >= 12, so this
+    // is at most N x (C + 3) <= 1.25 x the raw size (§3.3.4).
+    uint64_t entries = 0, per_gaussian = 3 + code_width(h->bits);
+    fits = checked_mul(h->codebook_size, components - 3, &entries) && checked_mul(n, per_gaussian, &codes) &&
+           checked_add(codes, entries, &codes);
+  } else {
+    fits = checked_mul(n, components, &codes) && checked_mul(codes, code_width(h->bits), &codes);
+  }
   RGS_RETURN_ERROR_IF(!fits, StatusCode::kCorruptData, "quantized code size overflows 64 bits");
   h->codes_size = codes;
   h->frame = src + header;
@@ -261,6 +294,42 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
           if (q < -127 || q > 127) return bad_code(i, c, code);
           dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(q));
         }
+      }
+      break;
+    }
+    case QuantizedTransform::kShCodebook: {
+      RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
+      const uint32_t rest = components - 3;
+      const uint64_t k = h.codebook_size;
+      const uint8_t* entries = codes.data();
+      const uint8_t* dc = entries + k * rest;
+      const uint8_t* index = dc + n * 3;
+      // Entries decode in place of their codes: value = code x m[deg] (checked like transform 4's codes).
+      std::vector<uint8_t>& book = codes;
+      for (uint64_t e = 0; e < k * rest; ++e) {
+        const uint32_t j = static_cast<uint32_t>(e % rest);
+        const int q = static_cast<int8_t>(book[e]) * static_cast<int>(h.params[sh_degree_of_coefficient(1 + j / 3)]);
+        if (q < -127 || q > 127) {
+          return Status(StatusCode::kCorruptData, "SH codebook entry " + dec(e / rest) + ": code " +
+                                                      std::to_string(static_cast<int8_t>(book[e])) + " of value " + dec(j) +
+                                                      " is out of range");
+        }
+        book[e] = static_cast<uint8_t>(static_cast<int8_t>(q));
+      }
+      const int m = static_cast<int>(h.params[0]);
+      for (uint64_t i = 0; i < n; ++i) {
+        for (uint32_t c = 0; c < 3; ++c) {
+          const uint8_t code = dc[i * 3 + c];
+          const int q = static_cast<int8_t>(code) * m;
+          if (q < -127 || q > 127) return bad_code(i, c, code);
+          dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(q));
+        }
+        const uint32_t e = read_code(index, width, n, i);
+        if (e >= k) {
+          return Status(StatusCode::kCorruptData, "Gaussian " + dec(i) + ": SH codebook index " + dec(e) +
+                                                      " >= codebook size " + dec(k));
+        }
+        std::memcpy(dst + i * components + 3, entries + uint64_t{e} * rest, rest);
       }
       break;
     }

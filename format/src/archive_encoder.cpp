@@ -18,6 +18,8 @@
 #include <thread>
 #include <vector>
 
+#include <xxhash.h>
+
 #include <draco/attributes/attribute_quantization_transform.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
@@ -43,13 +45,18 @@ Status invalid(const std::string& message) { return Status(StatusCode::kInvalidA
 Status check_options(const ArchiveOptions& o) {
   for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
                             std::pair{"opacity", o.opacity_bits}}) {
-    if (bits < 4 || bits > 16) return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16");
+    if (bits != 0 && (bits < 4 || bits > 16)) {
+      return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16 (or 0: by scene size)");
+    }
   }
   for (size_t d = 0; d < 4; ++d) {
     if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
       return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
                      " outside 1..127");
     }
+  }
+  if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
+    return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
   }
   if (o.zstd_level < 1 || o.zstd_level > ZSTD_maxCLevel()) {
     return invalid("zstd level " + std::to_string(o.zstd_level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
@@ -73,6 +80,7 @@ Status compress_frame(const std::vector<uint8_t>& raw, int level, std::vector<ui
   const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw.data(), raw.size());
   if (ZSTD_isError(n)) return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
   out->resize(start + n);
+  out->shrink_to_fit();  // the bound can be twice the frame; the section is kept until the file is written
   return Status();
 }
 
@@ -208,9 +216,265 @@ Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, cons
   return finish_quantized(detail::QuantizedTransform::kShMultiplier, 8, values, params, codes, o.zstd_level, out);
 }
 
+/// One cell of the SH codebook's splitting tree: Gaussians ids[begin, end) and the exact integer sums of
+/// their rest values (so every statistic, hence the tree, is the same whatever the thread count).
+struct ShCell {
+  uint32_t begin = 0, end = 0;
+  int32_t left = -1, right = -1;  ///< children (node indices), -1 for a leaf
+  double sse = 0;                 ///< weighted squared error of the cell around its mean
+  uint32_t split_dim = 0;
+};
+
+/// §3.3.3 Builds the SH codebook: a variance-splitting tree over the per-Gaussian rest vectors (runtime i8
+/// values, each dimension weighted by its dequantization step squared, so the error is the real SH
+/// error, and each Gaussian by an integer importance). The cell of largest error is split first, on its
+/// dimension of largest error, at the weighted mean; the leaves are the entries, numbered depth first so
+/// that similar entries get near indices. Entries are the rounded weighted leaf means; every Gaussian
+/// takes its leaf's index. Cost O(N R log K), single-threaded (it runs beside the other sections); all
+/// sums are integers, so the tree does not depend on evaluation order.
+struct ShCodebook {
+  std::vector<int8_t> entries;   ///< [K, R]
+  std::vector<uint16_t> index;   ///< [N] entry of each Gaussian (output order)
+};
+
+ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, uint32_t target_size) {
+  const uint64_t n = s.count;
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
+  // Rest vectors in output order, contiguous (better locality than gathering through `order`).
+  std::vector<int8_t> v(static_cast<size_t>(n * rest));
+  for (uint64_t i = 0; i < n; ++i) std::memcpy(&v[i * rest], &s.sh[order[i] * values + 3], rest);
+  std::vector<double> weight(rest);
+  for (uint32_t j = 0; j < rest; ++j) {
+    const double step = s.metadata.sh_quantization.scales[sh_degree_of_coefficient(1 + j / 3)][j % 3];
+    weight[j] = step * step;
+  }
+  // Importance of each Gaussian: opacity x (scale product)^(2/3), a proxy of the screen area it covers,
+  // as an integer weight 1..4096 relative to the mean (integers keep the sums exact).
+  std::vector<uint32_t> wt(static_cast<size_t>(n));
+  {
+    const bool log = s.metadata.scale_encoding == ScaleEncoding::kLog;
+    std::vector<double> imp(static_cast<size_t>(n));
+    double total = 0;
+    for (uint64_t i = 0; i < n; ++i) {
+      const uint64_t src = order[i];
+      double ln_volume = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double scale = half_bits_to_float(s.scales[src * 3 + a]);
+        ln_volume += log ? scale : std::log(std::max(scale, 1e-30));
+      }
+      imp[i] = half_bits_to_float(s.opacities[src]) * std::exp(2.0 / 3.0 * ln_volume);
+      total += imp[i];
+    }
+    const double unit = total > 0 ? 64.0 * static_cast<double>(n) / total : 0;
+    for (uint64_t i = 0; i < n; ++i) wt[i] = static_cast<uint32_t>(std::clamp(std::floor(imp[i] * unit + 0.5), 1.0, 4096.0));
+  }
+  std::vector<uint32_t> ids(static_cast<size_t>(n));
+  for (uint64_t i = 0; i < n; ++i) ids[i] = static_cast<uint32_t>(i);
+  std::vector<ShCell> cells;
+  const size_t stride = 2 * size_t{rest} + 1;
+  std::vector<int64_t> sums;  // [cells, 2R + 1]: weighted sum and sum of squares per dimension, total weight
+  cells.reserve(2 * size_t{target_size});
+  sums.reserve(2 * size_t{target_size} * stride);
+  auto finish_cell = [&](size_t c) {
+    const int64_t* sm = &sums[c * stride];
+    const double count = static_cast<double>(sm[2 * rest]);
+    double total = 0, best = -1;
+    for (uint32_t j = 0; j < rest; ++j) {
+      const double e = weight[j] * (static_cast<double>(sm[rest + j]) - static_cast<double>(sm[j]) * static_cast<double>(sm[j]) / count);
+      total += e;
+      if (e > best) best = e, cells[c].split_dim = j;
+    }
+    cells[c].sse = total;
+  };
+  auto add_cell = [&](uint32_t begin, uint32_t end) {
+    cells.push_back(ShCell{begin, end});
+    sums.resize(cells.size() * stride, 0);
+    return cells.size() - 1;
+  };
+  auto accumulate = [&](size_t c) {
+    int64_t* sm = &sums[c * stride];
+    for (uint32_t p = cells[c].begin; p < cells[c].end; ++p) {
+      const int8_t* x = &v[size_t{ids[p]} * rest];
+      const int64_t w = wt[ids[p]];
+      for (uint32_t j = 0; j < rest; ++j) {
+        sm[j] += w * x[j];
+        sm[rest + j] += w * (x[j] * x[j]);
+      }
+      sm[2 * rest] += w;
+    }
+  };
+  accumulate(add_cell(0, static_cast<uint32_t>(n)));
+  finish_cell(0);
+  // Max-heap on (error, -node): ties go to the older node, so the order is fully determined.
+  auto less = [&](uint32_t a, uint32_t b) { return cells[a].sse < cells[b].sse || (cells[a].sse == cells[b].sse && a > b); };
+  std::vector<uint32_t> heap = {0};
+  uint32_t leaves = 1;
+  while (leaves < target_size && !heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end(), less);
+    const uint32_t c = heap.back();
+    heap.pop_back();
+    if (!(cells[c].sse > 0)) break;  // every remaining cell holds one repeated vector
+    const uint32_t j = cells[c].split_dim, begin = cells[c].begin, end = cells[c].end;
+    const int64_t sum = sums[size_t{c} * stride + j];
+    const int64_t count = sums[size_t{c} * stride + 2 * rest];
+    // x <= weighted mean  <=>  x * total weight <= weighted sum: exact in integers.
+    const uint32_t* mid = std::partition(ids.data() + begin, ids.data() + end, [&](uint32_t id) {
+      return int64_t{v[size_t{id} * rest + j]} * count <= sum;
+    });
+    const uint32_t split = static_cast<uint32_t>(mid - ids.data());
+    if (split == begin || split == end) continue;  // cannot happen with a positive variance; stay a leaf
+    const size_t l = add_cell(begin, split), r = add_cell(split, end);
+    cells[c].left = static_cast<int32_t>(l);
+    cells[c].right = static_cast<int32_t>(r);
+    // Sum the smaller child, the other is the parent minus it (exact).
+    const size_t small = split - begin <= end - split ? l : r, large = small == l ? r : l;
+    accumulate(small);
+    for (size_t k = 0; k < stride; ++k) sums[large * stride + k] = sums[size_t{c} * stride + k] - sums[small * stride + k];
+    for (size_t child : {l, r}) {
+      finish_cell(child);
+      heap.push_back(static_cast<uint32_t>(child));
+      std::push_heap(heap.begin(), heap.end(), less);
+    }
+    ++leaves;
+  }
+  ShCodebook book;
+  book.entries.reserve(size_t{leaves} * rest);
+  book.index.resize(static_cast<size_t>(n));
+  std::vector<uint32_t> stack = {0};
+  while (!stack.empty()) {
+    const uint32_t c = stack.back();
+    stack.pop_back();
+    if (cells[c].left >= 0) {
+      stack.push_back(static_cast<uint32_t>(cells[c].right));
+      stack.push_back(static_cast<uint32_t>(cells[c].left));
+      continue;
+    }
+    const uint16_t e = static_cast<uint16_t>(book.entries.size() / rest);
+    const int64_t count = sums[size_t{c} * stride + 2 * rest];
+    for (uint32_t j = 0; j < rest; ++j) {
+      // Round half away from zero; a mean of values in [-127, 127] stays in it.
+      const int64_t sm = sums[size_t{c} * stride + j];
+      const int64_t q = sm >= 0 ? (2 * sm + count) / (2 * count) : -((-2 * sm + count) / (2 * count));
+      book.entries.push_back(static_cast<int8_t>(q));
+    }
+    for (uint32_t p = cells[c].begin; p < cells[c].end; ++p) book.index[ids[p]] = e;
+  }
+  return book;
+}
+
+/// Transform-4 code of runtime value q with multiplier m: round half away from zero, clamped to 127 / m.
+int8_t sh_code(int q, int m) {
+  const int code = std::min((std::abs(q) + m / 2) / m, 127 / m);
+  return static_cast<int8_t>(q < 0 ? -code : code);
+}
+
+/// §3.3.3 Distinct rest-code records in first-occurrence order: `first[e]` is the first Gaussian (output
+/// order) holding entry e, `index[i]` the entry of Gaussian i. An open-addressing table of entry ids
+/// (4 bytes a slot) compares records by recomputing them, so no copy of the records is kept. Returns
+/// false as soon as more than `max_entries` records are distinct.
+bool dedup_sh_records(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                      uint64_t max_entries, std::vector<uint32_t>* first, std::vector<uint32_t>* index) {
+  const uint64_t n = s.count;
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
+  int mult[45];
+  for (uint32_t j = 0; j < rest; ++j) mult[j] = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]);
+  auto codes_of = [&](uint64_t i, int8_t* record) {
+    const int8_t* q = &s.sh[order[i] * values + 3];
+    for (uint32_t j = 0; j < rest; ++j) record[j] = sh_code(q[j], mult[j]);
+  };
+  uint64_t slots = 1024;
+  while (slots < 2 * max_entries + 2) slots *= 2;
+  std::vector<uint32_t> table(static_cast<size_t>(slots), 0);  // entry id + 1, 0 = empty
+  first->clear();
+  index->resize(static_cast<size_t>(n));
+  int8_t record[45], other[45];
+  for (uint64_t i = 0; i < n; ++i) {
+    codes_of(i, record);
+    uint64_t slot = XXH64(record, rest, 0) & (slots - 1);
+    for (;; slot = (slot + 1) & (slots - 1)) {
+      const uint32_t id = table[slot];
+      if (id == 0) {
+        if (first->size() >= max_entries) return false;
+        table[slot] = static_cast<uint32_t>(first->size() + 1);
+        (*index)[i] = static_cast<uint32_t>(first->size());
+        first->push_back(static_cast<uint32_t>(i));
+        break;
+      }
+      codes_of((*first)[id - 1], other);
+      if (std::memcmp(other, record, rest) == 0) {
+        (*index)[i] = id - 1;
+        break;
+      }
+    }
+  }
+  return true;
+}
+
+/// §3.3.3 The sh section with transform 5: entry codes, DC codes and index planes in one zstd frame. With
+/// sh_codebook_size 0 the entries are the distinct records of transform-4 codes (the same decoded values
+/// as transform 4), used only when at most kShDedupMaxShare of the Gaussians hold distinct records
+/// (`*used` false otherwise: the caller writes transform 4); otherwise the lossy tree codebook.
+constexpr double kShDedupMaxShare = 0.75;
+
+Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
+                          std::vector<uint8_t>* out, bool* used) {
+  const uint64_t n = s.count;
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
+  std::vector<int8_t> entries;
+  std::vector<uint32_t> index, first;
+  if (o.sh_codebook_size == 0) {
+    const uint64_t max_entries = static_cast<uint64_t>(kShDedupMaxShare * static_cast<double>(n));
+    *used = dedup_sh_records(s, order, o, std::min<uint64_t>(max_entries, uint64_t{1} << 24), &first, &index);
+    if (!*used) return Status();
+  } else {
+    *used = true;
+    ShCodebook book = build_sh_codebook(s, order, static_cast<uint32_t>(std::min<uint64_t>(o.sh_codebook_size, n)));
+    entries = std::move(book.entries);
+    for (size_t e = 0; e < entries.size(); ++e) {
+      const uint32_t j = static_cast<uint32_t>(e % rest);
+      entries[e] = sh_code(entries[e], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]));
+    }
+    index.assign(book.index.begin(), book.index.end());
+  }
+  const uint64_t k = first.empty() ? entries.size() / rest : first.size();
+  uint32_t bits = 1;
+  while ((uint64_t{1} << bits) < k) ++bits;
+  const uint32_t width = (bits + 7) / 8;
+  std::vector<uint8_t> frame(static_cast<size_t>(k * rest + n * (3 + width)));
+  if (first.empty()) {
+    std::memcpy(frame.data(), entries.data(), entries.size());
+  } else {
+    for (uint64_t e = 0; e < k; ++e) {
+      const int8_t* q = &s.sh[order[first[e]] * values + 3];
+      for (uint32_t j = 0; j < rest; ++j) {
+        frame[e * rest + j] = static_cast<uint8_t>(
+            sh_code(q[j], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)])));
+      }
+    }
+    first = {};
+  }
+  uint8_t* dc = frame.data() + k * rest;
+  uint8_t* planes = dc + n * 3;
+  const int m = static_cast<int>(o.sh_step_multipliers[0]);
+  for (uint64_t i = 0; i < n; ++i) {
+    for (uint32_t c = 0; c < 3; ++c) dc[i * 3 + c] = static_cast<uint8_t>(sh_code(s.sh[order[i] * values + c], m));
+    for (uint32_t b = 0; b < width; ++b) planes[b * n + i] = static_cast<uint8_t>(index[i] >> (8 * b));
+  }
+  index = {};  // before the frame's compression buffer is allocated
+  out->assign(detail::kQuantizedHeaderSize + 20, 0);
+  (*out)[0] = static_cast<uint8_t>(detail::QuantizedTransform::kShCodebook);
+  (*out)[1] = static_cast<uint8_t>(bits);
+  detail::store_u16_le(out->data() + 2, 4);
+  detail::store_u32_le(out->data() + 4, values);
+  for (int d = 0; d < 4; ++d) detail::store_f32_le(out->data() + 8 + 4 * d, static_cast<float>(o.sh_step_multipliers[d]));
+  detail::store_u32_le(out->data() + 24, static_cast<uint32_t>(k));
+  return compress_frame(frame, o.zstd_level, out);
+}
+
+/// 16 bytes: Draco's quantized coordinates (< 2^30) and the point index (< 2^31, checked by the caller).
 struct QuantKey {
   int32_t q[3];
-  uint64_t index;
+  uint32_t index;
   bool operator<(const QuantKey& b) const {
     if (q[0] != b.q[0]) return q[0] < b.q[0];
     if (q[1] != b.q[1]) return q[1] < b.q[1];
@@ -272,7 +536,7 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
   quantizer.Init(transform.range(), static_cast<int32_t>((uint32_t{1} << pq->bits) - 1));
   std::vector<QuantKey> src(n), dst(n);
   for (uint64_t i = 0; i < n; ++i) {
-    src[i].index = dst[i].index = i;
+    src[i].index = dst[i].index = static_cast<uint32_t>(i);
     int32_t q[3] = {};
     qatt->GetMappedValue(draco::PointIndex(static_cast<uint32_t>(i)), q);
     for (int a = 0; a < 3; ++a) {
@@ -355,6 +619,15 @@ void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, std:
 
 }  // namespace
 
+ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians) {
+  ArchiveOptions o = options;
+  const bool dense = gaussians >= kArchiveDenseGaussians;
+  if (o.rotation_bits == 0) o.rotation_bits = dense ? 7 : 10;
+  if (o.scale_bits == 0) o.scale_bits = dense ? 7 : 9;
+  if (o.opacity_bits == 0) o.opacity_bits = dense ? 6 : 8;
+  return o;
+}
+
 Result<ArchivePositionQuantization> choose_position_quantization(const SceneBounds& bounds, double position_error) {
   if (!(position_error > 0.0 && position_error <= 0.5)) {
     return invalid("position error " + std::to_string(position_error) + " outside (0, 0.5]");
@@ -376,8 +649,9 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
   return q;
 }
 
-Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options) {
-  RGS_RETURN_IF_ERROR(check_options(options));
+Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options_in) {
+  RGS_RETURN_IF_ERROR(check_options(options_in));
+  const ArchiveOptions options = resolve_archive_options(options_in, scene.count);
   if (!scene.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
   if (scene.count > UINT32_MAX / 2) return invalid("Draco holds at most 2^31 points; the scene has " + dec(scene.count));
   try {
@@ -395,7 +669,13 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     d.metadata.bounds = bounds_of(d.means);
     const std::vector<uint64_t>& order = out.source_index;
     std::vector<std::function<Status()>> jobs = {
-        [&] { return encode_sh(scene, order, options, &out.stored[4]); },
+        [&] {
+          bool codebook = false;
+          if (scene.metadata.sh_degree > 0) {
+            RGS_RETURN_IF_ERROR(encode_sh_codebook(scene, order, options, &out.stored[4], &codebook));
+          }
+          return codebook ? Status() : encode_sh(scene, order, options, &out.stored[4]);
+        },
         [&] { return encode_rotations(scene, order, options, &out.stored[1]); },
         [&] { return encode_scales(scene, order, options, &out.stored[2]); },
         [&] { return encode_opacities(scene, order, options, &out.stored[3]); },
@@ -424,7 +704,25 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         {SectionId::kSh, 4, values, reinterpret_cast<uint8_t*>(d.sh.data()), d.sh.size()},
     };
     jobs.clear();
+    // Transform 4 and the exact transform 5 decode to the transform-4 value of every source value, so the
+    // SH values are computed here instead of decompressing the section again (saving its code buffer,
+    // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
+    const bool sh_exact = options.sh_codebook_size == 0;
+    if (sh_exact) {
+      jobs.push_back([&d, &scene, &order, &options, values, n] {
+        int mult[48];
+        for (uint32_t c = 0; c < values; ++c) {
+          mult[c] = static_cast<int>(options.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
+        }
+        for (uint64_t i = 0; i < n; ++i) {
+          const int8_t* q = &scene.sh[order[i] * values];
+          for (uint32_t c = 0; c < values; ++c) d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
+        }
+        return Status();
+      });
+    }
     for (const Target& t : targets) {
+      if (sh_exact && t.id == SectionId::kSh) continue;
       jobs.push_back([&d, &out, t, n] {
         Status s = detail::decode_quantized(t.id, d.metadata, out.stored[t.slot].data(), out.stored[t.slot].size(), n,
                                             t.components, t.dst, t.size);

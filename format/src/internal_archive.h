@@ -25,7 +25,8 @@ enum class QuantizedTransform : uint8_t {
   kSmallestThree = 1,  ///< rotations
   kLogUniform = 2,     ///< scales
   kUniform = 3,        ///< opacities
-  kShMultiplier = 4,   ///< sh
+  kShMultiplier = 4,   ///< sh, per-coefficient codes
+  kShCodebook = 5,     ///< sh: a codebook of rest vectors, per-Gaussian DC codes and indices (§3.3.3)
 };
 
 /// True when `codec` may be used on section `id` (§3.3: draco on means, quantized on the other

@@ -21,15 +21,22 @@ struct ArchiveOptions {
   /// (0, 0.5]. The Draco quantization bits are the fewest whose step is at most 2 * error * extent
   /// (at most 30, Draco's limit).
   double position_error = kDefaultArchivePositionError;
-  /// Bits per smallest-three quaternion component, 4..16 (§3.3.2 transform 1).
-  uint32_t rotation_bits = 10;
-  /// Bits per log-scale code, 4..16 (§3.3.2 transform 2).
-  uint32_t scale_bits = 9;
-  /// Bits per opacity code, 4..16 (§3.3.2 transform 3).
-  uint32_t opacity_bits = 8;
+  /// Bits per smallest-three quaternion component, 4..16 (§3.3.2 transform 1); 0 (default): by scene
+  /// size, 10, or 7 from kArchiveDenseGaussians on (resolve_archive_options).
+  uint32_t rotation_bits = 0;
+  /// Bits per log-scale code, 4..16 (§3.3.2 transform 2); 0 (default): 9, or 7 for dense scenes.
+  uint32_t scale_bits = 0;
+  /// Bits per opacity code, 4..16 (§3.3.2 transform 3); 0 (default): 8, or 6 for dense scenes.
+  uint32_t opacity_bits = 0;
   /// Multiplier of the INT8 SH step per degree 0..3, 1..127 (§3.3.2 transform 4); 1 keeps the runtime's
   /// INT8 values.
   std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
+  /// SH codebook (§3.3.3, transform 5), for SH degree >= 1. 0 (default): each distinct record of rest
+  /// codes is stored once (exact: the values of transform 4), when at most 3/4 of the records are
+  /// distinct; otherwise transform 4. 2..65536: a lossy codebook of that many entries (at most N), a
+  /// variance-splitting tree over the rest vectors; not a default, since on the measured scenes it costs
+  /// 10+ dB of PSNR for its bytes (docs/AUDITS.md). 1 is refused.
+  uint32_t sh_codebook_size = 0;
   /// zstd level 1..22 of the coded sections.
   int zstd_level = 6;
   /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
@@ -37,6 +44,14 @@ struct ArchiveOptions {
   /// Worker threads for encoding (the sections are coded in parallel); the bytes do not depend on it.
   uint32_t threads = 2;
 };
+
+/// From this many Gaussians on, a scene is *dense*: each Gaussian covers few pixels, so the default bits
+/// of rotations, scales and opacities are lower (measured in docs/AUDITS.md: 542,104-Gaussian daffodils
+/// lose 2.2 dB for 2.7 B/G less; the 38,347-Gaussian flowers would lose 2.6 dB at only 8/8/7 bits).
+inline constexpr uint64_t kArchiveDenseGaussians = uint64_t{1} << 18;
+
+/// `options` with its automatic (0) bit counts replaced by the defaults for a scene of `gaussians`.
+ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians);
 
 /// Position quantization of the archive profile for a scene of the given AABB (SPEC §3.3.1).
 struct ArchivePositionQuantization {

@@ -1,0 +1,123 @@
+// Archive profile round trips (format/SPEC.md §3.3) on real scenes: PLY -> quantize -> archive bytes ->
+// validate -> read_scene. The file decodes to exactly encode_archive's scene, every attribute stays within
+// the bound its codec promises relative to the runtime-profile scene, and the bytes do not depend on the
+// thread count. Runs on the shipped sample and on every real scene of $RGS_DATA_DIR (skipped visibly).
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "ply_test_util.h"
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/format/archive.h"
+#include "rgs/format/half.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/writer.h"
+#include "test_data.h"
+
+namespace {
+
+using namespace rgs;
+
+double half(uint16_t h) { return format::half_bits_to_float(h); }
+
+void check_archive_round_trip(const std::string& path, uint64_t expected_count, bool check_threads) {
+  auto ply = converter::read_ply(path);
+  REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+  REQUIRE(ply->cloud.size() == expected_count);
+  auto quantized = converter::quantize(ply->cloud, {});
+  REQUIRE(quantized.ok());
+  const format::EncodedScene& src = *quantized;
+  const uint64_t n = src.count;
+
+  format::WriteOptions write;
+  write.profile = format::StorageProfile::kArchive;
+  auto archive = format::encode_archive(src, write.archive);
+  REQUIRE_MESSAGE(archive.ok(), archive.status().to_string());
+  auto bytes = format::serialize_scene(src, write);
+  REQUIRE_MESSAGE(bytes.ok(), bytes.status().to_string());
+  const Status valid = format::validate(bytes->data(), bytes->size());
+  CHECK_MESSAGE(valid.ok(), valid.to_string());
+  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+  REQUIRE_MESSAGE(file.ok(), file.status().to_string());
+  auto read = file->read_scene();
+  REQUIRE_MESSAGE(read.ok(), read.status().to_string());
+  CHECK(test::same_encoded(*read, archive->decoded));
+  if (check_threads) {
+    format::WriteOptions one = write;
+    one.archive.threads = 1;
+    auto single = format::serialize_scene(src, one);
+    REQUIRE(single.ok());
+    CHECK(*single == *bytes);
+  }
+
+  // Per-attribute bounds against the runtime-profile scene (SPEC §3.3.1, §3.3.2).
+  const format::ArchiveOptions o = format::resolve_archive_options(write.archive, n);
+  const format::EncodedScene& d = archive->decoded;
+  const double pos_bound = 0.5 * archive->position.step * 1.05 + 1e-6 * archive->position.range;
+  const double rot_step = std::sqrt(2.0) / ((1u << o.rotation_bits) - 1);
+  const double rot_err = std::sqrt(3.0) * rot_step / 2 + 2e-3;  // + FP16 rounding of both quaternions
+  const double opa_bound = 0.5 / ((1u << o.opacity_bits) - 1) + 1.0 / 2048;
+  const bool log_scales = src.metadata.scale_encoding == format::ScaleEncoding::kLog;
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) lo[a] = std::numeric_limits<double>::infinity(), hi[a] = -lo[a];
+  auto ln = [&](uint16_t h) { return log_scales ? half(h) : std::log(half(h)); };
+  for (uint64_t i = 0; i < n * 3; ++i) {
+    const double v = ln(src.scales[i]);
+    if (std::isfinite(v)) lo[i % 3] = std::min(lo[i % 3], v), hi[i % 3] = std::max(hi[i % 3], v);
+  }
+  const uint32_t values = 3 * format::sh_coefficient_count(src.metadata.sh_degree);
+  uint64_t bad_pos = 0, bad_rot = 0, bad_scale = 0, bad_opa = 0, bad_sh = 0;
+  for (uint64_t i = 0; i < n; ++i) {
+    const uint64_t s = archive->source_index[i];
+    for (int a = 0; a < 3; ++a) bad_pos += std::fabs(d.means[i * 3 + a] - src.means[s * 3 + a]) > pos_bound;
+    double dot = 0, na = 0, nb = 0;
+    for (int a = 0; a < 4; ++a) {
+      const double x = half(d.rotations[i * 4 + a]), y = half(src.rotations[s * 4 + a]);
+      dot += x * y, na += x * x, nb += y * y;
+    }
+    bad_rot += 1 - std::fabs(dot) / std::sqrt(na * nb) > 2 * rot_err * rot_err;
+    for (int a = 0; a < 3; ++a) {
+      const double want = ln(src.scales[s * 3 + a]), got = ln(d.scales[i * 3 + a]);
+      const double smallest = std::log(6.2e-5);  // FP16 normals: relative rounding 2^-11
+      if (!std::isfinite(want) || (!log_scales && (want < smallest || got < smallest))) continue;
+      const double step = (hi[a] - lo[a]) / ((1u << o.scale_bits) - 1);
+      bad_scale += std::fabs(got - want) > 0.5 * step + 1e-3 + (log_scales ? std::fabs(want) / 1024 : 0);
+    }
+    bad_opa += std::fabs(half(d.opacities[i]) - half(src.opacities[s])) > opa_bound;
+    for (uint32_t c = 0; c < values; ++c) {
+      const int m = static_cast<int>(o.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]);
+      bad_sh += std::abs(d.sh[i * values + c] - src.sh[s * values + c]) > m;
+    }
+  }
+  CHECK(bad_pos == 0);
+  CHECK(bad_rot == 0);
+  CHECK(bad_scale == 0);
+  CHECK(bad_opa == 0);
+  CHECK(bad_sh == 0);
+}
+
+}  // namespace
+
+TEST_CASE("archive round trip: shipped guitar sample") {
+  check_archive_round_trip(test::repo_path("samples/guitar.ply"), 90854, true);
+}
+
+TEST_CASE("archive round trip: every real scene of $RGS_DATA_DIR") {
+  struct Scene {
+    const char* file;
+    uint64_t count;
+  };
+  for (const Scene& s : {Scene{"mipnerf360_flowers_c3dgs.ply", 38347}, Scene{"tiny_unknown_inria_sh3_it7000.ply", 9080},
+                         Scene{"biker.ply", 152746}, Scene{"playcanvas_flowers_lod0.ply", 542104}}) {
+    const std::string file = s.file;
+    CAPTURE(file);
+    const std::string path = test::shared_scene(file);
+    if (path.empty()) continue;  // shared_scene reported the skip
+    check_archive_round_trip(path, s.count, s.count < 200000);
+  }
+}

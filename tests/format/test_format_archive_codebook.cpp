@@ -1,0 +1,282 @@
+// Archive SH codebook (SPEC §3.3.3, quantized transform 5): round trip, determinism, and the must-fail
+// files tests/data/bad/archive/*.rgs (truncated frame, wrong sizes, codebook index out of range, an
+// entry code out of range). The files are made here from a small codebook-coded scene; RGS_WRITE_BAD_ARCHIVE=1
+// rewrites them, otherwise the committed files are checked.
+#include <doctest/doctest.h>
+#include <zstd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "format_test_util.h"
+#include "rgs/format/archive.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/writer.h"
+
+namespace {
+
+using namespace rgs;
+using namespace rgs::test;
+
+format::WriteOptions codebook_options(uint32_t size) {
+  format::WriteOptions o;
+  o.profile = format::StorageProfile::kArchive;
+  o.archive.sh_codebook_size = size;
+  return o;
+}
+
+/// A random scene whose rest vectors come from `patterns` distinct vectors.
+format::EncodedScene patterned_scene(uint64_t n, uint32_t degree, uint32_t patterns, uint32_t seed) {
+  format::EncodedScene s = make_random_scene(n, degree, seed);
+  const uint32_t values = 3 * format::sh_coefficient_count(degree), rest = values - 3;
+  std::mt19937 rng(seed + 1);
+  std::uniform_int_distribution<int> q8(-127, 127);
+  std::vector<int8_t> table(size_t{patterns} * rest);
+  for (int8_t& v : table) v = static_cast<int8_t>(q8(rng));
+  for (uint64_t i = 0; i < n; ++i) {
+    const uint32_t p = static_cast<uint32_t>(rng() % patterns);
+    for (uint32_t j = 0; j < rest; ++j) s.sh[i * values + 3 + j] = table[size_t{p} * rest + j];
+  }
+  return s;
+}
+
+/// The value transform 4 decodes for runtime value q with multiplier m (SPEC §3.3.2).
+int transform4(int q, uint32_t m) {
+  const int mi = static_cast<int>(m);
+  const int code = std::min((std::abs(q) + mi / 2) / mi, 127 / mi);
+  return (q < 0 ? -code : code) * mi;
+}
+
+size_t entry_of(const std::vector<uint8_t>& b, format::SectionId id) {
+  for (size_t i = 0; i < get_u32(b, 32); ++i) {
+    if (get_u32(b, entry_at(i)) == static_cast<uint32_t>(id)) return i;
+  }
+  return SIZE_MAX;
+}
+
+/// The sh section's frame decoded, a function applied, and the frame re-coded in place of the old one
+/// (the file keeps its layout: the new frame is padded to the old stored size only when it fits, which
+/// the tests below ensure by editing bytes, not sizes).
+struct ShFrame {
+  size_t entry = 0;
+  uint64_t offset = 0, stored = 0;
+  size_t header = 28;  // transform-5 header: 8 bytes, 4 multipliers, the codebook size
+  std::vector<uint8_t> content;
+};
+
+ShFrame read_sh_frame(const std::vector<uint8_t>& b) {
+  ShFrame f;
+  f.entry = entry_of(b, format::SectionId::kSh);
+  f.offset = get_u64(b, entry_at(f.entry) + 24);
+  f.stored = get_u64(b, entry_at(f.entry) + 32);
+  const uint8_t* frame = b.data() + f.offset + f.header;
+  const size_t frame_size = static_cast<size_t>(f.stored) - f.header;
+  const unsigned long long size = ZSTD_getFrameContentSize(frame, frame_size);
+  f.content.resize(static_cast<size_t>(size));
+  const size_t got = ZSTD_decompress(f.content.data(), f.content.size(), frame, frame_size);
+  REQUIRE(got == f.content.size());
+  return f;
+}
+
+/// Rebuilds the file with the sh frame re-coded: the section grows or shrinks, so the file is the prefix
+/// up to the section, the new section, and the sections after it are not allowed (sh is the last one).
+std::vector<uint8_t> write_sh_frame(const std::vector<uint8_t>& b, const ShFrame& f) {
+  std::vector<uint8_t> frame(ZSTD_compressBound(f.content.size()));
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 1);
+  const size_t n = ZSTD_compress2(cctx, frame.data(), frame.size(), f.content.data(), f.content.size());
+  ZSTD_freeCCtx(cctx);
+  REQUIRE(!ZSTD_isError(n));
+  REQUIRE(f.offset + f.stored == b.size());  // sh is the last section
+  std::vector<uint8_t> out(b.begin(), b.begin() + static_cast<ptrdiff_t>(f.offset + f.header));
+  out.insert(out.end(), frame.begin(), frame.begin() + static_cast<ptrdiff_t>(n));
+  put_u64(out, entry_at(f.entry) + 32, f.header + n);
+  put_u64(out, 48, out.size());  // header file_size
+  fix_all_checksums(out);
+  return out;
+}
+
+std::vector<uint8_t> good_codebook_file() {
+  const format::EncodedScene scene = patterned_scene(600, 1, 40, 5);
+  auto bytes = format::serialize_scene(scene, codebook_options(64));
+  REQUIRE(bytes.ok());
+  return *bytes;
+}
+
+struct BadArchive {
+  const char* name;
+  StatusCode code;
+  const char* fragment;
+};
+
+const BadArchive kBadArchives[] = {
+    {"codebook_index_out_of_range", StatusCode::kCorruptData, "SH codebook index"},
+    {"codebook_entry_out_of_range", StatusCode::kCorruptData, "SH codebook entry 0: code -128"},
+    {"codebook_size_over_n", StatusCode::kCorruptData, "SH codebook of"},
+    {"codebook_wrong_content_size", StatusCode::kCorruptData, "codes"},
+    {"codebook_truncated_frame", StatusCode::kCorruptData, "sh"},
+};
+
+std::vector<uint8_t> make_bad_archive(const std::string& name) {
+  std::vector<uint8_t> b = good_codebook_file();
+  ShFrame f = read_sh_frame(b);
+  const uint32_t k = get_u32(b, f.offset + 24);
+  const uint32_t values = get_u32(b, f.offset + 4), rest = values - 3;
+  const size_t n = (f.content.size() - size_t{k} * rest) / 4;  // 3 DC codes + a 1-byte index each
+  if (name == "codebook_index_out_of_range") {
+    f.content[size_t{k} * rest + 3 * n + 17] = static_cast<uint8_t>(k);  // Gaussian 17 names entry K
+    return write_sh_frame(b, f);
+  }
+  if (name == "codebook_entry_out_of_range") {
+    f.content[5] = 0x80;
+    return write_sh_frame(b, f);
+  }
+  if (name == "codebook_size_over_n") {
+    put_u32(b, f.offset + 24, static_cast<uint32_t>(n + 1));
+  } else if (name == "codebook_wrong_content_size") {
+    put_u32(b, f.offset + 24, k - 1);  // the frame holds K entries, the header now claims K - 1
+  } else if (name == "codebook_truncated_frame") {
+    // The section (the last one) and the file end in the middle of the frame.
+    const uint64_t keep = f.header + (f.stored - f.header) / 2;
+    b.resize(static_cast<size_t>(f.offset + keep));
+    put_u64(b, entry_at(f.entry) + 32, keep);
+    put_u64(b, 48, b.size());
+  }
+  fix_all_checksums(b);
+  return b;
+}
+
+std::string bad_archive_path(const std::string& name) { return data_path("bad/archive/" + name + ".rgs"); }
+
+}  // namespace
+
+TEST_CASE("archive codebook: exact when the codebook holds every rest vector; file decodes to encode_archive") {
+  const format::EncodedScene scene = patterned_scene(4000, 3, 50, 9);
+  format::ArchiveOptions options;
+  options.sh_codebook_size = 64;
+  auto archive = format::encode_archive(scene, options);
+  REQUIRE(archive.ok());
+  auto bytes = format::serialize_scene(scene, codebook_options(64));
+  REQUIRE(bytes.ok());
+  CHECK(format::validate(bytes->data(), bytes->size()).ok());
+  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+  REQUIRE(file.ok());
+  auto read = file->read_scene();
+  REQUIRE(read.ok());
+  check_same_scene(*read, archive->decoded);
+  const format::EncodedScene& d = archive->decoded;
+  const uint32_t values = 48;
+  for (uint64_t i = 0; i < d.count; ++i) {
+    const uint64_t s = archive->source_index[i];
+    for (uint32_t c = 0; c < values; ++c) {
+      const int want = scene.sh[s * values + c], got = d.sh[i * values + c];
+      // 50 patterns, 64 entries: every leaf holds one vector, so every value is transform 4's.
+      REQUIRE(got == transform4(want, options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]));
+    }
+  }
+}
+
+TEST_CASE("archive codebook: the default codes repeated records once, decoding exactly transform 4's values") {
+  const format::EncodedScene scene = patterned_scene(5000, 2, 300, 13);
+  const format::ArchiveOptions options;  // sh_codebook_size 0: distinct records when they repeat
+  auto archive = format::encode_archive(scene, options);
+  REQUIRE(archive.ok());
+  const std::vector<uint8_t>& sh = archive->stored[4];
+  REQUIRE(sh.size() > 28);
+  CHECK(sh[0] == 5);                    // transform 5
+  CHECK(get_u32(sh, 24) == 300);        // one entry per distinct record
+  CHECK(sh[1] == 9);                    // 9 index bits
+  const uint32_t values = 27;
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    const uint64_t s = archive->source_index[i];
+    for (uint32_t c = 0; c < values; ++c) {
+      const uint32_t m = options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)];
+      REQUIRE(archive->decoded.sh[i * values + c] == transform4(scene.sh[s * values + c], m));
+    }
+  }
+  auto bytes = format::serialize_scene(scene, codebook_options(0));
+  REQUIRE(bytes.ok());
+  CHECK(format::validate(bytes->data(), bytes->size()).ok());
+  // Records that do not repeat keep transform 4.
+  auto plain = format::encode_archive(make_random_scene(2000, 2, 4), options);
+  REQUIRE(plain.ok());
+  CHECK(plain->stored[4][0] == 4);
+}
+
+TEST_CASE("archive codebook: bounded error with fewer entries than vectors, deterministic whatever the threads") {
+  format::EncodedScene scene = make_random_scene(3000, 2, 21);
+  // Equal sizes and opacities: equal importance, so the leaf means are plain means.
+  for (uint16_t& v : scene.scales) v = scene.scales[0];
+  for (uint16_t& v : scene.opacities) v = scene.opacities[0];
+  format::WriteOptions one = codebook_options(256), three = codebook_options(256);
+  one.archive.threads = 1;
+  three.archive.threads = 3;
+  auto a = format::serialize_scene(scene, one), b = format::serialize_scene(scene, three);
+  REQUIRE(a.ok());
+  REQUIRE(b.ok());
+  CHECK(*a == *b);
+  CHECK(format::validate(a->data(), a->size()).ok());
+  auto archive = format::encode_archive(scene, one.archive);
+  REQUIRE(archive.ok());
+  // Each entry is the mean of its leaf, so the total squared error is below the data's own variance.
+  const uint32_t values = 27;
+  double err = 0, var = 0, mean[27] = {};
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    for (uint32_t c = 3; c < values; ++c) mean[c] += scene.sh[i * values + c] / 3000.0;
+  }
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    const uint64_t s = archive->source_index[i];
+    for (uint32_t c = 3; c < values; ++c) {
+      const double e = archive->decoded.sh[i * values + c] - scene.sh[s * values + c];
+      const double v = scene.sh[s * values + c] - mean[c];
+      err += e * e;
+      var += v * v;
+    }
+  }
+  CHECK(err < 0.8 * var);
+}
+
+TEST_CASE("archive codebook: options out of range are refused") {
+  const format::EncodedScene scene = make_random_scene(100, 1, 2);
+  for (uint32_t size : {1u, 65537u}) {
+    auto r = format::encode_archive(scene, codebook_options(size).archive);
+    CHECK(r.status().code() == StatusCode::kInvalidArgument);
+  }
+  // Degree 0 has no rest coefficients: the codebook option falls back to transform 4.
+  const format::EncodedScene dc_only = make_random_scene(100, 0, 2);
+  auto bytes = format::serialize_scene(dc_only, codebook_options(16));
+  REQUIRE(bytes.ok());
+  CHECK(format::validate(bytes->data(), bytes->size()).ok());
+}
+
+TEST_CASE("archive codebook: must-fail files tests/data/bad/archive/") {
+  const bool write = std::getenv("RGS_WRITE_BAD_ARCHIVE") != nullptr;
+  for (const BadArchive& bad : kBadArchives) {
+    const std::string name = bad.name;
+    CAPTURE(name);
+    const std::vector<uint8_t> made = make_bad_archive(bad.name);
+    const Status made_status = format::validate(made.data(), made.size());
+    CHECK(made_status.code() == bad.code);
+    CHECK(made_status.message().find(bad.fragment) != std::string::npos);
+    const std::string path = bad_archive_path(bad.name);
+    if (write) {
+      std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(made.data()),
+                                                  static_cast<std::streamsize>(made.size()));
+    }
+    std::ifstream in(path, std::ios::binary);
+    const std::string missing = path + " is missing: run the format tests with RGS_WRITE_BAD_ARCHIVE=1";
+    REQUIRE_MESSAGE(in.good(), missing);
+    const std::vector<uint8_t> committed((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const Status s = format::validate(committed.data(), committed.size());
+    CHECK(s.code() == bad.code);
+    CHECK(s.message().find(bad.fragment) != std::string::npos);
+    // The reader refuses it too, before or while decoding the scene.
+    auto file = format::RgsFile::from_bytes(committed.data(), committed.size());
+    if (file.ok()) CHECK(!file->read_scene().ok());
+  }
+}
