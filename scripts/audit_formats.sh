@@ -7,10 +7,10 @@
 #   glb             KHR_gaussian_splatting GLB        extra     any files given after -- (e.g. other tools' outputs)
 # Usage: scripts/audit_formats.sh SOURCE OUT_DIR [rgs-audit camera options...] [-- EXTRA_CANDIDATE...]
 #   e.g. scripts/audit_formats.sh flowers.ply out --cameras cameras.json --every 4 --width 960
-# Needs build/tools (RGS_BUILD_DIR). Writes OUT_DIR/<scene>.<candidate>.* and OUT_DIR/<scene>.audit.html/.json.
+# Tools from $RGS_TOOLS_DIR, else $RGS_BUILD_DIR/tools (default build/tools). Writes OUT_DIR/<scene>.<candidate>.* and OUT_DIR/<scene>.audit.html/.json.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-tools="${RGS_BUILD_DIR:-$root/build}/tools"
+tools="${RGS_TOOLS_DIR:-${RGS_BUILD_DIR:-$root/build}/tools}"
 [ $# -ge 2 ] || { sed -n 2,11p "${BASH_SOURCE[0]}" >&2; exit 2; }
 source="$1"
 out="$2"

@@ -121,6 +121,16 @@ if [ "$what" = audit ] || [ "$what" = all ]; then
   }
   audit flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs" \
     --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
+  # Every storage profile and output format of flowers against its PLY, the interop table's method (every 4th
+  # camera at 960 px wide), in one run.
+  t0=$(date +%s%N)
+  rc=0
+  RGS_TOOLS_DIR="$bin" "$(dirname "${BASH_SOURCE[0]}")/audit_formats.sh" \
+    "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" "$out/formats" --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json" \
+    --every 4 --width 960 --backend cuda >"$out/audit_formats_flowers.log" 2>&1 || rc=$?
+  [ $rc -ne 0 ] && status=1
+  note "audit_formats_flowers: exit $rc in $(( ($(date +%s%N) - t0) / 1000000 )) ms wall"
+  grep -A7 "candidate          format" "$out/audit_formats_flowers.log" | tee -a "$summary"
   if [ -f "$taebak" ]; then
     audit taebak_4k "$taebak_dir/taebak_lod0_sog/lod-meta.json" "$taebak" --cameras "$taebak_cameras" --width 3840 \
       --height 2160
