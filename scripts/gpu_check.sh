@@ -132,6 +132,13 @@ if [ "$what" = audit ] || [ "$what" = all ]; then
   note "audit_formats_flowers: exit $rc in $(( ($(date +%s%N) - t0) / 1000000 )) ms wall"
   grep -A7 "candidate          format" "$out/audit_formats_flowers.log" | tee -a "$summary"
   if [ -f "$taebak" ]; then
+    t0=$(date +%s%N)
+    rc=0
+    RGS_TOOLS_DIR="$bin" "$(dirname "${BASH_SOURCE[0]}")/audit_formats.sh" "$taebak_dir/taebak_lod0_sog/lod-meta.json" \
+      "$out/formats" --cameras "$taebak_cameras" --backend cuda >"$out/audit_formats_taebak.log" 2>&1 || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "audit_formats_taebak: exit $rc in $(( ($(date +%s%N) - t0) / 1000000 )) ms wall"
+    grep -A7 "candidate          format" "$out/audit_formats_taebak.log" | tee -a "$summary"
     audit taebak_4k "$taebak_dir/taebak_lod0_sog/lod-meta.json" "$taebak" --cameras "$taebak_cameras" --width 3840 \
       --height 2160
   fi
