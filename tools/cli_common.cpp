@@ -181,6 +181,14 @@ Status check_input_file(const std::string& path) {
                                           "tool accepts it)");
 }
 
+int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path) {
+  Status readable = check_input_file(path);
+  if (!readable.ok()) return report_error(tool, readable);
+  Status declared = outputs.add_input(path);
+  if (!declared.ok()) return report_usage_error(tool, declared);
+  return kExitOk;
+}
+
 Result<std::vector<uint8_t>> read_standard_input() {
   std::vector<uint8_t> bytes;
   uint8_t buffer[1 << 16];

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "rgs/api/scene_loading.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/status.h"
 
 namespace rgs::tools {
@@ -58,6 +59,11 @@ void install_interrupt_cleanup();
 /// socket or directory is refused at once instead of hanging the tool or being misread.
 /// @return kIoError naming `path` and what it is ("no such file", "is a directory", "is a FIFO ...").
 Status check_input_file(const std::string& path);
+
+/// Checks `path` with check_input_file and declares it as an input of `outputs`, so that no output of the
+/// run replaces it. @return kExitOk; else the error is printed and the exit code returned: kExitFailure for
+/// a path that cannot be read, kExitUsage for one that OutputSet::add_input refuses.
+int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path);
 
 /// Reads all of standard input (the tools' "-" input). @return kIoError with the OS cause.
 Result<std::vector<uint8_t>> read_standard_input();

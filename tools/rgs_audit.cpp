@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "cli_common.h"
+#include "created_directory.h"
 #include "read_limits_option.h"
 #include "error_stats_output.h"
 #include "image_write.h"
@@ -218,42 +219,6 @@ int report_output_error(const Status& status) {
                                                        : tools::report_error(kTool, status);
 }
 
-/// Checks `path` without blocking (a FIFO or device is refused at once) and declares it as an input of `outputs`.
-int declare_input(format::OutputSet& outputs, const std::string& path) {
-  Status readable = tools::check_input_file(path);
-  if (!readable.ok()) return tools::report_error(kTool, readable);
-  Status declared = outputs.add_input(path);
-  if (!declared.ok()) return tools::report_usage_error(kTool, declared);
-  return tools::kExitOk;
-}
-
-/// The report's image folder: created when missing, and removed again at scope exit when this run created it
-/// and left it empty (a failed run). Declared before the OutputSet, so that it is destroyed after the set has
-/// removed its temporaries.
-class CreatedDirectory {
- public:
-  /// Creates `path` (and its parents) when missing. @return kIoError naming `path`.
-  Status create(const std::string& path) {
-    std::error_code ec;
-    const bool existed = std::filesystem::exists(path, ec);
-    std::filesystem::create_directories(path, ec);
-    if (ec || !std::filesystem::is_directory(path)) {
-      return Status(StatusCode::kIoError,
-                    path + ": cannot create the report's image folder" + (ec ? ": " + ec.message() : std::string()));
-    }
-    if (!existed) path_ = path;
-    return Status();
-  }
-  void keep() { path_.clear(); }
-  ~CreatedDirectory() {
-    std::error_code ec;
-    if (!path_.empty()) std::filesystem::remove(path_, ec);  // only removes an empty directory
-  }
-
- private:
-  std::string path_;
-};
-
 /// A private folder under the system's temporary directory, removed with everything in it at scope exit.
 /// The HTML script reads the JSON and its images from here, because the report's own files are still staged
 /// under temporary names until the commit.
@@ -301,7 +266,7 @@ int run_report_only(const Options& opt) {
                                      Status(StatusCode::kInvalidArgument, "--report-from needs --report OUT.html"));
   }
   format::OutputSet outputs;
-  if (int code = declare_input(outputs, opt.report_from); code != tools::kExitOk) return code;
+  if (int code = tools::declare_input(kTool, outputs, opt.report_from); code != tools::kExitOk) return code;
   Status declared = outputs.add_output(opt.report_path);
   if (!declared.ok()) return report_output_error(declared);
   for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
@@ -328,13 +293,15 @@ int run(const Options& opt) {
 
   // Every identity is checked before any work: no output may replace an input or another output. The report's
   // image files are named by the audit's worst views, so they are declared once it has run (before writing).
-  CreatedDirectory created_images;
+  tools::CreatedDirectory created_images;
   format::OutputSet outputs;
   for (const std::string& input : opt.scenes) {
-    if (int code = declare_input(outputs, input); code != tools::kExitOk) return code;
+    if (int code = tools::declare_input(kTool, outputs, input); code != tools::kExitOk) return code;
   }
   if (!opt.cameras.cameras_path.empty()) {
-    if (int code = declare_input(outputs, opt.cameras.cameras_path); code != tools::kExitOk) return code;
+    if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) {
+      return code;
+    }
   }
   std::string report_json, report_files;
   if (!opt.no_report) {
@@ -425,7 +392,7 @@ int run(const Options& opt) {
         }
       }
     }
-    Status created = created_images.create(report_files);
+    Status created = created_images.create(report_files, "the report's image folder");
     if (!created.ok()) return tools::report_error(kTool, created);
     for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
     Status st = audit::write_report_images(r, report_files);

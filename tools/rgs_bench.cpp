@@ -446,10 +446,7 @@ int run(const Options& opt) {
   format::OutputSet outputs;
   for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
     if (input.empty()) continue;
-    Status readable = tools::check_input_file(input);
-    if (!readable.ok()) return tools::report_error(kTool, readable);
-    Status declared = outputs.add_input(input);
-    if (!declared.ok()) return tools::report_usage_error(kTool, declared);
+    if (int code = tools::declare_input(kTool, outputs, input); code != tools::kExitOk) return code;
   }
   if (!opt.json_path.empty()) {
     Status declared = outputs.add_output(opt.json_path);

@@ -77,27 +77,6 @@ struct Input {
   bool from_stdin() const { return path == "-"; }
 };
 
-/// A PLY given on standard input, as read_scene would describe it (other formats need a file).
-Result<converter::InputScene> read_ply_from_memory(const Input& input, const converter::SceneReadOptions& options) {
-  converter::PlyReadOptions ply_options;
-  ply_options.invalid_policy = options.invalid_policy;
-  ply_options.max_gaussians = options.max_gaussians;
-  ply_options.hash_file = options.hash_file;
-  RGS_ASSIGN_OR_RETURN(converter::PlyScene ply,
-                       converter::read_ply_bytes(input.bytes.data(), input.bytes.size(), input.path, ply_options));
-  converter::InputScene scene;
-  scene.cloud = std::move(ply.cloud);
-  scene.hygiene = ply.hygiene;
-  scene.format_id = "ply";
-  scene.description = ply.storage_format + " PLY";
-  scene.storage_format = ply.storage_format;
-  scene.file_bytes = ply.file_bytes;
-  scene.file_count = 1;
-  scene.declared_vertices = ply.declared_vertices;
-  scene.file_xxh64 = ply.file_xxh64;
-  return scene;
-}
-
 /// A .rgs input (a file, or standard input's bytes): validated fully (checksums, codecs, values), then
 /// dequantized, and described as read_scene describes the other formats.
 Result<converter::InputScene> read_rgs_input(const Options& opt, const Input& input) {
@@ -139,8 +118,12 @@ Result<converter::InputScene> read_input(const Options& opt, const Input& input,
     read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
     read_options.lod = opt.lod;
     read_options.convert_spz_frame = !opt.keep_frame;
-    RGS_ASSIGN_OR_RETURN(scene, input.from_stdin() ? read_ply_from_memory(input, read_options)
-                                                  : converter::read_scene(opt.input, read_options));
+    if (input.from_stdin()) {  // only PLY is read from standard input: the other formats need a file
+      RGS_ASSIGN_OR_RETURN(scene, converter::read_ply_scene_bytes(input.bytes.data(), input.bytes.size(),
+                                                                  input.path, read_options));
+    } else {
+      RGS_ASSIGN_OR_RETURN(scene, converter::read_scene(opt.input, read_options));
+    }
   }
   if (opt.sh_degree && *opt.sh_degree < scene.cloud.sh_degree) {
     scene.notes.push_back("SH degree " + std::to_string(scene.cloud.sh_degree) + " reduced to " +

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "cli_common.h"
+#include "created_directory.h"
 #include "image_write.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
@@ -272,31 +273,6 @@ Status write_view(const Options& opt, const std::string& base, const RenderedVie
   return Status::ok_status();
 }
 
-/// Removes the output directory at scope exit if this run created it and left it empty (a failed run).
-class CreatedDirectory {
- public:
-  /// Creates `path` (and its parents) when missing. @return kIoError naming `path`.
-  Status create(const std::string& path) {
-    std::error_code ec;
-    const bool existed = std::filesystem::exists(path, ec);
-    std::filesystem::create_directories(path, ec);
-    if (ec || !std::filesystem::is_directory(path)) {
-      return Status(StatusCode::kIoError,
-                    path + ": cannot create output directory" + (ec ? ": " + ec.message() : std::string()));
-    }
-    if (!existed) path_ = path;
-    return Status();
-  }
-  void keep() { path_.clear(); }
-  ~CreatedDirectory() {
-    std::error_code ec;
-    if (!path_.empty()) std::filesystem::remove(path_, ec);  // only removes an empty directory
-  }
-
- private:
-  std::string path_;
-};
-
 std::string output_kinds(const Options& opt) {
   std::string s = opt.image_format == "png" ? "PNG" : "PPM";
   if (opt.exr) s += " + EXR";
@@ -314,14 +290,11 @@ int run(Options opt) {
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
   // them. The output directory is removed again if the run fails after creating it (declared first, so it
   // is destroyed after the OutputSet has removed the temporaries).
-  CreatedDirectory created_directory;
+  tools::CreatedDirectory created_directory;
   format::OutputSet outputs;
   for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
     if (input.empty()) continue;
-    Status readable = tools::check_input_file(input);
-    if (!readable.ok()) return tools::report_error(kTool, readable);
-    Status declared = outputs.add_input(input);
-    if (!declared.ok()) return tools::report_usage_error(kTool, declared);
+    if (int code = tools::declare_input(kTool, outputs, input); code != tools::kExitOk) return code;
   }
 
   auto backend_or = make_backend(opt, *background);
@@ -338,7 +311,7 @@ int run(Options opt) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
   }
 
-  Status created = created_directory.create(opt.output_dir);
+  Status created = created_directory.create(opt.output_dir, "output directory");
   if (!created.ok()) return tools::report_error(kTool, created);
   // One file base per view; a camera name used twice gets its index, so that no view replaces another.
   const size_t count = cameras->size();

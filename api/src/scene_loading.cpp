@@ -2,11 +2,8 @@
 #include "rgs/api/scene_loading.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <fstream>
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
@@ -14,26 +11,11 @@
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
-#include "rgs/format/spec.h"
 #include "rgs/format/writer.h"
 
 namespace rgs::api {
 
 namespace {
-bool has_rgs_magic(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  char head[8] = {};
-  in.read(head, 8);
-  return in.gcount() == 8 && std::memcmp(head, format::kMagic, 8) == 0;
-}
-
-bool ends_with_rgs(const std::string& path) {
-  if (path.size() < 4) return false;
-  std::string ext = path.substr(path.size() - 4);
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".rgs";
-}
-
 Status check_replicated_count(const std::string& path, uint64_t count, uint32_t copies) {
   RGS_RETURN_ERROR_IF(copies == 0, StatusCode::kInvalidArgument, "replicate: the number of copies must be >= 1");
   const uint64_t total = count * uint64_t(copies);  // < 2^64: count < 2^63 from any reader, copies < 2^32
@@ -54,8 +36,6 @@ std::string group_digits(uint64_t n) {
   }
   return out;
 }
-
-bool is_rgs_path(const std::string& path) { return has_rgs_magic(path) || ends_with_rgs(path); }
 
 Result<converter::InputScene> read_other_format(const std::string& path, const format::ReadOptions& options) {
   converter::SceneReadOptions read_options;

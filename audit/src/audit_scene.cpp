@@ -1,8 +1,6 @@
 #include "rgs/audit/audit_scene.h"
 
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
@@ -13,20 +11,6 @@
 namespace rgs::audit {
 
 namespace {
-
-bool has_rgs_magic(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  char head[8] = {};
-  in.read(head, 8);
-  return in.gcount() == 8 && std::memcmp(head, format::kMagic, 8) == 0;
-}
-
-bool is_rgs(const std::string& path) {
-  if (has_rgs_magic(path)) return true;
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".rgs";
-}
 
 Status naming(Status status, const std::string& path) {
   if (status.message().find(path) == std::string::npos) status.prepend(path);
@@ -71,7 +55,7 @@ Result<AuditScene> load_other(const std::string& path, const format::ReadOptions
 
 Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label,
                                     const format::ReadOptions& options) {
-  auto loaded = is_rgs(path) ? load_rgs(path, options) : load_other(path, options);
+  auto loaded = format::is_rgs_path(path) ? load_rgs(path, options) : load_other(path, options);
   if (!loaded.ok()) return loaded.status();
   AuditScene scene = std::move(loaded).value();
   scene.info.path = path;

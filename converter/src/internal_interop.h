@@ -106,7 +106,8 @@ Result<T> guarded(const std::string& name, const char* activity, Fn&& fn) {
   }
 }
 
-/// Checks that `cloud` is consistent and finite (the writers' precondition). Errors: kInvalidArgument.
+/// The SPZ and glTF writers' precondition: check_cloud_shape (internal_cloud.h), and every value finite.
+/// Errors: kInvalidArgument.
 Status check_writable_cloud(const format::GaussianCloud& cloud);
 
 }  // namespace rgs::converter::detail

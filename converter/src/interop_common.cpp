@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "internal_cloud.h"
 #include "internal_interop.h"
 
 namespace rgs::converter::detail {
@@ -116,23 +117,7 @@ Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCl
                       " have zero-norm quaternions (first: " + what + " " + std::to_string(h->first_invalid_index) +
                       "); rerun with --sanitize to drop them");
   }
-  // Drop the invalid Gaussians, keeping the order of the others.
-  size_t out = 0, d = 0;
-  for (size_t i = 0; i < n; ++i) {
-    if (d < invalid.size() && invalid[d] == i) {
-      ++d;
-      continue;
-    }
-    if (out != i) {
-      std::memmove(&cloud->means[out * 3], &cloud->means[i * 3], 3 * sizeof(float));
-      std::memmove(&cloud->rotations[out * 4], &cloud->rotations[i * 4], 4 * sizeof(float));
-      std::memmove(&cloud->scales[out * 3], &cloud->scales[i * 3], 3 * sizeof(float));
-      cloud->opacities[out] = cloud->opacities[i];
-      std::memmove(&cloud->sh[out * sv], &cloud->sh[i * sv], sv * sizeof(float));
-    }
-    ++out;
-  }
-  cloud->resize(out);
+  remove_gaussians(invalid, cloud);
   h->dropped_gaussians = invalid.size();
   return Status();
 }
@@ -142,14 +127,7 @@ Result<std::shared_ptr<const format::MappedFile>> map_input(const std::string& p
 }
 
 Status check_writable_cloud(const format::GaussianCloud& cloud) {
-  if (cloud.sh_degree > 3 || !cloud.is_consistent()) {
-    return Status(StatusCode::kInvalidArgument,
-                  "cloud arrays are inconsistent: " + std::to_string(cloud.means.size()) + " mean values, " +
-                      std::to_string(cloud.rotations.size()) + " rotation values, " +
-                      std::to_string(cloud.scales.size()) + " scale values, " +
-                      std::to_string(cloud.opacities.size()) + " opacities, " + std::to_string(cloud.sh.size()) +
-                      " SH values at SH degree " + std::to_string(cloud.sh_degree));
-  }
+  RGS_RETURN_IF_ERROR(check_cloud_shape(cloud));
   auto check = [](const std::vector<float>& v, const char* name) -> Status {
     for (size_t j = 0; j < v.size(); ++j) {
       if (!finite_bits(v[j])) {

@@ -29,6 +29,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "internal_cloud.h"
 #include "internal_huge_pages.h"
 #include "internal_parallel.h"
 #include "internal_ply_header.h"
@@ -706,29 +707,6 @@ Status decode_ascii(ByteSource* source, const PlyHeader& header, const PlyElemen
 // ---------------------------------------------------------------------------------------------------
 // The whole read.
 
-/// Removes the Gaussians at the ascending indices `drop`, keeping the order of the others.
-void compact(const std::vector<uint64_t>& drop, format::GaussianCloud* cloud) {
-  const uint64_t n = cloud->size();
-  const uint64_t sv = uint64_t{cloud->sh_coefficients()} * 3;
-  uint64_t out = 0;
-  size_t d = 0;
-  for (uint64_t i = 0; i < n; ++i) {
-    if (d < drop.size() && drop[d] == i) {
-      ++d;
-      continue;
-    }
-    if (out != i) {
-      std::memmove(&cloud->means[out * 3], &cloud->means[i * 3], 3 * sizeof(float));
-      std::memmove(&cloud->rotations[out * 4], &cloud->rotations[i * 4], 4 * sizeof(float));
-      std::memmove(&cloud->scales[out * 3], &cloud->scales[i * 3], 3 * sizeof(float));
-      cloud->opacities[out] = cloud->opacities[i];
-      std::memmove(&cloud->sh[out * sv], &cloud->sh[i * sv], sv * sizeof(float));
-    }
-    ++out;
-  }
-  cloud->resize(out);
-}
-
 Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& options) {
   const uint64_t file_size = source->size();
   // Header: look for end_header in the first bytes, growing the window up to kMaxPlyHeaderBytes.
@@ -858,7 +836,7 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
                         " have zero-norm quaternions (first: vertex " + std::to_string(h.first_invalid_index) +
                         "); rerun with --sanitize to drop them");
     }
-    compact(counts.invalid, &scene.cloud);
+    detail::remove_gaussians(counts.invalid, &scene.cloud);
     h.dropped_gaussians = counts.invalid.size();
   }
   return scene;

@@ -7,6 +7,7 @@
 #include <new>
 #include <string>
 
+#include "internal_cloud.h"
 #include "rgs/format/file_io.h"
 
 namespace rgs::converter {
@@ -18,21 +19,6 @@ constexpr uint64_t kRowsPerChunk = 16384;
 
 /// Floats per row: x y z nx ny nz f_dc×3 f_rest×(3K−3) opacity scale×3 rot×4.
 uint64_t row_floats(uint32_t k_count) { return 3 + 3 + 3 + 3 * (uint64_t{k_count} - 1) + 1 + 3 + 4; }
-
-Status check_cloud(const format::GaussianCloud& cloud) {
-  if (cloud.sh_degree > 3) {
-    return Status(StatusCode::kInvalidArgument, "cloud SH degree " + std::to_string(cloud.sh_degree) + " > 3");
-  }
-  if (!cloud.is_consistent()) {
-    return Status(StatusCode::kInvalidArgument,
-                  "cloud arrays are inconsistent: " + std::to_string(cloud.means.size()) + " mean values, " +
-                      std::to_string(cloud.rotations.size()) + " rotation values, " +
-                      std::to_string(cloud.scales.size()) + " scale values, " +
-                      std::to_string(cloud.opacities.size()) + " opacities, " + std::to_string(cloud.sh.size()) +
-                      " SH values at SH degree " + std::to_string(cloud.sh_degree));
-  }
-  return Status();
-}
 
 /// The header text INRIA's save_ply (through plyfile) writes, byte for byte.
 std::string header_text(const format::GaussianCloud& cloud) {
@@ -104,7 +90,7 @@ Status serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64
 }  // namespace
 
 Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, PlyWriteReport* report) {
-  RGS_RETURN_IF_ERROR(check_cloud(cloud));
+  RGS_RETURN_IF_ERROR(detail::check_cloud_shape(cloud));
   try {
     const std::string header = header_text(cloud);
     const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
@@ -121,7 +107,7 @@ Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, P
 }
 
 Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud, PlyWriteReport* report) {
-  Status valid = check_cloud(cloud);
+  Status valid = detail::check_cloud_shape(cloud);
   if (!valid.ok()) return std::move(valid.prepend(path));
   uint64_t written = 0;
   PlyWriteReport counts;

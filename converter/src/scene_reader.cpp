@@ -118,16 +118,22 @@ bool detect_splat(const Probe& p) { return looks_like_splat(p.head.data(), p.hea
 
 // --- readers not in playcanvas_readers.h ----------------------------------------------------------
 
-Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOptions& options) {
-  if (options.lod.has_value()) {
-    return Status(StatusCode::kInvalidArgument,
-                  path + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
-  }
+Status refuse_lod(const std::string& path, const SceneReadOptions& options, const char* what) {
+  RGS_RETURN_ERROR_IF(options.lod.has_value(), StatusCode::kInvalidArgument,
+                      path + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is " +
+                          what);
+  return Status();
+}
+
+PlyReadOptions ply_read_options(const SceneReadOptions& options) {
   PlyReadOptions ply_options;
   ply_options.invalid_policy = options.invalid_policy;
   ply_options.max_gaussians = options.max_gaussians;
   ply_options.hash_file = options.hash_file;
-  RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply(path, ply_options));
+  return ply_options;
+}
+
+InputScene ply_input_scene(PlyScene ply) {
   InputScene scene;
   scene.cloud = std::move(ply.cloud);
   scene.hygiene = ply.hygiene;
@@ -141,11 +147,10 @@ Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOption
   return scene;
 }
 
-Status refuse_lod(const std::string& path, const SceneReadOptions& options, const char* what) {
-  RGS_RETURN_ERROR_IF(options.lod.has_value(), StatusCode::kInvalidArgument,
-                      path + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is " +
-                          what);
-  return Status();
+Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOptions& options) {
+  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a PLY file"));
+  RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply(path, ply_read_options(options)));
+  return ply_input_scene(std::move(ply));
 }
 
 /// XXH64 (seed 0) of the file at `path`, read in 1 MiB pieces.
@@ -372,6 +377,13 @@ Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& o
   Probe probe;
   RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
   return format->read(probe.path, options);
+}
+
+Result<InputScene> read_ply_scene_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                        const SceneReadOptions& options) {
+  RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a PLY file"));
+  RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply_bytes(data, size, name, ply_read_options(options)));
+  return ply_input_scene(std::move(ply));
 }
 
 Result<std::string> detect_scene_format(const std::string& path) {

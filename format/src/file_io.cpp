@@ -312,6 +312,15 @@ Status rename_into_place(Temporary* temp, const std::string& path) {
   return Status();
 }
 
+/// The last step of a single-file atomic write: rename_into_place, then persist the rename in its folder.
+Status commit_temporary(Temporary* temp, const std::string& path) {
+  RGS_RETURN_IF_ERROR(rename_into_place(temp, path));
+  std::string dir, name;
+  split_path(path, &dir, &name);
+  sync_directory(dir);
+  return Status();
+}
+
 // --- Identities ----------------------------------------------------------------------------------------------
 
 /// Device and inode of what `path` names after following symbolic links; nullopt when it does not exist.
@@ -438,11 +447,7 @@ Status write_file_atomic(const std::string& path, const ChunkProducer& produce) 
   if (OutputSet* set = capturing_set(path)) return set->write(path, produce);
   Temporary temp;
   RGS_RETURN_IF_ERROR(write_temporary(path, produce, &temp));
-  RGS_RETURN_IF_ERROR(rename_into_place(&temp, path));
-  std::string dir, name;
-  split_path(path, &dir, &name);
-  sync_directory(dir);
-  return Status();
+  return commit_temporary(&temp, path);
 }
 
 Status write_file_atomic(const std::string& path, const void* data, size_t size) {
@@ -454,11 +459,7 @@ Status write_file_atomic_by_name(const std::string& path,
   if (OutputSet* set = capturing_set(path)) return set->write_by_name(path, write_to);
   Temporary temp;
   RGS_RETURN_IF_ERROR(write_temporary_by_name(path, write_to, &temp));
-  RGS_RETURN_IF_ERROR(rename_into_place(&temp, path));
-  std::string dir, name;
-  split_path(path, &dir, &name);
-  sync_directory(dir);
-  return Status();
+  return commit_temporary(&temp, path);
 }
 
 struct OutputSet::State {

@@ -8,8 +8,10 @@
 #include <zstd_errors.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdint>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <new>
@@ -683,6 +685,17 @@ Result<EncodedScene> RgsFile::read_scene() const {
     return Status(StatusCode::kOutOfMemory,
                   name_ + ": out of memory decoding " + dec(header_.gaussian_count) + " Gaussians");
   }
+}
+
+bool is_rgs_path(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[8] = {};
+  in.read(head, 8);
+  if (in.gcount() == 8 && std::memcmp(head, kMagic, 8) == 0) return true;
+  if (path.size() < 4) return false;
+  std::string ext = path.substr(path.size() - 4);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".rgs";
 }
 
 }  // namespace rgs::format

@@ -126,6 +126,16 @@ TEST_CASE("replicate_scene_file: any input format, and the read limits") {
   CHECK(refused.status().code() == StatusCode::kLimitExceeded);
 }
 
+TEST_CASE("is_rgs_path: the .rgs magic or a name ending in .rgs") {
+  CHECK(api::is_rgs_path(test::repo_path("tests/data/v1.0/small_sh3.rgs")));
+  CHECK_FALSE(api::is_rgs_path(test::repo_path("samples/guitar.ply")));
+  // A missing or unreadable file ending in .rgs (any case) still goes to the .rgs reader for its error.
+  CHECK(api::is_rgs_path("/nonexistent/scene.RGS"));
+  CHECK(api::is_rgs_path(".rgs"));
+  CHECK_FALSE(api::is_rgs_path("/nonexistent/scene.ply"));
+  CHECK_FALSE(api::is_rgs_path("rgs"));
+}
+
 TEST_CASE("file_safe_name and group_digits") {
   CHECK(api::file_safe_name("a/b\\c", 0) == "a_b_c");
   CHECK(api::file_safe_name("", 7) == "view_007");

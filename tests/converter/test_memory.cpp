@@ -4,11 +4,11 @@
 
 #include <atomic>
 #include <cmath>
-#include <filesystem>
 #include <new>
 #include <string>
 
 #include "../../converter/src/internal_parallel.h"
+#include "bad_value_files.h"
 #include "ply_test_util.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/ply_writer.h"
@@ -39,18 +39,8 @@ TEST_CASE("parallel_slices / parallel_items: bad_alloc in a worker thread is kOu
 }
 
 TEST_CASE("rgs -> PLY: files whose values break the spec are refused before anything is written") {
-  const auto dir = std::filesystem::temp_directory_path() / "rgs_test_convert_values";
-  std::filesystem::create_directories(dir);
-  for (const char* name : {"nan_mean", "zero_rotation", "negative_linear_scale", "opacity_above_one"}) {
-    CAPTURE(name);
-    // The library steps of `rgs-convert x.rgs x.ply`: open, read_scene, dequantize, write_ply.
-    auto file = format::RgsFile::open(repo_path(std::string("tests/data/bad/") + name + ".rgs"));
-    REQUIRE(file.ok());
-    auto scene = file->read_scene();
-    REQUIRE_FALSE(scene.ok());
-    CHECK(scene.status().code() == StatusCode::kCorruptData);
-    CHECK(scene.status().message().find(name) != std::string::npos);
-  }
+  // The library steps of `rgs-convert x.rgs x.ply` start with open and read_scene, which refuse them.
+  check_read_scene_refuses_bad_values();
 }
 
 TEST_CASE("rgs -> PLY: guitar's 101 linear-FP16 zero scales are written finite and counted") {

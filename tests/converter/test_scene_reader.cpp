@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <set>
 #include <string>
@@ -152,6 +153,34 @@ TEST_CASE("read_scene detects every format by content, not by extension") {
   REQUIRE(id.ok());
   CHECK(*id == "sog_lod");
   CHECK(read_ok((tmp.path / "streamed").string()).cloud.size() == 877);
+}
+
+TEST_CASE("read_ply_scene_bytes describes a PLY in memory as read_scene describes the file") {
+  const std::string path = repo_path("samples/guitar.ply");
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(!bytes.empty());
+  SceneReadOptions options;
+  options.hash_file = true;
+  const InputScene from_file = read_ok(path, options);
+  auto from_memory = converter::read_ply_scene_bytes(bytes.data(), bytes.size(), "-", options);
+  REQUIRE_MESSAGE(from_memory.ok(), from_memory.status().to_string());
+  CHECK(from_memory->format_id == from_file.format_id);
+  CHECK(from_memory->description == from_file.description);
+  CHECK(from_memory->storage_format == from_file.storage_format);
+  CHECK(from_memory->file_bytes == from_file.file_bytes);
+  CHECK(from_memory->file_count == 1);
+  CHECK(from_memory->declared_vertices == from_file.declared_vertices);
+  CHECK(from_memory->file_xxh64 == from_file.file_xxh64);
+  CHECK(from_memory->cloud.means == from_file.cloud.means);
+  CHECK(from_memory->cloud.sh == from_file.cloud.sh);
+
+  // A level of detail is refused, as for a PLY file, never ignored.
+  options.lod = 1;
+  auto with_lod = converter::read_ply_scene_bytes(bytes.data(), bytes.size(), "-", options);
+  REQUIRE_FALSE(with_lod.ok());
+  CHECK(with_lod.status().code() == StatusCode::kInvalidArgument);
+  CHECK(with_lod.status().message().find("-: a level of detail applies only to streamed SOG") == 0);
 }
 
 TEST_CASE("read_scene names what an unsupported input looks like and lists the supported formats") {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "../../runtime/src/internal_parallel.h"
+#include "bad_value_files.h"
 #include "rgs/format/reader.h"
 #include "test_data.h"
 
@@ -28,14 +29,7 @@ TEST_CASE("parallel_for: bad_alloc in a worker thread is kOutOfMemory, and the o
 
 TEST_CASE("CPU render path: .rgs files with NaN means, zero quaternions, negative scales or opacity 2 fail") {
   // tools::load_scene (rgs-render --backend cpu, rgs-audit) reads through RgsFile::read_scene.
-  for (const char* name : {"nan_mean", "zero_rotation", "negative_linear_scale", "opacity_above_one"}) {
-    CAPTURE(name);
-    auto file = format::RgsFile::open(repo_path(std::string("tests/data/bad/") + name + ".rgs"));
-    REQUIRE(file.ok());
-    auto scene = file->read_scene();
-    REQUIRE_FALSE(scene.ok());
-    CHECK(scene.status().code() == StatusCode::kCorruptData);
-  }
+  check_read_scene_refuses_bad_values();
 }
 
 }  // namespace rgs::test

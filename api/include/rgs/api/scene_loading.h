@@ -31,8 +31,9 @@ struct HostScene {
 };
 
 /// True when `path` is to be read as a .rgs file: it starts with the .rgs magic or ends in .rgs (so a
-/// missing or truncated "x.rgs" still gets the .rgs reader's error).
-bool is_rgs_path(const std::string& path);
+/// missing or truncated "x.rgs" still gets the .rgs reader's error). The format library's test, shared with
+/// the audit's scene loading.
+using format::is_rgs_path;
 
 /// Loads `path` into host memory: a .rgs file (RgsFile::open with `options` + read_scene + dequantize, checksums
 /// verified unless `options` says otherwise) when is_rgs_path(), otherwise any format converter::read_scene

@@ -80,6 +80,13 @@ struct InputScene {
 /// Thread safety: may be called concurrently; decodes on up to 16 threads of its own.
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options = {});
 
+/// Reads a 3DGS PLY held in memory (a file given on standard input) into the InputScene read_scene gives
+/// for the same PLY file: read_ply_bytes with `options`, format_id "ply", file_count 1. `name` names the
+/// input in errors. Only PLY is read from memory; other formats need a file (read_scene).
+/// Errors: those of read_ply_bytes, and kInvalidArgument when `options` asks for a level of detail.
+Result<InputScene> read_ply_scene_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                        const SceneReadOptions& options = {});
+
 /// What read_scene would do with `path`: the format_id of the reader it picks (e.g. "sog_lod"), or the
 /// kInvalidArgument "unsupported format" error (kIoError when `path` cannot be read). Reads only the start
 /// of the file (and a JSON file whole).

@@ -139,4 +139,9 @@ class RgsFile {
 Status validate(const uint8_t* data, size_t size, const ReadLimits& limits = {},
                 const std::string& name = "<memory>");
 
+/// True when `path` is to be read as a .rgs file: its first 8 bytes are the .rgs magic (§2), or its name ends
+/// in ".rgs" (any case), so that a missing or truncated "x.rgs" still gets RgsFile's error rather than
+/// another format's. Reads at most 8 bytes; a path that cannot be read is judged by its name alone.
+bool is_rgs_path(const std::string& path);
+
 }  // namespace rgs::format
