@@ -189,7 +189,7 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
   const uint32_t max_code = (1u << o.opacity_bits) - 1;
   CodePlanes codes(s.count, 1, o.opacity_bits);
   for (uint64_t i = 0; i < s.count; ++i) {
-    codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * double{max_code}, max_code));
+    codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * static_cast<double>(max_code), max_code));
   }
   return finish_quantized(detail::QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes, o.zstd_level, out);
 }
