@@ -9,6 +9,7 @@ stage="$(cd "$1" && pwd)"
 out="$2"
 mode="${3:-roofgs}"
 mkdir -p "$out"
+if [ -f "$stage/bin.tar.xz" ] && [ ! -x "$stage/bin/rgs-bench" ]; then tar -C "$stage" -xJf "$stage/bin.tar.xz"; fi
 bench="$stage/bin/rgs-bench"
 data="$stage/data"
 ncu="$(command -v ncu || echo /usr/local/cuda/bin/ncu)"
@@ -29,3 +30,7 @@ profile() {  # NAME ARGS...: one view at 3840x2160, one frame (no warm-up), ever
 
 profile flowers "$data/mipnerf360_flowers_c3dgs.rgs" --cameras "$data/mipnerf360_flowers_cameras.json" --every 8
 profile daffodils_x4 "$data/playcanvas_flowers_lod0.rgs" --replicate 4 --orbit 8
+# taebak (4.25M Gaussians), when scripts/gpu_prepare_taebak.sh left it in /tmp/rgs_taebak in an earlier call.
+if [ -f /tmp/rgs_taebak/taebak.rgs ]; then
+  profile taebak /tmp/rgs_taebak/taebak.rgs --cameras "$data/taebak_cameras.json"
+fi
