@@ -18,7 +18,8 @@ Status write_image(const std::string& path, const char* format_name, const OIIO:
   return format::write_file_atomic_by_name(path, [&](const std::string& temp) -> Status {
     auto out = OIIO::ImageOutput::create(format_name);
     if (!out) {
-      return Status(StatusCode::kIoError, path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
+      return Status(StatusCode::kIoError,
+                    path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
     }
     if (!out->open(temp, spec)) return Status(StatusCode::kIoError, path + ": cannot write: " + out->geterror());
     const bool written = out->write_image(type, data);

@@ -169,14 +169,16 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
                tools::escape_text(c.scene.path).c_str(), tools::escape_text(c.scene.format).c_str());
   std::fprintf(out, "  gaussians        %s (SH degree %u)\n", tools::group_digits(c.scene.gaussians).c_str(),
                c.scene.sh_degree);
-  std::fprintf(out, "  size             %s bytes  (%s B/Gaussian), ratio %sx\n",
-               tools::group_digits(c.scene.file_bytes).c_str(), tools::fixed(double(c.scene.file_bytes) * per_g, 1).c_str(),
-               tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str());
+  std::fprintf(
+      out, "  size             %s bytes  (%s B/Gaussian), ratio %sx\n", tools::group_digits(c.scene.file_bytes).c_str(),
+      tools::fixed(double(c.scene.file_bytes) * per_g, 1).c_str(),
+      tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str());
   if (!c.scene.sections.empty()) {
     std::fprintf(out, "  %-22s %8s %14s %12s\n", "section", "codec", "bytes", "B/Gaussian");
     for (const auto& s : c.scene.sections) {
       std::fprintf(out, "  %-22s %8s %14s %12s\n", s.name.c_str(), s.codec.c_str(),
-                   tools::group_digits(s.stored_bytes).c_str(), tools::fixed(double(s.stored_bytes) * per_g, 3).c_str());
+                   tools::group_digits(s.stored_bytes).c_str(),
+                   tools::fixed(double(s.stored_bytes) * per_g, 3).c_str());
     }
     std::fprintf(out, "  %-22s %8s %14s %12s\n", "header, table, padding", "",
                  tools::group_digits(c.scene.overhead_bytes).c_str(),
@@ -437,12 +439,13 @@ int run(const Options& opt) {
                  "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
     for (const auto& c : r.candidates) {
       const double per_g = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
-      std::fprintf(out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", tools::escape_text(c.scene.label).c_str(),
-                   tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),
-                   tools::fixed(per_g, 1).c_str(),
-                   tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
-                   db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(),
-                   tools::fixed(c.summary.ssim_mean, 5).c_str(), tools::fixed(c.summary.max_abs_diff, 4).c_str());
+      std::fprintf(
+          out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", tools::escape_text(c.scene.label).c_str(),
+          tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),
+          tools::fixed(per_g, 1).c_str(),
+          tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
+          db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(),
+          tools::fixed(c.summary.ssim_mean, 5).c_str(), tools::fixed(c.summary.max_abs_diff, 4).c_str());
     }
     const audit::ViewInfo& first = r.views.front();
     for (const auto& c : r.candidates) {
@@ -458,7 +461,10 @@ int run(const Options& opt) {
                    tools::escape_text(opt.heatmap_path).c_str(),
                    tools::escape_text(r.views[r.candidates[0].summary.worst_view].name).c_str(),
                    tools::fixed(r.candidates[0].summary.max_abs_diff > 0
-                                    ? r.candidates[0].views[r.candidates[0].summary.worst_view].max_abs_diff : 0.f, 4).c_str());
+                                    ? r.candidates[0].views[r.candidates[0].summary.worst_view].max_abs_diff
+                                    : 0.f,
+                                4)
+                       .c_str());
     }
     if (!report_json.empty()) std::fprintf(out, "  json             %s\n", tools::escape_text(report_json).c_str());
     std::fprintf(out, "  time             %s s (views %s s)\n", tools::fixed(tools::seconds_since(t_start), 1).c_str(),
@@ -475,9 +481,11 @@ int run(const Options& opt) {
       if (!opt.quiet) std::fprintf(out, "  report           %s\n", tools::escape_text(opt.report_path).c_str());
     } else {
       // The JSON and the images are still committed; the HTML can be made on another host.
-      std::fprintf(stderr, "%s: warning: no HTML report (%s); on a host with python3-matplotlib run: %s --report-from %s "
-                   "--report %s\n", kTool, tools::escape_text(st.message()).c_str(), kTool,
-                   tools::escape_text(report_json).c_str(), tools::escape_text(opt.report_path).c_str());
+      std::fprintf(stderr,
+                   "%s: warning: no HTML report (%s); on a host with python3-matplotlib run: %s --report-from %s "
+                   "--report %s\n",
+                   kTool, tools::escape_text(st.message()).c_str(), kTool, tools::escape_text(report_json).c_str(),
+                   tools::escape_text(opt.report_path).c_str());
     }
   }
 
@@ -507,17 +515,20 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   for (int i = 0; i < argc; ++i) opt.command_line += (i ? " " : "") + std::string(argv[i]);
-  CLI::App app{"Audit conversions and formats: bytes per section and per Gaussian, per-attribute errors, and per-view "
-               "PSNR/SSIM/max |d| of each candidate's render against the source's (3DGS baseline, FP32). Renders on the "
-               "GPU when a CUDA device is present (--backend), else on the CPU reference. Writes a JSON next to an "
-               "HTML report (default <first candidate>.audit.html), all committed together at the end. Without a camera "
-               "option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure (nothing written), 2 usage error, 3 below "
-               "--min-psnr (reports written).",
-               kTool};
+  CLI::App app{
+      "Audit conversions and formats: bytes per section and per Gaussian, per-attribute errors, and per-view "
+      "PSNR/SSIM/max |d| of each candidate's render against the source's (3DGS baseline, FP32). Renders on the "
+      "GPU when a CUDA device is present (--backend), else on the CPU reference. Writes a JSON next to an "
+      "HTML report (default <first candidate>.audit.html), all committed together at the end. Without a camera "
+      "option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure (nothing written), 2 usage error, 3 below "
+      "--min-psnr (reports written).",
+      kTool};
   app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: any scene files it reads (.ply, .rgs)");
   app.add_option("--label", opt.labels, "Name of a candidate in tables and plots (repeat, in candidate order)");
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json (native size by default)");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")->check(CLI::Range(1, 2147483647))->needs(cams);
+  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
+      ->check(CLI::Range(1, 2147483647))
+      ->needs(cams);
   app.add_option("--limit", opt.cameras.limit, "At most N views")->check(CLI::Range(1, 2147483647));
   auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras (default 4, at 960x540)")
                     ->check(CLI::Range(1, 100000))->excludes(cams);
@@ -535,8 +546,9 @@ int main(int argc, char** argv) {
   report->excludes(no_report);
   app.add_option("--report-from", opt.report_from, "Only make the HTML (--report) from the JSON of an earlier run");
   app.add_option("--json", opt.json_path, "Also write the JSON here ('-': stdout; the table then goes to stderr)");
-  app.add_option("--heatmap", opt.heatmap_path,
-                 "Full-size |difference| of the first candidate's worst view as a grey image: .png (OpenImageIO), .pgm, .ppm");
+  app.add_option(
+      "--heatmap", opt.heatmap_path,
+      "Full-size |difference| of the first candidate's worst view as a grey image: .png (OpenImageIO), .pgm, .ppm");
   app.add_option("--worst", opt.worst, "Worst views per candidate shown in the report (default 3)");
   app.add_option("--image-size", opt.image_size, "Largest side of the report's images (default 1024)")
       ->check(CLI::Range(16, 32768));

@@ -680,7 +680,10 @@ int main(int argc, char** argv) {
                "and FLOPs, docs/ROOFLINE.md, against the device's memory and FP32 peaks measured in the same "
                "run); a table on stdout and the full results as JSON.",
                kTool};
-  app.add_option("scene", opt.input, "Scene: .rgs (uploaded as stored), or any format converter::read_scene detects (uploaded as FP32 arrays)")->required();
+  app.add_option(
+         "scene", opt.input,
+         "Scene: .rgs (uploaded as stored), or any format converter::read_scene detects (uploaded as FP32 arrays)")
+      ->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
       ->check(CLI::Range(1, 2147483647))->needs(cams);

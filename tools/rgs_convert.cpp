@@ -89,7 +89,8 @@ Result<converter::InputScene> read_rgs_input(const Options& opt, const Input& in
     size = mapping->size();
   }
   RGS_RETURN_IF_ERROR(format::validate(bytes, size, tools::read_limits(), opt.input));
-  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(bytes, size, tools::read_options(), opt.input));
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file,
+                       format::RgsFile::from_bytes(bytes, size, tools::read_options(), opt.input));
   RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
   auto cloud = format::dequantize(encoded);
   if (!cloud.ok()) return Status(cloud.status()).prepend(opt.input);

@@ -348,7 +348,8 @@ int run(Options opt) {
 
   const runtime::Camera& first = cameras->front();
   const double ms_per_frame = render_ms / static_cast<double>(count);
-  std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output_dir).c_str());
+  std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(),
+              tools::escape_text(opt.output_dir).c_str());
   std::printf("  views            %zu (%s, %s)\n", count, output_kinds(opt).c_str(),
               opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json");
   std::printf("  resolution       %ux%u\n", first.width, first.height);
@@ -380,7 +381,9 @@ int main(int argc, char** argv) {
                    (oiio ? "writes PNG/EXR (OpenImageIO) and PPM/PFM." : "has no OpenImageIO: PPM/PFM only.") +
                    (RGS_HAS_CUDA ? " CUDA: yes." : " CUDA: no (--backend cpu only)."),
                kTool};
-  app.add_option("scene", opt.input, "Scene: .rgs, or any format converter::read_scene detects (3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF/GLB, .splat); cpu: dequantized on the host; cuda: uploaded")
+  app.add_option("scene", opt.input,
+                 "Scene: .rgs, or any format converter::read_scene detects (3DGS PLY, PlayCanvas compressed PLY / SOG, "
+                 "SPZ, glTF/GLB, .splat); cpu: dequantized on the host; cuda: uploaded")
       ->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")

@@ -213,7 +213,8 @@ void multiply(const double a[16], const double b[16], double out[16]) {
 Status numbers(const json& obj, const char* key, size_t n, double* out, const std::string& where) {
   auto it = obj.find(key);
   if (it == obj.end()) return Status();
-  if (!it->is_array() || it->size() != n) return corrupt(where + " '" + key + "' is not an array of " + std::to_string(n));
+  if (!it->is_array() || it->size() != n)
+    return corrupt(where + " '" + key + "' is not an array of " + std::to_string(n));
   for (size_t i = 0; i < n; ++i) {
     if (!(*it)[i].is_number()) return corrupt(where + " '" + key + "' holds a non-number");
     out[i] = (*it)[i].get<double>();
@@ -223,8 +224,10 @@ Status numbers(const json& obj, const char* key, size_t n, double* out, const st
 
 Status Reader::visit(uint64_t index, const double parent[16], int depth) {
   const json& nodes = member(doc_, "nodes");
-  if (!nodes.is_array() || index >= nodes.size()) return corrupt("glTF node " + std::to_string(index) + " does not exist");
-  if (depth > kMaxNodeDepth) return corrupt("glTF node hierarchy deeper than " + std::to_string(kMaxNodeDepth) + " (cycle?)");
+  if (!nodes.is_array() || index >= nodes.size())
+    return corrupt("glTF node " + std::to_string(index) + " does not exist");
+  if (depth > kMaxNodeDepth)
+    return corrupt("glTF node hierarchy deeper than " + std::to_string(kMaxNodeDepth) + " (cycle?)");
   const json& node = nodes[index];
   const std::string where = "glTF node " + std::to_string(index);
   if (!node.is_object()) return corrupt(where + " is not an object");
@@ -252,7 +255,8 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
     uint64_t mesh = 0;
     RGS_RETURN_IF_ERROR(get_index(node, "mesh", &mesh, true, where));
     const json& meshes = member(doc_, "meshes");
-    if (!meshes.is_array() || mesh >= meshes.size()) return corrupt(where + " names mesh " + std::to_string(mesh) + ", which does not exist");
+    if (!meshes.is_array() || mesh >= meshes.size())
+      return corrupt(where + " names mesh " + std::to_string(mesh) + ", which does not exist");
     const json& prims = member(meshes[mesh], "primitives");  // a reference: primitives are kept by address
     if (!prims.is_array()) return corrupt("glTF mesh " + std::to_string(mesh) + " has no primitives array");
     for (const json& p : prims) {
@@ -296,8 +300,8 @@ Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
   if (uri == b.end()) {
     if (index != 0 || bin_ == nullptr) return corrupt(where + " has no uri and there is no GLB BIN chunk");
     if (length > bin_size_) {
-      return Status(StatusCode::kIoError, where + " declares " + std::to_string(length) + " bytes but the BIN chunk has " +
-                                              std::to_string(bin_size_));
+      return Status(StatusCode::kIoError, where + " declares " + std::to_string(length) +
+                                              " bytes but the BIN chunk has " + std::to_string(bin_size_));
     }
     *data = bin_;
     *size = length;
@@ -408,8 +412,8 @@ Status Reader::accessor(const json& attributes, const std::string& semantic, con
   RGS_RETURN_IF_ERROR(buffer(buf, &data, &size));
   uint64_t vend = 0;
   if (!detail::add_u64(voff, vlen, &vend) || vend > size) {
-    return corrupt(vwhere + " spans bytes " + std::to_string(voff) + "+" + std::to_string(vlen) + ", beyond its buffer of " +
-                   std::to_string(size));
+    return corrupt(vwhere + " spans bytes " + std::to_string(voff) + "+" + std::to_string(vlen) +
+                   ", beyond its buffer of " + std::to_string(size));
   }
   if (count > 0) {
     uint64_t last = 0, end = 0;
@@ -454,7 +458,8 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
     }
   }
   if (prims_.empty()) {
-    return Status(StatusCode::kUnsupportedFeature, "glTF has no mesh primitive with the KHR_gaussian_splatting extension");
+    return Status(StatusCode::kUnsupportedFeature,
+                  "glTF has no mesh primitive with the KHR_gaussian_splatting extension");
   }
   Allowed position_types;
   position_types.byte_norm = position_types.short_norm = position_types.ubyte = position_types.ubyte_norm = true;
@@ -508,7 +513,8 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
     for (uint32_t l = 0; l <= 3; ++l) {
       int present = 0;
       for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
-        present += attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m));
+        present +=
+            attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m));
       }
       if (present == 0) {
         if (l == 0) return corrupt(where + " has no KHR_gaussian_splatting:SH_DEGREE_0_COEF_0");
@@ -539,7 +545,9 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
       }
     }
     for (const Accessor& a : d.sh) {
-      if (a.count != n) return corrupt(where + ": SH accessor holds " + std::to_string(a.count) + " values, POSITION " + std::to_string(n));
+      if (a.count != n)
+        return corrupt(where + ": SH accessor holds " + std::to_string(a.count) + " values, POSITION " +
+                       std::to_string(n));
     }
     if (!parts.empty() && parts.front().degree != d.degree) {
       return Status(StatusCode::kUnsupportedFeature, where + " has SH degree " + std::to_string(d.degree) +
@@ -570,7 +578,8 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
     // World transform: M = R·s (uniform s > 0), applied when not the identity.
     const double* m = d.world;
     double col[3];
-    for (int c = 0; c < 3; ++c) col[c] = std::sqrt(m[c * 4] * m[c * 4] + m[c * 4 + 1] * m[c * 4 + 1] + m[c * 4 + 2] * m[c * 4 + 2]);
+    for (int c = 0; c < 3; ++c)
+      col[c] = std::sqrt(m[c * 4] * m[c * 4] + m[c * 4 + 1] * m[c * 4 + 1] + m[c * 4 + 2] * m[c * 4 + 2]);
     const double s = col[0];
     bool is_identity = true;
     for (int i = 0; i < 16; ++i) is_identity = is_identity && std::fabs(m[i] - ((i % 5 == 0) ? 1.0 : 0.0)) < 1e-12;
@@ -669,7 +678,8 @@ Result<InteropScene> read_document(const uint8_t* data, size_t size, const std::
     }
     const uint32_t version = detail::le_u32(data + 4);
     if (version != 2) {
-      return Status(StatusCode::kUnsupportedVersion, "GLB version " + std::to_string(version) + " is not supported (2)");
+      return Status(StatusCode::kUnsupportedVersion,
+                    "GLB version " + std::to_string(version) + " is not supported (2)");
     }
     const uint32_t length = detail::le_u32(data + 8);
     if (length > size) {
@@ -683,7 +693,8 @@ Result<InteropScene> read_document(const uint8_t* data, size_t size, const std::
       const uint32_t type = detail::le_u32(data + at + 4);
       if (chunk > length - at - 8) {
         return Status(StatusCode::kIoError, "GLB chunk at byte " + std::to_string(at) + " declares " +
-                                                std::to_string(chunk) + " bytes, past the end at " + std::to_string(length));
+                                                std::to_string(chunk) + " bytes, past the end at " +
+                                                std::to_string(length));
       }
       if (!have_json) {
         if (type != detail::kGlbChunkJson) return corrupt("GLB's first chunk is not JSON");
@@ -706,7 +717,8 @@ Result<InteropScene> read_document(const uint8_t* data, size_t size, const std::
                                                   std::to_string(kMaxGltfJsonBytes));
   }
   json doc = json::parse(json_begin, json_begin + json_size, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded()) return corrupt(container == "glb" ? "GLB JSON chunk is not valid JSON" : "not glTF: invalid JSON");
+  if (doc.is_discarded())
+    return corrupt(container == "glb" ? "GLB JSON chunk is not valid JSON" : "not glTF: invalid JSON");
   Reader reader(doc, bin, bin_size, base_dir, options);
   return reader.read(container, size);
 }

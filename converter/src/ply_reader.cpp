@@ -482,7 +482,8 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
     parts.resize(static_cast<size_t>(chunks));
     errors.resize(static_cast<size_t>(chunks));
     std::vector<std::vector<uint8_t>> buffers(workers);
-    for (auto& b : buffers) b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
+    for (auto& b : buffers)
+      b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
     std::atomic<bool> failed{false};
     RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned t, uint64_t c) {
       if (failed.load(std::memory_order_relaxed)) return;
@@ -571,8 +572,8 @@ class AsciiTokenizer {
         ++p;
       }
       if (p - start > kMaxAsciiToken) {
-        return Status(StatusCode::kCorruptData,
-                      "line " + std::to_string(line_) + ": token longer than " + std::to_string(kMaxAsciiToken) + " bytes");
+        return Status(StatusCode::kCorruptData, "line " + std::to_string(line_) + ": token longer than " +
+                                                    std::to_string(kMaxAsciiToken) + " bytes");
       }
       if (p == win_end_ && win_end_ < source_->size() && win_start_ != start) {
         RGS_RETURN_IF_ERROR(slide(start));  // token may continue past the window: re-read from its start
@@ -580,8 +581,8 @@ class AsciiTokenizer {
       }
       if (p == win_end_ && win_end_ < source_->size()) {
         // Window starts at the token and still ends inside it: the token is absurdly long.
-        return Status(StatusCode::kCorruptData,
-                      "line " + std::to_string(line_) + ": token longer than " + std::to_string(kMaxAsciiToken) + " bytes");
+        return Status(StatusCode::kCorruptData, "line " + std::to_string(line_) + ": token longer than " +
+                                                    std::to_string(kMaxAsciiToken) + " bytes");
       }
       *token = std::string_view(reinterpret_cast<const char*>(win_ + (start - win_start_)), p - start);
       pos_ = p;
@@ -717,7 +718,8 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
   }
   size_t header_end = detail::find_ply_header_end(head, window);
   while (header_end == 0 && window < file_size && window < detail::kMaxPlyHeaderBytes) {
-    window = static_cast<size_t>(std::min<uint64_t>(file_size, std::min<size_t>(window * 4, detail::kMaxPlyHeaderBytes)));
+    window =
+        static_cast<size_t>(std::min<uint64_t>(file_size, std::min<size_t>(window * 4, detail::kMaxPlyHeaderBytes)));
     RGS_ASSIGN_OR_RETURN(head, source->view(0, window));
     header_end = detail::find_ply_header_end(head, window);
   }
@@ -773,11 +775,12 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
                         " (truncated file?)");
     }
   } else if (n > remaining / layout.stride) {
-    return Status(StatusCode::kIoError,
-                  "file has " + std::to_string(remaining) + " bytes after the header but " + std::to_string(n) +
-                      " vertices × " + std::to_string(layout.stride) + " bytes need " +
-                      (n <= UINT64_MAX / layout.stride ? std::to_string(n * layout.stride) : std::string("more than 2^64")) +
-                      " (truncated file?)");
+    return Status(
+        StatusCode::kIoError,
+        "file has " + std::to_string(remaining) + " bytes after the header but " + std::to_string(n) + " vertices × " +
+            std::to_string(layout.stride) + " bytes need " +
+            (n <= UINT64_MAX / layout.stride ? std::to_string(n * layout.stride) : std::string("more than 2^64")) +
+            " (truncated file?)");
   }
 
   PlyScene scene;
@@ -817,7 +820,8 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
                                       &scene.cloud, &counts));
     if (hash_state) {
       const uint64_t vertex_end = header.data_offset + n * layout.stride;
-      RGS_RETURN_IF_ERROR(hash_range(source, hash_chunks ? vertex_end : header.data_offset, file_size, hash_state.get()));
+      RGS_RETURN_IF_ERROR(
+          hash_range(source, hash_chunks ? vertex_end : header.data_offset, file_size, hash_state.get()));
     }
   }
   if (hash_state) scene.file_xxh64 = static_cast<uint64_t>(XXH64_digest(hash_state.get()));

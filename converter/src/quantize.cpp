@@ -198,7 +198,8 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     return Status(StatusCode::kInvalidArgument,
                   "SH clip percentile " + std::to_string(pct) + " is outside (0, 100]");
   }
-  if (options.scale_encoding != format::ScaleEncoding::kLinear && options.scale_encoding != format::ScaleEncoding::kLog) {
+  if (options.scale_encoding != format::ScaleEncoding::kLinear &&
+      options.scale_encoding != format::ScaleEncoding::kLog) {
     return Status(StatusCode::kInvalidArgument,
                   "unknown scale encoding " + std::to_string(static_cast<int>(options.scale_encoding)));
   }
@@ -216,7 +217,8 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     float max_abs[4][3] = {};
     for (const ScanResult& s : scans) {
       if (s.bad_index != std::numeric_limits<uint64_t>::max()) {
-        return Status(StatusCode::kInvalidArgument, "cannot quantize Gaussian " + std::to_string(s.bad_index) + ": " + s.why);
+        return Status(StatusCode::kInvalidArgument,
+                      "cannot quantize Gaussian " + std::to_string(s.bad_index) + ": " + s.why);
       }
       for (int d = 0; d < 4; ++d) {
         for (int c = 0; c < 3; ++c) max_abs[d][c] = std::max(max_abs[d][c], s.max_abs[d][c]);

@@ -24,7 +24,8 @@ Result<InteropScene> read_records(const uint8_t* data, size_t size, const Intero
   const uint64_t n = size / kSplatRecordBytes;
   if (n > options.max_gaussians) {
     return Status(StatusCode::kLimitExceeded, ".splat file holds " + std::to_string(n) +
-                                                  " Gaussians, above the limit of " + std::to_string(options.max_gaussians));
+                                                  " Gaussians, above the limit of " +
+                                                  std::to_string(options.max_gaussians));
   }
   InteropScene scene;
   scene.format = "splat";

@@ -190,7 +190,8 @@ Status zstd_status(size_t code, int stream) {
 
 Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropReadOptions& options) {
   if (size < detail::kSpzV4HeaderBytes) {
-    return Status(StatusCode::kIoError, "file is " + std::to_string(size) + " bytes, shorter than the 32-byte SPZ header");
+    return Status(StatusCode::kIoError,
+                  "file is " + std::to_string(size) + " bytes, shorter than the 32-byte SPZ header");
   }
   Header h;
   h.version = le_u32(data + 4);
@@ -327,7 +328,8 @@ class GzipReader {
   Status open() {
     zs_ = z_stream{};
     const int r = inflateInit2(&zs_, 16 + MAX_WBITS);  // gzip wrapper only
-    if (r != Z_OK) return Status(StatusCode::kOutOfMemory, "cannot initialize zlib inflate (code " + std::to_string(r) + ")");
+    if (r != Z_OK)
+      return Status(StatusCode::kOutOfMemory, "cannot initialize zlib inflate (code " + std::to_string(r) + ")");
     initialized_ = true;
     return Status();
   }
@@ -411,7 +413,8 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
   StreamSizes sizes;
   RGS_RETURN_IF_ERROR(check_header(h, options, &sizes));
   if (head[15] != 0) {
-    return Status(StatusCode::kCorruptData, "SPZ header reserved byte 15 is " + std::to_string(head[15]) + ", must be 0");
+    return Status(StatusCode::kCorruptData,
+                  "SPZ header reserved byte 15 is " + std::to_string(head[15]) + ", must be 0");
   }
   uint64_t payload = 0;
   for (uint64_t b : sizes.bytes) payload += b;  // < 2^32 · 64
@@ -435,8 +438,9 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
     RGS_RETURN_IF_ERROR(gz.read(piece, sizeof(piece), &got));
     tail.insert(tail.end(), piece, piece + got);
     if (tail.size() > kMaxLegacyExtensionBytes) {
-      return Status(StatusCode::kLimitExceeded, "SPZ data continues more than " +
-                                                    std::to_string(kMaxLegacyExtensionBytes) + " bytes past its arrays");
+      return Status(
+          StatusCode::kLimitExceeded,
+          "SPZ data continues more than " + std::to_string(kMaxLegacyExtensionBytes) + " bytes past its arrays");
     }
   }
   if (gz.trailing_bytes() != 0) {

@@ -34,7 +34,8 @@ std::string fixed_text(double v, int digits) {
 
 Status check_options(const SpzWriteOptions& o) {
   if (o.version < 2 || o.version > 4) {
-    return Status(StatusCode::kInvalidArgument, "SPZ version " + std::to_string(o.version) + " cannot be written (2..4)");
+    return Status(StatusCode::kInvalidArgument,
+                  "SPZ version " + std::to_string(o.version) + " cannot be written (2..4)");
   }
   if (o.sh1_bits < 1 || o.sh1_bits > 8 || o.sh_rest_bits < 1 || o.sh_rest_bits > 8) {
     return Status(StatusCode::kInvalidArgument, "SPZ SH bits " + std::to_string(o.sh1_bits) + "/" +
@@ -227,7 +228,8 @@ Result<std::vector<uint8_t>> wrap_gzip(const SpzWriteOptions& o, const format::G
   const int r = deflate(&zs, Z_FINISH);
   const size_t produced = out.size() - zs.avail_out;
   deflateEnd(&zs);
-  if (r != Z_STREAM_END) return Status(StatusCode::kOutOfMemory, "zlib deflate failed (code " + std::to_string(r) + ")");
+  if (r != Z_STREAM_END)
+    return Status(StatusCode::kOutOfMemory, "zlib deflate failed (code " + std::to_string(r) + ")");
   out.resize(produced);
   return out;
 }

@@ -102,7 +102,8 @@ Status decode_draco_means(const uint8_t* src, size_t size, uint64_t n, uint8_t* 
       float xyz[3];
       const draco::AttributeValueIndex value = att->mapped_index(draco::PointIndex(static_cast<uint32_t>(i)));
       const bool converted = att->ConvertValue<float, 3>(value, xyz);
-      RGS_RETURN_ERROR_IF(!converted, StatusCode::kCorruptData, "Draco position " + dec(i) + " cannot be read as float32");
+      RGS_RETURN_ERROR_IF(!converted, StatusCode::kCorruptData,
+                          "Draco position " + dec(i) + " cannot be read as float32");
       for (int a = 0; a < 3; ++a) store_f32_le(dst + i * 12 + a * 4, xyz[a]);
     }
   } catch (const std::bad_alloc&) {
@@ -311,8 +312,8 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
         const int q = static_cast<int8_t>(book[e]) * static_cast<int>(h.params[sh_degree_of_coefficient(1 + j / 3)]);
         if (q < -127 || q > 127) {
           return Status(StatusCode::kCorruptData, "SH codebook entry " + dec(e / rest) + ": code " +
-                                                      std::to_string(static_cast<int8_t>(book[e])) + " of value " + dec(j) +
-                                                      " is out of range");
+                                                      std::to_string(static_cast<int8_t>(book[e])) + " of value " +
+                                                      dec(j) + " is out of range");
         }
         book[e] = static_cast<uint8_t>(static_cast<int8_t>(q));
       }

@@ -61,7 +61,8 @@ Status check_options(const ArchiveOptions& o) {
   if (o.zstd_level < 1 || o.zstd_level > ZSTD_maxCLevel()) {
     return invalid("zstd level " + std::to_string(o.zstd_level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
   }
-  if (o.draco_speed < 0 || o.draco_speed > 10) return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
+  if (o.draco_speed < 0 || o.draco_speed > 10)
+    return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
   return Status();
 }
 
@@ -78,7 +79,8 @@ Status compress_frame(const std::vector<uint8_t>& raw, int level, std::vector<ui
   const size_t bound = ZSTD_compressBound(raw.size());
   out->resize(start + bound);
   const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw.data(), raw.size());
-  if (ZSTD_isError(n)) return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
+  if (ZSTD_isError(n))
+    return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
   out->resize(start + n);
   out->shrink_to_fit();  // the bound can be twice the frame; the section is kept until the file is written
   return Status();
@@ -266,7 +268,8 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
       total += imp[i];
     }
     const double unit = total > 0 ? 64.0 * static_cast<double>(n) / total : 0;
-    for (uint64_t i = 0; i < n; ++i) wt[i] = static_cast<uint32_t>(std::clamp(std::floor(imp[i] * unit + 0.5), 1.0, 4096.0));
+    for (uint64_t i = 0; i < n; ++i)
+      wt[i] = static_cast<uint32_t>(std::clamp(std::floor(imp[i] * unit + 0.5), 1.0, 4096.0));
   }
   std::vector<uint32_t> ids(static_cast<size_t>(n));
   for (uint64_t i = 0; i < n; ++i) ids[i] = static_cast<uint32_t>(i);
@@ -280,7 +283,8 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
     const double count = static_cast<double>(sm[2 * rest]);
     double total = 0, best = -1;
     for (uint32_t j = 0; j < rest; ++j) {
-      const double e = weight[j] * (static_cast<double>(sm[rest + j]) - static_cast<double>(sm[j]) * static_cast<double>(sm[j]) / count);
+      const double e = weight[j] * (static_cast<double>(sm[rest + j]) -
+                                    static_cast<double>(sm[j]) * static_cast<double>(sm[j]) / count);
       total += e;
       if (e > best) best = e, cells[c].split_dim = j;
     }
@@ -306,7 +310,9 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
   accumulate(add_cell(0, static_cast<uint32_t>(n)));
   finish_cell(0);
   // Max-heap on (error, -node): ties go to the older node, so the order is fully determined.
-  auto less = [&](uint32_t a, uint32_t b) { return cells[a].sse < cells[b].sse || (cells[a].sse == cells[b].sse && a > b); };
+  auto less = [&](uint32_t a, uint32_t b) {
+    return cells[a].sse < cells[b].sse || (cells[a].sse == cells[b].sse && a > b);
+  };
   std::vector<uint32_t> heap = {0};
   uint32_t leaves = 1;
   while (leaves < target_size && !heap.empty()) {
@@ -329,7 +335,8 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
     // Sum the smaller child, the other is the parent minus it (exact).
     const size_t small = split - begin <= end - split ? l : r, large = small == l ? r : l;
     accumulate(small);
-    for (size_t k = 0; k < stride; ++k) sums[large * stride + k] = sums[size_t{c} * stride + k] - sums[small * stride + k];
+    for (size_t k = 0; k < stride; ++k)
+      sums[large * stride + k] = sums[size_t{c} * stride + k] - sums[small * stride + k];
     for (size_t child : {l, r}) {
       finish_cell(child);
       heap.push_back(static_cast<uint32_t>(child));
@@ -377,7 +384,8 @@ bool dedup_sh_records(const EncodedScene& s, const std::vector<uint64_t>& order,
   const uint64_t n = s.count;
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
   int mult[45];
-  for (uint32_t j = 0; j < rest; ++j) mult[j] = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]);
+  for (uint32_t j = 0; j < rest; ++j)
+    mult[j] = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]);
   auto codes_of = [&](uint64_t i, int8_t* record) {
     const int8_t* q = &s.sh[order[i] * values + 3];
     for (uint32_t j = 0; j < rest; ++j) record[j] = sh_code(q[j], mult[j]);
@@ -466,7 +474,8 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
   (*out)[1] = static_cast<uint8_t>(bits);
   detail::store_u16_le(out->data() + 2, 4);
   detail::store_u32_le(out->data() + 4, values);
-  for (int d = 0; d < 4; ++d) detail::store_f32_le(out->data() + 8 + 4 * d, static_cast<float>(o.sh_step_multipliers[d]));
+  for (int d = 0; d < 4; ++d)
+    detail::store_f32_le(out->data() + 8 + 4 * d, static_cast<float>(o.sh_step_multipliers[d]));
   detail::store_u32_le(out->data() + 24, static_cast<uint32_t>(k));
   return compress_frame(frame, o.zstd_level, out);
 }
@@ -522,11 +531,13 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
   draco::Decoder raw_decoder;
   raw_decoder.SetSkipAttributeTransform(draco::GeometryAttribute::POSITION);
   auto raw = raw_decoder.DecodePointCloudFromBuffer(&raw_buffer);
-  if (!raw.ok()) return invalid("internal error: Draco cannot decode its own stream: " + raw.status().error_msg_string());
+  if (!raw.ok())
+    return invalid("internal error: Draco cannot decode its own stream: " + raw.status().error_msg_string());
   const std::unique_ptr<draco::PointCloud> qpc = std::move(raw).value();
   const draco::PointAttribute* qatt = qpc->GetNamedAttribute(draco::GeometryAttribute::POSITION);
   draco::AttributeQuantizationTransform transform;
-  if (qatt == nullptr || !transform.InitFromAttribute(*qatt) || transform.quantization_bits() != static_cast<int>(pq->bits)) {
+  if (qatt == nullptr || !transform.InitFromAttribute(*qatt) ||
+      transform.quantization_bits() != static_cast<int>(pq->bits)) {
     return invalid("internal error: Draco's stream lacks the position quantization");
   }
   for (int a = 0; a < 3; ++a) pq->origin[a] = transform.min_value(a);
@@ -653,7 +664,8 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
   RGS_RETURN_IF_ERROR(check_options(options_in));
   const ArchiveOptions options = resolve_archive_options(options_in, scene.count);
   if (!scene.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
-  if (scene.count > UINT32_MAX / 2) return invalid("Draco holds at most 2^31 points; the scene has " + dec(scene.count));
+  if (scene.count > UINT32_MAX / 2)
+    return invalid("Draco holds at most 2^31 points; the scene has " + dec(scene.count));
   try {
     ArchiveScene out;
     RGS_ASSIGN_OR_RETURN(out.position, choose_position_quantization(scene.metadata.bounds, options.position_error));
@@ -716,7 +728,8 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         }
         for (uint64_t i = 0; i < n; ++i) {
           const int8_t* q = &scene.sh[order[i] * values];
-          for (uint32_t c = 0; c < values; ++c) d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
+          for (uint32_t c = 0; c < values; ++c)
+            d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
         }
         return Status();
       });

@@ -574,7 +574,8 @@ std::vector<std::string> OutputSet::remove_stale_temporaries() {
       const auto id = file_identity(temp);
       for (const State::Input& in : state_->inputs) is_input = is_input || (id && in.id == *id);
       if (is_input) {
-        notes.push_back(temp + " looks like a temporary of an interrupted run but is an input of this one; left in place");
+        notes.push_back(temp +
+                        " looks like a temporary of an interrupted run but is an input of this one; left in place");
         continue;
       }
       if (pid != static_cast<long long>(::getpid()) &&

@@ -248,9 +248,10 @@ Status RgsFileAccess::parse_header(RgsFile* f) {
   if (probe == 0 || std::memcmp(data, kMagic, probe) != 0) {
     std::string got;
     for (size_t i = 0; i < probe; ++i) got += (i ? " " : "") + hex64(data[i]).substr(16);
-    return Status(StatusCode::kNotRgsFile, "not an .rgs file: " +
-                                               (probe == 0 ? std::string("it is empty")
-                                                           : "first bytes are " + got + ", expected the magic 89 52 47 53 0d 0a 1a 0a"));
+    return Status(StatusCode::kNotRgsFile,
+                  "not an .rgs file: " +
+                      (probe == 0 ? std::string("it is empty")
+                                  : "first bytes are " + got + ", expected the magic 89 52 47 53 0d 0a 1a 0a"));
   }
   RGS_RETURN_ERROR_IF(size < kHeaderSize, StatusCode::kCorruptData,
                       "truncated: " + dec(size) + " bytes, shorter than the " + dec(kHeaderSize) + "-byte header");
@@ -424,8 +425,9 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
                             dec(f.header_.gaussian_count));
     const uint8_t* src = f.data_ + e.offset;
     const size_t size = static_cast<size_t>(e.stored_size);
-    Status s = e.codec == Codec::kDraco ? detail::check_draco_header(src, size, e.element_count)
-                                        : detail::check_quantized_header(e.id, src, size, e.element_count, e.components);
+    Status s = e.codec == Codec::kDraco
+                   ? detail::check_draco_header(src, size, e.element_count)
+                   : detail::check_quantized_header(e.id, src, size, e.element_count, e.components);
     if (!s.ok()) return Status(s).prepend(label);
   }
   return Status();

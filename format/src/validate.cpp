@@ -38,7 +38,8 @@ Status check_metadata(const SceneMetadata& m) {
     return Status(StatusCode::kUnsupportedFeature,
                   std::string(what) + " " + std::to_string(value) + " is unknown (this reader knows " + known + ")");
   };
-  if (m.frame != CoordinateFrame::kColmap) return unsupported("coordinate frame", static_cast<unsigned>(m.frame), "1 = colmap");
+  if (m.frame != CoordinateFrame::kColmap)
+    return unsupported("coordinate frame", static_cast<unsigned>(m.frame), "1 = colmap");
   if (m.quaternion_order != QuaternionOrder::kWxyz) {
     return unsupported("quaternion order", static_cast<unsigned>(m.quaternion_order), "1 = wxyz");
   }
@@ -210,7 +211,8 @@ Status stream_zstd(const uint8_t* src, size_t stored_size, uint64_t raw_size, si
     RGS_RETURN_ERROR_IF(total > raw_size, StatusCode::kCorruptData,
                         "zstd frame decodes to more than raw_size " + dec(raw_size) + " bytes");
     const size_t complete = out.pos / record_size * record_size;
-    if (checker && value_error.ok() && complete > 0) value_error = checker->visit(buffer.data(), complete / record_size, index);
+    if (checker && value_error.ok() && complete > 0)
+      value_error = checker->visit(buffer.data(), complete / record_size, index);
     index += complete / record_size;
     fill = out.pos - complete;
     if (fill > 0) std::memmove(buffer.data(), buffer.data() + complete, fill);

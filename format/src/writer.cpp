@@ -201,8 +201,8 @@ Status compress_section(ZSTD_CCtx* cctx, PlannedSection* s) {
   s->compressed.resize(bound);
   const size_t n = ZSTD_compress2(cctx, s->compressed.data(), bound, s->raw, s->raw_size);
   if (ZSTD_isError(n)) {
-    return Status(StatusCode::kOutOfMemory,
-                  std::string("zstd compression of section ") + section_name(s->id) + " failed: " + ZSTD_getErrorName(n));
+    return Status(StatusCode::kOutOfMemory, std::string("zstd compression of section ") + section_name(s->id) +
+                                                " failed: " + ZSTD_getErrorName(n));
   }
   s->compressed.resize(n);
   s->compressed.shrink_to_fit();

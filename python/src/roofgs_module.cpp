@@ -317,14 +317,17 @@ PYBIND11_MODULE(roofgs, m) {
   });
 
   py::class_<api::Camera>(m, "Camera", "Pinhole camera, COLMAP frame (x right, y down, z forward)")
-      .def_property_readonly("rotation",
-                             [](const api::Camera& c) {
-                               py::array_t<float> r({3, 3});
-                               std::copy(c.rotation.begin(), c.rotation.end(), r.mutable_data());
-                               return r;
-                             },
-                             "world-to-camera R [3, 3]")
-      .def_property_readonly("translation", [](const api::Camera& c) { return std::vector<float>(c.translation.begin(), c.translation.end()); })
+      .def_property_readonly(
+          "rotation",
+          [](const api::Camera& c) {
+            py::array_t<float> r({3, 3});
+            std::copy(c.rotation.begin(), c.rotation.end(), r.mutable_data());
+            return r;
+          },
+          "world-to-camera R [3, 3]")
+      .def_property_readonly(
+          "translation",
+          [](const api::Camera& c) { return std::vector<float>(c.translation.begin(), c.translation.end()); })
       .def_readonly("fx", &api::Camera::fx)
       .def_readonly("fy", &api::Camera::fy)
       .def_readonly("cx", &api::Camera::cx)
@@ -333,16 +336,17 @@ PYBIND11_MODULE(roofgs, m) {
       .def_readonly("height", &api::Camera::height)
       .def_readonly("near_plane", &api::Camera::near_plane)
       .def_readonly("name", &api::Camera::name)
-      .def("project",
-           [](const api::Camera& c, std::array<double, 3> p) {
-             double q[3];
-             for (int r = 0; r < 3; ++r) {
-               q[r] = c.translation[size_t(r)];
-               for (int k = 0; k < 3; ++k) q[r] += double(c.rotation[size_t(3 * r + k)]) * p[size_t(k)];
-             }
-             return std::make_tuple(c.fx * q[0] / q[2] + c.cx - 0.5, c.fy * q[1] / q[2] + c.cy - 0.5, q[2]);
-           },
-           "Pixel (x, y) with pixel centres at integers, and view depth z, of a world point")
+      .def(
+          "project",
+          [](const api::Camera& c, std::array<double, 3> p) {
+            double q[3];
+            for (int r = 0; r < 3; ++r) {
+              q[r] = c.translation[size_t(r)];
+              for (int k = 0; k < 3; ++k) q[r] += double(c.rotation[size_t(3 * r + k)]) * p[size_t(k)];
+            }
+            return std::make_tuple(c.fx * q[0] / q[2] + c.cx - 0.5, c.fy * q[1] / q[2] + c.cy - 0.5, q[2]);
+          },
+          "Pixel (x, y) with pixel centres at integers, and view depth z, of a world point")
       .def("resized", [](const api::Camera& c, uint32_t w, uint32_t h) { return runtime::resize_camera(c, w, h); })
       .def("__repr__", [](const api::Camera& c) {
         return "<roofgs.Camera " + std::to_string(c.width) + "x" + std::to_string(c.height) + " fx=" +

@@ -204,8 +204,8 @@ TEST_CASE("GPU: fastest holds only the runtime sections; renders into a pitched 
     REQUIRE(scene.ok());
     const api::SceneInfo& info = scene->info();
     MESSAGE(path << ": " << info.gaussians << " Gaussians, GPU " << info.memory_bytes << " B, runtime sections "
-                 << info.runtime_section_bytes << " B (" << double(info.memory_bytes) / double(info.runtime_section_bytes)
-                 << "x)");
+                 << info.runtime_section_bytes << " B ("
+                 << double(info.memory_bytes) / double(info.runtime_section_bytes) << "x)");
     CHECK(info.has_compact);
     CHECK_FALSE(info.has_fp32);
     CHECK(double(info.memory_bytes) <= 1.1 * double(info.runtime_section_bytes));

@@ -66,7 +66,8 @@ inline CloudDiff diff_clouds(const format::GaussianCloud& a, const format::Gauss
   for (size_t i = 0; i < a.size(); ++i) {
     for (int x = 0; x < 3; ++x) {
       d.position = std::max(d.position, std::fabs(double{a.means[i * 3 + x]} - b.means[i * 3 + x]));
-      d.log_scale = std::max(d.log_scale, std::fabs(std::log(double{a.scales[i * 3 + x]}) - std::log(double{b.scales[i * 3 + x]})));
+      d.log_scale = std::max(d.log_scale,
+                             std::fabs(std::log(double{a.scales[i * 3 + x]}) - std::log(double{b.scales[i * 3 + x]})));
     }
     d.rotation_deg = std::max(d.rotation_deg, rotation_angle_deg(&a.rotations[i * 4], &b.rotations[i * 4]));
     d.opacity = std::max(d.opacity, std::fabs(double{a.opacities[i]} - b.opacities[i]));
@@ -92,7 +93,8 @@ inline double max_covariance_error(const format::GaussianCloud& a, const format:
     for (int m = 0; m < 3; ++m) {
       for (int n = 0; n < 3; ++n) {
         double s = 0;
-        for (int k = 0; k < 3; ++k) s += r[m * 3 + k] * r[n * 3 + k] * double{c.scales[i * 3 + k]} * c.scales[i * 3 + k];
+        for (int k = 0; k < 3; ++k)
+          s += r[m * 3 + k] * r[n * 3 + k] * double{c.scales[i * 3 + k]} * c.scales[i * 3 + k];
         out[m * 3 + n] = s;
       }
     }

@@ -73,7 +73,8 @@ TEST_CASE("splat: the file splat-transform 3.7.0 wrote from guitar_256.ply") {
       for (int c = 0; c < 3; ++c) {
         if (std::fabs(ply->cloud.sh[i * 3 + c]) >= 1.7) continue;  // clipped by the 8-bit colour
         worst_dc = std::max(worst_dc, std::fabs(double{ply->cloud.sh[i * 3 + c]} - r->cloud.sh[j * 3 + c]));
-        worst_scale = std::max(worst_scale, std::fabs(double{ply->cloud.scales[i * 3 + c]} / r->cloud.scales[j * 3 + c] - 1));
+        worst_scale =
+            std::max(worst_scale, std::fabs(double{ply->cloud.scales[i * 3 + c]} / r->cloud.scales[j * 3 + c] - 1));
       }
       worst_op = std::max(worst_op, std::fabs(double{ply->cloud.opacities[i]} - r->cloud.opacities[j]));
       worst_rot = std::max(worst_rot, rotation_angle_deg(&ply->cloud.rotations[i * 4], &r->cloud.rotations[j * 4]));

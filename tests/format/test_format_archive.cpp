@@ -56,12 +56,14 @@ TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to 
   for (uint64_t i = 0; i < d.count; ++i) {
     const uint64_t s = archive->source_index[i];
     for (int a = 0; a < 3; ++a) {
-      CHECK(std::fabs(d.means[i * 3 + a] - scene.means[s * 3 + a]) <= 0.5 * step * 1.05 + 1e-6);  // plus Draco's float32 arithmetic
+      CHECK(std::fabs(d.means[i * 3 + a] - scene.means[s * 3 + a]) <=
+            0.5 * step * 1.05 + 1e-6);  // plus Draco's float32 arithmetic
     }
     // Rotation: same rotation up to sign, within the smallest-three step.
     double dot = 0;
     for (int a = 0; a < 4; ++a) {
-      dot += format::half_bits_to_float(d.rotations[i * 4 + a]) * format::half_bits_to_float(scene.rotations[s * 4 + a]);
+      dot +=
+          format::half_bits_to_float(d.rotations[i * 4 + a]) * format::half_bits_to_float(scene.rotations[s * 4 + a]);
     }
     CHECK(std::fabs(dot) > 0.999);
     CHECK(std::fabs(format::half_bits_to_float(d.opacities[i]) - format::half_bits_to_float(scene.opacities[s])) <=

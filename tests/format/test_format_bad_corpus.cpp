@@ -38,7 +38,8 @@ const BadFile kBadFiles[] = {
     {"truncated_header", C::kCorruptData, kOpen, "truncated: 40 bytes, shorter than the 64-byte header"},
     {"future_major", C::kUnsupportedVersion, kOpen, "format version 2.0 is newer than this reader (1.x)"},
     {"major_zero", C::kUnsupportedVersion, kOpen, "format version 0.0 was never released"},
-    {"unknown_required_flag", C::kUnsupportedFeature, kOpen, "unknown required flag bits 0x00000100 (this reader knows 0x00000001)"},
+    {"unknown_required_flag", C::kUnsupportedFeature, kOpen,
+     "unknown required flag bits 0x00000100 (this reader knows 0x00000001)"},
     {"header_size_mismatch", C::kCorruptData, kOpen, "header_size is 72, must be 64"},
     {"header_reserved_nonzero", C::kCorruptData, kOpen, "header reserved field (bytes 36..39) is 1"},
     {"table_offset_mismatch", C::kCorruptData, kOpen, "table_offset is 128, must be 64"},
@@ -66,14 +67,18 @@ const BadFile kBadFiles[] = {
     {"wrong_element_type", C::kCorruptData, kOpen, "section 2 (means): element type f16 x 6, expected f32 x 3"},
     {"unknown_codec", C::kUnsupportedFeature, kOpen, "section 3 (rotations): codec 7 is unknown"},
     {"unknown_scale_encoding", C::kUnsupportedFeature, kOpen, "section 0 (metadata): scale encoding 9 is unknown"},
-    {"metadata_reserved_nonzero", C::kCorruptData, kOpen, "section 0 (metadata): reserved byte 120 of the metadata record is 1, must be 0"},
+    {"metadata_reserved_nonzero", C::kCorruptData, kOpen,
+     "section 0 (metadata): reserved byte 120 of the metadata record is 1, must be 0"},
     {"metadata_bad_quantization", C::kCorruptData, kOpen, "SH quantization bits 7"},
-    {"sh_degree_mismatch", C::kCorruptData, kOpen, "section 6 (sh): element type i8 x 48, expected i8 x 27 for SH degree 2"},
+    {"sh_degree_mismatch", C::kCorruptData, kOpen,
+     "section 6 (sh): element type i8 x 48, expected i8 x 27 for SH degree 2"},
     {"sh_degree_unsupported", C::kUnsupportedFeature, kOpen, "SH degree 4 is above 3"},
     {"metadata_nan_radius", C::kCorruptData, kOpen, "bounding sphere radius nan"},
     {"metadata_checksum", C::kChecksumMismatch, kOpen, "section 0 (metadata): checksum"},
-    {"provenance_overrun", C::kCorruptData, kOpen, "section 1 (provenance): entry 0: key of 65535 bytes runs past the record (183 bytes left)"},
-    {"provenance_count_overrun", C::kCorruptData, kOpen, "section 1 (provenance): the record declares 1073741824 entries but only 187 bytes follow"},
+    {"provenance_overrun", C::kCorruptData, kOpen,
+     "section 1 (provenance): entry 0: key of 65535 bytes runs past the record (183 bytes left)"},
+    {"provenance_count_overrun", C::kCorruptData, kOpen,
+     "section 1 (provenance): the record declares 1073741824 entries but only 187 bytes follow"},
     {"section_checksum", C::kChecksumMismatch, kValidate, "section 2 (means): checksum"},
     {"nan_mean", C::kCorruptData, kValidate, "section 2 (means): Gaussian 5: mean (1, nan, 2.625) is not finite"},
     {"mean_outside_bounds", C::kCorruptData, kValidate, "Gaussian 0: mean (-1.5, -0.5, 100) lies outside the AABB"},
@@ -119,7 +124,8 @@ void check_bad_file(const char* name) {
   }
   REQUIRE_FALSE(validated.ok());
   CHECK_MESSAGE(validated.code() == bad->code, validated.to_string());
-  CHECK_MESSAGE(validated.message().rfind(path + ": ", 0) == 0, "message does not name the file: " << validated.message());
+  CHECK_MESSAGE(validated.message().rfind(path + ": ", 0) == 0,
+                "message does not name the file: " << validated.message());
   CHECK_MESSAGE(validated.message().find(bad->fragment) != std::string::npos,
                 "expected \"" << bad->fragment << "\" in: " << validated.message());
   if (opened.ok()) {

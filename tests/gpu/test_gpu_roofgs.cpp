@@ -120,7 +120,8 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference's RoofGS mode, technique by 
       REQUIRE_MESSAGE(cpu.ok(), cpu.status().to_string());
       for (bool fused : {true, false}) {
         CAPTURE(fused);
-        const GpuFrame gpu = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, fused), false);
+        const GpuFrame gpu =
+            render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, fused), false);
         const Diff d = compare_rgb(gpu.rgba, cpu->rgb);
         MESSAGE(mode.name << std::string(fused ? " fused" : " separate") << ", " << cam.name << ": PSNR " << d.psnr
                           << " dB, max |diff| " << d.max_abs << ", pairs " << gpu.stats.pairs);
@@ -133,7 +134,8 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference's RoofGS mode, technique by 
   }
 }
 
-TEST_CASE("fused and separate stages, and balanced and one-thread emission, give the same bytes; frames are deterministic") {
+TEST_CASE(
+    "fused and separate stages, and balanced and one-thread emission, give the same bytes; frames are deterministic") {
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
@@ -143,7 +145,8 @@ TEST_CASE("fused and separate stages, and balanced and one-thread emission, give
     CAPTURE(mode.name);
     const GpuFrame fused = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, true), false);
     const GpuFrame again = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, true), false);
-    const GpuFrame separate = render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, false), false);
+    const GpuFrame separate =
+        render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, false), false);
     GpuRenderOptions one_thread_each = roofgs_options(mode.techniques);
     one_thread_each.roofgs.balanced_emission = false;
     const GpuFrame unbalanced = render_gpu(rig.renderer, rig.scene, cam, one_thread_each, false);
@@ -155,7 +158,8 @@ TEST_CASE("fused and separate stages, and balanced and one-thread emission, give
   }
 }
 
-TEST_CASE("sub-tile culling changes no output byte with SnugBox + AccuTile (flowers at 1080p and 4K, daffodils at 4K)") {
+TEST_CASE(
+    "sub-tile culling changes no output byte with SnugBox + AccuTile (flowers at 1080p and 4K, daffodils at 4K)") {
   // Each warp of the folded rasterizer skips the pairs whose subtile_mask clears its 8x8 quadrant; those pairs
   // cannot pass the 1/255 test there, so colour, alpha and depth keep every bit. Without AccuTile, a 3-sigma
   // rectangle hands needle-like Gaussians tiles ~1,000 px from their mean, where the folded P's FP32 rounding

@@ -46,10 +46,10 @@ struct LoadOptions {
   /// FP32 arrays (about 4× the bytes at SH degree 3). Rendering a preset not listed here may fail with
   /// kInvalidArgument. Ignored on the CPU.
   std::vector<Preset> presets = {Preset::kFastest};
-  /// Files other than .rgs (any format converter::read_scene detects): true quantizes them in memory with the converter's defaults (what
-  /// `rgs-convert in.ply out.rgs` writes, converter::QuantizeOptions{}), so that they render exactly as the
-  /// converted file would and the GPU holds the compact profile; false keeps the PLY's float values (GPU:
-  /// FP32 arrays only; the RoofGS presets then read FP32).
+  /// Files other than .rgs (any format converter::read_scene detects): true quantizes them in memory with the
+  /// converter's defaults (what `rgs-convert in.ply out.rgs` writes, converter::QuantizeOptions{}), so that they render
+  /// exactly as the converted file would and the GPU holds the compact profile; false keeps the PLY's float values
+  /// (GPU: FP32 arrays only; the RoofGS presets then read FP32).
   bool quantize_other_formats = true;
   /// Read limits: a .rgs file is opened with them (format::RgsFile::open); other formats are refused above
   /// read_options.limits.max_gaussians (converter::read_scene).
@@ -135,9 +135,9 @@ struct ConvertReport {
   converter::QuantizationReport quantization;
 };
 
-/// Converts `src` to `dst`: a scene in any format converter::read_scene detects to .rgs (read, quantize, write atomically; provenance records the
-/// source and options), or a .rgs to a standard INRIA PLY (every checksum verified, dequantized). The
-/// direction follows `src` (is_rgs_path). A failed conversion leaves an existing `dst` untouched.
+/// Converts `src` to `dst`: a scene in any format converter::read_scene detects to .rgs (read, quantize, write
+/// atomically; provenance records the source and options), or a .rgs to a standard INRIA PLY (every checksum verified,
+/// dequantized). The direction follows `src` (is_rgs_path). A failed conversion leaves an existing `dst` untouched.
 /// @return kInvalidArgument (bad options, an unknown zstd section name), and the errors of reading `src` and
 /// writing `dst` (kIoError naming it).
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});

@@ -79,7 +79,8 @@ class WorkerFailures {
   /// After the join: rethrows another exception, or gives kOutOfMemory naming `what`, or ok.
   Status result(const std::string& what) {
     if (other_) std::rethrow_exception(other_);
-    if (out_of_memory_.load()) return Status(StatusCode::kOutOfMemory, "out of memory in a worker thread (" + what + ")");
+    if (out_of_memory_.load())
+      return Status(StatusCode::kOutOfMemory, "out of memory in a worker thread (" + what + ")");
     return Status();
   }
 

@@ -168,9 +168,9 @@ struct GpuRenderStats {
 
 /// Renders scenes with the 3DGS baseline pipeline or the RoofGS pipeline (GpuRenderOptions::pipeline). Both
 /// follow render_cpu() (runtime/cpu_renderer.h) with the same RoofgsOptions: the same conventions and
-/// per-Gaussian bits; pixels differ from it only through the device's expf and logf. Keeps its scratch buffers between frames and grows them as needed (by a quarter more
-/// than asked), so a steady sequence of frames allocates nothing. Not thread-safe; one renderer per
-/// stream. Move-only.
+/// per-Gaussian bits; pixels differ from it only through the device's expf and logf. Keeps its scratch buffers between
+/// frames and grows them as needed (by a quarter more than asked), so a steady sequence of frames allocates nothing.
+/// Not thread-safe; one renderer per stream. Move-only.
 ///
 /// Each frame reads the pair count back to the host once (a wait on `stream`), like 3DGS.
 class GpuRenderer {
