@@ -66,6 +66,14 @@ void scan_slice(const format::GaussianCloud& cloud, const QuantizeOptions& optio
         return fail(i, "scale " + std::to_string(a) + " = " + std::to_string(s) +
                            " overflows FP16 (max 65504); use the log scale encoding");
       }
+      // SPEC §4.5: a log scale must give a finite float32 scale once f16-rounded (ln of the largest float
+      // rounds up to 88.75, whose exp overflows).
+      if (options.scale_encoding == format::ScaleEncoding::kLog && s > 0.0f &&
+          !std::isfinite(std::exp(format::half_bits_to_float(
+              format::float_to_half_bits(static_cast<float>(std::log(static_cast<double>(s)))))))) {
+        return fail(i, "scale " + std::to_string(a) + " = " + std::to_string(s) +
+                           " is too large for the log encoding (its f16 log exceeds ln of the largest float)");
+      }
     }
     const float o = cloud.opacities[i];
     if (!(o >= 0.0f && o <= 1.0f)) {

@@ -21,6 +21,11 @@ bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::str
         return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) + "] = " +
                     std::to_string(s) + " is not finite and >= 0");
       }
+      // s·q must be finite for every stored q in [-127, 127] (SPEC §3.4 sh_scales).
+      if (!std::isfinite(s * 127.0f)) {
+        return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) + "] = " + std::to_string(s) +
+                    " makes s*127 overflow float32");
+      }
       if (d > sh_degree && s != 0.0f) {
         return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) +
                     "] is non-zero above SH degree " + std::to_string(sh_degree));
