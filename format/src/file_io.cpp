@@ -485,6 +485,17 @@ struct OutputSet::State {
     }
     return nullptr;
   }
+
+  /// The declared output `path`, its earlier staged content dropped, ready to be written again.
+  Result<Output*> restage(const std::string& path) {
+    Output* out = find(path);
+    RGS_RETURN_ERROR_IF(out == nullptr, StatusCode::kInvalidArgument,
+                        "cannot write " + path + ": not a declared output of this run");
+    RGS_RETURN_ERROR_IF(closed, StatusCode::kInvalidArgument,
+                        "cannot write " + path + ": the outputs of this run were already committed");
+    discard(&out->temp);
+    return out;
+  }
 };
 
 OutputSet::OutputSet() : state_(std::make_unique<State>()) {
@@ -602,12 +613,7 @@ std::vector<std::string> OutputSet::remove_stale_temporaries() {
 }
 
 Status OutputSet::write(const std::string& path, const ChunkProducer& produce) {
-  State::Output* out = state_->find(path);
-  RGS_RETURN_ERROR_IF(out == nullptr, StatusCode::kInvalidArgument,
-                      "cannot write " + path + ": not a declared output of this run");
-  RGS_RETURN_ERROR_IF(state_->closed, StatusCode::kInvalidArgument,
-                      "cannot write " + path + ": the outputs of this run were already committed");
-  discard(&out->temp);
+  RGS_ASSIGN_OR_RETURN(State::Output * out, state_->restage(path));
   return write_temporary(path, produce, &out->temp);
 }
 
@@ -617,12 +623,7 @@ Status OutputSet::write(const std::string& path, const void* data, size_t size) 
 
 Status OutputSet::write_by_name(const std::string& path,
                                 const std::function<Status(const std::string& temp_path)>& write_to) {
-  State::Output* out = state_->find(path);
-  RGS_RETURN_ERROR_IF(out == nullptr, StatusCode::kInvalidArgument,
-                      "cannot write " + path + ": not a declared output of this run");
-  RGS_RETURN_ERROR_IF(state_->closed, StatusCode::kInvalidArgument,
-                      "cannot write " + path + ": the outputs of this run were already committed");
-  discard(&out->temp);
+  RGS_ASSIGN_OR_RETURN(State::Output * out, state_->restage(path));
   return write_temporary_by_name(path, write_to, &out->temp);
 }
 
