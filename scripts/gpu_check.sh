@@ -24,8 +24,13 @@ note "device: $(sed -n 2p "$out/device.txt")"
 status=0
 if [ "$what" = tests ] || [ "$what" = all ]; then
   start=$(date +%s)
-  "$bin/test_gpu" -s >"$out/test_gpu.log" 2>&1
-  rc=$?
+  rc=0
+  if [ -f "$taebak" ]; then
+    # With the taebak cases (sorted pairs, a window against the CPU reference, quality over its 8 views at 4K).
+    RGS_TAEBAK_RGS="$taebak" "$bin/test_gpu" -s >"$out/test_gpu.log" 2>&1 || rc=$?
+  else
+    "$bin/test_gpu" -s >"$out/test_gpu.log" 2>&1 || rc=$?
+  fi
   [ $rc -ne 0 ] && status=1
   note "test_gpu: exit $rc in $(( $(date +%s) - start )) s; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu.log" | tr '\n' ' ')"
   grep -h "MESSAGE: " "$out/test_gpu.log" | sed 's/.*MESSAGE: //' >"$out/test_gpu_messages.txt"
@@ -65,9 +70,11 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs-serial --mode roofgs-tile --mode roofgs-subtile)
-  # The ablation: every technique alone, all off, the load balancing off (roofgs-serial) and sub-tile culling
-  # off or on in every frame instead of chosen per frame (roofgs-tile, roofgs-subtile; above).
+  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs-serial --mode roofgs-tile --mode roofgs-subtile
+         --mode roofgs-quadrant)
+  # The ablation: every technique alone, all off, the load balancing off (roofgs-serial), sub-tile culling
+  # off or on in every frame instead of chosen per frame (roofgs-tile, roofgs-subtile) and per quadrant
+  # instead of per 4x4 block (roofgs-quadrant; above).
   ablation=("${modes[@]}" --mode roofgs-none --mode only-compact --mode only-fused --mode only-key32
             --mode only-snugbox --mode only-folded --mode only-fastexp)
   sizes=(--resolution 1920x1080 --resolution 3840x2160)

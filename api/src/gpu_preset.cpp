@@ -51,7 +51,8 @@ const std::vector<ModeEntry>& entries() {
         "key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians with many tiles emitted "
         "by warps (every RoofGS mode but roofgs-serial); sub-tile culling in the folded rasterizer chosen per "
         "frame (off when SnugBox+AccuTile is on and more than half the pairs belong to Gaussians with more than "
-        "32 tiles; every mode but roofgs-tile and roofgs-subtile)",
+        "32 tiles; every mode but roofgs-tile and roofgs-subtile), per 4x4 block of 8 lanes (every mode but "
+        "roofgs-quadrant)",
         false},
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
       {{"roofgs+",
@@ -69,6 +70,9 @@ const std::vector<ModeEntry>& entries() {
                      [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOff; }),
       roofgs_variant("roofgs-subtile", "roofgs with sub-tile culling on in every frame",
                      [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOn; }),
+      roofgs_variant("roofgs-quadrant",
+                     "roofgs with sub-tile culling per 8x8 quadrant of a warp instead of per 4x4 block of 8 lanes",
+                     [](runtime::GpuRoofgsOptions& o) { o.block_culling = false; }),
       {{"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)", false},
        [](bool) { return roofgs_pipeline(false, false, RoofgsOptions{}); }},
       only_mode("compact", "compact attributes (needs a .rgs scene)", true, false, nullptr),

@@ -10,37 +10,75 @@ namespace rgs::kernels {
 namespace {
 
 /// Thread p moves pair p and records the range boundaries at p. A pair alone in its key goes straight
-/// through; a pair in a run [a, b) of equal keys goes to a + its rank in the run under (depth, index), counted
-/// over the run (O(run length) per pair, as the render's own loop over the tile's pairs).
+/// through; a pair in a run [a, b) of equal keys goes to a + its rank in the run under (depth, index). A run that
+/// lies within the warp's 32 pairs is ranked with shuffles, each lane holding one pair's depth and index (one
+/// gather a pair); a run that crosses the warp's ends is ranked by its own pairs over global memory (O(run
+/// length) reads per pair, as the render's own loop over the tile's pairs). Real scenes tie in short runs, so
+/// nearly every run is the first kind.
 __global__ void __launch_bounds__(detail::kBlockSize)
     order_equal_keys_kernel(const uint32_t* __restrict__ keys, const uint32_t* __restrict__ values_in,
                             const float* __restrict__ depths, uint64_t count, int tile_shift,
                             uint32_t* __restrict__ values_out, uint64_t* __restrict__ ranges) {
   const uint64_t p = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  if (p >= count) return;
-  const uint32_t key = keys[p];
-  const uint32_t g = values_in[p];
-  const uint32_t previous_key = p > 0 ? keys[p - 1] : 0u;
+  const int lane = int(threadIdx.x % 32);
+  // Whole warps stay for the shuffles; lanes past the end take part as untied pairs.
+  const bool valid = p < count;
+  const uint32_t key = valid ? keys[p] : 0u;
+  const uint32_t g = valid ? values_in[p] : 0u;
+  const uint32_t previous_key = valid && p > 0 ? keys[p - 1] : 0u;
   // Tile ranges, as tile_ranges_kernel (the shift is done in 64 bits: a single-tile key has 32 depth bits).
-  detail::record_tile_range(ranges, p, count, uint64_t(key) >> tile_shift, uint64_t(previous_key) >> tile_shift);
-
-  const bool tied_before = p > 0 && previous_key == key;
-  const bool tied_after = p + 1 < count && keys[p + 1] == key;
-  if (!tied_before && !tied_after) {
+  if (valid) {
+    detail::record_tile_range(ranges, p, count, uint64_t(key) >> tile_shift, uint64_t(previous_key) >> tile_shift);
+  }
+  const bool tied_before = valid && p > 0 && previous_key == key;
+  const bool tied_after = valid && p + 1 < count && keys[p + 1] == key;
+  const bool tied = tied_before || tied_after;
+  const uint32_t tied_lanes = __ballot_sync(0xffffffffu, tied);
+  if (tied_lanes == 0) {
+    if (valid) values_out[p] = g;
+    return;
+  }
+  // Run boundaries inside the warp: lane l starts a run unless it ties with lane l − 1; the run of lane l spans
+  // lanes [start, end). A run reaching lane 0 while tied before, or lane 31 while tied after, crosses the warp.
+  const uint32_t starts = __ballot_sync(0xffffffffu, !tied_before);
+  const uint32_t below_or_self = (2u << lane) - 1u;  // lanes 0..lane
+  const int start = 31 - __clz(int(starts & below_or_self));  // lane 0 counts as a start if it is one
+  const uint32_t starts_above = starts & ~below_or_self;
+  const int end = starts_above != 0 ? __ffs(int(starts_above)) - 1 : 32;
+  const bool last_tied_after = __shfl_sync(0xffffffffu, tied_after, 31);
+  const bool crosses = ((starts & below_or_self) == 0) || (end == 32 && last_tied_after);
+  const float depth = tied ? depths[g] : 0.f;
+  // Each lane compares its pair with the pairs of its run, one run position per step, for as many steps as the
+  // warp's longest run inside it (every lane takes part in every shuffle).
+  const int run_length = tied && !crosses ? end - start : 0;
+  const int steps = int(__reduce_max_sync(0xffffffffu, uint32_t(run_length)));
+  uint32_t rank = 0;
+  for (int d = 0; d < steps; ++d) {
+    const int source = (start + d) & 31;
+    const float other_depth = __shfl_sync(0xffffffffu, depth, source);
+    const uint32_t other = __shfl_sync(0xffffffffu, g, source);
+    rank += (d < run_length && (other_depth < depth || (other_depth == depth && other < g))) ? 1u : 0u;
+  }
+  if (!valid) return;
+  if (!tied) {
     values_out[p] = g;
+    return;
+  }
+  const uint64_t warp_first = p - uint64_t(lane);
+  if (!crosses) {
+    values_out[warp_first + uint64_t(start) + rank] = g;
     return;
   }
   uint64_t a = p, b = p + 1;
   while (a > 0 && keys[a - 1] == key) --a;
   while (b < count && keys[b] == key) ++b;
-  const float depth = depths[g];
-  uint64_t rank = 0;
+  uint64_t run_rank = 0;
   for (uint64_t j = a; j < b; ++j) {
     const uint32_t other = values_in[j];
     const float other_depth = depths[other];
-    rank += (other_depth < depth || (other_depth == depth && other < g)) ? 1u : 0u;
+    run_rank += (other_depth < depth || (other_depth == depth && other < g)) ? 1u : 0u;
   }
-  values_out[a + rank] = g;
+  values_out[a + run_rank] = g;
 }
 
 }  // namespace

@@ -208,7 +208,7 @@ TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the bas
   }
 }
 
-TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant passes the 1/255 test (flowers)") {
+TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant or 4x4 block passes the 1/255 test (flowers)") {
   // Every (tile, Gaussian) pair of flowers camera 0 at 1256x828 with all RoofGS techniques: each pixel of each
   // quadrant that subtile_mask clears is evaluated as the folded rasterizer does, with the paper's fast exp.
   const FlowersScene& scene = flowers();
@@ -226,7 +226,7 @@ TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant passes
   auto bins = runtime::bin_and_sort_cpu(gaussians, *frame, options);
   REQUIRE(bins.ok());
   const float bias = kernels::fast_exp_bias(options.roofgs.fast_exp_sigma);
-  uint64_t quadrants = 0, cleared = 0, violations = 0;
+  uint64_t quadrants = 0, cleared = 0, violations = 0, blocks_cleared = 0;
   for (int ty = 0; ty < frame->tiles_y; ++ty) {
     for (int tx = 0; tx < frame->tiles_x; ++tx) {
       const size_t tile = size_t(ty) * frame->tiles_x + tx;
@@ -234,25 +234,39 @@ TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant passes
         const runtime::ProjectedGaussian& g = gaussians[bins->values[p]];
         const float u = g.mean[0] - float(tx * kernels::kTileSize), v = g.mean[1] - float(ty * kernels::kTileSize);
         const uint32_t mask = kernels::subtile_mask(g.conic, u, v, g.log_opacity);
+        const uint32_t blocks = kernels::block_mask(g.conic, u, v, g.log_opacity, mask);
         const kernels::FoldedCoefficients f = kernels::fold_coefficients(g.conic, u, v, g.log_opacity);
+        const auto passing_pixels = [&](int x0, int y0, int side) {
+          uint64_t passing = 0;
+          for (int y = y0; y < y0 + side; ++y) {
+            for (int x = x0; x < x0 + side; ++x) {
+              const kernels::PixelTerms terms = kernels::pixel_terms(static_cast<float>(x), static_cast<float>(y));
+              passing += kernels::fast_exp_alpha(kernels::folded_power(f, terms), bias) >= 0.f;
+            }
+          }
+          return passing;
+        };
         for (int q = 0; q < 4; ++q) {
           ++quadrants;
           if (mask >> q & 1u) continue;
           ++cleared;
-          for (int y = (q / 2) * 8; y < (q / 2) * 8 + 8; ++y) {
-            for (int x = (q % 2) * 8; x < (q % 2) * 8 + 8; ++x) {
-              const kernels::PixelTerms terms = kernels::pixel_terms(static_cast<float>(x), static_cast<float>(y));
-              violations += kernels::fast_exp_alpha(kernels::folded_power(f, terms), bias) >= 0.f;
-            }
-          }
+          violations += passing_pixels((q % 2) * 8, (q / 2) * 8, 8);
+        }
+        for (int b = 0; b < kernels::kCullBlocksPerTile; ++b) {
+          if (blocks >> b & 1u) continue;
+          ++blocks_cleared;
+          violations += passing_pixels((b % 4) * 4, (b / 4) * 4, 4);
         }
       }
     }
   }
   MESSAGE("flowers camera 0 at 1256x828: " << bins->values.size() << " pairs, " << cleared << " of " << quadrants
-                                           << " (pair, quadrant) walks skipped");
+                                           << " (pair, quadrant) walks skipped; " << blocks_cleared << " of "
+                                           << kernels::kCullBlocksPerTile * bins->values.size()
+                                           << " (pair, 4x4 block) walks skipped");
   CHECK(violations == 0);
   CHECK(cleared > 0);
+  CHECK(blocks_cleared > 4 * cleared);  // a cleared quadrant clears its 4 blocks; the box clears more
 }
 
 TEST_CASE("fast exp: per-pixel colour error stays within the paper's bound on real renders") {

@@ -455,5 +455,58 @@ TEST_CASE("subtile_mask: no pixel of a cleared quadrant passes the 1/255 test (r
   CHECK(kept_without_pixel < (quadrants - cleared) / 10);
 }
 
+TEST_CASE("block_mask: no pixel of a cleared 4x4 block passes the 1/255 test (random Gaussians, needles too)") {
+  // The generator of the subtile_mask case, plus small round Gaussians (eigenvalues 0.05..4 px², the dense
+  // scenes' kind) placed in and around the tile, where the blocks clear most.
+  std::mt19937 rng(78);
+  std::uniform_real_distribution<double> local(-40.0, 56.0), near(-3.0, 19.0), unit(0.0, 1.0);
+  const float bias_zero = k::fast_exp_bias(0.f), bias_paper = k::fast_exp_bias(k::kFastExpSigmaMinMax);
+  uint64_t blocks = 0, cleared = 0, cleared_in_kept_quadrant = 0, kept_without_pixel = 0, violations = 0;
+  for (int iter = 0; iter < 20000; ++iter) {
+    const bool small = iter % 2 == 1;
+    k::Cov2 cov = random_cov(rng);
+    if (small) {
+      const float l1 = float(0.05 + 3.95 * unit(rng)), l2 = float(0.05 + 3.95 * unit(rng));
+      const float angle = float(3.14159265 * unit(rng)), c = std::cos(angle), s = std::sin(angle);
+      cov = k::Cov2{c * c * l1 + s * s * l2, c * s * (l1 - l2), s * s * l1 + c * c * l2};
+    }
+    const float det = k::determinant(cov);
+    if (!(det > 0)) continue;
+    const k::Conic conic = k::conic_from_covariance(cov, det);
+    const float log_o = std::log(float(0.004 + 0.996 * unit(rng)));
+    const float u = float(small ? near(rng) : local(rng)), v = float(small ? near(rng) : local(rng));
+    const k::FoldedCoefficients f = k::fold_coefficients(conic, u, v, log_o);
+    const uint32_t quadrants = k::subtile_mask(conic, u, v, log_o);
+    const uint32_t mask = k::block_mask(conic, u, v, log_o, quadrants);
+    for (int b = 0; b < k::kCullBlocksPerTile; ++b) {
+      const int bx = b % k::kCullBlocksPerSide, by = b / k::kCullBlocksPerSide;
+      bool any_pixel = false;
+      for (int y = by * k::kCullBlockSize; y < (by + 1) * k::kCullBlockSize; ++y) {
+        for (int x = bx * k::kCullBlockSize; x < (bx + 1) * k::kCullBlockSize; ++x) {
+          const float P = k::folded_power(f, k::pixel_terms(float(x), float(y)));
+          const bool passes = k::fast_exp_alpha(P, bias_zero) >= 0.f || k::fast_exp_alpha(P, bias_paper) >= 0.f ||
+                              (P <= 0.f && std::fmin(k::kAlphaMax, std::exp(P)) >= k::kAlphaMin);
+          any_pixel = any_pixel || passes;
+        }
+      }
+      ++blocks;
+      if (!(mask >> b & 1u)) {
+        ++cleared;
+        violations += any_pixel;
+        cleared_in_kept_quadrant += (quadrants >> (bx / 2 + 2 * (by / 2))) & 1u;
+      } else {
+        kept_without_pixel += !any_pixel;
+      }
+    }
+  }
+  MESSAGE("block_mask: " << cleared << " of " << blocks << " blocks cleared (" << cleared_in_kept_quadrant
+                         << " in quadrants subtile_mask keeps), " << kept_without_pixel
+                         << " kept without a passing pixel");
+  CHECK(violations == 0);
+  // It culls beyond the quadrants, and keeps few blocks it could have cleared.
+  CHECK(cleared_in_kept_quadrant > (blocks - cleared) / 4);
+  CHECK(kept_without_pixel < (blocks - cleared) / 4);
+}
+
 }  // namespace
 }  // namespace rgs::test

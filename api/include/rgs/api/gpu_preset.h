@@ -25,7 +25,7 @@ struct GpuMode {
 };
 
 /// Every named configuration, in rgs-bench's order: baseline, roofgs, roofgs+, roofgs-serial, roofgs-tile,
-/// roofgs-subtile, roofgs-none, only-compact, only-fused, only-key32, only-snugbox, only-folded,
+/// roofgs-subtile, roofgs-quadrant, roofgs-none, only-compact, only-fused, only-key32, only-snugbox, only-folded,
 /// only-fastexp. Preset kFastest is "roofgs+", kFaithful is "baseline" (gpu_render_options()).
 const std::vector<GpuMode>& gpu_modes();
 

@@ -189,7 +189,9 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
 /// @param tile_shift     the key's depth bits (tile = key >> tile_shift)
 /// @param values_out     [count] the reordered ids (not aliasing sorted_values)
 /// @param ranges         [num_tiles, 2] out: per tile [begin, end) of its pairs, (0, 0) when it has none
-/// Each pair of a run of length L costs O(L) reads (the render's loop over the tile costs as much).
+/// A run inside a warp's 32 pairs is ranked with shuffles (one depth gather a pair, as many steps as the warp's
+/// longest run); a run across a warp's ends costs O(L) reads a pair (the render's loop over the tile costs as
+/// much).
 cudaError_t order_equal_keys_by_depth(const uint32_t* sorted_keys, const uint32_t* sorted_values,
                                       const float* depths, uint64_t count, int tile_shift, uint32_t num_tiles,
                                       uint32_t* values_out, uint64_t* ranges, cudaStream_t stream);
@@ -218,6 +220,10 @@ struct RasterOptions {
   /// quadrant of the tile (subtile_mask in shared/tile_culling.h). Fewer iterations, the same output bits
   /// (up to subtile_mask's caveat on pairs whose folded P is dominated by its own FP32 rounding).
   bool subtile_culling = false;
+  /// With `subtile_culling` (beyond the paper): each group of 8 lanes skips the pairs that cannot reach alpha
+  /// 1/255 on its 4×4 block (block_mask in shared/tile_culling.h), so that a Gaussian a few pixels wide costs
+  /// the lanes of the blocks it reaches and not the whole warp; the same output bits as the quadrant culling.
+  bool block_culling = false;
 };
 
 /// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,

@@ -121,6 +121,9 @@ struct GpuRoofgsOptions {
   /// 1/255 on its 8×8 quadrant of the tile (kernels::RasterOptions::subtile_culling); the same image bits on
   /// every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
   SubtileCulling subtile_culling = SubtileCulling::kAuto;
+  /// Where sub-tile culling is on: cull per 4×4 block of 8 lanes (kernels::RasterOptions::block_culling)
+  /// rather than per 8×8 quadrant of a warp; the same image bits.
+  bool block_culling = true;
   /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
   /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
   RoofgsOptions techniques = RoofgsOptions::all();
@@ -162,6 +165,7 @@ struct GpuRenderStats {
   /// measure), and whether the rasterizer culled sub-tiles.
   uint64_t large_pairs = 0;
   bool subtile_culling = false;
+  bool block_culling = false;  ///< sub-tile culling was per 4×4 block
   bool timed = false;          ///< times is valid (GpuRenderOptions::time_stages)
   StageTimes times;
 };

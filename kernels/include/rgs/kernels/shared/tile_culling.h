@@ -263,6 +263,58 @@ RGS_HOST_DEVICE uint32_t subtile_mask(const Conic& conic, float u, float v, floa
   return mask;
 }
 
+/// Side of the blocks of block culling: each group of 8 lanes of the folded rasterizer shades one 4×4 block.
+constexpr int kCullBlockSize = kSubtileSize / 2;
+/// Blocks along a tile side (4) and per tile (16).
+constexpr int kCullBlocksPerSide = kTileSize / kCullBlockSize;
+constexpr int kCullBlocksPerTile = kCullBlocksPerSide * kCullBlocksPerSide;
+
+namespace detail {
+
+/// Bits j (0 ≤ j < kCullBlocksPerSide) of the blocks whose pixel-centre span [4j, 4j + 3] meets [c − h, c + h]
+/// (tile-local pixels). A non-finite or huge h keeps every block.
+RGS_HOST_DEVICE uint32_t block_span_bits(float c, float h) {
+  if (!(h <= 64.f)) return (1u << kCullBlocksPerSide) - 1u;
+  const float block = static_cast<float>(kCullBlockSize);
+  const float last = static_cast<float>(kCullBlocksPerSide - 1);
+  // j ≥ (c − h − 3)/4 and j ≤ (c + h)/4, clamped in float so that far-away means stay defined.
+  const int lo = static_cast<int>(fminf(fmaxf(ceilf((c - h - (block - 1.f)) / block), 0.f), last + 1.f));
+  const int hi = static_cast<int>(fminf(fmaxf(floorf((c + h) / block), -1.f), last));
+  return lo <= hi ? (2u << hi) - (1u << lo) : 0u;
+}
+
+}  // namespace detail
+
+/// Block culling (beyond the paper), the finer form of subtile_mask for Gaussians small next to a quadrant:
+/// bit (bx + 4·by) of the result is set when the Gaussian may reach alpha ≥ 1/255 at some pixel centre of the
+/// tile's 4×4 block (bx, by), pixels [4·bx, 4·bx + 3] × [4·by, 4·by + 3] (tile-local). A block is kept when its
+/// quadrant's bit of `quadrant_mask` (subtile_mask of the same pair) is set and it meets the bounding box of
+/// the ellipse q ≤ q_limit, with subtile_mask's q_limit (the same margin): the smallest q on the column
+/// dx = const is dx²·D/c (D = a·c − b²), so the box's half extents are sqrt(q_limit·c/D) and sqrt(q_limit·a/D).
+/// A cleared bit is conservative as subtile_mask's are (the same caveat), so skipping the pair on the block
+/// changes no output bit. The box is tight for the small round Gaussians of dense scenes; a long thin one
+/// keeps the blocks of its box, which the quadrant test has already cut to the quadrants it reaches.
+/// @param conic          conic (a, b, c) of the Gaussian (positive definite), pixel⁻² units
+/// @param u, v           tile-local projected mean, pixels
+/// @param log_opacity    ln o
+/// @param quadrant_mask  subtile_mask(conic, u, v, log_opacity)
+RGS_HOST_DEVICE uint32_t block_mask(const Conic& conic, float u, float v, float log_opacity,
+                                    uint32_t quadrant_mask) {
+  const float w = conic.b * conic.b;
+  const float det = fmaf(conic.a, conic.c, -w) + fmaf(-conic.b, conic.b, w);
+  const float q_limit = 2.f * (log_opacity - kFastExpRangeMin + kSubtilePowerMargin);
+  const float half_x = sqrtf(q_limit * conic.c / det), half_y = sqrtf(q_limit * conic.a / det);
+  const uint32_t columns = detail::block_span_bits(u, half_x);
+  const uint32_t rows = detail::block_span_bits(v, half_y);
+  // Row bit r to bit 4r; the product places a copy of the column bits in each kept row (no carries: < 16).
+  const uint32_t row_starts = (rows & 1u) | (rows & 2u) << 3 | (rows & 4u) << 6 | (rows & 8u) << 9;
+  const uint32_t box = columns * row_starts;
+  // Quadrant (qx, qy) holds blocks bx ∈ {2qx, 2qx + 1}, by ∈ {2qy, 2qy + 1}.
+  const uint32_t quadrants = ((quadrant_mask & 1u) ? 0x0033u : 0u) | ((quadrant_mask & 2u) ? 0x00ccu : 0u) |
+                             ((quadrant_mask & 4u) ? 0x3300u : 0u) | ((quadrant_mask & 8u) ? 0xcc00u : 0u);
+  return box & quadrants;
+}
+
 /// Intersection of two tile rectangles (may be empty).
 RGS_HOST_DEVICE TileRect intersect(const TileRect& a, const TileRect& b) {
   return TileRect{max_int(a.x_min, b.x_min), max_int(a.y_min, b.y_min), min_int(a.x_max, b.x_max),
