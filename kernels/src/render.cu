@@ -285,8 +285,8 @@ __global__ void __launch_bounds__(kDualThreads)
         record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
         record.c56rg = make_float4(f.c5, f.c6, in.rgb[3 * id], in.rgb[3 * id + 1]);
         record.bd = make_float4(in.rgb[3 * id + 2], kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
-        if (kCulls) mask = subtile_mask(conic, u, v, log_opacity);
-        if (kCull == Cull::kBlock) mask = block_mask(conic, u, v, log_opacity, mask);
+        if (kCull == Cull::kQuadrant) mask = subtile_mask(conic, u, v, log_opacity);
+        if (kCull == Cull::kBlock) mask = block_mask(conic, u, v, log_opacity);
       }
       records[slot] = record;  // slots past the batch's end get the padding record
       if (kCulls) collected_mask[slot] = mask;

@@ -1,14 +1,16 @@
 // taebak-scale GPU cases: the real 4,249,286-Gaussian scene at 3840x2160 with the fastest preset (RoofGS
 // pipeline on the compact attributes, all four techniques, depth order, fast exp σ = 0.05798: api::Preset).
 // - Sorted pairs of one view equal the CPU reference's TileBins term by term. The whole scene is binned on the
-//   CPU: preprocess is threaded and the sorts (N Gaussians by depth, ~8M pairs by key) take seconds, so no
-//   subset is needed; the MESSAGE lines give the time.
+//   CPU, no subset: preprocess is threaded, and the two sorts (4.25M Gaussians by depth, 8.25M pairs by key)
+//   took 2.2-3.0 s in all on the 16-core H100 host (the MESSAGE lines give the time).
 // - The GPU image equals the CPU reference's RoofGS render, with the tolerances of test_gpu_roofgs.cpp (pair
 //   counts equal, max |Δ| ≤ 0.02 per channel, PSNR ≥ 70 dB), on a 512x512 window of each 4K view: a camera with
-//   the view's focal lengths and its principal point shifted by the window's corner, which the CPU blends in
-//   about a second where the whole 4K frame would take minutes.
+//   the view's focal lengths and its principal point shifted by the window's corner. The CPU renders a window
+//   (~1.1M pairs) in 1.0-1.6 s (the 4K frame has 8.25M pairs over 32 times the pixels). Measured: 162 dB,
+//   max |Δ| ≤ 1.2e-6.
 // - Quality against the GPU FP32 baseline (preset faithful) of the same .rgs over the 8 views at 4K: mean
-//   PSNR ≥ 50 dB, min ≥ 48 dB (the floors of RoofGS+ on flowers in test_gpu_roofgs.cpp).
+//   PSNR ≥ 50 dB, min ≥ 48 dB (the floors of RoofGS+ on flowers in test_gpu_roofgs.cpp). Measured: mean 63.6,
+//   min 63.0 dB.
 // Cameras are built as rgs-bench's --cameras with --resolution 3840x2160 builds them: the file's views at their
 // native 1920x1080, then runtime::resize_camera.
 #include <algorithm>
@@ -109,6 +111,7 @@ TEST_CASE("taebak at 4K: sorted pairs of the fastest preset equal the CPU refere
                     << " pairs from large Gaussians); preprocess " << preprocess_s << " s, bin and sort " << bin_s
                     << " s");
   CHECK(bins->keys.size() > 1000000);  // a dense view, not a corner of the scene
+  CHECK(largest > kernels::kSerialTileLimit);  // warps emitted the pairs of the large Gaussians
   for (bool fused : {true, false}) {
     CAPTURE(fused);
     GpuRenderOptions options = api::gpu_render_options(api::Preset::kFastest, scene.gpu->has_compact());
@@ -124,9 +127,9 @@ TEST_CASE("taebak at 4K: sorted pairs of the fastest preset equal the CPU refere
     const Status downloaded = renderer->download_sorted_pairs(&keys, &values);
     REQUIRE_MESSAGE(downloaded.ok(), downloaded.to_string());
     const double gpu_s = seconds_since(start);
-    MESSAGE("taebak " << cam.name << (fused ? " fused" : " separate") << ": GPU " << keys.size()
+    MESSAGE("taebak " << cam.name << std::string(fused ? " fused" : " separate") << ": GPU " << keys.size()
                       << " pairs, frame and download " << gpu_s << " s, sub-tile culling "
-                      << (frame.stats.subtile_culling ? "on" : "off"));
+                      << std::string(frame.stats.subtile_culling ? "on" : "off"));
     CHECK(frame.stats.pairs == bins->keys.size());
     CHECK(frame.stats.large_pairs == large_pairs);
     CHECK(frame.stats.subtile_culling == (t.folded_coefficients && (!t.snugbox_accutile || auto_subtile)));

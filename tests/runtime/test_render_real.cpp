@@ -234,7 +234,7 @@ TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant or 4x4
         const runtime::ProjectedGaussian& g = gaussians[bins->values[p]];
         const float u = g.mean[0] - float(tx * kernels::kTileSize), v = g.mean[1] - float(ty * kernels::kTileSize);
         const uint32_t mask = kernels::subtile_mask(g.conic, u, v, g.log_opacity);
-        const uint32_t blocks = kernels::block_mask(g.conic, u, v, g.log_opacity, mask);
+        const uint32_t blocks = kernels::block_mask(g.conic, u, v, g.log_opacity);
         const kernels::FoldedCoefficients f = kernels::fold_coefficients(g.conic, u, v, g.log_opacity);
         const auto passing_pixels = [&](int x0, int y0, int side) {
           uint64_t passing = 0;

@@ -477,7 +477,7 @@ TEST_CASE("block_mask: no pixel of a cleared 4x4 block passes the 1/255 test (ra
     const float u = float(small ? near(rng) : local(rng)), v = float(small ? near(rng) : local(rng));
     const k::FoldedCoefficients f = k::fold_coefficients(conic, u, v, log_o);
     const uint32_t quadrants = k::subtile_mask(conic, u, v, log_o);
-    const uint32_t mask = k::block_mask(conic, u, v, log_o, quadrants);
+    const uint32_t mask = k::block_mask(conic, u, v, log_o);
     for (int b = 0; b < k::kCullBlocksPerTile; ++b) {
       const int bx = b % k::kCullBlocksPerSide, by = b / k::kCullBlocksPerSide;
       bool any_pixel = false;
