@@ -642,7 +642,11 @@ Status RgsFile::decode_section(SectionId id, void* dst, size_t dst_size) const {
 
 namespace {
 
-/// Decodes a section into a typed host array, converting from little-endian when the host is not.
+/// Whether a section is stored with an archive codec (SPEC §3.3), which decodes whole.
+bool is_archive_codec(Codec codec) { return codec == Codec::kDraco || codec == Codec::kQuantized; }
+
+/// Decodes a section into a typed host array, converting from little-endian when the host is not. An archive
+/// section is checked there (decode_verified_section), the others were verified before.
 template <typename T>
 Status decode_array(const RgsFile& file, SectionId id, std::vector<T>* out) {
   const SectionEntry* e = file.find(id);
@@ -650,7 +654,8 @@ Status decode_array(const RgsFile& file, SectionId id, std::vector<T>* out) {
                       file.name() + ": section " + section_name(id) + " does not fit this address space");
   out->resize(static_cast<size_t>(e->raw_size / sizeof(T)));
   uint8_t* bytes = reinterpret_cast<uint8_t*>(out->data());
-  RGS_RETURN_IF_ERROR(file.decode_section(id, bytes, out->size() * sizeof(T)));
+  RGS_RETURN_IF_ERROR(is_archive_codec(e->codec) ? file.decode_verified_section(id, bytes, out->size() * sizeof(T))
+                                                 : file.decode_section(id, bytes, out->size() * sizeof(T)));
   if constexpr (!detail::kHostLittleEndian && sizeof(T) > 1) {
     for (size_t i = 0; i < out->size(); ++i) {
       if constexpr (sizeof(T) == 2) {
@@ -671,10 +676,13 @@ Result<EncodedScene> RgsFile::read_scene() const {
     scene.metadata = metadata_;
     scene.provenance = provenance_;
     scene.count = header_.gaussian_count;
-    // Checksums, frames and values first, in bounded memory: a damaged frame or an invalid value fails
-    // before the arrays it claims are allocated, and no path renders values the spec rules out.
+    // Checksums, frames and values first, in bounded memory: a damaged zstd frame or an invalid value fails
+    // before the arrays it claims are allocated, and no path renders values the spec rules out. Archive
+    // sections decode whole either way: decode_array checks them once decoded, instead of decoding twice.
     for (SectionId id : {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
                          SectionId::kSh}) {
+      const SectionEntry* e = find(id);
+      if (e != nullptr && is_archive_codec(e->codec)) continue;
       RGS_RETURN_IF_ERROR(verify_section(id));
     }
     RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kMeans, &scene.means));

@@ -248,9 +248,7 @@ Status validate_section(const RgsFile& file, size_t index) {
     // §3.3 Archive sections decode whole (their raw size is bounded by the read limits at open), then
     // their values are checked like any runtime section's.
     std::vector<uint8_t> raw(static_cast<size_t>(e.raw_size));
-    s = file.decode_section(e.id, raw.data(), raw.size());
-    if (!s.ok()) return s;  // names the file and the section already
-    if (active && e.raw_size > 0) s = checker.visit(raw.data(), static_cast<size_t>(e.raw_size / record_size), 0);
+    return file.decode_verified_section(e.id, raw.data(), raw.size());
   } else {
     s = stream_zstd(stored.data, stored.size, e.raw_size, record_size > 0 ? record_size : 1, active);
   }
@@ -259,6 +257,20 @@ Status validate_section(const RgsFile& file, size_t index) {
 }
 
 }  // namespace
+
+Status RgsFile::decode_verified_section(SectionId id, void* dst, size_t dst_size) const {
+  RGS_RETURN_IF_ERROR(decode_section(id, dst, dst_size));  // names the file and the section
+  const size_t index = static_cast<size_t>(find(id) - sections_.data());
+  const SectionEntry& e = sections_[index];
+  const bool runtime = id == SectionId::kMeans || id == SectionId::kRotations || id == SectionId::kScales ||
+                       id == SectionId::kOpacities || id == SectionId::kSh;
+  const size_t record_size = static_cast<size_t>(e.components) * element_type_size(e.element_type);
+  if (!runtime || record_size == 0 || e.raw_size == 0) return Status();
+  const ValueChecker checker(id, metadata_, record_size);
+  Status s = checker.visit(static_cast<const uint8_t*>(dst), static_cast<size_t>(e.raw_size / record_size), 0);
+  if (!s.ok()) s.prepend(name_ + ": " + detail::section_label(index, id));
+  return s;
+}
 
 Status RgsFile::verify_section(SectionId id) const {
   const SectionEntry* e = find(id);

@@ -3,6 +3,8 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstring>
+#include <string>
 #include <vector>
 
 #include "format_test_util.h"
@@ -132,6 +134,31 @@ TEST_CASE("archive: must-fail files") {
     put_u32(b, 16, 0);
     fix_header_checksum(b);
     CHECK(format::validate(b.data(), b.size()).code() == StatusCode::kCorruptData);
+  }
+  SUBCASE("a decoded archive value that breaks a value rule: refused by validate and read_scene") {
+    // The scales' offset of axis 0 (the quantized header's first parameter) moved to 1e6: finite, so the header
+    // parses, but every decoded scale of that axis overflows FP16. read_scene decodes an archive section once and
+    // checks it there (decode_verified_section) instead of verifying it beforehand.
+    std::vector<uint8_t> b = *good;
+    const size_t scales = entry_index(b, format::SectionId::kScales);
+    const uint64_t off = get_u64(b, entry_at(scales) + 24);
+    uint32_t huge = 0;
+    const float value = 1e6f;
+    std::memcpy(&huge, &value, 4);
+    put_u32(b, off + 8, huge);
+    fix_all_checksums(b);
+    CHECK(format::validate(b.data(), b.size()).code() == StatusCode::kCorruptData);
+    auto file = format::RgsFile::from_bytes(b.data(), b.size(), format::ReadOptions{}, "bad_scale.rgs");
+    REQUIRE(file.ok());
+    auto read = file->read_scene();
+    REQUIRE_FALSE(read.ok());
+    CHECK(read.status().code() == StatusCode::kCorruptData);
+    CHECK(read.status().message().find("bad_scale.rgs") != std::string::npos);
+    CHECK(read.status().message().find("scales") != std::string::npos);
+    std::vector<uint8_t> raw(scene.scales.size() * 2);
+    CHECK(file->decode_section(format::SectionId::kScales, raw.data(), raw.size()).ok());  // decodes; values bad
+    CHECK(file->decode_verified_section(format::SectionId::kScales, raw.data(), raw.size()).code() ==
+          StatusCode::kCorruptData);
   }
   SUBCASE("draco codec on a section other than means") {
     std::vector<uint8_t> b = *good;

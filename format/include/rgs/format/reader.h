@@ -110,9 +110,15 @@ class RgsFile {
   /// kInvalidArgument when there is no such section. Loaders call it before allocating memory or device
   /// memory for a section, so that memory follows what a frame really decodes to.
   Status verify_section(SectionId id) const;
-  /// Decodes every runtime section into an EncodedScene (host memory). Each section is first checked
-  /// with verify_section() (checksums, frames, value rules), so a scene this returns holds only values
-  /// the renderers accept, and a damaged zstd frame fails before its raw size is allocated.
+  /// decode_section(), then the checks of verify_section() on the decoded bytes in `dst`: one decode where
+  /// verify_section() and decode_section() would decode a compressed section twice. For loaders whose
+  /// destination already holds the raw size (bounded by the read limits at open: SPEC §5.5). Errors: those of
+  /// verify_section() and decode_section(), naming the file and the section.
+  Status decode_verified_section(SectionId id, void* dst, size_t dst_size) const;
+  /// Decodes every runtime section into an EncodedScene (host memory), each checked as verify_section()
+  /// checks it (checksums, frames, value rules), so a scene this returns holds only values the renderers
+  /// accept. A zstd section is verified in chunks before its raw size is allocated; an archive section
+  /// (Draco, quantized) is decoded once into its array and checked there (decode_verified_section()).
   /// Errors: those of verify_section(), kOutOfMemory.
   Result<EncodedScene> read_scene() const;
 
