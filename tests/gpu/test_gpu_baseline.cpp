@@ -329,5 +329,34 @@ TEST_CASE(".rgs upload: device dequantization equals format::dequantize (guitar,
   }
 }
 
+TEST_CASE(".rgs upload of an archive file: the device holds read_scene()'s sections, decoded concurrently") {
+  // GpuScene::from_rgs decodes the archive sections (Draco means, quantized rotations, scales, opacities, SH) on
+  // host threads and checks their values there; the device arrays dequantize to what format::dequantize makes
+  // of RgsFile::read_scene(), which decodes the same sections one after the other.
+  if (!have_gpu()) return;
+  const GpuScenePair& scene = guitar();
+  auto encoded = converter::quantize(scene.cloud, converter::QuantizeOptions{});
+  REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
+  format::WriteOptions options;
+  options.profile = format::StorageProfile::kArchive;
+  auto bytes = format::serialize_scene(*encoded, options);
+  REQUIRE_MESSAGE(bytes.ok(), bytes.status().to_string());
+  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size(), {}, "archive.rgs");
+  REQUIRE_MESSAGE(file.ok(), file.status().to_string());
+  CHECK(file->find(format::SectionId::kMeans)->codec == format::Codec::kDraco);
+  auto read = file->read_scene();
+  REQUIRE_MESSAGE(read.ok(), read.status().to_string());
+  auto host = format::dequantize(*read);
+  REQUIRE_MESSAGE(host.ok(), host.status().to_string());
+  auto gpu = runtime::GpuScene::from_rgs(*file);
+  REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
+  const kernels::Fp32GaussiansView v = gpu->fp32();
+  CHECK(download_floats(v.means, host->means.size()) == host->means);
+  CHECK(download_floats(v.rotations, host->rotations.size()) == host->rotations);
+  CHECK(download_floats(v.scales, host->scales.size()) == host->scales);
+  CHECK(download_floats(v.opacities, host->opacities.size()) == host->opacities);
+  CHECK(download_floats(v.sh, host->sh.size()) == host->sh);
+}
+
 }  // namespace
 }  // namespace rgs::test
