@@ -410,7 +410,7 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
                             "-byte zstd frame (at most " + dec(detail::kZstdMaxExpansion) + "x expansion)");
     Status s = detail::check_zstd_frame_header(f.data_ + e.offset, static_cast<size_t>(e.stored_size), e.raw_size);
     if (!s.ok()) return Status(s).prepend(label);
-  } else if (e.codec == Codec::kDraco || e.codec == Codec::kQuantized) {
+  } else if (is_archive_codec(e.codec)) {
     // §3.3 Archive codecs: gated by version and the required flag, only on their sections, headers
     // checked here (the point or code count before anything is allocated from it).
     RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForArchiveCodecs), StatusCode::kCorruptData,
@@ -440,7 +440,7 @@ Status RgsFileAccess::check_decoded_total(const RgsFile& f) {
   for (const SectionEntry& e : f.sections_) {
     if (!detail::is_known_section(e.id)) continue;
     // §5.5 Archive-coded sections count a fraction of their raw size (internal_archive.h).
-    const bool archive = e.codec == Codec::kDraco || e.codec == Codec::kQuantized;
+    const bool archive = is_archive_codec(e.codec);
     const uint64_t counted = archive ? e.raw_size / detail::kArchiveRatioAllowance : e.raw_size;
     if (!detail::checked_add(total, counted, &total)) total = UINT64_MAX;
   }
@@ -515,7 +515,7 @@ Status RgsFileAccess::decode(const RgsFile& f, size_t index, void* dst, size_t d
     if (stored.size > 0) std::memcpy(dst, stored.data, stored.size);
     return Status();
   }
-  if (e.codec == Codec::kDraco || e.codec == Codec::kQuantized) {
+  if (is_archive_codec(e.codec)) {
     Status s = e.codec == Codec::kDraco
                    ? detail::decode_draco_means(stored.data, stored.size, e.element_count, static_cast<uint8_t*>(dst),
                                                 dst_size)
@@ -641,9 +641,6 @@ Status RgsFile::decode_section(SectionId id, void* dst, size_t dst_size) const {
 }
 
 namespace {
-
-/// Whether a section is stored with an archive codec (SPEC §3.3), which decodes whole.
-bool is_archive_codec(Codec codec) { return codec == Codec::kDraco || codec == Codec::kQuantized; }
 
 /// Decodes a section into a typed host array, converting from little-endian when the host is not. An archive
 /// section is checked there (decode_verified_section), the others were verified before.

@@ -232,7 +232,7 @@ Status stream_zstd(const uint8_t* src, size_t stored_size, uint64_t raw_size, si
 Status validate_section(const RgsFile& file, size_t index) {
   const SectionEntry& e = file.sections()[index];
   RGS_ASSIGN_OR_RETURN(ByteView stored, file.stored_bytes(e.id));  // message names the file
-  const bool archive = e.codec == Codec::kDraco || e.codec == Codec::kQuantized;
+  const bool archive = is_archive_codec(e.codec);
   if (e.codec != Codec::kNone && e.codec != Codec::kZstd && !archive) return Status();  // unknown section and codec
   const bool runtime = e.id == SectionId::kMeans || e.id == SectionId::kRotations || e.id == SectionId::kScales ||
                        e.id == SectionId::kOpacities || e.id == SectionId::kSh;

@@ -23,11 +23,6 @@ Status check_count(uint64_t count, const std::string& name) {
   return Status();
 }
 
-/// Whether a section is stored with an archive codec (SPEC §3.3): decoded whole, so verified once decoded.
-bool is_archive_codec(format::Codec codec) {
-  return codec == format::Codec::kDraco || codec == format::Codec::kQuantized;
-}
-
 /// Copies one section of `file` into `dst` (raw_size bytes): straight from the mapping when stored
 /// uncompressed, else decoded into the pinned `staging` buffer and copied from there. Synchronous.
 Status upload_section(const format::RgsFile& file, format::SectionId id, void* dst, size_t dst_bytes,
@@ -45,9 +40,7 @@ Status upload_section(const format::RgsFile& file, format::SectionId id, void* d
     RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(dst, bytes.data, bytes.size, cudaMemcpyHostToDevice, stream), what);
   } else {
     RGS_RETURN_IF_ERROR(staging->reserve(dst_bytes, what));
-    // An archive section is checked here, once decoded (from_rgs skips its separate verification).
-    RGS_RETURN_IF_ERROR(is_archive_codec(entry->codec) ? file.decode_verified_section(id, staging->data(), dst_bytes)
-                                                       : file.decode_section(id, staging->data(), dst_bytes));
+    RGS_RETURN_IF_ERROR(file.decode_section(id, staging->data(), dst_bytes));
     RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(dst, staging->data(), dst_bytes, cudaMemcpyHostToDevice, stream),
                              what);
   }
@@ -74,7 +67,7 @@ Status upload_sections(const format::RgsFile& file, const std::array<SectionUplo
   std::vector<size_t> archive;
   for (size_t i = 0; i < uploads.size(); ++i) {
     const format::SectionEntry* entry = file.find(uploads[i].id);
-    if (entry != nullptr && is_archive_codec(entry->codec) && entry->raw_size == uploads[i].bytes &&
+    if (entry != nullptr && format::is_archive_codec(entry->codec) && entry->raw_size == uploads[i].bytes &&
         uploads[i].bytes > 0) {
       archive.push_back(i);
     }
@@ -125,11 +118,11 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   // Checksums, zstd frames and the value rules of SPEC §4.3-4.7 first, in bounded host memory: the kernels
   // never see a value the spec rules out (NaN means, zero quaternions, negative scales, opacity above 1),
   // and a damaged frame fails before device memory is sized by what it claims. Archive sections decode whole
-  // either way (their raw size is bounded at open): upload_section checks them once decoded, before the copy.
+  // either way (their raw size is bounded at open): upload_sections checks them once decoded, before the copy.
   for (format::SectionId id : {format::SectionId::kMeans, format::SectionId::kRotations, format::SectionId::kScales,
                                format::SectionId::kOpacities, format::SectionId::kSh}) {
     const format::SectionEntry* entry = file.find(id);
-    if (entry != nullptr && is_archive_codec(entry->codec)) continue;
+    if (entry != nullptr && format::is_archive_codec(entry->codec)) continue;
     RGS_RETURN_IF_ERROR(file.verify_section(id));
   }
 

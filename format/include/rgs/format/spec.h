@@ -69,6 +69,9 @@ enum class Codec : uint16_t {
   kQuantized = 3,  ///< §3.3.2 rotations, scales, opacities, sh: transform header + zstd frame of codes
 };
 
+/// §3.3 Whether `codec` is one of the archive profile's (decoded whole, lossy at encode).
+constexpr bool is_archive_codec(Codec codec) { return codec == Codec::kDraco || codec == Codec::kQuantized; }
+
 /// §3.1 Element type of a section's raw bytes, little-endian.
 enum class ElementType : uint16_t {
   kBytes = 0,    ///< opaque bytes (metadata, provenance); components = 1
