@@ -411,13 +411,28 @@ TEST_CASE("fast_exp_alpha: bit for bit the reference alpha for every tested non-
   CHECK(k::fast_exp_alpha(0.f, bias) == k::fast_exp(0.f));
 }
 
+/// Whether any pixel centre of the side × side square at tile-local (x0, y0) passes the 1/255 test as the
+/// folded rasterizer evaluates it: the fast exp with σ = 0 (the most generous) or the paper's σ, or expf.
+bool any_pixel_passes(const k::FoldedCoefficients& f, int x0, int y0, int side) {
+  const float bias_zero = k::fast_exp_bias(0.f), bias_paper = k::fast_exp_bias(k::kFastExpSigmaMinMax);
+  for (int y = y0; y < y0 + side; ++y) {
+    for (int x = x0; x < x0 + side; ++x) {
+      const float P = k::folded_power(f, k::pixel_terms(float(x), float(y)));
+      if (k::fast_exp_alpha(P, bias_zero) >= 0.f || k::fast_exp_alpha(P, bias_paper) >= 0.f ||
+          (P <= 0.f && std::fmin(k::kAlphaMax, std::exp(P)) >= k::kAlphaMin)) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
 TEST_CASE("subtile_mask: no pixel of a cleared quadrant passes the 1/255 test (random Gaussians, needles too)") {
   // Means up to 40 px outside the tile, covariance eigenvalues 1e-3..1e4 px² at any angle, opacities 0.004..1;
   // every pixel of every quadrant the mask clears is evaluated as the rasterizer does (folded P, then the fast
   // exp with σ = 0, the most generous one, and with the paper's σ, and expf).
   std::mt19937 rng(77);
   std::uniform_real_distribution<double> local(-40.0, 56.0), unit(0.0, 1.0);
-  const float bias_zero = k::fast_exp_bias(0.f), bias_paper = k::fast_exp_bias(k::kFastExpSigmaMinMax);
   uint64_t quadrants = 0, cleared = 0, kept_without_pixel = 0, violations = 0;
   for (int iter = 0; iter < 20000; ++iter) {
     const k::Cov2 cov = random_cov(rng);
@@ -429,15 +444,7 @@ TEST_CASE("subtile_mask: no pixel of a cleared quadrant passes the 1/255 test (r
     const k::FoldedCoefficients f = k::fold_coefficients(conic, u, v, log_o);
     const uint32_t mask = k::subtile_mask(conic, u, v, log_o);
     for (int q = 0; q < 4; ++q) {
-      bool any_pixel = false;
-      for (int y = (q / 2) * 8; y < (q / 2) * 8 + 8; ++y) {
-        for (int x = (q % 2) * 8; x < (q % 2) * 8 + 8; ++x) {
-          const float P = k::folded_power(f, k::pixel_terms(float(x), float(y)));
-          const bool passes = k::fast_exp_alpha(P, bias_zero) >= 0.f || k::fast_exp_alpha(P, bias_paper) >= 0.f ||
-                              (P <= 0.f && std::fmin(k::kAlphaMax, std::exp(P)) >= k::kAlphaMin);
-          any_pixel = any_pixel || passes;
-        }
-      }
+      const bool any_pixel = any_pixel_passes(f, (q % 2) * 8, (q / 2) * 8, 8);
       ++quadrants;
       if (!(mask >> q & 1u)) {
         ++cleared;
@@ -460,7 +467,6 @@ TEST_CASE("block_mask: no pixel of a cleared 4x4 block passes the 1/255 test (ra
   // scenes' kind) placed in and around the tile, where the blocks clear most.
   std::mt19937 rng(78);
   std::uniform_real_distribution<double> local(-40.0, 56.0), near(-3.0, 19.0), unit(0.0, 1.0);
-  const float bias_zero = k::fast_exp_bias(0.f), bias_paper = k::fast_exp_bias(k::kFastExpSigmaMinMax);
   uint64_t blocks = 0, cleared = 0, cleared_in_kept_quadrant = 0, kept_without_pixel = 0, violations = 0;
   for (int iter = 0; iter < 20000; ++iter) {
     const bool small = iter % 2 == 1;
@@ -480,15 +486,8 @@ TEST_CASE("block_mask: no pixel of a cleared 4x4 block passes the 1/255 test (ra
     const uint32_t mask = k::block_mask(conic, u, v, log_o);
     for (int b = 0; b < k::kCullBlocksPerTile; ++b) {
       const int bx = b % k::kCullBlocksPerSide, by = b / k::kCullBlocksPerSide;
-      bool any_pixel = false;
-      for (int y = by * k::kCullBlockSize; y < (by + 1) * k::kCullBlockSize; ++y) {
-        for (int x = bx * k::kCullBlockSize; x < (bx + 1) * k::kCullBlockSize; ++x) {
-          const float P = k::folded_power(f, k::pixel_terms(float(x), float(y)));
-          const bool passes = k::fast_exp_alpha(P, bias_zero) >= 0.f || k::fast_exp_alpha(P, bias_paper) >= 0.f ||
-                              (P <= 0.f && std::fmin(k::kAlphaMax, std::exp(P)) >= k::kAlphaMin);
-          any_pixel = any_pixel || passes;
-        }
-      }
+      const bool any_pixel =
+          any_pixel_passes(f, bx * k::kCullBlockSize, by * k::kCullBlockSize, k::kCullBlockSize);
       ++blocks;
       if (!(mask >> b & 1u)) {
         ++cleared;
