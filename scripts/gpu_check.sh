@@ -87,8 +87,11 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     [ $rc -ne 0 ] && status=1
     note "bench_$name: exit $rc in $(( $(date +%s) - t0 )) s"
   }
-  bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10
-  bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 --front-door
+  # --quality: each mode's frames against the baseline's (PSNR, SSIM, max |d|), on the runs that hold the
+  # baseline.
+  bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 \
+    --quality
+  bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 --front-door --quality
   # 542,104 x 4 = 2,168,416 Gaussians (converter::replicate, compact attributes kept); fewer repetitions.
   bench daffodils_x4 "$daffodils" --replicate 4 --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 3 --repeat 5
   # 38,347 x 53 = 2,032,391 Gaussians seen from flowers' own cameras (its neighbours fill the background).
@@ -96,16 +99,18 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     --repeat 3
   # 7680x4320 (17 tile bits + 15 depth bits in the 32-bit key).
   bench flowers_8k "$flowers" --cameras "$cameras" --every 24 --resolution 7680x4320 "${modes[@]}" --warmup 2 \
-    --repeat 3
-  bench daffodils_8k "$daffodils" --orbit 4 --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3
+    --repeat 3 --quality
+  bench daffodils_8k "$daffodils" --orbit 4 --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3 --quality
   names=(flowers daffodils daffodils_x4 flowers_x53 flowers_8k daffodils_8k)
   if [ -f "$taebak" ]; then
     # The real multi-million-Gaussian scene: its 8 cameras at 1080p and the same poses at 4K (with the ablation)
     # and 8K.
-    bench taebak "$taebak" --cameras "$taebak_cameras" --resolution 1920x1080 "${modes[@]}" --warmup 3 --repeat 5
+    bench taebak "$taebak" --cameras "$taebak_cameras" --resolution 1920x1080 "${modes[@]}" --warmup 3 --repeat 5 \
+      --quality
     bench taebak_4k "$taebak" --cameras "$taebak_cameras" --resolution 3840x2160 "${ablation[@]}" --warmup 3 \
-      --repeat 5 --front-door
-    bench taebak_8k "$taebak" --cameras "$taebak_cameras" --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3
+      --repeat 5 --front-door --quality
+    bench taebak_8k "$taebak" --cameras "$taebak_cameras" --resolution 7680x4320 "${modes[@]}" --warmup 2 --repeat 3 \
+      --quality
     names+=(taebak taebak_4k taebak_8k)
   fi
   for name in "${names[@]}"; do

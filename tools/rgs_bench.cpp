@@ -29,6 +29,7 @@
 #include <cstdio>
 #include <ctime>
 #include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -36,6 +37,7 @@
 #include "cli_common.h"
 #include "read_limits_option.h"
 #include "rgs/api/gpu_preset.h"
+#include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/api/gpu_scene_loading.h"
@@ -84,6 +86,7 @@ struct Options {
   int device = 0;
   std::string json_path;
   bool front_door = false;
+  bool quality = false;
 };
 
 constexpr int kStages = 5;
@@ -372,6 +375,58 @@ struct FrontDoorRow {
   double median_ms = 0;
 };
 
+/// Quality of one mode at one resolution against the baseline render of the same scene and views.
+struct QualityRow {
+  std::string mode;
+  std::string resolution;
+  double psnr_mean = 0, psnr_min = 0;  ///< dB over the clamped RGB of each view (+inf when equal)
+  double ssim_mean = 0;
+  float max_abs_diff = 0;  ///< largest over the views
+  size_t views = 0;
+};
+
+/// --quality: every view of every camera set rendered once by the baseline and once by each other mode,
+/// compared on the GPU (audit::GpuImageComparer: PSNR, SSIM and max |Δ| of the clamped RGB, the audit's
+/// definitions). The baseline reads the FP32 arrays, so the scene must hold them.
+Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::LoadedGpuScene& scene,
+                                                const std::vector<CameraSet>& sets, runtime::GpuRenderer& renderer) {
+  RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions reference,
+                       api::gpu_mode_options("baseline", scene.scene.has_compact()));
+  std::vector<QualityRow> rows;
+  audit::GpuImageComparer comparer;
+  runtime::DeviceImage expected, image;
+  for (const std::string& mode_name : opt.modes) {
+    if (mode_name == "baseline") continue;
+    RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions options,
+                         api::gpu_mode_options(mode_name, scene.scene.has_compact()));
+    for (const CameraSet& set : sets) {
+      QualityRow row;
+      row.mode = mode_name;
+      row.resolution = set.label;
+      row.psnr_min = std::numeric_limits<double>::infinity();
+      for (const runtime::Camera& cam : set.cameras) {
+        auto base = renderer.render(scene.scene, cam, reference, &expected);
+        if (!base.ok()) return Status(base.status()).prepend("baseline, view " + cam.name);
+        auto frame = renderer.render(scene.scene, cam, options, &image);
+        if (!frame.ok()) return Status(frame.status()).prepend(mode_name + ", view " + cam.name);
+        RGS_ASSIGN_OR_RETURN(const audit::ImageMetrics m,
+                             comparer.compare(expected.rgba(), image.rgba(), cam.width, cam.height, 4));
+        row.psnr_mean += m.psnr_db;
+        row.psnr_min = std::min(row.psnr_min, m.psnr_db);
+        row.ssim_mean += m.ssim;
+        row.max_abs_diff = std::max(row.max_abs_diff, m.max_abs_diff);
+        ++row.views;
+      }
+      if (row.views > 0) {
+        row.psnr_mean /= double(row.views);
+        row.ssim_mean /= double(row.views);
+      }
+      rows.push_back(row);
+    }
+  }
+  return rows;
+}
+
 /// The front door (api::Renderer, preset fastest, into a caller buffer on the caller's stream) against the
 /// expert path (runtime::GpuRenderer with roofgs+'s options into its own DeviceImage), the same views and
 /// frames, interleaved per frame so that clocks and caches treat both alike.
@@ -468,7 +523,7 @@ int run(const Options& opt) {
   // Which modes read the FP32 arrays: the scene keeps them on the device only for those. A .rgs scene (or a
   // replicated one) has the compact sections; other formats are uploaded as FP32 arrays only.
   const bool compact_scene = opt.replicate > 1 || api::is_rgs_path(opt.input);
-  bool fp32 = !compact_scene;
+  bool fp32 = !compact_scene || opt.quality;  // --quality renders the baseline, which reads the FP32 arrays
   for (const std::string& mode_name : opt.modes) {
     auto options = api::gpu_mode_options(mode_name, compact_scene);
     if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend(opt.input));
@@ -517,6 +572,13 @@ int run(const Options& opt) {
   }
   std::vector<RunRoofline> rooflines;
   for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene->scene, roofs));
+  std::vector<QualityRow> quality;
+  if (opt.quality) {
+    std::fprintf(stderr, "quality against the baseline: every view once per mode ...\n");
+    auto rows = measure_quality(opt, *scene, *sets, *renderer);
+    if (!rows.ok()) return tools::report_error(kTool, Status(rows.status()).prepend("--quality"));
+    quality = std::move(rows).value();
+  }
   std::vector<FrontDoorRow> front_door;
   if (opt.front_door && opt.replicate <= 1) {
     std::fprintf(stderr, "front door against GpuRenderer: %u warm-up + %u rounds ...\n", opt.warmup, opt.repeat);
@@ -582,6 +644,16 @@ int run(const Options& opt) {
     }
   }
 
+  if (!quality.empty()) {
+    std::printf("  quality          against the baseline's render of the same views (clamped RGB; PSNR dB, SSIM)\n");
+    std::printf("  %-12s %-10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min", "SSIM mean",
+                "max |d|", "views");
+    for (const QualityRow& r : quality) {
+      std::printf("  %-12s %-10s %10s %10s %10s %9s %6zu\n", r.mode.c_str(), r.resolution.c_str(),
+                  tools::fixed(r.psnr_mean, 2).c_str(), tools::fixed(r.psnr_min, 2).c_str(),
+                  tools::fixed(r.ssim_mean, 5).c_str(), tools::fixed(r.max_abs_diff, 4).c_str(), r.views);
+    }
+  }
   if (!front_door.empty()) {
     std::printf("  front door       ms per frame, host wall clock to device completion, median (same views, "
                 "interleaved)\n");
@@ -664,6 +736,15 @@ int run(const Options& opt) {
                       {"per_view", views}});
     }
     j["results"] = runs;
+    for (const QualityRow& r : quality) {
+      j["quality"].push_back({{"mode", r.mode},
+                              {"resolution", r.resolution},
+                              {"psnr_mean_db", r.psnr_mean},
+                              {"psnr_min_db", r.psnr_min},
+                              {"ssim_mean", r.ssim_mean},
+                              {"max_abs_diff", r.max_abs_diff},
+                              {"views", r.views}});
+    }
     for (const FrontDoorRow& r : front_door) {
       j["front_door"].push_back({{"path", r.path}, {"resolution", r.resolution}, {"median_ms", r.median_ms}});
     }
@@ -729,6 +810,9 @@ int main(int argc, char** argv) {
   app.add_flag("--front-door", opt.front_door,
                "Also time the front door (api::Renderer, preset fastest, into a caller RGBA32F and RGBA8 buffer) "
                "against GpuRenderer with roofgs+'s options, per frame, same views (needs --replicate 1)");
+  app.add_flag("--quality", opt.quality,
+               "Also compare every view of every mode but baseline with the baseline's render (PSNR, SSIM, max |d| "
+               "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
   try {
