@@ -260,7 +260,7 @@ __global__ void __launch_bounds__(kDualThreads)
                          make_float4(0.f, 0.f, 0.f, 0.f)};
   if (rank == 0) records[kBatch] = never;  // visible after the first barrier below
   const char* record_bytes = reinterpret_cast<const char*>(records);
-  // This lane's list and the bit of the mask that keeps a pair in it.
+  // The list this lane walks: its group's (block culling) or its warp's.
   const int list = kCull == Cull::kBlock ? warp * kGroupsPerWarp + group : warp;
   const uint32_t lanes_below = (1u << lane) - 1u;
 
@@ -304,8 +304,10 @@ __global__ void __launch_bounds__(kDualThreads)
         const uint32_t slot_mask = collected_mask[base + lane];
 #pragma unroll
         for (int g = 0; g < kListsPerWarp; ++g) {
-          const int bit = kCull == Cull::kBlock ? (2 * (warp % 2) + g % 2) + kCullBlocksPerSide * (2 * (warp / 2) + g / 2)
-                                                : warp;
+          // Block culling: group g's block (block_x, block_y) as bit block_x + 4·block_y; else the quadrant.
+          const int bit = kCull == Cull::kBlock
+                              ? (2 * (warp % 2) + g % 2) + kCullBlocksPerSide * (2 * (warp / 2) + g / 2)
+                              : warp;
           const bool keep = (slot_mask >> bit) & 1u;
           const uint32_t kept = __ballot_sync(0xffffffffu, keep);
           if (keep) {

@@ -161,11 +161,12 @@ TEST_CASE(
 TEST_CASE(
     "sub-tile culling changes no output byte with SnugBox + AccuTile (flowers at 1080p and 4K, daffodils at 4K)") {
   // Each warp of the folded rasterizer skips the pairs whose subtile_mask clears its 8x8 quadrant, and each group
-  // of 8 lanes those whose block_mask clears its 4x4 block; those pairs cannot pass the 1/255 test there, so colour, alpha and depth keep every bit. Without AccuTile, a 3-sigma
-  // rectangle hands needle-like Gaussians tiles ~1,000 px from their mean, where the folded P's FP32 rounding
-  // (terms ~1e6) exceeds the mask's margin and lets a pixel pass by rounding alone (flowers camera 0 at 4K: one
-  // such pixel of 9 million pairs); the mask, computed without that cancellation, removes it. So folded-only
-  // frames may differ in a few pixels, by at most one alpha-1/255 contribution.
+  // of 8 lanes those whose block_mask clears its 4x4 block; those pairs cannot pass the 1/255 test there, so
+  // colour, alpha and depth keep every bit. Without AccuTile, a 3-sigma rectangle hands needle-like Gaussians
+  // tiles ~1,000 px from their mean, where the folded P's FP32 rounding (terms ~1e6) exceeds the mask's margin
+  // and lets a pixel pass by rounding alone (flowers camera 0 at 4K: one such pixel of 9 million pairs); the
+  // mask, computed without that cancellation, removes it. So folded-only frames may differ in a few pixels, by
+  // at most one alpha-1/255 contribution.
   if (!have_gpu()) return;
   auto renderer = runtime::GpuRenderer::create();
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());

@@ -208,7 +208,7 @@ TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the bas
   }
 }
 
-TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant or 4x4 block passes the 1/255 test (flowers)") {
+TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant or 4x4 block passes the 1/255 test") {
   // Every (tile, Gaussian) pair of flowers camera 0 at 1256x828 with all RoofGS techniques: each pixel of each
   // quadrant that subtile_mask clears is evaluated as the folded rasterizer does, with the paper's fast exp.
   const FlowersScene& scene = flowers();
