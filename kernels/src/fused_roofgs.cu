@@ -81,8 +81,8 @@ __global__ void __launch_bounds__(kFusedBlockSize)
   const uint32_t block = block_id;
   const uint32_t g = block * kFusedBlockSize + threadIdx.x;
 
-  detail::ProjectedRegs p{};
-  detail::TileWalk walk{};
+  detail::ProjectedRegs p;  // every field read is written first (preprocess_gaussian sets tiles)
+  detail::TileWalk walk;  // read only for visible Gaussians
   const bool visible = detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk);
   if (visible) {
     detail::store_projected(p, g, out);

@@ -10,8 +10,8 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     preprocess_roofgs_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,
                              unsigned long long* large_pairs) {
   const uint32_t g = blockIdx.x * blockDim.x + threadIdx.x;
-  detail::ProjectedRegs p{};
-  detail::TileWalk walk{};
+  detail::ProjectedRegs p;  // every field read is written first (preprocess_gaussian sets tiles)
+  detail::TileWalk walk;  // read only for visible Gaussians
   __shared__ detail::LongWalks<detail::kBlockSize> long_walks;
   // Every thread takes part: the long walks' tile counts are shared by the block.
   const bool visible = detail::preprocess_gaussian<kCompact>(src, g, frame, roofgs, long_walks, &p, &walk);
