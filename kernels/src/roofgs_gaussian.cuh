@@ -379,7 +379,8 @@ __device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool 
     tile_walk->spans_kept = true;
   }
   if (thread == 0) shared.size = 0;
-  __syncthreads();
+  // Most blocks hold no long walk: the barrier that publishes the reset also tells every thread whether one does.
+  if (!__syncthreads_or(long_walk)) return count;  // uniform over the block
   uint32_t h = 0;
   if (long_walk) {
     h = atomicAdd(&shared.size, 1u);
@@ -388,7 +389,6 @@ __device__ inline uint32_t count_accutile_tiles_block(TileWalk* tile_walk, bool 
   }
   __syncthreads();
   const uint32_t longs = shared.size;
-  if (longs == 0) return count;  // uniform over the block
   if (thread < 32) {  // running offsets of the long walks' slices, 32 walks per step
     uint32_t carry = 0;
     for (uint32_t base = 0; base < longs; base += 32) {
