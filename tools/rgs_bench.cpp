@@ -610,6 +610,12 @@ int run(const Options& opt) {
     std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n", tools::fixed(load_ms, 1).c_str(),
                 tools::group_digits(scene->file_bytes).c_str());
   }
+  // Per-frame device buffers: the renderer's scratch (pairs, keys, sort and scan storage, ranges, per-Gaussian
+  // projections), grown to the largest frame of the run, and the output image.
+  const uint64_t scratch_bytes = renderer->scratch_bytes();
+  const uint64_t image_bytes = uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0));
+  std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame) + %s MB image\n",
+              tools::fixed(double(scratch_bytes) / 1e6, 1).c_str(), tools::fixed(double(image_bytes) / 1e6, 1).c_str());
   std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", view_count,
               opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json", opt.warmup, opt.repeat);
   std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", "mode", "resolution", "preprocess", "sort", "ranges",
@@ -684,6 +690,8 @@ int run(const Options& opt) {
                   {"sh_degree", scene->scene.sh_degree()},
                   {"device_bytes", scene->scene.device_bytes()},
                   {"load_ms", load_ms},
+                  {"renderer_scratch_bytes", scratch_bytes},
+                  {"image_bytes", image_bytes},
                   {"replicate", opt.replicate}};
     if (opt.replicate > 1) {
       j["scene"]["format"] = replicated.source_is_rgs ? "rgs" : "ply";
