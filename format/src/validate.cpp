@@ -229,29 +229,43 @@ Status stream_zstd(const uint8_t* src, size_t stored_size, uint64_t raw_size, si
   return value_error;
 }
 
+/// Whether `id` is one of the runtime sections, whose records the value rules check.
+bool is_runtime_section(SectionId id) {
+  return id == SectionId::kMeans || id == SectionId::kRotations || id == SectionId::kScales ||
+         id == SectionId::kOpacities || id == SectionId::kSh;
+}
+
+/// The value rules on the raw bytes `data` of section `index` (raw_size bytes), record by record; ok for a
+/// section that is not a runtime one. Errors name the file and the section.
+Status check_raw_values(const RgsFile& file, size_t index, const uint8_t* data) {
+  const SectionEntry& e = file.sections()[index];
+  const size_t record_size = static_cast<size_t>(e.components) * element_type_size(e.element_type);
+  if (!is_runtime_section(e.id) || record_size == 0 || e.raw_size == 0) return Status();
+  const ValueChecker checker(e.id, file.metadata(), record_size);
+  Status s = checker.visit(data, static_cast<size_t>(e.raw_size / record_size), 0);
+  if (!s.ok()) s.prepend(file.name() + ": " + detail::section_label(index, e.id));
+  return s;
+}
+
 Status validate_section(const RgsFile& file, size_t index) {
   const SectionEntry& e = file.sections()[index];
   RGS_ASSIGN_OR_RETURN(ByteView stored, file.stored_bytes(e.id));  // message names the file
   const bool archive = is_archive_codec(e.codec);
   if (e.codec != Codec::kNone && e.codec != Codec::kZstd && !archive) return Status();  // unknown section and codec
-  const bool runtime = e.id == SectionId::kMeans || e.id == SectionId::kRotations || e.id == SectionId::kScales ||
-                       e.id == SectionId::kOpacities || e.id == SectionId::kSh;
-  // Runtime sections are checked one Gaussian (record) at a time; other sections only decode.
-  const size_t record_size =
-      runtime ? static_cast<size_t>(e.components) * element_type_size(e.element_type) : size_t{1};
-  const ValueChecker checker(e.id, file.metadata(), record_size);
-  const ValueChecker* active = runtime && record_size > 0 ? &checker : nullptr;
-  Status s;
-  if (e.codec == Codec::kNone) {
-    if (active && e.raw_size > 0) s = checker.visit(stored.data, static_cast<size_t>(e.raw_size / record_size), 0);
-  } else if (archive) {
+  if (e.codec == Codec::kNone) return check_raw_values(file, index, stored.data);
+  if (archive) {
     // §3.3 Archive sections decode whole (their raw size is bounded by the read limits at open), then
     // their values are checked like any runtime section's.
     std::vector<uint8_t> raw(static_cast<size_t>(e.raw_size));
     return file.decode_verified_section(e.id, raw.data(), raw.size());
-  } else {
-    s = stream_zstd(stored.data, stored.size, e.raw_size, record_size > 0 ? record_size : 1, active);
   }
+  // zstd: runtime sections are checked one Gaussian (record) at a time as the frame streams; others only decode.
+  const bool runtime = is_runtime_section(e.id);
+  const size_t record_size =
+      runtime ? static_cast<size_t>(e.components) * element_type_size(e.element_type) : size_t{1};
+  const ValueChecker checker(e.id, file.metadata(), record_size);
+  const ValueChecker* active = runtime && record_size > 0 ? &checker : nullptr;
+  Status s = stream_zstd(stored.data, stored.size, e.raw_size, record_size > 0 ? record_size : 1, active);
   if (!s.ok()) s.prepend(file.name() + ": " + detail::section_label(index, e.id));
   return s;
 }
@@ -261,15 +275,7 @@ Status validate_section(const RgsFile& file, size_t index) {
 Status RgsFile::decode_verified_section(SectionId id, void* dst, size_t dst_size) const {
   RGS_RETURN_IF_ERROR(decode_section(id, dst, dst_size));  // names the file and the section
   const size_t index = static_cast<size_t>(find(id) - sections_.data());
-  const SectionEntry& e = sections_[index];
-  const bool runtime = id == SectionId::kMeans || id == SectionId::kRotations || id == SectionId::kScales ||
-                       id == SectionId::kOpacities || id == SectionId::kSh;
-  const size_t record_size = static_cast<size_t>(e.components) * element_type_size(e.element_type);
-  if (!runtime || record_size == 0 || e.raw_size == 0) return Status();
-  const ValueChecker checker(id, metadata_, record_size);
-  Status s = checker.visit(static_cast<const uint8_t*>(dst), static_cast<size_t>(e.raw_size / record_size), 0);
-  if (!s.ok()) s.prepend(name_ + ": " + detail::section_label(index, id));
-  return s;
+  return check_raw_values(*this, index, static_cast<const uint8_t*>(dst));
 }
 
 Status RgsFile::verify_section(SectionId id) const {

@@ -17,7 +17,7 @@ inline constexpr const char* kBadValueRgsFiles[] = {"nan_mean", "zero_rotation",
                                                     "opacity_above_one"};
 
 /// Checks that each of kBadValueRgsFiles opens and that RgsFile::read_scene refuses it with kCorruptData,
-/// the message naming the file.
+/// the message naming the file and the Gaussian.
 inline void check_read_scene_refuses_bad_values() {
   for (const char* name : kBadValueRgsFiles) {
     CAPTURE(name);
@@ -26,7 +26,8 @@ inline void check_read_scene_refuses_bad_values() {
     auto scene = file->read_scene();
     REQUIRE_FALSE(scene.ok());
     CHECK(scene.status().code() == StatusCode::kCorruptData);
-    CHECK(scene.status().message().find(name) != std::string::npos);
+    CHECK(scene.status().message().find("Gaussian ") != std::string::npos);
+    CHECK(scene.status().message().find(std::string(name) + ".rgs") != std::string::npos);
   }
 }
 
