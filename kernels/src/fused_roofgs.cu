@@ -102,7 +102,7 @@ __global__ void __launch_bounds__(kFusedBlockSize)
   } else if (threadIdx.x == 0) {
     publish_aggregate(scratch.block_status, block, block_total);
   }
-  if (visible) detail::shade_gaussian<kCompact, kDegree>(src, g, frame, out);
+  if (visible) detail::shade_gaussian<kCompact, kDegree>(src, g, frame, p.log_opacity, out);
   if (!arrival_order && threadIdx.x < 32) {
     const unsigned long long exclusive = look_back(scratch.block_status, block, block_total);
     if (threadIdx.x == 0) {

@@ -23,7 +23,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     return;
   }
   detail::store_projected(p, g, out);
-  detail::shade_gaussian<kCompact, kDegree>(src, g, frame, out);
+  detail::shade_gaussian<kCompact, kDegree>(src, g, frame, p.log_opacity, out);
   out.cov2d[3 * uint64_t(g)] = p.cov.xx;
   out.cov2d[3 * uint64_t(g) + 1] = p.cov.xy;
   out.cov2d[3 * uint64_t(g) + 2] = p.cov.yy;

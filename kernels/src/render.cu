@@ -16,13 +16,24 @@ constexpr int kTilePixels = kTileSize * kTileSize;
 /// Threads per tile of the dual-pixel kernel: 16 × 8, each shading (x, y) and (x, y + 1).
 constexpr int kDualThreads = kTilePixels / 2;
 
-/// Per-Gaussian inputs of the render stage (device arrays indexed by Gaussian id).
+/// Per-Gaussian inputs of the render stage (device arrays indexed by Gaussian id): the baseline's
+/// (ProjectedArrays: colour_log_opacity null) or the RoofGS preprocess's (RoofgsProjected: rgb null).
 struct RenderInputs {
   const float2* means2d;
   const float4* conic_opacity;
-  const float* log_opacities;  // fast exp / folded only
-  const float* rgb;
+  const float* rgb;                   // [N, 3], baseline
+  const float4* colour_log_opacity;  // [N, 4] (r, g, b, ln o), RoofGS
   const float* depths;
+
+  /// Colour of Gaussian id (kRoofgs: from colour_log_opacity).
+  template <bool kRoofgs>
+  __device__ float3 colour(uint32_t id) const {
+    if (kRoofgs) {
+      const float4 c = colour_log_opacity[id];
+      return make_float3(c.x, c.y, c.z);
+    }
+    return make_float3(rgb[3 * id], rgb[3 * id + 1], rgb[3 * id + 2]);
+  }
 };
 
 /// Running state of one pixel.
@@ -62,7 +73,8 @@ __device__ inline void store(const Pixel& s, uint32_t x, uint32_t y, const Frame
 }
 
 /// One pixel per thread, unfolded power (3DGS renderCUDA). kFastExp: α = min(0.99, exp̂(power + ln o)).
-template <bool kFastExp, bool kDepth>
+/// kRoofgs: the inputs are the RoofGS preprocess's.
+template <bool kRoofgs, bool kFastExp, bool kDepth>
 __global__ void __launch_bounds__(kTilePixels)
     render_pixel_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
                         FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
@@ -89,7 +101,7 @@ __global__ void __launch_bounds__(kTilePixels)
       collected_id[rank] = id;
       collected_xy[rank] = in.means2d[id];
       collected_conic_opacity[rank] = in.conic_opacity[id];
-      if (kFastExp) collected_log_opacity[rank] = in.log_opacities[id];
+      if (kFastExp) collected_log_opacity[rank] = in.colour_log_opacity[id].w;
     }
     __syncthreads();
     const int in_batch = static_cast<int>(end - batch < kTilePixels ? end - batch : kTilePixels);
@@ -102,7 +114,8 @@ __global__ void __launch_bounds__(kTilePixels)
                                    : fminf(kAlphaMax, co.w * expf(power));
       if (alpha < kAlphaMin) continue;
       const uint32_t id = collected_id[j];
-      blend<kDepth>(s, alpha, in.rgb[3 * id], in.rgb[3 * id + 1], in.rgb[3 * id + 2], kDepth ? in.depths[id] : 0.f);
+      const float3 c = in.colour<kRoofgs>(id);
+      blend<kDepth>(s, alpha, c.x, c.y, c.z, kDepth ? in.depths[id] : 0.f);
     }
   }
   if (inside) store<kDepth>(s, px, py, frame, out_rgba, out_depth);
@@ -280,11 +293,12 @@ __global__ void __launch_bounds__(kDualThreads)
         const float2 mean = in.means2d[id];
         const float4 co = in.conic_opacity[id];
         const Conic conic{co.x, co.y, co.z};
-        const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = in.log_opacities[id];
+        const float4 colour = in.colour_log_opacity[id];
+        const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = colour.w;
         const FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
         record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
-        record.c56rg = make_float4(f.c5, f.c6, in.rgb[3 * id], in.rgb[3 * id + 1]);
-        record.bd = make_float4(in.rgb[3 * id + 2], kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
+        record.c56rg = make_float4(f.c5, f.c6, colour.x, colour.y);
+        record.bd = make_float4(colour.z, kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
         if (kCull == Cull::kQuadrant) mask = subtile_mask(conic, u, v, log_opacity);
         if (kCull == Cull::kBlock) mask = block_mask(conic, u, v, log_opacity);
       }
@@ -346,15 +360,17 @@ __global__ void __launch_bounds__(kDualThreads)
   }
 }
 
-template <bool kFastExp>
+template <bool kRoofgs, bool kFastExp>
 void launch_pixel(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
                   float sigma, const ImageView& image, cudaStream_t stream) {
   const dim3 grid(frame.tiles_x, frame.tiles_y), block(kTileSize, kTileSize);
   auto* rgba = reinterpret_cast<float4*>(image.rgba);
   if (image.depth != nullptr) {
-    render_pixel_kernel<kFastExp, true><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
+    render_pixel_kernel<kRoofgs, kFastExp, true>
+        <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
   } else {
-    render_pixel_kernel<kFastExp, false><<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
+    render_pixel_kernel<kRoofgs, kFastExp, false>
+        <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
   }
 }
 
@@ -389,9 +405,9 @@ void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderI
 cudaError_t render_baseline(const uint64_t* ranges, const uint32_t* sorted_values, const ProjectedArrays& projected,
                             const FrameParams& frame, const ImageView& image, cudaStream_t stream) {
   const RenderInputs in{reinterpret_cast<const float2*>(projected.means2d),
-                        reinterpret_cast<const float4*>(projected.conic_opacity), nullptr, projected.rgb,
+                        reinterpret_cast<const float4*>(projected.conic_opacity), projected.rgb, nullptr,
                         projected.depths};
-  launch_pixel<false>(ranges, sorted_values, in, frame, 0.f, image, stream);
+  launch_pixel<false, false>(ranges, sorted_values, in, frame, 0.f, image, stream);
   return detail::launch_result();
 }
 
@@ -399,8 +415,8 @@ cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values,
                           const FrameParams& frame, const RoofgsFrame& roofgs, const RasterOptions& raster,
                           const ImageView& image, cudaStream_t stream) {
   const RenderInputs in{reinterpret_cast<const float2*>(projected.means2d),
-                        reinterpret_cast<const float4*>(projected.conic_opacity), projected.log_opacities,
-                        projected.rgb, projected.depths};
+                        reinterpret_cast<const float4*>(projected.conic_opacity), nullptr,
+                        reinterpret_cast<const float4*>(projected.colour_log_opacity), projected.depths};
   const float sigma = roofgs.fast_exp_sigma;
   if (raster.folded) {
     if (raster.fast_exp) {
@@ -409,9 +425,9 @@ cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values,
       launch_folded<false>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
     }
   } else if (raster.fast_exp) {
-    launch_pixel<true>(ranges, sorted_values, in, frame, sigma, image, stream);
+    launch_pixel<true, true>(ranges, sorted_values, in, frame, sigma, image, stream);
   } else {
-    launch_pixel<false>(ranges, sorted_values, in, frame, sigma, image, stream);
+    launch_pixel<true, false>(ranges, sorted_values, in, frame, sigma, image, stream);
   }
   return detail::launch_result();
 }

@@ -222,12 +222,13 @@ __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, c
   return true;
 }
 
-/// Colour of visible Gaussian g, stored to out.rgb: its SH seen along the unit direction from the camera
-/// centre to its mean (preprocess_cpu's last step). Apart from project_gaussian so that the fused kernel can
-/// publish its block's pair count before this work, the SH being needed by the rasterizer only.
+/// Colour of visible Gaussian g, stored with its ln o (ProjectedRegs::log_opacity) to out.colour_log_opacity:
+/// its SH seen along the unit direction from the camera centre to its mean (preprocess_cpu's last step). Apart
+/// from project_gaussian so that the fused kernel can publish its block's pair count before this work, the SH
+/// being needed by the rasterizer only.
 template <bool kCompact, int kDegree>
 __device__ inline void shade_gaussian(const GaussianSource& src, uint32_t g, const FrameParams& frame,
-                                      const RoofgsProjected& out) {
+                                      float log_opacity, const RoofgsProjected& out) {
   float mean[3];
   load_mean(src, kCompact, g, mean);
   float dir[3] = {mean[0] - frame.camera_centre[0], mean[1] - frame.camera_centre[1],
@@ -236,17 +237,14 @@ __device__ inline void shade_gaussian(const GaussianSource& src, uint32_t g, con
   for (float& d : dir) d = d / length;
   float rgb[3];
   load_colour<kCompact, kDegree>(src, g, dir[0], dir[1], dir[2], rgb);
-  out.rgb[3 * uint64_t(g)] = rgb[0];
-  out.rgb[3 * uint64_t(g) + 1] = rgb[1];
-  out.rgb[3 * uint64_t(g) + 2] = rgb[2];
+  reinterpret_cast<float4*>(out.colour_log_opacity)[g] = make_float4(rgb[0], rgb[1], rgb[2], log_opacity);
 }
 
-/// Stores the per-Gaussian outputs the later stages read, but the colour (shade_gaussian).
+/// Stores the per-Gaussian outputs the later stages read, but the colour and ln o (shade_gaussian).
 __device__ inline void store_projected(const ProjectedRegs& p, uint32_t g, const RoofgsProjected& out) {
   out.depths[g] = p.depth;
   reinterpret_cast<float2*>(out.means2d)[g] = make_float2(p.px, p.py);
   reinterpret_cast<float4*>(out.conic_opacity)[g] = make_float4(p.conic.a, p.conic.b, p.conic.c, p.opacity);
-  out.log_opacities[g] = p.log_opacity;
   out.radii[g] = p.radius;
 }
 

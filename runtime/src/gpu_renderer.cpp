@@ -95,7 +95,8 @@ Result<HostImage> download(const DeviceImage& image, cudaStream_t stream) {
 
 struct GpuRenderer::Buffers {
   // Per Gaussian.
-  DeviceBuffer<float> depths, means2d, conic_opacity, rgb, log_opacities, cov2d, snug_t;
+  // rgb: the baseline's colours; colour_log_opacity: RoofGS's colours with ln o, [N, 4].
+  DeviceBuffer<float> depths, means2d, conic_opacity, rgb, colour_log_opacity, cov2d, snug_t;
   DeviceBuffer<int32_t> radii;
   DeviceBuffer<uint32_t> depth_bins;
   DeviceBuffer<uint64_t> tiles_touched, offsets;
@@ -151,7 +152,7 @@ struct GpuRenderer::Buffers {
   }
 
   uint64_t bytes() const {
-    return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + log_opacities.bytes() +
+    return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + colour_log_opacity.bytes() +
            cov2d.bytes() + snug_t.bytes() + radii.bytes() + depth_bins.bytes() + tiles_touched.bytes() +
            offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + large_pairs.bytes() +
            fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() +
@@ -164,7 +165,6 @@ struct GpuRenderer::Buffers {
     RGS_RETURN_IF_ERROR(depths.reserve(n, "GpuRenderer: depths"));
     RGS_RETURN_IF_ERROR(means2d.reserve(size_t(n) * 2, "GpuRenderer: 2D means"));
     RGS_RETURN_IF_ERROR(conic_opacity.reserve(size_t(n) * 4, "GpuRenderer: conics"));
-    RGS_RETURN_IF_ERROR(rgb.reserve(size_t(n) * 3, "GpuRenderer: colours"));
     RGS_RETURN_IF_ERROR(radii.reserve(n, "GpuRenderer: radii"));
     RGS_RETURN_IF_ERROR(tiles_touched.reserve(n, "GpuRenderer: tiles touched"));
     RGS_RETURN_IF_ERROR(offsets.reserve(n, "GpuRenderer: pair offsets"));
@@ -255,8 +255,7 @@ struct GpuRenderer::Buffers {
     p.depths = depths.data();
     p.means2d = means2d.data();
     p.conic_opacity = conic_opacity.data();
-    p.log_opacities = log_opacities.data();
-    p.rgb = rgb.data();
+    p.colour_log_opacity = colour_log_opacity.data();
     p.cov2d = cov2d.data();
     p.snug_t = snug_t.data();
     p.radii = radii.data();
@@ -453,6 +452,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   uint64_t pairs = 0;
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
+    RGS_RETURN_IF_ERROR(b.rgb.reserve(size_t(n) * 3, "GpuRenderer: colours"));
     RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), frame, b.projected(), stream),
                              "GpuRenderer: preprocess kernel");
     RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, nullptr, stream));
@@ -538,7 +538,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   uint64_t pairs = 0, large_pairs = 0;
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
-    RGS_RETURN_IF_ERROR(b.log_opacities.reserve(n, "GpuRenderer: log opacities"));
+    RGS_RETURN_IF_ERROR(b.colour_log_opacity.reserve(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
     RGS_RETURN_IF_ERROR(b.large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
     // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
     RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));

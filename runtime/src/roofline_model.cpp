@@ -103,7 +103,7 @@ FrameWork frame_work(const FrameWorkInputs& in) {
         large * kLargeItemThreads * (kFlopsTileRect + (in.snugbox ? kFlopsAccutileSetup : 0.0));
     if (in.fused) {
       // fused kernel: means of all, rest of the visible; radii of the culled (4(N − V)); store_projected of
-      // the visible (depth 4, means2d 8, conic+opacity 16, ln o 4, rgb 12, radius 4 = 48V); pairs P·(kb + 4).
+      // the visible (depth 4, means2d 8, conic+opacity 16, colour + ln o 16, radius 4 = 48V); pairs P·(kb + 4).
       // A large Gaussian also stores cov2d, snug_t and its depth bin (20 B) for emit_large_gaussians.
       pre.bytes = 12 * n + (a - 12) * v + 4 * (n - v) + 48 * v + p * (kb + 4) + (20 + 16 + 52) * large;
       pre.flops = kFlopsViewTransform * n + flops_visible * v + kFlopsAccutileSlice * slices + large_flops;

@@ -52,8 +52,10 @@ struct RoofgsProjected {
   float* depths = nullptr;          ///< [N] view-space z
   float* means2d = nullptr;         ///< [N, 2] pixel mean
   float* conic_opacity = nullptr;   ///< [N, 4] conic (a, b, c) and opacity o
-  float* log_opacities = nullptr;   ///< [N] ln o (folded into C6 / the fast exp's argument)
-  float* rgb = nullptr;             ///< [N, 3]
+  /// [N, 4] colour (r, g, b) and ln o (folded into C6 / the fast exp's argument): one 16-byte store in the
+  /// preprocess and one 16-byte gather a pair in the render (three 4-byte colour stores at a 12-byte stride
+  /// wrote 36 partial sectors a warp where this writes 16 whole ones).
+  float* colour_log_opacity = nullptr;
   // The tile walk's inputs: written for every visible Gaussian by preprocess_roofgs, and by the fused kernel
   // only for Gaussians it lists as large (emit_large_gaussians reads them).
   float* cov2d = nullptr;           ///< [N, 3] dilated 2D covariance (xx, xy, yy) for SnugBox
