@@ -289,15 +289,21 @@ RGS_HOST_DEVICE uint32_t block_span_bits(float c, float h) {
 
 }  // namespace detail
 
-/// The blocks of a tile that meet the bounding box of the ellipse q ≤ q_limit of subtile_mask (the same
-/// margin): bit (bx + 4·by) for the 4×4 block (bx, by), pixels [4·bx, 4·bx + 3] × [4·by, 4·by + 3] (tile-local).
+/// Block culling (beyond the paper), the finer form of subtile_mask for Gaussians small next to a quadrant:
+/// bit (bx + 4·by) is set when the 4×4 block (bx, by), pixels [4·bx, 4·bx + 3] × [4·by, 4·by + 3] (tile-local),
+/// meets the bounding box of the ellipse q ≤ q_limit of subtile_mask (the same margin), so a cleared bit is
+/// conservative as subtile_mask's are (the same caveat): skipping the pair on that block changes no output bit.
 /// The smallest q on the column dx = const is dx²·D/c (D = a·c − b²), so the box's half extents are
-/// sqrt(q_limit·c/D) and sqrt(q_limit·a/D); a cleared bit is conservative as subtile_mask's are (the same
-/// caveat). Tight for the small round Gaussians of dense scenes; a long thin one keeps the blocks of its box.
+/// sqrt(q_limit·c/D) and sqrt(q_limit·a/D). Tight for the small round Gaussians of dense scenes; a long thin
+/// one keeps the blocks of its box. Intersecting with subtile_mask's quadrants where the box reaches all four
+/// cleared a few more blocks of tilted Gaussians but cost more than it saved: the rasterizer computes the
+/// mask as it loads a pair, and a warp ran the quadrant test whenever one of its 32 pairs needed it (taebak
+/// render at 4K 0.837–0.840 → 0.806–0.808 ms without it, at 1080p 0.709–0.713 → 0.704–0.706, at 8K
+/// 1.539–1.540 → 1.563–1.565, where Gaussians are twice as wide in pixels; docs/BENCHMARKS.md).
 /// @param conic          conic (a, b, c) of the Gaussian (positive definite), pixel⁻² units
 /// @param u, v           tile-local projected mean, pixels
 /// @param log_opacity    ln o
-RGS_HOST_DEVICE uint32_t block_box_mask(const Conic& conic, float u, float v, float log_opacity) {
+RGS_HOST_DEVICE uint32_t block_mask(const Conic& conic, float u, float v, float log_opacity) {
   const float w = conic.b * conic.b;
   const float det = fmaf(conic.a, conic.c, -w) + fmaf(-conic.b, conic.b, w);
   const float q_limit = 2.f * (log_opacity - kFastExpRangeMin + kSubtilePowerMargin);
@@ -307,26 +313,6 @@ RGS_HOST_DEVICE uint32_t block_box_mask(const Conic& conic, float u, float v, fl
   // Row bit r to bit 4r; the product places a copy of the column bits in each kept row (no carries: < 16).
   const uint32_t row_starts = (rows & 1u) | (rows & 2u) << 3 | (rows & 4u) << 6 | (rows & 8u) << 9;
   return columns * row_starts;
-}
-
-/// The blocks of the quadrants a subtile_mask keeps: quadrant (qx, qy) holds blocks bx ∈ {2qx, 2qx + 1},
-/// by ∈ {2qy, 2qy + 1}.
-RGS_HOST_DEVICE uint32_t quadrant_blocks(uint32_t quadrant_mask) {
-  return ((quadrant_mask & 1u) ? 0x0033u : 0u) | ((quadrant_mask & 2u) ? 0x00ccu : 0u) |
-         ((quadrant_mask & 4u) ? 0x3300u : 0u) | ((quadrant_mask & 8u) ? 0xcc00u : 0u);
-}
-
-/// Block culling (beyond the paper), the finer form of subtile_mask for Gaussians small next to a quadrant:
-/// bit (bx + 4·by) set when the Gaussian may reach alpha ≥ 1/255 at some pixel centre of the 4×4 block (bx, by).
-/// The blocks of the ellipse's box (block_box_mask), and where that box reaches all four quadrants (a Gaussian
-/// as wide as the tile, possibly a diagonal one that misses some), only those of the quadrants subtile_mask
-/// keeps. A box inside fewer quadrants needs no quadrant test: the box already holds the ellipse. A cleared
-/// bit is conservative, so skipping the pair on the block changes no output bit.
-RGS_HOST_DEVICE uint32_t block_mask(const Conic& conic, float u, float v, float log_opacity) {
-  const uint32_t box = block_box_mask(conic, u, v, log_opacity);
-  const bool all_quadrants = (box & 0x0033u) != 0 && (box & 0x00ccu) != 0 && (box & 0x3300u) != 0 &&
-                             (box & 0xcc00u) != 0;
-  return all_quadrants ? box & quadrant_blocks(subtile_mask(conic, u, v, log_opacity)) : box;
 }
 
 /// Intersection of two tile rectangles (may be empty).
