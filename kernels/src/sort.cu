@@ -48,15 +48,13 @@ struct PairSortPolicies {
 };
 
 template <int kOnesweepThreads>
-cudaError_t sort_pairs32_with(void* temp, size_t* temp_bytes, const uint32_t* keys_in, uint32_t* keys_out,
-                              const uint32_t* values_in, uint32_t* values_out, uint32_t count, int begin_bit,
-                              int end_bit, cudaStream_t stream) {
-  // SortPairs' own dispatch: inputs left unchanged (is_overwrite_okay = false), output in keys_out/values_out.
-  cub::DoubleBuffer<uint32_t> keys(const_cast<uint32_t*>(keys_in), keys_out);
-  cub::DoubleBuffer<uint32_t> values(const_cast<uint32_t*>(values_in), values_out);
+cudaError_t sort_pairs32_with(void* temp, size_t* temp_bytes, cub::DoubleBuffer<uint32_t>& keys,
+                              cub::DoubleBuffer<uint32_t>& values, uint32_t count, int begin_bit, int end_bit,
+                              cudaStream_t stream) {
+  // SortPairs' own dispatch with is_overwrite_okay: the passes alternate between the two buffers.
   using Dispatch = cub::DispatchRadixSort<cub::SortOrder::Ascending, uint32_t, uint32_t, uint32_t,
                                           cub::detail::identity_decomposer_t, PairSortPolicies<kOnesweepThreads>>;
-  return Dispatch::Dispatch(temp, *temp_bytes, keys, values, count, begin_bit, end_bit, false, stream);
+  return Dispatch::Dispatch(temp, *temp_bytes, keys, values, count, begin_bit, end_bit, true, stream);
 }
 
 /// The policies for `count` keys: 0 (CUB's own), or the onesweep block size of PairSortPolicies.
@@ -85,40 +83,43 @@ cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, 
                                          begin_bit, end_bit, stream);
 }
 
-cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint32_t* keys_in, uint32_t* keys_out,
-                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit,
-                       int end_bit, cudaStream_t stream) {
+cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const keys[2], uint32_t* const values[2],
+                                 uint64_t count, int begin_bit, int end_bit, int* sorted, cudaStream_t stream) {
+  cub::DoubleBuffer<uint32_t> key_buffers(keys[0], keys[1]);
+  cub::DoubleBuffer<uint32_t> value_buffers(values[0], values[1]);
+  cudaError_t result = cudaSuccess;
   if (count > UINT32_MAX) {  // beyond 32-bit offsets: CUB's policies for 64-bit offsets
-    return cub::DeviceRadixSort::SortPairs(temp, *temp_bytes, keys_in, keys_out, values_in, values_out, count,
-                                           begin_bit, end_bit, stream);
-  }
-  const auto n = static_cast<uint32_t>(count);
-  const auto stock = [&](void* t, size_t* bytes) {
-    return cub::DeviceRadixSort::SortPairs(t, *bytes, keys_in, keys_out, values_in, values_out, n, begin_bit,
-                                           end_bit, stream);
-  };
-  if (temp == nullptr) {  // enough scratch for every policy, so a smaller count later may pick another
-    size_t bytes[3] = {0, 0, 0};
-    cudaError_t result = stock(nullptr, &bytes[0]);
-    if (result == cudaSuccess) {
-      result = sort_pairs32_with<384>(nullptr, &bytes[1], keys_in, keys_out, values_in, values_out, n, begin_bit,
-                                      end_bit, stream);
+    result = cub::DeviceRadixSort::SortPairs(temp, *temp_bytes, key_buffers, value_buffers, count, begin_bit, end_bit,
+                                             stream);
+  } else {
+    const auto n = static_cast<uint32_t>(count);
+    const auto stock = [&](void* t, size_t* bytes) {
+      return cub::DeviceRadixSort::SortPairs(t, *bytes, key_buffers, value_buffers, n, begin_bit, end_bit, stream);
+    };
+    if (temp == nullptr) {  // enough scratch for every policy, so a smaller count later may pick another
+      size_t bytes[3] = {0, 0, 0};
+      result = stock(nullptr, &bytes[0]);
+      if (result == cudaSuccess) {
+        result = sort_pairs32_with<384>(nullptr, &bytes[1], key_buffers, value_buffers, n, begin_bit, end_bit, stream);
+      }
+      if (result == cudaSuccess) {
+        result = sort_pairs32_with<512>(nullptr, &bytes[2], key_buffers, value_buffers, n, begin_bit, end_bit, stream);
+      }
+      *temp_bytes = std::max({bytes[0], bytes[1], bytes[2]});
+    } else {
+      int threads = 0;
+      result = policy_for(n, &threads);
+      if (result == cudaSuccess) {
+        result = threads == 0   ? stock(temp, temp_bytes)
+                 : threads == 512 ? sort_pairs32_with<512>(temp, temp_bytes, key_buffers, value_buffers, n, begin_bit,
+                                                           end_bit, stream)
+                                  : sort_pairs32_with<384>(temp, temp_bytes, key_buffers, value_buffers, n, begin_bit,
+                                                           end_bit, stream);
+      }
     }
-    if (result == cudaSuccess) {
-      result = sort_pairs32_with<512>(nullptr, &bytes[2], keys_in, keys_out, values_in, values_out, n, begin_bit,
-                                      end_bit, stream);
-    }
-    *temp_bytes = std::max({bytes[0], bytes[1], bytes[2]});
-    return result;
   }
-  int threads = 0;
-  const cudaError_t result = policy_for(n, &threads);
-  if (result != cudaSuccess) return result;
-  if (threads == 0) return stock(temp, temp_bytes);
-  return threads == 512 ? sort_pairs32_with<512>(temp, temp_bytes, keys_in, keys_out, values_in, values_out, n,
-                                                 begin_bit, end_bit, stream)
-                        : sort_pairs32_with<384>(temp, temp_bytes, keys_in, keys_out, values_in, values_out, n,
-                                                 begin_bit, end_bit, stream);
+  *sorted = key_buffers.selector;
+  return result;
 }
 
 }  // namespace rgs::kernels

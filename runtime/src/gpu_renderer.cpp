@@ -3,9 +3,11 @@
 #include "rgs/runtime/gpu_renderer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/kernels/shared/projection.h"
@@ -185,9 +187,10 @@ struct GpuRenderer::Buffers {
     if (grown.ok()) grown = values_sorted.reserve(pairs, "GpuRenderer: sorted values of " + count);
     size_t sort_bytes = 0;
     if (grown.ok()) {
+      int unused = 0;
       const cudaError_t query =
-          key32 ? kernels::sort_pairs(nullptr, &sort_bytes, keys32.data(), keys32_sorted.data(), values.data(),
-                                      values_sorted.data(), pairs, 0, key_bits, stream)
+          key32 ? kernels::sort_pairs_ping_pong(nullptr, &sort_bytes, key32_buffers().data(), value_buffers().data(),
+                                                pairs, 0, key_bits, &unused, stream)
                 : kernels::sort_pairs(nullptr, &sort_bytes, keys64.data(), keys64_sorted.data(), values.data(),
                                       values_sorted.data(), pairs, 0, key_bits, stream);
       grown = cuda_status(query, "GpuRenderer: sort size query");
@@ -195,6 +198,20 @@ struct GpuRenderer::Buffers {
     if (grown.ok()) grown = sort_temp.reserve(sort_bytes, "GpuRenderer: sort scratch");
     if (!grown.ok()) release_pairs();
     return grown;
+  }
+
+  /// The two buffers of 32-bit keys and of values that sort_pairs_ping_pong passes the pairs between: the
+  /// unsorted pairs in the first ones.
+  std::array<uint32_t*, 2> key32_buffers() const { return {keys32.data(), keys32_sorted.data()}; }
+  std::array<uint32_t*, 2> value_buffers() const { return {values.data(), values_sorted.data()}; }
+
+  /// After sort_pairs_ping_pong: names the buffers that hold the sorted pairs keys32_sorted / values_sorted,
+  /// so that every later stage reads them there (`sorted`: its index of those buffers).
+  void name_sorted(int sorted) {
+    if (sorted == 0) {
+      std::swap(keys32, keys32_sorted);
+      std::swap(values, values_sorted);
+    }
   }
 
   /// Inclusive scan of tiles_touched into offsets, and the pair count read back to the host (one wait), with
@@ -559,8 +576,11 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       RGS_RETURN_IF_ERROR(b.fused_status.reserve(blocks, "GpuRenderer: fused block status"));
       RGS_RETURN_IF_ERROR(b.fused_total.reserve(2, "GpuRenderer: fused pair totals"));
       const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
-      // Capacity: what the pair buffers hold now (sized by earlier frames), at least 4 pairs per Gaussian.
-      uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 4);
+      // Capacity: what the pair buffers hold now (sized by earlier frames), at least 2 pairs per Gaussian.
+      // A frame with more pairs runs the fused kernel again with enough (fused_relaunches); frames of dense
+      // scenes hold 1.5-3 pairs a Gaussian (taebak: 1.5 at 1080p, 1.9 at 4K, 2.9 at 8K), large Gaussians many
+      // more (flowers: 35 at 4K).
+      uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 2);
       for (int attempt = 0;; ++attempt) {
         RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, key_bits, stream));
         capacity = b.values.size();
@@ -610,15 +630,23 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   stats->large_pairs = large_pairs;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
 
-  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
+  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)). Sorted pairs
+  // end in keys*_sorted / values_sorted.
   if (pairs > 0) {
     size_t sort_bytes = b.sort_temp.bytes();
-    const cudaError_t sorted =
-        t.key32 ? kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys32.data(), b.keys32_sorted.data(),
-                                      b.values.data(), b.values_sorted.data(), pairs, 0, key_bits, stream)
-                : kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(), b.keys64_sorted.data(),
-                                      b.values.data(), b.values_sorted.data(), pairs, 0, key_bits, stream);
-    RGS_RETURN_IF_CUDA_ERROR(sorted, "GpuRenderer: radix sort");
+    if (t.key32) {
+      int sorted = 0;
+      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs_ping_pong(b.sort_temp.data(), &sort_bytes, b.key32_buffers().data(),
+                                                             b.value_buffers().data(), pairs, 0, key_bits, &sorted,
+                                                             stream),
+                               "GpuRenderer: radix sort");
+      b.name_sorted(sorted);
+    } else {
+      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(),
+                                                   b.keys64_sorted.data(), b.values.data(), b.values_sorted.data(),
+                                                   pairs, 0, key_bits, stream),
+                               "GpuRenderer: radix sort");
+    }
   }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
 

@@ -58,11 +58,15 @@ cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, 
                        const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit, int end_bit,
                        cudaStream_t stream);
 
-/// The 32-bit-key variant of sort_pairs (RoofGS keys; end_bit ≤ 32): the same CUB onesweep sort, with
-/// 32-bit offsets and the histogram and onesweep block sizes measured faster on an H100 (kernels/src/sort.cu).
-cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint32_t* keys_in, uint32_t* keys_out,
-                       const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit, int end_bit,
-                       cudaStream_t stream);
+/// The RoofGS sort of 32-bit keys (end_bit ≤ 32): the same stable CUB onesweep sort, with 32-bit offsets and
+/// the histogram and onesweep block sizes measured faster on an H100 (kernels/src/sort.cu), passing the pairs
+/// back and forth between two buffers of each kind (CUB's DoubleBuffer with overwrite allowed), so that its
+/// scratch holds no third copy of them (8 bytes a pair less GPU memory). The pairs start in keys[0] /
+/// values[0]; *sorted receives the index, 0 or 1, of the buffers that hold them sorted, and the other two
+/// buffers' contents are unspecified. Call with temp == nullptr to get *temp_bytes (a size queried for a count
+/// serves every smaller count).
+cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const keys[2], uint32_t* const values[2],
+                                 uint64_t count, int begin_bit, int end_bit, int* sorted, cudaStream_t stream);
 
 /// Stage 4 (3DGS identifyTileRanges): ranges[2·t], ranges[2·t + 1] = [begin, end) of tile t's pairs in the
 /// sorted keys, tile = key >> tile_shift (32 for the 64-bit key, b_d for the 32-bit one). `ranges` holds
