@@ -162,14 +162,20 @@ struct GpuRenderer::Buffers {
            ranges.bytes() + uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
   }
 
-  /// Per-Gaussian arrays both pipelines use.
+  /// Per-Gaussian arrays both pipelines use (exactly n entries: the scene sizes them, not the frame).
   Status reserve_common(uint32_t n) {
-    RGS_RETURN_IF_ERROR(depths.reserve(n, "GpuRenderer: depths"));
-    RGS_RETURN_IF_ERROR(means2d.reserve(size_t(n) * 2, "GpuRenderer: 2D means"));
-    RGS_RETURN_IF_ERROR(conic_opacity.reserve(size_t(n) * 4, "GpuRenderer: conics"));
-    RGS_RETURN_IF_ERROR(radii.reserve(n, "GpuRenderer: radii"));
-    RGS_RETURN_IF_ERROR(tiles_touched.reserve(n, "GpuRenderer: tiles touched"));
-    RGS_RETURN_IF_ERROR(offsets.reserve(n, "GpuRenderer: pair offsets"));
+    RGS_RETURN_IF_ERROR(depths.reserve_exact(n, "GpuRenderer: depths"));
+    RGS_RETURN_IF_ERROR(means2d.reserve_exact(size_t(n) * 2, "GpuRenderer: 2D means"));
+    RGS_RETURN_IF_ERROR(conic_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: conics"));
+    RGS_RETURN_IF_ERROR(radii.reserve_exact(n, "GpuRenderer: radii"));
+    return Status();
+  }
+
+  /// Per-Gaussian tile counts and their scan (the baseline and the separate RoofGS stages; the fused kernel
+  /// allocates its pairs itself).
+  Status reserve_scan(uint32_t n) {
+    RGS_RETURN_IF_ERROR(tiles_touched.reserve_exact(n, "GpuRenderer: tiles touched"));
+    RGS_RETURN_IF_ERROR(offsets.reserve_exact(n, "GpuRenderer: pair offsets"));
     return Status();
   }
 
@@ -469,7 +475,8 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   uint64_t pairs = 0;
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
-    RGS_RETURN_IF_ERROR(b.rgb.reserve(size_t(n) * 3, "GpuRenderer: colours"));
+    RGS_RETURN_IF_ERROR(b.reserve_scan(n));
+    RGS_RETURN_IF_ERROR(b.rgb.reserve_exact(size_t(n) * 3, "GpuRenderer: colours"));
     RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), frame, b.projected(), stream),
                              "GpuRenderer: preprocess kernel");
     RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, nullptr, stream));
@@ -555,12 +562,14 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   uint64_t pairs = 0, large_pairs = 0;
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
-    RGS_RETURN_IF_ERROR(b.colour_log_opacity.reserve(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
+    if (!options.fused_preprocess) RGS_RETURN_IF_ERROR(b.reserve_scan(n));
+    RGS_RETURN_IF_ERROR(
+        b.colour_log_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
     RGS_RETURN_IF_ERROR(b.large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
     // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
-    RGS_RETURN_IF_ERROR(b.cov2d.reserve(size_t(n) * 3, "GpuRenderer: 2D covariances"));
-    RGS_RETURN_IF_ERROR(b.snug_t.reserve(n, "GpuRenderer: SnugBox thresholds"));
-    RGS_RETURN_IF_ERROR(b.depth_bins.reserve(n, "GpuRenderer: depth bins"));
+    RGS_RETURN_IF_ERROR(b.cov2d.reserve_exact(size_t(n) * 3, "GpuRenderer: 2D covariances"));
+    RGS_RETURN_IF_ERROR(b.snug_t.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
+    RGS_RETURN_IF_ERROR(b.depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
     RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
     // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
     const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {

@@ -46,6 +46,12 @@ class DeviceBuffer {
     return allocate_exactly(grown, what);
   }
 
+  /// As reserve(), without the headroom: for arrays sized by the scene (one entry per Gaussian), which do not
+  /// change from frame to frame.
+  Status reserve_exact(size_t count, const std::string& what) {
+    return count <= size_ ? Status() : allocate_exactly(count, what);
+  }
+
   /// Frees any memory and allocates exactly `count` elements (0 frees only). Errors as reserve().
   Status allocate_exactly(size_t count, const std::string& what) {
     release();
