@@ -234,9 +234,11 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 /// the other pairs cannot pass the 1/255 test there, so the output bits are the same (up to the caveat of
 /// subtile_mask). A warp whose lists keep every pair of a batch walks the slots directly. Lane groups of one
 /// warp walk lists of different lengths: the warp takes as many steps as the longest, each step serving up to
-/// four pairs, one per group.
+/// four pairs, one per group. Eight blocks an SM (64 registers): the block-culled kernel needs no more
+/// (block_mask without square roots), and the unculled one runs faster with them than with the 40 ptxas picks
+/// by itself (flowers render at 4K 0.283 -> 0.272 ms; docs/BENCHMARKS.md).
 template <bool kFastExp, bool kDepth, Cull kCull>
-__global__ void __launch_bounds__(kDualThreads)
+__global__ void __launch_bounds__(kDualThreads, 8)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
                          FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
   constexpr int kWarps = kDualThreads / 32;

@@ -275,16 +275,17 @@ constexpr int kCullBlocksPerTile = kCullBlocksPerSide * kCullBlocksPerSide;
 
 namespace detail {
 
-/// Bits j (0 ≤ j < kCullBlocksPerSide) of the blocks whose pixel-centre span [4j, 4j + 3] meets [c − h, c + h]
-/// (tile-local pixels). A non-finite or huge h keeps every block.
-RGS_HOST_DEVICE uint32_t block_span_bits(float c, float h) {
-  if (!(h <= 64.f)) return (1u << kCullBlocksPerSide) - 1u;
-  const float block = static_cast<float>(kCullBlockSize);
-  const float last = static_cast<float>(kCullBlocksPerSide - 1);
-  // j ≥ (c − h − 3)/4 and j ≤ (c + h)/4, clamped in float so that far-away means stay defined.
-  const int lo = static_cast<int>(fminf(fmaxf(ceilf((c - h - (block - 1.f)) / block), 0.f), last + 1.f));
-  const int hi = static_cast<int>(fminf(fmaxf(floorf((c + h) / block), -1.f), last));
-  return lo <= hi ? (2u << hi) - (1u << lo) : 0u;
+/// Bits j (0 ≤ j < kCullBlocksPerSide) of the blocks whose pixel-centre span [4j, 4j + 3] lies within h of c
+/// (tile-local pixels): dist(c, span)² ≤ h2 = h², with no square root. A NaN or infinite h2, or a NaN c, keeps
+/// every block; a mean so far away that dist² overflows keeps none.
+RGS_HOST_DEVICE uint32_t block_span_bits(float c, float h2) {
+  uint32_t bits = 0;
+  for (int j = 0; j < kCullBlocksPerSide; ++j) {
+    const float first = static_cast<float>(j * kCullBlockSize), last = first + float(kCullBlockSize - 1);
+    const float d = fmaxf(fmaxf(first - c, c - last), 0.f);
+    if (!(d * d > h2)) bits |= 1u << j;
+  }
+  return bits;
 }
 
 }  // namespace detail
@@ -294,12 +295,13 @@ RGS_HOST_DEVICE uint32_t block_span_bits(float c, float h) {
 /// meets the bounding box of the ellipse q ≤ q_limit of subtile_mask (the same margin), so a cleared bit is
 /// conservative as subtile_mask's are (the same caveat): skipping the pair on that block changes no output bit.
 /// The smallest q on the column dx = const is dx²·D/c (D = a·c − b²), so the box's half extents are
-/// sqrt(q_limit·c/D) and sqrt(q_limit·a/D). Tight for the small round Gaussians of dense scenes; a long thin
-/// one keeps the blocks of its box. Intersecting with subtile_mask's quadrants where the box reaches all four
-/// cleared a few more blocks of tilted Gaussians but cost more than it saved: the rasterizer computes the
-/// mask as it loads a pair, and a warp ran the quadrant test whenever one of its 32 pairs needed it (taebak
-/// render at 4K 0.837–0.840 → 0.806–0.808 ms without it, at 1080p 0.709–0.713 → 0.704–0.706, at 8K
-/// 1.539–1.540 → 1.563–1.565, where Gaussians are twice as wide in pixels; docs/BENCHMARKS.md).
+/// sqrt(q_limit·c/D) and sqrt(q_limit·a/D), compared squared with each block's distance from the mean. Tight
+/// for the small round Gaussians of dense scenes; a long thin one keeps the blocks of its box. The rasterizer
+/// computes the mask as it loads each pair, so its cost counts (taebak, docs/BENCHMARKS.md): intersecting the box
+/// with subtile_mask's quadrants where it reaches all four cleared a few more blocks of tilted Gaussians, but a
+/// warp ran the quadrant test whenever one of its 32 pairs needed it (render at 4K 0.837–0.840 → 0.806–0.808
+/// ms without it); and the squared comparison in place of two square roots took the kernel from 72 to 64
+/// registers, eight blocks an SM (0.807 → 0.775 ms at 4K, 1.561 → 1.513 at 8K).
 /// @param conic          conic (a, b, c) of the Gaussian (positive definite), pixel⁻² units
 /// @param u, v           tile-local projected mean, pixels
 /// @param log_opacity    ln o
@@ -307,9 +309,9 @@ RGS_HOST_DEVICE uint32_t block_mask(const Conic& conic, float u, float v, float 
   const float w = conic.b * conic.b;
   const float det = fmaf(conic.a, conic.c, -w) + fmaf(-conic.b, conic.b, w);
   const float q_limit = 2.f * (log_opacity - kFastExpRangeMin + kSubtilePowerMargin);
-  const float half_x = sqrtf(q_limit * conic.c / det), half_y = sqrtf(q_limit * conic.a / det);
-  const uint32_t columns = detail::block_span_bits(u, half_x);
-  const uint32_t rows = detail::block_span_bits(v, half_y);
+  const float scale = q_limit / det;  // half extents² = q_limit·c/D and q_limit·a/D
+  const uint32_t columns = detail::block_span_bits(u, scale * conic.c);
+  const uint32_t rows = detail::block_span_bits(v, scale * conic.a);
   // Row bit r to bit 4r; the product places a copy of the column bits in each kept row (no carries: < 16).
   const uint32_t row_starts = (rows & 1u) | (rows & 2u) << 3 | (rows & 4u) << 6 | (rows & 8u) << 9;
   return columns * row_starts;
