@@ -56,10 +56,17 @@ const std::vector<ModeEntry>& entries() {
         false},
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
       {{"roofgs+",
-        "roofgs with depth order and fast exp sigma 0.05798 (the fused kernel then allocates pairs in arrival "
-        "order: the depth order makes their emission order moot)",
+        "roofgs with depth order, fast exp sigma 0.05798 and half-precision blending (binary16 alpha, "
+        "transmittance and colour sums; the fused kernel allocates pairs in arrival order: the depth order makes "
+        "their emission order moot)",
         false},
        [](bool compact) { return gpu_render_options(Preset::kFastest, compact); }},
+      {{"roofgs+fp32", "roofgs+ with FP32 blending", false},
+       [](bool compact) {
+         GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
+         o.roofgs.techniques.half_blend = false;
+         return o;
+       }},
       roofgs_variant("roofgs-serial",
                      "roofgs with each Gaussian's pairs written by its own thread (balanced emission off: the "
                      "paper's fused kernel as published)",

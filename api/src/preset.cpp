@@ -28,6 +28,7 @@ runtime::RoofgsOptions preset_techniques(Preset preset) {
     t = runtime::RoofgsOptions::all();
     t.depth_order = true;
     t.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
+    t.half_blend = true;
   } else if (preset == Preset::kPaper) {
     t = runtime::RoofgsOptions::all();
     t.accutile_within_baseline_rect = false;

@@ -7,6 +7,7 @@
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/half_blend.h"
 #include "rgs/kernels/shared/tile_culling.h"
 
 namespace rgs::kernels {
@@ -212,6 +213,54 @@ __device__ inline void blend_pairs(const char* record_bytes, int padded, OffsetO
   }
 }
 
+/// The two pixels of a folded-loop thread under half-precision blending (half_blend.h): T and C as binary16
+/// pairs, the depth sums (kDepth) in FP32 from the taken weights.
+struct HalfFoldedPixels {
+  HalfPixelPair s;
+  float depth_sum[2] = {0.f, 0.f}, weight_sum[2] = {0.f, 0.f};
+
+  __device__ bool live() const { return half_pair_live(s); }
+  /// Pixel i (0: (x, y), 1: (x, y + 1)) in the pixel kernel's form, for store().
+  __device__ Pixel finished(int i) const {
+    const auto lane = [i](Half2Bits h) { return half_to_float(static_cast<uint16_t>(h >> (16 * i))); };
+    Pixel p;
+    p.T = fabsf(lane(s.T));
+    p.C[0] = lane(s.r), p.C[1] = lane(s.g), p.C[2] = lane(s.b);
+    p.depth_sum = depth_sum[i], p.weight_sum = weight_sum[i];
+    return p;
+  }
+};
+
+/// blend_pairs with half-precision blending: the same walk, FP32 powers, α from fast_exp_half2 and one
+/// blend_half2 for both pixels. The records carry the colour as binary16 pairs (c56rg.z, c56rg.w, bd.x).
+template <bool kDepth, typename OffsetOf>
+__device__ inline void blend_pairs_half(const char* record_bytes, int padded, OffsetOf offset_of,
+                                        const PixelTerms& terms, float bias, Half2Bits alpha_0,
+                                        HalfFoldedPixels& pixels) {
+  for (int k = 0; k < padded; k += kUnroll) {
+    if (!pixels.live()) break;
+#pragma unroll
+    for (int i = 0; i < kUnroll; ++i) {
+      const PairRecord& r = *reinterpret_cast<const PairRecord*>(record_bytes + offset_of(k + i));
+      const float4 c1234 = r.c1234, c56rg = r.c56rg;
+      const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};
+      const float p_first = folded_power(f, terms);
+      const float p_second = dual_pixel_power(p_first, f, terms);
+      const Half2Bits alpha = fast_exp_half2_passes(fast_exp_half2(p_first, p_second, bias), alpha_0);
+      const float4 bd = r.bd;
+      const Half2Bits w = blend_half2(pixels.s, alpha, float_as_uint(c56rg.z), float_as_uint(c56rg.w),
+                                      float_as_uint(bd.x));
+      if (kDepth) {
+        for (int p = 0; p < 2; ++p) {
+          const float wp = half_to_float(static_cast<uint16_t>(w >> (16 * p)));
+          pixels.depth_sum[p] = fmaf(bd.y, wp, pixels.depth_sum[p]);
+          pixels.weight_sum[p] += wp;
+        }
+      }
+    }
+  }
+}
+
 /// Which pairs each lane of the folded rasterizer walks.
 enum class Cull {
   kNone,      ///< every pair of the tile
@@ -237,7 +286,10 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 /// four pairs, one per group. Eight blocks an SM (64 registers): the block-culled kernel needs no more
 /// (block_mask without square roots), and the unculled one runs faster with them than with the 40 ptxas picks
 /// by itself (flowers render at 4K 0.283 -> 0.272 ms; docs/BENCHMARKS.md).
-template <bool kFastExp, bool kDepth, Cull kCull>
+/// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and C as binary16 pairs
+/// and one half2 instruction blends both (blend_pairs_half): about 30 instructions a walk step instead of 42
+/// (taebak render at 4K 0.771 -> 0.673 ms). Nine or ten blocks an SM spilled and were slower with it too.
+template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
 __global__ void __launch_bounds__(kDualThreads, 8)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
                          FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
@@ -263,7 +315,8 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   const float origin_x = static_cast<float>(blockIdx.x * kTileSize);
   const float origin_y = static_cast<float>(blockIdx.y * kTileSize);
   const PixelTerms terms = pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
-  const float fast_exp_bias = kFastExp ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
+  const float fast_exp_bias = kHalf ? fast_exp_half_bias(sigma) : kFastExp ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
+  const Half2Bits alpha_0 = kHalf ? fast_exp_half2(0.f, 0.f, fast_exp_bias) : 0u;
   const uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
 
   // Slot s < kBatch holds the batch's pair s; slot kBatch is the padding record.
@@ -280,10 +333,18 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   const uint32_t lanes_below = (1u << lane) - 1u;
 
   FoldedPixel first, second;
-  if (!(x < frame.width && y < frame.height)) first.T = -1.f;  // outside the image: done from the start
-  if (!(x < frame.width && y + 1 < frame.height)) second.T = -1.f;
+  HalfFoldedPixels pair;
+  if (!(x < frame.width && y < frame.height)) {  // outside the image: done from the start
+    first.T = -1.f;
+    pair.s.T |= 0x8000u;
+  }
+  if (!(x < frame.width && y + 1 < frame.height)) {
+    second.T = -1.f;
+    pair.s.T |= 0x80000000u;
+  }
   for (uint64_t batch = begin; batch < end; batch += kBatch) {
-    if (__syncthreads_count(!first.live() && !second.live()) == kDualThreads) break;
+    const bool live = kHalf ? pair.live() : first.live() || second.live();
+    if (__syncthreads_count(!live) == kDualThreads) break;
 #pragma unroll
     for (int l = 0; l < kLoads; ++l) {
       const int slot = rank + l * kDualThreads;
@@ -299,8 +360,14 @@ __global__ void __launch_bounds__(kDualThreads, 8)
         const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = colour.w;
         const FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
         record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
-        record.c56rg = make_float4(f.c5, f.c6, colour.x, colour.y);
-        record.bd = make_float4(colour.z, kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
+        if (kHalf) {  // the colour as binary16 pairs for blend_half2
+          record.c56rg = make_float4(f.c5, f.c6, uint_as_float(half2_broadcast(colour.x)),
+                                     uint_as_float(half2_broadcast(colour.y)));
+          record.bd = make_float4(uint_as_float(half2_broadcast(colour.z)), kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
+        } else {
+          record.c56rg = make_float4(f.c5, f.c6, colour.x, colour.y);
+          record.bd = make_float4(colour.z, kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
+        }
         if (kCull == Cull::kQuadrant) mask = subtile_mask(conic, u, v, log_opacity);
         if (kCull == Cull::kBlock) mask = block_mask(conic, u, v, log_opacity);
       }
@@ -347,18 +414,26 @@ __global__ void __launch_bounds__(kDualThreads, 8)
       __syncwarp();
     }
     const int padded = (count + kUnroll - 1) / kUnroll * kUnroll;  // ≤ kBatch
-    if (!kCulls || keeps_all) {  // warp-uniform
-      blend_pairs<kFastExp, kDepth>(record_bytes, padded, [](int k) { return k * kRecordBytes; }, terms,
-                                    fast_exp_bias, first, second);
+    const uint16_t* offsets = walk_lists[kCulls ? list : 0];
+    const auto in_order = [](int k) { return k * kRecordBytes; };
+    const auto listed = [offsets](int k) { return int(offsets[k]); };
+    if (kHalf) {
+      if (!kCulls || keeps_all) {  // warp-uniform
+        blend_pairs_half<kDepth>(record_bytes, padded, in_order, terms, fast_exp_bias, alpha_0, pair);
+      } else {
+        blend_pairs_half<kDepth>(record_bytes, padded, listed, terms, fast_exp_bias, alpha_0, pair);
+      }
+    } else if (!kCulls || keeps_all) {
+      blend_pairs<kFastExp, kDepth>(record_bytes, padded, in_order, terms, fast_exp_bias, first, second);
     } else {
-      const uint16_t* offsets = walk_lists[list];
-      blend_pairs<kFastExp, kDepth>(record_bytes, padded, [offsets](int k) { return int(offsets[k]); }, terms,
-                                    fast_exp_bias, first, second);
+      blend_pairs<kFastExp, kDepth>(record_bytes, padded, listed, terms, fast_exp_bias, first, second);
     }
   }
-  if (x < frame.width && y < frame.height) store<kDepth>(first.finished(), x, y, frame, out_rgba, out_depth);
+  if (x < frame.width && y < frame.height) {
+    store<kDepth>(kHalf ? pair.finished(0) : first.finished(), x, y, frame, out_rgba, out_depth);
+  }
   if (x < frame.width && y + 1 < frame.height) {
-    store<kDepth>(second.finished(), x, y + 1, frame, out_rgba, out_depth);
+    store<kDepth>(kHalf ? pair.finished(1) : second.finished(), x, y + 1, frame, out_rgba, out_depth);
   }
 }
 
@@ -376,29 +451,31 @@ void launch_pixel(const uint64_t* ranges, const uint32_t* values, const RenderIn
   }
 }
 
-template <bool kFastExp, Cull kCull>
+template <bool kFastExp, Cull kCull, bool kHalf>
 void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
                    float sigma, const ImageView& image, cudaStream_t stream) {
   const dim3 grid(frame.tiles_x, frame.tiles_y), block(kDualThreads);
   auto* rgba = reinterpret_cast<float4*>(image.rgba);
   if (image.depth != nullptr) {
-    render_folded_kernel<kFastExp, true, kCull>
+    render_folded_kernel<kFastExp, true, kCull, kHalf>
         <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
   } else {
-    render_folded_kernel<kFastExp, false, kCull>
+    render_folded_kernel<kFastExp, false, kCull, kHalf>
         <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
   }
 }
 
-template <bool kFastExp>
+/// Half-precision blending exists with the fast exp only (its α is the binary16 fast exp).
+template <bool kFastExp, bool kHalf>
 void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
                    float sigma, const RasterOptions& raster, const ImageView& image, cudaStream_t stream) {
+  static_assert(kFastExp || !kHalf);
   if (!raster.subtile_culling) {
-    launch_folded<kFastExp, Cull::kNone>(ranges, values, in, frame, sigma, image, stream);
+    launch_folded<kFastExp, Cull::kNone, kHalf>(ranges, values, in, frame, sigma, image, stream);
   } else if (raster.block_culling) {
-    launch_folded<kFastExp, Cull::kBlock>(ranges, values, in, frame, sigma, image, stream);
+    launch_folded<kFastExp, Cull::kBlock, kHalf>(ranges, values, in, frame, sigma, image, stream);
   } else {
-    launch_folded<kFastExp, Cull::kQuadrant>(ranges, values, in, frame, sigma, image, stream);
+    launch_folded<kFastExp, Cull::kQuadrant, kHalf>(ranges, values, in, frame, sigma, image, stream);
   }
 }
 
@@ -421,10 +498,12 @@ cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values,
                         reinterpret_cast<const float4*>(projected.colour_log_opacity), projected.depths};
   const float sigma = roofgs.fast_exp_sigma;
   if (raster.folded) {
-    if (raster.fast_exp) {
-      launch_folded<true>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
+    if (raster.fast_exp && raster.half_blend) {
+      launch_folded<true, true>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
+    } else if (raster.fast_exp) {
+      launch_folded<true, false>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
     } else {
-      launch_folded<false>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
+      launch_folded<false, false>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
     }
   } else if (raster.fast_exp) {
     launch_pixel<true, true>(ranges, sorted_values, in, frame, sigma, image, stream);

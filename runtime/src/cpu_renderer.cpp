@@ -9,6 +9,7 @@
 #include "internal_parallel.h"
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/half_blend.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
 #include "rgs/kernels/shared/spherical_harmonics.h"
@@ -205,6 +206,50 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
       }
       if (x < out->width && y < out->height) store_pixel(first, x, y, options, out);
       if (x < out->width && y + 1 < out->height) store_pixel(second, x, y + 1, options, out);
+    }
+  }
+}
+
+/// blend_tile_folded with half-precision blending (RoofgsOptions::half_blend; render.cu blend_pairs_half):
+/// each "thread" keeps its two pixels' T and C as binary16 pairs and blends both with blend_half2, α from
+/// fast_exp_half2 on the FP32 powers. Pairs where neither pixel passes change no bit (α = +0), so they are
+/// skipped here, as are both pixels once done.
+void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
+                            RenderResult* out) {
+  const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
+  const float bias = k::fast_exp_half_bias(options.roofgs.fast_exp_sigma);
+  const k::Half2Bits alpha_0 = k::fast_exp_half2(0.f, 0.f, bias);
+  for (int ly = 0; ly < k::kTileSize; ly += 2) {
+    for (int lx = 0; lx < k::kTileSize; ++lx) {
+      const uint32_t x = x0 + uint32_t(lx), y = y0 + uint32_t(ly);
+      k::HalfPixelPair pair;
+      if (!(x < out->width && y < out->height)) pair.T |= 0x8000u;  // outside the image: done
+      if (!(x < out->width && y + 1 < out->height)) pair.T |= 0x80000000u;
+      float depth_sum[2] = {0.f, 0.f}, weight_sum[2] = {0.f, 0.f};
+      const k::PixelTerms terms = k::pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
+      for (size_t j = 0; j < list.size() && k::half_pair_live(pair); ++j) {
+        const TileGaussian& g = list[j];
+        const float p_first = k::folded_power(g.folded, terms);
+        const float p_second = k::dual_pixel_power(p_first, g.folded, terms);
+        const k::Half2Bits alpha = k::fast_exp_half2_passes(k::fast_exp_half2(p_first, p_second, bias), alpha_0);
+        if (alpha == 0) continue;
+        const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]), k::half2_broadcast(g.rgb[1]),
+                                              k::half2_broadcast(g.rgb[2]));
+        for (int p = 0; p < 2; ++p) {
+          const float wp = k::half_to_float(static_cast<uint16_t>(w >> (16 * p)));
+          depth_sum[p] = std::fmaf(g.depth, wp, depth_sum[p]);
+          weight_sum[p] += wp;
+        }
+      }
+      for (int p = 0; p < 2; ++p) {
+        if (!(x < out->width && y + uint32_t(p) < out->height)) continue;
+        const auto lane = [p](k::Half2Bits h) { return k::half_to_float(static_cast<uint16_t>(h >> (16 * p))); };
+        PixelState s;
+        s.T = std::fabs(lane(pair.T));
+        s.C[0] = lane(pair.r), s.C[1] = lane(pair.g), s.C[2] = lane(pair.b);
+        s.depth_sum = depth_sum[p], s.weight_sum = weight_sum[p];
+        store_pixel(s, x, y + uint32_t(p), options, out);
+      }
     }
   }
 }
@@ -505,7 +550,9 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
       const uint64_t id = uint64_t(ty) * uint64_t(frame.tiles_x) + uint64_t(tx);
       const uint64_t begin = bins.tile_begin[id], end = bins.tile_begin[id + 1];
       gather_tile(gaussians, bins.values.data() + begin, end - begin, tx, ty, folded, &list);
-      if (folded) {
+      if (folded && options.roofgs.fast_exp && options.roofgs.half_blend) {
+        blend_tile_folded_half(list, tx, ty, options, result);
+      } else if (folded) {
         blend_tile_folded(list, tx, ty, options, result);
       } else {
         blend_tile_baseline(list, tx, ty, options, result);

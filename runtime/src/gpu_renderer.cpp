@@ -686,7 +686,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                          double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs)));
   stats->subtile_culling = t.folded_coefficients && subtile;
   stats->block_culling = stats->subtile_culling && options.block_culling;
-  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, options.block_culling};
+  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, options.block_culling,
+                                       t.half_blend};
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), sorted_values, b.roofgs_projected(), frame, rf,
                                                   raster, view, stream),
                            "GpuRenderer: render kernel");

@@ -56,6 +56,7 @@ TEST_CASE("presets: names, technique switches, CPU options") {
   CHECK((fastest.key32 && fastest.snugbox_accutile && fastest.folded_coefficients && fastest.fast_exp));
   CHECK(fastest.depth_order);
   CHECK(fastest.fast_exp_sigma == kernels::kFastExpSigmaZeroMean);
+  CHECK(fastest.half_blend);
   const auto faithful = api::preset_techniques(api::Preset::kFaithful);
   CHECK_FALSE((faithful.key32 || faithful.snugbox_accutile || faithful.folded_coefficients || faithful.fast_exp ||
                faithful.depth_order));
@@ -63,6 +64,7 @@ TEST_CASE("presets: names, technique switches, CPU options") {
   CHECK(paper.fast_exp_sigma == kernels::kFastExpSigmaMinMax);
   CHECK_FALSE(paper.accutile_within_baseline_rect);
   CHECK_FALSE(paper.depth_order);
+  CHECK_FALSE(paper.half_blend);
   CHECK(api::preset_reads_fp32(api::Preset::kFaithful));
   CHECK_FALSE(api::preset_reads_fp32(api::Preset::kFastest));
 #if RGS_HAS_CUDA
@@ -70,6 +72,7 @@ TEST_CASE("presets: names, technique switches, CPU options") {
   CHECK(gpu.pipeline == runtime::GpuPipeline::kRoofgs);
   CHECK(gpu.roofgs.compact_attributes);
   CHECK(gpu.roofgs.techniques.depth_order);
+  CHECK(gpu.roofgs.techniques.half_blend);
   // Scenes without compact attributes (a float cloud) fall back to FP32 reads instead of failing.
   CHECK_FALSE(api::gpu_render_options(api::Preset::kFastest, false).roofgs.compact_attributes);
   CHECK(api::gpu_render_options(api::Preset::kFaithful, true).pipeline == runtime::GpuPipeline::kBaseline);
@@ -79,6 +82,8 @@ TEST_CASE("presets: names, technique switches, CPU options") {
   CHECK(api::gpu_modes().size() == 14);
   CHECK_FALSE(api::gpu_mode_options("roofgs-quadrant", true)->roofgs.block_culling);
   CHECK(api::gpu_mode_options("roofgs", true)->roofgs.block_culling);
+  CHECK_FALSE(api::gpu_mode_options("roofgs+fp32", true)->roofgs.techniques.half_blend);
+  CHECK_FALSE(api::gpu_mode_options("roofgs", true)->roofgs.techniques.half_blend);
 #endif
 }
 

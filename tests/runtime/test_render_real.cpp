@@ -167,6 +167,8 @@ std::vector<Switch> switches() {
   o.depth_order = true;
   o.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
   s.push_back({"all four + depth order, sigma=0.05798", o, 47.5});
+  o.half_blend = true;
+  s.push_back({"all four + depth order + half blend, sigma=0.05798", o, 47.5});
   return s;
 }
 

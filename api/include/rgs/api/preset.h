@@ -18,7 +18,8 @@ enum class Preset {
   /// The fastest configuration measured (rgs-bench's "roofgs+"): RoofGS pipeline on the compact .rgs
   /// attributes, fused kernel, 32-bit keys with depth order (ties in exact depth order), SnugBox + AccuTile
   /// within the 3DGS rectangle, folded dual-pixel rasterizer, fast exp with the zero-mean σ = 0.05798,
-  /// warp-balanced emission, per-frame sub-tile culling. Reads only the runtime sections.
+  /// half-precision blending (binary16 α, T and colour sums), warp-balanced emission, per-frame sub-tile
+  /// culling. Reads only the runtime sections.
   kFastest = 0,
   /// The 3DGS rasterizer, rule by rule (FP32 attributes, 64-bit keys, 3σ rectangles, expf): the reference
   /// the others are measured against. Needs the FP32 attributes on the GPU (LoadOptions::presets).

@@ -226,6 +226,9 @@ struct RasterOptions {
   /// 1/255 on its 4×4 block (block_mask in shared/tile_culling.h), so that a Gaussian a few pixels wide costs
   /// the lanes of the blocks it reaches and not the whole warp; the same output bits as the quadrant culling.
   bool block_culling = false;
+  /// With `folded` and `fast_exp` (beyond the paper): α, T and C of a thread's two pixels in binary16, one
+  /// half2 instruction for both (shared/half_blend.h); ignored otherwise.
+  bool half_blend = false;
 };
 
 /// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,

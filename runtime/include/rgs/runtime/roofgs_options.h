@@ -32,6 +32,11 @@ struct RoofgsOptions {
   bool fast_exp = false;
   /// σ of the fast exp: kFastExpSigmaMinMax (0.045677, the paper's) or e.g. kFastExpSigmaZeroMean.
   float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
+  /// With folded_coefficients and fast_exp (beyond the paper): blend in binary16 (kernels/shared/half_blend.h).
+  /// The power P stays FP32; α is the fast exp with a binary16 result (exp̂16, the same σ), skipped unless
+  /// 1/255 ≤ α ≤ exp̂16(0); T and C are binary16, two pixels per half2 instruction on the GPU, emulated bit
+  /// for bit on the CPU. Ignored without folded_coefficients and fast_exp.
+  bool half_blend = false;
 
   /// Emit pairs in order of (view depth, Gaussian index) instead of Gaussian index (RoofGS+, beyond the
   /// paper): pairs whose 32-bit keys tie (same tile and depth bin) then keep exact depth order through the

@@ -1,0 +1,246 @@
+// Half-precision blending of the folded rasterizer (beyond the paper): α, transmittance T and the colour sum
+// C of a thread's two pixels held as pairs of IEEE binary16 values in one 32-bit word each (CUDA __half2, low
+// half = the first pixel (x, y), high half = the second (x, y + 1)), so that one half2 instruction blends
+// both pixels. The power P stays FP32 (folded_power, dual_pixel_power); α is the paper's fast exponential
+// with a binary16 result (fast_exp_half2). Every operation here is IEEE round-to-nearest-even with
+// subnormals kept (no flush to zero), on the device with the half2 instructions and on the host in software,
+// so the CPU reference and the GPU produce the same bits.
+//
+// Error: binary16 keeps 11 significant bits (relative rounding 2^-12 a step); the fast exp itself is off by
+// up to 3.2 % (fast_exp.h), so α's rounding adds little. Against the FP32 blend of the same pairs the
+// measured images are in docs/BENCHMARKS.md (quality table).
+#pragma once
+
+#include <cmath>
+#include <cstring>
+
+#include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/host_device.h"
+
+#if defined(__CUDACC__)
+#include <cuda_fp16.h>
+#endif
+
+namespace rgs::kernels {
+
+/// A pair of binary16 values in one word: bits 0–15 the first pixel's, bits 16–31 the second's.
+using Half2Bits = uint32_t;
+
+/// 1.0 in both halves (the initial transmittance), −1.0 in both (a pixel outside the image: done).
+constexpr Half2Bits kHalf2One = 0x3c003c00u;
+constexpr Half2Bits kHalf2MinusOne = 0xbc00bc00u;
+/// The sign bits of both halves.
+constexpr Half2Bits kHalf2Signs = 0x80008000u;
+/// kTransmittanceMin (1e−4) rounded to binary16: 1678·2^−24 ≈ 1.00017e−4, in both halves.
+constexpr Half2Bits kHalf2TransmittanceMin = 0x068e068eu;
+/// kAlphaMin (1/255) rounded to binary16: 0x1c04 ≈ 0.0039215, in both halves.
+constexpr Half2Bits kHalf2AlphaMin = 0x1c041c04u;
+
+namespace detail {
+
+/// Binary16 bits of the double `value` rounded to nearest, ties to even (subnormals kept, overflow to ±inf,
+/// NaN to a quiet NaN). Host side of the half2 emulation: every result below is an exact double first.
+inline uint16_t half_bits_from_double(double value) {
+  uint64_t d;
+  std::memcpy(&d, &value, sizeof d);
+  const uint16_t sign = static_cast<uint16_t>((d >> 48) & 0x8000u);
+  const double magnitude = value < 0 ? -value : value;
+  if (magnitude != magnitude) return static_cast<uint16_t>(sign | 0x7e00u);
+  if (magnitude >= 65520.0) return static_cast<uint16_t>(sign | 0x7c00u);  // rounds past 65504: inf
+  // The binade's unit in the last place: 2^(e − 10) for magnitude in [2^e, 2^(e+1)), at least 2^−24.
+  int exponent = 0;
+  std::frexp(magnitude, &exponent);  // magnitude = m·2^exponent, m in [0.5, 1)
+  const int e = exponent - 1 < -14 ? -14 : exponent - 1;
+  const double ulp = std::ldexp(1.0, e - 10);
+  const double units = std::nearbyint(magnitude / ulp);  // exact division by a power of two; ties to even
+  const double rounded = units * ulp;
+  if (rounded >= 65520.0) return static_cast<uint16_t>(sign | 0x7c00u);
+  if (rounded < 6.103515625e-05) return static_cast<uint16_t>(sign | static_cast<uint16_t>(units));  // subnormal
+  int re = 0;
+  const double m = std::frexp(rounded, &re);  // rounded = m·2^re, m in [0.5, 1)
+  const uint16_t biased = static_cast<uint16_t>(re - 1 + 15);
+  const uint16_t mantissa = static_cast<uint16_t>(std::ldexp(m, 11) - 1024.0);
+  return static_cast<uint16_t>(sign | (biased << 10) | mantissa);
+}
+
+/// The binary16 value of `bits` as a double (exact).
+inline double half_bits_to_double(uint16_t bits) {
+  const int exponent = (bits >> 10) & 0x1f;
+  const int mantissa = bits & 0x3ff;
+  double v;
+  if (exponent == 0x1f) {
+    v = mantissa != 0 ? std::nan("") : HUGE_VAL;
+  } else if (exponent == 0) {
+    v = std::ldexp(double(mantissa), -24);
+  } else {
+    v = std::ldexp(double(mantissa + 1024), exponent - 25);
+  }
+  return (bits & 0x8000u) ? -v : v;
+}
+
+/// Correctly rounded binary16 of the exact sum p + c of two doubles (p + c itself may not be a double):
+/// the double sum s and its exact error e (Knuth's TwoSum); s rounds to binary16 as p + c does unless s sits
+/// exactly halfway between two binary16 values and e ≠ 0, where e breaks the tie.
+inline uint16_t half_bits_of_sum(double p, double c) {
+  const double s = p + c;
+  const double pv = s - c, cv = s - pv;
+  const double e = (p - pv) + (c - cv);
+  if (e == 0.0 || s != s) return half_bits_from_double(s);
+  const uint16_t down = half_bits_from_double(std::nextafter(s, -HUGE_VAL));
+  const uint16_t up = half_bits_from_double(std::nextafter(s, HUGE_VAL));
+  if (down == up) return half_bits_from_double(s);  // s is not a tie: its neighbours round alike
+  return e > 0 ? up : down;
+}
+
+inline uint16_t half_lane(Half2Bits h, int lane) { return static_cast<uint16_t>(h >> (16 * lane)); }
+inline Half2Bits half2_of(uint16_t first, uint16_t second) { return uint32_t(first) | uint32_t(second) << 16; }
+
+#if defined(__CUDA_ARCH__)
+__device__ inline __half2 as_half2(Half2Bits h) { return *reinterpret_cast<const __half2*>(&h); }
+__device__ inline Half2Bits as_bits(__half2 h) { return *reinterpret_cast<const Half2Bits*>(&h); }
+#endif
+
+}  // namespace detail
+
+/// a·b per half, rounded to nearest even (__hmul2).
+RGS_HOST_DEVICE Half2Bits half2_mul(Half2Bits a, Half2Bits b) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__hmul2(detail::as_half2(a), detail::as_half2(b)));
+#else
+  uint16_t r[2];
+  for (int i = 0; i < 2; ++i) {
+    r[i] = detail::half_bits_from_double(detail::half_bits_to_double(detail::half_lane(a, i)) *
+                                         detail::half_bits_to_double(detail::half_lane(b, i)));  // exact product
+  }
+  return detail::half2_of(r[0], r[1]);
+#endif
+}
+
+/// a − b per half, rounded to nearest even (__hsub2).
+RGS_HOST_DEVICE Half2Bits half2_sub(Half2Bits a, Half2Bits b) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__hsub2(detail::as_half2(a), detail::as_half2(b)));
+#else
+  uint16_t r[2];
+  for (int i = 0; i < 2; ++i) {
+    r[i] = detail::half_bits_from_double(detail::half_bits_to_double(detail::half_lane(a, i)) -
+                                         detail::half_bits_to_double(detail::half_lane(b, i)));  // exact
+  }
+  return detail::half2_of(r[0], r[1]);
+#endif
+}
+
+/// a·b + c per half with one rounding to nearest even (__hfma2).
+RGS_HOST_DEVICE Half2Bits half2_fma(Half2Bits a, Half2Bits b, Half2Bits c) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__hfma2(detail::as_half2(a), detail::as_half2(b), detail::as_half2(c)));
+#else
+  uint16_t r[2];
+  for (int i = 0; i < 2; ++i) {
+    const double product = detail::half_bits_to_double(detail::half_lane(a, i)) *
+                           detail::half_bits_to_double(detail::half_lane(b, i));  // exact: 22 bits
+    r[i] = detail::half_bits_of_sum(product, detail::half_bits_to_double(detail::half_lane(c, i)));
+  }
+  return detail::half2_of(r[0], r[1]);
+#endif
+}
+
+/// 0xffff in each half where a ≥ b (ordered: false with a NaN), else 0 (__hge2_mask).
+RGS_HOST_DEVICE Half2Bits half2_ge_mask(Half2Bits a, Half2Bits b) {
+#if defined(__CUDA_ARCH__)
+  return __hge2_mask(detail::as_half2(a), detail::as_half2(b));
+#else
+  Half2Bits m = 0;
+  for (int i = 0; i < 2; ++i) {
+    if (detail::half_bits_to_double(detail::half_lane(a, i)) >= detail::half_bits_to_double(detail::half_lane(b, i))) {
+      m |= 0xffffu << (16 * i);
+    }
+  }
+  return m;
+#endif
+}
+
+/// 0xffff in each half where a ≤ b (ordered), else 0 (__hle2_mask).
+RGS_HOST_DEVICE Half2Bits half2_le_mask(Half2Bits a, Half2Bits b) { return half2_ge_mask(b, a); }
+
+/// The binary16 value of `bits` as a float (exact).
+RGS_HOST_DEVICE float half_to_float(uint16_t bits) {
+#if defined(__CUDA_ARCH__)
+  return __half2float(__ushort_as_half(bits));
+#else
+  return static_cast<float>(detail::half_bits_to_double(bits));
+#endif
+}
+
+/// A float rounded to binary16, in both halves (__float2half2_rn): a colour channel for both pixels.
+RGS_HOST_DEVICE Half2Bits half2_broadcast(float v) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__float2half2_rn(v));
+#else
+  const uint16_t h = detail::half_bits_from_double(static_cast<double>(v));
+  return detail::half2_of(h, h);
+#endif
+}
+
+/// Constants of the binary16 fast exp, I = round(P·2^10·log2 e + 2^10·(15 − σ)) (the FP32 fast_exp's
+/// construction for a 10-bit mantissa and exponent bias 15), evaluated as one FP32 fma whose result carries
+/// I in its low 16 bits: v = fma(P, 2^10·log2 e, 2^10·(15 − σ) + 1.5·2^23). In [2^23, 2^24) a float's unit
+/// is 1, so the fma rounds v to the integer 1.5·2^23 + I (round to nearest, where fast_exp floors: the same
+/// construction with σ smaller by 2^−11), and the bits of 1.5·2^23 are 0 below bit 22.
+constexpr float kFastExpHalfScale = 1477.3197218702985f;  // 2^10·log2 e
+constexpr float kFastExpHalfMagic = 12582912.f;            // 1.5·2^23
+RGS_HOST_DEVICE float fast_exp_half_bias(float sigma) { return 1024.f * (15.f - sigma) + kFastExpHalfMagic; }
+
+/// exp̂16 of two folded powers, as Half2Bits: I(P) as above, with v clamped below at 1.5·2^23 (I = 0, α = +0)
+/// so that P below about −10.4 cannot wrap (NaN also gives +0). Above, I reaches the sign bit at P ≈ 11.8 (a
+/// negative α, skipped) and would wrap at P ≈ 34, which a folded power (≤ ln o ≤ 0 up to FP32 rounding) never
+/// is. Callers test the result with fast_exp_half2_passes.
+RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second, float bias) {
+  const uint32_t first = float_as_uint(fmaxf(fmaf(p_first, kFastExpHalfScale, bias), kFastExpHalfMagic));
+  const uint32_t second = float_as_uint(fmaxf(fmaf(p_second, kFastExpHalfScale, bias), kFastExpHalfMagic));
+#if defined(__CUDA_ARCH__)
+  return __byte_perm(first, second, 0x5410);  // low half of each
+#else
+  return (first & 0xffffu) | (second << 16);
+#endif
+}
+
+/// The α each pixel blends with: exp̂16(P) where 1/255 ≤ exp̂16(P) ≤ exp̂16(0), else +0 (the pair is skipped
+/// there). The upper test is the folded loop's P > 0 rule on the fast exp's grid (a P > 0 within one step,
+/// 1/1477, may round to exp̂16(0) and pass), and since exp̂16(0) = 1 − σ/2 < 0.99 it also makes the 0.99 clamp
+/// moot.
+/// @param alpha    fast_exp_half2's result
+/// @param alpha_0  fast_exp_half2(0, 0, bias), once per frame
+RGS_HOST_DEVICE Half2Bits fast_exp_half2_passes(Half2Bits alpha, Half2Bits alpha_0) {
+  return alpha & half2_ge_mask(alpha, kHalf2AlphaMin) & half2_le_mask(alpha, alpha_0);
+}
+
+/// The running state of a thread's two pixels: T and C per pixel as Half2Bits. The sign of T holds the stop
+/// flag as in the FP32 loop (T < 0: done, −T the final transmittance).
+struct HalfPixelPair {
+  Half2Bits T = kHalf2One;
+  Half2Bits r = 0, g = 0, b = 0;
+};
+
+/// One front-to-back step of both pixels (the FP32 blend_predicated's rule in binary16): w = α·T,
+/// T' = T − w, take the pair where T' ≥ 1e−4 (C += c·w, T = T'), else stop (T = −|T|). α = +0 (skipped) gives
+/// w = +0 and changes nothing; a done pixel (T < 0) gives T' < 0, which stops again and keeps T. Returns the
+/// taken weights w (0 where not taken) for callers that also sum depth.
+/// @param alpha  fast_exp_half2_passes's result
+/// @param r, g, b  the Gaussian's colour in both halves (half2_broadcast)
+RGS_HOST_DEVICE Half2Bits blend_half2(HalfPixelPair& s, Half2Bits alpha, Half2Bits r, Half2Bits g, Half2Bits b) {
+  const Half2Bits w = half2_mul(alpha, s.T);
+  const Half2Bits test_T = half2_sub(s.T, w);
+  const Half2Bits take = half2_ge_mask(test_T, kHalf2TransmittanceMin);
+  const Half2Bits w_taken = w & take;
+  s.r = half2_fma(r, w_taken, s.r);
+  s.g = half2_fma(g, w_taken, s.g);
+  s.b = half2_fma(b, w_taken, s.b);
+  s.T = (test_T & take) | ((s.T | kHalf2Signs) & ~take);
+  return w_taken;
+}
+
+/// Whether either pixel of the pair is still blending.
+RGS_HOST_DEVICE bool half_pair_live(const HalfPixelPair& s) { return (s.T & kHalf2Signs) != kHalf2Signs; }
+
+}  // namespace rgs::kernels

@@ -1,0 +1,195 @@
+// Half-precision blending (kernels/shared/half_blend.h): the host emulation of the half2 instructions rounds
+// as IEEE binary16 does (against format::float_to_half_bits and an exact 113-bit evaluation), the binary16 fast
+// exp keeps the FP32 fast exp's error bound and skip rules, and one blend step follows its stated rules.
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include <doctest/doctest.h>
+
+#include "rgs/format/half.h"
+#include "rgs/kernels/shared/blend_math.h"
+#include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/half_blend.h"
+
+namespace rgs::test {
+namespace {
+
+namespace k = rgs::kernels;
+using Exact = __float128;  // 113-bit significand: a·b + c of binary16 values is exact in it
+
+uint16_t lane(k::Half2Bits h, int i) { return static_cast<uint16_t>(h >> (16 * i)); }
+k::Half2Bits pair(uint16_t first, uint16_t second) { return uint32_t(first) | uint32_t(second) << 16; }
+Exact exact_of(uint16_t h) { return static_cast<Exact>(k::detail::half_bits_to_double(h)); }
+
+/// Whether `r` is `exact` rounded to the nearest binary16, ties to even (finite values only).
+bool is_nearest_even(uint16_t r, Exact exact) {
+  const Exact value = exact_of(r);
+  const Exact error = value > exact ? value - exact : exact - value;
+  // The neighbours of r on the binary16 line (through zero: +0's lower neighbour is the smallest negative).
+  const auto neighbour = [](uint16_t h, int step) -> uint16_t {
+    const bool negative = (h & 0x8000u) != 0;
+    const uint16_t magnitude = h & 0x7fffu;
+    if (magnitude == 0) return step > 0 ? uint16_t(0x0001u) : uint16_t(0x8001u);
+    return static_cast<uint16_t>((negative ? -step : step) + int(h));
+  };
+  for (int step : {-1, 1}) {
+    const uint16_t n = neighbour(r, step);
+    if ((n & 0x7c00u) == 0x7c00u) continue;  // beyond the largest finite value
+    const Exact other = exact_of(n) > exact ? exact_of(n) - exact : exact - exact_of(n);
+    if (other < error) return false;
+    if (other == error && (r & 1u) != 0) return false;  // a tie goes to the even significand
+  }
+  return true;
+}
+
+/// A random finite binary16 with a magnitude in [2^lo, 2^hi) or a subnormal, either sign.
+uint16_t random_half(std::mt19937& rng, int lo, int hi) {
+  std::uniform_int_distribution<int> exponent(lo + 15, hi + 14), mantissa(0, 1023), sign(0, 1), kind(0, 15);
+  if (kind(rng) == 0) return static_cast<uint16_t>(sign(rng) << 15 | mantissa(rng));  // subnormal or zero
+  const int e = std::max(1, std::min(30, exponent(rng)));
+  return static_cast<uint16_t>(sign(rng) << 15 | e << 10 | mantissa(rng));
+}
+
+TEST_CASE("half emulation: double -> binary16 rounds as format::float_to_half_bits (F16C) on every 257th float") {
+  uint64_t checked = 0, mismatches = 0;
+  for (uint64_t bits = 0; bits <= 0xffffffffull; bits += 257) {
+    float f;
+    const uint32_t b = uint32_t(bits);
+    std::memcpy(&f, &b, 4);
+    if (std::isnan(f)) continue;
+    ++checked;
+    mismatches += k::detail::half_bits_from_double(double(f)) != format::float_to_half_bits(f);
+  }
+  MESSAGE(checked << " floats rounded to binary16, " << mismatches << " mismatches");
+  CHECK(checked > 16000000);
+  CHECK(mismatches == 0);
+}
+
+TEST_CASE("half emulation: half2_mul, half2_sub and half2_fma round the exact result to nearest even") {
+  std::mt19937 rng(2026);
+  uint64_t checked = 0, wrong_mul = 0, wrong_sub = 0, wrong_fma = 0;
+  for (int i = 0; i < 200000; ++i) {
+    // Magnitudes as in the blend (α, T, w in [2^-24, 1], colours up to a few, C up to a few) and wider.
+    const uint16_t a = random_half(rng, -14, 3), b = random_half(rng, -14, 3), c = random_half(rng, -14, 6);
+    const uint16_t a2 = random_half(rng, -24, 7), b2 = random_half(rng, -24, 7), c2 = random_half(rng, -24, 14);
+    const k::Half2Bits mul = k::half2_mul(pair(a, a2), pair(b, b2));
+    const k::Half2Bits sub = k::half2_sub(pair(a, a2), pair(c, c2));
+    const k::Half2Bits fma = k::half2_fma(pair(a, a2), pair(b, b2), pair(c, c2));
+    const uint16_t as[2] = {a, a2}, bs[2] = {b, b2}, cs[2] = {c, c2};
+    for (int l = 0; l < 2; ++l) {
+      const Exact p = exact_of(as[l]) * exact_of(bs[l]);
+      const Exact d = exact_of(as[l]) - exact_of(cs[l]);
+      const Exact s = p + exact_of(cs[l]);
+      const auto finite = [](Exact v) { return v < Exact(65504) && v > Exact(-65504); };
+      if (!finite(p) || !finite(d) || !finite(s)) continue;
+      ++checked;
+      wrong_mul += !is_nearest_even(lane(mul, l), p);
+      wrong_sub += !is_nearest_even(lane(sub, l), d);
+      wrong_fma += !is_nearest_even(lane(fma, l), s);
+    }
+  }
+  MESSAGE(checked << " lanes: " << wrong_mul << " / " << wrong_sub << " / " << wrong_fma
+                  << " not the nearest-even binary16 (mul / sub / fma)");
+  CHECK(checked > 390000);
+  CHECK(wrong_mul == 0);
+  CHECK(wrong_sub == 0);
+  CHECK(wrong_fma == 0);
+  // A product exactly halfway between two binary16 values (1 + 2^-11 = 1.5 × 0.6669921875) rounds to even (1.0);
+  // a sum just past the halfway point rounds up.
+  const uint16_t one_and_a_half = format::float_to_half_bits(1.5f), b = format::float_to_half_bits(0.6669921875f);
+  CHECK(lane(k::half2_mul(pair(one_and_a_half, 0), pair(b, 0)), 0) == format::float_to_half_bits(1.f));
+  CHECK(lane(k::half2_fma(pair(one_and_a_half, 0), pair(b, 0), pair(0x0001u, 0)), 0) ==
+        format::float_to_half_bits(1.0009765625f));
+}
+
+TEST_CASE("fast_exp_half2: the FP32 fast exp's error bound plus binary16 rounding, and its skip rules") {
+  // exp̂16 is fast_exp's construction on a 10-bit mantissa rounded to nearest: the relative error over
+  // [−ln 255, 0] stays within the FP32 bound (σ = 0.045677) plus binary16's rounding (2^-11), and away from 0.
+  for (const float sigma : {k::kFastExpSigmaMinMax, k::kFastExpSigmaZeroMean}) {
+    const float bias = k::fast_exp_half_bias(sigma);
+    double worst = 0, worst_fp32 = 0;
+    const int n = 200000;
+    for (int i = 0; i <= n; ++i) {
+      const float P = float(double(k::kFastExpRangeMin) * i / n);
+      const k::Half2Bits alpha = k::fast_exp_half2(P, P, bias);
+      REQUIRE(lane(alpha, 0) == lane(alpha, 1));
+      const double exact = std::exp(double(P));
+      worst = std::max(worst, std::fabs(double(k::half_to_float(lane(alpha, 0))) / exact - 1.0));
+      worst_fp32 = std::max(worst_fp32, std::fabs(double(k::fast_exp(P, sigma)) / exact - 1.0));
+    }
+    MESSAGE("sigma " << sigma << ": max relative error binary16 " << worst << ", FP32 " << worst_fp32);
+    CHECK(worst <= worst_fp32 + 1.0 / 2048);
+    CHECK(worst > 0.02);  // an approximation, not exp
+  }
+  const float bias = k::fast_exp_half_bias(k::kFastExpSigmaZeroMean);
+  const k::Half2Bits alpha_0 = k::fast_exp_half2(0.f, 0.f, bias);
+  const float a0 = k::half_to_float(lane(alpha_0, 0));
+  CHECK(a0 < k::kAlphaMax);  // so the 0.99 clamp never binds
+  // I(0) = 2^10·(15 − σ): exponent 14, mantissa 1 − σ, so exp̂16(0) = (2 − σ)/2.
+  CHECK(a0 == doctest::Approx(1.0 - k::kFastExpSigmaZeroMean / 2).epsilon(1e-3));
+  const auto passes = [&](float p_first, float p_second) {
+    return k::fast_exp_half2_passes(k::fast_exp_half2(p_first, p_second, bias), alpha_0);
+  };
+  // In range: passes with its value; per lane.
+  CHECK(lane(passes(-1.f, -100.f), 0) == lane(k::fast_exp_half2(-1.f, 0.f, bias), 0));
+  CHECK(lane(passes(-1.f, -100.f), 1) == 0);
+  // Below 1/255 (P < about −5.54 + σ·ln 2) and far below (clamped, no wrap-around): skipped.
+  CHECK(passes(-5.6f, -11.f) == 0);
+  CHECK(passes(-1e30f, -1e6f) == 0);
+  CHECK(passes(std::nanf(""), -INFINITY) == 0);
+  // P > 0 beyond the binary16 grid's first step: skipped as the FP32 loop's P > 0 rule; just above 0: passes.
+  CHECK(passes(1e-3f, 5.f) == 0);
+  CHECK(lane(passes(1e-4f, 0.f), 0) == lane(alpha_0, 0));
+}
+
+TEST_CASE("blend_half2: a skipped pair changes no bit, a done pixel stays done, a step rounds as stated") {
+  const uint16_t half_alpha = format::float_to_half_bits(0.3f), red = format::float_to_half_bits(0.8f);
+  k::HalfPixelPair live;
+  live.r = pair(format::float_to_half_bits(0.25f), format::float_to_half_bits(0.5f));
+  live.T = pair(format::float_to_half_bits(0.6f), format::float_to_half_bits(0.7f));
+  k::HalfPixelPair done = live;
+  done.T |= k::kHalf2Signs;
+
+  // α = +0 in both lanes (skipped): no bit changes, live or done, and the taken weights are 0.
+  for (const k::HalfPixelPair& start : {live, done}) {
+    k::HalfPixelPair s = start;
+    CHECK(k::blend_half2(s, 0u, pair(red, red), 0u, 0u) == 0u);
+    CHECK(s.T == start.T);
+    CHECK(s.r == start.r);
+  }
+  // A done pixel with α > 0: unchanged.
+  k::HalfPixelPair d = done;
+  CHECK(k::blend_half2(d, pair(half_alpha, half_alpha), pair(red, red), 0u, 0u) == 0u);
+  CHECK(d.T == done.T);
+  CHECK(d.r == done.r);
+  CHECK_FALSE(k::half_pair_live(d));
+
+  // A live step: w = α·T, T' = T − w, C' = c·w + C, each one binary16 rounding of the exact value.
+  k::HalfPixelPair s = live;
+  const k::Half2Bits w = k::blend_half2(s, pair(half_alpha, half_alpha), pair(red, red), 0u, 0u);
+  for (int l = 0; l < 2; ++l) {
+    const double T = k::detail::half_bits_to_double(lane(live.T, l));
+    const double alpha = k::detail::half_bits_to_double(half_alpha);
+    const uint16_t w_expected = k::detail::half_bits_from_double(alpha * T);
+    const double wd = k::detail::half_bits_to_double(w_expected);
+    CHECK(lane(w, l) == w_expected);
+    CHECK(lane(s.T, l) == k::detail::half_bits_from_double(T - wd));
+    CHECK(lane(s.r, l) == k::detail::half_bits_from_double(k::detail::half_bits_to_double(red) * wd +
+                                                          k::detail::half_bits_to_double(lane(live.r, l))));
+  }
+  // The stop rule: a step that would take T below 1e-4 (binary16 1.00017e-4) leaves C and marks the pixel done
+  // with −T; the other pixel goes on.
+  k::HalfPixelPair near;
+  near.T = pair(format::float_to_half_bits(2e-4f), format::float_to_half_bits(0.5f));
+  const uint16_t big_alpha = format::float_to_half_bits(0.9f);
+  const k::Half2Bits taken = k::blend_half2(near, pair(big_alpha, big_alpha), pair(red, red), 0u, 0u);
+  CHECK(lane(taken, 0) == 0);
+  CHECK(lane(near.T, 0) == (format::float_to_half_bits(2e-4f) | 0x8000u));
+  CHECK(lane(near.r, 0) == 0);
+  CHECK(lane(taken, 1) != 0);
+  CHECK(k::half_pair_live(near));
+}
+
+}  // namespace
+}  // namespace rgs::test
