@@ -231,22 +231,22 @@ struct HalfFoldedPixels {
   }
 };
 
-/// blend_pairs with half-precision blending: the same walk, FP32 powers, α from fast_exp_half2 and one
-/// blend_half2 for both pixels. The records carry the colour as binary16 pairs (c56rg.z, c56rg.w, bd.x).
+/// blend_pairs with half-precision blending: the same walk, the fast exp's FP32 argument v straight from the
+/// coefficients (fast_exp_half_coefficients), α from fast_exp_half2_of_v, and one blend_half2 for both pixels.
+/// The records carry those coefficients and the colour as binary16 pairs (c56rg.z, c56rg.w, bd.x).
 template <bool kDepth, typename OffsetOf>
 __device__ inline void blend_pairs_half(const char* record_bytes, int padded, OffsetOf offset_of,
-                                        const PixelTerms& terms, float bias, Half2Bits alpha_0,
-                                        HalfFoldedPixels& pixels) {
+                                        const PixelTerms& terms, Half2Bits alpha_0, HalfFoldedPixels& pixels) {
   for (int k = 0; k < padded; k += kUnroll) {
     if (!pixels.live()) break;
 #pragma unroll
     for (int i = 0; i < kUnroll; ++i) {
       const PairRecord& r = *reinterpret_cast<const PairRecord*>(record_bytes + offset_of(k + i));
       const float4 c1234 = r.c1234, c56rg = r.c56rg;
-      const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};
-      const float p_first = folded_power(f, terms);
-      const float p_second = dual_pixel_power(p_first, f, terms);
-      const Half2Bits alpha = fast_exp_half2_passes(fast_exp_half2(p_first, p_second, bias), alpha_0);
+      const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};  // of v
+      const float v_first = folded_power(f, terms);
+      const float v_second = dual_pixel_power(v_first, f, terms);
+      const Half2Bits alpha = fast_exp_half2_alpha(fast_exp_half2_of_v(v_first, v_second), alpha_0);
       const float4 bd = r.bd;
       const Half2Bits w = blend_half2(pixels.s, alpha, float_as_uint(c56rg.z), float_as_uint(c56rg.w),
                                       float_as_uint(bd.x));
@@ -358,7 +358,8 @@ __global__ void __launch_bounds__(kDualThreads, 8)
         const Conic conic{co.x, co.y, co.z};
         const float4 colour = in.colour_log_opacity[id];
         const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = colour.w;
-        const FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
+        FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
+        if (kHalf) f = fast_exp_half_coefficients(f, fast_exp_bias);
         record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
         if (kHalf) {  // the colour as binary16 pairs for blend_half2
           record.c56rg = make_float4(f.c5, f.c6, uint_as_float(half2_broadcast(colour.x)),
@@ -419,9 +420,9 @@ __global__ void __launch_bounds__(kDualThreads, 8)
     const auto listed = [offsets](int k) { return int(offsets[k]); };
     if (kHalf) {
       if (!kCulls || keeps_all) {  // warp-uniform
-        blend_pairs_half<kDepth>(record_bytes, padded, in_order, terms, fast_exp_bias, alpha_0, pair);
+        blend_pairs_half<kDepth>(record_bytes, padded, in_order, terms, alpha_0, pair);
       } else {
-        blend_pairs_half<kDepth>(record_bytes, padded, listed, terms, fast_exp_bias, alpha_0, pair);
+        blend_pairs_half<kDepth>(record_bytes, padded, listed, terms, alpha_0, pair);
       }
     } else if (!kCulls || keeps_all) {
       blend_pairs<kFastExp, kDepth>(record_bytes, padded, in_order, terms, fast_exp_bias, first, second);

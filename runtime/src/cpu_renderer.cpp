@@ -212,13 +212,16 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
 
 /// blend_tile_folded with half-precision blending (RoofgsOptions::half_blend; render.cu blend_pairs_half):
 /// each "thread" keeps its two pixels' T and C as binary16 pairs and blends both with blend_half2, α from
-/// fast_exp_half2 on the FP32 powers. Pairs where neither pixel passes change no bit (α = +0), so they are
-/// skipped here, as are both pixels once done.
+/// fast_exp_half2_of_v on the fast exp's FP32 argument v (coefficients from fast_exp_half_coefficients).
+/// Pairs where neither pixel passes change no bit (α = +0), so they are skipped here, as are both pixels once
+/// done.
 void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
                             RenderResult* out) {
   const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
   const float bias = k::fast_exp_half_bias(options.roofgs.fast_exp_sigma);
   const k::Half2Bits alpha_0 = k::fast_exp_half2(0.f, 0.f, bias);
+  std::vector<k::FoldedCoefficients> of_v(list.size());  // the coefficients of the fast exp's argument v
+  for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::fast_exp_half_coefficients(list[j].folded, bias);
   for (int ly = 0; ly < k::kTileSize; ly += 2) {
     for (int lx = 0; lx < k::kTileSize; ++lx) {
       const uint32_t x = x0 + uint32_t(lx), y = y0 + uint32_t(ly);
@@ -229,9 +232,9 @@ void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int t
       const k::PixelTerms terms = k::pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
       for (size_t j = 0; j < list.size() && k::half_pair_live(pair); ++j) {
         const TileGaussian& g = list[j];
-        const float p_first = k::folded_power(g.folded, terms);
-        const float p_second = k::dual_pixel_power(p_first, g.folded, terms);
-        const k::Half2Bits alpha = k::fast_exp_half2_passes(k::fast_exp_half2(p_first, p_second, bias), alpha_0);
+        const float v_first = k::folded_power(of_v[j], terms);
+        const float v_second = k::dual_pixel_power(v_first, of_v[j], terms);
+        const k::Half2Bits alpha = k::fast_exp_half2_alpha(k::fast_exp_half2_of_v(v_first, v_second), alpha_0);
         if (alpha == 0) continue;
         const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]), k::half2_broadcast(g.rgb[1]),
                                               k::half2_broadcast(g.rgb[2]));

@@ -79,7 +79,7 @@ TEST_CASE("presets: names, technique switches, CPU options") {
   CHECK(api::gpu_mode_options("roofgs+", true).ok());
   CHECK(api::gpu_mode_options("only-compact", false).status().code() == StatusCode::kInvalidArgument);
   CHECK(api::gpu_mode_options("nope", true).status().code() == StatusCode::kInvalidArgument);
-  CHECK(api::gpu_modes().size() == 14);
+  CHECK(api::gpu_modes().size() == 15);
   CHECK_FALSE(api::gpu_mode_options("roofgs-quadrant", true)->roofgs.block_culling);
   CHECK(api::gpu_mode_options("roofgs", true)->roofgs.block_culling);
   CHECK_FALSE(api::gpu_mode_options("roofgs+fp32", true)->roofgs.techniques.half_blend);

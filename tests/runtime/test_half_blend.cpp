@@ -1,6 +1,7 @@
 // Half-precision blending (kernels/shared/half_blend.h): the host emulation of the half2 instructions rounds
 // as IEEE binary16 does (against format::float_to_half_bits and an exact 113-bit evaluation), the binary16 fast
-// exp keeps the FP32 fast exp's error bound and skip rules, and one blend step follows its stated rules.
+// exp keeps the FP32 fast exp's error bound, clamps at exp̂16(0) and skips below 1/255, and one blend step
+// follows its stated rules.
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -103,7 +104,16 @@ TEST_CASE("half emulation: half2_mul, half2_sub and half2_fma round the exact re
         format::float_to_half_bits(1.0009765625f));
 }
 
-TEST_CASE("fast_exp_half2: the FP32 fast exp's error bound plus binary16 rounding, and its skip rules") {
+TEST_CASE("half emulation: half2_min follows __hmin2 on NaN and signed zeros") {
+  const uint16_t nan = 0x7e00u, one = 0x3c00u, minus_two = 0xc000u, plus_zero = 0x0000u, minus_zero = 0x8000u;
+  CHECK(k::half2_min(pair(nan, one), pair(one, nan)) == pair(one, one));
+  CHECK(lane(k::half2_min(pair(nan, 0), pair(nan, 0)), 0) == 0x7fffu);
+  CHECK(k::half2_min(pair(plus_zero, minus_zero), pair(minus_zero, plus_zero)) == pair(minus_zero, minus_zero));
+  CHECK(k::half2_min(pair(one, minus_two), pair(minus_two, one)) == pair(minus_two, minus_two));
+  CHECK(k::half2_min(pair(0x7c00u, 0x3bd1u), pair(0x3bd1u, 0x7c00u)) == pair(0x3bd1u, 0x3bd1u));  // inf
+}
+
+TEST_CASE("fast_exp_half2: the FP32 fast exp's error bound plus binary16 rounding, and its clamp and skip rules") {
   // exp̂16 is fast_exp's construction on a 10-bit mantissa rounded to nearest: the relative error over
   // [−ln 255, 0] stays within the FP32 bound (σ = 0.045677) plus binary16's rounding (2^-11), and away from 0.
   for (const float sigma : {k::kFastExpSigmaMinMax, k::kFastExpSigmaZeroMean}) {
@@ -129,7 +139,7 @@ TEST_CASE("fast_exp_half2: the FP32 fast exp's error bound plus binary16 roundin
   // I(0) = 2^10·(15 − σ): exponent 14, mantissa 1 − σ, so exp̂16(0) = (2 − σ)/2.
   CHECK(a0 == doctest::Approx(1.0 - k::kFastExpSigmaZeroMean / 2).epsilon(1e-3));
   const auto passes = [&](float p_first, float p_second) {
-    return k::fast_exp_half2_passes(k::fast_exp_half2(p_first, p_second, bias), alpha_0);
+    return k::fast_exp_half2_alpha(k::fast_exp_half2(p_first, p_second, bias), alpha_0);
   };
   // In range: passes with its value; per lane.
   CHECK(lane(passes(-1.f, -100.f), 0) == lane(k::fast_exp_half2(-1.f, 0.f, bias), 0));
@@ -138,9 +148,11 @@ TEST_CASE("fast_exp_half2: the FP32 fast exp's error bound plus binary16 roundin
   CHECK(passes(-5.6f, -11.f) == 0);
   CHECK(passes(-1e30f, -1e6f) == 0);
   CHECK(passes(std::nanf(""), -INFINITY) == 0);
-  // P > 0 beyond the binary16 grid's first step: skipped as the FP32 loop's P > 0 rule; just above 0: passes.
-  CHECK(passes(1e-3f, 5.f) == 0);
-  CHECK(lane(passes(1e-4f, 0.f), 0) == lane(alpha_0, 0));
+  // P > 0 (a folded power only by rounding) and the infinite patterns of P ≈ 10.5: clamped to exp̂16(0).
+  CHECK(passes(1e-3f, 5.f) == (alpha_0 & 0xffffu) * 0x10001u);
+  CHECK(lane(passes(1e-4f, 10.5f), 0) == lane(alpha_0, 0));
+  CHECK(lane(passes(1e-4f, 10.5f), 1) == lane(alpha_0, 1));
+  CHECK(passes(12.f, 12.f) == 0);  // patterns past the sign bit: negative, below 1/255
 }
 
 TEST_CASE("blend_half2: a skipped pair changes no bit, a done pixel stays done, a step rounds as stated") {

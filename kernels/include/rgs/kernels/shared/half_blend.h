@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "rgs/kernels/shared/blend_math.h"
 #include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/host_device.h"
 
@@ -160,8 +161,29 @@ RGS_HOST_DEVICE Half2Bits half2_ge_mask(Half2Bits a, Half2Bits b) {
 #endif
 }
 
-/// 0xffff in each half where a ≤ b (ordered), else 0 (__hle2_mask).
-RGS_HOST_DEVICE Half2Bits half2_le_mask(Half2Bits a, Half2Bits b) { return half2_ge_mask(b, a); }
+/// min(a, b) per half (__hmin2): a NaN operand yields the other one (two NaNs: a NaN), and +0 > −0.
+RGS_HOST_DEVICE Half2Bits half2_min(Half2Bits a, Half2Bits b) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__hmin2(detail::as_half2(a), detail::as_half2(b)));
+#else
+  uint16_t r[2];
+  for (int i = 0; i < 2; ++i) {
+    const uint16_t x = detail::half_lane(a, i), y = detail::half_lane(b, i);
+    const double xv = detail::half_bits_to_double(x), yv = detail::half_bits_to_double(y);
+    if (xv != xv) {
+      r[i] = yv != yv ? uint16_t(0x7fffu) : y;
+    } else if (yv != yv) {
+      r[i] = x;
+    } else if (xv == 0.0 && yv == 0.0) {
+      r[i] = (x & 0x8000u) ? x : y;  // −0 is the smaller zero
+    } else {
+      r[i] = xv < yv ? x : y;
+    }
+  }
+  return detail::half2_of(r[0], r[1]);
+#endif
+}
+
 
 /// The binary16 value of `bits` as a float (exact).
 RGS_HOST_DEVICE float half_to_float(uint16_t bits) {
@@ -191,13 +213,13 @@ constexpr float kFastExpHalfScale = 1477.3197218702985f;  // 2^10·log2 e
 constexpr float kFastExpHalfMagic = 12582912.f;            // 1.5·2^23
 RGS_HOST_DEVICE float fast_exp_half_bias(float sigma) { return 1024.f * (15.f - sigma) + kFastExpHalfMagic; }
 
-/// exp̂16 of two folded powers, as Half2Bits: I(P) as above, with v clamped below at 1.5·2^23 (I = 0, α = +0)
-/// so that P below about −10.4 cannot wrap (NaN also gives +0). Above, I reaches the sign bit at P ≈ 11.8 (a
-/// negative α, skipped) and would wrap at P ≈ 34, which a folded power (≤ ln o ≤ 0 up to FP32 rounding) never
-/// is. Callers test the result with fast_exp_half2_passes.
-RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second, float bias) {
-  const uint32_t first = float_as_uint(fmaxf(fmaf(p_first, kFastExpHalfScale, bias), kFastExpHalfMagic));
-  const uint32_t second = float_as_uint(fmaxf(fmaf(p_second, kFastExpHalfScale, bias), kFastExpHalfMagic));
+/// exp̂16 of two pixels from their v = 1.5·2^23 + 2^10·log2 e·P + 2^10·(15 − σ), as Half2Bits: v is clamped
+/// below at 1.5·2^23 (I = 0, α = +0) so that P below about −10.4 cannot wrap (NaN also gives +0). Above, I
+/// reaches the sign bit at P ≈ 11.8 (a negative α, skipped) and would wrap at P ≈ 34, which a folded power
+/// (≤ ln o ≤ 0 up to FP32 rounding) never is. Callers take α from the result with fast_exp_half2_alpha.
+RGS_HOST_DEVICE Half2Bits fast_exp_half2_of_v(float v_first, float v_second) {
+  const uint32_t first = float_as_uint(fmaxf(v_first, kFastExpHalfMagic));
+  const uint32_t second = float_as_uint(fmaxf(v_second, kFastExpHalfMagic));
 #if defined(__CUDA_ARCH__)
   return __byte_perm(first, second, 0x5410);  // low half of each
 #else
@@ -205,14 +227,32 @@ RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second, float bi
 #endif
 }
 
-/// The α each pixel blends with: exp̂16(P) where 1/255 ≤ exp̂16(P) ≤ exp̂16(0), else +0 (the pair is skipped
-/// there). The upper test is the folded loop's P > 0 rule on the fast exp's grid (a P > 0 within one step,
-/// 1/1477, may round to exp̂16(0) and pass), and since exp̂16(0) = 1 − σ/2 < 0.99 it also makes the 0.99 clamp
-/// moot.
-/// @param alpha    fast_exp_half2's result
+/// exp̂16 of two powers P: fast_exp_half2_of_v of v = fma(P, 2^10·log2 e, bias), one rounding.
+RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second, float bias) {
+  return fast_exp_half2_of_v(fmaf(p_first, kFastExpHalfScale, bias), fmaf(p_second, kFastExpHalfScale, bias));
+}
+
+/// The folded coefficients whose power is v instead of P: C1..C5 times 2^10·log2 e, and C6·2^10·log2 e + bias,
+/// so that folded_power and dual_pixel_power give both pixels' v for fast_exp_half2_of_v with no multiply-add
+/// of their own. Each FMA of the chain then rounds at v's unit (its sums lie near 1.5·2^23, where a float's
+/// unit is 1), a few units of I at most: α moves by up to about 0.4 %, next to the fast exp's own 3.2 %
+/// (the quality table in docs/BENCHMARKS.md is measured with it).
+RGS_HOST_DEVICE FoldedCoefficients fast_exp_half_coefficients(const FoldedCoefficients& f, float bias) {
+  return FoldedCoefficients{f.c1 * kFastExpHalfScale, f.c2 * kFastExpHalfScale, f.c3 * kFastExpHalfScale,
+                            f.c4 * kFastExpHalfScale, f.c5 * kFastExpHalfScale,
+                            fmaf(f.c6, kFastExpHalfScale, bias)};
+}
+
+/// The α each pixel blends with: min(exp̂16, exp̂16(0)) where that is at least 1/255, else +0 (the pair is skipped
+/// there). The clamp at exp̂16(0) = 1 − σ/2 < 0.99 takes the place of both the 0.99 clamp and the FP32 loop's
+/// P > 0 skip: a folded power is ≤ ln o ≤ 0 but for rounding, and v's own rounding (fast_exp_half_coefficients)
+/// reaches a few units of I, so skipping above exp̂16(0) would drop opaque Gaussians at their centres. NaN and
+/// infinite patterns (P ≈ 10.3–11.8, never a folded power) clamp to exp̂16(0) too.
+/// @param alpha    fast_exp_half2's or fast_exp_half2_of_v's result
 /// @param alpha_0  fast_exp_half2(0, 0, bias), once per frame
-RGS_HOST_DEVICE Half2Bits fast_exp_half2_passes(Half2Bits alpha, Half2Bits alpha_0) {
-  return alpha & half2_ge_mask(alpha, kHalf2AlphaMin) & half2_le_mask(alpha, alpha_0);
+RGS_HOST_DEVICE Half2Bits fast_exp_half2_alpha(Half2Bits alpha, Half2Bits alpha_0) {
+  const Half2Bits clamped = half2_min(alpha, alpha_0);
+  return clamped & half2_ge_mask(clamped, kHalf2AlphaMin);
 }
 
 /// The running state of a thread's two pixels: T and C per pixel as Half2Bits. The sign of T holds the stop
@@ -226,7 +266,7 @@ struct HalfPixelPair {
 /// T' = T − w, take the pair where T' ≥ 1e−4 (C += c·w, T = T'), else stop (T = −|T|). α = +0 (skipped) gives
 /// w = +0 and changes nothing; a done pixel (T < 0) gives T' < 0, which stops again and keeps T. Returns the
 /// taken weights w (0 where not taken) for callers that also sum depth.
-/// @param alpha  fast_exp_half2_passes's result
+/// @param alpha  fast_exp_half2_alpha's result
 /// @param r, g, b  the Gaussian's colour in both halves (half2_broadcast)
 RGS_HOST_DEVICE Half2Bits blend_half2(HalfPixelPair& s, Half2Bits alpha, Half2Bits r, Half2Bits g, Half2Bits b) {
   const Half2Bits w = half2_mul(alpha, s.T);
