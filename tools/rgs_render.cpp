@@ -51,10 +51,10 @@ struct Options {
   bool pfm = false;
   std::string backend = "cpu";
   int device = 0;
-  bool key32 = false, accutile = false, folded = false, fast_exp = false;
+  bool key32 = false, accutile = false, folded = false, fast_exp = false, half_blend = false;
   float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
 
-  bool any_roofgs() const { return key32 || accutile || folded || fast_exp; }
+  bool any_roofgs() const { return key32 || accutile || folded || fast_exp || half_blend; }
   runtime::RoofgsOptions roofgs() const {
     runtime::RoofgsOptions r;
     r.key32 = key32;
@@ -62,6 +62,7 @@ struct Options {
     r.folded_coefficients = folded;
     r.fast_exp = fast_exp;
     r.fast_exp_sigma = fast_exp_sigma;
+    r.half_blend = half_blend;
     return r;
   }
 };
@@ -123,6 +124,7 @@ std::string technique_names(const runtime::RoofgsOptions& r) {
   if (r.snugbox_accutile) s += " accutile";
   if (r.folded_coefficients) s += " folded";
   if (r.fast_exp) s += " fast-exp(σ=" + tools::fixed(r.fast_exp_sigma, 6) + ")";
+  if (r.half_blend && r.folded_coefficients && r.fast_exp) s += " half-blend";
   return s;
 }
 
@@ -414,6 +416,9 @@ int main(int argc, char** argv) {
   app.add_flag("--folded", opt.folded, "RoofGS: folded coefficients C1..C6 with the dual-pixel update");
   app.add_flag("--fast-exp", opt.fast_exp, "RoofGS: Schraudolph fast exp");
   app.add_option("--fast-exp-sigma", opt.fast_exp_sigma, "sigma of the fast exp")->capture_default_str();
+  app.add_flag("--half-blend", opt.half_blend,
+               "Blend in binary16, two pixels per half2 instruction on the GPU (beyond the paper; needs --folded and "
+               "--fast-exp)");
   app.footer("With --backend cuda, any RoofGS flag selects the RoofGS pipeline with those techniques (compact "
              "attributes read on the GPU for .rgs input); without one, the 3DGS baseline pipeline.");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
@@ -422,6 +427,9 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {
       throw CLI::ValidationError("one of --cameras or --orbit is required");
+    }
+    if (opt.half_blend && !(opt.folded && opt.fast_exp)) {
+      throw CLI::ValidationError("--half-blend needs --folded and --fast-exp");
     }
   } catch (const CLI::ParseError& e) {
     return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
