@@ -102,6 +102,14 @@ TEST_CASE("half emulation: half2_mul, half2_sub and half2_fma round the exact re
   CHECK(lane(k::half2_mul(pair(one_and_a_half, 0), pair(b, 0)), 0) == format::float_to_half_bits(1.f));
   CHECK(lane(k::half2_fma(pair(one_and_a_half, 0), pair(b, 0), pair(0x0001u, 0)), 0) ==
         format::float_to_half_bits(1.0009765625f));
+  // The helper under half2_fma breaks a double tie by the sum's exact error: 1 + 2^-11 is halfway between 1
+  // (0x3c00) and 1 + 2^-10 (0x3c01); a tiny term on either side decides, and a sum a double-ulp past the
+  // halfway point rounds up whatever its error's sign.
+  const double halfway = 1.0 + std::ldexp(1.0, -11);
+  CHECK(k::detail::half_bits_of_sum(halfway, 0.0) == 0x3c00u);  // an exact tie: to even
+  CHECK(k::detail::half_bits_of_sum(halfway, std::ldexp(1.0, -80)) == 0x3c01u);
+  CHECK(k::detail::half_bits_of_sum(halfway, -std::ldexp(1.0, -80)) == 0x3c00u);
+  CHECK(k::detail::half_bits_of_sum(halfway + std::ldexp(1.0, -52), -std::ldexp(1.0, -60)) == 0x3c01u);
 }
 
 TEST_CASE("half emulation: half2_min follows __hmin2 on NaN and signed zeros") {

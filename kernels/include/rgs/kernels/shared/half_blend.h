@@ -27,9 +27,8 @@ namespace rgs::kernels {
 /// A pair of binary16 values in one word: bits 0–15 the first pixel's, bits 16–31 the second's.
 using Half2Bits = uint32_t;
 
-/// 1.0 in both halves (the initial transmittance), −1.0 in both (a pixel outside the image: done).
+/// 1.0 in both halves (the initial transmittance).
 constexpr Half2Bits kHalf2One = 0x3c003c00u;
-constexpr Half2Bits kHalf2MinusOne = 0xbc00bc00u;
 /// The sign bits of both halves.
 constexpr Half2Bits kHalf2Signs = 0x80008000u;
 /// kTransmittanceMin (1e−4) rounded to binary16: 1678·2^−24 ≈ 1.00017e−4, in both halves.
@@ -86,11 +85,12 @@ inline uint16_t half_bits_of_sum(double p, double c) {
   const double s = p + c;
   const double pv = s - c, cv = s - pv;
   const double e = (p - pv) + (c - cv);
-  if (e == 0.0 || s != s) return half_bits_from_double(s);
-  const uint16_t down = half_bits_from_double(std::nextafter(s, -HUGE_VAL));
-  const uint16_t up = half_bits_from_double(std::nextafter(s, HUGE_VAL));
-  if (down == up) return half_bits_from_double(s);  // s is not a tie: its neighbours round alike
-  return e > 0 ? up : down;
+  const uint16_t rounded = half_bits_from_double(s);
+  if (e == 0.0 || s != s) return rounded;
+  const uint16_t below = half_bits_from_double(std::nextafter(s, -HUGE_VAL));
+  const uint16_t above = half_bits_from_double(std::nextafter(s, HUGE_VAL));
+  if (below == above || s != (half_bits_to_double(below) + half_bits_to_double(above)) / 2) return rounded;
+  return e > 0 ? above : below;
 }
 
 inline uint16_t half_lane(Half2Bits h, int lane) { return static_cast<uint16_t>(h >> (16 * lane)); }
