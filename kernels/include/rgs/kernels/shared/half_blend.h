@@ -96,6 +96,18 @@ inline uint16_t half_bits_of_sum(double p, double c) {
 inline uint16_t half_lane(Half2Bits h, int lane) { return static_cast<uint16_t>(h >> (16 * lane)); }
 inline Half2Bits half2_of(uint16_t first, uint16_t second) { return uint32_t(first) | uint32_t(second) << 16; }
 
+/// Host emulation of a two-operand half2 instruction: op(bits_a, value_a, bits_b, value_b) -> result bits, per
+/// half (values as exact doubles).
+template <typename Op>
+inline Half2Bits lanewise(Half2Bits a, Half2Bits b, Op op) {
+  uint16_t r[2];
+  for (int i = 0; i < 2; ++i) {
+    const uint16_t x = half_lane(a, i), y = half_lane(b, i);
+    r[i] = op(x, half_bits_to_double(x), y, half_bits_to_double(y));
+  }
+  return half2_of(r[0], r[1]);
+}
+
 #if defined(__CUDA_ARCH__)
 __device__ inline __half2 as_half2(Half2Bits h) { return *reinterpret_cast<const __half2*>(&h); }
 __device__ inline Half2Bits as_bits(__half2 h) { return *reinterpret_cast<const Half2Bits*>(&h); }
@@ -108,12 +120,9 @@ RGS_HOST_DEVICE Half2Bits half2_mul(Half2Bits a, Half2Bits b) {
 #if defined(__CUDA_ARCH__)
   return detail::as_bits(__hmul2(detail::as_half2(a), detail::as_half2(b)));
 #else
-  uint16_t r[2];
-  for (int i = 0; i < 2; ++i) {
-    r[i] = detail::half_bits_from_double(detail::half_bits_to_double(detail::half_lane(a, i)) *
-                                         detail::half_bits_to_double(detail::half_lane(b, i)));  // exact product
-  }
-  return detail::half2_of(r[0], r[1]);
+  return detail::lanewise(a, b, [](uint16_t, double x, uint16_t, double y) {
+    return detail::half_bits_from_double(x * y);  // exact product: 22 bits
+  });
 #endif
 }
 
@@ -122,12 +131,9 @@ RGS_HOST_DEVICE Half2Bits half2_sub(Half2Bits a, Half2Bits b) {
 #if defined(__CUDA_ARCH__)
   return detail::as_bits(__hsub2(detail::as_half2(a), detail::as_half2(b)));
 #else
-  uint16_t r[2];
-  for (int i = 0; i < 2; ++i) {
-    r[i] = detail::half_bits_from_double(detail::half_bits_to_double(detail::half_lane(a, i)) -
-                                         detail::half_bits_to_double(detail::half_lane(b, i)));  // exact
-  }
-  return detail::half2_of(r[0], r[1]);
+  return detail::lanewise(a, b, [](uint16_t, double x, uint16_t, double y) {
+    return detail::half_bits_from_double(x - y);  // exact in a double
+  });
 #endif
 }
 
@@ -151,13 +157,7 @@ RGS_HOST_DEVICE Half2Bits half2_ge_mask(Half2Bits a, Half2Bits b) {
 #if defined(__CUDA_ARCH__)
   return __hge2_mask(detail::as_half2(a), detail::as_half2(b));
 #else
-  Half2Bits m = 0;
-  for (int i = 0; i < 2; ++i) {
-    if (detail::half_bits_to_double(detail::half_lane(a, i)) >= detail::half_bits_to_double(detail::half_lane(b, i))) {
-      m |= 0xffffu << (16 * i);
-    }
-  }
-  return m;
+  return detail::lanewise(a, b, [](uint16_t, double x, uint16_t, double y) { return uint16_t(x >= y ? 0xffffu : 0u); });
 #endif
 }
 
@@ -166,24 +166,14 @@ RGS_HOST_DEVICE Half2Bits half2_min(Half2Bits a, Half2Bits b) {
 #if defined(__CUDA_ARCH__)
   return detail::as_bits(__hmin2(detail::as_half2(a), detail::as_half2(b)));
 #else
-  uint16_t r[2];
-  for (int i = 0; i < 2; ++i) {
-    const uint16_t x = detail::half_lane(a, i), y = detail::half_lane(b, i);
-    const double xv = detail::half_bits_to_double(x), yv = detail::half_bits_to_double(y);
-    if (xv != xv) {
-      r[i] = yv != yv ? uint16_t(0x7fffu) : y;
-    } else if (yv != yv) {
-      r[i] = x;
-    } else if (xv == 0.0 && yv == 0.0) {
-      r[i] = (x & 0x8000u) ? x : y;  // −0 is the smaller zero
-    } else {
-      r[i] = xv < yv ? x : y;
-    }
-  }
-  return detail::half2_of(r[0], r[1]);
+  return detail::lanewise(a, b, [](uint16_t x, double xv, uint16_t y, double yv) {
+    if (xv != xv) return yv != yv ? uint16_t(0x7fffu) : y;
+    if (yv != yv) return x;
+    if (xv == 0.0 && yv == 0.0) return (x & 0x8000u) ? x : y;  // −0 is the smaller zero
+    return xv < yv ? x : y;
+  });
 #endif
 }
-
 
 /// The binary16 value of `bits` as a float (exact).
 RGS_HOST_DEVICE float half_to_float(uint16_t bits) {
