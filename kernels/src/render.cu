@@ -288,7 +288,8 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 /// by itself (flowers render at 4K 0.283 -> 0.272 ms; docs/BENCHMARKS.md).
 /// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and C as binary16 pairs
 /// and one half2 instruction blends both (blend_pairs_half): about 30 instructions a walk step instead of 42
-/// (taebak render at 4K 0.771 -> 0.673 ms). Nine or ten blocks an SM spilled and were slower with it too.
+/// (taebak render at 4K 0.771 -> 0.673 ms). Nine or ten blocks an SM (56 or 48 registers) were slower with it
+/// too, with or without spills.
 template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
 __global__ void __launch_bounds__(kDualThreads, 8)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
@@ -345,7 +346,9 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   for (uint64_t batch = begin; batch < end; batch += kBatch) {
     const bool live = kHalf ? pair.live() : first.live() || second.live();
     if (__syncthreads_count(!live) == kDualThreads) break;
-#pragma unroll
+    // One pair at a time: the two loads' gathers, folds and masks unrolled held more registers at once than
+    // the walk needs (half blending, taebak render at 4K 0.655-0.658 -> 0.641-0.643 ms, three rounds).
+#pragma unroll 1
     for (int l = 0; l < kLoads; ++l) {
       const int slot = rank + l * kDualThreads;
       const uint64_t p = batch + uint64_t(slot);
