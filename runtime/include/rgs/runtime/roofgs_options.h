@@ -33,9 +33,10 @@ struct RoofgsOptions {
   /// σ of the fast exp: kFastExpSigmaMinMax (0.045677, the paper's) or e.g. kFastExpSigmaZeroMean.
   float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
   /// With folded_coefficients and fast_exp (beyond the paper): blend in binary16 (kernels/shared/half_blend.h).
-  /// The power P stays FP32; α is the fast exp with a binary16 result (exp̂16, the same σ), skipped unless
-  /// 1/255 ≤ α ≤ exp̂16(0); T and C are binary16, two pixels per half2 instruction on the GPU, emulated bit
-  /// for bit on the CPU. Ignored without folded_coefficients and fast_exp.
+  /// The power P stays FP32; α = min(exp̂16, exp̂16(0)), the fast exp with a binary16 result (the same σ),
+  /// skipped below 1/255 (the clamp takes the place of the 0.99 clamp and the P > 0 skip); T and C are binary16,
+  /// two pixels per half2 instruction on the GPU, emulated bit for bit on the CPU. Ignored without
+  /// folded_coefficients and fast_exp.
   bool half_blend = false;
 
   /// Emit pairs in order of (view depth, Gaussian index) instead of Gaussian index (RoofGS+, beyond the
