@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <new>
@@ -267,6 +268,16 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     out.metadata.scale_encoding = options.scale_encoding;
     out.metadata.sh_quantization = shq;
     out.metadata.bounds = compute_bounds(cloud);
+    if (!std::isfinite(out.metadata.bounds.sphere_radius)) {
+      // Finite means can still span more than float32 holds: e.g. ±3e38 on each axis is 1e39 across.
+      const format::SceneBounds& b = out.metadata.bounds;
+      char span[160];
+      std::snprintf(span, sizeof span, "(%g, %g, %g)..(%g, %g, %g)", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
+                    b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
+      return Status(StatusCode::kInvalidArgument,
+                    std::string("the means span ") + span +
+                        ": the radius of their bounding sphere exceeds the float32 range (SPEC §4.1.1)");
+    }
     std::string why;
     if (!format::is_valid_quantization(shq, degree, &why)) {
       return Status(StatusCode::kInvalidArgument, "computed SH quantization is invalid: " + why);

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Generates tests/data/bad/*.ply: small PLY files that rgs::converter::read_ply must reject.
+"""Generates tests/data/bad/*.ply: small PLY files that rgs::converter::read_ply must reject (one of them reads
+but rgs::converter::quantize must refuse it).
 
 Every file holds a few real Gaussians taken from samples/guitar.ply (first vertices, INRIA SH0 layout)
 with one defect each. The expected StatusCode of each file is listed in EXPECTED below and asserted by
@@ -31,6 +32,8 @@ EXPECTED = {
     "bad_ascii_token.ply": ("kCorruptData", "ascii vertex 2 has the token '1.2.3'"),
     "nan_mean.ply": ("kCorruptData", "vertex 3 has x = NaN (accepted with kSanitize, dropping 1)"),
     "zero_quaternion.ply": ("kCorruptData", "vertex 6 has rot_0..3 = 0 (accepted with kSanitize, dropping 1)"),
+    "means_span_overflow.ply": ("kInvalidArgument", "reads under both policies; vertices 0 and 1 at -3e38 and "
+                                "+3e38 on each axis, whose bounding sphere overflows float32: quantize refuses"),
 }
 
 
@@ -136,6 +139,12 @@ def main():
     for k in range(4):
         zero_rows[6]["rot_%d" % k] = 0.0
     write("zero_quaternion.ply", header(names, len(rows)) + binary_rows(names, zero_rows))
+
+    far_rows = [dict(r) for r in rows]
+    for axis in "xyz":
+        far_rows[0][axis] = -3e38
+        far_rows[1][axis] = 3e38
+    write("means_span_overflow.ply", header(names, len(rows)) + binary_rows(names, far_rows))
 
     assert len(good) < 4096
     for name in sorted(EXPECTED):

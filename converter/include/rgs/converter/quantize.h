@@ -42,12 +42,14 @@ struct QuantizationReport {
 /// When `errors` is not null it also receives the per-attribute errors of the result, measured in the same
 /// pass while the values are in cache: bit-identical to measure_quantization_errors(cloud, result).
 /// Deterministic whatever the number of threads (report and errors included).
-/// Errors: kInvalidArgument (inconsistent cloud, percentile outside (0, 100]).
+/// Errors: kInvalidArgument (inconsistent cloud, percentile outside (0, 100], a non-finite or invalid value,
+/// means whose bounding sphere radius overflows float32).
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
                                       QuantizationReport* report = nullptr, AttributeErrors* errors = nullptr);
 
 /// Bounds of the means: AABB, and a sphere centred on the AABB centre whose radius is the largest
-/// distance to a mean (computed in double, rounded up, so every mean is inside in float32).
+/// distance to a mean (computed in double, rounded up, so every mean is inside in float32). The radius is
+/// +inf when the means span more than float32 holds (quantize() refuses such a cloud).
 format::SceneBounds compute_bounds(const format::GaussianCloud& cloud);
 
 }  // namespace rgs::converter
