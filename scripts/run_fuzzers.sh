@@ -17,7 +17,7 @@ seconds="${1:-60}"
 build="${RGS_BUILD_DIR:-$root/build-fuzz}"
 out="${RGS_FUZZ_OUT:-$build/fuzz-out}"
 jobs="${RGS_FUZZ_JOBS:-$(nproc)}"
-targets=(rgs_read ply_read render_cpu camera_json)
+targets=(rgs_read ply_read interop_read render_cpu camera_json)
 
 if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
   echo "run_fuzzers: seconds per target must be a positive integer, got '$seconds'" >&2
@@ -39,10 +39,12 @@ cmake --build "$build" --parallel "$jobs" --target "${targets[@]/#/fuzz_}"
 # and must-fail files of tests/data. libFuzzer writes what it finds into the first directory only.
 seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$root/tests/data/bad")
 seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
+seeds_interop_read=("$root/tests/data/interop")
 seeds_render_cpu=("$root/tests/fuzz/corpus/render_cpu")
 seeds_camera_json=("$root/tests/fuzz/corpus/camera_json")
 args_rgs_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_rgs_read.dict")
 args_ply_read=(-max_len=8192 "-dict=$root/tests/fuzz/fuzz_ply_read.dict")
+args_interop_read=(-max_len=20480 "-dict=$root/tests/fuzz/fuzz_interop_read.dict")
 args_render_cpu=(-max_len=4096)
 args_camera_json=(-max_len=4096 "-dict=$root/tests/fuzz/fuzz_camera_json.dict")
 
@@ -74,8 +76,9 @@ for t in "${targets[@]}"; do
   if [ "$status" -ne 0 ]; then
     line="$line: FAILED (exit $status)"
     failed+=("$t")
-    grep -E '^(==[0-9]+==ERROR|SUMMARY|.*runtime error|.*fuzz property failed|artifact_prefix|Test unit written)' \
-      "$log" | head -n 8 | sed 's/^/    /'
+    # The line after a broken property holds the Status that broke it.
+    grep -E -A1 '^(==[0-9]+==ERROR|SUMMARY|.*runtime error|.*fuzz property failed|artifact_prefix|Test unit written)' \
+      "$log" | grep -v '^--$' | head -n 12 | sed 's/^/    /'
   fi
   echo "$line"
   summary+=("$line")
