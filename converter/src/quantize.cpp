@@ -29,6 +29,10 @@ constexpr uint64_t kMinGaussiansPerWorker = 32768;
 constexpr float kHalfOverflow = 65520.0f;
 /// Most negative finite binary16, stored for log(0) = −inf so the section stays finite (exp gives 0).
 constexpr float kLowestHalf = -65504.0f;
+/// Largest binary16 whose exp is a finite float32 (SPEC §4.5): ln of the largest float, 88.7228, rounds to
+/// 88.75, whose exp overflows, so log scales above 88.6875 (linear scales above about 3.3e38) are stored as
+/// 88.6875, within one binary16 step (0.0625 in the log, 6.4 % of the scale) of the value.
+constexpr float kLargestLogScale = 88.6875f;
 
 bool finite(float v) { return std::isfinite(v); }
 
@@ -66,14 +70,6 @@ void scan_slice(const format::GaussianCloud& cloud, const QuantizeOptions& optio
       if (options.scale_encoding == format::ScaleEncoding::kLinear && s >= kHalfOverflow) {
         return fail(i, "scale " + std::to_string(a) + " = " + std::to_string(s) +
                            " overflows FP16 (max 65504); use the log scale encoding");
-      }
-      // SPEC §4.5: a log scale must give a finite float32 scale once f16-rounded (ln of the largest float
-      // rounds up to 88.75, whose exp overflows).
-      if (options.scale_encoding == format::ScaleEncoding::kLog && s > 0.0f &&
-          !std::isfinite(std::exp(format::half_bits_to_float(
-              format::float_to_half_bits(static_cast<float>(std::log(static_cast<double>(s)))))))) {
-        return fail(i, "scale " + std::to_string(a) + " = " + std::to_string(s) +
-                           " is too large for the log encoding (its f16 log exceeds ln of the largest float)");
       }
     }
     const float o = cloud.opacities[i];
@@ -339,7 +335,10 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
         for (int a = 0; a < 3; ++a) {
           const float s = cloud.scales[i * 3 + a];
           float v = s;
-          if (log_scale) v = s > 0.0f ? static_cast<float>(std::log(static_cast<double>(s))) : kLowestHalf;
+          if (log_scale) {
+            v = s > 0.0f ? std::min(static_cast<float>(std::log(static_cast<double>(s))), kLargestLogScale)
+                         : kLowestHalf;
+          }
           scale_bits[a] = format::float_to_half_bits(v);
           // Linear scales stored as FP16 subnormals or flushed to zero (normal, exact 0 and log are not).
           const uint16_t magnitude = scale_bits[a] & 0x7fffu;

@@ -9,6 +9,8 @@
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/metadata.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/writer.h"
 #include "test_data.h"
 
 namespace rgs::test {
@@ -234,6 +236,25 @@ TEST_CASE("quantize: edge cases") {
     CHECK(format::half_bits_to_float(enc.scales[0]) == -65504.0f);
     CHECK(std::exp(format::half_bits_to_float(enc.scales[0])) == 0.0f);
     CHECK(format::half_bits_to_float(enc.scales[3]) == doctest::Approx(std::log(1e-9)).epsilon(1e-3));
+  }
+  SUBCASE("log scale stores scales up to the largest float with a finite exp (SPEC §4.5)") {
+    // ln(FLT_MAX) = 88.7228 rounds to the binary16 88.75, whose exp overflows: such scales are stored as
+    // 88.6875, the binary16 below. (A .splat file stores linear float scales; fuzz_interop_read found 3.4e38.)
+    auto huge = cloud;
+    huge.scales[0] = std::numeric_limits<float>::max();
+    huge.scales[1] = 3.35e38f;  // ln = 88.7096, nearest binary16 88.6875 already
+    huge.scales[2] = 1e38f;     // ln = 87.4982 -> 87.5
+    QuantizeOptions log_options;
+    log_options.scale_encoding = format::ScaleEncoding::kLog;
+    const auto enc = quantize_ok(huge, log_options);
+    CHECK(format::half_bits_to_float(enc.scales[0]) == 88.6875f);
+    CHECK(format::half_bits_to_float(enc.scales[1]) == 88.6875f);
+    CHECK(format::half_bits_to_float(enc.scales[2]) == 87.5f);
+    CHECK(std::isfinite(std::exp(88.6875f)));
+    CHECK(std::isinf(std::exp(88.75f)));
+    const auto bytes = format::serialize_scene(enc);
+    REQUIRE(bytes.ok());
+    CHECK(format::validate(bytes->data(), bytes->size()).ok());
   }
   SUBCASE("empty cloud") {
     format::GaussianCloud empty;

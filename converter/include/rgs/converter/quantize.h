@@ -36,8 +36,9 @@ struct QuantizationReport {
 };
 
 /// Quantizes `cloud` (which must be consistent and finite): FP32 means copied bit-exactly, rotations
-/// normalized then FP16, scales and activated opacities FP16, SH symmetric INT8 with s[d][c] =
-/// max_i |SH[i][d][c]| / 127 (or the chosen percentile), q = round-half-away(SH / s) clamped to ±127.
+/// normalized then FP16, scales (log scales at most 88.6875, SPEC §4.5) and activated opacities FP16, SH
+/// symmetric INT8 with s[d][c] = max_i |SH[i][d][c]| / 127 (or the chosen percentile), q =
+/// round-half-away(SH / s) clamped to ±127.
 /// Fills metadata: SH degree, conventions, bounds (compute_bounds) and the quantization.
 /// When `errors` is not null it also receives the per-attribute errors of the result, measured in the same
 /// pass while the values are in cache: bit-identical to measure_quantization_errors(cloud, result).
