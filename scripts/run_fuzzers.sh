@@ -39,7 +39,7 @@ cmake --build "$build" --parallel "$jobs" --target "${targets[@]/#/fuzz_}"
 # and must-fail files of tests/data. libFuzzer writes what it finds into the first directory only.
 seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$root/tests/data/bad")
 seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
-seeds_interop_read=("$root/tests/fuzz/corpus/interop_read" "$root/tests/data/interop")
+seeds_interop_read=("$root/tests/fuzz/corpus/interop_read" "$root/tests/data/interop" "$root/tests/data/sog")
 seeds_render_cpu=("$root/tests/fuzz/corpus/render_cpu")
 seeds_camera_json=("$root/tests/fuzz/corpus/camera_json")
 args_rgs_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_rgs_read.dict")

@@ -81,15 +81,11 @@ struct ChunkBounds {
 
 inline double lerp(double a, double b, double t) { return a * (1 - t) + b * t; }
 
-Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& options) {
+Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOptions& options) {
   if (options.lod.has_value()) {
     return Status(StatusCode::kInvalidArgument,
                   "a level of detail applies only to streamed SOG (lod-meta.json); this input is a compressed PLY");
   }
-  std::vector<uint8_t> bytes;
-  RGS_RETURN_IF_ERROR(detail::read_whole_file(path, kMaxFileBytes, &bytes));
-  const uint8_t* data = bytes.data();
-  const size_t size = bytes.size();
   if (!detail::starts_with_ply_magic(data, size)) {
     return Status(StatusCode::kCorruptData, "not a PLY file (first line is not 'ply')");
   }
@@ -308,21 +304,23 @@ Result<InputScene> read_impl(const std::string& path, const SceneReadOptions& op
 
 }  // namespace
 
-Result<InputScene> read_compressed_ply(const std::string& path, const SceneReadOptions& options) {
+Result<InputScene> read_compressed_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                             const SceneReadOptions& options) {
   try {
-    Result<InputScene> r = read_impl(path, options);
-    if (!r.ok()) {
-      Status s = std::move(r).status();
-      // read_whole_file already names the path.
-      if (s.message().rfind(path, 0) != 0) s.prepend(path);
-      return s;
-    }
+    Result<InputScene> r = read_impl(data, size, options);
+    if (!r.ok()) return Status(std::move(r).status()).prepend(name);
     return r;
   } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, path + ": out of memory while decoding the compressed PLY");
+    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the compressed PLY");
   } catch (const std::length_error&) {
-    return Status(StatusCode::kOutOfMemory, path + ": out of memory while decoding the compressed PLY");
+    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the compressed PLY");
   }
+}
+
+Result<InputScene> read_compressed_ply(const std::string& path, const SceneReadOptions& options) {
+  std::vector<uint8_t> bytes;
+  RGS_RETURN_IF_ERROR(detail::read_whole_file(path, kMaxFileBytes, &bytes));  // names the path
+  return read_compressed_ply_bytes(bytes.data(), bytes.size(), path, options);
 }
 
 }  // namespace rgs::converter

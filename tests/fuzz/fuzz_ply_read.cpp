@@ -10,14 +10,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   rgs::converter::PlyReadOptions options;
-  options.max_gaussians = 1u << 20;
-  const auto rejected = rgs::converter::read_ply_bytes(data, size, "<fuzz>", options);
-  options.invalid_policy = rgs::converter::InvalidPolicy::kSanitize;
   options.hash_file = true;
-  const auto sanitized = rgs::converter::read_ply_bytes(data, size, "<fuzz>", options);
-  const uint64_t declared = sanitized.ok() ? sanitized->declared_vertices : 0;
-  if (const auto* cloud = rgs::fuzz::sanitized_cloud(rejected, sanitized, declared)) {
-    rgs::fuzz::check_converts(*cloud, (size & 1) != 0);
-  }
+  rgs::fuzz::check_reader(&rgs::converter::read_ply_bytes, options, data, size);
   return 0;
 }

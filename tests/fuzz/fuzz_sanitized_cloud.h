@@ -5,35 +5,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "fuzz_check.h"
+#include "rgs/converter/interop.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
 
 namespace rgs::fuzz {
-
-/// The reader's results under kReject and kSanitize (`rejected`, `sanitized`: Result<...> of a type with
-/// `cloud` and `hygiene`). Whatever kReject accepts, kSanitize accepts unchanged. Returns the cloud that
-/// kSanitize kept, or nullptr when it refused the input.
-template <typename SceneResult>
-const format::GaussianCloud* sanitized_cloud(const SceneResult& rejected, const SceneResult& sanitized,
-                                             uint64_t declared) {
-  if (rejected.ok()) {
-    RGS_FUZZ_CHECK(sanitized.ok(), sanitized.status().to_string());
-    RGS_FUZZ_CHECK(sanitized->cloud.size() == rejected->cloud.size() && sanitized->hygiene.dropped_gaussians == 0,
-                   "kSanitize dropped Gaussians that kReject accepted");
-  }
-  if (!sanitized.ok()) return nullptr;
-  RGS_FUZZ_CHECK(sanitized->cloud.is_consistent(), "inconsistent cloud");
-  RGS_FUZZ_CHECK(sanitized->cloud.size() + sanitized->hygiene.dropped_gaussians == declared,
-                 "kept + dropped != declared Gaussians");
-  return &sanitized->cloud;
-}
 
 /// kSanitize keeps only Gaussians that can be rendered: finite values, opacity in [0, 1]. They quantize
 /// (linear scales, or log scales when `log_scales` or when linear ones overflow FP16) unless the means span
@@ -67,6 +53,33 @@ inline void check_converts(const format::GaussianCloud& cloud, bool log_scales) 
   RGS_FUZZ_CHECK(bytes.ok(), bytes.status().to_string());
   const Status valid = format::validate(bytes->data(), bytes->size());
   RGS_FUZZ_CHECK(valid.ok(), valid.to_string());
+}
+
+inline uint64_t declared_of(const converter::PlyScene& scene) { return scene.declared_vertices; }
+inline uint64_t declared_of(const converter::InputScene& scene) { return scene.declared_vertices; }
+inline uint64_t declared_of(const converter::InteropScene& scene) { return scene.declared_gaussians; }
+
+/// Reads `data` with `read` (a read_*_bytes function) under kReject, then kSanitize, with `options`
+/// otherwise unchanged. Whatever kReject accepts, kSanitize accepts unchanged; what kSanitize keeps is a
+/// consistent cloud, kept + dropped = declared, and it converts (check_converts).
+template <typename Read, typename Options>
+void check_reader(Read read, Options options, const uint8_t* data, size_t size) {
+  options.max_gaussians = 1u << 20;
+  options.invalid_policy = converter::InvalidPolicy::kReject;
+  const auto rejected = read(data, size, "<fuzz>", options);
+  options.invalid_policy = converter::InvalidPolicy::kSanitize;
+  const auto sanitized = read(data, size, "<fuzz>", options);
+  if (rejected.ok()) {
+    RGS_FUZZ_CHECK(sanitized.ok(), sanitized.status().to_string());
+    RGS_FUZZ_CHECK(sanitized->cloud.size() == rejected->cloud.size() && sanitized->hygiene.dropped_gaussians == 0,
+                   "kSanitize dropped Gaussians that kReject accepted");
+  }
+  if (!sanitized.ok()) return;
+  const format::GaussianCloud& cloud = sanitized->cloud;
+  RGS_FUZZ_CHECK(cloud.is_consistent(), "inconsistent cloud");
+  RGS_FUZZ_CHECK(cloud.size() + sanitized->hygiene.dropped_gaussians == declared_of(*sanitized),
+                 "kept + dropped != declared Gaussians");
+  check_converts(cloud, (size & 1) != 0);
 }
 
 }  // namespace rgs::fuzz

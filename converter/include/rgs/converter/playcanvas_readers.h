@@ -10,6 +10,8 @@
 // anything is allocated for them; non-finite codebook or range values are kCorruptData.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include "rgs/converter/scene_reader.h"
@@ -27,6 +29,10 @@ namespace rgs::converter {
 /// file, chunk count ≠ ceil(vertices / 256), non-finite chunk bounds), kUnsupportedFeature (another storage
 /// format, property types or SH count), kLimitExceeded (vertices above max_gaussians), kOutOfMemory.
 Result<InputScene> read_compressed_ply(const std::string& path, const SceneReadOptions& options = {});
+
+/// Same as read_compressed_ply on bytes in memory (tests, fuzzing). `name` is used in error messages.
+Result<InputScene> read_compressed_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                             const SceneReadOptions& options = {});
 
 /// Reads a PlayCanvas SOG scene. `path` is a meta.json (images resolved next to it) or a bundled .sog
 /// (ZIP). meta.json fields are read by name: v2 (`"version": 2`, `count`, `means` {mins, maxs, files:
