@@ -181,8 +181,18 @@ Status check_input_file(const std::string& path) {
                                           "tool accepts it)");
 }
 
-int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path) {
-  Status readable = check_input_file(path);
+Status check_scene_input(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(path, ec)) return check_input_file(path);
+  for (const char* name : {"lod-meta.json", "meta.json"}) {
+    if (std::filesystem::is_regular_file(std::filesystem::path(path) / name, ec)) return Status();
+  }
+  return Status(StatusCode::kIoError, path + ": is a directory with neither lod-meta.json nor meta.json (the SOG "
+                                             "folders the tools read); give a scene file");
+}
+
+int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path, bool scene) {
+  Status readable = scene ? check_scene_input(path) : check_input_file(path);
   if (!readable.ok()) return report_error(tool, readable);
   Status declared = outputs.add_input(path);
   if (!declared.ok()) return report_usage_error(tool, declared);

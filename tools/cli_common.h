@@ -60,10 +60,16 @@ void install_interrupt_cleanup();
 /// @return kIoError naming `path` and what it is ("no such file", "is a directory", "is a FIFO ...").
 Status check_input_file(const std::string& path);
 
-/// Checks `path` with check_input_file and declares it as an input of `outputs`, so that no output of the
-/// run replaces it. @return kExitOk; else the error is printed and the exit code returned: kExitFailure for
-/// a path that cannot be read, kExitUsage for one that OutputSet::add_input refuses.
-int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path);
+/// check_input_file for a scene that converter::read_scene reads: also accepts a directory holding a
+/// lod-meta.json or meta.json (a streamed or plain SOG folder, which read_scene reads through that file).
+/// @return kIoError as check_input_file; for another directory, naming the files it lacks.
+Status check_scene_input(const std::string& path);
+
+/// Checks `path` with check_input_file (check_scene_input when `scene`) and declares it as an input of
+/// `outputs`, so that no output of the run replaces it. @return kExitOk; else the error is printed and the
+/// exit code returned: kExitFailure for a path that cannot be read, kExitUsage for one that
+/// OutputSet::add_input refuses.
+int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path, bool scene = false);
 
 /// Reads all of standard input (the tools' "-" input). @return kIoError with the OS cause.
 Result<std::vector<uint8_t>> read_standard_input();

@@ -298,7 +298,7 @@ int run(const Options& opt) {
   tools::CreatedDirectory created_images;
   format::OutputSet outputs;
   for (const std::string& input : opt.scenes) {
-    if (int code = tools::declare_input(kTool, outputs, input); code != tools::kExitOk) return code;
+    if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
   }
   if (!opt.cameras.cameras_path.empty()) {
     if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) {

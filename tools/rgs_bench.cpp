@@ -501,7 +501,8 @@ int run(const Options& opt) {
   format::OutputSet outputs;
   for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
     if (input.empty()) continue;
-    if (int code = tools::declare_input(kTool, outputs, input); code != tools::kExitOk) return code;
+    const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file
+    if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
   }
   if (!opt.json_path.empty()) {
     Status declared = outputs.add_output(opt.json_path);

@@ -548,7 +548,7 @@ int run(const Options& opt) {
     input.bytes = std::move(bytes).value();
     head.assign(input.bytes.begin(), input.bytes.begin() + std::min<size_t>(8, input.bytes.size()));
   } else {
-    Status readable = tools::check_input_file(opt.input);
+    Status readable = tools::check_scene_input(opt.input);
     if (!readable.ok()) return tools::report_error(kTool, readable);
     head = tools::read_file_head(opt.input, 8);
   }

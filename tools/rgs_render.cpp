@@ -296,7 +296,8 @@ int run(Options opt) {
   format::OutputSet outputs;
   for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
     if (input.empty()) continue;
-    if (int code = tools::declare_input(kTool, outputs, input); code != tools::kExitOk) return code;
+    const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file
+    if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
   }
 
   auto backend_or = make_backend(opt, *background);

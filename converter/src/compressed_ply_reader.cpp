@@ -195,16 +195,20 @@ Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOp
     }
   }
 
-  // Chunk bounds, checked finite (and the log-scale bounds small enough for float32 exp).
+  // Chunk bounds, checked finite, and small enough that what is decoded from them is a finite float32: exp of
+  // the log-scale bounds, and the SH DC (c − 0.5) / C0 of the colour bounds. Every decoded value lies between
+  // its chunk's two bounds, so checking the bounds covers every Gaussian.
   std::vector<ChunkBounds> bounds(static_cast<size_t>(chunks));
   const int fields = chunk_colors ? 18 : 12;
+  constexpr double kFloatMax = std::numeric_limits<float>::max();
   for (uint64_t c = 0; c < chunks; ++c) {
     const uint8_t* row = data + chunk.offset + c * chunk.stride;
     for (int f = 0; f < fields; ++f) {
       const float v = load_f32(row + chunk_offsets[f]);
       const bool scale_field = f >= 6 && f < 12;
-      if (!std::isfinite(v) ||
-          (scale_field && std::exp(static_cast<double>(v)) > static_cast<double>(std::numeric_limits<float>::max()))) {
+      const bool color_field = f >= 12;
+      if (!std::isfinite(v) || (scale_field && std::exp(static_cast<double>(v)) > kFloatMax) ||
+          (color_field && std::fabs((static_cast<double>(v) - 0.5) / kShC0) > kFloatMax)) {
         return Status(StatusCode::kCorruptData, "chunk " + std::to_string(c) + " has " +
                                                     (std::isfinite(v) ? "an overflowing " : "a non-finite ") +
                                                     (f < 12 ? kChunkFields[f] : kChunkColorFields[f - 12]) + " (" +

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -705,6 +706,12 @@ TEST_CASE("compressed PLY: broken files fail with a named code") {
     const char* message_part;
   };
   std::vector<uint8_t> truncated(good.begin(), good.end() - 100);
+  // Chunk 1's field f (0..17 in header order: min/max of x y z, of the log scales, of r g b) set to v.
+  auto with_chunk_field = [&](int f, float v) {
+    std::vector<uint8_t> b = good;
+    std::memcpy(b.data() + header_end + (18 + f) * sizeof(float), &v, sizeof(float));
+    return b;
+  };
   const std::vector<Case> cases = {
       {"truncated", truncated, StatusCode::kIoError, "truncated file"},
       {"chunk count", with_header("element chunk 4", "element chunk 3"), StatusCode::kCorruptData,
@@ -713,6 +720,13 @@ TEST_CASE("compressed PLY: broken files fail with a named code") {
        "truncated file"},
       {"packed type", with_header("property uint packed_color", "property int packed_color"),
        StatusCode::kUnsupportedFeature, "packed_color"},
+      {"NaN bound", with_chunk_field(0, std::nanf("")), StatusCode::kCorruptData, "chunk 1 has a non-finite min_x"},
+      // Finite bounds whose decoded values overflow float32: exp(89) and (3e38 − 0.5) / C0 (SH DC, ~1.1e39;
+      // fuzz_interop_read found the colour case).
+      {"log-scale bound", with_chunk_field(9, 89.0f), StatusCode::kCorruptData, "chunk 1 has an overflowing max_scale_x"},
+      {"colour bound", with_chunk_field(15, 3e38f), StatusCode::kCorruptData, "chunk 1 has an overflowing max_r"},
+      {"negative colour bound", with_chunk_field(13, -3e38f), StatusCode::kCorruptData,
+       "chunk 1 has an overflowing min_g"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.what);

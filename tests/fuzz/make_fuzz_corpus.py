@@ -9,6 +9,8 @@ samples/guitar.ply (the only scene the project may ship, ../shared/data/SOURCES.
                double means, SH degree 3 (f_rest as above), and a face element after the vertices.
   render_cpu/  inputs of fuzz_render_cpu.cpp: a camera looking at a guitar crop, with the RoofGS switches off,
                all on, and with SH degree 1.
+  sog_meta/    the meta.json files of tests/data/sog's guitar crop (v2 with SH 0 and 3, the unversioned layout),
+               compacted, for fuzz_sog_meta.cpp, which reads them next to guitar_crop_sh3's images.
   camera_json/ inputs of fuzz_camera_json.cpp: loader options and an INRIA cameras.json of a ring of cameras
                around the guitar crop (guitar has no cameras of its own).
 
@@ -18,6 +20,7 @@ files without writing.
 
     python3 tests/fuzz/make_fuzz_corpus.py [--check]      # python3 stdlib only
 """
+import json
 import math
 import os
 import struct
@@ -215,6 +218,10 @@ def build():
     add("ply_read", "guitar8_le_face.ply",
         ply_file(g64[:8], INRIA, tail=face, extra_header="element face 2\nproperty list uchar int vertex_indices"))
 
+    add("sog_meta", "guitar_crop_v2.json", sog_meta("guitar_crop/meta.json"))
+    add("sog_meta", "guitar_crop_sh3_v2.json", sog_meta("guitar_crop_sh3/meta.json"))
+    add("sog_meta", "guitar_crop_v1.json", sog_meta("guitar_crop_v1_meta.json"))
+
     add("render_cpu", "guitar32_baseline.bin", render_input(g64[:32], 0x00, 0))
     add("render_cpu", "guitar32_roofgs_all.bin", render_input(g64[:32], 0x1f, 0))
     add("render_cpu", "guitar16_sh1_key32.bin", render_input(g64[:16], 0x01, 1))
@@ -222,6 +229,23 @@ def build():
     add("camera_json", "guitar_ring4_downscale8_every2.bin", cameras_input(8.0, 0, 0, 1, 4))
     add("camera_json", "guitar_ring2_width64.bin", cameras_input(1.0, 64, 0, 0, 2))
     return files
+
+
+def sog_meta(name):
+    """A meta.json of tests/data/sog (splat-transform's, for the guitar crop) in compact JSON with its numbers
+    at 5 significant digits, so that it fits the seed size limit; the images it names stay valid for it."""
+    with open(os.path.join(ROOT, "tests", "data", "sog", name)) as f:
+        meta = json.load(f)
+
+    def rounded(v):
+        if isinstance(v, float):
+            return float("%.5g" % v)
+        if isinstance(v, list):
+            return [rounded(x) for x in v]
+        if isinstance(v, dict):
+            return {k: rounded(x) for k, x in v.items()}
+        return v
+    return json.dumps(rounded(meta), separators=(",", ":")).encode("ascii")
 
 
 def main():

@@ -26,7 +26,8 @@ namespace rgs::converter {
 /// and +4). Colours become SH DC: (c − 0.5) / 0.28209479177387814. Elements and properties are found by
 /// name; other elements after these are skipped.
 /// Errors name `path`: kIoError (unreadable, shorter than the header says), kCorruptData (not such a
-/// file, chunk count ≠ ceil(vertices / 256), non-finite chunk bounds), kUnsupportedFeature (another storage
+/// file, chunk count ≠ ceil(vertices / 256), non-finite chunk bounds, or bounds whose decoded scale or SH DC
+/// overflows float32), kUnsupportedFeature (another storage
 /// format, property types or SH count), kLimitExceeded (vertices above max_gaussians), kOutOfMemory.
 Result<InputScene> read_compressed_ply(const std::string& path, const SceneReadOptions& options = {});
 
