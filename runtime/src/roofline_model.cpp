@@ -93,11 +93,11 @@ FrameWork frame_work(const FrameWorkInputs& in) {
     // since a walk of at most 4 slices keeps its spans from the count for the emission (the longer walks'
     // second pass, a small share of the walks, is left out).
     const double slices = in.snugbox ? (in.fused ? 1.0 : 2.0) * std::sqrt(p * v) : 0.0;
-    // Large Gaussians (> 8 tiles), counted per work item (a chunk of up to 16 slices of a walk): a 16 B
-    // list entry, then emit_large_gaussians reads the entry and means2d, cov2d, snug_t, radius, depth bin,
-    // depth (52 B) and the 32 lanes of a warp rebuild the walk (tile rectangle, and the AccuTile setup); the
-    // fused kernel's 20 B per large Gaussian are counted per item too (an upper bound); the slices are the
-    // emission walk counted above.
+    // Large Gaussians (> kSerialTileLimit = 16 tiles), counted per work item (a chunk of up to 16 slices of a
+    // walk): a 16 B list entry, then emit_large_gaussians reads the entry and means2d, cov2d, snug_t, radius,
+    // depth bin, depth (52 B) and the 32 lanes of a warp rebuild the walk (tile rectangle, and the AccuTile
+    // setup); the fused kernel's 20 B per large Gaussian are counted per item too (an upper bound); the slices
+    // are the emission walk counted above.
     const double large = double(in.large_chunks);
     const double large_flops =
         large * kLargeItemThreads * (kFlopsTileRect + (in.snugbox ? kFlopsAccutileSetup : 0.0));

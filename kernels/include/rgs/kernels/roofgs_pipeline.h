@@ -74,8 +74,11 @@ struct GaussianSource {
 
 /// Pair emission (duplicate_roofgs and the fused kernel): a Gaussian with at most this many tiles is written
 /// by its own thread; a larger one is listed and written by emit_large_gaussians, a warp per chunk of its
-/// walk, in the same positions and order.
-constexpr uint32_t kSerialTileLimit = 8;
+/// walk, in the same positions and order. 16 rather than 8: a warp rebuilds a listed Gaussian's walk, which
+/// costs more than a lane writing up to 16 pairs (H100, three interleaved rounds, preprocess ms: taebak at 8K
+/// 0.389-0.407 -> 0.340-0.356, at 4K 0.264-0.276 -> 0.256-0.262, daffodils at 8K 0.114-0.116 -> 0.095-0.100,
+/// the rest within noise; 24 and 32 were no better at 8K and slower on flowers and daffodils).
+constexpr uint32_t kSerialTileLimit = 16;
 
 /// A large Gaussian's tile walk is listed in chunks of consecutive slices, a work item each: at most
 /// kLargeChunkSlices slices (a warp measures one per lane) and about kLargeChunkPairs pairs, so that the

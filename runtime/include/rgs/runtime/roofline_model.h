@@ -51,7 +51,7 @@ struct FrameWorkInputs {
   uint64_t visible = 0;
   uint32_t sh_degree = 0;    ///< 0..3; K = (degree + 1)² coefficients per channel
   /// L, work items of emit_large_gaussians: chunks of up to 16 slices of the RoofGS Gaussians with more than
-  /// kernels::kSerialTileLimit (8) tiles, a warp each (GpuRenderStats::large_chunks of the view).
+  /// kernels::kSerialTileLimit (16) tiles, a warp each (GpuRenderStats::large_chunks of the view).
   uint64_t large_chunks = 0;
   uint64_t pairs = 0;        ///< P, (tile, Gaussian) pairs sorted
   int sort_bits = 0;         ///< key bits the radix sort covers (GpuRenderStats::sort_bits)
