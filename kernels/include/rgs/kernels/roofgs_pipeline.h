@@ -148,8 +148,8 @@ cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* o
 
 /// Scratch of the fused kernel's order-preserving allocation (decoupled look-back over thread blocks).
 struct FusedScratch {
-  uint32_t* block_ticket = nullptr;        ///< [1], zeroed by the launcher
-  unsigned long long* block_status = nullptr;  ///< [blocks], zeroed by the launcher
+  uint32_t* block_ticket = nullptr;        ///< [1], zeroed by the launcher (block order only)
+  unsigned long long* block_status = nullptr;  ///< [blocks], zeroed by the launcher (block order only)
   /// [2] out: [0] pairs of the frame (even beyond capacity); [1] of them, the pairs of Gaussians with more
   /// than kSubtileLargeTiles tiles (the automatic sub-tile culling's measure)
   unsigned long long* totals = nullptr;
