@@ -13,10 +13,10 @@ namespace {
 /// through; a pair in a run [a, b) of equal keys goes to a + its rank in the run under (depth, index). A run that
 /// lies within the warp's 32 pairs is ranked with shuffles, each lane holding one pair's depth and index (one
 /// gather a pair); a run that crosses the warp's ends is ranked by its own pairs over global memory (O(run
-/// length) reads per pair, as the render's own loop over the tile's pairs). Real scenes tie in short runs, so
-/// nearly every run is the first kind. The pass is bound by its instructions (taebak at 4K: 76 % of issue slots
-/// busy, 172 instructions a pair, 45 % of the warps holding a run across their ends; Nsight Compute), so Index is
-/// uint32_t whenever the positions fit: with 64-bit positions the pass took 0.089 ms at 4K instead of 0.080, and
+/// length) reads per pair, as the render's own loop over the tile's pairs). Real scenes tie in short runs, yet
+/// on taebak at 4K 95 % of the warps hold one and 45 % one that crosses their ends. The pass is bound by its
+/// instructions there (76 % of issue slots busy, 172 instructions a pair; Nsight Compute), so Index is uint32_t
+/// whenever the positions fit: with 64-bit positions the pass took 0.089 ms at 4K instead of 0.080, and
 /// 0.161-0.163 at 8K instead of 0.137-0.138 (H100, three interleaved rounds).
 template <typename Index>
 __global__ void __launch_bounds__(detail::kBlockSize)
