@@ -70,11 +70,12 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs+fp32 --mode roofgs-serial --mode roofgs-tile
-         --mode roofgs-subtile --mode roofgs-quadrant)
-  # The ablation: every technique alone, all off, FP32 blending (roofgs+fp32), the load balancing off
-  # (roofgs-serial), sub-tile culling off or on in every frame instead of chosen per frame (roofgs-tile,
-  # roofgs-subtile) and per quadrant instead of per 4x4 block (roofgs-quadrant; above).
+  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs+fp32 --mode roofgs+whole-tiles --mode roofgs-serial
+         --mode roofgs-tile --mode roofgs-subtile --mode roofgs-quadrant)
+  # The ablation: every technique alone, all off, FP32 blending (roofgs+fp32), long tiles blended whole instead of
+  # in chunks (roofgs+whole-tiles), the load balancing off (roofgs-serial), sub-tile culling off or on in every
+  # frame instead of chosen per frame (roofgs-tile, roofgs-subtile) and per quadrant instead of per 4x4 block
+  # (roofgs-quadrant; above).
   ablation=("${modes[@]}" --mode roofgs-none --mode only-compact --mode only-fused --mode only-key32
             --mode only-snugbox --mode only-folded --mode only-fastexp)
   sizes=(--resolution 1920x1080 --resolution 3840x2160)

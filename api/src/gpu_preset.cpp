@@ -56,15 +56,24 @@ const std::vector<ModeEntry>& entries() {
         false},
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
       {{"roofgs+",
-        "roofgs with depth order, fast exp sigma 0.05798 and half-precision blending (binary16 alpha, "
-        "transmittance and colour sums; the fused kernel allocates pairs in arrival order: the depth order makes "
-        "their emission order moot)",
+        "roofgs with depth order, fast exp sigma 0.05798, half-precision blending (binary16 alpha, "
+        "transmittance and colour sums) and the tiles of more than 2048 pairs blended in chunks of 2048, a block "
+        "each; the fused kernel allocates pairs in arrival order: the depth order makes their emission order moot",
         false},
        [](bool compact) { return gpu_render_options(Preset::kFastest, compact); }},
       {{"roofgs+fp32", "roofgs+ with FP32 blending", false},
        [](bool compact) {
          GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
          o.roofgs.techniques.half_blend = false;
+         return o;
+       }},
+      {{"roofgs+whole-tiles",
+        "roofgs+ with every tile blended by one block (roofgs+ blends a tile of more than 2048 pairs in chunks "
+        "of 2048, a block each, merged front to back)",
+        false},
+       [](bool compact) {
+         GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
+         o.roofgs.techniques.tile_chunk_pairs = 0;
          return o;
        }},
       roofgs_variant("roofgs-serial",

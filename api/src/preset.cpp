@@ -2,6 +2,7 @@
 #include "rgs/api/preset.h"
 
 #include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 
 namespace rgs::api {
 
@@ -29,6 +30,7 @@ runtime::RoofgsOptions preset_techniques(Preset preset) {
     t.depth_order = true;
     t.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
     t.half_blend = true;
+    t.tile_chunk_pairs = kernels::kTileChunkPairs;
   } else if (preset == Preset::kPaper) {
     t = runtime::RoofgsOptions::all();
     t.accutile_within_baseline_rect = false;

@@ -8,6 +8,7 @@
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/half_blend.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/kernels/shared/tile_culling.h"
 
 namespace rgs::kernels {
@@ -261,6 +262,71 @@ __device__ inline void blend_pairs_half(const char* record_bytes, int padded, Of
   }
 }
 
+/// A chunk record's word `word` of thread `rank` in slot `slot` (TileChunks::records: [slot, word, thread]).
+template <bool kDepth>
+__device__ inline uint32_t* chunk_word(const TileChunks& chunks, uint32_t slot, int word, int rank) {
+  constexpr uint32_t kWords = kDepth ? 8 : 4;  // tile_chunk_record_words
+  return chunks.records + (uint64_t(slot) * kWords + uint32_t(word)) * kDualThreads + uint32_t(rank);
+}
+
+/// A chunk block's end. Stores this thread's two pixels in the chunk's record slot (T, r, g, b as binary16
+/// pairs, the sign of T the stop flag; kDepth: the depth sums) and counts the block as arrived; the tile's last
+/// chunk block to arrive then merges the tile's records in chunk order (merge_chunk, as the CPU reference's
+/// blend_tile_folded_half) and stores the pixels. The threadfence pattern: every block fences its stores before
+/// its arrival is counted, and the merging block reads the records past L1.
+template <bool kDepth>
+__device__ inline void finish_chunk(const TileChunks& chunks, uint32_t tile, uint32_t chunk, uint32_t tile_chunks,
+                                    const HalfFoldedPixels& pixels, uint32_t x, uint32_t y, const FrameParams& frame,
+                                    float4* out_rgba, float* out_depth) {
+  __shared__ bool last;
+  const int rank = int(threadIdx.x);
+  const uint32_t first_slot = chunks.first_item[tile];
+  *chunk_word<kDepth>(chunks, first_slot + chunk, 0, rank) = pixels.s.T;
+  *chunk_word<kDepth>(chunks, first_slot + chunk, 1, rank) = pixels.s.r;
+  *chunk_word<kDepth>(chunks, first_slot + chunk, 2, rank) = pixels.s.g;
+  *chunk_word<kDepth>(chunks, first_slot + chunk, 3, rank) = pixels.s.b;
+  if (kDepth) {
+    for (int p = 0; p < 2; ++p) {
+      *chunk_word<kDepth>(chunks, first_slot + chunk, 4 + p, rank) = __float_as_uint(pixels.depth_sum[p]);
+      *chunk_word<kDepth>(chunks, first_slot + chunk, 6 + p, rank) = __float_as_uint(pixels.weight_sum[p]);
+    }
+  }
+  __threadfence();
+  __syncthreads();
+  if (rank == 0) last = atomicAdd(chunks.arrivals + tile, 1u) == tile_chunks - 1;
+  __syncthreads();
+  if (!last) return;
+  __threadfence();
+  ChunkPixel merged[2];
+  for (uint32_t c = 0; c < tile_chunks; ++c) {
+    const uint32_t slot = first_slot + c;
+    const uint32_t T = __ldcg(chunk_word<kDepth>(chunks, slot, 0, rank));
+    const uint32_t colour[3] = {__ldcg(chunk_word<kDepth>(chunks, slot, 1, rank)),
+                                __ldcg(chunk_word<kDepth>(chunks, slot, 2, rank)),
+                                __ldcg(chunk_word<kDepth>(chunks, slot, 3, rank))};
+    for (int p = 0; p < 2; ++p) {
+      const auto lane = [p](uint32_t h) { return static_cast<uint16_t>(h >> (16 * p)); };
+      ChunkPixel part;
+      part.T = fabsf(half_to_float(lane(T)));
+      part.done = (lane(T) & 0x8000u) != 0;
+      for (int k = 0; k < 3; ++k) part.C[k] = half_to_float(lane(colour[k]));
+      if (kDepth) {
+        part.depth_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 4 + p, rank)));
+        part.weight_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 6 + p, rank)));
+      }
+      merge_chunk(merged[p], part);
+    }
+  }
+  for (int p = 0; p < 2; ++p) {
+    if (!(x < frame.width && y + uint32_t(p) < frame.height)) continue;
+    Pixel s;
+    s.T = merged[p].T;
+    for (int k = 0; k < 3; ++k) s.C[k] = merged[p].C[k];
+    s.depth_sum = merged[p].depth_sum, s.weight_sum = merged[p].weight_sum;
+    store<kDepth>(s, x, y + uint32_t(p), frame, out_rgba, out_depth);
+  }
+}
+
 /// Which pairs each lane of the folded rasterizer walks.
 enum class Cull {
   kNone,      ///< every pair of the tile
@@ -293,7 +359,8 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
 __global__ void __launch_bounds__(kDualThreads, 8)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
-                         FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
+                         TileChunks chunks, FrameParams frame, float sigma, float4* __restrict__ out_rgba,
+                         float* __restrict__ out_depth) {
   constexpr int kWarps = kDualThreads / 32;
   constexpr int kListsPerWarp = kCull == Cull::kBlock ? kGroupsPerWarp : 1;
   constexpr bool kCulls = kCull != Cull::kNone;
@@ -305,20 +372,37 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   // Entries per walk list: a batch's slots plus 2, so that the 4 lists a warp reads at once start in 4
   // different banks (an odd stride in words).
   constexpr int kListStride = kBatch + 2;
-  const uint32_t tile = blockIdx.y * frame.tiles_x + blockIdx.x;
+  // This block's tile and pairs [begin, end): with chunks, the first item_rows rows of blocks take the listed
+  // chunks of the long tiles in row-major order (those past the list's end return at once), the rest one tile
+  // each, (x, y − item_rows), which leaves a listed tile to its chunks.
+  const bool listed = blockIdx.y < chunks.item_rows;
+  uint32_t tile_x = blockIdx.x, tile_y = blockIdx.y - chunks.item_rows, chunk = 0;
+  if (listed) {
+    const uint32_t index = blockIdx.y * frame.tiles_x + blockIdx.x;
+    if (index >= *chunks.item_count) return;
+    const uint2 item = chunks.items[index];
+    tile_x = item.x % frame.tiles_x, tile_y = item.x / frame.tiles_x, chunk = item.y;
+  }
+  const uint32_t tile = tile_y * frame.tiles_x + tile_x;
+  uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
+  const uint32_t tile_chunks = tile_chunk_count(end - begin, chunks.chunk_pairs);  // 1 without chunks
+  if (tile_chunks > 1) {
+    if (!listed) return;  // the row-major block of a listed tile
+    begin += uint64_t(chunk) * chunks.chunk_pairs;
+    if (end - begin > chunks.chunk_pairs) end = begin + chunks.chunk_pairs;
+  }
   const int rank = int(threadIdx.x), warp = rank / 32, lane = rank % 32;
   const int group = lane / kGroupLanes, in_group = lane % kGroupLanes;
   const int block_x = 2 * (warp % 2) + group % 2, block_y = 2 * (warp / 2) + group / 2;
   const int lx = block_x * kCullBlockSize + in_group % kCullBlockSize;
   const int ly = block_y * kCullBlockSize + 2 * (in_group / kCullBlockSize);
-  const uint32_t x = blockIdx.x * kTileSize + uint32_t(lx);
-  const uint32_t y = blockIdx.y * kTileSize + uint32_t(ly);
-  const float origin_x = static_cast<float>(blockIdx.x * kTileSize);
-  const float origin_y = static_cast<float>(blockIdx.y * kTileSize);
+  const uint32_t x = tile_x * kTileSize + uint32_t(lx);
+  const uint32_t y = tile_y * kTileSize + uint32_t(ly);
+  const float origin_x = static_cast<float>(tile_x * kTileSize);
+  const float origin_y = static_cast<float>(tile_y * kTileSize);
   const PixelTerms terms = pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
   const float fast_exp_bias = kHalf ? fast_exp_half_bias(sigma) : kFastExp ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
   const Half2Bits alpha_0 = kHalf ? fast_exp_half2(0.f, 0.f, fast_exp_bias) : 0u;
-  const uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
 
   // Slot s < kBatch holds the batch's pair s; slot kBatch is the padding record.
   __shared__ PairRecord records[kBatch + 1];
@@ -433,6 +517,12 @@ __global__ void __launch_bounds__(kDualThreads, 8)
       blend_pairs<kFastExp, kDepth>(record_bytes, padded, listed, terms, fast_exp_bias, first, second);
     }
   }
+  if constexpr (kHalf) {
+    if (tile_chunks > 1) {
+      finish_chunk<kDepth>(chunks, tile, chunk, tile_chunks, pair, x, y, frame, out_rgba, out_depth);
+      return;
+    }
+  }
   if (x < frame.width && y < frame.height) {
     store<kDepth>(kHalf ? pair.finished(0) : first.finished(), x, y, frame, out_rgba, out_depth);
   }
@@ -455,31 +545,39 @@ void launch_pixel(const uint64_t* ranges, const uint32_t* values, const RenderIn
   }
 }
 
+/// Where the folded kernel finds its tiles and pairs: the ranges, the long tiles' chunks and the sorted values.
+struct FoldedLists {
+  const uint64_t* ranges;
+  TileChunks chunks;
+  const uint32_t* values;
+};
+
 template <bool kFastExp, Cull kCull, bool kHalf>
-void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
-                   float sigma, const ImageView& image, cudaStream_t stream) {
-  const dim3 grid(frame.tiles_x, frame.tiles_y), block(kDualThreads);
+void launch_folded(const FoldedLists& lists, const RenderInputs& in, const FrameParams& frame, float sigma,
+                   const ImageView& image, cudaStream_t stream) {
+  // One block per tile, and with chunks item_rows rows of blocks before them for the listed chunks.
+  const dim3 grid(frame.tiles_x, frame.tiles_y + lists.chunks.item_rows), block(kDualThreads);
   auto* rgba = reinterpret_cast<float4*>(image.rgba);
   if (image.depth != nullptr) {
     render_folded_kernel<kFastExp, true, kCull, kHalf>
-        <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, image.depth);
+        <<<grid, block, 0, stream>>>(lists.ranges, lists.values, in, lists.chunks, frame, sigma, rgba, image.depth);
   } else {
     render_folded_kernel<kFastExp, false, kCull, kHalf>
-        <<<grid, block, 0, stream>>>(ranges, values, in, frame, sigma, rgba, nullptr);
+        <<<grid, block, 0, stream>>>(lists.ranges, lists.values, in, lists.chunks, frame, sigma, rgba, nullptr);
   }
 }
 
-/// Half-precision blending exists with the fast exp only (its α is the binary16 fast exp).
+/// Half-precision blending exists with the fast exp only (its α is the binary16 fast exp); chunks with it only.
 template <bool kFastExp, bool kHalf>
-void launch_folded(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
-                   float sigma, const RasterOptions& raster, const ImageView& image, cudaStream_t stream) {
+void launch_folded(const FoldedLists& lists, const RenderInputs& in, const FrameParams& frame, float sigma,
+                   const RasterOptions& raster, const ImageView& image, cudaStream_t stream) {
   static_assert(kFastExp || !kHalf);
   if (!raster.subtile_culling) {
-    launch_folded<kFastExp, Cull::kNone, kHalf>(ranges, values, in, frame, sigma, image, stream);
+    launch_folded<kFastExp, Cull::kNone, kHalf>(lists, in, frame, sigma, image, stream);
   } else if (raster.block_culling) {
-    launch_folded<kFastExp, Cull::kBlock, kHalf>(ranges, values, in, frame, sigma, image, stream);
+    launch_folded<kFastExp, Cull::kBlock, kHalf>(lists, in, frame, sigma, image, stream);
   } else {
-    launch_folded<kFastExp, Cull::kQuadrant, kHalf>(ranges, values, in, frame, sigma, image, stream);
+    launch_folded<kFastExp, Cull::kQuadrant, kHalf>(lists, in, frame, sigma, image, stream);
   }
 }
 
@@ -494,20 +592,23 @@ cudaError_t render_baseline(const uint64_t* ranges, const uint32_t* sorted_value
   return detail::launch_result();
 }
 
-cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values, const RoofgsProjected& projected,
-                          const FrameParams& frame, const RoofgsFrame& roofgs, const RasterOptions& raster,
-                          const ImageView& image, cudaStream_t stream) {
+cudaError_t render_roofgs(const uint64_t* ranges, const TileChunks& chunks, const uint32_t* sorted_values,
+                          const RoofgsProjected& projected, const FrameParams& frame, const RoofgsFrame& roofgs,
+                          const RasterOptions& raster, const ImageView& image, cudaStream_t stream) {
   const RenderInputs in{reinterpret_cast<const float2*>(projected.means2d),
                         reinterpret_cast<const float4*>(projected.conic_opacity), nullptr,
                         reinterpret_cast<const float4*>(projected.colour_log_opacity), projected.depths};
   const float sigma = roofgs.fast_exp_sigma;
   if (raster.folded) {
-    if (raster.fast_exp && raster.half_blend) {
-      launch_folded<true, true>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
+    const bool half = raster.fast_exp && raster.half_blend;
+    if (chunks.chunk_pairs != 0 && !half) return cudaErrorInvalidValue;  // chunk records are binary16
+    const FoldedLists lists{ranges, chunks, sorted_values};
+    if (half) {
+      launch_folded<true, true>(lists, in, frame, sigma, raster, image, stream);
     } else if (raster.fast_exp) {
-      launch_folded<true, false>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
+      launch_folded<true, false>(lists, in, frame, sigma, raster, image, stream);
     } else {
-      launch_folded<false, false>(ranges, sorted_values, in, frame, sigma, raster, image, stream);
+      launch_folded<false, false>(lists, in, frame, sigma, raster, image, stream);
     }
   } else if (raster.fast_exp) {
     launch_pixel<true, true>(ranges, sorted_values, in, frame, sigma, image, stream);

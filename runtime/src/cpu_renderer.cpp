@@ -13,6 +13,7 @@
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
 #include "rgs/kernels/shared/spherical_harmonics.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/kernels/shared/tile_culling.h"
 #include "rgs/runtime/cpu_renderer.h"
 
@@ -214,43 +215,59 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
 /// each "thread" keeps its two pixels' T and C as binary16 pairs and blends both with blend_half2, α from
 /// fast_exp_half2_of_v on the fast exp's FP32 argument v (coefficients from fast_exp_half_coefficients).
 /// Pairs where neither pixel passes change no bit (α = +0), so they are skipped here, as are both pixels once
-/// done.
+/// done. A list of more than `chunk_pairs` pairs (frame_chunk_pairs; 0: off) is blended in chunks, each from
+/// T = 1, and the chunks' FP32 values merged in order (kernels/shared/tile_chunks.h), as the GPU's chunk blocks
+/// do.
 void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
-                            RenderResult* out) {
+                            uint32_t chunk_pairs, RenderResult* out) {
   const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
   const float bias = k::fast_exp_half_bias(options.roofgs.fast_exp_sigma);
   const k::Half2Bits alpha_0 = k::fast_exp_half2(0.f, 0.f, bias);
   std::vector<k::FoldedCoefficients> of_v(list.size());  // the coefficients of the fast exp's argument v
   for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::fast_exp_half_coefficients(list[j].folded, bias);
+  const uint32_t chunks = k::tile_chunk_count(list.size(), chunk_pairs);
   for (int ly = 0; ly < k::kTileSize; ly += 2) {
     for (int lx = 0; lx < k::kTileSize; ++lx) {
       const uint32_t x = x0 + uint32_t(lx), y = y0 + uint32_t(ly);
-      k::HalfPixelPair pair;
-      if (!(x < out->width && y < out->height)) pair.T |= 0x8000u;  // outside the image: done
-      if (!(x < out->width && y + 1 < out->height)) pair.T |= 0x80000000u;
-      float depth_sum[2] = {0.f, 0.f}, weight_sum[2] = {0.f, 0.f};
       const k::PixelTerms terms = k::pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
-      for (size_t j = 0; j < list.size() && k::half_pair_live(pair); ++j) {
-        const TileGaussian& g = list[j];
-        const float v_first = k::folded_power(of_v[j], terms);
-        const float v_second = k::dual_pixel_power(v_first, of_v[j], terms);
-        const k::Half2Bits alpha = k::fast_exp_half2_alpha(k::fast_exp_half2_of_v(v_first, v_second), alpha_0);
-        if (alpha == 0) continue;
-        const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]), k::half2_broadcast(g.rgb[1]),
-                                              k::half2_broadcast(g.rgb[2]));
+      k::ChunkPixel merged[2];
+      for (uint32_t chunk = 0; chunk < chunks; ++chunk) {
+        const size_t first = chunks == 1 ? 0 : size_t(chunk) * chunk_pairs;
+        const size_t last = chunks == 1 ? list.size() : std::min(list.size(), first + chunk_pairs);
+        k::HalfPixelPair pair;
+        if (!(x < out->width && y < out->height)) pair.T |= 0x8000u;  // outside the image: done
+        if (!(x < out->width && y + 1 < out->height)) pair.T |= 0x80000000u;
+        float depth_sum[2] = {0.f, 0.f}, weight_sum[2] = {0.f, 0.f};
+        for (size_t j = first; j < last && k::half_pair_live(pair); ++j) {
+          const TileGaussian& g = list[j];
+          const float v_first = k::folded_power(of_v[j], terms);
+          const float v_second = k::dual_pixel_power(v_first, of_v[j], terms);
+          const k::Half2Bits alpha = k::fast_exp_half2_alpha(k::fast_exp_half2_of_v(v_first, v_second), alpha_0);
+          if (alpha == 0) continue;
+          const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]),
+                                                k::half2_broadcast(g.rgb[1]), k::half2_broadcast(g.rgb[2]));
+          for (int p = 0; p < 2; ++p) {
+            const float wp = k::half_to_float(static_cast<uint16_t>(w >> (16 * p)));
+            depth_sum[p] = std::fmaf(g.depth, wp, depth_sum[p]);
+            weight_sum[p] += wp;
+          }
+        }
         for (int p = 0; p < 2; ++p) {
-          const float wp = k::half_to_float(static_cast<uint16_t>(w >> (16 * p)));
-          depth_sum[p] = std::fmaf(g.depth, wp, depth_sum[p]);
-          weight_sum[p] += wp;
+          const auto lane = [p](k::Half2Bits h) { return static_cast<uint16_t>(h >> (16 * p)); };
+          k::ChunkPixel part;
+          part.T = std::fabs(k::half_to_float(lane(pair.T)));
+          part.done = (lane(pair.T) & 0x8000u) != 0;
+          for (int c = 0; c < 3; ++c) part.C[c] = k::half_to_float(lane(c == 0 ? pair.r : c == 1 ? pair.g : pair.b));
+          part.depth_sum = depth_sum[p], part.weight_sum = weight_sum[p];
+          k::merge_chunk(merged[p], part);
         }
       }
       for (int p = 0; p < 2; ++p) {
         if (!(x < out->width && y + uint32_t(p) < out->height)) continue;
-        const auto lane = [p](k::Half2Bits h) { return k::half_to_float(static_cast<uint16_t>(h >> (16 * p))); };
         PixelState s;
-        s.T = std::fabs(lane(pair.T));
-        s.C[0] = lane(pair.r), s.C[1] = lane(pair.g), s.C[2] = lane(pair.b);
-        s.depth_sum = depth_sum[p], s.weight_sum = weight_sum[p];
+        s.T = merged[p].T;
+        for (int c = 0; c < 3; ++c) s.C[c] = merged[p].C[c];
+        s.depth_sum = merged[p].depth_sum, s.weight_sum = merged[p].weight_sum;
         store_pixel(s, x, y + uint32_t(p), options, out);
       }
     }
@@ -545,6 +562,7 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
                                                 "x" + std::to_string(frame.height) + " image");
   }
   const bool folded = options.roofgs.folded_coefficients;
+  const uint32_t chunk_pairs = k::frame_chunk_pairs(bins.values.size(), options.roofgs.tile_chunk_pairs);
   Status work = detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),
                                      [&](uint64_t row) {
     std::vector<TileGaussian> list;  // per worker, reused across the row's tiles
@@ -554,7 +572,7 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
       const uint64_t begin = bins.tile_begin[id], end = bins.tile_begin[id + 1];
       gather_tile(gaussians, bins.values.data() + begin, end - begin, tx, ty, folded, &list);
       if (folded && options.roofgs.fast_exp && options.roofgs.half_blend) {
-        blend_tile_folded_half(list, tx, ty, options, result);
+        blend_tile_folded_half(list, tx, ty, options, chunk_pairs, result);
       } else if (folded) {
         blend_tile_folded(list, tx, ty, options, result);
       } else {

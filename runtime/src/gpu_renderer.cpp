@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "rgs/kernels/roofgs_pipeline.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/runtime/cpu_renderer.h"
 
@@ -119,6 +120,12 @@ struct GpuRenderer::Buffers {
   DeviceBuffer<uint8_t> sort_temp;
   // Per tile: [begin, end) pairs.
   DeviceBuffer<uint64_t> ranges;
+  // The long tiles' chunks (RoofgsOptions::tile_chunk_pairs, kernels::TileChunks).
+  DeviceBuffer<uint2> chunk_items;
+  DeviceBuffer<uint32_t> chunk_first, chunk_arrivals, chunk_records;
+  // Two item counts, used by alternate listings: each listing zeroes the other's (zeroed once when allocated).
+  DeviceBuffer<uint32_t> chunk_counts;
+  int chunk_parity = 0;
   // The frame rendered for an OutputImage that the render kernel cannot write directly (converted after).
   DeviceImage staging;
   // Counts read back from the device: the pair count and (RoofGS) the large Gaussians' pairs.
@@ -159,7 +166,8 @@ struct GpuRenderer::Buffers {
            offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + large_pairs.bytes() +
            fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() +
            keys32.bytes() + keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() +
-           ranges.bytes() + uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
+           ranges.bytes() + chunk_items.bytes() + chunk_counts.bytes() + chunk_first.bytes() +
+           chunk_arrivals.bytes() + chunk_records.bytes() + uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
   }
 
   /// Per-Gaussian arrays both pipelines use (exactly n entries: the scene sizes them, not the frame).
@@ -458,6 +466,14 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
       RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
       stats.large_chunks = large;
     }
+    if (stats.tile_chunks_listed) {
+      // The count this frame used: the parity flipped when it was listed.
+      const uint32_t* count = buffers_->chunk_counts.data() + (1 - buffers_->chunk_parity);
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&stats.tile_chunks, count, sizeof(uint32_t), cudaMemcpyDeviceToHost,
+                                               stream),
+                               "GpuRenderer: tile chunk count read-back");
+      RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: tile chunk count read-back");
+    }
   }
   return stats;
 }
@@ -676,6 +692,40 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     RGS_RETURN_IF_CUDA_ERROR(ranged, "GpuRenderer: tile ranges kernel");
   }
   const uint32_t* sorted_values = reorder_ties ? b.values.data() : b.values_sorted.data();
+  // Long tiles in chunks (half-precision blending only: the chunk records are binary16).
+  kernels::TileChunks chunks;
+  const bool half = t.folded_coefficients && t.fast_exp && t.half_blend;
+  const uint32_t chunk_pairs = kernels::frame_chunk_pairs(pairs, t.tile_chunk_pairs);
+  if (half && chunk_pairs > 0 && pairs > chunk_pairs) {
+    // At most 2·2048 items (chunks hold at least 1/2048 of the pairs), in rows of tiles_x blocks.
+    const uint64_t capacity = kernels::tile_chunk_capacity(pairs, chunk_pairs);
+    const uint64_t item_rows = (capacity + frame.tiles_x - 1) / frame.tiles_x;
+    RGS_RETURN_ERROR_IF(item_rows + frame.tiles_y > 65535, StatusCode::kLimitExceeded,
+                        "GpuRenderer: " + std::to_string(capacity) + " tile chunks exceed the render grid");
+    const size_t record_words = size_t(capacity) * kernels::tile_chunk_record_words(view.depth != nullptr) * 128;
+    RGS_RETURN_IF_ERROR(b.chunk_items.reserve(capacity, "GpuRenderer: tile chunk list"));
+    if (b.chunk_counts.size() < 2) {
+      RGS_RETURN_IF_ERROR(b.chunk_counts.reserve_exact(2, "GpuRenderer: tile chunk counts"));
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemsetAsync(b.chunk_counts.data(), 0, 2 * sizeof(uint32_t), stream),
+                               "GpuRenderer: tile chunk counts");
+    }
+    RGS_RETURN_IF_ERROR(b.chunk_first.reserve(num_tiles, "GpuRenderer: first chunk of each tile"));
+    RGS_RETURN_IF_ERROR(b.chunk_arrivals.reserve(num_tiles, "GpuRenderer: tile chunk arrivals"));
+    RGS_RETURN_IF_ERROR(b.chunk_records.reserve(record_words, "GpuRenderer: tile chunk records"));
+    chunks.chunk_pairs = chunk_pairs;
+    chunks.capacity = uint32_t(capacity);
+    chunks.item_rows = uint32_t(item_rows);
+    chunks.items = b.chunk_items.data();
+    chunks.item_count = b.chunk_counts.data() + b.chunk_parity;
+    chunks.next_item_count = b.chunk_counts.data() + (1 - b.chunk_parity);
+    b.chunk_parity = 1 - b.chunk_parity;
+    chunks.first_item = b.chunk_first.data();
+    chunks.arrivals = b.chunk_arrivals.data();
+    chunks.records = b.chunk_records.data();
+    RGS_RETURN_IF_CUDA_ERROR(kernels::list_tile_chunks(b.ranges.data(), num_tiles, chunks, stream),
+                             "GpuRenderer: tile chunk list kernel");
+    stats->tile_chunks_listed = true;
+  }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
 
   // kAuto: with SnugBox + AccuTile a large Gaussian's tiles are those its ellipse reaches, so its quadrants
@@ -688,8 +738,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   stats->block_culling = stats->subtile_culling && options.block_culling;
   const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, options.block_culling,
                                        t.half_blend};
-  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), sorted_values, b.roofgs_projected(), frame, rf,
-                                                  raster, view, stream),
+  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), chunks, sorted_values, b.roofgs_projected(),
+                                                  frame, rf, raster, view, stream),
                            "GpuRenderer: render kernel");
   return Status();
 }

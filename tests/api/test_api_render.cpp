@@ -13,6 +13,7 @@
 #include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
 #include "rgs/format/half.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/runtime/cpu_renderer.h"
 #include "test_data.h"
 
@@ -65,6 +66,8 @@ TEST_CASE("presets: names, technique switches, CPU options") {
   CHECK_FALSE(paper.accutile_within_baseline_rect);
   CHECK_FALSE(paper.depth_order);
   CHECK_FALSE(paper.half_blend);
+  CHECK(paper.tile_chunk_pairs == 0);
+  CHECK(api::preset_techniques(api::Preset::kFastest).tile_chunk_pairs == kernels::kTileChunkPairs);
   CHECK(api::preset_reads_fp32(api::Preset::kFaithful));
   CHECK_FALSE(api::preset_reads_fp32(api::Preset::kFastest));
 #if RGS_HAS_CUDA
@@ -79,7 +82,10 @@ TEST_CASE("presets: names, technique switches, CPU options") {
   CHECK(api::gpu_mode_options("roofgs+", true).ok());
   CHECK(api::gpu_mode_options("only-compact", false).status().code() == StatusCode::kInvalidArgument);
   CHECK(api::gpu_mode_options("nope", true).status().code() == StatusCode::kInvalidArgument);
-  CHECK(api::gpu_modes().size() == 15);
+  CHECK(api::gpu_modes().size() == 16);
+  CHECK(gpu.roofgs.techniques.tile_chunk_pairs == kernels::kTileChunkPairs);
+  CHECK(api::gpu_mode_options("roofgs+whole-tiles", true)->roofgs.techniques.tile_chunk_pairs == 0);
+  CHECK(api::gpu_mode_options("roofgs+whole-tiles", true)->roofgs.techniques.half_blend);
   CHECK_FALSE(api::gpu_mode_options("roofgs-quadrant", true)->roofgs.block_culling);
   CHECK(api::gpu_mode_options("roofgs", true)->roofgs.block_culling);
   CHECK_FALSE(api::gpu_mode_options("roofgs+fp32", true)->roofgs.techniques.half_blend);

@@ -102,6 +102,9 @@ std::vector<Mode> modes() {
   m.push_back({"all four + depth order, sigma 0.05798", o});
   o.half_blend = true;
   m.push_back({"all four + depth order + half blend, sigma 0.05798", o});
+  // Chunks of at least 64 pairs: nearly every flowers tile is blended by several chunk blocks and merged.
+  o.tile_chunk_pairs = 64;
+  m.push_back({"all four + depth order + half blend, sigma 0.05798, chunks of >= 64 pairs", o});
   return m;
 }
 

@@ -10,6 +10,8 @@
 //   (~1.1M pairs) in 1.0-2.8 s (the 4K frame has 8.25M pairs over 32 times the pixels). Measured with
 //   half-precision blending: 5 of 8 windows identical, the others 110-122 dB, max |Δ| ≤ 0.002 (a few binary16
 //   ulps, where the device's logf differs from the host's by an ulp); with FP32 blending 162 dB, ≤ 1.2e-6.
+// - Long tiles in chunks (the fastest preset): two 1080p views against whole tiles, and a 256x256 window around
+//   the longest tiles against the CPU reference.
 // - Quality against the GPU FP32 baseline (preset faithful) of the same .rgs over the 8 views at 4K: mean
 //   PSNR ≥ 50 dB, min ≥ 48 dB (the floors of RoofGS+ on flowers in test_gpu_roofgs.cpp). Measured: mean 61.1,
 //   min 60.7 dB (FP32 blending: 63.6, 63.0).
@@ -29,6 +31,7 @@
 #include "rgs/api/preset.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/kernels/roofgs_pipeline.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 
 namespace rgs::test {
 namespace {
@@ -180,6 +183,64 @@ TEST_CASE("taebak at 4K: the fastest preset's image equals the CPU reference's o
     CHECK(d.psnr >= 70.0);
     CHECK(covered_fraction >= 0.5);
   }
+}
+
+TEST_CASE("taebak at 1080p: long tiles in chunks agree with the CPU reference and stay near whole tiles") {
+  // The fastest preset blends the long tiles in chunks (kernels/shared/tile_chunks.h: of more than
+  // max(2048, pairs / 2048) pairs, about 3,200 for these frames). taebak's horizon puts up to ~20,000 pairs in a
+  // 1080p tile. (1) Two full views, chunked against whole tiles on the GPU, colour and depth: chunk blocks ran,
+  // and the change stays within binary16 rounding (measured max |diff| 0.011, 74 dB; the CPU test "long tiles
+  // in chunks" on flowers, with many more chunks: 0.0046, 70.8 dB). (2) A 256x256 window of view 0 around its
+  // longest tiles (14,116 pairs in tile (65, 26)) against the CPU reference, which chunks the same lists: the
+  // tolerances of the 4K window test (measured: identical).
+  if (!have_gpu()) return;
+  const GpuScenePair& scene = taebak();
+  if (!scene.available) return;
+  auto renderer = runtime::GpuRenderer::create();
+  REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
+  GpuRenderOptions chunked = api::gpu_render_options(api::Preset::kFastest, scene.gpu->has_compact());
+  chunked.time_stages = true;  // reads back the chunk count
+  REQUIRE(chunked.roofgs.techniques.tile_chunk_pairs == kernels::kTileChunkPairs);
+  GpuRenderOptions whole = chunked;
+  whole.roofgs.techniques.tile_chunk_pairs = 0;
+  const std::vector<Camera> cams = taebak_cameras(scene, 1920, 1080);
+  for (const Camera& cam : {cams[0], cams[5]}) {
+    CAPTURE(cam.name);
+    const GpuFrame a = render_gpu(*renderer, *scene.gpu, cam, chunked, true);
+    const GpuFrame b = render_gpu(*renderer, *scene.gpu, cam, whole, true);
+    const Diff d = compare_rgb(a.rgba, rgb_of(b.rgba));
+    double depth_diff = 0;
+    for (size_t i = 0; i < a.depth.size(); ++i) {
+      depth_diff = std::max(depth_diff, double(std::fabs(a.depth[i] - b.depth[i])));
+    }
+    MESSAGE("taebak " << cam.name << " at 1920x1080: " << a.stats.tile_chunks << " chunk blocks; chunked vs whole "
+                      << "tiles PSNR " << d.psnr << " dB, max |diff| " << d.max_abs << ", depth max |diff| "
+                      << depth_diff);
+    CHECK(a.stats.tile_chunks_listed);
+    CHECK(a.stats.tile_chunks > 0);
+    CHECK_FALSE(b.stats.tile_chunks_listed);
+    CHECK(a.stats.pairs == b.stats.pairs);
+    CHECK_FALSE(d.any_nan);
+    CHECK_FALSE(any_nan(a.depth));
+    CHECK(d.max_abs <= 0.02);
+    CHECK(d.psnr >= 65.0);
+  }
+  const Camera window = window_of(cams[0], 960, 320, 256, 256);
+  CAPTURE(window.name);
+  const auto start = std::chrono::steady_clock::now();
+  auto cpu = runtime::render_cpu(scene.cloud, window, api::cpu_render_options(api::Preset::kFastest, scene.bounds));
+  REQUIRE_MESSAGE(cpu.ok(), cpu.status().to_string());
+  const double cpu_s = seconds_since(start);
+  const GpuFrame gpu = render_gpu(*renderer, *scene.gpu, window, chunked, false);
+  const Diff d = compare_rgb(gpu.rgba, cpu->rgb);
+  MESSAGE("taebak " << window.name << ": " << gpu.stats.tile_chunks << " chunk blocks, PSNR " << d.psnr
+                    << " dB against the CPU, max |diff| " << d.max_abs << ", pairs " << gpu.stats.pairs << "; CPU "
+                    << cpu_s << " s");
+  CHECK(gpu.stats.tile_chunks > 0);
+  CHECK(gpu.stats.pairs == cpu->stats.pairs);
+  CHECK_FALSE(d.any_nan);
+  CHECK(d.max_abs <= 0.02);
+  CHECK(d.psnr >= 70.0);
 }
 
 TEST_CASE("taebak at 4K: fastest preset quality against the GPU FP32 baseline over the 8 views") {

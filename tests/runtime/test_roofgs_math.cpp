@@ -15,6 +15,7 @@
 #include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/kernels/shared/tile_culling.h"
 
 namespace rgs::test {
@@ -510,6 +511,47 @@ TEST_CASE("block_mask: no pixel of a cleared 4x4 block passes the 1/255 test (ra
   // could have cleared (a needle keeps the blocks of its box).
   CHECK(cleared_in_kept_quadrant > (blocks - cleared) / 4);
   CHECK(small_kept_without_pixel < (small_blocks - small_cleared) / 4);
+}
+
+TEST_CASE("tile chunks: chunk size and count, and the merge of chunks") {
+  using kernels::ChunkPixel;
+  // K = max(tile_chunk_pairs, ⌈pairs / 2048⌉), 0 when off.
+  CHECK(kernels::frame_chunk_pairs(6'555'764, 0) == 0);
+  CHECK(kernels::frame_chunk_pairs(1'000, 2048) == 2048);
+  CHECK(kernels::frame_chunk_pairs(2048ull * 2048, 2048) == 2048);
+  CHECK(kernels::frame_chunk_pairs(2048ull * 2048 + 1, 2048) == 2049);
+  CHECK(kernels::frame_chunk_pairs(6'555'764, 2048) == 3202);  // taebak view 0 at 1080p
+  CHECK(kernels::frame_chunk_pairs(~0ull, 1) == 0xffffffffu);
+  CHECK(kernels::tile_chunk_count(5000, 0) == 1);
+  CHECK(kernels::tile_chunk_count(2048, 2048) == 1);
+  CHECK(kernels::tile_chunk_count(2049, 2048) == 2);
+  CHECK(kernels::tile_chunk_count(21'140, 3202) == 7);
+
+  // Merging a first chunk into the default pixel gives its values exactly.
+  ChunkPixel first;
+  first.C[0] = 0.3f, first.C[1] = 0.1f, first.C[2] = 0.7f;
+  first.T = 0.25f, first.depth_sum = 1.5f, first.weight_sum = 0.75f;
+  ChunkPixel acc;
+  kernels::merge_chunk(acc, first);
+  CHECK(acc.C[0] == first.C[0]);
+  CHECK(acc.C[2] == first.C[2]);
+  CHECK(acc.T == first.T);
+  CHECK(acc.depth_sum == first.depth_sum);
+  CHECK_FALSE(acc.done);
+  // The next chunk goes behind it: C += T·C', T ·= T'.
+  ChunkPixel second;
+  second.C[0] = 0.5f, second.T = 0.5f, second.weight_sum = 0.5f, second.done = true;
+  kernels::merge_chunk(acc, second);
+  CHECK(acc.C[0] == 0.3f + 0.25f * 0.5f);
+  CHECK(acc.C[1] == 0.1f);
+  CHECK(acc.T == 0.125f);
+  CHECK(acc.weight_sum == 0.75f + 0.25f * 0.5f);
+  CHECK(acc.done);
+  // A pixel that stopped takes nothing from the chunks after.
+  const ChunkPixel before = acc;
+  kernels::merge_chunk(acc, first);
+  CHECK(acc.C[0] == before.C[0]);
+  CHECK(acc.T == before.T);
 }
 
 }  // namespace

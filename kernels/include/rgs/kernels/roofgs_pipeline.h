@@ -12,6 +12,7 @@
 //   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
 //   [order_equal_keys_by_depth]  optional with the 32-bit key: tied keys in exact depth order, and the
 //                            ranges (RoofGS+; replaces tile_ranges)
+//   [list_tile_chunks]       optional with half-precision blending: the long tiles' chunks
 //   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
 //                            the fast exp
 #pragma once
@@ -234,11 +235,47 @@ struct RasterOptions {
   bool half_blend = false;
 };
 
+/// Long tiles blended in chunks (beyond the paper; runtime::RoofgsOptions::tile_chunk_pairs, the rule in
+/// kernels/shared/tile_chunks.h): a tile of more than chunk_pairs pairs is rendered by one block per chunk,
+/// listed by list_tile_chunks; each chunk block leaves its pixels' T, C (and depth sums) in a record slot, and
+/// the tile's last chunk block to finish merges the slots in chunk order and writes the pixels. Device arrays,
+/// sized by the caller; with chunk_pairs == 0 the others are unused.
+struct TileChunks {
+  uint32_t chunk_pairs = 0;        ///< pairs per chunk (K); 0: off, one block per tile
+  uint32_t capacity = 0;           ///< items and record slots: tile_chunk_capacity(pairs, K)
+  /// Rows of tiles_x blocks that render_roofgs launches for the items before the tiles: ⌈capacity / tiles_x⌉.
+  uint32_t item_rows = 0;
+  uint2* items = nullptr;          ///< [capacity] (tile, chunk) of every chunk of every chunked tile
+  uint32_t* item_count = nullptr;  ///< [1] items listed; 0 before list_tile_chunks
+  /// [1] the next frame's item_count, zeroed by list_tile_chunks (so no frame needs a memset of its own).
+  uint32_t* next_item_count = nullptr;
+  uint32_t* first_item = nullptr;  ///< [tiles] a chunked tile's first item; its chunks follow in order
+  uint32_t* arrivals = nullptr;    ///< [tiles] chunk blocks of the tile that have finished
+  uint32_t* records = nullptr;     ///< [capacity, tile_chunk_record_words(depth), 128] the chunks' pixels
+};
+
+/// Items (chunk blocks and record slots) a frame of `pairs` pairs can need: Σ ⌈n/K⌉ over the tiles with
+/// n > K pairs, at most 2·⌊pairs/K⌋ since each such tile has ⌊n/K⌋ ≥ 1.
+inline uint64_t tile_chunk_capacity(uint64_t pairs, uint32_t chunk_pairs) {
+  return chunk_pairs == 0 ? 0 : 2 * (pairs / chunk_pairs);
+}
+
+/// 32-bit words per thread of a chunk record: T, r, g, b as binary16 pairs, and the two pixels' depth sums
+/// (Σ w·z, Σ w) with depth.
+inline uint32_t tile_chunk_record_words(bool depth) { return depth ? 8 : 4; }
+
+/// Lists the chunks of the tiles of more than chunks.chunk_pairs pairs into chunks.items (a tile's chunks
+/// consecutive, tiles in any order: the pixels do not depend on it), counting them in *chunks.item_count
+/// (which must be 0), and zeroes chunks.arrivals and *chunks.next_item_count. Needs chunks.chunk_pairs > 0 and
+/// the ranges of a frame of at most the pairs chunks.capacity was sized for.
+cudaError_t list_tile_chunks(const uint64_t* ranges, uint32_t tiles, const TileChunks& chunks, cudaStream_t stream);
+
 /// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,
 /// α = min(0.99, exp(P)), P = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 (skip P > 0), 128 threads per tile
-/// (a warp per 8×8 quadrant, two vertically adjacent pixels per thread).
-cudaError_t render_roofgs(const uint64_t* ranges, const uint32_t* sorted_values, const RoofgsProjected& projected,
-                          const FrameParams& frame, const RoofgsFrame& roofgs, const RasterOptions& raster,
-                          const ImageView& image, cudaStream_t stream);
+/// (a warp per 8×8 quadrant, two vertically adjacent pixels per thread). `chunks` (with `folded` and
+/// `half_blend`; listed by list_tile_chunks) renders the long tiles in chunks, before the other tiles.
+cudaError_t render_roofgs(const uint64_t* ranges, const TileChunks& chunks, const uint32_t* sorted_values,
+                          const RoofgsProjected& projected, const FrameParams& frame, const RoofgsFrame& roofgs,
+                          const RasterOptions& raster, const ImageView& image, cudaStream_t stream);
 
 }  // namespace rgs::kernels

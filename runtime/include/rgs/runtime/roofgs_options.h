@@ -1,6 +1,8 @@
 // Switches of the RoofGS techniques, shared by the CPU reference renderer and the GPU renderer.
 #pragma once
 
+#include <cstdint>
+
 #include "rgs/kernels/shared/fast_exp.h"
 
 namespace rgs::runtime {
@@ -38,6 +40,12 @@ struct RoofgsOptions {
   /// two pixels per half2 instruction on the GPU, emulated bit for bit on the CPU. Ignored without
   /// folded_coefficients and fast_exp.
   bool half_blend = false;
+  /// With half_blend (beyond the paper): a tile with more than K = max(this, ⌈pairs / 2048⌉) pairs (pairs: the
+  /// frame's) is blended in chunks of K consecutive pairs, each from T = 1, merged front to back
+  /// (kernels/shared/tile_chunks.h: the rule, and what it changes against the unchunked blend: less than 1e−4
+  /// beyond rounding). The GPU renders each chunk as its own thread block, so no tile holds one block for the
+  /// whole frame. 0: off. Ignored without half_blend.
+  uint32_t tile_chunk_pairs = 0;
 
   /// Emit pairs in order of (view depth, Gaussian index) instead of Gaussian index (RoofGS+, beyond the
   /// paper): pairs whose 32-bit keys tie (same tile and depth bin) then keep exact depth order through the

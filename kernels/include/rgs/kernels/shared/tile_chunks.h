@@ -1,0 +1,69 @@
+// Long tiles blended in chunks (beyond the paper; runtime::RoofgsOptions::tile_chunk_pairs): the rule that the
+// CPU reference and the GPU rasterizer share.
+//
+// A tile whose sorted list holds more than K pairs is blended as ⌈n / K⌉ chunks of K consecutive pairs of that
+// list (the last one shorter), K = frame_chunk_pairs: the preset's chunk size, or more in a frame of so many
+// pairs that tiles of that size are not what holds the render up. Each chunk is blended front to back from T = 1 with the per-pixel rules (skip
+// α < 1/255, stop before the pair that would make T < 1e−4); then the chunks are merged front to back in list
+// order (merge_chunk). On the GPU each chunk is a thread block, so a tile of thousands of pairs no longer holds
+// one block for the whole frame: on taebak at 1080p one tile of 21,140 pairs ran 0.67 ms while the rest of the
+// frame's work took 0.36 ms (docs/BENCHMARKS.md).
+//
+// A pixel that stopped in a chunk takes nothing from the later ones, so a pixel that stops in the first chunk
+// keeps the unchunked blend's bits. Elsewhere the result differs from it by rounding, and by what a pixel takes
+// after its transmittance over the chunks so far has fallen below 1e−4 (the unchunked blend would have stopped
+// there); those contributions weigh less than 1e−4 in all, since each is weighted by the transmittance left.
+#pragma once
+
+#include "rgs/kernels/shared/host_device.h"
+
+namespace rgs::kernels {
+
+/// Pairs a chunk of the fastest preset holds at least: about 80 µs of one block's work on an H100 sharing its
+/// SM (40 ns a pair on taebak), against 0.36 ms for the whole 1080p frame's work.
+constexpr uint32_t kTileChunkPairs = 2048;
+
+/// A frame's chunks hold at least 1/kTileChunksPerFrame of its pairs. A chunk block that starts from T = 1
+/// cannot stop where the chunks before it made the pixels opaque, so chunks cost work on tiles that are long
+/// but not late; this keeps them to the tiles that are long against the frame (taebak at 8K: none).
+constexpr uint64_t kTileChunksPerFrame = 2048;
+
+/// The chunk size K of a frame of `frame_pairs` pairs: max(tile_chunk_pairs, ⌈frame_pairs /
+/// kTileChunksPerFrame⌉), or 0 (off) when tile_chunk_pairs is 0. Depends on the frame's content only, so the
+/// CPU reference and the GPU chunk alike.
+RGS_HOST_DEVICE uint32_t frame_chunk_pairs(uint64_t frame_pairs, uint32_t tile_chunk_pairs) {
+  if (tile_chunk_pairs == 0) return 0;
+  const uint64_t share = frame_pairs / kTileChunksPerFrame + (frame_pairs % kTileChunksPerFrame != 0);
+  if (share <= tile_chunk_pairs) return tile_chunk_pairs;
+  return share > 0xffffffffu ? 0xffffffffu : static_cast<uint32_t>(share);
+}
+
+/// Chunks of a tile of `pairs` pairs: 1 when chunk_pairs is 0 (chunking off) or pairs ≤ chunk_pairs, else
+/// ⌈pairs / chunk_pairs⌉.
+RGS_HOST_DEVICE uint32_t tile_chunk_count(uint64_t pairs, uint32_t chunk_pairs) {
+  if (chunk_pairs == 0 || pairs <= chunk_pairs) return 1;
+  return static_cast<uint32_t>((pairs + chunk_pairs - 1) / chunk_pairs);
+}
+
+/// A pixel's blend over one chunk, or over the chunks merged so far: colour sum C (linear RGB), transmittance
+/// T, the depth sums Σ w·z and Σ w, and whether the stop rule ended it.
+struct ChunkPixel {
+  float C[3] = {0.f, 0.f, 0.f};
+  float T = 1.f;
+  float depth_sum = 0.f, weight_sum = 0.f;
+  bool done = false;
+};
+
+/// Appends `next`, a chunk blended from T = 1, behind `acc` (the "over" operator): C += T·C′, the depth sums
+/// likewise, T ·= T′, one rounding each (fmaf); a done `acc` takes nothing. Merging a first chunk into a
+/// default ChunkPixel gives that chunk's values exactly.
+RGS_HOST_DEVICE void merge_chunk(ChunkPixel& acc, const ChunkPixel& next) {
+  if (acc.done) return;
+  for (int c = 0; c < 3; ++c) acc.C[c] = fmaf(acc.T, next.C[c], acc.C[c]);
+  acc.depth_sum = fmaf(acc.T, next.depth_sum, acc.depth_sum);
+  acc.weight_sum = fmaf(acc.T, next.weight_sum, acc.weight_sum);
+  acc.T = acc.T * next.T;
+  acc.done = next.done;
+}
+
+}  // namespace rgs::kernels
