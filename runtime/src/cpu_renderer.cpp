@@ -562,7 +562,11 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
                                                 "x" + std::to_string(frame.height) + " image");
   }
   const bool folded = options.roofgs.folded_coefficients;
-  const uint32_t chunk_pairs = k::frame_chunk_pairs(bins.values.size(), options.roofgs.tile_chunk_pairs);
+  uint64_t large_pairs = 0;  // pairs of Gaussians with more than kChunkLargeTiles tiles (frame_chunk_pairs)
+  for (const ProjectedGaussian& g : gaussians) {
+    if (g.tiles_touched > k::kChunkLargeTiles) large_pairs += g.tiles_touched;
+  }
+  const uint32_t chunk_pairs = k::frame_chunk_pairs(bins.values.size(), large_pairs, options.roofgs.tile_chunk_pairs);
   Status work = detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),
                                      [&](uint64_t row) {
     std::vector<TileGaussian> list;  // per worker, reused across the row's tiles

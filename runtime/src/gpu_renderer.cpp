@@ -695,7 +695,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   // Long tiles in chunks (half-precision blending only: the chunk records are binary16).
   kernels::TileChunks chunks;
   const bool half = t.folded_coefficients && t.fast_exp && t.half_blend;
-  const uint32_t chunk_pairs = kernels::frame_chunk_pairs(pairs, t.tile_chunk_pairs);
+  static_assert(kernels::kChunkLargeTiles == kernels::kSubtileLargeTiles, "large_pairs counts the culling's measure");
+  const uint32_t chunk_pairs = kernels::frame_chunk_pairs(pairs, large_pairs, t.tile_chunk_pairs);
   if (half && chunk_pairs > 0 && pairs > chunk_pairs) {
     // At most 2·2048 items (chunks hold at least 1/2048 of the pairs), in rows of tiles_x blocks.
     const uint64_t capacity = kernels::tile_chunk_capacity(pairs, chunk_pairs);

@@ -515,13 +515,15 @@ TEST_CASE("block_mask: no pixel of a cleared 4x4 block passes the 1/255 test (ra
 
 TEST_CASE("tile chunks: chunk size and count, and the merge of chunks") {
   using kernels::ChunkPixel;
-  // K = max(tile_chunk_pairs, ⌈pairs / 2048⌉), 0 when off.
-  CHECK(kernels::frame_chunk_pairs(6'555'764, 0) == 0);
-  CHECK(kernels::frame_chunk_pairs(1'000, 2048) == 2048);
-  CHECK(kernels::frame_chunk_pairs(2048ull * 2048, 2048) == 2048);
-  CHECK(kernels::frame_chunk_pairs(2048ull * 2048 + 1, 2048) == 2049);
-  CHECK(kernels::frame_chunk_pairs(6'555'764, 2048) == 3202);  // taebak view 0 at 1080p
-  CHECK(kernels::frame_chunk_pairs(~0ull, 1) == 0xffffffffu);
+  // K = max(tile_chunk_pairs, ⌈pairs / 2048⌉); 0 when off or when large Gaussians hold more than half the pairs.
+  CHECK(kernels::frame_chunk_pairs(6'555'764, 0, 0) == 0);
+  CHECK(kernels::frame_chunk_pairs(1'000, 0, 2048) == 2048);
+  CHECK(kernels::frame_chunk_pairs(2048ull * 2048, 0, 2048) == 2048);
+  CHECK(kernels::frame_chunk_pairs(2048ull * 2048 + 1, 0, 2048) == 2049);
+  CHECK(kernels::frame_chunk_pairs(6'555'764, 1'000, 2048) == 3202);  // taebak view 0 at 1080p
+  CHECK(kernels::frame_chunk_pairs(~0ull, 0, 1) == 0xffffffffu);
+  CHECK(kernels::frame_chunk_pairs(1'000'000, 500'000, 2048) == 2048);
+  CHECK(kernels::frame_chunk_pairs(1'000'000, 500'001, 2048) == 0);
   CHECK(kernels::tile_chunk_count(5000, 0) == 1);
   CHECK(kernels::tile_chunk_count(2048, 2048) == 1);
   CHECK(kernels::tile_chunk_count(2049, 2048) == 2);

@@ -28,11 +28,17 @@ constexpr uint32_t kTileChunkPairs = 2048;
 /// but not late; this keeps them to the tiles that are long against the frame (taebak at 8K: none).
 constexpr uint64_t kTileChunksPerFrame = 2048;
 
-/// The chunk size K of a frame of `frame_pairs` pairs: max(tile_chunk_pairs, ⌈frame_pairs /
-/// kTileChunksPerFrame⌉), or 0 (off) when tile_chunk_pairs is 0. Depends on the frame's content only, so the
+/// Gaussians with more tiles than this are large: the sub-tile culling's measure (kernels::kSubtileLargeTiles).
+constexpr uint32_t kChunkLargeTiles = 32;
+
+/// The chunk size K of a frame of `frame_pairs` pairs, `large_pairs` of them from Gaussians with more than
+/// kChunkLargeTiles tiles: max(tile_chunk_pairs, ⌈frame_pairs / kTileChunksPerFrame⌉); 0 (off) when
+/// tile_chunk_pairs is 0 or large Gaussians hold more than half of the pairs. Their tiles go opaque within
+/// their first chunk, and every later chunk, which starts from T = 1, would blend until it goes opaque too
+/// (flowers ×53 at 1080p: render 0.073 → 0.118 ms with chunks). Depends on the frame's content only, so the
 /// CPU reference and the GPU chunk alike.
-RGS_HOST_DEVICE uint32_t frame_chunk_pairs(uint64_t frame_pairs, uint32_t tile_chunk_pairs) {
-  if (tile_chunk_pairs == 0) return 0;
+RGS_HOST_DEVICE uint32_t frame_chunk_pairs(uint64_t frame_pairs, uint64_t large_pairs, uint32_t tile_chunk_pairs) {
+  if (tile_chunk_pairs == 0 || large_pairs > frame_pairs / 2) return 0;
   const uint64_t share = frame_pairs / kTileChunksPerFrame + (frame_pairs % kTileChunksPerFrame != 0);
   if (share <= tile_chunk_pairs) return tile_chunk_pairs;
   return share > 0xffffffffu ? 0xffffffffu : static_cast<uint32_t>(share);
