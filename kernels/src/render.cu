@@ -352,6 +352,8 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 /// four pairs, one per group. Eight blocks an SM (64 registers): the block-culled kernel needs no more
 /// (block_mask without square roots), and the unculled one runs faster with them than with the 40 ptxas picks
 /// by itself (flowers render at 4K 0.283 -> 0.272 ms; docs/BENCHMARKS.md).
+/// Long tiles (kHalf with TileChunks, beyond the paper): a chunk block blends its chunk of the tile's list from
+/// T = 1 and finish_chunk merges the tile's chunks; the grid has TileChunks::item_rows rows of such blocks first.
 /// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and C as binary16 pairs
 /// and one half2 instruction blends both (blend_pairs_half): about 30 instructions a walk step instead of 42
 /// (taebak render at 4K 0.771 -> 0.673 ms). Nine or ten blocks an SM (56 or 48 registers) were slower with it
@@ -375,9 +377,9 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   // This block's tile and pairs [begin, end): with chunks, the first item_rows rows of blocks take the listed
   // chunks of the long tiles in row-major order (those past the list's end return at once), the rest one tile
   // each, (x, y − item_rows), which leaves a listed tile to its chunks.
-  const bool listed = blockIdx.y < chunks.item_rows;
+  const bool chunk_block = blockIdx.y < chunks.item_rows;
   uint32_t tile_x = blockIdx.x, tile_y = blockIdx.y - chunks.item_rows, chunk = 0;
-  if (listed) {
+  if (chunk_block) {
     const uint32_t index = blockIdx.y * frame.tiles_x + blockIdx.x;
     if (index >= *chunks.item_count) return;
     const uint2 item = chunks.items[index];
@@ -387,7 +389,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   uint64_t begin = ranges[2 * uint64_t(tile)], end = ranges[2 * uint64_t(tile) + 1];
   const uint32_t tile_chunks = tile_chunk_count(end - begin, chunks.chunk_pairs);  // 1 without chunks
   if (tile_chunks > 1) {
-    if (!listed) return;  // the row-major block of a listed tile
+    if (!chunk_block) return;  // the row-major block of a listed tile
     begin += uint64_t(chunk) * chunks.chunk_pairs;
     if (end - begin > chunks.chunk_pairs) end = begin + chunks.chunk_pairs;
   }
