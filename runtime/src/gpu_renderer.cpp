@@ -10,8 +10,8 @@
 #include <utility>
 
 #include "rgs/kernels/roofgs_pipeline.h"
-#include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/kernels/shared/projection.h"
+#include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/runtime/cpu_renderer.h"
 
 namespace rgs::runtime {
@@ -167,7 +167,8 @@ struct GpuRenderer::Buffers {
            fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() +
            keys32.bytes() + keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() +
            ranges.bytes() + chunk_items.bytes() + chunk_counts.bytes() + chunk_first.bytes() +
-           chunk_arrivals.bytes() + chunk_records.bytes() + uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
+           chunk_arrivals.bytes() + chunk_records.bytes() +
+           uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
   }
 
   /// Per-Gaussian arrays both pipelines use (exactly n entries: the scene sizes them, not the frame).

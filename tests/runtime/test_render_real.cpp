@@ -178,10 +178,11 @@ std::vector<Switch> switches() {
 TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a bounded change above it") {
   // flowers camera 0 at 628x414 with the fastest preset's techniques. With chunks larger than any tile's list
   // the image is the unchunked one, bit for bit (merging one chunk is exact). With tile_chunk_pairs 64 (chunks
-  // of max(64, pairs / 2048) pairs) nearly every tile is blended in chunks (tiles hold hundreds of pairs); each chunk starts from T = 1 in binary16
-  // and the chunks merge in FP32, so pixels differ from the unchunked blend by binary16 rounding along two
-  // paths (a few ulps of 2^−11 for C in [0.5, 1)) and by contributions after the stop (< 1e−4): measured
-  // max |diff| 0.0046 (alpha 0.0028), 70.8 dB, half of the values changed.
+  // of max(64, pairs / 2048) pairs) nearly every tile is blended in chunks (tiles hold hundreds of pairs;
+  // Gaussians of more than 32 tiles hold less than half of them, so the frame is chunked). Each chunk starts
+  // from T = 1 in binary16 and the chunks merge in FP32, so pixels differ from the unchunked blend by binary16
+  // rounding along two paths (a few ulps of 2^−11 for C in [0.5, 1)) and by contributions after the stop
+  // (< 1e−4): measured max |diff| 0.0046 (alpha 0.0028), 70.8 dB, half of the values changed.
   const FlowersScene& scene = flowers();
   if (!scene.available) return;
   const Camera cam = flowers_cameras(scene)[0];
