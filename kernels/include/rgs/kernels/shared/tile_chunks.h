@@ -5,9 +5,9 @@
 // list (the last one shorter), K = frame_chunk_pairs: the preset's chunk size, or more in a frame of so many
 // pairs that tiles of that size are not what holds the render up. Each chunk is blended front to back from
 // T = 1 with the per-pixel rules (skip α < 1/255, stop before the pair that would make T < 1e−4); then the
-// chunks are merged front to back in list order (merge_chunk). On the GPU each chunk is a thread block, so a tile of thousands of pairs no longer holds
-// one block for the whole frame: on taebak at 1080p one tile of 21,140 pairs ran 0.67 ms while the rest of the
-// frame's work took 0.36 ms (docs/BENCHMARKS.md).
+// chunks are merged front to back in list order (merge_chunk). On the GPU each chunk is a thread block, so a
+// tile of thousands of pairs no longer holds one block for the whole frame: on taebak at 1080p one tile of
+// 21,140 pairs ran 0.67 ms while the rest of the frame's work took 0.36 ms (docs/BENCHMARKS.md).
 //
 // A pixel that stopped in a chunk takes nothing from the later ones, so a pixel that stops in the first chunk
 // keeps the unchunked blend's bits. Elsewhere the result differs from it by rounding, and by what a pixel takes
