@@ -57,8 +57,9 @@ const std::vector<ModeEntry>& entries() {
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
       {{"roofgs+",
         "roofgs with depth order, fast exp sigma 0.05798, half-precision blending (binary16 alpha, "
-        "transmittance and colour sums) and the tiles of more than 2048 pairs blended in chunks of 2048, a block "
-        "each; the fused kernel allocates pairs in arrival order: the depth order makes their emission order moot",
+        "transmittance and colour sums) and long tiles blended in chunks, a block each (tiles of more than "
+        "max(2048, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most pairs); the fused kernel "
+        "allocates pairs in arrival order: the depth order makes their emission order moot",
         false},
        [](bool compact) { return gpu_render_options(Preset::kFastest, compact); }},
       {{"roofgs+fp32", "roofgs+ with FP32 blending", false},
@@ -68,8 +69,8 @@ const std::vector<ModeEntry>& entries() {
          return o;
        }},
       {{"roofgs+whole-tiles",
-        "roofgs+ with every tile blended by one block (roofgs+ blends a tile of more than 2048 pairs in chunks "
-        "of 2048, a block each, merged front to back)",
+        "roofgs+ with every tile blended by one block (roofgs+ blends long tiles in chunks, a block each, "
+        "merged front to back)",
         false},
        [](bool compact) {
          GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
