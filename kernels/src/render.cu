@@ -300,21 +300,18 @@ __device__ inline void finish_chunk(const TileChunks& chunks, uint32_t tile, uin
   ChunkPixel merged[2];
   for (uint32_t c = 0; c < tile_chunks; ++c) {
     const uint32_t slot = first_slot + c;
-    const uint32_t T = __ldcg(chunk_word<kDepth>(chunks, slot, 0, rank));
-    const uint32_t colour[3] = {__ldcg(chunk_word<kDepth>(chunks, slot, 1, rank)),
-                                __ldcg(chunk_word<kDepth>(chunks, slot, 2, rank)),
-                                __ldcg(chunk_word<kDepth>(chunks, slot, 3, rank))};
+    HalfPixelPair record;
+    record.T = __ldcg(chunk_word<kDepth>(chunks, slot, 0, rank));
+    record.r = __ldcg(chunk_word<kDepth>(chunks, slot, 1, rank));
+    record.g = __ldcg(chunk_word<kDepth>(chunks, slot, 2, rank));
+    record.b = __ldcg(chunk_word<kDepth>(chunks, slot, 3, rank));
     for (int p = 0; p < 2; ++p) {
-      const auto lane = [p](uint32_t h) { return static_cast<uint16_t>(h >> (16 * p)); };
-      ChunkPixel part;
-      part.T = fabsf(half_to_float(lane(T)));
-      part.done = (lane(T) & 0x8000u) != 0;
-      for (int k = 0; k < 3; ++k) part.C[k] = half_to_float(lane(colour[k]));
+      float depth_sum = 0.f, weight_sum = 0.f;
       if (kDepth) {
-        part.depth_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 4 + p, rank)));
-        part.weight_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 6 + p, rank)));
+        depth_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 4 + p, rank)));
+        weight_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 6 + p, rank)));
       }
-      merge_chunk(merged[p], part);
+      merge_chunk(merged[p], chunk_pixel_of_half(record, p, depth_sum, weight_sum));
     }
   }
   for (int p = 0; p < 2; ++p) {

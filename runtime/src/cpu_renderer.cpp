@@ -253,13 +253,7 @@ void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int t
           }
         }
         for (int p = 0; p < 2; ++p) {
-          const auto lane = [p](k::Half2Bits h) { return static_cast<uint16_t>(h >> (16 * p)); };
-          k::ChunkPixel part;
-          part.T = std::fabs(k::half_to_float(lane(pair.T)));
-          part.done = (lane(pair.T) & 0x8000u) != 0;
-          for (int c = 0; c < 3; ++c) part.C[c] = k::half_to_float(lane(c == 0 ? pair.r : c == 1 ? pair.g : pair.b));
-          part.depth_sum = depth_sum[p], part.weight_sum = weight_sum[p];
-          k::merge_chunk(merged[p], part);
+          k::merge_chunk(merged[p], k::chunk_pixel_of_half(pair, p, depth_sum[p], weight_sum[p]));
         }
       }
       for (int p = 0; p < 2; ++p) {
@@ -563,8 +557,10 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
   }
   const bool folded = options.roofgs.folded_coefficients;
   uint64_t large_pairs = 0;  // pairs of Gaussians with more than kChunkLargeTiles tiles (frame_chunk_pairs)
-  for (const ProjectedGaussian& g : gaussians) {
-    if (g.tiles_touched > k::kChunkLargeTiles) large_pairs += g.tiles_touched;
+  if (options.roofgs.tile_chunk_pairs > 0) {
+    for (const ProjectedGaussian& g : gaussians) {
+      if (g.tiles_touched > k::kChunkLargeTiles) large_pairs += g.tiles_touched;
+    }
   }
   const uint32_t chunk_pairs = k::frame_chunk_pairs(bins.values.size(), large_pairs, options.roofgs.tile_chunk_pairs);
   Status work = detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),

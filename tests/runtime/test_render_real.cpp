@@ -201,8 +201,9 @@ TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a boun
   size_t differing = 0;
   for (size_t i = 0; i < whole.rgb.size(); ++i) differing += chunked.rgb[i] != whole.rgb[i];
   const double diff = max_abs_diff(chunked.rgb, whole.rgb), p = psnr(chunked.rgb, whole.rgb);
-  MESSAGE("chunks of tile_chunk_pairs 64: " << differing << " of " << whole.rgb.size() << " values differ, max |diff| " << diff
-                                 << ", " << p << " dB; alpha max |diff| " << max_abs_diff(chunked.alpha, whole.alpha));
+  MESSAGE("tile_chunk_pairs 64: " << differing << " of " << whole.rgb.size() << " values differ, max |diff| "
+                                    << diff << ", " << p << " dB; alpha max |diff| "
+                                    << max_abs_diff(chunked.alpha, whole.alpha));
   CHECK(differing > 0);
   CHECK(diff <= 0.01);
   CHECK(p >= 65.0);

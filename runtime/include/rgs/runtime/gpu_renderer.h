@@ -166,8 +166,9 @@ struct GpuRenderStats {
   uint64_t large_pairs = 0;
   bool subtile_culling = false;
   bool block_culling = false;  ///< sub-tile culling was per 4×4 block
-  /// RoofGS: the frame had tiles of more than RoofgsOptions::tile_chunk_pairs pairs and listed their chunks,
-  /// and how many chunk blocks it ran (read back only for timed frames; 0 otherwise).
+  /// RoofGS: the frame listed the chunks of its long tiles (chunking on for the frame: kernels::frame_chunk_pairs
+  /// nonzero and below the pair count), and how many chunk blocks it listed (read back only for timed frames;
+  /// 0 otherwise).
   bool tile_chunks_listed = false;
   uint32_t tile_chunks = 0;
   bool timed = false;          ///< times is valid (GpuRenderOptions::time_stages)

@@ -41,10 +41,11 @@ struct RoofgsOptions {
   /// folded_coefficients and fast_exp.
   bool half_blend = false;
   /// With half_blend (beyond the paper): a tile with more than K = max(this, ⌈pairs / 2048⌉) pairs (pairs: the
-  /// frame's) is blended in chunks of K consecutive pairs, each from T = 1, merged front to back
-  /// (kernels/shared/tile_chunks.h: the rule, and what it changes against the unchunked blend: less than 1e−4
-  /// beyond rounding). The GPU renders each chunk as its own thread block, so no tile holds one block for the
-  /// whole frame. 0: off. Ignored without half_blend.
+  /// frame's) is blended in chunks of K consecutive pairs, each from T = 1, merged front to back; no chunks in
+  /// a frame where Gaussians of more than 32 tiles hold more than half the pairs (kernels/shared/tile_chunks.h
+  /// frame_chunk_pairs: the rule, and what it changes against the unchunked blend: less than 1e−4 beyond
+  /// rounding). The GPU renders each chunk as its own thread block, so no tile holds one block for the whole
+  /// frame. 0: off. Ignored without half_blend.
   uint32_t tile_chunk_pairs = 0;
 
   /// Emit pairs in order of (view depth, Gaussian index) instead of Gaussian index (RoofGS+, beyond the

@@ -15,6 +15,7 @@
 // there); those contributions weigh less than 1e−4 in all, since each is weighted by the transmittance left.
 #pragma once
 
+#include "rgs/kernels/shared/half_blend.h"
 #include "rgs/kernels/shared/host_device.h"
 
 namespace rgs::kernels {
@@ -59,6 +60,20 @@ struct ChunkPixel {
   float depth_sum = 0.f, weight_sum = 0.f;
   bool done = false;
 };
+
+/// Pixel `lane` (0: (x, y), 1: (x, y + 1)) of a thread's chunk blended in binary16 (half_blend.h): T, r, g, b
+/// as HalfPixelPair holds them (the sign of T the stop flag), and that pixel's FP32 depth sums.
+RGS_HOST_DEVICE ChunkPixel chunk_pixel_of_half(const HalfPixelPair& s, int lane, float depth_sum, float weight_sum) {
+  const auto half = [lane](Half2Bits h) { return static_cast<uint16_t>(h >> (16 * lane)); };
+  ChunkPixel p;
+  p.C[0] = half_to_float(half(s.r));
+  p.C[1] = half_to_float(half(s.g));
+  p.C[2] = half_to_float(half(s.b));
+  p.T = fabsf(half_to_float(half(s.T)));
+  p.depth_sum = depth_sum, p.weight_sum = weight_sum;
+  p.done = (half(s.T) & 0x8000u) != 0;
+  return p;
+}
 
 /// Appends `next`, a chunk blended from T = 1, behind `acc` (the "over" operator): C += T·C′, the depth sums
 /// likewise, T ·= T′, one rounding each (fmaf); a done `acc` takes nothing. Merging a first chunk into a
