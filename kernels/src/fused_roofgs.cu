@@ -151,8 +151,12 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
       result = cudaMemsetAsync(scratch.block_status, 0, sizeof(unsigned long long) * blocks, stream);
     }
   }
-  if (result == cudaSuccess) result = cudaMemsetAsync(scratch.totals, 0, 2 * sizeof(unsigned long long), stream);
-  if (result == cudaSuccess) result = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
+  if (result == cudaSuccess) {
+    result = cudaMemsetAsync(scratch.totals, 0, kFusedTotals * sizeof(unsigned long long), stream);
+  }
+  if (result == cudaSuccess && large.count != scratch.totals + kFusedLargeCount) {
+    result = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
+  }
   if (result != cudaSuccess || source.count == 0) return result;
   const detail::PairSink sink{capacity, keys64, keys32, values};
   const uint32_t degree = roofgs.compact ? source.compact.sh_degree : source.fp32.sh_degree;

@@ -64,10 +64,24 @@ __device__ void emit_chunk_with_warp(const detail::TileWalk& walk, int chunk_fir
   }
 }
 
-/// Warp-per-item loop over the list (items marked kNoLargeGaussian are skipped).
+/// HostTotals: the counts, a system-scope fence, then the sequence number, so that a host that reads the new
+/// sequence number reads the new counts.
+__device__ void publish_totals(const HostTotals& totals) {
+  if (totals.host == nullptr) return;
+  totals.host[0] = totals.totals[0];
+  totals.host[1] = totals.totals[1];
+  __threadfence_system();
+  totals.host[2] = totals.sequence;
+}
+
+__global__ void publish_totals_kernel(HostTotals totals) { publish_totals(totals); }
+
+/// Warp-per-item loop over the list (items marked kNoLargeGaussian are skipped); block 0 publishes the totals
+/// first.
 __global__ void __launch_bounds__(kLargeBlockSize)
     emit_large_kernel(RoofgsProjected in, LargeGaussianList large, FrameParams frame, RoofgsFrame roofgs,
-                      detail::PairSink sink) {
+                      detail::PairSink sink, HostTotals totals) {
+  if (blockIdx.x == 0 && threadIdx.x == 0) publish_totals(totals);
   const uint64_t items = min(*large.count, static_cast<unsigned long long>(large.capacity));
   const uint64_t warps = uint64_t(gridDim.x) * kWarpsPerBlock;
   for (uint64_t w = uint64_t(blockIdx.x) * kWarpsPerBlock + threadIdx.x / 32; w < items; w += warps) {
@@ -85,8 +99,13 @@ __global__ void __launch_bounds__(kLargeBlockSize)
 
 cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGaussianList& large,
                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
-                                 uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream) {
-  if (large.capacity == 0) return cudaSuccess;
+                                 uint64_t* keys64, uint32_t* keys32, uint32_t* values, const HostTotals& totals,
+                                 cudaStream_t stream) {
+  if (large.capacity == 0) {
+    if (totals.host == nullptr) return cudaSuccess;
+    publish_totals_kernel<<<1, 1, 0, stream>>>(totals);
+    return detail::launch_result();
+  }
   // A persistent grid of as many blocks as fit at once: the items are dealt evenly over its warps, so a block
   // that had to wait for a free slot would finish its share last.
   int device = 0, sms = 0, per_sm = 0;
@@ -98,8 +117,8 @@ cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGa
   if (result != cudaSuccess) return result;
   const uint64_t warp_blocks = (large.capacity + kWarpsPerBlock - 1) / kWarpsPerBlock;
   const unsigned blocks = unsigned(std::min<uint64_t>(warp_blocks, uint64_t(sms) * uint64_t(std::max(per_sm, 1))));
-  emit_large_kernel<<<blocks, kLargeBlockSize, 0, stream>>>(projected, large, frame, roofgs,
-                                                            detail::PairSink{capacity, keys64, keys32, values});
+  const detail::PairSink sink{capacity, keys64, keys32, values};
+  emit_large_kernel<<<blocks, kLargeBlockSize, 0, stream>>>(projected, large, frame, roofgs, sink, totals);
   return detail::launch_result();
 }
 

@@ -19,45 +19,114 @@ namespace {
 ///   8× fewer of those serialized atomics (4.17M pairs: 0.219 → 0.205 ms for the whole sort);
 /// - a onesweep pass takes 512-thread tiles when those fit one per SM (1.36M pairs on 132 SMs: 154 tiles of
 ///   384 threads, 116 of 512; 0.107 → 0.099 ms), else 384 (2.0M: 0.122 against 0.139 ms with 512).
-/// Smaller counts keep CUB's own policies (405k pairs: 0.083 ms, against 0.084 with the histogram change and
-/// 0.086 with 512 threads). The other policies are CUB's; the onesweep path never runs them, but the
-/// dispatch instantiates them. DispatchRadixSort and cub::detail's policy hub are those of the CCCL in CUDA
-/// 13.0 (the toolkit of the build hosts); a CCCL that renames them fails to compile here, not at run time.
-template <int kOnesweepThreads>
+/// Smaller counts keep CUB's own sm_90 policies (405k pairs: 0.083 ms, against 0.084 with the histogram change
+/// and 0.086 with 512 threads). The kernels (cub::detail::radix_sort), their argument lists and the policy hub
+/// are those of the CCCL in CUDA 13.0 (the toolkit of the build hosts); a CCCL that renames or changes them
+/// fails to compile here, not at run time.
+template <typename Onesweep, typename Histogram>
 struct PairSortPolicies {
-  using Cub = cub::detail::radix::policy_hub<uint32_t, uint32_t, uint32_t>::Policy900;
+  /// The policies CUB's histogram, exclusive-sum and onesweep kernels read (the same for every architecture).
   struct Policy : cub::ChainedPolicy<600, Policy, Policy> {
-    static constexpr bool ONESWEEP = true;
     static constexpr int ONESWEEP_RADIX_BITS = 8;
-    using HistogramPolicy = cub::AgentRadixSortHistogramPolicy<1024, 8, 1, uint32_t, ONESWEEP_RADIX_BITS>;
+    using HistogramPolicy = Histogram;
     using ExclusiveSumPolicy = cub::AgentRadixSortExclusiveSumPolicy<256, ONESWEEP_RADIX_BITS>;
-    using OnesweepPolicy =
-        cub::AgentRadixSortOnesweepPolicy<kOnesweepThreads, 23, uint32_t, 1, cub::RADIX_RANK_MATCH_EARLY_COUNTS_ANY,
-                                          cub::BLOCK_SCAN_RAKING_MEMOIZE, cub::RADIX_SORT_STORE_DIRECT,
-                                          ONESWEEP_RADIX_BITS>;
-    using ScanPolicy = Cub::ScanPolicy;
-    using DownsweepPolicy = Cub::DownsweepPolicy;
-    using AltDownsweepPolicy = Cub::AltDownsweepPolicy;
-    using UpsweepPolicy = Cub::UpsweepPolicy;
-    using AltUpsweepPolicy = Cub::AltUpsweepPolicy;
-    using SingleTilePolicy = Cub::SingleTilePolicy;
-    using SegmentedPolicy = Cub::SegmentedPolicy;
-    using AltSegmentedPolicy = Cub::AltSegmentedPolicy;
+    using OnesweepPolicy = Onesweep;
   };
   using MaxPolicy = Policy;
 };
 
-template <int kOnesweepThreads>
-cudaError_t sort_pairs32_with(void* temp, size_t* temp_bytes, cub::DoubleBuffer<uint32_t>& keys,
-                              cub::DoubleBuffer<uint32_t>& values, uint32_t count, int begin_bit, int end_bit,
-                              cudaStream_t stream) {
-  // SortPairs' own dispatch with is_overwrite_okay: the passes alternate between the two buffers.
-  using Dispatch = cub::DispatchRadixSort<cub::SortOrder::Ascending, uint32_t, uint32_t, uint32_t,
-                                          cub::detail::identity_decomposer_t, PairSortPolicies<kOnesweepThreads>>;
-  return Dispatch::Dispatch(temp, *temp_bytes, keys, values, count, begin_bit, end_bit, true, stream);
+constexpr int kRadixBits = 8;
+constexpr int kDigits = 1 << kRadixBits;
+using Cub900 = cub::detail::radix::policy_hub<uint32_t, uint32_t, uint32_t>::Policy900;
+template <int kThreads>
+using TunedOnesweep =
+    cub::AgentRadixSortOnesweepPolicy<kThreads, 23, uint32_t, 1, cub::RADIX_RANK_MATCH_EARLY_COUNTS_ANY,
+                                      cub::BLOCK_SCAN_RAKING_MEMOIZE, cub::RADIX_SORT_STORE_DIRECT, kRadixBits>;
+using TunedHistogram = cub::AgentRadixSortHistogramPolicy<1024, 8, 1, uint32_t, kRadixBits>;
+using Tuned384 = PairSortPolicies<TunedOnesweep<384>, TunedHistogram>;
+using Tuned512 = PairSortPolicies<TunedOnesweep<512>, TunedHistogram>;
+using Stock = PairSortPolicies<Cub900::OnesweepPolicy, Cub900::HistogramPolicy>;
+static_assert(Cub900::ONESWEEP_RADIX_BITS == kRadixBits, "CUB's sm_90 onesweep takes 8 bits a pass");
+
+template <typename Policies>
+constexpr int onesweep_tile_items() {
+  using P = typename Policies::Policy::OnesweepPolicy;
+  return P::BLOCK_THREADS * P::ITEMS_PER_THREAD;
+}
+/// The smallest onesweep tile of the three policies: the most tiles, hence lookback rows, a count can need.
+constexpr int kMinTileItems =
+    std::min({onesweep_tile_items<Stock>(), onesweep_tile_items<Tuned384>(), onesweep_tile_items<Tuned512>()});
+/// CUB sorts more items than its PORTION_SIZE, 2^28 − 1 rounded down to whole tiles, in portions; up to this
+/// many, one portion does, which is what sort_onesweep launches.
+constexpr uint64_t kMaxOnePortion = (uint64_t{1} << 28) - 16384;
+
+/// The zero-initialised counters of the onesweep passes at the start of the scratch, as CUB's InvokeOnesweep
+/// lays out its own: digit counts [passes][256] (turned into digit offsets by the exclusive-sum kernel), a
+/// tile ticket per pass, and, unlike CUB, which zeroes one lookback array before each pass, a lookback
+/// array [tiles][256] per pass, so that one memset ahead of the sort serves every pass.
+struct CounterLayout {
+  int passes = 0;
+  uint64_t max_tiles = 0;
+  uint32_t* bins(void* temp) const { return static_cast<uint32_t*>(temp); }
+  int* tickets(void* temp) const { return reinterpret_cast<int*>(bins(temp) + size_t(passes) * kDigits); }
+  int* lookback(void* temp, int pass) const {
+    return tickets(temp) + passes + size_t(pass) * max_tiles * kDigits;
+  }
+  size_t bytes() const { return sizeof(int) * size_t(passes) * (kDigits + 1 + max_tiles * kDigits); }
+};
+
+int passes_for(int begin_bit, int end_bit) {
+  return end_bit > begin_bit ? (end_bit - begin_bit + kRadixBits - 1) / kRadixBits : 0;
 }
 
-/// The policies for `count` keys: 0 (CUB's own), or the onesweep block size of PairSortPolicies.
+/// The layout for up to `count` pairs (a sort of fewer pairs on it uses the first lookback rows of each pass).
+CounterLayout layout_for_count(uint64_t count, int begin_bit, int end_bit) {
+  return CounterLayout{passes_for(begin_bit, end_bit), (count + kMinTileItems - 1) / kMinTileItems};
+}
+
+/// DispatchRadixSort::InvokeOnesweep for one portion with overwrite allowed, on counters already zeroed: the
+/// histogram kernel, the exclusive sum, then one onesweep kernel per pass, CUB's own kernels with `Policies`.
+/// No memset and no occupancy query between the launches (the histogram kernel's occupancy is asked once).
+template <typename Policies>
+cudaError_t sort_onesweep(void* temp, const CounterLayout& layout, cub::DoubleBuffer<uint32_t>& keys,
+                          cub::DoubleBuffer<uint32_t>& values, uint32_t count, int begin_bit, int end_bit,
+                          cudaStream_t stream) {
+  using MaxPolicy = typename Policies::MaxPolicy;
+  using Active = typename Policies::Policy;
+  constexpr auto kOrder = cub::SortOrder::Ascending;
+  namespace radix = cub::detail::radix_sort;
+  const auto histogram = radix::DeviceRadixSortHistogramKernel<MaxPolicy, kOrder, uint32_t, uint32_t>;
+  const auto exclusive_sum = radix::DeviceRadixSortExclusiveSumKernel<MaxPolicy, uint32_t>;
+  const auto onesweep = radix::DeviceRadixSortOnesweepKernel<MaxPolicy, kOrder, uint32_t, uint32_t, uint32_t, int, int>;
+  constexpr int kHistogramThreads = Active::HistogramPolicy::BLOCK_THREADS;
+  constexpr int kTileItems = onesweep_tile_items<Policies>();
+  static const int histogram_blocks_per_sm = [&] {
+    int blocks = 1;
+    return cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks, histogram, kHistogramThreads, 0) == cudaSuccess
+               ? blocks
+               : 1;
+  }();
+  int device = 0, sms = 0;
+  cudaError_t result = cudaGetDevice(&device);
+  if (result == cudaSuccess) result = cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
+  if (result != cudaSuccess) return result;
+  const int tiles = int((uint64_t(count) + kTileItems - 1) / kTileItems);
+  uint32_t* bins = layout.bins(temp);
+  histogram<<<histogram_blocks_per_sm * sms, kHistogramThreads, 0, stream>>>(bins, keys.Current(), count, begin_bit,
+                                                                               end_bit, {});
+  exclusive_sum<<<layout.passes, Active::ExclusiveSumPolicy::BLOCK_THREADS, 0, stream>>>(bins);
+  for (int pass = 0, bit = begin_bit; bit < end_bit; ++pass, bit += kRadixBits) {
+    onesweep<<<tiles, Active::OnesweepPolicy::BLOCK_THREADS, 0, stream>>>(
+        layout.lookback(temp, pass), layout.tickets(temp) + pass, nullptr, bins + size_t(pass) * kDigits,
+        keys.Alternate(), keys.Current(), values.Alternate(), values.Current(), int(count), bit,
+        std::min(end_bit - bit, kRadixBits), {});
+    keys.selector ^= 1;
+    values.selector ^= 1;
+  }
+  return cudaGetLastError();
+}
+
+/// The onesweep block size for `count` pairs (0: CUB's own sm_90 policy, Stock).
 cudaError_t policy_for(uint32_t count, int* onesweep_threads) {
   int device = 0, sms = 0;
   cudaError_t result = cudaGetDevice(&device);
@@ -84,42 +153,49 @@ cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, 
 }
 
 cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const keys[2], uint32_t* const values[2],
-                                 uint64_t count, int begin_bit, int end_bit, int* sorted, cudaStream_t stream) {
+                                 uint64_t count, uint64_t counters_capacity, int begin_bit, int end_bit,
+                                 bool counters_zeroed, int* sorted, cudaStream_t stream) {
   cub::DoubleBuffer<uint32_t> key_buffers(keys[0], keys[1]);
   cub::DoubleBuffer<uint32_t> value_buffers(values[0], values[1]);
+  const auto stock = [&](void* t, size_t* bytes) {  // CUB's own dispatch, memsets included
+    return cub::DeviceRadixSort::SortPairs(t, *bytes, key_buffers, value_buffers, count, begin_bit, end_bit, stream);
+  };
+  const bool one_portion = count <= kMaxOnePortion;
   cudaError_t result = cudaSuccess;
-  if (count > UINT32_MAX) {  // beyond 32-bit offsets: CUB's policies for 64-bit offsets
-    result = cub::DeviceRadixSort::SortPairs(temp, *temp_bytes, key_buffers, value_buffers, count, begin_bit, end_bit,
-                                             stream);
-  } else {
-    const auto n = static_cast<uint32_t>(count);
-    const auto stock = [&](void* t, size_t* bytes) {
-      return cub::DeviceRadixSort::SortPairs(t, *bytes, key_buffers, value_buffers, n, begin_bit, end_bit, stream);
-    };
-    if (temp == nullptr) {  // enough scratch for every policy, so a smaller count later may pick another
-      size_t bytes[3] = {0, 0, 0};
-      result = stock(nullptr, &bytes[0]);
-      if (result == cudaSuccess) {
-        result = sort_pairs32_with<384>(nullptr, &bytes[1], key_buffers, value_buffers, n, begin_bit, end_bit, stream);
-      }
-      if (result == cudaSuccess) {
-        result = sort_pairs32_with<512>(nullptr, &bytes[2], key_buffers, value_buffers, n, begin_bit, end_bit, stream);
-      }
-      *temp_bytes = std::max({bytes[0], bytes[1], bytes[2]});
-    } else {
-      int threads = 0;
-      result = policy_for(n, &threads);
-      if (result == cudaSuccess) {
-        result = threads == 0   ? stock(temp, temp_bytes)
-                 : threads == 512 ? sort_pairs32_with<512>(temp, temp_bytes, key_buffers, value_buffers, n, begin_bit,
-                                                           end_bit, stream)
-                                  : sort_pairs32_with<384>(temp, temp_bytes, key_buffers, value_buffers, n, begin_bit,
-                                                           end_bit, stream);
-      }
+  if (temp == nullptr) {  // enough for CUB's dispatch and for sort_onesweep's counters
+    result = stock(nullptr, temp_bytes);
+    if (result == cudaSuccess && one_portion) {
+      *temp_bytes = std::max(*temp_bytes, layout_for_count(count, begin_bit, end_bit).bytes());
     }
+    return result;
   }
+  *sorted = 0;
+  if (count <= 1 || end_bit <= begin_bit) return cudaSuccess;
+  if (!one_portion) {
+    result = stock(temp, temp_bytes);
+    *sorted = key_buffers.selector;
+    return result;
+  }
+  const CounterLayout layout = layout_for_count(std::max(count, counters_capacity), begin_bit, end_bit);
+  if (layout.bytes() > *temp_bytes || (counters_zeroed && counters_capacity < count)) return cudaErrorInvalidValue;
+  if (!counters_zeroed) result = cudaMemsetAsync(temp, 0, layout.bytes(), stream);
+  int threads = 0;
+  if (result == cudaSuccess) result = policy_for(uint32_t(count), &threads);
+  if (result != cudaSuccess) return result;
+  const auto n = uint32_t(count);
+  const auto sort = [&](auto policies) {
+    return sort_onesweep<decltype(policies)>(temp, layout, key_buffers, value_buffers, n, begin_bit, end_bit, stream);
+  };
+  result = threads == 0 ? sort(Stock{}) : threads == 512 ? sort(Tuned512{}) : sort(Tuned384{});
   *sorted = key_buffers.selector;
   return result;
+}
+
+cudaError_t clear_sort_counters(void* temp, size_t temp_bytes, uint64_t capacity, int begin_bit, int end_bit,
+                                cudaStream_t stream) {
+  const CounterLayout layout = layout_for_count(capacity, begin_bit, end_bit);
+  if (layout.bytes() > temp_bytes) return cudaErrorInvalidValue;
+  return layout.bytes() == 0 ? cudaSuccess : cudaMemsetAsync(temp, 0, layout.bytes(), stream);
 }
 
 }  // namespace rgs::kernels

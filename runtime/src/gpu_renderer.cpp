@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -136,18 +137,19 @@ struct GpuRenderer::Buffers {
   bool last_values_reordered = false;
   // Stage boundaries: start, after duplicate, after sort, after ranges, after render.
   cudaEvent_t events[5] = {nullptr, nullptr, nullptr, nullptr, nullptr};
-  // The fused kernel's pair total is copied on its own stream once that kernel has finished (fused_done),
-  // while the large-Gaussian kernel still runs, so the host waits for the count and enqueues the sort while
-  // the GPU is busy (read_back_at).
-  cudaEvent_t fused_done = nullptr;
-  cudaStream_t readback_stream = nullptr;
+  // The kernel after the fused one publishes its totals to pair_count (kernels::HostTotals) with a new
+  // sequence number each launch; large_done, recorded after that kernel, ends the host's wait if they never
+  // come (a failed kernel).
+  cudaEvent_t large_done = nullptr;
+  unsigned long long fused_sequence = 0;
+  // Where this frame's large-Gaussian work list was counted (stats only).
+  unsigned long long* frame_large_count = nullptr;
 
   ~Buffers() {
     for (cudaEvent_t& e : events) {
       if (e != nullptr) cudaEventDestroy(e);
     }
-    if (fused_done != nullptr) cudaEventDestroy(fused_done);
-    if (readback_stream != nullptr) cudaStreamDestroy(readback_stream);
+    if (large_done != nullptr) cudaEventDestroy(large_done);
   }
 
   void release_pairs() {
@@ -205,7 +207,7 @@ struct GpuRenderer::Buffers {
       int unused = 0;
       const cudaError_t query =
           key32 ? kernels::sort_pairs_ping_pong(nullptr, &sort_bytes, key32_buffers().data(), value_buffers().data(),
-                                                pairs, 0, key_bits, &unused, stream)
+                                                values.size(), values.size(), 0, key_bits, false, &unused, stream)
                 : kernels::sort_pairs(nullptr, &sort_bytes, keys64.data(), keys64_sorted.data(), values.data(),
                                       values_sorted.data(), pairs, 0, key_bits, stream);
       grown = cuda_status(query, "GpuRenderer: sort size query");
@@ -258,16 +260,19 @@ struct GpuRenderer::Buffers {
     return FrameCounts{host[0], host[1]};
   }
 
-  /// Reads the two adjacent uint64 at `device_values` once `event` (recorded on the render stream) has
-  /// completed, on readback_stream: work enqueued on the render stream after the event keeps running
-  /// meanwhile.
-  Result<FrameCounts> read_back_at(const unsigned long long* device_values, cudaEvent_t event) {
-    RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(readback_stream, event, 0), "GpuRenderer: read-back wait");
-    auto* host = static_cast<uint64_t*>(pair_count.data());
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host, device_values, 2 * sizeof(uint64_t), cudaMemcpyDeviceToHost,
-                                             readback_stream),
-                             "GpuRenderer: pair count read-back");
-    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(readback_stream), "GpuRenderer: preprocess");
+  /// The fused kernel's totals once they are published with `sequence` (kernels::HostTotals): the host polls
+  /// pinned memory while the stream's later work runs, and stops polling when `event`, recorded after the
+  /// publishing kernel, completes without them (a failed kernel).
+  Result<FrameCounts> wait_for_totals(unsigned long long sequence, cudaEvent_t event) {
+    const auto* host = static_cast<volatile unsigned long long*>(pair_count.data());
+    while (host[2] != sequence) {
+      const cudaError_t ended = cudaEventQuery(event);
+      if (ended == cudaErrorNotReady) continue;
+      RGS_RETURN_IF_CUDA_ERROR(ended, "GpuRenderer: preprocess");
+      RGS_RETURN_ERROR_IF(host[2] != sequence, StatusCode::kCudaError,
+                          "GpuRenderer: the fused kernel ended without publishing its pair count");
+    }
+    std::atomic_thread_fence(std::memory_order_acquire);
     return FrameCounts{host[0], host[1]};
   }
 
@@ -300,15 +305,14 @@ struct GpuRenderer::Buffers {
 Result<GpuRenderer> GpuRenderer::create() {
   GpuRenderer renderer;
   renderer.buffers_ = std::make_unique<Buffers>();
-  RGS_RETURN_IF_ERROR(renderer.buffers_->pair_count.reserve(2 * sizeof(uint64_t), "GpuRenderer: pair count"));
+  RGS_RETURN_IF_ERROR(renderer.buffers_->pair_count.reserve(3 * sizeof(uint64_t), "GpuRenderer: pair count",
+                                                             cudaHostAllocMapped));
   Buffers& b = *renderer.buffers_;
   for (cudaEvent_t& e : b.events) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventCreate(&e), "GpuRenderer: cudaEventCreate");
   }
-  RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&b.fused_done, cudaEventDisableTiming),
+  RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&b.large_done, cudaEventDisableTiming),
                            "GpuRenderer: cudaEventCreateWithFlags");
-  RGS_RETURN_IF_CUDA_ERROR(cudaStreamCreateWithFlags(&b.readback_stream, cudaStreamNonBlocking),
-                           "GpuRenderer: cudaStreamCreateWithFlags");
   return renderer;
 }
 
@@ -461,7 +465,7 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
     const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
     if (listed && scene.size() > 0) {
       unsigned long long large = 0;
-      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->large_count.data(), sizeof(large),
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->frame_large_count, sizeof(large),
                                                cudaMemcpyDeviceToHost, stream),
                                "GpuRenderer: large Gaussian count read-back");
       RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
@@ -577,6 +581,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   source.count = n;
 
   uint64_t pairs = 0, large_pairs = 0;
+  uint64_t sort_counters = 0;  // pairs the sort's counters were zeroed for ahead of the count (0: not zeroed)
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
     if (!options.fused_preprocess) RGS_RETURN_IF_ERROR(b.reserve_scan(n));
@@ -588,20 +593,26 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     RGS_RETURN_IF_ERROR(b.snug_t.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
     RGS_RETURN_IF_ERROR(b.depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
     RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
+    RGS_RETURN_IF_ERROR(b.fused_total.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals"));
+    // The fused kernel's launcher zeroes its list count with its totals (kernels::kFusedLargeCount).
+    b.frame_large_count =
+        options.fused_preprocess ? b.fused_total.data() + kernels::kFusedLargeCount : b.large_count.data();
     // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
     const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
-      if (!options.balanced_emission) return kernels::LargeGaussianList{nullptr, b.large_count.data(), 0};
+      unsigned long long* const count = b.frame_large_count;
+      if (!options.balanced_emission) return kernels::LargeGaussianList{nullptr, count, 0};
       const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
       RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list"));
-      return kernels::LargeGaussianList{b.large_items.data(), b.large_count.data(), capacity};
+      return kernels::LargeGaussianList{b.large_items.data(), count, capacity};
     };
     const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
     if (options.fused_preprocess) {
       const uint32_t blocks = kernels::fused_blocks(n);
       RGS_RETURN_IF_ERROR(b.fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
       RGS_RETURN_IF_ERROR(b.fused_status.reserve(blocks, "GpuRenderer: fused block status"));
-      RGS_RETURN_IF_ERROR(b.fused_total.reserve(2, "GpuRenderer: fused pair totals"));
       const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
+      RGS_ASSIGN_OR_RETURN(void* const host_totals, b.pair_count.device_pointer());
+      kernels::HostTotals published{b.fused_total.data(), static_cast<volatile unsigned long long*>(host_totals)};
       // Capacity: what the pair buffers hold now (sized by earlier frames), at least 2 pairs per Gaussian.
       // A frame with more pairs runs the fused kernel again with enough (fused_relaunches); frames of dense
       // scenes hold 1.5-3 pairs a Gaussian (taebak: 1.5 at 1080p, 1.9 at 4K, 2.9 at 8K), large Gaussians many
@@ -615,16 +626,25 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
         // so blocks need not wait for their predecessors' counts (PairAllocation::kArrivalOrder).
         const auto allocation =
             reorder_ties ? kernels::PairAllocation::kArrivalOrder : kernels::PairAllocation::kBlockOrder;
+        published.sequence = ++b.fused_sequence;
         RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, projected, scratch, large,
                                                                   capacity, allocation, b.keys64.data(),
                                                                   b.keys32.data(), b.values.data(), stream),
                                  "GpuRenderer: fused preprocess kernel");
-        RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.fused_done, stream), "GpuRenderer: cudaEventRecord");
+        // The large-Gaussian kernel publishes the totals as it starts.
         RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.keys64.data(),
-                                                               b.keys32.data(), b.values.data(), stream),
+                                                               b.keys32.data(), b.values.data(), published, stream),
                                  "GpuRenderer: large Gaussian kernel");
-        // The total is final when the fused kernel ends; read it while the large-Gaussian kernel runs.
-        RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.read_back_at(b.fused_total.data(), b.fused_done));
+        RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.large_done, stream), "GpuRenderer: cudaEventRecord");
+        // The sort's counters need no pair count: zeroed now, while the host waits for it, not after.
+        if (t.key32) {
+          RGS_RETURN_IF_CUDA_ERROR(
+              kernels::clear_sort_counters(b.sort_temp.data(), b.sort_temp.bytes(), capacity, 0, key_bits, stream),
+              "GpuRenderer: sort counters");
+          sort_counters = capacity;
+        }
+        // The host enqueues the sort as soon as it has the count, while the large Gaussians' pairs are written.
+        RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.wait_for_totals(published.sequence, b.large_done));
         pairs = counts.pairs;
         large_pairs = counts.large_pairs;
         if (pairs <= capacity) break;
@@ -647,7 +667,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                                            stream),
                                  "GpuRenderer: duplicate kernel");
         RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.keys64.data(),
-                                                               b.keys32.data(), b.values.data(), stream),
+                                                               b.keys32.data(), b.values.data(), {}, stream),
                                  "GpuRenderer: large Gaussian kernel");
       }
     }
@@ -663,8 +683,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     if (t.key32) {
       int sorted = 0;
       RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs_ping_pong(b.sort_temp.data(), &sort_bytes, b.key32_buffers().data(),
-                                                             b.value_buffers().data(), pairs, 0, key_bits, &sorted,
-                                                             stream),
+                                                             b.value_buffers().data(), pairs, sort_counters, 0,
+                                                             key_bits, sort_counters != 0, &sorted, stream),
                                "GpuRenderer: radix sort");
       b.name_sorted(sorted);
     } else {

@@ -21,7 +21,9 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
+#include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/kernels/roofgs_pipeline.h"
+#include "rgs/runtime/device_buffer.h"
 
 namespace rgs::test {
 namespace {
@@ -315,10 +317,12 @@ TEST_CASE("sorted pairs equal the CPU reference's, term by term, with large Gaus
 
 TEST_CASE("depth order orders runs of tied keys of every length, across thread blocks, and writes the ranges") {
   // order_equal_keys_by_depth ranks each pair of a run of tied keys over the whole run, wherever the run's
-  // ends lie, and writes the tile ranges. Real scenes tie in runs of at most ~7 pairs; here three clusters of
-  // Gaussians in front of a 64x64 camera (16 tiles, 28 depth bits of 3.9e-7 units) give runs of ~200 (1,000
-  // Gaussians 2e-6 deep; some longer than a 256-thread block), of ~10 (2,000 Gaussians 5e-5 deep) and of 1–2
-  // (4,000 Gaussians 3e-3 deep), with indices in no depth order. The frame must also equal the baseline's.
+  // ends lie, and writes the tile ranges. Real scenes tie in runs of at most ~15 pairs; here three clusters
+  // of Gaussians in front of a 64x64 camera (16 tiles, 28 depth bits over the means' depths [5, 6]: bins of
+  // 3.7e-9 units, finer than the float spacing of 4.8e-7 there, so runs are Gaussians of equal float depth)
+  // give runs of ~200 (1,000 Gaussians 2e-6 deep; some longer than a 256-thread block), of ~10 (2,000
+  // Gaussians 5e-5 deep) and of 1–2 (4,000 Gaussians 3e-3 deep), with indices in no depth order. The frame
+  // must also equal the baseline's.
   if (!have_gpu()) return;
   format::GaussianCloud cloud;
   cloud.sh_degree = 0;
@@ -334,7 +338,7 @@ TEST_CASE("depth order orders runs of tied keys of every length, across thread b
     add_gaussian(&cloud, 0.02f * (next() - 0.5f), 0.02f * (next() - 0.5f), z, 1.f, 0.5f + 0.4f * next(),
                  next() - 0.5f, next() - 0.5f, next() - 0.5f);
   }
-  // Out of view, they widen the scene's bounding sphere and hence each depth bin.
+  // Out of view, they widen the scene's bounding sphere; the AABB keeps the depth range at the clusters'.
   add_gaussian(&cloud, -100.f, 0.f, 5.f, 0.1f, 0.5f, 0.f, 0.f, 0.f);
   add_gaussian(&cloud, 100.f, 0.f, 5.f, 0.1f, 0.5f, 0.f, 0.f, 0.f);
   const format::SceneBounds bounds = converter::compute_bounds(cloud);
@@ -383,6 +387,73 @@ TEST_CASE("depth order orders runs of tied keys of every length, across thread b
       CHECK(same_bits(frame.rgba, base.rgba));
     }
   }
+}
+
+TEST_CASE("32-bit pair sort: stable for every policy's count, on counters zeroed ahead or by the sort") {
+  // sort_pairs_ping_pong launches CUB's onesweep kernels itself: CUB's own sm_90 policy up to one 384-thread
+  // tile per SM, 512-thread tiles up to one per SM, 384 above (kernels/src/sort.cu). Keys take 1,000 values,
+  // so runs of equal keys must keep their input order (values are the input positions); the counters are
+  // zeroed by clear_sort_counters for a larger capacity, or by the sort itself, on the same scratch in turn.
+  if (!have_gpu()) return;
+  int sms = 0;
+  REQUIRE(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, 0) == cudaSuccess);
+  const uint64_t one_per_sm = uint64_t(sms) * 384 * 23;
+  const uint64_t counts[] = {1, 2, 1000, 8832, 8833, one_per_sm, one_per_sm + 1, uint64_t(sms) * 512 * 23 + 5,
+                             3000000};
+  const uint64_t capacity = 3000000 + 4096;
+  runtime::DeviceBuffer<uint32_t> keys[2], values[2];
+  runtime::DeviceBuffer<uint8_t> temp;
+  for (int i = 0; i < 2; ++i) {
+    REQUIRE(keys[i].reserve_exact(capacity, "keys").ok());
+    REQUIRE(values[i].reserve_exact(capacity, "values").ok());
+  }
+  uint32_t* const key_buffers[2] = {keys[0].data(), keys[1].data()};
+  uint32_t* const value_buffers[2] = {values[0].data(), values[1].data()};
+  size_t temp_bytes = 0;
+  int sorted = 0;
+  REQUIRE(kernels::sort_pairs_ping_pong(nullptr, &temp_bytes, key_buffers, value_buffers, capacity, capacity, 0, 32,
+                                        false, &sorted, nullptr) == cudaSuccess);
+  REQUIRE(temp.reserve_exact(temp_bytes, "sort scratch").ok());
+  uint32_t hash = 2463534242u;
+  for (const uint64_t count : counts) {
+    for (const bool zeroed_ahead : {true, false}) {
+      CAPTURE(count);
+      CAPTURE(zeroed_ahead);
+      std::vector<uint32_t> key(count), value(count);
+      for (uint64_t i = 0; i < count; ++i) {
+        hash ^= hash << 13;
+        hash ^= hash >> 17;
+        hash ^= hash << 5;
+        key[i] = (hash % 1000u) * 4294967u;  // 1,000 distinct keys spread over all 32 bits
+        value[i] = uint32_t(i);
+      }
+      REQUIRE(cudaMemcpy(keys[0].data(), key.data(), count * 4, cudaMemcpyHostToDevice) == cudaSuccess);
+      REQUIRE(cudaMemcpy(values[0].data(), value.data(), count * 4, cudaMemcpyHostToDevice) == cudaSuccess);
+      if (zeroed_ahead) {
+        REQUIRE(kernels::clear_sort_counters(temp.data(), temp_bytes, capacity, 0, 32, nullptr) == cudaSuccess);
+      }
+      size_t bytes = temp_bytes;
+      REQUIRE(kernels::sort_pairs_ping_pong(temp.data(), &bytes, key_buffers, value_buffers, count,
+                                            zeroed_ahead ? capacity : count, 0, 32, zeroed_ahead, &sorted,
+                                            nullptr) == cudaSuccess);
+      REQUIRE(cudaDeviceSynchronize() == cudaSuccess);
+      std::vector<uint32_t> got_keys(count), got_values(count);
+      REQUIRE(cudaMemcpy(got_keys.data(), key_buffers[sorted], count * 4, cudaMemcpyDeviceToHost) == cudaSuccess);
+      REQUIRE(cudaMemcpy(got_values.data(), value_buffers[sorted], count * 4, cudaMemcpyDeviceToHost) == cudaSuccess);
+      std::stable_sort(value.begin(), value.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+      std::sort(key.begin(), key.end());
+      CHECK(got_keys == key);
+      CHECK(got_values == value);
+    }
+  }
+  // Counters zeroed for fewer pairs than the sort has, or scratch too small for them: refused, nothing run.
+  size_t bytes = temp_bytes;
+  CHECK(kernels::sort_pairs_ping_pong(temp.data(), &bytes, key_buffers, value_buffers, 3000000, 1000, 0, 32, true,
+                                      &sorted, nullptr) == cudaErrorInvalidValue);
+  bytes = 1024;
+  CHECK(kernels::sort_pairs_ping_pong(temp.data(), &bytes, key_buffers, value_buffers, 3000000, 3000000, 0, 32, false,
+                                      &sorted, nullptr) == cudaErrorInvalidValue);
+  CHECK(kernels::clear_sort_counters(temp.data(), 1024, 3000000, 0, 32, nullptr) == cudaErrorInvalidValue);
 }
 
 TEST_CASE("32-bit key with depth order renders exactly the baseline's image at 1080p, 4K and 8K") {

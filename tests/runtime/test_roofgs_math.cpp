@@ -2,6 +2,7 @@
 // 32-bit key bit allocation and depth quantization, folded coefficients and the dual-pixel update vs direct
 // evaluation, and the fast exp's error bound.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <limits>
@@ -22,6 +23,18 @@ namespace rgs::test {
 namespace {
 
 namespace k = rgs::kernels;
+
+/// Bounds of a sphere at (0, 0, z) with radius r, its AABB the sphere's box.
+format::SceneBounds sphere_bounds(float z, float r) {
+  format::SceneBounds b;
+  b.sphere_center[2] = z;
+  b.sphere_radius = r;
+  for (int a = 0; a < 3; ++a) {
+    b.aabb_min[a] = b.sphere_center[a] - r;
+    b.aabb_max[a] = b.sphere_center[a] + r;
+  }
+  return b;
+}
 using TileSet = std::set<std::pair<int, int>>;
 
 /// Minimum over the tile's pixel-centre rectangle [16tx, 16tx+15] × [16ty, 16ty+15] of the quadratic form
@@ -190,10 +203,7 @@ TEST_CASE("32-bit key: resolution-adaptive bits at 1080p, 4K and 8K") {
     add_gaussian(&cloud, 0.f, 0.f, 5.f, 0.1f, 0.5f, 0.f, 0.f, 0.f);
     runtime::RenderOptions options;
     options.roofgs.key32 = true;
-    format::SceneBounds bounds;
-    bounds.sphere_center[2] = 5.f;
-    bounds.sphere_radius = 2.f;
-    options.scene_bounds = bounds;
+    options.scene_bounds = sphere_bounds(5.f, 2.f);
     const auto frame = runtime::setup_frame(cloud, identity_camera(uint32_t(c.w), uint32_t(c.h), 1000.f), options);
     REQUIRE(frame.ok());
     CHECK(frame->key_tile_bits == c.tile_bits);
@@ -214,10 +224,7 @@ TEST_CASE("32-bit key: Gaussians outside the scene sphere's depth range are cull
   for (float z : {2.5f, 3.f, 5.f, 7.f, 7.5f}) add_gaussian(&cloud, 0.f, 0.f, z, 0.05f, 0.9f, 0.f, 0.f, 0.f);
   runtime::RenderOptions options;
   options.roofgs.key32 = true;
-  format::SceneBounds bounds;
-  bounds.sphere_center[2] = 5.f;
-  bounds.sphere_radius = 2.f;
-  options.scene_bounds = bounds;
+  options.scene_bounds = sphere_bounds(5.f, 2.f);
   const runtime::Camera cam = identity_camera(64, 48, 50.f);
   auto frame = runtime::setup_frame(cloud, cam, options);
   REQUIRE(frame.ok());
@@ -240,11 +247,51 @@ TEST_CASE("32-bit key: Gaussians outside the scene sphere's depth range are cull
     CHECK((bins->keys[p] & ((1u << 28) - 1)) == g[bins->values[p]].depth_bin);
   }
   // Sphere behind the camera: nothing is visible, no error.
-  bounds.sphere_center[2] = -10.f;
-  options.scene_bounds = bounds;
+  options.scene_bounds = sphere_bounds(-10.f, 2.f);
   const auto out = render_ok(cloud, cam, options);
   CHECK(out.stats.visible == 0);
   CHECK(out.stats.culled_depth_range == 5);
+}
+
+TEST_CASE("32-bit key: the AABB of the means narrows the sphere's depth range, and only where it lies inside") {
+  // Identity camera: view depth = world z. Sphere (0, 0, 5), radius 2: [3, 7].
+  format::GaussianCloud cloud;
+  for (float z : {3.5f, 4.f, 5.f, 6.f, 6.5f}) add_gaussian(&cloud, 0.f, 0.f, z, 0.05f, 0.9f, 0.f, 0.f, 0.f);
+  runtime::RenderOptions options;
+  options.roofgs.key32 = true;
+  format::SceneBounds bounds = sphere_bounds(5.f, 2.f);
+  bounds.aabb_min[2] = 4.f;  // the means' box spans z in [4, 6]
+  bounds.aabb_max[2] = 6.f;
+  options.scene_bounds = bounds;
+  const runtime::Camera cam = identity_camera(64, 48, 50.f);
+  const auto frame = runtime::setup_frame(cloud, cam, options);
+  REQUIRE(frame.ok());
+  CHECK(frame->quantizer.z_near == 4.f);
+  CHECK(frame->quantizer.z_far == 6.f);
+  runtime::RenderStats stats;
+  const auto g = runtime::preprocess_cpu(cloud, cam, *frame, options, &stats);
+  CHECK(g[1].depth_bin == 0);  // on the box's near face
+  CHECK(g[2].depth_bin == uint32_t(std::floor(0.5 * frame->quantizer.max_level)));
+  CHECK(g[3].depth_bin == frame->quantizer.max_bin);  // on its far face
+  CHECK(stats.culled_depth_range == 2);  // 3.5 and 6.5 lie outside the box the bounds promise
+  // [z_near, z_far] of the key for `b` seen by `camera`.
+  const auto depth_range = [&](const format::SceneBounds& b, const runtime::Camera& camera) {
+    options.scene_bounds = b;
+    const auto setup = runtime::setup_frame(cloud, camera, options);
+    REQUIRE(setup.ok());
+    return std::array<float, 2>{setup->quantizer.z_near, setup->quantizer.z_far};
+  };
+  // A box wider than the sphere leaves the sphere's range; a camera turned sideways sees the box's x extent.
+  bounds.aabb_min[2] = 1.f;
+  bounds.aabb_max[2] = 9.f;
+  CHECK(depth_range(bounds, cam) == std::array<float, 2>{3.f, 7.f});
+  runtime::Camera side = cam;  // looks along world +x: view z = world x + 5
+  side.rotation = {0, 0, -1, 0, 1, 0, 1, 0, 0};
+  side.translation = {0, 0, 5};
+  bounds = sphere_bounds(0.f, 2.f);
+  bounds.aabb_min[0] = -0.5f;
+  bounds.aabb_max[0] = 1.f;
+  CHECK(depth_range(bounds, side) == std::array<float, 2>{4.5f, 6.f});
 }
 
 TEST_CASE("depth quantization: monotonic, clamped, and ordered by tile first") {

@@ -64,9 +64,20 @@ cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, 
 /// scratch holds no third copy of them (8 bytes a pair less GPU memory). The pairs start in keys[0] /
 /// values[0]; *sorted receives the index, 0 or 1, of the buffers that hold them sorted, and the other two
 /// buffers' contents are unspecified. Call with temp == nullptr to get *temp_bytes (a size queried for a count
-/// serves every smaller count).
+/// serves every smaller count). Up to 2^28 − 16,384 pairs, CUB's kernels are launched here back to back on
+/// counters at the start of `temp`, laid out for `counters_capacity` pairs (at least `count`; 0: `count`),
+/// which must be zero: `counters_zeroed` says that clear_sort_counters() with that capacity did so since the
+/// last sort on this scratch (the renderer enqueues it before it knows the count); else this function zeroes
+/// them first. cudaErrorInvalidValue when `*temp_bytes` is too small for them or the capacity below `count`.
 cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const keys[2], uint32_t* const values[2],
-                                 uint64_t count, int begin_bit, int end_bit, int* sorted, cudaStream_t stream);
+                                 uint64_t count, uint64_t counters_capacity, int begin_bit, int end_bit,
+                                 bool counters_zeroed, int* sorted, cudaStream_t stream);
+
+/// Zeroes the counters that the next sort_pairs_ping_pong() of at most `capacity` pairs on `temp` (of
+/// `temp_bytes`, the same bits) uses: one memset of a few bytes a pair (4 KB per 8,832 pairs at 4 passes),
+/// which needs no pair count, for all of its passes. cudaErrorInvalidValue when `temp_bytes` is too small.
+cudaError_t clear_sort_counters(void* temp, size_t temp_bytes, uint64_t capacity, int begin_bit, int end_bit,
+                                cudaStream_t stream);
 
 /// Stage 4 (3DGS identifyTileRanges): ranges[2·t], ranges[2·t + 1] = [begin, end) of tile t's pairs in the
 /// sorted keys, tile = key >> tile_shift (32 for the 64-bit key, b_d for the 32-bit one). `ranges` holds

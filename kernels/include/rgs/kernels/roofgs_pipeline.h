@@ -123,14 +123,28 @@ inline uint64_t large_list_capacity(uint32_t gaussians, uint64_t pairs) {
   return uint64_t(gaussians) + pairs / kLargeChunkSlices + 1;
 }
 
+/// The fused kernel's pair totals, copied by the kernel that follows it into host memory that the device can
+/// write, so that the host learns the pair count by polling that memory while the stream runs on, instead of
+/// a copy and a stream synchronization after the kernel.
+struct HostTotals {
+  const unsigned long long* totals = nullptr;   ///< [2] device: FusedScratch::totals[0..1], final
+  /// [3] pinned host memory mapped for the device (cudaHostAllocMapped): [0], [1] ← totals, then [2] ←
+  /// sequence. Null: nothing is published.
+  volatile unsigned long long* host = nullptr;
+  unsigned long long sequence = 0;  ///< ≠ 0; a new value for every launch
+};
+
 /// Writes the pairs of every listed large Gaussian, one warp per work item (a chunk of consecutive slices of
 /// its tile walk; a persistent grid takes them in turn), so that a Gaussian covering the frame is written by
 /// many warps at once: a warp adds up the lengths of the slices before its chunk, a warp scan places the
 /// chunk's slices, and the warp writes the chunk's pairs, one per lane.
-/// Positions and keys are those the serial walk gives; positions ≥ capacity are skipped.
+/// Positions and keys are those the serial walk gives; positions ≥ capacity are skipped. Its first thread
+/// publishes `totals` (unless totals.host is null) before any pair is written; without a list (capacity 0)
+/// a one-thread kernel publishes them.
 cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGaussianList& large,
                                  const FrameParams& frame, const RoofgsFrame& roofgs, uint64_t capacity,
-                                 uint64_t* keys64, uint32_t* keys32, uint32_t* values, cudaStream_t stream);
+                                 uint64_t* keys64, uint32_t* keys32, uint32_t* values, const HostTotals& totals,
+                                 cudaStream_t stream);
 
 /// Preprocess (separate stages). Thread g writes Gaussian g's per-Gaussian outputs and its tile count
 /// tiles_touched[g] (0 when culled); *large_pairs ([1], zeroed here) receives the pairs of the Gaussians with
@@ -151,10 +165,15 @@ cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* o
 struct FusedScratch {
   uint32_t* block_ticket = nullptr;        ///< [1], zeroed by the launcher (block order only)
   unsigned long long* block_status = nullptr;  ///< [blocks], zeroed by the launcher (block order only)
-  /// [2] out: [0] pairs of the frame (even beyond capacity); [1] of them, the pairs of Gaussians with more
-  /// than kSubtileLargeTiles tiles (the automatic sub-tile culling's measure)
+  /// [kFusedTotals], zeroed by the launcher: [0] out: pairs of the frame (even beyond capacity); [1] out: of
+  /// them, the pairs of Gaussians with more than kSubtileLargeTiles tiles (the automatic sub-tile culling's
+  /// measure); [2] free for the launch's LargeGaussianList::count, which is then zeroed with the rest.
   unsigned long long* totals = nullptr;
 };
+
+/// Words of FusedScratch::totals, and the one a launch's LargeGaussianList::count may take.
+inline constexpr int kFusedTotals = 3;
+inline constexpr int kFusedLargeCount = 2;
 
 /// Number of FusedScratch::block_status entries for `count` Gaussians.
 uint32_t fused_blocks(uint32_t count);

@@ -25,7 +25,8 @@ struct RenderOptions {
   unsigned num_threads = 0;
   /// RoofGS techniques; default all off = the 3DGS baseline.
   RoofgsOptions roofgs;
-  /// Scene bounds (the .rgs metadata, or converter::compute_bounds of a PLY); required by roofgs.key32.
+  /// Scene bounds (the .rgs metadata, or converter::compute_bounds of a PLY): every mean inside its sphere and
+  /// its AABB; required by roofgs.key32, whose depth range they give (setup_depth_key).
   std::optional<format::SceneBounds> scene_bounds;
 };
 
@@ -134,9 +135,11 @@ Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera&
                                const RenderOptions& options);
 
 /// The 32-bit key's layout for `camera` (frame->tiles_x/y already set): tile and depth bits, the depth range
-/// [z_near, z_far] from the bounding sphere, its quantizer and culling bounds (RoofgsOptions::key32). Shared
-/// with the GPU renderer. Errors: kInvalidArgument (no bounds, non-finite sphere), kLimitExceeded (fewer
-/// than 8 depth bits left).
+/// [z_near, z_far] that the bounding sphere and the AABB of the means both allow (view depths of the sphere's
+/// near and far points and of the AABB's corners, at least the near plane), its quantizer and culling bounds
+/// (RoofgsOptions::key32). Shared with the GPU renderer. Every mean must lie in both (as in a .rgs file's
+/// metadata or converter::compute_bounds); Gaussians outside are culled. Errors: kInvalidArgument (no bounds,
+/// non-finite sphere, non-finite or inverted AABB), kLimitExceeded (fewer than 8 depth bits left).
 Status setup_depth_key(const Camera& camera, const std::optional<format::SceneBounds>& bounds, FrameSetup* frame);
 
 /// Stage 1 (3DGS preprocessCUDA): one ProjectedGaussian per input Gaussian, in input order, into `*out`

@@ -85,7 +85,7 @@ class DeviceBuffer {
   size_t size_ = 0;
 };
 
-/// Page-locked host memory (cudaMallocHost) for asynchronous transfers, freed on destruction. Move-only.
+/// Page-locked host memory (cudaHostAlloc) for asynchronous transfers, freed on destruction. Move-only.
 class PinnedBuffer {
  public:
   PinnedBuffer() = default;
@@ -103,12 +103,14 @@ class PinnedBuffer {
     return *this;
   }
 
-  /// Makes the buffer hold at least `bytes` bytes (contents not preserved). Errors: kOutOfMemory, kCudaError.
-  Status reserve(size_t bytes, const std::string& what) {
+  /// Makes the buffer hold at least `bytes` bytes (contents not preserved), allocated with cudaHostAlloc's
+  /// `flags` (cudaHostAllocMapped: kernels may also read and write it, at device_pointer()). Errors:
+  /// kOutOfMemory, kCudaError.
+  Status reserve(size_t bytes, const std::string& what, unsigned flags = cudaHostAllocDefault) {
     if (bytes <= bytes_) return Status();
     release();
     void* p = nullptr;
-    const cudaError_t result = cudaMallocHost(&p, bytes);
+    const cudaError_t result = cudaHostAlloc(&p, bytes, flags);
     if (result != cudaSuccess) {
       return cuda_status(result, what + ": cannot allocate " + std::to_string(bytes) + " bytes of pinned memory");
     }
@@ -125,6 +127,14 @@ class PinnedBuffer {
 
   void* data() const { return data_; }
   size_t bytes() const { return bytes_; }
+
+  /// The address kernels use for a buffer reserved with cudaHostAllocMapped (cudaHostGetDevicePointer).
+  Result<void*> device_pointer() const {
+    void* p = nullptr;
+    const cudaError_t result = cudaHostGetDevicePointer(&p, data_, 0);
+    if (result != cudaSuccess) return cuda_status(result, "pinned host memory: no device address");
+    return p;
+  }
 
  private:
   void* data_ = nullptr;

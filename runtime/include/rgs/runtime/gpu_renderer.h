@@ -181,7 +181,9 @@ struct GpuRenderStats {
 /// frames and grows them as needed (by a quarter more than asked), so a steady sequence of frames allocates nothing.
 /// Not thread-safe; one renderer per stream. Move-only.
 ///
-/// Each frame reads the pair count back to the host once (a wait on `stream`), like 3DGS.
+/// Each frame brings the pair count to the host once, like 3DGS: the fused RoofGS pipeline's host polls pinned
+/// memory that a kernel on `stream` writes the count to (kernels::HostTotals); the baseline and the separate
+/// RoofGS stages copy it and wait on `stream`.
 class GpuRenderer {
  public:
   /// Creates a renderer on the current device. Errors: kCudaError (no device, driver problem).
@@ -203,8 +205,8 @@ class GpuRenderer {
 
   /// Renders `scene` from `camera` into the caller's device image `target` (OutputImage: format, pitch,
   /// optional alpha and depth), all work enqueued on `stream`; nothing synchronizes the device. The only
-  /// waits are those of render(): the per-frame pair-count read-back (a wait on `stream`, or on the
-  /// renderer's own read-back stream after an event), and time_stages. Scratch buffers that must grow
+  /// waits are those of render(): the per-frame pair count (polled in pinned memory that a kernel on
+  /// `stream` writes, or a copy and a wait on `stream`), and time_stages. Scratch buffers that must grow
   /// are allocated with cudaMalloc (which may synchronize the device), so only the first frames of a
   /// sequence, or a larger frame, allocate. Errors: those of render(), and kInvalidArgument from
   /// validate_output_image() or a target size other than the camera's.
