@@ -201,7 +201,11 @@ Status stream_zstd(const uint8_t* src, size_t stored_size, uint64_t raw_size, si
                           " (trailing data or a second frame)");
   std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> dctx(ZSTD_createDCtx(), ZSTD_freeDCtx);
   RGS_RETURN_ERROR_IF(!dctx, StatusCode::kOutOfMemory, "cannot create a zstd decompression context");
-  const size_t chunk = record_size * std::max<size_t>(1, (size_t{1} << 20) / record_size);
+  // At most 1 MiB of whole records, and no more records than raw_size claims (a section of a few KB needs no
+  // 1 MiB buffer; a claim too small is caught below, when the frame decodes to more).
+  const uint64_t records = std::min<uint64_t>(raw_size / record_size + (raw_size % record_size != 0),
+                                              std::max<size_t>(1, (size_t{1} << 20) / record_size));
+  const size_t chunk = record_size * static_cast<size_t>(std::max<uint64_t>(1, records));
   std::vector<uint8_t> buffer(chunk);
   ZSTD_inBuffer in{src, stored_size, 0};
   uint64_t total = 0, index = 0;
