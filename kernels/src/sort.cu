@@ -89,7 +89,7 @@ CounterLayout layout_for_count(uint64_t count, int begin_bit, int end_bit) {
 /// No memset and no occupancy query between the launches (the histogram kernel's occupancy is asked once).
 template <typename Policies>
 cudaError_t sort_onesweep(void* temp, const CounterLayout& layout, cub::DoubleBuffer<uint32_t>& keys,
-                          cub::DoubleBuffer<uint32_t>& values, uint32_t count, int begin_bit, int end_bit,
+                          cub::DoubleBuffer<uint32_t>& values, uint32_t count, int begin_bit, int end_bit, int sms,
                           cudaStream_t stream) {
   using MaxPolicy = typename Policies::MaxPolicy;
   using Active = typename Policies::Policy;
@@ -106,10 +106,6 @@ cudaError_t sort_onesweep(void* temp, const CounterLayout& layout, cub::DoubleBu
                ? blocks
                : 1;
   }();
-  int device = 0, sms = 0;
-  cudaError_t result = cudaGetDevice(&device);
-  if (result == cudaSuccess) result = cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
-  if (result != cudaSuccess) return result;
   const int tiles = int((uint64_t(count) + kTileItems - 1) / kTileItems);
   uint32_t* bins = layout.bins(temp);
   histogram<<<histogram_blocks_per_sm * sms, kHistogramThreads, 0, stream>>>(bins, keys.Current(), count, begin_bit,
@@ -126,14 +122,17 @@ cudaError_t sort_onesweep(void* temp, const CounterLayout& layout, cub::DoubleBu
   return cudaGetLastError();
 }
 
-/// The onesweep block size for `count` pairs (0: CUB's own sm_90 policy, Stock).
-cudaError_t policy_for(uint32_t count, int* onesweep_threads) {
-  int device = 0, sms = 0;
-  cudaError_t result = cudaGetDevice(&device);
-  if (result == cudaSuccess) result = cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
+/// The current device's SM count.
+cudaError_t multiprocessors(int* sms) {
+  int device = 0;
+  const cudaError_t result = cudaGetDevice(&device);
+  return result == cudaSuccess ? cudaDeviceGetAttribute(sms, cudaDevAttrMultiProcessorCount, device) : result;
+}
+
+/// The onesweep block size for `count` pairs on `sms` SMs (0: CUB's own sm_90 policy, Stock).
+int policy_for(uint32_t count, int sms) {
   const auto fits_one_per_sm = [&](uint64_t block_threads) { return count <= uint64_t(sms) * block_threads * 23u; };
-  *onesweep_threads = fits_one_per_sm(384) ? 0 : fits_one_per_sm(512) ? 512 : 384;
-  return result;
+  return fits_one_per_sm(384) ? 0 : fits_one_per_sm(512) ? 512 : 384;
 }
 
 }  // namespace
@@ -179,12 +178,14 @@ cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const
   const CounterLayout layout = layout_for_count(std::max(count, counters_capacity), begin_bit, end_bit);
   if (layout.bytes() > *temp_bytes || (counters_zeroed && counters_capacity < count)) return cudaErrorInvalidValue;
   if (!counters_zeroed) result = cudaMemsetAsync(temp, 0, layout.bytes(), stream);
-  int threads = 0;
-  if (result == cudaSuccess) result = policy_for(uint32_t(count), &threads);
+  int sms = 0;
+  if (result == cudaSuccess) result = multiprocessors(&sms);
   if (result != cudaSuccess) return result;
+  const int threads = policy_for(uint32_t(count), sms);
   const auto n = uint32_t(count);
   const auto sort = [&](auto policies) {
-    return sort_onesweep<decltype(policies)>(temp, layout, key_buffers, value_buffers, n, begin_bit, end_bit, stream);
+    return sort_onesweep<decltype(policies)>(temp, layout, key_buffers, value_buffers, n, begin_bit, end_bit, sms,
+                                              stream);
   };
   result = threads == 0 ? sort(Stock{}) : threads == 512 ? sort(Tuned512{}) : sort(Tuned384{});
   *sorted = key_buffers.selector;

@@ -142,8 +142,12 @@ struct GpuRenderer::Buffers {
   // come (a failed kernel).
   cudaEvent_t large_done = nullptr;
   unsigned long long fused_sequence = 0;
-  // Where this frame's large-Gaussian work list was counted (stats only).
-  unsigned long long* frame_large_count = nullptr;
+
+  /// Where a frame's large-Gaussian work list is counted: with the fused kernel beside its totals, which its
+  /// launcher zeroes together (kernels::kFusedLargeCount), else in large_count.
+  unsigned long long* large_list_count(bool fused_preprocess) {
+    return fused_preprocess ? fused_total.data() + kernels::kFusedLargeCount : large_count.data();
+  }
 
   ~Buffers() {
     for (cudaEvent_t& e : events) {
@@ -465,7 +469,7 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
     const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
     if (listed && scene.size() > 0) {
       unsigned long long large = 0;
-      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->frame_large_count, sizeof(large),
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->large_list_count(options.roofgs.fused_preprocess), sizeof(large),
                                                cudaMemcpyDeviceToHost, stream),
                                "GpuRenderer: large Gaussian count read-back");
       RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
@@ -594,12 +598,9 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     RGS_RETURN_IF_ERROR(b.depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
     RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
     RGS_RETURN_IF_ERROR(b.fused_total.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals"));
-    // The fused kernel's launcher zeroes its list count with its totals (kernels::kFusedLargeCount).
-    b.frame_large_count =
-        options.fused_preprocess ? b.fused_total.data() + kernels::kFusedLargeCount : b.large_count.data();
     // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
     const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
-      unsigned long long* const count = b.frame_large_count;
+      unsigned long long* const count = b.large_list_count(options.fused_preprocess);
       if (!options.balanced_emission) return kernels::LargeGaussianList{nullptr, count, 0};
       const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
       RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list"));
