@@ -469,8 +469,8 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
     const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
     if (listed && scene.size() > 0) {
       unsigned long long large = 0;
-      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, buffers_->large_list_count(options.roofgs.fused_preprocess), sizeof(large),
-                                               cudaMemcpyDeviceToHost, stream),
+      const unsigned long long* count = buffers_->large_list_count(options.roofgs.fused_preprocess);
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, count, sizeof(large), cudaMemcpyDeviceToHost, stream),
                                "GpuRenderer: large Gaussian count read-back");
       RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
       stats.large_chunks = large;
