@@ -58,7 +58,7 @@ const std::vector<ModeEntry>& entries() {
       {{"roofgs+",
         "roofgs with depth order, fast exp sigma 0.05798, half-precision blending (binary16 alpha, "
         "transmittance and colour sums) and long tiles blended in chunks, a block each (tiles of more than "
-        "max(2048, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most pairs); the fused kernel "
+        "max(1024, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most pairs); the fused kernel "
         "allocates pairs in arrival order: the depth order makes their emission order moot",
         false},
        [](bool compact) { return gpu_render_options(Preset::kFastest, compact); }},

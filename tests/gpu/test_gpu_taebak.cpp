@@ -187,7 +187,7 @@ TEST_CASE("taebak at 4K: the fastest preset's image equals the CPU reference's o
 
 TEST_CASE("taebak at 1080p: long tiles in chunks agree with the CPU reference and stay near whole tiles") {
   // The fastest preset blends the long tiles in chunks (kernels/shared/tile_chunks.h: of more than
-  // max(2048, pairs / 2048) pairs, about 3,200 for these frames). taebak's horizon puts up to ~20,000 pairs in a
+  // max(1024, pairs / 2048) pairs, about 3,200 for these frames). taebak's horizon puts up to ~20,000 pairs in a
   // 1080p tile. (1) Two full views, chunked against whole tiles on the GPU, colour and depth: chunk blocks ran,
   // and the change stays within binary16 rounding (measured max |diff| 0.011, 77 dB; the CPU test "long tiles
   // in chunks" on flowers, with many more chunks: 0.0046, 70.8 dB). (2) A 256x256 window of view 0 around its
