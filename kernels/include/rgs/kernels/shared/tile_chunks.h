@@ -22,9 +22,8 @@ namespace rgs::kernels {
 
 /// Pairs a chunk of the fastest preset holds at least: about 40 µs of one block's work on an H100 sharing its
 /// SM (40 ns a pair on taebak), against 0.36 ms for the whole 1080p frame's work. Frames of more than
-/// 1024 · kTileChunksPerFrame pairs (taebak at every size) take their own larger K; below that, 1024 against
-/// 2048 took daffodils' 1080p render from 0.118 to 0.101 ms and left its 4K and 8K frames, daffodils ×4 and
-/// flowers unchanged (docs/BENCHMARKS.md, session 17).
+/// 1024 · kTileChunksPerFrame pairs (taebak at every size) take a larger K (frame_chunk_pairs); docs/RENDERER.md
+/// says what 1,024 instead of 2,048 changed.
 constexpr uint32_t kTileChunkPairs = 1024;
 
 /// A frame's chunks hold at least 1/kTileChunksPerFrame of its pairs. A chunk block that starts from T = 1
