@@ -11,7 +11,12 @@
 #include <cstring>
 #include <filesystem>
 
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/file_io.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/spec.h"
+#include "read_limits_option.h"
 
 namespace rgs::tools {
 
@@ -194,26 +199,85 @@ Status check_scene_input(const std::string& path) {
 int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path, bool scene) {
   Status readable = scene ? check_scene_input(path) : check_input_file(path);
   if (!readable.ok()) return report_error(tool, readable);
-  Status declared = outputs.add_input(path);
-  if (!declared.ok()) return report_usage_error(tool, declared);
+  std::vector<std::string> files = {path};
+  if (scene && !format::is_rgs_path(path)) {
+    // Every file the scene names (a SOG's images, a streamed SOG's chunks, a .gltf's buffers) is an input too.
+    auto listed = converter::list_scene_files(path);
+    if (!listed.ok()) return report_error(tool, listed.status());
+    files.insert(files.end(), listed->begin(), listed->end());
+  }
+  for (const std::string& file : files) {
+    Status declared = outputs.add_input(file);
+    if (!declared.ok()) return report_usage_error(tool, declared);
+  }
   return kExitOk;
 }
 
+namespace {
+
+/// Appends up to `n` bytes of standard input to `bytes`; returns false at the end of the input.
+Result<bool> append_standard_input(std::vector<uint8_t>* bytes, uint64_t n) {
+  uint8_t buffer[1 << 16];
+  const ssize_t got = ::read(STDIN_FILENO, buffer, static_cast<size_t>(std::min<uint64_t>(n, sizeof(buffer))));
+  if (got < 0) {
+    if (errno == EINTR) return true;
+    return Status(StatusCode::kIoError, std::string("-: cannot read standard input: ") + std::strerror(errno));
+  }
+  try {
+    bytes->insert(bytes->end(), buffer, buffer + got);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory,
+                  "-: out of memory after " + std::to_string(bytes->size()) + " bytes of standard input");
+  }
+  return got > 0;
+}
+
+}  // namespace
+
 Result<std::vector<uint8_t>> read_standard_input() {
   std::vector<uint8_t> bytes;
-  uint8_t buffer[1 << 16];
+  // How much the stream may hold: known from its first bytes (a .rgs header's file_size, a PLY header's
+  // element counts); until then, the head. Content that is neither stops at its first bytes.
+  uint64_t limit = format::kHeaderSize;
+  bool known = false, rgs = false;
   for (;;) {
-    const ssize_t n = ::read(STDIN_FILENO, buffer, sizeof(buffer));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return Status(StatusCode::kIoError, std::string("-: cannot read standard input: ") + std::strerror(errno));
+    if (!known && bytes.size() >= 8) {
+      if (std::memcmp(bytes.data(), format::kMagic, 8) == 0) {
+        if (bytes.size() >= 56) {
+          limit = 0;
+          for (int b = 7; b >= 0; --b) limit = (limit << 8) | bytes[48 + b];  // file_size (SPEC §2)
+          if (limit > read_limits().max_file_bytes) {
+            return Status(StatusCode::kLimitExceeded, "-: the .rgs header declares " + std::to_string(limit) +
+                                                          " bytes, above the limit of " +
+                                                          std::to_string(read_limits().max_file_bytes));
+          }
+          known = rgs = true;
+        }
+      } else if (std::memcmp(bytes.data(), "ply", 3) == 0 && (bytes[3] == '\n' || bytes[3] == '\r')) {
+        auto size = converter::ply_stream_bytes(bytes.data(), bytes.size());
+        if (!size.ok()) return Status(size.status()).prepend("-");
+        if (*size != 0) {
+          limit = *size;
+          known = true;
+        } else {
+          limit = bytes.size() + (1 << 16);  // the header is not complete yet
+        }
+      } else {
+        return bytes;  // neither: the reader names what it is from these bytes
+      }
     }
-    if (n == 0) break;
-    try {
-      bytes.insert(bytes.end(), buffer, buffer + n);
-    } catch (const std::bad_alloc&) {
-      return Status(StatusCode::kOutOfMemory, "-: out of memory after " + std::to_string(bytes.size()) +
-                                                  " bytes of standard input");
+    if (bytes.size() >= limit) break;
+    RGS_ASSIGN_OR_RETURN(bool more, append_standard_input(&bytes, limit - bytes.size()));
+    if (!more) return bytes;
+  }
+  if (rgs) {
+    // A .rgs ends where its header says (SPEC §2): say so of more bytes without reading them all. A PLY's
+    // reader ignores what follows its last element, so the rest of the stream is left unread.
+    std::vector<uint8_t> extra;
+    RGS_ASSIGN_OR_RETURN(bool more, append_standard_input(&extra, 1));
+    if (more) {
+      return Status(StatusCode::kCorruptData, "-: standard input continues past the " + std::to_string(limit) +
+                                                  " bytes its header declares");
     }
   }
   return bytes;

@@ -66,12 +66,16 @@ Status check_input_file(const std::string& path);
 Status check_scene_input(const std::string& path);
 
 /// Checks `path` with check_input_file (check_scene_input when `scene`) and declares it as an input of
-/// `outputs`, so that no output of the run replaces it. @return kExitOk; else the error is printed and the
+/// `outputs`, so that no output of the run replaces it; for a scene, also every file it names
+/// (converter::list_scene_files: a SOG's images, a streamed SOG's chunks, a .gltf's buffers). @return kExitOk; else the error is printed and the
 /// exit code returned: kExitFailure for a path that cannot be read, kExitUsage for one that
 /// OutputSet::add_input refuses.
 int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path, bool scene = false);
 
-/// Reads all of standard input (the tools' "-" input). @return kIoError with the OS cause.
+/// Reads standard input (the tools' "-" input) as a stream, never more than its content proves: a .rgs up to
+/// the file_size of its header (more bytes: kCorruptData; above ReadLimits::max_file_bytes: kLimitExceeded),
+/// a PLY up to what its header's elements can hold (converter::ply_stream_bytes), anything else only its
+/// first bytes, for the reader to name. @return kIoError with the OS cause.
 Result<std::vector<uint8_t>> read_standard_input();
 
 /// Peeks the first bytes of a regular file (call check_input_file first). Fewer when the file is shorter.

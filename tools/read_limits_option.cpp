@@ -8,13 +8,14 @@ namespace rgs::tools {
 
 void add_read_limit_options(CLI::App& app, format::ReadLimits& limits) {
   app.add_option("--max-gaussians", limits.max_gaussians,
-                 "Refuse .rgs files that declare more Gaussians than this (SPEC 5.5)")
+                 "Refuse scenes that declare more Gaussians than this, before allocating for them (SPEC 5.5)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--max-decompression-ratio", limits.max_decompression_ratio,
-                 "Refuse .rgs files whose sections decode to more than this many bytes per byte of file, "
-                 "counting files under 1 MiB as 1 MiB; bounds the memory a small zstd-compressed file can "
-                 "demand (SPEC 5.5; zstd allows up to 32768)")
+                 "Refuse scenes whose compressed data (.rgs sections, SPZ zstd/gzip streams, SOG WebP images and "
+                 "ZIP entries, glTF accessors without data) decodes to more than this many bytes per byte of "
+                 "input, counting inputs under 1 MiB as 1 MiB; bounds the memory a small file can demand "
+                 "(SPEC 5.5; zstd allows up to 32768)")
       ->check(CLI::Range(1u, 32768u))
       ->capture_default_str();
 }

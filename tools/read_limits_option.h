@@ -1,4 +1,4 @@
-// The read-limit options of every tool that reads .rgs files (--max-gaussians, --max-decompression-ratio),
+// The read-limit options of every tool that reads scenes (--max-gaussians, --max-decompression-ratio),
 // defined once so that their names, defaults and help text agree across tools (format/SPEC.md §5.5).
 #pragma once
 
@@ -17,7 +17,7 @@ void add_read_limit_options(CLI::App& app, format::ReadLimits& limits);
 
 /// The read limits of this process: format::ReadLimits' defaults until the command line changes them
 /// (`add_read_limit_options(app, read_limits())` in a tool's main). The tools' scene loading
-/// (load_scene, load_gpu_scene, replicate_scene_file) opens .rgs files with them.
+/// (load_scene, load_gpu_scene, replicate_scene_file) reads every format with them.
 format::ReadLimits& read_limits();
 
 /// ReadOptions carrying read_limits(), checksums verified.

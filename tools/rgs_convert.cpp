@@ -116,6 +116,7 @@ Result<converter::InputScene> read_input(const Options& opt, const Input& input,
     read_options.invalid_policy =
         opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
     read_options.max_gaussians = tools::read_limits().max_gaussians;
+    read_options.max_decompression_ratio = tools::read_limits().max_decompression_ratio;
     read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
     read_options.lod = opt.lod;
     read_options.convert_spz_frame = !opt.keep_frame;
@@ -548,8 +549,8 @@ int run(const Options& opt) {
     input.bytes = std::move(bytes).value();
     head.assign(input.bytes.begin(), input.bytes.begin() + std::min<size_t>(8, input.bytes.size()));
   } else {
-    Status readable = tools::check_scene_input(opt.input);
-    if (!readable.ok()) return tools::report_error(kTool, readable);
+    // The scene and every file it names are inputs: no output may replace one of them.
+    if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
     head = tools::read_file_head(opt.input, 8);
   }
 

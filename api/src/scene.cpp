@@ -9,6 +9,7 @@
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
 
@@ -164,12 +165,21 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
   return write;
 }
 
+/// kInvalidArgument when `dst` is one of the files the conversion reads (through any spelling or link).
+Status check_output_not_input(const std::string& dst, const std::vector<std::string>& inputs) {
+  format::OutputSet identities;
+  RGS_RETURN_IF_ERROR(identities.add_output(dst));
+  for (const std::string& input : inputs) RGS_RETURN_IF_ERROR(identities.add_input(input));
+  return Status();
+}
+
 }  // namespace
 
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
   ConvertReport report;
   if (is_rgs_path(src)) {
     report.direction = "rgs->ply";
+    RGS_RETURN_IF_ERROR(check_output_not_input(dst, {src}));
     RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(src));
     RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
     auto cloud = format::dequantize(encoded);
@@ -188,6 +198,7 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
       options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
   read_options.hash_file = true;
   RGS_ASSIGN_OR_RETURN(converter::InputScene ply, converter::read_scene(src, read_options));
+  RGS_RETURN_IF_ERROR(check_output_not_input(dst, ply.files));
   converter::QuantizeOptions quantize_options;
   quantize_options.scale_encoding = options.scale_encoding;
   quantize_options.sh_clip_percentile = options.sh_clip_percentile;

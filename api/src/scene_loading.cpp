@@ -40,6 +40,7 @@ std::string group_digits(uint64_t n) {
 Result<converter::InputScene> read_other_format(const std::string& path, const format::ReadOptions& options) {
   converter::SceneReadOptions read_options;
   read_options.max_gaussians = options.limits.max_gaussians;
+  read_options.max_decompression_ratio = options.limits.max_decompression_ratio;
   return converter::read_scene(path, read_options);
 }
 

@@ -43,6 +43,7 @@ Result<AuditScene> load_other(const std::string& path, const format::ReadOptions
   AuditScene scene;
   converter::SceneReadOptions read_options;
   read_options.max_gaussians = options.limits.max_gaussians;
+  read_options.max_decompression_ratio = options.limits.max_decompression_ratio;
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
   scene.cloud = std::move(input.cloud);
   scene.bounds = converter::compute_bounds(scene.cloud);

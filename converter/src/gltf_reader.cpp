@@ -8,13 +8,15 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "internal_gltf.h"
+#include "internal_input_file.h"
+#include "internal_json.h"
+#include "internal_scene_files.h"
 #include "internal_interop.h"
 
 namespace rgs::converter {
@@ -143,8 +145,10 @@ bool base64_decode(const std::string& in, size_t start, std::vector<uint8_t>* ou
 
 class Reader {
  public:
-  Reader(const json& doc, const uint8_t* bin, uint64_t bin_size, std::string base_dir, const InteropReadOptions& o)
-      : doc_(doc), bin_(bin), bin_size_(bin_size), base_dir_(std::move(base_dir)), options_(o) {}
+  /// `folder`: the scene's folder, for buffers in files of their own; null for data in memory.
+  Reader(const json& doc, const uint8_t* bin, uint64_t bin_size, const detail::SceneFolder* folder,
+         const InteropReadOptions& o)
+      : doc_(doc), bin_(bin), bin_size_(bin_size), folder_(folder), options_(o) {}
 
   Result<InteropScene> read(const std::string& container, uint64_t file_bytes);
 
@@ -164,9 +168,16 @@ class Reader {
   const json& doc_;
   const uint8_t* bin_;
   uint64_t bin_size_;
-  std::string base_dir_;
+  const detail::SceneFolder* folder_;
   const InteropReadOptions& options_;
   std::map<uint64_t, std::vector<uint8_t>> loaded_;
+  /// Bytes of the external buffers read, and bytes the accessors decode (repeats counted): the latter is held
+  /// to the decompression-ratio limit, since accessors without data and shared data decode to more than
+  /// the file holds.
+  uint64_t buffer_file_bytes_ = 0;
+  uint64_t accessor_bytes_ = 0;
+  /// Nodes already visited: glTF nodes form disjoint trees, so a second visit is a cycle or a second parent.
+  std::vector<bool> visited_;
   std::vector<Primitive> prims_;
   std::vector<std::string> notes_;
 };
@@ -186,7 +197,7 @@ Status Reader::check_asset() {
     for (const json& e : *req) {
       if (!e.is_string() || e.get<std::string>() != detail::kKhrGaussianSplatting) {
         return Status(StatusCode::kUnsupportedFeature,
-                      "glTF requires extension " + (e.is_string() ? e.get<std::string>() : e.dump()) +
+                      "glTF requires extension " + detail::describe_json_value(e) +
                           ", which this reader does not implement (only KHR_gaussian_splatting)");
       }
     }
@@ -228,8 +239,14 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
     return corrupt("glTF node " + std::to_string(index) + " does not exist");
   if (depth > kMaxNodeDepth)
     return corrupt("glTF node hierarchy deeper than " + std::to_string(kMaxNodeDepth) + " (cycle?)");
-  const json& node = nodes[index];
   const std::string where = "glTF node " + std::to_string(index);
+  if (visited_.size() != nodes.size()) visited_.assign(nodes.size(), false);
+  if (visited_[index]) {
+    return corrupt(where + " is reached a second time: a cycle, or a node with two parents (glTF 2.0 nodes form "
+                           "disjoint trees)");
+  }
+  visited_[index] = true;
+  const json& node = nodes[index];
   if (!node.is_object()) return corrupt(where + " is not an object");
   double local[16];
   identity(local);
@@ -319,32 +336,15 @@ Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
         return corrupt(base64_error(where));
       }
     } else {
-      if (base_dir_.empty()) {
-        return Status(StatusCode::kUnsupportedFeature, where + " refers to external file '" + u +
-                                                           "', which cannot be resolved for data in memory");
+      if (folder_ == nullptr) {
+        return Status(StatusCode::kUnsupportedFeature, where + " refers to an external file, which cannot be "
+                                                           "resolved for data in memory");
       }
-      if (u.find("://") != std::string::npos || (!u.empty() && u[0] == '/')) {
-        return Status(StatusCode::kUnsupportedFeature, where + " uri '" + u + "' is not a relative path");
-      }
-      std::string decoded;
-      for (size_t i = 0; i < u.size(); ++i) {
-        if (u[i] == '%' && i + 2 < u.size() && std::isxdigit(static_cast<unsigned char>(u[i + 1])) &&
-            std::isxdigit(static_cast<unsigned char>(u[i + 2]))) {
-          decoded += static_cast<char>(std::stoi(u.substr(i + 1, 2), nullptr, 16));
-          i += 2;
-        } else {
-          decoded += u[i];
-        }
-      }
-      const std::string file = (std::filesystem::path(base_dir_) / decoded).string();
-      std::ifstream in(file, std::ios::binary);
-      if (!in) return Status(StatusCode::kIoError, where + ": cannot open '" + file + "'");
-      bytes.resize(static_cast<size_t>(length));
-      in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(length));
-      if (static_cast<uint64_t>(in.gcount()) != length) {
-        return Status(StatusCode::kIoError, where + ": '" + file + "' has " + std::to_string(in.gcount()) +
-                                                " bytes, less than the declared " + std::to_string(length));
-      }
+      RGS_ASSIGN_OR_RETURN(std::string file, folder_->resolve(u, detail::ReferenceKind::kUri, "", "glTF",
+                                                             "buffers[" + std::to_string(index) + "].uri"));
+      Status read = folder_->read_prefix(file, length, &bytes);
+      if (!read.ok()) return read.prepend(where);
+      buffer_file_bytes_ += length;
     }
     if (bytes.size() < length) {
       return Status(StatusCode::kIoError, where + " declares " + std::to_string(length) + " bytes but its data has " +
@@ -370,7 +370,8 @@ Status Reader::accessor(const json& attributes, const std::string& semantic, con
   if (!a.is_object()) return corrupt(where + " is not an object");
   if (a.contains("sparse")) return Status(StatusCode::kUnsupportedFeature, where + " is sparse");
   if (!a.contains("type") || !a["type"].is_string() || a["type"].get<std::string>() != type) {
-    return corrupt(where + " has type " + (a.contains("type") ? a["type"].dump() : std::string("(none)")) +
+    return corrupt(where + " has type " +
+                   (a.contains("type") ? detail::describe_json_value(a["type"]) : std::string("(none)")) +
                    ", expected " + type);
   }
   uint64_t ctype = 0, count = 0, offset = 0;
@@ -388,6 +389,10 @@ Status Reader::accessor(const json& attributes, const std::string& semantic, con
   out->count = count;
   out->base = nullptr;
   const uint64_t elem = uint64_t(component_bytes(out->component_type)) * components;
+  uint64_t decoded = 0;
+  if (!detail::mul_u64(count, elem, &decoded) || !detail::add_u64(accessor_bytes_, decoded, &accessor_bytes_)) {
+    accessor_bytes_ = UINT64_MAX;
+  }
   if (!a.contains("bufferView")) return Status();  // all zeros, as glTF defines
   uint64_t view_index = 0;
   RGS_RETURN_IF_ERROR(get_index(a, "bufferView", &view_index, true, where));
@@ -562,10 +567,13 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
     parts.push_back(std::move(d));
   }
 
+  RGS_RETURN_IF_ERROR(detail::check_decode_budget(accessor_bytes_, file_bytes + buffer_file_bytes_,
+                                                  options_.max_decompression_ratio, "",
+                                                  "the accessors of " + std::to_string(total) + " Gaussians"));
   InteropScene scene;
   scene.format = container;
   scene.format_version = 2;
-  scene.file_bytes = file_bytes;
+  scene.file_bytes = file_bytes + buffer_file_bytes_;
   scene.declared_gaussians = total;
   scene.stored_frame = "LUF";
   format::GaussianCloud& cloud = scene.cloud;
@@ -664,15 +672,21 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
   return scene;
 }
 
-Result<InteropScene> read_document(const uint8_t* data, size_t size, const std::string& base_dir,
-                                   const InteropReadOptions& options) {
-  const uint8_t* json_begin = data;
-  uint64_t json_size = size;
+/// The JSON and BIN chunks of a GLB, or the JSON text of a .gltf.
+struct Container {
+  std::string name = "gltf";  ///< "glb" or "gltf"
+  const uint8_t* json_begin = nullptr;
+  uint64_t json_size = 0;
   const uint8_t* bin = nullptr;
   uint64_t bin_size = 0;
-  std::string container = "gltf";
+};
+
+/// Splits `data` into its container's chunks and parses the JSON (nesting bounded).
+Status parse_container(const uint8_t* data, size_t size, Container* c, json* doc) {
+  c->json_begin = data;
+  c->json_size = size;
   if (size >= 4 && detail::le_u32(data) == detail::kGlbMagic) {
-    container = "glb";
+    c->name = "glb";
     if (size < detail::kGlbHeaderBytes + 8) {
       return Status(StatusCode::kIoError, "GLB file of " + std::to_string(size) + " bytes ends inside its header");
     }
@@ -698,29 +712,35 @@ Result<InteropScene> read_document(const uint8_t* data, size_t size, const std::
       }
       if (!have_json) {
         if (type != detail::kGlbChunkJson) return corrupt("GLB's first chunk is not JSON");
-        json_begin = data + at + 8;
-        json_size = chunk;
+        c->json_begin = data + at + 8;
+        c->json_size = chunk;
         have_json = true;
-      } else if (type == detail::kGlbChunkBin && bin == nullptr) {
-        bin = data + at + 8;
-        bin_size = chunk;
+      } else if (type == detail::kGlbChunkBin && c->bin == nullptr) {
+        c->bin = data + at + 8;
+        c->bin_size = chunk;
       }
       at += 8 + chunk;
     }
     if (!have_json) return corrupt("GLB has no JSON chunk");
-  } else {
-    // JSON glTF: skip a UTF-8 byte-order mark.
-    if (size >= 3 && data[0] == 0xEF && data[1] == 0xBB && data[2] == 0xBF) json_begin += 3, json_size -= 3;
+  } else if (size >= 3 && data[0] == 0xEF && data[1] == 0xBB && data[2] == 0xBF) {
+    c->json_begin += 3, c->json_size -= 3;  // JSON glTF: skip a UTF-8 byte-order mark
   }
-  if (json_size > kMaxGltfJsonBytes) {
-    return Status(StatusCode::kLimitExceeded, "glTF JSON of " + std::to_string(json_size) + " bytes exceeds " +
+  if (c->json_size > kMaxGltfJsonBytes) {
+    return Status(StatusCode::kLimitExceeded, "glTF JSON of " + std::to_string(c->json_size) + " bytes exceeds " +
                                                   std::to_string(kMaxGltfJsonBytes));
   }
-  json doc = json::parse(json_begin, json_begin + json_size, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded())
-    return corrupt(container == "glb" ? "GLB JSON chunk is not valid JSON" : "not glTF: invalid JSON");
-  Reader reader(doc, bin, bin_size, base_dir, options);
-  return reader.read(container, size);
+  RGS_ASSIGN_OR_RETURN(*doc, detail::parse_scene_json(c->json_begin, static_cast<size_t>(c->json_size),
+                                                       c->name == "glb" ? "GLB JSON chunk" : "glTF JSON"));
+  return Status();
+}
+
+Result<InteropScene> read_document(const uint8_t* data, size_t size, const detail::SceneFolder* folder,
+                                   const InteropReadOptions& options) {
+  Container c;
+  json doc;
+  RGS_RETURN_IF_ERROR(parse_container(data, size, &c, &doc));
+  Reader reader(doc, c.bin, c.bin_size, folder, options);
+  return reader.read(c.name, size);
 }
 
 }  // namespace
@@ -739,9 +759,10 @@ bool looks_like_gltf(const uint8_t* head, size_t n) {
 Result<InteropScene> read_gltf(const std::string& path, const InteropReadOptions& options) {
   RGS_ASSIGN_OR_RETURN(auto file, detail::map_input(path));  // its errors name the path
   return detail::guarded<InteropScene>(path, "decoding the glTF file", [&]() -> Result<InteropScene> {
-    std::string dir = std::filesystem::path(path).parent_path().string();
-    if (dir.empty()) dir = ".";
-    return read_document(file->data(), file->size(), dir, options);
+    const detail::SceneFolder folder(std::filesystem::path(path).parent_path().string(), path);
+    RGS_ASSIGN_OR_RETURN(InteropScene scene, read_document(file->data(), file->size(), &folder, options));
+    scene.files = folder.files();
+    return scene;
   });
 }
 
@@ -749,8 +770,33 @@ Result<InteropScene> read_gltf_bytes(const uint8_t* data, size_t size, const std
                                      const InteropReadOptions& options) {
   return detail::guarded<InteropScene>(name, "decoding the glTF file", [&]() -> Result<InteropScene> {
     if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
-    return read_document(data, size, std::string(), options);
+    return read_document(data, size, nullptr, options);
   });
 }
+
+namespace detail {
+
+Result<std::vector<std::string>> list_gltf_files(const std::string& path) {
+  RGS_ASSIGN_OR_RETURN(auto file, map_input(path));
+  return guarded<std::vector<std::string>>(path, "listing the glTF file's buffers",
+                                           [&]() -> Result<std::vector<std::string>> {
+    Container c;
+    json doc;
+    RGS_RETURN_IF_ERROR(parse_container(file->data(), file->size(), &c, &doc));
+    const SceneFolder folder(std::filesystem::path(path).parent_path().string(), path);
+    std::vector<std::string> files = {path};
+    const json& buffers = member(doc, "buffers");
+    for (size_t i = 0; buffers.is_array() && i < buffers.size(); ++i) {
+      const json& uri = member(buffers[i], "uri");
+      if (!uri.is_string() || uri.get_ref<const std::string&>().rfind("data:", 0) == 0) continue;
+      RGS_ASSIGN_OR_RETURN(std::string relative, folder.resolve(uri.get<std::string>(), ReferenceKind::kUri, "",
+                                                                "glTF", "buffers[" + std::to_string(i) + "].uri"));
+      files.push_back(folder.display(relative));
+    }
+    return files;
+  });
+}
+
+}  // namespace detail
 
 }  // namespace rgs::converter

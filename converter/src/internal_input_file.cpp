@@ -1,11 +1,15 @@
 #include "internal_input_file.h"
 
+#include "rgs/format/reader.h"
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <new>
 
@@ -13,10 +17,17 @@ namespace rgs::converter::detail {
 
 namespace {
 
-/// Opens `path` read-only as a regular file; returns the descriptor and size.
-Status open_regular(const std::string& path, int* fd, uint64_t* size) {
-  *fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (*fd < 0) return Status(StatusCode::kIoError, path + ": cannot open: " + errno_message(errno));
+/// What a file that is not a regular file is, in words.
+std::string file_kind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+/// Checks that the open descriptor `fd` is a regular file and returns its size; closes it otherwise.
+Status check_regular(int* fd, const std::string& path, uint64_t* size) {
   struct stat st;
   if (::fstat(*fd, &st) != 0) {
     const int err = errno;
@@ -25,11 +36,22 @@ Status open_regular(const std::string& path, int* fd, uint64_t* size) {
   }
   if (!S_ISREG(st.st_mode)) {
     ::close(*fd);
-    return Status(StatusCode::kIoError, path + (S_ISDIR(st.st_mode) ? ": is a directory" : ": not a regular file"));
+    return Status(StatusCode::kIoError, path + ": not a regular file (" + file_kind(st.st_mode) + ")");
   }
   *size = static_cast<uint64_t>(st.st_size);
   return Status();
 }
+
+/// Opens `path` read-only as a regular file; returns the descriptor and size. O_NONBLOCK: opening a FIFO
+/// returns at once (and is then refused) instead of waiting for a writer.
+Status open_regular(const std::string& path, int* fd, uint64_t* size) {
+  *fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
+  if (*fd < 0) return Status(StatusCode::kIoError, path + ": cannot open: " + errno_message(errno));
+  return check_regular(fd, path, size);
+}
+
+/// Reads n bytes of `fd` from its start into `out`, allocated once the size is known; closes `fd`.
+Status read_and_close(int fd, const std::string& path, uint64_t n, std::vector<uint8_t>* out);
 
 Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0) {
   size_t done = 0;
@@ -49,6 +71,53 @@ Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint6
   return Status();
 }
 
+Status read_and_close(int fd, const std::string& path, uint64_t n, std::vector<uint8_t>* out) {
+  Status s;
+  try {
+    out->resize(static_cast<size_t>(n));
+    s = read_exact(fd, path, out->data(), out->size());
+  } catch (const std::bad_alloc&) {
+    s = Status(StatusCode::kOutOfMemory, path + ": cannot allocate " + std::to_string(n) + " bytes");
+  }
+  ::close(fd);
+  return s;
+}
+
+/// At most 96 bytes of input-derived text for a message, control bytes escaped.
+std::string quoted(const std::string& text) {
+  std::string out = "'";
+  for (size_t i = 0; i < text.size() && i < 96; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\x%02x", c);
+      out += buf;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + (text.size() > 96 ? "'..." : "'");
+}
+
+int hex_value(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+/// True when `s` starts with a URI scheme ("http:", "file:", "C:"): a letter, then letters, digits, '+', '-'
+/// or '.', then ':' (RFC 3986 §3.1).
+bool has_uri_scheme(const std::string& s) {
+  if (s.empty() || !std::isalpha(static_cast<unsigned char>(s[0]))) return false;
+  for (size_t i = 1; i < s.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c == ':') return true;
+    if (!std::isalnum(c) && c != '+' && c != '-' && c != '.') return false;
+  }
+  return false;
+}
+
 }  // namespace
 
 std::string errno_message(int err) {
@@ -59,24 +128,32 @@ std::string errno_message(int err) {
   return std::strerror(err);
 }
 
+uint64_t decode_budget(uint64_t file_bytes, uint32_t ratio) {
+  const uint64_t basis = std::max<uint64_t>(file_bytes, format::kDecompressionRatioMinBytes);
+  return basis > UINT64_MAX / std::max<uint32_t>(ratio, 1) ? UINT64_MAX : basis * ratio;
+}
+
+Status check_decode_budget(uint64_t decoded, uint64_t file_bytes, uint32_t ratio, const std::string& where,
+                           const std::string& what) {
+  if (decoded <= decode_budget(file_bytes, ratio)) return Status();
+  return Status(StatusCode::kLimitExceeded,
+                (where.empty() ? "" : where + ": ") + what + " decode to " + std::to_string(decoded) + " bytes, more than the decompression-" +
+                    "ratio limit of " + std::to_string(ratio) + " x " +
+                    std::to_string(std::max<uint64_t>(file_bytes, format::kDecompressionRatioMinBytes)) +
+                    " bytes of input (files under 1 MiB count as 1 MiB; format/SPEC.md 5.5); raise "
+                    "--max-decompression-ratio to read it");
+}
+
 Status read_whole_file(const std::string& path, uint64_t max_bytes, std::vector<uint8_t>* out) {
   int fd = -1;
   uint64_t size = 0;
   RGS_RETURN_IF_ERROR(open_regular(path, &fd, &size));
-  Status s;
   if (size > max_bytes) {
-    s = Status(StatusCode::kLimitExceeded,
-               path + ": file is " + std::to_string(size) + " bytes, above the limit of " + std::to_string(max_bytes));
-  } else {
-    try {
-      out->resize(static_cast<size_t>(size));
-      s = read_exact(fd, path, out->data(), out->size());
-    } catch (const std::bad_alloc&) {
-      s = Status(StatusCode::kOutOfMemory, path + ": cannot allocate " + std::to_string(size) + " bytes");
-    }
+    ::close(fd);
+    return Status(StatusCode::kLimitExceeded, path + ": file is " + std::to_string(size) +
+                                                  " bytes, above the limit of " + std::to_string(max_bytes));
   }
-  ::close(fd);
-  return s;
+  return read_and_close(fd, path, size, out);
 }
 
 Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uint8_t>* out, uint64_t* file_size) {
@@ -102,6 +179,140 @@ Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std
   }
   ::close(fd);
   return s;
+}
+
+// --- SceneFolder ----------------------------------------------------------------------------------
+
+SceneFolder::SceneFolder(std::string root, std::string entry) : root_(std::move(root)) {
+  if (root_.empty()) root_ = ".";
+  if (!entry.empty()) files_.push_back(std::move(entry));
+}
+
+Result<std::string> SceneFolder::resolve(const std::string& reference, ReferenceKind kind, const std::string& base,
+                                         const std::string& where, const std::string& field) const {
+  const std::string named = where + ": field '" + field + "' names " + quoted(reference);
+  auto refuse = [&](const std::string& why) { return Status(StatusCode::kCorruptData, named + ", " + why); };
+  if (reference.empty()) return refuse("an empty file name");
+  std::string decoded;
+  if (kind == ReferenceKind::kUri) {
+    // RFC 3986: the scheme is checked on the reference as written, the path after percent-decoding.
+    if (has_uri_scheme(reference)) return refuse("a URI scheme other than data: (outside the scene's folder)");
+    for (size_t i = 0; i < reference.size(); ++i) {
+      if (reference[i] == '%') {
+        const int hi = i + 2 < reference.size() ? hex_value(reference[i + 1]) : -1;
+        const int lo = hi >= 0 ? hex_value(reference[i + 2]) : -1;
+        if (lo < 0) return refuse("a malformed percent-escape");
+        decoded += static_cast<char>(hi * 16 + lo);
+        i += 2;
+      } else {
+        decoded += reference[i];
+      }
+    }
+    // A query or fragment has no meaning for a file (a '?' or '#' in a file name is percent-encoded).
+    if (reference.find_first_of("?#") != std::string::npos) return refuse("a URI with a query or fragment");
+  } else {
+    decoded = reference;
+  }
+  if (decoded.find('\0') != std::string::npos) return refuse("a NUL byte");
+  if (decoded[0] == '/') return refuse("an absolute path (outside the scene's folder)");
+  std::string relative = base;
+  size_t start = 0;
+  while (start <= decoded.size()) {
+    size_t end = decoded.find('/', start);
+    if (end == std::string::npos) end = decoded.size();
+    const std::string part = decoded.substr(start, end - start);
+    if (part == "..") return refuse("a '..' component (outside the scene's folder)");
+    if (!part.empty() && part != ".") relative += (relative.empty() ? "" : "/") + part;
+    start = end + 1;
+  }
+  if (relative.empty() || relative == base) return refuse("no file");
+  return relative;
+}
+
+std::string SceneFolder::display(const std::string& relative) const {
+  return root_ == "." ? relative : root_ + (root_.back() == '/' ? "" : "/") + relative;
+}
+
+void SceneFolder::record(const std::string& relative) const {
+  const std::string path = display(relative);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (std::find(files_.begin(), files_.end(), path) == files_.end()) files_.push_back(path);
+}
+
+std::vector<std::string> SceneFolder::files() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return files_;
+}
+
+Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* size) const {
+  const std::string path = display(relative);
+  int dir = ::open(root_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir < 0) return Status(StatusCode::kIoError, root_ + ": cannot open the scene's folder: " + errno_message(errno));
+  // Walk the components with O_NOFOLLOW, so that no link on the way is followed.
+  size_t start = 0;
+  for (;;) {
+    const size_t slash = relative.find('/', start);
+    const bool last = slash == std::string::npos;
+    const std::string part = relative.substr(start, last ? std::string::npos : slash - start);
+    struct stat st;
+    if (::fstatat(dir, part.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) {
+      const int err = errno;
+      ::close(dir);
+      return Status(StatusCode::kIoError, path + ": cannot open: " + errno_message(err));
+    }
+    if (S_ISLNK(st.st_mode)) {
+      ::close(dir);
+      return Status(StatusCode::kCorruptData, path + ": is or passes through a symbolic link; files a scene names "
+                                                     "are not followed through links (docs/INPUT_HYGIENE.md)");
+    }
+    if (last ? !S_ISREG(st.st_mode) : !S_ISDIR(st.st_mode)) {
+      ::close(dir);
+      return Status(StatusCode::kIoError, display(relative.substr(0, last ? relative.size() : slash)) +
+                                              ": not a regular file (" + file_kind(st.st_mode) + ")");
+    }
+    const int flags = O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NOCTTY | (last ? O_NONBLOCK : O_DIRECTORY);
+    const int next = ::openat(dir, part.c_str(), flags);
+    const int err = errno;
+    ::close(dir);
+    if (next < 0) {
+      if (err == ELOOP) return Status(StatusCode::kCorruptData, path + ": is or passes through a symbolic link");
+      return Status(StatusCode::kIoError, path + ": cannot open: " + errno_message(err));
+    }
+    if (last) {
+      *fd = next;
+      break;
+    }
+    dir = next;
+    start = slash + 1;
+  }
+  // The file may have been swapped between the check and the open: check what was opened.
+  return check_regular(fd, path, size);
+}
+
+Status SceneFolder::read(const std::string& relative, uint64_t max_bytes, std::vector<uint8_t>* out) const {
+  int fd = -1;
+  uint64_t size = 0;
+  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size));
+  record(relative);
+  if (size > max_bytes) {
+    ::close(fd);
+    return Status(StatusCode::kLimitExceeded, display(relative) + ": file is " + std::to_string(size) +
+                                                  " bytes, above the limit of " + std::to_string(max_bytes));
+  }
+  return read_and_close(fd, display(relative), size, out);
+}
+
+Status SceneFolder::read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const {
+  int fd = -1;
+  uint64_t size = 0;
+  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size));
+  record(relative);
+  if (size < n) {
+    ::close(fd);
+    return Status(StatusCode::kCorruptData, display(relative) + ": file has " + std::to_string(size) +
+                                                " bytes, fewer than the " + std::to_string(n) + " declared");
+  }
+  return read_and_close(fd, display(relative), n, out);
 }
 
 }  // namespace rgs::converter::detail

@@ -1,8 +1,10 @@
-// Whole-file and head-of-file reads for the scene readers (private to rgs_converter).
+// Whole-file and head-of-file reads for the scene readers, and the file-access policy of multi-file scenes
+// (private to rgs_converter).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -10,8 +12,8 @@
 
 namespace rgs::converter::detail {
 
-/// Reads the regular file `path` whole into `out`. Errors name `path`: kIoError (missing, a directory,
-/// unreadable, changed while reading), kLimitExceeded (larger than max_bytes), kOutOfMemory.
+/// Reads the regular file `path` whole into `out`. Errors name `path`: kIoError (missing, a directory, a FIFO
+/// or device (refused without blocking), unreadable, changed while reading), kLimitExceeded (larger than max_bytes), kOutOfMemory.
 Status read_whole_file(const std::string& path, uint64_t max_bytes, std::vector<uint8_t>* out);
 
 /// Reads up to `max_bytes` from the start of `path` into `out` and its size into `file_size`.
@@ -22,7 +24,71 @@ Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uin
 /// is shorter).
 Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std::vector<uint8_t>* out);
 
+/// The most bytes a scene's codec layers may decode to: `ratio` times `file_bytes`, counting the files as at
+/// least format::kDecompressionRatioMinBytes (SPEC §5.5, applied to every input format).
+uint64_t decode_budget(uint64_t file_bytes, uint32_t ratio);
+
+/// kLimitExceeded naming `where` when `decoded` bytes (what `what` would decode to) exceed
+/// decode_budget(file_bytes, ratio); says which option raises the limit.
+Status check_decode_budget(uint64_t decoded, uint64_t file_bytes, uint32_t ratio, const std::string& where,
+                           const std::string& what);
+
 /// Text of errno values used in messages ("no such file or directory", ...).
 std::string errno_message(int err);
+
+/// How a scene file names another file of the scene.
+enum class ReferenceKind {
+  kFileName,  ///< a plain relative file name (SOG `files`, streamed SOG `filenames`)
+  kUri,       ///< a URI reference (glTF `buffers[].uri`): percent-decoded first; `data:` URIs never reach here
+};
+
+/// The files of one multi-file scene (a SOG folder, a streamed SOG, a .gltf with its buffers), opened under
+/// one policy (docs/INPUT_HYGIENE.md "Files a scene names"):
+/// - a reference resolves inside the scene's folder: after percent-decoding (URIs) it must be relative, hold
+///   no `..` component, no NUL byte and no URI scheme;
+/// - no symbolic link is followed: not the file, not a folder on the way (a link could lead anywhere, and its
+///   target's properties are not reported);
+/// - only regular files are opened (a FIFO, device or folder is refused before it is opened, so nothing
+///   blocks);
+/// - every file read is recorded (files()), so that a tool can refuse an output that would replace it.
+/// The scene's folder itself (the folder of the file the user named) is trusted as named.
+/// Thread safety: read() may be called concurrently.
+class SceneFolder {
+ public:
+  /// `root`: the folder holding the scene's entry file; `entry`: that file's path when it was read already
+  /// (it is recorded first in files()), else empty.
+  SceneFolder(std::string root, std::string entry);
+
+  /// Checks `reference`, found in the field `field` of the scene file `where`, and returns the file's path
+  /// relative to the scene's folder ("0_0/means_l.webp"), normalised. `base` is the folder, relative to the
+  /// scene's folder, that the reference is relative to ("" or "0_0").
+  /// Errors: kCorruptData naming `where`, `field` and the cause ("... names '...', outside the scene's
+  /// folder"); the reference is quoted at most 96 bytes long.
+  Result<std::string> resolve(const std::string& reference, ReferenceKind kind, const std::string& base,
+                              const std::string& where, const std::string& field) const;
+
+  /// Reads the regular file at `relative` (from resolve) whole into `out`.
+  /// Errors name the file: kCorruptData (a symbolic link on the way), kIoError (missing, not a regular file,
+  /// unreadable), kLimitExceeded (larger than max_bytes), kOutOfMemory.
+  Status read(const std::string& relative, uint64_t max_bytes, std::vector<uint8_t>* out) const;
+
+  /// Reads the first `n` bytes of the regular file at `relative`; kCorruptData when the file is shorter.
+  /// Nothing is allocated before the file's size is known. Other errors as read().
+  Status read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const;
+
+  /// How the file at `relative` is named in messages and in files(): the scene folder joined with it.
+  std::string display(const std::string& relative) const;
+
+  /// Every file read so far (the entry file first), in the order of their first read.
+  std::vector<std::string> files() const;
+
+ private:
+  Status open_file(const std::string& relative, int* fd, uint64_t* size) const;
+  void record(const std::string& relative) const;
+
+  std::string root_;
+  mutable std::mutex mutex_;
+  mutable std::vector<std::string> files_;
+};
 
 }  // namespace rgs::converter::detail

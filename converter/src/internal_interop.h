@@ -102,7 +102,8 @@ Result<T> guarded(const std::string& name, const char* activity, Fn&& fn) {
   } catch (const std::length_error&) {
     return Status(StatusCode::kOutOfMemory, prefix(name) + "out of memory while " + activity);
   } catch (const std::exception& e) {
-    return Status(StatusCode::kCorruptData, prefix(name) + activity + " failed: " + e.what());
+    // Exceptions of the JSON parser can quote the input: keep the message short.
+    return Status(StatusCode::kCorruptData, prefix(name) + activity + " failed: " + std::string(e.what()).substr(0, 160));
   }
 }
 

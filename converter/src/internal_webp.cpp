@@ -12,8 +12,7 @@ uint32_t load_u32le(const uint8_t* p) {
 }
 }  // namespace
 
-Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, const std::string& name,
-                        RgbaImage* out) {
+Status read_webp_size(const uint8_t* data, size_t size, const std::string& name, uint32_t* width, uint32_t* height) {
   // RIFF header: "RIFF" <u32 payload size> "WEBP"; the payload follows the first 8 bytes.
   if (size < 12 || std::string(reinterpret_cast<const char*>(data), 4) != "RIFF" ||
       std::string(reinterpret_cast<const char*>(data) + 8, 4) != "WEBP") {
@@ -39,26 +38,34 @@ Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, c
     return Status(StatusCode::kCorruptData, name + ": WebP image has no pixels (" + std::to_string(features.width) +
                                                 " x " + std::to_string(features.height) + ")");
   }
-  const uint64_t pixels = uint64_t(features.width) * uint64_t(features.height);
+  *width = static_cast<uint32_t>(features.width);
+  *height = static_cast<uint32_t>(features.height);
+  return Status();
+}
+
+Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, const std::string& name,
+                        RgbaImage* out) {
+  uint32_t width = 0, height = 0;
+  RGS_RETURN_IF_ERROR(read_webp_size(data, size, name, &width, &height));
+  const size_t riff_bytes = static_cast<size_t>(uint64_t{load_u32le(data + 4)} + 8);
+  const uint64_t pixels = uint64_t{width} * height;
+  const std::string dims = std::to_string(width) + " x " + std::to_string(height);
   if (pixels > max_pixels) {
-    return Status(StatusCode::kLimitExceeded, name + ": WebP image is " + std::to_string(features.width) + " x " +
-                                                  std::to_string(features.height) + " = " + std::to_string(pixels) +
+    return Status(StatusCode::kLimitExceeded, name + ": WebP image is " + dims + " = " + std::to_string(pixels) +
                                                   " pixels, above the limit of " + std::to_string(max_pixels));
   }
-  out->width = static_cast<uint32_t>(features.width);
-  out->height = static_cast<uint32_t>(features.height);
+  out->width = width;
+  out->height = height;
   try {
     out->rgba.resize(static_cast<size_t>(pixels) * 4);
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,
                   name + ": cannot allocate " + std::to_string(pixels * 4) + " bytes for the decoded WebP image");
   }
-  const int stride = features.width * 4;
-  if (WebPDecodeRGBAInto(data, static_cast<size_t>(riff_bytes), out->rgba.data(), out->rgba.size(), stride) ==
-      nullptr) {
-    return Status(StatusCode::kCorruptData,
-                  name + ": WebP image data is corrupt or truncated (" + std::to_string(features.width) + " x " +
-                      std::to_string(features.height) + ", " + std::to_string(riff_bytes) + " bytes)");
+  const int stride = static_cast<int>(width) * 4;
+  if (WebPDecodeRGBAInto(data, riff_bytes, out->rgba.data(), out->rgba.size(), stride) == nullptr) {
+    return Status(StatusCode::kCorruptData, name + ": WebP image data is corrupt or truncated (" + dims + ", " +
+                                                std::to_string(riff_bytes) + " bytes)");
   }
   return Status();
 }

@@ -19,6 +19,10 @@ struct RgbaImage {
   uint64_t pixels() const { return uint64_t{width} * height; }
 };
 
+/// Reads the dimensions of the WebP in `data[0, size)` from its header, without decoding it.
+/// Errors name `name`: kCorruptData (not a WebP, truncated RIFF, invalid header, animated, no pixels).
+Status read_webp_size(const uint8_t* data, size_t size, const std::string& name, uint32_t* width, uint32_t* height);
+
 /// Decodes the WebP (lossless or lossy) in `data[0, size)` into `out` (its buffer is reused).
 /// The RIFF container's declared size is checked against `size` and the dimensions against `max_pixels`
 /// before anything is allocated. Errors name `name`: kCorruptData (not a WebP, truncated, undecodable),

@@ -143,6 +143,18 @@ Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vecto
                                                 ") ends past the archive's " + std::to_string(size_) + " bytes");
   }
   const uint8_t* src = data_ + data_offset;
+  // Sizes the entry's bytes cannot produce are refused before allocating: a stored entry is its bytes, and
+  // deflate expands at most 1032:1 (RFC 1951: a 258-byte match costs at least 2 bits).
+  if (entry.method == 0 && entry.compressed_size != entry.uncompressed_size) {
+    return Status(StatusCode::kCorruptData, where + " is stored but its sizes differ (" +
+                                                std::to_string(entry.compressed_size) + " vs " +
+                                                std::to_string(entry.uncompressed_size) + ")");
+  }
+  if (entry.method == 8 && entry.uncompressed_size / 1032 > entry.compressed_size) {
+    return Status(StatusCode::kCorruptData, where + " claims " + std::to_string(entry.uncompressed_size) +
+                                                " bytes, more than its " + std::to_string(entry.compressed_size) +
+                                                " deflated bytes can hold");
+  }
   try {
     out->resize(static_cast<size_t>(entry.uncompressed_size));
   } catch (const std::bad_alloc&) {
@@ -150,11 +162,6 @@ Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vecto
                   where + ": cannot allocate " + std::to_string(entry.uncompressed_size) + " bytes");
   }
   if (entry.method == 0) {
-    if (entry.compressed_size != entry.uncompressed_size) {
-      return Status(StatusCode::kCorruptData, where + " is stored but its sizes differ (" +
-                                                  std::to_string(entry.compressed_size) + " vs " +
-                                                  std::to_string(entry.uncompressed_size) + ")");
-    }
     std::copy(src, src + entry.compressed_size, out->begin());
   } else if (entry.method == 8) {
     z_stream z{};

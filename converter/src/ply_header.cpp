@@ -5,6 +5,7 @@
 #include <unordered_set>
 
 #include "internal_ply_header.h"
+#include "rgs/converter/ply_reader.h"
 
 namespace rgs::converter::detail {
 
@@ -204,3 +205,33 @@ Status parse_ply_header(const uint8_t* data, size_t header_end, PlyHeader* out) 
 }
 
 }  // namespace rgs::converter::detail
+
+namespace rgs::converter {
+
+Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size) {
+  if (size >= 5 && !detail::starts_with_ply_magic(data, size)) {
+    return Status(StatusCode::kCorruptData, "not a PLY file (no 'ply' line first)");
+  }
+  const size_t end = detail::find_ply_header_end(data, size);
+  if (end == 0) {
+    RGS_RETURN_ERROR_IF(size >= detail::kMaxPlyHeaderBytes, StatusCode::kCorruptData,
+                        "no end_header line in the first " + std::to_string(detail::kMaxPlyHeaderBytes) + " bytes");
+    return uint64_t{0};
+  }
+  detail::PlyHeader header;
+  RGS_RETURN_IF_ERROR(detail::parse_ply_header(data, end, &header));
+  constexpr uint64_t kValueBound = 64, kListRowBound = uint64_t{64} << 10;
+  uint64_t total = header.data_offset;
+  for (const detail::PlyElement& e : header.elements) {
+    uint64_t row = 0;
+    for (const detail::PlyProperty& p : e.properties) {
+      const bool exact = header.storage != detail::PlyStorage::kAscii && !p.is_list && p.known_type;
+      row += p.is_list ? kListRowBound : exact ? detail::ply_type_size(p.type) : kValueBound;
+    }
+    // Saturates: a count no stream can hold is refused by the reader with its own message.
+    total = e.count != 0 && row > (UINT64_MAX - total) / e.count ? UINT64_MAX : total + e.count * row;
+  }
+  return total;
+}
+
+}  // namespace rgs::converter

@@ -370,7 +370,7 @@ class FileSource final : public ByteSource {
     if (fd_ >= 0) ::close(fd_);
   }
   Status open(const std::string& path) {
-    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);  // a FIFO is refused, not waited on
     if (fd_ < 0) return Status(StatusCode::kIoError, "cannot open: " + errno_text(errno));
     struct stat st;
     if (::fstat(fd_, &st) != 0) return Status(StatusCode::kIoError, "cannot stat: " + errno_text(errno));

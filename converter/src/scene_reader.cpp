@@ -2,7 +2,10 @@
 // extension) and a reader, and add one row to kFormats; the "unsupported format" message lists the rows.
 #include "rgs/converter/scene_reader.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -14,6 +17,8 @@
 #include <vector>
 
 #include "internal_input_file.h"
+#include "internal_json.h"
+#include "internal_scene_files.h"
 #include "internal_ply_header.h"
 #include "internal_zip.h"
 #include "rgs/converter/gltf_reader.h"
@@ -133,7 +138,7 @@ PlyReadOptions ply_read_options(const SceneReadOptions& options) {
   return ply_options;
 }
 
-InputScene ply_input_scene(PlyScene ply) {
+InputScene ply_input_scene(PlyScene ply, std::string path) {
   InputScene scene;
   scene.cloud = std::move(ply.cloud);
   scene.hygiene = ply.hygiene;
@@ -143,6 +148,7 @@ InputScene ply_input_scene(PlyScene ply) {
   scene.file_bytes = ply.file_bytes;
   scene.file_count = 1;
   scene.declared_vertices = ply.declared_vertices;
+  scene.files = {std::move(path)};
   scene.file_xxh64 = ply.file_xxh64;
   return scene;
 }
@@ -150,7 +156,7 @@ InputScene ply_input_scene(PlyScene ply) {
 Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOptions& options) {
   RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a PLY file"));
   RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply(path, ply_read_options(options)));
-  return ply_input_scene(std::move(ply));
+  return ply_input_scene(std::move(ply), path);
 }
 
 /// XXH64 (seed 0) of the file at `path`, read in 1 MiB pieces.
@@ -191,7 +197,8 @@ Result<InputScene> to_input_scene(const std::string& path, InteropScene interop,
   }
   scene.description = std::move(description);
   scene.file_bytes = interop.file_bytes;
-  scene.file_count = 1;
+  scene.files = interop.files.empty() ? std::vector<std::string>{path} : std::move(interop.files);
+  scene.file_count = scene.files.size();
   scene.declared_vertices = interop.declared_gaussians;
   scene.notes = std::move(interop.notes);
   if (options.hash_file) {
@@ -205,6 +212,7 @@ InteropReadOptions interop_options(const SceneReadOptions& options) {
   InteropReadOptions o;
   o.invalid_policy = options.invalid_policy;
   o.max_gaussians = options.max_gaussians;
+  o.max_decompression_ratio = options.max_decompression_ratio;
   return o;
 }
 
@@ -318,19 +326,23 @@ Status unsupported(const std::string& path, const std::string& what) {
 
 /// Fills `probe` for `path`, resolving a directory to the meta file inside it.
 Status make_probe(const std::string& path, Probe* probe) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) return Status(StatusCode::kIoError, path + ": no such file or directory");
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) return Status(StatusCode::kIoError, path + ": " + detail::errno_message(errno));
   probe->path = path;
-  if (fs::is_directory(st)) {
-    const fs::path dir(path);
-    if (fs::is_regular_file(dir / "lod-meta.json", ec)) {
-      probe->path = (dir / "lod-meta.json").string();
-    } else if (fs::is_regular_file(dir / "meta.json", ec)) {
-      probe->path = (dir / "meta.json").string();
-    } else {
-      return unsupported(path, "a directory without lod-meta.json or meta.json");
+  if (S_ISDIR(st.st_mode)) {
+    // The meta file inside a folder is a file the scene names: no link is followed to it (SceneFolder).
+    probe->path.clear();
+    for (const char* name : {"lod-meta.json", "meta.json"}) {
+      struct stat meta;
+      if (::lstat((fs::path(path) / name).c_str(), &meta) != 0) continue;
+      probe->path = (fs::path(path) / name).string();
+      if (S_ISLNK(meta.st_mode)) {
+        return Status(StatusCode::kCorruptData, probe->path + ": is a symbolic link; files a scene names are not "
+                                                              "followed through links (docs/INPUT_HYGIENE.md)");
+      }
+      break;
     }
+    if (probe->path.empty()) return unsupported(path, "a directory without lod-meta.json or meta.json");
   }
   RGS_RETURN_IF_ERROR(detail::read_file_head(probe->path, kHeadBytes, &probe->head, &probe->size));
   if (detail::has_zip_magic(probe->head.data(), probe->head.size())) {
@@ -349,13 +361,20 @@ Status make_probe(const std::string& path, Probe* probe) {
   size_t i = 0;
   if (probe->head.size() >= 3 && probe->head[0] == 0xef && probe->head[1] == 0xbb && probe->head[2] == 0xbf) i = 3;
   while (i < probe->head.size() && std::strchr(" \t\r\n", probe->head[i]) != nullptr && probe->head[i] != 0) ++i;
-  if (i < probe->head.size() && probe->head[i] == '{' && probe->size <= kMaxDetectJsonBytes) {
+  if (i < probe->head.size() && probe->head[i] == '{' && probe->size > kMaxDetectJsonBytes) {
+    return Status(StatusCode::kLimitExceeded, probe->path + ": a JSON file of " + std::to_string(probe->size) +
+                                                  " bytes, above the " + std::to_string(kMaxDetectJsonBytes >> 20) +
+                                                  " MiB that scene JSON files (meta.json, lod-meta.json, .gltf) "
+                                                  "may have");
+  }
+  if (i < probe->head.size() && probe->head[i] == '{') {
     std::vector<uint8_t> bytes;
     RGS_RETURN_IF_ERROR(detail::read_whole_file(probe->path, kMaxDetectJsonBytes, &bytes));
-    try {
-      probe->json_root = json::parse(bytes.begin() + static_cast<std::ptrdiff_t>(i), bytes.end());
-    } catch (const json::exception& e) {
-      probe->json_error = e.what();
+    auto root = detail::parse_scene_json(bytes.data() + i, bytes.size() - i, probe->path);
+    if (root.ok()) {
+      probe->json_root = std::move(root).value();
+    } else {
+      probe->json_error = root.status().message();
     }
   }
   return Status();
@@ -383,7 +402,7 @@ Result<InputScene> read_ply_scene_bytes(const uint8_t* data, size_t size, const 
                                         const SceneReadOptions& options) {
   RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a PLY file"));
   RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply_bytes(data, size, name, ply_read_options(options)));
-  return ply_input_scene(std::move(ply));
+  return ply_input_scene(std::move(ply), name);
 }
 
 Result<std::string> detect_scene_format(const std::string& path) {
@@ -391,6 +410,16 @@ Result<std::string> detect_scene_format(const std::string& path) {
   RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
   if (std::strcmp(format->id, "gltf") == 0 && head_starts_with(probe, "glTF")) return std::string("glb");
   return std::string(format->id);
+}
+
+Result<std::vector<std::string>> list_scene_files(const std::string& path) {
+  Probe probe;
+  RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
+  const std::string id = format->id;
+  if (id == "sog") return detail::list_sog_files(probe.path);
+  if (id == "sog_lod") return detail::list_sog_lod_files(probe.path);
+  if (id == "gltf") return detail::list_gltf_files(probe.path);
+  return std::vector<std::string>{probe.path};
 }
 
 Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {

@@ -23,6 +23,8 @@
 
 #include "internal_huge_pages.h"
 #include "internal_input_file.h"
+#include "internal_json.h"
+#include "internal_scene_files.h"
 #include "internal_parallel.h"
 #include "internal_webp.h"
 #include "internal_zip.h"
@@ -146,19 +148,6 @@ Status codebook(const json& obj, const std::string& where, const std::string& pr
   return Status();
 }
 
-/// Checks that a file name from a meta file stays below the meta file's folder (relative, no "..").
-Status check_relative_name(const std::string& name, const std::string& where, const std::string& field) {
-  if (name.empty()) return corrupt(where, "field '" + field + "' is an empty file name");
-  const fs::path p(name);
-  if (p.is_absolute() || p.has_root_name() || p.has_root_directory()) {
-    return corrupt(where, "field '" + field + "' names the absolute path '" + name + "'");
-  }
-  for (const fs::path& part : p) {
-    if (part == "..") return corrupt(where, "field '" + field + "' leaves the scene folder ('" + name + "')");
-  }
-  return Status();
-}
-
 Status file_names(const json& obj, const std::string& group, size_t expected, const std::string& where,
                   std::string* out) {
   RGS_ASSIGN_OR_RETURN(const json* v, member(obj, "files", where, group + "."));
@@ -172,17 +161,12 @@ Status file_names(const json& obj, const std::string& group, size_t expected, co
     const std::string field = name + "[" + std::to_string(i) + "]";
     if (!f.is_string()) return corrupt(where, "field '" + field + "' is a " + type_name(f) + ", not a string");
     out[i] = f.get<std::string>();
-    RGS_RETURN_IF_ERROR(check_relative_name(out[i], where, field));
   }
   return Status();
 }
 
 Result<json> parse_json(const std::vector<uint8_t>& bytes, const std::string& where) {
-  try {
-    return json::parse(bytes.begin(), bytes.end());
-  } catch (const json::parse_error& e) {
-    return corrupt(where, std::string("invalid JSON: ") + e.what());
-  }
+  return detail::parse_scene_json(bytes.data(), bytes.size(), where);
 }
 
 Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta) {
@@ -273,35 +257,52 @@ Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta)
 class SogFiles {
  public:
   virtual ~SogFiles() = default;
-  /// Reads file `name` (relative to the meta file) into `out`; errors name it.
-  virtual Status read(const std::string& name, std::vector<uint8_t>* out) const = 0;
+  /// Reads file `name` (relative to the meta file), named by the meta file's field `field`, into `out`, at
+  /// most `max_bytes`; errors name it.
+  virtual Status read(const std::string& name, const std::string& field, uint64_t max_bytes,
+                      std::vector<uint8_t>* out) const = 0;
   /// How `name` appears in messages.
   virtual std::string display(const std::string& name) const = 0;
 };
 
+/// Files of a folder, opened through the scene's file-access policy (detail::SceneFolder).
 class FolderFiles final : public SogFiles {
  public:
-  explicit FolderFiles(fs::path dir) : dir_(std::move(dir)) {}
-  Status read(const std::string& name, std::vector<uint8_t>* out) const override {
-    return detail::read_whole_file(display(name), kMaxImageFileBytes, out);
+  /// `base`: the meta file's folder relative to the scene's folder ("" or "0_0"); `meta`: its name in
+  /// messages.
+  FolderFiles(const detail::SceneFolder* folder, std::string base, std::string meta)
+      : folder_(folder), base_(std::move(base)), meta_(std::move(meta)) {}
+  Status read(const std::string& name, const std::string& field, uint64_t max_bytes,
+              std::vector<uint8_t>* out) const override {
+    RGS_ASSIGN_OR_RETURN(std::string relative,
+                         folder_->resolve(name, detail::ReferenceKind::kFileName, base_, meta_, field));
+    return folder_->read(relative, max_bytes, out);
   }
-  std::string display(const std::string& name) const override { return (dir_ / name).string(); }
+  std::string display(const std::string& name) const override {
+    return folder_->display((base_.empty() ? "" : base_ + "/") + detail::bounded_text(name, 96));
+  }
 
  private:
-  fs::path dir_;
+  const detail::SceneFolder* folder_;
+  std::string base_;
+  std::string meta_;
 };
 
 class ZipFiles final : public SogFiles {
  public:
   ZipFiles(const detail::ZipArchive* zip, std::string archive) : zip_(zip), archive_(std::move(archive)) {}
-  Status read(const std::string& name, std::vector<uint8_t>* out) const override {
+  Status read(const std::string& name, const std::string&, uint64_t max_bytes,
+              std::vector<uint8_t>* out) const override {
     const detail::ZipEntry* entry = zip_->find(name);
     if (entry == nullptr) {
-      return Status(StatusCode::kIoError, archive_ + ": the archive has no entry '" + name + "'");
+      return Status(StatusCode::kIoError,
+                    archive_ + ": the archive has no entry '" + detail::bounded_text(name, 96) + "'");
     }
-    return zip_->extract(*entry, kMaxImageFileBytes, out);
+    return zip_->extract(*entry, max_bytes, out);
   }
-  std::string display(const std::string& name) const override { return archive_ + ":" + name; }
+  std::string display(const std::string& name) const override {
+    return archive_ + ":" + detail::bounded_text(name, 96);
+  }
 
  private:
   const detail::ZipArchive* zip_;
@@ -324,9 +325,12 @@ struct ChunkJob {
   const SogFiles* files = nullptr;
   std::vector<Range> ranges;
   bool hash = false;
-  /// Filled by decode_chunk: bytes and XXH64 of each image file read, in ImageSlot order.
+  /// Filled by load_chunk_images: each image file's bytes (released once decoded), the bytes and XXH64 of
+  /// the files read, in ImageSlot order, and what their pixels decode to (RGBA8).
+  std::vector<uint8_t> image_bytes[kImageSlots];
   uint64_t bytes_read = 0;
   uint64_t files_read = 0;
+  uint64_t decoded_bytes = 0;
   std::vector<uint64_t> file_hashes;
 };
 
@@ -521,53 +525,62 @@ uint64_t total_count(const std::vector<Range>& ranges) {
   return n;
 }
 
-/// Reads and decodes the chunk's images and expands its ranges into `cloud`. `workers` > 1 decodes the
-/// images and expands the Gaussians in parallel (used when there is a single chunk).
+/// The image slots a chunk reads.
+std::vector<size_t> image_slots(const SogMeta& meta) {
+  std::vector<size_t> slots = {kMeansLow, kMeansHigh, kQuats, kScales, kSh0};
+  if (meta.has_shn) {
+    slots.push_back(kCentroids);
+    slots.push_back(kLabels);
+  }
+  return slots;
+}
+
+/// Reads the chunk's image files (at most `max_file_bytes` each) and checks their sizes from their headers:
+/// every per-Gaussian image must hold the chunk's Gaussians. Nothing is decoded, so the whole scene's decoded
+/// size is known (ChunkJob::decoded_bytes) before any pixel or Gaussian is allocated.
+Status load_chunk_images(ChunkJob* job, uint64_t max_file_bytes) {
+  const SogMeta& meta = job->meta;
+  for (size_t slot : image_slots(meta)) {
+    std::vector<uint8_t>& bytes = job->image_bytes[slot];
+    RGS_RETURN_IF_ERROR(job->files->read(meta.files[slot], kSlotNames[slot], max_file_bytes, &bytes));
+    job->bytes_read += bytes.size();
+    ++job->files_read;
+    if (job->hash) job->file_hashes.push_back(XXH64(bytes.data(), bytes.size(), 0));
+    uint32_t width = 0, height = 0;
+    const std::string name = job->files->display(meta.files[slot]);
+    RGS_RETURN_IF_ERROR(detail::read_webp_size(bytes.data(), bytes.size(), name, &width, &height));
+    const uint64_t pixels = uint64_t{width} * height;
+    if (slot != kCentroids && pixels < meta.count) {
+      return corrupt(name, std::string(kSlotNames[slot]) + " image is " + std::to_string(width) + " x " +
+                               std::to_string(height) + " = " + std::to_string(pixels) + " pixels, fewer than the " +
+                               std::to_string(meta.count) + " Gaussians of " + job->meta_name);
+    }
+    job->decoded_bytes += pixels * 4;
+  }
+  return Status();
+}
+
+/// Decodes the chunk's images (read by load_chunk_images) and expands its ranges into `cloud`. `workers` > 1
+/// decodes the images and expands the Gaussians in parallel (used when there is a single chunk).
 Status decode_chunk(ChunkJob* job, unsigned workers, format::GaussianCloud* cloud) {
   const SogMeta& meta = job->meta;
   const std::string& where = job->meta_name;
   Tables tables;
   RGS_RETURN_IF_ERROR(build_tables(meta, where, &tables));
 
-  std::vector<size_t> slots = {kMeansLow, kMeansHigh, kQuats, kScales, kSh0};
-  if (meta.has_shn) {
-    slots.push_back(kCentroids);
-    slots.push_back(kLabels);
-  }
-  // Per-Gaussian images need count pixels; allow generous padding but not a decompression bomb.
-  const uint64_t max_pixels = 2 * meta.count + (uint64_t{1} << 20);
+  const std::vector<size_t> slots = image_slots(meta);
   DecodedImages images;
   std::vector<Status> errors(kImageSlots);
-  std::vector<uint64_t> sizes(kImageSlots, 0), hashes(kImageSlots, 0);
   const unsigned image_workers = std::min<unsigned>(workers, static_cast<unsigned>(slots.size()));
   RGS_RETURN_IF_ERROR(detail::parallel_items(slots.size(), image_workers, [&](unsigned, uint64_t item) {
     const size_t slot = slots[item];
-    std::vector<uint8_t> bytes;
-    Status s = job->files->read(meta.files[slot], &bytes);
-    if (s.ok()) {
-      sizes[slot] = bytes.size();
-      if (job->hash) hashes[slot] = XXH64(bytes.data(), bytes.size(), 0);
-      s = detail::decode_webp_rgba(bytes.data(), bytes.size(), max_pixels, job->files->display(meta.files[slot]),
-                                   &images.image[slot]);
-    }
-    errors[slot] = std::move(s);
+    std::vector<uint8_t>& bytes = job->image_bytes[slot];
+    // The sizes were checked against the decompression-ratio limit by load_chunk_images' caller.
+    errors[slot] = detail::decode_webp_rgba(bytes.data(), bytes.size(), UINT64_MAX,
+                                            job->files->display(meta.files[slot]), &images.image[slot]);
+    std::vector<uint8_t>().swap(bytes);
   }));
   for (size_t slot : slots) RGS_RETURN_IF_ERROR(errors[slot]);
-  for (size_t slot : slots) {
-    job->bytes_read += sizes[slot];
-    ++job->files_read;
-    if (job->hash) job->file_hashes.push_back(hashes[slot]);
-  }
-  for (size_t slot : slots) {
-    if (slot == kCentroids) continue;
-    const detail::RgbaImage& image = images.image[slot];
-    if (image.pixels() < meta.count) {
-      return corrupt(job->files->display(meta.files[slot]),
-                     std::string(kSlotNames[slot]) + " image is " + std::to_string(image.width) + " x " +
-                         std::to_string(image.height) + " = " + std::to_string(image.pixels()) +
-                         " pixels, fewer than the " + std::to_string(meta.count) + " Gaussians of " + where);
-    }
-  }
   if (meta.has_shn) {
     RGS_RETURN_IF_ERROR(
         build_palette(meta, images.image[kCentroids], job->files->display(meta.files[kCentroids]), &tables));
@@ -620,7 +633,7 @@ uint32_t declared_degree(const SogMeta& meta) { return meta.has_shn ? meta.sh_ba
 Status resolve_earlier_bands(SogMeta* meta, const SogFiles& files) {
   if (meta->version == 2 || !meta->has_shn) return Status();
   std::vector<uint8_t> bytes;
-  RGS_RETURN_IF_ERROR(files.read(meta->files[kCentroids], &bytes));
+  RGS_RETURN_IF_ERROR(files.read(meta->files[kCentroids], kSlotNames[kCentroids], kMaxImageFileBytes, &bytes));
   detail::RgbaImage image;
   RGS_RETURN_IF_ERROR(detail::decode_webp_rgba(bytes.data(), bytes.size(), uint64_t{1} << 24,
                                                files.display(meta->files[kCentroids]), &image));
@@ -673,45 +686,78 @@ Status reject_lod(const SceneReadOptions& options, const std::string& path, cons
   return Status();
 }
 
-Result<InputScene> read_sog_impl(const std::string& path_in, const SceneReadOptions& options) {
-  std::string path = path_in;
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) path = (fs::path(path) / "meta.json").string();
+/// The scene's folder and its entry file: `path` names a folder (its `entry_name` is read through the
+/// file-access policy) or the entry file itself (read as named).
+struct SceneEntry {
+  std::unique_ptr<detail::SceneFolder> folder;
+  std::string path;  ///< the entry file, as named in messages
   std::vector<uint8_t> bytes;
-  RGS_RETURN_IF_ERROR(detail::read_whole_file(path, kMaxBundleBytes, &bytes));
+};
+
+Status read_entry(const std::string& path, const char* entry_name, uint64_t max_bytes, SceneEntry* entry) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    entry->folder = std::make_unique<detail::SceneFolder>(path, std::string());
+    entry->path = entry->folder->display(entry_name);
+    return entry->folder->read(entry_name, max_bytes, &entry->bytes);
+  }
+  entry->folder = std::make_unique<detail::SceneFolder>(fs::path(path).parent_path().string(), path);
+  entry->path = path;
+  return detail::read_whole_file(path, max_bytes, &entry->bytes);
+}
+
+/// Reads every chunk's images and checks what they decode to against the decompression-ratio limit, before
+/// anything is allocated for pixels or Gaussians. `file_bytes`: the scene's bytes read so far; the images'
+/// own bytes are added unless they lie inside those (`in_file_bytes`: a bundle's entries).
+Status load_images(const std::vector<ChunkJob*>& jobs, uint64_t file_bytes, bool in_file_bytes,
+                   const SceneReadOptions& options, const std::string& where) {
+  uint64_t decoded = 0;
+  const uint64_t budget = detail::decode_budget(file_bytes, options.max_decompression_ratio);
+  for (ChunkJob* job : jobs) {
+    // Each image file is bounded by what may still be decoded: an image never decodes to less than its size.
+    RGS_RETURN_IF_ERROR(load_chunk_images(job, std::min(kMaxImageFileBytes, budget)));
+    if (!in_file_bytes) file_bytes += job->bytes_read;
+    decoded += job->decoded_bytes;
+  }
+  return detail::check_decode_budget(decoded, file_bytes, options.max_decompression_ratio, where,
+                                     "the WebP images (RGBA8)");
+}
+
+Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions& options) {
+  SceneEntry entry;
+  RGS_RETURN_IF_ERROR(read_entry(path, "meta.json", kMaxBundleBytes, &entry));
   InputScene scene;
   std::unique_ptr<SogFiles> files;
   detail::ZipArchive zip;
   std::vector<uint8_t> meta_bytes;
-  const bool bundled = detail::has_zip_magic(bytes.data(), bytes.size());
+  const bool bundled = detail::has_zip_magic(entry.bytes.data(), entry.bytes.size());
   std::vector<uint64_t> hashes;
+  scene.file_bytes = entry.bytes.size();
+  scene.file_count = 1;
   if (bundled) {
-    RGS_RETURN_IF_ERROR(reject_lod(options, path, "a bundled SOG (.sog)"));
-    RGS_ASSIGN_OR_RETURN(zip, detail::ZipArchive::parse(bytes.data(), bytes.size(), path));
-    const detail::ZipEntry* entry = zip.find("meta.json");
-    if (entry == nullptr) {
-      return Status(StatusCode::kCorruptData, path + ": ZIP archive has no meta.json, so it is not a bundled SOG");
+    RGS_RETURN_IF_ERROR(reject_lod(options, entry.path, "a bundled SOG (.sog)"));
+    RGS_ASSIGN_OR_RETURN(zip, detail::ZipArchive::parse(entry.bytes.data(), entry.bytes.size(), entry.path));
+    const detail::ZipEntry* meta = zip.find("meta.json");
+    if (meta == nullptr) {
+      return Status(StatusCode::kCorruptData,
+                    entry.path + ": ZIP archive has no meta.json, so it is not a bundled SOG");
     }
-    RGS_RETURN_IF_ERROR(zip.extract(*entry, kMaxMetaBytes, &meta_bytes));
-    files = std::make_unique<ZipFiles>(&zip, path);
+    RGS_RETURN_IF_ERROR(zip.extract(*meta, kMaxMetaBytes, &meta_bytes));
+    files = std::make_unique<ZipFiles>(&zip, entry.path);
     scene.format_id = "sog_bundle";
-    if (options.hash_file) scene.file_xxh64 = XXH64(bytes.data(), bytes.size(), 0);
-    scene.file_bytes = bytes.size();
-    scene.file_count = 1;
+    if (options.hash_file) scene.file_xxh64 = XXH64(entry.bytes.data(), entry.bytes.size(), 0);
   } else {
-    RGS_RETURN_IF_ERROR(reject_lod(options, path, "a SOG meta.json"));
-    if (bytes.size() > kMaxMetaBytes) {
-      return Status(StatusCode::kLimitExceeded, path + ": meta file is " + std::to_string(bytes.size()) +
+    RGS_RETURN_IF_ERROR(reject_lod(options, entry.path, "a SOG meta.json"));
+    if (entry.bytes.size() > kMaxMetaBytes) {
+      return Status(StatusCode::kLimitExceeded, entry.path + ": meta file is " + std::to_string(entry.bytes.size()) +
                                                     " bytes, above the limit of " + std::to_string(kMaxMetaBytes));
     }
-    meta_bytes = std::move(bytes);
-    files = std::make_unique<FolderFiles>(fs::path(path).parent_path());
+    meta_bytes = std::move(entry.bytes);
+    files = std::make_unique<FolderFiles>(entry.folder.get(), "", entry.path);
     scene.format_id = "sog";
     if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
-    scene.file_bytes = meta_bytes.size();
-    scene.file_count = 1;
   }
-  const std::string meta_name = bundled ? path + ":meta.json" : path;
+  const std::string meta_name = bundled ? entry.path + ":meta.json" : entry.path;
   ChunkJob job;
   job.meta_name = meta_name;
   job.files = files.get();
@@ -721,6 +767,7 @@ Result<InputScene> read_sog_impl(const std::string& path_in, const SceneReadOpti
   RGS_RETURN_IF_ERROR(check_count(job.meta.count, options, meta_name));
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
   job.ranges.push_back(Range{0, job.meta.count, 0});
+  RGS_RETURN_IF_ERROR(load_images({&job}, scene.file_bytes, bundled, options, meta_name));
   RGS_RETURN_IF_ERROR(allocate_cloud(job.meta.count, declared_degree(job.meta), &scene.cloud));
   RGS_RETURN_IF_ERROR(decode_chunk(&job, detail::worker_count(UINT64_MAX, 1), &scene.cloud));
   if (!bundled) {
@@ -731,6 +778,7 @@ Result<InputScene> read_sog_impl(const std::string& path_in, const SceneReadOpti
       scene.file_xxh64 = combine_hashes(hashes);
     }
   }
+  scene.files = bundled ? std::vector<std::string>{entry.path} : entry.folder->files();
   scene.storage_format = scene.format_id;
   scene.declared_vertices = job.meta.count;
   const std::string layout = job.meta.version == 2 ? "v2" : "unversioned (v1)";
@@ -793,12 +841,12 @@ Status collect_references(const json& tree, uint64_t levels, uint64_t files, uin
   return Status();
 }
 
-Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneReadOptions& options) {
-  std::string path = path_in;
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) path = (fs::path(path) / "lod-meta.json").string();
-  std::vector<uint8_t> bytes;
-  RGS_RETURN_IF_ERROR(detail::read_whole_file(path, kMaxMetaBytes, &bytes));
+Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneReadOptions& options) {
+  SceneEntry entry;
+  RGS_RETURN_IF_ERROR(read_entry(named_path, "lod-meta.json", kMaxMetaBytes, &entry));
+  const std::string& path = entry.path;
+  const std::vector<uint8_t>& bytes = entry.bytes;
+  const detail::SceneFolder& folder = *entry.folder;
   RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, path));
   if (!root.is_object()) return corrupt(path, "top level is a " + type_name(root) + ", not an object");
   InputScene scene;
@@ -830,8 +878,9 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
     const json& n = (*names_json)[i];
     const std::string field = "filenames[" + std::to_string(i) + "]";
     if (!n.is_string()) return corrupt(path, "field '" + field + "' is not a string");
-    names.push_back(n.get<std::string>());
-    RGS_RETURN_IF_ERROR(check_relative_name(names.back(), path, field));
+    RGS_ASSIGN_OR_RETURN(std::string relative,
+                         folder.resolve(n.get<std::string>(), detail::ReferenceKind::kFileName, "", path, field));
+    names.push_back(std::move(relative));
   }
   RGS_ASSIGN_OR_RETURN(const json* tree, member(root, "tree", path, ""));
   std::vector<LodReference> refs;
@@ -859,7 +908,6 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
     }
   }
 
-  const fs::path dir = fs::path(path).parent_path();
   std::vector<std::unique_ptr<FolderFiles>> folders;
   std::vector<ChunkJob> jobs;
   jobs.reserve(by_file.size());
@@ -869,9 +917,9 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
   for (auto& [file, file_refs] : by_file) {
     std::sort(file_refs.begin(), file_refs.end(),
               [](const LodReference& a, const LodReference& b) { return a.offset < b.offset; });
-    const std::string meta_path = (dir / names[file]).string();
+    const std::string meta_path = folder.display(names[file]);
     std::vector<uint8_t> meta_bytes;
-    Status read = detail::read_whole_file(meta_path, kMaxMetaBytes, &meta_bytes);
+    Status read = folder.read(names[file], kMaxMetaBytes, &meta_bytes);
     if (!read.ok()) {
       return std::move(read.prepend(path + ": LOD " + std::to_string(lod) + " chunk '" + names[file] + "'"));
     }
@@ -882,7 +930,9 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
     ChunkJob job;
     job.meta_name = meta_path;
     RGS_RETURN_IF_ERROR(parse_sog_meta(chunk_root, meta_path, &job.meta));
-    folders.push_back(std::make_unique<FolderFiles>(fs::path(meta_path).parent_path()));
+    const size_t slash = names[file].rfind('/');
+    folders.push_back(std::make_unique<FolderFiles>(
+        &folder, slash == std::string::npos ? std::string() : names[file].substr(0, slash), meta_path));
     job.files = folders.back().get();
     job.hash = options.hash_file;
     RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *job.files));
@@ -912,6 +962,9 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
     jobs.push_back(std::move(job));
   }
 
+  std::vector<ChunkJob*> job_pointers;
+  for (ChunkJob& job : jobs) job_pointers.push_back(&job);
+  RGS_RETURN_IF_ERROR(load_images(job_pointers, scene.file_bytes, false, options, path));
   RGS_RETURN_IF_ERROR(allocate_cloud(total, degree, &scene.cloud));
   std::vector<Status> errors(jobs.size());
   const unsigned threads = detail::worker_count(UINT64_MAX, 1);  // every CPU this process may use (≤ 16)
@@ -932,12 +985,28 @@ Result<InputScene> read_sog_lod_impl(const std::string& path_in, const SceneRead
     for (const ChunkJob& job : jobs) hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
     scene.file_xxh64 = combine_hashes(hashes);
   }
+  scene.files = folder.files();
   scene.format_id = "sog_lod";
   scene.storage_format = scene.format_id;
   scene.declared_vertices = total;
   scene.description = "PlayCanvas streamed SOG, LOD " + std::to_string(lod) + " of " + std::to_string(levels) + " (" +
                       std::to_string(jobs.size()) + (jobs.size() == 1 ? " chunk)" : " chunks)");
   return scene;
+}
+
+/// Adds the images named by the SOG meta.json in `bytes` (the file `where`, in the folder `base` of the scene's
+/// folder) to `out`, as read_sog would name them.
+Status list_meta_images(const std::vector<uint8_t>& bytes, const std::string& where,
+                        const detail::SceneFolder& folder, const std::string& base, std::vector<std::string>* out) {
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, where));
+  SogMeta meta;
+  RGS_RETURN_IF_ERROR(parse_sog_meta(root, where, &meta));
+  for (size_t slot : image_slots(meta)) {
+    RGS_ASSIGN_OR_RETURN(std::string relative, folder.resolve(meta.files[slot], detail::ReferenceKind::kFileName,
+                                                              base, where, kSlotNames[slot]));
+    out->push_back(folder.display(relative));
+  }
+  return Status();
 }
 
 }  // namespace
@@ -949,5 +1018,51 @@ Result<InputScene> read_sog(const std::string& path, const SceneReadOptions& opt
 Result<InputScene> read_sog_lod(const std::string& path, const SceneReadOptions& options) {
   return guarded(path, [&] { return read_sog_lod_impl(path, options); });
 }
+
+namespace detail {
+
+Result<std::vector<std::string>> list_sog_files(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_directory(path, ec)) {
+    std::vector<uint8_t> head;
+    uint64_t size = 0;
+    RGS_RETURN_IF_ERROR(read_file_head(path, 4, &head, &size));
+    if (has_zip_magic(head.data(), head.size())) return std::vector<std::string>{path};  // a bundle: one file
+  }
+  SceneEntry entry;
+  RGS_RETURN_IF_ERROR(read_entry(path, "meta.json", kMaxMetaBytes, &entry));
+  std::vector<std::string> files = {entry.path};
+  RGS_RETURN_IF_ERROR(list_meta_images(entry.bytes, entry.path, *entry.folder, "", &files));
+  return files;
+}
+
+Result<std::vector<std::string>> list_sog_lod_files(const std::string& path) {
+  SceneEntry entry;
+  RGS_RETURN_IF_ERROR(read_entry(path, "lod-meta.json", kMaxMetaBytes, &entry));
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(entry.bytes, entry.path));
+  std::vector<std::string> files = {entry.path};
+  const json* names = root.is_object() && root.contains("filenames") ? &root["filenames"] : nullptr;
+  if (names == nullptr || !names->is_array()) return files;  // read_sog_lod names the problem
+  for (size_t i = 0; i < names->size(); ++i) {
+    const json& n = (*names)[i];
+    if (!n.is_string()) continue;
+    RGS_ASSIGN_OR_RETURN(std::string relative,
+                         entry.folder->resolve(n.get<std::string>(), ReferenceKind::kFileName, "", entry.path,
+                                               "filenames[" + std::to_string(i) + "]"));
+    files.push_back(entry.folder->display(relative));
+    // A chunk the level read does not use may be missing or damaged: list what can be listed.
+    std::vector<uint8_t> bytes;
+    if (!entry.folder->read(relative, kMaxMetaBytes, &bytes).ok()) continue;
+    const size_t slash = relative.rfind('/');
+    const std::string base = slash == std::string::npos ? std::string() : relative.substr(0, slash);
+    std::vector<std::string> images;
+    if (list_meta_images(bytes, files.back(), *entry.folder, base, &images).ok()) {
+      files.insert(files.end(), images.begin(), images.end());
+    }
+  }
+  return files;
+}
+
+}  // namespace detail
 
 }  // namespace rgs::converter

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "internal_input_file.h"
 #include "internal_interop.h"
 #include "internal_spz.h"
 
@@ -276,6 +277,10 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
     return Status(StatusCode::kCorruptData, "SPZ streams end at byte " + std::to_string(at) + " but the file has " +
                                                 std::to_string(size) + " bytes");
   }
+  uint64_t raw_total = 0;
+  for (uint32_t t = 0; t < num_streams; ++t) raw_total += sizes.bytes[present[t]];  // < 2^32 · 64
+  RGS_RETURN_IF_ERROR(detail::check_decode_budget(raw_total, size, options.max_decompression_ratio, "",
+                                                  "the SPZ streams of " + std::to_string(h.num_points) + " Gaussians"));
   // Declared frame sizes, when the frames carry them, before allocating.
   for (uint32_t t = 0; t < num_streams; ++t) {
     const int s = present[t];
@@ -424,6 +429,8 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
                                                 std::to_string(payload) + " bytes, more than " +
                                                 std::to_string(size) + " gzip bytes can inflate to");
   }
+  RGS_RETURN_IF_ERROR(detail::check_decode_budget(payload, size, options.max_decompression_ratio, "",
+                                                  "the gzip stream's " + std::to_string(h.num_points) + " Gaussians"));
   std::vector<uint8_t> body(static_cast<size_t>(payload));
   RGS_RETURN_IF_ERROR(gz.read(body.data(), body.size(), &got));
   if (got < body.size()) {

@@ -573,7 +573,7 @@ TEST_CASE("SOG: broken folders, metas and images fail with a named code") {
       {"newer version", replace_once(base_meta, "\"version\":2", "\"version\":3"), nullptr, nullptr,
        StatusCode::kUnsupportedVersion, "version 3"},
       {"file outside the folder", replace_once(base_meta, "\"sh0.webp\"", "\"../sh0.webp\""), nullptr, nullptr,
-       StatusCode::kCorruptData, "leaves the scene folder"},
+       StatusCode::kCorruptData, "outside the scene's folder"},
       {"means.mins with 4 entries", replace_once(base_meta, "\"mins\":[", "\"mins\":[-1000,"), nullptr, nullptr,
        StatusCode::kCorruptData, "field 'means.mins' has 4 entries"},
       {"means range overflowing float32", replace_once(base_meta, "\"mins\":[0.14195467716396362", "\"mins\":[-1000"),

@@ -16,6 +16,10 @@ struct InteropReadOptions {
   InvalidPolicy invalid_policy = InvalidPolicy::kReject;
   /// Refuse files declaring more Gaussians than this (kLimitExceeded), checked before allocating.
   uint64_t max_gaussians = uint64_t{1} << 28;
+  /// The file's codec layers (zstd, gzip, glTF accessors without data) may decode to at most this many bytes
+  /// per byte of file, counting the file as at least 1 MiB (format/SPEC.md §5.5, applied to every format;
+  /// format::ReadLimits::max_decompression_ratio's default). Checked before allocating (kLimitExceeded).
+  uint32_t max_decompression_ratio = 8;
   /// Convert from the format's stored axes into the PLY/COLMAP frame RoofGS uses everywhere (x right,
   /// y down, z forward: "RDF"). False keeps the stored axes, for files whose writer skipped the
   /// conversion its format prescribes (some SPZ writers store the PLY's axes unchanged).
@@ -29,8 +33,11 @@ struct InteropScene {
   format::GaussianCloud cloud;
   /// Problem values found (always zero for SPZ, whose fields cannot hold them).
   InputHygiene hygiene;
-  /// Size of the input in bytes (for .gltf: the JSON file alone).
+  /// Size of the input in bytes (for .gltf: the JSON file and the buffer bytes it reads from other files).
   uint64_t file_bytes = 0;
+  /// Files read besides the input itself, when it names others (a .gltf's buffers), the input first; empty
+  /// for single-file inputs.
+  std::vector<std::string> files;
   /// Gaussians declared by the file, before sanitizing.
   uint64_t declared_gaussians = 0;
   /// Container name: "spz", "splat", "glb" or "gltf".

@@ -75,4 +75,11 @@ Result<PlyScene> read_ply(const std::string& path, const PlyReadOptions& options
 Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
                                 const PlyReadOptions& options = {});
 
+/// The most bytes a PLY whose header starts `data[0, size)` can hold, for reading one from a stream
+/// (standard input) without buffering more than its header proves: binary PLY exactly the header plus every
+/// element's rows; ascii PLY, and binary elements with list properties, an upper bound of 64 bytes per
+/// value (a row of a list element: 64 KiB). 0 while `data` does not yet hold the whole header (read more).
+/// Errors: kCorruptData (not a PLY, malformed header, or no end_header within the first 1 MiB).
+Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size);
+
 }  // namespace rgs::converter

@@ -18,6 +18,11 @@ struct SceneReadOptions {
   InvalidPolicy invalid_policy = InvalidPolicy::kReject;
   /// Refuse inputs declaring more Gaussians than this (kLimitExceeded) before allocating for them.
   uint64_t max_gaussians = uint64_t{1} << 28;
+  /// What the input's codec layers (zstd, gzip, deflate, WebP images, glTF accessors without data) may decode
+  /// to: at most this many bytes per byte of the scene's files, counting them as at least 1 MiB
+  /// (format/SPEC.md §5.5 for every format; the default of format::ReadLimits::max_decompression_ratio).
+  /// Checked from declared sizes before anything is allocated for them (kLimitExceeded).
+  uint32_t max_decompression_ratio = 8;
   /// Also compute InputScene::file_xxh64 (provenance).
   bool hash_file = false;
   /// Level of detail of a streamed SOG (lod-meta.json): 0 is the finest. Unset reads LOD 0. Setting it for
@@ -48,6 +53,9 @@ struct InputScene {
   uint64_t file_count = 0;
   /// Number of Gaussians the input declares (before any are dropped).
   uint64_t declared_vertices = 0;
+  /// Every file read (the entry file first: the PLY, meta.json, lod-meta.json, .gltf, ...), as named in
+  /// messages: the files an output of the same run must not replace.
+  std::vector<std::string> files;
   /// With SceneReadOptions::hash_file: XXH64 (seed 0) of the file for single-file inputs (PLY, compressed
   /// PLY, bundled .sog); for inputs made of several files, XXH64 over the little-endian XXH64 of each file
   /// read, in a fixed order: SOG folder: meta.json, then its images (means low, means high, quats, scales,
@@ -91,6 +99,16 @@ Result<InputScene> read_ply_scene_bytes(const uint8_t* data, size_t size, const 
 /// kInvalidArgument "unsupported format" error (kIoError when `path` cannot be read). Reads only the start
 /// of the file (and a JSON file whole).
 Result<std::string> detect_scene_format(const std::string& path);
+
+/// The files read_scene would read for `path`, the entry file first, named as InputScene::files names them:
+/// for a SOG folder or meta.json its images; for a streamed SOG its lod-meta.json, the chunk meta.json files
+/// and their images; for a .gltf its buffer files; for every other input `path` alone (a folder: the meta
+/// file in it). A tool declares them all as inputs before it writes anything, so that no output replaces a
+/// file of the scene. Reads only the scene's JSON files; names are resolved under the same file-access policy
+/// as read_scene (docs/INPUT_HYGIENE.md "Files a scene names"), with the same errors for names it refuses.
+/// Errors: kIoError (unreadable), kCorruptData (a name outside the scene's folder, a symbolic link, bad JSON),
+/// kInvalidArgument (unsupported format), kLimitExceeded.
+Result<std::vector<std::string>> list_scene_files(const std::string& path);
 
 /// Drops the SH bands of `cloud` above `degree` (a no-op when the cloud's degree is not above it), keeping
 /// the lower coefficients bit for bit: what `rgs-convert --sh-degree N` does before writing any output.
