@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
-# writing full logs and JSON under OUT_DIR and printing a short summary last (GPU.md "One build, two hosts").
+# writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
 # Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|audit|all]   (default all)
 set -uo pipefail

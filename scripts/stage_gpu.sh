@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Development host: builds the GPU binaries (CUDA on, no OpenImageIO: GPU.md) into build-gpu and stages what
-# the GPU host needs into two ignored folders, each small enough to travel in one call (< 64 MiB with the
-# repository):
+# Development host: builds the GPU binaries (CUDA on, no OpenImageIO: CONTRIBUTING.md#one-build-two-hosts)
+# into build-gpu and stages what the GPU host needs into two ignored folders, each under 64 MiB with the
+# repository:
 #   .device_data/bin.tar.xz  test_gpu, test_api, test_audit, rgs-render, rgs-bench, rgs-convert, rgs-audit and
 #                            the render_frame sample, stripped
 #   .device_data/data/       flowers PLY + cameras.json, flowers and the 542k daffodils scene as .rgs,
@@ -55,7 +55,8 @@ for exe in "${exes[@]}"; do
   cp "$build/$exe" "$stage/bin/"
   strip "$stage/bin/$(basename "$exe")"
 done
-# GPU binaries must not need any shared library beyond the C/C++ runtime (GPU.md).
+# GPU binaries must not need any shared library beyond the C/C++ runtime
+# (CONTRIBUTING.md#one-build-two-hosts).
 for exe in "$stage"/bin/*; do
   if ldd "$exe" | grep -vE 'linux-vdso|libstdc\+\+|libm\.so|libgcc_s|libc\.so|ld-linux' | grep -q .; then
     echo "stage_gpu.sh: $exe links more than the C/C++ runtime:" >&2; ldd "$exe" >&2; exit 1

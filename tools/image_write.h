@@ -1,8 +1,8 @@
 // Image output of rgs-render and rgs-audit. PPM/PGM (8-bit) and PFM (float) are written here without any
 // library, so they exist in every build; PNG and EXR go through OpenImageIO and exist only when the build has
-// it (CMake option RGS_WITH_OPENIMAGEIO; GPU-host builds leave it OFF, GPU.md). Every writer is atomic: a
-// temporary in the same directory, renamed over `path` on success (format::write_file_atomic), or staged in
-// the run's format::OutputSet when `path` is one of its outputs.
+// it (CMake option RGS_WITH_OPENIMAGEIO; GPU-host builds leave it OFF: CONTRIBUTING.md#one-build-two-hosts). Every
+// writer is atomic: a temporary in the same directory, renamed over `path` on success (format::write_file_atomic), or
+// staged in the run's format::OutputSet when `path` is one of its outputs.
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
-// rgs-bench: per-stage GPU frame times of the CUDA renderer (GPU.md "Time with CUDA events after warm-up,
-// median of many frames over several camera views"). Built only with RGS_WITH_CUDA; never links OpenImageIO,
+// rgs-bench: per-stage GPU frame times of the CUDA renderer (CUDA events after warm-up, median of many frames
+// over several camera views: CONTRIBUTING.md#timing). Built only with RGS_WITH_CUDA; never links OpenImageIO,
 // so it runs on the GPU host.
 //
 //   rgs-bench scene.rgs --cameras cameras.json --every 8 --resolution 1080p --resolution 4k --json bench.json

@@ -70,7 +70,7 @@ bool flip_to_rdf(const std::string& frame, AxisFlip* flip);
 /// Applies an axis flip to every Gaussian of `cloud`: means x' = S·x; the rotation matrix R' = S·R·S,
 /// which for a unit quaternion (w, x, y, z) keeps w and scales (x, y, z) by (sy·sz, sx·sz, sx·sy)
 /// (for a proper rotation S that is the vector part rotated by S); scales unchanged (S·diag·S = diag);
-/// SH coefficient k >= 1 multiplied by the parity of its basis polynomial under S (DESIGN.md's basis:
+/// SH coefficient k >= 1 multiplied by the parity of its basis polynomial under S (docs/DESIGN.md#spherical-harmonics:
 /// y, z, x, xy, yz, 1, xz, 1, y, xyz, y, z, x, z, x up to sign and even factors).
 void apply_axis_flip(const AxisFlip& flip, format::GaussianCloud* cloud);
 

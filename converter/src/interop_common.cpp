@@ -12,7 +12,7 @@ namespace rgs::converter::detail {
 
 namespace {
 
-/// Exponents (x, y, z) mod 2 of the polynomial of SH basis k = 1..15 (DESIGN.md "Numeric conventions"):
+/// Exponents (x, y, z) mod 2 of the polynomial of SH basis k = 1..15 (docs/DESIGN.md#spherical-harmonics):
 /// only the parity matters under an axis flip, and the even factors (x², 2z² − x² − y², ...) keep sign.
 constexpr uint8_t kShParity[16][3] = {
     {0, 0, 0},  // 0: constant

@@ -12,7 +12,7 @@ namespace rgs::converter {
 
 namespace {
 
-/// SH degree-0 basis constant (DESIGN.md "Numeric conventions").
+/// SH degree-0 basis constant (docs/DESIGN.md#spherical-harmonics).
 constexpr double kShC0 = 0.28209479177387814;
 
 Result<InteropScene> read_records(const uint8_t* data, size_t size, const InteropReadOptions& options) {

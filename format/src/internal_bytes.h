@@ -1,4 +1,4 @@
-// Bounds-checked little-endian field I/O and overflow-safe size arithmetic (STYLE.md §4). Every .rgs
+// Bounds-checked little-endian field I/O and overflow-safe size arithmetic (CONTRIBUTING.md#format-changes). Every .rgs
 // field goes through ByteReader/ByteWriter one scalar at a time; no struct is ever copied as bytes.
 #pragma once
 

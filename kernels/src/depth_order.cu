@@ -15,9 +15,8 @@ namespace {
 /// gather a pair); a run that crosses the warp's ends is ranked by its own pairs over global memory (O(run
 /// length) reads per pair, as the render's own loop over the tile's pairs). Real scenes tie in short runs, yet
 /// on taebak at 4K 95 % of the warps hold one and 45 % one that crosses their ends. The pass is bound by its
-/// instructions there (76 % of issue slots busy, 172 instructions a pair; Nsight Compute), so Index is uint32_t
-/// whenever the positions fit: with 64-bit positions the pass took 0.089 ms at 4K instead of 0.080, and
-/// 0.161-0.163 at 8K instead of 0.137-0.138 (H100, three interleaved rounds).
+/// instructions there (Nsight Compute), so Index is uint32_t whenever the positions fit (64-bit positions are
+/// slower: docs/BENCHMARKS.md#tried-and-not-kept).
 template <typename Index>
 __global__ void __launch_bounds__(detail::kBlockSize)
     order_equal_keys_kernel(const uint32_t* __restrict__ keys, const uint32_t* __restrict__ values_in,

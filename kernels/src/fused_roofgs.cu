@@ -66,10 +66,9 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
 }
 
 /// Eight blocks an SM (64 registers, 4–22 bytes of spills by variant) instead of the seven that 68 registers
-/// allow: the kernel waits on its loads (long-scoreboard stalls were 30 % of its samples on taebak at 4K, at 41 %
-/// achieved occupancy), and the extra warps hide more of them. With the ticket's removal below: taebak
-/// preprocess at 4K 0.280-0.285 -> 0.259-0.264 ms, 1080p 0.250-0.254 -> 0.228-0.234 (H100, three interleaved
-/// rounds; docs/BENCHMARKS.md).
+/// allow: the kernel waits on its loads (long-scoreboard stalls lead its Nsight Compute samples on taebak), and
+/// the extra warps hide more of them (measured with the ticket's removal below:
+/// docs/BENCHMARKS.md#tried-and-not-kept).
 template <bool kCompact, int kDegree>
 __global__ void __launch_bounds__(kFusedBlockSize, 8)
     fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,

@@ -12,17 +12,16 @@ namespace {
 
 /// CUB's policies for the RoofGS sort of 32-bit keys and values with 32-bit offsets (the onesweep radix sort
 /// CUB runs on sm_89 and sm_90, 8 bits a pass), changed where H100 runs of a standalone program measured a
-/// difference (docs/BENCHMARKS.md; tile-ordered keys, medians of 50), for counts whose 384-thread
+/// difference (docs/BENCHMARKS.md#tried-and-not-kept; tile-ordered keys), for counts whose 384-thread
 /// onesweep tiles (CUB's choice for sm_90, 23 keys a thread) are more than one per SM:
 /// - the digit histograms are built by 1,024-thread blocks instead of 128: the kernel runs as many blocks as
 ///   fit and each adds its 4 × 256 counts into the same global bins with atomics, so 8× fewer blocks make
-///   8× fewer of those serialized atomics (4.17M pairs: 0.219 → 0.205 ms for the whole sort);
+///   8× fewer of those serialized atomics;
 /// - a onesweep pass takes 512-thread tiles when those fit one per SM (1.36M pairs on 132 SMs: 154 tiles of
-///   384 threads, 116 of 512; 0.107 → 0.099 ms), else 384 (2.0M: 0.122 against 0.139 ms with 512).
-/// Smaller counts keep CUB's own sm_90 policies (405k pairs: 0.083 ms, against 0.084 with the histogram change
-/// and 0.086 with 512 threads). The kernels (cub::detail::radix_sort), their argument lists and the policy hub
-/// are those of the CCCL in CUDA 13.0 (the toolkit of the build hosts); a CCCL that renames or changes them
-/// fails to compile here, not at run time.
+///   384 threads, 116 of 512), else 384.
+/// Smaller counts keep CUB's own sm_90 policies, which were as fast there. The kernels (cub::detail::radix_sort), their
+/// argument lists and the policy hub are those of the CCCL in CUDA 13.0 (the toolkit of the build hosts); a CCCL that
+/// renames or changes them fails to compile here, not at run time.
 template <typename Onesweep, typename Histogram>
 struct PairSortPolicies {
   /// The policies CUB's histogram, exclusive-sum and onesweep kernels read (the same for every architecture).

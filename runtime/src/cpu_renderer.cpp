@@ -1,4 +1,4 @@
-// CPU reference renderer (cpu_renderer.h). Written to read like DESIGN.md's list of 3DGS conventions, stage by
+// CPU reference renderer (cpu_renderer.h). Written to read like the 3DGS conventions of docs/DESIGN.md, stage by
 // stage; not tuned. All per-Gaussian and per-pixel math lives in kernels/shared/ so the CUDA kernels use the
 // same definitions.
 #include <algorithm>
@@ -290,8 +290,8 @@ Status setup_depth_key(const Camera& camera, const std::optional<format::SceneBo
                           std::to_string(frame->key_depth_bits) + " depth bits in a 32-bit key");
   // View-space depths (the z row of R·p + t, in double, once per camera) of the sphere centre and of the
   // AABB's corners. Every mean lies in both (format::validate checks them against the AABB), so the range is
-  // their intersection: on taebak's aerial views at 4K the AABB's range is 18-37 % narrower than the
-  // sphere's, which leaves 11-26 % fewer pairs in runs of tied keys (docs/BENCHMARKS.md).
+  // their intersection: on taebak's aerial views the AABB's range is the narrower one, which leaves fewer
+  // pairs in runs of tied keys (docs/BENCHMARKS.md#tried-and-not-kept).
   const auto& R = camera.rotation;
   const auto view_depth = [&](double x, double y, double z) {
     return double(R[6]) * x + double(R[7]) * y + double(R[8]) * z + camera.translation[2];

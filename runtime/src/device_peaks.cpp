@@ -74,7 +74,7 @@ Status measure_copy(const DevicePeakOptions& options, const EventPair& ev, cudaS
     if (b.code() != StatusCode::kOutOfMemory || bytes / 2 < kMinCopyBytes) return b;
     bytes /= 2;
   }
-  // A non-zero pattern (GPU.md: never time all-zero data).
+  // A non-zero pattern (CONTRIBUTING.md#gpu-code-and-tests: never time all-zero data).
   RGS_RETURN_IF_CUDA_ERROR(cudaMemsetAsync(src.data(), 0xA5, bytes, stream), "device peaks: cudaMemsetAsync");
   RGS_ASSIGN_OR_RETURN(out->copy_ms, time_repeats(options.repeats, ev, stream, "device peaks: device-to-device copy",
                                                   [&] {

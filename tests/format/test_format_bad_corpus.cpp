@@ -1,4 +1,4 @@
-// The must-fail corpus tests/data/bad/*.rgs (STYLE.md §8): each file fails with its named code, at the
+// The must-fail corpus tests/data/bad/*.rgs (CONTRIBUTING.md#tests): each file fails with its named code, at the
 // stage SPEC §5 puts its check, with a message naming the file and the cause. The corpus, its manifest
 // (bad_rgs_corpus.md) and the table below must agree.
 #include <doctest/doctest.h>

@@ -1,4 +1,4 @@
-// Seeded corruption of valid files (STYLE.md §8): every single-byte change and every truncation is an
+// Seeded corruption of valid files (CONTRIBUTING.md#tests): every single-byte change and every truncation is an
 // error, never a crash; random damage behind recomputed checksums exercises the deeper checks.
 // Each candidate is a fresh heap copy of exactly its size, so ASan sees any read past the end.
 #include <doctest/doctest.h>

@@ -1,5 +1,5 @@
 // MappedFile, write_file_atomic and OutputSet: contents, error codes and messages, the no-partial-file,
-// never-clobber guarantees (DESIGN.md "A failed conversion leaves no partial file"), and the transaction
+// never-clobber guarantees (docs/DESIGN.md#the-rgs-format, "deterministic and atomic"), and the transaction
 // over the outputs of one run (identities, commit together, stale temporaries).
 #include <doctest/doctest.h>
 

@@ -1,5 +1,5 @@
 // Golden files of format version 1.0 (tests/data/v1.0/), written by tests/data/make_rgs_corpus.py, an
-// independent implementation of SPEC.md. They must keep reading the same forever (STYLE.md §8).
+// independent implementation of SPEC.md. They must keep reading the same forever (CONTRIBUTING.md#tests).
 #include <doctest/doctest.h>
 
 #include <string>

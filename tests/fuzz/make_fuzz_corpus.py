@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Generates the fuzz seed corpora tests/fuzz/corpus/<target>/ from real data: the first Gaussians of
-samples/guitar.ply (the only scene the project may ship, ../shared/data/SOURCES.md).
+samples/guitar.ply (the only scene the project may ship, $RGS_DATA_DIR/SOURCES.md).
 
   rgs_read/    small .rgs files: guitar crops quantized as the converter does (SPEC §4), codec none and zstd,
                linear and log scales, SH degree 0, 1 and 3, and an empty scene. guitar has SH degree 0; the

@@ -1,7 +1,7 @@
 // GPU baseline pipeline (the 3DGS rasterizer) against the CPU reference renderer on real scenes and edge cases.
 //
-// Tolerances (each real-scene view checks all of them; measured values on the H100: docs/BENCHMARKS.md and
-// the MESSAGE lines):
+// Tolerances (each real-scene view checks all of them; measured values on the H100: below, and in the
+// MESSAGE lines):
 // - Pair counts: equal. The kernels are compiled with --fmad=false, so the per-Gaussian results (depth,
 //   pixel mean, conic, radius, tile rectangle, SH colour) and hence the 64-bit keys and the sorted pair
 //   lists are bit for bit the CPU's.
@@ -13,9 +13,9 @@
 //   Measured: ≤ 0.0019 (one flipped skip in 25 views).
 // - PSNR ≥ min(70 dB, 10·log10(N / 0.02²)) for N pixels. Without flips the difference is a few ulp
 //   (≈ 150 dB). 70 dB still admits N/4000 pixels off by the full 0.02 in all three channels (518 at 1080p,
-//   65 at 628×414) and a hundred times more at the measured 0.002, while a systematic error (a wrong
-//   rule costs 40–70 dB, DESIGN.md) fails it. The second term is one pixel at the full bound, which a tiny
-//   image may have: 55.8 dB at 17×9; it is the smaller term only below 4,000 pixels. Measured 118–174 dB.
+//   65 at 628×414) and a hundred times more at the measured 0.002, while a systematic error (a wrong rule costs
+//   40–70 dB: docs/DESIGN.md#how-much-each-rule-matters) fails it. The second term is one pixel at the full bound,
+//   which a tiny image may have: 55.8 dB at 17×9; it is the smaller term only below 4,000 pixels. Measured 118–174 dB.
 // - Identical RGB pixels ≥ 30 %. Not an error bound but the sentinel of the bit-identity contract: with one
 //   Gaussian, expf vs std::exp changes the bits of about 29 % of the pixels (measured 70.8 % identical), so a
 //   pixel blending n Gaussians stays identical with probability ≈ 0.7^n; measured 40.8–42.6 % on flowers

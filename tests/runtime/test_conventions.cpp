@@ -1,4 +1,4 @@
-// The 3DGS baseline conventions (DESIGN.md "Numeric conventions of the baseline") on hand-computed cases:
+// The 3DGS baseline conventions (docs/DESIGN.md#conventions) on hand-computed cases:
 // pixel-centre projection, EWA 2D covariance with clamp and 0.3 dilation, radius, the truncating tile
 // rectangle, SH basis signs, the blending stop rule, alpha skip and background composition.
 #include <cmath>
@@ -167,7 +167,7 @@ TEST_CASE("SH basis: the 3DGS constants and odd-m minus signs at dir = (2, 3, 6)
   const float x = 2.f / 7.f, y = 3.f / 7.f, z = 6.f / 7.f;
   float Y[16];
   k::sh_basis(x, y, z, 3, Y);
-  // Expected values worked out from DESIGN.md's formulas with x² = 4/49, y² = 9/49, z² = 36/49:
+  // Expected values worked out from docs/DESIGN.md's basis table with x² = 4/49, y² = 9/49, z² = 36/49:
   const double C1 = 0.4886025119029199;
   const double expected[16] = {
       0.28209479177387814,                   // Y0  = C0

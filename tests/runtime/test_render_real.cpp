@@ -25,7 +25,7 @@ using runtime::RenderOptions;
 using runtime::RenderResult;
 using runtime::RoofgsOptions;
 
-/// Flowers cameras 0, 20, ..., 160 (the 9 views of DESIGN.md's quality table) at 1/8 of 5025×3312 =
+/// Flowers cameras 0, 20, ..., 160 (the 9 views of docs/DESIGN.md's quality table) at 1/8 of 5025×3312 =
 /// 628×414, the resolution the scene was trained at; 628 and 414 are not multiples of 16.
 std::vector<Camera> flowers_cameras(const FlowersScene& scene) {
   runtime::InriaCameraOptions options;
@@ -211,7 +211,7 @@ TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a boun
 }
 
 TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the baseline (flowers, 9 views)") {
-  // Budgets, from DESIGN.md's CPU-emulation table (1920×1080, 9 flowers cameras, min over views):
+  // Budgets, from the CPU-emulation table of docs/DESIGN.md (1920×1080, 9 flowers cameras, min over views):
   // 32-bit key 47.5, SnugBox+AccuTile 63.7 (as Speedy-Splat, tiles beyond the 3DGS rectangle), fast exp 48.2
   // (σ = 0.05798: 50.0), the paper's combination 45.8, folded coefficients tile-local 94–98. Here at 628×414 the
   // key keeps 21 depth bits (40×26 = 1,040 tiles → 11 tile bits) instead of 19, so it can only be better;

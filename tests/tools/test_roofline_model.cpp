@@ -24,7 +24,7 @@ TEST_CASE("roofline model: per-item counts") {
   CHECK(sh_colour_flops(1) == 27);
   CHECK(sh_colour_flops(2) == 72);
   CHECK(sh_colour_flops(3) == 144);
-  // DESIGN.md / the paper: 236 B per Gaussian in FP32 at degree 3, 76 B compact.
+  // docs/DESIGN.md#the-rgs-format / the paper: 236 B per Gaussian in FP32 at degree 3, 76 B compact.
   CHECK(attribute_bytes(false, 3) == 236);
   CHECK(attribute_bytes(true, 3) == 76);
   CHECK(attribute_bytes(false, 0) == 56);

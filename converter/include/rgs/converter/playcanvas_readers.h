@@ -2,7 +2,7 @@
 // .sog) and streamed SOG (lod-meta.json). read_scene() picks them by content; call these directly when the
 // format is known.
 //
-// Every reader converts to the project's conventions (DESIGN.md "Numeric conventions"; GaussianCloud):
+// Every reader converts to the project's conventions (docs/DESIGN.md#attributes; GaussianCloud):
 // means in the stored frame (no PlayCanvas axis flip), rotations normalized (w, x, y, z), linear scales
 // (exp of the stored log scales), opacities as sigmoid of a logit clamped to ±13.8155 (the logit of
 // 1 − 1e-6: an 8-bit alpha of 0 or 255 would be ±inf), SH [N, K, 3] with f_rest read channel-major.

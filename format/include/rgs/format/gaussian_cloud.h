@@ -11,7 +11,7 @@ namespace rgs::format {
 constexpr uint32_t sh_coefficient_count(uint32_t degree) { return (degree + 1) * (degree + 1); }
 
 /// A 3DGS scene as float32 structure-of-arrays, with the INRIA activations already applied, as the
-/// original 3DGS code holds it at render time (DESIGN.md "Numeric conventions").
+/// original 3DGS code holds it at render time (docs/DESIGN.md#attributes).
 ///
 /// All arrays hold size() Gaussians in the same order. Coordinates are the training (COLMAP) world frame.
 struct GaussianCloud {

@@ -19,7 +19,7 @@ enum class ScaleEncoding : uint8_t { kLinear = 1, kLog = 2 };
 /// How the opacities section encodes opacity. kSigmoid: activated, sigmoid(PLY opacity) in [0, 1].
 enum class OpacityEncoding : uint8_t { kSigmoid = 1 };
 /// Order of SH coefficients. kCoefficientMajor: [N, K, 3], channel fastest, k = l^2 + l + m with the
-/// 3DGS basis signs (DESIGN.md), k = 0 the DC term.
+/// 3DGS basis signs (docs/DESIGN.md#spherical-harmonics), k = 0 the DC term.
 enum class ShLayout : uint8_t { kCoefficientMajor = 1 };
 
 /// Symmetric INT8 SH quantization (paper Eq. quant): q = round(SH / s[d][c]), SH^ = s[d][c] * q, with
@@ -60,7 +60,7 @@ struct SceneMetadata {
 /// converter version, options. Never a timestamp or host name, so conversions stay deterministic.
 using Provenance = std::vector<std::pair<std::string, std::string>>;
 
-/// Shared by writer and reader (STYLE.md §4): true when `q` is a valid quantization for `sh_degree`.
+/// Shared by writer and reader (CONTRIBUTING.md#format-changes): true when `q` is a valid quantization for `sh_degree`.
 /// On false, `why` (if not null) receives the reason.
 bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::string* why);
 

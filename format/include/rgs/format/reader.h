@@ -19,8 +19,8 @@ namespace rgs::format {
 /// file may decode to max_decompression_ratio MiB, however small it is.
 inline constexpr uint64_t kDecompressionRatioMinBytes = uint64_t{1} << 20;
 
-/// Bounds applied before any allocation sized by file content (STYLE.md §4, SPEC §5.5). Exceeding one
-/// gives kLimitExceeded naming the value and the limit.
+/// Bounds applied before any allocation sized by file content (SPEC §5.5, CONTRIBUTING.md#format-changes).
+/// Exceeding one gives kLimitExceeded naming the value and the limit.
 struct ReadLimits {
   uint64_t max_gaussians = uint64_t{1} << 28;          ///< 268M
   uint64_t max_file_bytes = uint64_t{1} << 40;         ///< 1 TiB

@@ -1,5 +1,5 @@
 // Error model shared by every RoofGS library: numbered codes, Status and Result<T>.
-// Libraries never throw across their API and never print (STYLE.md §3).
+// Libraries never throw across their API and never print (CONTRIBUTING.md#errors).
 #pragma once
 
 #include <cstdint>

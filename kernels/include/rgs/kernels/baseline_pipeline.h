@@ -1,5 +1,5 @@
-// The 3DGS baseline rasterizer's stages as host-callable CUDA launches (DESIGN.md "Rendering pipeline",
-// conventions listed there; the CPU reference runtime/src/cpu_renderer.cpp does the same math on the host).
+// The 3DGS baseline rasterizer's stages as host-callable CUDA launches (docs/DESIGN.md#baseline, with the
+// conventions above it; the CPU reference runtime/src/cpu_renderer.cpp does the same math on the host).
 //
 //   preprocess_baseline  → per Gaussian: depth, pixel mean, conic + opacity, RGB, radius, tiles touched
 //   inclusive_scan       → pair offsets (uint64: no int32 overflow of the pair count)

@@ -1,5 +1,5 @@
-// Micro-kernels that measure a device's FP32 compute peak for the roofline of rgs-bench (DESIGN.md "Tools":
-// "achieved GB/s and GFLOP/s per stage against the device's measured peaks"). The memory peak needs no kernel
+// Micro-kernels that measure a device's FP32 compute peak for the roofline of rgs-bench (docs/ROOFLINE.md:
+// achieved GB/s and GFLOP/s per stage against the device's measured peaks). The memory peak needs no kernel
 // (a cudaMemcpyAsync device-to-device copy, runtime/device_peaks.h).
 #pragma once
 

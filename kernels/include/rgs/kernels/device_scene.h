@@ -14,7 +14,7 @@ namespace rgs::kernels {
 /// - scales     [N, 3] float32 linear scales, world units;
 /// - opacities  [N]    float32 activated opacities (sigmoid applied), [0, 1];
 /// - sh         [N, K, 3] float32 SH coefficients, K = (sh_degree + 1)², colour channel fastest.
-/// What the 3DGS baseline pipeline reads (DESIGN.md "Rendering pipeline").
+/// What the 3DGS baseline pipeline reads (docs/DESIGN.md#baseline).
 struct Fp32GaussiansView {
   const float* means = nullptr;
   const float* rotations = nullptr;

@@ -1,6 +1,6 @@
 // The RoofGS pipeline's stages as host-callable CUDA launches (paper §§ "Compact attributes",
 // "Resolution-Adaptive Sorting-Key Encoding", "Fused preprocessing", "Rasterization Reorganization for
-// Dual-Pixel ILP", "Range-aware fast exponential"; DESIGN.md "RoofGS pipeline"), each technique switchable
+// Dual-Pixel ILP", "Range-aware fast exponential"; docs/DESIGN.md#render-pipeline), each technique switchable
 // at run time through RoofgsFrame so that every ablation runs the same code. With every switch off the stages
 // compute exactly what the baseline's do. The CPU reference's RoofGS mode (runtime/cpu_renderer.h) does the
 // same math on the host; kernels are compiled with --fmad=false to match it term by term.
@@ -76,9 +76,7 @@ struct GaussianSource {
 /// Pair emission (duplicate_roofgs and the fused kernel): a Gaussian with at most this many tiles is written
 /// by its own thread; a larger one is listed and written by emit_large_gaussians, a warp per chunk of its
 /// walk, in the same positions and order. 16 rather than 8: a warp rebuilds a listed Gaussian's walk, which
-/// costs more than a lane writing up to 16 pairs (H100, three interleaved rounds, preprocess ms: taebak at 8K
-/// 0.389-0.407 -> 0.340-0.356, at 4K 0.264-0.276 -> 0.256-0.262, daffodils at 8K 0.114-0.116 -> 0.095-0.100,
-/// the rest within noise; 24 and 32 were no better at 8K and slower on flowers and daffodils).
+/// costs more than a lane writing up to 16 pairs (8, 24 and 32 measured: docs/BENCHMARKS.md#tried-and-not-kept).
 constexpr uint32_t kSerialTileLimit = 16;
 
 /// A large Gaussian's tile walk is listed in chunks of consecutive slices, a work item each: at most
@@ -203,11 +201,11 @@ cudaError_t fused_preprocess_roofgs(const GaussianSource& source, const FramePar
 
 /// Depth order (RoofGS+, beyond the paper) after the stable sort of 32-bit keys, with the tile ranges. Pairs
 /// whose keys tie (same tile and depth bin) leave the sort in emission order, i.e. by Gaussian id, which is
-/// the 32-bit key's ordering loss (DESIGN.md); this writes the sorted values with each run of tied keys put in
-/// (view depth, id) order, so that every tile is in the order of the baseline's 64-bit key (tile, float
-/// depth) — depth bins are non-decreasing in depth, so ordering within the runs orders the tile. Keys are
-/// unchanged. It reads every key and its neighbours, so it also writes what tile_ranges would (same
-/// arguments), and a RoofGS+ frame runs no separate ranges kernel.
+/// the 32-bit key's ordering loss (docs/DESIGN.md#32-bit-sort-key); this writes the sorted values with each run of tied
+/// keys put in (view depth, id) order, so that every tile is in the order of the baseline's 64-bit key (tile, float
+/// depth) — depth bins are non-decreasing in depth, so ordering within the runs orders the tile. Keys are unchanged. It
+/// reads every key and its neighbours, so it also writes what tile_ranges would (same arguments), and a RoofGS+ frame
+/// runs no separate ranges kernel.
 /// @param sorted_keys    [count] 32-bit keys, sorted
 /// @param sorted_values  [count] Gaussian ids, stably sorted with them
 /// @param depths         [N] view-space z per Gaussian (RoofgsProjected::depths)
@@ -229,9 +227,8 @@ cudaError_t order_equal_keys_by_depth(const uint32_t* sorted_keys, const uint32_
 /// tiles.
 /// Fractions measured with the CPU reference's preprocess (SnugBox + AccuTile, 3 views each): flowers
 /// 0.66–0.71 at 1080p, 0.89–0.92 at 4K, 0.98 at 8K; flowers ×53 0.60 / 0.82; daffodils 0.01 / 0.05;
-/// daffodils ×4 0.003 / 0.02 (1080p / 4K). In the final H100 run of docs/BENCHMARKS.md the culling made the
-/// render 1.3–1.9× faster on daffodils and daffodils ×4, and 2–12 % slower on flowers at 4K and 8K and on
-/// flowers ×53.
+/// daffodils ×4 0.003 / 0.02 (1080p / 4K). What the culling gains and costs on those scenes:
+/// docs/BENCHMARKS.md#tried-and-not-kept.
 constexpr uint32_t kSubtileLargeTiles = 32;
 constexpr double kSubtileMaxLargePairFraction = 0.5;
 

@@ -11,8 +11,9 @@
 
 namespace rgs::runtime {
 
-/// A pinhole camera in the COLMAP/INRIA convention the 3DGS scenes were trained with (DESIGN.md "Numeric
-/// conventions"; ../shared/data/SOURCES.md): camera frame x right, y down, z forward; no distortion.
+/// A pinhole camera in the COLMAP/INRIA convention the 3DGS scenes were trained with
+/// (docs/DESIGN.md#cameras-and-projection; $RGS_DATA_DIR/SOURCES.md): camera frame x right, y down, z forward;
+/// no distortion.
 ///
 /// - World to camera: p_cam = R·p + t, R = `rotation` (row-major [3, 3], orthonormal, det +1), t =
 ///   `translation` (world units). The camera centre is −Rᵀ·t (camera_centre()).
@@ -95,7 +96,7 @@ struct OrbitOptions {
   /// Vertical field of view in degrees, (0, 180).
   double fov_y_deg = 50.0;
   /// Height of the ring above the horizontal plane through the target, in degrees, (−89, 89). "Up" is −y
-  /// (the scenes' +y points down, SOURCES.md), so a positive elevation looks down on the scene.
+  /// (the scenes' +y points down, $RGS_DATA_DIR/SOURCES.md), so a positive elevation looks down on the scene.
   double elevation_deg = 20.0;
   /// Camera distance as a multiple of the distance at which the bounding sphere just fits the narrower field
   /// of view (r / sin(fov_min/2)). Below 1 moves in (sphere radii are inflated by floaters). Must be > 0.

@@ -115,7 +115,7 @@ struct RenderResult {
   RenderStats stats;
 };
 
-/// Renders `cloud` from `camera` on the CPU. Stages, in the order of the spec (DESIGN.md):
+/// Renders `cloud` from `camera` on the CPU. Stages, in the order of docs/DESIGN.md#conventions:
 /// preprocess (cull z ≤ near, project, EWA clamp, cov2D + 0.3, cull det == 0, conic, radius, tile rect, SH
 /// colour) → pairs per touched tile with keys → stable sort → per-tile ranges → per-pixel front-to-back
 /// blending in 16×16 tiles (skip power > 0, α = min(0.99, o·exp(power)), skip α < 1/255, stop before the

@@ -1,5 +1,5 @@
-// Minimal image output for debugging and for GPU-host binaries that must not link OpenImageIO (GPU.md):
-// 8-bit conversion as 3DGS saves images, and binary PPM (P6).
+// Minimal image output for debugging and for GPU-host binaries that must not link OpenImageIO
+// (CONTRIBUTING.md#one-build-two-hosts): 8-bit conversion as 3DGS saves images, and binary PPM (P6).
 #pragma once
 
 #include <cstdint>

@@ -7,10 +7,10 @@
 
 namespace rgs::runtime {
 
-/// RoofGS techniques of the renderer (DESIGN.md "RoofGS pipeline"); each switch is independent, and with all
-/// of them off the renderer is the 3DGS baseline, bit for bit. On the CPU, compact attributes (item 1) need
-/// no switch: render the dequantized cloud of a .rgs file. The GPU renderer adds the switches that only
-/// exist there (compact attributes read in registers, the fused kernel: gpu_renderer.h).
+/// RoofGS techniques of the renderer (docs/DESIGN.md#render-pipeline, items 1-6); each switch is independent, and with
+/// all of them off the renderer is the 3DGS baseline, bit for bit. On the CPU, compact attributes (item 1) need no
+/// switch: render the dequantized cloud of a .rgs file. The GPU renderer adds the switches that only exist there
+/// (compact attributes read in registers, the fused kernel: gpu_renderer.h).
 struct RoofgsOptions {
   /// 32-bit keys (item 2): tile id in the high b_t = ceil(log2(num_tiles)) bits, depth quantized to
   /// b_d = 32 − b_t bits over [z_near, z_far] = [max(near, d_c − r), d_c + r] from the scene's bounding sphere
@@ -50,9 +50,9 @@ struct RoofgsOptions {
 
   /// Emit pairs in order of (view depth, Gaussian index) instead of Gaussian index (RoofGS+, beyond the
   /// paper): pairs whose 32-bit keys tie (same tile and depth bin) then keep exact depth order through the
-  /// stable sort, which removes the quantized key's ordering loss (DESIGN.md: 47.5 dB on the worst flowers
-  /// view). Costs one sort of N Gaussians per frame on the GPU. No effect on the image without key32,
-  /// except for Gaussians at exactly equal depth.
+  /// stable sort, which removes the quantized key's ordering loss (docs/DESIGN.md#32-bit-sort-key). The GPU
+  /// gets that order from a pass after the sort (order_equal_keys_by_depth). No effect on the image without
+  /// key32, except for Gaussians at exactly equal depth.
   bool depth_order = false;
 
   /// All four techniques on (the paper's combination), default σ.

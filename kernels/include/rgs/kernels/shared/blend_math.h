@@ -1,6 +1,6 @@
 // Per-pixel math of the rasterizer: the baseline 3DGS Gaussian power and alpha rules, and the RoofGS folded
 // coefficients C1..C6 with the dual-pixel update (paper §"Rasterization Reorganization for Dual-Pixel ILP",
-// Eqs. coeff, dot, dual_pixel; DESIGN.md RoofGS item 5).
+// Eqs. coeff, dot, dual_pixel; docs/DESIGN.md#folded-rasterizer).
 #pragma once
 
 #include "rgs/kernels/shared/fast_exp.h"
@@ -25,7 +25,7 @@ RGS_HOST_DEVICE float baseline_power(const Conic& conic, float dx, float dy) {
 /// Folded per-(Gaussian, tile) coefficients: P(x, y) = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 equals the
 /// Gaussian power plus ln(o), so alpha~ = exp(P). x, y are TILE-LOCAL pixel coordinates (0..15; the pixel
 /// minus the tile origin 16·(tx, ty)): in absolute coordinates C6 ≈ a·u²/2 reaches ~1e6 at 4K and FP32
-/// cancellation costs 55–60 dB (DESIGN.md), while tile-local the folding is exact to ~95 dB.
+/// cancellation costs 55–60 dB (docs/DESIGN.md#folded-rasterizer), while tile-local the folding is exact to ~95 dB.
 struct FoldedCoefficients {
   float c1, c2, c3, c4, c5, c6;
 };

@@ -1,5 +1,5 @@
 // Schraudolph's bit-level exponential (Neural Computation 11(4), 1999), as RoofGS uses it for alpha
-// (paper §"Range-Aware Fast Exponential Evaluation", Eq. fma_exp; DESIGN.md RoofGS item 6).
+// (paper §"Range-Aware Fast Exponential Evaluation", Eq. fma_exp; docs/DESIGN.md#fast-exponential).
 #pragma once
 
 #include "rgs/kernels/shared/host_device.h"
@@ -8,7 +8,8 @@ namespace rgs::kernels {
 
 /// The paper's calibration σ: minimizes the maximum relative error over [−ln 255, 0] (≈ 0.0298).
 constexpr float kFastExpSigmaMinMax = 0.045677f;
-/// Alternative σ with near-zero mean relative error over the same range (DESIGN.md: 51.6 vs 50.7 dB).
+/// Alternative σ with near-zero mean relative error over the same range, which gives the better image
+/// (docs/DESIGN.md#image-quality-of-each-technique).
 constexpr float kFastExpSigmaZeroMean = 0.05798f;
 /// The argument range the fast exp is specified for: P ∈ [−ln 255, 0], where opacity culling and the alpha
 /// skip leave every contributing Gaussian–pixel pair.

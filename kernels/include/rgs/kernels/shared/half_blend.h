@@ -8,7 +8,7 @@
 //
 // Error: binary16 keeps 11 significant bits (relative rounding 2^-12 a step); the fast exp itself is off by
 // up to 3.2 % (fast_exp.h), so α's rounding adds little. Against the FP32 blend of the same pairs the
-// measured images are in docs/BENCHMARKS.md (quality table).
+// measured images are in docs/BENCHMARKS.md#gpu-current-figures (quality table).
 #pragma once
 
 #include <cmath>
@@ -226,7 +226,7 @@ RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second, float bi
 /// so that folded_power and dual_pixel_power give both pixels' v for fast_exp_half2_of_v with no multiply-add
 /// of their own. Each FMA of the chain then rounds at v's unit (its sums lie near 1.5·2^23, where a float's
 /// unit is 1), a few units of I at most: α moves by up to about 0.4 %, next to the fast exp's own 3.2 %
-/// (the quality table in docs/BENCHMARKS.md is measured with it).
+/// (the quality table in docs/BENCHMARKS.md#gpu-current-figures is measured with it).
 RGS_HOST_DEVICE FoldedCoefficients fast_exp_half_coefficients(const FoldedCoefficients& f, float bias) {
   return FoldedCoefficients{f.c1 * kFastExpHalfScale, f.c2 * kFastExpHalfScale, f.c3 * kFastExpHalfScale,
                             f.c4 * kFastExpHalfScale, f.c5 * kFastExpHalfScale,

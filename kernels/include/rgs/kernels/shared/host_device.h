@@ -1,8 +1,9 @@
 // Portability layer of the math shared by the CPU reference renderer and the CUDA kernels.
 //
 // Every function under rgs/kernels/shared/ is header-only, takes and returns plain scalars or small PODs,
-// and is marked RGS_HOST_DEVICE so that one definition serves both renderers (STYLE.md §5). They use the
-// C float functions (sqrtf, fmaf, floorf, ...), which nvcc provides on the device and libm on the host.
+// and is marked RGS_HOST_DEVICE so that one definition serves both renderers
+// (CONTRIBUTING.md#cuda-code-and-the-cpu-reference). They use the C float functions (sqrtf, fmaf, floorf,
+// ...), which nvcc provides on the device and libm on the host.
 //
 // Bit-exactness between host and device: nvcc contracts a*b + c into FMA by default (--fmad=true), the host
 // build (x86-64 without -mfma) does not. Checked on an H100 (2026-11-21, 200,000 random Gaussians through

@@ -1,5 +1,5 @@
 // Geometry of the 3DGS preprocess: 3D covariance, view transform, pixel projection, EWA 2D covariance,
-// conic, screen radius and the tile rectangle, exactly as DESIGN.md "Numeric conventions of the baseline"
+// conic, screen radius and the tile rectangle, exactly as docs/DESIGN.md#cameras-and-projection
 // lists them (the public 3DGS rasterizer, forward.cu / auxiliary.h). Shared by the CPU reference and the
 // CUDA kernels.
 #pragma once
@@ -177,7 +177,7 @@ RGS_HOST_DEVICE int truncate_to_tile(float v, int grid) {
 /// The 3DGS tile rectangle getRect(): with radius r (int) and the float mean (px, py),
 /// x_min = clamp((int)((px − r)/16), 0, gx), x_max = clamp((int)((px + r + 15)/16), 0, gx) (exclusive), the
 /// same in y. The (int) cast truncates toward zero. Note this is not floor((px ± r)/16) inclusive: for
-/// px + r = 32.5 it gives x_max = 2 and leaves out tile 2, which holds pixel 32 (DESIGN.md).
+/// px + r = 32.5 it gives x_max = 2 and leaves out tile 2, which holds pixel 32 (docs/DESIGN.md#conventions).
 RGS_HOST_DEVICE TileRect tile_rect(float px, float py, int radius, int grid_x, int grid_y) {
   const float r = static_cast<float>(radius);
   TileRect rect;

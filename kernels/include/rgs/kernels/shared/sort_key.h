@@ -1,6 +1,6 @@
 // Sort keys of the (tile, Gaussian) pairs: the baseline 64-bit key tile << 32 | float_bits(depth), and the
 // RoofGS 32-bit key with resolution-adaptive bit allocation (paper §"Resolution-Adaptive Sorting-Key
-// Encoding", Eq. depth_quant; DESIGN.md RoofGS item 2).
+// Encoding", Eq. depth_quant; docs/DESIGN.md#32-bit-sort-key).
 #pragma once
 
 #include "rgs/kernels/shared/host_device.h"

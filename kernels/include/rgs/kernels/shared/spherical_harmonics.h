@@ -1,6 +1,7 @@
 // Real spherical harmonics of degree 0..3 with the exact constants and signs of the 3DGS rasterizer
-// (forward.cu computeColorFromSH; DESIGN.md lists them). The 3DGS basis carries a minus sign on every odd m
-// of its constants table; with the textbook all-plus table the image is visibly wrong (27.7 dB).
+// (forward.cu computeColorFromSH; docs/DESIGN.md#spherical-harmonics lists them). The 3DGS basis carries a
+// minus sign on every odd m of its constants table; with the textbook all-plus table the image is visibly
+// wrong (27.7 dB).
 // Coefficient index k = l² + l + m, k = 0 is the DC term.
 #pragma once
 

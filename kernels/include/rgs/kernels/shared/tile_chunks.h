@@ -6,8 +6,8 @@
 // pairs that tiles of that size are not what holds the render up. Each chunk is blended front to back from
 // T = 1 with the per-pixel rules (skip α < 1/255, stop before the pair that would make T < 1e−4); then the
 // chunks are merged front to back in list order (merge_chunk). On the GPU each chunk is a thread block, so a
-// tile of thousands of pairs no longer holds one block for the whole frame: on taebak at 1080p one tile of
-// 21,140 pairs ran 0.67 ms while the rest of the frame's work took 0.36 ms (docs/BENCHMARKS.md).
+// tile of thousands of pairs no longer holds one block busy long after the rest of the frame's work is done
+// (taebak's horizon tiles at 1080p: docs/RENDERER.md#the-cuda-renderer, "Long tiles in chunks").
 //
 // A pixel that stopped in a chunk takes nothing from the later ones, so a pixel that stops in the first chunk
 // keeps the unchunked blend's bits. Elsewhere the result differs from it by rounding, and by what a pixel takes
@@ -20,10 +20,10 @@
 
 namespace rgs::kernels {
 
-/// Pairs a chunk of the fastest preset holds at least: about 40 µs of one block's work on an H100 sharing its
-/// SM (40 ns a pair on taebak), against 0.36 ms for the whole 1080p frame's work. Frames of more than
-/// 1024 · kTileChunksPerFrame pairs (taebak at every size) take a larger K (frame_chunk_pairs); docs/RENDERER.md
-/// says what 1,024 instead of 2,048 changed.
+/// Pairs a chunk of the fastest preset holds at least: a small part of a 1080p frame's work for one block, so
+/// that a late long tile ends soon after the rest of the frame. Frames of more than 1024 · kTileChunksPerFrame
+/// pairs (taebak at every size) take a larger K (frame_chunk_pairs). Other minimums measured:
+/// docs/BENCHMARKS.md#tried-and-not-kept.
 constexpr uint32_t kTileChunkPairs = 1024;
 
 /// A frame's chunks hold at least 1/kTileChunksPerFrame of its pairs. A chunk block that starts from T = 1
@@ -38,7 +38,7 @@ constexpr uint32_t kChunkLargeTiles = 32;
 /// kChunkLargeTiles tiles: max(tile_chunk_pairs, ⌈frame_pairs / kTileChunksPerFrame⌉); 0 (off) when
 /// tile_chunk_pairs is 0 or large Gaussians hold more than half of the pairs. Their tiles go opaque within
 /// their first chunk, and every later chunk, which starts from T = 1, would blend until it goes opaque too
-/// (flowers ×53 at 1080p: render 0.073 → 0.118 ms with chunks). Depends on the frame's content only, so the
+/// (flowers ×53: docs/BENCHMARKS.md#tried-and-not-kept). Depends on the frame's content only, so the
 /// CPU reference and the GPU chunk alike.
 RGS_HOST_DEVICE uint32_t frame_chunk_pairs(uint64_t frame_pairs, uint64_t large_pairs, uint32_t tile_chunk_pairs) {
   if (tile_chunk_pairs == 0 || large_pairs > frame_pairs / 2) return 0;

@@ -1,4 +1,4 @@
-// Precise tile culling of RoofGS (DESIGN.md RoofGS item 4), after Speedy-Splat (Hanson et al., CVPR 2025):
+// Precise tile culling of RoofGS (docs/DESIGN.md#snugbox-and-accutile), after Speedy-Splat (Hanson et al., CVPR 2025):
 // SnugBox, the tight bounding box of the ellipse where a Gaussian's alpha reaches 1/255, and AccuTile, which
 // walks that box along its shorter axis one tile row (or column) at a time and emits only the tiles whose
 // pixels the ellipse reaches.
@@ -297,11 +297,11 @@ RGS_HOST_DEVICE uint32_t block_span_bits(float c, float h2) {
 /// The smallest q on the column dx = const is dx²·D/c (D = a·c − b²), so the box's half extents are
 /// sqrt(q_limit·c/D) and sqrt(q_limit·a/D), compared squared with each block's distance from the mean. Tight
 /// for the small round Gaussians of dense scenes; a long thin one keeps the blocks of its box. The rasterizer
-/// computes the mask as it loads each pair, so its cost counts (taebak, docs/BENCHMARKS.md): intersecting the box
-/// with subtile_mask's quadrants where it reaches all four cleared a few more blocks of tilted Gaussians, but a
-/// warp ran the quadrant test whenever one of its 32 pairs needed it (render at 4K 0.837–0.840 → 0.806–0.808
-/// ms without it); and the squared comparison in place of two square roots took the kernel from 72 to 64
-/// registers, eight blocks an SM (0.807 → 0.775 ms at 4K, 1.561 → 1.513 at 8K).
+/// computes the mask as it loads each pair, so its cost counts: intersecting the box with subtile_mask's
+/// quadrants where it reaches all four clears a few more blocks of tilted Gaussians, but a warp would run the
+/// quadrant test whenever one of its 32 pairs needed it; and the squared comparison in place of two square
+/// roots keeps the kernel at 64 registers, eight blocks an SM (both measured on taebak:
+/// docs/BENCHMARKS.md#tried-and-not-kept).
 /// @param conic          conic (a, b, c) of the Gaussian (positive definite), pixel⁻² units
 /// @param u, v           tile-local projected mean, pixels
 /// @param log_opacity    ln o
