@@ -45,6 +45,10 @@ runtime::RenderOptions cpu_render_options(Preset preset, const format::SceneBoun
   return o;
 }
 
+runtime::RenderOptions cpu_backend_options(Preset preset, const format::SceneBounds& bounds) {
+  return cpu_render_options(preset == Preset::kFastest ? Preset::kFaithful : preset, bounds);
+}
+
 bool preset_reads_fp32(Preset preset) { return preset == Preset::kFaithful; }
 
 }  // namespace rgs::api

@@ -226,7 +226,7 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   const SceneInfo& info = scene.info();
   FrameStats stats;
   if (impl_->device == Device::kCpu) {
-    runtime::RenderOptions options = cpu_render_options(settings.preset, info.bounds);
+    runtime::RenderOptions options = cpu_backend_options(settings.preset, info.bounds);
     options.background = settings.background;
     options.num_threads = settings.cpu_threads;
     RGS_ASSIGN_OR_RETURN(runtime::RenderResult result, runtime::render_cpu(*scene.cloud(), camera, options));

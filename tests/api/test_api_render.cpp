@@ -128,7 +128,7 @@ TEST_CASE("CPU: render into caller memory with pitch, every format, alpha and de
     api::RenderSettings settings;
     settings.preset = preset;
     settings.background = {0.25f, 0.5f, 1.f};
-    runtime::RenderOptions ref_options = api::cpu_render_options(preset, scene->info().bounds);
+    runtime::RenderOptions ref_options = api::cpu_backend_options(preset, scene->info().bounds);
     ref_options.background = settings.background;
     auto ref = runtime::render_cpu(*scene->cloud(), camera, ref_options);
     REQUIRE(ref.ok());
