@@ -17,7 +17,7 @@ seconds="${1:-60}"
 build="${RGS_BUILD_DIR:-$root/build-fuzz}"
 out="${RGS_FUZZ_OUT:-$build/fuzz-out}"
 jobs="${RGS_FUZZ_JOBS:-$(nproc)}"
-targets=(rgs_read ply_read interop_read sog_meta render_cpu camera_json)
+targets=(rgs_read ply_read interop_read sog_meta sog_folder gltf_json zip render_cpu camera_json)
 
 if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
   echo "run_fuzzers: seconds per target must be a positive integer, got '$seconds'" >&2
@@ -36,17 +36,26 @@ CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Re
 cmake --build "$build" --parallel "$jobs" --target "${targets[@]/#/fuzz_}"
 
 # Seed corpora: tests/fuzz/corpus/<target>/ (made from guitar by tests/fuzz/make_fuzz_corpus.py) and the golden
-# and must-fail files of tests/data. libFuzzer writes what it finds into the first directory only.
+# and must-fail files of tests/data, the hostile scenes of tests/data/hostile included (CTest's replays leave
+# those to test_converter, which reads them in a child process with a memory limit). libFuzzer writes what
+# it finds into the first directory only.
 seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$root/tests/data/bad")
 seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
 seeds_interop_read=("$root/tests/fuzz/corpus/interop_read" "$root/tests/data/interop" "$root/tests/data/sog")
 seeds_sog_meta=("$root/tests/fuzz/corpus/sog_meta")
+seeds_sog_folder=("$root/tests/fuzz/corpus/sog_folder")
+seeds_gltf_json=("$root/tests/fuzz/corpus/gltf_json" "$root/tests/data/hostile/gltf"
+                 "$root/tests/data/hostile/gltf_escape")
+seeds_zip=("$root/tests/fuzz/corpus/zip" "$root/tests/data/sog" "$root/tests/data/hostile/sog_bundle")
 seeds_render_cpu=("$root/tests/fuzz/corpus/render_cpu")
 seeds_camera_json=("$root/tests/fuzz/corpus/camera_json")
 args_rgs_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_rgs_read.dict")
 args_ply_read=(-max_len=8192 "-dict=$root/tests/fuzz/fuzz_ply_read.dict")
 args_interop_read=(-max_len=20480 "-dict=$root/tests/fuzz/fuzz_interop_read.dict")
 args_sog_meta=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_sog_meta.dict")
+args_sog_folder=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_sog_folder.dict")
+args_gltf_json=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_gltf_json.dict")
+args_zip=(-max_len=32768 "-dict=$root/tests/fuzz/fuzz_zip.dict")
 args_render_cpu=(-max_len=4096)
 args_camera_json=(-max_len=4096 "-dict=$root/tests/fuzz/fuzz_camera_json.dict")
 

@@ -105,6 +105,23 @@ else()
       ARGS "${extra}${memory_bogus}|--backend|cpu|--orbit|1|--width|64|--height|36|-o|${cli_dir}/memory_render"
       EXIT 1 REGEX "rgs-render: error: .*${expect}")
   endforeach()
+  # Scenes of the other formats (tests/data/hostile, make_hostile_corpus.py), under the same ratio limit:
+  # valid ones expanding past it are kLimitExceeded, declared sizes their bytes cannot hold kLimitExceeded or
+  # kCorruptData, all before allocating.
+  foreach(bomb IN ITEMS glb/instanced_40m.glb sog_solid_33m sog_bundle/solid_33m.sog spz/v4_rle_16m.spz
+                        spz/v3_gzip_1m.spz)
+    string(REGEX REPLACE "[/.]" "_" name "${bomb}")
+    get_filename_component(file "${bomb}" NAME)
+    rgs_memory_case(convert_${name} TOOL ${convert} ARGS "${hostile}/${bomb}|${cli_dir}/memory_${name}.ply" EXIT 1
+      REGEX "rgs-convert: error: .*${file}.*\\[kLimitExceeded\\]")
+  endforeach()
+  foreach(bomb IN ITEMS gltf/bytelength_3gib.gltf gltf/no_bufferview_40m.gltf sog/count_40m.json
+                        sog_bundle/entry_deflate_1gib.sog sog_bundle/entry_stored_1gib.sog spz/v4_garbage_40m.spz)
+    string(REGEX REPLACE "[/.]" "_" name "${bomb}")
+    get_filename_component(file "${bomb}" NAME)
+    rgs_memory_case(convert_${name} TOOL ${convert} ARGS "${hostile}/${bomb}|${cli_dir}/memory_${name}.ply" EXIT 1
+      REGEX "rgs-convert: error: .*${file}.*\\[k(LimitExceeded|CorruptData)\\]")
+  endforeach()
 endif()
 
 # --max-gaussians below a real scene's count.

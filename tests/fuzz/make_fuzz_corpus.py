@@ -11,15 +11,26 @@ samples/guitar.ply (the only scene the project may ship, $RGS_DATA_DIR/SOURCES.m
                all on, and with SH degree 1.
   sog_meta/    the meta.json files of tests/data/sog's guitar crop (v2 with SH 0 and 3, the unversioned layout),
                compacted, for fuzz_sog_meta.cpp, which reads them next to guitar_crop_sh3's images.
+  sog_folder/  inputs of fuzz_sog_folder.cpp: a change to one image of the folder (none, removed, a symbolic link
+               out of the folder, a FIFO, a folder, moved into sub/) and those meta.json files; one names
+               ../means_l.webp.
+  gltf_json/   inputs of fuzz_gltf_json.cpp: the guitar_256 GLB of tests/data/interop as a .gltf over its buffer
+               (tests/data/hostile/gltf/), with two transformed nodes, self-contained (16 Gaussians in a data:
+               URI), with buffer uris leaving the folder (../scene.bin, %2e%2e%2fcanary.bin), a node cycle and
+               JSON nested 100 deep.
+  zip/         inputs of fuzz_zip.cpp: guitar_crop_sh3 as a bundled .sog (stored), and guitar_crop deflated with
+               an archive comment.
   camera_json/ inputs of fuzz_camera_json.cpp: loader options and an INRIA cameras.json of a ring of cameras
                around the guitar crop (guitar has no cameras of its own).
 
 The .rgs container is written by tests/data/make_rgs_corpus.py (the independent SPEC implementation that
-writes the golden files). Output is deterministic: rerunning gives identical bytes; --check reports stale
-files without writing.
+writes the golden files); glTF documents, compacted SOG metas and ZIP archives by
+tests/data/hostile/make_hostile_corpus.py. Output is deterministic: rerunning gives identical bytes;
+--check reports stale files without writing.
 
     python3 tests/fuzz/make_fuzz_corpus.py [--check]      # python3 stdlib only
 """
+import base64
 import json
 import math
 import os
@@ -32,6 +43,8 @@ SAMPLE = os.path.join(ROOT, "samples", "guitar.ply")
 OUT = os.path.join(HERE, "corpus")
 sys.path.insert(0, os.path.join(ROOT, "tests", "data"))
 import make_rgs_corpus as rgs  # noqa: E402  (container, xxh64, zstd_frame)
+sys.path.insert(0, os.path.join(ROOT, "tests", "data", "hostile"))
+import make_hostile_corpus as hostile  # noqa: E402  (glTF documents, compact SOG metas, ZIP archives)
 
 INRIA = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
          "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
@@ -195,8 +208,8 @@ def build():
     g64 = read_guitar(64)
     files = {}
 
-    def add(target, name, data):
-        assert len(data) <= 8192, (name, len(data))
+    def add(target, name, data, limit=8192):
+        assert len(data) <= limit, (name, len(data))
         files[os.path.join(OUT, target, name)] = data
 
     add("rgs_read", "guitar64_sh0_linear.rgs", rgs_file(g64, 0, False, rgs.CODEC_NONE))
@@ -222,6 +235,44 @@ def build():
     add("sog_meta", "guitar_crop_sh3_v2.json", sog_meta("guitar_crop_sh3/meta.json"))
     add("sog_meta", "guitar_crop_v1.json", sog_meta("guitar_crop_v1_meta.json"))
 
+    # fuzz_sog_folder: [change][image slot] + meta.json (the slots of fuzz_sog_folder.cpp's kImages).
+    sh0 = sog_meta("guitar_crop/meta.json")
+    add("sog_folder", "keep_sh3.bin", bytes([0, 0]) + sog_meta("guitar_crop_sh3/meta.json"))
+    add("sog_folder", "removed_quats.bin", bytes([1, 2]) + sh0)
+    add("sog_folder", "symlink_means_l.bin", bytes([2, 0]) + sh0)
+    add("sog_folder", "fifo_means_u.bin", bytes([3, 1]) + sh0)
+    add("sog_folder", "folder_scales.bin", bytes([4, 3]) + sh0)
+    add("sog_folder", "moved_sh0.bin", bytes([5, 4]) + sh0.replace(b'"sh0.webp"', b'"sub/sh0.webp"'))
+    add("sog_folder", "escape_dotdot.bin", bytes([0, 0]) + sh0.replace(b'"means_l.webp"', b'"../means_l.webp"'))
+
+    base, bin_bytes = hostile.split_glb()
+    add("gltf_json", "guitar256.gltf", hostile.dumps(hostile.gltf_scene(base, bin_bytes)))
+    doc = hostile.gltf_scene(base, bin_bytes)
+    doc["nodes"] = [{"mesh": 0, "translation": [1.0, 0.0, -2.0]},
+                    {"children": [2], "scale": [2.0, 2.0, 2.0], "rotation": [0.0, 0.0, 0.0, 1.0]},
+                    {"mesh": 0, "translation": [0.0, 0.5, 0.0]}]
+    doc["scenes"] = [{"nodes": [0, 1]}]
+    add("gltf_json", "guitar256_two_nodes.gltf", hostile.dumps(doc))
+    add("gltf_json", "guitar16_data_uri.gltf", hostile.dumps(gltf_data_uri(base, bin_bytes, 16)))
+    for name, uri in (("escape_dotdot", "../scene.bin"), ("escape_pct", "%2e%2e%2fcanary.bin")):
+        add("gltf_json", "guitar256_%s.gltf" % name, hostile.dumps(hostile.gltf_scene(base, bin_bytes, uri)))
+    doc = hostile.gltf_scene(base, bin_bytes)
+    doc["nodes"] = [{"children": [1]}, {"children": [0], "mesh": 0}]
+    add("gltf_json", "guitar256_node_cycle.gltf", hostile.dumps(doc))
+    add("gltf_json", "guitar256_deep_extras_100.gltf",
+        hostile.with_raw(hostile.gltf_scene(base, bin_bytes), ["asset", "extras"], hostile.nested(100)))
+
+    sog = os.path.join(ROOT, "tests", "data", "sog")
+    sh3_dir = os.path.join(sog, "guitar_crop_sh3")
+    sh3_images = sorted(n for n in os.listdir(sh3_dir) if n.endswith(".webp"))
+    add("zip", "guitar_crop_sh3_stored.sog", hostile.zip_archive(
+        [("meta.json", sog_meta("guitar_crop_sh3/meta.json"), 0, None)] +
+        [(n, hostile.read(os.path.join(sh3_dir, n)), 0, None) for n in sh3_images]), limit=32768)
+    add("zip", "guitar_crop_deflate_comment.sog", hostile.zip_archive(
+        [("meta.json", sh0, 8, None)] +
+        [(n, hostile.read(os.path.join(sog, "guitar_crop", n)), 8, None) for n in hostile.SOG_IMAGES],
+        comment=b"tests/fuzz/make_fuzz_corpus.py"), limit=32768)
+
     add("render_cpu", "guitar32_baseline.bin", render_input(g64[:32], 0x00, 0))
     add("render_cpu", "guitar32_roofgs_all.bin", render_input(g64[:32], 0x1f, 0))
     add("render_cpu", "guitar16_sh1_key32.bin", render_input(g64[:16], 0x01, 1))
@@ -234,18 +285,27 @@ def build():
 def sog_meta(name):
     """A meta.json of tests/data/sog (splat-transform's, for the guitar crop) in compact JSON with its numbers
     at 5 significant digits, so that it fits the seed size limit; the images it names stay valid for it."""
-    with open(os.path.join(ROOT, "tests", "data", "sog", name)) as f:
-        meta = json.load(f)
+    return hostile.dumps(hostile.compact_sog_meta(os.path.join(ROOT, "tests", "data", "sog", name)))
 
-    def rounded(v):
-        if isinstance(v, float):
-            return float("%.5g" % v)
-        if isinstance(v, list):
-            return [rounded(x) for x in v]
-        if isinstance(v, dict):
-            return {k: rounded(x) for k, x in v.items()}
-        return v
-    return json.dumps(rounded(meta), separators=(",", ":")).encode("ascii")
+
+def gltf_data_uri(base, bin_bytes, n):
+    """The GLB's document, self-contained: its first n Gaussians in one data: URI buffer."""
+    doc = json.loads(json.dumps(base))
+    data = b""
+    for view in doc["bufferViews"]:
+        elem = view["byteLength"] // 256
+        chunk = bin_bytes[view["byteOffset"]:view["byteOffset"] + elem * n]
+        view["byteOffset"] = len(data)
+        view["byteLength"] = len(chunk)
+        data += chunk
+    for accessor in doc["accessors"]:
+        accessor["count"] = n
+        accessor.pop("min", None)
+        accessor.pop("max", None)
+    doc["asset"]["generator"] = "tests/fuzz/make_fuzz_corpus.py from splat-transform 3.7.0's GLB"
+    doc["buffers"] = [{"byteLength": len(data),
+                       "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")}]
+    return doc
 
 
 def main():
