@@ -189,7 +189,8 @@ Status Reader::check_asset() {
   if (version == asset->end() || !version->is_string()) return corrupt("glTF asset has no 'version' string");
   const std::string v = version->get<std::string>();
   if (v.rfind("2.", 0) != 0) {
-    return Status(StatusCode::kUnsupportedVersion, "glTF asset version '" + v + "' is not supported (2.x)");
+    return Status(StatusCode::kUnsupportedVersion,
+                  "glTF asset version " + detail::describe_json_value(*version) + " is not supported (2.x)");
   }
   auto req = doc_.find("extensionsRequired");
   if (req != doc_.end()) {
@@ -317,8 +318,8 @@ Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
   if (uri == b.end()) {
     if (index != 0 || bin_ == nullptr) return corrupt(where + " has no uri and there is no GLB BIN chunk");
     if (length > bin_size_) {
-      return Status(StatusCode::kIoError, where + " declares " + std::to_string(length) +
-                                              " bytes but the BIN chunk has " + std::to_string(bin_size_));
+      return corrupt(where + " declares " + std::to_string(length) + " bytes but the BIN chunk has " +
+                     std::to_string(bin_size_));
     }
     *data = bin_;
     *size = length;
@@ -340,15 +341,15 @@ Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
         return Status(StatusCode::kUnsupportedFeature, where + " refers to an external file, which cannot be "
                                                            "resolved for data in memory");
       }
-      RGS_ASSIGN_OR_RETURN(std::string file, folder_->resolve(u, detail::ReferenceKind::kUri, "", "glTF",
+      RGS_ASSIGN_OR_RETURN(std::string file, folder_->resolve(u, "", "glTF",
                                                              "buffers[" + std::to_string(index) + "].uri"));
       Status read = folder_->read_prefix(file, length, &bytes);
       if (!read.ok()) return read.prepend(where);
       buffer_file_bytes_ += length;
     }
     if (bytes.size() < length) {
-      return Status(StatusCode::kIoError, where + " declares " + std::to_string(length) + " bytes but its data has " +
-                                              std::to_string(bytes.size()));
+      return corrupt(where + " declares " + std::to_string(length) + " bytes but its data has " +
+                     std::to_string(bytes.size()));
     }
     cached = loaded_.emplace(index, std::move(bytes)).first;
   }
@@ -565,11 +566,12 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
                                                     std::to_string(options_.max_gaussians));
     }
     parts.push_back(std::move(d));
+    // Per primitive, so that many nodes drawing one mesh are refused before their parts pile up.
+    RGS_RETURN_IF_ERROR(detail::check_decode_budget(accessor_bytes_, file_bytes + buffer_file_bytes_,
+                                                    options_.max_decompression_ratio, "",
+                                                    "the accessors of " + std::to_string(total) + " Gaussians"));
   }
 
-  RGS_RETURN_IF_ERROR(detail::check_decode_budget(accessor_bytes_, file_bytes + buffer_file_bytes_,
-                                                  options_.max_decompression_ratio, "",
-                                                  "the accessors of " + std::to_string(total) + " Gaussians"));
   InteropScene scene;
   scene.format = container;
   scene.format_version = 2;
@@ -789,7 +791,7 @@ Result<std::vector<std::string>> list_gltf_files(const std::string& path) {
     for (size_t i = 0; buffers.is_array() && i < buffers.size(); ++i) {
       const json& uri = member(buffers[i], "uri");
       if (!uri.is_string() || uri.get_ref<const std::string&>().rfind("data:", 0) == 0) continue;
-      RGS_ASSIGN_OR_RETURN(std::string relative, folder.resolve(uri.get<std::string>(), ReferenceKind::kUri, "",
+      RGS_ASSIGN_OR_RETURN(std::string relative, folder.resolve(uri.get<std::string>(), "",
                                                                 "glTF", "buffers[" + std::to_string(i) + "].uri"));
       files.push_back(folder.display(relative));
     }

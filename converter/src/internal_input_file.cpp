@@ -188,30 +188,27 @@ SceneFolder::SceneFolder(std::string root, std::string entry) : root_(std::move(
   if (!entry.empty()) files_.push_back(std::move(entry));
 }
 
-Result<std::string> SceneFolder::resolve(const std::string& reference, ReferenceKind kind, const std::string& base,
-                                         const std::string& where, const std::string& field) const {
+Result<std::string> resolve_scene_reference(const std::string& reference, const std::string& base,
+                                            const std::string& where, const std::string& field) {
   const std::string named = where + ": field '" + field + "' names " + quoted(reference);
   auto refuse = [&](const std::string& why) { return Status(StatusCode::kCorruptData, named + ", " + why); };
   if (reference.empty()) return refuse("an empty file name");
+  // RFC 3986: the scheme, query and fragment are read from the reference as written, the path after
+  // percent-decoding.
+  if (has_uri_scheme(reference)) return refuse("a URI scheme other than data: (outside the scene's folder)");
+  // A query or fragment has no meaning for a file (a '?' or '#' in a file name is percent-encoded).
+  if (reference.find_first_of("?#") != std::string::npos) return refuse("a URI with a query or fragment");
   std::string decoded;
-  if (kind == ReferenceKind::kUri) {
-    // RFC 3986: the scheme is checked on the reference as written, the path after percent-decoding.
-    if (has_uri_scheme(reference)) return refuse("a URI scheme other than data: (outside the scene's folder)");
-    for (size_t i = 0; i < reference.size(); ++i) {
-      if (reference[i] == '%') {
-        const int hi = i + 2 < reference.size() ? hex_value(reference[i + 1]) : -1;
-        const int lo = hi >= 0 ? hex_value(reference[i + 2]) : -1;
-        if (lo < 0) return refuse("a malformed percent-escape");
-        decoded += static_cast<char>(hi * 16 + lo);
-        i += 2;
-      } else {
-        decoded += reference[i];
-      }
+  for (size_t i = 0; i < reference.size(); ++i) {
+    if (reference[i] == '%') {
+      const int hi = i + 2 < reference.size() ? hex_value(reference[i + 1]) : -1;
+      const int lo = hi >= 0 ? hex_value(reference[i + 2]) : -1;
+      if (lo < 0) return refuse("a malformed percent-escape");
+      decoded += static_cast<char>(hi * 16 + lo);
+      i += 2;
+    } else {
+      decoded += reference[i];
     }
-    // A query or fragment has no meaning for a file (a '?' or '#' in a file name is percent-encoded).
-    if (reference.find_first_of("?#") != std::string::npos) return refuse("a URI with a query or fragment");
-  } else {
-    decoded = reference;
   }
   if (decoded.find('\0') != std::string::npos) return refuse("a NUL byte");
   if (decoded[0] == '/') return refuse("an absolute path (outside the scene's folder)");
@@ -233,6 +230,10 @@ std::string SceneFolder::display(const std::string& relative) const {
   return root_ == "." ? relative : root_ + (root_.back() == '/' ? "" : "/") + relative;
 }
 
+std::string SceneFolder::display_bounded(const std::string& relative) const {
+  return display(relative.size() <= 96 ? relative : relative.substr(0, 96) + "...");
+}
+
 void SceneFolder::record(const std::string& relative) const {
   const std::string path = display(relative);
   std::lock_guard<std::mutex> lock(mutex_);
@@ -245,7 +246,7 @@ std::vector<std::string> SceneFolder::files() const {
 }
 
 Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* size) const {
-  const std::string path = display(relative);
+  const std::string path = display_bounded(relative);
   int dir = ::open(root_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir < 0) return Status(StatusCode::kIoError, root_ + ": cannot open the scene's folder: " + errno_message(errno));
   // Walk the components with O_NOFOLLOW, so that no link on the way is followed.
@@ -267,7 +268,7 @@ Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* si
     }
     if (last ? !S_ISREG(st.st_mode) : !S_ISDIR(st.st_mode)) {
       ::close(dir);
-      return Status(StatusCode::kIoError, display(relative.substr(0, last ? relative.size() : slash)) +
+      return Status(StatusCode::kIoError, display_bounded(relative.substr(0, last ? relative.size() : slash)) +
                                               ": not a regular file (" + file_kind(st.st_mode) + ")");
     }
     const int flags = O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NOCTTY | (last ? O_NONBLOCK : O_DIRECTORY);
@@ -296,10 +297,10 @@ Status SceneFolder::read(const std::string& relative, uint64_t max_bytes, std::v
   record(relative);
   if (size > max_bytes) {
     ::close(fd);
-    return Status(StatusCode::kLimitExceeded, display(relative) + ": file is " + std::to_string(size) +
+    return Status(StatusCode::kLimitExceeded, display_bounded(relative) + ": file is " + std::to_string(size) +
                                                   " bytes, above the limit of " + std::to_string(max_bytes));
   }
-  return read_and_close(fd, display(relative), size, out);
+  return read_and_close(fd, display_bounded(relative), size, out);
 }
 
 Status SceneFolder::read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const {
@@ -309,10 +310,10 @@ Status SceneFolder::read_prefix(const std::string& relative, uint64_t n, std::ve
   record(relative);
   if (size < n) {
     ::close(fd);
-    return Status(StatusCode::kCorruptData, display(relative) + ": file has " + std::to_string(size) +
+    return Status(StatusCode::kCorruptData, display_bounded(relative) + ": file has " + std::to_string(size) +
                                                 " bytes, fewer than the " + std::to_string(n) + " declared");
   }
-  return read_and_close(fd, display(relative), n, out);
+  return read_and_close(fd, display_bounded(relative), n, out);
 }
 
 }  // namespace rgs::converter::detail

@@ -36,16 +36,20 @@ Status check_decode_budget(uint64_t decoded, uint64_t file_bytes, uint32_t ratio
 /// Text of errno values used in messages ("no such file or directory", ...).
 std::string errno_message(int err);
 
-/// How a scene file names another file of the scene.
-enum class ReferenceKind {
-  kFileName,  ///< a plain relative file name (SOG `files`, streamed SOG `filenames`)
-  kUri,       ///< a URI reference (glTF `buffers[].uri`): percent-decoded first; `data:` URIs never reach here
-};
+/// Checks `reference`, found in the field `field` of the scene file `where`, and returns its path relative to
+/// the scene's folder ("0_0/means_l.webp"), normalised; `base` is the folder, relative to the scene's folder,
+/// that the reference is relative to ("" or "0_0"). The rules of SceneFolder; also for names inside a bundle.
+/// Errors: kCorruptData naming `where`, `field` and the cause ("... names '...', a '..' component (outside the
+/// scene's folder)"); the reference is quoted at most 96 bytes long.
+Result<std::string> resolve_scene_reference(const std::string& reference, const std::string& base,
+                                            const std::string& where, const std::string& field);
 
 /// The files of one multi-file scene (a SOG folder, a streamed SOG, a .gltf with its buffers), opened under
 /// one policy (docs/INPUT_HYGIENE.md "Files a scene names"):
-/// - a reference resolves inside the scene's folder: after percent-decoding (URIs) it must be relative, hold
-///   no `..` component, no NUL byte and no URI scheme;
+/// - a reference (SOG `files`, streamed SOG `filenames`, glTF `buffers[].uri`) is a URI reference, as the web
+///   viewers these formats were made for fetch it: after percent-decoding it must be relative, hold no `..`
+///   component and no NUL byte, and it may have no scheme, query or fragment; it resolves inside the scene's
+///   folder;
 /// - no symbolic link is followed: not the file, not a folder on the way (a link could lead anywhere, and its
 ///   target's properties are not reported);
 /// - only regular files are opened (a FIFO, device or folder is refused before it is opened, so nothing
@@ -59,13 +63,11 @@ class SceneFolder {
   /// (it is recorded first in files()), else empty.
   SceneFolder(std::string root, std::string entry);
 
-  /// Checks `reference`, found in the field `field` of the scene file `where`, and returns the file's path
-  /// relative to the scene's folder ("0_0/means_l.webp"), normalised. `base` is the folder, relative to the
-  /// scene's folder, that the reference is relative to ("" or "0_0").
-  /// Errors: kCorruptData naming `where`, `field` and the cause ("... names '...', outside the scene's
-  /// folder"); the reference is quoted at most 96 bytes long.
-  Result<std::string> resolve(const std::string& reference, ReferenceKind kind, const std::string& base,
-                              const std::string& where, const std::string& field) const;
+  /// resolve_scene_reference for a file of this scene.
+  Result<std::string> resolve(const std::string& reference, const std::string& base, const std::string& where,
+                              const std::string& field) const {
+    return resolve_scene_reference(reference, base, where, field);
+  }
 
   /// Reads the regular file at `relative` (from resolve) whole into `out`.
   /// Errors name the file: kCorruptData (a symbolic link on the way), kIoError (missing, not a regular file,
@@ -76,8 +78,10 @@ class SceneFolder {
   /// Nothing is allocated before the file's size is known. Other errors as read().
   Status read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const;
 
-  /// How the file at `relative` is named in messages and in files(): the scene folder joined with it.
+  /// How the file at `relative` is named in files(): the scene folder joined with it.
   std::string display(const std::string& relative) const;
+  /// display(), with `relative` cut to 96 bytes: for messages.
+  std::string display_bounded(const std::string& relative) const;
 
   /// Every file read so far (the entry file first), in the order of their first read.
   std::vector<std::string> files() const;

@@ -274,9 +274,9 @@ class FolderFiles final : public SogFiles {
       : folder_(folder), base_(std::move(base)), meta_(std::move(meta)) {}
   Status read(const std::string& name, const std::string& field, uint64_t max_bytes,
               std::vector<uint8_t>* out) const override {
-    RGS_ASSIGN_OR_RETURN(std::string relative,
-                         folder_->resolve(name, detail::ReferenceKind::kFileName, base_, meta_, field));
-    return folder_->read(relative, max_bytes, out);
+    RGS_ASSIGN_OR_RETURN(std::string relative, folder_->resolve(name, base_, meta_, field));
+    Status s = folder_->read(relative, max_bytes, out);
+    return s.ok() ? s : s.prepend(meta_ + ": field '" + field + "'");
   }
   std::string display(const std::string& name) const override {
     return folder_->display((base_.empty() ? "" : base_ + "/") + detail::bounded_text(name, 96));
@@ -291,8 +291,10 @@ class FolderFiles final : public SogFiles {
 class ZipFiles final : public SogFiles {
  public:
   ZipFiles(const detail::ZipArchive* zip, std::string archive) : zip_(zip), archive_(std::move(archive)) {}
-  Status read(const std::string& name, const std::string&, uint64_t max_bytes,
+  Status read(const std::string& name, const std::string& field, uint64_t max_bytes,
               std::vector<uint8_t>* out) const override {
+    // Entries are looked up, not opened, but a name that would leave a folder is refused as it is there.
+    RGS_RETURN_IF_ERROR(detail::resolve_scene_reference(name, "", archive_ + ":meta.json", field).status());
     const detail::ZipEntry* entry = zip_->find(name);
     if (entry == nullptr) {
       return Status(StatusCode::kIoError,
@@ -879,7 +881,7 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
     const std::string field = "filenames[" + std::to_string(i) + "]";
     if (!n.is_string()) return corrupt(path, "field '" + field + "' is not a string");
     RGS_ASSIGN_OR_RETURN(std::string relative,
-                         folder.resolve(n.get<std::string>(), detail::ReferenceKind::kFileName, "", path, field));
+                         folder.resolve(n.get<std::string>(), "", path, field));
     names.push_back(std::move(relative));
   }
   RGS_ASSIGN_OR_RETURN(const json* tree, member(root, "tree", path, ""));
@@ -921,7 +923,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
     std::vector<uint8_t> meta_bytes;
     Status read = folder.read(names[file], kMaxMetaBytes, &meta_bytes);
     if (!read.ok()) {
-      return std::move(read.prepend(path + ": LOD " + std::to_string(lod) + " chunk '" + names[file] + "'"));
+      return std::move(read.prepend(path + ": LOD " + std::to_string(lod) + " chunk '" +
+                                    detail::bounded_text(names[file], 96) + "'"));
     }
     if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
     scene.file_bytes += meta_bytes.size();
@@ -1002,8 +1005,7 @@ Status list_meta_images(const std::vector<uint8_t>& bytes, const std::string& wh
   SogMeta meta;
   RGS_RETURN_IF_ERROR(parse_sog_meta(root, where, &meta));
   for (size_t slot : image_slots(meta)) {
-    RGS_ASSIGN_OR_RETURN(std::string relative, folder.resolve(meta.files[slot], detail::ReferenceKind::kFileName,
-                                                              base, where, kSlotNames[slot]));
+    RGS_ASSIGN_OR_RETURN(std::string relative, folder.resolve(meta.files[slot], base, where, kSlotNames[slot]));
     out->push_back(folder.display(relative));
   }
   return Status();
@@ -1047,7 +1049,7 @@ Result<std::vector<std::string>> list_sog_lod_files(const std::string& path) {
     const json& n = (*names)[i];
     if (!n.is_string()) continue;
     RGS_ASSIGN_OR_RETURN(std::string relative,
-                         entry.folder->resolve(n.get<std::string>(), ReferenceKind::kFileName, "", entry.path,
+                         entry.folder->resolve(n.get<std::string>(), "", entry.path,
                                                "filenames[" + std::to_string(i) + "]"));
     files.push_back(entry.folder->display(relative));
     // A chunk the level read does not use may be missing or damaged: list what can be listed.
