@@ -121,7 +121,7 @@ Result<converter::InputScene> read_input(const Options& opt, const Input& input,
     read_options.lod = opt.lod;
     read_options.convert_spz_frame = !opt.keep_frame;
     if (input.from_stdin()) {  // only PLY is read from standard input: the other formats need a file
-      RGS_ASSIGN_OR_RETURN(scene, converter::read_ply_scene_bytes(input.bytes.data(), input.bytes.size(),
+      RGS_ASSIGN_OR_RETURN(scene, converter::read_scene_bytes(input.bytes.data(), input.bytes.size(),
                                                                   input.path, read_options));
     } else {
       RGS_ASSIGN_OR_RETURN(scene, converter::read_scene(opt.input, read_options));

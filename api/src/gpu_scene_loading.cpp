@@ -34,8 +34,8 @@ Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::Gp
     if (!scene.ok()) return naming(scene.status(), path);
     return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, file.file_size(), "RoofGS .rgs"};
   }
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_other_format(path, read_options));
-  const format::SceneBounds bounds = converter::compute_bounds(input.cloud);
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, read_options));
+  const format::SceneBounds& bounds = input.bounds;
   auto scene = runtime::GpuScene::from_cloud(input.cloud, bounds, stream);
   if (!scene.ok()) return naming(scene.status(), path);
   return LoadedGpuScene{std::move(scene).value(), bounds, false, input.file_bytes, input.description};

@@ -54,21 +54,19 @@ uint64_t runtime_bytes(uint64_t n, uint32_t degree) {
 Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
   auto impl = std::make_shared<Scene::Impl>();
   SceneInfo& info = impl->info;
-  if (is_rgs_path(path) || !options.quantize_other_formats) {
-    RGS_ASSIGN_OR_RETURN(HostScene host, load_host_scene(path, options.read_options));
-    impl->cloud = std::move(host.cloud);
-    info.bounds = host.bounds;
-    info.source_is_rgs = host.is_rgs;
-    info.file_bytes = host.file_bytes;
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, options.read_options));
+  info.source_is_rgs = input.format_id == "rgs";
+  info.file_bytes = input.file_bytes;
+  if (info.source_is_rgs || !options.quantize_other_formats) {
+    impl->cloud = std::move(input.cloud);
+    info.bounds = input.bounds;
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_other_format(path, options.read_options));
-    auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
+    auto encoded = converter::quantize(input.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
     auto cloud = format::dequantize(*encoded);
     if (!cloud.ok()) return Status(cloud.status()).prepend(path);
     impl->cloud = std::move(cloud).value();
     info.bounds = encoded->metadata.bounds;
-    info.file_bytes = ply.file_bytes;
   }
   info.device = Device::kCpu;
   info.path = path;
@@ -93,7 +91,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
     RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, load_gpu_scene(path, gpu_options, nullptr, options.read_options));
     loaded.emplace(std::move(l));
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_other_format(path, options.read_options));
+    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_input_scene(path, options.read_options));
     auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
     ply.cloud = format::GaussianCloud{};

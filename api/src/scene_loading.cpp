@@ -37,32 +37,22 @@ std::string group_digits(uint64_t n) {
   return out;
 }
 
-Result<converter::InputScene> read_other_format(const std::string& path, const format::ReadOptions& options) {
+Result<converter::InputScene> read_input_scene(const std::string& path, const format::ReadOptions& options,
+                                               bool keep_encoded) {
   converter::SceneReadOptions read_options;
   read_options.max_gaussians = options.limits.max_gaussians;
   read_options.max_decompression_ratio = options.limits.max_decompression_ratio;
+  read_options.verify_checksums = options.verify_checksums;
+  read_options.keep_encoded = keep_encoded;
   return converter::read_scene(path, read_options);
 }
 
 Result<HostScene> load_host_scene(const std::string& path, const format::ReadOptions& options) {
   HostScene scene;
-  if (is_rgs_path(path)) {
-    // read_scene checks every section's checksum, frame and values (SPEC §5.4) before it allocates.
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, options));
-    RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
-    auto cloud = format::dequantize(encoded);
-    if (!cloud.ok()) return Status(cloud.status()).prepend(path);
-    scene.cloud = std::move(cloud).value();
-    scene.bounds = file.metadata().bounds;
-    scene.is_rgs = true;
-    scene.file_bytes = file.file_size();
-    scene.format_id = "rgs";
-    scene.description = "RoofGS .rgs";
-    return scene;
-  }
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_other_format(path, options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, options));
   scene.cloud = std::move(input.cloud);
-  scene.bounds = converter::compute_bounds(scene.cloud);
+  scene.bounds = input.bounds;
+  scene.is_rgs = input.format_id == "rgs";
   scene.file_bytes = input.file_bytes;
   scene.format_id = std::move(input.format_id);
   scene.description = std::move(input.description);
@@ -74,22 +64,20 @@ Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t c
   ReplicatedScene out;
   out.copies = copies;
   format::EncodedScene source;
-  if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, options));
-    RGS_RETURN_IF_ERROR(check_replicated_count(path, file.gaussian_count(), copies));
-    RGS_ASSIGN_OR_RETURN(source, file.read_scene());
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, options, /*keep_encoded=*/true));
+  RGS_RETURN_IF_ERROR(check_replicated_count(path, input.cloud.size(), copies));
+  out.source_file_bytes = input.file_bytes;
+  if (input.encoded) {
+    source = std::move(*input.encoded);
     out.source_is_rgs = true;
-    out.source_file_bytes = file.file_size();
     out.quantization = "as stored in the source .rgs (attributes copied unchanged)";
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_other_format(path, options));
-    RGS_RETURN_IF_ERROR(check_replicated_count(path, ply.cloud.size(), copies));
-    auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
+    auto encoded = converter::quantize(input.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
     source = std::move(encoded).value();
-    out.source_file_bytes = ply.file_bytes;
     out.quantization = "rgs-convert defaults (linear FP16 scales, SH scale = max |SH| / 127)";
   }
+  input.cloud = format::GaussianCloud{};
   out.source_gaussians = source.count;
   auto replicated = converter::replicate(source, copies);
   if (!replicated.ok()) return Status(replicated.status()).prepend(path);

@@ -17,48 +17,40 @@ Status naming(Status status, const std::string& path) {
   return status;
 }
 
-Result<AuditScene> load_rgs(const std::string& path, const format::ReadOptions& options) {
-  AuditScene scene;
+/// The section table of a .rgs file: what each section stores and decodes to (header and table only).
+Status list_sections(const std::string& path, const format::ReadOptions& options, AuditScene* scene) {
   RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, options));
-  auto encoded = file.read_scene();
-  if (!encoded.ok()) return naming(encoded.status(), path);
-  auto cloud = format::dequantize(*encoded);
-  if (!cloud.ok()) return naming(cloud.status(), path);
-  scene.cloud = std::move(cloud).value();
-  scene.bounds = file.metadata().bounds;
-  scene.sh_quantization = encoded->metadata.sh_quantization;
-  scene.info.format = "rgs";
-  scene.info.file_bytes = file.file_size();
   uint64_t stored = 0;
   for (const format::SectionEntry& e : file.sections()) {
-    scene.info.sections.push_back(
+    scene->info.sections.push_back(
         SectionSize{format::section_name(e.id), format::codec_name(e.codec), e.stored_size, e.raw_size});
     stored += e.stored_size;
   }
-  scene.info.overhead_bytes = scene.info.file_bytes >= stored ? scene.info.file_bytes - stored : 0;
-  return scene;
-}
-
-Result<AuditScene> load_other(const std::string& path, const format::ReadOptions& options) {
-  AuditScene scene;
-  converter::SceneReadOptions read_options;
-  read_options.max_gaussians = options.limits.max_gaussians;
-  read_options.max_decompression_ratio = options.limits.max_decompression_ratio;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
-  scene.cloud = std::move(input.cloud);
-  scene.bounds = converter::compute_bounds(scene.cloud);
-  scene.info.format = input.format_id;
-  scene.info.file_bytes = input.file_bytes;
-  return scene;
+  scene->info.overhead_bytes = scene->info.file_bytes >= stored ? scene->info.file_bytes - stored : 0;
+  return Status();
 }
 
 }  // namespace
 
 Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label,
                                     const format::ReadOptions& options) {
-  auto loaded = format::is_rgs_path(path) ? load_rgs(path, options) : load_other(path, options);
-  if (!loaded.ok()) return loaded.status();
-  AuditScene scene = std::move(loaded).value();
+  converter::SceneReadOptions read_options;
+  read_options.max_gaussians = options.limits.max_gaussians;
+  read_options.max_decompression_ratio = options.limits.max_decompression_ratio;
+  read_options.verify_checksums = options.verify_checksums;
+  read_options.keep_encoded = true;  // a .rgs candidate's SH quantization
+  auto input = converter::read_scene(path, read_options);
+  if (!input.ok()) return naming(input.status(), path);
+  AuditScene scene;
+  scene.cloud = std::move(input->cloud);
+  scene.bounds = input->bounds;
+  scene.info.format = input->format_id;
+  scene.info.file_bytes = input->file_bytes;
+  if (input->encoded) {
+    scene.sh_quantization = input->encoded->metadata.sh_quantization;
+    input->encoded.reset();
+    RGS_RETURN_IF_ERROR(list_sections(path, options, &scene));
+  }
   scene.info.path = path;
   scene.info.label = label.empty() ? std::filesystem::path(path).filename().string() : label;
   scene.info.gaussians = scene.cloud.size();

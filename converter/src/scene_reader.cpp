@@ -23,8 +23,11 @@
 #include "internal_zip.h"
 #include "rgs/converter/gltf_reader.h"
 #include "rgs/converter/playcanvas_readers.h"
+#include "rgs/converter/quantize.h"
 #include "rgs/converter/splat_reader.h"
 #include "rgs/converter/spz_reader.h"
+#include "rgs/format/file_io.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
 #include <xxhash.h>
 
@@ -109,8 +112,7 @@ bool detect_sog_meta(const Probe& p) {
 
 bool detect_sog_lod(const Probe& p) { return json_has(p, {"lodLevels", "filenames", "tree"}); }
 
-/// A .rgs file: matched so that no later detector (.splat has no signature) takes it; refused with the
-/// "unsupported format" error, since read_scene returns float clouds and .rgs files are read with RgsFile.
+/// A .rgs file (its magic).
 bool detect_rgs(const Probe& p) {
   return p.head.size() >= 8 && std::memcmp(p.head.data(), format::kMagic, 8) == 0;
 }
@@ -239,13 +241,46 @@ Result<InputScene> read_splat_scene(const std::string& path, const SceneReadOpti
   return to_input_scene(path, std::move(splat), options, "antimatter15 .splat");
 }
 
+/// A .rgs file in memory (mapped, or standard input's bytes): every runtime section checked (checksums,
+/// codec frames, values: RgsFile::read_scene), then dequantized.
+Result<InputScene> rgs_input_scene(const uint8_t* data, size_t size, const std::string& name,
+                                   const SceneReadOptions& options) {
+  RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a .rgs file"));
+  format::ReadOptions read_options;
+  read_options.limits.max_gaussians = options.max_gaussians;
+  read_options.limits.max_decompression_ratio = options.max_decompression_ratio;
+  read_options.verify_checksums = options.verify_checksums;
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(data, size, read_options, name));
+  auto encoded = file.read_scene();
+  if (!encoded.ok()) return Status(encoded.status()).prepend(name);
+  auto cloud = format::dequantize(*encoded);
+  if (!cloud.ok()) return Status(cloud.status()).prepend(name);
+  InputScene scene;
+  scene.cloud = std::move(cloud).value();
+  scene.bounds = file.metadata().bounds;
+  if (options.keep_encoded) scene.encoded = std::move(encoded).value();
+  scene.format_id = "rgs";
+  scene.description = "RoofGS .rgs, dequantized";
+  scene.storage_format = "rgs";
+  scene.file_bytes = size;
+  scene.file_count = 1;
+  scene.files = {name};
+  scene.declared_vertices = file.gaussian_count();
+  if (options.hash_file) scene.file_xxh64 = XXH64(data, size, 0);
+  return scene;
+}
+
+Result<InputScene> read_rgs_scene(const std::string& path, const SceneReadOptions& options) {
+  RGS_ASSIGN_OR_RETURN(std::shared_ptr<const format::MappedFile> mapping, format::MappedFile::open(path));
+  return rgs_input_scene(mapping->data(), mapping->size(), path, options);
+}
+
 // --- the table ------------------------------------------------------------------------------------
 
 struct SceneFormat {
   const char* id;           ///< InputScene::format_id (the reader may refine it: "glb" or "gltf")
-  const char* description;  ///< for "supported: ..." and help texts; null for a refusal row
+  const char* description;  ///< for "supported: ..." and help texts
   bool (*detect)(const Probe&);
-  /// Null for a refusal row: content recognized in order to be refused ("unsupported format").
   Result<InputScene> (*read)(const std::string& path, const SceneReadOptions& options);
 };
 
@@ -254,7 +289,7 @@ struct SceneFormat {
 const SceneFormat kFormats[] = {
     {"compressed_ply", "PlayCanvas compressed PLY (.compressed.ply)", detect_compressed_ply, read_compressed_ply},
     {"ply", "3DGS PLY (.ply, INRIA layout or any property order)", detect_ply, read_ply_scene},
-    {"rgs", nullptr, detect_rgs, nullptr},
+    {"rgs", "RoofGS .rgs", detect_rgs, read_rgs_scene},
     {"sog_bundle", "PlayCanvas bundled SOG (.sog)", detect_sog_bundle, read_sog},
     {"sog", "PlayCanvas SOG (meta.json with its WebP images, or their folder)", detect_sog_meta, read_sog},
     {"sog_lod", "PlayCanvas streamed SOG (lod-meta.json, or its folder; --lod picks the level)", detect_sog_lod,
@@ -267,7 +302,7 @@ const SceneFormat kFormats[] = {
 std::string supported_list() {
   std::string s;
   for (const SceneFormat& f : kFormats) {
-    if (f.description != nullptr) s += (s.empty() ? "" : ", ") + std::string(f.description);
+    s += (s.empty() ? "" : ", ") + std::string(f.description);
   }
   return s;
 }
@@ -285,9 +320,6 @@ std::string hex_bytes(const std::vector<uint8_t>& head, size_t n) {
 /// What an input no reader accepts looks like, in words.
 std::string describe_unknown(const Probe& p) {
   if (p.size == 0) return "an empty file";
-  if (p.head.size() >= 8 && std::memcmp(p.head.data(), format::kMagic, 8) == 0) {
-    return "a RoofGS .rgs file (read it with format::RgsFile; rgs-convert turns it into a PLY)";
-  }
   if (head_starts_with(p, "NGSP")) return "a Niantic SPZ file";
   if (p.head.size() >= 2 && p.head[0] == 0x1f && p.head[1] == 0x8b) return "gzip data (an SPZ file before v4?)";
   if (head_starts_with(p, "glTF")) return "a binary glTF (.glb)";
@@ -383,9 +415,7 @@ Status make_probe(const std::string& path, Probe* probe) {
 Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
   RGS_RETURN_IF_ERROR(make_probe(path, probe));
   for (const SceneFormat& f : kFormats) {
-    if (!f.detect(*probe)) continue;
-    if (f.read == nullptr) break;  // recognized, and refused
-    return &f;
+    if (f.detect(*probe)) return &f;
   }
   return unsupported(path, describe_unknown(*probe));
 }
@@ -395,14 +425,19 @@ Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options) {
   Probe probe;
   RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
-  return format->read(probe.path, options);
+  RGS_ASSIGN_OR_RETURN(InputScene scene, format->read(probe.path, options));
+  if (scene.format_id != "rgs") scene.bounds = compute_bounds(scene.cloud);
+  return scene;
 }
 
-Result<InputScene> read_ply_scene_bytes(const uint8_t* data, size_t size, const std::string& name,
-                                        const SceneReadOptions& options) {
+Result<InputScene> read_scene_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                    const SceneReadOptions& options) {
+  if (size >= 8 && std::memcmp(data, format::kMagic, 8) == 0) return rgs_input_scene(data, size, name, options);
   RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a PLY file"));
   RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply_bytes(data, size, name, ply_read_options(options)));
-  return ply_input_scene(std::move(ply), name);
+  InputScene scene = ply_input_scene(std::move(ply), name);
+  scene.bounds = compute_bounds(scene.cloud);
+  return scene;
 }
 
 Result<std::string> detect_scene_format(const std::string& path) {
@@ -447,7 +482,7 @@ Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {
 std::vector<std::string> supported_scene_formats() {
   std::vector<std::string> out;
   for (const SceneFormat& f : kFormats) {
-    if (f.description != nullptr) out.emplace_back(f.description);
+    out.emplace_back(f.description);
   }
   return out;
 }

@@ -16,9 +16,12 @@
 #include "ply_test_util.h"
 #include "rgs/converter/playcanvas_readers.h"
 #include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
+#include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/spec.h"
+#include "rgs/format/writer.h"
 #include "test_data.h"
 
 namespace rgs::test {
@@ -156,7 +159,7 @@ TEST_CASE("read_scene detects every format by content, not by extension") {
   CHECK(read_ok((tmp.path / "streamed").string()).cloud.size() == 877);
 }
 
-TEST_CASE("read_ply_scene_bytes describes a PLY in memory as read_scene describes the file") {
+TEST_CASE("read_scene_bytes describes a PLY in memory as read_scene describes the file") {
   const std::string path = repo_path("samples/guitar.ply");
   std::ifstream in(path, std::ios::binary);
   const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -164,7 +167,7 @@ TEST_CASE("read_ply_scene_bytes describes a PLY in memory as read_scene describe
   SceneReadOptions options;
   options.hash_file = true;
   const InputScene from_file = read_ok(path, options);
-  auto from_memory = converter::read_ply_scene_bytes(bytes.data(), bytes.size(), "-", options);
+  auto from_memory = converter::read_scene_bytes(bytes.data(), bytes.size(), "-", options);
   REQUIRE_MESSAGE(from_memory.ok(), from_memory.status().to_string());
   CHECK(from_memory->format_id == from_file.format_id);
   CHECK(from_memory->description == from_file.description);
@@ -178,10 +181,42 @@ TEST_CASE("read_ply_scene_bytes describes a PLY in memory as read_scene describe
 
   // A level of detail is refused, as for a PLY file, never ignored.
   options.lod = 1;
-  auto with_lod = converter::read_ply_scene_bytes(bytes.data(), bytes.size(), "-", options);
+  auto with_lod = converter::read_scene_bytes(bytes.data(), bytes.size(), "-", options);
   REQUIRE_FALSE(with_lod.ok());
   CHECK(with_lod.status().code() == StatusCode::kInvalidArgument);
   CHECK(with_lod.status().message().find("-: a level of detail applies only to streamed SOG") == 0);
+}
+
+TEST_CASE("read_scene reads a .rgs file as its dequantized scene, from a file and from memory") {
+  TempDir tmp;
+  const InputScene ply = read_ok(repo_path("samples/guitar.ply"));
+  auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
+  REQUIRE(encoded.ok());
+  auto bytes = format::serialize_scene(*encoded);
+  REQUIRE(bytes.ok());
+  write_bytes(tmp.file("guitar.bin"), *bytes);  // content, not the name, decides
+  SceneReadOptions options;
+  options.hash_file = true;
+  options.keep_encoded = true;
+  const InputScene from_file = read_ok(tmp.file("guitar.bin"), options);
+  auto dequantized = format::dequantize(*encoded);
+  REQUIRE(dequantized.ok());
+  CHECK(from_file.format_id == "rgs");
+  CHECK(from_file.cloud.means == dequantized->means);
+  CHECK(from_file.cloud.sh == dequantized->sh);
+  CHECK(from_file.cloud.opacities == dequantized->opacities);
+  for (int a = 0; a < 3; ++a) CHECK(from_file.bounds.aabb_min[a] == encoded->metadata.bounds.aabb_min[a]);
+  CHECK(from_file.bounds.sphere_radius == encoded->metadata.bounds.sphere_radius);
+  REQUIRE(from_file.encoded.has_value());
+  CHECK(from_file.encoded->count == encoded->count);
+  CHECK(from_file.files == std::vector<std::string>{tmp.file("guitar.bin")});
+  auto from_memory = converter::read_scene_bytes(bytes->data(), bytes->size(), "-", options);
+  REQUIRE_MESSAGE(from_memory.ok(), from_memory.status().to_string());
+  CHECK(from_memory->cloud.means == from_file.cloud.means);
+  CHECK(from_memory->file_xxh64 == from_file.file_xxh64);
+  // The .rgs limits apply: a count over max_gaussians is refused before anything is decoded.
+  options.max_gaussians = 1000;
+  CHECK(read_status(tmp.file("guitar.bin"), options).code() == StatusCode::kLimitExceeded);
 }
 
 TEST_CASE("read_scene names what an unsupported input looks like and lists the supported formats") {
@@ -194,7 +229,6 @@ TEST_CASE("read_scene names what an unsupported input looks like and lists the s
   auto bytes = [](const std::string& s) { return std::vector<uint8_t>(s.begin(), s.end()); };
   const std::vector<Case> cases = {
       {"empty.ply", {}, "an empty file"},
-      {"scene.rgs", {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0}, "a RoofGS .rgs file"},
       {"image.ply", bytes("\x89PNG\r\n\x1a\n\0\0"), "a PNG image"},
       {"keys.json", bytes("{\"camera\": 1, \"frames\": []}"), "a JSON object with keys {camera, frames}"},
       {"broken.json", bytes("{\"means\": "), "starts like JSON but does not parse"},
@@ -291,13 +325,14 @@ TEST_CASE("read_scene detects and reads SPZ, glTF/GLB and .splat files") {
   const Status s = read_status(tmp.file("noise.splat"));
   CHECK(s.code() == StatusCode::kInvalidArgument);
   CHECK(s.message().find("unsupported format") != std::string::npos);
-  // A .rgs file is refused even when its size would suit .splat.
+  // A damaged .rgs gets the .rgs reader's error even when its size would suit .splat.
   std::vector<uint8_t> rgs(64, 0);
   std::copy(format::kMagic, format::kMagic + 8, rgs.begin());
   write_bytes(tmp.file("scene.splat"), rgs);
   const Status r = read_status(tmp.file("scene.splat"));
-  CHECK(r.code() == StatusCode::kInvalidArgument);
-  CHECK(r.message().find("a RoofGS .rgs file") != std::string::npos);
+  CHECK_FALSE(r.ok());
+  CHECK(r.code() != StatusCode::kInvalidArgument);
+  CHECK(r.message().find("unsupported format") == std::string::npos);
 }
 
 TEST_CASE("read_scene reads biker.spz (real scene)") {

@@ -31,7 +31,7 @@ Status require_cuda_device(int ordinal = 0);
 
 /// Loads `path` onto the current device: a .rgs file through format::RgsFile::open(read_options) and
 /// runtime::GpuScene::from_rgs(options) (sections uploaded as stored, no host decode; FP32 arrays only with
-/// options.fp32_attributes), otherwise any format converter::read_scene detects (read_other_format, with
+/// options.fp32_attributes), otherwise any format converter::read_scene detects (read_input_scene, with
 /// read_options' max_gaussians) through GpuScene::from_cloud with converter::compute_bounds (FP32 only).
 /// Synchronous on `stream`. Errors name `path`.
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options = {},

@@ -35,16 +35,17 @@ struct HostScene {
 /// the audit's scene loading.
 using format::is_rgs_path;
 
-/// Loads `path` into host memory: a .rgs file (RgsFile::open with `options` + read_scene + dequantize, checksums
-/// verified unless `options` says otherwise) when is_rgs_path(), otherwise any format converter::read_scene
-/// detects (3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .splat; invalid values rejected), refused
-/// above options.limits.max_gaussians. Errors name `path`: kIoError, kInvalidArgument (unsupported format),
-/// kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded, kOutOfMemory, ...
+/// Loads `path` into host memory through read_input_scene: any format converter::read_scene detects (a .rgs
+/// file dequantized; 3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .splat; invalid values rejected).
+/// Errors name `path`: those of read_scene.
 Result<HostScene> load_host_scene(const std::string& path, const format::ReadOptions& options = {});
 
-/// converter::read_scene for a non-.rgs `path` with the limits of `options` (max_gaussians), invalid values
-/// rejected: the reading every loader of this library shares. Errors: those of read_scene.
-Result<converter::InputScene> read_other_format(const std::string& path, const format::ReadOptions& options = {});
+/// converter::read_scene with the limits of `options` (max_gaussians, max_decompression_ratio, checksums
+/// verified unless `options` says otherwise), invalid values rejected: the one reading every loader of this
+/// library shares. `keep_encoded`: a .rgs input also keeps its stored form (InputScene::encoded).
+/// Errors: those of read_scene.
+Result<converter::InputScene> read_input_scene(const std::string& path, const format::ReadOptions& options = {},
+                                               bool keep_encoded = false);
 
 /// Largest Gaussian count a scene may have on the GPU (GpuScene and converter::replicate: 2^31 − 1).
 inline constexpr uint64_t kMaxGpuGaussians = 0x7fffffff;
@@ -67,7 +68,7 @@ struct ReplicatedScene {
 };
 
 /// Reads `path` and tiles it `copies` times with converter::replicate (a grid in the x–z plane). A .rgs
-/// source (opened with `options`) is replicated as stored; a source in another format (read_other_format) is
+/// source (opened with `options`) is replicated as stored; a source in another format (read_input_scene) is
 /// first quantized with the default QuantizeOptions (what `rgs-convert in.ply out.rgs` writes). For a .rgs
 /// file the count is checked from the header first.
 /// Errors: kInvalidArgument (copies 0), kLimitExceeded (copies × Gaussians > kMaxGpuGaussians, naming both

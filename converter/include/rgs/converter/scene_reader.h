@@ -7,7 +7,9 @@
 #include <vector>
 
 #include "rgs/converter/ply_reader.h"
+#include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 
 namespace rgs::converter {
@@ -25,6 +27,11 @@ struct SceneReadOptions {
   uint32_t max_decompression_ratio = 8;
   /// Also compute InputScene::file_xxh64 (provenance).
   bool hash_file = false;
+  /// .rgs inputs: also keep the scene as stored (InputScene::encoded), for callers that use the quantized
+  /// sections themselves (replication, re-encoding without a second quantization).
+  bool keep_encoded = false;
+  /// .rgs inputs: verify each section's XXH64 (format::ReadOptions::verify_checksums).
+  bool verify_checksums = true;
   /// Level of detail of a streamed SOG (lod-meta.json): 0 is the finest. Unset reads LOD 0. Setting it for
   /// any other input is an error (kInvalidArgument), so a user's --lod is never silently ignored.
   std::optional<uint32_t> lod;
@@ -36,11 +43,15 @@ struct SceneReadOptions {
 
 /// A scene read from any input format, and what was learned while reading it.
 struct InputScene {
-  /// Activated float Gaussians (GaussianCloud documents the layout).
+  /// Activated float Gaussians (GaussianCloud documents the layout); a .rgs input dequantized.
   format::GaussianCloud cloud;
+  /// The scene's bounds: a .rgs file's metadata bounds (SPEC §4.1.1), else compute_bounds(cloud).
+  format::SceneBounds bounds;
+  /// .rgs inputs with SceneReadOptions::keep_encoded: the scene as stored (quantized sections, metadata).
+  std::optional<format::EncodedScene> encoded;
   InputHygiene hygiene;
-  /// Short identifier of the input format: "ply", "compressed_ply", "sog", "sog_bundle", "sog_lod", "spz",
-  /// "glb", "gltf", "splat".
+  /// Short identifier of the input format: "rgs", "ply", "compressed_ply", "sog", "sog_bundle", "sog_lod",
+  /// "spz", "glb", "gltf", "splat".
   std::string format_id;
   /// The format in words for summaries, e.g. "binary_little_endian PLY", "PlayCanvas SOG v2 (bundled .sog)",
   /// "PlayCanvas streamed SOG, LOD 0 of 5 (8 chunks)".
@@ -77,23 +88,25 @@ struct InputScene {
 ///   detail is read (SceneReadOptions::lod, default 0);
 /// - Niantic SPZ v2-v4 (read_spz; frame converted unless SceneReadOptions::convert_spz_frame is false);
 /// - KHR_gaussian_splatting glTF, binary (.glb) or JSON (.gltf) with its buffers (read_gltf);
+/// - RoofGS .rgs (format::RgsFile: every section's checksum, frame and values checked, then dequantized; the
+///   limits max_gaussians and max_decompression_ratio as format::ReadLimits);
 /// - antimatter15 .splat (read_splat), tried last: the format has no signature, so a file is taken as .splat
 ///   only when no other detector matched and looks_like_splat accepts its size and first records.
-/// The order of the checks: PLY family, .rgs refusal, SOG family, SPZ, glTF, .splat.
+/// The order of the checks: PLY family, .rgs, SOG family, SPZ, glTF, .splat.
 /// A directory is read through the lod-meta.json or meta.json it contains.
 /// Errors name `path` and the cause: kInvalidArgument "unsupported format: <what it looks like>; supported:
-/// <list>" for other content (.rgs files included: read those with format::RgsFile), and for a lod given
-/// for a non-streamed input; otherwise the errors of the format's reader (kIoError, kCorruptData,
-/// kUnsupportedFeature, kLimitExceeded, kChecksumMismatch, kOutOfMemory).
+/// <list>" for other content, and for a lod given for a non-streamed input; otherwise the errors of the
+/// format's reader (kIoError, kNotRgsFile, kUnsupportedVersion, kCorruptData, kUnsupportedFeature,
+/// kLimitExceeded, kChecksumMismatch, kOutOfMemory).
 /// Thread safety: may be called concurrently; decodes on up to 16 threads of its own.
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options = {});
 
-/// Reads a 3DGS PLY held in memory (a file given on standard input) into the InputScene read_scene gives
-/// for the same PLY file: read_ply_bytes with `options`, format_id "ply", file_count 1. `name` names the
-/// input in errors. Only PLY is read from memory; other formats need a file (read_scene).
-/// Errors: those of read_ply_bytes, and kInvalidArgument when `options` asks for a level of detail.
-Result<InputScene> read_ply_scene_bytes(const uint8_t* data, size_t size, const std::string& name,
-                                        const SceneReadOptions& options = {});
+/// Reads a 3DGS PLY or a .rgs held in memory (a file given on standard input) into the InputScene read_scene
+/// gives for the same file. `name` names the input in errors. Only PLY and .rgs are read from memory; other
+/// formats need a file (read_scene). Errors: those of read_scene's PLY and .rgs readers, and
+/// kInvalidArgument when `options` asks for a level of detail.
+Result<InputScene> read_scene_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                    const SceneReadOptions& options = {});
 
 /// What read_scene would do with `path`: the format_id of the reader it picks (e.g. "sog_lod"), or the
 /// kInvalidArgument "unsupported format" error (kIoError when `path` cannot be read). Reads only the start
