@@ -142,7 +142,7 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference's RoofGS mode, technique by 
 }
 
 TEST_CASE(
-    "fused and separate stages, and balanced and one-thread emission, give the same bytes; frames are deterministic") {
+    "fused and separate stages, and balanced and one-thread emission, give the same bytes, frames are deterministic") {
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
