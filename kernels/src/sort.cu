@@ -242,18 +242,18 @@ cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const
 cudaError_t clear_sort_counters(void* temp, size_t temp_bytes, uint64_t capacity, int begin_bit, int end_bit,
                                 cudaStream_t stream) {
 #if RGS_TUNED_ONESWEEP
-  if (capacity <= kMaxOnePortion) {
-    const CounterLayout layout = layout_for_count(capacity, begin_bit, end_bit);
-    if (layout.bytes() > temp_bytes) return cudaErrorInvalidValue;
-    return layout.bytes() == 0 ? cudaSuccess : cudaMemsetAsync(temp, 0, layout.bytes(), stream);
-  }
-#endif
+  // Every sort of up to `capacity` pairs that takes the tuned path reads these counters (laid out for capacity).
+  const CounterLayout layout = layout_for_count(capacity, begin_bit, end_bit);
+  if (layout.bytes() > temp_bytes) return cudaErrorInvalidValue;
+  return layout.bytes() == 0 ? cudaSuccess : cudaMemsetAsync(temp, 0, layout.bytes(), stream);
+#else
   // The public sort zeroes its own counters: only the size is checked.
   (void)temp;
   (void)stream;
   size_t needed = 0;
   const cudaError_t result = public_bytes(capacity, begin_bit, end_bit, &needed);
   return result != cudaSuccess ? result : needed > temp_bytes ? cudaErrorInvalidValue : cudaSuccess;
+#endif
 }
 
 }  // namespace rgs::kernels

@@ -199,7 +199,8 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference term by term at SH 1, 2 and 
       }
     }
     MESSAGE("guitar_sh3 at SH " << degree << ", " << modes().size() << " modes x " << cams->size()
-                                << " views x 4 variants: worst PSNR " << worst_psnr << " dB, max |diff| " << worst_diff);
+                                << " views x 4 variants: worst PSNR " << worst_psnr << " dB, max |diff| "
+                                << worst_diff);
   }
 }
 
