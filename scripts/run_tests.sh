@@ -1,21 +1,29 @@
 #!/usr/bin/env bash
 # Installs dependencies, builds everything (CUDA parts only when nvcc is found) and runs the whole test
 # suite with CTest, one line per test as it finishes. Extra arguments are CMake arguments for the build. GPU
-# tests report "skipped: no CUDA device" on machines without a GPU. Tests on the
-# real scenes that are not shipped look in $RGS_DATA_DIR (default ../shared/data) and are skipped
-# visibly when it is absent.
+# tests print "skipped: no CUDA device" on machines without a GPU, and tests on the real scenes that are not
+# shipped ($RGS_DATA_DIR, default ../shared/data) "skipped: ..." when they are absent; CTest reports a test
+# that skipped everything as "Skipped" (listed after its summary), not as passed.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${RGS_BUILD_DIR:-$root/build}"
 "$root/scripts/install_deps.sh" tests
 # Explicit, so a build folder configured by run_sample.sh (tools only) gets the whole project.
 "$root/scripts/build.sh" -- -DRGS_BUILD_TESTS=ON -DRGS_BUILD_SAMPLES=ON -DRGS_WITH_OPENIMAGEIO=ON "$@"
-status=0
-ctest --test-dir "$build" --output-on-failure --parallel "$(nproc)" || status=$?
-# CTest hides the output of passing tests; list what was skipped (no GPU, no ../shared/data) so it is seen.
+mkdir -p "$build/Testing"
+summary="$build/Testing/ctest_output.txt"
+set +e
+ctest --test-dir "$build" --output-on-failure --parallel "$(nproc)" 2>&1 | tee "$summary"
+status=${PIPESTATUS[0]}
+set -e
+# Why tests skipped (no GPU, no ../shared/data, ...): the reasons of the skipped tests and of the skipped
+# parts of passing ones, counted, from the output CTest keeps.
 log="$build/Testing/Temporary/LastTest.log"
-if [ -f "$log" ] && grep -q "skipped:" "$log"; then
-  echo; echo "Skipped parts of passing tests:"
+if [ -f "$log" ] && grep -q "skipped: " "$log"; then
+  echo; echo "Reasons for skipped tests and skipped parts of passing tests:"
   grep -ho "skipped: .*" "$log" | sort | uniq -c | sed 's/^/  /'
 fi
+# CTest's summary line last, with the number of skipped tests before it.
+echo; echo "$(grep -c '(Skipped)$' "$summary" || true) tests skipped"
+grep -E '^[0-9]+% tests passed' "$summary" | tail -1 || true
 exit "$status"

@@ -1,15 +1,59 @@
 // CUB wrappers: the offset scan and the stable radix sort of the (tile, Gaussian) pairs.
+//
+// The RoofGS sort of 32-bit keys calls CUB's public DeviceRadixSort::SortPairs, except when built against the
+// CCCL it was tuned on (CCCL_VERSION 3000001: CCCL 3.0.1, the CCCL of CUDA 13.0): there it launches CUB's
+// internal onesweep kernels itself, with larger blocks for large counts and counters zeroed ahead of the sort
+// (below). Those kernels, their argument lists and the policy hub are CUB internals that another CCCL may
+// rename or change, so any other version takes the public path, which sorts to the same result (a stable
+// sort's output is unique). Compiling with -DRGS_PUBLIC_CUB_SORT takes the public path on CCCL 3.0.1 too.
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_scan.cuh>
-#include <cub/device/dispatch/dispatch_radix_sort.cuh>
+#include <cub/version.cuh>
 
 #include <algorithm>
+#include <cstdint>
 
 #include "rgs/kernels/baseline_pipeline.h"
+
+#if defined(CCCL_VERSION) && CCCL_VERSION == 3000001 && !defined(RGS_PUBLIC_CUB_SORT)
+#define RGS_TUNED_ONESWEEP 1
+#include <cub/device/dispatch/dispatch_radix_sort.cuh>
+#else
+#define RGS_TUNED_ONESWEEP 0
+#endif
 
 namespace rgs::kernels {
 namespace {
 
+/// CUB's public sort of the pairs in `keys` / `values` (DoubleBuffer, overwrite allowed: the sorted pairs end
+/// in the buffers the selectors name), with 32-bit offsets up to 2^32 − 1 pairs.
+cudaError_t sort_public(void* temp, size_t* temp_bytes, cub::DoubleBuffer<uint32_t>& keys,
+                        cub::DoubleBuffer<uint32_t>& values, uint64_t count, int begin_bit, int end_bit,
+                        cudaStream_t stream) {
+  if (count <= UINT32_MAX) {
+    return cub::DeviceRadixSort::SortPairs(temp, *temp_bytes, keys, values, uint32_t(count), begin_bit, end_bit,
+                                           stream);
+  }
+  return cub::DeviceRadixSort::SortPairs(temp, *temp_bytes, keys, values, count, begin_bit, end_bit, stream);
+}
+
+/// Scratch of sort_public for every count up to `count` (counts up to 2^32 − 1 take 32-bit offsets, larger
+/// ones 64-bit offsets, so a larger count's size need not cover a smaller count's).
+cudaError_t public_bytes(uint64_t count, int begin_bit, int end_bit, size_t* bytes) {
+  cub::DoubleBuffer<uint32_t> none;
+  *bytes = 0;
+  size_t narrow = 0;
+  cudaError_t result = sort_public(nullptr, &narrow, none, none, std::min<uint64_t>(count, UINT32_MAX), begin_bit,
+                                   end_bit, nullptr);
+  size_t wide = 0;
+  if (result == cudaSuccess && count > UINT32_MAX) {
+    result = sort_public(nullptr, &wide, none, none, count, begin_bit, end_bit, nullptr);
+  }
+  if (result == cudaSuccess) *bytes = std::max(narrow, wide);
+  return result;
+}
+
+#if RGS_TUNED_ONESWEEP
 /// CUB's policies for the RoofGS sort of 32-bit keys and values with 32-bit offsets (the onesweep radix sort
 /// CUB runs on sm_89 and sm_90, 8 bits a pass), changed where H100 runs of a standalone program measured a
 /// difference (docs/BENCHMARKS.md#tried-and-not-kept; tile-ordered keys), for counts whose 384-thread
@@ -19,9 +63,8 @@ namespace {
 ///   8× fewer of those serialized atomics;
 /// - a onesweep pass takes 512-thread tiles when those fit one per SM (1.36M pairs on 132 SMs: 154 tiles of
 ///   384 threads, 116 of 512), else 384.
-/// Smaller counts keep CUB's own sm_90 policies, which were as fast there. The kernels (cub::detail::radix_sort), their
-/// argument lists and the policy hub are those of the CCCL in CUDA 13.0 (the toolkit of the build hosts); a CCCL that
-/// renames or changes them fails to compile here, not at run time.
+/// Smaller counts keep CUB's own sm_90 policies. The kernels (cub::detail::radix_sort), their argument lists
+/// and the policy hub are those of CCCL 3.0.1, the only version this path is compiled for (top of the file).
 template <typename Onesweep, typename Histogram>
 struct PairSortPolicies {
   /// The policies CUB's histogram, exclusive-sum and onesweep kernels read (the same for every architecture).
@@ -133,6 +176,7 @@ int policy_for(uint32_t count, int sms) {
   const auto fits_one_per_sm = [&](uint64_t block_threads) { return count <= uint64_t(sms) * block_threads * 23u; };
   return fits_one_per_sm(384) ? 0 : fits_one_per_sm(512) ? 512 : 384;
 }
+#endif  // RGS_TUNED_ONESWEEP
 
 }  // namespace
 
@@ -150,52 +194,66 @@ cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, 
                                          begin_bit, end_bit, stream);
 }
 
+bool sort_pairs_ping_pong_tuned() { return RGS_TUNED_ONESWEEP != 0; }
+
 cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const keys[2], uint32_t* const values[2],
                                  uint64_t count, uint64_t counters_capacity, int begin_bit, int end_bit,
                                  bool counters_zeroed, int* sorted, cudaStream_t stream) {
   cub::DoubleBuffer<uint32_t> key_buffers(keys[0], keys[1]);
   cub::DoubleBuffer<uint32_t> value_buffers(values[0], values[1]);
-  const auto stock = [&](void* t, size_t* bytes) {  // CUB's own dispatch, memsets included
-    return cub::DeviceRadixSort::SortPairs(t, *bytes, key_buffers, value_buffers, count, begin_bit, end_bit, stream);
-  };
-  const bool one_portion = count <= kMaxOnePortion;
   cudaError_t result = cudaSuccess;
-  if (temp == nullptr) {  // enough for CUB's dispatch and for sort_onesweep's counters
-    result = stock(nullptr, temp_bytes);
-    if (result == cudaSuccess && one_portion) {
+  if (temp == nullptr) {  // enough for the public sort and, on the tuned path, for sort_onesweep's counters
+    result = public_bytes(count, begin_bit, end_bit, temp_bytes);
+#if RGS_TUNED_ONESWEEP
+    if (result == cudaSuccess && count <= kMaxOnePortion) {
       *temp_bytes = std::max(*temp_bytes, layout_for_count(count, begin_bit, end_bit).bytes());
     }
+#endif
     return result;
   }
   *sorted = 0;
   if (count <= 1 || end_bit <= begin_bit) return cudaSuccess;
-  if (!one_portion) {
-    result = stock(temp, temp_bytes);
+  if (counters_zeroed && counters_capacity < count) return cudaErrorInvalidValue;
+#if RGS_TUNED_ONESWEEP
+  if (count <= kMaxOnePortion) {
+    const CounterLayout layout = layout_for_count(std::max(count, counters_capacity), begin_bit, end_bit);
+    if (layout.bytes() > *temp_bytes) return cudaErrorInvalidValue;
+    if (!counters_zeroed) result = cudaMemsetAsync(temp, 0, layout.bytes(), stream);
+    int sms = 0;
+    if (result == cudaSuccess) result = multiprocessors(&sms);
+    if (result != cudaSuccess) return result;
+    const int threads = policy_for(uint32_t(count), sms);
+    const auto n = uint32_t(count);
+    const auto sort = [&](auto policies) {
+      return sort_onesweep<decltype(policies)>(temp, layout, key_buffers, value_buffers, n, begin_bit, end_bit, sms,
+                                                stream);
+    };
+    result = threads == 0 ? sort(Stock{}) : threads == 512 ? sort(Tuned512{}) : sort(Tuned384{});
     *sorted = key_buffers.selector;
     return result;
   }
-  const CounterLayout layout = layout_for_count(std::max(count, counters_capacity), begin_bit, end_bit);
-  if (layout.bytes() > *temp_bytes || (counters_zeroed && counters_capacity < count)) return cudaErrorInvalidValue;
-  if (!counters_zeroed) result = cudaMemsetAsync(temp, 0, layout.bytes(), stream);
-  int sms = 0;
-  if (result == cudaSuccess) result = multiprocessors(&sms);
-  if (result != cudaSuccess) return result;
-  const int threads = policy_for(uint32_t(count), sms);
-  const auto n = uint32_t(count);
-  const auto sort = [&](auto policies) {
-    return sort_onesweep<decltype(policies)>(temp, layout, key_buffers, value_buffers, n, begin_bit, end_bit, sms,
-                                              stream);
-  };
-  result = threads == 0 ? sort(Stock{}) : threads == 512 ? sort(Tuned512{}) : sort(Tuned384{});
+#endif
+  // CUB's own dispatch, memsets included (cudaErrorInvalidValue when *temp_bytes is too small).
+  result = sort_public(temp, temp_bytes, key_buffers, value_buffers, count, begin_bit, end_bit, stream);
   *sorted = key_buffers.selector;
   return result;
 }
 
 cudaError_t clear_sort_counters(void* temp, size_t temp_bytes, uint64_t capacity, int begin_bit, int end_bit,
                                 cudaStream_t stream) {
+#if RGS_TUNED_ONESWEEP
+  // Every sort of up to `capacity` pairs that takes the tuned path reads these counters (laid out for capacity).
   const CounterLayout layout = layout_for_count(capacity, begin_bit, end_bit);
   if (layout.bytes() > temp_bytes) return cudaErrorInvalidValue;
   return layout.bytes() == 0 ? cudaSuccess : cudaMemsetAsync(temp, 0, layout.bytes(), stream);
+#else
+  // The public sort zeroes its own counters: only the size is checked.
+  (void)temp;
+  (void)stream;
+  size_t needed = 0;
+  const cudaError_t result = public_bytes(capacity, begin_bit, end_bit, &needed);
+  return result != cudaSuccess ? result : needed > temp_bytes ? cudaErrorInvalidValue : cudaSuccess;
+#endif
 }
 
 }  // namespace rgs::kernels

@@ -46,7 +46,7 @@ const double kPerspective[4][4] = {
 
 }  // namespace
 
-TEST_CASE("INRIA: camera-to-world rotation and centre; principal point at the image centre") {
+TEST_CASE("INRIA: camera-to-world rotation and centre, principal point at the image centre") {
   // Identity orientation at (1, 2, 3): the point (1, 2, 13) is 10 units straight ahead.
   auto c = rgs::api::camera_from_inria({1, 0, 0, 0, 1, 0, 0, 0, 1}, {1, 2, 3}, 100, 100, 200, 100);
   REQUIRE(c.ok());
@@ -101,7 +101,7 @@ TEST_CASE("OpenCV: K + [R|t], pixel centres at integers") {
   check_pixel(*g, {0.2, -0.1, 0}, 369.5, 219.5, 2);
 }
 
-TEST_CASE("OpenGL: view + projection; y up, window origin bottom-left, image rows top first") {
+TEST_CASE("OpenGL: view + projection, y up, window origin bottom-left, image rows top first") {
   auto c = rgs::api::camera_from_opengl(column_major(kView), column_major(kPerspective), 200, 100);
   REQUIRE(c.ok());
   CHECK(c->fx == doctest::Approx(50));
@@ -140,7 +140,7 @@ TEST_CASE("OpenGL: view + projection; y up, window origin bottom-left, image row
   for (int i = 0; i < 3; ++i) CHECK(back->translation[size_t(i)] == doctest::Approx(c->translation[size_t(i)]));
 }
 
-TEST_CASE("Vulkan: clip y down (flipped P[1][1]); the same pixel as OpenGL for the same view") {
+TEST_CASE("Vulkan: clip y down (flipped P[1][1]), the same pixel as OpenGL for the same view") {
   double vk[4][4];
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) vk[r][c] = kPerspective[r][c];

@@ -101,7 +101,7 @@ TEST_CASE("CPU audit of guitar against its conversion") {
   CHECK(std::filesystem::file_size(first) == 53 * 30 + std::string("P5\n53 30\n255\n").size());
 }
 
-TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference; two candidates in one run") {
+TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference, two candidates in one run") {
   const audit::AuditScene& source = guitar();
   std::vector<audit::AuditScene> candidates;
   candidates.push_back(test::audit_scene(test::repo_path("samples/guitar.ply")));

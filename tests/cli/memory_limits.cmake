@@ -51,7 +51,7 @@ function(rgs_memory_case name)
   add_test(NAME cli.memory.${name}
     COMMAND ${CMAKE_COMMAND} -DTOOL=${ARG_TOOL} "-DARGS=${ARG_ARGS}" -DEXPECT_EXIT=${ARG_EXIT}
             "-DEXPECT_REGEX=${ARG_REGEX}" -DPRLIMIT=${RGS_PRLIMIT} -P ${CMAKE_CURRENT_LIST_DIR}/memory_limits.cmake)
-  set_tests_properties(cli.memory.${name} PROPERTIES LABELS "cli;memory" TIMEOUT 300)
+  set_tests_properties(cli.memory.${name} PROPERTIES LABELS "cli;memory;slow" TIMEOUT 300)
 endfunction()
 
 if(RGS_SANITIZE)
@@ -59,7 +59,8 @@ if(RGS_SANITIZE)
   # start: the cases run in the plain build, and this one says so where the suite reports what it skipped.
   add_test(NAME cli.memory.skipped_under_sanitizers
     COMMAND ${CMAKE_COMMAND} -E echo "skipped: cli.memory.* (prlimit --as cannot apply under AddressSanitizer)")
-  set_tests_properties(cli.memory.skipped_under_sanitizers PROPERTIES LABELS "cli;memory")
+  set_tests_properties(cli.memory.skipped_under_sanitizers PROPERTIES LABELS "cli;memory"
+    SKIP_REGULAR_EXPRESSION "^skipped: ")
 elseif(NOT RGS_PRLIMIT)
   message(STATUS "prlimit not found: the cli.memory.* address-space tests are not registered")
 else()

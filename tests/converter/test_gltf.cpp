@@ -72,7 +72,7 @@ std::string base64(const std::vector<uint8_t>& in) {
   return out;
 }
 
-TEST_CASE("gltf: GLB round trip is exact for SH degrees 0-3; frame conversion") {
+TEST_CASE("gltf: GLB round trip is exact for SH degrees 0-3, frame conversion") {
   for (uint32_t degree = 0; degree <= 3; ++degree) {
     CAPTURE(degree);
     const format::GaussianCloud in = make_interop_cloud(300, degree);

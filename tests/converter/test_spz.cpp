@@ -171,7 +171,7 @@ TEST_CASE("spz: our writer read back, versions 2, 3 and 4, SH degrees 0-3") {
   }
 }
 
-TEST_CASE("spz: default SH bits keep the spz library's buckets; frame flags; large scenes drop fractional bits") {
+TEST_CASE("spz: default SH bits keep the spz library's buckets, frame flags, large scenes drop fractional bits") {
   const format::GaussianCloud in = make_interop_cloud(200, 2);
   const InteropScene out = read_ok(encode(in));
   // 4-bit buckets of 16/128 for degree 2 (5 bits for degree 1): half a bucket after rounding to 1/128.

@@ -155,7 +155,7 @@ std::string bad_archive_path(const std::string& name) { return data_path("bad/ar
 
 }  // namespace
 
-TEST_CASE("archive codebook: exact when the codebook holds every rest vector; file decodes to encode_archive") {
+TEST_CASE("archive codebook: exact when the codebook holds every rest vector, file decodes to encode_archive") {
   const format::EncodedScene scene = patterned_scene(4000, 3, 50, 9);
   format::ArchiveOptions options;
   options.sh_codebook_size = 64;

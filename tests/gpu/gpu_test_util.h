@@ -20,6 +20,7 @@
 #include "render_test_util.h"  // tests/runtime: identity_camera, add_gaussian, read_ply access
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
 #include "rgs/runtime/camera.h"
@@ -126,6 +127,25 @@ inline std::string shared_scene_any(const std::string& stem) {
   }
   MESSAGE("skipped: " << stem << ".ply/.rgs not found in " << shared_data_dir().string());
   return {};
+}
+
+/// tests/data/guitar_sh3.ply (shipped: 8,000 real Gaussians of the guitar with SH bands 1-3 synthetic,
+/// tests/data/make_guitar_sh3.py) with its SH reduced to `degree` (converter::reduce_sh_degree, as
+/// rgs-convert --sh-degree does), FP32 on both sides.
+inline GpuScenePair guitar_sh3(uint32_t degree) {
+  GpuScenePair s;
+  auto ply = converter::read_ply(repo_path(kGuitarSh3));
+  REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+  s.cloud = std::move(ply->cloud);
+  REQUIRE(s.cloud.sh_degree == 3);
+  const Status reduced = converter::reduce_sh_degree(&s.cloud, degree);
+  REQUIRE_MESSAGE(reduced.ok(), reduced.to_string());
+  s.bounds = converter::compute_bounds(s.cloud);
+  auto gpu = runtime::GpuScene::from_cloud(s.cloud, s.bounds);
+  REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
+  s.gpu = std::make_unique<runtime::GpuScene>(std::move(gpu).value());
+  s.available = true;
+  return s;
 }
 
 inline const GpuScenePair& guitar() {

@@ -50,7 +50,7 @@ TEST_CASE("parallel_slices: slice bounds depend only on n and the worker count")
   CHECK(ends == std::vector<uint64_t>{4, 9, 13, 18, 23});
 }
 
-TEST_CASE("an allocation failure in any thread is kOutOfMemory; other exceptions reach the caller") {
+TEST_CASE("an allocation failure in any thread is kOutOfMemory, other exceptions reach the caller") {
   for (unsigned workers : {1u, 2u, 8u}) {
     CAPTURE(workers);
     std::atomic<uint64_t> ran{0};

@@ -1,3 +1,2 @@
 // doctest main of the fork-join (rgs_parallel) suite.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
-#include <doctest/doctest.h>
+#include "test_main.h"

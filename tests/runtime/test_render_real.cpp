@@ -1,5 +1,6 @@
 // Renders of real scenes: the flowers scene from its own cameras (sanity, determinism, PPM for a look), the
-// RoofGS switches against the baseline, and the fast exp's per-pixel colour bound.
+// shipped SH-3 scene's bands, the RoofGS switches against the baseline, and the fast exp's per-pixel colour
+// bound.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "render_test_util.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/tile_chunks.h"
@@ -102,6 +104,46 @@ TEST_CASE("flowers, camera 0, 628x414: a plausible image, identical bits for any
   MESSAGE("wrote " << ppm << " and " << alpha_ppm);
 }
 
+TEST_CASE("guitar_sh3 (shipped): every SH band moves the image by more than the GPU suite's bounds") {
+  // tests/data/guitar_sh3.ply holds real Gaussians with SH bands 1-3 from tests/data/make_guitar_sh3.py, so that
+  // the GPU suite checks each band against this renderer from a clone (tests/gpu: max |diff| <= 0.02 and PSNR
+  // >= 70 dB per view, at SH degrees 1, 2 and 3). Those checks see a band that the GPU dropped or evaluated
+  // wrongly only when the band moves the image by more than that: here degree d against degree d - 1 on the
+  // GPU suite's views (4 orbit cameras at 628x414), in every view, by PSNR < 60 dB and max |diff| > 0.03 (1.5x
+  // the GPU bound), and by less than 0.5 (realistic colours, not a band that swamps the DC colour).
+  auto ply = converter::read_ply(repo_path(kGuitarSh3));
+  REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+  const format::GaussianCloud& full = ply->cloud;
+  CHECK(full.size() == 8000);
+  REQUIRE(full.sh_degree == 3);
+  const format::SceneBounds bounds = converter::compute_bounds(full);
+  auto cams = runtime::orbit_cameras(bounds, 4, 628, 414);
+  REQUIRE(cams.ok());
+  std::vector<std::vector<RenderResult>> renders;  // [degree][view]
+  for (uint32_t degree = 0; degree <= 3; ++degree) {
+    format::GaussianCloud cloud = full;
+    REQUIRE(converter::reduce_sh_degree(&cloud, degree).ok());
+    RenderOptions options;
+    options.scene_bounds = bounds;
+    renders.emplace_back();
+    for (const Camera& cam : *cams) renders.back().push_back(render_ok(cloud, cam, options));
+  }
+  for (uint32_t degree = 1; degree <= 3; ++degree) {
+    CAPTURE(degree);
+    for (size_t v = 0; v < cams->size(); ++v) {
+      CAPTURE(v);
+      const std::vector<float>& with = renders[degree][v].rgb;
+      const std::vector<float>& without = renders[degree - 1][v].rgb;
+      const double p = psnr(with, without), d = max_abs_diff(with, without);
+      MESSAGE("guitar_sh3 view " << v << ": band " << degree << " moves the image by PSNR " << p << " dB, max |diff| "
+                                 << d);
+      CHECK(p < 60.0);
+      CHECK(d > 0.03);
+      CHECK(d < 0.5);
+    }
+  }
+}
+
 TEST_CASE("RoofGS with every switch off is the baseline, bit for bit") {
   const FlowersScene& scene = flowers();
   if (!scene.available) return;
@@ -141,7 +183,7 @@ TEST_CASE("32-bit key with depth order reproduces the baseline's pair order and 
 struct Switch {
   std::string name;
   RoofgsOptions options;
-  /// Minimum PSNR over the 9 views, dB (justification in the test below).
+  /// Minimum PSNR over the views, dB (justification in the test below).
   double min_psnr;
 };
 
@@ -175,7 +217,8 @@ std::vector<Switch> switches() {
   return s;
 }
 
-TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a bounded change above it") {
+TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a bounded change above it" *
+          doctest::test_suite("slow")) {
   // flowers camera 0 at 628x414 with the fastest preset's techniques. With chunks larger than any tile's list
   // the image is the unchunked one, bit for bit (merging one chunk is exact). With tile_chunk_pairs 64 (chunks
   // of max(64, pairs / 2048) pairs) nearly every tile is blended in chunks (tiles hold hundreds of pairs;
@@ -210,7 +253,8 @@ TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a boun
   CHECK(max_abs_diff(chunked.alpha, whole.alpha) <= 0.01);
 }
 
-TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the baseline (flowers, 9 views)") {
+TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the baseline (flowers, 3 of 9 views)" *
+          doctest::test_suite("slow")) {
   // Budgets, from the CPU-emulation table of docs/DESIGN.md (1920×1080, 9 flowers cameras, min over views):
   // 32-bit key 47.5, SnugBox+AccuTile 63.7 (as Speedy-Splat, tiles beyond the 3DGS rectangle), fast exp 48.2
   // (σ = 0.05798: 50.0), the paper's combination 45.8, folded coefficients tile-local 94–98. Here at 628×414 the
@@ -218,9 +262,14 @@ TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the bas
   // thresholds sit ~2.5 dB under the 1080p minima to absorb the change of resolution (folded: 90). AccuTile
   // within the baseline rectangle only drops tiles where no pixel reaches alpha 1/255, so the image must be
   // identical up to FP32 ties at the 1/255 boundary (80 dB; measured: identical on all 9 views).
+  // Of the 9 views of that table, cameras 20, 40 and 120 hold the minimum over all 9 of every switch whose
+  // budget is within 40 dB of it (measured: camera 20 for the key, fast exp and the combinations, 40 for
+  // SnugBox + AccuTile unclipped; 120 is the next lowest of the latter and within 0.2 dB of the key's), so
+  // the 3 give the 9-view minima at a third of the renders.
   const FlowersScene& scene = flowers();
   if (!scene.available) return;
-  const std::vector<Camera> cams = flowers_cameras(scene);
+  const std::vector<Camera> nine = flowers_cameras(scene);
+  const std::vector<Camera> cams = {nine[1], nine[2], nine[6]};
   std::vector<RenderResult> base;
   for (const Camera& cam : cams) base.push_back(render_ok(scene.cloud, cam, with_bounds(scene)));
   for (const Switch& sw : switches()) {
@@ -242,8 +291,8 @@ TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the bas
     }
     MESSAGE(sw.name << ": PSNR min " << min_psnr << " dB, mean over finite views "
                     << (finite_views ? sum_psnr / finite_views : std::numeric_limits<double>::infinity()) << " ("
-                    << finite_views << "/9 finite), max |diff| " << worst_diff << ", pairs " << pairs << " vs "
-                    << base_pairs);
+                    << finite_views << "/" << cams.size() << " finite), max |diff| " << worst_diff << ", pairs "
+                    << pairs << " vs " << base_pairs);
     CHECK(min_psnr >= sw.min_psnr);
   }
 }
@@ -320,7 +369,8 @@ TEST_CASE("sub-tile culling on real pairs: no pixel of a cleared quadrant or 4x4
   CHECK(small_pixels_block > small_pixels_quadrant);
 }
 
-TEST_CASE("fast exp: per-pixel colour error stays within the paper's bound on real renders") {
+TEST_CASE("fast exp: per-pixel colour error stays within the paper's bound on real renders" *
+          doctest::test_suite("slow")) {
   // Paper (§Range-Aware Fast Exponential): α̂ = α(1 + ε), |ε| ≤ ε_max, gives |ΔC|∞ ≤ ε_max per pixel for colours
   // in [0, 1]. The exact form of that argument: the output C = Σ cₖαₖTₖ + T·bg is affine in each αₖ, so changing
   // the alphas one at a time (front to back) telescopes to ΔC = Σₖ T̂ₖ(α̂ₖ − αₖ)(cₖ − Rₖ), where T̂ₖ is the

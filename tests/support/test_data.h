@@ -9,6 +9,10 @@
 
 namespace rgs::test {
 
+/// The shipped SH-degree-3 test scene (repository path): 8,000 Gaussians of samples/guitar.ply (the
+/// headstock) with SH bands 1-3 filled by the deterministic rule of tests/data/make_guitar_sh3.py.
+inline constexpr const char* kGuitarSh3 = "tests/data/guitar_sh3.ply";
+
 /// Absolute path of a file in the repository (e.g. "samples/guitar.ply").
 inline std::string repo_path(const std::string& relative) {
   return (std::filesystem::path(RGS_SOURCE_DIR) / relative).string();

@@ -94,7 +94,7 @@ TEST_CASE("write_pfm_rgb: header, bottom row first, little-endian float32") {
   fs::remove_all(dir);
 }
 
-TEST_CASE("write_image8: dispatch by extension; PNG only with OpenImageIO") {
+TEST_CASE("write_image8: dispatch by extension, PNG only with OpenImageIO") {
   const fs::path dir = scratch_dir();
   const std::vector<uint8_t> grey = {10, 20};
   REQUIRE(rgs::tools::write_image8((dir / "g.ppm").string(), 2, 1, 1, grey).ok());  // grey repeated into RGB

@@ -58,24 +58,31 @@ cudaError_t sort_pairs(void* temp, size_t* temp_bytes, const uint64_t* keys_in, 
                        const uint32_t* values_in, uint32_t* values_out, uint64_t count, int begin_bit, int end_bit,
                        cudaStream_t stream);
 
-/// The RoofGS sort of 32-bit keys (end_bit ≤ 32): the same stable CUB onesweep sort, with 32-bit offsets and
-/// the histogram and onesweep block sizes measured faster on an H100 (kernels/src/sort.cu), passing the pairs
-/// back and forth between two buffers of each kind (CUB's DoubleBuffer with overwrite allowed), so that its
-/// scratch holds no third copy of them (8 bytes a pair less GPU memory). The pairs start in keys[0] /
-/// values[0]; *sorted receives the index, 0 or 1, of the buffers that hold them sorted, and the other two
-/// buffers' contents are unspecified. Call with temp == nullptr to get *temp_bytes (a size queried for a count
-/// serves every smaller count). Up to 2^28 − 16,384 pairs, CUB's kernels are launched here back to back on
-/// counters at the start of `temp`, laid out for `counters_capacity` pairs (at least `count`; 0: `count`),
-/// which must be zero: `counters_zeroed` says that clear_sort_counters() with that capacity did so since the
-/// last sort on this scratch (the renderer enqueues it before it knows the count); else this function zeroes
-/// them first. cudaErrorInvalidValue when `*temp_bytes` is too small for them or the capacity below `count`.
+/// The RoofGS sort of 32-bit keys (end_bit ≤ 32): a stable LSD radix sort like sort_pairs, with 32-bit offsets,
+/// passing the pairs back and forth between two buffers of each kind (CUB's DoubleBuffer with overwrite
+/// allowed), so that its scratch holds no third copy of them (8 bytes a pair less GPU memory). The pairs start
+/// in keys[0] / values[0]; *sorted receives the index, 0 or 1, of the buffers that hold them sorted, and the
+/// other two buffers' contents are unspecified. Call with temp == nullptr to get *temp_bytes (a size queried
+/// for a count serves every smaller count). It runs CUB's public DeviceRadixSort::SortPairs, or, when
+/// sort_pairs_ping_pong_tuned() (built against CCCL 3.0.1, kernels/src/sort.cu), up to 2^28 − 16,384 pairs,
+/// CUB's onesweep kernels launched here back to back with the histogram and onesweep block sizes measured
+/// faster on an H100, on counters at the start of `temp` laid out for `counters_capacity` pairs (at least
+/// `count`; 0: `count`), which must be zero: `counters_zeroed` says that clear_sort_counters() with that
+/// capacity did so since the last sort on this scratch (the renderer enqueues it before it knows the count);
+/// else this function zeroes them first. Both give the same sorted pairs. cudaErrorInvalidValue when
+/// `*temp_bytes` is too small, or when `counters_zeroed` and the capacity is below `count`.
 cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const keys[2], uint32_t* const values[2],
                                  uint64_t count, uint64_t counters_capacity, int begin_bit, int end_bit,
                                  bool counters_zeroed, int* sorted, cudaStream_t stream);
 
+/// Whether sort_pairs_ping_pong() launches the tuned onesweep kernels itself (this build's CCCL is 3.0.1, that
+/// of CUDA 13.0, and RGS_PUBLIC_CUB_SORT was not defined) rather than calling CUB's public SortPairs.
+bool sort_pairs_ping_pong_tuned();
+
 /// Zeroes the counters that the next sort_pairs_ping_pong() of at most `capacity` pairs on `temp` (of
-/// `temp_bytes`, the same bits) uses: one memset of a few bytes a pair (4 KB per 8,832 pairs at 4 passes),
-/// which needs no pair count, for all of its passes. cudaErrorInvalidValue when `temp_bytes` is too small.
+/// `temp_bytes`, the same bits) uses on the tuned path: one memset of a few bytes a pair (4 KB per 8,832 pairs
+/// at 4 passes), which needs no pair count, for all of its passes. On the public path CUB zeroes its own
+/// counters and this does nothing. cudaErrorInvalidValue when `temp_bytes` is too small for such a sort.
 cudaError_t clear_sort_counters(void* temp, size_t temp_bytes, uint64_t capacity, int begin_bit, int end_bit,
                                 cudaStream_t stream);
 
