@@ -469,7 +469,7 @@ TEST_CASE("hostile scenes: JSON nested deeper than 64 levels is kCorruptData 'ne
   }
 }
 
-TEST_CASE("hostile scenes: glTF node cycles are kCorruptData 'cycle'; a node with 2^40 paths is visited once") {
+TEST_CASE("hostile scenes: glTF node cycles are kCorruptData 'cycle', a node with 2^40 paths is visited once") {
   for (const std::string path : {"gltf/node_cycle.gltf", "gltf/node_self_cycle.gltf"}) {
     CAPTURE(path);
     check_refused(read_in_child(hostile(path)), {StatusCode::kCorruptData}, fs::path(path).filename().string(),
