@@ -1,7 +1,5 @@
 #include "internal_input_file.h"
 
-#include "rgs/format/reader.h"
-
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -12,6 +10,8 @@
 #include <cstdio>
 #include <cstring>
 #include <new>
+
+#include "rgs/format/reader.h"
 
 namespace rgs::converter::detail {
 
@@ -50,9 +50,6 @@ Status open_regular(const std::string& path, int* fd, uint64_t* size) {
   return check_regular(fd, path, size);
 }
 
-/// Reads n bytes of `fd` from its start into `out`, allocated once the size is known; closes `fd`.
-Status read_and_close(int fd, const std::string& path, uint64_t n, std::vector<uint8_t>* out);
-
 Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0) {
   size_t done = 0;
   while (done < n) {
@@ -71,6 +68,7 @@ Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint6
   return Status();
 }
 
+/// Reads n bytes of `fd` from its start into `out`, allocated once the size is known; closes `fd`.
 Status read_and_close(int fd, const std::string& path, uint64_t n, std::vector<uint8_t>* out) {
   Status s;
   try {
