@@ -25,6 +25,10 @@ namespace {
 
 using nlohmann::json;
 
+/// Most splat primitives a file may draw (a mesh drawn by several nodes counts once per node): real files
+/// draw a handful; the bound keeps the per-primitive state small before any accessor is checked.
+constexpr size_t kMaxSplatPrimitives = 4096;
+
 /// Deepest node hierarchy followed (cycles are errors anyway; this bounds the recursion).
 constexpr int kMaxNodeDepth = 64;
 
@@ -281,6 +285,10 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
       if (!p.is_object()) continue;
       auto ext = p.find("extensions");
       if (ext == p.end() || !ext->is_object() || !ext->contains(detail::kKhrGaussianSplatting)) continue;
+      if (prims_.size() == kMaxSplatPrimitives) {
+        return Status(StatusCode::kLimitExceeded, "glTF draws more than " + std::to_string(kMaxSplatPrimitives) +
+                                                      " Gaussian splatting primitives (nodes x primitives)");
+      }
       Primitive prim{&p, {}};
       std::memcpy(prim.world, world, sizeof(world));
       prims_.push_back(prim);
