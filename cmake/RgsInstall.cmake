@@ -1,11 +1,12 @@
 # install(EXPORT RoofGSTargets NAMESPACE RoofGS::) with config and version files, so consumers write
-# find_package(RoofGS) and link RoofGS::api (or the expert libraries RoofGS::format, ::converter, ::runtime).
+# find_package(RoofGS) and link RoofGS::api (or the expert libraries RoofGS::format, ::converter, ::runtime, and
+# the asset audit RoofGS::audit).
 # tests/cli/install_consumer.cmake builds samples/ against the installed tree.
 include(CMakePackageConfigHelpers)
 
 set(RGS_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/RoofGS)
 set(rgs_export_targets rgs_format rgs_converter rgs_xxhash rgs_draco)
-foreach(t IN ITEMS rgs_kernels_shared rgs_runtime rgs_kernels rgs_api)
+foreach(t IN ITEMS rgs_kernels_shared rgs_runtime rgs_kernels rgs_api rgs_audit)
   if(TARGET ${t})
     list(APPEND rgs_export_targets ${t})
   endif()
@@ -23,7 +24,7 @@ install(TARGETS ${rgs_export_targets} EXPORT RoofGSTargets
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
   INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-foreach(dir IN ITEMS format converter runtime kernels api)
+foreach(dir IN ITEMS format converter runtime kernels api audit)
   if(IS_DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/include)
     install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
   endif()
