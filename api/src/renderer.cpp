@@ -7,6 +7,7 @@
 
 #include "internal_scene.h"
 #include "rgs/format/half.h"
+#include "rgs/kernels/shared/blend_math.h"
 #include "rgs/runtime/cpu_renderer.h"
 
 #if RGS_HAS_CUDA
@@ -64,11 +65,6 @@ Status check_target(const ImageTarget& t, const Camera& camera) {
   return Status();
 }
 
-uint8_t to_unorm8(float v) {
-  const float c = std::fmin(std::fmax(v, 0.f), 1.f);  // NaN becomes 0
-  return static_cast<uint8_t>(std::floor(c * 255.f + 0.5f));
-}
-
 /// Writes a CPU render into a host target (the rules of kernels/output_convert.h).
 void write_host_target(const runtime::RenderResult& r, const ImageTarget& t) {
   for (uint32_t y = 0; y < t.height; ++y) {
@@ -84,7 +80,7 @@ void write_host_target(const runtime::RenderResult& r, const ImageTarget& t) {
         std::memcpy(row + size_t(x) * 8, h, 8);
       } else {
         uint8_t* out = reinterpret_cast<uint8_t*>(row) + size_t(x) * 4;
-        for (int c = 0; c < 4; ++c) out[c] = to_unorm8(v[c]);
+        for (int c = 0; c < 4; ++c) out[c] = kernels::unorm8(v[c]);
       }
     }
     if (t.depth != nullptr) {

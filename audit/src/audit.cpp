@@ -7,6 +7,7 @@
 
 #include "internal_backend.h"
 #include "rgs/format/spec.h"
+#include "rgs/kernels/shared/blend_math.h"
 
 namespace rgs::audit {
 
@@ -19,7 +20,7 @@ double seconds_since(Clock::time_point start) {
 }
 
 float clamp01(float v) { return std::isnan(v) ? 0.f : std::clamp(v, 0.f, 1.f); }
-uint8_t to_byte(double v) { return static_cast<uint8_t>(std::floor(std::clamp(v, 0.0, 1.0) * 255.0 + 0.5)); }
+uint8_t to_byte(double v) { return kernels::unorm8(static_cast<float>(v)); }
 
 /// Smallest integer factor that brings the larger side to at most `max_side`.
 uint32_t reduction_factor(uint32_t width, uint32_t height, uint32_t max_side) {

@@ -2,14 +2,10 @@
 #include <cuda_fp16.h>
 
 #include "rgs/kernels/output_convert.h"
+#include "rgs/kernels/shared/blend_math.h"
 
 namespace rgs::kernels {
 namespace {
-
-__device__ inline unsigned char to_unorm8(float v) {
-  const float c = fminf(fmaxf(v, 0.f), 1.f);  // NaN becomes 0 through fmaxf
-  return static_cast<unsigned char>(floorf(c * 255.f + 0.5f));
-}
 
 __global__ void convert_output_kernel(OutputConvertParams p) {
   const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x;
@@ -38,10 +34,10 @@ __global__ void convert_output_kernel(OutputConvertParams p) {
     }
     case OutputPixelFormat::kRgba8: {
       uchar4 c;
-      c.x = to_unorm8(v.x);
-      c.y = to_unorm8(v.y);
-      c.z = to_unorm8(v.z);
-      c.w = to_unorm8(a);
+      c.x = unorm8(v.x);
+      c.y = unorm8(v.y);
+      c.z = unorm8(v.z);
+      c.w = unorm8(a);
       unsigned char* out = reinterpret_cast<unsigned char*>(row) + size_t(x) * 4;
       out[0] = c.x;  // byte stores: the caller's pitch need not keep uchar4 alignment
       out[1] = c.y;

@@ -1,6 +1,8 @@
 // image_io.h: 8-bit conversion and PPM output.
 #include "rgs/runtime/image_io.h"
 
+#include "rgs/kernels/shared/blend_math.h"
+
 #include <cmath>
 #include <cstdio>
 
@@ -9,9 +11,7 @@ namespace rgs::runtime {
 std::vector<uint8_t> to_8bit(const std::vector<float>& rgb) {
   std::vector<uint8_t> out(rgb.size());
   for (size_t i = 0; i < rgb.size(); ++i) {
-    const float v = rgb[i];
-    const float clamped = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;  // NaN → 0
-    out[i] = static_cast<uint8_t>(std::floor(clamped * 255.f + 0.5f));
+    out[i] = kernels::unorm8(rgb[i]);
   }
   return out;
 }

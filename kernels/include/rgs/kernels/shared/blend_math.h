@@ -3,6 +3,8 @@
 // Eqs. coeff, dot, dual_pixel; docs/DESIGN.md#folded-rasterizer).
 #pragma once
 
+#include <cmath>
+
 #include "rgs/kernels/shared/fast_exp.h"
 #include "rgs/kernels/shared/host_device.h"
 #include "rgs/kernels/shared/projection.h"
@@ -15,6 +17,14 @@ constexpr float kAlphaMax = 0.99f;
 constexpr float kAlphaMin = 1.0f / 255.0f;
 /// A pixel stops before the Gaussian that would bring its transmittance below this (3DGS 0.0001).
 constexpr float kTransmittanceMin = 0.0001f;
+
+/// A linear colour value as an 8-bit code by the 3DGS rule floor(clamp(v, 0, 1)·255 + 0.5), no gamma; NaN
+/// gives 0. The one definition for every 8-bit output (images written by the tools, RGBA8 targets on the CPU
+/// and the GPU, the audit's report images).
+RGS_HOST_DEVICE unsigned char unorm8(float v) {
+  const float c = fminf(fmaxf(v, 0.f), 1.f);  // fmaxf(NaN, 0) = 0
+  return static_cast<unsigned char>(floorf(c * 255.f + 0.5f));
+}
 
 /// Baseline Gaussian power at a pixel: power = −0.5·(a·dx² + c·dy²) − b·dx·dy, with (dx, dy) = mean − pixel
 /// and the conic (a, b, c). Order of operations as 3DGS renderCUDA.
