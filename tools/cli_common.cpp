@@ -16,7 +16,7 @@
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
-#include "read_limits_option.h"
+#include "scene_read_options.h"
 
 namespace rgs::tools {
 
@@ -246,10 +246,10 @@ Result<std::vector<uint8_t>> read_standard_input() {
         if (bytes.size() >= 56) {
           limit = 0;
           for (int b = 7; b >= 0; --b) limit = (limit << 8) | bytes[48 + b];  // file_size (SPEC §2)
-          if (limit > read_limits().max_file_bytes) {
+          if (limit > read_options().limits.max_file_bytes) {
             return Status(StatusCode::kLimitExceeded, "-: the .rgs header declares " + std::to_string(limit) +
                                                           " bytes, above the limit of " +
-                                                          std::to_string(read_limits().max_file_bytes));
+                                                          std::to_string(read_options().limits.max_file_bytes));
           }
           known = rgs = true;
         }

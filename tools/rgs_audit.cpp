@@ -34,7 +34,7 @@
 
 #include "cli_common.h"
 #include "created_directory.h"
-#include "read_limits_option.h"
+#include "scene_read_options.h"
 #include "error_stats_output.h"
 #include "image_write.h"
 #include "rgs/audit/audit.h"
@@ -344,13 +344,15 @@ int run(const Options& opt) {
   options.cpu_threads = opt.threads;
 
   // Every scene goes through audit::load_audit_scene, the one place that picks a reader.
-  auto source = audit::load_audit_scene(opt.scenes[0], "source", tools::read_options());
+  auto source = audit::load_audit_scene(opt.scenes[0], "source", tools::scene_read_options());
   if (!source.ok()) return tools::report_error(kTool, source.status());
+  tools::report_notes(kTool, source->info.notes, opt.quiet);
   std::vector<audit::AuditScene> candidates;
   for (size_t i = 1; i < opt.scenes.size(); ++i) {
     const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
-    auto scene = audit::load_audit_scene(opt.scenes[i], label, tools::read_options());
+    auto scene = audit::load_audit_scene(opt.scenes[i], label, tools::scene_read_options());
     if (!scene.ok()) return tools::report_error(kTool, scene.status());
+    tools::report_notes(kTool, scene->info.notes, opt.quiet);
     candidates.push_back(std::move(scene).value());
   }
   auto cameras = api::make_cameras(opt.cameras, source->bounds);
@@ -523,7 +525,7 @@ int main(int argc, char** argv) {
       "option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure (nothing written), 2 usage error, 3 below "
       "--min-psnr (reports written).",
       kTool};
-  app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: any scene files it reads (.ply, .rgs)");
+  app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: scenes in any format, " + rgs::tools::scene_formats_help());
   app.add_option("--label", opt.labels, "Name of a candidate in tables and plots (repeat, in candidate order)");
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json (native size by default)");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
@@ -538,7 +540,7 @@ int main(int argc, char** argv) {
   app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
       ->check(CLI::IsMember({"auto", "cuda", "cpu"}));
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023));
-  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
+  rgs::tools::add_scene_read_options(app);
   app.add_option("--threads", opt.threads, "CPU backend threads (0 = all cores)");
   auto* report = app.add_option("--report", opt.report_path,
                                 "HTML report; its JSON (.json) and images (_files/) go next to it");

@@ -35,7 +35,7 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "read_limits_option.h"
+#include "scene_read_options.h"
 #include "rgs/api/gpu_preset.h"
 #include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/api/renderer.h"
@@ -437,7 +437,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
   load.device = api::Device::kCuda;
   load.cuda_device = opt.device;
   load.presets = {api::Preset::kFastest};
-  load.read_options = tools::read_options();
+  load.read_options = tools::scene_read_options();
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
   RGS_ASSIGN_OR_RETURN(api::Renderer front, api::Renderer::create(api::Device::kCuda, opt.device));
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions expert_options,
@@ -488,7 +488,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
 Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::ReplicatedScene* replicated, bool fp32) {
   runtime::GpuSceneOptions scene_options;
   scene_options.fp32_attributes = fp32;
-  if (opt.replicate <= 1) return api::load_gpu_scene(opt.input, scene_options, nullptr, tools::read_options());
+  if (opt.replicate <= 1) return api::load_gpu_scene(opt.input, scene_options, nullptr, tools::scene_read_options());
   auto scene = api::upload_rgs_bytes(replicated->rgs_bytes, replicated->source_file_bytes,
                                      opt.input + " x" + std::to_string(opt.replicate), scene_options);
   replicated->rgs_bytes = std::vector<uint8_t>();  // uploaded: free the host copy
@@ -516,7 +516,7 @@ int run(const Options& opt) {
   api::ReplicatedScene replicated;
   if (opt.replicate > 1) {
     std::fprintf(stderr, "replicating %s x%u ...\n", opt.input.c_str(), opt.replicate);
-    auto r = api::replicate_scene_file(opt.input, opt.replicate, tools::read_options());
+    auto r = api::replicate_scene_file(opt.input, opt.replicate, tools::scene_read_options());
     if (!r.ok()) return tools::report_error(kTool, Status(r.status()).prepend("--replicate " +
                                                                               std::to_string(opt.replicate)));
     replicated = std::move(r).value();
@@ -548,6 +548,7 @@ int run(const Options& opt) {
   const auto load_start = Clock::now();
   auto scene = load_bench_scene(opt, &replicated, fp32);
   if (!scene.ok()) return tools::report_error(kTool, scene.status());
+  tools::report_notes(kTool, opt.replicate > 1 ? replicated.notes : scene->notes);
   const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
   auto sets = make_camera_sets(opt, scene->bounds);
   if (!sets.ok()) return tools::report_error(kTool, sets.status());
@@ -823,7 +824,7 @@ int main(int argc, char** argv) {
                "Also compare every view of every mode but baseline with the baseline's render (PSNR, SSIM, max |d| "
                "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
-  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
+  rgs::tools::add_scene_read_options(app);
   try {
     app.parse(argc, argv);
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {

@@ -14,141 +14,38 @@
 
 #include <CLI/CLI.hpp>
 
-#include <chrono>
+#include <algorithm>
 #include <cstdio>
-#include <filesystem>
-#include <memory>
 #include <nlohmann/json.hpp>
-#include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
-#include <xxhash.h>
 
 #include "cli_common.h"
 #include "error_stats_output.h"
-#include "read_limits_option.h"
+#include "rgs/api/convert.h"
 #include "rgs/config.h"
-#include "rgs/converter/attribute_errors.h"
-#include "rgs/converter/ply_reader.h"
-#include "rgs/converter/gltf_writer.h"
-#include "rgs/converter/ply_writer.h"
-#include "rgs/converter/scene_reader.h"
-#include "rgs/converter/quantize.h"
-#include "rgs/converter/spz_writer.h"
 #include "rgs/format/file_io.h"
-#include "rgs/format/reader.h"
-#include "rgs/format/spec.h"
-#include "rgs/format/writer.h"
+#include "scene_read_options.h"
 
 namespace {
 
 using namespace rgs;
-using Clock = std::chrono::steady_clock;
 constexpr const char* kTool = "rgs-convert";
 
 struct Options {
   std::string input;
   std::string output;
+  std::string to;  ///< --to: rgs, ply, spz or glb; empty: the output's extension decides
   std::string scale_encoding = "linear";
-  float sh_clip_percentile = 100.0f;
-  std::vector<std::string> zstd_sections;
-  int zstd_level = 19;
-  bool sanitize = false;
-  bool allow_empty = false;
-  bool quiet = false;
-  std::string json_path;  ///< "-": standard output, instead of the text summary
-  std::optional<uint32_t> lod;
   std::string profile = "runtime";
-  double position_error = format::kDefaultArchivePositionError;
-  std::string to;                     ///< --to: rgs, ply, spz or glb; empty: the output's extension decides
-  std::optional<uint32_t> sh_degree;  ///< --sh-degree: drop the SH bands above it
-  bool keep_frame = false;            ///< --keep-frame: SPZ axes as stored (no RUB <-> RDF turn)
+  std::string json_path;  ///< "-": standard output, instead of the text summary
+  bool quiet = false;
+  api::ConvertOptions convert;  ///< everything else, parsed straight into the library's options
 
   bool json_to_stdout() const { return json_path == "-"; }
   /// The text summary goes to stdout unless -q or the JSON takes its place.
   bool print_summary() const { return !quiet && !json_to_stdout(); }
 };
-
-/// The input: a file, or standard input ("-") read into memory.
-struct Input {
-  std::string path;
-  std::vector<uint8_t> bytes;  ///< standard input's content when path is "-"
-  bool from_stdin() const { return path == "-"; }
-};
-
-/// A .rgs input (a file, or standard input's bytes): validated fully (checksums, codecs, values), then
-/// dequantized, and described as read_scene describes the other formats.
-Result<converter::InputScene> read_rgs_input(const Options& opt, const Input& input) {
-  std::shared_ptr<const format::MappedFile> mapping;
-  const uint8_t* bytes = input.bytes.data();
-  size_t size = input.bytes.size();
-  if (!input.from_stdin()) {
-    RGS_ASSIGN_OR_RETURN(mapping, format::MappedFile::open(opt.input));
-    bytes = mapping->data();
-    size = mapping->size();
-  }
-  RGS_RETURN_IF_ERROR(format::validate(bytes, size, tools::read_limits(), opt.input));
-  RGS_ASSIGN_OR_RETURN(format::RgsFile file,
-                       format::RgsFile::from_bytes(bytes, size, tools::read_options(), opt.input));
-  RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
-  auto cloud = format::dequantize(encoded);
-  if (!cloud.ok()) return Status(cloud.status()).prepend(opt.input);
-  converter::InputScene scene;
-  scene.cloud = std::move(cloud).value();
-  scene.format_id = "rgs";
-  scene.description = "RoofGS .rgs, dequantized";
-  scene.storage_format = "rgs";
-  scene.file_bytes = file.file_size();
-  scene.file_count = 1;
-  scene.declared_vertices = file.gaussian_count();
-  scene.file_xxh64 = XXH64(bytes, size, 0);
-  return scene;
-}
-
-/// The input as float Gaussians, whatever its format, with --sh-degree applied.
-Result<converter::InputScene> read_input(const Options& opt, const Input& input, bool is_rgs) {
-  converter::InputScene scene;
-  if (is_rgs) {
-    RGS_ASSIGN_OR_RETURN(scene, read_rgs_input(opt, input));
-  } else {
-    converter::SceneReadOptions read_options;
-    read_options.invalid_policy =
-        opt.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
-    read_options.max_gaussians = tools::read_limits().max_gaussians;
-    read_options.max_decompression_ratio = tools::read_limits().max_decompression_ratio;
-    read_options.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
-    read_options.lod = opt.lod;
-    read_options.convert_spz_frame = !opt.keep_frame;
-    if (input.from_stdin()) {  // only PLY is read from standard input: the other formats need a file
-      RGS_ASSIGN_OR_RETURN(scene, converter::read_scene_bytes(input.bytes.data(), input.bytes.size(),
-                                                                  input.path, read_options));
-    } else {
-      RGS_ASSIGN_OR_RETURN(scene, converter::read_scene(opt.input, read_options));
-    }
-  }
-  if (opt.sh_degree && *opt.sh_degree < scene.cloud.sh_degree) {
-    scene.notes.push_back("SH degree " + std::to_string(scene.cloud.sh_degree) + " reduced to " +
-                          std::to_string(*opt.sh_degree) + " (--sh-degree)");
-    RGS_RETURN_IF_ERROR(converter::reduce_sh_degree(&scene.cloud, *opt.sh_degree));
-  }
-  return scene;
-}
-
-/// The error for an empty scene unless --allow-empty.
-Status check_not_empty(const Options& opt, const converter::InputScene& scene) {
-  if (scene.cloud.size() != 0 || opt.allow_empty) return Status();
-  const std::string why = scene.hygiene.dropped_gaussians > 0
-                              ? "--sanitize dropped all " + tools::group_digits(scene.hygiene.dropped_gaussians) +
-                                    " Gaussians, so the scene is empty"
-                              : "the input has no Gaussians";
-  return Status(StatusCode::kInvalidArgument, opt.input + ": " + why + "; --allow-empty writes an empty scene");
-}
-
-/// The input's notes, one line each, in the text summary.
-void print_notes(const char* label, const std::vector<std::string>& notes) {
-  for (const std::string& note : notes) std::printf("  %-16s %s\n", label, tools::escape_text(note).c_str());
-}
 
 /// Writes the JSON summary: staged as an output of `outputs`, or printed when it goes to stdout.
 Status emit_json(const Options& opt, const nlohmann::json& j, format::OutputSet* outputs) {
@@ -160,319 +57,117 @@ Status emit_json(const Options& opt, const nlohmann::json& j, format::OutputSet*
   return outputs->write(opt.json_path, text.data(), text.size());
 }
 
-/// The last steps of a conversion whose outputs are staged: the printed report must have reached stdout
-/// before the files change, so that a failed report (a full disk, a closed pipe) leaves no output behind.
-int commit_outputs(format::OutputSet* outputs) {
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs->commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  return tools::kExitOk;
-}
-
-/// Sections a user may name in --zstd.
-const std::vector<std::pair<std::string, format::SectionId>> kSectionNames = {
-    {"metadata", format::SectionId::kMetadata}, {"provenance", format::SectionId::kProvenance},
-    {"means", format::SectionId::kMeans},       {"rotations", format::SectionId::kRotations},
-    {"scales", format::SectionId::kScales},     {"opacities", format::SectionId::kOpacities},
-    {"sh", format::SectionId::kSh}};
-
-Result<format::WriteOptions> make_write_options(const Options& opt) {
-  format::WriteOptions write;
-  write.zstd_level = opt.zstd_level;
-  if (opt.profile == "archive") {
-    write.profile = format::StorageProfile::kArchive;
-    write.archive.position_error = opt.position_error;
+nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
+  const double per_gaussian = r.gaussians ? 1.0 / static_cast<double>(r.gaussians) : 0.0;
+  nlohmann::json j;
+  j["input"] = {{"path", opt.input},         {"bytes", r.input_bytes},
+                {"format", r.input_format},  {"storage", r.input_storage},
+                {"declared_vertices", r.declared_gaussians}, {"notes", r.input_notes}};
+  j["output"] = {{"path", opt.output},
+                 {"bytes", r.output_bytes},
+                 {"format", api::output_format_name(r.output_format)},
+                 {"description", r.output_description},
+                 {"notes", r.output_notes}};
+  j["gaussians"] = r.gaussians;
+  j["sh_degree"] = r.sh_degree;
+  j["bytes_per_gaussian"] = {{"input", double(r.input_bytes) * per_gaussian},
+                             {"output", double(r.output_bytes) * per_gaussian}};
+  j["ratio"] = r.output_bytes > 0 ? double(r.input_bytes) / double(r.output_bytes) : 0.0;
+  j["hygiene"] = {{"nonfinite_values", r.hygiene.nonfinite_values},
+                  {"gaussians_with_nonfinite", r.hygiene.gaussians_with_nonfinite},
+                  {"zero_norm_quaternions", r.hygiene.zero_norm_quaternions},
+                  {"infinite_opacity_logits", r.hygiene.infinite_opacity_logits},
+                  {"dropped_gaussians", r.hygiene.dropped_gaussians}};
+  if (r.output_format == api::OutputFormat::kPly) j["zero_scales"] = r.zero_scales;
+  if (r.spz) {
+    j["spz"] = {{"version", r.spz->version},
+                {"fractional_bits", r.spz->fractional_bits},
+                {"position_step", r.spz->position_step},
+                {"scales_clamped", r.spz->scales_clamped},
+                {"colors_clamped", r.spz->colors_clamped},
+                {"sh_clamped", r.spz->sh_clamped},
+                {"frame", converter::spz_frame_name(opt.convert.read.spz_frame)}};
   }
-  for (const std::string& name : opt.zstd_sections) {
-    if (name == "all") {
-      for (const auto& [n, id] : kSectionNames) write.codecs[id] = format::Codec::kZstd;
-      continue;
-    }
-    bool found = false;
-    for (const auto& [n, id] : kSectionNames) {
-      if (n == name) {
-        write.codecs[id] = format::Codec::kZstd;
-        found = true;
-      }
-    }
-    RGS_RETURN_ERROR_IF(!found, StatusCode::kInvalidArgument,
-                        "--zstd: unknown section '" + name +
-                            "' (use all, metadata, provenance, means, rotations, scales, opacities, sh)");
-  }
-  return write;
-}
-
-std::string hex64(uint64_t v) {
-  char buf[17];
-  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(v));
-  return buf;
-}
-
-/// Any input -> .rgs: read, quantize, stage the outputs, measure, print the summary, commit.
-int convert_to_rgs(const Options& opt, const Input& input, bool is_rgs, format::OutputSet* outputs) {
-  const auto t_start = Clock::now();
-  auto write_options = make_write_options(opt);
-  if (!write_options.ok()) return tools::report_error(kTool, write_options.status());
-
-  auto ply = read_input(opt, input, is_rgs);
-  if (!ply.ok()) return tools::report_error(kTool, ply.status());
-  const double t_read = tools::seconds_since(t_start);
-  if (Status empty = check_not_empty(opt, *ply); !empty.ok()) return tools::report_error(kTool, empty);
-
-  converter::QuantizeOptions quantize_options;
-  quantize_options.scale_encoding =
-      opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
-  quantize_options.sh_clip_percentile = opt.sh_clip_percentile;
-  converter::QuantizationReport report;
-  converter::AttributeErrors errors;  // measured inside quantize(), in the pass that encodes
-  const auto t_quantize_start = Clock::now();
-  auto encoded = converter::quantize(ply->cloud, quantize_options, &report, &errors);
-  if (!encoded.ok()) return tools::report_error(kTool, Status(encoded.status()).prepend(opt.input));
-  const double t_quantize = tools::seconds_since(t_quantize_start);
-  ply->cloud = {};  // the float copy is not read again; freed before the writer's buffers exist (peak RSS)
-
-  std::ostringstream options_text;
-  options_text << "scale_encoding=" << opt.scale_encoding << " sh_clip_percentile=" << opt.sh_clip_percentile
-               << " sanitize=" << (opt.sanitize ? 1 : 0) << " zstd_level=" << opt.zstd_level << " zstd=";
-  for (size_t i = 0; i < opt.zstd_sections.size(); ++i) options_text << (i ? "," : "") << opt.zstd_sections[i];
-  if (opt.sh_degree) options_text << " sh_degree=" << *opt.sh_degree;
-  if (opt.keep_frame) options_text << " keep_frame=1";
-  encoded->provenance = {
-      {"source_file", std::filesystem::path(opt.input).filename().string()},
-      {"source_bytes", std::to_string(ply->file_bytes)},
-      {"source_xxh64", hex64(ply->file_xxh64.value_or(0))},
-      {"source_storage", ply->storage_format},
-      {"converter", std::string("rgs-convert ") + RGS_VERSION_STRING},
-      {"options", options_text.str()},
-      {"dropped_gaussians", std::to_string(ply->hygiene.dropped_gaussians)},
-  };
-
-  const auto t_write_start = Clock::now();
-  // Staged in `outputs` (declared there): renamed into place by commit_outputs().
-  auto written = format::write_scene_file(opt.output, *encoded, *write_options);
-  if (!written.ok()) return tools::report_error(kTool, written.status());
-  const double t_write = tools::seconds_since(t_write_start);
-
-  const double t_total = tools::seconds_since(t_start);
-
-  const uint64_t n = encoded->count;
-  const double per_gaussian = n ? 1.0 / static_cast<double>(n) : 0.0;
-  const uint32_t degree = encoded->metadata.sh_degree;
-  const double in_bytes = static_cast<double>(ply->file_bytes);
-  const double out_bytes = static_cast<double>(*written);
-  const auto& hygiene = ply->hygiene;
-
-  if (!opt.json_path.empty()) {
-    nlohmann::json j;
-    j["input"] = {{"path", opt.input}, {"bytes", ply->file_bytes}, {"storage", ply->storage_format},
-                  {"format", ply->format_id}, {"declared_vertices", ply->declared_vertices}, {"notes", ply->notes}};
-    j["output"] = {{"path", opt.output}, {"bytes", *written}, {"format", "rgs"}};
-    j["gaussians"] = n;
-    j["sh_degree"] = degree;
-    j["bytes_per_gaussian"] = {{"input", in_bytes * per_gaussian}, {"output", out_bytes * per_gaussian}};
-    j["ratio"] = out_bytes > 0 ? in_bytes / out_bytes : 0.0;
-    j["hygiene"] = {{"nonfinite_values", hygiene.nonfinite_values},
-                    {"gaussians_with_nonfinite", hygiene.gaussians_with_nonfinite},
-                    {"zero_norm_quaternions", hygiene.zero_norm_quaternions},
-                    {"infinite_opacity_logits", hygiene.infinite_opacity_logits},
-                    {"dropped_gaussians", hygiene.dropped_gaussians}};
+  if (r.rgs) {
+    const api::RgsOutputReport& q = *r.rgs;
     nlohmann::json sh = nlohmann::json::array();
-    for (uint32_t d = 0; d <= degree; ++d) {
-      sh.push_back({{"degree", d}, {"error", tools::stats_json(errors.sh[d])},
-                    {"scale", {encoded->metadata.sh_quantization.scales[d][0],
-                               encoded->metadata.sh_quantization.scales[d][1],
-                               encoded->metadata.sh_quantization.scales[d][2]}},
-                    {"clipped", {report.sh_clipped[d][0], report.sh_clipped[d][1], report.sh_clipped[d][2]}}});
+    for (uint32_t d = 0; d <= r.sh_degree; ++d) {
+      const auto& scales = q.sh_quantization.scales[d];
+      const auto& clipped = q.quantization.sh_clipped[d];
+      sh.push_back({{"degree", d}, {"error", tools::stats_json(q.errors.sh[d])},
+                    {"scale", {scales[0], scales[1], scales[2]}}, {"clipped", {clipped[0], clipped[1], clipped[2]}}});
     }
-    j["scales_fp16"] = {{"subnormal", report.scales_subnormal}, {"flushed_to_zero", report.scales_flushed_to_zero},
-                        {"max_flushed_of_largest_axis", report.max_flushed_of_largest_axis}};
-    j["errors"] = {{"position", tools::stats_json(errors.position)},
-                   {"rotation_deg", tools::stats_json(errors.rotation_deg)},
-                   {"scale_relative", tools::stats_json(errors.scale_relative)},
-                   {"scale_of_largest_axis", tools::stats_json(errors.scale_of_largest_axis)},
-                   {"opacity", tools::stats_json(errors.opacity)},
+    j["scales_fp16"] = {{"subnormal", q.quantization.scales_subnormal},
+                        {"flushed_to_zero", q.quantization.scales_flushed_to_zero},
+                        {"max_flushed_of_largest_axis", q.quantization.max_flushed_of_largest_axis}};
+    j["errors"] = {{"position", tools::stats_json(q.errors.position)},
+                   {"rotation_deg", tools::stats_json(q.errors.rotation_deg)},
+                   {"scale_relative", tools::stats_json(q.errors.scale_relative)},
+                   {"scale_of_largest_axis", tools::stats_json(q.errors.scale_of_largest_axis)},
+                   {"opacity", tools::stats_json(q.errors.opacity)},
                    {"sh", sh}};
-    // "quantize" includes the error measurement, which runs in the same pass.
-    j["seconds"] = {{"read", t_read}, {"quantize", t_quantize}, {"write", t_write}, {"total", t_total}};
-    Status s = emit_json(opt, j, outputs);
-    if (!s.ok()) return tools::report_error(kTool, s);
   }
-  if (!opt.print_summary()) return commit_outputs(outputs);
+  // "quantize" includes the error measurement, which runs in the same pass.
+  j["seconds"] = {{"read", r.seconds.read}, {"quantize", r.seconds.quantize}, {"write", r.seconds.write},
+                  {"total", r.seconds.total}};
+  return j;
+}
 
-  std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output).c_str());
-  std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(n).c_str(), degree,
-              ply->description.c_str());
-  std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(ply->file_bytes).c_str(),
-              tools::fixed(in_bytes * per_gaussian, 1).c_str());
-  std::printf("  output           %s bytes  (%s B/Gaussian), ratio %sx\n",
-              tools::group_digits(*written).c_str(), tools::fixed(out_bytes * per_gaussian, 1).c_str(),
-              tools::fixed(out_bytes > 0 ? in_bytes / out_bytes : 0.0, 2).c_str());
-  if (write_options->profile == format::StorageProfile::kArchive) {
-    const auto pq = format::choose_position_quantization(encoded->metadata.bounds, opt.position_error);
-    std::printf("  profile          archive: %s B/Gaussian, position step %s (%u bits, error <= %s of the "
-                "extent); the errors below are the runtime quantization's, before the archive codecs\n",
-                tools::fixed(out_bytes * per_gaussian, 2).c_str(), tools::sci(pq.ok() ? pq->step : 0.0).c_str(),
-                pq.ok() ? pq->bits : 0u, tools::sci(opt.position_error).c_str());
+/// What the .rgs quantization cost, as rows of the text summary.
+void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
+  const api::RgsOutputReport& q = *r.rgs;
+  if (q.position_bits > 0) {
+    std::printf("  profile          archive: %s B/Gaussian, position step %s (%u bits, error <= %s of the extent); "
+                "the errors below are the runtime quantization's, before the archive codecs\n",
+                tools::fixed(double(r.output_bytes) / double(std::max<uint64_t>(r.gaussians, 1)), 2).c_str(),
+                tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.position_error).c_str());
   } else {
     std::printf("  profile          runtime\n");
   }
+  std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
+  tools::print_stats_row("position", q.errors.position, "scene units (FP32, exact)");
+  tools::print_stats_row("rotation", q.errors.rotation_deg, "degrees");
+  const auto& fp16 = q.quantization;
+  const std::string scale_note =
+      "of the Gaussian's largest axis; " + tools::group_digits(fp16.scales_subnormal) +
+      " axes FP16-subnormal (< 6.1e-5), " + tools::group_digits(fp16.scales_flushed_to_zero) + " flushed to 0" +
+      (fp16.scales_flushed_to_zero ? " (each < 3e-8, at most " + tools::sci(fp16.max_flushed_of_largest_axis) +
+                                         " of its largest axis: no visible effect)"
+                                   : std::string());
+  tools::print_stats_row("scale", q.errors.scale_of_largest_axis, scale_note.c_str());
+  tools::print_stats_row("opacity", q.errors.opacity, "absolute");
+  for (uint32_t d = 0; d <= r.sh_degree; ++d) {
+    const auto& c = fp16.sh_clipped[d];
+    const uint64_t clipped = c[0] + c[1] + c[2];
+    const std::string note =
+        "absolute, INT8" + (clipped ? ", " + tools::group_digits(clipped) + " clipped" : std::string());
+    tools::print_stats_row("SH degree " + std::to_string(d), q.errors.sh[d], note.c_str());
+  }
+}
+
+void print_summary(const Options& opt, const api::ConvertReport& r) {
+  const double per_gaussian = r.gaussians ? 1.0 / static_cast<double>(r.gaussians) : 0.0;
+  std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output).c_str());
+  std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(r.gaussians).c_str(), r.sh_degree,
+              r.input_description.c_str());
+  std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(r.input_bytes).c_str(),
+              tools::fixed(double(r.input_bytes) * per_gaussian, 1).c_str());
+  std::printf("  output           %s bytes (%s), %s B/Gaussian, ratio %sx\n",
+              tools::group_digits(r.output_bytes).c_str(), r.output_description.c_str(),
+              tools::fixed(double(r.output_bytes) * per_gaussian, 2).c_str(),
+              tools::fixed(r.output_bytes > 0 ? double(r.input_bytes) / double(r.output_bytes) : 0.0, 2).c_str());
+  const auto& h = r.hygiene;
   std::printf("  input hygiene    %s non-finite values in %s Gaussians, %s zero-norm quaternions, "
               "%s infinite opacity logits (kept), %s Gaussians dropped\n",
-              tools::group_digits(hygiene.nonfinite_values).c_str(),
-              tools::group_digits(hygiene.gaussians_with_nonfinite).c_str(),
-              tools::group_digits(hygiene.zero_norm_quaternions).c_str(),
-              tools::group_digits(hygiene.infinite_opacity_logits).c_str(),
-              tools::group_digits(hygiene.dropped_gaussians).c_str());
-  print_notes("input note", ply->notes);
-  std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
-  tools::print_stats_row("position", errors.position, "scene units (FP32, exact)");
-  tools::print_stats_row("rotation", errors.rotation_deg, "degrees");
-  const std::string scale_note =
-      "of the Gaussian's largest axis; " + tools::group_digits(report.scales_subnormal) +
-      " axes FP16-subnormal (< 6.1e-5), " + tools::group_digits(report.scales_flushed_to_zero) + " flushed to 0" +
-      (report.scales_flushed_to_zero ? " (each < 3e-8, at most " + tools::sci(report.max_flushed_of_largest_axis) +
-                                           " of its largest axis: no visible effect)"
-                                     : std::string());
-  tools::print_stats_row("scale", errors.scale_of_largest_axis, scale_note.c_str());
-  tools::print_stats_row("opacity", errors.opacity, "absolute");
-  for (uint32_t d = 0; d <= degree; ++d) {
-    const std::string name = "SH degree " + std::to_string(d);
-    const uint64_t clipped = report.sh_clipped[d][0] + report.sh_clipped[d][1] + report.sh_clipped[d][2];
-    const std::string note = "absolute, INT8" + (clipped ? ", " + tools::group_digits(clipped) + " clipped"
-                                                         : std::string());
-    tools::print_stats_row(name.c_str(), errors.sh[d], note.c_str());
-  }
+              tools::group_digits(h.nonfinite_values).c_str(), tools::group_digits(h.gaussians_with_nonfinite).c_str(),
+              tools::group_digits(h.zero_norm_quaternions).c_str(),
+              tools::group_digits(h.infinite_opacity_logits).c_str(), tools::group_digits(h.dropped_gaussians).c_str());
+  for (const std::string& note : r.input_notes) std::printf("  input note       %s\n", tools::escape_text(note).c_str());
+  for (const std::string& note : r.output_notes) std::printf("  output note      %s\n", tools::escape_text(note).c_str());
+  if (r.rgs) print_rgs_errors(opt, r);
   std::printf("  time             %s s (read %s, quantize + measure %s, write %s)\n",
-              tools::fixed(t_total, 3).c_str(), tools::fixed(t_read, 3).c_str(),
-              tools::fixed(t_quantize, 3).c_str(), tools::fixed(t_write, 3).c_str());
-  return commit_outputs(outputs);
-}
-
-/// Output formats.
-enum class OutputKind { kRgs, kPly, kSpz, kGlb };
-
-/// What a float-format writer kept and lost, for the summary.
-struct WrittenOutput {
-  uint64_t bytes = 0;
-  std::string format;  ///< in words, e.g. "INRIA PLY, dequantized"
-  std::vector<std::string> limitations;
-  nlohmann::json details = nlohmann::json::object();  ///< clamp counts and the like, for --json
-};
-
-/// Writes `cloud` as PLY, SPZ or GLB to opt.output (staged in the OutputSet that declared it).
-Result<WrittenOutput> write_float_output(const Options& opt, OutputKind kind, const converter::InputScene& scene) {
-  WrittenOutput out;
-  const bool dequantized = scene.format_id == "rgs";
-  if (kind == OutputKind::kPly) {
-    converter::PlyWriteReport report;
-    RGS_ASSIGN_OR_RETURN(out.bytes, converter::write_ply(opt.output, scene.cloud, &report));
-    out.format = dequantized ? "INRIA PLY, dequantized" : "INRIA PLY";
-    out.details["zero_scales"] = report.zero_scales;
-    if (report.zero_scales > 0) {
-      char log_scale[32];
-      std::snprintf(log_scale, sizeof(log_scale), "%.4f", static_cast<double>(converter::kZeroScaleLog));
-      out.limitations.push_back(tools::group_digits(report.zero_scales) + " zero scales written as log-scale " +
-                                log_scale + ", not -inf");
-    }
-  } else if (kind == OutputKind::kSpz) {
-    converter::SpzWriteOptions options;
-    options.convert_frame = !opt.keep_frame;
-    RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary summary, converter::write_spz(opt.output, scene.cloud, options));
-    out.bytes = summary.bytes;
-    out.format = "SPZ v" + std::to_string(summary.version) + (opt.keep_frame ? " (axes kept)" : "");
-    out.limitations = summary.limitations;
-    auto clamped = [&](uint64_t n, const char* what) {
-      if (n > 0) out.limitations.push_back(tools::group_digits(n) + " " + what + " clamped to the SPZ range");
-    };
-    clamped(summary.scales_clamped, "scale values");
-    clamped(summary.colors_clamped, "DC colour values");
-    clamped(summary.sh_clamped, "SH rest values");
-    out.details = {{"version", summary.version},
-                   {"fractional_bits", summary.fractional_bits},
-                   {"position_step", summary.position_step},
-                   {"scales_clamped", summary.scales_clamped},
-                   {"colors_clamped", summary.colors_clamped},
-                   {"sh_clamped", summary.sh_clamped},
-                   {"frame_converted", !opt.keep_frame}};
-  } else {
-    RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary summary, converter::write_glb(opt.output, scene.cloud));
-    out.bytes = summary.bytes;
-    out.format = "KHR_gaussian_splatting GLB";
-    out.limitations = summary.limitations;
-  }
-  return out;
-}
-
-/// Any input -> PLY, SPZ or GLB: read, stage the output (and the JSON summary), print, commit.
-int convert_to_float_format(const Options& opt, const Input& input, bool is_rgs, OutputKind kind,
-                            format::OutputSet* outputs) {
-  const auto t_start = Clock::now();
-  auto scene = read_input(opt, input, is_rgs);
-  if (!scene.ok()) return tools::report_error(kTool, scene.status());
-  if (Status empty = check_not_empty(opt, *scene); !empty.ok()) return tools::report_error(kTool, empty);
-  const double t_read = tools::seconds_since(t_start);
-  auto written = write_float_output(opt, kind, *scene);
-  if (!written.ok()) return tools::report_error(kTool, written.status());
-  const double t_total = tools::seconds_since(t_start);
-  const format::GaussianCloud& cloud = scene->cloud;
-  const auto& hygiene = scene->hygiene;
-  if (!opt.json_path.empty()) {
-    nlohmann::json j;
-    j["input"] = {{"path", opt.input},         {"bytes", scene->file_bytes},
-                  {"format", scene->format_id}, {"storage", scene->storage_format},
-                  {"declared_vertices", scene->declared_vertices}, {"notes", scene->notes}};
-    j["output"] = {{"path", opt.output},
-                   {"bytes", written->bytes},
-                   {"format", written->format},
-                   {"limitations", written->limitations},
-                   {"details", written->details}};
-    j["gaussians"] = cloud.size();
-    j["sh_degree"] = cloud.sh_degree;
-    if (kind == OutputKind::kPly) j["zero_scales"] = written->details["zero_scales"];
-    j["hygiene"] = {{"nonfinite_values", hygiene.nonfinite_values},
-                    {"gaussians_with_nonfinite", hygiene.gaussians_with_nonfinite},
-                    {"zero_norm_quaternions", hygiene.zero_norm_quaternions},
-                    {"infinite_opacity_logits", hygiene.infinite_opacity_logits},
-                    {"dropped_gaussians", hygiene.dropped_gaussians}};
-    j["seconds"] = {{"read", t_read}, {"total", t_total}};
-    Status s = emit_json(opt, j, outputs);
-    if (!s.ok()) return tools::report_error(kTool, s);
-  }
-  if (opt.print_summary()) {
-    std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(),
-                tools::escape_text(opt.output).c_str());
-    std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(cloud.size()).c_str(),
-                cloud.sh_degree, scene->description.c_str());
-    std::printf("  input            %s bytes\n", tools::group_digits(scene->file_bytes).c_str());
-    std::printf("  output           %s bytes (%s)\n", tools::group_digits(written->bytes).c_str(),
-                written->format.c_str());
-    if (hygiene.dropped_gaussians > 0) {
-      std::printf("  input hygiene    %s Gaussians dropped\n", tools::group_digits(hygiene.dropped_gaussians).c_str());
-    }
-    print_notes("input note", scene->notes);
-    print_notes("output note", written->limitations);
-    std::printf("  time             %s s (read %s)\n", tools::fixed(t_total, 3).c_str(),
-                tools::fixed(t_read, 3).c_str());
-  }
-  return commit_outputs(outputs);
-}
-
-/// The input's kind from its first bytes: .rgs magic, "ply" or neither.
-enum class InputKind { kPly, kRgs, kUnknown };
-InputKind sniff(const std::string& head) {
-  if (head.size() >= 8 && std::equal(head.begin(), head.begin() + 8, reinterpret_cast<const char*>(format::kMagic))) {
-    return InputKind::kRgs;
-  }
-  if (head.size() >= 3 && head.compare(0, 3, "ply") == 0) return InputKind::kPly;
-  return InputKind::kUnknown;
-}
-
-/// What an input's extension promises; kUnknown for any other name (content decides).
-InputKind expected_kind(const std::string& extension) {
-  if (extension == ".ply") return InputKind::kPly;
-  if (extension == ".rgs") return InputKind::kRgs;
-  return InputKind::kUnknown;
+              tools::fixed(r.seconds.total, 3).c_str(), tools::fixed(r.seconds.read, 3).c_str(),
+              tools::fixed(r.seconds.quantize, 3).c_str(), tools::fixed(r.seconds.write, 3).c_str());
 }
 
 /// Declares an output; an alias of an input or of another output, or a device, is a usage error.
@@ -482,99 +177,60 @@ int declare_output(format::OutputSet* outputs, const std::string& path) {
   return s.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, s) : tools::report_error(kTool, s);
 }
 
-/// The output formats, by --to name and by extension.
-struct OutputFormatName {
-  const char* name;
-  const char* extension;
-  OutputKind kind;
-};
-constexpr OutputFormatName kOutputFormats[] = {{"rgs", ".rgs", OutputKind::kRgs},
-                                               {"ply", ".ply", OutputKind::kPly},
-                                               {"spz", ".spz", OutputKind::kSpz},
-                                               {"glb", ".glb", OutputKind::kGlb}};
-
-/// The output format: --to, else the output's extension. An extension naming another of the four formats
-/// than --to is refused (a GLB called scene.rgs would mislead every later reader of the name); any other
-/// extension is accepted with --to.
-Result<OutputKind> output_kind(const Options& opt) {
-  const std::string ext = tools::extension_of(opt.output);
-  const OutputFormatName* by_ext = nullptr;
-  const OutputFormatName* by_to = nullptr;
-  for (const OutputFormatName& f : kOutputFormats) {
-    if (ext == f.extension) by_ext = &f;
-    if (opt.to == f.name) by_to = &f;
-  }
-  if (opt.to.empty()) {
-    RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
-                        opt.output + ": cannot tell the output format from this name; name the output *.rgs, "
-                                     "*.ply, *.spz or *.glb, or give --to rgs|ply|spz|glb");
-    return by_ext->kind;
-  }
-  RGS_RETURN_ERROR_IF(by_to == nullptr, StatusCode::kInvalidArgument,
-                      "--to " + opt.to + ": unknown output format (use rgs, ply, spz or glb)");
-  RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext != by_to, StatusCode::kInvalidArgument,
-                      opt.output + ": the name says " + by_ext->name + " but --to says " + by_to->name +
-                          "; name the output *" + by_to->extension + " or drop --to");
-  return by_to->kind;
-}
-
-int run(const Options& opt) {
-  // Every identity is checked before anything is read or written.
-  format::OutputSet outputs;
-  if (opt.input != "-") {
-    Status s = outputs.add_input(opt.input);
-    if (!s.ok()) return tools::report_usage_error(kTool, s);
-  }
+int run(Options& opt) {
+  // Every identity and option is checked before anything is read or written.
   if (opt.output == "-") {
     return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
                                                    "the output cannot be standard output (-): name a .rgs, .ply, "
                                                    ".spz or .glb file (it is written atomically, by rename)"));
   }
-  const auto out_kind = output_kind(opt);
-  if (!out_kind.ok()) return tools::report_usage_error(kTool, out_kind.status());
-  if (opt.keep_frame && *out_kind != OutputKind::kSpz && tools::extension_of(opt.input) != ".spz") {
-    // Content decides the input's format, so a misnamed SPZ input still gets the flag; only say what it is for.
-    if (!opt.quiet) tools::report_note(kTool, "--keep-frame applies to SPZ inputs and outputs only");
+  if (!opt.to.empty()) opt.convert.to = *api::parse_output_format(opt.to);  // CLI11 checked the name
+  const auto output_format = api::output_format_for(opt.output, opt.convert.to);
+  if (!output_format.ok()) return tools::report_usage_error(kTool, output_format.status());
+  opt.convert.to = *output_format;
+  opt.convert.scale_encoding = opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
+  opt.convert.profile = opt.profile == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
+  opt.convert.read.spz_frame = tools::scene_read_options().spz_frame;
+  opt.convert.read.max_gaussians = tools::scene_read_options().max_gaussians;
+  opt.convert.read.max_decompression_ratio = tools::scene_read_options().max_decompression_ratio;
+  opt.convert.converter_name = kTool;
+
+  format::OutputSet outputs;
+  if (opt.input != "-") {
+    // The scene and every file it names are inputs: no output may replace one of them.
+    if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
   }
   if (int code = declare_output(&outputs, opt.output); code != tools::kExitOk) return code;
   if (!opt.json_path.empty() && !opt.json_to_stdout()) {
     if (int code = declare_output(&outputs, opt.json_path); code != tools::kExitOk) return code;
   }
+  const std::vector<std::string> stale = outputs.remove_stale_temporaries();
+  if (!opt.quiet) {
+    for (const std::string& note : stale) tools::report_note(kTool, note);
+  }
 
-  Input input{opt.input, {}};
-  std::string head;
-  if (input.from_stdin()) {
+  // Written into `outputs` (which declared it): renamed into place by commit() below.
+  Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
+  if (opt.input == "-") {
     auto bytes = tools::read_standard_input();
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
-    input.bytes = std::move(bytes).value();
-    head.assign(input.bytes.begin(), input.bytes.begin() + std::min<size_t>(8, input.bytes.size()));
+    report = api::convert_bytes(bytes->data(), bytes->size(), opt.input, opt.output, opt.convert);
   } else {
-    // The scene and every file it names are inputs: no output may replace one of them.
-    if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
-    head = tools::read_file_head(opt.input, 8);
+    report = api::convert(opt.input, opt.output, opt.convert);
   }
-
-  InputKind kind = sniff(head);
-  if (kind == InputKind::kUnknown) {
-    // Neither signature: another scene format (read_scene detects it by content) or a damaged file, which the
-    // reader the extension asks for explains.
-    kind = tools::extension_of(opt.input) == ".rgs" ? InputKind::kRgs : InputKind::kPly;
-  } else if (const InputKind named = expected_kind(tools::extension_of(opt.input));
-             named != InputKind::kUnknown && kind != named) {
-    // The content contradicts the input's name: a problem of the file, not of the command line.
-    return tools::report_error(kTool, Status(StatusCode::kNotRgsFile,
-                                             opt.input + ": is named " + tools::extension_of(opt.input) +
-                                                 " but holds a " + (kind == InputKind::kPly ? "PLY" : ".rgs") +
-                                                 " file"));
+  if (!report.ok()) return tools::report_error(kTool, report.status());
+  if (!opt.json_path.empty()) {
+    Status s = emit_json(opt, report_json(opt, *report), &outputs);
+    if (!s.ok()) return tools::report_error(kTool, s);
   }
-  if (!opt.quiet) {
-    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
-  } else {
-    (void)outputs.remove_stale_temporaries();
-  }
-  const bool is_rgs = kind == InputKind::kRgs;
-  return *out_kind == OutputKind::kRgs ? convert_to_rgs(opt, input, is_rgs, &outputs)
-                                       : convert_to_float_format(opt, input, is_rgs, *out_kind, &outputs);
+  if (opt.print_summary()) print_summary(opt, *report);
+  // The printed report must reach stdout before the files change, so that a failed report (a full disk, a
+  // closed pipe) leaves no output behind.
+  Status flushed = tools::flush_standard_streams();
+  if (!flushed.ok()) return tools::report_error(kTool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return tools::report_error(kTool, committed);
+  return tools::kExitOk;
 }
 
 }  // namespace
@@ -598,22 +254,19 @@ int main(int argc, char** argv) {
                  "Output format: rgs, ply (INRIA PLY), spz (SPZ v4) or glb (KHR_gaussian_splatting); default: the "
                  "output's extension. A name ending in another of these four is a usage error")
       ->check(CLI::IsMember({"rgs", "ply", "spz", "glb"}));
-  app.add_option("--sh-degree", opt.sh_degree,
+  app.add_option("--sh-degree", opt.convert.sh_degree,
                  "Drop the SH bands above this degree (0..3) before writing any output")
       ->check(CLI::Range(0, 3));
-  app.add_flag("--keep-frame", opt.keep_frame,
-               "SPZ input and output: keep the stored axes instead of turning between SPZ's RUB and RoofGS's RDF "
-               "frame (for SPZ writers that skip the conversion: converter/INTEROP.md)");
   app.add_option("--scale-encoding", opt.scale_encoding,
                  "FP16 scale encoding: linear (exp applied; best quality) or log (wider range)")
       ->check(CLI::IsMember({"linear", "log"}))
       ->capture_default_str();
-  app.add_option("--sh-clip-percentile", opt.sh_clip_percentile,
+  app.add_option("--sh-clip-percentile", opt.convert.sh_clip_percentile,
                  "Percentile of |SH| mapped to 127 per (degree, channel); 100 = max |SH| (the paper's rule); "
                  "lower values clip the tail")
       ->check(CLI::Range(0.001f, 100.0f))
       ->capture_default_str();
-  app.add_option("--zstd", opt.zstd_sections,
+  app.add_option("--zstd", opt.convert.zstd_sections,
                  "Compress these sections losslessly with zstd: all, or a comma list of metadata, provenance, "
                  "means, rotations, scales, opacities, sh (default: none, so the runtime maps the file as is)")
       ->delimiter(',');
@@ -622,27 +275,27 @@ int main(int argc, char** argv) {
                  "quantized rotations, scales, opacities and SH; decoded at load, format/SPEC.md 3.3)")
       ->check(CLI::IsMember({"runtime", "archive"}))
       ->capture_default_str();
-  app.add_option("--position-error", opt.position_error,
+  app.add_option("--position-error", opt.convert.position_error,
                  "Archive profile: largest position error relative to the scene extent (longest AABB side); "
                  "sets the Draco quantization bits")
       ->check(CLI::Range(1e-9, 0.5))
       ->capture_default_str();
-  app.add_option("--zstd-level", opt.zstd_level, "zstd level 1..22")
+  app.add_option("--zstd-level", opt.convert.zstd_level, "zstd level 1..22")
       ->check(CLI::Range(1, 22))
       ->capture_default_str();
-  app.add_flag("--sanitize", opt.sanitize,
+  app.add_flag("--sanitize", opt.convert.sanitize,
                "Drop Gaussians with NaN/Inf values or zero-norm quaternions instead of failing "
                "(docs/INPUT_HYGIENE.md)");
-  app.add_flag("--allow-empty", opt.allow_empty,
+  app.add_flag("--allow-empty", opt.convert.allow_empty,
                "Write a scene with no Gaussians (an empty input, or --sanitize dropping everything) instead of "
                "failing");
   app.add_option("--json", opt.json_path,
                  "Also write the summary as JSON to this file, committed together with the output; - prints it on "
                  "standard output instead of the text summary");
-  app.add_option("--lod", opt.lod, "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest "
+  app.add_option("--lod", opt.convert.read.lod, "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest "
                                   "(default)");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
-  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
+  rgs::tools::add_scene_read_options(app);
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   try {
     app.parse(argc, argv);

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "cli_common.h"
-#include "read_limits_option.h"
+#include "scene_read_options.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
@@ -133,7 +133,7 @@ int run(const std::string& path, bool check, bool json) {
     return tools::report_error(kTool, file.status());
   }
   Status check_status;
-  if (check) check_status = format::validate(source.data(), source.size(), tools::read_limits(), path);
+  if (check) check_status = format::validate(source.data(), source.size(), tools::read_options().limits, path);
   if (json) {
     nlohmann::json j = to_json(*file);
     if (check) j["check"] = check_status.ok() ? "ok" : check_status.to_string();
@@ -161,7 +161,7 @@ int main(int argc, char** argv) {
   app.add_flag("--check", check, "Validate fully; exit 1 and name the first problem if the file is invalid");
   app.add_flag("--json", json, "Print JSON instead of text");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
-  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
+  rgs::tools::add_scene_read_options(app, /*with_spz_frame=*/false);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -27,7 +27,7 @@
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
 #include "rgs/runtime/cpu_renderer.h"
-#include "read_limits_option.h"
+#include "scene_read_options.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/runtime/image_io.h"
 #if RGS_HAS_CUDA
@@ -103,6 +103,7 @@ struct SceneSummary {
   uint32_t sh_degree = 0;
   std::string source;  ///< ".rgs dequantized", "PLY", ".rgs on the GPU", ...
   format::SceneBounds bounds;
+  std::vector<std::string> notes;  ///< what the reader noted (the SPZ axes assumed, ...)
 };
 
 /// A renderer behind rgs-render: loads the scene once, then renders views.
@@ -135,10 +136,10 @@ class CpuBackend final : public Backend {
     options_.roofgs = opt.roofgs();
   }
   Status load(const std::string& path) override {
-    RGS_ASSIGN_OR_RETURN(scene_, api::load_host_scene(path, tools::read_options()));
+    RGS_ASSIGN_OR_RETURN(scene_, api::load_host_scene(path, tools::scene_read_options()));
     options_.scene_bounds = scene_.bounds;
     summary_ = {scene_.cloud.size(), scene_.cloud.sh_degree, scene_.is_rgs ? ".rgs dequantized" : scene_.description,
-                scene_.bounds};
+                scene_.bounds, scene_.notes};
     return Status::ok_status();
   }
   const SceneSummary& scene() const override { return summary_; }
@@ -184,13 +185,14 @@ class CudaBackend final : public Backend {
     // sections. Other formats are uploaded as FP32 arrays (GpuScene::from_cloud) either way.
     runtime::GpuSceneOptions scene_options;
     scene_options.fp32_attributes = options_.pipeline == runtime::GpuPipeline::kBaseline;
-    auto loaded = api::load_gpu_scene(path, scene_options, nullptr, tools::read_options());
+    auto loaded = api::load_gpu_scene(path, scene_options, nullptr, tools::scene_read_options());
     if (!loaded.ok()) return loaded.status();
     scene_ = std::make_unique<api::LoadedGpuScene>(std::move(loaded).value());
     // Compact sections exist only for .rgs input; other formats render the RoofGS techniques from FP32 arrays.
     options_.roofgs.compact_attributes = scene_->scene.has_compact();
     summary_ = {scene_->scene.size(), scene_->scene.sh_degree(),
-                scene_->is_rgs ? ".rgs on the GPU" : scene_->description + " on the GPU", scene_->bounds};
+                scene_->is_rgs ? ".rgs on the GPU" : scene_->description + " on the GPU", scene_->bounds,
+                scene_->notes};
     return Status::ok_status();
   }
   const SceneSummary& scene() const override { return summary_; }
@@ -308,6 +310,7 @@ int run(Options opt) {
   Status loaded = backend.load(opt.input);
   if (!loaded.ok()) return tools::report_error(kTool, loaded);
   const SceneSummary& scene = backend.scene();
+  tools::report_notes(kTool, scene.notes);
   auto cameras = api::make_cameras(opt.cameras, scene.bounds);
   if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
   if (cameras->empty()) {
@@ -385,8 +388,8 @@ int main(int argc, char** argv) {
                    (RGS_HAS_CUDA ? " CUDA: yes." : " CUDA: no (--backend cpu only)."),
                kTool};
   app.add_option("scene", opt.input,
-                 "Scene: .rgs, or any format converter::read_scene detects (3DGS PLY, PlayCanvas compressed PLY / SOG, "
-                 "SPZ, glTF/GLB, .splat); cpu: dequantized on the host; cuda: uploaded")
+                 "Scene in any format, " + rgs::tools::scene_formats_help() +
+                     ". cpu: read into host memory; cuda: a .rgs uploaded as stored, others as FP32 arrays")
       ->required();
   auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
   app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
@@ -423,7 +426,7 @@ int main(int argc, char** argv) {
   app.footer("With --backend cuda, any RoofGS flag selects the RoofGS pipeline with those techniques (compact "
              "attributes read on the GPU for .rgs input); without one, the 3DGS baseline pipeline.");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
-  rgs::tools::add_read_limit_options(app, rgs::tools::read_limits());
+  rgs::tools::add_scene_read_options(app);
   try {
     app.parse(argc, argv);
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {

@@ -3,6 +3,7 @@
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/runtime/cuda_device.h"
 
@@ -27,18 +28,19 @@ Status require_cuda_device(int ordinal) {
 }
 
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options,
-                                      cudaStream_t stream, const format::ReadOptions& read_options) {
+                                      cudaStream_t stream, const converter::SceneReadOptions& read_options) {
   if (is_rgs_path(path)) {
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, read_options));
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, converter::rgs_read_options(read_options)));
     auto scene = runtime::GpuScene::from_rgs(file, options, stream);  // checks checksums, frames and values first
     if (!scene.ok()) return naming(scene.status(), path);
-    return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, file.file_size(), "RoofGS .rgs"};
+    return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, file.file_size(), "RoofGS .rgs", {}};
   }
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, read_options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
   const format::SceneBounds& bounds = input.bounds;
   auto scene = runtime::GpuScene::from_cloud(input.cloud, bounds, stream);
   if (!scene.ok()) return naming(scene.status(), path);
-  return LoadedGpuScene{std::move(scene).value(), bounds, false, input.file_bytes, input.description};
+  return LoadedGpuScene{std::move(scene).value(), bounds, false, input.file_bytes, input.description,
+                        std::move(input.notes)};
 }
 
 Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, uint64_t source_file_bytes,
@@ -47,7 +49,7 @@ Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, u
   RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(rgs_bytes.data(), rgs_bytes.size(), {}, name));
   auto scene = runtime::GpuScene::from_rgs(file, options, stream);
   if (!scene.ok()) return naming(scene.status(), name);
-  return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, source_file_bytes, "RoofGS .rgs"};
+  return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, source_file_bytes, "RoofGS .rgs", {}};
 }
 
 }  // namespace rgs::api

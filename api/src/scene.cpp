@@ -1,4 +1,4 @@
-// load() and convert(): every supported file into a Scene on the CPU or the GPU.
+// load(): every supported file into a Scene on the CPU or the GPU.
 #include <filesystem>
 #include <sstream>
 
@@ -54,7 +54,8 @@ uint64_t runtime_bytes(uint64_t n, uint32_t degree) {
 Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
   auto impl = std::make_shared<Scene::Impl>();
   SceneInfo& info = impl->info;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, options.read_options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, options.read_options));
+  info.notes = std::move(input.notes);
   info.source_is_rgs = input.format_id == "rgs";
   info.file_bytes = input.file_bytes;
   if (info.source_is_rgs || !options.quantize_other_formats) {
@@ -91,7 +92,8 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
     RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, load_gpu_scene(path, gpu_options, nullptr, options.read_options));
     loaded.emplace(std::move(l));
   } else {
-    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, read_input_scene(path, options.read_options));
+    RGS_ASSIGN_OR_RETURN(converter::InputScene ply, converter::read_scene(path, options.read_options));
+    std::vector<std::string> l_notes = std::move(ply.notes);
     auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
     ply.cloud = format::GaussianCloud{};
@@ -99,6 +101,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
     if (!bytes.ok()) return Status(bytes.status()).prepend(path);
     RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, upload_rgs_bytes(*bytes, ply.file_bytes, path, gpu_options));
     l.is_rgs = false;
+    l.notes = std::move(l_notes);
     loaded.emplace(std::move(l));
   }
   auto impl = std::make_shared<Scene::Impl>();
@@ -108,6 +111,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   info.bounds = loaded->bounds;
   info.source_is_rgs = loaded->is_rgs;
   info.file_bytes = loaded->file_bytes;
+  info.notes = std::move(loaded->notes);
   impl->gpu.emplace(std::move(loaded->scene));
   const runtime::GpuScene& gpu = *impl->gpu;
   info.gaussians = gpu.size();
@@ -130,103 +134,6 @@ Result<Scene> load(const std::string& path, const LoadOptions& options) {
   return Status(StatusCode::kUnsupportedFeature,
                 path + ": device cuda: this build has no CUDA support (RGS_WITH_CUDA=OFF); use device cpu");
 #endif
-}
-
-namespace {
-
-const std::vector<std::pair<std::string, format::SectionId>>& section_names() {
-  static const std::vector<std::pair<std::string, format::SectionId>> names = {
-      {"metadata", format::SectionId::kMetadata}, {"provenance", format::SectionId::kProvenance},
-      {"means", format::SectionId::kMeans},       {"rotations", format::SectionId::kRotations},
-      {"scales", format::SectionId::kScales},     {"opacities", format::SectionId::kOpacities},
-      {"sh", format::SectionId::kSh}};
-  return names;
-}
-
-Result<format::WriteOptions> write_options(const ConvertOptions& options) {
-  RGS_RETURN_ERROR_IF(options.zstd_level < 1 || options.zstd_level > 22, StatusCode::kInvalidArgument,
-                      "convert: zstd_level " + std::to_string(options.zstd_level) + " outside [1, 22]");
-  format::WriteOptions write;
-  write.zstd_level = options.zstd_level;
-  for (const std::string& name : options.zstd_sections) {
-    bool found = false;
-    for (const auto& [n, id] : section_names()) {
-      if (name == "all" || n == name) {
-        write.codecs[id] = format::Codec::kZstd;
-        found = true;
-      }
-    }
-    RGS_RETURN_ERROR_IF(!found, StatusCode::kInvalidArgument,
-                        "convert: unknown zstd section '" + name +
-                            "' (use all, metadata, provenance, means, rotations, scales, opacities, sh)");
-  }
-  return write;
-}
-
-/// kInvalidArgument when `dst` is one of the files the conversion reads (through any spelling or link).
-Status check_output_not_input(const std::string& dst, const std::vector<std::string>& inputs) {
-  format::OutputSet identities;
-  RGS_RETURN_IF_ERROR(identities.add_output(dst));
-  for (const std::string& input : inputs) RGS_RETURN_IF_ERROR(identities.add_input(input));
-  return Status();
-}
-
-}  // namespace
-
-Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
-  ConvertReport report;
-  if (is_rgs_path(src)) {
-    report.direction = "rgs->ply";
-    RGS_RETURN_IF_ERROR(check_output_not_input(dst, {src}));
-    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(src));
-    RGS_ASSIGN_OR_RETURN(format::EncodedScene encoded, file.read_scene());
-    auto cloud = format::dequantize(encoded);
-    if (!cloud.ok()) return Status(cloud.status()).prepend(src);
-    RGS_ASSIGN_OR_RETURN(uint64_t written, converter::write_ply(dst, *cloud));
-    report.gaussians = cloud->size();
-    report.sh_degree = cloud->sh_degree;
-    report.input_bytes = file.file_size();
-    report.output_bytes = written;
-    return report;
-  }
-  report.direction = "ply->rgs";
-  RGS_ASSIGN_OR_RETURN(format::WriteOptions write, write_options(options));
-  converter::SceneReadOptions read_options;
-  read_options.invalid_policy =
-      options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
-  read_options.hash_file = true;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene ply, converter::read_scene(src, read_options));
-  RGS_RETURN_IF_ERROR(check_output_not_input(dst, ply.files));
-  converter::QuantizeOptions quantize_options;
-  quantize_options.scale_encoding = options.scale_encoding;
-  quantize_options.sh_clip_percentile = options.sh_clip_percentile;
-  auto encoded = converter::quantize(ply.cloud, quantize_options, &report.quantization, &report.errors);
-  if (!encoded.ok()) return Status(encoded.status()).prepend(src);
-  std::ostringstream options_text;
-  options_text << "scale_encoding=" << (options.scale_encoding == format::ScaleEncoding::kLog ? "log" : "linear")
-               << " sh_clip_percentile=" << options.sh_clip_percentile << " sanitize=" << (options.sanitize ? 1 : 0)
-               << " zstd_level=" << options.zstd_level << " zstd=";
-  for (size_t i = 0; i < options.zstd_sections.size(); ++i) {
-    options_text << (i ? "," : "") << options.zstd_sections[i];
-  }
-  char hash[17];
-  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(ply.file_xxh64.value_or(0)));
-  encoded->provenance = {
-      {"source_file", std::filesystem::path(src).filename().string()},
-      {"source_bytes", std::to_string(ply.file_bytes)},
-      {"source_xxh64", hash},
-      {"source_storage", ply.storage_format},
-      {"converter", std::string("roofgs api ") + RGS_VERSION_STRING},
-      {"options", options_text.str()},
-      {"dropped_gaussians", std::to_string(ply.hygiene.dropped_gaussians)},
-  };
-  RGS_ASSIGN_OR_RETURN(uint64_t written, format::write_scene_file(dst, *encoded, write));
-  report.gaussians = encoded->count;
-  report.sh_degree = encoded->metadata.sh_degree;
-  report.input_bytes = ply.file_bytes;
-  report.output_bytes = written;
-  report.dropped_gaussians = ply.hygiene.dropped_gaussians;
-  return report;
 }
 
 }  // namespace rgs::api

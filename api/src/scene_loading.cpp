@@ -37,36 +37,30 @@ std::string group_digits(uint64_t n) {
   return out;
 }
 
-Result<converter::InputScene> read_input_scene(const std::string& path, const format::ReadOptions& options,
-                                               bool keep_encoded) {
-  converter::SceneReadOptions read_options;
-  read_options.max_gaussians = options.limits.max_gaussians;
-  read_options.max_decompression_ratio = options.limits.max_decompression_ratio;
-  read_options.verify_checksums = options.verify_checksums;
-  read_options.keep_encoded = keep_encoded;
-  return converter::read_scene(path, read_options);
-}
-
-Result<HostScene> load_host_scene(const std::string& path, const format::ReadOptions& options) {
+Result<HostScene> load_host_scene(const std::string& path, const converter::SceneReadOptions& options) {
   HostScene scene;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, options));
   scene.cloud = std::move(input.cloud);
   scene.bounds = input.bounds;
   scene.is_rgs = input.format_id == "rgs";
   scene.file_bytes = input.file_bytes;
   scene.format_id = std::move(input.format_id);
   scene.description = std::move(input.description);
+  scene.notes = std::move(input.notes);
   return scene;
 }
 
 Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies,
-                                             const format::ReadOptions& options) {
+                                             const converter::SceneReadOptions& options) {
   ReplicatedScene out;
   out.copies = copies;
   format::EncodedScene source;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read_input_scene(path, options, /*keep_encoded=*/true));
+  converter::SceneReadOptions read_options = options;
+  read_options.keep_encoded = true;  // a .rgs source is replicated as stored
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
   RGS_RETURN_IF_ERROR(check_replicated_count(path, input.cloud.size(), copies));
   out.source_file_bytes = input.file_bytes;
+  out.notes = std::move(input.notes);
   if (input.encoded) {
     source = std::move(*input.encoded);
     out.source_is_rgs = true;

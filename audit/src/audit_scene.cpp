@@ -33,11 +33,8 @@ Status list_sections(const std::string& path, const format::ReadOptions& options
 }  // namespace
 
 Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label,
-                                    const format::ReadOptions& options) {
-  converter::SceneReadOptions read_options;
-  read_options.max_gaussians = options.limits.max_gaussians;
-  read_options.max_decompression_ratio = options.limits.max_decompression_ratio;
-  read_options.verify_checksums = options.verify_checksums;
+                                    const converter::SceneReadOptions& options) {
+  converter::SceneReadOptions read_options = options;
   read_options.keep_encoded = true;  // a .rgs candidate's SH quantization
   auto input = converter::read_scene(path, read_options);
   if (!input.ok()) return naming(input.status(), path);
@@ -46,10 +43,11 @@ Result<AuditScene> load_audit_scene(const std::string& path, const std::string& 
   scene.bounds = input->bounds;
   scene.info.format = input->format_id;
   scene.info.file_bytes = input->file_bytes;
+  scene.info.notes = std::move(input->notes);
   if (input->encoded) {
     scene.sh_quantization = input->encoded->metadata.sh_quantization;
     input->encoded.reset();
-    RGS_RETURN_IF_ERROR(list_sections(path, options, &scene));
+    RGS_RETURN_IF_ERROR(list_sections(path, converter::rgs_read_options(options), &scene));
   }
   scene.info.path = path;
   scene.info.label = label.empty() ? std::filesystem::path(path).filename().string() : label;

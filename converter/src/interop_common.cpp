@@ -1,4 +1,5 @@
-// Frame flips, input hygiene and file mapping shared by the SPZ, .splat and glTF readers and writers.
+// Frame flips, input hygiene and file mapping shared by the SPZ, .splat and glTF readers and writers, and
+// the SPZ frame choice (interop.h).
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -146,3 +147,30 @@ Status check_writable_cloud(const format::GaussianCloud& cloud) {
 }
 
 }  // namespace rgs::converter::detail
+
+namespace rgs::converter {
+
+const char* spz_frame_name(SpzFrame frame) { return frame == SpzFrame::kAsStored ? "as-stored" : "rub"; }
+
+std::optional<SpzFrame> parse_spz_frame(std::string_view name) {
+  if (name == "rub") return SpzFrame::kRub;
+  if (name == "as-stored") return SpzFrame::kAsStored;
+  return std::nullopt;
+}
+
+std::string spz_frame_note(SpzFrame frame, bool writing) {
+  if (writing) {
+    return frame == SpzFrame::kRub
+               ? "frame: stored as RUB (y and z negated), Niantic's convention; splat-transform 3.7 shows such "
+                 "a file upside down (write for it with spz frame as-stored)"
+               : "frame: the PLY's axes stored unturned (spz frame as-stored), as splat-transform 3.7 reads "
+                 "them; readers that follow Niantic's convention show the file upside down";
+  }
+  return frame == SpzFrame::kRub
+             ? "SPZ axes read as RUB, Niantic's convention, and turned to RDF; a file from splat-transform 3.7 "
+               "holds the PLY's axes and then shows upside down: read it with spz frame as-stored"
+             : "SPZ axes read as stored (spz frame as-stored): the PLY's axes, as splat-transform 3.7 writes "
+               "them; a file that follows Niantic's convention then shows upside down";
+}
+
+}  // namespace rgs::converter

@@ -5,10 +5,12 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <iterator>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <new>
@@ -191,11 +193,7 @@ Result<InputScene> to_input_scene(const std::string& path, InteropScene interop,
       interop.format_version ? interop.format + " v" + std::to_string(interop.format_version) : interop.format;
   if (!interop.stored_frame.empty() && interop.stored_frame != "RDF") {
     description += interop.frame_converted ? " (stored " + interop.stored_frame + ", turned to RDF)"
-                                           : " (stored " + interop.stored_frame + " axes kept)";
-    if (!interop.frame_converted) {
-      interop.notes.push_back("axes kept as stored (" + interop.stored_frame +
-                              "), not turned into RoofGS's RDF frame");
-    }
+                                           : " (axes as stored)";
   }
   scene.description = std::move(description);
   scene.file_bytes = interop.file_bytes;
@@ -221,8 +219,9 @@ InteropReadOptions interop_options(const SceneReadOptions& options) {
 Result<InputScene> read_spz_scene(const std::string& path, const SceneReadOptions& options) {
   RGS_RETURN_IF_ERROR(refuse_lod(path, options, "an SPZ file"));
   InteropReadOptions o = interop_options(options);
-  o.convert_frame = options.convert_spz_frame;
+  o.convert_frame = options.spz_frame == SpzFrame::kRub;
   RGS_ASSIGN_OR_RETURN(InteropScene spz, read_spz(path, o));
+  spz.notes.insert(spz.notes.begin(), spz_frame_note(options.spz_frame, /*writing=*/false));
   const std::string description = "Niantic SPZ v" + std::to_string(spz.format_version);
   return to_input_scene(path, std::move(spz), options, description);
 }
@@ -246,11 +245,7 @@ Result<InputScene> read_splat_scene(const std::string& path, const SceneReadOpti
 Result<InputScene> rgs_input_scene(const uint8_t* data, size_t size, const std::string& name,
                                    const SceneReadOptions& options) {
   RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a .rgs file"));
-  format::ReadOptions read_options;
-  read_options.limits.max_gaussians = options.max_gaussians;
-  read_options.limits.max_decompression_ratio = options.max_decompression_ratio;
-  read_options.verify_checksums = options.verify_checksums;
-  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(data, size, read_options, name));
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(data, size, rgs_read_options(options), name));
   auto encoded = file.read_scene();
   if (!encoded.ok()) return Status(encoded.status()).prepend(name);
   auto cloud = format::dequantize(*encoded);
@@ -307,6 +302,13 @@ std::string supported_list() {
   return s;
 }
 
+/// The extension of `path` in lower case, with its dot ("" when none).
+std::string extension_of(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
 std::string hex_bytes(const std::vector<uint8_t>& head, size_t n) {
   std::string s;
   char buf[4];
@@ -320,6 +322,9 @@ std::string hex_bytes(const std::vector<uint8_t>& head, size_t n) {
 /// What an input no reader accepts looks like, in words.
 std::string describe_unknown(const Probe& p) {
   if (p.size == 0) return "an empty file";
+  if (extension_of(p.path) == ".ksplat") {
+    return "a GaussianSplats3D .ksplat file, which RoofGS does not read (export .ply or .splat from it)";
+  }
   if (head_starts_with(p, "NGSP")) return "a Niantic SPZ file";
   if (p.head.size() >= 2 && p.head[0] == 0x1f && p.head[1] == 0x8b) return "gzip data (an SPZ file before v4?)";
   if (head_starts_with(p, "glTF")) return "a binary glTF (.glb)";
@@ -417,10 +422,21 @@ Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
   for (const SceneFormat& f : kFormats) {
     if (f.detect(*probe)) return &f;
   }
+  // .splat has no signature, so a damaged one fails detection; a file named so gets the reader's reason.
+  const SceneFormat& splat = kFormats[std::size(kFormats) - 1];
+  if (extension_of(probe->path) == ".splat" && probe->size > 0) return &splat;
   return unsupported(path, describe_unknown(*probe));
 }
 
 }  // namespace
+
+format::ReadOptions rgs_read_options(const SceneReadOptions& options) {
+  format::ReadOptions read_options;
+  read_options.limits.max_gaussians = options.max_gaussians;
+  read_options.limits.max_decompression_ratio = options.max_decompression_ratio;
+  read_options.verify_checksums = options.verify_checksums;
+  return read_options;
+}
 
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options) {
   Probe probe;

@@ -15,11 +15,17 @@ namespace {
 /// SH degree-0 basis constant (docs/DESIGN.md#spherical-harmonics).
 constexpr double kShC0 = 0.28209479177387814;
 
+/// A stored rotation byte as a quaternion component before normalization. Writers store floor(q·128 + 128)
+/// (antimatter15's convert.py and splat-transform alike), so b stands for q in [(b − 128)/128, (b − 127)/128):
+/// its midpoint (b − 127.5)/128 halves the angle error of (b − 128)/128 (converter/INTEROP.md ".splat").
+inline float rotation_component(uint8_t b) { return (static_cast<float>(b) - 127.5f) / 128.0f; }
+
 Result<InteropScene> read_records(const uint8_t* data, size_t size, const InteropReadOptions& options) {
   if (size == 0 || size % kSplatRecordBytes != 0) {
-    return Status(StatusCode::kCorruptData, "a .splat file holds 32-byte records, but this one has " +
+    return Status(StatusCode::kCorruptData, "antimatter15 .splat: the format holds 32-byte records, but this file has " +
                                                 std::to_string(size) + " bytes (" +
-                                                std::to_string(size % kSplatRecordBytes) + " left over)");
+                                                std::to_string(size % kSplatRecordBytes) +
+                                                " left over: truncated, or not a .splat file)");
   }
   const uint64_t n = size / kSplatRecordBytes;
   if (n > options.max_gaussians) {
@@ -47,13 +53,25 @@ Result<InteropScene> read_records(const uint8_t* data, size_t size, const Intero
       cloud.sh[i * 3 + c] = static_cast<float>((r[24 + c] / 255.0 - 0.5) / kShC0);
     }
     cloud.opacities[i] = static_cast<float>(r[27]) / 255.0f;
-    for (int a = 0; a < 4; ++a) cloud.rotations[i * 4 + a] = (static_cast<float>(r[28 + a]) - 128.0f) / 128.0f;
+    // Bytes of 127 and 128 only stand for a quaternion within 1/128 of zero: no direction, so the hygiene
+    // rules see a zero quaternion.
+    const bool no_direction = std::all_of(r + 28, r + 32, [](uint8_t b) { return b == 127 || b == 128; });
+    for (int a = 0; a < 4; ++a) cloud.rotations[i * 4 + a] = no_direction ? 0.0f : rotation_component(r[28 + a]);
   }
   // Negative scales have no meaning (the writer stores exp of the log scale).
   uint64_t negative = 0;
-  for (float s : cloud.scales) negative += s < 0;
+  size_t first = 0;
+  for (size_t k = cloud.scales.size(); k-- > 0;) {
+    if (cloud.scales[k] < 0) {
+      ++negative;
+      first = k / 3;
+    }
+  }
   if (negative != 0) {
-    return Status(StatusCode::kCorruptData, std::to_string(negative) + " scale values are negative");
+    return Status(StatusCode::kCorruptData, "antimatter15 .splat: " + std::to_string(negative) +
+                                                " scale values are negative (the first in record " +
+                                                std::to_string(first) + " of " + std::to_string(n) +
+                                                "): a damaged file, or not a .splat file");
   }
   RGS_RETURN_IF_ERROR(detail::finish_hygiene(options.invalid_policy, "splat", &cloud, &scene.hygiene));
   scene.notes.push_back(".splat carries SH degree 0 only, colours and opacity as 8 bits");
@@ -83,7 +101,7 @@ bool looks_like_splat(const uint8_t* head, size_t n, uint64_t file_size) {
     }
     double n2 = 0;
     for (int a = 0; a < 4; ++a) {
-      const double q = (r[28 + a] - 128.0) / 128.0;
+      const double q = rotation_component(r[28 + a]);
       n2 += q * q;
     }
     if (n2 < 0.49 || n2 > 1.69) return false;

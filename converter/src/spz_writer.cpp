@@ -88,7 +88,7 @@ Status pack(const format::GaussianCloud& cloud, const SpzWriteOptions& o, int fb
   p->arrays[detail::kSpzRotations].resize(n * (smallest_three ? 4 : 3));
   p->arrays[detail::kSpzSh].resize(n * sh_per);
   detail::AxisFlip flip;  // RDF → RUB is the same 180° turn about x as RUB → RDF
-  if (o.convert_frame) detail::flip_to_rdf("RUB", &flip);
+  if (o.frame == SpzFrame::kRub) detail::flip_to_rdf("RUB", &flip);
   const float* s = flip.s;
   const double qs[3] = {double{s[1]} * s[2], double{s[0]} * s[2], double{s[0]} * s[1]};
   // SH signs of the flip, as detail::apply_axis_flip computes them.
@@ -281,8 +281,7 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
     l.push_back("SH rest: " + std::to_string(o.sh1_bits) + " bits (degree 1), " + std::to_string(o.sh_rest_bits) +
                 " bits (degrees 2-3) over [-1, 1)");
   }
-  l.push_back(o.convert_frame ? "frame: stored as RUB (y and z negated), as the SPZ format prescribes"
-                              : "frame: stored unconverted (RDF), which SPZ readers take for RUB");
+  l.push_back(spz_frame_note(o.frame, /*writing=*/true));
   return bytes;
 }
 

@@ -16,6 +16,7 @@
 #include "rgs/api/roofgs.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/converter/attribute_errors.h"
+#include "rgs/format/archive.h"
 #include "rgs/format/reader.h"
 
 namespace py = pybind11;
@@ -240,7 +241,17 @@ py::dict scene_info(const api::SceneInfo& info) {
   d["runtime_section_bytes"] = info.runtime_section_bytes;
   d["sphere_center"] = std::vector<float>(info.bounds.sphere_center, info.bounds.sphere_center + 3);
   d["sphere_radius"] = info.bounds.sphere_radius;
+  d["notes"] = info.notes;
   return d;
+}
+
+/// converter::SceneReadOptions from the keyword arguments every reading function takes.
+converter::SceneReadOptions read_options(const std::string& spz_frame) {
+  converter::SceneReadOptions options;
+  const std::optional<converter::SpzFrame> frame = converter::parse_spz_frame(spz_frame);
+  if (!frame) raise(Status(StatusCode::kInvalidArgument, "spz_frame must be 'rub' or 'as-stored'"));
+  options.spz_frame = *frame;
+  return options;
 }
 
 /// A scene and the renderer Python uses for it (created on first render; calls serialized by a mutex).
@@ -437,8 +448,9 @@ PYBIND11_MODULE(roofgs, m) {
 
   m.def("load",
         [](const std::string& path, const std::string& device, std::vector<std::string> presets,
-           bool quantize_other_formats, int cuda_device) {
+           bool quantize_other_formats, int cuda_device, const std::string& spz_frame) {
           api::LoadOptions options;
+          options.read_options = read_options(spz_frame);
           options.device = unwrap(api::parse_device(device));
           options.cuda_device = cuda_device;
           options.quantize_other_formats = quantize_other_formats;
@@ -452,23 +464,38 @@ PYBIND11_MODULE(roofgs, m) {
           return std::make_unique<PyScene>(unwrap(std::move(scene)));
         },
         py::arg("path"), py::arg("device") = "cuda", py::arg("presets") = std::vector<std::string>{"fastest"},
-        py::arg("quantize_other_formats") = true, py::arg("cuda_device") = 0,
-        "Load a .rgs file (or a 3DGS PLY through the converter) onto device 'cuda' or 'cpu'; the GPU copy holds "
-        "only what `presets` read");
+        py::arg("quantize_other_formats") = true, py::arg("cuda_device") = 0, py::arg("spz_frame") = "rub",
+        "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) onto device "
+        "'cuda' or 'cpu'; the GPU copy holds only what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
+        "(Niantic's convention) or 'as-stored' (splat-transform's); info['notes'] says which was assumed");
 
   m.def("convert",
-        [](const std::string& src, const std::string& dst, const std::string& scale_encoding,
-           float sh_clip_percentile, std::vector<std::string> zstd, int zstd_level, bool sanitize) {
+        [](const std::string& src, const std::string& dst, std::optional<std::string> to,
+           const std::string& scale_encoding, float sh_clip_percentile, std::vector<std::string> zstd,
+           int zstd_level, const std::string& profile, double position_error, std::optional<uint32_t> sh_degree,
+           std::optional<uint32_t> lod, const std::string& spz_frame, bool sanitize, bool allow_empty) {
           api::ConvertOptions o;
+          if (to) o.to = unwrap(api::parse_output_format(*to));
           if (scale_encoding == "log") {
             o.scale_encoding = format::ScaleEncoding::kLog;
           } else if (scale_encoding != "linear") {
             raise(Status(StatusCode::kInvalidArgument, "scale_encoding must be 'linear' or 'log'"));
           }
+          if (profile == "archive") {
+            o.profile = format::StorageProfile::kArchive;
+          } else if (profile != "runtime") {
+            raise(Status(StatusCode::kInvalidArgument, "profile must be 'runtime' or 'archive'"));
+          }
           o.sh_clip_percentile = sh_clip_percentile;
           o.zstd_sections = std::move(zstd);
           o.zstd_level = zstd_level;
+          o.position_error = position_error;
+          o.sh_degree = sh_degree;
+          o.read = read_options(spz_frame);
+          o.read.lod = lod;
           o.sanitize = sanitize;
+          o.allow_empty = allow_empty;
+          o.converter_name = "roofgs python";
           Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
           {
             py::gil_scoped_release release;
@@ -476,23 +503,31 @@ PYBIND11_MODULE(roofgs, m) {
           }
           const api::ConvertReport report = unwrap(std::move(r));
           py::dict d;
-          d["direction"] = report.direction;
+          d["input"] = py::dict(py::arg("format") = report.input_format,
+                                py::arg("description") = report.input_description,
+                                py::arg("bytes") = report.input_bytes, py::arg("notes") = report.input_notes);
+          d["output"] = py::dict(py::arg("format") = api::output_format_name(report.output_format),
+                                 py::arg("description") = report.output_description,
+                                 py::arg("bytes") = report.output_bytes, py::arg("notes") = report.output_notes);
           d["gaussians"] = report.gaussians;
           d["sh_degree"] = report.sh_degree;
-          d["input_bytes"] = report.input_bytes;
-          d["output_bytes"] = report.output_bytes;
-          d["dropped_gaussians"] = report.dropped_gaussians;
-          if (report.direction == "ply->rgs") d["errors"] = attribute_errors(report.errors);
+          d["dropped_gaussians"] = report.hygiene.dropped_gaussians;
+          if (report.rgs) d["errors"] = attribute_errors(report.rgs->errors);
           return d;
         },
-        py::arg("src"), py::arg("dst"), py::kw_only(), py::arg("scale_encoding") = "linear",
+        py::arg("src"), py::arg("dst"), py::kw_only(), py::arg("to") = py::none(), py::arg("scale_encoding") = "linear",
         py::arg("sh_clip_percentile") = 100.0f, py::arg("zstd") = std::vector<std::string>{},
-        py::arg("zstd_level") = 19, py::arg("sanitize") = false,
-        "Convert a 3DGS PLY to .rgs (or a .rgs back to PLY); returns a dict with sizes and attribute errors");
+        py::arg("zstd_level") = 19, py::arg("profile") = "runtime",
+        py::arg("position_error") = format::kDefaultArchivePositionError, py::arg("sh_degree") = py::none(),
+        py::arg("lod") = py::none(), py::arg("spz_frame") = "rub", py::arg("sanitize") = false,
+        py::arg("allow_empty") = false,
+        "Convert a scene in any format into dst: .rgs, .ply, .spz or .glb, as `to` or dst's extension says "
+        "(what rgs-convert does, same options). Returns a dict: input and output (format, description, bytes, "
+        "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output");
 
   m.def("audit",
-        [](const std::string& source, const std::string& rgs_path) {
-          api::HostScene a = unwrap(api::load_host_scene(source));
+        [](const std::string& source, const std::string& rgs_path, const std::string& spz_frame) {
+          api::HostScene a = unwrap(api::load_host_scene(source, read_options(spz_frame)));
           api::HostScene b = unwrap(api::load_host_scene(rgs_path));
           const converter::AttributeErrors e = unwrap(converter::measure_attribute_errors(a.cloud, b.cloud));
           format::RgsFile file = unwrap(format::RgsFile::open(rgs_path));
@@ -514,7 +549,7 @@ PYBIND11_MODULE(roofgs, m) {
           d["errors"] = attribute_errors(e);
           return d;
         },
-        py::arg("source"), py::arg("rgs"),
+        py::arg("source"), py::arg("rgs"), py::kw_only(), py::arg("spz_frame") = "rub",
         "What a conversion cost: sizes per section and per Gaussian, per-attribute errors of `rgs` against "
         "`source`, as a dict");
 }

@@ -8,6 +8,7 @@
 
 #include <doctest/doctest.h>
 
+#include "rgs/api/convert.h"
 #include "rgs/api/preset.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"

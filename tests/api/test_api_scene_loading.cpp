@@ -103,8 +103,8 @@ TEST_CASE("load_host_scene: every input format through converter::read_scene, wi
     CHECK(scene->cloud.size() > 0);
     CHECK(scene->bounds.sphere_radius > 0);
     // The limit is honoured for every format, before the cloud is built.
-    format::ReadOptions tight;
-    tight.limits.max_gaussians = scene->cloud.size() - 1;
+    converter::SceneReadOptions tight;
+    tight.max_gaussians = scene->cloud.size() - 1;
     auto refused = api::load_host_scene(c.path, tight);
     REQUIRE_FALSE(refused.ok());
     CHECK(refused.status().code() == StatusCode::kLimitExceeded);
@@ -119,8 +119,8 @@ TEST_CASE("replicate_scene_file: any input format, and the read limits") {
   auto r = api::replicate_scene_file(test::repo_path("tests/data/interop/guitar_256_splat_transform_v4.spz"), 2);
   REQUIRE_MESSAGE(r.ok(), r.status().to_string());
   CHECK(r->gaussians == 512);
-  format::ReadOptions tight;
-  tight.limits.max_gaussians = 100;
+  converter::SceneReadOptions tight;
+  tight.max_gaussians = 100;
   auto refused = api::replicate_scene_file(test::repo_path("samples/guitar.ply"), 2, tight);
   REQUIRE_FALSE(refused.ok());
   CHECK(refused.status().code() == StatusCode::kLimitExceeded);

@@ -31,6 +31,8 @@ namespace fs = std::filesystem;
 using converter::InputScene;
 using converter::read_scene;
 using converter::SceneReadOptions;
+using converter::SpzFrame;
+using converter::spz_frame_note;
 
 std::string sog_data(const std::string& name) { return repo_path("tests/data/sog/" + name); }
 
@@ -309,22 +311,58 @@ TEST_CASE("read_scene detects and reads SPZ, glTF/GLB and .splat files") {
     lod.lod = 1;
     CHECK(read_status(path, lod).code() == StatusCode::kInvalidArgument);
   }
-  // The SPZ axes: kept as stored on request (converter/INTEROP.md), y and z then opposite.
+  // The SPZ axes (converter/INTEROP.md "SPZ axes"): splat-transform stores the PLY's axes, so only
+  // spz_frame kAsStored gives back its source's means; kRub turns y and z over. Each read says which.
   const std::string spz = repo_path("tests/data/interop/guitar_256_splat_transform_v4.spz");
   SceneReadOptions keep;
-  keep.convert_spz_frame = false;
+  keep.spz_frame = SpzFrame::kAsStored;
   const InputScene turned = read_ok(spz), kept = read_ok(spz, keep);
-  REQUIRE(turned.cloud.size() == kept.cloud.size());
-  CHECK(kept.cloud.means[0] == turned.cloud.means[0]);
+  const InputScene source = read_ok(repo_path("tests/data/interop/guitar_256.ply"));
+  REQUIRE(turned.cloud.size() == source.cloud.size());
+  REQUIRE(kept.cloud.size() == source.cloud.size());
+  float kept_error = 0.0f, turned_error = 0.0f;
+  for (size_t i = 0; i < source.cloud.means.size(); ++i) {
+    kept_error = std::max(kept_error, std::fabs(kept.cloud.means[i] - source.cloud.means[i]));
+    turned_error = std::max(turned_error, std::fabs(turned.cloud.means[i] - source.cloud.means[i]));
+  }
+  CHECK(kept_error <= 0.5f / 4096.0f + 1e-6f);  // half the 12-fractional-bit position step
+  CHECK(turned_error > 0.1f);
   CHECK(kept.cloud.means[1] == -turned.cloud.means[1]);
   CHECK(kept.cloud.means[2] == -turned.cloud.means[2]);
-  CHECK_FALSE(kept.notes.empty());
-  // A file of 32-byte records that are not plausible Gaussians is not taken for .splat.
+  REQUIRE_FALSE(kept.notes.empty());
+  REQUIRE_FALSE(turned.notes.empty());
+  CHECK(kept.notes.front() == spz_frame_note(SpzFrame::kAsStored, false));
+  CHECK(turned.notes.front() == spz_frame_note(SpzFrame::kRub, false));
+  CHECK(turned.notes.front().find("as-stored") != std::string::npos);
+  // A file of 32-byte records that are not plausible Gaussians is not taken for .splat...
   std::vector<uint8_t> noise(64, 0xff);
-  write_bytes(tmp.file("noise.splat"), noise);
-  const Status s = read_status(tmp.file("noise.splat"));
+  write_bytes(tmp.file("noise.bin"), noise);
+  const Status s = read_status(tmp.file("noise.bin"));
   CHECK(s.code() == StatusCode::kInvalidArgument);
   CHECK(s.message().find("unsupported format") != std::string::npos);
+  // ...but a file named .splat gets the .splat reader's reason, naming the format.
+  write_bytes(tmp.file("noise.splat"), noise);
+  const Status named = read_status(tmp.file("noise.splat"));
+  CHECK(named.code() == StatusCode::kCorruptData);
+  CHECK(named.message().find("noise.splat") != std::string::npos);
+  const std::vector<uint8_t> splat = load_bytes(repo_path("tests/data/interop/guitar_256_splat_transform.splat"));
+  write_bytes(tmp.file("cut.splat"), std::vector<uint8_t>(splat.begin(), splat.end() - 5));
+  const Status cut = read_status(tmp.file("cut.splat"));
+  CHECK(cut.code() == StatusCode::kCorruptData);
+  CHECK(cut.message().find("antimatter15 .splat: the format holds 32-byte records") != std::string::npos);
+  CHECK(cut.message().find("27 left over") != std::string::npos);
+  std::vector<uint8_t> negative = splat;
+  const float minus = -1.0f;
+  std::memcpy(negative.data() + 5 * 32 + 16, &minus, 4);
+  write_bytes(tmp.file("negative.splat"), negative);
+  const Status bad_record = read_status(tmp.file("negative.splat"));
+  CHECK(bad_record.code() == StatusCode::kCorruptData);
+  CHECK(bad_record.message().find("(the first in record 5 of 256)") != std::string::npos);
+  // A GaussianSplats3D .ksplat is named as such.
+  write_bytes(tmp.file("scene.ksplat"), std::vector<uint8_t>(4096, 0));
+  const Status ksplat = read_status(tmp.file("scene.ksplat"));
+  CHECK(ksplat.code() == StatusCode::kInvalidArgument);
+  CHECK(ksplat.message().find("GaussianSplats3D .ksplat") != std::string::npos);
   // A damaged .rgs gets the .rgs reader's error even when its size would suit .splat.
   std::vector<uint8_t> rgs(64, 0);
   std::copy(format::kMagic, format::kMagic + 8, rgs.begin());

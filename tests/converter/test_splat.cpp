@@ -45,7 +45,7 @@ TEST_CASE("splat: round trip within the 8-bit steps, detection") {
   CHECK(d.position == 0);
   CHECK(d.log_scale == 0);
   CHECK(d.opacity <= 1.0 / 255 + 1e-6);           // truncation: a full step
-  CHECK(d.rotation_deg <= 2.0);  // 4 × 8 bits, truncated
+  CHECK(d.rotation_deg <= 1.0);  // 4 × 8 bits, truncated, decoded at the middle of each step
   // Colours are clipped to [0, 1] (f_dc within ±1.77); below that, within one 8-bit step.
   double dc = 0;
   for (size_t j = 0; j < in.sh.size(); ++j) {
@@ -65,7 +65,7 @@ TEST_CASE("splat: the file splat-transform 3.7.0 wrote from guitar_256.ply") {
   REQUIRE(r->cloud.size() == ply->cloud.size());
   // The writer may reorder records: match each by position (exact float copies).
   size_t matched = 0;
-  double worst_dc = 0, worst_op = 0, worst_rot = 0, worst_scale = 0;
+  double worst_dc = 0, worst_op = 0, worst_rot = 0, worst_scale = 0, sum_rot = 0;
   for (size_t i = 0; i < ply->cloud.size(); ++i) {
     for (size_t j = 0; j < r->cloud.size(); ++j) {
       if (std::memcmp(&ply->cloud.means[i * 3], &r->cloud.means[j * 3], 12) != 0) continue;
@@ -77,17 +77,23 @@ TEST_CASE("splat: the file splat-transform 3.7.0 wrote from guitar_256.ply") {
             std::max(worst_scale, std::fabs(double{ply->cloud.scales[i * 3 + c]} / r->cloud.scales[j * 3 + c] - 1));
       }
       worst_op = std::max(worst_op, std::fabs(double{ply->cloud.opacities[i]} - r->cloud.opacities[j]));
-      worst_rot = std::max(worst_rot, rotation_angle_deg(&ply->cloud.rotations[i * 4], &r->cloud.rotations[j * 4]));
+      const double rot = rotation_angle_deg(&ply->cloud.rotations[i * 4], &r->cloud.rotations[j * 4]);
+      worst_rot = std::max(worst_rot, rot);
+      sum_rot += rot;
       break;
     }
   }
   MESSAGE("splat-transform .splat: matched " << matched << ", f_dc " << worst_dc << ", opacity " << worst_op
-                                             << ", rotation " << worst_rot << " deg, scale rel " << worst_scale);
+                                             << ", rotation " << worst_rot << " deg (mean " << sum_rot / matched
+                                             << "), scale rel " << worst_scale);
   CHECK(matched == ply->cloud.size());
   CHECK(worst_scale <= 1e-6);
   CHECK(worst_op <= 1.0 / 255 + 1e-6);
   CHECK(worst_dc <= 1.0 / (0.28209479 * 255) + 1e-5);
-  CHECK(worst_rot <= 2.0);
+  // The writer stores floor(q·128 + 128): decoding the middle of each step gives a mean angle error of
+  // 0.43° on this file, where (b − 128)/128 gave 0.75° (converter/INTEROP.md ".splat").
+  CHECK(worst_rot <= 0.8);
+  CHECK(sum_rot / matched <= 0.45);
 }
 
 TEST_CASE("splat: inputs that must fail") {

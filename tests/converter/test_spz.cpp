@@ -177,7 +177,7 @@ TEST_CASE("spz: default SH bits keep the spz library's buckets, frame flags, lar
   // 4-bit buckets of 16/128 for degree 2 (5 bits for degree 1): half a bucket after rounding to 1/128.
   CHECK(diff_clouds(in, out.cloud).rest <= 8.5 / 128 + 1e-6);
   SpzWriteOptions keep;
-  keep.convert_frame = false;
+  keep.frame = converter::SpzFrame::kAsStored;
   InteropReadOptions raw;
   raw.convert_frame = false;
   const InteropScene flipped = read_ok(encode(in), raw);
@@ -223,7 +223,7 @@ TEST_CASE("spz: files written by splat-transform 3.7.0 (v3 and v4) decode to the
 TEST_CASE("spz: coordinate-system extension sets the stored frame") {
   const format::GaussianCloud in = make_interop_cloud(50, 1);
   SpzWriteOptions keep;
-  keep.convert_frame = false;  // stored as RDF...
+  keep.frame = converter::SpzFrame::kAsStored;  // stored as RDF...
   std::vector<uint8_t> bytes = encode(in, keep);
   // ...and say so: an extension record [0xADBE0003][4][6 = RDF] between header and TOC.
   std::vector<uint8_t> ext = {0x03, 0x00, 0xBE, 0xAD, 4, 0, 0, 0, 6, 0, 0, 0};

@@ -13,11 +13,68 @@ from conftest import SOURCE_DIR, roofgs
 def test_convert_reports_sizes_and_errors(guitar_rgs, tmp_path):
     report = roofgs.convert(str(SOURCE_DIR / "samples" / "guitar.ply"), str(tmp_path / "g.rgs"),
                             scale_encoding="log", zstd=["sh"])
-    assert report["direction"] == "ply->rgs"
-    assert report["output_bytes"] < report["input_bytes"]
+    assert report["input"]["format"] == "ply" and report["output"]["format"] == "rgs"
+    assert report["output"]["bytes"] < report["input"]["bytes"]
     assert report["errors"]["position"]["max"] == 0.0
     back = roofgs.convert(guitar_rgs, str(tmp_path / "back.ply"))
-    assert back["direction"] == "rgs->ply" and back["gaussians"] == 90854
+    assert back["input"]["format"] == "rgs" and back["output"]["format"] == "ply"
+    assert back["gaussians"] == 90854 and "errors" not in back
+
+
+# The first bytes of each output format.
+SIGNATURES = {"rgs": b"\x89RGS\r\n\x1a\n", "ply": b"ply\n", "spz": b"NGSP", "glb": b"glTF"}
+DATA = SOURCE_DIR / "tests" / "data"
+INPUTS = {
+    "ply": DATA / "interop" / "guitar_256.ply",
+    "rgs": DATA / "v1.0" / "small_sh3.rgs",
+    "compressed_ply": DATA / "sog" / "guitar_crop.compressed.ply",
+    "sog": DATA / "sog" / "guitar_crop_sh3" / "meta.json",
+    "sog_bundle": DATA / "sog" / "guitar_crop.sog",
+    "sog_lod": DATA / "sog" / "guitar_crop_lod-meta.json",
+    "spz": DATA / "interop" / "guitar_256_splat_transform_v4.spz",
+    "glb": DATA / "interop" / "guitar_256_splat_transform.glb",
+    "splat": DATA / "interop" / "guitar_256_splat_transform.splat",
+}
+
+
+@pytest.mark.parametrize("output", sorted(SIGNATURES))
+@pytest.mark.parametrize("input_format", sorted(INPUTS))
+def test_convert_writes_the_format_dst_names(input_format, output, tmp_path):
+    src = INPUTS[input_format]
+    dst = tmp_path / ("out." + output)
+    report = roofgs.convert(str(src), str(dst))
+    assert report["input"]["format"] == input_format
+    assert report["output"]["format"] == output
+    assert dst.read_bytes()[:len(SIGNATURES[output])] == SIGNATURES[output]
+    assert report["output"]["bytes"] == dst.stat().st_size
+    back = roofgs.load(str(dst), device="cpu", quantize_other_formats=False)
+    assert back.info["gaussians"] == report["gaussians"] > 0
+
+
+def test_convert_options_match_the_tool(tmp_path):
+    src = str(INPUTS["sog"])
+    # `to` decides for any other extension; a name saying another of the four formats is refused.
+    report = roofgs.convert(src, str(tmp_path / "scene.bin"), to="spz", sh_degree=1)
+    assert report["output"]["format"] == "spz" and report["sh_degree"] == 1
+    assert any("reduced to 1" in note for note in report["input"]["notes"])
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.convert(src, str(tmp_path / "scene.rgs"), to="glb")
+    assert e.value.code_name == "kInvalidArgument" and "the name says rgs" in str(e.value)
+    archive = roofgs.convert(src, str(tmp_path / "a.rgs"), profile="archive")
+    runtime = roofgs.convert(src, str(tmp_path / "r.rgs"))
+    assert archive["output"]["bytes"] < runtime["output"]["bytes"]
+    assert "archive" in archive["output"]["description"]
+    # The SPZ axes: the frame chosen is noted on writing and on reading.
+    ply = str(INPUTS["ply"])
+    for frame in ("rub", "as-stored"):
+        out = roofgs.convert(ply, str(tmp_path / (frame + ".spz")), spz_frame=frame)
+        assert any("frame:" in note and (frame == "rub") == ("RUB" in note) for note in out["output"]["notes"])
+        scene = roofgs.load(str(tmp_path / (frame + ".spz")), device="cpu", quantize_other_formats=False,
+                            spz_frame=frame)
+        assert any(note.startswith("SPZ axes read as " + ("RUB" if frame == "rub" else "stored"))
+                   for note in scene.info["notes"])
+    with pytest.raises(roofgs.Error):
+        roofgs.convert(ply, str(tmp_path / "x.spz"), spz_frame="flu")
 
 
 def test_errors_carry_codes(tmp_path):

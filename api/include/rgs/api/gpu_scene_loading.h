@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "rgs/api/scene_loading.h"
 #include "rgs/format/metadata.h"
@@ -22,6 +23,8 @@ struct LoadedGpuScene {
   uint64_t file_bytes = 0;
   /// The format in words, as HostScene::description.
   std::string description;
+  /// What the reader noted, as HostScene::notes.
+  std::vector<std::string> notes;
 };
 
 /// Checks that a CUDA device can be used and makes `ordinal` current on the calling thread. Errors:
@@ -29,13 +32,14 @@ struct LoadedGpuScene {
 /// is out of range; kCudaError from cudaSetDevice.
 Status require_cuda_device(int ordinal = 0);
 
-/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open(read_options) and
-/// runtime::GpuScene::from_rgs(options) (sections uploaded as stored, no host decode; FP32 arrays only with
-/// options.fp32_attributes), otherwise any format converter::read_scene detects (read_input_scene, with
-/// read_options' max_gaussians) through GpuScene::from_cloud with converter::compute_bounds (FP32 only).
+/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open (with
+/// converter::rgs_read_options(read_options)) and runtime::GpuScene::from_rgs(options) (sections uploaded as
+/// stored, no host decode; FP32 arrays only with options.fp32_attributes), otherwise any format
+/// converter::read_scene(path, read_options) detects, through GpuScene::from_cloud (FP32 only).
 /// Synchronous on `stream`. Errors name `path`.
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options = {},
-                                      cudaStream_t stream = nullptr, const format::ReadOptions& read_options = {});
+                                      cudaStream_t stream = nullptr,
+                                      const converter::SceneReadOptions& read_options = {});
 
 /// Uploads a replicate_scene_file() result (or any complete .rgs file in memory) onto the current device
 /// through format::RgsFile::from_bytes and GpuScene::from_rgs(options); `name` appears in errors. The bytes

@@ -1,5 +1,6 @@
-// The RoofGS front door in one include: load a scene (scene.h), build a camera (camera.h; GLM overloads in
-// camera_glm.h), render it with a preset (preset.h) into your own memory (renderer.h).
+// The RoofGS front door in one include: convert files (convert.h), load a scene (scene.h), build a camera
+// (camera.h; GLM overloads in camera_glm.h), render it with a preset (preset.h) into your own memory
+// (renderer.h).
 //
 //   auto scene = rgs::api::load("scene.rgs");                       // GPU, fastest preset
 //   auto renderer = rgs::api::Renderer::create();
@@ -10,6 +11,7 @@
 #pragma once
 
 #include "rgs/api/camera.h"
+#include "rgs/api/convert.h"
 #include "rgs/api/preset.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"

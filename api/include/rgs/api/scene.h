@@ -1,4 +1,4 @@
-// The front door: load a scene from any supported file, convert files. Usable without CUDA headers; GPU
+// The front door: load a scene from any supported file (convert.h converts files). Usable without CUDA headers; GPU
 // scenes exist only in builds with RGS_HAS_CUDA (rgs/config.h).
 //
 // Thread safety: a Scene is immutable once loaded; copies share it (reference counted), and one Scene may be
@@ -11,8 +11,7 @@
 #include <vector>
 
 #include "rgs/api/preset.h"
-#include "rgs/converter/attribute_errors.h"
-#include "rgs/converter/quantize.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/reader.h"
@@ -51,9 +50,9 @@ struct LoadOptions {
   /// exactly as the converted file would and the GPU holds the compact profile; false keeps the PLY's float values
   /// (GPU: FP32 arrays only; the RoofGS presets then read FP32).
   bool quantize_other_formats = true;
-  /// Read limits: a .rgs file is opened with them (format::RgsFile::open); other formats are refused above
-  /// read_options.limits.max_gaussians (converter::read_scene).
-  format::ReadOptions read_options;
+  /// How the file is read (converter::read_scene for every format: limits, the SPZ axes; a .rgs file
+  /// uploaded as stored is opened with converter::rgs_read_options of it).
+  converter::SceneReadOptions read_options;
 };
 
 /// What load() produced.
@@ -76,6 +75,8 @@ struct SceneInfo {
   /// Bytes of the .rgs runtime sections (means, rotations, scales, opacities, SH) uncompressed, 0 for a
   /// scene kept in FP32: the footprint a compact GPU scene is measured against.
   uint64_t runtime_section_bytes = 0;
+  /// What the reader noted (converter::InputScene::notes), e.g. the SPZ axes assumed.
+  std::vector<std::string> notes;
 };
 
 /// A loaded scene. Cheap to copy (shared, immutable).
@@ -106,40 +107,5 @@ class Scene {
 /// kOutOfMemory; kUnsupportedFeature for device kCuda in a build without CUDA or on a host without a
 /// usable device (the message says which); kCudaError.
 Result<Scene> load(const std::string& path, const LoadOptions& options = {});
-
-/// Options of convert(); the defaults are rgs-convert's.
-struct ConvertOptions {
-  /// FP16 scales stored linear (activated) or as the natural log.
-  format::ScaleEncoding scale_encoding = format::ScaleEncoding::kLinear;
-  /// SH scale: 100 = max |SH| / 127 (paper Eq. quant); lower clips the tail (converter::QuantizeOptions).
-  float sh_clip_percentile = 100.0f;
-  /// Sections compressed with zstd: "all" or names among metadata, provenance, means, rotations, scales,
-  /// opacities, sh. Empty: every section stored raw (the runtime copies it to the GPU as is).
-  std::vector<std::string> zstd_sections;
-  int zstd_level = 19;
-  /// Drop Gaussians with NaN/Inf values or zero-norm quaternions instead of failing.
-  bool sanitize = false;
-};
-
-/// What convert() did.
-struct ConvertReport {
-  /// "ply->rgs" (any input other than .rgs) or "rgs->ply".
-  std::string direction;
-  uint64_t gaussians = 0;
-  uint32_t sh_degree = 0;
-  uint64_t input_bytes = 0, output_bytes = 0;
-  /// ply->rgs: Gaussians dropped by `sanitize`.
-  uint64_t dropped_gaussians = 0;
-  /// ply->rgs: per-attribute errors of the .rgs against the PLY, and what quantization clipped or flushed.
-  converter::AttributeErrors errors;
-  converter::QuantizationReport quantization;
-};
-
-/// Converts `src` to `dst`: a scene in any format converter::read_scene detects to .rgs (read, quantize, write
-/// atomically; provenance records the source and options), or a .rgs to a standard INRIA PLY (every checksum verified,
-/// dequantized). The direction follows `src` (is_rgs_path). A failed conversion leaves an existing `dst` untouched.
-/// @return kInvalidArgument (bad options, an unknown zstd section name), and the errors of reading `src` and
-/// writing `dst` (kIoError naming it).
-Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
 
 }  // namespace rgs::api

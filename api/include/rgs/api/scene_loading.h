@@ -28,6 +28,9 @@ struct HostScene {
   std::string format_id;
   /// The format in words ("RoofGS .rgs", "binary_little_endian PLY", "Niantic SPZ v4 ...").
   std::string description;
+  /// What the reader noted (converter::InputScene::notes: the SPZ axes assumed, ignored fields), for the
+  /// tools to print.
+  std::vector<std::string> notes;
 };
 
 /// True when `path` is to be read as a .rgs file: it starts with the .rgs magic or ends in .rgs (so a
@@ -35,17 +38,10 @@ struct HostScene {
 /// the audit's scene loading.
 using format::is_rgs_path;
 
-/// Loads `path` into host memory through read_input_scene: any format converter::read_scene detects (a .rgs
-/// file dequantized; 3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .splat; invalid values rejected).
-/// Errors name `path`: those of read_scene.
-Result<HostScene> load_host_scene(const std::string& path, const format::ReadOptions& options = {});
-
-/// converter::read_scene with the limits of `options` (max_gaussians, max_decompression_ratio, checksums
-/// verified unless `options` says otherwise), invalid values rejected: the one reading every loader of this
-/// library shares. `keep_encoded`: a .rgs input also keeps its stored form (InputScene::encoded).
-/// Errors: those of read_scene.
-Result<converter::InputScene> read_input_scene(const std::string& path, const format::ReadOptions& options = {},
-                                               bool keep_encoded = false);
+/// Loads `path` into host memory through converter::read_scene(path, options): any format it detects (a .rgs
+/// file dequantized; 3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .splat). Errors name `path`: those
+/// of read_scene.
+Result<HostScene> load_host_scene(const std::string& path, const converter::SceneReadOptions& options = {});
 
 /// Largest Gaussian count a scene may have on the GPU (GpuScene and converter::replicate: 2^31 − 1).
 inline constexpr uint64_t kMaxGpuGaussians = 0x7fffffff;
@@ -65,16 +61,18 @@ struct ReplicatedScene {
   uint64_t source_file_bytes = 0;
   /// How the copies were quantized (the source .rgs's own quantization, or the converter's defaults).
   std::string quantization;
+  /// What the reader noted about the source (HostScene::notes).
+  std::vector<std::string> notes;
 };
 
 /// Reads `path` and tiles it `copies` times with converter::replicate (a grid in the x–z plane). A .rgs
-/// source (opened with `options`) is replicated as stored; a source in another format (read_input_scene) is
+/// source is replicated as stored; a source in another format (read through converter::read_scene) is
 /// first quantized with the default QuantizeOptions (what `rgs-convert in.ply out.rgs` writes). For a .rgs
 /// file the count is checked from the header first.
 /// Errors: kInvalidArgument (copies 0), kLimitExceeded (copies × Gaussians > kMaxGpuGaussians, naming both
 /// numbers), those of reading `path` (which they name) and of quantizing/serializing.
 Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t copies,
-                                             const format::ReadOptions& options = {});
+                                             const converter::SceneReadOptions& options = {});
 
 /// Which views to render.
 struct CameraChoice {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/reader.h"
@@ -33,6 +34,8 @@ struct SceneInfo {
   std::vector<SectionSize> sections;
   /// file_bytes minus the sections' stored bytes (header, table, padding); 0 without sections.
   uint64_t overhead_bytes = 0;
+  /// What the reader noted (converter::InputScene::notes: the SPZ axes assumed, ignored fields).
+  std::vector<std::string> notes;
 };
 
 /// A scene loaded for the audit: decoded float Gaussians as a renderer sees them.
@@ -46,12 +49,11 @@ struct AuditScene {
   std::optional<format::ShQuantization> sh_quantization;
 };
 
-/// Loads any scene file the audit can compare: a .rgs (by its magic, or the .rgs extension so a truncated
-/// file gets the .rgs reader's error) through format::RgsFile (with `options`' limits and checks) and
-/// format::dequantize, anything else through converter::read_scene (any format it detects by content: PLY,
-/// compressed PLY, SOG, SPZ, .splat, glTF). This is the one place that chooses a reader. `label` defaults to
-/// the file name. Errors: those of the readers, naming `path`.
+/// Loads any scene file the audit can compare through converter::read_scene(path, options): a .rgs
+/// dequantized (with its SH quantization and section table), or any other format it detects by content
+/// (PLY, compressed PLY, SOG, SPZ, .splat, glTF). `label` defaults to the file name. Errors: those of
+/// read_scene, naming `path`.
 Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label = {},
-                                    const format::ReadOptions& options = {});
+                                    const converter::SceneReadOptions& options = {});
 
 }  // namespace rgs::audit

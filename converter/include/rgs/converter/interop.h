@@ -3,13 +3,36 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/format/gaussian_cloud.h"
 
 namespace rgs::converter {
+
+/// The axes an SPZ file is taken to hold (converter/INTEROP.md "SPZ axes"). Nothing in an SPZ file tells
+/// the two kinds of writer apart, so the reader and writer assume kRub unless told otherwise.
+enum class SpzFrame : uint8_t {
+  /// RUB (x right, y up, z back), as Niantic's format description and spz library prescribe: turned
+  /// into RoofGS's RDF on read (y and z negated) and back on write. A SPZ_ADOBE_coordinate_system
+  /// extension in the file names another frame and is honoured.
+  kRub = 0,
+  /// The axes as stored, no turn: the PLY's own axes, as splat-transform (3.7) writes and reads SPZ.
+  kAsStored = 1,
+};
+
+/// "rub" or "as-stored": the spelling of the tools' --spz-frame, Python's spz_frame and JSON.
+const char* spz_frame_name(SpzFrame frame);
+
+/// Parses "rub" / "as-stored"; nullopt for anything else.
+std::optional<SpzFrame> parse_spz_frame(std::string_view name);
+
+/// The sentence the tools print whenever an SPZ file is read (`writing` false) or written: which axes were
+/// assumed and how to choose the other ones.
+std::string spz_frame_note(SpzFrame frame, bool writing);
 
 /// Options of read_spz, read_splat and read_gltf (the same limits and hygiene rules as PlyReadOptions).
 struct InteropReadOptions {

@@ -6,10 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "rgs/converter/interop.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/status.h"
 
 namespace rgs::converter {
@@ -35,11 +37,14 @@ struct SceneReadOptions {
   /// Level of detail of a streamed SOG (lod-meta.json): 0 is the finest. Unset reads LOD 0. Setting it for
   /// any other input is an error (kInvalidArgument), so a user's --lod is never silently ignored.
   std::optional<uint32_t> lod;
-  /// SPZ inputs: convert from the stored axes (RUB, or the frame a SPZ_ADOBE_coordinate_system extension
-  /// names) into RoofGS's RDF frame. False keeps the stored axes, for files whose writer skipped the
-  /// conversion (converter/INTEROP.md; InteropReadOptions::convert_frame). Other formats ignore it.
-  bool convert_spz_frame = true;
+  /// SPZ inputs: the axes the file is taken to hold (SpzFrame; converter/INTEROP.md "SPZ axes"). Every
+  /// SPZ read adds spz_frame_note() to InputScene::notes. Other formats ignore it.
+  SpzFrame spz_frame = SpzFrame::kRub;
 };
+
+/// format::ReadOptions carrying `options`' limits and checksum choice: what a .rgs file is opened with
+/// (format::RgsFile::open) by read_scene and by callers that map a .rgs themselves (the GPU upload).
+format::ReadOptions rgs_read_options(const SceneReadOptions& options);
 
 /// A scene read from any input format, and what was learned while reading it.
 struct InputScene {
@@ -86,7 +91,7 @@ struct InputScene {
 ///   earlier unversioned layout; a bundled `.sog` (ZIP of meta.json and the images, stored or deflated);
 /// - PlayCanvas streamed SOG: a lod-meta.json (or the folder holding it) and its chunk folders; one level of
 ///   detail is read (SceneReadOptions::lod, default 0);
-/// - Niantic SPZ v2-v4 (read_spz; frame converted unless SceneReadOptions::convert_spz_frame is false);
+/// - Niantic SPZ v2-v4 (read_spz; axes as SceneReadOptions::spz_frame says);
 /// - KHR_gaussian_splatting glTF, binary (.glb) or JSON (.gltf) with its buffers (read_gltf);
 /// - RoofGS .rgs (format::RgsFile: every section's checksum, frame and values checked, then dequantized; the
 ///   limits max_gaussians and max_decompression_ratio as format::ReadLimits);

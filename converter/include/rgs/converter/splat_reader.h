@@ -23,12 +23,13 @@ bool looks_like_splat(const uint8_t* head, size_t n, uint64_t file_size);
 
 /// Reads a .splat file (antimatter15/splat convert.py and main.js; converter/INTEROP.md). Each record,
 /// little-endian: position 3 × f32; linear scale 3 × f32; colour RGBA 4 × u8 with RGB = (0.5 +
-/// 0.28209479·f_dc)·255 and A = opacity·255; rotation 4 × u8 (w, x, y, z) as q·128 + 128. Decoded as
-/// f_dc = (c/255 − 0.5)/0.28209479, opacity = a/255, q = (b − 128)/128 then normalized. SH degree 0 (the
+/// 0.28209479·f_dc)·255 and A = opacity·255; rotation 4 × u8 (w, x, y, z) as floor(q·128 + 128). Decoded as
+/// f_dc = (c/255 − 0.5)/0.28209479, opacity = a/255, q = (b − 127.5)/128 (the middle of the interval the
+/// byte stands for; measured in converter/INTEROP.md ".splat") then normalized. SH degree 0 (the
 /// format has no higher coefficients). Frame: writers copy the PLY's axes unchanged, so the stored frame
 /// is RDF and convert_frame changes nothing.
-/// Errors name `path`: kIoError (unreadable), kCorruptData (size not a non-zero multiple of 32, invalid
-/// values under kReject: non-finite numbers or a zero rotation), kLimitExceeded (more than max_gaussians
+/// Errors name `path` and the format: kIoError (unreadable), kCorruptData (size not a non-zero multiple of
+/// 32, negative scales with the first record holding one, invalid values under kReject: non-finite numbers), kLimitExceeded (more than max_gaussians
 /// records), kOutOfMemory.
 Result<InteropScene> read_splat(const std::string& path, const InteropReadOptions& options = {});
 

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "rgs/converter/interop.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/status.h"
 
@@ -20,9 +21,9 @@ struct SpzWriteOptions {
   /// The defaults are the spz library's.
   uint32_t sh1_bits = 5;
   uint32_t sh_rest_bits = 4;
-  /// Convert from RoofGS's PLY/COLMAP frame (RDF) to the RUB axes the SPZ format prescribes
-  /// (y → −y, z → −z; read_spz documents it). False stores the axes unchanged.
-  bool convert_frame = true;
+  /// kRub: turn RoofGS's RDF frame into the RUB axes the SPZ format prescribes (y → −y, z → −z; read_spz
+  /// documents it). kAsStored: store the axes unchanged, for readers that skip the turn (INTEROP.md).
+  SpzFrame frame = SpzFrame::kRub;
   /// zstd level of the version 4 streams (the spz library uses 12).
   int zstd_level = 12;
 };

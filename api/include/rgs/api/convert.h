@@ -1,0 +1,138 @@
+// The one conversion: any scene format in, .rgs / INRIA PLY / SPZ / glTF binary out. rgs-convert and
+// Python's roofgs.convert call it and only parse options and print its report.
+//
+// Thread safety: convert() and convert_bytes() are reentrant (no shared state besides the files they name).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rgs/converter/attribute_errors.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/converter/spz_writer.h"
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+#include "rgs/format/writer.h"
+
+namespace rgs::api {
+
+/// What convert() writes.
+enum class OutputFormat {
+  kRgs = 0,  ///< RoofGS .rgs (format/SPEC.md): quantized runtime profile, or the lossy archive profile
+  kPly = 1,  ///< INRIA 3DGS PLY (float32, 62 properties at SH degree 3), readable by every 3DGS tool
+  kSpz = 2,  ///< Niantic SPZ v4 (lossy: converter::serialize_spz documents the quantization)
+  kGlb = 3,  ///< binary glTF with KHR_gaussian_splatting (float32)
+};
+
+/// "rgs", "ply", "spz" or "glb": the spelling of rgs-convert's --to, Python's `to=` and the JSON report.
+const char* output_format_name(OutputFormat format);
+
+/// The output format of `dst`: `to` when given, else the extension (.rgs, .ply, .spz, .glb, any case).
+/// @return kInvalidArgument when neither decides, or when the extension names another of these four formats
+///         than `to` (a GLB called scene.rgs would mislead every later reader of the name); an unrelated
+///         extension is accepted with `to`.
+Result<OutputFormat> output_format_for(const std::string& dst, std::optional<OutputFormat> to = std::nullopt);
+
+/// Parses "rgs" / "ply" / "spz" / "glb". @return kInvalidArgument otherwise.
+Result<OutputFormat> parse_output_format(const std::string& name);
+
+/// Options of convert(); the defaults are rgs-convert's.
+struct ConvertOptions {
+  /// Output format; unset: the extension of `dst` decides (output_format_for).
+  std::optional<OutputFormat> to;
+  /// How the input is read: limits, the streamed-SOG level (`lod`), the SPZ axes (`spz_frame`, which also
+  /// decides the axes of an SPZ output), checksums. invalid_policy and hash_file are set from `sanitize`.
+  converter::SceneReadOptions read;
+  /// Drop Gaussians with NaN/Inf values or zero-norm quaternions instead of failing (docs/INPUT_HYGIENE.md).
+  bool sanitize = false;
+  /// Write a scene without Gaussians instead of failing with kInvalidArgument.
+  bool allow_empty = false;
+  /// Drop the SH bands above this degree (0..3) before writing (converter::reduce_sh_degree).
+  std::optional<uint32_t> sh_degree;
+
+  // .rgs output only.
+  /// FP16 scales stored linear (activated) or as the natural log.
+  format::ScaleEncoding scale_encoding = format::ScaleEncoding::kLinear;
+  /// SH scale: 100 = max |SH| / 127 (paper Eq. quant); lower clips the tail (converter::QuantizeOptions).
+  float sh_clip_percentile = 100.0f;
+  /// Sections compressed with zstd: "all" or names among metadata, provenance, means, rotations, scales,
+  /// opacities, sh. Empty: every section stored raw (the runtime copies it to the GPU as is).
+  std::vector<std::string> zstd_sections;
+  int zstd_level = 19;
+  /// kRuntime (lossless sections, mapped as is) or kArchive (Draco means and quantized attributes,
+  /// SPEC §3.3), whose largest position error is `position_error` of the scene's longest AABB side.
+  format::StorageProfile profile = format::StorageProfile::kRuntime;
+  double position_error = format::kDefaultArchivePositionError;
+  /// Name recorded as the provenance's "converter" (with the library version).
+  std::string converter_name = "roofgs api";
+};
+
+/// What the .rgs quantization cost (.rgs output only).
+struct RgsOutputReport {
+  /// Per-attribute errors of the written scene against the read one (measured in the quantizing pass).
+  converter::AttributeErrors errors;
+  /// Clipped SH coefficients and FP16-flushed scales.
+  converter::QuantizationReport quantization;
+  /// The SH scale of each (degree, channel) stored in the metadata (SPEC §4.1.2).
+  format::ShQuantization sh_quantization;
+  /// Archive profile: the position step and bits chosen for `position_error` (0 for the runtime profile).
+  double position_step = 0;
+  uint32_t position_bits = 0;
+};
+
+/// Seconds spent, wall clock.
+struct ConvertTimes {
+  double read = 0, quantize = 0, write = 0, total = 0;  ///< quantize includes measuring the errors
+};
+
+/// What convert() read and wrote.
+struct ConvertReport {
+  /// The input: converter::InputScene's format_id ("ply", "sog", "spz", "rgs", ...), description in words,
+  /// storage format, bytes of every file read, Gaussians declared, hygiene counts.
+  std::string input_format;
+  std::string input_description;
+  std::string input_storage;
+  uint64_t input_bytes = 0;
+  uint64_t declared_gaussians = 0;
+  converter::InputHygiene hygiene;
+  /// What the reader noted (the SPZ axes assumed, ignored fields) and the SH bands dropped.
+  std::vector<std::string> input_notes;
+
+  OutputFormat output_format = OutputFormat::kRgs;
+  /// The output in words: "RoofGS .rgs, runtime profile", "INRIA PLY, dequantized", "SPZ v4", ...
+  std::string output_description;
+  uint64_t output_bytes = 0;
+  /// What the output format cannot carry or changed, one sentence each (SPZ precision and axes, PLY zero
+  /// scales, GLB axes).
+  std::vector<std::string> output_notes;
+
+  uint64_t gaussians = 0;
+  uint32_t sh_degree = 0;
+  /// .rgs output: the quantization's cost.
+  std::optional<RgsOutputReport> rgs;
+  /// SPZ output: the writer's summary (version, position step, clamped values).
+  std::optional<converter::SpzWriteSummary> spz;
+  /// PLY output: zero scales written as converter::kZeroScaleLog instead of −inf.
+  uint64_t zero_scales = 0;
+  ConvertTimes seconds;
+};
+
+/// Converts the scene at `src` (any format converter::read_scene detects, .rgs included) into `dst` in
+/// options.to or the format its extension names: read (every file of the scene checked against `dst`),
+/// drop SH bands, then quantize into a .rgs (provenance records the source, its XXH64 and the options) or
+/// write PLY / SPZ / GLB from the float Gaussians (a .rgs input dequantized). `dst` is replaced atomically
+/// and only on success: a failed conversion leaves an existing `dst` untouched.
+/// @return kInvalidArgument (bad options, an unknown zstd section, no output format, `dst` being one of the
+///         scene's files, an empty scene without allow_empty); the errors of reading `src` and of writing
+///         `dst` (kIoError naming it).
+Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
+
+/// convert() of a scene held in memory (a PLY or .rgs read from standard input); `name` stands for the
+/// source in messages and provenance.
+Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                    const std::string& dst, const ConvertOptions& options = {});
+
+}  // namespace rgs::api

@@ -1,0 +1,295 @@
+// convert(): read any scene, write .rgs, PLY, SPZ or GLB, and report what it cost.
+#include "rgs/api/convert.h"
+
+#include <cctype>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <utility>
+
+#include "rgs/config.h"
+#include "rgs/converter/gltf_writer.h"
+#include "rgs/converter/ply_writer.h"
+#include "rgs/format/archive.h"
+#include "rgs/format/file_io.h"
+
+namespace rgs::api {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+struct FormatName {
+  OutputFormat format;
+  const char* name;
+  const char* extension;
+};
+constexpr FormatName kFormatNames[] = {{OutputFormat::kRgs, "rgs", ".rgs"},
+                                       {OutputFormat::kPly, "ply", ".ply"},
+                                       {OutputFormat::kSpz, "spz", ".spz"},
+                                       {OutputFormat::kGlb, "glb", ".glb"}};
+
+const FormatName& entry(OutputFormat format) {
+  for (const FormatName& f : kFormatNames) {
+    if (f.format == format) return f;
+  }
+  return kFormatNames[0];
+}
+
+/// Sections a user may name in zstd_sections.
+constexpr std::pair<const char*, format::SectionId> kSectionNames[] = {
+    {"metadata", format::SectionId::kMetadata}, {"provenance", format::SectionId::kProvenance},
+    {"means", format::SectionId::kMeans},       {"rotations", format::SectionId::kRotations},
+    {"scales", format::SectionId::kScales},     {"opacities", format::SectionId::kOpacities},
+    {"sh", format::SectionId::kSh}};
+
+Result<format::WriteOptions> write_options(const ConvertOptions& options) {
+  RGS_RETURN_ERROR_IF(options.zstd_level < 1 || options.zstd_level > 22, StatusCode::kInvalidArgument,
+                      "convert: zstd level " + std::to_string(options.zstd_level) + " outside 1..22");
+  format::WriteOptions write;
+  write.zstd_level = options.zstd_level;
+  if (options.profile == format::StorageProfile::kArchive) {
+    write.profile = format::StorageProfile::kArchive;
+    write.archive.position_error = options.position_error;
+  }
+  for (const std::string& name : options.zstd_sections) {
+    bool found = false;
+    for (const auto& [n, id] : kSectionNames) {
+      if (name == "all" || name == n) {
+        write.codecs[id] = format::Codec::kZstd;
+        found = true;
+      }
+    }
+    RGS_RETURN_ERROR_IF(!found, StatusCode::kInvalidArgument,
+                        "convert: unknown zstd section '" + name +
+                            "' (use all, metadata, provenance, means, rotations, scales, opacities, sh)");
+  }
+  return write;
+}
+
+/// Checks the options that need no input, before anything is read.
+Status check_options(const ConvertOptions& options) {
+  RGS_RETURN_ERROR_IF(options.sh_degree && *options.sh_degree > 3, StatusCode::kInvalidArgument,
+                      "convert: SH degree " + std::to_string(*options.sh_degree) + " outside 0..3");
+  RGS_RETURN_ERROR_IF(!(options.sh_clip_percentile > 0.0f && options.sh_clip_percentile <= 100.0f),
+                      StatusCode::kInvalidArgument, "convert: SH clip percentile outside (0, 100]");
+  return write_options(options).status();
+}
+
+converter::SceneReadOptions read_options(const ConvertOptions& options) {
+  converter::SceneReadOptions read = options.read;
+  read.invalid_policy = options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+  read.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
+  return read;
+}
+
+/// kInvalidArgument when `dst` is one of the files the conversion reads (through any spelling or link).
+Status check_output_not_input(const std::string& dst, const std::vector<std::string>& inputs) {
+  format::OutputSet identities;
+  RGS_RETURN_IF_ERROR(identities.add_output(dst));
+  for (const std::string& input : inputs) RGS_RETURN_IF_ERROR(identities.add_input(input));
+  return Status();
+}
+
+std::string hex64(uint64_t v) {
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(v));
+  return text;
+}
+
+/// The provenance's "options" entry: every option that changes the bytes written.
+std::string options_text(const ConvertOptions& options) {
+  std::ostringstream text;
+  text << "scale_encoding=" << (options.scale_encoding == format::ScaleEncoding::kLog ? "log" : "linear")
+       << " sh_clip_percentile=" << options.sh_clip_percentile << " sanitize=" << (options.sanitize ? 1 : 0)
+       << " zstd_level=" << options.zstd_level << " zstd=";
+  for (size_t i = 0; i < options.zstd_sections.size(); ++i) text << (i ? "," : "") << options.zstd_sections[i];
+  if (options.sh_degree) text << " sh_degree=" << *options.sh_degree;
+  if (options.read.lod) text << " lod=" << *options.read.lod;
+  text << " spz_frame=" << converter::spz_frame_name(options.read.spz_frame);
+  return text.str();
+}
+
+Status write_rgs(const std::string& src_name, const std::string& dst, const ConvertOptions& options,
+                 converter::InputScene* input, ConvertReport* report) {
+  RGS_ASSIGN_OR_RETURN(format::WriteOptions write, write_options(options));
+  converter::QuantizeOptions quantize_options;
+  quantize_options.scale_encoding = options.scale_encoding;
+  quantize_options.sh_clip_percentile = options.sh_clip_percentile;
+  RgsOutputReport rgs;
+  const auto quantize_start = Clock::now();
+  auto encoded = converter::quantize(input->cloud, quantize_options, &rgs.quantization, &rgs.errors);
+  if (!encoded.ok()) return Status(encoded.status()).prepend(src_name);
+  report->seconds.quantize = seconds_since(quantize_start);
+  input->cloud = {};  // not read again: freed before the writer's buffers exist (peak RSS)
+  encoded->provenance = {
+      {"source_file", std::filesystem::path(src_name).filename().string()},
+      {"source_bytes", std::to_string(input->file_bytes)},
+      {"source_xxh64", hex64(input->file_xxh64.value_or(0))},
+      {"source_storage", input->storage_format},
+      {"converter", options.converter_name + " " + RGS_VERSION_STRING},
+      {"options", options_text(options)},
+      {"dropped_gaussians", std::to_string(input->hygiene.dropped_gaussians)},
+  };
+  const auto write_start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(report->output_bytes, format::write_scene_file(dst, *encoded, write));
+  report->seconds.write = seconds_since(write_start);
+  rgs.sh_quantization = encoded->metadata.sh_quantization;
+  const bool archive = write.profile == format::StorageProfile::kArchive;
+  if (archive) {
+    auto position = format::choose_position_quantization(encoded->metadata.bounds, options.position_error);
+    if (position.ok()) {
+      rgs.position_step = position->step;
+      rgs.position_bits = position->bits;
+    }
+  }
+  report->output_description = archive ? "RoofGS .rgs, archive profile" : "RoofGS .rgs, runtime profile";
+  report->gaussians = encoded->count;
+  report->sh_degree = encoded->metadata.sh_degree;
+  report->rgs = std::move(rgs);
+  return Status();
+}
+
+Status write_float(const std::string& dst, const ConvertOptions& options, const converter::InputScene& input,
+                   ConvertReport* report) {
+  const format::GaussianCloud& cloud = input.cloud;
+  const auto write_start = Clock::now();
+  switch (report->output_format) {
+    case OutputFormat::kPly: {
+      converter::PlyWriteReport ply;
+      RGS_ASSIGN_OR_RETURN(report->output_bytes, converter::write_ply(dst, cloud, &ply));
+      report->output_description = input.format_id == "rgs" ? "INRIA PLY, dequantized" : "INRIA PLY";
+      report->zero_scales = ply.zero_scales;
+      if (ply.zero_scales > 0) {
+        char log_scale[32];
+        std::snprintf(log_scale, sizeof(log_scale), "%.4f", static_cast<double>(converter::kZeroScaleLog));
+        report->output_notes.push_back(std::to_string(ply.zero_scales) + " zero scales written as log-scale " +
+                                       log_scale + ", not -inf");
+      }
+      break;
+    }
+    case OutputFormat::kSpz: {
+      converter::SpzWriteOptions spz_options;
+      spz_options.frame = options.read.spz_frame;
+      RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz, converter::write_spz(dst, cloud, spz_options));
+      report->output_bytes = spz.bytes;
+      report->output_description = "SPZ v" + std::to_string(spz.version);
+      report->output_notes = spz.limitations;
+      auto clamped = [&](uint64_t n, const char* what) {
+        if (n > 0) report->output_notes.push_back(std::to_string(n) + " " + what + " clamped to the SPZ range");
+      };
+      clamped(spz.scales_clamped, "scale values");
+      clamped(spz.colors_clamped, "DC colour values");
+      clamped(spz.sh_clamped, "SH rest values");
+      report->spz = std::move(spz);
+      break;
+    }
+    case OutputFormat::kGlb: {
+      RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary glb, converter::write_glb(dst, cloud));
+      report->output_bytes = glb.bytes;
+      report->output_description = "KHR_gaussian_splatting GLB";
+      report->output_notes = glb.limitations;
+      break;
+    }
+    case OutputFormat::kRgs:
+      return Status(StatusCode::kInvalidArgument, "convert: .rgs is not a float output");
+  }
+  report->seconds.write = seconds_since(write_start);
+  report->gaussians = cloud.size();
+  report->sh_degree = cloud.sh_degree;
+  return Status();
+}
+
+/// Everything after reading: checks, SH bands, the output, the report.
+Result<ConvertReport> convert_input(converter::InputScene input, const std::string& src_name,
+                                    const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                                    Clock::time_point start) {
+  ConvertReport report;
+  report.seconds.read = seconds_since(start);
+  report.output_format = output;
+  report.input_format = input.format_id;
+  report.input_description = input.description;
+  report.input_storage = input.storage_format;
+  report.input_bytes = input.file_bytes;
+  report.declared_gaussians = input.declared_vertices;
+  report.hygiene = input.hygiene;
+  report.input_notes = input.notes;
+  if (input.cloud.size() == 0 && !options.allow_empty) {
+    const std::string why = input.hygiene.dropped_gaussians > 0
+                                ? "sanitizing (--sanitize) dropped all " +
+                                      std::to_string(input.hygiene.dropped_gaussians) + " Gaussians, so the scene is empty"
+                                : "the input has no Gaussians";
+    return Status(StatusCode::kInvalidArgument,
+                  src_name + ": " + why + "; allow_empty (--allow-empty) writes an empty scene");
+  }
+  if (options.sh_degree && *options.sh_degree < input.cloud.sh_degree) {
+    report.input_notes.push_back("SH degree " + std::to_string(input.cloud.sh_degree) + " reduced to " +
+                                 std::to_string(*options.sh_degree));
+    RGS_RETURN_IF_ERROR(converter::reduce_sh_degree(&input.cloud, *options.sh_degree));
+  }
+  if (output == OutputFormat::kRgs) {
+    RGS_RETURN_IF_ERROR(write_rgs(src_name, dst, options, &input, &report));
+  } else {
+    RGS_RETURN_IF_ERROR(write_float(dst, options, input, &report));
+  }
+  report.seconds.total = seconds_since(start);
+  return report;
+}
+
+}  // namespace
+
+const char* output_format_name(OutputFormat format) { return entry(format).name; }
+
+Result<OutputFormat> parse_output_format(const std::string& name) {
+  for (const FormatName& f : kFormatNames) {
+    if (name == f.name) return f.format;
+  }
+  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use rgs, ply, spz or glb)");
+}
+
+Result<OutputFormat> output_format_for(const std::string& dst, std::optional<OutputFormat> to) {
+  std::string ext = std::filesystem::path(dst).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const FormatName* by_ext = nullptr;
+  for (const FormatName& f : kFormatNames) {
+    if (ext == f.extension) by_ext = &f;
+  }
+  if (!to) {
+    RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
+                        dst + ": cannot tell the output format from this name; name the output *.rgs, *.ply, "
+                              "*.spz or *.glb, or choose the format (rgs, ply, spz, glb)");
+    return by_ext->format;
+  }
+  RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext->format != *to, StatusCode::kInvalidArgument,
+                      dst + ": the name says " + by_ext->name + " but the format asked for is " +
+                          entry(*to).name + "; name the output *" + entry(*to).extension +
+                          " or leave the format to the name");
+  return *to;
+}
+
+Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
+  const auto start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
+  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, read_options(options)));
+  // Every file the scene read is an input: `dst` may not be one of them, in any spelling.
+  RGS_RETURN_IF_ERROR(check_output_not_input(dst, input.files));
+  return convert_input(std::move(input), src, dst, output, options, start);
+}
+
+Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
+                                    const std::string& dst, const ConvertOptions& options) {
+  const auto start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
+  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input,
+                       converter::read_scene_bytes(data, size, name, read_options(options)));
+  return convert_input(std::move(input), name, dst, output, options, start);
+}
+
+}  // namespace rgs::api
