@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|audit|all]   (default all)
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|audit|ab|all]   (default all; ab: see below)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
 out="$2"
@@ -63,6 +63,28 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
   grep -E "SKIPPED|FAILED|Error" "$out/python.log" | head -10 | tee -a "$summary"
 fi
 
+if [ "$what" = ab ]; then
+  # A/B against another build's rgs-bench (STAGE_DIR/ab/rgs-bench, e.g. the landed tree's): the same views,
+  # alternating A and B twice, baseline and roofgs+ at 1080p and 4K (docs/BENCHMARKS.md "A/B").
+  flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
+  cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
+  [ -f "$stage/ab/rgs-bench.xz" ] && xz -dkf "$stage/ab/rgs-bench.xz" && chmod +x "$stage/ab/rgs-bench"
+  for round in 1 2; do
+    for side in a b; do
+      exe="$bin/rgs-bench"
+      [ $side = a ] && exe="$stage/ab/rgs-bench"
+      for scene in flowers flowers_x53; do
+        extra=()
+        [ $scene = flowers_x53 ] && extra=(--replicate 53 --limit 8)
+        "$exe" "$flowers" --cameras "$cameras" --every 8 "${extra[@]}" --resolution 1920x1080 \
+          --resolution 3840x2160 --mode baseline --mode roofgs+ --warmup 3 --repeat 10 \
+          --json "$out/ab_${scene}_${side}${round}.json" >"$out/ab_${scene}_${side}${round}.log" 2>&1 || status=1
+      done
+    done
+  done
+  note "ab: $(ls "$out"/ab_*.json 2>/dev/null | wc -l) runs"
+fi
+
 if [ "$what" = bench ] || [ "$what" = all ]; then
   # Per-stage times and the roofline (device peaks measured in each run; docs/ROOFLINE.md), JSON under $out
   # (plot on a host: scripts/plot_roofline.py bench_X.json bench_X.png). Each run's wall time goes to the
@@ -71,11 +93,10 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
   modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs+fp32 --mode roofgs+whole-tiles --mode roofgs-serial
-         --mode roofgs-tile --mode roofgs-subtile --mode roofgs-quadrant)
+         --mode roofgs-tile --mode roofgs-subtile)
   # The ablation: every technique alone, all off, FP32 blending (roofgs+fp32), long tiles blended whole instead of
   # in chunks (roofgs+whole-tiles), the load balancing off (roofgs-serial), sub-tile culling off or on in every
-  # frame instead of chosen per frame (roofgs-tile, roofgs-subtile) and per quadrant instead of per 4x4 block
-  # (roofgs-quadrant; above).
+  # frame instead of chosen per frame (roofgs-tile, roofgs-subtile; above).
   ablation=("${modes[@]}" --mode roofgs-none --mode only-compact --mode only-fused --mode only-key32
             --mode only-snugbox --mode only-folded --mode only-fastexp)
   sizes=(--resolution 1920x1080 --resolution 3840x2160)

@@ -22,7 +22,7 @@ stage="$root/.device_data"
 taebak_stage="$root/.device_taebak"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
-  -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
+  -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_LAB_KERNELS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
   -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON >/dev/null
 exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render tools/rgs-bench tools/rgs-convert
       tools/rgs-audit samples/rgs_sample_render_frame)

@@ -777,7 +777,9 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   std::string mode_help = "Mode to benchmark (repeatable; default baseline):";
-  for (const api::GpuMode& m : api::gpu_modes()) mode_help += "\n  " + m.name + ": " + m.description;
+  for (const api::GpuMode& m : api::gpu_modes()) {
+    mode_help += "\n  " + m.name + ": " + m.description + (m.lab ? " [lab: builds with RGS_LAB_KERNELS]" : "");
+  }
   CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
                "repetitions, FPS, pair counts, per mode and resolution, and a per-stage roofline (analytic bytes "
                "and FLOPs, docs/ROOFLINE.md, against the device's memory and FP32 peaks measured in the same "

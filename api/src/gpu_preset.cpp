@@ -3,6 +3,8 @@
 
 #include <functional>
 
+#include "rgs/kernels/roofgs_pipeline.h"
+
 namespace rgs::api {
 namespace {
 
@@ -51,8 +53,7 @@ const std::vector<ModeEntry>& entries() {
         "key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians with many tiles emitted "
         "by warps (every RoofGS mode but roofgs-serial); sub-tile culling in the folded rasterizer chosen per "
         "frame (off when SnugBox+AccuTile is on and more than half the pairs belong to Gaussians with more than "
-        "32 tiles; every mode but roofgs-tile and roofgs-subtile), per 4x4 block of 8 lanes (every mode but "
-        "roofgs-quadrant)",
+        "32 tiles; every mode but roofgs-tile and roofgs-subtile), per 4x4 block of 8 lanes",
         false},
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
       {{"roofgs+",
@@ -87,9 +88,6 @@ const std::vector<ModeEntry>& entries() {
                      [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOff; }),
       roofgs_variant("roofgs-subtile", "roofgs with sub-tile culling on in every frame",
                      [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOn; }),
-      roofgs_variant("roofgs-quadrant",
-                     "roofgs with sub-tile culling per 8x8 quadrant of a warp instead of per 4x4 block of 8 lanes",
-                     [](runtime::GpuRoofgsOptions& o) { o.block_culling = false; }),
       {{"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)", false},
        [](bool) { return roofgs_pipeline(false, false, RoofgsOptions{}); }},
       only_mode("compact", "compact attributes (needs a .rgs scene)", true, false, nullptr),
@@ -119,10 +117,29 @@ GpuRenderOptions gpu_render_options(Preset preset, bool scene_has_compact) {
   return o;
 }
 
+/// Whether `o` may render with a lab variant of the render kernel (kernels::is_lab_variant): with sub-tile
+/// culling kAuto, either choice of the frame counts.
+bool uses_lab_variant(const GpuRenderOptions& o) {
+  if (o.pipeline == runtime::GpuPipeline::kBaseline) return false;
+  const RoofgsOptions& t = o.roofgs.techniques;
+  for (bool subtile : {false, true}) {
+    if (subtile ? o.roofgs.subtile_culling == runtime::SubtileCulling::kOff
+                : o.roofgs.subtile_culling == runtime::SubtileCulling::kOn) {
+      continue;
+    }
+    const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, t.half_blend};
+    if (kernels::is_lab_variant(raster)) return true;
+  }
+  return false;
+}
+
 const std::vector<GpuMode>& gpu_modes() {
   static const std::vector<GpuMode> modes = [] {
     std::vector<GpuMode> m;
-    for (const ModeEntry& e : entries()) m.push_back(e.mode);
+    for (const ModeEntry& e : entries()) {
+      m.push_back(e.mode);
+      m.back().lab = uses_lab_variant(e.options(false));
+    }
     return m;
   }();
   return modes;
@@ -133,7 +150,11 @@ Result<GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_ha
     if (e.mode.name != name) continue;
     RGS_RETURN_ERROR_IF(e.mode.requires_compact && !scene_has_compact, StatusCode::kInvalidArgument,
                         "mode " + name + " reads compact attributes, which only a .rgs scene has");
-    return e.options(scene_has_compact);
+    GpuRenderOptions options = e.options(scene_has_compact);
+    RGS_RETURN_ERROR_IF(!kernels::lab_kernels_compiled() && uses_lab_variant(options), StatusCode::kUnsupportedFeature,
+                        "mode " + name + " renders with a lab kernel variant; this build has the product variants "
+                        "only (configure with -DRGS_LAB_KERNELS=ON)");
+    return options;
   }
   std::string names;
   for (const ModeEntry& e : entries()) names += (names.empty() ? "" : ", ") + e.mode.name;

@@ -12,6 +12,10 @@
 #include "rgs/kernels/shared/tile_culling.h"
 
 namespace rgs::kernels {
+#ifndef RGS_LAB_KERNELS
+#define RGS_LAB_KERNELS 0  // the product build (kernels/CMakeLists.txt sets it)
+#endif
+
 namespace {
 
 constexpr int kTilePixels = kTileSize * kTileSize;
@@ -326,9 +330,8 @@ __device__ inline void finish_chunk(const TileChunks& chunks, uint32_t tile, uin
 
 /// Which pairs each lane of the folded rasterizer walks.
 enum class Cull {
-  kNone,      ///< every pair of the tile
-  kQuadrant,  ///< the pairs whose subtile_mask holds the warp's 8×8 quadrant
-  kBlock,     ///< the pairs whose block_mask holds the lane group's 4×4 block
+  kNone,   ///< every pair of the tile
+  kBlock,  ///< the pairs whose block_mask holds the lane group's 4×4 block
 };
 
 /// Lanes per group of the folded rasterizer: 8 lanes shade a 4×4 block, two vertically adjacent pixels each.
@@ -341,8 +344,8 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 /// blending without branches (blend_predicated). 128 threads per tile: warp w shades the 8×8 quadrant
 /// (w mod 2, w / 2), its lane group g = l / 8 the 4×4 block (g mod 2, g / 2) of that quadrant, lane l the
 /// pixels (i mod 4, 2·(i / 4)) of the block (i = l mod 8) and the ones below. Culling (beyond the paper): the
-/// thread that loads a pair also computes its mask, and each warp (kQuadrant: subtile_mask) or lane group
-/// (kBlock: block_mask) walks only the pairs whose mask holds its pixels, listed in batch order with ballots;
+/// thread that loads a pair also computes its block_mask, and each lane group walks only the pairs whose mask
+/// holds its pixels, listed in batch order with ballots;
 /// the other pairs cannot pass the 1/255 test there, so the output bits are the same (up to the caveat of
 /// subtile_mask). A warp whose lists keep every pair of a batch walks the slots directly. Lane groups of one
 /// warp walk lists of different lengths: the warp takes as many steps as the longest, each step serving up to
@@ -455,8 +458,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
           record.c56rg = make_float4(f.c5, f.c6, colour.x, colour.y);
           record.bd = make_float4(colour.z, kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
         }
-        if (kCull == Cull::kQuadrant) mask = subtile_mask(conic, u, v, log_opacity);
-        if (kCull == Cull::kBlock) mask = block_mask(conic, u, v, log_opacity);
+        if (kCulls) mask = block_mask(conic, u, v, log_opacity);
       }
       records[slot] = record;  // slots past the batch's end get the padding record
       if (kCulls) collected_mask[slot] = mask;
@@ -566,21 +568,32 @@ void launch_folded(const FoldedLists& lists, const RenderInputs& in, const Frame
   }
 }
 
-/// Half-precision blending exists with the fast exp only (its α is the binary16 fast exp); chunks with it only.
+/// Product variants are those the presets reach; the rest exist in RGS_LAB_KERNELS builds only
+/// (raster_variant_compiled).
 template <bool kFastExp, bool kHalf>
 void launch_folded(const FoldedLists& lists, const RenderInputs& in, const FrameParams& frame, float sigma,
                    const RasterOptions& raster, const ImageView& image, cudaStream_t stream) {
   static_assert(kFastExp || !kHalf);
   if (!raster.subtile_culling) {
     launch_folded<kFastExp, Cull::kNone, kHalf>(lists, in, frame, sigma, image, stream);
-  } else if (raster.block_culling) {
-    launch_folded<kFastExp, Cull::kBlock, kHalf>(lists, in, frame, sigma, image, stream);
-  } else {
-    launch_folded<kFastExp, Cull::kQuadrant, kHalf>(lists, in, frame, sigma, image, stream);
+    return;
   }
+#if !RGS_LAB_KERNELS
+  if constexpr (kHalf)  // FP32 blending with culling: a lab variant
+#endif
+    launch_folded<kFastExp, Cull::kBlock, kHalf>(lists, in, frame, sigma, image, stream);
 }
 
 }  // namespace
+
+bool is_lab_variant(const RasterOptions& raster) {
+  if (!raster.folded || !raster.fast_exp) return true;  // the RoofGS pixel kernel, folded without fast exp
+  return !raster.half_blend && raster.subtile_culling;  // FP32 blending with culling
+}
+
+bool lab_kernels_compiled() { return RGS_LAB_KERNELS != 0; }
+
+bool raster_variant_compiled(const RasterOptions& raster) { return lab_kernels_compiled() || !is_lab_variant(raster); }
 
 cudaError_t render_baseline(const uint64_t* ranges, const uint32_t* sorted_values, const ProjectedArrays& projected,
                             const FrameParams& frame, const ImageView& image, cudaStream_t stream) {
@@ -594,25 +607,28 @@ cudaError_t render_baseline(const uint64_t* ranges, const uint32_t* sorted_value
 cudaError_t render_roofgs(const uint64_t* ranges, const TileChunks& chunks, const uint32_t* sorted_values,
                           const RoofgsProjected& projected, const FrameParams& frame, const RoofgsFrame& roofgs,
                           const RasterOptions& raster, const ImageView& image, cudaStream_t stream) {
+  if (!raster_variant_compiled(raster)) return cudaErrorNotSupported;
   const RenderInputs in{reinterpret_cast<const float2*>(projected.means2d),
                         reinterpret_cast<const float4*>(projected.conic_opacity), nullptr,
                         reinterpret_cast<const float4*>(projected.colour_log_opacity), projected.depths};
   const float sigma = roofgs.fast_exp_sigma;
-  if (raster.folded) {
-    const bool half = raster.fast_exp && raster.half_blend;
-    if (chunks.chunk_pairs != 0 && !half) return cudaErrorInvalidValue;  // chunk records are binary16
-    const FoldedLists lists{ranges, chunks, sorted_values};
-    if (half) {
-      launch_folded<true, true>(lists, in, frame, sigma, raster, image, stream);
-    } else if (raster.fast_exp) {
-      launch_folded<true, false>(lists, in, frame, sigma, raster, image, stream);
-    } else {
-      launch_folded<false, false>(lists, in, frame, sigma, raster, image, stream);
-    }
-  } else if (raster.fast_exp) {
-    launch_pixel<true, true>(ranges, sorted_values, in, frame, sigma, image, stream);
+  const bool half = raster.folded && raster.fast_exp && raster.half_blend;
+  if (chunks.chunk_pairs != 0 && !half) return cudaErrorInvalidValue;  // chunk records are binary16
+  const FoldedLists lists{ranges, chunks, sorted_values};
+  if (half) {
+    launch_folded<true, true>(lists, in, frame, sigma, raster, image, stream);
+  } else if (raster.folded && raster.fast_exp) {
+    launch_folded<true, false>(lists, in, frame, sigma, raster, image, stream);
   } else {
-    launch_pixel<true, false>(ranges, sorted_values, in, frame, sigma, image, stream);
+#if RGS_LAB_KERNELS
+    if (raster.folded) {
+      launch_folded<false, false>(lists, in, frame, sigma, raster, image, stream);
+    } else if (raster.fast_exp) {
+      launch_pixel<true, true>(ranges, sorted_values, in, frame, sigma, image, stream);
+    } else {
+      launch_pixel<true, false>(ranges, sorted_values, in, frame, sigma, image, stream);
+    }
+#endif
   }
   return detail::launch_result();
 }

@@ -758,9 +758,10 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                         (!t.snugbox_accutile ||
                          double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs)));
   stats->subtile_culling = t.folded_coefficients && subtile;
-  stats->block_culling = stats->subtile_culling && options.block_culling;
-  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, options.block_culling,
-                                       t.half_blend};
+  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, t.half_blend};
+  RGS_RETURN_ERROR_IF(!kernels::raster_variant_compiled(raster), StatusCode::kUnsupportedFeature,
+                      "GpuRenderer: this combination of RoofGS techniques renders with a lab kernel variant, "
+                      "which only builds with RGS_LAB_KERNELS=ON compile (docs/RENDERER.md#product-and-lab-kernels)");
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), chunks, sorted_values, b.roofgs_projected(),
                                                   frame, rf, raster, view, stream),
                            "GpuRenderer: render kernel");

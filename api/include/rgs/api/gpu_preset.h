@@ -22,16 +22,19 @@ struct GpuMode {
   std::string description;  ///< one line for --help and reports
   /// True when the mode must read compact attributes (fails on a scene without them).
   bool requires_compact = false;
+  /// True when the mode may render with a lab variant of the render kernel (kernels::is_lab_variant): it runs
+  /// only in builds with RGS_LAB_KERNELS.
+  bool lab = false;
 };
 
-/// Every named configuration, in rgs-bench's order: baseline, roofgs, roofgs+, roofgs-serial, roofgs-tile,
-/// roofgs-subtile, roofgs-quadrant, roofgs-none, only-compact, only-fused, only-key32, only-snugbox, only-folded,
-/// only-fastexp. Preset kFastest is "roofgs+", kFaithful is "baseline" (gpu_render_options()).
+/// Every named configuration, in rgs-bench's order: baseline, roofgs, roofgs+, roofgs+fp32, roofgs+whole-tiles,
+/// roofgs-serial, roofgs-tile, roofgs-subtile, roofgs-none, only-compact, only-fused, only-key32, only-snugbox,
+/// only-folded, only-fastexp. Preset kFastest is "roofgs+", kFaithful is "baseline" (gpu_render_options()).
 const std::vector<GpuMode>& gpu_modes();
 
 /// Options of the mode called `name` for a scene with or without compact attributes.
 /// @return kInvalidArgument for an unknown name, or a mode that needs compact attributes on a scene
-/// without them (the message says so).
+/// without them (the message says so); kUnsupportedFeature for a lab mode in a build without RGS_LAB_KERNELS.
 Result<runtime::GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_has_compact);
 
 /// True when rendering with `options` reads the scene's FP32 arrays (the baseline pipeline, or the RoofGS one

@@ -40,7 +40,8 @@ bool looks_like_spz(const uint8_t* head, size_t n);
 /// y → −y, z → −z for means, quaternion (w, x, y, z) → (w, x, −y, −z), and the SH signs of that rotation
 /// (converter/INTEROP.md lists them). The spz library itself converts only when its caller names the
 /// frames (PackOptions::from, UnpackOptions::to), so writers that leave them unspecified store the PLY's
-/// axes unchanged: read those with convert_frame = false. A SPZ_ADOBE_coordinate_system extension
+/// axes unchanged (splat-transform 3.7 among them): read those with convert_frame = false
+/// (read_scene: SpzFrame::kAsStored; converter/INTEROP.md "SPZ axes"). A SPZ_ADOBE_coordinate_system extension
 /// (0xADBE0003) naming a flip-only frame overrides RUB as the stored frame; a rotated frame
 /// (LFD..RBU) is kUnsupportedFeature. Other extensions are skipped and listed in notes.
 ///

@@ -238,14 +238,11 @@ struct RasterOptions {
   bool folded = false;
   /// Fast exp (σ from RoofgsFrame) instead of expf.
   bool fast_exp = false;
-  /// With `folded` (beyond the paper): each warp skips the pairs that cannot reach alpha 1/255 on its 8×8
-  /// quadrant of the tile (subtile_mask in shared/tile_culling.h). Fewer iterations, the same output bits
-  /// (up to subtile_mask's caveat on pairs whose folded P is dominated by its own FP32 rounding).
+  /// With `folded` (beyond the paper): each group of 8 lanes skips the pairs that cannot reach alpha 1/255
+  /// on its 4×4 block (block_mask in shared/tile_culling.h), so that a Gaussian a few pixels wide costs the
+  /// lanes of the blocks it reaches and not the whole warp. Fewer iterations, the same output bits (up to
+  /// subtile_mask's caveat on pairs whose folded P is dominated by its own FP32 rounding).
   bool subtile_culling = false;
-  /// With `subtile_culling` (beyond the paper): each group of 8 lanes skips the pairs that cannot reach alpha
-  /// 1/255 on its 4×4 block (block_mask in shared/tile_culling.h), so that a Gaussian a few pixels wide costs
-  /// the lanes of the blocks it reaches and not the whole warp; the same output bits as the quadrant culling.
-  bool block_culling = false;
   /// With `folded` and `fast_exp` (beyond the paper): α, T and C of a thread's two pixels in binary16, one
   /// half2 instruction for both (shared/half_blend.h); ignored otherwise.
   bool half_blend = false;
@@ -286,10 +283,24 @@ inline uint32_t tile_chunk_record_words(bool depth) { return depth ? 8 : 4; }
 /// the ranges of a frame of at most the pairs chunks.capacity was sized for.
 cudaError_t list_tile_chunks(const uint64_t* ranges, uint32_t tiles, const TileChunks& chunks, cudaStream_t stream);
 
+/// Whether `raster` renders with a lab variant of the kernel. The product build compiles the variants the
+/// presets reach: fastest (folded, fast exp, binary16 blending, sub-tile culling on or off) and paper
+/// (folded, fast exp, FP32 blending, no culling), besides the baseline kernel of faithful. Builds with
+/// RGS_LAB_KERNELS (CMake option, on with the tests) add the lab variants: the RoofGS pixel kernel, the folded
+/// kernel without the fast exp, FP32 blending with culling (the one-technique ablations, comparison modes).
+bool is_lab_variant(const RasterOptions& raster);
+
+/// Whether this build holds the render kernel `raster` needs.
+bool raster_variant_compiled(const RasterOptions& raster);
+
+/// True in builds with RGS_LAB_KERNELS.
+bool lab_kernels_compiled();
+
 /// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,
 /// α = min(0.99, exp(P)), P = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 (skip P > 0), 128 threads per tile
 /// (a warp per 8×8 quadrant, two vertically adjacent pixels per thread). `chunks` (with `folded` and
 /// `half_blend`; listed by list_tile_chunks) renders the long tiles in chunks, before the other tiles.
+/// cudaErrorNotSupported when this build lacks the variant (raster_variant_compiled).
 cudaError_t render_roofgs(const uint64_t* ranges, const TileChunks& chunks, const uint32_t* sorted_values,
                           const RoofgsProjected& projected, const FrameParams& frame, const RoofgsFrame& roofgs,
                           const RasterOptions& raster, const ImageView& image, cudaStream_t stream);

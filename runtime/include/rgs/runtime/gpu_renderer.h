@@ -117,13 +117,10 @@ struct GpuRoofgsOptions {
   /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by warps
   /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
   bool balanced_emission = true;
-  /// With folded coefficients: whether each warp of the rasterizer skips the pairs that cannot reach alpha
-  /// 1/255 on its 8×8 quadrant of the tile (kernels::RasterOptions::subtile_culling); the same image bits on
-  /// every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
+  /// With folded coefficients: whether each group of 8 lanes of the rasterizer skips the pairs that cannot
+  /// reach alpha 1/255 on its 4×4 block of the tile (kernels::RasterOptions::subtile_culling); the same image
+  /// bits on every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
   SubtileCulling subtile_culling = SubtileCulling::kAuto;
-  /// Where sub-tile culling is on: cull per 4×4 block of 8 lanes (kernels::RasterOptions::block_culling)
-  /// rather than per 8×8 quadrant of a warp; the same image bits.
-  bool block_culling = true;
   /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
   /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
   RoofgsOptions techniques = RoofgsOptions::all();
@@ -165,7 +162,6 @@ struct GpuRenderStats {
   /// measure), and whether the rasterizer culled sub-tiles.
   uint64_t large_pairs = 0;
   bool subtile_culling = false;
-  bool block_culling = false;  ///< sub-tile culling was per 4×4 block
   /// RoofGS: the frame listed the chunks of its long tiles (chunking on for the frame: kernels::frame_chunk_pairs
   /// nonzero and below the pair count), and how many chunk blocks it listed (read back only for timed frames;
   /// 0 otherwise).
