@@ -13,6 +13,8 @@ fastest preset):
      3840x2160, or at its largest resolution), with the reference's total;
   3. the PSNR of its images against the reference's (mean / min over the views), where the runs had --quality;
   4. with --modes SCENE@RES, every mode of that frame (the ablation).
+With --ab the inputs are the runs of `scripts/gpu_check.sh ... ab` (ab_<scene>_<a|b><round>.json: side A is
+the other build, B this one) and the output is one table of total medians per side and B's change over A.
 With --update FILE the output replaces the lines between the markers
     <!-- bench_tables: begin ... -->
     <!-- bench_tables: end -->
@@ -302,6 +304,25 @@ def render(scenes, device, dates, mode, reference, stage_specs, mode_specs):
     return "\n".join(out) + "\n"
 
 
+def ab_table(runs, names):
+    """Total medians of A and B runs of the same frames, and B's change over A (mean of the rounds)."""
+    totals = {}  # (scene label, mode, resolution) -> {"a": [...], "b": [...]}
+    for run in runs:
+        m = re.search(r"_([ab])\d+\.json$", run["path"])
+        need(m is not None, run["path"], "an --ab input is named ..._a<N>.json or ..._b<N>.json")
+        label = Scene(run, names).label
+        for f in run["frames"]:
+            sides = totals.setdefault((label, f["mode"], f["resolution"]), {"a": [], "b": []})
+            sides[m.group(1)].append(f["ms"]["total"])
+    rows = []
+    for (label, mode, res), sides in sorted(totals.items()):
+        need(sides["a"] and sides["b"], label, f"{mode} {res} lacks an A or a B run")
+        a, b = sum(sides["a"]) / len(sides["a"]), sum(sides["b"]) / len(sides["b"])
+        rows.append([label, f"`{mode}`", resolution_label(res), " ".join(f"{v:.4f}" for v in sides["a"]),
+                     " ".join(f"{v:.4f}" for v in sides["b"]), f"{100 * (b / a - 1):+.1f} %"])
+    return table(["scene", "mode", "resolution", "A total ms", "B total ms", "B vs A"], rows)
+
+
 def update(path, generated):
     try:
         with open(path, encoding="utf-8") as f:
@@ -337,6 +358,7 @@ def main(argv):
                         help="frame of the per-stage table (repeatable; 'all': every frame)")
     parser.add_argument("--modes", action="append", default=[], metavar="SCENE@RES",
                         help="also a table of every mode of this frame (repeatable)")
+    parser.add_argument("--ab", action="store_true", help="A/B runs of gpu_check.sh ab: one comparison table")
     parser.add_argument("--name", action="append", default=[], metavar="STEM=LABEL",
                         help="short name of a scene file (e.g. garden_30k=garden)")
     args = parser.parse_args(argv)
@@ -350,6 +372,9 @@ def main(argv):
         parser.error("--stages all cannot be combined with other frames")
     try:
         runs = [load_run(p) for p in args.json]
+        if args.ab:
+            sys.stdout.write("\n".join(ab_table(runs, names)) + "\n")
+            return 0
         scenes, device, dates = collect(runs, names)
         text = render(scenes, device, dates, args.mode, args.reference, args.stages, args.modes)
         if args.update:
