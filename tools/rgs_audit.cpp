@@ -285,6 +285,108 @@ int run_report_only(const Options& opt) {
   return tools::kExitOk;
 }
 
+/// Declares the scenes and cameras as inputs and the outputs known before the audit runs (report HTML and
+/// JSON, --json, --heatmap); sets the report's JSON path and image folder (empty with --no-report).
+/// @return tools::kExitOk, or the exit code of the error reported.
+int declare_files(const Options& opt, format::OutputSet& outputs, std::string* report_json, std::string* report_files) {
+  for (const std::string& input : opt.scenes) {
+    if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
+  }
+  if (!opt.cameras.cameras_path.empty()) {
+    if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) {
+      return code;
+    }
+  }
+  if (!opt.no_report) {
+    *report_json = with_suffix(opt.report_path, ".json");
+    *report_files = with_suffix(opt.report_path, "_files");
+  }
+  for (const std::string& output : {opt.report_path, *report_json, opt.json_path, opt.heatmap_path}) {
+    if (output.empty() || (output == opt.json_path && opt.json_path == "-")) continue;
+    Status declared = outputs.add_output(output);
+    if (!declared.ok()) return report_output_error(declared);
+  }
+  if (!report_files->empty()) {
+    std::error_code ec;
+    const auto kind = std::filesystem::status(*report_files, ec).type();
+    if (kind != std::filesystem::file_type::not_found && kind != std::filesystem::file_type::directory) {
+      return tools::report_usage_error(
+          kTool, Status(StatusCode::kInvalidArgument,
+                        *report_files + ": the report's image folder exists and is not a directory (choose another "
+                                        "--report, or --no-report)"));
+    }
+  }
+  return tools::kExitOk;
+}
+
+/// The source (the first scene) and the candidates, their reader notes printed.
+Result<audit::AuditScene> load_scenes(const Options& opt, std::vector<audit::AuditScene>* candidates) {
+  RGS_ASSIGN_OR_RETURN(audit::AuditScene source,
+                       audit::load_audit_scene(opt.scenes[0], "source", tools::scene_read_options()));
+  tools::report_notes(kTool, source.info.notes, opt.quiet);
+  for (size_t i = 1; i < opt.scenes.size(); ++i) {
+    const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
+    RGS_ASSIGN_OR_RETURN(audit::AuditScene scene,
+                         audit::load_audit_scene(opt.scenes[i], label, tools::scene_read_options()));
+    tools::report_notes(kTool, scene.info.notes, opt.quiet);
+    candidates->push_back(std::move(scene));
+  }
+  return source;
+}
+
+/// The summary table: the source, each candidate's sizes and quality, the worst views, the files written.
+void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r, const std::string& report_json,
+                 Clock::time_point t_start) {
+  std::fprintf(out, "%s %s (%s, %s Gaussians, %s bytes)\n", kTool,
+               tools::escape_text(r.source.path).c_str(), tools::escape_text(r.source.format).c_str(),
+               tools::group_digits(r.source.gaussians).c_str(), tools::group_digits(r.source.file_bytes).c_str());
+  std::fprintf(out, "  backend          %s (%s)\n", audit::backend_name(r.backend),
+               tools::escape_text(r.device).c_str());
+  for (const auto& c : r.candidates) print_candidate(out, r, c);
+  std::fprintf(out, "  %-22s", "view");
+  for (const auto& c : r.candidates) std::fprintf(out, " %12.12s", tools::escape_text(c.scene.label).c_str());
+  std::fprintf(out, "   PSNR dB\n");
+  for (size_t v = 0; v < r.views.size(); ++v) {
+    std::fprintf(out, "  %-22s", tools::escape_text(r.views[v].name).c_str());
+    for (const auto& c : r.candidates) std::fprintf(out, " %12s", db(c.views[v].psnr_db).c_str());
+    std::fprintf(out, "\n");
+  }
+  std::fprintf(out, "  %-16s %8s %14s %8s %9s %9s %10s %10s %9s\n", "candidate", "format", "bytes", "B/G", "ratio",
+               "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
+  for (const auto& c : r.candidates) {
+    const double per_g = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
+    std::fprintf(
+        out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", tools::escape_text(c.scene.label).c_str(),
+        tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),
+        tools::fixed(per_g, 1).c_str(),
+        tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
+        db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(),
+        tools::fixed(c.summary.ssim_mean, 5).c_str(), tools::fixed(c.summary.max_abs_diff, 4).c_str());
+  }
+  const audit::ViewInfo& first = r.views.front();
+  for (const auto& c : r.candidates) {
+    const std::string suffix = r.candidates.size() > 1 ? "  [" + tools::escape_text(c.scene.label) + "]" : "";
+    std::fprintf(out, "  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)%s\n",
+                 db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(), r.views.size(), first.width,
+                 first.height, tools::escape_text(r.views[c.summary.worst_view].name).c_str(), suffix.c_str());
+    std::fprintf(out, "  SSIM             mean %s, min %s%s\n", tools::fixed(c.summary.ssim_mean, 5).c_str(),
+                 tools::fixed(c.summary.ssim_min, 5).c_str(), suffix.c_str());
+  }
+  if (!opt.heatmap_path.empty()) {
+    std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n",
+                 tools::escape_text(opt.heatmap_path).c_str(),
+                 tools::escape_text(r.views[r.candidates[0].summary.worst_view].name).c_str(),
+                 tools::fixed(r.candidates[0].summary.max_abs_diff > 0
+                                  ? r.candidates[0].views[r.candidates[0].summary.worst_view].max_abs_diff
+                                  : 0.f,
+                              4)
+                     .c_str());
+  }
+  if (!report_json.empty()) std::fprintf(out, "  json             %s\n", tools::escape_text(report_json).c_str());
+  std::fprintf(out, "  time             %s s (views %s s)\n", tools::fixed(tools::seconds_since(t_start), 1).c_str(),
+               tools::fixed(r.render_seconds, 1).c_str());
+}
+
 int run(const Options& opt) {
   const auto t_start = Clock::now();
   const bool json_stdout = opt.json_path == "-";
@@ -297,34 +399,8 @@ int run(const Options& opt) {
   // image files are named by the audit's worst views, so they are declared once it has run (before writing).
   tools::CreatedDirectory created_images;
   format::OutputSet outputs;
-  for (const std::string& input : opt.scenes) {
-    if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
-  }
-  if (!opt.cameras.cameras_path.empty()) {
-    if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) {
-      return code;
-    }
-  }
   std::string report_json, report_files;
-  if (!opt.no_report) {
-    report_json = with_suffix(opt.report_path, ".json");
-    report_files = with_suffix(opt.report_path, "_files");
-  }
-  for (const std::string& output : {opt.report_path, report_json, opt.json_path, opt.heatmap_path}) {
-    if (output.empty() || (output == opt.json_path && json_stdout)) continue;
-    Status declared = outputs.add_output(output);
-    if (!declared.ok()) return report_output_error(declared);
-  }
-  if (!report_files.empty()) {
-    std::error_code ec;
-    const auto kind = std::filesystem::status(report_files, ec).type();
-    if (kind != std::filesystem::file_type::not_found && kind != std::filesystem::file_type::directory) {
-      return tools::report_usage_error(
-          kTool, Status(StatusCode::kInvalidArgument,
-                        report_files + ": the report's image folder exists and is not a directory (choose another "
-                                       "--report, or --no-report)"));
-    }
-  }
+  if (int code = declare_files(opt, outputs, &report_json, &report_files); code != tools::kExitOk) return code;
   for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
 
   // Backend first: an explicit --backend cuda without a device fails before any loading.
@@ -344,17 +420,9 @@ int run(const Options& opt) {
   options.cpu_threads = opt.threads;
 
   // Every scene goes through audit::load_audit_scene, the one place that picks a reader.
-  auto source = audit::load_audit_scene(opt.scenes[0], "source", tools::scene_read_options());
-  if (!source.ok()) return tools::report_error(kTool, source.status());
-  tools::report_notes(kTool, source->info.notes, opt.quiet);
   std::vector<audit::AuditScene> candidates;
-  for (size_t i = 1; i < opt.scenes.size(); ++i) {
-    const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
-    auto scene = audit::load_audit_scene(opt.scenes[i], label, tools::scene_read_options());
-    if (!scene.ok()) return tools::report_error(kTool, scene.status());
-    tools::report_notes(kTool, scene->info.notes, opt.quiet);
-    candidates.push_back(std::move(scene).value());
-  }
+  auto source = load_scenes(opt, &candidates);
+  if (!source.ok()) return tools::report_error(kTool, source.status());
   auto cameras = api::make_cameras(opt.cameras, source->bounds);
   if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
 
@@ -422,56 +490,7 @@ int run(const Options& opt) {
 
   // The table (stderr when stdout carries the JSON).
   std::FILE* out = json_stdout ? stderr : stdout;
-  if (!opt.quiet) {
-    std::fprintf(out, "%s %s (%s, %s Gaussians, %s bytes)\n", kTool,
-                 tools::escape_text(r.source.path).c_str(), tools::escape_text(r.source.format).c_str(),
-                 tools::group_digits(r.source.gaussians).c_str(), tools::group_digits(r.source.file_bytes).c_str());
-    std::fprintf(out, "  backend          %s (%s)\n", audit::backend_name(r.backend),
-                 tools::escape_text(r.device).c_str());
-    for (const auto& c : r.candidates) print_candidate(out, r, c);
-    std::fprintf(out, "  %-22s", "view");
-    for (const auto& c : r.candidates) std::fprintf(out, " %12.12s", tools::escape_text(c.scene.label).c_str());
-    std::fprintf(out, "   PSNR dB\n");
-    for (size_t v = 0; v < r.views.size(); ++v) {
-      std::fprintf(out, "  %-22s", tools::escape_text(r.views[v].name).c_str());
-      for (const auto& c : r.candidates) std::fprintf(out, " %12s", db(c.views[v].psnr_db).c_str());
-      std::fprintf(out, "\n");
-    }
-    std::fprintf(out, "  %-16s %8s %14s %8s %9s %9s %10s %10s %9s\n", "candidate", "format", "bytes", "B/G", "ratio",
-                 "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
-    for (const auto& c : r.candidates) {
-      const double per_g = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
-      std::fprintf(
-          out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", tools::escape_text(c.scene.label).c_str(),
-          tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),
-          tools::fixed(per_g, 1).c_str(),
-          tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
-          db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(),
-          tools::fixed(c.summary.ssim_mean, 5).c_str(), tools::fixed(c.summary.max_abs_diff, 4).c_str());
-    }
-    const audit::ViewInfo& first = r.views.front();
-    for (const auto& c : r.candidates) {
-      const std::string suffix = r.candidates.size() > 1 ? "  [" + tools::escape_text(c.scene.label) + "]" : "";
-      std::fprintf(out, "  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)%s\n",
-                   db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(), r.views.size(), first.width,
-                   first.height, tools::escape_text(r.views[c.summary.worst_view].name).c_str(), suffix.c_str());
-      std::fprintf(out, "  SSIM             mean %s, min %s%s\n", tools::fixed(c.summary.ssim_mean, 5).c_str(),
-                   tools::fixed(c.summary.ssim_min, 5).c_str(), suffix.c_str());
-    }
-    if (!opt.heatmap_path.empty()) {
-      std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n",
-                   tools::escape_text(opt.heatmap_path).c_str(),
-                   tools::escape_text(r.views[r.candidates[0].summary.worst_view].name).c_str(),
-                   tools::fixed(r.candidates[0].summary.max_abs_diff > 0
-                                    ? r.candidates[0].views[r.candidates[0].summary.worst_view].max_abs_diff
-                                    : 0.f,
-                                4)
-                       .c_str());
-    }
-    if (!report_json.empty()) std::fprintf(out, "  json             %s\n", tools::escape_text(report_json).c_str());
-    std::fprintf(out, "  time             %s s (views %s s)\n", tools::fixed(tools::seconds_since(t_start), 1).c_str(),
-                 tools::fixed(r.render_seconds, 1).c_str());
-  }
+  if (!opt.quiet) print_table(out, opt, r, report_json, t_start);
   if (json_stdout) {
     std::fwrite(text.data(), 1, text.size(), stdout);
     std::fflush(stdout);  // before the HTML script runs, which shares stdout

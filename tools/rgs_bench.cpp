@@ -495,6 +495,196 @@ Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::Replicated
   return scene;
 }
 
+/// What a run measured, for the table and the JSON.
+struct BenchReport {
+  runtime::CudaDeviceInfo device;
+  runtime::DevicePeaks peaks;
+  std::string date;
+  double load_ms = 0;
+  /// Per-frame device buffers: the renderer's scratch (pairs, keys, sort and scan storage, ranges,
+  /// per-Gaussian projections), grown to the largest frame of the run, and the output image.
+  uint64_t scratch_bytes = 0, image_bytes = 0;
+  size_t view_count = 0;
+  std::vector<RunResult> results;
+  std::vector<RunRoofline> rooflines;
+  std::vector<QualityRow> quality;
+  std::vector<FrontDoorRow> front_door;
+};
+
+/// The tables on stdout: scene, stage times, roofline, quality, front door.
+void print_report(const Options& opt, const api::LoadedGpuScene& scene, const api::ReplicatedScene& replicated,
+                  const BenchReport& report) {
+  std::printf("%s %s\n", kTool, opt.input.c_str());
+  std::printf("  device           %s (sm_%d%d, %d SMs), %s\n", report.device.name.c_str(), report.device.compute_major,
+              report.device.compute_minor, report.device.multiprocessors, report.date.c_str());
+  if (opt.replicate > 1) {
+    std::printf("  gaussians        %s = %u copies of %s (SH degree %u, %s source, %s MB on the device)\n",
+                tools::group_digits(scene.scene.size()).c_str(), opt.replicate,
+                tools::group_digits(replicated.source_gaussians).c_str(), scene.scene.sh_degree(),
+                replicated.source_is_rgs ? ".rgs" : "PLY",
+                tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
+    std::printf("  replicated       %s\n", replicated.quantization.c_str());
+  } else {
+    std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
+                tools::group_digits(scene.scene.size()).c_str(), scene.scene.sh_degree(),
+                scene.is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
+  }
+  if (opt.replicate > 1) {
+    std::printf("  load             %s ms (upload of the replicated scene, built on the host before)\n",
+                tools::fixed(report.load_ms, 1).c_str());
+  } else {
+    std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n", tools::fixed(report.load_ms, 1).c_str(),
+                tools::group_digits(scene.file_bytes).c_str());
+  }
+  std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame) + %s MB image\n",
+              tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(), tools::fixed(double(report.image_bytes) / 1e6, 1).c_str());
+  std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", report.view_count,
+              opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json", opt.warmup, opt.repeat);
+  std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", "mode", "resolution", "preprocess", "sort", "ranges",
+              "render", "total", "FPS", "mean pairs");
+  for (const RunResult& r : report.results) {
+    std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", r.mode.c_str(), r.resolution.c_str(),
+                tools::fixed(r.stages[0].median, 3).c_str(), tools::fixed(r.stages[1].median, 3).c_str(),
+                tools::fixed(r.stages[2].median, 3).c_str(), tools::fixed(r.stages[3].median, 3).c_str(),
+                tools::fixed(r.stages[4].median, 3).c_str(), tools::fixed(r.fps, 1).c_str(),
+                tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
+  }
+
+  // Roofline table.
+  std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
+              "FP32 %s GFLOP/s (FMA loop, median of %zu); ridge %s FLOP/B\n",
+              tools::fixed(report.peaks.memory_gbps, 1).c_str(), tools::group_digits(report.peaks.copy_bytes >> 20).c_str(),
+              report.peaks.copy_ms.size(), tools::fixed(report.peaks.fp32_gflops, 0).c_str(), report.peaks.fma_ms.size(),
+              tools::fixed(report.peaks.ridge_flop_per_byte(), 2).c_str());
+  std::printf("  roofline         model: docs/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
+  std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage",
+              "ms", "floor ms", "x floor", "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
+  for (size_t i = 0; i < report.results.size(); ++i) {
+    for (int s = 0; s < runtime::kRooflineStages; ++s) {
+      const runtime::RooflinePoint& p = report.rooflines[i].points[s];
+      std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", report.results[i].mode.c_str(),
+                  report.results[i].resolution.c_str(), runtime::roofline_stage_name(runtime::RooflineStage(s)),
+                  tools::fixed(p.ms, 3).c_str(), tools::fixed(p.floor_ms, 3).c_str(),
+                  tools::fixed(p.times_floor, 1).c_str(), tools::fixed(p.bytes / 1e6, 2).c_str(),
+                  tools::fixed(p.flops / 1e6, 1).c_str(), tools::fixed(p.gbps, 1).c_str(),
+                  tools::fixed(p.gflops, 1).c_str(), tools::fixed(p.intensity, 2).c_str(),
+                  tools::fixed(p.pct_bandwidth, 1).c_str(), tools::fixed(p.pct_compute, 1).c_str(), p.bound);
+    }
+  }
+
+  if (!report.quality.empty()) {
+    std::printf("  quality          against the baseline's render of the same views (clamped RGB; PSNR dB, SSIM)\n");
+    std::printf("  %-12s %-10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min", "SSIM mean",
+                "max |d|", "views");
+    for (const QualityRow& r : report.quality) {
+      std::printf("  %-12s %-10s %10s %10s %10s %9s %6zu\n", r.mode.c_str(), r.resolution.c_str(),
+                  tools::fixed(r.psnr_mean, 2).c_str(), tools::fixed(r.psnr_min, 2).c_str(),
+                  tools::fixed(r.ssim_mean, 5).c_str(), tools::fixed(r.max_abs_diff, 4).c_str(), r.views);
+    }
+  }
+  if (!report.front_door.empty()) {
+    std::printf("  front door       ms per frame, host wall clock to device completion, median (same views, "
+                "interleaved)\n");
+    for (const FrontDoorRow& r : report.front_door) {
+      std::printf("  %-34s %-10s %8s\n", r.path.c_str(), r.resolution.c_str(), tools::fixed(r.median_ms, 3).c_str());
+    }
+  }
+}
+
+/// The run as JSON (docs/BENCHMARKS.md "Reproducing"; scripts/bench_tables.py reads it).
+std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, const api::ReplicatedScene& replicated,
+                       const BenchReport& report) {
+  nlohmann::json j;
+  j["tool"] = kTool;
+  j["version"] = RGS_VERSION_STRING;
+  j["date"] = report.date;
+  j["timestamp_utc"] = format_time("%Y-%m-%dT%H:%M:%SZ", true);
+  j["device"] = {{"ordinal", report.device.ordinal},
+                 {"name", report.device.name},
+                 {"compute_capability", std::to_string(report.device.compute_major) + "." +
+                                            std::to_string(report.device.compute_minor)},
+                 {"multiprocessors", report.device.multiprocessors},
+                 {"global_memory_bytes", report.device.global_memory_bytes},
+                 {"l2_cache_bytes", report.device.l2_cache_bytes},
+                 {"driver_version", report.device.driver_version},
+                 {"runtime_version", report.device.runtime_version}};
+  j["device_peaks"] = peaks_json(report.peaks);
+  j["scene"] = {{"path", opt.input},
+                {"format", scene.is_rgs ? "rgs" : "ply"},
+                {"file_bytes", scene.file_bytes},
+                {"gaussians", scene.scene.size()},
+                {"sh_degree", scene.scene.sh_degree()},
+                {"device_bytes", scene.scene.device_bytes()},
+                {"load_ms", report.load_ms},
+                {"renderer_scratch_bytes", report.scratch_bytes},
+                {"image_bytes", report.image_bytes},
+                {"replicate", opt.replicate}};
+  if (opt.replicate > 1) {
+    j["scene"]["format"] = replicated.source_is_rgs ? "rgs" : "ply";
+    j["scene"]["source_gaussians"] = replicated.source_gaussians;
+    j["scene"]["replicated_quantization"] = replicated.quantization;
+    const format::SceneBounds& b = scene.bounds;
+    j["scene"]["bounds"] = {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max},
+                            {"sphere_center", b.sphere_center}, {"sphere_radius", b.sphere_radius}};
+  }
+  j["cameras"] = {{"source", opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json"},
+                  {"path", opt.cameras.cameras_path},
+                  {"every", opt.cameras.every},
+                  {"views", report.view_count}};
+  j["warmup_frames"] = opt.warmup;
+  j["repetitions"] = opt.repeat;
+  j["statistic"] = "median over views x repetitions, per stage separately; fps = 1000 / median total_ms";
+  nlohmann::json runs = nlohmann::json::array();
+  for (size_t i = 0; i < report.results.size(); ++i) {
+    const RunResult& r = report.results[i];
+    nlohmann::json stages, views = nlohmann::json::array();
+    nlohmann::json median;
+    for (int s = 0; s < kStages; ++s) {
+      stages[std::string(kStageNames[s]) + "_ms"] = summary_json(r.stages[s]);
+      median[std::string(kStageNames[s]) + "_ms"] = r.stages[s].median;
+    }
+    for (const ViewResult& v : r.views) {
+      nlohmann::json samples;
+      for (int s = 0; s < kStages; ++s) samples[std::string(kStageNames[s]) + "_ms"] = v.samples[s];
+      views.push_back({{"name", v.name},
+                       {"width", v.width},
+                       {"height", v.height},
+                       {"pairs", v.pairs},
+                       {"large_pairs", v.large_pairs},
+                       {"subtile_culling", v.subtile_culling},
+                       {"sort_bits", v.sort_bits},
+                       {"median_total_ms", summarize(v.samples[4]).median},
+                       {"samples", samples}});
+    }
+    const api::GpuMode* mode = find_mode(r.mode);
+    runs.push_back({{"mode", r.mode},
+                    {"mode_description", mode ? mode->description : ""},
+                    {"resolution", r.resolution},
+                    {"views", r.views.size()},
+                    {"frames", r.views.size() * opt.repeat},
+                    {"median_ms", median},
+                    {"stages", stages},
+                    {"fps", r.fps},
+                    {"mean_pairs", r.mean_pairs},
+                    {"roofline", roofline_json(report.rooflines[i])},
+                    {"per_view", views}});
+  }
+  j["results"] = runs;
+  for (const QualityRow& r : report.quality) {
+    j["quality"].push_back({{"mode", r.mode},
+                            {"resolution", r.resolution},
+                            {"psnr_mean_db", r.psnr_mean},
+                            {"psnr_min_db", r.psnr_min},
+                            {"ssim_mean", r.ssim_mean},
+                            {"max_abs_diff", r.max_abs_diff},
+                            {"views", r.views}});
+  }
+  for (const FrontDoorRow& r : report.front_door) {
+    j["front_door"].push_back({{"path", r.path}, {"resolution", r.resolution}, {"median_ms", r.median_ms}});
+  }
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
 int run(const Options& opt) {
   const auto t_start = Clock::now();
   // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
@@ -589,176 +779,12 @@ int run(const Options& opt) {
     front_door = std::move(rows).value();
   }
 
-  // Table.
-  std::printf("%s %s\n", kTool, opt.input.c_str());
-  std::printf("  device           %s (sm_%d%d, %d SMs), %s\n", device->name.c_str(), device->compute_major,
-              device->compute_minor, device->multiprocessors, date.c_str());
-  if (opt.replicate > 1) {
-    std::printf("  gaussians        %s = %u copies of %s (SH degree %u, %s source, %s MB on the device)\n",
-                tools::group_digits(scene->scene.size()).c_str(), opt.replicate,
-                tools::group_digits(replicated.source_gaussians).c_str(), scene->scene.sh_degree(),
-                replicated.source_is_rgs ? ".rgs" : "PLY",
-                tools::fixed(double(scene->scene.device_bytes()) / 1e6, 1).c_str());
-    std::printf("  replicated       %s\n", replicated.quantization.c_str());
-  } else {
-    std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
-                tools::group_digits(scene->scene.size()).c_str(), scene->scene.sh_degree(),
-                scene->is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene->scene.device_bytes()) / 1e6, 1).c_str());
-  }
-  if (opt.replicate > 1) {
-    std::printf("  load             %s ms (upload of the replicated scene, built on the host before)\n",
-                tools::fixed(load_ms, 1).c_str());
-  } else {
-    std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n", tools::fixed(load_ms, 1).c_str(),
-                tools::group_digits(scene->file_bytes).c_str());
-  }
-  // Per-frame device buffers: the renderer's scratch (pairs, keys, sort and scan storage, ranges, per-Gaussian
-  // projections), grown to the largest frame of the run, and the output image.
-  const uint64_t scratch_bytes = renderer->scratch_bytes();
-  const uint64_t image_bytes = uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0));
-  std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame) + %s MB image\n",
-              tools::fixed(double(scratch_bytes) / 1e6, 1).c_str(), tools::fixed(double(image_bytes) / 1e6, 1).c_str());
-  std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", view_count,
-              opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json", opt.warmup, opt.repeat);
-  std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", "mode", "resolution", "preprocess", "sort", "ranges",
-              "render", "total", "FPS", "mean pairs");
-  for (const RunResult& r : results) {
-    std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", r.mode.c_str(), r.resolution.c_str(),
-                tools::fixed(r.stages[0].median, 3).c_str(), tools::fixed(r.stages[1].median, 3).c_str(),
-                tools::fixed(r.stages[2].median, 3).c_str(), tools::fixed(r.stages[3].median, 3).c_str(),
-                tools::fixed(r.stages[4].median, 3).c_str(), tools::fixed(r.fps, 1).c_str(),
-                tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
-  }
-
-  // Roofline table.
-  std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
-              "FP32 %s GFLOP/s (FMA loop, median of %zu); ridge %s FLOP/B\n",
-              tools::fixed(peaks->memory_gbps, 1).c_str(), tools::group_digits(peaks->copy_bytes >> 20).c_str(),
-              peaks->copy_ms.size(), tools::fixed(peaks->fp32_gflops, 0).c_str(), peaks->fma_ms.size(),
-              tools::fixed(peaks->ridge_flop_per_byte(), 2).c_str());
-  std::printf("  roofline         model: docs/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
-  std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage",
-              "ms", "floor ms", "x floor", "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
-  for (size_t i = 0; i < results.size(); ++i) {
-    for (int s = 0; s < runtime::kRooflineStages; ++s) {
-      const runtime::RooflinePoint& p = rooflines[i].points[s];
-      std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", results[i].mode.c_str(),
-                  results[i].resolution.c_str(), runtime::roofline_stage_name(runtime::RooflineStage(s)),
-                  tools::fixed(p.ms, 3).c_str(), tools::fixed(p.floor_ms, 3).c_str(),
-                  tools::fixed(p.times_floor, 1).c_str(), tools::fixed(p.bytes / 1e6, 2).c_str(),
-                  tools::fixed(p.flops / 1e6, 1).c_str(), tools::fixed(p.gbps, 1).c_str(),
-                  tools::fixed(p.gflops, 1).c_str(), tools::fixed(p.intensity, 2).c_str(),
-                  tools::fixed(p.pct_bandwidth, 1).c_str(), tools::fixed(p.pct_compute, 1).c_str(), p.bound);
-    }
-  }
-
-  if (!quality.empty()) {
-    std::printf("  quality          against the baseline's render of the same views (clamped RGB; PSNR dB, SSIM)\n");
-    std::printf("  %-12s %-10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min", "SSIM mean",
-                "max |d|", "views");
-    for (const QualityRow& r : quality) {
-      std::printf("  %-12s %-10s %10s %10s %10s %9s %6zu\n", r.mode.c_str(), r.resolution.c_str(),
-                  tools::fixed(r.psnr_mean, 2).c_str(), tools::fixed(r.psnr_min, 2).c_str(),
-                  tools::fixed(r.ssim_mean, 5).c_str(), tools::fixed(r.max_abs_diff, 4).c_str(), r.views);
-    }
-  }
-  if (!front_door.empty()) {
-    std::printf("  front door       ms per frame, host wall clock to device completion, median (same views, "
-                "interleaved)\n");
-    for (const FrontDoorRow& r : front_door) {
-      std::printf("  %-34s %-10s %8s\n", r.path.c_str(), r.resolution.c_str(), tools::fixed(r.median_ms, 3).c_str());
-    }
-  }
+  BenchReport report{std::move(device).value(), std::move(peaks).value(), date, load_ms, renderer->scratch_bytes(),
+                     uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0)), view_count,
+                     std::move(results), std::move(rooflines), std::move(quality), std::move(front_door)};
+  print_report(opt, *scene, replicated, report);
   if (!opt.json_path.empty()) {
-    nlohmann::json j;
-    j["tool"] = kTool;
-    j["version"] = RGS_VERSION_STRING;
-    j["date"] = date;
-    j["timestamp_utc"] = format_time("%Y-%m-%dT%H:%M:%SZ", true);
-    j["device"] = {{"ordinal", device->ordinal},
-                   {"name", device->name},
-                   {"compute_capability", std::to_string(device->compute_major) + "." +
-                                              std::to_string(device->compute_minor)},
-                   {"multiprocessors", device->multiprocessors},
-                   {"global_memory_bytes", device->global_memory_bytes},
-                   {"l2_cache_bytes", device->l2_cache_bytes},
-                   {"driver_version", device->driver_version},
-                   {"runtime_version", device->runtime_version}};
-    j["device_peaks"] = peaks_json(*peaks);
-    j["scene"] = {{"path", opt.input},
-                  {"format", scene->is_rgs ? "rgs" : "ply"},
-                  {"file_bytes", scene->file_bytes},
-                  {"gaussians", scene->scene.size()},
-                  {"sh_degree", scene->scene.sh_degree()},
-                  {"device_bytes", scene->scene.device_bytes()},
-                  {"load_ms", load_ms},
-                  {"renderer_scratch_bytes", scratch_bytes},
-                  {"image_bytes", image_bytes},
-                  {"replicate", opt.replicate}};
-    if (opt.replicate > 1) {
-      j["scene"]["format"] = replicated.source_is_rgs ? "rgs" : "ply";
-      j["scene"]["source_gaussians"] = replicated.source_gaussians;
-      j["scene"]["replicated_quantization"] = replicated.quantization;
-      const format::SceneBounds& b = scene->bounds;
-      j["scene"]["bounds"] = {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max},
-                              {"sphere_center", b.sphere_center}, {"sphere_radius", b.sphere_radius}};
-    }
-    j["cameras"] = {{"source", opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json"},
-                    {"path", opt.cameras.cameras_path},
-                    {"every", opt.cameras.every},
-                    {"views", view_count}};
-    j["warmup_frames"] = opt.warmup;
-    j["repetitions"] = opt.repeat;
-    j["statistic"] = "median over views x repetitions, per stage separately; fps = 1000 / median total_ms";
-    nlohmann::json runs = nlohmann::json::array();
-    for (size_t i = 0; i < results.size(); ++i) {
-      const RunResult& r = results[i];
-      nlohmann::json stages, views = nlohmann::json::array();
-      nlohmann::json median;
-      for (int s = 0; s < kStages; ++s) {
-        stages[std::string(kStageNames[s]) + "_ms"] = summary_json(r.stages[s]);
-        median[std::string(kStageNames[s]) + "_ms"] = r.stages[s].median;
-      }
-      for (const ViewResult& v : r.views) {
-        nlohmann::json samples;
-        for (int s = 0; s < kStages; ++s) samples[std::string(kStageNames[s]) + "_ms"] = v.samples[s];
-        views.push_back({{"name", v.name},
-                         {"width", v.width},
-                         {"height", v.height},
-                         {"pairs", v.pairs},
-                         {"large_pairs", v.large_pairs},
-                         {"subtile_culling", v.subtile_culling},
-                         {"sort_bits", v.sort_bits},
-                         {"median_total_ms", summarize(v.samples[4]).median},
-                         {"samples", samples}});
-      }
-      const api::GpuMode* mode = find_mode(r.mode);
-      runs.push_back({{"mode", r.mode},
-                      {"mode_description", mode ? mode->description : ""},
-                      {"resolution", r.resolution},
-                      {"views", r.views.size()},
-                      {"frames", r.views.size() * opt.repeat},
-                      {"median_ms", median},
-                      {"stages", stages},
-                      {"fps", r.fps},
-                      {"mean_pairs", r.mean_pairs},
-                      {"roofline", roofline_json(rooflines[i])},
-                      {"per_view", views}});
-    }
-    j["results"] = runs;
-    for (const QualityRow& r : quality) {
-      j["quality"].push_back({{"mode", r.mode},
-                              {"resolution", r.resolution},
-                              {"psnr_mean_db", r.psnr_mean},
-                              {"psnr_min_db", r.psnr_min},
-                              {"ssim_mean", r.ssim_mean},
-                              {"max_abs_diff", r.max_abs_diff},
-                              {"views", r.views}});
-    }
-    for (const FrontDoorRow& r : front_door) {
-      j["front_door"].push_back({{"path", r.path}, {"resolution", r.resolution}, {"median_ms", r.median_ms}});
-    }
-    const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    const std::string text = bench_json(opt, *scene, replicated, report);
     Status st = outputs.write(opt.json_path, text.data(), text.size());
     if (!st.ok()) return tools::report_error(kTool, st);
     std::printf("  json             %s\n", tools::escape_text(opt.json_path).c_str());
