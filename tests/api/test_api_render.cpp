@@ -22,6 +22,7 @@
 #include <cuda_runtime_api.h>
 
 #include "rgs/api/gpu_preset.h"
+#include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_scene.h"
 #endif
@@ -100,10 +101,21 @@ TEST_CASE("presets: names parse back, faithful renders the 3DGS reference, the o
 #if RGS_HAS_CUDA
   // The GPU presets and modes: every listed mode parses; a scene without compact attributes falls back to the
   // FP32 arrays under a preset, and is refused by the modes that exist to read the compact ones.
+  // Lab modes exist only in builds with the lab kernel variants (docs/RENDERER.md#product-and-lab-kernels); the
+  // presets' configurations are product ones.
+  const bool lab = kernels::lab_kernels_compiled();
   for (const api::GpuMode& mode : api::gpu_modes()) {
     CAPTURE(mode.name);
-    CHECK(api::gpu_mode_options(mode.name, true).ok());
-    CHECK(api::gpu_mode_options(mode.name, false).ok() == !mode.requires_compact);
+    CHECK(api::gpu_mode_options(mode.name, true).ok() == (lab || !mode.lab));
+    if (lab || !mode.lab) CHECK(api::gpu_mode_options(mode.name, false).ok() == !mode.requires_compact);
+    const bool product = mode.name == "baseline" || mode.name == "roofgs+" || mode.name == "roofgs+whole-tiles" ||
+                         mode.name == "roofgs-tile";
+    CHECK(mode.lab == !product);
+  }
+  if (!lab) {
+    const Status refused = api::gpu_mode_options("only-folded", true).status();
+    CHECK(refused.code() == StatusCode::kUnsupportedFeature);
+    CHECK(refused.message().find("RGS_LAB_KERNELS") != std::string::npos);
   }
   CHECK_FALSE(api::gpu_render_options(api::Preset::kFastest, false).roofgs.compact_attributes);
   CHECK(api::gpu_render_options(api::Preset::kFastest, true).roofgs.compact_attributes);
