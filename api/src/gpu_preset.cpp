@@ -118,19 +118,11 @@ GpuRenderOptions gpu_render_options(Preset preset, bool scene_has_compact) {
 }
 
 /// Whether `o` may render with a lab variant of the render kernel (kernels::is_lab_variant): with sub-tile
-/// culling kAuto, either choice of the frame counts.
+/// culling kAuto, the plans of a frame without large Gaussians and of one made of them both count.
 bool uses_lab_variant(const GpuRenderOptions& o) {
   if (o.pipeline == runtime::GpuPipeline::kBaseline) return false;
-  const RoofgsOptions& t = o.roofgs.techniques;
-  for (bool subtile : {false, true}) {
-    if (subtile ? o.roofgs.subtile_culling == runtime::SubtileCulling::kOff
-                : o.roofgs.subtile_culling == runtime::SubtileCulling::kOn) {
-      continue;
-    }
-    const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, t.half_blend};
-    if (kernels::is_lab_variant(raster)) return true;
-  }
-  return false;
+  return kernels::is_lab_variant(runtime::plan_blend(o.roofgs, 1, 0).raster) ||
+         kernels::is_lab_variant(runtime::plan_blend(o.roofgs, 1, 1).raster);
 }
 
 const std::vector<GpuMode>& gpu_modes() {

@@ -586,11 +586,6 @@ void launch_folded(const FoldedLists& lists, const RenderInputs& in, const Frame
 
 }  // namespace
 
-bool is_lab_variant(const RasterOptions& raster) {
-  if (!raster.folded || !raster.fast_exp) return true;  // the RoofGS pixel kernel, folded without fast exp
-  return !raster.half_blend && raster.subtile_culling;  // FP32 blending with culling
-}
-
 bool lab_kernels_compiled() { return RGS_LAB_KERNELS != 0; }
 
 bool raster_variant_compiled(const RasterOptions& raster) { return lab_kernels_compiled() || !is_lab_variant(raster); }

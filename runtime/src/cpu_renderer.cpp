@@ -17,15 +17,13 @@
 #include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/kernels/shared/tile_culling.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/depth_key.h"
 
 namespace rgs::runtime {
 namespace {
 
 namespace k = rgs::kernels;
 
-/// A 32-bit key must keep at least this many depth bits (b_t ≤ 24); every image validate_camera accepts
-/// (32768² → 22 tile bits) satisfies it.
-constexpr int kMinKeyDepthBits = 8;
 /// Gaussians per preprocess/duplication work item.
 constexpr uint64_t kGaussianChunk = 4096;
 
@@ -271,55 +269,6 @@ void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int t
 
 }  // namespace
 
-Status setup_depth_key(const Camera& camera, const std::optional<format::SceneBounds>& bounds, FrameSetup* frame) {
-  RGS_RETURN_ERROR_IF(!bounds, StatusCode::kInvalidArgument,
-                      "render: the 32-bit key needs scene bounds (RenderOptions::scene_bounds)");
-  const format::SceneBounds& b = *bounds;
-  RGS_RETURN_ERROR_IF(!std::isfinite(b.sphere_radius) || b.sphere_radius < 0 || !std::isfinite(b.sphere_center[0]) ||
-                          !std::isfinite(b.sphere_center[1]) || !std::isfinite(b.sphere_center[2]),
-                      StatusCode::kInvalidArgument, "render: scene bounding sphere is not finite");
-  for (int a = 0; a < 3; ++a) {
-    RGS_RETURN_ERROR_IF(!std::isfinite(b.aabb_min[a]) || !std::isfinite(b.aabb_max[a]) || b.aabb_min[a] > b.aabb_max[a],
-                        StatusCode::kInvalidArgument, "render: scene AABB is not finite, or its min exceeds its max");
-  }
-  const uint32_t num_tiles = uint32_t(frame->tiles_x) * uint32_t(frame->tiles_y);
-  frame->key_tile_bits = k::key32_tile_bits(num_tiles);
-  frame->key_depth_bits = 32 - frame->key_tile_bits;
-  RGS_RETURN_ERROR_IF(frame->key_depth_bits < kMinKeyDepthBits, StatusCode::kLimitExceeded,
-                      "render: " + std::to_string(num_tiles) + " tiles leave only " +
-                          std::to_string(frame->key_depth_bits) + " depth bits in a 32-bit key");
-  // View-space depths (the z row of R·p + t, in double, once per camera) of the sphere centre and of the
-  // AABB's corners. Every mean lies in both (format::validate checks them against the AABB), so the range is
-  // their intersection: on taebak's aerial views the AABB's range is the narrower one, which leaves fewer
-  // pairs in runs of tied keys (docs/BENCHMARKS.md#tried-and-not-kept).
-  const auto& R = camera.rotation;
-  const auto view_depth = [&](double x, double y, double z) {
-    return double(R[6]) * x + double(R[7]) * y + double(R[8]) * z + camera.translation[2];
-  };
-  const double d_c = view_depth(b.sphere_center[0], b.sphere_center[1], b.sphere_center[2]);
-  double box_near = std::numeric_limits<double>::infinity(), box_far = -box_near, magnitude = 0;
-  for (int corner = 0; corner < 8; ++corner) {
-    const double p[3] = {(corner & 1) ? b.aabb_max[0] : b.aabb_min[0], (corner & 2) ? b.aabb_max[1] : b.aabb_min[1],
-                         (corner & 4) ? b.aabb_max[2] : b.aabb_min[2]};
-    const double z = view_depth(p[0], p[1], p[2]);
-    box_near = std::min(box_near, z);
-    box_far = std::max(box_far, z);
-    magnitude = std::max(magnitude, std::fabs(R[6] * p[0]) + std::fabs(R[7] * p[1]) + std::fabs(R[8] * p[2]));
-  }
-  const float z_near = static_cast<float>(std::max({double(camera.near_plane), d_c - b.sphere_radius, box_near}));
-  const float z_far = static_cast<float>(std::min(d_c + b.sphere_radius, box_far));
-  frame->empty_depth_range = !(z_far > z_near);
-  frame->quantizer = k::make_depth_quantizer(z_near, frame->empty_depth_range ? z_near + 1.f : z_far,
-                                            frame->key_depth_bits);
-  // Means inside the bounds can still round to a depth just outside [z_near, z_far] through the float view
-  // transform, whose error grows with its terms; keep them (their bin clamps) rather than cull them.
-  const double margin =
-      1e-5 * std::max(std::fabs(d_c) + b.sphere_radius, magnitude + std::fabs(camera.translation[2])) + 1e-6;
-  frame->cull_z_min = static_cast<float>(double(z_near) - margin);
-  frame->cull_z_max = static_cast<float>(double(z_far) + margin);
-  return Status();
-}
-
 Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera& camera,
                                const RenderOptions& options) {
   RGS_RETURN_ERROR_IF(!cloud.is_consistent(), StatusCode::kInvalidArgument,
@@ -342,7 +291,10 @@ Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera&
   frame.tiles_y = k::tile_count_for(int(camera.height));
   frame.ewa_clamp = k::ewa_clamp_for(camera.fx, camera.fy, camera.cx, camera.cy, static_cast<float>(camera.width),
                                      static_cast<float>(camera.height));
-  if (roofgs.key32) RGS_RETURN_IF_ERROR(setup_depth_key(camera, options.scene_bounds, &frame));
+  if (roofgs.key32) {
+    RGS_ASSIGN_OR_RETURN(frame.key, make_depth_key(camera, options.scene_bounds, uint32_t(frame.tiles_x),
+                                                   uint32_t(frame.tiles_y)));
+  }
   return frame;
 }
 
@@ -375,7 +327,7 @@ Status preprocess_into(const format::GaussianCloud& cloud, const Camera& camera,
       }
       // 1b. RoofGS 32-bit key: cull outside the camera's quantization range [z_near, z_far] (plus margin).
       if (roofgs.key32 &&
-          (frame.empty_depth_range || p_cam[2] < frame.cull_z_min || p_cam[2] > frame.cull_z_max)) {
+          (frame.key.empty_depth_range || p_cam[2] < frame.key.cull_z_min || p_cam[2] > frame.key.cull_z_max)) {
         ++culled_range[chunk];
         continue;
       }
@@ -433,7 +385,7 @@ Status preprocess_into(const format::GaussianCloud& cloud, const Camera& camera,
       for (float& d : dir) d = d / length;
       k::sh_to_colour(&cloud.sh[i * sh_stride], sh_degree, dir[0], dir[1], dir[2], g.rgb);
 
-      if (roofgs.key32) g.depth_bin = k::quantize_depth(g.depth, frame.quantizer);
+      if (roofgs.key32) g.depth_bin = k::quantize_depth(g.depth, frame.key.quantizer);
       g.tiles_touched = tiles;
     }
   });
@@ -526,7 +478,7 @@ Result<TileBins> bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, c
       uint64_t off = offsets[t];
       for_each_tile_of(g, frame, roofgs, [&](int tx, int ty) {
         const uint32_t tile = uint32_t(ty) * uint32_t(frame.tiles_x) + uint32_t(tx);
-        const uint64_t key = roofgs.key32 ? k::make_key32(tile, g.depth_bin, frame.key_depth_bits)
+        const uint64_t key = roofgs.key32 ? k::make_key32(tile, g.depth_bin, frame.key.depth_bits)
                                           : k::make_key64(tile, g.depth);
         list[off++] = Pair{key, uint32_t(i)};
       });
@@ -539,7 +491,7 @@ Result<TileBins> bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, c
   std::stable_sort(list.begin(), list.end(), [](const Pair& a, const Pair& b) { return a.key < b.key; });
 
   // Per-tile ranges (3DGS identifyTileRanges), as offsets.
-  const int tile_shift = roofgs.key32 ? frame.key_depth_bits : 32;
+  const int tile_shift = roofgs.key32 ? frame.key.depth_bits : 32;
   for (uint64_t p = 0; p < pairs; ++p) {
     bins.keys[p] = list[p].key;
     bins.values[p] = list[p].value;
@@ -616,10 +568,10 @@ Result<RenderResult> render(const format::GaussianCloud& cloud, const Camera& ca
   s.pairs = bins.values.size();
   s.tiles_x = frame.tiles_x;
   s.tiles_y = frame.tiles_y;
-  s.key_tile_bits = frame.key_tile_bits;
-  s.key_depth_bits = frame.key_depth_bits;
-  s.z_near = options.roofgs.key32 ? frame.quantizer.z_near : 0.f;
-  s.z_far = options.roofgs.key32 && !frame.empty_depth_range ? frame.quantizer.z_far : 0.f;
+  s.key_tile_bits = frame.key.tile_bits;
+  s.key_depth_bits = frame.key.depth_bits;
+  s.z_near = options.roofgs.key32 ? frame.key.quantizer.z_near : 0.f;
+  s.z_far = options.roofgs.key32 && !frame.key.empty_depth_range ? frame.key.quantizer.z_far : 0.f;
   return result;
 }
 

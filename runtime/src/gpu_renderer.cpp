@@ -13,7 +13,6 @@
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/tile_chunks.h"
-#include "rgs/runtime/cpu_renderer.h"
 
 namespace rgs::runtime {
 namespace {
@@ -537,142 +536,126 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   return Status();
 }
 
-Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
-                                  const GpuRoofgsOptions& options, bool timed, const kernels::ImageView& view,
-                                  GpuRenderStats* stats, cudaStream_t stream) {
+Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
+                                      GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream) {
   Buffers& b = *buffers_;
-  cudaEvent_t* ev = b.events;
-  const RoofgsOptions& t = options.techniques;
   const uint32_t n = scene.size();
-  const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
-  RGS_RETURN_ERROR_IF(!(t.fast_exp_sigma >= 0.f && t.fast_exp_sigma < 1.f), StatusCode::kInvalidArgument,
-                      "GpuRenderer: fast_exp_sigma " + std::to_string(t.fast_exp_sigma) + " outside [0, 1)");
-  RGS_RETURN_ERROR_IF(options.compact_attributes && !scene.has_compact(), StatusCode::kInvalidArgument,
-                      "GpuRenderer: compact attributes asked for a scene without them (load a .rgs file)");
-
-  // Technique switches and the 32-bit key layout (the CPU reference's setup_depth_key).
-  kernels::RoofgsFrame rf;
-  rf.compact = options.compact_attributes;
-  rf.key32 = t.key32;
-  rf.snugbox_accutile = t.snugbox_accutile;
-  rf.accutile_within_baseline_rect = t.accutile_within_baseline_rect;
-  rf.fast_exp = t.fast_exp;
-  rf.fast_exp_sigma = t.fast_exp_sigma;
-  if (t.key32) {
-    FrameSetup setup;
-    setup.tiles_x = int(frame.tiles_x);
-    setup.tiles_y = int(frame.tiles_y);
-    RGS_RETURN_IF_ERROR(setup_depth_key(camera, scene.bounds(), &setup));
-    rf.key_depth_bits = setup.key_depth_bits;
-    rf.quantizer = setup.quantizer;
-    rf.cull_z_min = setup.cull_z_min;
-    rf.cull_z_max = setup.cull_z_max;
-    rf.empty_depth_range = setup.empty_depth_range;
-    stats->key_tile_bits = setup.key_tile_bits;
-    stats->key_depth_bits = setup.key_depth_bits;
-    stats->z_near = setup.quantizer.z_near;
-    stats->z_far = setup.empty_depth_range ? setup.quantizer.z_near : setup.quantizer.z_far;
-  }
-  // Key bits the pair sort covers (the whole key). Depth order changes no key: with the 32-bit key it puts
-  // each run of tied keys in exact depth order after the sort (order_equal_keys_by_depth); the 64-bit key
-  // holds the exact depth already.
-  const int key_bits = t.key32 ? 32 : 32 + ceil_log2(num_tiles);
-  const bool reorder_ties = t.key32 && t.depth_order;
-  stats->sort_bits = key_bits;
+  const kernels::RoofgsFrame& rf = plan.switches;
+  const bool key32 = rf.key32;
+  const int key_bits = plan.sort_bits;
+  uint64_t& pairs = counts->pairs;
+  uint64_t& large_pairs = counts->large_pairs;
+  uint64_t& sort_counters = counts->sort_counters;
   kernels::GaussianSource source;
   source.fp32 = scene.fp32();
   if (scene.has_compact()) source.compact = scene.compact();
   source.count = n;
 
-  uint64_t pairs = 0, large_pairs = 0;
-  uint64_t sort_counters = 0;  // pairs the sort's counters were zeroed for ahead of the count (0: not zeroed)
-  if (n > 0) {
-    RGS_RETURN_IF_ERROR(b.reserve_common(n));
-    if (!options.fused_preprocess) RGS_RETURN_IF_ERROR(b.reserve_scan(n));
-    RGS_RETURN_IF_ERROR(
-        b.colour_log_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
-    RGS_RETURN_IF_ERROR(b.large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
-    // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
-    RGS_RETURN_IF_ERROR(b.cov2d.reserve_exact(size_t(n) * 3, "GpuRenderer: 2D covariances"));
-    RGS_RETURN_IF_ERROR(b.snug_t.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
-    RGS_RETURN_IF_ERROR(b.depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
-    RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
-    RGS_RETURN_IF_ERROR(b.fused_total.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals"));
-    // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
-    const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
-      unsigned long long* const count = b.large_list_count(options.fused_preprocess);
-      if (!options.balanced_emission) return kernels::LargeGaussianList{nullptr, count, 0};
-      const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
-      RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list"));
-      return kernels::LargeGaussianList{b.large_items.data(), count, capacity};
-    };
-    const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
-    if (options.fused_preprocess) {
-      const uint32_t blocks = kernels::fused_blocks(n);
-      RGS_RETURN_IF_ERROR(b.fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
-      RGS_RETURN_IF_ERROR(b.fused_status.reserve(blocks, "GpuRenderer: fused block status"));
-      const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
-      RGS_ASSIGN_OR_RETURN(void* const host_totals, b.pair_count.device_pointer());
-      kernels::HostTotals published{b.fused_total.data(), static_cast<volatile unsigned long long*>(host_totals)};
-      // Capacity: what the pair buffers hold now (sized by earlier frames), at least 2 pairs per Gaussian.
-      // A frame with more pairs runs the fused kernel again with enough (fused_relaunches); frames of dense
-      // scenes hold 1.5-3 pairs a Gaussian (taebak: 1.5 at 1080p, 1.9 at 4K, 2.9 at 8K), large Gaussians many
-      // more (flowers: 35 at 4K).
-      uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 2);
-      for (int attempt = 0;; ++attempt) {
-        RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, t.key32, key_bits, stream));
-        capacity = b.values.size();
-        RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(capacity));
-        // With depth order the final order of tied pairs does not depend on the order they are emitted in,
-        // so blocks need not wait for their predecessors' counts (PairAllocation::kArrivalOrder).
-        const auto allocation =
-            reorder_ties ? kernels::PairAllocation::kArrivalOrder : kernels::PairAllocation::kBlockOrder;
-        published.sequence = ++b.fused_sequence;
-        RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, projected, scratch, large,
-                                                                  capacity, allocation, b.keys64.data(),
-                                                                  b.keys32.data(), b.values.data(), stream),
-                                 "GpuRenderer: fused preprocess kernel");
-        // The large-Gaussian kernel publishes the totals as it starts.
-        RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.keys64.data(),
-                                                               b.keys32.data(), b.values.data(), published, stream),
-                                 "GpuRenderer: large Gaussian kernel");
-        RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.large_done, stream), "GpuRenderer: cudaEventRecord");
-        // The sort's counters need no pair count: zeroed now, while the host waits for it, not after.
-        if (t.key32) {
-          RGS_RETURN_IF_CUDA_ERROR(
-              kernels::clear_sort_counters(b.sort_temp.data(), b.sort_temp.bytes(), capacity, 0, key_bits, stream),
-              "GpuRenderer: sort counters");
-          sort_counters = capacity;
-        }
-        // The host enqueues the sort as soon as it has the count, while the large Gaussians' pairs are written.
-        RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.wait_for_totals(published.sequence, b.large_done));
-        pairs = counts.pairs;
-        large_pairs = counts.large_pairs;
-        if (pairs <= capacity) break;
-        RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
-                            "GpuRenderer: fused kernel pair count changed between identical runs");
-        capacity = pairs;
-        ++stats->fused_relaunches;
+  RGS_RETURN_IF_ERROR(b.reserve_common(n));
+  if (!plan.fused) RGS_RETURN_IF_ERROR(b.reserve_scan(n));
+  RGS_RETURN_IF_ERROR(
+      b.colour_log_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
+  RGS_RETURN_IF_ERROR(b.large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
+  // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
+  RGS_RETURN_IF_ERROR(b.cov2d.reserve_exact(size_t(n) * 3, "GpuRenderer: 2D covariances"));
+  RGS_RETURN_IF_ERROR(b.snug_t.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
+  RGS_RETURN_IF_ERROR(b.depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
+  RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
+  RGS_RETURN_IF_ERROR(b.fused_total.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals"));
+  // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
+  const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
+    unsigned long long* const count = b.large_list_count(plan.fused);
+    if (!plan.balanced_emission) return kernels::LargeGaussianList{nullptr, count, 0};
+    const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
+    RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list"));
+    return kernels::LargeGaussianList{b.large_items.data(), count, capacity};
+  };
+  const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
+  if (plan.fused) {
+    const uint32_t blocks = kernels::fused_blocks(n);
+    RGS_RETURN_IF_ERROR(b.fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
+    RGS_RETURN_IF_ERROR(b.fused_status.reserve(blocks, "GpuRenderer: fused block status"));
+    const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
+    RGS_ASSIGN_OR_RETURN(void* const host_totals, b.pair_count.device_pointer());
+    kernels::HostTotals published{b.fused_total.data(), static_cast<volatile unsigned long long*>(host_totals)};
+    // Capacity: what the pair buffers hold now (sized by earlier frames), at least 2 pairs per Gaussian.
+    // A frame with more pairs runs the fused kernel again with enough (fused_relaunches); frames of dense
+    // scenes hold 1.5-3 pairs a Gaussian (taebak: 1.5 at 1080p, 1.9 at 4K, 2.9 at 8K), large Gaussians many
+    // more (flowers: 35 at 4K).
+    uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 2);
+    for (int attempt = 0;; ++attempt) {
+      RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, key32, key_bits, stream));
+      capacity = b.values.size();
+      RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(capacity));
+      published.sequence = ++b.fused_sequence;
+      RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, projected, scratch, large,
+                                                                capacity, plan.allocation, b.keys64.data(),
+                                                                b.keys32.data(), b.values.data(), stream),
+                               "GpuRenderer: fused preprocess kernel");
+      // The large-Gaussian kernel publishes the totals as it starts.
+      RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.keys64.data(),
+                                                             b.keys32.data(), b.values.data(), published, stream),
+                               "GpuRenderer: large Gaussian kernel");
+      RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.large_done, stream), "GpuRenderer: cudaEventRecord");
+      // The sort's counters need no pair count: zeroed now, while the host waits for it, not after.
+      if (key32) {
+        RGS_RETURN_IF_CUDA_ERROR(
+            kernels::clear_sort_counters(b.sort_temp.data(), b.sort_temp.bytes(), capacity, 0, key_bits, stream),
+            "GpuRenderer: sort counters");
+        sort_counters = capacity;
       }
-    } else {
-      RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, projected, b.large_pairs.data(), stream),
-                               "GpuRenderer: preprocess kernel");
-      RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, b.large_pairs.data(), stream));
+      // The host enqueues the sort as soon as it has the count, while the large Gaussians' pairs are written.
+      RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.wait_for_totals(published.sequence, b.large_done));
       pairs = counts.pairs;
       large_pairs = counts.large_pairs;
-      if (pairs > 0) {
-        RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, t.key32, key_bits, stream));
-        RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
-        RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), n, frame, rf, large,
-                                                           b.keys64.data(), b.keys32.data(), b.values.data(),
-                                                           stream),
-                                 "GpuRenderer: duplicate kernel");
-        RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.keys64.data(),
-                                                               b.keys32.data(), b.values.data(), {}, stream),
-                                 "GpuRenderer: large Gaussian kernel");
-      }
+      if (pairs <= capacity) break;
+      RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
+                          "GpuRenderer: fused kernel pair count changed between identical runs");
+      capacity = pairs;
+      ++stats->fused_relaunches;
+    }
+  } else {
+    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, projected, b.large_pairs.data(), stream),
+                             "GpuRenderer: preprocess kernel");
+    RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, b.large_pairs.data(), stream));
+    pairs = counts.pairs;
+    large_pairs = counts.large_pairs;
+    if (pairs > 0) {
+      RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, key32, key_bits, stream));
+      RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
+      RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), n, frame, rf, large,
+                                                         b.keys64.data(), b.keys32.data(), b.values.data(),
+                                                         stream),
+                               "GpuRenderer: duplicate kernel");
+      RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.keys64.data(),
+                                                             b.keys32.data(), b.values.data(), {}, stream),
+                               "GpuRenderer: large Gaussian kernel");
     }
   }
+  return Status();
+}
+
+Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
+                                  const GpuRoofgsOptions& options, bool timed, const kernels::ImageView& view,
+                                  GpuRenderStats* stats, cudaStream_t stream) {
+  Buffers& b = *buffers_;
+  cudaEvent_t* ev = b.events;
+  const uint32_t n = scene.size();
+  const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
+  RGS_ASSIGN_OR_RETURN(const FramePlan plan, plan_frame(options, camera, scene.bounds(), scene.has_compact()));
+  const kernels::RoofgsFrame& rf = plan.switches;
+  const bool key32 = rf.key32;
+  const int key_bits = plan.sort_bits;
+  if (key32) {
+    stats->key_tile_bits = plan.key.tile_bits;
+    stats->key_depth_bits = plan.key.depth_bits;
+    stats->z_near = plan.key.quantizer.z_near;
+    stats->z_far = plan.key.empty_depth_range ? plan.key.quantizer.z_near : plan.key.quantizer.z_far;
+  }
+  stats->sort_bits = key_bits;
+  PairCounts counts;
+  if (n > 0) RGS_RETURN_IF_ERROR(emit_roofgs_pairs(scene, frame, plan, stats, &counts, stream));
+  const uint64_t pairs = counts.pairs, large_pairs = counts.large_pairs, sort_counters = counts.sort_counters;
   stats->pairs = pairs;
   stats->large_pairs = large_pairs;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
@@ -681,7 +664,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   // end in keys*_sorted / values_sorted.
   if (pairs > 0) {
     size_t sort_bytes = b.sort_temp.bytes();
-    if (t.key32) {
+    if (key32) {
       int sorted = 0;
       RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs_ping_pong(b.sort_temp.data(), &sort_bytes, b.key32_buffers().data(),
                                                              b.value_buffers().data(), pairs, sort_counters, 0,
@@ -700,7 +683,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order
   // (into `values`, free once sorted).
   RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
-  if (reorder_ties) {
+  if (plan.reorder_ties) {
     RGS_RETURN_IF_CUDA_ERROR(kernels::order_equal_keys_by_depth(b.keys32_sorted.data(), b.values_sorted.data(),
                                                                 b.depths.data(), pairs, rf.key_depth_bits, num_tiles,
                                                                 b.values.data(), b.ranges.data(), stream),
@@ -708,18 +691,20 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     b.last_values_reordered = true;
   } else {
     const cudaError_t ranged =
-        t.key32 ? kernels::tile_ranges(b.keys32_sorted.data(), pairs, rf.key_depth_bits, num_tiles,
+        key32 ? kernels::tile_ranges(b.keys32_sorted.data(), pairs, rf.key_depth_bits, num_tiles,
                                        b.ranges.data(), stream)
                 : kernels::tile_ranges(b.keys64_sorted.data(), pairs, 32, num_tiles, b.ranges.data(), stream);
     RGS_RETURN_IF_CUDA_ERROR(ranged, "GpuRenderer: tile ranges kernel");
   }
-  const uint32_t* sorted_values = reorder_ties ? b.values.data() : b.values_sorted.data();
-  // Long tiles in chunks (half-precision blending only: the chunk records are binary16).
+  const uint32_t* sorted_values = plan.reorder_ties ? b.values.data() : b.values_sorted.data();
+  const BlendPlan blend = plan_blend(options, pairs, large_pairs);
+  stats->subtile_culling = blend.raster.subtile_culling;
+  RGS_RETURN_ERROR_IF(!kernels::raster_variant_compiled(blend.raster), StatusCode::kUnsupportedFeature,
+                      "GpuRenderer: this combination of RoofGS techniques renders with a lab kernel variant, "
+                      "which only builds with RGS_LAB_KERNELS=ON compile (docs/RENDERER.md#product-and-lab-kernels)");
   kernels::TileChunks chunks;
-  const bool half = t.folded_coefficients && t.fast_exp && t.half_blend;
-  static_assert(kernels::kChunkLargeTiles == kernels::kSubtileLargeTiles, "large_pairs counts the culling's measure");
-  const uint32_t chunk_pairs = kernels::frame_chunk_pairs(pairs, large_pairs, t.tile_chunk_pairs);
-  if (half && chunk_pairs > 0 && pairs > chunk_pairs) {
+  if (blend.chunk_pairs > 0) {
+    const uint32_t chunk_pairs = blend.chunk_pairs;
     // At most 2·2048 items (chunks hold at least 1/2048 of the pairs), in rows of tiles_x blocks.
     const uint64_t capacity = kernels::tile_chunk_capacity(pairs, chunk_pairs);
     const uint64_t item_rows = (capacity + frame.tiles_x - 1) / frame.tiles_x;
@@ -751,19 +736,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
 
-  // kAuto: with SnugBox + AccuTile a large Gaussian's tiles are those its ellipse reaches, so its quadrants
-  // are nearly all covered; with 3σ rectangles its corner tiles are not, and the culling pays for them.
-  const bool subtile = options.subtile_culling == SubtileCulling::kOn ||
-                       (options.subtile_culling == SubtileCulling::kAuto &&
-                        (!t.snugbox_accutile ||
-                         double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs)));
-  stats->subtile_culling = t.folded_coefficients && subtile;
-  const kernels::RasterOptions raster{t.folded_coefficients, t.fast_exp, subtile, t.half_blend};
-  RGS_RETURN_ERROR_IF(!kernels::raster_variant_compiled(raster), StatusCode::kUnsupportedFeature,
-                      "GpuRenderer: this combination of RoofGS techniques renders with a lab kernel variant, "
-                      "which only builds with RGS_LAB_KERNELS=ON compile (docs/RENDERER.md#product-and-lab-kernels)");
   RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), chunks, sorted_values, b.roofgs_projected(),
-                                                  frame, rf, raster, view, stream),
+                                                  frame, rf, blend.raster, view, stream),
                            "GpuRenderer: render kernel");
   return Status();
 }

@@ -206,11 +206,11 @@ TEST_CASE("32-bit key: resolution-adaptive bits at 1080p, 4K and 8K") {
     options.scene_bounds = sphere_bounds(5.f, 2.f);
     const auto frame = runtime::setup_frame(cloud, identity_camera(uint32_t(c.w), uint32_t(c.h), 1000.f), options);
     REQUIRE(frame.ok());
-    CHECK(frame->key_tile_bits == c.tile_bits);
-    CHECK(frame->key_depth_bits == 32 - c.tile_bits);
+    CHECK(frame->key.tile_bits == c.tile_bits);
+    CHECK(frame->key.depth_bits == 32 - c.tile_bits);
     // Depth range from the sphere: [max(0.2, 5 − 2), 5 + 2].
-    CHECK(frame->quantizer.z_near == 3.f);
-    CHECK(frame->quantizer.z_far == 7.f);
+    CHECK(frame->key.quantizer.z_near == 3.f);
+    CHECK(frame->key.quantizer.z_far == 7.f);
   }
   // 1080p: 120×68 = 8160 tiles → the largest tile id 8159 fits 13 bits and 2^19 − 1 depth bins remain.
   const k::DepthQuantizer q = k::make_depth_quantizer(1.f, 81.f, 19);
@@ -233,13 +233,13 @@ TEST_CASE("32-bit key: Gaussians outside the scene sphere's depth range are cull
   CHECK(g[0].tiles_touched == 0);  // z = 2.5 < 3
   CHECK(g[1].tiles_touched > 0);   // on the near surface: bin 0
   CHECK(g[1].depth_bin == 0);
-  CHECK(g[2].depth_bin == uint32_t(std::floor(0.5 * frame->quantizer.max_level)));
+  CHECK(g[2].depth_bin == uint32_t(std::floor(0.5 * frame->key.quantizer.max_level)));
   CHECK(g[3].tiles_touched > 0);  // on the far surface: the last bin
-  CHECK(g[3].depth_bin == frame->quantizer.max_bin);
+  CHECK(g[3].depth_bin == frame->key.quantizer.max_bin);
   CHECK(g[4].tiles_touched == 0);  // z = 7.5 > 7
   CHECK(stats.culled_depth_range == 2);
   // The rendered keys carry the bins: 64×48 → 4×3 = 12 tiles → 4 tile bits, 28 depth bits.
-  CHECK(frame->key_tile_bits == 4);
+  CHECK(frame->key.tile_bits == 4);
   auto bins = runtime::bin_and_sort_cpu(g, *frame, options);
   REQUIRE(bins.ok());
   for (size_t p = 0; p < bins->keys.size(); ++p) {
@@ -266,20 +266,20 @@ TEST_CASE("32-bit key: the AABB of the means narrows the sphere's depth range, a
   const runtime::Camera cam = identity_camera(64, 48, 50.f);
   const auto frame = runtime::setup_frame(cloud, cam, options);
   REQUIRE(frame.ok());
-  CHECK(frame->quantizer.z_near == 4.f);
-  CHECK(frame->quantizer.z_far == 6.f);
+  CHECK(frame->key.quantizer.z_near == 4.f);
+  CHECK(frame->key.quantizer.z_far == 6.f);
   runtime::RenderStats stats;
   const auto g = runtime::preprocess_cpu(cloud, cam, *frame, options, &stats);
   CHECK(g[1].depth_bin == 0);  // on the box's near face
-  CHECK(g[2].depth_bin == uint32_t(std::floor(0.5 * frame->quantizer.max_level)));
-  CHECK(g[3].depth_bin == frame->quantizer.max_bin);  // on its far face
+  CHECK(g[2].depth_bin == uint32_t(std::floor(0.5 * frame->key.quantizer.max_level)));
+  CHECK(g[3].depth_bin == frame->key.quantizer.max_bin);  // on its far face
   CHECK(stats.culled_depth_range == 2);  // 3.5 and 6.5 lie outside the box the bounds promise
   // [z_near, z_far] of the key for `b` seen by `camera`.
   const auto depth_range = [&](const format::SceneBounds& b, const runtime::Camera& camera) {
     options.scene_bounds = b;
     const auto setup = runtime::setup_frame(cloud, camera, options);
     REQUIRE(setup.ok());
-    return std::array<float, 2>{setup->quantizer.z_near, setup->quantizer.z_far};
+    return std::array<float, 2>{setup->key.quantizer.z_near, setup->key.quantizer.z_far};
   };
   // A box wider than the sphere leaves the sphere's range; a camera turned sideways sees the box's x extent.
   bounds.aabb_min[2] = 1.f;

@@ -13,6 +13,7 @@
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
 #include "rgs/runtime/camera.h"
+#include "rgs/runtime/depth_key.h"
 #include "rgs/runtime/roofgs_options.h"
 
 namespace rgs::runtime {
@@ -26,7 +27,7 @@ struct RenderOptions {
   /// RoofGS techniques; default all off = the 3DGS baseline.
   RoofgsOptions roofgs;
   /// Scene bounds (the .rgs metadata, or converter::compute_bounds of a PLY): every mean inside its sphere and
-  /// its AABB; required by roofgs.key32, whose depth range they give (setup_depth_key).
+  /// its AABB; required by roofgs.key32, whose depth range they give (make_depth_key).
   std::optional<format::SceneBounds> scene_bounds;
 };
 
@@ -65,16 +66,8 @@ struct FrameSetup {
   int tiles_x = 0, tiles_y = 0;
   /// EWA clamp of the camera (camera.h).
   kernels::EwaClamp ewa_clamp{0, 0, 0, 0};
-  /// 32-bit key layout (key32 only): tile bits, depth bits, depth range and quantizer.
-  int key_tile_bits = 0, key_depth_bits = 0;
-  kernels::DepthQuantizer quantizer{0, 0, 0, 0, 0};
-  /// True when the depth range [z_near, z_far] is empty (the scene sphere is behind the camera): nothing is
-  /// visible.
-  bool empty_depth_range = false;
-  /// key32 culls Gaussians with view depth outside [cull_z_min, cull_z_max]: [z_near, z_far] widened by
-  /// 1e-5·(|d_c| + r) + 1e-6, so that a Gaussian on the sphere's surface whose z rounds just outside is kept
-  /// (its bin clamps to 0 or 2^b_d − 1, the clamp the paper keeps "against numerical round-off").
-  float cull_z_min = 0, cull_z_max = 0;
+  /// 32-bit key layout (key32 only; make_depth_key).
+  DepthKey key;
 };
 
 /// Sorted (tile, Gaussian) pairs.
@@ -134,13 +127,6 @@ Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera
 Result<FrameSetup> setup_frame(const format::GaussianCloud& cloud, const Camera& camera,
                                const RenderOptions& options);
 
-/// The 32-bit key's layout for `camera` (frame->tiles_x/y already set): tile and depth bits, the depth range
-/// [z_near, z_far] that the bounding sphere and the AABB of the means both allow (view depths of the sphere's
-/// near and far points and of the AABB's corners, at least the near plane), its quantizer and culling bounds
-/// (RoofgsOptions::key32). Shared with the GPU renderer. Every mean must lie in both (as in a .rgs file's
-/// metadata or converter::compute_bounds); Gaussians outside are culled. Errors: kInvalidArgument (no bounds,
-/// non-finite sphere, non-finite or inverted AABB), kLimitExceeded (fewer than 8 depth bits left).
-Status setup_depth_key(const Camera& camera, const std::optional<format::SceneBounds>& bounds, FrameSetup* frame);
 
 /// Stage 1 (3DGS preprocessCUDA): one ProjectedGaussian per input Gaussian, in input order, into `*out`
 /// (resized to the cloud's size). Multithreaded over Gaussians; deterministic. `frame` comes from

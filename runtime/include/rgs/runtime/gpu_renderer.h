@@ -14,6 +14,7 @@
 #include "rgs/kernels/output_convert.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/device_buffer.h"
+#include "rgs/runtime/frame_plan.h"
 #include "rgs/runtime/gpu_scene.h"
 #include "rgs/runtime/roofgs_options.h"
 
@@ -91,39 +92,6 @@ Status validate_output_image(const OutputImage& target, uint32_t width, uint32_t
 enum class GpuPipeline {
   kBaseline,  ///< the 3DGS rasterizer, faithfully (kernels/baseline_pipeline.h)
   kRoofgs,    ///< the RoofGS pipeline with the techniques of GpuRoofgsOptions (kernels/roofgs_pipeline.h)
-};
-
-/// Sub-tile culling in the folded rasterizer (beyond the paper).
-enum class SubtileCulling {
-  kOff,
-  kOn,
-  /// Per frame: on, unless SnugBox + AccuTile is on and more than kernels::kSubtileMaxLargePairFraction of the
-  /// pairs belong to Gaussians with more than kernels::kSubtileLargeTiles tiles (counted by the preprocess;
-  /// read back with the pair count).
-  kAuto,
-};
-
-/// Techniques of the RoofGS pipeline; every combination is valid (ablation). All off renders what the
-/// baseline renders.
-struct GpuRoofgsOptions {
-  /// Read the compact .rgs sections (FP16 geometry, INT8 SH) straight from device memory and dequantize in
-  /// registers (paper item 1); needs GpuScene::has_compact(). Off: read the FP32 arrays.
-  bool compact_attributes = true;
-  /// One fused kernel for preprocess + tile duplication + keys, pairs allocated in Gaussian order by a
-  /// decoupled look-back (deterministic), or in the blocks' arrival order with depth order and the 32-bit key,
-  /// whose final order does not depend on it (kernels::PairAllocation); off: separate preprocess, scan and
-  /// duplicate kernels.
-  bool fused_preprocess = true;
-  /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by warps
-  /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
-  bool balanced_emission = true;
-  /// With folded coefficients: whether each group of 8 lanes of the rasterizer skips the pairs that cannot
-  /// reach alpha 1/255 on its 4×4 block of the tile (kernels::RasterOptions::subtile_culling); the same image
-  /// bits on every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
-  SubtileCulling subtile_culling = SubtileCulling::kAuto;
-  /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
-  /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
-  RoofgsOptions techniques = RoofgsOptions::all();
 };
 
 /// Options of GpuRenderer::render().
@@ -231,6 +199,13 @@ class GpuRenderer {
   Status render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
                        const GpuRoofgsOptions& options, bool timed, const kernels::ImageView& view,
                        GpuRenderStats* stats, cudaStream_t stream);
+  /// Pairs of a RoofGS frame, and the sort counters zeroed ahead of the count (0: none).
+  struct PairCounts {
+    uint64_t pairs = 0, large_pairs = 0, sort_counters = 0;
+  };
+  /// The RoofGS preprocess and pair emission stage (fused or separate, as `plan` says) of a non-empty scene.
+  Status emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
+                           GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream);
   std::unique_ptr<Buffers> buffers_;  // scratch buffers and events (gpu_renderer.cpp)
 };
 

@@ -15,7 +15,7 @@ struct RoofgsOptions {
   /// 32-bit keys (item 2): tile id in the high b_t = ceil(log2(num_tiles)) bits, depth quantized to
   /// b_d = 32 − b_t bits over [z_near, z_far] = [max(near, d_c − r), d_c + r] from the scene's bounding sphere
   /// (centre at view depth d_c, radius r); Gaussians outside that range (up to a rounding margin,
-  /// FrameSetup::cull_z_min/max) are culled. Stable sort (ties keep Gaussian index order). Needs
+  /// DepthKey::cull_z_min/max) are culled. Stable sort (ties keep Gaussian index order). Needs
   /// RenderOptions::scene_bounds.
   bool key32 = false;
   /// SnugBox + AccuTile (item 4): cull o ≤ 1/255, and give each Gaussian exactly the tiles whose pixel

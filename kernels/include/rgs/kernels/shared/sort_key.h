@@ -35,7 +35,7 @@ struct DepthQuantizer {
 
 /// Quantizer for `depth_bits` bits over [z_near, z_far]. The range comes from the scene's bounds: the paper's
 /// bounding sphere (centre at view-space depth d_c, radius r), z_near = max(near plane, d_c − r), z_far =
-/// d_c + r, narrowed to the view depths of the AABB of the means (runtime::setup_depth_key); callers cull
+/// d_c + r, narrowed to the view depths of the AABB of the means (runtime::make_depth_key); callers cull
 /// Gaussians outside it (paper: they "do not participate in sorting").
 RGS_HOST_DEVICE DepthQuantizer make_depth_quantizer(float z_near, float z_far, int depth_bits) {
   DepthQuantizer q;

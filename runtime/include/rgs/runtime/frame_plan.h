@@ -1,0 +1,97 @@
+// The frame plan of the RoofGS GPU pipeline: every per-frame decision (technique switches the kernels read,
+// the 32-bit key's layout, the sort's key bits, how pairs are allocated, the rasterizer variant, sub-tile
+// culling, long tiles in chunks) made by pure host functions from the options, the camera and the frame's pair
+// counts. GpuRenderer::render_roofgs executes the plan and decides nothing itself; these functions
+// build and are tested without CUDA (docs/RENDERER.md#the-frame-plan).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "rgs/format/metadata.h"
+#include "rgs/format/status.h"
+#include "rgs/kernels/shared/frame_switches.h"
+#include "rgs/runtime/camera.h"
+#include "rgs/runtime/depth_key.h"
+#include "rgs/runtime/roofgs_options.h"
+
+namespace rgs::runtime {
+
+/// Sub-tile culling in the folded rasterizer (beyond the paper).
+enum class SubtileCulling {
+  kOff,
+  kOn,
+  /// Per frame: on, unless SnugBox + AccuTile is on and more than kernels::kSubtileMaxLargePairFraction of the
+  /// pairs belong to Gaussians with more than kernels::kSubtileLargeTiles tiles (counted by the preprocess;
+  /// read back with the pair count).
+  kAuto,
+};
+
+/// Techniques of the RoofGS pipeline; every combination is valid (ablation). All off renders what the
+/// baseline renders.
+struct GpuRoofgsOptions {
+  /// Read the compact .rgs sections (FP16 geometry, INT8 SH) straight from device memory and dequantize in
+  /// registers (paper item 1); needs GpuScene::has_compact(). Off: read the FP32 arrays.
+  bool compact_attributes = true;
+  /// One fused kernel for preprocess + tile duplication + keys, pairs allocated in Gaussian order by a
+  /// decoupled look-back (deterministic), or in the blocks' arrival order with depth order and the 32-bit key,
+  /// whose final order does not depend on it (kernels::PairAllocation); off: separate preprocess, scan and
+  /// duplicate kernels.
+  bool fused_preprocess = true;
+  /// Pairs of Gaussians with more than kernels::kSerialTileLimit tiles written by warps
+  /// (kernels::emit_large_gaussians) instead of by their own thread; same pairs in the same order.
+  bool balanced_emission = true;
+  /// With folded coefficients: whether each group of 8 lanes of the rasterizer skips the pairs that cannot
+  /// reach alpha 1/255 on its 4×4 block of the tile (kernels::RasterOptions::subtile_culling); the same image
+  /// bits on every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
+  SubtileCulling subtile_culling = SubtileCulling::kAuto;
+  /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
+  /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().
+  RoofgsOptions techniques = RoofgsOptions::all();
+};
+
+/// The decisions made before the preprocess.
+struct FramePlan {
+  /// Tile grid of the frame (16×16 tiles).
+  uint32_t tiles_x = 0, tiles_y = 0;
+  /// What the preprocess and emission kernels read: technique switches and the 32-bit key's layout.
+  kernels::RoofgsFrame switches;
+  /// The key's layout (key32 only; zero otherwise).
+  DepthKey key;
+  /// Bits of the pair key the radix sort covers: 32 with key32, else 32 + ceil(log2(tiles)).
+  int sort_bits = 0;
+  /// key32 with depth order: the tied keys are put in exact depth order after the sort
+  /// (kernels::order_equal_keys_by_depth, which also writes the ranges).
+  bool reorder_ties = false;
+  /// Where the fused kernel allocates each block's pairs: arrival order where reorder_ties makes the emission
+  /// order moot, else block order (deterministic).
+  kernels::PairAllocation allocation = kernels::PairAllocation::kBlockOrder;
+  /// One fused kernel for preprocess, counting and emission; else separate preprocess, scan and duplicate.
+  bool fused = true;
+  /// Gaussians with many tiles emitted by warps (kernels::emit_large_gaussians).
+  bool balanced_emission = true;
+};
+
+/// Plans a RoofGS frame of `camera` over a scene with `bounds` (needed by key32) that holds the compact
+/// sections or not. Errors: kInvalidArgument (fast_exp_sigma outside [0, 1), compact attributes asked of a
+/// scene without them, key32 without bounds or with non-finite ones), kLimitExceeded (a tile grid leaving
+/// fewer than 8 depth bits): those of make_depth_key.
+Result<FramePlan> plan_frame(const GpuRoofgsOptions& options, const Camera& camera,
+                             const std::optional<format::SceneBounds>& bounds, bool scene_has_compact);
+
+/// The decisions made once the frame's pair count is known.
+struct BlendPlan {
+  /// The rasterizer variant (kernels::is_lab_variant says whether a product build has it).
+  kernels::RasterOptions raster;
+  /// Pairs per chunk of the long tiles (kernels/shared/tile_chunks.h), 0 when the frame blends every tile
+  /// whole: chunks need binary16 blending and a frame with more pairs than one chunk.
+  uint32_t chunk_pairs = 0;
+};
+
+/// Plans the blend of a frame of `pairs` pairs, `large_pairs` of them from Gaussians with more than
+/// kernels::kSubtileLargeTiles tiles: sub-tile culling as options.subtile_culling says (kAuto: off where
+/// SnugBox + AccuTile is on and large Gaussians hold more than kernels::kSubtileMaxLargePairFraction of the
+/// pairs), and the chunk size (kernels::frame_chunk_pairs).
+BlendPlan plan_blend(const GpuRoofgsOptions& options, uint64_t pairs, uint64_t large_pairs);
+
+}  // namespace rgs::runtime

@@ -1,0 +1,67 @@
+// The RoofGS frame plan: every per-frame decision of the GPU pipeline, on the host.
+#include "rgs/runtime/frame_plan.h"
+
+#include <string>
+
+#include "rgs/kernels/shared/host_device.h"
+#include "rgs/kernels/shared/tile_chunks.h"
+
+namespace rgs::runtime {
+
+Result<FramePlan> plan_frame(const GpuRoofgsOptions& options, const Camera& camera,
+                             const std::optional<format::SceneBounds>& bounds, bool scene_has_compact) {
+  const RoofgsOptions& t = options.techniques;
+  RGS_RETURN_ERROR_IF(!(t.fast_exp_sigma >= 0.f && t.fast_exp_sigma < 1.f), StatusCode::kInvalidArgument,
+                      "GpuRenderer: fast_exp_sigma " + std::to_string(t.fast_exp_sigma) + " outside [0, 1)");
+  RGS_RETURN_ERROR_IF(options.compact_attributes && !scene_has_compact, StatusCode::kInvalidArgument,
+                      "GpuRenderer: compact attributes asked for a scene without them (load a .rgs file)");
+  FramePlan plan;
+  plan.tiles_x = uint32_t(kernels::tile_count_for(int(camera.width)));
+  plan.tiles_y = uint32_t(kernels::tile_count_for(int(camera.height)));
+  kernels::RoofgsFrame& rf = plan.switches;
+  rf.compact = options.compact_attributes;
+  rf.key32 = t.key32;
+  rf.snugbox_accutile = t.snugbox_accutile;
+  rf.accutile_within_baseline_rect = t.accutile_within_baseline_rect;
+  rf.fast_exp = t.fast_exp;
+  rf.fast_exp_sigma = t.fast_exp_sigma;
+  if (t.key32) {
+    RGS_ASSIGN_OR_RETURN(plan.key, make_depth_key(camera, bounds, plan.tiles_x, plan.tiles_y));
+    rf.key_depth_bits = plan.key.depth_bits;
+    rf.quantizer = plan.key.quantizer;
+    rf.cull_z_min = plan.key.cull_z_min;
+    rf.cull_z_max = plan.key.cull_z_max;
+    rf.empty_depth_range = plan.key.empty_depth_range;
+  }
+  // Depth order changes no key: with the 32-bit key it puts each run of tied keys in exact depth order after
+  // the sort; the 64-bit key holds the exact depth already.
+  plan.sort_bits = t.key32 ? 32 : 32 + kernels::key32_tile_bits(plan.tiles_x * plan.tiles_y);
+  plan.reorder_ties = t.key32 && t.depth_order;
+  // With depth order the final order of tied pairs does not depend on the order they are emitted in, so the
+  // fused kernel's blocks need not wait for their predecessors' counts.
+  plan.allocation = plan.reorder_ties ? kernels::PairAllocation::kArrivalOrder : kernels::PairAllocation::kBlockOrder;
+  plan.fused = options.fused_preprocess;
+  plan.balanced_emission = options.balanced_emission;
+  return plan;
+}
+
+BlendPlan plan_blend(const GpuRoofgsOptions& options, uint64_t pairs, uint64_t large_pairs) {
+  const RoofgsOptions& t = options.techniques;
+  // kAuto: with SnugBox + AccuTile a large Gaussian's tiles are those its ellipse reaches, so its blocks are
+  // nearly all covered; with 3σ rectangles its corner tiles are not, and the culling pays for them.
+  const bool subtile = options.subtile_culling == SubtileCulling::kOn ||
+                       (options.subtile_culling == SubtileCulling::kAuto &&
+                        (!t.snugbox_accutile ||
+                         double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs)));
+  BlendPlan plan;
+  plan.raster = kernels::RasterOptions{t.folded_coefficients, t.fast_exp, t.folded_coefficients && subtile,
+                                       t.half_blend};
+  // Long tiles in chunks: binary16 blending only (the chunk records are binary16).
+  static_assert(kernels::kChunkLargeTiles == kernels::kSubtileLargeTiles, "large_pairs counts the culling's measure");
+  const bool half = t.folded_coefficients && t.fast_exp && t.half_blend;
+  const uint32_t chunk_pairs = kernels::frame_chunk_pairs(pairs, large_pairs, t.tile_chunk_pairs);
+  if (half && chunk_pairs > 0 && pairs > chunk_pairs) plan.chunk_pairs = chunk_pairs;
+  return plan;
+}
+
+}  // namespace rgs::runtime
