@@ -1,9 +1,9 @@
-// rgs-render: render a scene (.rgs or PLY) from its cameras or an orbit, with the CPU reference renderer or
-// the CUDA renderer.
+// rgs-render: render a scene in any format from its cameras or an orbit through the front door (api::load,
+// api::Renderer), on the CPU reference renderer or the CUDA renderer.
 //
 //   rgs-render scene.rgs --cameras cameras.json -o out/      one PNG per camera, named after img_name
 //   rgs-render scene.ply --orbit 8 -o out/ --exr             orbit_000.png ... (+ float RGBA .exr)
-//   rgs-render scene.rgs --orbit 8 -o out/ --backend cuda    the same on the GPU (baseline pipeline)
+//   rgs-render scene.rgs --orbit 8 -o out/ --backend cuda    the same on the GPU (preset fastest)
 //   rgs-render scene.rgs --orbit 8 -o out/ --format ppm --pfm    no OpenImageIO needed (GPU-host builds)
 //
 // Exit status: 0 on success (every image written), 1 when loading, rendering or writing failed or the build
@@ -24,16 +24,13 @@
 #include "cli_common.h"
 #include "created_directory.h"
 #include "image_write.h"
+#include "rgs/api/renderer.h"
+#include "rgs/api/scene.h"
+#include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
-#include "rgs/runtime/cpu_renderer.h"
-#include "scene_read_options.h"
-#include "rgs/api/scene_loading.h"
 #include "rgs/runtime/image_io.h"
-#if RGS_HAS_CUDA
-#include "rgs/api/gpu_scene_loading.h"
-#include "rgs/runtime/gpu_renderer.h"
-#endif
+#include "scene_read_options.h"
 
 namespace {
 
@@ -51,6 +48,7 @@ struct Options {
   bool pfm = false;
   std::string backend = "cpu";
   int device = 0;
+  std::string preset = "fastest";
   bool key32 = false, accutile = false, folded = false, fast_exp = false, half_blend = false;
   float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
 
@@ -88,35 +86,13 @@ Result<std::array<float, 3>> parse_background(const std::string& text) {
   return bg;
 }
 
-/// One rendered view on the host, whatever the backend.
+/// One rendered view on the host.
 struct RenderedView {
   uint32_t width = 0, height = 0;
   std::vector<float> rgb;    ///< [H, W, 3] linear, not clamped
   std::vector<float> alpha;  ///< [H, W] 1 − T
   uint64_t pairs = 0;
-  double render_ms = 0;  ///< CPU: wall time of render_cpu; CUDA: CUDA-event time of the frame
-};
-
-/// What a backend tells the summary about the scene it holds.
-struct SceneSummary {
-  uint64_t gaussians = 0;
-  uint32_t sh_degree = 0;
-  std::string source;  ///< ".rgs dequantized", "PLY", ".rgs on the GPU", ...
-  format::SceneBounds bounds;
-  std::vector<std::string> notes;  ///< what the reader noted (the SPZ axes assumed, ...)
-};
-
-/// A renderer behind rgs-render: loads the scene once, then renders views.
-class Backend {
- public:
-  virtual ~Backend() = default;
-  virtual Status load(const std::string& path) = 0;
-  virtual const SceneSummary& scene() const = 0;
-  virtual Result<RenderedView> render(const runtime::Camera& camera) = 0;
-  /// "cpu", "cpu key32 accutile", "cuda baseline", "cuda roofgs key32 ..."
-  virtual std::string mode() const = 0;
-  /// Unit of RenderedView::render_ms in the summary line ("render", "GPU").
-  virtual const char* time_label() const = 0;
+  double render_ms = 0;  ///< wall time of the render, to its completion on the device
 };
 
 std::string technique_names(const runtime::RoofgsOptions& r) {
@@ -129,122 +105,60 @@ std::string technique_names(const runtime::RoofgsOptions& r) {
   return s;
 }
 
-class CpuBackend final : public Backend {
- public:
-  CpuBackend(const Options& opt, const std::array<float, 3>& background) {
-    options_.background = background;
-    options_.roofgs = opt.roofgs();
+/// The run's scene and renderer: the front door (api::load, api::Renderer) on the device --backend names.
+struct View {
+  api::Scene scene;
+  api::Renderer renderer;
+  api::RenderSettings settings;
+
+  /// "cpu preset fastest", "cuda techniques key32 accutile ..."
+  std::string mode() const {
+    const std::string device = api::device_name(scene.device());
+    if (settings.techniques) return device + " techniques" + technique_names(*settings.techniques);
+    return device + " preset " + api::preset_name(settings.preset);
   }
-  Status load(const std::string& path) override {
-    RGS_ASSIGN_OR_RETURN(scene_, api::load_host_scene(path, tools::scene_read_options()));
-    options_.scene_bounds = scene_.bounds;
-    summary_ = {scene_.cloud.size(), scene_.cloud.sh_degree, scene_.is_rgs ? ".rgs dequantized" : scene_.description,
-                scene_.bounds, scene_.notes};
-    return Status::ok_status();
-  }
-  const SceneSummary& scene() const override { return summary_; }
-  Result<RenderedView> render(const runtime::Camera& camera) override {
+
+  Result<RenderedView> render(const runtime::Camera& camera) {
     const auto start = Clock::now();
-    RGS_ASSIGN_OR_RETURN(runtime::RenderResult result, runtime::render_cpu(scene_.cloud, camera, options_));
+    RGS_ASSIGN_OR_RETURN(api::Image image, renderer.render_image(scene, camera, settings));
+    RGS_RETURN_IF_ERROR(image.synchronize());
     RenderedView view;
     view.render_ms = tools::seconds_since(start) * 1e3;
-    view.width = result.width;
-    view.height = result.height;
-    view.rgb = std::move(result.rgb);
-    view.alpha = std::move(result.alpha);
-    view.pairs = result.stats.pairs;
-    return view;
-  }
-  std::string mode() const override { return "cpu" + technique_names(options_.roofgs); }
-  const char* time_label() const override { return "render"; }
-
- private:
-  api::HostScene scene_;
-  runtime::RenderOptions options_;
-  SceneSummary summary_;
-};
-
-#if RGS_HAS_CUDA
-class CudaBackend final : public Backend {
- public:
-  CudaBackend(const Options& opt, const std::array<float, 3>& background) : device_(opt.device) {
-    options_.background = background;
-    options_.time_stages = true;  // per-view GPU time from CUDA events
-    if (opt.any_roofgs()) {
-      options_.pipeline = runtime::GpuPipeline::kRoofgs;
-      options_.roofgs.techniques = opt.roofgs();
-    }
-  }
-  Status load(const std::string& path) override {
-    Status device = api::require_cuda_device(device_);
-    if (!device.ok()) return device.prepend("--backend cuda");
-    auto renderer = runtime::GpuRenderer::create();
-    if (!renderer.ok()) return renderer.status();
-    renderer_ = std::make_unique<runtime::GpuRenderer>(std::move(renderer).value());
-    // The FP32 arrays of a .rgs scene only for the baseline pipeline: the RoofGS one reads the compact
-    // sections. Other formats are uploaded as FP32 arrays (GpuScene::from_cloud) either way.
-    runtime::GpuSceneOptions scene_options;
-    scene_options.fp32_attributes = options_.pipeline == runtime::GpuPipeline::kBaseline;
-    auto loaded = api::load_gpu_scene(path, scene_options, nullptr, tools::scene_read_options());
-    if (!loaded.ok()) return loaded.status();
-    scene_ = std::make_unique<api::LoadedGpuScene>(std::move(loaded).value());
-    // Compact sections exist only for .rgs input; other formats render the RoofGS techniques from FP32 arrays.
-    options_.roofgs.compact_attributes = scene_->scene.has_compact();
-    summary_ = {scene_->scene.size(), scene_->scene.sh_degree(),
-                scene_->is_rgs ? ".rgs on the GPU" : scene_->description + " on the GPU", scene_->bounds,
-                scene_->notes};
-    return Status::ok_status();
-  }
-  const SceneSummary& scene() const override { return summary_; }
-  Result<RenderedView> render(const runtime::Camera& camera) override {
-    RGS_ASSIGN_OR_RETURN(runtime::GpuRenderStats stats, renderer_->render(scene_->scene, camera, options_, &image_));
-    RGS_ASSIGN_OR_RETURN(runtime::HostImage host, runtime::download(image_));
-    RenderedView view;
-    view.width = host.width;
-    view.height = host.height;
-    const size_t n = size_t{host.width} * host.height;
+    view.pairs = image.frame_stats().pairs;
+    view.width = image.width();
+    view.height = image.height();
+    const size_t n = size_t{view.width} * view.height;
+    std::vector<float> rgba(n * 4);
+    RGS_RETURN_IF_ERROR(image.copy_to_host(rgba.data(), nullptr));
     view.rgb.resize(n * 3);
     view.alpha.resize(n);
     for (size_t i = 0; i < n; ++i) {
-      view.rgb[i * 3 + 0] = host.rgba[i * 4 + 0];
-      view.rgb[i * 3 + 1] = host.rgba[i * 4 + 1];
-      view.rgb[i * 3 + 2] = host.rgba[i * 4 + 2];
-      view.alpha[i] = host.rgba[i * 4 + 3];
+      for (int c = 0; c < 3; ++c) view.rgb[i * 3 + c] = rgba[i * 4 + c];
+      view.alpha[i] = rgba[i * 4 + 3];
     }
-    view.pairs = stats.pairs;
-    view.render_ms = stats.times.total_ms;
     return view;
   }
-  std::string mode() const override {
-    if (options_.pipeline == runtime::GpuPipeline::kBaseline) return "cuda baseline";
-    return std::string("cuda roofgs") + (options_.roofgs.compact_attributes ? " compact" : "") +
-           technique_names(options_.roofgs.techniques);
-  }
-  const char* time_label() const override { return "GPU"; }
-
- private:
-  int device_ = 0;
-  runtime::GpuRenderOptions options_;
-  std::unique_ptr<runtime::GpuRenderer> renderer_;
-  std::unique_ptr<api::LoadedGpuScene> scene_;
-  runtime::DeviceImage image_;
-  SceneSummary summary_;
 };
-#endif
 
-/// The backend named by --backend, or why this build cannot give it.
-Result<std::unique_ptr<Backend>> make_backend(const Options& opt, const std::array<float, 3>& background) {
-  if (opt.backend == "cpu") return std::unique_ptr<Backend>(std::make_unique<CpuBackend>(opt, background));
-#if RGS_HAS_CUDA
-  if (opt.backend == "cuda") return std::unique_ptr<Backend>(std::make_unique<CudaBackend>(opt, background));
-#else
-  if (opt.backend == "cuda") {
-    return Status(StatusCode::kUnsupportedFeature,
-                  "--backend cuda: this build has no CUDA support (configured with RGS_WITH_CUDA=OFF or without "
-                  "nvcc); use --backend cpu");
-  }
-#endif
-  return Status(StatusCode::kInvalidArgument, "--backend: unknown backend '" + opt.backend + "'");
+/// Opens the renderer first (so that a missing device fails before any loading), then loads the scene with
+/// what the settings read: the file's own values (no quantization of other formats), FP32 arrays on the GPU
+/// for the faithful preset.
+Result<View> open_view(const Options& opt, const std::array<float, 3>& background) {
+  RGS_ASSIGN_OR_RETURN(const api::Device device, api::parse_device(opt.backend));
+  auto renderer = api::Renderer::create(device, opt.device);
+  if (!renderer.ok()) return Status(renderer.status()).prepend("--backend " + opt.backend);
+  api::RenderSettings settings;
+  RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(opt.preset));
+  settings.background = background;
+  if (opt.any_roofgs()) settings.techniques = opt.roofgs();
+  api::LoadOptions load;
+  load.device = device;
+  load.cuda_device = opt.device;
+  load.presets = {settings.preset};
+  load.quantize_other_formats = false;
+  load.read_options = tools::scene_read_options();
+  RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
+  return View{std::move(scene), std::move(renderer).value(), settings};
 }
 
 /// Checks the requested image files against what this build can write, before any work is done.
@@ -302,14 +216,11 @@ int run(Options opt) {
     if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
   }
 
-  auto backend_or = make_backend(opt, *background);
-  if (!backend_or.ok()) return tools::report_error(kTool, backend_or.status());
-  Backend& backend = **backend_or;
-
   const auto t_start = Clock::now();
-  Status loaded = backend.load(opt.input);
-  if (!loaded.ok()) return tools::report_error(kTool, loaded);
-  const SceneSummary& scene = backend.scene();
+  auto opened = open_view(opt, *background);
+  if (!opened.ok()) return tools::report_error(kTool, opened.status());
+  View& view_door = *opened;
+  const api::SceneInfo& scene = view_door.scene.info();
   tools::report_notes(kTool, scene.notes);
   auto cameras = api::make_cameras(opt.cameras, scene.bounds);
   if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
@@ -341,14 +252,14 @@ int run(Options opt) {
   uint64_t total_pairs = 0;
   for (size_t i = 0; i < count; ++i) {
     const runtime::Camera& cam = (*cameras)[i];
-    auto view = backend.render(cam);
+    auto view = view_door.render(cam);
     if (!view.ok()) return tools::report_error(kTool, Status(view.status()).prepend(opt.input + ", view " + cam.name));
     render_ms += view->render_ms;
     total_pairs += view->pairs;
     Status s = write_view(opt, bases[i], *view);  // staged in `outputs`
     if (!s.ok()) return tools::report_error(kTool, s);
     std::fprintf(stderr, "view %zu/%zu %s %s ms (%s), %s pairs\n", i + 1, count, tools::escape_text(cam.name).c_str(),
-                 tools::fixed(view->render_ms, view->render_ms < 100 ? 3 : 0).c_str(), backend.time_label(),
+                 tools::fixed(view->render_ms, view->render_ms < 100 ? 3 : 0).c_str(), "render",
                  tools::group_digits(view->pairs).c_str());
   }
 
@@ -359,12 +270,12 @@ int run(Options opt) {
   std::printf("  views            %zu (%s, %s)\n", count, output_kinds(opt).c_str(),
               opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json");
   std::printf("  resolution       %ux%u\n", first.width, first.height);
-  std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(scene.gaussians).c_str(),
-              scene.sh_degree, scene.source.c_str());
+  std::printf("  gaussians        %s (SH degree %u, %s%s)\n", tools::group_digits(scene.gaussians).c_str(),
+              scene.sh_degree, scene.description.c_str(), scene.device == api::Device::kCuda ? ", on the GPU" : "");
   std::printf("  mean pairs       %s\n", tools::group_digits(total_pairs / count).c_str());
-  std::printf("  mode             %s\n", backend.mode().c_str());
+  std::printf("  mode             %s\n", view_door.mode().c_str());
   std::printf("  time             %s ms/frame (%s), %s s total\n",
-              tools::fixed(ms_per_frame, ms_per_frame < 100 ? 3 : 0).c_str(), backend.time_label(),
+              tools::fixed(ms_per_frame, ms_per_frame < 100 ? 3 : 0).c_str(), "render",
               tools::fixed(tools::seconds_since(t_start), 2).c_str());
   // The report must have reached stdout before the images appear (a failed report leaves none).
   Status flushed = tools::flush_standard_streams();
@@ -415,6 +326,11 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
   app.add_option("--device", opt.device, "CUDA device ordinal (--backend cuda)")->check(CLI::Range(0, 1023))
       ->capture_default_str();
+  app.add_option("--preset", opt.preset,
+                 "fastest (the default: RoofGS+ on the GPU, the 3DGS rules on the CPU, where they are faster), "
+                 "faithful (the 3DGS rasterizer) or paper (the paper's techniques)")
+      ->check(CLI::IsMember({"fastest", "faithful", "paper"}))
+      ->capture_default_str();
   app.add_flag("--roofgs-key", opt.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
   app.add_flag("--accutile", opt.accutile, "RoofGS: SnugBox + AccuTile tile sets");
   app.add_flag("--folded", opt.folded, "RoofGS: folded coefficients C1..C6 with the dual-pixel update");
@@ -423,8 +339,9 @@ int main(int argc, char** argv) {
   app.add_flag("--half-blend", opt.half_blend,
                "Blend in binary16, two pixels per half2 instruction on the GPU (beyond the paper; needs --folded and "
                "--fast-exp)");
-  app.footer("With --backend cuda, any RoofGS flag selects the RoofGS pipeline with those techniques (compact "
-             "attributes read on the GPU for .rgs input); without one, the 3DGS baseline pipeline.");
+  app.footer("Any RoofGS technique flag renders exactly those techniques instead of the preset's (a lab "
+             "configuration: on the GPU the RoofGS pipeline, compact attributes for .rgs input; combinations no "
+             "preset uses need a build with RGS_LAB_KERNELS).");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   rgs::tools::add_scene_read_options(app);
   try {

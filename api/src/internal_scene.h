@@ -30,6 +30,7 @@ struct Image::Impl {
   uint32_t width = 0, height = 0;
   PixelFormat format = PixelFormat::kRgba32f;
   bool with_depth = false;
+  FrameStats stats;                 // of the frame that produced the image
   std::vector<uint8_t> host_color;  // CPU images
   std::vector<float> host_depth;
   void* device_color = nullptr;  // GPU images (cudaMalloc)

@@ -121,6 +121,8 @@ float* Image::depth() const {
   if (!impl_->with_depth) return nullptr;
   return impl_->device == Device::kCuda ? impl_->device_depth : impl_->host_depth.data();
 }
+const FrameStats& Image::frame_stats() const { return impl_->stats; }
+
 ImageTarget Image::target() const {
   ImageTarget t;
   t.width = width();
@@ -223,6 +225,7 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   FrameStats stats;
   if (impl_->device == Device::kCpu) {
     runtime::RenderOptions options = cpu_backend_options(settings.preset, info.bounds);
+    if (settings.techniques) options.roofgs = *settings.techniques;
     options.background = settings.background;
     options.num_threads = settings.cpu_threads;
     RGS_ASSIGN_OR_RETURN(runtime::RenderResult result, runtime::render_cpu(*scene.cloud(), camera, options));
@@ -232,11 +235,15 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
     return stats;
   }
 #if RGS_HAS_CUDA
-  RGS_RETURN_ERROR_IF(preset_reads_fp32(settings.preset) && !info.has_fp32, StatusCode::kInvalidArgument,
+  runtime::GpuRenderOptions options = gpu_render_options(settings.preset, info.has_compact);
+  if (settings.techniques) {  // lab: these techniques on the RoofGS pipeline, compact when the scene has them
+    options = gpu_render_options(Preset::kFastest, info.has_compact);
+    options.roofgs.techniques = *settings.techniques;
+  }
+  RGS_RETURN_ERROR_IF(reads_fp32_attributes(options) && !info.has_fp32, StatusCode::kInvalidArgument,
                       std::string("Renderer: preset ") + preset_name(settings.preset) +
                           " reads FP32 attributes, and " + info.path +
                           " was loaded without them: list it in LoadOptions::presets");
-  runtime::GpuRenderOptions options = gpu_render_options(settings.preset, info.has_compact);
   options.background = settings.background;
   runtime::OutputImage out;
   out.width = target.width;
@@ -286,7 +293,7 @@ Result<Image> Renderer::render_image(const Scene& scene, const Camera& camera, c
     RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&im.ready, cudaEventDisableTiming), "Image: event");
 #endif
   }
-  RGS_RETURN_IF_ERROR(render(scene, camera, settings, image.target(), stream).status());
+  RGS_ASSIGN_OR_RETURN(im.stats, render(scene, camera, settings, image.target(), stream));
 #if RGS_HAS_CUDA
   if (im.ready != nullptr) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(im.ready, stream), "Image: event record");
 #endif

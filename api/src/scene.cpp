@@ -56,6 +56,7 @@ Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
   SceneInfo& info = impl->info;
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, options.read_options));
   info.notes = std::move(input.notes);
+  info.description = input.description;
   info.source_is_rgs = input.format_id == "rgs";
   info.file_bytes = input.file_bytes;
   if (info.source_is_rgs || !options.quantize_other_formats) {
@@ -102,6 +103,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
     RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, upload_rgs_bytes(*bytes, ply.file_bytes, path, gpu_options));
     l.is_rgs = false;
     l.notes = std::move(l_notes);
+    l.description = ply.description + ", quantized in memory as rgs-convert would";
     loaded.emplace(std::move(l));
   }
   auto impl = std::make_shared<Scene::Impl>();
@@ -112,6 +114,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   info.source_is_rgs = loaded->is_rgs;
   info.file_bytes = loaded->file_bytes;
   info.notes = std::move(loaded->notes);
+  info.description = loaded->description;
   impl->gpu.emplace(std::move(loaded->scene));
   const runtime::GpuScene& gpu = *impl->gpu;
   info.gaussians = gpu.size();

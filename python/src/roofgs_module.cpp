@@ -242,6 +242,7 @@ py::dict scene_info(const api::SceneInfo& info) {
   d["sphere_center"] = std::vector<float>(info.bounds.sphere_center, info.bounds.sphere_center + 3);
   d["sphere_radius"] = info.bounds.sphere_radius;
   d["notes"] = info.notes;
+  d["description"] = info.description;
   return d;
 }
 

@@ -9,11 +9,13 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 
 #include "rgs/api/camera.h"
 #include "rgs/api/preset.h"
 #include "rgs/api/scene.h"
 #include "rgs/format/status.h"
+#include "rgs/runtime/roofgs_options.h"
 
 /// The CUDA runtime's stream type without including CUDA headers: cudaStream_t is `CUstream_st*`, so a
 /// cudaStream_t converts to api::Stream and back implicitly.
@@ -64,6 +66,11 @@ struct RenderSettings {
   std::array<float, 3> background = {0.f, 0.f, 0.f};
   /// CPU renderer threads; 0 = all hardware threads. The image does not depend on it.
   unsigned cpu_threads = 0;
+  /// Lab: the RoofGS techniques exactly as given instead of the preset's (one-technique ablations,
+  /// rgs-render's technique flags); on the GPU the RoofGS pipeline with them (compact attributes when the
+  /// scene has them). A combination with no product kernel variant renders only in builds with
+  /// RGS_LAB_KERNELS (kUnsupportedFeature otherwise; docs/RENDERER.md#product-and-lab-kernels).
+  std::optional<runtime::RoofgsOptions> techniques;
 };
 
 /// Counts of one frame.
@@ -93,6 +100,8 @@ class Image {
   float* depth() const;
   /// This image as an ImageTarget (to render into it again).
   ImageTarget target() const;
+  /// The counts of the frame render_image() produced it with.
+  const FrameStats& frame_stats() const;
 
   /// GPU images: makes `consumer` wait (cudaStreamWaitEvent, no host wait) until the render that produced
   /// this image is done; a no-op for CPU images. Errors: kCudaError.

@@ -65,6 +65,8 @@ struct SceneInfo {
   format::SceneBounds bounds;
   /// True when the file was a .rgs (sniffed by magic or extension).
   bool source_is_rgs = false;
+  /// The file's format in words ("RoofGS .rgs", "binary_little_endian PLY", "Niantic SPZ v4 ...").
+  std::string description;
   uint64_t file_bytes = 0;
   /// GPU scenes: whether the compact runtime sections and the FP32 arrays are on the device.
   bool has_compact = false;
