@@ -299,6 +299,30 @@ std::string read_file_head(const std::string& path, size_t bytes) {
   return head;
 }
 
+std::string group_digits(uint64_t n) {
+  std::string digits = std::to_string(n);
+  std::string out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+std::string file_safe_name(const std::string& name, size_t index) {
+  if (name.empty()) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "view_%03zu", index);
+    return buf;
+  }
+  std::string out = name;
+  for (char& ch : out) {
+    if (ch == '/' || ch == '\\' || static_cast<unsigned char>(ch) < 32) ch = '_';
+  }
+  if (out == "." || out == "..") out = "view_" + std::to_string(index);
+  return out;
+}
+
 std::string fixed(double value, int digits) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*f", digits, value);

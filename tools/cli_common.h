@@ -81,8 +81,11 @@ Result<std::vector<uint8_t>> read_standard_input();
 /// Peeks the first bytes of a regular file (call check_input_file first). Fewer when the file is shorter.
 std::string read_file_head(const std::string& path, size_t bytes);
 
-/// 1234567 -> "1,234,567" (the front door's, so that tools and library messages agree).
-using api::group_digits;
+/// 1234567 -> "1,234,567".
+std::string group_digits(uint64_t n);
+/// A view name usable as a file name: '/', '\\' and control characters replaced by '_'; "view_<i>" (three
+/// digits) if empty, "view_<i>" for "." and "..".
+std::string file_safe_name(const std::string& name, size_t index);
 /// Fixed-point with `digits` decimals ("%.*f").
 std::string fixed(double value, int digits);
 /// Scientific with 3 significant decimals ("1.234e-05"), or "0" for zero.

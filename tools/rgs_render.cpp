@@ -234,7 +234,7 @@ int run(Options opt) {
   const size_t count = cameras->size();
   std::vector<std::string> bases;
   for (size_t i = 0; i < count; ++i) {
-    std::string name = api::file_safe_name((*cameras)[i].name, i);
+    std::string name = tools::file_safe_name((*cameras)[i].name, i);
     std::string base = (std::filesystem::path(opt.output_dir) / name).string();
     if (std::find(bases.begin(), bases.end(), base) != bases.end()) base += "_" + std::to_string(i);
     for (const std::string& file : view_files(opt, base)) {

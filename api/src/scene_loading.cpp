@@ -20,22 +20,13 @@ Status check_replicated_count(const std::string& path, uint64_t count, uint32_t 
   RGS_RETURN_ERROR_IF(copies == 0, StatusCode::kInvalidArgument, "replicate: the number of copies must be >= 1");
   const uint64_t total = count * uint64_t(copies);  // < 2^64: count < 2^63 from any reader, copies < 2^32
   RGS_RETURN_ERROR_IF(count > kMaxGpuGaussians || total > kMaxGpuGaussians, StatusCode::kLimitExceeded,
-                      path + ": " + std::to_string(copies) + " copies of " + group_digits(count) + " Gaussians = " +
-                          group_digits(total) + " exceed the 32-bit Gaussian count limit of " +
-                          group_digits(kMaxGpuGaussians));
+                      path + ": " + std::to_string(copies) + " copies of " + std::to_string(count) + " Gaussians = " +
+                          std::to_string(total) + " exceed the 32-bit Gaussian count limit of " +
+                          std::to_string(kMaxGpuGaussians));
   return Status();
 }
 }  // namespace
 
-std::string group_digits(uint64_t n) {
-  std::string digits = std::to_string(n);
-  std::string out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
 
 Result<HostScene> load_host_scene(const std::string& path, const converter::SceneReadOptions& options) {
   HostScene scene;
@@ -110,18 +101,5 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
   return cameras;
 }
 
-std::string file_safe_name(const std::string& name, size_t index) {
-  if (name.empty()) {
-    char buf[32];
-    std::snprintf(buf, sizeof(buf), "view_%03zu", index);
-    return buf;
-  }
-  std::string out = name;
-  for (char& ch : out) {
-    if (ch == '/' || ch == '\\' || static_cast<unsigned char>(ch) < 32) ch = '_';
-  }
-  if (out == "." || out == "..") out = "view_" + std::to_string(index);
-  return out;
-}
 
 }  // namespace rgs::api

@@ -72,7 +72,7 @@ TEST_CASE("replicate_scene_file: zero copies and the 32-bit Gaussian count limit
   auto over = api::replicate_scene_file(path, too_many);
   REQUIRE_FALSE(over.ok());
   CHECK(over.status().code() == StatusCode::kLimitExceeded);
-  CHECK(over.status().message().find("exceed the 32-bit Gaussian count limit of 2,147,483,647") != std::string::npos);
+  CHECK(over.status().message().find("exceed the 32-bit Gaussian count limit of 2147483647") != std::string::npos);
   CHECK(over.status().message().find("small_sh3.rgs") != std::string::npos);
   auto missing = api::replicate_scene_file(test::repo_path("tests/data/v1.0/nope.rgs"), 2);
   REQUIRE_FALSE(missing.ok());
@@ -134,16 +134,6 @@ TEST_CASE("is_rgs_path: the .rgs magic or a name ending in .rgs") {
   CHECK(api::is_rgs_path(".rgs"));
   CHECK_FALSE(api::is_rgs_path("/nonexistent/scene.ply"));
   CHECK_FALSE(api::is_rgs_path("rgs"));
-}
-
-TEST_CASE("file_safe_name and group_digits") {
-  CHECK(api::file_safe_name("a/b\\c", 0) == "a_b_c");
-  CHECK(api::file_safe_name("", 7) == "view_007");
-  CHECK(api::file_safe_name("..", 3) == "view_3");
-  CHECK(api::group_digits(0) == "0");
-  CHECK(api::group_digits(999) == "999");
-  CHECK(api::group_digits(1000) == "1,000");
-  CHECK(api::group_digits(2725620000) == "2,725,620,000");
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
-// cli_common: the escaping every tool applies to bytes from files and arguments before printing them, and the
-// error line of report_error (a NUL no longer cuts it short and drops the error code).
+// cli_common: the escaping every tool applies to bytes from files and arguments before printing them, the
+// error line of report_error (a NUL no longer cuts it short and drops the error code), counts and view names.
 #include <doctest/doctest.h>
 
 #include <unistd.h>
@@ -44,4 +44,16 @@ TEST_CASE("report_error: the whole message and its code reach stderr, escaped") 
   std::fclose(capture);
   CHECK(code == rgs::tools::kExitFailure);
   CHECK(std::string(buffer, n) == "rgs-test: error: name\\x00\\x1b]0;pwned\\x07 tail [kCorruptData]\n");
+}
+
+TEST_CASE("file_safe_name and group_digits") {
+  using rgs::tools::file_safe_name;
+  using rgs::tools::group_digits;
+  CHECK(file_safe_name("a/b\\c", 0) == "a_b_c");
+  CHECK(file_safe_name("", 7) == "view_007");
+  CHECK(file_safe_name("..", 3) == "view_3");
+  CHECK(group_digits(0) == "0");
+  CHECK(group_digits(999) == "999");
+  CHECK(group_digits(1000) == "1,000");
+  CHECK(group_digits(2725620000) == "2,725,620,000");
 }

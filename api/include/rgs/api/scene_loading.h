@@ -91,12 +91,4 @@ struct CameraChoice {
 /// around `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0 cameras.
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
 
-/// `n` with thousands separators ("2,725,620,000"), as the tools print counts (the one copy: the tools use
-/// it too).
-std::string group_digits(uint64_t n);
-
-/// A view name usable as a file name: '/', '\\' and control characters replaced by '_'; "view_<i>" (three
-/// digits) if empty, "view_<i>" for "." and "..".
-std::string file_safe_name(const std::string& name, size_t index);
-
 }  // namespace rgs::api
