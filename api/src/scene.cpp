@@ -1,15 +1,9 @@
-// load(): every supported file into a Scene on the CPU or the GPU.
-#include <filesystem>
-#include <sstream>
-
+// load() and load_cloud(): every supported file, or float Gaussians in memory, into a Scene on the CPU or the GPU.
 #include "internal_scene.h"
 #include "rgs/api/scene_loading.h"
-#include "rgs/converter/ply_reader.h"
-#include "rgs/converter/ply_writer.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
-#include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
 
@@ -128,6 +122,37 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
 #endif
 
 }  // namespace
+
+Result<Scene> load_cloud(format::GaussianCloud cloud, const format::SceneBounds& bounds, const std::string& name,
+                         const LoadOptions& options) {
+  RGS_RETURN_ERROR_IF(!cloud.is_consistent(), StatusCode::kInvalidArgument,
+                      name + ": Gaussian cloud arrays do not match its size and SH degree");
+  auto impl = std::make_shared<Scene::Impl>();
+  SceneInfo& info = impl->info;
+  info.path = name;
+  info.device = options.device;
+  info.bounds = bounds;
+  info.gaussians = cloud.size();
+  info.sh_degree = cloud.sh_degree;
+  info.description = "float Gaussians in memory";
+  if (options.device == Device::kCpu) {
+    info.memory_bytes = cloud_bytes(cloud);
+    impl->cloud = std::move(cloud);
+    return Scene(std::move(impl));
+  }
+#if RGS_HAS_CUDA
+  RGS_RETURN_IF_ERROR(require_cuda_device(options.cuda_device));
+  auto gpu = runtime::GpuScene::from_cloud(cloud, bounds);
+  if (!gpu.ok()) return Status(gpu.status()).prepend(name);
+  impl->gpu.emplace(std::move(gpu).value());
+  info.has_fp32 = true;
+  info.memory_bytes = impl->gpu->device_bytes();
+  return Scene(std::move(impl));
+#else
+  return Status(StatusCode::kUnsupportedFeature,
+                name + ": device cuda: this build has no CUDA support (RGS_WITH_CUDA=OFF); use device cpu");
+#endif
+}
 
 Result<Scene> load(const std::string& path, const LoadOptions& options) {
   if (options.device == Device::kCpu) return load_cpu(path, options);

@@ -161,12 +161,9 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
     result.candidates.push_back(std::move(c));
   }
 
-  std::unique_ptr<detail::ViewBackend> backend;
-  if (options.backend == Backend::kCuda) {
-    RGS_ASSIGN_OR_RETURN(backend, detail::make_cuda_backend(source, candidates, options.cuda_device));
-  } else {
-    backend = detail::make_cpu_backend(source, candidates, options.cpu_threads);
-  }
+  RGS_ASSIGN_OR_RETURN(std::unique_ptr<detail::ViewBackend> backend,
+                       detail::make_view_backend(source, candidates, options.backend, options.cuda_device,
+                                                 options.cpu_threads));
   result.device = backend->device();
 
   for (size_t v = 0; v < cameras.size(); ++v) {

@@ -1,4 +1,4 @@
-// The renderers behind run_audit(): one interface, a CPU reference and a CUDA implementation.
+// The renders behind run_audit(): one interface over the front door's renderer, on the CPU or the GPU.
 #pragma once
 
 #include <memory>
@@ -25,12 +25,12 @@ class ViewBackend {
   virtual Result<std::pair<ImageRef, ImageRef>> last_images() = 0;
 };
 
-std::unique_ptr<ViewBackend> make_cpu_backend(const AuditScene& source, const std::vector<AuditScene>& candidates,
-                                              unsigned threads);
-
-/// kUnsupportedFeature in a build without CUDA or without a device.
-Result<std::unique_ptr<ViewBackend>> make_cuda_backend(const AuditScene& source,
-                                                       const std::vector<AuditScene>& candidates, int device);
+/// The renders of `backend` through the front door (api::Renderer, faithful preset): the CPU reference with
+/// `threads` threads, or CUDA device `cuda_device`. kUnsupportedFeature in a build without CUDA or without a
+/// device; the errors of uploading the scenes.
+Result<std::unique_ptr<ViewBackend>> make_view_backend(const AuditScene& source,
+                                                       const std::vector<AuditScene>& candidates, Backend backend,
+                                                       int cuda_device, unsigned threads);
 
 bool cuda_available(std::string* why);
 

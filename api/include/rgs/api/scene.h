@@ -110,4 +110,12 @@ class Scene {
 /// usable device (the message says which); kCudaError.
 Result<Scene> load(const std::string& path, const LoadOptions& options = {});
 
+/// A scene from float Gaussians already in memory (format::GaussianCloud's layout; e.g. the decoded scenes an
+/// audit compares) for `options.device`: the cloud itself on the CPU, FP32 arrays on the GPU (what the
+/// faithful preset and lab configurations on FP32 read; options.presets and quantize_other_formats are not
+/// used). `name` stands for the path in SceneInfo and messages; `bounds` are the scene's (compute_bounds).
+/// @return kInvalidArgument (inconsistent cloud); for kCuda as load().
+Result<Scene> load_cloud(format::GaussianCloud cloud, const format::SceneBounds& bounds, const std::string& name,
+                         const LoadOptions& options = {});
+
 }  // namespace rgs::api
