@@ -5,9 +5,9 @@
     scripts/bench_tables.py --update docs/BENCHMARKS.md OUT/bench_*.json  # replace them in place
 
 Reads the JSON that tools/rgs_bench.cpp writes (one file per rgs-bench run; scripts/gpu_check.sh ... bench
-leaves bench_<name>.json under its OUT folder) and prints, for the mode given by --mode (default roofgs+, the
+leaves bench_<name>.json under its OUT folder) and prints, for the mode given by --mode (default fastest, the
 fastest preset):
-  1. its median frame time and its speedup over --reference (default baseline) in the same run, a row per scene
+  1. its median frame time and its speedup over --reference (default faithful, the 3DGS baseline) in the same run, a row per scene
      and a column per resolution;
   2. its per-stage medians for the frames --stages names (default: the largest non-replicated scene at
      3840x2160, or at its largest resolution), with the reference's total;
@@ -352,8 +352,8 @@ def main(argv):
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("json", nargs="+", help="rgs-bench --json outputs")
     parser.add_argument("--update", metavar="FILE", help="replace the tables between FILE's markers")
-    parser.add_argument("--mode", default="roofgs+", help="mode the tables show (default: roofgs+)")
-    parser.add_argument("--reference", default="baseline", help="mode of the speedups and PSNR (default: baseline)")
+    parser.add_argument("--mode", default="fastest", help="mode the tables show (default: fastest)")
+    parser.add_argument("--reference", default="faithful", help="mode of the speedups and PSNR (default: faithful)")
     parser.add_argument("--stages", action="append", metavar="SCENE@RES",
                         help="frame of the per-stage table (repeatable; 'all': every frame)")
     parser.add_argument("--modes", action="append", default=[], metavar="SCENE@RES",

@@ -65,7 +65,8 @@ fi
 
 if [ "$what" = ab ]; then
   # A/B against another build's rgs-bench (STAGE_DIR/ab/rgs-bench, e.g. the landed tree's): the same views,
-  # alternating A and B twice, baseline and roofgs+ at 1080p and 4K (docs/BENCHMARKS.md "A/B").
+  # alternating A and B twice, faithful and fastest at 1080p and 4K (docs/BENCHMARKS.md "A/B"). An A build
+  # from before the modes took the preset names (baseline, roofgs+) runs under those, its JSON renamed after.
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   [ -f "$stage/ab/rgs-bench.xz" ] && xz -dkf "$stage/ab/rgs-bench.xz" && chmod +x "$stage/ab/rgs-bench"
@@ -73,12 +74,16 @@ if [ "$what" = ab ]; then
     for side in a b; do
       exe="$bin/rgs-bench"
       [ $side = a ] && exe="$stage/ab/rgs-bench"
+      modes=(--mode faithful --mode fastest)
+      "$exe" --help | grep -q "faithful" || modes=(--mode baseline --mode roofgs+)
       for scene in flowers flowers_x53; do
         extra=()
         [ $scene = flowers_x53 ] && extra=(--replicate 53 --limit 8)
         "$exe" "$flowers" --cameras "$cameras" --every 8 "${extra[@]}" --resolution 1920x1080 \
-          --resolution 3840x2160 --mode baseline --mode roofgs+ --warmup 3 --repeat 10 \
+          --resolution 3840x2160 "${modes[@]}" --warmup 3 --repeat 10 \
           --json "$out/ab_${scene}_${side}${round}.json" >"$out/ab_${scene}_${side}${round}.log" 2>&1 || status=1
+        sed -i 's/"mode": "baseline"/"mode": "faithful"/; s/"mode": "roofgs+"/"mode": "fastest"/' \
+          "$out/ab_${scene}_${side}${round}.json" 2>/dev/null || true
       done
     done
   done
@@ -92,11 +97,11 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode baseline --mode roofgs --mode roofgs+ --mode roofgs+fp32 --mode roofgs+whole-tiles --mode roofgs-serial
-         --mode roofgs-tile --mode roofgs-subtile)
-  # The ablation: every technique alone, all off, FP32 blending (roofgs+fp32), long tiles blended whole instead of
-  # in chunks (roofgs+whole-tiles), the load balancing off (roofgs-serial), sub-tile culling off or on in every
-  # frame instead of chosen per frame (roofgs-tile, roofgs-subtile; above).
+  modes=(--mode faithful --mode roofgs --mode fastest --mode fastest-fp32-blend --mode fastest-whole-tiles --mode roofgs-serial-emission
+         --mode roofgs-no-subtile --mode roofgs-subtile-always)
+  # The ablation: every technique alone, all off, FP32 blending (fastest-fp32-blend), long tiles blended whole instead of
+  # in chunks (fastest-whole-tiles), the load balancing off (roofgs-serial-emission), sub-tile culling off or on in every
+  # frame instead of chosen per frame (roofgs-no-subtile, roofgs-subtile-always; above).
   ablation=("${modes[@]}" --mode roofgs-none --mode only-compact --mode only-fused --mode only-key32
             --mode only-snugbox --mode only-folded --mode only-fastexp)
   sizes=(--resolution 1920x1080 --resolution 3840x2160)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Draws the per-stage roofline of an rgs-bench JSON report (rgs-bench ... --json bench.json).
 
-Usage: scripts/plot_roofline.py BENCH.json OUT.png [--resolution 3840x2160] [--mode baseline --mode roofgs]
+Usage: scripts/plot_roofline.py BENCH.json OUT.png [--resolution 3840x2160] [--mode faithful --mode roofgs]
                                 [--title TEXT]
 
 Log-log axes: arithmetic intensity (FLOP per byte) against achieved GFLOP/s. The roofs are the peaks the

@@ -4,8 +4,8 @@
 //
 //   rgs-bench scene.rgs --cameras cameras.json --every 8 --resolution 1080p --resolution 4k --json bench.json
 //   rgs-bench scene.ply --orbit 16 --warmup 10 --repeat 50
-//   rgs-bench scene.rgs --orbit 16 --mode baseline --mode roofgs --mode only-snugbox
-//   rgs-bench daffodils.rgs --orbit 8 --replicate 4 --resolution 4k --mode baseline --mode roofgs
+//   rgs-bench scene.rgs --orbit 16 --mode faithful --mode roofgs --mode only-snugbox
+//   rgs-bench daffodils.rgs --orbit 8 --replicate 4 --resolution 4k --mode faithful --mode roofgs
 //
 // For every mode and resolution: W warm-up frames, then R repetitions of every view (views in turn), each
 // frame timed with CUDA events per stage (GpuRenderOptions::time_stages). Reported: the median over
@@ -79,7 +79,7 @@ struct Options {
   std::string input;
   api::CameraChoice cameras;
   std::vector<std::string> resolutions;  ///< as given; parsed (and checked) at parse time
-  std::vector<std::string> modes = {"baseline"};
+  std::vector<std::string> modes = {"faithful", "fastest"};
   uint32_t warmup = 5;
   uint32_t repeat = 20;
   uint32_t replicate = 1;
@@ -391,12 +391,12 @@ struct QualityRow {
 Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::LoadedGpuScene& scene,
                                                 const std::vector<CameraSet>& sets, runtime::GpuRenderer& renderer) {
   RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions reference,
-                       api::gpu_mode_options("baseline", scene.scene.has_compact()));
+                       api::gpu_mode_options("faithful", scene.scene.has_compact()));
   std::vector<QualityRow> rows;
   audit::GpuImageComparer comparer;
   runtime::DeviceImage expected, image;
   for (const std::string& mode_name : opt.modes) {
-    if (mode_name == "baseline") continue;
+    if (mode_name == "faithful") continue;
     RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions options,
                          api::gpu_mode_options(mode_name, scene.scene.has_compact()));
     for (const CameraSet& set : sets) {
@@ -406,7 +406,7 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
       row.psnr_min = std::numeric_limits<double>::infinity();
       for (const runtime::Camera& cam : set.cameras) {
         auto base = renderer.render(scene.scene, cam, reference, &expected);
-        if (!base.ok()) return Status(base.status()).prepend("baseline, view " + cam.name);
+        if (!base.ok()) return Status(base.status()).prepend("faithful, view " + cam.name);
         auto frame = renderer.render(scene.scene, cam, options, &image);
         if (!frame.ok()) return Status(frame.status()).prepend(mode_name + ", view " + cam.name);
         RGS_ASSIGN_OR_RETURN(const audit::ImageMetrics m,
@@ -428,7 +428,7 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
 }
 
 /// The front door (api::Renderer, preset fastest, into a caller buffer on the caller's stream) against the
-/// expert path (runtime::GpuRenderer with roofgs+'s options into its own DeviceImage), the same views and
+/// expert path (runtime::GpuRenderer with fastest's options into its own DeviceImage), the same views and
 /// frames, interleaved per frame so that clocks and caches treat both alike.
 Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const api::LoadedGpuScene& expert_scene,
                                                       const std::vector<CameraSet>& sets,
@@ -441,7 +441,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
   RGS_ASSIGN_OR_RETURN(api::Renderer front, api::Renderer::create(api::Device::kCuda, opt.device));
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions expert_options,
-                       api::gpu_mode_options("roofgs+", expert_scene.scene.has_compact()));
+                       api::gpu_mode_options("fastest", expert_scene.scene.has_compact()));
   std::vector<FrontDoorRow> rows;
   runtime::DeviceImage image;
   for (const CameraSet& set : sets) {
@@ -478,7 +478,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
         }
       }
     }
-    const char* names[3] = {"GpuRenderer roofgs+ (own image)", "api fastest, caller RGBA32F",
+    const char* names[3] = {"GpuRenderer fastest (own image)", "api fastest, caller RGBA32F",
                             "api fastest, caller RGBA8"};
     for (int path = 0; path < 3; ++path) rows.push_back({names[path], set.label, summarize(samples[path]).median});
   }
@@ -573,7 +573,7 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
   }
 
   if (!report.quality.empty()) {
-    std::printf("  quality          against the baseline's render of the same views (clamped RGB; PSNR dB, SSIM)\n");
+    std::printf("  quality          against faithful's render of the same views (clamped RGB; PSNR dB, SSIM)\n");
     std::printf("  %-12s %-10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min", "SSIM mean",
                 "max |d|", "views");
     for (const QualityRow& r : report.quality) {
@@ -766,7 +766,7 @@ int run(const Options& opt) {
   for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene->scene, roofs));
   std::vector<QualityRow> quality;
   if (opt.quality) {
-    std::fprintf(stderr, "quality against the baseline: every view once per mode ...\n");
+    std::fprintf(stderr, "quality against faithful (the 3DGS baseline): every view once per mode ...\n");
     auto rows = measure_quality(opt, *scene, *sets, *renderer);
     if (!rows.ok()) return tools::report_error(kTool, Status(rows.status()).prepend("--quality"));
     quality = std::move(rows).value();
@@ -802,7 +802,7 @@ int run(const Options& opt) {
 
 int main(int argc, char** argv) {
   Options opt;
-  std::string mode_help = "Mode to benchmark (repeatable; default baseline):";
+  std::string mode_help = "Mode to benchmark (repeatable; default faithful and fastest):";
   for (const api::GpuMode& m : api::gpu_modes()) {
     mode_help += "\n  " + m.name + ": " + m.description + (m.lab ? " [lab: builds with RGS_LAB_KERNELS]" : "");
   }
@@ -847,9 +847,9 @@ int main(int argc, char** argv) {
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.add_flag("--front-door", opt.front_door,
                "Also time the front door (api::Renderer, preset fastest, into a caller RGBA32F and RGBA8 buffer) "
-               "against GpuRenderer with roofgs+'s options, per frame, same views (needs --replicate 1)");
+               "against GpuRenderer with fastest's options, per frame, same views (needs --replicate 1)");
   app.add_flag("--quality", opt.quality,
-               "Also compare every view of every mode but baseline with the baseline's render (PSNR, SSIM, max |d| "
+               "Also compare every view of every mode but faithful with faithful's render (the 3DGS baseline) (PSNR, SSIM, max |d| "
                "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
   app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
   rgs::tools::add_scene_read_options(app);

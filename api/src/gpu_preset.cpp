@@ -44,51 +44,61 @@ ModeEntry only_mode(const std::string& name, const std::string& what, bool compa
           }};
 }
 
+/// A preset under its own name (preset_name()): the presets are the first modes of the registry.
+ModeEntry preset_mode(Preset preset, const std::string& description) {
+  return {{preset_name(preset), description, false},
+          [preset](bool compact) { return gpu_render_options(preset, compact); }};
+}
+
+/// A variant of the fastest preset with one of its techniques changed.
+ModeEntry fastest_variant(const std::string& name, const std::string& description,
+                          void (*set)(runtime::RoofgsOptions&)) {
+  return {{name, description, false}, [set](bool compact) {
+            GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
+            set(o.roofgs.techniques);
+            return o;
+          }};
+}
+
 const std::vector<ModeEntry>& entries() {
   static const std::vector<ModeEntry> modes = {
-      {{"baseline", "3DGS rasterizer (FP32 attributes, 64-bit keys, 3-sigma rectangles, expf)", false},
-       [](bool) { return gpu_render_options(Preset::kFaithful, false); }},
+      preset_mode(Preset::kFaithful,
+                  "the 3DGS rasterizer, the baseline (FP32 attributes, 64-bit keys, 3-sigma rectangles, expf)"),
+      preset_mode(Preset::kFastest,
+                  "roofgs with depth order, fast exp sigma 0.05798, half-precision blending (binary16 alpha, "
+                  "transmittance and colour sums) and long tiles blended in chunks, a block each (tiles of more "
+                  "than max(1024, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most pairs); the "
+                  "fused kernel allocates pairs in arrival order: the depth order makes their emission order moot"),
+      preset_mode(Preset::kPaper,
+                  "the paper's combination as published: every RoofGS technique, fast exp sigma 0.045677, "
+                  "SnugBox+AccuTile not limited to the 3DGS rectangle, each Gaussian's pairs written by its own "
+                  "thread, no sub-tile culling"),
       {{"roofgs",
         "RoofGS pipeline, every technique on (compact attributes when the scene is a .rgs, fused kernel, 32-bit "
         "key, SnugBox+AccuTile, folded dual-pixel, fast exp sigma 0.045677); Gaussians with many tiles emitted "
-        "by warps (every RoofGS mode but roofgs-serial); sub-tile culling in the folded rasterizer chosen per "
-        "frame (off when SnugBox+AccuTile is on and more than half the pairs belong to Gaussians with more than "
-        "32 tiles; every mode but roofgs-tile and roofgs-subtile), per 4x4 block of 8 lanes",
+        "by warps (every RoofGS mode but paper and roofgs-serial-emission); sub-tile culling in the folded "
+        "rasterizer chosen per frame (off when SnugBox+AccuTile is on and more than half the pairs belong to "
+        "Gaussians with more than 32 tiles; every mode but paper, roofgs-no-subtile and roofgs-subtile-always), "
+        "per 4x4 block of 8 lanes",
         false},
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
-      {{"roofgs+",
-        "roofgs with depth order, fast exp sigma 0.05798, half-precision blending (binary16 alpha, "
-        "transmittance and colour sums) and long tiles blended in chunks, a block each (tiles of more than "
-        "max(1024, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most pairs); the fused kernel "
-        "allocates pairs in arrival order: the depth order makes their emission order moot",
-        false},
-       [](bool compact) { return gpu_render_options(Preset::kFastest, compact); }},
-      {{"roofgs+fp32", "roofgs+ with FP32 blending", false},
-       [](bool compact) {
-         GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
-         o.roofgs.techniques.half_blend = false;
-         return o;
-       }},
-      {{"roofgs+whole-tiles",
-        "roofgs+ with every tile blended by one block (roofgs+ blends long tiles in chunks, a block each, "
-        "merged front to back)",
-        false},
-       [](bool compact) {
-         GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
-         o.roofgs.techniques.tile_chunk_pairs = 0;
-         return o;
-       }},
-      roofgs_variant("roofgs-serial",
+      fastest_variant("fastest-fp32-blend", "fastest with FP32 blending",
+                      [](RoofgsOptions& t) { t.half_blend = false; }),
+      fastest_variant("fastest-whole-tiles",
+                      "fastest with every tile blended by one block (fastest blends long tiles in chunks, a block "
+                      "each, merged front to back)",
+                      [](RoofgsOptions& t) { t.tile_chunk_pairs = 0; }),
+      roofgs_variant("roofgs-serial-emission",
                      "roofgs with each Gaussian's pairs written by its own thread (balanced emission off: the "
                      "paper's fused kernel as published)",
                      [](runtime::GpuRoofgsOptions& o) { o.balanced_emission = false; }),
-      roofgs_variant("roofgs-tile",
+      roofgs_variant("roofgs-no-subtile",
                      "roofgs without sub-tile culling (every warp of a tile walks all of the tile's pairs, as in "
                      "the paper)",
                      [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOff; }),
-      roofgs_variant("roofgs-subtile", "roofgs with sub-tile culling on in every frame",
+      roofgs_variant("roofgs-subtile-always", "roofgs with sub-tile culling on in every frame",
                      [](runtime::GpuRoofgsOptions& o) { o.subtile_culling = runtime::SubtileCulling::kOn; }),
-      {{"roofgs-none", "RoofGS pipeline with every technique off (separate stages, the baseline's math)", false},
+      {{"roofgs-none", "RoofGS pipeline with every technique off (separate stages, faithful's math)", false},
        [](bool) { return roofgs_pipeline(false, false, RoofgsOptions{}); }},
       only_mode("compact", "compact attributes (needs a .rgs scene)", true, false, nullptr),
       only_mode("fused", "the fused preprocess kernel", false, true, nullptr),

@@ -108,9 +108,16 @@ TEST_CASE("presets: names parse back, faithful renders the 3DGS reference, the o
     CAPTURE(mode.name);
     CHECK(api::gpu_mode_options(mode.name, true).ok() == (lab || !mode.lab));
     if (lab || !mode.lab) CHECK(api::gpu_mode_options(mode.name, false).ok() == !mode.requires_compact);
-    const bool product = mode.name == "baseline" || mode.name == "roofgs+" || mode.name == "roofgs+whole-tiles" ||
-                         mode.name == "roofgs-tile";
+    const bool product = mode.name == "faithful" || mode.name == "fastest" || mode.name == "paper" ||
+                         mode.name == "fastest-whole-tiles" || mode.name == "roofgs-no-subtile";
     CHECK(mode.lab == !product);
+  }
+  // One registry: the presets are the first modes, under the names parse_preset() reads.
+  const api::Preset presets[] = {api::Preset::kFaithful, api::Preset::kFastest, api::Preset::kPaper};
+  for (size_t i = 0; i < 3; ++i) {
+    REQUIRE(api::gpu_modes().size() > i);
+    CHECK(api::gpu_modes()[i].name == api::preset_name(presets[i]));
+    CHECK(api::parse_preset(api::gpu_modes()[i].name).value() == presets[i]);
   }
   if (!lab) {
     const Status refused = api::gpu_mode_options("only-folded", true).status();

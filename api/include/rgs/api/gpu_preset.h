@@ -18,7 +18,7 @@ runtime::GpuRenderOptions gpu_render_options(Preset preset, bool scene_has_compa
 
 /// One named GPU configuration (rgs-bench --mode).
 struct GpuMode {
-  std::string name;         ///< e.g. "baseline", "roofgs+", "only-key32"
+  std::string name;         ///< e.g. "faithful", "fastest", "only-key32"
   std::string description;  ///< one line for --help and reports
   /// True when the mode must read compact attributes (fails on a scene without them).
   bool requires_compact = false;
@@ -27,9 +27,11 @@ struct GpuMode {
   bool lab = false;
 };
 
-/// Every named configuration, in rgs-bench's order: baseline, roofgs, roofgs+, roofgs+fp32, roofgs+whole-tiles,
-/// roofgs-serial, roofgs-tile, roofgs-subtile, roofgs-none, only-compact, only-fused, only-key32, only-snugbox,
-/// only-folded, only-fastexp. Preset kFastest is "roofgs+", kFaithful is "baseline" (gpu_render_options()).
+/// Every named configuration, in rgs-bench's order: the presets under their own names (faithful, fastest,
+/// paper: gpu_render_options()), then the lab configurations: roofgs, fastest-fp32-blend, fastest-whole-tiles,
+/// roofgs-serial-emission, roofgs-no-subtile, roofgs-subtile-always, roofgs-none, and the paper's
+/// one-technique ablation only-compact, only-fused, only-key32, only-snugbox, only-folded, only-fastexp.
+/// The names are the same in rgs-bench's --mode, its JSON, the CLI's --preset and Python.
 const std::vector<GpuMode>& gpu_modes();
 
 /// Options of the mode called `name` for a scene with or without compact attributes.

@@ -16,7 +16,7 @@ namespace rgs::api {
 /// (which renders the dequantized attributes, equal to the GPU's compact reads); kFastest is the fastest of
 /// its kind on each backend (cpu_backend_options).
 enum class Preset {
-  /// The fastest configuration measured on each backend. On the GPU (rgs-bench's "roofgs+"): RoofGS pipeline on the compact .rgs
+  /// The fastest configuration measured on each backend. On the GPU (rgs-bench's "fastest"): RoofGS pipeline on the compact .rgs
   /// attributes, fused kernel, 32-bit keys with depth order (ties in exact depth order), SnugBox + AccuTile
   /// within the 3DGS rectangle, folded dual-pixel rasterizer, fast exp with the zero-mean σ = 0.05798,
   /// half-precision blending (binary16 α, T and colour sums), warp-balanced emission, per-frame sub-tile
