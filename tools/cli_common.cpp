@@ -196,7 +196,7 @@ Status check_scene_input(const std::string& path) {
                                              "folders the tools read); give a scene file");
 }
 
-int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path, bool scene) {
+int declare_input(const char* tool, tools::OutputSet& outputs, const std::string& path, bool scene) {
   Status readable = scene ? check_scene_input(path) : check_input_file(path);
   if (!readable.ok()) return report_error(tool, readable);
   std::vector<std::string> files = {path};

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "rgs/api/scene_loading.h"
-#include "rgs/format/file_io.h"
+#include "output_set.h"
 #include "rgs/format/status.h"
 
 namespace rgs::tools {
@@ -70,7 +70,7 @@ Status check_scene_input(const std::string& path);
 /// (converter::list_scene_files: a SOG's images, a streamed SOG's chunks, a .gltf's buffers). @return kExitOk; else the error is printed and the
 /// exit code returned: kExitFailure for a path that cannot be read, kExitUsage for one that
 /// OutputSet::add_input refuses.
-int declare_input(const char* tool, format::OutputSet& outputs, const std::string& path, bool scene = false);
+int declare_input(const char* tool, tools::OutputSet& outputs, const std::string& path, bool scene = false);
 
 /// Reads standard input (the tools' "-" input) as a stream, never more than its content proves: a .rgs up to
 /// the file_size of its header (more bytes: kCorruptData; above ReadLimits::max_file_bytes: kLimitExceeded),

@@ -9,7 +9,7 @@ namespace rgs::tools {
 
 /// An output folder created when missing, and removed again at scope exit when this run created it and left
 /// it empty (a failed run); a folder that existed before is never removed. Declare it before the run's
-/// format::OutputSet, so that it is destroyed after the set has removed its temporaries.
+/// tools::OutputSet, so that it is destroyed after the set has removed its temporaries.
 class CreatedDirectory {
  public:
   CreatedDirectory() = default;

@@ -14,7 +14,7 @@ Status no_openimageio_error(const std::string& path, const std::string& what) {
                 "write PPM/PGM (8-bit) or PFM (float) instead");
 }
 
-Status write_netpbm8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+Status write_netpbm8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                      const std::vector<uint8_t>& pixels) {
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || (channels != 1 && channels != 3) ||
                           pixels.size() != size_t{width} * height * channels,
@@ -26,10 +26,10 @@ Status write_netpbm8(const std::string& path, uint32_t width, uint32_t height, u
   const size_t header = bytes.size();
   bytes.resize(header + pixels.size());
   std::memcpy(bytes.data() + header, pixels.data(), pixels.size());
-  return format::write_file_atomic(path, bytes.data(), bytes.size());
+  return files.write(path, bytes.data(), bytes.size());
 }
 
-Status write_pfm_rgb(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb) {
+Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb) {
   const size_t row = size_t{width} * 3;
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || rgb.size() != row * height, StatusCode::kInvalidArgument,
                       path + ": " + std::to_string(rgb.size()) + " floats given for a " + std::to_string(width) +
@@ -47,7 +47,7 @@ Status write_pfm_rgb(const std::string& path, uint32_t width, uint32_t height, c
       for (int b = 0; b < 4; ++b) bytes[at++] = static_cast<char>((u >> (8 * b)) & 0xffu);
     }
   }
-  return format::write_file_atomic(path, bytes.data(), bytes.size());
+  return files.write(path, bytes.data(), bytes.size());
 }
 
 Status check_image8_path(const std::string& path, uint32_t channels) {
@@ -65,18 +65,18 @@ Status check_image8_path(const std::string& path, uint32_t channels) {
                     (have_openimageio() ? ".png, " : "") + ".ppm or .pgm)");
 }
 
-Status write_image8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                     const std::vector<uint8_t>& pixels) {
   RGS_RETURN_IF_ERROR(check_image8_path(path, channels));
   const std::string ext = extension_of(path);
-  if (ext == ".png") return write_png8(path, width, height, channels, pixels);
-  if (ext == ".pgm" || channels == 3) return write_netpbm8(path, width, height, channels, pixels);
+  if (ext == ".png") return write_png8(files, path, width, height, channels, pixels);
+  if (ext == ".pgm" || channels == 3) return write_netpbm8(files, path, width, height, channels, pixels);
   // .ppm of a grey image: repeat the grey into RGB.
   RGS_RETURN_ERROR_IF(channels != 1 || pixels.size() != size_t{width} * height, StatusCode::kInvalidArgument,
                       path + ": image size does not match its pixel buffer");
   std::vector<uint8_t> rgb(pixels.size() * 3);
   for (size_t i = 0; i < pixels.size(); ++i) rgb[i * 3] = rgb[i * 3 + 1] = rgb[i * 3 + 2] = pixels[i];
-  return write_netpbm8(path, width, height, 3, rgb);
+  return write_netpbm8(files, path, width, height, 3, rgb);
 }
 
 }  // namespace rgs::tools

@@ -1,14 +1,15 @@
 // Image output of rgs-render and rgs-audit. PPM/PGM (8-bit) and PFM (float) are written here without any
 // library, so they exist in every build; PNG and EXR go through OpenImageIO and exist only when the build has
 // it (CMake option RGS_WITH_OPENIMAGEIO; GPU-host builds leave it OFF: CONTRIBUTING.md#one-build-two-hosts). Every
-// writer is atomic: a temporary in the same directory, renamed over `path` on success (format::write_file_atomic), or
-// staged in the run's format::OutputSet when `path` is one of its outputs.
+// writer writes into the sink it is given: the run's OutputSet, which stages the file and commits it with the
+// run's other outputs.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "rgs/format/file_io.h"
 #include "rgs/format/status.h"
 
 namespace rgs::tools {
@@ -24,7 +25,7 @@ Status no_openimageio_error(const std::string& path, const std::string& what);
 /// @param pixels  [H, W, channels] uint8, row-major, top row first; channels 1 (grey) or 3 (RGB).
 /// @return kInvalidArgument on a size mismatch; kIoError naming `path` with OpenImageIO's message;
 ///         kUnsupportedFeature in a build without OpenImageIO.
-Status write_png8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+Status write_png8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                   const std::vector<uint8_t>& pixels);
 
 /// Writes a float32 RGBA OpenEXR file: linear RGB as rendered (not clamped) and alpha = 1 − T. Needs
@@ -32,20 +33,20 @@ Status write_png8(const std::string& path, uint32_t width, uint32_t height, uint
 /// @param rgb    [H, W, 3] float32.  @param alpha  [H, W] float32.
 /// @return kInvalidArgument on a size mismatch; kIoError naming `path`; kUnsupportedFeature in a build
 ///         without OpenImageIO.
-Status write_exr_rgba(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
+Status write_exr_rgba(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
                       const std::vector<float>& alpha);
 
 /// Writes a binary Netpbm image: P6 (PPM) for 3 channels, P5 (PGM) for 1, maxval 255, top row first.
 /// @param pixels  [H, W, channels] uint8, row-major; channels 1 or 3.
 /// @return kInvalidArgument on a size mismatch; kIoError naming `path`.
-Status write_netpbm8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+Status write_netpbm8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                      const std::vector<uint8_t>& pixels);
 
 /// Writes a colour PFM ("PF", scale −1.0 = little-endian): float32 RGB, linear, not clamped. PFM stores the
 /// bottom row first; `rgb` is top row first as everywhere else and is flipped on writing. No alpha channel.
 /// @param rgb  [H, W, 3] float32.
 /// @return kInvalidArgument on a size mismatch; kIoError naming `path`.
-Status write_pfm_rgb(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb);
+Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb);
 
 /// Checks, before any work, that write_image8 can write `path` with `channels` channels in this build.
 /// @return kInvalidArgument for an unknown extension or .pgm with 3 channels; kUnsupportedFeature for .png
@@ -55,7 +56,7 @@ Status check_image8_path(const std::string& path, uint32_t channels);
 /// Writes an 8-bit image in the format its extension names: .png (OpenImageIO), .ppm (P6; grey is repeated
 /// into RGB) or .pgm (P5, 1 channel only).
 /// @return kInvalidArgument for another extension or .pgm with 3 channels; the writer's errors otherwise.
-Status write_image8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                     const std::vector<uint8_t>& pixels);
 
 }  // namespace rgs::tools

@@ -6,11 +6,11 @@ namespace rgs::tools {
 
 bool have_openimageio() { return false; }
 
-Status write_png8(const std::string& path, uint32_t, uint32_t, uint32_t, const std::vector<uint8_t>&) {
+Status write_png8(format::FileSink&, const std::string& path, uint32_t, uint32_t, uint32_t, const std::vector<uint8_t>&) {
   return no_openimageio_error(path, "PNG output");
 }
 
-Status write_exr_rgba(const std::string& path, uint32_t, uint32_t, const std::vector<float>&,
+Status write_exr_rgba(format::FileSink&, const std::string& path, uint32_t, uint32_t, const std::vector<float>&,
                       const std::vector<float>&) {
   return no_openimageio_error(path, "EXR output");
 }

@@ -13,9 +13,9 @@ namespace {
 
 /// Writes through format::write_file_atomic_by_name (a temporary renamed over `path`, or staged in the run's
 /// OutputSet), with the format chosen by name rather than by the temporary's extension.
-Status write_image(const std::string& path, const char* format_name, const OIIO::ImageSpec& spec,
+Status write_image(format::FileSink& files, const std::string& path, const char* format_name, const OIIO::ImageSpec& spec,
                    OIIO::TypeDesc type, const void* data) {
-  return format::write_file_atomic_by_name(path, [&](const std::string& temp) -> Status {
+  return files.write_by_name(path, [&](const std::string& temp) -> Status {
     auto out = OIIO::ImageOutput::create(format_name);
     if (!out) {
       return Status(StatusCode::kIoError,
@@ -33,17 +33,17 @@ Status write_image(const std::string& path, const char* format_name, const OIIO:
 
 bool have_openimageio() { return true; }
 
-Status write_png8(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+Status write_png8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                   const std::vector<uint8_t>& pixels) {
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || (channels != 1 && channels != 3) ||
                           pixels.size() != size_t{width} * height * channels,
                       StatusCode::kInvalidArgument, path + ": image size does not match its pixel buffer");
   OIIO::ImageSpec spec(static_cast<int>(width), static_cast<int>(height), static_cast<int>(channels),
                        OIIO::TypeDesc::UINT8);
-  return write_image(path, "png", spec, OIIO::TypeDesc::UINT8, pixels.data());
+  return write_image(files, path, "png", spec, OIIO::TypeDesc::UINT8, pixels.data());
 }
 
-Status write_exr_rgba(const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
+Status write_exr_rgba(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
                       const std::vector<float>& alpha) {
   const size_t n = size_t{width} * height;
   RGS_RETURN_ERROR_IF(n == 0 || rgb.size() != n * 3 || alpha.size() != n, StatusCode::kInvalidArgument,
@@ -57,7 +57,7 @@ Status write_exr_rgba(const std::string& path, uint32_t width, uint32_t height, 
   }
   OIIO::ImageSpec spec(static_cast<int>(width), static_cast<int>(height), 4, OIIO::TypeDesc::FLOAT);
   spec.alpha_channel = 3;
-  return write_image(path, "openexr", spec, OIIO::TypeDesc::FLOAT, rgba.data());
+  return write_image(files, path, "openexr", spec, OIIO::TypeDesc::FLOAT, rgba.data());
 }
 
 }  // namespace rgs::tools

@@ -9,7 +9,7 @@
 //   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
 //
 // Every output of a run (the HTML report, its JSON, its images, --json, --heatmap) is declared before any work,
-// may not be an input or another output, and is committed together at the end (format::OutputSet); the HTML
+// may not be an input or another output, and is committed together at the end (tools::OutputSet); the HTML
 // script writes into the report's staged temporary. Exit status: 0 ok, 1 failure (no output written or
 // changed), 2 usage error, 3 a candidate below --min-psnr (the audit itself succeeded: its reports are
 // written), 128 + N on signal N. --json - prints the JSON on standard output and the table on standard error.
@@ -41,7 +41,7 @@
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/config.h"
-#include "rgs/format/file_io.h"
+#include "output_set.h"
 #include "rgs/api/scene_loading.h"
 
 extern char** environ;
@@ -249,7 +249,7 @@ class ScratchDirectory {
 
 /// The HTML of the report whose JSON is `report_json` (naming its images relative to itself), made by the
 /// script from a scratch copy of the JSON and the images and staged in `outputs` as `html_path`.
-Status stage_html(format::OutputSet& outputs, const audit::AuditResult& r, const std::string& report_json,
+Status stage_html(tools::OutputSet& outputs, const audit::AuditResult& r, const std::string& report_json,
                   const std::string& text, const std::string& html_path) {
   ScratchDirectory scratch;
   RGS_RETURN_IF_ERROR(scratch.create());
@@ -267,7 +267,7 @@ int run_report_only(const Options& opt) {
     return tools::report_usage_error(kTool,
                                      Status(StatusCode::kInvalidArgument, "--report-from needs --report OUT.html"));
   }
-  format::OutputSet outputs;
+  tools::OutputSet outputs;
   if (int code = tools::declare_input(kTool, outputs, opt.report_from); code != tools::kExitOk) return code;
   Status declared = outputs.add_output(opt.report_path);
   if (!declared.ok()) return report_output_error(declared);
@@ -288,7 +288,7 @@ int run_report_only(const Options& opt) {
 /// Declares the scenes and cameras as inputs and the outputs known before the audit runs (report HTML and
 /// JSON, --json, --heatmap); sets the report's JSON path and image folder (empty with --no-report).
 /// @return tools::kExitOk, or the exit code of the error reported.
-int declare_files(const Options& opt, format::OutputSet& outputs, std::string* report_json, std::string* report_files) {
+int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* report_json, std::string* report_files) {
   for (const std::string& input : opt.scenes) {
     if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
   }
@@ -398,7 +398,7 @@ int run(const Options& opt) {
   // Every identity is checked before any work: no output may replace an input or another output. The report's
   // image files are named by the audit's worst views, so they are declared once it has run (before writing).
   tools::CreatedDirectory created_images;
-  format::OutputSet outputs;
+  tools::OutputSet outputs;
   std::string report_json, report_files;
   if (int code = declare_files(opt, outputs, &report_json, &report_files); code != tools::kExitOk) return code;
   for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
@@ -467,12 +467,12 @@ int run(const Options& opt) {
     Status created = created_images.create(report_files, "the report's image folder");
     if (!created.ok()) return tools::report_error(kTool, created);
     for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
-    Status st = audit::write_report_images(r, report_files);
+    Status st = audit::write_report_images(r, report_files, outputs);
     if (!st.ok()) return tools::report_error(kTool, st);
   }
   if (!opt.heatmap_path.empty()) {
     const audit::Image8& h = r.candidates[0].worst_heatmap;
-    Status st = tools::write_image8(opt.heatmap_path, h.width, h.height, 1, h.pixels);
+    Status st = tools::write_image8(outputs, opt.heatmap_path, h.width, h.height, 1, h.pixels);
     if (!st.ok()) return tools::report_error(kTool, st);
   }
   ro.total_seconds = tools::seconds_since(t_start);

@@ -43,7 +43,7 @@
 #include "rgs/api/gpu_scene_loading.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
-#include "rgs/format/file_io.h"
+#include "output_set.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_peaks.h"
@@ -688,7 +688,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
 int run(const Options& opt) {
   const auto t_start = Clock::now();
   // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
-  format::OutputSet outputs;
+  tools::OutputSet outputs;
   for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
     if (input.empty()) continue;
     const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file

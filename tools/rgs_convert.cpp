@@ -24,7 +24,7 @@
 #include "error_stats_output.h"
 #include "rgs/api/convert.h"
 #include "rgs/config.h"
-#include "rgs/format/file_io.h"
+#include "output_set.h"
 #include "scene_read_options.h"
 
 namespace {
@@ -48,7 +48,7 @@ struct Options {
 };
 
 /// Writes the JSON summary: staged as an output of `outputs`, or printed when it goes to stdout.
-Status emit_json(const Options& opt, const nlohmann::json& j, format::OutputSet* outputs) {
+Status emit_json(const Options& opt, const nlohmann::json& j, tools::OutputSet* outputs) {
   const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   if (opt.json_to_stdout()) {
     std::fwrite(text.data(), 1, text.size(), stdout);
@@ -171,7 +171,7 @@ void print_summary(const Options& opt, const api::ConvertReport& r) {
 }
 
 /// Declares an output; an alias of an input or of another output, or a device, is a usage error.
-int declare_output(format::OutputSet* outputs, const std::string& path) {
+int declare_output(tools::OutputSet* outputs, const std::string& path) {
   Status s = outputs->add_output(path);
   if (s.ok()) return tools::kExitOk;
   return s.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, s) : tools::report_error(kTool, s);
@@ -195,7 +195,7 @@ int run(Options& opt) {
   opt.convert.read.max_decompression_ratio = tools::scene_read_options().max_decompression_ratio;
   opt.convert.converter_name = kTool;
 
-  format::OutputSet outputs;
+  tools::OutputSet outputs;
   if (opt.input != "-") {
     // The scene and every file it names are inputs: no output may replace one of them.
     if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
@@ -209,7 +209,8 @@ int run(Options& opt) {
     for (const std::string& note : stale) tools::report_note(kTool, note);
   }
 
-  // Written into `outputs` (which declared it): renamed into place by commit() below.
+  // Staged in `outputs`, renamed into place by commit() below with the JSON report.
+  opt.convert.files = &outputs;
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
   if (opt.input == "-") {
     auto bytes = tools::read_standard_input();

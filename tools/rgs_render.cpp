@@ -8,7 +8,7 @@
 //
 // Exit status: 0 on success (every image written), 1 when loading, rendering or writing failed or the build
 // lacks what was asked for (CUDA, OpenImageIO; message naming the cause; no image written or changed), 2 on a
-// usage error, 128 + N on signal N. The images of a run are committed together (format::OutputSet).
+// usage error, 128 + N on signal N. The images of a run are committed together (tools::OutputSet).
 
 #include <CLI/CLI.hpp>
 
@@ -28,7 +28,7 @@
 #include "rgs/api/scene.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
-#include "rgs/format/file_io.h"
+#include "output_set.h"
 #include "rgs/runtime/image_io.h"
 #include "scene_read_options.h"
 
@@ -179,15 +179,15 @@ std::vector<std::string> view_files(const Options& opt, const std::string& base)
   return files;
 }
 
-Status write_view(const Options& opt, const std::string& base, const RenderedView& view) {
+Status write_view(tools::OutputSet& outputs, const Options& opt, const std::string& base, const RenderedView& view) {
   const std::vector<uint8_t> rgb8 = runtime::to_8bit(view.rgb);
   if (opt.image_format == "png") {
-    RGS_RETURN_IF_ERROR(tools::write_png8(base + ".png", view.width, view.height, 3, rgb8));
+    RGS_RETURN_IF_ERROR(tools::write_png8(outputs, base + ".png", view.width, view.height, 3, rgb8));
   } else {
-    RGS_RETURN_IF_ERROR(tools::write_netpbm8(base + ".ppm", view.width, view.height, 3, rgb8));
+    RGS_RETURN_IF_ERROR(tools::write_netpbm8(outputs, base + ".ppm", view.width, view.height, 3, rgb8));
   }
-  if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(base + ".exr", view.width, view.height, view.rgb, view.alpha));
-  if (opt.pfm) RGS_RETURN_IF_ERROR(tools::write_pfm_rgb(base + ".pfm", view.width, view.height, view.rgb));
+  if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgb, view.alpha));
+  if (opt.pfm) RGS_RETURN_IF_ERROR(tools::write_pfm_rgb(outputs, base + ".pfm", view.width, view.height, view.rgb));
   return Status::ok_status();
 }
 
@@ -209,7 +209,7 @@ int run(Options opt) {
   // them. The output directory is removed again if the run fails after creating it (declared first, so it
   // is destroyed after the OutputSet has removed the temporaries).
   tools::CreatedDirectory created_directory;
-  format::OutputSet outputs;
+  tools::OutputSet outputs;
   for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
     if (input.empty()) continue;
     const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file
@@ -256,7 +256,7 @@ int run(Options opt) {
     if (!view.ok()) return tools::report_error(kTool, Status(view.status()).prepend(opt.input + ", view " + cam.name));
     render_ms += view->render_ms;
     total_pairs += view->pairs;
-    Status s = write_view(opt, bases[i], *view);  // staged in `outputs`
+    Status s = write_view(outputs, opt, bases[i], *view);
     if (!s.ok()) return tools::report_error(kTool, s);
     std::fprintf(stderr, "view %zu/%zu %s %s ms (%s), %s pairs\n", i + 1, count, tools::escape_text(cam.name).c_str(),
                  tools::fixed(view->render_ms, view->render_ms < 100 ? 3 : 0).c_str(), "render",

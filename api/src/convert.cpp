@@ -88,12 +88,8 @@ converter::SceneReadOptions read_options(const ConvertOptions& options) {
   return read;
 }
 
-/// kInvalidArgument when `dst` is one of the files the conversion reads (through any spelling or link).
-Status check_output_not_input(const std::string& dst, const std::vector<std::string>& inputs) {
-  format::OutputSet identities;
-  RGS_RETURN_IF_ERROR(identities.add_output(dst));
-  for (const std::string& input : inputs) RGS_RETURN_IF_ERROR(identities.add_input(input));
-  return Status();
+format::FileSink& output_files(const ConvertOptions& options) {
+  return options.files != nullptr ? *options.files : format::atomic_files();
 }
 
 std::string hex64(uint64_t v) {
@@ -137,7 +133,7 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
       {"dropped_gaussians", std::to_string(input->hygiene.dropped_gaussians)},
   };
   const auto write_start = Clock::now();
-  RGS_ASSIGN_OR_RETURN(report->output_bytes, format::write_scene_file(dst, *encoded, write));
+  RGS_ASSIGN_OR_RETURN(report->output_bytes, format::write_scene_file(dst, *encoded, write, output_files(options)));
   report->seconds.write = seconds_since(write_start);
   rgs.sh_quantization = encoded->metadata.sh_quantization;
   const bool archive = write.profile == format::StorageProfile::kArchive;
@@ -162,7 +158,7 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
   switch (report->output_format) {
     case OutputFormat::kPly: {
       converter::PlyWriteReport ply;
-      RGS_ASSIGN_OR_RETURN(report->output_bytes, converter::write_ply(dst, cloud, &ply));
+      RGS_ASSIGN_OR_RETURN(report->output_bytes, converter::write_ply(dst, cloud, &ply, output_files(options)));
       report->output_description = input.format_id == "rgs" ? "INRIA PLY, dequantized" : "INRIA PLY";
       report->zero_scales = ply.zero_scales;
       if (ply.zero_scales > 0) {
@@ -176,7 +172,7 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
     case OutputFormat::kSpz: {
       converter::SpzWriteOptions spz_options;
       spz_options.frame = options.read.spz_frame;
-      RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz, converter::write_spz(dst, cloud, spz_options));
+      RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz, converter::write_spz(dst, cloud, spz_options, output_files(options)));
       report->output_bytes = spz.bytes;
       report->output_description = "SPZ v" + std::to_string(spz.version);
       report->output_notes = spz.limitations;
@@ -190,7 +186,7 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
       break;
     }
     case OutputFormat::kGlb: {
-      RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary glb, converter::write_glb(dst, cloud));
+      RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary glb, converter::write_glb(dst, cloud, {}, output_files(options)));
       report->output_bytes = glb.bytes;
       report->output_description = "KHR_gaussian_splatting GLB";
       report->output_notes = glb.limitations;
@@ -278,7 +274,7 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
   RGS_RETURN_IF_ERROR(check_options(options));
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, read_options(options)));
   // Every file the scene read is an input: `dst` may not be one of them, in any spelling.
-  RGS_RETURN_IF_ERROR(check_output_not_input(dst, input.files));
+  RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));
   return convert_input(std::move(input), src, dst, output, options, start);
 }
 

@@ -132,7 +132,7 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
   return j.dump(2) + "\n";
 }
 
-Status write_netpbm(const std::string& path, const Image8& image) {
+Status write_netpbm(const std::string& path, const Image8& image, format::FileSink& files) {
   RGS_RETURN_ERROR_IF(image.channels != 1 && image.channels != 3, StatusCode::kInvalidArgument,
                       path + ": netpbm images have 1 or 3 channels, not " + std::to_string(image.channels));
   RGS_RETURN_ERROR_IF(image.pixels.size() != size_t(image.width) * image.height * image.channels ||
@@ -142,19 +142,19 @@ Status write_netpbm(const std::string& path, const Image8& image) {
                              " " + std::to_string(image.height) + "\n255\n";
   std::vector<uint8_t> bytes(header.begin(), header.end());
   bytes.insert(bytes.end(), image.pixels.begin(), image.pixels.end());
-  return format::write_file_atomic(path, bytes.data(), bytes.size());
+  return files.write(path, bytes.data(), bytes.size());
 }
 
-Status write_report_images(const AuditResult& r, const std::string& dir) {
+Status write_report_images(const AuditResult& r, const std::string& dir, format::FileSink& files) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   RGS_RETURN_ERROR_IF(ec, StatusCode::kIoError, dir + ": cannot create the image folder: " + ec.message());
   for (size_t i = 0; i < r.candidates.size(); ++i) {
     for (const ViewImages& w : r.candidates[i].worst) {
       const std::string base = (std::filesystem::path(dir) / "").string();
-      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "source", ".ppm"), w.source));
-      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "candidate", ".ppm"), w.candidate));
-      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "diff", ".pgm"), w.difference));
+      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "source", ".ppm"), w.source, files));
+      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "candidate", ".ppm"), w.candidate, files));
+      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "diff", ".pgm"), w.difference, files));
     }
   }
   return Status();

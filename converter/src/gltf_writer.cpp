@@ -213,13 +213,13 @@ Result<std::vector<uint8_t>> serialize_glb(const format::GaussianCloud& cloud, c
 }
 
 Result<GltfWriteSummary> write_glb(const std::string& path, const format::GaussianCloud& cloud,
-                                   const GltfWriteOptions& options) {
+                                   const GltfWriteOptions& options, format::FileSink& files) {
   GltfWriteSummary summary;
   auto bytes = detail::guarded<std::vector<uint8_t>>(path, "encoding GLB", [&]() {
     return serialize(cloud, options, &summary);
   });
   if (!bytes.ok()) return std::move(bytes).status();
-  RGS_RETURN_IF_ERROR(format::write_file_atomic(path, bytes->data(), bytes->size()));
+  RGS_RETURN_IF_ERROR(files.write(path, bytes->data(), bytes->size()));
   return summary;
 }
 

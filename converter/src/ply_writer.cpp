@@ -106,7 +106,8 @@ Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, P
   }
 }
 
-Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud, PlyWriteReport* report) {
+Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud, PlyWriteReport* report,
+                           format::FileSink& files) {
   Status valid = detail::check_cloud_shape(cloud);
   if (!valid.ok()) return std::move(valid.prepend(path));
   uint64_t written = 0;
@@ -115,7 +116,7 @@ Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud&
     const std::string header = header_text(cloud);
     const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
     std::vector<uint8_t> chunk(static_cast<size_t>(std::min<uint64_t>(cloud.size(), kRowsPerChunk) * row_bytes));
-    Status s = format::write_file_atomic(path, [&](const format::ChunkSink& sink) -> Status {
+    Status s = files.write(path, [&](const format::ChunkSink& sink) -> Status {
       RGS_RETURN_IF_ERROR(sink(header.data(), header.size()));
       written = header.size();
       for (uint64_t first = 0; first < cloud.size(); first += kRowsPerChunk) {

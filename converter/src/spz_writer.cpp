@@ -296,13 +296,13 @@ Result<std::vector<uint8_t>> serialize_spz(const format::GaussianCloud& cloud, c
 }
 
 Result<SpzWriteSummary> write_spz(const std::string& path, const format::GaussianCloud& cloud,
-                                  const SpzWriteOptions& options) {
+                                  const SpzWriteOptions& options, format::FileSink& files) {
   SpzWriteSummary summary;
   auto bytes = detail::guarded<std::vector<uint8_t>>(path, "encoding SPZ", [&]() {
     return serialize(cloud, options, &summary);
   });
   if (!bytes.ok()) return std::move(bytes).status();
-  RGS_RETURN_IF_ERROR(format::write_file_atomic(path, bytes->data(), bytes->size()));
+  RGS_RETURN_IF_ERROR(files.write(path, bytes->data(), bytes->size()));
   return summary;
 }
 

@@ -1,10 +1,8 @@
-// POSIX whole-file I/O: read-only memory mapping, atomic replace-by-rename writes, and OutputSet, which
-// commits the outputs of one run together.
+// POSIX whole-file I/O: read-only memory mapping, and atomic replace-by-rename writes through staged
+// temporaries that an interrupt can remove.
 #include "rgs/format/file_io.h"
 
-#include <dirent.h>
 #include <fcntl.h>
-#include <signal.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -321,74 +319,6 @@ Status commit_temporary(Temporary* temp, const std::string& path) {
   return Status();
 }
 
-// --- Identities ----------------------------------------------------------------------------------------------
-
-/// Device and inode of what `path` names after following symbolic links; nullopt when it does not exist.
-std::optional<std::pair<dev_t, ino_t>> file_identity(const std::string& path, struct stat* st_out = nullptr) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
-  if (st_out != nullptr) *st_out = st;
-  return std::make_pair(st.st_dev, st.st_ino);
-}
-
-/// Where an output goes: its directory's identity and its last component, or the path as written when the
-/// directory cannot be examined (the write reports why).
-struct OutputKey {
-  std::optional<std::pair<dev_t, ino_t>> dir;
-  std::string name;
-  std::string lexical;
-  bool operator==(const OutputKey& o) const {
-    if (dir.has_value() != o.dir.has_value()) return false;
-    return dir ? (*dir == *o.dir && name == o.name) : lexical == o.lexical;
-  }
-};
-
-OutputKey output_key(const std::string& path) {
-  OutputKey key;
-  std::string dir;
-  split_path(path, &dir, &key.name);
-  key.dir = file_identity(dir);
-  key.lexical = path;
-  return key;
-}
-
-/// True for "<pid>" or "<pid>-<n>" (the middle of a temporary's name); sets `*pid`.
-bool parse_temporary_owner(const std::string& middle, long long* pid) {
-  const size_t dash = middle.find('-');
-  const std::string digits = middle.substr(0, dash);
-  if (digits.empty() || digits.size() > 18) return false;
-  for (char ch : digits) {
-    if (ch < '0' || ch > '9') return false;
-  }
-  if (dash != std::string::npos) {
-    const std::string tail = middle.substr(dash + 1);
-    if (tail.empty() || tail.size() > 4) return false;
-    for (char ch : tail) {
-      if (ch < '0' || ch > '9') return false;
-    }
-  }
-  *pid = std::stoll(digits);
-  return *pid > 0;
-}
-
-// --- Outputs captured by an open OutputSet ---------------------------------------------------------------------
-
-std::mutex g_sets_mutex;
-std::vector<OutputSet*> g_open_sets;
-
-OutputSet* capturing_set(const std::string& path) {
-  std::lock_guard<std::mutex> lock(g_sets_mutex);
-  for (OutputSet* set : g_open_sets) {
-    if (set->has_output(path)) return set;
-  }
-  return nullptr;
-}
-
-void close_set(OutputSet* set) {
-  std::lock_guard<std::mutex> lock(g_sets_mutex);
-  g_open_sets.erase(std::remove(g_open_sets.begin(), g_open_sets.end(), set), g_open_sets.end());
-}
-
 }  // namespace
 
 Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& path) {
@@ -443,218 +373,118 @@ MappedFile::~MappedFile() {
 }
 
 
-Status write_file_atomic(const std::string& path, const ChunkProducer& produce) {
-  if (OutputSet* set = capturing_set(path)) return set->write(path, produce);
+Status FileSink::write(const std::string& path, const void* data, size_t size) {
+  return write(path, [data, size](const ChunkSink& sink) { return sink(data, size); });
+}
+
+namespace {
+
+/// atomic_files(): each file staged and committed on its own.
+class AtomicFiles final : public FileSink {
+ public:
+  Status write(const std::string& path, const ChunkProducer& produce) override {
+    return write_file_atomic(path, produce);
+  }
+  Status write_by_name(const std::string& path, const ByNameWriter& write_to) override {
+    return write_file_atomic_by_name(path, write_to);
+  }
+};
+
+}  // namespace
+
+FileSink& atomic_files() {
+  static AtomicFiles files;
+  return files;
+}
+
+Result<StagedFile> StagedFile::write(const std::string& path, const ChunkProducer& produce) {
   Temporary temp;
   RGS_RETURN_IF_ERROR(write_temporary(path, produce, &temp));
-  return commit_temporary(&temp, path);
+  StagedFile staged;
+  staged.path_ = path;
+  staged.temporary_ = temp.path;
+  staged.slot_ = temp.slot;
+  return staged;
+}
+
+Result<StagedFile> StagedFile::write_by_name(const std::string& path, const ByNameWriter& write_to) {
+  Temporary temp;
+  RGS_RETURN_IF_ERROR(write_temporary_by_name(path, write_to, &temp));
+  StagedFile staged;
+  staged.path_ = path;
+  staged.temporary_ = temp.path;
+  staged.slot_ = temp.slot;
+  return staged;
+}
+
+StagedFile::StagedFile(StagedFile&& other) noexcept { *this = std::move(other); }
+
+StagedFile& StagedFile::operator=(StagedFile&& other) noexcept {
+  if (this != &other) {
+    discard();
+    path_ = std::move(other.path_);
+    temporary_ = std::exchange(other.temporary_, std::string());
+    slot_ = other.slot_;
+  }
+  return *this;
+}
+
+StagedFile::~StagedFile() { discard(); }
+
+void StagedFile::discard() noexcept {
+  Temporary temp{temporary_, slot_};
+  format::discard(&temp);
+  temporary_.clear();
+}
+
+Status StagedFile::commit() {
+  RGS_RETURN_ERROR_IF(temporary_.empty(), StatusCode::kInvalidArgument,
+                      "cannot commit " + path_ + ": nothing staged");
+  Temporary temp{std::exchange(temporary_, std::string()), slot_};
+  return commit_temporary(&temp, path_);
+}
+
+Status write_file_atomic(const std::string& path, const ChunkProducer& produce) {
+  RGS_ASSIGN_OR_RETURN(StagedFile staged, StagedFile::write(path, produce));
+  return staged.commit();
 }
 
 Status write_file_atomic(const std::string& path, const void* data, size_t size) {
   return write_file_atomic(path, [data, size](const ChunkSink& sink) { return sink(data, size); });
 }
 
-Status write_file_atomic_by_name(const std::string& path,
-                                 const std::function<Status(const std::string& temp_path)>& write_to) {
-  if (OutputSet* set = capturing_set(path)) return set->write_by_name(path, write_to);
-  Temporary temp;
-  RGS_RETURN_IF_ERROR(write_temporary_by_name(path, write_to, &temp));
-  return commit_temporary(&temp, path);
+Status write_file_atomic_by_name(const std::string& path, const ByNameWriter& write_to) {
+  RGS_ASSIGN_OR_RETURN(StagedFile staged, StagedFile::write_by_name(path, write_to));
+  return staged.commit();
 }
 
-struct OutputSet::State {
-  struct Input {
-    std::string path;
-    std::pair<dev_t, ino_t> id;
-  };
-  struct Output {
-    std::string path;
-    std::string dir, name;
-    OutputKey key;
-    std::optional<std::pair<dev_t, ino_t>> id;  ///< when it exists
-    Temporary temp;                              ///< staged content, if written
-  };
-  std::vector<Input> inputs;
-  std::vector<Output> outputs;
-  bool closed = false;
-
-  Output* find(const std::string& path) {
-    const OutputKey key = output_key(path);
-    for (Output& o : outputs) {
-      if (o.path == path || o.key == key) return &o;
-    }
-    return nullptr;
-  }
-
-  /// The declared output `path`, its earlier staged content dropped, ready to be written again.
-  Result<Output*> restage(const std::string& path) {
-    Output* out = find(path);
-    RGS_RETURN_ERROR_IF(out == nullptr, StatusCode::kInvalidArgument,
-                        "cannot write " + path + ": not a declared output of this run");
-    RGS_RETURN_ERROR_IF(closed, StatusCode::kInvalidArgument,
-                        "cannot write " + path + ": the outputs of this run were already committed");
-    discard(&out->temp);
-    return out;
-  }
-};
-
-OutputSet::OutputSet() : state_(std::make_unique<State>()) {
-  std::lock_guard<std::mutex> lock(g_sets_mutex);
-  g_open_sets.push_back(this);
-}
-
-OutputSet::~OutputSet() {
-  close_set(this);
-  for (State::Output& o : state_->outputs) discard(&o.temp);
-}
-
-Status OutputSet::add_input(const std::string& path) {
-  const auto id = file_identity(path);
-  if (!id) return Status();
-  for (const State::Output& o : state_->outputs) {
-    if (o.id == id) {
-      return Status(StatusCode::kInvalidArgument, o.path + ": this output is the input file " + path);
-    }
-  }
-  state_->inputs.push_back({path, *id});
-  return Status();
-}
-
-Status OutputSet::add_output(const std::string& path) {
-  State::Output out;
-  out.path = path;
-  RGS_RETURN_IF_ERROR(split_output_path(path, &out.dir, &out.name));
-  out.key = output_key(path);
+std::optional<FileId> file_id(const std::string& path) {
   struct stat st {};
-  out.id = file_identity(path, &st);
-  if (out.id) {
-    if (S_ISDIR(st.st_mode)) return Status(StatusCode::kIoError, "cannot write " + path + ": is a directory");
-    if (!S_ISREG(st.st_mode)) {
-      return Status(StatusCode::kInvalidArgument,
-                    "cannot write " + path + ": not a regular file (a device or pipe would be replaced, not "
-                    "written; use - for standard output where the option allows it)");
-    }
-    for (const State::Input& in : state_->inputs) {
-      if (in.id == *out.id) {
-        return Status(StatusCode::kInvalidArgument,
-                      path + ": this output is the input file " + in.path + " (same file)");
-      }
+  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+  return FileId{static_cast<uint64_t>(st.st_dev), static_cast<uint64_t>(st.st_ino)};
+}
+
+Status check_output_file(const std::string& output, const std::vector<std::string>& inputs) {
+  std::string dir, name;
+  RGS_RETURN_IF_ERROR(split_output_path(output, &dir, &name));
+  struct stat st {};
+  if (::stat(output.c_str(), &st) != 0) return Status();  // a new file (its folder is checked by the write)
+  if (S_ISDIR(st.st_mode)) return Status(StatusCode::kIoError, "cannot write " + output + ": is a directory");
+  if (!S_ISREG(st.st_mode)) {
+    return Status(StatusCode::kInvalidArgument,
+                  "cannot write " + output + ": not a regular file (a device or pipe would be replaced, not "
+                  "written; use - for standard output where the option allows it)");
+  }
+  const FileId id{static_cast<uint64_t>(st.st_dev), static_cast<uint64_t>(st.st_ino)};
+  for (const std::string& input : inputs) {
+    if (file_id(input) == id) {
+      return Status(StatusCode::kInvalidArgument, output + ": this output is the input file " + input + " (same file)");
     }
   }
-  for (const State::Output& o : state_->outputs) {
-    if (o.key == out.key || (out.id && o.id == out.id)) {
-      return Status(StatusCode::kInvalidArgument,
-                    path + ": this output is also the output " + o.path + " (same file)");
-    }
-  }
-  state_->outputs.push_back(std::move(out));
   return Status();
 }
 
-std::vector<std::string> OutputSet::remove_stale_temporaries() {
-  std::vector<std::string> notes;
-  std::vector<std::string> dirs;
-  for (const State::Output& o : state_->outputs) {
-    if (std::find(dirs.begin(), dirs.end(), o.dir) == dirs.end()) dirs.push_back(o.dir);
-  }
-  const std::string suffix = kPartialSuffix;
-  for (const std::string& dir : dirs) {
-    DIR* d = ::opendir(dir.c_str());
-    if (d == nullptr) continue;  // the write reports a missing or unreadable directory
-    std::vector<std::pair<std::string, long long>> found;
-    while (const dirent* e = ::readdir(d)) {
-      const std::string entry = e->d_name;
-      if (entry.size() <= suffix.size() || entry.compare(entry.size() - suffix.size(), suffix.size(), suffix) != 0) {
-        continue;
-      }
-      for (const State::Output& o : state_->outputs) {
-        if (o.dir != dir || entry.size() <= o.name.size() + 1 + suffix.size() ||
-            entry.compare(0, o.name.size() + 1, o.name + ".") != 0) {
-          continue;
-        }
-        long long pid = 0;
-        const std::string middle = entry.substr(o.name.size() + 1, entry.size() - o.name.size() - 1 - suffix.size());
-        if (parse_temporary_owner(middle, &pid)) found.emplace_back(entry, pid);
-      }
-    }
-    ::closedir(d);
-    for (const auto& [entry, pid] : found) {
-      const std::string temp = join_path(dir, entry);
-      if (is_registered_temporary(temp)) continue;  // ours, being written
-      bool is_input = false;
-      const auto id = file_identity(temp);
-      for (const State::Input& in : state_->inputs) is_input = is_input || (id && in.id == *id);
-      if (is_input) {
-        notes.push_back(temp +
-                        " looks like a temporary of an interrupted run but is an input of this one; left in place");
-        continue;
-      }
-      if (pid != static_cast<long long>(::getpid()) &&
-          (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH)) {
-        notes.push_back(temp + " belongs to process " + std::to_string(pid) +
-                        ", which is still running (another run writing the same output?); left in place");
-        continue;
-      }
-      struct stat st {};
-      if (::lstat(temp.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
-        notes.push_back(temp + " is not a regular file; left in place");
-        continue;
-      }
-      if (::unlink(temp.c_str()) != 0) {
-        const int err = errno;
-        notes.push_back("cannot remove " + temp + ", left by an interrupted run: " + os_error(err));
-        continue;
-      }
-      notes.push_back("removed " + temp + ", left by an interrupted run (process " + std::to_string(pid) +
-                      " no longer exists)");
-    }
-  }
-  return notes;
-}
-
-Status OutputSet::write(const std::string& path, const ChunkProducer& produce) {
-  RGS_ASSIGN_OR_RETURN(State::Output * out, state_->restage(path));
-  return write_temporary(path, produce, &out->temp);
-}
-
-Status OutputSet::write(const std::string& path, const void* data, size_t size) {
-  return write(path, [data, size](const ChunkSink& sink) { return sink(data, size); });
-}
-
-Status OutputSet::write_by_name(const std::string& path,
-                                const std::function<Status(const std::string& temp_path)>& write_to) {
-  RGS_ASSIGN_OR_RETURN(State::Output * out, state_->restage(path));
-  return write_temporary_by_name(path, write_to, &out->temp);
-}
-
-Status OutputSet::commit() {
-  RGS_RETURN_ERROR_IF(state_->closed, StatusCode::kInvalidArgument, "the outputs of this run were already committed");
-  state_->closed = true;
-  close_set(this);
-  // An interrupt between two renames would leave some outputs new and some old.
-  sigset_t block, previous;
-  sigemptyset(&block);
-  sigaddset(&block, SIGINT);
-  sigaddset(&block, SIGTERM);
-  sigaddset(&block, SIGHUP);
-  const bool masked = ::pthread_sigmask(SIG_BLOCK, &block, &previous) == 0;
-  Status status;
-  std::vector<std::string> dirs;
-  for (State::Output& o : state_->outputs) {
-    if (o.temp.path.empty()) continue;
-    if (!status.ok()) {
-      discard(&o.temp);
-      continue;
-    }
-    status = rename_into_place(&o.temp, o.path);
-    if (status.ok() && std::find(dirs.begin(), dirs.end(), o.dir) == dirs.end()) dirs.push_back(o.dir);
-  }
-  if (masked) ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
-  for (const std::string& dir : dirs) sync_directory(dir);
-  return status;
-}
-
-bool OutputSet::has_output(const std::string& path) const { return state_->find(path) != nullptr; }
+bool is_pending_temporary(const std::string& path) { return is_registered_temporary(path); }
 
 void remove_pending_temporaries() noexcept {
   g_walkers.fetch_add(1);

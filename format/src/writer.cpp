@@ -424,7 +424,8 @@ Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const Wr
   }
 }
 
-Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options) {
+Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options,
+                                  FileSink& files) {
   // Streams the sections from the scene's own arrays (no serialized copy of the whole file in memory).
   std::optional<ArchiveScene> archive;
   auto file = [&]() -> Result<PlannedFile> {
@@ -437,7 +438,7 @@ Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& s
     }
   }();
   if (!file.ok()) return Status(file.status()).prepend(path);
-  RGS_RETURN_IF_ERROR(write_file_atomic(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
+  RGS_RETURN_IF_ERROR(files.write(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
   return file->file_size;
 }
 

@@ -68,6 +68,9 @@ struct ConvertOptions {
   double position_error = format::kDefaultArchivePositionError;
   /// Name recorded as the provenance's "converter" (with the library version).
   std::string converter_name = "roofgs api";
+  /// Where the output file goes; null: written atomically in place (format::atomic_files()). A tool passes
+  /// its run's transaction, which commits the output with its other files.
+  format::FileSink* files = nullptr;
 };
 
 /// What the .rgs quantization cost (.rgs output only).

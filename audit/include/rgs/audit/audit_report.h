@@ -6,6 +6,7 @@
 #include <string>
 
 #include "rgs/audit/audit.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/status.h"
 
 namespace rgs::audit {
@@ -36,12 +37,13 @@ bool passes_gate(const AuditResult& result, double min_psnr_db);
 std::string audit_json(const AuditResult& result, const ReportOptions& options);
 
 /// Writes every candidate's worst-view images into `dir` (created if missing): c<i>_v<view>_source.ppm,
-/// _candidate.ppm and _diff.pgm, the names audit_json() gives under ReportOptions::image_dir. Each file is
-/// written atomically (format::write_file_atomic). Errors: kIoError naming the path.
-Status write_report_images(const AuditResult& result, const std::string& dir);
+/// _candidate.ppm and _diff.pgm, the names audit_json() gives under ReportOptions::image_dir, each into
+/// `files` (default: written atomically in place). Errors: kIoError naming the path.
+Status write_report_images(const AuditResult& result, const std::string& dir,
+                           format::FileSink& files = format::atomic_files());
 
-/// Writes `image` as binary PPM (P6, 3 channels) or PGM (P5, 1 channel), maxval 255, atomically.
+/// Writes `image` as binary PPM (P6, 3 channels) or PGM (P5, 1 channel), maxval 255, into `files`.
 /// Errors: kInvalidArgument (size or channel mismatch), kIoError naming `path`.
-Status write_netpbm(const std::string& path, const Image8& image);
+Status write_netpbm(const std::string& path, const Image8& image, format::FileSink& files = format::atomic_files());
 
 }  // namespace rgs::audit

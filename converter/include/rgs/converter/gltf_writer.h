@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/status.h"
 
 namespace rgs::converter {
@@ -44,6 +45,7 @@ Result<std::vector<uint8_t>> serialize_glb(const format::GaussianCloud& cloud, c
 
 /// serialize_glb() written atomically to `path`. Errors: as serialize_glb, kIoError naming `path`.
 Result<GltfWriteSummary> write_glb(const std::string& path, const format::GaussianCloud& cloud,
-                                   const GltfWriteOptions& options = {});
+                                   const GltfWriteOptions& options = {},
+                                   format::FileSink& files = format::atomic_files());
 
 }  // namespace rgs::converter

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/status.h"
 
 namespace rgs::converter {
@@ -34,6 +35,6 @@ Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, P
 /// serialize_ply() written atomically to `path` (no partial file, existing file untouched on failure).
 /// Returns bytes written. Errors: as serialize_ply, kIoError naming `path`.
 Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud,
-                           PlyWriteReport* report = nullptr);
+                           PlyWriteReport* report = nullptr, format::FileSink& files = format::atomic_files());
 
 }  // namespace rgs::converter

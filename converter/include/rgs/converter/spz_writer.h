@@ -7,6 +7,7 @@
 
 #include "rgs/converter/interop.h"
 #include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/status.h"
 
 namespace rgs::converter {
@@ -60,6 +61,7 @@ Result<std::vector<uint8_t>> serialize_spz(const format::GaussianCloud& cloud, c
 
 /// serialize_spz() written atomically to `path`. Errors: as serialize_spz, kIoError naming `path`.
 Result<SpzWriteSummary> write_spz(const std::string& path, const format::GaussianCloud& cloud,
-                                  const SpzWriteOptions& options = {});
+                                  const SpzWriteOptions& options = {},
+                                  format::FileSink& files = format::atomic_files());
 
 }  // namespace rgs::converter

@@ -1,11 +1,12 @@
-// Whole-file I/O helpers with the project's failure guarantees: bounded reads, atomic writes, and
-// transactions over the several outputs of one run.
+// Whole-file I/O with the project's failure guarantees: read-only mapping, atomic writes through staged
+// temporaries, and FileSink, the explicit destination every library writer takes.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,92 +45,98 @@ using ChunkProducer = std::function<Status(const ChunkSink&)>;
 
 /// Suffix of the temporary an output is written to before it is renamed into place: "out.rgs" is staged as
 /// "out.rgs.<pid>.rgs-partial" in the same directory, <pid> being the writing process. A run killed before
-/// its rename (SIGKILL, power loss) leaves this one file per output; OutputSet::remove_stale_temporaries()
-/// of a later run removes it once that process is gone.
+/// its rename (SIGKILL, power loss) leaves this one file per output; the command-line tools remove it in a
+/// later run once that process is gone.
 inline constexpr const char kPartialSuffix[] = ".rgs-partial";
 
-/// Writes `path` atomically: `produce` streams the content into a temporary file in the same directory
-/// ("<name>.<pid>.rgs-partial"), which is flushed, fsync'ed and renamed over `path` only when `produce` and
-/// every write succeeded. On any failure the temporary is removed and an existing `path` is left untouched;
-/// remove_pending_temporaries() removes it when the process is interrupted.
-/// While an OutputSet that declared `path` is open, the content is staged in that set instead and the rename
-/// happens at OutputSet::commit(): library writers (write_scene_file, write_ply) join a tool's transaction
-/// without knowing about it.
-/// Errors: kIoError naming the path and the OS cause, or whatever `produce` returns.
+/// Writes a file by name: given the path of the file to create, writes all of it there (image libraries).
+using ByNameWriter = std::function<Status(const std::string& temp_path)>;
+
+/// Where a writer puts the files it writes. Every library writer (write_scene_file, converter::write_ply,
+/// write_spz, write_glb, audit::write_report_images) takes one explicitly: atomic_files() writes each file
+/// atomically in place; a command-line tool passes its run's transaction, which stages every output and
+/// renames them all at its end.
+class FileSink {
+ public:
+  virtual ~FileSink() = default;
+  /// Writes the whole content of `path`, streamed by `produce`.
+  /// @return kIoError naming `path` and the OS cause, or what `produce` returns; `path` unchanged on failure.
+  virtual Status write(const std::string& path, const ChunkProducer& produce) = 0;
+  /// The same for a writer that can only open a file by name: `write_to` is given a temporary path.
+  virtual Status write_by_name(const std::string& path, const ByNameWriter& write_to) = 0;
+  /// One in-memory buffer.
+  Status write(const std::string& path, const void* data, size_t size);
+};
+
+/// The sink that writes each file atomically in place (write_file_atomic, write_file_atomic_by_name).
+FileSink& atomic_files();
+
+/// The new content of one file, complete in a temporary next to it ("<name>.<pid>.rgs-partial", flushed and
+/// fsync'ed) until commit() renames it over the destination. Destroyed before that, the temporary is removed;
+/// an interrupt removes it through remove_pending_temporaries(). Move-only.
+class StagedFile {
+ public:
+  /// Streams `produce` into a new temporary next to `path`.
+  /// @return kInvalidArgument for an empty path; kIoError naming `path` and the OS cause ("." or "..", a
+  ///         missing or read-only folder); kLimitExceeded past 65,536 temporaries at once; what `produce`
+  ///         returns. Nothing is left behind on failure.
+  static Result<StagedFile> write(const std::string& path, const ChunkProducer& produce);
+  /// The same through a writer that opens the temporary by name.
+  static Result<StagedFile> write_by_name(const std::string& path, const ByNameWriter& write_to);
+
+  StagedFile(StagedFile&& other) noexcept;
+  StagedFile& operator=(StagedFile&& other) noexcept;
+  StagedFile(const StagedFile&) = delete;
+  StagedFile& operator=(const StagedFile&) = delete;
+  ~StagedFile();
+
+  /// Renames the temporary over the destination and persists the rename in its folder; the object is then
+  /// empty. @return kIoError naming the destination (the temporary is removed); kInvalidArgument when empty.
+  Status commit();
+
+  /// The destination, and the temporary holding its content (empty after commit()).
+  const std::string& path() const { return path_; }
+  const std::string& temporary_path() const { return temporary_; }
+
+ private:
+  StagedFile() = default;
+  void discard() noexcept;
+  std::string path_, temporary_;
+  size_t slot_ = 0;
+};
+
+/// Writes `path` atomically: StagedFile::write, then commit(). On any failure the temporary is removed and an
+/// existing `path` is left untouched. Errors: kIoError naming the path and the OS cause, or whatever
+/// `produce` returns.
 Status write_file_atomic(const std::string& path, const ChunkProducer& produce);
 
 /// Convenience form of write_file_atomic for one in-memory buffer.
 Status write_file_atomic(const std::string& path, const void* data, size_t size);
 
-/// Like write_file_atomic, for writers that can only open a file by name (image libraries): `write_to` is
-/// given the temporary's path, writes the whole file there and returns its status; the file is then fsync'ed
-/// and renamed over `path` (or staged in the OutputSet that declared `path`).
-Status write_file_atomic_by_name(const std::string& path,
-                                 const std::function<Status(const std::string& temp_path)>& write_to);
+/// Like write_file_atomic, for writers that can only open a file by name (image libraries).
+Status write_file_atomic_by_name(const std::string& path, const ByNameWriter& write_to);
 
-/// All the output files of one run, committed together: every output is staged in its own temporary next to
-/// it (see kPartialSuffix) and fsync'ed, and commit() renames them all at the end. Before that, no output
-/// exists or changes; destroying the set without commit() removes the temporaries.
-///
-/// Identity rules (add_input, add_output): two paths are the same file when they name the same device and
-/// inode after following symbolic links (hard links, "a/../b", symlinked directories), or, for a path that
-/// does not exist yet, the same directory and last component.
-///
-/// Typical use: add_input() for every file read, add_output() for every file written (both before any
-/// work), remove_stale_temporaries(), then write() each output (directly, or through write_file_atomic from
-/// a library writer), then commit(). Not thread-safe: one thread drives a set.
-class OutputSet {
- public:
-  OutputSet();
-  /// Removes every staged temporary that was not committed.
-  ~OutputSet();
-  OutputSet(const OutputSet&) = delete;
-  OutputSet& operator=(const OutputSet&) = delete;
-
-  /// Declares a file the run reads, so that no output may be it. A path that does not exist is ignored (its
-  /// reader reports it).
-  /// @return kInvalidArgument when `path` is a declared output.
-  Status add_input(const std::string& path);
-
-  /// Declares a file the run writes. Creates nothing.
-  /// @return kInvalidArgument when `path` is empty, is a declared input or output, or exists and is neither a
-  ///         regular file nor a directory (a device or pipe: its content would be replaced by a rename);
-  ///         kIoError when it is an existing directory.
-  Status add_output(const std::string& path);
-
-  /// Removes temporaries of the declared outputs that an earlier run left behind ("<name>.<pid>.rgs-partial"
-  /// whose process no longer exists). A temporary whose process is alive, or that is not a regular file, is
-  /// left in place. Call after the last add_input/add_output: a declared input is never removed.
-  /// @return One sentence per temporary found: what was removed, or what was left in place and why.
-  std::vector<std::string> remove_stale_temporaries();
-
-  /// Stages the content of the declared output `path` (produce streams it; see write_file_atomic).
-  /// Writing an output twice replaces the staged content.
-  /// @return kInvalidArgument when `path` was not declared; kIoError naming `path` and the OS cause; or what
-  ///         `produce` returns. On failure the output's temporary is removed (the others stay staged).
-  Status write(const std::string& path, const ChunkProducer& produce);
-  /// Stages one in-memory buffer as the content of `path`.
-  Status write(const std::string& path, const void* data, size_t size);
-  /// Stages `path` through a writer that opens a file by name (see write_file_atomic_by_name).
-  Status write_by_name(const std::string& path, const std::function<Status(const std::string& temp_path)>& write_to);
-
-  /// Renames every staged temporary over its output (outputs never written are left alone) and syncs their
-  /// directories. SIGINT, SIGTERM and SIGHUP are held off in the calling thread meanwhile. After commit() the
-  /// set is closed: write() fails.
-  /// @return kIoError naming the output whose rename failed; outputs renamed before it stay committed (the
-  ///         checks of add_output make this a rare race with another process).
-  Status commit();
-
-  /// True when `path` is a declared output of this set (same identity rules).
-  bool has_output(const std::string& path) const;
-
- private:
-  struct State;
-  std::unique_ptr<State> state_;
+/// Identity of an existing file: device and inode after following symbolic links.
+struct FileId {
+  uint64_t device = 0, inode = 0;
+  bool operator==(const FileId& o) const { return device == o.device && inode == o.inode; }
 };
 
-/// Removes every temporary this process is writing (write_file_atomic, OutputSet), for a signal handler that
-/// ends the process next. Async-signal-safe: it only reads a fixed table and calls unlink(2).
+/// The identity of what `path` names (hard links, "a/../b" and symbolic links give one identity); nullopt
+/// when it does not exist or cannot be examined.
+std::optional<FileId> file_id(const std::string& path);
+
+/// Checks, before any work, that `output` may be replaced by a file: it does not exist, or is a regular file
+/// that is none of `inputs` (by file_id()).
+/// @return kIoError for an existing directory; kInvalidArgument for a device or pipe (a rename would replace
+///         it, not write it) and for an output that is one of `inputs`, naming both.
+Status check_output_file(const std::string& output, const std::vector<std::string>& inputs);
+
+/// True when `path` is a temporary this process is writing now (a StagedFile not yet committed or removed).
+bool is_pending_temporary(const std::string& path);
+
+/// Removes every temporary this process is writing (StagedFile, write_file_atomic), for a signal handler
+/// that ends the process next. Async-signal-safe: it only reads a fixed table and calls unlink(2).
 void remove_pending_temporaries() noexcept;
 
 }  // namespace rgs::format

@@ -8,6 +8,7 @@
 
 #include "rgs/format/archive.h"
 #include "rgs/format/encoded_scene.h"
+#include "rgs/format/file_io.h"
 #include "rgs/format/spec.h"
 #include "rgs/format/status.h"
 
@@ -43,9 +44,10 @@ struct WriteOptions {
 /// [0, 1], SH value -128) -- the writer never produces a file that fails validation. kOutOfMemory.
 Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options = {});
 
-/// serialize_scene() + write_file_atomic(): no partial file on failure, an existing `path` untouched.
-/// Returns the number of bytes written. Errors: as serialize_scene, kIoError naming `path`.
+/// serialize_scene() streamed into `files` (default: written atomically in place): no partial file on
+/// failure, an existing `path` untouched. Returns the number of bytes written. Errors: as serialize_scene,
+/// kIoError naming `path`.
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene,
-                                  const WriteOptions& options = {});
+                                  const WriteOptions& options = {}, FileSink& files = atomic_files());
 
 }  // namespace rgs::format

@@ -1,0 +1,225 @@
+// tools::OutputSet, the output transaction of a command-line run: outputs appear together at commit, a failed
+// run changes nothing, identities (an output is never an input or another output), and the temporaries of
+// killed runs.
+#include <doctest/doctest.h>
+
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "../format/format_test_util.h"
+#include "output_set.h"
+#include "rgs/format/file_io.h"
+#include "rgs/format/writer.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace rgs;
+using namespace rgs::format;
+
+/// A fresh directory under the system temp dir, removed with everything in it at scope exit.
+class TempDir {
+ public:
+  TempDir() {
+    static std::atomic<int> counter{0};
+    path_ = fs::temp_directory_path() /
+            ("rgs_output_set_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    fs::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::permissions(path_, fs::perms::owner_all, fs::perm_options::add, ec);
+    fs::remove_all(path_, ec);
+  }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  const fs::path& path() const { return path_; }
+  /// Names in the directory, to catch leftover temporaries.
+  std::vector<std::string> entries() const {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(path_)) names.push_back(e.path().filename().string());
+    return names;
+  }
+
+ private:
+  fs::path path_;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// The temporary a StagedFile uses for `name` in this process.
+std::string partial_name(const std::string& name) {
+  return name + "." + std::to_string(::getpid()) + rgs::format::kPartialSuffix;
+}
+
+/// A process id that no longer exists: a child that has exited and been reaped.
+pid_t dead_pid() {
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return child;
+}
+
+bool contains(const std::vector<std::string>& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+}  // namespace
+
+TEST_CASE("OutputSet: outputs appear together at commit, never before") {
+  TempDir dir;
+  const std::string a = dir.file("a.rgs"), b = dir.file("b.json");
+  REQUIRE(write_file_atomic(b, "old json", 8).ok());
+  {
+    tools::OutputSet set;
+    REQUIRE(set.add_output(a).ok());
+    REQUIRE(set.add_output(b).ok());
+    CHECK(set.remove_stale_temporaries().empty());
+    REQUIRE(set.write(a, "scene", 5).ok());
+    REQUIRE(set.write(b, "new json", 8).ok());
+    CHECK_FALSE(fs::exists(a));
+    CHECK(slurp(b) == "old json");
+    CHECK(contains(dir.entries(), partial_name("a.rgs")));
+    CHECK(contains(dir.entries(), partial_name("b.json")));
+    REQUIRE(set.commit().ok());
+    CHECK(set.write(a, "again", 5).code() == StatusCode::kInvalidArgument);  // closed
+  }
+  CHECK(slurp(a) == "scene");
+  CHECK(slurp(b) == "new json");
+  std::vector<std::string> names = dir.entries();
+  std::sort(names.begin(), names.end());
+  CHECK(names == std::vector<std::string>{"a.rgs", "b.json"});
+}
+
+TEST_CASE("OutputSet: a run that fails after staging changes nothing") {
+  TempDir dir;
+  const std::string a = dir.file("a.rgs"), b = dir.file("b.json");
+  REQUIRE(write_file_atomic(a, "old scene", 9).ok());
+  {
+    tools::OutputSet set;
+    REQUIRE(set.add_output(a).ok());
+    REQUIRE(set.add_output(b).ok());
+    REQUIRE(set.write(a, "new scene", 9).ok());
+    // The second output fails (a full disk, a failed serialization): the tool returns without commit().
+    Status s = set.write(b, [](const ChunkSink& sink) {
+      RGS_RETURN_IF_ERROR(sink("{", 1));
+      return Status(StatusCode::kIoError, "No space left on device");
+    });
+    CHECK(s.code() == StatusCode::kIoError);
+    CHECK(set.write(dir.file("undeclared"), "x", 1).code() == StatusCode::kInvalidArgument);
+  }
+  CHECK(slurp(a) == "old scene");
+  CHECK(dir.entries() == std::vector<std::string>{"a.rgs"});
+}
+
+TEST_CASE("OutputSet: a library writer given the set stages into it, others write in place") {
+  TempDir dir;
+  const std::string rgs = dir.file("scene.rgs");
+  const EncodedScene scene = test::make_random_scene(16, 0, 5);
+  tools::OutputSet set;
+  REQUIRE(set.add_output(rgs).ok());
+  auto written = write_scene_file(rgs, scene, {}, set);
+  REQUIRE_MESSAGE(written.ok(), written.status().to_string());
+  CHECK_FALSE(fs::exists(rgs));
+  CHECK(dir.entries() == std::vector<std::string>{partial_name("scene.rgs")});
+  REQUIRE(write_file_atomic_by_name(dir.file("by_name.bin"), [](const std::string& temp) {
+            std::ofstream(temp, std::ios::binary) << "named";
+            return Status();
+          }).ok());  // not given the set: committed at once
+  CHECK(slurp(dir.file("by_name.bin")) == "named");
+  REQUIRE(set.commit().ok());
+  CHECK(fs::file_size(rgs) == *written);
+}
+
+TEST_CASE("OutputSet: an output may not be an input or another output, whatever path names it") {
+  TempDir dir;
+  const std::string input = dir.file("in.ply");
+  REQUIRE(write_file_atomic(input, "ply", 3).ok());
+  fs::create_directory(dir.file("sub"));
+  fs::create_hard_link(input, dir.file("hard.ply"));
+  fs::create_symlink(input, dir.file("soft.ply"));
+  fs::create_directory_symlink(dir.path(), dir.file("again"));
+
+  tools::OutputSet set;
+  REQUIRE(set.add_input(input).ok());
+  CHECK(set.add_input(dir.file("missing.ply")).ok());  // its reader reports it
+  for (const std::string& alias : {input, dir.file("hard.ply"), dir.file("soft.ply"), dir.file("sub/../in.ply"),
+                                   dir.file("again/in.ply")}) {
+    Status s = set.add_output(alias);
+    CHECK_MESSAGE(s.code() == StatusCode::kInvalidArgument, alias);
+    CHECK_MESSAGE(s.message().find("is the input file") != std::string::npos, s.message());
+  }
+  // Two outputs that do not exist yet, named differently.
+  REQUIRE(set.add_output(dir.file("out.json")).ok());
+  Status twice = set.add_output(dir.file("sub/../out.json"));
+  CHECK(twice.code() == StatusCode::kInvalidArgument);
+  CHECK_MESSAGE(twice.message().find("is also the output " + dir.file("out.json")) != std::string::npos,
+                twice.message());
+  CHECK(set.add_output(dir.file("again/out.json")).code() == StatusCode::kInvalidArgument);
+  // An input declared after the output it would be.
+  REQUIRE(set.add_output(dir.file("late.rgs")).ok());
+  REQUIRE(write_file_atomic(dir.file("late_src"), "x", 1).ok());
+  fs::rename(dir.file("late_src"), dir.file("late.rgs"));
+  tools::OutputSet late;
+  REQUIRE(late.add_output(dir.file("late.rgs")).ok());
+  CHECK(late.add_input(dir.file("late.rgs")).code() == StatusCode::kInvalidArgument);
+
+  // Devices and pipes would be replaced by the rename, not written; directories cannot be replaced.
+  CHECK(set.add_output("/dev/null").code() == StatusCode::kInvalidArgument);
+  REQUIRE(::mkfifo(dir.file("pipe").c_str(), 0600) == 0);
+  CHECK(set.add_output(dir.file("pipe")).code() == StatusCode::kInvalidArgument);
+  CHECK(set.add_output(dir.file("sub")).code() == StatusCode::kIoError);
+  CHECK(set.add_output("").code() == StatusCode::kInvalidArgument);
+  CHECK(set.add_output(dir.file("sub/")).code() == StatusCode::kIoError);
+  CHECK(slurp(input) == "ply");
+}
+
+TEST_CASE("OutputSet: temporaries of killed runs are removed once their process is gone") {
+  TempDir dir;
+  const std::string out = dir.file("out.rgs");
+  const std::string stale = "out.rgs." + std::to_string(dead_pid()) + kPartialSuffix;
+  const std::string stale_second = "out.rgs." + std::to_string(dead_pid()) + "-1" + kPartialSuffix;
+  const std::string alive = "out.rgs." + std::to_string(::getppid()) + kPartialSuffix;
+  const std::string other = "other.rgs." + std::to_string(dead_pid()) + kPartialSuffix;
+  const std::string not_ours = "out.rgs.backup" + std::string(kPartialSuffix);
+  for (const std::string& name : {stale, stale_second, alive, other, not_ours}) {
+    REQUIRE(write_file_atomic(dir.file(name), "partial", 7).ok());
+  }
+  tools::OutputSet set;
+  REQUIRE(set.add_output(out).ok());
+  const std::vector<std::string> notes = set.remove_stale_temporaries();
+  std::string all;
+  for (const std::string& n : notes) all += n + "\n";
+  CHECK_MESSAGE(notes.size() == 3, all);
+  CHECK_MESSAGE(all.find("removed " + dir.file(stale) + ", left by an interrupted run") != std::string::npos, all);
+  CHECK_MESSAGE(all.find("removed " + dir.file(stale_second)) != std::string::npos, all);
+  CHECK_MESSAGE(all.find(dir.file(alive) + " belongs to process " + std::to_string(::getppid()) +
+                         ", which is still running") != std::string::npos, all);
+  CHECK_FALSE(fs::exists(dir.file(stale)));
+  CHECK_FALSE(fs::exists(dir.file(stale_second)));
+  CHECK(fs::exists(dir.file(alive)));
+  CHECK(fs::exists(dir.file(other)));     // another output's
+  CHECK(fs::exists(dir.file(not_ours)));  // no process id in the name
+
+  // A same-named file that is an input of the run is never removed.
+  const std::string input_like = "in.rgs." + std::to_string(dead_pid()) + kPartialSuffix;
+  REQUIRE(write_file_atomic(dir.file(input_like), "input", 5).ok());
+  tools::OutputSet second;
+  REQUIRE(second.add_input(dir.file(input_like)).ok());
+  REQUIRE(second.add_output(dir.file("in.rgs")).ok());
+  const auto kept = second.remove_stale_temporaries();
+  REQUIRE(kept.size() == 1);
+  CHECK(kept[0].find("is an input of this one; left in place") != std::string::npos);
+  CHECK(slurp(dir.file(input_like)) == "input");
+}
