@@ -14,6 +14,8 @@
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/tile_chunks.h"
 
+#include "internal_gpu_stages.h"
+
 namespace rgs::runtime {
 namespace {
 
@@ -112,20 +114,10 @@ struct GpuRenderer::Buffers {
   // Fused kernel scratch: ticket, one status word per block, pair totals (all pairs, large Gaussians' pairs).
   DeviceBuffer<uint32_t> fused_ticket;
   DeviceBuffer<unsigned long long> fused_status, fused_total;
-  // Per pair (64-bit keys for the baseline and key32 off, 32-bit keys otherwise).
-  DeviceBuffer<uint64_t> keys64, keys64_sorted;
-  DeviceBuffer<uint32_t> keys32, keys32_sorted;
-  // With depth order, values_sorted's ties in exact depth order are written back into `values`.
-  DeviceBuffer<uint32_t> values, values_sorted;
-  DeviceBuffer<uint8_t> sort_temp;
-  // Per tile: [begin, end) pairs.
-  DeviceBuffer<uint64_t> ranges;
-  // The long tiles' chunks (RoofgsOptions::tile_chunk_pairs, kernels::TileChunks).
-  DeviceBuffer<uint2> chunk_items;
-  DeviceBuffer<uint32_t> chunk_first, chunk_arrivals, chunk_records;
-  // Two item counts, used by alternate listings: each listing zeroes the other's (zeroed once when allocated).
-  DeviceBuffer<uint32_t> chunk_counts;
-  int chunk_parity = 0;
+  // The stages after emission: the pairs and their sort, the tile ranges, the long tiles' chunks.
+  PairSort sort;
+  TileRanges tiles;
+  TileChunkList chunks;
   // The frame rendered for an OutputImage that the render kernel cannot write directly (converted after).
   DeviceImage staging;
   // Counts read back from the device: the pair count and (RoofGS) the large Gaussians' pairs.
@@ -155,24 +147,12 @@ struct GpuRenderer::Buffers {
     if (large_done != nullptr) cudaEventDestroy(large_done);
   }
 
-  void release_pairs() {
-    keys64.release();
-    keys64_sorted.release();
-    keys32.release();
-    keys32_sorted.release();
-    values.release();
-    values_sorted.release();
-    sort_temp.release();
-  }
-
   uint64_t bytes() const {
     return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + colour_log_opacity.bytes() +
            cov2d.bytes() + snug_t.bytes() + radii.bytes() + depth_bins.bytes() + tiles_touched.bytes() +
            offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + large_pairs.bytes() +
-           fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + keys64.bytes() + keys64_sorted.bytes() +
-           keys32.bytes() + keys32_sorted.bytes() + values.bytes() + values_sorted.bytes() + sort_temp.bytes() +
-           ranges.bytes() + chunk_items.bytes() + chunk_counts.bytes() + chunk_first.bytes() +
-           chunk_arrivals.bytes() + chunk_records.bytes() +
+           fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + sort.bytes() + tiles.bytes() +
+           chunks.bytes() +
            uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
   }
 
@@ -191,47 +171,6 @@ struct GpuRenderer::Buffers {
     RGS_RETURN_IF_ERROR(tiles_touched.reserve_exact(n, "GpuRenderer: tiles touched"));
     RGS_RETURN_IF_ERROR(offsets.reserve_exact(n, "GpuRenderer: pair offsets"));
     return Status();
-  }
-
-  /// Pair buffers for `pairs` pairs with 32- or 64-bit keys, and the sort scratch for them. On failure all
-  /// pair buffers are dropped, so the renderer stays usable for smaller frames.
-  Status reserve_pairs(uint64_t pairs, bool key32, int key_bits, cudaStream_t stream) {
-    const std::string count = std::to_string(pairs) + " pairs";
-    Status grown = key32 ? keys32.reserve(pairs, "GpuRenderer: keys of " + count)
-                         : keys64.reserve(pairs, "GpuRenderer: keys of " + count);
-    if (grown.ok()) {
-      grown = key32 ? keys32_sorted.reserve(pairs, "GpuRenderer: sorted keys of " + count)
-                    : keys64_sorted.reserve(pairs, "GpuRenderer: sorted keys of " + count);
-    }
-    if (grown.ok()) grown = values.reserve(pairs, "GpuRenderer: values of " + count);
-    if (grown.ok()) grown = values_sorted.reserve(pairs, "GpuRenderer: sorted values of " + count);
-    size_t sort_bytes = 0;
-    if (grown.ok()) {
-      int unused = 0;
-      const cudaError_t query =
-          key32 ? kernels::sort_pairs_ping_pong(nullptr, &sort_bytes, key32_buffers().data(), value_buffers().data(),
-                                                values.size(), values.size(), 0, key_bits, false, &unused, stream)
-                : kernels::sort_pairs(nullptr, &sort_bytes, keys64.data(), keys64_sorted.data(), values.data(),
-                                      values_sorted.data(), pairs, 0, key_bits, stream);
-      grown = cuda_status(query, "GpuRenderer: sort size query");
-    }
-    if (grown.ok()) grown = sort_temp.reserve(sort_bytes, "GpuRenderer: sort scratch");
-    if (!grown.ok()) release_pairs();
-    return grown;
-  }
-
-  /// The two buffers of 32-bit keys and of values that sort_pairs_ping_pong passes the pairs between: the
-  /// unsorted pairs in the first ones.
-  std::array<uint32_t*, 2> key32_buffers() const { return {keys32.data(), keys32_sorted.data()}; }
-  std::array<uint32_t*, 2> value_buffers() const { return {values.data(), values_sorted.data()}; }
-
-  /// After sort_pairs_ping_pong: names the buffers that hold the sorted pairs keys32_sorted / values_sorted,
-  /// so that every later stage reads them there (`sorted`: its index of those buffers).
-  void name_sorted(int sorted) {
-    if (sorted == 0) {
-      std::swap(keys32, keys32_sorted);
-      std::swap(values, values_sorted);
-    }
   }
 
   /// Inclusive scan of tiles_touched into offsets, and the pair count read back to the host (one wait), with
@@ -335,15 +274,15 @@ Status GpuRenderer::download_sorted_pairs(std::vector<uint64_t>* keys, std::vect
   if (pairs == 0) return Status();
   std::vector<uint32_t> keys32(b.last_key32 ? pairs : 0);
   if (b.last_key32) {
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys32.data(), b.keys32_sorted.data(), pairs * sizeof(uint32_t),
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys32.data(), b.sort.sorted_keys32(), pairs * sizeof(uint32_t),
                                              cudaMemcpyDeviceToHost, stream),
                              "GpuRenderer: sorted keys read-back");
   } else {
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys->data(), b.keys64_sorted.data(), pairs * sizeof(uint64_t),
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(keys->data(), b.sort.sorted_keys64(), pairs * sizeof(uint64_t),
                                              cudaMemcpyDeviceToHost, stream),
                              "GpuRenderer: sorted keys read-back");
   }
-  const uint32_t* final_values = b.last_values_reordered ? b.values.data() : b.values_sorted.data();
+  const uint32_t* final_values = b.last_values_reordered ? b.sort.values() : b.sort.sorted_values();
   RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(values->data(), final_values, pairs * sizeof(uint32_t),
                                            cudaMemcpyDeviceToHost, stream),
                            "GpuRenderer: sorted values read-back");
@@ -475,8 +414,7 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
       stats.large_chunks = large;
     }
     if (stats.tile_chunks_listed) {
-      // The count this frame used: the parity flipped when it was listed.
-      const uint32_t* count = buffers_->chunk_counts.data() + (1 - buffers_->chunk_parity);
+      const uint32_t* count = buffers_->chunks.last_count();
       RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&stats.tile_chunks, count, sizeof(uint32_t), cudaMemcpyDeviceToHost,
                                                stream),
                                "GpuRenderer: tile chunk count read-back");
@@ -508,30 +446,22 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   }
   stats->pairs = pairs;
   if (pairs > 0) {
-    RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, false, key_bits, stream));
-    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, frame, b.keys64.data(),
-                                                         b.values.data(), stream),
+    RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, false, key_bits, stream));
+    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, frame, b.sort.keys64(),
+                                                         b.sort.values(), stream),
                              "GpuRenderer: duplicate kernel");
   }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
   // 3. Stable radix sort over 32 + ceil(log2(tiles)) bits.
-  if (pairs > 0) {
-    size_t sort_bytes = b.sort_temp.bytes();
-    RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(),
-                                                 b.keys64_sorted.data(), b.values.data(), b.values_sorted.data(),
-                                                 pairs, 0, key_bits, stream),
-                             "GpuRenderer: radix sort");
-  }
+  RGS_RETURN_IF_ERROR(b.sort.sort(pairs, false, key_bits, 0, stream));
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
   // 4. Per-tile ranges.
-  RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
-  RGS_RETURN_IF_CUDA_ERROR(kernels::tile_ranges(b.keys64_sorted.data(), pairs, 32, num_tiles, b.ranges.data(),
-                                                stream),
-                           "GpuRenderer: tile ranges kernel");
+  RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
+                       b.tiles.build(b.sort, pairs, false, 0, num_tiles, nullptr, stream));
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
   // 5. Blend.
-  RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.ranges.data(), b.values_sorted.data(), b.projected(), frame,
-                                                    view, stream),
+  RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.tiles.ranges(), sorted_values, b.projected(), frame, view,
+                                                    stream),
                            "GpuRenderer: render kernel");
   return Status();
 }
@@ -582,32 +512,30 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
     // A frame with more pairs runs the fused kernel again with enough (fused_relaunches); frames of dense
     // scenes hold 1.5-3 pairs a Gaussian (taebak: 1.5 at 1080p, 1.9 at 4K, 2.9 at 8K), large Gaussians many
     // more (flowers: 35 at 4K).
-    uint64_t capacity = std::max<uint64_t>(b.values.size(), uint64_t(n) * 2);
+    uint64_t capacity = std::max<uint64_t>(b.sort.capacity(), uint64_t(n) * 2);
     for (int attempt = 0;; ++attempt) {
-      RGS_RETURN_IF_ERROR(b.reserve_pairs(capacity, key32, key_bits, stream));
-      capacity = b.values.size();
+      RGS_RETURN_IF_ERROR(b.sort.reserve(capacity, key32, key_bits, stream));
+      capacity = b.sort.capacity();
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(capacity));
       published.sequence = ++b.fused_sequence;
       RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, projected, scratch, large,
-                                                                capacity, plan.allocation, b.keys64.data(),
-                                                                b.keys32.data(), b.values.data(), stream),
+                                                                capacity, plan.allocation, b.sort.keys64(),
+                                                                b.sort.keys32(), b.sort.values(), stream),
                                "GpuRenderer: fused preprocess kernel");
       // The large-Gaussian kernel publishes the totals as it starts.
-      RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.keys64.data(),
-                                                             b.keys32.data(), b.values.data(), published, stream),
+      RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.sort.keys64(),
+                                                             b.sort.keys32(), b.sort.values(), published, stream),
                                "GpuRenderer: large Gaussian kernel");
       RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.large_done, stream), "GpuRenderer: cudaEventRecord");
       // The sort's counters need no pair count: zeroed now, while the host waits for it, not after.
       if (key32) {
-        RGS_RETURN_IF_CUDA_ERROR(
-            kernels::clear_sort_counters(b.sort_temp.data(), b.sort_temp.bytes(), capacity, 0, key_bits, stream),
-            "GpuRenderer: sort counters");
+        RGS_RETURN_IF_ERROR(b.sort.clear_counters(capacity, key_bits, stream));
         sort_counters = capacity;
       }
       // The host enqueues the sort as soon as it has the count, while the large Gaussians' pairs are written.
-      RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.wait_for_totals(published.sequence, b.large_done));
-      pairs = counts.pairs;
-      large_pairs = counts.large_pairs;
+      RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.wait_for_totals(published.sequence, b.large_done));
+      pairs = totals.pairs;
+      large_pairs = totals.large_pairs;
       if (pairs <= capacity) break;
       RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
                           "GpuRenderer: fused kernel pair count changed between identical runs");
@@ -617,18 +545,17 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
   } else {
     RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, projected, b.large_pairs.data(), stream),
                              "GpuRenderer: preprocess kernel");
-    RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, b.large_pairs.data(), stream));
-    pairs = counts.pairs;
-    large_pairs = counts.large_pairs;
+    RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.scan_and_count(n, b.large_pairs.data(), stream));
+    pairs = totals.pairs;
+    large_pairs = totals.large_pairs;
     if (pairs > 0) {
-      RGS_RETURN_IF_ERROR(b.reserve_pairs(pairs, key32, key_bits, stream));
+      RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, key32, key_bits, stream));
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
       RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), n, frame, rf, large,
-                                                         b.keys64.data(), b.keys32.data(), b.values.data(),
-                                                         stream),
+                                                         b.sort.keys64(), b.sort.keys32(), b.sort.values(), stream),
                                "GpuRenderer: duplicate kernel");
-      RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.keys64.data(),
-                                                             b.keys32.data(), b.values.data(), {}, stream),
+      RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.sort.keys64(),
+                                                             b.sort.keys32(), b.sort.values(), {}, stream),
                                "GpuRenderer: large Gaussian kernel");
     }
   }
@@ -660,43 +587,15 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   stats->large_pairs = large_pairs;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
 
-  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)). Sorted pairs
-  // end in keys*_sorted / values_sorted.
-  if (pairs > 0) {
-    size_t sort_bytes = b.sort_temp.bytes();
-    if (key32) {
-      int sorted = 0;
-      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs_ping_pong(b.sort_temp.data(), &sort_bytes, b.key32_buffers().data(),
-                                                             b.value_buffers().data(), pairs, sort_counters, 0,
-                                                             key_bits, sort_counters != 0, &sorted, stream),
-                               "GpuRenderer: radix sort");
-      b.name_sorted(sorted);
-    } else {
-      RGS_RETURN_IF_CUDA_ERROR(kernels::sort_pairs(b.sort_temp.data(), &sort_bytes, b.keys64.data(),
-                                                   b.keys64_sorted.data(), b.values.data(), b.values_sorted.data(),
-                                                   pairs, 0, key_bits, stream),
-                               "GpuRenderer: radix sort");
-    }
-  }
+  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
+  RGS_RETURN_IF_ERROR(b.sort.sort(pairs, key32, key_bits, sort_counters, stream));
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
 
-  // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order
-  // (into `values`, free once sorted).
-  RGS_RETURN_IF_ERROR(b.ranges.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
-  if (plan.reorder_ties) {
-    RGS_RETURN_IF_CUDA_ERROR(kernels::order_equal_keys_by_depth(b.keys32_sorted.data(), b.values_sorted.data(),
-                                                                b.depths.data(), pairs, rf.key_depth_bits, num_tiles,
-                                                                b.values.data(), b.ranges.data(), stream),
-                             "GpuRenderer: depth order kernel");
-    b.last_values_reordered = true;
-  } else {
-    const cudaError_t ranged =
-        key32 ? kernels::tile_ranges(b.keys32_sorted.data(), pairs, rf.key_depth_bits, num_tiles,
-                                       b.ranges.data(), stream)
-                : kernels::tile_ranges(b.keys64_sorted.data(), pairs, 32, num_tiles, b.ranges.data(), stream);
-    RGS_RETURN_IF_CUDA_ERROR(ranged, "GpuRenderer: tile ranges kernel");
-  }
-  const uint32_t* sorted_values = plan.reorder_ties ? b.values.data() : b.values_sorted.data();
+  // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order.
+  RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
+                       b.tiles.build(b.sort, pairs, key32, rf.key_depth_bits, num_tiles,
+                                     plan.reorder_ties ? b.depths.data() : nullptr, stream));
+  b.last_values_reordered = plan.reorder_ties;
   const BlendPlan blend = plan_blend(options, pairs, large_pairs);
   stats->subtile_culling = blend.raster.subtile_culling;
   RGS_RETURN_ERROR_IF(!kernels::raster_variant_compiled(blend.raster), StatusCode::kUnsupportedFeature,
@@ -704,39 +603,13 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                       "which only builds with RGS_LAB_KERNELS=ON compile (docs/RENDERER.md#product-and-lab-kernels)");
   kernels::TileChunks chunks;
   if (blend.chunk_pairs > 0) {
-    const uint32_t chunk_pairs = blend.chunk_pairs;
-    // At most 2·2048 items (chunks hold at least 1/2048 of the pairs), in rows of tiles_x blocks.
-    const uint64_t capacity = kernels::tile_chunk_capacity(pairs, chunk_pairs);
-    const uint64_t item_rows = (capacity + frame.tiles_x - 1) / frame.tiles_x;
-    RGS_RETURN_ERROR_IF(item_rows + frame.tiles_y > 65535, StatusCode::kLimitExceeded,
-                        "GpuRenderer: " + std::to_string(capacity) + " tile chunks exceed the render grid");
-    const size_t record_words = size_t(capacity) * kernels::tile_chunk_record_words(view.depth != nullptr) * 128;
-    RGS_RETURN_IF_ERROR(b.chunk_items.reserve(capacity, "GpuRenderer: tile chunk list"));
-    if (b.chunk_counts.size() < 2) {
-      RGS_RETURN_IF_ERROR(b.chunk_counts.reserve_exact(2, "GpuRenderer: tile chunk counts"));
-      RGS_RETURN_IF_CUDA_ERROR(cudaMemsetAsync(b.chunk_counts.data(), 0, 2 * sizeof(uint32_t), stream),
-                               "GpuRenderer: tile chunk counts");
-    }
-    RGS_RETURN_IF_ERROR(b.chunk_first.reserve(num_tiles, "GpuRenderer: first chunk of each tile"));
-    RGS_RETURN_IF_ERROR(b.chunk_arrivals.reserve(num_tiles, "GpuRenderer: tile chunk arrivals"));
-    RGS_RETURN_IF_ERROR(b.chunk_records.reserve(record_words, "GpuRenderer: tile chunk records"));
-    chunks.chunk_pairs = chunk_pairs;
-    chunks.capacity = uint32_t(capacity);
-    chunks.item_rows = uint32_t(item_rows);
-    chunks.items = b.chunk_items.data();
-    chunks.item_count = b.chunk_counts.data() + b.chunk_parity;
-    chunks.next_item_count = b.chunk_counts.data() + (1 - b.chunk_parity);
-    b.chunk_parity = 1 - b.chunk_parity;
-    chunks.first_item = b.chunk_first.data();
-    chunks.arrivals = b.chunk_arrivals.data();
-    chunks.records = b.chunk_records.data();
-    RGS_RETURN_IF_CUDA_ERROR(kernels::list_tile_chunks(b.ranges.data(), num_tiles, chunks, stream),
-                             "GpuRenderer: tile chunk list kernel");
+    RGS_ASSIGN_OR_RETURN(chunks, b.chunks.list(blend.chunk_pairs, pairs, frame, b.tiles.ranges(),
+                                               view.depth != nullptr, stream));
     stats->tile_chunks_listed = true;
   }
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
 
-  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.ranges.data(), chunks, sorted_values, b.roofgs_projected(),
+  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.tiles.ranges(), chunks, sorted_values, b.roofgs_projected(),
                                                   frame, rf, blend.raster, view, stream),
                            "GpuRenderer: render kernel");
   return Status();

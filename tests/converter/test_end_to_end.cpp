@@ -81,7 +81,7 @@ TEST_CASE("end to end: shipped guitar sample through .rgs bytes and back to PLY"
   check_end_to_end(test::repo_path("samples/guitar.ply"), 90854, 0);
 }
 
-TEST_CASE("end to end: every real scene of ../shared/data through .rgs bytes and back to PLY") {
+TEST_CASE("end to end: every real scene of $RGS_DATA_DIR through .rgs bytes and back to PLY") {
   struct Scene {
     const char* file;
     uint64_t count;

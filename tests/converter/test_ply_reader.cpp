@@ -92,7 +92,7 @@ struct SharedScene {
   uint32_t degree;
 };
 
-TEST_CASE("read_ply: real scenes from ../shared/data") {
+TEST_CASE("read_ply: real scenes from $RGS_DATA_DIR") {
   const SharedScene scenes[] = {
       {"mipnerf360_flowers_c3dgs.ply", 38347, 3}, {"tiny_unknown_inria_sh3_it7000.ply", 9080, 3},
       {"guitar.ply", 90854, 0},                   {"biker.ply", 152746, 0},

@@ -136,7 +136,7 @@ TEST_CASE("quantize: SH3 built from guitar (no shared data needed)") {
   check_scene(r->cloud, "SH3 from guitar");
 }
 
-TEST_CASE("quantize: real scenes from ../shared/data") {
+TEST_CASE("quantize: real scenes from $RGS_DATA_DIR") {
   for (const char* file : {"mipnerf360_flowers_c3dgs.ply", "tiny_unknown_inria_sh3_it7000.ply", "biker.ply",
                            "playcanvas_flowers_lod0.ply"}) {
     const std::string path = shared_scene(file);

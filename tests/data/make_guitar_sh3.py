@@ -28,7 +28,7 @@ platform writes the same bytes. data.guitar_sh3_up_to_date (CTest) runs `--check
 
     python3 tests/data/make_guitar_sh3.py           # writes tests/data/guitar_sh3.ply (python3 stdlib only)
     python3 tests/data/make_guitar_sh3.py --check   # exit 1 when the committed file differs
-    python3 tests/data/make_guitar_sh3.py --measure ../shared/data/mipnerf360_flowers_c3dgs.ply
+    python3 tests/data/make_guitar_sh3.py --measure $RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply
 """
 import math
 import os
