@@ -81,25 +81,24 @@ struct ChunkBounds {
 
 inline double lerp(double a, double b, double t) { return a * (1 - t) + b * t; }
 
-Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOptions& options) {
-  if (options.lod.has_value()) {
-    return Status(StatusCode::kInvalidArgument,
-                  "a level of detail applies only to streamed SOG (lod-meta.json); this input is a compressed PLY");
-  }
-  if (!detail::starts_with_ply_magic(data, size)) {
-    return Status(StatusCode::kCorruptData, "not a PLY file (first line is not 'ply')");
-  }
-  const size_t header_end = detail::find_ply_header_end(data, std::min(size, detail::kMaxPlyHeaderBytes));
-  if (header_end == 0) return Status(StatusCode::kCorruptData, "PLY header has no 'end_header' line");
-  PlyHeader header;
-  RGS_RETURN_IF_ERROR(detail::parse_ply_header(data, header_end, &header));
-  if (header.storage != detail::PlyStorage::kBinaryLittleEndian) {
-    return Status(StatusCode::kUnsupportedFeature, std::string("compressed PLY must be binary_little_endian, not ") +
-                                                       detail::ply_storage_name(header.storage));
-  }
-
-  // Lay out the elements; those after a list property cannot be located (and are not needed then).
+/// Where everything read lies: the elements, the byte offsets of their properties within a row (chunk bounds
+/// in kChunkFields then kChunkColorFields order, vertex words in kVertexFields order, SH f_rest_* in order)
+/// and the SH degree the sh element's properties give.
+struct Layout {
   ElementData chunk, vertex, sh;
+  uint64_t n = 0;  ///< Gaussians (vertices)
+  uint64_t chunks = 0;
+  bool chunk_colors = false;
+  uint64_t chunk_offsets[18] = {};
+  uint64_t vertex_offsets[4] = {};
+  uint32_t degree = 0;
+  std::vector<uint64_t> sh_offsets;
+};
+
+/// Locates the elements 'chunk', 'vertex' and optional 'sh' in the `size` bytes of the file; those after a list
+/// property cannot be located (and are not needed then).
+Status locate_elements(const PlyHeader& header, size_t size, const SceneReadOptions& options, Layout* layout) {
+  ElementData &chunk = layout->chunk, &vertex = layout->vertex, &sh = layout->sh;
   uint64_t at = header.data_offset;
   const PlyProperty* first_list = nullptr;
   for (const PlyElement& element : header.elements) {
@@ -141,70 +140,78 @@ Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOp
   if (chunk.element == nullptr || vertex.element == nullptr) {
     return Status(StatusCode::kCorruptData, "compressed PLY needs elements 'chunk' and 'vertex'");
   }
-  const uint64_t n = vertex.element->count;
-  const uint64_t chunks = (n + kGaussiansPerChunk - 1) / kGaussiansPerChunk;
+  return Status();
+}
+
+/// Checks the chunk count against the vertices and finds the properties of the located elements; the SH degree
+/// follows from the number of f_rest_* properties.
+Status locate_properties(Layout* layout) {
+  const ElementData &chunk = layout->chunk, &sh = layout->sh;
+  const uint64_t n = layout->n = layout->vertex.element->count;
+  const uint64_t chunks = layout->chunks = (n + kGaussiansPerChunk - 1) / kGaussiansPerChunk;
   if (chunk.element->count != chunks) {
     return Status(StatusCode::kCorruptData, "compressed PLY has " + std::to_string(chunk.element->count) +
                                                 " chunks for " + std::to_string(n) + " vertices; expected " +
                                                 std::to_string(chunks) + " (one per 256)");
   }
-  uint64_t chunk_offsets[18];
   for (int f = 0; f < 12; ++f) {
-    RGS_RETURN_IF_ERROR(property_offset(chunk, kChunkFields[f], PlyType::kFloat32, &chunk_offsets[f]));
+    RGS_RETURN_IF_ERROR(property_offset(chunk, kChunkFields[f], PlyType::kFloat32, &layout->chunk_offsets[f]));
   }
-  bool chunk_colors = false;
-  for (const PlyProperty& p : chunk.element->properties) chunk_colors = chunk_colors || p.name == "min_r";
-  if (chunk_colors) {
+  for (const PlyProperty& p : chunk.element->properties) {
+    layout->chunk_colors = layout->chunk_colors || p.name == "min_r";
+  }
+  if (layout->chunk_colors) {
     for (int f = 0; f < 6; ++f) {
-      RGS_RETURN_IF_ERROR(property_offset(chunk, kChunkColorFields[f], PlyType::kFloat32, &chunk_offsets[12 + f]));
+      RGS_RETURN_IF_ERROR(
+          property_offset(chunk, kChunkColorFields[f], PlyType::kFloat32, &layout->chunk_offsets[12 + f]));
     }
   }
-  uint64_t vertex_offsets[4];
   for (int f = 0; f < 4; ++f) {
-    RGS_RETURN_IF_ERROR(property_offset(vertex, kVertexFields[f], PlyType::kUint32, &vertex_offsets[f]));
+    RGS_RETURN_IF_ERROR(
+        property_offset(layout->vertex, kVertexFields[f], PlyType::kUint32, &layout->vertex_offsets[f]));
   }
-  uint32_t degree = 0;
-  std::vector<uint64_t> sh_offsets;
-  if (sh.element) {
-    size_t rest_count = 0;
-    for (const PlyProperty& p : sh.element->properties) rest_count += p.name.rfind("f_rest_", 0) == 0;
-    switch (rest_count) {
-      case 0:
-        degree = 0;
-        break;
-      case 9:
-        degree = 1;
-        break;
-      case 24:
-        degree = 2;
-        break;
-      case 45:
-        degree = 3;
-        break;
-      default:
-        return Status(StatusCode::kUnsupportedFeature,
-                      "element 'sh' has " + std::to_string(rest_count) + " f_rest_* properties; expected 9, 24 or 45");
-    }
-    if (sh.element->count != n) {
-      return Status(StatusCode::kCorruptData, "element 'sh' has " + std::to_string(sh.element->count) + " rows for " +
-                                                  std::to_string(n) + " vertices");
-    }
-    sh_offsets.resize(rest_count);
-    for (size_t r = 0; r < rest_count; ++r) {
-      RGS_RETURN_IF_ERROR(property_offset(sh, "f_rest_" + std::to_string(r), PlyType::kUint8, &sh_offsets[r]));
-    }
+  if (!sh.element) return Status();
+  size_t rest_count = 0;
+  for (const PlyProperty& p : sh.element->properties) rest_count += p.name.rfind("f_rest_", 0) == 0;
+  switch (rest_count) {
+    case 0:
+      layout->degree = 0;
+      break;
+    case 9:
+      layout->degree = 1;
+      break;
+    case 24:
+      layout->degree = 2;
+      break;
+    case 45:
+      layout->degree = 3;
+      break;
+    default:
+      return Status(StatusCode::kUnsupportedFeature,
+                    "element 'sh' has " + std::to_string(rest_count) + " f_rest_* properties; expected 9, 24 or 45");
   }
+  if (sh.element->count != n) {
+    return Status(StatusCode::kCorruptData, "element 'sh' has " + std::to_string(sh.element->count) + " rows for " +
+                                                std::to_string(n) + " vertices");
+  }
+  layout->sh_offsets.resize(rest_count);
+  for (size_t r = 0; r < rest_count; ++r) {
+    RGS_RETURN_IF_ERROR(property_offset(sh, "f_rest_" + std::to_string(r), PlyType::kUint8, &layout->sh_offsets[r]));
+  }
+  return Status();
+}
 
-  // Chunk bounds, checked finite, and small enough that what is decoded from them is a finite float32: exp of
-  // the log-scale bounds, and the SH DC (c − 0.5) / C0 of the colour bounds. Every decoded value lies between
-  // its chunk's two bounds, so checking the bounds covers every Gaussian.
-  std::vector<ChunkBounds> bounds(static_cast<size_t>(chunks));
-  const int fields = chunk_colors ? 18 : 12;
+/// Chunk bounds, checked finite, and small enough that what is decoded from them is a finite float32: exp of
+/// the log-scale bounds, and the SH DC (c − 0.5) / C0 of the colour bounds. Every decoded value lies between
+/// its chunk's two bounds, so checking the bounds covers every Gaussian.
+Result<std::vector<ChunkBounds>> read_chunk_bounds(const uint8_t* data, const Layout& layout) {
+  std::vector<ChunkBounds> bounds(static_cast<size_t>(layout.chunks));
+  const int fields = layout.chunk_colors ? 18 : 12;
   constexpr double kFloatMax = std::numeric_limits<float>::max();
-  for (uint64_t c = 0; c < chunks; ++c) {
-    const uint8_t* row = data + chunk.offset + c * chunk.stride;
+  for (uint64_t c = 0; c < layout.chunks; ++c) {
+    const uint8_t* row = data + layout.chunk.offset + c * layout.chunk.stride;
     for (int f = 0; f < fields; ++f) {
-      const float v = load_f32(row + chunk_offsets[f]);
+      const float v = load_f32(row + layout.chunk_offsets[f]);
       const bool scale_field = f >= 6 && f < 12;
       const bool color_field = f >= 12;
       if (!std::isfinite(v) || (scale_field && std::exp(static_cast<double>(v)) > kFloatMax) ||
@@ -217,9 +224,92 @@ Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOp
       bounds[c].lo[f] = static_cast<double>(v);
     }
   }
+  return bounds;
+}
+
+/// Decodes Gaussian `i` from its packed vertex words (and 8-bit SH through `sh_lut`) within its chunk's
+/// bounds `b` into `cloud` (sized, at the layout's SH degree).
+inline void decode_gaussian(const uint8_t* data, const Layout& layout, const ChunkBounds& b, const float* sh_lut,
+                            uint64_t i, format::GaussianCloud* cloud) {
+  const uint32_t k_count = cloud->sh_coefficients();
+  const uint32_t rest = k_count - 1;
+  const uint8_t* row = data + layout.vertex.offset + i * layout.vertex.stride;
+  const uint32_t pos = load_u32(row + layout.vertex_offsets[0]);
+  const uint32_t rot = load_u32(row + layout.vertex_offsets[1]);
+  const uint32_t scl = load_u32(row + layout.vertex_offsets[2]);
+  const uint32_t col = load_u32(row + layout.vertex_offsets[3]);
+  // 11-10-11 unorm position and log scale within the chunk's bounds.
+  const double unit[3] = {((pos >> 21) & 2047) / 2047.0, ((pos >> 11) & 1023) / 1023.0, (pos & 2047) / 2047.0};
+  const double sunit[3] = {((scl >> 21) & 2047) / 2047.0, ((scl >> 11) & 1023) / 1023.0, (scl & 2047) / 2047.0};
+  for (int a = 0; a < 3; ++a) {
+    cloud->means[i * 3 + a] = static_cast<float>(lerp(b.lo[a], b.lo[3 + a], unit[a]));
+    const float log_scale = static_cast<float>(lerp(b.lo[6 + a], b.lo[9 + a], sunit[a]));
+    cloud->scales[i * 3 + a] = static_cast<float>(std::exp(static_cast<double>(log_scale)));
+  }
+  // Smallest three: 2-bit index of the largest component (0 = w), the others as 10-bit unorm of
+  // ±1/√2, in w x y z order.
+  const double kNorm = std::sqrt(2.0);
+  double q[4];
+  const int largest = static_cast<int>(rot >> 30);
+  double sum = 0;
+  int shift = 20;
+  for (int c = 0; c < 4; ++c) {
+    if (c == largest) continue;
+    q[c] = (((rot >> shift) & 1023) / 1023.0 - 0.5) * kNorm;
+    sum += q[c] * q[c];
+    shift -= 10;
+  }
+  q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
+  const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
+  for (int c = 0; c < 4; ++c) cloud->rotations[i * 4 + c] = static_cast<float>(q[c] * inv);
+  // Colour (8-8-8) and opacity (8): colour within the chunk's colour bounds when it has them.
+  float* g_sh = cloud->sh.data() + i * k_count * 3;
+  for (int c = 0; c < 3; ++c) {
+    const double u = ((col >> (24 - 8 * c)) & 255) / 255.0;
+    const double value = layout.chunk_colors ? lerp(b.lo[12 + c], b.lo[15 + c], u) : u;
+    g_sh[c] = static_cast<float>((value - 0.5) / kShC0);
+  }
+  const double alpha = (col & 255) / 255.0;
+  const double logit = alpha <= 0   ? -kMaxOpacityLogit
+                       : alpha >= 1 ? kMaxOpacityLogit
+                                    : std::clamp(-std::log(1.0 / alpha - 1.0), -kMaxOpacityLogit, kMaxOpacityLogit);
+  const float stored_logit = static_cast<float>(logit);
+  cloud->opacities[i] = static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(stored_logit))));
+  if (rest) {
+    // f_rest is channel-major: f_rest[c·rest + k − 1] is coefficient k of channel c.
+    const uint8_t* sh_row = data + layout.sh.offset + i * layout.sh.stride;
+    for (uint32_t c = 0; c < 3; ++c) {
+      for (uint32_t k = 1; k <= rest; ++k) {
+        g_sh[k * 3 + c] = sh_lut[sh_row[layout.sh_offsets[c * rest + k - 1]]];
+      }
+    }
+  }
+}
+
+Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOptions& options) {
+  if (options.lod.has_value()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "a level of detail applies only to streamed SOG (lod-meta.json); this input is a compressed PLY");
+  }
+  if (!detail::starts_with_ply_magic(data, size)) {
+    return Status(StatusCode::kCorruptData, "not a PLY file (first line is not 'ply')");
+  }
+  const size_t header_end = detail::find_ply_header_end(data, std::min(size, detail::kMaxPlyHeaderBytes));
+  if (header_end == 0) return Status(StatusCode::kCorruptData, "PLY header has no 'end_header' line");
+  PlyHeader header;
+  RGS_RETURN_IF_ERROR(detail::parse_ply_header(data, header_end, &header));
+  if (header.storage != detail::PlyStorage::kBinaryLittleEndian) {
+    return Status(StatusCode::kUnsupportedFeature, std::string("compressed PLY must be binary_little_endian, not ") +
+                                                       detail::ply_storage_name(header.storage));
+  }
+  Layout layout;
+  RGS_RETURN_IF_ERROR(locate_elements(header, size, options, &layout));
+  RGS_RETURN_IF_ERROR(locate_properties(&layout));
+  RGS_ASSIGN_OR_RETURN(const std::vector<ChunkBounds> bounds, read_chunk_bounds(data, layout));
+  const uint64_t n = layout.n;
 
   InputScene scene;
-  scene.cloud.sh_degree = degree;
+  scene.cloud.sh_degree = layout.degree;
   {
     format::GaussianCloud& cl = scene.cloud;
     const size_t count = static_cast<size_t>(n);
@@ -235,64 +325,11 @@ Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOp
     const double unit = v == 0 ? 0.0 : v == 255 ? 1.0 : (v + 0.5) / 256.0;
     sh_lut[v] = static_cast<float>((unit - 0.5) * 8.0);
   }
-  const uint32_t k_count = scene.cloud.sh_coefficients();
-  const uint32_t rest = k_count - 1;
   format::GaussianCloud* cloud = &scene.cloud;
   const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
   RGS_RETURN_IF_ERROR(detail::parallel_slices(n, workers, [&](unsigned, uint64_t begin, uint64_t end) {
     for (uint64_t i = begin; i < end; ++i) {
-      const ChunkBounds& b = bounds[static_cast<size_t>(i / kGaussiansPerChunk)];
-      const uint8_t* row = data + vertex.offset + i * vertex.stride;
-      const uint32_t pos = load_u32(row + vertex_offsets[0]);
-      const uint32_t rot = load_u32(row + vertex_offsets[1]);
-      const uint32_t scl = load_u32(row + vertex_offsets[2]);
-      const uint32_t col = load_u32(row + vertex_offsets[3]);
-      // 11-10-11 unorm position and log scale within the chunk's bounds.
-      const double unit[3] = {((pos >> 21) & 2047) / 2047.0, ((pos >> 11) & 1023) / 1023.0, (pos & 2047) / 2047.0};
-      const double sunit[3] = {((scl >> 21) & 2047) / 2047.0, ((scl >> 11) & 1023) / 1023.0, (scl & 2047) / 2047.0};
-      for (int a = 0; a < 3; ++a) {
-        cloud->means[i * 3 + a] = static_cast<float>(lerp(b.lo[a], b.lo[3 + a], unit[a]));
-        const float log_scale = static_cast<float>(lerp(b.lo[6 + a], b.lo[9 + a], sunit[a]));
-        cloud->scales[i * 3 + a] = static_cast<float>(std::exp(static_cast<double>(log_scale)));
-      }
-      // Smallest three: 2-bit index of the largest component (0 = w), the others as 10-bit unorm of
-      // ±1/√2, in w x y z order.
-      const double kNorm = std::sqrt(2.0);
-      double q[4];
-      const int largest = static_cast<int>(rot >> 30);
-      double sum = 0;
-      int shift = 20;
-      for (int c = 0; c < 4; ++c) {
-        if (c == largest) continue;
-        q[c] = (((rot >> shift) & 1023) / 1023.0 - 0.5) * kNorm;
-        sum += q[c] * q[c];
-        shift -= 10;
-      }
-      q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
-      const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
-      for (int c = 0; c < 4; ++c) cloud->rotations[i * 4 + c] = static_cast<float>(q[c] * inv);
-      // Colour (8-8-8) and opacity (8): colour within the chunk's colour bounds when it has them.
-      float* g_sh = cloud->sh.data() + i * k_count * 3;
-      for (int c = 0; c < 3; ++c) {
-        const double u = ((col >> (24 - 8 * c)) & 255) / 255.0;
-        const double value = chunk_colors ? lerp(b.lo[12 + c], b.lo[15 + c], u) : u;
-        g_sh[c] = static_cast<float>((value - 0.5) / kShC0);
-      }
-      const double alpha = (col & 255) / 255.0;
-      const double logit = alpha <= 0   ? -kMaxOpacityLogit
-                           : alpha >= 1 ? kMaxOpacityLogit
-                                        : std::clamp(-std::log(1.0 / alpha - 1.0), -kMaxOpacityLogit, kMaxOpacityLogit);
-      const float stored_logit = static_cast<float>(logit);
-      cloud->opacities[i] = static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(stored_logit))));
-      if (rest) {
-        // f_rest is channel-major: f_rest[c·rest + k − 1] is coefficient k of channel c.
-        const uint8_t* sh_row = data + sh.offset + i * sh.stride;
-        for (uint32_t c = 0; c < 3; ++c) {
-          for (uint32_t k = 1; k <= rest; ++k) {
-            g_sh[k * 3 + c] = sh_lut[sh_row[sh_offsets[c * rest + k - 1]]];
-          }
-        }
-      }
+      decode_gaussian(data, layout, bounds[static_cast<size_t>(i / kGaussiansPerChunk)], sh_lut, i, cloud);
     }
   }));
 

@@ -147,6 +147,15 @@ bool base64_decode(const std::string& in, size_t start, std::vector<uint8_t>* ou
   return true;
 }
 
+/// The accessors of one splat primitive (SH: one per coefficient k, all degrees up to `degree`) and the world
+/// transform of the node that draws it.
+struct PrimitiveAccessors {
+  Accessor pos, rot, scale, opacity;
+  std::vector<Accessor> sh;
+  uint32_t degree = 0;
+  const double* world = nullptr;
+};
+
 class Reader {
  public:
   /// `folder`: the scene's folder, for buffers in files of their own; null for data in memory.
@@ -163,11 +172,17 @@ class Reader {
   };
 
   Status check_asset();
+  /// Splat primitives of the default scene, or of every mesh when there is no scene, into prims_.
+  Status find_primitives();
   Status collect(const json& nodes_list);
   Status visit(uint64_t node, const double parent[16], int depth);
   Status buffer(uint64_t index, const uint8_t** data, uint64_t* size);
   Status accessor(const json& attributes, const std::string& semantic, const char* type, int components,
                   const Allowed& allowed, Accessor* out);
+  /// Checks primitive `index`'s extension, mode and attributes and finds its accessors (counts all equal).
+  Status primitive_accessors(size_t index, PrimitiveAccessors* d);
+  /// The SH accessors of a primitive with attributes `attrs`: every coefficient of degrees 0..l, none above.
+  Status sh_accessors(const json& attrs, const std::string& where, PrimitiveAccessors* d);
 
   const json& doc_;
   const uint8_t* bin_;
@@ -443,10 +458,7 @@ Status Reader::accessor(const json& attributes, const std::string& semantic, con
   return Status();
 }
 
-Result<InteropScene> Reader::read(const std::string& container, uint64_t file_bytes) {
-  if (!doc_.is_object()) return corrupt("glTF JSON is not an object");
-  RGS_RETURN_IF_ERROR(check_asset());
-  // Primitives of the default scene, or of every mesh when there is no scene.
+Status Reader::find_primitives() {
   auto scenes = doc_.find("scenes");
   if (scenes != doc_.end() && scenes->is_array() && !scenes->empty()) {
     uint64_t s = 0;
@@ -475,6 +487,64 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
     return Status(StatusCode::kUnsupportedFeature,
                   "glTF has no mesh primitive with the KHR_gaussian_splatting extension");
   }
+  return Status();
+}
+
+Status Reader::sh_accessors(const json& attrs, const std::string& where, PrimitiveAccessors* d) {
+  const Allowed sh_types;
+  for (uint32_t l = 0; l <= 3; ++l) {
+    int present = 0;
+    for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
+      present +=
+          attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m));
+    }
+    if (present == 0) {
+      if (l == 0) return corrupt(where + " has no KHR_gaussian_splatting:SH_DEGREE_0_COEF_0");
+      for (uint32_t h = l + 1; h <= 3; ++h) {
+        if (attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(h) + "_COEF_0")) {
+          return corrupt(where + " has SH degree " + std::to_string(h) + " without degree " + std::to_string(l));
+        }
+      }
+      break;
+    }
+    if (present != detail::kGltfShCoefs[l]) {
+      return corrupt(where + " defines " + std::to_string(present) + " of the " +
+                     std::to_string(detail::kGltfShCoefs[l]) + " coefficients of SH degree " + std::to_string(l));
+    }
+    for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
+      Accessor a;
+      RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" +
+                                              std::to_string(m), "VEC3", 3, sh_types, &a));
+      d->sh.push_back(a);
+    }
+    d->degree = l;
+  }
+  return Status();
+}
+
+Status Reader::primitive_accessors(size_t index, PrimitiveAccessors* d) {
+  const json& p = *prims_[index].prim;
+  const std::string where = "glTF splat primitive " + std::to_string(index);
+  const json& ext = p["extensions"][detail::kKhrGaussianSplatting];
+  if (!ext.is_object()) return corrupt(where + ": KHR_gaussian_splatting is not an object");
+  const std::string kernel = ext.value("kernel", std::string());
+  if (kernel != "ellipse") {
+    return Status(StatusCode::kUnsupportedFeature, where + " has kernel '" + kernel + "' (supported: ellipse)");
+  }
+  const std::string color_space = ext.value("colorSpace", std::string());
+  if (color_space != "srgb_rec709_display") {
+    notes_.push_back(where + ": colorSpace '" + color_space + "' kept as stored; RoofGS renders colours as 3DGS "
+                     "does (srgb_rec709_display)");
+  }
+  if (ext.value("projection", std::string("perspective")) != "perspective" ||
+      ext.value("sortingMethod", std::string("cameraDistance")) != "cameraDistance") {
+    notes_.push_back(where + ": projection/sortingMethod other than perspective/cameraDistance ignored");
+  }
+  uint64_t mode = 4;
+  RGS_RETURN_IF_ERROR(get_index(p, "mode", &mode, false, where, 4));
+  if (mode != 0) return corrupt(where + " has mode " + std::to_string(mode) + "; splats must be POINTS (0)");
+  if (!p.contains("attributes") || !p["attributes"].is_object()) return corrupt(where + " has no attributes");
+  const json& attrs = p["attributes"];
   Allowed position_types;
   position_types.byte_norm = position_types.short_norm = position_types.ubyte = position_types.ubyte_norm = true;
   position_types.ushort = position_types.ushort_norm = position_types.byte_raw = position_types.short_raw = true;
@@ -484,90 +554,135 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
   scale_types.ubyte = scale_types.ubyte_norm = scale_types.ushort = scale_types.ushort_norm = true;
   Allowed opacity_types;
   opacity_types.ubyte_norm = opacity_types.ushort_norm = true;
-  const Allowed sh_types;
+  d->world = prims_[index].world;
+  RGS_RETURN_IF_ERROR(accessor(attrs, "POSITION", "VEC3", 3, position_types, &d->pos));
+  RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:ROTATION", "VEC4", 4, rotation_types, &d->rot));
+  RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:SCALE", "VEC3", 3, scale_types, &d->scale));
+  RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:OPACITY", "SCALAR", 1, opacity_types, &d->opacity));
+  RGS_RETURN_IF_ERROR(sh_accessors(attrs, where, d));
+  const uint64_t n = d->pos.count;
+  for (const Accessor* a : {&d->rot, &d->scale, &d->opacity}) {
+    if (a->count != n) {
+      return corrupt(where + ": attribute counts differ (" + std::to_string(n) + " positions, " +
+                     std::to_string(a->count) + " in another attribute)");
+    }
+  }
+  for (const Accessor& a : d->sh) {
+    if (a.count != n)
+      return corrupt(where + ": SH accessor holds " + std::to_string(a.count) + " values, POSITION " +
+                     std::to_string(n));
+  }
+  return Status();
+}
 
-  struct Decoded {
-    Accessor pos, rot, scale, opacity;
-    std::vector<Accessor> sh;  // per coefficient k
-    uint32_t degree = 0;
-    const double* world = nullptr;
-  };
-  std::vector<Decoded> parts;
+/// A node's world transform M = R·s + translation (column-major `m`), with R as a quaternion.
+struct NodeTransform {
+  const double* m = nullptr;
+  bool identity = true;
+  double s = 1;
+  double qr[4] = {1, 0, 0, 0};  ///< (w, x, y, z) of R
+};
+
+/// Splits the world transform of splat primitive `index` (`d`) into R and uniform s > 0; refuses any other
+/// transform, and a rotation of a primitive with SH above degree 0.
+Status node_transform(const PrimitiveAccessors& d, size_t index, NodeTransform* t) {
+  const double* m = t->m = d.world;
+  double col[3];
+  for (int c = 0; c < 3; ++c)
+    col[c] = std::sqrt(m[c * 4] * m[c * 4] + m[c * 4 + 1] * m[c * 4 + 1] + m[c * 4 + 2] * m[c * 4 + 2]);
+  const double s = t->s = col[0];
+  for (int i = 0; i < 16; ++i) t->identity = t->identity && std::fabs(m[i] - ((i % 5 == 0) ? 1.0 : 0.0)) < 1e-12;
+  if (t->identity) return Status();
+  double* qr = t->qr;
+  const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
+                     m[8] * (m[1] * m[6] - m[5] * m[2]);
+  if (!(s > 0) || std::fabs(col[1] - s) > 1e-6 * s || std::fabs(col[2] - s) > 1e-6 * s || det <= 0 ||
+      std::fabs(m[3]) + std::fabs(m[7]) + std::fabs(m[11]) > 1e-12 || std::fabs(m[15] - 1) > 1e-12) {
+    return Status(StatusCode::kUnsupportedFeature, "glTF splat primitive " + std::to_string(index) +
+                                                       " has a node transform that is not rotation + uniform "
+                                                       "positive scale + translation");
+  }
+  // Rotation matrix R = M / s (column-major), to a quaternion.
+  const double r00 = m[0] / s, r10 = m[1] / s, r20 = m[2] / s, r01 = m[4] / s, r11 = m[5] / s, r21 = m[6] / s,
+               r02 = m[8] / s, r12 = m[9] / s, r22 = m[10] / s;
+  const double tr = r00 + r11 + r22;
+  if (tr > 0) {
+    const double u = std::sqrt(tr + 1.0) * 2;
+    qr[0] = 0.25 * u, qr[1] = (r21 - r12) / u, qr[2] = (r02 - r20) / u, qr[3] = (r10 - r01) / u;
+  } else if (r00 > r11 && r00 > r22) {
+    const double u = std::sqrt(1.0 + r00 - r11 - r22) * 2;
+    qr[0] = (r21 - r12) / u, qr[1] = 0.25 * u, qr[2] = (r01 + r10) / u, qr[3] = (r02 + r20) / u;
+  } else if (r11 > r22) {
+    const double u = std::sqrt(1.0 + r11 - r00 - r22) * 2;
+    qr[0] = (r02 - r20) / u, qr[1] = (r01 + r10) / u, qr[2] = 0.25 * u, qr[3] = (r12 + r21) / u;
+  } else {
+    const double u = std::sqrt(1.0 + r22 - r00 - r11) * 2;
+    qr[0] = (r10 - r01) / u, qr[1] = (r02 + r20) / u, qr[2] = (r12 + r21) / u, qr[3] = 0.25 * u;
+  }
+  const bool rotates = std::fabs(std::fabs(qr[0]) - 1.0) > 1e-9;
+  if (rotates && d.degree > 0) {
+    return Status(StatusCode::kUnsupportedFeature,
+                  "glTF splat primitive " + std::to_string(index) + " is rotated by its node and has SH degree " +
+                      std::to_string(d.degree) + "; rotating SH coefficients is not supported");
+  }
+  return Status();
+}
+
+/// Decodes the Gaussians of one primitive, transformed by `t`, into `cloud` from Gaussian `at` on; counts
+/// opacities outside [0, 1] and negative scales.
+void copy_gaussians(const PrimitiveAccessors& d, const NodeTransform& t, uint64_t at, format::GaussianCloud* cloud,
+                    uint64_t* bad_opacity, uint64_t* bad_scale) {
+  const uint32_t k_count = cloud->sh_coefficients();
+  const double* m = t.m;
+  const double* qr = t.qr;
+  const uint64_t n = d.pos.count;
+  for (uint64_t i = 0; i < n; ++i, ++at) {
+    double p[3], q[4], sc[3];
+    for (int a = 0; a < 3; ++a) p[a] = d.pos.get(i, a);
+    for (int a = 0; a < 3; ++a) sc[a] = d.scale.get(i, a);
+    // glTF (x, y, z, w) → (w, x, y, z)
+    q[0] = d.rot.get(i, 3), q[1] = d.rot.get(i, 0), q[2] = d.rot.get(i, 1), q[3] = d.rot.get(i, 2);
+    if (!t.identity) {
+      double u[3];
+      for (int r = 0; r < 3; ++r) u[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+      std::memcpy(p, u, sizeof(u));
+      for (double& v : sc) v *= t.s;
+      const double w = qr[0] * q[0] - qr[1] * q[1] - qr[2] * q[2] - qr[3] * q[3];
+      const double x = qr[0] * q[1] + qr[1] * q[0] + qr[2] * q[3] - qr[3] * q[2];
+      const double y = qr[0] * q[2] - qr[1] * q[3] + qr[2] * q[0] + qr[3] * q[1];
+      const double z = qr[0] * q[3] + qr[1] * q[2] - qr[2] * q[1] + qr[3] * q[0];
+      q[0] = w, q[1] = x, q[2] = y, q[3] = z;
+    }
+    for (int a = 0; a < 3; ++a) {
+      cloud->means[at * 3 + a] = static_cast<float>(p[a]);
+      cloud->scales[at * 3 + a] = static_cast<float>(sc[a]);
+      *bad_scale += sc[a] < 0;
+    }
+    for (int a = 0; a < 4; ++a) cloud->rotations[at * 4 + a] = static_cast<float>(q[a]);
+    const float o = d.opacity.get(i, 0);
+    *bad_opacity += o < 0.0f || o > 1.0f;
+    cloud->opacities[at] = o;
+    for (uint32_t k = 0; k < k_count; ++k) {
+      for (int c = 0; c < 3; ++c) cloud->sh[(at * k_count + k) * 3 + c] = d.sh[k].get(i, c);
+    }
+  }
+}
+
+Result<InteropScene> Reader::read(const std::string& container, uint64_t file_bytes) {
+  if (!doc_.is_object()) return corrupt("glTF JSON is not an object");
+  RGS_RETURN_IF_ERROR(check_asset());
+  RGS_RETURN_IF_ERROR(find_primitives());
+  std::vector<PrimitiveAccessors> parts;
   uint64_t total = 0;
   for (size_t pi = 0; pi < prims_.size(); ++pi) {
-    const json& p = *prims_[pi].prim;
-    const std::string where = "glTF splat primitive " + std::to_string(pi);
-    const json& ext = p["extensions"][detail::kKhrGaussianSplatting];
-    if (!ext.is_object()) return corrupt(where + ": KHR_gaussian_splatting is not an object");
-    const std::string kernel = ext.value("kernel", std::string());
-    if (kernel != "ellipse") {
-      return Status(StatusCode::kUnsupportedFeature, where + " has kernel '" + kernel + "' (supported: ellipse)");
-    }
-    const std::string color_space = ext.value("colorSpace", std::string());
-    if (color_space != "srgb_rec709_display") {
-      notes_.push_back(where + ": colorSpace '" + color_space + "' kept as stored; RoofGS renders colours as 3DGS "
-                       "does (srgb_rec709_display)");
-    }
-    if (ext.value("projection", std::string("perspective")) != "perspective" ||
-        ext.value("sortingMethod", std::string("cameraDistance")) != "cameraDistance") {
-      notes_.push_back(where + ": projection/sortingMethod other than perspective/cameraDistance ignored");
-    }
-    uint64_t mode = 4;
-    RGS_RETURN_IF_ERROR(get_index(p, "mode", &mode, false, where, 4));
-    if (mode != 0) return corrupt(where + " has mode " + std::to_string(mode) + "; splats must be POINTS (0)");
-    if (!p.contains("attributes") || !p["attributes"].is_object()) return corrupt(where + " has no attributes");
-    const json& attrs = p["attributes"];
-    Decoded d;
-    d.world = prims_[pi].world;
-    RGS_RETURN_IF_ERROR(accessor(attrs, "POSITION", "VEC3", 3, position_types, &d.pos));
-    RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:ROTATION", "VEC4", 4, rotation_types, &d.rot));
-    RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:SCALE", "VEC3", 3, scale_types, &d.scale));
-    RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:OPACITY", "SCALAR", 1, opacity_types, &d.opacity));
-    // SH: degree l is present when any of its coefficients is; then all of them and all lower degrees must be.
-    for (uint32_t l = 0; l <= 3; ++l) {
-      int present = 0;
-      for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
-        present +=
-            attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m));
-      }
-      if (present == 0) {
-        if (l == 0) return corrupt(where + " has no KHR_gaussian_splatting:SH_DEGREE_0_COEF_0");
-        for (uint32_t h = l + 1; h <= 3; ++h) {
-          if (attrs.contains("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(h) + "_COEF_0")) {
-            return corrupt(where + " has SH degree " + std::to_string(h) + " without degree " + std::to_string(l));
-          }
-        }
-        break;
-      }
-      if (present != detail::kGltfShCoefs[l]) {
-        return corrupt(where + " defines " + std::to_string(present) + " of the " +
-                       std::to_string(detail::kGltfShCoefs[l]) + " coefficients of SH degree " + std::to_string(l));
-      }
-      for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
-        Accessor a;
-        RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" +
-                                                std::to_string(m), "VEC3", 3, sh_types, &a));
-        d.sh.push_back(a);
-      }
-      d.degree = l;
-    }
-    const uint64_t n = d.pos.count;
-    for (const Accessor* a : {&d.rot, &d.scale, &d.opacity}) {
-      if (a->count != n) {
-        return corrupt(where + ": attribute counts differ (" + std::to_string(n) + " positions, " +
-                       std::to_string(a->count) + " in another attribute)");
-      }
-    }
-    for (const Accessor& a : d.sh) {
-      if (a.count != n)
-        return corrupt(where + ": SH accessor holds " + std::to_string(a.count) + " values, POSITION " +
-                       std::to_string(n));
-    }
+    PrimitiveAccessors d;
+    RGS_RETURN_IF_ERROR(primitive_accessors(pi, &d));
     if (!parts.empty() && parts.front().degree != d.degree) {
-      return Status(StatusCode::kUnsupportedFeature, where + " has SH degree " + std::to_string(d.degree) +
+      return Status(StatusCode::kUnsupportedFeature, "glTF splat primitive " + std::to_string(pi) +
+                                                         " has SH degree " + std::to_string(d.degree) +
                                                          ", primitive 0 has " + std::to_string(parts.front().degree));
     }
-    total += n;
+    total += d.pos.count;
     if (total > options_.max_gaussians) {
       return Status(StatusCode::kLimitExceeded, "glTF declares " + std::to_string(total) +
                                                     " or more Gaussians, above the limit of " +
@@ -589,83 +704,12 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
   format::GaussianCloud& cloud = scene.cloud;
   cloud.sh_degree = parts.front().degree;
   cloud.resize(static_cast<size_t>(total));
-  const uint32_t k_count = cloud.sh_coefficients();
   uint64_t at = 0, bad_opacity = 0, bad_scale = 0;
   for (size_t pi = 0; pi < parts.size(); ++pi) {
-    const Decoded& d = parts[pi];
-    // World transform: M = R·s (uniform s > 0), applied when not the identity.
-    const double* m = d.world;
-    double col[3];
-    for (int c = 0; c < 3; ++c)
-      col[c] = std::sqrt(m[c * 4] * m[c * 4] + m[c * 4 + 1] * m[c * 4 + 1] + m[c * 4 + 2] * m[c * 4 + 2]);
-    const double s = col[0];
-    bool is_identity = true;
-    for (int i = 0; i < 16; ++i) is_identity = is_identity && std::fabs(m[i] - ((i % 5 == 0) ? 1.0 : 0.0)) < 1e-12;
-    double qr[4] = {1, 0, 0, 0};  // (w, x, y, z) of R
-    if (!is_identity) {
-      const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
-                         m[8] * (m[1] * m[6] - m[5] * m[2]);
-      if (!(s > 0) || std::fabs(col[1] - s) > 1e-6 * s || std::fabs(col[2] - s) > 1e-6 * s || det <= 0 ||
-          std::fabs(m[3]) + std::fabs(m[7]) + std::fabs(m[11]) > 1e-12 || std::fabs(m[15] - 1) > 1e-12) {
-        return Status(StatusCode::kUnsupportedFeature, "glTF splat primitive " + std::to_string(pi) +
-                                                           " has a node transform that is not rotation + uniform "
-                                                           "positive scale + translation");
-      }
-      // Rotation matrix R = M / s (column-major), to a quaternion.
-      const double r00 = m[0] / s, r10 = m[1] / s, r20 = m[2] / s, r01 = m[4] / s, r11 = m[5] / s, r21 = m[6] / s,
-                   r02 = m[8] / s, r12 = m[9] / s, r22 = m[10] / s;
-      const double tr = r00 + r11 + r22;
-      if (tr > 0) {
-        const double t = std::sqrt(tr + 1.0) * 2;
-        qr[0] = 0.25 * t, qr[1] = (r21 - r12) / t, qr[2] = (r02 - r20) / t, qr[3] = (r10 - r01) / t;
-      } else if (r00 > r11 && r00 > r22) {
-        const double t = std::sqrt(1.0 + r00 - r11 - r22) * 2;
-        qr[0] = (r21 - r12) / t, qr[1] = 0.25 * t, qr[2] = (r01 + r10) / t, qr[3] = (r02 + r20) / t;
-      } else if (r11 > r22) {
-        const double t = std::sqrt(1.0 + r11 - r00 - r22) * 2;
-        qr[0] = (r02 - r20) / t, qr[1] = (r01 + r10) / t, qr[2] = 0.25 * t, qr[3] = (r12 + r21) / t;
-      } else {
-        const double t = std::sqrt(1.0 + r22 - r00 - r11) * 2;
-        qr[0] = (r10 - r01) / t, qr[1] = (r02 + r20) / t, qr[2] = (r12 + r21) / t, qr[3] = 0.25 * t;
-      }
-      const bool rotates = std::fabs(std::fabs(qr[0]) - 1.0) > 1e-9;
-      if (rotates && d.degree > 0) {
-        return Status(StatusCode::kUnsupportedFeature,
-                      "glTF splat primitive " + std::to_string(pi) + " is rotated by its node and has SH degree " +
-                          std::to_string(d.degree) + "; rotating SH coefficients is not supported");
-      }
-    }
-    const uint64_t n = d.pos.count;
-    for (uint64_t i = 0; i < n; ++i, ++at) {
-      double p[3], q[4], sc[3];
-      for (int a = 0; a < 3; ++a) p[a] = d.pos.get(i, a);
-      for (int a = 0; a < 3; ++a) sc[a] = d.scale.get(i, a);
-      // glTF (x, y, z, w) → (w, x, y, z)
-      q[0] = d.rot.get(i, 3), q[1] = d.rot.get(i, 0), q[2] = d.rot.get(i, 1), q[3] = d.rot.get(i, 2);
-      if (!is_identity) {
-        double t[3];
-        for (int r = 0; r < 3; ++r) t[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
-        std::memcpy(p, t, sizeof(t));
-        for (double& v : sc) v *= s;
-        const double w = qr[0] * q[0] - qr[1] * q[1] - qr[2] * q[2] - qr[3] * q[3];
-        const double x = qr[0] * q[1] + qr[1] * q[0] + qr[2] * q[3] - qr[3] * q[2];
-        const double y = qr[0] * q[2] - qr[1] * q[3] + qr[2] * q[0] + qr[3] * q[1];
-        const double z = qr[0] * q[3] + qr[1] * q[2] - qr[2] * q[1] + qr[3] * q[0];
-        q[0] = w, q[1] = x, q[2] = y, q[3] = z;
-      }
-      for (int a = 0; a < 3; ++a) {
-        cloud.means[at * 3 + a] = static_cast<float>(p[a]);
-        cloud.scales[at * 3 + a] = static_cast<float>(sc[a]);
-        bad_scale += sc[a] < 0;
-      }
-      for (int a = 0; a < 4; ++a) cloud.rotations[at * 4 + a] = static_cast<float>(q[a]);
-      const float o = d.opacity.get(i, 0);
-      bad_opacity += o < 0.0f || o > 1.0f;
-      cloud.opacities[at] = o;
-      for (uint32_t k = 0; k < k_count; ++k) {
-        for (int c = 0; c < 3; ++c) cloud.sh[(at * k_count + k) * 3 + c] = d.sh[k].get(i, c);
-      }
-    }
+    NodeTransform t;
+    RGS_RETURN_IF_ERROR(node_transform(parts[pi], pi, &t));
+    copy_gaussians(parts[pi], t, at, &cloud, &bad_opacity, &bad_scale);
+    at += parts[pi].pos.count;
   }
   if (bad_opacity != 0 || bad_scale != 0) {
     return corrupt(std::to_string(bad_opacity) + " opacities outside [0, 1] and " + std::to_string(bad_scale) +

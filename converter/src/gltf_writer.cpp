@@ -48,19 +48,12 @@ Segment float_segment(std::string semantic, const char* type, uint64_t count, si
 /// sRGB transfer function decoded to linear (IEC 61966-2-1).
 double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
-Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const GltfWriteOptions& o,
-                                       GltfWriteSummary* summary) {
-  RGS_RETURN_IF_ERROR(detail::check_writable_cloud(cloud));
+/// One segment per attribute of `cloud` (already in the file's frame), in accessor order: POSITION (with the
+/// min and max glTF requires), COLOR_0 when asked (linear RGB of the SH DC colour, opacity as alpha), the
+/// extension's ROTATION, SCALE, OPACITY and SH coefficients.
+std::vector<Segment> attribute_segments(const format::GaussianCloud& cloud, bool color_fallback) {
   const uint64_t n = cloud.size();
-  if (n > UINT32_MAX) {
-    return Status(StatusCode::kInvalidArgument, std::to_string(n) + " Gaussians exceed a glTF accessor's count");
-  }
-  detail::AxisFlip flip;
-  if (o.convert_frame) detail::flip_to_rdf("LUF", &flip);  // LUF ↔ RDF is one self-inverse 180° turn about z
-  format::GaussianCloud out = cloud;
-  detail::apply_axis_flip(flip, &out);
-  const uint32_t k_count = out.sh_coefficients();
-
+  const uint32_t k_count = cloud.sh_coefficients();
   std::vector<Segment> segs;
   {
     Segment s = float_segment("POSITION", "VEC3", n, 3);
@@ -71,7 +64,7 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
     }
     for (uint64_t i = 0; i < n; ++i) {
       for (int a = 0; a < 3; ++a) {
-        const float v = out.means[i * 3 + a];
+        const float v = cloud.means[i * 3 + a];
         detail::put_f32(s.data.data() + (i * 3 + a) * 4, v);
         lo[a] = std::min(lo[a], v);
         hi[a] = std::max(hi[a], v);
@@ -83,7 +76,7 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
     }
     segs.push_back(std::move(s));
   }
-  if (o.color_fallback) {
+  if (color_fallback) {
     Segment s;
     s.semantic = "COLOR_0";
     s.type = "VEC4";
@@ -93,17 +86,17 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
     s.data.resize(static_cast<size_t>(n * 4));
     for (uint64_t i = 0; i < n; ++i) {
       for (int c = 0; c < 3; ++c) {
-        const double srgb = std::clamp(0.5 + kShC0 * out.sh[i * k_count * 3 + c], 0.0, 1.0);
+        const double srgb = std::clamp(0.5 + kShC0 * cloud.sh[i * k_count * 3 + c], 0.0, 1.0);
         s.data[i * 4 + c] = static_cast<uint8_t>(std::lround(srgb_to_linear(srgb) * 255.0));
       }
-      s.data[i * 4 + 3] = static_cast<uint8_t>(std::lround(std::clamp<double>(out.opacities[i], 0.0, 1.0) * 255.0));
+      s.data[i * 4 + 3] = static_cast<uint8_t>(std::lround(std::clamp<double>(cloud.opacities[i], 0.0, 1.0) * 255.0));
     }
     segs.push_back(std::move(s));
   }
   {
     Segment s = float_segment("KHR_gaussian_splatting:ROTATION", "VEC4", n, 4);
     for (uint64_t i = 0; i < n; ++i) {
-      const float* q = out.rotations.data() + i * 4;  // (w, x, y, z) → glTF's (x, y, z, w)
+      const float* q = cloud.rotations.data() + i * 4;  // (w, x, y, z) → glTF's (x, y, z, w)
       const float xyzw[4] = {q[1], q[2], q[3], q[0]};
       for (int a = 0; a < 4; ++a) detail::put_f32(s.data.data() + (i * 4 + a) * 4, xyzw[a]);
     }
@@ -111,32 +104,40 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
   }
   {
     Segment s = float_segment("KHR_gaussian_splatting:SCALE", "VEC3", n, 3);
-    for (uint64_t j = 0; j < n * 3; ++j) detail::put_f32(s.data.data() + j * 4, out.scales[j]);
+    for (uint64_t j = 0; j < n * 3; ++j) detail::put_f32(s.data.data() + j * 4, cloud.scales[j]);
     segs.push_back(std::move(s));
   }
   {
     Segment s = float_segment("KHR_gaussian_splatting:OPACITY", "SCALAR", n, 1);
-    for (uint64_t i = 0; i < n; ++i) detail::put_f32(s.data.data() + i * 4, out.opacities[i]);
+    for (uint64_t i = 0; i < n; ++i) detail::put_f32(s.data.data() + i * 4, cloud.opacities[i]);
     segs.push_back(std::move(s));
   }
   uint32_t k = 0;
-  for (uint32_t l = 0; l <= out.sh_degree; ++l) {
+  for (uint32_t l = 0; l <= cloud.sh_degree; ++l) {
     for (int m = 0; m < detail::kGltfShCoefs[l]; ++m, ++k) {
       Segment s = float_segment("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m),
                                 "VEC3", n, 3);
       for (uint64_t i = 0; i < n; ++i) {
-        for (int c = 0; c < 3; ++c) detail::put_f32(s.data.data() + (i * 3 + c) * 4, out.sh[(i * k_count + k) * 3 + c]);
+        for (int c = 0; c < 3; ++c) {
+          detail::put_f32(s.data.data() + (i * 3 + c) * 4, cloud.sh[(i * k_count + k) * 3 + c]);
+        }
       }
       segs.push_back(std::move(s));
     }
   }
+  return segs;
+}
 
+/// The glTF JSON of one splat primitive whose accessors are `segs`, each in a buffer view of its own, laid
+/// out one after the other (4-byte aligned) in buffer 0; `*bin_bytes`: that buffer's length. Padded with
+/// spaces to a multiple of 4 bytes, as the GLB JSON chunk is.
+std::string gltf_json(const std::vector<Segment>& segs, const std::string& generator, uint64_t* bin_bytes) {
   json buffer_views = json::array(), accessors = json::array(), attributes = json::object();
-  uint64_t bin_bytes = 0;
+  *bin_bytes = 0;
   for (size_t v = 0; v < segs.size(); ++v) {
     const Segment& s = segs[v];
     buffer_views.push_back({{"buffer", 0},
-                            {"byteOffset", bin_bytes},
+                            {"byteOffset", *bin_bytes},
                             {"byteLength", s.data.size()},
                             {"target", detail::kGltfArrayBuffer}});
     json acc = {{"bufferView", v}, {"componentType", s.component_type}, {"count", s.count}, {"type", s.type}};
@@ -147,14 +148,14 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
     }
     accessors.push_back(std::move(acc));
     attributes[s.semantic] = v;
-    bin_bytes += align4(s.data.size());
+    *bin_bytes += align4(s.data.size());
   }
   json ext = {{"kernel", "ellipse"},
               {"colorSpace", "srgb_rec709_display"},
               {"projection", "perspective"},
               {"sortingMethod", "cameraDistance"}};
   json gltf = {
-      {"asset", {{"version", "2.0"}, {"generator", o.generator}}},
+      {"asset", {{"version", "2.0"}, {"generator", generator}}},
       {"extensionsUsed", json::array({detail::kKhrGaussianSplatting})},
       {"scene", 0},
       {"scenes", json::array({{{"nodes", json::array({0})}}})},
@@ -163,12 +164,18 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
        json::array({{{"primitives", json::array({{{"attributes", attributes},
                                                   {"mode", 0},
                                                   {"extensions", {{detail::kKhrGaussianSplatting, ext}}}}})}}})},
-      {"buffers", json::array({{{"byteLength", bin_bytes}}})},
+      {"buffers", json::array({{{"byteLength", *bin_bytes}}})},
       {"bufferViews", buffer_views},
       {"accessors", accessors},
   };
   std::string text = gltf.dump();
   while (text.size() % 4 != 0) text += ' ';  // the JSON chunk is padded with spaces
+  return text;
+}
+
+/// The GLB file: header, JSON chunk `text` (padded), BIN chunk of `bin_bytes` holding `segs`.
+Result<std::vector<uint8_t>> assemble_glb(const std::string& text, const std::vector<Segment>& segs,
+                                          uint64_t bin_bytes) {
   const uint64_t total = detail::kGlbHeaderBytes + 8 + text.size() + 8 + bin_bytes;
   if (total > UINT32_MAX) {
     return Status(StatusCode::kInvalidArgument, "GLB of " + std::to_string(total) + " bytes exceeds the 4 GiB the "
@@ -190,10 +197,28 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
     if (!s.data.empty()) std::memcpy(bin + at, s.data.data(), s.data.size());
     at += align4(s.data.size());  // padding stays zero
   }
+  return bytes;
+}
+
+Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const GltfWriteOptions& o,
+                                       GltfWriteSummary* summary) {
+  RGS_RETURN_IF_ERROR(detail::check_writable_cloud(cloud));
+  const uint64_t n = cloud.size();
+  if (n > UINT32_MAX) {
+    return Status(StatusCode::kInvalidArgument, std::to_string(n) + " Gaussians exceed a glTF accessor's count");
+  }
+  detail::AxisFlip flip;
+  if (o.convert_frame) detail::flip_to_rdf("LUF", &flip);  // LUF ↔ RDF is one self-inverse 180° turn about z
+  format::GaussianCloud out = cloud;
+  detail::apply_axis_flip(flip, &out);
+  const std::vector<Segment> segs = attribute_segments(out, o.color_fallback);
+  uint64_t bin_bytes = 0;
+  const std::string text = gltf_json(segs, o.generator, &bin_bytes);
+  RGS_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, assemble_glb(text, segs, bin_bytes));
   *summary = GltfWriteSummary{};
   summary->sh_degree = cloud.sh_degree;
   summary->gaussians = n;
-  summary->bytes = total;
+  summary->bytes = bytes.size();
   summary->limitations.push_back("all attributes stored as float32: nothing is quantized");
   summary->limitations.push_back(o.convert_frame
                                      ? "frame: converted to glTF's y-up axes (x and y negated)"

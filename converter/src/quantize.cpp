@@ -127,6 +127,200 @@ inline int8_t quantize_value(float v, double s, double inv_s, bool* clipped) {
   return static_cast<int8_t>((qc ^ neg) - neg);
 }
 
+/// The arguments quantize() refuses before looking at any Gaussian.
+Status check_quantize_inputs(const format::GaussianCloud& cloud, const QuantizeOptions& options) {
+  if (!cloud.is_consistent()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "cloud arrays are inconsistent with " + std::to_string(cloud.size()) + " Gaussians at SH degree " +
+                      std::to_string(cloud.sh_degree));
+  }
+  const float pct = options.sh_clip_percentile;
+  if (!(pct > 0.0f && pct <= 100.0f)) {
+    return Status(StatusCode::kInvalidArgument,
+                  "SH clip percentile " + std::to_string(pct) + " is outside (0, 100]");
+  }
+  if (options.scale_encoding != format::ScaleEncoding::kLinear &&
+      options.scale_encoding != format::ScaleEncoding::kLog) {
+    return Status(StatusCode::kInvalidArgument,
+                  "unknown scale encoding " + std::to_string(static_cast<int>(options.scale_encoding)));
+  }
+  return Status();
+}
+
+/// Pass 1: validates every Gaussian (the first bad one of the first slice that has one is reported) and finds
+/// max |SH| per (degree, channel) into `max_abs`.
+Status scan_cloud(const format::GaussianCloud& cloud, const QuantizeOptions& options, unsigned workers,
+                  float max_abs[4][3]) {
+  std::vector<ScanResult> scans(workers);
+  RGS_RETURN_IF_ERROR(detail::parallel_slices(cloud.size(), workers, [&](unsigned t, uint64_t b, uint64_t e) {
+    scan_slice(cloud, options, b, e, &scans[t]);
+  }));
+  for (const ScanResult& s : scans) {
+    if (s.bad_index != std::numeric_limits<uint64_t>::max()) {
+      return Status(StatusCode::kInvalidArgument,
+                    "cannot quantize Gaussian " + std::to_string(s.bad_index) + ": " + s.why);
+    }
+    for (int d = 0; d < 4; ++d) {
+      for (int c = 0; c < 3; ++c) max_abs[d][c] = std::max(max_abs[d][c], s.max_abs[d][c]);
+    }
+  }
+  return Status();
+}
+
+/// SH scales: max rule (`max_abs`), or the P-th percentile of |SH| (nearest rank) per (degree, channel).
+format::ShQuantization sh_quantization(const format::GaussianCloud& cloud, float pct, const float max_abs[4][3]) {
+  const uint64_t n = cloud.size();
+  const uint32_t k_count = cloud.sh_coefficients();
+  format::ShQuantization shq;
+  shq.bits = 8;
+  shq.clip_percentile = pct;
+  std::vector<float> magnitudes;
+  for (uint32_t d = 0; d <= cloud.sh_degree; ++d) {
+    const uint32_t k_begin = d * d;
+    const uint32_t k_end = (d + 1) * (d + 1);
+    for (uint32_t c = 0; c < 3; ++c) {
+      float m = max_abs[d][c];
+      if (pct < 100.0f && n > 0) {
+        const uint64_t count = n * (k_end - k_begin);
+        magnitudes.resize(static_cast<size_t>(count));
+        size_t w = 0;
+        for (uint64_t i = 0; i < n; ++i) {
+          for (uint32_t k = k_begin; k < k_end; ++k) magnitudes[w++] = std::fabs(cloud.sh[(i * k_count + k) * 3 + c]);
+        }
+        const double rank = std::ceil(static_cast<double>(pct) / 100.0 * static_cast<double>(count));
+        const uint64_t r = static_cast<uint64_t>(std::clamp(rank, 1.0, static_cast<double>(count)));
+        std::nth_element(magnitudes.begin(), magnitudes.begin() + static_cast<ptrdiff_t>(r - 1), magnitudes.end());
+        m = magnitudes[r - 1];
+      }
+      shq.scales[d][c] = scale_for(m);
+    }
+  }
+  return shq;
+}
+
+/// Per-value SH tables of pass 2 and what it encodes: the scale of each of the K·3 values of a Gaussian, in
+/// double as the division uses it, its reciprocal, whether it is zero, and the float32 s[d][c] as
+/// dequantize_range() multiplies it.
+struct EncodeTables {
+  EncodeTables(const format::ShQuantization& shq, uint32_t coefficients, bool log_scales, bool measure_errors)
+      : k_count(coefficients), sh_values(coefficients * 3), log_scale(log_scales), measure(measure_errors) {
+    for (uint32_t j = 0; j < sh_values; ++j) {
+      const float sj = shq.scales[format::sh_degree_of_coefficient(j / 3)][j % 3];
+      zero_scale[j] = sj == 0.0f;
+      divisor[j] = sj == 0.0f ? std::numeric_limits<double>::infinity() : static_cast<double>(sj);
+      reciprocal[j] = 1.0 / divisor[j];
+      dequant_scale[j] = sj;
+    }
+  }
+  uint32_t k_count;
+  uint32_t sh_values;
+  bool log_scale;
+  bool measure;  ///< accumulate the errors of the dequantized values
+  double divisor[48];
+  double reciprocal[48];
+  bool zero_scale[48];
+  float dequant_scale[48];
+};
+
+/// What pass 2 counts in one chunk: clipped SH values per value index, linear scales stored as FP16
+/// subnormals or flushed to zero, and (when measured) the error accumulators.
+struct ChunkResult {
+  uint64_t clip_count[48] = {};
+  uint64_t scales_subnormal = 0;
+  uint64_t scales_flushed_to_zero = 0;
+  double max_flushed_of_largest_axis = 0;
+  detail::Accumulators errors;
+};
+
+/// Pass 2 on Gaussians [b, e): encodes them into `out` (arrays already sized) and counts into `res`.
+void encode_chunk(const format::GaussianCloud& cloud, const EncodeTables& t, uint64_t b, uint64_t e,
+                  format::EncodedScene* out, ChunkResult* res) {
+  const uint32_t sh_values = t.sh_values;
+  const float* sh_in = cloud.sh.data();
+  int8_t* sh_out = out->sh.data();
+  for (uint64_t i = b; i < e; ++i) {
+    double q[4];
+    double n2 = 0;
+    for (int a = 0; a < 4; ++a) {
+      q[a] = cloud.rotations[i * 4 + a];
+      n2 += q[a] * q[a];
+    }
+    const double inv = 1.0 / std::sqrt(n2);
+    uint16_t rot_bits[4];
+    for (int a = 0; a < 4; ++a) rot_bits[a] = format::float_to_half_bits(static_cast<float>(q[a] * inv));
+    std::memcpy(&out->rotations[i * 4], rot_bits, sizeof(rot_bits));
+    uint16_t scale_bits[3];
+    const float largest_axis =
+        std::max(std::max(cloud.scales[i * 3], cloud.scales[i * 3 + 1]), cloud.scales[i * 3 + 2]);
+    for (int a = 0; a < 3; ++a) {
+      const float s = cloud.scales[i * 3 + a];
+      float v = s;
+      if (t.log_scale) {
+        v = s > 0.0f ? std::min(static_cast<float>(std::log(static_cast<double>(s))), kLargestLogScale)
+                     : kLowestHalf;
+      }
+      scale_bits[a] = format::float_to_half_bits(v);
+      // Linear scales stored as FP16 subnormals or flushed to zero (normal, exact 0 and log are not).
+      const uint16_t magnitude = scale_bits[a] & 0x7fffu;
+      if (!t.log_scale && magnitude < 0x0400u && s != 0.0f) {
+        ++(magnitude == 0 ? res->scales_flushed_to_zero : res->scales_subnormal);
+        if (magnitude == 0) {
+          res->max_flushed_of_largest_axis =
+              std::max(res->max_flushed_of_largest_axis, static_cast<double>(s) / largest_axis);
+        }
+      }
+    }
+    std::memcpy(&out->scales[i * 3], scale_bits, sizeof(scale_bits));
+    const uint16_t opacity_bits = format::float_to_half_bits(cloud.opacities[i]);
+    out->opacities[i] = opacity_bits;
+    // Codes go through a local buffer: int8_t stores may alias anything, and writing them straight
+    // to the output would make the compiler reload the tables after every store.
+    const float* sh = sh_in + i * sh_values;
+    int8_t codes[48];
+    for (uint32_t j = 0; j < sh_values; ++j) {
+      // Branch-free; a zero scale divides by +inf (q = 0) and counts every non-zero coefficient
+      // as clipped.
+      bool clip = false;
+      codes[j] = quantize_value(sh[j], t.divisor[j], t.reciprocal[j], &clip);
+      res->clip_count[j] += static_cast<uint32_t>(clip) | static_cast<uint32_t>(t.zero_scale[j] & (sh[j] != 0.0f));
+    }
+    std::memcpy(sh_out + i * sh_values, codes, sh_values);
+    if (t.measure) {
+      // Dequantize exactly as format::dequantize_range() does, then compare with the source.
+      float rot_f[4], scale_f[3], sh_f[48];
+      for (int a = 0; a < 4; ++a) rot_f[a] = format::half_bits_to_float(rot_bits[a]);
+      for (int a = 0; a < 3; ++a) {
+        const float v = format::half_bits_to_float(scale_bits[a]);
+        scale_f[a] = t.log_scale ? std::exp(v) : v;
+      }
+      for (uint32_t j = 0; j < sh_values; ++j) sh_f[j] = t.dequant_scale[j] * static_cast<float>(codes[j]);
+      const float* mean = &cloud.means[i * 3];  // stored bit for bit
+      const detail::GaussianView ref{mean, &cloud.rotations[i * 4], &cloud.scales[i * 3], cloud.opacities[i], sh};
+      const detail::GaussianView test{mean, rot_f, scale_f, format::half_bits_to_float(opacity_bits), sh_f};
+      detail::accumulate_gaussian(ref, test, t.k_count, &res->errors);
+    }
+  }
+}
+
+/// Merges the chunks' counts and error accumulators in chunk order into the optional `report` and `errors`.
+void merge_chunks(const std::vector<ChunkResult>& chunk_results, uint32_t sh_values, QuantizationReport* report,
+                  AttributeErrors* errors) {
+  detail::Accumulators total_errors;
+  QuantizationReport total_report;
+  for (const ChunkResult& r : chunk_results) {
+    for (uint32_t j = 0; j < sh_values; ++j) {
+      total_report.sh_clipped[format::sh_degree_of_coefficient(j / 3)][j % 3] += r.clip_count[j];
+    }
+    total_report.scales_subnormal += r.scales_subnormal;
+    total_report.scales_flushed_to_zero += r.scales_flushed_to_zero;
+    total_report.max_flushed_of_largest_axis =
+        std::max(total_report.max_flushed_of_largest_axis, r.max_flushed_of_largest_axis);
+    total_errors.merge(r.errors);
+  }
+  if (report != nullptr) *report = total_report;
+  if (errors != nullptr) *errors = total_errors.result();
+}
+
 }  // namespace
 
 format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
@@ -193,70 +387,15 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
 
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
                                       QuantizationReport* report, AttributeErrors* errors) {
-  if (!cloud.is_consistent()) {
-    return Status(StatusCode::kInvalidArgument,
-                  "cloud arrays are inconsistent with " + std::to_string(cloud.size()) + " Gaussians at SH degree " +
-                      std::to_string(cloud.sh_degree));
-  }
-  const float pct = options.sh_clip_percentile;
-  if (!(pct > 0.0f && pct <= 100.0f)) {
-    return Status(StatusCode::kInvalidArgument,
-                  "SH clip percentile " + std::to_string(pct) + " is outside (0, 100]");
-  }
-  if (options.scale_encoding != format::ScaleEncoding::kLinear &&
-      options.scale_encoding != format::ScaleEncoding::kLog) {
-    return Status(StatusCode::kInvalidArgument,
-                  "unknown scale encoding " + std::to_string(static_cast<int>(options.scale_encoding)));
-  }
+  RGS_RETURN_IF_ERROR(check_quantize_inputs(cloud, options));
   try {
     const uint64_t n = cloud.size();
     const uint32_t degree = cloud.sh_degree;
     const uint32_t k_count = cloud.sh_coefficients();
     const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
-
-    // Pass 1: validate and find max |SH| per (degree, channel).
-    std::vector<ScanResult> scans(workers);
-    RGS_RETURN_IF_ERROR(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
-      scan_slice(cloud, options, b, e, &scans[t]);
-    }));
     float max_abs[4][3] = {};
-    for (const ScanResult& s : scans) {
-      if (s.bad_index != std::numeric_limits<uint64_t>::max()) {
-        return Status(StatusCode::kInvalidArgument,
-                      "cannot quantize Gaussian " + std::to_string(s.bad_index) + ": " + s.why);
-      }
-      for (int d = 0; d < 4; ++d) {
-        for (int c = 0; c < 3; ++c) max_abs[d][c] = std::max(max_abs[d][c], s.max_abs[d][c]);
-      }
-    }
-
-    // SH scales: max rule, or the P-th percentile of |SH| (nearest rank) per (degree, channel).
-    format::ShQuantization shq;
-    shq.bits = 8;
-    shq.clip_percentile = pct;
-    std::vector<float> magnitudes;
-    for (uint32_t d = 0; d <= degree; ++d) {
-      const uint32_t k_begin = d * d;
-      const uint32_t k_end = (d + 1) * (d + 1);
-      for (uint32_t c = 0; c < 3; ++c) {
-        float m = max_abs[d][c];
-        if (pct < 100.0f && n > 0) {
-          const uint64_t count = n * (k_end - k_begin);
-          magnitudes.resize(static_cast<size_t>(count));
-          size_t w = 0;
-          for (uint64_t i = 0; i < n; ++i) {
-            for (uint32_t k = k_begin; k < k_end; ++k) magnitudes[w++] = std::fabs(cloud.sh[(i * k_count + k) * 3 + c]);
-          }
-          const double rank = std::ceil(static_cast<double>(pct) / 100.0 * static_cast<double>(count));
-          const uint64_t r = static_cast<uint64_t>(std::clamp(rank, 1.0, static_cast<double>(count)));
-          std::nth_element(magnitudes.begin(), magnitudes.begin() + static_cast<ptrdiff_t>(r - 1), magnitudes.end());
-          m = magnitudes[r - 1];
-        }
-        shq.scales[d][c] = scale_for(m);
-      }
-    }
-    magnitudes.clear();
-    magnitudes.shrink_to_fit();
+    RGS_RETURN_IF_ERROR(scan_cloud(cloud, options, workers, max_abs));
+    const format::ShQuantization shq = sh_quantization(cloud, options.sh_clip_percentile, max_abs);
 
     format::EncodedScene out;
     out.count = n;
@@ -288,113 +427,14 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     // Pass 2: encode, in chunks of kErrorChunkGaussians taken by the workers in turn. Per chunk: clip and
     // FP16 counts (integers) and, when asked, the error accumulators of the dequantized values (merged in
     // chunk order below), so nothing depends on which worker ran a chunk.
-    const bool log_scale = options.scale_encoding == format::ScaleEncoding::kLog;
-    // Scale of each of the K·3 values of a Gaussian, in double as the division uses it.
-    const uint32_t sh_values = k_count * 3;
-    double divisor[48];
-    double reciprocal[48];
-    bool zero_scale[48];
-    float dequant_scale[48];  // float32 s[d][c], as dequantize_range() multiplies it
-    for (uint32_t j = 0; j < sh_values; ++j) {
-      const float sj = shq.scales[format::sh_degree_of_coefficient(j / 3)][j % 3];
-      zero_scale[j] = sj == 0.0f;
-      divisor[j] = sj == 0.0f ? std::numeric_limits<double>::infinity() : static_cast<double>(sj);
-      reciprocal[j] = 1.0 / divisor[j];
-      dequant_scale[j] = sj;
-    }
+    const EncodeTables tables(shq, k_count, options.scale_encoding == format::ScaleEncoding::kLog, errors != nullptr);
     const uint64_t chunks = (n + detail::kErrorChunkGaussians - 1) / detail::kErrorChunkGaussians;
-    struct ChunkResult {
-      uint64_t clip_count[48] = {};
-      uint64_t scales_subnormal = 0;
-      uint64_t scales_flushed_to_zero = 0;
-      double max_flushed_of_largest_axis = 0;
-      detail::Accumulators errors;
-    };
     std::vector<ChunkResult> chunk_results(static_cast<size_t>(chunks));
-    const bool measure = errors != nullptr;
     RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned, uint64_t chunk) {
-      ChunkResult& res = chunk_results[chunk];
       const uint64_t b = chunk * detail::kErrorChunkGaussians;
-      const uint64_t e = std::min(n, b + detail::kErrorChunkGaussians);
-      const float* sh_in = cloud.sh.data();
-      int8_t* sh_out = out.sh.data();
-      for (uint64_t i = b; i < e; ++i) {
-        double q[4];
-        double n2 = 0;
-        for (int a = 0; a < 4; ++a) {
-          q[a] = cloud.rotations[i * 4 + a];
-          n2 += q[a] * q[a];
-        }
-        const double inv = 1.0 / std::sqrt(n2);
-        uint16_t rot_bits[4];
-        for (int a = 0; a < 4; ++a) rot_bits[a] = format::float_to_half_bits(static_cast<float>(q[a] * inv));
-        std::memcpy(&out.rotations[i * 4], rot_bits, sizeof(rot_bits));
-        uint16_t scale_bits[3];
-        const float largest_axis =
-            std::max(std::max(cloud.scales[i * 3], cloud.scales[i * 3 + 1]), cloud.scales[i * 3 + 2]);
-        for (int a = 0; a < 3; ++a) {
-          const float s = cloud.scales[i * 3 + a];
-          float v = s;
-          if (log_scale) {
-            v = s > 0.0f ? std::min(static_cast<float>(std::log(static_cast<double>(s))), kLargestLogScale)
-                         : kLowestHalf;
-          }
-          scale_bits[a] = format::float_to_half_bits(v);
-          // Linear scales stored as FP16 subnormals or flushed to zero (normal, exact 0 and log are not).
-          const uint16_t magnitude = scale_bits[a] & 0x7fffu;
-          if (!log_scale && magnitude < 0x0400u && s != 0.0f) {
-            ++(magnitude == 0 ? res.scales_flushed_to_zero : res.scales_subnormal);
-            if (magnitude == 0) {
-              res.max_flushed_of_largest_axis =
-                  std::max(res.max_flushed_of_largest_axis, static_cast<double>(s) / largest_axis);
-            }
-          }
-        }
-        std::memcpy(&out.scales[i * 3], scale_bits, sizeof(scale_bits));
-        const uint16_t opacity_bits = format::float_to_half_bits(cloud.opacities[i]);
-        out.opacities[i] = opacity_bits;
-        // Codes go through a local buffer: int8_t stores may alias anything, and writing them straight
-        // to the output would make the compiler reload the tables after every store.
-        const float* sh = sh_in + i * sh_values;
-        int8_t codes[48];
-        for (uint32_t j = 0; j < sh_values; ++j) {
-          // Branch-free; a zero scale divides by +inf (q = 0) and counts every non-zero coefficient
-          // as clipped.
-          bool clip = false;
-          codes[j] = quantize_value(sh[j], divisor[j], reciprocal[j], &clip);
-          res.clip_count[j] += static_cast<uint32_t>(clip) | static_cast<uint32_t>(zero_scale[j] & (sh[j] != 0.0f));
-        }
-        std::memcpy(sh_out + i * sh_values, codes, sh_values);
-        if (measure) {
-          // Dequantize exactly as format::dequantize_range() does, then compare with the source.
-          float rot_f[4], scale_f[3], sh_f[48];
-          for (int a = 0; a < 4; ++a) rot_f[a] = format::half_bits_to_float(rot_bits[a]);
-          for (int a = 0; a < 3; ++a) {
-            const float v = format::half_bits_to_float(scale_bits[a]);
-            scale_f[a] = log_scale ? std::exp(v) : v;
-          }
-          for (uint32_t j = 0; j < sh_values; ++j) sh_f[j] = dequant_scale[j] * static_cast<float>(codes[j]);
-          const float* mean = &cloud.means[i * 3];  // stored bit for bit
-          const detail::GaussianView ref{mean, &cloud.rotations[i * 4], &cloud.scales[i * 3], cloud.opacities[i], sh};
-          const detail::GaussianView test{mean, rot_f, scale_f, format::half_bits_to_float(opacity_bits), sh_f};
-          detail::accumulate_gaussian(ref, test, k_count, &res.errors);
-        }
-      }
+      encode_chunk(cloud, tables, b, std::min(n, b + detail::kErrorChunkGaussians), &out, &chunk_results[chunk]);
     }));
-    detail::Accumulators total_errors;
-    QuantizationReport total_report;
-    for (const ChunkResult& r : chunk_results) {
-      for (uint32_t j = 0; j < sh_values; ++j) {
-        total_report.sh_clipped[format::sh_degree_of_coefficient(j / 3)][j % 3] += r.clip_count[j];
-      }
-      total_report.scales_subnormal += r.scales_subnormal;
-      total_report.scales_flushed_to_zero += r.scales_flushed_to_zero;
-      total_report.max_flushed_of_largest_axis =
-          std::max(total_report.max_flushed_of_largest_axis, r.max_flushed_of_largest_axis);
-      total_errors.merge(r.errors);
-    }
-    if (report != nullptr) *report = total_report;
-    if (errors != nullptr) *errors = total_errors.result();
+    merge_chunks(chunk_results, tables.sh_values, report, errors);
     return out;
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,

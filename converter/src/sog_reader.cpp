@@ -843,6 +843,71 @@ Status collect_references(const json& tree, uint64_t levels, uint64_t files, uin
   return Status();
 }
 
+/// The index part of a lod-meta.json: its level count, the level read and the chunk meta files it names
+/// (relative to the scene's folder).
+struct LodIndex {
+  uint64_t levels = 0;
+  uint32_t lod = 0;
+  std::vector<std::string> names;
+};
+
+/// Reads 'version', 'lodLevels' and 'filenames' of the lod-meta.json `root` (the file `path`) and checks the
+/// level `options` asks for.
+Result<LodIndex> parse_lod_index(const json& root, const std::string& path, const detail::SceneFolder& folder,
+                                 const SceneReadOptions& options) {
+  if (auto v = root.find("version"); v != root.end()) {
+    RGS_ASSIGN_OR_RETURN(uint64_t version, count_value(*v, path, "version"));
+    if (version != 1) {
+      return Status(StatusCode::kUnsupportedVersion,
+                    path + ": lod-meta.json version " + std::to_string(version) + " (supported: 1 and unversioned)");
+    }
+  }
+  LodIndex index;
+  RGS_ASSIGN_OR_RETURN(const json* levels_json, member(root, "lodLevels", path, ""));
+  RGS_ASSIGN_OR_RETURN(index.levels, count_value(*levels_json, path, "lodLevels"));
+  const uint64_t levels = index.levels;
+  if (levels == 0 || levels > 64) return corrupt(path, "'lodLevels' is " + std::to_string(levels) + " (valid: 1..64)");
+  const uint32_t lod = index.lod = options.lod.value_or(0);
+  if (lod >= levels) {
+    return Status(StatusCode::kInvalidArgument, path + ": LOD " + std::to_string(lod) +
+                                                    " requested, but the scene has " + std::to_string(levels) +
+                                                    " levels (0.." + std::to_string(levels - 1) + ")");
+  }
+  RGS_ASSIGN_OR_RETURN(const json* names_json, member(root, "filenames", path, ""));
+  if (!names_json->is_array()) return corrupt(path, "'filenames' is not an array");
+  for (size_t i = 0; i < names_json->size(); ++i) {
+    const json& n = (*names_json)[i];
+    const std::string field = "filenames[" + std::to_string(i) + "]";
+    if (!n.is_string()) return corrupt(path, "field '" + field + "' is not a string");
+    RGS_ASSIGN_OR_RETURN(std::string relative,
+                         folder.resolve(n.get<std::string>(), "", path, field));
+    index.names.push_back(std::move(relative));
+  }
+  return index;
+}
+
+/// Adds the references `file_refs` into chunk file `name` (sorted by offset) to `job` as ranges that land at
+/// `*next_dst` on; they must not overlap nor exceed the chunk's Gaussians.
+Status add_lod_ranges(const std::vector<LodReference>& file_refs, const std::string& name, const std::string& path,
+                      uint32_t lod, ChunkJob* job, uint64_t* next_dst) {
+  uint64_t covered = 0;
+  for (const LodReference& r : file_refs) {
+    if (r.offset < covered) {
+      return corrupt(path, "LOD " + std::to_string(lod) + " ranges of '" + name + "' overlap at offset " +
+                               std::to_string(r.offset));
+    }
+    if (r.offset > job->meta.count || r.count > job->meta.count - r.offset) {
+      return corrupt(path, "LOD " + std::to_string(lod) + " range [" + std::to_string(r.offset) + ", " +
+                               std::to_string(r.offset + r.count) + ") of '" + name + "' exceeds its " +
+                               std::to_string(job->meta.count) + " Gaussians");
+    }
+    job->ranges.push_back(Range{r.offset, r.count, *next_dst});
+    *next_dst += r.count;
+    covered = r.offset + r.count;
+  }
+  return Status();
+}
+
 Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneReadOptions& options) {
   SceneEntry entry;
   RGS_RETURN_IF_ERROR(read_entry(named_path, "lod-meta.json", kMaxMetaBytes, &entry));
@@ -857,33 +922,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
   scene.file_bytes = bytes.size();
   scene.file_count = 1;
 
-  if (auto v = root.find("version"); v != root.end()) {
-    RGS_ASSIGN_OR_RETURN(uint64_t version, count_value(*v, path, "version"));
-    if (version != 1) {
-      return Status(StatusCode::kUnsupportedVersion,
-                    path + ": lod-meta.json version " + std::to_string(version) + " (supported: 1 and unversioned)");
-    }
-  }
-  RGS_ASSIGN_OR_RETURN(const json* levels_json, member(root, "lodLevels", path, ""));
-  RGS_ASSIGN_OR_RETURN(uint64_t levels, count_value(*levels_json, path, "lodLevels"));
-  if (levels == 0 || levels > 64) return corrupt(path, "'lodLevels' is " + std::to_string(levels) + " (valid: 1..64)");
-  const uint32_t lod = options.lod.value_or(0);
-  if (lod >= levels) {
-    return Status(StatusCode::kInvalidArgument, path + ": LOD " + std::to_string(lod) +
-                                                    " requested, but the scene has " + std::to_string(levels) +
-                                                    " levels (0.." + std::to_string(levels - 1) + ")");
-  }
-  RGS_ASSIGN_OR_RETURN(const json* names_json, member(root, "filenames", path, ""));
-  if (!names_json->is_array()) return corrupt(path, "'filenames' is not an array");
-  std::vector<std::string> names;
-  for (size_t i = 0; i < names_json->size(); ++i) {
-    const json& n = (*names_json)[i];
-    const std::string field = "filenames[" + std::to_string(i) + "]";
-    if (!n.is_string()) return corrupt(path, "field '" + field + "' is not a string");
-    RGS_ASSIGN_OR_RETURN(std::string relative,
-                         folder.resolve(n.get<std::string>(), "", path, field));
-    names.push_back(std::move(relative));
-  }
+  RGS_ASSIGN_OR_RETURN(const LodIndex index, parse_lod_index(root, path, folder, options));
+  const auto& [levels, lod, names] = index;
   RGS_ASSIGN_OR_RETURN(const json* tree, member(root, "tree", path, ""));
   std::vector<LodReference> refs;
   RGS_RETURN_IF_ERROR(collect_references(*tree, levels, names.size(), lod, path, &refs));
@@ -939,21 +979,7 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
     job.files = folders.back().get();
     job.hash = options.hash_file;
     RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *job.files));
-    uint64_t covered = 0;
-    for (const LodReference& r : file_refs) {
-      if (r.offset < covered) {
-        return corrupt(path, "LOD " + std::to_string(lod) + " ranges of '" + names[file] + "' overlap at offset " +
-                                 std::to_string(r.offset));
-      }
-      if (r.offset > job.meta.count || r.count > job.meta.count - r.offset) {
-        return corrupt(path, "LOD " + std::to_string(lod) + " range [" + std::to_string(r.offset) + ", " +
-                                 std::to_string(r.offset + r.count) + ") of '" + names[file] + "' exceeds its " +
-                                 std::to_string(job.meta.count) + " Gaussians");
-      }
-      job.ranges.push_back(Range{r.offset, r.count, next_dst});
-      next_dst += r.count;
-      covered = r.offset + r.count;
-    }
+    RGS_RETURN_IF_ERROR(add_lod_ranges(file_refs, names[file], path, lod, &job, &next_dst));
     const uint32_t d = declared_degree(job.meta);
     if (jobs.empty()) {
       degree = d;

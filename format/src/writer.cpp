@@ -217,20 +217,14 @@ struct PlannedFile {
   uint64_t file_size = 0;
 };
 
-/// Checks `scene` and `options` and lays the file out: everything but copying the section bytes. With
-/// `archive`, `scene` is its decoded scene and the runtime sections take its stored bytes (moved out).
-Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& options, ArchiveScene* archive) {
-  RGS_RETURN_IF_ERROR(check_options(options));
-  RGS_RETURN_IF_ERROR(check_scene_shape(scene));
-  uint64_t provenance_bytes = 0;
-  std::string why;
-  if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return invalid(why);
-
+/// Adds the sections of `scene` to `file` in §4 order: metadata, provenance (only when non-empty,
+/// `provenance_bytes` long), then the runtime sections, each with the codec `options` asks for. With
+/// `archive`, the runtime sections take its stored bytes (moved out). Returns the file's required flags.
+uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, uint64_t provenance_bytes,
+                      ArchiveScene* archive, PlannedFile* file) {
   const uint64_t n = scene.count;
   const uint32_t k = sh_coefficient_count(scene.metadata.sh_degree);
-  // §4 Section order: metadata, provenance (only when non-empty), then the runtime sections.
-  PlannedFile file;
-  std::vector<PlannedSection>& plan = file.sections;
+  std::vector<PlannedSection>& plan = file->sections;
   plan.reserve(7);
   auto add = [&](SectionId id, ElementType type, uint32_t components, uint64_t count) -> PlannedSection& {
     PlannedSection& s = plan.emplace_back();
@@ -273,8 +267,12 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
     }
     if (n > 0) required_flags |= kRequiredFlagArchiveCodecs;
   }
+  return required_flags;
+}
 
-  // §6 Stamp the oldest version that has every feature this file uses.
+/// §6 The oldest version that has every feature the file uses.
+FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedSection>& plan,
+                           uint32_t required_flags) {
   FormatVersion version{kFormatMajor, 0};
   auto require = [&version](FormatVersion v) {
     if (!version_at_least(version, v)) version = v;
@@ -282,11 +280,17 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
   if (!scene.provenance.empty()) require(kMinVersionForProvenance);
   if (scene.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
   if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
+  for (const PlannedSection& s : plan) {
+    if (s.codec == Codec::kZstd) require(kMinVersionForZstdCodec);
+  }
+  return version;
+}
 
+/// Compresses every zstd section of `plan`, with one context made when the first one needs it.
+Status compress_sections(const WriteOptions& options, std::vector<PlannedSection>* plan) {
   ZstdCCtxPtr cctx;
-  for (PlannedSection& s : plan) {
+  for (PlannedSection& s : *plan) {
     if (s.codec != Codec::kZstd) continue;
-    require(kMinVersionForZstdCodec);
     if (!cctx) {
       cctx.reset(ZSTD_createCCtx());
       if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
@@ -300,22 +304,30 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
     }
     RGS_RETURN_IF_ERROR(compress_section(cctx.get(), &s));
   }
+  return Status();
+}
 
-  // §3 Layout: table after the header, each section at the next multiple of kSectionAlignment.
-  const uint64_t table_end = kHeaderSize + uint64_t{kSectionEntrySize} * plan.size();
+/// §3 Layout: the table after the header, each section at the next multiple of kSectionAlignment. Sets the
+/// sections' offsets and `file_size`; returns the end of the table.
+Result<uint64_t> lay_out(PlannedFile* file) {
+  const uint64_t table_end = kHeaderSize + uint64_t{kSectionEntrySize} * file->sections.size();
   uint64_t end = table_end;
-  for (PlannedSection& s : plan) {
+  for (PlannedSection& s : file->sections) {
     if (!detail::checked_align_up(end, kSectionAlignment, &s.offset) ||
         !detail::checked_add(s.offset, s.stored_size(), &end)) {
       return invalid("file size overflows 64 bits");
     }
   }
   if (end > SIZE_MAX) return Status(StatusCode::kOutOfMemory, "file of " + dec(end) + " bytes exceeds memory");
-  file.file_size = end;
+  file->file_size = end;
+  return table_end;
+}
 
-  // Value checks (SPEC §4.3–§4.7) and section checksums (§3.2), each split over two threads: the first
-  // half of the Gaussians and the sh section on this thread, the rest on another. The first bad Gaussian
-  // in index order is reported, as a sequential check would.
+/// Value checks (SPEC §4.3–§4.7) and section checksums (§3.2), each split over two threads: the first
+/// half of the Gaussians and the sh section (last in `plan`) on this thread, the rest on another. The first
+/// bad Gaussian in index order is reported, as a sequential check would. Returns one checksum per section.
+Result<std::vector<uint64_t>> check_and_checksum(const EncodedScene& scene, const std::vector<PlannedSection>& plan) {
+  const uint64_t n = scene.count;
   std::vector<uint64_t> checksums(plan.size());
   const size_t sh_index = plan.size() - 1;
   Status first_half, second_half;
@@ -337,21 +349,28 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
       });
   RGS_RETURN_IF_ERROR(first_half);
   RGS_RETURN_IF_ERROR(second_half);
+  return checksums;
+}
 
-  file.head.resize(static_cast<size_t>(table_end));  // zero-filled: reserved fields
-  ByteWriter header(file.head.data(), kHeaderSize);
+/// Encodes the header (§2) and the section table (§3.1) of a laid-out `file` of `count` Gaussians into
+/// `file->head`, `table_end` bytes.
+Status encode_head(FormatVersion version, uint32_t required_flags, uint64_t count, uint64_t table_end,
+                   const std::vector<uint64_t>& checksums, PlannedFile* file) {
+  const std::vector<PlannedSection>& plan = file->sections;
+  file->head.resize(static_cast<size_t>(table_end));  // zero-filled: reserved fields
+  ByteWriter header(file->head.data(), kHeaderSize);
   for (uint8_t b : kMagic) header.put_u8(b);
   header.put_u16(version.major);
   header.put_u16(version.minor);
   header.put_u32(kHeaderSize);
   header.put_u32(required_flags);  // §2.2
   header.put_u32(0);  // optional flags
-  header.put_u64(n);
+  header.put_u64(count);
   header.put_u32(static_cast<uint32_t>(plan.size()));
   header.put_u32(0);  // reserved
   header.put_u64(kHeaderSize);  // table offset
-  header.put_u64(file.file_size);
-  ByteWriter table(file.head.data() + kHeaderSize, static_cast<size_t>(table_end - kHeaderSize));
+  header.put_u64(file->file_size);
+  ByteWriter table(file->head.data() + kHeaderSize, static_cast<size_t>(table_end - kHeaderSize));
   for (size_t i = 0; i < plan.size(); ++i) {
     const PlannedSection& s = plan[i];
     table.put_u32(static_cast<uint32_t>(s.id));
@@ -366,10 +385,29 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
     table.put_u64(checksums[i]);
     table.put_u64(0);  // reserved
   }
-  header.put_u64(detail::header_checksum(file.head.data(), file.head.data() + kHeaderSize, table_end - kHeaderSize));
+  header.put_u64(
+      detail::header_checksum(file->head.data(), file->head.data() + kHeaderSize, table_end - kHeaderSize));
   if (!header.ok() || !table.ok() || header.position() != kHeaderSize || table.position() != table_end - kHeaderSize) {
     return Status(StatusCode::kInvalidArgument, "internal error: header or table size mismatch");
   }
+  return Status();
+}
+
+/// Checks `scene` and `options` and lays the file out: everything but copying the section bytes. With
+/// `archive`, `scene` is its decoded scene and the runtime sections take its stored bytes (moved out).
+Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& options, ArchiveScene* archive) {
+  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(check_scene_shape(scene));
+  uint64_t provenance_bytes = 0;
+  std::string why;
+  if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return invalid(why);
+  PlannedFile file;
+  const uint32_t required_flags = add_sections(scene, options, provenance_bytes, archive, &file);
+  const FormatVersion version = file_version(scene, file.sections, required_flags);
+  RGS_RETURN_IF_ERROR(compress_sections(options, &file.sections));
+  RGS_ASSIGN_OR_RETURN(const uint64_t table_end, lay_out(&file));
+  RGS_ASSIGN_OR_RETURN(const std::vector<uint64_t> checksums, check_and_checksum(scene, file.sections));
+  RGS_RETURN_IF_ERROR(encode_head(version, required_flags, scene.count, table_end, checksums, &file));
   return file;
 }
 
