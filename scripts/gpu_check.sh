@@ -65,29 +65,41 @@ fi
 
 if [ "$what" = ab ]; then
   # A/B against another build's rgs-bench (STAGE_DIR/ab/rgs-bench, e.g. the landed tree's): the same views,
-  # alternating A and B twice, faithful and fastest at 1080p and 4K (docs/BENCHMARKS.md "A/B"). An A build
-  # from before the modes took the preset names (baseline, roofgs+) runs under those, its JSON renamed after.
+  # alternating A and B twice, faithful and fastest at 1080p and 4K (docs/BENCHMARKS.md "A/B"), on flowers,
+  # flowers x53, and daffodils ($RGS_DAFFODILS_RGS, default the staged data's) and taebak when present. An A
+  # build from before the modes took the preset names (baseline, roofgs+) runs under those, its JSON renamed
+  # after. The table (bench_tables.py --ab) goes to the summary and ab_table.md.
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
+  daffodils="${RGS_DAFFODILS_RGS:-$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs}"
   [ -f "$stage/ab/rgs-bench.xz" ] && xz -dkf "$stage/ab/rgs-bench.xz" && chmod +x "$stage/ab/rgs-bench"
+  scenes=(flowers flowers_x53)
+  [ -f "$daffodils" ] && scenes+=(daffodils)
+  [ -f "$taebak" ] && scenes+=(taebak)
+  mkdir -p "$out/ab"
   for round in 1 2; do
     for side in a b; do
       exe="$bin/rgs-bench"
       [ $side = a ] && exe="$stage/ab/rgs-bench"
       modes=(--mode faithful --mode fastest)
       "$exe" --help | grep -q "faithful" || modes=(--mode baseline --mode roofgs+)
-      for scene in flowers flowers_x53; do
-        extra=()
-        [ $scene = flowers_x53 ] && extra=(--replicate 53 --limit 8)
-        "$exe" "$flowers" --cameras "$cameras" --every 8 "${extra[@]}" --resolution 1920x1080 \
-          --resolution 3840x2160 "${modes[@]}" --warmup 3 --repeat 10 \
-          --json "$out/ab_${scene}_${side}${round}.json" >"$out/ab_${scene}_${side}${round}.log" 2>&1 || status=1
-        sed -i 's/"mode": "baseline"/"mode": "faithful"/; s/"mode": "roofgs+"/"mode": "fastest"/' \
-          "$out/ab_${scene}_${side}${round}.json" 2>/dev/null || true
+      for scene in "${scenes[@]}"; do
+        case $scene in
+          flowers) input=("$flowers" --cameras "$cameras" --every 8) ;;
+          flowers_x53) input=("$flowers" --cameras "$cameras" --every 8 --replicate 53 --limit 8) ;;
+          daffodils) input=("$daffodils" --orbit 8) ;;
+          taebak) input=("$taebak" --cameras "$taebak_cameras") ;;
+        esac
+        json="$out/ab/ab_${scene}_${side}${round}.json"
+        "$exe" "${input[@]}" --resolution 1920x1080 --resolution 3840x2160 "${modes[@]}" --warmup 3 --repeat 10 \
+          --json "$json" >"$out/ab/ab_${scene}_${side}${round}.log" 2>&1 || status=1
+        sed -i 's/"mode": "baseline"/"mode": "faithful"/; s/"mode": "roofgs+"/"mode": "fastest"/' "$json" || true
       done
     done
   done
-  note "ab: $(ls "$out"/ab_*.json 2>/dev/null | wc -l) runs"
+  note "ab: $(ls "$out"/ab/ab_*.json 2>/dev/null | wc -l) runs"
+  python3 "$(dirname "${BASH_SOURCE[0]}")/bench_tables.py" --ab "$out"/ab/ab_*.json >"$out/ab_table.md" 2>&1 || status=1
+  tee -a "$summary" <"$out/ab_table.md"
 fi
 
 if [ "$what" = bench ] || [ "$what" = all ]; then
@@ -97,7 +109,7 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
   cameras="$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
   daffodils="$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs"
-  modes=(--mode faithful --mode roofgs --mode fastest --mode fastest-fp32-blend --mode fastest-whole-tiles --mode roofgs-serial-emission
+  modes=(--mode faithful --mode fastest --mode paper --mode roofgs --mode fastest-fp32-blend --mode fastest-whole-tiles --mode roofgs-serial-emission
          --mode roofgs-no-subtile --mode roofgs-subtile-always)
   # The ablation: every technique alone, all off, FP32 blending (fastest-fp32-blend), long tiles blended whole instead of
   # in chunks (fastest-whole-tiles), the load balancing off (roofgs-serial-emission), sub-tile culling off or on in every
