@@ -9,6 +9,7 @@
 
 #if RGS_HAS_CUDA
 #include "rgs/api/gpu_scene_loading.h"
+#include "rgs/runtime/cuda_device.h"
 #endif
 
 namespace rgs::api {
@@ -18,7 +19,20 @@ const char* device_name(Device device) { return device == Device::kCuda ? "cuda"
 Result<Device> parse_device(const std::string& name) {
   if (name == "cpu") return Device::kCpu;
   if (name == "cuda" || name == "gpu") return Device::kCuda;
-  return Status(StatusCode::kInvalidArgument, "unknown device '" + name + "' (use cpu or cuda)");
+  if (name == "auto") return cuda_available() ? Device::kCuda : Device::kCpu;
+  return Status(StatusCode::kInvalidArgument, "unknown device '" + name + "' (use cpu, cuda or auto)");
+}
+
+bool cuda_available(std::string* why) {
+#if RGS_HAS_CUDA
+  std::string reason;
+  const bool available = runtime::cuda_device_count(&reason) > 0;
+  if (!available && why != nullptr) *why = reason;
+  return available;
+#else
+  if (why != nullptr) *why = "this build has no CUDA (configured with RGS_WITH_CUDA=OFF)";
+  return false;
+#endif
 }
 
 const SceneInfo& Scene::info() const { return impl_->info; }

@@ -4,8 +4,11 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include <array>
+#include <cmath>
+#include <filesystem>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -255,6 +258,27 @@ converter::SceneReadOptions read_options(const std::string& spz_frame) {
   return options;
 }
 
+/// The device `name` asks for: "auto" is CUDA when a device answers, else the CPU (said once per process);
+/// "cuda" without a device raises an error that names the alternatives.
+api::Device resolve_device(const std::string& name) {
+  const api::Device device = unwrap(api::parse_device(name));
+  std::string why;
+  if (name == "auto" && device == api::Device::kCpu) {
+    static bool said = false;
+    if (!said) {
+      said = true;
+      api::cuda_available(&why);
+      const std::string note = "roofgs: no CUDA device (" + why + "); scenes load on the CPU";
+      if (PyErr_WarnEx(PyExc_RuntimeWarning, note.c_str(), 1) != 0) throw py::error_already_set();
+    }
+  } else if (device == api::Device::kCuda && !api::cuda_available(&why)) {
+    raise(Status(StatusCode::kUnsupportedFeature,
+                 "device='" + name + "': no usable CUDA device (" + why +
+                     "); load with device='cpu', or device='auto' to use CUDA only where a device answers"));
+  }
+  return device;
+}
+
 /// A scene and the renderer Python uses for it (created on first render; calls serialized by a mutex).
 struct PyScene {
   api::Scene scene;
@@ -268,7 +292,10 @@ struct PyScene {
                     bool depth, py::object stream) {
     api::Camera camera = camera_in;
     if (width || height) {
-      const uint32_t w = width.value_or(camera.width), h = height.value_or(camera.height);
+      // One side alone keeps the camera's aspect ratio (as rgs-render --width does).
+      const double aspect = double(camera.height) / double(camera.width);
+      const uint32_t w = width ? *width : uint32_t(std::max(1.0, std::round(double(*height) / aspect)));
+      const uint32_t h = height ? *height : uint32_t(std::max(1.0, std::round(double(*width) * aspect)));
       if (w != camera.width || h != camera.height) camera = runtime::resize_camera(camera, w, h);
     }
     api::RenderSettings settings;
@@ -308,7 +335,8 @@ struct PyScene {
 PYBIND11_MODULE(roofgs, m) {
   m.doc() = "RoofGS: load .rgs / 3DGS PLY scenes, render them with presets on the GPU or the CPU reference";
   m.attr("__version__") = RGS_VERSION_STRING;
-  m.attr("has_cuda") = bool(RGS_HAS_CUDA);
+  m.attr("built_with_cuda") = bool(RGS_HAS_CUDA);
+  m.attr("has_cuda") = api::cuda_available();
 
   static py::exception<StatusError> error_type(m, "Error", PyExc_RuntimeError);
   g_error_type = error_type.ptr();
@@ -359,7 +387,8 @@ PYBIND11_MODULE(roofgs, m) {
             return std::make_tuple(c.fx * q[0] / q[2] + c.cx - 0.5, c.fy * q[1] / q[2] + c.cy - 0.5, q[2]);
           },
           "Pixel (x, y) with pixel centres at integers, and view depth z, of a world point")
-      .def("resized", [](const api::Camera& c, uint32_t w, uint32_t h) { return runtime::resize_camera(c, w, h); })
+      .def("resized", [](const api::Camera& c, uint32_t w, uint32_t h) { return runtime::resize_camera(c, w, h); },
+           py::arg("width"), py::arg("height"), "The same view at width x height (field of view kept)")
       .def("__repr__", [](const api::Camera& c) {
         return "<roofgs.Camera " + std::to_string(c.width) + "x" + std::to_string(c.height) + " fx=" +
                std::to_string(c.fx) + " '" + c.name + "'>";
@@ -410,7 +439,8 @@ PYBIND11_MODULE(roofgs, m) {
         py::arg("view"), py::arg("projection"), py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f,
         py::arg("name") = "", "Vulkan (clip y down) view and projection matrices, [row, column]");
   m.def("load_cameras",
-        [](const std::string& path) { return unwrap(runtime::load_inria_cameras(path)); }, py::arg("path"),
+        [](const std::filesystem::path& path) { return unwrap(runtime::load_inria_cameras(path.string())); },
+        py::arg("path"),
         "Cameras of an INRIA 3DGS cameras.json");
 
   py::class_<ImagePlane>(m, "DeviceImage",
@@ -427,12 +457,27 @@ PYBIND11_MODULE(roofgs, m) {
              return py::make_tuple(int(cuda ? kDLCUDA : kDLCPU), cuda ? p.image->cuda_device() : 0);
            })
       .def("synchronize", [](const ImagePlane& p) { check(p.image->synchronize()); })
-      .def("numpy", &plane_numpy, "Copy to a NumPy array (waits for the render)");
+      .def("numpy", &plane_numpy, "Copy to a NumPy array (waits for the render)")
+      .def("__array__", [](const ImagePlane& p, py::args, py::kwargs) { return plane_numpy(p); },
+           "NumPy's protocol: np.asarray(image), PIL.Image.fromarray(image) of an rgba8 image")
+      .def("__repr__", [](const ImagePlane& p) {
+        const std::vector<int64_t> shape = p.shape();
+        std::string dims;
+        for (int64_t d : shape) dims += (dims.empty() ? "" : ", ") + std::to_string(d);
+        return "<roofgs.DeviceImage [" + dims + "] " + p.dtype_name() + " on " + api::device_name(p.image->device()) +
+               ">";
+      });
 
   py::class_<PyScene>(m, "Scene", "A loaded scene (immutable; share it freely)")
       .def_property_readonly("info", [](const PyScene& s) { return scene_info(s.scene.info()); })
       .def_property_readonly("device", [](const PyScene& s) { return api::device_name(s.scene.device()); })
       .def("__len__", [](const PyScene& s) { return s.scene.size(); })
+      .def("__repr__", [](const PyScene& s) {
+        const api::SceneInfo& info = s.scene.info();
+        return "<roofgs.Scene " + std::to_string(info.gaussians) + " Gaussians, SH degree " +
+               std::to_string(info.sh_degree) + ", " + info.description + ", on " + api::device_name(info.device) +
+               ">";
+      })
       .def("orbit_cameras",
            [](const PyScene& s, uint32_t count, uint32_t width, uint32_t height) {
              return unwrap(runtime::orbit_cameras(s.scene.info().bounds, count, width, height));
@@ -448,11 +493,11 @@ PYBIND11_MODULE(roofgs, m) {
            "torch.cuda.current_stream().cuda_stream); the render is enqueued on it");
 
   m.def("load",
-        [](const std::string& path, const std::string& device, std::vector<std::string> presets,
+        [](const std::filesystem::path& path, const std::string& device, std::vector<std::string> presets,
            bool quantize_other_formats, int cuda_device, const std::string& spz_frame) {
           api::LoadOptions options;
           options.read_options = read_options(spz_frame);
-          options.device = unwrap(api::parse_device(device));
+          options.device = resolve_device(device);
           options.cuda_device = cuda_device;
           options.quantize_other_formats = quantize_other_formats;
           options.presets.clear();
@@ -460,18 +505,19 @@ PYBIND11_MODULE(roofgs, m) {
           Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
           {
             py::gil_scoped_release release;
-            scene = api::load(path, options);
+            scene = api::load(path.string(), options);
           }
           return std::make_unique<PyScene>(unwrap(std::move(scene)));
         },
-        py::arg("path"), py::arg("device") = "cuda", py::arg("presets") = std::vector<std::string>{"fastest"},
+        py::arg("path"), py::arg("device") = "auto", py::arg("presets") = std::vector<std::string>{"fastest"},
         py::arg("quantize_other_formats") = true, py::arg("cuda_device") = 0, py::arg("spz_frame") = "rub",
         "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) onto device "
-        "'cuda' or 'cpu'; the GPU copy holds only what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
+        "'cuda', 'cpu' or 'auto' (CUDA when a device answers, else the CPU, said once); the GPU copy holds only "
+        "what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
         "(Niantic's convention) or 'as-stored' (splat-transform's); info['notes'] says which was assumed");
 
   m.def("convert",
-        [](const std::string& src, const std::string& dst, std::optional<std::string> to,
+        [](const std::filesystem::path& src, const std::filesystem::path& dst, std::optional<std::string> to,
            const std::string& scale_encoding, float sh_clip_percentile, std::vector<std::string> zstd,
            int zstd_level, const std::string& profile, double position_error, std::optional<uint32_t> sh_degree,
            std::optional<uint32_t> lod, const std::string& spz_frame, bool sanitize, bool allow_empty) {
@@ -500,7 +546,7 @@ PYBIND11_MODULE(roofgs, m) {
           Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
           {
             py::gil_scoped_release release;
-            r = api::convert(src, dst, o);
+            r = api::convert(src.string(), dst.string(), o);
           }
           const api::ConvertReport report = unwrap(std::move(r));
           py::dict d;
@@ -527,30 +573,34 @@ PYBIND11_MODULE(roofgs, m) {
         "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output");
 
   m.def("audit",
-        [](const std::string& source, const std::string& rgs_path, const std::string& spz_frame) {
-          api::HostScene a = unwrap(api::load_host_scene(source, read_options(spz_frame)));
-          api::HostScene b = unwrap(api::load_host_scene(rgs_path));
+        [](const std::filesystem::path& source, const std::filesystem::path& candidate, const std::string& spz_frame) {
+          const converter::SceneReadOptions read = read_options(spz_frame);
+          api::HostScene a = unwrap(api::load_host_scene(source.string(), read));
+          api::HostScene b = unwrap(api::load_host_scene(candidate.string(), read));
           const converter::AttributeErrors e = unwrap(converter::measure_attribute_errors(a.cloud, b.cloud));
-          format::RgsFile file = unwrap(format::RgsFile::open(rgs_path));
           py::dict d;
           d["gaussians"] = b.cloud.size();
           d["sh_degree"] = b.cloud.sh_degree;
           d["source_bytes"] = a.file_bytes;
-          d["rgs_bytes"] = b.file_bytes;
+          d["candidate_bytes"] = b.file_bytes;
           d["bytes_per_gaussian"] = b.cloud.size() ? double(b.file_bytes) / double(b.cloud.size()) : 0.0;
           py::list sections;
-          for (const auto& s : file.sections()) {
-            py::dict sd;
-            sd["id"] = uint32_t(s.id);
-            sd["stored_bytes"] = s.stored_size;
-            sd["raw_bytes"] = s.raw_size;
-            sections.append(sd);
+          if (api::is_rgs_path(candidate.string())) {
+            format::RgsFile file = unwrap(format::RgsFile::open(candidate.string()));
+            for (const auto& sec : file.sections()) {
+              py::dict sd;
+              sd["id"] = uint32_t(sec.id);
+              sd["stored_bytes"] = sec.stored_size;
+              sd["raw_bytes"] = sec.raw_size;
+              sections.append(sd);
+            }
           }
           d["sections"] = sections;
           d["errors"] = attribute_errors(e);
           return d;
         },
-        py::arg("source"), py::arg("rgs"), py::kw_only(), py::arg("spz_frame") = "rub",
-        "What a conversion cost: sizes per section and per Gaussian, per-attribute errors of `rgs` against "
-        "`source`, as a dict");
+        py::arg("source"), py::arg("candidate"), py::kw_only(), py::arg("spz_frame") = "rub",
+        "What a conversion cost: sizes (bytes per Gaussian; the .rgs sections when the candidate is a .rgs) and "
+        "per-attribute errors of `candidate` against `source`, Gaussian by Gaussian in file order; both in any "
+        "format load() reads. Returns a dict; raises roofgs.Error (e.g. kInvalidArgument for different counts)");
 }

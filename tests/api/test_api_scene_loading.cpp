@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "rgs/config.h"
 #include "rgs/format/reader.h"
+#include "rgs/api/scene.h"
 #include "rgs/api/scene_loading.h"
 #include "test_data.h"
 
@@ -134,6 +136,20 @@ TEST_CASE("is_rgs_path: the .rgs magic or a name ending in .rgs") {
   CHECK(api::is_rgs_path(".rgs"));
   CHECK_FALSE(api::is_rgs_path("/nonexistent/scene.ply"));
   CHECK_FALSE(api::is_rgs_path("rgs"));
+}
+
+TEST_CASE("parse_device: cpu, cuda (gpu), and auto following cuda_available") {
+  CHECK(api::parse_device("cpu").value() == api::Device::kCpu);
+  CHECK(api::parse_device("gpu").value() == api::Device::kCuda);
+  std::string why;
+  const bool available = api::cuda_available(&why);
+  CHECK(api::parse_device("auto").value() == (available ? api::Device::kCuda : api::Device::kCpu));
+  CHECK(available == why.empty());
+#if !RGS_HAS_CUDA
+  CHECK_FALSE(available);
+  CHECK(why.find("RGS_WITH_CUDA=OFF") != std::string::npos);
+#endif
+  CHECK(api::parse_device("tpu").status().code() == StatusCode::kInvalidArgument);
 }
 
 }  // namespace

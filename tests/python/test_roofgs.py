@@ -144,6 +144,37 @@ def test_cpu_render_returns_numpy(guitar_rgs):
     assert e.value.code_name == "kInvalidArgument"
 
 
+def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
+    """Paths as os.PathLike; device="auto" (the default) loads on the CPU when no device answers, said once,
+    and "cuda" then raises an error naming the fix; one image side keeps the aspect ratio."""
+    rgs = pathlib.Path(guitar_rgs)
+    report = roofgs.convert(SOURCE_DIR / "samples" / "guitar.ply", tmp_path / "g.spz")
+    assert report["output"]["format"] == "spz" and (tmp_path / "g.spz").stat().st_size == report["output"]["bytes"]
+    scene = roofgs.load(rgs, device="cpu")
+    assert repr(scene).startswith("<roofgs.Scene 90854 Gaussians, SH degree 0, ")
+    camera = scene.orbit_cameras(1, 64, 36)[0]
+    assert scene.render(camera, width=32).shape == (18, 32, 4)
+    assert scene.render(camera, height=9).shape == (9, 16, 4)
+    assert roofgs.built_with_cuda or not roofgs.has_cuda
+    if not roofgs.has_cuda:
+        with pytest.warns(RuntimeWarning, match="no CUDA device"):
+            auto = roofgs.load(rgs)
+        assert auto.device == "cpu"
+        with pytest.raises(roofgs.Error) as e:
+            roofgs.load(rgs, device="cuda")
+        assert e.value.code_name == "kUnsupportedFeature" and "device='cpu'" in str(e.value)
+    else:
+        assert roofgs.load(rgs).device == "cuda"
+
+
+def test_audit_takes_any_format(tmp_path):
+    ply = SOURCE_DIR / "samples" / "guitar.ply"
+    roofgs.convert(ply, tmp_path / "g.spz")
+    report = roofgs.audit(ply, tmp_path / "g.spz")
+    assert report["gaussians"] == 90854 and report["sections"] == []
+    assert 0 < report["errors"]["position"]["max"] < 0.01
+
+
 def test_audit_is_a_dict(guitar_rgs):
     report = roofgs.audit(str(SOURCE_DIR / "samples" / "guitar.ply"), guitar_rgs)
     assert report["gaussians"] == 90854

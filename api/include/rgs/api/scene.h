@@ -32,8 +32,13 @@ enum class Device {
 /// "cpu" or "cuda".
 const char* device_name(Device device);
 
-/// Parses "cpu" / "cuda" (also "gpu"). @return kInvalidArgument otherwise.
+/// Parses "cpu" / "cuda" (also "gpu"), and "auto": kCuda when cuda_available(), else kCpu.
+/// @return kInvalidArgument otherwise.
 Result<Device> parse_device(const std::string& name);
+
+/// True when this build has the CUDA renderer and a CUDA device answers (`why`, when given and false: the
+/// reason, e.g. "built without CUDA" or the driver's error).
+bool cuda_available(std::string* why = nullptr);
 
 /// Options of load().
 struct LoadOptions {
