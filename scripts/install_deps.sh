@@ -3,7 +3,8 @@
 # Usage: scripts/install_deps.sh [sample|tests]
 #   sample  what rgs-convert and rgs-info need to build (the README's first command)
 #   tests   everything the whole test suite needs (default): the render and audit tools' image I/O, doctest,
-#           GLM (camera tests of the front door), python3 with pybind11, NumPy and pytest (the roofgs module),
+#           GLM (camera tests of the front door), python3 with pybind11, NumPy, pytest and venv (the roofgs module
+#           and its pip install check),
 #           matplotlib and chromium (the audit's HTML report and its headless screenshot test), clang's
 #           libFuzzer and sanitizers (scripts/run_fuzzers.sh)
 # Idempotent: skips apt when everything is present. Uses sudo when not run as root. Waits (up to 10 minutes)
@@ -18,7 +19,7 @@ sample=(
 tests=(
   "${sample[@]}"
   doctest-dev libopenimageio-dev libglm-dev
-  python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib time
+  python3 python3-dev python3-venv pybind11-dev python3-numpy python3-pytest python3-matplotlib time
   chromium
   clang libclang-rt-14-dev llvm
 )

@@ -258,19 +258,16 @@ converter::SceneReadOptions read_options(const std::string& spz_frame) {
   return options;
 }
 
-/// The device `name` asks for: "auto" is CUDA when a device answers, else the CPU (said once per process);
+/// The device `name` asks for: "auto" is CUDA when a device answers, else the CPU (with a warning);
 /// "cuda" without a device raises an error that names the alternatives.
 api::Device resolve_device(const std::string& name) {
   const api::Device device = unwrap(api::parse_device(name));
   std::string why;
   if (name == "auto" && device == api::Device::kCpu) {
-    static bool said = false;
-    if (!said) {
-      said = true;
-      api::cuda_available(&why);
-      const std::string note = "roofgs: no CUDA device (" + why + "); scenes load on the CPU";
-      if (PyErr_WarnEx(PyExc_RuntimeWarning, note.c_str(), 1) != 0) throw py::error_already_set();
-    }
+    // A RuntimeWarning, which Python's default filter shows once per calling line.
+    api::cuda_available(&why);
+    const std::string note = "roofgs: no CUDA device (" + why + "); scenes load on the CPU";
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, note.c_str(), 1) != 0) throw py::error_already_set();
   } else if (device == api::Device::kCuda && !api::cuda_available(&why)) {
     raise(Status(StatusCode::kUnsupportedFeature,
                  "device='" + name + "': no usable CUDA device (" + why +

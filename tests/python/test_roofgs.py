@@ -3,6 +3,7 @@
 import math
 import pathlib
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -194,6 +195,21 @@ def test_embedding_doc_python_example(guitar_rgs, tmp_path, monkeypatch):
          {"DEVICE": "cuda" if roofgs.has_cuda and _cuda_ok() else "cpu"})
 
 
+def test_readme_python_example(tmp_path, monkeypatch):
+    """Runs the Python example of the README as written, on the bundled sample."""
+    blocks = re.findall(r"```python\n(.*?)```", (SOURCE_DIR / "README.md").read_text(), re.S)
+    assert blocks, "README.md has no python example"
+    monkeypatch.chdir(tmp_path)
+    pathlib.Path("scene.ply").write_bytes((SOURCE_DIR / "samples" / "guitar.ply").read_bytes())
+    namespace = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # "no CUDA device" on a machine without one
+        exec(compile(blocks[0], "README.md", "exec"), namespace)
+    assert namespace["report"]["gaussians"] == 90854
+    image = np.asarray(namespace["rgba"])  # a NumPy array on the CPU, a DeviceImage on the GPU
+    assert image.shape == (720, 1280, 4) and image.dtype == np.uint8 and image[..., 3].max() > 128
+
+
 def _cuda_ok():
     from conftest import cuda_available
     return cuda_available()[0]
@@ -222,3 +238,11 @@ def test_gpu_render_dlpack(guitar_rgs, cuda):
     both = roofgs.load(guitar_rgs, device="cuda", presets=["fastest", "faithful"])
     rgba8 = both.render(camera, preset="faithful", format="rgba8").numpy()
     assert rgba8.dtype == np.uint8 and rgba8.shape == (180, 320, 4)
+
+
+def test_type_stubs_name_every_public_object():
+    """python/roofgs.pyi, installed with the module, declares exactly its public names."""
+    stubs = (SOURCE_DIR / "python" / "roofgs.pyi").read_text()
+    declared = set(re.findall(r"^(?:def|class) (\w+)", stubs, re.M)) | set(re.findall(r"^(\w+):", stubs, re.M))
+    public = {name for name in dir(roofgs) if not name.startswith("_")}
+    assert public == {name for name in declared if not name.startswith("_")}

@@ -1,0 +1,87 @@
+# Type stubs of the roofgs module (python/src/roofgs_module.cpp), installed next to it so that editors and type
+# checkers complete its functions. Shapes are [rows, columns]; images are top row first.
+import os
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+__version__: str
+built_with_cuda: bool  # the module has the CUDA renderer
+has_cuda: bool  # ... and a CUDA device answered when it was imported
+
+_Path = Union[str, "os.PathLike[str]"]
+_Matrix = Union[np.ndarray, Sequence[Sequence[float]]]
+
+
+class Error(RuntimeError):
+    """A RoofGS operation failed. code: the StatusCode number; code_name: e.g. "kIoError"; message."""
+    code: int
+    code_name: str
+    message: str
+
+
+class Camera:
+    """Pinhole camera in the COLMAP frame (x right, y down, z forward); see project() for pixel centres."""
+    rotation: np.ndarray  # world-to-camera R, [3, 3] float32
+    translation: List[float]  # world-to-camera t, [3]
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+    near_plane: float
+    name: str
+    def project(self, point: Sequence[float]) -> Tuple[float, float, float]: ...
+    def resized(self, width: int, height: int) -> "Camera": ...
+
+
+def camera_from_inria(rotation_c2w: _Matrix, position: Sequence[float], fx: float, fy: float, width: int,
+                      height: int, near_plane: float = 0.2, name: str = "") -> Camera: ...
+def camera_from_colmap(qvec: Sequence[float], tvec: Sequence[float], fx: float, fy: float, cx: float, cy: float,
+                       width: int, height: int, near_plane: float = 0.2, name: str = "") -> Camera: ...
+def camera_from_opencv(K: _Matrix, R: _Matrix, t: Sequence[float], width: int, height: int,
+                       near_plane: float = 0.2, name: str = "") -> Camera: ...
+def camera_from_opengl(view: _Matrix, projection: _Matrix, width: int, height: int, near_plane: float = 0.2,
+                       name: str = "") -> Camera: ...
+def camera_from_vulkan(view: _Matrix, projection: _Matrix, width: int, height: int, near_plane: float = 0.2,
+                       name: str = "") -> Camera: ...
+def load_cameras(path: _Path) -> List[Camera]: ...
+
+
+class DeviceImage:
+    """A rendered plane in GPU memory: colour [H, W, 4] or depth [H, W]; DLPack, NumPy's __array__."""
+    shape: List[int]
+    dtype: str  # "float32", "float16" or "uint8"
+    device: str
+    data_ptr: int
+    def __dlpack__(self, stream: Optional[int] = None, **kwargs: Any) -> Any: ...
+    def __dlpack_device__(self) -> Tuple[int, int]: ...
+    def __array__(self, *args: Any, **kwargs: Any) -> np.ndarray: ...
+    def synchronize(self) -> None: ...
+    def numpy(self) -> np.ndarray: ...
+
+
+_Image = Union[np.ndarray, DeviceImage]
+
+
+class Scene:
+    """A loaded scene (immutable; share it freely)."""
+    info: Dict[str, Any]
+    device: str  # "cpu" or "cuda"
+    def __len__(self) -> int: ...
+    def orbit_cameras(self, count: int, width: int = 1920, height: int = 1080) -> List[Camera]: ...
+    def render(self, camera: Camera, preset: str = "fastest", width: Optional[int] = None,
+               height: Optional[int] = None, background: Sequence[float] = (0.0, 0.0, 0.0),
+               format: str = "rgba32f", depth: bool = False,
+               stream: Optional[int] = None) -> Union[_Image, Tuple[_Image, _Image]]: ...
+
+
+def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
+         quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: str = "rub") -> Scene: ...
+def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, scale_encoding: str = "linear",
+            sh_clip_percentile: float = 100.0, zstd: Sequence[str] = (), zstd_level: int = 19,
+            profile: str = "runtime", position_error: float = ..., sh_degree: Optional[int] = None,
+            lod: Optional[int] = None, spz_frame: str = "rub", sanitize: bool = False,
+            allow_empty: bool = False) -> Dict[str, Any]: ...
+def audit(source: _Path, candidate: _Path, *, spz_frame: str = "rub") -> Dict[str, Any]: ...
