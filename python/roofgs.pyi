@@ -65,9 +65,15 @@ class DeviceImage:
 _Image = Union[np.ndarray, DeviceImage]
 
 
+_Array = Any  # a NumPy array, or anything np.asarray takes (a torch tensor; CUDA tensors are copied to the host)
+
+
 class Scene:
     """A loaded scene (immutable; share it freely)."""
     info: Dict[str, Any]
+    @staticmethod
+    def from_arrays(means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
+                    device: str = "auto", sanitize: bool = False, name: str = "arrays") -> "Scene": ...
     device: str  # "cpu" or "cuda"
     def __len__(self) -> int: ...
     def orbit_cameras(self, count: int, width: int = 1920, height: int = 1080) -> List[Camera]: ...
@@ -84,4 +90,12 @@ def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, scale_encoding:
             profile: str = "runtime", position_error: float = ..., sh_degree: Optional[int] = None,
             lod: Optional[int] = None, spz_frame: str = "rub", sanitize: bool = False,
             allow_empty: bool = False) -> Dict[str, Any]: ...
+def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
+         to: Optional[str] = None, sh_degree: Optional[int] = None, profile: str = "runtime",
+         sanitize: bool = False, **options: Any) -> Dict[str, Any]: ...
+def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,
+                  viewmats: _Array, Ks: _Array, width: int, height: int, *, near_plane: float = 0.01,
+                  sh_degree: Optional[int] = None, backgrounds: Optional[_Array] = None, render_mode: str = "RGB",
+                  preset: str = "fastest", device: str = "auto",
+                  **gsplat_defaults: Any) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]: ...
 def audit(source: _Path, candidate: _Path, *, spz_frame: str = "rub") -> Dict[str, Any]: ...

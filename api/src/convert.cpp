@@ -288,4 +288,14 @@ Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std:
   return convert_input(std::move(input), name, dst, output, options, start);
 }
 
+Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::string& name, const std::string& dst,
+                                    const ConvertOptions& options) {
+  const auto start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
+  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input,
+                       converter::scene_from_cloud(std::move(cloud), name, read_options(options)));
+  return convert_input(std::move(input), name, dst, output, options, start);
+}
+
 }  // namespace rgs::api

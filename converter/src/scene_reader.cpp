@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "internal_input_file.h"
+#include "internal_interop.h"
 #include "internal_json.h"
 #include "internal_scene_files.h"
 #include "internal_ply_header.h"
@@ -493,6 +494,33 @@ Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {
   }
   cloud->sh_degree = degree;
   return Status();
+}
+
+Result<InputScene> scene_from_cloud(format::GaussianCloud cloud, const std::string& name,
+                                    const SceneReadOptions& options) {
+  RGS_RETURN_ERROR_IF(!cloud.is_consistent(), StatusCode::kInvalidArgument,
+                      name + ": the arrays disagree with " + std::to_string(cloud.size()) +
+                          " Gaussians at SH degree " + std::to_string(cloud.sh_degree));
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const float* s = &cloud.scales[i * 3];
+    RGS_RETURN_ERROR_IF(s[0] < 0 || s[1] < 0 || s[2] < 0, StatusCode::kInvalidArgument,
+                        name + ": Gaussian " + std::to_string(i) +
+                            " has a negative scale (scales are linear, not log: exp() them first)");
+    const float o = cloud.opacities[i];  // NaN: a non-finite value, for the hygiene rules below
+    RGS_RETURN_ERROR_IF(o < 0 || o > 1, StatusCode::kInvalidArgument,
+                        name + ": Gaussian " + std::to_string(i) +
+                            " has an opacity outside [0, 1] (opacities are activated, not logits: sigmoid() them first)");
+  }
+  InputScene scene;
+  scene.declared_vertices = cloud.size();
+  Status values = detail::finish_hygiene(options.invalid_policy, "Gaussian", &cloud, &scene.hygiene);
+  if (!values.ok()) return values.prepend(name);
+  scene.cloud = std::move(cloud);
+  scene.bounds = compute_bounds(scene.cloud);
+  scene.format_id = "arrays";
+  scene.storage_format = "arrays";
+  scene.description = "float Gaussians in memory";
+  return scene;
 }
 
 std::vector<std::string> supported_scene_formats() {

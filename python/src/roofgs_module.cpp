@@ -258,6 +258,142 @@ converter::SceneReadOptions read_options(const std::string& spz_frame) {
   return options;
 }
 
+// ---------------------------------------------------------------------------------------------------------
+// Gaussians from arrays
+
+/// A C-contiguous float32 copy of `obj` (a NumPy array, or anything with __array__: a CPU torch tensor). A
+/// CUDA tensor is copied to the host first (`.cpu()`): the arrays of a frame pass through host memory.
+py::array_t<float> float_array(const py::object& obj, const char* what) {
+  py::object source = obj;
+  if (py::hasattr(obj, "__dlpack_device__")) {
+    const auto device = obj.attr("__dlpack_device__")().cast<std::pair<int, int>>();
+    if (device.first != kDLCPU && py::hasattr(obj, "cpu")) source = obj.attr("cpu")();
+  }
+  if (py::hasattr(source, "detach")) source = source.attr("detach")();
+  auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(source);
+  if (!a) raise(Status(StatusCode::kInvalidArgument, std::string(what) + ": not an array of numbers"));
+  return a;
+}
+
+/// Checks that `a` is [n, cols...] (n taken from the first array when *n is 0).
+void check_shape(const py::array_t<float>& a, const char* what, size_t* n, std::vector<py::ssize_t> cols) {
+  const std::string want = [&] {
+    std::string t = "[N";
+    for (py::ssize_t c : cols) t += ", " + std::to_string(c);
+    return t + "]";
+  }();
+  bool ok = a.ndim() == py::ssize_t(cols.size() + 1);
+  for (size_t d = 0; ok && d < cols.size(); ++d) ok = a.shape(py::ssize_t(d + 1)) == cols[d];
+  if (ok && *n == 0) *n = size_t(a.shape(0));
+  ok = ok && size_t(a.shape(0)) == *n;
+  if (!ok) raise(Status(StatusCode::kInvalidArgument, std::string(what) + ": expected shape " + want + " with N = " +
+                                                          std::to_string(*n)));
+}
+
+/// The SH coefficients of `colors`: [N, K, 3] SH (K = 1, 4, 9 or 16) or, when `rgb`, [N, 3] colours turned
+/// into the DC term that renders them, (c - 0.5) / C0 (3DGS: colour = C0·f_dc + 0.5).
+std::vector<float> sh_values(const py::array_t<float>& colors, size_t n, bool rgb, uint32_t* degree) {
+  if (rgb) {
+    size_t m = n;
+    check_shape(colors, "colors", &m, {3});
+    *degree = 0;
+    std::vector<float> sh(colors.data(), colors.data() + colors.size());
+    for (float& v : sh) v = (v - 0.5f) / 0.28209479177387814f;
+    return sh;
+  }
+  const py::ssize_t k = colors.ndim() == 3 ? colors.shape(1) : 0;
+  uint32_t d = 0;
+  while (d < 3 && format::sh_coefficient_count(d) < uint32_t(k)) ++d;
+  if (k <= 0 || format::sh_coefficient_count(d) != uint32_t(k)) {
+    raise(Status(StatusCode::kInvalidArgument, "sh: expected shape [N, K, 3] with K = 1, 4, 9 or 16"));
+  }
+  size_t m = n;
+  check_shape(colors, "sh", &m, {k, 3});
+  *degree = d;
+  return std::vector<float>(colors.data(), colors.data() + colors.size());
+}
+
+/// format::GaussianCloud from arrays in its activated layout: means [N, 3], quats [N, 4] (w, x, y, z),
+/// linear scales [N, 3], opacities [N] in [0, 1], SH [N, K, 3] (or RGB [N, 3] when `rgb`).
+format::GaussianCloud cloud_from_arrays(const py::object& means, const py::object& quats, const py::object& scales,
+                                        const py::object& opacities, const py::object& colors, bool rgb) {
+  const auto m = float_array(means, "means"), q = float_array(quats, "quats"), s = float_array(scales, "scales");
+  auto o = float_array(opacities, "opacities");
+  size_t n = 0;
+  check_shape(m, "means", &n, {3});
+  check_shape(q, "quats", &n, {4});
+  check_shape(s, "scales", &n, {3});
+  if (o.ndim() == 2) o = o.reshape({py::ssize_t(o.shape(0) * o.shape(1))});
+  check_shape(o, "opacities", &n, {});
+  format::GaussianCloud cloud;
+  cloud.sh = sh_values(float_array(colors, rgb ? "colors" : "sh"), n, rgb, &cloud.sh_degree);
+  cloud.means.assign(m.data(), m.data() + m.size());
+  cloud.rotations.assign(q.data(), q.data() + q.size());
+  cloud.scales.assign(s.data(), s.data() + s.size());
+  cloud.opacities.assign(o.data(), o.data() + o.size());
+  return cloud;
+}
+
+/// ConvertOptions from convert()'s and save()'s keyword arguments (the defaults are ConvertOptions's own).
+api::ConvertOptions convert_options(const py::kwargs& kwargs) {
+  api::ConvertOptions o;
+  o.converter_name = "roofgs python";
+  std::string spz_frame = "rub";
+  for (const auto& [key_obj, value] : kwargs) {
+    const std::string key = py::str(key_obj);
+    if (key == "to") {
+      if (!value.is_none()) o.to = unwrap(api::parse_output_format(value.cast<std::string>()));
+    } else if (key == "scale_encoding") {
+      const std::string e = value.cast<std::string>();
+      if (e != "log" && e != "linear") raise(Status(StatusCode::kInvalidArgument, "scale_encoding must be 'linear' or 'log'"));
+      o.scale_encoding = e == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
+    } else if (key == "profile") {
+      const std::string p = value.cast<std::string>();
+      if (p != "archive" && p != "runtime") raise(Status(StatusCode::kInvalidArgument, "profile must be 'runtime' or 'archive'"));
+      o.profile = p == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
+    } else if (key == "sh_clip_percentile") {
+      o.sh_clip_percentile = value.cast<float>();
+    } else if (key == "zstd") {
+      o.zstd_sections = value.cast<std::vector<std::string>>();
+    } else if (key == "zstd_level") {
+      o.zstd_level = value.cast<int>();
+    } else if (key == "position_error") {
+      o.position_error = value.cast<double>();
+    } else if (key == "sh_degree") {
+      o.sh_degree = value.cast<std::optional<uint32_t>>();
+    } else if (key == "lod") {
+      o.read.lod = value.cast<std::optional<uint32_t>>();
+    } else if (key == "spz_frame") {
+      spz_frame = value.cast<std::string>();
+    } else if (key == "sanitize") {
+      o.sanitize = value.cast<bool>();
+    } else if (key == "allow_empty") {
+      o.allow_empty = value.cast<bool>();
+    } else {
+      throw py::type_error("unexpected keyword argument '" + key +
+                           "' (to, scale_encoding, sh_clip_percentile, zstd, zstd_level, profile, position_error, "
+                           "sh_degree, lod, spz_frame, sanitize, allow_empty)");
+    }
+  }
+  const converter::SceneReadOptions read = read_options(spz_frame);
+  o.read.spz_frame = read.spz_frame;
+  return o;
+}
+
+py::dict report_dict(const api::ConvertReport& report) {
+  py::dict d;
+  d["input"] = py::dict(py::arg("format") = report.input_format, py::arg("description") = report.input_description,
+                        py::arg("bytes") = report.input_bytes, py::arg("notes") = report.input_notes);
+  d["output"] = py::dict(py::arg("format") = api::output_format_name(report.output_format),
+                         py::arg("description") = report.output_description, py::arg("bytes") = report.output_bytes,
+                         py::arg("notes") = report.output_notes);
+  d["gaussians"] = report.gaussians;
+  d["sh_degree"] = report.sh_degree;
+  d["dropped_gaussians"] = report.hygiene.dropped_gaussians;
+  if (report.rgs) d["errors"] = attribute_errors(report.rgs->errors);
+  return d;
+}
+
 /// The device `name` asks for: "auto" is CUDA when a device answers, else the CPU (with a warning);
 /// "cuda" without a device raises an error that names the alternatives.
 api::Device resolve_device(const std::string& name) {
@@ -326,6 +462,107 @@ struct PyScene {
     return py::make_tuple(py::cast(colour), py::cast(ImagePlane{shared, true}));
   }
 };
+
+/// gsplat's rasterization() arguments this call takes only at their defaults (it renders, it does not train).
+void check_gsplat_defaults(const py::kwargs& kwargs) {
+  for (const auto& [key_obj, value] : kwargs) {
+    const std::string key = py::str(key_obj);
+    const bool at_default =
+        (key == "far_plane" && value.cast<double>() >= 1e10) || (key == "radius_clip" && value.cast<double>() == 0) ||
+        (key == "eps2d" && std::abs(value.cast<double>() - 0.3) < 1e-9) || key == "packed" ||
+        (key == "tile_size" && value.cast<int>() == 16) || (key == "sparse_grad" && !value.cast<bool>()) ||
+        (key == "absgrad" && !value.cast<bool>()) ||
+        (key == "rasterize_mode" && value.cast<std::string>() == "classic") ||
+        (key == "camera_model" && value.cast<std::string>() == "pinhole");
+    if (!at_default) {
+      throw py::value_error("roofgs.rasterization renders for inference with gsplat's defaults; " + key + "=" +
+                            std::string(py::str(value)) +
+                            " is not supported (no gradients, antialiased mode, other camera models or clipping)");
+    }
+  }
+}
+
+/// gsplat's rasterization() for inference: see its docstring below.
+py::tuple rasterization(const py::object& means, const py::object& quats, const py::object& scales,
+                        const py::object& opacities, const py::object& colors, const py::object& viewmats,
+                        const py::object& Ks, uint32_t width, uint32_t height, float near_plane,
+                        std::optional<uint32_t> sh_degree, const py::object& backgrounds, const std::string& render_mode,
+                        const std::string& preset, const std::string& device, const py::kwargs& kwargs) {
+  check_gsplat_defaults(kwargs);
+  const bool rgb_out = render_mode.rfind("RGB", 0) == 0;
+  const std::string depth_mode = rgb_out ? (render_mode.size() > 3 ? render_mode.substr(4) : "") : render_mode;
+  if ((rgb_out && render_mode.size() > 3 && render_mode[3] != '+') || (depth_mode != "" && depth_mode != "D" &&
+                                                                       depth_mode != "ED")) {
+    throw py::value_error("render_mode must be RGB, D, ED, RGB+D or RGB+ED, not " + render_mode);
+  }
+  format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, colors, !sh_degree);
+  if (sh_degree) check(converter::reduce_sh_degree(&cloud, *sh_degree));
+  const auto views = float_array(viewmats, "viewmats"), intrinsics = float_array(Ks, "Ks");
+  size_t cameras = 0;
+  check_shape(views, "viewmats", &cameras, {4, 4});
+  check_shape(intrinsics, "Ks", &cameras, {3, 3});
+  std::vector<float> bg(cameras * 3, 0.f);
+  if (!backgrounds.is_none()) {
+    const auto b = float_array(backgrounds, "backgrounds");
+    check_shape(b, "backgrounds", &cameras, {3});
+    bg.assign(b.data(), b.data() + b.size());
+  }
+  api::LoadOptions load;
+  load.device = resolve_device(device);
+  api::RenderSettings settings;
+  settings.preset = unwrap(api::parse_preset(preset));
+  api::CameraOptions camera_options;
+  camera_options.near_plane = near_plane;
+  const size_t pixels = size_t(width) * height;
+  py::array_t<float> out_colors({py::ssize_t(cameras), py::ssize_t(height), py::ssize_t(width),
+                                 py::ssize_t(rgb_out ? 3 : 0) + (depth_mode.empty() ? 0 : 1)});
+  py::array_t<float> out_alphas({py::ssize_t(cameras), py::ssize_t(height), py::ssize_t(width), py::ssize_t(1)});
+  std::vector<uint64_t> pairs;
+  Status status;
+  {
+    py::gil_scoped_release release;
+    std::vector<float> rgba(pixels * 4), depth(pixels);
+    float* colors_out = out_colors.mutable_data();
+    float* alphas_out = out_alphas.mutable_data();
+    const size_t channels = size_t(out_colors.shape(3));
+    auto run = [&]() -> Status {
+      RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::scene_from_cloud(std::move(cloud), "arrays"));
+      RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load_cloud(std::move(input.cloud), input.bounds, "arrays", load));
+      RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(scene.device(), 0));
+      for (size_t c = 0; c < cameras; ++c) {
+        const float* v = views.data() + c * 16;
+        const float* k = intrinsics.data() + c * 9;
+        // gsplat's K puts pixel centres at half-integers (corner origin); camera_from_opencv's at integers.
+        const std::array<double, 9> K{k[0], k[1], k[2] - 0.5, k[3], k[4], k[5] - 0.5, k[6], k[7], k[8]};
+        const std::array<double, 9> R{v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]};
+        const std::array<double, 3> t{v[3], v[7], v[11]};
+        RGS_ASSIGN_OR_RETURN(api::Camera camera, api::camera_from_opencv(K, R, t, width, height, camera_options));
+        settings.background = {bg[c * 3], bg[c * 3 + 1], bg[c * 3 + 2]};
+        RGS_ASSIGN_OR_RETURN(api::Image image, renderer.render_image(scene, camera, settings, api::PixelFormat::kRgba32f,
+                                                                      !depth_mode.empty()));
+        RGS_RETURN_IF_ERROR(image.copy_to_host(rgba.data(), depth_mode.empty() ? nullptr : depth.data()));
+        for (size_t i = 0; i < pixels; ++i) {
+          float* px = colors_out + (c * pixels + i) * channels;
+          const float alpha = rgba[i * 4 + 3];
+          if (rgb_out) std::copy(&rgba[i * 4], &rgba[i * 4 + 3], px);
+          if (!depth_mode.empty()) px[channels - 1] = depth_mode == "D" ? depth[i] * alpha : depth[i];
+          alphas_out[c * pixels + i] = alpha;
+        }
+        pairs.push_back(image.frame_stats().pairs);
+      }
+      return Status();
+    };
+    status = run();
+  }
+  check(status);
+  py::dict meta;
+  meta["preset"] = preset;
+  meta["width"] = width;
+  meta["height"] = height;
+  meta["n_cameras"] = cameras;
+  meta["pairs"] = pairs;  // (tile, Gaussian) pairs of each view
+  return py::make_tuple(out_colors, out_alphas, meta);
+}
 
 }  // namespace
 
@@ -475,6 +712,31 @@ PYBIND11_MODULE(roofgs, m) {
                std::to_string(info.sh_degree) + ", " + info.description + ", on " + api::device_name(info.device) +
                ">";
       })
+      .def_static(
+          "from_arrays",
+          [](const py::object& means, const py::object& quats, const py::object& scales, const py::object& opacities,
+             const py::object& sh, const std::string& device, bool sanitize, const std::string& name) {
+            format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
+            api::LoadOptions options;
+            options.device = resolve_device(device);
+            converter::SceneReadOptions read;
+            read.invalid_policy = sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+            Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
+            {
+              py::gil_scoped_release release;
+              auto input = converter::scene_from_cloud(std::move(cloud), name, read);
+              if (!input.ok()) {
+                scene = input.status();
+              } else {
+                scene = api::load_cloud(std::move(input->cloud), input->bounds, name, options);
+              }
+            }
+            return std::make_unique<PyScene>(unwrap(std::move(scene)));
+          },
+          py::arg("means"), py::arg("quats"), py::arg("scales"), py::arg("opacities"), py::arg("sh"), py::kw_only(),
+          py::arg("device") = "auto", py::arg("sanitize") = false, py::arg("name") = "arrays",
+          "A scene of Gaussians held in arrays (save()'s layout and value rules), on `device` ('auto', 'cpu', "
+          "'cuda'); renders with every preset (the GPU reads its FP32 arrays)")
       .def("orbit_cameras",
            [](const PyScene& s, uint32_t count, uint32_t width, uint32_t height) {
              return unwrap(runtime::orbit_cameras(s.scene.info().bounds, count, width, height));
@@ -514,61 +776,55 @@ PYBIND11_MODULE(roofgs, m) {
         "(Niantic's convention) or 'as-stored' (splat-transform's); info['notes'] says which was assumed");
 
   m.def("convert",
-        [](const std::filesystem::path& src, const std::filesystem::path& dst, std::optional<std::string> to,
-           const std::string& scale_encoding, float sh_clip_percentile, std::vector<std::string> zstd,
-           int zstd_level, const std::string& profile, double position_error, std::optional<uint32_t> sh_degree,
-           std::optional<uint32_t> lod, const std::string& spz_frame, bool sanitize, bool allow_empty) {
-          api::ConvertOptions o;
-          if (to) o.to = unwrap(api::parse_output_format(*to));
-          if (scale_encoding == "log") {
-            o.scale_encoding = format::ScaleEncoding::kLog;
-          } else if (scale_encoding != "linear") {
-            raise(Status(StatusCode::kInvalidArgument, "scale_encoding must be 'linear' or 'log'"));
-          }
-          if (profile == "archive") {
-            o.profile = format::StorageProfile::kArchive;
-          } else if (profile != "runtime") {
-            raise(Status(StatusCode::kInvalidArgument, "profile must be 'runtime' or 'archive'"));
-          }
-          o.sh_clip_percentile = sh_clip_percentile;
-          o.zstd_sections = std::move(zstd);
-          o.zstd_level = zstd_level;
-          o.position_error = position_error;
-          o.sh_degree = sh_degree;
-          o.read = read_options(spz_frame);
-          o.read.lod = lod;
-          o.sanitize = sanitize;
-          o.allow_empty = allow_empty;
-          o.converter_name = "roofgs python";
+        [](const std::filesystem::path& src, const std::filesystem::path& dst, const py::kwargs& kwargs) {
+          const api::ConvertOptions options = convert_options(kwargs);
           Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
           {
             py::gil_scoped_release release;
-            r = api::convert(src.string(), dst.string(), o);
+            r = api::convert(src.string(), dst.string(), options);
           }
-          const api::ConvertReport report = unwrap(std::move(r));
-          py::dict d;
-          d["input"] = py::dict(py::arg("format") = report.input_format,
-                                py::arg("description") = report.input_description,
-                                py::arg("bytes") = report.input_bytes, py::arg("notes") = report.input_notes);
-          d["output"] = py::dict(py::arg("format") = api::output_format_name(report.output_format),
-                                 py::arg("description") = report.output_description,
-                                 py::arg("bytes") = report.output_bytes, py::arg("notes") = report.output_notes);
-          d["gaussians"] = report.gaussians;
-          d["sh_degree"] = report.sh_degree;
-          d["dropped_gaussians"] = report.hygiene.dropped_gaussians;
-          if (report.rgs) d["errors"] = attribute_errors(report.rgs->errors);
-          return d;
+          return report_dict(unwrap(std::move(r)));
         },
-        py::arg("src"), py::arg("dst"), py::kw_only(), py::arg("to") = py::none(), py::arg("scale_encoding") = "linear",
-        py::arg("sh_clip_percentile") = 100.0f, py::arg("zstd") = std::vector<std::string>{},
-        py::arg("zstd_level") = 19, py::arg("profile") = "runtime",
-        py::arg("position_error") = format::kDefaultArchivePositionError, py::arg("sh_degree") = py::none(),
-        py::arg("lod") = py::none(), py::arg("spz_frame") = "rub", py::arg("sanitize") = false,
-        py::arg("allow_empty") = false,
+        py::arg("src"), py::arg("dst"),
+        "convert(src, dst, *, to=None, scale_encoding='linear', sh_clip_percentile=100.0, zstd=[], zstd_level=19, "
+        "profile='runtime', position_error=..., sh_degree=None, lod=None, spz_frame='rub', sanitize=False, "
+        "allow_empty=False)\n\n"
         "Convert a scene in any format into dst: .rgs, .ply, .spz or .glb, as `to` or dst's extension says "
         "(what rgs-convert does, same options). Returns a dict: input and output (format, description, bytes, "
         "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output");
-
+  m.def("save",
+        [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
+           const py::object& scales, const py::object& opacities, const py::object& sh, const py::kwargs& kwargs) {
+          format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
+          const api::ConvertOptions options = convert_options(kwargs);
+          Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not written");
+          {
+            py::gil_scoped_release release;
+            r = api::convert_cloud(std::move(cloud), "arrays", path.string(), options);
+          }
+          return report_dict(unwrap(std::move(r)));
+        },
+        py::arg("path"), py::arg("means"), py::arg("quats"), py::arg("scales"), py::arg("opacities"), py::arg("sh"),
+        "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb), with convert()'s "
+        "keyword options. means [N, 3], quats [N, 4] (w, x, y, z; normalized here), scales [N, 3] linear "
+        "(exp of the PLY's log scales), opacities [N] in [0, 1] (sigmoid of the PLY's logits), sh [N, K, 3] "
+        "(K = 1, 4, 9, 16; PLY f_dc then f_rest reordered coefficient-major); float32 or convertible. The value "
+        "rules of a file apply (sanitize=True drops what they reject). Returns convert()'s dict");
+  m.def("rasterization", &rasterization, py::arg("means"), py::arg("quats"), py::arg("scales"),
+        py::arg("opacities"), py::arg("colors"), py::arg("viewmats"), py::arg("Ks"), py::arg("width"),
+        py::arg("height"), py::kw_only(), py::arg("near_plane") = 0.01f, py::arg("sh_degree") = py::none(),
+        py::arg("backgrounds") = py::none(), py::arg("render_mode") = "RGB", py::arg("preset") = "fastest",
+        py::arg("device") = "auto",
+        "gsplat.rasterization's call for inference: swap the import to render trained Gaussians with RoofGS.\n"
+        "means [N, 3]; quats [N, 4] (w, x, y, z, normalized here); scales [N, 3] activated (linear); opacities "
+        "[N] activated, in [0, 1]; colors [N, K, 3] SH with sh_degree given (its first (sh_degree+1)^2 "
+        "coefficients are used), else [N, 3] RGB; viewmats [C, 4, 4] world-to-camera (OpenCV axes: x right, y "
+        "down, z forward); Ks [C, 3, 3] pixel intrinsics with gsplat's pixel centres at half-integers; width, "
+        "height in pixels; near_plane: Gaussians nearer are culled; backgrounds [C, 3]; render_mode RGB, D, "
+        "ED, RGB+D or RGB+ED (ED: expected depth, D: accumulated = ED x alpha). NumPy arrays or tensors "
+        "(CUDA tensors are copied through host memory). Returns (colors [C, H, W, 3 or 4], alphas [C, H, W, 1], "
+        "meta) as float32 NumPy arrays. gsplat's training options (gradients, antialiased mode, other cameras, "
+        "far plane, radius clip) are refused with ValueError unless at their defaults");
   m.def("audit",
         [](const std::filesystem::path& source, const std::filesystem::path& candidate, const std::string& spz_frame) {
           const converter::SceneReadOptions read = read_options(spz_frame);

@@ -246,3 +246,96 @@ def test_type_stubs_name_every_public_object():
     declared = set(re.findall(r"^(?:def|class) (\w+)", stubs, re.M)) | set(re.findall(r"^(\w+):", stubs, re.M))
     public = {name for name in dir(roofgs) if not name.startswith("_")}
     assert public == {name for name in declared if not name.startswith("_")}
+
+
+def read_ply_arrays(path):
+    """A 3DGS binary PLY's Gaussians as roofgs.save()'s arrays (activated: exp scales, sigmoid opacities)."""
+    data = pathlib.Path(path).read_bytes()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    names = re.findall(rb"property float (\w+)", data[:end])
+    rows = np.frombuffer(data[end:], dtype=np.dtype([(n.decode(), "<f4") for n in names]))
+    col = lambda *keys: np.stack([rows[k] for k in keys], axis=1).astype(np.float32)
+    rest = sorted((n.decode() for n in names if n.startswith(b"f_rest_")), key=lambda n: int(n[7:]))
+    k = 1 + len(rest) // 3
+    sh = np.zeros((len(rows), k, 3), np.float32)
+    sh[:, 0] = col("f_dc_0", "f_dc_1", "f_dc_2")
+    for c in range(3):  # PLY f_rest: channel-major; the arrays: coefficient-major
+        for j in range(k - 1):
+            sh[:, 1 + j, c] = rows[rest[c * (k - 1) + j]]
+    return (col("x", "y", "z"), col("rot_0", "rot_1", "rot_2", "rot_3"), np.exp(col("scale_0", "scale_1", "scale_2")),
+            1 / (1 + np.exp(-rows["opacity"].astype(np.float32))), sh)
+
+
+GUITAR = SOURCE_DIR / "samples" / "guitar.ply"
+
+
+def test_from_arrays_renders_what_the_file_renders(tmp_path):
+    arrays = read_ply_arrays(GUITAR)
+    from_file = roofgs.load(GUITAR, device="cpu", quantize_other_formats=False)
+    from_arrays = roofgs.Scene.from_arrays(*arrays, device="cpu")
+    assert len(from_arrays) == len(from_file) == 90854
+    camera = from_file.orbit_cameras(2, 96, 54)[1]
+    # Equal up to float32 rounding: NumPy's exp and sigmoid above against the PLY reader's expf.
+    for preset in ("fastest", "faithful"):
+        assert np.allclose(from_arrays.render(camera, preset=preset), from_file.render(camera, preset=preset),
+                           rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("output", sorted(SIGNATURES))
+def test_save_writes_every_format(output, tmp_path):
+    means, quats, scales, opacities, sh = read_ply_arrays(GUITAR)
+    path = tmp_path / ("g." + output)
+    report = roofgs.save(path, means[:500], quats[:500], scales[:500], opacities[:500], sh[:500])
+    assert report["input"]["format"] == "arrays" and report["output"]["format"] == output
+    assert path.read_bytes()[:len(SIGNATURES[output])] == SIGNATURES[output]
+    back = roofgs.load(path, device="cpu", quantize_other_formats=False)
+    assert len(back) == 500
+    if output == "ply":  # lossless: the same frame as the arrays themselves
+        camera = back.orbit_cameras(1, 64, 36)[0]
+        direct = roofgs.Scene.from_arrays(means[:500], quats[:500], scales[:500], opacities[:500], sh[:500], device="cpu")
+        assert np.allclose(back.render(camera), direct.render(camera), atol=1e-6)
+
+
+def test_arrays_follow_the_value_rules():
+    means, quats, scales, opacities, sh = (a[:100].copy() for a in read_ply_arrays(GUITAR))
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.Scene.from_arrays(means, quats, -scales, opacities, sh, device="cpu")
+    assert e.value.code_name == "kInvalidArgument" and "exp() them first" in str(e.value)
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.Scene.from_arrays(means, quats, scales, opacities * 2 + 1, sh, device="cpu")
+    assert "sigmoid() them first" in str(e.value)
+    means[7, 1] = np.nan
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.Scene.from_arrays(means, quats, scales, opacities, sh, device="cpu")
+    assert e.value.code_name == "kCorruptData"
+    assert len(roofgs.Scene.from_arrays(means, quats, scales, opacities, sh, device="cpu", sanitize=True)) == 99
+    with pytest.raises(roofgs.Error):
+        roofgs.Scene.from_arrays(means[:, :2], quats, scales, opacities, sh, device="cpu")
+
+
+def test_rasterization_is_gsplats_call_on_the_cpu_reference():
+    """gsplat's conventions (world-to-camera viewmats, K with pixel centres at half-integers, activated
+    values, RGB colours) give the CPU reference's frame of the same camera, bit for bit."""
+    means, quats, scales, opacities, sh = read_ply_arrays(GUITAR)
+    scene = roofgs.Scene.from_arrays(means, quats, scales, opacities, sh, device="cpu")
+    cameras = scene.orbit_cameras(2, 80, 48)
+    viewmats = np.zeros((2, 4, 4), np.float32)
+    Ks = np.zeros((2, 3, 3), np.float32)
+    for i, c in enumerate(cameras):
+        viewmats[i, :3, :3], viewmats[i, :3, 3], viewmats[i, 3, 3] = c.rotation, c.translation, 1
+        Ks[i] = [[c.fx, 0, c.cx], [0, c.fy, c.cy], [0, 0, 1]]
+    colors, alphas, meta = roofgs.rasterization(means, quats, scales, opacities, sh, viewmats, Ks, 80, 48,
+                                                sh_degree=0, near_plane=0.2, render_mode="RGB+ED", device="cpu")
+    assert colors.shape == (2, 48, 80, 4) and alphas.shape == (2, 48, 80, 1) and meta["n_cameras"] == 2
+    for i, c in enumerate(cameras):
+        rgba, depth = scene.render(c, depth=True)
+        assert np.array_equal(colors[i, ..., :3], rgba[..., :3])
+        assert np.array_equal(alphas[i, ..., 0], rgba[..., 3])
+        assert np.array_equal(colors[i, ..., 3], depth)
+    # RGB colours instead of SH: the DC term that renders them.
+    rgb = np.clip(0.5 + 0.28209479177387814 * sh[:, 0], 0, None)
+    colors_rgb, _, _ = roofgs.rasterization(means, quats, scales, opacities, rgb, viewmats[:1], Ks[:1], 80, 48,
+                                            near_plane=0.2, device="cpu")
+    assert np.allclose(colors_rgb[0], colors[0, ..., :3], atol=1e-5)
+    with pytest.raises(ValueError, match="absgrad"):
+        roofgs.rasterization(means, quats, scales, opacities, rgb, viewmats, Ks, 80, 48, absgrad=True)

@@ -138,4 +138,10 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
 Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
                                     const std::string& dst, const ConvertOptions& options = {});
 
+/// convert() of float Gaussians held in memory (a training run's arrays, format::GaussianCloud's activated
+/// layout) under converter::scene_from_cloud's value rules (ConvertOptions::sanitize drops the Gaussians
+/// they reject); `name` stands for the source in messages and provenance.
+Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::string& name, const std::string& dst,
+                                    const ConvertOptions& options = {});
+
 }  // namespace rgs::api

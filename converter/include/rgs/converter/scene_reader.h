@@ -113,6 +113,16 @@ Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& o
 Result<InputScene> read_scene_bytes(const uint8_t* data, size_t size, const std::string& name,
                                     const SceneReadOptions& options = {});
 
+/// Float Gaussians already in memory (a training run's arrays) as the InputScene a file holding them would
+/// give: the same value rules as read_scene (quaternions normalized; non-finite values and zero quaternions
+/// rejected, or dropped under InvalidPolicy::kSanitize: docs/INPUT_HYGIENE.md), and linear scales must be
+/// ≥ 0 and opacities in [0, 1] (GaussianCloud's activated encoding). bounds = compute_bounds(cloud);
+/// format_id "arrays". `name` names the scene in messages.
+/// @return kInvalidArgument naming `name` for arrays that disagree with the cloud's size and SH degree, a
+///         negative scale or an opacity outside [0, 1] (the first index); kCorruptData as read_scene.
+Result<InputScene> scene_from_cloud(format::GaussianCloud cloud, const std::string& name,
+                                    const SceneReadOptions& options = {});
+
 /// What read_scene would do with `path`: the format_id of the reader it picks (e.g. "sog_lod"), or the
 /// kInvalidArgument "unsupported format" error (kIoError when `path` cannot be read). Reads only the start
 /// of the file (and a JSON file whole).
