@@ -16,6 +16,8 @@
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
+#include "rgs/config.h"
+#include "rgs_tool_version.h"
 #include "scene_read_options.h"
 
 namespace rgs::tools {
@@ -297,6 +299,10 @@ std::string read_file_head(const std::string& path, size_t bytes) {
   ::close(fd);
   head.resize(got);
   return head;
+}
+
+std::string version_line(const char* tool) {
+  return std::string(tool) + " " + RGS_VERSION_STRING + " (commit " + RGS_TOOL_COMMIT + ")";
 }
 
 std::string group_digits(uint64_t n) {

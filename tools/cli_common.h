@@ -83,6 +83,9 @@ std::string read_file_head(const std::string& path, size_t bytes);
 
 /// 1234567 -> "1,234,567".
 std::string group_digits(uint64_t n);
+
+/// What --version prints: "<tool> <version> (commit <hash>)", the commit CMake was configured from.
+std::string version_line(const char* tool);
 /// A view name usable as a file name: '/', '\\' and control characters replaced by '_'; "view_<i>" (three
 /// digits) if empty, "view_<i>" for "." and "..".
 std::string file_safe_name(const std::string& name, size_t index);

@@ -285,6 +285,13 @@ int run_report_only(const Options& opt) {
   return tools::kExitOk;
 }
 
+/// True when --json names the report's own JSON (through any spelling): that file is then written once.
+bool json_is_report_json(const Options& opt, const std::string& report_json) {
+  if (report_json.empty() || opt.json_path.empty() || opt.json_path == "-") return false;
+  tools::OutputSet probe;
+  return probe.add_output(report_json).ok() && probe.has_output(opt.json_path);
+}
+
 /// Declares the scenes and cameras as inputs and the outputs known before the audit runs (report HTML and
 /// JSON, --json, --heatmap); sets the report's JSON path and image folder (empty with --no-report).
 /// @return tools::kExitOk, or the exit code of the error reported.
@@ -301,8 +308,10 @@ int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* re
     *report_json = with_suffix(opt.report_path, ".json");
     *report_files = with_suffix(opt.report_path, "_files");
   }
-  for (const std::string& output : {opt.report_path, *report_json, opt.json_path, opt.heatmap_path}) {
-    if (output.empty() || (output == opt.json_path && opt.json_path == "-")) continue;
+  const bool json_declared = opt.json_path == "-" || json_is_report_json(opt, *report_json);
+  for (const std::string& output :
+       {opt.report_path, *report_json, json_declared ? std::string() : opt.json_path, opt.heatmap_path}) {
+    if (output.empty()) continue;
     Status declared = outputs.add_output(output);
     if (!declared.ok()) return report_output_error(declared);
   }
@@ -481,7 +490,7 @@ int run(const Options& opt) {
     Status st = outputs.write(report_json, text.data(), text.size());
     if (!st.ok()) return tools::report_error(kTool, st);
   }
-  if (!opt.json_path.empty() && !json_stdout) {
+  if (!opt.json_path.empty() && !json_stdout && !json_is_report_json(opt, report_json)) {
     ro.image_dir.clear();  // image paths are relative to the report's JSON
     const std::string plain = audit::audit_json(r, ro);
     Status st = outputs.write(opt.json_path, plain.data(), plain.size());
@@ -577,7 +586,7 @@ int main(int argc, char** argv) {
                               "CI gate: exit 3 when any candidate's lowest per-view PSNR is below DB (the reports are "
                               "still written)");
   app.add_flag("-q,--quiet", opt.quiet, "No table");
-  app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -851,7 +851,7 @@ int main(int argc, char** argv) {
   app.add_flag("--quality", opt.quality,
                "Also compare every view of every mode but faithful with faithful's render (the 3DGS baseline) (PSNR, SSIM, max |d| "
                "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
-  app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   try {
     app.parse(argc, argv);

@@ -125,7 +125,11 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
     std::printf("  profile          runtime\n");
   }
   std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
-  tools::print_stats_row("position", q.errors.position, "scene units (FP32, exact)");
+  const std::string position_note =
+      q.position_bits > 0 ? "scene units, before Draco, which moves each coordinate by at most " +
+                                tools::sci(q.position_step / 2) + " (half its step)"
+                          : std::string("scene units (FP32, exact)");
+  tools::print_stats_row("position", q.errors.position, position_note.c_str());
   tools::print_stats_row("rotation", q.errors.rotation_deg, "degrees");
   const auto& fp16 = q.quantization;
   const std::string scale_note =
@@ -297,7 +301,7 @@ int main(int argc, char** argv) {
                                   "(default)");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
   rgs::tools::add_scene_read_options(app);
-  app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -160,7 +160,7 @@ int main(int argc, char** argv) {
   app.add_option("file", path, ".rgs file; - reads standard input")->required();
   app.add_flag("--check", check, "Validate fully; exit 1 and name the first problem if the file is invalid");
   app.add_flag("--json", json, "Print JSON instead of text");
-  app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app, /*with_spz_frame=*/false);
   try {
     app.parse(argc, argv);

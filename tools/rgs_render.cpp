@@ -342,7 +342,7 @@ int main(int argc, char** argv) {
   app.footer("Any RoofGS technique flag renders exactly those techniques instead of the preset's (a lab "
              "configuration: on the GPU the RoofGS pipeline, compact attributes for .rgs input; combinations no "
              "preset uses need a build with RGS_LAB_KERNELS).");
-  app.set_version_flag("--version", std::string(kTool) + " " + RGS_VERSION_STRING);
+  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   try {
     app.parse(argc, argv);

@@ -145,6 +145,11 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
     }
   }
   report->output_description = archive ? "RoofGS .rgs, archive profile" : "RoofGS .rgs, runtime profile";
+  if (!archive && input->file_bytes > 0 && report->output_bytes > input->file_bytes) {
+    report->output_notes.push_back("the runtime profile stores the sections the GPU reads as they are, larger than "
+                                   "this " + input->format_id + " input; --profile archive (profile=\"archive\") "
+                                   "writes a smaller, lossy file decoded at load");
+  }
   report->gaussians = encoded->count;
   report->sh_degree = encoded->metadata.sh_degree;
   report->rgs = std::move(rgs);
