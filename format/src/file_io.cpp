@@ -400,21 +400,13 @@ FileSink& atomic_files() {
 Result<StagedFile> StagedFile::write(const std::string& path, const ChunkProducer& produce) {
   Temporary temp;
   RGS_RETURN_IF_ERROR(write_temporary(path, produce, &temp));
-  StagedFile staged;
-  staged.path_ = path;
-  staged.temporary_ = temp.path;
-  staged.slot_ = temp.slot;
-  return staged;
+  return StagedFile(path, temp.path, temp.slot);
 }
 
 Result<StagedFile> StagedFile::write_by_name(const std::string& path, const ByNameWriter& write_to) {
   Temporary temp;
   RGS_RETURN_IF_ERROR(write_temporary_by_name(path, write_to, &temp));
-  StagedFile staged;
-  staged.path_ = path;
-  staged.temporary_ = temp.path;
-  staged.slot_ = temp.slot;
-  return staged;
+  return StagedFile(path, temp.path, temp.slot);
 }
 
 StagedFile::StagedFile(StagedFile&& other) noexcept { *this = std::move(other); }

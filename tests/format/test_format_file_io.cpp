@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "format_test_util.h"
+#include "temp_dir.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
@@ -23,38 +24,8 @@ namespace {
 namespace fs = std::filesystem;
 using namespace rgs;
 using namespace rgs::format;
-
-/// A fresh directory under the system temp dir, removed with everything in it at scope exit.
-class TempDir {
- public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path_ = fs::temp_directory_path() /
-            ("rgs_format_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::permissions(path_, fs::perms::owner_all, fs::perm_options::add, ec);
-    fs::remove_all(path_, ec);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  const fs::path& path() const { return path_; }
-  /// Names in the directory, to catch leftover temporaries.
-  std::vector<std::string> entries() const {
-    std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(path_)) names.push_back(e.path().filename().string());
-    return names;
-  }
-
- private:
-  fs::path path_;
-};
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
+using test::TempDir;
+using test::slurp;
 
 }  // namespace
 
