@@ -95,9 +95,8 @@ class StagedFile {
   /// empty. @return kIoError naming the destination (the temporary is removed); kInvalidArgument when empty.
   Status commit();
 
-  /// The destination, and the temporary holding its content (empty after commit()).
+  /// The destination.
   const std::string& path() const { return path_; }
-  const std::string& temporary_path() const { return temporary_; }
 
  private:
   StagedFile() = default;
