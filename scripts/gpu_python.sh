@@ -14,7 +14,7 @@ mkdir -p "$package"
 python_include="$(python3 -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
 suffix="$(python3 -c 'import sysconfig; print(sysconfig.get_config_var("EXT_SUFFIX"))')"
 includes=()
-for lib in api format converter runtime kernels; do includes+=(-I"$root/$lib/include"); done
+for lib in audit api format converter runtime kernels; do includes+=(-I"$root/$lib/include"); done
 c++ -O2 -std=c++17 -shared -fPIC -fvisibility=hidden -I"$py/include" -I"$python_include" "${includes[@]}" \
   "$root/python/src/roofgs_module.cpp" -o "$package/roofgs$suffix" -L"$py" -lroofgs_core -Wl,-rpath,"$py"
 echo "gpu_python: built $package/roofgs$suffix for $(python3 --version)"

@@ -28,7 +28,7 @@ exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-ren
       tools/rgs-audit samples/rgs_sample_render_frame)
 targets=()
 for exe in "${exes[@]}"; do targets+=("$(basename "$exe")"); done
-cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api
+cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api rgs_audit
 
 # The Python module: a Python extension built here would be for this host's Python, so the libraries go over
 # as one shared library with their code generated here (LTO resolved by this compiler), and the GPU host
@@ -37,8 +37,8 @@ cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api
 py="$stage/py"
 rm -rf "$py"
 mkdir -p "$py/include"
-libs=(api/librgs_api.a converter/librgs_converter.a runtime/librgs_runtime.a format/librgs_format.a
-      kernels/librgs_kernels.a)
+libs=(audit/librgs_audit.a api/librgs_api.a converter/librgs_converter.a runtime/librgs_runtime.a
+      format/librgs_format.a kernels/librgs_kernels.a)
 (cd "$build" && c++ -shared -fPIC -O3 -flto -o "$py/libroofgs_core.so" -Wl,--whole-archive "${libs[@]}" \
   -Wl,--no-whole-archive /usr/lib/x86_64-linux-gnu/libwebp.a \
   /usr/lib/x86_64-linux-gnu/libxxhash.a /usr/lib/x86_64-linux-gnu/libdraco.a \

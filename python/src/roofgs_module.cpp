@@ -17,6 +17,8 @@
 #include <vector>
 
 #include "rgs/api/roofgs.h"
+#include "rgs/audit/audit.h"
+#include "rgs/audit/audit_scene.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/archive.h"
@@ -826,34 +828,78 @@ PYBIND11_MODULE(roofgs, m) {
         "meta) as float32 NumPy arrays. gsplat's training options (gradients, antialiased mode, other cameras, "
         "far plane, radius clip) are refused with ValueError unless at their defaults");
   m.def("audit",
-        [](const std::filesystem::path& source, const std::filesystem::path& candidate, const std::string& spz_frame) {
+        [](const std::filesystem::path& source, const std::vector<std::filesystem::path>& candidates,
+           std::optional<std::vector<api::Camera>> cameras, uint32_t orbit, uint32_t width, uint32_t height,
+           const std::string& device, const std::string& spz_frame) {
           const converter::SceneReadOptions read = read_options(spz_frame);
-          api::HostScene a = unwrap(api::load_host_scene(source.string(), read));
-          api::HostScene b = unwrap(api::load_host_scene(candidate.string(), read));
-          const converter::AttributeErrors e = unwrap(converter::measure_attribute_errors(a.cloud, b.cloud));
-          py::dict d;
-          d["gaussians"] = b.cloud.size();
-          d["sh_degree"] = b.cloud.sh_degree;
-          d["source_bytes"] = a.file_bytes;
-          d["candidate_bytes"] = b.file_bytes;
-          d["bytes_per_gaussian"] = b.cloud.size() ? double(b.file_bytes) / double(b.cloud.size()) : 0.0;
-          py::list sections;
-          if (api::is_rgs_path(candidate.string())) {
-            format::RgsFile file = unwrap(format::RgsFile::open(candidate.string()));
-            for (const auto& sec : file.sections()) {
-              py::dict sd;
-              sd["id"] = uint32_t(sec.id);
-              sd["stored_bytes"] = sec.stored_size;
-              sd["raw_bytes"] = sec.raw_size;
-              sections.append(sd);
-            }
+          audit::AuditOptions options;
+          options.worst_views = 0;
+          options.backend = resolve_device(device) == api::Device::kCuda ? audit::Backend::kCuda : audit::Backend::kCpu;
+          Result<audit::AuditResult> result = Status(StatusCode::kInvalidArgument, "not audited");
+          {
+            py::gil_scoped_release release;
+            auto run = [&]() -> Result<audit::AuditResult> {
+              RGS_ASSIGN_OR_RETURN(audit::AuditScene src, audit::load_audit_scene(source.string(), "", read));
+              std::vector<audit::AuditScene> scenes;
+              for (const auto& c : candidates) {
+                RGS_ASSIGN_OR_RETURN(audit::AuditScene scene, audit::load_audit_scene(c.string(), "", read));
+                scenes.push_back(std::move(scene));
+              }
+              std::vector<api::Camera> views;
+              if (cameras) {
+                views = *cameras;
+              } else {
+                RGS_ASSIGN_OR_RETURN(views, runtime::orbit_cameras(src.bounds, orbit, width, height));
+              }
+              return audit::run_audit(src, scenes, views, options);
+            };
+            result = run();
           }
-          d["sections"] = sections;
-          d["errors"] = attribute_errors(e);
+          const audit::AuditResult r = unwrap(std::move(result));
+          py::dict d;
+          d["device"] = r.device;
+          d["views"] = r.views.size();
+          d["source"] = py::dict(py::arg("path") = r.source.path, py::arg("format") = r.source.format,
+                                 py::arg("bytes") = r.source.file_bytes, py::arg("gaussians") = r.source.gaussians);
+          py::list out;
+          for (const audit::CandidateResult& c : r.candidates) {
+            py::dict cd;
+            cd["path"] = c.scene.path;
+            cd["format"] = c.scene.format;
+            cd["bytes"] = c.scene.file_bytes;
+            cd["gaussians"] = c.scene.gaussians;
+            cd["sh_degree"] = c.scene.sh_degree;
+            cd["bytes_per_gaussian"] = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
+            py::list sections;
+            for (const audit::SectionSize& sec : c.scene.sections) {
+              sections.append(py::dict(py::arg("name") = sec.name, py::arg("codec") = sec.codec,
+                                       py::arg("stored_bytes") = sec.stored_bytes, py::arg("raw_bytes") = sec.raw_bytes));
+            }
+            cd["sections"] = sections;
+            cd["psnr_mean_db"] = c.summary.psnr_mean_db;
+            cd["psnr_min_db"] = c.summary.psnr_min_db;
+            cd["ssim_mean"] = c.summary.ssim_mean;
+            cd["ssim_min"] = c.summary.ssim_min;
+            cd["max_abs_diff"] = c.summary.max_abs_diff;
+            cd["worst_view"] = r.views[c.summary.worst_view].name;
+            if (c.attributes) {
+              cd["errors"] = attribute_errors(c.attributes->errors);
+            } else {
+              cd["errors_note"] = c.attributes_note;
+            }
+            cd["notes"] = c.scene.notes;
+            out.append(cd);
+          }
+          d["candidates"] = out;
           return d;
         },
-        py::arg("source"), py::arg("candidate"), py::kw_only(), py::arg("spz_frame") = "rub",
-        "What a conversion cost: sizes (bytes per Gaussian; the .rgs sections when the candidate is a .rgs) and "
-        "per-attribute errors of `candidate` against `source`, Gaussian by Gaussian in file order; both in any "
-        "format load() reads. Returns a dict; raises roofgs.Error (e.g. kInvalidArgument for different counts)");
+        py::arg("source"), py::arg("candidates"), py::kw_only(), py::arg("cameras") = py::none(),
+        py::arg("orbit") = 4, py::arg("width") = 960, py::arg("height") = 540, py::arg("device") = "auto",
+        py::arg("spz_frame") = "rub",
+        "What conversions cost, as rgs-audit measures it: every candidate (any format load() reads) rendered "
+        "against the source on the same views (`cameras`, else an orbit of `orbit` cameras at width x height) "
+        "with the faithful preset, on the GPU when `device` resolves to CUDA, else the CPU reference. Returns "
+        "a dict: device, views, source (path, format, bytes, gaussians) and one dict per candidate: bytes, "
+        "bytes_per_gaussian, sections (.rgs), PSNR mean/min (dB, clamped RGB), SSIM mean/min, max_abs_diff, "
+        "worst_view, and per-attribute errors when the Gaussians correspond one to one (else errors_note)");
 }

@@ -169,19 +169,19 @@ def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
 
 
 def test_audit_takes_any_format(tmp_path):
+    """audit() is rgs-audit's measurement: renders against the source on the same views, any formats."""
     ply = SOURCE_DIR / "samples" / "guitar.ply"
     roofgs.convert(ply, tmp_path / "g.spz")
-    report = roofgs.audit(ply, tmp_path / "g.spz")
-    assert report["gaussians"] == 90854 and report["sections"] == []
-    assert 0 < report["errors"]["position"]["max"] < 0.01
-
-
-def test_audit_is_a_dict(guitar_rgs):
-    report = roofgs.audit(str(SOURCE_DIR / "samples" / "guitar.ply"), guitar_rgs)
-    assert report["gaussians"] == 90854
-    assert 30 < report["bytes_per_gaussian"] < 60
-    assert report["errors"]["opacity"]["max"] < 1e-3
-    assert len(report["sections"]) >= 5
+    roofgs.convert(ply, tmp_path / "g.rgs")
+    report = roofgs.audit(ply, [tmp_path / "g.spz", tmp_path / "g.rgs"], orbit=2, width=96, height=54, device="cpu")
+    assert report["views"] == 2 and report["source"]["gaussians"] == 90854
+    spz, rgs = report["candidates"]
+    assert spz["format"] != "rgs" and spz["sections"] == [] and 0 < spz["errors"]["position"]["max"] < 0.01
+    assert len(rgs["sections"]) >= 5 and 30 < rgs["bytes_per_gaussian"] < 60
+    assert rgs["errors"]["opacity"]["max"] < 1e-3
+    # The .rgs renders closer to the source than the SPZ, and both well above noise.
+    assert rgs["psnr_min_db"] > spz["psnr_min_db"] > 25
+    assert 0 < spz["ssim_min"] <= rgs["ssim_min"] <= 1
 
 
 def test_embedding_doc_python_example(guitar_rgs, tmp_path, monkeypatch):
