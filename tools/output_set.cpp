@@ -131,14 +131,17 @@ Status OutputSet::add_input(const std::string& path) {
 }
 
 Status OutputSet::add_output(const std::string& path) {
-  std::vector<std::string> inputs;
-  for (const State::Input& in : state_->inputs) inputs.push_back(in.path);
-  RGS_RETURN_IF_ERROR(format::check_output_file(path, inputs));
+  RGS_RETURN_IF_ERROR(format::check_output_file(path, {}));  // a file name, not a directory, device or pipe
   State::Output out;
   out.path = path;
   std::tie(out.dir, out.name) = split_path(path);
   out.key = output_key(path);
   out.id = format::file_id(path);
+  for (const State::Input& in : state_->inputs) {  // identities as recorded by add_input
+    if (out.id == in.id) {
+      return Status(StatusCode::kInvalidArgument, path + ": this output is the input file " + in.path + " (same file)");
+    }
+  }
   for (const State::Output& o : state_->outputs) {
     if (o.key == out.key || (out.id && o.id == out.id)) {
       return Status(StatusCode::kInvalidArgument, path + ": this output is also the output " + o.path + " (same file)");

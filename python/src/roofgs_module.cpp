@@ -23,6 +23,7 @@
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/reader.h"
+#include "rgs/kernels/shared/spherical_harmonics.h"
 
 namespace py = pybind11;
 using namespace rgs;
@@ -300,7 +301,7 @@ std::vector<float> sh_values(const py::array_t<float>& colors, size_t n, bool rg
     check_shape(colors, "colors", &m, {3});
     *degree = 0;
     std::vector<float> sh(colors.data(), colors.data() + colors.size());
-    for (float& v : sh) v = (v - 0.5f) / 0.28209479177387814f;
+    for (float& v : sh) v = (v - 0.5f) / kernels::kShC0;
     return sh;
   }
   const py::ssize_t k = colors.ndim() == 3 ? colors.shape(1) : 0;
@@ -399,14 +400,16 @@ py::dict report_dict(const api::ConvertReport& report) {
 /// The device `name` asks for: "auto" is CUDA when a device answers, else the CPU (with a warning);
 /// "cuda" without a device raises an error that names the alternatives.
 api::Device resolve_device(const std::string& name) {
-  const api::Device device = unwrap(api::parse_device(name));
   std::string why;
-  if (name == "auto" && device == api::Device::kCpu) {
+  if (name == "auto") {
+    if (api::cuda_available(&why)) return api::Device::kCuda;
     // A RuntimeWarning, which Python's default filter shows once per calling line.
-    api::cuda_available(&why);
     const std::string note = "roofgs: no CUDA device (" + why + "); scenes load on the CPU";
     if (PyErr_WarnEx(PyExc_RuntimeWarning, note.c_str(), 1) != 0) throw py::error_already_set();
-  } else if (device == api::Device::kCuda && !api::cuda_available(&why)) {
+    return api::Device::kCpu;
+  }
+  const api::Device device = unwrap(api::parse_device(name));
+  if (device == api::Device::kCuda && !api::cuda_available(&why)) {
     raise(Status(StatusCode::kUnsupportedFeature,
                  "device='" + name + "': no usable CUDA device (" + why +
                      "); load with device='cpu', or device='auto' to use CUDA only where a device answers"));
