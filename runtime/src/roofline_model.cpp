@@ -140,6 +140,24 @@ FrameWork frame_work(const FrameWorkInputs& in) {
   return w;
 }
 
+FrameWork floor_work(const FrameCensus& census, uint32_t sh_degree, CensusCell cell) {
+  const double n = double(census.gaussians);
+  const double v = double(census.visible);
+  const double c = double(census.contributing);
+  const double pairs = double(census.blending_pairs[int(cell)]);
+  const double k = sh_coefficients(sh_degree);
+  FrameWork w;
+  StageWork& pre = w.stages[int(RooflineStage::kPreprocess)];
+  pre.bytes = 12 * n + 16 * v + 3 * k * c + 24 * c;
+  pre.flops = kFlopsViewTransform * n + kFlopsProjectVisible * v + sh_colour_flops(sh_degree) * c;
+  w.stages[int(RooflineStage::kSort)].bytes = sort_bytes(c, 4, 32) + pairs * (8 + 8 + 4);
+  StageWork& render = w.stages[int(RooflineStage::kRender)];
+  render.bytes = pairs * 24 + 16 * double(census.pixels());
+  render.flops = 7.5 * double(census.blended);
+  render.half_flops = (kFlopsFastExp + kFlopsBlendFma) * double(census.blended);
+  return w;
+}
+
 RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePeaks& peaks) {
   RooflinePoint pt;
   pt.ms = ms;
@@ -160,7 +178,9 @@ RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePea
     pt.pct_of_roof = pt.pct_bandwidth;
   }
   if (peaks.memory_gbps > 0 && peaks.compute_gflops > 0) {
-    pt.floor_ms = std::max(work.bytes / (peaks.memory_gbps * 1e6), work.flops / (peaks.compute_gflops * 1e6));
+    const double half_gflops = peaks.half_gflops > 0 ? peaks.half_gflops : peaks.compute_gflops;
+    pt.floor_ms = std::max(work.bytes / (peaks.memory_gbps * 1e6),
+                           work.flops / (peaks.compute_gflops * 1e6) + work.half_flops / (half_gflops * 1e6));
   }
   if (pt.floor_ms > 0) pt.times_floor = ms / pt.floor_ms;
   return pt;

@@ -197,6 +197,45 @@ TEST_CASE("roofline point: rates, percentages and the bounding roof") {
   CHECK(std::strcmp(p.bound, "unknown") == 0);
   CHECK(p.floor_ms == 0);
   CHECK(p.times_floor == 0);
+  // binary16 work at its own roof: 10 GFLOP FP32 (0.2 ms) + 20 GFLOP half at 100,000 GFLOP/s (0.2 ms).
+  const RooflinePeaks with_half{2000, 50000, 100000};
+  p = roofline_point(StageWork{1e8, 1e10, 2e10}, 0.8, with_half);
+  CHECK(p.floor_ms == doctest::Approx(0.4));
+  CHECK(p.times_floor == doctest::Approx(2.0));
+  // Without a half peak the half work runs at the FP32 roof.
+  p = roofline_point(StageWork{1e8, 1e10, 2e10}, 0.8, peaks);
+  CHECK(p.floor_ms == doctest::Approx(0.6));
+}
+
+TEST_CASE("true floor: hand-computed from a census") {
+  // N = 1000 Gaussians of SH degree 1 (K = 4), V = 800 visible, C = 500 contributing; 100 × 80 pixels;
+  // 3000 / 5000 / 9000 blending (cell, Gaussian) pairs at 16×16 / 8×8 / 4×4; 40,000 (pixel, Gaussian) blends.
+  FrameCensus c;
+  c.width = 100;
+  c.height = 80;
+  c.gaussians = 1000;
+  c.visible = 800;
+  c.contributing = 500;
+  c.blended = 40000;
+  c.blending_pairs[0] = 3000;
+  c.blending_pairs[1] = 5000;
+  c.blending_pairs[2] = 9000;
+  const FrameWork w = floor_work(c, 1);
+  // preprocess: 12N + 16V + 3K·C + 24C = 12,000 + 12,800 + 6,000 + 12,000.
+  CHECK(stage(w, RooflineStage::kPreprocess).bytes == 42800);
+  // 18N + 209V + 27C = 18,000 + 167,200 + 13,500.
+  CHECK(stage(w, RooflineStage::kPreprocess).flops == 198700);
+  // sort: the depth sort of C (4C + 4 passes · 2 · 8C = 68C = 34,000) and 20 B per 16×16 pair (60,000).
+  CHECK(stage(w, RooflineStage::kSort).bytes == 94000);
+  CHECK(stage(w, RooflineStage::kRanges).bytes == 0);
+  // render: 24 B per pair + 16 B per pixel = 72,000 + 128,000; 7.5 FP32 and 10 half FLOPs per blend.
+  CHECK(stage(w, RooflineStage::kRender).bytes == 200000);
+  CHECK(stage(w, RooflineStage::kRender).flops == 300000);
+  CHECK(stage(w, RooflineStage::kRender).half_flops == 400000);
+  // 4×4 cells: only the pair terms change.
+  const FrameWork w4 = floor_work(c, 1, CensusCell::k4);
+  CHECK(stage(w4, RooflineStage::kSort).bytes == 34000 + 9000 * 20);
+  CHECK(stage(w4, RooflineStage::kRender).bytes == 9000 * 24 + 128000);
 }
 
 }  // namespace

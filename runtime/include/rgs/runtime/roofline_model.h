@@ -21,6 +21,8 @@
 
 #include <cstdint>
 
+#include "rgs/runtime/frame_census.h"
+
 namespace rgs::runtime {
 
 /// Stages timed by rgs-bench (runtime::StageTimes without the total).
@@ -59,10 +61,12 @@ struct FrameWorkInputs {
   uint64_t pixels = 0;       ///< W · H
 };
 
-/// Bytes requested from global memory (reads + writes) and FP32 FLOPs of one stage of one frame.
+/// Bytes requested from global memory (reads + writes) and FLOPs of one stage of one frame: `flops` at the
+/// FP32 rate, `half_flops` at the binary16 (half2) rate where one exists (RooflinePeaks::half_gflops).
 struct StageWork {
   double bytes = 0;
   double flops = 0;
+  double half_flops = 0;
 };
 
 /// The four stages of one frame, indexed by RooflineStage.
@@ -128,10 +132,25 @@ double render_eval_flops(bool folded, bool fast_exp, bool depth_plane);
 /// Bytes and FLOPs of every stage of one frame (formulas in roofline_model.cpp and docs/ROOFLINE.md).
 FrameWork frame_work(const FrameWorkInputs& in);
 
+/// The work one frame cannot avoid whatever the algorithm, from its census (docs/ROOFLINE.md#the-true-floor):
+/// preprocess: read every mean (12 B) to cull, the rest of the geometry of the visible Gaussians (rotation,
+/// scale, opacity: 16 B, compact) to project them, the SH (3K B) of the contributing ones, and write a 24 B
+/// splat record (mean 8, conic and ln o 8, colour 6, pad 2) for each contributing one; FLOPs: view transform
+/// of all, projection of the visible, SH colour of the contributing. Sort: the contributing Gaussians sorted
+/// once by depth (32-bit keys and values), and the pairs of `cell` that blend emitted in that order (8 B)
+/// and placed by a one-pass counting sort on the cell (read 8 B, write 4 B), which also gives each cell's
+/// range (ranges: no work). Render: the blending pairs' records loaded once per cell (24 B) and the RGBA
+/// float32 image written (16 B per pixel); per blended (pixel, Gaussian) the folded power in FP32 (7.5
+/// FLOPs), the fast exp and the FMA blend at the half2 rate (10 FLOPs). No pixel is evaluated for a
+/// Gaussian that does not blend there.
+FrameWork floor_work(const FrameCensus& census, uint32_t sh_degree, CensusCell cell = CensusCell::k16);
+
 /// Measured roofs, 10^9 units.
 struct RooflinePeaks {
   double memory_gbps = 0;     ///< bandwidth roof, GB/s
   double compute_gflops = 0;  ///< FP32 compute roof, GFLOP/s
+  /// binary16 compute roof (half2 FMA), GFLOP/s; 0 when not measured: half_flops then run at compute_gflops.
+  double half_gflops = 0;
   /// Ridge point, FLOP per byte: compute_gflops / memory_gbps (0 without a bandwidth).
   double ridge() const { return memory_gbps > 0 ? compute_gflops / memory_gbps : 0.0; }
 };
@@ -152,8 +171,9 @@ struct RooflinePoint {
   /// the stage reached (for a stage without FLOPs: pct_bandwidth).
   double attainable_gflops = 0;
   double pct_of_roof = 0;
-  /// The stage's roofline floor, ms: max(bytes / bandwidth peak, FLOPs / compute peak), the time the model's
-  /// work takes at the roof (0 without both peaks); and the measured time over it (0 when the floor is 0).
+  /// The stage's roofline floor, ms: max(bytes / bandwidth peak, FLOPs / compute peak + half FLOPs / half
+  /// peak), the time the work takes at the roofs (0 without both peaks); and the measured time over it (0
+  /// when the floor is 0).
   double floor_ms = 0;
   double times_floor = 0;
 };
