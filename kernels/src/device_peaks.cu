@@ -1,4 +1,6 @@
-// The FP32 FMA loop of the device-peak measurement (kernels/device_peaks.h).
+// The FP32 and half2 FMA loops of the device-peak measurement (kernels/device_peaks.h).
+#include <cuda_fp16.h>
+
 #include "launch_util.cuh"
 #include "rgs/kernels/device_peaks.h"
 
@@ -27,6 +29,25 @@ __global__ void __launch_bounds__(kMaxThreadsPerBlock)
   out[thread] = sum;
 }
 
+/// The same loop in binary16 pairs: each __hfma2 is two FMAs (the half2 rate of the blend in binary16).
+__global__ void __launch_bounds__(kMaxThreadsPerBlock)
+    hfma2_peak_kernel(float* __restrict__ out, uint32_t iterations, float mul, float add) {
+  const uint32_t thread = blockIdx.x * blockDim.x + threadIdx.x;
+  const __half2 m = __float2half2_rn(mul), c = __float2half2_rn(add);
+  __half2 a[kFmaPeakChains];
+#pragma unroll
+  for (uint32_t k = 0; k < kFmaPeakChains; ++k) a[k] = __float2half2_rn(float(thread & 0xfu) * 1e-2f + float(k));
+#pragma unroll 4
+  for (uint32_t i = 0; i < iterations; ++i) {
+#pragma unroll
+    for (uint32_t k = 0; k < kFmaPeakChains; ++k) a[k] = __hfma2(a[k], m, c);
+  }
+  float sum = 0.f;
+#pragma unroll
+  for (uint32_t k = 0; k < kFmaPeakChains; ++k) sum += __low2float(a[k]) + __high2float(a[k]);
+  out[thread] = sum;
+}
+
 bool valid_block_size(uint32_t threads) { return threads >= 32 && threads <= kMaxThreadsPerBlock && threads % 32 == 0; }
 
 }  // namespace
@@ -40,8 +61,9 @@ cudaError_t launch_fma_peak(const FmaPeakParams& params, cudaStream_t stream) {
   if (params.out == nullptr || params.blocks == 0 || !valid_block_size(params.threads_per_block)) {
     return cudaErrorInvalidValue;
   }
-  fma_peak_kernel<<<params.blocks, params.threads_per_block, 0, stream>>>(params.out, params.iterations, params.mul,
-                                                                          params.add);
+  const auto kernel = params.half2 ? hfma2_peak_kernel : fma_peak_kernel;
+  kernel<<<params.blocks, params.threads_per_block, 0, stream>>>(params.out, params.iterations, params.mul,
+                                                                 params.add);
   return detail::launch_result();
 }
 

@@ -116,6 +116,12 @@ Status measure_fma(const DevicePeakOptions& options, const EventPair& ev, cudaSt
   out->fma_flops = kernels::fma_peak_flops(params);
   out->fma_median_ms = median(out->fma_ms);
   out->fp32_gflops = out->fma_median_ms > 0 ? out->fma_flops / (out->fma_median_ms * 1e-3) / 1e9 : 0.0;
+  params.half2 = true;
+  RGS_ASSIGN_OR_RETURN(out->hfma2_ms, time_repeats(options.repeats, ev, stream, "device peaks: half2 FMA loop kernel",
+                                                   [&] { return kernels::launch_fma_peak(params, stream); }));
+  out->hfma2_flops = kernels::fma_peak_flops(params);
+  out->hfma2_median_ms = median(out->hfma2_ms);
+  out->half_gflops = out->hfma2_median_ms > 0 ? out->hfma2_flops / (out->hfma2_median_ms * 1e-3) / 1e9 : 0.0;
   return Status();
 }
 

@@ -40,11 +40,16 @@ struct DevicePeaks {
   std::vector<float> fma_ms;           ///< each timed launch, CUDA events
   double fma_median_ms = 0;
   double fp32_gflops = 0;              ///< fma_flops / median time
+  // binary16: the same loop with __hfma2 on half2 pairs (2 FMAs, 4 FLOPs per instruction), same grid.
+  double hfma2_flops = 0;              ///< FLOPs of one launch
+  std::vector<float> hfma2_ms;         ///< each timed launch, CUDA events
+  double hfma2_median_ms = 0;
+  double half_gflops = 0;              ///< hfma2_flops / median time
   /// Ridge point of the roofline, FLOP per byte: fp32_gflops / memory_gbps.
   double ridge_flop_per_byte() const { return memory_gbps > 0 ? fp32_gflops / memory_gbps : 0.0; }
 };
 
-/// Measures the memory and FP32 compute peaks of the current device on `stream` (waits for it). The
+/// Measures the memory, FP32 and binary16 compute peaks of the current device on `stream` (waits for it). The
 /// source buffer is filled with a non-zero byte pattern first; buffers are freed before returning.
 /// Errors: kInvalidArgument (repeats 0, fma_iterations 0, fma_waves 0, copy_bytes < 64 MiB, a block
 /// size the kernel refuses), kOutOfMemory (not even 2 × 64 MiB free), kCudaError (a failed call, named).
