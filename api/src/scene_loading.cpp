@@ -85,7 +85,8 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
     options.height = choice.height;
     RGS_ASSIGN_OR_RETURN(cameras, runtime::load_inria_cameras(choice.cameras_path, options));
   } else {
-    RGS_RETURN_ERROR_IF(choice.orbit == 0, StatusCode::kInvalidArgument, "--orbit needs at least 1 camera");
+    RGS_RETURN_ERROR_IF(choice.orbit == 0 && choice.path == 0, StatusCode::kInvalidArgument,
+                        "--orbit needs at least 1 camera");
     uint32_t w = choice.width, h = choice.height;
     if (w == 0 && h == 0) {
       w = choice.orbit_width;
@@ -95,7 +96,11 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
     } else if (w == 0) {
       w = static_cast<uint32_t>(std::max(1.0, std::round(double(h) * choice.orbit_width / choice.orbit_height)));
     }
-    RGS_ASSIGN_OR_RETURN(cameras, runtime::orbit_cameras(bounds, choice.orbit, w, h));
+    if (choice.path > 0) {
+      RGS_ASSIGN_OR_RETURN(cameras, runtime::path_cameras(bounds, choice.path, w, h));
+    } else {
+      RGS_ASSIGN_OR_RETURN(cameras, runtime::orbit_cameras(bounds, choice.orbit, w, h));
+    }
   }
   if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
   return cameras;

@@ -170,4 +170,29 @@ Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uin
   return cameras;
 }
 
+Result<std::vector<Camera>> path_cameras(const format::SceneBounds& bounds, uint32_t count, uint32_t width,
+                                         uint32_t height, const PathOptions& path, const OrbitOptions& base) {
+  RGS_RETURN_ERROR_IF(count == 0, StatusCode::kInvalidArgument, "path: camera count must be >= 1");
+  std::vector<Camera> cameras;
+  cameras.reserve(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    const double t = double(i) / double(count);
+    OrbitOptions view = base;
+    view.start_azimuth_deg = base.start_azimuth_deg + 360.0 * path.turns * t;
+    view.elevation_deg = path.elevation_first_deg + (path.elevation_last_deg - path.elevation_first_deg) * t;
+    view.distance_factor =
+        path.distance_far + (path.distance_near - path.distance_far) * (1.0 - std::cos(6.0 * kPi * t)) / 2.0;
+    auto one = orbit_cameras(bounds, 1, width, height, view);
+    if (!one.ok()) {
+      Status failed = one.status();
+      return failed.prepend("path view " + std::to_string(i));
+    }
+    char name[32];
+    std::snprintf(name, sizeof name, "path_%03u", i);
+    (*one)[0].name = name;
+    cameras.push_back(std::move((*one)[0]));
+  }
+  return cameras;
+}
+
 }  // namespace rgs::runtime

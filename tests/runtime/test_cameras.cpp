@@ -214,5 +214,47 @@ TEST_CASE("orbit cameras: look at the sphere centre from a ring, up = -y, determ
   CHECK(runtime::orbit_cameras(bounds, 4, 320, 240, steep).status().code() == StatusCode::kInvalidArgument);
 }
 
+TEST_CASE("path cameras: a spiral that rises, swings near and far, and always looks at the centre") {
+  format::SceneBounds bounds;
+  bounds.sphere_center[0] = 1.f;
+  bounds.sphere_center[1] = -2.f;
+  bounds.sphere_center[2] = 3.f;
+  bounds.sphere_radius = 2.f;
+  runtime::PathOptions path;
+  auto views = runtime::path_cameras(bounds, 12, 320, 240, path);
+  REQUIRE_MESSAGE(views.ok(), views.status().to_string());
+  REQUIRE(views->size() == 12);
+  const double fit = 2.0 / std::sin(std::min(runtime::fov_from_focal((*views)[0].fx, 320), 50.0 * M_PI / 180.0) / 2);
+  double previous_elevation = 0;
+  for (size_t i = 0; i < views->size(); ++i) {
+    CAPTURE(i);
+    const Camera& cam = (*views)[i];
+    const double t = double(i) / 12.0;
+    const auto c = runtime::camera_centre(cam);
+    const double dx = c[0] - 1.0, dy = c[1] + 2.0, dz = c[2] - 3.0;
+    const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double factor = 1.0 + (0.3 - 1.0) * (1.0 - std::cos(6.0 * M_PI * t)) / 2.0;
+    CHECK(d == doctest::Approx(factor * fit).epsilon(1e-5));
+    // Elevation from 5° to 60°: the height above the target (−y) over the distance is its sine.
+    const double elevation = std::asin(-dy / d) * 180.0 / M_PI;
+    CHECK(elevation == doctest::Approx(5.0 + 55.0 * t).epsilon(1e-4));
+    CHECK(elevation > previous_elevation);
+    previous_elevation = elevation;
+    const float target[3] = {1.f, -2.f, 3.f};
+    const auto [tx, ty] = project(cam, target);
+    CHECK(tx == doctest::Approx(159.5).epsilon(1e-4));
+    CHECK(ty == doctest::Approx(119.5).epsilon(1e-4));
+  }
+  CHECK((*views)[11].name == "path_011");
+  // Two turns: views 0 and 6 sit at the same azimuth (the −z side of the target).
+  CHECK(runtime::camera_centre((*views)[0])[2] < 3.f);
+  CHECK(runtime::camera_centre((*views)[6])[2] < 3.f);
+  CHECK(runtime::camera_centre((*views)[3])[2] > 3.f);
+  runtime::PathOptions inverted = path;
+  inverted.distance_near = 0;
+  CHECK(runtime::path_cameras(bounds, 12, 320, 240, inverted).status().code() == StatusCode::kInvalidArgument);
+  CHECK(runtime::path_cameras(bounds, 0, 320, 240).status().code() == StatusCode::kInvalidArgument);
+}
+
 }  // namespace
 }  // namespace rgs::test

@@ -81,14 +81,18 @@ struct CameraChoice {
   uint32_t every = 1;  ///< every k-th camera of the file
   uint32_t limit = 0;  ///< at most this many views (0 = all)
   uint32_t orbit = 0;  ///< orbit camera count when cameras_path is empty
+  /// Camera path view count (runtime::path_cameras: a rising spiral, near and far) when cameras_path is
+  /// empty; used instead of `orbit` when not 0.
+  uint32_t path = 0;
   /// Requested size; 0 = default (cameras: the file's own; orbit: `orbit_width` × `orbit_height`). With only
   /// one side given, the other keeps the default's aspect ratio.
   uint32_t width = 0, height = 0;
   uint32_t orbit_width = 1920, orbit_height = 1080;
 };
 
-/// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize) or runtime::orbit_cameras
-/// around `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0 cameras.
+/// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize), runtime::path_cameras or
+/// runtime::orbit_cameras around `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0
+/// cameras.
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
 
 }  // namespace rgs::api

@@ -117,4 +117,23 @@ struct OrbitOptions {
 Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uint32_t count, uint32_t width,
                                           uint32_t height, const OrbitOptions& options = {});
 
+/// How path_cameras() moves around the scene.
+struct PathOptions {
+  /// Revolutions around the target over the whole path.
+  double turns = 2.0;
+  /// Elevation (OrbitOptions::elevation_deg) rising linearly from the first view to the last.
+  double elevation_first_deg = 5.0, elevation_last_deg = 60.0;
+  /// Distance (OrbitOptions::distance_factor) swinging between these three times over the path, so that near
+  /// and far views come at every height: far at the first view, near at 1/6 of the path, far at 1/3, ...
+  double distance_near = 0.3, distance_far = 1.0;
+};
+
+/// A spiral of `count` views for benchmarks (views a scene's own cameras do not show): view i of orbit
+/// `base` at azimuth base.start_azimuth_deg + 360·turns·i/count, with the elevation and distance of `path`
+/// at t = i/count (distance far + (near − far)·(1 − cos 6πt)/2). Deterministic; names "path_000", ...
+/// @return kInvalidArgument as orbit_cameras(), for a distance ≤ 0 or an elevation outside (−89, 89).
+Result<std::vector<Camera>> path_cameras(const format::SceneBounds& bounds, uint32_t count, uint32_t width,
+                                         uint32_t height, const PathOptions& path = {},
+                                         const OrbitOptions& base = {});
+
 }  // namespace rgs::runtime
