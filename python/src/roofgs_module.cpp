@@ -658,6 +658,21 @@ api::Device resolve_device(const std::string& name) {
   return device;
 }
 
+/// The CUDA device whose memory holds the Gaussian arrays when they are to be read there: all five on one
+/// device, `device` not "cpu", and for "auto" a build and host with CUDA (else they go through host memory, as
+/// "auto" then renders on the CPU). "cuda" without a usable device raises resolve_device's error.
+std::optional<int> device_arrays_device(const std::array<const py::object*, 5>& arrays, const std::string& device) {
+  if (device == "cpu") return std::nullopt;
+  const std::optional<int> cuda = arrays_cuda_device(arrays);
+  if (!cuda) return std::nullopt;
+  if (device != "auto") {
+    resolve_device(device);
+  } else if (!api::cuda_available()) {
+    return std::nullopt;
+  }
+  return cuda;
+}
+
 /// A scene and the renderer Python uses for it (created on first render; calls serialized by a mutex).
 struct PyScene {
   api::Scene scene;
@@ -898,15 +913,12 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
   }
   const GsplatViews views = gsplat_views(viewmats, Ks, backgrounds, width, height, near_plane);
   const std::array<const py::object*, 5> arrays{&means, &quats, &scales, &opacities, &colors};
-  if (device != "cpu") {
-    if (const std::optional<int> cuda = arrays_cuda_device(arrays)) {
-      if (device != "auto") resolve_device(device);
-      const api::DepthOutput depth = depth_mode.empty() ? api::DepthOutput::kNone
-                                     : depth_mode == "D" ? api::DepthOutput::kAccumulated
-                                                         : api::DepthOutput::kExpected;
-      return rasterization_cuda(*cuda, arrays, !sh_degree, sh_degree, views, width, height, rgb_out, depth, preset,
-                                cache);
-    }
+  if (const std::optional<int> cuda = device_arrays_device(arrays, device)) {
+    const api::DepthOutput depth = depth_mode.empty()  ? api::DepthOutput::kNone
+                                   : depth_mode == "D" ? api::DepthOutput::kAccumulated
+                                                       : api::DepthOutput::kExpected;
+    return rasterization_cuda(*cuda, arrays, !sh_degree, sh_degree, views, width, height, rgb_out, depth, preset,
+                              cache);
   }
   format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, colors, !sh_degree);
   if (sh_degree) check(converter::reduce_sh_degree(&cloud, *sh_degree));
@@ -1112,10 +1124,15 @@ PYBIND11_MODULE(roofgs, m) {
           [](const py::object& means, const py::object& quats, const py::object& scales, const py::object& opacities,
              const py::object& sh, const std::string& device, bool sanitize, const std::string& name) {
             const std::array<const py::object*, 5> arrays{&means, &quats, &scales, &opacities, &sh};
-            const std::optional<int> cuda = device == "cpu" ? std::nullopt : arrays_cuda_device(arrays);
-            if (cuda) {  // on the device: no Gaussian passes through host memory
-              if (device != "auto") resolve_device(device);
-              const int64_t stream = is_torch_tensor(means) ? torch_stream(import_torch(), *cuda) : 0;
+            if (const std::optional<int> cuda = device_arrays_device(arrays, device)) {
+              // On the device: no Gaussian passes through host memory.
+              std::optional<py::module_> torch;
+              std::optional<TorchDeviceGuard> guard;
+              if (is_torch_tensor(means)) {
+                torch = import_torch();
+                guard.emplace(*torch, *cuda);
+              }
+              const int64_t stream = torch ? torch_stream(*torch, *cuda) : 0;
               const DeviceGaussiansArrays borrowed(means, quats, scales, opacities, sh, false, std::nullopt, *cuda,
                                                    stream);
               api::DeviceLoadOptions options;
