@@ -267,7 +267,8 @@ converter::SceneReadOptions read_options(const std::string& spz_frame) {
 // Gaussians from arrays
 
 /// A C-contiguous float32 copy of `obj` (a NumPy array, or anything with __array__: a CPU torch tensor). A
-/// CUDA tensor is copied to the host first (`.cpu()`): the arrays of a frame pass through host memory.
+/// CUDA tensor is copied to the host first (`.cpu()`): the host path, and the small per-view arrays (viewmats,
+/// Ks, backgrounds) of the device path.
 py::array_t<float> float_array(const py::object& obj, const char* what) {
   py::object source = obj;
   if (py::hasattr(obj, "__dlpack_device__")) {
@@ -450,9 +451,9 @@ class DeviceArray {
     if (!PyCapsule_IsValid(capsule.ptr(), "dltensor")) {
       throw py::type_error(std::string(what) + ": __dlpack__ returned no DLPack capsule");
     }
-    managed_.reset(static_cast<DLManagedTensor*>(PyCapsule_GetPointer(capsule.ptr(), "dltensor")));
-    // Consumed: from here on the deleter is ours to call, not the capsule's.
-    if (PyCapsule_SetName(capsule.ptr(), "used_dltensor") != 0) throw py::error_already_set();
+    auto* managed = static_cast<DLManagedTensor*>(PyCapsule_GetPointer(capsule.ptr(), "dltensor"));
+    if (managed == nullptr || PyCapsule_SetName(capsule.ptr(), "used_dltensor") != 0) throw py::error_already_set();
+    managed_.reset(managed);  // consumed: the deleter is ours to call now, not the capsule's
     const DLTensor& t = managed_->dl_tensor;
     if (t.device.device_type != kDLCUDA || t.device.device_id != device) {
       throw py::value_error(std::string(what) + ": not on CUDA device " + std::to_string(device));
@@ -886,6 +887,8 @@ py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>&
       return Status();
     };
     status = run();
+    // An upload nothing can recognize again is not kept (freeing it waits for the frames that read it).
+    if (!state.key) state.scene.reset();
   }
   check(status);
   py::dict meta;
