@@ -779,6 +779,17 @@ GsplatViews gsplat_views(const py::object& viewmats, const py::object& Ks, const
   return out;
 }
 
+/// rasterization()'s meta dict: the preset, the size, and the (tile, Gaussian) pairs of each view.
+py::dict gsplat_meta(const std::string& preset, uint32_t width, uint32_t height, const std::vector<uint64_t>& pairs) {
+  py::dict meta;
+  meta["preset"] = preset;
+  meta["width"] = width;
+  meta["height"] = height;
+  meta["n_cameras"] = pairs.size();
+  meta["pairs"] = pairs;
+  return meta;
+}
+
 /// The renderer, scratch frame and last upload of rasterization() on one CUDA device, shared by the calls
 /// (serialized by the mutex, which is only waited for without the GIL).
 struct CudaRasterizer {
@@ -891,12 +902,7 @@ py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>&
     if (!state.key) state.scene.reset();
   }
   check(status);
-  py::dict meta;
-  meta["preset"] = preset;
-  meta["width"] = width;
-  meta["height"] = height;
-  meta["n_cameras"] = cameras;
-  meta["pairs"] = pairs;
+  py::dict meta = gsplat_meta(preset, width, height, pairs);
   meta["uploaded"] = upload;  // false: the Gaussians of the last call were rendered again
   return py::make_tuple(out_colors, out_alphas, meta);
 }
@@ -965,13 +971,7 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
     status = run();
   }
   check(status);
-  py::dict meta;
-  meta["preset"] = preset;
-  meta["width"] = width;
-  meta["height"] = height;
-  meta["n_cameras"] = cameras;
-  meta["pairs"] = pairs;  // (tile, Gaussian) pairs of each view
-  return py::make_tuple(out_colors, out_alphas, meta);
+  return py::make_tuple(out_colors, out_alphas, gsplat_meta(preset, width, height, pairs));
 }
 
 }  // namespace
