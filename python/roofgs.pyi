@@ -65,7 +65,11 @@ class DeviceImage:
 _Image = Union[np.ndarray, DeviceImage]
 
 
-_Array = Any  # a NumPy array, or anything np.asarray takes (a torch tensor; CUDA tensors are copied to the host)
+# A NumPy array or anything np.asarray takes (a CPU torch tensor); where the signature says so, also a CUDA array:
+# a torch CUDA tensor (any float dtype and layout: torch makes it float32 and contiguous on its device), or any
+# DLPack producer's float32 C-contiguous CUDA array. CUDA arrays are read on their device, never copied to the
+# host (unless device="cpu").
+_Array = Any
 
 
 class Scene:
@@ -73,7 +77,14 @@ class Scene:
     info: Dict[str, Any]
     @staticmethod
     def from_arrays(means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
-                    device: str = "auto", sanitize: bool = False, name: str = "arrays") -> "Scene": ...
+                    device: str = "auto", sanitize: bool = False, name: str = "arrays") -> "Scene":
+        """means [N, 3], quats [N, 4] (w, x, y, z), scales [N, 3] linear, opacities [N] in [0, 1], sh [N, K, 3]
+        (K = 1, 4, 9, 16), float32; a file's value rules (roofgs.Error kInvalidArgument / kCorruptData;
+        sanitize=True drops what they reject). CUDA arrays (all five on one device) are checked and copied on
+        that device into a CUDA scene there."""
+    def arrays(self) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """A CPU scene's Gaussians as from_arrays takes them: (means, quats, scales, opacities, sh), float32
+        copies; roofgs.Error for a CUDA scene."""
     device: str  # "cpu" or "cuda"
     def __len__(self) -> int: ...
     def orbit_cameras(self, count: int, width: int = 1920, height: int = 1080) -> List[Camera]: ...
@@ -96,7 +107,21 @@ def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _
 def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,
                   viewmats: _Array, Ks: _Array, width: int, height: int, *, near_plane: float = 0.01,
                   sh_degree: Optional[int] = None, backgrounds: Optional[_Array] = None, render_mode: str = "RGB",
-                  preset: str = "fastest", device: str = "auto",
-                  **gsplat_defaults: Any) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]: ...
+                  preset: str = "fastest", device: str = "auto", cache: bool = True,
+                  **gsplat_defaults: Any) -> Tuple[Any, Any, Dict[str, Any]]:
+    """gsplat's rasterization() for inference (docs/EMBEDDING.md).
+
+    means [N, 3], quats [N, 4] (w, x, y, z), scales [N, 3] linear, opacities [N] (or [N, 1]) in [0, 1];
+    colors [N, K, 3] SH with sh_degree given (K = 1, 4, 9, 16; min(sh_degree, degree of K) is rendered), else
+    [N, 3] RGB. viewmats [C, 4, 4] world-to-camera (OpenCV axes), Ks [C, 3, 3] (pixel centres at
+    half-integers), backgrounds [C, 3]; render_mode RGB, D, ED, RGB+D or RGB+ED.
+
+    Returns (colors [C, H, W, 3] (+1 depth channel; 1 for D or ED alone), alphas [C, H, W, 1], meta):
+    float32 NumPy arrays for host arrays; for CUDA arrays (the five Gaussian arrays on one device; mixing host
+    and CUDA arrays raises ValueError), float32 torch CUDA tensors on that device, computed on the device and
+    written on torch's current stream (needs torch). meta: preset, width, height, n_cameras, pairs per view,
+    and for CUDA arrays uploaded (False: the last call's upload of the same, unchanged torch tensors was
+    reused; cache=False always uploads). gsplat's training options are refused with ValueError unless at
+    their defaults."""
 def audit(source: _Path, candidates: Sequence[_Path], *, cameras: Optional[Sequence[Camera]] = None, orbit: int = 4,
           width: int = 960, height: int = 540, device: str = "auto", spz_frame: str = "rub") -> Dict[str, Any]: ...

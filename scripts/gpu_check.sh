@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|audit|ab|all]   (default all; ab: see below)
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|pybench|audit|ab|all]   (default all; ab: see below)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
 out="$2"
@@ -156,6 +156,27 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     # The tables without the progress lines ("... x N ...").
     grep -v -e ' \.\.\.$' "$out/bench_$name.log" | tee -a "$summary"
   done
+fi
+if [ "$what" = pybench ] || [ "$what" = all ]; then
+  # roofgs.rasterization() on torch CUDA tensors against rgs-bench's fastest on the same views: taebak's 8
+  # cameras at 1080p when prepared, else every 8th flowers camera (the module comes from the tests part, or is
+  # built here by scripts/gpu_python.sh).
+  if ! ls "$stage"/py/package/roofgs*.so >/dev/null 2>&1; then
+    "$(dirname "${BASH_SOURCE[0]}")/gpu_python.sh" "$stage" "$out" >"$out/python.log" 2>&1 || status=1
+  fi
+  if [ -f "$taebak" ]; then
+    pyscene=("$taebak" --cameras "$taebak_cameras")
+  else
+    pyscene=("$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs" --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json"
+             --every 8)
+  fi
+  rc=0
+  PYTHONPATH="$stage/py/package" python3 "$(dirname "${BASH_SOURCE[0]}")/bench_python_rasterization.py" \
+    "${pyscene[@]}" --resolution 1920x1080 --rgs-bench "$bin/rgs-bench" --out "$out/python_bench" \
+    >"$out/python_bench.log" 2>&1 || rc=$?
+  [ $rc -ne 0 ] && status=1
+  note "python_bench: exit $rc"
+  grep -E "^(device|python|rgs-bench|view)" "$out/python_bench.log" | tee -a "$summary"
 fi
 if [ "$what" = audit ] || [ "$what" = all ]; then
   # What the conversion cost, on the GPU: every flowers camera at its native 5025x3312, and taebak's cameras

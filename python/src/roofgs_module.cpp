@@ -8,14 +8,16 @@
 
 #include <array>
 #include <cmath>
-#include <filesystem>
 #include <cstdint>
+#include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "rgs/api/device_gaussians.h"
 #include "rgs/api/roofgs.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_scene.h"
@@ -265,7 +267,8 @@ converter::SceneReadOptions read_options(const std::string& spz_frame) {
 // Gaussians from arrays
 
 /// A C-contiguous float32 copy of `obj` (a NumPy array, or anything with __array__: a CPU torch tensor). A
-/// CUDA tensor is copied to the host first (`.cpu()`): the arrays of a frame pass through host memory.
+/// CUDA tensor is copied to the host first (`.cpu()`): the host path, and the small per-view arrays (viewmats,
+/// Ks, backgrounds) of the device path.
 py::array_t<float> float_array(const py::object& obj, const char* what) {
   py::object source = obj;
   if (py::hasattr(obj, "__dlpack_device__")) {
@@ -278,19 +281,41 @@ py::array_t<float> float_array(const py::object& obj, const char* what) {
   return a;
 }
 
-/// Checks that `a` is [n, cols...] (n taken from the first array when *n is 0).
-void check_shape(const py::array_t<float>& a, const char* what, size_t* n, std::vector<py::ssize_t> cols) {
+/// Checks that `shape` is [n, cols...] (n taken from the first array when *n is 0).
+void check_dims(const std::vector<int64_t>& shape, const char* what, size_t* n, const std::vector<int64_t>& cols) {
   const std::string want = [&] {
     std::string t = "[N";
-    for (py::ssize_t c : cols) t += ", " + std::to_string(c);
+    for (int64_t c : cols) t += ", " + std::to_string(c);
     return t + "]";
   }();
-  bool ok = a.ndim() == py::ssize_t(cols.size() + 1);
-  for (size_t d = 0; ok && d < cols.size(); ++d) ok = a.shape(py::ssize_t(d + 1)) == cols[d];
-  if (ok && *n == 0) *n = size_t(a.shape(0));
-  ok = ok && size_t(a.shape(0)) == *n;
+  bool ok = shape.size() == cols.size() + 1;
+  for (size_t d = 0; ok && d < cols.size(); ++d) ok = shape[d + 1] == cols[d];
+  if (ok && *n == 0) *n = size_t(shape[0]);
+  ok = ok && size_t(shape[0]) == *n;
   if (!ok) raise(Status(StatusCode::kInvalidArgument, std::string(what) + ": expected shape " + want + " with N = " +
                                                           std::to_string(*n)));
+}
+
+std::vector<int64_t> shape_of(const py::array& a) {
+  std::vector<int64_t> shape;
+  for (py::ssize_t d = 0; d < a.ndim(); ++d) shape.push_back(int64_t(a.shape(d)));
+  return shape;
+}
+
+/// check_dims of a NumPy array.
+void check_shape(const py::array_t<float>& a, const char* what, size_t* n, const std::vector<int64_t>& cols) {
+  check_dims(shape_of(a), what, n, cols);
+}
+
+/// The SH degree of [N, K, 3] SH coefficients (K = 1, 4, 9 or 16).
+uint32_t sh_degree_of(const std::vector<int64_t>& shape) {
+  const int64_t k = shape.size() == 3 ? shape[1] : 0;
+  uint32_t d = 0;
+  while (d < 3 && format::sh_coefficient_count(d) < uint64_t(k)) ++d;
+  if (k <= 0 || format::sh_coefficient_count(d) != uint64_t(k)) {
+    raise(Status(StatusCode::kInvalidArgument, "sh: expected shape [N, K, 3] with K = 1, 4, 9 or 16"));
+  }
+  return d;
 }
 
 /// The SH coefficients of `colors`: [N, K, 3] SH (K = 1, 4, 9 or 16) or, when `rgb`, [N, 3] colours turned
@@ -304,14 +329,9 @@ std::vector<float> sh_values(const py::array_t<float>& colors, size_t n, bool rg
     for (float& v : sh) v = (v - 0.5f) / kernels::kShC0;
     return sh;
   }
-  const py::ssize_t k = colors.ndim() == 3 ? colors.shape(1) : 0;
-  uint32_t d = 0;
-  while (d < 3 && format::sh_coefficient_count(d) < uint32_t(k)) ++d;
-  if (k <= 0 || format::sh_coefficient_count(d) != uint32_t(k)) {
-    raise(Status(StatusCode::kInvalidArgument, "sh: expected shape [N, K, 3] with K = 1, 4, 9 or 16"));
-  }
+  const uint32_t d = sh_degree_of(shape_of(colors));
   size_t m = n;
-  check_shape(colors, "sh", &m, {k, 3});
+  check_shape(colors, "sh", &m, {int64_t(format::sh_coefficient_count(d)), 3});
   *degree = d;
   return std::vector<float>(colors.data(), colors.data() + colors.size());
 }
@@ -335,6 +355,228 @@ format::GaussianCloud cloud_from_arrays(const py::object& means, const py::objec
   cloud.scales.assign(s.data(), s.data() + s.size());
   cloud.opacities.assign(o.data(), o.data() + o.size());
   return cloud;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Gaussians in CUDA memory (DLPack in, no host copy)
+
+/// The CUDA device of an array that says it lives on one (DLPack's __dlpack_device__), else nullopt.
+std::optional<int> cuda_device_of(const py::object& obj) {
+  if (!py::hasattr(obj, "__dlpack_device__")) return std::nullopt;
+  const auto device = obj.attr("__dlpack_device__")().cast<std::pair<int, int>>();
+  if (device.first != kDLCUDA) return std::nullopt;
+  return device.second;
+}
+
+/// The CUDA device the five Gaussian arrays live on, nullopt when they are all host arrays; ValueError when
+/// they are split between the host and a device, or between devices.
+std::optional<int> arrays_cuda_device(const std::array<const py::object*, 5>& arrays) {
+  std::optional<int> device;
+  size_t on_host = 0;
+  for (const py::object* obj : arrays) {
+    const std::optional<int> d = cuda_device_of(*obj);
+    if (!d) {
+      ++on_host;
+    } else if (device && *device != *d) {
+      throw py::value_error("the Gaussian arrays are on CUDA devices " + std::to_string(*device) + " and " +
+                            std::to_string(*d) + "; put them on one device");
+    } else {
+      device = d;
+    }
+  }
+  if (device && on_host != 0) {
+    throw py::value_error("the Gaussian arrays are partly on CUDA device " + std::to_string(*device) +
+                          " and partly in host memory; put them all on one side");
+  }
+  return device;
+}
+
+bool is_torch_tensor(const py::object& obj) {
+  const py::dict modules = py::module_::import("sys").attr("modules");
+  if (!modules.contains("torch")) return false;
+  return py::isinstance(obj, modules["torch"].attr("Tensor"));
+}
+
+py::module_ import_torch() {
+  try {
+    return py::module_::import("torch");
+  } catch (py::error_already_set&) {
+    throw py::import_error("roofgs: the outputs of CUDA arrays are torch tensors, and torch cannot be imported; "
+                           "install PyTorch or pass NumPy arrays");
+  }
+}
+
+/// torch's current stream on CUDA device `device` (its handle; 0 is the legacy default stream).
+int64_t torch_stream(const py::module_& torch, int device) {
+  return torch.attr("cuda").attr("current_stream")(device).attr("cuda_stream").cast<int64_t>();
+}
+
+/// Makes CUDA device `device` current for the lifetime of the guard (torch.cuda.device), restoring the previous
+/// one after.
+class TorchDeviceGuard {
+ public:
+  TorchDeviceGuard(const py::module_& torch, int device) : guard_(torch.attr("cuda").attr("device")(device)) {
+    guard_.attr("__enter__")();
+  }
+  ~TorchDeviceGuard() {
+    try {
+      guard_.attr("__exit__")(py::none(), py::none(), py::none());
+    } catch (py::error_already_set& e) {
+      e.discard_as_unraisable("roofgs: restoring the CUDA device");
+    }
+  }
+  TorchDeviceGuard(const TorchDeviceGuard&) = delete;
+  TorchDeviceGuard& operator=(const TorchDeviceGuard&) = delete;
+
+ private:
+  py::object guard_;
+};
+
+void release_managed(DLManagedTensor* managed) {
+  if (managed != nullptr && managed->deleter != nullptr) managed->deleter(managed);
+}
+
+/// A float32 array in CUDA memory borrowed through DLPack for the duration of one call: a torch tensor
+/// (detached, and made float32 and contiguous on its device when it is not), or any producer's array already
+/// float32 and C-contiguous. The producer's work is ordered before `stream` (DLPack's stream argument).
+class DeviceArray {
+ public:
+  DeviceArray(const py::object& obj, const char* what, int device, int64_t stream) {
+    py::object source = obj;
+    if (py::hasattr(source, "detach")) source = source.attr("detach")();
+    if (is_torch_tensor(source)) source = source.attr("float")().attr("contiguous")();  // no-ops when already so
+    if (!py::hasattr(source, "__dlpack__")) throw py::type_error(std::string(what) + ": not a DLPack array");
+    // DLPack numbers the legacy default stream 1 (0 is not allowed for CUDA).
+    py::object capsule = source.attr("__dlpack__")(py::arg("stream") = stream == 0 ? 1 : stream);
+    if (!PyCapsule_IsValid(capsule.ptr(), "dltensor")) {
+      throw py::type_error(std::string(what) + ": __dlpack__ returned no DLPack capsule");
+    }
+    auto* managed = static_cast<DLManagedTensor*>(PyCapsule_GetPointer(capsule.ptr(), "dltensor"));
+    if (managed == nullptr || PyCapsule_SetName(capsule.ptr(), "used_dltensor") != 0) throw py::error_already_set();
+    managed_.reset(managed);  // consumed: the deleter is ours to call now, not the capsule's
+    const DLTensor& t = managed_->dl_tensor;
+    if (t.device.device_type != kDLCUDA || t.device.device_id != device) {
+      throw py::value_error(std::string(what) + ": not on CUDA device " + std::to_string(device));
+    }
+    if (t.dtype.code != 2 || t.dtype.bits != 32 || t.dtype.lanes != 1) {
+      throw py::value_error(std::string(what) + ": a CUDA array must be float32 (torch tensors are converted)");
+    }
+    shape_.assign(t.shape, t.shape + t.ndim);
+    if (t.strides != nullptr) {
+      int64_t expected = 1;
+      for (int32_t d = t.ndim - 1; d >= 0; --d) {
+        if (shape_[size_t(d)] != 1 && t.strides[d] != expected) {
+          throw py::value_error(std::string(what) + ": a CUDA array must be C-contiguous (torch tensors are made so)");
+        }
+        expected *= shape_[size_t(d)];
+      }
+    }
+    data_ = reinterpret_cast<const float*>(static_cast<const char*>(t.data) + t.byte_offset);
+  }
+
+  const float* data() const { return data_; }
+  const std::vector<int64_t>& shape() const { return shape_; }
+
+ private:
+  std::unique_ptr<DLManagedTensor, void (*)(DLManagedTensor*)> managed_{nullptr, release_managed};
+  std::vector<int64_t> shape_;
+  const float* data_ = nullptr;
+};
+
+/// The five Gaussian arrays of a call borrowed from CUDA memory, as api::DeviceGaussians: the shapes and SH
+/// rules of the host path (cloud_from_arrays, reduce_sh_degree: colours [N, K, 3] rendered at
+/// min(sh_degree, degree of K), or RGB [N, 3] when `rgb`).
+class DeviceGaussiansArrays {
+ public:
+  DeviceGaussiansArrays(const py::object& means, const py::object& quats, const py::object& scales,
+                        const py::object& opacities, const py::object& colors, bool rgb,
+                        std::optional<uint32_t> sh_degree, int device, int64_t stream)
+      : means_(means, "means", device, stream),
+        quats_(quats, "quats", device, stream),
+        scales_(scales, "scales", device, stream),
+        opacities_(opacities, "opacities", device, stream),
+        colors_(colors, rgb ? "colors" : "sh", device, stream) {
+    size_t n = 0;
+    check_dims(means_.shape(), "means", &n, {3});
+    check_dims(quats_.shape(), "quats", &n, {4});
+    check_dims(scales_.shape(), "scales", &n, {3});
+    std::vector<int64_t> opacity_shape = opacities_.shape();
+    if (opacity_shape.size() == 2 && opacity_shape[1] == 1) opacity_shape.pop_back();
+    check_dims(opacity_shape, "opacities", &n, {});
+    uint32_t degree = 0;
+    if (rgb) {
+      size_t m = n;
+      check_dims(colors_.shape(), "colors", &m, {3});
+    } else {
+      degree = sh_degree_of(colors_.shape());
+      size_t m = n;
+      check_dims(colors_.shape(), "sh", &m, {int64_t(format::sh_coefficient_count(degree)), 3});
+      g_.sh_coefficients = format::sh_coefficient_count(degree);
+      if (sh_degree) {
+        if (*sh_degree > 3) {
+          raise(Status(StatusCode::kInvalidArgument,
+                       "SH degree " + std::to_string(*sh_degree) + " is above 3, the highest a cloud holds"));
+        }
+        degree = std::min(degree, *sh_degree);
+      }
+    }
+    g_.means = means_.data();
+    g_.quats = quats_.data();
+    g_.scales = scales_.data();
+    g_.opacities = opacities_.data();
+    g_.colors = colors_.data();
+    g_.count = n;
+    g_.sh_degree = degree;
+    g_.rgb = rgb;
+  }
+
+  const api::DeviceGaussians& gaussians() const { return g_; }
+
+ private:
+  DeviceArray means_, quats_, scales_, opacities_, colors_;
+  api::DeviceGaussians g_;
+};
+
+/// What identifies the Gaussian arrays of a rasterization() call for the upload cache: each tensor itself
+/// (weakly referenced: the cache keeps no tensor alive), its version counter (torch's _version, bumped by
+/// every in-place change through the tensor or its views), data pointer, shape, strides and dtype, and how
+/// its colours are read.
+struct ArraysKey {
+  std::vector<py::weakref> tensors;
+  std::vector<int64_t> versions, pointers;
+  std::vector<std::vector<int64_t>> shapes, strides;
+  std::vector<std::string> dtypes;
+  bool rgb = false;
+  std::optional<uint32_t> sh_degree;
+
+  /// Equal arrays: the same live tensors, unchanged. Needs the GIL.
+  bool matches(const ArraysKey& other) const {
+    if (tensors.size() != other.tensors.size()) return false;
+    for (size_t i = 0; i < tensors.size(); ++i) {
+      const py::object a = tensors[i](), b = other.tensors[i]();
+      if (a.is_none() || !a.is(b)) return false;
+    }
+    return versions == other.versions && pointers == other.pointers && shapes == other.shapes &&
+           strides == other.strides && dtypes == other.dtypes && rgb == other.rgb && sh_degree == other.sh_degree;
+  }
+};
+
+/// The cache key of five torch tensors; nullopt when any is not a torch tensor (other arrays are never cached).
+std::optional<ArraysKey> arrays_key(const std::array<const py::object*, 5>& arrays, bool rgb,
+                                    std::optional<uint32_t> sh_degree) {
+  ArraysKey key;
+  key.rgb = rgb;
+  key.sh_degree = sh_degree;
+  for (const py::object* obj : arrays) {
+    if (!is_torch_tensor(*obj)) return std::nullopt;
+    key.tensors.emplace_back(*obj);
+    key.versions.push_back(obj->attr("_version").cast<int64_t>());
+    key.pointers.push_back(obj->attr("data_ptr")().cast<int64_t>());
+    key.shapes.push_back(obj->attr("shape").cast<std::vector<int64_t>>());
+    key.strides.push_back(obj->attr("stride")().cast<std::vector<int64_t>>());
+    key.dtypes.push_back(py::str(obj->attr("dtype")));
+  }
+  return key;
 }
 
 /// ConvertOptions from convert()'s and save()'s keyword arguments (the defaults are ConvertOptions's own).
@@ -417,13 +659,29 @@ api::Device resolve_device(const std::string& name) {
   return device;
 }
 
+/// The CUDA device whose memory holds the Gaussian arrays when they are to be read there: all five on one
+/// device, `device` not "cpu", and for "auto" a build and host with CUDA (else they go through host memory, as
+/// "auto" then renders on the CPU). "cuda" without a usable device raises resolve_device's error.
+std::optional<int> device_arrays_device(const std::array<const py::object*, 5>& arrays, const std::string& device) {
+  if (device == "cpu") return std::nullopt;
+  const std::optional<int> cuda = arrays_cuda_device(arrays);
+  if (!cuda) return std::nullopt;
+  if (device != "auto") {
+    resolve_device(device);
+  } else if (!api::cuda_available()) {
+    return std::nullopt;
+  }
+  return cuda;
+}
+
 /// A scene and the renderer Python uses for it (created on first render; calls serialized by a mutex).
 struct PyScene {
   api::Scene scene;
+  int cuda_device = 0;  // the device of a CUDA scene
   std::unique_ptr<api::Renderer> renderer;
   std::mutex mutex;
 
-  explicit PyScene(api::Scene s) : scene(std::move(s)) {}
+  explicit PyScene(api::Scene s, int device = 0) : scene(std::move(s)), cuda_device(device) {}
 
   py::object render(const api::Camera& camera_in, const std::string& preset, std::optional<uint32_t> width,
                     std::optional<uint32_t> height, std::array<float, 3> background, const std::string& format,
@@ -447,7 +705,7 @@ struct PyScene {
       py::gil_scoped_release release;
       std::lock_guard<std::mutex> lock(mutex);
       if (!renderer) {
-        auto created = api::Renderer::create(scene.device(), 0);
+        auto created = api::Renderer::create(scene.device(), cuda_device);
         if (!created.ok()) {
           image = created.status();
         } else {
@@ -487,12 +745,174 @@ void check_gsplat_defaults(const py::kwargs& kwargs) {
   }
 }
 
+/// The views of a rasterization() call: gsplat's viewmats [C, 4, 4] and Ks [C, 3, 3] as cameras, and their
+/// backgrounds [C, 3] (black when none).
+struct GsplatViews {
+  std::vector<api::Camera> cameras;
+  std::vector<std::array<float, 3>> backgrounds;
+};
+
+GsplatViews gsplat_views(const py::object& viewmats, const py::object& Ks, const py::object& backgrounds,
+                         uint32_t width, uint32_t height, float near_plane) {
+  const auto views = float_array(viewmats, "viewmats"), intrinsics = float_array(Ks, "Ks");
+  size_t count = 0;
+  check_shape(views, "viewmats", &count, {4, 4});
+  check_shape(intrinsics, "Ks", &count, {3, 3});
+  GsplatViews out;
+  out.backgrounds.assign(count, {0.f, 0.f, 0.f});
+  if (!backgrounds.is_none()) {
+    const auto b = float_array(backgrounds, "backgrounds");
+    check_shape(b, "backgrounds", &count, {3});
+    for (size_t c = 0; c < count; ++c) out.backgrounds[c] = {b.data()[c * 3], b.data()[c * 3 + 1], b.data()[c * 3 + 2]};
+  }
+  api::CameraOptions camera_options;
+  camera_options.near_plane = near_plane;
+  for (size_t c = 0; c < count; ++c) {
+    const float* v = views.data() + c * 16;
+    const float* k = intrinsics.data() + c * 9;
+    // gsplat's K puts pixel centres at half-integers (corner origin); camera_from_opencv's at integers.
+    const std::array<double, 9> K{k[0], k[1], k[2] - 0.5, k[3], k[4], k[5] - 0.5, k[6], k[7], k[8]};
+    const std::array<double, 9> R{v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]};
+    const std::array<double, 3> t{v[3], v[7], v[11]};
+    out.cameras.push_back(unwrap(api::camera_from_opencv(K, R, t, width, height, camera_options)));
+  }
+  return out;
+}
+
+/// rasterization()'s meta dict: the preset, the size, and the (tile, Gaussian) pairs of each view.
+py::dict gsplat_meta(const std::string& preset, uint32_t width, uint32_t height, const std::vector<uint64_t>& pairs) {
+  py::dict meta;
+  meta["preset"] = preset;
+  meta["width"] = width;
+  meta["height"] = height;
+  meta["n_cameras"] = pairs.size();
+  meta["pairs"] = pairs;
+  return meta;
+}
+
+/// The renderer, scratch frame and last upload of rasterization() on one CUDA device, shared by the calls
+/// (serialized by the mutex, which is only waited for without the GIL).
+struct CudaRasterizer {
+  std::mutex mutex;
+  std::optional<api::Renderer> renderer;
+  std::optional<api::Image> frame;  // rgba32f (+ depth) of the last size: rendered into, then split
+  std::optional<api::Scene> scene;  // the last upload
+  std::optional<ArraysKey> key;     // its tensors, when they can be recognized again
+  std::optional<int64_t> stream;    // the stream of the last call
+};
+
+CudaRasterizer& cuda_rasterizer(int device) {
+  // Never destroyed: its Python references and device memory must not be released after the interpreter and
+  // the CUDA runtime have shut down.
+  static auto* states = new std::map<int, std::unique_ptr<CudaRasterizer>>();
+  std::unique_ptr<CudaRasterizer>& state = (*states)[device];  // under the GIL
+  if (!state) state = std::make_unique<CudaRasterizer>();
+  return *state;
+}
+
+/// rasterization() on Gaussians in CUDA memory: uploaded on the device (or taken from the cache), rendered
+/// view by view into a scratch frame and split into torch tensors on torch's current stream.
+py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>& arrays, bool rgb,
+                             std::optional<uint32_t> sh_degree, const GsplatViews& views, uint32_t width,
+                             uint32_t height, bool rgb_out, api::DepthOutput depth, const std::string& preset,
+                             bool cache) {
+  const py::module_ torch = import_torch();
+  api::RenderSettings settings;
+  settings.preset = unwrap(api::parse_preset(preset));
+  const TorchDeviceGuard guard(torch, device);
+  CudaRasterizer& state = cuda_rasterizer(device);
+  std::unique_lock<std::mutex> lock(state.mutex, std::defer_lock);
+  {
+    py::gil_scoped_release release;
+    lock.lock();
+  }
+  const int64_t stream = torch_stream(torch, device);
+  // The scratch frame and the renderer's buffers were last used on another stream: let that work finish.
+  if (state.stream && *state.stream != stream) torch.attr("cuda").attr("synchronize")(device);
+  state.stream = stream;
+  const api::Stream s = reinterpret_cast<api::Stream>(static_cast<uintptr_t>(stream));
+
+  std::optional<ArraysKey> key = cache ? arrays_key(arrays, rgb, sh_degree) : std::nullopt;
+  const bool upload = !key || !state.key || !state.scene || !key->matches(*state.key);
+  if (upload) {
+    state.scene.reset();  // frees the last upload before the next one
+    state.key.reset();
+    const DeviceGaussiansArrays borrowed(*arrays[0], *arrays[1], *arrays[2], *arrays[3], *arrays[4], rgb,
+                                         sh_degree, device, stream);
+    api::DeviceLoadOptions options;
+    options.cuda_device = device;
+    options.stream = s;
+    Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
+    {
+      py::gil_scoped_release release;
+      scene = api::load_device_gaussians(borrowed.gaussians(), options);
+    }
+    state.scene.emplace(unwrap(std::move(scene)));
+    state.key = std::move(key);
+  }
+
+  const size_t cameras = views.cameras.size();
+  const size_t pixels = size_t(width) * height;
+  const int64_t channels = (rgb_out ? 3 : 0) + (depth != api::DepthOutput::kNone ? 1 : 0);
+  const py::object options = py::dict(py::arg("dtype") = torch.attr("float32"),
+                                      py::arg("device") = torch.attr("device")("cuda", device));
+  const auto empty = [&](int64_t c) {
+    return torch.attr("empty")(py::make_tuple(cameras, height, width, c), **options);
+  };
+  py::object out_colors = empty(channels), out_alphas = empty(1);
+  float* colors = reinterpret_cast<float*>(out_colors.attr("data_ptr")().cast<uintptr_t>());
+  float* alphas = reinterpret_cast<float*>(out_alphas.attr("data_ptr")().cast<uintptr_t>());
+  std::vector<uint64_t> pairs;
+  Status status;
+  {
+    py::gil_scoped_release release;
+    auto run = [&]() -> Status {
+      if (!state.renderer) {
+        RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(api::Device::kCuda, device));
+        state.renderer.emplace(std::move(renderer));
+      }
+      const bool with_depth = depth != api::DepthOutput::kNone;
+      for (size_t c = 0; c < cameras; ++c) {
+        settings.background = views.backgrounds[c];
+        const api::Camera& camera = views.cameras[c];
+        api::FrameStats stats;
+        if (state.frame && state.frame->width() == width && state.frame->height() == height &&
+            (state.frame->depth() != nullptr) == with_depth) {
+          RGS_ASSIGN_OR_RETURN(stats, state.renderer->render(*state.scene, camera, settings, state.frame->target(), s));
+        } else {
+          state.frame.reset();
+          RGS_ASSIGN_OR_RETURN(api::Image frame, state.renderer->render_image(*state.scene, camera, settings,
+                                                                              api::PixelFormat::kRgba32f,
+                                                                              with_depth, s));
+          stats = frame.frame_stats();
+          state.frame.emplace(std::move(frame));
+        }
+        api::PlanarTarget target;
+        target.colors = colors + c * pixels * size_t(channels);
+        target.rgb = rgb_out;
+        target.depth = depth;
+        target.alphas = alphas + c * pixels;
+        RGS_RETURN_IF_ERROR(api::write_planar(*state.frame, target, s));
+        pairs.push_back(stats.pairs);
+      }
+      return Status();
+    };
+    status = run();
+    // An upload nothing can recognize again is not kept (freeing it waits for the frames that read it).
+    if (!state.key) state.scene.reset();
+  }
+  check(status);
+  py::dict meta = gsplat_meta(preset, width, height, pairs);
+  meta["uploaded"] = upload;  // false: the Gaussians of the last call were rendered again
+  return py::make_tuple(out_colors, out_alphas, meta);
+}
+
 /// gsplat's rasterization() for inference: see its docstring below.
 py::tuple rasterization(const py::object& means, const py::object& quats, const py::object& scales,
                         const py::object& opacities, const py::object& colors, const py::object& viewmats,
                         const py::object& Ks, uint32_t width, uint32_t height, float near_plane,
                         std::optional<uint32_t> sh_degree, const py::object& backgrounds, const std::string& render_mode,
-                        const std::string& preset, const std::string& device, const py::kwargs& kwargs) {
+                        const std::string& preset, const std::string& device, bool cache, const py::kwargs& kwargs) {
   check_gsplat_defaults(kwargs);
   const bool rgb_out = render_mode.rfind("RGB", 0) == 0;
   const std::string depth_mode = rgb_out ? (render_mode.size() > 3 ? render_mode.substr(4) : "") : render_mode;
@@ -500,24 +920,22 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
                                                                        depth_mode != "ED")) {
     throw py::value_error("render_mode must be RGB, D, ED, RGB+D or RGB+ED, not " + render_mode);
   }
+  const GsplatViews views = gsplat_views(viewmats, Ks, backgrounds, width, height, near_plane);
+  const std::array<const py::object*, 5> arrays{&means, &quats, &scales, &opacities, &colors};
+  if (const std::optional<int> cuda = device_arrays_device(arrays, device)) {
+    const api::DepthOutput depth = depth_mode.empty()  ? api::DepthOutput::kNone
+                                   : depth_mode == "D" ? api::DepthOutput::kAccumulated
+                                                       : api::DepthOutput::kExpected;
+    return rasterization_cuda(*cuda, arrays, !sh_degree, sh_degree, views, width, height, rgb_out, depth, preset,
+                              cache);
+  }
   format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, colors, !sh_degree);
   if (sh_degree) check(converter::reduce_sh_degree(&cloud, *sh_degree));
-  const auto views = float_array(viewmats, "viewmats"), intrinsics = float_array(Ks, "Ks");
-  size_t cameras = 0;
-  check_shape(views, "viewmats", &cameras, {4, 4});
-  check_shape(intrinsics, "Ks", &cameras, {3, 3});
-  std::vector<float> bg(cameras * 3, 0.f);
-  if (!backgrounds.is_none()) {
-    const auto b = float_array(backgrounds, "backgrounds");
-    check_shape(b, "backgrounds", &cameras, {3});
-    bg.assign(b.data(), b.data() + b.size());
-  }
   api::LoadOptions load;
   load.device = resolve_device(device);
   api::RenderSettings settings;
   settings.preset = unwrap(api::parse_preset(preset));
-  api::CameraOptions camera_options;
-  camera_options.near_plane = near_plane;
+  const size_t cameras = views.cameras.size();
   const size_t pixels = size_t(width) * height;
   py::array_t<float> out_colors({py::ssize_t(cameras), py::ssize_t(height), py::ssize_t(width),
                                  py::ssize_t(rgb_out ? 3 : 0) + (depth_mode.empty() ? 0 : 1)});
@@ -535,16 +953,9 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
       RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load_cloud(std::move(input.cloud), input.bounds, "arrays", load));
       RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(scene.device(), 0));
       for (size_t c = 0; c < cameras; ++c) {
-        const float* v = views.data() + c * 16;
-        const float* k = intrinsics.data() + c * 9;
-        // gsplat's K puts pixel centres at half-integers (corner origin); camera_from_opencv's at integers.
-        const std::array<double, 9> K{k[0], k[1], k[2] - 0.5, k[3], k[4], k[5] - 0.5, k[6], k[7], k[8]};
-        const std::array<double, 9> R{v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]};
-        const std::array<double, 3> t{v[3], v[7], v[11]};
-        RGS_ASSIGN_OR_RETURN(api::Camera camera, api::camera_from_opencv(K, R, t, width, height, camera_options));
-        settings.background = {bg[c * 3], bg[c * 3 + 1], bg[c * 3 + 2]};
-        RGS_ASSIGN_OR_RETURN(api::Image image, renderer.render_image(scene, camera, settings, api::PixelFormat::kRgba32f,
-                                                                      !depth_mode.empty()));
+        settings.background = views.backgrounds[c];
+        RGS_ASSIGN_OR_RETURN(api::Image image, renderer.render_image(scene, views.cameras[c], settings,
+                                                                      api::PixelFormat::kRgba32f, !depth_mode.empty()));
         RGS_RETURN_IF_ERROR(image.copy_to_host(rgba.data(), depth_mode.empty() ? nullptr : depth.data()));
         for (size_t i = 0; i < pixels; ++i) {
           float* px = colors_out + (c * pixels + i) * channels;
@@ -560,13 +971,7 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
     status = run();
   }
   check(status);
-  py::dict meta;
-  meta["preset"] = preset;
-  meta["width"] = width;
-  meta["height"] = height;
-  meta["n_cameras"] = cameras;
-  meta["pairs"] = pairs;  // (tile, Gaussian) pairs of each view
-  return py::make_tuple(out_colors, out_alphas, meta);
+  return py::make_tuple(out_colors, out_alphas, gsplat_meta(preset, width, height, pairs));
 }
 
 }  // namespace
@@ -721,6 +1126,31 @@ PYBIND11_MODULE(roofgs, m) {
           "from_arrays",
           [](const py::object& means, const py::object& quats, const py::object& scales, const py::object& opacities,
              const py::object& sh, const std::string& device, bool sanitize, const std::string& name) {
+            const std::array<const py::object*, 5> arrays{&means, &quats, &scales, &opacities, &sh};
+            if (const std::optional<int> cuda = device_arrays_device(arrays, device)) {
+              // On the device: no Gaussian passes through host memory.
+              std::optional<py::module_> torch;
+              std::optional<TorchDeviceGuard> guard;
+              if (is_torch_tensor(means)) {
+                torch = import_torch();
+                guard.emplace(*torch, *cuda);
+              }
+              const int64_t stream = torch ? torch_stream(*torch, *cuda) : 0;
+              const DeviceGaussiansArrays borrowed(means, quats, scales, opacities, sh, false, std::nullopt, *cuda,
+                                                   stream);
+              api::DeviceLoadOptions options;
+              options.cuda_device = *cuda;
+              options.invalid_policy =
+                  sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+              options.name = name;
+              options.stream = reinterpret_cast<api::Stream>(static_cast<uintptr_t>(stream));
+              Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
+              {
+                py::gil_scoped_release release;
+                scene = api::load_device_gaussians(borrowed.gaussians(), options);
+              }
+              return std::make_unique<PyScene>(unwrap(std::move(scene)), *cuda);
+            }
             format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
             api::LoadOptions options;
             options.device = resolve_device(device);
@@ -741,7 +1171,29 @@ PYBIND11_MODULE(roofgs, m) {
           py::arg("means"), py::arg("quats"), py::arg("scales"), py::arg("opacities"), py::arg("sh"), py::kw_only(),
           py::arg("device") = "auto", py::arg("sanitize") = false, py::arg("name") = "arrays",
           "A scene of Gaussians held in arrays (save()'s layout and value rules), on `device` ('auto', 'cpu', "
-          "'cuda'); renders with every preset (the GPU reads its FP32 arrays)")
+          "'cuda'); renders with every preset (the GPU reads its FP32 arrays). CUDA arrays (torch tensors or "
+          "any DLPack producer's float32 C-contiguous arrays) are copied and checked on their device, with no "
+          "host copy, unless device='cpu'")
+      .def("arrays",
+           [](const PyScene& s) {
+             const format::GaussianCloud* cloud = s.scene.cloud();
+             if (cloud == nullptr) {
+               raise(Status(StatusCode::kInvalidArgument,
+                            "arrays(): the Gaussians of a CUDA scene stay on the device; load with device='cpu'"));
+             }
+             const auto n = py::ssize_t(cloud->size());
+             const auto k = py::ssize_t(cloud->sh_coefficients());
+             const auto copy = [](const std::vector<float>& v, std::vector<py::ssize_t> shape) {
+               py::array_t<float> a(shape);
+               std::copy(v.begin(), v.end(), a.mutable_data());
+               return a;
+             };
+             return py::make_tuple(copy(cloud->means, {n, 3}), copy(cloud->rotations, {n, 4}),
+                                   copy(cloud->scales, {n, 3}), copy(cloud->opacities, {n}),
+                                   copy(cloud->sh, {n, k, 3}));
+           },
+           "The Gaussians of a CPU scene as from_arrays() takes them: (means [N, 3], quats [N, 4], scales [N, 3] "
+           "linear, opacities [N], sh [N, K, 3]), float32 NumPy copies of what the CPU reference renders")
       .def("orbit_cameras",
            [](const PyScene& s, uint32_t count, uint32_t width, uint32_t height) {
              return unwrap(runtime::orbit_cameras(s.scene.info().bounds, count, width, height));
@@ -819,17 +1271,22 @@ PYBIND11_MODULE(roofgs, m) {
         py::arg("opacities"), py::arg("colors"), py::arg("viewmats"), py::arg("Ks"), py::arg("width"),
         py::arg("height"), py::kw_only(), py::arg("near_plane") = 0.01f, py::arg("sh_degree") = py::none(),
         py::arg("backgrounds") = py::none(), py::arg("render_mode") = "RGB", py::arg("preset") = "fastest",
-        py::arg("device") = "auto",
+        py::arg("device") = "auto", py::arg("cache") = true,
         "gsplat.rasterization's call for inference: swap the import to render trained Gaussians with RoofGS.\n"
         "means [N, 3]; quats [N, 4] (w, x, y, z, normalized here); scales [N, 3] activated (linear); opacities "
         "[N] activated, in [0, 1]; colors [N, K, 3] SH with sh_degree given (its first (sh_degree+1)^2 "
         "coefficients are used), else [N, 3] RGB; viewmats [C, 4, 4] world-to-camera (OpenCV axes: x right, y "
         "down, z forward); Ks [C, 3, 3] pixel intrinsics with gsplat's pixel centres at half-integers; width, "
         "height in pixels; near_plane: Gaussians nearer are culled; backgrounds [C, 3]; render_mode RGB, D, "
-        "ED, RGB+D or RGB+ED (ED: expected depth, D: accumulated = ED x alpha). NumPy arrays or tensors "
-        "(CUDA tensors are copied through host memory). Returns (colors [C, H, W, 3 or 4], alphas [C, H, W, 1], "
-        "meta) as float32 NumPy arrays. gsplat's training options (gradients, antialiased mode, other cameras, "
-        "far plane, radius clip) are refused with ValueError unless at their defaults");
+        "ED, RGB+D or RGB+ED (ED: expected depth, D: accumulated = ED x alpha).\n"
+        "Host arrays (NumPy, CPU tensors): float32 NumPy outputs (colors [C, H, W, 3 or 4], alphas [C, H, W, 1], "
+        "meta). CUDA arrays (torch tensors; any DLPack producer's float32 C-contiguous arrays): the Gaussians are "
+        "copied and checked on their device (no host copy) unless device='cpu', rendered on torch's current "
+        "stream, and the outputs are torch CUDA tensors on that device. With cache=True the upload of the last "
+        "torch tensors is reused while they are the same tensors with the same version counter (in-place "
+        "changes bump it; writes through .data or raw pointers do not: pass cache=False then); "
+        "meta['uploaded'] says whether the call uploaded. gsplat's training options (gradients, antialiased "
+        "mode, other cameras, far plane, radius clip) are refused with ValueError unless at their defaults");
   m.def("audit",
         [](const std::filesystem::path& source, const std::vector<std::filesystem::path>& candidates,
            std::optional<std::vector<api::Camera>> cameras, uint32_t orbit, uint32_t width, uint32_t height,

@@ -206,6 +206,25 @@ def test_embedding_doc_python_example(guitar_rgs, tmp_path, monkeypatch):
         assert difference.mean() < 1.0
 
 
+def test_embedding_doc_gsplat_example(guitar_rgs, cuda, tmp_path, monkeypatch):
+    """Runs the torch example of docs/EMBEDDING.md as written: its first view is the C++ example's."""
+    torch = pytest.importorskip("torch")
+    blocks = re.findall(r"```python\n(.*?)```", (SOURCE_DIR / "docs" / "EMBEDDING.md").read_text(), re.S)
+    assert len(blocks) >= 2, "docs/EMBEDDING.md has no torch example"
+    monkeypatch.chdir(tmp_path)
+    pathlib.Path("scene.rgs").write_bytes(pathlib.Path(guitar_rgs).read_bytes())
+    namespace = {}
+    exec(compile(blocks[1], "EMBEDDING.md", "exec"), namespace)
+    colors, alphas = namespace["colors"], namespace["alphas"]
+    assert isinstance(colors, torch.Tensor) and colors.is_cuda and tuple(colors.shape) == (2, 360, 640, 3)
+    scene = roofgs.load("scene.rgs", device="cpu")
+    center, radius = np.array(scene.info["sphere_center"]), scene.info["sphere_radius"]
+    opencv = roofgs.camera_from_opencv([[500, 0, 319.5], [0, 500, 179.5], [0, 0, 1]], np.eye(3),
+                                       -center + [0, 0, 3 * radius], 640, 360)
+    rgba = scene.render(opencv)
+    assert _psnr(colors[0].cpu().numpy(), rgba[..., :3]) > 50 and _psnr(alphas[0, ..., 0].cpu().numpy(), rgba[..., 3]) > 50
+
+
 def test_readme_python_example(tmp_path, monkeypatch):
     """Runs the Python example of the README as written, on the bundled sample."""
     blocks = re.findall(r"```python\n(.*?)```", (SOURCE_DIR / "README.md").read_text(), re.S)
@@ -290,6 +309,11 @@ def test_from_arrays_renders_what_the_file_renders(tmp_path):
     for preset in ("fastest", "faithful"):
         assert np.allclose(from_arrays.render(camera, preset=preset), from_file.render(camera, preset=preset),
                            rtol=0, atol=1e-6)
+    # arrays() gives back what from_arrays() takes (quaternions normalized again: within a float32 ulp).
+    back = from_file.arrays()
+    assert [a.shape for a in back] == [(90854, 3), (90854, 4), (90854, 3), (90854,), (90854, 1, 3)]
+    assert np.allclose(roofgs.Scene.from_arrays(*back, device="cpu").render(camera), from_file.render(camera),
+                       rtol=0, atol=1e-6)
 
 
 @pytest.mark.parametrize("output", sorted(SIGNATURES))
@@ -324,17 +348,23 @@ def test_arrays_follow_the_value_rules():
         roofgs.Scene.from_arrays(means[:, :2], quats, scales, opacities, sh, device="cpu")
 
 
+def gsplat_cameras(cameras):
+    """gsplat's viewmats [C, 4, 4] (world-to-camera) and Ks [C, 3, 3] of roofgs cameras."""
+    viewmats = np.zeros((len(cameras), 4, 4), np.float32)
+    Ks = np.zeros((len(cameras), 3, 3), np.float32)
+    for i, c in enumerate(cameras):
+        viewmats[i, :3, :3], viewmats[i, :3, 3], viewmats[i, 3, 3] = c.rotation, c.translation, 1
+        Ks[i] = [[c.fx, 0, c.cx], [0, c.fy, c.cy], [0, 0, 1]]
+    return viewmats, Ks
+
+
 def test_rasterization_is_gsplats_call_on_the_cpu_reference():
     """gsplat's conventions (world-to-camera viewmats, K with pixel centres at half-integers, activated
     values, RGB colours) give the CPU reference's frame of the same camera, bit for bit."""
     means, quats, scales, opacities, sh = read_ply_arrays(GUITAR)
     scene = roofgs.Scene.from_arrays(means, quats, scales, opacities, sh, device="cpu")
     cameras = scene.orbit_cameras(2, 80, 48)
-    viewmats = np.zeros((2, 4, 4), np.float32)
-    Ks = np.zeros((2, 3, 3), np.float32)
-    for i, c in enumerate(cameras):
-        viewmats[i, :3, :3], viewmats[i, :3, 3], viewmats[i, 3, 3] = c.rotation, c.translation, 1
-        Ks[i] = [[c.fx, 0, c.cx], [0, c.fy, c.cy], [0, 0, 1]]
+    viewmats, Ks = gsplat_cameras(cameras)
     colors, alphas, meta = roofgs.rasterization(means, quats, scales, opacities, sh, viewmats, Ks, 80, 48,
                                                 sh_degree=0, near_plane=0.2, render_mode="RGB+ED", device="cpu")
     assert colors.shape == (2, 48, 80, 4) and alphas.shape == (2, 48, 80, 1) and meta["n_cameras"] == 2
@@ -371,3 +401,130 @@ def test_arrays_and_rasterization_on_the_gpu(cuda):
     on_gpu, alphas_gpu, _ = roofgs.rasterization(*args, sh_degree=0, near_plane=0.2, preset="faithful", device="cuda")
     on_cpu, alphas_cpu, _ = roofgs.rasterization(*args, sh_degree=0, near_plane=0.2, preset="faithful", device="cpu")
     assert np.abs(on_gpu - on_cpu).max() < 1e-3 and np.abs(alphas_gpu - alphas_cpu).max() < 1e-3
+
+
+def _psnr(a, b):
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return math.inf if mse == 0 else 10 * math.log10(1 / mse)
+
+
+def test_rasterization_of_cuda_tensors_stays_on_the_device(cuda):
+    """torch CUDA tensors in (imported on their device, no host copy), torch CUDA tensors out on that device:
+    the frames of the CPU reference (faithful within 1e-3, fastest within the GPU's binary16 blending, PSNR
+    > 50 dB) and of the same arrays uploaded from host memory; a second call reuses the upload, and one after
+    an in-place change of the means renders the change."""
+    torch = pytest.importorskip("torch")
+    means, quats, scales, opacities, sh = read_ply_arrays(GUITAR)
+    cpu = roofgs.Scene.from_arrays(means, quats, scales, opacities, sh, device="cpu")
+    viewmats, Ks = gsplat_cameras(cpu.orbit_cameras(2, 160, 90))
+    device = torch.device("cuda", 0)
+    tensors = [torch.from_numpy(a).to(device) for a in (means, quats, scales, opacities, sh)]
+    views = (torch.from_numpy(viewmats).to(device), torch.from_numpy(Ks).to(device))
+    options = dict(sh_degree=0, near_plane=0.2, render_mode="RGB+ED")
+    for preset in ("faithful", "fastest"):
+        colors, alphas, meta = roofgs.rasterization(*tensors, *views, 160, 90, preset=preset, **options)
+        assert isinstance(colors, torch.Tensor) and isinstance(alphas, torch.Tensor)
+        assert colors.device == device and alphas.device == device and colors.dtype == torch.float32
+        assert tuple(colors.shape) == (2, 90, 160, 4) and tuple(alphas.shape) == (2, 90, 160, 1)
+        assert meta["n_cameras"] == 2 and len(meta["pairs"]) == 2 and min(meta["pairs"]) > 0
+        ref_colors, ref_alphas, _ = roofgs.rasterization(means, quats, scales, opacities, sh, viewmats, Ks, 160, 90,
+                                                         preset=preset, device="cpu", **options)
+        host_colors, host_alphas, _ = roofgs.rasterization(means, quats, scales, opacities, sh, viewmats, Ks, 160,
+                                                           90, preset=preset, device="cuda", **options)
+        got, got_alphas = colors.cpu().numpy(), alphas.cpu().numpy()
+        # The device import gives the host path's scene bit for bit, hence its frame.
+        assert np.array_equal(got, host_colors) and np.array_equal(got_alphas, host_alphas), preset
+        covered = ref_alphas[..., 0] > 0.01
+        depth_error = np.abs(got[..., 3] - ref_colors[..., 3])[covered] / ref_colors[..., 3][covered]
+        if preset == "faithful":
+            assert np.abs(got[..., :3] - ref_colors[..., :3]).max() < 1e-3
+            assert np.abs(got_alphas - ref_alphas).max() < 1e-3
+            assert depth_error.max() < 1e-3
+        else:
+            assert _psnr(got[..., :3], ref_colors[..., :3]) > 50 and _psnr(got_alphas, ref_alphas) > 50
+            assert np.median(depth_error) < 1e-2
+    # The same tensors again: the upload is reused and the frame is the same.
+    first, _, meta = roofgs.rasterization(*tensors, *views, 160, 90, render_mode="RGB", sh_degree=0, near_plane=0.2)
+    again, _, meta_again = roofgs.rasterization(*tensors, *views, 160, 90, render_mode="RGB", sh_degree=0,
+                                                near_plane=0.2)
+    assert not meta_again["uploaded"] and torch.equal(first, again)
+    # An in-place change bumps the tensor's version: the next call uploads the moved Gaussians.
+    shift = 0.25 * cpu.info["sphere_radius"]
+    tensors[0][:, 0] += shift
+    moved, moved_alphas, meta_moved = roofgs.rasterization(*tensors, *views, 160, 90, render_mode="RGB",
+                                                           sh_degree=0, near_plane=0.2)
+    assert meta_moved["uploaded"] and not torch.equal(moved, again)
+    shifted = tensors[0].cpu().numpy()
+    assert np.allclose(shifted[:, 0], means[:, 0] + shift, rtol=1e-6, atol=1e-6)
+    ref, ref_alphas, _ = roofgs.rasterization(shifted, quats, scales, opacities, sh, viewmats, Ks, 160, 90,
+                                              sh_degree=0, near_plane=0.2, device="cpu")
+    assert _psnr(moved.cpu().numpy(), ref) > 50 and _psnr(moved_alphas.cpu().numpy(), ref_alphas) > 50
+    _, _, meta_off = roofgs.rasterization(*tensors, *views, 160, 90, sh_degree=0, near_plane=0.2, cache=False)
+    assert meta_off["uploaded"]
+
+
+def test_cuda_tensor_colours_and_sh_degrees(cuda):
+    """RGB colours [N, 3] and SH [N, K, 3] rendered at a lower sh_degree, converted on the device: the host
+    path's frames of the same arrays; half-precision and non-contiguous tensors are converted by torch."""
+    torch = pytest.importorskip("torch")
+    scene = roofgs.load(DATA / "guitar_sh3.ply", device="cpu", quantize_other_formats=False)
+    means, quats, scales, opacities, sh = scene.arrays()
+    viewmats, Ks = gsplat_cameras(scene.orbit_cameras(1, 96, 64))
+    on = lambda a: torch.from_numpy(np.ascontiguousarray(a)).cuda()
+    for degree in (0, 1, 3):
+        colors, alphas, meta = roofgs.rasterization(*map(on, (means, quats, scales, opacities, sh, viewmats, Ks)), 96,
+                                                    64, sh_degree=degree, preset="faithful")
+        host, host_alphas, _ = roofgs.rasterization(means, quats, scales, opacities, sh, viewmats, Ks, 96, 64,
+                                                    sh_degree=degree, preset="faithful", device="cuda")
+        assert np.array_equal(colors.cpu().numpy(), host) and np.array_equal(alphas.cpu().numpy(), host_alphas)
+        assert host[..., :3].max() > 0.1
+    rgb = np.clip(0.5 + 0.28209479177387814 * sh[:, 0], 0, None)
+    colors, _, _ = roofgs.rasterization(*map(on, (means, quats, scales, opacities, rgb, viewmats, Ks)), 96, 64,
+                                        preset="faithful")
+    host, _, _ = roofgs.rasterization(means, quats, scales, opacities, rgb, viewmats, Ks, 96, 64, preset="faithful",
+                                      device="cuda")
+    assert np.array_equal(colors.cpu().numpy(), host)
+    # float16 means and a transposed (non-contiguous) view of the quaternions: converted on the device.
+    quats_t = on(np.ascontiguousarray(quats.T)).t()
+    assert not quats_t.is_contiguous()
+    colors16, _, _ = roofgs.rasterization(on(means).half(), quats_t, on(scales), on(opacities), on(rgb), on(viewmats),
+                                          on(Ks), 96, 64, preset="faithful")
+    host16, _, _ = roofgs.rasterization(on(means).half().float().cpu().numpy(), quats, scales, opacities, rgb, viewmats,
+                                        Ks, 96, 64, preset="faithful", device="cuda")
+    assert np.array_equal(colors16.cpu().numpy(), host16)
+    with pytest.raises(roofgs.Error, match="above 3"):
+        roofgs.rasterization(*map(on, (means, quats, scales, opacities, sh, viewmats, Ks)), 96, 64, sh_degree=4)
+    with pytest.raises(ValueError, match="partly on CUDA"):
+        roofgs.rasterization(on(means), quats, scales, opacities, rgb, viewmats, Ks, 96, 64)
+
+
+def test_from_arrays_of_cuda_tensors_follows_the_value_rules(cuda):
+    """Scene.from_arrays on CUDA tensors checks on the device what a file's Gaussians are checked for, with the
+    host path's errors, and sanitize=True drops on the device what the host path drops."""
+    torch = pytest.importorskip("torch")
+    means, quats, scales, opacities, sh = (a[:100].copy() for a in read_ply_arrays(GUITAR))
+    on = lambda a: torch.from_numpy(a).cuda()
+    scene = roofgs.Scene.from_arrays(*map(on, (means, quats, scales, opacities, sh)))
+    assert scene.device == "cuda" and scene.info["description"] == "float Gaussians in device memory"
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.Scene.from_arrays(*map(on, (means, quats, -scales, opacities, sh)))
+    assert e.value.code_name == "kInvalidArgument" and "Gaussian 0 has a negative scale" in str(e.value)
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.Scene.from_arrays(*map(on, (means, quats, scales, opacities * 2 + 1, sh)))
+    assert "sigmoid() them first" in str(e.value)
+    means[7, 1] = np.nan
+    quats[11] = 0
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.Scene.from_arrays(*map(on, (means, quats, scales, opacities, sh)))
+    assert e.value.code_name == "kCorruptData"
+    assert "1 Gaussians have non-finite values (1 values) and 1 have zero-norm quaternions (first: Gaussian 7)" in str(
+        e.value)
+    on_device = roofgs.Scene.from_arrays(*map(on, (means, quats, scales, opacities, sh)), sanitize=True)
+    from_host = roofgs.Scene.from_arrays(means, quats, scales, opacities, sh, device="cuda", sanitize=True)
+    assert len(on_device) == len(from_host) == 98
+    assert on_device.info["sphere_center"] == from_host.info["sphere_center"]
+    assert on_device.info["sphere_radius"] == from_host.info["sphere_radius"]
+    camera = from_host.orbit_cameras(1, 64, 36)[0]
+    for preset in ("faithful", "fastest"):
+        assert np.array_equal(on_device.render(camera, preset=preset).numpy(),
+                              from_host.render(camera, preset=preset).numpy())

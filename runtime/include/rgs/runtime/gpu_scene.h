@@ -14,7 +14,13 @@
 #include "rgs/kernels/device_scene.h"
 #include "rgs/runtime/device_buffer.h"
 
+namespace rgs::kernels {
+struct GaussianImportSource;
+}
+
 namespace rgs::runtime {
+
+struct DeviceImportOptions;
 
 /// What GpuScene::from_rgs() keeps on the device besides the compact sections.
 struct GpuSceneOptions {
@@ -52,6 +58,18 @@ class GpuScene {
   static Result<GpuScene> from_cloud(const format::GaussianCloud& cloud,
                                      const std::optional<format::SceneBounds>& bounds = std::nullopt,
                                      cudaStream_t stream = nullptr);
+
+  /// Builds an FP32 scene from Gaussians in device memory of the current device (`source`, kernels/array_io.h:
+  /// a caller's tensors), with device work only, and waits for it: the values are checked as a file's are
+  /// (converter::scene_from_cloud), quaternions normalized, SH reduced to source.sh_degree or RGB turned into
+  /// the DC term, and the bounds computed as converter::compute_bounds would (runtime/device_arrays.h). The
+  /// source is only read, and may change once this returns. `dropped` (optional) receives the Gaussians
+  /// options.drop_invalid removed. Errors: kInvalidArgument (a null, misaligned or non-device pointer, an SH
+  /// layout other than K = 1, 4, 9, 16 ≥ (sh_degree + 1)², a negative scale or an opacity outside [0, 1]:
+  /// the first index), kCorruptData (non-finite values or zero quaternions without drop_invalid: the counts
+  /// and the first index), kLimitExceeded (≥ 2^31 Gaussians), kOutOfMemory, kCudaError.
+  static Result<GpuScene> from_device(const kernels::GaussianImportSource& source, const DeviceImportOptions& options,
+                                      cudaStream_t stream = nullptr, uint64_t* dropped = nullptr);
 
   GpuScene(GpuScene&&) noexcept = default;
   GpuScene& operator=(GpuScene&&) noexcept = default;
