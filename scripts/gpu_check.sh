@@ -11,6 +11,9 @@ mkdir -p "$out"
 bin="$stage/bin"
 if [ -f "$stage/bin.tar.xz" ]; then tar -C "$stage" -xJf "$stage/bin.tar.xz"; fi
 export RGS_DATA_DIR="$stage/data"
+# The larger scenes travel in their own call (.device_scenes beside the stage folder; scripts/stage_gpu.sh).
+scenes="$(dirname "$stage")/.device_scenes"
+if [ -d "$scenes" ]; then cp -n "$scenes"/* "$RGS_DATA_DIR/"; fi
 taebak_dir=/tmp/rgs_taebak
 taebak="$taebak_dir/taebak.rgs"
 taebak_cameras="$RGS_DATA_DIR/taebak_cameras.json"

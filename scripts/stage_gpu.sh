@@ -1,25 +1,29 @@
 #!/usr/bin/env bash
 # Development host: builds the GPU binaries (CUDA on, no OpenImageIO: CONTRIBUTING.md#one-build-two-hosts)
-# into build-gpu and stages what the GPU host needs into two ignored folders, each under 64 MiB with the
-# repository:
+# into build-gpu and stages what the GPU host needs into ignored folders, each small enough to travel with the
+# repository in one call (a call carries at most 64 MiB with the working tree):
 #   .device_data/bin.tar.xz  test_gpu, test_api, test_audit, rgs-render, rgs-bench, rgs-convert, rgs-audit and
 #                            the render_frame sample, stripped
-#   .device_data/data/       flowers PLY + cameras.json, flowers and the 542k daffodils scene as .rgs,
-#                            taebak_cameras.json
 #   .device_data/py.tar.xz   the Python module's parts for the GPU host's own Python (3.12 there, 3.11 here):
 #                            libroofgs_core.so (every RoofGS library, code generated here), pybind11's headers
 #                            and the generated config.h; scripts/gpu_python.sh compiles the module there
-#   .device_taebak/          the 4.25M-Gaussian taebak scene as streamed SOG (55 MB) and rgs-convert, which
-#                            converts it on the GPU host (scripts/gpu_prepare_taebak.sh)
-# Then, on the GPU host: scripts/gpu_prepare_taebak.sh .device_taebak (one call), and
-# scripts/gpu_check.sh .device_data "$OUT" (the next call, while the machine is still warm).
+#   .device_data/data/       flowers as .rgs with its cameras.json, taebak_cameras.json
+#   .device_scenes/          flowers PLY and the 542k daffodils scene as .rgs; scripts/gpu_check.sh reads them
+#                            from there or from .device_data/data
+#   .device_taebak_a/, .device_taebak_b/
+#                            the 4.25M-Gaussian taebak scene as streamed SOG (55 MB), its chunk folders split in
+#                            two halves, and rgs-convert, which converts it on the GPU host
+#                            (scripts/gpu_prepare_taebak.sh)
+# Then, on the GPU host, one call each while the machine stays warm (what an earlier call carried stays there):
+# carry .device_taebak_a; carry .device_taebak_b and run scripts/gpu_prepare_taebak.sh .device_taebak_a
+# .device_taebak_b; carry .device_scenes; carry .device_data and run scripts/gpu_check.sh .device_data "$OUT".
 # Usage: scripts/stage_gpu.sh [DATA_DIR]   (DATA_DIR: the real scenes, default ../shared/data)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 data="${1:-$root/../shared/data}"
 build="$root/build-gpu"
 stage="$root/.device_data"
-taebak_stage="$root/.device_taebak"
+scenes="$root/.device_scenes"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
   -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_LAB_KERNELS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
@@ -50,7 +54,7 @@ tar -C "$stage" -cJf "$stage/py.tar.xz" py
 rm -rf "$py"
 
 rm -rf "$stage/bin" "$stage/bin.tar.xz"
-mkdir -p "$stage/bin" "$stage/data" "$taebak_stage"
+mkdir -p "$stage/bin" "$stage/data" "$scenes" "$root/.device_taebak_a" "$root/.device_taebak_b"
 for exe in "${exes[@]}"; do
   cp "$build/$exe" "$stage/bin/"
   strip "$stage/bin/$(basename "$exe")"
@@ -62,19 +66,26 @@ for exe in "$stage"/bin/*; do
     echo "stage_gpu.sh: $exe links more than the C/C++ runtime:" >&2; ldd "$exe" >&2; exit 1
   fi
 done
-xz -c "$stage/bin/rgs-convert" >"$taebak_stage/rgs-convert.xz"  # every byte counts in that call
+xz -c "$stage/bin/rgs-convert" >"$root/.device_taebak_a/rgs-convert.xz"  # every byte counts in that call
 tar -C "$stage" -cJf "$stage/bin.tar.xz" bin
 rm -rf "$stage/bin"
 
-cp "$data/mipnerf360_flowers_c3dgs.ply" "$data/mipnerf360_flowers_cameras.json" "$data/taebak_cameras.json" \
-  "$stage/data/"
+cp "$data/mipnerf360_flowers_cameras.json" "$data/taebak_cameras.json" "$stage/data/"
+cp "$data/mipnerf360_flowers_c3dgs.ply" "$scenes/"
 # flowers also as a .rgs, so the benchmark's RoofGS mode reads compact attributes.
 "$build/tools/rgs-convert" -q "$data/mipnerf360_flowers_c3dgs.ply" "$stage/data/mipnerf360_flowers_c3dgs.rgs"
-daffodils="$stage/data/playcanvas_flowers_lod0.rgs"
+daffodils="$scenes/playcanvas_flowers_lod0.rgs"
 if [ ! -f "$daffodils" ] || [ "$data/playcanvas_flowers_lod0.ply" -nt "$daffodils" ]; then
   "$build/tools/rgs-convert" -q "$data/playcanvas_flowers_lod0.ply" "$daffodils" --zstd all --zstd-level 3
 fi
-rm -rf "$taebak_stage/taebak_lod0_sog"
-cp -r "$data/taebak_lod0_sog" "$taebak_stage/"
-chmod -R u+w "$taebak_stage"
-du -sh "$stage" "$taebak_stage"
+# The SOG's files split in two halves by chunk folder; gpu_prepare_taebak.sh puts them together again.
+for half in a b; do rm -rf "$root/.device_taebak_$half/taebak_lod0_sog"; mkdir -p "$root/.device_taebak_$half/taebak_lod0_sog"; done
+cp "$data"/taebak_lod0_sog/*.json "$data"/taebak_lod0_sog/SHA256SUMS "$root/.device_taebak_a/taebak_lod0_sog/"
+chunks=("$data"/taebak_lod0_sog/*/)
+for i in "${!chunks[@]}"; do
+  half=a
+  [ "$i" -ge $(( ${#chunks[@]} / 2 )) ] && half=b
+  cp -r "${chunks[$i]%/}" "$root/.device_taebak_$half/taebak_lod0_sog/"
+done
+chmod -R u+w "$root"/.device_taebak_?
+du -sh "$stage" "$scenes" "$root"/.device_taebak_?
