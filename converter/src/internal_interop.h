@@ -1,12 +1,13 @@
-// Helpers shared by the SPZ, .splat and glTF readers and writers (private to rgs_converter).
+// Helpers shared by the scene readers and writers: byte order, frame flips, cloud checks and input hygiene
+// (private to rgs_converter).
 #pragma once
 
 #include <cstdint>
 #include <cstring>
-#include <memory>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "rgs/converter/interop.h"
 #include "rgs/format/file_io.h"
@@ -74,14 +75,28 @@ bool flip_to_rdf(const std::string& frame, AxisFlip* flip);
 /// y, z, x, xy, yz, 1, xz, 1, y, xyz, y, z, x, z, x up to sign and even factors).
 void apply_axis_flip(const AxisFlip& flip, format::GaussianCloud* cloud);
 
+/// False for ±inf and NaN, from the bits (also where the compiler may assume finite math).
+inline bool finite_bits(float v) {
+  uint32_t u;
+  std::memcpy(&u, &v, 4);
+  return (u & 0x7f800000u) != 0x7f800000u;
+}
+
+/// Checks that `cloud` has SH degree <= 3 and arrays sized for its Gaussian count (GaussianCloud::
+/// is_consistent). Values are not looked at. @return kInvalidArgument naming the degree or every array size.
+Status check_cloud_shape(const format::GaussianCloud& cloud);
+
+/// Applies `policy` to the Gaussians at the indices `invalid` (ascending; `hygiene` already counts them):
+/// records the first in hygiene->first_invalid_index, then fails with kCorruptData naming it as `what`
+/// (kReject), or removes them from `cloud` in place, keeping the order of the others (kSanitize).
+Status apply_invalid_policy(InvalidPolicy policy, const char* what, const std::vector<uint64_t>& invalid,
+                            format::GaussianCloud* cloud, InputHygiene* hygiene);
+
 /// Normalizes the quaternions of `cloud` and applies the InputHygiene rules of the PLY reader
 /// (docs/INPUT_HYGIENE.md): counts non-finite values (means, SH, scales, rotations; NaN opacity) and
 /// zero-norm quaternions, then fails with kCorruptData (kReject, same message as read_ply) or drops
 /// those Gaussians (kSanitize). `what` names a Gaussian in messages ("splat", "vertex").
 Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCloud* cloud, InputHygiene* hygiene);
-
-/// Maps `path` for reading. Errors: kIoError naming the OS cause.
-Result<std::shared_ptr<const format::MappedFile>> map_input(const std::string& path);
 
 inline std::string prefix(const std::string& name) { return name.empty() ? std::string() : name + ": "; }
 
@@ -107,7 +122,7 @@ Result<T> guarded(const std::string& name, const char* activity, Fn&& fn) {
   }
 }
 
-/// The SPZ and glTF writers' precondition: check_cloud_shape (internal_cloud.h), and every value finite.
+/// The SPZ and glTF writers' precondition: check_cloud_shape, and every value finite.
 /// Errors: kInvalidArgument.
 Status check_writable_cloud(const format::GaussianCloud& cloud);
 

@@ -110,10 +110,8 @@ bool looks_like_splat(const uint8_t* head, size_t n, uint64_t file_size) {
 }
 
 Result<InteropScene> read_splat(const std::string& path, const InteropReadOptions& options) {
-  RGS_ASSIGN_OR_RETURN(auto file, detail::map_input(path));  // its errors name the path
-  return detail::guarded<InteropScene>(path, "decoding the .splat file", [&]() -> Result<InteropScene> {
-    return read_records(file->data(), file->size(), options);
-  });
+  RGS_ASSIGN_OR_RETURN(auto file, format::MappedFile::open(path));  // its errors name the path
+  return read_splat_bytes(file->data(), file->size(), path, options);
 }
 
 Result<InteropScene> read_splat_bytes(const uint8_t* data, size_t size, const std::string& name,
