@@ -4,9 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
-#include <new>
 #include <string>
 #include <vector>
 
@@ -29,8 +27,8 @@ using detail::PlyType;
 constexpr uint64_t kGaussiansPerChunk = 256;
 constexpr uint64_t kMaxFileBytes = uint64_t{1} << 40;
 constexpr uint64_t kMinGaussiansPerWorker = 65536;
-constexpr double kMaxOpacityLogit = 13.815509557963773;  // logit(1 − 1e-6)
-constexpr double kShC0 = 0.28209479177387814;
+using detail::kMaxOpacityLogit;
+using detail::kShC0;
 
 const char* const kChunkFields[] = {"min_x",       "min_y",       "min_z",       "max_x",
                                     "max_y",       "max_z",       "min_scale_x", "min_scale_y",

@@ -57,6 +57,12 @@ Status get_index(const json& obj, const char* key, uint64_t* out, bool required,
   return Status();
 }
 
+/// True for a primitive object whose extensions object names KHR_gaussian_splatting.
+bool is_splat_primitive(const json& p) {
+  const json& ext = member(p, "extensions");
+  return ext.is_object() && ext.contains(detail::kKhrGaussianSplatting);
+}
+
 struct Accessor {
   const uint8_t* base = nullptr;  ///< null: no bufferView, every value is 0
   uint64_t stride = 0;
@@ -289,9 +295,7 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
     const json& prims = member(meshes[mesh], "primitives");  // a reference: primitives are kept by address
     if (!prims.is_array()) return corrupt("glTF mesh " + std::to_string(mesh) + " has no primitives array");
     for (const json& p : prims) {
-      if (!p.is_object()) continue;
-      auto ext = p.find("extensions");
-      if (ext == p.end() || !ext->is_object() || !ext->contains(detail::kKhrGaussianSplatting)) continue;
+      if (!is_splat_primitive(p)) continue;
       if (prims_.size() == kMaxSplatPrimitives) {
         return Status(StatusCode::kLimitExceeded, "glTF draws more than " + std::to_string(kMaxSplatPrimitives) +
                                                       " Gaussian splatting primitives (nodes x primitives)");
@@ -466,8 +470,7 @@ Status Reader::find_primitives() {
       const json& prims = member(m, "primitives");
       if (!prims.is_array()) continue;
       for (const json& p : prims) {
-        if (p.is_object() && p.contains("extensions") && p["extensions"].is_object() &&
-            p["extensions"].contains(detail::kKhrGaussianSplatting)) {
+        if (is_splat_primitive(p)) {
           Primitive prim{&p, {}};
           identity(prim.world);
           prims_.push_back(prim);

@@ -21,8 +21,6 @@ namespace {
 // ordered_json keeps "asset" first, where content sniffers look for it.
 using json = nlohmann::ordered_json;
 
-constexpr double kShC0 = 0.28209479177387814;
-
 uint64_t align4(uint64_t n) { return (n + 3) & ~uint64_t{3}; }
 
 /// One accessor's data, already little-endian.
@@ -83,7 +81,7 @@ std::vector<Segment> attribute_segments(const format::GaussianCloud& cloud, bool
     s.data.resize(static_cast<size_t>(n * 4));
     for (uint64_t i = 0; i < n; ++i) {
       for (int c = 0; c < 3; ++c) {
-        const double srgb = std::clamp(0.5 + kShC0 * cloud.sh[i * k_count * 3 + c], 0.0, 1.0);
+        const double srgb = std::clamp(0.5 + detail::kShC0 * cloud.sh[i * k_count * 3 + c], 0.0, 1.0);
         s.data[i * 4 + c] = static_cast<uint8_t>(std::lround(srgb_to_linear(srgb) * 255.0));
       }
       s.data[i * 4 + 3] = static_cast<uint8_t>(std::lround(std::clamp<double>(cloud.opacities[i], 0.0, 1.0) * 255.0));

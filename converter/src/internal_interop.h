@@ -16,6 +16,11 @@
 
 namespace rgs::converter::detail {
 
+/// SH degree-0 basis constant (docs/DESIGN.md#spherical-harmonics): f_dc = (colour − 0.5) / kShC0.
+constexpr double kShC0 = 0.28209479177387814;
+/// logit(1 − 1e-6): readers of 8-bit alphas clamp opacities of exactly 0 or 1 to ±this (±13.8155).
+constexpr double kMaxOpacityLogit = 13.815509557963773;
+
 inline uint16_t le_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
 inline uint32_t le_u32(const uint8_t* p) {
   return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) | (static_cast<uint32_t>(p[2]) << 16) |

@@ -23,6 +23,7 @@
 
 #include "internal_huge_pages.h"
 #include "internal_input_file.h"
+#include "internal_interop.h"
 #include "internal_json.h"
 #include "internal_parallel.h"
 #include "internal_webp.h"
@@ -39,8 +40,6 @@ namespace fs = std::filesystem;
 constexpr uint64_t kMaxMetaBytes = uint64_t{64} << 20;
 constexpr uint64_t kMaxImageFileBytes = uint64_t{1} << 30;
 constexpr uint64_t kMaxBundleBytes = uint64_t{4} << 30;
-/// logit(1 − 1e-6): opacities of exactly 0 or 1 are clamped to ±this (DESIGN/SOURCES: ±13.8155).
-constexpr double kMaxOpacityLogit = 13.815509557963773;
 /// Entries of every v2 codebook (one per 8-bit code).
 constexpr size_t kCodebookSize = 256;
 /// Largest SH palette: labels are 16-bit.
@@ -383,7 +382,7 @@ Status build_tables(const SogMeta& meta, const std::string& where, Tables* t) {
         t->dc[c][v] = static_cast<float>(meta.sh0_min[c] + (meta.sh0_max[c] - meta.sh0_min[c]) * unit);
       }
       const double logit = meta.sh0_min[3] + (meta.sh0_max[3] - meta.sh0_min[3]) * unit;
-      t->opacity[v] = sigmoid_of_logit(std::max(-kMaxOpacityLogit, std::min(kMaxOpacityLogit, logit)));
+      t->opacity[v] = sigmoid_of_logit(std::max(-detail::kMaxOpacityLogit, std::min(detail::kMaxOpacityLogit, logit)));
     }
     for (int a = 0; a < 3; ++a) {
       if (!std::isfinite(t->scales[a][v])) {
