@@ -9,7 +9,7 @@
 #include <utility>
 
 #include "rgs/config.h"
-#include "rgs/converter/gltf_writer.h"
+#include "rgs/converter/gltf.h"
 #include "rgs/converter/ply_writer.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/file_io.h"

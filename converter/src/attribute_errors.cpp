@@ -40,15 +40,6 @@ void accumulate(const format::GaussianCloud& ref, uint64_t first, const format::
   }
 }
 
-Status check_reference(const format::GaussianCloud& reference) {
-  if (!reference.is_consistent()) {
-    return Status(StatusCode::kInvalidArgument, "reference cloud arrays are inconsistent with " +
-                                                    std::to_string(reference.size()) + " Gaussians at SH degree " +
-                                                    std::to_string(reference.sh_degree));
-  }
-  return Status();
-}
-
 /// Runs `chunk_fn(first, count, &acc)` for every chunk of kChunkGaussians Gaussians of [0, n), chunks spread
 /// over the available cores, and merges the per-chunk accumulators in chunk order. `chunk_fn` returns a
 /// Status; the first error in chunk order is returned.
@@ -76,12 +67,8 @@ Result<AttributeErrors> accumulate_chunks(uint64_t n, ChunkFn&& chunk_fn) {
 
 Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& reference,
                                                  const format::GaussianCloud& test) {
-  RGS_RETURN_IF_ERROR(check_reference(reference));
-  if (!test.is_consistent()) {
-    return Status(StatusCode::kInvalidArgument, "test cloud arrays are inconsistent with " +
-                                                    std::to_string(test.size()) + " Gaussians at SH degree " +
-                                                    std::to_string(test.sh_degree));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_consistent(reference, "reference cloud"));
+  RGS_RETURN_IF_ERROR(detail::check_consistent(test, "test cloud"));
   if (reference.size() != test.size() || reference.sh_degree != test.sh_degree) {
     return Status(StatusCode::kInvalidArgument,
                   "cannot compare " + std::to_string(reference.size()) + " Gaussians at SH degree " +
@@ -100,7 +87,7 @@ Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& re
 
 Result<AttributeErrors> measure_quantization_errors(const format::GaussianCloud& reference,
                                                     const format::EncodedScene& encoded) {
-  RGS_RETURN_IF_ERROR(check_reference(reference));
+  RGS_RETURN_IF_ERROR(detail::check_consistent(reference, "reference cloud"));
   if (reference.size() != encoded.count || reference.sh_degree != encoded.metadata.sh_degree) {
     return Status(StatusCode::kInvalidArgument,
                   "cannot compare " + std::to_string(reference.size()) + " Gaussians at SH degree " +

@@ -4,14 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
-#include <new>
 #include <string>
 #include <vector>
 
 #include "internal_huge_pages.h"
 #include "internal_input_file.h"
+#include "internal_interop.h"
 #include "internal_parallel.h"
 #include "internal_ply_header.h"
 #include "rgs/converter/playcanvas_readers.h"
@@ -28,8 +27,8 @@ using detail::PlyType;
 constexpr uint64_t kGaussiansPerChunk = 256;
 constexpr uint64_t kMaxFileBytes = uint64_t{1} << 40;
 constexpr uint64_t kMinGaussiansPerWorker = 65536;
-constexpr double kMaxOpacityLogit = 13.815509557963773;  // logit(1 − 1e-6)
-constexpr double kShC0 = 0.28209479177387814;
+using detail::kMaxOpacityLogit;
+using detail::kShC0;
 
 const char* const kChunkFields[] = {"min_x",       "min_y",       "min_z",       "max_x",
                                     "max_y",       "max_z",       "min_scale_x", "min_scale_y",
@@ -52,9 +51,7 @@ Status property_offset(const ElementData& e, const std::string& name, PlyType ty
         return Status(StatusCode::kUnsupportedFeature, "PLY header line " + std::to_string(p.header_line) +
                                                            ": property '" + name + "' of element '" + e.element->name +
                                                            "' is '" + p.type_name + "'; compressed PLY stores it as " +
-                                                           (type == PlyType::kFloat32  ? "float"
-                                                            : type == PlyType::kUint32 ? "uint"
-                                                                                       : "uchar"));
+                                                           detail::ply_type_name(type));
       }
       *offset = at;
       return Status();
@@ -63,15 +60,6 @@ Status property_offset(const ElementData& e, const std::string& name, PlyType ty
   }
   return Status(StatusCode::kCorruptData,
                 "element '" + e.element->name + "' has no property '" + name + "' (compressed PLY)");
-}
-
-inline float load_f32(const uint8_t* p) {
-  float v;
-  std::memcpy(&v, p, 4);
-  return v;
-}
-inline uint32_t load_u32(const uint8_t* p) {
-  return uint32_t{p[0]} | (uint32_t{p[1]} << 8) | (uint32_t{p[2]} << 16) | (uint32_t{p[3]} << 24);
 }
 
 /// The decoded bounds of one chunk.
@@ -173,22 +161,9 @@ Status locate_properties(Layout* layout) {
   if (!sh.element) return Status();
   size_t rest_count = 0;
   for (const PlyProperty& p : sh.element->properties) rest_count += p.name.rfind("f_rest_", 0) == 0;
-  switch (rest_count) {
-    case 0:
-      layout->degree = 0;
-      break;
-    case 9:
-      layout->degree = 1;
-      break;
-    case 24:
-      layout->degree = 2;
-      break;
-    case 45:
-      layout->degree = 3;
-      break;
-    default:
-      return Status(StatusCode::kUnsupportedFeature,
-                    "element 'sh' has " + std::to_string(rest_count) + " f_rest_* properties; expected 9, 24 or 45");
+  if (!detail::sh_degree_of_rest_count(rest_count, &layout->degree)) {
+    return Status(StatusCode::kUnsupportedFeature,
+                  "element 'sh' has " + std::to_string(rest_count) + " f_rest_* properties; expected 9, 24 or 45");
   }
   if (sh.element->count != n) {
     return Status(StatusCode::kCorruptData, "element 'sh' has " + std::to_string(sh.element->count) + " rows for " +
@@ -211,7 +186,7 @@ Result<std::vector<ChunkBounds>> read_chunk_bounds(const uint8_t* data, const La
   for (uint64_t c = 0; c < layout.chunks; ++c) {
     const uint8_t* row = data + layout.chunk.offset + c * layout.chunk.stride;
     for (int f = 0; f < fields; ++f) {
-      const float v = load_f32(row + layout.chunk_offsets[f]);
+      const float v = detail::le_f32(row + layout.chunk_offsets[f]);
       const bool scale_field = f >= 6 && f < 12;
       const bool color_field = f >= 12;
       if (!std::isfinite(v) || (scale_field && std::exp(static_cast<double>(v)) > kFloatMax) ||
@@ -234,10 +209,10 @@ inline void decode_gaussian(const uint8_t* data, const Layout& layout, const Chu
   const uint32_t k_count = cloud->sh_coefficients();
   const uint32_t rest = k_count - 1;
   const uint8_t* row = data + layout.vertex.offset + i * layout.vertex.stride;
-  const uint32_t pos = load_u32(row + layout.vertex_offsets[0]);
-  const uint32_t rot = load_u32(row + layout.vertex_offsets[1]);
-  const uint32_t scl = load_u32(row + layout.vertex_offsets[2]);
-  const uint32_t col = load_u32(row + layout.vertex_offsets[3]);
+  const uint32_t pos = detail::le_u32(row + layout.vertex_offsets[0]);
+  const uint32_t rot = detail::le_u32(row + layout.vertex_offsets[1]);
+  const uint32_t scl = detail::le_u32(row + layout.vertex_offsets[2]);
+  const uint32_t col = detail::le_u32(row + layout.vertex_offsets[3]);
   // 11-10-11 unorm position and log scale within the chunk's bounds.
   const double unit[3] = {((pos >> 21) & 2047) / 2047.0, ((pos >> 11) & 1023) / 1023.0, (pos & 2047) / 2047.0};
   const double sunit[3] = {((scl >> 21) & 2047) / 2047.0, ((scl >> 11) & 1023) / 1023.0, (scl & 2047) / 2047.0};
@@ -310,15 +285,7 @@ Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOp
 
   InputScene scene;
   scene.cloud.sh_degree = layout.degree;
-  {
-    format::GaussianCloud& cl = scene.cloud;
-    const size_t count = static_cast<size_t>(n);
-    detail::resize_huge(cl.means, count * 3);
-    detail::resize_huge(cl.rotations, count * 4);
-    detail::resize_huge(cl.scales, count * 3);
-    detail::resize_huge(cl.opacities, count);
-    detail::resize_huge(cl.sh, count * cl.sh_coefficients() * 3);
-  }
+  detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(n));
   // 8-bit SH: 0 and 255 are the ends of the range exactly, the others bin centres.
   float sh_lut[256];
   for (int v = 0; v < 256; ++v) {
@@ -347,15 +314,8 @@ Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOp
 
 Result<InputScene> read_compressed_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
                                              const SceneReadOptions& options) {
-  try {
-    Result<InputScene> r = read_impl(data, size, options);
-    if (!r.ok()) return Status(std::move(r).status()).prepend(name);
-    return r;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the compressed PLY");
-  } catch (const std::length_error&) {
-    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the compressed PLY");
-  }
+  return detail::guarded<InputScene>(name, "decoding the compressed PLY",
+                                     [&] { return read_impl(data, size, options); });
 }
 
 Result<InputScene> read_compressed_ply(const std::string& path, const SceneReadOptions& options) {

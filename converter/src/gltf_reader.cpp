@@ -1,6 +1,6 @@
 // glTF reader for KHR_gaussian_splatting: GLB container or .gltf JSON, bounds-checked accessors, node
 // transforms, frame conversion from glTF's y-up axes.
-#include "rgs/converter/gltf_reader.h"
+#include "rgs/converter/gltf.h"
 
 #include <nlohmann/json.hpp>
 
@@ -16,7 +16,6 @@
 #include "internal_gltf.h"
 #include "internal_input_file.h"
 #include "internal_json.h"
-#include "internal_scene_files.h"
 #include "internal_interop.h"
 
 namespace rgs::converter {
@@ -56,6 +55,12 @@ Status get_index(const json& obj, const char* key, uint64_t* out, bool required,
   }
   *out = it->get<uint64_t>();
   return Status();
+}
+
+/// True for a primitive object whose extensions object names KHR_gaussian_splatting.
+bool is_splat_primitive(const json& p) {
+  const json& ext = member(p, "extensions");
+  return ext.is_object() && ext.contains(detail::kKhrGaussianSplatting);
 }
 
 struct Accessor {
@@ -101,23 +106,16 @@ int component_bytes(int type) {
   }
 }
 
-/// Accepted (componentType, normalized) pairs of one attribute.
-struct Allowed {
-  bool float_ok = true;
-  bool byte_norm = false, short_norm = false;    // signed, normalized
-  bool ubyte = false, ubyte_norm = false, ushort = false, ushort_norm = false;
-  bool byte_raw = false, short_raw = false;
-  bool ok(int type, bool norm) const {
-    switch (type) {
-      case detail::kGltfFloat: return float_ok && !norm;
-      case detail::kGltfByte: return norm ? byte_norm : byte_raw;
-      case detail::kGltfShort: return norm ? short_norm : short_raw;
-      case detail::kGltfUnsignedByte: return norm ? ubyte_norm : ubyte;
-      case detail::kGltfUnsignedShort: return norm ? ushort_norm : ushort;
-      default: return false;
-    }
-  }
-};
+/// Accepted (componentType, normalized) pairs of one attribute besides float (never normalized, always
+/// accepted): one type_bit each for the four integer types.
+using Allowed = uint32_t;
+constexpr Allowed type_bit(int type, bool normalized) {
+  return 1u << ((type - detail::kGltfByte) * 2 + (normalized ? 1 : 0));
+}
+bool allowed_type(Allowed allowed, int type, bool normalized) {
+  if (type == detail::kGltfFloat) return !normalized;
+  return type >= detail::kGltfByte && type <= detail::kGltfUnsignedShort && (allowed & type_bit(type, normalized));
+}
 
 std::string base64_error(const std::string& where) { return where + " has a malformed base64 data URI"; }
 
@@ -178,7 +176,7 @@ class Reader {
   Status visit(uint64_t node, const double parent[16], int depth);
   Status buffer(uint64_t index, const uint8_t** data, uint64_t* size);
   Status accessor(const json& attributes, const std::string& semantic, const char* type, int components,
-                  const Allowed& allowed, Accessor* out);
+                  Allowed allowed, Accessor* out);
   /// Checks primitive `index`'s extension, mode and attributes and finds its accessors (counts all equal).
   Status primitive_accessors(size_t index, PrimitiveAccessors* d);
   /// The SH accessors of a primitive with attributes `attrs`: every coefficient of degrees 0..l, none above.
@@ -297,9 +295,7 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
     const json& prims = member(meshes[mesh], "primitives");  // a reference: primitives are kept by address
     if (!prims.is_array()) return corrupt("glTF mesh " + std::to_string(mesh) + " has no primitives array");
     for (const json& p : prims) {
-      if (!p.is_object()) continue;
-      auto ext = p.find("extensions");
-      if (ext == p.end() || !ext->is_object() || !ext->contains(detail::kKhrGaussianSplatting)) continue;
+      if (!is_splat_primitive(p)) continue;
       if (prims_.size() == kMaxSplatPrimitives) {
         return Status(StatusCode::kLimitExceeded, "glTF draws more than " + std::to_string(kMaxSplatPrimitives) +
                                                       " Gaussian splatting primitives (nodes x primitives)");
@@ -382,7 +378,7 @@ Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
 }
 
 Status Reader::accessor(const json& attributes, const std::string& semantic, const char* type, int components,
-                        const Allowed& allowed, Accessor* out) {
+                        Allowed allowed, Accessor* out) {
   auto it = attributes.find(semantic);
   if (it == attributes.end()) return corrupt("glTF splat primitive has no '" + semantic + "' attribute");
   if (!it->is_number_unsigned()) return corrupt("glTF attribute '" + semantic + "' is not an accessor index");
@@ -403,7 +399,7 @@ Status Reader::accessor(const json& attributes, const std::string& semantic, con
   RGS_RETURN_IF_ERROR(get_index(a, "count", &count, true, where));
   RGS_RETURN_IF_ERROR(get_index(a, "byteOffset", &offset, false, where));
   const bool normalized = a.value("normalized", false);
-  if (!allowed.ok(static_cast<int>(ctype), normalized)) {
+  if (!allowed_type(allowed, static_cast<int>(ctype), normalized)) {
     return corrupt(where + " has componentType " + std::to_string(ctype) + (normalized ? " normalized" : "") +
                    ", which KHR_gaussian_splatting does not allow for this attribute");
   }
@@ -474,8 +470,7 @@ Status Reader::find_primitives() {
       const json& prims = member(m, "primitives");
       if (!prims.is_array()) continue;
       for (const json& p : prims) {
-        if (p.is_object() && p.contains("extensions") && p["extensions"].is_object() &&
-            p["extensions"].contains(detail::kKhrGaussianSplatting)) {
+        if (is_splat_primitive(p)) {
           Primitive prim{&p, {}};
           identity(prim.world);
           prims_.push_back(prim);
@@ -491,7 +486,7 @@ Status Reader::find_primitives() {
 }
 
 Status Reader::sh_accessors(const json& attrs, const std::string& where, PrimitiveAccessors* d) {
-  const Allowed sh_types;
+  const Allowed sh_types = 0;  // float only
   for (uint32_t l = 0; l <= 3; ++l) {
     int present = 0;
     for (int m = 0; m < detail::kGltfShCoefs[l]; ++m) {
@@ -545,15 +540,12 @@ Status Reader::primitive_accessors(size_t index, PrimitiveAccessors* d) {
   if (mode != 0) return corrupt(where + " has mode " + std::to_string(mode) + "; splats must be POINTS (0)");
   if (!p.contains("attributes") || !p["attributes"].is_object()) return corrupt(where + " has no attributes");
   const json& attrs = p["attributes"];
-  Allowed position_types;
-  position_types.byte_norm = position_types.short_norm = position_types.ubyte = position_types.ubyte_norm = true;
-  position_types.ushort = position_types.ushort_norm = position_types.byte_raw = position_types.short_raw = true;
-  Allowed rotation_types;
-  rotation_types.byte_norm = rotation_types.short_norm = true;
-  Allowed scale_types;
-  scale_types.ubyte = scale_types.ubyte_norm = scale_types.ushort = scale_types.ushort_norm = true;
-  Allowed opacity_types;
-  opacity_types.ubyte_norm = opacity_types.ushort_norm = true;
+  const Allowed opacity_types = type_bit(detail::kGltfUnsignedByte, true) | type_bit(detail::kGltfUnsignedShort, true);
+  const Allowed scale_types =
+      opacity_types | type_bit(detail::kGltfUnsignedByte, false) | type_bit(detail::kGltfUnsignedShort, false);
+  const Allowed rotation_types = type_bit(detail::kGltfByte, true) | type_bit(detail::kGltfShort, true);
+  const Allowed position_types = scale_types | rotation_types | type_bit(detail::kGltfByte, false) |
+                                 type_bit(detail::kGltfShort, false);
   d->world = prims_[index].world;
   RGS_RETURN_IF_ERROR(accessor(attrs, "POSITION", "VEC3", 3, position_types, &d->pos));
   RGS_RETURN_IF_ERROR(accessor(attrs, "KHR_gaussian_splatting:ROTATION", "VEC4", 4, rotation_types, &d->rot));
@@ -811,7 +803,7 @@ bool looks_like_gltf(const uint8_t* head, size_t n) {
 }
 
 Result<InteropScene> read_gltf(const std::string& path, const InteropReadOptions& options) {
-  RGS_ASSIGN_OR_RETURN(auto file, detail::map_input(path));  // its errors name the path
+  RGS_ASSIGN_OR_RETURN(auto file, format::MappedFile::open(path));  // its errors name the path
   return detail::guarded<InteropScene>(path, "decoding the glTF file", [&]() -> Result<InteropScene> {
     const detail::SceneFolder folder(std::filesystem::path(path).parent_path().string(), path);
     RGS_ASSIGN_OR_RETURN(InteropScene scene, read_document(file->data(), file->size(), &folder, options));
@@ -831,7 +823,7 @@ Result<InteropScene> read_gltf_bytes(const uint8_t* data, size_t size, const std
 namespace detail {
 
 Result<std::vector<std::string>> list_gltf_files(const std::string& path) {
-  RGS_ASSIGN_OR_RETURN(auto file, map_input(path));
+  RGS_ASSIGN_OR_RETURN(auto file, format::MappedFile::open(path));
   return guarded<std::vector<std::string>>(path, "listing the glTF file's buffers",
                                            [&]() -> Result<std::vector<std::string>> {
     Container c;

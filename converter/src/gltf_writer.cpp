@@ -1,5 +1,5 @@
 // GLB writer for KHR_gaussian_splatting: one float accessor per attribute, one buffer in the BIN chunk.
-#include "rgs/converter/gltf_writer.h"
+#include "rgs/converter/gltf.h"
 
 #include <nlohmann/json.hpp>
 
@@ -21,8 +21,6 @@ namespace {
 // ordered_json keeps "asset" first, where content sniffers look for it.
 using json = nlohmann::ordered_json;
 
-constexpr double kShC0 = 0.28209479177387814;
-
 uint64_t align4(uint64_t n) { return (n + 3) & ~uint64_t{3}; }
 
 /// One accessor's data, already little-endian.
@@ -36,12 +34,17 @@ struct Segment {
   json min, max;
 };
 
-Segment float_segment(std::string semantic, const char* type, uint64_t count, size_t width) {
+/// A float accessor of `count` elements of `width` values each, value a of element i being get(i, a).
+template <typename Get>
+Segment float_segment(std::string semantic, const char* type, uint64_t count, int width, Get&& get) {
   Segment s;
   s.semantic = std::move(semantic);
   s.type = type;
   s.count = count;
   s.data.resize(static_cast<size_t>(count * width * 4));
+  for (uint64_t i = 0; i < count; ++i) {
+    for (int a = 0; a < width; ++a) detail::put_f32(s.data.data() + (i * width + a) * 4, get(i, a));
+  }
   return s;
 }
 
@@ -55,26 +58,18 @@ std::vector<Segment> attribute_segments(const format::GaussianCloud& cloud, bool
   const uint64_t n = cloud.size();
   const uint32_t k_count = cloud.sh_coefficients();
   std::vector<Segment> segs;
-  {
-    Segment s = float_segment("POSITION", "VEC3", n, 3);
+  segs.push_back(float_segment("POSITION", "VEC3", n, 3, [&](uint64_t i, int a) { return cloud.means[i * 3 + a]; }));
+  if (n > 0) {
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
-      lo[a] = std::numeric_limits<float>::infinity();
-      hi[a] = -std::numeric_limits<float>::infinity();
-    }
-    for (uint64_t i = 0; i < n; ++i) {
-      for (int a = 0; a < 3; ++a) {
-        const float v = cloud.means[i * 3 + a];
-        detail::put_f32(s.data.data() + (i * 3 + a) * 4, v);
-        lo[a] = std::min(lo[a], v);
-        hi[a] = std::max(hi[a], v);
+      lo[a] = hi[a] = cloud.means[a];
+      for (uint64_t i = 1; i < n; ++i) {
+        lo[a] = std::min(lo[a], cloud.means[i * 3 + a]);
+        hi[a] = std::max(hi[a], cloud.means[i * 3 + a]);
       }
     }
-    if (n > 0) {
-      s.min = json::array({lo[0], lo[1], lo[2]});
-      s.max = json::array({hi[0], hi[1], hi[2]});
-    }
-    segs.push_back(std::move(s));
+    segs.back().min = json::array({lo[0], lo[1], lo[2]});
+    segs.back().max = json::array({hi[0], hi[1], hi[2]});
   }
   if (color_fallback) {
     Segment s;
@@ -86,43 +81,26 @@ std::vector<Segment> attribute_segments(const format::GaussianCloud& cloud, bool
     s.data.resize(static_cast<size_t>(n * 4));
     for (uint64_t i = 0; i < n; ++i) {
       for (int c = 0; c < 3; ++c) {
-        const double srgb = std::clamp(0.5 + kShC0 * cloud.sh[i * k_count * 3 + c], 0.0, 1.0);
+        const double srgb = std::clamp(0.5 + detail::kShC0 * cloud.sh[i * k_count * 3 + c], 0.0, 1.0);
         s.data[i * 4 + c] = static_cast<uint8_t>(std::lround(srgb_to_linear(srgb) * 255.0));
       }
       s.data[i * 4 + 3] = static_cast<uint8_t>(std::lround(std::clamp<double>(cloud.opacities[i], 0.0, 1.0) * 255.0));
     }
     segs.push_back(std::move(s));
   }
-  {
-    Segment s = float_segment("KHR_gaussian_splatting:ROTATION", "VEC4", n, 4);
-    for (uint64_t i = 0; i < n; ++i) {
-      const float* q = cloud.rotations.data() + i * 4;  // (w, x, y, z) → glTF's (x, y, z, w)
-      const float xyzw[4] = {q[1], q[2], q[3], q[0]};
-      for (int a = 0; a < 4; ++a) detail::put_f32(s.data.data() + (i * 4 + a) * 4, xyzw[a]);
-    }
-    segs.push_back(std::move(s));
-  }
-  {
-    Segment s = float_segment("KHR_gaussian_splatting:SCALE", "VEC3", n, 3);
-    for (uint64_t j = 0; j < n * 3; ++j) detail::put_f32(s.data.data() + j * 4, cloud.scales[j]);
-    segs.push_back(std::move(s));
-  }
-  {
-    Segment s = float_segment("KHR_gaussian_splatting:OPACITY", "SCALAR", n, 1);
-    for (uint64_t i = 0; i < n; ++i) detail::put_f32(s.data.data() + i * 4, cloud.opacities[i]);
-    segs.push_back(std::move(s));
-  }
+  // (w, x, y, z) → glTF's (x, y, z, w)
+  segs.push_back(float_segment("KHR_gaussian_splatting:ROTATION", "VEC4", n, 4,
+                               [&](uint64_t i, int a) { return cloud.rotations[i * 4 + (a + 1) % 4]; }));
+  segs.push_back(float_segment("KHR_gaussian_splatting:SCALE", "VEC3", n, 3,
+                               [&](uint64_t i, int a) { return cloud.scales[i * 3 + a]; }));
+  segs.push_back(float_segment("KHR_gaussian_splatting:OPACITY", "SCALAR", n, 1,
+                               [&](uint64_t i, int) { return cloud.opacities[i]; }));
   uint32_t k = 0;
   for (uint32_t l = 0; l <= cloud.sh_degree; ++l) {
     for (int m = 0; m < detail::kGltfShCoefs[l]; ++m, ++k) {
-      Segment s = float_segment("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m),
-                                "VEC3", n, 3);
-      for (uint64_t i = 0; i < n; ++i) {
-        for (int c = 0; c < 3; ++c) {
-          detail::put_f32(s.data.data() + (i * 3 + c) * 4, cloud.sh[(i * k_count + k) * 3 + c]);
-        }
-      }
-      segs.push_back(std::move(s));
+      segs.push_back(float_segment(
+          "KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(m), "VEC3", n, 3,
+          [&](uint64_t i, int c) { return cloud.sh[(i * k_count + k) * 3 + c]; }));
     }
   }
   return segs;

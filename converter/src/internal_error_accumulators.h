@@ -8,11 +8,20 @@
 
 #include <cmath>
 #include <cstdint>
+#include <string>
 
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/encoded_scene.h"
 
 namespace rgs::converter::detail {
+
+/// kInvalidArgument "<what> arrays are inconsistent with N Gaussians at SH degree D" unless `cloud` is
+/// consistent (GaussianCloud::is_consistent).
+inline Status check_consistent(const format::GaussianCloud& cloud, const std::string& what) {
+  if (cloud.is_consistent()) return Status();
+  return Status(StatusCode::kInvalidArgument, what + " arrays are inconsistent with " + std::to_string(cloud.size()) +
+                                                  " Gaussians at SH degree " + std::to_string(cloud.sh_degree));
+}
 
 /// Gaussians per error chunk. Changing it changes the rounding of the sums (not their meaning).
 constexpr uint64_t kErrorChunkGaussians = 65536;

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "rgs/format/gaussian_cloud.h"
+
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
@@ -28,6 +30,15 @@ void resize_huge(std::vector<T>& v, size_t n) {
   }
 #endif
   v.resize(n);
+}
+
+/// Sizes every array of `cloud` for `n` Gaussians at its sh_degree through resize_huge (a fresh cloud).
+inline void resize_cloud_huge(format::GaussianCloud* cloud, size_t n) {
+  resize_huge(cloud->means, n * 3);
+  resize_huge(cloud->rotations, n * 4);
+  resize_huge(cloud->scales, n * 3);
+  resize_huge(cloud->opacities, n);
+  resize_huge(cloud->sh, n * cloud->sh_coefficients() * 3);
 }
 
 }  // namespace rgs::converter::detail

@@ -1,5 +1,5 @@
-// Whole-file and head-of-file reads for the scene readers, and the file-access policy of multi-file scenes
-// (private to rgs_converter).
+// Whole-file and head-of-file reads for the scene readers, the file-access policy of multi-file scenes and the
+// listing of the files they name (private to rgs_converter).
 #pragma once
 
 #include <cstddef>
@@ -94,5 +94,15 @@ class SceneFolder {
   mutable std::mutex mutex_;
   mutable std::vector<std::string> files_;
 };
+
+/// The files a multi-file scene names, listed without decoding it, for converter::list_scene_files. Each resolves
+/// names as its reader does (SceneFolder), so that every file the reader would open is listed, and a name the
+/// reader would refuse is refused here with the same error.
+/// A SOG meta.json (or its folder) and the images it names; a bundled .sog is one file.
+Result<std::vector<std::string>> list_sog_files(const std::string& path);
+/// A streamed SOG's lod-meta.json (or its folder), every chunk meta.json it names and their images.
+Result<std::vector<std::string>> list_sog_lod_files(const std::string& path);
+/// A .gltf and the buffer files it names (a GLB's external buffers too).
+Result<std::vector<std::string>> list_gltf_files(const std::string& path);
 
 }  // namespace rgs::converter::detail

@@ -1,12 +1,13 @@
-// Helpers shared by the SPZ, .splat and glTF readers and writers (private to rgs_converter).
+// Helpers shared by the scene readers and writers: byte order, frame flips, cloud checks and input hygiene
+// (private to rgs_converter).
 #pragma once
 
 #include <cstdint>
 #include <cstring>
-#include <memory>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "rgs/converter/interop.h"
 #include "rgs/format/file_io.h"
@@ -14,6 +15,11 @@
 #include "rgs/format/status.h"
 
 namespace rgs::converter::detail {
+
+/// SH degree-0 basis constant (docs/DESIGN.md#spherical-harmonics): f_dc = (colour − 0.5) / kShC0.
+constexpr double kShC0 = 0.28209479177387814;
+/// logit(1 − 1e-6): readers of 8-bit alphas clamp opacities of exactly 0 or 1 to ±this (±13.8155).
+constexpr double kMaxOpacityLogit = 13.815509557963773;
 
 inline uint16_t le_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
 inline uint32_t le_u32(const uint8_t* p) {
@@ -74,14 +80,28 @@ bool flip_to_rdf(const std::string& frame, AxisFlip* flip);
 /// y, z, x, xy, yz, 1, xz, 1, y, xyz, y, z, x, z, x up to sign and even factors).
 void apply_axis_flip(const AxisFlip& flip, format::GaussianCloud* cloud);
 
+/// False for ±inf and NaN, from the bits (also where the compiler may assume finite math).
+inline bool finite_bits(float v) {
+  uint32_t u;
+  std::memcpy(&u, &v, 4);
+  return (u & 0x7f800000u) != 0x7f800000u;
+}
+
+/// Checks that `cloud` has SH degree <= 3 and arrays sized for its Gaussian count (GaussianCloud::
+/// is_consistent). Values are not looked at. @return kInvalidArgument naming the degree or every array size.
+Status check_cloud_shape(const format::GaussianCloud& cloud);
+
+/// Applies `policy` to the Gaussians at the indices `invalid` (ascending; `hygiene` already counts them):
+/// records the first in hygiene->first_invalid_index, then fails with kCorruptData naming it as `what`
+/// (kReject), or removes them from `cloud` in place, keeping the order of the others (kSanitize).
+Status apply_invalid_policy(InvalidPolicy policy, const char* what, const std::vector<uint64_t>& invalid,
+                            format::GaussianCloud* cloud, InputHygiene* hygiene);
+
 /// Normalizes the quaternions of `cloud` and applies the InputHygiene rules of the PLY reader
 /// (docs/INPUT_HYGIENE.md): counts non-finite values (means, SH, scales, rotations; NaN opacity) and
 /// zero-norm quaternions, then fails with kCorruptData (kReject, same message as read_ply) or drops
 /// those Gaussians (kSanitize). `what` names a Gaussian in messages ("splat", "vertex").
 Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCloud* cloud, InputHygiene* hygiene);
-
-/// Maps `path` for reading. Errors: kIoError naming the OS cause.
-Result<std::shared_ptr<const format::MappedFile>> map_input(const std::string& path);
 
 inline std::string prefix(const std::string& name) { return name.empty() ? std::string() : name + ": "; }
 
@@ -107,7 +127,7 @@ Result<T> guarded(const std::string& name, const char* activity, Fn&& fn) {
   }
 }
 
-/// The SPZ and glTF writers' precondition: check_cloud_shape (internal_cloud.h), and every value finite.
+/// The SPZ and glTF writers' precondition: check_cloud_shape, and every value finite.
 /// Errors: kInvalidArgument.
 Status check_writable_cloud(const format::GaussianCloud& cloud);
 

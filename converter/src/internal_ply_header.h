@@ -34,6 +34,9 @@ constexpr size_t ply_type_size(PlyType type) {
 /// Parses a PLY type name ("float", "float32", "uchar", ...). Returns false for an unknown name.
 bool parse_ply_type(const std::string& name, PlyType* type);
 
+/// The PLY specification's name of `type` ("float", "uchar", ...).
+const char* ply_type_name(PlyType type);
+
 /// Name of the storage format as written on the `format` line ("binary_little_endian", ...).
 const char* ply_storage_name(PlyStorage storage);
 
@@ -65,6 +68,17 @@ struct PlyHeader {
   /// Number of header lines (the `end_header` line included); ascii data starts on line header_lines+1.
   size_t header_lines = 0;
 };
+
+/// The SH degree (0..3) of a vertex with `rest_count` f_rest_* properties (0, 9, 24 or 45); false otherwise.
+inline bool sh_degree_of_rest_count(size_t rest_count, uint32_t* degree) {
+  for (uint32_t d = 0; d <= 3; ++d) {
+    if (rest_count == 3 * (size_t{d + 1} * (d + 1) - 1)) {
+      *degree = d;
+      return true;
+    }
+  }
+  return false;
+}
 
 /// Upper bound on the header size: a header longer than this is rejected (kCorruptData) so a file
 /// without `end_header` cannot make the reader buffer it whole.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 
 namespace rgs::converter::detail {
@@ -40,9 +41,8 @@ inline std::string spz_frame_name(uint32_t value) {
 }
 
 inline std::string hex32(uint32_t v) {
-  static const char* const kDigits = "0123456789ABCDEF";
-  std::string s(8, '0');
-  for (int i = 7; i >= 0; --i, v >>= 4) s[i] = kDigits[v & 15];
+  char s[9];
+  std::snprintf(s, sizeof(s), "%08X", static_cast<unsigned>(v));
   return s;
 }
 

@@ -8,6 +8,8 @@
 #include <limits>
 #include <new>
 
+#include "internal_interop.h"
+
 namespace rgs::converter::detail {
 
 namespace {
@@ -20,16 +22,11 @@ constexpr size_t kCentralHeaderBytes = 46;
 constexpr size_t kLocalHeaderBytes = 30;
 constexpr size_t kMaxCommentBytes = 0xffff;
 
-uint16_t u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
-uint32_t u32(const uint8_t* p) {
-  return uint32_t{p[0]} | (uint32_t{p[1]} << 8) | (uint32_t{p[2]} << 16) | (uint32_t{p[3]} << 24);
-}
-
 }  // namespace
 
 bool has_zip_magic(const uint8_t* data, size_t size) {
   if (size < 4) return false;
-  const uint32_t sig = u32(data);
+  const uint32_t sig = le_u32(data);
   return sig == kLocalHeaderSignature || sig == kEndSignature;
 }
 
@@ -47,7 +44,7 @@ Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std
   size_t end = size;  // offset of the end record; size = not found
   const size_t lowest = size - kEndRecordBytes > kMaxCommentBytes ? size - kEndRecordBytes - kMaxCommentBytes : 0;
   for (size_t at = size - kEndRecordBytes + 1; at-- > lowest;) {
-    if (u32(data + at) == kEndSignature && at + kEndRecordBytes + u16(data + at + 20) == size) {
+    if (le_u32(data + at) == kEndSignature && at + kEndRecordBytes + le_u16(data + at + 20) == size) {
       end = at;
       break;
     }
@@ -56,9 +53,9 @@ Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std
     return Status(StatusCode::kCorruptData, name + ": no ZIP end-of-central-directory record (truncated archive?)");
   }
   const uint8_t* e = data + end;
-  const uint16_t disk = u16(e + 4), cd_disk = u16(e + 6);
-  const uint16_t disk_entries = u16(e + 8), entries = u16(e + 10);
-  const uint32_t cd_size = u32(e + 12), cd_offset = u32(e + 16);
+  const uint16_t disk = le_u16(e + 4), cd_disk = le_u16(e + 6);
+  const uint16_t disk_entries = le_u16(e + 8), entries = le_u16(e + 10);
+  const uint32_t cd_size = le_u32(e + 12), cd_offset = le_u32(e + 16);
   if (entries == 0xffff || cd_size == 0xffffffffu || cd_offset == 0xffffffffu) {
     return Status(StatusCode::kUnsupportedFeature, name + ": ZIP64 archives are not supported");
   }
@@ -78,18 +75,18 @@ Result<ZipArchive> ZipArchive::parse(const uint8_t* data, size_t size, const std
   const uint8_t* cd_end = p + cd_size;
   zip.entries_.reserve(entries);
   for (uint32_t i = 0; i < entries; ++i) {
-    if (static_cast<size_t>(cd_end - p) < kCentralHeaderBytes || u32(p) != kCentralHeaderSignature) {
+    if (static_cast<size_t>(cd_end - p) < kCentralHeaderBytes || le_u32(p) != kCentralHeaderSignature) {
       return Status(StatusCode::kCorruptData, name + ": ZIP central directory entry " + std::to_string(i) + " of " +
                                                   std::to_string(entries) + " is malformed or missing");
     }
-    const uint16_t flags = u16(p + 8);
+    const uint16_t flags = le_u16(p + 8);
     ZipEntry entry;
-    entry.method = u16(p + 10);
-    entry.crc32 = u32(p + 16);
-    entry.compressed_size = u32(p + 20);
-    entry.uncompressed_size = u32(p + 24);
-    const size_t name_len = u16(p + 28), extra_len = u16(p + 30), comment_len = u16(p + 32);
-    entry.local_header_offset = u32(p + 42);
+    entry.method = le_u16(p + 10);
+    entry.crc32 = le_u32(p + 16);
+    entry.compressed_size = le_u32(p + 20);
+    entry.uncompressed_size = le_u32(p + 24);
+    const size_t name_len = le_u16(p + 28), extra_len = le_u16(p + 30), comment_len = le_u16(p + 32);
+    entry.local_header_offset = le_u32(p + 42);
     const size_t record = kCentralHeaderBytes + name_len + extra_len + comment_len;
     if (static_cast<size_t>(cd_end - p) < record) {
       return Status(StatusCode::kCorruptData,
@@ -132,11 +129,11 @@ Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vecto
                                                   " bytes, above the limit of " + std::to_string(max_bytes));
   }
   const uint8_t* local = data_ + entry.local_header_offset;
-  if (u32(local) != kLocalHeaderSignature) {
+  if (le_u32(local) != kLocalHeaderSignature) {
     return Status(StatusCode::kCorruptData,
                   where + ": no local file header at offset " + std::to_string(entry.local_header_offset));
   }
-  const uint64_t data_offset = entry.local_header_offset + kLocalHeaderBytes + u16(local + 26) + u16(local + 28);
+  const uint64_t data_offset = entry.local_header_offset + kLocalHeaderBytes + le_u16(local + 26) + le_u16(local + 28);
   if (data_offset + entry.compressed_size > size_) {
     return Status(StatusCode::kCorruptData, where + ": data [" + std::to_string(data_offset) + ", " +
                                                 std::to_string(data_offset + entry.compressed_size) +

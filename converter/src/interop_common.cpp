@@ -1,12 +1,11 @@
-// Frame flips, input hygiene and file mapping shared by the SPZ, .splat and glTF readers and writers, and
-// the SPZ frame choice (interop.h).
+// Frame flips, cloud checks and input hygiene shared by the scene readers and writers, and the SPZ frame
+// choice (interop.h).
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
 
-#include "internal_cloud.h"
 #include "internal_interop.h"
 
 namespace rgs::converter::detail {
@@ -34,13 +33,62 @@ constexpr uint8_t kShParity[16][3] = {
     {1, 0, 0},  // 15: x(x² − 3y²)
 };
 
-inline bool finite_bits(float v) {
-  uint32_t u;
-  std::memcpy(&u, &v, 4);
-  return (u & 0x7f800000u) != 0x7f800000u;
+/// Removes the Gaussians at the indices `drop` (ascending, each < cloud->size()), keeping the order of the
+/// others; the cloud shrinks in place, without reallocating.
+void remove_gaussians(const std::vector<uint64_t>& drop, format::GaussianCloud* cloud) {
+  const uint64_t n = cloud->size();
+  const uint64_t sv = uint64_t{cloud->sh_coefficients()} * 3;
+  uint64_t out = 0;
+  size_t d = 0;
+  for (uint64_t i = 0; i < n; ++i) {
+    if (d < drop.size() && drop[d] == i) {
+      ++d;
+      continue;
+    }
+    if (out != i) {
+      std::memmove(&cloud->means[out * 3], &cloud->means[i * 3], 3 * sizeof(float));
+      std::memmove(&cloud->rotations[out * 4], &cloud->rotations[i * 4], 4 * sizeof(float));
+      std::memmove(&cloud->scales[out * 3], &cloud->scales[i * 3], 3 * sizeof(float));
+      cloud->opacities[out] = cloud->opacities[i];
+      std::memmove(&cloud->sh[out * sv], &cloud->sh[i * sv], sv * sizeof(float));
+    }
+    ++out;
+  }
+  cloud->resize(out);
 }
 
 }  // namespace
+
+Status check_cloud_shape(const format::GaussianCloud& cloud) {
+  if (cloud.sh_degree > 3) {
+    return Status(StatusCode::kInvalidArgument, "cloud SH degree " + std::to_string(cloud.sh_degree) + " > 3");
+  }
+  if (!cloud.is_consistent()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "cloud arrays are inconsistent: " + std::to_string(cloud.means.size()) + " mean values, " +
+                      std::to_string(cloud.rotations.size()) + " rotation values, " +
+                      std::to_string(cloud.scales.size()) + " scale values, " +
+                      std::to_string(cloud.opacities.size()) + " opacities, " + std::to_string(cloud.sh.size()) +
+                      " SH values at SH degree " + std::to_string(cloud.sh_degree));
+  }
+  return Status();
+}
+
+Status apply_invalid_policy(InvalidPolicy policy, const char* what, const std::vector<uint64_t>& invalid,
+                            format::GaussianCloud* cloud, InputHygiene* h) {
+  h->first_invalid_index = invalid.empty() ? -1 : static_cast<int64_t>(invalid.front());
+  if (invalid.empty()) return Status();
+  if (policy == InvalidPolicy::kReject) {
+    return Status(StatusCode::kCorruptData,
+                  std::to_string(h->gaussians_with_nonfinite) + " Gaussians have non-finite values (" +
+                      std::to_string(h->nonfinite_values) + " values) and " + std::to_string(h->zero_norm_quaternions) +
+                      " have zero-norm quaternions (first: " + what + " " + std::to_string(h->first_invalid_index) +
+                      "); rerun with --sanitize to drop them");
+  }
+  remove_gaussians(invalid, cloud);
+  h->dropped_gaussians = invalid.size();
+  return Status();
+}
 
 bool flip_to_rdf(const std::string& frame, AxisFlip* flip) {
   if (frame.size() != 3) return false;
@@ -109,22 +157,7 @@ Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCl
     h->zero_norm_quaternions += zero_norm;
     if (bad != 0 || zero_norm) invalid.push_back(i);
   }
-  h->first_invalid_index = invalid.empty() ? -1 : static_cast<int64_t>(invalid.front());
-  if (invalid.empty()) return Status();
-  if (policy == InvalidPolicy::kReject) {
-    return Status(StatusCode::kCorruptData,
-                  std::to_string(h->gaussians_with_nonfinite) + " Gaussians have non-finite values (" +
-                      std::to_string(h->nonfinite_values) + " values) and " + std::to_string(h->zero_norm_quaternions) +
-                      " have zero-norm quaternions (first: " + what + " " + std::to_string(h->first_invalid_index) +
-                      "); rerun with --sanitize to drop them");
-  }
-  remove_gaussians(invalid, cloud);
-  h->dropped_gaussians = invalid.size();
-  return Status();
-}
-
-Result<std::shared_ptr<const format::MappedFile>> map_input(const std::string& path) {
-  return format::MappedFile::open(path);
+  return apply_invalid_policy(policy, what, invalid, cloud, h);
 }
 
 Status check_writable_cloud(const format::GaussianCloud& cloud) {

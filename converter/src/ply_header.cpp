@@ -70,6 +70,20 @@ bool parse_ply_type(const std::string& name, PlyType* type) {
   return false;
 }
 
+const char* ply_type_name(PlyType type) {
+  switch (type) {
+    case PlyType::kInt8: return "char";
+    case PlyType::kUint8: return "uchar";
+    case PlyType::kInt16: return "short";
+    case PlyType::kUint16: return "ushort";
+    case PlyType::kInt32: return "int";
+    case PlyType::kUint32: return "uint";
+    case PlyType::kFloat32: return "float";
+    case PlyType::kFloat64: return "double";
+  }
+  return "?";
+}
+
 const char* ply_storage_name(PlyStorage storage) {
   switch (storage) {
     case PlyStorage::kAscii: return "ascii";

@@ -29,8 +29,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "internal_cloud.h"
 #include "internal_huge_pages.h"
+#include "internal_interop.h"
 #include "internal_parallel.h"
 #include "internal_ply_header.h"
 
@@ -135,15 +135,10 @@ Status resolve_layout(const PlyElement& vertex, PlyStorage storage, VertexLayout
     if (first_rest == nullptr) first_rest = &prop;
   }
   uint32_t degree = 0;
-  switch (rest_count) {
-    case 0: degree = 0; break;
-    case 9: degree = 1; break;
-    case 24: degree = 2; break;
-    case 45: degree = 3; break;
-    default:
-      return Status(StatusCode::kUnsupportedFeature,
-                    "vertex has " + std::to_string(rest_count) +
-                        " f_rest_* properties; 3DGS files have 0, 9, 24 or 45 (SH degree 0..3)");
+  if (!detail::sh_degree_of_rest_count(rest_count, &degree)) {
+    return Status(StatusCode::kUnsupportedFeature,
+                  "vertex has " + std::to_string(rest_count) +
+                      " f_rest_* properties; 3DGS files have 0, 9, 24 or 45 (SH degree 0..3)");
   }
   const uint32_t k_count = format::sh_coefficient_count(degree);
   for (size_t r = 0; r < rest_count; ++r) {
@@ -186,21 +181,11 @@ struct RawGaussian {
   float sh[kMaxShValues];
 };
 
-/// Hygiene counts of one slice of vertices; merged in slice order.
-struct HygieneCounts {
-  uint64_t nonfinite_values = 0;
-  uint64_t gaussians_with_nonfinite = 0;
-  uint64_t zero_norm_quaternions = 0;
-  uint64_t infinite_opacity_logits = 0;
-  /// File indices of invalid Gaussians, ascending.
+/// Hygiene counts of one slice of vertices, and the file indices of its invalid Gaussians (ascending); merged
+/// in slice order.
+struct HygieneCounts : InputHygiene {
   std::vector<uint64_t> invalid;
 };
-
-inline bool is_finite_bits(float v) {
-  uint32_t u;
-  std::memcpy(&u, &v, 4);
-  return (u & 0x7f800000u) != 0x7f800000u;
-}
 
 /// Converts to float32 without the undefined behaviour of casting an out-of-range double.
 inline float to_float(double v) {
@@ -210,6 +195,16 @@ inline float to_float(double v) {
   return static_cast<float>(v);
 }
 
+/// Fills `g` with get(field) for every field of `layout`.
+template <typename Get>
+inline void gather(const VertexLayout& layout, Get&& get, RawGaussian* g) {
+  for (int a = 0; a < 3; ++a) g->mean[a] = get(layout.mean[a]);
+  for (int a = 0; a < 3; ++a) g->scale[a] = get(layout.scale[a]);
+  for (int a = 0; a < 4; ++a) g->rot[a] = get(layout.rot[a]);
+  g->opacity = get(layout.opacity);
+  for (uint32_t j = 0; j < layout.sh_values; ++j) g->sh[j] = get(layout.sh[j]);
+}
+
 /// Applies the INRIA activations to Gaussian `i` and stores it; counts problems into `counts`.
 inline void activate_and_store(const RawGaussian& g, uint64_t i, uint32_t sh_values, format::GaussianCloud* cloud,
                                HygieneCounts* counts) {
@@ -217,18 +212,18 @@ inline void activate_and_store(const RawGaussian& g, uint64_t i, uint32_t sh_val
   float* mean = cloud->means.data() + i * 3;
   for (int a = 0; a < 3; ++a) {
     mean[a] = g.mean[a];
-    bad += !is_finite_bits(g.mean[a]);
+    bad += !detail::finite_bits(g.mean[a]);
   }
   float* sh = cloud->sh.data() + i * sh_values;
   for (uint32_t j = 0; j < sh_values; ++j) {
     sh[j] = g.sh[j];
-    bad += !is_finite_bits(g.sh[j]);
+    bad += !detail::finite_bits(g.sh[j]);
   }
   float* scale = cloud->scales.data() + i * 3;
   for (int a = 0; a < 3; ++a) {
     // exp(-inf) = 0 is a valid (degenerate) scale, the PLY encoding of scale 0; exp overflow is not.
     scale[a] = to_float(std::exp(static_cast<double>(g.scale[a])));
-    bad += !is_finite_bits(scale[a]);
+    bad += !detail::finite_bits(scale[a]);
   }
   const float logit = g.opacity;
   if (std::isnan(logit)) {
@@ -241,12 +236,12 @@ inline void activate_and_store(const RawGaussian& g, uint64_t i, uint32_t sh_val
   }
   float* rot = cloud->rotations.data() + i * 4;
   bool rot_finite = true;
-  for (int a = 0; a < 4; ++a) rot_finite = rot_finite && is_finite_bits(g.rot[a]);
+  for (int a = 0; a < 4; ++a) rot_finite = rot_finite && detail::finite_bits(g.rot[a]);
   bool zero_norm = false;
   if (!rot_finite) {
     for (int a = 0; a < 4; ++a) {
       rot[a] = g.rot[a];
-      bad += !is_finite_bits(g.rot[a]);
+      bad += !detail::finite_bits(g.rot[a]);
     }
   } else {
     double n2 = 0;
@@ -316,11 +311,7 @@ void decode_binary_rows(const uint8_t* rows, uint64_t n, uint64_t first, const V
         return load_value(row, f, swap);
       }
     };
-    for (int a = 0; a < 3; ++a) g.mean[a] = get(layout.mean[a]);
-    for (int a = 0; a < 3; ++a) g.scale[a] = get(layout.scale[a]);
-    for (int a = 0; a < 4; ++a) g.rot[a] = get(layout.rot[a]);
-    g.opacity = get(layout.opacity);
-    for (uint32_t j = 0; j < sh_values; ++j) g.sh[j] = get(layout.sh[j]);
+    gather(layout, get, &g);
     activate_and_store(g, first + r, sh_values, cloud, counts);
   }
 }
@@ -607,20 +598,6 @@ class AsciiTokenizer {
   size_t line_;
 };
 
-const char* type_name(PlyType t) {
-  switch (t) {
-    case PlyType::kInt8: return "char";
-    case PlyType::kUint8: return "uchar";
-    case PlyType::kInt16: return "short";
-    case PlyType::kUint16: return "ushort";
-    case PlyType::kInt32: return "int";
-    case PlyType::kUint32: return "uint";
-    case PlyType::kFloat32: return "float";
-    case PlyType::kFloat64: return "double";
-  }
-  return "?";
-}
-
 /// Parses one ascii token as `type` (locale independent). Returns false on a malformed or out-of-range
 /// token. Floats accept "inf", "-inf", "nan" (any case) and a leading '+'.
 bool parse_ascii_value(std::string_view tok, PlyType type, float* out) {
@@ -691,15 +668,12 @@ Status decode_ascii(ByteSource* source, const PlyHeader& header, const PlyElemen
       if (!parse_ascii_value(tok, prop.type, &values[p])) {
         std::string shown(tok.substr(0, 40));
         return Status(StatusCode::kCorruptData, "line " + std::to_string(tokens.line()) + ": bad value '" + shown +
-                                                    "' for property '" + prop.name + "' (" + type_name(prop.type) +
-                                                    ") of vertex " + std::to_string(i));
+                                                    "' for property '" + prop.name + "' (" +
+                                                    detail::ply_type_name(prop.type) + ") of vertex " +
+                                                    std::to_string(i));
       }
     }
-    for (int a = 0; a < 3; ++a) g.mean[a] = values[layout.mean[a].index];
-    for (int a = 0; a < 3; ++a) g.scale[a] = values[layout.scale[a].index];
-    for (int a = 0; a < 4; ++a) g.rot[a] = values[layout.rot[a].index];
-    g.opacity = values[layout.opacity.index];
-    for (uint32_t j = 0; j < layout.sh_values; ++j) g.sh[j] = values[layout.sh[j].index];
+    gather(layout, [&values](const FieldSource& f) { return values[f.index]; }, &g);
     activate_and_store(g, i, layout.sh_values, cloud, counts);
   }
   return Status();
@@ -788,15 +762,7 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
   scene.storage_format = detail::ply_storage_name(header.storage);
   scene.declared_vertices = n;
   scene.cloud.sh_degree = layout.sh_degree;
-  {
-    format::GaussianCloud& c = scene.cloud;
-    const size_t count = static_cast<size_t>(n);
-    detail::resize_huge(c.means, count * 3);
-    detail::resize_huge(c.rotations, count * 4);
-    detail::resize_huge(c.scales, count * 3);
-    detail::resize_huge(c.opacities, count);
-    detail::resize_huge(c.sh, count * layout.sh_values);
-  }
+  detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(n));
 
   std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> hash_state(nullptr, XXH64_freeState);
   if (options.hash_file) {
@@ -826,47 +792,16 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
   }
   if (hash_state) scene.file_xxh64 = static_cast<uint64_t>(XXH64_digest(hash_state.get()));
 
-  InputHygiene& h = scene.hygiene;
-  h.nonfinite_values = counts.nonfinite_values;
-  h.gaussians_with_nonfinite = counts.gaussians_with_nonfinite;
-  h.zero_norm_quaternions = counts.zero_norm_quaternions;
-  h.infinite_opacity_logits = counts.infinite_opacity_logits;
-  h.first_invalid_index = counts.invalid.empty() ? -1 : static_cast<int64_t>(counts.invalid.front());
-  if (!counts.invalid.empty()) {
-    if (options.invalid_policy == InvalidPolicy::kReject) {
-      return Status(StatusCode::kCorruptData,
-                    std::to_string(h.gaussians_with_nonfinite) + " Gaussians have non-finite values (" +
-                        std::to_string(h.nonfinite_values) + " values) and " + std::to_string(h.zero_norm_quaternions) +
-                        " have zero-norm quaternions (first: vertex " + std::to_string(h.first_invalid_index) +
-                        "); rerun with --sanitize to drop them");
-    }
-    detail::remove_gaussians(counts.invalid, &scene.cloud);
-    h.dropped_gaussians = counts.invalid.size();
-  }
+  scene.hygiene = counts;
+  RGS_RETURN_IF_ERROR(
+      detail::apply_invalid_policy(options.invalid_policy, "vertex", counts.invalid, &scene.cloud, &scene.hygiene));
   return scene;
-}
-
-/// Runs `fn`, turning allocation failure into kOutOfMemory (libraries never throw across the API).
-template <typename Fn>
-Result<PlyScene> guarded(const std::string& name, Fn&& fn) {
-  try {
-    Result<PlyScene> r = fn();
-    if (!r.ok()) {
-      Status s = std::move(r).status();
-      return std::move(s.prepend(name));
-    }
-    return r;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the PLY");
-  } catch (const std::length_error&) {
-    return Status(StatusCode::kOutOfMemory, name + ": out of memory while decoding the PLY");
-  }
 }
 
 }  // namespace
 
 Result<PlyScene> read_ply(const std::string& path, const PlyReadOptions& options) {
-  return guarded(path, [&]() -> Result<PlyScene> {
+  return detail::guarded<PlyScene>(path, "decoding the PLY", [&]() -> Result<PlyScene> {
     FileSource source;
     RGS_RETURN_IF_ERROR(source.open(path));
     return read_from_source(&source, options);
@@ -875,7 +810,7 @@ Result<PlyScene> read_ply(const std::string& path, const PlyReadOptions& options
 
 Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
                                 const PlyReadOptions& options) {
-  return guarded(name, [&]() -> Result<PlyScene> {
+  return detail::guarded<PlyScene>(name, "decoding the PLY", [&]() -> Result<PlyScene> {
     if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
     MemorySource source(data, size);
     return read_from_source(&source, options);

@@ -7,7 +7,7 @@
 #include <new>
 #include <string>
 
-#include "internal_cloud.h"
+#include "internal_interop.h"
 #include "rgs/format/file_io.h"
 
 namespace rgs::converter {
@@ -36,8 +36,7 @@ std::string header_text(const format::GaussianCloud& cloud) {
 }
 
 inline uint8_t* put_f32_le(uint8_t* out, float v) {
-  std::memcpy(out, &v, 4);
-  if constexpr (__BYTE_ORDER__ == __ORDER_BIG_ENDIAN__) std::reverse(out, out + 4);
+  detail::put_f32(out, v);
   return out + 4;
 }
 

@@ -129,11 +129,7 @@ inline int8_t quantize_value(float v, double s, double inv_s, bool* clipped) {
 
 /// The arguments quantize() refuses before looking at any Gaussian.
 Status check_quantize_inputs(const format::GaussianCloud& cloud, const QuantizeOptions& options) {
-  if (!cloud.is_consistent()) {
-    return Status(StatusCode::kInvalidArgument,
-                  "cloud arrays are inconsistent with " + std::to_string(cloud.size()) + " Gaussians at SH degree " +
-                      std::to_string(cloud.sh_degree));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_consistent(cloud, "cloud"));
   const float pct = options.sh_clip_percentile;
   if (!(pct > 0.0f && pct <= 100.0f)) {
     return Status(StatusCode::kInvalidArgument,

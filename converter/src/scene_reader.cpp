@@ -11,7 +11,6 @@
 #include <cstring>
 #include <filesystem>
 #include <iterator>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <new>
 #include <optional>
@@ -21,14 +20,13 @@
 #include "internal_input_file.h"
 #include "internal_interop.h"
 #include "internal_json.h"
-#include "internal_scene_files.h"
 #include "internal_ply_header.h"
 #include "internal_zip.h"
-#include "rgs/converter/gltf_reader.h"
+#include "rgs/converter/gltf.h"
 #include "rgs/converter/playcanvas_readers.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/splat_reader.h"
-#include "rgs/converter/spz_reader.h"
+#include "rgs/converter/spz.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
@@ -164,25 +162,6 @@ Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOption
   return ply_input_scene(std::move(ply), path);
 }
 
-/// XXH64 (seed 0) of the file at `path`, read in 1 MiB pieces.
-Result<uint64_t> hash_whole_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  RGS_RETURN_ERROR_IF(!in, StatusCode::kIoError, path + ": cannot open for hashing");
-  XXH64_state_t* state = XXH64_createState();
-  RGS_RETURN_ERROR_IF(state == nullptr, StatusCode::kOutOfMemory, path + ": no memory for the hash state");
-  XXH64_reset(state, 0);
-  std::vector<char> buffer(size_t{1} << 20);
-  while (in) {
-    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    if (in.gcount() > 0) XXH64_update(state, buffer.data(), static_cast<size_t>(in.gcount()));
-  }
-  const bool failed = in.bad();
-  const uint64_t digest = XXH64_digest(state);
-  XXH64_freeState(state);
-  RGS_RETURN_ERROR_IF(failed, StatusCode::kIoError, path + ": read error while hashing");
-  return digest;
-}
-
 /// An InteropScene (SPZ, glTF, .splat) as an InputScene.
 Result<InputScene> to_input_scene(const std::string& path, InteropScene interop, const SceneReadOptions& options,
                                   std::string description) {
@@ -203,8 +182,8 @@ Result<InputScene> to_input_scene(const std::string& path, InteropScene interop,
   scene.declared_vertices = interop.declared_gaussians;
   scene.notes = std::move(interop.notes);
   if (options.hash_file) {
-    RGS_ASSIGN_OR_RETURN(uint64_t digest, hash_whole_file(path));
-    scene.file_xxh64 = digest;
+    RGS_ASSIGN_OR_RETURN(std::shared_ptr<const format::MappedFile> file, format::MappedFile::open(path));
+    scene.file_xxh64 = XXH64(file->data(), file->size(), 0);
   }
   return scene;
 }

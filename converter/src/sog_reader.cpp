@@ -23,8 +23,8 @@
 
 #include "internal_huge_pages.h"
 #include "internal_input_file.h"
+#include "internal_interop.h"
 #include "internal_json.h"
-#include "internal_scene_files.h"
 #include "internal_parallel.h"
 #include "internal_webp.h"
 #include "internal_zip.h"
@@ -40,8 +40,6 @@ namespace fs = std::filesystem;
 constexpr uint64_t kMaxMetaBytes = uint64_t{64} << 20;
 constexpr uint64_t kMaxImageFileBytes = uint64_t{1} << 30;
 constexpr uint64_t kMaxBundleBytes = uint64_t{4} << 30;
-/// logit(1 − 1e-6): opacities of exactly 0 or 1 are clamped to ±this (DESIGN/SOURCES: ±13.8155).
-constexpr double kMaxOpacityLogit = 13.815509557963773;
 /// Entries of every v2 codebook (one per 8-bit code).
 constexpr size_t kCodebookSize = 256;
 /// Largest SH palette: labels are 16-bit.
@@ -117,8 +115,9 @@ Result<uint64_t> count_value(const json& v, const std::string& where, const std:
   return corrupt(where, "field '" + name + "' is not a non-negative integer");
 }
 
+/// Exactly `expected` finite numbers into out[0, expected).
 Status number_array(const json& obj, const std::string& key, size_t expected, const std::string& where,
-                    const std::string& prefix, std::vector<double>* out) {
+                    const std::string& prefix, double* out) {
   RGS_ASSIGN_OR_RETURN(const json* v, member(obj, key, where, prefix));
   const std::string name = prefix + key;
   if (!v->is_array()) return corrupt(where, "field '" + name + "' is a " + type_name(*v) + ", not an array");
@@ -126,20 +125,18 @@ Status number_array(const json& obj, const std::string& key, size_t expected, co
     return corrupt(where, "field '" + name + "' has " + std::to_string(v->size()) + " entries, expected " +
                               std::to_string(expected));
   }
-  out->clear();
   for (size_t i = 0; i < v->size(); ++i) {
-    RGS_ASSIGN_OR_RETURN(double d, finite_number((*v)[i], where, name + "[" + std::to_string(i) + "]"));
-    out->push_back(d);
+    RGS_ASSIGN_OR_RETURN(out[i], finite_number((*v)[i], where, name + "[" + std::to_string(i) + "]"));
   }
   return Status();
 }
 
 /// A codebook: exactly 256 finite numbers, kept as float32.
 Status codebook(const json& obj, const std::string& where, const std::string& prefix, std::vector<float>* out) {
-  std::vector<double> values;
-  RGS_RETURN_IF_ERROR(number_array(obj, "codebook", kCodebookSize, where, prefix, &values));
-  out->resize(values.size());
-  for (size_t i = 0; i < values.size(); ++i) {
+  double values[kCodebookSize];
+  RGS_RETURN_IF_ERROR(number_array(obj, "codebook", kCodebookSize, where, prefix, values));
+  out->resize(kCodebookSize);
+  for (size_t i = 0; i < kCodebookSize; ++i) {
     if (std::fabs(values[i]) > static_cast<double>(std::numeric_limits<float>::max())) {
       return corrupt(where, "field '" + prefix + "codebook[" + std::to_string(i) + "]' overflows float32");
     }
@@ -190,18 +187,15 @@ Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta)
     RGS_ASSIGN_OR_RETURN(const json* count, member(root, "count", where, ""));
     RGS_ASSIGN_OR_RETURN(meta->count, count_value(*count, where, "count"));
   } else {
-    std::vector<double> shape;
-    RGS_RETURN_IF_ERROR(number_array(*means, "shape", 2, where, "means.", &shape));
+    double shape[2];
+    RGS_RETURN_IF_ERROR(number_array(*means, "shape", 2, where, "means.", shape));
     if (shape[0] < 0 || shape[0] >= 9007199254740992.0 || std::floor(shape[0]) != shape[0]) {
       return corrupt(where, "field 'means.shape[0]' is not a Gaussian count");
     }
     meta->count = static_cast<uint64_t>(shape[0]);
   }
-  std::vector<double> values;
-  RGS_RETURN_IF_ERROR(number_array(*means, "mins", 3, where, "means.", &values));
-  std::copy(values.begin(), values.end(), meta->means_min);
-  RGS_RETURN_IF_ERROR(number_array(*means, "maxs", 3, where, "means.", &values));
-  std::copy(values.begin(), values.end(), meta->means_max);
+  RGS_RETURN_IF_ERROR(number_array(*means, "mins", 3, where, "means.", meta->means_min));
+  RGS_RETURN_IF_ERROR(number_array(*means, "maxs", 3, where, "means.", meta->means_max));
   RGS_RETURN_IF_ERROR(file_names(*means, "means", 2, where, &meta->files[kMeansLow]));
   RGS_RETURN_IF_ERROR(file_names(*quats, "quats", 1, where, &meta->files[kQuats]));
   RGS_RETURN_IF_ERROR(file_names(*scales, "scales", 1, where, &meta->files[kScales]));
@@ -210,14 +204,10 @@ Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta)
     RGS_RETURN_IF_ERROR(codebook(*scales, where, "scales.", &meta->scales_codebook));
     RGS_RETURN_IF_ERROR(codebook(*sh0, where, "sh0.", &meta->sh0_codebook));
   } else {
-    RGS_RETURN_IF_ERROR(number_array(*scales, "mins", 3, where, "scales.", &values));
-    std::copy(values.begin(), values.end(), meta->scales_min);
-    RGS_RETURN_IF_ERROR(number_array(*scales, "maxs", 3, where, "scales.", &values));
-    std::copy(values.begin(), values.end(), meta->scales_max);
-    RGS_RETURN_IF_ERROR(number_array(*sh0, "mins", 4, where, "sh0.", &values));
-    std::copy(values.begin(), values.end(), meta->sh0_min);
-    RGS_RETURN_IF_ERROR(number_array(*sh0, "maxs", 4, where, "sh0.", &values));
-    std::copy(values.begin(), values.end(), meta->sh0_max);
+    RGS_RETURN_IF_ERROR(number_array(*scales, "mins", 3, where, "scales.", meta->scales_min));
+    RGS_RETURN_IF_ERROR(number_array(*scales, "maxs", 3, where, "scales.", meta->scales_max));
+    RGS_RETURN_IF_ERROR(number_array(*sh0, "mins", 4, where, "sh0.", meta->sh0_min));
+    RGS_RETURN_IF_ERROR(number_array(*sh0, "maxs", 4, where, "sh0.", meta->sh0_max));
   }
   auto shn_it = root.find("shN");
   if (shn_it != root.end() && !shn_it->is_null()) {
@@ -392,7 +382,7 @@ Status build_tables(const SogMeta& meta, const std::string& where, Tables* t) {
         t->dc[c][v] = static_cast<float>(meta.sh0_min[c] + (meta.sh0_max[c] - meta.sh0_min[c]) * unit);
       }
       const double logit = meta.sh0_min[3] + (meta.sh0_max[3] - meta.sh0_min[3]) * unit;
-      t->opacity[v] = sigmoid_of_logit(std::max(-kMaxOpacityLogit, std::min(kMaxOpacityLogit, logit)));
+      t->opacity[v] = sigmoid_of_logit(std::max(-detail::kMaxOpacityLogit, std::min(detail::kMaxOpacityLogit, logit)));
     }
     for (int a = 0; a < 3; ++a) {
       if (!std::isfinite(t->scales[a][v])) {
@@ -406,26 +396,9 @@ Status build_tables(const SogMeta& meta, const std::string& where, Tables* t) {
 
 /// Expands the SH palette from the centroids image (after checking its size).
 Status build_palette(const SogMeta& meta, const detail::RgbaImage& centroids, const std::string& where, Tables* t) {
-  uint32_t bands = meta.sh_bands;
-  uint64_t entries = meta.palette_count;
-  if (meta.version != 2) {
-    // The earlier layout names no band count: the centroids image width gives it (64 entries per row).
-    switch (centroids.width) {
-      case 192:
-        bands = 1;
-        break;
-      case 512:
-        bands = 2;
-        break;
-      case 960:
-        bands = 3;
-        break;
-      default:
-        return corrupt(where, "shN centroids image is " + std::to_string(centroids.width) +
-                                  " pixels wide; expected 192, 512 or 960 (SH bands 1, 2, 3)");
-    }
-    entries = uint64_t{kPaletteColumns} * centroids.height;
-  }
+  // The earlier layout's bands come from this image's width (resolve_earlier_bands), its entries from the rows.
+  const uint32_t bands = meta.sh_bands;
+  const uint64_t entries = meta.version == 2 ? meta.palette_count : uint64_t{kPaletteColumns} * centroids.height;
   const uint32_t rest = format::sh_coefficient_count(bands) - 1;
   if (centroids.width != kPaletteColumns * rest) {
     return corrupt(where, "shN centroids image is " + std::to_string(centroids.width) + " pixels wide; " +
@@ -616,19 +589,8 @@ uint64_t combine_hashes(const std::vector<uint64_t>& hashes) {
   return XXH64(bytes.data(), bytes.size(), 0);
 }
 
-Status allocate_cloud(uint64_t n, uint32_t sh_degree, format::GaussianCloud* cloud) {
-  cloud->sh_degree = sh_degree;
-  const size_t count = static_cast<size_t>(n);
-  detail::resize_huge(cloud->means, count * 3);
-  detail::resize_huge(cloud->rotations, count * 4);
-  detail::resize_huge(cloud->scales, count * 3);
-  detail::resize_huge(cloud->opacities, count);
-  detail::resize_huge(cloud->sh, count * cloud->sh_coefficients() * 3);
-  return Status();
-}
-
 /// SH degree a meta file implies; the earlier layout names it only through its centroids image, so its
-/// scenes report the degree decode_chunk checks against (`bands` from the image, see build_palette).
+/// scenes report the degree decode_chunk checks against (`bands` from the image, see resolve_earlier_bands).
 uint32_t declared_degree(const SogMeta& meta) { return meta.has_shn ? meta.sh_bands : 0; }
 
 /// Reads the earlier layout's centroids image header to learn its SH bands before the cloud is allocated.
@@ -639,22 +601,16 @@ Status resolve_earlier_bands(SogMeta* meta, const SogFiles& files) {
   detail::RgbaImage image;
   RGS_RETURN_IF_ERROR(detail::decode_webp_rgba(bytes.data(), bytes.size(), uint64_t{1} << 24,
                                                files.display(meta->files[kCentroids]), &image));
-  switch (image.width) {
-    case 192:
-      meta->sh_bands = 1;
-      break;
-    case 512:
-      meta->sh_bands = 2;
-      break;
-    case 960:
-      meta->sh_bands = 3;
-      break;
-    default:
-      return corrupt(files.display(meta->files[kCentroids]),
-                     "shN centroids image is " + std::to_string(image.width) +
-                         " pixels wide; expected 192, 512 or 960 (SH bands 1, 2, 3)");
+  // The earlier layout names no band count: the image holds 64 entries of (coefficients − 1) pixels per row.
+  for (uint32_t bands = 1; bands <= 3; ++bands) {
+    if (image.width == kPaletteColumns * (format::sh_coefficient_count(bands) - 1)) {
+      meta->sh_bands = bands;
+      return Status();
+    }
   }
-  return Status();
+  return corrupt(files.display(meta->files[kCentroids]),
+                 "shN centroids image is " + std::to_string(image.width) +
+                     " pixels wide; expected 192, 512 or 960 (SH bands 1, 2, 3)");
 }
 
 Status check_count(uint64_t count, const SceneReadOptions& options, const std::string& where) {
@@ -770,7 +726,8 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
   job.ranges.push_back(Range{0, job.meta.count, 0});
   RGS_RETURN_IF_ERROR(load_images({&job}, scene.file_bytes, bundled, options, meta_name));
-  RGS_RETURN_IF_ERROR(allocate_cloud(job.meta.count, declared_degree(job.meta), &scene.cloud));
+  scene.cloud.sh_degree = declared_degree(job.meta);
+  detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(job.meta.count));
   RGS_RETURN_IF_ERROR(decode_chunk(&job, detail::worker_count(UINT64_MAX, 1), &scene.cloud));
   if (!bundled) {
     scene.file_bytes += job.bytes_read;
@@ -994,7 +951,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
   std::vector<ChunkJob*> job_pointers;
   for (ChunkJob& job : jobs) job_pointers.push_back(&job);
   RGS_RETURN_IF_ERROR(load_images(job_pointers, scene.file_bytes, false, options, path));
-  RGS_RETURN_IF_ERROR(allocate_cloud(total, degree, &scene.cloud));
+  scene.cloud.sh_degree = degree;
+  detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(total));
   std::vector<Status> errors(jobs.size());
   const unsigned threads = detail::worker_count(UINT64_MAX, 1);  // every CPU this process may use (≤ 16)
   const unsigned workers = detail::worker_count(jobs.size(), 1);

@@ -12,9 +12,6 @@ namespace rgs::converter {
 
 namespace {
 
-/// SH degree-0 basis constant (docs/DESIGN.md#spherical-harmonics).
-constexpr double kShC0 = 0.28209479177387814;
-
 /// A stored rotation byte as a quaternion component before normalization. Writers store floor(q·128 + 128)
 /// (antimatter15's convert.py and splat-transform alike), so b stands for q in [(b − 128)/128, (b − 127)/128):
 /// its midpoint (b − 127.5)/128 halves the angle error of (b − 128)/128 (converter/INTEROP.md ".splat").
@@ -50,7 +47,7 @@ Result<InteropScene> read_records(const uint8_t* data, size_t size, const Intero
       cloud.scales[i * 3 + a] = detail::le_f32(r + 12 + 4 * a);
     }
     for (int c = 0; c < 3; ++c) {
-      cloud.sh[i * 3 + c] = static_cast<float>((r[24 + c] / 255.0 - 0.5) / kShC0);
+      cloud.sh[i * 3 + c] = static_cast<float>((r[24 + c] / 255.0 - 0.5) / detail::kShC0);
     }
     cloud.opacities[i] = static_cast<float>(r[27]) / 255.0f;
     // Bytes of 127 and 128 only stand for a quaternion within 1/128 of zero: no direction, so the hygiene
@@ -110,10 +107,8 @@ bool looks_like_splat(const uint8_t* head, size_t n, uint64_t file_size) {
 }
 
 Result<InteropScene> read_splat(const std::string& path, const InteropReadOptions& options) {
-  RGS_ASSIGN_OR_RETURN(auto file, detail::map_input(path));  // its errors name the path
-  return detail::guarded<InteropScene>(path, "decoding the .splat file", [&]() -> Result<InteropScene> {
-    return read_records(file->data(), file->size(), options);
-  });
+  RGS_ASSIGN_OR_RETURN(auto file, format::MappedFile::open(path));  // its errors name the path
+  return read_splat_bytes(file->data(), file->size(), path, options);
 }
 
 Result<InteropScene> read_splat_bytes(const uint8_t* data, size_t size, const std::string& name,

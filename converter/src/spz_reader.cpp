@@ -1,6 +1,6 @@
 // SPZ reader: versions 2-3 (one gzip member holding a 16-byte header and the attribute arrays) and
 // version 4 (32-byte plaintext header, extension records, TOC, one zstd stream per attribute).
-#include "rgs/converter/spz_reader.h"
+#include "rgs/converter/spz.h"
 
 #include <zlib.h>
 #define ZSTD_STATIC_LINKING_ONLY  // ZSTD_getErrorCode / ZSTD_error_checksum_wrong
@@ -41,6 +41,11 @@ struct Header {
   uint32_t fractional_bits = 0;
   uint8_t flags = 0;
 };
+
+/// The fields both containers' headers share, from byte 4 on: version, count, SH degree, fractional bits, flags.
+Header read_header(const uint8_t* p) {
+  return Header{le_u32(p + 4), le_u32(p + 8), p[12], p[13], p[14]};
+}
 
 /// Byte size of each attribute array, in file order.
 struct StreamSizes {
@@ -194,12 +199,7 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
     return Status(StatusCode::kIoError,
                   "file is " + std::to_string(size) + " bytes, shorter than the 32-byte SPZ header");
   }
-  Header h;
-  h.version = le_u32(data + 4);
-  h.num_points = le_u32(data + 8);
-  h.sh_degree = data[12];
-  h.fractional_bits = data[13];
-  h.flags = data[14];
+  const Header h = read_header(data);
   const uint32_t num_streams = data[15];
   const uint32_t toc_offset = le_u32(data + 16);
   if (h.version < kMinSpzVersionForZstd) {
@@ -247,13 +247,16 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
   // Every stream inside the file, back to back, the last ending at the end of the file.
   uint64_t offsets[detail::kSpzStreamCount] = {};
   uint64_t compressed[detail::kSpzStreamCount] = {};
+  auto stream_name = [&present](uint32_t t) {
+    return "SPZ stream " + std::to_string(t) + " (" + detail::kSpzStreamNames[present[t]] + ")";
+  };
   uint64_t at = toc_end;
   for (uint32_t t = 0; t < num_streams; ++t) {
     const int s = present[t];
     const uint8_t* e = data + toc_offset + t * 16;
     compressed[s] = le_u64(e);
     const uint64_t raw = le_u64(e + 8);
-    const std::string name = "SPZ stream " + std::to_string(t) + " (" + detail::kSpzStreamNames[s] + ")";
+    const std::string name = stream_name(t);
     if (raw != sizes.bytes[s]) {
       return Status(StatusCode::kCorruptData, name + " holds " + std::to_string(raw) + " bytes; " +
                                                   std::to_string(h.num_points) + " Gaussians need " +
@@ -286,12 +289,10 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
     const int s = present[t];
     const unsigned long long declared = ZSTD_findDecompressedSize(data + offsets[s], compressed[s]);
     if (declared == ZSTD_CONTENTSIZE_ERROR) {
-      return Status(StatusCode::kCorruptData, "SPZ stream " + std::to_string(t) + " (" +
-                                                  detail::kSpzStreamNames[s] + ") is not a sequence of zstd frames");
+      return Status(StatusCode::kCorruptData, stream_name(t) + " is not a sequence of zstd frames");
     }
     if (declared != ZSTD_CONTENTSIZE_UNKNOWN && declared != sizes.bytes[s]) {
-      return Status(StatusCode::kCorruptData, "SPZ stream " + std::to_string(t) + " (" + detail::kSpzStreamNames[s] +
-                                                  ") zstd frames declare " + std::to_string(declared) +
+      return Status(StatusCode::kCorruptData, stream_name(t) + " zstd frames declare " + std::to_string(declared) +
                                                   " bytes, the TOC " + std::to_string(sizes.bytes[s]));
     }
   }
@@ -306,9 +307,8 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
                                            static_cast<size_t>(compressed[s]));
     if (ZSTD_isError(got)) return zstd_status(got, s);
     if (got != raw[s].size()) {
-      return Status(StatusCode::kCorruptData, "SPZ stream " + std::to_string(t) + " (" + detail::kSpzStreamNames[s] +
-                                                  ") decompresses to " + std::to_string(got) + " bytes, expected " +
-                                                  std::to_string(raw[s].size()));
+      return Status(StatusCode::kCorruptData, stream_name(t) + " decompresses to " + std::to_string(got) +
+                                                  " bytes, expected " + std::to_string(raw[s].size()));
     }
     views[s] = raw[s].data();
   }
@@ -405,12 +405,7 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
   if (le_u32(head) != detail::kSpzMagic) {
     return Status(StatusCode::kCorruptData, "gzip stream does not start with the SPZ magic 'NGSP'");
   }
-  Header h;
-  h.version = le_u32(head + 4);
-  h.num_points = le_u32(head + 8);
-  h.sh_degree = head[12];
-  h.fractional_bits = head[13];
-  h.flags = head[14];
+  const Header h = read_header(head);
   if (h.version >= kMinSpzVersionForZstd && h.version <= kMaxSpzVersion) {
     return Status(StatusCode::kUnsupportedVersion, "gzip-wrapped SPZ declares version " + std::to_string(h.version) +
                                                        "; version 4 files are not gzip-wrapped");
@@ -507,10 +502,8 @@ bool looks_like_spz(const uint8_t* head, size_t n) {
 }
 
 Result<InteropScene> read_spz(const std::string& path, const InteropReadOptions& options) {
-  RGS_ASSIGN_OR_RETURN(auto file, detail::map_input(path));  // its errors name the path
-  return detail::guarded<InteropScene>(path, "decoding the SPZ file", [&]() -> Result<InteropScene> {
-    return read_any(file->data(), file->size(), options);
-  });
+  RGS_ASSIGN_OR_RETURN(auto file, format::MappedFile::open(path));  // its errors name the path
+  return read_spz_bytes(file->data(), file->size(), path, options);
 }
 
 Result<InteropScene> read_spz_bytes(const uint8_t* data, size_t size, const std::string& name,

@@ -1,6 +1,6 @@
 // SPZ writer: quantizes a float cloud into the SPZ attribute arrays, then wraps them as version 4
 // (header, TOC, one zstd stream per array) or as versions 2-3 (one gzip member).
-#include "rgs/converter/spz_writer.h"
+#include "rgs/converter/spz.h"
 
 #include <zlib.h>
 #include <zstd.h>
@@ -56,6 +56,15 @@ Status check_options(const SpzWriteOptions& o) {
 struct Packed {
   std::vector<uint8_t> arrays[detail::kSpzStreamCount];
 };
+
+/// The first 14 header bytes both containers share: magic, version, count, SH degree, fractional bits.
+void put_header(uint8_t* h, uint32_t version, const format::GaussianCloud& cloud, int fb) {
+  detail::put_u32(h, detail::kSpzMagic);
+  detail::put_u32(h + 4, version);
+  detail::put_u32(h + 8, static_cast<uint32_t>(cloud.size()));
+  h[12] = static_cast<uint8_t>(cloud.sh_degree);
+  h[13] = static_cast<uint8_t>(fb);
+}
 
 /// Smallest-three rotation code of a unit quaternion (x, y, z, w).
 uint32_t encode_smallest_three(const double q_in[4]) {
@@ -186,11 +195,7 @@ Result<std::vector<uint8_t>> wrap_v4(const SpzWriteOptions& o, const format::Gau
   for (const auto& s : streams) total += s.size();
   std::vector<uint8_t> bytes(static_cast<size_t>(total), 0);
   uint8_t* h = bytes.data();
-  detail::put_u32(h, detail::kSpzMagic);
-  detail::put_u32(h + 4, 4);
-  detail::put_u32(h + 8, static_cast<uint32_t>(cloud.size()));
-  h[12] = static_cast<uint8_t>(cloud.sh_degree);
-  h[13] = static_cast<uint8_t>(fb);
+  put_header(h, 4, cloud, fb);
   h[14] = 0;  // flags: not antialiased, no extensions
   h[15] = static_cast<uint8_t>(streams.size());
   detail::put_u32(h + 16, static_cast<uint32_t>(detail::kSpzV4HeaderBytes));
@@ -209,11 +214,7 @@ Result<std::vector<uint8_t>> wrap_v4(const SpzWriteOptions& o, const format::Gau
 Result<std::vector<uint8_t>> wrap_gzip(const SpzWriteOptions& o, const format::GaussianCloud& cloud, int fb,
                                        const Packed& p) {
   std::vector<uint8_t> plain(detail::kSpzLegacyHeaderBytes, 0);
-  detail::put_u32(plain.data(), detail::kSpzMagic);
-  detail::put_u32(plain.data() + 4, o.version);
-  detail::put_u32(plain.data() + 8, static_cast<uint32_t>(cloud.size()));
-  plain[12] = static_cast<uint8_t>(cloud.sh_degree);
-  plain[13] = static_cast<uint8_t>(fb);
+  put_header(plain.data(), o.version, cloud, fb);
   for (const auto& a : p.arrays) plain.insert(plain.end(), a.begin(), a.end());
   z_stream zs{};
   // windowBits 16 + 15: gzip wrapper; zlib writes no file name and a zero timestamp.

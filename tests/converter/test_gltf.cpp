@@ -9,8 +9,7 @@
 
 #include "interop_test_util.h"
 #include "ply_test_util.h"
-#include "rgs/converter/gltf_reader.h"
-#include "rgs/converter/gltf_writer.h"
+#include "rgs/converter/gltf.h"
 #include "rgs/converter/ply_reader.h"
 #include "test_data.h"
 

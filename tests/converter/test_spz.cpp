@@ -10,8 +10,7 @@
 #include "interop_test_util.h"
 #include "ply_test_util.h"
 #include "rgs/converter/ply_reader.h"
-#include "rgs/converter/spz_reader.h"
-#include "rgs/converter/spz_writer.h"
+#include "rgs/converter/spz.h"
 #include "test_data.h"
 
 namespace rgs::test {

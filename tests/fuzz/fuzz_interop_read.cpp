@@ -7,10 +7,10 @@
 #include <cstdint>
 
 #include "fuzz_sanitized_cloud.h"
-#include "rgs/converter/gltf_reader.h"
+#include "rgs/converter/gltf.h"
 #include "rgs/converter/playcanvas_readers.h"
 #include "rgs/converter/splat_reader.h"
-#include "rgs/converter/spz_reader.h"
+#include "rgs/converter/spz.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   rgs::converter::InteropReadOptions interop;

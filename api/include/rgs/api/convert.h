@@ -12,7 +12,7 @@
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
-#include "rgs/converter/spz_writer.h"
+#include "rgs/converter/spz.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 #include "rgs/format/writer.h"
