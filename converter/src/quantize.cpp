@@ -356,7 +356,10 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   for (int a = 0; a < 3; ++a) {
     b.sphere_center[a] =
         static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
-    center[a] = b.sphere_center[a];
+    // Read back through a volatile: GCC 12 at -O3 otherwise forwards the unrounded double here, and the
+    // radius would be measured from a centre that is not the stored one (off by up to half a float ulp).
+    const volatile float stored = b.sphere_center[a];
+    center[a] = stored;
   }
   double r2s[detail::kMaxWorkers] = {};
   static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {

@@ -1,5 +1,6 @@
 // quantize(): per-attribute bounds on real scenes, determinism, percentile clipping, metadata, bounds,
 // argument errors; attribute error metrics.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -313,6 +314,32 @@ TEST_CASE("compute_bounds") {
   CHECK(b.sphere_radius <= r * (1 + 2e-6));
   check_bounds(cloud, b);
   CHECK(converter::compute_bounds(format::GaussianCloud()).sphere_radius == 0.0f);
+}
+
+TEST_CASE("compute_bounds: the radius is measured from the stored float centre (guitar, centres off the float grid)") {
+  // The AABB midpoints of guitar's first 100 means are not floats; the radius must still be the rule's value
+  // from the rounded centre: max |mean − centre| in double, times 1 + 1e-6, rounded up to float.
+  auto ply = converter::read_ply(repo_path("samples/guitar.ply"));
+  REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+  for (const size_t n : {size_t{100}, ply->cloud.size()}) {
+    CAPTURE(n);
+    format::GaussianCloud cloud = ply->cloud;
+    cloud.means.resize(n * 3);
+    const format::SceneBounds b = converter::compute_bounds(cloud);
+    double r2 = 0;
+    for (size_t i = 0; i < n; ++i) {
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double d = double(cloud.means[i * 3 + a]) - double(b.sphere_center[a]);
+        d2 += d * d;
+      }
+      r2 = std::max(r2, d2);
+    }
+    const double r = std::sqrt(r2) * (1.0 + 1e-6);
+    float expected = static_cast<float>(r);
+    if (double(expected) < r) expected = std::nextafter(expected, std::numeric_limits<float>::infinity());
+    CHECK(b.sphere_radius == expected);
+  }
 }
 
 TEST_CASE("measure_attribute_errors: exact values and argument errors") {
