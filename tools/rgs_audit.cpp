@@ -33,16 +33,12 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "created_directory.h"
-#include "scene_read_options.h"
-#include "error_stats_output.h"
 #include "image_write.h"
+#include "rgs/api/scene.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/config.h"
-#include "output_set.h"
-#include "rgs/api/scene_loading.h"
 
 extern char** environ;
 
@@ -214,13 +210,6 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
   }
 }
 
-/// Reports a failed OutputSet::add_output: a path that aliases an input or another output, or names a device,
-/// is a usage error (exit 2); an existing directory or an OS error is a failure (exit 1).
-int report_output_error(const Status& status) {
-  return status.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, status)
-                                                       : tools::report_error(kTool, status);
-}
-
 /// A private folder under the system's temporary directory, removed with everything in it at scope exit.
 /// The HTML script reads the JSON and its images from here, because the report's own files are still staged
 /// under temporary names until the commit.
@@ -269,20 +258,14 @@ int run_report_only(const Options& opt) {
   }
   tools::OutputSet outputs;
   if (int code = tools::declare_input(kTool, outputs, opt.report_from); code != tools::kExitOk) return code;
-  Status declared = outputs.add_output(opt.report_path);
-  if (!declared.ok()) return report_output_error(declared);
-  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
-  Status st = outputs.write_by_name(opt.report_path,
-                                    [&](const std::string& temp_path) {
-                                      return render_html(opt.report_from, temp_path, opt.report_from, opt.report_path);
-                                    });
+  if (int code = tools::declare_output(kTool, outputs, opt.report_path); code != tools::kExitOk) return code;
+  tools::report_notes(kTool, outputs.remove_stale_temporaries());
+  Status st = outputs.write_by_name(opt.report_path, [&](const std::string& temp_path) {
+    return render_html(opt.report_from, temp_path, opt.report_from, opt.report_path);
+  });
   if (!st.ok()) return tools::report_error(kTool, st);
   tools::report_note(kTool, "report " + opt.report_path);
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  return tools::kExitOk;
+  return tools::commit_outputs(kTool, outputs);
 }
 
 /// True when --json names the report's own JSON (through any spelling): that file is then written once.
@@ -312,8 +295,7 @@ int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* re
   for (const std::string& output :
        {opt.report_path, *report_json, json_declared ? std::string() : opt.json_path, opt.heatmap_path}) {
     if (output.empty()) continue;
-    Status declared = outputs.add_output(output);
-    if (!declared.ok()) return report_output_error(declared);
+    if (int code = tools::declare_output(kTool, outputs, output); code != tools::kExitOk) return code;
   }
   if (!report_files->empty()) {
     std::error_code ec;
@@ -406,16 +388,15 @@ int run(const Options& opt) {
 
   // Every identity is checked before any work: no output may replace an input or another output. The report's
   // image files are named by the audit's worst views, so they are declared once it has run (before writing).
-  tools::CreatedDirectory created_images;
   tools::OutputSet outputs;
   std::string report_json, report_files;
   if (int code = declare_files(opt, outputs, &report_json, &report_files); code != tools::kExitOk) return code;
-  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  tools::report_notes(kTool, outputs.remove_stale_temporaries());
 
   // Backend first: an explicit --backend cuda without a device fails before any loading.
   audit::AuditOptions options;
   std::string why;
-  const bool have_cuda = audit::cuda_backend_available(&why);
+  const bool have_cuda = api::cuda_available(&why);
   if (opt.backend == "cuda" || (opt.backend == "auto" && have_cuda)) {
     options.backend = audit::Backend::kCuda;
     if (!have_cuda) {
@@ -468,14 +449,14 @@ int run(const Options& opt) {
       for (const audit::ViewImages& w : r.candidates[i].worst) {
         for (const char* kind : {"_source.ppm", "_candidate.ppm", "_diff.pgm"}) {
           const std::string name = "c" + std::to_string(i) + "_v" + std::to_string(w.view) + kind;
-          Status declared = outputs.add_output((std::filesystem::path(report_files) / name).string());
-          if (!declared.ok()) return report_output_error(declared);
+          const std::string path = (std::filesystem::path(report_files) / name).string();
+          if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
         }
       }
     }
-    Status created = created_images.create(report_files, "the report's image folder");
+    Status created = outputs.create_directory(report_files, "the report's image folder");
     if (!created.ok()) return tools::report_error(kTool, created);
-    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+    tools::report_notes(kTool, outputs.remove_stale_temporaries());
     Status st = audit::write_report_images(r, report_files, outputs);
     if (!st.ok()) return tools::report_error(kTool, st);
   }
@@ -530,13 +511,7 @@ int run(const Options& opt) {
       }
     }
   }
-  // The table and the JSON on stdout must have been written before the files appear (a failed report leaves
-  // none).
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  created_images.keep();
+  if (int code = tools::commit_outputs(kTool, outputs); code != tools::kExitOk) return code;
   return below_gate ? kExitBelowMinPsnr : tools::kExitOk;
 }
 
@@ -555,14 +530,8 @@ int main(int argc, char** argv) {
       kTool};
   app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: scenes in any format, " + rgs::tools::scene_formats_help());
   app.add_option("--label", opt.labels, "Name of a candidate in tables and plots (repeat, in candidate order)");
-  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json (native size by default)");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::Range(1, 2147483647))
-      ->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "At most N views")->check(CLI::Range(1, 2147483647));
-  auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras (default 4, at 960x540)")
-                    ->check(CLI::Range(1, 100000))->excludes(cams);
-  cams->excludes(orbit);
+  rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json (native size by default)", "At most N views",
+                                 "Orbit of N cameras (default 4, at 960x540)");
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
   app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
@@ -587,31 +556,21 @@ int main(int argc, char** argv) {
                               "still written)");
   app.add_flag("-q,--quiet", opt.quiet, "No table");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
-  }
-  using rgs::Status;
-  using rgs::StatusCode;
-  rgs::tools::install_interrupt_cleanup();
-  if (!opt.report_from.empty()) {
-    if (!opt.scenes.empty()) {
-      return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
-          kTool, Status(StatusCode::kInvalidArgument, "--report-from makes the HTML of an earlier run and takes no "
-                                                      "scenes")));
+  const auto check = [&]() -> std::string {
+    if (!opt.report_from.empty() && !opt.scenes.empty()) {
+      return "--report-from makes the HTML of an earlier run and takes no scenes";
     }
-    return rgs::tools::finish(kTool, run_report_only(opt));
-  }
-  if (opt.scenes.size() < 2) {
-    return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
-        kTool, Status(StatusCode::kInvalidArgument, "give a source and at least one candidate scene")));
-  }
-  if (opt.labels.size() > opt.scenes.size() - 1) {
-    return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
-        kTool, Status(StatusCode::kInvalidArgument, std::to_string(opt.labels.size()) + " --label for " +
-                                                        std::to_string(opt.scenes.size() - 1) + " candidates")));
-  }
+    if (!opt.report_from.empty()) return {};
+    if (opt.scenes.size() < 2) return "give a source and at least one candidate scene";
+    if (opt.labels.size() > opt.scenes.size() - 1) {
+      return std::to_string(opt.labels.size()) + " --label for " + std::to_string(opt.scenes.size() - 1) +
+             " candidates";
+    }
+    return {};
+  };
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
+  rgs::tools::install_interrupt_cleanup();
+  if (!opt.report_from.empty()) return rgs::tools::finish(kTool, run_report_only(opt));
   opt.min_psnr_set = minp->count() > 0;
   if (opt.report_path.empty() && !opt.no_report) {
     const std::filesystem::path first(opt.scenes[1]);

@@ -35,15 +35,12 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "scene_read_options.h"
 #include "rgs/api/gpu_preset.h"
-#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/api/gpu_scene_loading.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/gpu_scene_loading.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/config.h"
-#include "output_set.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_peaks.h"
@@ -695,12 +692,8 @@ int run(const Options& opt) {
     if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
   }
   if (!opt.json_path.empty()) {
-    Status declared = outputs.add_output(opt.json_path);
-    if (!declared.ok()) {
-      return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
-                                                             : tools::report_error(kTool, declared);
-    }
-    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+    if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
+    tools::report_notes(kTool, outputs.remove_stale_temporaries());
   }
   // Replication is host work and checks the Gaussian count before the device is touched.
   api::ReplicatedScene replicated;
@@ -790,12 +783,7 @@ int run(const Options& opt) {
     std::printf("  json             %s\n", tools::escape_text(opt.json_path).c_str());
   }
   std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
-  // The report must have reached stdout before the JSON appears (a failed report leaves none).
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  return tools::kExitOk;
+  return tools::commit_outputs(kTool, outputs);
 }
 
 }  // namespace
@@ -815,13 +803,8 @@ int main(int argc, char** argv) {
          "scene", opt.input,
          "Scene: .rgs (uploaded as stored), or any format converter::read_scene detects (uploaded as FP32 arrays)")
       ->required();
-  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::Range(1, 2147483647))->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "Use at most N views")->check(CLI::Range(1, 2147483647));
-  auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere")
-                    ->check(CLI::Range(1, 100000))->excludes(cams);
-  cams->excludes(orbit);
+  rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json", "Use at most N views",
+                                 "Orbit of N cameras around the scene's bounding sphere");
   app.add_option("--resolution", opt.resolutions,
                  "WIDTHxHEIGHT or 720p/1080p/1440p/4k (repeatable). Cameras are resized keeping the field of view; "
                  "default: the cameras' own size, or 1920x1080 for --orbit")
@@ -853,14 +836,10 @@ int main(int argc, char** argv) {
                "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
-  try {
-    app.parse(argc, argv);
-    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {
-      throw CLI::ValidationError("one of --cameras or --orbit is required");
-    }
-  } catch (const CLI::ParseError& e) {
-    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
-  }
+  const auto check = [&]() -> std::string {
+    return opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 ? "one of --cameras or --orbit is required" : "";
+  };
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));
 }

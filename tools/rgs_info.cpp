@@ -9,7 +9,6 @@
 #include <string>
 
 #include "cli_common.h"
-#include "scene_read_options.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
@@ -162,10 +161,6 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json, "Print JSON instead of text");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app, /*with_spz_frame=*/false);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return tools::finish(kTool, tools::exit_for_parse_error(app, e, kTool));
-  }
+  if (auto code = tools::parse_command_line(app, argc, argv, kTool)) return *code;
   return tools::finish(kTool, run(path, check, json));
 }

@@ -22,15 +22,11 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "created_directory.h"
 #include "image_write.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
-#include "output_set.h"
 #include "rgs/runtime/image_io.h"
-#include "scene_read_options.h"
 
 namespace {
 
@@ -206,9 +202,7 @@ int run(Options opt) {
   if (!supported.ok()) return tools::report_error(kTool, supported);
 
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
-  // them. The output directory is removed again if the run fails after creating it (declared first, so it
-  // is destroyed after the OutputSet has removed the temporaries).
-  tools::CreatedDirectory created_directory;
+  // them. The output directory is removed again if the run fails after creating it.
   tools::OutputSet outputs;
   for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
     if (input.empty()) continue;
@@ -228,7 +222,7 @@ int run(Options opt) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
   }
 
-  Status created = created_directory.create(opt.output_dir, "output directory");
+  Status created = outputs.create_directory(opt.output_dir, "output directory");
   if (!created.ok()) return tools::report_error(kTool, created);
   // One file base per view; a camera name used twice gets its index, so that no view replaces another.
   const size_t count = cameras->size();
@@ -238,15 +232,11 @@ int run(Options opt) {
     std::string base = (std::filesystem::path(opt.output_dir) / name).string();
     if (std::find(bases.begin(), bases.end(), base) != bases.end()) base += "_" + std::to_string(i);
     for (const std::string& file : view_files(opt, base)) {
-      Status declared = outputs.add_output(file);
-      if (!declared.ok()) {
-        return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
-                                                               : tools::report_error(kTool, declared);
-      }
+      if (int code = tools::declare_output(kTool, outputs, file); code != tools::kExitOk) return code;
     }
     bases.push_back(base);
   }
-  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  tools::report_notes(kTool, outputs.remove_stale_temporaries());
 
   double render_ms = 0;
   uint64_t total_pairs = 0;
@@ -277,13 +267,7 @@ int run(Options opt) {
   std::printf("  time             %s ms/frame (%s), %s s total\n",
               tools::fixed(ms_per_frame, ms_per_frame < 100 ? 3 : 0).c_str(), "render",
               tools::fixed(tools::seconds_since(t_start), 2).c_str());
-  // The report must have reached stdout before the images appear (a failed report leaves none).
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  created_directory.keep();
-  return tools::kExitOk;
+  return tools::commit_outputs(kTool, outputs);
 }
 
 }  // namespace
@@ -302,14 +286,8 @@ int main(int argc, char** argv) {
                  "Scene in any format, " + rgs::tools::scene_formats_help() +
                      ". cpu: read into host memory; cuda: a .rgs uploaded as stored, others as FP32 arrays")
       ->required();
-  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::Range(1, 2147483647))->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "Render at most N views")->check(CLI::Range(1, 2147483647));
-  auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere "
-                                                            "(default size 1920x1080)")
-                    ->check(CLI::Range(1, 100000))->excludes(cams);
-  cams->excludes(orbit);
+  rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json", "Render at most N views",
+                                 "Orbit of N cameras around the scene's bounding sphere (default size 1920x1080)");
   app.add_option("-o,--output", opt.output_dir, "Output directory (created if missing)")->required();
   app.add_option("--width", opt.cameras.width, "Image width; the field of view is kept (height follows the aspect "
                                                "ratio if not given)")->check(CLI::Range(1, 32768));
@@ -344,17 +322,12 @@ int main(int argc, char** argv) {
              "preset uses need a build with RGS_LAB_KERNELS).");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
-  try {
-    app.parse(argc, argv);
-    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {
-      throw CLI::ValidationError("one of --cameras or --orbit is required");
-    }
-    if (opt.half_blend && !(opt.folded && opt.fast_exp)) {
-      throw CLI::ValidationError("--half-blend needs --folded and --fast-exp");
-    }
-  } catch (const CLI::ParseError& e) {
-    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
-  }
+  const auto check = [&]() -> std::string {
+    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) return "one of --cameras or --orbit is required";
+    if (opt.half_blend && !(opt.folded && opt.fast_exp)) return "--half-blend needs --folded and --fast-exp";
+    return {};
+  };
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));
 }
