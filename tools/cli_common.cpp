@@ -237,6 +237,14 @@ int declare_input(const char* tool, OutputSet& outputs, const std::string& path,
   return kExitOk;
 }
 
+int declare_inputs(const char* tool, OutputSet& outputs, const std::vector<std::string>& scenes,
+                   const std::string& cameras_path) {
+  for (const std::string& scene : scenes) {
+    if (int code = declare_input(tool, outputs, scene, true); code != kExitOk) return code;
+  }
+  return cameras_path.empty() ? kExitOk : declare_input(tool, outputs, cameras_path);
+}
+
 int declare_output(const char* tool, OutputSet& outputs, const std::string& path) {
   Status declared = outputs.add_output(path);
   if (declared.ok()) return kExitOk;

@@ -80,6 +80,10 @@ Status check_input_file(const std::string& path);
 /// be read, kExitUsage for one that OutputSet::add_input refuses.
 int declare_input(const char* tool, OutputSet& outputs, const std::string& path, bool scene = false);
 
+/// declare_input for every scene of `scenes` and for the file `cameras_path` unless it is empty.
+int declare_inputs(const char* tool, OutputSet& outputs, const std::vector<std::string>& scenes,
+                   const std::string& cameras_path);
+
 /// Declares `path` as an output of `outputs`. @return kExitOk; else the error is printed and the exit code
 /// returned: kExitUsage for an alias of an input or another output or a device (kInvalidArgument),
 /// kExitFailure for an existing directory or an OS error.

@@ -1,4 +1,5 @@
-// image_write.h: the library-free formats (PPM/PGM, PFM) and the dispatch by extension.
+// image_write.h: the library-free formats (PPM/PGM, PFM), the dispatch by extension, and PNG and EXR through
+// OpenImageIO where the build has it (RGS_WITH_OPENIMAGEIO: 1 or 0, set by CMake for this file only).
 #include "image_write.h"
 
 #include <cstring>
@@ -6,16 +7,72 @@
 #include "cli_common.h"
 #include "rgs/format/file_io.h"
 
+#if RGS_WITH_OPENIMAGEIO
+#include <OpenImageIO/imageio.h>
+#endif
+
 namespace rgs::tools {
 
+namespace {
+
+#if RGS_WITH_OPENIMAGEIO
+/// Writes through `files` (staged in the run's OutputSet, or a temporary renamed over `path`), with the format
+/// chosen by name rather than by the temporary's extension.
+Status write_oiio(format::FileSink& files, const std::string& path, const char* format_name,
+                  const OIIO::ImageSpec& spec, const void* data) {
+  return files.write_by_name(path, [&](const std::string& temp) -> Status {
+    auto out = OIIO::ImageOutput::create(format_name);
+    if (!out) {
+      return Status(StatusCode::kIoError, path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
+    }
+    if (!out->open(temp, spec)) return Status(StatusCode::kIoError, path + ": cannot write: " + out->geterror());
+    const bool written = out->write_image(spec.format, data);
+    const bool closed = out->close();
+    if (!written || !closed) return Status(StatusCode::kIoError, path + ": write failed: " + out->geterror());
+    return Status::ok_status();
+  });
+}
+#endif
+
+/// What every PNG/EXR request gets in a build without OpenImageIO: the PPM/PFM alternative.
 Status no_openimageio_error(const std::string& path, const std::string& what) {
   return Status(StatusCode::kUnsupportedFeature,
                 path + ": " + what + " needs OpenImageIO, and this build has none (RGS_WITH_OPENIMAGEIO=OFF); "
                 "write PPM/PGM (8-bit) or PFM (float) instead");
 }
 
-Status write_netpbm8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                     const std::vector<uint8_t>& pixels) {
+}  // namespace
+
+bool have_openimageio() { return RGS_WITH_OPENIMAGEIO != 0; }
+
+Status write_png8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                  uint32_t channels, const std::vector<uint8_t>& pixels) {
+#if RGS_WITH_OPENIMAGEIO
+  RGS_RETURN_ERROR_IF(width == 0 || height == 0 || (channels != 1 && channels != 3) ||
+                          pixels.size() != size_t{width} * height * channels,
+                      StatusCode::kInvalidArgument, path + ": image size does not match its pixel buffer");
+  const OIIO::ImageSpec spec(int(width), int(height), int(channels), OIIO::TypeDesc::UINT8);
+  return write_oiio(files, path, "png", spec, pixels.data());
+#else
+  return no_openimageio_error(path, "PNG output");
+#endif
+}
+
+Status write_exr_rgba(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                      const std::vector<float>& rgba) {
+#if RGS_WITH_OPENIMAGEIO
+  RGS_RETURN_ERROR_IF(width == 0 || height == 0 || rgba.size() != size_t{width} * height * 4,
+                      StatusCode::kInvalidArgument, path + ": image size does not match its pixel buffer");
+  OIIO::ImageSpec spec(int(width), int(height), 4, OIIO::TypeDesc::FLOAT);
+  spec.alpha_channel = 3;
+  return write_oiio(files, path, "openexr", spec, rgba.data());
+#else
+  return no_openimageio_error(path, "EXR output");
+#endif
+}
+
+Status write_netpbm8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                     uint32_t channels, const std::vector<uint8_t>& pixels) {
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || (channels != 1 && channels != 3) ||
                           pixels.size() != size_t{width} * height * channels,
                       StatusCode::kInvalidArgument,
@@ -23,13 +80,12 @@ Status write_netpbm8(format::FileSink& files, const std::string& path, uint32_t 
                           "x" + std::to_string(height) + "x" + std::to_string(channels) + " image");
   std::string bytes = (channels == 3 ? "P6\n" : "P5\n") + std::to_string(width) + " " + std::to_string(height) +
                       "\n255\n";
-  const size_t header = bytes.size();
-  bytes.resize(header + pixels.size());
-  std::memcpy(bytes.data() + header, pixels.data(), pixels.size());
+  bytes.append(pixels.begin(), pixels.end());
   return files.write(path, bytes.data(), bytes.size());
 }
 
-Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb) {
+Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                     const std::vector<float>& rgb) {
   const size_t row = size_t{width} * 3;
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || rgb.size() != row * height, StatusCode::kInvalidArgument,
                       path + ": " + std::to_string(rgb.size()) + " floats given for a " + std::to_string(width) +
@@ -65,8 +121,8 @@ Status check_image8_path(const std::string& path, uint32_t channels) {
                     (have_openimageio() ? ".png, " : "") + ".ppm or .pgm)");
 }
 
-Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                    const std::vector<uint8_t>& pixels) {
+Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                    uint32_t channels, const std::vector<uint8_t>& pixels) {
   RGS_RETURN_IF_ERROR(check_image8_path(path, channels));
   const std::string ext = extension_of(path);
   if (ext == ".png") return write_png8(files, path, width, height, channels, pixels);

@@ -279,13 +279,8 @@ bool json_is_report_json(const Options& opt, const std::string& report_json) {
 /// JSON, --json, --heatmap); sets the report's JSON path and image folder (empty with --no-report).
 /// @return tools::kExitOk, or the exit code of the error reported.
 int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* report_json, std::string* report_files) {
-  for (const std::string& input : opt.scenes) {
-    if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
-  }
-  if (!opt.cameras.cameras_path.empty()) {
-    if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) {
-      return code;
-    }
+  if (int code = tools::declare_inputs(kTool, outputs, opt.scenes, opt.cameras.cameras_path); code != tools::kExitOk) {
+    return code;
   }
   if (!opt.no_report) {
     *report_json = with_suffix(opt.report_path, ".json");

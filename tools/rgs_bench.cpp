@@ -56,21 +56,13 @@ constexpr const char* kTool = "rgs-bench";
 // Modes: what is benchmarked, api::gpu_modes() (new variants go there); api::gpu_mode_options() turns one into
 // GpuRenderOptions for a scene, or says why it cannot run on it.
 
-/// The mode called `name` (names are checked at parse time against the same list).
-const api::GpuMode* find_mode(const std::string& name) {
+/// The description of the mode called `name` (names are checked at parse time against the same list).
+std::string mode_description(const std::string& name) {
   for (const api::GpuMode& m : api::gpu_modes()) {
-    if (m.name == name) return &m;
+    if (m.name == name) return m.description;
   }
-  return nullptr;
+  return "";
 }
-
-std::vector<std::string> mode_names() {
-  std::vector<std::string> names;
-  for (const api::GpuMode& m : api::gpu_modes()) names.push_back(m.name);
-  return names;
-}
-
-// ---------------------------------------------------------------------------------------------------------
 
 struct Options {
   std::string input;
@@ -88,16 +80,9 @@ struct Options {
 
 constexpr int kStages = 5;
 constexpr const char* kStageNames[kStages] = {"preprocess", "sort", "ranges", "render", "total"};
-
-float stage_ms(const runtime::StageTimes& t, int stage) {
-  switch (stage) {
-    case 0: return t.preprocess_ms;
-    case 1: return t.sort_ms;
-    case 2: return t.ranges_ms;
-    case 3: return t.render_ms;
-    default: return t.total_ms;
-  }
-}
+constexpr float runtime::StageTimes::*kStageTimes[kStages] = {
+    &runtime::StageTimes::preprocess_ms, &runtime::StageTimes::sort_ms, &runtime::StageTimes::ranges_ms,
+    &runtime::StageTimes::render_ms, &runtime::StageTimes::total_ms};
 
 /// Median, mean, min and max of one stage's samples.
 struct Summary {
@@ -125,12 +110,7 @@ nlohmann::json summary_json(const Summary& s) {
 struct ViewResult {
   std::string name;
   uint32_t width = 0, height = 0;
-  uint64_t pairs = 0;
-  uint64_t large_chunks = 0;    ///< GpuRenderStats::large_chunks
-  uint64_t large_pairs = 0;     ///< GpuRenderStats::large_pairs
-  bool subtile_culling = false; ///< GpuRenderStats::subtile_culling
-  int sort_bits = 0;
-  uint32_t tiles_x = 0, tiles_y = 0;
+  runtime::GpuRenderStats stats;        ///< of the last timed frame
   std::vector<float> samples[kStages];  ///< one per repetition
 };
 
@@ -185,7 +165,7 @@ Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format
 }
 
 /// Runs one mode over one camera set: warm-up, then `repeat` rounds over the views.
-Result<RunResult> run_one(const Options& opt, const api::GpuMode& mode, const runtime::GpuRenderOptions& base_options,
+Result<RunResult> run_one(const Options& opt, const std::string& mode, const runtime::GpuRenderOptions& base_options,
                           const api::LoadedGpuScene& scene, const CameraSet& set, runtime::GpuRenderer& renderer,
                           runtime::DeviceImage& image) {
   runtime::GpuRenderOptions options = base_options;
@@ -197,15 +177,10 @@ Result<RunResult> run_one(const Options& opt, const api::GpuMode& mode, const ru
     if (!stats.ok()) return Status(stats.status()).prepend("warm-up, view " + cam.name);
   }
   RunResult run;
-  run.mode = mode.name;
+  run.mode = mode;
   run.options = base_options;
   run.resolution = set.label;
-  run.views.resize(n);
-  for (size_t v = 0; v < n; ++v) {
-    run.views[v].name = set.cameras[v].name;
-    run.views[v].width = set.cameras[v].width;
-    run.views[v].height = set.cameras[v].height;
-  }
+  for (const runtime::Camera& cam : set.cameras) run.views.push_back({cam.name, cam.width, cam.height, {}, {}});
   for (uint32_t r = 0; r < opt.repeat; ++r) {
     for (size_t v = 0; v < n; ++v) {
       const runtime::Camera& cam = set.cameras[v];
@@ -213,24 +188,17 @@ Result<RunResult> run_one(const Options& opt, const api::GpuMode& mode, const ru
       if (!stats.ok()) return Status(stats.status()).prepend("view " + cam.name);
       RGS_RETURN_ERROR_IF(!stats->timed, StatusCode::kCudaError, "view " + cam.name + ": the frame was not timed");
       ViewResult& vr = run.views[v];
-      vr.pairs = stats->pairs;
-      vr.large_chunks = stats->large_chunks;
-      vr.large_pairs = stats->large_pairs;
-      vr.subtile_culling = stats->subtile_culling;
-      vr.sort_bits = stats->sort_bits;
-      vr.tiles_x = stats->tiles_x;
-      vr.tiles_y = stats->tiles_y;
-      for (int s = 0; s < kStages; ++s) vr.samples[s].push_back(stage_ms(stats->times, s));
+      vr.stats = *stats;
+      for (int s = 0; s < kStages; ++s) vr.samples[s].push_back(stats->times.*kStageTimes[s]);
     }
   }
-  double pair_sum = 0;
   for (int s = 0; s < kStages; ++s) {
     std::vector<float> all;
     for (const ViewResult& vr : run.views) all.insert(all.end(), vr.samples[s].begin(), vr.samples[s].end());
     run.stages[s] = summarize(std::move(all));
   }
-  for (const ViewResult& vr : run.views) pair_sum += double(vr.pairs);
-  run.mean_pairs = pair_sum / double(n);
+  for (const ViewResult& vr : run.views) run.mean_pairs += double(vr.stats.pairs);
+  run.mean_pairs /= double(n);
   run.fps = run.stages[4].median > 0 ? 1000.0 / run.stages[4].median : 0.0;
   return run;
 }
@@ -256,11 +224,11 @@ runtime::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const r
   in.depth_plane = false;  // rgs-bench's DeviceImage has no depth plane
   in.gaussians = scene.size();
   in.visible = scene.size();
-  in.large_chunks = v.large_chunks;  // GpuRenderStats::large_chunks (timed frames)
+  in.large_chunks = v.stats.large_chunks;
   in.sh_degree = scene.sh_degree();
-  in.pairs = v.pairs;
-  in.sort_bits = v.sort_bits;
-  in.tiles = uint64_t(v.tiles_x) * v.tiles_y;
+  in.pairs = v.stats.pairs;
+  in.sort_bits = v.stats.sort_bits;
+  in.tiles = uint64_t(v.stats.tiles_x) * v.stats.tiles_y;
   in.pixels = uint64_t(v.width) * v.height;
   return in;
 }
@@ -352,18 +320,12 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
 std::string format_time(const char* pattern, bool utc) {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
-  if (utc) {
-    gmtime_r(&now, &tm);
-  } else {
-    localtime_r(&now, &tm);
-  }
+  utc ? gmtime_r(&now, &tm) : localtime_r(&now, &tm);
   char buf[64];
   std::strftime(buf, sizeof(buf), pattern, &tm);
   return buf;
 }
 
-/// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
-/// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
 /// One way of rendering a frame for the front-door comparison: ms per frame, host wall clock from the call to
 /// the device's completion (each path waits once per frame for its pair count anyway).
 struct FrontDoorRow {
@@ -452,9 +414,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
         for (int path = 0; path < 3; ++path) {
           const auto t0 = std::chrono::steady_clock::now();
           if (path == 0) {
-            RGS_ASSIGN_OR_RETURN(runtime::GpuRenderStats stats, renderer.render(expert_scene.scene, cam,
-                                                                                 expert_options, &image));
-            (void)stats;
+            RGS_RETURN_IF_ERROR(renderer.render(expert_scene.scene, cam, expert_options, &image).status());
           } else {
             api::ImageTarget target;
             target.width = cam.width;
@@ -462,9 +422,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
             target.format = formats[path - 1];
             target.color = buffer.data();
             target.color_pitch = size_t(cam.width) * api::bytes_per_pixel(target.format);
-            RGS_ASSIGN_OR_RETURN(api::FrameStats stats, front.render(scene, cam, api::RenderSettings{}, target,
-                                                                     nullptr));
-            (void)stats;
+            RGS_RETURN_IF_ERROR(front.render(scene, cam, api::RenderSettings{}, target, nullptr).status());
           }
           const cudaError_t synced = cudaDeviceSynchronize();
           RGS_RETURN_ERROR_IF(synced != cudaSuccess, StatusCode::kCudaError,
@@ -482,6 +440,8 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
   return rows;
 }
 
+/// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
+/// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
 Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::ReplicatedScene* replicated, bool fp32) {
   runtime::GpuSceneOptions scene_options;
   scene_options.fp32_attributes = fp32;
@@ -521,17 +481,14 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
                 replicated.source_is_rgs ? ".rgs" : "PLY",
                 tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
     std::printf("  replicated       %s\n", replicated.quantization.c_str());
+    std::printf("  load             %s ms (upload of the replicated scene, built on the host before)\n",
+                tools::fixed(report.load_ms, 1).c_str());
   } else {
     std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
                 tools::group_digits(scene.scene.size()).c_str(), scene.scene.sh_degree(),
                 scene.is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
-  }
-  if (opt.replicate > 1) {
-    std::printf("  load             %s ms (upload of the replicated scene, built on the host before)\n",
-                tools::fixed(report.load_ms, 1).c_str());
-  } else {
-    std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n", tools::fixed(report.load_ms, 1).c_str(),
-                tools::group_digits(scene.file_bytes).c_str());
+    std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n",
+                tools::fixed(report.load_ms, 1).c_str(), tools::group_digits(scene.file_bytes).c_str());
   }
   std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame) + %s MB image\n",
               tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(), tools::fixed(double(report.image_bytes) / 1e6, 1).c_str());
@@ -646,16 +603,15 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
       views.push_back({{"name", v.name},
                        {"width", v.width},
                        {"height", v.height},
-                       {"pairs", v.pairs},
-                       {"large_pairs", v.large_pairs},
-                       {"subtile_culling", v.subtile_culling},
-                       {"sort_bits", v.sort_bits},
+                       {"pairs", v.stats.pairs},
+                       {"large_pairs", v.stats.large_pairs},
+                       {"subtile_culling", v.stats.subtile_culling},
+                       {"sort_bits", v.stats.sort_bits},
                        {"median_total_ms", summarize(v.samples[4]).median},
                        {"samples", samples}});
     }
-    const api::GpuMode* mode = find_mode(r.mode);
     runs.push_back({{"mode", r.mode},
-                    {"mode_description", mode ? mode->description : ""},
+                    {"mode_description", mode_description(r.mode)},
                     {"resolution", r.resolution},
                     {"views", r.views.size()},
                     {"frames", r.views.size() * opt.repeat},
@@ -686,10 +642,8 @@ int run(const Options& opt) {
   const auto t_start = Clock::now();
   // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
   tools::OutputSet outputs;
-  for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
-    if (input.empty()) continue;
-    const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file
-    if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
+  if (int code = tools::declare_inputs(kTool, outputs, {opt.input}, opt.cameras.cameras_path); code != tools::kExitOk) {
+    return code;
   }
   if (!opt.json_path.empty()) {
     if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
@@ -740,16 +694,15 @@ int run(const Options& opt) {
   const size_t view_count = sets->front().cameras.size();
   runtime::DeviceImage image;
   std::vector<RunResult> results;
-  for (const std::string& mode_name : opt.modes) {
-    const api::GpuMode* mode = find_mode(mode_name);  // names were checked at parse time
-    auto options = api::gpu_mode_options(mode->name, scene->scene.has_compact());
-    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend("mode " + mode->name));
+  for (const std::string& mode : opt.modes) {
+    auto options = api::gpu_mode_options(mode, scene->scene.has_compact());
+    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend("mode " + mode));
     for (const CameraSet& set : *sets) {
-      std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode->name.c_str(), set.label.c_str(),
-                   opt.warmup, set.cameras.size(), opt.repeat);
-      auto result = run_one(opt, *mode, *options, *scene, set, *renderer, image);
+      std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode.c_str(), set.label.c_str(), opt.warmup,
+                   set.cameras.size(), opt.repeat);
+      auto result = run_one(opt, mode, *options, *scene, set, *renderer, image);
       if (!result.ok()) {
-        return tools::report_error(kTool, Status(result.status()).prepend(opt.input + ", mode " + mode->name + ", " +
+        return tools::report_error(kTool, Status(result.status()).prepend(opt.input + ", mode " + mode + ", " +
                                                                           set.label));
       }
       results.push_back(std::move(result).value());
@@ -791,8 +744,10 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   std::string mode_help = "Mode to benchmark (repeatable; default faithful and fastest):";
+  std::vector<std::string> mode_names;
   for (const api::GpuMode& m : api::gpu_modes()) {
     mode_help += "\n  " + m.name + ": " + m.description + (m.lab ? " [lab: builds with RGS_LAB_KERNELS]" : "");
+    mode_names.push_back(m.name);
   }
   CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
                "repetitions, FPS, pair counts, per mode and resolution, and a per-stage roofline (analytic bytes "
@@ -818,7 +773,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::Range(1, 1000000))
       ->capture_default_str();
-  app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names()));
+  app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names));
   app.add_option("--replicate", opt.replicate,
                  "Tile the scene K times on a grid in the x-z plane (converter::replicate) before timing, keeping "
                  "compact attributes: a .rgs as stored, a PLY quantized with rgs-convert's defaults. Orbit cameras "

@@ -85,8 +85,8 @@ Result<std::array<float, 3>> parse_background(const std::string& text) {
 /// One rendered view on the host.
 struct RenderedView {
   uint32_t width = 0, height = 0;
-  std::vector<float> rgb;    ///< [H, W, 3] linear, not clamped
-  std::vector<float> alpha;  ///< [H, W] 1 − T
+  std::vector<float> rgba;  ///< [H, W, 4] linear, not clamped; alpha 1 − T
+  std::vector<float> rgb;   ///< [H, W, 3] the same colours
   uint64_t pairs = 0;
   double render_ms = 0;  ///< wall time of the render, to its completion on the device
 };
@@ -124,14 +124,10 @@ struct View {
     view.width = image.width();
     view.height = image.height();
     const size_t n = size_t{view.width} * view.height;
-    std::vector<float> rgba(n * 4);
-    RGS_RETURN_IF_ERROR(image.copy_to_host(rgba.data(), nullptr));
+    view.rgba.resize(n * 4);
+    RGS_RETURN_IF_ERROR(image.copy_to_host(view.rgba.data(), nullptr));
     view.rgb.resize(n * 3);
-    view.alpha.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      for (int c = 0; c < 3; ++c) view.rgb[i * 3 + c] = rgba[i * 4 + c];
-      view.alpha[i] = rgba[i * 4 + 3];
-    }
+    for (size_t i = 0; i < n * 3; ++i) view.rgb[i] = view.rgba[i / 3 * 4 + i % 3];
     return view;
   }
 };
@@ -182,7 +178,7 @@ Status write_view(tools::OutputSet& outputs, const Options& opt, const std::stri
   } else {
     RGS_RETURN_IF_ERROR(tools::write_netpbm8(outputs, base + ".ppm", view.width, view.height, 3, rgb8));
   }
-  if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgb, view.alpha));
+  if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgba));
   if (opt.pfm) RGS_RETURN_IF_ERROR(tools::write_pfm_rgb(outputs, base + ".pfm", view.width, view.height, view.rgb));
   return Status::ok_status();
 }
@@ -204,10 +200,8 @@ int run(Options opt) {
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
   // them. The output directory is removed again if the run fails after creating it.
   tools::OutputSet outputs;
-  for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
-    if (input.empty()) continue;
-    const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file
-    if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
+  if (int code = tools::declare_inputs(kTool, outputs, {opt.input}, opt.cameras.cameras_path); code != tools::kExitOk) {
+    return code;
   }
 
   const auto t_start = Clock::now();
