@@ -210,45 +210,28 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
   }
 }
 
-/// A private folder under the system's temporary directory, removed with everything in it at scope exit.
-/// The HTML script reads the JSON and its images from here, because the report's own files are still staged
-/// under temporary names until the commit.
-class ScratchDirectory {
- public:
-  Status create() {
-    std::error_code ec;
-    std::string pattern = (std::filesystem::temp_directory_path(ec) / "rgs-audit.XXXXXX").string();
-    if (ec) pattern = "/tmp/rgs-audit.XXXXXX";
-    std::vector<char> name(pattern.begin(), pattern.end());
-    name.push_back('\0');
-    RGS_RETURN_ERROR_IF(mkdtemp(name.data()) == nullptr, StatusCode::kIoError,
-                        pattern + ": cannot create a scratch folder: " + std::strerror(errno));
-    path_ = name.data();
-    return Status();
-  }
-  const std::string& path() const { return path_; }
-  ~ScratchDirectory() {
-    std::error_code ec;
-    if (!path_.empty()) std::filesystem::remove_all(path_, ec);
-  }
-
- private:
-  std::string path_;
-};
-
 /// The HTML of the report whose JSON is `report_json` (naming its images relative to itself), made by the
-/// script from a scratch copy of the JSON and the images and staged in `outputs` as `html_path`.
+/// script from a copy of the JSON and the images in a private scratch folder (the report's own files are still
+/// staged under temporary names until the commit) and staged in `outputs` as `html_path`.
 Status stage_html(tools::OutputSet& outputs, const audit::AuditResult& r, const std::string& report_json,
                   const std::string& text, const std::string& html_path) {
-  ScratchDirectory scratch;
-  RGS_RETURN_IF_ERROR(scratch.create());
-  const std::filesystem::path json_name = std::filesystem::path(report_json).filename();
-  const std::string scratch_json = (std::filesystem::path(scratch.path()) / json_name).string();
-  RGS_RETURN_IF_ERROR(audit::write_report_images(r, with_suffix(scratch_json, "_files")));
-  RGS_RETURN_IF_ERROR(format::write_file_atomic(scratch_json, text.data(), text.size()));
-  return outputs.write_by_name(html_path, [&](const std::string& temp_path) {
-    return render_html(scratch_json, temp_path, report_json, html_path);
-  });
+  std::error_code ec;
+  std::string pattern = (std::filesystem::temp_directory_path(ec) / "rgs-audit.XXXXXX").string();
+  if (ec) pattern = "/tmp/rgs-audit.XXXXXX";
+  std::string scratch = pattern;
+  RGS_RETURN_ERROR_IF(mkdtemp(scratch.data()) == nullptr, StatusCode::kIoError,
+                      pattern + ": cannot create a scratch folder: " + std::strerror(errno));
+  const std::string scratch_json =
+      (std::filesystem::path(scratch) / std::filesystem::path(report_json).filename()).string();
+  Status st = audit::write_report_images(r, with_suffix(scratch_json, "_files"));
+  if (st.ok()) st = format::write_file_atomic(scratch_json, text.data(), text.size());
+  if (st.ok()) {
+    st = outputs.write_by_name(html_path, [&](const std::string& temp_path) {
+      return render_html(scratch_json, temp_path, report_json, html_path);
+    });
+  }
+  std::filesystem::remove_all(scratch, ec);
+  return st;
 }
 
 int run_report_only(const Options& opt) {

@@ -638,6 +638,88 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
+/// Measures, prints the report and stages the JSON in `outputs`.
+Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_start) {
+  // Replication is host work and checks the Gaussian count before the device is touched.
+  api::ReplicatedScene replicated;
+  if (opt.replicate > 1) {
+    std::fprintf(stderr, "replicating %s x%u ...\n", opt.input.c_str(), opt.replicate);
+    auto r = api::replicate_scene_file(opt.input, opt.replicate, tools::scene_read_options());
+    if (!r.ok()) return Status(r.status()).prepend("--replicate " + std::to_string(opt.replicate));
+    replicated = std::move(r).value();
+  }
+  // Which modes read the FP32 arrays: the scene keeps them on the device only for those. A .rgs scene (or a
+  // replicated one) has the compact sections; other formats are uploaded as FP32 arrays only.
+  const bool compact_scene = opt.replicate > 1 || api::is_rgs_path(opt.input);
+  bool fp32 = !compact_scene || opt.quality;  // --quality renders the baseline, which reads the FP32 arrays
+  for (const std::string& mode : opt.modes) {
+    auto options = api::gpu_mode_options(mode, compact_scene);
+    if (!options.ok()) return Status(options.status()).prepend(opt.input);
+    fp32 = fp32 || api::reads_fp32_attributes(*options);
+  }
+  RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.device));
+  RGS_ASSIGN_OR_RETURN(runtime::CudaDeviceInfo device, runtime::cuda_device_info(opt.device));
+
+  // Peaks first, while the device memory is free.
+  std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
+  auto peaks = runtime::measure_device_peaks();
+  if (!peaks.ok()) return Status(peaks.status()).prepend("device peaks");
+  const runtime::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops};
+
+  RGS_ASSIGN_OR_RETURN(runtime::GpuRenderer renderer, runtime::GpuRenderer::create());
+  // Load time: read, decode (an archive .rgs decodes its Draco and quantized sections here) and upload, to the
+  // device's completion (the uploads are synchronous copies).
+  const auto load_start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(const api::LoadedGpuScene scene, load_bench_scene(opt, &replicated, fp32));
+  tools::report_notes(kTool, opt.replicate > 1 ? replicated.notes : scene.notes);
+  const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
+  RGS_ASSIGN_OR_RETURN(const std::vector<CameraSet> sets, make_camera_sets(opt, scene.bounds));
+
+  runtime::DeviceImage image;
+  std::vector<RunResult> results;
+  for (const std::string& mode : opt.modes) {
+    auto options = api::gpu_mode_options(mode, scene.scene.has_compact());
+    if (!options.ok()) return Status(options.status()).prepend("mode " + mode);
+    for (const CameraSet& set : sets) {
+      std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode.c_str(), set.label.c_str(), opt.warmup,
+                   set.cameras.size(), opt.repeat);
+      auto result = run_one(opt, mode, *options, scene, set, renderer, image);
+      if (!result.ok()) return Status(result.status()).prepend(opt.input + ", mode " + mode + ", " + set.label);
+      results.push_back(std::move(result).value());
+    }
+  }
+  std::vector<RunRoofline> rooflines;
+  for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene.scene, roofs));
+  std::vector<QualityRow> quality;
+  if (opt.quality) {
+    std::fprintf(stderr, "quality against faithful (the 3DGS baseline): every view once per mode ...\n");
+    auto rows = measure_quality(opt, scene, sets, renderer);
+    if (!rows.ok()) return Status(rows.status()).prepend("--quality");
+    quality = std::move(rows).value();
+  }
+  std::vector<FrontDoorRow> front_door;
+  if (opt.front_door && opt.replicate <= 1) {
+    std::fprintf(stderr, "front door against GpuRenderer: %u warm-up + %u rounds ...\n", opt.warmup, opt.repeat);
+    auto rows = compare_front_door(opt, scene, sets, renderer);
+    if (!rows.ok()) return Status(rows.status()).prepend("--front-door");
+    front_door = std::move(rows).value();
+  }
+
+  BenchReport report{std::move(device), std::move(peaks).value(), format_time("%Y-%m-%d", false), load_ms,
+                     renderer.scratch_bytes(),
+                     uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0)),
+                     sets.front().cameras.size(), std::move(results), std::move(rooflines), std::move(quality),
+                     std::move(front_door)};
+  print_report(opt, scene, replicated, report);
+  if (!opt.json_path.empty()) {
+    const std::string text = bench_json(opt, scene, replicated, report);
+    RGS_RETURN_IF_ERROR(outputs.write(opt.json_path, text.data(), text.size()));
+    std::printf("  json             %s\n", tools::escape_text(opt.json_path).c_str());
+  }
+  std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
+  return Status();
+}
+
 int run(const Options& opt) {
   const auto t_start = Clock::now();
   // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
@@ -649,93 +731,8 @@ int run(const Options& opt) {
     if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
     tools::report_notes(kTool, outputs.remove_stale_temporaries());
   }
-  // Replication is host work and checks the Gaussian count before the device is touched.
-  api::ReplicatedScene replicated;
-  if (opt.replicate > 1) {
-    std::fprintf(stderr, "replicating %s x%u ...\n", opt.input.c_str(), opt.replicate);
-    auto r = api::replicate_scene_file(opt.input, opt.replicate, tools::scene_read_options());
-    if (!r.ok()) return tools::report_error(kTool, Status(r.status()).prepend("--replicate " +
-                                                                              std::to_string(opt.replicate)));
-    replicated = std::move(r).value();
-  }
-  // Which modes read the FP32 arrays: the scene keeps them on the device only for those. A .rgs scene (or a
-  // replicated one) has the compact sections; other formats are uploaded as FP32 arrays only.
-  const bool compact_scene = opt.replicate > 1 || api::is_rgs_path(opt.input);
-  bool fp32 = !compact_scene || opt.quality;  // --quality renders the baseline, which reads the FP32 arrays
-  for (const std::string& mode_name : opt.modes) {
-    auto options = api::gpu_mode_options(mode_name, compact_scene);
-    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend(opt.input));
-    fp32 = fp32 || api::reads_fp32_attributes(*options);
-  }
-  Status device_ok = api::require_cuda_device(opt.device);
-  if (!device_ok.ok()) return tools::report_error(kTool, device_ok);
-  auto device = runtime::cuda_device_info(opt.device);
-  if (!device.ok()) return tools::report_error(kTool, device.status());
-
-  // Peaks first, while the device memory is free.
-  std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
-  auto peaks = runtime::measure_device_peaks();
-  if (!peaks.ok()) return tools::report_error(kTool, Status(peaks.status()).prepend("device peaks"));
-  const runtime::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops};
-
-  auto renderer = runtime::GpuRenderer::create();
-  if (!renderer.ok()) return tools::report_error(kTool, renderer.status());
-  // Load time: read, decode (an archive .rgs decodes its Draco and quantized sections here) and upload, to the
-  // device's completion (the uploads are synchronous copies).
-  const auto load_start = Clock::now();
-  auto scene = load_bench_scene(opt, &replicated, fp32);
-  if (!scene.ok()) return tools::report_error(kTool, scene.status());
-  tools::report_notes(kTool, opt.replicate > 1 ? replicated.notes : scene->notes);
-  const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
-  auto sets = make_camera_sets(opt, scene->bounds);
-  if (!sets.ok()) return tools::report_error(kTool, sets.status());
-
-  const std::string date = format_time("%Y-%m-%d", false);
-  const size_t view_count = sets->front().cameras.size();
-  runtime::DeviceImage image;
-  std::vector<RunResult> results;
-  for (const std::string& mode : opt.modes) {
-    auto options = api::gpu_mode_options(mode, scene->scene.has_compact());
-    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend("mode " + mode));
-    for (const CameraSet& set : *sets) {
-      std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode.c_str(), set.label.c_str(), opt.warmup,
-                   set.cameras.size(), opt.repeat);
-      auto result = run_one(opt, mode, *options, *scene, set, *renderer, image);
-      if (!result.ok()) {
-        return tools::report_error(kTool, Status(result.status()).prepend(opt.input + ", mode " + mode + ", " +
-                                                                          set.label));
-      }
-      results.push_back(std::move(result).value());
-    }
-  }
-  std::vector<RunRoofline> rooflines;
-  for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene->scene, roofs));
-  std::vector<QualityRow> quality;
-  if (opt.quality) {
-    std::fprintf(stderr, "quality against faithful (the 3DGS baseline): every view once per mode ...\n");
-    auto rows = measure_quality(opt, *scene, *sets, *renderer);
-    if (!rows.ok()) return tools::report_error(kTool, Status(rows.status()).prepend("--quality"));
-    quality = std::move(rows).value();
-  }
-  std::vector<FrontDoorRow> front_door;
-  if (opt.front_door && opt.replicate <= 1) {
-    std::fprintf(stderr, "front door against GpuRenderer: %u warm-up + %u rounds ...\n", opt.warmup, opt.repeat);
-    auto rows = compare_front_door(opt, *scene, *sets, *renderer);
-    if (!rows.ok()) return tools::report_error(kTool, Status(rows.status()).prepend("--front-door"));
-    front_door = std::move(rows).value();
-  }
-
-  BenchReport report{std::move(device).value(), std::move(peaks).value(), date, load_ms, renderer->scratch_bytes(),
-                     uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0)), view_count,
-                     std::move(results), std::move(rooflines), std::move(quality), std::move(front_door)};
-  print_report(opt, *scene, replicated, report);
-  if (!opt.json_path.empty()) {
-    const std::string text = bench_json(opt, *scene, replicated, report);
-    Status st = outputs.write(opt.json_path, text.data(), text.size());
-    if (!st.ok()) return tools::report_error(kTool, st);
-    std::printf("  json             %s\n", tools::escape_text(opt.json_path).c_str());
-  }
-  std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
+  Status measured = bench(opt, outputs, t_start);
+  if (!measured.ok()) return tools::report_error(kTool, measured);
   return tools::commit_outputs(kTool, outputs);
 }
 

@@ -45,19 +45,11 @@ struct Options {
   std::string backend = "cpu";
   int device = 0;
   std::string preset = "fastest";
-  bool key32 = false, accutile = false, folded = false, fast_exp = false, half_blend = false;
-  float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
+  runtime::RoofgsOptions techniques;  ///< the technique flags; any of them replaces the preset's techniques
 
-  bool any_roofgs() const { return key32 || accutile || folded || fast_exp || half_blend; }
-  runtime::RoofgsOptions roofgs() const {
-    runtime::RoofgsOptions r;
-    r.key32 = key32;
-    r.snugbox_accutile = accutile;
-    r.folded_coefficients = folded;
-    r.fast_exp = fast_exp;
-    r.fast_exp_sigma = fast_exp_sigma;
-    r.half_blend = half_blend;
-    return r;
+  bool any_technique() const {
+    const runtime::RoofgsOptions& t = techniques;
+    return t.key32 || t.snugbox_accutile || t.folded_coefficients || t.fast_exp || t.half_blend;
   }
 };
 
@@ -142,7 +134,7 @@ Result<View> open_view(const Options& opt, const std::array<float, 3>& backgroun
   api::RenderSettings settings;
   RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(opt.preset));
   settings.background = background;
-  if (opt.any_roofgs()) settings.techniques = opt.roofgs();
+  if (opt.any_technique()) settings.techniques = opt.techniques;
   api::LoadOptions load;
   load.device = device;
   load.cuda_device = opt.device;
@@ -172,12 +164,8 @@ std::vector<std::string> view_files(const Options& opt, const std::string& base)
 }
 
 Status write_view(tools::OutputSet& outputs, const Options& opt, const std::string& base, const RenderedView& view) {
-  const std::vector<uint8_t> rgb8 = runtime::to_8bit(view.rgb);
-  if (opt.image_format == "png") {
-    RGS_RETURN_IF_ERROR(tools::write_png8(outputs, base + ".png", view.width, view.height, 3, rgb8));
-  } else {
-    RGS_RETURN_IF_ERROR(tools::write_netpbm8(outputs, base + ".ppm", view.width, view.height, 3, rgb8));
-  }
+  const std::string image8 = base + (opt.image_format == "png" ? ".png" : ".ppm");
+  RGS_RETURN_IF_ERROR(tools::write_image8(outputs, image8, view.width, view.height, 3, runtime::to_8bit(view.rgb)));
   if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgba));
   if (opt.pfm) RGS_RETURN_IF_ERROR(tools::write_pfm_rgb(outputs, base + ".pfm", view.width, view.height, view.rgb));
   return Status::ok_status();
@@ -303,12 +291,13 @@ int main(int argc, char** argv) {
                  "faithful (the 3DGS rasterizer) or paper (the paper's techniques)")
       ->check(CLI::IsMember({"fastest", "faithful", "paper"}))
       ->capture_default_str();
-  app.add_flag("--roofgs-key", opt.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
-  app.add_flag("--accutile", opt.accutile, "RoofGS: SnugBox + AccuTile tile sets");
-  app.add_flag("--folded", opt.folded, "RoofGS: folded coefficients C1..C6 with the dual-pixel update");
-  app.add_flag("--fast-exp", opt.fast_exp, "RoofGS: Schraudolph fast exp");
-  app.add_option("--fast-exp-sigma", opt.fast_exp_sigma, "sigma of the fast exp")->capture_default_str();
-  app.add_flag("--half-blend", opt.half_blend,
+  runtime::RoofgsOptions& t = opt.techniques;
+  app.add_flag("--roofgs-key", t.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
+  app.add_flag("--accutile", t.snugbox_accutile, "RoofGS: SnugBox + AccuTile tile sets");
+  app.add_flag("--folded", t.folded_coefficients, "RoofGS: folded coefficients C1..C6 with the dual-pixel update");
+  app.add_flag("--fast-exp", t.fast_exp, "RoofGS: Schraudolph fast exp");
+  app.add_option("--fast-exp-sigma", t.fast_exp_sigma, "sigma of the fast exp")->capture_default_str();
+  app.add_flag("--half-blend", t.half_blend,
                "Blend in binary16, two pixels per half2 instruction on the GPU (beyond the paper; needs --folded and "
                "--fast-exp)");
   app.footer("Any RoofGS technique flag renders exactly those techniques instead of the preset's (a lab "
@@ -318,7 +307,7 @@ int main(int argc, char** argv) {
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) return "one of --cameras or --orbit is required";
-    if (opt.half_blend && !(opt.folded && opt.fast_exp)) return "--half-blend needs --folded and --fast-exp";
+    if (t.half_blend && !(t.folded_coefficients && t.fast_exp)) return "--half-blend needs --folded and --fast-exp";
     return {};
   };
   if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
