@@ -144,16 +144,11 @@ std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, cons
 }
 
 Status flush_standard_streams() {
-  const char* failed = nullptr;
-  int err = 0;
   errno = 0;
-  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-    failed = "standard output";
-    err = errno;
-  } else if (std::fflush(stderr) != 0 || std::ferror(stderr)) {
-    failed = "standard error";
-    err = errno;
-  }
+  const char* failed = std::fflush(stdout) != 0 || std::ferror(stdout)   ? "standard output"
+                       : std::fflush(stderr) != 0 || std::ferror(stderr) ? "standard error"
+                                                                          : nullptr;
+  const int err = errno;
   if (failed == nullptr) return Status();
   return Status(StatusCode::kIoError,
                 std::string("cannot write to ") + failed + (err != 0 ? std::string(": ") + std::strerror(err) : ""));

@@ -422,15 +422,8 @@ int run(const Options& opt) {
   if (opt.min_psnr_set) ro.min_psnr_db = opt.min_psnr;
   if (!opt.no_report) {
     ro.image_dir = std::filesystem::path(report_files).filename().string() + "/";
-    // The files write_report_images writes (its documented names), each staged in `outputs`.
-    for (size_t i = 0; i < r.candidates.size(); ++i) {
-      for (const audit::ViewImages& w : r.candidates[i].worst) {
-        for (const char* kind : {"_source.ppm", "_candidate.ppm", "_diff.pgm"}) {
-          const std::string name = "c" + std::to_string(i) + "_v" + std::to_string(w.view) + kind;
-          const std::string path = (std::filesystem::path(report_files) / name).string();
-          if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
-        }
-      }
+    for (const auto& [path, image] : audit::report_images(r, report_files)) {
+      if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
     }
     Status created = outputs.create_directory(report_files, "the report's image folder");
     if (!created.ok()) return tools::report_error(kTool, created);

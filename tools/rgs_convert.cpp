@@ -44,16 +44,6 @@ struct Options {
   bool print_summary() const { return !quiet && !json_to_stdout(); }
 };
 
-/// Writes the JSON summary: staged as an output of `outputs`, or printed when it goes to stdout.
-Status emit_json(const Options& opt, const nlohmann::json& j, tools::OutputSet* outputs) {
-  const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-  if (opt.json_to_stdout()) {
-    std::fwrite(text.data(), 1, text.size(), stdout);
-    return Status();
-  }
-  return outputs->write(opt.json_path, text.data(), text.size());
-}
-
 nlohmann::json stats_json(const converter::ErrorStats& s) {
   return {{"max", s.max}, {"rms", s.rms}, {"samples", s.samples}};
 }
@@ -220,8 +210,13 @@ int run(Options& opt) {
   }
   if (!report.ok()) return tools::report_error(kTool, report.status());
   if (!opt.json_path.empty()) {
-    Status s = emit_json(opt, report_json(opt, *report), &outputs);
-    if (!s.ok()) return tools::report_error(kTool, s);
+    const std::string text =
+        report_json(opt, *report).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    if (opt.json_to_stdout()) {
+      std::fwrite(text.data(), 1, text.size(), stdout);
+    } else if (Status s = outputs.write(opt.json_path, text.data(), text.size()); !s.ok()) {
+      return tools::report_error(kTool, s);
+    }
   }
   if (opt.print_summary()) print_summary(opt, *report);
   return tools::commit_outputs(kTool, outputs);
