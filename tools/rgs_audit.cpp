@@ -288,19 +288,53 @@ int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* re
   return tools::kExitOk;
 }
 
-/// The source (the first scene) and the candidates, their reader notes printed.
-Result<audit::AuditScene> load_scenes(const Options& opt, std::vector<audit::AuditScene>* candidates) {
-  RGS_ASSIGN_OR_RETURN(audit::AuditScene source,
+/// Loads the source (the first scene) and the candidates, their reader notes printed, and audits them on the
+/// backend --backend chooses: an explicit --backend cuda without a device fails before any loading. Every
+/// scene goes through audit::load_audit_scene, the one place that picks a reader.
+Result<audit::AuditResult> measure(const Options& opt) {
+  audit::AuditOptions options;
+  std::string why;
+  const bool have_cuda = api::cuda_available(&why);
+  if (opt.backend == "cuda" || (opt.backend == "auto" && have_cuda)) {
+    RGS_RETURN_ERROR_IF(!have_cuda, StatusCode::kUnsupportedFeature, "--backend cuda: " + why);
+    options.backend = audit::Backend::kCuda;
+  }
+  options.cuda_device = opt.device;
+  options.worst_views = opt.worst;
+  options.image_max_side = opt.image_size;
+  options.keep_worst_heatmap = !opt.heatmap_path.empty();
+  options.cpu_threads = opt.threads;
+
+  RGS_ASSIGN_OR_RETURN(const audit::AuditScene source,
                        audit::load_audit_scene(opt.scenes[0], "source", tools::scene_read_options()));
   tools::report_notes(kTool, source.info.notes, opt.quiet);
+  std::vector<audit::AuditScene> candidates;
   for (size_t i = 1; i < opt.scenes.size(); ++i) {
     const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
     RGS_ASSIGN_OR_RETURN(audit::AuditScene scene,
                          audit::load_audit_scene(opt.scenes[i], label, tools::scene_read_options()));
     tools::report_notes(kTool, scene.info.notes, opt.quiet);
-    candidates->push_back(std::move(scene));
+    candidates.push_back(std::move(scene));
   }
-  return source;
+  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> cameras, api::make_cameras(opt.cameras, source.bounds));
+
+  std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
+               audit::backend_name(options.backend),
+               options.backend == audit::Backend::kCpu && opt.backend == "auto"
+                   ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
+               cameras.size(), candidates.size(), candidates.size() == 1 ? "" : "s");
+  auto last_print = Clock::now() - std::chrono::hours(1);
+  options.progress = [&](const audit::AuditProgress& p) {
+    const auto now = Clock::now();
+    if (p.views_done != p.views_total && now - last_print < std::chrono::seconds(1)) return;
+    last_print = now;
+    std::string psnrs;
+    for (double v : p.psnr_db) psnrs += " " + db(v);
+    std::fprintf(stderr, "view %zu/%zu %s PSNR%s dB | %s s elapsed, ~%s s left\n", p.views_done, p.views_total,
+                 tools::escape_text(p.view).c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
+                 tools::fixed(p.remaining_s, 0).c_str());
+  };
+  return audit::run_audit(source, candidates, cameras, options);
 }
 
 /// The summary table: the source, each candidate's sizes and quality, the worst views, the files written.
@@ -371,46 +405,7 @@ int run(const Options& opt) {
   if (int code = declare_files(opt, outputs, &report_json, &report_files); code != tools::kExitOk) return code;
   tools::report_notes(kTool, outputs.remove_stale_temporaries());
 
-  // Backend first: an explicit --backend cuda without a device fails before any loading.
-  audit::AuditOptions options;
-  std::string why;
-  const bool have_cuda = api::cuda_available(&why);
-  if (opt.backend == "cuda" || (opt.backend == "auto" && have_cuda)) {
-    options.backend = audit::Backend::kCuda;
-    if (!have_cuda) {
-      return tools::report_error(kTool, Status(StatusCode::kUnsupportedFeature, "--backend cuda: " + why));
-    }
-  }
-  options.cuda_device = opt.device;
-  options.worst_views = opt.worst;
-  options.image_max_side = opt.image_size;
-  options.keep_worst_heatmap = !opt.heatmap_path.empty();
-  options.cpu_threads = opt.threads;
-
-  // Every scene goes through audit::load_audit_scene, the one place that picks a reader.
-  std::vector<audit::AuditScene> candidates;
-  auto source = load_scenes(opt, &candidates);
-  if (!source.ok()) return tools::report_error(kTool, source.status());
-  auto cameras = api::make_cameras(opt.cameras, source->bounds);
-  if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
-
-  std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
-               audit::backend_name(options.backend),
-               options.backend == audit::Backend::kCpu && opt.backend == "auto"
-                   ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
-               cameras->size(), candidates.size(), candidates.size() == 1 ? "" : "s");
-  auto last_print = Clock::now() - std::chrono::hours(1);
-  options.progress = [&](const audit::AuditProgress& p) {
-    const auto now = Clock::now();
-    if (p.views_done != p.views_total && now - last_print < std::chrono::seconds(1)) return;
-    last_print = now;
-    std::string psnrs;
-    for (double v : p.psnr_db) psnrs += " " + db(v);
-    std::fprintf(stderr, "view %zu/%zu %s PSNR%s dB | %s s elapsed, ~%s s left\n", p.views_done, p.views_total,
-                 tools::escape_text(p.view).c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
-                 tools::fixed(p.remaining_s, 0).c_str());
-  };
-  auto result = audit::run_audit(*source, candidates, *cameras, options);
+  auto result = measure(opt);
   if (!result.ok()) return tools::report_error(kTool, result.status());
   const audit::AuditResult& r = *result;
 
