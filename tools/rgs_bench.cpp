@@ -675,6 +675,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
   RGS_ASSIGN_OR_RETURN(const std::vector<CameraSet> sets, make_camera_sets(opt, scene.bounds));
 
+  const std::string date = format_time("%Y-%m-%d", false);
   runtime::DeviceImage image;
   std::vector<RunResult> results;
   for (const std::string& mode : opt.modes) {
@@ -705,8 +706,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
     front_door = std::move(rows).value();
   }
 
-  BenchReport report{std::move(device), std::move(peaks).value(), format_time("%Y-%m-%d", false), load_ms,
-                     renderer.scratch_bytes(),
+  BenchReport report{std::move(device), std::move(peaks).value(), date, load_ms, renderer.scratch_bytes(),
                      uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0)),
                      sets.front().cameras.size(), std::move(results), std::move(rooflines), std::move(quality),
                      std::move(front_door)};
