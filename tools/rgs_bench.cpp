@@ -203,7 +203,6 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
   return run;
 }
 
-// ---------------------------------------------------------------------------------------------------------
 // Roofline: the model's bytes and FLOPs (runtime/roofline_model.h) per stage, against the measured peaks.
 
 /// The model's inputs for one view of a run. The renderer does not report how many Gaussians survive
@@ -504,7 +503,6 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
                 tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
   }
 
-  // Roofline table.
   std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
               "FP32 %s GFLOP/s (FMA loop, median of %zu); ridge %s FLOP/B\n",
               tools::fixed(report.peaks.memory_gbps, 1).c_str(), tools::group_digits(report.peaks.copy_bytes >> 20).c_str(),
