@@ -1,5 +1,6 @@
 #include "cli_common.h"
 
+#include <CLI/CLI.hpp>
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -18,7 +19,6 @@
 #include "rgs/format/spec.h"
 #include "rgs/config.h"
 #include "rgs_tool_version.h"
-#include "scene_read_options.h"
 
 namespace rgs::tools {
 
@@ -125,17 +125,30 @@ void report_note(const char* tool, const std::string& note) {
   std::fprintf(stderr, "%s: %s\n", tool, escape_text(note).c_str());
 }
 
-Status flush_standard_streams() {
-  const char* failed = nullptr;
-  int err = 0;
-  errno = 0;
-  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-    failed = "standard output";
-    err = errno;
-  } else if (std::fflush(stderr) != 0 || std::ferror(stderr)) {
-    failed = "standard error";
-    err = errno;
+void report_notes(const char* tool, const std::vector<std::string>& notes, bool quiet) {
+  if (quiet) return;
+  for (const std::string& note : notes) report_note(tool, note);
+}
+
+std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const char* tool,
+                                      const std::function<std::string()>& check) {
+  try {
+    app.parse(argc, argv);
+    const std::string problem = check ? check() : std::string();
+    if (!problem.empty()) throw CLI::ValidationError(problem);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return finish(tool, app.exit(e) == 0 ? kExitOk : kExitUsage);
+    return finish(tool, report_usage_error(tool, Status(StatusCode::kInvalidArgument, e.what())));
   }
+  return std::nullopt;
+}
+
+Status flush_standard_streams() {
+  errno = 0;
+  const char* failed = std::fflush(stdout) != 0 || std::ferror(stdout)   ? "standard output"
+                       : std::fflush(stderr) != 0 || std::ferror(stderr) ? "standard error"
+                                                                          : nullptr;
+  const int err = errno;
   if (failed == nullptr) return Status();
   return Status(StatusCode::kIoError,
                 std::string("cannot write to ") + failed + (err != 0 ? std::string(": ") + std::strerror(err) : ""));
@@ -188,6 +201,8 @@ Status check_input_file(const std::string& path) {
                                           "tool accepts it)");
 }
 
+namespace {
+
 Status check_scene_input(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_directory(path, ec)) return check_input_file(path);
@@ -198,7 +213,9 @@ Status check_scene_input(const std::string& path) {
                                              "folders the tools read); give a scene file");
 }
 
-int declare_input(const char* tool, tools::OutputSet& outputs, const std::string& path, bool scene) {
+}  // namespace
+
+int declare_input(const char* tool, OutputSet& outputs, const std::string& path, bool scene) {
   Status readable = scene ? check_scene_input(path) : check_input_file(path);
   if (!readable.ok()) return report_error(tool, readable);
   std::vector<std::string> files = {path};
@@ -212,6 +229,29 @@ int declare_input(const char* tool, tools::OutputSet& outputs, const std::string
     Status declared = outputs.add_input(file);
     if (!declared.ok()) return report_usage_error(tool, declared);
   }
+  return kExitOk;
+}
+
+int declare_inputs(const char* tool, OutputSet& outputs, const std::vector<std::string>& scenes,
+                   const std::string& cameras_path) {
+  for (const std::string& scene : scenes) {
+    if (int code = declare_input(tool, outputs, scene, true); code != kExitOk) return code;
+  }
+  return cameras_path.empty() ? kExitOk : declare_input(tool, outputs, cameras_path);
+}
+
+int declare_output(const char* tool, OutputSet& outputs, const std::string& path) {
+  Status declared = outputs.add_output(path);
+  if (declared.ok()) return kExitOk;
+  return declared.code() == StatusCode::kInvalidArgument ? report_usage_error(tool, declared)
+                                                         : report_error(tool, declared);
+}
+
+int commit_outputs(const char* tool, OutputSet& outputs) {
+  Status flushed = flush_standard_streams();
+  if (!flushed.ok()) return report_error(tool, flushed);
+  Status committed = outputs.commit();
+  if (!committed.ok()) return report_error(tool, committed);
   return kExitOk;
 }
 
@@ -283,22 +323,6 @@ Result<std::vector<uint8_t>> read_standard_input() {
     }
   }
   return bytes;
-}
-
-std::string read_file_head(const std::string& path, size_t bytes) {
-  std::string head(bytes, '\0');
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
-  if (fd < 0) return std::string();
-  size_t got = 0;
-  while (got < bytes) {
-    const ssize_t n = ::read(fd, head.data() + got, bytes - got);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    got += static_cast<size_t>(n);
-  }
-  ::close(fd);
-  head.resize(got);
-  return head;
 }
 
 std::string version_line(const char* tool) {
@@ -385,6 +409,55 @@ Result<Resolution> parse_resolution(const std::string& text) {
 
 std::string resolution_string(const Resolution& resolution) {
   return std::to_string(resolution.width) + "x" + std::to_string(resolution.height);
+}
+
+converter::SceneReadOptions& scene_read_options() {
+  static converter::SceneReadOptions options;
+  return options;
+}
+
+void add_scene_read_options(CLI::App& app, bool with_spz_frame) {
+  converter::SceneReadOptions& options = scene_read_options();
+  app.add_option("--max-gaussians", options.max_gaussians,
+                 "Refuse scenes that declare more Gaussians than this, before allocating for them (SPEC 5.5)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-decompression-ratio", options.max_decompression_ratio,
+                 "Refuse scenes whose compressed data (.rgs sections, SPZ zstd/gzip streams, SOG WebP images and "
+                 "ZIP entries, glTF accessors without data) decodes to more than this many bytes per byte of "
+                 "input, counting inputs under 1 MiB as 1 MiB; bounds the memory a small file can demand "
+                 "(SPEC 5.5; zstd allows up to 32768)")
+      ->check(CLI::Range(1u, 32768u))
+      ->capture_default_str();
+  if (!with_spz_frame) return;
+  app.add_option_function<std::string>(
+         "--spz-frame",
+         [&options](const std::string& name) { options.spz_frame = *converter::parse_spz_frame(name); },
+         "Axes of SPZ files read or written: rub (Niantic's convention, turned to and from RoofGS's RDF) or "
+         "as-stored (no turn: the PLY's axes, as splat-transform 3.7 writes and reads SPZ). Nothing in an SPZ "
+         "file tells the two apart (converter/INTEROP.md)")
+      ->check(CLI::IsMember({"rub", "as-stored"}))
+      ->default_str("rub");
+}
+
+void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::string& cameras_help,
+                        const std::string& limit_help, const std::string& orbit_help) {
+  auto* cameras = app.add_option("--cameras", choice.cameras_path, cameras_help);
+  app.add_option("--every", choice.every, "Use every K-th camera of --cameras")
+      ->check(CLI::Range(1, 2147483647))
+      ->needs(cameras);
+  app.add_option("--limit", choice.limit, limit_help)->check(CLI::Range(1, 2147483647));
+  auto* orbit = app.add_option("--orbit", choice.orbit, orbit_help)->check(CLI::Range(1, 100000))->excludes(cameras);
+  cameras->excludes(orbit);
+}
+
+format::ReadOptions read_options() { return converter::rgs_read_options(scene_read_options()); }
+
+std::string scene_formats_help() {
+  std::string text = "found by its content: ";
+  const std::vector<std::string> formats = converter::supported_scene_formats();
+  for (size_t i = 0; i < formats.size(); ++i) text += (i ? "; " : "") + formats[i];
+  return text;
 }
 
 }  // namespace rgs::tools

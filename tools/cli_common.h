@@ -1,16 +1,26 @@
-// Helpers shared by the command-line tools: error reporting, terminal-safe text, standard streams, input
-// checks, interrupt cleanup and number formatting.
+// Helpers shared by the command-line tools: error reporting, terminal-safe text, standard streams, command-line
+// parsing, input and output declaration, interrupt cleanup and number formatting; and the scene-reading options of
+// every tool that reads scenes (--max-gaussians, --max-decompression-ratio, --spz-frame), defined once so that
+// their names, defaults and help text agree across tools (format/SPEC.md §5.5, converter/INTEROP.md).
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "rgs/api/scene_loading.h"
 #include "output_set.h"
+#include "rgs/api/scene_loading.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/status.h"
+
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace rgs::tools {
 
@@ -34,13 +44,15 @@ int report_usage_error(const char* tool, const Status& status);
 /// Prints "<tool>: <note>" (escaped) to stderr.
 void report_note(const char* tool, const std::string& note);
 
-/// The exit code of a CLI11 parse error: --help and --version print through the app and give kExitOk;
-/// anything else prints "<tool>: error: <what>" and a --help hint to stderr and gives kExitUsage.
-template <typename App, typename ParseError>
-int exit_for_parse_error(App& app, const ParseError& error, const char* tool) {
-  if (error.get_exit_code() == 0) return app.exit(error) == 0 ? kExitOk : kExitUsage;
-  return report_usage_error(tool, Status(StatusCode::kInvalidArgument, error.what()));
-}
+/// Prints each of `notes` as "<tool>: <note>" (escaped) on stderr, unless `quiet`.
+void report_notes(const char* tool, const std::vector<std::string>& notes, bool quiet = false);
+
+/// Parses the command line into `app`'s bindings, then runs `check`, which returns a usage error's message
+/// (empty: the command line is fine). @return std::nullopt to go on; else the exit code to return at once
+/// (after finish()): --help and --version print through the app and give kExitOk, a parse or `check` error
+/// prints "<tool>: error: <what>" and a --help hint to stderr and gives kExitUsage.
+std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const char* tool,
+                                      const std::function<std::string()>& check = {});
 
 /// Flushes stdout and stderr. @return kIoError when a write to either failed (a full disk, a closed pipe),
 /// so that a tool never exits 0 with its report lost.
@@ -60,26 +72,33 @@ void install_interrupt_cleanup();
 /// @return kIoError naming `path` and what it is ("no such file", "is a directory", "is a FIFO ...").
 Status check_input_file(const std::string& path);
 
-/// check_input_file for a scene that converter::read_scene reads: also accepts a directory holding a
-/// lod-meta.json or meta.json (a streamed or plain SOG folder, which read_scene reads through that file).
-/// @return kIoError as check_input_file; for another directory, naming the files it lacks.
-Status check_scene_input(const std::string& path);
+/// Checks `path` with check_input_file (for a `scene`, a directory holding a lod-meta.json or meta.json is
+/// accepted too: a streamed or plain SOG folder, which converter::read_scene reads through that file) and
+/// declares it as an input of `outputs`, so that no output of the run replaces it; for a scene, also every
+/// file it names (converter::list_scene_files: a SOG's images, a streamed SOG's chunks, a .gltf's buffers).
+/// @return kExitOk; else the error is printed and the exit code returned: kExitFailure for a path that cannot
+/// be read, kExitUsage for one that OutputSet::add_input refuses.
+int declare_input(const char* tool, OutputSet& outputs, const std::string& path, bool scene = false);
 
-/// Checks `path` with check_input_file (check_scene_input when `scene`) and declares it as an input of
-/// `outputs`, so that no output of the run replaces it; for a scene, also every file it names
-/// (converter::list_scene_files: a SOG's images, a streamed SOG's chunks, a .gltf's buffers). @return kExitOk; else the error is printed and the
-/// exit code returned: kExitFailure for a path that cannot be read, kExitUsage for one that
-/// OutputSet::add_input refuses.
-int declare_input(const char* tool, tools::OutputSet& outputs, const std::string& path, bool scene = false);
+/// declare_input for every scene of `scenes` and for the file `cameras_path` unless it is empty.
+int declare_inputs(const char* tool, OutputSet& outputs, const std::vector<std::string>& scenes,
+                   const std::string& cameras_path);
+
+/// Declares `path` as an output of `outputs`. @return kExitOk; else the error is printed and the exit code
+/// returned: kExitUsage for an alias of an input or another output or a device (kInvalidArgument),
+/// kExitFailure for an existing directory or an OS error.
+int declare_output(const char* tool, OutputSet& outputs, const std::string& path);
+
+/// A run's last steps: flushes stdout and stderr, so that its report has been written before the files
+/// appear (a failed report leaves none), then commits `outputs`. @return kExitOk, or kExitFailure with the
+/// error printed.
+int commit_outputs(const char* tool, OutputSet& outputs);
 
 /// Reads standard input (the tools' "-" input) as a stream, never more than its content proves: a .rgs up to
 /// the file_size of its header (more bytes: kCorruptData; above ReadLimits::max_file_bytes: kLimitExceeded),
 /// a PLY up to what its header's elements can hold (converter::ply_stream_bytes), anything else only its
 /// first bytes, for the reader to name. @return kIoError with the OS cause.
 Result<std::vector<uint8_t>> read_standard_input();
-
-/// Peeks the first bytes of a regular file (call check_input_file first). Fewer when the file is shorter.
-std::string read_file_head(const std::string& path, size_t bytes);
 
 /// 1234567 -> "1,234,567".
 std::string group_digits(uint64_t n);
@@ -112,5 +131,26 @@ std::string resolution_string(const Resolution& resolution);
 
 /// Lower-case file extension including the dot (".ply"), "" when none.
 std::string extension_of(const std::string& path);
+
+/// How this process reads scenes: converter::SceneReadOptions' defaults until the command line changes them
+/// (add_scene_read_options). Every tool's scene loading passes it to the library's loaders.
+converter::SceneReadOptions& scene_read_options();
+
+/// Adds `--max-gaussians N`, `--max-decompression-ratio R` (defaults as in SPEC §5.5) and
+/// `--spz-frame rub|as-stored` (converter::SpzFrame; tools that read only .rgs leave it out) to `app`, bound to
+/// scene_read_options(); shown in --help.
+void add_scene_read_options(CLI::App& app, bool with_spz_frame = true);
+
+/// Adds --cameras, --every, --limit and --orbit to `app`, bound to `choice`: --every needs --cameras, and
+/// --cameras and --orbit exclude each other. `limit_help` and `orbit_help` describe the last two.
+void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::string& cameras_help,
+                        const std::string& limit_help, const std::string& orbit_help);
+
+/// format::ReadOptions with scene_read_options()' limits, checksums verified: for opening a .rgs directly.
+format::ReadOptions read_options();
+
+/// The input formats every scene-reading tool accepts, found by content (converter::supported_scene_formats),
+/// as one sentence for --help.
+std::string scene_formats_help();
 
 }  // namespace rgs::tools

@@ -1,35 +1,80 @@
-// image_write.h: the library-free formats (PPM/PGM, PFM) and the dispatch by extension.
+// image_write.h: PFM, the dispatch by extension, and PNG and EXR through
+// OpenImageIO where the build has it (RGS_WITH_OPENIMAGEIO: 1 or 0, set by CMake for this file only).
 #include "image_write.h"
 
 #include <cstring>
 
 #include "cli_common.h"
+#include "rgs/audit/audit_report.h"
 #include "rgs/format/file_io.h"
+
+#if RGS_WITH_OPENIMAGEIO
+#include <OpenImageIO/imageio.h>
+#endif
 
 namespace rgs::tools {
 
+namespace {
+
+/// What every PNG/EXR request gets in a build without OpenImageIO: the PPM/PFM alternative.
 Status no_openimageio_error(const std::string& path, const std::string& what) {
   return Status(StatusCode::kUnsupportedFeature,
                 path + ": " + what + " needs OpenImageIO, and this build has none (RGS_WITH_OPENIMAGEIO=OFF); "
                 "write PPM/PGM (8-bit) or PFM (float) instead");
 }
 
-Status write_netpbm8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                     const std::vector<uint8_t>& pixels) {
+/// Writes `data` ([H, W, channels] uint8 or float32; a 4th channel is alpha) through OpenImageIO's
+/// `format_name` writer into `files` (staged in the run's OutputSet, or a temporary renamed over `path`): the
+/// format is chosen by name rather than by the temporary's extension. Without OpenImageIO, kUnsupportedFeature
+/// for `what` ("PNG output").
+#if RGS_WITH_OPENIMAGEIO
+Status write_oiio(format::FileSink& files, const std::string& path, const char* format_name, const char* /*what*/,
+                  uint32_t width, uint32_t height, uint32_t channels, bool is_float, const void* data) {
+  const OIIO::TypeDesc type = is_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8;
+  OIIO::ImageSpec spec(int(width), int(height), int(channels), type);
+  if (channels == 4) spec.alpha_channel = 3;
+  return files.write_by_name(path, [&](const std::string& temp) -> Status {
+    auto out = OIIO::ImageOutput::create(format_name);
+    if (!out) {
+      return Status(StatusCode::kIoError,
+                    path + ": OpenImageIO has no " + format_name + " writer: " + OIIO::geterror());
+    }
+    if (!out->open(temp, spec)) return Status(StatusCode::kIoError, path + ": cannot write: " + out->geterror());
+    const bool written = out->write_image(type, data);
+    const bool closed = out->close();
+    if (!written || !closed) return Status(StatusCode::kIoError, path + ": write failed: " + out->geterror());
+    return Status::ok_status();
+  });
+}
+#else
+Status write_oiio(format::FileSink&, const std::string& path, const char*, const char* what, uint32_t, uint32_t,
+                  uint32_t, bool, const void*) {
+  return no_openimageio_error(path, what);
+}
+#endif
+
+/// An 8-bit PNG of [H, W, channels] pixels (channels 1 or 3).
+Status write_png8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                  uint32_t channels, const std::vector<uint8_t>& pixels) {
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || (channels != 1 && channels != 3) ||
                           pixels.size() != size_t{width} * height * channels,
-                      StatusCode::kInvalidArgument,
-                      path + ": " + std::to_string(pixels.size()) + " bytes given for a " + std::to_string(width) +
-                          "x" + std::to_string(height) + "x" + std::to_string(channels) + " image");
-  std::string bytes = (channels == 3 ? "P6\n" : "P5\n") + std::to_string(width) + " " + std::to_string(height) +
-                      "\n255\n";
-  const size_t header = bytes.size();
-  bytes.resize(header + pixels.size());
-  std::memcpy(bytes.data() + header, pixels.data(), pixels.size());
-  return files.write(path, bytes.data(), bytes.size());
+                      StatusCode::kInvalidArgument, path + ": image size does not match its pixel buffer");
+  return write_oiio(files, path, "png", "PNG output", width, height, channels, false, pixels.data());
 }
 
-Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb) {
+}  // namespace
+
+bool have_openimageio() { return RGS_WITH_OPENIMAGEIO != 0; }
+
+Status write_exr_rgba(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                      const std::vector<float>& rgba) {
+  RGS_RETURN_ERROR_IF(width == 0 || height == 0 || rgba.size() != size_t{width} * height * 4,
+                      StatusCode::kInvalidArgument, path + ": image size does not match its pixel buffer");
+  return write_oiio(files, path, "openexr", "EXR output", width, height, 4, true, rgba.data());
+}
+
+Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                     const std::vector<float>& rgb) {
   const size_t row = size_t{width} * 3;
   RGS_RETURN_ERROR_IF(width == 0 || height == 0 || rgb.size() != row * height, StatusCode::kInvalidArgument,
                       path + ": " + std::to_string(rgb.size()) + " floats given for a " + std::to_string(width) +
@@ -65,18 +110,18 @@ Status check_image8_path(const std::string& path, uint32_t channels) {
                     (have_openimageio() ? ".png, " : "") + ".ppm or .pgm)");
 }
 
-Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                    const std::vector<uint8_t>& pixels) {
+Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                    uint32_t channels, const std::vector<uint8_t>& pixels) {
   RGS_RETURN_IF_ERROR(check_image8_path(path, channels));
   const std::string ext = extension_of(path);
   if (ext == ".png") return write_png8(files, path, width, height, channels, pixels);
-  if (ext == ".pgm" || channels == 3) return write_netpbm8(files, path, width, height, channels, pixels);
+  if (ext == ".pgm" || channels == 3) return audit::write_netpbm(path, {width, height, channels, pixels}, files);
   // .ppm of a grey image: repeat the grey into RGB.
   RGS_RETURN_ERROR_IF(channels != 1 || pixels.size() != size_t{width} * height, StatusCode::kInvalidArgument,
                       path + ": image size does not match its pixel buffer");
   std::vector<uint8_t> rgb(pixels.size() * 3);
   for (size_t i = 0; i < pixels.size(); ++i) rgb[i * 3] = rgb[i * 3 + 1] = rgb[i * 3 + 2] = pixels[i];
-  return write_netpbm8(files, path, width, height, 3, rgb);
+  return audit::write_netpbm(path, {width, height, 3, std::move(rgb)}, files);
 }
 
 }  // namespace rgs::tools

@@ -17,36 +17,20 @@ namespace rgs::tools {
 /// True when this build writes PNG and EXR (linked with OpenImageIO).
 bool have_openimageio();
 
-/// The error every PNG/EXR request gets in a build without OpenImageIO: kUnsupportedFeature naming `path`,
-/// the option that asked for it and the PPM/PFM alternative.
-Status no_openimageio_error(const std::string& path, const std::string& what);
-
-/// Writes an 8-bit PNG. Needs OpenImageIO.
-/// @param pixels  [H, W, channels] uint8, row-major, top row first; channels 1 (grey) or 3 (RGB).
-/// @return kInvalidArgument on a size mismatch; kIoError naming `path` with OpenImageIO's message;
-///         kUnsupportedFeature in a build without OpenImageIO.
-Status write_png8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                  const std::vector<uint8_t>& pixels);
-
 /// Writes a float32 RGBA OpenEXR file: linear RGB as rendered (not clamped) and alpha = 1 − T. Needs
 /// OpenImageIO.
-/// @param rgb    [H, W, 3] float32.  @param alpha  [H, W] float32.
+/// @param rgba  [H, W, 4] float32.
 /// @return kInvalidArgument on a size mismatch; kIoError naming `path`; kUnsupportedFeature in a build
 ///         without OpenImageIO.
-Status write_exr_rgba(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb,
-                      const std::vector<float>& alpha);
-
-/// Writes a binary Netpbm image: P6 (PPM) for 3 channels, P5 (PGM) for 1, maxval 255, top row first.
-/// @param pixels  [H, W, channels] uint8, row-major; channels 1 or 3.
-/// @return kInvalidArgument on a size mismatch; kIoError naming `path`.
-Status write_netpbm8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                     const std::vector<uint8_t>& pixels);
+Status write_exr_rgba(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                      const std::vector<float>& rgba);
 
 /// Writes a colour PFM ("PF", scale −1.0 = little-endian): float32 RGB, linear, not clamped. PFM stores the
 /// bottom row first; `rgb` is top row first as everywhere else and is flipped on writing. No alpha channel.
 /// @param rgb  [H, W, 3] float32.
 /// @return kInvalidArgument on a size mismatch; kIoError naming `path`.
-Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, const std::vector<float>& rgb);
+Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                     const std::vector<float>& rgb);
 
 /// Checks, before any work, that write_image8 can write `path` with `channels` channels in this build.
 /// @return kInvalidArgument for an unknown extension or .pgm with 3 channels; kUnsupportedFeature for .png
@@ -54,9 +38,9 @@ Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t 
 Status check_image8_path(const std::string& path, uint32_t channels);
 
 /// Writes an 8-bit image in the format its extension names: .png (OpenImageIO), .ppm (P6; grey is repeated
-/// into RGB) or .pgm (P5, 1 channel only).
+/// into RGB) or .pgm (P5, 1 channel only); Netpbm files through audit::write_netpbm.
 /// @return kInvalidArgument for another extension or .pgm with 3 channels; the writer's errors otherwise.
-Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
-                    const std::vector<uint8_t>& pixels);
+Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
+                    uint32_t channels, const std::vector<uint8_t>& pixels);
 
 }  // namespace rgs::tools

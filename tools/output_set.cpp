@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <optional>
 #include <utility>
 
@@ -94,6 +95,7 @@ struct OutputSet::State {
   };
   std::vector<Input> inputs;
   std::vector<Output> outputs;
+  std::vector<std::string> created_directories;  ///< removed when empty unless the commit succeeds
   bool closed = false;
 
   Output* find(const std::string& path) {
@@ -118,7 +120,11 @@ struct OutputSet::State {
 
 OutputSet::OutputSet() : state_(std::make_unique<State>()) {}
 
-OutputSet::~OutputSet() = default;
+OutputSet::~OutputSet() {
+  state_->outputs.clear();  // the temporaries first, so that a folder this run created can be empty
+  std::error_code ec;
+  for (const std::string& dir : state_->created_directories) std::filesystem::remove(dir, ec);
+}
 
 Status OutputSet::add_input(const std::string& path) {
   const auto id = format::file_id(path);
@@ -219,9 +225,21 @@ Status OutputSet::commit() {
     o.staged.reset();  // after a failure, the rest are removed
   }
   if (masked) ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  if (status.ok()) state_->created_directories.clear();
   return status;
 }
 
 bool OutputSet::has_output(const std::string& path) const { return state_->find(path) != nullptr; }
+
+Status OutputSet::create_directory(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  const bool existed = std::filesystem::exists(path, ec);
+  std::filesystem::create_directories(path, ec);
+  if (ec || !std::filesystem::is_directory(path)) {
+    return Status(StatusCode::kIoError, path + ": cannot create " + what + (ec ? ": " + ec.message() : std::string()));
+  }
+  if (!existed) state_->created_directories.push_back(path);
+  return Status();
+}
 
 }  // namespace rgs::tools

@@ -65,6 +65,12 @@ class OutputSet final : public format::FileSink {
   /// True when `path` is a declared output of this set (same identity rules).
   bool has_output(const std::string& path) const;
 
+  /// Creates the output folder `path` (and its parents) when missing; `what` names it in the error ("output
+  /// directory"). A folder created here is removed again when the set is destroyed without a successful
+  /// commit() and the folder is empty (a failed run); a folder that existed before is never removed.
+  /// @return kIoError "<path>: cannot create <what>[: <OS cause>]".
+  Status create_directory(const std::string& path, const std::string& what);
+
  private:
   struct State;
   std::unique_ptr<State> state_;

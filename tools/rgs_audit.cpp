@@ -33,16 +33,12 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "created_directory.h"
-#include "scene_read_options.h"
-#include "error_stats_output.h"
 #include "image_write.h"
+#include "rgs/api/scene.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/config.h"
-#include "output_set.h"
-#include "rgs/api/scene_loading.h"
 
 extern char** environ;
 
@@ -214,52 +210,28 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
   }
 }
 
-/// Reports a failed OutputSet::add_output: a path that aliases an input or another output, or names a device,
-/// is a usage error (exit 2); an existing directory or an OS error is a failure (exit 1).
-int report_output_error(const Status& status) {
-  return status.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, status)
-                                                       : tools::report_error(kTool, status);
-}
-
-/// A private folder under the system's temporary directory, removed with everything in it at scope exit.
-/// The HTML script reads the JSON and its images from here, because the report's own files are still staged
-/// under temporary names until the commit.
-class ScratchDirectory {
- public:
-  Status create() {
-    std::error_code ec;
-    std::string pattern = (std::filesystem::temp_directory_path(ec) / "rgs-audit.XXXXXX").string();
-    if (ec) pattern = "/tmp/rgs-audit.XXXXXX";
-    std::vector<char> name(pattern.begin(), pattern.end());
-    name.push_back('\0');
-    RGS_RETURN_ERROR_IF(mkdtemp(name.data()) == nullptr, StatusCode::kIoError,
-                        pattern + ": cannot create a scratch folder: " + std::strerror(errno));
-    path_ = name.data();
-    return Status();
-  }
-  const std::string& path() const { return path_; }
-  ~ScratchDirectory() {
-    std::error_code ec;
-    if (!path_.empty()) std::filesystem::remove_all(path_, ec);
-  }
-
- private:
-  std::string path_;
-};
-
 /// The HTML of the report whose JSON is `report_json` (naming its images relative to itself), made by the
-/// script from a scratch copy of the JSON and the images and staged in `outputs` as `html_path`.
+/// script from a copy of the JSON and the images in a private scratch folder (the report's own files are still
+/// staged under temporary names until the commit) and staged in `outputs` as `html_path`.
 Status stage_html(tools::OutputSet& outputs, const audit::AuditResult& r, const std::string& report_json,
                   const std::string& text, const std::string& html_path) {
-  ScratchDirectory scratch;
-  RGS_RETURN_IF_ERROR(scratch.create());
-  const std::filesystem::path json_name = std::filesystem::path(report_json).filename();
-  const std::string scratch_json = (std::filesystem::path(scratch.path()) / json_name).string();
-  RGS_RETURN_IF_ERROR(audit::write_report_images(r, with_suffix(scratch_json, "_files")));
-  RGS_RETURN_IF_ERROR(format::write_file_atomic(scratch_json, text.data(), text.size()));
-  return outputs.write_by_name(html_path, [&](const std::string& temp_path) {
-    return render_html(scratch_json, temp_path, report_json, html_path);
-  });
+  std::error_code ec;
+  std::string pattern = (std::filesystem::temp_directory_path(ec) / "rgs-audit.XXXXXX").string();
+  if (ec) pattern = "/tmp/rgs-audit.XXXXXX";
+  std::string scratch = pattern;
+  RGS_RETURN_ERROR_IF(mkdtemp(scratch.data()) == nullptr, StatusCode::kIoError,
+                      pattern + ": cannot create a scratch folder: " + std::strerror(errno));
+  const std::string scratch_json =
+      (std::filesystem::path(scratch) / std::filesystem::path(report_json).filename()).string();
+  Status st = audit::write_report_images(r, with_suffix(scratch_json, "_files"));
+  if (st.ok()) st = format::write_file_atomic(scratch_json, text.data(), text.size());
+  if (st.ok()) {
+    st = outputs.write_by_name(html_path, [&](const std::string& temp_path) {
+      return render_html(scratch_json, temp_path, report_json, html_path);
+    });
+  }
+  std::filesystem::remove_all(scratch, ec);
+  return st;
 }
 
 int run_report_only(const Options& opt) {
@@ -269,20 +241,14 @@ int run_report_only(const Options& opt) {
   }
   tools::OutputSet outputs;
   if (int code = tools::declare_input(kTool, outputs, opt.report_from); code != tools::kExitOk) return code;
-  Status declared = outputs.add_output(opt.report_path);
-  if (!declared.ok()) return report_output_error(declared);
-  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
-  Status st = outputs.write_by_name(opt.report_path,
-                                    [&](const std::string& temp_path) {
-                                      return render_html(opt.report_from, temp_path, opt.report_from, opt.report_path);
-                                    });
+  if (int code = tools::declare_output(kTool, outputs, opt.report_path); code != tools::kExitOk) return code;
+  tools::report_notes(kTool, outputs.remove_stale_temporaries());
+  Status st = outputs.write_by_name(opt.report_path, [&](const std::string& temp_path) {
+    return render_html(opt.report_from, temp_path, opt.report_from, opt.report_path);
+  });
   if (!st.ok()) return tools::report_error(kTool, st);
   tools::report_note(kTool, "report " + opt.report_path);
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  return tools::kExitOk;
+  return tools::commit_outputs(kTool, outputs);
 }
 
 /// True when --json names the report's own JSON (through any spelling): that file is then written once.
@@ -296,13 +262,8 @@ bool json_is_report_json(const Options& opt, const std::string& report_json) {
 /// JSON, --json, --heatmap); sets the report's JSON path and image folder (empty with --no-report).
 /// @return tools::kExitOk, or the exit code of the error reported.
 int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* report_json, std::string* report_files) {
-  for (const std::string& input : opt.scenes) {
-    if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
-  }
-  if (!opt.cameras.cameras_path.empty()) {
-    if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) {
-      return code;
-    }
+  if (int code = tools::declare_inputs(kTool, outputs, opt.scenes, opt.cameras.cameras_path); code != tools::kExitOk) {
+    return code;
   }
   if (!opt.no_report) {
     *report_json = with_suffix(opt.report_path, ".json");
@@ -312,8 +273,7 @@ int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* re
   for (const std::string& output :
        {opt.report_path, *report_json, json_declared ? std::string() : opt.json_path, opt.heatmap_path}) {
     if (output.empty()) continue;
-    Status declared = outputs.add_output(output);
-    if (!declared.ok()) return report_output_error(declared);
+    if (int code = tools::declare_output(kTool, outputs, output); code != tools::kExitOk) return code;
   }
   if (!report_files->empty()) {
     std::error_code ec;
@@ -328,19 +288,53 @@ int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* re
   return tools::kExitOk;
 }
 
-/// The source (the first scene) and the candidates, their reader notes printed.
-Result<audit::AuditScene> load_scenes(const Options& opt, std::vector<audit::AuditScene>* candidates) {
-  RGS_ASSIGN_OR_RETURN(audit::AuditScene source,
+/// Loads the source (the first scene) and the candidates, their reader notes printed, and audits them on the
+/// backend --backend chooses: an explicit --backend cuda without a device fails before any loading. Every
+/// scene goes through audit::load_audit_scene, the one place that picks a reader.
+Result<audit::AuditResult> measure(const Options& opt) {
+  audit::AuditOptions options;
+  std::string why;
+  const bool have_cuda = api::cuda_available(&why);
+  if (opt.backend == "cuda" || (opt.backend == "auto" && have_cuda)) {
+    RGS_RETURN_ERROR_IF(!have_cuda, StatusCode::kUnsupportedFeature, "--backend cuda: " + why);
+    options.backend = audit::Backend::kCuda;
+  }
+  options.cuda_device = opt.device;
+  options.worst_views = opt.worst;
+  options.image_max_side = opt.image_size;
+  options.keep_worst_heatmap = !opt.heatmap_path.empty();
+  options.cpu_threads = opt.threads;
+
+  RGS_ASSIGN_OR_RETURN(const audit::AuditScene source,
                        audit::load_audit_scene(opt.scenes[0], "source", tools::scene_read_options()));
   tools::report_notes(kTool, source.info.notes, opt.quiet);
+  std::vector<audit::AuditScene> candidates;
   for (size_t i = 1; i < opt.scenes.size(); ++i) {
     const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
     RGS_ASSIGN_OR_RETURN(audit::AuditScene scene,
                          audit::load_audit_scene(opt.scenes[i], label, tools::scene_read_options()));
     tools::report_notes(kTool, scene.info.notes, opt.quiet);
-    candidates->push_back(std::move(scene));
+    candidates.push_back(std::move(scene));
   }
-  return source;
+  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> cameras, api::make_cameras(opt.cameras, source.bounds));
+
+  std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
+               audit::backend_name(options.backend),
+               options.backend == audit::Backend::kCpu && opt.backend == "auto"
+                   ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
+               cameras.size(), candidates.size(), candidates.size() == 1 ? "" : "s");
+  auto last_print = Clock::now() - std::chrono::hours(1);
+  options.progress = [&](const audit::AuditProgress& p) {
+    const auto now = Clock::now();
+    if (p.views_done != p.views_total && now - last_print < std::chrono::seconds(1)) return;
+    last_print = now;
+    std::string psnrs;
+    for (double v : p.psnr_db) psnrs += " " + db(v);
+    std::fprintf(stderr, "view %zu/%zu %s PSNR%s dB | %s s elapsed, ~%s s left\n", p.views_done, p.views_total,
+                 tools::escape_text(p.view).c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
+                 tools::fixed(p.remaining_s, 0).c_str());
+  };
+  return audit::run_audit(source, candidates, cameras, options);
 }
 
 /// The summary table: the source, each candidate's sizes and quality, the worst views, the files written.
@@ -406,52 +400,12 @@ int run(const Options& opt) {
 
   // Every identity is checked before any work: no output may replace an input or another output. The report's
   // image files are named by the audit's worst views, so they are declared once it has run (before writing).
-  tools::CreatedDirectory created_images;
   tools::OutputSet outputs;
   std::string report_json, report_files;
   if (int code = declare_files(opt, outputs, &report_json, &report_files); code != tools::kExitOk) return code;
-  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  tools::report_notes(kTool, outputs.remove_stale_temporaries());
 
-  // Backend first: an explicit --backend cuda without a device fails before any loading.
-  audit::AuditOptions options;
-  std::string why;
-  const bool have_cuda = audit::cuda_backend_available(&why);
-  if (opt.backend == "cuda" || (opt.backend == "auto" && have_cuda)) {
-    options.backend = audit::Backend::kCuda;
-    if (!have_cuda) {
-      return tools::report_error(kTool, Status(StatusCode::kUnsupportedFeature, "--backend cuda: " + why));
-    }
-  }
-  options.cuda_device = opt.device;
-  options.worst_views = opt.worst;
-  options.image_max_side = opt.image_size;
-  options.keep_worst_heatmap = !opt.heatmap_path.empty();
-  options.cpu_threads = opt.threads;
-
-  // Every scene goes through audit::load_audit_scene, the one place that picks a reader.
-  std::vector<audit::AuditScene> candidates;
-  auto source = load_scenes(opt, &candidates);
-  if (!source.ok()) return tools::report_error(kTool, source.status());
-  auto cameras = api::make_cameras(opt.cameras, source->bounds);
-  if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
-
-  std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
-               audit::backend_name(options.backend),
-               options.backend == audit::Backend::kCpu && opt.backend == "auto"
-                   ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
-               cameras->size(), candidates.size(), candidates.size() == 1 ? "" : "s");
-  auto last_print = Clock::now() - std::chrono::hours(1);
-  options.progress = [&](const audit::AuditProgress& p) {
-    const auto now = Clock::now();
-    if (p.views_done != p.views_total && now - last_print < std::chrono::seconds(1)) return;
-    last_print = now;
-    std::string psnrs;
-    for (double v : p.psnr_db) psnrs += " " + db(v);
-    std::fprintf(stderr, "view %zu/%zu %s PSNR%s dB | %s s elapsed, ~%s s left\n", p.views_done, p.views_total,
-                 tools::escape_text(p.view).c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
-                 tools::fixed(p.remaining_s, 0).c_str());
-  };
-  auto result = audit::run_audit(*source, candidates, *cameras, options);
+  auto result = measure(opt);
   if (!result.ok()) return tools::report_error(kTool, result.status());
   const audit::AuditResult& r = *result;
 
@@ -463,19 +417,12 @@ int run(const Options& opt) {
   if (opt.min_psnr_set) ro.min_psnr_db = opt.min_psnr;
   if (!opt.no_report) {
     ro.image_dir = std::filesystem::path(report_files).filename().string() + "/";
-    // The files write_report_images writes (its documented names), each staged in `outputs`.
-    for (size_t i = 0; i < r.candidates.size(); ++i) {
-      for (const audit::ViewImages& w : r.candidates[i].worst) {
-        for (const char* kind : {"_source.ppm", "_candidate.ppm", "_diff.pgm"}) {
-          const std::string name = "c" + std::to_string(i) + "_v" + std::to_string(w.view) + kind;
-          Status declared = outputs.add_output((std::filesystem::path(report_files) / name).string());
-          if (!declared.ok()) return report_output_error(declared);
-        }
-      }
+    for (const auto& [path, image] : audit::report_images(r, report_files)) {
+      if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
     }
-    Status created = created_images.create(report_files, "the report's image folder");
+    Status created = outputs.create_directory(report_files, "the report's image folder");
     if (!created.ok()) return tools::report_error(kTool, created);
-    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+    tools::report_notes(kTool, outputs.remove_stale_temporaries());
     Status st = audit::write_report_images(r, report_files, outputs);
     if (!st.ok()) return tools::report_error(kTool, st);
   }
@@ -530,13 +477,7 @@ int run(const Options& opt) {
       }
     }
   }
-  // The table and the JSON on stdout must have been written before the files appear (a failed report leaves
-  // none).
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  created_images.keep();
+  if (int code = tools::commit_outputs(kTool, outputs); code != tools::kExitOk) return code;
   return below_gate ? kExitBelowMinPsnr : tools::kExitOk;
 }
 
@@ -555,14 +496,8 @@ int main(int argc, char** argv) {
       kTool};
   app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: scenes in any format, " + rgs::tools::scene_formats_help());
   app.add_option("--label", opt.labels, "Name of a candidate in tables and plots (repeat, in candidate order)");
-  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json (native size by default)");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::Range(1, 2147483647))
-      ->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "At most N views")->check(CLI::Range(1, 2147483647));
-  auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras (default 4, at 960x540)")
-                    ->check(CLI::Range(1, 100000))->excludes(cams);
-  cams->excludes(orbit);
+  rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json (native size by default)", "At most N views",
+                                 "Orbit of N cameras (default 4, at 960x540)");
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
   app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
@@ -587,31 +522,21 @@ int main(int argc, char** argv) {
                               "still written)");
   app.add_flag("-q,--quiet", opt.quiet, "No table");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
-  }
-  using rgs::Status;
-  using rgs::StatusCode;
-  rgs::tools::install_interrupt_cleanup();
-  if (!opt.report_from.empty()) {
-    if (!opt.scenes.empty()) {
-      return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
-          kTool, Status(StatusCode::kInvalidArgument, "--report-from makes the HTML of an earlier run and takes no "
-                                                      "scenes")));
+  const auto check = [&]() -> std::string {
+    if (!opt.report_from.empty() && !opt.scenes.empty()) {
+      return "--report-from makes the HTML of an earlier run and takes no scenes";
     }
-    return rgs::tools::finish(kTool, run_report_only(opt));
-  }
-  if (opt.scenes.size() < 2) {
-    return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
-        kTool, Status(StatusCode::kInvalidArgument, "give a source and at least one candidate scene")));
-  }
-  if (opt.labels.size() > opt.scenes.size() - 1) {
-    return rgs::tools::finish(kTool, rgs::tools::report_usage_error(
-        kTool, Status(StatusCode::kInvalidArgument, std::to_string(opt.labels.size()) + " --label for " +
-                                                        std::to_string(opt.scenes.size() - 1) + " candidates")));
-  }
+    if (!opt.report_from.empty()) return {};
+    if (opt.scenes.size() < 2) return "give a source and at least one candidate scene";
+    if (opt.labels.size() > opt.scenes.size() - 1) {
+      return std::to_string(opt.labels.size()) + " --label for " + std::to_string(opt.scenes.size() - 1) +
+             " candidates";
+    }
+    return {};
+  };
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
+  rgs::tools::install_interrupt_cleanup();
+  if (!opt.report_from.empty()) return rgs::tools::finish(kTool, run_report_only(opt));
   opt.min_psnr_set = minp->count() > 0;
   if (opt.report_path.empty() && !opt.no_report) {
     const std::filesystem::path first(opt.scenes[1]);

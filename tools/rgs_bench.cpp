@@ -35,15 +35,12 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "scene_read_options.h"
 #include "rgs/api/gpu_preset.h"
-#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/api/gpu_scene_loading.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/gpu_scene_loading.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/config.h"
-#include "output_set.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_peaks.h"
@@ -59,21 +56,13 @@ constexpr const char* kTool = "rgs-bench";
 // Modes: what is benchmarked, api::gpu_modes() (new variants go there); api::gpu_mode_options() turns one into
 // GpuRenderOptions for a scene, or says why it cannot run on it.
 
-/// The mode called `name` (names are checked at parse time against the same list).
-const api::GpuMode* find_mode(const std::string& name) {
+/// The description of the mode called `name` (names are checked at parse time against the same list).
+std::string mode_description(const std::string& name) {
   for (const api::GpuMode& m : api::gpu_modes()) {
-    if (m.name == name) return &m;
+    if (m.name == name) return m.description;
   }
-  return nullptr;
+  return "";
 }
-
-std::vector<std::string> mode_names() {
-  std::vector<std::string> names;
-  for (const api::GpuMode& m : api::gpu_modes()) names.push_back(m.name);
-  return names;
-}
-
-// ---------------------------------------------------------------------------------------------------------
 
 struct Options {
   std::string input;
@@ -91,16 +80,9 @@ struct Options {
 
 constexpr int kStages = 5;
 constexpr const char* kStageNames[kStages] = {"preprocess", "sort", "ranges", "render", "total"};
-
-float stage_ms(const runtime::StageTimes& t, int stage) {
-  switch (stage) {
-    case 0: return t.preprocess_ms;
-    case 1: return t.sort_ms;
-    case 2: return t.ranges_ms;
-    case 3: return t.render_ms;
-    default: return t.total_ms;
-  }
-}
+constexpr float runtime::StageTimes::*kStageTimes[kStages] = {
+    &runtime::StageTimes::preprocess_ms, &runtime::StageTimes::sort_ms, &runtime::StageTimes::ranges_ms,
+    &runtime::StageTimes::render_ms, &runtime::StageTimes::total_ms};
 
 /// Median, mean, min and max of one stage's samples.
 struct Summary {
@@ -128,12 +110,7 @@ nlohmann::json summary_json(const Summary& s) {
 struct ViewResult {
   std::string name;
   uint32_t width = 0, height = 0;
-  uint64_t pairs = 0;
-  uint64_t large_chunks = 0;    ///< GpuRenderStats::large_chunks
-  uint64_t large_pairs = 0;     ///< GpuRenderStats::large_pairs
-  bool subtile_culling = false; ///< GpuRenderStats::subtile_culling
-  int sort_bits = 0;
-  uint32_t tiles_x = 0, tiles_y = 0;
+  runtime::GpuRenderStats stats;        ///< of the last timed frame
   std::vector<float> samples[kStages];  ///< one per repetition
 };
 
@@ -188,7 +165,7 @@ Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format
 }
 
 /// Runs one mode over one camera set: warm-up, then `repeat` rounds over the views.
-Result<RunResult> run_one(const Options& opt, const api::GpuMode& mode, const runtime::GpuRenderOptions& base_options,
+Result<RunResult> run_one(const Options& opt, const std::string& mode, const runtime::GpuRenderOptions& base_options,
                           const api::LoadedGpuScene& scene, const CameraSet& set, runtime::GpuRenderer& renderer,
                           runtime::DeviceImage& image) {
   runtime::GpuRenderOptions options = base_options;
@@ -200,15 +177,10 @@ Result<RunResult> run_one(const Options& opt, const api::GpuMode& mode, const ru
     if (!stats.ok()) return Status(stats.status()).prepend("warm-up, view " + cam.name);
   }
   RunResult run;
-  run.mode = mode.name;
+  run.mode = mode;
   run.options = base_options;
   run.resolution = set.label;
-  run.views.resize(n);
-  for (size_t v = 0; v < n; ++v) {
-    run.views[v].name = set.cameras[v].name;
-    run.views[v].width = set.cameras[v].width;
-    run.views[v].height = set.cameras[v].height;
-  }
+  for (const runtime::Camera& cam : set.cameras) run.views.push_back({cam.name, cam.width, cam.height, {}, {}});
   for (uint32_t r = 0; r < opt.repeat; ++r) {
     for (size_t v = 0; v < n; ++v) {
       const runtime::Camera& cam = set.cameras[v];
@@ -216,29 +188,21 @@ Result<RunResult> run_one(const Options& opt, const api::GpuMode& mode, const ru
       if (!stats.ok()) return Status(stats.status()).prepend("view " + cam.name);
       RGS_RETURN_ERROR_IF(!stats->timed, StatusCode::kCudaError, "view " + cam.name + ": the frame was not timed");
       ViewResult& vr = run.views[v];
-      vr.pairs = stats->pairs;
-      vr.large_chunks = stats->large_chunks;
-      vr.large_pairs = stats->large_pairs;
-      vr.subtile_culling = stats->subtile_culling;
-      vr.sort_bits = stats->sort_bits;
-      vr.tiles_x = stats->tiles_x;
-      vr.tiles_y = stats->tiles_y;
-      for (int s = 0; s < kStages; ++s) vr.samples[s].push_back(stage_ms(stats->times, s));
+      vr.stats = *stats;
+      for (int s = 0; s < kStages; ++s) vr.samples[s].push_back(stats->times.*kStageTimes[s]);
     }
   }
-  double pair_sum = 0;
   for (int s = 0; s < kStages; ++s) {
     std::vector<float> all;
     for (const ViewResult& vr : run.views) all.insert(all.end(), vr.samples[s].begin(), vr.samples[s].end());
     run.stages[s] = summarize(std::move(all));
   }
-  for (const ViewResult& vr : run.views) pair_sum += double(vr.pairs);
-  run.mean_pairs = pair_sum / double(n);
+  for (const ViewResult& vr : run.views) run.mean_pairs += double(vr.stats.pairs);
+  run.mean_pairs /= double(n);
   run.fps = run.stages[4].median > 0 ? 1000.0 / run.stages[4].median : 0.0;
   return run;
 }
 
-// ---------------------------------------------------------------------------------------------------------
 // Roofline: the model's bytes and FLOPs (runtime/roofline_model.h) per stage, against the measured peaks.
 
 /// The model's inputs for one view of a run. The renderer does not report how many Gaussians survive
@@ -259,11 +223,11 @@ runtime::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const r
   in.depth_plane = false;  // rgs-bench's DeviceImage has no depth plane
   in.gaussians = scene.size();
   in.visible = scene.size();
-  in.large_chunks = v.large_chunks;  // GpuRenderStats::large_chunks (timed frames)
+  in.large_chunks = v.stats.large_chunks;
   in.sh_degree = scene.sh_degree();
-  in.pairs = v.pairs;
-  in.sort_bits = v.sort_bits;
-  in.tiles = uint64_t(v.tiles_x) * v.tiles_y;
+  in.pairs = v.stats.pairs;
+  in.sort_bits = v.stats.sort_bits;
+  in.tiles = uint64_t(v.stats.tiles_x) * v.stats.tiles_y;
   in.pixels = uint64_t(v.width) * v.height;
   return in;
 }
@@ -355,18 +319,12 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
 std::string format_time(const char* pattern, bool utc) {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
-  if (utc) {
-    gmtime_r(&now, &tm);
-  } else {
-    localtime_r(&now, &tm);
-  }
+  utc ? gmtime_r(&now, &tm) : localtime_r(&now, &tm);
   char buf[64];
   std::strftime(buf, sizeof(buf), pattern, &tm);
   return buf;
 }
 
-/// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
-/// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
 /// One way of rendering a frame for the front-door comparison: ms per frame, host wall clock from the call to
 /// the device's completion (each path waits once per frame for its pair count anyway).
 struct FrontDoorRow {
@@ -455,9 +413,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
         for (int path = 0; path < 3; ++path) {
           const auto t0 = std::chrono::steady_clock::now();
           if (path == 0) {
-            RGS_ASSIGN_OR_RETURN(runtime::GpuRenderStats stats, renderer.render(expert_scene.scene, cam,
-                                                                                 expert_options, &image));
-            (void)stats;
+            RGS_RETURN_IF_ERROR(renderer.render(expert_scene.scene, cam, expert_options, &image).status());
           } else {
             api::ImageTarget target;
             target.width = cam.width;
@@ -465,9 +421,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
             target.format = formats[path - 1];
             target.color = buffer.data();
             target.color_pitch = size_t(cam.width) * api::bytes_per_pixel(target.format);
-            RGS_ASSIGN_OR_RETURN(api::FrameStats stats, front.render(scene, cam, api::RenderSettings{}, target,
-                                                                     nullptr));
-            (void)stats;
+            RGS_RETURN_IF_ERROR(front.render(scene, cam, api::RenderSettings{}, target, nullptr).status());
           }
           const cudaError_t synced = cudaDeviceSynchronize();
           RGS_RETURN_ERROR_IF(synced != cudaSuccess, StatusCode::kCudaError,
@@ -485,6 +439,8 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
   return rows;
 }
 
+/// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
+/// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
 Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::ReplicatedScene* replicated, bool fp32) {
   runtime::GpuSceneOptions scene_options;
   scene_options.fp32_attributes = fp32;
@@ -524,17 +480,14 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
                 replicated.source_is_rgs ? ".rgs" : "PLY",
                 tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
     std::printf("  replicated       %s\n", replicated.quantization.c_str());
+    std::printf("  load             %s ms (upload of the replicated scene, built on the host before)\n",
+                tools::fixed(report.load_ms, 1).c_str());
   } else {
     std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
                 tools::group_digits(scene.scene.size()).c_str(), scene.scene.sh_degree(),
                 scene.is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
-  }
-  if (opt.replicate > 1) {
-    std::printf("  load             %s ms (upload of the replicated scene, built on the host before)\n",
-                tools::fixed(report.load_ms, 1).c_str());
-  } else {
-    std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n", tools::fixed(report.load_ms, 1).c_str(),
-                tools::group_digits(scene.file_bytes).c_str());
+    std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n",
+                tools::fixed(report.load_ms, 1).c_str(), tools::group_digits(scene.file_bytes).c_str());
   }
   std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame) + %s MB image\n",
               tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(), tools::fixed(double(report.image_bytes) / 1e6, 1).c_str());
@@ -550,7 +503,6 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
                 tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
   }
 
-  // Roofline table.
   std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
               "FP32 %s GFLOP/s (FMA loop, median of %zu); ridge %s FLOP/B\n",
               tools::fixed(report.peaks.memory_gbps, 1).c_str(), tools::group_digits(report.peaks.copy_bytes >> 20).c_str(),
@@ -649,16 +601,15 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
       views.push_back({{"name", v.name},
                        {"width", v.width},
                        {"height", v.height},
-                       {"pairs", v.pairs},
-                       {"large_pairs", v.large_pairs},
-                       {"subtile_culling", v.subtile_culling},
-                       {"sort_bits", v.sort_bits},
+                       {"pairs", v.stats.pairs},
+                       {"large_pairs", v.stats.large_pairs},
+                       {"subtile_culling", v.stats.subtile_culling},
+                       {"sort_bits", v.stats.sort_bits},
                        {"median_total_ms", summarize(v.samples[4]).median},
                        {"samples", samples}});
     }
-    const api::GpuMode* mode = find_mode(r.mode);
     runs.push_back({{"mode", r.mode},
-                    {"mode_description", mode ? mode->description : ""},
+                    {"mode_description", mode_description(r.mode)},
                     {"resolution", r.resolution},
                     {"views", r.views.size()},
                     {"frames", r.views.size() * opt.repeat},
@@ -685,117 +636,102 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
-int run(const Options& opt) {
-  const auto t_start = Clock::now();
-  // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
-  tools::OutputSet outputs;
-  for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
-    if (input.empty()) continue;
-    const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file
-    if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
-  }
-  if (!opt.json_path.empty()) {
-    Status declared = outputs.add_output(opt.json_path);
-    if (!declared.ok()) {
-      return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
-                                                             : tools::report_error(kTool, declared);
-    }
-    for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
-  }
+/// Measures, prints the report and stages the JSON in `outputs`.
+Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_start) {
   // Replication is host work and checks the Gaussian count before the device is touched.
   api::ReplicatedScene replicated;
   if (opt.replicate > 1) {
     std::fprintf(stderr, "replicating %s x%u ...\n", opt.input.c_str(), opt.replicate);
     auto r = api::replicate_scene_file(opt.input, opt.replicate, tools::scene_read_options());
-    if (!r.ok()) return tools::report_error(kTool, Status(r.status()).prepend("--replicate " +
-                                                                              std::to_string(opt.replicate)));
+    if (!r.ok()) return Status(r.status()).prepend("--replicate " + std::to_string(opt.replicate));
     replicated = std::move(r).value();
   }
   // Which modes read the FP32 arrays: the scene keeps them on the device only for those. A .rgs scene (or a
   // replicated one) has the compact sections; other formats are uploaded as FP32 arrays only.
   const bool compact_scene = opt.replicate > 1 || api::is_rgs_path(opt.input);
   bool fp32 = !compact_scene || opt.quality;  // --quality renders the baseline, which reads the FP32 arrays
-  for (const std::string& mode_name : opt.modes) {
-    auto options = api::gpu_mode_options(mode_name, compact_scene);
-    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend(opt.input));
+  for (const std::string& mode : opt.modes) {
+    auto options = api::gpu_mode_options(mode, compact_scene);
+    if (!options.ok()) return Status(options.status()).prepend(opt.input);
     fp32 = fp32 || api::reads_fp32_attributes(*options);
   }
-  Status device_ok = api::require_cuda_device(opt.device);
-  if (!device_ok.ok()) return tools::report_error(kTool, device_ok);
-  auto device = runtime::cuda_device_info(opt.device);
-  if (!device.ok()) return tools::report_error(kTool, device.status());
+  RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.device));
+  RGS_ASSIGN_OR_RETURN(runtime::CudaDeviceInfo device, runtime::cuda_device_info(opt.device));
 
   // Peaks first, while the device memory is free.
   std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
   auto peaks = runtime::measure_device_peaks();
-  if (!peaks.ok()) return tools::report_error(kTool, Status(peaks.status()).prepend("device peaks"));
+  if (!peaks.ok()) return Status(peaks.status()).prepend("device peaks");
   const runtime::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops};
 
-  auto renderer = runtime::GpuRenderer::create();
-  if (!renderer.ok()) return tools::report_error(kTool, renderer.status());
+  RGS_ASSIGN_OR_RETURN(runtime::GpuRenderer renderer, runtime::GpuRenderer::create());
   // Load time: read, decode (an archive .rgs decodes its Draco and quantized sections here) and upload, to the
   // device's completion (the uploads are synchronous copies).
   const auto load_start = Clock::now();
-  auto scene = load_bench_scene(opt, &replicated, fp32);
-  if (!scene.ok()) return tools::report_error(kTool, scene.status());
-  tools::report_notes(kTool, opt.replicate > 1 ? replicated.notes : scene->notes);
+  RGS_ASSIGN_OR_RETURN(const api::LoadedGpuScene scene, load_bench_scene(opt, &replicated, fp32));
+  tools::report_notes(kTool, opt.replicate > 1 ? replicated.notes : scene.notes);
   const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
-  auto sets = make_camera_sets(opt, scene->bounds);
-  if (!sets.ok()) return tools::report_error(kTool, sets.status());
+  RGS_ASSIGN_OR_RETURN(const std::vector<CameraSet> sets, make_camera_sets(opt, scene.bounds));
 
   const std::string date = format_time("%Y-%m-%d", false);
-  const size_t view_count = sets->front().cameras.size();
   runtime::DeviceImage image;
   std::vector<RunResult> results;
-  for (const std::string& mode_name : opt.modes) {
-    const api::GpuMode* mode = find_mode(mode_name);  // names were checked at parse time
-    auto options = api::gpu_mode_options(mode->name, scene->scene.has_compact());
-    if (!options.ok()) return tools::report_error(kTool, Status(options.status()).prepend("mode " + mode->name));
-    for (const CameraSet& set : *sets) {
-      std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode->name.c_str(), set.label.c_str(),
-                   opt.warmup, set.cameras.size(), opt.repeat);
-      auto result = run_one(opt, *mode, *options, *scene, set, *renderer, image);
-      if (!result.ok()) {
-        return tools::report_error(kTool, Status(result.status()).prepend(opt.input + ", mode " + mode->name + ", " +
-                                                                          set.label));
-      }
+  for (const std::string& mode : opt.modes) {
+    auto options = api::gpu_mode_options(mode, scene.scene.has_compact());
+    if (!options.ok()) return Status(options.status()).prepend("mode " + mode);
+    for (const CameraSet& set : sets) {
+      std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode.c_str(), set.label.c_str(), opt.warmup,
+                   set.cameras.size(), opt.repeat);
+      auto result = run_one(opt, mode, *options, scene, set, renderer, image);
+      if (!result.ok()) return Status(result.status()).prepend(opt.input + ", mode " + mode + ", " + set.label);
       results.push_back(std::move(result).value());
     }
   }
   std::vector<RunRoofline> rooflines;
-  for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene->scene, roofs));
+  for (const RunResult& r : results) rooflines.push_back(roofline_of(r, scene.scene, roofs));
   std::vector<QualityRow> quality;
   if (opt.quality) {
     std::fprintf(stderr, "quality against faithful (the 3DGS baseline): every view once per mode ...\n");
-    auto rows = measure_quality(opt, *scene, *sets, *renderer);
-    if (!rows.ok()) return tools::report_error(kTool, Status(rows.status()).prepend("--quality"));
+    auto rows = measure_quality(opt, scene, sets, renderer);
+    if (!rows.ok()) return Status(rows.status()).prepend("--quality");
     quality = std::move(rows).value();
   }
   std::vector<FrontDoorRow> front_door;
   if (opt.front_door && opt.replicate <= 1) {
     std::fprintf(stderr, "front door against GpuRenderer: %u warm-up + %u rounds ...\n", opt.warmup, opt.repeat);
-    auto rows = compare_front_door(opt, *scene, *sets, *renderer);
-    if (!rows.ok()) return tools::report_error(kTool, Status(rows.status()).prepend("--front-door"));
+    auto rows = compare_front_door(opt, scene, sets, renderer);
+    if (!rows.ok()) return Status(rows.status()).prepend("--front-door");
     front_door = std::move(rows).value();
   }
 
-  BenchReport report{std::move(device).value(), std::move(peaks).value(), date, load_ms, renderer->scratch_bytes(),
-                     uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0)), view_count,
-                     std::move(results), std::move(rooflines), std::move(quality), std::move(front_door)};
-  print_report(opt, *scene, replicated, report);
+  BenchReport report{std::move(device), std::move(peaks).value(), date, load_ms, renderer.scratch_bytes(),
+                     uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0)),
+                     sets.front().cameras.size(), std::move(results), std::move(rooflines), std::move(quality),
+                     std::move(front_door)};
+  print_report(opt, scene, replicated, report);
   if (!opt.json_path.empty()) {
-    const std::string text = bench_json(opt, *scene, replicated, report);
-    Status st = outputs.write(opt.json_path, text.data(), text.size());
-    if (!st.ok()) return tools::report_error(kTool, st);
+    const std::string text = bench_json(opt, scene, replicated, report);
+    RGS_RETURN_IF_ERROR(outputs.write(opt.json_path, text.data(), text.size()));
     std::printf("  json             %s\n", tools::escape_text(opt.json_path).c_str());
   }
   std::printf("  time             %s s\n", tools::fixed(tools::seconds_since(t_start), 1).c_str());
-  // The report must have reached stdout before the JSON appears (a failed report leaves none).
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  return tools::kExitOk;
+  return Status();
+}
+
+int run(const Options& opt) {
+  const auto t_start = Clock::now();
+  // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
+  tools::OutputSet outputs;
+  if (int code = tools::declare_inputs(kTool, outputs, {opt.input}, opt.cameras.cameras_path); code != tools::kExitOk) {
+    return code;
+  }
+  if (!opt.json_path.empty()) {
+    if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
+    tools::report_notes(kTool, outputs.remove_stale_temporaries());
+  }
+  Status measured = bench(opt, outputs, t_start);
+  if (!measured.ok()) return tools::report_error(kTool, measured);
+  return tools::commit_outputs(kTool, outputs);
 }
 
 }  // namespace
@@ -803,8 +739,10 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   std::string mode_help = "Mode to benchmark (repeatable; default faithful and fastest):";
+  std::vector<std::string> mode_names;
   for (const api::GpuMode& m : api::gpu_modes()) {
     mode_help += "\n  " + m.name + ": " + m.description + (m.lab ? " [lab: builds with RGS_LAB_KERNELS]" : "");
+    mode_names.push_back(m.name);
   }
   CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
                "repetitions, FPS, pair counts, per mode and resolution, and a per-stage roofline (analytic bytes "
@@ -815,13 +753,8 @@ int main(int argc, char** argv) {
          "scene", opt.input,
          "Scene: .rgs (uploaded as stored), or any format converter::read_scene detects (uploaded as FP32 arrays)")
       ->required();
-  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::Range(1, 2147483647))->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "Use at most N views")->check(CLI::Range(1, 2147483647));
-  auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere")
-                    ->check(CLI::Range(1, 100000))->excludes(cams);
-  cams->excludes(orbit);
+  rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json", "Use at most N views",
+                                 "Orbit of N cameras around the scene's bounding sphere");
   app.add_option("--resolution", opt.resolutions,
                  "WIDTHxHEIGHT or 720p/1080p/1440p/4k (repeatable). Cameras are resized keeping the field of view; "
                  "default: the cameras' own size, or 1920x1080 for --orbit")
@@ -835,7 +768,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::Range(1, 1000000))
       ->capture_default_str();
-  app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names()));
+  app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names));
   app.add_option("--replicate", opt.replicate,
                  "Tile the scene K times on a grid in the x-z plane (converter::replicate) before timing, keeping "
                  "compact attributes: a .rgs as stored, a PLY quantized with rgs-convert's defaults. Orbit cameras "
@@ -853,14 +786,10 @@ int main(int argc, char** argv) {
                "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
-  try {
-    app.parse(argc, argv);
-    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {
-      throw CLI::ValidationError("one of --cameras or --orbit is required");
-    }
-  } catch (const CLI::ParseError& e) {
-    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
-  }
+  const auto check = [&]() -> std::string {
+    return opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 ? "one of --cameras or --orbit is required" : "";
+  };
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));
 }

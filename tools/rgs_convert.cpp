@@ -21,11 +21,8 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "error_stats_output.h"
 #include "rgs/api/convert.h"
 #include "rgs/config.h"
-#include "output_set.h"
-#include "scene_read_options.h"
 
 namespace {
 
@@ -47,14 +44,14 @@ struct Options {
   bool print_summary() const { return !quiet && !json_to_stdout(); }
 };
 
-/// Writes the JSON summary: staged as an output of `outputs`, or printed when it goes to stdout.
-Status emit_json(const Options& opt, const nlohmann::json& j, tools::OutputSet* outputs) {
-  const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-  if (opt.json_to_stdout()) {
-    std::fwrite(text.data(), 1, text.size(), stdout);
-    return Status();
-  }
-  return outputs->write(opt.json_path, text.data(), text.size());
+nlohmann::json stats_json(const converter::ErrorStats& s) {
+  return {{"max", s.max}, {"rms", s.rms}, {"samples", s.samples}};
+}
+
+/// One row of the error table: name, max, rms, then a free-text unit or note.
+void print_stats_row(const std::string& name, const converter::ErrorStats& s, const std::string& unit) {
+  std::printf("  %-16s %12s %12s  %s\n", name.c_str(), tools::sci(s.max).c_str(), tools::sci(s.rms).c_str(),
+              unit.c_str());
 }
 
 nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
@@ -94,17 +91,17 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
     for (uint32_t d = 0; d <= r.sh_degree; ++d) {
       const auto& scales = q.sh_quantization.scales[d];
       const auto& clipped = q.quantization.sh_clipped[d];
-      sh.push_back({{"degree", d}, {"error", tools::stats_json(q.errors.sh[d])},
+      sh.push_back({{"degree", d}, {"error", stats_json(q.errors.sh[d])},
                     {"scale", {scales[0], scales[1], scales[2]}}, {"clipped", {clipped[0], clipped[1], clipped[2]}}});
     }
     j["scales_fp16"] = {{"subnormal", q.quantization.scales_subnormal},
                         {"flushed_to_zero", q.quantization.scales_flushed_to_zero},
                         {"max_flushed_of_largest_axis", q.quantization.max_flushed_of_largest_axis}};
-    j["errors"] = {{"position", tools::stats_json(q.errors.position)},
-                   {"rotation_deg", tools::stats_json(q.errors.rotation_deg)},
-                   {"scale_relative", tools::stats_json(q.errors.scale_relative)},
-                   {"scale_of_largest_axis", tools::stats_json(q.errors.scale_of_largest_axis)},
-                   {"opacity", tools::stats_json(q.errors.opacity)},
+    j["errors"] = {{"position", stats_json(q.errors.position)},
+                   {"rotation_deg", stats_json(q.errors.rotation_deg)},
+                   {"scale_relative", stats_json(q.errors.scale_relative)},
+                   {"scale_of_largest_axis", stats_json(q.errors.scale_of_largest_axis)},
+                   {"opacity", stats_json(q.errors.opacity)},
                    {"sh", sh}};
   }
   // "quantize" includes the error measurement, which runs in the same pass.
@@ -129,8 +126,8 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
       q.position_bits > 0 ? "scene units, before Draco, which moves each coordinate by at most " +
                                 tools::sci(q.position_step / 2) + " (half its step)"
                           : std::string("scene units (FP32, exact)");
-  tools::print_stats_row("position", q.errors.position, position_note.c_str());
-  tools::print_stats_row("rotation", q.errors.rotation_deg, "degrees");
+  print_stats_row("position", q.errors.position, position_note);
+  print_stats_row("rotation", q.errors.rotation_deg, "degrees");
   const auto& fp16 = q.quantization;
   const std::string scale_note =
       "of the Gaussian's largest axis; " + tools::group_digits(fp16.scales_subnormal) +
@@ -138,14 +135,14 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
       (fp16.scales_flushed_to_zero ? " (each < 3e-8, at most " + tools::sci(fp16.max_flushed_of_largest_axis) +
                                          " of its largest axis: no visible effect)"
                                    : std::string());
-  tools::print_stats_row("scale", q.errors.scale_of_largest_axis, scale_note.c_str());
-  tools::print_stats_row("opacity", q.errors.opacity, "absolute");
+  print_stats_row("scale", q.errors.scale_of_largest_axis, scale_note);
+  print_stats_row("opacity", q.errors.opacity, "absolute");
   for (uint32_t d = 0; d <= r.sh_degree; ++d) {
     const auto& c = fp16.sh_clipped[d];
     const uint64_t clipped = c[0] + c[1] + c[2];
     const std::string note =
         "absolute, INT8" + (clipped ? ", " + tools::group_digits(clipped) + " clipped" : std::string());
-    tools::print_stats_row("SH degree " + std::to_string(d), q.errors.sh[d], note.c_str());
+    print_stats_row("SH degree " + std::to_string(d), q.errors.sh[d], note);
   }
 }
 
@@ -174,13 +171,6 @@ void print_summary(const Options& opt, const api::ConvertReport& r) {
               tools::fixed(r.seconds.quantize, 3).c_str(), tools::fixed(r.seconds.write, 3).c_str());
 }
 
-/// Declares an output; an alias of an input or of another output, or a device, is a usage error.
-int declare_output(tools::OutputSet* outputs, const std::string& path) {
-  Status s = outputs->add_output(path);
-  if (s.ok()) return tools::kExitOk;
-  return s.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, s) : tools::report_error(kTool, s);
-}
-
 int run(Options& opt) {
   // Every identity and option is checked before anything is read or written.
   if (opt.output == "-") {
@@ -194,9 +184,7 @@ int run(Options& opt) {
   opt.convert.to = *output_format;
   opt.convert.scale_encoding = opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
   opt.convert.profile = opt.profile == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
-  opt.convert.read.spz_frame = tools::scene_read_options().spz_frame;
-  opt.convert.read.max_gaussians = tools::scene_read_options().max_gaussians;
-  opt.convert.read.max_decompression_ratio = tools::scene_read_options().max_decompression_ratio;
+  opt.convert.read = tools::scene_read_options();  // --lod included
   opt.convert.converter_name = kTool;
 
   tools::OutputSet outputs;
@@ -204,14 +192,11 @@ int run(Options& opt) {
     // The scene and every file it names are inputs: no output may replace one of them.
     if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
   }
-  if (int code = declare_output(&outputs, opt.output); code != tools::kExitOk) return code;
+  if (int code = tools::declare_output(kTool, outputs, opt.output); code != tools::kExitOk) return code;
   if (!opt.json_path.empty() && !opt.json_to_stdout()) {
-    if (int code = declare_output(&outputs, opt.json_path); code != tools::kExitOk) return code;
+    if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
   }
-  const std::vector<std::string> stale = outputs.remove_stale_temporaries();
-  if (!opt.quiet) {
-    for (const std::string& note : stale) tools::report_note(kTool, note);
-  }
+  tools::report_notes(kTool, outputs.remove_stale_temporaries(), opt.quiet);
 
   // Staged in `outputs`, renamed into place by commit() below with the JSON report.
   opt.convert.files = &outputs;
@@ -225,17 +210,16 @@ int run(Options& opt) {
   }
   if (!report.ok()) return tools::report_error(kTool, report.status());
   if (!opt.json_path.empty()) {
-    Status s = emit_json(opt, report_json(opt, *report), &outputs);
-    if (!s.ok()) return tools::report_error(kTool, s);
+    const std::string text =
+        report_json(opt, *report).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    if (opt.json_to_stdout()) {
+      std::fwrite(text.data(), 1, text.size(), stdout);
+    } else if (Status s = outputs.write(opt.json_path, text.data(), text.size()); !s.ok()) {
+      return tools::report_error(kTool, s);
+    }
   }
   if (opt.print_summary()) print_summary(opt, *report);
-  // The printed report must reach stdout before the files change, so that a failed report (a full disk, a
-  // closed pipe) leaves no output behind.
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  return tools::kExitOk;
+  return tools::commit_outputs(kTool, outputs);
 }
 
 }  // namespace
@@ -297,16 +281,12 @@ int main(int argc, char** argv) {
   app.add_option("--json", opt.json_path,
                  "Also write the summary as JSON to this file, committed together with the output; - prints it on "
                  "standard output instead of the text summary");
-  app.add_option("--lod", opt.convert.read.lod, "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest "
-                                  "(default)");
+  app.add_option("--lod", rgs::tools::scene_read_options().lod,
+                 "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest (default)");
   app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
   rgs::tools::add_scene_read_options(app);
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
-  }
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool)) return *code;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));
 }

@@ -9,7 +9,6 @@
 #include <string>
 
 #include "cli_common.h"
-#include "scene_read_options.h"
 #include "rgs/config.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
@@ -100,32 +99,28 @@ void print_text(const format::RgsFile& file) {
   }
 }
 
-/// The file's bytes: mapped, or standard input's content for "-".
-struct Source {
+int run(const std::string& path, bool check, bool json) {
+  // The file's bytes: mapped, or standard input's content for "-".
   std::shared_ptr<const format::MappedFile> mapping;
   std::vector<uint8_t> stdin_bytes;
-  const uint8_t* data() const { return mapping ? mapping->data() : stdin_bytes.data(); }
-  size_t size() const { return mapping ? mapping->size() : stdin_bytes.size(); }
-};
-
-int run(const std::string& path, bool check, bool json) {
-  Source source;
   if (path == "-") {
     auto bytes = tools::read_standard_input();
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
-    source.stdin_bytes = std::move(bytes).value();
+    stdin_bytes = std::move(bytes).value();
   } else {
     Status readable = tools::check_input_file(path);
     if (!readable.ok()) return tools::report_error(kTool, readable);
-    auto mapping = format::MappedFile::open(path);
-    if (!mapping.ok()) return tools::report_error(kTool, mapping.status());
-    source.mapping = std::move(mapping).value();
+    auto mapped = format::MappedFile::open(path);
+    if (!mapped.ok()) return tools::report_error(kTool, mapped.status());
+    mapping = std::move(mapped).value();
   }
-  auto file = format::RgsFile::from_bytes(source.data(), source.size(), tools::read_options(), path);
+  const uint8_t* data = mapping ? mapping->data() : stdin_bytes.data();
+  const size_t size = mapping ? mapping->size() : stdin_bytes.size();
+  auto file = format::RgsFile::from_bytes(data, size, tools::read_options(), path);
   if (!file.ok()) {
     // Name the common mix-up instead of only the magic mismatch.
-    if (file.status().code() == StatusCode::kNotRgsFile && source.size() >= 4 &&
-        std::equal(source.data(), source.data() + 4, reinterpret_cast<const uint8_t*>("ply\n"))) {
+    if (file.status().code() == StatusCode::kNotRgsFile && size >= 4 &&
+        std::equal(data, data + 4, reinterpret_cast<const uint8_t*>("ply\n"))) {
       return tools::report_error(kTool, Status(StatusCode::kNotRgsFile,
                                                path + ": this is a PLY file, not .rgs; rgs-info reads .rgs files "
                                                       "(convert it with: rgs-convert " + path + " out.rgs)"));
@@ -133,7 +128,7 @@ int run(const std::string& path, bool check, bool json) {
     return tools::report_error(kTool, file.status());
   }
   Status check_status;
-  if (check) check_status = format::validate(source.data(), source.size(), tools::read_options().limits, path);
+  if (check) check_status = format::validate(data, size, tools::read_options().limits, path);
   if (json) {
     nlohmann::json j = to_json(*file);
     if (check) j["check"] = check_status.ok() ? "ok" : check_status.to_string();
@@ -162,10 +157,6 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json, "Print JSON instead of text");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app, /*with_spz_frame=*/false);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return tools::finish(kTool, tools::exit_for_parse_error(app, e, kTool));
-  }
+  if (auto code = tools::parse_command_line(app, argc, argv, kTool)) return *code;
   return tools::finish(kTool, run(path, check, json));
 }

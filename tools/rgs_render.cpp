@@ -22,15 +22,11 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "created_directory.h"
 #include "image_write.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/scene_loading.h"
 #include "rgs/config.h"
-#include "output_set.h"
 #include "rgs/runtime/image_io.h"
-#include "scene_read_options.h"
 
 namespace {
 
@@ -49,19 +45,11 @@ struct Options {
   std::string backend = "cpu";
   int device = 0;
   std::string preset = "fastest";
-  bool key32 = false, accutile = false, folded = false, fast_exp = false, half_blend = false;
-  float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
+  runtime::RoofgsOptions techniques;  ///< the technique flags; any of them replaces the preset's techniques
 
-  bool any_roofgs() const { return key32 || accutile || folded || fast_exp || half_blend; }
-  runtime::RoofgsOptions roofgs() const {
-    runtime::RoofgsOptions r;
-    r.key32 = key32;
-    r.snugbox_accutile = accutile;
-    r.folded_coefficients = folded;
-    r.fast_exp = fast_exp;
-    r.fast_exp_sigma = fast_exp_sigma;
-    r.half_blend = half_blend;
-    return r;
+  bool any_technique() const {
+    const runtime::RoofgsOptions& t = techniques;
+    return t.key32 || t.snugbox_accutile || t.folded_coefficients || t.fast_exp || t.half_blend;
   }
 };
 
@@ -89,8 +77,8 @@ Result<std::array<float, 3>> parse_background(const std::string& text) {
 /// One rendered view on the host.
 struct RenderedView {
   uint32_t width = 0, height = 0;
-  std::vector<float> rgb;    ///< [H, W, 3] linear, not clamped
-  std::vector<float> alpha;  ///< [H, W] 1 − T
+  std::vector<float> rgba;  ///< [H, W, 4] linear, not clamped; alpha 1 − T
+  std::vector<float> rgb;   ///< [H, W, 3] the same colours
   uint64_t pairs = 0;
   double render_ms = 0;  ///< wall time of the render, to its completion on the device
 };
@@ -128,14 +116,10 @@ struct View {
     view.width = image.width();
     view.height = image.height();
     const size_t n = size_t{view.width} * view.height;
-    std::vector<float> rgba(n * 4);
-    RGS_RETURN_IF_ERROR(image.copy_to_host(rgba.data(), nullptr));
+    view.rgba.resize(n * 4);
+    RGS_RETURN_IF_ERROR(image.copy_to_host(view.rgba.data(), nullptr));
     view.rgb.resize(n * 3);
-    view.alpha.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      for (int c = 0; c < 3; ++c) view.rgb[i * 3 + c] = rgba[i * 4 + c];
-      view.alpha[i] = rgba[i * 4 + 3];
-    }
+    for (size_t i = 0; i < n * 3; ++i) view.rgb[i] = view.rgba[i / 3 * 4 + i % 3];
     return view;
   }
 };
@@ -150,7 +134,7 @@ Result<View> open_view(const Options& opt, const std::array<float, 3>& backgroun
   api::RenderSettings settings;
   RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(opt.preset));
   settings.background = background;
-  if (opt.any_roofgs()) settings.techniques = opt.roofgs();
+  if (opt.any_technique()) settings.techniques = opt.techniques;
   api::LoadOptions load;
   load.device = device;
   load.cuda_device = opt.device;
@@ -180,13 +164,9 @@ std::vector<std::string> view_files(const Options& opt, const std::string& base)
 }
 
 Status write_view(tools::OutputSet& outputs, const Options& opt, const std::string& base, const RenderedView& view) {
-  const std::vector<uint8_t> rgb8 = runtime::to_8bit(view.rgb);
-  if (opt.image_format == "png") {
-    RGS_RETURN_IF_ERROR(tools::write_png8(outputs, base + ".png", view.width, view.height, 3, rgb8));
-  } else {
-    RGS_RETURN_IF_ERROR(tools::write_netpbm8(outputs, base + ".ppm", view.width, view.height, 3, rgb8));
-  }
-  if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgb, view.alpha));
+  const std::string image8 = base + (opt.image_format == "png" ? ".png" : ".ppm");
+  RGS_RETURN_IF_ERROR(tools::write_image8(outputs, image8, view.width, view.height, 3, runtime::to_8bit(view.rgb)));
+  if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgba));
   if (opt.pfm) RGS_RETURN_IF_ERROR(tools::write_pfm_rgb(outputs, base + ".pfm", view.width, view.height, view.rgb));
   return Status::ok_status();
 }
@@ -206,14 +186,10 @@ int run(Options opt) {
   if (!supported.ok()) return tools::report_error(kTool, supported);
 
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
-  // them. The output directory is removed again if the run fails after creating it (declared first, so it
-  // is destroyed after the OutputSet has removed the temporaries).
-  tools::CreatedDirectory created_directory;
+  // them. The output directory is removed again if the run fails after creating it.
   tools::OutputSet outputs;
-  for (const std::string& input : {opt.input, opt.cameras.cameras_path}) {
-    if (input.empty()) continue;
-    const bool scene = input == opt.input;  // a scene may be a SOG folder; the cameras are a file
-    if (int code = tools::declare_input(kTool, outputs, input, scene); code != tools::kExitOk) return code;
+  if (int code = tools::declare_inputs(kTool, outputs, {opt.input}, opt.cameras.cameras_path); code != tools::kExitOk) {
+    return code;
   }
 
   const auto t_start = Clock::now();
@@ -228,7 +204,7 @@ int run(Options opt) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
   }
 
-  Status created = created_directory.create(opt.output_dir, "output directory");
+  Status created = outputs.create_directory(opt.output_dir, "output directory");
   if (!created.ok()) return tools::report_error(kTool, created);
   // One file base per view; a camera name used twice gets its index, so that no view replaces another.
   const size_t count = cameras->size();
@@ -238,15 +214,11 @@ int run(Options opt) {
     std::string base = (std::filesystem::path(opt.output_dir) / name).string();
     if (std::find(bases.begin(), bases.end(), base) != bases.end()) base += "_" + std::to_string(i);
     for (const std::string& file : view_files(opt, base)) {
-      Status declared = outputs.add_output(file);
-      if (!declared.ok()) {
-        return declared.code() == StatusCode::kInvalidArgument ? tools::report_usage_error(kTool, declared)
-                                                               : tools::report_error(kTool, declared);
-      }
+      if (int code = tools::declare_output(kTool, outputs, file); code != tools::kExitOk) return code;
     }
     bases.push_back(base);
   }
-  for (const std::string& note : outputs.remove_stale_temporaries()) tools::report_note(kTool, note);
+  tools::report_notes(kTool, outputs.remove_stale_temporaries());
 
   double render_ms = 0;
   uint64_t total_pairs = 0;
@@ -277,13 +249,7 @@ int run(Options opt) {
   std::printf("  time             %s ms/frame (%s), %s s total\n",
               tools::fixed(ms_per_frame, ms_per_frame < 100 ? 3 : 0).c_str(), "render",
               tools::fixed(tools::seconds_since(t_start), 2).c_str());
-  // The report must have reached stdout before the images appear (a failed report leaves none).
-  Status flushed = tools::flush_standard_streams();
-  if (!flushed.ok()) return tools::report_error(kTool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return tools::report_error(kTool, committed);
-  created_directory.keep();
-  return tools::kExitOk;
+  return tools::commit_outputs(kTool, outputs);
 }
 
 }  // namespace
@@ -302,14 +268,8 @@ int main(int argc, char** argv) {
                  "Scene in any format, " + rgs::tools::scene_formats_help() +
                      ". cpu: read into host memory; cuda: a .rgs uploaded as stored, others as FP32 arrays")
       ->required();
-  auto* cams = app.add_option("--cameras", opt.cameras.cameras_path, "INRIA cameras.json");
-  app.add_option("--every", opt.cameras.every, "Use every K-th camera of --cameras")
-      ->check(CLI::Range(1, 2147483647))->needs(cams);
-  app.add_option("--limit", opt.cameras.limit, "Render at most N views")->check(CLI::Range(1, 2147483647));
-  auto* orbit = app.add_option("--orbit", opt.cameras.orbit, "Orbit of N cameras around the scene's bounding sphere "
-                                                            "(default size 1920x1080)")
-                    ->check(CLI::Range(1, 100000))->excludes(cams);
-  cams->excludes(orbit);
+  rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json", "Render at most N views",
+                                 "Orbit of N cameras around the scene's bounding sphere (default size 1920x1080)");
   app.add_option("-o,--output", opt.output_dir, "Output directory (created if missing)")->required();
   app.add_option("--width", opt.cameras.width, "Image width; the field of view is kept (height follows the aspect "
                                                "ratio if not given)")->check(CLI::Range(1, 32768));
@@ -331,12 +291,13 @@ int main(int argc, char** argv) {
                  "faithful (the 3DGS rasterizer) or paper (the paper's techniques)")
       ->check(CLI::IsMember({"fastest", "faithful", "paper"}))
       ->capture_default_str();
-  app.add_flag("--roofgs-key", opt.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
-  app.add_flag("--accutile", opt.accutile, "RoofGS: SnugBox + AccuTile tile sets");
-  app.add_flag("--folded", opt.folded, "RoofGS: folded coefficients C1..C6 with the dual-pixel update");
-  app.add_flag("--fast-exp", opt.fast_exp, "RoofGS: Schraudolph fast exp");
-  app.add_option("--fast-exp-sigma", opt.fast_exp_sigma, "sigma of the fast exp")->capture_default_str();
-  app.add_flag("--half-blend", opt.half_blend,
+  runtime::RoofgsOptions& t = opt.techniques;
+  app.add_flag("--roofgs-key", t.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
+  app.add_flag("--accutile", t.snugbox_accutile, "RoofGS: SnugBox + AccuTile tile sets");
+  app.add_flag("--folded", t.folded_coefficients, "RoofGS: folded coefficients C1..C6 with the dual-pixel update");
+  app.add_flag("--fast-exp", t.fast_exp, "RoofGS: Schraudolph fast exp");
+  app.add_option("--fast-exp-sigma", t.fast_exp_sigma, "sigma of the fast exp")->capture_default_str();
+  app.add_flag("--half-blend", t.half_blend,
                "Blend in binary16, two pixels per half2 instruction on the GPU (beyond the paper; needs --folded and "
                "--fast-exp)");
   app.footer("Any RoofGS technique flag renders exactly those techniques instead of the preset's (a lab "
@@ -344,17 +305,12 @@ int main(int argc, char** argv) {
              "preset uses need a build with RGS_LAB_KERNELS).");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
-  try {
-    app.parse(argc, argv);
-    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) {
-      throw CLI::ValidationError("one of --cameras or --orbit is required");
-    }
-    if (opt.half_blend && !(opt.folded && opt.fast_exp)) {
-      throw CLI::ValidationError("--half-blend needs --folded and --fast-exp");
-    }
-  } catch (const CLI::ParseError& e) {
-    return rgs::tools::finish(kTool, rgs::tools::exit_for_parse_error(app, e, kTool));
-  }
+  const auto check = [&]() -> std::string {
+    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) return "one of --cameras or --orbit is required";
+    if (t.half_blend && !(t.folded_coefficients && t.fast_exp)) return "--half-blend needs --folded and --fast-exp";
+    return {};
+  };
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));
 }

@@ -4,10 +4,18 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <thread>
 
-#include "internal_backend.h"
+#include "rgs/api/renderer.h"
+#include "rgs/audit/image_metrics.h"
+#include "rgs/config.h"
 #include "rgs/format/spec.h"
 #include "rgs/kernels/shared/blend_math.h"
+
+#if RGS_HAS_CUDA
+#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/runtime/cuda_device.h"
+#endif
 
 namespace rgs::audit {
 
@@ -116,11 +124,52 @@ Summary summarize(const std::vector<ViewMetrics>& views) {
   return s;
 }
 
+/// Renders `scene` into `image`, reusing it when it has the camera's size.
+Status render_into(api::Renderer& renderer, const api::Scene& scene, const runtime::Camera& camera,
+                   const api::RenderSettings& settings, std::optional<api::Image>* image) {
+  Status s;
+  if (*image && (*image)->width() == camera.width && (*image)->height() == camera.height) {
+    s = renderer.render(scene, camera, settings, (*image)->target()).status();
+  } else {
+    auto rendered = renderer.render_image(scene, camera, settings);
+    if (rendered.ok()) image->emplace(std::move(rendered).value());
+    s = rendered.status();
+  }
+  if (!s.ok()) return s.prepend(scene.info().path + ", view " + camera.name);
+  return Status();
+}
+
+/// The image's RGBA32F pixels on the host: its own memory on the CPU, a copy (`host`, made once per render) of a
+/// GPU image.
+Result<ImageRef> host_pixels(const api::Image& image, std::vector<float>* host) {
+  const float* pixels = static_cast<const float*>(image.color());
+  if (image.device() != api::Device::kCpu) {
+    if (host->empty()) {
+      host->resize(size_t(image.width()) * image.height() * 4);
+      RGS_RETURN_IF_ERROR(image.copy_to_host(host->data(), nullptr));
+    }
+    pixels = host->data();
+  }
+  return ImageRef{pixels, image.width(), image.height(), 4};
+}
+
+/// "CPU reference renderer (N threads)", or the CUDA device's name.
+Result<std::string> device_description(const AuditOptions& options) {
+  if (options.backend == Backend::kCpu) {
+    const unsigned n = options.cpu_threads != 0 ? options.cpu_threads : std::thread::hardware_concurrency();
+    return "CPU reference renderer (" + std::to_string(n) + " thread" + (n == 1 ? "" : "s") + ")";
+  }
+#if RGS_HAS_CUDA
+  RGS_ASSIGN_OR_RETURN(runtime::CudaDeviceInfo info, runtime::cuda_device_info(options.cuda_device));
+  return info.name;
+#else
+  return std::string();
+#endif
+}
+
 }  // namespace
 
 const char* backend_name(Backend backend) { return backend == Backend::kCuda ? "cuda" : "cpu"; }
-
-bool cuda_backend_available(std::string* why) { return detail::cuda_available(why); }
 
 Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditScene>& candidates,
                               const std::vector<runtime::Camera>& cameras, const AuditOptions& options) {
@@ -161,21 +210,53 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
     result.candidates.push_back(std::move(c));
   }
 
-  RGS_ASSIGN_OR_RETURN(std::unique_ptr<detail::ViewBackend> backend,
-                       detail::make_view_backend(source, candidates, options.backend, options.cuda_device,
-                                                 options.cpu_threads));
-  result.device = backend->device();
+  // The renders go through the front door (api::Renderer, the faithful preset, black background); the images
+  // are compared where they are (compare_images on the host, GpuImageComparer on the device).
+  const api::Device device = options.backend == Backend::kCuda ? api::Device::kCuda : api::Device::kCpu;
+  RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(device, options.cuda_device));
+  api::RenderSettings settings;
+  settings.preset = api::Preset::kFaithful;
+  settings.cpu_threads = options.cpu_threads;
+  api::LoadOptions load;
+  load.device = device;
+  load.cuda_device = options.cuda_device;
+  std::vector<api::Scene> scenes;  // the source, then the candidates
+  RGS_ASSIGN_OR_RETURN(api::Scene source_scene, api::load_cloud(source.cloud, source.bounds, source.info.path, load));
+  scenes.push_back(std::move(source_scene));
+  for (const AuditScene& cand : candidates) {
+    RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load_cloud(cand.cloud, cand.bounds, cand.info.path, load));
+    scenes.push_back(std::move(scene));
+  }
+  RGS_ASSIGN_OR_RETURN(result.device, device_description(options));
+#if RGS_HAS_CUDA
+  GpuImageComparer comparer;
+#endif
+  std::optional<api::Image> source_image, candidate_image;
+  std::vector<float> source_host, candidate_host;  // GPU images copied for the report
 
   for (size_t v = 0; v < cameras.size(); ++v) {
     const runtime::Camera& cam = cameras[v];
     const auto t_source = Clock::now();
-    RGS_RETURN_IF_ERROR(backend->render_source(cam));
+    RGS_RETURN_IF_ERROR(render_into(renderer, scenes[0], cam, settings, &source_image));
+    source_host.clear();
     const double source_seconds = seconds_since(t_source) / double(candidates.size());
     AuditProgress progress;
     for (size_t i = 0; i < candidates.size(); ++i) {
       CandidateResult& c = result.candidates[i];
       const auto t_view = Clock::now();
-      RGS_ASSIGN_OR_RETURN(ImageMetrics m, backend->render_candidate(i, cam));
+      RGS_RETURN_IF_ERROR(render_into(renderer, scenes[i + 1], cam, settings, &candidate_image));
+      candidate_host.clear();
+      const float* a = static_cast<const float*>(source_image->color());
+      const float* b = static_cast<const float*>(candidate_image->color());
+#if RGS_HAS_CUDA
+      Result<ImageMetrics> metrics = device == api::Device::kCpu
+                                         ? compare_images({a, cam.width, cam.height, 4}, {b, cam.width, cam.height, 4})
+                                         : comparer.compare(a, b, cam.width, cam.height, 4);
+#else
+      Result<ImageMetrics> metrics = compare_images({a, cam.width, cam.height, 4}, {b, cam.width, cam.height, 4});
+#endif
+      if (!metrics.ok()) return Status(metrics.status()).prepend("view " + cam.name);
+      const ImageMetrics& m = *metrics;
       ViewMetrics& vm = c.views[v];
       vm.psnr_db = m.psnr_db;
       vm.ssim = m.ssim;
@@ -189,22 +270,23 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
           (c.worst.size() < options.worst_views || m.psnr_db < c.worst.back().psnr_db);
       const bool keep_heatmap = options.keep_worst_heatmap && i == 0 && new_worst;
       if (keep_images || keep_heatmap) {
-        RGS_ASSIGN_OR_RETURN(auto images, backend->last_images());
+        RGS_ASSIGN_OR_RETURN(const ImageRef source_pixels, host_pixels(*source_image, &source_host));
+        RGS_ASSIGN_OR_RETURN(const ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
         if (keep_images) {
           const uint32_t f = reduction_factor(cam.width, cam.height, options.image_max_side);
           ViewImages vi;
           vi.view = v;
           vi.psnr_db = m.psnr_db;
-          vi.source = reduce_colour(images.first, f);
-          vi.candidate = reduce_colour(images.second, f);
+          vi.source = reduce_colour(source_pixels, f);
+          vi.candidate = reduce_colour(candidate_pixels, f);
           vi.heat_scale = m.max_abs_diff;
-          vi.difference = reduce_difference(images.first, images.second, f, m.max_abs_diff);
+          vi.difference = reduce_difference(source_pixels, candidate_pixels, f, m.max_abs_diff);
           auto at = std::upper_bound(c.worst.begin(), c.worst.end(), vi.psnr_db,
                                      [](double p, const ViewImages& w) { return p < w.psnr_db; });
           c.worst.insert(at, std::move(vi));
           if (c.worst.size() > options.worst_views) c.worst.pop_back();
         }
-        if (keep_heatmap) c.worst_heatmap = reduce_difference(images.first, images.second, 1, m.max_abs_diff);
+        if (keep_heatmap) c.worst_heatmap = reduce_difference(source_pixels, candidate_pixels, 1, m.max_abs_diff);
       }
       vm.seconds = seconds_since(t_view) + source_seconds;
     }

@@ -145,18 +145,24 @@ Status write_netpbm(const std::string& path, const Image8& image, format::FileSi
   return files.write(path, bytes.data(), bytes.size());
 }
 
+std::vector<std::pair<std::string, const Image8*>> report_images(const AuditResult& r, const std::string& dir) {
+  const std::string base = (std::filesystem::path(dir) / "").string();
+  std::vector<std::pair<std::string, const Image8*>> images;
+  for (size_t i = 0; i < r.candidates.size(); ++i) {
+    for (const ViewImages& w : r.candidates[i].worst) {
+      images.emplace_back(base + image_name(i, w.view, "source", ".ppm"), &w.source);
+      images.emplace_back(base + image_name(i, w.view, "candidate", ".ppm"), &w.candidate);
+      images.emplace_back(base + image_name(i, w.view, "diff", ".pgm"), &w.difference);
+    }
+  }
+  return images;
+}
+
 Status write_report_images(const AuditResult& r, const std::string& dir, format::FileSink& files) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   RGS_RETURN_ERROR_IF(ec, StatusCode::kIoError, dir + ": cannot create the image folder: " + ec.message());
-  for (size_t i = 0; i < r.candidates.size(); ++i) {
-    for (const ViewImages& w : r.candidates[i].worst) {
-      const std::string base = (std::filesystem::path(dir) / "").string();
-      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "source", ".ppm"), w.source, files));
-      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "candidate", ".ppm"), w.candidate, files));
-      RGS_RETURN_IF_ERROR(write_netpbm(base + image_name(i, w.view, "diff", ".pgm"), w.difference, files));
-    }
-  }
+  for (const auto& [path, image] : report_images(r, dir)) RGS_RETURN_IF_ERROR(write_netpbm(path, *image, files));
   return Status();
 }
 

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "audit_test_util.h"
+#include "rgs/api/scene.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/image_metrics.h"
 #include "rgs/config.h"
@@ -33,7 +34,7 @@ constexpr double kAgreementSsim = 1e-5;
 
 bool have_cuda() {
   std::string why;
-  if (audit::cuda_backend_available(&why)) return true;
+  if (api::cuda_available(&why)) return true;
   MESSAGE("skipped: no CUDA device (" << why << ")");
   return false;
 }
@@ -150,7 +151,7 @@ TEST_CASE("CPU and CUDA audits of flowers agree") {
 
 TEST_CASE("the CUDA backend without a device or CUDA build is kUnsupportedFeature") {
   std::string why;
-  if (audit::cuda_backend_available(&why)) {
+  if (api::cuda_available(&why)) {
     MESSAGE("skipped: a CUDA device is present");
     return;
   }

@@ -14,6 +14,7 @@
 
 #include "cli_common.h"
 #include "image_write.h"
+#include "rgs/audit/audit_report.h"
 
 namespace {
 
@@ -59,17 +60,17 @@ TEST_CASE("parse_resolution: WIDTHxHEIGHT and names") {
   CHECK(rgs::tools::parse_resolution("32768x1").ok());
 }
 
-TEST_CASE("write_netpbm8: P6 and P5 bytes") {
+TEST_CASE("audit::write_netpbm, the tools' Netpbm writer: P6 and P5 bytes") {
+  using rgs::audit::write_netpbm;
   const fs::path dir = scratch_dir();
   const std::vector<uint8_t> rgb = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};  // 2x2 RGB
-  REQUIRE(rgs::tools::write_netpbm8(rgs::format::atomic_files(), (dir / "a.ppm").string(), 2, 2, 3, rgb).ok());
+  REQUIRE(write_netpbm((dir / "a.ppm").string(), {2, 2, 3, rgb}).ok());
   CHECK(read_bytes(dir / "a.ppm") == std::string("P6\n2 2\n255\n") + std::string(rgb.begin(), rgb.end()));
   const std::vector<uint8_t> grey = {0, 128, 255};  // 3x1 grey
-  REQUIRE(rgs::tools::write_netpbm8(rgs::format::atomic_files(), (dir / "g.pgm").string(), 3, 1, 1, grey).ok());
+  REQUIRE(write_netpbm((dir / "g.pgm").string(), {3, 1, 1, grey}).ok());
   CHECK(read_bytes(dir / "g.pgm") == std::string("P5\n3 1\n255\n") + std::string(grey.begin(), grey.end()));
-  CHECK(rgs::tools::write_netpbm8(rgs::format::atomic_files(), (dir / "b.ppm").string(), 2, 3, 3, rgb).code() == StatusCode::kInvalidArgument);
-  CHECK(rgs::tools::write_netpbm8(rgs::format::atomic_files(), (dir / "no_dir" / "c.ppm").string(), 2, 2, 3, rgb).code() ==
-        StatusCode::kIoError);
+  CHECK(write_netpbm((dir / "b.ppm").string(), {2, 3, 3, rgb}).code() == StatusCode::kInvalidArgument);
+  CHECK(write_netpbm((dir / "no_dir" / "c.ppm").string(), {2, 2, 3, rgb}).code() == StatusCode::kIoError);
   fs::remove_all(dir);
 }
 
@@ -111,8 +112,9 @@ TEST_CASE("write_image8: dispatch by extension, PNG only with OpenImageIO") {
   } else {
     CHECK(png.code() == StatusCode::kUnsupportedFeature);
     CHECK(png.message().find("needs OpenImageIO") != std::string::npos);
-    CHECK(rgs::tools::write_exr_rgba(rgs::format::atomic_files(), (dir / "g.exr").string(), 1, 1, {0, 0, 0}, {1}).code() ==
-          StatusCode::kUnsupportedFeature);
+    const rgs::Status exr = rgs::tools::write_exr_rgba(rgs::format::atomic_files(), (dir / "g.exr").string(), 1, 1,
+                                                       {0, 0, 0, 1});
+    CHECK(exr.code() == StatusCode::kUnsupportedFeature);
     CHECK_FALSE(fs::exists(dir / "g.png"));
   }
   fs::remove_all(dir);

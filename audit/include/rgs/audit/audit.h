@@ -28,10 +28,6 @@ enum class Backend {
 /// "cpu" or "cuda".
 const char* backend_name(Backend backend);
 
-/// True when this build has CUDA and the runtime sees a device; otherwise false, with the reason in `why`
-/// ("built without CUDA", or the CUDA runtime's message). Never an error.
-bool cuda_backend_available(std::string* why = nullptr);
-
 /// Reported after every view.
 struct AuditProgress {
   size_t views_done = 0, views_total = 0;

@@ -4,6 +4,8 @@
 
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "rgs/audit/audit.h"
 #include "rgs/format/file_io.h"
@@ -36,9 +38,13 @@ bool passes_gate(const AuditResult& result, double min_psnr_db);
 /// "inf". Field reference: docs/AUDITS.md "JSON".
 std::string audit_json(const AuditResult& result, const ReportOptions& options);
 
-/// Writes every candidate's worst-view images into `dir` (created if missing): c<i>_v<view>_source.ppm,
-/// _candidate.ppm and _diff.pgm, the names audit_json() gives under ReportOptions::image_dir, each into
-/// `files` (default: written atomically in place). Errors: kIoError naming the path.
+/// Every candidate's worst-view images with their paths in `dir`: "<dir>/c<i>_v<view>_source.ppm",
+/// "_candidate.ppm" and "_diff.pgm", the names audit_json() gives under ReportOptions::image_dir. The images
+/// are `result`'s own (valid while it is).
+std::vector<std::pair<std::string, const Image8*>> report_images(const AuditResult& result, const std::string& dir);
+
+/// Writes report_images(result, dir) into `dir` (created if missing), each into `files` (default: written
+/// atomically in place). Errors: kIoError naming the path.
 Status write_report_images(const AuditResult& result, const std::string& dir,
                            format::FileSink& files = format::atomic_files());
 
