@@ -12,7 +12,9 @@ fastest preset):
   2. its per-stage medians for the frames --stages names (default: the largest non-replicated scene at
      3840x2160, or at its largest resolution), with the reference's total;
   3. the PSNR of its images against the reference's (mean / min over the views), where the runs had --quality;
-  4. with --modes SCENE@RES, every mode of that frame (the ablation).
+  4. with --modes SCENE@RES, every mode of that frame (the ablation);
+  5. where the runs had --floor, the true floor: what the image needs (the CPU reference's census) and each
+     stage's time over the time that work takes at the measured roofs (docs/ROOFLINE.md#the-true-floor).
 With --ab the inputs are the runs of `scripts/gpu_check.sh ... ab` (ab_<scene>_<a|b><round>.json: side A is
 the other build, B this one) and the output is one table of total medians per side and B's change over A.
 With --update FILE the output replaces the lines between the markers
@@ -44,10 +46,10 @@ STAGES = ("preprocess", "sort", "ranges", "render", "total")
 
 # The keys rgs-bench writes (tools/rgs_bench.cpp); anything else is a shape this script does not know.
 TOP_KEYS = {"tool", "version", "date", "timestamp_utc", "device", "device_peaks", "scene", "cameras",
-            "warmup_frames", "repetitions", "statistic", "results", "quality", "front_door"}
+            "warmup_frames", "repetitions", "statistic", "results", "quality", "front_door", "floor_census"}
 TOP_REQUIRED = {"tool", "date", "device", "scene", "statistic", "results"}
 RESULT_KEYS = {"mode", "mode_description", "resolution", "views", "frames", "median_ms", "stages", "fps",
-               "mean_pairs", "roofline", "per_view"}
+               "mean_pairs", "roofline", "per_view", "floor", "view_total_ms"}
 RESULT_REQUIRED = {"mode", "resolution", "views", "median_ms"}
 QUALITY_KEYS = {"mode", "resolution", "psnr_mean_db", "psnr_min_db", "ssim_mean", "max_abs_diff", "views"}
 
@@ -117,8 +119,16 @@ def load_run(path):
             v = med[s + "_ms"]
             need(is_number(v) and math.isfinite(v) and v >= 0, f"{where}.median_ms.{s}_ms",
                  f"{v!r} is not a time")
+        floor = {}
+        if "floor" in r:
+            for s in STAGES[:-1]:
+                v = r["floor"].get(s, {}).get("floor_ms")
+                need(is_number(v) and v >= 0, f"{where}.floor.{s}.floor_ms", f"{v!r} is not a time")
+                floor[s] = float(v)
+        spread = r.get("view_total_ms")
         frames.append({"mode": r["mode"], "resolution": r["resolution"],
-                       "ms": {s: float(med[s + "_ms"]) for s in STAGES}})
+                       "ms": {s: float(med[s + "_ms"]) for s in STAGES}, "floor": floor,
+                       "spread": (float(spread["min"]), float(spread["max"])) if spread else None})
 
     quality = j.get("quality", [])
     need(isinstance(quality, list), path + ": quality", "expected an array")
@@ -133,12 +143,25 @@ def load_run(path):
                      "mean": math.inf if q["psnr_mean_db"] is None else float(q["psnr_mean_db"]),
                      "min": math.inf if q["psnr_min_db"] is None else float(q["psnr_min_db"])})
 
+    census = {}
+    for i, c in enumerate(j.get("floor_census", [])):
+        where = f"{path}: floor_census[{i}]"
+        views = c.get("views")
+        need(isinstance(views, list) and views, where + ".views", "expected a non-empty array")
+        n = len(views)
+        mean = lambda key, sub=None: sum(v[key] if sub is None else v[key][sub] for v in views) / n
+        census[c["resolution"]] = {
+            "blended_px": mean("blended") / mean("pixels"), "skipped_px": mean("skipped") / mean("pixels"),
+            "contributing": mean("contributing"), "rect": mean("rect_pairs"),
+            "p16": mean("blending_pairs", "16x16"), "p8": mean("blending_pairs", "8x8"),
+            "p4": mean("blending_pairs", "4x4"), "reach16": mean("reaching_pairs", "16x16")}
+
     stem = os.path.basename(scene["path"].rstrip("/"))
     stem = re.sub(r"\.(rgs|ply|spz|glb|gltf|splat|sog|json)$", "", stem)
     return {"path": path, "date": j["date"], "stem": stem, "replicate": replicate,
             "gaussians": scene["gaussians"],
             "device": (dev["name"], dev["compute_capability"], dev["multiprocessors"]),
-            "frames": frames, "quality": rows}
+            "frames": frames, "quality": rows, "census": census}
 
 
 def gaussian_label(n):
@@ -169,6 +192,9 @@ class Scene:
         self.frames = {}   # (mode, resolution) -> stage ms
         self.modes = []    # in the order the runs list them
         self.quality = {}  # (mode, resolution) -> (mean, min)
+        self.floor = {}    # (mode, resolution) -> stage floor ms
+        self.census = {}   # resolution -> mean census counts per frame
+        self.spread = {}   # (mode, resolution) -> (fastest view, slowest view) median totals
 
     @property
     def label(self):
@@ -197,8 +223,13 @@ def collect(runs, names):
             k = (f["mode"], f["resolution"])
             need(k not in scene.frames, run["path"], f"{scene.name} {k[0]} {k[1]} appears twice in the inputs")
             scene.frames[k] = f["ms"]
+            if f["floor"]:
+                scene.floor[k] = f["floor"]
+            if f["spread"]:
+                scene.spread[k] = f["spread"]
             if f["mode"] not in scene.modes:
                 scene.modes.append(f["mode"])
+        scene.census.update(run["census"])
         for q in run["quality"]:
             k = (q["mode"], q["resolution"])
             need(k not in scene.quality, run["path"], f"quality of {scene.name} {k[0]} {k[1]} appears twice")
@@ -287,6 +318,32 @@ def render(scenes, device, dates, mode, reference, stage_specs, mode_specs):
         out += ["", f"`{mode}` against `{reference}`'s image of the same views (`--quality`), PSNR mean / min over "
                 "the views, dB:", ""]
         out += table(["scene"] + [resolution_label(r) for r in q_res], rows)
+
+    floor_frames = [(s, res) for s in scenes for res in resolutions if (mode, res) in s.floor]
+    if floor_frames:
+        rows = []
+        for s, res in floor_frames:
+            c = s.census[res]
+            rows.append([f"{s.label}, {resolution_label(res)}", f"{c['blended_px']:.1f}", f"{c['skipped_px']:.1f}",
+                         f"{c['contributing'] / 1e6:.2f}M", f"{c['rect'] / 1e6:.2f}M", f"{c['reach16'] / 1e6:.2f}M",
+                         f"{c['p16'] / 1e6:.2f}M", f"{c['p8'] / 1e6:.2f}M", f"{c['p4'] / 1e6:.2f}M"])
+        out += ["", "What the image needs (`--floor`: the CPU reference's census, mean per view): Gaussians blended "
+                "and tested in vain per pixel, Gaussians that blend anywhere, the 3DGS rectangles' pairs, the pairs "
+                "that reach α ≥ 1/255 per 16×16 tile, and the pairs that blend per 16×16, 8×8 and 4×4 cell:", ""]
+        out += table(["frame", "blended/px", "skipped/px", "contributing", "3DGS pairs", "reaching 16×16",
+                      "blending 16×16", "8×8", "4×4"], rows)
+        rows = []
+        for s, res in floor_frames:
+            ms, fl = s.frames[(mode, res)], s.floor[(mode, res)]
+            total = sum(fl.values())
+            cells = [f"{ms[st]:.3f} / {fl[st]:.3f}" for st in STAGES[:-1]]
+            lo_hi = s.spread.get((mode, res))
+            rows.append([f"{s.label}, {resolution_label(res)}"] + cells +
+                        [f"{ms['total']:.3f} / {total:.3f} ({ms['total'] / total:.1f}×)" if total > 0 else "–",
+                         f"{lo_hi[0]:.3f}–{lo_hi[1]:.3f}" if lo_hi else "–"])
+        out += ["", f"`{mode}` per stage against the true floor, ms (measured / floor), and the spread of the views' "
+                "median totals:", ""]
+        out += table(["frame"] + list(STAGES[:-1]) + ["total (× floor)", "views min–max"], rows)
 
     for spec in mode_specs:
         s, res = find_frame(scenes, spec)

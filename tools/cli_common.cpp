@@ -448,7 +448,15 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
       ->needs(cameras);
   app.add_option("--limit", choice.limit, limit_help)->check(CLI::Range(1, 2147483647));
   auto* orbit = app.add_option("--orbit", choice.orbit, orbit_help)->check(CLI::Range(1, 100000))->excludes(cameras);
-  cameras->excludes(orbit);
+  auto* path = app.add_option("--path", choice.path,
+                              "Camera path of N views around the scene (runtime::path_cameras): two turns of a "
+                              "spiral rising from 5 to 60 degrees, swinging between 0.3x and 1x the distance that "
+                              "frames its bounding sphere")
+                   ->check(CLI::Range(1, 100000))
+                   ->excludes(cameras)
+                   ->excludes(orbit);
+  cameras->excludes(orbit)->excludes(path);
+  orbit->excludes(path);
 }
 
 format::ReadOptions read_options() { return converter::rgs_read_options(scene_read_options()); }

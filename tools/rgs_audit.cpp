@@ -542,7 +542,7 @@ int main(int argc, char** argv) {
     const std::filesystem::path first(opt.scenes[1]);
     opt.report_path = (first.parent_path() / (first.stem().string() + ".audit.html")).string();
   }
-  if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) opt.cameras.orbit = 4;
+  if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) opt.cameras.orbit = 4;
   opt.cameras.orbit_width = 960;
   opt.cameras.orbit_height = 540;
   return rgs::tools::finish(kTool, run(opt));

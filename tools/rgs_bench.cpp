@@ -18,6 +18,9 @@
 // and resolution is placed against them with the analytic bytes and FLOPs of runtime/roofline_model.h (mean over the
 // views' pair counts) and the stage's median time: GB/s, GFLOP/s, FLOP/B, % of each peak, the bounding roof.
 //
+// --floor adds the true floor (docs/ROOFLINE.md#the-true-floor): each view counted by the CPU reference
+// (runtime::census_frame) and, per stage, the time the work the image needs takes at the measured roofs.
+//
 // --replicate K tiles the scene K times (converter::replicate, api::replicate_scene_file) before the
 // upload, keeping compact attributes, so that multi-million-Gaussian scenes can be timed; orbit cameras frame
 // the replicated bounds. Exit status: 0 ok, 1 failure (no device, scene, render), 2 usage error.
@@ -39,11 +42,13 @@
 #include "rgs/api/gpu_scene_loading.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
+#include "rgs/api/scene_loading.h"
 #include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/config.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_peaks.h"
+#include "rgs/runtime/frame_census.h"
 #include "rgs/runtime/gpu_renderer.h"
 #include "rgs/runtime/roofline_model.h"
 
@@ -76,6 +81,7 @@ struct Options {
   std::string json_path;
   bool front_door = false;
   bool quality = false;
+  bool floor = false;
 };
 
 constexpr int kStages = 5;
@@ -275,6 +281,12 @@ nlohmann::json peaks_json(const runtime::DevicePeaks& p) {
             {"samples_ms", p.fma_ms},
             {"median_ms", p.fma_median_ms},
             {"gflops", p.fp32_gflops}}},
+          {"half2",
+           {{"method", "the FMA loop on half2 pairs (__hfma2), 4 FLOPs per instruction, same grid, median"},
+            {"flops_per_launch", p.hfma2_flops},
+            {"samples_ms", p.hfma2_ms},
+            {"median_ms", p.hfma2_median_ms},
+            {"gflops", p.half_gflops}}},
           {"ridge_flop_per_byte", p.ridge_flop_per_byte()}};
 }
 
@@ -439,6 +451,64 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
   return rows;
 }
 
+/// --floor: every view of one camera set counted by the CPU reference, and the floor's work per frame.
+struct FloorSet {
+  std::string resolution;
+  std::vector<std::string> view_names;
+  std::vector<runtime::FrameCensus> census;          ///< per view
+  runtime::StageWork work[runtime::kRooflineStages];  ///< runtime::floor_work, mean over the views
+};
+
+Result<std::vector<FloorSet>> count_floor(const Options& opt, const std::vector<CameraSet>& sets) {
+  RGS_ASSIGN_OR_RETURN(const api::HostScene host, api::load_host_scene(opt.input, tools::scene_read_options()));
+  std::vector<FloorSet> out;
+  for (const CameraSet& set : sets) {
+    FloorSet f;
+    f.resolution = set.label;
+    const double n = double(set.cameras.size());
+    for (const runtime::Camera& cam : set.cameras) {
+      std::fprintf(stderr, "floor %s: counting view %s on the CPU ...\n", set.label.c_str(), cam.name.c_str());
+      auto census = runtime::census_frame(host.cloud, cam);
+      if (!census.ok()) return Status(census.status()).prepend("view " + cam.name);
+      const runtime::FrameWork w = runtime::floor_work(*census, host.cloud.sh_degree);
+      for (int s = 0; s < runtime::kRooflineStages; ++s) {
+        f.work[s].bytes += w.stages[s].bytes / n;
+        f.work[s].flops += w.stages[s].flops / n;
+        f.work[s].half_flops += w.stages[s].half_flops / n;
+      }
+      f.view_names.push_back(cam.name);
+      f.census.push_back(*census);
+    }
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+/// The floor of each stage of run `r` (0 where --floor was not given).
+std::vector<runtime::RooflinePoint> floor_points(const RunResult& r, const std::vector<FloorSet>& floors,
+                                                 const runtime::RooflinePeaks& peaks) {
+  for (const FloorSet& f : floors) {
+    if (f.resolution != r.resolution) continue;
+    std::vector<runtime::RooflinePoint> points;
+    for (int s = 0; s < runtime::kRooflineStages; ++s) {
+      points.push_back(runtime::roofline_point(f.work[s], r.stages[s].median, peaks));
+    }
+    return points;
+  }
+  return {};
+}
+
+/// Smallest and largest of the views' median totals: how much the frame time moves from view to view.
+std::pair<double, double> view_spread(const RunResult& r) {
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  for (const ViewResult& v : r.views) {
+    const double m = summarize(v.samples[4]).median;
+    lo = std::min(lo, m);
+    hi = std::max(hi, m);
+  }
+  return {r.views.empty() ? 0.0 : lo, hi};
+}
+
 /// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
 /// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
 Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::ReplicatedScene* replicated, bool fp32) {
@@ -465,6 +535,8 @@ struct BenchReport {
   std::vector<RunRoofline> rooflines;
   std::vector<QualityRow> quality;
   std::vector<FrontDoorRow> front_door;
+  std::vector<FloorSet> floors;
+  runtime::RooflinePeaks roofs;
 };
 
 /// The tables on stdout: scene, stage times, roofline, quality, front door.
@@ -492,22 +564,25 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
   std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame) + %s MB image\n",
               tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(), tools::fixed(double(report.image_bytes) / 1e6, 1).c_str());
   std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", report.view_count,
-              opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json", opt.warmup, opt.repeat);
-  std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", "mode", "resolution", "preprocess", "sort", "ranges",
-              "render", "total", "FPS", "mean pairs");
+              !opt.cameras.cameras_path.empty() ? "cameras.json" : opt.cameras.path > 0 ? "path" : "orbit",
+              opt.warmup, opt.repeat);
+  std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %15s %8s %14s\n", "mode", "resolution", "preprocess", "sort",
+              "ranges", "render", "total", "views min-max", "FPS", "mean pairs");
   for (const RunResult& r : report.results) {
-    std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %8s %14s\n", r.mode.c_str(), r.resolution.c_str(),
+    const auto [lo, hi] = view_spread(r);
+    std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %15s %8s %14s\n", r.mode.c_str(), r.resolution.c_str(),
                 tools::fixed(r.stages[0].median, 3).c_str(), tools::fixed(r.stages[1].median, 3).c_str(),
                 tools::fixed(r.stages[2].median, 3).c_str(), tools::fixed(r.stages[3].median, 3).c_str(),
-                tools::fixed(r.stages[4].median, 3).c_str(), tools::fixed(r.fps, 1).c_str(),
+                tools::fixed(r.stages[4].median, 3).c_str(),
+                (tools::fixed(lo, 3) + "-" + tools::fixed(hi, 3)).c_str(), tools::fixed(r.fps, 1).c_str(),
                 tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
   }
 
   std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
-              "FP32 %s GFLOP/s (FMA loop, median of %zu); ridge %s FLOP/B\n",
+              "FP32 %s GFLOP/s (FMA loop, median of %zu); half2 %s GFLOP/s; ridge %s FLOP/B\n",
               tools::fixed(report.peaks.memory_gbps, 1).c_str(), tools::group_digits(report.peaks.copy_bytes >> 20).c_str(),
               report.peaks.copy_ms.size(), tools::fixed(report.peaks.fp32_gflops, 0).c_str(), report.peaks.fma_ms.size(),
-              tools::fixed(report.peaks.ridge_flop_per_byte(), 2).c_str());
+              tools::fixed(report.peaks.half_gflops, 0).c_str(), tools::fixed(report.peaks.ridge_flop_per_byte(), 2).c_str());
   std::printf("  roofline         model: docs/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
   std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage",
               "ms", "floor ms", "x floor", "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
@@ -524,6 +599,48 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
     }
   }
 
+  if (!report.floors.empty()) {
+    std::printf("  true floor       the work the image needs at the measured roofs (docs/ROOFLINE.md#the-true-floor); "
+                "per frame, mean over the views\n");
+    std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s\n", "resolution", "blended/px", "skipped/px",
+                "contributing", "3DGS pairs", "pairs 16x16", "pairs 8x8", "pairs 4x4", "reach 16x16");
+    for (const FloorSet& f : report.floors) {
+      double blended = 0, skipped = 0, pixels = 0, contributing = 0, rect = 0, p16 = 0, p8 = 0, p4 = 0, reach = 0;
+      for (const runtime::FrameCensus& c : f.census) {
+        blended += double(c.blended);
+        skipped += double(c.skipped);
+        pixels += double(c.pixels());
+        contributing += double(c.contributing);
+        rect += double(c.rect_pairs);
+        p16 += double(c.blending_pairs[0]);
+        p8 += double(c.blending_pairs[1]);
+        p4 += double(c.blending_pairs[2]);
+        reach += double(c.reaching_pairs[0]);
+      }
+      const double n = double(std::max<size_t>(f.census.size(), 1));
+      const auto count = [&](double v) { return tools::group_digits(uint64_t(v / n + 0.5)); };
+      std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s\n", f.resolution.c_str(),
+                  tools::fixed(blended / pixels, 2).c_str(), tools::fixed(skipped / pixels, 2).c_str(),
+                  count(contributing).c_str(), count(rect).c_str(), count(p16).c_str(), count(p8).c_str(),
+                  count(p4).c_str(), count(reach).c_str());
+    }
+    std::printf("  %-12s %-10s %-10s %8s %9s %8s\n", "mode", "resolution", "stage", "ms", "floor ms", "x floor");
+    for (const RunResult& r : report.results) {
+      const std::vector<runtime::RooflinePoint> points = floor_points(r, report.floors, report.roofs);
+      double floor_total = 0;
+      for (int s = 0; s < int(points.size()); ++s) {
+        floor_total += points[s].floor_ms;
+        std::printf("  %-12s %-10s %-10s %8s %9s %8s\n", r.mode.c_str(), r.resolution.c_str(),
+                    runtime::roofline_stage_name(runtime::RooflineStage(s)), tools::fixed(points[s].ms, 3).c_str(),
+                    tools::fixed(points[s].floor_ms, 4).c_str(), tools::fixed(points[s].times_floor, 1).c_str());
+      }
+      if (!points.empty()) {
+        std::printf("  %-12s %-10s %-10s %8s %9s %8s\n", r.mode.c_str(), r.resolution.c_str(), "total",
+                    tools::fixed(r.stages[4].median, 3).c_str(), tools::fixed(floor_total, 4).c_str(),
+                    tools::fixed(floor_total > 0 ? r.stages[4].median / floor_total : 0.0, 1).c_str());
+      }
+    }
+  }
   if (!report.quality.empty()) {
     std::printf("  quality          against faithful's render of the same views (clamped RGB; PSNR dB, SSIM)\n");
     std::printf("  %-12s %-10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min", "SSIM mean",
@@ -579,7 +696,9 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
     j["scene"]["bounds"] = {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max},
                             {"sphere_center", b.sphere_center}, {"sphere_radius", b.sphere_radius}};
   }
-  j["cameras"] = {{"source", opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json"},
+  j["cameras"] = {{"source", !opt.cameras.cameras_path.empty() ? "cameras.json"
+                             : opt.cameras.path > 0           ? "path"
+                                                              : "orbit"},
                   {"path", opt.cameras.cameras_path},
                   {"every", opt.cameras.every},
                   {"views", report.view_count}};
@@ -608,6 +727,13 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                        {"median_total_ms", summarize(v.samples[4]).median},
                        {"samples", samples}});
     }
+    const auto [lo, hi] = view_spread(r);
+    nlohmann::json floor;
+    const std::vector<runtime::RooflinePoint> points = floor_points(r, report.floors, report.roofs);
+    for (int s = 0; s < int(points.size()); ++s) {
+      floor[runtime::roofline_stage_name(runtime::RooflineStage(s))] = {{"floor_ms", points[s].floor_ms},
+                                                                          {"times_floor", points[s].times_floor}};
+    }
     runs.push_back({{"mode", r.mode},
                     {"mode_description", mode_description(r.mode)},
                     {"resolution", r.resolution},
@@ -618,9 +744,35 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                     {"fps", r.fps},
                     {"mean_pairs", r.mean_pairs},
                     {"roofline", roofline_json(report.rooflines[i])},
+                    {"view_total_ms", {{"min", lo}, {"max", hi}}},
                     {"per_view", views}});
+    if (!points.empty()) runs.back()["floor"] = floor;
   }
   j["results"] = runs;
+  for (const FloorSet& f : report.floors) {
+    nlohmann::json views = nlohmann::json::array(), work;
+    for (size_t v = 0; v < f.census.size(); ++v) {
+      const runtime::FrameCensus& c = f.census[v];
+      views.push_back({{"name", f.view_names[v]},
+                       {"pixels", c.pixels()},
+                       {"gaussians", c.gaussians},
+                       {"visible", c.visible},
+                       {"contributing", c.contributing},
+                       {"rect_pairs", c.rect_pairs},
+                       {"blended", c.blended},
+                       {"skipped", c.skipped},
+                       {"max_blended", c.max_blended},
+                       {"blending_pairs", {{"16x16", c.blending_pairs[0]}, {"8x8", c.blending_pairs[1]},
+                                           {"4x4", c.blending_pairs[2]}}},
+                       {"reaching_pairs", {{"16x16", c.reaching_pairs[0]}, {"8x8", c.reaching_pairs[1]},
+                                           {"4x4", c.reaching_pairs[2]}}}});
+    }
+    for (int s = 0; s < runtime::kRooflineStages; ++s) {
+      work[runtime::roofline_stage_name(runtime::RooflineStage(s))] = {
+          {"bytes", f.work[s].bytes}, {"flops", f.work[s].flops}, {"half_flops", f.work[s].half_flops}};
+    }
+    j["floor_census"].push_back({{"resolution", f.resolution}, {"work", work}, {"views", views}});
+  }
   for (const QualityRow& r : report.quality) {
     j["quality"].push_back({{"mode", r.mode},
                             {"resolution", r.resolution},
@@ -662,7 +814,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
   auto peaks = runtime::measure_device_peaks();
   if (!peaks.ok()) return Status(peaks.status()).prepend("device peaks");
-  const runtime::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops};
+  const runtime::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops, peaks->half_gflops};
 
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderer renderer, runtime::GpuRenderer::create());
   // Load time: read, decode (an archive .rgs decodes its Draco and quantized sections here) and upload, to the
@@ -696,6 +848,12 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
     if (!rows.ok()) return Status(rows.status()).prepend("--quality");
     quality = std::move(rows).value();
   }
+  std::vector<FloorSet> floors;
+  if (opt.floor) {
+    auto counted = count_floor(opt, sets);
+    if (!counted.ok()) return Status(counted.status()).prepend("--floor");
+    floors = std::move(counted).value();
+  }
   std::vector<FrontDoorRow> front_door;
   if (opt.front_door && opt.replicate <= 1) {
     std::fprintf(stderr, "front door against GpuRenderer: %u warm-up + %u rounds ...\n", opt.warmup, opt.repeat);
@@ -707,7 +865,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   BenchReport report{std::move(device), std::move(peaks).value(), date, load_ms, renderer.scratch_bytes(),
                      uint64_t(image.width()) * image.height() * (16 + (image.has_depth() ? 4 : 0)),
                      sets.front().cameras.size(), std::move(results), std::move(rooflines), std::move(quality),
-                     std::move(front_door)};
+                     std::move(front_door), std::move(floors), roofs};
   print_report(opt, scene, replicated, report);
   if (!opt.json_path.empty()) {
     const std::string text = bench_json(opt, scene, replicated, report);
@@ -784,10 +942,17 @@ int main(int argc, char** argv) {
   app.add_flag("--quality", opt.quality,
                "Also compare every view of every mode but faithful with faithful's render (the 3DGS baseline) (PSNR, SSIM, max |d| "
                "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
+  app.add_flag("--floor", opt.floor,
+               "Also count every view with the CPU reference (what each pixel blends and tests in vain, the pairs "
+               "the image needs per 16x16, 8x8 and 4x4 cell) and print each stage's true floor: the time the work "
+               "the image needs takes at the measured roofs (docs/ROOFLINE.md#the-true-floor; needs --replicate 1)");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {
-    return opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 ? "one of --cameras or --orbit is required" : "";
+    if (opt.floor && opt.replicate > 1) return "--floor counts the scene as stored: it needs --replicate 1";
+    return opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0
+               ? "one of --cameras, --orbit or --path is required"
+               : "";
   };
   if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
   rgs::tools::install_interrupt_cleanup();

@@ -306,7 +306,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {
-    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0) return "one of --cameras or --orbit is required";
+    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
+      return "one of --cameras, --orbit or --path is required";
+    }
     if (t.half_blend && !(t.folded_coefficients && t.fast_exp)) return "--half-blend needs --folded and --fast-exp";
     return {};
   };
