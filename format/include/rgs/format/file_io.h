@@ -100,8 +100,6 @@ class StagedFile {
 
  private:
   StagedFile() = default;
-  StagedFile(std::string path, std::string temporary, size_t slot)
-      : path_(std::move(path)), temporary_(std::move(temporary)), slot_(slot) {}
   void discard() noexcept;
   std::string path_, temporary_;
   size_t slot_ = 0;
