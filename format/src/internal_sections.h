@@ -70,6 +70,10 @@ Status check_scale(const uint16_t xyz[3], uint64_t index, ScaleEncoding encoding
 Status check_opacity(uint16_t opacity, uint64_t index);
 /// `q` holds the 3K quantized SH values of Gaussian `index`.
 Status check_sh(const int8_t* q, size_t count, uint64_t index);
+/// The rules above on `records` whole records (Gaussians first, first + 1, ...) of runtime section `id`'s raw
+/// little-endian bytes at `p`; ok for a section that is not a runtime one.
+Status check_records(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records,
+                     size_t record_size, uint64_t first);
 
 /// §3.1 Checks the frame header of a zstd section without decoding it: a zstd frame (not skippable),
 /// no dictionary, content checksum flag set, content size present and equal to raw_size, window at most
