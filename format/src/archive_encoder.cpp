@@ -66,26 +66,6 @@ Status check_options(const ArchiveOptions& o) {
   return Status();
 }
 
-/// One zstd frame with content size and checksum, single-threaded (SPEC §3.1, §7).
-Status compress_frame(const std::vector<uint8_t>& raw, int level, std::vector<uint8_t>* out) {
-  std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
-  if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
-  for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, level}, std::pair{ZSTD_c_checksumFlag, 1},
-                              std::pair{ZSTD_c_contentSizeFlag, 1}, std::pair{ZSTD_c_nbWorkers, 0}}) {
-    const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
-    if (ZSTD_isError(r)) return invalid(std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
-  }
-  const size_t start = out->size();
-  const size_t bound = ZSTD_compressBound(raw.size());
-  out->resize(start + bound);
-  const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw.data(), raw.size());
-  if (ZSTD_isError(n))
-    return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
-  out->resize(start + n);
-  out->shrink_to_fit();  // the bound can be twice the frame; the section is kept until the file is written
-  return Status();
-}
-
 /// Planar code buffer of §3.3.2: `components` planes of n codes, 1 byte each (bits <= 8) or two byte
 /// planes (low bytes, then high bytes).
 struct CodePlanes {
@@ -101,17 +81,32 @@ struct CodePlanes {
   }
 };
 
-/// Header (§3.3.2) + zstd frame of the codes.
+/// Header (§3.3.2; the codebook transform adds its size, §3.3.3) + zstd frame of the codes.
 Status finish_quantized(detail::QuantizedTransform transform, uint32_t bits, uint32_t components,
-                        const std::vector<float>& params, const CodePlanes& codes, int level,
-                        std::vector<uint8_t>* out) {
-  out->assign(detail::kQuantizedHeaderSize + 4 * params.size(), 0);
+                        const std::vector<float>& params, const std::vector<uint8_t>& codes, int level,
+                        std::vector<uint8_t>* out, uint32_t codebook_size = 0) {
+  const bool codebook = transform == detail::QuantizedTransform::kShCodebook;
+  out->assign(detail::kQuantizedHeaderSize + 4 * params.size() + (codebook ? 4 : 0), 0);
   (*out)[0] = static_cast<uint8_t>(transform);
   (*out)[1] = static_cast<uint8_t>(bits);
   detail::store_u16_le(out->data() + 2, static_cast<uint16_t>(params.size()));
   detail::store_u32_le(out->data() + 4, components);
   for (size_t p = 0; p < params.size(); ++p) detail::store_f32_le(out->data() + 8 + 4 * p, params[p]);
-  return compress_frame(codes.bytes, level, out);
+  if (codebook) detail::store_u32_le(out->data() + 8 + 4 * params.size(), codebook_size);
+  return detail::compress_zstd_frame(codes.data(), codes.size(), level, out);
+}
+
+/// The SH step multipliers as the parameters of transforms 4 and 5.
+std::vector<float> sh_params(const ArchiveOptions& o) {
+  return {static_cast<float>(o.sh_step_multipliers[0]), static_cast<float>(o.sh_step_multipliers[1]),
+          static_cast<float>(o.sh_step_multipliers[2]), static_cast<float>(o.sh_step_multipliers[3])};
+}
+
+/// Transform-4 code of runtime value q with multiplier m: round half away from zero, as the runtime quantizer
+/// does, clamped to 127 / m.
+int8_t sh_code(int q, int m) {
+  const int code = std::min((std::abs(q) + m / 2) / m, 127 / m);
+  return static_cast<int8_t>(q < 0 ? -code : code);
 }
 
 uint32_t round_code(double v, uint32_t max_code) {
@@ -145,7 +140,7 @@ Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& orde
       codes.set(c++, i, round_code((sign * q[a] / norm - lo) * inv, max_code));
     }
   }
-  return finish_quantized(detail::QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes, o.zstd_level, out);
+  return finish_quantized(detail::QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -183,7 +178,7 @@ Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, 
       codes.set(a, i, !std::isfinite(v) || step == 0 ? 0 : round_code((v - params[a]) / step, max_code));
     }
   }
-  return finish_quantized(detail::QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes, o.zstd_level, out);
+  return finish_quantized(detail::QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -193,7 +188,7 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
   for (uint64_t i = 0; i < s.count; ++i) {
     codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * static_cast<double>(max_code), max_code));
   }
-  return finish_quantized(detail::QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes, o.zstd_level, out);
+  return finish_quantized(detail::QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -202,20 +197,14 @@ Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, cons
   CodePlanes codes(s.count, values, 8);
   for (uint32_t c = 0; c < values; ++c) {
     const int m = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
-    const int limit = 127 / m;
+    // SH codes are stored Gaussian-major (one record of 3K codes per Gaussian, §3.3.2): scenes whose SH come
+    // from a codebook repeat whole records, which zstd finds as matches.
     for (uint64_t i = 0; i < s.count; ++i) {
-      const int q = s.sh[order[i] * values + c];
-      // Round half away from zero, as the runtime quantizer does.
-      int code = (std::abs(q) + m / 2) / m;
-      code = std::min(code, limit);
-      // SH codes are stored Gaussian-major (one record of 3K codes per Gaussian, §3.3.2): scenes whose
-      // SH come from a codebook repeat whole records, which zstd finds as matches.
-      codes.bytes[i * values + c] = static_cast<uint8_t>(static_cast<int8_t>(q < 0 ? -code : code));
+      codes.bytes[i * values + c] = static_cast<uint8_t>(sh_code(s.sh[order[i] * values + c], m));
     }
   }
-  std::vector<float> params(4);
-  for (int d = 0; d < 4; ++d) params[d] = static_cast<float>(o.sh_step_multipliers[d]);
-  return finish_quantized(detail::QuantizedTransform::kShMultiplier, 8, values, params, codes, o.zstd_level, out);
+  return finish_quantized(detail::QuantizedTransform::kShMultiplier, 8, values, sh_params(o), codes.bytes,
+                          o.zstd_level, out);
 }
 
 /// One cell of the SH codebook's splitting tree: Gaussians ids[begin, end) and the exact integer sums of
@@ -369,12 +358,6 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
   return book;
 }
 
-/// Transform-4 code of runtime value q with multiplier m: round half away from zero, clamped to 127 / m.
-int8_t sh_code(int q, int m) {
-  const int code = std::min((std::abs(q) + m / 2) / m, 127 / m);
-  return static_cast<int8_t>(q < 0 ? -code : code);
-}
-
 /// §3.3.3 Distinct rest-code records in first-occurrence order: `first[e]` is the first Gaussian (output
 /// order) holding entry e, `index[i]` the entry of Gaussian i. An open-addressing table of entry ids
 /// (4 bytes a slot) compares records by recomputing them, so no copy of the records is kept. Returns
@@ -469,15 +452,8 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     for (uint32_t b = 0; b < width; ++b) planes[b * n + i] = static_cast<uint8_t>(index[i] >> (8 * b));
   }
   index = {};  // before the frame's compression buffer is allocated
-  out->assign(detail::kQuantizedHeaderSize + 20, 0);
-  (*out)[0] = static_cast<uint8_t>(detail::QuantizedTransform::kShCodebook);
-  (*out)[1] = static_cast<uint8_t>(bits);
-  detail::store_u16_le(out->data() + 2, 4);
-  detail::store_u32_le(out->data() + 4, values);
-  for (int d = 0; d < 4; ++d)
-    detail::store_f32_le(out->data() + 8 + 4 * d, static_cast<float>(o.sh_step_multipliers[d]));
-  detail::store_u32_le(out->data() + 24, static_cast<uint32_t>(k));
-  return compress_frame(frame, o.zstd_level, out);
+  return finish_quantized(detail::QuantizedTransform::kShCodebook, bits, values, sh_params(o), frame, o.zstd_level,
+                          out, static_cast<uint32_t>(k));
 }
 
 /// 16 bytes: Draco's quantized coordinates (< 2^30) and the point index (< 2^31, checked by the caller).

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "rgs/format/metadata.h"
 #include "rgs/format/spec.h"
@@ -81,6 +82,9 @@ Status check_records(SectionId id, const SceneMetadata& metadata, const uint8_t*
 Status check_zstd_frame_header(const uint8_t* src, size_t stored_size, uint64_t raw_size);
 /// Turns a zstd error code into kChecksumMismatch (content checksum) or kCorruptData (reader.cpp).
 Status zstd_error_status(size_t code, const std::string& what);
+/// §3.1, §7 Appends one single-threaded zstd frame of `size` raw bytes, with content size and checksum, to `out`.
+/// Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
+Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out);
 /// §3.1 Decodes one whole zstd frame of exactly `stored_size` bytes into exactly `raw_size` bytes.
 Status decode_zstd_frame(const uint8_t* src, size_t stored_size, uint8_t* dst, size_t raw_size);
 

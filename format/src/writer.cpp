@@ -76,17 +76,36 @@ void encode_provenance(const Provenance& provenance, uint8_t* out, size_t size) 
   }
 }
 
+Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out) {
+  std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
+  if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
+  // §7 Single-threaded, content size and checksum in every frame: deterministic, self-checking.
+  for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, level}, std::pair{ZSTD_c_checksumFlag, 1},
+                              std::pair{ZSTD_c_contentSizeFlag, 1}, std::pair{ZSTD_c_nbWorkers, 0}}) {
+    const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
+    if (ZSTD_isError(r)) {
+      return Status(StatusCode::kInvalidArgument, std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
+    }
+  }
+  const size_t start = out->size();
+  const size_t bound = ZSTD_compressBound(size);
+  if (ZSTD_isError(bound)) return Status(StatusCode::kInvalidArgument, dec(size) + " bytes are too large for zstd");
+  out->resize(start + bound);
+  const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw, size);
+  if (ZSTD_isError(n)) {
+    return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
+  }
+  out->resize(start + n);
+  out->shrink_to_fit();  // the bound can be twice the frame; the section is kept until the file is written
+  return Status();
+}
+
 }  // namespace detail
 
 namespace {
 
 using detail::ByteWriter;
 using detail::dec;
-
-struct ZstdCCtxDeleter {
-  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
-};
-using ZstdCCtxPtr = std::unique_ptr<ZSTD_CCtx, ZstdCCtxDeleter>;
 
 /// One section as it will be written: raw bytes (a view into the scene, or owned when they had to be
 /// encoded), the zstd frame when compressed, and its place in the file.
@@ -193,22 +212,6 @@ void set_array_raw(PlannedSection* s, const std::vector<T>& values) {
   }
 }
 
-Status compress_section(ZSTD_CCtx* cctx, PlannedSection* s) {
-  const size_t bound = ZSTD_compressBound(s->raw_size);
-  if (ZSTD_isError(bound)) {
-    return invalid(std::string(section_name(s->id)) + ": " + dec(s->raw_size) + " bytes are too large for zstd");
-  }
-  s->compressed.resize(bound);
-  const size_t n = ZSTD_compress2(cctx, s->compressed.data(), bound, s->raw, s->raw_size);
-  if (ZSTD_isError(n)) {
-    return Status(StatusCode::kOutOfMemory, std::string("zstd compression of section ") + section_name(s->id) +
-                                                " failed: " + ZSTD_getErrorName(n));
-  }
-  s->compressed.resize(n);
-  s->compressed.shrink_to_fit();
-  return Status();
-}
-
 /// A file ready to be written: its sections (stored bytes, checksums, offsets) and its header + table.
 struct PlannedFile {
   std::vector<PlannedSection> sections;
@@ -286,23 +289,12 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   return version;
 }
 
-/// Compresses every zstd section of `plan`, with one context made when the first one needs it.
+/// Compresses every zstd section of `plan`.
 Status compress_sections(const WriteOptions& options, std::vector<PlannedSection>* plan) {
-  ZstdCCtxPtr cctx;
   for (PlannedSection& s : *plan) {
     if (s.codec != Codec::kZstd) continue;
-    if (!cctx) {
-      cctx.reset(ZSTD_createCCtx());
-      if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
-      // §7 Single-threaded, content size and checksum in every frame: deterministic, self-checking.
-      for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, options.zstd_level},
-                                  std::pair{ZSTD_c_checksumFlag, 1}, std::pair{ZSTD_c_contentSizeFlag, 1},
-                                  std::pair{ZSTD_c_nbWorkers, 0}}) {
-        const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
-        if (ZSTD_isError(r)) return invalid(std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
-      }
-    }
-    RGS_RETURN_IF_ERROR(compress_section(cctx.get(), &s));
+    Status st = detail::compress_zstd_frame(s.raw, static_cast<size_t>(s.raw_size), options.zstd_level, &s.compressed);
+    if (!st.ok()) return st.prepend(std::string("section ") + section_name(s.id));
   }
   return Status();
 }
@@ -450,31 +442,28 @@ Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const 
   return out;
 }
 
+/// fn(), with an allocation failure turned into kOutOfMemory naming the scene's size.
+template <typename Fn>
+auto catch_out_of_memory(const EncodedScene& scene, Fn&& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+  } catch (const std::length_error&) {
+  }
+  return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
+}
+
 }  // namespace
 
 Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options) {
-  try {
-    return serialize_checked(scene, options);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-  } catch (const std::length_error&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-  }
+  return catch_out_of_memory(scene, [&] { return serialize_checked(scene, options); });
 }
 
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options,
                                   FileSink& files) {
   // Streams the sections from the scene's own arrays (no serialized copy of the whole file in memory).
   std::optional<ArchiveScene> archive;
-  auto file = [&]() -> Result<PlannedFile> {
-    try {
-      return plan_profile(scene, options, &archive);
-    } catch (const std::bad_alloc&) {
-      return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-    } catch (const std::length_error&) {
-      return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-    }
-  }();
+  auto file = catch_out_of_memory(scene, [&] { return plan_profile(scene, options, &archive); });
   if (!file.ok()) return Status(file.status()).prepend(path);
   RGS_RETURN_IF_ERROR(files.write(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
   return file->file_size;
