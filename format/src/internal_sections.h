@@ -37,8 +37,6 @@ struct SectionLayout {
 
 /// True for the section ids version 1.0 defines.
 bool is_known_section(SectionId id);
-/// True for sections every 1.0 file must have (all known ones except provenance).
-bool is_required_section(SectionId id);
 /// Layout of known section `id` for an SH degree (it sets the components of kSh); false if unknown.
 bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out);
 

@@ -49,8 +49,6 @@ bool is_known_section(SectionId id) {
   return false;
 }
 
-bool is_required_section(SectionId id) { return is_known_section(id) && id != SectionId::kProvenance; }
-
 bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out) {
   switch (id) {
     case SectionId::kMetadata:

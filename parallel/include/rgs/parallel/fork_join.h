@@ -97,37 +97,21 @@ template <typename Fn>
 [[nodiscard]] Status parallel_slices(uint64_t n, unsigned workers, Fn&& fn) {
   WorkerFailures failures;
   const std::string what = std::to_string(n) + " items";
-  if (workers <= 1 || n < 2) {
-    failures.run([&] { fn(0u, uint64_t{0}, n); });
-    return failures.result(what);
-  }
+  if (n < 2 || workers == 0) workers = 1;
   auto bound = [n, workers](unsigned t) {
     return (n / workers) * t + (n % workers) * t / workers;  // floor(n·t / workers) without overflow
   };
+  auto slice = [&](unsigned t) { failures.run([&] { fn(t, bound(t), bound(t + 1)); }); };
   std::vector<std::thread> threads;
-  std::vector<unsigned> inline_slices;
+  unsigned started = 1;  // slices [1, started) run on their own threads, the others here after slice 0
   try {
     threads.reserve(workers - 1);
-    inline_slices.reserve(workers - 1);
+    for (; started < workers; ++started) threads.emplace_back(slice, started);
+  } catch (const std::system_error&) {
   } catch (const std::bad_alloc&) {
-    failures.run([&] {
-      for (unsigned t = 0; t < workers; ++t) fn(t, bound(t), bound(t + 1));
-    });
-    return failures.result(what);
   }
-  for (unsigned t = 1; t < workers; ++t) {
-    try {
-      threads.emplace_back([&fn, &failures, t, b = bound(t), e = bound(t + 1)] {
-        failures.run([&] { fn(t, b, e); });
-      });
-    } catch (const std::system_error&) {
-      inline_slices.push_back(t);  // capacity reserved above: does not allocate
-    } catch (const std::bad_alloc&) {
-      inline_slices.push_back(t);
-    }
-  }
-  failures.run([&] { fn(0u, bound(0), bound(1)); });
-  for (unsigned t : inline_slices) failures.run([&] { fn(t, bound(t), bound(t + 1)); });
+  slice(0);
+  for (unsigned t = started; t < workers; ++t) slice(t);
   for (std::thread& th : threads) th.join();
   return failures.result(what);
 }
