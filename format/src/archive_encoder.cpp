@@ -39,6 +39,7 @@ namespace rgs::format {
 namespace {
 
 using detail::dec;
+using detail::QuantizedTransform;
 
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
 
@@ -82,10 +83,10 @@ struct CodePlanes {
 };
 
 /// Header (§3.3.2; the codebook transform adds its size, §3.3.3) + zstd frame of the codes.
-Status finish_quantized(detail::QuantizedTransform transform, uint32_t bits, uint32_t components,
+Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t components,
                         const std::vector<float>& params, const std::vector<uint8_t>& codes, int level,
                         std::vector<uint8_t>* out, uint32_t codebook_size = 0) {
-  const bool codebook = transform == detail::QuantizedTransform::kShCodebook;
+  const bool codebook = transform == QuantizedTransform::kShCodebook;
   out->assign(detail::kQuantizedHeaderSize + 4 * params.size() + (codebook ? 4 : 0), 0);
   (*out)[0] = static_cast<uint8_t>(transform);
   (*out)[1] = static_cast<uint8_t>(bits);
@@ -140,7 +141,7 @@ Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& orde
       codes.set(c++, i, round_code((sign * q[a] / norm - lo) * inv, max_code));
     }
   }
-  return finish_quantized(detail::QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -178,7 +179,7 @@ Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, 
       codes.set(a, i, !std::isfinite(v) || step == 0 ? 0 : round_code((v - params[a]) / step, max_code));
     }
   }
-  return finish_quantized(detail::QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -188,7 +189,7 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
   for (uint64_t i = 0; i < s.count; ++i) {
     codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * static_cast<double>(max_code), max_code));
   }
-  return finish_quantized(detail::QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -203,7 +204,7 @@ Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, cons
       codes.bytes[i * values + c] = static_cast<uint8_t>(sh_code(s.sh[order[i] * values + c], m));
     }
   }
-  return finish_quantized(detail::QuantizedTransform::kShMultiplier, 8, values, sh_params(o), codes.bytes,
+  return finish_quantized(QuantizedTransform::kShMultiplier, 8, values, sh_params(o), codes.bytes,
                           o.zstd_level, out);
 }
 
@@ -452,7 +453,7 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     for (uint32_t b = 0; b < width; ++b) planes[b * n + i] = static_cast<uint8_t>(index[i] >> (8 * b));
   }
   index = {};  // before the frame's compression buffer is allocated
-  return finish_quantized(detail::QuantizedTransform::kShCodebook, bits, values, sh_params(o), frame, o.zstd_level,
+  return finish_quantized(QuantizedTransform::kShCodebook, bits, values, sh_params(o), frame, o.zstd_level,
                           out, static_cast<uint32_t>(k));
 }
 

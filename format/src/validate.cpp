@@ -26,24 +26,19 @@ bool half_is_finite(uint16_t bits) { return (bits & 0x7c00u) != 0x7c00u; }
 }  // namespace
 
 Status check_metadata(const SceneMetadata& m) {
-  auto unsupported = [](const char* what, unsigned value, const char* known) {
-    return Status(StatusCode::kUnsupportedFeature,
-                  std::string(what) + " " + std::to_string(value) + " is unknown (this reader knows " + known + ")");
+  auto unknown = [](const char* what, auto value, const char* known) {
+    return Status(StatusCode::kUnsupportedFeature, std::string(what) + " " + dec(static_cast<unsigned>(value)) +
+                                                   " is unknown (this reader knows " + known + ")");
   };
-  if (m.frame != CoordinateFrame::kColmap)
-    return unsupported("coordinate frame", static_cast<unsigned>(m.frame), "1 = colmap");
-  if (m.quaternion_order != QuaternionOrder::kWxyz) {
-    return unsupported("quaternion order", static_cast<unsigned>(m.quaternion_order), "1 = wxyz");
-  }
+  if (m.frame != CoordinateFrame::kColmap) return unknown("coordinate frame", m.frame, "1 = colmap");
+  if (m.quaternion_order != QuaternionOrder::kWxyz) return unknown("quaternion order", m.quaternion_order, "1 = wxyz");
   if (m.scale_encoding != ScaleEncoding::kLinear && m.scale_encoding != ScaleEncoding::kLog) {
-    return unsupported("scale encoding", static_cast<unsigned>(m.scale_encoding), "1 = linear, 2 = log");
+    return unknown("scale encoding", m.scale_encoding, "1 = linear, 2 = log");
   }
   if (m.opacity_encoding != OpacityEncoding::kSigmoid) {
-    return unsupported("opacity encoding", static_cast<unsigned>(m.opacity_encoding), "1 = sigmoid");
+    return unknown("opacity encoding", m.opacity_encoding, "1 = sigmoid");
   }
-  if (m.sh_layout != ShLayout::kCoefficientMajor) {
-    return unsupported("SH layout", static_cast<unsigned>(m.sh_layout), "1 = coefficient-major");
-  }
+  if (m.sh_layout != ShLayout::kCoefficientMajor) return unknown("SH layout", m.sh_layout, "1 = coefficient-major");
   RGS_RETURN_ERROR_IF(m.sh_degree > 3, StatusCode::kUnsupportedFeature,
                       "SH degree " + dec(m.sh_degree) + " is above 3, the highest version 1.0 defines");
   std::string why;
