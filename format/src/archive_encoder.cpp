@@ -675,29 +675,26 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
 
     // Decode what was written: `decoded` is bit for bit what readers get.
     const uint32_t values = 3 * sh_coefficient_count(d.metadata.sh_degree);
-    d.rotations.resize(n * 4);
-    d.scales.resize(n * 3);
-    d.opacities.resize(n);
-    d.sh.resize(n * values);
-    struct Target {
-      SectionId id;
-      size_t slot;
-      uint32_t components;
-      uint8_t* dst;
-      size_t size;
-    };
-    const Target targets[] = {
-        {SectionId::kRotations, 1, 4, reinterpret_cast<uint8_t*>(d.rotations.data()), d.rotations.size() * 2},
-        {SectionId::kScales, 2, 3, reinterpret_cast<uint8_t*>(d.scales.data()), d.scales.size() * 2},
-        {SectionId::kOpacities, 3, 1, reinterpret_cast<uint8_t*>(d.opacities.data()), d.opacities.size() * 2},
-        {SectionId::kSh, 4, values, reinterpret_cast<uint8_t*>(d.sh.data()), d.sh.size()},
-    };
     jobs.clear();
+    auto add_decode = [&](SectionId id, size_t slot, uint32_t components, auto& array) {
+      array.resize(n * components);
+      jobs.push_back([&d, &out, &array, id, slot, components, n] {
+        Status s = detail::decode_quantized(id, d.metadata, out.stored[slot].data(), out.stored[slot].size(), n,
+                                            components, reinterpret_cast<uint8_t*>(array.data()),
+                                            array.size() * sizeof(array[0]));
+        return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(id));
+      });
+    };
+    add_decode(SectionId::kRotations, 1, 4, d.rotations);
+    add_decode(SectionId::kScales, 2, 3, d.scales);
+    add_decode(SectionId::kOpacities, 3, 1, d.opacities);
     // Transform 4 and the exact transform 5 decode to the transform-4 value of every source value, so the
     // SH values are computed here instead of decompressing the section again (saving its code buffer,
     // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
-    const bool sh_exact = options.sh_codebook_size == 0;
-    if (sh_exact) {
+    if (options.sh_codebook_size != 0) {
+      add_decode(SectionId::kSh, 4, values, d.sh);
+    } else {
+      d.sh.resize(n * values);
       jobs.push_back([&d, &scene, &order, &options, values, n] {
         int mult[48];
         for (uint32_t c = 0; c < values; ++c) {
@@ -709,14 +706,6 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
             d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
         }
         return Status();
-      });
-    }
-    for (const Target& t : targets) {
-      if (sh_exact && t.id == SectionId::kSh) continue;
-      jobs.push_back([&d, &out, t, n] {
-        Status s = detail::decode_quantized(t.id, d.metadata, out.stored[t.slot].data(), out.stored[t.slot].size(), n,
-                                            t.components, t.dst, t.size);
-        return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(t.id));
       });
     }
     run_jobs(jobs, options.threads, &results);
