@@ -7,15 +7,12 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <functional>
 #include <limits>
 #include <new>
 #include <string>
-#include <system_error>
-#include <thread>
 #include <vector>
 
 #include <xxhash.h>
@@ -580,31 +577,6 @@ SceneBounds bounds_of(const std::vector<float>& means) {
   return b;
 }
 
-/// Runs the jobs on up to `threads` threads; each job's result goes to its own slot.
-void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, std::vector<Status>* results) {
-  results->assign(jobs.size(), Status());
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t j; (j = next.fetch_add(1)) < jobs.size();) {
-      try {
-        (*results)[j] = jobs[j]();
-      } catch (const std::exception&) {
-        (*results)[j] = Status(StatusCode::kOutOfMemory, "out of memory encoding the archive");
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < std::max<uint32_t>(1, threads); ++t) {
-    try {
-      pool.emplace_back(worker);
-    } catch (const std::system_error&) {
-      break;
-    }
-  }
-  worker();
-  for (std::thread& t : pool) t.join();
-}
-
 }  // namespace
 
 ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians) {
@@ -670,7 +642,7 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         [&] { return encode_opacities(scene, order, options, &out.stored[3]); },
     };
     std::vector<Status> results;
-    run_jobs(jobs, options.threads, &results);
+    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
 
     // Decode what was written: `decoded` is bit for bit what readers get.
@@ -708,7 +680,7 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         return Status();
       });
     }
-    run_jobs(jobs, options.threads, &results);
+    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
     if constexpr (!detail::kHostLittleEndian) {
       for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {

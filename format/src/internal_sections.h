@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,11 @@ Status check_records(SectionId id, const SceneMetadata& metadata, const uint8_t*
 Status check_zstd_frame_header(const uint8_t* src, size_t stored_size, uint64_t raw_size);
 /// Turns a zstd error code into kChecksumMismatch (content checksum) or kCorruptData (reader.cpp).
 Status zstd_error_status(size_t code, const std::string& what);
+/// Runs the jobs on up to `threads` threads (the calling one included; fewer when no thread can be started);
+/// job j's result goes to (*results)[j], an exception escaping it to kOutOfMemory "out of memory <what>"
+/// (writer.cpp).
+void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
+              std::vector<Status>* results);
 /// §3.1, §7 Appends one single-threaded zstd frame of `size` raw bytes, with content size and checksum, to `out`.
 /// Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
 Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out);

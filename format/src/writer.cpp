@@ -4,6 +4,7 @@
 #include <zstd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <new>
@@ -100,6 +101,31 @@ Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vect
   return Status();
 }
 
+void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
+              std::vector<Status>* results) {
+  results->assign(jobs.size(), Status());
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (size_t j; (j = next.fetch_add(1)) < jobs.size();) {
+      try {  // nothing may escape a thread: error messages allocate
+        (*results)[j] = jobs[j]();
+      } catch (const std::exception&) {
+        (*results)[j] = Status(StatusCode::kOutOfMemory, std::string("out of memory ") + what);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < std::max<uint32_t>(1, threads); ++t) {
+    try {
+      pool.emplace_back(worker);
+    } catch (const std::system_error&) {
+      break;
+    }
+  }
+  worker();
+  for (std::thread& t : pool) t.join();
+}
+
 }  // namespace detail
 
 namespace {
@@ -155,23 +181,6 @@ Status check_values(const EncodedScene& scene, uint64_t begin, uint64_t end) {
     if (!s.ok()) return invalid(s.message());
   }
   return Status();
-}
-
-/// Runs `first` on the calling thread and `second` on another one (inline afterwards when no thread can be
-/// started). Both must not throw. Used to halve the serial checking and hashing of a large scene.
-template <typename A, typename B>
-void run_pair(A&& first, B&& second) {
-  std::thread thread;
-  try {
-    thread = std::thread(second);
-  } catch (const std::system_error&) {
-  }
-  first();
-  if (thread.joinable()) {
-    thread.join();
-  } else {
-    second();
-  }
 }
 
 Status check_options(const WriteOptions& options) {
@@ -322,25 +331,18 @@ Result<std::vector<uint64_t>> check_and_checksum(const EncodedScene& scene, cons
   const uint64_t n = scene.count;
   std::vector<uint64_t> checksums(plan.size());
   const size_t sh_index = plan.size() - 1;
-  Status first_half, second_half;
-  const auto guarded_check = [&scene](uint64_t from, uint64_t to) {
-    try {  // nothing may escape a thread: error messages allocate
-      return check_values(scene, from, to);
-    } catch (const std::exception&) {
-      return Status(StatusCode::kOutOfMemory, "out of memory reporting an invalid Gaussian");
-    }
-  };
-  run_pair(
+  std::vector<std::function<Status()>> halves = {
       [&] {
-        first_half = guarded_check(0, n / 2);
         checksums[sh_index] = detail::xxh64(plan[sh_index].stored(), plan[sh_index].stored_size());
+        return check_values(scene, 0, n / 2);
       },
       [&] {
-        second_half = guarded_check(n / 2, n);
         for (size_t i = 0; i < sh_index; ++i) checksums[i] = detail::xxh64(plan[i].stored(), plan[i].stored_size());
-      });
-  RGS_RETURN_IF_ERROR(first_half);
-  RGS_RETURN_IF_ERROR(second_half);
+        return check_values(scene, n / 2, n);
+      }};
+  std::vector<Status> results;
+  detail::run_jobs(halves, 2, "reporting an invalid Gaussian", &results);
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
   return checksums;
 }
 
