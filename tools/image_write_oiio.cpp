@@ -11,7 +11,7 @@ namespace rgs::tools {
 
 namespace {
 
-/// Writes through format::write_file_atomic_by_name (a temporary renamed over `path`, or staged in the run's
+/// Writes through FileSink::write_by_name (with atomic_files(), a temporary renamed over `path`, or staged in the run's
 /// OutputSet), with the format chosen by name rather than by the temporary's extension.
 Status write_image(format::FileSink& files, const std::string& path, const char* format_name, const OIIO::ImageSpec& spec,
                    OIIO::TypeDesc type, const void* data) {

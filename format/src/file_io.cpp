@@ -239,7 +239,8 @@ class AtomicFiles final : public FileSink {
     return write_file_atomic(path, produce);
   }
   Status write_by_name(const std::string& path, const ByNameWriter& write_to) override {
-    return write_file_atomic_by_name(path, write_to);
+    RGS_ASSIGN_OR_RETURN(StagedFile staged, StagedFile::write_by_name(path, write_to));
+    return staged.commit();
   }
 };
 
@@ -352,11 +353,6 @@ Status write_file_atomic(const std::string& path, const ChunkProducer& produce) 
 
 Status write_file_atomic(const std::string& path, const void* data, size_t size) {
   return atomic_files().write(path, data, size);
-}
-
-Status write_file_atomic_by_name(const std::string& path, const ByNameWriter& write_to) {
-  RGS_ASSIGN_OR_RETURN(StagedFile staged, StagedFile::write_by_name(path, write_to));
-  return staged.commit();
 }
 
 std::optional<FileId> file_id(const std::string& path) {

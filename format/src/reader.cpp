@@ -36,19 +36,6 @@ uint64_t header_checksum(const uint8_t* header, const uint8_t* table, size_t tab
   return XXH64_digest(&state);
 }
 
-bool is_known_section(SectionId id) {
-  switch (id) {
-    case SectionId::kMetadata:
-    case SectionId::kProvenance:
-    case SectionId::kMeans:
-    case SectionId::kRotations:
-    case SectionId::kScales:
-    case SectionId::kOpacities:
-    case SectionId::kSh: return true;
-  }
-  return false;
-}
-
 bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out) {
   switch (id) {
     case SectionId::kMetadata:
@@ -60,6 +47,11 @@ bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out) {
     case SectionId::kSh: *out = {ElementType::kInt8, 3 * sh_coefficient_count(sh_degree), true}; return true;
   }
   return false;
+}
+
+bool is_known_section(SectionId id) {
+  SectionLayout unused;
+  return expected_layout(id, 0, &unused);
 }
 
 std::string section_label(size_t index, SectionId id) {
@@ -747,12 +739,6 @@ Result<EncodedScene> RgsFile::read_scene() const {
 
 namespace {
 
-/// Whether `id` is one of the runtime sections, whose records the value rules check.
-bool is_runtime_section(SectionId id) {
-  return id == SectionId::kMeans || id == SectionId::kRotations || id == SectionId::kScales ||
-         id == SectionId::kOpacities || id == SectionId::kSh;
-}
-
 /// Checks section `index` as verify_section() documents; `raw` holds its decoded bytes when the caller already
 /// has them (an archive section then is not decoded again). Errors name the file and the section.
 Status validate_section(const RgsFile& file, size_t index, const uint8_t* raw = nullptr) {
@@ -768,7 +754,8 @@ Status validate_section(const RgsFile& file, size_t index, const uint8_t* raw = 
     RGS_ASSIGN_OR_RETURN(stored, file.stored_bytes(e.id));  // message names the file
   }
   const size_t record_size = static_cast<size_t>(e.components) * element_type_size(e.element_type);
-  const bool values = is_runtime_section(e.id) && record_size > 0;
+  detail::SectionLayout layout;  // the value rules check the records of the runtime (per-Gaussian) sections
+  const bool values = detail::expected_layout(e.id, 0, &layout) && layout.per_gaussian && record_size > 0;
   Status s;
   if (raw != nullptr || e.codec == Codec::kNone) {
     if (values && e.raw_size > 0) {
