@@ -3,7 +3,6 @@
 // Determinism: Draco runs single-threaded; each quantized section is one single-threaded zstd frame with
 // fixed parameters; sections are coded on parallel threads but each one's bytes depend only on its input,
 // so the output does not depend on the number of threads.
-#include <zstd.h>
 
 #include <algorithm>
 #include <array>
@@ -56,9 +55,7 @@ Status check_options(const ArchiveOptions& o) {
   if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
     return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
   }
-  if (o.zstd_level < 1 || o.zstd_level > ZSTD_maxCLevel()) {
-    return invalid("zstd level " + std::to_string(o.zstd_level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_zstd_level(o.zstd_level));
   if (o.draco_speed < 0 || o.draco_speed > 10)
     return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
   return Status();

@@ -86,6 +86,8 @@ Status zstd_error_status(size_t code, const std::string& what);
 /// (writer.cpp).
 void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
               std::vector<Status>* results);
+/// kInvalidArgument unless `level` is a zstd level, 1..ZSTD_maxCLevel() (writer.cpp).
+Status check_zstd_level(int level);
 /// §3.1, §7 Appends one single-threaded zstd frame of `size` raw bytes, with content size and checksum, to `out`.
 /// Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
 Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out);

@@ -558,15 +558,12 @@ Status RgsFileAccess::decode(const RgsFile& f, size_t index, void* dst, size_t d
     if (stored.size > 0) std::memcpy(dst, stored.data, stored.size);
     return Status();
   }
-  if (is_archive_codec(e.codec)) {
-    Status s = e.codec == Codec::kDraco
-                   ? detail::decode_draco_means(stored.data, stored.size, e.element_count, static_cast<uint8_t*>(dst),
-                                                dst_size)
-                   : detail::decode_quantized(e.id, f.metadata_, stored.data, stored.size, e.element_count,
-                                              e.components, static_cast<uint8_t*>(dst), dst_size);
-    return s.ok() ? s : s.prepend(label);
-  }
-  Status s = detail::decode_zstd_frame(stored.data, stored.size, static_cast<uint8_t*>(dst), dst_size);
+  uint8_t* out = static_cast<uint8_t*>(dst);
+  const uint64_t n = e.element_count;
+  Status s = e.codec == Codec::kDraco ? detail::decode_draco_means(stored.data, stored.size, n, out, dst_size)
+             : e.codec == Codec::kQuantized
+                 ? detail::decode_quantized(e.id, f.metadata_, stored.data, stored.size, n, e.components, out, dst_size)
+                 : detail::decode_zstd_frame(stored.data, stored.size, out, dst_size);
   return s.ok() ? s : s.prepend(label);
 }
 

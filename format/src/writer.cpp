@@ -77,6 +77,12 @@ void encode_provenance(const Provenance& provenance, uint8_t* out, size_t size) 
   }
 }
 
+Status check_zstd_level(int level) {
+  RGS_RETURN_ERROR_IF(level < 1 || level > ZSTD_maxCLevel(), StatusCode::kInvalidArgument,
+                      "zstd level " + std::to_string(level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
+  return Status();
+}
+
 Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out) {
   std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
   if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
@@ -184,10 +190,7 @@ Status check_values(const EncodedScene& scene, uint64_t begin, uint64_t end) {
 }
 
 Status check_options(const WriteOptions& options) {
-  if (options.zstd_level < 1 || options.zstd_level > ZSTD_maxCLevel()) {
-    return invalid("zstd level " + std::to_string(options.zstd_level) + " outside 1.." +
-                   std::to_string(ZSTD_maxCLevel()));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_zstd_level(options.zstd_level));
   for (const auto& [id, codec] : options.codecs) {
     if (!detail::is_known_section(id)) {
       return invalid("codec requested for unknown section id " + dec(static_cast<uint32_t>(id)));
@@ -235,38 +238,36 @@ struct PlannedFile {
 uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, uint64_t provenance_bytes,
                       ArchiveScene* archive, PlannedFile* file) {
   const uint64_t n = scene.count;
-  const uint32_t k = sh_coefficient_count(scene.metadata.sh_degree);
   std::vector<PlannedSection>& plan = file->sections;
   plan.reserve(7);
-  auto add = [&](SectionId id, ElementType type, uint32_t components, uint64_t count) -> PlannedSection& {
+  auto add = [&](SectionId id, uint64_t count) -> PlannedSection& {
     PlannedSection& s = plan.emplace_back();
+    detail::SectionLayout layout;
+    (void)detail::expected_layout(id, scene.metadata.sh_degree, &layout);  // every id added here is known
     s.id = id;
-    s.element_type = type;
-    s.components = components;
+    s.element_type = layout.element_type;
+    s.components = layout.components;
     s.element_count = count;
     const auto it = options.codecs.find(id);
     s.codec = it == options.codecs.end() ? Codec::kNone : it->second;
     return s;
   };
-  {
-    PlannedSection& s = add(SectionId::kMetadata, ElementType::kBytes, 1, kMetadataSize);
-    s.owned_raw.resize(kMetadataSize);
-    detail::encode_metadata(scene.metadata, s.owned_raw.data());
+  auto add_owned = [&](SectionId id, uint64_t size) {
+    PlannedSection& s = add(id, size);
+    s.owned_raw.resize(size);
     s.raw = s.owned_raw.data();
-    s.raw_size = kMetadataSize;
-  }
+    s.raw_size = size;
+    return s.owned_raw.data();
+  };
+  detail::encode_metadata(scene.metadata, add_owned(SectionId::kMetadata, kMetadataSize));
   if (!scene.provenance.empty()) {
-    PlannedSection& s = add(SectionId::kProvenance, ElementType::kBytes, 1, provenance_bytes);
-    s.owned_raw.resize(provenance_bytes);
-    detail::encode_provenance(scene.provenance, s.owned_raw.data(), s.owned_raw.size());
-    s.raw = s.owned_raw.data();
-    s.raw_size = provenance_bytes;
+    detail::encode_provenance(scene.provenance, add_owned(SectionId::kProvenance, provenance_bytes), provenance_bytes);
   }
-  set_array_raw(&add(SectionId::kMeans, ElementType::kFloat32, 3, n), scene.means);
-  set_array_raw(&add(SectionId::kRotations, ElementType::kFloat16, 4, n), scene.rotations);
-  set_array_raw(&add(SectionId::kScales, ElementType::kFloat16, 3, n), scene.scales);
-  set_array_raw(&add(SectionId::kOpacities, ElementType::kFloat16, 1, n), scene.opacities);
-  set_array_raw(&add(SectionId::kSh, ElementType::kInt8, 3 * k, n), scene.sh);
+  set_array_raw(&add(SectionId::kMeans, n), scene.means);
+  set_array_raw(&add(SectionId::kRotations, n), scene.rotations);
+  set_array_raw(&add(SectionId::kScales, n), scene.scales);
+  set_array_raw(&add(SectionId::kOpacities, n), scene.opacities);
+  set_array_raw(&add(SectionId::kSh, n), scene.sh);
   uint32_t required_flags = 0;
   if (archive != nullptr) {
     // §3.3 The per-Gaussian sections, in the order means, rotations, scales, opacities, sh, take the
