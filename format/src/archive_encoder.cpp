@@ -97,6 +97,11 @@ std::vector<float> sh_params(const ArchiveOptions& o) {
           static_cast<float>(o.sh_step_multipliers[2]), static_cast<float>(o.sh_step_multipliers[3])};
 }
 
+/// Step multiplier of value c of an SH record (coefficient c / 3).
+int sh_multiplier(const ArchiveOptions& o, uint64_t c) {
+  return static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(static_cast<uint32_t>(c / 3))]);
+}
+
 /// Transform-4 code of runtime value q with multiplier m: round half away from zero, as the runtime quantizer
 /// does, clamped to 127 / m.
 int8_t sh_code(int q, int m) {
@@ -191,7 +196,7 @@ Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, cons
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree);
   CodePlanes codes(s.count, values, 8);
   for (uint32_t c = 0; c < values; ++c) {
-    const int m = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
+    const int m = sh_multiplier(o, c);
     // SH codes are stored Gaussian-major (one record of 3K codes per Gaussian, §3.3.2): scenes whose SH come
     // from a codebook repeat whole records, which zstd finds as matches.
     for (uint64_t i = 0; i < s.count; ++i) {
@@ -363,7 +368,7 @@ bool dedup_sh_records(const EncodedScene& s, const std::vector<uint64_t>& order,
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
   int mult[45];
   for (uint32_t j = 0; j < rest; ++j)
-    mult[j] = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]);
+    mult[j] = sh_multiplier(o, 3 + j);
   auto codes_of = [&](uint64_t i, int8_t* record) {
     const int8_t* q = &s.sh[order[i] * values + 3];
     for (uint32_t j = 0; j < rest; ++j) record[j] = sh_code(q[j], mult[j]);
@@ -416,10 +421,7 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     *used = true;
     ShCodebook book = build_sh_codebook(s, order, static_cast<uint32_t>(std::min<uint64_t>(o.sh_codebook_size, n)));
     entries = std::move(book.entries);
-    for (size_t e = 0; e < entries.size(); ++e) {
-      const uint32_t j = static_cast<uint32_t>(e % rest);
-      entries[e] = sh_code(entries[e], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]));
-    }
+    for (size_t e = 0; e < entries.size(); ++e) entries[e] = sh_code(entries[e], sh_multiplier(o, 3 + e % rest));
     index.assign(book.index.begin(), book.index.end());
   }
   const uint64_t k = first.empty() ? entries.size() / rest : first.size();
@@ -433,8 +435,7 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     for (uint64_t e = 0; e < k; ++e) {
       const int8_t* q = &s.sh[order[first[e]] * values + 3];
       for (uint32_t j = 0; j < rest; ++j) {
-        frame[e * rest + j] = static_cast<uint8_t>(
-            sh_code(q[j], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)])));
+        frame[e * rest + j] = static_cast<uint8_t>(sh_code(q[j], sh_multiplier(o, 3 + j)));
       }
     }
     first = {};
@@ -666,9 +667,7 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
       d.sh.resize(n * values);
       jobs.push_back([&d, &scene, &order, &options, values, n] {
         int mult[48];
-        for (uint32_t c = 0; c < values; ++c) {
-          mult[c] = static_cast<int>(options.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
-        }
+        for (uint32_t c = 0; c < values; ++c) mult[c] = sh_multiplier(options, c);
         for (uint64_t i = 0; i < n; ++i) {
           const int8_t* q = &scene.sh[order[i] * values];
           for (uint32_t c = 0; c < values; ++c)
