@@ -124,16 +124,12 @@ template <typename Fn>
 [[nodiscard]] Status parallel_items(uint64_t items, unsigned workers, Fn&& fn) {
   workers = static_cast<unsigned>(std::max<uint64_t>(1, std::min<uint64_t>(workers, items)));
   std::atomic<uint64_t> next{0};
-  std::atomic<bool> stop{false};
   Status s = parallel_slices(workers, workers, [&](unsigned t, uint64_t, uint64_t) {
     try {
-      for (uint64_t item = next.fetch_add(1, std::memory_order_relaxed);
-           item < items && !stop.load(std::memory_order_relaxed); item = next.fetch_add(1, std::memory_order_relaxed)) {
-        fn(t, item);
-      }
+      for (uint64_t item; (item = next.fetch_add(1, std::memory_order_relaxed)) < items;) fn(t, item);
     } catch (...) {
-      stop.store(true);
-      throw;  // recorded by parallel_slices
+      next.store(items);  // no further item starts
+      throw;              // recorded by parallel_slices
     }
   });
   if (s.code() == StatusCode::kOutOfMemory) {
