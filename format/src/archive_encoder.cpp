@@ -3,19 +3,15 @@
 // Determinism: Draco runs single-threaded; each quantized section is one single-threaded zstd frame with
 // fixed parameters; sections are coded on parallel threads but each one's bytes depend only on its input,
 // so the output does not depend on the number of threads.
-#include <zstd.h>
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <functional>
 #include <limits>
 #include <new>
 #include <string>
-#include <system_error>
-#include <thread>
 #include <vector>
 
 #include <xxhash.h>
@@ -39,6 +35,7 @@ namespace rgs::format {
 namespace {
 
 using detail::dec;
+using detail::QuantizedTransform;
 
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
 
@@ -58,31 +55,9 @@ Status check_options(const ArchiveOptions& o) {
   if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
     return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
   }
-  if (o.zstd_level < 1 || o.zstd_level > ZSTD_maxCLevel()) {
-    return invalid("zstd level " + std::to_string(o.zstd_level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_zstd_level(o.zstd_level));
   if (o.draco_speed < 0 || o.draco_speed > 10)
     return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
-  return Status();
-}
-
-/// One zstd frame with content size and checksum, single-threaded (SPEC §3.1, §7).
-Status compress_frame(const std::vector<uint8_t>& raw, int level, std::vector<uint8_t>* out) {
-  std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
-  if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
-  for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, level}, std::pair{ZSTD_c_checksumFlag, 1},
-                              std::pair{ZSTD_c_contentSizeFlag, 1}, std::pair{ZSTD_c_nbWorkers, 0}}) {
-    const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
-    if (ZSTD_isError(r)) return invalid(std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
-  }
-  const size_t start = out->size();
-  const size_t bound = ZSTD_compressBound(raw.size());
-  out->resize(start + bound);
-  const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw.data(), raw.size());
-  if (ZSTD_isError(n))
-    return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
-  out->resize(start + n);
-  out->shrink_to_fit();  // the bound can be twice the frame; the section is kept until the file is written
   return Status();
 }
 
@@ -101,17 +76,37 @@ struct CodePlanes {
   }
 };
 
-/// Header (§3.3.2) + zstd frame of the codes.
-Status finish_quantized(detail::QuantizedTransform transform, uint32_t bits, uint32_t components,
-                        const std::vector<float>& params, const CodePlanes& codes, int level,
-                        std::vector<uint8_t>* out) {
-  out->assign(detail::kQuantizedHeaderSize + 4 * params.size(), 0);
+/// Header (§3.3.2; the codebook transform adds its size, §3.3.3) + zstd frame of the codes.
+Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t components,
+                        const std::vector<float>& params, const std::vector<uint8_t>& codes, int level,
+                        std::vector<uint8_t>* out, uint32_t codebook_size = 0) {
+  const bool codebook = transform == QuantizedTransform::kShCodebook;
+  out->assign(detail::kQuantizedHeaderSize + 4 * params.size() + (codebook ? 4 : 0), 0);
   (*out)[0] = static_cast<uint8_t>(transform);
   (*out)[1] = static_cast<uint8_t>(bits);
   detail::store_u16_le(out->data() + 2, static_cast<uint16_t>(params.size()));
   detail::store_u32_le(out->data() + 4, components);
   for (size_t p = 0; p < params.size(); ++p) detail::store_f32_le(out->data() + 8 + 4 * p, params[p]);
-  return compress_frame(codes.bytes, level, out);
+  if (codebook) detail::store_u32_le(out->data() + 8 + 4 * params.size(), codebook_size);
+  return detail::compress_zstd_frame(codes.data(), codes.size(), level, out);
+}
+
+/// The SH step multipliers as the parameters of transforms 4 and 5.
+std::vector<float> sh_params(const ArchiveOptions& o) {
+  return {static_cast<float>(o.sh_step_multipliers[0]), static_cast<float>(o.sh_step_multipliers[1]),
+          static_cast<float>(o.sh_step_multipliers[2]), static_cast<float>(o.sh_step_multipliers[3])};
+}
+
+/// Step multiplier of value c of an SH record (coefficient c / 3).
+int sh_multiplier(const ArchiveOptions& o, uint64_t c) {
+  return static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(static_cast<uint32_t>(c / 3))]);
+}
+
+/// Transform-4 code of runtime value q with multiplier m: round half away from zero, as the runtime quantizer
+/// does, clamped to 127 / m.
+int8_t sh_code(int q, int m) {
+  const int code = std::min((std::abs(q) + m / 2) / m, 127 / m);
+  return static_cast<int8_t>(q < 0 ? -code : code);
 }
 
 uint32_t round_code(double v, uint32_t max_code) {
@@ -145,7 +140,7 @@ Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& orde
       codes.set(c++, i, round_code((sign * q[a] / norm - lo) * inv, max_code));
     }
   }
-  return finish_quantized(detail::QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -183,7 +178,7 @@ Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, 
       codes.set(a, i, !std::isfinite(v) || step == 0 ? 0 : round_code((v - params[a]) / step, max_code));
     }
   }
-  return finish_quantized(detail::QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -193,7 +188,7 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
   for (uint64_t i = 0; i < s.count; ++i) {
     codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * static_cast<double>(max_code), max_code));
   }
-  return finish_quantized(detail::QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
 }
 
 Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -201,21 +196,15 @@ Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, cons
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree);
   CodePlanes codes(s.count, values, 8);
   for (uint32_t c = 0; c < values; ++c) {
-    const int m = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
-    const int limit = 127 / m;
+    const int m = sh_multiplier(o, c);
+    // SH codes are stored Gaussian-major (one record of 3K codes per Gaussian, §3.3.2): scenes whose SH come
+    // from a codebook repeat whole records, which zstd finds as matches.
     for (uint64_t i = 0; i < s.count; ++i) {
-      const int q = s.sh[order[i] * values + c];
-      // Round half away from zero, as the runtime quantizer does.
-      int code = (std::abs(q) + m / 2) / m;
-      code = std::min(code, limit);
-      // SH codes are stored Gaussian-major (one record of 3K codes per Gaussian, §3.3.2): scenes whose
-      // SH come from a codebook repeat whole records, which zstd finds as matches.
-      codes.bytes[i * values + c] = static_cast<uint8_t>(static_cast<int8_t>(q < 0 ? -code : code));
+      codes.bytes[i * values + c] = static_cast<uint8_t>(sh_code(s.sh[order[i] * values + c], m));
     }
   }
-  std::vector<float> params(4);
-  for (int d = 0; d < 4; ++d) params[d] = static_cast<float>(o.sh_step_multipliers[d]);
-  return finish_quantized(detail::QuantizedTransform::kShMultiplier, 8, values, params, codes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kShMultiplier, 8, values, sh_params(o), codes.bytes,
+                          o.zstd_level, out);
 }
 
 /// One cell of the SH codebook's splitting tree: Gaussians ids[begin, end) and the exact integer sums of
@@ -369,12 +358,6 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
   return book;
 }
 
-/// Transform-4 code of runtime value q with multiplier m: round half away from zero, clamped to 127 / m.
-int8_t sh_code(int q, int m) {
-  const int code = std::min((std::abs(q) + m / 2) / m, 127 / m);
-  return static_cast<int8_t>(q < 0 ? -code : code);
-}
-
 /// §3.3.3 Distinct rest-code records in first-occurrence order: `first[e]` is the first Gaussian (output
 /// order) holding entry e, `index[i]` the entry of Gaussian i. An open-addressing table of entry ids
 /// (4 bytes a slot) compares records by recomputing them, so no copy of the records is kept. Returns
@@ -385,7 +368,7 @@ bool dedup_sh_records(const EncodedScene& s, const std::vector<uint64_t>& order,
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
   int mult[45];
   for (uint32_t j = 0; j < rest; ++j)
-    mult[j] = static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]);
+    mult[j] = sh_multiplier(o, 3 + j);
   auto codes_of = [&](uint64_t i, int8_t* record) {
     const int8_t* q = &s.sh[order[i] * values + 3];
     for (uint32_t j = 0; j < rest; ++j) record[j] = sh_code(q[j], mult[j]);
@@ -438,10 +421,7 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     *used = true;
     ShCodebook book = build_sh_codebook(s, order, static_cast<uint32_t>(std::min<uint64_t>(o.sh_codebook_size, n)));
     entries = std::move(book.entries);
-    for (size_t e = 0; e < entries.size(); ++e) {
-      const uint32_t j = static_cast<uint32_t>(e % rest);
-      entries[e] = sh_code(entries[e], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)]));
-    }
+    for (size_t e = 0; e < entries.size(); ++e) entries[e] = sh_code(entries[e], sh_multiplier(o, 3 + e % rest));
     index.assign(book.index.begin(), book.index.end());
   }
   const uint64_t k = first.empty() ? entries.size() / rest : first.size();
@@ -455,8 +435,7 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     for (uint64_t e = 0; e < k; ++e) {
       const int8_t* q = &s.sh[order[first[e]] * values + 3];
       for (uint32_t j = 0; j < rest; ++j) {
-        frame[e * rest + j] = static_cast<uint8_t>(
-            sh_code(q[j], static_cast<int>(o.sh_step_multipliers[sh_degree_of_coefficient(1 + j / 3)])));
+        frame[e * rest + j] = static_cast<uint8_t>(sh_code(q[j], sh_multiplier(o, 3 + j)));
       }
     }
     first = {};
@@ -469,15 +448,8 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     for (uint32_t b = 0; b < width; ++b) planes[b * n + i] = static_cast<uint8_t>(index[i] >> (8 * b));
   }
   index = {};  // before the frame's compression buffer is allocated
-  out->assign(detail::kQuantizedHeaderSize + 20, 0);
-  (*out)[0] = static_cast<uint8_t>(detail::QuantizedTransform::kShCodebook);
-  (*out)[1] = static_cast<uint8_t>(bits);
-  detail::store_u16_le(out->data() + 2, 4);
-  detail::store_u32_le(out->data() + 4, values);
-  for (int d = 0; d < 4; ++d)
-    detail::store_f32_le(out->data() + 8 + 4 * d, static_cast<float>(o.sh_step_multipliers[d]));
-  detail::store_u32_le(out->data() + 24, static_cast<uint32_t>(k));
-  return compress_frame(frame, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kShCodebook, bits, values, sh_params(o), frame, o.zstd_level,
+                          out, static_cast<uint32_t>(k));
 }
 
 /// 16 bytes: Draco's quantized coordinates (< 2^30) and the point index (< 2^31, checked by the caller).
@@ -603,31 +575,6 @@ SceneBounds bounds_of(const std::vector<float>& means) {
   return b;
 }
 
-/// Runs the jobs on up to `threads` threads; each job's result goes to its own slot.
-void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, std::vector<Status>* results) {
-  results->assign(jobs.size(), Status());
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t j; (j = next.fetch_add(1)) < jobs.size();) {
-      try {
-        (*results)[j] = jobs[j]();
-      } catch (const std::exception&) {
-        (*results)[j] = Status(StatusCode::kOutOfMemory, "out of memory encoding the archive");
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < std::max<uint32_t>(1, threads); ++t) {
-    try {
-      pool.emplace_back(worker);
-    } catch (const std::system_error&) {
-      break;
-    }
-  }
-  worker();
-  for (std::thread& t : pool) t.join();
-}
-
 }  // namespace
 
 ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians) {
@@ -693,39 +640,34 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         [&] { return encode_opacities(scene, order, options, &out.stored[3]); },
     };
     std::vector<Status> results;
-    run_jobs(jobs, options.threads, &results);
+    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
 
     // Decode what was written: `decoded` is bit for bit what readers get.
     const uint32_t values = 3 * sh_coefficient_count(d.metadata.sh_degree);
-    d.rotations.resize(n * 4);
-    d.scales.resize(n * 3);
-    d.opacities.resize(n);
-    d.sh.resize(n * values);
-    struct Target {
-      SectionId id;
-      size_t slot;
-      uint32_t components;
-      uint8_t* dst;
-      size_t size;
-    };
-    const Target targets[] = {
-        {SectionId::kRotations, 1, 4, reinterpret_cast<uint8_t*>(d.rotations.data()), d.rotations.size() * 2},
-        {SectionId::kScales, 2, 3, reinterpret_cast<uint8_t*>(d.scales.data()), d.scales.size() * 2},
-        {SectionId::kOpacities, 3, 1, reinterpret_cast<uint8_t*>(d.opacities.data()), d.opacities.size() * 2},
-        {SectionId::kSh, 4, values, reinterpret_cast<uint8_t*>(d.sh.data()), d.sh.size()},
-    };
     jobs.clear();
+    auto add_decode = [&](SectionId id, size_t slot, uint32_t components, auto& array) {
+      array.resize(n * components);
+      jobs.push_back([&d, &out, &array, id, slot, components, n] {
+        Status s = detail::decode_quantized(id, d.metadata, out.stored[slot].data(), out.stored[slot].size(), n,
+                                            components, reinterpret_cast<uint8_t*>(array.data()),
+                                            array.size() * sizeof(array[0]));
+        return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(id));
+      });
+    };
+    add_decode(SectionId::kRotations, 1, 4, d.rotations);
+    add_decode(SectionId::kScales, 2, 3, d.scales);
+    add_decode(SectionId::kOpacities, 3, 1, d.opacities);
     // Transform 4 and the exact transform 5 decode to the transform-4 value of every source value, so the
     // SH values are computed here instead of decompressing the section again (saving its code buffer,
     // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
-    const bool sh_exact = options.sh_codebook_size == 0;
-    if (sh_exact) {
+    if (options.sh_codebook_size != 0) {
+      add_decode(SectionId::kSh, 4, values, d.sh);
+    } else {
+      d.sh.resize(n * values);
       jobs.push_back([&d, &scene, &order, &options, values, n] {
         int mult[48];
-        for (uint32_t c = 0; c < values; ++c) {
-          mult[c] = static_cast<int>(options.sh_step_multipliers[sh_degree_of_coefficient(c / 3)]);
-        }
+        for (uint32_t c = 0; c < values; ++c) mult[c] = sh_multiplier(options, c);
         for (uint64_t i = 0; i < n; ++i) {
           const int8_t* q = &scene.sh[order[i] * values];
           for (uint32_t c = 0; c < values; ++c)
@@ -734,15 +676,7 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         return Status();
       });
     }
-    for (const Target& t : targets) {
-      if (sh_exact && t.id == SectionId::kSh) continue;
-      jobs.push_back([&d, &out, t, n] {
-        Status s = detail::decode_quantized(t.id, d.metadata, out.stored[t.slot].data(), out.stored[t.slot].size(), n,
-                                            t.components, t.dst, t.size);
-        return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(t.id));
-      });
-    }
-    run_jobs(jobs, options.threads, &results);
+    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
     if constexpr (!detail::kHostLittleEndian) {
       for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {

@@ -48,14 +48,9 @@ class FdGuard {
 /// Writes all of [data, data + size) to fd, retrying short writes and EINTR. Returns 0 or an errno.
 int write_all(int fd, const uint8_t* data, size_t size) {
   while (size > 0) {
-    // Cap each call so the count fits ssize_t on every platform.
-    const size_t chunk = size < (size_t{1} << 30) ? size : (size_t{1} << 30);
-    const ssize_t n = ::write(fd, data, chunk);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return errno;
-    }
-    if (n == 0) return EIO;
+    const ssize_t n = ::write(fd, data, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return n < 0 ? errno : EIO;
     data += n;
     size -= static_cast<size_t>(n);
   }
@@ -65,13 +60,18 @@ int write_all(int fd, const uint8_t* data, size_t size) {
 /// Splits "dir/name" into ("dir", "name"); a bare name lives in ".".
 void split_path(const std::string& path, std::string* dir, std::string* name) {
   const size_t slash = path.find_last_of('/');
-  if (slash == std::string::npos) {
-    *dir = ".";
-    *name = path;
-  } else {
-    *dir = slash == 0 ? "/" : path.substr(0, slash);
-    *name = path.substr(slash + 1);
+  *dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  *name = slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+/// Validates the last component of `path` and splits it; kIoError for "", ".", ".." or a trailing slash.
+Status split_output_path(const std::string& path, std::string* dir, std::string* name) {
+  if (path.empty()) return Status(StatusCode::kInvalidArgument, "output path is empty");
+  split_path(path, dir, name);
+  if (name->empty() || *name == "." || *name == "..") {
+    return Status(StatusCode::kIoError, "cannot write " + path + ": not a file name");
   }
+  return Status();
 }
 
 /// Large writes go to the kernel in pieces of this size, each followed by start_writeback().
@@ -92,7 +92,6 @@ void start_writeback(int fd, uint64_t offset, size_t size) {
   (void)size;
 #endif
 }
-
 
 // --- Temporaries an interrupt must remove ------------------------------------------------------------------
 //
@@ -132,191 +131,46 @@ void unregister_temporary(size_t slot) {
   if (path != nullptr && g_walkers.load() == 0) std::free(path);
 }
 
-bool is_registered_temporary(const std::string& path) {
-  std::lock_guard<std::mutex> lock(g_temporaries_mutex);
-  const size_t used = g_temporaries_used.load();
-  for (size_t i = 0; i < used; ++i) {
-    const char* p = g_temporaries[i].load();
-    if (p != nullptr && path == p) return true;
-  }
-  return false;
-}
-
-/// A complete temporary next to its output: its path and its slot in the table above.
-struct Temporary {
-  std::string path;
-  size_t slot = kMaxTemporaries;
-};
-
-/// Unlinks and unregisters `temp` (no-op when empty).
-void discard(Temporary* temp) {
-  if (temp->path.empty()) return;
-  ::unlink(temp->path.c_str());
-  unregister_temporary(temp->slot);
-  *temp = Temporary{};
-}
-
-/// Validates the last component of `path` and splits it; kIoError for "", ".", ".." or a trailing slash.
-Status split_output_path(const std::string& path, std::string* dir, std::string* name) {
-  if (path.empty()) return Status(StatusCode::kInvalidArgument, "output path is empty");
-  split_path(path, dir, name);
-  if (name->empty() || *name == "." || *name == "..") {
-    return Status(StatusCode::kIoError, "cannot write " + path + ": not a file name");
-  }
-  return Status();
-}
-
-std::string join_path(const std::string& dir, const std::string& name) {
-  return (dir == "/" ? std::string("/") : dir + "/") + name;
-}
-
-/// Creates "<dir>/<name>.<pid>[-<n>].rgs-partial" exclusively (never opens anyone else's file) and registers
-/// it. Returns the descriptor, or -1 with `*err` set.
-int create_temporary(const std::string& path, const std::string& dir, const std::string& name, Temporary* temp,
-                     Status* err) {
+/// Creates "<dir>/<name>.<pid>[-<n>].rgs-partial" next to `path` exclusively (never opens anyone else's file)
+/// and registers it in `*slot`. Returns the descriptor.
+Result<int> create_temporary(const std::string& path, std::string* temporary, size_t* slot) {
+  std::string dir, name;
+  RGS_RETURN_IF_ERROR(split_output_path(path, &dir, &name));
   const std::string pid = std::to_string(static_cast<long long>(::getpid()));
   int fd = -1;
   int open_errno = 0;
   for (int attempt = 0; attempt < 16 && fd < 0; ++attempt) {
     // A second temporary of the same output in this process (two threads) gets a "-<n>" tail.
-    temp->path = join_path(dir, name + "." + pid + (attempt ? "-" + std::to_string(attempt) : "") + kPartialSuffix);
+    *temporary = (dir == "/" ? std::string("/") : dir + "/") + name + "." + pid +
+                 (attempt ? "-" + std::to_string(attempt) : "") + kPartialSuffix;
     do {
-      fd = ::open(temp->path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
+      fd = ::open(temporary->c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
     } while (fd < 0 && errno == EINTR);
     open_errno = fd < 0 ? errno : 0;
     if (fd < 0 && open_errno != EEXIST) break;
     // Same pid but not ours: left by an earlier process that had this pid and was killed.
-    if (fd < 0 && !is_registered_temporary(temp->path)) {
+    if (fd < 0 && !is_pending_temporary(*temporary)) {
       struct stat st {};
-      if (::lstat(temp->path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::unlink(temp->path.c_str()) == 0) {
+      if (::lstat(temporary->c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::unlink(temporary->c_str()) == 0) {
         --attempt;  // retry the same name once it is gone
         continue;
       }
     }
   }
   if (fd < 0) {
-    *err = Status(StatusCode::kIoError, "cannot create " + path + ": cannot create a temporary file in directory " +
+    temporary->clear();
+    return Status(StatusCode::kIoError, "cannot create " + path + ": cannot create a temporary file in directory " +
                                             dir + ": " + os_error(open_errno));
-    temp->path.clear();
-    return -1;
   }
-  temp->slot = register_temporary(temp->path);
-  if (temp->slot == kMaxTemporaries) {
+  *slot = register_temporary(*temporary);
+  if (*slot == kMaxTemporaries) {
     ::close(fd);
-    ::unlink(temp->path.c_str());
-    temp->path.clear();
-    *err = Status(StatusCode::kLimitExceeded, "cannot create " + path + ": more than " +
+    ::unlink(temporary->c_str());
+    temporary->clear();
+    return Status(StatusCode::kLimitExceeded, "cannot create " + path + ": more than " +
                                                   std::to_string(kMaxTemporaries) + " temporaries at once");
-    return -1;
   }
   return fd;
-}
-
-/// Writes the complete content of `path` into a new temporary next to it, fsync'ed and closed. On failure
-/// nothing is left behind.
-Status write_temporary(const std::string& path, const ChunkProducer& produce, Temporary* temp) {
-  std::string dir, name;
-  RGS_RETURN_IF_ERROR(split_output_path(path, &dir, &name));
-  Status created;
-  const int fd = create_temporary(path, dir, name, temp, &created);
-  if (fd < 0) return created;
-  FdGuard guard(fd);
-  auto fail = [&](Status status) {
-    if (guard.get() >= 0) (void)guard.close_now();
-    discard(temp);
-    return status;
-  };
-
-  int write_errno = 0;
-  uint64_t written = 0;
-  const ChunkSink sink = [&](const void* data, size_t size) -> Status {
-    if (write_errno != 0) return Status(StatusCode::kIoError, "cannot write " + path + ": " + os_error(write_errno));
-    const uint8_t* bytes = static_cast<const uint8_t*>(data);
-    while (size > 0 && write_errno == 0) {
-      const size_t piece = size < kWritebackPiece ? size : kWritebackPiece;
-      write_errno = write_all(fd, bytes, piece);
-      start_writeback(fd, written, piece);
-      bytes += piece;
-      size -= piece;
-      written += piece;
-    }
-    if (write_errno != 0) return Status(StatusCode::kIoError, "cannot write " + path + ": " + os_error(write_errno));
-    return Status();
-  };
-  Status produced = produce(sink);
-  if (!produced.ok()) return fail(std::move(produced));
-  if (write_errno != 0) {
-    return fail(Status(StatusCode::kIoError, "cannot write " + path + ": " + os_error(write_errno)));
-  }
-  if (::fsync(fd) != 0) {
-    const int err = errno;
-    return fail(Status(StatusCode::kIoError, "cannot flush " + path + " to disk: " + os_error(err)));
-  }
-  if (const int err = guard.close_now(); err != 0) {
-    return fail(Status(StatusCode::kIoError, "cannot close " + path + ": " + os_error(err)));
-  }
-  return Status();
-}
-
-/// write_temporary for a writer that opens the file by name: the temporary is created empty, written by
-/// `write_to`, then fsync'ed.
-Status write_temporary_by_name(const std::string& path,
-                               const std::function<Status(const std::string& temp_path)>& write_to,
-                               Temporary* temp) {
-  std::string dir, name;
-  RGS_RETURN_IF_ERROR(split_output_path(path, &dir, &name));
-  Status created;
-  const int fd = create_temporary(path, dir, name, temp, &created);
-  if (fd < 0) return created;
-  ::close(fd);
-  Status written = write_to(temp->path);
-  if (!written.ok()) {
-    discard(temp);
-    return written;
-  }
-  int sync_fd;
-  do {
-    sync_fd = ::open(temp->path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
-  } while (sync_fd < 0 && errno == EINTR);
-  if (sync_fd < 0 || ::fsync(sync_fd) != 0) {
-    const int err = errno;
-    if (sync_fd >= 0) ::close(sync_fd);
-    discard(temp);
-    return Status(StatusCode::kIoError, "cannot flush " + path + " to disk: " + os_error(err));
-  }
-  ::close(sync_fd);
-  return Status();
-}
-
-/// Best effort: persist a rename. The content is already durable; some file systems refuse fsync on a
-/// directory, which is not a failure of the write.
-void sync_directory(const std::string& dir) {
-  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir_fd >= 0) {
-    (void)::fsync(dir_fd);
-    ::close(dir_fd);
-  }
-}
-
-/// Renames a complete temporary over `path` and unregisters it; on failure it is removed.
-Status rename_into_place(Temporary* temp, const std::string& path) {
-  if (::rename(temp->path.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    discard(temp);
-    return Status(StatusCode::kIoError, "cannot replace " + path + ": " + os_error(err));
-  }
-  unregister_temporary(temp->slot);
-  *temp = Temporary{};
-  return Status();
-}
-
-/// The last step of a single-file atomic write: rename_into_place, then persist the rename in its folder.
-Status commit_temporary(Temporary* temp, const std::string& path) {
-  RGS_RETURN_IF_ERROR(rename_into_place(temp, path));
-  std::string dir, name;
-  split_path(path, &dir, &name);
-  sync_directory(dir);
-  return Status();
 }
 
 }  // namespace
@@ -372,7 +226,6 @@ MappedFile::~MappedFile() {
   if (data_ != nullptr && size_ > 0) ::munmap(const_cast<uint8_t*>(data_), size_);
 }
 
-
 Status FileSink::write(const std::string& path, const void* data, size_t size) {
   return write(path, [data, size](const ChunkSink& sink) { return sink(data, size); });
 }
@@ -386,7 +239,8 @@ class AtomicFiles final : public FileSink {
     return write_file_atomic(path, produce);
   }
   Status write_by_name(const std::string& path, const ByNameWriter& write_to) override {
-    return write_file_atomic_by_name(path, write_to);
+    RGS_ASSIGN_OR_RETURN(StagedFile staged, StagedFile::write_by_name(path, write_to));
+    return staged.commit();
   }
 };
 
@@ -398,15 +252,55 @@ FileSink& atomic_files() {
 }
 
 Result<StagedFile> StagedFile::write(const std::string& path, const ChunkProducer& produce) {
-  Temporary temp;
-  RGS_RETURN_IF_ERROR(write_temporary(path, produce, &temp));
-  return StagedFile(path, temp.path, temp.slot);
+  StagedFile staged;  // removes the temporary unless it is returned
+  staged.path_ = path;
+  RGS_ASSIGN_OR_RETURN(const int fd, create_temporary(path, &staged.temporary_, &staged.slot_));
+  FdGuard guard(fd);
+  int write_errno = 0;
+  uint64_t written = 0;
+  const auto write_error = [&] {
+    return Status(StatusCode::kIoError, "cannot write " + path + ": " + os_error(write_errno));
+  };
+  const ChunkSink sink = [&](const void* data, size_t size) -> Status {
+    const uint8_t* bytes = static_cast<const uint8_t*>(data);
+    while (size > 0 && write_errno == 0) {
+      const size_t piece = size < kWritebackPiece ? size : kWritebackPiece;
+      write_errno = write_all(fd, bytes, piece);
+      start_writeback(fd, written, piece);
+      bytes += piece;
+      size -= piece;
+      written += piece;
+    }
+    return write_errno != 0 ? write_error() : Status();
+  };
+  RGS_RETURN_IF_ERROR(produce(sink));
+  if (write_errno != 0) return write_error();
+  if (::fsync(fd) != 0) {
+    const int err = errno;
+    return Status(StatusCode::kIoError, "cannot flush " + path + " to disk: " + os_error(err));
+  }
+  if (const int err = guard.close_now(); err != 0) {
+    return Status(StatusCode::kIoError, "cannot close " + path + ": " + os_error(err));
+  }
+  return Result<StagedFile>(std::move(staged));
 }
 
 Result<StagedFile> StagedFile::write_by_name(const std::string& path, const ByNameWriter& write_to) {
-  Temporary temp;
-  RGS_RETURN_IF_ERROR(write_temporary_by_name(path, write_to, &temp));
-  return StagedFile(path, temp.path, temp.slot);
+  StagedFile staged;
+  staged.path_ = path;
+  RGS_ASSIGN_OR_RETURN(const int fd, create_temporary(path, &staged.temporary_, &staged.slot_));
+  ::close(fd);
+  RGS_RETURN_IF_ERROR(write_to(staged.temporary_));
+  // The writer may have replaced the file it was given: flush what the name holds now.
+  int sync_fd;
+  do {
+    sync_fd = ::open(staged.temporary_.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+  } while (sync_fd < 0 && errno == EINTR);
+  FdGuard guard(sync_fd);
+  if (sync_fd < 0 || ::fsync(sync_fd) != 0) {
+    return Status(StatusCode::kIoError, "cannot flush " + path + " to disk: " + os_error(errno));
+  }
+  return Result<StagedFile>(std::move(staged));
 }
 
 StagedFile::StagedFile(StagedFile&& other) noexcept { *this = std::move(other); }
@@ -424,16 +318,32 @@ StagedFile& StagedFile::operator=(StagedFile&& other) noexcept {
 StagedFile::~StagedFile() { discard(); }
 
 void StagedFile::discard() noexcept {
-  Temporary temp{temporary_, slot_};
-  format::discard(&temp);
+  if (temporary_.empty()) return;
+  ::unlink(temporary_.c_str());
+  unregister_temporary(slot_);
   temporary_.clear();
 }
 
 Status StagedFile::commit() {
   RGS_RETURN_ERROR_IF(temporary_.empty(), StatusCode::kInvalidArgument,
                       "cannot commit " + path_ + ": nothing staged");
-  Temporary temp{std::exchange(temporary_, std::string()), slot_};
-  return commit_temporary(&temp, path_);
+  if (::rename(temporary_.c_str(), path_.c_str()) != 0) {
+    const int err = errno;
+    discard();
+    return Status(StatusCode::kIoError, "cannot replace " + path_ + ": " + os_error(err));
+  }
+  unregister_temporary(slot_);
+  temporary_.clear();
+  // Best effort: persist the rename. The content is already durable; some file systems refuse fsync on a
+  // directory, which is not a failure of the write.
+  std::string dir, name;
+  split_path(path_, &dir, &name);
+  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir_fd >= 0) {
+    (void)::fsync(dir_fd);
+    ::close(dir_fd);
+  }
+  return Status();
 }
 
 Status write_file_atomic(const std::string& path, const ChunkProducer& produce) {
@@ -442,12 +352,7 @@ Status write_file_atomic(const std::string& path, const ChunkProducer& produce) 
 }
 
 Status write_file_atomic(const std::string& path, const void* data, size_t size) {
-  return write_file_atomic(path, [data, size](const ChunkSink& sink) { return sink(data, size); });
-}
-
-Status write_file_atomic_by_name(const std::string& path, const ByNameWriter& write_to) {
-  RGS_ASSIGN_OR_RETURN(StagedFile staged, StagedFile::write_by_name(path, write_to));
-  return staged.commit();
+  return atomic_files().write(path, data, size);
 }
 
 std::optional<FileId> file_id(const std::string& path) {
@@ -476,7 +381,15 @@ Status check_output_file(const std::string& output, const std::vector<std::strin
   return Status();
 }
 
-bool is_pending_temporary(const std::string& path) { return is_registered_temporary(path); }
+bool is_pending_temporary(const std::string& path) {
+  std::lock_guard<std::mutex> lock(g_temporaries_mutex);
+  const size_t used = g_temporaries_used.load();
+  for (size_t i = 0; i < used; ++i) {
+    const char* p = g_temporaries[i].load();
+    if (p != nullptr && path == p) return true;
+  }
+  return false;
+}
 
 void remove_pending_temporaries() noexcept {
   g_walkers.fetch_add(1);

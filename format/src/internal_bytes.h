@@ -37,9 +37,7 @@ inline constexpr bool kHostLittleEndian = true;
   return true;
 }
 
-inline uint16_t load_u16_le(const uint8_t* p) {
-  return static_cast<uint16_t>(p[0] | (p[1] << 8));
-}
+inline uint16_t load_u16_le(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
 inline uint32_t load_u32_le(const uint8_t* p) {
   return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) |
          (static_cast<uint32_t>(p[2]) << 16) | (static_cast<uint32_t>(p[3]) << 24);
@@ -54,8 +52,7 @@ inline float load_f32_le(const uint8_t* p) {
   return f;
 }
 inline void store_u16_le(uint8_t* p, uint16_t v) {
-  p[0] = static_cast<uint8_t>(v);
-  p[1] = static_cast<uint8_t>(v >> 8);
+  for (int i = 0; i < 2; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
 }
 inline void store_u32_le(uint8_t* p, uint32_t v) {
   for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
@@ -78,11 +75,7 @@ class ByteReader {
   size_t position() const { return pos_; }
   size_t remaining() const { return size_ - pos_; }
 
-  [[nodiscard]] bool read_u8(uint8_t* out) {
-    if (remaining() < 1) return false;
-    *out = data_[pos_++];
-    return true;
-  }
+  [[nodiscard]] bool read_u8(uint8_t* out) { return read_with(1, out, [](const uint8_t* p) { return *p; }); }
   [[nodiscard]] bool read_u16(uint16_t* out) { return read_with(2, out, load_u16_le); }
   [[nodiscard]] bool read_u32(uint32_t* out) { return read_with(4, out, load_u32_le); }
   [[nodiscard]] bool read_u64(uint64_t* out) { return read_with(8, out, load_u64_le); }
@@ -124,21 +117,11 @@ class ByteWriter {
   bool ok() const { return ok_; }
   size_t position() const { return pos_; }
 
-  void put_u8(uint8_t v) {
-    if (uint8_t* p = claim(1)) *p = v;
-  }
-  void put_u16(uint16_t v) {
-    if (uint8_t* p = claim(2)) store_u16_le(p, v);
-  }
-  void put_u32(uint32_t v) {
-    if (uint8_t* p = claim(4)) store_u32_le(p, v);
-  }
-  void put_u64(uint64_t v) {
-    if (uint8_t* p = claim(8)) store_u64_le(p, v);
-  }
-  void put_f32(float v) {
-    if (uint8_t* p = claim(4)) store_f32_le(p, v);
-  }
+  void put_u8(uint8_t v) { put_bytes(&v, 1); }
+  void put_u16(uint16_t v) { put_with(2, v, store_u16_le); }
+  void put_u32(uint32_t v) { put_with(4, v, store_u32_le); }
+  void put_u64(uint64_t v) { put_with(8, v, store_u64_le); }
+  void put_f32(float v) { put_with(4, v, store_f32_le); }
   void put_zeros(size_t n) {
     if (uint8_t* p = claim(n)) std::memset(p, 0, n);
   }
@@ -148,6 +131,10 @@ class ByteWriter {
   }
 
  private:
+  template <typename T, typename Store>
+  void put_with(size_t n, T v, Store store) {
+    if (uint8_t* p = claim(n)) store(p, v);
+  }
   uint8_t* claim(size_t n) {
     if (!ok_ || size_ - pos_ < n) {
       ok_ = false;

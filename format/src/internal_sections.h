@@ -4,7 +4,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "rgs/format/metadata.h"
 #include "rgs/format/spec.h"
@@ -36,8 +38,6 @@ struct SectionLayout {
 
 /// True for the section ids version 1.0 defines.
 bool is_known_section(SectionId id);
-/// True for sections every 1.0 file must have (all known ones except provenance).
-bool is_required_section(SectionId id);
 /// Layout of known section `id` for an SH degree (it sets the components of kSh); false if unknown.
 bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out);
 
@@ -70,6 +70,10 @@ Status check_scale(const uint16_t xyz[3], uint64_t index, ScaleEncoding encoding
 Status check_opacity(uint16_t opacity, uint64_t index);
 /// `q` holds the 3K quantized SH values of Gaussian `index`.
 Status check_sh(const int8_t* q, size_t count, uint64_t index);
+/// The rules above on `records` whole records (Gaussians first, first + 1, ...) of runtime section `id`'s raw
+/// little-endian bytes at `p`; ok for a section that is not a runtime one.
+Status check_records(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records,
+                     size_t record_size, uint64_t first);
 
 /// §3.1 Checks the frame header of a zstd section without decoding it: a zstd frame (not skippable),
 /// no dictionary, content checksum flag set, content size present and equal to raw_size, window at most
@@ -77,6 +81,16 @@ Status check_sh(const int8_t* q, size_t count, uint64_t index);
 Status check_zstd_frame_header(const uint8_t* src, size_t stored_size, uint64_t raw_size);
 /// Turns a zstd error code into kChecksumMismatch (content checksum) or kCorruptData (reader.cpp).
 Status zstd_error_status(size_t code, const std::string& what);
+/// Runs the jobs on up to `threads` threads (the calling one included; fewer when no thread can be started);
+/// job j's result goes to (*results)[j], an exception escaping it to kOutOfMemory "out of memory <what>"
+/// (writer.cpp).
+void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
+              std::vector<Status>* results);
+/// kInvalidArgument unless `level` is a zstd level, 1..ZSTD_maxCLevel() (writer.cpp).
+Status check_zstd_level(int level);
+/// §3.1, §7 Appends one single-threaded zstd frame of `size` raw bytes, with content size and checksum, to `out`.
+/// Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
+Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out);
 /// §3.1 Decodes one whole zstd frame of exactly `stored_size` bytes into exactly `raw_size` bytes.
 Status decode_zstd_frame(const uint8_t* src, size_t stored_size, uint8_t* dst, size_t raw_size);
 

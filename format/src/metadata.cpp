@@ -17,19 +17,11 @@ bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::str
   for (uint32_t d = 0; d < 4; ++d) {
     for (uint32_t c = 0; c < 3; ++c) {
       const float s = q.scales[d][c];
-      if (!std::isfinite(s) || s < 0.0f) {
-        return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) + "] = " +
-                    std::to_string(s) + " is not finite and >= 0");
-      }
+      const std::string name = "SH scale s[" + std::to_string(d) + "][" + std::to_string(c) + "]";
+      if (!std::isfinite(s) || s < 0.0f) return fail(name + " = " + std::to_string(s) + " is not finite and >= 0");
       // s·q must be finite for every stored q in [-127, 127] (SPEC §3.4 sh_scales).
-      if (!std::isfinite(s * 127.0f)) {
-        return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) + "] = " + std::to_string(s) +
-                    " makes s*127 overflow float32");
-      }
-      if (d > sh_degree && s != 0.0f) {
-        return fail("SH scale s[" + std::to_string(d) + "][" + std::to_string(c) +
-                    "] is non-zero above SH degree " + std::to_string(sh_degree));
-      }
+      if (!std::isfinite(s * 127.0f)) return fail(name + " = " + std::to_string(s) + " makes s*127 overflow float32");
+      if (d > sh_degree && s != 0.0f) return fail(name + " is non-zero above SH degree " + std::to_string(sh_degree));
     }
   }
   return true;
@@ -38,11 +30,7 @@ bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::str
 const char* to_string(CoordinateFrame v) { return v == CoordinateFrame::kColmap ? "colmap" : "unknown"; }
 const char* to_string(QuaternionOrder v) { return v == QuaternionOrder::kWxyz ? "wxyz" : "unknown"; }
 const char* to_string(ScaleEncoding v) {
-  switch (v) {
-    case ScaleEncoding::kLinear: return "linear";
-    case ScaleEncoding::kLog: return "log";
-  }
-  return "unknown";
+  return v == ScaleEncoding::kLinear ? "linear" : v == ScaleEncoding::kLog ? "log" : "unknown";
 }
 const char* to_string(OpacityEncoding v) { return v == OpacityEncoding::kSigmoid ? "sigmoid" : "unknown"; }
 const char* to_string(ShLayout v) { return v == ShLayout::kCoefficientMajor ? "coefficient-major" : "unknown"; }

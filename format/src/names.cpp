@@ -1,4 +1,6 @@
 // Names of the .rgs enums for tools and messages (SPEC.md §3.1, §4).
+#include <iterator>
+
 #include "rgs/format/spec.h"
 
 namespace rgs::format {
@@ -17,23 +19,15 @@ const char* section_name(SectionId id) {
 }
 
 const char* codec_name(Codec codec) {
-  switch (codec) {
-    case Codec::kNone: return "none";
-    case Codec::kZstd: return "zstd";
-    case Codec::kDraco: return "draco";
-    case Codec::kQuantized: return "quantized";
-  }
-  return "unknown";
+  static const char* const kNames[] = {"none", "zstd", "draco", "quantized"};
+  const auto index = static_cast<size_t>(codec);
+  return index < std::size(kNames) ? kNames[index] : "unknown";
 }
 
 const char* element_type_name(ElementType type) {
-  switch (type) {
-    case ElementType::kBytes: return "bytes";
-    case ElementType::kInt8: return "i8";
-    case ElementType::kFloat16: return "f16";
-    case ElementType::kFloat32: return "f32";
-  }
-  return "unknown";
+  static const char* const kNames[] = {"bytes", "i8", "f16", "f32"};
+  const auto index = static_cast<size_t>(type);
+  return index < std::size(kNames) ? kNames[index] : "unknown";
 }
 
 }  // namespace rgs::format

@@ -16,6 +16,7 @@
 #include <memory>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "internal_archive.h"
 #include "internal_bytes.h"
@@ -35,21 +36,6 @@ uint64_t header_checksum(const uint8_t* header, const uint8_t* table, size_t tab
   return XXH64_digest(&state);
 }
 
-bool is_known_section(SectionId id) {
-  switch (id) {
-    case SectionId::kMetadata:
-    case SectionId::kProvenance:
-    case SectionId::kMeans:
-    case SectionId::kRotations:
-    case SectionId::kScales:
-    case SectionId::kOpacities:
-    case SectionId::kSh: return true;
-  }
-  return false;
-}
-
-bool is_required_section(SectionId id) { return is_known_section(id) && id != SectionId::kProvenance; }
-
 bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out) {
   switch (id) {
     case SectionId::kMetadata:
@@ -61,6 +47,11 @@ bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out) {
     case SectionId::kSh: *out = {ElementType::kInt8, 3 * sh_coefficient_count(sh_degree), true}; return true;
   }
   return false;
+}
+
+bool is_known_section(SectionId id) {
+  SectionLayout unused;
+  return expected_layout(id, 0, &unused);
 }
 
 std::string section_label(size_t index, SectionId id) {
@@ -185,14 +176,66 @@ Status zstd_error_status(size_t code, const std::string& what) {
   return Status(StatusCode::kCorruptData, what + ": zstd: " + ZSTD_getErrorName(code));
 }
 
-Status decode_zstd_frame(const uint8_t* src, size_t stored_size, uint8_t* dst, size_t raw_size) {
+namespace {
+
+using DctxPtr = std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)>;
+
+/// Checks that the section's stored bytes are exactly one zstd frame and makes its decompression context.
+Status start_zstd_frame(const uint8_t* src, size_t stored_size, DctxPtr* dctx) {
   const size_t frame_size = ZSTD_findFrameCompressedSize(src, stored_size);
   if (ZSTD_isError(frame_size)) return zstd_error_status(frame_size, "zstd frame");
   RGS_RETURN_ERROR_IF(frame_size != stored_size, StatusCode::kCorruptData,
                       "zstd frame is " + dec(frame_size) + " bytes but the section stores " + dec(stored_size) +
                           " (trailing data or a second frame)");
-  std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> dctx(ZSTD_createDCtx(), ZSTD_freeDCtx);
-  RGS_RETURN_ERROR_IF(!dctx, StatusCode::kOutOfMemory, "cannot create a zstd decompression context");
+  dctx->reset(ZSTD_createDCtx());
+  RGS_RETURN_ERROR_IF(!*dctx, StatusCode::kOutOfMemory, "cannot create a zstd decompression context");
+  return Status();
+}
+
+/// Decodes a zstd section in bounded chunks of whole records, checking values as they come when `metadata` is
+/// given. A frame error (corrupt block, content checksum) outranks a value error seen before it, since the
+/// values of a corrupt frame mean nothing.
+Status stream_zstd_frame(SectionId id, const SceneMetadata* metadata, const uint8_t* src, size_t stored_size,
+                         uint64_t raw_size, size_t record_size) {
+  DctxPtr dctx(nullptr, ZSTD_freeDCtx);
+  RGS_RETURN_IF_ERROR(start_zstd_frame(src, stored_size, &dctx));
+  // At most 1 MiB of whole records, and no more records than raw_size claims (a section of a few KB needs no
+  // 1 MiB buffer; a claim too small is caught below, when the frame decodes to more).
+  const uint64_t records = std::min<uint64_t>(raw_size / record_size + (raw_size % record_size != 0),
+                                              std::max<size_t>(1, (size_t{1} << 20) / record_size));
+  const size_t chunk = record_size * static_cast<size_t>(std::max<uint64_t>(1, records));
+  std::vector<uint8_t> buffer(chunk);
+  ZSTD_inBuffer in{src, stored_size, 0};
+  uint64_t total = 0, index = 0;
+  size_t fill = 0;
+  Status value_error;
+  for (;;) {
+    ZSTD_outBuffer out{buffer.data(), chunk, fill};
+    const size_t ret = ZSTD_decompressStream(dctx.get(), &out, &in);
+    if (ZSTD_isError(ret)) return zstd_error_status(ret, "zstd frame");
+    total += out.pos - fill;
+    RGS_RETURN_ERROR_IF(total > raw_size, StatusCode::kCorruptData,
+                        "zstd frame decodes to more than raw_size " + dec(raw_size) + " bytes");
+    const size_t complete = out.pos / record_size * record_size;
+    if (metadata && value_error.ok() && complete > 0)
+      value_error = check_records(id, *metadata, buffer.data(), complete / record_size, record_size, index);
+    index += complete / record_size;
+    fill = out.pos - complete;
+    if (fill > 0) std::memmove(buffer.data(), buffer.data() + complete, fill);
+    if (ret == 0) break;
+    RGS_RETURN_ERROR_IF(in.pos == in.size && out.pos < out.size, StatusCode::kCorruptData,
+                        "zstd frame ends early after " + dec(total) + " of " + dec(raw_size) + " bytes");
+  }
+  RGS_RETURN_ERROR_IF(total != raw_size || fill != 0, StatusCode::kCorruptData,
+                      "zstd frame decoded to " + dec(total) + " bytes, expected " + dec(raw_size));
+  return value_error;
+}
+
+}  // namespace
+
+Status decode_zstd_frame(const uint8_t* src, size_t stored_size, uint8_t* dst, size_t raw_size) {
+  DctxPtr dctx(nullptr, ZSTD_freeDCtx);
+  RGS_RETURN_IF_ERROR(start_zstd_frame(src, stored_size, &dctx));
   uint8_t empty = 0;
   const size_t n = ZSTD_decompressDCtx(dctx.get(), raw_size == 0 ? &empty : dst, raw_size, src, stored_size);
   if (ZSTD_isError(n)) return zstd_error_status(n, "zstd frame");
@@ -515,15 +558,12 @@ Status RgsFileAccess::decode(const RgsFile& f, size_t index, void* dst, size_t d
     if (stored.size > 0) std::memcpy(dst, stored.data, stored.size);
     return Status();
   }
-  if (is_archive_codec(e.codec)) {
-    Status s = e.codec == Codec::kDraco
-                   ? detail::decode_draco_means(stored.data, stored.size, e.element_count, static_cast<uint8_t*>(dst),
-                                                dst_size)
-                   : detail::decode_quantized(e.id, f.metadata_, stored.data, stored.size, e.element_count,
-                                              e.components, static_cast<uint8_t*>(dst), dst_size);
-    return s.ok() ? s : s.prepend(label);
-  }
-  Status s = detail::decode_zstd_frame(stored.data, stored.size, static_cast<uint8_t*>(dst), dst_size);
+  uint8_t* out = static_cast<uint8_t*>(dst);
+  const uint64_t n = e.element_count;
+  Status s = e.codec == Codec::kDraco ? detail::decode_draco_means(stored.data, stored.size, n, out, dst_size)
+             : e.codec == Codec::kQuantized
+                 ? detail::decode_quantized(e.id, f.metadata_, stored.data, stored.size, n, e.components, out, dst_size)
+                 : detail::decode_zstd_frame(stored.data, stored.size, out, dst_size);
   return s.ok() ? s : s.prepend(label);
 }
 
@@ -691,6 +731,70 @@ Result<EncodedScene> RgsFile::read_scene() const {
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,
                   name_ + ": out of memory decoding " + dec(header_.gaussian_count) + " Gaussians");
+  }
+}
+
+namespace {
+
+/// Checks section `index` as verify_section() documents; `raw` holds its decoded bytes when the caller already
+/// has them (an archive section then is not decoded again). Errors name the file and the section.
+Status validate_section(const RgsFile& file, size_t index, const uint8_t* raw = nullptr) {
+  const SectionEntry& e = file.sections()[index];
+  if (raw == nullptr && is_archive_codec(e.codec)) {
+    // §3.3 Archive sections decode whole (their raw size is bounded by the read limits at open), then
+    // their values are checked like any runtime section's.
+    std::vector<uint8_t> decoded(static_cast<size_t>(e.raw_size));
+    return file.decode_verified_section(e.id, decoded.data(), decoded.size());
+  }
+  ByteView stored{raw, static_cast<size_t>(e.raw_size)};
+  if (raw == nullptr) {
+    RGS_ASSIGN_OR_RETURN(stored, file.stored_bytes(e.id));  // message names the file
+  }
+  const size_t record_size = static_cast<size_t>(e.components) * element_type_size(e.element_type);
+  detail::SectionLayout layout;  // the value rules check the records of the runtime (per-Gaussian) sections
+  const bool values = detail::expected_layout(e.id, 0, &layout) && layout.per_gaussian && record_size > 0;
+  Status s;
+  if (raw != nullptr || e.codec == Codec::kNone) {
+    if (values && e.raw_size > 0) {
+      s = detail::check_records(e.id, file.metadata(), stored.data, static_cast<size_t>(e.raw_size / record_size),
+                                record_size, 0);
+    }
+  } else if (e.codec == Codec::kZstd) {
+    // Runtime sections are checked one Gaussian (record) at a time as the frame streams; others only decode.
+    s = detail::stream_zstd_frame(e.id, values ? &file.metadata() : nullptr, stored.data, stored.size, e.raw_size,
+                                  values ? record_size : 1);
+  }
+  return s.ok() ? s : s.prepend(file.name() + ": " + section_label(index, e.id));
+}
+
+}  // namespace
+
+Status RgsFile::decode_verified_section(SectionId id, void* dst, size_t dst_size) const {
+  RGS_RETURN_IF_ERROR(decode_section(id, dst, dst_size));  // names the file and the section
+  return validate_section(*this, static_cast<size_t>(find(id) - sections_.data()), static_cast<const uint8_t*>(dst));
+}
+
+Status RgsFile::verify_section(SectionId id) const {
+  size_t index = 0;
+  Status s = RgsFileAccess::index_of(*this, id, &index);
+  if (!s.ok()) return s.prepend(name_);
+  try {
+    return validate_section(*this, index);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, name_ + ": out of memory checking " + section_name(id));
+  }
+}
+
+Status validate(const uint8_t* data, size_t size, const ReadLimits& limits, const std::string& name) {
+  try {
+    ReadOptions options;
+    options.limits = limits;
+    options.verify_checksums = true;
+    RGS_ASSIGN_OR_RETURN(RgsFile file, RgsFile::from_bytes(data, size, options, name));
+    for (size_t i = 0; i < file.sections().size(); ++i) RGS_RETURN_IF_ERROR(validate_section(file, i));
+    return Status();
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, name + ": out of memory validating the file");
   }
 }
 

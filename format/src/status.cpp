@@ -1,22 +1,16 @@
 #include "rgs/format/status.h"
 
+#include <iterator>
+
 namespace rgs {
 
 const char* status_code_name(StatusCode code) noexcept {
-  switch (code) {
-    case StatusCode::kOk: return "kOk";
-    case StatusCode::kIoError: return "kIoError";
-    case StatusCode::kInvalidArgument: return "kInvalidArgument";
-    case StatusCode::kNotRgsFile: return "kNotRgsFile";
-    case StatusCode::kUnsupportedVersion: return "kUnsupportedVersion";
-    case StatusCode::kUnsupportedFeature: return "kUnsupportedFeature";
-    case StatusCode::kCorruptData: return "kCorruptData";
-    case StatusCode::kChecksumMismatch: return "kChecksumMismatch";
-    case StatusCode::kLimitExceeded: return "kLimitExceeded";
-    case StatusCode::kOutOfMemory: return "kOutOfMemory";
-    case StatusCode::kCudaError: return "kCudaError";
-  }
-  return "kUnknown";
+  static const char* const kNames[] = {"kOk", "kIoError", "kInvalidArgument", "kNotRgsFile", "kUnsupportedVersion",
+                                       "kUnsupportedFeature", "kCorruptData", "kChecksumMismatch", "kLimitExceeded",
+                                       "kOutOfMemory", "kCudaError"};
+  static_assert(std::size(kNames) == static_cast<size_t>(StatusCode::kCudaError) + 1, "a name for every code");
+  const auto index = static_cast<size_t>(code);
+  return index < std::size(kNames) ? kNames[index] : "kUnknown";
 }
 
 std::string Status::to_string() const {

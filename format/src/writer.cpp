@@ -4,6 +4,7 @@
 #include <zstd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <new>
@@ -76,17 +77,67 @@ void encode_provenance(const Provenance& provenance, uint8_t* out, size_t size) 
   }
 }
 
+Status check_zstd_level(int level) {
+  RGS_RETURN_ERROR_IF(level < 1 || level > ZSTD_maxCLevel(), StatusCode::kInvalidArgument,
+                      "zstd level " + std::to_string(level) + " outside 1.." + std::to_string(ZSTD_maxCLevel()));
+  return Status();
+}
+
+Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out) {
+  std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
+  if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
+  // §7 Single-threaded, content size and checksum in every frame: deterministic, self-checking.
+  for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, level}, std::pair{ZSTD_c_checksumFlag, 1},
+                              std::pair{ZSTD_c_contentSizeFlag, 1}, std::pair{ZSTD_c_nbWorkers, 0}}) {
+    const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
+    if (ZSTD_isError(r)) {
+      return Status(StatusCode::kInvalidArgument, std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
+    }
+  }
+  const size_t start = out->size();
+  const size_t bound = ZSTD_compressBound(size);
+  if (ZSTD_isError(bound)) return Status(StatusCode::kInvalidArgument, dec(size) + " bytes are too large for zstd");
+  out->resize(start + bound);
+  const size_t n = ZSTD_compress2(cctx.get(), out->data() + start, bound, raw, size);
+  if (ZSTD_isError(n)) {
+    return Status(StatusCode::kOutOfMemory, std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
+  }
+  out->resize(start + n);
+  out->shrink_to_fit();  // the bound can be twice the frame; the section is kept until the file is written
+  return Status();
+}
+
+void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
+              std::vector<Status>* results) {
+  results->assign(jobs.size(), Status());
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (size_t j; (j = next.fetch_add(1)) < jobs.size();) {
+      try {  // nothing may escape a thread: error messages allocate
+        (*results)[j] = jobs[j]();
+      } catch (const std::exception&) {
+        (*results)[j] = Status(StatusCode::kOutOfMemory, std::string("out of memory ") + what);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < std::max<uint32_t>(1, threads); ++t) {
+    try {
+      pool.emplace_back(worker);
+    } catch (const std::system_error&) {
+      break;
+    }
+  }
+  worker();
+  for (std::thread& t : pool) t.join();
+}
+
 }  // namespace detail
 
 namespace {
 
 using detail::ByteWriter;
 using detail::dec;
-
-struct ZstdCCtxDeleter {
-  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
-};
-using ZstdCCtxPtr = std::unique_ptr<ZSTD_CCtx, ZstdCCtxDeleter>;
 
 /// One section as it will be written: raw bytes (a view into the scene, or owned when they had to be
 /// encoded), the zstd frame when compressed, and its place in the file.
@@ -138,28 +189,8 @@ Status check_values(const EncodedScene& scene, uint64_t begin, uint64_t end) {
   return Status();
 }
 
-/// Runs `first` on the calling thread and `second` on another one (inline afterwards when no thread can be
-/// started). Both must not throw. Used to halve the serial checking and hashing of a large scene.
-template <typename A, typename B>
-void run_pair(A&& first, B&& second) {
-  std::thread thread;
-  try {
-    thread = std::thread(second);
-  } catch (const std::system_error&) {
-  }
-  first();
-  if (thread.joinable()) {
-    thread.join();
-  } else {
-    second();
-  }
-}
-
 Status check_options(const WriteOptions& options) {
-  if (options.zstd_level < 1 || options.zstd_level > ZSTD_maxCLevel()) {
-    return invalid("zstd level " + std::to_string(options.zstd_level) + " outside 1.." +
-                   std::to_string(ZSTD_maxCLevel()));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_zstd_level(options.zstd_level));
   for (const auto& [id, codec] : options.codecs) {
     if (!detail::is_known_section(id)) {
       return invalid("codec requested for unknown section id " + dec(static_cast<uint32_t>(id)));
@@ -193,22 +224,6 @@ void set_array_raw(PlannedSection* s, const std::vector<T>& values) {
   }
 }
 
-Status compress_section(ZSTD_CCtx* cctx, PlannedSection* s) {
-  const size_t bound = ZSTD_compressBound(s->raw_size);
-  if (ZSTD_isError(bound)) {
-    return invalid(std::string(section_name(s->id)) + ": " + dec(s->raw_size) + " bytes are too large for zstd");
-  }
-  s->compressed.resize(bound);
-  const size_t n = ZSTD_compress2(cctx, s->compressed.data(), bound, s->raw, s->raw_size);
-  if (ZSTD_isError(n)) {
-    return Status(StatusCode::kOutOfMemory, std::string("zstd compression of section ") + section_name(s->id) +
-                                                " failed: " + ZSTD_getErrorName(n));
-  }
-  s->compressed.resize(n);
-  s->compressed.shrink_to_fit();
-  return Status();
-}
-
 /// A file ready to be written: its sections (stored bytes, checksums, offsets) and its header + table.
 struct PlannedFile {
   std::vector<PlannedSection> sections;
@@ -223,38 +238,36 @@ struct PlannedFile {
 uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, uint64_t provenance_bytes,
                       ArchiveScene* archive, PlannedFile* file) {
   const uint64_t n = scene.count;
-  const uint32_t k = sh_coefficient_count(scene.metadata.sh_degree);
   std::vector<PlannedSection>& plan = file->sections;
   plan.reserve(7);
-  auto add = [&](SectionId id, ElementType type, uint32_t components, uint64_t count) -> PlannedSection& {
+  auto add = [&](SectionId id, uint64_t count) -> PlannedSection& {
     PlannedSection& s = plan.emplace_back();
+    detail::SectionLayout layout;
+    (void)detail::expected_layout(id, scene.metadata.sh_degree, &layout);  // every id added here is known
     s.id = id;
-    s.element_type = type;
-    s.components = components;
+    s.element_type = layout.element_type;
+    s.components = layout.components;
     s.element_count = count;
     const auto it = options.codecs.find(id);
     s.codec = it == options.codecs.end() ? Codec::kNone : it->second;
     return s;
   };
-  {
-    PlannedSection& s = add(SectionId::kMetadata, ElementType::kBytes, 1, kMetadataSize);
-    s.owned_raw.resize(kMetadataSize);
-    detail::encode_metadata(scene.metadata, s.owned_raw.data());
+  auto add_owned = [&](SectionId id, uint64_t size) {
+    PlannedSection& s = add(id, size);
+    s.owned_raw.resize(size);
     s.raw = s.owned_raw.data();
-    s.raw_size = kMetadataSize;
-  }
+    s.raw_size = size;
+    return s.owned_raw.data();
+  };
+  detail::encode_metadata(scene.metadata, add_owned(SectionId::kMetadata, kMetadataSize));
   if (!scene.provenance.empty()) {
-    PlannedSection& s = add(SectionId::kProvenance, ElementType::kBytes, 1, provenance_bytes);
-    s.owned_raw.resize(provenance_bytes);
-    detail::encode_provenance(scene.provenance, s.owned_raw.data(), s.owned_raw.size());
-    s.raw = s.owned_raw.data();
-    s.raw_size = provenance_bytes;
+    detail::encode_provenance(scene.provenance, add_owned(SectionId::kProvenance, provenance_bytes), provenance_bytes);
   }
-  set_array_raw(&add(SectionId::kMeans, ElementType::kFloat32, 3, n), scene.means);
-  set_array_raw(&add(SectionId::kRotations, ElementType::kFloat16, 4, n), scene.rotations);
-  set_array_raw(&add(SectionId::kScales, ElementType::kFloat16, 3, n), scene.scales);
-  set_array_raw(&add(SectionId::kOpacities, ElementType::kFloat16, 1, n), scene.opacities);
-  set_array_raw(&add(SectionId::kSh, ElementType::kInt8, 3 * k, n), scene.sh);
+  set_array_raw(&add(SectionId::kMeans, n), scene.means);
+  set_array_raw(&add(SectionId::kRotations, n), scene.rotations);
+  set_array_raw(&add(SectionId::kScales, n), scene.scales);
+  set_array_raw(&add(SectionId::kOpacities, n), scene.opacities);
+  set_array_raw(&add(SectionId::kSh, n), scene.sh);
   uint32_t required_flags = 0;
   if (archive != nullptr) {
     // §3.3 The per-Gaussian sections, in the order means, rotations, scales, opacities, sh, take the
@@ -286,23 +299,12 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   return version;
 }
 
-/// Compresses every zstd section of `plan`, with one context made when the first one needs it.
+/// Compresses every zstd section of `plan`.
 Status compress_sections(const WriteOptions& options, std::vector<PlannedSection>* plan) {
-  ZstdCCtxPtr cctx;
   for (PlannedSection& s : *plan) {
     if (s.codec != Codec::kZstd) continue;
-    if (!cctx) {
-      cctx.reset(ZSTD_createCCtx());
-      if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
-      // §7 Single-threaded, content size and checksum in every frame: deterministic, self-checking.
-      for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, options.zstd_level},
-                                  std::pair{ZSTD_c_checksumFlag, 1}, std::pair{ZSTD_c_contentSizeFlag, 1},
-                                  std::pair{ZSTD_c_nbWorkers, 0}}) {
-        const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
-        if (ZSTD_isError(r)) return invalid(std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
-      }
-    }
-    RGS_RETURN_IF_ERROR(compress_section(cctx.get(), &s));
+    Status st = detail::compress_zstd_frame(s.raw, static_cast<size_t>(s.raw_size), options.zstd_level, &s.compressed);
+    if (!st.ok()) return st.prepend(std::string("section ") + section_name(s.id));
   }
   return Status();
 }
@@ -330,25 +332,18 @@ Result<std::vector<uint64_t>> check_and_checksum(const EncodedScene& scene, cons
   const uint64_t n = scene.count;
   std::vector<uint64_t> checksums(plan.size());
   const size_t sh_index = plan.size() - 1;
-  Status first_half, second_half;
-  const auto guarded_check = [&scene](uint64_t from, uint64_t to) {
-    try {  // nothing may escape a thread: error messages allocate
-      return check_values(scene, from, to);
-    } catch (const std::exception&) {
-      return Status(StatusCode::kOutOfMemory, "out of memory reporting an invalid Gaussian");
-    }
-  };
-  run_pair(
+  std::vector<std::function<Status()>> halves = {
       [&] {
-        first_half = guarded_check(0, n / 2);
         checksums[sh_index] = detail::xxh64(plan[sh_index].stored(), plan[sh_index].stored_size());
+        return check_values(scene, 0, n / 2);
       },
       [&] {
-        second_half = guarded_check(n / 2, n);
         for (size_t i = 0; i < sh_index; ++i) checksums[i] = detail::xxh64(plan[i].stored(), plan[i].stored_size());
-      });
-  RGS_RETURN_IF_ERROR(first_half);
-  RGS_RETURN_IF_ERROR(second_half);
+        return check_values(scene, n / 2, n);
+      }};
+  std::vector<Status> results;
+  detail::run_jobs(halves, 2, "reporting an invalid Gaussian", &results);
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
   return checksums;
 }
 
@@ -450,31 +445,28 @@ Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const 
   return out;
 }
 
+/// fn(), with an allocation failure turned into kOutOfMemory naming the scene's size.
+template <typename Fn>
+auto catch_out_of_memory(const EncodedScene& scene, Fn&& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+  } catch (const std::length_error&) {
+  }
+  return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
+}
+
 }  // namespace
 
 Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options) {
-  try {
-    return serialize_checked(scene, options);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-  } catch (const std::length_error&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-  }
+  return catch_out_of_memory(scene, [&] { return serialize_checked(scene, options); });
 }
 
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options,
                                   FileSink& files) {
   // Streams the sections from the scene's own arrays (no serialized copy of the whole file in memory).
   std::optional<ArchiveScene> archive;
-  auto file = [&]() -> Result<PlannedFile> {
-    try {
-      return plan_profile(scene, options, &archive);
-    } catch (const std::bad_alloc&) {
-      return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-    } catch (const std::length_error&) {
-      return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-    }
-  }();
+  auto file = catch_out_of_memory(scene, [&] { return plan_profile(scene, options, &archive); });
   if (!file.ok()) return Status(file.status()).prepend(path);
   RGS_RETURN_IF_ERROR(files.write(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
   return file->file_size;

@@ -104,7 +104,7 @@ TEST_CASE("OutputSet: a library writer given the set stages into it, others writ
   REQUIRE_MESSAGE(written.ok(), written.status().to_string());
   CHECK_FALSE(fs::exists(rgs));
   CHECK(dir.entries() == std::vector<std::string>{partial_name("scene.rgs")});
-  REQUIRE(write_file_atomic_by_name(dir.file("by_name.bin"), [](const std::string& temp) {
+  REQUIRE(atomic_files().write_by_name(dir.file("by_name.bin"), [](const std::string& temp) {
             std::ofstream(temp, std::ios::binary) << "named";
             return Status();
           }).ok());  // not given the set: committed at once

@@ -69,7 +69,7 @@ class FileSink {
   Status write(const std::string& path, const void* data, size_t size);
 };
 
-/// The sink that writes each file atomically in place (write_file_atomic, write_file_atomic_by_name).
+/// The sink that writes each file atomically in place: StagedFile::write or write_by_name, then commit().
 FileSink& atomic_files();
 
 /// The new content of one file, complete in a temporary next to it ("<name>.<pid>.rgs-partial", flushed and
@@ -95,13 +95,8 @@ class StagedFile {
   /// empty. @return kIoError naming the destination (the temporary is removed); kInvalidArgument when empty.
   Status commit();
 
-  /// The destination.
-  const std::string& path() const { return path_; }
-
  private:
   StagedFile() = default;
-  StagedFile(std::string path, std::string temporary, size_t slot)
-      : path_(std::move(path)), temporary_(std::move(temporary)), slot_(slot) {}
   void discard() noexcept;
   std::string path_, temporary_;
   size_t slot_ = 0;
@@ -114,9 +109,6 @@ Status write_file_atomic(const std::string& path, const ChunkProducer& produce);
 
 /// Convenience form of write_file_atomic for one in-memory buffer.
 Status write_file_atomic(const std::string& path, const void* data, size_t size);
-
-/// Like write_file_atomic, for writers that can only open a file by name (image libraries).
-Status write_file_atomic_by_name(const std::string& path, const ByNameWriter& write_to);
 
 /// Identity of an existing file: device and inode after following symbolic links.
 struct FileId {

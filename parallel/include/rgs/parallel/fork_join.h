@@ -97,37 +97,21 @@ template <typename Fn>
 [[nodiscard]] Status parallel_slices(uint64_t n, unsigned workers, Fn&& fn) {
   WorkerFailures failures;
   const std::string what = std::to_string(n) + " items";
-  if (workers <= 1 || n < 2) {
-    failures.run([&] { fn(0u, uint64_t{0}, n); });
-    return failures.result(what);
-  }
+  if (n < 2 || workers == 0) workers = 1;
   auto bound = [n, workers](unsigned t) {
     return (n / workers) * t + (n % workers) * t / workers;  // floor(n·t / workers) without overflow
   };
+  auto slice = [&](unsigned t) { failures.run([&] { fn(t, bound(t), bound(t + 1)); }); };
   std::vector<std::thread> threads;
-  std::vector<unsigned> inline_slices;
+  unsigned started = 1;  // slices [1, started) run on their own threads, the others here after slice 0
   try {
     threads.reserve(workers - 1);
-    inline_slices.reserve(workers - 1);
+    for (; started < workers; ++started) threads.emplace_back(slice, started);
+  } catch (const std::system_error&) {
   } catch (const std::bad_alloc&) {
-    failures.run([&] {
-      for (unsigned t = 0; t < workers; ++t) fn(t, bound(t), bound(t + 1));
-    });
-    return failures.result(what);
   }
-  for (unsigned t = 1; t < workers; ++t) {
-    try {
-      threads.emplace_back([&fn, &failures, t, b = bound(t), e = bound(t + 1)] {
-        failures.run([&] { fn(t, b, e); });
-      });
-    } catch (const std::system_error&) {
-      inline_slices.push_back(t);  // capacity reserved above: does not allocate
-    } catch (const std::bad_alloc&) {
-      inline_slices.push_back(t);
-    }
-  }
-  failures.run([&] { fn(0u, bound(0), bound(1)); });
-  for (unsigned t : inline_slices) failures.run([&] { fn(t, bound(t), bound(t + 1)); });
+  slice(0);
+  for (unsigned t = started; t < workers; ++t) slice(t);
   for (std::thread& th : threads) th.join();
   return failures.result(what);
 }
@@ -140,16 +124,12 @@ template <typename Fn>
 [[nodiscard]] Status parallel_items(uint64_t items, unsigned workers, Fn&& fn) {
   workers = static_cast<unsigned>(std::max<uint64_t>(1, std::min<uint64_t>(workers, items)));
   std::atomic<uint64_t> next{0};
-  std::atomic<bool> stop{false};
   Status s = parallel_slices(workers, workers, [&](unsigned t, uint64_t, uint64_t) {
     try {
-      for (uint64_t item = next.fetch_add(1, std::memory_order_relaxed);
-           item < items && !stop.load(std::memory_order_relaxed); item = next.fetch_add(1, std::memory_order_relaxed)) {
-        fn(t, item);
-      }
+      for (uint64_t item; (item = next.fetch_add(1, std::memory_order_relaxed)) < items;) fn(t, item);
     } catch (...) {
-      stop.store(true);
-      throw;  // recorded by parallel_slices
+      next.store(items);  // no further item starts
+      throw;              // recorded by parallel_slices
     }
   });
   if (s.code() == StatusCode::kOutOfMemory) {
