@@ -557,7 +557,10 @@ SceneBounds bounds_of(const std::vector<float>& means) {
   for (int a = 0; a < 3; ++a) {
     b.sphere_center[a] =
         static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
-    center[a] = b.sphere_center[a];
+    // Read back through a volatile, as converter::compute_bounds does: GCC 12 at -O3 otherwise forwards the
+    // unrounded double, and the radius would depend on the optimisation level.
+    const volatile float stored = b.sphere_center[a];
+    center[a] = stored;
   }
   double r2 = 0;
   for (size_t i = 0; i < n; ++i) {
