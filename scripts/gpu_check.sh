@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|pybench|audit|ab|all]   (default all; ab: see below)
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|floor|pybench|audit|ab|all]   (default all; ab: see below)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
 out="$2"
@@ -159,6 +159,28 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     # The tables without the progress lines ("... x N ...").
     grep -v -e ' \.\.\.$' "$out/bench_$name.log" | tee -a "$summary"
   done
+fi
+if [ "$what" = floor ] || [ "$what" = all ]; then
+  # The true floor (docs/ROOFLINE.md#the-true-floor): faithful and fastest against what each view needs, counted
+  # by the CPU reference on this host's cores, at 1080p and 4K; and a camera path of 32 views (near and far,
+  # low and high) for the spread over views the scenes' own cameras do not show.
+  floor_bench() {  # NAME ARGS...
+    local name="$1"
+    shift
+    local t0 rc=0
+    t0=$(date +%s)
+    "$bin/rgs-bench" "$@" --resolution 1920x1080 --resolution 3840x2160 --mode faithful --mode fastest --warmup 3 \
+      --repeat 10 --json "$out/floor_$name.json" >"$out/floor_$name.log" 2>&1 || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "floor_$name: exit $rc in $(( $(date +%s) - t0 )) s"
+    grep -v -e ' \.\.\.$' "$out/floor_$name.log" | tee -a "$summary"
+  }
+  floor_bench daffodils "$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --orbit 8 --floor
+  floor_bench daffodils_path "$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --path 32
+  if [ -f "$taebak" ]; then
+    floor_bench taebak "$taebak" --cameras "$taebak_cameras" --floor
+    floor_bench taebak_path "$taebak" --path 32
+  fi
 fi
 if [ "$what" = pybench ] || [ "$what" = all ]; then
   # roofgs.rasterization() on torch CUDA tensors against rgs-bench's fastest on the same views: taebak's 8

@@ -67,6 +67,7 @@ struct Options {
   double min_psnr = -1;
   bool min_psnr_set = false;
   bool quiet = false;
+  bool attribution = false;
   std::string command_line;
 };
 
@@ -316,6 +317,13 @@ Result<audit::AuditResult> measure(const Options& opt) {
     tools::report_notes(kTool, scene.info.notes, opt.quiet);
     candidates.push_back(std::move(scene));
   }
+  if (opt.attribution) {
+    const size_t files = candidates.size();
+    for (size_t i = 0; i < files; ++i) {
+      RGS_ASSIGN_OR_RETURN(std::vector<audit::AuditScene> hybrids, audit::attribution_scenes(source, candidates[i]));
+      for (audit::AuditScene& h : hybrids) candidates.push_back(std::move(h));
+    }
+  }
   RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> cameras, api::make_cameras(opt.cameras, source.bounds));
 
   std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
@@ -496,6 +504,10 @@ int main(int argc, char** argv) {
       kTool};
   app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: scenes in any format, " + rgs::tools::scene_formats_help());
   app.add_option("--label", opt.labels, "Name of a candidate in tables and plots (repeat, in candidate order)");
+  app.add_flag("--attribution", opt.attribution,
+               "Also audit, for each candidate, the source with one attribute group at a time taken from the "
+               "candidate (means, rotations, scales, opacities, SH DC, SH bands 1+): what each attribute's "
+               "encoding alone costs (needs the source's Gaussians in the same order)");
   rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json (native size by default)", "At most N views",
                                  "Orbit of N cameras (default 4, at 960x540)");
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));

@@ -1,6 +1,9 @@
 #include "rgs/audit/audit_scene.h"
 
+#include <algorithm>
 #include <filesystem>
+#include <functional>
+#include <utility>
 
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
@@ -54,6 +57,44 @@ Result<AuditScene> load_audit_scene(const std::string& path, const std::string& 
   scene.info.gaussians = scene.cloud.size();
   scene.info.sh_degree = scene.cloud.sh_degree;
   return scene;
+}
+
+Result<std::vector<AuditScene>> attribution_scenes(const AuditScene& source, const AuditScene& candidate) {
+  const format::GaussianCloud& a = source.cloud;
+  const format::GaussianCloud& b = candidate.cloud;
+  RGS_RETURN_ERROR_IF(a.size() != b.size() || a.sh_degree != b.sh_degree, StatusCode::kInvalidArgument,
+                      candidate.info.path + ": attribution needs the source's Gaussians in the same order (" +
+                          std::to_string(b.size()) + " of SH degree " + std::to_string(b.sh_degree) + " against " +
+                          std::to_string(a.size()) + " of degree " + std::to_string(a.sh_degree) + ")");
+  const size_t k = a.sh_coefficients();
+  // Each group copies its values from the candidate into a copy of the source.
+  const std::vector<std::pair<std::string, std::function<void(format::GaussianCloud&)>>> groups = {
+      {"means", [&](format::GaussianCloud& c) { c.means = b.means; }},
+      {"rotations", [&](format::GaussianCloud& c) { c.rotations = b.rotations; }},
+      {"scales", [&](format::GaussianCloud& c) { c.scales = b.scales; }},
+      {"opacities", [&](format::GaussianCloud& c) { c.opacities = b.opacities; }},
+      {"SH DC", [&](format::GaussianCloud& c) {
+         for (size_t i = 0; i < c.size(); ++i) std::copy_n(&b.sh[i * k * 3], 3, &c.sh[i * k * 3]);
+       }},
+      {"SH bands 1+", [&](format::GaussianCloud& c) {
+         for (size_t i = 0; i < c.size(); ++i) std::copy_n(&b.sh[i * k * 3 + 3], (k - 1) * 3, &c.sh[i * k * 3 + 3]);
+       }},
+  };
+  std::vector<AuditScene> scenes;
+  for (const auto& [group, take] : groups) {
+    if (group == "SH bands 1+" && k == 1) continue;
+    AuditScene hybrid;
+    hybrid.cloud = a;
+    take(hybrid.cloud);
+    hybrid.bounds = group == "means" ? candidate.bounds : source.bounds;
+    hybrid.info = candidate.info;
+    hybrid.info.label = candidate.info.label + ": " + group + " only";
+    hybrid.info.sections.clear();
+    hybrid.info.overhead_bytes = 0;
+    hybrid.info.notes.clear();
+    scenes.push_back(std::move(hybrid));
+  }
+  return scenes;
 }
 
 }  // namespace rgs::audit

@@ -124,6 +124,41 @@ TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference, two candidat
   CHECK(j["candidates"][0]["ratio"].get<double>() == doctest::Approx(1.0));
 }
 
+TEST_CASE("attribution: the source with one attribute group from the candidate, the DC term costing most") {
+  const audit::AuditScene& source = guitar();
+  const audit::AuditScene converted = test::converted_scene(source, "rgs_test_audit_attribution.rgs");
+  auto hybrids = audit::attribution_scenes(source, converted);
+  REQUIRE_MESSAGE(hybrids.ok(), hybrids.status().to_string());
+  // guitar has SH degree 0: no "SH bands 1+" group.
+  const char* groups[] = {"means", "rotations", "scales", "opacities", "SH DC"};
+  REQUIRE(hybrids->size() == 5);
+  for (size_t g = 0; g < hybrids->size(); ++g) {
+    const audit::AuditScene& h = (*hybrids)[g];
+    CAPTURE(groups[g]);
+    CHECK(h.info.label == "converted: " + std::string(groups[g]) + " only");
+    // Exactly its group from the candidate, everything else from the source.
+    CHECK(h.cloud.means == (g == 0 ? converted.cloud.means : source.cloud.means));
+    CHECK(h.cloud.rotations == (g == 1 ? converted.cloud.rotations : source.cloud.rotations));
+    CHECK(h.cloud.scales == (g == 2 ? converted.cloud.scales : source.cloud.scales));
+    CHECK(h.cloud.opacities == (g == 3 ? converted.cloud.opacities : source.cloud.opacities));
+    CHECK(h.cloud.sh == (g == 4 ? converted.cloud.sh : source.cloud.sh));
+  }
+  std::vector<audit::AuditScene> candidates{converted};
+  for (audit::AuditScene& h : *hybrids) candidates.push_back(std::move(h));
+  auto result = audit::run_audit(source, candidates, small_orbit(source.bounds, 2), {});
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  const double whole = result->candidates[0].summary.psnr_mean_db;
+  // Means are stored exactly; of the rest, the INT8 DC term is what the runtime profile's PSNR is made of.
+  CHECK(std::isinf(result->candidates[1].summary.psnr_mean_db));
+  const double dc = result->candidates[5].summary.psnr_mean_db;
+  CHECK(dc == doctest::Approx(whole).epsilon(0.01));
+  for (size_t c = 2; c < 5; ++c) CHECK(result->candidates[c].summary.psnr_mean_db > dc + 10);
+
+  audit::AuditScene other = source;
+  other.cloud.resize(10);
+  CHECK(audit::attribution_scenes(other, converted).status().code() == StatusCode::kInvalidArgument);
+}
+
 TEST_CASE("bad audits are errors") {
   const audit::AuditScene& source = guitar();
   std::vector<audit::AuditScene> none;

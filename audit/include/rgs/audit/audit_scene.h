@@ -56,4 +56,11 @@ struct AuditScene {
 Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label = {},
                                     const converter::SceneReadOptions& options = {});
 
+/// Where a candidate loses its fidelity, attribute by attribute: one scene per attribute group (means,
+/// rotations, scales, opacities, the SH DC term, the higher SH bands when the source has them), each the
+/// source with only that group taken from `candidate`, labelled "<candidate label>: <group> only". Audited
+/// as candidates against the source, each one's PSNR is what that attribute's encoding alone costs.
+/// Needs the same Gaussians in the same order: kInvalidArgument when the counts or SH degrees differ.
+Result<std::vector<AuditScene>> attribution_scenes(const AuditScene& source, const AuditScene& candidate);
+
 }  // namespace rgs::audit
