@@ -17,10 +17,12 @@ fastest preset):
      stage's time over the time that work takes at the measured roofs (docs/ROOFLINE.md#the-true-floor).
 With --ab the inputs are the runs of `scripts/gpu_check.sh ... ab` (ab_<scene>_<a|b><round>.json: side A is
 the other build, B this one) and the output is one table of total medians per side and B's change over A.
-With --update FILE the output replaces the lines between the markers
+With --floor-only the output is the floor tables (5.) alone. With --update FILE the output replaces the lines
+between the markers
     <!-- bench_tables: begin ... -->
     <!-- bench_tables: end -->
-of FILE (each on a line of its own, once). Any JSON that does not have the shape rgs-bench writes, files from
+of FILE (each on a line of its own, once); with --block NAME, between "<!-- bench_tables NAME: begin ... -->"
+and "<!-- bench_tables NAME: end -->". Any JSON that does not have the shape rgs-bench writes, files from
 different devices, or the same (scene, mode, resolution) twice is an error (exit 1); bad options exit 2.
 """
 
@@ -259,7 +261,7 @@ def find_frame(scenes, spec):
                      f"({', '.join(s.label for s in scenes)})")
 
 
-def render(scenes, device, dates, mode, reference, stage_specs, mode_specs):
+def render(scenes, device, dates, mode, reference, stage_specs, mode_specs, floor_only=False):
     out = []
     when = dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}"
     out.append(f"Device: {device[0]} (sm_{device[1].replace('.', '')}, {device[2]} SMs); `rgs-bench` runs of {when}.")
@@ -267,6 +269,8 @@ def render(scenes, device, dates, mode, reference, stage_specs, mode_specs):
     resolutions = sorted({res for s in scenes for (m, res) in s.frames if m == mode}, key=resolution_order)
     need(resolutions, "inputs", f"no run of mode {mode!r}")
 
+    if floor_only:
+        return "\n".join(floor_tables(scenes, resolutions, mode)[1:]) + "\n"
     out += ["", f"`{mode}` frame time and speedup over `{reference}` (same run):", ""]
     rows = []
     for s in scenes:
@@ -319,32 +323,7 @@ def render(scenes, device, dates, mode, reference, stage_specs, mode_specs):
                 "the views, dB:", ""]
         out += table(["scene"] + [resolution_label(r) for r in q_res], rows)
 
-    floor_frames = [(s, res) for s in scenes for res in resolutions if (mode, res) in s.floor]
-    if floor_frames:
-        rows = []
-        for s, res in floor_frames:
-            c = s.census[res]
-            rows.append([f"{s.label}, {resolution_label(res)}", f"{c['blended_px']:.1f}", f"{c['skipped_px']:.1f}",
-                         f"{c['contributing'] / 1e6:.2f}M", f"{c['rect'] / 1e6:.2f}M", f"{c['reach16'] / 1e6:.2f}M",
-                         f"{c['p16'] / 1e6:.2f}M", f"{c['p8'] / 1e6:.2f}M", f"{c['p4'] / 1e6:.2f}M"])
-        out += ["", "What the image needs (`--floor`: the CPU reference's census, mean per view): Gaussians blended "
-                "and tested in vain per pixel, Gaussians that blend anywhere, the 3DGS rectangles' pairs, the pairs "
-                "that reach α ≥ 1/255 per 16×16 tile, and the pairs that blend per 16×16, 8×8 and 4×4 cell:", ""]
-        out += table(["frame", "blended/px", "skipped/px", "contributing", "3DGS pairs", "reaching 16×16",
-                      "blending 16×16", "8×8", "4×4"], rows)
-        rows = []
-        for s, res in floor_frames:
-            ms, fl = s.frames[(mode, res)], s.floor[(mode, res)]
-            total = sum(fl.values())
-            cells = [f"{ms[st]:.3f} / {fl[st]:.3f}" for st in STAGES[:-1]]
-            lo_hi = s.spread.get((mode, res))
-            rows.append([f"{s.label}, {resolution_label(res)}"] + cells +
-                        [f"{ms['total']:.3f} / {total:.3f} ({ms['total'] / total:.1f}×)" if total > 0 else "–",
-                         f"{lo_hi[0]:.3f}–{lo_hi[1]:.3f}" if lo_hi else "–"])
-        out += ["", f"`{mode}` per stage against the true floor, ms (measured / floor), and the spread of the views' "
-                "median totals:", ""]
-        out += table(["frame"] + list(STAGES[:-1]) + ["total (× floor)", "views min–max"], rows)
-
+    out += floor_tables(scenes, resolutions, mode)
     for spec in mode_specs:
         s, res = find_frame(scenes, spec)
         base = s.frames.get((reference, res))
@@ -361,35 +340,83 @@ def render(scenes, device, dates, mode, reference, stage_specs, mode_specs):
     return "\n".join(out) + "\n"
 
 
+def floor_tables(scenes, resolutions, mode):
+    """The census and the per-stage floor of the runs that had --floor (empty without)."""
+    out = []
+    floor_frames = [(s, res) for s in scenes for res in resolutions if (mode, res) in s.floor]
+    if floor_frames:
+        rows = []
+        for s, res in floor_frames:
+            c = s.census[res]
+            rows.append([f"{s.label}, {resolution_label(res)}", f"{c['blended_px']:.1f}", f"{c['skipped_px']:.1f}",
+                         f"{c['contributing'] / 1e6:.2f}M", f"{c['rect'] / 1e6:.2f}M", f"{c['reach16'] / 1e6:.2f}M",
+                         f"{c['p16'] / 1e6:.2f}M", f"{c['p8'] / 1e6:.2f}M", f"{c['p4'] / 1e6:.2f}M"])
+        out += ["", "What the image needs (`--floor`, mean per view): Gaussians blended and tested in vain per pixel, "
+                "Gaussians that blend anywhere, pairs of the 3DGS rectangles, pairs reaching α ≥ 1/255 per 16×16 "
+                "tile, pairs that blend per 16×16, 8×8 and 4×4 cell:", ""]
+        out += table(["frame", "blended/px", "skipped/px", "contributing", "3DGS pairs", "reaching 16×16",
+                      "blending 16×16", "8×8", "4×4"], rows)
+        rows = []
+        for s, res in floor_frames:
+            ms, fl = s.frames[(mode, res)], s.floor[(mode, res)]
+            total = sum(fl.values())
+            cells = [f"{ms[st]:.3f} / {fl[st]:.3f}" for st in STAGES[:-1]]
+            lo_hi = s.spread.get((mode, res))
+            rows.append([f"{s.label}, {resolution_label(res)}"] + cells +
+                        [f"{ms['total']:.3f} / {total:.3f} ({ms['total'] / total:.1f}×)" if total > 0 else "–",
+                         f"{lo_hi[0]:.3f}–{lo_hi[1]:.3f}" if lo_hi else "–"])
+        out += ["", f"`{mode}` per stage against the true floor, ms (measured / floor), and the spread of the views' "
+                "median totals:", ""]
+        out += table(["frame"] + list(STAGES[:-1]) + ["total (× floor)", "views min–max"], rows)
+
+    return out
+
+
 def ab_table(runs, names):
-    """Total medians of A and B runs of the same frames, and B's change over A (mean of the rounds)."""
-    totals = {}  # (scene label, mode, resolution) -> {"a": [...], "b": [...]}
+    """Total medians of A and B runs of the same frames, one row per scene and resolution with every mode's
+    runs (A's, then B's) and B's change over A (mean of the rounds)."""
+    totals = {}  # (scene label, resolution) -> {mode: {"a": [...], "b": [...]}}
+    modes = []
     for run in runs:
         m = re.search(r"_([ab])\d+\.json$", run["path"])
         need(m is not None, run["path"], "an --ab input is named ..._a<N>.json or ..._b<N>.json")
         label = Scene(run, names).label
         for f in run["frames"]:
-            sides = totals.setdefault((label, f["mode"], f["resolution"]), {"a": [], "b": []})
+            if f["mode"] not in modes:
+                modes.append(f["mode"])
+            sides = totals.setdefault((label, f["resolution"]), {}).setdefault(f["mode"], {"a": [], "b": []})
             sides[m.group(1)].append(f["ms"]["total"])
     rows = []
-    for (label, mode, res), sides in sorted(totals.items()):
-        need(sides["a"] and sides["b"], label, f"{mode} {res} lacks an A or a B run")
-        a, b = sum(sides["a"]) / len(sides["a"]), sum(sides["b"]) / len(sides["b"])
-        rows.append([label, f"`{mode}`", resolution_label(res), " ".join(f"{v:.4f}" for v in sides["a"]),
-                     " ".join(f"{v:.4f}" for v in sides["b"]), f"{100 * (b / a - 1):+.1f} %"])
-    return table(["scene", "mode", "resolution", "A total ms", "B total ms", "B vs A"], rows)
+    for (label, res), by_mode in sorted(totals.items()):
+        cells = []
+        for mode in modes:
+            sides = by_mode.get(mode)
+            if sides is None:
+                cells += ["–", "–"]
+                continue
+            need(sides["a"] and sides["b"], label, f"{mode} {res} lacks an A or a B run")
+            a, b = sum(sides["a"]) / len(sides["a"]), sum(sides["b"]) / len(sides["b"])
+            cells += [" ".join(f"{v:.3f}" for v in sides["a"]) + " → " + " ".join(f"{v:.3f}" for v in sides["b"]),
+                      f"{100 * (b / a - 1):+.1f} %"]
+        rows.append([label, resolution_label(res)] + cells)
+    header = ["scene", "resolution"]
+    for mode in modes:
+        header += [f"`{mode}` A → B total ms", "B vs A"]
+    return table(header, rows)
 
 
-def update(path, generated):
+def update(path, generated, block=None):
     try:
         with open(path, encoding="utf-8") as f:
             lines = f.read().split("\n")
     except OSError as e:
         raise ShapeError(f"{path}: {e.strerror}") from None
-    begins = [i for i, l in enumerate(lines) if l.startswith(BEGIN_MARKER)]
-    ends = [i for i, l in enumerate(lines) if l == END_MARKER]
+    begin_marker = BEGIN_MARKER if block is None else f"<!-- bench_tables {block}: begin"
+    end_marker = END_MARKER if block is None else f"<!-- bench_tables {block}: end -->"
+    begins = [i for i, l in enumerate(lines) if l.startswith(begin_marker)]
+    ends = [i for i, l in enumerate(lines) if l == end_marker]
     need(len(begins) == 1 and len(ends) == 1 and begins[0] < ends[0], path,
-         f"expected one line starting with {BEGIN_MARKER!r} and, after it, one line {END_MARKER!r} "
+         f"expected one line starting with {begin_marker!r} and, after it, one line {end_marker!r} "
          f"(found {len(begins)} and {len(ends)})")
     new = lines[:begins[0] + 1] + generated.rstrip("\n").split("\n") + lines[ends[0]:]
     directory = os.path.dirname(os.path.abspath(path))
@@ -415,6 +442,8 @@ def main(argv):
                         help="frame of the per-stage table (repeatable; 'all': every frame)")
     parser.add_argument("--modes", action="append", default=[], metavar="SCENE@RES",
                         help="also a table of every mode of this frame (repeatable)")
+    parser.add_argument("--floor-only", action="store_true", help="only the true floor's tables (runs with --floor)")
+    parser.add_argument("--block", metavar="NAME", help="with --update: the markers of the block NAME")
     parser.add_argument("--ab", action="store_true", help="A/B runs of gpu_check.sh ab: one comparison table")
     parser.add_argument("--name", action="append", default=[], metavar="STEM=LABEL",
                         help="short name of a scene file (e.g. garden_30k=garden)")
@@ -433,9 +462,9 @@ def main(argv):
             sys.stdout.write("\n".join(ab_table(runs, names)) + "\n")
             return 0
         scenes, device, dates = collect(runs, names)
-        text = render(scenes, device, dates, args.mode, args.reference, args.stages, args.modes)
+        text = render(scenes, device, dates, args.mode, args.reference, args.stages, args.modes, args.floor_only)
         if args.update:
-            update(args.update, text)
+            update(args.update, text, args.block)
             print(f"bench_tables: updated {args.update} from {len(runs)} file(s)", file=sys.stderr)
         else:
             sys.stdout.write(text)

@@ -89,6 +89,7 @@ Result<std::vector<AuditScene>> attribution_scenes(const AuditScene& source, con
     hybrid.bounds = group == "means" ? candidate.bounds : source.bounds;
     hybrid.info = candidate.info;
     hybrid.info.label = candidate.info.label + ": " + group + " only";
+    hybrid.info.file_bytes = 0;  // not a file: no size to report
     hybrid.info.sections.clear();
     hybrid.info.overhead_bytes = 0;
     hybrid.info.notes.clear();
