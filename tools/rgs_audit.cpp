@@ -166,10 +166,14 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
                tools::escape_text(c.scene.path).c_str(), tools::escape_text(c.scene.format).c_str());
   std::fprintf(out, "  gaussians        %s (SH degree %u)\n", tools::group_digits(c.scene.gaussians).c_str(),
                c.scene.sh_degree);
-  std::fprintf(
-      out, "  size             %s bytes  (%s B/Gaussian), ratio %sx\n", tools::group_digits(c.scene.file_bytes).c_str(),
-      tools::fixed(double(c.scene.file_bytes) * per_g, 1).c_str(),
-      tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str());
+  if (c.scene.file_bytes == 0) {
+    std::fprintf(out, "  size             none: an attribution scene (--attribution), not a file\n");
+  } else {
+    std::fprintf(out, "  size             %s bytes  (%s B/Gaussian), ratio %sx\n",
+                 tools::group_digits(c.scene.file_bytes).c_str(),
+                 tools::fixed(double(c.scene.file_bytes) * per_g, 1).c_str(),
+                 tools::fixed(double(r.source.file_bytes) / double(c.scene.file_bytes), 2).c_str());
+  }
   if (!c.scene.sections.empty()) {
     std::fprintf(out, "  %-22s %8s %14s %12s\n", "section", "codec", "bytes", "B/Gaussian");
     for (const auto& s : c.scene.sections) {

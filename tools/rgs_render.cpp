@@ -240,7 +240,7 @@ int run(Options opt) {
   std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(),
               tools::escape_text(opt.output_dir).c_str());
   std::printf("  views            %zu (%s, %s)\n", count, output_kinds(opt).c_str(),
-              opt.cameras.cameras_path.empty() ? "orbit" : "cameras.json");
+              !opt.cameras.cameras_path.empty() ? "cameras.json" : opt.cameras.path > 0 ? "path" : "orbit");
   std::printf("  resolution       %ux%u\n", first.width, first.height);
   std::printf("  gaussians        %s (SH degree %u, %s%s)\n", tools::group_digits(scene.gaussians).c_str(),
               scene.sh_degree, scene.description.c_str(), scene.device == api::Device::kCuda ? ", on the GPU" : "");
