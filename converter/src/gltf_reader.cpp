@@ -524,11 +524,13 @@ Status Reader::primitive_accessors(size_t index, PrimitiveAccessors* d) {
   if (!ext.is_object()) return corrupt(where + ": KHR_gaussian_splatting is not an object");
   const std::string kernel = ext.value("kernel", std::string());
   if (kernel != "ellipse") {
-    return Status(StatusCode::kUnsupportedFeature, where + " has kernel '" + kernel + "' (supported: ellipse)");
+    return Status(StatusCode::kUnsupportedFeature,
+                  where + " has kernel '" + detail::bounded_text(kernel, 64) + "' (supported: ellipse)");
   }
   const std::string color_space = ext.value("colorSpace", std::string());
   if (color_space != "srgb_rec709_display") {
-    notes_.push_back(where + ": colorSpace '" + color_space + "' kept as stored; RoofGS renders colours as 3DGS "
+    notes_.push_back(where + ": colorSpace '" + detail::bounded_text(color_space, 64) +
+                     "' kept as stored; RoofGS renders colours as 3DGS "
                      "does (srgb_rec709_display)");
   }
   if (ext.value("projection", std::string("perspective")) != "perspective" ||

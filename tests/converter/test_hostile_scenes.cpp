@@ -493,6 +493,7 @@ TEST_CASE("hostile scenes: messages quote at most about 200 characters of a long
   };
   const Case cases[] = {
       {"gltf/long_extension_name.gltf", 'X'}, {"gltf/long_accessor_type.gltf", 'T'}, {"gltf/long_version.gltf", 'V'},
+      {"gltf/long_kernel.gltf", 'K'},
       {"gltf_escape/long_dotdot.gltf", 'A'},  {"sog/long_name.json", 'A'},           {"sog/lod_long_name.json", 'B'}};
   for (const Case& c : cases) {
     const std::string path = c.path;

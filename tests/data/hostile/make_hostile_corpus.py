@@ -162,6 +162,9 @@ def gltf_files():
     d = scene()
     d["asset"]["version"] = "3" + "V" * 10000
     files["gltf/long_version.gltf"] = dumps(d)
+    d = scene()
+    d["meshes"][0]["primitives"][0]["extensions"]["KHR_gaussian_splatting"]["kernel"] = "K" * 10000
+    files["gltf/long_kernel.gltf"] = dumps(d)
 
     d = scene()
     d["nodes"] = [{"children": [1]}, {"children": [0], "mesh": 0}]
