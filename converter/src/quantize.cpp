@@ -353,14 +353,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
     }
   }
   double center[3];
-  for (int a = 0; a < 3; ++a) {
-    b.sphere_center[a] =
-        static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
-    // Read back through a volatile: GCC 12 at -O3 otherwise forwards the unrounded double here, and the
-    // radius would be measured from a centre that is not the stored one (off by up to half a float ulp).
-    const volatile float stored = b.sphere_center[a];
-    center[a] = stored;
-  }
+  format::set_sphere_center(&b, center);
   double r2s[detail::kMaxWorkers] = {};
   static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
     double r2 = 0;
@@ -374,13 +367,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
     }
     r2s[t] = r2;
   }));
-  const double r2 = *std::max_element(r2s, r2s + workers);
-  // Margin of 1e-6 relative (a few float32 ulps) so |mean − center| <= radius also holds when a
-  // consumer evaluates the distance in float32, then round up to float.
-  const double r = std::sqrt(r2) * (1.0 + 1e-6);
-  float rf = static_cast<float>(r);
-  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
-  b.sphere_radius = rf;
+  b.sphere_radius = format::sphere_radius_for(*std::max_element(r2s, r2s + workers));
   return b;
 }
 

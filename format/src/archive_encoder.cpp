@@ -554,14 +554,7 @@ SceneBounds bounds_of(const std::vector<float>& means) {
     }
   }
   double center[3];
-  for (int a = 0; a < 3; ++a) {
-    b.sphere_center[a] =
-        static_cast<float>(0.5 * (static_cast<double>(b.aabb_min[a]) + static_cast<double>(b.aabb_max[a])));
-    // Read back through a volatile, as converter::compute_bounds does: GCC 12 at -O3 otherwise forwards the
-    // unrounded double, and the radius would depend on the optimisation level.
-    const volatile float stored = b.sphere_center[a];
-    center[a] = stored;
-  }
+  set_sphere_center(&b, center);
   double r2 = 0;
   for (size_t i = 0; i < n; ++i) {
     double d2 = 0;
@@ -571,10 +564,7 @@ SceneBounds bounds_of(const std::vector<float>& means) {
     }
     r2 = std::max(r2, d2);
   }
-  const double r = std::sqrt(r2) * (1.0 + 1e-6);
-  float rf = static_cast<float>(r);
-  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
-  b.sphere_radius = rf;
+  b.sphere_radius = sphere_radius_for(r2);
   return b;
 }
 

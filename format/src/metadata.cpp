@@ -1,8 +1,27 @@
 #include "rgs/format/metadata.h"
 
 #include <cmath>
+#include <limits>
 
 namespace rgs::format {
+
+void set_sphere_center(SceneBounds* bounds, double center[3]) {
+  for (int a = 0; a < 3; ++a) {
+    bounds->sphere_center[a] = static_cast<float>(
+        0.5 * (static_cast<double>(bounds->aabb_min[a]) + static_cast<double>(bounds->aabb_max[a])));
+    // Read back through a volatile: GCC 12 at -O3 otherwise forwards the unrounded double, and the radius
+    // would be measured from a centre that is not the stored one (off by up to half a float ulp).
+    const volatile float stored = bounds->sphere_center[a];
+    center[a] = stored;
+  }
+}
+
+float sphere_radius_for(double max_squared_distance) {
+  const double r = std::sqrt(max_squared_distance) * (1.0 + 1e-6);
+  float rf = static_cast<float>(r);
+  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
+  return rf;
+}
 
 bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::string* why) {
   auto fail = [why](std::string reason) {

@@ -2,9 +2,7 @@
 // (a rendered frame into gsplat's planar outputs).
 #include "rgs/runtime/device_arrays.h"
 
-#include <cmath>
 #include <cstring>
-#include <limits>
 #include <string>
 
 #include "rgs/format/gaussian_cloud.h"
@@ -64,15 +62,6 @@ float float_of_key(unsigned int key) {
   return v;
 }
 
-/// The bounding sphere's radius from the largest squared distance, rounded up as converter::compute_bounds
-/// rounds it (which runtime cannot link): a relative margin of 1e-6, then the next float up when needed.
-float sphere_radius(double radius2) {
-  const double r = std::sqrt(radius2) * (1.0 + 1e-6);
-  float rf = static_cast<float>(r);
-  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
-  return rf;
-}
-
 Status read_totals(const DeviceBuffer<kernels::GaussianImportTotals>& device, kernels::GaussianImportTotals* host,
                    const std::string& what, cudaStream_t stream) {
   RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host, device.data(), sizeof *host, cudaMemcpyDeviceToHost, stream), what);
@@ -129,10 +118,10 @@ Result<GpuScene> GpuScene::from_device(const kernels::GaussianImportSource& sour
     for (int a = 0; a < 3; ++a) {
       bounds.aabb_min[a] = float_of_key(t.aabb_min_key[a]);
       bounds.aabb_max[a] = float_of_key(t.aabb_max_key[a]);
-      bounds.sphere_center[a] = static_cast<float>(
-          0.5 * (static_cast<double>(bounds.aabb_min[a]) + static_cast<double>(bounds.aabb_max[a])));
-      target.center[a] = bounds.sphere_center[a];
     }
+    double center[3];
+    format::set_sphere_center(&bounds, center);
+    for (int a = 0; a < 3; ++a) target.center[a] = bounds.sphere_center[a];
   }
   const uint64_t values = uint64_t(format::sh_coefficient_count(degree)) * 3;
   RGS_RETURN_IF_ERROR(scene.means_.allocate_exactly(kept * 3, name + ": means"));
@@ -162,7 +151,7 @@ Result<GpuScene> GpuScene::from_device(const kernels::GaussianImportSource& sour
   if (kept > 0) {
     double radius2 = 0;
     std::memcpy(&radius2, &t.radius2_bits, sizeof radius2);
-    bounds.sphere_radius = sphere_radius(radius2);
+    bounds.sphere_radius = format::sphere_radius_for(radius2);
   }
   scene.bounds_ = bounds;
   if (dropped != nullptr) *dropped = t.invalid;

@@ -44,6 +44,16 @@ struct SceneBounds {
   float sphere_radius = 0;
 };
 
+/// Sets bounds->sphere_center to the midpoint of its AABB, computed in double and rounded to float32
+/// (SPEC §4.1.1), and writes the stored centre as double into `center`: the point the radius is measured
+/// from (sphere_radius_for).
+void set_sphere_center(SceneBounds* bounds, double center[3]);
+
+/// The bounding sphere's radius for the largest squared distance (double) of a mean from the stored centre:
+/// sqrt(max_squared_distance) · (1 + 1e-6), rounded up to float32 (+inf beyond its range), so that
+/// |mean − centre| ≤ radius also holds when a consumer evaluates the distance in float32.
+float sphere_radius_for(double max_squared_distance);
+
 /// Content of the metadata section.
 struct SceneMetadata {
   uint32_t sh_degree = 0;  ///< 0..3
