@@ -97,7 +97,7 @@ class Scene:
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
          quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: str = "rub") -> Scene: ...
 def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, scale_encoding: str = "linear",
-            sh_clip_percentile: float = 100.0, zstd: Sequence[str] = (), zstd_level: int = 19,
+            sh_clip_percentile: float = 100.0, sh_dc_bits: int = 16, zstd: Sequence[str] = (), zstd_level: int = 19,
             profile: str = "runtime", position_error: float = ..., sh_degree: Optional[int] = None,
             lod: Optional[int] = None, spz_frame: str = "rub", sanitize: bool = False,
             allow_empty: bool = False) -> Dict[str, Any]: ...

@@ -34,6 +34,7 @@
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -81,6 +82,8 @@ struct Options {
   std::string json_path;
   bool front_door = false;
   bool quality = false;
+  /// --reference: the scene --quality compares against (faithful's render of it); empty: the benched scene.
+  std::string reference;
   bool floor = false;
 };
 
@@ -357,16 +360,18 @@ struct QualityRow {
 
 /// --quality: every view of every camera set rendered once by the baseline and once by each other mode,
 /// compared on the GPU (audit::GpuImageComparer: PSNR, SSIM and max |Δ| of the clamped RGB, the audit's
-/// definitions). The baseline reads the FP32 arrays, so the scene must hold them.
+/// definitions). The baseline renders `reference` (the benched scene, or --reference: e.g. the source the .rgs
+/// was converted from, so that faithful's own row is what the conversion costs) and reads its FP32 arrays.
 Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::LoadedGpuScene& scene,
+                                                const api::LoadedGpuScene& reference_scene,
                                                 const std::vector<CameraSet>& sets, runtime::GpuRenderer& renderer) {
   RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions reference,
-                       api::gpu_mode_options("faithful", scene.scene.has_compact()));
+                       api::gpu_mode_options("faithful", reference_scene.scene.has_compact()));
   std::vector<QualityRow> rows;
   audit::GpuImageComparer comparer;
   runtime::DeviceImage expected, image;
   for (const std::string& mode_name : opt.modes) {
-    if (mode_name == "faithful") continue;
+    if (mode_name == "faithful" && opt.reference.empty()) continue;
     RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions options,
                          api::gpu_mode_options(mode_name, scene.scene.has_compact()));
     for (const CameraSet& set : sets) {
@@ -375,7 +380,7 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
       row.resolution = set.label;
       row.psnr_min = std::numeric_limits<double>::infinity();
       for (const runtime::Camera& cam : set.cameras) {
-        auto base = renderer.render(scene.scene, cam, reference, &expected);
+        auto base = renderer.render(reference_scene.scene, cam, reference, &expected);
         if (!base.ok()) return Status(base.status()).prepend("faithful, view " + cam.name);
         auto frame = renderer.render(scene.scene, cam, options, &image);
         if (!frame.ok()) return Status(frame.status()).prepend(mode_name + ", view " + cam.name);
@@ -642,7 +647,8 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
     }
   }
   if (!report.quality.empty()) {
-    std::printf("  quality          against faithful's render of the same views (clamped RGB; PSNR dB, SSIM)\n");
+    std::printf("  quality          against faithful's render of the same views of %s (clamped RGB; PSNR dB, SSIM)\n",
+                opt.reference.empty() ? "the same scene" : opt.reference.c_str());
     std::printf("  %-12s %-10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min", "SSIM mean",
                 "max |d|", "views");
     for (const QualityRow& r : report.quality) {
@@ -844,7 +850,18 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   std::vector<QualityRow> quality;
   if (opt.quality) {
     std::fprintf(stderr, "quality against faithful (the 3DGS baseline): every view once per mode ...\n");
-    auto rows = measure_quality(opt, scene, sets, renderer);
+    std::optional<api::LoadedGpuScene> reference_scene;
+    if (!opt.reference.empty()) {
+      runtime::GpuSceneOptions fp32_arrays;
+      fp32_arrays.fp32_attributes = true;
+      auto loaded = api::load_gpu_scene(opt.reference, fp32_arrays, nullptr, tools::scene_read_options());
+      if (!loaded.ok()) return Status(loaded.status()).prepend("--reference");
+      RGS_RETURN_ERROR_IF(loaded->scene.size() != scene.scene.size(), StatusCode::kInvalidArgument,
+                          "--reference " + opt.reference + " holds " + std::to_string(loaded->scene.size()) +
+                              " Gaussians, the benched scene " + std::to_string(scene.scene.size()));
+      reference_scene.emplace(std::move(loaded).value());
+    }
+    auto rows = measure_quality(opt, scene, reference_scene ? *reference_scene : scene, sets, renderer);
     if (!rows.ok()) return Status(rows.status()).prepend("--quality");
     quality = std::move(rows).value();
   }
@@ -942,6 +959,11 @@ int main(int argc, char** argv) {
   app.add_flag("--quality", opt.quality,
                "Also compare every view of every mode but faithful with faithful's render (the 3DGS baseline) (PSNR, SSIM, max |d| "
                "of the clamped RGB, on the GPU; keeps the FP32 arrays on the device)");
+  app.add_option("--reference", opt.reference,
+                 "With --quality: compare with faithful's render of this scene instead of the benched one's, e.g. "
+                 "the source the .rgs was converted from (any format; same Gaussian count); faithful then gets a "
+                 "row too: what the conversion alone costs")
+      ->needs("--quality");
   app.add_flag("--floor", opt.floor,
                "Also count every view with the CPU reference (what each pixel blends and tests in vain, the pairs "
                "the image needs per 16x16, 8x8 and 4x4 cell) and print each stage's true floor: the time the work "

@@ -140,8 +140,9 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
   for (uint32_t d = 0; d <= r.sh_degree; ++d) {
     const auto& c = fp16.sh_clipped[d];
     const uint64_t clipped = c[0] + c[1] + c[2];
-    const std::string note =
-        "absolute, INT8" + (clipped ? ", " + tools::group_digits(clipped) + " clipped" : std::string());
+    const bool residual = d == 0 && q.position_bits == 0 && opt.convert.sh_dc_bits == 16;
+    const std::string note = std::string(residual ? "absolute, INT8 and DC residual (16-bit)" : "absolute, INT8") +
+                             (clipped ? ", " + tools::group_digits(clipped) + " clipped" : std::string());
     print_stats_row("SH degree " + std::to_string(d), q.errors.sh[d], note);
   }
 }
@@ -255,9 +256,16 @@ int main(int argc, char** argv) {
                  "lower values clip the tail")
       ->check(CLI::Range(0.001f, 100.0f))
       ->capture_default_str();
+  app.add_option("--sh-dc-bits", opt.convert.sh_dc_bits,
+                 "Precision of the SH DC term (the whole colour at SH degree 0): 16 stores the INT8 code and a "
+                 "residual in 1/256 of its step (3 bytes a Gaussian more, format/SPEC.md 4.8); 8 the INT8 code "
+                 "alone, as in the paper. The archive profile stores 8")
+      ->check(CLI::IsMember({8, 16}))
+      ->capture_default_str();
   app.add_option("--zstd", opt.convert.zstd_sections,
                  "Compress these sections losslessly with zstd: all, or a comma list of metadata, provenance, "
-                 "means, rotations, scales, opacities, sh (default: none, so the runtime maps the file as is)")
+                 "means, rotations, scales, opacities, sh, sh_dc_residual (default: none, so the runtime maps the file as "
+                 "is)")
       ->delimiter(',');
   app.add_option("--profile", opt.profile,
                  "Storage profile: runtime (lossless sections, mapped as is) or archive (lossy: Draco means, "

@@ -82,10 +82,10 @@ void print_text(const format::RgsFile& file) {
     std::printf("    degree %u       %s %s %s\n", d, tools::sci(s[0]).c_str(), tools::sci(s[1]).c_str(),
                 tools::sci(s[2]).c_str());
   }
-  std::printf("  sections\n    %-4s %-11s %-5s %-5s %5s %12s %12s %14s %14s %7s\n", "id", "name", "codec", "type",
+  std::printf("  sections\n    %-4s %-14s %-5s %-5s %5s %12s %12s %14s %14s %7s\n", "id", "name", "codec", "type",
               "comps", "elements", "offset", "stored", "raw", "B/Gauss");
   for (const auto& s : file.sections()) {
-    std::printf("    %-4u %-11s %-5s %-5s %5u %12s %12s %14s %14s %7s\n", static_cast<uint32_t>(s.id),
+    std::printf("    %-4u %-14s %-5s %-5s %5u %12s %12s %14s %14s %7s\n", static_cast<uint32_t>(s.id),
                 format::section_name(s.id), format::codec_name(s.codec), format::element_type_name(s.element_type),
                 s.components, tools::group_digits(s.element_count).c_str(), tools::group_digits(s.offset).c_str(),
                 tools::group_digits(s.stored_size).c_str(), tools::group_digits(s.raw_size).c_str(),

@@ -46,7 +46,8 @@ constexpr std::pair<const char*, format::SectionId> kSectionNames[] = {
     {"metadata", format::SectionId::kMetadata}, {"provenance", format::SectionId::kProvenance},
     {"means", format::SectionId::kMeans},       {"rotations", format::SectionId::kRotations},
     {"scales", format::SectionId::kScales},     {"opacities", format::SectionId::kOpacities},
-    {"sh", format::SectionId::kSh}};
+    {"sh", format::SectionId::kSh},
+    {"sh_dc_residual", format::SectionId::kShDcResidual}};
 
 Result<format::WriteOptions> write_options(const ConvertOptions& options) {
   RGS_RETURN_ERROR_IF(options.zstd_level < 1 || options.zstd_level > 22, StatusCode::kInvalidArgument,
@@ -67,7 +68,7 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
     }
     RGS_RETURN_ERROR_IF(!found, StatusCode::kInvalidArgument,
                         "convert: unknown zstd section '" + name +
-                            "' (use all, metadata, provenance, means, rotations, scales, opacities, sh)");
+                            "' (use all, metadata, provenance, means, rotations, scales, opacities, sh, sh_dc_residual)");
   }
   return write;
 }
@@ -78,6 +79,8 @@ Status check_options(const ConvertOptions& options) {
                       "convert: SH degree " + std::to_string(*options.sh_degree) + " outside 0..3");
   RGS_RETURN_ERROR_IF(!(options.sh_clip_percentile > 0.0f && options.sh_clip_percentile <= 100.0f),
                       StatusCode::kInvalidArgument, "convert: SH clip percentile outside (0, 100]");
+  RGS_RETURN_ERROR_IF(options.sh_dc_bits != 8 && options.sh_dc_bits != 16, StatusCode::kInvalidArgument,
+                      "convert: SH DC precision of " + std::to_string(options.sh_dc_bits) + " bits is not 8 or 16");
   return write_options(options).status();
 }
 
@@ -102,7 +105,7 @@ std::string hex64(uint64_t v) {
 std::string options_text(const ConvertOptions& options) {
   std::ostringstream text;
   text << "scale_encoding=" << (options.scale_encoding == format::ScaleEncoding::kLog ? "log" : "linear")
-       << " sh_clip_percentile=" << options.sh_clip_percentile << " sanitize=" << (options.sanitize ? 1 : 0)
+       << " sh_clip_percentile=" << options.sh_clip_percentile << " sh_dc_bits=" << options.sh_dc_bits << " sanitize=" << (options.sanitize ? 1 : 0)
        << " zstd_level=" << options.zstd_level << " zstd=";
   for (size_t i = 0; i < options.zstd_sections.size(); ++i) text << (i ? "," : "") << options.zstd_sections[i];
   if (options.sh_degree) text << " sh_degree=" << *options.sh_degree;
@@ -117,6 +120,8 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
   converter::QuantizeOptions quantize_options;
   quantize_options.scale_encoding = options.scale_encoding;
   quantize_options.sh_clip_percentile = options.sh_clip_percentile;
+  // The archive drops the DC residual (SPEC §4.8), so its errors are measured without it.
+  quantize_options.sh_dc_bits = write.profile == format::StorageProfile::kArchive ? 8 : options.sh_dc_bits;
   RgsOutputReport rgs;
   const auto quantize_start = Clock::now();
   auto encoded = converter::quantize(input->cloud, quantize_options, &rgs.quantization, &rgs.errors);

@@ -127,6 +127,15 @@ inline int8_t quantize_value(float v, double s, double inv_s, bool* clipped) {
   return static_cast<int8_t>((qc ^ neg) - neg);
 }
 
+/// The DC residual of v for code q at scale s (SPEC §4.8): round-half-away(256 · (v / s − q)) clamped to
+/// [−127, 127]; 0 for a zero scale (s = +inf). |v / s − q| ≤ 0.5 unless q was clipped. The clamp keeps the
+/// decoded value q + r/256 strictly inside q's rounding interval, so quantizing it again gives q and r back.
+inline int8_t dc_residual(float v, double s, int8_t q) {
+  if (std::isinf(s)) return 0;
+  const double r = std::round((static_cast<double>(v) / s - q) * 256.0);
+  return static_cast<int8_t>(std::clamp(r, -127.0, 127.0));
+}
+
 /// The arguments quantize() refuses before looking at any Gaussian.
 Status check_quantize_inputs(const format::GaussianCloud& cloud, const QuantizeOptions& options) {
   RGS_RETURN_IF_ERROR(detail::check_consistent(cloud, "cloud"));
@@ -134,6 +143,10 @@ Status check_quantize_inputs(const format::GaussianCloud& cloud, const QuantizeO
   if (!(pct > 0.0f && pct <= 100.0f)) {
     return Status(StatusCode::kInvalidArgument,
                   "SH clip percentile " + std::to_string(pct) + " is outside (0, 100]");
+  }
+  if (options.sh_dc_bits != 8 && options.sh_dc_bits != 16) {
+    return Status(StatusCode::kInvalidArgument,
+                  "SH DC precision of " + std::to_string(options.sh_dc_bits) + " bits is not 8 or 16");
   }
   if (options.scale_encoding != format::ScaleEncoding::kLinear &&
       options.scale_encoding != format::ScaleEncoding::kLog) {
@@ -198,8 +211,13 @@ format::ShQuantization sh_quantization(const format::GaussianCloud& cloud, float
 /// double as the division uses it, its reciprocal, whether it is zero, and the float32 s[d][c] as
 /// dequantize_range() multiplies it.
 struct EncodeTables {
-  EncodeTables(const format::ShQuantization& shq, uint32_t coefficients, bool log_scales, bool measure_errors)
-      : k_count(coefficients), sh_values(coefficients * 3), log_scale(log_scales), measure(measure_errors) {
+  EncodeTables(const format::ShQuantization& shq, uint32_t coefficients, bool log_scales, bool dc_residuals,
+               bool measure_errors)
+      : k_count(coefficients),
+        sh_values(coefficients * 3),
+        log_scale(log_scales),
+        dc_residual(dc_residuals),
+        measure(measure_errors) {
     for (uint32_t j = 0; j < sh_values; ++j) {
       const float sj = shq.scales[format::sh_degree_of_coefficient(j / 3)][j % 3];
       zero_scale[j] = sj == 0.0f;
@@ -211,7 +229,8 @@ struct EncodeTables {
   uint32_t k_count;
   uint32_t sh_values;
   bool log_scale;
-  bool measure;  ///< accumulate the errors of the dequantized values
+  bool dc_residual;  ///< write sh_dc_residual (sh_dc_bits 16)
+  bool measure;      ///< accumulate the errors of the dequantized values
   double divisor[48];
   double reciprocal[48];
   bool zero_scale[48];
@@ -281,6 +300,11 @@ void encode_chunk(const format::GaussianCloud& cloud, const EncodeTables& t, uin
       res->clip_count[j] += static_cast<uint32_t>(clip) | static_cast<uint32_t>(t.zero_scale[j] & (sh[j] != 0.0f));
     }
     std::memcpy(sh_out + i * sh_values, codes, sh_values);
+    int8_t residual[3] = {};
+    if (t.dc_residual) {
+      for (int c = 0; c < 3; ++c) residual[c] = dc_residual(sh[c], t.divisor[c], codes[c]);
+      std::memcpy(&out->sh_dc_residual[i * 3], residual, sizeof(residual));
+    }
     if (t.measure) {
       // Dequantize exactly as format::dequantize_range() does, then compare with the source.
       float rot_f[4], scale_f[3], sh_f[48];
@@ -290,6 +314,9 @@ void encode_chunk(const format::GaussianCloud& cloud, const EncodeTables& t, uin
         scale_f[a] = t.log_scale ? std::exp(v) : v;
       }
       for (uint32_t j = 0; j < sh_values; ++j) sh_f[j] = t.dequant_scale[j] * static_cast<float>(codes[j]);
+      if (t.dc_residual) {
+        for (int c = 0; c < 3; ++c) sh_f[c] = format::sh_dc_value(t.dequant_scale[c], codes[c], residual[c]);
+      }
       const float* mean = &cloud.means[i * 3];  // stored bit for bit
       const detail::GaussianView ref{mean, &cloud.rotations[i * 4], &cloud.scales[i * 3], cloud.opacities[i], sh};
       const detail::GaussianView test{mean, rot_f, scale_f, format::half_bits_to_float(opacity_bits), sh_f};
@@ -409,11 +436,14 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     detail::resize_huge(out.scales, n * 3);
     detail::resize_huge(out.opacities, n);
     detail::resize_huge(out.sh, n * k_count * 3);
+    const bool dc_residual = options.sh_dc_bits == 16;
+    if (dc_residual) detail::resize_huge(out.sh_dc_residual, n * 3);
 
     // Pass 2: encode, in chunks of kErrorChunkGaussians taken by the workers in turn. Per chunk: clip and
     // FP16 counts (integers) and, when asked, the error accumulators of the dequantized values (merged in
     // chunk order below), so nothing depends on which worker ran a chunk.
-    const EncodeTables tables(shq, k_count, options.scale_encoding == format::ScaleEncoding::kLog, errors != nullptr);
+    const EncodeTables tables(shq, k_count, options.scale_encoding == format::ScaleEncoding::kLog, dc_residual,
+                              errors != nullptr);
     const uint64_t chunks = (n + detail::kErrorChunkGaussians - 1) / detail::kErrorChunkGaussians;
     std::vector<ChunkResult> chunk_results(static_cast<size_t>(chunks));
     RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned, uint64_t chunk) {

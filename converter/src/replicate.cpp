@@ -46,6 +46,7 @@ Result<format::EncodedScene> replicate(const format::EncodedScene& scene, uint32
   repeat(scene.scales, copies, &out.scales);
   repeat(scene.opacities, copies, &out.opacities);
   repeat(scene.sh, copies, &out.sh);
+  repeat(scene.sh_dc_residual, copies, &out.sh_dc_residual);
 
   const uint32_t cols = uint32_t(std::ceil(std::sqrt(double(copies))));
   const uint32_t rows = (copies + cols - 1) / cols;

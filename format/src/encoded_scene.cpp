@@ -13,7 +13,7 @@ bool EncodedScene::is_consistent() const {
   const uint64_t n = count;
   const uint64_t k = sh_coefficient_count(metadata.sh_degree);
   return means.size() == n * 3 && rotations.size() == n * 4 && scales.size() == n * 3 &&
-         opacities.size() == n && sh.size() == n * k * 3;
+         opacities.size() == n && sh.size() == n * k * 3 && (sh_dc_residual.empty() || sh_dc_residual.size() == n * 3);
 }
 
 Status dequantize_range(const EncodedScene& scene, uint64_t first, uint64_t count, GaussianCloud* out) {
@@ -48,6 +48,12 @@ Status dequantize_range(const EncodedScene& scene, uint64_t first, uint64_t coun
       const uint32_t d = sh_degree_of_coefficient(k);
       for (uint32_t c = 0; c < 3; ++c) {
         out->sh[(j * k_count + k) * 3 + c] = s[d][c] * static_cast<float>(scene.sh[(i * k_count + k) * 3 + c]);
+      }
+    }
+    if (!scene.sh_dc_residual.empty()) {
+      for (uint32_t c = 0; c < 3; ++c) {
+        out->sh[j * k_count * 3 + c] =
+            sh_dc_value(s[0][c], scene.sh[i * k_count * 3 + c], scene.sh_dc_residual[i * 3 + c]);
       }
     }
   }

@@ -14,6 +14,7 @@ const char* section_name(SectionId id) {
     case SectionId::kScales: return "scales";
     case SectionId::kOpacities: return "opacities";
     case SectionId::kSh: return "sh";
+    case SectionId::kShDcResidual: return "sh_dc_residual";
   }
   return "unknown";
 }

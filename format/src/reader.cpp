@@ -45,6 +45,7 @@ bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out) {
     case SectionId::kScales: *out = {ElementType::kFloat16, 3, true}; return true;
     case SectionId::kOpacities: *out = {ElementType::kFloat16, 1, true}; return true;
     case SectionId::kSh: *out = {ElementType::kInt8, 3 * sh_coefficient_count(sh_degree), true}; return true;
+    case SectionId::kShDcResidual: *out = {ElementType::kInt8, 3, true}; return true;
   }
   return false;
 }
@@ -613,6 +614,12 @@ Status RgsFileAccess::parse(RgsFile* f) {
     RGS_RETURN_IF_ERROR(check_layout(*f, i, f->metadata_.sh_degree));
   }
 
+  if (const SectionEntry* residual = f->find(SectionId::kShDcResidual)) {
+    RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForShDcResidual), StatusCode::kCorruptData,
+                        section_label(static_cast<size_t>(residual - f->sections_.data()), residual->id) +
+                            " in a version " + dec(version.major) + "." + dec(version.minor) + " file");
+  }
+
   // §4.2 Provenance (optional).
   if (const SectionEntry* prov = f->find(SectionId::kProvenance)) {
     const size_t index = static_cast<size_t>(prov - f->sections_.data());
@@ -717,8 +724,9 @@ Result<EncodedScene> RgsFile::read_scene() const {
     // before the arrays it claims are allocated, and no path renders values the spec rules out. Archive
     // sections decode whole either way: decode_array checks them once decoded, instead of decoding twice.
     for (SectionId id : {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
-                         SectionId::kSh}) {
+                         SectionId::kSh, SectionId::kShDcResidual}) {
       const SectionEntry* e = find(id);
+      if (id == SectionId::kShDcResidual && e == nullptr) continue;  // optional
       if (e != nullptr && is_archive_codec(e->codec)) continue;
       RGS_RETURN_IF_ERROR(verify_section(id));
     }
@@ -727,6 +735,9 @@ Result<EncodedScene> RgsFile::read_scene() const {
     RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kScales, &scene.scales));
     RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kOpacities, &scene.opacities));
     RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kSh, &scene.sh));
+    if (find(SectionId::kShDcResidual) != nullptr) {
+      RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kShDcResidual, &scene.sh_dc_residual));
+    }
     return scene;
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,

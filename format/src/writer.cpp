@@ -170,7 +170,8 @@ Status check_scene_shape(const EncodedScene& scene) {
                    dec(scene.count * 3) + "), rotations " + dec(scene.rotations.size()) + " (" +
                    dec(scene.count * 4) + "), scales " + dec(scene.scales.size()) + " (" + dec(scene.count * 3) +
                    "), opacities " + dec(scene.opacities.size()) + " (" + dec(scene.count) + "), sh " +
-                   dec(scene.sh.size()) + " (" + dec(scene.count * k * 3) + ")");
+                   dec(scene.sh.size()) + " (" + dec(scene.count * k * 3) + "), sh_dc_residual " +
+                   dec(scene.sh_dc_residual.size()) + " (0 or " + dec(scene.count * 3) + ")");
   }
   return Status();
 }
@@ -239,7 +240,7 @@ uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, ui
                       ArchiveScene* archive, PlannedFile* file) {
   const uint64_t n = scene.count;
   std::vector<PlannedSection>& plan = file->sections;
-  plan.reserve(7);
+  plan.reserve(8);
   auto add = [&](SectionId id, uint64_t count) -> PlannedSection& {
     PlannedSection& s = plan.emplace_back();
     detail::SectionLayout layout;
@@ -268,6 +269,10 @@ uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, ui
   set_array_raw(&add(SectionId::kScales, n), scene.scales);
   set_array_raw(&add(SectionId::kOpacities, n), scene.opacities);
   set_array_raw(&add(SectionId::kSh, n), scene.sh);
+  // §4.8 The archive stores the DC term at its INT8 step (times its multiplier), without the residual.
+  if (!scene.sh_dc_residual.empty() && archive == nullptr) {
+    set_array_raw(&add(SectionId::kShDcResidual, n), scene.sh_dc_residual);
+  }
   uint32_t required_flags = 0;
   if (archive != nullptr) {
     // §3.3 The per-Gaussian sections, in the order means, rotations, scales, opacities, sh, take the
@@ -293,6 +298,9 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   if (!scene.provenance.empty()) require(kMinVersionForProvenance);
   if (scene.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
   if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
+  for (const PlannedSection& s : plan) {
+    if (s.id == SectionId::kShDcResidual) require(kMinVersionForShDcResidual);
+  }
   for (const PlannedSection& s : plan) {
     if (s.codec == Codec::kZstd) require(kMinVersionForZstdCodec);
   }

@@ -44,10 +44,18 @@ __device__ inline float dequantize_sh_value(const CompactGaussiansView& c, int j
   return c.sh_scales[sh_degree_of_coefficient(j / 3)][j % 3] * static_cast<float>(q);
 }
 
-/// Value j of Gaussian g's SH block [K, 3] (j = 3k + c), dequantized (dequantize_sh_value).
+/// The DC value of channel j (0..2) for DC code q and residual r: s[0][j]·(q + r/256), one rounded product as
+/// format::sh_dc_value on the host (q + r/256 is exact in float32).
+__device__ inline float dequantize_sh_dc(const CompactGaussiansView& c, int j, int8_t q, int8_t r) {
+  return c.sh_scales[0][j] * (static_cast<float>(q) + static_cast<float>(r) * (1.0f / 256.0f));
+}
+
+/// Value j of Gaussian g's SH block [K, 3] (j = 3k + c), dequantized (dequantize_sh_value, dequantize_sh_dc).
 __device__ inline float dequantize_sh(const CompactGaussiansView& c, uint32_t g, int j) {
   const uint64_t k_count = uint64_t(sh_coefficients_for(int(c.sh_degree)));
-  return dequantize_sh_value(c, j, c.sh[uint64_t(g) * k_count * 3 + uint64_t(j)]);
+  const int8_t q = c.sh[uint64_t(g) * k_count * 3 + uint64_t(j)];
+  if (j < 3 && c.sh_dc_residual != nullptr) return dequantize_sh_dc(c, j, q, c.sh_dc_residual[uint64_t(g) * 3 + j]);
+  return dequantize_sh_value(c, j, q);
 }
 
 /// Inclusive sum of `value` over lanes 0..lane of the calling warp (all 32 lanes call it).
@@ -97,25 +105,25 @@ __device__ inline void load_geometry(const GaussianSource& src, uint32_t g, floa
   }
 }
 
-/// Gaussian g's compact SH block, kValues = 3K int8 values (j = 3k + c) at byte 3K·g of the [N, K, 3] array,
-/// as words in block order: byte b of words[i] is value 4i + b (bytes past the block's end are the next
-/// Gaussian's or the array's zero padding). The block starts at any byte (27 bytes a Gaussian at degree 2), so
+/// Gaussian g's block of kValues int8 values at byte kValues·g of `array` (the [N, K, 3] SH, j = 3k + c, or the
+/// [N, 3] DC residual), as words in block order: byte b of words[i] is value 4i + b (bytes past the block's end
+/// are the next Gaussian's or the array's zero padding). The block starts at any byte (27 bytes a Gaussian at degree 2), so
 /// it is read with the aligned 32-bit words that cover it (16-byte words at degree 3, whose 48-byte blocks are
 /// aligned), realigned with funnel shifts: at most ⌈(kValues + 3) / 4⌉ + 1 loads instead of one per value
 /// (2 at degree 0). Reads stay inside the allocation, which is padded to kCompactShPadding bytes.
 template <int kValues>
-__device__ inline void load_sh_words(const CompactGaussiansView& c, uint32_t g, uint32_t words[(kValues + 3) / 4]) {
+__device__ inline void load_sh_words(const int8_t* array, uint32_t g, uint32_t words[(kValues + 3) / 4]) {
   constexpr int kWords = (kValues + 3) / 4;
   const uint64_t start = uint64_t(g) * uint64_t(kValues);
   if constexpr (kValues == 3 * kMaxShCoefficients) {
-    const uint4* block = reinterpret_cast<const uint4*>(c.sh + start);
+    const uint4* block = reinterpret_cast<const uint4*>(array + start);
 #pragma unroll
     for (int i = 0; i < 3; ++i) {
       const uint4 v = __ldg(block + i);
       words[4 * i] = v.x, words[4 * i + 1] = v.y, words[4 * i + 2] = v.z, words[4 * i + 3] = v.w;
     }
   } else {
-    const uint32_t* aligned = reinterpret_cast<const uint32_t*>(c.sh + (start & ~uint64_t(3)));
+    const uint32_t* aligned = reinterpret_cast<const uint32_t*>(array + (start & ~uint64_t(3)));
     const int covering = (int(start & 3u) + kValues + 3) / 4;
     uint32_t raw[kWords + 1];
 #pragma unroll
@@ -128,8 +136,8 @@ __device__ inline void load_sh_words(const CompactGaussiansView& c, uint32_t g, 
 
 /// Colour of Gaussian g along the unit direction (x, y, z) at SH degree kDegree (the scene's, chosen at
 /// launch: the loads, registers and basis terms are those of that degree only): the SH coefficients
-/// dequantized in registers when compact (s[d][c]·q, one rounded product as format::dequantize on the host),
-/// then sh_to_colour.
+/// dequantized in registers when compact (s[d][c]·q, or s[0][c]·(q + r/256) for the DC term of a scene with the
+/// DC residual: one rounded product as format::dequantize on the host), then sh_to_colour.
 template <bool kCompact, int kDegree>
 __device__ inline void load_colour(const GaussianSource& src, uint32_t g, float x, float y, float z,
                                    float rgb[3]) {
@@ -137,12 +145,21 @@ __device__ inline void load_colour(const GaussianSource& src, uint32_t g, float 
   if constexpr (kCompact) {
     const CompactGaussiansView& c = src.compact;
     uint32_t words[(kValues + 3) / 4];
-    load_sh_words<kValues>(c, g, words);
+    load_sh_words<kValues>(c.sh, g, words);
     float sh[kMaxShCoefficients * 3];  // sh_to_colour's shape; entries past kValues are never read
 #pragma unroll
     for (int j = 0; j < kValues; ++j) {
       const auto q = static_cast<int8_t>(uint8_t(words[j / 4] >> (8 * (j % 4))));
       sh[j] = dequantize_sh_value(c, j, q);
+    }
+    if (c.sh_dc_residual != nullptr) {  // uniform across the launch
+      uint32_t residual[1];
+      load_sh_words<3>(c.sh_dc_residual, g, residual);
+#pragma unroll
+      for (int j = 0; j < 3; ++j) {
+        const auto q = static_cast<int8_t>(uint8_t(words[0] >> (8 * j)));
+        sh[j] = dequantize_sh_dc(c, j, q, static_cast<int8_t>(uint8_t(residual[0] >> (8 * j))));
+      }
     }
     sh_to_colour(sh, kDegree, x, y, z, rgb);
   } else {

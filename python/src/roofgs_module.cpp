@@ -598,6 +598,8 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
       o.profile = p == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
     } else if (key == "sh_clip_percentile") {
       o.sh_clip_percentile = value.cast<float>();
+    } else if (key == "sh_dc_bits") {
+      o.sh_dc_bits = value.cast<uint32_t>();
     } else if (key == "zstd") {
       o.zstd_sections = value.cast<std::vector<std::string>>();
     } else if (key == "zstd_level") {
@@ -616,7 +618,7 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
       o.allow_empty = value.cast<bool>();
     } else {
       throw py::type_error("unexpected keyword argument '" + key +
-                           "' (to, scale_encoding, sh_clip_percentile, zstd, zstd_level, profile, position_error, "
+                           "' (to, scale_encoding, sh_clip_percentile, sh_dc_bits, zstd, zstd_level, profile, position_error, "
                            "sh_degree, lod, spz_frame, sanitize, allow_empty)");
     }
   }
@@ -1243,7 +1245,8 @@ PYBIND11_MODULE(roofgs, m) {
           return report_dict(unwrap(std::move(r)));
         },
         py::arg("src"), py::arg("dst"),
-        "convert(src, dst, *, to=None, scale_encoding='linear', sh_clip_percentile=100.0, zstd=[], zstd_level=19, "
+        "convert(src, dst, *, to=None, scale_encoding='linear', sh_clip_percentile=100.0, sh_dc_bits=16, zstd=[], "
+        "zstd_level=19, "
         "profile='runtime', position_error=..., sh_degree=None, lod=None, spz_frame='rub', sanitize=False, "
         "allow_empty=False)\n\n"
         "Convert a scene in any format into dst: .rgs, .ply, .spz or .glb, as `to` or dst's extension says "

@@ -60,10 +60,9 @@ struct SectionUpload {
 /// decode is most of an archive's load time, are first decoded and checked concurrently, each into its own
 /// host buffer (their raw sizes are bounded at open), then copied in section order; the others go through
 /// upload_section, one at a time. The first failing section in section order is reported. Synchronous.
-Status upload_sections(const format::RgsFile& file, const std::array<SectionUpload, 5>& uploads,
-                       cudaStream_t stream) {
-  std::array<std::vector<uint8_t>, 5> decoded;
-  std::array<Status, 5> decode_status;
+Status upload_sections(const format::RgsFile& file, const std::vector<SectionUpload>& uploads, cudaStream_t stream) {
+  std::vector<std::vector<uint8_t>> decoded(uploads.size());
+  std::vector<Status> decode_status(uploads.size());
   std::vector<size_t> archive;
   for (size_t i = 0; i < uploads.size(); ++i) {
     const format::SectionEntry* entry = file.find(uploads[i].id);
@@ -119,9 +118,11 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   // never see a value the spec rules out (NaN means, zero quaternions, negative scales, opacity above 1),
   // and a damaged frame fails before device memory is sized by what it claims. Archive sections decode whole
   // either way (their raw size is bounded at open): upload_sections checks them once decoded, before the copy.
+  const bool dc_residual = file.find(format::SectionId::kShDcResidual) != nullptr;
   for (format::SectionId id : {format::SectionId::kMeans, format::SectionId::kRotations, format::SectionId::kScales,
-                               format::SectionId::kOpacities, format::SectionId::kSh}) {
+                               format::SectionId::kOpacities, format::SectionId::kSh, format::SectionId::kShDcResidual}) {
     const format::SectionEntry* entry = file.find(id);
+    if (id == format::SectionId::kShDcResidual && !dc_residual) continue;
     if (entry != nullptr && format::is_archive_codec(entry->codec)) continue;
     RGS_RETURN_IF_ERROR(file.verify_section(id));
   }
@@ -136,24 +137,29 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   RGS_RETURN_IF_ERROR(scene.rotations_fp16_.allocate_exactly(n * 4, name + ": rotations"));
   RGS_RETURN_IF_ERROR(scene.scales_fp16_.allocate_exactly(n * 3, name + ": scales"));
   RGS_RETURN_IF_ERROR(scene.opacities_fp16_.allocate_exactly(n, name + ": opacities"));
+  // The int8 arrays are padded with zeros, so that no kernel reads uninitialized bytes (kCompactShPadding).
+  auto allocate_padded = [&](DeviceBuffer<int8_t>* buffer, uint64_t bytes, const char* what) -> Status {
+    const uint64_t padded = (bytes + kernels::kCompactShPadding - 1) / kernels::kCompactShPadding *
+                            kernels::kCompactShPadding;
+    RGS_RETURN_IF_ERROR(buffer->allocate_exactly(padded, name + ": " + what));
+    if (padded > bytes) {
+      RGS_RETURN_IF_CUDA_ERROR(cudaMemsetAsync(buffer->data() + bytes, 0, padded - bytes, stream),
+                               name + ": " + what + " padding");
+    }
+    return Status();
+  };
   const uint64_t sh_bytes = n * k * 3;
-  const uint64_t padded_sh_bytes = (sh_bytes + kernels::kCompactShPadding - 1) / kernels::kCompactShPadding *
-                                   kernels::kCompactShPadding;
-  RGS_RETURN_IF_ERROR(scene.sh_int8_.allocate_exactly(padded_sh_bytes, name + ": SH"));
-  if (padded_sh_bytes > sh_bytes) {  // zeros, so that no kernel reads uninitialized bytes
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemsetAsync(scene.sh_int8_.data() + sh_bytes, 0, padded_sh_bytes - sh_bytes, stream),
-                             name + ": SH padding");
-  }
+  RGS_RETURN_IF_ERROR(allocate_padded(&scene.sh_int8_, sh_bytes, "SH"));
+  if (dc_residual) RGS_RETURN_IF_ERROR(allocate_padded(&scene.sh_dc_residual_, n * 3, "SH DC residual"));
 
   using format::SectionId;
-  const std::array<SectionUpload, 5> uploads = {{{SectionId::kMeans, scene.means_.data(), scene.means_.bytes()},
-                                                 {SectionId::kRotations, scene.rotations_fp16_.data(),
-                                                  scene.rotations_fp16_.bytes()},
-                                                 {SectionId::kScales, scene.scales_fp16_.data(),
-                                                  scene.scales_fp16_.bytes()},
-                                                 {SectionId::kOpacities, scene.opacities_fp16_.data(),
-                                                  scene.opacities_fp16_.bytes()},
-                                                 {SectionId::kSh, scene.sh_int8_.data(), sh_bytes}}};
+  std::vector<SectionUpload> uploads = {
+      {SectionId::kMeans, scene.means_.data(), scene.means_.bytes()},
+      {SectionId::kRotations, scene.rotations_fp16_.data(), scene.rotations_fp16_.bytes()},
+      {SectionId::kScales, scene.scales_fp16_.data(), scene.scales_fp16_.bytes()},
+      {SectionId::kOpacities, scene.opacities_fp16_.data(), scene.opacities_fp16_.bytes()},
+      {SectionId::kSh, scene.sh_int8_.data(), sh_bytes}};
+  if (dc_residual) uploads.push_back({SectionId::kShDcResidual, scene.sh_dc_residual_.data(), n * 3});
   RGS_RETURN_IF_ERROR(upload_sections(file, uploads, stream));
 
   kernels::CompactGaussiansView& view = scene.compact_view_;
@@ -162,6 +168,7 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   view.scales = scene.scales_fp16_.data();
   view.opacities = scene.opacities_fp16_.data();
   view.sh = scene.sh_int8_.data();
+  view.sh_dc_residual = dc_residual ? scene.sh_dc_residual_.data() : nullptr;
   for (int d = 0; d < 4; ++d) {
     for (int c = 0; c < 3; ++c) view.sh_scales[d][c] = meta.sh_quantization.scales[d][c];
   }
@@ -170,7 +177,7 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   view.sh_degree = meta.sh_degree;
   view.count = uint32_t(n);
 
-  scene.runtime_section_bytes_ = n * (12 + 8 + 6 + 2) + sh_bytes;
+  scene.runtime_section_bytes_ = n * (12 + 8 + 6 + 2 + (dc_residual ? 3 : 0)) + sh_bytes;
   if (!options.fp32_attributes) return scene;
 
   // FP32 attributes for the baseline, widened on the device.
@@ -208,7 +215,8 @@ Result<GpuScene> GpuScene::from_cloud(const format::GaussianCloud& cloud,
 
 uint64_t GpuScene::device_bytes() const {
   return means_.bytes() + rotations_.bytes() + scales_.bytes() + opacities_.bytes() + sh_.bytes() +
-         rotations_fp16_.bytes() + scales_fp16_.bytes() + opacities_fp16_.bytes() + sh_int8_.bytes();
+         rotations_fp16_.bytes() + scales_fp16_.bytes() + opacities_fp16_.bytes() + sh_int8_.bytes() +
+         sh_dc_residual_.bytes();
 }
 
 kernels::Fp32GaussiansView GpuScene::fp32() const {

@@ -17,8 +17,9 @@ namespace rgs::test {
 
 /// Converts `source` with the default options (what `rgs-convert in.ply out.rgs` writes) into a .rgs file in
 /// the temporary folder named `name`, and loads it for the audit.
-inline audit::AuditScene converted_scene(const audit::AuditScene& source, const std::string& name) {
-  auto encoded = converter::quantize(source.cloud, converter::QuantizeOptions{});
+inline audit::AuditScene converted_scene(const audit::AuditScene& source, const std::string& name,
+                                         const converter::QuantizeOptions& options = {}) {
+  auto encoded = converter::quantize(source.cloud, options);
   REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
   auto bytes = format::serialize_scene(*encoded, format::WriteOptions{});
   REQUIRE_MESSAGE(bytes.ok(), bytes.status().to_string());

@@ -124,9 +124,11 @@ TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference, two candidat
   CHECK(j["candidates"][0]["ratio"].get<double>() == doctest::Approx(1.0));
 }
 
-TEST_CASE("attribution: the source with one attribute group from the candidate, the DC term costing most") {
+TEST_CASE("attribution: the source with one attribute group from the candidate, the INT8 DC term costing most") {
   const audit::AuditScene& source = guitar();
-  const audit::AuditScene converted = test::converted_scene(source, "rgs_test_audit_attribution.rgs");
+  converter::QuantizeOptions int8_dc;  // the paper's INT8 DC term, without the residual
+  int8_dc.sh_dc_bits = 8;
+  const audit::AuditScene converted = test::converted_scene(source, "rgs_test_audit_attribution.rgs", int8_dc);
   auto hybrids = audit::attribution_scenes(source, converted);
   REQUIRE_MESSAGE(hybrids.ok(), hybrids.status().to_string());
   // guitar has SH degree 0: no "SH bands 1+" group.
@@ -153,6 +155,19 @@ TEST_CASE("attribution: the source with one attribute group from the candidate, 
   const double dc = result->candidates[5].summary.psnr_mean_db;
   CHECK(dc == doctest::Approx(whole).epsilon(0.01));
   for (size_t c = 2; c < 5; ++c) CHECK(result->candidates[c].summary.psnr_mean_db > dc + 10);
+
+  // The DC residual (the default) removes that cost: the DC term then costs less than every other group.
+  const audit::AuditScene refined = test::converted_scene(source, "rgs_test_audit_attribution_dc16.rgs");
+  auto refined_hybrids = audit::attribution_scenes(source, refined);
+  REQUIRE(refined_hybrids.ok());
+  std::vector<audit::AuditScene> refined_candidates{refined, (*refined_hybrids)[4]};
+  auto refined_result = audit::run_audit(source, refined_candidates, small_orbit(source.bounds, 2), {});
+  REQUIRE_MESSAGE(refined_result.ok(), refined_result.status().to_string());
+  CHECK(refined_result->candidates[0].summary.psnr_mean_db > whole + 10);
+  CHECK(refined_result->candidates[1].summary.psnr_mean_db > dc + 40);
+  for (size_t c = 2; c < 5; ++c) {
+    CHECK(refined_result->candidates[1].summary.psnr_mean_db > result->candidates[c].summary.psnr_mean_db);
+  }
 
   audit::AuditScene other = source;
   other.cloud.resize(10);

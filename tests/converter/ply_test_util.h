@@ -183,7 +183,7 @@ inline bool same_encoded(const format::EncodedScene& a, const format::EncodedSce
   const auto& ma = a.metadata;
   const auto& mb = b.metadata;
   return a.count == b.count && eq(a.means, b.means) && eq(a.rotations, b.rotations) && eq(a.scales, b.scales) &&
-         eq(a.opacities, b.opacities) && eq(a.sh, b.sh) && ma.sh_degree == mb.sh_degree &&
+         eq(a.opacities, b.opacities) && eq(a.sh, b.sh) && eq(a.sh_dc_residual, b.sh_dc_residual) && ma.sh_degree == mb.sh_degree &&
          ma.scale_encoding == mb.scale_encoding &&
          std::memcmp(&ma.sh_quantization.scales, &mb.sh_quantization.scales, sizeof(ma.sh_quantization.scales)) == 0 &&
          ma.sh_quantization.clip_percentile == mb.sh_quantization.clip_percentile &&
@@ -241,8 +241,16 @@ inline uint64_t check_quantization_bounds(const format::GaussianCloud& cloud, co
         // In exact arithmetic |s·q − v| <= s/2. s·q is exact in double (float × int8); the only other
         // rounding is quantize()'s double division v/s (relative 2^-53, i.e. <= 127·2^-53·s), so a slack
         // of 1e-12·s is generous. (dequantize() forms s·q in float32, adding up to 127·2^-24·s.)
-        const double deq = static_cast<double>(s[d][c]) * code;
-        const double bound = 0.5 * s[d][c] * (1.0 + 1e-12);
+        double deq = static_cast<double>(s[d][c]) * code;
+        double bound = 0.5 * s[d][c] * (1.0 + 1e-12);
+        if (k == 0 && !enc.sh_dc_residual.empty()) {
+          // The DC residual r (|r| <= 127) leaves at most 1/256 of the step: 1/512 from rounding 256·(v/s − q),
+          // up to 1/256 where |v/s − q| is within 1/512 of 0.5 and r is clamped to ±127.
+          const int8_t r = enc.sh_dc_residual[i * 3 + c];
+          deq = static_cast<double>(s[d][c]) * (code + r / 256.0);
+          bound = s[d][c] / 256.0 * (1.0 + 1e-9);
+          if (r < -127) report("DC residual -128 at " + std::to_string(i));
+        }
         if (code < -127 || std::fabs(deq - v) > bound) {
           report("SH " + std::to_string(i) + " k " + std::to_string(k) + " c " + std::to_string(c) + ": " +
                  std::to_string(v) + " -> " + std::to_string(deq) + " (s " + std::to_string(s[d][c]) + ")");

@@ -29,7 +29,7 @@ void check_end_to_end(const std::string& path, uint64_t expected_count, uint32_t
   format::WriteOptions zstd_all;
   for (auto id : {format::SectionId::kMetadata, format::SectionId::kProvenance, format::SectionId::kMeans,
                   format::SectionId::kRotations, format::SectionId::kScales, format::SectionId::kOpacities,
-                  format::SectionId::kSh}) {
+                  format::SectionId::kSh, format::SectionId::kShDcResidual}) {
     zstd_all.codecs[id] = format::Codec::kZstd;
   }
   zstd_all.zstd_level = 3;
@@ -48,12 +48,14 @@ void check_end_to_end(const std::string& path, uint64_t expected_count, uint32_t
     REQUIRE_MESSAGE(file.ok(), file.status().to_string());
     CHECK(file->gaussian_count() == expected_count);
     for (const auto& section : file->sections()) CHECK(section.offset % format::kSectionAlignment == 0);
-    if (!zstd) {  // runtime profile: 12 + 8 + 6 + 2 + 3K bytes per Gaussian of section payload
+    if (!zstd) {  // runtime profile: 12 + 8 + 6 + 2 + 3K + 3 (DC residual) bytes per Gaussian of section payload
       uint64_t payload = 0;
       for (const auto& section : file->sections()) {
         if (section.element_count == expected_count) payload += section.raw_size;
       }
-      CHECK(payload == expected_count * (28 + 3 * format::sh_coefficient_count(expected_degree)));
+      CHECK(payload == expected_count * (31 + 3 * format::sh_coefficient_count(expected_degree)));
+      CHECK(file->find(format::SectionId::kShDcResidual) != nullptr);
+      CHECK(file->header().minor == 2);
     }
 
     // What the file holds is exactly what was quantized, and within every bound of the source.

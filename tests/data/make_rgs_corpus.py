@@ -5,12 +5,15 @@
   tests/data/v1.0/small_sh0_zstd.rgs   golden: 64 Gaussians, SH degree 0, log scales, every section zstd
   tests/data/v1.0/forward_compat.rgs   a "1.7" file with an optional flag and unknown sections that a
                                        1.0 reader must open (SPEC §6)
+  tests/data/v1.2/small_sh0_dc_residual.rgs  golden: small_sh0_zstd's scene with the sh_dc_residual section
+                                       (SPEC §4.8), codec none
   tests/data/bad/*.rgs                 files that must fail with a named StatusCode, listed with their
                                        defects in tests/format/bad_rgs_corpus.md
 
 This is a second, independent implementation of the spec: its own XXH64, its own little-endian
 writer, and zstd frames made of raw and RLE blocks (RFC 8878 §3.1.1.2), which any zstd decoder must
-accept. The C++ tests check that the library reproduces small_sh3.rgs byte for byte from the same scene.
+accept. The C++ tests check that the library reproduces small_sh3.rgs and small_sh0_dc_residual.rgs byte for
+byte from the same scenes.
 
   python3 tests/data/make_rgs_corpus.py           # (re)write the corpus
   python3 tests/data/make_rgs_corpus.py --check   # exit 1 if the files on disk differ from the generator
@@ -22,6 +25,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 GOLDEN_DIR = os.path.join(HERE, "v1.0")
+GOLDEN_DIR_1_2 = os.path.join(HERE, "v1.2")
 BAD_DIR = os.path.join(HERE, "bad")
 MANIFEST = os.path.join(HERE, os.pardir, "format", "bad_rgs_corpus.md")
 
@@ -153,6 +157,7 @@ ENTRY_SIZE = 64
 ALIGN = 256
 METADATA_SIZE = 128
 ID_METADATA, ID_PROVENANCE, ID_MEANS, ID_ROTATIONS, ID_SCALES, ID_OPACITIES, ID_SH = 1, 2, 16, 17, 18, 19, 20
+ID_SH_DC_RESIDUAL = 21
 CODEC_NONE, CODEC_ZSTD = 0, 1
 T_BYTES, T_I8, T_F16, T_F32 = 0, 1, 2, 3
 
@@ -218,7 +223,7 @@ def scene_sections(scene, codec):
 
     meta = encode_metadata(scene["metadata"])
     prov = encode_provenance(scene["provenance"])
-    return [
+    sections = [
         section(ID_METADATA, T_BYTES, 1, len(meta), meta),
         section(ID_PROVENANCE, T_BYTES, 1, len(prov), prov),
         section(ID_MEANS, T_F32, 3, n, struct.pack("<%df" % (3 * n), *scene["means"])),
@@ -227,6 +232,9 @@ def scene_sections(scene, codec):
         section(ID_OPACITIES, T_F16, 1, n, struct.pack("<%dH" % n, *scene["opacities"])),
         section(ID_SH, T_I8, 3 * k, n, struct.pack("<%db" % (3 * k * n), *scene["sh"])),
     ]
+    if "sh_dc_residual" in scene:
+        sections.append(section(ID_SH_DC_RESIDUAL, T_I8, 3, n, struct.pack("<%db" % (3 * n), *scene["sh_dc_residual"])))
+    return sections
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -285,6 +293,16 @@ def small_sh0_zstd():
     }
     scene["provenance"] = [("source", "synthetic small_sh0_zstd (tests/data/make_rgs_corpus.py)"),
                            ("options", "sh_degree=0 scale_encoding=log codec=zstd (raw and RLE blocks)")]
+    return scene
+
+
+def small_sh0_dc_residual():
+    """small_sh0_zstd's Gaussians with a DC residual of every i8 value (SPEC §4.8), stored raw."""
+    scene = small_sh0_zstd()
+    n = scene["count"]
+    scene["sh_dc_residual"] = [(i * 3 + c) * 4 % 256 - 128 + (i % 4) for i in range(n) for c in range(3)]
+    scene["provenance"] = [("source", "synthetic small_sh0_dc_residual (tests/data/make_rgs_corpus.py)"),
+                           ("options", "sh_degree=0 scale_encoding=log codec=none sh_dc_residual")]
     return scene
 
 
@@ -459,6 +477,18 @@ def bad_cases(g3, gz):
     sections[MEANS]["stored"] = zstd_frame(sections[MEANS]["raw"], window_log=28)
     case("zstd_window_too_large", "kCorruptData", "open", container(sections, 64),
          "means frame declares a 2^28-byte window (limit 2^27)")
+    # §4.8 the DC residual
+    sd = small_sh0_dc_residual()
+    case("dc_residual_in_1_1", "kCorruptData", "open", container(scene_sections(sd, CODEC_NONE), 64, minor=1),
+         "an sh_dc_residual section in a version 1.1 file")
+    sections = scene_sections(sd, CODEC_NONE)
+    sections[-1].update(components=1, count=192)
+    case("dc_residual_components", "kCorruptData", "open", container(sections, 64, minor=2),
+         "sh_dc_residual is i8 x 1 (192 elements), not i8 x 3")
+    sections = scene_sections(sd, CODEC_NONE)
+    sections[-1].update(count=63, raw=sections[-1]["raw"][:189], stored=sections[-1]["stored"][:189])
+    case("dc_residual_count", "kCorruptData", "open", container(sections, 64, minor=2),
+         "sh_dc_residual holds 63 elements for 64 Gaussians")
     return cases
 
 
@@ -486,6 +516,8 @@ def build():
         os.path.join(GOLDEN_DIR, "small_sh3.rgs"): g3,
         os.path.join(GOLDEN_DIR, "small_sh0_zstd.rgs"): gz,
         os.path.join(GOLDEN_DIR, "forward_compat.rgs"): forward_compat(s3),
+        os.path.join(GOLDEN_DIR_1_2, "small_sh0_dc_residual.rgs"):
+            container(scene_sections(small_sh0_dc_residual(), CODEC_NONE), sz["count"], minor=2),
     }
     readme = ["# Must-fail .rgs corpus (tests/data/bad/*.rgs)", "",
               "Generated by `tests/data/make_rgs_corpus.py` from the golden files in `tests/data/v1.0/`; do not",

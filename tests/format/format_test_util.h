@@ -134,6 +134,9 @@ inline format::EncodedScene make_small_sh3() {
   return s;
 }
 
+/// The scene of tests/data/v1.2/small_sh0_dc_residual.rgs (make_rgs_corpus.py small_sh0_dc_residual()).
+inline format::EncodedScene make_small_sh0_dc_residual();
+
 /// The scene of tests/data/v1.0/small_sh0_zstd.rgs (make_rgs_corpus.py small_sh0_zstd()).
 inline format::EncodedScene make_small_sh0_zstd() {
   format::EncodedScene s;
@@ -163,6 +166,18 @@ inline format::EncodedScene make_small_sh0_zstd() {
   for (uint32_t ch = 0; ch < 3; ++ch) m.sh_quantization.scales[0][ch] = static_cast<float>(ch + 1) * 0.125f;
   s.provenance = {{"source", "synthetic small_sh0_zstd (tests/data/make_rgs_corpus.py)"},
                   {"options", "sh_degree=0 scale_encoding=log codec=zstd (raw and RLE blocks)"}};
+  return s;
+}
+
+inline format::EncodedScene make_small_sh0_dc_residual() {
+  format::EncodedScene s = make_small_sh0_zstd();
+  for (uint64_t i = 0; i < s.count; ++i) {
+    for (uint64_t c = 0; c < 3; ++c) {
+      s.sh_dc_residual.push_back(static_cast<int8_t>(static_cast<int>((i * 3 + c) * 4 % 256) - 128 + int(i % 4)));
+    }
+  }
+  s.provenance = {{"source", "synthetic small_sh0_dc_residual (tests/data/make_rgs_corpus.py)"},
+                  {"options", "sh_degree=0 scale_encoding=log codec=none sh_dc_residual"}};
   return s;
 }
 
@@ -256,6 +271,7 @@ inline void check_same_scene(const format::EncodedScene& a, const format::Encode
   CHECK(a.scales == b.scales);
   CHECK(a.opacities == b.opacities);
   CHECK(a.sh == b.sh);
+  CHECK(a.sh_dc_residual == b.sh_dc_residual);
 }
 
 }  // namespace rgs::test

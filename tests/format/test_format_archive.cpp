@@ -78,6 +78,20 @@ TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to 
   }
 }
 
+TEST_CASE("archive: a scene with the DC residual is archived at the INT8 DC step, without the residual section") {
+  format::EncodedScene scene = make_random_scene(2000, 0, 11);
+  auto plain = format::serialize_scene(scene, archive_options());
+  REQUIRE(plain.ok());
+  scene.sh_dc_residual.assign(scene.count * 3, int8_t{-77});
+  auto bytes = format::serialize_scene(scene, archive_options());
+  REQUIRE(bytes.ok());
+  CHECK(*bytes == *plain);
+  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+  REQUIRE(file.ok());
+  CHECK(file->find(format::SectionId::kShDcResidual) == nullptr);
+  CHECK(file->header().minor == 1);
+}
+
 TEST_CASE("archive: deterministic whatever the thread count") {
   const format::EncodedScene scene = make_random_scene(3000, 2, 11);
   format::WriteOptions one = archive_options(), four = archive_options();

@@ -94,6 +94,10 @@ const BadFile kBadFiles[] = {
     {"zstd_reserved_block", C::kCorruptData, kValidate, "section 2 (means): zstd frame: zstd:"},
     {"zstd_content_checksum", C::kChecksumMismatch, kValidate, "zstd content checksum does not match"},
     {"zstd_checksum_field", C::kChecksumMismatch, kValidate, "zstd content checksum does not match"},
+    {"dc_residual_in_1_1", C::kCorruptData, kOpen, "section 7 (sh_dc_residual) in a version 1.1 file"},
+    {"dc_residual_components", C::kCorruptData, kOpen,
+     "section 7 (sh_dc_residual): element type i8 x 1, expected i8 x 3"},
+    {"dc_residual_count", C::kCorruptData, kOpen, "section 7 (sh_dc_residual): element_count 63 != gaussian_count 64"},
 };
 
 const BadFile* find_bad(const std::string& name) {
@@ -190,6 +194,9 @@ TEST_CASE("bad/zstd_window_too_large.rgs") { check_bad_file("zstd_window_too_lar
 TEST_CASE("bad/zstd_reserved_block.rgs") { check_bad_file("zstd_reserved_block"); }
 TEST_CASE("bad/zstd_content_checksum.rgs") { check_bad_file("zstd_content_checksum"); }
 TEST_CASE("bad/zstd_checksum_field.rgs") { check_bad_file("zstd_checksum_field"); }
+TEST_CASE("bad/dc_residual_in_1_1.rgs") { check_bad_file("dc_residual_in_1_1"); }
+TEST_CASE("bad/dc_residual_components.rgs") { check_bad_file("dc_residual_components"); }
+TEST_CASE("bad/dc_residual_count.rgs") { check_bad_file("dc_residual_count"); }
 
 TEST_CASE("bad corpus: table, manifest and files agree, and each file has its TEST_CASE") {
   // Every .rgs in tests/data/bad is listed in the table (other libraries keep *.ply there).

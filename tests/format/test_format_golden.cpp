@@ -1,7 +1,8 @@
-// Golden files of format version 1.0 (tests/data/v1.0/), written by tests/data/make_rgs_corpus.py, an
+// Golden files of format versions 1.0 and 1.2 (tests/data/v1.*/), written by tests/data/make_rgs_corpus.py, an
 // independent implementation of SPEC.md. They must keep reading the same forever (CONTRIBUTING.md#tests).
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -135,6 +136,52 @@ TEST_CASE("golden v1.0/small_sh0_zstd.rgs: zstd frames of raw and RLE blocks dec
   auto cloud = dequantize(*scene);
   REQUIRE(cloud.ok());
   CHECK(cloud->scales[40 * 3] == 1.0f);
+}
+
+TEST_CASE("golden v1.2/small_sh0_dc_residual.rgs: the DC residual decodes as s(q + r/256), written byte for byte") {
+  const std::string path = data_path("v1.2/small_sh0_dc_residual.rgs");
+  const std::vector<uint8_t> bytes = read_file_bytes(path);
+  const RgsFile file = must_open_path(path);
+  CHECK(file.header().minor == 2);
+  REQUIRE(file.find(SectionId::kShDcResidual) != nullptr);
+  CHECK(file.find(SectionId::kShDcResidual)->components == 3);
+  auto scene = file.read_scene();
+  REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
+  const EncodedScene expected = test::make_small_sh0_dc_residual();
+  test::check_same_scene(*scene, expected);
+  const Status valid = validate(bytes.data(), bytes.size(), ReadLimits{}, path);
+  CHECK_MESSAGE(valid.ok(), valid.to_string());
+  // The writer stamps 1.2 (the residual's gate) and reproduces the file.
+  auto rewritten = serialize_scene(expected);
+  REQUIRE(rewritten.ok());
+  CHECK(*rewritten == bytes);
+
+  // §4.8 DC = s[0][c] (q + r/256), computed here in double: q + r/256 and its product with s (a multiple of
+  // 1/8 here) are exact in float32, so the decoded value equals it exactly. Every i8 residual, -128 included.
+  auto cloud = dequantize(*scene);
+  REQUIRE(cloud.ok());
+  int seen_min = 0, seen_max = 0;
+  for (uint64_t i = 0; i < scene->count; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const int q = scene->sh[i * 3 + c], r = scene->sh_dc_residual[i * 3 + c];
+      const double want = (c + 1) * 0.125 * (q + r / 256.0);
+      CHECK(cloud->sh[i * 3 + c] == static_cast<float>(want));
+      CHECK(static_cast<double>(static_cast<float>(want)) == want);
+      seen_min = std::min(seen_min, r), seen_max = std::max(seen_max, r);
+    }
+  }
+  CHECK(seen_min == -128);
+  CHECK(seen_max == 127);
+
+  // A 1.1 reader skips the unknown section and renders the INT8 DC: the file without it is a valid 1.0 file.
+  EncodedScene coarse = expected;
+  coarse.sh_dc_residual.clear();
+  auto coarse_bytes = serialize_scene(coarse);
+  REQUIRE(coarse_bytes.ok());
+  CHECK(RgsFile::from_bytes(coarse_bytes->data(), coarse_bytes->size())->header().minor == 0);
+  // A residual array of the wrong length is refused by the writer.
+  coarse.sh_dc_residual.assign(5, 0);
+  CHECK(serialize_scene(coarse).status().code() == StatusCode::kInvalidArgument);
 }
 
 TEST_CASE("golden v1.0/forward_compat.rgs: a newer minor with unknown sections and flags opens") {

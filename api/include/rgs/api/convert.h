@@ -58,8 +58,11 @@ struct ConvertOptions {
   format::ScaleEncoding scale_encoding = format::ScaleEncoding::kLinear;
   /// SH scale: 100 = max |SH| / 127 (paper Eq. quant); lower clips the tail (converter::QuantizeOptions).
   float sh_clip_percentile = 100.0f;
+  /// DC term precision, 8 or 16 bits (converter::QuantizeOptions::sh_dc_bits): 16 adds the DC residual section
+  /// (SPEC §4.8, 3 bytes a Gaussian); 8 is the paper's INT8 alone. The archive profile always stores 8.
+  uint32_t sh_dc_bits = 16;
   /// Sections compressed with zstd: "all" or names among metadata, provenance, means, rotations, scales,
-  /// opacities, sh. Empty: every section stored raw (the runtime copies it to the GPU as is).
+  /// opacities, sh, sh_dc_residual. Empty: every section stored raw (the runtime copies it to the GPU as is).
   std::vector<std::string> zstd_sections;
   int zstd_level = 19;
   /// kRuntime (lossless sections, mapped as is) or kArchive (Draco means and quantized attributes,

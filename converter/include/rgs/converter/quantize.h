@@ -17,6 +17,10 @@ struct QuantizeOptions {
   /// SH scale rule: 100 = max |SH| / 127 (paper Eq. quant); P in (0, 100) uses the P-th percentile of
   /// |SH| per (degree, channel) and clips larger coefficients to ±127 (counted in the report).
   float sh_clip_percentile = 100.0f;
+  /// Precision of the DC term (k = 0), 8 or 16 bits. 8: the INT8 code alone (paper Eq. quant). 16 (default):
+  /// also an INT8 residual in 1/256 of the code's step (SPEC §4.8, +3 bytes a Gaussian), which keeps the DC
+  /// term, the whole colour of an SH-0 scene, far below the other attributes' errors (docs/AUDITS.md).
+  uint32_t sh_dc_bits = 16;
 };
 
 /// What quantization did beyond rounding, for the conversion summary and the audit.
@@ -38,12 +42,14 @@ struct QuantizationReport {
 /// Quantizes `cloud` (which must be consistent and finite): FP32 means copied bit-exactly, rotations
 /// normalized then FP16, scales (log scales at most 88.6875, SPEC §4.5) and activated opacities FP16, SH
 /// symmetric INT8 with s[d][c] = max_i |SH[i][d][c]| / 127 (or the chosen percentile), q =
-/// round-half-away(SH / s) clamped to ±127.
+/// round-half-away(SH / s) clamped to ±127; with sh_dc_bits 16 the DC residual r = round-half-away(256 · (SH / s
+/// − q)) clamped to [−127, 127].
 /// Fills metadata: SH degree, conventions, bounds (compute_bounds) and the quantization.
 /// When `errors` is not null it also receives the per-attribute errors of the result, measured in the same
 /// pass while the values are in cache: bit-identical to measure_quantization_errors(cloud, result).
 /// Deterministic whatever the number of threads (report and errors included).
-/// Errors: kInvalidArgument (inconsistent cloud, percentile outside (0, 100], a non-finite or invalid value,
+/// Errors: kInvalidArgument (inconsistent cloud, percentile outside (0, 100], sh_dc_bits not 8 or 16, a
+/// non-finite or invalid value,
 /// means whose bounding sphere radius overflows float32).
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
                                       QuantizationReport* report = nullptr, AttributeErrors* errors = nullptr);

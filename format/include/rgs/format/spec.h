@@ -1,4 +1,4 @@
-// Constants of the .rgs container, version 1.0. Normative text: format/SPEC.md; section numbers below
+// Constants of the .rgs container, version 1.2. Normative text: format/SPEC.md; section numbers below
 // refer to it.
 #pragma once
 
@@ -13,7 +13,7 @@ inline constexpr uint8_t kMagic[8] = {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0
 /// §2 Version this library writes. Readers accept any minor of kFormatMajor; newer majors are refused
 /// with kUnsupportedVersion.
 inline constexpr uint16_t kFormatMajor = 1;
-inline constexpr uint16_t kFormatMinor = 1;
+inline constexpr uint16_t kFormatMinor = 2;
 
 /// §6 A format version, compared as (major, minor).
 struct FormatVersion {
@@ -33,6 +33,8 @@ inline constexpr FormatVersion kMinVersionForProvenance{1, 0};
 inline constexpr FormatVersion kMinVersionForLogScales{1, 0};
 /// §3.3 Codecs 2 (draco) and 3 (quantized), the archive profile; they also set kRequiredFlagArchiveCodecs.
 inline constexpr FormatVersion kMinVersionForArchiveCodecs{1, 1};
+/// §4.8 The optional sh_dc_residual section, which refines the INT8 DC term to 1/256 of its step.
+inline constexpr FormatVersion kMinVersionForShDcResidual{1, 2};
 
 /// §2 Fixed sizes, in bytes.
 inline constexpr uint32_t kHeaderSize = 64;
@@ -59,6 +61,7 @@ enum class SectionId : uint32_t {
   kScales = 18,      ///< §4.5 [N, 3] float16, linear or log per metadata
   kOpacities = 19,   ///< §4.6 [N] float16, sigmoid-activated
   kSh = 20,          ///< §4.7 [N, K, 3] int8, symmetric per (degree, channel) scale
+  kShDcResidual = 21,///< §4.8 [N, 3] int8, optional: the DC term's residual in 1/256 of its INT8 step
 };
 
 /// §3.1 How a section's stored bytes encode its raw bytes.

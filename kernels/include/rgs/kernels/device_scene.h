@@ -38,13 +38,15 @@ constexpr uint64_t kCompactShPadding = 16;
 /// - opacities  [N]    binary16 bits of the activated opacity;
 /// - sh         [N, K, 3] int8, value = sh_scales[d][c]·q (paper Eq. quant), d the degree of coefficient k;
 ///   its allocation is padded with zeros to a multiple of kCompactShPadding bytes, so that a kernel may read
-///   a Gaussian's block with the aligned words that cover it.
+///   a Gaussian's block with the aligned words that cover it;
+/// - sh_dc_residual [N, 3] int8 or null: DC value = sh_scales[0][c]·(q + r/256) (SPEC §4.8), padded as `sh`.
 struct CompactGaussiansView {
   const float* means = nullptr;
   const uint16_t* rotations = nullptr;
   const uint16_t* scales = nullptr;
   const uint16_t* opacities = nullptr;
   const int8_t* sh = nullptr;
+  const int8_t* sh_dc_residual = nullptr;
   float sh_scales[4][3] = {};
   CompactScaleEncoding scale_encoding = CompactScaleEncoding::kLinear;
   uint32_t sh_degree = 0;

@@ -86,7 +86,8 @@ class GpuScene {
   /// Device bytes held (compact sections, with the SH allocation's padding, + FP32 arrays).
   uint64_t device_bytes() const;
   /// Bytes of the runtime sections as the .rgs file states them uncompressed (means, rotations, scales,
-  /// opacities, SH: format/SPEC.md §4): N·(12 + 8 + 6 + 2 + 3K) with K = (degree + 1)². 0 for from_cloud().
+  /// opacities, SH, SH DC residual: format/SPEC.md §4): N·(12 + 8 + 6 + 2 + 3K + 3r) with K = (degree + 1)² and
+  /// r = 1 when the file has the DC residual. 0 for from_cloud().
   uint64_t runtime_section_bytes() const { return runtime_section_bytes_; }
 
   /// FP32 view for the baseline pipeline. Without has_fp32() only `means` is set (the rest null).
@@ -108,7 +109,7 @@ class GpuScene {
   DeviceBuffer<float> means_, rotations_, scales_, opacities_, sh_;
   // Compact sections, byte for byte as in the file.
   DeviceBuffer<uint16_t> rotations_fp16_, scales_fp16_, opacities_fp16_;
-  DeviceBuffer<int8_t> sh_int8_;
+  DeviceBuffer<int8_t> sh_int8_, sh_dc_residual_;
 };
 
 }  // namespace rgs::runtime
