@@ -3,6 +3,7 @@
 # source is converted to each candidate below, then rendered once per view against all of them (PSNR/SSIM of
 # each candidate's decode against the FP32 render of the source; bytes per Gaussian from each file).
 #   runtime         .rgs default (mapped as is)       zstd      .rgs --zstd all (lossless)
+#   int8dc          .rgs --sh-dc-bits 8 (the paper's INT8 DC term, without the DC residual)
 #   archive         .rgs --profile archive            spz       SPZ v4 written by rgs-convert
 #   glb             KHR_gaussian_splatting GLB        extra     any files given after -- (e.g. other tools' outputs)
 # Usage: scripts/audit_formats.sh SOURCE OUT_DIR [rgs-audit camera options...] [-- EXTRA_CANDIDATE...]
@@ -33,11 +34,12 @@ convert() {  # LABEL FILE ARGS...: one candidate, its conversion time on stderr
   echo "audit_formats: $label converted in $(( ($(date +%s%N) - t0) / 1000000 )) ms" >&2
 }
 convert runtime "$out/$name.runtime.rgs"
+convert int8dc "$out/$name.int8dc.rgs" --sh-dc-bits 8
 convert zstd "$out/$name.zstd.rgs" --zstd all
 convert archive "$out/$name.archive.rgs" --profile archive
 convert spz "$out/$name.spz" --to spz
 convert glb "$out/$name.glb" --to glb
-candidates=("$out/$name.runtime.rgs" "$out/$name.zstd.rgs" "$out/$name.archive.rgs" "$out/$name.spz" "$out/$name.glb")
+candidates=("$out/$name.runtime.rgs" "$out/$name.int8dc.rgs" "$out/$name.zstd.rgs" "$out/$name.archive.rgs" "$out/$name.spz" "$out/$name.glb")
 labels=(--label runtime --label zstd --label archive --label spz --label glb)
 for f in "${extra[@]}"; do
   candidates+=("$f")

@@ -2,7 +2,8 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|floor|pybench|audit|ab|all]   (default all; ab: see below)
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|floor|pybench|audit|fidelity|ab|all]
+#   (default all; ab: see below)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
 out="$2"
@@ -239,6 +240,39 @@ if [ "$what" = audit ] || [ "$what" = all ]; then
     audit taebak_4k "$taebak_dir/taebak_lod0_sog/lod-meta.json" "$taebak" --cameras "$taebak_cameras" --width 3840 \
       --height 2160
   fi
+fi
+if [ "$what" = fidelity ] || [ "$what" = all ]; then
+  # Each preset against faithful's render of the source (rgs-bench --quality --reference): what the conversion
+  # and the preset's approximations cost together (docs/AUDITS.md#fidelity-of-the-presets), for the default
+  # conversion (with the DC residual) and the paper's INT8 DC term (--sh-dc-bits 8), both converted here.
+  fid=/tmp/rgs_fidelity
+  mkdir -p "$fid"
+  fidelity() {  # NAME SOURCE CAMERA_ARGS...
+    local name="$1" source="$2" dc rc
+    shift 2
+    for dc in 16 8; do
+      rc=0
+      "$bin/rgs-convert" -q "$source" "$fid/$name.dc$dc.rgs" --sh-dc-bits "$dc" || rc=$?
+      "$bin/rgs-bench" "$fid/$name.dc$dc.rgs" "$@" --resolution 1920x1080 --resolution 3840x2160 --mode faithful \
+        --mode fastest --warmup 1 --repeat 3 --quality --reference "$source" --json "$out/fidelity_${name}_dc$dc.json" \
+        >"$out/fidelity_${name}_dc$dc.log" 2>&1 || rc=$?
+      [ $rc -ne 0 ] && status=1
+      note "fidelity_${name}_dc$dc: exit $rc; $(stat -c %s "$fid/$name.dc$dc.rgs" 2>/dev/null) bytes"
+      grep -A5 "^  quality" "$out/fidelity_${name}_dc$dc.log" | tee -a "$summary"
+    done
+    # What each attribute of the default conversion costs alone (rgs-audit --attribution).
+    rc=0
+    "$bin/rgs-audit" "$source" "$fid/$name.dc16.rgs" "$@" --attribution --backend cuda --no-report \
+      >"$out/attribution_$name.log" 2>&1 || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "attribution_$name: exit $rc"
+    grep -A7 "candidate          format" "$out/attribution_$name.log" | tee -a "$summary"
+  }
+  fidelity guitar "$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/samples/guitar.ply" --orbit 8
+  fidelity flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json" \
+    --every 8
+  [ -f "$RGS_DATA_DIR/biker.ply" ] && fidelity biker "$RGS_DATA_DIR/biker.ply" --orbit 8
+  [ -f "$taebak" ] && fidelity taebak "$taebak_dir/taebak_lod0_sog/lod-meta.json" --cameras "$taebak_cameras"
 fi
 echo
 echo "=== summary ==="

@@ -8,7 +8,7 @@
 #                            libroofgs_core.so (every RoofGS library, code generated here), pybind11's headers
 #                            and the generated config.h; scripts/gpu_python.sh compiles the module there
 #   .device_data/data/       flowers as .rgs with its cameras.json, taebak_cameras.json
-#   .device_scenes/          flowers PLY and the 542k daffodils scene as .rgs; scripts/gpu_check.sh reads them
+#   .device_scenes/          flowers and biker PLY and the 542k daffodils scene as .rgs; scripts/gpu_check.sh reads them
 #                            from there or from .device_data/data
 #   .device_taebak_a/, .device_taebak_b/
 #                            the 4.25M-Gaussian taebak scene as streamed SOG (55 MB), its chunk folders split in
@@ -71,11 +71,12 @@ tar -C "$stage" -cJf "$stage/bin.tar.xz" bin
 rm -rf "$stage/bin"
 
 cp "$data/mipnerf360_flowers_cameras.json" "$data/taebak_cameras.json" "$stage/data/"
-cp "$data/mipnerf360_flowers_c3dgs.ply" "$scenes/"
+cp "$data/mipnerf360_flowers_c3dgs.ply" "$data/biker.ply" "$scenes/"
 # flowers also as a .rgs, so the benchmark's RoofGS mode reads compact attributes.
 "$build/tools/rgs-convert" -q "$data/mipnerf360_flowers_c3dgs.ply" "$stage/data/mipnerf360_flowers_c3dgs.rgs"
 daffodils="$scenes/playcanvas_flowers_lod0.rgs"
-if [ ! -f "$daffodils" ] || [ "$data/playcanvas_flowers_lod0.ply" -nt "$daffodils" ]; then
+if [ ! -f "$daffodils" ] || [ "$data/playcanvas_flowers_lod0.ply" -nt "$daffodils" ] ||
+   [ "$build/tools/rgs-convert" -nt "$daffodils" ]; then
   "$build/tools/rgs-convert" -q "$data/playcanvas_flowers_lod0.ply" "$daffodils" --zstd all --zstd-level 3
 fi
 # The SOG's files split in two halves by chunk folder; gpu_prepare_taebak.sh puts them together again.

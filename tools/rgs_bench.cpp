@@ -222,6 +222,7 @@ runtime::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const r
   in.roofgs = o.pipeline == runtime::GpuPipeline::kRoofgs;
   if (in.roofgs) {
     in.compact = o.roofgs.compact_attributes;
+    in.dc_residual = scene.has_compact() && scene.compact().sh_dc_residual != nullptr;
     in.fused = o.roofgs.fused_preprocess;
     in.key32 = o.roofgs.techniques.key32;
     in.snugbox = o.roofgs.techniques.snugbox_accutile;

@@ -40,9 +40,9 @@ double sh_colour_flops(uint32_t degree) {
   return kBasis[std::min<uint32_t>(degree, 3)] + 6.0 * sh_coefficients(degree);
 }
 
-double attribute_bytes(bool compact, uint32_t degree) {
+double attribute_bytes(bool compact, uint32_t degree, bool dc_residual) {
   const double k = sh_coefficients(degree);
-  return compact ? 28.0 + 3.0 * k : 44.0 + 12.0 * k;
+  return compact ? 28.0 + 3.0 * k + (dc_residual ? 3.0 : 0.0) : 44.0 + 12.0 * k;
 }
 
 int radix_passes(int sort_bits) { return sort_bits <= 0 ? 0 : (sort_bits + 7) / 8; }
@@ -68,7 +68,7 @@ FrameWork frame_work(const FrameWorkInputs& in) {
   const bool folded = roofgs && in.folded;
   const bool fast_exp = roofgs && in.fast_exp;
   const double kb = key32 ? 4.0 : 8.0;
-  const double a = attribute_bytes(compact, in.sh_degree);
+  const double a = attribute_bytes(compact, in.sh_degree, compact && in.dc_residual);
   FrameWork w;
 
   // Preprocess: everything before the sort.
@@ -84,6 +84,7 @@ FrameWork frame_work(const FrameWorkInputs& in) {
   } else {
     flops_visible += kFlopsLogf;                              // ln o for the folded/fast-exp alpha
     if (compact) flops_visible += 3 * k;                      // SH = s[d][c]·q
+    if (compact && in.dc_residual) flops_visible += 3 * 2;    // DC = s[0][c]·fma(r, 1/256, q)
     if (key32) flops_visible += kFlopsDepthBin;
     // SnugBox threshold, and the AccuTile walk's setup: built once by the fused kernel (for the count and the
     // emission), twice by the separate stages (preprocess, then duplicate_roofgs rebuilds it).

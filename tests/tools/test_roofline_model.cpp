@@ -29,6 +29,8 @@ TEST_CASE("roofline model: per-item counts") {
   CHECK(attribute_bytes(true, 3) == 76);
   CHECK(attribute_bytes(false, 0) == 56);
   CHECK(attribute_bytes(true, 2) == 55);
+  CHECK(attribute_bytes(true, 0, true) == 34);
+  CHECK(attribute_bytes(false, 0, true) == 56);  // the residual is a compact section
   CHECK(render_eval_flops(false, false, false) == 33);
   CHECK(render_eval_flops(false, true, false) == 25);
   CHECK(render_eval_flops(true, false, false) == 25.5);

@@ -38,6 +38,7 @@ struct FrameWorkInputs {
   bool roofgs = false;
   // RoofGS switches (ignored for the baseline pipeline).
   bool compact = false;      ///< compact attributes (FP16 geometry, INT8 SH) instead of FP32
+  bool dc_residual = false;  ///< the compact scene has the DC residual (format/SPEC.md §4.8): 3 B more a Gaussian
   bool fused = false;        ///< fused preprocess kernel instead of preprocess + scan + duplicate
   bool key32 = false;        ///< 32-bit keys (else 64-bit)
   bool snugbox = false;      ///< SnugBox + AccuTile tile culling
@@ -116,8 +117,9 @@ inline constexpr double kLargeItemThreads = 32;
 double sh_colour_flops(uint32_t degree);
 
 /// Bytes per Gaussian of the attributes the preprocess reads: FP32 44 + 12·K (mean 12, rotation 16, scale 12,
-/// opacity 4, SH 12·K), compact 28 + 3·K (mean 12, rotation 8, scale 6, opacity 2, SH 3·K).
-double attribute_bytes(bool compact, uint32_t degree);
+/// opacity 4, SH 12·K), compact 28 + 3·K (mean 12, rotation 8, scale 6, opacity 2, SH 3·K), + 3 with the DC
+/// residual (compact only).
+double attribute_bytes(bool compact, uint32_t degree, bool dc_residual = false);
 
 /// Radix-sort passes of CUB's onesweep DeviceRadixSort over `sort_bits` key bits: ceil(sort_bits / 8)
 /// (8-bit digits, ONESWEEP_RADIX_BITS of CUB's tuning policies for keys of ≥ 4 bytes); 0 for 0 bits.
