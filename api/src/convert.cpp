@@ -101,9 +101,9 @@ struct StageShares {
 
 StageShares stage_shares(OutputFormat output, format::StorageProfile profile) {
   if (output == OutputFormat::kRgs) {
-    return profile == format::StorageProfile::kArchive ? StageShares{0.15, 0.35, 0.95} : StageShares{0.5, 0.9, 0.9};
+    return profile == format::StorageProfile::kArchive ? StageShares{0.1, 0.25, 0.95} : StageShares{0.45, 0.85, 0.85};
   }
-  return output == OutputFormat::kSpz ? StageShares{0.05, 0.05, 0.05} : StageShares{0.5, 0.5, 0.5};
+  return output == OutputFormat::kSpz ? StageShares{0.05, 0.05, 0.05} : StageShares{0.4, 0.4, 0.4};
 }
 
 /// Calls ConvertOptions::progress, if set, once per stage, keeping the fractions non-decreasing.
