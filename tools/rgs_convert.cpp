@@ -18,9 +18,11 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cli_common.h"
+#include "progress_line.h"
 #include "rgs/api/convert.h"
 #include "rgs/config.h"
 
@@ -48,6 +50,14 @@ nlohmann::json stats_json(const converter::ErrorStats& s) {
   return {{"max", s.max}, {"rms", s.rms}, {"samples", s.samples}};
 }
 
+/// `s` as a fraction of the scene extent (0 for an extent of 0).
+converter::ErrorStats of_extent(converter::ErrorStats s, double extent) {
+  const double scale = extent > 0 ? 1.0 / extent : 0.0;
+  s.max *= scale;
+  s.rms *= scale;
+  return s;
+}
+
 /// One row of the error table: name, max, rms, then a free-text unit or note.
 void print_stats_row(const std::string& name, const converter::ErrorStats& s, const std::string& unit) {
   std::printf("  %-16s %12s %12s  %s\n", name.c_str(), tools::sci(s.max).c_str(), tools::sci(s.rms).c_str(),
@@ -59,7 +69,8 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
   nlohmann::json j;
   j["input"] = {{"path", opt.input},         {"bytes", r.input_bytes},
                 {"format", r.input_format},  {"storage", r.input_storage},
-                {"declared_vertices", r.declared_gaussians}, {"notes", r.input_notes}};
+                {"declared_vertices", r.declared_gaussians}, {"compact", r.input_compact},
+                {"notes", r.input_notes}};
   j["output"] = {{"path", opt.output},
                  {"bytes", r.output_bytes},
                  {"format", api::output_format_name(r.output_format)},
@@ -97,7 +108,9 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
     j["scales_fp16"] = {{"subnormal", q.quantization.scales_subnormal},
                         {"flushed_to_zero", q.quantization.scales_flushed_to_zero},
                         {"max_flushed_of_largest_axis", q.quantization.max_flushed_of_largest_axis}};
+    j["extent"] = q.extent;
     j["errors"] = {{"position", stats_json(q.errors.position)},
+                   {"position_of_extent", stats_json(of_extent(q.errors.position, q.extent))},
                    {"rotation_deg", stats_json(q.errors.rotation_deg)},
                    {"scale_relative", stats_json(q.errors.scale_relative)},
                    {"scale_of_largest_axis", stats_json(q.errors.scale_of_largest_axis)},
@@ -113,9 +126,10 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
 /// What the .rgs quantization cost, as rows of the text summary.
 void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
   const api::RgsOutputReport& q = *r.rgs;
-  if (q.position_bits > 0) {
-    std::printf("  profile          archive: %s B/Gaussian, position step %s (%u bits, error <= %s of the extent); "
-                "the errors below are the runtime quantization's, before the archive codecs\n",
+  const bool archive = q.position_bits > 0;
+  if (archive) {
+    std::printf("  profile          archive: %s B/Gaussian, position step %s (%u bits, error <= %s of the extent "
+                "per coordinate); the errors below are the decoded archive's against the input\n",
                 tools::fixed(double(r.output_bytes) / double(std::max<uint64_t>(r.gaussians, 1)), 2).c_str(),
                 tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.position_error).c_str());
   } else {
@@ -123,13 +137,14 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
   }
   std::printf("  %-16s %12s %12s\n", "error", "max", "rms");
   const std::string position_note =
-      q.position_bits > 0 ? "scene units, before Draco, which moves each coordinate by at most " +
-                                tools::sci(q.position_step / 2) + " (half its step)"
-                          : std::string("scene units (FP32, exact)");
+      archive ? "scene units (Euclidean; max " + tools::sci(of_extent(q.errors.position, q.extent).max) +
+                    " of the extent " + tools::sci(q.extent) + ")"
+              : std::string("scene units (FP32, exact)");
   print_stats_row("position", q.errors.position, position_note);
   print_stats_row("rotation", q.errors.rotation_deg, "degrees");
   const auto& fp16 = q.quantization;
   const std::string scale_note =
+      archive ? std::string("of the Gaussian's largest axis") :
       "of the Gaussian's largest axis; " + tools::group_digits(fp16.scales_subnormal) +
       " axes FP16-subnormal (< 6.1e-5), " + tools::group_digits(fp16.scales_flushed_to_zero) + " flushed to 0" +
       (fp16.scales_flushed_to_zero ? " (each < 3e-8, at most " + tools::sci(fp16.max_flushed_of_largest_axis) +
@@ -140,11 +155,36 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
   for (uint32_t d = 0; d <= r.sh_degree; ++d) {
     const auto& c = fp16.sh_clipped[d];
     const uint64_t clipped = c[0] + c[1] + c[2];
-    const bool residual = d == 0 && q.position_bits == 0 && opt.convert.sh_dc_bits == 16;
-    const std::string note = std::string(residual ? "absolute, INT8 and DC residual (16-bit)" : "absolute, INT8") +
+    const bool residual = d == 0 && !archive && opt.convert.sh_dc_bits == 16;
+    const std::string note = std::string(archive ? "absolute" : residual ? "absolute, INT8 and DC residual (16-bit)"
+                                                                         : "absolute, INT8") +
                              (clipped ? ", " + tools::group_digits(clipped) + " clipped" : std::string());
     print_stats_row("SH degree " + std::to_string(d), q.errors.sh[d], note);
   }
+}
+
+/// "4.74 MB": bytes in decimal units, 3 significant digits from 1 kB on.
+std::string size_text(uint64_t bytes) {
+  const double b = double(bytes);
+  if (b < 1e3) return std::to_string(bytes) + " bytes";
+  const auto [value, unit] = b < 1e6 ? std::pair(b / 1e3, " kB") : b < 1e9 ? std::pair(b / 1e6, " MB")
+                                                                           : std::pair(b / 1e9, " GB");
+  return tools::fixed(value, value < 10 ? 2 : value < 100 ? 1 : 0) + unit;
+}
+
+/// On stderr: the output is larger than a compact input (an SPZ, a SOG, an archive .rgs, ...), and what
+/// makes a smaller file.
+void note_larger_than_input(const Options& opt, const api::ConvertReport& r) {
+  if (!r.input_compact || r.input_bytes == 0 || r.output_bytes <= r.input_bytes) return;
+  const bool archive = r.rgs && r.rgs->position_bits > 0;
+  const char* hint = r.output_format == api::OutputFormat::kRgs
+                         ? (archive ? "" : "; for a smaller file use --profile archive")
+                     : r.output_format == api::OutputFormat::kSpz ? ""
+                                                                   : "; for a smaller file write a .rgs with --profile archive";
+  tools::report_note(kTool, "note: " + opt.output + " (" + size_text(r.output_bytes) + ") is " +
+                                tools::fixed(double(r.output_bytes) / double(r.input_bytes), 1) +
+                                "x larger than the compact input " + opt.input + " (" + size_text(r.input_bytes) +
+                                ")" + hint);
 }
 
 void print_summary(const Options& opt, const api::ConvertReport& r) {
@@ -201,6 +241,8 @@ int run(Options& opt) {
 
   // Staged in `outputs`, renamed into place by commit() below with the JSON report.
   opt.convert.files = &outputs;
+  tools::ProgressLine progress(stderr, kTool, !opt.quiet && tools::stderr_is_terminal());
+  opt.convert.progress = [&progress](const api::ConvertProgress& p) { progress.update(p); };
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
   if (opt.input == "-") {
     auto bytes = tools::read_standard_input();
@@ -209,7 +251,9 @@ int run(Options& opt) {
   } else {
     report = api::convert(opt.input, opt.output, opt.convert);
   }
+  progress.clear();
   if (!report.ok()) return tools::report_error(kTool, report.status());
+  if (!opt.quiet) note_larger_than_input(opt, *report);
   if (!opt.json_path.empty()) {
     const std::string text =
         report_json(opt, *report).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
@@ -291,7 +335,9 @@ int main(int argc, char** argv) {
                  "standard output instead of the text summary");
   app.add_option("--lod", rgs::tools::scene_read_options().lod,
                  "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest (default)");
-  app.add_flag("-q,--quiet", opt.quiet, "Print nothing on success");
+  app.add_flag("-q,--quiet", opt.quiet,
+               "Print nothing on success: no summary, no notes, no progress line (which is drawn on stderr only "
+               "when it is a terminal, for conversions over a second)");
   rgs::tools::add_scene_read_options(app);
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool)) return *code;

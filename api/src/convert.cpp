@@ -1,6 +1,7 @@
 // convert(): read any scene, write .rgs, PLY, SPZ or GLB, and report what it cost.
 #include "rgs/api/convert.h"
 
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cstdio>
@@ -95,6 +96,117 @@ format::FileSink& output_files(const ConvertOptions& options) {
   return options.files != nullptr ? *options.files : format::atomic_files();
 }
 
+/// Where each stage of a conversion starts, as a fraction of the whole, by output: rough shares of the
+/// time of typical conversions (reading and quantizing are quick next to the archive and SPZ encoders).
+struct StageShares {
+  double quantize, encode, write;
+};
+
+StageShares stage_shares(OutputFormat output, format::StorageProfile profile) {
+  if (output == OutputFormat::kRgs) {
+    return profile == format::StorageProfile::kArchive ? StageShares{0.1, 0.25, 0.95} : StageShares{0.45, 0.85, 0.85};
+  }
+  return output == OutputFormat::kSpz ? StageShares{0.05, 0.05, 0.05} : StageShares{0.4, 0.4, 0.4};
+}
+
+/// Calls ConvertOptions::progress, if set, once per stage, keeping the fractions non-decreasing.
+class ProgressReporter {
+ public:
+  ProgressReporter(const ConvertOptions& options, OutputFormat output)
+      : callback_(options.progress), shares_(stage_shares(output, options.profile)) {}
+  void reading() { report("reading", 0.0); }
+  void quantizing() { report("quantizing", shares_.quantize); }
+  void encoding_archive() { report("encoding the archive", shares_.encode); }
+  void writing() { report("writing", shares_.write); }
+  void done() { report("done", 1.0); }
+
+ private:
+  void report(const char* stage, double fraction) {
+    if (!callback_ || stage == stage_) return;
+    stage_ = stage;
+    fraction_ = std::max(fraction_, fraction);
+    callback_(ConvertProgress{stage, fraction_});
+  }
+  const std::function<void(const ConvertProgress&)>& callback_;
+  StageShares shares_;
+  const char* stage_ = nullptr;
+  double fraction_ = 0;
+};
+
+/// Forwards to another sink, reporting the "writing" stage when the first bytes reach the file (before
+/// that, the archive profile's encoder or the SPZ compressor is still running).
+class StageSink final : public format::FileSink {
+ public:
+  StageSink(format::FileSink& inner, ProgressReporter& progress) : inner_(inner), progress_(progress) {}
+  using format::FileSink::write;
+  Status write(const std::string& path, const format::ChunkProducer& produce) override {
+    return inner_.write(path, [&](const format::ChunkSink& sink) {
+      return produce([&](const void* data, size_t size) {
+        progress_.writing();
+        return sink(data, size);
+      });
+    });
+  }
+  Status write_by_name(const std::string& path, const format::ByNameWriter& write_to) override {
+    progress_.writing();
+    return inner_.write_by_name(path, write_to);
+  }
+
+ private:
+  format::FileSink& inner_;
+  ProgressReporter& progress_;
+};
+
+/// `values` ([N, width], in the archive's order) in the source's order: Gaussian i goes to source_index[i].
+template <typename T>
+Result<std::vector<T>> to_source_order(std::vector<T>* values, const std::vector<uint64_t>& source_index,
+                                       size_t width) {
+  const size_t n = source_index.size();
+  RGS_RETURN_ERROR_IF(values->size() != n * width, StatusCode::kInvalidArgument,
+                      "internal error: an archive array disagrees with its Gaussian count");
+  std::vector<T> out(values->size());
+  for (size_t i = 0; i < n; ++i) {
+    std::copy_n(values->data() + i * width, width, out.data() + source_index[i] * width);
+  }
+  *values = {};  // freed as soon as it is copied (peak memory)
+  return out;
+}
+
+/// What the archive codecs cost: the errors of `archive`'s decoded scene (what readers of the file get)
+/// against `source`, the cloud the runtime scene was quantized from.
+Result<converter::AttributeErrors> archive_errors(const format::GaussianCloud& source, format::ArchiveScene archive) {
+  format::EncodedScene& decoded = archive.decoded;
+  const std::vector<uint64_t>& order = archive.source_index;
+  const uint64_t n = decoded.count;
+  RGS_RETURN_ERROR_IF(n != source.size() || order.size() != n, StatusCode::kInvalidArgument,
+                      "internal error: the archive holds " + std::to_string(n) + " Gaussians, the source " +
+                          std::to_string(source.size()));
+  std::vector<bool> seen(n, false);
+  for (uint64_t index : order) {
+    RGS_RETURN_ERROR_IF(index >= n || seen[index], StatusCode::kInvalidArgument,
+                        "internal error: the archive's source order is not a permutation");
+    seen[index] = true;
+  }
+  format::EncodedScene in_order;
+  in_order.metadata = decoded.metadata;
+  in_order.count = n;
+  const size_t sh_values = 3 * format::sh_coefficient_count(decoded.metadata.sh_degree);
+  RGS_ASSIGN_OR_RETURN(in_order.means, to_source_order(&decoded.means, order, 3));
+  RGS_ASSIGN_OR_RETURN(in_order.rotations, to_source_order(&decoded.rotations, order, 4));
+  RGS_ASSIGN_OR_RETURN(in_order.scales, to_source_order(&decoded.scales, order, 3));
+  RGS_ASSIGN_OR_RETURN(in_order.opacities, to_source_order(&decoded.opacities, order, 1));
+  RGS_ASSIGN_OR_RETURN(in_order.sh, to_source_order(&decoded.sh, order, sh_values));
+  return converter::measure_quantization_errors(source, in_order);
+}
+
+/// Whether the input's format is one made for distribution (ConvertReport::input_compact).
+bool is_compact_input(const converter::InputScene& input) {
+  for (const char* id : {"spz", "sog", "sog_bundle", "sog_lod", "compressed_ply", "glb", "gltf"}) {
+    if (input.format_id == id) return true;
+  }
+  return input.storage_format == "rgs archive";
+}
+
 std::string hex64(uint64_t v) {
   char text[17];
   std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(v));
@@ -115,19 +227,24 @@ std::string options_text(const ConvertOptions& options) {
 }
 
 Status write_rgs(const std::string& src_name, const std::string& dst, const ConvertOptions& options,
-                 converter::InputScene* input, ConvertReport* report) {
+                 converter::InputScene* input, ConvertReport* report, ProgressReporter& progress) {
   RGS_ASSIGN_OR_RETURN(format::WriteOptions write, write_options(options));
+  const bool archive = write.profile == format::StorageProfile::kArchive;
   converter::QuantizeOptions quantize_options;
   quantize_options.scale_encoding = options.scale_encoding;
   quantize_options.sh_clip_percentile = options.sh_clip_percentile;
   // The archive drops the DC residual (SPEC §4.8), so its errors are measured without it.
   quantize_options.sh_dc_bits = write.profile == format::StorageProfile::kArchive ? 8 : options.sh_dc_bits;
   RgsOutputReport rgs;
+  progress.quantizing();
   const auto quantize_start = Clock::now();
-  auto encoded = converter::quantize(input->cloud, quantize_options, &rgs.quantization, &rgs.errors);
+  // The archive's errors are measured on what it decodes to, after writing (archive_errors).
+  auto encoded = converter::quantize(input->cloud, quantize_options, &rgs.quantization, archive ? nullptr : &rgs.errors);
   if (!encoded.ok()) return Status(encoded.status()).prepend(src_name);
   report->seconds.quantize = seconds_since(quantize_start);
-  input->cloud = {};  // not read again: freed before the writer's buffers exist (peak RSS)
+  // Not read again by the runtime profile: freed before the writer's buffers exist (peak RSS). The archive
+  // profile measures its errors against it.
+  if (!archive) input->cloud = {};
   encoded->provenance = {
       {"source_file", std::filesystem::path(src_name).filename().string()},
       {"source_bytes", std::to_string(input->file_bytes)},
@@ -137,38 +254,44 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
       {"options", options_text(options)},
       {"dropped_gaussians", std::to_string(input->hygiene.dropped_gaussians)},
   };
+  if (archive) progress.encoding_archive();
+  StageSink files(output_files(options), progress);
+  format::ArchiveScene coded;
   const auto write_start = Clock::now();
-  RGS_ASSIGN_OR_RETURN(report->output_bytes, format::write_scene_file(dst, *encoded, write, output_files(options)));
+  RGS_ASSIGN_OR_RETURN(report->output_bytes,
+                       format::write_scene_file(dst, *encoded, write, files, archive ? &coded : nullptr));
   report->seconds.write = seconds_since(write_start);
   rgs.sh_quantization = encoded->metadata.sh_quantization;
-  const bool archive = write.profile == format::StorageProfile::kArchive;
-  if (archive) {
-    auto position = format::choose_position_quantization(encoded->metadata.bounds, options.position_error);
-    if (position.ok()) {
-      rgs.position_step = position->step;
-      rgs.position_bits = position->bits;
-    }
-  }
-  report->output_description = archive ? "RoofGS .rgs, archive profile" : "RoofGS .rgs, runtime profile";
-  if (!archive && input->file_bytes > 0 && report->output_bytes > input->file_bytes) {
-    report->output_notes.push_back("the runtime profile stores the sections the GPU reads as they are, larger than "
-                                   "this " + input->format_id + " input; --profile archive (profile=\"archive\") "
-                                   "writes a smaller, lossy file decoded at load");
-  }
+  const format::SceneBounds& bounds = encoded->metadata.bounds;
+  rgs.extent = std::max({double(bounds.aabb_max[0]) - bounds.aabb_min[0],
+                         double(bounds.aabb_max[1]) - bounds.aabb_min[1],
+                         double(bounds.aabb_max[2]) - bounds.aabb_min[2], 0.0});
   report->gaussians = encoded->count;
   report->sh_degree = encoded->metadata.sh_degree;
+  if (archive) {
+    rgs.position_step = coded.position.step;
+    rgs.position_bits = coded.position.bits;
+    encoded = format::EncodedScene{};  // freed before the archive's decoded scene is reordered (peak RSS)
+    const auto measure_start = Clock::now();
+    auto errors = archive_errors(input->cloud, std::move(coded));
+    if (!errors.ok()) return Status(errors.status()).prepend(dst);
+    rgs.errors = std::move(errors).value();
+    report->seconds.quantize += seconds_since(measure_start);
+  }
+  report->output_description = archive ? "RoofGS .rgs, archive profile" : "RoofGS .rgs, runtime profile";
   report->rgs = std::move(rgs);
   return Status();
 }
 
 Status write_float(const std::string& dst, const ConvertOptions& options, const converter::InputScene& input,
-                   ConvertReport* report) {
+                   ConvertReport* report, ProgressReporter& progress) {
   const format::GaussianCloud& cloud = input.cloud;
+  StageSink files(output_files(options), progress);
   const auto write_start = Clock::now();
   switch (report->output_format) {
     case OutputFormat::kPly: {
       converter::PlyWriteReport ply;
-      RGS_ASSIGN_OR_RETURN(report->output_bytes, converter::write_ply(dst, cloud, &ply, output_files(options)));
+      RGS_ASSIGN_OR_RETURN(report->output_bytes, converter::write_ply(dst, cloud, &ply, files));
       report->output_description = input.format_id == "rgs" ? "INRIA PLY, dequantized" : "INRIA PLY";
       report->zero_scales = ply.zero_scales;
       if (ply.zero_scales > 0) {
@@ -182,7 +305,7 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
     case OutputFormat::kSpz: {
       converter::SpzWriteOptions spz_options;
       spz_options.frame = options.read.spz_frame;
-      RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz, converter::write_spz(dst, cloud, spz_options, output_files(options)));
+      RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz, converter::write_spz(dst, cloud, spz_options, files));
       report->output_bytes = spz.bytes;
       report->output_description = "SPZ v" + std::to_string(spz.version);
       report->output_notes = spz.limitations;
@@ -196,7 +319,7 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
       break;
     }
     case OutputFormat::kGlb: {
-      RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary glb, converter::write_glb(dst, cloud, {}, output_files(options)));
+      RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary glb, converter::write_glb(dst, cloud, {}, files));
       report->output_bytes = glb.bytes;
       report->output_description = "KHR_gaussian_splatting GLB";
       report->output_notes = glb.limitations;
@@ -214,7 +337,7 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
 /// Everything after reading: checks, SH bands, the output, the report.
 Result<ConvertReport> convert_input(converter::InputScene input, const std::string& src_name,
                                     const std::string& dst, OutputFormat output, const ConvertOptions& options,
-                                    Clock::time_point start) {
+                                    Clock::time_point start, ProgressReporter& progress) {
   ConvertReport report;
   report.seconds.read = seconds_since(start);
   report.output_format = output;
@@ -223,6 +346,7 @@ Result<ConvertReport> convert_input(converter::InputScene input, const std::stri
   report.input_storage = input.storage_format;
   report.input_bytes = input.file_bytes;
   report.declared_gaussians = input.declared_vertices;
+  report.input_compact = is_compact_input(input);
   report.hygiene = input.hygiene;
   report.input_notes = input.notes;
   if (input.cloud.size() == 0 && !options.allow_empty) {
@@ -239,11 +363,13 @@ Result<ConvertReport> convert_input(converter::InputScene input, const std::stri
     RGS_RETURN_IF_ERROR(converter::reduce_sh_degree(&input.cloud, *options.sh_degree));
   }
   if (output == OutputFormat::kRgs) {
-    RGS_RETURN_IF_ERROR(write_rgs(src_name, dst, options, &input, &report));
+    RGS_RETURN_IF_ERROR(write_rgs(src_name, dst, options, &input, &report, progress));
   } else {
-    RGS_RETURN_IF_ERROR(write_float(dst, options, input, &report));
+    progress.writing();
+    RGS_RETURN_IF_ERROR(write_float(dst, options, input, &report, progress));
   }
   report.seconds.total = seconds_since(start);
+  progress.done();
   return report;
 }
 
@@ -282,10 +408,12 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_options(options));
+  ProgressReporter progress(options, output);
+  progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, read_options(options)));
   // Every file the scene read is an input: `dst` may not be one of them, in any spelling.
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));
-  return convert_input(std::move(input), src, dst, output, options, start);
+  return convert_input(std::move(input), src, dst, output, options, start, progress);
 }
 
 Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
@@ -293,9 +421,11 @@ Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std:
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_options(options));
+  ProgressReporter progress(options, output);
+  progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
                        converter::read_scene_bytes(data, size, name, read_options(options)));
-  return convert_input(std::move(input), name, dst, output, options, start);
+  return convert_input(std::move(input), name, dst, output, options, start, progress);
 }
 
 Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::string& name, const std::string& dst,
@@ -303,9 +433,11 @@ Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::stri
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_options(options));
+  ProgressReporter progress(options, output);
+  progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
                        converter::scene_from_cloud(std::move(cloud), name, read_options(options)));
-  return convert_input(std::move(input), name, dst, output, options, start);
+  return convert_input(std::move(input), name, dst, output, options, start, progress);
 }
 
 }  // namespace rgs::api

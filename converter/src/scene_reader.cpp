@@ -235,8 +235,9 @@ Result<InputScene> rgs_input_scene(const uint8_t* data, size_t size, const std::
   scene.bounds = file.metadata().bounds;
   if (options.keep_encoded) scene.encoded = std::move(encoded).value();
   scene.format_id = "rgs";
-  scene.description = "RoofGS .rgs, dequantized";
-  scene.storage_format = "rgs";
+  const bool archive = (file.header().required_flags & format::kRequiredFlagArchiveCodecs) != 0;
+  scene.description = archive ? "RoofGS .rgs, archive profile, decoded" : "RoofGS .rgs, dequantized";
+  scene.storage_format = archive ? "rgs archive" : "rgs";
   scene.file_bytes = size;
   scene.file_count = 1;
   scene.files = {name};

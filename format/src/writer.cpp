@@ -471,12 +471,13 @@ Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const Wr
 }
 
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options,
-                                  FileSink& files) {
+                                  FileSink& files, ArchiveScene* archive_out) {
   // Streams the sections from the scene's own arrays (no serialized copy of the whole file in memory).
   std::optional<ArchiveScene> archive;
   auto file = catch_out_of_memory(scene, [&] { return plan_profile(scene, options, &archive); });
   if (!file.ok()) return Status(file.status()).prepend(path);
   RGS_RETURN_IF_ERROR(files.write(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
+  if (archive_out != nullptr && archive) *archive_out = std::move(*archive);  // the plan is not used again
   return file->file_size;
 }
 

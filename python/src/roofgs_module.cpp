@@ -630,7 +630,8 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
 py::dict report_dict(const api::ConvertReport& report) {
   py::dict d;
   d["input"] = py::dict(py::arg("format") = report.input_format, py::arg("description") = report.input_description,
-                        py::arg("bytes") = report.input_bytes, py::arg("notes") = report.input_notes);
+                        py::arg("bytes") = report.input_bytes, py::arg("compact") = report.input_compact,
+                        py::arg("notes") = report.input_notes);
   d["output"] = py::dict(py::arg("format") = api::output_format_name(report.output_format),
                          py::arg("description") = report.output_description, py::arg("bytes") = report.output_bytes,
                          py::arg("notes") = report.output_notes);

@@ -20,6 +20,11 @@ def test_convert_reports_sizes_and_errors(guitar_rgs, tmp_path):
     back = roofgs.convert(guitar_rgs, str(tmp_path / "back.ply"))
     assert back["input"]["format"] == "rgs" and back["output"]["format"] == "ply"
     assert back["gaussians"] == 90854 and "errors" not in back
+    assert not report["input"]["compact"] and not back["input"]["compact"]
+    # An archive .rgs is a compact input, and its errors are those of the decoded archive: Draco moves means.
+    archive = roofgs.convert(str(SOURCE_DIR / "samples" / "guitar.ply"), str(tmp_path / "a.rgs"), profile="archive")
+    assert 0 < archive["errors"]["position"]["max"] < 1e-3
+    assert roofgs.convert(str(tmp_path / "a.rgs"), str(tmp_path / "a.ply"))["input"]["compact"]
 
 
 # The first bytes of each output format.

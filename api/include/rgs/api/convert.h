@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,6 +39,16 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
 
 /// Parses "rgs" / "ply" / "spz" / "glb". @return kInvalidArgument otherwise.
 Result<OutputFormat> parse_output_format(const std::string& name);
+
+/// Where a running conversion is, for a progress display (ConvertOptions::progress).
+struct ConvertProgress {
+  /// The stage now running: "reading" (and decoding the input), "quantizing", "encoding the archive"
+  /// (archive profile), "writing"; "done" once, with fraction 1, when the output is written.
+  const char* stage = "";
+  /// Fraction of the whole conversion done, in [0, 1]: each stage starts at its share of a typical
+  /// conversion's time, so that elapsed * (1 - fraction) / fraction estimates the time left.
+  double fraction = 0;
+};
 
 /// Options of convert(); the defaults are rgs-convert's.
 struct ConvertOptions {
@@ -74,11 +85,18 @@ struct ConvertOptions {
   /// Where the output file goes; null: written atomically in place (format::atomic_files()). A tool passes
   /// its run's transaction, which commits the output with its other files.
   format::FileSink* files = nullptr;
+  /// Called on the converting thread as each stage starts, with non-decreasing fractions, and once with
+  /// stage "done" and fraction 1 after a successful conversion (not after a failed one). Empty: not called.
+  /// The library prints nothing itself; rgs-convert draws a progress line from these calls.
+  std::function<void(const ConvertProgress&)> progress;
 };
 
 /// What the .rgs quantization cost (.rgs output only).
 struct RgsOutputReport {
-  /// Per-attribute errors of the written scene against the read one (measured in the quantizing pass).
+  /// Per-attribute errors of the written scene, as readers decode it, against the read one: for the
+  /// runtime profile measured in the quantizing pass; for the archive profile measured on the archive's
+  /// decoded scene (format::ArchiveScene::decoded, matched to the source through source_index), so they
+  /// include Draco's position quantization and the archive's coarser rotations, scales, opacities and SH.
   converter::AttributeErrors errors;
   /// Clipped SH coefficients and FP16-flushed scales.
   converter::QuantizationReport quantization;
@@ -87,6 +105,9 @@ struct RgsOutputReport {
   /// Archive profile: the position step and bits chosen for `position_error` (0 for the runtime profile).
   double position_step = 0;
   uint32_t position_bits = 0;
+  /// The scene extent (longest side of the source means' AABB, scene units), which `position_error` and
+  /// the relative position error are fractions of.
+  double extent = 0;
 };
 
 /// Seconds spent, wall clock.
@@ -103,6 +124,10 @@ struct ConvertReport {
   std::string input_storage;
   uint64_t input_bytes = 0;
   uint64_t declared_gaussians = 0;
+  /// The input is in a format made for distribution, which a runtime .rgs or a float32 output may well
+  /// outgrow: SPZ, SOG (meta.json, bundled or streamed), PlayCanvas compressed PLY, glTF/GLB, or an
+  /// archive-profile .rgs (input_storage "rgs archive").
+  bool input_compact = false;
   converter::InputHygiene hygiene;
   /// What the reader noted (the SPZ axes assumed, ignored fields) and the SH bands dropped.
   std::vector<std::string> input_notes;

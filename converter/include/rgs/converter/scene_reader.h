@@ -62,7 +62,7 @@ struct InputScene {
   /// "PlayCanvas streamed SOG, LOD 0 of 5 (8 chunks)".
   std::string description;
   /// PLY inputs: the storage format of the `format` line ("binary_little_endian", ...). Others: format_id
-  /// (SPZ and glTF with their version: "spz v4", "glb v2").
+  /// (SPZ and glTF with their version: "spz v4", "glb v2"; a .rgs in the archive profile: "rgs archive").
   std::string storage_format;
   /// Bytes of every file read (meta files, images and chunks included) and how many files that was.
   uint64_t file_bytes = 0;

@@ -45,9 +45,12 @@ struct WriteOptions {
 Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options = {});
 
 /// serialize_scene() streamed into `files` (default: written atomically in place): no partial file on
-/// failure, an existing `path` untouched. Returns the number of bytes written. Errors: as serialize_scene,
-/// kIoError naming `path`.
+/// failure, an existing `path` untouched. Returns the number of bytes written. With the archive profile and
+/// a non-null `archive`, it receives the archive-coded scene that was written (encode_archive(): `decoded` is
+/// what readers of the file get, `source_index` maps it back to `scene`'s order; `stored` is left empty), so
+/// that a caller can measure what the archive codecs cost without encoding twice. Errors: as serialize_scene, kIoError naming `path`.
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene,
-                                  const WriteOptions& options = {}, FileSink& files = atomic_files());
+                                  const WriteOptions& options = {}, FileSink& files = atomic_files(),
+                                  ArchiveScene* archive = nullptr);
 
 }  // namespace rgs::format
