@@ -261,6 +261,18 @@ int run_report_only(const Options& opt) {
   return tools::commit_outputs(kTool, outputs);
 }
 
+/// `path` with its symbolic links followed, also to a file that does not exist yet (a dangling link).
+std::filesystem::path link_target(const std::filesystem::path& path) {
+  std::filesystem::path p = path;
+  std::error_code ec;
+  for (int hops = 0; hops < 40 && std::filesystem::is_symlink(p, ec); ++hops) {
+    const std::filesystem::path target = std::filesystem::read_symlink(p, ec);
+    if (ec) break;
+    p = target.is_absolute() ? target : p.parent_path() / target;
+  }
+  return p;
+}
+
 /// True when --json names the report's own JSON (through any spelling or symbolic link): the report then uses
 /// that file, written once.
 bool json_is_report_json(const Options& opt, const std::string& report_json) {
@@ -269,7 +281,7 @@ bool json_is_report_json(const Options& opt, const std::string& report_json) {
   if (probe.add_output(report_json).ok() && probe.has_output(opt.json_path)) return true;
   std::error_code ec1, ec2;
   const auto a = std::filesystem::weakly_canonical(report_json, ec1);
-  const auto b = std::filesystem::weakly_canonical(opt.json_path, ec2);
+  const auto b = std::filesystem::weakly_canonical(link_target(opt.json_path), ec2);
   return !ec1 && !ec2 && a == b;
 }
 
