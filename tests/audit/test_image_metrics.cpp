@@ -151,8 +151,9 @@ TEST_CASE("foreground PSNR: over the source's non-background pixels only") {
   REQUIRE(f.ok());
   CHECK(f->pixels == 20);
   CHECK(f->total_pixels == w * h);
-  // MSE over the foreground: one of three values off by 0.1 -> 0.01 / 3.
-  CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / 0.01)).epsilon(1e-9));
+  // MSE over the foreground: one of three values off by d (0.1 in float arithmetic) -> d² / 3.
+  const double d = double(0.5f + 0.1f) - 0.5;
+  CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / (d * d))).epsilon(1e-12));
   // The whole frame adds 220 black pixels with no error: inflated by exactly 10·log10(240 / 20) dB.
   auto whole = rgs::audit::compare_images({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
   REQUIRE(whole.ok());
@@ -185,7 +186,8 @@ TEST_CASE("foreground PSNR: RGB input (colour decides), no foreground, bad input
   auto f = rgs::audit::foreground_psnr({ref.data(), w, h, 3}, {cand.data(), w, h, 3});
   REQUIRE(f.ok());
   CHECK(f->pixels == 1);
-  CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / 0.04)).epsilon(1e-6));
+  const double d = double(0.8f) - double(0.6f);
+  CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / (d * d))).epsilon(1e-12));
 
   const std::vector<float> black(size_t{w} * h * 3, 0.f);
   auto none = rgs::audit::foreground_psnr({black.data(), w, h, 3}, {cand.data(), w, h, 3});
