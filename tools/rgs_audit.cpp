@@ -5,6 +5,7 @@
 //
 //   rgs-audit scene.ply scene.rgs --cameras cameras.json                 every camera, native size
 //   rgs-audit scene.ply a.rgs b.rgs c.rgs --label max --label p99 ...     one run, several candidates
+//   rgs-audit scene.ply a.rgs b.spz --threshold 50                       verdict: mean PSNR >= 50 dB passes
 //   rgs-audit scene.ply scene.rgs --min-psnr 40 --report ci/audit.html    CI gate: exit 3 below 40 dB
 //   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
 //
