@@ -573,7 +573,7 @@ int main(int argc, char** argv) {
   auto* minp = app.add_option("--min-psnr", opt.min_psnr,
                               "CI gate: exit 3 when any candidate's lowest per-view PSNR is below DB (the reports are "
                               "still written)");
-  app.add_option("--threshold", opt.threshold,
+  auto* threshold = app.add_option("--threshold", opt.threshold,
                  "The report's verdict: a candidate passes when its mean PSNR over the views is at least DB "
                  "(default 40; the exit status is --min-psnr's)")
       ->check(CLI::Range(-1000.0, 1000.0));
@@ -583,7 +583,11 @@ int main(int argc, char** argv) {
     if (!opt.report_from.empty() && !opt.scenes.empty()) {
       return "--report-from makes the HTML of an earlier run and takes no scenes";
     }
+    if (!opt.report_from.empty() && threshold->count() > 0) {
+      return "--report-from draws the earlier run's verdict; --threshold needs a new audit";
+    }
     if (!opt.report_from.empty()) return {};
+    if (std::isnan(opt.threshold)) return "--threshold: a PSNR in dB, not NaN";
     if (opt.scenes.size() < 2) return "give a source and at least one candidate scene";
     if (opt.labels.size() > opt.scenes.size() - 1) {
       return std::to_string(opt.labels.size()) + " --label for " + std::to_string(opt.scenes.size() - 1) +
