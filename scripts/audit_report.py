@@ -1,6 +1,11 @@
 #!/usr/bin/env python3
 """Renders an rgs-audit JSON (schema "rgs-audit", version 2) and its worst-view images into one self-contained
-HTML file: plots as inline SVG drawn by matplotlib, images as base64 PNG, no network access needed to open it.
+HTML file: plots as inline SVG drawn by matplotlib, images as base64 PNG, the source/candidate slider as inline
+JavaScript; no network access needed to open it.
+
+The page opens with the verdict (the JSON's "verdict": each candidate's mean PSNR against the threshold, its
+worst view and the bytes it saves); every heatmap is drawn on the JSON's one "heat_scale" under one colour bar;
+the PSNR plots show the threshold on a y axis at least MIN_PSNR_SPAN_DB wide.
 
     scripts/audit_report.py result.json report.html
 
@@ -27,6 +32,10 @@ except ImportError as e:  # the caller prints how to make the HTML elsewhere
     sys.exit(1)
 
 SUPPORTED_SCHEMA = 2
+# The PSNR axes span at least this many dB (threshold included), so that a fraction of a dB between views does
+# not fill the plot.
+MIN_PSNR_SPAN_DB = 10.0
+HEAT_CMAP = "inferno"
 
 
 def esc(v):
@@ -99,19 +108,58 @@ def colour(i):
     return plt.rcParams["axes.prop_cycle"].by_key()["color"][i % 10]
 
 
+def finite_or_nan(v):
+    f = as_float(v) if v is not None else math.nan
+    return f if math.isfinite(f) else np.nan
+
+
+def psnr_limits(values, lines):
+    """y limits (dB) holding every finite value and every line, at least MIN_PSNR_SPAN_DB wide."""
+    pts = [v for v in list(values) + list(lines) if v is not None and math.isfinite(v)]
+    if not pts:
+        return 0.0, MIN_PSNR_SPAN_DB
+    lo, hi = min(pts), max(pts)
+    if hi - lo < MIN_PSNR_SPAN_DB:
+        mid = (lo + hi) / 2
+        lo, hi = mid - MIN_PSNR_SPAN_DB / 2, mid + MIN_PSNR_SPAN_DB / 2
+    pad = 0.05 * (hi - lo)
+    return lo - pad, hi + pad
+
+
+def threshold_lines(ax, doc):
+    """The verdict's threshold and the --min-psnr gate as horizontal lines; returns their values."""
+    lines = []
+    verdict = doc.get("verdict")
+    if verdict:
+        t = verdict["threshold_db"]
+        ax.axhline(t, color="crimson", ls="-", lw=1.2, label=f"threshold {t:g} dB (mean)")
+        lines.append(t)
+    gate = doc.get("gate")
+    if gate:
+        g = gate["min_psnr_db"]
+        ax.axhline(g, color="crimson", ls=":", lw=1.2, label=f"--min-psnr {g:g} dB (each view)")
+        lines.append(g)
+    return lines
+
+
 def plot_views(doc):
     views = [v["name"] for v in doc["views"]]
     x = np.arange(len(views))
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 5.2), sharex=True)
+    shown = []
     for i, c in enumerate(doc["candidates"]):
-        psnr = [as_float(v["psnr_db"]) for v in c["views"]]
-        finite = [p if math.isfinite(p) else np.nan for p in psnr]
+        finite = [finite_or_nan(v["psnr_db"]) for v in c["views"]]
         marker = "o" if len(views) <= 40 else None
-        ax1.plot(x, finite, marker=marker, ms=3, lw=1.2, color=colour(i), label=c["label"])
+        ax1.plot(x, finite, marker=marker, ms=3, lw=1.2, color=colour(i), label=f"{c['label']} (whole frame)")
+        shown += finite
+        fg = [finite_or_nan(v.get("foreground_psnr_db")) for v in c["views"]]
+        if any(math.isfinite(f) for f in fg):
+            ax1.plot(x, fg, marker=marker, ms=3, lw=1.0, ls="--", color=colour(i), label=f"{c['label']} (foreground)")
+            shown += fg
         ax2.plot(x, [v["ssim"] for v in c["views"]], marker=marker, ms=3, lw=1.2, color=colour(i), label=c["label"])
-    gate = doc.get("gate")
-    if gate:
-        ax1.axhline(gate["min_psnr_db"], color="crimson", ls="--", lw=1, label=f"--min-psnr {gate['min_psnr_db']:g}")
+    ax1.set_ylim(*psnr_limits(shown, threshold_lines(ax1, doc)))
+    ssim_low = min([v["ssim"] for c in doc["candidates"] for v in c["views"]] + [1.0])
+    ax2.set_ylim(min(ssim_low, 0.99) - 0.0005, 1.0005)  # at least 0.01 wide, 1 at the top
     ax1.set_ylabel("PSNR (dB)")
     ax2.set_ylabel("SSIM")
     ax2.set_xlabel("view")
@@ -156,12 +204,17 @@ def plot_sizes(doc):
 
 def plot_size_quality(doc):
     fig, ax = plt.subplots(figsize=(7, 4.5))
+    shown = []
     for i, c in enumerate(doc["candidates"]):
         mean, low = as_float(c["psnr_db"]["mean"]), as_float(c["psnr_db"]["min"])
         if not math.isfinite(mean):
             continue
         ax.errorbar([c["bytes_per_gaussian"]], [mean], yerr=[[mean - low], [0]], fmt="o", color=colour(i), capsize=4)
         ax.annotate(c["label"], (c["bytes_per_gaussian"], mean), textcoords="offset points", xytext=(6, 4), fontsize=8)
+        shown += [mean, low]
+    ax.set_ylim(*psnr_limits(shown, threshold_lines(ax, doc)))
+    if doc.get("verdict") or doc.get("gate"):
+        ax.legend(fontsize=8, loc="lower right")
     ax.set_xlabel("bytes per Gaussian")
     ax.set_ylabel("PSNR (dB): mean, bar down to the worst view")
     ax.grid(alpha=0.3)
@@ -169,15 +222,88 @@ def plot_size_quality(doc):
     return svg_of(fig)
 
 
+def colour_bar(scale):
+    """The heatmaps' one colour bar, 0 to `scale` (|d|), as inline SVG."""
+    fig, ax = plt.subplots(figsize=(6, 0.9))
+    fig.colorbar(matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, scale), cmap=HEAT_CMAP), cax=ax,
+                 orientation="horizontal")
+    ax.set_xlabel("|d|, max over R, G, B (clamped values)", fontsize=9)
+    ax.tick_params(labelsize=8)
+    return svg_of(fig)
+
+
+def verdict_html(doc):
+    """The page's first line: pass/fail per candidate against the threshold, worst view, bytes saved."""
+    v = doc.get("verdict")
+    if not v:
+        return ("<div id='verdict' class='verdict'><b>No verdict</b>: this JSON was written before rgs-audit had "
+                "one (run the audit again).</div>")
+    t = v["threshold_db"]
+    cands = doc["candidates"]
+    passed = sum(1 for c in cands if c["verdict"]["passed"])
+    head = (f"<b class='{'gate-pass' if v['passed'] else 'gate-fail'}'>{'PASS' if v['passed'] else 'FAIL'}</b>: "
+            f"{passed} of {len(cands)} candidate(s) have a mean PSNR over the views of at least {t:g} dB")
+    items = []
+    for c in cands:
+        cv = c["verdict"]
+        ok = cv["passed"]
+        saved = cv.get("bytes_saved")
+        if saved is None:
+            size = "no file size"
+        elif saved >= 0:
+            size = f"saves {group(saved)} bytes ({100 * cv['bytes_saved_fraction']:.0f}% of the source)"
+        else:
+            size = f"adds {group(-saved)} bytes ({-100 * cv['bytes_saved_fraction']:.0f}% of the source)"
+        wv = cv["worst_view"]
+        items.append(
+            f"<li class='verdict-cand' data-label='{esc(c['label'])}' data-passed='{str(ok).lower()}' "
+            f"data-worst-view='{esc(wv['name'])}' data-worst-psnr='{esc(num(wv['psnr_db']))}'>"
+            f"<b class='{'gate-pass' if ok else 'gate-fail'}'>{'PASS' if ok else 'FAIL'}</b> {esc(c['label'])}: "
+            f"mean PSNR {num(cv['psnr_mean_db'])} dB {'&ge;' if ok else '&lt;'} {t:g} dB; worst view "
+            f"{esc(wv['name'])} {num(wv['psnr_db'])} dB; {size}</li>")
+    return (f"<div id='verdict' class='verdict' data-passed='{str(v['passed']).lower()}' data-threshold='{t:g}'>"
+            f"{head} (rgs-audit --threshold).<ul>{''.join(items)}</ul></div>")
+
+
+def background_note(doc):
+    """Why the whole-frame PSNR is inflated by the black background, with this audit's numbers."""
+    fractions = [v["foreground_fraction"] for c in doc["candidates"][:1] for v in c["views"]
+                 if "foreground_fraction" in v]
+    if not fractions or min(fractions) >= 1.0:
+        return ""
+    f = sum(fractions) / len(fractions)
+    extra = 10 * math.log10(1 / f) if f > 0 else math.inf
+    return (f"<p class='note'>The renders have a black background, equal in both images, and the scene covers "
+            f"{100 * f:.0f}% of the frame on average: the background's zero errors dilute the whole-frame MSE, "
+            f"raising its PSNR by 10&middot;log10(1/{f:.2f}) = {extra:.1f} dB for the same error on the scene, so "
+            f"the foreground PSNR (over the pixels where the source render's alpha or colour is not background) "
+            f"is the one to compare between scenes.</p>")
+
+
 def stats_row(name, s, unit):
     return f"<tr><td>{esc(name)}</td><td>{s['max']:.3e}</td><td>{s['rms']:.3e}</td><td>{esc(unit)}</td></tr>"
 
 
+def compare_widget(src_uri, cand_uri, label):
+    """Source and candidate stacked; the slider moves the split (source left, candidate right), flip swaps
+    between all source and all candidate. Driven by SLIDER_JS."""
+    return ("<figure class='compare' data-split='50'><div class='stack'>"
+            f"<img class='view under' alt='source' src='{src_uri}'>"
+            f"<img class='view over' alt='{esc(label)}' src='{cand_uri}' style='clip-path: inset(0 0 0 50%)'>"
+            "<div class='divider' style='left: 50%'></div></div>"
+            "<div class='controls'><input type='range' class='slider' min='0' max='100' value='50' "
+            f"aria-label='split between source and {esc(label)}'><button type='button' class='flip'>flip</button>"
+            "</div>"
+            f"<figcaption>left of the line: source, right: {esc(label)} (drag, or flip)</figcaption></figure>")
+
+
 def candidate_section(doc, i, c, base_dir):
     out = [f"<section class='cand'><h2>{esc(c['label'])} <small>{esc(c['path'])} ({esc(c['format'])})</small></h2>"]
+    fg = c.get("foreground_psnr_db") or {}
+    fg_text = (f"foreground PSNR mean {num(fg.get('mean'))} dB, min {num(fg.get('min'))} dB; " if fg else "")
     out.append(f"<p>{group(c['bytes'])} bytes, {c['bytes_per_gaussian']:.2f} B/Gaussian, ratio {c.get('ratio', 0):.2f}x "
                f"to the source; PSNR mean {num(c['psnr_db']['mean'])} dB, min {num(c['psnr_db']['min'])} dB "
-               f"(view {esc(c['worst_view'])}); SSIM mean {c['ssim']['mean']:.5f}, min {c['ssim']['min']:.5f}; "
+               f"(view {esc(c['worst_view'])}); {fg_text}SSIM mean {c['ssim']['mean']:.5f}, min {c['ssim']['min']:.5f}; "
                f"max |d| {c['max_abs_diff']:.4f}.</p>")
     out.append("<div class='cols'>")
     if c["sections"]:
@@ -210,29 +336,35 @@ def candidate_section(doc, i, c, base_dir):
         out.append(f"<p>{esc(c.get('errors_note', 'no per-attribute errors'))}</p>")
     out.append("</div>")
     if c["worst_views"]:
-        out.append("<h3>Worst views: source, candidate, difference</h3>")
+        out.append("<h3>Worst views: source against candidate, and the difference</h3>")
+        per_view = {v["name"]: v for v in c["views"]}
         for w in c["worst_views"]:
             if "source_image" not in w:
                 continue
-            imgs = []
-            for key, cap, cmap in (("source_image", "source", None), ("candidate_image", c["label"], None),
-                                   ("diff_image", f"|d| max over RGB, 0 to {w['heat_scale']:.4f}", "inferno")):
-                uri = png_data_uri(read_netpbm(os.path.join(base_dir, w[key])), cmap)
-                imgs.append(f"<figure><img class='view' alt='{esc(cap)}' src='{uri}'><figcaption>{esc(cap)}</figcaption>"
-                            "</figure>")
-            out.append(f"<div class='worst'><p><b>{esc(w['name'])}</b>: PSNR {num(w['psnr_db'])} dB</p>"
-                       f"<div class='row'>{''.join(imgs)}</div></div>")
+            uri = {key: png_data_uri(read_netpbm(os.path.join(base_dir, w[key])), HEAT_CMAP if key == "diff_image"
+                                     else None) for key in ("source_image", "candidate_image", "diff_image")}
+            scale = doc.get("heat_scale", w["heat_scale"])  # older JSONs: each view on its own scale
+            cap = (f"|d| max over RGB, {per_view[w['name']]['max_abs_diff']:.4f} at most here; colour bar above: "
+                   f"0 to {scale:.4f}" if "heat_scale" in doc else f"|d| max over RGB, 0 to {scale:.4f} (this view)")
+            heat = (f"<figure><img class='view heatmap' data-heat-scale='{scale!r}' alt='difference' "
+                    f"src='{uri['diff_image']}'><figcaption>{esc(cap)}</figcaption></figure>")
+            fg = per_view[w["name"]].get("foreground_psnr_db")
+            fg_text = f", foreground {num(fg)} dB" if "foreground_psnr_db" in per_view[w["name"]] else ""
+            out.append(f"<div class='worst'><p><b>{esc(w['name'])}</b>: PSNR {num(w['psnr_db'])} dB{fg_text}</p>"
+                       f"<div class='row'>{compare_widget(uri['source_image'], uri['candidate_image'], c['label'])}"
+                       f"{heat}</div></div>")
     out.append("</section>")
     return "\n".join(out)
 
 
 def views_table(doc):
     cands = doc["candidates"]
-    head = "".join(f"<th>{esc(c['label'])} PSNR</th><th>SSIM</th><th>max |d|</th>" for c in cands)
+    head = "".join(f"<th>{esc(c['label'])} PSNR</th><th>PSNR fg</th><th>SSIM</th><th>max |d|</th>" for c in cands)
     rows = []
     for k, v in enumerate(doc["views"]):
-        cells = "".join(f"<td>{num(c['views'][k]['psnr_db'])}</td><td>{c['views'][k]['ssim']:.5f}</td>"
-                        f"<td>{c['views'][k]['max_abs_diff']:.4f}</td>" for c in cands)
+        cells = "".join(f"<td>{num(c['views'][k]['psnr_db'])}</td><td>{num(c['views'][k].get('foreground_psnr_db'))}</td>"
+                        f"<td>{c['views'][k]['ssim']:.5f}</td><td>{c['views'][k]['max_abs_diff']:.4f}</td>"
+                        for c in cands)
         rows.append(f"<tr><td>{esc(v['name'])}</td><td>{v['width']}x{v['height']}</td>{cells}</tr>")
     return (f"<details><summary>Per-view table ({len(doc['views'])} views)</summary><table>"
             f"<tr><th>view</th><th>size</th>{head}</tr>{''.join(rows)}</table></details>")
@@ -246,6 +378,31 @@ text-align:right}td:first-child,th:first-child{text-align:left;white-space:pre}.
 align-items:flex-start}.row{display:flex;gap:8px}figure{margin:0;flex:1}img.view{width:100%;image-rendering:auto;
 border:1px solid #ccc}figcaption{font-size:12px;color:#555}.plot svg{max-width:100%;height:auto}
 .gate-pass{color:#17702b}.gate-fail{color:#b00020}
+.verdict{font-size:16px;border:1px solid #ccc;padding:6px 12px;background:#fafafa}.verdict ul{margin:4px 0;
+padding-left:20px}.note{color:#444;max-width:1000px}.colorbar svg{width:480px;height:auto}
+.stack{position:relative;line-height:0}.stack img.over{position:absolute;left:0;top:0}.divider{position:absolute;
+top:0;bottom:0;width:2px;margin-left:-1px;background:#0af;pointer-events:none}.controls{display:flex;gap:8px;
+align-items:center}.controls input{flex:1}
+"""
+
+# The source/candidate comparison: the slider sets the split (percent of the width from the left at which the
+# candidate begins), flip jumps between all candidate (0) and all source (100). Delegated, so no set-up is needed.
+SLIDER_JS = """
+function rgsSetSplit(box, v) {
+  v = Math.max(0, Math.min(100, Number(v)));
+  box.querySelector('img.over').style.clipPath = 'inset(0 0 0 ' + v + '%)';
+  box.querySelector('.divider').style.left = v + '%';
+  box.querySelector('input.slider').value = v;
+  box.setAttribute('data-split', String(v));
+}
+document.addEventListener('input', function (e) {
+  if (e.target.classList && e.target.classList.contains('slider')) rgsSetSplit(e.target.closest('.compare'), e.target.value);
+});
+document.addEventListener('click', function (e) {
+  if (!e.target.classList || !e.target.classList.contains('flip')) return;
+  var box = e.target.closest('.compare');
+  rgsSetSplit(box, Number(box.getAttribute('data-split')) > 0 ? 0 : 100);
+});
 """
 
 # Marks the page once every image has decoded and every plot is laid out; the report test reads it.
@@ -275,7 +432,9 @@ def main(argv):
     src = doc["source"]
     cands = doc["candidates"]
     parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>rgs-audit: {esc(src['label'])} "
-             f"{esc(os.path.basename(src['path']))}</title><style>{CSS}</style><script>{CHECK_JS}</script></head><body>"]
+             f"{esc(os.path.basename(src['path']))}</title><style>{CSS}</style><script>{CHECK_JS}{SLIDER_JS}</script></head>"
+             "<body>"]
+    parts.append(verdict_html(doc))
     parts.append(f"<h1>rgs-audit: {esc(src['path'])}</h1>")
     first = doc["views"][0]
     gate = doc.get("gate")
@@ -290,18 +449,38 @@ def main(argv):
                  f"<b>{esc(doc['backend'])}</b> ({esc(doc['device'])}), {esc(doc['renderer'])}; "
                  f"{doc['time_seconds']['total']:.1f} s{gate_html}. rgs-audit {esc(doc.get('tool_version', ''))}.</p>")
     parts.append("<table><tr><th>candidate</th><th>format</th><th>bytes</th><th>B/Gaussian</th><th>ratio</th>"
-                 "<th>PSNR mean</th><th>PSNR min</th><th>SSIM mean</th><th>SSIM min</th><th>max |d|</th></tr>")
+                 "<th>PSNR mean</th><th>PSNR min</th><th>PSNR fg mean</th><th>PSNR fg min</th><th>SSIM mean</th>"
+                 "<th>SSIM min</th><th>max |d|</th><th>load s</th><th>render s</th></tr>")
     for c in cands:
+        fg = c.get("foreground_psnr_db") or {}
+        load = f"{c['load_seconds']:.2f}" if c.get("load_seconds") else "–"
+        render = f"{c['render_seconds']:.2f}" if "render_seconds" in c else "–"
         parts.append(f"<tr><td>{esc(c['label'])}</td><td>{esc(c['format'])}</td><td>{group(c['bytes'])}</td>"
                      f"<td>{c['bytes_per_gaussian']:.2f}</td><td>{c.get('ratio', 0):.2f}x</td>"
                      f"<td>{num(c['psnr_db']['mean'])}</td><td>{num(c['psnr_db']['min'])}</td>"
-                     f"<td>{c['ssim']['mean']:.5f}</td><td>{c['ssim']['min']:.5f}</td><td>{c['max_abs_diff']:.4f}</td></tr>")
+                     f"<td>{num(fg.get('mean'))}</td><td>{num(fg.get('min'))}</td>"
+                     f"<td>{c['ssim']['mean']:.5f}</td><td>{c['ssim']['min']:.5f}</td><td>{c['max_abs_diff']:.4f}</td>"
+                     f"<td>{load}</td><td>{render}</td></tr>")
     parts.append("</table>")
+    parts.append(f"<p class='note'>PSNR fg: over the foreground. load s: reading and decoding the file (source "
+                 f"{src.get('load_seconds', 0):.2f} s). render s: the candidate's renders, summed over the views "
+                 f"({esc(doc['backend'])} backend{', until the device finished each' if doc['backend'] == 'cuda' else ''})."
+                 "</p>")
+    parts.append(background_note(doc))
     if len(cands) > 1:
         parts.append(f"<div class='plot'>{plot_size_quality(doc)}</div>")
     parts.append(f"<div class='plot'>{plot_views(doc)}</div>")
     parts.append(views_table(doc))
     parts.append(f"<div class='plot'>{plot_sizes(doc)}</div>")
+    if "heat_scale" in doc and any(w.get("diff_image") for c in cands for w in c["worst_views"]):
+        scale = doc["heat_scale"]
+        top = (f"the top of the colour bar is {scale:.4f}, the largest |d| of any view of any candidate, so a "
+               "candidate's heatmap is as bright as its error is large" if scale > 0 else
+               "no candidate differs from the source in any view, so every heatmap is black")
+        parts.append("<h2>Differences</h2><p class='note'>Every heatmap below is on one scale: black is no "
+                     f"difference; {top}. Heatmaps reduced for the page keep the largest |d| of each block.</p>"
+                     f"<div class='colorbar' data-heat-scale='{scale!r}'>{colour_bar(scale if scale > 0 else 1.0)}"
+                     "</div>")
     for i, c in enumerate(cands):
         parts.append(candidate_section(doc, i, c, base_dir))
     parts.append(f"<p><small>PSNR: {esc(doc['metrics']['psnr'])}. SSIM: {esc(doc['metrics']['ssim'])}. "

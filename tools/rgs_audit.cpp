@@ -5,6 +5,7 @@
 //
 //   rgs-audit scene.ply scene.rgs --cameras cameras.json                 every camera, native size
 //   rgs-audit scene.ply a.rgs b.rgs c.rgs --label max --label p99 ...     one run, several candidates
+//   rgs-audit scene.ply a.rgs b.spz --threshold 50                       verdict: mean PSNR >= 50 dB passes
 //   rgs-audit scene.ply scene.rgs --min-psnr 40 --report ci/audit.html    CI gate: exit 3 below 40 dB
 //   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
 //
@@ -66,6 +67,7 @@ struct Options {
   unsigned threads = 0;
   double min_psnr = -1;
   bool min_psnr_set = false;
+  double threshold = audit::kDefaultVerdictThresholdDb;
   bool quiet = false;
   bool attribution = false;
   std::string command_line;
@@ -166,6 +168,10 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
                tools::escape_text(c.scene.path).c_str(), tools::escape_text(c.scene.format).c_str());
   std::fprintf(out, "  gaussians        %s (SH degree %u)\n", tools::group_digits(c.scene.gaussians).c_str(),
                c.scene.sh_degree);
+  if (c.scene.file_bytes > 0) {
+    std::fprintf(out, "  load             %s s\n", tools::fixed(c.scene.load_seconds, 2).c_str());
+  }
+  std::fprintf(out, "  render           %s s (sum over the views)\n", tools::fixed(c.summary.render_seconds, 2).c_str());
   if (c.scene.file_bytes == 0) {
     std::fprintf(out, "  size             none: an attribution scene (--attribution), not a file\n");
   } else {
@@ -256,11 +262,28 @@ int run_report_only(const Options& opt) {
   return tools::commit_outputs(kTool, outputs);
 }
 
-/// True when --json names the report's own JSON (through any spelling): that file is then written once.
+/// `path` with its symbolic links followed, also to a file that does not exist yet (a dangling link).
+std::filesystem::path link_target(const std::filesystem::path& path) {
+  std::filesystem::path p = path;
+  std::error_code ec;
+  for (int hops = 0; hops < 40 && std::filesystem::is_symlink(p, ec); ++hops) {
+    const std::filesystem::path target = std::filesystem::read_symlink(p, ec);
+    if (ec) break;
+    p = target.is_absolute() ? target : p.parent_path() / target;
+  }
+  return p;
+}
+
+/// True when --json names the report's own JSON (through any spelling or symbolic link): the report then uses
+/// that file, written once.
 bool json_is_report_json(const Options& opt, const std::string& report_json) {
   if (report_json.empty() || opt.json_path.empty() || opt.json_path == "-") return false;
   tools::OutputSet probe;
-  return probe.add_output(report_json).ok() && probe.has_output(opt.json_path);
+  if (probe.add_output(report_json).ok() && probe.has_output(opt.json_path)) return true;
+  std::error_code ec1, ec2;
+  const auto a = std::filesystem::weakly_canonical(report_json, ec1);
+  const auto b = std::filesystem::weakly_canonical(link_target(opt.json_path), ec2);
+  return !ec1 && !ec2 && a == b;
 }
 
 /// Declares the scenes and cameras as inputs and the outputs known before the audit runs (report HTML and
@@ -349,6 +372,21 @@ Result<audit::AuditResult> measure(const Options& opt) {
   return audit::run_audit(source, candidates, cameras, options);
 }
 
+/// "verdict          PASS a: mean PSNR 75.1 dB >= 40 dB; worst view orbit_002 73.9 dB; saves 3,360,261 bytes (54%)"
+void print_verdict(std::FILE* out, const audit::AuditResult& r, size_t candidate, double threshold) {
+  const audit::Verdict v = audit::verdict(r, candidate, threshold);
+  std::string saved = "no file size";
+  if (v.bytes_saved) {
+    saved = *v.bytes_saved >= 0 ? "saves " + tools::group_digits(uint64_t(*v.bytes_saved)) + " bytes"
+                                : "adds " + tools::group_digits(uint64_t(-*v.bytes_saved)) + " bytes";
+    saved += " (" + tools::fixed(100.0 * std::fabs(v.bytes_saved_fraction), 0) + "% of the source)";
+  }
+  std::fprintf(out, "  verdict          %s %s: mean PSNR %s dB %s %s dB; worst view %s %s dB; %s\n",
+               v.passed ? "PASS" : "FAIL", tools::escape_text(r.candidates[candidate].scene.label).c_str(),
+               db(v.psnr_mean_db).c_str(), v.passed ? ">=" : "<", tools::fixed(threshold, 2).c_str(),
+               tools::escape_text(v.worst_view).c_str(), db(v.worst_psnr_db).c_str(), saved.c_str());
+}
+
 /// The summary table: the source, each candidate's sizes and quality, the worst views, the files written.
 void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r, const std::string& report_json,
                  Clock::time_point t_start) {
@@ -357,6 +395,7 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
                tools::group_digits(r.source.gaussians).c_str(), tools::group_digits(r.source.file_bytes).c_str());
   std::fprintf(out, "  backend          %s (%s)\n", audit::backend_name(r.backend),
                tools::escape_text(r.device).c_str());
+  std::fprintf(out, "  load             source %s s\n", tools::fixed(r.source.load_seconds, 2).c_str());
   for (const auto& c : r.candidates) print_candidate(out, r, c);
   std::fprintf(out, "  %-22s", "view");
   for (const auto& c : r.candidates) std::fprintf(out, " %12.12s", tools::escape_text(c.scene.label).c_str());
@@ -388,15 +427,12 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
                  tools::fixed(c.summary.ssim_min, 5).c_str(), suffix.c_str());
   }
   if (!opt.heatmap_path.empty()) {
-    std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white)\n",
+    std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white: the report's scale)\n",
                  tools::escape_text(opt.heatmap_path).c_str(),
                  tools::escape_text(r.views[r.candidates[0].summary.worst_view].name).c_str(),
-                 tools::fixed(r.candidates[0].summary.max_abs_diff > 0
-                                  ? r.candidates[0].views[r.candidates[0].summary.worst_view].max_abs_diff
-                                  : 0.f,
-                              4)
-                     .c_str());
+                 tools::fixed(r.heat_scale, 4).c_str());
   }
+  for (size_t i = 0; i < r.candidates.size(); ++i) print_verdict(out, r, i, opt.threshold);
   if (!report_json.empty()) std::fprintf(out, "  json             %s\n", tools::escape_text(report_json).c_str());
   std::fprintf(out, "  time             %s s (views %s s)\n", tools::fixed(tools::seconds_since(t_start), 1).c_str(),
                tools::fixed(r.render_seconds, 1).c_str());
@@ -427,6 +463,7 @@ int run(const Options& opt) {
   ro.tool_version = RGS_VERSION_STRING;
   ro.command_line = opt.command_line;
   if (opt.min_psnr_set) ro.min_psnr_db = opt.min_psnr;
+  ro.threshold_db = opt.threshold;
   if (!opt.no_report) {
     ro.image_dir = std::filesystem::path(report_files).filename().string() + "/";
     for (const auto& [path, image] : audit::report_images(r, report_files)) {
@@ -536,13 +573,21 @@ int main(int argc, char** argv) {
   auto* minp = app.add_option("--min-psnr", opt.min_psnr,
                               "CI gate: exit 3 when any candidate's lowest per-view PSNR is below DB (the reports are "
                               "still written)");
+  auto* threshold = app.add_option("--threshold", opt.threshold,
+                 "The report's verdict: a candidate passes when its mean PSNR over the views is at least DB "
+                 "(default 40; the exit status is --min-psnr's)")
+      ->check(CLI::Range(-1000.0, 1000.0));
   app.add_flag("-q,--quiet", opt.quiet, "No table");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   const auto check = [&]() -> std::string {
     if (!opt.report_from.empty() && !opt.scenes.empty()) {
       return "--report-from makes the HTML of an earlier run and takes no scenes";
     }
+    if (!opt.report_from.empty() && threshold->count() > 0) {
+      return "--report-from draws the earlier run's verdict; --threshold needs a new audit";
+    }
     if (!opt.report_from.empty()) return {};
+    if (std::isnan(opt.threshold)) return "--threshold: a PSNR in dB, not NaN";
     if (opt.scenes.size() < 2) return "give a source and at least one candidate scene";
     if (opt.labels.size() > opt.scenes.size() - 1) {
       return std::to_string(opt.labels.size()) + " --label for " + std::to_string(opt.scenes.size() - 1) +

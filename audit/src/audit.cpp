@@ -61,16 +61,12 @@ Image8 reduce_colour(const ImageRef& img, uint32_t f) {
   return out;
 }
 
-/// Per-pixel max over R, G, B of |Δ| of the clamped values, box maximum over f × f blocks, scaled by `scale`.
-Image8 reduce_difference(const ImageRef& a, const ImageRef& b, uint32_t f, float scale) {
-  Image8 out;
-  out.width = std::max(1u, a.width / f);
-  out.height = std::max(1u, a.height / f);
-  out.channels = 1;
-  out.pixels.assign(size_t(out.width) * out.height, 0);
-  if (!(scale > 0.f)) return out;
-  for (uint32_t y = 0; y < out.height; ++y) {
-    for (uint32_t x = 0; x < out.width; ++x) {
+/// Per-pixel max over R, G, B of |Δ| of the clamped values, box maximum over f × f blocks: [H / f, W / f].
+std::vector<float> reduce_difference(const ImageRef& a, const ImageRef& b, uint32_t f) {
+  const uint32_t width = std::max(1u, a.width / f), height = std::max(1u, a.height / f);
+  std::vector<float> out(size_t(width) * height, 0.f);
+  for (uint32_t y = 0; y < height; ++y) {
+    for (uint32_t x = 0; x < width; ++x) {
       float m = 0.f;
       for (uint32_t dy = 0; dy < f && y * f + dy < a.height; ++dy) {
         for (uint32_t dx = 0; dx < f && x * f + dx < a.width; ++dx) {
@@ -80,9 +76,21 @@ Image8 reduce_difference(const ImageRef& a, const ImageRef& b, uint32_t f, float
           }
         }
       }
-      out.pixels[size_t(y) * out.width + x] = to_byte(double(m) / scale);
+      out[size_t(y) * width + x] = m;
     }
   }
+  return out;
+}
+
+/// The grey heatmap of a [height, width] |Δ| map: `scale` is 255 (all 0 when scale is 0).
+Image8 heatmap(const std::vector<float>& abs_difference, uint32_t width, uint32_t height, float scale) {
+  Image8 out;
+  out.width = width;
+  out.height = height;
+  out.channels = 1;
+  out.pixels.assign(size_t(width) * height, 0);
+  if (!(scale > 0.f)) return out;
+  for (size_t i = 0; i < out.pixels.size(); ++i) out.pixels[i] = to_byte(double(abs_difference[i]) / scale);
   return out;
 }
 
@@ -106,10 +114,18 @@ Summary summarize(const std::vector<ViewMetrics>& views) {
   Summary s;
   s.psnr_min_db = std::numeric_limits<double>::infinity();
   s.ssim_min = std::numeric_limits<double>::infinity();
-  double psnr_sum = 0, ssim_sum = 0;
+  s.foreground_psnr_min_db = std::numeric_limits<double>::infinity();
+  double psnr_sum = 0, ssim_sum = 0, foreground_sum = 0;
+  size_t foreground_views = 0;
   for (size_t v = 0; v < views.size(); ++v) {
     psnr_sum += views[v].psnr_db;
     ssim_sum += views[v].ssim;
+    s.render_seconds += views[v].render_seconds;
+    if (!std::isnan(views[v].foreground_psnr_db)) {
+      foreground_sum += views[v].foreground_psnr_db;
+      s.foreground_psnr_min_db = std::min(s.foreground_psnr_min_db, views[v].foreground_psnr_db);
+      ++foreground_views;
+    }
     if (views[v].psnr_db < s.psnr_min_db || v == 0) {
       s.psnr_min_db = views[v].psnr_db;
       s.worst_view = v;
@@ -120,6 +136,11 @@ Summary summarize(const std::vector<ViewMetrics>& views) {
   if (!views.empty()) {
     s.psnr_mean_db = psnr_sum / double(views.size());
     s.ssim_mean = ssim_sum / double(views.size());
+  }
+  if (foreground_views > 0) {
+    s.foreground_psnr_mean_db = foreground_sum / double(foreground_views);
+  } else {
+    s.foreground_psnr_mean_db = s.foreground_psnr_min_db = std::numeric_limits<double>::quiet_NaN();
   }
   return s;
 }
@@ -232,7 +253,9 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   GpuImageComparer comparer;
 #endif
   std::optional<api::Image> source_image, candidate_image;
-  std::vector<float> source_host, candidate_host;  // GPU images copied for the report
+  std::vector<float> source_host, candidate_host;  // GPU images copied for the foreground PSNR and the report
+  std::vector<float> worst_heatmap;                // the first candidate's worst view, full size (|Δ|)
+  std::pair<uint32_t, uint32_t> worst_heatmap_size{0, 0};
 
   for (size_t v = 0; v < cameras.size(); ++v) {
     const runtime::Camera& cam = cameras[v];
@@ -245,6 +268,16 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       CandidateResult& c = result.candidates[i];
       const auto t_view = Clock::now();
       RGS_RETURN_IF_ERROR(render_into(renderer, scenes[i + 1], cam, settings, &candidate_image));
+#if RGS_HAS_CUDA
+      // The GPU render is asynchronous: wait for it so that render_seconds is the render's (the comparison
+      // below waits for it anyway).
+      if (device == api::Device::kCuda) {
+        const cudaError_t e = cudaStreamSynchronize(nullptr);
+        RGS_RETURN_ERROR_IF(e != cudaSuccess, StatusCode::kCudaError,
+                            "view " + cam.name + ": render of " + c.scene.path + ": " + cudaGetErrorString(e));
+      }
+#endif
+      const double render_seconds = seconds_since(t_view);
       candidate_host.clear();
       const float* a = static_cast<const float*>(source_image->color());
       const float* b = static_cast<const float*>(candidate_image->color());
@@ -261,7 +294,14 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       vm.psnr_db = m.psnr_db;
       vm.ssim = m.ssim;
       vm.max_abs_diff = m.max_abs_diff;
+      vm.render_seconds = render_seconds;
       progress.psnr_db.push_back(m.psnr_db);
+      // The foreground PSNR on the host (GPU images: one copy of each, reused for the report's images).
+      RGS_ASSIGN_OR_RETURN(const ImageRef source_pixels, host_pixels(*source_image, &source_host));
+      RGS_ASSIGN_OR_RETURN(const ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
+      RGS_ASSIGN_OR_RETURN(const ForegroundPsnr foreground, foreground_psnr(source_pixels, candidate_pixels));
+      vm.foreground_psnr_db = foreground.psnr_db;
+      vm.foreground_fraction = double(foreground.pixels) / double(foreground.total_pixels);
 
       const bool new_worst = v == 0 || m.psnr_db < c.views[c.summary.worst_view].psnr_db;
       if (new_worst) c.summary.worst_view = v;
@@ -270,8 +310,6 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
           (c.worst.size() < options.worst_views || m.psnr_db < c.worst.back().psnr_db);
       const bool keep_heatmap = options.keep_worst_heatmap && i == 0 && new_worst;
       if (keep_images || keep_heatmap) {
-        RGS_ASSIGN_OR_RETURN(const ImageRef source_pixels, host_pixels(*source_image, &source_host));
-        RGS_ASSIGN_OR_RETURN(const ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
         if (keep_images) {
           const uint32_t f = reduction_factor(cam.width, cam.height, options.image_max_side);
           ViewImages vi;
@@ -279,14 +317,16 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
           vi.psnr_db = m.psnr_db;
           vi.source = reduce_colour(source_pixels, f);
           vi.candidate = reduce_colour(candidate_pixels, f);
-          vi.heat_scale = m.max_abs_diff;
-          vi.difference = reduce_difference(source_pixels, candidate_pixels, f, m.max_abs_diff);
+          vi.abs_difference = reduce_difference(source_pixels, candidate_pixels, f);
           auto at = std::upper_bound(c.worst.begin(), c.worst.end(), vi.psnr_db,
                                      [](double p, const ViewImages& w) { return p < w.psnr_db; });
           c.worst.insert(at, std::move(vi));
           if (c.worst.size() > options.worst_views) c.worst.pop_back();
         }
-        if (keep_heatmap) c.worst_heatmap = reduce_difference(source_pixels, candidate_pixels, 1, m.max_abs_diff);
+        if (keep_heatmap) {
+          worst_heatmap = reduce_difference(source_pixels, candidate_pixels, 1);
+          worst_heatmap_size = {cam.width, cam.height};
+        }
       }
       vm.seconds = seconds_since(t_view) + source_seconds;
     }
@@ -299,7 +339,21 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       options.progress(progress);
     }
   }
-  for (CandidateResult& c : result.candidates) c.summary = summarize(c.views);
+  for (CandidateResult& c : result.candidates) {
+    c.summary = summarize(c.views);
+    result.heat_scale = std::max(result.heat_scale, c.summary.max_abs_diff);
+  }
+  // Every heatmap on one scale, known only now: the largest |Δ| of the whole audit.
+  for (CandidateResult& c : result.candidates) {
+    for (ViewImages& w : c.worst) {
+      w.heat_scale = result.heat_scale;
+      w.difference = heatmap(w.abs_difference, w.source.width, w.source.height, result.heat_scale);
+    }
+  }
+  if (!worst_heatmap.empty()) {
+    result.candidates[0].worst_heatmap =
+        heatmap(worst_heatmap, worst_heatmap_size.first, worst_heatmap_size.second, result.heat_scale);
+  }
   result.render_seconds = seconds_since(t_start);
   return result;
 }

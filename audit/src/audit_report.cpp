@@ -13,12 +13,24 @@ namespace {
 
 using nlohmann::json;
 
-json db_json(double v) { return std::isinf(v) ? json(v > 0 ? "inf" : "-inf") : json(v); }
+/// A dB value: a number, "inf" / "-inf", or null for NaN (no value: a view without foreground).
+json db_json(double v) {
+  if (std::isnan(v)) return nullptr;
+  return std::isinf(v) ? json(v > 0 ? "inf" : "-inf") : json(v);
+}
 
 json stats_json(const converter::ErrorStats& s) { return {{"max", s.max}, {"rms", s.rms}, {"samples", s.samples}}; }
 
 std::string image_name(size_t candidate, size_t view, const char* what, const char* ext) {
   return "c" + std::to_string(candidate) + "_v" + std::to_string(view) + "_" + what + ext;
+}
+
+json verdict_json(const Verdict& v) {
+  return {{"passed", v.passed},
+          {"psnr_mean_db", db_json(v.psnr_mean_db)},
+          {"worst_view", {{"name", v.worst_view}, {"psnr_db", db_json(v.worst_psnr_db)}}},
+          {"bytes_saved", v.bytes_saved ? json(*v.bytes_saved) : json(nullptr)},
+          {"bytes_saved_fraction", v.bytes_saved ? json(v.bytes_saved_fraction) : json(nullptr)}};
 }
 
 json scene_json(const SceneInfo& s, uint64_t source_bytes) {
@@ -29,7 +41,8 @@ json scene_json(const SceneInfo& s, uint64_t source_bytes) {
             {"bytes", s.file_bytes},
             {"gaussians", s.gaussians},
             {"sh_degree", s.sh_degree},
-            {"bytes_per_gaussian", double(s.file_bytes) * per_g}};
+            {"bytes_per_gaussian", double(s.file_bytes) * per_g},
+            {"load_seconds", s.load_seconds}};
   if (source_bytes > 0) j["ratio"] = s.file_bytes > 0 ? double(source_bytes) / double(s.file_bytes) : 0.0;
   json sections = json::array();
   for (const SectionSize& e : s.sections) {
@@ -66,6 +79,22 @@ json attributes_json(const AttributeReport& a, uint32_t degree) {
 
 }  // namespace
 
+Verdict verdict(const AuditResult& result, size_t candidate, double threshold_db) {
+  const CandidateResult& c = result.candidates.at(candidate);
+  Verdict v;
+  v.threshold_db = threshold_db;
+  v.psnr_mean_db = c.summary.psnr_mean_db;
+  v.passed = c.summary.psnr_mean_db >= threshold_db;
+  v.worst_view = result.views.at(c.summary.worst_view).name;
+  v.worst_psnr_db = c.summary.psnr_min_db;
+  if (c.scene.file_bytes > 0) {
+    v.bytes_saved = int64_t(result.source.file_bytes) - int64_t(c.scene.file_bytes);
+    v.bytes_saved_fraction = result.source.file_bytes > 0 ? double(*v.bytes_saved) / double(result.source.file_bytes)
+                                                          : 0.0;
+  }
+  return v;
+}
+
 bool passes_gate(const AuditResult& result, double min_psnr_db) {
   for (const CandidateResult& c : result.candidates) {
     if (c.summary.psnr_min_db < min_psnr_db) return false;
@@ -84,7 +113,15 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
   j["renderer"] = "3DGS baseline, FP32, black background";
   j["metrics"] = {{"psnr", "clamped [0,1] RGB, peak 1, MSE in float64"},
                   {"ssim", "11x11 Gaussian window, sigma 1.5, C1 0.01^2, C2 0.03^2, valid windows, mean of R,G,B"},
-                  {"max_abs_diff", "max over pixels of max over RGB of |a-b|, clamped"}};
+                  {"max_abs_diff", "max over pixels of max over RGB of |a-b|, clamped"},
+                  {"foreground_psnr", "PSNR over the pixels where the source render's alpha or colour is not the "
+                                      "black background"}};
+  bool all_passed = true;
+  for (size_t i = 0; i < r.candidates.size(); ++i) all_passed = all_passed && verdict(r, i, options.threshold_db).passed;
+  j["verdict"] = {{"threshold_db", options.threshold_db},
+                  {"criterion", "mean PSNR over the views >= threshold_db"},
+                  {"passed", all_passed}};
+  j["heat_scale"] = r.heat_scale;
   j["source"] = scene_json(r.source, 0);
   json views = json::array();
   for (const ViewInfo& v : r.views) views.push_back({{"name", v.name}, {"width", v.width}, {"height", v.height}});
@@ -103,11 +140,17 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
     for (size_t v = 0; v < c.views.size(); ++v) {
       const ViewMetrics& m = c.views[v];
       vj.push_back({{"name", r.views[v].name}, {"psnr_db", db_json(m.psnr_db)}, {"ssim", m.ssim},
-                    {"max_abs_diff", m.max_abs_diff}, {"seconds", m.seconds}});
+                    {"max_abs_diff", m.max_abs_diff}, {"foreground_psnr_db", db_json(m.foreground_psnr_db)},
+                    {"foreground_fraction", m.foreground_fraction}, {"seconds", m.seconds},
+                    {"render_seconds", m.render_seconds}});
     }
     cj["views"] = vj;
     cj["psnr_db"] = {{"mean", db_json(c.summary.psnr_mean_db)}, {"min", db_json(c.summary.psnr_min_db)}};
     cj["ssim"] = {{"mean", c.summary.ssim_mean}, {"min", c.summary.ssim_min}};
+    cj["foreground_psnr_db"] = {{"mean", db_json(c.summary.foreground_psnr_mean_db)},
+                                {"min", db_json(c.summary.foreground_psnr_min_db)}};
+    cj["render_seconds"] = c.summary.render_seconds;
+    if (!r.views.empty()) cj["verdict"] = verdict_json(verdict(r, i, options.threshold_db));
     cj["max_abs_diff"] = c.summary.max_abs_diff;
     cj["worst_view"] = r.views.empty() ? std::string() : r.views[c.summary.worst_view].name;
     json worst = json::array();

@@ -1,6 +1,7 @@
 #include "rgs/audit/audit_scene.h"
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <functional>
 #include <utility>
@@ -37,6 +38,7 @@ Status list_sections(const std::string& path, const format::ReadOptions& options
 
 Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label,
                                     const converter::SceneReadOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
   converter::SceneReadOptions read_options = options;
   read_options.keep_encoded = true;  // a .rgs candidate's SH quantization
   auto input = converter::read_scene(path, read_options);
@@ -56,6 +58,7 @@ Result<AuditScene> load_audit_scene(const std::string& path, const std::string& 
   scene.info.label = label.empty() ? std::filesystem::path(path).filename().string() : label;
   scene.info.gaussians = scene.cloud.size();
   scene.info.sh_degree = scene.cloud.sh_degree;
+  scene.info.load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return scene;
 }
 
@@ -93,6 +96,7 @@ Result<std::vector<AuditScene>> attribution_scenes(const AuditScene& source, con
     hybrid.info.sections.clear();
     hybrid.info.overhead_bytes = 0;
     hybrid.info.notes.clear();
+    hybrid.info.load_seconds = 0;  // made in memory, not read
     scenes.push_back(std::move(hybrid));
   }
   return scenes;

@@ -132,6 +132,26 @@ Result<ImageMetrics> compare_images(const ImageRef& a, const ImageRef& b, std::v
   return m;
 }
 
+Result<ForegroundPsnr> foreground_psnr(const ImageRef& reference, const ImageRef& candidate) {
+  RGS_RETURN_IF_ERROR(check_pair(reference, candidate));
+  ForegroundPsnr f;
+  f.total_pixels = uint64_t{reference.width} * reference.height;
+  double sum = 0;
+  for (size_t p = 0; p < f.total_pixels; ++p) {
+    const float* r = reference.data + p * reference.channels;
+    const float* c = candidate.data + p * candidate.channels;
+    const bool covered = reference.channels >= 4 && r[3] > 0.f;  // NaN alpha: not covered
+    if (!covered && clamp01(r[0]) == 0.0 && clamp01(r[1]) == 0.0 && clamp01(r[2]) == 0.0) continue;
+    ++f.pixels;
+    for (size_t ch = 0; ch < 3; ++ch) {
+      const double d = clamp01(r[ch]) - clamp01(c[ch]);
+      sum += d * d;
+    }
+  }
+  f.psnr_db = f.pixels == 0 ? std::numeric_limits<double>::quiet_NaN() : psnr_from_sum(sum, f.pixels * 3);
+  return f;
+}
+
 Result<double> psnr_rgb(const std::vector<float>& a, const std::vector<float>& b, uint32_t width, uint32_t height) {
   RGS_RETURN_IF_ERROR(check_vectors(a, b, width, height));
   float max_abs = 0;

@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "audit_test_util.h"
@@ -73,9 +74,34 @@ TEST_CASE("CPU audit of guitar against its conversion") {
   CHECK(c.worst[0].source.width == 53);
   CHECK(c.worst[0].source.height == 30);
   CHECK(c.worst[0].difference.channels == 1);
-  CHECK(c.worst[0].heat_scale == c.views[c.worst[0].view].max_abs_diff);
+  // One heatmap scale for the whole audit: the largest |Δ| of any view.
+  CHECK(result->heat_scale == c.summary.max_abs_diff);
+  CHECK(result->heat_scale > 0.f);
+  for (const auto& w : c.worst) {
+    CHECK(w.heat_scale == result->heat_scale);
+    REQUIRE(w.abs_difference.size() == size_t{53} * 30);
+    REQUIRE(w.difference.pixels.size() == w.abs_difference.size());
+    for (size_t p = 0; p < w.abs_difference.size(); ++p) {
+      const double expected = std::floor(double(w.abs_difference[p]) / result->heat_scale * 255.0 + 0.5);
+      CHECK(double(w.difference.pixels[p]) == std::min(expected, 255.0));
+    }
+  }
   CHECK(c.worst_heatmap.width == 160);
   CHECK(c.worst_heatmap.height == 90);
+  // Foreground PSNR: guitar on a black background covers part of each view; the background only adds zero
+  // error terms, so psnr - 10·log10(1 / fraction) <= foreground PSNR < psnr (equal when the candidate leaves
+  // the source's background black).
+  for (const auto& v : c.views) {
+    CHECK(v.foreground_fraction > 0.0);
+    CHECK(v.foreground_fraction < 1.0);
+    CHECK(v.foreground_psnr_db < v.psnr_db);
+    CHECK(v.foreground_psnr_db >= v.psnr_db - 10 * std::log10(1.0 / v.foreground_fraction) - 1e-9);
+    CHECK(v.render_seconds > 0.0);
+    CHECK(v.render_seconds <= v.seconds);
+  }
+  CHECK(c.summary.foreground_psnr_min_db <= c.summary.foreground_psnr_mean_db);
+  CHECK(c.scene.load_seconds > 0.0);
+  CHECK(result->source.load_seconds > 0.0);
 
   audit::ReportOptions ro;
   ro.tool_version = "test";
@@ -90,6 +116,11 @@ TEST_CASE("CPU audit of guitar against its conversion") {
   CHECK(j["candidates"][0]["worst_views"].size() == 2);
   CHECK(j["candidates"][0]["worst_views"][0]["source_image"].get<std::string>().rfind("imgs/c0_v", 0) == 0);
   CHECK(j["gate"]["passed"] == true);
+  CHECK(j["heat_scale"].get<float>() == result->heat_scale);
+  CHECK(j["verdict"]["threshold_db"] == audit::kDefaultVerdictThresholdDb);
+  CHECK(j["verdict"]["passed"] == true);
+  CHECK(j["candidates"][0]["verdict"]["worst_view"]["name"] == j["candidates"][0]["worst_view"]);
+  CHECK(j["candidates"][0]["views"][0]["foreground_psnr_db"].get<double>() == c.views[0].foreground_psnr_db);
   CHECK(audit::passes_gate(*result, 40.0));
   CHECK(!audit::passes_gate(*result, 200.0));
 
@@ -116,12 +147,70 @@ TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference, two candidat
     CHECK(v.ssim == doctest::Approx(1.0).epsilon(1e-12));
     CHECK(v.max_abs_diff == 0.f);
   }
-  CHECK(result->candidates[0].worst[0].heat_scale == 0.f);
+  // The shared heatmap scale is the other candidate's: the identical one's heatmap is black on it.
+  CHECK(result->candidates[0].worst[0].heat_scale == result->candidates[1].summary.max_abs_diff);
+  for (uint8_t p : result->candidates[0].worst[0].difference.pixels) CHECK(p == 0);
+  CHECK(std::isinf(result->candidates[0].summary.foreground_psnr_mean_db));
   CHECK(std::isfinite(result->candidates[1].summary.psnr_min_db));
   CHECK(audit::passes_gate(*result, 45.0));
   const auto j = nlohmann::json::parse(audit::audit_json(*result, {}));
   CHECK(j["candidates"][0]["psnr_db"]["min"] == "inf");
   CHECK(j["candidates"][0]["ratio"].get<double>() == doctest::Approx(1.0));
+}
+
+TEST_CASE("verdict: mean PSNR against the threshold, worst view, bytes saved") {
+  audit::AuditResult r;
+  r.source.file_bytes = 1000;
+  r.views = {{"a", 16, 16}, {"b", 16, 16}, {"c", 16, 16}};
+  auto candidate = [](uint64_t bytes, double mean, double min, size_t worst) {
+    audit::CandidateResult c;
+    c.scene.file_bytes = bytes;
+    c.summary.psnr_mean_db = mean;
+    c.summary.psnr_min_db = min;
+    c.summary.worst_view = worst;
+    return c;
+  };
+  r.candidates.push_back(candidate(400, 41.0, 38.0, 2));   // passes 40 on the mean, though a view is below
+  r.candidates.push_back(candidate(1500, 39.99, 35.0, 0)); // larger than the source, and below 40
+  r.candidates.push_back(candidate(0, 60.0, 59.0, 1));     // an attribution scene: no file, no size
+  r.candidates.push_back(candidate(10, std::numeric_limits<double>::infinity(),
+                                   std::numeric_limits<double>::infinity(), 0));
+
+  const audit::Verdict a = audit::verdict(r, 0, 40.0);
+  CHECK(a.passed);
+  CHECK(a.threshold_db == 40.0);
+  CHECK(a.psnr_mean_db == 41.0);
+  CHECK(a.worst_view == "c");
+  CHECK(a.worst_psnr_db == 38.0);
+  REQUIRE(a.bytes_saved.has_value());
+  CHECK(*a.bytes_saved == 600);
+  CHECK(a.bytes_saved_fraction == doctest::Approx(0.6));
+  CHECK(audit::verdict(r, 0, 41.0).passed);    // at the threshold: passes
+  CHECK(!audit::verdict(r, 0, 41.01).passed);
+
+  const audit::Verdict b = audit::verdict(r, 1, 40.0);
+  CHECK(!b.passed);
+  CHECK(b.worst_view == "a");
+  REQUIRE(b.bytes_saved.has_value());
+  CHECK(*b.bytes_saved == -500);
+  CHECK(b.bytes_saved_fraction == doctest::Approx(-0.5));
+
+  CHECK(!audit::verdict(r, 2, 40.0).bytes_saved.has_value());
+  CHECK(audit::verdict(r, 3, 1000.0).passed);  // identical renders pass any threshold
+
+  audit::ReportOptions ro;
+  ro.threshold_db = 40.0;
+  const auto j = nlohmann::json::parse(audit::audit_json(r, ro));
+  CHECK(j["verdict"]["threshold_db"] == 40.0);
+  CHECK(j["verdict"]["passed"] == false);  // candidate 1 fails
+  CHECK(j["candidates"][0]["verdict"]["passed"] == true);
+  CHECK(j["candidates"][0]["verdict"]["bytes_saved"] == 600);
+  CHECK(j["candidates"][0]["verdict"]["worst_view"]["name"] == "c");
+  CHECK(j["candidates"][1]["verdict"]["passed"] == false);
+  CHECK(j["candidates"][2]["verdict"]["bytes_saved"].is_null());
+  CHECK(j["candidates"][3]["verdict"]["psnr_mean_db"] == "inf");
+  ro.threshold_db = 30.0;
+  CHECK(nlohmann::json::parse(audit::audit_json(r, ro))["verdict"]["passed"] == true);
 }
 
 TEST_CASE("attribution: the source with one attribute group from the candidate, the INT8 DC term costing most") {

@@ -129,6 +129,78 @@ TEST_CASE("compare_images: RGBA input, maximum difference and its map") {
   CHECK(m->ssim == *ssim_rgb(rgb, other, w, h));
 }
 
+/// [H, W, 4] RGBA, black and transparent.
+std::vector<float> black_rgba(uint32_t w, uint32_t h) { return std::vector<float>(size_t{w} * h * 4, 0.f); }
+
+TEST_CASE("foreground PSNR: over the source's non-background pixels only") {
+  const uint32_t w = 20, h = 12;
+  auto ref = black_rgba(w, h);
+  // Foreground: a 5x4 block of grey at alpha 0.5.
+  for (uint32_t y = 2; y < 6; ++y) {
+    for (uint32_t x = 3; x < 8; ++x) {
+      float* p = &ref[(size_t{y} * w + x) * 4];
+      p[0] = p[1] = p[2] = 0.5f;
+      p[3] = 0.5f;
+    }
+  }
+  auto cand = ref;
+  for (size_t p = 0; p < size_t{w} * h; ++p) {
+    if (ref[p * 4 + 3] > 0.f) cand[p * 4 + 1] += 0.1f;  // green off by 0.1 on the foreground
+  }
+  auto f = rgs::audit::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  REQUIRE(f.ok());
+  CHECK(f->pixels == 20);
+  CHECK(f->total_pixels == w * h);
+  // MSE over the foreground: one of three values off by d (0.1 in float arithmetic) -> d² / 3.
+  const double d = double(0.5f + 0.1f) - 0.5;
+  CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / (d * d))).epsilon(1e-12));
+  // The whole frame adds 220 black pixels with no error: inflated by exactly 10·log10(240 / 20) dB.
+  auto whole = rgs::audit::compare_images({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  REQUIRE(whole.ok());
+  CHECK(whole->psnr_db - f->psnr_db == doctest::Approx(10 * std::log10(240.0 / 20.0)).epsilon(1e-9));
+
+  // A pixel with alpha > 0 but black colour (a dark splat) and one with colour but alpha 0 both count.
+  ref[(size_t{10} * w + 15) * 4 + 3] = 0.2f;
+  ref[(size_t{0} * w + 0) * 4 + 2] = 0.3f;
+  cand = ref;
+  auto same = rgs::audit::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  REQUIRE(same.ok());
+  CHECK(same->pixels == 22);
+  CHECK(std::isinf(same->psnr_db));
+
+  // A candidate's stray colour on the source's background is not in the foreground PSNR.
+  cand[(size_t{11} * w + 19) * 4 + 0] = 1.f;
+  auto stray = rgs::audit::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  REQUIRE(stray.ok());
+  CHECK(std::isinf(stray->psnr_db));
+  CHECK(std::isfinite(rgs::audit::compare_images({ref.data(), w, h, 4}, {cand.data(), w, h, 4})->psnr_db));
+}
+
+TEST_CASE("foreground PSNR: RGB input (colour decides), no foreground, bad inputs") {
+  const uint32_t w = 12, h = 11;
+  std::vector<float> ref(size_t{w} * h * 3, 0.f), cand(size_t{w} * h * 3, 0.f);
+  ref[(size_t{4} * w + 4) * 3 + 0] = 0.8f;     // one red pixel
+  ref[(size_t{5} * w + 5) * 3 + 1] = -0.5f;    // clamps to 0: background
+  ref[(size_t{6} * w + 6) * 3 + 2] = std::nanf("");  // NaN counts as 0: background
+  cand[(size_t{4} * w + 4) * 3 + 0] = 0.6f;
+  auto f = rgs::audit::foreground_psnr({ref.data(), w, h, 3}, {cand.data(), w, h, 3});
+  REQUIRE(f.ok());
+  CHECK(f->pixels == 1);
+  const double d = double(0.8f) - double(0.6f);
+  CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / (d * d))).epsilon(1e-12));
+
+  const std::vector<float> black(size_t{w} * h * 3, 0.f);
+  auto none = rgs::audit::foreground_psnr({black.data(), w, h, 3}, {cand.data(), w, h, 3});
+  REQUIRE(none.ok());
+  CHECK(none->pixels == 0);
+  CHECK(std::isnan(none->psnr_db));
+
+  CHECK(rgs::audit::foreground_psnr({ref.data(), w, h, 3}, {cand.data(), w, h - 1, 3}).status().code() ==
+        rgs::StatusCode::kInvalidArgument);
+  CHECK(rgs::audit::foreground_psnr({nullptr, w, h, 3}, {cand.data(), w, h, 3}).status().code() ==
+        rgs::StatusCode::kInvalidArgument);
+}
+
 TEST_CASE("compare_images: bad inputs are kInvalidArgument") {
   const auto a = random_image(12, 12, 6);
   CHECK(rgs::audit::compare_images({a.data(), 12, 12, 3}, {a.data(), 12, 11, 3}).status().code() ==

@@ -59,7 +59,13 @@ struct ViewMetrics {
   double psnr_db = 0;   ///< +inf when the clamped images are equal
   double ssim = 0;
   float max_abs_diff = 0;
+  /// PSNR over the source render's foreground (foreground_psnr: alpha or colour not the black background);
+  /// +inf when equal there, NaN when the view has no foreground pixel.
+  double foreground_psnr_db = 0;
+  double foreground_fraction = 0;  ///< foreground pixels / W·H of the source render
   double seconds = 0;   ///< wall time of this candidate's render and comparison (CPU: both renders' share)
+  /// Wall time of this candidate's render alone, seconds (CUDA: until the device finished it).
+  double render_seconds = 0;
 };
 
 /// An 8-bit image, row-major, top row first.
@@ -74,9 +80,14 @@ struct ViewImages {
   double psnr_db = 0;
   Image8 source;       ///< clamped linear RGB × 255, 3DGS rounding floor(v·255 + 0.5)
   Image8 candidate;
-  /// Grey: per-pixel max over R, G, B of |Δ| (box maximum when reduced), scaled so heat_scale is 255.
+  /// [H, W] float32 of the reduced size: per-pixel max over R, G, B of |Δ| of the clamped values (box maximum
+  /// when reduced, so that single pixels stay visible).
+  std::vector<float> abs_difference;
+  /// Grey: abs_difference scaled so that heat_scale is 255, floor(v / heat_scale · 255 + 0.5), clamped.
   Image8 difference;
-  float heat_scale = 0;  ///< the |Δ| that maps to 255 (the view's maximum; 0 when the images are equal)
+  /// The |Δ| that maps to 255: AuditResult::heat_scale, one scale for every view of every candidate (0 when
+  /// no candidate differs from the source anywhere).
+  float heat_scale = 0;
 };
 
 /// Per-attribute errors of a candidate against the source (only when both have the same Gaussians).
@@ -92,6 +103,9 @@ struct AttributeReport {
 struct Summary {
   double psnr_mean_db = 0, psnr_min_db = 0;  ///< the mean of the per-view dB values
   double ssim_mean = 0, ssim_min = 0;
+  /// Mean and minimum of the per-view foreground PSNR over the views that have a foreground (NaN: none has).
+  double foreground_psnr_mean_db = 0, foreground_psnr_min_db = 0;
+  double render_seconds = 0;  ///< sum of the views' render_seconds
   float max_abs_diff = 0;  ///< over all views
   size_t worst_view = 0;   ///< lowest PSNR (first of equals)
 };
@@ -104,7 +118,9 @@ struct CandidateResult {
   std::vector<ViewMetrics> views;  ///< one per AuditResult::views entry
   Summary summary;
   std::vector<ViewImages> worst;  ///< lowest PSNR first, at most AuditOptions::worst_views
-  Image8 worst_heatmap;  ///< full-size difference of the worst view (keep_worst_heatmap, first candidate)
+  /// Full-size difference of the worst view (keep_worst_heatmap, first candidate), grey, scaled like the
+  /// report's images (AuditResult::heat_scale is 255).
+  Image8 worst_heatmap;
 };
 
 /// A view as rendered.
@@ -120,6 +136,9 @@ struct AuditResult {
   SceneInfo source;
   std::vector<ViewInfo> views;
   std::vector<CandidateResult> candidates;
+  /// The heatmaps' one scale: the largest |Δ| of any view of any candidate (the |Δ| shown as 255; 0 when every
+  /// candidate renders every view exactly like the source).
+  float heat_scale = 0;
   double render_seconds = 0;  ///< the per-view loop (uploads and CUDA set-up included)
 };
 

@@ -2,6 +2,7 @@
 // that the HTML report (scripts/audit_report.py) embeds.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
@@ -19,11 +20,34 @@ inline constexpr const char* kAuditSchemaName = "rgs-audit";
 /// Version 1 was the single-candidate report of earlier rgs-audit releases (no schema field).
 inline constexpr int kAuditSchemaVersion = 2;
 
+/// Default threshold of the report's verdict (rgs-audit --threshold): a candidate passes when its mean PSNR
+/// over the views is at least this many dB.
+inline constexpr double kDefaultVerdictThresholdDb = 40.0;
+
+/// The report's first line for one candidate: pass or fail against a mean-PSNR threshold, its worst view and
+/// the bytes it saves against the source file.
+struct Verdict {
+  bool passed = false;        ///< psnr_mean_db ≥ threshold_db (an identical image's +inf passes any threshold)
+  double threshold_db = 0;    ///< dB
+  double psnr_mean_db = 0;    ///< the candidate's mean over the views, dB (+inf when every view is identical)
+  std::string worst_view;     ///< name of the view of lowest PSNR
+  double worst_psnr_db = 0;   ///< its PSNR, dB
+  /// Source file bytes minus candidate file bytes (negative when the candidate is larger); empty for a scene
+  /// not read from a file (--attribution), which has no size.
+  std::optional<int64_t> bytes_saved;
+  double bytes_saved_fraction = 0;  ///< bytes_saved / source bytes (0 without bytes_saved)
+};
+
+/// The verdict of candidate `candidate` (index into result.candidates) against `threshold_db`.
+/// Precondition: candidate < result.candidates.size() and the result has at least one view (run_audit's).
+Verdict verdict(const AuditResult& result, size_t candidate, double threshold_db);
+
 /// What the JSON carries besides the result.
 struct ReportOptions {
   std::string tool_version;        ///< e.g. RGS_VERSION_STRING
   std::string command_line;        ///< as run, for the record
   std::optional<double> min_psnr_db;  ///< the gate, when one was asked for
+  double threshold_db = kDefaultVerdictThresholdDb;  ///< the verdict's mean-PSNR threshold, dB
   double total_seconds = 0;        ///< loading included
   /// Folder of the images relative to the JSON file (e.g. "flowers_files/"), as written by
   /// write_report_images; empty: the JSON names no images.

@@ -36,6 +36,9 @@ struct SceneInfo {
   uint64_t overhead_bytes = 0;
   /// What the reader noted (converter::InputScene::notes: the SPZ axes assumed, ignored fields).
   std::vector<std::string> notes;
+  /// Wall time of load_audit_scene for this file, seconds: reading, decoding and (.rgs) the section table;
+  /// 0 for a scene not read from a file (attribution_scenes).
+  double load_seconds = 0;
 };
 
 /// A scene loaded for the audit: decoded float Gaussians as a renderer sees them.

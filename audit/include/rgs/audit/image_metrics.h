@@ -50,6 +50,26 @@ struct ImageMetrics {
 /// Deterministic; single-threaded; float64 accumulation. Memory: about 7 float64 planes of H·W.
 Result<ImageMetrics> compare_images(const ImageRef& a, const ImageRef& b, std::vector<float>* diff = nullptr);
 
+/// PSNR over the foreground of a reference render (the audit's renders have a black background).
+struct ForegroundPsnr {
+  /// PSNR in dB over the 3·`pixels` clamped R, G, B values of the foreground pixels (peak 1, MSE in float64);
+  /// +inf when they are equal there; NaN when the reference has no foreground pixel.
+  double psnr_db = 0;
+  /// Foreground pixels: those of the reference whose alpha (channel 3, when it has 4 or more channels) is above
+  /// 0 or whose clamped R, G or B is above 0. The rest is black background, equal in both renders of a
+  /// faithful candidate, and would only add zeros to the whole-frame MSE (raising its PSNR by
+  /// 10·log10(total / foreground pixels) dB for the same error).
+  uint64_t pixels = 0;
+  uint64_t total_pixels = 0;  ///< W·H
+};
+
+/// PSNR of `candidate` against `reference` over the reference's foreground pixels (ForegroundPsnr::pixels).
+/// The mask is the reference's alone, so every candidate of one source is measured over the same pixels; a
+/// candidate's stray colour on the reference's background counts only in the whole-frame PSNR.
+/// @return kInvalidArgument when sizes differ, a pointer is null, channels < 3 or a side is below 11 pixels
+///         (compare_images' checks). Deterministic; single-threaded; float64 accumulation.
+Result<ForegroundPsnr> foreground_psnr(const ImageRef& reference, const ImageRef& candidate);
+
 /// PSNR in dB of two [H, W, 3] float RGB images, each value clamped to [0, 1] first (peak 1), over all
 /// H·W·3 values, MSE accumulated in float64: 10·log10(1 / MSE). +inf when the clamped images are equal.
 /// @return kInvalidArgument when the sizes differ from width·height·3 or are 0.
