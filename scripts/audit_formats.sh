@@ -40,7 +40,7 @@ convert archive "$out/$name.archive.rgs" --profile archive
 convert spz "$out/$name.spz" --to spz
 convert glb "$out/$name.glb" --to glb
 candidates=("$out/$name.runtime.rgs" "$out/$name.int8dc.rgs" "$out/$name.zstd.rgs" "$out/$name.archive.rgs" "$out/$name.spz" "$out/$name.glb")
-labels=(--label runtime --label zstd --label archive --label spz --label glb)
+labels=(--label runtime --label int8dc --label zstd --label archive --label spz --label glb)
 for f in "${extra[@]}"; do
   candidates+=("$f")
   labels+=(--label "$(basename "$f")")

@@ -253,7 +253,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   GpuImageComparer comparer;
 #endif
   std::optional<api::Image> source_image, candidate_image;
-  std::vector<float> source_host, candidate_host;  // GPU images copied for the foreground PSNR and the report
+  std::vector<float> source_host, candidate_host;  // GPU images copied for the report
   std::vector<float> worst_heatmap;                // the first candidate's worst view, full size (|Δ|)
   std::pair<uint32_t, uint32_t> worst_heatmap_size{0, 0};
 
@@ -296,12 +296,8 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       vm.max_abs_diff = m.max_abs_diff;
       vm.render_seconds = render_seconds;
       progress.psnr_db.push_back(m.psnr_db);
-      // The foreground PSNR on the host (GPU images: one copy of each, reused for the report's images).
-      RGS_ASSIGN_OR_RETURN(const ImageRef source_pixels, host_pixels(*source_image, &source_host));
-      RGS_ASSIGN_OR_RETURN(const ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
-      RGS_ASSIGN_OR_RETURN(const ForegroundPsnr foreground, foreground_psnr(source_pixels, candidate_pixels));
-      vm.foreground_psnr_db = foreground.psnr_db;
-      vm.foreground_fraction = double(foreground.pixels) / double(foreground.total_pixels);
+      vm.foreground_psnr_db = m.foreground.psnr_db;
+      vm.foreground_fraction = double(m.foreground.pixels) / double(m.foreground.total_pixels);
 
       const bool new_worst = v == 0 || m.psnr_db < c.views[c.summary.worst_view].psnr_db;
       if (new_worst) c.summary.worst_view = v;
@@ -310,6 +306,9 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
           (c.worst.size() < options.worst_views || m.psnr_db < c.worst.back().psnr_db);
       const bool keep_heatmap = options.keep_worst_heatmap && i == 0 && new_worst;
       if (keep_images || keep_heatmap) {
+        // GPU images are copied to the host only here (once per view and scene).
+        RGS_ASSIGN_OR_RETURN(const ImageRef source_pixels, host_pixels(*source_image, &source_host));
+        RGS_ASSIGN_OR_RETURN(const ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
         if (keep_images) {
           const uint32_t f = reduction_factor(cam.width, cam.height, options.image_max_side);
           ViewImages vi;

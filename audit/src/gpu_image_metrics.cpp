@@ -47,6 +47,8 @@ Result<ImageMetrics> GpuImageComparer::compare(const float* a, const float* b, u
   for (int c = 0; c < 3; ++c) total += sums->ssim[c] / windows;
   m.ssim = total / 3.0;
   m.max_abs_diff = sums->max_abs_diff;
+  m.foreground = foreground_from_sum(sums->foreground_squared_error, uint64_t(sums->foreground_pixels),
+                                     uint64_t(width) * height);
   return m;
 }
 

@@ -123,33 +123,50 @@ std::array<double, kSsimWindow> ssim_window_weights() {
   return g;
 }
 
+namespace {
+
+/// foreground_psnr without the checks (the caller has made them).
+ForegroundPsnr foreground_of(const ImageRef& reference, const ImageRef& candidate) {
+  const uint64_t total = uint64_t{reference.width} * reference.height;
+  uint64_t pixels = 0;
+  double sum = 0;
+  for (size_t p = 0; p < total; ++p) {
+    const float* r = reference.data + p * reference.channels;
+    const float* c = candidate.data + p * candidate.channels;
+    const bool covered = reference.channels >= 4 && r[3] > 0.f;  // NaN alpha: not covered
+    if (!covered && clamp01(r[0]) == 0.0 && clamp01(r[1]) == 0.0 && clamp01(r[2]) == 0.0) continue;
+    ++pixels;
+    for (size_t ch = 0; ch < 3; ++ch) {
+      const double d = clamp01(r[ch]) - clamp01(c[ch]);
+      sum += d * d;
+    }
+  }
+  return foreground_from_sum(sum, pixels, total);
+}
+
+}  // namespace
+
 Result<ImageMetrics> compare_images(const ImageRef& a, const ImageRef& b, std::vector<float>* diff) {
   RGS_RETURN_IF_ERROR(check_pair(a, b));
   ImageMetrics m;
   const double sum = squared_error_sum(a, b, &m.max_abs_diff, diff);
   m.psnr_db = psnr_from_sum(sum, size_t{a.width} * a.height * 3);
   m.ssim = ssim_of(a, b);
+  m.foreground = foreground_of(a, b);
   return m;
+}
+
+ForegroundPsnr foreground_from_sum(double squared_sum, uint64_t pixels, uint64_t total_pixels) {
+  ForegroundPsnr f;
+  f.pixels = pixels;
+  f.total_pixels = total_pixels;
+  f.psnr_db = pixels == 0 ? std::numeric_limits<double>::quiet_NaN() : psnr_from_sum(squared_sum, pixels * 3);
+  return f;
 }
 
 Result<ForegroundPsnr> foreground_psnr(const ImageRef& reference, const ImageRef& candidate) {
   RGS_RETURN_IF_ERROR(check_pair(reference, candidate));
-  ForegroundPsnr f;
-  f.total_pixels = uint64_t{reference.width} * reference.height;
-  double sum = 0;
-  for (size_t p = 0; p < f.total_pixels; ++p) {
-    const float* r = reference.data + p * reference.channels;
-    const float* c = candidate.data + p * candidate.channels;
-    const bool covered = reference.channels >= 4 && r[3] > 0.f;  // NaN alpha: not covered
-    if (!covered && clamp01(r[0]) == 0.0 && clamp01(r[1]) == 0.0 && clamp01(r[2]) == 0.0) continue;
-    ++f.pixels;
-    for (size_t ch = 0; ch < 3; ++ch) {
-      const double d = clamp01(r[ch]) - clamp01(c[ch]);
-      sum += d * d;
-    }
-  }
-  f.psnr_db = f.pixels == 0 ? std::numeric_limits<double>::quiet_NaN() : psnr_from_sum(sum, f.pixels * 3);
-  return f;
+  return foreground_of(reference, candidate);
 }
 
 Result<double> psnr_rgb(const std::vector<float>& a, const std::vector<float>& b, uint32_t width, uint32_t height) {

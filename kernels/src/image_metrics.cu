@@ -36,24 +36,38 @@ __device__ inline double block_sum(double v, double* shared) {
   return total;
 }
 
-__global__ void __launch_bounds__(detail::kBlockSize)
-    pixel_metrics_kernel(ImageMetricsParams p, double* __restrict__ sse_partials, float* __restrict__ max_partials) {
+/// Per-block partial sums of the pixel kernel: squared error (whole frame, foreground), foreground pixels.
+struct PixelPartials {
+  double* sse;
+  double* foreground_sse;
+  double* foreground_pixels;
+  float* maxima;
+};
+
+__global__ void __launch_bounds__(detail::kBlockSize) pixel_metrics_kernel(ImageMetricsParams p, PixelPartials out) {
   __shared__ double sums[detail::kBlockSize];
   __shared__ float maxima[detail::kBlockSize];
   const uint64_t pixels = uint64_t(p.width) * p.height;
   const uint64_t pix = uint64_t(blockIdx.x) * detail::kBlockSize + threadIdx.x;
   double se = 0;
   float largest = 0.f;
+  bool foreground = false;
   if (pix < pixels) {
+    // NaN alpha is not covered, as on the CPU (rgs::audit::foreground_psnr).
+    foreground = p.channels >= 4 && p.a[pix * p.channels + 3] > 0.f;
     for (uint32_t c = 0; c < 3; ++c) {
       // float64 difference of the clamped values, as the CPU reference (clamp01 in double is exact).
-      const double d = double(clamp01(p.a[pix * p.channels + c])) - double(clamp01(p.b[pix * p.channels + c]));
+      const float a = clamp01(p.a[pix * p.channels + c]);
+      const double d = double(a) - double(clamp01(p.b[pix * p.channels + c]));
       se += d * d;
       largest = fmaxf(largest, float(fabs(d)));
+      foreground = foreground || a > 0.f;
     }
     if (p.diff != nullptr) p.diff[pix] = largest;
   }
   const double total = block_sum<detail::kBlockSize>(se, sums);
+  const double foreground_total = block_sum<detail::kBlockSize>(foreground ? se : 0.0, sums);
+  const double foreground_count = block_sum<detail::kBlockSize>(foreground ? 1.0 : 0.0, sums);
   maxima[threadIdx.x] = largest;
   __syncthreads();
   for (int stride = detail::kBlockSize / 2; stride > 0; stride /= 2) {
@@ -61,8 +75,10 @@ __global__ void __launch_bounds__(detail::kBlockSize)
     __syncthreads();
   }
   if (threadIdx.x == 0) {
-    sse_partials[blockIdx.x] = total;
-    max_partials[blockIdx.x] = maxima[0];
+    out.sse[blockIdx.x] = total;
+    out.foreground_sse[blockIdx.x] = foreground_total;
+    out.foreground_pixels[blockIdx.x] = foreground_count;
+    out.maxima[blockIdx.x] = maxima[0];
   }
 }
 
@@ -129,19 +145,22 @@ __global__ void __launch_bounds__(kSsimThreads) ssim_kernel(ImageMetricsParams p
 }
 
 __global__ void __launch_bounds__(kReduceThreads)
-    reduce_metrics_kernel(const double* __restrict__ sse_partials, const float* __restrict__ max_partials,
-                          uint32_t pixel_blocks, const double* __restrict__ ssim_partials, uint32_t ssim_blocks,
-                          ImageMetricsSums* __restrict__ sums) {
+    reduce_metrics_kernel(PixelPartials partials, uint32_t pixel_blocks, const double* __restrict__ ssim_partials,
+                          uint32_t ssim_blocks, ImageMetricsSums* __restrict__ sums) {
   __shared__ double shared[kReduceThreads];
   __shared__ float maxima[kReduceThreads];
   const int t = threadIdx.x;
-  double se = 0;
+  double se = 0, foreground_se = 0, foreground_pixels = 0;
   float largest = 0.f;
   for (uint32_t i = t; i < pixel_blocks; i += kReduceThreads) {
-    se += sse_partials[i];
-    largest = fmaxf(largest, max_partials[i]);
+    se += partials.sse[i];
+    foreground_se += partials.foreground_sse[i];
+    foreground_pixels += partials.foreground_pixels[i];
+    largest = fmaxf(largest, partials.maxima[i]);
   }
   const double se_total = block_sum<kReduceThreads>(se, shared);
+  const double foreground_se_total = block_sum<kReduceThreads>(foreground_se, shared);
+  const double foreground_pixels_total = block_sum<kReduceThreads>(foreground_pixels, shared);
   maxima[t] = largest;
   __syncthreads();
   for (int stride = kReduceThreads / 2; stride > 0; stride /= 2) {
@@ -156,6 +175,8 @@ __global__ void __launch_bounds__(kReduceThreads)
   }
   if (t == 0) {
     sums->squared_error = se_total;
+    sums->foreground_squared_error = foreground_se_total;
+    sums->foreground_pixels = foreground_pixels_total;
     sums->max_abs_diff = maxima[0];
     for (int c = 0; c < 3; ++c) sums->ssim[c] = ssim_total[c];
   }
@@ -165,7 +186,7 @@ struct Layout {
   uint32_t pixel_blocks = 0;
   dim3 ssim_grid;
   uint32_t ssim_blocks = 0;
-  size_t sse_offset = 0, ssim_offset = 0, max_offset = 0, bytes = 0;
+  size_t sse_offset = 0, foreground_offset = 0, ssim_offset = 0, max_offset = 0, bytes = 0;
 };
 
 size_t align16(size_t v) { return (v + 15) / 16 * 16; }
@@ -178,7 +199,8 @@ Layout layout_for(uint32_t width, uint32_t height) {
   l.ssim_grid = dim3((ow + kTileW - 1) / kTileW, (oh + kTileH - 1) / kTileH);
   l.ssim_blocks = l.ssim_grid.x * l.ssim_grid.y;
   l.sse_offset = 0;
-  l.ssim_offset = align16(l.sse_offset + size_t(l.pixel_blocks) * sizeof(double));
+  l.foreground_offset = align16(l.sse_offset + size_t(l.pixel_blocks) * sizeof(double));  // sse, then pixels
+  l.ssim_offset = align16(l.foreground_offset + size_t(l.pixel_blocks) * 2 * sizeof(double));
   l.max_offset = align16(l.ssim_offset + size_t(l.ssim_blocks) * 3 * sizeof(double));
   l.bytes = align16(l.max_offset + size_t(l.pixel_blocks) * sizeof(float));
   return l;
@@ -192,17 +214,17 @@ cudaError_t launch_image_metrics(const ImageMetricsParams& params, cudaStream_t 
   if (params.width == 0 || params.height == 0) return cudaSuccess;
   const Layout l = layout_for(params.width, params.height);
   char* scratch = static_cast<char*>(params.scratch);
-  double* sse = reinterpret_cast<double*>(scratch + l.sse_offset);
+  double* foreground = reinterpret_cast<double*>(scratch + l.foreground_offset);
+  const PixelPartials partials{reinterpret_cast<double*>(scratch + l.sse_offset), foreground,
+                               foreground + l.pixel_blocks, reinterpret_cast<float*>(scratch + l.max_offset)};
   double* ssim = reinterpret_cast<double*>(scratch + l.ssim_offset);
-  float* maxima = reinterpret_cast<float*>(scratch + l.max_offset);
-  pixel_metrics_kernel<<<l.pixel_blocks, detail::kBlockSize, 0, stream>>>(params, sse, maxima);
+  pixel_metrics_kernel<<<l.pixel_blocks, detail::kBlockSize, 0, stream>>>(params, partials);
   cudaError_t result = detail::launch_result();
   if (result != cudaSuccess) return result;
   ssim_kernel<<<l.ssim_grid, dim3(kTileW, kThreadsY), 0, stream>>>(params, ssim);
   result = detail::launch_result();
   if (result != cudaSuccess) return result;
-  reduce_metrics_kernel<<<1, kReduceThreads, 0, stream>>>(sse, maxima, l.pixel_blocks, ssim, l.ssim_blocks,
-                                                          params.sums);
+  reduce_metrics_kernel<<<1, kReduceThreads, 0, stream>>>(partials, l.pixel_blocks, ssim, l.ssim_blocks, params.sums);
   return detail::launch_result();
 }
 

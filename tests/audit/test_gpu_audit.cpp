@@ -70,7 +70,7 @@ std::vector<runtime::Camera> flowers_cameras(uint32_t every, uint32_t width) {
   return std::move(cams).value();
 }
 
-TEST_CASE("GPU metrics equal the CPU metrics on real renders") {
+TEST_CASE("GPU metrics equal the CPU metrics on real renders, foreground PSNR included") {
   if (!have_cuda()) return;
   if (!flowers().available) return;
 #if RGS_HAS_CUDA
@@ -103,6 +103,9 @@ TEST_CASE("GPU metrics equal the CPU metrics on real renders") {
       CHECK(std::fabs(gpu->psnr_db - cpu->psnr_db) <= 1e-9);
       CHECK(std::fabs(gpu->ssim - cpu->ssim) <= 1e-12);
       CHECK(gpu->max_abs_diff == cpu->max_abs_diff);
+      CHECK(gpu->foreground.pixels == cpu->foreground.pixels);
+      CHECK(gpu->foreground.pixels > 0);
+      CHECK(std::fabs(gpu->foreground.psnr_db - cpu->foreground.psnr_db) <= 1e-9);
       std::vector<float> gpu_diff(pixels);
       REQUIRE(cudaMemcpy(gpu_diff.data(), ddiff.data(), pixels * 4, cudaMemcpyDeviceToHost) == cudaSuccess);
       CHECK(std::memcmp(gpu_diff.data(), cpu_diff.data(), pixels * 4) == 0);

@@ -33,23 +33,6 @@ struct ImageRef {
   uint32_t channels = 3;
 };
 
-/// The three metrics of one image pair.
-struct ImageMetrics {
-  /// PSNR in dB over the H·W·3 clamped RGB values (peak 1, MSE in float64); +inf when they are equal.
-  double psnr_db = 0;
-  /// Mean SSIM over the valid windows, per channel, averaged over R, G, B (see ssim_rgb).
-  double ssim = 0;
-  /// Largest per-pixel max over R, G, B of |a − b| of the clamped values.
-  float max_abs_diff = 0;
-};
-
-/// Compares two images of the same size: clamps every R, G, B value to [0, 1] first (NaN counts as 0), then
-/// PSNR (psnr_rgb's definition), SSIM (ssim_rgb's) and the maximum difference.
-/// @param diff  optional; receives [H, W] float32, the per-pixel max over R, G, B of |a − b| (clamped values).
-/// @return kInvalidArgument when sizes differ, a pointer is null, channels < 3 or a side is below 11 pixels.
-/// Deterministic; single-threaded; float64 accumulation. Memory: about 7 float64 planes of H·W.
-Result<ImageMetrics> compare_images(const ImageRef& a, const ImageRef& b, std::vector<float>* diff = nullptr);
-
 /// PSNR over the foreground of a reference render (the audit's renders have a black background).
 struct ForegroundPsnr {
   /// PSNR in dB over the 3·`pixels` clamped R, G, B values of the foreground pixels (peak 1, MSE in float64);
@@ -62,6 +45,29 @@ struct ForegroundPsnr {
   uint64_t pixels = 0;
   uint64_t total_pixels = 0;  ///< W·H
 };
+
+/// PSNR over the foreground pixels (ForegroundPsnr::pixels) from their squared-error sum: NaN for no pixel.
+ForegroundPsnr foreground_from_sum(double squared_sum, uint64_t pixels, uint64_t total_pixels);
+
+/// The metrics of one image pair.
+struct ImageMetrics {
+  /// PSNR in dB over the H·W·3 clamped RGB values (peak 1, MSE in float64); +inf when they are equal.
+  double psnr_db = 0;
+  /// Mean SSIM over the valid windows, per channel, averaged over R, G, B (see ssim_rgb).
+  double ssim = 0;
+  /// Largest per-pixel max over R, G, B of |a − b| of the clamped values.
+  float max_abs_diff = 0;
+  /// PSNR over a's foreground (foreground_psnr, with a as the reference).
+  ForegroundPsnr foreground;
+};
+
+/// Compares two images of the same size: clamps every R, G, B value to [0, 1] first (NaN counts as 0), then
+/// PSNR (psnr_rgb's definition), SSIM (ssim_rgb's), the maximum difference and the PSNR over a's foreground.
+/// @param diff  optional; receives [H, W] float32, the per-pixel max over R, G, B of |a − b| (clamped values).
+/// @return kInvalidArgument when sizes differ, a pointer is null, channels < 3 or a side is below 11 pixels.
+/// Deterministic; single-threaded; float64 accumulation. Memory: about 7 float64 planes of H·W.
+Result<ImageMetrics> compare_images(const ImageRef& a, const ImageRef& b, std::vector<float>* diff = nullptr);
+
 
 /// PSNR of `candidate` against `reference` over the reference's foreground pixels (ForegroundPsnr::pixels).
 /// The mask is the reference's alone, so every candidate of one source is measured over the same pixels; a

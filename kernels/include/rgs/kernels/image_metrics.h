@@ -1,5 +1,5 @@
-// Image comparison on the GPU for the audit: PSNR's squared-error sum, SSIM's per-channel window sums and the
-// per-pixel maximum difference of two float images in device memory. The window weights and constants come
+// Image comparison on the GPU for the audit: PSNR's squared-error sum (whole frame and a's foreground), SSIM's
+// per-channel window sums and the per-pixel maximum difference of two float images in device memory. The window weights and constants come
 // from the caller (rgs::audit's CPU reference, audit/include/rgs/audit/image_metrics.h), and every window is
 // evaluated with the CPU reference's float64 operations in its order (the library is built with
 // --fmad=false), so per-window values agree bit for bit; only the order of the final sums differs.
@@ -20,6 +20,10 @@ struct ImageMetricsSums {
   double squared_error = 0;  ///< Σ over H·W·3 values of (clamp(a) − clamp(b))², clamp to [0, 1], NaN → 0
   double ssim[3] = {0, 0, 0};///< Σ of the SSIM map over the (W − 10)·(H − 10) valid windows, per channel
   float max_abs_diff = 0;    ///< max over pixels of max over R, G, B of |clamp(a) − clamp(b)|
+  /// The squared-error sum and the pixel count over a's foreground: pixels whose alpha (channel 3, with 4 or
+  /// more channels) is above 0 or whose clamped R, G or B is above 0 (rgs::audit::foreground_psnr's mask).
+  double foreground_squared_error = 0;
+  double foreground_pixels = 0;
 };
 
 /// Inputs and outputs of one comparison. Pointers are device memory.
