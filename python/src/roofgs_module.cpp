@@ -605,7 +605,7 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
     } else if (key == "zstd_level") {
       o.zstd_level = value.cast<int>();
     } else if (key == "position_error") {
-      o.position_error = value.cast<double>();
+      o.archive.position_error = value.cast<double>();
     } else if (key == "sh_degree") {
       o.sh_degree = value.cast<std::optional<uint32_t>>();
     } else if (key == "lod") {
