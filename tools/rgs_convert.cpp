@@ -5,6 +5,8 @@
 //   rgs-convert scene.rgs restored.ply                dequantize to a PLY other 3DGS tools load
 //   rgs-convert scene.sog scene.spz --sh-degree 1     any input to any output, dropping SH bands
 //   cat scene.ply | rgs-convert - scene.rgs --json -  read standard input, JSON summary on standard output
+//   rgs-convert scene.ply scene.rgs --target-psnr 40 --cameras cameras.json --every 8 --width 960
+//                                                     the archive profile's settings for 40 dB (audit::fit_archive)
 //
 // The output format follows --to, else the output's extension (.rgs, .ply, .spz, .glb); a name whose
 // extension is another of these four than --to says is a usage error.
@@ -16,6 +18,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
@@ -24,6 +28,9 @@
 #include "cli_common.h"
 #include "progress_line.h"
 #include "rgs/api/convert.h"
+#include "rgs/api/scene.h"
+#include "rgs/api/scene_loading.h"
+#include "rgs/audit/rate_control.h"
 #include "rgs/config.h"
 
 namespace {
@@ -37,9 +44,18 @@ struct Options {
   std::string to;  ///< --to: rgs, ply, spz or glb; empty: the output's extension decides
   std::string scale_encoding = "linear";
   std::string profile = "runtime";
+  bool profile_defaulted = true;  ///< --profile not given
   std::string json_path;  ///< "-": standard output, instead of the text summary
   bool quiet = false;
   api::ConvertOptions convert;  ///< everything else, parsed straight into the library's options
+  /// Rate control (--target-psnr, --target-bytes) and the views it measures on.
+  std::optional<double> target_psnr;
+  std::optional<uint64_t> target_bytes;
+  api::CameraChoice cameras;
+  /// Rate control's choice and what it measured, once run.
+  std::optional<audit::FitResult> fit;
+
+  bool rate_control() const { return target_psnr || target_bytes; }
 
   bool json_to_stdout() const { return json_path == "-"; }
   /// The text summary goes to stdout unless -q or the JSON takes its place.
@@ -96,6 +112,33 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
                 {"sh_clamped", r.spz->sh_clamped},
                 {"frame", converter::spz_frame_name(opt.convert.read.spz_frame)}};
   }
+  if (opt.fit) {
+    const audit::FitResult& f = *opt.fit;
+    const format::ArchiveOptions& a = f.chosen.options;
+    nlohmann::json target;
+    if (opt.target_psnr) target["psnr_db"] = *opt.target_psnr;
+    if (opt.target_bytes) target["bytes"] = *opt.target_bytes;
+    j["rate_control"] = {
+        {"target", target},
+        {"psnr_mean_db", f.chosen.psnr_mean_db},
+        {"psnr_min_db", f.chosen.psnr_min_db},
+        {"search_psnr_db", f.search_psnr_db},
+        {"settings", {{"position_error", a.position_error},
+                      {"rotation_bits", a.rotation_bits},
+                      {"scale_bits", a.scale_bits},
+                      {"opacity_bits", a.opacity_bits},
+                      {"sh_step_multipliers", a.sh_step_multipliers}}},
+        {"views", f.views},
+        {"width", f.width},
+        {"height", f.height},
+        {"search_width", f.search_width},
+        {"search_height", f.search_height},
+        {"backend", audit::backend_name(f.backend)},
+        {"device", f.device},
+        {"encodings", f.encodings},
+        {"renders", f.renders},
+        {"seconds", f.seconds}};
+  }
   if (r.rgs) {
     const api::RgsOutputReport& q = *r.rgs;
     nlohmann::json sh = nlohmann::json::array();
@@ -131,7 +174,7 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
     std::printf("  profile          archive: %s B/Gaussian, position step %s (%u bits, error <= %s of the extent "
                 "per coordinate); the errors below are the decoded archive's against the input\n",
                 tools::fixed(double(r.output_bytes) / double(std::max<uint64_t>(r.gaussians, 1)), 2).c_str(),
-                tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.position_error).c_str());
+                tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.archive.position_error).c_str());
   } else {
     std::printf("  profile          runtime\n");
   }
@@ -187,6 +230,22 @@ void note_larger_than_input(const Options& opt, const api::ConvertReport& r) {
                                 ")" + hint);
 }
 
+/// Rate control's rows of the text summary: the target, what the written archive reached, its settings.
+void print_fit(const Options& opt, const api::ConvertReport& r, const audit::FitResult& f) {
+  const std::string target = opt.target_psnr ? "mean PSNR >= " + tools::fixed(*opt.target_psnr, 2) + " dB"
+                                             : "at most " + tools::group_digits(*opt.target_bytes) + " bytes";
+  std::printf("  rate control     %s: reached %s dB mean (lowest view %s dB) over %u views at %ux%u, "
+              "render against the input's render (%s)\n",
+              target.c_str(), tools::fixed(f.chosen.psnr_mean_db, 2).c_str(),
+              tools::fixed(f.chosen.psnr_min_db, 2).c_str(), f.views, f.width, f.height,
+              audit::backend_name(f.backend));
+  std::printf("  settings         %s\n",
+              audit::describe_archive_options(f.chosen.options, r.sh_degree).c_str());
+  std::printf("  search           %u archives encoded, %u rendered at %ux%u (%s dB there), %s s\n", f.encodings,
+              f.renders, f.search_width, f.search_height, tools::fixed(f.search_psnr_db, 2).c_str(),
+              tools::fixed(f.seconds, 1).c_str());
+}
+
 void print_summary(const Options& opt, const api::ConvertReport& r) {
   const double per_gaussian = r.gaussians ? 1.0 / static_cast<double>(r.gaussians) : 0.0;
   std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output).c_str());
@@ -206,6 +265,7 @@ void print_summary(const Options& opt, const api::ConvertReport& r) {
               tools::group_digits(h.infinite_opacity_logits).c_str(), tools::group_digits(h.dropped_gaussians).c_str());
   for (const std::string& note : r.input_notes) std::printf("  input note       %s\n", tools::escape_text(note).c_str());
   for (const std::string& note : r.output_notes) std::printf("  output note      %s\n", tools::escape_text(note).c_str());
+  if (opt.fit) print_fit(opt, r, *opt.fit);
   if (r.rgs) print_rgs_errors(opt, r);
   std::printf("  time             %s s (read %s, quantize + measure %s, write %s)\n",
               tools::fixed(r.seconds.total, 3).c_str(), tools::fixed(r.seconds.read, 3).c_str(),
@@ -223,6 +283,25 @@ int run(Options& opt) {
   const auto output_format = api::output_format_for(opt.output, opt.convert.to);
   if (!output_format.ok()) return tools::report_usage_error(kTool, output_format.status());
   opt.convert.to = *output_format;
+  const bool camera_option = !opt.cameras.cameras_path.empty() || opt.cameras.orbit || opt.cameras.path ||
+                             opt.cameras.limit || opt.cameras.width || opt.cameras.height;
+  if (opt.rate_control()) {
+    const char* flag = opt.target_psnr ? "--target-psnr" : "--target-bytes";
+    std::string why;
+    if (*output_format != api::OutputFormat::kRgs) why = std::string(flag) + " chooses the archive profile of a .rgs output";
+    if (opt.profile == "runtime" && !opt.profile_defaulted) why = std::string(flag) + " writes the archive profile, not --profile runtime";
+    if (opt.input == "-") why = std::string(flag) + " reads the input twice: name a file, not standard input";
+    if (!why.empty()) return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, why));
+    opt.profile = "archive";
+    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) opt.cameras.orbit = 4;
+    opt.cameras.orbit_width = 960;
+    opt.cameras.orbit_height = 540;
+  } else if (camera_option) {
+    return tools::report_usage_error(
+        kTool, Status(StatusCode::kInvalidArgument,
+                      "--cameras, --orbit, --path, --limit, --width and --height choose the views of --target-psnr "
+                      "or --target-bytes"));
+  }
   opt.convert.scale_encoding = opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
   opt.convert.profile = opt.profile == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
   opt.convert.read = tools::scene_read_options();  // --lod included
@@ -232,6 +311,9 @@ int run(Options& opt) {
   if (opt.input != "-") {
     // The scene and every file it names are inputs: no output may replace one of them.
     if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
+  }
+  if (!opt.cameras.cameras_path.empty()) {
+    if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) return code;
   }
   if (int code = tools::declare_output(kTool, outputs, opt.output); code != tools::kExitOk) return code;
   if (!opt.json_path.empty() && !opt.json_to_stdout()) {
@@ -244,7 +326,28 @@ int run(Options& opt) {
   tools::ProgressLine progress(stderr, kTool, !opt.quiet && tools::stderr_is_terminal());
   opt.convert.progress = [&progress](const api::ConvertProgress& p) { progress.update(p); };
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
-  if (opt.input == "-") {
+  if (opt.rate_control()) {
+    audit::FitOptions fit;
+    fit.goal = opt.target_psnr ? audit::FitGoal::kTargetPsnr : audit::FitGoal::kTargetBytes;
+    fit.target_psnr_db = opt.target_psnr.value_or(0);
+    fit.target_bytes = opt.target_bytes.value_or(0);
+    std::string why;
+    fit.audit.backend = api::cuda_available(&why) ? audit::Backend::kCuda : audit::Backend::kCpu;
+    if (!opt.quiet) {
+      fit.progress = [&progress](const std::string& line) {
+        const std::string stage = "rate control, " + line;
+        progress.update({stage.c_str(), 0.0});
+      };
+    }
+    auto fitted = audit::convert_fitted(opt.input, opt.output, opt.convert, opt.cameras, fit);
+    if (fitted.ok()) {
+      opt.fit = std::move(fitted->fit);
+      opt.convert.archive = opt.fit->chosen.options;
+      report = std::move(fitted->convert);
+    } else {
+      report = fitted.status();
+    }
+  } else if (opt.input == "-") {
     auto bytes = tools::read_standard_input();
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
     report = api::convert_bytes(bytes->data(), bytes->size(), opt.input, opt.output, opt.convert);
@@ -316,11 +419,30 @@ int main(int argc, char** argv) {
                  "quantized rotations, scales, opacities and SH; decoded at load, format/SPEC.md 3.3)")
       ->check(CLI::IsMember({"runtime", "archive"}))
       ->capture_default_str();
-  app.add_option("--position-error", opt.convert.position_error,
+  app.add_option("--position-error", opt.convert.archive.position_error,
                  "Archive profile: largest position error relative to the scene extent (longest AABB side); "
                  "sets the Draco quantization bits")
       ->check(CLI::Range(1e-9, 0.5))
       ->capture_default_str();
+  auto* target_psnr =
+      app.add_option("--target-psnr", opt.target_psnr,
+                     "Rate control: choose the archive profile's settings (bits of rotations, scales, opacities, SH "
+                     "steps per degree, position error) for the fewest bytes whose mean PSNR over the views, render "
+                     "against the input's render, is at least DB; implies --profile archive")
+          ->check(CLI::Range(1.0, 200.0));
+  app.add_option("--target-bytes", opt.target_bytes,
+                 "Rate control: the archive profile's settings for the best mean PSNR of a file of at most N bytes; "
+                 "implies --profile archive")
+      ->check(CLI::Range(uint64_t{1}, std::numeric_limits<uint64_t>::max()))
+      ->excludes(target_psnr);
+  rgs::tools::add_camera_options(app, opt.cameras,
+                                 "Rate control's views: an INRIA cameras.json (native size by default)",
+                                 "Rate control: at most N views",
+                                 "Rate control: an orbit of N cameras (default 4, at 960x540)");
+  app.add_option("--width", opt.cameras.width, "Rate control: image width of the views (field of view kept)")
+      ->check(CLI::Range(11, 32768));
+  app.add_option("--height", opt.cameras.height, "Rate control: image height of the views")
+      ->check(CLI::Range(11, 32768));
   app.add_option("--zstd-level", opt.convert.zstd_level, "zstd level 1..22")
       ->check(CLI::Range(1, 22))
       ->capture_default_str();
@@ -341,6 +463,7 @@ int main(int argc, char** argv) {
   rgs::tools::add_scene_read_options(app);
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool)) return *code;
+  opt.profile_defaulted = app.count("--profile") == 0;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));
 }

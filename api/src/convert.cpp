@@ -57,7 +57,7 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
   write.zstd_level = options.zstd_level;
   if (options.profile == format::StorageProfile::kArchive) {
     write.profile = format::StorageProfile::kArchive;
-    write.archive.position_error = options.position_error;
+    write.archive = options.archive;
   }
   for (const std::string& name : options.zstd_sections) {
     bool found = false;
@@ -223,6 +223,13 @@ std::string options_text(const ConvertOptions& options) {
   if (options.sh_degree) text << " sh_degree=" << *options.sh_degree;
   if (options.read.lod) text << " lod=" << *options.read.lod;
   text << " spz_frame=" << converter::spz_frame_name(options.read.spz_frame);
+  if (options.profile == format::StorageProfile::kArchive) {
+    const format::ArchiveOptions& a = options.archive;
+    text << " profile=archive position_error=" << a.position_error << " rotation_bits=" << a.rotation_bits
+         << " scale_bits=" << a.scale_bits << " opacity_bits=" << a.opacity_bits << " sh_step_multipliers="
+         << a.sh_step_multipliers[0] << "," << a.sh_step_multipliers[1] << "," << a.sh_step_multipliers[2] << ","
+         << a.sh_step_multipliers[3] << " sh_codebook_size=" << a.sh_codebook_size;
+  }
   return text.str();
 }
 

@@ -21,6 +21,7 @@
 #include "rgs/api/roofgs.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_scene.h"
+#include "rgs/audit/rate_control.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/archive.h"
@@ -605,7 +606,7 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
     } else if (key == "zstd_level") {
       o.zstd_level = value.cast<int>();
     } else if (key == "position_error") {
-      o.position_error = value.cast<double>();
+      o.archive.position_error = value.cast<double>();
     } else if (key == "sh_degree") {
       o.sh_degree = value.cast<std::optional<uint32_t>>();
     } else if (key == "lod") {
@@ -1236,23 +1237,82 @@ PYBIND11_MODULE(roofgs, m) {
         "(Niantic's convention) or 'as-stored' (splat-transform's); info['notes'] says which was assumed");
 
   m.def("convert",
-        [](const std::filesystem::path& src, const std::filesystem::path& dst, const py::kwargs& kwargs) {
-          const api::ConvertOptions options = convert_options(kwargs);
-          Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
+        [](const std::filesystem::path& src, const std::filesystem::path& dst, py::kwargs kwargs) {
+          // Rate control's arguments (audit::convert_fitted); the rest are ConvertOptions.
+          std::optional<double> target_psnr;
+          std::optional<uint64_t> target_bytes;
+          api::CameraChoice cameras;
+          auto take = [&](const char* key) -> std::optional<py::object> {
+            if (!kwargs.contains(key)) return std::nullopt;
+            py::object value = kwargs[key];
+            PyDict_DelItemString(kwargs.ptr(), key);
+            if (value.is_none()) return std::nullopt;
+            return value;
+          };
+          if (auto v = take("target_psnr")) target_psnr = v->cast<double>();
+          if (auto v = take("target_bytes")) target_bytes = v->cast<uint64_t>();
+          if (auto v = take("cameras")) cameras.cameras_path = v->cast<std::filesystem::path>().string();
+          if (auto v = take("every")) cameras.every = v->cast<uint32_t>();
+          if (auto v = take("orbit")) cameras.orbit = v->cast<uint32_t>();
+          if (auto v = take("width")) cameras.width = v->cast<uint32_t>();
+          if (auto v = take("height")) cameras.height = v->cast<uint32_t>();
+          api::ConvertOptions options = convert_options(kwargs);
+          if (!target_psnr && !target_bytes) {
+            if (!cameras.cameras_path.empty() || cameras.orbit || cameras.width || cameras.height) {
+              throw py::type_error("cameras, every, orbit, width and height choose the views of target_psnr or "
+                                   "target_bytes");
+            }
+            Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
+            {
+              py::gil_scoped_release release;
+              r = api::convert(src.string(), dst.string(), options);
+            }
+            return report_dict(unwrap(std::move(r)));
+          }
+          if (target_psnr && target_bytes) throw py::type_error("target_psnr and target_bytes exclude each other");
+          if (cameras.cameras_path.empty() && cameras.orbit == 0) cameras.orbit = 4;
+          cameras.orbit_width = 960;
+          cameras.orbit_height = 540;
+          audit::FitOptions fit;
+          fit.goal = target_psnr ? audit::FitGoal::kTargetPsnr : audit::FitGoal::kTargetBytes;
+          fit.target_psnr_db = target_psnr.value_or(0);
+          fit.target_bytes = target_bytes.value_or(0);
+          fit.audit.backend = api::cuda_available() ? audit::Backend::kCuda : audit::Backend::kCpu;
+          Result<audit::FittedConversion> r = Status(StatusCode::kInvalidArgument, "not converted");
           {
             py::gil_scoped_release release;
-            r = api::convert(src.string(), dst.string(), options);
+            r = audit::convert_fitted(src.string(), dst.string(), options, cameras, fit);
           }
-          return report_dict(unwrap(std::move(r)));
+          audit::FittedConversion done = unwrap(std::move(r));
+          py::dict d = report_dict(done.convert);
+          const audit::FitResult& f = done.fit;
+          const format::ArchiveOptions& a = f.chosen.options;
+          py::dict settings(py::arg("position_error") = a.position_error, py::arg("rotation_bits") = a.rotation_bits,
+                            py::arg("scale_bits") = a.scale_bits, py::arg("opacity_bits") = a.opacity_bits,
+                            py::arg("sh_step_multipliers") = std::vector<uint32_t>(a.sh_step_multipliers.begin(),
+                                                                                    a.sh_step_multipliers.end()));
+          d["rate_control"] = py::dict(
+              py::arg("psnr_mean_db") = f.chosen.psnr_mean_db, py::arg("psnr_min_db") = f.chosen.psnr_min_db,
+              py::arg("search_psnr_db") = f.search_psnr_db, py::arg("settings") = settings,
+              py::arg("views") = f.views, py::arg("width") = f.width, py::arg("height") = f.height,
+              py::arg("backend") = audit::backend_name(f.backend), py::arg("encodings") = f.encodings,
+              py::arg("renders") = f.renders, py::arg("seconds") = f.seconds);
+          return d;
         },
         py::arg("src"), py::arg("dst"),
         "convert(src, dst, *, to=None, scale_encoding='linear', sh_clip_percentile=100.0, sh_dc_bits=16, zstd=[], "
         "zstd_level=19, "
         "profile='runtime', position_error=..., sh_degree=None, lod=None, spz_frame='rub', sanitize=False, "
-        "allow_empty=False)\n\n"
+        "allow_empty=False, target_psnr=None, target_bytes=None, cameras=None, every=1, orbit=None, width=None, "
+        "height=None)\n\n"
         "Convert a scene in any format into dst: .rgs, .ply, .spz or .glb, as `to` or dst's extension says "
         "(what rgs-convert does, same options). Returns a dict: input and output (format, description, bytes, "
-        "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output");
+        "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output. "
+        "target_psnr (dB) or target_bytes: rate control of the archive profile (audit::fit_archive, as "
+        "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
+        "or an orbit (default 4 at 960x540), at width x height; the dict then has rate_control: psnr_mean_db, "
+        "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, scale_bits, opacity_bits, "
+        "sh_step_multipliers), views, width, height, backend, encodings, renders, seconds");
   m.def("save",
         [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
            const py::object& scales, const py::object& opacities, const py::object& sh, const py::kwargs& kwargs) {

@@ -117,8 +117,7 @@ TEST_CASE("convert: the archive profile reports the errors of the decoded archiv
   // The same archive built here step by step, its decoded scene put back in the source's order by hand.
   auto encoded = converter::quantize(source->cloud, {});
   REQUIRE(encoded.ok());
-  format::ArchiveOptions archive_options;
-  archive_options.position_error = options.position_error;
+  const format::ArchiveOptions archive_options = options.archive;
   auto archive = format::encode_archive(*encoded, archive_options);
   REQUIRE(archive.ok());
   auto decoded = format::dequantize(archive->decoded);

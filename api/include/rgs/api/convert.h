@@ -77,9 +77,13 @@ struct ConvertOptions {
   std::vector<std::string> zstd_sections;
   int zstd_level = 19;
   /// kRuntime (lossless sections, mapped as is) or kArchive (Draco means and quantized attributes,
-  /// SPEC §3.3), whose largest position error is `position_error` of the scene's longest AABB side.
+  /// SPEC §3.3), coded with `archive`.
   format::StorageProfile profile = format::StorageProfile::kRuntime;
-  double position_error = format::kDefaultArchivePositionError;
+  /// The archive profile's choices (format::ArchiveOptions): largest position error as a fraction of the
+  /// scene's longest AABB side (position_error), bits of rotations, scales and opacities (0: by scene size),
+  /// SH step multipliers per degree, SH codebook, zstd level and Draco speed of the coded sections, threads.
+  /// audit::fit_archive chooses them for a PSNR target or a byte budget.
+  format::ArchiveOptions archive;
   /// Name recorded as the provenance's "converter" (with the library version).
   std::string converter_name = "roofgs api";
   /// Where the output file goes; null: written atomically in place (format::atomic_files()). A tool passes
@@ -102,10 +106,10 @@ struct RgsOutputReport {
   converter::QuantizationReport quantization;
   /// The SH scale of each (degree, channel) stored in the metadata (SPEC §4.1.2).
   format::ShQuantization sh_quantization;
-  /// Archive profile: the position step and bits chosen for `position_error` (0 for the runtime profile).
+  /// Archive profile: the position step and bits chosen for `archive.position_error` (0 for the runtime profile).
   double position_step = 0;
   uint32_t position_bits = 0;
-  /// The scene extent (longest side of the source means' AABB, scene units), which `position_error` and
+  /// The scene extent (longest side of the source means' AABB, scene units), which `archive.position_error` and
   /// the relative position error are fractions of.
   double extent = 0;
 };

@@ -1,0 +1,678 @@
+// fit_archive(): the archive profile's settings for a PSNR target or a byte budget; convert_fitted(): the fit,
+// then api::convert with its choice.
+#include "rgs/audit/rate_control.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <tuple>
+#include <utility>
+
+#include "rgs/api/renderer.h"
+#include "rgs/api/scene.h"
+#include "rgs/audit/image_metrics.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/file_io.h"
+#include "rgs/format/writer.h"
+
+namespace rgs::audit {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// SH step multipliers the search moves between: steps of about 1.2x (1.6 dB of that band's error).
+constexpr std::array<uint32_t, 24> kMultipliers = {1,  2,  3,  4,  5,  6,  7,  8,  10, 12, 14,  16,
+                                                   20, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 127};
+/// Rounds of one-knob steps after the ladder: a bound on the search's time.
+constexpr int kMaxRounds = 10;
+constexpr uint32_t kMinBits = 4, kMaxBits = 16;
+/// Position errors the search uses: 2^-kFinestPositionLog2 .. 2^-kCoarsestPositionLog2 of the extent.
+constexpr int kFinestPositionLog2 = 25, kCoarsestPositionLog2 = 3;
+/// The ladder's range: q = 0 is the defaults, each unit one bit (a factor 2) coarser on every knob.
+constexpr double kLadderFinest = -8, kLadderCoarsest = 8;
+/// How much above the target the final choice may be before the search is run again at an adjusted target.
+constexpr double kMaxAboveDb = 0.5;
+/// The search target's margin over the measured difference between the search size and the cameras' size.
+constexpr double kCalibrationMarginDb = 0.05;
+
+/// The knobs the search moves, one at a time.
+enum class Knob { kRotation, kScale, kOpacity, kSh0, kSh1, kSh2, kSh3, kPosition };
+constexpr std::array<Knob, 8> kKnobs = {Knob::kRotation, Knob::kScale, Knob::kOpacity, Knob::kSh0,
+                                        Knob::kSh1,      Knob::kSh2,   Knob::kSh3,     Knob::kPosition};
+
+uint32_t clamp_bits(double bits) { return uint32_t(std::clamp(std::lround(bits), long(kMinBits), long(kMaxBits))); }
+
+double clamp_position(double error) {
+  return std::clamp(error, std::ldexp(1.0, -kFinestPositionLog2), std::ldexp(1.0, -kCoarsestPositionLog2));
+}
+
+/// The ladder: every knob of `anchor` coarsened by `q` bits (q < 0: finer).
+format::ArchiveOptions ladder(const format::ArchiveOptions& anchor, double q) {
+  format::ArchiveOptions o = anchor;
+  o.rotation_bits = clamp_bits(double(anchor.rotation_bits) - q);
+  o.scale_bits = clamp_bits(double(anchor.scale_bits) - q);
+  o.opacity_bits = clamp_bits(double(anchor.opacity_bits) - q);
+  for (size_t d = 0; d < 4; ++d) {
+    o.sh_step_multipliers[d] =
+        uint32_t(std::clamp(std::lround(double(anchor.sh_step_multipliers[d]) * std::exp2(q)), 1L, 127L));
+  }
+  o.position_error = clamp_position(anchor.position_error * std::exp2(q));
+  return o;
+}
+
+/// `o` with `knob` one step coarser (`coarser`) or finer; nullopt at the end of its range.
+std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, bool coarser) {
+  auto move_bits = [&](uint32_t* bits) {
+    const uint32_t next = coarser ? *bits - 1 : *bits + 1;
+    if (next < kMinBits || next > kMaxBits) return false;
+    *bits = next;
+    return true;
+  };
+  auto move_multiplier = [&](uint32_t* m) {
+    if (coarser) {
+      auto it = std::upper_bound(kMultipliers.begin(), kMultipliers.end(), *m);
+      if (it == kMultipliers.end()) return false;
+      *m = *it;
+    } else {
+      auto it = std::lower_bound(kMultipliers.begin(), kMultipliers.end(), *m);
+      if (it == kMultipliers.begin()) return false;
+      *m = *(it - 1);
+    }
+    return true;
+  };
+  bool moved = false;
+  switch (knob) {
+    case Knob::kRotation: moved = move_bits(&o.rotation_bits); break;
+    case Knob::kScale: moved = move_bits(&o.scale_bits); break;
+    case Knob::kOpacity: moved = move_bits(&o.opacity_bits); break;
+    case Knob::kSh0: moved = move_multiplier(&o.sh_step_multipliers[0]); break;
+    case Knob::kSh1: moved = move_multiplier(&o.sh_step_multipliers[1]); break;
+    case Knob::kSh2: moved = move_multiplier(&o.sh_step_multipliers[2]); break;
+    case Knob::kSh3: moved = move_multiplier(&o.sh_step_multipliers[3]); break;
+    case Knob::kPosition: {
+      const double next = clamp_position(coarser ? o.position_error * 2 : o.position_error / 2);
+      moved = next != o.position_error;
+      o.position_error = next;
+      break;
+    }
+  }
+  if (!moved) return std::nullopt;
+  return o;
+}
+
+using Key = std::tuple<uint32_t, uint32_t, uint32_t, std::array<uint32_t, 4>, double>;
+Key key_of(const format::ArchiveOptions& o) {
+  return {o.rotation_bits, o.scale_bits, o.opacity_bits, o.sh_step_multipliers, o.position_error};
+}
+
+/// One set of views with the source's renders, [H, W, 3] float RGB each, rendered once.
+struct ViewSet {
+  std::vector<runtime::Camera> cameras;
+  std::vector<std::vector<float>> source;
+};
+
+/// Measures archives of one quantized scene: bytes by encoding, PSNR by rendering against the source's renders
+/// (run_audit's renderer settings and PSNR: the faithful preset, black background, psnr_rgb). Every archive is
+/// encoded once and rendered at most once on the search views (cached by its options).
+class Measurer {
+ public:
+  Measurer(const AuditScene& source, format::EncodedScene quantized, const FitOptions& options)
+      : source_(source), quantized_(std::move(quantized)), options_(options) {}
+
+  /// Creates the renderer and renders the source on both view sets.
+  Status start(std::vector<runtime::Camera> search_cameras, std::vector<runtime::Camera> cameras) {
+    device_ = options_.audit.backend == Backend::kCuda ? api::Device::kCuda : api::Device::kCpu;
+    RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(device_, options_.audit.cuda_device));
+    renderer_.emplace(std::move(renderer));
+    settings_.preset = api::Preset::kFaithful;
+    settings_.cpu_threads = options_.audit.cpu_threads;
+    search_.cameras = std::move(search_cameras);
+    final_.cameras = std::move(cameras);
+    RGS_ASSIGN_OR_RETURN(api::Scene scene, load(source_.cloud, source_.bounds, "source"));
+    for (ViewSet* set : {&search_, &final_}) {
+      for (const runtime::Camera& cam : set->cameras) {
+        RGS_ASSIGN_OR_RETURN(std::vector<float> rgb, render_rgb(scene, cam));
+        set->source.push_back(std::move(rgb));
+      }
+    }
+    return Status();
+  }
+
+  /// File bytes besides the per-Gaussian sections: measured once by serializing the start's archive.
+  Status measure_overhead() {
+    format::WriteOptions write;
+    write.profile = format::StorageProfile::kArchive;
+    write.archive = options_.start;
+    RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, format::serialize_scene(quantized_, write));
+    RGS_ASSIGN_OR_RETURN(const Entry* e, encode(write.archive));
+    overhead_ = bytes.size() - e->sections + options_.provenance_bytes;
+    return Status();
+  }
+
+  /// Bytes of each archive (encoded when new).
+  Result<std::vector<FitPoint>> bytes(const std::vector<format::ArchiveOptions>& list) {
+    std::vector<FitPoint> out;
+    for (const format::ArchiveOptions& o : list) {
+      RGS_ASSIGN_OR_RETURN(const Entry* e, encode(o));
+      out.push_back(e->point);
+      out.back().bytes += overhead_;
+    }
+    return out;
+  }
+
+  /// Bytes and PSNR on the search views (final: on the cameras at their own size, never cached).
+  Result<std::vector<FitPoint>> measure(const std::vector<format::ArchiveOptions>& list, bool final = false) {
+    std::vector<FitPoint> out;
+    for (const format::ArchiveOptions& o : list) {
+      RGS_ASSIGN_OR_RETURN(Entry * e, encode(o));
+      FitPoint p = e->point;
+      if (final || std::isnan(p.psnr_mean_db)) {
+        RGS_ASSIGN_OR_RETURN(const auto psnr, render(e, final ? final_ : search_));
+        p.psnr_mean_db = psnr.first;
+        p.psnr_min_db = psnr.second;
+        if (!final) e->point = p;
+      }
+      p.bytes += overhead_;
+      out.push_back(p);
+    }
+    return out;
+  }
+
+  std::string device_name() const {
+    if (device_ == api::Device::kCpu) return "CPU reference renderer";
+    return "CUDA device " + std::to_string(options_.audit.cuda_device);
+  }
+
+  uint32_t encodings() const { return uint32_t(cache_.size()); }
+  uint32_t renders() const { return renders_; }
+
+ private:
+  struct Entry {
+    FitPoint point;  ///< bytes: the sections only
+    uint64_t sections = 0;
+    std::optional<format::EncodedScene> decoded;  ///< kept until it is rendered
+  };
+
+  Result<Entry*> encode(const format::ArchiveOptions& o) {
+    auto it = cache_.find(key_of(o));
+    if (it != cache_.end()) return &it->second;
+    RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o));
+    Entry e;
+    e.point.options = o;
+    for (const std::vector<uint8_t>& s : archive.stored) e.sections += s.size();
+    e.point.bytes = e.sections;
+    e.point.psnr_mean_db = e.point.psnr_min_db = kNaN;
+    e.decoded = std::move(archive.decoded);
+    return &cache_.emplace(key_of(o), std::move(e)).first->second;
+  }
+
+  Result<api::Scene> load(const format::GaussianCloud& cloud, const format::SceneBounds& bounds,
+                          const std::string& name) {
+    api::LoadOptions load;
+    load.device = device_;
+    load.cuda_device = options_.audit.cuda_device;
+    return api::load_cloud(cloud, bounds, name, load);
+  }
+
+  /// A render's clamped-later RGB as [H, W, 3] floats on the host.
+  Result<std::vector<float>> render_rgb(const api::Scene& scene, const runtime::Camera& cam) {
+    auto image = renderer_->render_image(scene, cam, settings_);
+    if (!image.ok()) return Status(image.status()).prepend(scene.info().path + ", view " + cam.name);
+    const size_t pixels = size_t(cam.width) * cam.height;
+    const float* rgba = static_cast<const float*>(image->color());
+    std::vector<float> host;
+    if (image->device() != api::Device::kCpu) {
+      host.resize(pixels * 4);
+      RGS_RETURN_IF_ERROR(image->copy_to_host(host.data(), nullptr));
+      rgba = host.data();
+    }
+    std::vector<float> rgb(pixels * 3);
+    for (size_t i = 0; i < pixels; ++i) std::copy_n(rgba + 4 * i, 3, rgb.data() + 3 * i);
+    return rgb;
+  }
+
+  /// Mean and lowest PSNR of the archive's renders against the source's on `set`; its decoded scene is
+  /// freed (encoded again if it is rendered again).
+  Result<std::pair<double, double>> render(Entry* e, const ViewSet& set) {
+    if (!e->decoded) {
+      RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, e->point.options));
+      e->decoded = std::move(archive.decoded);
+    }
+    RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, format::dequantize(*e->decoded));
+    const std::string name = "archive (" + describe_archive_options(e->point.options, e->decoded->metadata.sh_degree) + ")";
+    const format::SceneBounds bounds = e->decoded->metadata.bounds;
+    e->decoded.reset();
+    RGS_ASSIGN_OR_RETURN(api::Scene scene, load(cloud, bounds, name));
+    double sum = 0, lowest = std::numeric_limits<double>::infinity();
+    for (size_t v = 0; v < set.cameras.size(); ++v) {
+      const runtime::Camera& cam = set.cameras[v];
+      RGS_ASSIGN_OR_RETURN(const std::vector<float> rgb, render_rgb(scene, cam));
+      RGS_ASSIGN_OR_RETURN(const double psnr, psnr_rgb(set.source[v], rgb, cam.width, cam.height));
+      sum += psnr;
+      lowest = std::min(lowest, psnr);
+    }
+    ++renders_;
+    return std::pair{sum / double(set.cameras.size()), lowest};
+  }
+
+  const AuditScene& source_;
+  format::EncodedScene quantized_;
+  const FitOptions& options_;
+  api::Device device_ = api::Device::kCpu;
+  std::optional<api::Renderer> renderer_;
+  api::RenderSettings settings_;
+  ViewSet search_, final_;
+  std::map<Key, Entry> cache_;
+  uint64_t overhead_ = 0;
+  uint32_t renders_ = 0;
+};
+
+std::string group_digits(uint64_t n) {
+  std::string s = std::to_string(n);
+  for (int i = int(s.size()) - 3; i > 0; i -= 3) s.insert(size_t(i), ",");
+  return s;
+}
+
+std::string db_text(double db) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f dB", db);
+  return text;
+}
+
+/// The knobs that matter for a scene of SH degree `sh_degree`.
+std::vector<Knob> knobs_for(uint32_t sh_degree) {
+  std::vector<Knob> out;
+  for (Knob k : kKnobs) {
+    const int band = int(k) - int(Knob::kSh0);
+    if (band >= 0 && band <= 3 && uint32_t(band) > sh_degree) continue;
+    out.push_back(k);
+  }
+  return out;
+}
+
+class Search {
+ public:
+  Search(Measurer& m, const FitOptions& options, uint32_t sh_degree, format::ArchiveOptions anchor)
+      : m_(m), options_(options), knobs_(knobs_for(sh_degree)), anchor_(std::move(anchor)), sh_degree_(sh_degree) {}
+
+  void report(const std::string& what) {
+    if (options_.progress) options_.progress(what);
+  }
+
+  /// kTargetPsnr at the search size: the path of accepted archives, finest first, each meeting `target`.
+  Result<std::vector<FitPoint>> for_psnr(double target) {
+    // The ladder: bracket the largest q that meets the target, halving the bracket with three points a batch.
+    std::vector<double> qs = {-4, -2, 0, 2, 4};
+    double q_pass = std::numeric_limits<double>::quiet_NaN(), q_fail = kLadderCoarsest + 1;
+    std::optional<FitPoint> pass;
+    for (int round = 0; round < 6; ++round) {
+      std::vector<format::ArchiveOptions> list;
+      for (double q : qs) list.push_back(ladder(anchor_, q));
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
+      for (size_t i = 0; i < qs.size(); ++i) {
+        note_finest(points[i]);
+        if (points[i].psnr_mean_db >= target) {
+          if (std::isnan(q_pass) || qs[i] > q_pass) {
+            q_pass = qs[i];
+            pass = points[i];
+          }
+        } else {
+          q_fail = std::min(q_fail, qs[i]);
+        }
+      }
+      report_progress("ladder", pass);
+      if (std::isnan(q_pass)) {
+        if (round > 0) break;
+        qs = {kLadderFinest};  // nothing met the target: the finest archive decides whether any can
+        continue;
+      }
+      if (q_fail > kLadderCoarsest) {  // nothing measured failed: coarser steps, up to the coarsest
+        if (q_pass >= kLadderCoarsest) break;
+        qs = {std::min(q_pass + 1, kLadderCoarsest), std::min(q_pass + 2, kLadderCoarsest), kLadderCoarsest};
+        qs.erase(std::unique(qs.begin(), qs.end()), qs.end());
+        continue;
+      }
+      const double width = q_fail - q_pass;
+      if (width <= 0.25) break;
+      qs = {q_pass + width / 4, q_pass + width / 2, q_pass + 3 * width / 4};
+    }
+    if (!pass) {
+      return Status(StatusCode::kInvalidArgument,
+                    "target " + db_text(target) + " is above what the archive profile reaches on these views: " +
+                        db_text(finest_->psnr_mean_db) + " at the finest settings (" +
+                        describe_archive_options(finest_->options, sh_degree_) + ")");
+    }
+    // One knob at a time: the coarser step with the most bytes saved per dB lost that still meets the target.
+    std::vector<FitPoint> path = {*pass};
+    std::vector<bool> frozen(knobs_.size(), false);
+    for (int round = 0; round < kMaxRounds; ++round) {
+      const FitPoint& at = path.back();
+      std::vector<format::ArchiveOptions> list;
+      std::vector<size_t> knob_of;
+      for (size_t k = 0; k < knobs_.size(); ++k) {
+        if (frozen[k]) continue;
+        if (auto o = step(at.options, knobs_[k], true)) {
+          list.push_back(*o);
+          knob_of.push_back(k);
+        } else {
+          frozen[k] = true;
+        }
+      }
+      if (list.empty()) break;
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
+      double best_ratio = -1;
+      size_t best = points.size();
+      for (size_t i = 0; i < points.size(); ++i) {
+        const FitPoint& p = points[i];
+        if (!(p.psnr_mean_db >= target) || p.bytes >= at.bytes) {
+          frozen[knob_of[i]] = true;  // coarser still, with the others coarser too, will not meet it
+          continue;
+        }
+        const double saved = double(at.bytes - p.bytes);
+        const double lost = std::max(at.psnr_mean_db - p.psnr_mean_db, 1e-3);
+        if (saved / lost > best_ratio) {
+          best_ratio = saved / lost;
+          best = i;
+        }
+      }
+      if (best == points.size()) break;
+      path.push_back(points[best]);
+      report_progress("refining", path.back());
+    }
+    return path;
+  }
+
+  /// kTargetBytes at the search size: the path of accepted archives, coarsest first, each within `budget`.
+  Result<std::vector<FitPoint>> for_bytes(uint64_t budget) {
+    // The ladder by bytes alone (no renders): bisect the finest q whose file fits.
+    double lo = kLadderFinest, hi = kLadderCoarsest;  // invariant: hi fits (checked), lo does not (or untested)
+    RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> coarsest, m_.bytes({ladder(anchor_, hi)}));
+    if (coarsest[0].bytes > budget) {
+      return Status(StatusCode::kInvalidArgument,
+                    group_digits(budget) + " bytes is below the smallest archive the search makes: " +
+                        group_digits(coarsest[0].bytes) + " bytes at the coarsest settings (" +
+                        describe_archive_options(coarsest[0].options, sh_degree_) + ")");
+    }
+    RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> finest, m_.bytes({ladder(anchor_, lo)}));
+    FitPoint fit = coarsest[0];
+    if (finest[0].bytes <= budget) {
+      fit = finest[0];
+      hi = lo;
+    }
+    while (hi - lo > 0.125) {
+      const double mid = (lo + hi) / 2;
+      RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> p, m_.bytes({ladder(anchor_, mid)}));
+      if (p[0].bytes <= budget) {
+        hi = mid;
+        fit = p[0];
+      } else {
+        lo = mid;
+      }
+    }
+    RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> start, m_.measure({fit.options}));
+    std::vector<FitPoint> path = {start[0]};
+    report_progress("ladder", path.back());
+    // One knob at a time: the finer step with the most dB gained per byte added that still fits.
+    std::vector<bool> frozen(knobs_.size(), false);
+    for (int round = 0; round < kMaxRounds; ++round) {
+      const FitPoint& at = path.back();
+      std::vector<format::ArchiveOptions> list;
+      std::vector<size_t> knob_of;
+      for (size_t k = 0; k < knobs_.size(); ++k) {
+        if (frozen[k]) continue;
+        if (auto o = step(at.options, knobs_[k], false)) {
+          list.push_back(*o);
+          knob_of.push_back(k);
+        } else {
+          frozen[k] = true;
+        }
+      }
+      if (list.empty()) break;
+      // Bytes first: only the steps that fit are rendered.
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> sizes, m_.bytes(list));
+      std::vector<format::ArchiveOptions> fitting;
+      std::vector<size_t> fitting_knob;
+      for (size_t i = 0; i < sizes.size(); ++i) {
+        if (sizes[i].bytes <= budget) {
+          fitting.push_back(list[i]);
+          fitting_knob.push_back(knob_of[i]);
+        } else {
+          frozen[knob_of[i]] = true;
+        }
+      }
+      if (fitting.empty()) break;
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(fitting));
+      double best_ratio = 0;
+      size_t best = points.size();
+      for (size_t i = 0; i < points.size(); ++i) {
+        const FitPoint& p = points[i];
+        const double gained = p.psnr_mean_db - at.psnr_mean_db;
+        if (!(gained > 0)) {
+          frozen[fitting_knob[i]] = true;  // no better for its bytes
+          continue;
+        }
+        const double added = std::max(double(p.bytes) - double(at.bytes), 1.0);
+        if (gained / added > best_ratio) {
+          best_ratio = gained / added;
+          best = i;
+        }
+      }
+      if (best == points.size()) break;
+      path.push_back(points[best]);
+      report_progress("refining", path.back());
+    }
+    return path;
+  }
+
+  const std::optional<FitPoint>& finest() const { return finest_; }
+
+ private:
+  void note_finest(const FitPoint& p) {
+    if (!finest_ || p.bytes > finest_->bytes) finest_ = p;
+  }
+
+  void report_progress(const char* stage, const std::optional<FitPoint>& best) {
+    std::string line = std::string(stage) + ": " + std::to_string(m_.encodings()) + " archives encoded, " +
+                       std::to_string(m_.renders()) + " rendered";
+    if (best) line += "; at " + db_text(best->psnr_mean_db) + ", " + group_digits(best->bytes) + " bytes";
+    report(line);
+  }
+
+  Measurer& m_;
+  const FitOptions& options_;
+  std::vector<Knob> knobs_;
+  format::ArchiveOptions anchor_;
+  uint32_t sh_degree_;
+  std::optional<FitPoint> finest_;
+};
+
+/// The search's views: at most `max_views` of `cameras`, evenly spread, reduced to `max_side`.
+std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras, uint32_t max_side,
+                                     uint32_t max_views) {
+  std::vector<runtime::Camera> subset;
+  const size_t n = cameras.size(), k = std::min<size_t>(n, std::max<uint32_t>(max_views, 1));
+  for (size_t i = 0; i < k; ++i) subset.push_back(cameras[i * n / k]);
+  std::vector<runtime::Camera> out;
+  max_side = std::max<uint32_t>(max_side, 16);
+  for (const runtime::Camera& c : subset) {
+    const uint32_t side = std::max(c.width, c.height);
+    if (side <= max_side) {
+      out.push_back(c);
+      continue;
+    }
+    const double f = double(max_side) / double(side);
+    const auto w = uint32_t(std::max(16L, std::lround(c.width * f)));
+    const auto h = uint32_t(std::max(16L, std::lround(c.height * f)));
+    out.push_back(runtime::resize_camera(c, w, h));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string describe_archive_options(const format::ArchiveOptions& o, uint32_t sh_degree) {
+  std::string text = "rotation " + std::to_string(o.rotation_bits) + ", scale " + std::to_string(o.scale_bits) +
+                     ", opacity " + std::to_string(o.opacity_bits) + " bits; SH step x";
+  for (uint32_t d = 0; d <= std::min<uint32_t>(sh_degree, 3); ++d) {
+    text += (d ? "/" : "") + std::to_string(o.sh_step_multipliers[d]);
+  }
+  char position[64];
+  std::snprintf(position, sizeof(position), "; position error %.3g of the extent", o.position_error);
+  return text + position;
+}
+
+Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::vector<runtime::Camera>& cameras,
+                              const FitOptions& options) {
+  const auto start = Clock::now();
+  RGS_RETURN_ERROR_IF(cameras.empty(), StatusCode::kInvalidArgument, "rate control: no views selected");
+  RGS_RETURN_ERROR_IF(source.size() == 0, StatusCode::kInvalidArgument, "rate control: the scene has no Gaussians");
+  if (options.goal == FitGoal::kTargetPsnr) {
+    RGS_RETURN_ERROR_IF(!std::isfinite(options.target_psnr_db) || options.target_psnr_db <= 0,
+                        StatusCode::kInvalidArgument,
+                        "rate control: target PSNR " + std::to_string(options.target_psnr_db) +
+                            " dB is not a finite, positive number");
+  } else {
+    RGS_RETURN_ERROR_IF(options.target_bytes == 0, StatusCode::kInvalidArgument,
+                        "rate control: a target of 0 bytes");
+  }
+  AuditScene reference;
+  reference.cloud = source;
+  reference.bounds = converter::compute_bounds(source);
+  reference.info.path = "source";
+  reference.info.label = "source";
+  reference.info.gaussians = source.size();
+  reference.info.sh_degree = source.sh_degree;
+
+  format::GaussianCloud encoded_cloud;
+  const format::GaussianCloud* to_encode = &source;
+  if (options.sh_degree && *options.sh_degree < source.sh_degree) {
+    encoded_cloud = source;
+    RGS_RETURN_IF_ERROR(converter::reduce_sh_degree(&encoded_cloud, *options.sh_degree));
+    to_encode = &encoded_cloud;
+  }
+  converter::QuantizeOptions quantize = options.quantize;
+  quantize.sh_dc_bits = 8;  // the archive drops the DC residual (SPEC §4.8)
+  RGS_ASSIGN_OR_RETURN(format::EncodedScene quantized, converter::quantize(*to_encode, quantize));
+  const uint32_t sh_degree = quantized.metadata.sh_degree;
+  const format::ArchiveOptions anchor = format::resolve_archive_options(options.start, quantized.count);
+
+  FitOptions resolved = options;
+  resolved.start = anchor;
+  const std::vector<runtime::Camera> search_cameras =
+      reduced(cameras, options.search_max_side, options.search_max_views);
+  Measurer measurer(reference, std::move(quantized), resolved);
+  RGS_RETURN_IF_ERROR(measurer.start(search_cameras, cameras));
+  RGS_RETURN_IF_ERROR(measurer.measure_overhead());
+  Search search(measurer, resolved, sh_degree, anchor);
+
+  FitResult result;
+  result.views = uint32_t(cameras.size());
+  result.search_width = search_cameras[0].width;
+  result.search_height = search_cameras[0].height;
+  result.width = cameras[0].width;
+  result.height = cameras[0].height;
+  result.backend = options.audit.backend;
+
+  if (options.goal == FitGoal::kTargetBytes) {
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> path, search.for_bytes(options.target_bytes));
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({path.back().options}, true));
+    result.chosen = checked[0];
+    result.search_psnr_db = path.back().psnr_mean_db;
+  } else {
+    // The search size's PSNR differs from the cameras' own: check the last steps at full size, and search
+    // again at a target moved by the measured difference while the choice misses or overshoots.
+    const double target = options.target_psnr_db;
+    double search_target = target;
+    std::optional<FitPoint> best;
+    double best_search_psnr = 0;
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> path, search.for_psnr(search_target));
+      // From the search's last (cheapest) step back: the first that meets the target at full size.
+      std::optional<FitPoint> chosen;
+      FitPoint last_checked;
+      double last_search_psnr = 0;
+      for (size_t back = 0; back < std::min<size_t>(path.size(), 3) && !chosen; ++back) {
+        const FitPoint& at = path[path.size() - 1 - back];
+        RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({at.options}, true));
+        if (back == 0) {
+          last_checked = checked[0];
+          last_search_psnr = at.psnr_mean_db;
+        }
+        if (checked[0].psnr_mean_db >= target) {
+          chosen = checked[0];
+          if (!best || chosen->bytes < best->bytes) {
+            best = chosen;
+            best_search_psnr = at.psnr_mean_db;
+          }
+        }
+      }
+      search.report("check at " + std::to_string(cameras[0].width) + "x" + std::to_string(cameras[0].height) +
+                    ": " + db_text(last_checked.psnr_mean_db) + " (search views: " + db_text(last_search_psnr) + ")");
+      if (best && best->psnr_mean_db <= target + kMaxAboveDb) break;
+      // The difference between the search views and the final ones at the search's last step.
+      const double offset = last_search_psnr - last_checked.psnr_mean_db;
+      double next = target + offset + kCalibrationMarginDb;
+      if (!chosen) next = std::max(next, search_target + kCalibrationMarginDb);
+      if (std::abs(next - search_target) < 0.01) break;
+      search_target = next;
+    }
+    if (!best) {
+      return Status(StatusCode::kInvalidArgument,
+                    "target " + db_text(target) + " is not met by any archive the search measured at " +
+                        std::to_string(cameras[0].width) + "x" + std::to_string(cameras[0].height) +
+                        " (the finest reached " + db_text(search.finest() ? search.finest()->psnr_mean_db : kNaN) +
+                        " at the search size)");
+    }
+    result.chosen = *best;
+    result.search_psnr_db = best_search_psnr;
+  }
+  result.finest = search.finest();
+  result.encodings = measurer.encodings();
+  result.renders = measurer.renders();
+  result.device = measurer.device_name();
+  result.seconds = seconds_since(start);
+  return result;
+}
+
+Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
+                                        const api::CameraChoice& cameras, FitOptions fit) {
+  converter::SceneReadOptions read = options.read;
+  read.invalid_policy = options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, read));
+  RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));
+  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, api::make_cameras(cameras, input.bounds));
+  fit.quantize.scale_encoding = options.scale_encoding;
+  fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
+  fit.sh_degree = options.sh_degree;
+  fit.start = options.archive;
+  // The provenance: the source's name and storage, the converter's name and the options' text.
+  fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
+                         options.converter_name.size();
+  FittedConversion out;
+  auto fitted = fit_archive(input.cloud, views, fit);
+  if (!fitted.ok()) return Status(fitted.status()).prepend(src);
+  out.fit = std::move(fitted).value();
+  input = {};
+  options.profile = format::StorageProfile::kArchive;
+  options.archive = out.fit.chosen.options;
+  RGS_ASSIGN_OR_RETURN(out.convert, api::convert(src, dst, options));
+  if (fit.goal == FitGoal::kTargetBytes && out.convert.output_bytes > fit.target_bytes) {
+    return Status(StatusCode::kLimitExceeded,
+                  dst + ": the archive has " + group_digits(out.convert.output_bytes) + " bytes, over the target of " +
+                      group_digits(fit.target_bytes) + " (its provenance is larger than the fit allowed for)");
+  }
+  return out;
+}
+
+}  // namespace rgs::audit

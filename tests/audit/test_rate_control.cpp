@@ -1,0 +1,103 @@
+// Rate control of the archive profile on the bundled guitar: the written file meets the PSNR target, measured
+// independently with run_audit, and lands within half a dB of it; a byte budget is kept; a target no archive
+// reaches is refused with what the finest archive reaches.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "audit_test_util.h"
+#include "rgs/api/scene_loading.h"
+#include "rgs/audit/audit.h"
+#include "rgs/audit/rate_control.h"
+#include "temp_dir.h"
+#include "test_data.h"
+
+namespace {
+
+using namespace rgs;
+
+/// Two orbit views at 480x270: what the fits below are measured on.
+api::CameraChoice small_orbit() {
+  api::CameraChoice choice;
+  choice.orbit = 2;
+  choice.orbit_width = 480;
+  choice.orbit_height = 270;
+  return choice;
+}
+
+/// Mean PSNR of `candidate`'s render against `source`'s on `choice`'s cameras, by run_audit alone.
+double measured_psnr(const std::string& source, const std::string& candidate, const api::CameraChoice& choice) {
+  const audit::AuditScene src = test::audit_scene(source);
+  std::vector<audit::AuditScene> candidates = {test::audit_scene(candidate)};
+  auto cameras = api::make_cameras(choice, src.bounds);
+  REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
+  audit::AuditOptions options;
+  options.worst_views = 0;
+  auto result = audit::run_audit(src, candidates, *cameras, options);
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  return result->candidates[0].summary.psnr_mean_db;
+}
+
+}  // namespace
+
+TEST_CASE("rate control meets a 40 dB target on guitar within 0.5 dB") {
+  test::TempDir dir;
+  const std::string source = test::repo_path("samples/guitar.ply");
+  const std::string out = dir.file("guitar_40db.rgs");
+  audit::FitOptions fit;
+  fit.target_psnr_db = 40;
+  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  const double psnr = measured_psnr(source, out, small_orbit());
+  CHECK(psnr >= 40.0);
+  CHECK(psnr <= 40.5);
+  // What the fit reported is what the written file renders to, and the bytes it reported are the file's.
+  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
+  CHECK(fitted->convert.output_bytes == std::filesystem::file_size(out));
+  CHECK(fitted->convert.output_description == "RoofGS .rgs, archive profile");
+  // Smaller than the default archive, which is far above the target.
+  api::ConvertOptions archive;
+  archive.profile = format::StorageProfile::kArchive;
+  auto defaults = api::convert(source, dir.file("guitar_default_archive.rgs"), archive);
+  REQUIRE_MESSAGE(defaults.ok(), defaults.status().to_string());
+  CHECK(fitted->convert.output_bytes < defaults->output_bytes);
+}
+
+TEST_CASE("rate control keeps a byte budget on guitar") {
+  test::TempDir dir;
+  const std::string source = test::repo_path("samples/guitar.ply");
+  const std::string out = dir.file("guitar_budget.rgs");
+  audit::FitOptions fit;
+  fit.goal = audit::FitGoal::kTargetBytes;
+  fit.target_bytes = 400000;
+  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  CHECK(std::filesystem::file_size(out) <= 400000);
+  CHECK(std::filesystem::file_size(out) > 300000);  // the budget is used, not left mostly empty
+  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(measured_psnr(source, out, small_orbit())).epsilon(1e-9));
+}
+
+TEST_CASE("rate control refuses targets no archive reaches, writing nothing") {
+  test::TempDir dir;
+  const std::string source = test::repo_path("samples/guitar.ply");
+  const std::string out = dir.file("never.rgs");
+  audit::FitOptions fit;
+  fit.target_psnr_db = 120;  // above the runtime profile's own PSNR, which the archive cannot exceed
+  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
+  REQUIRE_FALSE(fitted.ok());
+  CHECK(fitted.status().code() == StatusCode::kInvalidArgument);
+  const std::string message = fitted.status().message();
+  CHECK_MESSAGE(message.find("above what the archive profile reaches") != std::string::npos, message);
+  CHECK_MESSAGE(message.find("guitar.ply") != std::string::npos, message);
+  CHECK_FALSE(std::filesystem::exists(out));
+
+  fit.goal = audit::FitGoal::kTargetBytes;
+  fit.target_bytes = 1000;
+  fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
+  REQUIRE_FALSE(fitted.ok());
+  CHECK_MESSAGE(std::string(fitted.status().message()).find("below the smallest archive") != std::string::npos,
+                fitted.status().message());
+  CHECK_FALSE(std::filesystem::exists(out));
+}
