@@ -188,6 +188,48 @@ Result<std::string> device_description(const AuditOptions& options) {
 #endif
 }
 
+/// A candidate's result before its views: its file, and its attribute errors where the Gaussians correspond one
+/// to one (else a note saying why there are none).
+Result<CandidateResult> candidate_with_attributes(const AuditScene& source, const AuditScene& cand) {
+  CandidateResult c;
+  c.scene = cand.info;
+  if (cand.cloud.size() != source.cloud.size() || cand.cloud.sh_degree != source.cloud.sh_degree) {
+    c.attributes_note = "no per-attribute errors: " + std::to_string(cand.cloud.size()) + " Gaussians of SH degree " +
+                        std::to_string(cand.cloud.sh_degree) + " against the source's " +
+                        std::to_string(source.cloud.size()) + " of degree " + std::to_string(source.cloud.sh_degree);
+    return c;
+  }
+  auto errors = converter::measure_attribute_errors(source.cloud, cand.cloud);
+  if (!errors.ok()) return Status(errors.status()).prepend(cand.info.path);
+  AttributeReport report;
+  report.errors = *errors;
+  if (cand.sh_quantization) {
+    report.sh_quantization = cand.sh_quantization;
+    count_clipped(source.cloud, *cand.sh_quantization, report.clipped);
+  }
+  c.attributes = report;
+  return c;
+}
+
+/// Each candidate's summary, then every heatmap on one scale, known only now: the largest |Δ| of the whole audit.
+void summarize_on_one_scale(AuditResult* result, const std::vector<float>& worst_heatmap,
+                            std::pair<uint32_t, uint32_t> worst_heatmap_size) {
+  for (CandidateResult& c : result->candidates) {
+    c.summary = summarize(c.views);
+    result->heat_scale = std::max(result->heat_scale, c.summary.max_abs_diff);
+  }
+  for (CandidateResult& c : result->candidates) {
+    for (ViewImages& w : c.worst) {
+      w.heat_scale = result->heat_scale;
+      w.difference = heatmap(w.abs_difference, w.source.width, w.source.height, result->heat_scale);
+    }
+  }
+  if (!worst_heatmap.empty()) {
+    result->candidates[0].worst_heatmap =
+        heatmap(worst_heatmap, worst_heatmap_size.first, worst_heatmap_size.second, result->heat_scale);
+  }
+}
+
 }  // namespace
 
 const char* backend_name(Backend backend) { return backend == Backend::kCuda ? "cuda" : "cpu"; }
@@ -208,25 +250,8 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   result.source = source.info;
   for (const runtime::Camera& cam : cameras) result.views.push_back(ViewInfo{cam.name, cam.width, cam.height});
 
-  // Attribute errors where the Gaussians correspond one to one.
   for (const AuditScene& cand : candidates) {
-    CandidateResult c;
-    c.scene = cand.info;
-    if (cand.cloud.size() != source.cloud.size() || cand.cloud.sh_degree != source.cloud.sh_degree) {
-      c.attributes_note = "no per-attribute errors: " + std::to_string(cand.cloud.size()) +
-                          " Gaussians of SH degree " + std::to_string(cand.cloud.sh_degree) + " against the source's " +
-                          std::to_string(source.cloud.size()) + " of degree " + std::to_string(source.cloud.sh_degree);
-    } else {
-      auto errors = converter::measure_attribute_errors(source.cloud, cand.cloud);
-      if (!errors.ok()) return Status(errors.status()).prepend(cand.info.path);
-      AttributeReport report;
-      report.errors = *errors;
-      if (cand.sh_quantization) {
-        report.sh_quantization = cand.sh_quantization;
-        count_clipped(source.cloud, *cand.sh_quantization, report.clipped);
-      }
-      c.attributes = report;
-    }
+    RGS_ASSIGN_OR_RETURN(CandidateResult c, candidate_with_attributes(source, cand));
     c.views.resize(cameras.size());
     result.candidates.push_back(std::move(c));
   }
@@ -338,21 +363,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       options.progress(progress);
     }
   }
-  for (CandidateResult& c : result.candidates) {
-    c.summary = summarize(c.views);
-    result.heat_scale = std::max(result.heat_scale, c.summary.max_abs_diff);
-  }
-  // Every heatmap on one scale, known only now: the largest |Δ| of the whole audit.
-  for (CandidateResult& c : result.candidates) {
-    for (ViewImages& w : c.worst) {
-      w.heat_scale = result.heat_scale;
-      w.difference = heatmap(w.abs_difference, w.source.width, w.source.height, result.heat_scale);
-    }
-  }
-  if (!worst_heatmap.empty()) {
-    result.candidates[0].worst_heatmap =
-        heatmap(worst_heatmap, worst_heatmap_size.first, worst_heatmap_size.second, result.heat_scale);
-  }
+  summarize_on_one_scale(&result, worst_heatmap, worst_heatmap_size);
   result.render_seconds = seconds_since(t_start);
   return result;
 }
