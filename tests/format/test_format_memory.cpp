@@ -97,7 +97,8 @@ TEST_CASE("memory: bogus frames claiming 2^28 Gaussians fail as corrupt before t
 }
 
 TEST_CASE("memory: the default ratio limit accepts the golden files and real conversions") {
-  for (const char* name : {"v1.0/small_sh3.rgs", "v1.0/small_sh0_zstd.rgs", "v1.0/forward_compat.rgs"}) {
+  for (const char* name : {"v1.0/small_sh3.rgs", "v1.0/small_sh0_zstd.rgs", "v1.0/forward_compat.rgs",
+                           "v1.2/small_sh0_dc_residual.rgs"}) {
     const std::vector<uint8_t> bytes = read_file_bytes(data_path(name));
     CHECK_MESSAGE(format::RgsFile::from_bytes(bytes.data(), bytes.size()).ok(), name);
   }
