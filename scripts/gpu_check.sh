@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|floor|pybench|audit|fidelity|ab|all]
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|floor|pybench|audit|fidelity|rate|ab|all]
 #   (default all; ab: see below)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
@@ -273,6 +273,28 @@ if [ "$what" = fidelity ] || [ "$what" = all ]; then
     --every 8
   [ -f "$RGS_DATA_DIR/biker.ply" ] && fidelity biker "$RGS_DATA_DIR/biker.ply" --orbit 8
   [ -f "$taebak" ] && fidelity taebak "$taebak_dir/taebak_lod0_sog/lod-meta.json" --cameras "$taebak_cameras"
+fi
+if [ "$what" = rate ] || [ "$what" = all ]; then
+  # Rate control on the GPU (rgs-convert --target-psnr; docs/AUDITS.md, "Rate control of the archive profile"):
+  # flowers over every 8th camera at 960 px wide and taebak over its cameras, at 35, 40 and 45 dB.
+  rate=/tmp/rgs_rate
+  mkdir -p "$rate"
+  rate_control() {  # NAME SOURCE CAMERA_ARGS...
+    local name="$1" source="$2" target rc t0
+    shift 2
+    for target in 35 40 45; do
+      rc=0
+      t0=$(date +%s%N)
+      "$bin/rgs-convert" "$source" "$rate/$name.$target.rgs" --target-psnr "$target" "$@" \
+        >"$out/rate_${name}_$target.log" 2>&1 || rc=$?
+      [ $rc -ne 0 ] && status=1
+      note "rate_${name}_$target: exit $rc in $(( ($(date +%s%N) - t0) / 1000000 )) ms; $(grep -m1 -iE 'reached' \
+        "$out/rate_${name}_$target.log")"
+    done
+  }
+  rate_control flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" --cameras \
+    "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json" --every 8 --width 960
+  [ -f "$taebak" ] && rate_control taebak "$taebak_dir/taebak_lod0_sog/lod-meta.json" --cameras "$taebak_cameras"
 fi
 echo
 echo "=== summary ==="
