@@ -50,6 +50,8 @@ constexpr double kMaxAboveDb = 0.5;
 /// finest SH scale they are tried with.
 constexpr size_t kTradeCandidates = 2;
 constexpr double kTradeFinestScale = 0.25;
+/// The trades are tried only when the refinement ends more than this above the target.
+constexpr double kTradeMinSlackDb = 0.15;
 /// Searches (each checked at the cameras' own size) before the choice is settled.
 constexpr int kMaxAttempts = 3;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
@@ -447,11 +449,13 @@ class Search {
     return Status();
   }
 
-  /// kTargetPsnr's last step, finer than one knob's: a coarser step of a bit count or of the position error
+  /// kTargetPsnr's last step, finer than one knob's, when path->back() is more than kTradeMinSlackDb above
+  /// `target`: a coarser step of a bit count or of the position error
   /// that misses `target` on its own, with every SH step multiplier scaled down by the factor (bisected) that
   /// brings it back to the target, kept when it is smaller than path->back().
   Status trade_for_psnr(double target, std::vector<FitPoint>* path) {
     const FitPoint at = path->back();
+    if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) return Status();  // little to gain
     std::vector<FitPoint> misses;
     for (Knob knob : knobs_) {
       if (knob >= Knob::kSh0 && knob <= Knob::kSh3) continue;
