@@ -31,6 +31,9 @@ double seconds_since(Clock::time_point start) { return std::chrono::duration<dou
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+/// The mean squared error (peak 1) of a PSNR in dB.
+double mse_of(double psnr_db) { return std::pow(10.0, -psnr_db / 10); }
+
 /// SH step multipliers the search moves between: steps of about 1.2x (1.6 dB of that band's error).
 constexpr std::array<uint32_t, 24> kMultipliers = {1,  2,  3,  4,  5,  6,  7,  8,  10, 12, 14,  16,
                                                    20, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 127};
@@ -43,8 +46,16 @@ constexpr int kFinestPositionLog2 = 25, kCoarsestPositionLog2 = 3;
 constexpr double kLadderFinest = -8, kLadderCoarsest = 8;
 /// How much above the target the final choice may be before the search is run again at an adjusted target.
 constexpr double kMaxAboveDb = 0.5;
+/// The last step's trades: how many coarser steps that miss the target are tried with finer SH steps, and the
+/// finest SH scale they are tried with.
+constexpr size_t kTradeCandidates = 2;
+constexpr double kTradeFinestScale = 0.25;
+/// The trades are tried only when the refinement ends more than this above the target.
+constexpr double kTradeMinSlackDb = 0.15;
+/// Searches (each checked at the cameras' own size) before the choice is settled.
+constexpr int kMaxAttempts = 3;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
-constexpr double kCalibrationMarginDb = 0.05;
+constexpr double kCalibrationMarginDb = 0.15;
 
 /// The knobs the search moves, one at a time.
 enum class Knob { kRotation, kScale, kOpacity, kSh0, kSh1, kSh2, kSh3, kPosition };
@@ -55,6 +66,12 @@ uint32_t clamp_bits(double bits) { return uint32_t(std::clamp(std::lround(bits),
 
 double clamp_position(double error) {
   return std::clamp(error, std::ldexp(1.0, -kFinestPositionLog2), std::ldexp(1.0, -kCoarsestPositionLog2));
+}
+
+/// `o` with every SH step multiplier scaled by `factor` (rounded, 1..127).
+format::ArchiveOptions scale_sh(format::ArchiveOptions o, double factor) {
+  for (uint32_t& m : o.sh_step_multipliers) m = uint32_t(std::clamp(std::lround(double(m) * factor), 1L, 127L));
+  return o;
 }
 
 /// The ladder: every knob of `anchor` coarsened by `q` bits (q < 0: finer).
@@ -310,8 +327,25 @@ class Search {
     if (options_.progress) options_.progress(what);
   }
 
-  /// kTargetPsnr at the search size: the path of accepted archives, finest first, each meeting `target`.
-  Result<std::vector<FitPoint>> for_psnr(double target) {
+  /// kTargetPsnr at the search size: the path of accepted archives, finest first, each meeting `target`. It
+  /// starts from the last step of `previous` (an earlier search's path) that meets `target`, else from the
+  /// ladder.
+  Result<std::vector<FitPoint>> for_psnr(double target, const std::vector<FitPoint>& previous = {}) {
+    std::vector<FitPoint> path;
+    for (const FitPoint& p : previous) {
+      if (p.psnr_mean_db >= target) path = {p};
+    }
+    if (path.empty()) {
+      RGS_ASSIGN_OR_RETURN(FitPoint pass, ladder_for_psnr(target));
+      path = {pass};
+    }
+    RGS_RETURN_IF_ERROR(refine_for_psnr(target, &path));
+    RGS_RETURN_IF_ERROR(trade_for_psnr(target, &path));
+    return path;
+  }
+
+  /// kTargetPsnr's ladder: the coarsest point of the ladder that meets `target`, bracketed to a quarter bit.
+  Result<FitPoint> ladder_for_psnr(double target) {
     // The ladder: bracket the largest q that meets the target, halving the bracket with three points a batch.
     std::vector<double> qs = {-4, -2, 0, 2, 4};
     double q_pass = std::numeric_limits<double>::quiet_NaN(), q_fail = kLadderCoarsest + 1;
@@ -353,11 +387,18 @@ class Search {
                         db_text(finest_->psnr_mean_db) + " at the finest settings (" +
                         describe_archive_options(finest_->options, sh_degree_) + ")");
     }
-    // One knob at a time: the coarser step with the most bytes saved per dB lost that still meets the target.
-    std::vector<FitPoint> path = {*pass};
+    return *pass;
+  }
+
+  /// kTargetPsnr's refinement from path->back(): each round moves every knob one step coarser on its own; the
+  /// steps that still meet `target` are taken together, best bytes saved per unit of squared error first,
+  /// while the sum of their error increments (errors of different knobs add, roughly) stays within what the
+  /// target allows; the combination is measured and kept when it meets the target, else the best single step.
+  Status refine_for_psnr(double target, std::vector<FitPoint>* path) {
+    const double allowed_mse = mse_of(target);
     std::vector<bool> frozen(knobs_.size(), false);
     for (int round = 0; round < kMaxRounds; ++round) {
-      const FitPoint& at = path.back();
+      const FitPoint at = path->back();
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
       for (size_t k = 0; k < knobs_.size(); ++k) {
@@ -371,26 +412,91 @@ class Search {
       }
       if (list.empty()) break;
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
-      double best_ratio = -1;
-      size_t best = points.size();
+      // The steps that meet the target, by bytes saved per squared error added (a step that adds none first).
+      struct Move {
+        size_t index;
+        double added_mse, ratio;
+      };
+      std::vector<Move> moves;
       for (size_t i = 0; i < points.size(); ++i) {
         const FitPoint& p = points[i];
         if (!(p.psnr_mean_db >= target) || p.bytes >= at.bytes) {
           frozen[knob_of[i]] = true;  // coarser still, with the others coarser too, will not meet it
           continue;
         }
-        const double saved = double(at.bytes - p.bytes);
-        const double lost = std::max(at.psnr_mean_db - p.psnr_mean_db, 1e-3);
-        if (saved / lost > best_ratio) {
-          best_ratio = saved / lost;
-          best = i;
+        const double added = std::max(mse_of(p.psnr_mean_db) - mse_of(at.psnr_mean_db), 0.0);
+        moves.push_back({i, added, double(at.bytes - p.bytes) / std::max(added, 1e-30)});
+      }
+      if (moves.empty()) break;
+      std::stable_sort(moves.begin(), moves.end(), [](const Move& a, const Move& b) { return a.ratio > b.ratio; });
+      FitPoint next = points[moves[0].index];
+      format::ArchiveOptions together = at.options;
+      double predicted = mse_of(at.psnr_mean_db);
+      size_t taken = 0;
+      for (const Move& mv : moves) {
+        if (predicted + mv.added_mse > allowed_mse) continue;
+        together = *step(together, knobs_[knob_of[mv.index]], true);
+        predicted += mv.added_mse;
+        ++taken;
+      }
+      if (taken > 1) {
+        RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> combined, m_.measure({together}));
+        if (combined[0].psnr_mean_db >= target && combined[0].bytes < next.bytes) next = combined[0];
+      }
+      path->push_back(next);
+      report_progress("refining", path->back());
+    }
+    return Status();
+  }
+
+  /// kTargetPsnr's last step, finer than one knob's, when path->back() is more than kTradeMinSlackDb above
+  /// `target`: a coarser step of a bit count or of the position error
+  /// that misses `target` on its own, with every SH step multiplier scaled down by the factor (bisected) that
+  /// brings it back to the target, kept when it is smaller than path->back().
+  Status trade_for_psnr(double target, std::vector<FitPoint>* path) {
+    const FitPoint at = path->back();
+    if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) return Status();  // little to gain
+    std::vector<FitPoint> misses;
+    for (Knob knob : knobs_) {
+      if (knob >= Knob::kSh0 && knob <= Knob::kSh3) continue;
+      const auto o = step(at.options, knob, true);
+      if (!o) continue;
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.measure({*o}));
+      if (!(p[0].psnr_mean_db >= target) && p[0].bytes < at.bytes) misses.push_back(p[0]);
+    }
+    std::sort(misses.begin(), misses.end(), [](const FitPoint& a, const FitPoint& b) { return a.bytes < b.bytes; });
+    if (misses.size() > kTradeCandidates) misses.resize(kTradeCandidates);
+    std::optional<FitPoint> best;
+    for (const FitPoint& miss : misses) {
+      // Bytes alone: the smallest scale whose archive is still smaller than `at`.
+      double lo = kTradeFinestScale, hi = 1;  // lo: not smaller (or untested); hi: smaller
+      for (int i = 0; i < 6; ++i) {
+        const double mid = (lo + hi) / 2;
+        RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.bytes({scale_sh(miss.options, mid)}));
+        (p[0].bytes < at.bytes ? hi : lo) = mid;
+      }
+      // PSNR: bisect the largest scale in [hi, 1) that meets the target.
+      double fail = 1, pass = hi;
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> finest, m_.measure({scale_sh(miss.options, pass)}));
+      if (!(finest[0].psnr_mean_db >= target) || finest[0].bytes >= at.bytes) continue;
+      FitPoint found = finest[0];
+      for (int i = 0; i < 3; ++i) {
+        const double mid = (pass + fail) / 2;
+        RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.measure({scale_sh(miss.options, mid)}));
+        if (p[0].psnr_mean_db >= target && p[0].bytes < at.bytes) {
+          pass = mid;
+          if (p[0].bytes < found.bytes) found = p[0];
+        } else {
+          fail = mid;
         }
       }
-      if (best == points.size()) break;
-      path.push_back(points[best]);
-      report_progress("refining", path.back());
+      if (!best || found.bytes < best->bytes) best = found;
     }
-    return path;
+    if (best) {
+      path->push_back(*best);
+      report_progress("trading", path->back());
+    }
+    return Status();
   }
 
   /// kTargetBytes at the search size: the path of accepted archives, coarsest first, each within `budget`.
@@ -519,6 +625,62 @@ std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras
   return out;
 }
 
+/// kTargetPsnr: checks the ladder's point for the target on the cameras at their own size, searches at the
+/// target moved by the difference measured between the two sizes, checks the search's last step, and searches
+/// again at a target moved by the difference measured between the two sizes while the check
+/// misses the target or lands more than kMaxAboveDb above it. On the last attempt, a miss is followed by
+/// checks of the earlier steps of the path. Sets result->chosen and result->search_psnr_db.
+Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first, double target, FitResult* result) {
+  const std::string size = std::to_string(first.width) + "x" + std::to_string(first.height);
+  // A first estimate of the difference between the sizes, at the ladder's point for the target.
+  RGS_ASSIGN_OR_RETURN(const FitPoint ladder_point, search.ladder_for_psnr(target));
+  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> calibration, measurer.measure({ladder_point.options}, true));
+  search.report("check at " + size + ": " + db_text(calibration[0].psnr_mean_db) + " (search views: " +
+                db_text(ladder_point.psnr_mean_db) + ")");
+  double search_target =
+      std::max(target, target + ladder_point.psnr_mean_db - calibration[0].psnr_mean_db + kCalibrationMarginDb);
+  std::optional<FitPoint> best;
+  if (calibration[0].psnr_mean_db >= target) best = calibration[0];
+  double best_search_psnr = ladder_point.psnr_mean_db;
+  std::vector<FitPoint> path;
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    RGS_ASSIGN_OR_RETURN(path, search.for_psnr(search_target, path));
+    const bool last_attempt = attempt + 1 == kMaxAttempts;
+    // From the search's last (cheapest) step back, on the last attempt: the first that meets the target.
+    FitPoint last_checked;
+    for (size_t back = 0; back < (last_attempt ? std::min<size_t>(path.size(), 3) : 1); ++back) {
+      const FitPoint& at = path[path.size() - 1 - back];
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({at.options}, true));
+      if (back == 0) last_checked = checked[0];
+      search.report("check at " + size + ": " + db_text(checked[0].psnr_mean_db) + " (search views: " +
+                    db_text(at.psnr_mean_db) + ")");
+      if (checked[0].psnr_mean_db >= target) {
+        if (!best || checked[0].bytes < best->bytes) {
+          best = checked[0];
+          best_search_psnr = at.psnr_mean_db;
+        }
+        break;
+      }
+    }
+    if (best && best->psnr_mean_db <= target + kMaxAboveDb) break;
+    // The difference between the search views and the final ones at the search's last step.
+    const double offset = path.back().psnr_mean_db - last_checked.psnr_mean_db;
+    double next = target + offset + kCalibrationMarginDb;
+    if (last_checked.psnr_mean_db < target) next = std::max(next, search_target + kCalibrationMarginDb);
+    if (std::abs(next - search_target) < 0.01) break;
+    search_target = next;
+  }
+  if (!best) {
+    return Status(StatusCode::kInvalidArgument,
+                  "target " + db_text(target) + " is not met by any archive the search measured at " + size +
+                      " (the finest reached " + db_text(search.finest() ? search.finest()->psnr_mean_db : kNaN) +
+                      " at the search size)");
+  }
+  result->chosen = *best;
+  result->search_psnr_db = best_search_psnr;
+  return Status();
+}
+
 }  // namespace
 
 std::string describe_archive_options(const format::ArchiveOptions& o, uint32_t sh_degree) {
@@ -590,52 +752,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
     result.chosen = checked[0];
     result.search_psnr_db = path.back().psnr_mean_db;
   } else {
-    // The search size's PSNR differs from the cameras' own: check the last steps at full size, and search
-    // again at a target moved by the measured difference while the choice misses or overshoots.
-    const double target = options.target_psnr_db;
-    double search_target = target;
-    std::optional<FitPoint> best;
-    double best_search_psnr = 0;
-    for (int attempt = 0; attempt < 4; ++attempt) {
-      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> path, search.for_psnr(search_target));
-      // From the search's last (cheapest) step back: the first that meets the target at full size.
-      std::optional<FitPoint> chosen;
-      FitPoint last_checked;
-      double last_search_psnr = 0;
-      for (size_t back = 0; back < std::min<size_t>(path.size(), 3) && !chosen; ++back) {
-        const FitPoint& at = path[path.size() - 1 - back];
-        RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({at.options}, true));
-        if (back == 0) {
-          last_checked = checked[0];
-          last_search_psnr = at.psnr_mean_db;
-        }
-        if (checked[0].psnr_mean_db >= target) {
-          chosen = checked[0];
-          if (!best || chosen->bytes < best->bytes) {
-            best = chosen;
-            best_search_psnr = at.psnr_mean_db;
-          }
-        }
-      }
-      search.report("check at " + std::to_string(cameras[0].width) + "x" + std::to_string(cameras[0].height) +
-                    ": " + db_text(last_checked.psnr_mean_db) + " (search views: " + db_text(last_search_psnr) + ")");
-      if (best && best->psnr_mean_db <= target + kMaxAboveDb) break;
-      // The difference between the search views and the final ones at the search's last step.
-      const double offset = last_search_psnr - last_checked.psnr_mean_db;
-      double next = target + offset + kCalibrationMarginDb;
-      if (!chosen) next = std::max(next, search_target + kCalibrationMarginDb);
-      if (std::abs(next - search_target) < 0.01) break;
-      search_target = next;
-    }
-    if (!best) {
-      return Status(StatusCode::kInvalidArgument,
-                    "target " + db_text(target) + " is not met by any archive the search measured at " +
-                        std::to_string(cameras[0].width) + "x" + std::to_string(cameras[0].height) +
-                        " (the finest reached " + db_text(search.finest() ? search.finest()->psnr_mean_db : kNaN) +
-                        " at the search size)");
-    }
-    result.chosen = *best;
-    result.search_psnr_db = best_search_psnr;
+    RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
   }
   result.finest = search.finest();
   result.encodings = measurer.encodings();

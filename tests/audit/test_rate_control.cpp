@@ -1,5 +1,5 @@
-// Rate control of the archive profile on the bundled guitar: the written file meets the PSNR target, measured
-// independently with run_audit, and lands within half a dB of it; a byte budget is kept; a target no archive
+// Rate control of the archive profile on the bundled guitar and its SH-degree-3 excerpt: the written file meets
+// the PSNR target, measured independently with run_audit, and lands within half a dB of it; a byte budget is kept; a target no archive
 // reaches is refused with what the finest archive reaches.
 #include <doctest/doctest.h>
 
@@ -63,6 +63,21 @@ TEST_CASE("rate control meets a 40 dB target on guitar within 0.5 dB") {
   auto defaults = api::convert(source, dir.file("guitar_default_archive.rgs"), archive);
   REQUIRE_MESSAGE(defaults.ok(), defaults.status().to_string());
   CHECK(fitted->convert.output_bytes < defaults->output_bytes);
+}
+
+TEST_CASE("rate control meets a 40 dB target within 0.5 dB on a scene of SH degree 3") {
+  // Eight knobs (the SH step of every degree among them), as on the real scenes of SH degree 3.
+  test::TempDir dir;
+  const std::string source = test::repo_path(test::kGuitarSh3);
+  const std::string out = dir.file("guitar_sh3_40db.rgs");
+  audit::FitOptions fit;
+  fit.target_psnr_db = 40;
+  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  const double psnr = measured_psnr(source, out, small_orbit());
+  CHECK(psnr >= 40.0);
+  CHECK(psnr <= 40.5);
+  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
 }
 
 TEST_CASE("rate control keeps a byte budget on guitar") {

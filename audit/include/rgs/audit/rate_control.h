@@ -92,9 +92,12 @@ struct FitResult {
 /// kTargetPsnr: the fewest bytes whose mean PSNR (archive render against `source`'s render, run_audit's
 /// definition) at the cameras' size is >= target_psnr_db; kTargetBytes: the highest such PSNR whose file
 /// fits target_bytes. The search: a ladder that coarsens every knob together from the defaults
-/// (format::resolve_archive_options), bracketed at the search size; then one knob at a time, by the
-/// bytes saved per dB lost (or dB gained per byte added); then a check of the last few steps at the
-/// cameras' own size, searching again with the measured difference between the two sizes if needed.
+/// (format::resolve_archive_options), bracketed at the search size; then rounds of one-knob steps
+/// (kTargetPsnr: the steps that keep the target taken together, by bytes saved per squared error added, and
+/// a last coarser bit or position step traded against finer SH steps; kTargetBytes: the finer step with the
+/// most dB gained per byte added). kTargetPsnr calibrates the difference between the search size and the
+/// cameras' own size at the ladder's point, and checks the search's choice at the cameras' own size,
+/// searching again with the measured difference while it misses the target or lands over 0.5 dB above it.
 /// Deterministic for a given backend.
 /// @return kInvalidArgument: no cameras, an empty or invalid source, a target that is not finite or positive,
 ///         a PSNR target above what the finest archive reaches (the message says what it reaches), a byte
