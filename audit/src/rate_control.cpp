@@ -401,15 +401,7 @@ class Search {
       const FitPoint at = path->back();
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
-      for (size_t k = 0; k < knobs_.size(); ++k) {
-        if (frozen[k]) continue;
-        if (auto o = step(at.options, knobs_[k], true)) {
-          list.push_back(*o);
-          knob_of.push_back(k);
-        } else {
-          frozen[k] = true;
-        }
-      }
+      next_steps(at.options, true, &frozen, &list, &knob_of);
       if (list.empty()) break;
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
       // The steps that meet the target, by bytes saved per squared error added (a step that adds none first).
@@ -535,15 +527,7 @@ class Search {
       const FitPoint& at = path.back();
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
-      for (size_t k = 0; k < knobs_.size(); ++k) {
-        if (frozen[k]) continue;
-        if (auto o = step(at.options, knobs_[k], false)) {
-          list.push_back(*o);
-          knob_of.push_back(k);
-        } else {
-          frozen[k] = true;
-        }
-      }
+      next_steps(at.options, false, &frozen, &list, &knob_of);
       if (list.empty()) break;
       // Bytes first: only the steps that fit are rendered.
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> sizes, m_.bytes(list));
@@ -584,6 +568,21 @@ class Search {
   const std::optional<FitPoint>& finest() const { return finest_; }
 
  private:
+  /// One step of every knob not yet frozen, coarser or finer, into `list` with its knob index in `knob_of`; a knob
+  /// that has no such step left is frozen.
+  void next_steps(const format::ArchiveOptions& at, bool coarser, std::vector<bool>* frozen,
+                  std::vector<format::ArchiveOptions>* list, std::vector<size_t>* knob_of) const {
+    for (size_t k = 0; k < knobs_.size(); ++k) {
+      if ((*frozen)[k]) continue;
+      if (auto o = step(at, knobs_[k], coarser)) {
+        list->push_back(*o);
+        knob_of->push_back(k);
+      } else {
+        (*frozen)[k] = true;
+      }
+    }
+  }
+
   void note_finest(const FitPoint& p) {
     if (!finest_ || p.bytes > finest_->bytes) finest_ = p;
   }

@@ -40,44 +40,42 @@ double measured_psnr(const std::string& source, const std::string& candidate, co
   return result->candidates[0].summary.psnr_mean_db;
 }
 
+/// Fits `source` to 40 dB into `out` and checks the written file's own PSNR (run_audit) lands in [40, 40.5] and
+/// equals what the fit reported.
+audit::FittedConversion fit_40db(const std::string& source, const std::string& out) {
+  audit::FitOptions fit;
+  fit.target_psnr_db = 40;
+  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  const double psnr = measured_psnr(source, out, small_orbit());
+  CHECK(psnr >= 40.0);
+  CHECK(psnr <= 40.5);
+  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
+  return std::move(fitted).value();
+}
+
 }  // namespace
 
 TEST_CASE("rate control meets a 40 dB target on guitar within 0.5 dB") {
   test::TempDir dir;
   const std::string source = test::repo_path("samples/guitar.ply");
   const std::string out = dir.file("guitar_40db.rgs");
-  audit::FitOptions fit;
-  fit.target_psnr_db = 40;
-  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
-  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
-  const double psnr = measured_psnr(source, out, small_orbit());
-  CHECK(psnr >= 40.0);
-  CHECK(psnr <= 40.5);
-  // What the fit reported is what the written file renders to, and the bytes it reported are the file's.
-  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
-  CHECK(fitted->convert.output_bytes == std::filesystem::file_size(out));
-  CHECK(fitted->convert.output_description == "RoofGS .rgs, archive profile");
+  const audit::FittedConversion fitted = fit_40db(source, out);
+  // The bytes the fit reported are the file's.
+  CHECK(fitted.convert.output_bytes == std::filesystem::file_size(out));
+  CHECK(fitted.convert.output_description == "RoofGS .rgs, archive profile");
   // Smaller than the default archive, which is far above the target.
   api::ConvertOptions archive;
   archive.profile = format::StorageProfile::kArchive;
   auto defaults = api::convert(source, dir.file("guitar_default_archive.rgs"), archive);
   REQUIRE_MESSAGE(defaults.ok(), defaults.status().to_string());
-  CHECK(fitted->convert.output_bytes < defaults->output_bytes);
+  CHECK(fitted.convert.output_bytes < defaults->output_bytes);
 }
 
 TEST_CASE("rate control meets a 40 dB target within 0.5 dB on a scene of SH degree 3") {
   // Eight knobs (the SH step of every degree among them), as on the real scenes of SH degree 3.
   test::TempDir dir;
-  const std::string source = test::repo_path(test::kGuitarSh3);
-  const std::string out = dir.file("guitar_sh3_40db.rgs");
-  audit::FitOptions fit;
-  fit.target_psnr_db = 40;
-  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
-  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
-  const double psnr = measured_psnr(source, out, small_orbit());
-  CHECK(psnr >= 40.0);
-  CHECK(psnr <= 40.5);
-  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
+  fit_40db(test::repo_path(test::kGuitarSh3), dir.file("guitar_sh3_40db.rgs"));
 }
 
 TEST_CASE("rate control keeps a byte budget on guitar") {
