@@ -91,7 +91,8 @@ class Scene:
     def render(self, camera: Camera, preset: str = "fastest", width: Optional[int] = None,
                height: Optional[int] = None, background: Sequence[float] = (0.0, 0.0, 0.0),
                format: str = "rgba32f", depth: bool = False,
-               stream: Optional[int] = None) -> Union[_Image, Tuple[_Image, _Image]]: ...
+               stream: Optional[int] = None,
+               scratch_budget: int = 0) -> Union[_Image, Tuple[_Image, _Image]]: ...
 
 
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),

@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|floor|pybench|audit|fidelity|rate|ab|all]
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|floor|pybench|audit|fidelity|rate|ab|all]
 #   (default all; ab: see below)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
@@ -160,6 +160,27 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     # The tables without the progress lines ("... x N ...").
     grep -v -e ' \.\.\.$' "$out/bench_$name.log" | tee -a "$summary"
   done
+fi
+if [ "$what" = groups ] || [ "$what" = all ]; then
+  # Bounded pair memory (docs/RENDERER.md#bounded-pair-memory): taebak at 8K without and with a 1 GiB scratch
+  # budget, and taebak x32 (136M Gaussians: 2 pairs a Gaussian of pair capacity is more than one onesweep
+  # portion) at 1080p without and with a 4 GiB budget. The GPU tests check that the images are the one-pass ones.
+  if [ -f "$taebak" ]; then
+    groups_bench() {  # NAME ARGS...
+      local name="$1" t0 rc=0
+      shift
+      t0=$(date +%s)
+      "$bin/rgs-bench" "$taebak" --cameras "$taebak_cameras" --mode fastest "$@" --json "$out/groups_$name.json" \
+        >"$out/groups_$name.log" 2>&1 || rc=$?
+      [ $rc -ne 0 ] && status=1
+      note "groups_$name: exit $rc in $(( $(date +%s) - t0 )) s"
+      grep -v -e ' \.\.\.$' "$out/groups_$name.log" | grep -E "error|frame buffers|^  fastest  " | tee -a "$summary"
+    }
+    groups_bench taebak_8k --resolution 7680x4320 --warmup 2 --repeat 3
+    groups_bench taebak_8k_1gib --resolution 7680x4320 --warmup 2 --repeat 3 --scratch-budget 1GiB
+    groups_bench taebak_x32 --replicate 32 --resolution 1920x1080 --warmup 1 --repeat 3
+    groups_bench taebak_x32_4gib --replicate 32 --resolution 1920x1080 --warmup 1 --repeat 3 --scratch-budget 4GiB
+  fi
 fi
 if [ "$what" = floor ] || [ "$what" = all ]; then
   # The true floor (docs/ROOFLINE.md#the-true-floor): faithful and fastest against what each view needs, counted

@@ -85,6 +85,8 @@ struct Options {
   /// --reference: the scene --quality compares against (faithful's render of it); empty: the benched scene.
   std::string reference;
   bool floor = false;
+  /// --scratch-budget: GpuRenderOptions::scratch_budget of every mode (0: none).
+  uint64_t scratch_budget = 0;
 };
 
 constexpr int kStages = 5;
@@ -132,6 +134,7 @@ struct RunResult {
   Summary stages[kStages];
   double fps = 0;
   double mean_pairs = 0;
+  uint32_t max_tile_groups = 1;  ///< most groups of tile rows a view was rendered in (GpuRenderStats::tile_groups)
 };
 
 /// A group of cameras at one resolution.
@@ -179,6 +182,7 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
                           runtime::DeviceImage& image) {
   runtime::GpuRenderOptions options = base_options;
   options.time_stages = true;
+  options.scratch_budget = opt.scratch_budget;
   const size_t n = set.cameras.size();
   for (uint32_t i = 0; i < opt.warmup; ++i) {
     const runtime::Camera& cam = set.cameras[i % n];
@@ -206,7 +210,10 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
     for (const ViewResult& vr : run.views) all.insert(all.end(), vr.samples[s].begin(), vr.samples[s].end());
     run.stages[s] = summarize(std::move(all));
   }
-  for (const ViewResult& vr : run.views) run.mean_pairs += double(vr.stats.pairs);
+  for (const ViewResult& vr : run.views) {
+    run.mean_pairs += double(vr.stats.pairs);
+    run.max_tile_groups = std::max(run.max_tile_groups, vr.stats.tile_groups);
+  }
   run.mean_pairs /= double(n);
   run.fps = run.stages[4].median > 0 ? 1000.0 / run.stages[4].median : 0.0;
   return run;
@@ -567,21 +574,25 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
     std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n",
                 tools::fixed(report.load_ms, 1).c_str(), tools::group_digits(scene.file_bytes).c_str());
   }
-  std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame) + %s MB image\n",
-              tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(), tools::fixed(double(report.image_bytes) / 1e6, 1).c_str());
+  std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame%s) + %s MB image\n",
+              tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(),
+              opt.scratch_budget == 0
+                  ? ""
+                  : (", budget " + tools::fixed(double(opt.scratch_budget) / 1e6, 1) + " MB").c_str(),
+              tools::fixed(double(report.image_bytes) / 1e6, 1).c_str());
   std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", report.view_count,
               !opt.cameras.cameras_path.empty() ? "cameras.json" : opt.cameras.path > 0 ? "path" : "orbit",
               opt.warmup, opt.repeat);
-  std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %15s %8s %14s\n", "mode", "resolution", "preprocess", "sort",
-              "ranges", "render", "total", "views min-max", "FPS", "mean pairs");
+  std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %15s %8s %14s %6s\n", "mode", "resolution", "preprocess", "sort",
+              "ranges", "render", "total", "views min-max", "FPS", "mean pairs", "groups");
   for (const RunResult& r : report.results) {
     const auto [lo, hi] = view_spread(r);
-    std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %15s %8s %14s\n", r.mode.c_str(), r.resolution.c_str(),
+    std::printf("  %-12s %-10s %10s %8s %8s %8s %8s %15s %8s %14s %6u\n", r.mode.c_str(), r.resolution.c_str(),
                 tools::fixed(r.stages[0].median, 3).c_str(), tools::fixed(r.stages[1].median, 3).c_str(),
                 tools::fixed(r.stages[2].median, 3).c_str(), tools::fixed(r.stages[3].median, 3).c_str(),
                 tools::fixed(r.stages[4].median, 3).c_str(),
                 (tools::fixed(lo, 3) + "-" + tools::fixed(hi, 3)).c_str(), tools::fixed(r.fps, 1).c_str(),
-                tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str());
+                tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str(), r.max_tile_groups);
   }
 
   std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
@@ -693,6 +704,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                 {"device_bytes", scene.scene.device_bytes()},
                 {"load_ms", report.load_ms},
                 {"renderer_scratch_bytes", report.scratch_bytes},
+                {"scratch_budget_bytes", opt.scratch_budget},
                 {"image_bytes", report.image_bytes},
                 {"replicate", opt.replicate}};
   if (opt.replicate > 1) {
@@ -731,6 +743,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                        {"large_pairs", v.stats.large_pairs},
                        {"subtile_culling", v.stats.subtile_culling},
                        {"sort_bits", v.stats.sort_bits},
+                       {"tile_groups", v.stats.tile_groups},
                        {"median_total_ms", summarize(v.samples[4]).median},
                        {"samples", samples}});
     }
@@ -750,6 +763,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                     {"stages", stages},
                     {"fps", r.fps},
                     {"mean_pairs", r.mean_pairs},
+                    {"max_tile_groups", r.max_tile_groups},
                     {"roofline", roofline_json(report.rooflines[i])},
                     {"view_total_ms", {{"min", lo}, {"max", hi}}},
                     {"per_view", views}});
@@ -951,6 +965,11 @@ int main(int argc, char** argv) {
                  "frame the replicated scene; --cameras views are used as they are. K x Gaussians must stay "
                  "<= 2^31 - 1")
       ->check(CLI::Range(uint32_t{1}, uint32_t{0x7fffffff}))
+      ->capture_default_str();
+  app.add_option("--scratch-budget", opt.scratch_budget,
+                 "Bound on the renderer's scratch memory (e.g. 1GiB, 512MB; 0: none): frames whose pairs do not fit "
+                 "render in groups of tile rows, with the same image (docs/RENDERER.md#bounded-pair-memory)")
+      ->transform(CLI::AsSizeValue(false))
       ->capture_default_str();
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");

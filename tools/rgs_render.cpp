@@ -45,6 +45,7 @@ struct Options {
   std::string backend = "cpu";
   int device = 0;
   std::string preset = "fastest";
+  uint64_t scratch_budget = 0;  ///< --scratch-budget: api::RenderSettings::gpu_scratch_budget
   runtime::RoofgsOptions techniques;  ///< the technique flags; any of them replaces the preset's techniques
 
   bool any_technique() const {
@@ -134,6 +135,7 @@ Result<View> open_view(const Options& opt, const std::array<float, 3>& backgroun
   api::RenderSettings settings;
   RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(opt.preset));
   settings.background = background;
+  settings.gpu_scratch_budget = opt.scratch_budget;
   if (opt.any_technique()) settings.techniques = opt.techniques;
   api::LoadOptions load;
   load.device = device;
@@ -290,6 +292,12 @@ int main(int argc, char** argv) {
                  "fastest (the default: RoofGS+ on the GPU, the 3DGS rules on the CPU, where they are faster), "
                  "faithful (the 3DGS rasterizer) or paper (the paper's techniques)")
       ->check(CLI::IsMember({"fastest", "faithful", "paper"}))
+      ->capture_default_str();
+  app.add_option("--scratch-budget", opt.scratch_budget,
+                 "--backend cuda: bound on the renderer's scratch memory (e.g. 1GiB, 512MB; 0: none); frames whose "
+                 "pairs do not fit render in groups of tile rows, with the same image "
+                 "(docs/RENDERER.md#bounded-pair-memory)")
+      ->transform(CLI::AsSizeValue(false))
       ->capture_default_str();
   runtime::RoofgsOptions& t = opt.techniques;
   app.add_flag("--roofgs-key", t.key32, "RoofGS: 32-bit sort keys with per-camera depth range");

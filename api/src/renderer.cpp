@@ -245,6 +245,7 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
                           " reads FP32 attributes, and " + info.path +
                           " was loaded without them: list it in LoadOptions::presets");
   options.background = settings.background;
+  options.scratch_budget = settings.gpu_scratch_budget;
   runtime::OutputImage out;
   out.width = target.width;
   out.height = target.height;
@@ -258,6 +259,7 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
                        impl_->gpu->render(*scene.gpu_scene(), camera, options, out, stream));
   stats.gaussians = gpu_stats.gaussians;
   stats.pairs = gpu_stats.pairs;
+  stats.tile_groups = gpu_stats.tile_groups;
   return stats;
 #else
   (void)stream;

@@ -11,13 +11,15 @@ namespace {
 
 __global__ void __launch_bounds__(detail::kBlockSize)
     duplicate_baseline_kernel(const float* depths, const float* means2d, const int32_t* radii,
-                              const uint64_t* offsets, uint32_t count, uint32_t tiles_x, uint32_t tiles_y,
-                              uint64_t* keys, uint32_t* values) {
+                              const uint64_t* offsets, uint32_t count, FrameParams frame, uint64_t* keys,
+                              uint32_t* values) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count || radii[i] <= 0) return;
   uint64_t off = i == 0 ? 0 : offsets[i - 1];
   // The rectangle preprocess counted, recomputed from the same inputs (as 3DGS does).
-  const TileRect rect = tile_rect(means2d[2 * i], means2d[2 * i + 1], radii[i], int(tiles_x), int(tiles_y));
+  const uint32_t tiles_x = frame.tiles_x;
+  const TileRect rect = rows_of_pass(
+      tile_rect(means2d[2 * i], means2d[2 * i + 1], radii[i], int(tiles_x), int(frame.tiles_y)), frame);
   const float depth = depths[i];
   for (int ty = rect.y_min; ty < rect.y_max; ++ty) {
     for (int tx = rect.x_min; tx < rect.x_max; ++tx) {
@@ -73,8 +75,7 @@ cudaError_t duplicate_baseline(const ProjectedArrays& projected, const uint64_t*
                                const FrameParams& frame, uint64_t* keys, uint32_t* values, cudaStream_t stream) {
   if (count == 0) return cudaSuccess;
   duplicate_baseline_kernel<<<detail::blocks_for(count), detail::kBlockSize, 0, stream>>>(
-      projected.depths, projected.means2d, projected.radii, offsets, count, frame.tiles_x, frame.tiles_y, keys,
-      values);
+      projected.depths, projected.means2d, projected.radii, offsets, count, frame, keys, values);
   return detail::launch_result();
 }
 

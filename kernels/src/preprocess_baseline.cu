@@ -36,7 +36,7 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   float px, py;
   project_to_pixel(p_cam, frame.fx, frame.fy, frame.cx, frame.cy, &px, &py);
   if (!isfinite(px) || !isfinite(py) || !isfinite(conic.a) || !isfinite(conic.b) || !isfinite(conic.c)) return;
-  const TileRect rect = tile_rect(px, py, radius, int(frame.tiles_x), int(frame.tiles_y));
+  const TileRect rect = rows_of_pass(tile_rect(px, py, radius, int(frame.tiles_x), int(frame.tiles_y)), frame);
   const int area = tile_area(rect);
   if (area == 0) return;
 

@@ -84,9 +84,10 @@ template <bool kRoofgs, bool kFastExp, bool kDepth>
 __global__ void __launch_bounds__(kTilePixels)
     render_pixel_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
                         FrameParams frame, float sigma, float4* __restrict__ out_rgba, float* __restrict__ out_depth) {
-  const uint32_t tile = blockIdx.y * frame.tiles_x + blockIdx.x;
+  const uint32_t tile_y = frame.tile_row_begin + blockIdx.y;
+  const uint32_t tile = tile_y * frame.tiles_x + blockIdx.x;
   const uint32_t px = blockIdx.x * kTileSize + threadIdx.x;
-  const uint32_t py = blockIdx.y * kTileSize + threadIdx.y;
+  const uint32_t py = tile_y * kTileSize + threadIdx.y;
   const uint32_t rank = threadIdx.y * kTileSize + threadIdx.x;
   const bool inside = px < frame.width && py < frame.height;
   const float pixf_x = static_cast<float>(px), pixf_y = static_cast<float>(py);
@@ -376,9 +377,9 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   constexpr int kListStride = kBatch + 2;
   // This block's tile and pairs [begin, end): with chunks, the first item_rows rows of blocks take the listed
   // chunks of the long tiles in row-major order (those past the list's end return at once), the rest one tile
-  // each, (x, y − item_rows), which leaves a listed tile to its chunks.
+  // each of the pass's rows, (x, tile_row_begin + y − item_rows), which leaves a listed tile to its chunks.
   const bool chunk_block = blockIdx.y < chunks.item_rows;
-  uint32_t tile_x = blockIdx.x, tile_y = blockIdx.y - chunks.item_rows, chunk = 0;
+  uint32_t tile_x = blockIdx.x, tile_y = frame.tile_row_begin + blockIdx.y - chunks.item_rows, chunk = 0;
   if (chunk_block) {
     const uint32_t index = blockIdx.y * frame.tiles_x + blockIdx.x;
     if (index >= *chunks.item_count) return;
@@ -535,7 +536,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
 template <bool kRoofgs, bool kFastExp>
 void launch_pixel(const uint64_t* ranges, const uint32_t* values, const RenderInputs& in, const FrameParams& frame,
                   float sigma, const ImageView& image, cudaStream_t stream) {
-  const dim3 grid(frame.tiles_x, frame.tiles_y), block(kTileSize, kTileSize);
+  const dim3 grid(frame.tiles_x, frame.tile_row_end - frame.tile_row_begin), block(kTileSize, kTileSize);
   auto* rgba = reinterpret_cast<float4*>(image.rgba);
   if (image.depth != nullptr) {
     render_pixel_kernel<kRoofgs, kFastExp, true>
@@ -556,8 +557,10 @@ struct FoldedLists {
 template <bool kFastExp, Cull kCull, bool kHalf>
 void launch_folded(const FoldedLists& lists, const RenderInputs& in, const FrameParams& frame, float sigma,
                    const ImageView& image, cudaStream_t stream) {
-  // One block per tile, and with chunks item_rows rows of blocks before them for the listed chunks.
-  const dim3 grid(frame.tiles_x, frame.tiles_y + lists.chunks.item_rows), block(kDualThreads);
+  // One block per tile of the pass's rows, and with chunks item_rows rows of blocks before them for the listed
+  // chunks.
+  const dim3 grid(frame.tiles_x, frame.tile_row_end - frame.tile_row_begin + lists.chunks.item_rows),
+      block(kDualThreads);
   auto* rgba = reinterpret_cast<float4*>(image.rgba);
   if (image.depth != nullptr) {
     render_folded_kernel<kFastExp, true, kCull, kHalf>

@@ -228,12 +228,14 @@ __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, c
   p->radius = radius;
   p->rect = rect;
   p->snug_t = 0.f;
-  p->tiles = uint32_t(tile_area(rect));
+  p->tiles = uint32_t(tile_area(rows_of_pass(rect, frame)));
   if (roofgs.snugbox_accutile) {
     float t = 0.f;
     if (!snugbox_threshold(opacity, &t)) return false;
     p->snug_t = t;
     p->tiles = 0;
+  } else if (p->tiles == 0) {
+    return false;  // no tile in this pass's rows
   }
   p->depth_bin = roofgs.key32 ? quantize_depth(p->depth, roofgs.quantizer) : 0u;
   return true;
@@ -299,13 +301,26 @@ struct TileWalk {
   }
 };
 
+/// Limits an AccuTile walk to the tile rows [row_begin, row_end): its slices when it walks rows, else every
+/// slice's span. The walk keeps the whole frame's direction and per-slice arithmetic, so it visits exactly the
+/// whole frame's tiles of those rows.
+__device__ inline void restrict_to_rows(AccutileWalk* w, int row_begin, int row_end) {
+  int& first = w->walk_rows ? w->u_first : w->v_first;
+  int& end = w->walk_rows ? w->u_end : w->v_end;
+  first = max(first, row_begin);
+  end = max(first, min(end, row_end));
+}
+
+/// The walk of a projected Gaussian over the tile rows of this pass (FrameParams::tile_row_begin/end), built
+/// from its whole-frame rectangle p.rect.
 __device__ inline TileWalk make_tile_walk(const ProjectedRegs& p, const FrameParams& frame,
                                           const RoofgsFrame& roofgs) {
   TileWalk w;
   w.accutile = roofgs.snugbox_accutile;
-  w.rect = p.rect;
+  w.rect = rows_of_pass(p.rect, frame);
   if (w.accutile) {
     w.walk = make_accutile_walk(make_snugbox(p.px, p.py, p.cov, p.snug_t), accutile_limit(frame, roofgs, p.rect));
+    restrict_to_rows(&w.walk, int(frame.tile_row_begin), int(frame.tile_row_end));
   }
   return w;
 }

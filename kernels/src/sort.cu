@@ -121,9 +121,11 @@ int passes_for(int begin_bit, int end_bit) {
   return end_bit > begin_bit ? (end_bit - begin_bit + kRadixBits - 1) / kRadixBits : 0;
 }
 
-/// The layout for up to `count` pairs (a sort of fewer pairs on it uses the first lookback rows of each pass).
+/// The layout for sorts of up to `count` pairs (a sort of fewer pairs on it uses the first lookback rows of
+/// each pass). Only sorts of one portion take the tuned path, so a larger count needs no more than one portion's.
 CounterLayout layout_for_count(uint64_t count, int begin_bit, int end_bit) {
-  return CounterLayout{passes_for(begin_bit, end_bit), (count + kMinTileItems - 1) / kMinTileItems};
+  const uint64_t tuned = std::min(count, kMaxOnePortion);
+  return CounterLayout{passes_for(begin_bit, end_bit), (tuned + kMinTileItems - 1) / kMinTileItems};
 }
 
 /// DispatchRadixSort::InvokeOnesweep for one portion with overwrite allowed, on counters already zeroed: the
@@ -205,9 +207,7 @@ cudaError_t sort_pairs_ping_pong(void* temp, size_t* temp_bytes, uint32_t* const
   if (temp == nullptr) {  // enough for the public sort and, on the tuned path, for sort_onesweep's counters
     result = public_bytes(count, begin_bit, end_bit, temp_bytes);
 #if RGS_TUNED_ONESWEEP
-    if (result == cudaSuccess && count <= kMaxOnePortion) {
-      *temp_bytes = std::max(*temp_bytes, layout_for_count(count, begin_bit, end_bit).bytes());
-    }
+    if (result == cudaSuccess) *temp_bytes = std::max(*temp_bytes, layout_for_count(count, begin_bit, end_bit).bytes());
 #endif
     return result;
   }

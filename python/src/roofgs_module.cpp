@@ -689,7 +689,7 @@ struct PyScene {
 
   py::object render(const api::Camera& camera_in, const std::string& preset, std::optional<uint32_t> width,
                     std::optional<uint32_t> height, std::array<float, 3> background, const std::string& format,
-                    bool depth, py::object stream) {
+                    bool depth, py::object stream, uint64_t scratch_budget) {
     api::Camera camera = camera_in;
     if (width || height) {
       // One side alone keeps the camera's aspect ratio (as rgs-render --width does).
@@ -701,6 +701,7 @@ struct PyScene {
     api::RenderSettings settings;
     settings.preset = unwrap(api::parse_preset(preset));
     settings.background = background;
+    settings.gpu_scratch_budget = scratch_budget;
     const api::PixelFormat pixel_format = unwrap(api::parse_pixel_format(format));
     const api::Stream s =
         stream.is_none() ? nullptr : reinterpret_cast<api::Stream>(static_cast<uintptr_t>(stream.cast<int64_t>()));
@@ -1207,10 +1208,12 @@ PYBIND11_MODULE(roofgs, m) {
       .def("render", &PyScene::render, py::arg("camera"), py::arg("preset") = "fastest",
            py::arg("width") = py::none(), py::arg("height") = py::none(),
            py::arg("background") = std::array<float, 3>{0.f, 0.f, 0.f}, py::arg("format") = "rgba32f",
-           py::arg("depth") = false, py::arg("stream") = py::none(),
+           py::arg("depth") = false, py::arg("stream") = py::none(), py::arg("scratch_budget") = 0,
            "Render from `camera` (resized to width x height if given). CPU: a NumPy array [H, W, 4]; CUDA: a "
            "DeviceImage (DLPack). depth=True returns (rgba, depth). `stream`: a CUDA stream handle (int, e.g. "
-           "torch.cuda.current_stream().cuda_stream); the render is enqueued on it");
+           "torch.cuda.current_stream().cuda_stream); the render is enqueued on it. `scratch_budget`: CUDA, bytes "
+           "of renderer scratch memory at most (0: none); frames with more pairs render in groups of tile rows "
+           "with the same image");
 
   m.def("load",
         [](const std::filesystem::path& path, const std::string& device, std::vector<std::string> presets,

@@ -1,6 +1,7 @@
 // The RoofGS frame plan: every per-frame decision of the GPU pipeline, on the host.
 #include "rgs/runtime/frame_plan.h"
 
+#include <algorithm>
 #include <string>
 
 #include "rgs/kernels/shared/host_device.h"
@@ -62,6 +63,33 @@ BlendPlan plan_blend(const GpuRoofgsOptions& options, uint64_t pairs, uint64_t l
   const uint32_t chunk_pairs = kernels::frame_chunk_pairs(pairs, large_pairs, t.tile_chunk_pairs);
   if (half && chunk_pairs > 0 && pairs > chunk_pairs) plan.chunk_pairs = chunk_pairs;
   return plan;
+}
+
+Result<uint64_t> pass_pair_limit(uint64_t scratch_budget, uint64_t fixed_bytes, uint64_t bytes_per_pair,
+                                 uint64_t min_pairs) {
+  if (scratch_budget == 0) return kMaxPassPairs;
+  const uint64_t room = scratch_budget > fixed_bytes ? scratch_budget - fixed_bytes : 0;
+  const uint64_t limit = std::min(kMaxPassPairs, room / std::max<uint64_t>(bytes_per_pair, 1));
+  RGS_RETURN_ERROR_IF(limit < min_pairs, StatusCode::kLimitExceeded,
+                      "GpuRenderer: the scratch budget of " + std::to_string(scratch_budget) + " bytes leaves room for " +
+                          std::to_string(limit) + " pairs once the scene's " + std::to_string(fixed_bytes) +
+                          " bytes of per-Gaussian and per-tile buffers are held; a pass needs at least " +
+                          std::to_string(min_pairs) + " (" + std::to_string(bytes_per_pair) + " bytes a pair)");
+  return limit;
+}
+
+std::vector<TileRows> plan_tile_groups(TileRows rows, uint64_t pairs, uint64_t limit) {
+  const uint64_t target = std::max<uint64_t>(limit - limit / 5, 1);
+  const uint64_t wanted = std::max<uint64_t>((pairs + target - 1) / target, 2);
+  const uint32_t groups = uint32_t(std::min<uint64_t>(wanted, rows.size()));
+  std::vector<TileRows> out;
+  out.reserve(groups);
+  for (uint32_t i = 0; i < groups; ++i) {
+    const uint32_t begin = rows.begin + uint32_t(uint64_t(rows.size()) * i / groups);
+    const uint32_t end = rows.begin + uint32_t(uint64_t(rows.size()) * (i + 1) / groups);
+    out.push_back({begin, end});
+  }
+  return out;
 }
 
 }  // namespace rgs::runtime

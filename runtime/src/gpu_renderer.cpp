@@ -47,7 +47,22 @@ kernels::FrameParams make_frame_params(const Camera& camera, const GpuRenderOpti
   f.height = camera.height;
   f.tiles_x = uint32_t(kernels::tile_count_for(int(camera.width)));
   f.tiles_y = uint32_t(kernels::tile_count_for(int(camera.height)));
+  f.tile_row_begin = 0;
+  f.tile_row_end = f.tiles_y;
   return f;
+}
+
+/// Adds the stage times between events[0..4] to *times, waiting for events[4].
+Status add_stage_times(cudaEvent_t const events[5], StageTimes* times) {
+  RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(events[4]), "GpuRenderer: frame");
+  float* fields[4] = {&times->preprocess_ms, &times->sort_ms, &times->ranges_ms, &times->render_ms};
+  for (int s = 0; s < 4; ++s) {
+    float ms = 0.f;
+    RGS_RETURN_IF_CUDA_ERROR(cudaEventElapsedTime(&ms, events[s], events[s + 1]), "GpuRenderer: cudaEventElapsedTime");
+    *fields[s] += ms;
+    times->total_ms += ms;
+  }
+  return Status();
 }
 
 /// ceil(log2(n)) for n ≥ 1.
@@ -171,6 +186,26 @@ struct GpuRenderer::Buffers {
     RGS_RETURN_IF_ERROR(tiles_touched.reserve_exact(n, "GpuRenderer: tiles touched"));
     RGS_RETURN_IF_ERROR(offsets.reserve_exact(n, "GpuRenderer: pair offsets"));
     return Status();
+  }
+
+  /// Per-Gaussian arrays of the RoofGS pipeline (`fused`: the fused kernel's block status instead of the scan's
+  /// arrays).
+  Status reserve_roofgs(uint32_t n, bool fused) {
+    RGS_RETURN_IF_ERROR(reserve_common(n));
+    if (fused) {
+      RGS_RETURN_IF_ERROR(fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
+      RGS_RETURN_IF_ERROR(fused_status.reserve(kernels::fused_blocks(n), "GpuRenderer: fused block status"));
+    } else {
+      RGS_RETURN_IF_ERROR(reserve_scan(n));
+    }
+    RGS_RETURN_IF_ERROR(colour_log_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
+    RGS_RETURN_IF_ERROR(large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
+    // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
+    RGS_RETURN_IF_ERROR(cov2d.reserve_exact(size_t(n) * 3, "GpuRenderer: 2D covariances"));
+    RGS_RETURN_IF_ERROR(snug_t.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
+    RGS_RETURN_IF_ERROR(depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
+    RGS_RETURN_IF_ERROR(large_count.reserve(1, "GpuRenderer: large Gaussian count"));
+    return fused_total.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals");
   }
 
   /// Inclusive scan of tiles_touched into offsets, and the pair count read back to the host (one wait), with
@@ -380,29 +415,21 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
   stats.tiles_x = frame.tiles_x;
   stats.tiles_y = frame.tiles_y;
   cudaEvent_t* ev = buffers_->events;
-  buffers_->last_pairs = 0;  // until this frame's pairs are sorted
+  buffers_->last_pairs = 0;  // until this frame's pairs are sorted (render_passes)
   buffers_->last_values_reordered = false;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[0], stream), "GpuRenderer: cudaEventRecord");
   if (options.pipeline == GpuPipeline::kRoofgs) {
-    RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options.roofgs, timed, view, &stats, stream));
+    RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options, view, &stats, stream));
   } else {
-    RGS_RETURN_IF_ERROR(render_baseline(scene, frame, timed, view, &stats, stream));
+    RGS_RETURN_IF_ERROR(render_baseline(scene, frame, options, view, &stats, stream));
   }
   if (convert != nullptr) {
     RGS_RETURN_IF_CUDA_ERROR(kernels::launch_convert_output(*convert, stream), "GpuRenderer: output conversion kernel");
   }
-  buffers_->last_pairs = stats.pairs;
   buffers_->last_key32 = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.techniques.key32;
   if (timed) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[4], stream), "GpuRenderer: cudaEventRecord");
-    RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(ev[4]), "GpuRenderer: frame");
-    float* fields[4] = {&stats.times.preprocess_ms, &stats.times.sort_ms, &stats.times.ranges_ms,
-                        &stats.times.render_ms};
-    for (int s = 0; s < 4; ++s) {
-      RGS_RETURN_IF_CUDA_ERROR(cudaEventElapsedTime(fields[s], ev[s], ev[s + 1]), "GpuRenderer: cudaEventElapsedTime");
-    }
-    RGS_RETURN_IF_CUDA_ERROR(cudaEventElapsedTime(&stats.times.total_ms, ev[0], ev[4]),
-                             "GpuRenderer: cudaEventElapsedTime");
+    RGS_RETURN_IF_ERROR(add_stage_times(ev, &stats.times));
     stats.timed = true;
     const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
     if (listed && scene.size() > 0) {
@@ -424,50 +451,128 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
   return stats;
 }
 
-Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, bool timed,
-                                    const kernels::ImageView& view, GpuRenderStats* stats, cudaStream_t stream) {
+Status GpuRenderer::render_passes(const kernels::FrameParams& frame, uint64_t limit, bool timed, const EmitPass& emit,
+                                  const FinishPass& finish, GpuRenderStats* stats, cudaStream_t stream) {
   Buffers& b = *buffers_;
   cudaEvent_t* ev = b.events;
+  stats->pass_pair_limit = limit;
+  PairCounts whole;
+  RGS_RETURN_IF_ERROR(emit(frame, limit, &whole));
+  stats->large_pairs = whole.large_pairs;
+  if (whole.pairs <= limit) {
+    stats->pairs = whole.pairs;
+    if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
+    RGS_RETURN_IF_ERROR(finish(frame, whole, whole));
+    b.last_pairs = whole.pairs;
+    return Status();
+  }
+  // More pairs than a pass holds: groups of tile rows, top to bottom, each with the whole frame's pairs of its
+  // tiles; a group that still holds too many is halved. Per-frame choices (blend variant, chunk size) follow the
+  // whole frame's counts, so the image is the one pass's.
+  std::vector<TileRows> pending = plan_tile_groups({frame.tile_row_begin, frame.tile_row_end}, whole.pairs, limit);
+  std::reverse(pending.begin(), pending.end());  // the next group at the back
+  stats->pairs = 0;
+  stats->tile_groups = 0;
+  while (!pending.empty()) {
+    const TileRows rows = pending.back();
+    pending.pop_back();
+    kernels::FrameParams pass = frame;
+    pass.tile_row_begin = rows.begin;
+    pass.tile_row_end = rows.end;
+    PairCounts counts;
+    RGS_RETURN_IF_ERROR(emit(pass, limit, &counts));
+    if (counts.pairs > limit) {
+      RGS_RETURN_ERROR_IF(rows.size() == 1, StatusCode::kLimitExceeded,
+                          "GpuRenderer: tile row " + std::to_string(rows.begin) + " alone holds " +
+                              std::to_string(counts.pairs) + " pairs, more than the " + std::to_string(limit) +
+                              " a pass can hold; raise GpuRenderOptions::scratch_budget");
+      const uint32_t middle = rows.begin + rows.size() / 2;
+      pending.push_back({middle, rows.end});
+      pending.push_back({rows.begin, middle});
+      continue;
+    }
+    if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
+    RGS_RETURN_IF_ERROR(finish(pass, counts, whole));
+    stats->pairs += counts.pairs;
+    ++stats->tile_groups;
+    b.last_pairs = counts.pairs;
+    if (timed && !pending.empty()) {  // this group's stage times; the next group's start
+      RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[4], stream), "GpuRenderer: cudaEventRecord");
+      RGS_RETURN_IF_ERROR(add_stage_times(ev, &stats->times));
+      RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[0], stream), "GpuRenderer: cudaEventRecord");
+    }
+  }
+  return Status();
+}
+
+Result<uint64_t> GpuRenderer::pass_limit(const GpuRenderOptions& options, uint32_t gaussians, uint32_t num_tiles,
+                                         bool key32, int key_bits, bool large_list, bool chunks) const {
+  if (options.scratch_budget == 0) return kMaxPassPairs;
+  const Buffers& b = *buffers_;
+  RGS_ASSIGN_OR_RETURN(uint64_t per_pair, PairSort::bytes_per_pair(key32, key_bits));
+  // What is held now but the buffers sized by the pairs, and those buffers' parts that the pairs do not size:
+  // CUB's fixed scratch (1 MiB), the large-Gaussian list's item per Gaussian, the chunk list's bound.
+  uint64_t fixed = b.bytes() - b.sort.bytes() - b.large_items.bytes() - b.chunks.bytes() + (uint64_t{1} << 20);
+  if (large_list) {
+    per_pair += 2;  // one 16-byte item per kLargeChunkSlices pairs, with the buffer's headroom
+    fixed += (uint64_t(gaussians) + 1) * sizeof(kernels::LargeGaussian) * 5 / 4;
+  }
+  if (chunks) fixed += TileChunkList::max_bytes(num_tiles, true);
+  return pass_pair_limit(options.scratch_budget, fixed, per_pair, 1024);
+}
+
+Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameParams& frame,
+                                    const GpuRenderOptions& options, const kernels::ImageView& view,
+                                    GpuRenderStats* stats, cudaStream_t stream) {
+  Buffers& b = *buffers_;
+  cudaEvent_t* ev = b.events;
+  const bool timed = options.time_stages;
   const uint32_t n = scene.size();
   const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
   const int key_bits = 32 + ceil_log2(num_tiles);
   stats->sort_bits = key_bits;
-
-  // 1. Preprocess, 2. offsets, pair count, duplication.
-  uint64_t pairs = 0;
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.reserve_common(n));
     RGS_RETURN_IF_ERROR(b.reserve_scan(n));
     RGS_RETURN_IF_ERROR(b.rgb.reserve_exact(size_t(n) * 3, "GpuRenderer: colours"));
-    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), frame, b.projected(), stream),
-                             "GpuRenderer: preprocess kernel");
-    RGS_ASSIGN_OR_RETURN(const FrameCounts counts, b.scan_and_count(n, nullptr, stream));
-    pairs = counts.pairs;
   }
-  stats->pairs = pairs;
-  if (pairs > 0) {
-    RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, false, key_bits, stream));
-    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, frame, b.sort.keys64(),
+  RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
+  RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, false, key_bits, false, false));
+
+  // 1. Preprocess, 2. offsets, pair count, duplication.
+  const EmitPass emit = [&](const kernels::FrameParams& pass, uint64_t max_pairs, PairCounts* counts) -> Status {
+    if (n == 0) return Status();
+    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), pass, b.projected(), stream),
+                             "GpuRenderer: preprocess kernel");
+    RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.scan_and_count(n, nullptr, stream));
+    counts->pairs = totals.pairs;
+    if (counts->pairs == 0 || counts->pairs > max_pairs) return Status();
+    RGS_RETURN_IF_ERROR(b.sort.reserve(counts->pairs, false, key_bits, max_pairs, stream));
+    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, pass, b.sort.keys64(),
                                                          b.sort.values(), stream),
                              "GpuRenderer: duplicate kernel");
-  }
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
-  // 3. Stable radix sort over 32 + ceil(log2(tiles)) bits.
-  RGS_RETURN_IF_ERROR(b.sort.sort(pairs, false, key_bits, 0, stream));
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
-  // 4. Per-tile ranges.
-  RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
-                       b.tiles.build(b.sort, pairs, false, 0, num_tiles, nullptr, stream));
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
-  // 5. Blend.
-  RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.tiles.ranges(), sorted_values, b.projected(), frame, view,
-                                                    stream),
-                           "GpuRenderer: render kernel");
-  return Status();
+    return Status();
+  };
+  const FinishPass finish = [&](const kernels::FrameParams& pass, const PairCounts& counts, const PairCounts&) {
+    // 3. Stable radix sort over 32 + ceil(log2(tiles)) bits.
+    RGS_RETURN_IF_ERROR(b.sort.sort(counts.pairs, false, key_bits, 0, stream));
+    if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
+    // 4. Per-tile ranges.
+    RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
+                         b.tiles.build(b.sort, counts.pairs, false, 0, num_tiles, nullptr, stream));
+    if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
+    // 5. Blend.
+    RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.tiles.ranges(), sorted_values, b.projected(), pass, view,
+                                                      stream),
+                             "GpuRenderer: render kernel");
+    return Status();
+  };
+  return render_passes(frame, limit, timed, emit, finish, stats, stream);
 }
 
 Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
-                                      GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream) {
+                                      uint64_t limit, GpuRenderStats* stats, PairCounts* counts,
+                                      cudaStream_t stream) {
   Buffers& b = *buffers_;
   const uint32_t n = scene.size();
   const kernels::RoofgsFrame& rf = plan.switches;
@@ -481,17 +586,7 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
   if (scene.has_compact()) source.compact = scene.compact();
   source.count = n;
 
-  RGS_RETURN_IF_ERROR(b.reserve_common(n));
-  if (!plan.fused) RGS_RETURN_IF_ERROR(b.reserve_scan(n));
-  RGS_RETURN_IF_ERROR(
-      b.colour_log_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
-  RGS_RETURN_IF_ERROR(b.large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
-  // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
-  RGS_RETURN_IF_ERROR(b.cov2d.reserve_exact(size_t(n) * 3, "GpuRenderer: 2D covariances"));
-  RGS_RETURN_IF_ERROR(b.snug_t.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
-  RGS_RETURN_IF_ERROR(b.depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
-  RGS_RETURN_IF_ERROR(b.large_count.reserve(1, "GpuRenderer: large Gaussian count"));
-  RGS_RETURN_IF_ERROR(b.fused_total.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals"));
+  RGS_RETURN_IF_ERROR(b.reserve_roofgs(n, plan.fused));
   // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
   const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
     unsigned long long* const count = b.large_list_count(plan.fused);
@@ -502,19 +597,16 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
   };
   const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
   if (plan.fused) {
-    const uint32_t blocks = kernels::fused_blocks(n);
-    RGS_RETURN_IF_ERROR(b.fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
-    RGS_RETURN_IF_ERROR(b.fused_status.reserve(blocks, "GpuRenderer: fused block status"));
     const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
     RGS_ASSIGN_OR_RETURN(void* const host_totals, b.pair_count.device_pointer());
     kernels::HostTotals published{b.fused_total.data(), static_cast<volatile unsigned long long*>(host_totals)};
-    // Capacity: what the pair buffers hold now (sized by earlier frames), at least 2 pairs per Gaussian.
-    // A frame with more pairs runs the fused kernel again with enough (fused_relaunches); frames of dense
-    // scenes hold 1.5-3 pairs a Gaussian (taebak: 1.5 at 1080p, 1.9 at 4K, 2.9 at 8K), large Gaussians many
-    // more (flowers: 35 at 4K).
-    uint64_t capacity = std::max<uint64_t>(b.sort.capacity(), uint64_t(n) * 2);
+    // Capacity: what the pair buffers hold now (sized by earlier frames), at least 2 pairs per Gaussian, at most
+    // `limit`. A frame with more pairs runs the fused kernel again with enough (fused_relaunches), or, beyond
+    // `limit`, leaves them to groups of tile rows; frames of dense scenes hold 1.5-3 pairs a Gaussian (taebak:
+    // 1.5 at 1080p, 1.9 at 4K, 2.9 at 8K), large Gaussians many more (flowers: 35 at 4K).
+    uint64_t capacity = std::min(std::max<uint64_t>(b.sort.capacity(), uint64_t(n) * 2), limit);
     for (int attempt = 0;; ++attempt) {
-      RGS_RETURN_IF_ERROR(b.sort.reserve(capacity, key32, key_bits, stream));
+      RGS_RETURN_IF_ERROR(b.sort.reserve(capacity, key32, key_bits, limit, stream));
       capacity = b.sort.capacity();
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(capacity));
       published.sequence = ++b.fused_sequence;
@@ -536,7 +628,7 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
       RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.wait_for_totals(published.sequence, b.large_done));
       pairs = totals.pairs;
       large_pairs = totals.large_pairs;
-      if (pairs <= capacity) break;
+      if (pairs <= capacity || pairs > limit) break;
       RGS_RETURN_ERROR_IF(attempt > 0, StatusCode::kCudaError,
                           "GpuRenderer: fused kernel pair count changed between identical runs");
       capacity = pairs;
@@ -548,8 +640,8 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
     RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.scan_and_count(n, b.large_pairs.data(), stream));
     pairs = totals.pairs;
     large_pairs = totals.large_pairs;
-    if (pairs > 0) {
-      RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, key32, key_bits, stream));
+    if (pairs > 0 && pairs <= limit) {
+      RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, key32, key_bits, limit, stream));
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
       RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), n, frame, rf, large,
                                                          b.sort.keys64(), b.sort.keys32(), b.sort.values(), stream),
@@ -563,13 +655,15 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
 }
 
 Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
-                                  const GpuRoofgsOptions& options, bool timed, const kernels::ImageView& view,
+                                  const GpuRenderOptions& options, const kernels::ImageView& view,
                                   GpuRenderStats* stats, cudaStream_t stream) {
   Buffers& b = *buffers_;
   cudaEvent_t* ev = b.events;
+  const bool timed = options.time_stages;
   const uint32_t n = scene.size();
   const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
-  RGS_ASSIGN_OR_RETURN(const FramePlan plan, plan_frame(options, camera, scene.bounds(), scene.has_compact()));
+  RGS_ASSIGN_OR_RETURN(const FramePlan plan,
+                       plan_frame(options.roofgs, camera, scene.bounds(), scene.has_compact()));
   const kernels::RoofgsFrame& rf = plan.switches;
   const bool key32 = rf.key32;
   const int key_bits = plan.sort_bits;
@@ -580,39 +674,45 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     stats->z_far = plan.key.empty_depth_range ? plan.key.quantizer.z_near : plan.key.quantizer.z_far;
   }
   stats->sort_bits = key_bits;
-  PairCounts counts;
-  if (n > 0) RGS_RETURN_IF_ERROR(emit_roofgs_pairs(scene, frame, plan, stats, &counts, stream));
-  const uint64_t pairs = counts.pairs, large_pairs = counts.large_pairs, sort_counters = counts.sort_counters;
-  stats->pairs = pairs;
-  stats->large_pairs = large_pairs;
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[1], stream), "GpuRenderer: cudaEventRecord");
+  if (n > 0) RGS_RETURN_IF_ERROR(b.reserve_roofgs(n, plan.fused));
+  RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
+  const RoofgsOptions& t = options.roofgs.techniques;
+  const bool may_chunk = t.folded_coefficients && t.fast_exp && t.half_blend && t.tile_chunk_pairs > 0;
+  RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, key32, key_bits,
+                                                        plan.balanced_emission, may_chunk));
 
-  // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
-  RGS_RETURN_IF_ERROR(b.sort.sort(pairs, key32, key_bits, sort_counters, stream));
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
-
-  // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order.
-  RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
-                       b.tiles.build(b.sort, pairs, key32, rf.key_depth_bits, num_tiles,
-                                     plan.reorder_ties ? b.depths.data() : nullptr, stream));
-  b.last_values_reordered = plan.reorder_ties;
-  const BlendPlan blend = plan_blend(options, pairs, large_pairs);
-  stats->subtile_culling = blend.raster.subtile_culling;
-  RGS_RETURN_ERROR_IF(!kernels::raster_variant_compiled(blend.raster), StatusCode::kUnsupportedFeature,
-                      "GpuRenderer: this combination of RoofGS techniques renders with a lab kernel variant, "
-                      "which only builds with RGS_LAB_KERNELS=ON compile (docs/RENDERER.md#product-and-lab-kernels)");
-  kernels::TileChunks chunks;
-  if (blend.chunk_pairs > 0) {
-    RGS_ASSIGN_OR_RETURN(chunks, b.chunks.list(blend.chunk_pairs, pairs, frame, b.tiles.ranges(),
-                                               view.depth != nullptr, stream));
-    stats->tile_chunks_listed = true;
-  }
-  if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
-
-  RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.tiles.ranges(), chunks, sorted_values, b.roofgs_projected(),
-                                                  frame, rf, blend.raster, view, stream),
-                           "GpuRenderer: render kernel");
-  return Status();
+  const EmitPass emit = [&](const kernels::FrameParams& pass, uint64_t max_pairs, PairCounts* counts) {
+    return n > 0 ? emit_roofgs_pairs(scene, pass, plan, max_pairs, stats, counts, stream) : Status();
+  };
+  const FinishPass finish = [&](const kernels::FrameParams& pass, const PairCounts& counts,
+                                const PairCounts& whole) -> Status {
+    // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
+    RGS_RETURN_IF_ERROR(b.sort.sort(counts.pairs, key32, key_bits, counts.sort_counters, stream));
+    if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
+    // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order.
+    RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
+                         b.tiles.build(b.sort, counts.pairs, key32, rf.key_depth_bits, num_tiles,
+                                       plan.reorder_ties ? b.depths.data() : nullptr, stream));
+    b.last_values_reordered = plan.reorder_ties;
+    // The blend is planned with the whole frame's counts, whatever rows this pass renders.
+    const BlendPlan blend = plan_blend(options.roofgs, whole.pairs, whole.large_pairs);
+    stats->subtile_culling = blend.raster.subtile_culling;
+    RGS_RETURN_ERROR_IF(!kernels::raster_variant_compiled(blend.raster), StatusCode::kUnsupportedFeature,
+                        "GpuRenderer: this combination of RoofGS techniques renders with a lab kernel variant, "
+                        "which only builds with RGS_LAB_KERNELS=ON compile (docs/RENDERER.md#product-and-lab-kernels)");
+    kernels::TileChunks chunks;
+    if (blend.chunk_pairs > 0) {
+      RGS_ASSIGN_OR_RETURN(chunks, b.chunks.list(blend.chunk_pairs, counts.pairs, pass, b.tiles.ranges(),
+                                                 view.depth != nullptr, stream));
+      stats->tile_chunks_listed = true;
+    }
+    if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
+    RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.tiles.ranges(), chunks, sorted_values, b.roofgs_projected(),
+                                                    pass, rf, blend.raster, view, stream),
+                             "GpuRenderer: render kernel");
+    return Status();
+  };
+  return render_passes(frame, limit, timed, emit, finish, stats, stream);
 }
 
 }  // namespace rgs::runtime

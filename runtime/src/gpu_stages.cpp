@@ -9,16 +9,17 @@
 
 namespace rgs::runtime {
 
-Status PairSort::reserve(uint64_t pairs, bool key32, int key_bits, cudaStream_t stream) {
+Status PairSort::reserve(uint64_t pairs, bool key32, int key_bits, uint64_t at_most, cudaStream_t stream) {
+  if (capacity() > at_most) release();
   const std::string count = std::to_string(pairs) + " pairs";
-  Status grown = key32 ? keys32_.reserve(pairs, "GpuRenderer: keys of " + count)
-                       : keys64_.reserve(pairs, "GpuRenderer: keys of " + count);
+  Status grown = key32 ? keys32_.reserve(pairs, "GpuRenderer: keys of " + count, at_most)
+                       : keys64_.reserve(pairs, "GpuRenderer: keys of " + count, at_most);
   if (grown.ok()) {
-    grown = key32 ? keys32_sorted_.reserve(pairs, "GpuRenderer: sorted keys of " + count)
-                  : keys64_sorted_.reserve(pairs, "GpuRenderer: sorted keys of " + count);
+    grown = key32 ? keys32_sorted_.reserve(pairs, "GpuRenderer: sorted keys of " + count, at_most)
+                  : keys64_sorted_.reserve(pairs, "GpuRenderer: sorted keys of " + count, at_most);
   }
-  if (grown.ok()) grown = values_.reserve(pairs, "GpuRenderer: values of " + count);
-  if (grown.ok()) grown = values_sorted_.reserve(pairs, "GpuRenderer: sorted values of " + count);
+  if (grown.ok()) grown = values_.reserve(pairs, "GpuRenderer: values of " + count, at_most);
+  if (grown.ok()) grown = values_sorted_.reserve(pairs, "GpuRenderer: sorted values of " + count, at_most);
   size_t temp_bytes = 0;
   if (grown.ok()) {
     int unused = 0;
@@ -34,6 +35,20 @@ Status PairSort::reserve(uint64_t pairs, bool key32, int key_bits, cudaStream_t 
   if (grown.ok()) grown = temp_.reserve(temp_bytes, "GpuRenderer: sort scratch");
   if (!grown.ok()) release();
   return grown;
+}
+
+Result<uint64_t> PairSort::bytes_per_pair(bool key32, int key_bits) {
+  constexpr uint64_t kPairs = uint64_t{1} << 24;
+  size_t temp_bytes = 0;
+  int unused = 0;
+  std::array<uint32_t*, 2> none{nullptr, nullptr};
+  const cudaError_t query =
+      key32 ? kernels::sort_pairs_ping_pong(nullptr, &temp_bytes, none.data(), none.data(), kPairs, kPairs, 0, key_bits,
+                                            false, &unused, nullptr)
+            : kernels::sort_pairs(nullptr, &temp_bytes, nullptr, nullptr, nullptr, nullptr, kPairs, 0, key_bits, nullptr);
+  RGS_RETURN_IF_ERROR(cuda_status(query, "GpuRenderer: sort size query"));
+  const uint64_t buffers = 2 * ((key32 ? sizeof(uint32_t) : sizeof(uint64_t)) + sizeof(uint32_t));
+  return buffers + (temp_bytes + kPairs - 1) / kPairs;
 }
 
 void PairSort::release() {
@@ -80,9 +95,13 @@ uint64_t PairSort::bytes() const {
          values_sorted_.bytes() + temp_.bytes();
 }
 
+Status TileRanges::reserve(uint32_t num_tiles) {
+  return ranges_.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges");
+}
+
 Result<const uint32_t*> TileRanges::build(const PairSort& sort, uint64_t pairs, bool key32, int depth_bits,
                                           uint32_t num_tiles, const float* depths, cudaStream_t stream) {
-  RGS_RETURN_IF_ERROR(ranges_.reserve(size_t(num_tiles) * 2, "GpuRenderer: tile ranges"));
+  RGS_RETURN_IF_ERROR(reserve(num_tiles));
   if (depths != nullptr) {
     RGS_RETURN_IF_CUDA_ERROR(kernels::order_equal_keys_by_depth(sort.sorted_keys32(), sort.sorted_values(), depths,
                                                                 pairs, depth_bits, num_tiles, sort.values(),
@@ -130,6 +149,13 @@ Result<kernels::TileChunks> TileChunkList::list(uint32_t chunk_pairs, uint64_t p
   RGS_RETURN_IF_CUDA_ERROR(kernels::list_tile_chunks(ranges, num_tiles, chunks, stream),
                            "GpuRenderer: tile chunk list kernel");
   return chunks;
+}
+
+uint64_t TileChunkList::max_bytes(uint32_t num_tiles, bool with_depth) {
+  const uint64_t items = 2 * kernels::kTileChunksPerFrame;
+  const uint64_t bytes = items * (sizeof(uint2) + uint64_t(kernels::tile_chunk_record_words(with_depth)) * 128 * 4) +
+                         uint64_t(num_tiles) * 2 * sizeof(uint32_t) + 2 * sizeof(uint32_t);
+  return bytes + bytes / 4;
 }
 
 uint64_t TileChunkList::bytes() const {

@@ -17,9 +17,12 @@ namespace rgs::runtime {
 /// is free scratch (the depth order writes its reordered values there).
 class PairSort {
  public:
-  /// Buffers for `pairs` pairs with `key32` keys and CUB's scratch for a `key_bits` sort of them. On failure
-  /// every pair buffer is dropped, so the renderer stays usable for smaller frames.
-  Status reserve(uint64_t pairs, bool key32, int key_bits, cudaStream_t stream);
+  /// Buffers for `pairs` pairs with `key32` keys and CUB's scratch for a `key_bits` sort of them, with
+  /// headroom up to `at_most` pairs (buffers holding more are given back first). On failure every pair buffer
+  /// is dropped, so the renderer stays usable for smaller frames.
+  Status reserve(uint64_t pairs, bool key32, int key_bits, uint64_t at_most, cudaStream_t stream);
+  /// Device bytes a pair takes in reserve()'s buffers and CUB's scratch (rounded up), for sorts of many pairs.
+  static Result<uint64_t> bytes_per_pair(bool key32, int key_bits);
   /// Pairs the buffers hold now.
   uint64_t capacity() const { return values_.size(); }
 
@@ -56,6 +59,8 @@ class TileRanges {
   /// sort->values(). @return the sorted values the blend reads.
   Result<const uint32_t*> build(const PairSort& sort, uint64_t pairs, bool key32, int depth_bits, uint32_t num_tiles,
                                 const float* depths, cudaStream_t stream);
+  /// Holds the ranges of `num_tiles` tiles (build() does too).
+  Status reserve(uint32_t num_tiles);
   const uint64_t* ranges() const { return ranges_.data(); }
   uint64_t bytes() const { return ranges_.bytes(); }
 
@@ -74,6 +79,9 @@ class TileChunkList {
   /// Device counter of the chunks the last list() found.
   const uint32_t* last_count() const { return counts_.data() + (1 - parity_); }
   uint64_t bytes() const;
+  /// Most bytes list() holds for frames of `num_tiles` tiles whose chunks hold at least 1/kTileChunksPerFrame
+  /// of the frame's pairs (kernels::frame_chunk_pairs), headroom included.
+  static uint64_t max_bytes(uint32_t num_tiles, bool with_depth);
 
  private:
   DeviceBuffer<uint2> items_;

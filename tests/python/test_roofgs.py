@@ -148,6 +148,8 @@ def test_cpu_render_returns_numpy(guitar_rgs):
     with pytest.raises(roofgs.Error) as e:
         scene.render(camera, preset="slowest")
     assert e.value.code_name == "kInvalidArgument"
+    # The GPU's scratch budget means nothing to the CPU renderer: the same frame.
+    assert np.array_equal(scene.render(camera, scratch_budget=1), rgba)
 
 
 def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
@@ -273,6 +275,12 @@ def test_gpu_render_dlpack(guitar_rgs, cuda):
     both = roofgs.load(guitar_rgs, device="cuda", presets=["fastest", "faithful"])
     rgba8 = both.render(camera, preset="faithful", format="rgba8").numpy()
     assert rgba8.dtype == np.uint8 and rgba8.shape == (180, 320, 4)
+    # A scratch budget renders in groups of tile rows, the same frame; one below the scene's own buffers is refused.
+    whole = scene.render(camera).numpy()
+    assert np.array_equal(scene.render(camera, scratch_budget=64 << 20).numpy(), whole)
+    with pytest.raises(roofgs.Error) as e:
+        scene.render(camera, scratch_budget=1 << 20)
+    assert e.value.code_name == "kLimitExceeded"
 
 
 def test_type_stubs_name_every_public_object():

@@ -1,9 +1,11 @@
 // The GPU frame plan on the host: the decisions of each preset's configuration, the automatic sub-tile culling
-// and chunking rules at their thresholds, the errors, and the key layout the CPU reference uses too.
+// and chunking rules at their thresholds, the errors, the key layout the CPU reference uses too, and the pass
+// limit and tile-row groups of frames with more pairs than a pass holds.
 #include <doctest/doctest.h>
 
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "render_test_util.h"
 #include "rgs/kernels/shared/tile_chunks.h"
@@ -149,6 +151,55 @@ TEST_CASE("blend plan: the presets' rasterizers are product variants, the ablati
   fast_exp.techniques = RoofgsOptions{};
   fast_exp.techniques.fast_exp = true;
   CHECK(k::is_lab_variant(runtime::plan_blend(fast_exp, 1000, 0).raster));
+}
+
+TEST_CASE("pass limit: every pair count below the sort's 32-bit limit without a budget, what fits with one") {
+  using runtime::kMaxPassPairs;
+  CHECK(kMaxPassPairs == 2147483647u);
+  CHECK(runtime::pass_pair_limit(0, 1u << 30, 16, 1024).value() == kMaxPassPairs);
+  // 1 GiB budget, 300 MiB held, 17 bytes a pair: what is left, rounded down.
+  const uint64_t gib = uint64_t{1} << 30, held = uint64_t{300} << 20;
+  CHECK(runtime::pass_pair_limit(gib, held, 17, 1024).value() == (gib - held) / 17);
+  // A budget larger than the sort can take still stops at its limit.
+  CHECK(runtime::pass_pair_limit(uint64_t{1} << 40, held, 16, 1024).value() == kMaxPassPairs);
+  // Too little room: an error that names the budget and what the scene holds.
+  const auto tight = runtime::pass_pair_limit(held + 1000 * 16, held, 16, 1024);
+  REQUIRE_FALSE(tight.ok());
+  CHECK(tight.status().code() == StatusCode::kLimitExceeded);
+  CHECK(tight.status().message().find(std::to_string(held)) != std::string::npos);
+  CHECK_FALSE(runtime::pass_pair_limit(held / 2, held, 16, 1024).ok());
+}
+
+TEST_CASE("tile groups: consecutive rows covering the grid once, sized for 4/5 of the limit, at least two") {
+  using runtime::TileRows;
+  const auto check_cover = [](const std::vector<TileRows>& groups, TileRows rows) {
+    REQUIRE_FALSE(groups.empty());
+    CHECK(groups.front().begin == rows.begin);
+    CHECK(groups.back().end == rows.end);
+    for (size_t i = 0; i < groups.size(); ++i) {
+      CHECK(groups[i].size() >= 1);
+      if (i > 0) CHECK(groups[i].begin == groups[i - 1].end);
+    }
+  };
+  // 8K (270 tile rows), 2^31 - 1 pairs a pass: 2.5 billion pairs fill 2 groups of 4/5 of the limit, 3.5 billion 3.
+  const TileRows rows8k{0, 270};
+  const auto g = runtime::plan_tile_groups(rows8k, 2500000000u, runtime::kMaxPassPairs);
+  CHECK(g.size() == 2);
+  check_cover(g, rows8k);
+  const auto g3 = runtime::plan_tile_groups(rows8k, 3500000000u, runtime::kMaxPassPairs);
+  CHECK(g3.size() == 3);
+  check_cover(g3, rows8k);
+  CHECK(g3[0] == TileRows{0, 90});
+  // Just over the limit: still two groups; a sub-range (a group being split again) stays inside itself.
+  const TileRows middle{40, 47};
+  const auto halves = runtime::plan_tile_groups(middle, 1001, 1000);
+  CHECK(halves.size() == 2);
+  check_cover(halves, middle);
+  // No more groups than rows: one row each; a single row cannot be split (the renderer reports it).
+  const auto rows_each = runtime::plan_tile_groups(TileRows{0, 5}, 1000000, 10);
+  CHECK(rows_each.size() == 5);
+  check_cover(rows_each, TileRows{0, 5});
+  CHECK(runtime::plan_tile_groups(TileRows{3, 4}, 1000000, 10).size() == 1);
 }
 
 }  // namespace

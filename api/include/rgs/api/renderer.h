@@ -66,6 +66,11 @@ struct RenderSettings {
   std::array<float, 3> background = {0.f, 0.f, 0.f};
   /// CPU renderer threads; 0 = all hardware threads. The image does not depend on it.
   unsigned cpu_threads = 0;
+  /// GPU: bound on the renderer's scratch memory in bytes (0: none). A frame whose (tile, Gaussian) pairs do
+  /// not fit renders in groups of tile rows, with the same image; a budget too small for the scene's
+  /// per-Gaussian buffers, or for one tile row's pairs, fails with kLimitExceeded
+  /// (docs/RENDERER.md#bounded-pair-memory). The CPU renderer ignores it.
+  uint64_t gpu_scratch_budget = 0;
   /// Lab: the RoofGS techniques exactly as given instead of the preset's (one-technique ablations,
   /// rgs-render's technique flags); on the GPU the RoofGS pipeline with them (compact attributes when the
   /// scene has them). A combination with no product kernel variant renders only in builds with
@@ -77,6 +82,7 @@ struct RenderSettings {
 struct FrameStats {
   uint64_t gaussians = 0;  ///< input Gaussians
   uint64_t pairs = 0;      ///< (tile, Gaussian) pairs sorted
+  uint32_t tile_groups = 1;  ///< GPU: passes over groups of tile rows (1: the whole frame at once)
 };
 
 /// An image owned by the library (Renderer::render_image): device memory for GPU scenes (cudaMalloc), host

@@ -65,6 +65,18 @@ struct FrameParams {
   float background[3];      ///< out = C + T·bg
   uint32_t width, height;   ///< pixels
   uint32_t tiles_x, tiles_y;///< ceil(W/16), ceil(H/16)
+  /// The tile rows this pass emits pairs for and blends, [tile_row_begin, tile_row_end) ⊆ [0, tiles_y): the
+  /// whole grid, or one group of rows of a frame rendered in groups (docs/RENDERER.md#bounded-pair-memory).
+  /// Tile ids, keys and ranges stay those of the whole grid, so each tile's pairs are those of the whole frame.
+  uint32_t tile_row_begin, tile_row_end;
 };
+
+/// `rect` without the tile rows outside the frame's rows [tile_row_begin, tile_row_end) (empty if none is left).
+RGS_HOST_DEVICE TileRect rows_of_pass(const TileRect& rect, const FrameParams& frame) {
+  TileRect r = rect;
+  r.y_min = r.y_min > int(frame.tile_row_begin) ? r.y_min : int(frame.tile_row_begin);
+  r.y_max = r.y_max < int(frame.tile_row_end) ? r.y_max : int(frame.tile_row_end);
+  return r;
+}
 
 }  // namespace rgs::kernels

@@ -3,6 +3,7 @@
 
 #include <cuda_runtime_api.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -35,15 +36,16 @@ class DeviceBuffer {
   }
 
   /// Makes the buffer hold at least `count` elements. When it must grow, the old memory is freed first and
-  /// `count + count / 4` elements are allocated (headroom against reallocating every frame). `what` names
-  /// the buffer in errors: kOutOfMemory "<what>: cannot allocate N bytes on the GPU (...)", after which
-  /// the buffer is empty and stays usable; kLimitExceeded when count·sizeof(T) overflows.
-  Status reserve(size_t count, const std::string& what) {
+  /// `count + count / 4` elements are allocated (headroom against reallocating every frame), but no more than
+  /// max(count, `at_most`). `what` names the buffer in errors: kOutOfMemory "<what>: cannot allocate N bytes
+  /// on the GPU (...)", after which the buffer is empty and stays usable; kLimitExceeded when count·sizeof(T)
+  /// overflows.
+  Status reserve(size_t count, const std::string& what, size_t at_most = SIZE_MAX) {
     if (count <= size_) return Status();
     release();
     const size_t headroom = count / 4;
     const size_t grown = count <= SIZE_MAX / sizeof(T) - headroom ? count + headroom : count;
-    return allocate_exactly(grown, what);
+    return allocate_exactly(std::max(count, std::min(grown, at_most)), what);
   }
 
   /// As reserve(), without the headroom: for arrays sized by the scene (one entry per Gaussian), which do not

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
@@ -93,5 +94,29 @@ struct BlendPlan {
 /// SnugBox + AccuTile is on and large Gaussians hold more than kernels::kSubtileMaxLargePairFraction of the
 /// pairs), and the chunk size (kernels::frame_chunk_pairs).
 BlendPlan plan_blend(const GpuRoofgsOptions& options, uint64_t pairs, uint64_t large_pairs);
+
+/// Most pairs one pass of a frame emits, sorts and blends: the sort and the kernels take pair counts as 32-bit
+/// signed integers (CUB's int arguments among them). A frame with more pairs is rendered in groups of tile rows
+/// (plan_tile_groups), so no count on the way reaches its type's limit.
+constexpr uint64_t kMaxPassPairs = (uint64_t{1} << 31) - 1;
+
+/// The pairs one pass may hold: kMaxPassPairs, or under a scratch budget (GpuRenderOptions::scratch_budget,
+/// bytes; 0: none) what fits once `fixed_bytes` (the frame's buffers that do not grow with its pairs) are
+/// held, at `bytes_per_pair` (sort buffers and scratch, large-Gaussian list). Errors: kLimitExceeded when the
+/// budget leaves room for fewer than `min_pairs` pairs (the message gives both sizes).
+Result<uint64_t> pass_pair_limit(uint64_t scratch_budget, uint64_t fixed_bytes, uint64_t bytes_per_pair,
+                                 uint64_t min_pairs);
+
+/// Tile rows [begin, end) of the grid that one pass renders (kernels::FrameParams::tile_row_begin/end).
+struct TileRows {
+  uint32_t begin = 0, end = 0;
+  uint32_t size() const { return end - begin; }
+  bool operator==(const TileRows& o) const { return begin == o.begin && end == o.end; }
+};
+
+/// Splits `rows`, whose pairs number `pairs` > `limit`, into consecutive groups, top to bottom, of about
+/// limit·4/5 pairs each if the pairs were spread evenly over the rows (at least 2 groups, at most one row each).
+/// A group that still holds more than `limit` pairs is split again by the renderer, which counts them.
+std::vector<TileRows> plan_tile_groups(TileRows rows, uint64_t pairs, uint64_t limit);
 
 }  // namespace rgs::runtime

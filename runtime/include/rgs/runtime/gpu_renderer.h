@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -103,10 +104,18 @@ struct GpuRenderOptions {
   std::array<float, 3> background = {0.f, 0.f, 0.f};
   /// Record CUDA events around each stage and fill GpuRenderStats::times (waits for the frame to finish).
   bool time_stages = false;
+  /// Bound on the renderer's scratch memory (GpuRenderer::scratch_bytes()), bytes; 0: none, the pair buffers
+  /// grow to what each frame needs. A frame whose pairs do not fit in what is left once the per-Gaussian and
+  /// per-tile buffers are held, or that has more than kMaxPassPairs pairs, is rendered in groups of tile rows,
+  /// each emitted, sorted and blended on its own, into the same image bits as one pass
+  /// (docs/RENDERER.md#bounded-pair-memory).
+  uint64_t scratch_budget = 0;
 };
 
 /// Stage times of one frame from CUDA events, milliseconds. preprocess covers preprocess, the offset scan,
-/// the pair-count read-back and duplication (3DGS's geometry + binning steps before the sort).
+/// the pair-count read-back and duplication (3DGS's geometry + binning steps before the sort). A frame
+/// rendered in groups of tile rows sums each stage over its groups (preprocess includes the pass that counted
+/// the whole frame's pairs).
 struct StageTimes {
   float preprocess_ms = 0, sort_ms = 0, ranges_ms = 0, render_ms = 0, total_ms = 0;
 };
@@ -114,7 +123,11 @@ struct StageTimes {
 /// Counts of one frame.
 struct GpuRenderStats {
   uint64_t gaussians = 0;      ///< input Gaussians
-  uint64_t pairs = 0;          ///< (tile, Gaussian) pairs sorted
+  uint64_t pairs = 0;          ///< (tile, Gaussian) pairs sorted, over all tile groups
+  /// Passes the frame was rendered in: 1, or its groups of tile rows (GpuRenderOptions::scratch_budget).
+  uint32_t tile_groups = 1;
+  /// Most pairs a pass could hold: kMaxPassPairs, or fewer under a scratch budget.
+  uint64_t pass_pair_limit = 0;
   uint32_t tiles_x = 0, tiles_y = 0;
   /// Key bits the pair sort covered: 32 + ceil(log2(tiles)) for 64-bit keys, 32 for 32-bit keys (with or
   /// without depth order).
@@ -183,7 +196,8 @@ class GpuRenderer {
   /// The last frame's (tile, Gaussian) pairs after the sort, copied to the host for tests and debugging (the
   /// CPU reference's TileBins::keys/values, term by term). Waits for `stream`.
   /// @return keys [P] widened to 64 bits (the baseline's tile << 32 | depth bits, or the 32-bit RoofGS key),
-  /// values [P] Gaussian ids; P = GpuRenderStats::pairs of the last render (0 before the first one).
+  /// values [P] Gaussian ids; P = GpuRenderStats::pairs of the last render (0 before the first one), or of its
+  /// last group of tile rows when it was rendered in groups.
   /// Errors: kCudaError (a failed copy).
   Status download_sorted_pairs(std::vector<uint64_t>* keys, std::vector<uint32_t>* values,
                                cudaStream_t stream = nullptr) const;
@@ -194,18 +208,32 @@ class GpuRenderer {
   Result<GpuRenderStats> render_frame(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
                                       const kernels::ImageView& view, const kernels::OutputConvertParams* convert,
                                       cudaStream_t stream);
-  Status render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, bool timed,
+  Status render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, const GpuRenderOptions& options,
                          const kernels::ImageView& view, GpuRenderStats* stats, cudaStream_t stream);
   Status render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
-                       const GpuRoofgsOptions& options, bool timed, const kernels::ImageView& view,
-                       GpuRenderStats* stats, cudaStream_t stream);
-  /// Pairs of a RoofGS frame, and the sort counters zeroed ahead of the count (0: none).
+                       const GpuRenderOptions& options, const kernels::ImageView& view, GpuRenderStats* stats,
+                       cudaStream_t stream);
+  /// Pairs of a pass, and the sort counters zeroed ahead of the count (0: none).
   struct PairCounts {
     uint64_t pairs = 0, large_pairs = 0, sort_counters = 0;
   };
+  /// A pipeline's pass over the tile rows of `frame`: its emission, which leaves the pairs unwritten when they
+  /// are more than `limit` (`counts` still gives them), and the rest of the pass, which sorts, ranges and
+  /// blends those pairs, planned with the whole frame's counts `whole`.
+  using EmitPass = std::function<Status(const kernels::FrameParams& frame, uint64_t limit, PairCounts* counts)>;
+  using FinishPass = std::function<Status(const kernels::FrameParams& frame, const PairCounts& pass,
+                                          const PairCounts& whole)>;
+  /// Renders `frame` in one pass, or in groups of tile rows when its pairs are more than `limit`
+  /// (docs/RENDERER.md#bounded-pair-memory).
+  Status render_passes(const kernels::FrameParams& frame, uint64_t limit, bool timed, const EmitPass& emit,
+                       const FinishPass& finish, GpuRenderStats* stats, cudaStream_t stream);
+  /// The pairs a pass may hold under options.scratch_budget once the buffers that do not grow with the pairs
+  /// are held (the caller reserves those first): pass_pair_limit() of what they take.
+  Result<uint64_t> pass_limit(const GpuRenderOptions& options, uint32_t gaussians, uint32_t num_tiles, bool key32,
+                              int key_bits, bool large_list, bool chunks) const;
   /// The RoofGS preprocess and pair emission stage (fused or separate, as `plan` says) of a non-empty scene.
   Status emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
-                           GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream);
+                           uint64_t limit, GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream);
   std::unique_ptr<Buffers> buffers_;  // scratch buffers and events (gpu_renderer.cpp)
 };
 
