@@ -506,19 +506,32 @@ Status GpuRenderer::render_passes(const kernels::FrameParams& frame, uint64_t li
 }
 
 Result<uint64_t> GpuRenderer::pass_limit(const GpuRenderOptions& options, uint32_t gaussians, uint32_t num_tiles,
-                                         bool key32, int key_bits, bool large_list, bool chunks) const {
+                                         bool key32, int key_bits, bool large_list, uint32_t min_chunk) {
+  const bool chunks = min_chunk > 0;
   if (options.scratch_budget == 0) return kMaxPassPairs;
-  const Buffers& b = *buffers_;
+  Buffers& b = *buffers_;
   RGS_ASSIGN_OR_RETURN(uint64_t per_pair, PairSort::bytes_per_pair(key32, key_bits));
   // What is held now but the buffers sized by the pairs, and those buffers' parts that the pairs do not size:
-  // CUB's fixed scratch (1 MiB), the large-Gaussian list's item per Gaussian, the chunk list's bound.
+  // CUB's fixed scratch (1 MiB), the large-Gaussian list's item per Gaussian.
   uint64_t fixed = b.bytes() - b.sort.bytes() - b.large_items.bytes() - b.chunks.bytes() + (uint64_t{1} << 20);
   if (large_list) {
     per_pair += 2;  // one 16-byte item per kLargeChunkSlices pairs, with the buffer's headroom
     fixed += (uint64_t(gaussians) + 1) * sizeof(kernels::LargeGaussian) * 5 / 4;
   }
-  if (chunks) fixed += TileChunkList::max_bytes(num_tiles, true);
-  return pass_pair_limit(options.scratch_budget, fixed, per_pair, 1024);
+  if (!chunks) return pass_pair_limit(options.scratch_budget, fixed, per_pair, 1024);
+  // The chunk list: two words per tile, and an item and a record slot per chunk, at most 2 per `min_chunk` pairs
+  // (chunks hold at least that many) and at most TileChunkList::max_bytes in all, whichever is less. A list grown
+  // by earlier frames beyond that is given back.
+  const uint64_t per_chunk = sizeof(uint2) + uint64_t(kernels::tile_chunk_record_words(true)) * 128 * 4;
+  const uint64_t chunk_per_pair = (2 * per_chunk * 5 / 4 + min_chunk - 1) / min_chunk;
+  const uint64_t chunk_most = TileChunkList::max_bytes(num_tiles, true);
+  fixed += uint64_t(num_tiles) * 2 * sizeof(uint32_t) * 5 / 4 + 2 * sizeof(uint32_t);
+  Result<uint64_t> limit = pass_pair_limit(options.scratch_budget, fixed, per_pair + chunk_per_pair, 1024);
+  if (!limit.ok() || *limit * chunk_per_pair > chunk_most) {
+    limit = pass_pair_limit(options.scratch_budget, fixed + chunk_most, per_pair, 1024);
+  }
+  if (limit.ok() && b.chunks.bytes() > std::min(chunk_most, *limit * chunk_per_pair)) b.chunks.release();
+  return limit;
 }
 
 Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameParams& frame,
@@ -537,7 +550,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
     RGS_RETURN_IF_ERROR(b.rgb.reserve_exact(size_t(n) * 3, "GpuRenderer: colours"));
   }
   RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
-  RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, false, key_bits, false, false));
+  RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, false, key_bits, false, 0));
 
   // 1. Preprocess, 2. offsets, pair count, duplication.
   const EmitPass emit = [&](const kernels::FrameParams& pass, uint64_t max_pairs, PairCounts* counts) -> Status {
@@ -587,12 +600,15 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
   source.count = n;
 
   RGS_RETURN_IF_ERROR(b.reserve_roofgs(n, plan.fused));
-  // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off).
+  // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off), never
+  // longer than a pass of `limit` pairs needs (a list grown by earlier frames is given back first).
   const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
     unsigned long long* const count = b.large_list_count(plan.fused);
     if (!plan.balanced_emission) return kernels::LargeGaussianList{nullptr, count, 0};
     const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
-    RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list"));
+    const uint64_t most = kernels::large_list_capacity(n, limit);
+    if (b.large_items.size() > most) b.large_items.release();
+    RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list", most));
     return kernels::LargeGaussianList{b.large_items.data(), count, capacity};
   };
   const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
@@ -677,9 +693,9 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   if (n > 0) RGS_RETURN_IF_ERROR(b.reserve_roofgs(n, plan.fused));
   RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
   const RoofgsOptions& t = options.roofgs.techniques;
-  const bool may_chunk = t.folded_coefficients && t.fast_exp && t.half_blend && t.tile_chunk_pairs > 0;
+  const bool may_chunk = t.folded_coefficients && t.fast_exp && t.half_blend;
   RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, key32, key_bits,
-                                                        plan.balanced_emission, may_chunk));
+                                                        plan.balanced_emission, may_chunk ? t.tile_chunk_pairs : 0));
 
   const EmitPass emit = [&](const kernels::FrameParams& pass, uint64_t max_pairs, PairCounts* counts) {
     return n > 0 ? emit_roofgs_pairs(scene, pass, plan, max_pairs, stats, counts, stream) : Status();

@@ -29,10 +29,11 @@ Status PairSort::reserve(uint64_t pairs, bool key32, int key_bits, uint64_t at_m
         key32 ? kernels::sort_pairs_ping_pong(nullptr, &temp_bytes, keys.data(), values.data(), values_.size(),
                                               values_.size(), 0, key_bits, false, &unused, stream)
               : kernels::sort_pairs(nullptr, &temp_bytes, keys64_.data(), keys64_sorted_.data(), values_.data(),
-                                    values_sorted_.data(), pairs, 0, key_bits, stream);
+                                    values_sorted_.data(), values_.size(), 0, key_bits, stream);
     grown = cuda_status(query, "GpuRenderer: sort size query");
   }
-  if (grown.ok()) grown = temp_.reserve(temp_bytes, "GpuRenderer: sort scratch");
+  // For the pairs the buffers hold, headroom included: no more.
+  if (grown.ok()) grown = temp_.reserve_exact(temp_bytes, "GpuRenderer: sort scratch");
   if (!grown.ok()) release();
   return grown;
 }
@@ -149,6 +150,15 @@ Result<kernels::TileChunks> TileChunkList::list(uint32_t chunk_pairs, uint64_t p
   RGS_RETURN_IF_CUDA_ERROR(kernels::list_tile_chunks(ranges, num_tiles, chunks, stream),
                            "GpuRenderer: tile chunk list kernel");
   return chunks;
+}
+
+void TileChunkList::release() {
+  items_.release();
+  first_.release();
+  arrivals_.release();
+  records_.release();
+  counts_.release();
+  parity_ = 0;
 }
 
 uint64_t TileChunkList::max_bytes(uint32_t num_tiles, bool with_depth) {

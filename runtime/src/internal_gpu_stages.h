@@ -79,6 +79,8 @@ class TileChunkList {
   /// Device counter of the chunks the last list() found.
   const uint32_t* last_count() const { return counts_.data() + (1 - parity_); }
   uint64_t bytes() const;
+  /// Gives every buffer back (the next list() allocates again).
+  void release();
   /// Most bytes list() holds for frames of `num_tiles` tiles whose chunks hold at least 1/kTileChunksPerFrame
   /// of the frame's pairs (kernels::frame_chunk_pairs), headroom included.
   static uint64_t max_bytes(uint32_t num_tiles, bool with_depth);

@@ -228,9 +228,10 @@ class GpuRenderer {
   Status render_passes(const kernels::FrameParams& frame, uint64_t limit, bool timed, const EmitPass& emit,
                        const FinishPass& finish, GpuRenderStats* stats, cudaStream_t stream);
   /// The pairs a pass may hold under options.scratch_budget once the buffers that do not grow with the pairs
-  /// are held (the caller reserves those first): pass_pair_limit() of what they take.
+  /// are held (the caller reserves those first): pass_pair_limit() of what they take. `min_chunk`: the smallest
+  /// chunk of a long tile the frame may list (RoofgsOptions::tile_chunk_pairs), 0 without chunks.
   Result<uint64_t> pass_limit(const GpuRenderOptions& options, uint32_t gaussians, uint32_t num_tiles, bool key32,
-                              int key_bits, bool large_list, bool chunks) const;
+                              int key_bits, bool large_list, uint32_t min_chunk);
   /// The RoofGS preprocess and pair emission stage (fused or separate, as `plan` says) of a non-empty scene.
   Status emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
                            uint64_t limit, GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream);
