@@ -23,9 +23,11 @@
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
+#include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cpu_renderer.h"
 #include "rgs/runtime/cuda_device.h"
+#include "rgs/runtime/device_buffer.h"
 #include "rgs/runtime/gpu_renderer.h"
 #include "rgs/runtime/gpu_scene.h"
 #include "test_data.h"
@@ -229,6 +231,29 @@ inline std::vector<runtime::Camera> flowers_cameras(const std::string& path, uin
   REQUIRE_MESSAGE(cams.ok(), cams.status().to_string());
   return std::move(cams).value();
 }
+
+/// Ping-pong key and value buffers of `capacity` pairs and the scratch of a 32-bit pair sort of that many
+/// (kernels::sort_pairs_ping_pong's size query).
+struct SortBuffers {
+  runtime::DeviceBuffer<uint32_t> keys[2], values[2];
+  runtime::DeviceBuffer<uint8_t> temp;
+  size_t temp_bytes = 0;
+  uint32_t* key_buffers[2] = {nullptr, nullptr};
+  uint32_t* value_buffers[2] = {nullptr, nullptr};
+
+  explicit SortBuffers(uint64_t capacity) {
+    for (int i = 0; i < 2; ++i) {
+      REQUIRE(keys[i].reserve_exact(capacity, "keys").ok());
+      REQUIRE(values[i].reserve_exact(capacity, "values").ok());
+      key_buffers[i] = keys[i].data();
+      value_buffers[i] = values[i].data();
+    }
+    int sorted = 0;
+    REQUIRE(kernels::sort_pairs_ping_pong(nullptr, &temp_bytes, key_buffers, value_buffers, capacity, capacity, 0, 32,
+                                          false, &sorted, nullptr) == cudaSuccess);
+    REQUIRE(temp.reserve_exact(temp_bytes, "sort scratch").ok());
+  }
+};
 
 struct GpuFrame {
   std::vector<float> rgba;   // [H, W, 4]

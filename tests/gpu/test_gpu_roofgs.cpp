@@ -462,19 +462,9 @@ TEST_CASE("32-bit pair sort: stable for every policy's count, on counters zeroed
   const uint64_t counts[] = {1, 2, 1000, 8832, 8833, one_per_sm, one_per_sm + 1, uint64_t(sms) * 512 * 23 + 5,
                              3000000};
   const uint64_t capacity = 3000000 + 4096;
-  runtime::DeviceBuffer<uint32_t> keys[2], values[2];
-  runtime::DeviceBuffer<uint8_t> temp;
-  for (int i = 0; i < 2; ++i) {
-    REQUIRE(keys[i].reserve_exact(capacity, "keys").ok());
-    REQUIRE(values[i].reserve_exact(capacity, "values").ok());
-  }
-  uint32_t* const key_buffers[2] = {keys[0].data(), keys[1].data()};
-  uint32_t* const value_buffers[2] = {values[0].data(), values[1].data()};
-  size_t temp_bytes = 0;
+  SortBuffers buffers(capacity);
+  auto& [keys, values, temp, temp_bytes, key_buffers, value_buffers] = buffers;
   int sorted = 0;
-  REQUIRE(kernels::sort_pairs_ping_pong(nullptr, &temp_bytes, key_buffers, value_buffers, capacity, capacity, 0, 32,
-                                        false, &sorted, nullptr) == cudaSuccess);
-  REQUIRE(temp.reserve_exact(temp_bytes, "sort scratch").ok());
   uint32_t hash = 2463534242u;
   for (const uint64_t count : counts) {
     for (const bool zeroed_ahead : {true, false}) {

@@ -179,19 +179,9 @@ TEST_CASE("32-bit pair sort: counters zeroed ahead for more pairs than one onesw
   // pairs on those counters, and of more (CUB's own portions), must both succeed and be stable.
   if (!have_gpu()) return;
   const uint64_t capacity = (uint64_t{1} << 28) + (uint64_t{1} << 22);
-  runtime::DeviceBuffer<uint32_t> keys[2], values[2];
-  runtime::DeviceBuffer<uint8_t> temp;
-  for (int i = 0; i < 2; ++i) {
-    REQUIRE(keys[i].reserve_exact(capacity, "keys").ok());
-    REQUIRE(values[i].reserve_exact(capacity, "values").ok());
-  }
-  uint32_t* const key_buffers[2] = {keys[0].data(), keys[1].data()};
-  uint32_t* const value_buffers[2] = {values[0].data(), values[1].data()};
-  size_t temp_bytes = 0;
+  SortBuffers buffers(capacity);
+  auto& [keys, values, temp, temp_bytes, key_buffers, value_buffers] = buffers;
   int sorted = 0;
-  REQUIRE(kernels::sort_pairs_ping_pong(nullptr, &temp_bytes, key_buffers, value_buffers, capacity, capacity, 0, 32,
-                                        false, &sorted, nullptr) == cudaSuccess);
-  REQUIRE(temp.reserve_exact(temp_bytes, "sort scratch").ok());
   for (const uint64_t count : {uint64_t{3000000}, capacity}) {
     CAPTURE(count);
     std::vector<uint32_t> key(count), value(count);
