@@ -599,7 +599,7 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
   if (scene.has_compact()) source.compact = scene.compact();
   source.count = n;
 
-  RGS_RETURN_IF_ERROR(b.reserve_roofgs(n, plan.fused));
+  // The per-Gaussian arrays are reserved by render_roofgs, before the pass limit is set.
   // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off), never
   // longer than a pass of `limit` pairs needs (a list grown by earlier frames is given back first).
   const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
