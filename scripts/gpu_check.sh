@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|floor|pybench|audit|fidelity|rate|ab|all]
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|ab|all]
 #   (default all; ab: see below)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
@@ -182,6 +182,39 @@ if [ "$what" = groups ] || [ "$what" = all ]; then
     groups_bench taebak_8k_512mib --resolution 7680x4320 --warmup 2 --repeat 3 --scratch-budget 512MiB
     groups_bench taebak_x32 --replicate 32 --resolution 1920x1080 --warmup 1 --repeat 3
     groups_bench taebak_x32_16gib --replicate 32 --resolution 1920x1080 --warmup 1 --repeat 3 --scratch-budget 16GiB
+  fi
+fi
+if [ "$what" = lod ] || [ "$what" = all ]; then
+  # Levels of detail (docs/LOD.md): the streamer's GPU tests; taebak given levels of detail by rgs-convert (time,
+  # check); fly-throughs of 120 views at 1080p under a 3M splat budget and 4 GiB of device memory (3 GiB for the
+  # scene's pool, frame and upload arrays, 1 GiB of render scratch) for taebak x1, x4 and x16 (the big scene:
+  # replicated and given its levels in memory), each with the PSNR against the full detail.
+  t0=$(date +%s)
+  rc=0
+  "$bin/test_gpu" -s -tc='*LOD*' >"$out/test_gpu_lod.log" 2>&1 || rc=$?
+  [ $rc -ne 0 ] && status=1
+  note "test_gpu LOD: exit $rc; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu_lod.log" | tr '\n' ' ')"
+  if [ -f "$taebak" ]; then
+    rc=0
+    /usr/bin/time -v "$bin/rgs-convert" "$taebak" "$taebak_dir/taebak_lod.rgs" --lod-levels auto \
+      >"$out/lod_convert.log" 2>&1 || rc=$?
+    "$bin/rgs-info" "$taebak_dir/taebak_lod.rgs" --check >>"$out/lod_convert.log" 2>&1 || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "lod_convert: exit $rc"
+    grep -E "profile|time  |Maximum resident|check|level " "$out/lod_convert.log" | tee -a "$summary"
+    lod_bench() {  # NAME ARGS...
+      local name="$1" t0 rc=0
+      shift
+      t0=$(date +%s)
+      "$bin/rgs-bench" "$@" --path 120 --resolution 1920x1080 --splat-budget 3000000 --memory-budget 3GiB \
+        --scratch-budget 1GiB --json "$out/lod_$name.json" >"$out/lod_$name.log" 2>&1 || rc=$?
+      [ $rc -ne 0 ] && status=1
+      note "lod_$name: exit $rc in $(( $(date +%s) - t0 )) s"
+      grep -E "error|scene  |budgets|open  |frame time|splats  |quality" "$out/lod_$name.log" | tee -a "$summary"
+    }
+    lod_bench taebak_x1 "$taebak_dir/taebak_lod.rgs"
+    lod_bench taebak_x4 "$taebak" --replicate 4
+    lod_bench taebak_x16 "$taebak" --replicate 16
   fi
 fi
 if [ "$what" = floor ] || [ "$what" = all ]; then

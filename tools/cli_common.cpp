@@ -468,4 +468,13 @@ std::string scene_formats_help() {
   return text;
 }
 
+std::string format_time(const char* pattern, bool utc) {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  utc ? gmtime_r(&now, &tm) : localtime_r(&now, &tm);
+  char buf[64];
+  std::strftime(buf, sizeof(buf), pattern, &tm);
+  return buf;
+}
+
 }  // namespace rgs::tools

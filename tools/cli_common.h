@@ -150,6 +150,9 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
 /// format::ReadOptions with scene_read_options()' limits, checksums verified: for opening a .rgs directly.
 format::ReadOptions read_options();
 
+/// The local (or, with `utc`, UTC) time now, as strftime's `pattern` writes it (e.g. "%Y-%m-%d").
+std::string format_time(const char* pattern, bool utc);
+
 /// The input formats every scene-reading tool accepts, found by content (converter::supported_scene_formats),
 /// as one sentence for --help.
 std::string scene_formats_help();

@@ -6,6 +6,7 @@
 //   rgs-bench scene.ply --orbit 16 --warmup 10 --repeat 50
 //   rgs-bench scene.rgs --orbit 16 --mode faithful --mode roofgs --mode only-snugbox
 //   rgs-bench daffodils.rgs --orbit 8 --replicate 4 --resolution 4k --mode faithful --mode roofgs
+//   rgs-bench taebak.rgs --replicate 16 --path 120 --splat-budget 3000000 --memory-budget 3GiB --scratch-budget 1GiB
 //
 // For every mode and resolution: W warm-up frames, then R repetitions of every view (views in turn), each
 // frame timed with CUDA events per stage (GpuRenderOptions::time_stages). Reported: the median over
@@ -38,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_lod.h"
 #include "cli_common.h"
 #include "rgs/api/gpu_preset.h"
 #include "rgs/api/gpu_scene_loading.h"
@@ -87,6 +89,13 @@ struct Options {
   bool floor = false;
   /// --scratch-budget: GpuRenderOptions::scratch_budget of every mode (0: none).
   uint64_t scratch_budget = 0;
+  /// Streamed mode (--splat-budget, --memory-budget): a level-of-detail scene under budgets (bench_lod.h).
+  uint64_t splat_budget = 0;
+  uint64_t memory_budget = 0;
+  float pixel_error = 1.0f;
+  uint64_t stream_bytes = uint64_t{256} << 20;
+  std::string lod_levels = "auto";
+  bool streamed() const { return splat_budget > 0 || memory_budget > 0; }
 };
 
 constexpr int kStages = 5;
@@ -339,14 +348,6 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
           {"stages", stages}};
 }
 
-std::string format_time(const char* pattern, bool utc) {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  utc ? gmtime_r(&now, &tm) : localtime_r(&now, &tm);
-  char buf[64];
-  std::strftime(buf, sizeof(buf), pattern, &tm);
-  return buf;
-}
 
 /// One way of rendering a frame for the front-door comparison: ms per frame, host wall clock from the call to
 /// the device's completion (each path waits once per frame for its pair count anyway).
@@ -685,7 +686,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
   j["tool"] = kTool;
   j["version"] = RGS_VERSION_STRING;
   j["date"] = report.date;
-  j["timestamp_utc"] = format_time("%Y-%m-%dT%H:%M:%SZ", true);
+  j["timestamp_utc"] = tools::format_time("%Y-%m-%dT%H:%M:%SZ", true);
   j["device"] = {{"ordinal", report.device.ordinal},
                  {"name", report.device.name},
                  {"compute_capability", std::to_string(report.device.compute_major) + "." +
@@ -846,7 +847,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
   RGS_ASSIGN_OR_RETURN(const std::vector<CameraSet> sets, make_camera_sets(opt, scene.bounds));
 
-  const std::string date = format_time("%Y-%m-%d", false);
+  const std::string date = tools::format_time("%Y-%m-%d", false);
   runtime::DeviceImage image;
   std::vector<RunResult> results;
   for (const std::string& mode : opt.modes) {
@@ -908,6 +909,25 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   return Status();
 }
 
+/// The streamed mode: bench_lod() with the options and cameras of this run.
+Status bench_streamed(const Options& opt, tools::OutputSet& outputs) {
+  RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.device));
+  tools::LodBenchOptions o;
+  o.input = opt.input;
+  o.replicate = opt.replicate;
+  o.lod_levels = opt.lod_levels == "auto" ? 0u : static_cast<uint32_t>(std::stoul(opt.lod_levels));
+  o.stream.budget.max_splats = opt.splat_budget;
+  o.stream.budget.pixel_error = opt.pixel_error;
+  o.stream.memory_budget = opt.memory_budget;
+  o.stream.stream_bytes_per_frame = opt.stream_bytes;
+  o.scratch_budget = opt.scratch_budget;
+  o.json_path = opt.json_path;
+  return tools::bench_lod(o, [&](const format::SceneBounds& bounds) -> Result<std::vector<runtime::Camera>> {
+    RGS_ASSIGN_OR_RETURN(std::vector<CameraSet> sets, make_camera_sets(opt, bounds));
+    return sets.front().cameras;
+  }, outputs);
+}
+
 int run(const Options& opt) {
   const auto t_start = Clock::now();
   // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
@@ -919,7 +939,7 @@ int run(const Options& opt) {
     if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
     tools::report_notes(kTool, outputs.remove_stale_temporaries());
   }
-  Status measured = bench(opt, outputs, t_start);
+  Status measured = opt.streamed() ? bench_streamed(opt, outputs) : bench(opt, outputs, t_start);
   if (!measured.ok()) return tools::report_error(kTool, measured);
   return tools::commit_outputs(kTool, outputs);
 }
@@ -971,6 +991,27 @@ int main(int argc, char** argv) {
                  "render in groups of tile rows, with the same image (docs/RENDERER.md#bounded-pair-memory)")
       ->transform(CLI::AsSizeValue(false))
       ->capture_default_str();
+  app.add_option("--splat-budget", opt.splat_budget,
+                 "Streamed mode: render a level-of-detail .rgs (rgs-convert --lod-levels) along the views as a "
+                 "fly-through, drawing at most N Gaussians a frame (docs/LOD.md); per view the frame time, splats, "
+                 "bytes streamed and resident, and the PSNR against the full detail where it fits")
+      ->check(CLI::Range(uint64_t{1}, uint64_t{0x7fffffff}));
+  app.add_option("--memory-budget", opt.memory_budget,
+                 "Streamed mode: device memory for the scene's pool, frame arrays and upload buffer (e.g. 3GiB); 0: a "
+                 "pool that holds the whole file. The renderer's scratch is bounded by --scratch-budget")
+      ->transform(CLI::AsSizeValue(false));
+  app.add_option("--pixel-error", opt.pixel_error,
+                 "Streamed mode: largest projected error of a level, in pixels (format/SPEC.md 4.9.1)")
+      ->check(CLI::Range(0.0f, 1000.0f))
+      ->capture_default_str();
+  app.add_option("--stream-bytes", opt.stream_bytes,
+                 "Streamed mode: most bytes read and uploaded per frame (the bound on a frame's wait for the disk)")
+      ->transform(CLI::AsSizeValue(false))
+      ->capture_default_str();
+  app.add_option("--lod-levels", opt.lod_levels,
+                 "Streamed mode with --replicate K: levels of detail built in memory for the tiled scene (auto or "
+                 "1..16)")
+      ->capture_default_str();
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.add_flag("--front-door", opt.front_door,
@@ -992,6 +1033,18 @@ int main(int argc, char** argv) {
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {
     if (opt.floor && opt.replicate > 1) return "--floor counts the scene as stored: it needs --replicate 1";
+    if (opt.streamed() && (opt.quality || opt.floor || opt.front_door)) {
+      return "the streamed mode (--splat-budget, --memory-budget) measures its own quality; drop --quality, --floor "
+             "and --front-door";
+    }
+    if (opt.lod_levels != "auto") {
+      try {
+        const unsigned long v = std::stoul(opt.lod_levels);
+        if (v < 1 || v > 16) return "--lod-levels: auto or 1..16";
+      } catch (const std::exception&) {
+        return "--lod-levels: auto or 1..16";
+      }
+    }
     return opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0
                ? "one of --cameras, --orbit or --path is required"
                : "";

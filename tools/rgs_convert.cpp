@@ -46,6 +46,7 @@ struct Options {
   std::string profile = "runtime";
   bool profile_defaulted = true;  ///< --profile not given
   std::string json_path;  ///< "-": standard output, instead of the text summary
+  std::string lod_levels;  ///< --lod-levels: "auto", "1".."16", or empty (no levels of detail)
   bool quiet = false;
   api::ConvertOptions convert;  ///< everything else, parsed straight into the library's options
   /// Rate control (--target-psnr, --target-bytes) and the views it measures on.
@@ -152,6 +153,9 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
                         {"flushed_to_zero", q.quantization.scales_flushed_to_zero},
                         {"max_flushed_of_largest_axis", q.quantization.max_flushed_of_largest_axis}};
     j["extent"] = q.extent;
+    if (q.lod_levels > 0) {
+      j["lod"] = {{"levels", q.lod_levels}, {"chunks", q.lod_chunks}, {"gaussians", q.lod_gaussians}};
+    }
     j["errors"] = {{"position", stats_json(q.errors.position)},
                    {"position_of_extent", stats_json(of_extent(q.errors.position, q.extent))},
                    {"rotation_deg", stats_json(q.errors.rotation_deg)},
@@ -161,8 +165,8 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
                    {"sh", sh}};
   }
   // "quantize" includes the error measurement, which runs in the same pass.
-  j["seconds"] = {{"read", r.seconds.read}, {"quantize", r.seconds.quantize}, {"write", r.seconds.write},
-                  {"total", r.seconds.total}};
+  j["seconds"] = {{"read", r.seconds.read}, {"quantize", r.seconds.quantize}, {"lod", r.seconds.lod},
+                  {"write", r.seconds.write}, {"total", r.seconds.total}};
   return j;
 }
 
@@ -175,6 +179,12 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
                 "per coordinate); the errors below are the decoded archive's against the input\n",
                 tools::fixed(double(r.output_bytes) / double(std::max<uint64_t>(r.gaussians, 1)), 2).c_str(),
                 tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.archive.position_error).c_str());
+  } else if (q.lod_levels > 0) {
+    std::printf("  profile          runtime, levels of detail: %u chunks x %u levels, %s Gaussians in all (%s x the "
+                "full detail), built in %s s\n",
+                q.lod_chunks, q.lod_levels, tools::group_digits(q.lod_gaussians).c_str(),
+                tools::fixed(double(q.lod_gaussians) / double(std::max<uint64_t>(r.gaussians, 1)), 3).c_str(),
+                tools::fixed(r.seconds.lod, 2).c_str());
   } else {
     std::printf("  profile          runtime\n");
   }
@@ -280,6 +290,9 @@ int run(Options& opt) {
                                                    ".spz or .glb file (it is written atomically, by rename)"));
   }
   if (!opt.to.empty()) opt.convert.to = *api::parse_output_format(opt.to);  // CLI11 checked the name
+  if (!opt.lod_levels.empty()) {
+    opt.convert.lod_levels = opt.lod_levels == "auto" ? 0u : static_cast<uint32_t>(std::stoul(opt.lod_levels));
+  }
   const auto output_format = api::output_format_for(opt.output, opt.convert.to);
   if (!output_format.ok()) return tools::report_usage_error(kTool, output_format.status());
   opt.convert.to = *output_format;
@@ -457,6 +470,26 @@ int main(int argc, char** argv) {
                  "standard output instead of the text summary");
   app.add_option("--lod", rgs::tools::scene_read_options().lod,
                  "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest (default)");
+  app.add_option("--lod-levels", opt.lod_levels,
+                 "Write a .rgs with levels of detail (format/SPEC.md 4.9, docs/LOD.md): spatial chunks, each at this "
+                 "many levels (1..16; auto: the coarsest about 1/64 of the full detail), parents merged from their "
+                 "children by moment matching, for rendering under a splat and memory budget")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            if (text == "auto") return "";
+            try {
+              const int v = std::stoi(text);
+              if (v >= 1 && v <= 16 && std::to_string(v) == text) return "";
+            } catch (const std::exception&) {
+            }
+            return "--lod-levels: auto or 1..16, not '" + text + "'";
+          },
+          "auto|1..16"));
+  app.add_option("--lod-chunk", opt.convert.lod_chunk_gaussians,
+                 "With --lod-levels: most full-detail Gaussians in one chunk (what the renderer culls, selects and "
+                 "streams)")
+      ->check(CLI::Range(uint32_t{1}, uint32_t{1} << 30))
+      ->capture_default_str();
   app.add_flag("-q,--quiet", opt.quiet,
                "Print nothing on success: no summary, no notes, no progress line (which is drawn on stderr only "
                "when it is a terminal, for conversions over a second)");

@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -41,6 +43,19 @@ nlohmann::json to_json(const format::RgsFile& file) {
   j["sh_quantization"] = {{"bits", m.sh_quantization.bits},
                           {"clip_percentile", m.sh_quantization.clip_percentile},
                           {"scales", m.sh_quantization.scales}};
+  if (const format::LodIndex* lod = file.lod()) {
+    nlohmann::json levels = nlohmann::json::array();
+    for (uint32_t l = 0; l < lod->level_count; ++l) {
+      uint64_t count = 0;
+      double error = 0;
+      for (uint32_t c = 0; c < lod->chunk_count; ++c) {
+        count += lod->at(l, c).count;
+        error = std::max<double>(error, lod->at(l, c).error);
+      }
+      levels.push_back({{"level", l}, {"gaussians", count}, {"max_error", error}});
+    }
+    j["lod"] = {{"chunks", lod->chunk_count}, {"levels", levels}, {"full_detail", lod->full_detail_count()}};
+  }
   nlohmann::json sections = nlohmann::json::array();
   for (const auto& s : file.sections()) {
     sections.push_back({{"id", static_cast<uint32_t>(s.id)}, {"name", format::section_name(s.id)},
@@ -81,6 +96,20 @@ void print_text(const format::RgsFile& file) {
     const auto& s = m.sh_quantization.scales[d];
     std::printf("    degree %u       %s %s %s\n", d, tools::sci(s[0]).c_str(), tools::sci(s[1]).c_str(),
                 tools::sci(s[2]).c_str());
+  }
+  if (const format::LodIndex* lod = file.lod()) {
+    std::printf("  levels of detail %u chunks x %u levels (format/SPEC.md 4.9); full detail %s Gaussians\n",
+                lod->chunk_count, lod->level_count, tools::group_digits(lod->full_detail_count()).c_str());
+    for (uint32_t l = 0; l < lod->level_count; ++l) {
+      uint64_t count = 0;
+      double error = 0;
+      for (uint32_t c = 0; c < lod->chunk_count; ++c) {
+        count += lod->at(l, c).count;
+        error = std::max<double>(error, lod->at(l, c).error);
+      }
+      std::printf("    level %-2u       %s Gaussians, error <= %s scene units\n", l, tools::group_digits(count).c_str(),
+                  tools::sci(error).c_str());
+    }
   }
   std::printf("  sections\n    %-4s %-14s %-5s %-5s %5s %12s %12s %14s %14s %7s\n", "id", "name", "codec", "type",
               "comps", "elements", "offset", "stored", "raw", "B/Gauss");

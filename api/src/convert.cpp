@@ -11,6 +11,7 @@
 
 #include "rgs/config.h"
 #include "rgs/converter/gltf.h"
+#include "rgs/converter/lod_builder.h"
 #include "rgs/converter/ply_writer.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/file_io.h"
@@ -71,6 +72,22 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
                         "convert: unknown zstd section '" + name +
                             "' (use all, metadata, provenance, means, rotations, scales, opacities, sh, sh_dc_residual)");
   }
+  if (options.lod_levels) {
+    // SPEC §4.9 A level-of-detail file keeps its per-Gaussian sections raw, so that a chunk is a byte range.
+    RGS_RETURN_ERROR_IF(*options.lod_levels > format::kMaxLodLevels, StatusCode::kInvalidArgument,
+                        "convert: " + std::to_string(*options.lod_levels) + " levels of detail, at most " +
+                            std::to_string(format::kMaxLodLevels) + " (0: auto)");
+    RGS_RETURN_ERROR_IF(options.lod_chunk_gaussians == 0, StatusCode::kInvalidArgument,
+                        "convert: a level-of-detail chunk must hold at least one Gaussian");
+    RGS_RETURN_ERROR_IF(write.profile == format::StorageProfile::kArchive, StatusCode::kInvalidArgument,
+                        "convert: levels of detail need the runtime profile (the archive codes sections whole)");
+    for (const auto& [id, codec] : write.codecs) {
+      RGS_RETURN_ERROR_IF(id != format::SectionId::kMetadata && id != format::SectionId::kProvenance,
+                          StatusCode::kInvalidArgument,
+                          std::string("convert: levels of detail keep section ") + format::section_name(id) +
+                              " raw (a chunk is read as a byte range); drop it from the zstd sections");
+    }
+  }
   return write;
 }
 
@@ -117,6 +134,7 @@ class ProgressReporter {
   void reading() { report("reading", 0.0); }
   void quantizing() { report("quantizing", shares_.quantize); }
   void encoding_archive() { report("encoding the archive", shares_.encode); }
+  void building_lod() { report("building levels of detail", shares_.quantize); }
   void writing() { report("writing", shares_.write); }
   void done() { report("done", 1.0); }
 
@@ -261,12 +279,29 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
       {"options", options_text(options)},
       {"dropped_gaussians", std::to_string(input->hygiene.dropped_gaussians)},
   };
+  std::optional<converter::LodScene> lod;
+  if (options.lod_levels) {
+    progress.building_lod();
+    const auto lod_start = Clock::now();
+    converter::LodBuildOptions lod_options;
+    lod_options.levels = *options.lod_levels;
+    lod_options.max_chunk_gaussians = options.lod_chunk_gaussians;
+    auto built = converter::build_lod(*encoded, lod_options);
+    if (!built.ok()) return Status(built.status()).prepend(src_name);
+    lod.emplace(std::move(built).value());
+    write.lod = &lod->index;
+    rgs.lod_levels = lod->index.level_count;
+    rgs.lod_chunks = lod->index.chunk_count;
+    rgs.lod_gaussians = lod->scene.count;
+    report->seconds.lod = seconds_since(lod_start);
+  }
   if (archive) progress.encoding_archive();
   StageSink files(output_files(options), progress);
   format::ArchiveScene coded;
   const auto write_start = Clock::now();
   RGS_ASSIGN_OR_RETURN(report->output_bytes,
-                       format::write_scene_file(dst, *encoded, write, files, archive ? &coded : nullptr));
+                       format::write_scene_file(dst, lod ? lod->scene : *encoded, write, files,
+                                                archive ? &coded : nullptr));
   report->seconds.write = seconds_since(write_start);
   rgs.sh_quantization = encoded->metadata.sh_quantization;
   const format::SceneBounds& bounds = encoded->metadata.bounds;
@@ -285,7 +320,9 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
     rgs.errors = std::move(errors).value();
     report->seconds.quantize += seconds_since(measure_start);
   }
-  report->output_description = archive ? "RoofGS .rgs, archive profile" : "RoofGS .rgs, runtime profile";
+  report->output_description = archive ? "RoofGS .rgs, archive profile"
+                               : lod   ? "RoofGS .rgs, runtime profile with levels of detail"
+                                       : "RoofGS .rgs, runtime profile";
   report->rgs = std::move(rgs);
   return Status();
 }

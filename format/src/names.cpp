@@ -15,6 +15,7 @@ const char* section_name(SectionId id) {
     case SectionId::kOpacities: return "opacities";
     case SectionId::kSh: return "sh";
     case SectionId::kShDcResidual: return "sh_dc_residual";
+    case SectionId::kLod: return "lod";
   }
   return "unknown";
 }

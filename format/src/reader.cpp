@@ -20,6 +20,7 @@
 
 #include "internal_archive.h"
 #include "internal_bytes.h"
+#include "internal_lod.h"
 #include "internal_sections.h"
 
 namespace rgs::format {
@@ -39,7 +40,8 @@ uint64_t header_checksum(const uint8_t* header, const uint8_t* table, size_t tab
 bool expected_layout(SectionId id, uint32_t sh_degree, SectionLayout* out) {
   switch (id) {
     case SectionId::kMetadata:
-    case SectionId::kProvenance: *out = {ElementType::kBytes, 1, false}; return true;
+    case SectionId::kProvenance:
+    case SectionId::kLod: *out = {ElementType::kBytes, 1, false}; return true;
     case SectionId::kMeans: *out = {ElementType::kFloat32, 3, true}; return true;
     case SectionId::kRotations: *out = {ElementType::kFloat16, 4, true}; return true;
     case SectionId::kScales: *out = {ElementType::kFloat16, 3, true}; return true;
@@ -264,8 +266,11 @@ struct RgsFileAccess {
   static Status check_decoded_total(const RgsFile& f);
   static Status check_layout(const RgsFile& f, size_t index, uint32_t sh_degree);
   static Status read_small_section(const RgsFile& f, size_t index, uint64_t max_raw, std::vector<uint8_t>* raw);
+  static Status parse_lod(RgsFile* f);
 
  public:
+  /// §4.9 Views of level `level` of chunk `chunk` (both in range), unchecked.
+  static LodRangeView range_view(const RgsFile& f, uint32_t level, uint32_t chunk);
   /// Entry `index`'s stored bytes, checksum verified when enabled. Messages name the section, not the file.
   static Status stored_view(const RgsFile& f, size_t index, ByteView* out);
   /// Decodes entry `index` into exactly raw_size bytes. Messages name the section, not the file.
@@ -620,6 +625,8 @@ Status RgsFileAccess::parse(RgsFile* f) {
                             " in a version " + dec(version.major) + "." + dec(version.minor) + " file");
   }
 
+  RGS_RETURN_IF_ERROR(parse_lod(f));
+
   // §4.2 Provenance (optional).
   if (const SectionEntry* prov = f->find(SectionId::kProvenance)) {
     const size_t index = static_cast<size_t>(prov - f->sections_.data());
@@ -634,6 +641,73 @@ Status RgsFileAccess::parse(RgsFile* f) {
     if (!s.ok()) return s.prepend(label);
   }
   return Status();
+}
+
+Status RgsFileAccess::parse_lod(RgsFile* f) {
+  // §4.9 The index comes with its required flag, in a 1.3 file, over sections a range can be read from in place.
+  const SectionEntry* e = f->find(SectionId::kLod);
+  const bool flagged = (f->header_.required_flags & kRequiredFlagLod) != 0;
+  if (e == nullptr) {
+    RGS_RETURN_ERROR_IF(flagged, StatusCode::kCorruptData, "the level-of-detail flag is set but there is no lod section");
+    return Status();
+  }
+  const size_t index = static_cast<size_t>(e - f->sections_.data());
+  const std::string label = section_label(index, e->id);
+  RGS_RETURN_ERROR_IF(!flagged, StatusCode::kCorruptData, label + " without the level-of-detail required flag");
+  const FormatVersion version{f->header_.major, f->header_.minor};
+  RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForLod), StatusCode::kCorruptData,
+                      label + " in a version " + dec(version.major) + "." + dec(version.minor) + " file");
+  for (size_t i = 0; i < f->sections_.size(); ++i) {
+    const SectionEntry& s = f->sections_[i];
+    detail::SectionLayout layout;
+    if (!detail::expected_layout(s.id, 0, &layout) || !layout.per_gaussian) continue;
+    RGS_RETURN_ERROR_IF(s.codec != Codec::kNone, StatusCode::kCorruptData,
+                        section_label(i, s.id) + ": codec " + codec_name(s.codec) +
+                            " in a level-of-detail file, whose per-Gaussian sections are stored raw (SPEC 4.9)");
+  }
+  // At most 16 + 400 bytes per Gaussian (C <= N, L <= 16); the raw size was also checked against the limits.
+  const uint64_t max_raw = kLodHeadSize + (kLodChunkRecordSize + kLodLevelRecordSize * kMaxLodLevels) *
+                                              std::min<uint64_t>(f->header_.gaussian_count, UINT32_MAX);
+  RGS_RETURN_ERROR_IF(e->raw_size > max_raw, StatusCode::kCorruptData,
+                      label + ": " + dec(e->raw_size) + " bytes, more than any index of " +
+                          dec(f->header_.gaussian_count) + " Gaussians takes (16 + 400 N)");
+  std::vector<uint8_t> raw;
+  RGS_RETURN_IF_ERROR(read_small_section(*f, index, max_raw, &raw));
+  auto lod = std::make_shared<LodIndex>();
+  Status s = detail::decode_lod(raw.data(), raw.size(), f->header_.gaussian_count, lod.get());
+  if (!s.ok()) return s.prepend(label);
+  f->lod_ = std::move(lod);
+  return Status();
+}
+
+LodRangeView RgsFileAccess::range_view(const RgsFile& f, uint32_t level, uint32_t chunk) {
+  const LodLevel& v = f.lod_->at(level, chunk);
+  LodRangeView view;
+  view.first = v.first;
+  view.count = v.count;
+  auto part = [&](SectionId id, uint64_t record) {
+    const SectionEntry* e = f.find(id);
+    if (e == nullptr) return ByteView{};
+    return ByteView{f.data_ + e->offset + v.first * record, static_cast<size_t>(v.count * record)};
+  };
+  view.means = part(SectionId::kMeans, 12);
+  view.rotations = part(SectionId::kRotations, 8);
+  view.scales = part(SectionId::kScales, 6);
+  view.opacities = part(SectionId::kOpacities, 2);
+  view.sh = part(SectionId::kSh, 3 * sh_coefficient_count(f.metadata_.sh_degree));
+  view.sh_dc_residual = part(SectionId::kShDcResidual, 3);
+  return view;
+}
+
+Result<LodRangeView> RgsFile::lod_range(uint32_t level, uint32_t chunk) const {
+  RGS_RETURN_ERROR_IF(lod_ == nullptr, StatusCode::kInvalidArgument, name_ + ": no level-of-detail index");
+  RGS_RETURN_ERROR_IF(level >= lod_->level_count || chunk >= lod_->chunk_count, StatusCode::kInvalidArgument,
+                      name_ + ": lod chunk " + detail::dec(chunk) + " level " + detail::dec(level) + " outside its " +
+                          detail::dec(lod_->chunk_count) + " chunks of " + detail::dec(lod_->level_count) + " levels");
+  const LodRangeView view = RgsFileAccess::range_view(*this, level, chunk);
+  Status s = detail::check_lod_range(*lod_, level, chunk, view, metadata_, options_.verify_checksums);
+  if (!s.ok()) return s.prepend(name_);
+  return view;
 }
 
 Result<RgsFile> RgsFile::open(const std::string& path, const ReadOptions& options) {
@@ -738,6 +812,18 @@ Result<EncodedScene> RgsFile::read_scene() const {
     if (find(SectionId::kShDcResidual) != nullptr) {
       RGS_RETURN_IF_ERROR(decode_array(*this, SectionId::kShDcResidual, &scene.sh_dc_residual));
     }
+    if (lod_ != nullptr) {
+      // §4.9 The full detail is the prefix of every section: the coarser levels are dropped.
+      const uint64_t n = lod_->full_detail_count();
+      const uint64_t k3 = uint64_t{3} * sh_coefficient_count(metadata_.sh_degree);
+      scene.count = n;
+      scene.means.resize(n * 3);
+      scene.rotations.resize(n * 4);
+      scene.scales.resize(n * 3);
+      scene.opacities.resize(n);
+      scene.sh.resize(n * k3);
+      if (!scene.sh_dc_residual.empty()) scene.sh_dc_residual.resize(n * 3);
+    }
     return scene;
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,
@@ -803,6 +889,11 @@ Status validate(const uint8_t* data, size_t size, const ReadLimits& limits, cons
     options.verify_checksums = true;
     RGS_ASSIGN_OR_RETURN(RgsFile file, RgsFile::from_bytes(data, size, options, name));
     for (size_t i = 0; i < file.sections().size(); ++i) RGS_RETURN_IF_ERROR(validate_section(file, i));
+    if (const LodIndex* lod = file.lod()) {
+      for (uint32_t l = 0; l < lod->level_count; ++l) {
+        for (uint32_t c = 0; c < lod->chunk_count; ++c) RGS_RETURN_IF_ERROR(file.lod_range(l, c).status());
+      }
+    }
     return Status();
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory, name + ": out of memory validating the file");

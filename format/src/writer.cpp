@@ -17,6 +17,7 @@
 
 #include "internal_archive.h"
 #include "internal_bytes.h"
+#include "internal_lod.h"
 #include "internal_sections.h"
 #include "rgs/format/file_io.h"
 
@@ -200,7 +201,69 @@ Status check_options(const WriteOptions& options) {
       return invalid("unknown codec " + dec(static_cast<uint16_t>(codec)) + " requested for section " +
                      section_name(id));
     }
+    detail::SectionLayout layout;
+    (void)detail::expected_layout(id, 0, &layout);
+    if (options.lod != nullptr && layout.per_gaussian && codec != Codec::kNone) {
+      return invalid(std::string("a level-of-detail file stores section ") + section_name(id) +
+                     " raw (SPEC 4.9), not with " + codec_name(codec));
+    }
   }
+  if (options.lod != nullptr && options.profile != StorageProfile::kRuntime) {
+    return invalid("a level-of-detail file stores the runtime profile (SPEC 4.9), not the archive profile");
+  }
+  return Status();
+}
+
+/// §4.9 Adds the lod section of `index` after the runtime sections of `plan`: the index checked against the
+/// scene (its structure, each range's values and chunk sphere) and each range's checksum computed, split
+/// over two threads by range. Errors are kInvalidArgument naming the chunk and level.
+Status add_lod_section(const LodIndex& index, const EncodedScene& scene, const WriteOptions& options,
+                       std::vector<PlannedSection>* plan) {
+  if (Status s = detail::check_lod_structure(index, scene.count); !s.ok()) return invalid(s.message());
+  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
+  auto raw_of = [&](SectionId id) -> const uint8_t* {
+    for (const PlannedSection& s : *plan) {
+      if (s.id == id) return s.raw;
+    }
+    return nullptr;
+  };
+  const uint8_t* means = raw_of(SectionId::kMeans);
+  const uint8_t* rotations = raw_of(SectionId::kRotations);
+  const uint8_t* scales = raw_of(SectionId::kScales);
+  const uint8_t* opacities = raw_of(SectionId::kOpacities);
+  const uint8_t* sh = raw_of(SectionId::kSh);
+  const uint8_t* residual = raw_of(SectionId::kShDcResidual);
+  LodIndex checked = index;
+  const size_t records = checked.levels.size();
+  auto check_records = [&](size_t begin, size_t end) {
+    for (size_t r = begin; r < end; ++r) {
+      const uint32_t level = static_cast<uint32_t>(r / checked.chunk_count);
+      const uint32_t chunk = static_cast<uint32_t>(r % checked.chunk_count);
+      LodLevel& v = checked.levels[r];
+      auto view = [&](const uint8_t* base, uint64_t record) {
+        return base == nullptr ? ByteView{} : ByteView{base + v.first * record, static_cast<size_t>(v.count * record)};
+      };
+      const LodRangeView range{v.first,         v.count,          view(means, 12), view(rotations, 8),
+                               view(scales, 6), view(opacities, 2), view(sh, k3),  view(residual, 3)};
+      Status s = detail::check_lod_range(checked, level, chunk, range, scene.metadata, false);
+      if (!s.ok()) return invalid(s.message());
+      v.checksum = detail::lod_range_checksum(range);
+    }
+    return Status();
+  };
+  std::vector<std::function<Status()>> halves = {[&] { return check_records(0, records / 2); },
+                                                 [&] { return check_records(records / 2, records); }};
+  std::vector<Status> results;
+  detail::run_jobs(halves, 2, "checking the level-of-detail ranges", &results);
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  PlannedSection& section = plan->emplace_back();
+  section.id = SectionId::kLod;
+  section.owned_raw = detail::encode_lod(checked);
+  section.raw = section.owned_raw.data();
+  section.raw_size = section.owned_raw.size();
+  section.element_count = section.raw_size;
+  const auto codec = options.codecs.find(SectionId::kLod);
+  if (codec != options.codecs.end()) section.codec = codec->second;
   return Status();
 }
 
@@ -298,6 +361,7 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   if (!scene.provenance.empty()) require(kMinVersionForProvenance);
   if (scene.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
   if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
+  if (required_flags & kRequiredFlagLod) require(kMinVersionForLod);
   for (const PlannedSection& s : plan) {
     if (s.id == SectionId::kShDcResidual) require(kMinVersionForShDcResidual);
   }
@@ -334,7 +398,7 @@ Result<uint64_t> lay_out(PlannedFile* file) {
 }
 
 /// Value checks (SPEC §4.3–§4.7) and section checksums (§3.2), each split over two threads: the first
-/// half of the Gaussians and the sh section (last in `plan`) on this thread, the rest on another. The first
+/// half of the Gaussians and the last section of `plan` on this thread, the rest on another. The first
 /// bad Gaussian in index order is reported, as a sequential check would. Returns one checksum per section.
 Result<std::vector<uint64_t>> check_and_checksum(const EncodedScene& scene, const std::vector<PlannedSection>& plan) {
   const uint64_t n = scene.count;
@@ -405,7 +469,11 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
   std::string why;
   if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return invalid(why);
   PlannedFile file;
-  const uint32_t required_flags = add_sections(scene, options, provenance_bytes, archive, &file);
+  uint32_t required_flags = add_sections(scene, options, provenance_bytes, archive, &file);
+  if (options.lod != nullptr) {
+    RGS_RETURN_IF_ERROR(add_lod_section(*options.lod, scene, options, &file.sections));
+    required_flags |= kRequiredFlagLod;
+  }
   const FormatVersion version = file_version(scene, file.sections, required_flags);
   RGS_RETURN_IF_ERROR(compress_sections(options, &file.sections));
   RGS_ASSIGN_OR_RETURN(const uint64_t table_end, lay_out(&file));

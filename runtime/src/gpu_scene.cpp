@@ -30,14 +30,16 @@ Status upload_section(const format::RgsFile& file, format::SectionId id, void* d
   const format::SectionEntry* entry = file.find(id);
   RGS_RETURN_ERROR_IF(entry == nullptr, StatusCode::kCorruptData,
                       file.name() + ": runtime section " + std::to_string(uint32_t(id)) + " is missing");
-  RGS_RETURN_ERROR_IF(entry->raw_size != dst_bytes, StatusCode::kCorruptData,
+  // SPEC §4.9 A level-of-detail file's full detail is the prefix of its raw sections.
+  const bool prefix = file.lod() != nullptr && entry->codec == format::Codec::kNone && dst_bytes <= entry->raw_size;
+  RGS_RETURN_ERROR_IF(entry->raw_size != dst_bytes && !prefix, StatusCode::kCorruptData,
                       file.name() + ": section " + std::to_string(uint32_t(id)) + " holds " +
                           std::to_string(entry->raw_size) + " bytes, expected " + std::to_string(dst_bytes));
   if (dst_bytes == 0) return Status();
   const std::string what = file.name() + ": upload of section " + std::to_string(uint32_t(id));
   if (entry->codec == format::Codec::kNone) {
     RGS_ASSIGN_OR_RETURN(const format::ByteView bytes, file.stored_bytes(id));
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(dst, bytes.data, bytes.size, cudaMemcpyHostToDevice, stream), what);
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(dst, bytes.data, dst_bytes, cudaMemcpyHostToDevice, stream), what);
   } else {
     RGS_RETURN_IF_ERROR(staging->reserve(dst_bytes, what));
     RGS_RETURN_IF_ERROR(file.decode_section(id, staging->data(), dst_bytes));
@@ -110,7 +112,7 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, cudaStream_t st
 
 Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneOptions& options,
                                     cudaStream_t stream) {
-  const uint64_t n = file.gaussian_count();
+  const uint64_t n = file.full_detail_count();
   RGS_RETURN_IF_ERROR(check_count(n, file.name()));
   const format::SceneMetadata& meta = file.metadata();
   const uint64_t k = format::sh_coefficient_count(meta.sh_degree);
@@ -219,9 +221,22 @@ uint64_t GpuScene::device_bytes() const {
          sh_dc_residual_.bytes();
 }
 
+GpuScene GpuScene::compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds) {
+  GpuScene scene;
+  scene.count_ = view.count;
+  scene.sh_degree_ = view.sh_degree;
+  scene.bounds_ = bounds;
+  scene.has_compact_ = true;
+  scene.compact_view_ = view;
+  scene.runtime_section_bytes_ =
+      uint64_t{view.count} * (12 + 8 + 6 + 2 + (view.sh_dc_residual != nullptr ? 3 : 0) +
+                              3 * format::sh_coefficient_count(view.sh_degree));
+  return scene;
+}
+
 kernels::Fp32GaussiansView GpuScene::fp32() const {
   kernels::Fp32GaussiansView view;
-  view.means = means_.data();
+  view.means = means_.data() != nullptr ? means_.data() : compact_view_.means;
   view.rotations = has_fp32_ ? rotations_.data() : nullptr;
   view.scales = has_fp32_ ? scales_.data() : nullptr;
   view.opacities = has_fp32_ ? opacities_.data() : nullptr;

@@ -7,13 +7,17 @@
                                        1.0 reader must open (SPEC §6)
   tests/data/v1.2/small_sh0_dc_residual.rgs  golden: small_sh0_zstd's scene with the sh_dc_residual section
                                        (SPEC §4.8), codec none
+  tests/data/v1.3/small_sh1_lod.rgs    golden: a level-of-detail file (SPEC §4.9): 24 Gaussians, SH degree 1,
+                                       linear scales, sh_dc_residual, 2 chunks x 3 levels (level 0: 8 + 6
+                                       Gaussians), codec none, stamped 1.3 with required flag bit 1
   tests/data/bad/*.rgs                 files that must fail with a named StatusCode, listed with their
-                                       defects in tests/format/bad_rgs_corpus.md
+                                       defects in tests/format/bad_rgs_corpus.md (bad/lod_*.rgs: damaged
+                                       copies of small_sh1_lod.rgs)
 
 This is a second, independent implementation of the spec: its own XXH64, its own little-endian
 writer, and zstd frames made of raw and RLE blocks (RFC 8878 §3.1.1.2), which any zstd decoder must
-accept. The C++ tests check that the library reproduces small_sh3.rgs and small_sh0_dc_residual.rgs byte for
-byte from the same scenes.
+accept. The C++ tests check that the library reproduces small_sh3.rgs, small_sh0_dc_residual.rgs and
+small_sh1_lod.rgs byte for byte from the same scenes (and, for the last, the same level-of-detail index).
 
   python3 tests/data/make_rgs_corpus.py           # (re)write the corpus
   python3 tests/data/make_rgs_corpus.py --check   # exit 1 if the files on disk differ from the generator
@@ -26,6 +30,7 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 GOLDEN_DIR = os.path.join(HERE, "v1.0")
 GOLDEN_DIR_1_2 = os.path.join(HERE, "v1.2")
+GOLDEN_DIR_1_3 = os.path.join(HERE, "v1.3")
 BAD_DIR = os.path.join(HERE, "bad")
 MANIFEST = os.path.join(HERE, os.pardir, "format", "bad_rgs_corpus.md")
 
@@ -158,6 +163,8 @@ ALIGN = 256
 METADATA_SIZE = 128
 ID_METADATA, ID_PROVENANCE, ID_MEANS, ID_ROTATIONS, ID_SCALES, ID_OPACITIES, ID_SH = 1, 2, 16, 17, 18, 19, 20
 ID_SH_DC_RESIDUAL = 21
+ID_LOD = 22
+REQUIRED_FLAG_LOD = 1 << 1  # SPEC §2.2
 CODEC_NONE, CODEC_ZSTD = 0, 1
 T_BYTES, T_I8, T_F16, T_F32 = 0, 1, 2, 3
 
@@ -186,7 +193,7 @@ def encode_provenance(pairs):
     return out
 
 
-def container(sections, gaussian_count, minor=0, optional_flags=0):
+def container(sections, gaussian_count, minor=0, optional_flags=0, required_flags=0):
     """sections: list of dicts id, codec, type, components, count, raw (bytes), stored (bytes)."""
     table_end = HEADER_SIZE + ENTRY_SIZE * len(sections)
     offsets = []
@@ -203,7 +210,7 @@ def container(sections, gaussian_count, minor=0, optional_flags=0):
         table += struct.pack("<IHHII", s["id"], s["codec"], s["type"], s["components"], 0)
         table += struct.pack("<QQQQQQ", s["count"], offset, len(s["stored"]), s.get("raw_size", len(s["raw"])),
                              xxh64(bytes(s["stored"])), 0)
-    header = MAGIC + struct.pack("<HHIIIQII", 1, minor, HEADER_SIZE, 0, optional_flags, gaussian_count,
+    header = MAGIC + struct.pack("<HHIIIQII", 1, minor, HEADER_SIZE, required_flags, optional_flags, gaussian_count,
                                  len(sections), 0)
     header += struct.pack("<QQ", HEADER_SIZE, file_size)
     out[HEADER_SIZE:table_end] = table
@@ -234,7 +241,55 @@ def scene_sections(scene, codec):
     ]
     if "sh_dc_residual" in scene:
         sections.append(section(ID_SH_DC_RESIDUAL, T_I8, 3, n, struct.pack("<%db" % (3 * n), *scene["sh_dc_residual"])))
+    if "lod" in scene:
+        # SPEC §4.9: the index itself may take any codec, but this corpus stores it raw like the C++ writer.
+        raw = encode_lod(scene)
+        sections.append({"id": ID_LOD, "codec": CODEC_NONE, "type": T_BYTES, "components": 1, "count": len(raw),
+                         "raw": raw, "stored": raw})
     return sections
+
+
+# ---------------------------------------------------------------------------------------------------
+# The level-of-detail index (SPEC §4.9).
+LOD_HEAD, LOD_CHUNK, LOD_RECORD = 16, 16, 24
+
+
+def lod_ranges(lod):
+    """(level, chunk, first, count) of each level record in record (level-major) order."""
+    out = []
+    first = 0
+    for level, row in enumerate(lod["counts"]):
+        for chunk, count in enumerate(row):
+            out.append((level, chunk, first, count))
+            first += count
+    return out
+
+
+def range_checksum(scene, first, count):
+    """XXH64 of the range's means, rotations, scales, opacities, sh and sh_dc_residual bytes, one stream."""
+    k3 = 3 * (scene["metadata"]["sh_degree"] + 1) ** 2
+    a, b = first, first + count
+    stream = struct.pack("<%df" % (3 * count), *scene["means"][3 * a:3 * b])
+    stream += struct.pack("<%dH" % (4 * count), *scene["rotations"][4 * a:4 * b])
+    stream += struct.pack("<%dH" % (3 * count), *scene["scales"][3 * a:3 * b])
+    stream += struct.pack("<%dH" % count, *scene["opacities"][a:b])
+    stream += struct.pack("<%db" % (k3 * count), *scene["sh"][k3 * a:k3 * b])
+    if "sh_dc_residual" in scene:
+        stream += struct.pack("<%db" % (3 * count), *scene["sh_dc_residual"][3 * a:3 * b])
+    return xxh64(stream)
+
+
+def encode_lod(scene):
+    """The raw bytes of the lod section: head, chunk records, level records with their range checksums."""
+    lod = scene["lod"]
+    chunks, levels = len(lod["chunks"]), len(lod["counts"])
+    out = struct.pack("<IIQ", chunks, levels, 0)
+    for center, radius in lod["chunks"]:
+        out += struct.pack("<4f", center[0], center[1], center[2], radius)
+    for level, chunk, first, count in lod_ranges(lod):
+        out += struct.pack("<QfIQ", count, lod["errors"][level][chunk], 0, range_checksum(scene, first, count))
+    assert len(out) == LOD_HEAD + LOD_CHUNK * chunks + LOD_RECORD * levels * chunks
+    return out
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -304,6 +359,77 @@ def small_sh0_dc_residual():
     scene["provenance"] = [("source", "synthetic small_sh0_dc_residual (tests/data/make_rgs_corpus.py)"),
                            ("options", "sh_degree=0 scale_encoding=log codec=none sh_dc_residual")]
     return scene
+
+
+def f16(bits):
+    return struct.unpack("<e", struct.pack("<H", bits))[0]
+
+
+def small_sh1_lod():
+    """A level-of-detail scene (SPEC §4.9): 2 chunks x 3 levels, level-major. Chunk c is the sphere of radius 1
+    around (2c - 1, 0, 2); level 0 holds 8 and 6 Gaussians, level 1 4 and 3, level 2 2 and 1 (N = 24, N0 = 14),
+    the coarser levels with larger scales. Errors 0, then 0.125 / 0.25, then 0.5 / 0.75. Means are multiples of
+    1/8 (exact in f32); every Gaussian's |mean - centre| + 3 max(scale) stays under 0.9 of its chunk's radius.
+    tests/format/test_format_golden.cpp make_small_sh1_lod() builds the same scene and index in C++; keep them in
+    step."""
+    degree = 1
+    k = (degree + 1) ** 2
+    chunks = [((-1.0, 0.0, 2.0), 1.0), ((1.0, 0.0, 2.0), 1.0)]
+    counts = [[8, 6], [4, 3], [2, 1]]
+    errors = [[0.0, 0.0], [0.125, 0.25], [0.5, 0.75]]
+    scene = {"means": [], "rotations": [], "scales": [], "opacities": [], "sh": [], "sh_dc_residual": [],
+             "lod": {"chunks": chunks, "counts": counts, "errors": errors}}
+    i = 0
+    for level, chunk, first, count in lod_ranges(scene["lod"]):
+        assert first == i
+        center, radius = chunks[chunk]
+        for j in range(count):
+            offset = (((j * 3 + level) % 7 - 3) * 0.125, ((j * 2 + chunk) % 5 - 2) * 0.125,
+                      ((j + 2 * level) % 3 - 1) * 0.25)
+            mean = [center[a] + offset[a] for a in range(3)]
+            scene["means"] += mean
+            scene["rotations"] += QUATS[(i + level) % 4]
+            scales = []
+            for a in range(3):
+                if (i, a) == (3, 1):
+                    bits = 0x0000  # a linear scale that underflowed FP16
+                elif level == 0:
+                    bits = 0x2000 + ((i * 3 + a) * 37) % 0x0C00  # 2^-7 .. 2^-4
+                else:
+                    bits = 0x2C00 + (level - 1) * 0x0200 + ((i * 3 + a) * 29) % 0x0200  # 2^-4 .. 2^-3
+                scales.append(bits)
+            scene["scales"] += scales
+            # SPEC §4.9: the 3-sigma extent lies inside the chunk's sphere, with a margin.
+            reach = sum((mean[a] - center[a]) ** 2 for a in range(3)) ** 0.5 + 3 * max(f16(b) for b in scales)
+            assert reach <= 0.9 * radius, (i, reach)
+            scene["opacities"].append(0x3C00 if i == 0 else (i * 677) % 0x3C01)
+            for kk in range(k):
+                for c in range(3):
+                    scene["sh"].append((i * 37 + kk * 11 + c * 5) % 255 - 127)
+            for c in range(3):
+                scene["sh_dc_residual"].append((i * 3 + c) * 11 % 256 - 128)
+            i += 1
+    scene["count"] = i
+    xs, ys, zs = scene["means"][0::3], scene["means"][1::3], scene["means"][2::3]
+    sphere_center = (0.0, 0.0, 2.0)
+    far = max(sum((m[a] - sphere_center[a]) ** 2 for a in range(3)) ** 0.5 for m in zip(xs, ys, zs))
+    scene["metadata"] = {
+        "sh_degree": degree, "scale_encoding": 1,
+        "aabb_min": (min(xs), min(ys), min(zs)), "aabb_max": (max(xs), max(ys), max(zs)),
+        "sphere_center": sphere_center, "sphere_radius": -(-far * 8 // 1) / 8,  # rounded up to 1/8
+        "sh_scales": [[(c + 1) * 2.0 ** -(d + 3) if d <= degree else 0.0 for c in range(3)] for d in range(4)],
+    }
+    assert scene["metadata"]["aabb_min"] == (-1.375, -0.25, 1.75)
+    assert scene["metadata"]["aabb_max"] == (1.375, 0.25, 2.25)
+    assert scene["metadata"]["sphere_radius"] == 1.5
+    scene["provenance"] = [("source", "synthetic small_sh1_lod (tests/data/make_rgs_corpus.py)"),
+                           ("options", "sh_degree=1 scale_encoding=linear codec=none sh_dc_residual lod=2x3")]
+    return scene
+
+
+def lod_file(scene, sections=None, minor=3, required_flags=REQUIRED_FLAG_LOD):
+    return container(scene_sections(scene, CODEC_NONE) if sections is None else sections, scene["count"],
+                     minor=minor, required_flags=required_flags)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -492,6 +618,103 @@ def bad_cases(g3, gz):
     return cases
 
 
+def lod_bad_cases(scene):
+    """(name, code, stage, bytes, why) of damaged copies of small_sh1_lod.rgs (SPEC §4.9). Each is rebuilt by
+    container(), so the section and header checksums match and the named check is the one that fires."""
+    cases = []
+    golden = lod_file(scene)
+    C, L = len(scene["lod"]["chunks"]), len(scene["lod"]["counts"])
+    LOD, OPAC, SH = 8, 5, 6  # table indices: metadata, provenance, means, rotations, scales, opacities, sh,
+    #                          sh_dc_residual, lod
+
+    def case(name, code, stage, data, why):
+        cases.append((name, code, stage, bytes(data), why))
+
+    def record(level, chunk):
+        return LOD_HEAD + LOD_CHUNK * C + LOD_RECORD * (level * C + chunk)
+
+    def with_lod(raw):
+        """The golden file's sections with the lod section's raw bytes replaced."""
+        sections = scene_sections(scene, CODEC_NONE)
+        sections[LOD].update(count=len(raw), raw=bytes(raw), stored=bytes(raw))
+        return sections
+
+    def patched(fmt, offset, *values):
+        raw = bytearray(encode_lod(scene))
+        struct.pack_into(fmt, raw, offset, *values)
+        return lod_file(scene, with_lod(raw))
+
+    # §5.3 #26 presence, flag and version gate
+    case("lod_without_flag", "kCorruptData", "open", lod_file(scene, required_flags=0),
+         "§5.3 #26: a lod section, required flag bit 1 clear")
+    no_lod = scene_sections(scene, CODEC_NONE)[:LOD]
+    case("lod_flag_without_section", "kCorruptData", "open", lod_file(scene, no_lod),
+         "§5.3 #26: required flag bit 1 set, no lod section")
+    case("lod_in_1_2", "kCorruptData", "open", lod_file(scene, minor=2),
+         "§5.3 #26: a lod section and flag bit 1 in a file stamped 1.2 (kMinVersionForLod is 1.3)")
+    sections = scene_sections(scene, CODEC_NONE)
+    sections[OPAC].update(codec=CODEC_ZSTD, stored=zstd_frame(sections[OPAC]["raw"]))
+    case("lod_zstd_section", "kCorruptData", "open", lod_file(scene, sections),
+         "§5.3 #26: the opacities section is a (valid) zstd frame in a level-of-detail file")
+    # §5.3 #24 the entry's layout
+    sections = scene_sections(scene, CODEC_NONE)
+    sections[LOD].update(type=T_I8)
+    case("lod_element_type", "kCorruptData", "open", lod_file(scene, sections),
+         "§5.3 #24: lod declared i8 x 1, not bytes x 1")
+    # §5.3 #26 the index's size, reserved bytes and structure
+    raw = encode_lod(scene) + bytes(8)
+    case("lod_raw_size", "kCorruptData", "open", lod_file(scene, with_lod(raw)),
+         "§5.3 #26: 8 zero bytes appended to the lod section: %d bytes, 16 + 16C + 24LC = %d"
+         % (len(raw), len(raw) - 8))
+    case("lod_head_reserved", "kCorruptData", "open", patched("<Q", 8, 1), "§5.3 #26: lod head reserved u64 = 1")
+    case("lod_record_reserved", "kCorruptData", "open", patched("<I", record(1, 0) + 12, 1),
+         "§5.3 #26: reserved u32 of the record of chunk 0 level 1 = 1")
+    n = scene["count"]
+    raw = struct.pack("<IIQ", n + 1, 1, 0) + bytes(LOD_CHUNK * (n + 1) + LOD_RECORD * (n + 1))
+    case("lod_chunks_over_n", "kCorruptData", "open", lod_file(scene, with_lod(raw)),
+         "§5.3 #26: C = %d > N = %d (L = 1, raw size %d to match)" % (n + 1, n, len(raw)))
+    raw = struct.pack("<IIQ", C, 17, 0) + bytes(LOD_CHUNK * C + LOD_RECORD * 17 * C)
+    case("lod_levels_17", "kCorruptData", "open", lod_file(scene, with_lod(raw)),
+         "§5.3 #26: L = 17 > kMaxLodLevels (C = %d, raw size %d to match)" % (C, len(raw)))
+    case("lod_nan_radius", "kCorruptData", "open", patched("<f", LOD_HEAD + LOD_CHUNK + 12, float("nan")),
+         "§5.3 #26: chunk 1 radius NaN")
+    case("lod_count_zero", "kCorruptData", "open", patched("<Q", record(2, 1), 0), "§5.3 #26: chunk 1 level 2 count 0")
+    case("lod_tiling_short", "kCorruptData", "open", patched("<Q", record(2, 0), 1),
+         "§5.3 #26: chunk 0 level 2 count 2 -> 1: the ranges cover %d of the %d Gaussians" % (n - 1, n))
+    case("lod_tiling_over", "kCorruptData", "open", patched("<Q", record(2, 1), 2),
+         "§5.3 #26: chunk 1 level 2 count 1 -> 2: the last range runs past N = %d" % n)
+    raw = bytearray(encode_lod(scene))
+    struct.pack_into("<Q", raw, record(0, 0), 3)
+    struct.pack_into("<Q", raw, record(1, 0), 9)
+    case("lod_count_increasing", "kCorruptData", "open", lod_file(scene, with_lod(raw)),
+         "§5.3 #26: chunk 0 counts 3, 9, 2 (level 1 holds more than level 0; the total is still N)")
+    case("lod_level0_error", "kCorruptData", "open", patched("<f", record(0, 1) + 8, 0.125),
+         "§5.3 #26: chunk 1 level 0 error 0.125, not 0")
+    case("lod_error_decreasing", "kCorruptData", "open", patched("<f", record(2, 0) + 8, 0.0625),
+         "§5.3 #26: chunk 0 errors 0, 0.125, 0.0625")
+    # §5.4 the ranges, checked by validate() (and lod_range) only
+    raw = bytearray(encode_lod(scene))
+    checksum = struct.unpack_from("<Q", raw, record(1, 1) + 16)[0]
+    case("lod_range_checksum", "kChecksumMismatch", "validate", patched("<Q", record(1, 1) + 16, checksum ^ 1),
+         "§5.4: chunk 1 level 1 range checksum with bit 0 flipped (lod section checksum updated)")
+    k3 = 3 * (scene["metadata"]["sh_degree"] + 1) ** 2
+    b = bytearray(golden)
+    at = section_offset(golden, SH) + 21 * k3 + 4  # Gaussian 21: chunk 0 level 2
+    b[at] ^= 0x02
+    assert b[at] != 0x80
+    fix_section(b, SH)
+    case("lod_range_data", "kChecksumMismatch", "validate", b,
+         "§5.4: an sh byte of Gaussian 21 (chunk 0 level 2) changed; the sh section's checksum updated, "
+         "the range's not")
+    moved = dict(scene)
+    moved["means"] = list(scene["means"])
+    moved["means"][3 * 15:3 * 16] = [1.0, 0.0, 2.0]  # Gaussian 15 (chunk 0 level 1) at chunk 1's centre
+    case("lod_outside_chunk", "kCorruptData", "validate", lod_file(moved),
+         "§5.4: Gaussian 15 (chunk 0 level 1) moved to (1, 0, 2), inside the bounds but 2 from its chunk's centre "
+         "(range checksum recomputed)")
+    return cases
+
+
 def forward_compat(scene):
     """A file a future 1.7 writer could produce: an optional flag, unknown sections before and after the
     known ones, one with an unknown codec and element type. A 1.0 reader must open and validate it."""
@@ -512,20 +735,23 @@ def build():
     sz = small_sh0_zstd()
     g3 = container(scene_sections(s3, CODEC_NONE), s3["count"])
     gz = container(scene_sections(sz, CODEC_ZSTD), sz["count"])
+    sl = small_sh1_lod()
     files = {
         os.path.join(GOLDEN_DIR, "small_sh3.rgs"): g3,
         os.path.join(GOLDEN_DIR, "small_sh0_zstd.rgs"): gz,
         os.path.join(GOLDEN_DIR, "forward_compat.rgs"): forward_compat(s3),
         os.path.join(GOLDEN_DIR_1_2, "small_sh0_dc_residual.rgs"):
             container(scene_sections(small_sh0_dc_residual(), CODEC_NONE), sz["count"], minor=2),
+        os.path.join(GOLDEN_DIR_1_3, "small_sh1_lod.rgs"): lod_file(sl),
     }
     readme = ["# Must-fail .rgs corpus (tests/data/bad/*.rgs)", "",
-              "Generated by `tests/data/make_rgs_corpus.py` from the golden files in `tests/data/v1.0/`; do not",
-              "edit by hand. `test_format_bad_corpus.cpp` has one TEST_CASE per file asserting the code below.",
-              "Stage `open`: RgsFile::open fails (and so does validate); `validate`: the file opens and only",
-              "validate() finds the problem.", "",
+              "Generated by `tests/data/make_rgs_corpus.py` from the golden files in `tests/data/v1.0/` (`lod_*`:",
+              "from `tests/data/v1.3/small_sh1_lod.rgs`); do not edit by hand. `test_format_bad_corpus.cpp` has one",
+              "TEST_CASE per file asserting the code below. Stage `open`: RgsFile::open fails (and so does validate);",
+              "`validate`: the file opens and only validate() finds the problem. The `lod_*` defects name the check of",
+              "format/SPEC.md §5 that fires (#24, #26: §5.3; §5.4: validate's range checks).", "",
               "| file | expected | stage | defect |", "|---|---|---|---|"]
-    for name, code, stage, data, why in bad_cases(g3, gz):
+    for name, code, stage, data, why in bad_cases(g3, gz) + lod_bad_cases(sl):
         files[os.path.join(BAD_DIR, name + ".rgs")] = data
         readme.append("| %s.rgs | %s | %s | %s |" % (name, code, stage, why))
     files[os.path.normpath(MANIFEST)] = ("\n".join(readme) + "\n").encode("utf-8")

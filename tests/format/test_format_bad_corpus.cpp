@@ -39,7 +39,7 @@ const BadFile kBadFiles[] = {
     {"future_major", C::kUnsupportedVersion, kOpen, "format version 2.0 is newer than this reader (1.x)"},
     {"major_zero", C::kUnsupportedVersion, kOpen, "format version 0.0 was never released"},
     {"unknown_required_flag", C::kUnsupportedFeature, kOpen,
-     "unknown required flag bits 0x00000100 (this reader knows 0x00000001)"},
+     "unknown required flag bits 0x00000100 (this reader knows 0x00000003)"},
     {"header_size_mismatch", C::kCorruptData, kOpen, "header_size is 72, must be 64"},
     {"header_reserved_nonzero", C::kCorruptData, kOpen, "header reserved field (bytes 36..39) is 1"},
     {"table_offset_mismatch", C::kCorruptData, kOpen, "table_offset is 128, must be 64"},
@@ -98,6 +98,33 @@ const BadFile kBadFiles[] = {
     {"dc_residual_components", C::kCorruptData, kOpen,
      "section 7 (sh_dc_residual): element type i8 x 1, expected i8 x 3"},
     {"dc_residual_count", C::kCorruptData, kOpen, "section 7 (sh_dc_residual): element_count 63 != gaussian_count 64"},
+    // SPEC §4.9 the level-of-detail index: damaged copies of v1.3/small_sh1_lod.rgs (§5.3 #24, #26; §5.4 ranges).
+    {"lod_without_flag", C::kCorruptData, kOpen, "section 8 (lod) without the level-of-detail required flag"},
+    {"lod_flag_without_section", C::kCorruptData, kOpen, "the level-of-detail flag is set but there is no lod section"},
+    {"lod_in_1_2", C::kCorruptData, kOpen, "section 8 (lod) in a version 1.2 file"},
+    {"lod_zstd_section", C::kCorruptData, kOpen, "section 5 (opacities): codec zstd in a level-of-detail file"},
+    {"lod_element_type", C::kCorruptData, kOpen, "section 8 (lod): element type i8 x 1, expected bytes x 1"},
+    {"lod_raw_size", C::kCorruptData, kOpen, "section 8 (lod): lod: 200 bytes, 2 chunks of 3 levels take 192"},
+    {"lod_head_reserved", C::kCorruptData, kOpen, "section 8 (lod): lod: reserved head bytes are not 0"},
+    {"lod_record_reserved", C::kCorruptData, kOpen, "section 8 (lod): lod chunk 0 level 1: reserved bytes are not 0"},
+    {"lod_chunks_over_n", C::kCorruptData, kOpen, "section 8 (lod): lod: 25 chunks of 1 levels (1..24 chunks"},
+    {"lod_levels_17", C::kCorruptData, kOpen,
+     "section 8 (lod): lod: 2 chunks of 17 levels (1..24 chunks, 1..16 levels)"},
+    {"lod_nan_radius", C::kCorruptData, kOpen, "section 8 (lod): lod chunk 1: centre (1, 0, 2) or radius nan"},
+    {"lod_count_zero", C::kCorruptData, kOpen, "section 8 (lod): lod chunk 1 level 2: no Gaussians"},
+    {"lod_tiling_short", C::kCorruptData, kOpen, "section 8 (lod): lod: the levels hold 23 Gaussians, the file 24"},
+    {"lod_tiling_over", C::kCorruptData, kOpen,
+     "section 8 (lod): lod chunk 1 level 2: 2 Gaussians from 23 pass the file's 24"},
+    {"lod_count_increasing", C::kCorruptData, kOpen,
+     "section 8 (lod): lod chunk 0 level 1: 9 Gaussians, more than level 0's 3"},
+    {"lod_level0_error", C::kCorruptData, kOpen,
+     "section 8 (lod): lod chunk 1 level 0: error 0.125, level 0 (the full detail) must have 0"},
+    {"lod_error_decreasing", C::kCorruptData, kOpen,
+     "section 8 (lod): lod chunk 0 level 2: error 0.0625 below level 1's 0.125"},
+    {"lod_range_checksum", C::kChecksumMismatch, kValidate, "lod chunk 1 level 1: checksum"},
+    {"lod_range_data", C::kChecksumMismatch, kValidate, "lod chunk 0 level 2: checksum"},
+    {"lod_outside_chunk", C::kCorruptData, kValidate,
+     "lod chunk 0 level 1: Gaussian 15 reaches 2.24957275 from the chunk centre, outside its radius 1"},
 };
 
 const BadFile* find_bad(const std::string& name) {
@@ -135,6 +162,35 @@ void check_bad_file(const char* name) {
   if (opened.ok()) {
     // What open() accepted must not crash the payload paths either.
     (void)opened->read_scene();
+  }
+}
+
+/// A level-of-detail file that fails only validate(): open() succeeds and decodes the index, and exactly the
+/// damaged range (`level`, `chunk`) fails lod_range() with the file's code, the others still read: a reader checks
+/// one range without the others (SPEC §5.4).
+void check_bad_lod_range(const char* name, uint32_t level, uint32_t chunk) {
+  check_bad_file(name);
+  const BadFile* bad = find_bad(name);
+  REQUIRE(bad != nullptr);
+  CHECK(bad->stage == Stage::kValidate);
+  const std::string path = bad_path(name);
+  auto file = RgsFile::open(path);
+  REQUIRE_MESSAGE(file.ok(), file.status().to_string());
+  const LodIndex* lod = file->lod();
+  REQUIRE(lod != nullptr);
+  REQUIRE(lod->chunk_count == 2);
+  REQUIRE(lod->level_count == 3);
+  for (uint32_t l = 0; l < lod->level_count; ++l) {
+    for (uint32_t c = 0; c < lod->chunk_count; ++c) {
+      auto range = file->lod_range(l, c);
+      if (l == level && c == chunk) {
+        REQUIRE_FALSE(range.ok());
+        CHECK_MESSAGE(range.status().code() == bad->code, range.status().to_string());
+        CHECK_MESSAGE(range.status().message().find(bad->fragment) != std::string::npos, range.status().to_string());
+      } else {
+        CHECK_MESSAGE(range.ok(), "level " << l << " chunk " << c << ": " << range.status().to_string());
+      }
+    }
   }
 }
 
@@ -197,6 +253,26 @@ TEST_CASE("bad/zstd_checksum_field.rgs") { check_bad_file("zstd_checksum_field")
 TEST_CASE("bad/dc_residual_in_1_1.rgs") { check_bad_file("dc_residual_in_1_1"); }
 TEST_CASE("bad/dc_residual_components.rgs") { check_bad_file("dc_residual_components"); }
 TEST_CASE("bad/dc_residual_count.rgs") { check_bad_file("dc_residual_count"); }
+TEST_CASE("bad/lod_without_flag.rgs") { check_bad_file("lod_without_flag"); }
+TEST_CASE("bad/lod_flag_without_section.rgs") { check_bad_file("lod_flag_without_section"); }
+TEST_CASE("bad/lod_in_1_2.rgs") { check_bad_file("lod_in_1_2"); }
+TEST_CASE("bad/lod_zstd_section.rgs") { check_bad_file("lod_zstd_section"); }
+TEST_CASE("bad/lod_element_type.rgs") { check_bad_file("lod_element_type"); }
+TEST_CASE("bad/lod_raw_size.rgs") { check_bad_file("lod_raw_size"); }
+TEST_CASE("bad/lod_head_reserved.rgs") { check_bad_file("lod_head_reserved"); }
+TEST_CASE("bad/lod_record_reserved.rgs") { check_bad_file("lod_record_reserved"); }
+TEST_CASE("bad/lod_chunks_over_n.rgs") { check_bad_file("lod_chunks_over_n"); }
+TEST_CASE("bad/lod_levels_17.rgs") { check_bad_file("lod_levels_17"); }
+TEST_CASE("bad/lod_nan_radius.rgs") { check_bad_file("lod_nan_radius"); }
+TEST_CASE("bad/lod_count_zero.rgs") { check_bad_file("lod_count_zero"); }
+TEST_CASE("bad/lod_tiling_short.rgs") { check_bad_file("lod_tiling_short"); }
+TEST_CASE("bad/lod_tiling_over.rgs") { check_bad_file("lod_tiling_over"); }
+TEST_CASE("bad/lod_count_increasing.rgs") { check_bad_file("lod_count_increasing"); }
+TEST_CASE("bad/lod_level0_error.rgs") { check_bad_file("lod_level0_error"); }
+TEST_CASE("bad/lod_error_decreasing.rgs") { check_bad_file("lod_error_decreasing"); }
+TEST_CASE("bad/lod_range_checksum.rgs") { check_bad_lod_range("lod_range_checksum", 1, 1); }
+TEST_CASE("bad/lod_range_data.rgs") { check_bad_lod_range("lod_range_data", 2, 0); }
+TEST_CASE("bad/lod_outside_chunk.rgs") { check_bad_lod_range("lod_outside_chunk", 1, 0); }
 
 TEST_CASE("bad corpus: table, manifest and files agree, and each file has its TEST_CASE") {
   // Every .rgs in tests/data/bad is listed in the table (other libraries keep *.ply there).

@@ -84,6 +84,13 @@ struct ConvertOptions {
   /// SH step multipliers per degree, SH codebook, zstd level and Draco speed of the coded sections, threads.
   /// audit::fit_archive chooses them for a PSNR target or a byte budget.
   format::ArchiveOptions archive;
+  /// Levels of detail (format/SPEC.md §4.9, converter::build_lod, docs/LOD.md): unset writes an ordinary file;
+  /// 0 chooses the count (coarsest level about 1/64 of the full detail), 1..16 sets it. Needs the runtime profile
+  /// with the per-Gaussian sections stored raw (kInvalidArgument otherwise).
+  std::optional<uint32_t> lod_levels;
+  /// Most full-detail Gaussians in one chunk of a level-of-detail file: the unit a renderer culls, selects and
+  /// streams.
+  uint32_t lod_chunk_gaussians = 65536;
   /// Name recorded as the provenance's "converter" (with the library version).
   std::string converter_name = "roofgs api";
   /// Where the output file goes; null: written atomically in place (format::atomic_files()). A tool passes
@@ -112,11 +119,16 @@ struct RgsOutputReport {
   /// The scene extent (longest side of the source means' AABB, scene units), which `archive.position_error` and
   /// the relative position error are fractions of.
   double extent = 0;
+  /// Levels of detail (ConvertOptions::lod_levels): levels and chunks of the index, and the Gaussians of every
+  /// level together (ConvertReport::gaussians counts the full detail). 0 without levels of detail.
+  uint32_t lod_levels = 0;
+  uint32_t lod_chunks = 0;
+  uint64_t lod_gaussians = 0;
 };
 
 /// Seconds spent, wall clock.
 struct ConvertTimes {
-  double read = 0, quantize = 0, write = 0, total = 0;  ///< quantize includes measuring the errors
+  double read = 0, quantize = 0, lod = 0, write = 0, total = 0;  ///< quantize includes measuring the errors
 };
 
 /// What convert() read and wrote.

@@ -9,6 +9,7 @@
 
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/file_io.h"
+#include "rgs/format/lod.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/spec.h"
 #include "rgs/format/status.h"
@@ -74,6 +75,19 @@ struct ByteView {
   size_t size = 0;
 };
 
+/// §4.9 Zero-copy views of one level of one chunk of a level-of-detail file: Gaussians [first, first + count)
+/// of each per-Gaussian section, as stored (codec none, little-endian), in the file's mapping.
+struct LodRangeView {
+  uint64_t first = 0;
+  uint64_t count = 0;
+  ByteView means;           ///< [count, 3] f32
+  ByteView rotations;       ///< [count, 4] f16 bits
+  ByteView scales;          ///< [count, 3] f16 bits
+  ByteView opacities;       ///< [count] f16 bits
+  ByteView sh;              ///< [count, K, 3] i8
+  ByteView sh_dc_residual;  ///< [count, 3] i8, or empty when the file has none
+};
+
 /// An opened .rgs file. Opening checks the header, the section table (bounds, alignment, overlap, sizes
 /// implied by count and SH degree), the header checksum, and decodes metadata and provenance; section
 /// payloads are only touched when asked for. Copies share the underlying mapping; thread-safe for reads.
@@ -94,6 +108,16 @@ class RgsFile {
   uint64_t gaussian_count() const { return header_.gaussian_count; }
   const std::string& name() const { return name_; }
   size_t file_size() const { return size_; }
+
+  /// The level-of-detail index (SPEC §4.9), decoded and checked by open(), or null for a file without one.
+  const LodIndex* lod() const { return lod_.get(); }
+  /// The Gaussians read_scene() returns: the full-detail level of a level-of-detail file, else all of them.
+  uint64_t full_detail_count() const { return lod_ ? lod_->full_detail_count() : header_.gaussian_count; }
+  /// Views of level `level` of chunk `chunk` of a level-of-detail file, checked without reading any other range:
+  /// its XXH64 (SPEC §4.9, when verify_checksums), the value rules of §4.3–§4.7 and the chunk sphere's rule.
+  /// A streaming loader copies these bytes to the GPU as they are. Errors name the file, chunk and level:
+  /// kInvalidArgument (no index, level or chunk out of range), kChecksumMismatch, kCorruptData.
+  Result<LodRangeView> lod_range(uint32_t level, uint32_t chunk) const;
 
   /// The table entry for `id`, or nullptr if the file has no such section.
   const SectionEntry* find(SectionId id) const;
@@ -117,7 +141,8 @@ class RgsFile {
   Status decode_verified_section(SectionId id, void* dst, size_t dst_size) const;
   /// Decodes every runtime section into an EncodedScene (host memory), each checked as verify_section()
   /// checks it (checksums, frames, value rules), so a scene this returns holds only values the renderers
-  /// accept. A zstd section is verified in chunks before its raw size is allocated; an archive section
+  /// accept. Of a level-of-detail file (SPEC §4.9) it returns the full detail, level 0 of every chunk: the
+  /// first full_detail_count() Gaussians, which is the scene the file stores. A zstd section is verified in chunks before its raw size is allocated; an archive section
   /// (Draco, quantized) is decoded once into its array and checked there (decode_verified_section()).
   /// Errors: those of verify_section(), kOutOfMemory.
   Result<EncodedScene> read_scene() const;
@@ -133,11 +158,13 @@ class RgsFile {
   std::vector<SectionEntry> sections_;
   SceneMetadata metadata_;
   Provenance provenance_;
+  std::shared_ptr<const LodIndex> lod_;  // null without a lod section
   friend struct RgsFileAccess;
 };
 
 /// Full validation (backs `rgs-info --check`, tests and fuzzers): everything open() checks, plus every
-/// section checksum, every codec frame decoded to its raw size, and the values of the runtime sections
+/// section checksum, every codec frame decoded to its raw size, every level-of-detail range (lod_range()), and
+/// the values of the runtime sections
 /// (SPEC §5.4: finite means inside the AABB and bounding sphere, finite non-zero rotations, scales finite
 /// and not negative when linear (0 is FP16 underflow, SPEC §4.5), opacities in [0, 1], SH values in
 /// [-127, 127]). Returns the first problem found with its code, the message naming `name`; ok when the

@@ -1,4 +1,4 @@
-// Constants of the .rgs container, version 1.2. Normative text: format/SPEC.md; section numbers below
+// Constants of the .rgs container, version 1.3. Normative text: format/SPEC.md; section numbers below
 // refer to it.
 #pragma once
 
@@ -13,7 +13,7 @@ inline constexpr uint8_t kMagic[8] = {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0
 /// §2 Version this library writes. Readers accept any minor of kFormatMajor; newer majors are refused
 /// with kUnsupportedVersion.
 inline constexpr uint16_t kFormatMajor = 1;
-inline constexpr uint16_t kFormatMinor = 2;
+inline constexpr uint16_t kFormatMinor = 3;
 
 /// §6 A format version, compared as (major, minor).
 struct FormatVersion {
@@ -35,6 +35,8 @@ inline constexpr FormatVersion kMinVersionForLogScales{1, 0};
 inline constexpr FormatVersion kMinVersionForArchiveCodecs{1, 1};
 /// §4.8 The optional sh_dc_residual section, which refines the INT8 DC term to 1/256 of its step.
 inline constexpr FormatVersion kMinVersionForShDcResidual{1, 2};
+/// §4.9 The level-of-detail index (section lod, required flag kRequiredFlagLod).
+inline constexpr FormatVersion kMinVersionForLod{1, 3};
 
 /// §2 Fixed sizes, in bytes.
 inline constexpr uint32_t kHeaderSize = 64;
@@ -45,11 +47,15 @@ inline constexpr uint32_t kMetadataSize = 128;
 inline constexpr uint64_t kSectionAlignment = 256;
 
 /// §2.2 Flag bits. Required bits this reader does not know give kUnsupportedFeature; unknown optional
-/// bits are ignored. Version 1.0 defines none of either; 1.1 defines one required bit.
+/// bits are ignored. Version 1.0 defines none of either; 1.1 and 1.3 define one required bit each.
 /// §2.2 Set when any section uses codec 2 or 3 (§3.3), so that a 1.0 reader refuses the file
 /// (kUnsupportedFeature) instead of failing on an unknown codec deeper in the table.
 inline constexpr uint32_t kRequiredFlagArchiveCodecs = 1u << 0;
-inline constexpr uint32_t kKnownRequiredFlags = kRequiredFlagArchiveCodecs;
+/// §2.2, §4.9 Set when the file has a level-of-detail index: its per-Gaussian sections hold every level of
+/// every chunk, which a reader that renders them all would draw on top of each other, so a 1.2 reader must
+/// refuse the file (kUnsupportedFeature).
+inline constexpr uint32_t kRequiredFlagLod = 1u << 1;
+inline constexpr uint32_t kKnownRequiredFlags = kRequiredFlagArchiveCodecs | kRequiredFlagLod;
 inline constexpr uint32_t kKnownOptionalFlags = 0;
 
 /// §4 Section identifiers. Readers skip (but still bounds- and checksum-check) ids they do not know.
@@ -62,6 +68,7 @@ enum class SectionId : uint32_t {
   kOpacities = 19,   ///< §4.6 [N] float16, sigmoid-activated
   kSh = 20,          ///< §4.7 [N, K, 3] int8, symmetric per (degree, channel) scale
   kShDcResidual = 21,///< §4.8 [N, 3] int8, optional: the DC term's residual in 1/256 of its INT8 step
+  kLod = 22,         ///< §4.9 bytes: chunks, their bounding spheres and level ranges (1.3, with kRequiredFlagLod)
 };
 
 /// §3.1 How a section's stored bytes encode its raw bytes.

@@ -9,6 +9,7 @@
 #include "rgs/format/archive.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/file_io.h"
+#include "rgs/format/lod.h"
 #include "rgs/format/spec.h"
 #include "rgs/format/status.h"
 
@@ -32,10 +33,14 @@ struct WriteOptions {
   ArchiveOptions archive;
   /// zstd compression level, 1..22 (ZSTD_maxCLevel()).
   int zstd_level = 19;
+  /// A level-of-detail index of the scene (SPEC §4.9; converter::build_lod makes one): written as the lod
+  /// section with its range checksums, the file then stamped 1.3 with kRequiredFlagLod. It needs the runtime
+  /// profile with every per-Gaussian section stored raw. Null: an ordinary file. Not owned.
+  const LodIndex* lod = nullptr;
 };
 
 /// Serializes `scene` (SPEC §3 layout, sections in the order metadata, provenance if non-empty, means,
-/// rotations, scales, opacities, sh). Deterministic: the same scene and options give identical bytes (no
+/// rotations, scales, opacities, sh, sh_dc_residual if any, lod with options.lod). Deterministic: the same scene and options give identical bytes (no
 /// timestamps; zstd single-threaded; SPEC §7). Peak memory: the output plus the zstd frames.
 /// Errors: kInvalidArgument for inconsistent arrays, an invalid quantization (is_valid_quantization), an
 /// SH degree above 3, unknown enum values, non-finite or unordered bounds, a zstd level out of range, a

@@ -41,7 +41,8 @@ struct GpuSceneOptions {
 /// there is no compact profile.
 class GpuScene {
  public:
-  /// Uploads the runtime profile of `file` on `stream` and waits for it. Every runtime section is first
+  /// Uploads the runtime profile of `file` on `stream` and waits for it (of a level-of-detail file, SPEC §4.9,
+  /// the full detail: its first full_detail_count() Gaussians). Every runtime section is first
   /// checked on the host with RgsFile::verify_section() (checksum, whole zstd frame in bounded memory, the
   /// value rules of SPEC §4.3-4.7), before any device allocation. Errors: those of verify_section()
   /// (kChecksumMismatch, kCorruptData naming the Gaussian; the file's name in the message), kLimitExceeded
@@ -70,6 +71,11 @@ class GpuScene {
   /// and the first index), kLimitExceeded (≥ 2^31 Gaussians), kOutOfMemory, kCudaError.
   static Result<GpuScene> from_device(const kernels::GaussianImportSource& source, const DeviceImportOptions& options,
                                       cudaStream_t stream = nullptr, uint64_t* dropped = nullptr);
+
+  /// A scene over compact arrays the caller owns in device memory and keeps alive and unchanged while it
+  /// renders (the level-of-detail streamer's frame arrays, runtime/lod_streamer.h): has_compact(), no FP32
+  /// arrays, device_bytes() 0. `bounds` must hold every mean (the RoofGS depth key's range).
+  static GpuScene compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds);
 
   GpuScene(GpuScene&&) noexcept = default;
   GpuScene& operator=(GpuScene&&) noexcept = default;

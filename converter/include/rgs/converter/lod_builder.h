@@ -1,0 +1,81 @@
+// Level-of-detail builder: spatial chunks of a scene, each at several levels of detail, for the lod index of
+// a .rgs file (format/SPEC.md §4.9).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/lod.h"
+#include "rgs/format/status.h"
+
+namespace rgs::converter {
+
+struct LodBuildOptions {
+  /// Levels per chunk including the full detail: 0 = auto (levels until the coarsest level holds at most
+  /// 1/64 of the full detail, usually 4, or until every chunk is down to one Gaussian; at most 8), else 1..16.
+  uint32_t levels = 0;
+  /// Largest number of full-detail Gaussians in one chunk (spatial split until each chunk holds at most this
+  /// many).
+  uint32_t max_chunk_gaussians = 65536;
+  /// Worker threads (0 = every CPU this process may run on). The result does not depend on it.
+  uint32_t threads = 0;
+  /// Called with the fraction done in [0, 1], non-decreasing, from the calling thread only, at most every
+  /// few ms, and with 1 at the end (may be empty).
+  std::function<void(double)> progress;
+};
+
+/// A scene with its level-of-detail index: `scene` holds N = Σ counts Gaussians, level-major as `index` says.
+struct LodScene {
+  format::EncodedScene scene;
+  format::LodIndex index;
+};
+
+/// Builds the levels of detail of `scene` (runtime profile: FP32 means, FP16 rotations, scales and
+/// opacities, INT8 SH with optional DC residual).
+///
+/// Output: C chunks × L levels. Level 0 of chunk c holds the input Gaussians of the chunk bit for bit (only
+/// reordered); the level-0 ranges of all chunks are the prefix [0, N0) of every section, so the output's
+/// first N0 Gaussians are a permutation of the input. Records are level-major (record l·C + c), their
+/// ranges tile [0, N) in record order; count(l + 1, c) ≤ count(l, c), count ≥ 1; `checksum` fields are 0
+/// (the writer computes them).
+///
+/// Chunks: octree over the cube of the means' AABB (Morton order of 21 bits per axis), nodes split until
+/// they hold at most max_chunk_gaussians Gaussians; a finest cell still larger is split by index. Non-empty
+/// leaves, in Morton order, are the chunks.
+///
+/// Levels: a regular grid over the cube of the chunk's AABB, 2^21 cells per axis at the finest, whose cells
+/// double in edge (eight cells nest into one). Level l ≥ 1 groups level l − 1's Gaussians by cell at the
+/// finest grid coarser than level l − 1's that leaves at most a quarter of its count (or one cell), and
+/// merges each cell's Gaussians into one parent; a parent belongs to the cell it was merged in, so the
+/// levels nest. A cell holding one Gaussian keeps it bit for bit; a chunk down to one Gaussian repeats it.
+/// error(l, c) = √3 · cell edge of level l (the cell's diagonal: how far any full-detail mean is from its
+/// parent's), non-decreasing, 0 at level 0.
+///
+/// Merge rule (moment matching as Hierarchical 3D Gaussian Splatting, Kerbl et al., SIGGRAPH 2024, merges
+/// children into a parent), in double from the decoded children (linear scales s, activated opacities α,
+/// normalized quaternions w, x, y, z as 3DGS build_rotation): weights w_i = α_i · S_i with S_i = s1 s2 +
+/// s1 s3 + s2 s3 (proportional to the ellipsoid's area), equal weights if they sum to 0; mean μ = Σ w_i μ_i /
+/// W; covariance Σ = Σ w_i (R_i diag(s_i²) R_iᵀ + (μ_i − μ)(μ_i − μ)ᵀ) / W; every SH coefficient and
+/// channel Σ w_i SH_i / W. Scales and rotation are the parent's eigen-decomposition of Σ (Jacobi; scales
+/// sqrt(max(λ, 1e-36)), rotation the right-handed eigenvector matrix, w ≥ 0). Opacity (our rule, not the
+/// paper's): α_p = 1 − exp(Σ_i (S_i / S_p) · ln(1 − min(α_i, 0.999))), clamped to [0, 1], which preserves
+/// coverage: two coincident copies give 1 − (1 − α)², pieces tiling the parent's area keep about α.
+/// Parents are encoded with the input's metadata (same SH scales, same scale encoding, linear scales clamped
+/// to the largest FP16, log scales to 88.6875): SH codes round-half-away(v / s) clamped to ±127, the DC
+/// residual when the input has one as converter::quantize() computes it; means FP32 clamped into the chunk's
+/// AABB.
+///
+/// Chunk spheres: centre the midpoint of the chunk's AABB; radius the largest |mean − centre| + 3 · (largest
+/// linear scale) over every level of the chunk, computed in double, enlarged by 1e-6 relative and rounded up
+/// to float32. Metadata bounds are those compute_bounds() gives for every output mean (parents stay in
+/// their chunk's AABB, so the AABB is the input's; the sphere may grow); metadata is otherwise the input's. Provenance: the input's, then ("lod_levels", L) and ("lod_chunks", C).
+///
+/// Deterministic: the same bytes whatever options.threads. Memory: the input and the output (sized once),
+/// 12 bytes a full-detail Gaussian of sort keys (24 during the first sort), and per worker the buffers of
+/// one chunk; nothing is decoded beyond the cell being merged.
+/// Errors: kInvalidArgument (inconsistent or empty scene, levels > 16, max_chunk_gaussians 0, a Gaussian
+/// whose 3σ extent overflows float32), kLimitExceeded (more than 2^31 − 1 Gaussians out), kOutOfMemory.
+Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOptions& options = {});
+
+}  // namespace rgs::converter

@@ -1,0 +1,56 @@
+// Per-frame level-of-detail selection: which level of which chunk of a level-of-detail .rgs a camera draws
+// (format/SPEC.md §4.9.1, docs/LOD.md). Host code, no GPU.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "rgs/format/lod.h"
+#include "rgs/runtime/camera.h"
+
+namespace rgs::runtime {
+
+/// What a frame may draw.
+struct LodBudget {
+  /// Most Gaussians (splats) a frame draws; 0: no limit.
+  uint64_t max_splats = 0;
+  /// Largest projected error a level may show, in pixels (SPEC §4.9.1: error · f / d).
+  float pixel_error = 1.0f;
+};
+
+/// One chunk a frame draws, at one level.
+struct LodChoice {
+  uint32_t chunk = 0;
+  uint32_t level = 0;
+};
+
+/// A frame's selection.
+struct LodSelection {
+  /// The chunks whose sphere meets the view frustum, in chunk order, each with the level to draw.
+  std::vector<LodChoice> choices;
+  /// Gaussians of the chosen levels.
+  uint64_t splats = 0;
+  /// Chunks outside the frustum (not drawn).
+  uint32_t culled = 0;
+  /// Chunks drawn coarser than the pixel threshold allows, to meet the splat budget.
+  uint32_t coarsened = 0;
+  /// False when even the coarsest level of every visible chunk exceeds the budget (they are then all chosen).
+  bool within_budget = true;
+};
+
+/// True when the sphere (`center`, `radius`, world units) meets the camera's view frustum: in front of the near
+/// plane and inside the four side planes through the image edges, each widened by the radius.
+bool sphere_in_frustum(const Camera& camera, const float center[3], float radius);
+
+/// Projected error in pixels of a world-space `error` at chunk `chunk` seen by `camera` (SPEC §4.9.1):
+/// error · max(fx, fy) / max(near_plane, |camera centre − center| − radius).
+double projected_error(const Camera& camera, const format::LodChunk& chunk, float error);
+
+/// Chooses, per chunk in the frustum, the coarsest level whose projected error is at most
+/// budget.pixel_error; then, while the frame exceeds budget.max_splats, moves the chunk whose next coarser
+/// level has the smallest projected error one level coarser (ties: the lower chunk index). Pure and
+/// deterministic: the same index, camera and budget give the same selection. The camera must be valid
+/// (validate_camera).
+LodSelection select_lod(const format::LodIndex& index, const Camera& camera, const LodBudget& budget);
+
+}  // namespace rgs::runtime

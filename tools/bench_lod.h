@@ -1,0 +1,37 @@
+// rgs-bench's streamed mode: a level-of-detail scene rendered under a splat and memory budget along a camera
+// path (runtime::LodStreamer), each frame timed, with the quality against the full render (docs/LOD.md).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <functional>
+#include <vector>
+
+#include "rgs/format/status.h"
+#include "rgs/runtime/camera.h"
+#include "rgs/runtime/lod_streamer.h"
+#include "output_set.h"
+
+namespace rgs::tools {
+
+struct LodBenchOptions {
+  std::string input;
+  /// > 1: the input tiled this many times (converter::replicate) and given levels of detail in memory
+  /// (converter::build_lod with `lod_levels`), the recipe of the big scene in docs/LOD.md.
+  uint32_t replicate = 1;
+  uint32_t lod_levels = 0;  ///< 0: auto
+  runtime::LodStreamOptions stream;
+  uint64_t scratch_budget = 0;  ///< GpuRenderOptions::scratch_budget
+  /// Also render the full detail of every view and compare (PSNR) where it fits the device.
+  bool quality = true;
+  std::string json_path;
+};
+
+/// Loads or builds the scene, makes the cameras with `make_cameras(bounds)`, renders every view once in path
+/// order (a fly-through from a cold pool), prints a line per view and a summary (median and 95th percentile
+/// frame time, splats, bytes streamed and resident), and writes the JSON to `outputs`.
+Status bench_lod(const LodBenchOptions& options,
+                 const std::function<Result<std::vector<runtime::Camera>>(const format::SceneBounds&)>& make_cameras,
+                 OutputSet& outputs);
+
+}  // namespace rgs::tools
