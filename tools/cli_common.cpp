@@ -468,6 +468,24 @@ std::string scene_formats_help() {
   return text;
 }
 
+Result<uint32_t> parse_lod_levels(const std::string& text) {
+  if (text == "auto") return 0u;
+  for (uint32_t n = 1; n <= 16; ++n) {
+    if (text == std::to_string(n)) return n;
+  }
+  return Status(StatusCode::kInvalidArgument, "auto or 1..16, not '" + text + "'");
+}
+
+void add_lod_levels_option(CLI::App& app, std::string& levels, const std::string& help) {
+  app.add_option("--lod-levels", levels, help)
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            auto parsed = parse_lod_levels(text);
+            return parsed.ok() ? std::string() : parsed.status().message();
+          },
+          "auto|1..16"));
+}
+
 std::string format_time(const char* pattern, bool utc) {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};

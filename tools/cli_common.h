@@ -150,6 +150,12 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
 /// format::ReadOptions with scene_read_options()' limits, checksums verified: for opening a .rgs directly.
 format::ReadOptions read_options();
 
+/// --lod-levels of rgs-convert and rgs-bench: "auto" gives 0 (converter::LodBuildOptions::levels' auto), "1".."16"
+/// that count. kInvalidArgument otherwise.
+Result<uint32_t> parse_lod_levels(const std::string& text);
+/// Adds --lod-levels to `app`, into `levels`, checked with parse_lod_levels().
+void add_lod_levels_option(CLI::App& app, std::string& levels, const std::string& help);
+
 /// The local (or, with `utc`, UTC) time now, as strftime's `pattern` writes it (e.g. "%Y-%m-%d").
 std::string format_time(const char* pattern, bool utc);
 

@@ -915,7 +915,7 @@ Status bench_streamed(const Options& opt, tools::OutputSet& outputs) {
   tools::LodBenchOptions o;
   o.input = opt.input;
   o.replicate = opt.replicate;
-  o.lod_levels = opt.lod_levels == "auto" ? 0u : static_cast<uint32_t>(std::stoul(opt.lod_levels));
+  o.lod_levels = *tools::parse_lod_levels(opt.lod_levels);  // CLI11 checked it
   o.stream.budget.max_splats = opt.splat_budget;
   o.stream.budget.pixel_error = opt.pixel_error;
   o.stream.memory_budget = opt.memory_budget;
@@ -1008,10 +1008,10 @@ int main(int argc, char** argv) {
                  "Streamed mode: most bytes read and uploaded per frame (the bound on a frame's wait for the disk)")
       ->transform(CLI::AsSizeValue(false))
       ->capture_default_str();
-  app.add_option("--lod-levels", opt.lod_levels,
-                 "Streamed mode with --replicate K: levels of detail built in memory for the tiled scene (auto or "
-                 "1..16)")
-      ->capture_default_str();
+  rgs::tools::add_lod_levels_option(
+      app, opt.lod_levels,
+      "Streamed mode with --replicate K: levels of detail built in memory for the tiled scene (auto or 1..16; "
+      "default auto)");
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.add_flag("--front-door", opt.front_door,
@@ -1037,14 +1037,7 @@ int main(int argc, char** argv) {
       return "the streamed mode (--splat-budget, --memory-budget) measures its own quality; drop --quality, --floor "
              "and --front-door";
     }
-    if (opt.lod_levels != "auto") {
-      try {
-        const unsigned long v = std::stoul(opt.lod_levels);
-        if (v < 1 || v > 16) return "--lod-levels: auto or 1..16";
-      } catch (const std::exception&) {
-        return "--lod-levels: auto or 1..16";
-      }
-    }
+
     return opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0
                ? "one of --cameras, --orbit or --path is required"
                : "";

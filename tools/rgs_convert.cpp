@@ -291,7 +291,7 @@ int run(Options& opt) {
   }
   if (!opt.to.empty()) opt.convert.to = *api::parse_output_format(opt.to);  // CLI11 checked the name
   if (!opt.lod_levels.empty()) {
-    opt.convert.lod_levels = opt.lod_levels == "auto" ? 0u : static_cast<uint32_t>(std::stoul(opt.lod_levels));
+    opt.convert.lod_levels = *rgs::tools::parse_lod_levels(opt.lod_levels);  // CLI11 checked it
   }
   const auto output_format = api::output_format_for(opt.output, opt.convert.to);
   if (!output_format.ok()) return tools::report_usage_error(kTool, output_format.status());
@@ -470,21 +470,11 @@ int main(int argc, char** argv) {
                  "standard output instead of the text summary");
   app.add_option("--lod", rgs::tools::scene_read_options().lod,
                  "Level of detail to read from a streamed SOG (lod-meta.json); 0 = finest (default)");
-  app.add_option("--lod-levels", opt.lod_levels,
-                 "Write a .rgs with levels of detail (format/SPEC.md 4.9, docs/LOD.md): spatial chunks, each at this "
-                 "many levels (1..16; auto: the coarsest about 1/64 of the full detail), parents merged from their "
-                 "children by moment matching, for rendering under a splat and memory budget")
-      ->check(CLI::Validator(
-          [](std::string& text) -> std::string {
-            if (text == "auto") return "";
-            try {
-              const int v = std::stoi(text);
-              if (v >= 1 && v <= 16 && std::to_string(v) == text) return "";
-            } catch (const std::exception&) {
-            }
-            return "--lod-levels: auto or 1..16, not '" + text + "'";
-          },
-          "auto|1..16"));
+  rgs::tools::add_lod_levels_option(
+      app, opt.lod_levels,
+      "Write a .rgs with levels of detail (format/SPEC.md 4.9, docs/LOD.md): spatial chunks, each at this many "
+      "levels (1..16; auto: the coarsest about 1/64 of the full detail), parents merged from their children by "
+      "moment matching, for rendering under a splat and memory budget");
   app.add_option("--lod-chunk", opt.convert.lod_chunk_gaussians,
                  "With --lod-levels: most full-detail Gaussians in one chunk (what the renderer culls, selects and "
                  "streams)")

@@ -21,6 +21,21 @@ namespace {
 using namespace rgs;
 constexpr const char* kTool = "rgs-info";
 
+/// One level of a level-of-detail index over all chunks: its Gaussians and its largest error (SPEC §4.9).
+struct LevelTotals {
+  uint64_t gaussians = 0;
+  double max_error = 0;
+};
+
+LevelTotals level_totals(const format::LodIndex& lod, uint32_t level) {
+  LevelTotals t;
+  for (uint32_t c = 0; c < lod.chunk_count; ++c) {
+    t.gaussians += lod.at(level, c).count;
+    t.max_error = std::max<double>(t.max_error, lod.at(level, c).error);
+  }
+  return t;
+}
+
 nlohmann::json to_json(const format::RgsFile& file) {
   const auto& h = file.header();
   const auto& m = file.metadata();
@@ -46,13 +61,8 @@ nlohmann::json to_json(const format::RgsFile& file) {
   if (const format::LodIndex* lod = file.lod()) {
     nlohmann::json levels = nlohmann::json::array();
     for (uint32_t l = 0; l < lod->level_count; ++l) {
-      uint64_t count = 0;
-      double error = 0;
-      for (uint32_t c = 0; c < lod->chunk_count; ++c) {
-        count += lod->at(l, c).count;
-        error = std::max<double>(error, lod->at(l, c).error);
-      }
-      levels.push_back({{"level", l}, {"gaussians", count}, {"max_error", error}});
+      const LevelTotals t = level_totals(*lod, l);
+      levels.push_back({{"level", l}, {"gaussians", t.gaussians}, {"max_error", t.max_error}});
     }
     j["lod"] = {{"chunks", lod->chunk_count}, {"levels", levels}, {"full_detail", lod->full_detail_count()}};
   }
@@ -101,14 +111,9 @@ void print_text(const format::RgsFile& file) {
     std::printf("  levels of detail %u chunks x %u levels (format/SPEC.md 4.9); full detail %s Gaussians\n",
                 lod->chunk_count, lod->level_count, tools::group_digits(lod->full_detail_count()).c_str());
     for (uint32_t l = 0; l < lod->level_count; ++l) {
-      uint64_t count = 0;
-      double error = 0;
-      for (uint32_t c = 0; c < lod->chunk_count; ++c) {
-        count += lod->at(l, c).count;
-        error = std::max<double>(error, lod->at(l, c).error);
-      }
-      std::printf("    level %-2u       %s Gaussians, error <= %s scene units\n", l, tools::group_digits(count).c_str(),
-                  tools::sci(error).c_str());
+      const LevelTotals t = level_totals(*lod, l);
+      std::printf("    level %-2u       %s Gaussians, error <= %s scene units\n", l,
+                  tools::group_digits(t.gaussians).c_str(), tools::sci(t.max_error).c_str());
     }
   }
   std::printf("  sections\n    %-4s %-14s %-5s %-5s %5s %12s %12s %14s %14s %7s\n", "id", "name", "codec", "type",

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <cstring>
 #include <string>
 
@@ -160,7 +161,7 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
   return s;
 }
 
-bool LodStreamer::take_pages(uint32_t pages, uint64_t frame, std::vector<uint32_t>* out) {
+bool LodStreamer::make_room(uint64_t pages, uint64_t frame) {
   while (free_pages_.size() < pages) {
     // Least recently used first, then the lowest (chunk, level): a deterministic victim.
     auto victim = resident_.end();
@@ -173,7 +174,12 @@ bool LodStreamer::take_pages(uint32_t pages, uint64_t frame, std::vector<uint32_
     free_pages_.insert(free_pages_.end(), victim->second.pages.rbegin(), victim->second.pages.rend());
     resident_.erase(victim);
   }
-  out->assign(free_pages_.end() - pages, free_pages_.end());
+  return true;
+}
+
+bool LodStreamer::take_pages(uint64_t pages, uint64_t frame, std::vector<uint32_t>* out) {
+  if (!make_room(pages, frame)) return false;
+  out->assign(free_pages_.end() - static_cast<ptrdiff_t>(pages), free_pages_.end());
   std::reverse(out->begin(), out->end());
   free_pages_.resize(free_pages_.size() - pages);
   return true;
@@ -182,7 +188,7 @@ bool LodStreamer::take_pages(uint32_t pages, uint64_t frame, std::vector<uint32_
 Status LodStreamer::stage_range(uint32_t level, uint32_t chunk, uint64_t at, uint64_t frame) {
   RGS_ASSIGN_OR_RETURN(const format::LodRangeView view, file_->lod_range(level, chunk));
   std::vector<uint32_t> pages;
-  RGS_RETURN_ERROR_IF(!take_pages(static_cast<uint32_t>(pages_for(view.count)), frame, &pages),
+  RGS_RETURN_ERROR_IF(!take_pages(pages_for(view.count), frame, &pages),
                       StatusCode::kLimitExceeded,
                       file_->name() + ": the LOD pool has no room for chunk " + std::to_string(chunk) + " level " +
                           std::to_string(level));
@@ -326,12 +332,8 @@ Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t st
     const uint64_t count = index.at(key.second, key.first).count;
     const uint64_t bytes = range_bytes(key.second, key.first);
     if (stats.bytes_streamed + bytes > options_.stream_bytes_per_frame || staged + count > upload_capacity_) continue;
-    std::vector<uint32_t> probe;
-    if (free_pages_.size() < pages_for(count)) {
-      // Room is made only from ranges this frame does not draw; stop when there is none.
-      if (!take_pages(static_cast<uint32_t>(pages_for(count)), frame, &probe)) break;
-      free_pages_.insert(free_pages_.end(), probe.rbegin(), probe.rend());
-    }
+    // Room is made only from ranges this frame does not draw; stop when there is none.
+    if (!make_room(pages_for(count), frame)) break;
     RGS_RETURN_IF_ERROR(stage_range(key.second, key.first, staged, frame));
     staged += count;
     stats.bytes_streamed += bytes;

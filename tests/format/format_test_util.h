@@ -274,4 +274,21 @@ inline void check_same_scene(const format::EncodedScene& a, const format::Encode
   CHECK(a.sh_dc_residual == b.sh_dc_residual);
 }
 
+/// SPEC §4.9 The checksum of Gaussians [first, first + count) of `s`, computed here from the scene's arrays (the
+/// host is little-endian, so they are the raw bytes): means, rotations, scales, opacities, sh, sh_dc_residual.
+inline uint64_t range_checksum(const format::EncodedScene& s, uint64_t first, uint64_t count) {
+  const size_t k3 = 3 * format::sh_coefficient_count(s.metadata.sh_degree);
+  XXH64_state_t* state = XXH64_createState();
+  XXH64_reset(state, 0);
+  XXH64_update(state, s.means.data() + first * 3, count * 12);
+  XXH64_update(state, s.rotations.data() + first * 4, count * 8);
+  XXH64_update(state, s.scales.data() + first * 3, count * 6);
+  XXH64_update(state, s.opacities.data() + first, count * 2);
+  XXH64_update(state, s.sh.data() + first * k3, count * k3);
+  if (!s.sh_dc_residual.empty()) XXH64_update(state, s.sh_dc_residual.data() + first * 3, count * 3);
+  const uint64_t digest = XXH64_digest(state);
+  XXH64_freeState(state);
+  return digest;
+}
+
 }  // namespace rgs::test

@@ -19,6 +19,7 @@ namespace {
 using namespace rgs;
 using namespace rgs::format;
 using rgs::test::data_path;
+using rgs::test::range_checksum;
 using rgs::test::read_file_bytes;
 
 RgsFile must_open_path(const std::string& path) {
@@ -98,23 +99,6 @@ SmallLod make_small_sh1_lod() {
   s.provenance = {{"source", "synthetic small_sh1_lod (tests/data/make_rgs_corpus.py)"},
                   {"options", "sh_degree=1 scale_encoding=linear codec=none sh_dc_residual lod=2x3"}};
   return out;
-}
-
-/// SPEC §4.9 The checksum of Gaussians [first, first + count) of `s`, computed here from the scene's arrays (the
-/// host is little-endian, so they are the raw bytes): means, rotations, scales, opacities, sh, sh_dc_residual.
-uint64_t range_checksum(const EncodedScene& s, uint64_t first, uint64_t count) {
-  const size_t k3 = 3 * sh_coefficient_count(s.metadata.sh_degree);
-  XXH64_state_t* state = XXH64_createState();
-  XXH64_reset(state, 0);
-  XXH64_update(state, s.means.data() + first * 3, count * 12);
-  XXH64_update(state, s.rotations.data() + first * 4, count * 8);
-  XXH64_update(state, s.scales.data() + first * 3, count * 6);
-  XXH64_update(state, s.opacities.data() + first, count * 2);
-  XXH64_update(state, s.sh.data() + first * k3, count * k3);
-  if (!s.sh_dc_residual.empty()) XXH64_update(state, s.sh_dc_residual.data() + first * 3, count * 3);
-  const uint64_t digest = XXH64_digest(state);
-  XXH64_freeState(state);
-  return digest;
 }
 
 }  // namespace

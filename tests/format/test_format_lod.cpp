@@ -2,8 +2,6 @@
 // the version and flag they stamp, the writer's refusals and the per-range checks of lod_range().
 #include <doctest/doctest.h>
 
-#include <xxhash.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -22,6 +20,7 @@ namespace {
 
 using namespace rgs;
 using namespace rgs::format;
+using rgs::test::range_checksum;
 
 /// A scene holding every level of every chunk, level-major, and its index.
 struct LodScene {
@@ -107,22 +106,6 @@ LodScene make_lod_scene(uint32_t chunks, uint32_t levels, uint64_t per_chunk, ui
     k.radius = std::nextafter(static_cast<float>(radius), INFINITY);
   }
   return out;
-}
-
-/// SPEC §4.9 A range's checksum, computed here from the scene's arrays (little-endian host: they are the raw bytes).
-uint64_t range_checksum(const EncodedScene& s, uint64_t first, uint64_t count) {
-  const size_t k3 = 3 * sh_coefficient_count(s.metadata.sh_degree);
-  XXH64_state_t* state = XXH64_createState();
-  XXH64_reset(state, 0);
-  XXH64_update(state, s.means.data() + first * 3, count * 12);
-  XXH64_update(state, s.rotations.data() + first * 4, count * 8);
-  XXH64_update(state, s.scales.data() + first * 3, count * 6);
-  XXH64_update(state, s.opacities.data() + first, count * 2);
-  XXH64_update(state, s.sh.data() + first * k3, count * k3);
-  if (!s.sh_dc_residual.empty()) XXH64_update(state, s.sh_dc_residual.data() + first * 3, count * 3);
-  const uint64_t digest = XXH64_digest(state);
-  XXH64_freeState(state);
-  return digest;
 }
 
 std::vector<uint8_t> must_serialize(const EncodedScene& scene, const WriteOptions& options) {

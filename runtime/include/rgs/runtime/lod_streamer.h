@@ -96,7 +96,11 @@ class LodStreamer {
   using Key = std::pair<uint32_t, uint32_t>;  // (chunk, level)
 
   uint64_t range_bytes(uint32_t level, uint32_t chunk) const;
-  bool take_pages(uint32_t pages, uint64_t frame, std::vector<uint32_t>* out);
+  /// Evicts ranges not drawn in `frame`, least recently used first, until `pages` pages are free; false if it
+  /// cannot.
+  bool make_room(uint64_t pages, uint64_t frame);
+  /// make_room(), then moves `pages` free pages to `out`.
+  bool take_pages(uint64_t pages, uint64_t frame, std::vector<uint32_t>* out);
   Status stage_range(uint32_t level, uint32_t chunk, uint64_t at, uint64_t frame);
   Status start_uploads(uint64_t staged);
   Status finish_uploads(double* wait_ms);
