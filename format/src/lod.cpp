@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 
 #include "internal_bytes.h"
@@ -22,12 +23,6 @@ std::string real(double v) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.9g", v);
   return buf;
-}
-
-/// §4.5 The linear value of a stored scale.
-double linear_scale(uint16_t bits, ScaleEncoding encoding) {
-  const double v = half_bits_to_float(bits);
-  return encoding == ScaleEncoding::kLog ? std::exp(v) : v;
 }
 
 }  // namespace
@@ -196,12 +191,15 @@ Status check_lod_range(const LodIndex& index, uint32_t level, uint32_t chunk, co
   for (uint64_t j = 0; j < n; ++j) {
     const uint8_t* m = range.means.data + 12 * j;
     const uint8_t* s = range.scales.data + 6 * j;
-    double d2 = 0, largest = 0;
+    double d2 = 0;
+    // The largest stored value gives the largest linear scale: both encodings (§4.5) are monotonic.
+    float stored = -std::numeric_limits<float>::infinity();
     for (int a = 0; a < 3; ++a) {
       const double d = static_cast<double>(load_f32_le(m + 4 * a)) - static_cast<double>(k.center[a]);
       d2 += d * d;
-      largest = std::fmax(largest, linear_scale(load_u16_le(s + 2 * a), metadata.scale_encoding));
+      stored = std::fmax(stored, half_bits_to_float(load_u16_le(s + 2 * a)));
     }
+    const double largest = metadata.scale_encoding == ScaleEncoding::kLog ? std::exp(double(stored)) : stored;
     const double reach = std::sqrt(d2) + 3.0 * largest;
     RGS_RETURN_ERROR_IF(!(reach <= r + 1e-6 * (r + c_max)), StatusCode::kCorruptData,
                         label + ": Gaussian " + dec(v.first + j) + " reaches " + real(reach) +

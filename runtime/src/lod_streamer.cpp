@@ -1,5 +1,5 @@
-// LodStreamer: level selection, the page pool with its LRU, the uploads on a copy stream and the frame gather
-// (lod_streamer.h, docs/LOD.md).
+// LodStreamer: level selection, the page pool with its LRU, the reader thread, the uploads on a copy stream and
+// the frame gather (lod_streamer.h, docs/LOD.md).
 #include "rgs/runtime/lod_streamer.h"
 
 #include <algorithm>
@@ -7,10 +7,12 @@
 #include <cstddef>
 #include <cstring>
 #include <string>
+#include <system_error>
 
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/spec.h"
 #include "rgs/kernels/device_scene.h"
+#include "rgs/parallel/fork_join.h"
 #include "rgs/runtime/cuda_device.h"
 
 namespace rgs::runtime {
@@ -42,6 +44,9 @@ struct StagingLayout {
     }
   }
 };
+
+/// Bytes a reader thread takes on at least: a small batch is read by few threads.
+constexpr uint64_t kBytesPerReader = uint64_t{1} << 20;
 
 }  // namespace
 
@@ -75,6 +80,36 @@ void LodStreamer::StreamDeleter::operator()(cudaStream_t s) const {
 
 void LodStreamer::EventDeleter::operator()(cudaEvent_t e) const { cudaEventDestroy(e); }
 
+namespace {
+
+/// Checks every range of `items` (RgsFile::lod_range) and copies it into `staging` (layout `layout`), in
+/// parallel over the ranges. The first failing range in `items` order gives the error.
+template <typename Item>
+Status read_ranges(const format::RgsFile& file, const std::vector<Item>& items, uint8_t* staging,
+                   const StagingLayout& layout, uint64_t bytes) {
+  std::vector<Status> results(items.size());
+  const unsigned workers = parallel::worker_count(bytes, kBytesPerReader, parallel::available_cpus());
+  RGS_RETURN_IF_ERROR(parallel::parallel_for(items.size(), workers, [&](uint64_t i) {
+    Result<format::LodRangeView> view = file.lod_range(items[i].level, items[i].chunk);
+    if (!view.ok()) {
+      results[i] = view.status();
+      return;
+    }
+    const format::ByteView* parts[6] = {&view->means, &view->rotations, &view->scales, &view->opacities, &view->sh,
+                                        &view->sh_dc_residual};
+    for (int a = 0; a < 6; ++a) {
+      if (layout.record[a] == 0 || parts[a]->size == 0) continue;
+      std::memcpy(staging + layout.offset[a] + items[i].at * layout.record[a], parts[a]->data, parts[a]->size);
+    }
+  }));
+  for (Status& r : results) {
+    if (!r.ok()) return r;
+  }
+  return Status();
+}
+
+}  // namespace
+
 uint64_t LodStreamer::range_bytes(uint32_t level, uint32_t chunk) const {
   return file_->lod()->at(level, chunk).count * gaussian_bytes(sh_bytes_, residual_);
 }
@@ -91,7 +126,7 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
   RGS_RETURN_ERROR_IF(index == nullptr, StatusCode::kInvalidArgument,
                       file.name() + ": no level-of-detail index to stream (rgs-convert --lod-levels builds one)");
   LodStreamer s;
-  s.file_ = file;
+  s.file_ = std::make_shared<const format::RgsFile>(file);
   s.options_ = options;
   s.sh_bytes_ = 3 * format::sh_coefficient_count(file.metadata().sh_degree);
   s.residual_ = file.find(format::SectionId::kShDcResidual) != nullptr;
@@ -129,7 +164,7 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
   RGS_RETURN_IF_ERROR(s.pool_.allocate(pool_pages * P, s.sh_bytes_, s.residual_, "LOD pool"));
   RGS_RETURN_IF_ERROR(s.frame_.allocate(frame_capacity, s.sh_bytes_, s.residual_, "LOD frame"));
   RGS_RETURN_IF_ERROR(s.upload_.allocate(s.upload_capacity_, s.sh_bytes_, s.residual_, "LOD upload"));
-  RGS_RETURN_IF_ERROR(s.staging_.reserve(s.upload_capacity_ * bpg, "LOD staging"));
+  for (PinnedBuffer& staging : s.staging_) RGS_RETURN_IF_ERROR(staging.reserve(s.upload_capacity_ * bpg, "LOD staging"));
   cudaStream_t copy_stream = nullptr;
   RGS_RETURN_IF_CUDA_ERROR(cudaStreamCreateWithFlags(&copy_stream, cudaStreamNonBlocking), "LOD copy stream");
   s.copy_stream_.reset(copy_stream);
@@ -142,102 +177,142 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
   s.free_pages_.resize(pool_pages);
   for (uint64_t p = 0; p < pool_pages; ++p) s.free_pages_[p] = static_cast<uint32_t>(pool_pages - 1 - p);
 
-  // The coarsest level of every chunk, pinned: every chunk can always be drawn.
-  uint64_t staged = 0;
+  // The coarsest level of every chunk, pinned (every chunk can always be drawn), through the same pipeline in
+  // batches that fill the staging buffer, each read and uploaded before the next.
   double unused = 0;
+  Batch batch;
+  auto flush = [&]() -> Status {
+    if (batch.keys.empty()) return Status();
+    s.start_reading(std::move(batch));
+    batch = Batch{};
+    RGS_RETURN_IF_ERROR(s.upload_read(&unused));
+    return s.finish_uploads(&unused);
+  };
   for (uint32_t c = 0; c < index->chunk_count; ++c) {
-    const uint64_t count = index->at(coarsest, c).count;
-    if (staged + count > s.upload_capacity_) {
-      RGS_RETURN_IF_ERROR(s.start_uploads(staged));
-      RGS_RETURN_IF_ERROR(s.finish_uploads(&unused));
-      staged = 0;
-    }
-    RGS_RETURN_IF_ERROR(s.stage_range(coarsest, c, staged, 0));
+    if (batch.staged + index->at(coarsest, c).count > s.upload_capacity_) RGS_RETURN_IF_ERROR(flush());
+    RGS_RETURN_ERROR_IF(!s.request_range(coarsest, c, 0, &batch), StatusCode::kLimitExceeded,
+                        file.name() + ": the LOD pool has no room for the coarsest level of chunk " + std::to_string(c));
     s.resident_[{c, coarsest}].pinned = true;
-    staged += count;
   }
-  RGS_RETURN_IF_ERROR(s.start_uploads(staged));
-  RGS_RETURN_IF_ERROR(s.finish_uploads(&unused));
+  RGS_RETURN_IF_ERROR(flush());
   return s;
 }
 
 bool LodStreamer::make_room(uint64_t pages, uint64_t frame) {
-  while (free_pages_.size() < pages) {
-    // Least recently used first, then the lowest (chunk, level): a deterministic victim.
-    auto victim = resident_.end();
-    for (auto it = resident_.begin(); it != resident_.end(); ++it) {
-      const Range& r = it->second;
-      if (r.pinned || !r.ready || r.last_used >= frame) continue;
-      if (victim == resident_.end() || r.last_used < victim->second.last_used) victim = it;
+  if (free_pages_.size() >= pages) return true;
+  if (victims_frame_ != frame) {
+    // The candidates, once a frame: ranges neither drawn nor requested in it, nor on their way in.
+    victims_.clear();
+    next_victim_ = 0;
+    victims_frame_ = frame;
+    for (const auto& [key, r] : resident_) {
+      if (!r.pinned && r.state == RangeState::kReady && r.last_used < frame) victims_.push_back(key);
     }
-    if (victim == resident_.end()) return false;
+    std::stable_sort(victims_.begin(), victims_.end(), [this](const Key& a, const Key& b) {
+      return resident_.at(a).last_used < resident_.at(b).last_used;
+    });
+  }
+  while (free_pages_.size() < pages) {
+    if (next_victim_ == victims_.size()) return false;
+    const Key key = victims_[next_victim_++];
+    const auto victim = resident_.find(key);
     free_pages_.insert(free_pages_.end(), victim->second.pages.rbegin(), victim->second.pages.rend());
+    resident_bytes_ -= range_bytes(key.second, key.first);
     resident_.erase(victim);
   }
   return true;
 }
 
-bool LodStreamer::take_pages(uint64_t pages, uint64_t frame, std::vector<uint32_t>* out) {
+bool LodStreamer::request_range(uint32_t level, uint32_t chunk, uint64_t frame, Batch* batch) {
+  const uint64_t count = file_->lod()->at(level, chunk).count;
+  const uint64_t pages = pages_for(count);
   if (!make_room(pages, frame)) return false;
-  out->assign(free_pages_.end() - static_cast<ptrdiff_t>(pages), free_pages_.end());
-  std::reverse(out->begin(), out->end());
+  Range& range = resident_[{chunk, level}];
+  range.pages.assign(free_pages_.rbegin(), free_pages_.rbegin() + static_cast<ptrdiff_t>(pages));
   free_pages_.resize(free_pages_.size() - pages);
+  range.last_used = frame;
+  range.state = RangeState::kReading;
+  for (size_t i = 0; i < range.pages.size(); ++i) {
+    const uint32_t n = static_cast<uint32_t>(std::min<uint64_t>(P, count - i * P));
+    batch->scatter_runs.push_back({static_cast<uint32_t>(batch->staged + i * P), range.pages[i] * P, n});
+  }
+  batch->keys.push_back({chunk, level});
+  batch->items.push_back({level, chunk, batch->staged});
+  batch->staged += count;
+  batch->bytes += range_bytes(level, chunk);
+  resident_bytes_ += range_bytes(level, chunk);
   return true;
 }
 
-Status LodStreamer::stage_range(uint32_t level, uint32_t chunk, uint64_t at, uint64_t frame) {
-  RGS_ASSIGN_OR_RETURN(const format::LodRangeView view, file_->lod_range(level, chunk));
-  std::vector<uint32_t> pages;
-  RGS_RETURN_ERROR_IF(!take_pages(pages_for(view.count), frame, &pages),
-                      StatusCode::kLimitExceeded,
-                      file_->name() + ": the LOD pool has no room for chunk " + std::to_string(chunk) + " level " +
-                          std::to_string(level));
-  const StagingLayout layout(upload_capacity_, sh_bytes_, residual_);
-  const format::ByteView* parts[6] = {&view.means, &view.rotations, &view.scales, &view.opacities, &view.sh,
-                                      &view.sh_dc_residual};
-  uint8_t* staging = static_cast<uint8_t*>(staging_.data());
-  for (int a = 0; a < 6; ++a) {
-    if (layout.record[a] == 0 || parts[a]->size == 0) continue;
-    std::memcpy(staging + layout.offset[a] + at * layout.record[a], parts[a]->data, parts[a]->size);
+void LodStreamer::drop(const Batch& batch) {
+  for (const Key& key : batch.keys) {
+    const auto it = resident_.find(key);
+    if (it == resident_.end()) continue;
+    free_pages_.insert(free_pages_.end(), it->second.pages.rbegin(), it->second.pages.rend());
+    resident_bytes_ -= range_bytes(key.second, key.first);
+    resident_.erase(it);
   }
-  for (size_t i = 0; i < pages.size(); ++i) {
-    const uint32_t count = static_cast<uint32_t>(std::min<uint64_t>(P, view.count - i * P));
-    scatter_runs_.push_back({static_cast<uint32_t>(at + i * P), pages[i] * P, count});
-  }
-  Range& range = resident_[{chunk, level}];
-  range.pages = std::move(pages);
-  range.last_used = frame;
-  range.ready = false;
-  pending_.push_back({chunk, level});
-  return Status();
 }
 
-Status LodStreamer::start_uploads(uint64_t staged) {
-  if (staged == 0) return Status();
+void LodStreamer::start_reading(Batch batch) {
+  batch.slot = next_slot_;
+  next_slot_ ^= 1;
+  reading_batch_ = std::move(batch);
+  const StagingLayout layout(upload_capacity_, sh_bytes_, residual_);
+  auto read = [file = file_, items = reading_batch_.items, bytes = reading_batch_.bytes, layout,
+               staging = static_cast<uint8_t*>(staging_[reading_batch_.slot].data())]() {
+    try {
+      return read_ranges(*file, items, staging, layout, bytes);
+    } catch (const std::bad_alloc&) {
+      return Status(StatusCode::kOutOfMemory, file->name() + ": out of memory reading level-of-detail ranges");
+    }
+  };
+  try {
+    reading_ = std::async(std::launch::async, read);
+  } catch (const std::system_error&) {  // no thread to be had: read now, on this one
+    std::promise<Status> done;
+    done.set_value(read());
+    reading_ = done.get_future();
+  }
+}
+
+Status LodStreamer::upload_read(double* wait_ms) {
+  if (!reading_.valid()) return Status();
+  const auto t0 = std::chrono::steady_clock::now();
+  Status read = reading_.get();
+  *wait_ms += ms_since(t0);
+  Batch batch = std::move(reading_batch_);
+  reading_batch_ = Batch{};
+  if (!read.ok()) {
+    drop(batch);
+    return read;
+  }
   // Pages are overwritten only after the frames gathered before have read theirs.
   RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(copy_stream_.get(), gathered_.get(), 0), "LOD upload");
   const StagingLayout layout(upload_capacity_, sh_bytes_, residual_);
   const kernels::CompactArrays dst = upload_.view();
   void* targets[6] = {dst.means, dst.rotations, dst.scales, dst.opacities, dst.sh, dst.sh_dc_residual};
-  const uint8_t* staging = static_cast<const uint8_t*>(staging_.data());
+  const uint8_t* staging = static_cast<const uint8_t*>(staging_[batch.slot].data());
   for (int a = 0; a < 6; ++a) {
     if (layout.record[a] == 0) continue;
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(targets[a], staging + layout.offset[a], staged * layout.record[a],
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(targets[a], staging + layout.offset[a], batch.staged * layout.record[a],
                                              cudaMemcpyHostToDevice, copy_stream_.get()),
                              "LOD upload");
   }
-  const size_t run_bytes = scatter_runs_.size() * sizeof(kernels::GatherRun);
+  const size_t run_bytes = batch.scatter_runs.size() * sizeof(kernels::GatherRun);
   RGS_RETURN_IF_ERROR(scatter_staging_.reserve(run_bytes, "LOD upload runs"));
-  std::memcpy(scatter_staging_.data(), scatter_runs_.data(), run_bytes);
-  RGS_RETURN_IF_ERROR(upload_runs_.reserve(scatter_runs_.size(), "LOD upload runs"));
+  std::memcpy(scatter_staging_.data(), batch.scatter_runs.data(), run_bytes);
+  RGS_RETURN_IF_ERROR(upload_runs_.reserve(batch.scatter_runs.size(), "LOD upload runs"));
   RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(upload_runs_.data(), scatter_staging_.data(), run_bytes,
                                            cudaMemcpyHostToDevice, copy_stream_.get()),
                            "LOD upload runs");
-  RGS_RETURN_IF_CUDA_ERROR(kernels::gather_gaussians(upload_runs_.data(), static_cast<uint32_t>(scatter_runs_.size()),
-                                                     upload_.view(), pool_.view(), sh_bytes_, copy_stream_.get()),
+  RGS_RETURN_IF_CUDA_ERROR(kernels::gather_gaussians(upload_runs_.data(),
+                                                     static_cast<uint32_t>(batch.scatter_runs.size()), upload_.view(),
+                                                     pool_.view(), sh_bytes_, copy_stream_.get()),
                            "LOD scatter kernel");
   RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(uploaded_.get(), copy_stream_.get()), "LOD upload");
-  scatter_runs_.clear();
+  for (const Key& key : batch.keys) resident_[key].state = RangeState::kUploading;
+  uploading_ = std::move(batch.keys);
   return Status();
 }
 
@@ -245,10 +320,11 @@ Status LodStreamer::finish_uploads(double* wait_ms) {
   const auto t0 = std::chrono::steady_clock::now();
   // The previous gather's run list (pinned) may be rewritten only once its copy is done.
   RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(gathered_.get()), "LOD gather");
-  if (!pending_.empty()) {
+  if (!uploading_.empty()) {
+    // Also frees the staging buffer and the scatter run list of that upload for reuse.
     RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(uploaded_.get()), "LOD upload");
-    for (const Key& key : pending_) resident_[key].ready = true;
-    pending_.clear();
+    for (const Key& key : uploading_) resident_[key].state = RangeState::kReady;
+    uploading_.clear();
   }
   *wait_ms += ms_since(t0);
   return Status();
@@ -256,7 +332,9 @@ Status LodStreamer::finish_uploads(double* wait_ms) {
 
 Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t stream) {
   LodFrameStats stats;
+  // The pipeline moves one step: frame k − 2's reads become drawable, frame k − 1's are uploaded.
   RGS_RETURN_IF_ERROR(finish_uploads(&stats.wait_ms));
+  RGS_RETURN_IF_ERROR(upload_read(&stats.wait_ms));
   const format::LodIndex& index = *file_->lod();
   const uint32_t coarsest = index.level_count - 1;
   const uint64_t frame = ++frame_index_;
@@ -265,19 +343,22 @@ Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t st
   stats.chunks_culled = selection.culled;
   stats.chunks_coarsened = selection.coarsened;
 
-  // Gather: each chunk at its wanted level when resident, else at the finest resident coarser one.
+  // Gather: each chunk at its wanted level when drawable, else at the finest drawable coarser one.
   std::vector<kernels::GatherRun> runs;
   std::vector<Key> wanted;
   uint64_t dst = 0;
+  auto drawable = [this](std::map<Key, Range>::iterator it) {
+    return it != resident_.end() && it->second.state == RangeState::kReady;
+  };
   for (const LodChoice& choice : selection.choices) {
     uint32_t level = choice.level;
     auto it = resident_.find({choice.chunk, level});
-    if (it == resident_.end() || !it->second.ready) {
-      wanted.push_back({choice.chunk, choice.level});
+    if (!drawable(it)) {
+      if (it == resident_.end()) wanted.push_back({choice.chunk, choice.level});
       ++stats.chunks_not_resident;
       do {
         it = resident_.find({choice.chunk, ++level});
-      } while (level < coarsest && (it == resident_.end() || !it->second.ready));
+      } while (level < coarsest && !drawable(it));
     }
     Range& range = it->second;
     range.last_used = frame;
@@ -325,23 +406,20 @@ Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t st
   view.count = static_cast<uint32_t>(dst);
   frame_scene_ = GpuScene::compact_view(view, meta.bounds);
 
-  // Uploads of the wanted ranges, in chunk order, within the per-frame byte budget and the pool.
-  const auto t_read = std::chrono::steady_clock::now();
-  uint64_t staged = 0;
+  // Requests for the wanted ranges, in chunk order, within the per-frame byte budget and the pool; the reader
+  // checks and stages them while this frame renders.
+  Batch batch;
   for (const Key& key : wanted) {
     const uint64_t count = index.at(key.second, key.first).count;
     const uint64_t bytes = range_bytes(key.second, key.first);
-    if (stats.bytes_streamed + bytes > options_.stream_bytes_per_frame || staged + count > upload_capacity_) continue;
+    if (batch.bytes + bytes > options_.stream_bytes_per_frame || batch.staged + count > upload_capacity_) continue;
     // Room is made only from ranges this frame does not draw; stop when there is none.
-    if (!make_room(pages_for(count), frame)) break;
-    RGS_RETURN_IF_ERROR(stage_range(key.second, key.first, staged, frame));
-    staged += count;
-    stats.bytes_streamed += bytes;
+    if (!request_range(key.second, key.first, frame, &batch)) break;
     ++stats.ranges_streamed;
   }
-  stats.wait_ms += ms_since(t_read);
-  RGS_RETURN_IF_ERROR(start_uploads(staged));
-  for (const auto& [key, range] : resident_) stats.bytes_resident += range_bytes(key.second, key.first);
+  stats.bytes_streamed = batch.bytes;
+  if (!batch.keys.empty()) start_reading(std::move(batch));
+  stats.bytes_resident = resident_bytes_;
   return stats;
 }
 

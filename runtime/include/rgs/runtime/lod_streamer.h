@@ -7,9 +7,9 @@
 #include <cuda_runtime_api.h>
 
 #include <cstdint>
+#include <future>
 #include <map>
 #include <memory>
-#include <optional>
 #include <type_traits>
 #include <string>
 #include <utility>
@@ -32,9 +32,10 @@ struct LodStreamOptions {
   /// Device bytes for the page pool, the frame arrays and the upload buffer together; 0: a pool that holds the
   /// whole file. The renderer's scratch is not included (GpuRenderOptions::scratch_budget bounds it).
   uint64_t memory_budget = 0;
-  /// Most bytes read from the file and uploaded per frame. This is the bound on how long a frame waits for the
-  /// disk: ranges that do not fit wait for a later frame, and the frame draws a coarser resident level.
-  uint64_t stream_bytes_per_frame = uint64_t{256} << 20;
+  /// Most bytes read from the file and uploaded per frame. This bounds how long a frame can wait for the file
+  /// (docs/LOD.md#a-frame-under-a-budget): ranges that do not fit wait for a later frame, and the frame draws a
+  /// coarser resident level meanwhile.
+  uint64_t stream_bytes_per_frame = uint64_t{32} << 20;
 };
 
 /// What one prepare() did.
@@ -44,17 +45,21 @@ struct LodFrameStats {
   uint32_t chunks_culled = 0;       ///< chunks outside it
   uint32_t chunks_coarsened = 0;    ///< drawn coarser than the pixel threshold, for the splat budget
   uint32_t chunks_not_resident = 0; ///< drawn at a coarser resident level while the wanted one streams in
-  uint32_t ranges_streamed = 0;     ///< ranges read and uploaded this frame (resident from the next frame)
+  uint32_t ranges_streamed = 0;     ///< ranges requested this frame (drawable two frames later)
   uint64_t bytes_streamed = 0;      ///< their bytes
-  uint64_t bytes_resident = 0;      ///< bytes of the ranges in the pool after this frame's uploads
-  double wait_ms = 0;               ///< host time waiting for the previous uploads and reading the file
+  uint64_t bytes_resident = 0;      ///< bytes of the ranges in the pool, requested ones included
+  double wait_ms = 0;               ///< host time waiting for the previous frame's reads and the uploads before
 };
 
 /// A level-of-detail scene streamed into a fixed device pool. Pages of kPageGaussians Gaussians hold ranges
 /// (one level of one chunk); the coarsest level of every chunk is loaded at open and never evicted, so every
-/// chunk can always be drawn; other ranges are evicted least recently used first. Uploads requested in frame k
-/// are complete and drawable from frame k + 1, which makes a camera path's frames a function of the path and the
-/// pool's state, whatever the disk's speed. Move-only; not thread-safe (one render stream).
+/// chunk can always be drawn; other ranges are evicted least recently used first.
+///
+/// Streaming is a three-frame pipeline. Frame k requests the ranges it wants and a reader thread checks them
+/// (RgsFile::lod_range) and copies them into pinned staging, on all CPUs, while frame k renders; frame k + 1
+/// waits for that reader if it is not done, and uploads the staging on a copy stream; the ranges are drawable
+/// from frame k + 2. A camera path's frames are therefore a function of the path and the pool's state, whatever
+/// the speed of the disk and of the CPUs. Move-only; not thread-safe (one render stream).
 class LodStreamer {
  public:
   /// Gaussians per pool page.
@@ -67,13 +72,16 @@ class LodStreamer {
   static Result<LodStreamer> open(const format::RgsFile& file, const LodStreamOptions& options,
                                   cudaStream_t stream = nullptr);
 
+  /// Moving keeps a read in flight going: it writes into the same pinned staging, which the new object owns.
   LodStreamer(LodStreamer&&) noexcept = default;
-  LodStreamer& operator=(LodStreamer&&) noexcept = default;
+  /// Not assignable: the old reader would write into freed staging.
+  LodStreamer& operator=(LodStreamer&&) = delete;
 
-  /// Selects the frame's levels for `camera`, gathers the resident ones into the frame arrays on `stream`
-  /// (scene() is then valid for rendering on `stream`), and starts the uploads of wanted ranges that are not
-  /// resident, on a copy stream, up to stream_bytes_per_frame. Errors: the file's (a range failing its checks),
-  /// kCudaError.
+  /// Uploads the ranges read since the previous frame, selects the frame's levels for `camera`, gathers the
+  /// drawable ones into the frame arrays on `stream` (scene() is then valid for rendering on `stream`), and
+  /// hands the wanted ranges that are not resident, up to stream_bytes_per_frame, to the reader thread.
+  /// Errors: the file's (a range of the previous frame's reads failing its checks: those ranges are dropped
+  /// and requested again when wanted), kCudaError.
   Result<LodFrameStats> prepare(const Camera& camera, cudaStream_t stream = nullptr);
 
   /// The frame's Gaussians, after prepare() (empty before).
@@ -85,35 +93,59 @@ class LodStreamer {
 
  private:
   LodStreamer() = default;
-  /// One level of one chunk in the pool: its pages, in order, the last frame that drew it, whether it is the
-  /// chunk's coarsest (never evicted) and whether its upload is complete (drawable).
+  /// One level of one chunk in the pool: its pages, in order, the last frame that drew or requested it, whether
+  /// it is the chunk's coarsest (never evicted), and where it is in the pipeline.
+  enum class RangeState { kReading, kUploading, kReady };
   struct Range {
     std::vector<uint32_t> pages;
     uint64_t last_used = 0;
     bool pinned = false;
-    bool ready = false;
+    RangeState state = RangeState::kReading;
   };
   using Key = std::pair<uint32_t, uint32_t>;  // (chunk, level)
+  /// One level of one chunk to read: its place in the staging buffer, in Gaussians.
+  struct ReadItem {
+    uint32_t level = 0, chunk = 0;
+    uint64_t at = 0;
+  };
+  /// The ranges one frame requests: read into staging buffer `slot`, then uploaded and scattered into pages.
+  struct Batch {
+    std::vector<Key> keys;
+    std::vector<ReadItem> items;
+    std::vector<kernels::GatherRun> scatter_runs;
+    uint64_t staged = 0;  ///< Gaussians
+    uint64_t bytes = 0;
+    int slot = 0;
+  };
 
   uint64_t range_bytes(uint32_t level, uint32_t chunk) const;
-  /// Evicts ranges not drawn in `frame`, least recently used first, until `pages` pages are free; false if it
-  /// cannot.
+  /// Evicts ranges not drawn or requested in `frame`, least recently used first (ties: the lowest key), until
+  /// `pages` pages are free; false if it cannot.
   bool make_room(uint64_t pages, uint64_t frame);
-  /// make_room(), then moves `pages` free pages to `out`.
-  bool take_pages(uint64_t pages, uint64_t frame, std::vector<uint32_t>* out);
-  Status stage_range(uint32_t level, uint32_t chunk, uint64_t at, uint64_t frame);
-  Status start_uploads(uint64_t staged);
+  /// Gives (level, chunk) pages and a place in `batch`; false when the pool has no room.
+  bool request_range(uint32_t level, uint32_t chunk, uint64_t frame, Batch* batch);
+  /// Returns the pages of `batch`'s ranges to the free list (a read that failed).
+  void drop(const Batch& batch);
+  /// Starts reading `batch` on the reader thread.
+  void start_reading(Batch batch);
+  /// Waits for the reader, then enqueues the upload and scatter of what it read on the copy stream.
+  Status upload_read(double* wait_ms);
+  /// Waits for the previous frame's gather and upload; its ranges become drawable.
   Status finish_uploads(double* wait_ms);
 
-  std::optional<format::RgsFile> file_;
+  std::shared_ptr<const format::RgsFile> file_;
   LodStreamOptions options_;
   uint32_t sh_bytes_ = 0;
   bool residual_ = false;
   uint64_t frame_index_ = 0;
   std::map<Key, Range> resident_;
-  std::vector<Key> pending_;
+  uint64_t resident_bytes_ = 0;
+  std::vector<Key> uploading_;
   std::vector<uint32_t> free_pages_;
-  std::vector<kernels::GatherRun> scatter_runs_;
+  // Eviction candidates of the current frame, least recently used first, and the next one to take.
+  std::vector<Key> victims_;
+  size_t next_victim_ = 0;
+  uint64_t victims_frame_ = ~uint64_t{0};
   uint64_t pool_pages_ = 0;
   // Device arrays: the pool (page p holds Gaussians [p·P, (p + 1)·P)), the frame, the upload buffer.
   struct Arrays {
@@ -125,9 +157,11 @@ class LodStreamer {
     uint64_t bytes() const;
   };
   Arrays pool_, frame_, upload_;
-  uint64_t upload_capacity_ = 0;  ///< Gaussians the upload buffer and the host staging hold
+  uint64_t upload_capacity_ = 0;  ///< Gaussians the upload buffer and each host staging buffer hold
   DeviceBuffer<kernels::GatherRun> gather_runs_, upload_runs_;
-  PinnedBuffer staging_, run_staging_, scatter_staging_;
+  // Two staging buffers: the reader fills one while the other is uploaded.
+  PinnedBuffer staging_[2], run_staging_, scatter_staging_;
+  int next_slot_ = 0;
   // Declared after the buffers, so destroyed first: the copy stream is drained before they are freed.
   struct StreamDeleter {
     void operator()(cudaStream_t s) const;
@@ -138,6 +172,9 @@ class LodStreamer {
   std::unique_ptr<std::remove_pointer_t<cudaStream_t>, StreamDeleter> copy_stream_;
   std::unique_ptr<std::remove_pointer_t<cudaEvent_t>, EventDeleter> gathered_, uploaded_;
   GpuScene frame_scene_ = GpuScene::compact_view({}, {});
+  // The reader's batch and its result; declared last, so a read in flight ends before anything is freed.
+  Batch reading_batch_;
+  std::future<Status> reading_;
 };
 
 }  // namespace rgs::runtime
