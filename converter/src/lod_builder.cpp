@@ -323,18 +323,29 @@ struct Scratch {
   std::vector<ChildTerms> children;
 };
 
+/// The renderer's low-pass in pixels² (cov2D + 0.3, docs/DESIGN.md#conventions): a level's merge sees its
+/// children as drawn where its error is one pixel.
+constexpr double kLowPassPixels2 = 0.3;
+
+/// s1 s2 + s1 s3 + s2 s3 of the scales sqrt(s_a² + dilation2): the area term of a Gaussian as drawn.
+double drawn_area(const double s[3], double dilation2) {
+  double d[3];
+  for (int a = 0; a < 3; ++a) d[a] = std::sqrt(s[a] * s[a] + dilation2);
+  return d[0] * d[1] + d[0] * d[2] + d[1] * d[2];
+}
+
 /// Merges Gaussians [b, e) of `out` into Gaussian `p` of `out` (moment matching; lod_builder.h has the
-/// rule), clamping the mean into [lo, hi].
+/// rule), clamping the mean into [lo, hi]. `dilation2`: the low-pass in world units² (δ² of lod_builder.h).
 void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, const Layout& t, const float lo[3],
-                const float hi[3], std::vector<ChildTerms>* children) {
+                const float hi[3], double dilation2, std::vector<ChildTerms>* children) {
   const uint64_t m = e - b;
   children->resize(m);
   double total_weight = 0, total_area = 0;
   for (uint64_t i = 0; i < m; ++i) {
     const uint64_t g = b + i;
-    double s[3];
-    for (int a = 0; a < 3; ++a) s[a] = linear_scale(out->scales[g * 3 + a], t.log_scale);
-    const double area = s[0] * s[1] + s[0] * s[2] + s[1] * s[2];
+    double scales[3];
+    for (int a = 0; a < 3; ++a) scales[a] = linear_scale(out->scales[g * 3 + a], t.log_scale);
+    const double area = drawn_area(scales, dilation2);
     const double alpha = format::half_bits_to_float(out->opacities[g]);
     (*children)[i] = {alpha * area, area, alpha};
     total_weight += alpha * area;
@@ -424,8 +435,8 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
   double quat[4];
   quaternion_of(rot, quat);
 
-  // Opacity: coverage of the children over the parent's area (our rule; lod_builder.h).
-  const double parent_area = scale[0] * scale[1] + scale[0] * scale[2] + scale[1] * scale[2];
+  // Opacity: coverage of the children over the parent's area, both as drawn (our rule; lod_builder.h).
+  const double parent_area = drawn_area(scale, dilation2);
   double log_transmittance = 0;
   for (const ChildTerms& c : *children) {
     const double ln_t = std::log1p(-std::min(c.alpha, kMaxMergeOpacity));
@@ -510,7 +521,9 @@ ChunkReach build_chunk(const format::EncodedScene& in, const std::vector<uint32_
       if (g1 - g0 == 1) {
         copy_gaussian(*out, prev_first + g0, out, p, t);
       } else {
-        merge_cell(out, prev_first + g0, prev_first + g1, p, t, plan.lo, plan.hi, &scratch->children);
+        const double pixel = plan.error[l];  // world size of a pixel where level l is drawn first
+        merge_cell(out, prev_first + g0, prev_first + g1, p, t, plan.lo, plan.hi, kLowPassPixels2 * pixel * pixel,
+                   &scratch->children);
       }
       next.push_back(codes[g0]);
       ++p;

@@ -324,11 +324,17 @@ TEST_CASE("lod: two Gaussians merge into the moment-matched parent") {
     const format::GaussianCloud& ch = *children;
     const uint64_t p = lod.index.at(1, 0).first;
 
-    // The formulas of lod_builder.h in double from the decoded children.
+    // The formulas of lod_builder.h in double from the decoded children; areas of the scales as drawn.
+    const double delta2 = 0.3 * double(lod.index.at(1, 0).error) * lod.index.at(1, 0).error;
+    REQUIRE(delta2 > 0);
+    auto drawn_area = [delta2](double s0, double s1, double s2) {
+      const double d0 = std::sqrt(s0 * s0 + delta2), d1 = std::sqrt(s1 * s1 + delta2), d2 = std::sqrt(s2 * s2 + delta2);
+      return d0 * d1 + d0 * d2 + d1 * d2;
+    };
     double w[2], area[2], alpha[2];
     for (int i = 0; i < 2; ++i) {
       const float* s = &ch.scales[i * 3];
-      area[i] = double(s[0]) * s[1] + double(s[0]) * s[2] + double(s[1]) * s[2];
+      area[i] = drawn_area(s[0], s[1], s[2]);
       alpha[i] = ch.opacities[i];
       w[i] = alpha[i] * area[i];
     }
@@ -365,8 +371,8 @@ TEST_CASE("lod: two Gaussians merge into the moment-matched parent") {
       CAPTURE(j);
       CHECK(std::fabs(all->sh[p * 12 + j] - v) <= (j < 3 ? step / 512 : step / 2) * 1.001 + 1e-7);
     }
-    // Opacity: coverage over the parent's area S_p (from the exact eigenvalues).
-    const double sp = std::sqrt(eig[0] * eig[1]) + std::sqrt(eig[0] * eig[2]) + std::sqrt(eig[1] * eig[2]);
+    // Opacity: coverage over the parent's area S_p as drawn (from the exact eigenvalues).
+    const double sp = drawn_area(std::sqrt(eig[0]), std::sqrt(eig[1]), std::sqrt(eig[2]));
     const double ln_t =
         area[0] / sp * std::log(1 - std::min(alpha[0], 0.999)) + area[1] / sp * std::log(1 - std::min(alpha[1], 0.999));
     CHECK(all->opacities[p] == doctest::Approx(1 - std::exp(ln_t)).epsilon(2e-3));

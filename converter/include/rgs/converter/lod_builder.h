@@ -54,13 +54,18 @@ struct LodScene {
 ///
 /// Merge rule (moment matching as Hierarchical 3D Gaussian Splatting, Kerbl et al., SIGGRAPH 2024, merges
 /// children into a parent), in double from the decoded children (linear scales s, activated opacities α,
-/// normalized quaternions w, x, y, z as 3DGS build_rotation): weights w_i = α_i · S_i with S_i = s1 s2 +
-/// s1 s3 + s2 s3 (proportional to the ellipsoid's area), equal weights if they sum to 0; mean μ = Σ w_i μ_i /
-/// W; covariance Σ = Σ w_i (R_i diag(s_i²) R_iᵀ + (μ_i − μ)(μ_i − μ)ᵀ) / W; every SH coefficient and
-/// channel Σ w_i SH_i / W. Scales and rotation are the parent's eigen-decomposition of Σ (Jacobi; scales
-/// sqrt(max(λ, 1e-36)), rotation the right-handed eigenvector matrix, w ≥ 0). Opacity (our rule, not the
-/// paper's): α_p = 1 − exp(Σ_i (S_i / S_p) · ln(1 − min(α_i, 0.999))), clamped to [0, 1], which preserves
-/// coverage: two coincident copies give 1 − (1 − α)², pieces tiling the parent's area keep about α.
+/// normalized quaternions w, x, y, z as 3DGS build_rotation). Areas are taken as the renderer draws the
+/// Gaussians where level l is first used, at the distance where its error is one pixel: the renderer's
+/// low-pass adds 0.3 px² to every projected covariance, so each scale s counts as sqrt(s² + δ²) with
+/// δ² = 0.3 · error(l, c)² (world units²), and S = s1 s2 + s1 s3 + s2 s3 of those (proportional to the
+/// ellipsoid's area as drawn). Weights w_i = α_i · S_i, equal weights if they sum to 0; mean μ = Σ w_i μ_i /
+/// W; covariance Σ = Σ w_i (R_i diag(s_i²) R_iᵀ + (μ_i − μ)(μ_i − μ)ᵀ) / W (δ² I would be added on both sides
+/// and cancels); every SH coefficient and channel Σ w_i SH_i / W. Scales and rotation are the parent's
+/// eigen-decomposition of Σ (Jacobi; scales sqrt(max(λ, 1e-36)), rotation the right-handed eigenvector
+/// matrix, w ≥ 0). Opacity (our rule, not the paper's): α_p = 1 − exp(Σ_i (S_i / S_p) · ln(1 − min(α_i,
+/// 0.999))), clamped to [0, 1], with S_p the parent's area as drawn: it preserves coverage (two coincident
+/// copies give 1 − (1 − α)², pieces tiling the parent's area keep about α), and children far smaller than a
+/// pixel, which the low-pass draws as overlapping blobs, give a parent as opaque as their overlap.
 /// Parents are encoded with the input's metadata (same SH scales, same scale encoding, linear scales clamped
 /// to the largest FP16, log scales to 88.6875): SH codes round-half-away(v / s) clamped to ±127, the DC
 /// residual when the input has one as converter::quantize() computes it; means FP32 clamped into the chunk's
