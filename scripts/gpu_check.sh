@@ -185,16 +185,17 @@ if [ "$what" = groups ] || [ "$what" = all ]; then
   fi
 fi
 if [ "$what" = lod ] || [ "$what" = all ]; then
-  # Levels of detail (docs/LOD.md): the streamer's GPU tests; taebak given levels of detail by rgs-convert (time,
-  # check); fly-throughs of 120 views at 1080p under a 3M splat budget and 3 GiB of device memory for the scene's
-  # pool, frame and upload arrays (render scratch unbounded: 1 GiB is refused on the replicated scenes' frames)
+  # Levels of detail (docs/LOD.md): the streamer's GPU tests and the >2^31-pair frame; taebak given levels of
+  # detail by rgs-convert (time, peak RSS, check); then 120-view paths at 1080p under a 3M splat budget, 3 GiB
+  # of device memory for the scene's pool, frame and upload arrays and 1 GiB of render scratch (4 GiB in all),
   # for taebak x1, x4 and x16 (the big scene: replicated and given its levels in memory), each with the PSNR
-  # against the full detail.
+  # against the full detail: a fly-through along taebak's cameras (--fly) and a spiral that frames the whole
+  # grid (--path, the worst case: every chunk in view).
   t0=$(date +%s)
   rc=0
-  "$bin/test_gpu" -s -tc='*LOD*' >"$out/test_gpu_lod.log" 2>&1 || rc=$?
+  "$bin/test_gpu" -s -tc='*LOD*,*2^31*' >"$out/test_gpu_lod.log" 2>&1 || rc=$?
   [ $rc -ne 0 ] && status=1
-  note "test_gpu LOD: exit $rc; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu_lod.log" | tr '\n' ' ')"
+  note "test_gpu LOD and 2^31: exit $rc; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu_lod.log" | tr '\n' ' ')"
   if [ -f "$taebak" ]; then
     rc=0
     /usr/bin/time -v "$bin/rgs-convert" "$taebak" "$taebak_dir/taebak_lod.rgs" --lod-levels auto \
@@ -207,15 +208,21 @@ if [ "$what" = lod ] || [ "$what" = all ]; then
       local name="$1" t0 rc=0
       shift
       t0=$(date +%s)
-      "$bin/rgs-bench" "$@" --path 120 --resolution 1920x1080 --splat-budget 3000000 --memory-budget 3GiB \
+      /usr/bin/time -v "$bin/rgs-bench" "$@" --resolution 1920x1080 --memory-budget 3GiB --scratch-budget 1GiB \
         --json "$out/lod_$name.json" >"$out/lod_$name.log" 2>&1 || rc=$?
       [ $rc -ne 0 ] && status=1
       note "lod_$name: exit $rc in $(( $(date +%s) - t0 )) s"
-      grep -E "error|scene  |budgets|open  |frame time|splats  |quality" "$out/lod_$name.log" | tee -a "$summary"
+      grep -E "error|scene  |budgets|open  |frame time|splats  |quality|Maximum resident" "$out/lod_$name.log" |
+        tee -a "$summary"
     }
-    lod_bench taebak_x1 "$taebak_dir/taebak_lod.rgs"
-    lod_bench taebak_x4 "$taebak" --replicate 4
-    lod_bench taebak_x16 "$taebak" --replicate 16
+    fly=(--cameras "$taebak_cameras" --fly 120 --splat-budget 3000000)
+    spiral=(--path 120 --splat-budget 3000000)
+    lod_bench taebak_x1_fly "$taebak_dir/taebak_lod.rgs" "${fly[@]}"
+    lod_bench taebak_x1_spiral "$taebak_dir/taebak_lod.rgs" "${spiral[@]}"
+    lod_bench taebak_x4_fly "$taebak" --replicate 4 "${fly[@]}"
+    lod_bench taebak_x16_fly "$taebak" --replicate 16 "${fly[@]}"
+    lod_bench taebak_x16_spiral "$taebak" --replicate 16 "${spiral[@]}"
+    lod_bench taebak_x16_spiral_12m "$taebak" --replicate 16 --path 120 --splat-budget 12000000
   fi
 fi
 if [ "$what" = floor ] || [ "$what" = all ]; then

@@ -455,6 +455,11 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
                    ->check(CLI::Range(1, 100000))
                    ->excludes(cameras)
                    ->excludes(orbit);
+  app.add_option("--fly", choice.fly,
+                 "With --cameras: N views flown through the file's cameras in order (runtime::fly_through_cameras: "
+                 "a spline through their centres at steady speed, rotations interpolated)")
+      ->check(CLI::Range(2, 100000))
+      ->needs(cameras);
   cameras->excludes(orbit)->excludes(path);
   orbit->excludes(path);
 }

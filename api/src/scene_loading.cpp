@@ -84,6 +84,12 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
     options.width = choice.width;
     options.height = choice.height;
     RGS_ASSIGN_OR_RETURN(cameras, runtime::load_inria_cameras(choice.cameras_path, options));
+    if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
+    if (choice.fly > 0) {
+      Result<std::vector<runtime::Camera>> flown = runtime::fly_through_cameras(cameras, choice.fly);
+      if (!flown.ok()) return Status(flown.status()).prepend(choice.cameras_path);
+      return flown;
+    }
   } else {
     RGS_RETURN_ERROR_IF(choice.orbit == 0 && choice.path == 0, StatusCode::kInvalidArgument,
                         "--orbit needs at least 1 camera");

@@ -256,5 +256,56 @@ TEST_CASE("path cameras: a spiral that rises, swings near and far, and always lo
   CHECK(runtime::path_cameras(bounds, 0, 320, 240).status().code() == StatusCode::kInvalidArgument);
 }
 
+TEST_CASE("fly-through cameras: through every key at steady speed, rotations orthonormal, bad keys refused") {
+  format::SceneBounds bounds;
+  bounds.sphere_radius = 5.f;
+  // Keys of an orbit, unevenly spaced: the first two close together, the rest far apart.
+  auto ring = runtime::orbit_cameras(bounds, 16, 320, 240);
+  REQUIRE(ring.ok());
+  const std::vector<Camera> keys = {(*ring)[0], (*ring)[1], (*ring)[5], (*ring)[9], (*ring)[12]};
+  auto views = runtime::fly_through_cameras(keys, 400);
+  REQUIRE_MESSAGE(views.ok(), views.status().to_string());
+  REQUIRE(views->size() == 400);
+  CHECK((*views)[0].name == "fly_000");
+  CHECK((*views)[399].name == "fly_399");
+  for (int i = 0; i < 9; ++i) CHECK((*views)[0].rotation[i] == doctest::Approx(keys[0].rotation[i]).epsilon(1e-5));
+  for (int a = 0; a < 3; ++a) {  // the first and last keys, to float precision
+    CHECK((*views)[0].translation[a] == doctest::Approx(keys[0].translation[a]).epsilon(1e-4));
+    CHECK((*views)[399].translation[a] == doctest::Approx(keys.back().translation[a]).epsilon(1e-4));
+  }
+  // Steady speed: consecutive centres are equally far apart, whatever the key spacing.
+  double shortest = 1e30, longest = 0;
+  for (size_t i = 1; i < views->size(); ++i) {
+    const auto a = runtime::camera_centre((*views)[i - 1]), b = runtime::camera_centre((*views)[i]);
+    double step = 0;
+    for (int k = 0; k < 3; ++k) step += double(a[k] - b[k]) * double(a[k] - b[k]);
+    step = std::sqrt(step);
+    shortest = std::min(shortest, step);
+    longest = std::max(longest, step);
+  }
+  CHECK(longest / shortest < 1.05);
+  // The path passes through every key: some view lies within one step of each key centre.
+  for (const Camera& key : keys) {
+    const auto k = runtime::camera_centre(key);
+    double nearest = 1e30;
+    for (const Camera& v : *views) {
+      const auto c = runtime::camera_centre(v);
+      nearest = std::min(nearest, std::sqrt(double((c[0] - k[0]) * (c[0] - k[0]) + (c[1] - k[1]) * (c[1] - k[1]) +
+                                            (c[2] - k[2]) * (c[2] - k[2]))));
+    }
+    CHECK(nearest <= longest);
+  }
+  for (const Camera& v : *views) REQUIRE(runtime::validate_camera(v).ok());  // orthonormal, det +1
+  // Coincident keys: finite views spaced by key index.
+  auto still = runtime::fly_through_cameras({keys[0], keys[0], keys[0]}, 5);
+  REQUIRE(still.ok());
+  for (const Camera& v : *still) CHECK(runtime::validate_camera(v).ok());
+  CHECK(runtime::fly_through_cameras(keys, 0).status().code() == StatusCode::kInvalidArgument);
+  CHECK(runtime::fly_through_cameras({keys[0]}, 8).status().code() == StatusCode::kInvalidArgument);
+  std::vector<Camera> sizes = keys;
+  sizes[2] = runtime::resize_camera(sizes[2], 640, 480);
+  CHECK(runtime::fly_through_cameras(sizes, 8).status().code() == StatusCode::kInvalidArgument);
+}
+
 }  // namespace
 }  // namespace rgs::test

@@ -79,7 +79,10 @@ struct CameraChoice {
   /// INRIA cameras.json; empty: an orbit.
   std::string cameras_path;
   uint32_t every = 1;  ///< every k-th camera of the file
-  uint32_t limit = 0;  ///< at most this many views (0 = all)
+  uint32_t limit = 0;  ///< at most this many key views of the file, or views of an orbit or path (0 = all)
+  /// With cameras_path: this many views flown through the file's cameras (after `every` and `limit`) in order
+  /// (runtime::fly_through_cameras); 0: the file's cameras themselves.
+  uint32_t fly = 0;
   uint32_t orbit = 0;  ///< orbit camera count when cameras_path is empty
   /// Camera path view count (runtime::path_cameras: a rising spiral, near and far) when cameras_path is
   /// empty; used instead of `orbit` when not 0.
@@ -90,9 +93,9 @@ struct CameraChoice {
   uint32_t orbit_width = 1920, orbit_height = 1080;
 };
 
-/// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize), runtime::path_cameras or
-/// runtime::orbit_cameras around `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0
-/// cameras.
+/// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize), flown through with
+/// runtime::fly_through_cameras when `fly` is set, runtime::path_cameras or runtime::orbit_cameras around
+/// `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0 cameras.
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
 
 }  // namespace rgs::api

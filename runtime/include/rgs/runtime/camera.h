@@ -1,4 +1,4 @@
-// Pinhole cameras for the renderers: the camera model, INRIA cameras.json loading and orbit generation.
+// Pinhole cameras for the renderers: the camera model, INRIA cameras.json loading, orbits and camera paths.
 #pragma once
 
 #include <array>
@@ -135,5 +135,16 @@ struct PathOptions {
 Result<std::vector<Camera>> path_cameras(const format::SceneBounds& bounds, uint32_t count, uint32_t width,
                                          uint32_t height, const PathOptions& path = {},
                                          const OrbitOptions& base = {});
+
+/// `count` views flown through the key cameras `keys` in order (e.g. a scene's capture cameras, which lie inside
+/// it and keep its up direction), for benchmarks of views the keys do not show. Camera centres follow the uniform
+/// Catmull–Rom spline through the key centres (the end segments reflect their missing neighbour), sampled
+/// evenly by arc length from the first key's centre (view 0) to the last's (view count − 1), so the speed is
+/// steady; rotations are the shortest-arc slerp of the two keys' world-to-camera rotations at the same spline
+/// parameter. Intrinsics (fx, fy, cx, cy, width, height, near_plane) are the first key's. Deterministic; names
+/// "fly_000", ... Keys whose centres all coincide give views spaced by key index.
+/// @return kInvalidArgument for count 0, fewer than 2 keys, an invalid key (validate_camera) or keys of different
+/// sizes.
+Result<std::vector<Camera>> fly_through_cameras(const std::vector<Camera>& keys, uint32_t count);
 
 }  // namespace rgs::runtime
