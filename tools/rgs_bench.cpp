@@ -93,7 +93,7 @@ struct Options {
   uint64_t splat_budget = 0;
   uint64_t memory_budget = 0;
   float pixel_error = 1.0f;
-  uint64_t stream_bytes = uint64_t{256} << 20;
+  uint64_t stream_bytes = runtime::LodStreamOptions{}.stream_bytes_per_frame;
   std::string lod_levels = "auto";
   bool streamed() const { return splat_budget > 0 || memory_budget > 0; }
 };

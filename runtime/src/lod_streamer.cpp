@@ -46,7 +46,7 @@ struct StagingLayout {
 };
 
 /// Bytes a reader thread takes on at least: a small batch is read by few threads.
-constexpr uint64_t kBytesPerReader = uint64_t{1} << 20;
+constexpr uint64_t kBytesPerReader = uint64_t{128} << 10;
 
 }  // namespace
 
