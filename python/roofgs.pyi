@@ -74,7 +74,13 @@ _Array = Any
 
 class Scene:
     """A loaded scene (immutable; share it freely)."""
-    info: Dict[str, Any]
+    info: Dict[str, Any]  # ... and info["lod"]: active, chunks, levels, stored_gaussians, the budgets, pool_bytes
+    frame_stats: Optional[Dict[str, Any]]
+    """Counts of the last frame render() drew of this scene, None before the first: gaussians, pairs,
+    tile_groups, and lod (zeros unless info["lod"]["active"]): splats (Gaussians drawn), chunks_drawn,
+    chunks_culled, chunks_coarsened (coarser than pixel_error, for splat_budget), chunks_not_resident (CUDA: drawn
+    coarser while the wanted level streams in), ranges_streamed, bytes_streamed (CUDA: requested this frame),
+    bytes_resident (bytes of the levels held)."""
     @staticmethod
     def from_arrays(means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
                     device: str = "auto", sanitize: bool = False, name: str = "arrays") -> "Scene":
@@ -96,7 +102,13 @@ class Scene:
 
 
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
-         quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: str = "rub") -> Scene: ...
+         quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: str = "rub", *, lod: bool = True,
+         splat_budget: int = 3000000, pixel_error: float = 1.0, memory_budget: int = 0) -> Scene:
+    """A scene in any format on device "cuda", "cpu" or "auto". A level-of-detail .rgs (docs/LOD.md) with
+    lod=True draws each frame's selection of levels: at most splat_budget Gaussians (0: no limit), levels whose
+    projected error is at most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget
+    bytes of device memory (0: a pool that holds every level), on the CPU with every level in host memory.
+    lod=False draws its full detail. Other files ignore these (info["notes"] says so for non-default values)."""
 def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, scale_encoding: str = "linear",
             sh_clip_percentile: float = 100.0, sh_dc_bits: int = 16, zstd: Sequence[str] = (), zstd_level: int = 19,
             profile: str = "runtime", position_error: float = ..., sh_degree: Optional[int] = None,

@@ -5,6 +5,8 @@
 //   rgs-render scene.ply --orbit 8 -o out/ --exr             orbit_000.png ... (+ float RGBA .exr)
 //   rgs-render scene.rgs --orbit 8 -o out/ --backend cuda    the same on the GPU (preset fastest)
 //   rgs-render scene.rgs --orbit 8 -o out/ --format ppm --pfm    no OpenImageIO needed (GPU-host builds)
+//   rgs-render scene_lod.rgs --path 60 -o out/ --backend cuda --splat-budget 1000000 --memory-budget 1GiB
+//                                                            a level-of-detail .rgs under budgets (docs/LOD.md)
 //
 // Exit status: 0 on success (every image written), 1 when loading, rendering or writing failed or the build
 // lacks what was asked for (CUDA, OpenImageIO; message naming the cause; no image written or changed), 2 on a
@@ -46,6 +48,9 @@ struct Options {
   int device = 0;
   std::string preset = "fastest";
   uint64_t scratch_budget = 0;  ///< --scratch-budget: api::RenderSettings::gpu_scratch_budget
+  /// --splat-budget, --memory-budget, --pixel-error, --no-lod: api::LoadOptions::lod
+  api::LodSettings lod;
+  bool no_lod = false;
   runtime::RoofgsOptions techniques;  ///< the technique flags; any of them replaces the preset's techniques
 
   bool any_technique() const {
@@ -80,7 +85,7 @@ struct RenderedView {
   uint32_t width = 0, height = 0;
   std::vector<float> rgba;  ///< [H, W, 4] linear, not clamped; alpha 1 − T
   std::vector<float> rgb;   ///< [H, W, 3] the same colours
-  uint64_t pairs = 0;
+  api::FrameStats stats;    ///< pairs, and the level-of-detail counts of a level-of-detail scene
   double render_ms = 0;  ///< wall time of the render, to its completion on the device
 };
 
@@ -113,7 +118,7 @@ struct View {
     RGS_RETURN_IF_ERROR(image.synchronize());
     RenderedView view;
     view.render_ms = tools::seconds_since(start) * 1e3;
-    view.pairs = image.frame_stats().pairs;
+    view.stats = image.frame_stats();
     view.width = image.width();
     view.height = image.height();
     const size_t n = size_t{view.width} * view.height;
@@ -143,6 +148,8 @@ Result<View> open_view(const Options& opt, const std::array<float, 3>& backgroun
   load.presets = {settings.preset};
   load.quantize_other_formats = false;
   load.read_options = tools::scene_read_options();
+  load.lod = opt.lod;
+  load.lod.enabled = !opt.no_lod;
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
   return View{std::move(scene), std::move(renderer).value(), settings};
 }
@@ -171,6 +178,58 @@ Status write_view(tools::OutputSet& outputs, const Options& opt, const std::stri
   if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgba));
   if (opt.pfm) RGS_RETURN_IF_ERROR(tools::write_pfm_rgb(outputs, base + ".pfm", view.width, view.height, view.rgb));
   return Status::ok_status();
+}
+
+/// The level-of-detail counts of a run's views, for the summary.
+struct LodTotals {
+  uint64_t splats = 0, max_splats = 0, bytes_streamed = 0, max_resident = 0;
+  uint64_t chunks_drawn = 0, chunks_coarsened = 0, chunks_not_resident = 0;
+
+  void add(const api::LodFrameCounts& c) {
+    splats += c.splats;
+    max_splats = std::max(max_splats, c.splats);
+    bytes_streamed += c.bytes_streamed;
+    max_resident = std::max(max_resident, c.bytes_resident);
+    chunks_drawn += c.chunks_drawn;
+    chunks_coarsened += c.chunks_coarsened;
+    chunks_not_resident += c.chunks_not_resident;
+  }
+};
+
+/// ", 123,456 splats, 40 chunks (12 coarser for the budget, 3 behind), 1,234,567 B streamed" for a view's line
+/// (the CPU streams nothing: no "behind" and no bytes).
+std::string lod_view_text(const api::LodFrameCounts& c, bool gpu) {
+  std::string text = ", " + tools::group_digits(c.splats) + " splats, " + std::to_string(c.chunks_drawn) +
+                     " chunks (" + std::to_string(c.chunks_coarsened) + " coarser for the budget";
+  if (!gpu) return text + ")";
+  return text + ", " + std::to_string(c.chunks_not_resident) + " behind), " + tools::group_digits(c.bytes_streamed) +
+         " B streamed";
+}
+
+/// The summary lines of a level-of-detail scene: its index and budgets, and the views' counts.
+std::string lod_summary(const api::SceneInfo& scene, const LodTotals& t, size_t views) {
+  const api::SceneLodInfo& lod = scene.lod;
+  const api::LodSettings& s = lod.settings;
+  const bool gpu = scene.device == api::Device::kCuda;
+  std::string text = "  level of detail  " + std::to_string(lod.chunks) + " chunks x " + std::to_string(lod.levels) +
+                     " levels (" + tools::group_digits(lod.stored_gaussians) + " Gaussians in all); budget " +
+                     (s.splat_budget ? tools::group_digits(s.splat_budget) : std::string("unlimited")) +
+                     " splats, " + tools::fixed(s.pixel_error, 2) + " px of error";
+  if (gpu) {
+    text += ", " + (s.memory_budget ? tools::group_digits(s.memory_budget) + " B" : std::string("unbounded")) +
+            " of device memory (pool " + tools::group_digits(lod.pool_bytes) + " B)";
+  } else {
+    text += ", every level in host memory";
+  }
+  text += "\n  splats           mean " + tools::group_digits(t.splats / views) + ", max " +
+          tools::group_digits(t.max_splats) + " a view; chunks drawn " + tools::group_digits(t.chunks_drawn) +
+          ", coarser for the budget " + tools::group_digits(t.chunks_coarsened);
+  if (gpu) {
+    text += ", behind (streaming) " + tools::group_digits(t.chunks_not_resident) + "\n  streamed         " +
+            tools::group_digits(t.bytes_streamed) + " B in all, at most " + tools::group_digits(t.max_resident) +
+            " B resident";
+  }
+  return text + "\n";
 }
 
 std::string output_kinds(const Options& opt) {
@@ -224,17 +283,24 @@ int run(Options opt) {
 
   double render_ms = 0;
   uint64_t total_pairs = 0;
+  LodTotals lod_totals;
   for (size_t i = 0; i < count; ++i) {
     const runtime::Camera& cam = (*cameras)[i];
     auto view = view_door.render(cam);
     if (!view.ok()) return tools::report_error(kTool, Status(view.status()).prepend(opt.input + ", view " + cam.name));
     render_ms += view->render_ms;
-    total_pairs += view->pairs;
+    total_pairs += view->stats.pairs;
     Status s = write_view(outputs, opt, bases[i], *view);
     if (!s.ok()) return tools::report_error(kTool, s);
-    std::fprintf(stderr, "view %zu/%zu %s %s ms (%s), %s pairs\n", i + 1, count, tools::escape_text(cam.name).c_str(),
+    std::string lod_text;
+    if (scene.lod.active) {
+      lod_totals.add(view->stats.lod);
+      lod_text = lod_view_text(view->stats.lod, scene.device == api::Device::kCuda);
+    }
+    std::fprintf(stderr, "view %zu/%zu %s %s ms (%s), %s pairs%s\n", i + 1, count,
+                 tools::escape_text(cam.name).c_str(),
                  tools::fixed(view->render_ms, view->render_ms < 100 ? 3 : 0).c_str(), "render",
-                 tools::group_digits(view->pairs).c_str());
+                 tools::group_digits(view->stats.pairs).c_str(), lod_text.c_str());
   }
 
   const runtime::Camera& first = cameras->front();
@@ -247,6 +313,12 @@ int run(Options opt) {
   std::printf("  gaussians        %s (SH degree %u, %s%s)\n", tools::group_digits(scene.gaussians).c_str(),
               scene.sh_degree, scene.description.c_str(), scene.device == api::Device::kCuda ? ", on the GPU" : "");
   std::printf("  mean pairs       %s\n", tools::group_digits(total_pairs / count).c_str());
+  if (scene.lod.active) {
+    std::printf("%s", lod_summary(scene, lod_totals, count).c_str());
+  } else if (scene.lod.levels > 0) {
+    std::printf("  level of detail  off (--no-lod): the full detail of %u chunks x %u levels\n", scene.lod.chunks,
+                scene.lod.levels);
+  }
   std::printf("  mode             %s\n", view_door.mode().c_str());
   std::printf("  time             %s ms/frame (%s), %s s total\n",
               tools::fixed(ms_per_frame, ms_per_frame < 100 ? 3 : 0).c_str(), "render",
@@ -299,6 +371,28 @@ int main(int argc, char** argv) {
                  "(docs/RENDERER.md#bounded-pair-memory)")
       ->transform(CLI::AsSizeValue(false))
       ->capture_default_str();
+  const std::string lod_help = "Level-of-detail .rgs (rgs-convert --lod-levels; docs/LOD.md): ";
+  auto* splat_budget =
+      app.add_option("--splat-budget", opt.lod.splat_budget,
+                     lod_help + "most Gaussians a frame draws (0: no limit); chunks are drawn at coarser levels "
+                                "until the frame fits")
+          ->capture_default_str();
+  auto* memory_budget =
+      app.add_option("--memory-budget", opt.lod.memory_budget,
+                     lod_help + "--backend cuda: device memory for the level pool, the frame arrays and the upload "
+                                "buffer (e.g. 3GiB, 512MB); 0: a pool that holds every level. The renderer's scratch "
+                                "is bounded by --scratch-budget; the CPU holds every level in host memory")
+          ->transform(CLI::AsSizeValue(false))
+          ->capture_default_str();
+  auto* pixel_error =
+      app.add_option("--pixel-error", opt.lod.pixel_error,
+                     lod_help + "largest projected error of a drawn level, in pixels (format/SPEC.md 4.9.1)")
+          ->check(CLI::Range(0.0f, 1000.0f))
+          ->capture_default_str();
+  app.add_flag("--no-lod", opt.no_lod, lod_help + "render the full detail (level 0 of every chunk), no budgets")
+      ->excludes(splat_budget)
+      ->excludes(memory_budget)
+      ->excludes(pixel_error);
   runtime::RoofgsOptions& t = opt.techniques;
   app.add_flag("--roofgs-key", t.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
   app.add_flag("--accutile", t.snugbox_accutile, "RoofGS: SnugBox + AccuTile tile sets");

@@ -2,19 +2,24 @@
 // (runtime::render_cpu).
 #include "rgs/api/renderer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <mutex>
+#include <optional>
 
 #include "internal_scene.h"
 #include "rgs/format/half.h"
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/lod_selection.h"
 
 #if RGS_HAS_CUDA
 #include "rgs/api/gpu_preset.h"
 #include "rgs/api/gpu_scene_loading.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_renderer.h"
+#include "rgs/runtime/lod_streamer.h"
 #endif
 
 namespace rgs::api {
@@ -88,6 +93,51 @@ void write_host_target(const runtime::RenderResult& r, const ImageTarget& t) {
       std::memcpy(drow, r.depth.data() + size_t(y) * t.width, size_t(t.width) * sizeof(float));
     }
   }
+}
+
+/// The Gaussians a CPU frame of a level-of-detail scene draws: the chosen level of each chunk of `selection`, in
+/// its (chunk) order, copied from the full detail `full` (level 0) or the coarser levels `lod.coarse`. The GPU's
+/// LodStreamer gathers its resident levels in the same order.
+Result<format::GaussianCloud> lod_frame_cloud(const format::GaussianCloud& full, const LodState& lod,
+                                              const runtime::LodSelection& selection) {
+  const uint64_t n0 = full.size();
+  const size_t k3 = size_t(full.sh_coefficients()) * 3;
+  uint64_t total = 0;
+  for (const runtime::LodChoice& choice : selection.choices) total += lod.index.at(choice.level, choice.chunk).count;
+  format::GaussianCloud out;
+  out.sh_degree = full.sh_degree;
+  try {
+    out.resize(total);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "level-of-detail frame: cannot hold " + std::to_string(total) +
+                                                " Gaussians");
+  }
+  size_t at = 0;
+  for (const runtime::LodChoice& choice : selection.choices) {
+    const format::LodLevel& range = lod.index.at(choice.level, choice.chunk);
+    const format::GaussianCloud& src = range.first < n0 ? full : lod.coarse;
+    const size_t first = range.first < n0 ? range.first : range.first - n0;
+    const size_t n = range.count;
+    const auto copy = [&](const std::vector<float>& from, std::vector<float>& to, size_t record) {
+      std::copy_n(from.begin() + first * record, n * record, to.begin() + at * record);
+    };
+    copy(src.means, out.means, 3);
+    copy(src.rotations, out.rotations, 4);
+    copy(src.scales, out.scales, 3);
+    copy(src.opacities, out.opacities, 1);
+    copy(src.sh, out.sh, k3);
+    at += n;
+  }
+  return out;
+}
+
+LodFrameCounts lod_counts(const runtime::LodSelection& selection) {
+  LodFrameCounts c;
+  c.splats = selection.splats;
+  c.chunks_drawn = static_cast<uint32_t>(selection.choices.size());
+  c.chunks_culled = selection.culled;
+  c.chunks_coarsened = selection.coarsened;
+  return c;
 }
 
 }  // namespace
@@ -223,12 +273,24 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   }
   const SceneInfo& info = scene.info();
   FrameStats stats;
+  const LodState* lod = scene.impl_->lod.get();
   if (impl_->device == Device::kCpu) {
     runtime::RenderOptions options = cpu_backend_options(settings.preset, info.bounds);
     if (settings.techniques) options.roofgs = *settings.techniques;
     options.background = settings.background;
     options.num_threads = settings.cpu_threads;
-    RGS_ASSIGN_OR_RETURN(runtime::RenderResult result, runtime::render_cpu(*scene.cloud(), camera, options));
+    // A level-of-detail scene draws the frame's selection with every level resident (select_lod is pure: no lock).
+    std::optional<format::GaussianCloud> frame;
+    if (lod != nullptr) {
+      const runtime::LodSelection selection =
+          runtime::select_lod(lod->index, camera, {info.lod.settings.splat_budget, info.lod.settings.pixel_error});
+      RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, lod_frame_cloud(*scene.cloud(), *lod, selection));
+      frame.emplace(std::move(cloud));
+      stats.lod = lod_counts(selection);
+      stats.lod.bytes_resident = lod->stored_bytes;
+    }
+    RGS_ASSIGN_OR_RETURN(runtime::RenderResult result,
+                         runtime::render_cpu(frame ? *frame : *scene.cloud(), camera, options));
     write_host_target(result, target);
     stats.gaussians = result.stats.gaussians;
     stats.pairs = result.stats.pairs;
@@ -240,6 +302,11 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
     options = gpu_render_options(Preset::kFastest, info.has_compact);
     options.roofgs.techniques = *settings.techniques;
   }
+  RGS_RETURN_ERROR_IF(reads_fp32_attributes(options) && lod != nullptr, StatusCode::kInvalidArgument,
+                      std::string("Renderer: preset ") + preset_name(settings.preset) +
+                          " reads FP32 attributes, and the level-of-detail scene " + info.path +
+                          " streams the compact ones only: load it with LoadOptions::lod.enabled = false to render "
+                          "its full detail");
   RGS_RETURN_ERROR_IF(reads_fp32_attributes(options) && !info.has_fp32, StatusCode::kInvalidArgument,
                       std::string("Renderer: preset ") + preset_name(settings.preset) +
                           " reads FP32 attributes, and " + info.path +
@@ -255,8 +322,37 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   out.write_alpha = target.write_alpha;
   out.depth = target.depth;
   out.depth_pitch = target.depth_pitch;
-  RGS_ASSIGN_OR_RETURN(runtime::GpuRenderStats gpu_stats,
-                       impl_->gpu->render(*scene.gpu_scene(), camera, options, out, stream));
+  runtime::GpuRenderStats gpu_stats;
+  if (lod != nullptr) {
+    // One frame at a time (the streamer's pool and frame arrays change with every prepare), and on the GPU after
+    // the previous frame's render, whichever stream it was enqueued on.
+    LodState& state = *scene.impl_->lod;
+    std::lock_guard<std::mutex> lock(state.mutex);
+    RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(stream, state.frame_done.get(), 0),
+                             "Renderer: wait for the previous level-of-detail frame");
+    auto prepared = state.streamer->prepare(camera, stream);
+    if (!prepared.ok()) {
+      Status status = prepared.status();
+      if (status.message().find(info.path) == std::string::npos) status.prepend(info.path);
+      return status;
+    }
+    auto rendered = impl_->gpu->render(state.streamer->scene(), camera, options, out, stream);
+    const cudaError_t recorded = cudaEventRecord(state.frame_done.get(), stream);
+    if (!rendered.ok()) return rendered.status();
+    RGS_RETURN_IF_CUDA_ERROR(recorded, "Renderer: level-of-detail frame event");
+    gpu_stats = *rendered;
+    const runtime::LodFrameStats& p = *prepared;
+    stats.lod.splats = p.splats;
+    stats.lod.chunks_drawn = p.chunks_drawn;
+    stats.lod.chunks_culled = p.chunks_culled;
+    stats.lod.chunks_coarsened = p.chunks_coarsened;
+    stats.lod.chunks_not_resident = p.chunks_not_resident;
+    stats.lod.ranges_streamed = p.ranges_streamed;
+    stats.lod.bytes_streamed = p.bytes_streamed;
+    stats.lod.bytes_resident = p.bytes_resident;
+  } else {
+    RGS_ASSIGN_OR_RETURN(gpu_stats, impl_->gpu->render(*scene.gpu_scene(), camera, options, out, stream));
+  }
   stats.gaussians = gpu_stats.gaussians;
   stats.pairs = gpu_stats.pairs;
   stats.tile_groups = gpu_stats.tile_groups;

@@ -1,4 +1,9 @@
 // load() and load_cloud(): every supported file, or float Gaussians in memory, into a Scene on the CPU or the GPU.
+#include <cmath>
+#include <cstring>
+#include <new>
+#include <optional>
+
 #include "internal_scene.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/converter/quantize.h"
@@ -10,6 +15,7 @@
 #if RGS_HAS_CUDA
 #include "rgs/api/gpu_scene_loading.h"
 #include "rgs/runtime/cuda_device.h"
+#include "rgs/runtime/lod_streamer.h"
 #endif
 
 namespace rgs::api {
@@ -43,7 +49,7 @@ const format::GaussianCloud* Scene::cloud() const {
 
 const runtime::GpuScene* Scene::gpu_scene() const {
 #if RGS_HAS_CUDA
-  return impl_->gpu ? &*impl_->gpu : nullptr;
+  return impl_->gpu ? &*impl_->gpu : nullptr;  // unset for level-of-detail scenes
 #else
   return nullptr;
 #endif
@@ -59,7 +65,163 @@ uint64_t runtime_bytes(uint64_t n, uint32_t degree) {
   return n * (12 + 8 + 6 + 2) + n * format::sh_coefficient_count(degree) * 3;
 }
 
+/// `status` with `path` in front unless its message names the file already.
+Status naming(Status status, const std::string& path) {
+  if (status.message().find(path) == std::string::npos) status.prepend(path);
+  return status;
+}
+
+/// Bytes of one Gaussian in the runtime sections of `file` (SPEC §4.3-4.8), the DC residual included.
+uint64_t stored_gaussian_bytes(const format::RgsFile& file) {
+  const bool residual = file.find(format::SectionId::kShDcResidual) != nullptr;
+  return runtime_bytes(1, file.metadata().sh_degree) + (residual ? 3 : 0);
+}
+
+/// kInvalidArgument for level-of-detail settings no frame can use (checked whatever the file, when enabled).
+Status check_lod_settings(const LodSettings& s, const std::string& path) {
+  if (!s.enabled) return Status();
+  RGS_RETURN_ERROR_IF(!std::isfinite(s.pixel_error) || s.pixel_error < 0, StatusCode::kInvalidArgument,
+                      path + ": level-of-detail pixel error " + std::to_string(s.pixel_error) +
+                          " must be finite and >= 0 (pixels)");
+  RGS_RETURN_ERROR_IF(s.stream_bytes_per_frame == 0, StatusCode::kInvalidArgument,
+                      path + ": level-of-detail stream_bytes_per_frame must be > 0 bytes (nothing could stream)");
+  return Status();
+}
+
+/// A scene loaded whole (not level-of-detail): with options.lod.enabled, a note when the budgets differ from the
+/// defaults (the file has no levels to use them on); without, the index of a level-of-detail file in info->lod
+/// (inactive), so that callers can tell that the full detail of such a file was loaded.
+void describe_unused_levels(const std::string& path, const LoadOptions& options, SceneInfo* info) {
+  const LodSettings& s = options.lod;
+  const LodSettings d;
+  if (s.enabled) {
+    if (s.splat_budget != d.splat_budget || s.pixel_error != d.pixel_error || s.memory_budget != d.memory_budget ||
+        s.stream_bytes_per_frame != d.stream_bytes_per_frame) {
+      info->notes.push_back("level-of-detail budgets not used: " + path +
+                            " has no levels of detail (rgs-convert --lod-levels auto writes them); every Gaussian "
+                            "is drawn");
+    }
+    return;
+  }
+  if (!info->source_is_rgs) return;
+  auto file = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
+  if (file.ok() && file->lod() != nullptr) {
+    info->lod.chunks = file->lod()->chunk_count;
+    info->lod.levels = file->lod()->level_count;
+    info->lod.stored_gaussians = file->gaussian_count();
+  }
+}
+
+/// The .rgs file at `path` when it has levels of detail that options.lod asks to use; nullopt for any other
+/// input, read the ordinary way (which also reports the errors of a file that does not open).
+std::optional<format::RgsFile> open_lod_file(const std::string& path, const LoadOptions& options) {
+  // A streamed-SOG level (read_options.lod) given for a .rgs is refused by converter::read_scene.
+  if (!options.lod.enabled || options.read_options.lod.has_value() || !is_rgs_path(path)) return std::nullopt;
+  auto file = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
+  if (!file.ok() || file->lod() == nullptr) return std::nullopt;
+  return std::move(file).value();
+}
+
+SceneLodInfo lod_info(const format::RgsFile& file, const LodSettings& settings) {
+  SceneLodInfo lod;
+  lod.active = true;
+  lod.chunks = file.lod()->chunk_count;
+  lod.levels = file.lod()->level_count;
+  lod.stored_gaussians = file.gaussian_count();
+  lod.settings = settings;
+  return lod;
+}
+
+/// The levels coarser than level 0 of a level-of-detail file (Gaussians [full detail, stored)), each range
+/// checked on its own (RgsFile::lod_range: its XXH64, the value rules), copied as stored.
+Result<format::EncodedScene> read_coarse_levels(const format::RgsFile& file) {
+  const format::LodIndex& index = *file.lod();
+  const uint64_t n0 = index.full_detail_count();
+  format::EncodedScene coarse;
+  coarse.metadata = file.metadata();
+  coarse.count = file.gaussian_count() - n0;
+  const uint64_t k3 = 3 * format::sh_coefficient_count(coarse.metadata.sh_degree);
+  const bool residual = file.find(format::SectionId::kShDcResidual) != nullptr;
+  try {
+    coarse.means.resize(coarse.count * 3);
+    coarse.rotations.resize(coarse.count * 4);
+    coarse.scales.resize(coarse.count * 3);
+    coarse.opacities.resize(coarse.count);
+    coarse.sh.resize(coarse.count * k3);
+    if (residual) coarse.sh_dc_residual.resize(coarse.count * 3);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, file.name() + ": cannot hold the " + std::to_string(coarse.count) +
+                                                " Gaussians of the coarser levels of detail");
+  }
+  const auto put = [](void* dst, uint64_t at, uint64_t record, const format::ByteView& v) {
+    if (v.size > 0) std::memcpy(static_cast<uint8_t*>(dst) + at * record, v.data, v.size);
+  };
+  // Record order (level-major) tiles the sections, so levels 1.. fill [n0, stored) in that order.
+  uint64_t at = 0;
+  for (uint32_t level = 1; level < index.level_count; ++level) {
+    for (uint32_t chunk = 0; chunk < index.chunk_count; ++chunk) {
+      RGS_ASSIGN_OR_RETURN(const format::LodRangeView r, file.lod_range(level, chunk));
+      RGS_RETURN_ERROR_IF(r.first != n0 + at || at + r.count > coarse.count, StatusCode::kCorruptData,
+                          file.name() + ": level " + std::to_string(level) + " of chunk " + std::to_string(chunk) +
+                              " starts at Gaussian " + std::to_string(r.first) + ", not " +
+                              std::to_string(n0 + at));
+      put(coarse.means.data(), at, 12, r.means);
+      put(coarse.rotations.data(), at, 8, r.rotations);
+      put(coarse.scales.data(), at, 6, r.scales);
+      put(coarse.opacities.data(), at, 2, r.opacities);
+      put(coarse.sh.data(), at, k3, r.sh);
+      if (residual) put(coarse.sh_dc_residual.data(), at, 3, r.sh_dc_residual);
+      at += r.count;
+    }
+  }
+  RGS_RETURN_ERROR_IF(at != coarse.count, StatusCode::kCorruptData,
+                      file.name() + ": the levels of detail hold " + std::to_string(n0 + at) + " Gaussians, the file " +
+                          std::to_string(file.gaussian_count()));
+  return coarse;
+}
+
+/// A level-of-detail .rgs on the CPU: the full detail (read_scene: every section checked) and every coarser
+/// level (each range checked), dequantized; frames select from both (Renderer::render).
+Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path, const LoadOptions& options) {
+  auto impl = std::make_shared<Scene::Impl>();
+  auto encoded = file.read_scene();
+  if (!encoded.ok()) return naming(encoded.status(), path);
+  auto cloud = format::dequantize(*encoded);
+  if (!cloud.ok()) return naming(cloud.status(), path);
+  encoded = format::EncodedScene{};
+  auto coarse_encoded = read_coarse_levels(file);
+  if (!coarse_encoded.ok()) return naming(coarse_encoded.status(), path);
+  auto coarse = format::dequantize(*coarse_encoded);
+  if (!coarse.ok()) return naming(coarse.status(), path);
+  impl->cloud = std::move(cloud).value();
+  impl->lod = std::make_unique<LodState>();
+  impl->lod->index = *file.lod();
+  impl->lod->coarse = std::move(coarse).value();
+  impl->lod->stored_bytes = file.gaussian_count() * stored_gaussian_bytes(file);
+  SceneInfo& info = impl->info;
+  info.device = Device::kCpu;
+  info.path = path;
+  info.bounds = file.metadata().bounds;
+  info.source_is_rgs = true;
+  info.file_bytes = file.file_size();
+  info.gaussians = impl->cloud.size();
+  info.sh_degree = impl->cloud.sh_degree;
+  info.memory_bytes = cloud_bytes(impl->cloud) + cloud_bytes(impl->lod->coarse);
+  info.runtime_section_bytes = runtime_bytes(info.gaussians, info.sh_degree);
+  info.lod = lod_info(file, options.lod);
+  info.description = "RoofGS .rgs, dequantized, " + std::to_string(info.lod.chunks) + " chunks x " +
+                     std::to_string(info.lod.levels) + " levels of detail";
+  if (options.lod.memory_budget != 0) {
+    info.notes.push_back("level-of-detail memory budget not used on the CPU: every level of " + path +
+                         " is held in host memory (" + std::to_string(info.memory_bytes) + " bytes)");
+  }
+  return Scene(std::move(impl));
+}
+
 Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
+  if (std::optional<format::RgsFile> lod_file = open_lod_file(path, options)) {
+    return load_cpu_lod(*lod_file, path, options);
+  }
   auto impl = std::make_shared<Scene::Impl>();
   SceneInfo& info = impl->info;
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, options.read_options));
@@ -86,12 +248,62 @@ Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
   info.runtime_section_bytes = (info.source_is_rgs || options.quantize_other_formats)
                                    ? runtime_bytes(info.gaussians, info.sh_degree)
                                    : 0;
+  describe_unused_levels(path, options, &info);
   return Scene(std::move(impl));
 }
 
 #if RGS_HAS_CUDA
+// LodSettings' defaults are the streamer's (scene.h cannot include the CUDA header that states them).
+static_assert(LodSettings{}.splat_budget == runtime::LodStreamOptions{}.budget.max_splats &&
+              LodSettings{}.pixel_error == runtime::LodStreamOptions{}.budget.pixel_error &&
+              LodSettings{}.memory_budget == runtime::LodStreamOptions{}.memory_budget &&
+              LodSettings{}.stream_bytes_per_frame == runtime::LodStreamOptions{}.stream_bytes_per_frame);
+
+/// A level-of-detail .rgs on the GPU: a LodStreamer with the coarsest level of every chunk uploaded.
+Result<Scene> load_cuda_lod(const format::RgsFile& file, const std::string& path, const LoadOptions& options) {
+  for (Preset p : options.presets) {
+    RGS_RETURN_ERROR_IF(preset_reads_fp32(p), StatusCode::kInvalidArgument,
+                        path + ": preset " + preset_name(p) +
+                            " reads FP32 attributes, and a level-of-detail scene streams the compact ones only; "
+                            "load it with LoadOptions::lod.enabled = false to render its full detail");
+  }
+  runtime::LodStreamOptions stream_options;
+  stream_options.budget = {options.lod.splat_budget, options.lod.pixel_error};
+  stream_options.memory_budget = options.lod.memory_budget;
+  stream_options.stream_bytes_per_frame = options.lod.stream_bytes_per_frame;
+  auto streamer = runtime::LodStreamer::open(file, stream_options);
+  if (!streamer.ok()) return naming(streamer.status(), path);
+  auto impl = std::make_shared<Scene::Impl>();
+  impl->lod = std::make_unique<LodState>();
+  LodState& lod = *impl->lod;
+  lod.index = *file.lod();
+  lod.streamer.emplace(std::move(streamer).value());
+  cudaEvent_t event = nullptr;
+  RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&event, cudaEventDisableTiming), path + ": frame event");
+  lod.frame_done.reset(event);
+  SceneInfo& info = impl->info;
+  info.device = Device::kCuda;
+  info.path = path;
+  info.bounds = file.metadata().bounds;
+  info.source_is_rgs = true;
+  info.file_bytes = file.file_size();
+  info.gaussians = lod.index.full_detail_count();
+  info.sh_degree = file.metadata().sh_degree;
+  info.has_compact = true;
+  info.memory_bytes = lod.streamer->device_bytes();
+  info.runtime_section_bytes = info.gaussians * stored_gaussian_bytes(file);
+  info.lod = lod_info(file, options.lod);
+  info.lod.pool_bytes = lod.streamer->pool_bytes();
+  info.description = "RoofGS .rgs, " + std::to_string(info.lod.chunks) + " chunks x " +
+                     std::to_string(info.lod.levels) + " levels of detail, streamed";
+  return Scene(std::move(impl));
+}
+
 Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   RGS_RETURN_IF_ERROR(require_cuda_device(options.cuda_device));
+  if (std::optional<format::RgsFile> lod_file = open_lod_file(path, options)) {
+    return load_cuda_lod(*lod_file, path, options);
+  }
   runtime::GpuSceneOptions gpu_options;
   gpu_options.fp32_attributes = false;
   for (Preset p : options.presets) gpu_options.fp32_attributes |= preset_reads_fp32(p);
@@ -131,6 +343,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   info.has_fp32 = gpu.has_fp32();
   info.memory_bytes = gpu.device_bytes();
   info.runtime_section_bytes = gpu.runtime_section_bytes();
+  describe_unused_levels(path, options, &info);
   return Scene(std::move(impl));
 }
 #endif
@@ -169,6 +382,7 @@ Result<Scene> load_cloud(format::GaussianCloud cloud, const format::SceneBounds&
 }
 
 Result<Scene> load(const std::string& path, const LoadOptions& options) {
+  RGS_RETURN_IF_ERROR(check_lod_settings(options.lod, path));
   if (options.device == Device::kCpu) return load_cpu(path, options);
 #if RGS_HAS_CUDA
   return load_cuda(path, options);

@@ -252,6 +252,36 @@ py::dict scene_info(const api::SceneInfo& info) {
   d["sphere_radius"] = info.bounds.sphere_radius;
   d["notes"] = info.notes;
   d["description"] = info.description;
+  py::dict lod;
+  lod["active"] = info.lod.active;
+  lod["chunks"] = info.lod.chunks;
+  lod["levels"] = info.lod.levels;
+  lod["stored_gaussians"] = info.lod.stored_gaussians;
+  lod["splat_budget"] = info.lod.settings.splat_budget;
+  lod["pixel_error"] = info.lod.settings.pixel_error;
+  lod["memory_budget"] = info.lod.settings.memory_budget;
+  lod["stream_bytes_per_frame"] = info.lod.settings.stream_bytes_per_frame;
+  lod["pool_bytes"] = info.lod.pool_bytes;
+  d["lod"] = lod;
+  return d;
+}
+
+/// A frame's counts (api::FrameStats) as a dict; "lod" holds the level-of-detail counts (zeros for other scenes).
+py::dict frame_stats_dict(const api::FrameStats& stats) {
+  py::dict d;
+  d["gaussians"] = stats.gaussians;
+  d["pairs"] = stats.pairs;
+  d["tile_groups"] = stats.tile_groups;
+  py::dict lod;
+  lod["splats"] = stats.lod.splats;
+  lod["chunks_drawn"] = stats.lod.chunks_drawn;
+  lod["chunks_culled"] = stats.lod.chunks_culled;
+  lod["chunks_coarsened"] = stats.lod.chunks_coarsened;
+  lod["chunks_not_resident"] = stats.lod.chunks_not_resident;
+  lod["ranges_streamed"] = stats.lod.ranges_streamed;
+  lod["bytes_streamed"] = stats.lod.bytes_streamed;
+  lod["bytes_resident"] = stats.lod.bytes_resident;
+  d["lod"] = lod;
   return d;
 }
 
@@ -678,12 +708,14 @@ std::optional<int> device_arrays_device(const std::array<const py::object*, 5>& 
   return cuda;
 }
 
-/// A scene and the renderer Python uses for it (created on first render; calls serialized by a mutex).
+/// A scene and the renderer Python uses for it (created on first render; calls serialized by a mutex), and the
+/// counts of the last frame rendered through it.
 struct PyScene {
   api::Scene scene;
   int cuda_device = 0;  // the device of a CUDA scene
   std::unique_ptr<api::Renderer> renderer;
   std::mutex mutex;
+  std::optional<api::FrameStats> last_stats;  // guarded by mutex
 
   explicit PyScene(api::Scene s, int device = 0) : scene(std::move(s)), cuda_device(device) {}
 
@@ -718,6 +750,7 @@ struct PyScene {
         }
       }
       if (renderer) image = renderer->render_image(scene, camera, settings, pixel_format, depth, s);
+      if (image.ok()) last_stats = image->frame_stats();
     }
     auto shared = std::make_shared<api::Image>(unwrap(std::move(image)));
     ImagePlane colour{shared, false};
@@ -1120,6 +1153,23 @@ PYBIND11_MODULE(roofgs, m) {
   py::class_<PyScene>(m, "Scene", "A loaded scene (immutable; share it freely)")
       .def_property_readonly("info", [](const PyScene& s) { return scene_info(s.scene.info()); })
       .def_property_readonly("device", [](const PyScene& s) { return api::device_name(s.scene.device()); })
+      .def_property_readonly(
+          "frame_stats",
+          [](PyScene& s) -> py::object {
+            std::optional<api::FrameStats> stats;
+            {
+              std::lock_guard<std::mutex> lock(s.mutex);
+              stats = s.last_stats;
+            }
+            if (!stats) return py::none();
+            return frame_stats_dict(*stats);
+          },
+          "Counts of the last frame render() drew of this scene (None before the first): gaussians (input "
+          "Gaussians), pairs ((tile, Gaussian) pairs sorted), tile_groups (CUDA: passes over groups of tile rows), "
+          "and lod, the level-of-detail counts (zeros unless info['lod']['active']): splats (Gaussians drawn), "
+          "chunks_drawn, chunks_culled, chunks_coarsened (coarser than pixel_error, for splat_budget), "
+          "chunks_not_resident (CUDA: drawn coarser while the wanted level streams in), ranges_streamed and "
+          "bytes_streamed (CUDA: requested this frame), bytes_resident (bytes of the levels held)")
       .def("__len__", [](const PyScene& s) { return s.scene.size(); })
       .def("__repr__", [](const PyScene& s) {
         const api::SceneInfo& info = s.scene.info();
@@ -1217,12 +1267,17 @@ PYBIND11_MODULE(roofgs, m) {
 
   m.def("load",
         [](const std::filesystem::path& path, const std::string& device, std::vector<std::string> presets,
-           bool quantize_other_formats, int cuda_device, const std::string& spz_frame) {
+           bool quantize_other_formats, int cuda_device, const std::string& spz_frame, bool lod,
+           uint64_t splat_budget, float pixel_error, uint64_t memory_budget) {
           api::LoadOptions options;
           options.read_options = read_options(spz_frame);
           options.device = resolve_device(device);
           options.cuda_device = cuda_device;
           options.quantize_other_formats = quantize_other_formats;
+          options.lod.enabled = lod;
+          options.lod.splat_budget = splat_budget;
+          options.lod.pixel_error = pixel_error;
+          options.lod.memory_budget = memory_budget;
           options.presets.clear();
           for (const std::string& p : presets) options.presets.push_back(unwrap(api::parse_preset(p)));
           Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
@@ -1234,10 +1289,21 @@ PYBIND11_MODULE(roofgs, m) {
         },
         py::arg("path"), py::arg("device") = "auto", py::arg("presets") = std::vector<std::string>{"fastest"},
         py::arg("quantize_other_formats") = true, py::arg("cuda_device") = 0, py::arg("spz_frame") = "rub",
+        py::kw_only(), py::arg("lod") = true, py::arg("splat_budget") = api::LodSettings{}.splat_budget,
+        py::arg("pixel_error") = api::LodSettings{}.pixel_error, py::arg("memory_budget") = uint64_t{0},
         "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) onto device "
         "'cuda', 'cpu' or 'auto' (CUDA when a device answers, else the CPU, said once); the GPU copy holds only "
         "what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
-        "(Niantic's convention) or 'as-stored' (splat-transform's); info['notes'] says which was assumed");
+        "(Niantic's convention) or 'as-stored' (splat-transform's); info['notes'] says which was assumed. "
+        "A level-of-detail .rgs (rgs-convert --lod-levels auto; docs/LOD.md) renders, with lod=True, each frame's "
+        "selection of levels: at most splat_budget Gaussians (0: no limit), levels whose projected error is at "
+        "most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget bytes of device "
+        "memory (0: a pool that holds every level; the renderer's scratch is bounded by render()'s "
+        "scratch_budget), on the CPU with every level in host memory. lod=False renders its full detail. Files "
+        "without levels ignore these (info['notes'] says so for values other than the defaults); "
+        "info['lod'] tells, frame_stats['lod'] counts each frame. roofgs.Error kInvalidArgument for pixel_error "
+        "< 0 or not finite, or a level-of-detail CUDA scene with a preset reading FP32 (faithful); "
+        "kLimitExceeded for a memory_budget below the frame arrays and the coarsest levels");
 
   m.def("convert",
         [](const std::filesystem::path& src, const std::filesystem::path& dst, py::kwargs kwargs) {

@@ -152,6 +152,42 @@ def test_cpu_render_returns_numpy(guitar_rgs):
     assert np.array_equal(scene.render(camera, scratch_budget=1), rgba)
 
 
+def test_load_level_of_detail_keywords():
+    """load()'s level-of-detail keywords on the golden v1.3 file (2 chunks x 3 levels, 14 Gaussians at full
+    detail, 3 in the coarsest levels): the full detail on request, a splat budget kept, frame_stats counting."""
+    path = DATA / "v1.3" / "small_sh1_lod.rgs"
+    full = roofgs.load(path, device="cpu", lod=False)
+    assert len(full) == 14 and not full.info["lod"]["active"]
+    assert full.info["lod"]["chunks"] == 2 and full.info["lod"]["levels"] == 3
+    assert full.frame_stats is None
+    camera = full.orbit_cameras(1, 64, 36)[0]
+    reference = full.render(camera)
+    assert full.frame_stats["gaussians"] == 14 and full.frame_stats["lod"]["splats"] == 0
+    # No budget and no error allowed: level 0 of every chunk, the full detail itself.
+    exact = roofgs.load(path, device="cpu", splat_budget=0, pixel_error=0.0)
+    lod = exact.info["lod"]
+    assert lod["active"] and lod["stored_gaussians"] == 24 and lod["splat_budget"] == 0 and lod["pool_bytes"] == 0
+    assert np.array_equal(exact.render(camera), reference)
+    stats = exact.frame_stats
+    assert stats["lod"]["splats"] == 14 and stats["lod"]["chunks_drawn"] == 2 and stats["lod"]["chunks_culled"] == 0
+    assert stats["lod"]["bytes_streamed"] == 0 and stats["lod"]["chunks_not_resident"] == 0
+    # A budget of the coarsest levels: at most 3 Gaussians drawn, another image.
+    small = roofgs.load(path, device="cpu", splat_budget=3, pixel_error=1.0)
+    image = small.render(camera)
+    assert small.frame_stats["lod"]["splats"] <= 3 and small.frame_stats["lod"]["chunks_coarsened"] > 0
+    assert small.frame_stats["gaussians"] == small.frame_stats["lod"]["splats"]
+    assert not np.array_equal(image, reference)
+    # Bad values name the setting; a memory budget means nothing to the CPU, nor a budget to a file without levels.
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.load(path, device="cpu", pixel_error=-1.0)
+    assert e.value.code_name == "kInvalidArgument" and "pixel error" in str(e.value)
+    noted = roofgs.load(path, device="cpu", memory_budget=1 << 20)
+    assert any("memory budget not used on the CPU" in n for n in noted.info["notes"])
+    plain = roofgs.load(INPUTS["rgs"], device="cpu", splat_budget=1000)
+    assert not plain.info["lod"]["active"]
+    assert any("level-of-detail budgets not used" in n for n in plain.info["notes"])
+
+
 def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
     """Paths as os.PathLike; device="auto" (the default) loads on the CPU when no device answers, said once,
     and "cuda" then raises an error naming the fix; one image side keeps the aspect ratio."""

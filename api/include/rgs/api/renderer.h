@@ -78,11 +78,28 @@ struct RenderSettings {
   std::optional<runtime::RoofgsOptions> techniques;
 };
 
+/// Level-of-detail counts of one frame of a level-of-detail scene (SceneInfo::lod.active; docs/LOD.md); all zero
+/// for other scenes. GPU: runtime::LodFrameStats of the frame's LodStreamer::prepare. CPU: every level is
+/// resident, so nothing streams and no chunk waits.
+struct LodFrameCounts {
+  uint64_t splats = 0;               ///< Gaussians drawn (the chosen levels; FrameStats::gaussians too)
+  uint32_t chunks_drawn = 0;         ///< chunks whose sphere meets the view frustum
+  uint32_t chunks_culled = 0;        ///< chunks outside it (not drawn)
+  uint32_t chunks_coarsened = 0;     ///< drawn coarser than the pixel threshold allows, for the splat budget
+  uint32_t chunks_not_resident = 0;  ///< GPU: drawn at a coarser resident level while the wanted one streams in
+  uint32_t ranges_streamed = 0;      ///< GPU: levels requested this frame (drawable two frames later)
+  uint64_t bytes_streamed = 0;       ///< GPU: their bytes, read from the file and uploaded
+  /// Bytes of the levels held: GPU, those in the pool (requested ones included); CPU, every level as stored
+  /// in the file (its runtime sections' bytes).
+  uint64_t bytes_resident = 0;
+};
+
 /// Counts of one frame.
 struct FrameStats {
-  uint64_t gaussians = 0;  ///< input Gaussians
+  uint64_t gaussians = 0;  ///< input Gaussians (level-of-detail scenes: those of the frame's levels)
   uint64_t pairs = 0;      ///< (tile, Gaussian) pairs sorted
   uint32_t tile_groups = 1;  ///< GPU: passes over groups of tile rows (1: the whole frame at once)
+  LodFrameCounts lod;        ///< level-of-detail scenes: what the frame selected and streamed
 };
 
 /// An image owned by the library (Renderer::render_image): device memory for GPU scenes (cudaMalloc), host
@@ -145,9 +162,18 @@ class Renderer {
   /// the call returns once the sort and blend are enqueued; the image is complete when `stream` reaches
   /// that point (use cudaStreamSynchronize or an event). Scratch buffers that must grow (first frames, a
   /// larger frame) are allocated with cudaMalloc. CPU: synchronous; `stream` is ignored.
+  /// Level-of-detail scenes (SceneInfo::lod.active): the frame draws the levels runtime::select_lod picks for
+  /// `camera` under LoadOptions::lod. GPU: under the scene's mutex, runtime::LodStreamer::prepare(camera,
+  /// `stream`) (after a GPU wait for the scene's previous frame, on any stream), then its frame is rendered on
+  /// `stream`; the image depends on the frames rendered before (levels arrive two frames after they are
+  /// wanted). CPU: the chosen ranges of every level held in host memory, in chunk order, as the GPU gathers
+  /// them: a GPU frame whose chunks are all resident (FrameStats::lod.chunks_not_resident 0) draws the same
+  /// Gaussians.
   /// @return kInvalidArgument (scene on another device than the renderer, an invalid camera or target, a
-  /// preset whose data the scene was loaded without: LoadOptions::presets), kLimitExceeded, kOutOfMemory,
-  /// kCudaError.
+  /// preset whose data the scene was loaded without: LoadOptions::presets; on a level-of-detail GPU scene a
+  /// preset reading FP32), kLimitExceeded, kOutOfMemory, kCudaError; level-of-detail GPU scenes also the file's
+  /// errors for a level that fails its checks when read (kChecksumMismatch, kCorruptData; it is requested again
+  /// when next wanted).
   Result<FrameStats> render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                             const ImageTarget& target, Stream stream = nullptr);
 

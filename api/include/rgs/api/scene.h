@@ -2,7 +2,11 @@
 // scenes exist only in builds with RGS_HAS_CUDA (rgs/config.h).
 //
 // Thread safety: a Scene is immutable once loaded; copies share it (reference counted), and one Scene may be
-// rendered by several Renderers on several threads at once. load() and convert() are reentrant.
+// rendered by several Renderers on several threads at once. The one exception is a level-of-detail scene on the
+// GPU (SceneInfo::lod.active, device kCuda): its frames are drawn from a pool of streamed levels that each frame
+// changes, so its renders take turns (a mutex in the scene) and each frame's gather waits on the GPU for the
+// previous frame's render, whichever stream that was on; sharing it is safe, but its frames are not concurrent.
+// load() and convert() are reentrant.
 #pragma once
 
 #include <cstdint>
@@ -40,6 +44,35 @@ Result<Device> parse_device(const std::string& name);
 /// reason, e.g. "built without CUDA" or the driver's error).
 bool cuda_available(std::string* why = nullptr);
 
+/// How load() renders a level-of-detail .rgs (rgs-convert --lod-levels; format/SPEC.md §4.9, docs/LOD.md): every
+/// frame draws one level per chunk in the view frustum (runtime::select_lod): the coarsest whose projected error
+/// is at most `pixel_error`, then coarser levels where the frame would exceed `splat_budget`. On the GPU the levels
+/// a frame wants are streamed from the mapped file into a pool of device memory (runtime::LodStreamer): a level
+/// requested in frame k is drawn from frame k + 2, coarser resident levels stand in meanwhile, so a frame depends
+/// on the frames before it. On the CPU every level is held in host memory and every frame draws its selection.
+/// Files without levels of detail ignore these settings (load() adds a note to SceneInfo::notes when a value
+/// differs from its default).
+struct LodSettings {
+  /// True: a file with levels of detail renders each frame's selection under the budgets below. False: it renders
+  /// its full detail (level 0 of every chunk: the ordinary scene, as a reader of an older format sees it).
+  bool enabled = true;
+  /// Most Gaussians (splats) one frame draws; 0: no limit. When even the coarsest level of every chunk in view
+  /// exceeds it, the frame draws those coarsest levels. GPU: at most 2^31 − 1 (kLimitExceeded otherwise).
+  uint64_t splat_budget = 3'000'000;
+  /// Largest projected error a drawn level may show, in pixels (SPEC §4.9.1: world error · focal length /
+  /// distance); finite and >= 0. 0 with no splat budget draws level 0 everywhere: the full detail.
+  float pixel_error = 1.0f;
+  /// GPU: device bytes for the level pool, the frame arrays (one Gaussian per splat of the budget) and the upload
+  /// buffer together; 0: a pool that holds every level. Too small for the frame arrays and the coarsest level of
+  /// every chunk: kLimitExceeded, the message giving the bytes needed. The renderer's own scratch is bounded
+  /// separately (RenderSettings::gpu_scratch_budget). CPU: not used (every level is in host memory; a non-zero
+  /// value adds a note).
+  uint64_t memory_budget = 0;
+  /// GPU: most bytes read from the file and uploaded per frame, > 0: the bound on how long a frame waits for the
+  /// file (levels that do not fit wait for a later frame). CPU: not used.
+  uint64_t stream_bytes_per_frame = uint64_t{32} << 20;
+};
+
 /// Options of load().
 struct LoadOptions {
   Device device = Device::kCuda;
@@ -58,6 +91,25 @@ struct LoadOptions {
   /// How the file is read (converter::read_scene for every format: limits, the SPZ axes; a .rgs file
   /// uploaded as stored is opened with converter::rgs_read_options of it).
   converter::SceneReadOptions read_options;
+  /// Level-of-detail files: budgets and whether to use the levels at all (LodSettings).
+  LodSettings lod;
+};
+
+/// A loaded scene's levels of detail (LodSettings).
+struct SceneLodInfo {
+  /// True when frames draw a per-camera selection of levels (a level-of-detail .rgs loaded with
+  /// LodSettings::enabled); Renderer::render then fills FrameStats::lod.
+  bool active = false;
+  /// The file's index: chunks and levels per chunk (0 for a file without levels of detail).
+  uint32_t chunks = 0;
+  uint32_t levels = 0;
+  /// Gaussians of every level of every chunk (the file's Gaussian count); SceneInfo::gaussians is the full
+  /// detail, level 0 of every chunk.
+  uint64_t stored_gaussians = 0;
+  /// The settings frames are drawn with (active scenes).
+  LodSettings settings;
+  /// GPU: bytes of the level pool (runtime::LodStreamer::pool_bytes), within SceneInfo::memory_bytes; CPU: 0.
+  uint64_t pool_bytes = 0;
 };
 
 /// What load() produced.
@@ -76,14 +128,18 @@ struct SceneInfo {
   /// GPU scenes: whether the compact runtime sections and the FP32 arrays are on the device.
   bool has_compact = false;
   bool has_fp32 = false;
-  /// GPU scenes: device bytes the scene holds (runtime::GpuScene::device_bytes()); CPU scenes: host bytes of
-  /// the float arrays.
+  /// GPU scenes: device bytes the scene holds (runtime::GpuScene::device_bytes(); level-of-detail scenes:
+  /// runtime::LodStreamer::device_bytes(), the pool, frame arrays and upload buffer); CPU scenes: host bytes of
+  /// the float arrays (level-of-detail scenes: of every level).
   uint64_t memory_bytes = 0;
   /// Bytes of the .rgs runtime sections (means, rotations, scales, opacities, SH) uncompressed, 0 for a
   /// scene kept in FP32: the footprint a compact GPU scene is measured against.
   uint64_t runtime_section_bytes = 0;
-  /// What the reader noted (converter::InputScene::notes), e.g. the SPZ axes assumed.
+  /// What the reader noted (converter::InputScene::notes), e.g. the SPZ axes assumed, or level-of-detail
+  /// settings that the scene does not use.
   std::vector<std::string> notes;
+  /// Levels of detail: whether frames select them, the file's index, the budgets.
+  SceneLodInfo lod;
 };
 
 /// A loaded scene. Cheap to copy (shared, immutable).
@@ -92,15 +148,19 @@ class Scene {
   const SceneInfo& info() const;
   Device device() const { return info().device; }
   uint64_t size() const { return info().gaussians; }
-  /// CPU scenes: the activated float Gaussians rendered (format::GaussianCloud layout); null for GPU scenes.
+  /// CPU scenes: the activated float Gaussians rendered (format::GaussianCloud layout); of a level-of-detail
+  /// scene, its full detail (level 0 of every chunk, what a frame with every chunk at level 0 draws). Null for GPU
+  /// scenes.
   const format::GaussianCloud* cloud() const;
-  /// GPU scenes: the device scene for the expert API (runtime/gpu_scene.h); null for CPU scenes.
+  /// GPU scenes: the device scene for the expert API (runtime/gpu_scene.h); null for CPU scenes and for
+  /// level-of-detail GPU scenes (SceneInfo::lod.active), whose Gaussians change with every frame.
   const runtime::GpuScene* gpu_scene() const;
 
   struct Impl;
   explicit Scene(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
 
  private:
+  friend class Renderer;  // draws the frames of level-of-detail scenes from Impl's level state
   std::shared_ptr<const Impl> impl_;
 };
 
@@ -109,15 +169,21 @@ class Scene {
 /// - CUDA, .rgs: sections uploaded as stored (runtime::GpuScene::from_rgs), FP32 arrays only when a listed
 ///   preset reads them; CUDA, other formats: quantized in memory then uploaded the same way (or FP32, see options).
 /// - CPU: the dequantized float Gaussians (the values the GPU's compact reads produce).
+/// - A level-of-detail .rgs with options.lod.enabled (LodSettings): CUDA opens a runtime::LodStreamer (the
+///   coarsest level of every chunk uploaded now, the others streamed as frames want them; compact attributes
+///   only); CPU holds every level dequantized (every range checked, RgsFile::lod_range).
 /// Synchronous (the upload is complete on return).
 /// @return errors naming `path`: kIoError, kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded,
-/// kOutOfMemory; kUnsupportedFeature for device kCuda in a build without CUDA or on a host without a
-/// usable device (the message says which); kCudaError.
+/// kOutOfMemory; kInvalidArgument for options.lod out of range (pixel_error negative or not finite,
+/// stream_bytes_per_frame 0) and for a level-of-detail scene on CUDA with a preset that reads FP32 attributes
+/// (kFaithful: load with options.lod.enabled = false to render the full detail); kUnsupportedFeature for
+/// device kCuda in a build without CUDA or on a host without a usable device (the message says which);
+/// kCudaError.
 Result<Scene> load(const std::string& path, const LoadOptions& options = {});
 
 /// A scene from float Gaussians already in memory (format::GaussianCloud's layout; e.g. the decoded scenes an
 /// audit compares) for `options.device`: the cloud itself on the CPU, FP32 arrays on the GPU (what the
-/// faithful preset and lab configurations on FP32 read; options.presets and quantize_other_formats are not
+/// faithful preset and lab configurations on FP32 read; options.presets, quantize_other_formats and lod are not
 /// used). `name` stands for the path in SceneInfo and messages; `bounds` are the scene's (compute_bounds).
 /// @return kInvalidArgument (inconsistent cloud); for kCuda as load().
 Result<Scene> load_cloud(format::GaussianCloud cloud, const format::SceneBounds& bounds, const std::string& name,
