@@ -456,10 +456,13 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
                    ->excludes(cameras)
                    ->excludes(orbit);
   app.add_option("--fly", choice.fly,
-                 "With --cameras: N views flown through the file's cameras in order (runtime::fly_through_cameras: "
-                 "a spline through their centres at steady speed, rotations interpolated)")
-      ->check(CLI::Range(2, 100000))
-      ->needs(cameras);
+                 "With --cameras: N views flown through the file's cameras in order, after --every and --limit "
+                 "(runtime::fly_through_cameras: a centripetal Catmull-Rom spline through their centres at steady "
+                 "speed, rotations slerped, the first camera's intrinsics)")
+      ->check(CLI::Range(1, 100000))
+      ->needs(cameras)
+      ->excludes(orbit)
+      ->excludes(path);
   cameras->excludes(orbit)->excludes(path);
   orbit->excludes(path);
 }

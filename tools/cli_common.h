@@ -141,9 +141,11 @@ converter::SceneReadOptions& scene_read_options();
 /// scene_read_options(); shown in --help.
 void add_scene_read_options(CLI::App& app, bool with_spz_frame = true);
 
-/// Adds --cameras, --every, --limit, --fly, --orbit and --path to `app`, bound to `choice`: --every and --fly
-/// need --cameras, and --cameras, --orbit and --path exclude each other. `limit_help` and `orbit_help` describe --limit and
-/// --orbit.
+/// Adds --cameras, --every, --limit, --fly, --orbit and --path to `app`, bound to `choice`
+/// (api::CameraChoice, built by api::make_cameras): --every and --fly need --cameras; --cameras, --orbit and
+/// --path exclude each other, and --fly excludes --orbit and --path. --fly N flies N views through the file's
+/// cameras (after --every and --limit, which then count key cameras). `cameras_help`, `limit_help` and
+/// `orbit_help` describe --cameras, --limit and --orbit.
 void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::string& cameras_help,
                         const std::string& limit_help, const std::string& orbit_help);
 

@@ -78,6 +78,9 @@ Result<ReplicatedScene> replicate_scene_file(const std::string& path, uint32_t c
 
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds) {
   std::vector<runtime::Camera> cameras;
+  RGS_RETURN_ERROR_IF(choice.fly > 0 && choice.cameras_path.empty(), StatusCode::kInvalidArgument,
+                      "--fly " + std::to_string(choice.fly) +
+                          " needs --cameras: the views are flown through the cameras of that file");
   if (!choice.cameras_path.empty()) {
     runtime::InriaCameraOptions options;
     options.every_kth = choice.every;
@@ -86,6 +89,12 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
     RGS_ASSIGN_OR_RETURN(cameras, runtime::load_inria_cameras(choice.cameras_path, options));
     if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
     if (choice.fly > 0) {
+      // A file may mix image sizes; the views take the first key's intrinsics, so the keys share its size.
+      for (runtime::Camera& key : cameras) {
+        if (key.width != cameras[0].width || key.height != cameras[0].height) {
+          key = runtime::resize_camera(key, cameras[0].width, cameras[0].height);
+        }
+      }
       Result<std::vector<runtime::Camera>> flown = runtime::fly_through_cameras(cameras, choice.fly);
       if (!flown.ok()) return Status(flown.status()).prepend(choice.cameras_path);
       return flown;

@@ -1,8 +1,13 @@
-// Cameras: INRIA cameras.json loading (real flowers file, subsets, resolution scaling, errors) and orbits.
+// Cameras: INRIA cameras.json loading (real flowers file, subsets, resolution scaling, errors), orbits, paths
+// and fly-throughs.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "render_test_util.h"
 #include "rgs/kernels/shared/projection.h"
@@ -256,7 +261,56 @@ TEST_CASE("path cameras: a spiral that rises, swings near and far, and always lo
   CHECK(runtime::path_cameras(bounds, 0, 320, 240).status().code() == StatusCode::kInvalidArgument);
 }
 
-TEST_CASE("fly-through cameras: through every key at steady speed, rotations orthonormal, bad keys refused") {
+/// A fly-through key at `centre` (world units) turned `yaw_deg` about world −y (up), 320×240, 60° wide.
+Camera fly_key(std::array<double, 3> centre, double yaw_deg, const std::string& name) {
+  Camera cam;
+  const double a = yaw_deg * M_PI / 180.0, c = std::cos(a), s = std::sin(a);
+  // World-to-camera rotation about the y axis; rows are the camera axes in world coordinates.
+  const double r[9] = {c, 0, -s, 0, 1, 0, s, 0, c};
+  for (int i = 0; i < 9; ++i) cam.rotation[i] = float(r[i]);
+  for (int i = 0; i < 3; ++i) {
+    cam.translation[i] = float(-(r[3 * i] * centre[0] + r[3 * i + 1] * centre[1] + r[3 * i + 2] * centre[2]));
+  }
+  cam.width = 320;
+  cam.height = 240;
+  cam.fx = cam.fy = float(runtime::focal_from_fov(M_PI / 3, 320));
+  cam.cx = 160;
+  cam.cy = 120;
+  cam.name = name;
+  return cam;
+}
+
+double distance(const std::array<float, 3>& a, const std::array<float, 3>& b) {
+  double d = 0;
+  for (int k = 0; k < 3; ++k) d += double(a[k] - b[k]) * double(a[k] - b[k]);
+  return std::sqrt(d);
+}
+
+/// Longest and shortest distance between consecutive view centres.
+std::pair<double, double> step_range(const std::vector<Camera>& views) {
+  double shortest = 1e30, longest = 0;
+  for (size_t i = 1; i < views.size(); ++i) {
+    const double step = distance(runtime::camera_centre(views[i - 1]), runtime::camera_centre(views[i]));
+    shortest = std::min(shortest, step);
+    longest = std::max(longest, step);
+  }
+  return {longest, shortest};
+}
+
+/// R·Rᵀ = I to `tolerance` and every value finite.
+bool orthonormal(const Camera& cam, double tolerance) {
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(cam.translation[i])) return false;
+    for (int j = 0; j < 3; ++j) {
+      double dot = 0;
+      for (int k = 0; k < 3; ++k) dot += double(cam.rotation[3 * i + k]) * double(cam.rotation[3 * j + k]);
+      if (!(std::abs(dot - (i == j ? 1.0 : 0.0)) <= tolerance)) return false;
+    }
+  }
+  return true;
+}
+
+TEST_CASE("fly-through cameras: through every key at steady speed, rotations orthonormal") {
   format::SceneBounds bounds;
   bounds.sphere_radius = 5.f;
   // Keys of an orbit, unevenly spaced: the first two close together, the rest far apart.
@@ -268,43 +322,144 @@ TEST_CASE("fly-through cameras: through every key at steady speed, rotations ort
   REQUIRE(views->size() == 400);
   CHECK((*views)[0].name == "fly_000");
   CHECK((*views)[399].name == "fly_399");
-  for (int i = 0; i < 9; ++i) CHECK((*views)[0].rotation[i] == doctest::Approx(keys[0].rotation[i]).epsilon(1e-5));
-  for (int a = 0; a < 3; ++a) {  // the first and last keys, to float precision
-    CHECK((*views)[0].translation[a] == doctest::Approx(keys[0].translation[a]).epsilon(1e-4));
-    CHECK((*views)[399].translation[a] == doctest::Approx(keys.back().translation[a]).epsilon(1e-4));
+  // The first view is the first key, the last view has the last key's pose; all take the first key's intrinsics.
+  CHECK((*views)[0].rotation == keys[0].rotation);
+  CHECK((*views)[0].translation == keys[0].translation);
+  CHECK((*views)[399].rotation == keys.back().rotation);
+  CHECK((*views)[399].translation == keys.back().translation);
+  for (const Camera& v : *views) {
+    CHECK(v.fx == keys[0].fx);
+    CHECK(v.cy == keys[0].cy);
+    CHECK(v.width == keys[0].width);
+    CHECK(v.near_plane == keys[0].near_plane);
   }
-  // Steady speed: consecutive centres are equally far apart, whatever the key spacing.
-  double shortest = 1e30, longest = 0;
-  for (size_t i = 1; i < views->size(); ++i) {
-    const auto a = runtime::camera_centre((*views)[i - 1]), b = runtime::camera_centre((*views)[i]);
-    double step = 0;
-    for (int k = 0; k < 3; ++k) step += double(a[k] - b[k]) * double(a[k] - b[k]);
-    step = std::sqrt(step);
-    shortest = std::min(shortest, step);
-    longest = std::max(longest, step);
-  }
-  CHECK(longest / shortest < 1.05);
-  // The path passes through every key: some view lies within one step of each key centre.
+  // Steady speed: consecutive centres are equally far apart, whatever the key spacing (1 : 4 : 4 : 3 here).
+  const auto [longest, shortest] = step_range(*views);
+  CHECK(longest / shortest < 1.02);
+  // The path passes through every key: the nearest view lies within half a step of each key centre, and
+  // there the view's rotation is the key's.
   for (const Camera& key : keys) {
+    CAPTURE(key.name);
     const auto k = runtime::camera_centre(key);
-    double nearest = 1e30;
-    for (const Camera& v : *views) {
-      const auto c = runtime::camera_centre(v);
-      nearest = std::min(nearest, std::sqrt(double((c[0] - k[0]) * (c[0] - k[0]) + (c[1] - k[1]) * (c[1] - k[1]) +
-                                            (c[2] - k[2]) * (c[2] - k[2]))));
+    size_t nearest = 0;
+    for (size_t i = 1; i < views->size(); ++i) {
+      if (distance(runtime::camera_centre((*views)[i]), k) < distance(runtime::camera_centre((*views)[nearest]), k)) {
+        nearest = i;
+      }
     }
-    CHECK(nearest <= longest);
+    CHECK(distance(runtime::camera_centre((*views)[nearest]), k) <= 0.51 * longest);
+    for (int i = 0; i < 9; ++i) CHECK(std::abs((*views)[nearest].rotation[i] - key.rotation[i]) < 0.02f);
   }
-  for (const Camera& v : *views) REQUIRE(runtime::validate_camera(v).ok());  // orthonormal, det +1
-  // Coincident keys: finite views spaced by key index.
-  auto still = runtime::fly_through_cameras({keys[0], keys[0], keys[0]}, 5);
-  REQUIRE(still.ok());
-  for (const Camera& v : *still) CHECK(runtime::validate_camera(v).ok());
-  CHECK(runtime::fly_through_cameras(keys, 0).status().code() == StatusCode::kInvalidArgument);
-  CHECK(runtime::fly_through_cameras({keys[0]}, 8).status().code() == StatusCode::kInvalidArgument);
+  for (const Camera& v : *views) {
+    CHECK(orthonormal(v, 1e-5));
+    CHECK(runtime::validate_camera(v).ok());
+  }
+  // Deterministic.
+  auto again = runtime::fly_through_cameras(keys, 400);
+  REQUIRE(again.ok());
+  for (size_t i = 0; i < views->size(); ++i) {
+    CHECK((*again)[i].rotation == (*views)[i].rotation);
+    CHECK((*again)[i].translation == (*views)[i].translation);
+  }
+  // One view: the first key.
+  auto one = runtime::fly_through_cameras(keys, 1);
+  REQUIRE(one.ok());
+  REQUIRE(one->size() == 1);
+  CHECK((*one)[0].translation == keys[0].translation);
+}
+
+TEST_CASE("fly-through cameras: the centripetal spline keeps going forward where key steps are uneven") {
+  // Keys on the x axis at 0, 10, 10.5 and 20: any Catmull–Rom spline stays on the line, but the uniform one
+  // overshoots 10.5 and comes back (a reversal of the camera), the centripetal one moves forward throughout.
+  const std::vector<Camera> keys = {fly_key({0, 0, 0}, 0, "a"), fly_key({10, 0, 0}, 10, "b"),
+                                    fly_key({10.5, 0, 0}, 20, "c"), fly_key({20, 0, 0}, 30, "d")};
+  auto views = runtime::fly_through_cameras(keys, 200);
+  REQUIRE_MESSAGE(views.ok(), views.status().to_string());
+  float previous_x = -1;
+  bool forward = true;
+  for (const Camera& v : *views) {
+    const auto c = runtime::camera_centre(v);
+    CHECK(std::abs(c[1]) < 1e-4f);
+    CHECK(std::abs(c[2]) < 1e-4f);
+    forward &= c[0] > previous_x && c[0] <= 20.0001f;
+    previous_x = c[0];
+  }
+  CHECK(forward);
+  const auto [longest, shortest] = step_range(*views);
+  CHECK(longest / shortest < 1.02);
+  runtime::FlyThroughOptions uniform;
+  uniform.spline_alpha = 0;
+  auto overshooting = runtime::fly_through_cameras(keys, 200, uniform);
+  REQUIRE(overshooting.ok());
+  bool reverses = false;
+  for (size_t i = 1; i < overshooting->size(); ++i) {
+    reverses |= runtime::camera_centre((*overshooting)[i])[0] < runtime::camera_centre((*overshooting)[i - 1])[0];
+  }
+  CHECK(reverses);
+  // Evenly spaced keys (steps of 5): every knot exponent gives the same curve.
+  const std::vector<Camera> evenly = {fly_key({0, 0, 0}, 0, "a"), fly_key({4, 0, 3}, 40, "b"),
+                                      fly_key({8, 0, 0}, 80, "c"), fly_key({8, 3, 4}, 120, "d")};
+  auto centripetal = runtime::fly_through_cameras(evenly, 50);
+  auto flat = runtime::fly_through_cameras(evenly, 50, uniform);
+  REQUIRE(centripetal.ok());
+  REQUIRE(flat.ok());
+  for (size_t i = 0; i < 50; ++i) {
+    CHECK(distance(runtime::camera_centre((*centripetal)[i]), runtime::camera_centre((*flat)[i])) < 1e-4);
+  }
+}
+
+TEST_CASE("fly-through cameras: coincident key centres give finite views") {
+  // Keys 0-1 and 3-4 share their centres (a camera turning on the spot), with other rotations.
+  const std::vector<Camera> keys = {fly_key({0, 0, 0}, 0, "a"), fly_key({0, 0, 0}, 30, "b"),
+                                    fly_key({5, -1, 2}, 60, "c"), fly_key({9, 0, 0}, 90, "d"),
+                                    fly_key({9, 0, 0}, 120, "e")};
+  auto views = runtime::fly_through_cameras(keys, 60);
+  REQUIRE_MESSAGE(views.ok(), views.status().to_string());
+  for (const Camera& v : *views) {
+    CAPTURE(v.name);
+    CHECK(orthonormal(v, 1e-5));
+    CHECK(runtime::validate_camera(v).ok());
+  }
+  CHECK((*views)[0].rotation == keys[0].rotation);
+  CHECK((*views)[59].rotation == keys[4].rotation);
+  CHECK((*views)[59].translation == keys[4].translation);
+  const auto [longest, shortest] = step_range(*views);
+  CHECK(longest / shortest < 1.02);
+  // Every key at one centre: finite views spaced by key index, turning from the first key to the last.
+  auto turning = runtime::fly_through_cameras({keys[0], keys[1], keys[1]}, 7);
+  REQUIRE_MESSAGE(turning.ok(), turning.status().to_string());
+  for (const Camera& v : *turning) {
+    CHECK(orthonormal(v, 1e-5));
+    CHECK(distance(runtime::camera_centre(v), runtime::camera_centre(keys[0])) < 1e-5);
+  }
+  CHECK((*turning)[6].rotation == keys[1].rotation);
+}
+
+TEST_CASE("fly-through cameras: bad input refused with the reason") {
+  const std::vector<Camera> keys = {fly_key({0, 0, 0}, 0, "a"), fly_key({3, 0, 0}, 10, "b"),
+                                    fly_key({6, 0, 1}, 20, "c")};
+  auto zero = runtime::fly_through_cameras(keys, 0);
+  CHECK(zero.status().code() == StatusCode::kInvalidArgument);
+  CHECK(zero.status().message().find("view count is 0") != std::string::npos);
+  auto single = runtime::fly_through_cameras({keys[0]}, 8);
+  CHECK(single.status().code() == StatusCode::kInvalidArgument);
+  CHECK(single.status().message().find("at least 2 key cameras, got 1") != std::string::npos);
+  CHECK(runtime::fly_through_cameras({}, 8).status().code() == StatusCode::kInvalidArgument);
   std::vector<Camera> sizes = keys;
   sizes[2] = runtime::resize_camera(sizes[2], 640, 480);
-  CHECK(runtime::fly_through_cameras(sizes, 8).status().code() == StatusCode::kInvalidArgument);
+  auto mixed = runtime::fly_through_cameras(sizes, 8);
+  CHECK(mixed.status().code() == StatusCode::kInvalidArgument);
+  CHECK(mixed.status().message().find("key 2 (c) is 640x480, key 0 is 320x240") != std::string::npos);
+  std::vector<Camera> skewed = keys;
+  skewed[1].rotation[0] = 2;
+  auto bad_key = runtime::fly_through_cameras(skewed, 8);
+  CHECK(bad_key.status().code() == StatusCode::kInvalidArgument);
+  CHECK(bad_key.status().message().find("key 1 (b)") != std::string::npos);
+  for (double alpha : {-0.1, 1.5, std::nan("")}) {
+    runtime::FlyThroughOptions options;
+    options.spline_alpha = alpha;
+    CHECK(runtime::fly_through_cameras(keys, 8, options).status().code() == StatusCode::kInvalidArgument);
+  }
 }
 
 }  // namespace

@@ -81,7 +81,9 @@ struct CameraChoice {
   uint32_t every = 1;  ///< every k-th camera of the file
   uint32_t limit = 0;  ///< at most this many key views of the file, or views of an orbit or path (0 = all)
   /// With cameras_path: this many views flown through the file's cameras (after `every` and `limit`) in order
-  /// (runtime::fly_through_cameras); 0: the file's cameras themselves.
+  /// (runtime::fly_through_cameras: a centripetal Catmull–Rom spline through their centres at steady speed,
+  /// rotations slerped), at width × height as for the file's cameras; 0: the file's cameras themselves.
+  /// Needs cameras_path.
   uint32_t fly = 0;
   uint32_t orbit = 0;  ///< orbit camera count when cameras_path is empty
   /// Camera path view count (runtime::path_cameras: a rising spiral, near and far) when cameras_path is
@@ -94,8 +96,11 @@ struct CameraChoice {
 };
 
 /// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize), flown through with
-/// runtime::fly_through_cameras when `fly` is set, runtime::path_cameras or runtime::orbit_cameras around
-/// `bounds`. Errors: those of the loaders; kInvalidArgument for an orbit of 0 cameras.
+/// runtime::fly_through_cameras when `fly` is set (keys whose sizes differ are first resized to the first key's
+/// size, field of view kept), runtime::path_cameras or runtime::orbit_cameras around `bounds`.
+/// Errors: those of the loaders and of fly_through_cameras (prefixed with the cameras path: e.g. fewer than 2
+/// cameras left after `every` and `limit`); kInvalidArgument for an orbit of 0 cameras or `fly` without
+/// cameras_path.
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
 
 }  // namespace rgs::api

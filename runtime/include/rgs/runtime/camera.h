@@ -136,15 +136,40 @@ Result<std::vector<Camera>> path_cameras(const format::SceneBounds& bounds, uint
                                          uint32_t height, const PathOptions& path = {},
                                          const OrbitOptions& base = {});
 
+/// How fly_through_cameras() shapes its path.
+struct FlyThroughOptions {
+  /// Knot exponent α of the Catmull–Rom spline through the key centres: knot i + 1 lies |cᵢ₊₁ − cᵢ|^α after
+  /// knot i (cᵢ the key centres, world units). 0.5, the centripetal spline, never forms a cusp or a loop inside
+  /// a segment however unevenly the keys are spaced (Yuksel, Schaefer and Keyser, "Parameterization and
+  /// applications of Catmull–Rom curves", CAD 2011); 0 is the uniform spline, which overshoots where long and
+  /// short key steps meet; 1 is the chordal spline. All three are the same curve when the keys are evenly
+  /// spaced. Must be in [0, 1].
+  double spline_alpha = 0.5;
+};
+
 /// `count` views flown through the key cameras `keys` in order (e.g. a scene's capture cameras, which lie inside
-/// it and keep its up direction), for benchmarks of views the keys do not show. Camera centres follow the uniform
-/// Catmull–Rom spline through the key centres (the end segments reflect their missing neighbour), sampled
-/// evenly by arc length from the first key's centre (view 0) to the last's (view count − 1), so the speed is
-/// steady; rotations are the shortest-arc slerp of the two keys' world-to-camera rotations at the same spline
-/// parameter. Intrinsics (fx, fy, cx, cy, width, height, near_plane) are the first key's. Deterministic; names
-/// "fly_000", ... Keys whose centres all coincide give views spaced by key index.
-/// @return kInvalidArgument for count 0, fewer than 2 keys, an invalid key (validate_camera) or keys of different
-/// sizes.
-Result<std::vector<Camera>> fly_through_cameras(const std::vector<Camera>& keys, uint32_t count);
+/// it and keep its up direction), for benchmarks of views the keys do not show.
+///
+/// - Path: the camera centres (−Rᵀ·t, world units) follow the Catmull–Rom spline with knot exponent
+///   `options.spline_alpha` (centripetal by default) through the key centres, written as cubic Hermite segments
+///   that share each key's tangent, so the path is C1 in the knot parameter. The end keys take the chord to
+///   their one neighbour as tangent. A key whose centre coincides with the previous key's starts a segment of
+///   length zero (no NaNs; the path stops there, the tangents on either side are one-sided).
+/// - Spacing: views are evenly spaced by the arc length of that path (tabulated with 256 chords a segment,
+///   interpolated between them), not by key index, so the speed is steady: view v lies at arc length
+///   L·v/(count − 1) from the first key's centre, L the path's length. If every key centre coincides (L = 0),
+///   views are spaced by key index instead.
+/// - Rotations: the world-to-camera rotation R (row-major [3, 3], Camera::rotation) is the shortest-arc slerp of
+///   the two keys' unit quaternions at the view's parameter u ∈ [0, 1] within its segment; the translation is
+///   t = −R·c for the view's centre c. A segment of length zero gets no view, so its turn happens between two
+///   consecutive views.
+/// - View 0 has exactly the first key's rotation and translation, view count − 1 (count ≥ 2) the last key's.
+/// - Intrinsics (fx, fy, cx, cy, width, height, near_plane) are the first key's, for every view.
+///
+/// Computed in double, rounded to float. Deterministic; names "fly_000", "fly_001", ...
+/// @return kInvalidArgument for count 0, fewer than 2 keys, an invalid key (validate_camera, naming the key),
+/// keys of different image sizes (resize them first: resize_camera), or spline_alpha outside [0, 1].
+Result<std::vector<Camera>> fly_through_cameras(const std::vector<Camera>& keys, uint32_t count,
+                                                const FlyThroughOptions& options = {});
 
 }  // namespace rgs::runtime
