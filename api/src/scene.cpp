@@ -180,6 +180,21 @@ Result<format::EncodedScene> read_coarse_levels(const format::RgsFile& file) {
   return coarse;
 }
 
+/// What every loader of a level-of-detail .rgs reports alike: the file, its full detail and its levels.
+SceneInfo lod_scene_info(const format::RgsFile& file, const std::string& path, const LoadOptions& options,
+                         Device device) {
+  SceneInfo info;
+  info.device = device;
+  info.path = path;
+  info.bounds = file.metadata().bounds;
+  info.source_is_rgs = true;
+  info.file_bytes = file.file_size();
+  info.gaussians = file.lod()->full_detail_count();
+  info.sh_degree = file.metadata().sh_degree;
+  info.lod = lod_info(file, options.lod);
+  return info;
+}
+
 /// A level-of-detail .rgs on the CPU: the full detail (read_scene: every section checked) and every coarser
 /// level (each range checked), dequantized; frames select from both (Renderer::render).
 Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path, const LoadOptions& options) {
@@ -199,16 +214,9 @@ Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path,
   impl->lod->coarse = std::move(coarse).value();
   impl->lod->stored_bytes = file.gaussian_count() * stored_gaussian_bytes(file);
   SceneInfo& info = impl->info;
-  info.device = Device::kCpu;
-  info.path = path;
-  info.bounds = file.metadata().bounds;
-  info.source_is_rgs = true;
-  info.file_bytes = file.file_size();
-  info.gaussians = impl->cloud.size();
-  info.sh_degree = impl->cloud.sh_degree;
+  info = lod_scene_info(file, path, options, Device::kCpu);
   info.memory_bytes = cloud_bytes(impl->cloud) + cloud_bytes(impl->lod->coarse);
   info.runtime_section_bytes = runtime_bytes(info.gaussians, info.sh_degree);
-  info.lod = lod_info(file, options.lod);
   info.description = "RoofGS .rgs, dequantized, " + std::to_string(info.lod.chunks) + " chunks x " +
                      std::to_string(info.lod.levels) + " levels of detail";
   if (options.lod.memory_budget != 0) {
@@ -282,17 +290,10 @@ Result<Scene> load_cuda_lod(const format::RgsFile& file, const std::string& path
   RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&event, cudaEventDisableTiming), path + ": frame event");
   lod.frame_done.reset(event);
   SceneInfo& info = impl->info;
-  info.device = Device::kCuda;
-  info.path = path;
-  info.bounds = file.metadata().bounds;
-  info.source_is_rgs = true;
-  info.file_bytes = file.file_size();
-  info.gaussians = lod.index.full_detail_count();
-  info.sh_degree = file.metadata().sh_degree;
+  info = lod_scene_info(file, path, options, Device::kCuda);
   info.has_compact = true;
   info.memory_bytes = lod.streamer->device_bytes();
   info.runtime_section_bytes = info.gaussians * stored_gaussian_bytes(file);
-  info.lod = lod_info(file, options.lod);
   info.lod.pool_bytes = lod.streamer->pool_bytes();
   info.description = "RoofGS .rgs, " + std::to_string(info.lod.chunks) + " chunks x " +
                      std::to_string(info.lod.levels) + " levels of detail, streamed";

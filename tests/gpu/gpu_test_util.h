@@ -18,6 +18,7 @@
 #include <doctest/doctest.h>
 
 #include "render_test_util.h"  // tests/runtime: identity_camera, add_gaussian, read_ply access
+#include "rgs/converter/lod_builder.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
@@ -280,6 +281,26 @@ inline GpuFrame render_gpu(runtime::GpuRenderer& renderer, const runtime::GpuSce
   auto host = runtime::download(image);
   REQUIRE_MESSAGE(host.ok(), host.status().to_string());
   return GpuFrame{std::move(host->rgba), std::move(host->depth), *stats};
+}
+
+/// samples/guitar.ply, quantized as rgs-convert does, with levels of detail in chunks of 4096: the file's bytes.
+inline const std::vector<uint8_t>& guitar_lod_bytes() {
+  static const std::vector<uint8_t> bytes = [] {
+    auto input = converter::read_scene(repo_path("samples/guitar.ply"));
+    REQUIRE(input.ok());
+    auto encoded = converter::quantize(input->cloud, converter::QuantizeOptions{});
+    REQUIRE(encoded.ok());
+    converter::LodBuildOptions build;
+    build.max_chunk_gaussians = 4096;
+    auto lod = converter::build_lod(*encoded, build);
+    REQUIRE(lod.ok());
+    format::WriteOptions write;
+    write.lod = &lod->index;
+    auto serialized = format::serialize_scene(lod->scene, write);
+    REQUIRE(serialized.ok());
+    return std::move(serialized).value();
+  }();
+  return bytes;
 }
 
 /// PSNR (values clamped to [0, 1], peak 1) and max |Δ| of the RGB channels of a GPU RGBA image against an

@@ -26,24 +26,12 @@
 namespace rgs::test {
 namespace {
 
-/// samples/guitar.ply, quantized as rgs-convert does, with levels of detail in chunks of 4096, written to
-/// `dir`: the file's path.
+/// guitar_lod_bytes() written to `dir`: the file's path.
 std::string write_guitar_lod(const TempDir& dir) {
-  auto input = converter::read_scene(repo_path("samples/guitar.ply"));
-  REQUIRE(input.ok());
-  auto encoded = converter::quantize(input->cloud, converter::QuantizeOptions{});
-  REQUIRE(encoded.ok());
-  converter::LodBuildOptions build;
-  build.max_chunk_gaussians = 4096;
-  auto lod = converter::build_lod(*encoded, build);
-  REQUIRE(lod.ok());
-  format::WriteOptions write;
-  write.lod = &lod->index;
-  auto bytes = format::serialize_scene(lod->scene, write);
-  REQUIRE(bytes.ok());
+  const std::vector<uint8_t>& bytes = guitar_lod_bytes();
   const std::string path = dir.file("guitar_lod.rgs");
   std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes->data()), std::streamsize(bytes->size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
   REQUIRE(out.good());
   return path;
 }
@@ -77,13 +65,6 @@ api::LoadOptions lod_options(api::Device device, uint64_t splat_budget, float pi
   o.lod.memory_budget = memory_budget;
   o.lod.stream_bytes_per_frame = stream_bytes;
   return o;
-}
-
-double psnr_rgba(const std::vector<float>& a, const std::vector<float>& b) {
-  double mse = 0;
-  for (size_t i = 0; i < a.size(); ++i) mse += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
-  mse /= double(a.size());
-  return mse == 0 ? 200 : 10 * std::log10(1.0 / mse);
 }
 
 TEST_CASE("API LOD GPU scene: a camera path's frames equal LodStreamer + GpuRenderer driven directly") {
@@ -188,8 +169,8 @@ TEST_CASE("API LOD GPU scene: resident frames agree with the CPU reference of th
         CHECK(gpu.stats.lod.chunks_drawn == cpu.stats.lod.chunks_drawn);
         CHECK(gpu.stats.lod.chunks_coarsened == cpu.stats.lod.chunks_coarsened);
         if (budget == 0) CHECK(gpu.stats.lod.splats == n0);
-        const double psnr = psnr_rgba(gpu.rgba, cpu.rgba);
-        MESSAGE(api::preset_name(preset) << ", budget " << budget << ", " << camera.name << ": GPU vs CPU PSNR "
+        const double psnr = compare_rgb(gpu.rgba, rgb_of(cpu.rgba)).psnr;
+        MESSAGE(std::string(api::preset_name(preset)) << ", budget " << budget << ", " << camera.name << ": GPU vs CPU PSNR "
                                          << psnr << " dB");
         CHECK(psnr > 50);
       }

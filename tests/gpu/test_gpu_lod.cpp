@@ -21,26 +21,6 @@
 namespace rgs::test {
 namespace {
 
-/// samples/guitar.ply, quantized as rgs-convert does, with levels of detail in chunks of 4096: the file's bytes.
-const std::vector<uint8_t>& guitar_lod_bytes() {
-  static const std::vector<uint8_t> bytes = [] {
-    auto input = converter::read_scene(repo_path("samples/guitar.ply"));
-    REQUIRE(input.ok());
-    auto encoded = converter::quantize(input->cloud, converter::QuantizeOptions{});
-    REQUIRE(encoded.ok());
-    converter::LodBuildOptions build;
-    build.max_chunk_gaussians = 4096;
-    auto lod = converter::build_lod(*encoded, build);
-    REQUIRE(lod.ok());
-    format::WriteOptions write;
-    write.lod = &lod->index;
-    auto serialized = format::serialize_scene(lod->scene, write);
-    REQUIRE(serialized.ok());
-    return std::move(serialized).value();
-  }();
-  return bytes;
-}
-
 runtime::GpuRenderOptions fastest() { return api::gpu_render_options(api::Preset::kFastest, true); }
 
 TEST_CASE("LOD streamer at full detail draws the full render bit for bit, two frames after the request") {
