@@ -422,6 +422,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
   load.cuda_device = opt.device;
   load.presets = {api::Preset::kFastest};
   load.read_options = tools::scene_read_options();
+  load.lod.enabled = false;  // the expert path renders a level-of-detail file's full detail too
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
   RGS_ASSIGN_OR_RETURN(api::Renderer front, api::Renderer::create(api::Device::kCuda, opt.device));
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions expert_options,
