@@ -103,11 +103,14 @@ class Scene:
 
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
          quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: str = "rub", *, lod: bool = True,
-         splat_budget: int = 3000000, pixel_error: float = 1.0, memory_budget: int = 0) -> Scene:
+         splat_budget: int = 3000000, pixel_error: float = 1.0, memory_budget: int = 0,
+         stream_bytes: int = 33554432) -> Scene:
     """A scene in any format on device "cuda", "cpu" or "auto". A level-of-detail .rgs (docs/LOD.md) with
     lod=True draws each frame's selection of levels: at most splat_budget Gaussians (0: no limit), levels whose
     projected error is at most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget
-    bytes of device memory (0: a pool that holds every level), on the CPU with every level in host memory.
+    bytes of device memory (0: a pool that holds every level), reading and uploading at most stream_bytes a frame
+    (> 0: the bound on how long a frame waits for the file; levels that do not fit come in later frames), on the
+    CPU with every level in host memory.
     lod=False draws its full detail. Other files ignore these (info["notes"] says so for non-default values)."""
 def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, scale_encoding: str = "linear",
             sh_clip_percentile: float = 100.0, sh_dc_bits: int = 16, zstd: Sequence[str] = (), zstd_level: int = 19,

@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -48,7 +49,7 @@ struct Options {
   int device = 0;
   std::string preset = "fastest";
   uint64_t scratch_budget = 0;  ///< --scratch-budget: api::RenderSettings::gpu_scratch_budget
-  /// --splat-budget, --memory-budget, --pixel-error, --no-lod: api::LoadOptions::lod
+  /// --splat-budget, --memory-budget, --pixel-error, --stream-bytes, --no-lod: api::LoadOptions::lod
   api::LodSettings lod;
   bool no_lod = false;
   runtime::RoofgsOptions techniques;  ///< the technique flags; any of them replaces the preset's techniques
@@ -389,10 +390,18 @@ int main(int argc, char** argv) {
                      lod_help + "largest projected error of a drawn level, in pixels (format/SPEC.md 4.9.1)")
           ->check(CLI::Range(0.0f, 1000.0f))
           ->capture_default_str();
+  auto* stream_bytes =
+      app.add_option("--stream-bytes", opt.lod.stream_bytes_per_frame,
+                     lod_help + "--backend cuda: most bytes read and uploaded a frame, the bound on a frame's wait "
+                                "for the disk (levels that do not fit come in later frames)")
+          ->transform(CLI::AsSizeValue(false))
+          ->check(CLI::Range(uint64_t{1}, std::numeric_limits<uint64_t>::max()))
+          ->capture_default_str();
   app.add_flag("--no-lod", opt.no_lod, lod_help + "render the full detail (level 0 of every chunk), no budgets")
       ->excludes(splat_budget)
       ->excludes(memory_budget)
-      ->excludes(pixel_error);
+      ->excludes(pixel_error)
+      ->excludes(stream_bytes);
   runtime::RoofgsOptions& t = opt.techniques;
   app.add_flag("--roofgs-key", t.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
   app.add_flag("--accutile", t.snugbox_accutile, "RoofGS: SnugBox + AccuTile tile sets");

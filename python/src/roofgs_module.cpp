@@ -1268,7 +1268,7 @@ PYBIND11_MODULE(roofgs, m) {
   m.def("load",
         [](const std::filesystem::path& path, const std::string& device, std::vector<std::string> presets,
            bool quantize_other_formats, int cuda_device, const std::string& spz_frame, bool lod,
-           uint64_t splat_budget, float pixel_error, uint64_t memory_budget) {
+           uint64_t splat_budget, float pixel_error, uint64_t memory_budget, uint64_t stream_bytes) {
           api::LoadOptions options;
           options.read_options = read_options(spz_frame);
           options.device = resolve_device(device);
@@ -1278,6 +1278,7 @@ PYBIND11_MODULE(roofgs, m) {
           options.lod.splat_budget = splat_budget;
           options.lod.pixel_error = pixel_error;
           options.lod.memory_budget = memory_budget;
+          options.lod.stream_bytes_per_frame = stream_bytes;
           options.presets.clear();
           for (const std::string& p : presets) options.presets.push_back(unwrap(api::parse_preset(p)));
           Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
@@ -1291,6 +1292,7 @@ PYBIND11_MODULE(roofgs, m) {
         py::arg("quantize_other_formats") = true, py::arg("cuda_device") = 0, py::arg("spz_frame") = "rub",
         py::kw_only(), py::arg("lod") = true, py::arg("splat_budget") = api::LodSettings{}.splat_budget,
         py::arg("pixel_error") = api::LodSettings{}.pixel_error, py::arg("memory_budget") = uint64_t{0},
+        py::arg("stream_bytes") = api::LodSettings{}.stream_bytes_per_frame,
         "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) onto device "
         "'cuda', 'cpu' or 'auto' (CUDA when a device answers, else the CPU, said once); the GPU copy holds only "
         "what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
@@ -1299,11 +1301,13 @@ PYBIND11_MODULE(roofgs, m) {
         "selection of levels: at most splat_budget Gaussians (0: no limit), levels whose projected error is at "
         "most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget bytes of device "
         "memory (0: a pool that holds every level; the renderer's scratch is bounded by render()'s "
-        "scratch_budget), on the CPU with every level in host memory. lod=False renders its full detail. Files "
+        "scratch_budget), reading and uploading at most stream_bytes a frame (> 0: the bound on how long a frame "
+        "waits for the file; levels that do not fit come in later frames), on the CPU with every level in host memory. lod=False renders its full detail. Files "
         "without levels ignore these (info['notes'] says so for values other than the defaults); "
         "info['lod'] tells, frame_stats['lod'] counts each frame. roofgs.Error kInvalidArgument for pixel_error "
         "< 0 or not finite, or a level-of-detail CUDA scene with a preset reading FP32 (faithful); "
-        "kLimitExceeded for a memory_budget below the frame arrays and the coarsest levels");
+        "kLimitExceeded for a memory_budget below the frame arrays and the coarsest levels; kInvalidArgument for "
+        "stream_bytes 0");
 
   m.def("convert",
         [](const std::filesystem::path& src, const std::filesystem::path& dst, py::kwargs kwargs) {

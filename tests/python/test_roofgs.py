@@ -181,6 +181,10 @@ def test_load_level_of_detail_keywords():
     with pytest.raises(roofgs.Error) as e:
         roofgs.load(path, device="cpu", pixel_error=-1.0)
     assert e.value.code_name == "kInvalidArgument" and "pixel error" in str(e.value)
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.load(path, device="cpu", stream_bytes=0)
+    assert e.value.code_name == "kInvalidArgument" and "stream_bytes_per_frame" in str(e.value)
+    assert roofgs.load(path, device="cpu", stream_bytes=1 << 16).info["lod"]["stream_bytes_per_frame"] == 1 << 16
     noted = roofgs.load(path, device="cpu", memory_budget=1 << 20)
     assert any("memory budget not used on the CPU" in n for n in noted.info["notes"])
     plain = roofgs.load(INPUTS["rgs"], device="cpu", splat_budget=1000)
