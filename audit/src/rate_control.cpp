@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <memory>
 #include <tuple>
 #include <utility>
 
@@ -218,19 +219,26 @@ class Measurer {
   struct Entry {
     FitPoint point;  ///< bytes: the sections only
     uint64_t sections = 0;
-    std::optional<format::EncodedScene> decoded;  ///< kept until it is rendered
+    std::shared_ptr<const format::ArchiveScene> archive;  ///< kept until it is rendered
   };
+
+  /// Encodes `o`, taking the sections whose settings it shares with the last archive encoded from that one
+  /// (the search moves one knob at a time, so most candidates encode one section).
+  Result<std::shared_ptr<const format::ArchiveScene>> encode_archive(const format::ArchiveOptions& o) {
+    RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, last_.get()));
+    last_ = std::make_shared<const format::ArchiveScene>(std::move(archive));
+    return last_;
+  }
 
   Result<Entry*> encode(const format::ArchiveOptions& o) {
     auto it = cache_.find(key_of(o));
     if (it != cache_.end()) return &it->second;
-    RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o));
     Entry e;
+    RGS_ASSIGN_OR_RETURN(e.archive, encode_archive(o));
     e.point.options = o;
-    for (const std::vector<uint8_t>& s : archive.stored) e.sections += s.size();
+    for (const std::vector<uint8_t>& s : e.archive->stored) e.sections += s.size();
     e.point.bytes = e.sections;
     e.point.psnr_mean_db = e.point.psnr_min_db = kNaN;
-    e.decoded = std::move(archive.decoded);
     return &cache_.emplace(key_of(o), std::move(e)).first->second;
   }
 
@@ -262,14 +270,14 @@ class Measurer {
   /// Mean and lowest PSNR of the archive's renders against the source's on `set`; its decoded scene is
   /// freed (encoded again if it is rendered again).
   Result<std::pair<double, double>> render(Entry* e, const ViewSet& set) {
-    if (!e->decoded) {
-      RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, e->point.options));
-      e->decoded = std::move(archive.decoded);
+    if (!e->archive) {
+      RGS_ASSIGN_OR_RETURN(e->archive, encode_archive(e->point.options));
     }
-    RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, format::dequantize(*e->decoded));
-    const std::string name = "archive (" + describe_archive_options(e->point.options, e->decoded->metadata.sh_degree) + ")";
-    const format::SceneBounds bounds = e->decoded->metadata.bounds;
-    e->decoded.reset();
+    const format::EncodedScene& decoded = e->archive->decoded;
+    RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, format::dequantize(decoded));
+    const std::string name = "archive (" + describe_archive_options(e->point.options, decoded.metadata.sh_degree) + ")";
+    const format::SceneBounds bounds = decoded.metadata.bounds;
+    e->archive.reset();
     RGS_ASSIGN_OR_RETURN(api::Scene scene, load(cloud, bounds, name));
     double sum = 0, lowest = std::numeric_limits<double>::infinity();
     for (size_t v = 0; v < set.cameras.size(); ++v) {
@@ -291,6 +299,7 @@ class Measurer {
   api::RenderSettings settings_;
   ViewSet search_, final_;
   std::map<Key, Entry> cache_;
+  std::shared_ptr<const format::ArchiveScene> last_;  ///< the last archive encoded, lending its sections
   uint64_t overhead_ = 0;
   uint32_t renders_ = 0;
 };

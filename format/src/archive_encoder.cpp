@@ -600,14 +600,17 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
   return q;
 }
 
-Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options_in) {
+Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options_in,
+                                    const ArchiveScene* earlier) {
   RGS_RETURN_IF_ERROR(check_options(options_in));
   const ArchiveOptions options = resolve_archive_options(options_in, scene.count);
   if (!scene.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
   if (scene.count > UINT32_MAX / 2)
     return invalid("Draco holds at most 2^31 points; the scene has " + dec(scene.count));
+  if (earlier && earlier->decoded.count != scene.count) return invalid("the earlier archive is of another scene");
   try {
     ArchiveScene out;
+    out.options = options;
     RGS_ASSIGN_OR_RETURN(out.position, choose_position_quantization(scene.metadata.bounds, options.position_error));
     EncodedScene& d = out.decoded;
     d.metadata = scene.metadata;
@@ -616,22 +619,38 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     const uint64_t n = scene.count;
     if (n == 0) return out;  // the writer stores an empty scene with codec none
 
-    // Draco fixes the order, so it runs first; the other sections follow its order, in parallel.
-    RGS_RETURN_IF_ERROR(encode_means(scene, &out.position, options, &out.stored[0], &d.means, &out.source_index));
+    // Draco fixes the order, so it runs first; the other sections follow its order, in parallel. A section of
+    // `earlier` coded with the same settings, in the same order, is taken as it is: same bytes, same values.
+    const ArchiveOptions* e = earlier ? &earlier->options : nullptr;
+    const bool same_order = e && earlier->position.bits == out.position.bits && e->draco_speed == options.draco_speed;
+    if (same_order) {
+      out.position = earlier->position;  // as Draco stored it
+      out.stored[0] = earlier->stored[0];
+      d.means = earlier->decoded.means;
+      out.source_index = earlier->source_index;
+    } else {
+      RGS_RETURN_IF_ERROR(encode_means(scene, &out.position, options, &out.stored[0], &d.means, &out.source_index));
+    }
     d.metadata.bounds = bounds_of(d.means);
     const std::vector<uint64_t>& order = out.source_index;
-    std::vector<std::function<Status()>> jobs = {
-        [&] {
-          bool codebook = false;
-          if (scene.metadata.sh_degree > 0) {
-            RGS_RETURN_IF_ERROR(encode_sh_codebook(scene, order, options, &out.stored[4], &codebook));
-          }
-          return codebook ? Status() : encode_sh(scene, order, options, &out.stored[4]);
-        },
-        [&] { return encode_rotations(scene, order, options, &out.stored[1]); },
-        [&] { return encode_scales(scene, order, options, &out.stored[2]); },
-        [&] { return encode_opacities(scene, order, options, &out.stored[3]); },
-    };
+    const bool reuse[5] = {same_order, same_order && e->rotation_bits == options.rotation_bits,
+                           same_order && e->scale_bits == options.scale_bits,
+                           same_order && e->opacity_bits == options.opacity_bits,
+                           same_order && e->sh_step_multipliers == options.sh_step_multipliers &&
+                               e->sh_codebook_size == options.sh_codebook_size};
+    std::vector<std::function<Status()>> jobs;
+    if (!reuse[4]) {
+      jobs.push_back([&] {
+        bool codebook = false;
+        if (scene.metadata.sh_degree > 0) {
+          RGS_RETURN_IF_ERROR(encode_sh_codebook(scene, order, options, &out.stored[4], &codebook));
+        }
+        return codebook ? Status() : encode_sh(scene, order, options, &out.stored[4]);
+      });
+    }
+    if (!reuse[1]) jobs.push_back([&] { return encode_rotations(scene, order, options, &out.stored[1]); });
+    if (!reuse[2]) jobs.push_back([&] { return encode_scales(scene, order, options, &out.stored[2]); });
+    if (!reuse[3]) jobs.push_back([&] { return encode_opacities(scene, order, options, &out.stored[3]); });
     std::vector<Status> results;
     detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
@@ -639,7 +658,13 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     // Decode what was written: `decoded` is bit for bit what readers get.
     const uint32_t values = 3 * sh_coefficient_count(d.metadata.sh_degree);
     jobs.clear();
-    auto add_decode = [&](SectionId id, size_t slot, uint32_t components, auto& array) {
+    auto add_decode = [&](SectionId id, size_t slot, uint32_t components, auto EncodedScene::*member) {
+      auto& array = d.*member;
+      if (reuse[slot]) {
+        out.stored[slot] = earlier->stored[slot];
+        array = earlier->decoded.*member;
+        return;
+      }
       array.resize(n * components);
       jobs.push_back([&d, &out, &array, id, slot, components, n] {
         Status s = detail::decode_quantized(id, d.metadata, out.stored[slot].data(), out.stored[slot].size(), n,
@@ -648,14 +673,17 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(id));
       });
     };
-    add_decode(SectionId::kRotations, 1, 4, d.rotations);
-    add_decode(SectionId::kScales, 2, 3, d.scales);
-    add_decode(SectionId::kOpacities, 3, 1, d.opacities);
+    add_decode(SectionId::kRotations, 1, 4, &EncodedScene::rotations);
+    add_decode(SectionId::kScales, 2, 3, &EncodedScene::scales);
+    add_decode(SectionId::kOpacities, 3, 1, &EncodedScene::opacities);
     // Transform 4 and the exact transform 5 decode to the transform-4 value of every source value, so the
     // SH values are computed here instead of decompressing the section again (saving its code buffer,
     // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
-    if (options.sh_codebook_size != 0) {
-      add_decode(SectionId::kSh, 4, values, d.sh);
+    if (reuse[4]) {
+      out.stored[4] = earlier->stored[4];
+      d.sh = earlier->decoded.sh;
+    } else if (options.sh_codebook_size != 0) {
+      add_decode(SectionId::kSh, 4, values, &EncodedScene::sh);
     } else {
       d.sh.resize(n * values);
       jobs.push_back([&d, &scene, &order, &options, values, n] {

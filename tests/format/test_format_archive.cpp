@@ -35,6 +35,48 @@ size_t entry_index(const std::vector<uint8_t>& b, format::SectionId id) {
 
 }  // namespace
 
+TEST_CASE("archive: sections lent by an earlier archive give the archive encoded from scratch") {
+  const format::EncodedScene scene = make_random_scene(3000, 2, 11);
+  format::ArchiveOptions base;
+  base.rotation_bits = 9;
+  base.scale_bits = 8;
+  base.opacity_bits = 7;
+  auto earlier = format::encode_archive(scene, base);
+  REQUIRE(earlier.ok());
+  CHECK(earlier->options.rotation_bits == 9);
+  // Each setting alone, all of them, and the position (which changes the order and so every section).
+  std::vector<format::ArchiveOptions> variants(6, base);
+  variants[0].rotation_bits = 7;
+  variants[1].scale_bits = 6;
+  variants[2].opacity_bits = 5;
+  variants[3].sh_step_multipliers = {2, 4, 6, 8};
+  variants[4] = {};
+  variants[5].position_error = base.position_error * 8;
+  for (size_t v = 0; v < variants.size(); ++v) {
+    CAPTURE(v);
+    auto fresh = format::encode_archive(scene, variants[v]);
+    auto lent = format::encode_archive(scene, variants[v], &*earlier);
+    REQUIRE(fresh.ok());
+    REQUIRE(lent.ok());
+    for (size_t k = 0; k < 5; ++k) CHECK(lent->stored[k] == fresh->stored[k]);
+    CHECK(lent->source_index == fresh->source_index);
+    CHECK(lent->position.bits == fresh->position.bits);
+    check_same_scene(lent->decoded, fresh->decoded);
+    // What was lent is what a reader decodes from the lent bytes.
+    format::WriteOptions w;
+    w.profile = format::StorageProfile::kArchive;
+    w.archive = variants[v];
+    auto bytes = format::serialize_scene(scene, w);
+    REQUIRE(bytes.ok());
+    auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+    REQUIRE(file.ok());
+    auto read = file->read_scene();
+    REQUIRE(read.ok());
+    check_same_scene(*read, lent->decoded);
+  }
+  CHECK_FALSE(format::encode_archive(make_random_scene(10, 0, 1), base, &*earlier).ok());
+}
+
 TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to encode_archive's scene") {
   const format::EncodedScene scene = make_random_scene(5000, 3, 7);
   const format::ArchiveOptions options;

@@ -76,12 +76,20 @@ struct ArchiveScene {
   ArchivePositionQuantization position;
   /// Stored bytes of the means (draco), rotations, scales, opacities and sh (quantized) sections.
   std::array<std::vector<uint8_t>, 5> stored;
+  /// The options it was encoded with, resolved (no automatic bit counts).
+  ArchiveOptions options;
 };
 
 /// Encodes `scene` (a valid runtime-profile scene) into the archive profile and decodes it back, so
 /// that `decoded` is exactly what readers of the file will see. Deterministic: same scene and options,
-/// same bytes, whatever `threads`. Errors: kInvalidArgument (options out of range, an inconsistent
-/// scene), kOutOfMemory.
-Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options);
+/// same bytes, whatever `threads`. `earlier`, an archive of the same `scene` (not checked beyond its count),
+/// lends each section whose settings are those of `options`: the means when the position bits and
+/// draco_speed match (and with them the point order), then each other section whose own setting matches
+/// (rotation_bits, scale_bits, opacity_bits, the SH multipliers and codebook size). The result is the same as
+/// without it; callers that vary one setting at a time (rate control) encode one section instead of five.
+/// Errors: kInvalidArgument (options out of range, an inconsistent scene, an `earlier` of another count),
+/// kOutOfMemory.
+Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options,
+                                    const ArchiveScene* earlier = nullptr);
 
 }  // namespace rgs::format
