@@ -36,6 +36,9 @@ SUPPORTED_SCHEMA = 2
 # not fill the plot.
 MIN_PSNR_SPAN_DB = 10.0
 HEAT_CMAP = "inferno"
+# The size-against-quality plot stops here: higher means (lossless files, PSNR limited by float arithmetic) are
+# drawn at this edge with their value written, so that they do not flatten the lossy candidates.
+SIZE_QUALITY_TOP_DB = 100.0
 
 
 def esc(v):
@@ -202,23 +205,45 @@ def plot_sizes(doc):
     return svg_of(fig)
 
 
+def curve_name(label):
+    """"archive@40" -> "archive": candidates labelled SERIES@POINT are drawn as one rate-distortion curve."""
+    return label.split("@", 1)[0] if "@" in label else None
+
+
 def plot_size_quality(doc):
     fig, ax = plt.subplots(figsize=(7, 4.5))
     shown = []
+    curves = {}
     for i, c in enumerate(doc["candidates"]):
         mean, low = as_float(c["psnr_db"]["mean"]), as_float(c["psnr_db"]["min"])
-        if not math.isfinite(mean):
+        if not math.isfinite(mean) or c["bytes_per_gaussian"] <= 0:
+            continue
+        shown += [min(mean, SIZE_QUALITY_TOP_DB), min(low, SIZE_QUALITY_TOP_DB)]
+        name = curve_name(c["label"])
+        if name is not None:
+            curves.setdefault(name, []).append((c["bytes_per_gaussian"], mean, low))
+            continue
+        if mean > SIZE_QUALITY_TOP_DB:  # near-lossless: drawn at the top edge, its value written
+            ax.plot([c["bytes_per_gaussian"]], [SIZE_QUALITY_TOP_DB], "^", color=colour(i))
+            ax.annotate(f"{c['label']} ({mean:.0f} dB)", (c["bytes_per_gaussian"], SIZE_QUALITY_TOP_DB),
+                        textcoords="offset points", xytext=(6, -10), fontsize=8)
             continue
         ax.errorbar([c["bytes_per_gaussian"]], [mean], yerr=[[mean - low], [0]], fmt="o", color=colour(i), capsize=4)
         ax.annotate(c["label"], (c["bytes_per_gaussian"], mean), textcoords="offset points", xytext=(6, 4), fontsize=8)
-        shown += [mean, low]
+    for k, (name, points) in enumerate(sorted(curves.items())):
+        x, mean, low = (np.array(v) for v in zip(*sorted(points)))
+        ax.plot(x, mean, "-s", color=colour(len(doc["candidates"]) + k), markersize=4, label=f"{name}: mean")
+        ax.plot(x, low, ":", color=colour(len(doc["candidates"]) + k), label=f"{name}: worst view")
     ax.set_ylim(*psnr_limits(shown, threshold_lines(ax, doc)))
-    if doc.get("verdict") or doc.get("gate"):
+    sizes = [c["bytes_per_gaussian"] for c in doc["candidates"] if c["bytes_per_gaussian"] > 0]
+    if sizes and max(sizes) > 8 * min(sizes):
+        ax.set_xscale("log")
+    if doc.get("verdict") or doc.get("gate") or curves:
         ax.legend(fontsize=8, loc="lower right")
     ax.set_xlabel("bytes per Gaussian")
     ax.set_ylabel("PSNR (dB): mean, bar down to the worst view")
-    ax.grid(alpha=0.3)
-    ax.set_title("Size against quality")
+    ax.grid(alpha=0.3, which="both")
+    ax.set_title("Size against quality" + (": rate-distortion curves (labels SERIES@POINT) and points" if curves else ""))
     return svg_of(fig)
 
 

@@ -2,8 +2,8 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|ab|all]
-#   (default all; ab: see below)
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|ab|all|cards]
+#   (default all; ab: see below; cards: taebak's quality card, not part of all)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
 out="$2"
@@ -292,7 +292,7 @@ if [ "$what" = audit ] || [ "$what" = all ]; then
   # camera at 960 px wide), in one run.
   t0=$(date +%s%N)
   rc=0
-  RGS_TOOLS_DIR="$bin" "$(dirname "${BASH_SOURCE[0]}")/audit_formats.sh" \
+  RGS_TOOLS_DIR="$bin" RGS_CURVE_TARGETS="" "$(dirname "${BASH_SOURCE[0]}")/audit_formats.sh" \
     "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" "$out/formats" --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json" \
     --every 4 --width 960 --backend cuda >"$out/audit_formats_flowers.log" 2>&1 || rc=$?
   [ $rc -ne 0 ] && status=1
@@ -301,8 +301,8 @@ if [ "$what" = audit ] || [ "$what" = all ]; then
   if [ -f "$taebak" ]; then
     t0=$(date +%s%N)
     rc=0
-    RGS_TOOLS_DIR="$bin" "$(dirname "${BASH_SOURCE[0]}")/audit_formats.sh" "$taebak_dir/taebak_lod0_sog/lod-meta.json" \
-      "$out/formats" --cameras "$taebak_cameras" --backend cuda >"$out/audit_formats_taebak.log" 2>&1 || rc=$?
+    RGS_TOOLS_DIR="$bin" RGS_CURVE_TARGETS="" "$(dirname "${BASH_SOURCE[0]}")/audit_formats.sh" \
+      "$taebak_dir/taebak_lod0_sog/lod-meta.json" "$out/formats" --cameras "$taebak_cameras" --backend cuda >"$out/audit_formats_taebak.log" 2>&1 || rc=$?
     [ $rc -ne 0 ] && status=1
     note "audit_formats_taebak: exit $rc in $(( ($(date +%s%N) - t0) / 1000000 )) ms wall"
     grep -A7 "candidate          format" "$out/audit_formats_taebak.log" | tee -a "$summary"
@@ -365,6 +365,25 @@ if [ "$what" = rate ] || [ "$what" = all ]; then
   rate_control flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" --cameras \
     "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json" --every 8 --width 960
   [ -f "$taebak" ] && rate_control taebak "$taebak_dir/taebak_lod0_sog/lod-meta.json" --cameras "$taebak_cameras"
+fi
+if [ "$what" = cards ]; then
+  # taebak's quality card and rate-distortion curve (docs/AUDITS.md#quality-cards): audit_formats.sh against its
+  # SOG source on its cameras, with $RGS_FORMATS and $RGS_CURVE_TARGETS (a long audit splits over several calls;
+  # scripts/quality_cards.py merges their JSONs). The JSON comes back as OUT_DIR/taebak.audit.json.
+  if [ -f "$taebak" ]; then
+    t0=$(date +%s%N)
+    rc=0
+    RGS_TOOLS_DIR="$bin" "$(dirname "${BASH_SOURCE[0]}")/audit_formats.sh" "$taebak_dir/taebak_lod0_sog/lod-meta.json" \
+      /tmp/rgs_cards --cameras "$taebak_cameras" >"$out/cards_taebak.log" 2>&1 || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "cards_taebak: exit $rc in $(( ($(date +%s%N) - t0) / 1000000 )) ms wall"
+    grep -E "^audit_formats: " "$out/cards_taebak.log" | tee -a "$summary"
+    grep -A24 "candidate          format" "$out/cards_taebak.log" | tee -a "$summary"
+    cp /tmp/rgs_cards/taebak_lod0_sog.audit.json "$out/taebak.audit.json" 2>/dev/null
+  else
+    note "cards: no taebak (scripts/gpu_prepare_taebak.sh first)"
+    status=1
+  fi
 fi
 echo
 echo "=== summary ==="
