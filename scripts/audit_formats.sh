@@ -71,9 +71,12 @@ done
 if [ -n "$splat_transform" ]; then
   for kind in sog compressed.ply; do
     t0=$(date +%s%N)
-    $splat_transform -q -w -g cpu "$source" "$out/$name.st.$kind"
-    log "splat-transform $kind written in $(since "$t0")"
-    add "$out/$name.st.$kind" "$kind"
+    if $splat_transform -q -w -g cpu "$source" "$out/$name.st.$kind"; then
+      log "splat-transform $kind written in $(since "$t0")"
+      add "$out/$name.st.$kind" "$kind"
+    else
+      log "splat-transform $kind failed (above: why); left out"
+    fi
   done
 else
   log "no splat-transform (set SPLAT_TRANSFORM or put it on PATH): no SOG or compressed PLY candidate"
