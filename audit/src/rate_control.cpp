@@ -451,9 +451,10 @@ class Search {
   }
 
   /// kTargetPsnr's last step, finer than one knob's, when path->back() is more than kTradeMinSlackDb above
-  /// `target`: a coarser step of a bit count or of the position error
-  /// that misses `target` on its own, with every SH step multiplier scaled down by the factor (bisected) that
-  /// brings it back to the target, kept when it is smaller than path->back().
+  /// `target`: a coarser step of a bit count or of the position error that misses `target` on its own, with
+  /// another knob one step finer, or with every SH step multiplier scaled down by the factor (bisected) that
+  /// brings it back to the target; the smallest that meets the target is kept when it is smaller than
+  /// path->back().
   Status trade_for_psnr(double target, std::vector<FitPoint>* path) {
     const FitPoint at = path->back();
     if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) return Status();  // little to gain
@@ -469,6 +470,16 @@ class Search {
     if (misses.size() > kTradeCandidates) misses.resize(kTradeCandidates);
     std::optional<FitPoint> best;
     for (const FitPoint& miss : misses) {
+      // One other knob a step finer: an exchange between knobs of different worth per byte.
+      std::vector<format::ArchiveOptions> exchanges;
+      for (Knob other : knobs_) {
+        const auto o = step(miss.options, other, false);
+        if (o && key_of(*o) != key_of(at.options)) exchanges.push_back(*o);
+      }
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> exchanged, m_.measure(exchanges));
+      for (const FitPoint& p : exchanged) {
+        if (p.psnr_mean_db >= target && p.bytes < at.bytes && (!best || p.bytes < best->bytes)) best = p;
+      }
       // Bytes alone: the smallest scale whose archive is still smaller than `at`.
       double lo = kTradeFinestScale, hi = 1;  // lo: not smaller (or untested); hi: smaller
       for (int i = 0; i < 6; ++i) {
