@@ -586,6 +586,7 @@ class Search {
   }
 
   const std::optional<FitPoint>& finest() const { return finest_; }
+  uint32_t sh_degree() const { return sh_degree_; }
 
  private:
   /// One step of every knob not yet frozen, coarser or finer, into `list` with its knob index in `knob_of`; a knob
@@ -622,6 +623,11 @@ class Search {
   std::optional<FitPoint> finest_;
 };
 
+uint32_t search_max_side(const FitOptions& options) {
+  if (options.search_max_side != 0) return options.search_max_side;
+  return options.audit.backend == Backend::kCuda ? kCudaSearchMaxSide : kCpuSearchMaxSide;
+}
+
 /// The search's views: at most `max_views` of `cameras`, evenly spread, reduced to `max_side`.
 std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras, uint32_t max_side,
                                      uint32_t max_views) {
@@ -648,22 +654,64 @@ std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras
 /// target moved by the difference measured between the two sizes, checks the search's last step, and searches
 /// again at a target moved by the difference measured between the two sizes while the check
 /// misses the target or lands more than kMaxAboveDb above it. On the last attempt, a miss is followed by
-/// checks of the earlier steps of the path. Sets result->chosen and result->search_psnr_db.
+/// checks of the earlier steps of the path. A (moved) target above the finest archive on the search views
+/// ends the search with a check of that finest archive: the search views may read below or above the
+/// cameras' own size. Sets result->chosen and result->search_psnr_db.
 Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first, double target, FitResult* result) {
   const std::string size = std::to_string(first.width) + "x" + std::to_string(first.height);
-  // A first estimate of the difference between the sizes, at the ladder's point for the target.
-  RGS_ASSIGN_OR_RETURN(const FitPoint ladder_point, search.ladder_for_psnr(target));
-  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> calibration, measurer.measure({ladder_point.options}, true));
-  search.report("check at " + size + ": " + db_text(calibration[0].psnr_mean_db) + " (search views: " +
-                db_text(ladder_point.psnr_mean_db) + ")");
-  double search_target =
-      std::max(target, target + ladder_point.psnr_mean_db - calibration[0].psnr_mean_db + kCalibrationMarginDb);
   std::optional<FitPoint> best;
-  if (calibration[0].psnr_mean_db >= target) best = calibration[0];
-  double best_search_psnr = ladder_point.psnr_mean_db;
+  double best_search_psnr = kNaN;
+  auto keep = [&](const FitPoint& checked, double search_psnr) {
+    if (checked.psnr_mean_db >= target && (!best || checked.bytes < best->bytes)) {
+      best = checked;
+      best_search_psnr = search_psnr;
+    }
+  };
+  // Whether `searched` failed because `search_target` is above the finest archive on the search views.
+  auto above_finest = [&](const Status& searched, double search_target) {
+    return searched.code() == StatusCode::kInvalidArgument && search.finest() &&
+           !(search.finest()->psnr_mean_db >= search_target);
+  };
+  auto check_finest = [&]() -> Status {
+    const FitPoint finest = *search.finest();
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({finest.options}, true));
+    search.report("check of the finest archive at " + size + ": " + db_text(checked[0].psnr_mean_db) +
+                  " (search views: " + db_text(finest.psnr_mean_db) + ")");
+    keep(checked[0], finest.psnr_mean_db);
+    if (best) return Status();
+    return Status(StatusCode::kInvalidArgument,
+                  "target " + db_text(target) + " is above what the archive profile reaches on these views: " +
+                      db_text(checked[0].psnr_mean_db) + " at the finest settings (" +
+                      describe_archive_options(finest.options, search.sh_degree()) + ")");
+  };
+  auto settle = [&]() {
+    result->chosen = *best;
+    result->search_psnr_db = best_search_psnr;
+    return Status();
+  };
+
+  // A first estimate of the difference between the sizes, at the ladder's point for the target.
+  Result<FitPoint> ladder_point = search.ladder_for_psnr(target);
+  if (!ladder_point.ok()) {
+    if (!above_finest(ladder_point.status(), target)) return std::move(ladder_point).status();
+    RGS_RETURN_IF_ERROR(check_finest());
+    return settle();
+  }
+  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> calibration, measurer.measure({ladder_point->options}, true));
+  search.report("check at " + size + ": " + db_text(calibration[0].psnr_mean_db) + " (search views: " +
+                db_text(ladder_point->psnr_mean_db) + ")");
+  double search_target =
+      std::max(target, target + ladder_point->psnr_mean_db - calibration[0].psnr_mean_db + kCalibrationMarginDb);
+  keep(calibration[0], ladder_point->psnr_mean_db);
   std::vector<FitPoint> path;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
-    RGS_ASSIGN_OR_RETURN(path, search.for_psnr(search_target, path));
+    Result<std::vector<FitPoint>> searched = search.for_psnr(search_target, path);
+    if (!searched.ok()) {
+      if (!above_finest(searched.status(), search_target)) return std::move(searched).status();
+      if (!best) RGS_RETURN_IF_ERROR(check_finest());
+      break;
+    }
+    path = std::move(searched).value();
     const bool last_attempt = attempt + 1 == kMaxAttempts;
     // From the search's last (cheapest) step back, on the last attempt: the first that meets the target.
     FitPoint last_checked;
@@ -673,13 +721,8 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
       if (back == 0) last_checked = checked[0];
       search.report("check at " + size + ": " + db_text(checked[0].psnr_mean_db) + " (search views: " +
                     db_text(at.psnr_mean_db) + ")");
-      if (checked[0].psnr_mean_db >= target) {
-        if (!best || checked[0].bytes < best->bytes) {
-          best = checked[0];
-          best_search_psnr = at.psnr_mean_db;
-        }
-        break;
-      }
+      keep(checked[0], at.psnr_mean_db);
+      if (checked[0].psnr_mean_db >= target) break;
     }
     if (best && best->psnr_mean_db <= target + kMaxAboveDb) break;
     // The difference between the search views and the final ones at the search's last step.
@@ -695,9 +738,7 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
                       " (the finest reached " + db_text(search.finest() ? search.finest()->psnr_mean_db : kNaN) +
                       " at the search size)");
   }
-  result->chosen = *best;
-  result->search_psnr_db = best_search_psnr;
-  return Status();
+  return settle();
 }
 
 }  // namespace
@@ -751,7 +792,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   FitOptions resolved = options;
   resolved.start = anchor;
   const std::vector<runtime::Camera> search_cameras =
-      reduced(cameras, options.search_max_side, options.search_max_views);
+      reduced(cameras, search_max_side(options), options.search_max_views);
   Measurer measurer(reference, std::move(quantized), resolved);
   RGS_RETURN_IF_ERROR(measurer.start(search_cameras, cameras));
   RGS_RETURN_IF_ERROR(measurer.measure_overhead());

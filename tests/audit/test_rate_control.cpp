@@ -1,8 +1,10 @@
 // Rate control of the archive profile on the bundled guitar and its SH-degree-3 excerpt: the written file meets
 // the PSNR target, measured independently with run_audit, and lands within half a dB of it; a byte budget is kept; a target no archive
-// reaches is refused with what the finest archive reaches.
+// reaches is refused with what the finest archive reaches; a target the reduced search views cannot reach is
+// met by the finest archive when it meets it at the cameras' size.
 #include <doctest/doctest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -113,4 +115,33 @@ TEST_CASE("rate control refuses targets no archive reaches, writing nothing") {
   CHECK_MESSAGE(std::string(fitted.status().message()).find("below the smallest archive") != std::string::npos,
                 fitted.status().message());
   CHECK_FALSE(std::filesystem::exists(out));
+}
+
+TEST_CASE("rate control takes the finest archive when the search views cannot reach the target") {
+  // Views of 16x9 pixels in the search read several dB below the 480x270 ones: the finest archive reaches
+  // about 71 dB there and about 75 dB at the cameras' size. A target between the two is met by the finest
+  // archive, checked at the cameras' size; one above both is refused with the PSNR at the cameras' size.
+  test::TempDir dir;
+  const std::string source = test::repo_path("samples/guitar.ply");
+  const std::string out = dir.file("guitar_74db.rgs");
+  audit::FitOptions fit;
+  fit.target_psnr_db = 74;
+  fit.search_max_side = 16;
+  auto fitted = audit::convert_fitted(source, out, {}, small_orbit(), fit);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  CHECK(fitted->fit.search_width == 16);
+  CHECK(fitted->fit.search_psnr_db < 74);
+  const double psnr = measured_psnr(source, out, small_orbit());
+  CHECK(psnr >= 74);
+  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
+
+  fit.target_psnr_db = psnr + 1;
+  const std::string never = dir.file("never.rgs");
+  fitted = audit::convert_fitted(source, never, {}, small_orbit(), fit);
+  REQUIRE_FALSE(fitted.ok());
+  const std::string message = fitted.status().message();
+  char reached[64];
+  std::snprintf(reached, sizeof(reached), "above what the archive profile reaches on these views: %.2f dB", psnr);
+  CHECK_MESSAGE(message.find(reached) != std::string::npos, message);
+  CHECK_FALSE(std::filesystem::exists(never));
 }

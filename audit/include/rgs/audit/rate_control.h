@@ -29,6 +29,9 @@ enum class FitGoal {
   kTargetBytes,  ///< file bytes <= target_bytes at the highest mean PSNR
 };
 
+/// FitOptions::search_max_side's automatic values, pixels on the longer side.
+constexpr uint32_t kCpuSearchMaxSide = 320, kCudaSearchMaxSide = 1920;
+
 /// Options of fit_archive().
 struct FitOptions {
   FitGoal goal = FitGoal::kTargetPsnr;
@@ -46,8 +49,10 @@ struct FitOptions {
   /// opacity_bits and sh_step_multipliers, and keeps sh_codebook_size, zstd_level, draco_speed and threads.
   format::ArchiveOptions start;
   /// The search renders the cameras reduced (field of view kept) so that their longer side is at most this
-  /// many pixels (at least 16); the final check renders them at their own size.
-  uint32_t search_max_side = 320;
+  /// many pixels (at least 16); the final check renders them at their own size. 0: kCpuSearchMaxSide with the
+  /// CPU backend, kCudaSearchMaxSide with CUDA, where renders are cheap next to encoding and the reduced views
+  /// of a dense scene read several dB above its full ones (docs/AUDITS.md, rate control).
+  uint32_t search_max_side = 0;
   /// The search renders at most this many of the cameras, evenly spread; the final check renders them all.
   uint32_t search_max_views = 6;
   /// Bytes the file will hold besides the sections the search measures and the metadata it knows: the
