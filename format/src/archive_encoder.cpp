@@ -633,10 +633,11 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     }
     d.metadata.bounds = bounds_of(d.means);
     const std::vector<uint64_t>& order = out.source_index;
-    const bool reuse[5] = {same_order, same_order && e->rotation_bits == options.rotation_bits,
-                           same_order && e->scale_bits == options.scale_bits,
-                           same_order && e->opacity_bits == options.opacity_bits,
-                           same_order && e->sh_step_multipliers == options.sh_step_multipliers &&
+    const bool same_zstd = same_order && e->zstd_level == options.zstd_level;
+    const bool reuse[5] = {same_order, same_zstd && e->rotation_bits == options.rotation_bits,
+                           same_zstd && e->scale_bits == options.scale_bits,
+                           same_zstd && e->opacity_bits == options.opacity_bits,
+                           same_zstd && e->sh_step_multipliers == options.sh_step_multipliers &&
                                e->sh_codebook_size == options.sh_codebook_size};
     std::vector<std::function<Status()>> jobs;
     if (!reuse[4]) {

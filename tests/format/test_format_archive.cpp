@@ -44,14 +44,16 @@ TEST_CASE("archive: sections lent by an earlier archive give the archive encoded
   auto earlier = format::encode_archive(scene, base);
   REQUIRE(earlier.ok());
   CHECK(earlier->options.rotation_bits == 9);
-  // Each setting alone, all of them, and the position (which changes the order and so every section).
-  std::vector<format::ArchiveOptions> variants(6, base);
+  // Each setting alone, all of them, the position (which changes the order and so every section), and the
+  // zstd level (which changes every section's bytes but the means').
+  std::vector<format::ArchiveOptions> variants(7, base);
   variants[0].rotation_bits = 7;
   variants[1].scale_bits = 6;
   variants[2].opacity_bits = 5;
   variants[3].sh_step_multipliers = {2, 4, 6, 8};
   variants[4] = {};
   variants[5].position_error = base.position_error * 8;
+  variants[6].zstd_level = base.zstd_level + 3;
   for (size_t v = 0; v < variants.size(); ++v) {
     CAPTURE(v);
     auto fresh = format::encode_archive(scene, variants[v]);

@@ -85,7 +85,7 @@ struct ArchiveScene {
 /// same bytes, whatever `threads`. `earlier`, an archive of the same `scene` (not checked beyond its count),
 /// lends each section whose settings are those of `options`: the means when the position bits and
 /// draco_speed match (and with them the point order), then each other section whose own setting matches
-/// (rotation_bits, scale_bits, opacity_bits, the SH multipliers and codebook size). The result is the same as
+/// (rotation_bits, scale_bits, opacity_bits, the SH multipliers and codebook size) at the same zstd_level. The result is the same as
 /// without it; callers that vary one setting at a time (rate control) encode one section instead of five.
 /// Errors: kInvalidArgument (options out of range, an inconsistent scene, an `earlier` of another count),
 /// kOutOfMemory.
