@@ -1302,9 +1302,9 @@ PYBIND11_MODULE(roofgs, m) {
         "most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget bytes of device "
         "memory (0: a pool that holds every level; the renderer's scratch is bounded by render()'s "
         "scratch_budget), reading and uploading at most stream_bytes a frame (> 0: the bound on how long a frame "
-        "waits for the file; levels that do not fit come in later frames), on the CPU with every level in host memory. lod=False renders its full detail. Files "
-        "without levels ignore these (info['notes'] says so for values other than the defaults); "
-        "info['lod'] tells, frame_stats['lod'] counts each frame. roofgs.Error kInvalidArgument for pixel_error "
+        "waits for the file; levels that do not fit come in later frames), on the CPU with every level in host "
+        "memory. lod=False renders its full detail. Files without levels ignore these (info['notes'] says so "
+        "for values other than the defaults); info['lod'] tells, frame_stats['lod'] counts each frame. roofgs.Error kInvalidArgument for pixel_error "
         "< 0 or not finite, or a level-of-detail CUDA scene with a preset reading FP32 (faithful); "
         "kLimitExceeded for a memory_budget below the frame arrays and the coarsest levels; kInvalidArgument for "
         "stream_bytes 0");

@@ -1,7 +1,7 @@
 // Rate control of the archive profile on the bundled guitar and its SH-degree-3 excerpt: the written file meets
-// the PSNR target, measured independently with run_audit, and lands within half a dB of it; a byte budget is kept; a target no archive
-// reaches is refused with what the finest archive reaches; a target the reduced search views cannot reach is
-// met by the finest archive when it meets it at the cameras' size.
+// the PSNR target, measured independently with run_audit, and lands within half a dB of it; a byte budget is
+// kept; a target no archive reaches is refused with what the finest archive reaches; a target the reduced
+// search views cannot reach is met by the finest archive when it meets it at the cameras' size.
 #include <doctest/doctest.h>
 
 #include <cstdio>
