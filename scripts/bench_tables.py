@@ -51,7 +51,7 @@ TOP_KEYS = {"tool", "version", "date", "timestamp_utc", "device", "device_peaks"
             "warmup_frames", "repetitions", "statistic", "results", "quality", "front_door", "floor_census"}
 TOP_REQUIRED = {"tool", "date", "device", "scene", "statistic", "results"}
 RESULT_KEYS = {"mode", "mode_description", "resolution", "views", "frames", "median_ms", "stages", "fps",
-               "mean_pairs", "roofline", "per_view", "floor", "view_total_ms"}
+               "mean_pairs", "max_tile_groups", "roofline", "per_view", "floor", "view_total_ms"}
 RESULT_REQUIRED = {"mode", "resolution", "views", "median_ms"}
 QUALITY_KEYS = {"mode", "resolution", "psnr_mean_db", "psnr_min_db", "ssim_mean", "max_abs_diff", "views"}
 

@@ -65,10 +65,11 @@ const std::vector<ModeEntry>& entries() {
       preset_mode(Preset::kFaithful,
                   "the 3DGS rasterizer, the baseline (FP32 attributes, 64-bit keys, 3-sigma rectangles, expf)"),
       preset_mode(Preset::kFastest,
-                  "roofgs with depth order, fast exp sigma 0.05798, half-precision blending (binary16 alpha, "
-                  "transmittance and colour sums) and long tiles blended in chunks, a block each (tiles of more "
-                  "than max(1024, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most pairs); the "
-                  "fused kernel allocates pairs in arrival order: the depth order makes their emission order moot"),
+                  "roofgs with depth order, half-precision blending (binary16 alpha from a mantissa-corrected fast "
+                  "exp, binary16 transmittance and colour sums) and long tiles blended in chunks, a block each "
+                  "(tiles of more than max(1024, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most "
+                  "pairs); the fused kernel allocates pairs in arrival order: the depth order makes their emission "
+                  "order moot"),
       preset_mode(Preset::kPaper,
                   "the paper's combination as published: every RoofGS technique, fast exp sigma 0.045677, "
                   "SnugBox+AccuTile not limited to the 3DGS rectangle, each Gaussian's pairs written by its own "
@@ -82,7 +83,7 @@ const std::vector<ModeEntry>& entries() {
         "per 4x4 block of 8 lanes",
         false},
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
-      fastest_variant("fastest-fp32-blend", "fastest with FP32 blending",
+      fastest_variant("fastest-fp32-blend", "fastest with FP32 blending (FP32 fast exp, sigma 0.05798)",
                       [](RoofgsOptions& t) { t.half_blend = false; }),
       fastest_variant("fastest-whole-tiles",
                       "fastest with every tile blended by one block (fastest blends long tiles in chunks, a block "

@@ -242,7 +242,7 @@ struct HalfFoldedPixels {
 /// The records carry those coefficients and the colour as binary16 pairs (c56rg.z, c56rg.w, bd.x).
 template <bool kDepth, typename OffsetOf>
 __device__ inline void blend_pairs_half(const char* record_bytes, int padded, OffsetOf offset_of,
-                                        const PixelTerms& terms, Half2Bits alpha_0, HalfFoldedPixels& pixels) {
+                                        const PixelTerms& terms, HalfFoldedPixels& pixels) {
   for (int k = 0; k < padded; k += kUnroll) {
     if (!pixels.live()) break;
 #pragma unroll
@@ -252,7 +252,7 @@ __device__ inline void blend_pairs_half(const char* record_bytes, int padded, Of
       const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};  // of v
       const float v_first = folded_power(f, terms);
       const float v_second = dual_pixel_power(v_first, f, terms);
-      const Half2Bits alpha = fast_exp_half2_alpha(fast_exp_half2_of_v(v_first, v_second), alpha_0);
+      const Half2Bits alpha = fast_exp_half2_alpha(fast_exp_half2_of_v(v_first, v_second));
       const float4 bd = r.bd;
       const Half2Bits w = blend_half2(pixels.s, alpha, float_as_uint(c56rg.z), float_as_uint(c56rg.w),
                                       float_as_uint(bd.x));
@@ -404,8 +404,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   const float origin_x = static_cast<float>(tile_x * kTileSize);
   const float origin_y = static_cast<float>(tile_y * kTileSize);
   const PixelTerms terms = pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
-  const float fast_exp_bias = kHalf ? fast_exp_half_bias(sigma) : kFastExp ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
-  const Half2Bits alpha_0 = kHalf ? fast_exp_half2(0.f, 0.f, fast_exp_bias) : 0u;
+  const float fast_exp_bias = kFastExp && !kHalf ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
 
   // Slot s < kBatch holds the batch's pair s; slot kBatch is the padding record.
   __shared__ PairRecord records[kBatch + 1];
@@ -449,7 +448,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
         const float4 colour = in.colour_log_opacity[id];
         const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = colour.w;
         FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
-        if (kHalf) f = fast_exp_half_coefficients(f, fast_exp_bias);
+        if (kHalf) f = fast_exp_half_coefficients(f);
         record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
         if (kHalf) {  // the colour as binary16 pairs for blend_half2
           record.c56rg = make_float4(f.c5, f.c6, uint_as_float(half2_broadcast(colour.x)),
@@ -509,9 +508,9 @@ __global__ void __launch_bounds__(kDualThreads, 8)
     const auto listed = [offsets](int k) { return int(offsets[k]); };
     if (kHalf) {
       if (!kCulls || keeps_all) {  // warp-uniform
-        blend_pairs_half<kDepth>(record_bytes, padded, in_order, terms, alpha_0, pair);
+        blend_pairs_half<kDepth>(record_bytes, padded, in_order, terms, pair);
       } else {
-        blend_pairs_half<kDepth>(record_bytes, padded, listed, terms, alpha_0, pair);
+        blend_pairs_half<kDepth>(record_bytes, padded, listed, terms, pair);
       }
     } else if (!kCulls || keeps_all) {
       blend_pairs<kFastExp, kDepth>(record_bytes, padded, in_order, terms, fast_exp_bias, first, second);

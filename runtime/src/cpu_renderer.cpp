@@ -220,10 +220,8 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
 void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
                             uint32_t chunk_pairs, RenderResult* out) {
   const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
-  const float bias = k::fast_exp_half_bias(options.roofgs.fast_exp_sigma);
-  const k::Half2Bits alpha_0 = k::fast_exp_half2(0.f, 0.f, bias);
   std::vector<k::FoldedCoefficients> of_v(list.size());  // the coefficients of the fast exp's argument v
-  for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::fast_exp_half_coefficients(list[j].folded, bias);
+  for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::fast_exp_half_coefficients(list[j].folded);
   const uint32_t chunks = k::tile_chunk_count(list.size(), chunk_pairs);
   for (int ly = 0; ly < k::kTileSize; ly += 2) {
     for (int lx = 0; lx < k::kTileSize; ++lx) {
@@ -241,7 +239,7 @@ void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int t
           const TileGaussian& g = list[j];
           const float v_first = k::folded_power(of_v[j], terms);
           const float v_second = k::dual_pixel_power(v_first, of_v[j], terms);
-          const k::Half2Bits alpha = k::fast_exp_half2_alpha(k::fast_exp_half2_of_v(v_first, v_second), alpha_0);
+          const k::Half2Bits alpha = k::fast_exp_half2_alpha(k::fast_exp_half2_of_v(v_first, v_second));
           if (alpha == 0) continue;
           const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]),
                                                 k::half2_broadcast(g.rgb[1]), k::half2_broadcast(g.rgb[2]));

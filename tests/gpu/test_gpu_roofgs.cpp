@@ -103,10 +103,10 @@ std::vector<Mode> modes() {
   o.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
   m.push_back({"all four + depth order, sigma 0.05798", o});
   o.half_blend = true;
-  m.push_back({"all four + depth order + half blend, sigma 0.05798", o});
+  m.push_back({"all four + depth order + half blend", o});
   // Chunks of at least 64 pairs: nearly every flowers tile is blended by several chunk blocks and merged.
   o.tile_chunk_pairs = 64;
-  m.push_back({"all four + depth order + half blend, sigma 0.05798, chunks of >= 64 pairs", o});
+  m.push_back({"all four + depth order + half blend, chunks of >= 64 pairs", o});
   return m;
 }
 
@@ -542,9 +542,9 @@ TEST_CASE("32-bit key with depth order renders exactly the baseline's image at 1
 }
 
 TEST_CASE("RoofGS quality against the GPU baseline, every 20th flowers camera at 1920x1080") {
-  // Quality floors: the paper's combination mean ≥ 48 dB, min ≥ 45 dB; with depth order and
-  // σ = 0.05798 (beyond the paper) mean ≥ 50, min ≥ 48, with FP32 or binary16 blending. Against the FP32
-  // baseline of the PLY itself.
+  // Quality floors: the paper's combination mean ≥ 48 dB, min ≥ 45 dB; with depth order and σ = 0.05798
+  // (beyond the paper) mean ≥ 50, min ≥ 48; with binary16 blending, whose fast exp is mantissa-corrected,
+  // mean ≥ 60, min ≥ 58. Against the FP32 baseline of the PLY itself.
   if (!have_gpu()) return;
   const CompactFlowers& scene = compact_flowers();
   if (!scene.available) return;
@@ -563,7 +563,7 @@ TEST_CASE("RoofGS quality against the GPU baseline, every 20th flowers camera at
   better_half.half_blend = true;
   const Target targets[3] = {{"paper (all four, sigma 0.045677)", RoofgsOptions::all(), 48.0, 45.0},
                              {"RoofGS+ (all four, depth order, sigma 0.05798)", better, 50.0, 48.0},
-                             {"RoofGS+ with half-precision blending", better_half, 50.0, 48.0}};
+                             {"RoofGS+ with half-precision blending", better_half, 60.0, 58.0}};
   for (const Target& target : targets) {
     CAPTURE(target.name);
     double sum = 0, min = std::numeric_limits<double>::infinity();

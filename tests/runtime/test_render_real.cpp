@@ -211,9 +211,9 @@ std::vector<Switch> switches() {
   o.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
   s.push_back({"all four + depth order, sigma=0.05798", o, 47.5});
   o.half_blend = true;
-  s.push_back({"all four + depth order + half blend, sigma=0.05798", o, 47.5});
+  s.push_back({"all four + depth order + half blend (corrected binary16 fast exp)", o, 60.0});
   o.tile_chunk_pairs = kernels::kTileChunkPairs;
-  s.push_back({"the fastest preset: half blend with long tiles in chunks", o, 47.5});
+  s.push_back({"the fastest preset: half blend with long tiles in chunks", o, 60.0});
   return s;
 }
 
@@ -224,14 +224,15 @@ TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a boun
   // of max(64, pairs / 2048) pairs) nearly every tile is blended in chunks (tiles hold hundreds of pairs;
   // Gaussians of more than 32 tiles hold less than half of them, so the frame is chunked). Each chunk starts
   // from T = 1 in binary16 and the chunks merge in FP32, so pixels differ from the unchunked blend by binary16
-  // rounding along two paths (a few ulps of 2^−11 for C in [0.5, 1)) and by contributions after the stop
-  // (< 1e−4): measured max |diff| 0.0046 (alpha 0.0028), 70.8 dB, half of the values changed.
+  // rounding along two paths (a few ulps of 2^−11 for C in [0.5, 1)) and by the pair the unchunked blend
+  // stops before, which a later chunk may take (kernels/shared/tile_chunks.h): weight ≤ 0.0102 in alpha, and
+  // that times the pair's colour, which exceeds 1 on flowers (3DGS clamps colours below at 0 only). Measured
+  // max |diff| 0.0187 (alpha 0.0105), 70.2 dB, half of the values changed.
   const FlowersScene& scene = flowers();
   if (!scene.available) return;
   const Camera cam = flowers_cameras(scene)[0];
   RoofgsOptions o = RoofgsOptions::all();
   o.depth_order = true;
-  o.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
   o.half_blend = true;
   const RenderResult whole = render_ok(scene.cloud, cam, with_bounds(scene, o));
   o.tile_chunk_pairs = uint32_t(whole.stats.pairs);  // more than any tile holds
@@ -248,9 +249,9 @@ TEST_CASE("long tiles in chunks: the unchunked bits below the chunk size, a boun
                                     << diff << ", " << p << " dB; alpha max |diff| "
                                     << max_abs_diff(chunked.alpha, whole.alpha));
   CHECK(differing > 0);
-  CHECK(diff <= 0.01);
+  CHECK(diff <= 0.025);
   CHECK(p >= 65.0);
-  CHECK(max_abs_diff(chunked.alpha, whole.alpha) <= 0.01);
+  CHECK(max_abs_diff(chunked.alpha, whole.alpha) <= 0.0125);
 }
 
 TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the baseline (flowers, 3 of 9 views)" *
@@ -265,7 +266,8 @@ TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the bas
   // Of the 9 views of that table, cameras 20, 40 and 120 hold the minimum over all 9 of every switch whose
   // budget is within 40 dB of it (measured: camera 20 for the key, fast exp and the combinations, 40 for
   // SnugBox + AccuTile unclipped; 120 is the next lowest of the latter and within 0.2 dB of the key's), so
-  // the 3 give the 9-view minima at a third of the renders.
+  // the 3 give the 9-view minima at a third of the renders. Half blending (binary16 with the corrected fast
+  // exp) has its budget at 60: measured 63.7 dB over all 9 views at this size, 63.9 over these 3.
   const FlowersScene& scene = flowers();
   if (!scene.available) return;
   const std::vector<Camera> nine = flowers_cameras(scene);

@@ -18,9 +18,10 @@ namespace rgs::api {
 enum class Preset {
   /// The fastest configuration measured on each backend. On the GPU (rgs-bench's "fastest"): RoofGS pipeline on the compact .rgs
   /// attributes, fused kernel, 32-bit keys with depth order (ties in exact depth order), SnugBox + AccuTile
-  /// within the 3DGS rectangle, folded dual-pixel rasterizer, fast exp with the zero-mean σ = 0.05798,
-  /// half-precision blending (binary16 α, T and colour sums), warp-balanced emission, per-frame sub-tile
-  /// culling. Reads only the runtime sections. On the CPU: the 3DGS rules (cpu_backend_options).
+  /// within the 3DGS rectangle, folded dual-pixel rasterizer, half-precision blending (binary16 α from the
+  /// mantissa-corrected binary16 fast exp, binary16 T and colour sums), long tiles in chunks, warp-balanced
+  /// emission, per-frame sub-tile culling. Reads only the runtime sections. On the CPU: the 3DGS rules
+  /// (cpu_backend_options).
   kFastest = 0,
   /// The 3DGS rasterizer, rule by rule (FP32 attributes, 64-bit keys, 3σ rectangles, expf): the reference
   /// the others are measured against. Needs the FP32 attributes on the GPU (LoadOptions::presets).

@@ -32,20 +32,20 @@ struct RoofgsOptions {
   bool folded_coefficients = false;
   /// Schraudolph fast exp (item 6): α = min(0.99, exp̂(P)), P = power + ln(o) (folded or not).
   bool fast_exp = false;
-  /// σ of the fast exp: kFastExpSigmaMinMax (0.045677, the paper's) or e.g. kFastExpSigmaZeroMean.
+  /// σ of the FP32 fast exp: kFastExpSigmaMinMax (0.045677, the paper's) or e.g. kFastExpSigmaZeroMean.
   float fast_exp_sigma = kernels::kFastExpSigmaMinMax;
   /// With folded_coefficients and fast_exp (beyond the paper): blend in binary16 (kernels/shared/half_blend.h).
-  /// The power P stays FP32; α = min(exp̂16, exp̂16(0)), the fast exp with a binary16 result (the same σ),
-  /// skipped below 1/255 (the clamp takes the place of the 0.99 clamp and the P > 0 skip); T and C are binary16,
-  /// two pixels per half2 instruction on the GPU, emulated bit for bit on the CPU. Ignored without
-  /// folded_coefficients and fast_exp.
+  /// The power P stays FP32; α = min(0.990234, exp̂16), the fast exp with a binary16 result and a quadratic
+  /// mantissa correction (relative error ≤ 0.41 %; fast_exp_sigma does not apply), skipped below 1/255 (the
+  /// clamp takes the place of the 0.99 clamp and the P > 0 skip); T and C are binary16, two pixels per half2
+  /// instruction on the GPU, emulated bit for bit on the CPU. Ignored without folded_coefficients and fast_exp.
   bool half_blend = false;
   /// With half_blend (beyond the paper): a tile with more than K = max(this, ⌈pairs / 2048⌉) pairs (pairs: the
   /// frame's) is blended in chunks of K consecutive pairs, each from T = 1, merged front to back; no chunks in
   /// a frame where Gaussians of more than 32 tiles hold more than half the pairs (kernels/shared/tile_chunks.h
-  /// frame_chunk_pairs: the rule, and what it changes against the unchunked blend: less than 1e−4 beyond
-  /// rounding). The GPU renders each chunk as its own thread block, so no tile holds one block for the whole
-  /// frame. 0: off. Ignored without half_blend.
+  /// frame_chunk_pairs: the rule, and what it changes against the unchunked blend: at most one pair's weight
+  /// of α·1e−4/(1 − α) ≤ 0.0102 beyond rounding). The GPU renders each chunk as its own thread block, so no
+  /// tile holds one block for the whole frame. 0: off. Ignored without half_blend.
   uint32_t tile_chunk_pairs = 0;
 
   /// Emit pairs in order of (view depth, Gaussian index) instead of Gaussian index (RoofGS+, beyond the

@@ -2,13 +2,13 @@
 // C of a thread's two pixels held as pairs of IEEE binary16 values in one 32-bit word each (CUDA __half2, low
 // half = the first pixel (x, y), high half = the second (x, y + 1)), so that one half2 instruction blends
 // both pixels. The power P stays FP32 (folded_power, dual_pixel_power); α is the paper's fast exponential
-// with a binary16 result (fast_exp_half2). Every operation here is IEEE round-to-nearest-even with
-// subnormals kept (no flush to zero), on the device with the half2 instructions and on the host in software,
-// so the CPU reference and the GPU produce the same bits.
+// with a binary16 result and a mantissa correction (fast_exp_half2). Every operation here is IEEE
+// round-to-nearest-even with subnormals kept (no flush to zero), on the device with the half2 instructions and
+// on the host in software, so the CPU reference and the GPU produce the same bits.
 //
-// Error: binary16 keeps 11 significant bits (relative rounding 2^-12 a step); the fast exp itself is off by
-// up to 3.2 % (fast_exp.h), so α's rounding adds little. Against the FP32 blend of the same pairs the
-// measured images are in docs/BENCHMARKS.md#gpu-current-figures (quality table).
+// Error: binary16 keeps 11 significant bits (relative rounding 2^-12 a step); the corrected fast exp is off
+// by at most 0.41 % (kFastExpHalfMaxRelativeError). Against the FP32 blend of the same pairs the measured
+// images are in docs/RENDERER.md#measured-quality-of-each-switch.
 #pragma once
 
 #include <cmath>
@@ -194,54 +194,74 @@ RGS_HOST_DEVICE Half2Bits half2_broadcast(float v) {
 #endif
 }
 
-/// Constants of the binary16 fast exp, I = round(P·2^10·log2 e + 2^10·(15 − σ)) (the FP32 fast_exp's
-/// construction for a 10-bit mantissa and exponent bias 15), evaluated as one FP32 fma whose result carries
-/// I in its low 16 bits: v = fma(P, 2^10·log2 e, 2^10·(15 − σ) + 1.5·2^23). In [2^23, 2^24) a float's unit
-/// is 1, so the fma rounds v to the integer 1.5·2^23 + I (round to nearest, where fast_exp floors: the same
-/// construction with σ smaller by 2^−11), and the bits of 1.5·2^23 are 0 below bit 22.
+/// The binary16 fast exp's exponent-and-mantissa pattern, I = round(P·2^10·log2 e + 2^10·15) (the FP32
+/// fast_exp's construction for a 10-bit mantissa and exponent bias 15, with no σ: the mantissa correction of
+/// fast_exp_half2_of_v removes the bias that σ offsets there), evaluated as one FP32 fma whose result carries
+/// I in its low 16 bits: v = fma(P, 2^10·log2 e, kFastExpHalfBias). In [2^23, 2^24) a float's unit is 1, so
+/// the fma rounds v to the integer 1.5·2^23 + I, and the bits of 1.5·2^23 are 0 below bit 22.
 constexpr float kFastExpHalfScale = 1477.3197218702985f;  // 2^10·log2 e
 constexpr float kFastExpHalfMagic = 12582912.f;            // 1.5·2^23
-RGS_HOST_DEVICE float fast_exp_half_bias(float sigma) { return 1024.f * (15.f - sigma) + kFastExpHalfMagic; }
+constexpr float kFastExpHalfBias = 1024.f * 15.f + kFastExpHalfMagic;
 
-/// exp̂16 of two pixels from their v = 1.5·2^23 + 2^10·log2 e·P + 2^10·(15 − σ), as Half2Bits: v is clamped
-/// below at 1.5·2^23 (I = 0, α = +0) so that P below about −10.4 cannot wrap (NaN also gives +0). Above, I
-/// reaches the sign bit at P ≈ 11.8 (a negative α, skipped) and would wrap at P ≈ 34, which a folded power
-/// (≤ ln o ≤ 0 up to FP32 rounding) never is. Callers take α from the result with fast_exp_half2_alpha.
+/// The mantissa correction r(m) = c2·m² + c1·m + c0 ≈ 2^(m−1)/m on m in [1, 2) (fitted to the relative
+/// error, at most 0.354 % in exact arithmetic; coefficients rounded to binary16), in both halves. The bare
+/// pattern I read as binary16 is 2^e·m for the true 2^e·2^(m−1) (Schraudolph's linear mantissa, up to 6.1 %
+/// high); times r(m) its relative error is at most kFastExpHalfMaxRelativeError over every pattern, binary16
+/// roundings included.
+constexpr Half2Bits kFastExpHalfCorrection2 = 0x33773377u;  //  0.2332763671875
+constexpr Half2Bits kFastExpHalfCorrection1 = 0xb98bb98bu;  // −0.69287109375
+constexpr Half2Bits kFastExpHalfCorrection0 = 0x3dd33dd3u;  //  1.4560546875
+/// The largest |exp̂16(P) / e^P − 1| over every normal pattern with exp̂16 ≥ 1/255
+/// (tests/runtime/test_half_blend.cpp checks it exhaustively).
+constexpr double kFastExpHalfMaxRelativeError = 0.0041;
+/// 3DGS's α clamp 0.99 rounded to the nearest binary16 (0x3bec = 0.990234375), in both halves.
+constexpr Half2Bits kHalf2AlphaMax = 0x3bec3becu;
+
+/// exp̂16 of two pixels from their v = 1.5·2^23 + 2^10·log2 e·P + 2^10·15, as Half2Bits: the pattern I of each
+/// (v clamped below at 1.5·2^23, so I = 0 and α = +0 for P below about −10.4 and for NaN) times the mantissa
+/// correction r(m), m = I's mantissa with exponent 0 (one LOP3, two HFMA2 and one HMUL2 for both pixels).
+/// Above, I reaches the sign bit at P ≈ 11.8 (a negative α, skipped) and would wrap at P ≈ 34, which a folded
+/// power (≤ ln o ≤ 0 up to FP32 rounding) never is. Callers take α from the result with fast_exp_half2_alpha.
 RGS_HOST_DEVICE Half2Bits fast_exp_half2_of_v(float v_first, float v_second) {
   const uint32_t first = float_as_uint(fmaxf(v_first, kFastExpHalfMagic));
   const uint32_t second = float_as_uint(fmaxf(v_second, kFastExpHalfMagic));
 #if defined(__CUDA_ARCH__)
-  return __byte_perm(first, second, 0x5410);  // low half of each
+  const Half2Bits pattern = __byte_perm(first, second, 0x5410);  // low half of each
 #else
-  return (first & 0xffffu) | (second << 16);
+  const Half2Bits pattern = (first & 0xffffu) | (second << 16);
 #endif
+  const Half2Bits m = (pattern & 0x03ff03ffu) | kHalf2One;
+  const Half2Bits r =
+      half2_fma(half2_fma(kFastExpHalfCorrection2, m, kFastExpHalfCorrection1), m, kFastExpHalfCorrection0);
+  return half2_mul(pattern, r);
 }
 
-/// exp̂16 of two powers P: fast_exp_half2_of_v of v = fma(P, 2^10·log2 e, bias), one rounding.
-RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second, float bias) {
-  return fast_exp_half2_of_v(fmaf(p_first, kFastExpHalfScale, bias), fmaf(p_second, kFastExpHalfScale, bias));
+/// exp̂16 of two powers P: fast_exp_half2_of_v of v = fma(P, 2^10·log2 e, kFastExpHalfBias), one rounding.
+RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second) {
+  return fast_exp_half2_of_v(fmaf(p_first, kFastExpHalfScale, kFastExpHalfBias),
+                             fmaf(p_second, kFastExpHalfScale, kFastExpHalfBias));
 }
 
-/// The folded coefficients whose power is v instead of P: C1..C5 times 2^10·log2 e, and C6·2^10·log2 e + bias,
-/// so that folded_power and dual_pixel_power give both pixels' v for fast_exp_half2_of_v with no multiply-add
-/// of their own. Each FMA of the chain then rounds at v's unit (its sums lie near 1.5·2^23, where a float's
-/// unit is 1), a few units of I at most: α moves by up to about 0.4 %, next to the fast exp's own 3.2 %
-/// (the quality table in docs/BENCHMARKS.md#gpu-current-figures is measured with it).
-RGS_HOST_DEVICE FoldedCoefficients fast_exp_half_coefficients(const FoldedCoefficients& f, float bias) {
+/// The folded coefficients whose power is v instead of P: C1..C5 times 2^10·log2 e, and
+/// C6·2^10·log2 e + kFastExpHalfBias, so that folded_power and dual_pixel_power give both pixels' v for
+/// fast_exp_half2_of_v with no multiply-add of their own. Each FMA of the chain then rounds at v's unit (its
+/// sums lie near 1.5·2^23, where a float's unit is 1), a few units of I at most: α moves by up to about 0.4 %,
+/// the size of the corrected fast exp's own error (measured with it:
+/// docs/RENDERER.md#measured-quality-of-each-switch).
+RGS_HOST_DEVICE FoldedCoefficients fast_exp_half_coefficients(const FoldedCoefficients& f) {
   return FoldedCoefficients{f.c1 * kFastExpHalfScale, f.c2 * kFastExpHalfScale, f.c3 * kFastExpHalfScale,
                             f.c4 * kFastExpHalfScale, f.c5 * kFastExpHalfScale,
-                            fmaf(f.c6, kFastExpHalfScale, bias)};
+                            fmaf(f.c6, kFastExpHalfScale, kFastExpHalfBias)};
 }
 
-/// The α each pixel blends with: min(exp̂16, exp̂16(0)) where that is at least 1/255, else +0 (the pair is skipped
-/// there). The clamp at exp̂16(0) = 1 − σ/2 < 0.99 takes the place of both the 0.99 clamp and the FP32 loop's
-/// P > 0 skip: a folded power is ≤ ln o ≤ 0 but for rounding, and v's own rounding (fast_exp_half_coefficients)
-/// reaches a few units of I, so skipping above exp̂16(0) would drop opaque Gaussians at their centres. NaN and
-/// infinite patterns (P ≈ 10.3–11.8, never a folded power) clamp to exp̂16(0) too.
-/// @param alpha    fast_exp_half2's or fast_exp_half2_of_v's result
-/// @param alpha_0  fast_exp_half2(0, 0, bias), once per frame
-RGS_HOST_DEVICE Half2Bits fast_exp_half2_alpha(Half2Bits alpha, Half2Bits alpha_0) {
-  const Half2Bits clamped = half2_min(alpha, alpha_0);
+/// The α each pixel blends with: min(exp̂16, 0.990234) where that is at least 1/255, else +0 (the pair is
+/// skipped there). The clamp takes the place of both 3DGS's 0.99 clamp and the FP32 loop's P > 0 skip: a
+/// folded power is ≤ ln o ≤ 0 but for rounding, and v's own rounding (fast_exp_half_coefficients) reaches a
+/// few units of I, so skipping where exp̂16 > 1 would drop opaque Gaussians at their centres. NaN and infinite
+/// patterns (P ≈ 11.1–11.8, never a folded power) clamp to 0.990234 too; negative ones (P ≥ 11.8) are skipped.
+/// @param alpha  fast_exp_half2's or fast_exp_half2_of_v's result
+RGS_HOST_DEVICE Half2Bits fast_exp_half2_alpha(Half2Bits alpha) {
+  const Half2Bits clamped = half2_min(alpha, kHalf2AlphaMax);
   return clamped & half2_ge_mask(clamped, kHalf2AlphaMin);
 }
 
