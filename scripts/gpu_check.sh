@@ -341,6 +341,9 @@ if [ "$what" = fidelity ] || [ "$what" = all ]; then
   fidelity flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json" \
     --every 8
   [ -f "$RGS_DATA_DIR/biker.ply" ] && fidelity biker "$RGS_DATA_DIR/biker.ply" --orbit 8
+  # daffodils' PLY (89 MB) travels only when copied into the data folder by hand.
+  [ -f "$RGS_DATA_DIR/playcanvas_flowers_lod0.ply" ] && fidelity daffodils "$RGS_DATA_DIR/playcanvas_flowers_lod0.ply" \
+    --orbit 8
   [ -f "$taebak" ] && fidelity taebak "$taebak_dir/taebak_lod0_sog/lod-meta.json" --cameras "$taebak_cameras"
 fi
 if [ "$what" = rate ] || [ "$what" = all ]; then
