@@ -71,9 +71,25 @@ Status check_opacity(uint16_t opacity, uint64_t index);
 /// `q` holds the 3K quantized SH values of Gaussian `index`.
 Status check_sh(const int8_t* q, size_t count, uint64_t index);
 /// The rules above on `records` whole records (Gaussians first, first + 1, ...) of runtime section `id`'s raw
-/// little-endian bytes at `p`; ok for a section that is not a runtime one.
+/// little-endian bytes at `p`; ok for a section that is not a runtime one. Runs records_pass first and the
+/// per-record rules only when that fails, to name the first failing Gaussian.
 Status check_records(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records,
                      size_t record_size, uint64_t first);
+/// Whether every record passes the rules above, without naming a failure: loops with no Status per record,
+/// several times faster than them (the level-of-detail reader checks every range it streams). Accepts only
+/// what the rules accept: exactly on rotations, scales, opacities and SH (the binary16 rules on the bits
+/// below), and means a hair inside the sphere test, so a mean within 1e−9 of its limit goes to check_mean.
+bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records, size_t record_size);
+/// check_rotation's, check_scale's and check_opacity's rules on one binary16 value's bits (for finite
+/// binary16 values the order of the positive ones is the order of their bits).
+inline bool rotation_component_passes(uint16_t bits) { return (bits & 0x7c00u) != 0x7c00u; }  // finite
+inline bool scale_component_passes(uint16_t bits, ScaleEncoding encoding) {
+  if ((bits & 0x7c00u) == 0x7c00u) return false;  // not finite
+  const bool negative = (bits & 0x8000u) != 0;
+  if (encoding == ScaleEncoding::kLog) return negative || bits < 0x558cu;  // v < 88.75 (= 0x558c)
+  return !negative || bits == 0x8000u;                                     // v >= 0, −0 included
+}
+inline bool opacity_passes(uint16_t bits) { return bits <= 0x3c00u || bits == 0x8000u; }  // v in [0, 1], −0 too
 
 /// §3.1 Checks the frame header of a zstd section without decoding it: a zstd frame (not skippable),
 /// no dictionary, content checksum flag set, content size present and equal to raw_size, window at most

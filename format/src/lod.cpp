@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "internal_bytes.h"
 #include "internal_lod.h"
@@ -23,6 +24,46 @@ std::string real(double v) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.9g", v);
   return buf;
+}
+
+/// exp of every binary16 value, as check_lod_range computes it for a log scale (std::exp in double).
+const double* exp_of_halves() {
+  static const std::vector<double> table = [] {
+    std::vector<double> t(65536);
+    for (uint32_t b = 0; b < t.size(); ++b) t[b] = std::exp(static_cast<double>(half_bits_to_float(uint16_t(b))));
+    return t;
+  }();
+  return table.data();
+}
+
+/// A key whose order is the value order of finite binary16 values (−0 below +0).
+uint16_t half_order(uint16_t b) { return (b & 0x8000u) ? static_cast<uint16_t>(~b) : static_cast<uint16_t>(b | 0x8000u); }
+
+/// Whether every Gaussian of `range` (its scales already checked finite) reaches less than a hair inside
+/// `limit` from the chunk centre: check_lod_range's §4.9 test in a loop with no Status per Gaussian and no
+/// std::exp (exp_of_halves gives the same values). A Gaussian within a relative 1e−9 of the limit fails here
+/// and goes to the exact test.
+bool within_chunk(const LodChunk& k, const LodRangeView& range, ScaleEncoding encoding, double limit) {
+  const double inside = limit * (1.0 - 1e-9);
+  if (!(limit > 0) || !std::isfinite(inside)) return false;
+  const double* exp_table = exp_of_halves();
+  bool ok = true;
+  for (uint64_t j = 0; j < range.count; ++j) {
+    const uint8_t* m = range.means.data + 12 * j;
+    const uint8_t* s = range.scales.data + 6 * j;
+    double d2 = 0;
+    uint16_t largest_bits = load_u16_le(s);
+    for (int a = 0; a < 3; ++a) {
+      const double d = static_cast<double>(load_f32_le(m + 4 * a)) - static_cast<double>(k.center[a]);
+      d2 += d * d;
+      const uint16_t b = load_u16_le(s + 2 * a);
+      if (half_order(b) > half_order(largest_bits)) largest_bits = b;
+    }
+    const double largest = encoding == ScaleEncoding::kLog ? exp_table[largest_bits]
+                                                           : static_cast<double>(half_bits_to_float(largest_bits));
+    ok &= std::sqrt(d2) + 3.0 * largest <= inside;
+  }
+  return ok;
 }
 
 }  // namespace
@@ -188,6 +229,7 @@ Status check_lod_range(const LodIndex& index, uint32_t level, uint32_t chunk, co
   double c_max = 0;
   for (int a = 0; a < 3; ++a) c_max = std::fmax(c_max, std::fabs(static_cast<double>(k.center[a])));
   const double r = k.radius;
+  if (within_chunk(k, range, metadata.scale_encoding, r + 1e-6 * (r + c_max))) return Status();
   for (uint64_t j = 0; j < n; ++j) {
     const uint8_t* m = range.means.data + 12 * j;
     const uint8_t* s = range.scales.data + 6 * j;
