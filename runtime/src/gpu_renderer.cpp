@@ -545,9 +545,9 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   const int key_bits = 32 + ceil_log2(num_tiles);
   stats->sort_bits = key_bits;
   if (n > 0) {
-    RGS_RETURN_IF_ERROR(b.reserve_common(n));
-    RGS_RETURN_IF_ERROR(b.reserve_scan(n));
-    RGS_RETURN_IF_ERROR(b.rgb.reserve_exact(size_t(n) * 3, "GpuRenderer: colours"));
+    RGS_RETURN_IF_ERROR(b.reserve_common(scene.capacity()));
+    RGS_RETURN_IF_ERROR(b.reserve_scan(scene.capacity()));
+    RGS_RETURN_IF_ERROR(b.rgb.reserve_exact(size_t(scene.capacity()) * 3, "GpuRenderer: colours"));
   }
   RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
   RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, false, key_bits, false, 0));
@@ -690,7 +690,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     stats->z_far = plan.key.empty_depth_range ? plan.key.quantizer.z_near : plan.key.quantizer.z_far;
   }
   stats->sort_bits = key_bits;
-  if (n > 0) RGS_RETURN_IF_ERROR(b.reserve_roofgs(n, plan.fused));
+  if (n > 0) RGS_RETURN_IF_ERROR(b.reserve_roofgs(scene.capacity(), plan.fused));
   RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
   const RoofgsOptions& t = options.roofgs.techniques;
   const bool may_chunk = t.folded_coefficients && t.fast_exp && t.half_blend;

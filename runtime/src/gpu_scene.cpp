@@ -221,9 +221,11 @@ uint64_t GpuScene::device_bytes() const {
          sh_dc_residual_.bytes();
 }
 
-GpuScene GpuScene::compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds) {
+GpuScene GpuScene::compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds,
+                                uint32_t capacity) {
   GpuScene scene;
   scene.count_ = view.count;
+  scene.capacity_ = capacity;
   scene.sh_degree_ = view.sh_degree;
   scene.bounds_ = bounds;
   scene.has_compact_ = true;

@@ -163,8 +163,18 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
   s.pool_pages_ = pool_pages;
   RGS_RETURN_IF_ERROR(s.pool_.allocate(pool_pages * P, s.sh_bytes_, s.residual_, "LOD pool"));
   RGS_RETURN_IF_ERROR(s.frame_.allocate(frame_capacity, s.sh_bytes_, s.residual_, "LOD frame"));
+  s.frame_capacity_ = frame_capacity;
   RGS_RETURN_IF_ERROR(s.upload_.allocate(s.upload_capacity_, s.sh_bytes_, s.residual_, "LOD upload"));
   for (PinnedBuffer& staging : s.staging_) RGS_RETURN_IF_ERROR(staging.reserve(s.upload_capacity_ * bpg, "LOD staging"));
+  // The run lists of a frame's gather and of an upload at their largest (a range adds at most one partial
+  // page), allocated once: growing one along a path would free pinned or device memory, which waits for the
+  // device, in the middle of a frame.
+  const uint64_t max_gather_runs = frame_capacity / P + index->chunk_count;
+  const uint64_t max_upload_runs = s.upload_capacity_ / P + uint64_t{index->chunk_count} * index->level_count;
+  RGS_RETURN_IF_ERROR(s.gather_runs_.reserve_exact(max_gather_runs, "LOD gather runs"));
+  RGS_RETURN_IF_ERROR(s.upload_runs_.reserve_exact(max_upload_runs, "LOD upload runs"));
+  RGS_RETURN_IF_ERROR(s.run_staging_.reserve(max_gather_runs * sizeof(kernels::GatherRun), "LOD gather runs"));
+  RGS_RETURN_IF_ERROR(s.scatter_staging_.reserve(max_upload_runs * sizeof(kernels::GatherRun), "LOD upload runs"));
   cudaStream_t copy_stream = nullptr;
   RGS_RETURN_IF_CUDA_ERROR(cudaStreamCreateWithFlags(&copy_stream, cudaStreamNonBlocking), "LOD copy stream");
   s.copy_stream_.reset(copy_stream);
@@ -404,7 +414,7 @@ Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t st
                                                                          : kernels::CompactScaleEncoding::kLinear;
   view.sh_degree = meta.sh_degree;
   view.count = static_cast<uint32_t>(dst);
-  frame_scene_ = GpuScene::compact_view(view, meta.bounds);
+  frame_scene_ = GpuScene::compact_view(view, meta.bounds, static_cast<uint32_t>(frame_capacity_));
 
   // Requests for the wanted ranges, in chunk order, within the per-frame byte budget and the pool; the reader
   // checks and stages them while this frame renders.

@@ -74,13 +74,18 @@ class GpuScene {
 
   /// A scene over compact arrays the caller owns in device memory and keeps alive and unchanged while it
   /// renders (the level-of-detail streamer's frame arrays, runtime/lod_streamer.h): has_compact(), no FP32
-  /// arrays, device_bytes() 0. `bounds` must hold every mean (the RoofGS depth key's range).
-  static GpuScene compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds);
+  /// arrays, device_bytes() 0. `bounds` must hold every mean (the RoofGS depth key's range). `capacity`: the
+  /// most Gaussians the arrays hold (0: view.count), which renderers size their per-Gaussian buffers for, so
+  /// that views of a count that changes frame by frame allocate nothing after the first.
+  static GpuScene compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds,
+                               uint32_t capacity = 0);
 
   GpuScene(GpuScene&&) noexcept = default;
   GpuScene& operator=(GpuScene&&) noexcept = default;
 
   uint32_t size() const { return count_; }
+  /// The most Gaussians a scene over the same arrays holds: size(), or compact_view's `capacity`.
+  uint32_t capacity() const { return capacity_ > count_ ? capacity_ : count_; }
   uint32_t sh_degree() const { return sh_degree_; }
   /// Scene AABB and bounding sphere (the .rgs metadata, or what from_cloud() was given).
   const std::optional<format::SceneBounds>& bounds() const { return bounds_; }
@@ -105,6 +110,7 @@ class GpuScene {
   GpuScene() = default;
 
   uint32_t count_ = 0;
+  uint32_t capacity_ = 0;
   uint32_t sh_degree_ = 0;
   std::optional<format::SceneBounds> bounds_;
   bool has_compact_ = false;

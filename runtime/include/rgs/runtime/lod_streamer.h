@@ -158,6 +158,7 @@ class LodStreamer {
   };
   Arrays pool_, frame_, upload_;
   uint64_t upload_capacity_ = 0;  ///< Gaussians the upload buffer and each host staging buffer hold
+  uint64_t frame_capacity_ = 0;   ///< Gaussians the frame arrays hold (the renderer sizes its buffers for it)
   DeviceBuffer<kernels::GatherRun> gather_runs_, upload_runs_;
   // Two staging buffers: the reader fills one while the other is uploaded.
   PinnedBuffer staging_[2], run_staging_, scatter_staging_;
