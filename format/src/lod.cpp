@@ -37,7 +37,9 @@ const double* exp_of_halves() {
 }
 
 /// A key whose order is the value order of finite binary16 values (−0 below +0).
-uint16_t half_order(uint16_t b) { return (b & 0x8000u) ? static_cast<uint16_t>(~b) : static_cast<uint16_t>(b | 0x8000u); }
+uint16_t half_order(uint16_t b) {
+  return (b & 0x8000u) ? static_cast<uint16_t>(~b) : static_cast<uint16_t>(b | 0x8000u);
+}
 
 /// Whether every Gaussian of `range` (its scales already checked finite) reaches less than a hair inside
 /// `limit` from the chunk centre: check_lod_range's §4.9 test in a loop with no Status per Gaussian and no
