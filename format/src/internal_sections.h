@@ -2,6 +2,7 @@
 // records, value rules, checksums and zstd frames. Section numbers refer to format/SPEC.md.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -61,6 +62,39 @@ void encode_provenance(const Provenance& provenance, uint8_t* out, size_t size);
 /// §4.2 Parses a provenance record that must consume exactly `size` bytes (reader.cpp).
 Status decode_provenance(const uint8_t* raw, size_t size, Provenance* out);
 
+/// §4.1.1 The largest distance from `center` that a point inside the sphere may have: `radius` plus the slack
+/// 1e−6·(radius + max |center|), which absorbs float32 rounding in whichever way the writer computed the
+/// distance. The means' bounding sphere and the level-of-detail chunks' spheres (§4.9) use it.
+inline double sphere_limit(const float center[3], float radius) {
+  double c_max = 0;
+  for (int a = 0; a < 3; ++a) c_max = std::fmax(c_max, std::fabs(static_cast<double>(center[a])));
+  return static_cast<double>(radius) + 1e-6 * (static_cast<double>(radius) + c_max);
+}
+/// Squared distance from `center` to `p`, in double.
+inline double distance_squared(const float p[3], const float center[3]) {
+  double d2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double d = static_cast<double>(p[a]) - static_cast<double>(center[a]);
+    d2 += d * d;
+  }
+  return d2;
+}
+
+/// The binary16 value rules on the bits themselves (for finite binary16 values the order of the positive ones
+/// is the order of their bits): a finite value (every rotation component, §4.4) ...
+inline bool half_bits_finite(uint16_t bits) { return (bits & 0x7c00u) != 0x7c00u; }
+/// ... a scale (§4.5): finite; as a log scale below 88.75 (0x558c), the first binary16 whose exp overflows
+/// float32 (ln FLT_MAX ≈ 88.72); as a linear scale not negative, so zero (the underflow of a scale below 2^-25)
+/// and −0 are legal ...
+inline bool scale_component_passes(uint16_t bits, ScaleEncoding encoding) {
+  if (!half_bits_finite(bits)) return false;
+  const bool negative = (bits & 0x8000u) != 0;
+  if (encoding == ScaleEncoding::kLog) return negative || bits < 0x558cu;
+  return !negative || bits == 0x8000u;
+}
+/// ... and an opacity (§4.6) in [0, 1], −0 included.
+inline bool opacity_passes(uint16_t bits) { return bits <= 0x3c00u || bits == 0x8000u; }
+
 /// §5.4 Value rules of the runtime sections, one Gaussian at a time (validate.cpp). They return
 /// kCorruptData with the Gaussian's index and the offending value; the writer maps that to
 /// kInvalidArgument.
@@ -75,21 +109,10 @@ Status check_sh(const int8_t* q, size_t count, uint64_t index);
 /// per-record rules only when that fails, to name the first failing Gaussian.
 Status check_records(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records,
                      size_t record_size, uint64_t first);
-/// Whether every record passes the rules above, without naming a failure: loops with no Status per record,
-/// several times faster than them (the level-of-detail reader checks every range it streams). Accepts only
-/// what the rules accept: exactly on rotations, scales, opacities and SH (the binary16 rules on the bits
-/// below), and means a hair inside the sphere test, so a mean within 1e−9 of its limit goes to check_mean.
+/// Whether every record passes the rules above (the same rules, the same arithmetic), without naming a
+/// failure: loops with no Status per record, several times faster than them (the level-of-detail reader
+/// checks every range it streams).
 bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records, size_t record_size);
-/// check_rotation's, check_scale's and check_opacity's rules on one binary16 value's bits (for finite
-/// binary16 values the order of the positive ones is the order of their bits).
-inline bool rotation_component_passes(uint16_t bits) { return (bits & 0x7c00u) != 0x7c00u; }  // finite
-inline bool scale_component_passes(uint16_t bits, ScaleEncoding encoding) {
-  if ((bits & 0x7c00u) == 0x7c00u) return false;  // not finite
-  const bool negative = (bits & 0x8000u) != 0;
-  if (encoding == ScaleEncoding::kLog) return negative || bits < 0x558cu;  // v < 88.75 (= 0x558c)
-  return !negative || bits == 0x8000u;                                     // v >= 0, −0 included
-}
-inline bool opacity_passes(uint16_t bits) { return bits <= 0x3c00u || bits == 0x8000u; }  // v in [0, 1], −0 too
 
 /// §3.1 Checks the frame header of a zstd section without decoding it: a zstd frame (not skippable),
 /// no dictionary, content checksum flag set, content size present and equal to raw_size, window at most

@@ -3,7 +3,6 @@
 
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -26,7 +25,7 @@ std::string real(double v) {
   return buf;
 }
 
-/// exp of every binary16 value, as check_lod_range computes it for a log scale (std::exp in double).
+/// exp of every binary16 value, in double: the largest linear scale of a log-scale Gaussian (§4.5) by lookup.
 const double* exp_of_halves() {
   static const std::vector<double> table = [] {
     std::vector<double> t(65536);
@@ -41,31 +40,19 @@ uint16_t half_order(uint16_t b) {
   return (b & 0x8000u) ? static_cast<uint16_t>(~b) : static_cast<uint16_t>(b | 0x8000u);
 }
 
-/// Whether every Gaussian of `range` (its scales already checked finite) reaches less than a hair inside
-/// `limit` from the chunk centre: check_lod_range's §4.9 test in a loop with no Status per Gaussian and no
-/// std::exp (exp_of_halves gives the same values). A Gaussian within a relative 1e−9 of the limit fails here
-/// and goes to the exact test.
-bool within_chunk(const LodChunk& k, const LodRangeView& range, ScaleEncoding encoding, double limit) {
-  const double inside = limit * (1.0 - 1e-9);
-  if (!(limit > 0) || !std::isfinite(inside)) return false;
-  const double* exp_table = exp_of_halves();
-  bool ok = true;
-  for (uint64_t j = 0; j < range.count; ++j) {
-    const uint8_t* m = range.means.data + 12 * j;
-    const uint8_t* s = range.scales.data + 6 * j;
-    double d2 = 0;
-    uint16_t largest_bits = load_u16_le(s);
-    for (int a = 0; a < 3; ++a) {
-      const double d = static_cast<double>(load_f32_le(m + 4 * a)) - static_cast<double>(k.center[a]);
-      d2 += d * d;
-      const uint16_t b = load_u16_le(s + 2 * a);
-      if (half_order(b) > half_order(largest_bits)) largest_bits = b;
-    }
-    const double largest = encoding == ScaleEncoding::kLog ? exp_table[largest_bits]
-                                                           : static_cast<double>(half_bits_to_float(largest_bits));
-    ok &= std::sqrt(d2) + 3.0 * largest <= inside;
+/// §4.9 How far the 3σ extent of the Gaussian with mean bytes `m` and (finite) scale bytes `s` reaches from
+/// the chunk centre. The largest stored value gives the largest linear scale: both encodings are monotonic.
+double reach_from_centre(const LodChunk& k, const uint8_t* m, const uint8_t* s, ScaleEncoding encoding,
+                         const double* exp_table) {
+  const float mean[3] = {load_f32_le(m), load_f32_le(m + 4), load_f32_le(m + 8)};
+  uint16_t largest_bits = load_u16_le(s);
+  for (int a = 1; a < 3; ++a) {
+    const uint16_t b = load_u16_le(s + 2 * a);
+    if (half_order(b) > half_order(largest_bits)) largest_bits = b;
   }
-  return ok;
+  const double largest = encoding == ScaleEncoding::kLog ? exp_table[largest_bits]
+                                                         : static_cast<double>(half_bits_to_float(largest_bits));
+  return std::sqrt(distance_squared(mean, k.center)) + 3.0 * largest;
 }
 
 }  // namespace
@@ -226,28 +213,23 @@ Status check_lod_range(const LodIndex& index, uint32_t level, uint32_t chunk, co
     Status s = check_records(part.id, metadata, part.bytes->data, static_cast<size_t>(n), part.record, v.first);
     if (!s.ok()) return s.prepend(label + ": " + section_name(part.id));
   }
-  // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack.
+  // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack: every Gaussian in
+  // one loop with no Status, and again only to name the first one outside.
   const LodChunk& k = index.chunks[chunk];
-  double c_max = 0;
-  for (int a = 0; a < 3; ++a) c_max = std::fmax(c_max, std::fabs(static_cast<double>(k.center[a])));
-  const double r = k.radius;
-  if (within_chunk(k, range, metadata.scale_encoding, r + 1e-6 * (r + c_max))) return Status();
+  const double limit = sphere_limit(k.center, k.radius);
+  const double* exp_table = exp_of_halves();
+  auto reach = [&](uint64_t j) {
+    return reach_from_centre(k, range.means.data + 12 * j, range.scales.data + 6 * j, metadata.scale_encoding,
+                             exp_table);
+  };
+  bool inside = true;
+  for (uint64_t j = 0; j < n; ++j) inside &= reach(j) <= limit;
+  if (inside) return Status();
   for (uint64_t j = 0; j < n; ++j) {
-    const uint8_t* m = range.means.data + 12 * j;
-    const uint8_t* s = range.scales.data + 6 * j;
-    double d2 = 0;
-    // The largest stored value gives the largest linear scale: both encodings (§4.5) are monotonic.
-    float stored = -std::numeric_limits<float>::infinity();
-    for (int a = 0; a < 3; ++a) {
-      const double d = static_cast<double>(load_f32_le(m + 4 * a)) - static_cast<double>(k.center[a]);
-      d2 += d * d;
-      stored = std::fmax(stored, half_bits_to_float(load_u16_le(s + 2 * a)));
-    }
-    const double largest = metadata.scale_encoding == ScaleEncoding::kLog ? std::exp(double(stored)) : stored;
-    const double reach = std::sqrt(d2) + 3.0 * largest;
-    RGS_RETURN_ERROR_IF(!(reach <= r + 1e-6 * (r + c_max)), StatusCode::kCorruptData,
-                        label + ": Gaussian " + dec(v.first + j) + " reaches " + real(reach) +
-                            " from the chunk centre, outside its radius " + real(r));
+    const double r = reach(j);
+    RGS_RETURN_ERROR_IF(!(r <= limit), StatusCode::kCorruptData,
+                        label + ": Gaussian " + dec(v.first + j) + " reaches " + real(r) +
+                            " from the chunk centre, outside its radius " + real(k.radius));
   }
   return Status();
 }

@@ -22,8 +22,6 @@ std::string triple(const float v[3]) { return "(" + num(v[0]) + ", " + num(v[1])
 
 std::string gaussian(uint64_t index) { return "Gaussian " + dec(index) + ": "; }
 
-bool half_is_finite(uint16_t bits) { return (bits & 0x7c00u) != 0x7c00u; }
-
 }  // namespace
 
 Status check_metadata(const SceneMetadata& m) {
@@ -68,26 +66,18 @@ Status check_mean(const float xyz[3], uint64_t index, const SceneBounds& b) {
                         gaussian(index) + "mean " + triple(xyz) + " lies outside the AABB " + triple(b.aabb_min) +
                             ".." + triple(b.aabb_max));
   }
-  // §4.1.1 The sphere must contain every mean; the slack absorbs float32 rounding in whichever way the
-  // writer computed the distance.
-  double d2 = 0, c_max = 0;
-  for (int a = 0; a < 3; ++a) {
-    const double d = static_cast<double>(xyz[a]) - static_cast<double>(b.sphere_center[a]);
-    d2 += d * d;
-    c_max = std::fmax(c_max, std::fabs(static_cast<double>(b.sphere_center[a])));
-  }
-  const double r = b.sphere_radius;
-  const double distance = std::sqrt(d2);
-  RGS_RETURN_ERROR_IF(distance > r + 1e-6 * (r + c_max), StatusCode::kCorruptData,
+  // §4.1.1 The sphere must contain every mean.
+  const double distance = std::sqrt(distance_squared(xyz, b.sphere_center));
+  RGS_RETURN_ERROR_IF(distance > sphere_limit(b.sphere_center, b.sphere_radius), StatusCode::kCorruptData,
                       gaussian(index) + "mean " + triple(xyz) + " is " + num(distance) + " from the sphere centre " +
-                          triple(b.sphere_center) + ", outside the radius " + num(r));
+                          triple(b.sphere_center) + ", outside the radius " + num(b.sphere_radius));
   return Status();
 }
 
 Status check_rotation(const uint16_t q[4], uint64_t index) {
   bool non_zero = false;
   for (int a = 0; a < 4; ++a) {
-    RGS_RETURN_ERROR_IF(!half_is_finite(q[a]), StatusCode::kCorruptData,
+    RGS_RETURN_ERROR_IF(!half_bits_finite(q[a]), StatusCode::kCorruptData,
                         gaussian(index) + "rotation component " + dec(static_cast<uint64_t>(a)) + " is " +
                             num(half_bits_to_float(q[a])));
     non_zero = non_zero || (q[a] & 0x7fffu) != 0;
@@ -98,26 +88,23 @@ Status check_rotation(const uint16_t q[4], uint64_t index) {
 
 Status check_scale(const uint16_t s[3], uint64_t index, ScaleEncoding encoding) {
   for (int a = 0; a < 3; ++a) {
-    const float v = half_bits_to_float(s[a]);
-    RGS_RETURN_ERROR_IF(!half_is_finite(s[a]), StatusCode::kCorruptData,
-                        gaussian(index) + "scale component " + dec(static_cast<uint64_t>(a)) + " is " + num(v));
-    // A log scale must stay finite once exponentiated (SPEC §4.5): f16 allows ln-values up to 65504. Among f16
-    // values, exp in float32 is finite up to 88.6875 and overflows from the next one, 88.75 (ln FLT_MAX ≈ 88.72).
-    RGS_RETURN_ERROR_IF(encoding == ScaleEncoding::kLog && !(v < 88.75f), StatusCode::kCorruptData,
-                        gaussian(index) + "log scale component " + dec(static_cast<uint64_t>(a)) + " is " + num(v) +
-                            ", whose exp overflows float32");
-    // Zero is legal in linear encoding: FP16 underflow of a scale below 2^-25 (SPEC §4.5).
-    RGS_RETURN_ERROR_IF(encoding == ScaleEncoding::kLinear && v < 0.0f, StatusCode::kCorruptData,
-                        gaussian(index) + "linear scale component " + dec(static_cast<uint64_t>(a)) + " is " +
-                            num(v) + ", negative");
+    if (scale_component_passes(s[a], encoding)) continue;
+    const std::string component = dec(static_cast<uint64_t>(a)) + " is " + num(half_bits_to_float(s[a]));
+    if (!half_bits_finite(s[a])) {
+      return Status(StatusCode::kCorruptData, gaussian(index) + "scale component " + component);
+    }
+    if (encoding == ScaleEncoding::kLog) {
+      return Status(StatusCode::kCorruptData,
+                    gaussian(index) + "log scale component " + component + ", whose exp overflows float32");
+    }
+    return Status(StatusCode::kCorruptData, gaussian(index) + "linear scale component " + component + ", negative");
   }
   return Status();
 }
 
 Status check_opacity(uint16_t opacity, uint64_t index) {
-  const float v = half_bits_to_float(opacity);
-  RGS_RETURN_ERROR_IF(!(v >= 0.0f && v <= 1.0f), StatusCode::kCorruptData,
-                      gaussian(index) + "opacity " + num(v) + " is outside [0, 1]");
+  RGS_RETURN_ERROR_IF(!opacity_passes(opacity), StatusCode::kCorruptData,
+                      gaussian(index) + "opacity " + num(half_bits_to_float(opacity)) + " is outside [0, 1]");
   return Status();
 }
 
@@ -134,28 +121,19 @@ bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p,
   bool ok = true;
   switch (id) {
     case SectionId::kMeans: {
+      // check_mean's tests, in the same arithmetic. The square root is taken only for the few means near the
+      // sphere: below `inner` squared, the distance is below the limit however sqrt rounds.
       const SceneBounds& b = metadata.bounds;
-      double c_max = 0;
-      for (int a = 0; a < 3; ++a) c_max = std::fmax(c_max, std::fabs(static_cast<double>(b.sphere_center[a])));
-      const double r = b.sphere_radius;
-      const double limit = r + 1e-6 * (r + c_max);  // check_mean's
-      // A hair inside check_mean's sphere, so that no rounding of d² lets a mean pass here that fails there; a
-      // mean in between goes to check_mean.
-      const double inside = limit * (1.0 - 1e-9);
-      if (!(limit > 0) || !std::isfinite(inside * inside)) return false;
-      for (int a = 0; a < 3; ++a) {
-        if (!std::isfinite(b.aabb_min[a]) || !std::isfinite(b.aabb_max[a])) return false;
-      }
-      const double inside2 = inside * inside;
+      const double limit = sphere_limit(b.sphere_center, b.sphere_radius);
+      const double inner = limit * (1.0 - 1e-12);
+      const double inner2 = limit > 0 ? inner * inner : -1.0;
       for (size_t j = 0; j < records; ++j, p += record_size) {
-        double d2 = 0;
+        const float xyz[3] = {load_f32_le(p), load_f32_le(p + 4), load_f32_le(p + 8)};
         for (int a = 0; a < 3; ++a) {
-          const float x = load_f32_le(p + 4 * a);
-          ok &= (x >= b.aabb_min[a]) & (x <= b.aabb_max[a]);  // false for NaN, and ±inf lie outside
-          const double d = static_cast<double>(x) - static_cast<double>(b.sphere_center[a]);
-          d2 += d * d;
+          ok &= std::isfinite(xyz[a]) & !(xyz[a] < b.aabb_min[a]) & !(xyz[a] > b.aabb_max[a]);
         }
-        ok &= d2 <= inside2;
+        const double d2 = distance_squared(xyz, b.sphere_center);
+        if (!(d2 <= inner2)) ok &= !(std::sqrt(d2) > limit);
       }
       return ok;
     }
@@ -164,7 +142,7 @@ bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p,
         uint16_t any = 0;
         for (int a = 0; a < 4; ++a) {
           const uint16_t q = load_u16_le(p + 2 * a);
-          ok &= rotation_component_passes(q);
+          ok &= half_bits_finite(q);
           any |= q;
         }
         ok &= (any & 0x7fffu) != 0;  // not the zero quaternion
@@ -186,7 +164,7 @@ bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p,
 Status check_records(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records,
                      size_t record_size, uint64_t first) {
   if (records_pass(id, metadata, p, records, record_size)) return Status();
-  // Some record fails (or lies too near a boundary for records_pass): find and name the first one.
+  // Some record fails: find and name the first one.
   for (size_t j = 0; j < records; ++j, p += record_size) {
     const uint64_t i = first + j;
     switch (id) {
