@@ -128,12 +128,9 @@ inline void blend_step_fma(PixelState& s, float alpha, const TileGaussian& g) {
 /// spares the CPU most of its expf calls.
 constexpr float kNeverVisiblePower = -6.f;
 
-/// Alpha of Gaussian g at pixel (x, y) on the unfolded path, or a negative value when the pair is skipped
-/// (power > 0 or α < 1/255).
-inline float unfolded_alpha(const TileGaussian& g, float x, float y, const RoofgsOptions& roofgs) {
-  const float dx = g.mean[0] - x;
-  const float dy = g.mean[1] - y;
-  const float power = k::baseline_power(g.conic, dx, dy);
+/// Alpha of Gaussian g from its power at a pixel on the unfolded path, or a negative value when the pair is
+/// skipped (power > 0 or α < 1/255).
+inline float unfolded_alpha(const TileGaussian& g, float power, const RoofgsOptions& roofgs) {
   if (power > 0.f) return -1.f;
   if (power < kNeverVisiblePower) return -1.f;  // α < 1/255 for sure (see above)
   const float alpha = roofgs.fast_exp ? fminf(k::kAlphaMax, k::fast_exp(power + g.log_opacity, roofgs.fast_exp_sigma))
@@ -159,24 +156,63 @@ inline void store_pixel(const PixelState& s, uint32_t x, uint32_t y, const Rende
   out->depth[p] = s.weight_sum > 0.f ? s.depth_sum / s.weight_sum : 0.f;
 }
 
-/// Baseline per-pixel loop over one tile (3DGS renderCUDA, one pixel per thread).
+/// Pixels of a tile [x_min, x_max] × [y_min, y_max], tile-local and inclusive; empty when x_min > x_max.
+struct PixelBox {
+  int x_min, y_min, x_max, y_max;
+};
+
+/// The tile's pixels (w × h, origin (x0, y0)) where g's power can reach kNeverVisiblePower: the box of the ellipse
+/// dᵀ Q d ≤ 12 (Q the conic), 1 % and a pixel wider for the rounding of the power in float; the whole tile when the
+/// conic is not positive definite. Pixels outside it would be skipped before the exponential anyway.
+PixelBox reach_box(const TileGaussian& g, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h) {
+  const PixelBox tile{0, 0, int(w) - 1, int(h) - 1};
+  const double a = g.conic.a, b = g.conic.b, c = g.conic.c, det = a * c - b * b;
+  if (!(a > 0 && c > 0 && det > 0)) return tile;
+  const double q = -2.0 * double(kNeverVisiblePower) * 1.01;
+  const double rx = std::sqrt(q * c / det) + 1, ry = std::sqrt(q * a / det) + 1;
+  const double cx = double(g.mean[0]) - x0, cy = double(g.mean[1]) - y0;
+  if (!(std::isfinite(rx) && std::isfinite(ry) && std::isfinite(cx) && std::isfinite(cy))) return tile;
+  const double lo_x = std::max(0.0, std::ceil(cx - rx)), hi_x = std::min(double(w) - 1, std::floor(cx + rx));
+  const double lo_y = std::max(0.0, std::ceil(cy - ry)), hi_y = std::min(double(h) - 1, std::floor(cy + ry));
+  if (lo_x > hi_x || lo_y > hi_y) return {0, 0, -1, -1};
+  return {int(lo_x), int(lo_y), int(hi_x), int(hi_y)};
+}
+
+/// Baseline loop over one tile (3DGS renderCUDA, one pixel per thread). Each pixel blends the list in order and
+/// stops where 3DGS stops, as a per-pixel loop does; the loop runs Gaussian by Gaussian so that each Gaussian
+/// visits only the pixels it can reach (reach_box), a row at a time: the powers of a row are computed together
+/// (vectorized: the same operations in the same order, so the same bits), and only the pixels that pass go on to
+/// the exponential.
 void blend_tile_baseline(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
                          RenderResult* out) {
-  const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
-  const uint32_t x1 = std::min<uint32_t>(x0 + k::kTileSize, out->width);
-  const uint32_t y1 = std::min<uint32_t>(y0 + k::kTileSize, out->height);
-  for (uint32_t y = y0; y < y1; ++y) {
-    for (uint32_t x = x0; x < x1; ++x) {
-      PixelState s;
-      const float pixf_x = static_cast<float>(x), pixf_y = static_cast<float>(y);
-      for (size_t j = 0; j < list.size() && !s.done; ++j) {
-        const float alpha = unfolded_alpha(list[j], pixf_x, pixf_y, options.roofgs);
-        if (alpha < 0.f) continue;
-        blend_step(s, alpha, list[j]);
+  constexpr uint32_t kSide = k::kTileSize;
+  const uint32_t x0 = uint32_t(tx) * kSide, y0 = uint32_t(ty) * kSide;
+  const uint32_t x1 = std::min<uint32_t>(x0 + kSide, out->width);
+  const uint32_t y1 = std::min<uint32_t>(y0 + kSide, out->height);
+  const uint32_t w = x1 - x0, h = y1 - y0;
+  PixelState state[kSide * kSide];
+  float pixf_x[kSide], power[kSide];
+  for (uint32_t x = 0; x < w; ++x) pixf_x[x] = static_cast<float>(x0 + x);
+  uint32_t live = w * h;
+  for (size_t j = 0; j < list.size() && live > 0; ++j) {
+    const TileGaussian& g = list[j];
+    const PixelBox box = reach_box(g, x0, y0, w, h);
+    for (int y = box.y_min; y <= box.y_max; ++y) {
+      const float pixf_y = static_cast<float>(y0 + uint32_t(y));
+      for (int x = box.x_min; x <= box.x_max; ++x) {
+        power[x] = k::baseline_power(g.conic, g.mean[0] - pixf_x[x], g.mean[1] - pixf_y);
       }
-      store_pixel(s, x, y, options, out);
+      PixelState* row = state + size_t(y) * w;
+      for (int x = box.x_min; x <= box.x_max; ++x) {
+        if (row[x].done || power[x] > 0.f || power[x] < kNeverVisiblePower) continue;
+        const float alpha = unfolded_alpha(g, power[x], options.roofgs);
+        if (alpha < 0.f) continue;
+        blend_step(row[x], alpha, g);
+        live -= row[x].done;
+      }
     }
   }
+  for (uint32_t i = 0; i < w * h; ++i) store_pixel(state[i], x0 + i % w, y0 + i / w, options, out);
 }
 
 /// RoofGS folded loop over one tile: tile-local coordinates, each "thread" shading (x, y) and (x, y+1) with the
