@@ -38,8 +38,14 @@ double mse_of(double psnr_db) { return std::pow(10.0, -psnr_db / 10); }
 /// SH step multipliers the search moves between: steps of about 1.2x (1.6 dB of that band's error).
 constexpr std::array<uint32_t, 24> kMultipliers = {1,  2,  3,  4,  5,  6,  7,  8,  10, 12, 14,  16,
                                                    20, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 127};
-/// Rounds of one-knob steps after the ladder: a bound on the search's time.
+/// The code step knobs (ArchiveOptions::rotation_step, scale_step, opacity_step) move by quarter bits, up to 4
+/// bits past the bits' own step: finer than a bit, and below the format's 4-bit minimum.
+constexpr double kMaxCodeStep = 16;
+/// The fine scan of an SH multiplier tries at most this many integers above it.
+constexpr uint32_t kFineMultipliers = 16;
+/// Rounds of one-knob steps after the ladder, and of code steps at the end: bounds on the search's time.
 constexpr int kMaxRounds = 10;
+constexpr int kMaxFillRounds = 24;
 constexpr uint32_t kMinBits = 4, kMaxBits = 16;
 /// Position errors the search uses: 2^-kFinestPositionLog2 .. 2^-kCoarsestPositionLog2 of the extent.
 constexpr int kFinestPositionLog2 = 25, kCoarsestPositionLog2 = 3;
@@ -59,9 +65,12 @@ constexpr int kMaxAttempts = 3;
 constexpr double kCalibrationMarginDb = 0.15;
 
 /// The knobs the search moves, one at a time.
-enum class Knob { kRotation, kScale, kOpacity, kSh0, kSh1, kSh2, kSh3, kPosition };
-constexpr std::array<Knob, 8> kKnobs = {Knob::kRotation, Knob::kScale, Knob::kOpacity, Knob::kSh0,
-                                        Knob::kSh1,      Knob::kSh2,   Knob::kSh3,     Knob::kPosition};
+enum class Knob {
+  kRotation, kRotationStep, kScale, kScaleStep, kOpacity, kOpacityStep, kSh0, kSh1, kSh2, kSh3, kPosition
+};
+constexpr std::array<Knob, 11> kKnobs = {Knob::kRotation, Knob::kRotationStep, Knob::kScale, Knob::kScaleStep,
+                                         Knob::kOpacity,  Knob::kOpacityStep,  Knob::kSh0,   Knob::kSh1,
+                                         Knob::kSh2,      Knob::kSh3,          Knob::kPosition};
 
 uint32_t clamp_bits(double bits) { return uint32_t(std::clamp(std::lround(bits), long(kMinBits), long(kMaxBits))); }
 
@@ -97,6 +106,12 @@ std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, 
     *bits = next;
     return true;
   };
+  auto move_step = [&](double* code_step) {  // quarter bits: 2^(k/4), k = 0 .. 4·log2(kMaxCodeStep)
+    const long k = std::lround(4 * std::log2(*code_step)) + (coarser ? 1 : -1);
+    if (k < 0 || k > std::lround(4 * std::log2(kMaxCodeStep))) return false;
+    *code_step = std::exp2(double(k) / 4);
+    return true;
+  };
   auto move_multiplier = [&](uint32_t* m) {
     if (coarser) {
       auto it = std::upper_bound(kMultipliers.begin(), kMultipliers.end(), *m);
@@ -113,7 +128,10 @@ std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, 
   switch (knob) {
     case Knob::kRotation: moved = move_bits(&o.rotation_bits); break;
     case Knob::kScale: moved = move_bits(&o.scale_bits); break;
+    case Knob::kScaleStep: moved = move_step(&o.scale_step); break;
     case Knob::kOpacity: moved = move_bits(&o.opacity_bits); break;
+    case Knob::kRotationStep: moved = move_step(&o.rotation_step); break;
+    case Knob::kOpacityStep: moved = move_step(&o.opacity_step); break;
     case Knob::kSh0: moved = move_multiplier(&o.sh_step_multipliers[0]); break;
     case Knob::kSh1: moved = move_multiplier(&o.sh_step_multipliers[1]); break;
     case Knob::kSh2: moved = move_multiplier(&o.sh_step_multipliers[2]); break;
@@ -129,9 +147,10 @@ std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, 
   return o;
 }
 
-using Key = std::tuple<uint32_t, uint32_t, uint32_t, std::array<uint32_t, 4>, double>;
+using Key = std::tuple<uint32_t, double, uint32_t, double, uint32_t, double, std::array<uint32_t, 4>, double>;
 Key key_of(const format::ArchiveOptions& o) {
-  return {o.rotation_bits, o.scale_bits, o.opacity_bits, o.sh_step_multipliers, o.position_error};
+  return {o.rotation_bits, o.rotation_step, o.scale_bits,          o.scale_step,
+          o.opacity_bits,  o.opacity_step,  o.sh_step_multipliers, o.position_error};
 }
 
 /// One set of views with the source's renders, [H, W, 3] float RGB each, rendered once.
@@ -316,10 +335,14 @@ std::string db_text(double db) {
   return text;
 }
 
-/// The knobs that matter for a scene of SH degree `sh_degree`.
+/// The code step knobs, moved only by the last stage of a kTargetPsnr search (Search::fill_for_psnr).
+bool is_code_step(Knob k) { return k == Knob::kRotationStep || k == Knob::kScaleStep || k == Knob::kOpacityStep; }
+
+/// The knobs the rounds move for a scene of SH degree `sh_degree`: every knob but the code steps.
 std::vector<Knob> knobs_for(uint32_t sh_degree) {
   std::vector<Knob> out;
   for (Knob k : kKnobs) {
+    if (is_code_step(k)) continue;
     const int band = int(k) - int(Knob::kSh0);
     if (band >= 0 && band <= 3 && uint32_t(band) > sh_degree) continue;
     out.push_back(k);
@@ -349,7 +372,9 @@ class Search {
       path = {pass};
     }
     RGS_RETURN_IF_ERROR(refine_for_psnr(target, &path));
+    RGS_RETURN_IF_ERROR(scan_multipliers_for_psnr(target, &path));
     RGS_RETURN_IF_ERROR(trade_for_psnr(target, &path));
+    RGS_RETURN_IF_ERROR(fill_for_psnr(target, &path));
     return path;
   }
 
@@ -450,6 +475,46 @@ class Search {
     return Status();
   }
 
+  /// kTargetPsnr's scan of each SH step multiplier's integers, while path->back() is more than
+  /// kTradeMinSlackDb above `target`: the integers between the multiplier and the second ladder value above it
+  /// (at most kFineMultipliers). Where the source's colours already lie on a grid of their own (a scene that was
+  /// 8-bit before it was a PLY), the error of a step depends on how it lines up with that grid, not only on its
+  /// size, so a multiplier between two ladder values can be both smaller and closer to the target than either.
+  /// The smallest archive that meets `target` is kept when it is smaller than path->back().
+  Status scan_multipliers_for_psnr(double target, std::vector<FitPoint>* path) {
+    for (Knob knob : knobs_) {
+      if (knob < Knob::kSh0 || knob > Knob::kSh3) continue;
+      const FitPoint at = path->back();
+      if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) break;
+      const size_t degree = size_t(int(knob) - int(Knob::kSh0));
+      const uint32_t m = at.options.sh_step_multipliers[degree];
+      auto next = std::upper_bound(kMultipliers.begin(), kMultipliers.end(), m);
+      const uint32_t end = next == kMultipliers.end() || next + 1 == kMultipliers.end() ? 128 : *(next + 1);
+      std::vector<format::ArchiveOptions> list;
+      for (uint32_t v = m + 1; v < end && list.size() < kFineMultipliers; ++v) {
+        format::ArchiveOptions o = at.options;
+        o.sh_step_multipliers[degree] = v;
+        list.push_back(o);
+      }
+      // Bytes first: only the archives smaller than `at` are rendered.
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> sizes, m_.bytes(list));
+      std::vector<format::ArchiveOptions> smaller;
+      for (size_t i = 0; i < sizes.size(); ++i) {
+        if (sizes[i].bytes < at.bytes) smaller.push_back(list[i]);
+      }
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(smaller));
+      std::optional<FitPoint> best;
+      for (const FitPoint& p : points) {
+        if (p.psnr_mean_db >= target && (!best || p.bytes < best->bytes)) best = p;
+      }
+      if (best) {
+        path->push_back(*best);
+        report_progress("scanning", path->back());
+      }
+    }
+    return Status();
+  }
+
   /// kTargetPsnr's last step, finer than one knob's, when path->back() is more than kTradeMinSlackDb above
   /// `target`: a coarser step of a bit count or of the position error that misses `target` on its own, with
   /// another knob one step finer, or with every SH step multiplier scaled down by the factor (bisected) that
@@ -507,6 +572,48 @@ class Search {
     if (best) {
       path->push_back(*best);
       report_progress("trading", path->back());
+    }
+    return Status();
+  }
+
+  /// kTargetPsnr's last stage, while path->back() is more than kTradeMinSlackDb above `target`: the code steps of
+  /// rotations, scales and opacities, a quarter bit coarser at a time (finer than the bits, and below their
+  /// 4-bit minimum), the step with the most bytes saved per squared error added that still meets `target` each
+  /// round. It only spends what the knobs of whole steps leave above the target, so it never ends larger.
+  Status fill_for_psnr(double target, std::vector<FitPoint>* path) {
+    const Knob steps[3] = {Knob::kRotationStep, Knob::kScaleStep, Knob::kOpacityStep};
+    bool frozen[3] = {false, false, false};
+    for (int round = 0; round < kMaxFillRounds; ++round) {
+      const FitPoint at = path->back();
+      if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) break;
+      std::vector<format::ArchiveOptions> list;
+      std::vector<size_t> which;
+      for (size_t k = 0; k < 3; ++k) {
+        if (frozen[k]) continue;
+        if (auto o = step(at.options, steps[k], true)) {
+          list.push_back(*o);
+          which.push_back(k);
+        } else {
+          frozen[k] = true;
+        }
+      }
+      if (list.empty()) break;
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
+      std::optional<size_t> best;
+      double best_ratio = -1;
+      for (size_t i = 0; i < points.size(); ++i) {
+        const FitPoint& p = points[i];
+        if (!(p.psnr_mean_db >= target) || p.bytes >= at.bytes) {
+          frozen[which[i]] = true;  // coarser still will not meet it
+          continue;
+        }
+        const double added = std::max(mse_of(p.psnr_mean_db) - mse_of(at.psnr_mean_db), 1e-30);
+        const double ratio = double(at.bytes - p.bytes) / added;
+        if (ratio > best_ratio) best_ratio = ratio, best = i;
+      }
+      if (!best) break;
+      path->push_back(points[*best]);
+      report_progress("filling", path->back());
     }
     return Status();
   }
@@ -745,7 +852,13 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
 
 std::string describe_archive_options(const format::ArchiveOptions& o, uint32_t sh_degree) {
   std::string text = "rotation " + std::to_string(o.rotation_bits) + ", scale " + std::to_string(o.scale_bits) +
-                     ", opacity " + std::to_string(o.opacity_bits) + " bits; SH step x";
+                     ", opacity " + std::to_string(o.opacity_bits) + " bits; ";
+  if (o.rotation_step != 1 || o.scale_step != 1 || o.opacity_step != 1) {
+    char steps[96];
+    std::snprintf(steps, sizeof(steps), "code steps x%.3g/%.3g/%.3g; ", o.rotation_step, o.scale_step, o.opacity_step);
+    text += steps;
+  }
+  text += "SH step x";
   for (uint32_t d = 0; d <= std::min<uint32_t>(sh_degree, 3); ++d) {
     text += (d ? "/" : "") + std::to_string(o.sh_step_multipliers[d]);
   }

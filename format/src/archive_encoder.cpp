@@ -46,6 +46,12 @@ Status check_options(const ArchiveOptions& o) {
       return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16 (or 0: by scene size)");
     }
   }
+  for (auto [name, step] : {std::pair{"rotation", o.rotation_step}, std::pair{"scale", o.scale_step},
+                            std::pair{"opacity", o.opacity_step}}) {
+    if (!(step >= 1 && step <= 4096)) {
+      return invalid(std::string(name) + " step " + std::to_string(step) + " outside 1..4096 (times the bits' own step)");
+    }
+  }
   for (size_t d = 0; d < 4; ++d) {
     if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
       return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
@@ -114,6 +120,12 @@ uint32_t round_code(double v, uint32_t max_code) {
   return r <= 0 ? 0u : r >= max_code ? max_code : static_cast<uint32_t>(r);
 }
 
+/// The code of v (in code units) on the writer's coarser grid: v rounded to a multiple of `step` (≥ 1), then
+/// to a code.
+uint32_t round_code(double v, double step, uint32_t max_code) {
+  return round_code(step == 1 ? v : std::floor(v / step + 0.5) * step, max_code);
+}
+
 /// Gaussian `i` of the output comes from `order[i]` of the scene.
 Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
                         std::vector<uint8_t>* out) {
@@ -135,10 +147,31 @@ Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& orde
     }
     const double sign = q[largest] < 0 ? -1.0 : 1.0;  // q and -q are the same rotation
     codes.set(0, i, largest);
-    for (uint32_t a = 0, c = 1; a < 4; ++a) {
+    uint32_t code[3];
+    double target[3], sum2 = 0;
+    for (uint32_t a = 0, c = 0; a < 4; ++a) {
       if (a == largest) continue;
-      codes.set(c++, i, round_code((sign * q[a] / norm - lo) * inv, max_code));
+      target[c] = (sign * q[a] / norm - lo) * inv;
+      code[c] = round_code(target[c], o.rotation_step, max_code);
+      const double v = lo + code[c] / inv;
+      sum2 += v * v;
+      ++c;
     }
+    // Coarse steps can round the three components out of the unit ball, where the decoder clamps the largest
+    // to 0: the component rounded furthest away from zero moves back onto the grid point on its other side.
+    if (o.rotation_step != 1 && sum2 > 1) {
+      uint32_t worst = 0;
+      double worst_out = -1;
+      for (uint32_t c = 0; c < 3; ++c) {
+        const double v = lo + code[c] / inv, t = lo + target[c] / inv;
+        const double out = std::fabs(v) - std::fabs(t);
+        if (out > worst_out) worst_out = out, worst = c;
+      }
+      const double t = target[worst], k = o.rotation_step;
+      const double toward_zero = t > max_code / 2.0 ? std::floor(t / k) * k : std::ceil(t / k) * k;
+      code[worst] = round_code(toward_zero, max_code);
+    }
+    for (uint32_t c = 0; c < 3; ++c) codes.set(c + 1, i, code[c]);
   }
   return finish_quantized(QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o.zstd_level, out);
 }
@@ -168,7 +201,7 @@ Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, 
     if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;  // every value zero: any offset decodes near 0
     // Offsets and steps are stored as float32; codes are computed against the stored values.
     params[a] = static_cast<float>(lo[a]);
-    params[3 + a] = static_cast<float>((hi[a] - params[a]) / max_code);
+    params[3 + a] = static_cast<float>((hi[a] - params[a]) / max_code * o.scale_step);
   }
   CodePlanes codes(n, 3, o.scale_bits);
   for (uint64_t i = 0; i < n; ++i) {
@@ -186,7 +219,8 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
   const uint32_t max_code = (1u << o.opacity_bits) - 1;
   CodePlanes codes(s.count, 1, o.opacity_bits);
   for (uint64_t i = 0; i < s.count; ++i) {
-    codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * static_cast<double>(max_code), max_code));
+    codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * static_cast<double>(max_code),
+                               o.opacity_step, max_code));
   }
   return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
 }
@@ -634,9 +668,11 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     d.metadata.bounds = bounds_of(d.means);
     const std::vector<uint64_t>& order = out.source_index;
     const bool same_zstd = same_order && e->zstd_level == options.zstd_level;
-    const bool reuse[5] = {same_order, same_zstd && e->rotation_bits == options.rotation_bits,
-                           same_zstd && e->scale_bits == options.scale_bits,
-                           same_zstd && e->opacity_bits == options.opacity_bits,
+    const bool reuse[5] = {same_order, same_zstd && e->rotation_bits == options.rotation_bits &&
+                                                  e->rotation_step == options.rotation_step,
+                           same_zstd && e->scale_bits == options.scale_bits && e->scale_step == options.scale_step,
+                           same_zstd && e->opacity_bits == options.opacity_bits &&
+                               e->opacity_step == options.opacity_step,
                            same_zstd && e->sh_step_multipliers == options.sh_step_multipliers &&
                                e->sh_codebook_size == options.sh_codebook_size};
     std::vector<std::function<Status()>> jobs;

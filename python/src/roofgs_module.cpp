@@ -1361,7 +1361,9 @@ PYBIND11_MODULE(roofgs, m) {
           const audit::FitResult& f = done.fit;
           const format::ArchiveOptions& a = f.chosen.options;
           py::dict settings(py::arg("position_error") = a.position_error, py::arg("rotation_bits") = a.rotation_bits,
-                            py::arg("scale_bits") = a.scale_bits, py::arg("opacity_bits") = a.opacity_bits,
+                            py::arg("rotation_step") = a.rotation_step, py::arg("scale_bits") = a.scale_bits,
+                            py::arg("scale_step") = a.scale_step, py::arg("opacity_bits") = a.opacity_bits,
+                            py::arg("opacity_step") = a.opacity_step,
                             py::arg("sh_step_multipliers") = std::vector<uint32_t>(a.sh_step_multipliers.begin(),
                                                                                     a.sh_step_multipliers.end()));
           d["rate_control"] = py::dict(
@@ -1384,8 +1386,8 @@ PYBIND11_MODULE(roofgs, m) {
         "target_psnr (dB) or target_bytes: rate control of the archive profile (audit::fit_archive, as "
         "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
         "or an orbit (default 4 at 960x540), at width x height; the dict then has rate_control: psnr_mean_db, "
-        "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, scale_bits, opacity_bits, "
-        "sh_step_multipliers), views, width, height, backend, encodings, renders, seconds");
+        "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, rotation_step, scale_bits, "
+        "scale_step, opacity_bits, opacity_step, sh_step_multipliers), views, width, height, backend, encodings, renders, seconds");
   m.def("save",
         [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
            const py::object& scales, const py::object& opacities, const py::object& sh, const py::kwargs& kwargs) {

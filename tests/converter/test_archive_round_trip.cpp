@@ -1,7 +1,8 @@
 // Archive profile round trips (format/SPEC.md §3.3) on real scenes: PLY -> quantize -> archive bytes ->
 // validate -> read_scene. The file decodes to exactly encode_archive's scene, every attribute stays within
 // the bound its codec promises relative to the runtime-profile scene, and the bytes do not depend on the
-// thread count. Runs on the shipped sample and on every real scene of $RGS_DATA_DIR (skipped visibly).
+// thread count. Runs on the shipped sample and on every real scene of $RGS_DATA_DIR (skipped visibly), and on
+// the sample with code steps coarser than the bits (ArchiveOptions::rotation_step, scale_step, opacity_step).
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -25,7 +26,8 @@ using namespace rgs;
 
 double half(uint16_t h) { return format::half_bits_to_float(h); }
 
-void check_archive_round_trip(const std::string& path, uint64_t expected_count, bool check_threads) {
+void check_archive_round_trip(const std::string& path, uint64_t expected_count, bool check_threads,
+                              const format::ArchiveOptions& options = {}) {
   auto ply = converter::read_ply(path);
   REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
   REQUIRE(ply->cloud.size() == expected_count);
@@ -36,6 +38,7 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
 
   format::WriteOptions write;
   write.profile = format::StorageProfile::kArchive;
+  write.archive = options;
   auto archive = format::encode_archive(src, write.archive);
   REQUIRE_MESSAGE(archive.ok(), archive.status().to_string());
   auto bytes = format::serialize_scene(src, write);
@@ -59,9 +62,11 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
   const format::ArchiveOptions o = format::resolve_archive_options(write.archive, n);
   const format::EncodedScene& d = archive->decoded;
   const double pos_bound = 0.5 * archive->position.step * 1.05 + 1e-6 * archive->position.range;
-  const double rot_step = std::sqrt(2.0) / ((1u << o.rotation_bits) - 1);
+  // A code step k rounds to a multiple of k, then to a code: within k/2 + 1/2 codes (k/2 for an integer k).
+  auto codes_off = [](double k) { return k == std::floor(k) ? k : k + 1; };
+  const double rot_step = std::sqrt(2.0) / ((1u << o.rotation_bits) - 1) * codes_off(o.rotation_step);
   const double rot_err = std::sqrt(3.0) * rot_step / 2 + 2e-3;  // + FP16 rounding of both quaternions
-  const double opa_bound = 0.5 / ((1u << o.opacity_bits) - 1) + 1.0 / 2048;
+  const double opa_bound = 0.5 * codes_off(o.opacity_step) / ((1u << o.opacity_bits) - 1) + 1.0 / 2048;
   const bool log_scales = src.metadata.scale_encoding == format::ScaleEncoding::kLog;
   double lo[3], hi[3];
   for (int a = 0; a < 3; ++a) lo[a] = std::numeric_limits<double>::infinity(), hi[a] = -lo[a];
@@ -85,7 +90,7 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
       const double want = ln(src.scales[s * 3 + a]), got = ln(d.scales[i * 3 + a]);
       const double smallest = std::log(6.2e-5);  // FP16 normals: relative rounding 2^-11
       if (!std::isfinite(want) || (!log_scales && (want < smallest || got < smallest))) continue;
-      const double step = (hi[a] - lo[a]) / ((1u << o.scale_bits) - 1);
+      const double step = (hi[a] - lo[a]) / ((1u << o.scale_bits) - 1) * o.scale_step;
       bad_scale += std::fabs(got - want) > 0.5 * step + 1e-3 + (log_scales ? std::fabs(want) / 1024 : 0);
     }
     bad_opa += std::fabs(half(d.opacities[i]) - half(src.opacities[s])) > opa_bound;
@@ -99,12 +104,26 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
   CHECK(bad_scale == 0);
   CHECK(bad_opa == 0);
   CHECK(bad_sh == 0);
+  // A code step of k leaves about 1/k of the codes in use (decoded opacities: one value per code).
+  std::vector<uint16_t> opacities(d.opacities.begin(), d.opacities.end());
+  std::sort(opacities.begin(), opacities.end());
+  const auto used = std::unique(opacities.begin(), opacities.end()) - opacities.begin();
+  CHECK(double(used) <= std::ceil(double((1u << o.opacity_bits) - 1) / o.opacity_step) + 1);
 }
 
 }  // namespace
 
 TEST_CASE("archive round trip: shipped guitar sample") {
   check_archive_round_trip(test::repo_path("samples/guitar.ply"), 90854, true);
+}
+
+TEST_CASE("archive round trip: code steps coarser than the bits, below the 4-bit minimum") {
+  format::ArchiveOptions o;
+  o.rotation_bits = o.scale_bits = o.opacity_bits = 4;
+  o.rotation_step = 2.5;
+  o.scale_step = 3;
+  o.opacity_step = 1.5;
+  check_archive_round_trip(test::repo_path("samples/guitar.ply"), 90854, false, o);
 }
 
 TEST_CASE("archive round trip: every real scene of $RGS_DATA_DIR") {

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -46,7 +47,7 @@ TEST_CASE("archive: sections lent by an earlier archive give the archive encoded
   CHECK(earlier->options.rotation_bits == 9);
   // Each setting alone, all of them, the position (which changes the order and so every section), and the
   // zstd level (which changes every section's bytes but the means').
-  std::vector<format::ArchiveOptions> variants(7, base);
+  std::vector<format::ArchiveOptions> variants(10, base);
   variants[0].rotation_bits = 7;
   variants[1].scale_bits = 6;
   variants[2].opacity_bits = 5;
@@ -54,6 +55,9 @@ TEST_CASE("archive: sections lent by an earlier archive give the archive encoded
   variants[4] = {};
   variants[5].position_error = base.position_error * 8;
   variants[6].zstd_level = base.zstd_level + 3;
+  variants[7].rotation_step = 1.5;
+  variants[8].scale_step = 2;
+  variants[9].opacity_step = 1.25;
   for (size_t v = 0; v < variants.size(); ++v) {
     CAPTURE(v);
     auto fresh = format::encode_archive(scene, variants[v]);
@@ -77,6 +81,25 @@ TEST_CASE("archive: sections lent by an earlier archive give the archive encoded
     check_same_scene(*read, lent->decoded);
   }
   CHECK_FALSE(format::encode_archive(make_random_scene(10, 0, 1), base, &*earlier).ok());
+}
+
+TEST_CASE("archive: options out of range are refused, naming the option") {
+  const format::EncodedScene scene = make_random_scene(100, 1, 3);
+  for (double bad : {0.5, 0.0, -1.0, 5000.0, std::numeric_limits<double>::quiet_NaN()}) {
+    CAPTURE(bad);
+    for (int which = 0; which < 3; ++which) {
+      format::ArchiveOptions o;
+      (which == 0 ? o.rotation_step : which == 1 ? o.scale_step : o.opacity_step) = bad;
+      auto r = format::encode_archive(scene, o);
+      REQUIRE_FALSE(r.ok());
+      CHECK(r.status().code() == StatusCode::kInvalidArgument);
+      CHECK(r.status().message().find(which == 0 ? "rotation step" : which == 1 ? "scale step" : "opacity step") !=
+            std::string::npos);
+    }
+  }
+  format::ArchiveOptions o;
+  o.rotation_bits = 3;
+  CHECK_FALSE(format::encode_archive(scene, o).ok());
 }
 
 TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to encode_archive's scene") {

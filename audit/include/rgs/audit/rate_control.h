@@ -1,5 +1,5 @@
-// Rate control of the archive profile: chooses format::ArchiveOptions (bits of rotations, scales and
-// opacities, SH step multipliers per degree, position error) so that the archive's render meets a PSNR
+// Rate control of the archive profile: chooses format::ArchiveOptions (bits and code steps of rotations, scales
+// and opacities, SH step multipliers per degree, position error) so that the archive's render meets a PSNR
 // target against the source's render at the fewest bytes, or fits a byte budget at the best PSNR.
 // The search encodes each candidate in memory (format::encode_archive) and measures it with run_audit on
 // the given cameras, reduced in size; the choice is then checked at the cameras' own size. How it searches
@@ -45,8 +45,8 @@ struct FitOptions {
   converter::QuantizeOptions quantize;
   /// Drop the SH bands above this degree before encoding (the source's render keeps them).
   std::optional<uint32_t> sh_degree;
-  /// The archive options the search starts from; it chooses position_error, rotation_bits, scale_bits,
-  /// opacity_bits and sh_step_multipliers, and keeps sh_codebook_size, zstd_level, draco_speed and threads.
+  /// The archive options the search starts from; it chooses position_error, the bits and code steps of
+  /// rotations, scales and opacities (rotation_step etc., in quarter bits) and sh_step_multipliers, and keeps sh_codebook_size, zstd_level, draco_speed and threads.
   format::ArchiveOptions start;
   /// The search renders the cameras reduced (field of view kept) so that their longer side is at most this
   /// many pixels (at least 16); the final check renders them at their own size. 0: kCpuSearchMaxSide with the
@@ -98,8 +98,9 @@ struct FitResult {
 /// definition) at the cameras' size is >= target_psnr_db; kTargetBytes: the highest such PSNR whose file
 /// fits target_bytes. The search: a ladder that coarsens every knob together from the defaults
 /// (format::resolve_archive_options), bracketed at the search size; then rounds of one-knob steps
-/// (kTargetPsnr: the steps that keep the target taken together, by bytes saved per squared error added, and
-/// a last coarser bit or position step traded against finer SH steps; kTargetBytes: the finer step with the
+/// (kTargetPsnr: the steps that keep the target taken together, by bytes saved per squared error added, a
+/// scan of the SH multipliers' integers, a last coarser bit or position step traded against finer SH steps,
+/// and the code steps coarsened a quarter bit at a time while the target holds; kTargetBytes: the finer step with the
 /// most dB gained per byte added). kTargetPsnr calibrates the difference between the search size and the
 /// cameras' own size at the ladder's point, and checks the search's choice at the cameras' own size,
 /// searching again with the measured difference while it misses the target or lands over 0.5 dB above it.

@@ -24,10 +24,21 @@ struct ArchiveOptions {
   /// Bits per smallest-three quaternion component, 4..16 (§3.3.2 transform 1); 0 (default): by scene
   /// size, 10, or 7 from kArchiveDenseGaussians on (resolve_archive_options).
   uint32_t rotation_bits = 0;
+  /// The rotation codes the writer uses, spaced by this many codes, in [1, 4096]: each component is rounded
+  /// to the nearest multiple of the step (then to a code). Above 1 the codes use fewer values than the bits
+  /// allow, so rotations get coarser by less than a bit, or below the 4-bit minimum; readers see ordinary
+  /// codes. Likewise opacity_step for the opacity codes.
+  double rotation_step = 1;
   /// Bits per log-scale code, 4..16 (§3.3.2 transform 2); 0 (default): 9, or 7 for dense scenes.
   uint32_t scale_bits = 0;
+  /// Step of the log-scale codes as a multiple of the bits' own step, (max − min) / (2^bits − 1) of ln(scale)
+  /// per axis, in [1, 4096]; the step is a parameter of transform 2, so above 1 the codes use fewer values
+  /// than the bits allow, as with rotation_step.
+  double scale_step = 1;
   /// Bits per opacity code, 4..16 (§3.3.2 transform 3); 0 (default): 8, or 6 for dense scenes.
   uint32_t opacity_bits = 0;
+  /// Spacing of the opacity codes the writer uses, in [1, 4096] (as rotation_step).
+  double opacity_step = 1;
   /// Multiplier of the INT8 SH step per degree 0..3, 1..127 (§3.3.2 transform 4); 1 keeps the runtime's
   /// INT8 values.
   std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
@@ -85,7 +96,7 @@ struct ArchiveScene {
 /// same bytes, whatever `threads`. `earlier`, an archive of the same `scene` (not checked beyond its count),
 /// lends each section whose settings are those of `options`: the means when the position bits and
 /// draco_speed match (and with them the point order), then each other section whose own setting matches
-/// (rotation_bits, scale_bits, opacity_bits, the SH multipliers and codebook size) at the same zstd_level. The result is the same as
+/// (rotation_bits and rotation_step, scale_bits and scale_step, opacity_bits and opacity_step, the SH multipliers and codebook size) at the same zstd_level. The result is the same as
 /// without it; callers that vary one setting at a time (rate control) encode one section instead of five.
 /// Errors: kInvalidArgument (options out of range, an inconsistent scene, an `earlier` of another count),
 /// kOutOfMemory.
