@@ -58,7 +58,23 @@ struct TileGaussian {
   float rgb[3];
   float depth;
   k::FoldedCoefficients folded;
+  float skip_power;  // unfolded path: powers below this give α < 1/255 for sure (visible_power_floor)
 };
+
+/// Pairs whose exponent (power, or P = power + ln o) is below this can never reach alpha 1/255:
+/// exp(−6) = 0.00248 < 1/255 = 0.00392 for any opacity ≤ 1, and the fast exp's ≤ 3.2 % error keeps it below
+/// too. Skipping them before the exponential changes no result (they would fail the α < 1/255 test); it only
+/// spares the CPU most of its expf calls.
+constexpr float kNeverVisiblePower = -6.f;
+
+/// The power below which a Gaussian of opacity o cannot reach α = 1/255: ln(1 / (255·o)), less 0.05 for the
+/// error of expf and of the fast exp (e^−0.05 · 1.032 < 1), and never below kNeverVisiblePower. Tighter than
+/// kNeverVisiblePower for faint Gaussians, so they skip more pixels before the exponential, with the same
+/// results.
+float visible_power_floor(float opacity) {
+  if (!(opacity > 0.f)) return 1.f;  // never visible: every power (≤ 0) is below it
+  return std::max(kNeverVisiblePower, std::log(k::kAlphaMin / opacity) - 0.05f);
+}
 
 /// Gathers the `count` Gaussians `ids` of tile (tx, ty) in list order.
 void gather_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t* ids, uint64_t count, int tx,
@@ -76,6 +92,7 @@ void gather_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t
     t.log_opacity = g.log_opacity;
     for (int c = 0; c < 3; ++c) t.rgb[c] = g.rgb[c];
     t.depth = g.depth;
+    t.skip_power = visible_power_floor(g.opacity);
     // Tile-local mean (u, v) = mean − tile origin; pixels are then at tile-local (0..15, 0..15).
     t.folded = fold ? k::fold_coefficients(g.conic, g.mean[0] - origin_x, g.mean[1] - origin_y, g.log_opacity)
                     : k::FoldedCoefficients{0, 0, 0, 0, 0, 0};
@@ -122,19 +139,13 @@ inline void blend_step_fma(PixelState& s, float alpha, const TileGaussian& g) {
   s.T = test_T;
 }
 
-/// Pairs whose exponent (power, or P = power + ln o) is below this can never reach alpha 1/255:
-/// exp(−6) = 0.00248 < 1/255 = 0.00392 for any opacity ≤ 1, and the fast exp's ≤ 3.2 % error keeps it below
-/// too. Skipping them before the exponential changes no result (they would fail the α < 1/255 test); it only
-/// spares the CPU most of its expf calls.
-constexpr float kNeverVisiblePower = -6.f;
-
 /// Alpha of Gaussian g from its power at a pixel on the unfolded path, or a negative value when the pair is
-/// skipped (power > 0 or α < 1/255).
+/// skipped (power > 0 or α < 1/255). std::min(kAlphaMax, x) is fminf(kAlphaMax, x) for every x, NaN included,
+/// without a call into libm.
 inline float unfolded_alpha(const TileGaussian& g, float power, const RoofgsOptions& roofgs) {
-  if (power > 0.f) return -1.f;
-  if (power < kNeverVisiblePower) return -1.f;  // α < 1/255 for sure (see above)
-  const float alpha = roofgs.fast_exp ? fminf(k::kAlphaMax, k::fast_exp(power + g.log_opacity, roofgs.fast_exp_sigma))
-                                      : fminf(k::kAlphaMax, g.opacity * std::exp(power));
+  if (power > 0.f || power < g.skip_power) return -1.f;  // α < 1/255 for sure below skip_power
+  const float alpha = roofgs.fast_exp ? std::min(k::kAlphaMax, k::fast_exp(power + g.log_opacity, roofgs.fast_exp_sigma))
+                                      : std::min(k::kAlphaMax, g.opacity * std::exp(power));
   return alpha < k::kAlphaMin ? -1.f : alpha;
 }
 
@@ -142,8 +153,8 @@ inline float unfolded_alpha(const TileGaussian& g, float power, const RoofgsOpti
 inline float folded_alpha(float P, const RoofgsOptions& roofgs) {
   if (P > 0.f) return -1.f;
   if (P < kNeverVisiblePower) return -1.f;  // α < 1/255 for sure
-  const float alpha = roofgs.fast_exp ? fminf(k::kAlphaMax, k::fast_exp(P, roofgs.fast_exp_sigma))
-                                      : fminf(k::kAlphaMax, std::exp(P));
+  const float alpha = roofgs.fast_exp ? std::min(k::kAlphaMax, k::fast_exp(P, roofgs.fast_exp_sigma))
+                                      : std::min(k::kAlphaMax, std::exp(P));
   return alpha < k::kAlphaMin ? -1.f : alpha;
 }
 
@@ -161,14 +172,15 @@ struct PixelBox {
   int x_min, y_min, x_max, y_max;
 };
 
-/// The tile's pixels (w × h, origin (x0, y0)) where g's power can reach kNeverVisiblePower: the box of the ellipse
-/// dᵀ Q d ≤ 12 (Q the conic), 1 % and a pixel wider for the rounding of the power in float; the whole tile when the
-/// conic is not positive definite. Pixels outside it would be skipped before the exponential anyway.
+/// The tile's pixels (w × h, origin (x0, y0)) where g's power can reach g.skip_power: the box of the ellipse
+/// dᵀ Q d ≤ −2·skip_power (Q the conic), 1 % and a pixel wider for the rounding of the power in float; the whole
+/// tile when the conic is not positive definite. Pixels outside it would be skipped before the exponential anyway.
 PixelBox reach_box(const TileGaussian& g, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h) {
   const PixelBox tile{0, 0, int(w) - 1, int(h) - 1};
   const double a = g.conic.a, b = g.conic.b, c = g.conic.c, det = a * c - b * b;
   if (!(a > 0 && c > 0 && det > 0)) return tile;
-  const double q = -2.0 * double(kNeverVisiblePower) * 1.01;
+  if (g.skip_power > 0.f) return {0, 0, -1, -1};
+  const double q = -2.0 * double(g.skip_power) * 1.01;
   const double rx = std::sqrt(q * c / det) + 1, ry = std::sqrt(q * a / det) + 1;
   const double cx = double(g.mean[0]) - x0, cy = double(g.mean[1]) - y0;
   if (!(std::isfinite(rx) && std::isfinite(ry) && std::isfinite(cx) && std::isfinite(cy))) return tile;
@@ -204,7 +216,7 @@ void blend_tile_baseline(const std::vector<TileGaussian>& list, int tx, int ty, 
       }
       PixelState* row = state + size_t(y) * w;
       for (int x = box.x_min; x <= box.x_max; ++x) {
-        if (row[x].done || power[x] > 0.f || power[x] < kNeverVisiblePower) continue;
+        if (row[x].done || power[x] > 0.f || power[x] < g.skip_power) continue;
         const float alpha = unfolded_alpha(g, power[x], options.roofgs);
         if (alpha < 0.f) continue;
         blend_step(row[x], alpha, g);
