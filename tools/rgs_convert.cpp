@@ -442,7 +442,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   auto* target_psnr =
       app.add_option("--target-psnr", opt.target_psnr,
-                     "Rate control: choose the archive profile's settings (bits of rotations, scales, opacities, SH "
+                     "Rate control: choose the archive profile's settings (bits and code steps of rotations, scales, opacities, SH "
                      "steps per degree, position error) for the fewest bytes whose mean PSNR over the views, render "
                      "against the input's render, is at least DB; implies --profile archive")
           ->check(CLI::Range(1.0, 200.0));
