@@ -169,8 +169,9 @@ class Measurer {
       : source_(source), quantized_(std::move(quantized)), options_(options) {}
 
   /// Creates the renderers and renders the source on both view sets. On the CPU with several threads, each
-  /// worker renders whole views on one thread: a frame alone keeps two CPUs only about 1.6x as busy as one (its
-  /// sort and allocations are serial), and the images do not depend on the thread count.
+  /// worker renders whole views on one thread: a lone frame does not keep several CPUs busy (its sort and
+  /// allocations are serial; docs/AUDITS.md#rate-control-of-the-archive-profile---target-psnr---target-bytes),
+  /// and the images do not depend on the thread count.
   Status start(std::vector<runtime::Camera> search_cameras, std::vector<runtime::Camera> cameras) {
     device_ = options_.audit.backend == Backend::kCuda ? api::Device::kCuda : api::Device::kCpu;
     const unsigned workers = device_ == api::Device::kCpu ? parallel::thread_count(options_.audit.cpu_threads) : 1;
