@@ -65,13 +65,14 @@ constexpr int kMaxAttempts = 3;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 constexpr double kCalibrationMarginDb = 0.15;
 
-/// The knobs the search moves, one at a time.
+/// The knobs the search moves, one at a time: kKnobs in the rounds, kCodeSteps in a kTargetPsnr search's last
+/// stage (Search::fill_for_psnr).
 enum class Knob {
-  kRotation, kRotationStep, kScale, kScaleStep, kOpacity, kOpacityStep, kSh0, kSh1, kSh2, kSh3, kPosition
+  kRotation, kScale, kOpacity, kSh0, kSh1, kSh2, kSh3, kPosition, kRotationStep, kScaleStep, kOpacityStep
 };
-constexpr std::array<Knob, 11> kKnobs = {Knob::kRotation, Knob::kRotationStep, Knob::kScale, Knob::kScaleStep,
-                                         Knob::kOpacity,  Knob::kOpacityStep,  Knob::kSh0,   Knob::kSh1,
-                                         Knob::kSh2,      Knob::kSh3,          Knob::kPosition};
+constexpr std::array<Knob, 8> kKnobs = {Knob::kRotation, Knob::kScale, Knob::kOpacity, Knob::kSh0,
+                                        Knob::kSh1,      Knob::kSh2,   Knob::kSh3,     Knob::kPosition};
+constexpr std::array<Knob, 3> kCodeSteps = {Knob::kRotationStep, Knob::kScaleStep, Knob::kOpacityStep};
 
 uint32_t clamp_bits(double bits) { return uint32_t(std::clamp(std::lround(bits), long(kMinBits), long(kMaxBits))); }
 
@@ -359,14 +360,10 @@ std::string db_text(double db) {
   return text;
 }
 
-/// The code step knobs, moved only by the last stage of a kTargetPsnr search (Search::fill_for_psnr).
-bool is_code_step(Knob k) { return k == Knob::kRotationStep || k == Knob::kScaleStep || k == Knob::kOpacityStep; }
-
-/// The knobs the rounds move for a scene of SH degree `sh_degree`: every knob but the code steps.
+/// The knobs the rounds move for a scene of SH degree `sh_degree`.
 std::vector<Knob> knobs_for(uint32_t sh_degree) {
   std::vector<Knob> out;
   for (Knob k : kKnobs) {
-    if (is_code_step(k)) continue;
     const int band = int(k) - int(Knob::kSh0);
     if (band >= 0 && band <= 3 && uint32_t(band) > sh_degree) continue;
     out.push_back(k);
@@ -459,26 +456,11 @@ class Search {
       const FitPoint at = path->back();
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
-      next_steps(at.options, true, &frozen, &list, &knob_of);
+      next_steps(knobs_, at.options, true, &frozen, &list, &knob_of);
       if (list.empty()) break;
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
-      // The steps that meet the target, by bytes saved per squared error added (a step that adds none first).
-      struct Move {
-        size_t index;
-        double added_mse, ratio;
-      };
-      std::vector<Move> moves;
-      for (size_t i = 0; i < points.size(); ++i) {
-        const FitPoint& p = points[i];
-        if (!(p.psnr_mean_db >= target) || p.bytes >= at.bytes) {
-          frozen[knob_of[i]] = true;  // coarser still, with the others coarser too, will not meet it
-          continue;
-        }
-        const double added = std::max(mse_of(p.psnr_mean_db) - mse_of(at.psnr_mean_db), 0.0);
-        moves.push_back({i, added, double(at.bytes - p.bytes) / std::max(added, 1e-30)});
-      }
+      const std::vector<Move> moves = passing_moves(at, points, knob_of, target, &frozen);
       if (moves.empty()) break;
-      std::stable_sort(moves.begin(), moves.end(), [](const Move& a, const Move& b) { return a.ratio > b.ratio; });
       FitPoint next = points[moves[0].index];
       format::ArchiveOptions together = at.options;
       double predicted = mse_of(at.psnr_mean_db);
@@ -605,38 +587,19 @@ class Search {
   /// 4-bit minimum), the step with the most bytes saved per squared error added that still meets `target` each
   /// round. It only spends what the knobs of whole steps leave above the target, so it never ends larger.
   Status fill_for_psnr(double target, std::vector<FitPoint>* path) {
-    const Knob steps[3] = {Knob::kRotationStep, Knob::kScaleStep, Knob::kOpacityStep};
-    bool frozen[3] = {false, false, false};
+    const std::vector<Knob> steps(kCodeSteps.begin(), kCodeSteps.end());
+    std::vector<bool> frozen(steps.size(), false);
     for (int round = 0; round < kMaxFillRounds; ++round) {
       const FitPoint at = path->back();
       if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) break;
       std::vector<format::ArchiveOptions> list;
-      std::vector<size_t> which;
-      for (size_t k = 0; k < 3; ++k) {
-        if (frozen[k]) continue;
-        if (auto o = step(at.options, steps[k], true)) {
-          list.push_back(*o);
-          which.push_back(k);
-        } else {
-          frozen[k] = true;
-        }
-      }
+      std::vector<size_t> knob_of;
+      next_steps(steps, at.options, true, &frozen, &list, &knob_of);
       if (list.empty()) break;
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
-      std::optional<size_t> best;
-      double best_ratio = -1;
-      for (size_t i = 0; i < points.size(); ++i) {
-        const FitPoint& p = points[i];
-        if (!(p.psnr_mean_db >= target) || p.bytes >= at.bytes) {
-          frozen[which[i]] = true;  // coarser still will not meet it
-          continue;
-        }
-        const double added = std::max(mse_of(p.psnr_mean_db) - mse_of(at.psnr_mean_db), 1e-30);
-        const double ratio = double(at.bytes - p.bytes) / added;
-        if (ratio > best_ratio) best_ratio = ratio, best = i;
-      }
-      if (!best) break;
-      path->push_back(points[*best]);
+      const std::vector<Move> moves = passing_moves(at, points, knob_of, target, &frozen);
+      if (moves.empty()) break;
+      path->push_back(points[moves[0].index]);
       report_progress("filling", path->back());
     }
     return Status();
@@ -678,7 +641,7 @@ class Search {
       const FitPoint& at = path.back();
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
-      next_steps(at.options, false, &frozen, &list, &knob_of);
+      next_steps(knobs_, at.options, false, &frozen, &list, &knob_of);
       if (list.empty()) break;
       // Bytes first: only the steps that fit are rendered.
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> sizes, m_.bytes(list));
@@ -720,19 +683,44 @@ class Search {
   uint32_t sh_degree() const { return sh_degree_; }
 
  private:
-  /// One step of every knob not yet frozen, coarser or finer, into `list` with its knob index in `knob_of`; a knob
-  /// that has no such step left is frozen.
-  void next_steps(const format::ArchiveOptions& at, bool coarser, std::vector<bool>* frozen,
-                  std::vector<format::ArchiveOptions>* list, std::vector<size_t>* knob_of) const {
-    for (size_t k = 0; k < knobs_.size(); ++k) {
+  /// One step of every knob of `knobs` not yet frozen, coarser or finer, into `list` with its index in `knobs`
+  /// in `knob_of`; a knob that has no such step left is frozen.
+  static void next_steps(const std::vector<Knob>& knobs, const format::ArchiveOptions& at, bool coarser,
+                         std::vector<bool>* frozen, std::vector<format::ArchiveOptions>* list,
+                         std::vector<size_t>* knob_of) {
+    for (size_t k = 0; k < knobs.size(); ++k) {
       if ((*frozen)[k]) continue;
-      if (auto o = step(at, knobs_[k], coarser)) {
+      if (auto o = step(at, knobs[k], coarser)) {
         list->push_back(*o);
         knob_of->push_back(k);
       } else {
         (*frozen)[k] = true;
       }
     }
+  }
+
+  /// A coarser step measured at `points[index]`: the squared error it adds and its bytes saved per unit of it.
+  struct Move {
+    size_t index;
+    double added_mse, ratio;
+  };
+  /// The coarser steps `points` (of the knobs `knob_of`, from `at`) that still meet `target` in fewer bytes, by
+  /// bytes saved per squared error added, best first (a step that adds none first; ties in knob order); the knob
+  /// of every other step is frozen: coarser still, with the others coarser too, will not meet the target.
+  static std::vector<Move> passing_moves(const FitPoint& at, const std::vector<FitPoint>& points,
+                                         const std::vector<size_t>& knob_of, double target, std::vector<bool>* frozen) {
+    std::vector<Move> moves;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const FitPoint& p = points[i];
+      if (!(p.psnr_mean_db >= target) || p.bytes >= at.bytes) {
+        (*frozen)[knob_of[i]] = true;
+        continue;
+      }
+      const double added = std::max(mse_of(p.psnr_mean_db) - mse_of(at.psnr_mean_db), 0.0);
+      moves.push_back({i, added, double(at.bytes - p.bytes) / std::max(added, 1e-30)});
+    }
+    std::stable_sort(moves.begin(), moves.end(), [](const Move& a, const Move& b) { return a.ratio > b.ratio; });
+    return moves;
   }
 
   void note_finest(const FitPoint& p) {

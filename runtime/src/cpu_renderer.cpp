@@ -216,7 +216,7 @@ void blend_tile_baseline(const std::vector<TileGaussian>& list, int tx, int ty, 
       }
       PixelState* row = state + size_t(y) * w;
       for (int x = box.x_min; x <= box.x_max; ++x) {
-        if (row[x].done || power[x] > 0.f || power[x] < g.skip_power) continue;
+        if (row[x].done) continue;
         const float alpha = unfolded_alpha(g, power[x], options.roofgs);
         if (alpha < 0.f) continue;
         blend_step(row[x], alpha, g);
