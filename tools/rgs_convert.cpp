@@ -159,6 +159,7 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
     if (q.lod_levels > 0) {
       j["lod"] = {{"levels", q.lod_levels}, {"chunks", q.lod_chunks}, {"gaussians", q.lod_gaussians}};
     }
+    if (q.position_bits > 0) j["archive_omitted"] = q.archive_omitted;
     j["errors"] = {{"position", stats_json(q.errors.position)},
                    {"position_of_extent", stats_json(of_extent(q.errors.position, q.extent))},
                    {"rotation_deg", stats_json(q.errors.rotation_deg)},
@@ -182,6 +183,11 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
                 "per coordinate); the errors below are the decoded archive's against the input\n",
                 tools::fixed(double(r.output_bytes) / double(std::max<uint64_t>(r.gaussians, 1)), 2).c_str(),
                 tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.archive.position_error).c_str());
+    if (q.archive_omitted > 0) {
+      std::printf("  omitted          %s Gaussians whose opacity code is 0 (they decode to opacity 0, which no "
+                  "renderer draws)\n",
+                  tools::group_digits(q.archive_omitted).c_str());
+    }
   } else if (q.lod_levels > 0) {
     std::printf("  profile          runtime, levels of detail: %u chunks x %u levels, %s Gaussians in all (%s x the "
                 "full detail), built in %s s\n",

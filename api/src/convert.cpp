@@ -191,19 +191,43 @@ Result<std::vector<T>> to_source_order(std::vector<T>* values, const std::vector
 }
 
 /// What the archive codecs cost: the errors of `archive`'s decoded scene (what readers of the file get)
-/// against `source`, the cloud the runtime scene was quantized from.
-Result<converter::AttributeErrors> archive_errors(const format::GaussianCloud& source, format::ArchiveScene archive) {
+/// against `source`, the cloud the runtime scene was quantized from, over the Gaussians the archive keeps (the
+/// omitted ones decode to nothing: archive.h).
+Result<converter::AttributeErrors> archive_errors(format::GaussianCloud source, format::ArchiveScene archive) {
   format::EncodedScene& decoded = archive.decoded;
-  const std::vector<uint64_t>& order = archive.source_index;
   const uint64_t n = decoded.count;
-  RGS_RETURN_ERROR_IF(n != source.size() || order.size() != n, StatusCode::kInvalidArgument,
-                      "internal error: the archive holds " + std::to_string(n) + " Gaussians, the source " +
-                          std::to_string(source.size()));
+  RGS_RETURN_ERROR_IF(archive.source_count != source.size() || archive.source_index.size() != n ||
+                          n + archive.omitted.size() != archive.source_count,
+                      StatusCode::kInvalidArgument,
+                      "internal error: the archive holds " + std::to_string(n) + " Gaussians and omits " +
+                          std::to_string(archive.omitted.size()) + ", the source " + std::to_string(source.size()));
+  // rank[s]: where source Gaussian s stands among the kept ones (n for an omitted one).
+  std::vector<uint64_t> rank(archive.source_count, 0);
+  for (uint64_t s : archive.omitted) rank[s] = n;
+  for (uint64_t s = 0, r = 0; s < archive.source_count; ++s) {
+    if (rank[s] != n) rank[s] = r++;
+  }
+  std::vector<uint64_t> order(n);
   std::vector<bool> seen(n, false);
-  for (uint64_t index : order) {
-    RGS_RETURN_ERROR_IF(index >= n || seen[index], StatusCode::kInvalidArgument,
-                        "internal error: the archive's source order is not a permutation");
-    seen[index] = true;
+  for (uint64_t i = 0; i < n; ++i) {
+    const uint64_t s = archive.source_index[i];
+    RGS_RETURN_ERROR_IF(s >= archive.source_count || rank[s] == n || seen[rank[s]], StatusCode::kInvalidArgument,
+                        "internal error: the archive's source order is not a permutation of the kept Gaussians");
+    order[i] = rank[s];
+    seen[rank[s]] = true;
+  }
+  if (!archive.omitted.empty()) {  // the source without the omitted Gaussians
+    const size_t k = source.sh_coefficients() * 3;
+    for (uint64_t s = 0; s < archive.source_count; ++s) {
+      const uint64_t r = rank[s];
+      if (r == n || r == s) continue;
+      std::copy_n(&source.means[s * 3], 3, &source.means[r * 3]);
+      std::copy_n(&source.rotations[s * 4], 4, &source.rotations[r * 4]);
+      std::copy_n(&source.scales[s * 3], 3, &source.scales[r * 3]);
+      source.opacities[r] = source.opacities[s];
+      std::copy_n(&source.sh[s * k], k, &source.sh[r * k]);
+    }
+    source.resize(n);
   }
   format::EncodedScene in_order;
   in_order.metadata = decoded.metadata;
@@ -316,7 +340,8 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
     rgs.position_bits = coded.position.bits;
     encoded = format::EncodedScene{};  // freed before the archive's decoded scene is reordered (peak RSS)
     const auto measure_start = Clock::now();
-    auto errors = archive_errors(input->cloud, std::move(coded));
+    rgs.archive_omitted = coded.omitted.size();
+    auto errors = archive_errors(std::move(input->cloud), std::move(coded));
     if (!errors.ok()) return Status(errors.status()).prepend(dst);
     rgs.errors = std::move(errors).value();
     report->seconds.quantize += seconds_since(measure_start);

@@ -214,14 +214,16 @@ Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, 
   return finish_quantized(QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o.zstd_level, out);
 }
 
+/// The opacity code of a stored opacity (binary16 bits).
+uint32_t opacity_code(uint16_t opacity, const ArchiveOptions& o) {
+  const uint32_t max_code = (1u << o.opacity_bits) - 1;
+  return round_code(half_bits_to_float(opacity) * static_cast<double>(max_code), o.opacity_step, max_code);
+}
+
 Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
                         std::vector<uint8_t>* out) {
-  const uint32_t max_code = (1u << o.opacity_bits) - 1;
   CodePlanes codes(s.count, 1, o.opacity_bits);
-  for (uint64_t i = 0; i < s.count; ++i) {
-    codes.set(0, i, round_code(half_bits_to_float(s.opacities[order[i]]) * static_cast<double>(max_code),
-                               o.opacity_step, max_code));
-  }
+  for (uint64_t i = 0; i < s.count; ++i) codes.set(0, i, opacity_code(s.opacities[order[i]], o));
   return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
 }
 
@@ -574,6 +576,58 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
   return Status();
 }
 
+/// Source indices of the Gaussians whose opacity code is 0 (they decode to opacity 0, which no renderer
+/// draws), ascending; none when that would be every Gaussian.
+std::vector<uint64_t> zero_opacity_gaussians(const EncodedScene& s, const ArchiveOptions& o) {
+  std::vector<uint64_t> omitted;
+  for (uint64_t i = 0; i < s.count; ++i) {
+    if (opacity_code(s.opacities[i], o) == 0) omitted.push_back(i);
+  }
+  if (omitted.size() == s.count) omitted.clear();
+  return omitted;
+}
+
+/// The source index of each Gaussian that `omitted` (ascending) leaves, ascending.
+std::vector<uint64_t> kept_gaussians(uint64_t count, const std::vector<uint64_t>& omitted) {
+  std::vector<uint64_t> kept;
+  kept.reserve(count - omitted.size());
+  size_t next = 0;
+  for (uint64_t i = 0; i < count; ++i) {
+    if (next < omitted.size() && omitted[next] == i) {
+      ++next;
+      continue;
+    }
+    kept.push_back(i);
+  }
+  return kept;
+}
+
+/// The Gaussians `kept` of `s`, in that order (metadata and provenance as `s`'s).
+EncodedScene subset(const EncodedScene& s, const std::vector<uint64_t>& kept) {
+  EncodedScene out;
+  out.metadata = s.metadata;
+  out.provenance = s.provenance;
+  out.count = kept.size();
+  const size_t values = 3 * sh_coefficient_count(s.metadata.sh_degree);
+  const bool residual = !s.sh_dc_residual.empty();
+  out.means.resize(kept.size() * 3);
+  out.rotations.resize(kept.size() * 4);
+  out.scales.resize(kept.size() * 3);
+  out.opacities.resize(kept.size());
+  out.sh.resize(kept.size() * values);
+  if (residual) out.sh_dc_residual.resize(kept.size() * 3);
+  for (size_t j = 0; j < kept.size(); ++j) {
+    const uint64_t i = kept[j];
+    std::copy_n(&s.means[i * 3], 3, &out.means[j * 3]);
+    std::copy_n(&s.rotations[i * 4], 4, &out.rotations[j * 4]);
+    std::copy_n(&s.scales[i * 3], 3, &out.scales[j * 3]);
+    out.opacities[j] = s.opacities[i];
+    std::copy_n(&s.sh[i * values], values, &out.sh[j * values]);
+    if (residual) std::copy_n(&s.sh_dc_residual[i * 3], 3, &out.sh_dc_residual[j * 3]);
+  }
+  return out;
+}
+
 /// The bounds of §4.1.1 for the decoded means, as the converter computes them (AABB centre, radius in
 /// double with a 1e-6 relative margin, rounded up to float32).
 SceneBounds bounds_of(const std::vector<float>& means) {
@@ -634,17 +688,26 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
   return q;
 }
 
-Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOptions& options_in,
+Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOptions& options_in,
                                     const ArchiveScene* earlier) {
   RGS_RETURN_IF_ERROR(check_options(options_in));
-  const ArchiveOptions options = resolve_archive_options(options_in, scene.count);
-  if (!scene.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
-  if (scene.count > UINT32_MAX / 2)
-    return invalid("Draco holds at most 2^31 points; the scene has " + dec(scene.count));
-  if (earlier && earlier->decoded.count != scene.count) return invalid("the earlier archive is of another scene");
+  const ArchiveOptions options = resolve_archive_options(options_in, source.count);
+  if (!source.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
+  if (source.count > UINT32_MAX / 2)
+    return invalid("Draco holds at most 2^31 points; the scene has " + dec(source.count));
+  if (earlier && earlier->source_count != source.count) return invalid("the earlier archive is of another scene");
   try {
     ArchiveScene out;
     out.options = options;
+    out.source_count = source.count;
+    // The Gaussians whose opacity code is 0 are left out (archive.h); `scene` is what is coded, Gaussian j
+    // of it source Gaussian kept[j] (`kept` is empty when nothing is left out: `scene` is `source`).
+    out.omitted = zero_opacity_gaussians(source, options);
+    const std::vector<uint64_t> kept = out.omitted.empty() ? std::vector<uint64_t>{}
+                                                           : kept_gaussians(source.count, out.omitted);
+    EncodedScene kept_scene;
+    if (!out.omitted.empty()) kept_scene = subset(source, kept);
+    const EncodedScene& scene = out.omitted.empty() ? source : kept_scene;
     RGS_ASSIGN_OR_RETURN(out.position, choose_position_quantization(scene.metadata.bounds, options.position_error));
     EncodedScene& d = out.decoded;
     d.metadata = scene.metadata;
@@ -656,17 +719,23 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
     // Draco fixes the order, so it runs first; the other sections follow its order, in parallel. A section of
     // `earlier` coded with the same settings, in the same order, is taken as it is: same bytes, same values.
     const ArchiveOptions* e = earlier ? &earlier->options : nullptr;
-    const bool same_order = e && earlier->position.bits == out.position.bits && e->draco_speed == options.draco_speed;
+    const bool same_order = e && earlier->omitted == out.omitted && earlier->position.bits == out.position.bits &&
+                            e->draco_speed == options.draco_speed;
+    std::vector<uint64_t> order;  // Gaussian i of the archive is Gaussian order[i] of `scene`
     if (same_order) {
       out.position = earlier->position;  // as Draco stored it
       out.stored[0] = earlier->stored[0];
       d.means = earlier->decoded.means;
-      out.source_index = earlier->source_index;
+      order = earlier->source_index;
+      if (!kept.empty()) {  // source indices back to indices of `scene`
+        std::vector<uint32_t> rank(source.count, 0);
+        for (size_t j = 0; j < kept.size(); ++j) rank[kept[j]] = static_cast<uint32_t>(j);
+        for (uint64_t& i : order) i = rank[i];
+      }
     } else {
-      RGS_RETURN_IF_ERROR(encode_means(scene, &out.position, options, &out.stored[0], &d.means, &out.source_index));
+      RGS_RETURN_IF_ERROR(encode_means(scene, &out.position, options, &out.stored[0], &d.means, &order));
     }
     d.metadata.bounds = bounds_of(d.means);
-    const std::vector<uint64_t>& order = out.source_index;
     const bool same_zstd = same_order && e->zstd_level == options.zstd_level;
     const bool reuse[5] = {same_order, same_zstd && e->rotation_bits == options.rotation_bits &&
                                                   e->rotation_step == options.rotation_step,
@@ -741,11 +810,15 @@ Result<ArchiveScene> encode_archive(const EncodedScene& scene, const ArchiveOpti
         for (uint16_t& x : *v) x = detail::load_u16_le(reinterpret_cast<const uint8_t*>(&x));
       }
     }
+    if (!kept.empty()) {
+      for (uint64_t& i : order) i = kept[i];
+    }
+    out.source_index = std::move(order);
     return out;
   } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory encoding " + dec(scene.count) + " Gaussians");
+    return Status(StatusCode::kOutOfMemory, "out of memory encoding " + dec(source.count) + " Gaussians");
   } catch (const std::length_error&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory encoding " + dec(scene.count) + " Gaussians");
+    return Status(StatusCode::kOutOfMemory, "out of memory encoding " + dec(source.count) + " Gaussians");
   }
 }
 

@@ -108,6 +108,7 @@ TEST_CASE("convert: the archive profile reports the errors of the decoded archiv
   test::TempDir dir;
   api::ConvertOptions options;
   options.profile = format::StorageProfile::kArchive;
+  options.archive.opacity_bits = 4;  // opacities below 1/30 get code 0: the archive omits those Gaussians
   auto report = api::convert(source_path, dir.file("archive.rgs"), options);
   REQUIRE_MESSAGE(report.ok(), report.status().to_string());
   REQUIRE(report->rgs);
@@ -122,17 +123,36 @@ TEST_CASE("convert: the archive profile reports the errors of the decoded archiv
   REQUIRE(archive.ok());
   auto decoded = format::dequantize(archive->decoded);
   REQUIRE(decoded.ok());
-  format::GaussianCloud in_order = *decoded;
+  CHECK(rgs.archive_omitted == archive->omitted.size());
+  CHECK(rgs.archive_omitted > 0);
+  CHECK(decoded->size() + rgs.archive_omitted == source->cloud.size());
+  // The errors cover the Gaussians the archive keeps: the source without the omitted ones, in its order.
+  std::vector<bool> omitted(source->cloud.size(), false);
+  for (uint64_t s : archive->omitted) omitted[s] = true;
+  std::vector<size_t> rank(source->cloud.size(), 0);
+  format::GaussianCloud kept = source->cloud;
+  kept.resize(0);
   const size_t k = decoded->sh_coefficients() * 3;
+  for (size_t s = 0; s < source->cloud.size(); ++s) {
+    if (omitted[s]) continue;
+    rank[s] = kept.size();
+    kept.resize(kept.size() + 1);
+    std::copy_n(&source->cloud.means[s * 3], 3, &kept.means[rank[s] * 3]);
+    std::copy_n(&source->cloud.rotations[s * 4], 4, &kept.rotations[rank[s] * 4]);
+    std::copy_n(&source->cloud.scales[s * 3], 3, &kept.scales[rank[s] * 3]);
+    kept.opacities[rank[s]] = source->cloud.opacities[s];
+    std::copy_n(&source->cloud.sh[s * k], k, &kept.sh[rank[s] * k]);
+  }
+  format::GaussianCloud in_order = *decoded;
   for (size_t i = 0; i < decoded->size(); ++i) {
-    const size_t j = archive->source_index[i];
+    const size_t j = rank[archive->source_index[i]];
     std::copy_n(&decoded->means[i * 3], 3, &in_order.means[j * 3]);
     std::copy_n(&decoded->rotations[i * 4], 4, &in_order.rotations[j * 4]);
     std::copy_n(&decoded->scales[i * 3], 3, &in_order.scales[j * 3]);
     in_order.opacities[j] = decoded->opacities[i];
     std::copy_n(&decoded->sh[i * k], k, &in_order.sh[j * k]);
   }
-  auto want = converter::measure_attribute_errors(source->cloud, in_order);
+  auto want = converter::measure_attribute_errors(kept, in_order);
   REQUIRE(want.ok());
   check_same(rgs.errors.position, want->position);
   check_same(rgs.errors.rotation_deg, want->rotation_deg);

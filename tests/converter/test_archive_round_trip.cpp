@@ -1,7 +1,7 @@
 // Archive profile round trips (format/SPEC.md §3.3) on real scenes: PLY -> quantize -> archive bytes ->
 // validate -> read_scene. The file decodes to exactly encode_archive's scene, every attribute stays within
-// the bound its codec promises relative to the runtime-profile scene, and the bytes do not depend on the
-// thread count. Runs on the shipped sample and on every real scene of $RGS_DATA_DIR (skipped visibly), and on
+// the bound its codec promises relative to the runtime-profile scene, the Gaussians left out are exactly those
+// whose opacity code is 0, and the bytes do not depend on the thread count. Runs on the shipped sample and on every real scene of $RGS_DATA_DIR (skipped visibly), and on
 // the sample with code steps coarser than the bits (ArchiveOptions::rotation_step, scale_step, opacity_step).
 #include <doctest/doctest.h>
 
@@ -75,9 +75,28 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
     const double v = ln(src.scales[i]);
     if (std::isfinite(v)) lo[i % 3] = std::min(lo[i % 3], v), hi[i % 3] = std::max(hi[i % 3], v);
   }
+  // Omitted: exactly the Gaussians whose opacity code is 0 (value below half a code step of the writer's
+  // grid), each either kept once or omitted; every kept one decodes to a visible opacity.
+  const double opacity_codes = static_cast<double>((1u << o.opacity_bits) - 1);
+  auto zero_code = [&](uint16_t h) { return std::floor(half(h) * opacity_codes / o.opacity_step + 0.5) == 0; };
+  std::vector<int> times(n, 0);
+  for (uint64_t s : archive->omitted) times[s] += 2;
+  for (uint64_t s : archive->source_index) times[s] += 1;
+  uint64_t wrong_omission = 0, visible_omitted = 0;
+  for (uint64_t s = 0; s < n; ++s) {
+    wrong_omission += times[s] == 2 ? !zero_code(src.opacities[s]) : times[s] != 1 || zero_code(src.opacities[s]);
+    visible_omitted += times[s] == 2 && half(src.opacities[s]) * opacity_codes >= 0.5 * o.opacity_step;
+  }
+  CHECK(archive->source_count == n);
+  CHECK(d.count + archive->omitted.size() == n);
+  CHECK(wrong_omission == 0);
+  CHECK(visible_omitted == 0);
+  CHECK(std::all_of(d.opacities.begin(), d.opacities.end(), [](uint16_t h) { return half(h) > 0; }));
+  MESSAGE(archive->omitted.size() << " of " << n << " Gaussians omitted (opacity code 0)");
+
   const uint32_t values = 3 * format::sh_coefficient_count(src.metadata.sh_degree);
   uint64_t bad_pos = 0, bad_rot = 0, bad_scale = 0, bad_opa = 0, bad_sh = 0;
-  for (uint64_t i = 0; i < n; ++i) {
+  for (uint64_t i = 0; i < d.count; ++i) {
     const uint64_t s = archive->source_index[i];
     for (int a = 0; a < 3; ++a) bad_pos += std::fabs(d.means[i * 3 + a] - src.means[s * 3 + a]) > pos_bound;
     double dot = 0, na = 0, nb = 0;

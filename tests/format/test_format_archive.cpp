@@ -236,7 +236,7 @@ TEST_CASE("archive: must-fail files") {
     CHECK(read.status().code() == StatusCode::kCorruptData);
     CHECK(read.status().message().find("bad_scale.rgs") != std::string::npos);
     CHECK(read.status().message().find("scales") != std::string::npos);
-    std::vector<uint8_t> raw(scene.scales.size() * 2);
+    std::vector<uint8_t> raw(file->gaussian_count() * 3 * 2);
     CHECK(file->decode_section(format::SectionId::kScales, raw.data(), raw.size()).ok());  // decodes; values bad
     CHECK(file->decode_verified_section(format::SectionId::kScales, raw.data(), raw.size()).code() ==
           StatusCode::kCorruptData);

@@ -192,7 +192,7 @@ TEST_CASE("archive codebook: the default codes repeated records once, decoding e
   CHECK(get_u32(sh, 24) == 300);        // one entry per distinct record
   CHECK(sh[1] == 9);                    // 9 index bits
   const uint32_t values = 27;
-  for (uint64_t i = 0; i < scene.count; ++i) {
+  for (uint64_t i = 0; i < archive->decoded.count; ++i) {
     const uint64_t s = archive->source_index[i];
     for (uint32_t c = 0; c < values; ++c) {
       const uint32_t m = options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)];
@@ -229,7 +229,7 @@ TEST_CASE("archive codebook: bounded error with fewer entries than vectors, dete
   for (uint64_t i = 0; i < scene.count; ++i) {
     for (uint32_t c = 3; c < values; ++c) mean[c] += scene.sh[i * values + c] / 3000.0;
   }
-  for (uint64_t i = 0; i < scene.count; ++i) {
+  for (uint64_t i = 0; i < archive->decoded.count; ++i) {
     const uint64_t s = archive->source_index[i];
     for (uint32_t c = 3; c < values; ++c) {
       const double e = archive->decoded.sh[i * values + c] - scene.sh[s * values + c];

@@ -141,6 +141,46 @@ TEST_CASE("GPU RoofGS agrees with the CPU reference's RoofGS mode, technique by 
   }
 }
 
+TEST_CASE("a Gaussian of opacity 0 changes no pixel on the GPU: the scene without it renders the same bits") {
+  // The archive profile leaves out the Gaussians whose opacity code is 0 (format/SPEC.md §3.3.2): guitar_sh3
+  // with every third opacity set to 0 renders as guitar_sh3 without those Gaussians, in every mode, bit for
+  // bit (the CPU reference's counterpart is in tests/runtime).
+  if (!have_gpu()) return;
+  auto renderer = runtime::GpuRenderer::create();
+  REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
+  const GpuScenePair full = guitar_sh3(3);
+  format::GaussianCloud with_zeros = full.cloud;
+  format::GaussianCloud without;
+  without.sh_degree = with_zeros.sh_degree;
+  const size_t k = with_zeros.sh_coefficients() * 3;
+  for (size_t i = 0; i < with_zeros.size(); ++i) {
+    if (i % 3 == 0) {
+      with_zeros.opacities[i] = 0.f;
+      continue;
+    }
+    without.means.insert(without.means.end(), &with_zeros.means[i * 3], &with_zeros.means[i * 3] + 3);
+    without.rotations.insert(without.rotations.end(), &with_zeros.rotations[i * 4], &with_zeros.rotations[i * 4] + 4);
+    without.scales.insert(without.scales.end(), &with_zeros.scales[i * 3], &with_zeros.scales[i * 3] + 3);
+    without.opacities.push_back(with_zeros.opacities[i]);
+    without.sh.insert(without.sh.end(), &with_zeros.sh[i * k], &with_zeros.sh[i * k] + k);
+  }
+  // FP32 attributes and the same bounds on both sides (quantizing each would give each its own SH scales).
+  auto scene_a = runtime::GpuScene::from_cloud(with_zeros, full.bounds);
+  auto scene_b = runtime::GpuScene::from_cloud(without, full.bounds);
+  REQUIRE_MESSAGE(scene_a.ok(), scene_a.status().to_string());
+  REQUIRE_MESSAGE(scene_b.ok(), scene_b.status().to_string());
+  auto cams = runtime::orbit_cameras(full.bounds, 2, 628, 414);
+  REQUIRE(cams.ok());
+  for (const Mode& mode : modes()) {
+    CAPTURE(mode.name);
+    for (const Camera& cam : *cams) {
+      const GpuFrame with = render_gpu(*renderer, *scene_a, cam, roofgs_options(mode.techniques, false), false);
+      const GpuFrame wo = render_gpu(*renderer, *scene_b, cam, roofgs_options(mode.techniques, false), false);
+      CHECK(with.rgba == wo.rgba);
+    }
+  }
+}
+
 TEST_CASE("GPU RoofGS agrees with the CPU reference term by term at SH 1, 2 and 3 (shipped guitar_sh3, 628x414)") {
   // The shipped SH-3 scene (tests/data/guitar_sh3.ply) quantized in memory into the runtime profile, at each SH
   // degree: every technique, compact (INT8 SH dequantized in registers) and FP32 attributes, fused and separate

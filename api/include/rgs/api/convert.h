@@ -107,8 +107,12 @@ struct RgsOutputReport {
   /// Per-attribute errors of the written scene, as readers decode it, against the read one: for the
   /// runtime profile measured in the quantizing pass; for the archive profile measured on the archive's
   /// decoded scene (format::ArchiveScene::decoded, matched to the source through source_index), so they
-  /// include Draco's position quantization and the archive's coarser rotations, scales, opacities and SH.
+  /// include Draco's position quantization and the archive's coarser rotations, scales, opacities and SH,
+  /// over the Gaussians it keeps.
   converter::AttributeErrors errors;
+  /// Archive profile: source Gaussians left out of the file because their opacity code is 0, so that they
+  /// decode to opacity 0, which no renderer draws (format::ArchiveScene::omitted, SPEC §3.3.2).
+  uint64_t archive_omitted = 0;
   /// Clipped SH coefficients and FP16-flushed scales.
   converter::QuantizationReport quantization;
   /// The SH scale of each (degree, channel) stored in the metadata (SPEC §4.1.2).

@@ -77,6 +77,11 @@ struct ArchivePositionQuantization {
 Result<ArchivePositionQuantization> choose_position_quantization(const SceneBounds& bounds, double position_error);
 
 /// An archive-coded scene: what a reader will decode, and the stored bytes of each per-Gaussian section.
+///
+/// A source Gaussian whose opacity code is 0 decodes to opacity 0, which every renderer skips (α < 1/255,
+/// docs/DESIGN.md#blending-and-output): the archive omits it, so the file renders as the archive with it would,
+/// and stores decoded.count = source_count − omitted.size() Gaussians (SPEC §3.3.2). When every Gaussian's
+/// code is 0, none is omitted (the file keeps the scene's Gaussians rather than becoming empty).
 struct ArchiveScene {
   /// The scene as RgsFile::read_scene returns it from the archive file, in file order: means decoded
   /// from Draco, the other arrays through their transforms; metadata bounds recomputed from the decoded
@@ -84,6 +89,10 @@ struct ArchiveScene {
   EncodedScene decoded;
   /// Gaussian i of `decoded` is Gaussian source_index[i] of the source (Draco's kd-tree order, SPEC §3.3.1).
   std::vector<uint64_t> source_index;
+  /// Gaussians in the source.
+  uint64_t source_count = 0;
+  /// Source indices of the omitted Gaussians (opacity code 0), ascending.
+  std::vector<uint64_t> omitted;
   ArchivePositionQuantization position;
   /// Stored bytes of the means (draco), rotations, scales, opacities and sh (quantized) sections.
   std::array<std::vector<uint8_t>, 5> stored;
@@ -94,9 +103,10 @@ struct ArchiveScene {
 /// Encodes `scene` (a valid runtime-profile scene) into the archive profile and decodes it back, so
 /// that `decoded` is exactly what readers of the file will see. Deterministic: same scene and options,
 /// same bytes, whatever `threads`. `earlier`, an archive of the same `scene` (not checked beyond its count),
-/// lends each section whose settings are those of `options`: the means when the position bits and
-/// draco_speed match (and with them the point order), then each other section whose own setting matches
-/// (rotation_bits and rotation_step, scale_bits and scale_step, opacity_bits and opacity_step, the SH multipliers and codebook size) at the same zstd_level. The result is the same as
+/// lends each section whose settings are those of `options`: the means when the position bits, draco_speed
+/// and the omitted Gaussians match (and with them the point order), then each other section whose own setting
+/// matches (rotation_bits and rotation_step, scale_bits and scale_step, opacity_bits and opacity_step, the SH
+/// multipliers and codebook size) at the same zstd_level. The result is the same as
 /// without it; callers that vary one setting at a time (rate control) encode one section instead of five.
 /// Errors: kInvalidArgument (options out of range, an inconsistent scene, an `earlier` of another count),
 /// kOutOfMemory.
