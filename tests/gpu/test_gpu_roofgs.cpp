@@ -24,6 +24,7 @@
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/runtime/device_buffer.h"
+#include "zero_opacity_scene.h"
 
 namespace rgs::test {
 namespace {
@@ -149,24 +150,10 @@ TEST_CASE("a Gaussian of opacity 0 changes no pixel on the GPU: the scene withou
   auto renderer = runtime::GpuRenderer::create();
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
   const GpuScenePair full = guitar_sh3(3);
-  format::GaussianCloud with_zeros = full.cloud;
-  format::GaussianCloud without;
-  without.sh_degree = with_zeros.sh_degree;
-  const size_t k = with_zeros.sh_coefficients() * 3;
-  for (size_t i = 0; i < with_zeros.size(); ++i) {
-    if (i % 3 == 0) {
-      with_zeros.opacities[i] = 0.f;
-      continue;
-    }
-    without.means.insert(without.means.end(), &with_zeros.means[i * 3], &with_zeros.means[i * 3] + 3);
-    without.rotations.insert(without.rotations.end(), &with_zeros.rotations[i * 4], &with_zeros.rotations[i * 4] + 4);
-    without.scales.insert(without.scales.end(), &with_zeros.scales[i * 3], &with_zeros.scales[i * 3] + 3);
-    without.opacities.push_back(with_zeros.opacities[i]);
-    without.sh.insert(without.sh.end(), &with_zeros.sh[i * k], &with_zeros.sh[i * k] + k);
-  }
+  const ZeroOpacityScene s = zero_opacity_scene(full.cloud, 3);
   // FP32 attributes and the same bounds on both sides (quantizing each would give each its own SH scales).
-  auto scene_a = runtime::GpuScene::from_cloud(with_zeros, full.bounds);
-  auto scene_b = runtime::GpuScene::from_cloud(without, full.bounds);
+  auto scene_a = runtime::GpuScene::from_cloud(s.with_zeros, full.bounds);
+  auto scene_b = runtime::GpuScene::from_cloud(s.without, full.bounds);
   REQUIRE_MESSAGE(scene_a.ok(), scene_a.status().to_string());
   REQUIRE_MESSAGE(scene_b.ok(), scene_b.status().to_string());
   auto cams = runtime::orbit_cameras(full.bounds, 2, 628, 414);

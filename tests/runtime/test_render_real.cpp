@@ -18,6 +18,7 @@
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cpu_renderer.h"
 #include "rgs/runtime/image_io.h"
+#include "zero_opacity_scene.h"
 
 namespace rgs::test {
 namespace {
@@ -150,21 +151,7 @@ TEST_CASE("a Gaussian of opacity 0 changes no pixel: the scene without it render
   // set to 0 renders as guitar_sh3 without those Gaussians, in the baseline and with every RoofGS technique.
   auto ply = converter::read_ply(repo_path(kGuitarSh3));
   REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
-  format::GaussianCloud with_zeros = ply->cloud;
-  format::GaussianCloud without;
-  without.sh_degree = with_zeros.sh_degree;
-  const size_t k = with_zeros.sh_coefficients() * 3;
-  for (size_t i = 0; i < with_zeros.size(); ++i) {
-    if (i % 3 == 0) {
-      with_zeros.opacities[i] = 0.f;
-      continue;
-    }
-    without.means.insert(without.means.end(), &with_zeros.means[i * 3], &with_zeros.means[i * 3] + 3);
-    without.rotations.insert(without.rotations.end(), &with_zeros.rotations[i * 4], &with_zeros.rotations[i * 4] + 4);
-    without.scales.insert(without.scales.end(), &with_zeros.scales[i * 3], &with_zeros.scales[i * 3] + 3);
-    without.opacities.push_back(with_zeros.opacities[i]);
-    without.sh.insert(without.sh.end(), &with_zeros.sh[i * k], &with_zeros.sh[i * k] + k);
-  }
+  const ZeroOpacityScene s = zero_opacity_scene(ply->cloud, 3);
   const format::SceneBounds bounds = converter::compute_bounds(ply->cloud);
   auto cams = runtime::orbit_cameras(bounds, 2, 628, 414);
   REQUIRE(cams.ok());
@@ -174,8 +161,8 @@ TEST_CASE("a Gaussian of opacity 0 changes no pixel: the scene without it render
     options.scene_bounds = bounds;
     if (roofgs) options.roofgs = RoofgsOptions::all();
     for (const Camera& cam : *cams) {
-      const RenderResult a = render_ok(with_zeros, cam, options);
-      const RenderResult b = render_ok(without, cam, options);
+      const RenderResult a = render_ok(s.with_zeros, cam, options);
+      const RenderResult b = render_ok(s.without, cam, options);
       CHECK(a.rgb == b.rgb);
       CHECK(a.alpha == b.alpha);
     }
