@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Renders an rgs-audit JSON (schema "rgs-audit", version 2) and its worst-view images into one self-contained
+"""Renders an rgs-audit JSON (schema "rgs-audit", version 3) and its worst-view images into one self-contained
 HTML file: plots as inline SVG drawn by matplotlib, images as base64 PNG, the source/candidate slider as inline
 JavaScript; no network access needed to open it.
 
@@ -31,7 +31,7 @@ except ImportError as e:  # the caller prints how to make the HTML elsewhere
     sys.stderr.write(f"audit_report.py: needs python3-matplotlib and numpy ({e})\n")
     sys.exit(1)
 
-SUPPORTED_SCHEMA = 2
+SUPPORTED_SCHEMA = 3
 # The PSNR axes span at least this many dB (threshold included), so that a fraction of a dB between views does
 # not fill the plot.
 MIN_PSNR_SPAN_DB = 10.0

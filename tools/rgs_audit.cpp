@@ -163,7 +163,8 @@ std::string with_suffix(const std::string& html, const std::string& suffix) {
 
 void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::CandidateResult& c) {
   const char* channel_names[3] = {"R", "G", "B"};
-  const double per_g = c.scene.gaussians ? 1.0 / double(c.scene.gaussians) : 0.0;
+  // Bytes per Gaussian of the source: the candidates are files of one scene, some storing fewer Gaussians.
+  const double per_g = r.source.gaussians ? 1.0 / double(r.source.gaussians) : 0.0;
   std::fprintf(out, "candidate %s (%s, %s)\n", tools::escape_text(c.scene.label).c_str(),
                tools::escape_text(c.scene.path).c_str(), tools::escape_text(c.scene.format).c_str());
   std::fprintf(out, "  gaussians        %s (SH degree %u)\n", tools::group_digits(c.scene.gaussians).c_str(),
@@ -408,7 +409,7 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
   std::fprintf(out, "  %-16s %8s %14s %8s %9s %9s %10s %10s %9s\n", "candidate", "format", "bytes", "B/G", "ratio",
                "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
   for (const auto& c : r.candidates) {
-    const double per_g = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
+    const double per_g = r.source.gaussians ? double(c.scene.file_bytes) / double(r.source.gaussians) : 0.0;
     std::fprintf(
         out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", tools::escape_text(c.scene.label).c_str(),
         tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),

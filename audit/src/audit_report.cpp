@@ -33,8 +33,9 @@ json verdict_json(const Verdict& v) {
           {"bytes_saved_fraction", v.bytes_saved ? json(v.bytes_saved_fraction) : json(nullptr)}};
 }
 
-json scene_json(const SceneInfo& s, uint64_t source_bytes) {
-  const double per_g = s.gaussians ? 1.0 / double(s.gaussians) : 0.0;
+/// `s` with its bytes per Gaussian of the source (`source_gaussians`), and its ratio to `source_bytes` if not 0.
+json scene_json(const SceneInfo& s, uint64_t source_bytes, uint64_t source_gaussians) {
+  const double per_g = source_gaussians ? 1.0 / double(source_gaussians) : 0.0;
   json j = {{"path", s.path},
             {"label", s.label},
             {"format", s.format},
@@ -122,14 +123,14 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
                   {"criterion", "mean PSNR over the views >= threshold_db"},
                   {"passed", all_passed}};
   j["heat_scale"] = r.heat_scale;
-  j["source"] = scene_json(r.source, 0);
+  j["source"] = scene_json(r.source, 0, r.source.gaussians);
   json views = json::array();
   for (const ViewInfo& v : r.views) views.push_back({{"name", v.name}, {"width", v.width}, {"height", v.height}});
   j["views"] = views;
   json cands = json::array();
   for (size_t i = 0; i < r.candidates.size(); ++i) {
     const CandidateResult& c = r.candidates[i];
-    json cj = scene_json(c.scene, r.source.file_bytes);
+    json cj = scene_json(c.scene, r.source.file_bytes, r.source.gaussians);
     if (c.attributes) {
       cj["errors"] = attributes_json(*c.attributes, c.scene.sh_degree);
     } else {

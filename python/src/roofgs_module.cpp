@@ -1468,7 +1468,8 @@ PYBIND11_MODULE(roofgs, m) {
             cd["bytes"] = c.scene.file_bytes;
             cd["gaussians"] = c.scene.gaussians;
             cd["sh_degree"] = c.scene.sh_degree;
-            cd["bytes_per_gaussian"] = c.scene.gaussians ? double(c.scene.file_bytes) / double(c.scene.gaussians) : 0.0;
+            cd["bytes_per_gaussian"] =
+                r.source.gaussians ? double(c.scene.file_bytes) / double(r.source.gaussians) : 0.0;
             py::list sections;
             for (const audit::SectionSize& sec : c.scene.sections) {
               sections.append(py::dict(py::arg("name") = sec.name, py::arg("codec") = sec.codec,
@@ -1499,6 +1500,6 @@ PYBIND11_MODULE(roofgs, m) {
         "against the source on the same views (`cameras`, else an orbit of `orbit` cameras at width x height) "
         "with the faithful preset, on the GPU when `device` resolves to CUDA, else the CPU reference. Returns "
         "a dict: device, views, source (path, format, bytes, gaussians) and one dict per candidate: bytes, "
-        "bytes_per_gaussian, sections (.rgs), PSNR mean/min (dB, clamped RGB), SSIM mean/min, max_abs_diff, "
+        "bytes_per_gaussian (per Gaussian of the source), sections (.rgs), PSNR mean/min (dB, clamped RGB), SSIM mean/min, max_abs_diff, "
         "worst_view, and per-attribute errors when the Gaussians correspond one to one (else errors_note)");
 }

@@ -123,6 +123,14 @@ TEST_CASE("CPU audit of guitar against its conversion") {
   CHECK(j["candidates"][0]["views"][0]["foreground_psnr_db"].get<double>() == c.views[0].foreground_psnr_db);
   CHECK(audit::passes_gate(*result, 40.0));
   CHECK(!audit::passes_gate(*result, 200.0));
+  // Bytes per Gaussian of the source, also for a file that stores fewer Gaussians (an archive without its
+  // opacity-0 ones).
+  audit::AuditResult fewer = *result;
+  fewer.candidates[0].scene.gaussians /= 2;
+  const auto jf = nlohmann::json::parse(audit::audit_json(fewer, ro));
+  const double per_source = double(c.scene.file_bytes) / double(result->source.gaussians);
+  CHECK(jf["candidates"][0]["bytes_per_gaussian"].get<double>() == doctest::Approx(per_source).epsilon(1e-12));
+  CHECK(jf["candidates"][0]["gaussians"] == c.scene.gaussians / 2);
 
   const auto dir = std::filesystem::temp_directory_path() / "rgs_test_audit_images";
   std::filesystem::remove_all(dir);

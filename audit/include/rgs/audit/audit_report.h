@@ -17,8 +17,9 @@ namespace rgs::audit {
 /// The JSON's "schema" value.
 inline constexpr const char* kAuditSchemaName = "rgs-audit";
 /// The JSON's "schema_version": raised when a field changes meaning or goes away; new fields do not raise it.
-/// Version 1 was the single-candidate report of earlier rgs-audit releases (no schema field).
-inline constexpr int kAuditSchemaVersion = 2;
+/// Version 1 was the single-candidate report of earlier rgs-audit releases (no schema field); version 2 divided
+/// each file's bytes by its own Gaussians, version 3 by the source's (a file may store fewer Gaussians, or more).
+inline constexpr int kAuditSchemaVersion = 3;
 
 /// Default threshold of the report's verdict (rgs-audit --threshold): a candidate passes when its mean PSNR
 /// over the views is at least this many dB.
