@@ -1,8 +1,9 @@
 // Archive profile round trips (format/SPEC.md §3.3) on real scenes: PLY -> quantize -> archive bytes ->
 // validate -> read_scene. The file decodes to exactly encode_archive's scene, every attribute stays within
 // the bound its codec promises relative to the runtime-profile scene, the Gaussians left out are exactly those
-// whose opacity code is 0, and the bytes do not depend on the thread count. Runs on the shipped sample and on every real scene of $RGS_DATA_DIR (skipped visibly), and on
-// the sample with code steps coarser than the bits (ArchiveOptions::rotation_step, scale_step, opacity_step).
+// whose opacity code is 0, and the bytes do not depend on the thread count. Runs on the shipped sample and on
+// every real scene of $RGS_DATA_DIR (skipped visibly), and on the sample with code steps coarser than the bits
+// (ArchiveOptions::rotation_step, scale_step, opacity_step).
 #include <doctest/doctest.h>
 
 #include <algorithm>
