@@ -250,11 +250,23 @@ class Measurer {
     std::shared_ptr<const format::ArchiveScene> archive;  ///< kept until it is rendered
   };
 
-  /// Encodes `o`, taking the sections whose settings it shares with the last archive encoded from that one
-  /// (the search moves one knob at a time, so most candidates encode one section).
+  /// Encodes `o`, taking the sections whose settings it shares with an archive encoded before (the search moves
+  /// one knob at a time, so most candidates encode one section). That archive is the last one, unless it
+  /// codes other points for Draco than `o` will (other position bits, or other opacity settings, which change
+  /// the Gaussians left out) and the last one with other points does not: then Draco, the slowest section,
+  /// need not run again when the search steps back from a trial of the opacity or the position error.
   Result<std::shared_ptr<const format::ArchiveScene>> encode_archive(const format::ArchiveOptions& o) {
-    RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, last_.get()));
-    last_ = std::make_shared<const format::ArchiveScene>(std::move(archive));
+    const format::ArchiveOptions want = format::resolve_archive_options(o, quantized_.count);
+    auto same_points = [&](const std::shared_ptr<const format::ArchiveScene>& a) {
+      return a && a->options.position_error == want.position_error && a->options.draco_speed == want.draco_speed &&
+             a->options.opacity_bits == want.opacity_bits && a->options.opacity_step == want.opacity_step;
+    };
+    const bool use_other = !same_points(last_) && same_points(other_points_);
+    const format::ArchiveScene* earlier = use_other ? other_points_.get() : last_.get();
+    RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, earlier));
+    auto encoded = std::make_shared<const format::ArchiveScene>(std::move(archive));
+    if (last_ && !same_points(last_)) other_points_ = last_;
+    last_ = encoded;
     return last_;
   }
 
@@ -344,6 +356,8 @@ class Measurer {
   ViewSet search_, final_;
   std::map<Key, Entry> cache_;
   std::shared_ptr<const format::ArchiveScene> last_;  ///< the last archive encoded, lending its sections
+  /// The last archive encoded before last_ whose Draco points differ from last_'s (encode_archive).
+  std::shared_ptr<const format::ArchiveScene> other_points_;
   uint64_t overhead_ = 0;
   uint32_t renders_ = 0;
 };
