@@ -1500,6 +1500,6 @@ PYBIND11_MODULE(roofgs, m) {
         "against the source on the same views (`cameras`, else an orbit of `orbit` cameras at width x height) "
         "with the faithful preset, on the GPU when `device` resolves to CUDA, else the CPU reference. Returns "
         "a dict: device, views, source (path, format, bytes, gaussians) and one dict per candidate: bytes, "
-        "bytes_per_gaussian (per Gaussian of the source), sections (.rgs), PSNR mean/min (dB, clamped RGB), SSIM mean/min, max_abs_diff, "
-        "worst_view, and per-attribute errors when the Gaussians correspond one to one (else errors_note)");
+        "bytes_per_gaussian (per Gaussian of the source), sections (.rgs), PSNR mean/min (dB, clamped RGB), "
+        "SSIM mean/min, max_abs_diff, worst_view, and per-attribute errors when the Gaussians correspond one to one (else errors_note)");
 }
