@@ -216,19 +216,7 @@ Result<converter::AttributeErrors> archive_errors(format::GaussianCloud source, 
     order[i] = rank[s];
     seen[rank[s]] = true;
   }
-  if (!archive.omitted.empty()) {  // the source without the omitted Gaussians
-    const size_t k = source.sh_coefficients() * 3;
-    for (uint64_t s = 0; s < archive.source_count; ++s) {
-      const uint64_t r = rank[s];
-      if (r == n || r == s) continue;
-      std::copy_n(&source.means[s * 3], 3, &source.means[r * 3]);
-      std::copy_n(&source.rotations[s * 4], 4, &source.rotations[r * 4]);
-      std::copy_n(&source.scales[s * 3], 3, &source.scales[r * 3]);
-      source.opacities[r] = source.opacities[s];
-      std::copy_n(&source.sh[s * k], k, &source.sh[r * k]);
-    }
-    source.resize(n);
-  }
+  source.remove_gaussians(archive.omitted);
   format::EncodedScene in_order;
   in_order.metadata = decoded.metadata;
   in_order.count = n;

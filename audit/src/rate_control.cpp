@@ -261,12 +261,12 @@ class Measurer {
       return a && a->options.position_error == want.position_error && a->options.draco_speed == want.draco_speed &&
              a->options.opacity_bits == want.opacity_bits && a->options.opacity_step == want.opacity_step;
     };
-    const bool use_other = !same_points(last_) && same_points(other_points_);
+    const bool last_differs = last_ && !same_points(last_);
+    const bool use_other = last_differs && same_points(other_points_);
     const format::ArchiveScene* earlier = use_other ? other_points_.get() : last_.get();
     RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, earlier));
-    auto encoded = std::make_shared<const format::ArchiveScene>(std::move(archive));
-    if (last_ && !same_points(last_)) other_points_ = last_;
-    last_ = encoded;
+    if (last_differs) other_points_ = std::move(last_);
+    last_ = std::make_shared<const format::ArchiveScene>(std::move(archive));
     return last_;
   }
 

@@ -33,30 +33,6 @@ constexpr uint8_t kShParity[16][3] = {
     {1, 0, 0},  // 15: x(x² − 3y²)
 };
 
-/// Removes the Gaussians at the indices `drop` (ascending, each < cloud->size()), keeping the order of the
-/// others; the cloud shrinks in place, without reallocating.
-void remove_gaussians(const std::vector<uint64_t>& drop, format::GaussianCloud* cloud) {
-  const uint64_t n = cloud->size();
-  const uint64_t sv = uint64_t{cloud->sh_coefficients()} * 3;
-  uint64_t out = 0;
-  size_t d = 0;
-  for (uint64_t i = 0; i < n; ++i) {
-    if (d < drop.size() && drop[d] == i) {
-      ++d;
-      continue;
-    }
-    if (out != i) {
-      std::memmove(&cloud->means[out * 3], &cloud->means[i * 3], 3 * sizeof(float));
-      std::memmove(&cloud->rotations[out * 4], &cloud->rotations[i * 4], 4 * sizeof(float));
-      std::memmove(&cloud->scales[out * 3], &cloud->scales[i * 3], 3 * sizeof(float));
-      cloud->opacities[out] = cloud->opacities[i];
-      std::memmove(&cloud->sh[out * sv], &cloud->sh[i * sv], sv * sizeof(float));
-    }
-    ++out;
-  }
-  cloud->resize(out);
-}
-
 }  // namespace
 
 Status check_cloud_shape(const format::GaussianCloud& cloud) {
@@ -85,7 +61,7 @@ Status apply_invalid_policy(InvalidPolicy policy, const char* what, const std::v
                       " have zero-norm quaternions (first: " + what + " " + std::to_string(h->first_invalid_index) +
                       "); rerun with --sanitize to drop them");
   }
-  remove_gaussians(invalid, cloud);
+  cloud->remove_gaussians(invalid);
   h->dropped_gaussians = invalid.size();
   return Status();
 }

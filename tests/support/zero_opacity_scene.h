@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "rgs/format/gaussian_cloud.h"
 
@@ -16,21 +18,13 @@ struct ZeroOpacityScene {
 
 /// Sets the opacity of Gaussians 0, every, 2·every, ... of `source` to 0 and drops them for `without`.
 inline ZeroOpacityScene zero_opacity_scene(const format::GaussianCloud& source, size_t every) {
-  ZeroOpacityScene s{source, {}};
-  format::GaussianCloud& out = s.without;
-  out.sh_degree = source.sh_degree;
-  const size_t k = source.sh_coefficients() * 3;
-  for (size_t i = 0; i < source.size(); ++i) {
-    if (i % every == 0) {
-      s.with_zeros.opacities[i] = 0.f;
-      continue;
-    }
-    out.means.insert(out.means.end(), &source.means[i * 3], &source.means[i * 3] + 3);
-    out.rotations.insert(out.rotations.end(), &source.rotations[i * 4], &source.rotations[i * 4] + 4);
-    out.scales.insert(out.scales.end(), &source.scales[i * 3], &source.scales[i * 3] + 3);
-    out.opacities.push_back(source.opacities[i]);
-    out.sh.insert(out.sh.end(), &source.sh[i * k], &source.sh[i * k] + k);
+  ZeroOpacityScene s{source, source};
+  std::vector<uint64_t> zeroed;
+  for (size_t i = 0; i < source.size(); i += every) {
+    s.with_zeros.opacities[i] = 0.f;
+    zeroed.push_back(i);
   }
+  s.without.remove_gaussians(zeroed);
   return s;
 }
 

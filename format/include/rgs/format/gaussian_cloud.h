@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 namespace rgs::format {
@@ -39,6 +40,28 @@ struct GaussianCloud {
     scales.resize(n * 3);
     opacities.resize(n);
     sh.resize(n * sh_coefficients() * 3);
+  }
+  /// Removes the Gaussians at `indices` (ascending, each < size()), keeping the order of the others; the
+  /// arrays shrink in place, without reallocating.
+  void remove_gaussians(const std::vector<uint64_t>& indices) {
+    const size_t n = size();
+    const size_t sv = size_t{sh_coefficients()} * 3;
+    size_t out = 0, d = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (d < indices.size() && indices[d] == i) {
+        ++d;
+        continue;
+      }
+      if (out != i) {
+        std::memmove(&means[out * 3], &means[i * 3], 3 * sizeof(float));
+        std::memmove(&rotations[out * 4], &rotations[i * 4], 4 * sizeof(float));
+        std::memmove(&scales[out * 3], &scales[i * 3], 3 * sizeof(float));
+        opacities[out] = opacities[i];
+        std::memmove(&sh[out * sv], &sh[i * sv], sv * sizeof(float));
+      }
+      ++out;
+    }
+    resize(out);
   }
   /// True when every array has the length that size() and sh_degree imply.
   bool is_consistent() const {
