@@ -59,6 +59,7 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
   if (options.profile == format::StorageProfile::kArchive) {
     write.profile = format::StorageProfile::kArchive;
     write.archive = options.archive;
+    write.archive.zstd_level = options.zstd_level;
   }
   for (const std::string& name : options.zstd_sections) {
     bool found = false;

@@ -926,7 +926,11 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   quantize.sh_dc_bits = 8;  // the archive drops the DC residual (SPEC §4.8)
   RGS_ASSIGN_OR_RETURN(format::EncodedScene quantized, converter::quantize(*to_encode, quantize));
   const uint32_t sh_degree = quantized.metadata.sh_degree;
-  const format::ArchiveOptions anchor = format::resolve_archive_options(options.start, quantized.count);
+  format::ArchiveOptions anchor = format::resolve_archive_options(options.start, quantized.count);
+  // The zstd level changes a file's bytes, not what it decodes to: the search codes at a quick level, the file is
+  // written at the asked one (FitOptions::start).
+  const int file_zstd_level = anchor.zstd_level;
+  anchor.zstd_level = std::min(file_zstd_level, kSearchZstdLevel);
 
   FitOptions resolved = options;
   resolved.start = anchor;
@@ -954,6 +958,8 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
   }
   result.finest = search.finest();
+  result.chosen.options.zstd_level = file_zstd_level;
+  if (result.finest) result.finest->options.zstd_level = file_zstd_level;
   result.encodings = measurer.encodings();
   result.renders = measurer.renders();
   result.device = measurer.device_name();
@@ -972,6 +978,7 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
   fit.start = options.archive;
+  fit.start.zstd_level = options.zstd_level;  // as api::convert codes the archive
   // The provenance: the source's name and storage, the converter's name and the options' text.
   fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
                          options.converter_name.size();

@@ -140,8 +140,12 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
   h->bits = src[1];
   h->param_count = load_u16_le(src + 2);
   h->components = load_u32_le(src + 4);
-  // §3.3.2 The sh section takes either transform 4 or the codebook transform 5 (§3.3.3, degree >= 1).
+  // §3.3.2 The sh section takes transform 4, the colour differences of transform 6 (same codes, same
+  // parameters) or the codebook transform 5 (§3.3.3, degree >= 1).
   const bool codebook = id == SectionId::kSh && h->transform == QuantizedTransform::kShCodebook;
+  if (id == SectionId::kSh && h->transform == QuantizedTransform::kShColourDifferences) {
+    want = QuantizedTransform::kShColourDifferences;
+  }
   if (codebook) {
     want = QuantizedTransform::kShCodebook;
     want_params = 4;
@@ -150,8 +154,8 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
   }
   RGS_RETURN_ERROR_IF(h->transform != want, StatusCode::kCorruptData,
                       "quantized transform " + dec(src[0]) + ", expected " + dec(static_cast<uint8_t>(want)) +
-                          (id == SectionId::kSh ? " or 5" : "") + " for section " + section_name(id));
-  const bool sh = want == QuantizedTransform::kShMultiplier;
+                          (id == SectionId::kSh ? ", 5 or 6" : "") + " for section " + section_name(id));
+  const bool sh = want == QuantizedTransform::kShMultiplier || want == QuantizedTransform::kShColourDifferences;
   if (codebook) {
     RGS_RETURN_ERROR_IF(h->bits < 1 || h->bits > 24, StatusCode::kCorruptData,
                         "SH codebook index bits " + dec(h->bits) + " outside 1..24");
@@ -214,9 +218,12 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
 
 }  // namespace
 
-Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components) {
+Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
+                              QuantizedTransform* transform) {
   QuantizedHeader h;
-  return parse_quantized(id, src, size, n, components, &h);
+  RGS_RETURN_IF_ERROR(parse_quantized(id, src, size, n, components, &h));
+  if (transform) *transform = h.transform;
+  return Status();
 }
 
 Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8_t* src, size_t size, uint64_t n,
@@ -294,6 +301,28 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
           const int q = static_cast<int8_t>(code) * m;
           if (q < -127 || q > 127) return bad_code(i, c, code);
           dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(q));
+        }
+      }
+      break;
+    }
+    case QuantizedTransform::kShColourDifferences: {
+      RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
+      // The DC triples as three planes of N, then N records of the rest triples; each triple holds
+      // (R - G, G, B - G) modulo 256, so R = (R - G) + G modulo 256, read as int8.
+      const uint8_t* rest = codes.data() + 3 * n;
+      const uint32_t rest_values = components - 3;
+      for (uint64_t i = 0; i < n; ++i) {
+        for (uint32_t c = 0; c < components; c += 3) {
+          uint8_t triple[3];
+          for (uint32_t k = 0; k < 3; ++k) triple[k] = c == 0 ? codes[k * n + i] : rest[i * rest_values + c - 3 + k];
+          const uint8_t green = triple[1];
+          const uint8_t rgb[3] = {static_cast<uint8_t>(triple[0] + green), green, static_cast<uint8_t>(triple[2] + green)};
+          const int m = static_cast<int>(h.params[sh_degree_of_coefficient(c / 3)]);
+          for (uint32_t k = 0; k < 3; ++k) {
+            const int q = static_cast<int8_t>(rgb[k]) * m;
+            if (q < -127 || q > 127) return bad_code(i, c + k, rgb[k]);
+            dst[i * components + c + k] = static_cast<uint8_t>(static_cast<int8_t>(q));
+          }
         }
       }
       break;

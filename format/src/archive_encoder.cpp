@@ -227,19 +227,33 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
   return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
 }
 
+/// §3.3.2 transform 6: transform 4's codes with each (R, G, B) triple stored as (R - G, G, B - G) modulo 256, since
+/// the channels of a trained colour move together; the DC triples as three planes, which zstd codes with a
+/// table each; the rest as one record of 3K - 3 codes per Gaussian, since scenes whose SH come from a codebook
+/// repeat whole records, which zstd finds as matches (docs/AUDITS.md#sh-colour-differences).
 Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
                  std::vector<uint8_t>* out) {
-  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree);
-  CodePlanes codes(s.count, values, 8);
-  for (uint32_t c = 0; c < values; ++c) {
+  const uint64_t n = s.count;
+  const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest_values = values - 3;
+  CodePlanes codes(n, values, 8);
+  uint8_t* rest = codes.bytes.data() + 3 * n;
+  for (uint32_t c = 0; c < values; c += 3) {
     const int m = sh_multiplier(o, c);
-    // SH codes are stored Gaussian-major (one record of 3K codes per Gaussian, §3.3.2): scenes whose SH come
-    // from a codebook repeat whole records, which zstd finds as matches.
-    for (uint64_t i = 0; i < s.count; ++i) {
-      codes.bytes[i * values + c] = static_cast<uint8_t>(sh_code(s.sh[order[i] * values + c], m));
+    for (uint64_t i = 0; i < n; ++i) {
+      const int8_t* q = &s.sh[order[i] * values + c];
+      const auto green = static_cast<uint8_t>(sh_code(q[1], m));
+      const uint8_t triple[3] = {static_cast<uint8_t>(static_cast<uint8_t>(sh_code(q[0], m)) - green), green,
+                                 static_cast<uint8_t>(static_cast<uint8_t>(sh_code(q[2], m)) - green)};
+      for (uint32_t k = 0; k < 3; ++k) {
+        if (c == 0) {
+          codes.bytes[k * n + i] = triple[k];
+        } else {
+          rest[i * rest_values + c - 3 + k] = triple[k];
+        }
+      }
     }
   }
-  return finish_quantized(QuantizedTransform::kShMultiplier, 8, values, sh_params(o), codes.bytes,
+  return finish_quantized(QuantizedTransform::kShColourDifferences, 8, values, sh_params(o), codes.bytes,
                           o.zstd_level, out);
 }
 
@@ -440,7 +454,7 @@ bool dedup_sh_records(const EncodedScene& s, const std::vector<uint64_t>& order,
 /// §3.3.3 The sh section with transform 5: entry codes, DC codes and index planes in one zstd frame. With
 /// sh_codebook_size 0 the entries are the distinct records of transform-4 codes (the same decoded values
 /// as transform 4), used only when at most kShDedupMaxShare of the Gaussians hold distinct records
-/// (`*used` false otherwise: the caller writes transform 4); otherwise the lossy tree codebook.
+/// (`*used` false otherwise: the caller writes transform 6); otherwise the lossy tree codebook.
 constexpr double kShDedupMaxShare = 0.75;
 
 Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -782,7 +796,7 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
     add_decode(SectionId::kRotations, 1, 4, &EncodedScene::rotations);
     add_decode(SectionId::kScales, 2, 3, &EncodedScene::scales);
     add_decode(SectionId::kOpacities, 3, 1, &EncodedScene::opacities);
-    // Transform 4 and the exact transform 5 decode to the transform-4 value of every source value, so the
+    // Transforms 4 and 6 and the exact transform 5 decode to the transform-4 value of every source value, so the
     // SH values are computed here instead of decompressing the section again (saving its code buffer,
     // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
     if (reuse[4]) {

@@ -27,6 +27,7 @@ enum class QuantizedTransform : uint8_t {
   kUniform = 3,        ///< opacities
   kShMultiplier = 4,   ///< sh, per-coefficient codes
   kShCodebook = 5,     ///< sh: a codebook of rest vectors, per-Gaussian DC codes and indices (§3.3.3)
+  kShColourDifferences = 6,  ///< sh: transform 4's codes as (R - G, G, B - G), DC planes, then rest records
 };
 
 /// True when `codec` may be used on section `id` (§3.3: draco on means, quantized on the other
@@ -42,8 +43,9 @@ Status decode_draco_means(const uint8_t* src, size_t size, uint64_t n, uint8_t* 
 
 /// §3.3.2 Checks a quantized section's header and its zstd frame header without decoding: transform
 /// allowed for `id`, bits, parameter and component counts (`components` = the section's components),
-/// finite parameters. kCorruptData.
-Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components);
+/// finite parameters. kCorruptData. `transform` (optional) receives the section's transform.
+Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
+                              QuantizedTransform* transform = nullptr);
 /// §3.3.2 Decodes a quantized section into its raw runtime bytes (`raw_size` = the entry's raw size).
 /// kCorruptData (bad header, frame, or a code out of range), kChecksumMismatch (zstd content
 /// checksum), kOutOfMemory.

@@ -267,6 +267,7 @@ struct RgsFileAccess {
   static Status check_layout(const RgsFile& f, size_t index, uint32_t sh_degree);
   static Status read_small_section(const RgsFile& f, size_t index, uint64_t max_raw, std::vector<uint8_t>* raw);
   static Status parse_lod(RgsFile* f);
+  static Status check_sh_colour_differences(const RgsFile& f);
 
  public:
   /// §4.9 Views of level `level` of chunk `chunk` (both in range), unchecked.
@@ -626,6 +627,7 @@ Status RgsFileAccess::parse(RgsFile* f) {
   }
 
   RGS_RETURN_IF_ERROR(parse_lod(f));
+  RGS_RETURN_IF_ERROR(check_sh_colour_differences(*f));
 
   // §4.2 Provenance (optional).
   if (const SectionEntry* prov = f->find(SectionId::kProvenance)) {
@@ -640,6 +642,28 @@ Status RgsFileAccess::parse(RgsFile* f) {
     Status s = detail::decode_provenance(raw.data(), raw.size(), &f->provenance_);
     if (!s.ok()) return s.prepend(label);
   }
+  return Status();
+}
+
+Status RgsFileAccess::check_sh_colour_differences(const RgsFile& f) {
+  // §2.2, §3.3.2 SH transform 6 comes with its required flag, in a 1.4 file, and the flag with it. check_entry
+  // has checked the quantized header, whose first byte is the transform.
+  const SectionEntry* e = f.find(SectionId::kSh);
+  const bool colour = e != nullptr && e->codec == Codec::kQuantized &&
+                      f.data_[e->offset] == static_cast<uint8_t>(detail::QuantizedTransform::kShColourDifferences);
+  const bool flagged = (f.header_.required_flags & kRequiredFlagShColourDifferences) != 0;
+  if (!colour) {
+    RGS_RETURN_ERROR_IF(flagged, StatusCode::kCorruptData,
+                        "the SH colour-differences flag is set but the sh section does not use transform 6");
+    return Status();
+  }
+  const std::string label = section_label(static_cast<size_t>(e - f.sections_.data()), e->id);
+  RGS_RETURN_ERROR_IF(!flagged, StatusCode::kCorruptData,
+                      label + ": transform 6 (colour differences) without its required flag");
+  const FormatVersion version{f.header_.major, f.header_.minor};
+  RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForShColourDifferences), StatusCode::kCorruptData,
+                      label + ": transform 6 (colour differences) in a version " + dec(version.major) + "." +
+                          dec(version.minor) + " file");
   return Status();
 }
 

@@ -347,6 +347,11 @@ uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, ui
       if (n > 0) s.compressed = std::move(archive->stored[i]);
     }
     if (n > 0) required_flags |= kRequiredFlagArchiveCodecs;
+    // §2.2 The sh section's first byte is its transform (§3.3.2).
+    const std::vector<uint8_t>& sh = plan[first + 4].compressed;
+    if (n > 0 && sh[0] == static_cast<uint8_t>(detail::QuantizedTransform::kShColourDifferences)) {
+      required_flags |= kRequiredFlagShColourDifferences;
+    }
   }
   return required_flags;
 }
@@ -362,6 +367,7 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   if (scene.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
   if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
   if (required_flags & kRequiredFlagLod) require(kMinVersionForLod);
+  if (required_flags & kRequiredFlagShColourDifferences) require(kMinVersionForShColourDifferences);
   for (const PlannedSection& s : plan) {
     if (s.id == SectionId::kShDcResidual) require(kMinVersionForShDcResidual);
   }

@@ -1,5 +1,6 @@
 // What api::convert reports besides the output: the progress of its stages (ConvertOptions::progress), the
-// errors of an archive .rgs as readers decode it, and whether the input was in a compact format.
+// errors of an archive .rgs as readers decode it (and that its zstd level changes its bytes only), and whether
+// the input was in a compact format.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/archive.h"
+#include "rgs/format/reader.h"
 #include "temp_dir.h"
 #include "test_data.h"
 
@@ -99,6 +101,32 @@ TEST_CASE("convert: progress goes through each output's stages with non-decreasi
   auto failed = progress_calls(dir.file("missing.ply"), dir.file("never.rgs"), {}, &ok);
   CHECK(!ok);
   CHECK(stages(failed) == std::vector<std::string>{"reading"});
+}
+
+TEST_CASE("convert: the archive profile codes its sections at zstd_level: fewer bytes at 19 than at 1, the same scene") {
+  const std::string source_path = test::repo_path(test::kGuitarSh3);
+  test::TempDir dir;
+  std::vector<format::EncodedScene> scenes;
+  std::vector<uint64_t> sizes;
+  for (int level : {1, 19}) {
+    api::ConvertOptions options;
+    options.profile = format::StorageProfile::kArchive;
+    options.zstd_level = level;
+    const std::string path = dir.file("archive_" + std::to_string(level) + ".rgs");
+    REQUIRE(api::convert(source_path, path, options).ok());
+    auto file = format::RgsFile::open(path);
+    REQUIRE(file.ok());
+    auto scene = file->read_scene();
+    REQUIRE(scene.ok());
+    scenes.push_back(std::move(scene).value());
+    sizes.push_back(test::slurp(path).size());
+  }
+  CHECK(sizes[1] < sizes[0]);
+  CHECK(scenes[0].means == scenes[1].means);
+  CHECK(scenes[0].rotations == scenes[1].rotations);
+  CHECK(scenes[0].scales == scenes[1].scales);
+  CHECK(scenes[0].opacities == scenes[1].opacities);
+  CHECK(scenes[0].sh == scenes[1].sh);
 }
 
 TEST_CASE("convert: the archive profile reports the errors of the decoded archive, not the runtime quantization") {

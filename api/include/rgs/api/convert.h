@@ -75,13 +75,14 @@ struct ConvertOptions {
   /// Sections compressed with zstd: "all" or names among metadata, provenance, means, rotations, scales,
   /// opacities, sh, sh_dc_residual. Empty: every section stored raw (the runtime copies it to the GPU as is).
   std::vector<std::string> zstd_sections;
+  /// zstd level 1..22 of the zstd_sections and of the archive profile's coded sections.
   int zstd_level = 19;
   /// kRuntime (lossless sections, mapped as is) or kArchive (Draco means and quantized attributes,
   /// SPEC §3.3), coded with `archive`.
   format::StorageProfile profile = format::StorageProfile::kRuntime;
   /// The archive profile's choices (format::ArchiveOptions): largest position error as a fraction of the
   /// scene's longest AABB side (position_error), bits of rotations, scales and opacities (0: by scene size),
-  /// SH step multipliers per degree, SH codebook, zstd level and Draco speed of the coded sections, threads.
+  /// SH step multipliers per degree, SH codebook, Draco speed, threads; its sections are coded at zstd_level.
   /// audit::fit_archive chooses them for a PSNR target or a byte budget.
   format::ArchiveOptions archive;
   /// Levels of detail (format/SPEC.md §4.9, converter::build_lod, docs/LOD.md): unset writes an ordinary file;

@@ -29,6 +29,10 @@ enum class FitGoal {
   kTargetBytes,  ///< file bytes <= target_bytes at the highest mean PSNR
 };
 
+/// zstd level at which the search codes its candidates when the file's is higher (FitOptions::start): level 19
+/// costs 8x the time of 6 on a 542k-Gaussian scene, and rate control encodes dozens of candidates.
+constexpr int kSearchZstdLevel = 6;
+
 /// FitOptions::search_max_side's automatic values, pixels on the longer side.
 constexpr uint32_t kCpuSearchMaxSide = 320, kCudaSearchMaxSide = 1920;
 
@@ -46,7 +50,10 @@ struct FitOptions {
   /// Drop the SH bands above this degree before encoding (the source's render keeps them).
   std::optional<uint32_t> sh_degree;
   /// The archive options the search starts from; it chooses position_error, the bits and code steps of
-  /// rotations, scales and opacities (rotation_step etc., in quarter bits) and sh_step_multipliers, and keeps sh_codebook_size, zstd_level, draco_speed and threads.
+  /// rotations, scales and opacities (rotation_step etc., in quarter bits) and sh_step_multipliers, and keeps
+  /// sh_codebook_size, zstd_level, draco_speed and threads. The search codes its candidates at zstd level
+  /// min(zstd_level, kSearchZstdLevel): the level changes the bytes, not the decoded values, so the PSNR it
+  /// measures is the file's and the bytes it counts are at most the file's (FitPoint::bytes).
   format::ArchiveOptions start;
   /// The search renders the cameras reduced (field of view kept) so that their longer side is at most this
   /// many pixels (at least 16); the final check renders them at their own size. 0: kCpuSearchMaxSide with the
@@ -69,7 +76,9 @@ struct FitOptions {
 /// One measured archive.
 struct FitPoint {
   format::ArchiveOptions options;  ///< resolved: no automatic (0) bit counts
-  uint64_t bytes = 0;              ///< the file's bytes (sections measured; header, metadata, provenance estimated)
+  /// The file's bytes (sections measured at the search's zstd level, FitOptions::start; header, metadata,
+  /// provenance estimated).
+  uint64_t bytes = 0;
   double psnr_mean_db = 0;         ///< mean over the views, NaN when not rendered
   double psnr_min_db = 0;          ///< lowest view
 };

@@ -1,4 +1,4 @@
-// Constants of the .rgs container, version 1.3. Normative text: format/SPEC.md; section numbers below
+// Constants of the .rgs container, version 1.4. Normative text: format/SPEC.md; section numbers below
 // refer to it.
 #pragma once
 
@@ -13,7 +13,7 @@ inline constexpr uint8_t kMagic[8] = {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0
 /// §2 Version this library writes. Readers accept any minor of kFormatMajor; newer majors are refused
 /// with kUnsupportedVersion.
 inline constexpr uint16_t kFormatMajor = 1;
-inline constexpr uint16_t kFormatMinor = 3;
+inline constexpr uint16_t kFormatMinor = 4;
 
 /// §6 A format version, compared as (major, minor).
 struct FormatVersion {
@@ -37,6 +37,8 @@ inline constexpr FormatVersion kMinVersionForArchiveCodecs{1, 1};
 inline constexpr FormatVersion kMinVersionForShDcResidual{1, 2};
 /// §4.9 The level-of-detail index (section lod, required flag kRequiredFlagLod).
 inline constexpr FormatVersion kMinVersionForLod{1, 3};
+/// §3.3.2 SH transform 6 (colour differences), with its required flag kRequiredFlagShColourDifferences.
+inline constexpr FormatVersion kMinVersionForShColourDifferences{1, 4};
 
 /// §2 Fixed sizes, in bytes.
 inline constexpr uint32_t kHeaderSize = 64;
@@ -47,7 +49,7 @@ inline constexpr uint32_t kMetadataSize = 128;
 inline constexpr uint64_t kSectionAlignment = 256;
 
 /// §2.2 Flag bits. Required bits this reader does not know give kUnsupportedFeature; unknown optional
-/// bits are ignored. Version 1.0 defines none of either; 1.1 and 1.3 define one required bit each.
+/// bits are ignored. Version 1.0 defines none of either; 1.1, 1.3 and 1.4 define one required bit each.
 /// §2.2 Set when any section uses codec 2 or 3 (§3.3), so that a 1.0 reader refuses the file
 /// (kUnsupportedFeature) instead of failing on an unknown codec deeper in the table.
 inline constexpr uint32_t kRequiredFlagArchiveCodecs = 1u << 0;
@@ -55,7 +57,11 @@ inline constexpr uint32_t kRequiredFlagArchiveCodecs = 1u << 0;
 /// every chunk, which a reader that renders them all would draw on top of each other, so a 1.2 reader must
 /// refuse the file (kUnsupportedFeature).
 inline constexpr uint32_t kRequiredFlagLod = 1u << 1;
-inline constexpr uint32_t kKnownRequiredFlags = kRequiredFlagArchiveCodecs | kRequiredFlagLod;
+/// §2.2, §3.3.2 Set when the sh section uses transform 6 (its codes stored as colour differences), which a 1.3
+/// reader would refuse as corrupt: with the flag it refuses the file as unsupported (kUnsupportedFeature).
+inline constexpr uint32_t kRequiredFlagShColourDifferences = 1u << 2;
+inline constexpr uint32_t kKnownRequiredFlags =
+    kRequiredFlagArchiveCodecs | kRequiredFlagLod | kRequiredFlagShColourDifferences;
 inline constexpr uint32_t kKnownOptionalFlags = 0;
 
 /// §4 Section identifiers. Readers skip (but still bounds- and checksum-check) ids they do not know.

@@ -1,10 +1,13 @@
-// Archive SH codebook (SPEC §3.3.3, quantized transform 5): round trip, determinism, and the must-fail
-// files tests/data/bad/archive/*.rgs (truncated frame, wrong sizes, codebook index out of range, an
-// entry code out of range). The files are made here from a small codebook-coded scene; RGS_WRITE_BAD_ARCHIVE=1
-// rewrites them, otherwise the committed files are checked.
+// The archive's SH transforms: the colour differences of transform 6 (SPEC §3.3.2: its byte layout, exactly
+// transform 4's values, its flag and version) and the codebook of transform 5 (§3.3.3: round trip, determinism),
+// and the must-fail files tests/data/bad/archive/*.rgs (transform 6 without its flag, in a 1.3 file, the flag
+// without it, a code out of range; for the codebook a truncated frame, wrong sizes, an index or an entry code out
+// of range). The files are made here from small archive-coded scenes; RGS_WRITE_BAD_ARCHIVE=1 rewrites them,
+// otherwise the committed files are checked.
 #include <doctest/doctest.h>
 #include <zstd.h>
 
+#include <array>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -64,7 +67,7 @@ size_t entry_of(const std::vector<uint8_t>& b, format::SectionId id) {
 struct ShFrame {
   size_t entry = 0;
   uint64_t offset = 0, stored = 0;
-  size_t header = 28;  // transform-5 header: 8 bytes, 4 multipliers, the codebook size
+  size_t header = 0;  // 8 bytes, 4 multipliers, and for transform 5 the codebook size
   std::vector<uint8_t> content;
 };
 
@@ -72,6 +75,7 @@ ShFrame read_sh_frame(const std::vector<uint8_t>& b) {
   ShFrame f;
   f.entry = entry_of(b, format::SectionId::kSh);
   f.offset = get_u64(b, entry_at(f.entry) + 24);
+  f.header = b[f.offset] == 5 ? 28 : 24;
   f.stored = get_u64(b, entry_at(f.entry) + 32);
   const uint8_t* frame = b.data() + f.offset + f.header;
   const size_t frame_size = static_cast<size_t>(f.stored) - f.header;
@@ -108,6 +112,13 @@ std::vector<uint8_t> good_codebook_file() {
   return *bytes;
 }
 
+/// A 600-Gaussian, SH degree 1 archive with the default SH transform, 6.
+std::vector<uint8_t> good_colour_file() {
+  auto bytes = format::serialize_scene(make_random_scene(600, 1, 5), codebook_options(0));
+  REQUIRE(bytes.ok());
+  return *bytes;
+}
+
 struct BadArchive {
   const char* name;
   StatusCode code;
@@ -115,6 +126,11 @@ struct BadArchive {
 };
 
 const BadArchive kBadArchives[] = {
+    {"colour_without_flag", StatusCode::kCorruptData, "transform 6 (colour differences) without its required flag"},
+    {"colour_in_1_3", StatusCode::kCorruptData, "transform 6 (colour differences) in a version 1.3 file"},
+    {"colour_flag_without_transform", StatusCode::kCorruptData,
+     "the SH colour-differences flag is set but the sh section does not use transform 6"},
+    {"colour_code_out_of_range", StatusCode::kCorruptData, "Gaussian 3: code 128 of component 0 is out of range"},
     {"codebook_index_out_of_range", StatusCode::kCorruptData, "SH codebook index"},
     {"codebook_entry_out_of_range", StatusCode::kCorruptData, "SH codebook entry 0: code -128"},
     {"codebook_size_over_n", StatusCode::kCorruptData, "SH codebook of"},
@@ -123,6 +139,25 @@ const BadArchive kBadArchives[] = {
 };
 
 std::vector<uint8_t> make_bad_archive(const std::string& name) {
+  if (name.rfind("colour_", 0) == 0) {
+    std::vector<uint8_t> b = name == "colour_flag_without_transform" ? good_codebook_file() : good_colour_file();
+    if (name == "colour_without_flag") {
+      put_u32(b, 16, get_u32(b, 16) & ~format::kRequiredFlagShColourDifferences);
+    } else if (name == "colour_in_1_3") {
+      put_u16(b, 10, 3);
+    } else if (name == "colour_flag_without_transform") {
+      put_u32(b, 16, get_u32(b, 16) | format::kRequiredFlagShColourDifferences);
+    } else if (name == "colour_code_out_of_range") {
+      // Gaussian 3's DC: G = 0 and R - G = 0x80, so R = -128, outside [-127, 127] at multiplier 1.
+      ShFrame f = read_sh_frame(b);
+      const size_t n = get_u64(b, entry_at(f.entry) + 16);
+      f.content[3] = 0x80;
+      f.content[n + 3] = 0;
+      return write_sh_frame(b, f);
+    }
+    fix_header_checksum(b);
+    return b;
+  }
   std::vector<uint8_t> b = good_codebook_file();
   ShFrame f = read_sh_frame(b);
   const uint32_t k = get_u32(b, f.offset + 24);
@@ -154,6 +189,64 @@ std::vector<uint8_t> make_bad_archive(const std::string& name) {
 std::string bad_archive_path(const std::string& name) { return data_path("bad/archive/" + name + ".rgs"); }
 
 }  // namespace
+
+TEST_CASE("archive SH colour differences: the bytes of SPEC 3.3.2 transform 6, decoding exactly transform 4's values") {
+  for (uint32_t degree = 0; degree <= 3; ++degree) {
+    for (const std::array<uint32_t, 4> multipliers : {std::array<uint32_t, 4>{1, 1, 1, 1}, {1, 3, 5, 6}, {4, 9, 30, 127}}) {
+      CAPTURE(degree);
+      CAPTURE(multipliers[0]);
+      format::EncodedScene scene = make_random_scene(3000, degree, 17 + degree);
+      const uint32_t values = 3 * format::sh_coefficient_count(degree);
+      // The ends of the code range next to each other, so that R - G and B - G wrap modulo 256.
+      for (uint64_t i = 0; i < 300; ++i) {
+        for (uint32_t c = 0; c < values; ++c) scene.sh[i * values + c] = static_cast<int8_t>((i + c) % 2 ? 127 : -127);
+      }
+      format::WriteOptions write = codebook_options(0);
+      write.archive.sh_step_multipliers = multipliers;
+      auto archive = format::encode_archive(scene, write.archive);
+      REQUIRE(archive.ok());
+      const format::EncodedScene& d = archive->decoded;
+      // The stored bytes, built here from SPEC's text: transform 4's codes, each triple as (R - G, G, B - G)
+      // modulo 256, the DC triples as three planes of N, then N records of the rest triples.
+      std::vector<uint8_t> want(d.count * values);
+      for (uint64_t i = 0; i < d.count; ++i) {
+        const uint64_t s = archive->source_index[i];
+        for (uint32_t c = 0; c < values; c += 3) {
+          int code[3];
+          for (uint32_t k = 0; k < 3; ++k) {
+            const uint32_t m = multipliers[format::sh_degree_of_coefficient(c / 3)];
+            const int value = transform4(scene.sh[s * values + c + k], m);
+            REQUIRE(d.sh[i * values + c + k] == value);
+            code[k] = value / static_cast<int>(m);
+          }
+          const uint8_t triple[3] = {static_cast<uint8_t>(code[0] - code[1]), static_cast<uint8_t>(code[1]),
+                                     static_cast<uint8_t>(code[2] - code[1])};
+          for (uint32_t k = 0; k < 3; ++k) {
+            (c == 0 ? want[k * d.count + i] : want[3 * d.count + i * (values - 3) + c - 3 + k]) = triple[k];
+          }
+        }
+      }
+      const std::vector<uint8_t>& sh = archive->stored[4];
+      REQUIRE(sh.size() > 24);
+      CHECK(sh[0] == 6);
+      CHECK(sh[1] == 8);
+      std::vector<uint8_t> content(want.size());
+      REQUIRE(ZSTD_decompress(content.data(), content.size(), sh.data() + 24, sh.size() - 24) == want.size());
+      CHECK(content == want);
+      // The file: transform 6 sets its required flag and version 1.4, and reads back as encode_archive decoded it.
+      auto bytes = format::serialize_scene(scene, write);
+      REQUIRE(bytes.ok());
+      REQUIRE(format::validate(bytes->data(), bytes->size()).ok());
+      auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+      REQUIRE(file.ok());
+      CHECK((file->header().required_flags & format::kRequiredFlagShColourDifferences) != 0);
+      CHECK(file->header().minor == 4);
+      auto read = file->read_scene();
+      REQUIRE(read.ok());
+      check_same_scene(*read, d);
+    }
+  }
+}
 
 TEST_CASE("archive codebook: exact when the codebook holds every rest vector, file decodes to encode_archive") {
   const format::EncodedScene scene = patterned_scene(4000, 3, 50, 9);
@@ -202,10 +295,10 @@ TEST_CASE("archive codebook: the default codes repeated records once, decoding e
   auto bytes = format::serialize_scene(scene, codebook_options(0));
   REQUIRE(bytes.ok());
   CHECK(format::validate(bytes->data(), bytes->size()).ok());
-  // Records that do not repeat keep transform 4.
+  // Records that do not repeat take the colour differences of transform 6.
   auto plain = format::encode_archive(make_random_scene(2000, 2, 4), options);
   REQUIRE(plain.ok());
-  CHECK(plain->stored[4][0] == 4);
+  CHECK(plain->stored[4][0] == 6);
 }
 
 TEST_CASE("archive codebook: bounded error with fewer entries than vectors, deterministic whatever the threads") {
