@@ -39,7 +39,8 @@ cmake --build "$build" --parallel "$jobs" --target "${targets[@]/#/fuzz_}"
 # and must-fail files of tests/data, the hostile scenes of tests/data/hostile included (CTest's replays leave
 # those to test_converter, which reads them in a child process with a memory limit). libFuzzer writes what
 # it finds into the first directory only.
-seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$root/tests/data/v1.2" "$root/tests/data/bad")
+seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$root/tests/data/v1.2" "$root/tests/data/bad"
+                "$root/tests/data/bad/archive")
 seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
 seeds_interop_read=("$root/tests/fuzz/corpus/interop_read" "$root/tests/data/interop" "$root/tests/data/sog")
 seeds_sog_meta=("$root/tests/fuzz/corpus/sog_meta")
