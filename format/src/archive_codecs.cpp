@@ -218,12 +218,9 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
 
 }  // namespace
 
-Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
-                              QuantizedTransform* transform) {
+Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components) {
   QuantizedHeader h;
-  RGS_RETURN_IF_ERROR(parse_quantized(id, src, size, n, components, &h));
-  if (transform) *transform = h.transform;
-  return Status();
+  return parse_quantized(id, src, size, n, components, &h);
 }
 
 Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8_t* src, size_t size, uint64_t n,
@@ -316,7 +313,8 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
           uint8_t triple[3];
           for (uint32_t k = 0; k < 3; ++k) triple[k] = c == 0 ? codes[k * n + i] : rest[i * rest_values + c - 3 + k];
           const uint8_t green = triple[1];
-          const uint8_t rgb[3] = {static_cast<uint8_t>(triple[0] + green), green, static_cast<uint8_t>(triple[2] + green)};
+          const uint8_t rgb[3] = {static_cast<uint8_t>(triple[0] + green), green,
+                                  static_cast<uint8_t>(triple[2] + green)};
           const int m = static_cast<int>(h.params[sh_degree_of_coefficient(c / 3)]);
           for (uint32_t k = 0; k < 3; ++k) {
             const int q = static_cast<int8_t>(rgb[k]) * m;

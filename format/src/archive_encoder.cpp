@@ -164,8 +164,8 @@ Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& orde
       double worst_out = -1;
       for (uint32_t c = 0; c < 3; ++c) {
         const double v = lo + code[c] / inv, t = lo + target[c] / inv;
-        const double out = std::fabs(v) - std::fabs(t);
-        if (out > worst_out) worst_out = out, worst = c;
+        const double outward = std::fabs(v) - std::fabs(t);
+        if (outward > worst_out) worst_out = outward, worst = c;
       }
       const double t = target[worst], k = o.rotation_step;
       const double toward_zero = t > max_code / 2.0 ? std::floor(t / k) * k : std::ceil(t / k) * k;

@@ -43,9 +43,8 @@ Status decode_draco_means(const uint8_t* src, size_t size, uint64_t n, uint8_t* 
 
 /// §3.3.2 Checks a quantized section's header and its zstd frame header without decoding: transform
 /// allowed for `id`, bits, parameter and component counts (`components` = the section's components),
-/// finite parameters. kCorruptData. `transform` (optional) receives the section's transform.
-Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
-                              QuantizedTransform* transform = nullptr);
+/// finite parameters. kCorruptData.
+Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components);
 /// §3.3.2 Decodes a quantized section into its raw runtime bytes (`raw_size` = the entry's raw size).
 /// kCorruptData (bad header, frame, or a code out of range), kChecksumMismatch (zstd content
 /// checksum), kOutOfMemory.

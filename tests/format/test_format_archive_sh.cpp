@@ -192,7 +192,8 @@ std::string bad_archive_path(const std::string& name) { return data_path("bad/ar
 
 TEST_CASE("archive SH colour differences: the bytes of SPEC 3.3.2 transform 6, decoding exactly transform 4's values") {
   for (uint32_t degree = 0; degree <= 3; ++degree) {
-    for (const std::array<uint32_t, 4> multipliers : {std::array<uint32_t, 4>{1, 1, 1, 1}, {1, 3, 5, 6}, {4, 9, 30, 127}}) {
+    for (const std::array<uint32_t, 4> multipliers :
+         {std::array<uint32_t, 4>{1, 1, 1, 1}, {1, 3, 5, 6}, {4, 9, 30, 127}}) {
       CAPTURE(degree);
       CAPTURE(multipliers[0]);
       format::EncodedScene scene = make_random_scene(3000, degree, 17 + degree);

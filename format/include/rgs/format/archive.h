@@ -44,9 +44,9 @@ struct ArchiveOptions {
   std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
   /// SH codebook (§3.3.3, transform 5), for SH degree >= 1. 0 (default): each distinct record of rest
   /// codes is stored once (exact: the values of transform 4), when at most 3/4 of the records are
-  /// distinct; otherwise transform 6 (transform 4's codes as colour differences). 2..65536: a lossy codebook of that many entries (at most N), a
-  /// variance-splitting tree over the rest vectors; not a default, since on the measured scenes it costs
-  /// 10+ dB of PSNR for its bytes (docs/AUDITS.md). 1 is refused.
+  /// distinct; otherwise transform 6 (transform 4's codes as colour differences, §3.3.2). 2..65536: a lossy
+  /// codebook of that many entries (at most N), a variance-splitting tree over the rest vectors; not a default,
+  /// since on the measured scenes it costs 10+ dB of PSNR for its bytes (docs/AUDITS.md). 1 is refused.
   uint32_t sh_codebook_size = 0;
   /// zstd level 1..22 of the coded sections (api::convert sets it from ConvertOptions::zstd_level). It changes
   /// the bytes, not the decoded values: 19 codes the measured archives 2-9 % smaller than 6 (docs/AUDITS.md).
