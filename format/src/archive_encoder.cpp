@@ -616,20 +616,19 @@ std::vector<uint64_t> kept_gaussians(uint64_t count, const std::vector<uint64_t>
   return kept;
 }
 
-/// The Gaussians `kept` of `s`, in that order (metadata and provenance as `s`'s).
+/// The Gaussians `kept` of `s`, in that order (metadata and provenance as `s`'s), without the DC residual, which
+/// the archive does not store (SPEC §4.8).
 EncodedScene subset(const EncodedScene& s, const std::vector<uint64_t>& kept) {
   EncodedScene out;
   out.metadata = s.metadata;
   out.provenance = s.provenance;
   out.count = kept.size();
   const size_t values = 3 * sh_coefficient_count(s.metadata.sh_degree);
-  const bool residual = !s.sh_dc_residual.empty();
   out.means.resize(kept.size() * 3);
   out.rotations.resize(kept.size() * 4);
   out.scales.resize(kept.size() * 3);
   out.opacities.resize(kept.size());
   out.sh.resize(kept.size() * values);
-  if (residual) out.sh_dc_residual.resize(kept.size() * 3);
   for (size_t j = 0; j < kept.size(); ++j) {
     const uint64_t i = kept[j];
     std::copy_n(&s.means[i * 3], 3, &out.means[j * 3]);
@@ -637,7 +636,6 @@ EncodedScene subset(const EncodedScene& s, const std::vector<uint64_t>& kept) {
     std::copy_n(&s.scales[i * 3], 3, &out.scales[j * 3]);
     out.opacities[j] = s.opacities[i];
     std::copy_n(&s.sh[i * values], values, &out.sh[j * values]);
-    if (residual) std::copy_n(&s.sh_dc_residual[i * 3], 3, &out.sh_dc_residual[j * 3]);
   }
   return out;
 }

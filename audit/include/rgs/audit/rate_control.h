@@ -53,7 +53,8 @@ struct FitOptions {
   /// rotations, scales and opacities (rotation_step etc., in quarter bits) and sh_step_multipliers, and keeps
   /// sh_codebook_size, zstd_level, draco_speed and threads. The search codes its candidates at zstd level
   /// min(zstd_level, kSearchZstdLevel): the level changes the bytes, not the decoded values, so the PSNR it
-  /// measures is the file's and the bytes it counts are at most the file's (FitPoint::bytes).
+  /// measures is the file's, while the bytes it counts (FitPoint::bytes) are those of the search's level (level
+  /// 19 wrote the measured fits 1-10 % smaller, docs/AUDITS.md#sh-colour-differences).
   format::ArchiveOptions start;
   /// The search renders the cameras reduced (field of view kept) so that their longer side is at most this
   /// many pixels (at least 16); the final check renders them at their own size. 0: kCpuSearchMaxSide with the

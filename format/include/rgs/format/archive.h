@@ -49,7 +49,7 @@ struct ArchiveOptions {
   /// since on the measured scenes it costs 10+ dB of PSNR for its bytes (docs/AUDITS.md). 1 is refused.
   uint32_t sh_codebook_size = 0;
   /// zstd level 1..22 of the coded sections (api::convert sets it from ConvertOptions::zstd_level). It changes
-  /// the bytes, not the decoded values: 19 codes the measured archives 2-9 % smaller than 6 (docs/AUDITS.md).
+  /// the bytes, not the decoded values: 19 codes the measured archives 1-10 % smaller than 6 (docs/AUDITS.md).
   int zstd_level = 19;
   /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
   int draco_speed = 6;
