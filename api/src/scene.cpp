@@ -133,7 +133,7 @@ SceneLodInfo lod_info(const format::RgsFile& file, const LodSettings& settings) 
 }
 
 /// The levels coarser than level 0 of a level-of-detail file (Gaussians [full detail, stored)), each range
-/// checked on its own (RgsFile::lod_range: its XXH64, the value rules), copied as stored.
+/// copied as stored and checked on its own (RgsFile::read_lod_range: its XXH64, the value rules).
 Result<format::EncodedScene> read_coarse_levels(const format::RgsFile& file) {
   const format::LodIndex& index = *file.lod();
   const uint64_t n0 = index.full_detail_count();
@@ -153,24 +153,26 @@ Result<format::EncodedScene> read_coarse_levels(const format::RgsFile& file) {
     return Status(StatusCode::kOutOfMemory, file.name() + ": cannot hold the " + std::to_string(coarse.count) +
                                                 " Gaussians of the coarser levels of detail");
   }
-  const auto put = [](void* dst, uint64_t at, uint64_t record, const format::ByteView& v) {
-    if (v.size > 0) std::memcpy(static_cast<uint8_t*>(dst) + at * record, v.data, v.size);
+  const auto bytes_at = [](auto& array, uint64_t at, uint64_t record) {
+    return reinterpret_cast<uint8_t*>(array.data()) + at * record;
   };
   // Record order (level-major) tiles the sections, so levels 1.. fill [n0, stored) in that order.
   uint64_t at = 0;
   for (uint32_t level = 1; level < index.level_count; ++level) {
     for (uint32_t chunk = 0; chunk < index.chunk_count; ++chunk) {
-      RGS_ASSIGN_OR_RETURN(const format::LodRangeView r, file.lod_range(level, chunk));
+      const format::LodLevel& r = index.at(level, chunk);
       RGS_RETURN_ERROR_IF(r.first != n0 + at || at + r.count > coarse.count, StatusCode::kCorruptData,
                           file.name() + ": level " + std::to_string(level) + " of chunk " + std::to_string(chunk) +
                               " starts at Gaussian " + std::to_string(r.first) + ", not " +
                               std::to_string(n0 + at));
-      put(coarse.means.data(), at, 12, r.means);
-      put(coarse.rotations.data(), at, 8, r.rotations);
-      put(coarse.scales.data(), at, 6, r.scales);
-      put(coarse.opacities.data(), at, 2, r.opacities);
-      put(coarse.sh.data(), at, k3, r.sh);
-      if (residual) put(coarse.sh_dc_residual.data(), at, 3, r.sh_dc_residual);
+      format::LodRangeTarget target;
+      target.means = bytes_at(coarse.means, at, 12);
+      target.rotations = bytes_at(coarse.rotations, at, 8);
+      target.scales = bytes_at(coarse.scales, at, 6);
+      target.opacities = bytes_at(coarse.opacities, at, 2);
+      target.sh = bytes_at(coarse.sh, at, k3);
+      if (residual) target.sh_dc_residual = bytes_at(coarse.sh_dc_residual, at, 3);
+      RGS_RETURN_IF_ERROR(file.read_lod_range(level, chunk, target).status());
       at += r.count;
     }
   }

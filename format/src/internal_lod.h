@@ -29,6 +29,16 @@ Status decode_lod(const uint8_t* raw, size_t size, uint64_t gaussian_count, LodI
 /// as one stream.
 uint64_t lod_range_checksum(const LodRangeView& range);
 
+/// §4.9 The XXH64 of the whole range `range` (level `level` of chunk `chunk`) against the index:
+/// kChecksumMismatch naming the chunk and level.
+Status check_lod_checksum(const LodIndex& index, uint32_t level, uint32_t chunk, const LodRangeView& range);
+
+/// §4.9 The value rules of SPEC §4.3–§4.7 and the chunk sphere's rule for the Gaussians `range` holds: the whole
+/// range or a slice of it (range.first is then the slice's first Gaussian, which messages name).
+/// kCorruptData naming the chunk, level and Gaussian.
+Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, const LodRangeView& range,
+                        const SceneMetadata& metadata);
+
 /// §4.9 Checks level `level` of chunk `chunk` whose bytes `range` holds: the range checksum (when
 /// `verify_checksum`), the value rules of SPEC §4.3–§4.7 for each Gaussian, and that each Gaussian's 3σ
 /// extent lies inside the chunk's sphere. kChecksumMismatch / kCorruptData naming the chunk, level and Gaussian.

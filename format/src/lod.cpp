@@ -40,10 +40,15 @@ uint16_t half_order(uint16_t b) {
   return (b & 0x8000u) ? static_cast<uint16_t>(~b) : static_cast<uint16_t>(b | 0x8000u);
 }
 
-/// §4.9 How far the 3σ extent of the Gaussian with mean bytes `m` and (finite) scale bytes `s` reaches from
-/// the chunk centre. The largest stored value gives the largest linear scale: both encodings are monotonic.
-double reach_from_centre(const LodChunk& k, const uint8_t* m, const uint8_t* s, ScaleEncoding encoding,
-                         const double* exp_table) {
+/// §4.9 The terms of how far the 3σ extent of the Gaussian with mean bytes `m` and (finite) scale bytes `s`
+/// reaches from the chunk centre: its squared distance and its largest linear scale (the largest stored value
+/// gives it: both encodings are monotonic).
+struct ReachTerms {
+  double distance2;
+  double largest_scale;
+};
+ReachTerms reach_terms(const LodChunk& k, const uint8_t* m, const uint8_t* s, ScaleEncoding encoding,
+                       const double* exp_table) {
   const float mean[3] = {load_f32_le(m), load_f32_le(m + 4), load_f32_le(m + 8)};
   uint16_t largest_bits = load_u16_le(s);
   for (int a = 1; a < 3; ++a) {
@@ -52,7 +57,14 @@ double reach_from_centre(const LodChunk& k, const uint8_t* m, const uint8_t* s, 
   }
   const double largest = encoding == ScaleEncoding::kLog ? exp_table[largest_bits]
                                                          : static_cast<double>(half_bits_to_float(largest_bits));
-  return std::sqrt(distance_squared(mean, k.center)) + 3.0 * largest;
+  return {distance_squared(mean, k.center), largest};
+}
+
+/// §4.9 How far the 3σ extent of the Gaussian reaches from the chunk centre (reach_terms).
+double reach_from_centre(const LodChunk& k, const uint8_t* m, const uint8_t* s, ScaleEncoding encoding,
+                         const double* exp_table) {
+  const ReachTerms t = reach_terms(k, m, s, encoding, exp_table);
+  return std::sqrt(t.distance2) + 3.0 * t.largest_scale;
 }
 
 }  // namespace
@@ -190,16 +202,18 @@ uint64_t lod_range_checksum(const LodRangeView& range) {
   return digest;
 }
 
-Status check_lod_range(const LodIndex& index, uint32_t level, uint32_t chunk, const LodRangeView& range,
-                       const SceneMetadata& metadata, bool verify_checksum) {
+Status check_lod_checksum(const LodIndex& index, uint32_t level, uint32_t chunk, const LodRangeView& range) {
   const LodLevel& v = index.at(level, chunk);
+  const uint64_t computed = lod_range_checksum(range);
+  RGS_RETURN_ERROR_IF(computed != v.checksum, StatusCode::kChecksumMismatch,
+                      level_label(level, chunk) + ": checksum " + hex64(v.checksum) + " does not match the computed " +
+                          hex64(computed));
+  return Status();
+}
+
+Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, const LodRangeView& range,
+                        const SceneMetadata& metadata) {
   const std::string label = level_label(level, chunk);
-  if (verify_checksum) {
-    const uint64_t computed = lod_range_checksum(range);
-    RGS_RETURN_ERROR_IF(computed != v.checksum, StatusCode::kChecksumMismatch,
-                        label + ": checksum " + hex64(v.checksum) + " does not match the computed " +
-                            hex64(computed));
-  }
   const uint64_t n = range.count;
   const size_t k3 = 3 * sh_coefficient_count(metadata.sh_degree);
   struct Part {
@@ -210,28 +224,42 @@ Status check_lod_range(const LodIndex& index, uint32_t level, uint32_t chunk, co
   for (const Part& part : {Part{SectionId::kMeans, &range.means, 12}, Part{SectionId::kRotations, &range.rotations, 8},
                            Part{SectionId::kScales, &range.scales, 6}, Part{SectionId::kOpacities, &range.opacities, 2},
                            Part{SectionId::kSh, &range.sh, k3}}) {
-    Status s = check_records(part.id, metadata, part.bytes->data, static_cast<size_t>(n), part.record, v.first);
+    Status s = check_records(part.id, metadata, part.bytes->data, static_cast<size_t>(n), part.record, range.first);
     if (!s.ok()) return s.prepend(label + ": " + section_name(part.id));
   }
   // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack: every Gaussian in
-  // one loop with no Status, and again only to name the first one outside.
+  // one loop with no Status, and again only to name the first one outside. The square root is taken only near
+  // the sphere: with the distance squared below `inner` squared, inner = limit − 3σ less a margin far above
+  // the roundings of reach_from_centre, the Gaussian is inside however they fall.
   const LodChunk& k = index.chunks[chunk];
   const double limit = sphere_limit(k.center, k.radius);
+  const double margin = 1e-12 * limit;
   const double* exp_table = exp_of_halves();
   auto reach = [&](uint64_t j) {
     return reach_from_centre(k, range.means.data + 12 * j, range.scales.data + 6 * j, metadata.scale_encoding,
                              exp_table);
   };
   bool inside = true;
-  for (uint64_t j = 0; j < n; ++j) inside &= reach(j) <= limit;
+  for (uint64_t j = 0; j < n; ++j) {
+    const ReachTerms t = reach_terms(k, range.means.data + 12 * j, range.scales.data + 6 * j, metadata.scale_encoding,
+                                     exp_table);
+    const double inner = limit - 3.0 * t.largest_scale - margin;
+    if (!(inner > 0 && t.distance2 <= inner * inner)) inside &= std::sqrt(t.distance2) + 3.0 * t.largest_scale <= limit;
+  }
   if (inside) return Status();
   for (uint64_t j = 0; j < n; ++j) {
     const double r = reach(j);
     RGS_RETURN_ERROR_IF(!(r <= limit), StatusCode::kCorruptData,
-                        label + ": Gaussian " + dec(v.first + j) + " reaches " + real(r) +
+                        label + ": Gaussian " + dec(range.first + j) + " reaches " + real(r) +
                             " from the chunk centre, outside its radius " + real(k.radius));
   }
   return Status();
+}
+
+Status check_lod_range(const LodIndex& index, uint32_t level, uint32_t chunk, const LodRangeView& range,
+                       const SceneMetadata& metadata, bool verify_checksum) {
+  if (verify_checksum) RGS_RETURN_IF_ERROR(check_lod_checksum(index, level, chunk, range));
+  return check_lod_values(index, level, chunk, range, metadata);
 }
 
 }  // namespace rgs::format::detail

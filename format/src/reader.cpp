@@ -13,6 +13,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <utility>
 #include <memory>
 #include <new>
 #include <string>
@@ -270,6 +271,8 @@ struct RgsFileAccess {
   static Status check_sh_colour_differences(const RgsFile& f);
 
  public:
+  /// kInvalidArgument naming the file unless `f` has a level-of-detail index holding (level, chunk).
+  static Status check_range_index(const RgsFile& f, uint32_t level, uint32_t chunk);
   /// §4.9 Views of level `level` of chunk `chunk` (both in range), unchecked.
   static LodRangeView range_view(const RgsFile& f, uint32_t level, uint32_t chunk);
   /// Entry `index`'s stored bytes, checksum verified when enabled. Messages name the section, not the file.
@@ -704,6 +707,16 @@ Status RgsFileAccess::parse_lod(RgsFile* f) {
   return Status();
 }
 
+Status RgsFileAccess::check_range_index(const RgsFile& f, uint32_t level, uint32_t chunk) {
+  const std::string& name = f.name_;
+  RGS_RETURN_ERROR_IF(f.lod_ == nullptr, StatusCode::kInvalidArgument, name + ": no level-of-detail index");
+  RGS_RETURN_ERROR_IF(level >= f.lod_->level_count || chunk >= f.lod_->chunk_count, StatusCode::kInvalidArgument,
+                      name + ": lod chunk " + detail::dec(chunk) + " level " + detail::dec(level) + " outside its " +
+                          detail::dec(f.lod_->chunk_count) + " chunks of " + detail::dec(f.lod_->level_count) +
+                          " levels");
+  return Status();
+}
+
 LodRangeView RgsFileAccess::range_view(const RgsFile& f, uint32_t level, uint32_t chunk) {
   const LodLevel& v = f.lod_->at(level, chunk);
   LodRangeView view;
@@ -724,14 +737,94 @@ LodRangeView RgsFileAccess::range_view(const RgsFile& f, uint32_t level, uint32_
 }
 
 Result<LodRangeView> RgsFile::lod_range(uint32_t level, uint32_t chunk) const {
-  RGS_RETURN_ERROR_IF(lod_ == nullptr, StatusCode::kInvalidArgument, name_ + ": no level-of-detail index");
-  RGS_RETURN_ERROR_IF(level >= lod_->level_count || chunk >= lod_->chunk_count, StatusCode::kInvalidArgument,
-                      name_ + ": lod chunk " + detail::dec(chunk) + " level " + detail::dec(level) + " outside its " +
-                          detail::dec(lod_->chunk_count) + " chunks of " + detail::dec(lod_->level_count) + " levels");
+  RGS_RETURN_IF_ERROR(RgsFileAccess::check_range_index(*this, level, chunk));
   const LodRangeView view = RgsFileAccess::range_view(*this, level, chunk);
   Status s = detail::check_lod_range(*lod_, level, chunk, view, metadata_, options_.verify_checksums);
   if (!s.ok()) return s.prepend(name_);
   return view;
+}
+
+namespace {
+
+/// Views of Gaussians [begin, end) of `range` (a whole range as the file stores it, or the file's parts in
+/// `range` replaced by a copy's destinations in `target` when `target` is not null): each part's records
+/// [begin, end). kInvalidArgument when `target` lacks a destination for a part the file has.
+Status slice_views(const LodRangeView& range, const LodRangeTarget* target, uint64_t begin, uint64_t end,
+                   const std::string& name, LodRangeView* out) {
+  *out = range;
+  out->first = range.first + begin;
+  out->count = end - begin;
+  ByteView* views[6] = {&out->means, &out->rotations, &out->scales, &out->opacities, &out->sh, &out->sh_dc_residual};
+  const uint8_t* copies[6] = {};
+  if (target != nullptr) {
+    const uint8_t* const t[6] = {target->means, target->rotations, target->scales,
+                                 target->opacities, target->sh, target->sh_dc_residual};
+    std::copy(t, t + 6, copies);
+  }
+  for (int a = 0; a < 6; ++a) {
+    if (views[a]->size == 0) continue;
+    RGS_RETURN_ERROR_IF(target != nullptr && copies[a] == nullptr, StatusCode::kInvalidArgument,
+                        name + ": a level-of-detail copy without a destination for a part of the range");
+    const size_t record = views[a]->size / static_cast<size_t>(range.count);
+    *views[a] = ByteView{(target != nullptr ? copies[a] : views[a]->data) + begin * record,
+                         static_cast<size_t>((end - begin) * record)};
+  }
+  return Status();
+}
+
+/// Copies Gaussians [begin, end) of `range` into `target` (at the places the whole range's copy takes) and
+/// returns views of the copied Gaussians in `copy`.
+Status copy_slice(const LodRangeView& range, const LodRangeTarget& target, uint64_t begin, uint64_t end,
+                  const std::string& name, LodRangeView* copy) {
+  LodRangeView source;
+  RGS_RETURN_IF_ERROR(slice_views(range, nullptr, begin, end, name, &source));
+  RGS_RETURN_IF_ERROR(slice_views(range, &target, begin, end, name, copy));
+  uint8_t* const to[6] = {target.means, target.rotations, target.scales, target.opacities, target.sh,
+                          target.sh_dc_residual};
+  const ByteView* from[6] = {&source.means, &source.rotations, &source.scales,
+                             &source.opacities, &source.sh, &source.sh_dc_residual};
+  for (int a = 0; a < 6; ++a) {
+    if (from[a]->size == 0) continue;
+    const size_t record = from[a]->size / static_cast<size_t>(end - begin);
+    std::memcpy(to[a] + begin * record, from[a]->data, from[a]->size);
+  }
+  return Status();
+}
+
+}  // namespace
+
+Result<LodRangeView> RgsFile::read_lod_range(uint32_t level, uint32_t chunk, const LodRangeTarget& target) const {
+  RGS_RETURN_IF_ERROR(RgsFileAccess::check_range_index(*this, level, chunk));
+  const LodRangeView range = RgsFileAccess::range_view(*this, level, chunk);
+  LodRangeView copy;
+  RGS_RETURN_IF_ERROR(copy_slice(range, target, 0, range.count, name_, &copy));
+  Status s = detail::check_lod_range(*lod_, level, chunk, copy, metadata_, options_.verify_checksums);
+  if (!s.ok()) return s.prepend(name_);
+  return copy;
+}
+
+Status RgsFile::read_lod_slice(uint32_t level, uint32_t chunk, const LodRangeTarget& target, uint64_t begin,
+                               uint64_t end) const {
+  RGS_RETURN_IF_ERROR(RgsFileAccess::check_range_index(*this, level, chunk));
+  const LodRangeView range = RgsFileAccess::range_view(*this, level, chunk);
+  RGS_RETURN_ERROR_IF(begin > end || end > range.count, StatusCode::kInvalidArgument,
+                      name_ + ": slice [" + detail::dec(begin) + ", " + detail::dec(end) + ") of a range of " +
+                          detail::dec(range.count) + " Gaussians");
+  if (begin == end) return Status();
+  LodRangeView copy;
+  RGS_RETURN_IF_ERROR(copy_slice(range, target, begin, end, name_, &copy));
+  Status s = detail::check_lod_values(*lod_, level, chunk, copy, metadata_);
+  return s.ok() ? s : s.prepend(name_);
+}
+
+Status RgsFile::check_lod_checksum(uint32_t level, uint32_t chunk, const LodRangeTarget& copy) const {
+  RGS_RETURN_IF_ERROR(RgsFileAccess::check_range_index(*this, level, chunk));
+  if (!options_.verify_checksums) return Status();
+  const LodRangeView range = RgsFileAccess::range_view(*this, level, chunk);
+  LodRangeView view;
+  RGS_RETURN_IF_ERROR(slice_views(range, &copy, 0, range.count, name_, &view));
+  Status s = detail::check_lod_checksum(*lod_, level, chunk, view);
+  return s.ok() ? s : s.prepend(name_);
 }
 
 Result<RgsFile> RgsFile::open(const std::string& path, const ReadOptions& options) {

@@ -82,25 +82,47 @@ void LodStreamer::EventDeleter::operator()(cudaEvent_t e) const { cudaEventDestr
 
 namespace {
 
-/// Checks every range of `items` (RgsFile::lod_range) and copies it into `staging` (layout `layout`), in
-/// parallel over the ranges. The first failing range in `items` order gives the error.
+/// Gaussians a reader thread copies and checks in one piece: ranges are cut into slices of at most this many,
+/// so that one large range is spread over threads (a frame that streams a single range of a 65,536-Gaussian chunk
+/// would otherwise wait for one thread to check all of it).
+constexpr uint64_t kSliceGaussians = 8192;
+
+/// Copies every range of `items` into `staging` (layout `layout`) and checks the copies: slices of the ranges
+/// copied and checked (RgsFile::read_lod_slice) in parallel, then each range's checksum over its whole copy. The
+/// first failing range in `items` order gives the error.
 template <typename Item>
 Status read_ranges(const format::RgsFile& file, const std::vector<Item>& items, uint8_t* staging,
                    const StagingLayout& layout, uint64_t bytes) {
-  std::vector<Status> results(items.size());
+  const auto target_of = [&](const Item& item) {
+    uint8_t* parts[6];
+    for (int a = 0; a < 6; ++a) parts[a] = staging + layout.offset[a] + item.at * layout.record[a];
+    return format::LodRangeTarget{parts[0], parts[1], parts[2], parts[3], parts[4],
+                                  layout.record[5] != 0 ? parts[5] : nullptr};
+  };
+  struct Slice {
+    size_t item;
+    uint64_t begin, end;
+  };
+  std::vector<Slice> slices;
+  for (size_t i = 0; i < items.size(); ++i) {
+    const uint64_t count = file.lod()->at(items[i].level, items[i].chunk).count;
+    for (uint64_t b = 0; b < count; b += kSliceGaussians) {
+      slices.push_back({i, b, std::min(count, b + kSliceGaussians)});
+    }
+  }
   const unsigned workers = parallel::worker_count(bytes, kBytesPerReader, parallel::available_cpus());
+  std::vector<Status> sliced(slices.size());
+  RGS_RETURN_IF_ERROR(parallel::parallel_for(slices.size(), workers, [&](uint64_t k) {
+    const Item& item = items[slices[k].item];
+    sliced[k] = file.read_lod_slice(item.level, item.chunk, target_of(item), slices[k].begin, slices[k].end);
+  }));
+  // Each range's error is its first failing slice's, whichever thread found it first.
+  std::vector<Status> results(items.size());
+  for (size_t k = 0; k < slices.size(); ++k) {
+    if (!sliced[k].ok() && results[slices[k].item].ok()) results[slices[k].item] = sliced[k];
+  }
   RGS_RETURN_IF_ERROR(parallel::parallel_for(items.size(), workers, [&](uint64_t i) {
-    Result<format::LodRangeView> view = file.lod_range(items[i].level, items[i].chunk);
-    if (!view.ok()) {
-      results[i] = view.status();
-      return;
-    }
-    const format::ByteView* parts[6] = {&view->means, &view->rotations, &view->scales, &view->opacities, &view->sh,
-                                        &view->sh_dc_residual};
-    for (int a = 0; a < 6; ++a) {
-      if (layout.record[a] == 0 || parts[a]->size == 0) continue;
-      std::memcpy(staging + layout.offset[a] + items[i].at * layout.record[a], parts[a]->data, parts[a]->size);
-    }
+    if (results[i].ok()) results[i] = file.check_lod_checksum(items[i].level, items[i].chunk, target_of(items[i]));
   }));
   for (Status& r : results) {
     if (!r.ok()) return r;

@@ -166,8 +166,8 @@ void check_bad_file(const char* name) {
 }
 
 /// A level-of-detail file that fails only validate(): open() succeeds and decodes the index, and exactly the
-/// damaged range (`level`, `chunk`) fails lod_range() with the file's code, the others still read: a reader checks
-/// one range without the others (SPEC §5.4).
+/// damaged range (`level`, `chunk`) fails lod_range() and read_lod_range() with the file's code, the others still
+/// read: a reader checks one range without the others (SPEC §5.4).
 void check_bad_lod_range(const char* name, uint32_t level, uint32_t chunk) {
   check_bad_file(name);
   const BadFile* bad = find_bad(name);
@@ -180,15 +180,24 @@ void check_bad_lod_range(const char* name, uint32_t level, uint32_t chunk) {
   REQUIRE(lod != nullptr);
   REQUIRE(lod->chunk_count == 2);
   REQUIRE(lod->level_count == 3);
+  const uint64_t sh_bytes = 3 * sh_coefficient_count(file->metadata().sh_degree);
   for (uint32_t l = 0; l < lod->level_count; ++l) {
     for (uint32_t c = 0; c < lod->chunk_count; ++c) {
-      auto range = file->lod_range(l, c);
-      if (l == level && c == chunk) {
-        REQUIRE_FALSE(range.ok());
-        CHECK_MESSAGE(range.status().code() == bad->code, range.status().to_string());
-        CHECK_MESSAGE(range.status().message().find(bad->fragment) != std::string::npos, range.status().to_string());
-      } else {
-        CHECK_MESSAGE(range.ok(), "level " << l << " chunk " << c << ": " << range.status().to_string());
+      // read_lod_range() checks its copy with the same rules, so it fails the same way.
+      const uint64_t n = lod->at(l, c).count;
+      std::vector<uint8_t> means(n * 12), rotations(n * 8), scales(n * 6), opacities(n * 2), sh(n * sh_bytes),
+          residual(n * 3);
+      const LodRangeTarget target{means.data(), rotations.data(), scales.data(),
+                                  opacities.data(), sh.data(), residual.data()};
+      for (const Result<LodRangeView>& range : {file->lod_range(l, c), file->read_lod_range(l, c, target)}) {
+        if (l == level && c == chunk) {
+          REQUIRE_FALSE(range.ok());
+          CHECK_MESSAGE(range.status().code() == bad->code, range.status().to_string());
+          CHECK_MESSAGE(range.status().message().find(bad->fragment) != std::string::npos,
+                        range.status().to_string());
+        } else {
+          CHECK_MESSAGE(range.ok(), "level " << l << " chunk " << c << ": " << range.status().to_string());
+        }
       }
     }
   }

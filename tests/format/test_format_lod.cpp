@@ -395,6 +395,85 @@ TEST_CASE("lod: lod_range() argument errors") {
   }
 }
 
+TEST_CASE("lod: read_lod_range() and read_lod_slice() copy exactly the range and check the copy") {
+  const LodScene lod = make_lod_scene(3, 3, 12, 61);
+  const std::vector<uint8_t> bytes = must_serialize(lod);
+  const RgsFile file = must_open(bytes);
+  const size_t k3 = 3 * sh_coefficient_count(lod.scene.metadata.sh_degree);
+  const bool residual = file.find(SectionId::kShDcResidual) != nullptr;
+  for (uint32_t l = 0; l < 3; ++l) {
+    for (uint32_t c = 0; c < 3; ++c) {
+      CAPTURE(l);
+      CAPTURE(c);
+      const LodRangeView in_file = file.lod_range(l, c).value();
+      const uint64_t n = in_file.count;
+      // One byte past each part, which the copy must leave alone.
+      std::vector<uint8_t> means(n * 12 + 1, 0xa5), rotations(n * 8 + 1, 0xa5), scales(n * 6 + 1, 0xa5),
+          opacities(n * 2 + 1, 0xa5), sh(n * k3 + 1, 0xa5), dc_residual(n * 3 + 1, 0xa5);
+      const LodRangeTarget target{means.data(),     rotations.data(), scales.data(),
+                                  opacities.data(), sh.data(),        residual ? dc_residual.data() : nullptr};
+      auto copy = file.read_lod_range(l, c, target);
+      REQUIRE_MESSAGE(copy.ok(), copy.status().to_string());
+      CHECK(copy->first == in_file.first);
+      CHECK(copy->count == n);
+      const std::pair<ByteView, ByteView> parts[6] = {
+          {in_file.means, copy->means}, {in_file.rotations, copy->rotations}, {in_file.scales, copy->scales},
+          {in_file.opacities, copy->opacities}, {in_file.sh, copy->sh}, {in_file.sh_dc_residual, copy->sh_dc_residual}};
+      const std::vector<uint8_t>* buffers[6] = {&means, &rotations, &scales, &opacities, &sh, &dc_residual};
+      for (int a = 0; a < 6; ++a) {
+        CHECK(parts[a].second.size == parts[a].first.size);
+        if (parts[a].first.size == 0) continue;
+        CHECK(parts[a].second.data == buffers[a]->data());  // the views are of the copy, not of the file
+        CHECK(std::memcmp(parts[a].second.data, parts[a].first.data, parts[a].first.size) == 0);
+        CHECK(buffers[a]->back() == 0xa5);
+      }
+    }
+  }
+  // Slices of 2 Gaussians copy the same bytes, and the copy's checksum then matches; a value damaged in the file
+  // (checksums not verified) fails the slice holding it, naming the Gaussian, and no other slice.
+  const LodRangeView whole = file.lod_range(0, 1).value();
+  const uint64_t n = whole.count;
+  REQUIRE(n > 4);
+  std::vector<uint8_t> means(n * 12), rotations(n * 8), scales(n * 6), opacities(n * 2), sh(n * k3), dc(n * 3);
+  const LodRangeTarget target{means.data(),     rotations.data(), scales.data(),
+                              opacities.data(), sh.data(),        residual ? dc.data() : nullptr};
+  for (uint64_t b = 0; b < n; b += 2) CHECK(file.read_lod_slice(0, 1, target, b, std::min(n, b + 2)).ok());
+  CHECK(std::memcmp(means.data(), whole.means.data, whole.means.size) == 0);
+  CHECK(std::memcmp(sh.data(), whole.sh.data, whole.sh.size) == 0);
+  CHECK(file.check_lod_checksum(0, 1, target).ok());
+  means[12 * 3] ^= 1;  // the copy, no longer the range
+  CHECK(file.check_lod_checksum(0, 1, target).code() == StatusCode::kChecksumMismatch);
+  CHECK(file.read_lod_slice(0, 1, target, 4, 3).code() == StatusCode::kInvalidArgument);
+  CHECK(file.read_lod_slice(0, 1, target, 0, n + 1).code() == StatusCode::kInvalidArgument);
+  std::vector<uint8_t> nan_mean = bytes;
+  const float nan = NAN;
+  std::memcpy(nan_mean.data() + file.find(SectionId::kMeans)->offset + (whole.first + 3) * 12 + 4, &nan, 4);
+  ReadOptions unchecked;
+  unchecked.verify_checksums = false;
+  const RgsFile damaged = must_open(nan_mean, unchecked);
+  for (uint64_t b = 0; b < n; b += 2) {
+    const Status s = damaged.read_lod_slice(0, 1, target, b, std::min(n, b + 2));
+    if (b == 2) {
+      CHECK(s.code() == StatusCode::kCorruptData);
+      CHECK_MESSAGE(s.message().find("lod chunk 1 level 0: means") != std::string::npos, s.to_string());
+      CHECK_MESSAGE(s.message().find(std::to_string(whole.first + 3)) != std::string::npos, s.to_string());
+    } else {
+      CHECK_MESSAGE(s.ok(), s.to_string());
+    }
+  }
+
+  LodRangeTarget no_sh{nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
+  std::vector<uint8_t> room(1 << 16);
+  no_sh.means = no_sh.rotations = no_sh.scales = no_sh.opacities = room.data();
+  auto missing = file.read_lod_range(0, 0, no_sh);
+  REQUIRE_FALSE(missing.ok());
+  CHECK(missing.status().code() == StatusCode::kInvalidArgument);
+  CHECK(missing.status().message().find("without a destination") != std::string::npos);
+  auto outside = file.read_lod_range(3, 0, no_sh);
+  REQUIRE_FALSE(outside.ok());
+  CHECK(outside.status().message().find("outside its 3 chunks of 3 levels") != std::string::npos);
+}
+
 TEST_CASE("lod: a damaged byte fails its own range's checksum and no other (one chunk checked alone)") {
   const LodScene lod = make_lod_scene(3, 3, 12, 51);
   const std::vector<uint8_t> good = must_serialize(lod);

@@ -88,6 +88,18 @@ struct LodRangeView {
   ByteView sh_dc_residual;  ///< [count, 3] i8, or empty when the file has none
 };
 
+/// Where RgsFile::read_lod_range() copies one range: a destination per part of LodRangeView, each with room for
+/// the range's `count` records (the sizes of LodRangeView's parts). `sh_dc_residual` is needed only when the
+/// file has that section.
+struct LodRangeTarget {
+  uint8_t* means = nullptr;           ///< [count, 3] f32
+  uint8_t* rotations = nullptr;       ///< [count, 4] f16 bits
+  uint8_t* scales = nullptr;          ///< [count, 3] f16 bits
+  uint8_t* opacities = nullptr;       ///< [count] f16 bits
+  uint8_t* sh = nullptr;              ///< [count, K, 3] i8
+  uint8_t* sh_dc_residual = nullptr;  ///< [count, 3] i8
+};
+
 /// An opened .rgs file. Opening checks the header, the section table (bounds, alignment, overlap, sizes
 /// implied by count and SH degree), the header checksum, and decodes metadata and provenance; section
 /// payloads are only touched when asked for. Copies share the underlying mapping; thread-safe for reads.
@@ -115,9 +127,25 @@ class RgsFile {
   uint64_t full_detail_count() const { return lod_ ? lod_->full_detail_count() : header_.gaussian_count; }
   /// Views of level `level` of chunk `chunk` of a level-of-detail file, checked without reading any other range:
   /// its XXH64 (SPEC §4.9, when verify_checksums), the value rules of §4.3–§4.7 and the chunk sphere's rule.
-  /// A streaming loader copies these bytes to the GPU as they are. Errors name the file, chunk and level:
-  /// kInvalidArgument (no index, level or chunk out of range), kChecksumMismatch, kCorruptData.
+  /// For checking a file in place (validate()); a loader copies with read_lod_range(). Errors name the file,
+  /// chunk and level: kInvalidArgument (no index, level or chunk out of range), kChecksumMismatch, kCorruptData.
   Result<LodRangeView> lod_range(uint32_t level, uint32_t chunk) const;
+  /// Copies level `level` of chunk `chunk` into `target`, then checks the copy as lod_range() checks the file's
+  /// bytes (checksum first, then the values). What the caller holds is therefore what was checked, even should the
+  /// mapped file change meanwhile, and the file is read once. Returns views of the copy. Errors: those of
+  /// lod_range(), and kInvalidArgument for a destination missing for a part the file has. On error the
+  /// destinations hold unchecked bytes. The same as read_lod_slice() over the whole range, then
+  /// check_lod_checksum().
+  Result<LodRangeView> read_lod_range(uint32_t level, uint32_t chunk, const LodRangeTarget& target) const;
+  /// Gaussians [begin, end) of the range (indices within it) copied into `target`, each at the place the whole
+  /// range's copy puts it, and checked in the copy: the value rules and the chunk sphere's rule (not the checksum,
+  /// which covers the whole range). Slices let a loader spread one range over threads. Errors: those of
+  /// read_lod_range() but kChecksumMismatch, and kInvalidArgument for begin > end or end past the range.
+  Status read_lod_slice(uint32_t level, uint32_t chunk, const LodRangeTarget& target, uint64_t begin,
+                        uint64_t end) const;
+  /// The XXH64 of a range's whole copy in `copy` (every slice read) against the index, when verify_checksums.
+  /// Errors: kChecksumMismatch naming the file, chunk and level; kInvalidArgument as read_lod_range().
+  Status check_lod_checksum(uint32_t level, uint32_t chunk, const LodRangeTarget& copy) const;
 
   /// The table entry for `id`, or nullptr if the file has no such section.
   const SectionEntry* find(SectionId id) const;

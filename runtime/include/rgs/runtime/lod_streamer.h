@@ -55,8 +55,8 @@ struct LodFrameStats {
 /// (one level of one chunk); the coarsest level of every chunk is loaded at open and never evicted, so every
 /// chunk can always be drawn; other ranges are evicted least recently used first.
 ///
-/// Streaming is a three-frame pipeline. Frame k requests the ranges it wants and a reader thread checks them
-/// (RgsFile::lod_range) and copies them into pinned staging, on all CPUs, while frame k renders; frame k + 1
+/// Streaming is a three-frame pipeline. Frame k requests the ranges it wants and a reader thread copies them
+/// into pinned staging and checks the copies (RgsFile::read_lod_slice), on all CPUs, while frame k renders; frame k + 1
 /// waits for that reader if it is not done, and uploads the staging on a copy stream; the ranges are drawable
 /// from frame k + 2. A camera path's frames are therefore a function of the path and the pool's state, whatever
 /// the speed of the disk and of the CPUs. Move-only; not thread-safe (one render stream).
@@ -66,9 +66,10 @@ class LodStreamer {
   static constexpr uint32_t kPageGaussians = 256;
 
   /// Sizes the pool from `options`, then reads and uploads the coarsest level of every chunk on `stream`, each
-  /// range checked by RgsFile::lod_range. Errors: kInvalidArgument (no level-of-detail index, a splat budget the
-  /// coarsest levels of one chunk exceed), kLimitExceeded (the memory budget cannot hold the frame arrays and
-  /// the coarsest levels: the message gives the bytes needed), the file's errors, kOutOfMemory / kCudaError.
+  /// range checked in its copy (RgsFile::read_lod_slice, check_lod_checksum). Errors: kInvalidArgument (no
+  /// level-of-detail index, a splat budget the coarsest levels of one chunk exceed), kLimitExceeded (the memory
+  /// budget cannot hold the frame arrays and the coarsest levels: the message gives the bytes needed), the file's
+  /// errors, kOutOfMemory / kCudaError.
   static Result<LodStreamer> open(const format::RgsFile& file, const LodStreamOptions& options,
                                   cudaStream_t stream = nullptr);
 
