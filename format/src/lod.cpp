@@ -60,12 +60,8 @@ ReachTerms reach_terms(const LodChunk& k, const uint8_t* m, const uint8_t* s, Sc
   return {distance_squared(mean, k.center), largest};
 }
 
-/// §4.9 How far the 3σ extent of the Gaussian reaches from the chunk centre (reach_terms).
-double reach_from_centre(const LodChunk& k, const uint8_t* m, const uint8_t* s, ScaleEncoding encoding,
-                         const double* exp_table) {
-  const ReachTerms t = reach_terms(k, m, s, encoding, exp_table);
-  return std::sqrt(t.distance2) + 3.0 * t.largest_scale;
-}
+/// §4.9 How far the 3σ extent reaches from the chunk centre.
+double reach(const ReachTerms& t) { return std::sqrt(t.distance2) + 3.0 * t.largest_scale; }
 
 }  // namespace
 
@@ -230,25 +226,23 @@ Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, c
   // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack: every Gaussian in
   // one loop with no Status, and again only to name the first one outside. The square root is taken only near
   // the sphere: with the distance squared below `inner` squared, inner = limit − 3σ less a margin far above
-  // the roundings of reach_from_centre, the Gaussian is inside however they fall.
+  // the roundings of reach(), the Gaussian is inside however they fall.
   const LodChunk& k = index.chunks[chunk];
   const double limit = sphere_limit(k.center, k.radius);
   const double margin = 1e-12 * limit;
   const double* exp_table = exp_of_halves();
-  auto reach = [&](uint64_t j) {
-    return reach_from_centre(k, range.means.data + 12 * j, range.scales.data + 6 * j, metadata.scale_encoding,
-                             exp_table);
+  auto terms = [&](uint64_t j) {
+    return reach_terms(k, range.means.data + 12 * j, range.scales.data + 6 * j, metadata.scale_encoding, exp_table);
   };
   bool inside = true;
   for (uint64_t j = 0; j < n; ++j) {
-    const ReachTerms t = reach_terms(k, range.means.data + 12 * j, range.scales.data + 6 * j, metadata.scale_encoding,
-                                     exp_table);
+    const ReachTerms t = terms(j);
     const double inner = limit - 3.0 * t.largest_scale - margin;
-    if (!(inner > 0 && t.distance2 <= inner * inner)) inside &= std::sqrt(t.distance2) + 3.0 * t.largest_scale <= limit;
+    if (!(inner > 0 && t.distance2 <= inner * inner)) inside &= reach(t) <= limit;
   }
   if (inside) return Status();
   for (uint64_t j = 0; j < n; ++j) {
-    const double r = reach(j);
+    const double r = reach(terms(j));
     RGS_RETURN_ERROR_IF(!(r <= limit), StatusCode::kCorruptData,
                         label + ": Gaussian " + dec(range.first + j) + " reaches " + real(r) +
                             " from the chunk centre, outside its radius " + real(k.radius));

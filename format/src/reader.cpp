@@ -8,12 +8,12 @@
 #include <zstd_errors.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <map>
-#include <utility>
 #include <memory>
 #include <new>
 #include <string>
@@ -746,6 +746,11 @@ Result<LodRangeView> RgsFile::lod_range(uint32_t level, uint32_t chunk) const {
 
 namespace {
 
+/// The destinations of `target` in LodRangeView's order of parts.
+std::array<uint8_t*, 6> destinations(const LodRangeTarget& target) {
+  return {target.means, target.rotations, target.scales, target.opacities, target.sh, target.sh_dc_residual};
+}
+
 /// Views of Gaussians [begin, end) of `range` (a whole range as the file stores it, or the file's parts in
 /// `range` replaced by a copy's destinations in `target` when `target` is not null): each part's records
 /// [begin, end). kInvalidArgument when `target` lacks a destination for a part the file has.
@@ -755,12 +760,7 @@ Status slice_views(const LodRangeView& range, const LodRangeTarget* target, uint
   out->first = range.first + begin;
   out->count = end - begin;
   ByteView* views[6] = {&out->means, &out->rotations, &out->scales, &out->opacities, &out->sh, &out->sh_dc_residual};
-  const uint8_t* copies[6] = {};
-  if (target != nullptr) {
-    const uint8_t* const t[6] = {target->means, target->rotations, target->scales,
-                                 target->opacities, target->sh, target->sh_dc_residual};
-    std::copy(t, t + 6, copies);
-  }
+  const std::array<uint8_t*, 6> copies = target != nullptr ? destinations(*target) : std::array<uint8_t*, 6>{};
   for (int a = 0; a < 6; ++a) {
     if (views[a]->size == 0) continue;
     RGS_RETURN_ERROR_IF(target != nullptr && copies[a] == nullptr, StatusCode::kInvalidArgument,
@@ -779,8 +779,7 @@ Status copy_slice(const LodRangeView& range, const LodRangeTarget& target, uint6
   LodRangeView source;
   RGS_RETURN_IF_ERROR(slice_views(range, nullptr, begin, end, name, &source));
   RGS_RETURN_IF_ERROR(slice_views(range, &target, begin, end, name, copy));
-  uint8_t* const to[6] = {target.means, target.rotations, target.scales, target.opacities, target.sh,
-                          target.sh_dc_residual};
+  const std::array<uint8_t*, 6> to = destinations(target);
   const ByteView* from[6] = {&source.means, &source.rotations, &source.scales,
                              &source.opacities, &source.sh, &source.sh_dc_residual};
   for (int a = 0; a < 6; ++a) {
