@@ -179,11 +179,12 @@ Status bench_lod(const LodBenchOptions& o,
               group_digits(o.stream.stream_bytes_per_frame).c_str(),
               o.scratch_budget ? group_digits(o.scratch_budget).c_str() : "unbounded");
   std::printf("  open             %s ms (the coarsest level of every chunk)\n", fixed(open_ms, 1).c_str());
-  std::printf("  %-10s %9s %8s %11s %6s %6s %6s %13s %13s %8s\n", "view", "frame ms", "wait ms", "splats", "drawn",
-              "coarse", "behind", "streamed B", "resident B", "PSNR dB");
+  std::printf("  %-10s %9s %8s %8s %11s %6s %6s %6s %13s %13s %8s\n", "view", "frame ms", "wait ms", "read ms",
+              "splats", "drawn", "coarse", "behind", "streamed B", "resident B", "PSNR dB");
   for (const Frame& f : frames) {
-    std::printf("  %-10s %9s %8s %11s %6u %6u %6u %13s %13s %8s\n", f.name.c_str(), fixed(f.ms, 3).c_str(),
-                fixed(f.wait_ms, 3).c_str(), group_digits(f.stats.splats).c_str(), f.stats.chunks_drawn,
+    std::printf("  %-10s %9s %8s %8s %11s %6u %6u %6u %13s %13s %8s\n", f.name.c_str(), fixed(f.ms, 3).c_str(),
+                fixed(f.wait_ms, 3).c_str(), fixed(f.stats.read_ms, 3).c_str(), group_digits(f.stats.splats).c_str(),
+                f.stats.chunks_drawn,
                 f.stats.chunks_coarsened, f.stats.chunks_not_resident, group_digits(f.stats.bytes_streamed).c_str(),
                 group_digits(f.stats.bytes_resident).c_str(), std::isnan(f.psnr) ? "-" : fixed(f.psnr, 2).c_str());
   }
@@ -213,7 +214,8 @@ Status bench_lod(const LodBenchOptions& o,
   j["open_ms"] = open_ms;
   nlohmann::json views = nlohmann::json::array();
   for (const Frame& f : frames) {
-    views.push_back({{"view", f.name}, {"frame_ms", f.ms}, {"wait_ms", f.wait_ms}, {"splats", f.stats.splats},
+    views.push_back({{"view", f.name}, {"frame_ms", f.ms}, {"wait_ms", f.wait_ms}, {"read_ms", f.stats.read_ms},
+                     {"splats", f.stats.splats},
                      {"chunks_drawn", f.stats.chunks_drawn}, {"chunks_coarsened", f.stats.chunks_coarsened},
                      {"chunks_not_resident", f.stats.chunks_not_resident},
                      {"bytes_streamed", f.stats.bytes_streamed}, {"bytes_resident", f.stats.bytes_resident},

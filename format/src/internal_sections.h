@@ -86,14 +86,14 @@ inline bool half_bits_finite(uint16_t bits) { return (bits & 0x7c00u) != 0x7c00u
 /// ... a scale (§4.5): finite; as a log scale below 88.75 (0x558c), the first binary16 whose exp overflows
 /// float32 (ln FLT_MAX ≈ 88.72); as a linear scale not negative, so zero (the underflow of a scale below 2^-25)
 /// and −0 are legal ...
+/// (Written as comparisons of the bits with no branch, so that loops over many values vectorize: the finite
+/// positive values are the bits below 0x7c00, the finite negative ones 0x8000..0xfbff.)
 inline bool scale_component_passes(uint16_t bits, ScaleEncoding encoding) {
-  if (!half_bits_finite(bits)) return false;
-  const bool negative = (bits & 0x8000u) != 0;
-  if (encoding == ScaleEncoding::kLog) return negative || bits < 0x558cu;
-  return !negative || bits == 0x8000u;
+  if (encoding == ScaleEncoding::kLog) return (bits < 0x558cu) | ((bits >= 0x8000u) & (bits < 0xfc00u));
+  return (bits < 0x7c00u) | (bits == 0x8000u);
 }
 /// ... and an opacity (§4.6) in [0, 1], −0 included.
-inline bool opacity_passes(uint16_t bits) { return bits <= 0x3c00u || bits == 0x8000u; }
+inline bool opacity_passes(uint16_t bits) { return (bits <= 0x3c00u) | (bits == 0x8000u); }
 
 /// §5.4 Value rules of the runtime sections, one Gaussian at a time (validate.cpp). They return
 /// kCorruptData with the Gaussian's index and the offending value; the writer maps that to

@@ -223,10 +223,11 @@ Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, c
     Status s = check_records(part.id, metadata, part.bytes->data, static_cast<size_t>(n), part.record, range.first);
     if (!s.ok()) return s.prepend(label + ": " + section_name(part.id));
   }
-  // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack: every Gaussian in
-  // one loop with no Status, and again only to name the first one outside. The square root is taken only near
-  // the sphere: with the distance squared below `inner` squared, inner = limit − 3σ less a margin far above
-  // the roundings of reach(), the Gaussian is inside however they fall.
+  // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack. Three loops, each
+  // run only when the one before finds a Gaussian it cannot clear: one with no square root and no branch
+  // (inside when the distance squared is below `inner` squared, inner = limit − 3σ less a margin far above
+  // the roundings of reach(), however they fall), the exact rule with reach(), and one that names the first
+  // Gaussian outside.
   const LodChunk& k = index.chunks[chunk];
   const double limit = sphere_limit(k.center, k.radius);
   const double margin = 1e-12 * limit;
@@ -234,11 +235,17 @@ Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, c
   auto terms = [&](uint64_t j) {
     return reach_terms(k, range.means.data + 12 * j, range.scales.data + 6 * j, metadata.scale_encoding, exp_table);
   };
+  auto clear = [&](const ReachTerms& t) {
+    const double inner = limit - 3.0 * t.largest_scale - margin;
+    return (inner > 0) & (t.distance2 <= inner * inner);
+  };
   bool inside = true;
+  for (uint64_t j = 0; j < n; ++j) inside &= clear(terms(j));
+  if (inside) return Status();
+  inside = true;
   for (uint64_t j = 0; j < n; ++j) {
     const ReachTerms t = terms(j);
-    const double inner = limit - 3.0 * t.largest_scale - margin;
-    if (!(inner > 0 && t.distance2 <= inner * inner)) inside &= reach(t) <= limit;
+    inside &= clear(t) || reach(t) <= limit;
   }
   if (inside) return Status();
   for (uint64_t j = 0; j < n; ++j) {

@@ -13,6 +13,7 @@
 #include "rgs/format/spec.h"
 #include "rgs/kernels/device_scene.h"
 #include "rgs/parallel/fork_join.h"
+#include "rgs/parallel/worker_pool.h"
 #include "rgs/runtime/cuda_device.h"
 
 namespace rgs::runtime {
@@ -80,6 +81,8 @@ void LodStreamer::StreamDeleter::operator()(cudaStream_t s) const {
 
 void LodStreamer::EventDeleter::operator()(cudaEvent_t e) const { cudaEventDestroy(e); }
 
+void LodStreamer::PoolDeleter::operator()(parallel::WorkerPool* pool) const { delete pool; }
+
 namespace {
 
 /// Gaussians a reader thread copies and checks in one piece: ranges are cut into slices of at most this many,
@@ -92,7 +95,7 @@ constexpr uint64_t kSliceGaussians = 8192;
 /// first failing range in `items` order gives the error.
 template <typename Item>
 Status read_ranges(const format::RgsFile& file, const std::vector<Item>& items, uint8_t* staging,
-                   const StagingLayout& layout, uint64_t bytes) {
+                   const StagingLayout& layout, uint64_t bytes, parallel::WorkerPool& readers) {
   const auto target_of = [&](const Item& item) {
     uint8_t* parts[6];
     for (int a = 0; a < 6; ++a) parts[a] = staging + layout.offset[a] + item.at * layout.record[a];
@@ -110,9 +113,9 @@ Status read_ranges(const format::RgsFile& file, const std::vector<Item>& items, 
       slices.push_back({i, b, std::min(count, b + kSliceGaussians)});
     }
   }
-  const unsigned workers = parallel::worker_count(bytes, kBytesPerReader, parallel::available_cpus());
+  const unsigned workers = parallel::worker_count(bytes, kBytesPerReader, readers.workers());
   std::vector<Status> sliced(slices.size());
-  RGS_RETURN_IF_ERROR(parallel::parallel_for(slices.size(), workers, [&](uint64_t k) {
+  RGS_RETURN_IF_ERROR(readers.run(slices.size(), workers, [&](unsigned, uint64_t k) {
     const Item& item = items[slices[k].item];
     sliced[k] = file.read_lod_slice(item.level, item.chunk, target_of(item), slices[k].begin, slices[k].end);
   }));
@@ -121,7 +124,7 @@ Status read_ranges(const format::RgsFile& file, const std::vector<Item>& items, 
   for (size_t k = 0; k < slices.size(); ++k) {
     if (!sliced[k].ok() && results[slices[k].item].ok()) results[slices[k].item] = sliced[k];
   }
-  RGS_RETURN_IF_ERROR(parallel::parallel_for(items.size(), workers, [&](uint64_t i) {
+  RGS_RETURN_IF_ERROR(readers.run(items.size(), workers, [&](unsigned, uint64_t i) {
     if (results[i].ok()) results[i] = file.check_lod_checksum(items[i].level, items[i].chunk, target_of(items[i]));
   }));
   for (Status& r : results) {
@@ -149,6 +152,7 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
                       file.name() + ": no level-of-detail index to stream (rgs-convert --lod-levels builds one)");
   LodStreamer s;
   s.file_ = std::make_shared<const format::RgsFile>(file);
+  s.readers_.reset(new parallel::WorkerPool(parallel::available_cpus()));
   s.options_ = options;
   s.sh_bytes_ = 3 * format::sh_coefficient_count(file.metadata().sh_degree);
   s.residual_ = file.find(format::SectionId::kShDcResidual) != nullptr;
@@ -217,7 +221,7 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
     if (batch.keys.empty()) return Status();
     s.start_reading(std::move(batch));
     batch = Batch{};
-    RGS_RETURN_IF_ERROR(s.upload_read(&unused));
+    RGS_RETURN_IF_ERROR(s.upload_read(&unused, &unused));
     return s.finish_uploads(&unused);
   };
   for (uint32_t c = 0; c < index->chunk_count; ++c) {
@@ -292,27 +296,33 @@ void LodStreamer::start_reading(Batch batch) {
   reading_batch_ = std::move(batch);
   const StagingLayout layout(upload_capacity_, sh_bytes_, residual_);
   auto read = [file = file_, items = reading_batch_.items, bytes = reading_batch_.bytes, layout,
-               staging = static_cast<uint8_t*>(staging_[reading_batch_.slot].data())]() {
+               staging = static_cast<uint8_t*>(staging_[reading_batch_.slot].data()), readers = readers_.get()]() {
+    const auto t0 = std::chrono::steady_clock::now();
+    ReadDone done;
     try {
-      return read_ranges(*file, items, staging, layout, bytes);
+      done.status = read_ranges(*file, items, staging, layout, bytes, *readers);
     } catch (const std::bad_alloc&) {
-      return Status(StatusCode::kOutOfMemory, file->name() + ": out of memory reading level-of-detail ranges");
+      done.status = Status(StatusCode::kOutOfMemory, file->name() + ": out of memory reading level-of-detail ranges");
     }
+    done.ms = ms_since(t0);
+    return done;
   };
   try {
     reading_ = std::async(std::launch::async, read);
   } catch (const std::system_error&) {  // no thread to be had: read now, on this one
-    std::promise<Status> done;
+    std::promise<ReadDone> done;
     done.set_value(read());
     reading_ = done.get_future();
   }
 }
 
-Status LodStreamer::upload_read(double* wait_ms) {
+Status LodStreamer::upload_read(double* wait_ms, double* read_ms) {
   if (!reading_.valid()) return Status();
   const auto t0 = std::chrono::steady_clock::now();
-  Status read = reading_.get();
+  ReadDone done = reading_.get();
   *wait_ms += ms_since(t0);
+  *read_ms += done.ms;
+  const Status& read = done.status;
   Batch batch = std::move(reading_batch_);
   reading_batch_ = Batch{};
   if (!read.ok()) {
@@ -366,7 +376,7 @@ Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t st
   LodFrameStats stats;
   // The pipeline moves one step: frame k − 2's reads become drawable, frame k − 1's are uploaded.
   RGS_RETURN_IF_ERROR(finish_uploads(&stats.wait_ms));
-  RGS_RETURN_IF_ERROR(upload_read(&stats.wait_ms));
+  RGS_RETURN_IF_ERROR(upload_read(&stats.wait_ms, &stats.read_ms));
   const format::LodIndex& index = *file_->lod();
   const uint32_t coarsest = index.level_count - 1;
   const uint64_t frame = ++frame_index_;

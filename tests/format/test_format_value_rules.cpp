@@ -97,6 +97,26 @@ TEST_CASE("value rules: records_pass and check_records agree on whole sections, 
     CHECK_FALSE(s.ok());
     CHECK(s.message().find("Gaussian 1: rotation quaternion is zero") != std::string::npos);
   }
+  // Sections of 1,000 good rotations and scales (read as one stream of binary16 values, whatever the record)
+  // with one bad component at record 617, component 2 or 3: records_pass fails and check_records names record 617.
+  for (const uint16_t bad : {uint16_t(0x7c00u), uint16_t(0xfe00u)}) {  // +inf, a NaN
+    std::vector<uint16_t> q(4 * 1000, 0x3800u);
+    CHECK(d::records_pass(SectionId::kRotations, m, half_records(q).data(), 1000, 8));
+    q[4 * 617 + 3] = bad;
+    CHECK_FALSE(d::records_pass(SectionId::kRotations, m, half_records(q).data(), 1000, 8));
+    CHECK(d::check_records(SectionId::kRotations, m, half_records(q).data(), 1000, 8, 0).message().find(
+              "Gaussian 617: rotation component 3") != std::string::npos);
+    for (const ScaleEncoding encoding : {ScaleEncoding::kLog, ScaleEncoding::kLinear}) {
+      SceneMetadata with = m;
+      with.scale_encoding = encoding;
+      std::vector<uint16_t> scales(3 * 1000, 0x3400u);
+      CHECK(d::records_pass(SectionId::kScales, with, half_records(scales).data(), 1000, 6));
+      scales[3 * 617 + 2] = bad;
+      CHECK_FALSE(d::records_pass(SectionId::kScales, with, half_records(scales).data(), 1000, 6));
+      CHECK(d::check_records(SectionId::kScales, with, half_records(scales).data(), 1000, 6, 0).message().find(
+                "Gaussian 617: scale component 2") != std::string::npos);
+    }
+  }
   // A section of good opacities with one bad one: check_records names that one.
   std::vector<uint16_t> opacities(1000, 0x3800u);
   CHECK(d::check_records(SectionId::kOpacities, m, half_records(opacities).data(), 1000, 2, 0).ok());

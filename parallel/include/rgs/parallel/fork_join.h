@@ -116,6 +116,18 @@ template <typename Fn>
   return failures.result(what);
 }
 
+/// The loop of one worker of parallel_items (and WorkerPool::run): fn(worker, item) for each item it claims
+/// from `next`, in increasing order, until none is left. What fn throws stops further items and propagates.
+template <typename Fn>
+void claim_items(std::atomic<uint64_t>& next, uint64_t items, unsigned worker, Fn& fn) {
+  try {
+    for (uint64_t item; (item = next.fetch_add(1, std::memory_order_relaxed)) < items;) fn(worker, item);
+  } catch (...) {
+    next.store(items);  // no further item starts
+    throw;              // recorded by the caller's WorkerFailures
+  }
+}
+
 /// Calls fn(worker, item) once for every item of [0, items) on up to `workers` threads (never more than
 /// items), each taking the next unclaimed item in increasing order: balances items of uneven cost. Which
 /// worker runs an item varies between runs, so results must be stored per item, not per worker. After a
@@ -124,14 +136,7 @@ template <typename Fn>
 [[nodiscard]] Status parallel_items(uint64_t items, unsigned workers, Fn&& fn) {
   workers = static_cast<unsigned>(std::max<uint64_t>(1, std::min<uint64_t>(workers, items)));
   std::atomic<uint64_t> next{0};
-  Status s = parallel_slices(workers, workers, [&](unsigned t, uint64_t, uint64_t) {
-    try {
-      for (uint64_t item; (item = next.fetch_add(1, std::memory_order_relaxed)) < items;) fn(t, item);
-    } catch (...) {
-      next.store(items);  // no further item starts
-      throw;              // recorded by parallel_slices
-    }
-  });
+  Status s = parallel_slices(workers, workers, [&](unsigned t, uint64_t, uint64_t) { claim_items(next, items, t, fn); });
   if (s.code() == StatusCode::kOutOfMemory) {
     return Status(StatusCode::kOutOfMemory, "out of memory in a worker thread (" + std::to_string(items) + " items)");
   }

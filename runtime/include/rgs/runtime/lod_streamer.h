@@ -23,6 +23,10 @@
 #include "rgs/runtime/gpu_scene.h"
 #include "rgs/runtime/lod_selection.h"
 
+namespace rgs::parallel {
+class WorkerPool;
+}
+
 namespace rgs::runtime {
 
 /// The budgets of LodStreamer.
@@ -49,6 +53,7 @@ struct LodFrameStats {
   uint64_t bytes_streamed = 0;      ///< their bytes
   uint64_t bytes_resident = 0;      ///< bytes of the ranges in the pool, requested ones included
   double wait_ms = 0;               ///< host time waiting for the previous frame's reads and the uploads before
+  double read_ms = 0;               ///< the reader's time for the previous frame's ranges (uploaded this frame)
 };
 
 /// A level-of-detail scene streamed into a fixed device pool. Pages of kPageGaussians Gaussians hold ranges
@@ -56,10 +61,11 @@ struct LodFrameStats {
 /// chunk can always be drawn; other ranges are evicted least recently used first.
 ///
 /// Streaming is a three-frame pipeline. Frame k requests the ranges it wants and a reader thread copies them
-/// into pinned staging and checks the copies (RgsFile::read_lod_slice), on all CPUs, while frame k renders; frame k + 1
-/// waits for that reader if it is not done, and uploads the staging on a copy stream; the ranges are drawable
-/// from frame k + 2. A camera path's frames are therefore a function of the path and the pool's state, whatever
-/// the speed of the disk and of the CPUs. Move-only; not thread-safe (one render stream).
+/// into pinned staging and checks the copies (RgsFile::read_lod_slice) while frame k renders, on every CPU
+/// through threads kept for the streamer's life; frame k + 1 waits for that reader if it is not done, and
+/// uploads the staging on a copy stream; the ranges are drawable from frame k + 2. A camera path's frames are
+/// therefore a function of the path and the pool's state, whatever the speed of the disk and of the CPUs.
+/// Move-only; not thread-safe (one render stream).
 class LodStreamer {
  public:
   /// Gaussians per pool page.
@@ -129,8 +135,9 @@ class LodStreamer {
   void drop(const Batch& batch);
   /// Starts reading `batch` on the reader thread.
   void start_reading(Batch batch);
-  /// Waits for the reader, then enqueues the upload and scatter of what it read on the copy stream.
-  Status upload_read(double* wait_ms);
+  /// Waits for the reader, then enqueues the upload and scatter of what it read on the copy stream. Adds the
+  /// wait to *wait_ms and the reader's own time to *read_ms.
+  Status upload_read(double* wait_ms, double* read_ms);
   /// Waits for the previous frame's gather and upload; its ranges become drawable.
   Status finish_uploads(double* wait_ms);
 
@@ -174,9 +181,18 @@ class LodStreamer {
   std::unique_ptr<std::remove_pointer_t<cudaStream_t>, StreamDeleter> copy_stream_;
   std::unique_ptr<std::remove_pointer_t<cudaEvent_t>, EventDeleter> gathered_, uploaded_;
   GpuScene frame_scene_ = GpuScene::compact_view({}, {});
+  // The reader's threads, kept between frames (rgs/parallel/worker_pool.h).
+  struct PoolDeleter {
+    void operator()(parallel::WorkerPool* pool) const;
+  };
+  std::unique_ptr<parallel::WorkerPool, PoolDeleter> readers_;
   // The reader's batch and its result; declared last, so a read in flight ends before anything is freed.
+  struct ReadDone {
+    Status status;
+    double ms = 0;  ///< the reader's time, from its start to its end
+  };
   Batch reading_batch_;
-  std::future<Status> reading_;
+  std::future<ReadDone> reading_;
 };
 
 }  // namespace rgs::runtime
