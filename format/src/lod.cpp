@@ -1,6 +1,7 @@
 // The level-of-detail index (SPEC.md §4.9): its record, its structural rules and the checks of one range.
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -223,11 +224,12 @@ Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, c
     Status s = check_records(part.id, metadata, part.bytes->data, static_cast<size_t>(n), part.record, range.first);
     if (!s.ok()) return s.prepend(label + ": " + section_name(part.id));
   }
-  // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack. Three loops, each
-  // run only when the one before finds a Gaussian it cannot clear: one with no square root and no branch
-  // (inside when the distance squared is below `inner` squared, inner = limit − 3σ less a margin far above
-  // the roundings of reach(), however they fall), the exact rule with reach(), and one that names the first
-  // Gaussian outside.
+  // §4.9 Each Gaussian's 3σ extent inside the chunk's sphere, with §4.1.1's float32 slack. A Gaussian is
+  // inside, however the roundings of reach() fall, when its distance squared is below `inner` squared, with
+  // inner = limit − 3σ less a margin far above those roundings. Three passes, each over what the one before
+  // could not clear: blocks of 32 Gaussians tested against the block's largest σ (one lookup, then loops with
+  // no branch and no square root); the Gaussians of a block that fails, each against its own σ and then the
+  // exact rule with reach(); and, when one is outside, a loop that names the first.
   const LodChunk& k = index.chunks[chunk];
   const double limit = sphere_limit(k.center, k.radius);
   const double margin = 1e-12 * limit;
@@ -239,13 +241,31 @@ Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, c
     const double inner = limit - 3.0 * t.largest_scale - margin;
     return (inner > 0) & (t.distance2 <= inner * inner);
   };
+  const uint8_t* means = range.means.data;
+  const uint8_t* scales = range.scales.data;
   bool inside = true;
-  for (uint64_t j = 0; j < n; ++j) inside &= clear(terms(j));
-  if (inside) return Status();
-  inside = true;
-  for (uint64_t j = 0; j < n; ++j) {
-    const ReachTerms t = terms(j);
-    inside &= clear(t) || reach(t) <= limit;
+  constexpr uint64_t kBlock = 32;
+  for (uint64_t b = 0; b < n; b += kBlock) {
+    const uint64_t e = std::min(n, b + kBlock);
+    uint16_t key = 0;  // half_order of the block's largest scale component, and back to its bits
+    for (uint64_t j = 6 * b; j < 6 * e; j += 2) key = std::max(key, half_order(load_u16_le(scales + j)));
+    const uint16_t bits = (key & 0x8000u) ? static_cast<uint16_t>(key & 0x7fffu) : static_cast<uint16_t>(~key);
+    const double largest = metadata.scale_encoding == ScaleEncoding::kLog
+                               ? exp_table[bits]
+                               : static_cast<double>(half_bits_to_float(bits));
+    const double inner = limit - 3.0 * largest - margin;
+    const double inner2 = inner > 0 ? inner * inner : -1.0;
+    unsigned far = 0;
+    for (uint64_t j = b; j < e; ++j) {
+      const uint8_t* m = means + 12 * j;
+      const float mean[3] = {load_f32_le(m), load_f32_le(m + 4), load_f32_le(m + 8)};
+      far |= !(distance_squared(mean, k.center) <= inner2);
+    }
+    if (far == 0) continue;
+    for (uint64_t j = b; j < e; ++j) {
+      const ReachTerms t = terms(j);
+      inside &= clear(t) || reach(t) <= limit;
+    }
   }
   if (inside) return Status();
   for (uint64_t j = 0; j < n; ++j) {

@@ -140,35 +140,32 @@ bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p,
       const double limit = sphere_limit(b.sphere_center, b.sphere_radius);
       const double inner = limit * (1.0 - 1e-12);
       const double inner2 = limit > 0 ? inner * inner : -1.0;
-      bool ok = true, near = false;
-      for (size_t j = 0; j < records; ++j, p += record_size) {
-        const float xyz[3] = {load_f32_le(p), load_f32_le(p + 4), load_f32_le(p + 8)};
+      unsigned failed = 0, near = 0;
+      for (size_t j = 0; j < records; ++j) {
+        const float xyz[3] = {load_f32_le(p + 12 * j), load_f32_le(p + 12 * j + 4), load_f32_le(p + 12 * j + 8)};
         for (int a = 0; a < 3; ++a) {
-          ok &= std::isfinite(xyz[a]) & !(xyz[a] < b.aabb_min[a]) & !(xyz[a] > b.aabb_max[a]);
+          failed |= !std::isfinite(xyz[a]) | (xyz[a] < b.aabb_min[a]) | (xyz[a] > b.aabb_max[a]);
         }
         near |= !(distance_squared(xyz, b.sphere_center) <= inner2);
       }
-      if (!ok || !near) return ok;
-      p -= records * record_size;
-      for (size_t j = 0; j < records; ++j, p += record_size) {
-        const float xyz[3] = {load_f32_le(p), load_f32_le(p + 4), load_f32_le(p + 8)};
-        ok &= !(std::sqrt(distance_squared(xyz, b.sphere_center)) > limit);
+      if (failed != 0 || near == 0) return failed == 0;
+      for (size_t j = 0; j < records; ++j) {
+        const float xyz[3] = {load_f32_le(p + 12 * j), load_f32_le(p + 12 * j + 4), load_f32_le(p + 12 * j + 8)};
+        failed |= std::sqrt(distance_squared(xyz, b.sphere_center)) > limit;
       }
-      return ok;
+      return failed == 0;
     }
     case SectionId::kRotations: {
-      unsigned zero = 0;  // the zero quaternion (4 binary16: 8 bytes), ±0 in every component
-      for (size_t j = 0; j < records; ++j, p += record_size) zero |= (load_u64_le(p) & 0x7fff7fff7fff7fffull) == 0;
-      return zero == 0 && all_u16(p - records * record_size, records * record_size / 2, half_bits_finite);
+      unsigned zero = 0;  // the zero quaternion: ±0 in each of its 4 binary16
+      for (size_t j = 0; j < records; ++j) zero |= (load_u64_le(p + 8 * j) & 0x7fff7fff7fff7fffull) == 0;
+      return zero == 0 && all_u16(p, 4 * records, half_bits_finite);
     }
     case SectionId::kScales:
       if (metadata.scale_encoding == ScaleEncoding::kLog) {
-        return all_u16(p, records * record_size / 2,
-                       [](uint16_t v) { return scale_component_passes(v, ScaleEncoding::kLog); });
+        return all_u16(p, 3 * records, [](uint16_t v) { return scale_component_passes(v, ScaleEncoding::kLog); });
       }
-      return all_u16(p, records * record_size / 2,
-                     [](uint16_t v) { return scale_component_passes(v, ScaleEncoding::kLinear); });
-    case SectionId::kOpacities: return all_u16(p, records * record_size / 2, opacity_passes);
+      return all_u16(p, 3 * records, [](uint16_t v) { return scale_component_passes(v, ScaleEncoding::kLinear); });
+    case SectionId::kOpacities: return all_u16(p, records, opacity_passes);
     case SectionId::kSh: return records == 0 || std::memchr(p, 0x80, records * record_size) == nullptr;  // -128
     default: return true;
   }

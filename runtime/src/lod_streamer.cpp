@@ -152,7 +152,8 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
                       file.name() + ": no level-of-detail index to stream (rgs-convert --lod-levels builds one)");
   LodStreamer s;
   s.file_ = std::make_shared<const format::RgsFile>(file);
-  s.readers_.reset(new parallel::WorkerPool(parallel::available_cpus()));
+  // Every CPU but one, which the render thread keeps for launching the frames the reader overlaps.
+  s.readers_.reset(new parallel::WorkerPool(std::max(1u, parallel::available_cpus() - 1)));
   s.options_ = options;
   s.sh_bytes_ = 3 * format::sh_coefficient_count(file.metadata().sh_degree);
   s.residual_ = file.find(format::SectionId::kShDcResidual) != nullptr;

@@ -61,8 +61,8 @@ struct LodFrameStats {
 /// chunk can always be drawn; other ranges are evicted least recently used first.
 ///
 /// Streaming is a three-frame pipeline. Frame k requests the ranges it wants and a reader thread copies them
-/// into pinned staging and checks the copies (RgsFile::read_lod_slice) while frame k renders, on every CPU
-/// through threads kept for the streamer's life; frame k + 1 waits for that reader if it is not done, and
+/// into pinned staging and checks the copies (RgsFile::read_lod_slice) while frame k renders, on every CPU but
+/// one through threads kept for the streamer's life; frame k + 1 waits for that reader if it is not done, and
 /// uploads the staging on a copy stream; the ranges are drawable from frame k + 2. A camera path's frames are
 /// therefore a function of the path and the pool's state, whatever the speed of the disk and of the CPUs.
 /// Move-only; not thread-safe (one render stream).
