@@ -2,16 +2,15 @@
 #include <doctest/doctest.h>
 
 #include <atomic>
-#include <chrono>
 #include <cstdint>
 #include <new>
 #include <set>
 #include <stdexcept>
-#include <string>
 #include <thread>
 #include <vector>
 
 #include "rgs/parallel/worker_pool.h"
+#include "stop_after_failure.h"
 
 namespace {
 
@@ -62,25 +61,7 @@ TEST_CASE("WorkerPool: an allocation failure is kOutOfMemory and stops the call;
     CAPTURE(workers);
     parallel::WorkerPool pool(workers);
     for (int round = 0; round < 3; ++round) {
-      // As for parallel_for (test_fork_join.cpp): items after the failing one wait until it throws, then take
-      // 100 us each, so the count does not depend on scheduling.
-      std::atomic<uint64_t> ran{0};
-      std::atomic<bool> thrown{false};
-      Status s = pool.run(100000, workers, [&](unsigned, uint64_t i) {
-        if (i == 5) {
-          thrown.store(true);
-          throw std::bad_alloc();
-        }
-        if (i > 5) {
-          while (!thrown.load()) std::this_thread::yield();
-          std::this_thread::sleep_for(std::chrono::microseconds(100));
-        }
-        ++ran;
-      });
-      CHECK(s.code() == StatusCode::kOutOfMemory);
-      CHECK(s.message().find("out of memory in a worker thread (100000 items)") != std::string::npos);
-      if (workers == 1) CHECK(ran.load() == 5);
-      CHECK(ran.load() < 1000);
+      test::check_stops_after_failure(workers, [&](uint64_t items, auto fn) { return pool.run(items, workers, fn); });
       CHECK_THROWS_AS(static_cast<void>(pool.run(10, workers, [](unsigned, uint64_t i) {
                         if (i == 3) throw std::logic_error("bug");
                       })),
