@@ -56,7 +56,7 @@ TEST_CASE("WorkerPool: the caller works too, and the other workers are threads o
   CHECK(std::set<std::thread::id>(ids.begin(), ids.end()).size() == 4);
 }
 
-TEST_CASE("WorkerPool: an allocation failure is kOutOfMemory and stops the call; the pool serves the next call") {
+TEST_CASE("WorkerPool: an allocation failure is kOutOfMemory and stops the call, and the pool serves the next call") {
   for (unsigned workers : {1u, 2u, 8u}) {
     CAPTURE(workers);
     parallel::WorkerPool pool(workers);
