@@ -80,7 +80,7 @@ class WorkerPool {
   }
 
  private:
-  // What the caller and the threads share (under `mutex`, but the job's own state).
+  // What the caller and the threads share, guarded by `mutex` (the state the job points to is the caller's).
   struct Shared {
     std::mutex mutex;
     std::condition_variable wake, done;
