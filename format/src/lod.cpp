@@ -36,9 +36,17 @@ const double* exp_of_halves() {
   return table.data();
 }
 
-/// A key whose order is the value order of finite binary16 values (−0 below +0).
+/// A key whose order is the value order of finite binary16 values (−0 below +0), and back to the bits.
 uint16_t half_order(uint16_t b) {
   return (b & 0x8000u) ? static_cast<uint16_t>(~b) : static_cast<uint16_t>(b | 0x8000u);
+}
+uint16_t half_of_order(uint16_t key) {
+  return (key & 0x8000u) ? static_cast<uint16_t>(key & 0x7fffu) : static_cast<uint16_t>(~key);
+}
+
+/// §4.5 The linear scale a stored (finite) scale component `bits` stands for, in double.
+double linear_scale(uint16_t bits, ScaleEncoding encoding, const double* exp_table) {
+  return encoding == ScaleEncoding::kLog ? exp_table[bits] : static_cast<double>(half_bits_to_float(bits));
 }
 
 /// §4.9 The terms of how far the 3σ extent of the Gaussian with mean bytes `m` and (finite) scale bytes `s`
@@ -56,9 +64,7 @@ ReachTerms reach_terms(const LodChunk& k, const uint8_t* m, const uint8_t* s, Sc
     const uint16_t b = load_u16_le(s + 2 * a);
     if (half_order(b) > half_order(largest_bits)) largest_bits = b;
   }
-  const double largest = encoding == ScaleEncoding::kLog ? exp_table[largest_bits]
-                                                         : static_cast<double>(half_bits_to_float(largest_bits));
-  return {distance_squared(mean, k.center), largest};
+  return {distance_squared(mean, k.center), linear_scale(largest_bits, encoding, exp_table)};
 }
 
 /// §4.9 How far the 3σ extent reaches from the chunk centre.
@@ -247,13 +253,9 @@ Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, c
   constexpr uint64_t kBlock = 32;
   for (uint64_t b = 0; b < n; b += kBlock) {
     const uint64_t e = std::min(n, b + kBlock);
-    uint16_t key = 0;  // half_order of the block's largest scale component, and back to its bits
+    uint16_t key = 0;  // half_order of the block's largest scale component
     for (uint64_t j = 6 * b; j < 6 * e; j += 2) key = std::max(key, half_order(load_u16_le(scales + j)));
-    const uint16_t bits = (key & 0x8000u) ? static_cast<uint16_t>(key & 0x7fffu) : static_cast<uint16_t>(~key);
-    const double largest = metadata.scale_encoding == ScaleEncoding::kLog
-                               ? exp_table[bits]
-                               : static_cast<double>(half_bits_to_float(bits));
-    const double inner = limit - 3.0 * largest - margin;
+    const double inner = limit - 3.0 * linear_scale(half_of_order(key), metadata.scale_encoding, exp_table) - margin;
     const double inner2 = inner > 0 ? inner * inner : -1.0;
     unsigned far = 0;
     for (uint64_t j = b; j < e; ++j) {

@@ -134,7 +134,7 @@ bool all_u16(const uint8_t* p, size_t count, Pred pred) {
 bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p, size_t records, size_t record_size) {
   switch (id) {
     case SectionId::kMeans: {
-      // check_mean's tests, in the same arithmetic. The square root is taken only for the few means near the
+      // check_mean's tests, in the same arithmetic. Square roots are taken only when some mean lies near the
       // sphere: below `inner` squared, the distance is below the limit however sqrt rounds.
       const SceneBounds& b = metadata.bounds;
       const double limit = sphere_limit(b.sphere_center, b.sphere_radius);

@@ -99,22 +99,22 @@ TEST_CASE("value rules: records_pass and check_records agree on whole sections, 
   }
   // Sections of 1,000 good rotations and scales (read as one stream of binary16 values, whatever the record)
   // with one bad component at record 617, component 2 or 3: records_pass fails and check_records names record 617.
+  auto check_section = [](SectionId id, const SceneMetadata& with, size_t components, uint16_t good, size_t component,
+                          uint16_t bad, const std::string& named) {
+    std::vector<uint16_t> values(components * 1000, good);
+    const size_t record = 2 * components;
+    CHECK(d::records_pass(id, with, half_records(values).data(), 1000, record));
+    values[components * 617 + component] = bad;
+    CHECK_FALSE(d::records_pass(id, with, half_records(values).data(), 1000, record));
+    CHECK(d::check_records(id, with, half_records(values).data(), 1000, record, 0).message().find(named) !=
+          std::string::npos);
+  };
   for (const uint16_t bad : {uint16_t(0x7c00u), uint16_t(0xfe00u)}) {  // +inf, a NaN
-    std::vector<uint16_t> q(4 * 1000, 0x3800u);
-    CHECK(d::records_pass(SectionId::kRotations, m, half_records(q).data(), 1000, 8));
-    q[4 * 617 + 3] = bad;
-    CHECK_FALSE(d::records_pass(SectionId::kRotations, m, half_records(q).data(), 1000, 8));
-    CHECK(d::check_records(SectionId::kRotations, m, half_records(q).data(), 1000, 8, 0).message().find(
-              "Gaussian 617: rotation component 3") != std::string::npos);
+    check_section(SectionId::kRotations, m, 4, 0x3800u, 3, bad, "Gaussian 617: rotation component 3");
     for (const ScaleEncoding encoding : {ScaleEncoding::kLog, ScaleEncoding::kLinear}) {
       SceneMetadata with = m;
       with.scale_encoding = encoding;
-      std::vector<uint16_t> scales(3 * 1000, 0x3400u);
-      CHECK(d::records_pass(SectionId::kScales, with, half_records(scales).data(), 1000, 6));
-      scales[3 * 617 + 2] = bad;
-      CHECK_FALSE(d::records_pass(SectionId::kScales, with, half_records(scales).data(), 1000, 6));
-      CHECK(d::check_records(SectionId::kScales, with, half_records(scales).data(), 1000, 6, 0).message().find(
-                "Gaussian 617: scale component 2") != std::string::npos);
+      check_section(SectionId::kScales, with, 3, 0x3400u, 2, bad, "Gaussian 617: scale component 2");
     }
   }
   // A section of good opacities with one bad one: check_records names that one.

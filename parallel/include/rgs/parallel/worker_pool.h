@@ -1,6 +1,6 @@
 // WorkerPool: threads kept between calls, for fork-join work repeated many times a second (the level-of-detail
-// reader runs once a frame), where starting threads per call (fork_join.h) costs as much as the work
-// (docs/LOD.md#a-frame-under-a-budget).
+// reader runs once a frame), where fork_join.h would start and join every thread on every call
+// (docs/LOD.md#a-frame-under-a-budget measures what that cost the reader).
 //
 // run() has parallel_items' contract (items claimed in increasing order, allocation failures as kOutOfMemory,
 // other exceptions rethrown on the caller, no item started after a failure); the caller is worker 0 and the
