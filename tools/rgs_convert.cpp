@@ -141,7 +141,9 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
         {"device", f.device},
         {"encodings", f.encodings},
         {"renders", f.renders},
-        {"seconds", f.seconds}};
+        {"seconds", f.seconds},
+        {"encode_seconds", f.encode_seconds},
+        {"render_seconds", f.render_seconds}};
   }
   if (r.rgs) {
     const api::RgsOutputReport& q = *r.rgs;
@@ -260,8 +262,9 @@ void print_fit(const Options& opt, const api::ConvertReport& r, const audit::Fit
               audit::backend_name(f.backend));
   std::printf("  settings         %s\n",
               audit::describe_archive_options(f.chosen.options, r.sh_degree).c_str());
-  std::printf("  search           %u archives encoded, %u rendered at %ux%u (%s dB there), %s s\n", f.encodings,
-              f.renders, f.search_width, f.search_height, tools::fixed(f.search_psnr_db, 2).c_str(),
+  std::printf("  search           %u archives encoded (%s s), %u rendered at %ux%u (%s dB there; %s s), %s s\n",
+              f.encodings, tools::fixed(f.encode_seconds, 1).c_str(), f.renders, f.search_width, f.search_height,
+              tools::fixed(f.search_psnr_db, 2).c_str(), tools::fixed(f.render_seconds, 1).c_str(),
               tools::fixed(f.seconds, 1).c_str());
 }
 

@@ -242,6 +242,8 @@ class Measurer {
 
   uint32_t encodings() const { return uint32_t(cache_.size()); }
   uint32_t renders() const { return renders_; }
+  double encode_seconds() const { return encode_seconds_; }
+  double render_seconds() const { return render_seconds_; }
 
  private:
   struct Entry {
@@ -264,7 +266,9 @@ class Measurer {
     const bool last_differs = last_ && !same_points(last_);
     const bool use_other = last_differs && same_points(other_points_);
     const format::ArchiveScene* earlier = use_other ? other_points_.get() : last_.get();
+    const auto start = Clock::now();
     RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, earlier));
+    encode_seconds_ += seconds_since(start);
     if (last_differs) other_points_ = std::move(last_);
     last_ = std::make_shared<const format::ArchiveScene>(std::move(archive));
     return last_;
@@ -325,6 +329,7 @@ class Measurer {
     if (!e->archive) {
       RGS_ASSIGN_OR_RETURN(e->archive, encode_archive(e->point.options));
     }
+    const auto start = Clock::now();
     const format::EncodedScene& decoded = e->archive->decoded;
     RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, format::dequantize(decoded));
     const std::string name = "archive (" + describe_archive_options(e->point.options, decoded.metadata.sh_degree) + ")";
@@ -344,6 +349,7 @@ class Measurer {
       lowest = std::min(lowest, p);
     }
     ++renders_;
+    render_seconds_ += seconds_since(start);
     return std::pair{sum / double(set.cameras.size()), lowest};
   }
 
@@ -360,6 +366,7 @@ class Measurer {
   std::shared_ptr<const format::ArchiveScene> other_points_;
   uint64_t overhead_ = 0;
   uint32_t renders_ = 0;
+  double encode_seconds_ = 0, render_seconds_ = 0;
 };
 
 std::string group_digits(uint64_t n) {
@@ -962,6 +969,8 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   if (result.finest) result.finest->options.zstd_level = file_zstd_level;
   result.encodings = measurer.encodings();
   result.renders = measurer.renders();
+  result.encode_seconds = measurer.encode_seconds();
+  result.render_seconds = measurer.render_seconds();
   result.device = measurer.device_name();
   result.seconds = seconds_since(start);
   return result;

@@ -12,6 +12,7 @@
 #include <limits>
 #include <new>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <xxhash.h>
@@ -506,19 +507,38 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
 struct QuantKey {
   int32_t q[3];
   uint32_t index;
-  bool operator<(const QuantKey& b) const {
-    if (q[0] != b.q[0]) return q[0] < b.q[0];
-    if (q[1] != b.q[1]) return q[1] < b.q[1];
-    if (q[2] != b.q[2]) return q[2] < b.q[2];
-    return index < b.index;
-  }
   bool same_point(const QuantKey& b) const { return q[0] == b.q[0] && q[1] == b.q[1] && q[2] == b.q[2]; }
 };
+
+/// Sorts `keys` by point (q[0], then q[1], then q[2], as unsigned), equal points in their present order: a stable
+/// LSD radix sort of 11-bit digits over the bits the coordinates use (bits of the position quantization: 3 to 9
+/// passes instead of a comparison sort's 22 levels for 4M points).
+void sort_by_point(std::vector<QuantKey>* keys) {
+  constexpr int kDigitBits = 11;
+  constexpr size_t kBuckets = size_t{1} << kDigitBits;
+  uint32_t used = 0;
+  for (const QuantKey& k : *keys) used |= uint32_t(k.q[0]) | uint32_t(k.q[1]) | uint32_t(k.q[2]);
+  int width = 0;
+  while (width < 32 && (used >> width) != 0) ++width;
+  std::vector<QuantKey> other(keys->size());
+  std::vector<size_t> start(kBuckets);
+  for (int a = 2; a >= 0; --a) {
+    for (int shift = 0; shift < width; shift += kDigitBits) {
+      auto digit = [a, shift](const QuantKey& k) { return (uint32_t(k.q[a]) >> shift) & (kBuckets - 1); };
+      std::fill(start.begin(), start.end(), 0);
+      for (const QuantKey& k : *keys) ++start[digit(k)];
+      size_t sum = 0;
+      for (size_t& c : start) sum += std::exchange(c, sum);
+      for (const QuantKey& k : *keys) other[start[digit(k)]++] = k;
+      keys->swap(other);
+    }
+  }
+}
 
 /// §3.3.1 Draco-codes the means and finds, for each decoded point, the source Gaussian it came from: the
 /// kd-tree coder emits points in its own order. Points are matched by their quantized coordinates
 /// (computed with Draco's own quantizer); points with equal coordinates decode to equal means, so any
-/// pairing among them is exact.
+/// pairing among them is exact; equal points pair in index order, so the file does not depend on the sort.
 Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, const ArchiveOptions& o,
                     std::vector<uint8_t>* stored, std::vector<float>* decoded_means, std::vector<uint64_t>* order) {
   const uint64_t n = s.count;
@@ -539,15 +559,12 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
   pc.reset();
   stored->assign(reinterpret_cast<const uint8_t*>(buffer.data()),
                  reinterpret_cast<const uint8_t*>(buffer.data()) + buffer.size());
-  decoded_means->resize(static_cast<size_t>(n * 3));
-  RGS_RETURN_IF_ERROR(detail::decode_draco_means(stored->data(), stored->size(), n,
-                                                 reinterpret_cast<uint8_t*>(decoded_means->data()), n * 12));
-  if constexpr (!detail::kHostLittleEndian) {
-    for (float& v : *decoded_means) v = detail::load_f32_le(reinterpret_cast<const uint8_t*>(&v));
-  }
 
-  // Draco's own quantized coordinates of the decoded points, and the parameters it really used (its
-  // kd-tree coder derives them itself), so that the source points are quantized exactly as it did.
+  // The stream decoded once, to Draco's quantized coordinates and the parameters it really used (its kd-tree
+  // coder derives them itself): the source points are quantized exactly as it did, and the decoded means are
+  // what its decoder returns, each coordinate q * (range / (2^bits - 1)) + min in float32, as Draco's
+  // AttributeQuantizationTransform::InverseTransformAttribute computes it (this file is built without FMA
+  // contraction; the tests compare the file's own decode with these means bit for bit).
   draco::DecoderBuffer raw_buffer;
   raw_buffer.Init(buffer.data(), buffer.size());
   draco::Decoder raw_decoder;
@@ -558,15 +575,21 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
   const std::unique_ptr<draco::PointCloud> qpc = std::move(raw).value();
   const draco::PointAttribute* qatt = qpc->GetNamedAttribute(draco::GeometryAttribute::POSITION);
   draco::AttributeQuantizationTransform transform;
-  if (qatt == nullptr || !transform.InitFromAttribute(*qatt) ||
+  if (qpc->num_points() != n || qatt == nullptr || !transform.InitFromAttribute(*qatt) ||
       transform.quantization_bits() != static_cast<int>(pq->bits)) {
     return invalid("internal error: Draco's stream lacks the position quantization");
   }
   for (int a = 0; a < 3; ++a) pq->origin[a] = transform.min_value(a);
   pq->range = transform.range();
   pq->step = static_cast<double>(pq->range) / static_cast<double>((uint64_t{1} << pq->bits) - 1);
+  const int32_t max_quantized = static_cast<int32_t>((uint32_t{1} << pq->bits) - 1);
   draco::Quantizer quantizer;
-  quantizer.Init(transform.range(), static_cast<int32_t>((uint32_t{1} << pq->bits) - 1));
+  quantizer.Init(transform.range(), max_quantized);
+  draco::Dequantizer dequantizer;
+  if (!dequantizer.Init(transform.range(), max_quantized)) {
+    return invalid("internal error: Draco's position range " + std::to_string(transform.range()) + " is unusable");
+  }
+  decoded_means->resize(static_cast<size_t>(n * 3));
   std::vector<QuantKey> src(n), dst(n);
   for (uint64_t i = 0; i < n; ++i) {
     src[i].index = dst[i].index = static_cast<uint32_t>(i);
@@ -575,10 +598,12 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
     for (int a = 0; a < 3; ++a) {
       src[i].q[a] = quantizer.QuantizeFloat(s.means[i * 3 + a] - transform.min_value(a));
       dst[i].q[a] = q[a];
+      const float value = dequantizer.DequantizeFloat(q[a]);
+      (*decoded_means)[i * 3 + a] = value + transform.min_value(a);
     }
   }
-  std::sort(src.begin(), src.end());
-  std::sort(dst.begin(), dst.end());
+  sort_by_point(&src);
+  sort_by_point(&dst);
   order->assign(static_cast<size_t>(n), 0);
   for (uint64_t i = 0; i < n; ++i) {
     if (!src[i].same_point(dst[i])) {

@@ -122,7 +122,8 @@ bool records_pass(SectionId id, const SceneMetadata& metadata, const uint8_t* p,
 Status check_zstd_frame_header(const uint8_t* src, size_t stored_size, uint64_t raw_size);
 /// Turns a zstd error code into kChecksumMismatch (content checksum) or kCorruptData (reader.cpp).
 Status zstd_error_status(size_t code, const std::string& what);
-/// Runs the jobs on up to `threads` threads (the calling one included; fewer when no thread can be started);
+/// Runs the jobs on up to `threads` threads (0: the machine's hardware threads), never more than there are jobs
+/// (the calling one included; fewer when no thread can be started);
 /// job j's result goes to (*results)[j], an exception escaping it to kOutOfMemory "out of memory <what>"
 /// (writer.cpp).
 void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,

@@ -121,8 +121,10 @@ void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, cons
       }
     }
   };
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = static_cast<uint32_t>(std::min<size_t>(threads, jobs.size()));
   std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < std::max<uint32_t>(1, threads); ++t) {
+  for (uint32_t t = 1; t < threads; ++t) {
     try {
       pool.emplace_back(worker);
     } catch (const std::system_error&) {

@@ -1371,7 +1371,8 @@ PYBIND11_MODULE(roofgs, m) {
               py::arg("search_psnr_db") = f.search_psnr_db, py::arg("settings") = settings,
               py::arg("views") = f.views, py::arg("width") = f.width, py::arg("height") = f.height,
               py::arg("backend") = audit::backend_name(f.backend), py::arg("encodings") = f.encodings,
-              py::arg("renders") = f.renders, py::arg("seconds") = f.seconds);
+              py::arg("renders") = f.renders, py::arg("seconds") = f.seconds,
+              py::arg("encode_seconds") = f.encode_seconds, py::arg("render_seconds") = f.render_seconds);
           return d;
         },
         py::arg("src"), py::arg("dst"),
@@ -1387,7 +1388,8 @@ PYBIND11_MODULE(roofgs, m) {
         "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
         "or an orbit (default 4 at 960x540), at width x height; the dict then has rate_control: psnr_mean_db, "
         "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, rotation_step, scale_bits, "
-        "scale_step, opacity_bits, opacity_step, sh_step_multipliers), views, width, height, backend, encodings, renders, seconds");
+        "scale_step, opacity_bits, opacity_step, sh_step_multipliers), views, width, height, backend, encodings, renders, seconds (of which "
+        "encode_seconds encoding the candidates and render_seconds loading and rendering them)");
   m.def("save",
         [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
            const py::object& scales, const py::object& opacities, const py::object& sh, const py::kwargs& kwargs) {

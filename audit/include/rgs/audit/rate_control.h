@@ -101,6 +101,9 @@ struct FitResult {
   Backend backend = Backend::kCpu;
   std::string device;                      ///< "CPU reference renderer" or "CUDA device N"
   double seconds = 0;                      ///< wall time of fit_archive
+  /// Of `seconds`: encoding the candidates (format::encode_archive), and loading and rendering them with the
+  /// PSNR against the source (the source's own renders not included).
+  double encode_seconds = 0, render_seconds = 0;
 };
 
 /// Chooses the archive options for `source` (activated float Gaussians, as read) on `cameras`:
