@@ -131,6 +131,7 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
                       {"scale_step", a.scale_step},
                       {"opacity_bits", a.opacity_bits},
                       {"opacity_step", a.opacity_step},
+                      {"opacity_floor", a.opacity_floor},
                       {"sh_step_multipliers", a.sh_step_multipliers}}},
         {"views", f.views},
         {"width", f.width},
@@ -186,9 +187,11 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
                 tools::fixed(double(r.output_bytes) / double(std::max<uint64_t>(r.gaussians, 1)), 2).c_str(),
                 tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.archive.position_error).c_str());
     if (q.archive_omitted > 0) {
+      const double floor = opt.convert.archive.opacity_floor;
       std::printf("  omitted          %s Gaussians whose opacity code is 0 (they decode to opacity 0, which no "
-                  "renderer draws)\n",
-                  tools::group_digits(q.archive_omitted).c_str());
+                  "renderer draws)%s\n",
+                  tools::group_digits(q.archive_omitted).c_str(),
+                  floor > 0 ? (" or whose opacity is below " + tools::fixed(255 * floor, 2) + "/255").c_str() : "");
     }
   } else if (q.lod_levels > 0) {
     std::printf("  profile          runtime, levels of detail: %u chunks x %u levels, %s Gaussians in all (%s x the "

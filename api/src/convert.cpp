@@ -258,7 +258,8 @@ std::string options_text(const ConvertOptions& options) {
     const format::ArchiveOptions& a = options.archive;
     text << " profile=archive position_error=" << a.position_error << " rotation_bits=" << a.rotation_bits
          << " rotation_step=" << a.rotation_step << " scale_bits=" << a.scale_bits << " scale_step=" << a.scale_step
-         << " opacity_bits=" << a.opacity_bits << " opacity_step=" << a.opacity_step << " sh_step_multipliers="
+         << " opacity_bits=" << a.opacity_bits << " opacity_step=" << a.opacity_step
+         << " opacity_floor=" << a.opacity_floor << " sh_step_multipliers="
          << a.sh_step_multipliers[0] << "," << a.sh_step_multipliers[1] << "," << a.sh_step_multipliers[2] << ","
          << a.sh_step_multipliers[3] << " sh_codebook_size=" << a.sh_codebook_size;
   }

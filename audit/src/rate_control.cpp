@@ -42,6 +42,10 @@ constexpr std::array<uint32_t, 24> kMultipliers = {1,  2,  3,  4,  5,  6,  7,  8
 /// The code step knobs (ArchiveOptions::rotation_step, scale_step, opacity_step) move by quarter bits, up to 4
 /// bits past the bits' own step: finer than a bit, and below the format's 4-bit minimum.
 constexpr double kMaxCodeStep = 16;
+/// The opacity floor (ArchiveOptions::opacity_floor) moves from 0 to 1/255, which leaves out only Gaussians that
+/// never blend in the source (α ≤ opacity < 1/255), then by factors of √2 up to this: each step leaves out Gaussians that can
+/// blend, the faintest first. Floors the opacity code 0 already covers are skipped.
+constexpr double kMaxOpacityFloor = 32.0 / 255;
 /// The fine scan of an SH multiplier tries at most this many integers above it.
 constexpr uint32_t kFineMultipliers = 16;
 /// Rounds of one-knob steps after the ladder, and of code steps at the end: bounds on the search's time.
@@ -68,10 +72,12 @@ constexpr double kCalibrationMarginDb = 0.15;
 /// The knobs the search moves, one at a time: kKnobs in the rounds, kCodeSteps in a kTargetPsnr search's last
 /// stage (Search::fill_for_psnr).
 enum class Knob {
-  kRotation, kScale, kOpacity, kSh0, kSh1, kSh2, kSh3, kPosition, kRotationStep, kScaleStep, kOpacityStep
+  kRotation, kScale, kOpacity, kSh0, kSh1, kSh2, kSh3, kPosition, kOpacityFloor, kRotationStep, kScaleStep,
+  kOpacityStep
 };
-constexpr std::array<Knob, 8> kKnobs = {Knob::kRotation, Knob::kScale, Knob::kOpacity, Knob::kSh0,
-                                        Knob::kSh1,      Knob::kSh2,   Knob::kSh3,     Knob::kPosition};
+constexpr std::array<Knob, 9> kKnobs = {Knob::kRotation, Knob::kScale, Knob::kOpacity,
+                                        Knob::kSh0,      Knob::kSh1,   Knob::kSh2,
+                                        Knob::kSh3,      Knob::kPosition, Knob::kOpacityFloor};
 constexpr std::array<Knob, 3> kCodeSteps = {Knob::kRotationStep, Knob::kScaleStep, Knob::kOpacityStep};
 
 uint32_t clamp_bits(double bits) { return uint32_t(std::clamp(std::lround(bits), long(kMinBits), long(kMaxBits))); }
@@ -126,6 +132,26 @@ std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, 
     }
     return true;
   };
+  // The floor: 0, or 2^(k/2) / 255 for k = 0 .. 2·log2(255·kMaxOpacityFloor). A floor at or below the opacities
+  // whose code is 0 (below half a code step) changes nothing, so a step skips those values, and one finer
+  // than them goes to 0.
+  auto move_floor = [&](double* floor) {
+    const long last = std::lround(2 * std::log2(255 * kMaxOpacityFloor));
+    const double code_zero = o.opacity_bits == 0 ? 0.0 : 0.5 * o.opacity_step / double((1u << o.opacity_bits) - 1);
+    auto value = [](long k) { return std::exp2(double(k) / 2) / 255; };
+    long k = *floor == 0 ? -1 : std::lround(2 * std::log2(255 * *floor));
+    if (coarser) {
+      do {
+        ++k;
+      } while (k <= last && value(k) <= code_zero);
+      if (k > last) return false;
+      *floor = value(k);
+    } else {
+      if (k < 0) return false;
+      *floor = k == 0 || value(k - 1) <= code_zero ? 0.0 : value(k - 1);
+    }
+    return true;
+  };
   bool moved = false;
   switch (knob) {
     case Knob::kRotation: moved = move_bits(&o.rotation_bits); break;
@@ -134,6 +160,7 @@ std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, 
     case Knob::kOpacity: moved = move_bits(&o.opacity_bits); break;
     case Knob::kRotationStep: moved = move_step(&o.rotation_step); break;
     case Knob::kOpacityStep: moved = move_step(&o.opacity_step); break;
+    case Knob::kOpacityFloor: moved = move_floor(&o.opacity_floor); break;
     case Knob::kSh0: moved = move_multiplier(&o.sh_step_multipliers[0]); break;
     case Knob::kSh1: moved = move_multiplier(&o.sh_step_multipliers[1]); break;
     case Knob::kSh2: moved = move_multiplier(&o.sh_step_multipliers[2]); break;
@@ -149,10 +176,11 @@ std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, 
   return o;
 }
 
-using Key = std::tuple<uint32_t, double, uint32_t, double, uint32_t, double, std::array<uint32_t, 4>, double>;
+using Key =
+    std::tuple<uint32_t, double, uint32_t, double, uint32_t, double, double, std::array<uint32_t, 4>, double>;
 Key key_of(const format::ArchiveOptions& o) {
-  return {o.rotation_bits, o.rotation_step, o.scale_bits,          o.scale_step,
-          o.opacity_bits,  o.opacity_step,  o.sh_step_multipliers, o.position_error};
+  return {o.rotation_bits, o.rotation_step, o.scale_bits,    o.scale_step,          o.opacity_bits,
+          o.opacity_step,  o.opacity_floor, o.sh_step_multipliers, o.position_error};
 }
 
 /// One set of views with the source's renders, [H, W, 3] float RGB each, rendered once.
@@ -261,7 +289,8 @@ class Measurer {
     const format::ArchiveOptions want = format::resolve_archive_options(o, quantized_.count);
     auto same_points = [&](const std::shared_ptr<const format::ArchiveScene>& a) {
       return a && a->options.position_error == want.position_error && a->options.draco_speed == want.draco_speed &&
-             a->options.opacity_bits == want.opacity_bits && a->options.opacity_step == want.opacity_step;
+             a->options.opacity_bits == want.opacity_bits && a->options.opacity_step == want.opacity_step &&
+             a->options.opacity_floor == want.opacity_floor;
     };
     const bool last_differs = last_ && !same_points(last_);
     const bool use_other = last_differs && same_points(other_points_);
@@ -890,6 +919,11 @@ std::string describe_archive_options(const format::ArchiveOptions& o, uint32_t s
     char steps[96];
     std::snprintf(steps, sizeof(steps), "code steps x%.3g/%.3g/%.3g; ", o.rotation_step, o.scale_step, o.opacity_step);
     text += steps;
+  }
+  if (o.opacity_floor > 0) {
+    char floor[64];
+    std::snprintf(floor, sizeof(floor), "opacity floor %.3g/255; ", 255 * o.opacity_floor);
+    text += floor;
   }
   text += "SH step x";
   for (uint32_t d = 0; d <= std::min<uint32_t>(sh_degree, 3); ++d) {

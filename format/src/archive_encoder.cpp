@@ -59,6 +59,9 @@ Status check_options(const ArchiveOptions& o) {
                      " outside 1..127");
     }
   }
+  if (!(o.opacity_floor >= 0 && o.opacity_floor < 1)) {
+    return invalid("opacity floor " + std::to_string(o.opacity_floor) + " outside [0, 1)");
+  }
   if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
     return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
   }
@@ -615,12 +618,15 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
   return Status();
 }
 
-/// Source indices of the Gaussians whose opacity code is 0 (they decode to opacity 0, which no renderer
-/// draws), ascending; none when that would be every Gaussian.
-std::vector<uint64_t> zero_opacity_gaussians(const EncodedScene& s, const ArchiveOptions& o) {
+/// Source indices of the Gaussians the archive leaves out, ascending: those whose opacity code is 0 (they decode
+/// to opacity 0, which no renderer draws) or whose opacity is below the floor; none when that would be every
+/// Gaussian.
+std::vector<uint64_t> omitted_gaussians(const EncodedScene& s, const ArchiveOptions& o) {
   std::vector<uint64_t> omitted;
   for (uint64_t i = 0; i < s.count; ++i) {
-    if (opacity_code(s.opacities[i], o) == 0) omitted.push_back(i);
+    if (opacity_code(s.opacities[i], o) == 0 || half_bits_to_float(s.opacities[i]) < o.opacity_floor) {
+      omitted.push_back(i);
+    }
   }
   if (omitted.size() == s.count) omitted.clear();
   return omitted;
@@ -737,9 +743,10 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
     ArchiveScene out;
     out.options = options;
     out.source_count = source.count;
-    // The Gaussians whose opacity code is 0 are left out (archive.h); `scene` is what is coded, Gaussian j
-    // of it source Gaussian kept[j] (`kept` is empty when nothing is left out: `scene` is `source`).
-    out.omitted = zero_opacity_gaussians(source, options);
+    // The Gaussians whose opacity code is 0 or whose opacity is below the floor are left out (archive.h);
+    // `scene` is what is coded, Gaussian j of it source Gaussian kept[j] (`kept` is empty when nothing is left
+    // out: `scene` is `source`).
+    out.omitted = omitted_gaussians(source, options);
     const std::vector<uint64_t> kept = out.omitted.empty() ? std::vector<uint64_t>{}
                                                            : kept_gaussians(source.count, out.omitted);
     EncodedScene kept_scene;

@@ -1363,7 +1363,7 @@ PYBIND11_MODULE(roofgs, m) {
           py::dict settings(py::arg("position_error") = a.position_error, py::arg("rotation_bits") = a.rotation_bits,
                             py::arg("rotation_step") = a.rotation_step, py::arg("scale_bits") = a.scale_bits,
                             py::arg("scale_step") = a.scale_step, py::arg("opacity_bits") = a.opacity_bits,
-                            py::arg("opacity_step") = a.opacity_step,
+                            py::arg("opacity_step") = a.opacity_step, py::arg("opacity_floor") = a.opacity_floor,
                             py::arg("sh_step_multipliers") = std::vector<uint32_t>(a.sh_step_multipliers.begin(),
                                                                                     a.sh_step_multipliers.end()));
           d["rate_control"] = py::dict(
@@ -1388,7 +1388,7 @@ PYBIND11_MODULE(roofgs, m) {
         "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
         "or an orbit (default 4 at 960x540), at width x height; the dict then has rate_control: psnr_mean_db, "
         "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, rotation_step, scale_bits, "
-        "scale_step, opacity_bits, opacity_step, sh_step_multipliers), views, width, height, backend, encodings, renders, seconds (of which "
+        "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, backend, encodings, renders, seconds (of which "
         "encode_seconds encoding the candidates and render_seconds loading and rendering them)");
   m.def("save",
         [](const std::filesystem::path& path, const py::object& means, const py::object& quats,

@@ -102,9 +102,55 @@ TEST_CASE("archive: options out of range are refused, naming the option") {
             std::string::npos);
     }
   }
+  for (double bad : {-0.01, 1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    CAPTURE(bad);
+    format::ArchiveOptions o;
+    o.opacity_floor = bad;
+    auto r = format::encode_archive(scene, o);
+    REQUIRE_FALSE(r.ok());
+    CHECK(r.status().message().find("opacity floor") != std::string::npos);
+  }
   format::ArchiveOptions o;
   o.rotation_bits = 3;
   CHECK_FALSE(format::encode_archive(scene, o).ok());
+}
+
+TEST_CASE("archive: an opacity floor leaves out exactly the Gaussians below it, and the file decodes to the rest") {
+  format::EncodedScene scene = make_random_scene(4000, 1, 5);
+  // Opacities spread over [0, 0.2): 16-bit codes, so no code is 0 above 1/131070 and the floor decides.
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    scene.opacities[i] = format::float_to_half_bits(0.2f * float(i % 1000) / 1000.0f);
+  }
+  format::ArchiveOptions o;
+  o.opacity_bits = 16;
+  o.opacity_floor = 0.05;
+  auto archive = format::encode_archive(scene, o);
+  REQUIRE(archive.ok());
+  std::vector<uint64_t> expected;
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    const float opacity = format::half_bits_to_float(scene.opacities[i]);
+    if (opacity < 0.05f || std::floor(opacity * 65535.0 + 0.5) == 0) expected.push_back(i);
+  }
+  CHECK(expected.size() > 900);  // the floor, not the code 0, leaves most of them out
+  CHECK(archive->omitted == expected);
+  CHECK(archive->decoded.count == scene.count - expected.size());
+  for (uint64_t i = 0; i < archive->decoded.count; ++i) {
+    CHECK(format::half_bits_to_float(scene.opacities[archive->source_index[i]]) >= 0.05f);
+  }
+  format::WriteOptions w = archive_options();
+  w.archive = o;
+  auto bytes = format::serialize_scene(scene, w);
+  REQUIRE(bytes.ok());
+  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+  REQUIRE(file.ok());
+  auto read = file->read_scene();
+  REQUIRE(read.ok());
+  check_same_scene(*read, archive->decoded);
+  // A floor of 0 leaves out only the Gaussians of opacity code 0.
+  o.opacity_floor = 0;
+  auto all = format::encode_archive(scene, o);
+  REQUIRE(all.ok());
+  CHECK(all->omitted.size() == 4);  // opacity 0 at i % 1000 == 0
 }
 
 TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to encode_archive's scene") {

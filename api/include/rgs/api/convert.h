@@ -112,7 +112,8 @@ struct RgsOutputReport {
   /// over the Gaussians it keeps.
   converter::AttributeErrors errors;
   /// Archive profile: source Gaussians left out of the file because their opacity code is 0, so that they
-  /// decode to opacity 0, which no renderer draws (format::ArchiveScene::omitted, SPEC §3.3.2).
+  /// decode to opacity 0, which no renderer draws, or their opacity is below ArchiveOptions::opacity_floor
+  /// (format::ArchiveScene::omitted, SPEC §3.3.2).
   uint64_t archive_omitted = 0;
   /// Clipped SH coefficients and FP16-flushed scales.
   converter::QuantizationReport quantization;

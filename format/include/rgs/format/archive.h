@@ -39,6 +39,10 @@ struct ArchiveOptions {
   uint32_t opacity_bits = 0;
   /// Spacing of the opacity codes the writer uses, in [1, 4096] (as rotation_step).
   double opacity_step = 1;
+  /// Gaussians whose opacity (the stored binary16 value, activated, in [0, 1]) is below this are left out too,
+  /// in [0, 1): a rate-distortion choice of rate control, which steps it from 1/255 (Gaussians that never blend
+  /// in the source: α ≤ opacity < 1/255) upwards. 0 (default): only those of opacity code 0 are left out.
+  double opacity_floor = 0;
   /// Multiplier of the INT8 SH step per degree 0..3, 1..127 (§3.3.2 transform 4); 1 keeps the runtime's
   /// INT8 values.
   std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
@@ -82,8 +86,9 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
 ///
 /// A source Gaussian whose opacity code is 0 decodes to opacity 0, which every renderer skips (α < 1/255,
 /// docs/DESIGN.md#blending-and-output): the archive omits it, so the file renders as the archive with it would,
-/// and stores decoded.count = source_count − omitted.size() Gaussians (SPEC §3.3.2). When every Gaussian's
-/// code is 0, none is omitted (the file keeps the scene's Gaussians rather than becoming empty).
+/// and stores decoded.count = source_count − omitted.size() Gaussians (SPEC §3.3.2). So does one whose opacity is
+/// below ArchiveOptions::opacity_floor. When that would be every Gaussian, none is omitted (the file keeps the
+/// scene's Gaussians rather than becoming empty).
 struct ArchiveScene {
   /// The scene as RgsFile::read_scene returns it from the archive file, in file order: means decoded
   /// from Draco, the other arrays through their transforms; metadata bounds recomputed from the decoded
@@ -93,7 +98,7 @@ struct ArchiveScene {
   std::vector<uint64_t> source_index;
   /// Gaussians in the source.
   uint64_t source_count = 0;
-  /// Source indices of the omitted Gaussians (opacity code 0), ascending.
+  /// Source indices of the omitted Gaussians (opacity code 0, or opacity below the floor), ascending.
   std::vector<uint64_t> omitted;
   ArchivePositionQuantization position;
   /// Stored bytes of the means (draco), rotations, scales, opacities and sh (quantized) sections.
