@@ -43,8 +43,8 @@ constexpr std::array<uint32_t, 24> kMultipliers = {1,  2,  3,  4,  5,  6,  7,  8
 /// bits past the bits' own step: finer than a bit, and below the format's 4-bit minimum.
 constexpr double kMaxCodeStep = 16;
 /// The opacity floor (ArchiveOptions::opacity_floor) moves from 0 to 1/255, which leaves out only Gaussians that
-/// never blend in the source (α ≤ opacity < 1/255), then by factors of √2 up to this: each step leaves out Gaussians that can
-/// blend, the faintest first. Floors the opacity code 0 already covers are skipped.
+/// never blend in the source (α ≤ opacity < 1/255), then by factors of √2 up to this: each step leaves out
+/// Gaussians that can blend, the faintest first. Floors the opacity code 0 already covers are skipped.
 constexpr double kMaxOpacityFloor = 32.0 / 255;
 /// The fine scan of an SH multiplier tries at most this many integers above it.
 constexpr uint32_t kFineMultipliers = 16;

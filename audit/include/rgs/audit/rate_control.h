@@ -1,6 +1,6 @@
 // Rate control of the archive profile: chooses format::ArchiveOptions (bits and code steps of rotations, scales
-// and opacities, SH step multipliers per degree, position error) so that the archive's render meets a PSNR
-// target against the source's render at the fewest bytes, or fits a byte budget at the best PSNR.
+// and opacities, SH step multipliers per degree, position error, opacity floor) so that the archive's render
+// meets a PSNR target against the source's render at the fewest bytes, or fits a byte budget at the best PSNR.
 // The search encodes each candidate in memory (format::encode_archive) and measures it with run_audit on
 // the given cameras, reduced in size; the choice is then checked at the cameras' own size. How it searches
 // and what it reaches: docs/AUDITS.md#rate-control-of-the-archive-profile.
@@ -50,11 +50,11 @@ struct FitOptions {
   /// Drop the SH bands above this degree before encoding (the source's render keeps them).
   std::optional<uint32_t> sh_degree;
   /// The archive options the search starts from; it chooses position_error, the bits and code steps of
-  /// rotations, scales and opacities (rotation_step etc., in quarter bits) and sh_step_multipliers, and keeps
-  /// sh_codebook_size, zstd_level, draco_speed and threads. The search codes its candidates at zstd level
-  /// min(zstd_level, kSearchZstdLevel): the level changes the bytes, not the decoded values, so the PSNR it
-  /// measures is the file's, while the bytes it counts (FitPoint::bytes) are those of the search's level (level
-  /// 19 wrote the measured fits 1-10 % smaller, docs/AUDITS.md#sh-colour-differences).
+  /// rotations, scales and opacities (rotation_step etc., in quarter bits), sh_step_multipliers and
+  /// opacity_floor, and keeps sh_codebook_size, zstd_level, draco_speed and threads. The search codes its
+  /// candidates at zstd level min(zstd_level, kSearchZstdLevel): the level changes the bytes, not the decoded
+  /// values, so the PSNR it measures is the file's, while the bytes it counts (FitPoint::bytes) are those of the
+  /// search's level (level 19 wrote the measured fits 1-10 % smaller, docs/AUDITS.md#sh-colour-differences).
   format::ArchiveOptions start;
   /// The search renders the cameras reduced (field of view kept) so that their longer side is at most this
   /// many pixels (at least 16); the final check renders them at their own size. 0: kCpuSearchMaxSide with the
