@@ -46,6 +46,8 @@ constexpr double kMaxCodeStep = 16;
 /// never blend in the source (α ≤ opacity < 1/255), then by factors of √2 up to this: each step leaves out
 /// Gaussians that can blend, the faintest first. Floors the opacity code 0 already covers are skipped.
 constexpr double kMaxOpacityFloor = 32.0 / 255;
+/// The floor below which no Gaussian can blend (α ≤ opacity).
+constexpr double kLosslessOpacityFloor = 1.0 / 255;
 /// The fine scan of an SH multiplier tries at most this many integers above it.
 constexpr uint32_t kFineMultipliers = 16;
 /// Rounds of one-knob steps after the ladder, and of code steps at the end: bounds on the search's time.
@@ -410,12 +412,13 @@ std::string db_text(double db) {
   return text;
 }
 
-/// The knobs the rounds move for a scene of SH degree `sh_degree`.
-std::vector<Knob> knobs_for(uint32_t sh_degree) {
+/// The knobs the rounds move for a scene of SH degree `sh_degree`, the opacity floor only `with_floor`.
+std::vector<Knob> knobs_for(uint32_t sh_degree, bool with_floor) {
   std::vector<Knob> out;
   for (Knob k : kKnobs) {
     const int band = int(k) - int(Knob::kSh0);
     if (band >= 0 && band <= 3 && uint32_t(band) > sh_degree) continue;
+    if (k == Knob::kOpacityFloor && !with_floor) continue;
     out.push_back(k);
   }
   return out;
@@ -423,8 +426,13 @@ std::vector<Knob> knobs_for(uint32_t sh_degree) {
 
 class Search {
  public:
-  Search(Measurer& m, const FitOptions& options, uint32_t sh_degree, format::ArchiveOptions anchor)
-      : m_(m), options_(options), knobs_(knobs_for(sh_degree)), anchor_(std::move(anchor)), sh_degree_(sh_degree) {}
+  Search(Measurer& m, const FitOptions& options, uint32_t sh_degree, format::ArchiveOptions anchor,
+         bool with_floor = true)
+      : m_(m),
+        options_(options),
+        knobs_(knobs_for(sh_degree, with_floor)),
+        anchor_(std::move(anchor)),
+        sh_degree_(sh_degree) {}
 
   void report(const std::string& what) {
     if (options_.progress) options_.progress(what);
@@ -997,6 +1005,19 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
     result.search_psnr_db = path.back().psnr_mean_db;
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
+    // The rounds are greedy: where they took a floor that leaves out Gaussians which can blend, the same search
+    // without the floor may end on a smaller file (it did for biker at 35 dB, docs/AUDITS.md#opacity-floor), so
+    // it runs too (its candidates measured before are not measured again) and the smaller choice is kept.
+    if (result.chosen.options.opacity_floor > kLosslessOpacityFloor) {
+      search.report("the same search without the opacity floor");
+      Search without(measurer, resolved, sh_degree, anchor, false);
+      FitResult other;
+      const Status s = fit_psnr(measurer, without, cameras[0], options.target_psnr_db, &other);
+      if (s.ok() && other.chosen.bytes < result.chosen.bytes) {
+        result.chosen = other.chosen;
+        result.search_psnr_db = other.search_psnr_db;
+      }
+    }
   }
   result.finest = search.finest();
   result.chosen.options.zstd_level = file_zstd_level;

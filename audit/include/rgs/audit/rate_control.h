@@ -116,8 +116,9 @@ struct FitResult {
 /// and the code steps coarsened a quarter bit at a time while the target holds; kTargetBytes: the finer step with the
 /// most dB gained per byte added). kTargetPsnr calibrates the difference between the search size and the
 /// cameras' own size at the ladder's point, and checks the search's choice at the cameras' own size,
-/// searching again with the measured difference while it misses the target or lands over 0.5 dB above it.
-/// Deterministic for a given backend.
+/// searching again with the measured difference while it misses the target or lands over 0.5 dB above it;
+/// when its choice has an opacity floor above 1/255, the same search without the floor runs too and the
+/// smaller choice is kept. Deterministic for a given backend.
 /// @return kInvalidArgument: no cameras, an empty or invalid source, a target that is not finite or positive,
 ///         a PSNR target above what the finest archive reaches (the message says what it reaches), a byte
 ///         budget below the coarsest archive (the message says its size); the errors of quantize,
