@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <tuple>
 #include <utility>
 
@@ -54,6 +55,11 @@ constexpr uint32_t kFineMultipliers = 16;
 constexpr int kMaxRounds = 10;
 constexpr int kMaxFillRounds = 24;
 constexpr uint32_t kMinBits = 4, kMaxBits = 16;
+/// Archives encoded at the same time (Measurer::encode_batch) hold at most about this much memory: each about
+/// kBatchBytesPerGaussian bytes a Gaussian besides its SH codes (its decoded arrays, stored sections, point
+/// order and the encoder's work arrays), at most one per CPU.
+constexpr uint64_t kBatchBytes = uint64_t{4} << 30;
+constexpr uint64_t kBatchBytesPerGaussian = 100;
 /// Position errors the search uses: 2^-kFinestPositionLog2 .. 2^-kCoarsestPositionLog2 of the extent.
 constexpr int kFinestPositionLog2 = 25, kCoarsestPositionLog2 = 3;
 /// The ladder's range: q = 0 is the defaults, each unit one bit (a factor 2) coarser on every knob.
@@ -197,7 +203,11 @@ struct ViewSet {
 class Measurer {
  public:
   Measurer(const AuditScene& source, format::EncodedScene quantized, const FitOptions& options)
-      : source_(source), quantized_(std::move(quantized)), options_(options) {}
+      : source_(source), quantized_(std::move(quantized)), options_(options) {
+    const uint64_t sh_per_gaussian = quantized_.count != 0 ? quantized_.sh.size() / quantized_.count : 0;
+    const uint64_t per_archive = std::max<uint64_t>(1, quantized_.count * (kBatchBytesPerGaussian + sh_per_gaussian));
+    batch_ = size_t(std::clamp<uint64_t>(kBatchBytes / per_archive, 1, parallel::available_cpus()));
+  }
 
   /// Creates the renderers and renders the source on both view sets. On the CPU with several threads, each
   /// worker renders whole views on one thread: a lone frame does not keep several CPUs busy (its sort and
@@ -239,8 +249,9 @@ class Measurer {
   /// Bytes of each archive (encoded when new).
   Result<std::vector<FitPoint>> bytes(const std::vector<format::ArchiveOptions>& list) {
     std::vector<FitPoint> out;
-    for (const format::ArchiveOptions& o : list) {
-      RGS_ASSIGN_OR_RETURN(const Entry* e, encode(o));
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (i % batch_ == 0) RGS_RETURN_IF_ERROR(encode_batch(list, i, std::min(list.size(), i + batch_)));
+      RGS_ASSIGN_OR_RETURN(const Entry* e, encode(list[i]));
       out.push_back(e->point);
       out.back().bytes += overhead_;
     }
@@ -250,7 +261,9 @@ class Measurer {
   /// Bytes and PSNR on the search views (final: on the cameras at their own size, never cached).
   Result<std::vector<FitPoint>> measure(const std::vector<format::ArchiveOptions>& list, bool final = false) {
     std::vector<FitPoint> out;
-    for (const format::ArchiveOptions& o : list) {
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (i % batch_ == 0) RGS_RETURN_IF_ERROR(encode_batch(list, i, std::min(list.size(), i + batch_)));
+      const format::ArchiveOptions& o = list[i];
       RGS_ASSIGN_OR_RETURN(Entry * e, encode(o));
       FitPoint p = e->point;
       if (final || std::isnan(p.psnr_mean_db)) {
@@ -288,28 +301,84 @@ class Measurer {
   /// the Gaussians left out) and the last one with other points does not: then Draco, the slowest section,
   /// need not run again when the search steps back from a trial of the opacity or the position error.
   Result<std::shared_ptr<const format::ArchiveScene>> encode_archive(const format::ArchiveOptions& o) {
-    const format::ArchiveOptions want = format::resolve_archive_options(o, quantized_.count);
-    auto same_points = [&](const std::shared_ptr<const format::ArchiveScene>& a) {
-      return a && a->options.position_error == want.position_error && a->options.draco_speed == want.draco_speed &&
-             a->options.opacity_bits == want.opacity_bits && a->options.opacity_step == want.opacity_step &&
-             a->options.opacity_floor == want.opacity_floor;
-    };
-    const bool last_differs = last_ && !same_points(last_);
-    const bool use_other = last_differs && same_points(other_points_);
-    const format::ArchiveScene* earlier = use_other ? other_points_.get() : last_.get();
     const auto start = Clock::now();
-    RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, earlier));
+    RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, lender(o)));
     encode_seconds_ += seconds_since(start);
-    if (last_differs) other_points_ = std::move(last_);
-    last_ = std::make_shared<const format::ArchiveScene>(std::move(archive));
+    return keep_last(std::make_shared<const format::ArchiveScene>(std::move(archive)));
+  }
+
+  /// Whether `a` codes the same points for Draco as options `o` will (the same position error and the same
+  /// opacity settings, which decide the Gaussians left out).
+  bool same_points(const std::shared_ptr<const format::ArchiveScene>& a, const format::ArchiveOptions& o) const {
+    const format::ArchiveOptions want = format::resolve_archive_options(o, quantized_.count);
+    return a && a->options.position_error == want.position_error && a->options.draco_speed == want.draco_speed &&
+           a->options.opacity_bits == want.opacity_bits && a->options.opacity_step == want.opacity_step &&
+           a->options.opacity_floor == want.opacity_floor;
+  }
+
+  /// The archive encode_archive lends its sections to `o` (see encode_archive).
+  const format::ArchiveScene* lender(const format::ArchiveOptions& o) const {
+    const bool last_differs = last_ && !same_points(last_, o);
+    return last_differs && same_points(other_points_, o) ? other_points_.get() : last_.get();
+  }
+
+  /// Makes `a` the last archive encoded (and the one before it the last with other points when they differ).
+  std::shared_ptr<const format::ArchiveScene> keep_last(std::shared_ptr<const format::ArchiveScene> a) {
+    if (last_ && !same_points(last_, a->options)) other_points_ = std::move(last_);
+    last_ = std::move(a);
     return last_;
+  }
+
+  /// Encodes the archives of list[begin, end) not encoded before at the same time, one worker each (its
+  /// sections coded one after another), each lent sections by the archive encode_archive would lend it before
+  /// the batch: the candidates of one step of the search differ from one another, not from the archive they
+  /// step from. The bytes and decoded values do not depend on the workers or the lender (format::encode_archive).
+  Status encode_batch(const std::vector<format::ArchiveOptions>& list, size_t begin, size_t end) {
+    std::vector<format::ArchiveOptions> todo;
+    std::vector<Key> keys;
+    for (size_t i = begin; i < end; ++i) {
+      const Key k = key_of(list[i]);
+      if (cache_.count(k) != 0 || std::find(keys.begin(), keys.end(), k) != keys.end()) continue;
+      keys.push_back(k);
+      todo.push_back(list[i]);
+    }
+    if (todo.size() < 2) return Status();  // encode() codes a lone archive with all its threads
+    const unsigned cpus = parallel::available_cpus();
+    std::vector<const format::ArchiveScene*> lenders;
+    for (format::ArchiveOptions& o : todo) {
+      lenders.push_back(lender(o));
+      o.threads = std::max(1u, cpus / unsigned(todo.size()));
+    }
+    std::vector<std::optional<format::ArchiveScene>> archives(todo.size());
+    std::vector<Status> results(todo.size());
+    const auto start = Clock::now();
+    RGS_RETURN_IF_ERROR(parallel::parallel_items(todo.size(), cpus, [&](unsigned, uint64_t i) {
+      auto a = format::encode_archive(quantized_, todo[i], lenders[i]);
+      if (a.ok()) {
+        archives[i] = std::move(a).value();
+      } else {
+        results[i] = a.status();
+      }
+    }));
+    encode_seconds_ += seconds_since(start);
+    for (size_t i = 0; i < todo.size(); ++i) {
+      RGS_RETURN_IF_ERROR(results[i]);
+      todo[i].threads = options_.start.threads;
+      add_entry(todo[i], keep_last(std::make_shared<const format::ArchiveScene>(std::move(*archives[i]))));
+    }
+    return Status();
   }
 
   Result<Entry*> encode(const format::ArchiveOptions& o) {
     auto it = cache_.find(key_of(o));
     if (it != cache_.end()) return &it->second;
+    RGS_ASSIGN_OR_RETURN(std::shared_ptr<const format::ArchiveScene> archive, encode_archive(o));
+    return add_entry(o, std::move(archive));
+  }
+
+  Entry* add_entry(const format::ArchiveOptions& o, std::shared_ptr<const format::ArchiveScene> archive) {
     Entry e;
-    RGS_ASSIGN_OR_RETURN(e.archive, encode_archive(o));
+    e.archive = std::move(archive);
     e.point.options = o;
     for (const std::vector<uint8_t>& s : e.archive->stored) e.sections += s.size();
     e.point.bytes = e.sections;
@@ -397,6 +466,7 @@ class Measurer {
   std::shared_ptr<const format::ArchiveScene> other_points_;
   uint64_t overhead_ = 0;
   uint32_t renders_ = 0;
+  size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
   double encode_seconds_ = 0, render_seconds_ = 0;
 };
 
