@@ -329,9 +329,9 @@ class Measurer {
     return last_;
   }
 
-  /// Encodes the archives of list[begin, end) not encoded before at the same time, one worker each (its
-  /// sections coded one after another), each lent sections by the archive encode_archive would lend it before
-  /// the batch: the candidates of one step of the search differ from one another, not from the archive they
+  /// Encodes the archives of list[begin, end) not encoded before at the same time, one worker each (the CPUs
+  /// shared among them for their sections), each lent sections by the archive encode_archive would lend it
+  /// before the batch: the candidates of one step of the search differ from one another, not from the archive they
   /// step from. The bytes and decoded values do not depend on the workers or the lender (format::encode_archive).
   Status encode_batch(const std::vector<format::ArchiveOptions>& list, size_t begin, size_t end) {
     std::vector<format::ArchiveOptions> todo;
