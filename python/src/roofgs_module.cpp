@@ -1388,8 +1388,9 @@ PYBIND11_MODULE(roofgs, m) {
         "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
         "or an orbit (default 4 at 960x540), at width x height; the dict then has rate_control: psnr_mean_db, "
         "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, rotation_step, scale_bits, "
-        "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, backend, encodings, renders, seconds (of which "
-        "encode_seconds encoding the candidates and render_seconds loading and rendering them)");
+        "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, "
+        "backend, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
+        "render_seconds loading and rendering them)");
   m.def("save",
         [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
            const py::object& scales, const py::object& opacities, const py::object& sh, const py::kwargs& kwargs) {
