@@ -55,9 +55,10 @@ constexpr uint32_t kFineMultipliers = 16;
 constexpr int kMaxRounds = 10;
 constexpr int kMaxFillRounds = 24;
 constexpr uint32_t kMinBits = 4, kMaxBits = 16;
-/// Archives encoded at the same time (Measurer::encode_batch) hold at most about this much memory: each about
-/// kBatchBytesPerGaussian bytes a Gaussian besides its SH codes (its decoded arrays, stored sections, point
-/// order and the encoder's work arrays), at most one per CPU.
+/// Archives encoded at the same time (Measurer::encode_batch): at most one per CPU, and as many as fit this much
+/// memory when each is estimated at kBatchBytesPerGaussian bytes a Gaussian besides its SH codes (its decoded
+/// arrays, stored sections, point order and the encoder's work arrays; an upper estimate, the peak RSS measured
+/// with batches is in docs/AUDITS.md#rate-control-of-the-archive-profile---target-psnr---target-bytes).
 constexpr uint64_t kBatchBytes = uint64_t{4} << 30;
 constexpr uint64_t kBatchBytesPerGaussian = 100;
 /// Position errors the search uses: 2^-kFinestPositionLog2 .. 2^-kCoarsestPositionLog2 of the extent.

@@ -25,6 +25,20 @@ format::WriteOptions archive_options() {
   return o;
 }
 
+/// The archive file of `scene` written with `options` decodes to `decoded` (encode_archive's scene).
+void check_file_decodes_to(const format::EncodedScene& scene, const format::ArchiveOptions& options,
+                           const format::EncodedScene& decoded) {
+  format::WriteOptions w = archive_options();
+  w.archive = options;
+  auto bytes = format::serialize_scene(scene, w);
+  REQUIRE(bytes.ok());
+  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
+  REQUIRE(file.ok());
+  auto read = file->read_scene();
+  REQUIRE(read.ok());
+  check_same_scene(*read, decoded);
+}
+
 /// Index of the table entry of section `id` in a serialized file.
 size_t entry_index(const std::vector<uint8_t>& b, format::SectionId id) {
   const uint32_t count = get_u32(b, 32);
@@ -74,16 +88,7 @@ TEST_CASE("archive: sections lent by an earlier archive give the archive encoded
     CHECK(lent->position.bits == fresh->position.bits);
     check_same_scene(lent->decoded, fresh->decoded);
     // What was lent is what a reader decodes from the lent bytes.
-    format::WriteOptions w;
-    w.profile = format::StorageProfile::kArchive;
-    w.archive = variants[v];
-    auto bytes = format::serialize_scene(scene, w);
-    REQUIRE(bytes.ok());
-    auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
-    REQUIRE(file.ok());
-    auto read = file->read_scene();
-    REQUIRE(read.ok());
-    check_same_scene(*read, lent->decoded);
+    check_file_decodes_to(scene, variants[v], lent->decoded);
   }
   CHECK_FALSE(format::encode_archive(make_random_scene(10, 0, 1), base, &*earlier).ok());
 }
@@ -137,15 +142,7 @@ TEST_CASE("archive: an opacity floor leaves out exactly the Gaussians below it, 
   for (uint64_t i = 0; i < archive->decoded.count; ++i) {
     CHECK(format::half_bits_to_float(scene.opacities[archive->source_index[i]]) >= 0.05f);
   }
-  format::WriteOptions w = archive_options();
-  w.archive = o;
-  auto bytes = format::serialize_scene(scene, w);
-  REQUIRE(bytes.ok());
-  auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
-  REQUIRE(file.ok());
-  auto read = file->read_scene();
-  REQUIRE(read.ok());
-  check_same_scene(*read, archive->decoded);
+  check_file_decodes_to(scene, o, archive->decoded);
   // A floor of 0 leaves out only the Gaussians of opacity code 0.
   o.opacity_floor = 0;
   auto all = format::encode_archive(scene, o);
