@@ -1,12 +1,14 @@
 # Third-party dependencies, all Debian packages (see README "Dependencies").
 find_package(PkgConfig REQUIRED)
 
-# zstd: the Debian CMake config exports libzstd_static / libzstd_shared.
+# zstd: the Debian CMake config exports libzstd_shared / libzstd_static. The shared library first: Debian's
+# static archive is built without zstd's worker threads, which compress a large frame's jobs in parallel
+# (format/SPEC.md 7).
 find_package(zstd CONFIG QUIET)
-if(TARGET zstd::libzstd_static)
-  set(RGS_ZSTD_TARGET zstd::libzstd_static)
-elseif(TARGET zstd::libzstd_shared)
+if(TARGET zstd::libzstd_shared)
   set(RGS_ZSTD_TARGET zstd::libzstd_shared)
+elseif(TARGET zstd::libzstd_static)
+  set(RGS_ZSTD_TARGET zstd::libzstd_static)
 else()
   pkg_check_modules(RGS_ZSTD REQUIRED IMPORTED_TARGET libzstd)
   set(RGS_ZSTD_TARGET PkgConfig::RGS_ZSTD)

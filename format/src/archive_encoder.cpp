@@ -1,8 +1,8 @@
 // Encoder of the archive profile (SPEC §3.3): Draco means in kd-tree order, quantized other sections.
 //
-// Determinism: Draco runs single-threaded; each quantized section is one single-threaded zstd frame with
-// fixed parameters; sections are coded on parallel threads but each one's bytes depend only on its input,
-// so the output does not depend on the number of threads.
+// Determinism: Draco runs single-threaded; each quantized section is one zstd frame with fixed parameters (its
+// jobs of a fixed size, whatever the workers); sections are coded on parallel threads but each one's bytes
+// depend only on its input, so the output does not depend on the number of threads.
 
 #include <algorithm>
 #include <array>
@@ -12,6 +12,7 @@
 #include <limits>
 #include <new>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -86,9 +87,10 @@ struct CodePlanes {
   }
 };
 
-/// Header (§3.3.2; the codebook transform adds its size, §3.3.3) + zstd frame of the codes.
+/// Header (§3.3.2; the codebook transform adds its size, §3.3.3) + zstd frame of the codes, at `o.zstd_level`
+/// with up to `o.threads` workers (encode_archive sets them for each section).
 Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t components,
-                        const std::vector<float>& params, const std::vector<uint8_t>& codes, int level,
+                        const std::vector<float>& params, const std::vector<uint8_t>& codes, const ArchiveOptions& o,
                         std::vector<uint8_t>* out, uint32_t codebook_size = 0) {
   const bool codebook = transform == QuantizedTransform::kShCodebook;
   out->assign(detail::kQuantizedHeaderSize + 4 * params.size() + (codebook ? 4 : 0), 0);
@@ -98,7 +100,7 @@ Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t co
   detail::store_u32_le(out->data() + 4, components);
   for (size_t p = 0; p < params.size(); ++p) detail::store_f32_le(out->data() + 8 + 4 * p, params[p]);
   if (codebook) detail::store_u32_le(out->data() + 8 + 4 * params.size(), codebook_size);
-  return detail::compress_zstd_frame(codes.data(), codes.size(), level, out);
+  return detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out);
 }
 
 /// The SH step multipliers as the parameters of transforms 4 and 5.
@@ -177,7 +179,7 @@ Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& orde
     }
     for (uint32_t c = 0; c < 3; ++c) codes.set(c + 1, i, code[c]);
   }
-  return finish_quantized(QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o, out);
 }
 
 Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
@@ -215,7 +217,7 @@ Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, 
       codes.set(a, i, !std::isfinite(v) || step == 0 ? 0 : round_code((v - params[a]) / step, max_code));
     }
   }
-  return finish_quantized(QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o, out);
 }
 
 /// The opacity code of a stored opacity (binary16 bits).
@@ -228,7 +230,7 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
                         std::vector<uint8_t>* out) {
   CodePlanes codes(s.count, 1, o.opacity_bits);
   for (uint64_t i = 0; i < s.count; ++i) codes.set(0, i, opacity_code(s.opacities[order[i]], o));
-  return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o, out);
 }
 
 /// §3.3.2 transform 6: transform 4's codes with each (R, G, B) triple stored as (R - G, G, B - G) modulo 256, since
@@ -257,8 +259,8 @@ Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, cons
       }
     }
   }
-  return finish_quantized(QuantizedTransform::kShColourDifferences, 8, values, sh_params(o), codes.bytes,
-                          o.zstd_level, out);
+  return finish_quantized(QuantizedTransform::kShColourDifferences, 8, values, sh_params(o), codes.bytes, o,
+                          out);
 }
 
 /// One cell of the SH codebook's splitting tree: Gaussians ids[begin, end) and the exact integer sums of
@@ -502,7 +504,7 @@ Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& or
     for (uint32_t b = 0; b < width; ++b) planes[b * n + i] = static_cast<uint8_t>(index[i] >> (8 * b));
   }
   index = {};  // before the frame's compression buffer is allocated
-  return finish_quantized(QuantizedTransform::kShCodebook, bits, values, sh_params(o), frame, o.zstd_level,
+  return finish_quantized(QuantizedTransform::kShCodebook, bits, values, sh_params(o), frame, o,
                           out, static_cast<uint32_t>(k));
 }
 
@@ -788,19 +790,24 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
                                e->opacity_step == options.opacity_step,
                            same_zstd && e->sh_step_multipliers == options.sh_step_multipliers &&
                                e->sh_codebook_size == options.sh_codebook_size};
+    // The sections to code share the threads: each its own, and its zstd frame's jobs (§7) the threads over.
+    const uint32_t threads = options.threads != 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+    const uint32_t coded = static_cast<uint32_t>(std::count(reuse + 1, reuse + 5, false));
+    ArchiveOptions section = options;
+    section.threads = std::max(1u, (threads + std::max(coded, 1u) - 1) / std::max(coded, 1u));
     std::vector<std::function<Status()>> jobs;
     if (!reuse[4]) {
       jobs.push_back([&] {
         bool codebook = false;
         if (scene.metadata.sh_degree > 0) {
-          RGS_RETURN_IF_ERROR(encode_sh_codebook(scene, order, options, &out.stored[4], &codebook));
+          RGS_RETURN_IF_ERROR(encode_sh_codebook(scene, order, section, &out.stored[4], &codebook));
         }
-        return codebook ? Status() : encode_sh(scene, order, options, &out.stored[4]);
+        return codebook ? Status() : encode_sh(scene, order, section, &out.stored[4]);
       });
     }
-    if (!reuse[1]) jobs.push_back([&] { return encode_rotations(scene, order, options, &out.stored[1]); });
-    if (!reuse[2]) jobs.push_back([&] { return encode_scales(scene, order, options, &out.stored[2]); });
-    if (!reuse[3]) jobs.push_back([&] { return encode_opacities(scene, order, options, &out.stored[3]); });
+    if (!reuse[1]) jobs.push_back([&] { return encode_rotations(scene, order, section, &out.stored[1]); });
+    if (!reuse[2]) jobs.push_back([&] { return encode_scales(scene, order, section, &out.stored[2]); });
+    if (!reuse[3]) jobs.push_back([&] { return encode_opacities(scene, order, section, &out.stored[3]); });
     std::vector<Status> results;
     detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);

@@ -84,15 +84,30 @@ Status check_zstd_level(int level) {
   return Status();
 }
 
-Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, std::vector<uint8_t>* out) {
+Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, uint32_t workers, std::vector<uint8_t>* out) {
   std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
   if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
-  // §7 Single-threaded, content size and checksum in every frame: deterministic, self-checking.
+  // §7 Content size and checksum in every frame (self-checking); jobs of a fixed size, so that the bytes do not
+  // depend on the workers. Each worker holds a compression context (about 80 MB at level 19): no more of them
+  // than the frame has jobs.
+  const size_t jobs = std::max<size_t>(1, (size + kZstdJobBytes - 1) / kZstdJobBytes);
+  const int threads = static_cast<int>(std::clamp<size_t>(workers, 1, std::min<size_t>(jobs, 256)));
   for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, level}, std::pair{ZSTD_c_checksumFlag, 1},
-                              std::pair{ZSTD_c_contentSizeFlag, 1}, std::pair{ZSTD_c_nbWorkers, 0}}) {
+                              std::pair{ZSTD_c_contentSizeFlag, 1}}) {
     const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
     if (ZSTD_isError(r)) {
       return Status(StatusCode::kInvalidArgument, std::string("zstd parameter rejected: ") + ZSTD_getErrorName(r));
+    }
+  }
+  // A zstd library built without threads refuses workers and writes the frame single-threaded (other bytes).
+  if (!ZSTD_isError(ZSTD_CCtx_setParameter(cctx.get(), ZSTD_c_nbWorkers, threads))) {
+    for (auto [param, value] : {std::pair{ZSTD_c_jobSize, static_cast<int>(kZstdJobBytes)},
+                                std::pair{ZSTD_c_overlapLog, kZstdOverlapLog}}) {
+      const size_t r = ZSTD_CCtx_setParameter(cctx.get(), param, value);
+      if (ZSTD_isError(r)) {
+        return Status(StatusCode::kInvalidArgument, std::string("zstd job parameter rejected: ") +
+                                                        ZSTD_getErrorName(r));
+      }
     }
   }
   const size_t start = out->size();
@@ -383,7 +398,9 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
 Status compress_sections(const WriteOptions& options, std::vector<PlannedSection>* plan) {
   for (PlannedSection& s : *plan) {
     if (s.codec != Codec::kZstd) continue;
-    Status st = detail::compress_zstd_frame(s.raw, static_cast<size_t>(s.raw_size), options.zstd_level, &s.compressed);
+    const uint32_t threads = options.threads != 0 ? options.threads : std::thread::hardware_concurrency();
+    Status st = detail::compress_zstd_frame(s.raw, static_cast<size_t>(s.raw_size), options.zstd_level, threads,
+                                            &s.compressed);
     if (!st.ok()) return st.prepend(std::string("section ") + section_name(s.id));
   }
   return Status();

@@ -57,8 +57,8 @@ struct ArchiveOptions {
   int zstd_level = 19;
   /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
   int draco_speed = 6;
-  /// Worker threads for encoding (the sections are coded in parallel, one thread each); the bytes do not depend
-  /// on it. 0 (default): one per section to code, at most the machine's hardware threads.
+  /// Worker threads for encoding: the sections are coded in parallel, and each section's zstd frame spreads its
+  /// jobs (SPEC §7) over its share; the bytes do not depend on it. 0 (default): the machine's hardware threads.
   uint32_t threads = 0;
 };
 

@@ -33,6 +33,9 @@ struct WriteOptions {
   ArchiveOptions archive;
   /// zstd compression level, 1..22 (ZSTD_maxCLevel()).
   int zstd_level = 19;
+  /// Threads compressing each zstd section of the runtime profile (its frame's jobs, SPEC §7); the bytes do not
+  /// depend on it. 0 (default): the machine's hardware threads. The archive profile takes ArchiveOptions::threads.
+  uint32_t threads = 0;
   /// A level-of-detail index of the scene (SPEC §4.9; converter::build_lod makes one): written as the lod
   /// section with its range checksums, the file then stamped 1.3 with kRequiredFlagLod. It needs the runtime
   /// profile with every per-Gaussian section stored raw. Null: an ordinary file. Not owned.
@@ -41,7 +44,7 @@ struct WriteOptions {
 
 /// Serializes `scene` (SPEC §3 layout, sections in the order metadata, provenance if non-empty, means,
 /// rotations, scales, opacities, sh, sh_dc_residual if any, lod with options.lod). Deterministic: the same scene and options give identical bytes (no
-/// timestamps; zstd single-threaded; SPEC §7). Peak memory: the output plus the zstd frames.
+/// timestamps; zstd jobs of a fixed size, whatever the threads; SPEC §7). Peak memory: the output plus the zstd frames.
 /// Errors: kInvalidArgument for inconsistent arrays, an invalid quantization (is_valid_quantization), an
 /// SH degree above 3, unknown enum values, non-finite or unordered bounds, a zstd level out of range, a
 /// codec for an unknown section, or any value validate() would reject (SPEC §4.3–§4.7: non-finite means
