@@ -607,8 +607,16 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
       (*decoded_means)[i * 3 + a] = value + transform.min_value(a);
     }
   }
-  sort_by_point(&src);
-  sort_by_point(&dst);
+  std::vector<std::function<Status()>> sorts;
+  for (std::vector<QuantKey>* keys : {&src, &dst}) {
+    sorts.push_back([keys] {
+      sort_by_point(keys);
+      return Status();
+    });
+  }
+  std::vector<Status> sorted;
+  detail::run_jobs(sorts, o.threads, "pairing Draco's points", &sorted);
+  for (const Status& st_sort : sorted) RGS_RETURN_IF_ERROR(st_sort);
   order->assign(static_cast<size_t>(n), 0);
   for (uint64_t i = 0; i < n; ++i) {
     if (!src[i].same_point(dst[i])) {
