@@ -36,9 +36,10 @@ struct EncodedScene {
 /// Decodes the runtime profile into float32 Gaussians, the way both renderers see them: FP16 widened,
 /// scales exp'd when stored as log, SH = s[d][c] * q (paper Eq. quant), the DC term refined by its residual when
 /// there is one (sh_dc_value). Rotations are returned as stored
-/// (not renormalized). Errors: kCorruptData when the arrays are inconsistent with count and degree,
-/// kOutOfMemory when the float arrays cannot be allocated.
-Result<GaussianCloud> dequantize(const EncodedScene& scene);
+/// (not renormalized). Ranges of the scene are decoded on up to `threads` threads (0: the machine's hardware
+/// threads); the values do not depend on them. Errors: kCorruptData when the arrays are inconsistent with count
+/// and degree, kOutOfMemory when the float arrays cannot be allocated.
+Result<GaussianCloud> dequantize(const EncodedScene& scene, uint32_t threads = 0);
 
 /// Dequantizes Gaussians [first, first + count) of `scene` into `out` (resized to count, sh_degree set),
 /// as dequantize() does for the whole scene; lets callers bound memory by working in chunks.
