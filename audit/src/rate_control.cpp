@@ -18,11 +18,16 @@
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/audit/image_metrics.h"
+#include "rgs/config.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/writer.h"
 #include "rgs/parallel/fork_join.h"
+
+#if RGS_HAS_CUDA
+#include "rgs/audit/gpu_image_metrics.h"
+#endif
 
 namespace rgs::audit {
 
@@ -61,6 +66,9 @@ constexpr uint32_t kMinBits = 4, kMaxBits = 16;
 /// with batches is in docs/AUDITS.md#rate-control-of-the-archive-profile---target-psnr---target-bytes).
 constexpr uint64_t kBatchBytes = uint64_t{4} << 30;
 constexpr uint64_t kBatchBytesPerGaussian = 100;
+/// On the GPU the source's renders of both view sets stay on the device, where the candidates' renders are
+/// compared with them, while they take at most this much (RGBA float32); beyond it they are kept on the host.
+constexpr uint64_t kDeviceSourceBytes = uint64_t{4} << 30;
 /// Position errors the search uses: 2^-kFinestPositionLog2 .. 2^-kCoarsestPositionLog2 of the extent.
 constexpr int kFinestPositionLog2 = 25, kCoarsestPositionLog2 = 3;
 /// The ladder's range: q = 0 is the defaults, each unit one bit (a factor 2) coarser on every knob.
@@ -192,15 +200,18 @@ Key key_of(const format::ArchiveOptions& o) {
           o.opacity_step,  o.opacity_floor, o.sh_step_multipliers, o.position_error};
 }
 
-/// One set of views with the source's renders, [H, W, 3] float RGB each, rendered once.
+/// One set of views with the source's renders, rendered once: [H, W, 3] float RGB on the host, or on the GPU
+/// (kDeviceSourceBytes) the RGBA32F images where it rendered them.
 struct ViewSet {
   std::vector<runtime::Camera> cameras;
   std::vector<std::vector<float>> source;
+  std::vector<api::Image> source_images;
 };
 
 /// Measures archives of one quantized scene: bytes by encoding, PSNR by rendering against the source's renders
-/// (run_audit's renderer settings and PSNR: the faithful preset, black background, psnr_rgb). Every archive is
-/// encoded once and rendered at most once on the search views (cached by its options).
+/// (run_audit's renderer settings and PSNR: the faithful preset, black background, the whole frame's PSNR, on
+/// the device with the GPU). Every archive is encoded once and rendered at most once on the search views (cached
+/// by its options).
 class Measurer {
  public:
   Measurer(const AuditScene& source, format::EncodedScene quantized, const FitOptions& options)
@@ -226,7 +237,19 @@ class Measurer {
     search_.cameras = std::move(search_cameras);
     final_.cameras = std::move(cameras);
     RGS_ASSIGN_OR_RETURN(api::Scene scene, load(source_.cloud, source_.bounds, "source"));
+    uint64_t source_bytes = 0;
+    for (const ViewSet* set : {&search_, &final_}) {
+      for (const runtime::Camera& cam : set->cameras) source_bytes += uint64_t{cam.width} * cam.height * 16;
+    }
     for (ViewSet* set : {&search_, &final_}) {
+      if (device_ == api::Device::kCuda && source_bytes <= kDeviceSourceBytes) {
+        for (const runtime::Camera& cam : set->cameras) {
+          auto image = renderers_[0].render_image(scene, cam, settings_);
+          if (!image.ok()) return Status(image.status()).prepend("source, view " + cam.name);
+          set->source_images.push_back(std::move(image).value());
+        }
+        continue;
+      }
       set->source.resize(set->cameras.size());
       RGS_RETURN_IF_ERROR(for_views(set->cameras.size(), [&](api::Renderer& renderer, size_t v) -> Status {
         RGS_ASSIGN_OR_RETURN(set->source[v], render_rgb(renderer, scene, set->cameras[v]));
@@ -387,12 +410,11 @@ class Measurer {
     return &cache_.emplace(key_of(o), std::move(e)).first->second;
   }
 
-  Result<api::Scene> load(const format::GaussianCloud& cloud, const format::SceneBounds& bounds,
-                          const std::string& name) {
+  Result<api::Scene> load(format::GaussianCloud cloud, const format::SceneBounds& bounds, const std::string& name) {
     api::LoadOptions load;
     load.device = device_;
     load.cuda_device = options_.audit.cuda_device;
-    return api::load_cloud(cloud, bounds, name, load);
+    return api::load_cloud(std::move(cloud), bounds, name, load);
   }
 
   /// fn(renderer, v) for every view v of [0, views), spread over the workers' renderers; the first error in view
@@ -405,6 +427,24 @@ class Measurer {
     }));
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
     return Status();
+  }
+
+  /// PSNR of `scene`'s render of view v of `set` against the source's: psnr_rgb on the host, the audit's
+  /// GpuImageComparer on the device (the same PSNR but for the order of its float64 sums).
+  Result<double> view_psnr(api::Renderer& renderer, const api::Scene& scene, const ViewSet& set, size_t v) {
+    const runtime::Camera& cam = set.cameras[v];
+#if RGS_HAS_CUDA
+    if (!set.source_images.empty()) {
+      auto image = renderer.render_image(scene, cam, settings_);
+      if (!image.ok()) return Status(image.status()).prepend(scene.info().path + ", view " + cam.name);
+      auto metrics = comparer_.compare(static_cast<const float*>(set.source_images[v].color()),
+                                       static_cast<const float*>(image->color()), cam.width, cam.height, 4);
+      if (!metrics.ok()) return Status(metrics.status()).prepend(scene.info().path + ", view " + cam.name);
+      return metrics->psnr_db;
+    }
+#endif
+    RGS_ASSIGN_OR_RETURN(const std::vector<float> rgb, render_rgb(renderer, scene, cam));
+    return psnr_rgb(set.source[v], rgb, cam.width, cam.height);
   }
 
   /// A render's clamped-later RGB as [H, W, 3] floats on the host.
@@ -436,12 +476,10 @@ class Measurer {
     const std::string name = "archive (" + describe_archive_options(e->point.options, decoded.metadata.sh_degree) + ")";
     const format::SceneBounds bounds = decoded.metadata.bounds;
     e->archive.reset();
-    RGS_ASSIGN_OR_RETURN(api::Scene scene, load(cloud, bounds, name));
+    RGS_ASSIGN_OR_RETURN(api::Scene scene, load(std::move(cloud), bounds, name));
     std::vector<double> psnr(set.cameras.size());
     RGS_RETURN_IF_ERROR(for_views(set.cameras.size(), [&](api::Renderer& renderer, size_t v) -> Status {
-      const runtime::Camera& cam = set.cameras[v];
-      RGS_ASSIGN_OR_RETURN(const std::vector<float> rgb, render_rgb(renderer, scene, cam));
-      RGS_ASSIGN_OR_RETURN(psnr[v], psnr_rgb(set.source[v], rgb, cam.width, cam.height));
+      RGS_ASSIGN_OR_RETURN(psnr[v], view_psnr(renderer, scene, set, v));
       return Status();
     }));
     double sum = 0, lowest = std::numeric_limits<double>::infinity();
@@ -460,6 +498,9 @@ class Measurer {
   api::Device device_ = api::Device::kCpu;
   std::vector<api::Renderer> renderers_;  ///< one per worker (CPU), else one
   api::RenderSettings settings_;
+#if RGS_HAS_CUDA
+  GpuImageComparer comparer_;  ///< for the one GPU worker
+#endif
   ViewSet search_, final_;
   std::map<Key, Entry> cache_;
   std::shared_ptr<const format::ArchiveScene> last_;  ///< the last archive encoded, lending its sections

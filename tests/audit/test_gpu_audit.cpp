@@ -1,7 +1,8 @@
 // The GPU side of the audit against the CPU reference: the GPU metrics on the same real renders (per-window
-// SSIM bits equal, so only the order of the final sums differs), and a whole audit of flowers on both
-// backends (the GPU renders differ from the CPU reference's through the device's expf/logf only). Each case
-// prints "skipped: no CUDA device" without a GPU, and "skipped: ..." without the real scenes.
+// SSIM bits equal, so only the order of the final sums differs), a whole audit of flowers on both
+// backends (the GPU renders differ from the CPU reference's through the device's expf/logf only), and rate
+// control on the GPU, which compares its renders on the device. Each case prints "skipped: no CUDA device"
+// without a GPU, and "skipped: ..." without the real scenes.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -9,11 +10,14 @@
 
 #include "audit_test_util.h"
 #include "rgs/api/scene.h"
+#include "rgs/api/scene_loading.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/image_metrics.h"
+#include "rgs/audit/rate_control.h"
 #include "rgs/config.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "temp_dir.h"
 
 #if RGS_HAS_CUDA
 #include <cuda_runtime_api.h>
@@ -150,6 +154,38 @@ TEST_CASE("CPU and CUDA audits of flowers agree") {
   MESSAGE("flowers, " << cams.size() << " views at 628 px on " << gpu->device << ": largest |PSNR_gpu - PSNR_cpu| "
                       << worst_psnr << " dB (tolerance " << kAgreementPsnrDb << "), |SSIM| " << worst_ssim
                       << "; CPU " << cpu->render_seconds << " s, GPU " << gpu->render_seconds << " s");
+}
+
+TEST_CASE("CUDA rate control meets a 40 dB target on guitar, measured by a CUDA audit of the written file") {
+  if (!have_cuda()) return;
+  test::TempDir dir;
+  const std::string source = test::repo_path("samples/guitar.ply");
+  const std::string out = dir.file("guitar_40db_cuda.rgs");
+  api::CameraChoice views;
+  views.orbit = 2;
+  views.orbit_width = 480;
+  views.orbit_height = 270;
+  audit::FitOptions fit;
+  fit.target_psnr_db = 40;
+  fit.audit.backend = audit::Backend::kCuda;
+  auto fitted = audit::convert_fitted(source, out, {}, views, fit);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  CHECK(fitted->fit.device.find("CUDA") != std::string::npos);
+
+  const audit::AuditScene src = test::audit_scene(source);
+  std::vector<audit::AuditScene> candidates = {test::audit_scene(out)};
+  auto cameras = api::make_cameras(views, src.bounds);
+  REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
+  audit::AuditOptions options;
+  options.worst_views = 0;
+  options.backend = audit::Backend::kCuda;
+  auto result = audit::run_audit(src, candidates, *cameras, options);
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  const double psnr = result->candidates[0].summary.psnr_mean_db;
+  CHECK(psnr >= 40);
+  CHECK(psnr <= 40.5);
+  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
+  MESSAGE("guitar at 40 dB on the GPU: " << fitted->convert.output_bytes << " bytes, " << psnr << " dB");
 }
 
 TEST_CASE("the CUDA backend without a device or CUDA build is kUnsupportedFeature") {
