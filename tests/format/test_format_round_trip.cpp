@@ -131,8 +131,8 @@ TEST_CASE("round trip: mixed codecs per section and an empty scene") {
 }
 
 TEST_CASE("determinism: a zstd section of several jobs has the same bytes whatever the threads") {
-  // 120,000 SH-3 Gaussians: a 5.8 MB sh section, two jobs of kZstdJobBytes (SPEC §7).
-  const EncodedScene scene = make_random_scene(120000, 3, 5);
+  // 200,000 SH-3 Gaussians: a 9.6 MB sh section, two jobs of kZstdJobBytes (SPEC §7).
+  const EncodedScene scene = make_random_scene(200000, 3, 5);
   WriteOptions one = all_zstd(), three = all_zstd();
   one.threads = 1;
   three.threads = 3;
