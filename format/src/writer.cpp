@@ -394,15 +394,24 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   return version;
 }
 
-/// Compresses every zstd section of `plan`.
+/// Compresses every zstd section of `plan`, the sections at the same time, the threads shared among them.
 Status compress_sections(const WriteOptions& options, std::vector<PlannedSection>* plan) {
+  const uint32_t sections = static_cast<uint32_t>(
+      std::count_if(plan->begin(), plan->end(), [](const PlannedSection& s) { return s.codec == Codec::kZstd; }));
+  const uint32_t threads = options.threads != 0 ? options.threads : std::thread::hardware_concurrency();
+  const uint32_t workers = (threads + std::max(sections, 1u) - 1) / std::max(sections, 1u);
+  std::vector<std::function<Status()>> jobs;
   for (PlannedSection& s : *plan) {
     if (s.codec != Codec::kZstd) continue;
-    const uint32_t threads = options.threads != 0 ? options.threads : std::thread::hardware_concurrency();
-    Status st = detail::compress_zstd_frame(s.raw, static_cast<size_t>(s.raw_size), options.zstd_level, threads,
-                                            &s.compressed);
-    if (!st.ok()) return st.prepend(std::string("section ") + section_name(s.id));
+    jobs.push_back([&options, &s, workers] {
+      Status st = detail::compress_zstd_frame(s.raw, static_cast<size_t>(s.raw_size), options.zstd_level, workers,
+                                              &s.compressed);
+      return st.ok() ? st : st.prepend(std::string("section ") + section_name(s.id));
+    });
   }
+  std::vector<Status> results;
+  detail::run_jobs(jobs, options.threads, "compressing sections", &results);
+  for (const Status& st : results) RGS_RETURN_IF_ERROR(st);
   return Status();
 }
 
