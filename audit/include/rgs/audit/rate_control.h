@@ -67,7 +67,8 @@ struct FitOptions {
   /// provenance (api::convert writes the source name, its hash and the options there).
   uint64_t provenance_bytes = 1024;
   /// Rendering: backend (CPU reference or CUDA), device, CPU threads; the rest is not used. The renders and
-  /// the PSNR are run_audit's (faithful preset, black background, psnr_rgb); the source is rendered once.
+  /// the PSNR are run_audit's (faithful preset, black background, the whole frame's PSNR; on the GPU compared on
+  /// the device, as run_audit does); the source is rendered once.
   AuditOptions audit;
   /// Called after each batch of measurements with a line of text such as "search: 6 archives measured, best
   /// 40.31 dB at 1,234,567 bytes"; may be empty.
