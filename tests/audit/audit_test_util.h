@@ -1,12 +1,15 @@
 // Helpers of the audit suite: scenes converted in memory and written to a temporary .rgs file, so the tests go
-// through load_audit_scene like the tool does.
+// through load_audit_scene like the tool does; the views of the rate-control fits and their PSNR by run_audit.
 #pragma once
 
 #include <doctest/doctest.h>
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
+#include "rgs/api/scene_loading.h"
+#include "rgs/audit/audit.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/file_io.h"
@@ -35,6 +38,30 @@ inline audit::AuditScene audit_scene(const std::string& path) {
   auto scene = audit::load_audit_scene(path);
   REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
   return std::move(scene).value();
+}
+
+/// Two orbit views at 480x270: what the rate-control fits of the suite are measured on.
+inline api::CameraChoice small_orbit() {
+  api::CameraChoice choice;
+  choice.orbit = 2;
+  choice.orbit_width = 480;
+  choice.orbit_height = 270;
+  return choice;
+}
+
+/// Mean PSNR of `candidate`'s render against `source`'s on `choice`'s cameras, by run_audit alone on `backend`.
+inline double measured_psnr(const std::string& source, const std::string& candidate, const api::CameraChoice& choice,
+                            audit::Backend backend = audit::Backend::kCpu) {
+  const audit::AuditScene src = audit_scene(source);
+  std::vector<audit::AuditScene> candidates = {audit_scene(candidate)};
+  auto cameras = api::make_cameras(choice, src.bounds);
+  REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
+  audit::AuditOptions options;
+  options.worst_views = 0;
+  options.backend = backend;
+  auto result = audit::run_audit(src, candidates, *cameras, options);
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  return result->candidates[0].summary.psnr_mean_db;
 }
 
 }  // namespace rgs::test

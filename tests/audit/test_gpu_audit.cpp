@@ -10,7 +10,6 @@
 
 #include "audit_test_util.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/scene_loading.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/image_metrics.h"
 #include "rgs/audit/rate_control.h"
@@ -161,27 +160,13 @@ TEST_CASE("CUDA rate control meets a 40 dB target on guitar, measured by a CUDA 
   test::TempDir dir;
   const std::string source = test::repo_path("samples/guitar.ply");
   const std::string out = dir.file("guitar_40db_cuda.rgs");
-  api::CameraChoice views;
-  views.orbit = 2;
-  views.orbit_width = 480;
-  views.orbit_height = 270;
   audit::FitOptions fit;
   fit.target_psnr_db = 40;
   fit.audit.backend = audit::Backend::kCuda;
-  auto fitted = audit::convert_fitted(source, out, {}, views, fit);
+  auto fitted = audit::convert_fitted(source, out, {}, test::small_orbit(), fit);
   REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
   CHECK(fitted->fit.device.find("CUDA") != std::string::npos);
-
-  const audit::AuditScene src = test::audit_scene(source);
-  std::vector<audit::AuditScene> candidates = {test::audit_scene(out)};
-  auto cameras = api::make_cameras(views, src.bounds);
-  REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
-  audit::AuditOptions options;
-  options.worst_views = 0;
-  options.backend = audit::Backend::kCuda;
-  auto result = audit::run_audit(src, candidates, *cameras, options);
-  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
-  const double psnr = result->candidates[0].summary.psnr_mean_db;
+  const double psnr = test::measured_psnr(source, out, test::small_orbit(), audit::Backend::kCuda);
   CHECK(psnr >= 40);
   CHECK(psnr <= 40.5);
   CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));

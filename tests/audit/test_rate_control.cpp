@@ -21,27 +21,8 @@ namespace {
 
 using namespace rgs;
 
-/// Two orbit views at 480x270: what the fits below are measured on.
-api::CameraChoice small_orbit() {
-  api::CameraChoice choice;
-  choice.orbit = 2;
-  choice.orbit_width = 480;
-  choice.orbit_height = 270;
-  return choice;
-}
-
-/// Mean PSNR of `candidate`'s render against `source`'s on `choice`'s cameras, by run_audit alone.
-double measured_psnr(const std::string& source, const std::string& candidate, const api::CameraChoice& choice) {
-  const audit::AuditScene src = test::audit_scene(source);
-  std::vector<audit::AuditScene> candidates = {test::audit_scene(candidate)};
-  auto cameras = api::make_cameras(choice, src.bounds);
-  REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
-  audit::AuditOptions options;
-  options.worst_views = 0;
-  auto result = audit::run_audit(src, candidates, *cameras, options);
-  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
-  return result->candidates[0].summary.psnr_mean_db;
-}
+using test::measured_psnr;
+using test::small_orbit;
 
 /// Fits `source` to `target` dB into `out` and checks the written file's own PSNR (run_audit) lands in
 /// [target, target + 0.5] and equals what the fit reported.
