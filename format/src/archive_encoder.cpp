@@ -12,7 +12,6 @@
 #include <limits>
 #include <new>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -799,10 +798,8 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
                            same_zstd && e->sh_step_multipliers == options.sh_step_multipliers &&
                                e->sh_codebook_size == options.sh_codebook_size};
     // The sections to code share the threads: each its own, and its zstd frame's jobs (§7) the threads over.
-    const uint32_t threads = options.threads != 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
-    const uint32_t coded = static_cast<uint32_t>(std::count(reuse + 1, reuse + 5, false));
     ArchiveOptions section = options;
-    section.threads = std::max(1u, (threads + std::max(coded, 1u) - 1) / std::max(coded, 1u));
+    section.threads = detail::threads_per_job(options.threads, std::count(reuse + 1, reuse + 5, false));
     std::vector<std::function<Status()>> jobs;
     if (!reuse[4]) {
       jobs.push_back([&] {

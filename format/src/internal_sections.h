@@ -128,6 +128,9 @@ Status zstd_error_status(size_t code, const std::string& what);
 /// (writer.cpp).
 void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
               std::vector<Status>* results);
+/// Each of `jobs` jobs' share of `threads` threads (0: the machine's hardware threads), rounded up, at least 1:
+/// what a job that runs threads of its own (a zstd frame's workers) may use beside the others (writer.cpp).
+uint32_t threads_per_job(uint32_t threads, size_t jobs);
 /// kInvalidArgument unless `level` is a zstd level, 1..ZSTD_maxCLevel() (writer.cpp).
 Status check_zstd_level(int level);
 /// §7 The raw bytes each job of a zstd frame compresses (zstd's ZSTD_c_jobSize), and how much of the data before
@@ -139,7 +142,7 @@ inline constexpr size_t kZstdJobBytes = size_t{8} << 20;
 inline constexpr int kZstdOverlapLog = 6;
 /// §3.1, §7 Appends one zstd frame of `size` raw bytes, with content size and checksum, to `out`: jobs of
 /// kZstdJobBytes compressed by up to `workers` threads (at most one a job; 0 counts as 1), the same bytes for
-/// any `workers`. Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
+/// any `workers`; each worker holds a compression context (ZSTD_estimateCCtxSize: 81 MB at level 19). Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
 Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, uint32_t workers, std::vector<uint8_t>* out);
 /// §3.1 Decodes one whole zstd frame of exactly `stored_size` bytes into exactly `raw_size` bytes.
 Status decode_zstd_frame(const uint8_t* src, size_t stored_size, uint8_t* dst, size_t raw_size);

@@ -88,8 +88,7 @@ Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, uint32_t 
   std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> cctx(ZSTD_createCCtx(), ZSTD_freeCCtx);
   if (!cctx) return Status(StatusCode::kOutOfMemory, "cannot create a zstd compression context");
   // §7 Content size and checksum in every frame (self-checking); jobs of a fixed size, so that the bytes do not
-  // depend on the workers. Each worker holds a compression context (about 80 MB at level 19): no more of them
-  // than the frame has jobs.
+  // depend on the workers. Each worker holds a compression context: no more of them than the frame has jobs.
   const size_t jobs = std::max<size_t>(1, (size + kZstdJobBytes - 1) / kZstdJobBytes);
   const int threads = static_cast<int>(std::clamp<size_t>(workers, 1, std::min<size_t>(jobs, 256)));
   for (auto [param, value] : {std::pair{ZSTD_c_compressionLevel, level}, std::pair{ZSTD_c_checksumFlag, 1},
@@ -123,6 +122,12 @@ Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, uint32_t 
   return Status();
 }
 
+uint32_t threads_per_job(uint32_t threads, size_t jobs) {
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  const size_t n = std::max<size_t>(jobs, 1);
+  return static_cast<uint32_t>((threads + n - 1) / n);
+}
+
 void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
               std::vector<Status>* results) {
   results->assign(jobs.size(), Status());
@@ -136,8 +141,7 @@ void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, cons
       }
     }
   };
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  threads = static_cast<uint32_t>(std::min<size_t>(threads, jobs.size()));
+  threads = static_cast<uint32_t>(std::min<size_t>(threads_per_job(threads, 1), jobs.size()));
   std::vector<std::thread> pool;
   for (uint32_t t = 1; t < threads; ++t) {
     try {
@@ -396,10 +400,9 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
 
 /// Compresses every zstd section of `plan`, the sections at the same time, the threads shared among them.
 Status compress_sections(const WriteOptions& options, std::vector<PlannedSection>* plan) {
-  const uint32_t sections = static_cast<uint32_t>(
-      std::count_if(plan->begin(), plan->end(), [](const PlannedSection& s) { return s.codec == Codec::kZstd; }));
-  const uint32_t threads = options.threads != 0 ? options.threads : std::thread::hardware_concurrency();
-  const uint32_t workers = (threads + std::max(sections, 1u) - 1) / std::max(sections, 1u);
+  const size_t sections =
+      std::count_if(plan->begin(), plan->end(), [](const PlannedSection& s) { return s.codec == Codec::kZstd; });
+  const uint32_t workers = detail::threads_per_job(options.threads, sections);
   std::vector<std::function<Status()>> jobs;
   for (PlannedSection& s : *plan) {
     if (s.codec != Codec::kZstd) continue;

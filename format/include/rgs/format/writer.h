@@ -45,7 +45,8 @@ struct WriteOptions {
 /// Serializes `scene` (SPEC §3 layout, sections in the order metadata, provenance if non-empty, means,
 /// rotations, scales, opacities, sh, sh_dc_residual if any, lod with options.lod). Deterministic: the same scene
 /// and options give identical bytes (no timestamps; zstd jobs of a fixed size, whatever the threads; SPEC §7).
-/// Peak memory: the output plus the zstd frames, and a zstd context per compressing thread (about 80 MB at level 19).
+/// Peak memory: the output plus the zstd frames, and a zstd context per compressing thread (ZSTD_estimateCCtxSize:
+/// 81 MB at level 19).
 /// Errors: kInvalidArgument for inconsistent arrays, an invalid quantization (is_valid_quantization), an
 /// SH degree above 3, unknown enum values, non-finite or unordered bounds, a zstd level out of range, a
 /// codec for an unknown section, or any value validate() would reject (SPEC §4.3–§4.7: non-finite means
