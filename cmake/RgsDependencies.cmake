@@ -14,6 +14,10 @@ else()
   set(RGS_ZSTD_TARGET PkgConfig::RGS_ZSTD)
 endif()
 
+# liblzma (Debian liblzma-dev): the .xz streams of the archive's quantized codes (format/SPEC.md 3.3.2), shared
+# like zstd (Debian's static archive is not position-independent).
+find_package(LibLZMA REQUIRED)
+
 # xxHash has no CMake config on Debian 12; link the static archive so GPU binaries stay self-contained.
 find_path(RGS_XXHASH_INCLUDE_DIR xxhash.h REQUIRED)
 find_library(RGS_XXHASH_LIBRARY NAMES libxxhash.a xxhash REQUIRED)

@@ -37,7 +37,8 @@ cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api rgs_audit
 # The Python module: a Python extension built here would be for this host's Python, so the libraries go over
 # as one shared library with their code generated here (LTO resolved by this compiler), and the GPU host
 # compiles only the bindings against its own Python headers (scripts/gpu_python.sh). zstd and zlib come from
-# the host's libzstd.so.1 and libz.so.1 (Debian's libzstd.a and libz.a are not position-independent).
+# the host's libzstd.so.1, liblzma.so.5 and libz.so.1 (Debian's static archives of them are not
+# position-independent).
 py="$stage/py"
 rm -rf "$py"
 mkdir -p "$py/include"
@@ -46,7 +47,7 @@ libs=(audit/librgs_audit.a api/librgs_api.a converter/librgs_converter.a runtime
 (cd "$build" && c++ -shared -fPIC -O3 -flto -o "$py/libroofgs_core.so" -Wl,--whole-archive "${libs[@]}" \
   -Wl,--no-whole-archive /usr/lib/x86_64-linux-gnu/libwebp.a \
   /usr/lib/x86_64-linux-gnu/libxxhash.a /usr/lib/x86_64-linux-gnu/libdraco.a \
-  /usr/local/cuda/lib/libcudart_static.a -l:libzstd.so.1 -l:libz.so.1 -ldl -lrt -lpthread)
+  /usr/local/cuda/lib/libcudart_static.a -l:libzstd.so.1 -l:liblzma.so.5 -l:libz.so.1 -ldl -lrt -lpthread)
 strip "$py/libroofgs_core.so"
 cp -r /usr/include/pybind11 "$py/include/"
 cp -r "$build/generated/rgs" "$py/include/"
@@ -59,11 +60,11 @@ for exe in "${exes[@]}"; do
   cp "$build/$exe" "$stage/bin/"
   strip "$stage/bin/$(basename "$exe")"
 done
-# GPU binaries must not need any shared library beyond the C/C++ runtime and libzstd.so.1
+# GPU binaries must not need any shared library beyond the C/C++ runtime, libzstd.so.1 and liblzma.so.5
 # (CONTRIBUTING.md#one-build-two-hosts).
 for exe in "$stage"/bin/*; do
-  if ldd "$exe" | grep -vE 'linux-vdso|libstdc\+\+|libm\.so|libgcc_s|libc\.so|ld-linux|libzstd\.so\.1' | grep -q .; then
-    echo "stage_gpu.sh: $exe links more than the C/C++ runtime and libzstd:" >&2; ldd "$exe" >&2; exit 1
+  if ldd "$exe" | grep -vE 'linux-vdso|libstdc\+\+|libm\.so|libgcc_s|libc\.so|ld-linux|libzstd\.so\.1|liblzma\.so\.5' | grep -q .; then
+    echo "stage_gpu.sh: $exe links more than the C/C++ runtime, libzstd and liblzma:" >&2; ldd "$exe" >&2; exit 1
   fi
 done
 xz -c "$stage/bin/rgs-convert" >"$root/.device_taebak_a/rgs-convert.xz"  # every byte counts in that call

@@ -261,7 +261,7 @@ std::string options_text(const ConvertOptions& options) {
          << " opacity_bits=" << a.opacity_bits << " opacity_step=" << a.opacity_step
          << " opacity_floor=" << a.opacity_floor << " sh_step_multipliers="
          << a.sh_step_multipliers[0] << "," << a.sh_step_multipliers[1] << "," << a.sh_step_multipliers[2] << ","
-         << a.sh_step_multipliers[3] << " sh_codebook_size=" << a.sh_codebook_size;
+         << a.sh_step_multipliers[3] << " sh_codebook_size=" << a.sh_codebook_size << " xz=" << (a.xz ? 1 : 0);
   }
   return text.str();
 }

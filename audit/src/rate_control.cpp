@@ -1088,10 +1088,12 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   RGS_ASSIGN_OR_RETURN(format::EncodedScene quantized, converter::quantize(*to_encode, quantize));
   const uint32_t sh_degree = quantized.metadata.sh_degree;
   format::ArchiveOptions anchor = format::resolve_archive_options(options.start, quantized.count);
-  // The zstd level changes a file's bytes, not what it decodes to: the search codes at a quick level, the file is
-  // written at the asked one (FitOptions::start).
+  // The zstd level and the .xz trial change a file's bytes, not what it decodes to: the search codes with zstd at
+  // a quick level, the file is written as asked (FitOptions::start).
   const int file_zstd_level = anchor.zstd_level;
+  const bool file_xz = anchor.xz;
   anchor.zstd_level = std::min(file_zstd_level, kSearchZstdLevel);
+  anchor.xz = false;
 
   FitOptions resolved = options;
   resolved.start = anchor;
@@ -1132,8 +1134,11 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
     }
   }
   result.finest = search.finest();
-  result.chosen.options.zstd_level = file_zstd_level;
-  if (result.finest) result.finest->options.zstd_level = file_zstd_level;
+  for (FitPoint* p : {&result.chosen, result.finest ? &*result.finest : nullptr}) {
+    if (p == nullptr) continue;
+    p->options.zstd_level = file_zstd_level;
+    p->options.xz = file_xz;
+  }
   result.encodings = measurer.encodings();
   result.renders = measurer.renders();
   result.encode_seconds = measurer.encode_seconds();

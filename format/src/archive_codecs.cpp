@@ -15,6 +15,7 @@
 #include "internal_archive.h"
 #include "internal_bytes.h"
 #include "internal_sections.h"
+#include "internal_xz.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/half.h"
@@ -124,6 +125,7 @@ struct QuantizedHeader {
   size_t frame_size = 0;
   uint64_t codes_size = 0;     ///< decoded frame size: n x components x code width (codebook: §3.3.3)
   uint64_t codebook_size = 0;  ///< K, transform 5 only
+  bool xz = false;             ///< the codes are an .xz stream (1.5), not a zstd frame
 };
 
 Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
@@ -212,15 +214,27 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
   h->codes_size = codes;
   h->frame = src + header;
   h->frame_size = size - header;
-  Status s = check_zstd_frame_header(h->frame, h->frame_size, codes);
+  h->xz = is_xz_stream(h->frame, h->frame_size);
+  Status s = h->xz ? check_xz_stream(h->frame, h->frame_size, codes)
+                   : check_zstd_frame_header(h->frame, h->frame_size, codes);
   return s.ok() ? s : s.prepend("codes");
 }
 
 }  // namespace
 
-Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components) {
+Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
+                              bool* xz) {
   QuantizedHeader h;
-  return parse_quantized(id, src, size, n, components, &h);
+  RGS_RETURN_IF_ERROR(parse_quantized(id, src, size, n, components, &h));
+  if (xz != nullptr) *xz = h.xz;
+  return Status();
+}
+
+bool quantized_codes_are_xz(const uint8_t* src, size_t size) {
+  if (size < kQuantizedHeaderSize) return false;
+  const bool codebook = src[0] == static_cast<uint8_t>(QuantizedTransform::kShCodebook);
+  const size_t header = kQuantizedHeaderSize + 4 * size_t{load_u16_le(src + 2)} + (codebook ? 4 : 0);
+  return size >= header && is_xz_stream(src + header, size - header);
 }
 
 Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8_t* src, size_t size, uint64_t n,
@@ -234,7 +248,8 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
     return Status(StatusCode::kOutOfMemory, "out of memory for " + dec(h.codes_size) + " bytes of codes");
   }
   {
-    Status s = decode_zstd_frame(h.frame, h.frame_size, codes.data(), codes.size());
+    Status s = h.xz ? decode_xz_stream(h.frame, h.frame_size, codes.data(), codes.size())
+                    : decode_zstd_frame(h.frame, h.frame_size, codes.data(), codes.size());
     if (!s.ok()) return s.prepend("codes");
   }
   const uint32_t width = code_width(h.bits);

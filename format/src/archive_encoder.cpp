@@ -1,7 +1,7 @@
 // Encoder of the archive profile (SPEC §3.3): Draco means in kd-tree order, quantized other sections.
 //
-// Determinism: Draco runs single-threaded; each quantized section is one zstd frame with fixed parameters (its
-// jobs of a fixed size, whatever the workers); sections are coded on parallel threads but each one's bytes
+// Determinism: Draco runs single-threaded; each quantized section is one zstd frame or .xz stream with fixed
+// parameters (its jobs or blocks of a fixed size, whatever the workers); sections are coded on parallel threads but each one's bytes
 // depend only on its input, so the output does not depend on the number of threads.
 
 #include <algorithm>
@@ -28,6 +28,7 @@
 #include "internal_archive.h"
 #include "internal_bytes.h"
 #include "internal_sections.h"
+#include "internal_xz.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/half.h"
 
@@ -86,8 +87,13 @@ struct CodePlanes {
   }
 };
 
+/// The literal context bits (LZMA's lc) of the .xz streams the writer tries: lc 0 codes each byte on its own
+/// (best on rotation codes), lc 4 by the high half of the byte before (best on scales and colours).
+constexpr uint32_t kXzLiteralContextBits[] = {0, 4};
+
 /// Header (§3.3.2; the codebook transform adds its size, §3.3.3) + zstd frame of the codes, at `o.zstd_level`
-/// with up to `o.threads` workers (encode_archive sets them for each section).
+/// with up to `o.threads` workers (encode_archive sets them for each section); with `o.xz`, an .xz stream of
+/// them instead where one is smaller (ties keep zstd).
 Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t components,
                         const std::vector<float>& params, const std::vector<uint8_t>& codes, const ArchiveOptions& o,
                         std::vector<uint8_t>* out, uint32_t codebook_size = 0) {
@@ -99,7 +105,16 @@ Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t co
   detail::store_u32_le(out->data() + 4, components);
   for (size_t p = 0; p < params.size(); ++p) detail::store_f32_le(out->data() + 8 + 4 * p, params[p]);
   if (codebook) detail::store_u32_le(out->data() + 8 + 4 * params.size(), codebook_size);
-  return detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out);
+  const size_t header = out->size();
+  std::vector<uint8_t> xz(out->begin(), out->end());
+  RGS_RETURN_IF_ERROR(detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out));
+  if (!o.xz) return Status();
+  for (uint32_t lc : kXzLiteralContextBits) {
+    xz.resize(header);
+    RGS_RETURN_IF_ERROR(detail::compress_xz_stream(codes.data(), codes.size(), lc, o.threads, &xz));
+    if (xz.size() < out->size()) out->swap(xz);
+  }
+  return Status();
 }
 
 /// The SH step multipliers as the parameters of transforms 4 and 5.
@@ -789,7 +804,7 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
       RGS_RETURN_IF_ERROR(encode_means(scene, &out.position, options, &out.stored[0], &d.means, &order));
     }
     d.metadata.bounds = bounds_of(d.means);
-    const bool same_zstd = same_order && e->zstd_level == options.zstd_level;
+    const bool same_zstd = same_order && e->zstd_level == options.zstd_level && e->xz == options.xz;
     const bool reuse[5] = {same_order, same_zstd && e->rotation_bits == options.rotation_bits &&
                                                   e->rotation_step == options.rotation_step,
                            same_zstd && e->scale_bits == options.scale_bits && e->scale_step == options.scale_step,

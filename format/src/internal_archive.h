@@ -41,12 +41,17 @@ Status check_draco_header(const uint8_t* src, size_t size, uint64_t n);
 /// kCorruptData (Draco refuses the stream, wrong point count or attribute), kOutOfMemory.
 Status decode_draco_means(const uint8_t* src, size_t size, uint64_t n, uint8_t* dst, size_t raw_size);
 
-/// §3.3.2 Checks a quantized section's header and its zstd frame header without decoding: transform
-/// allowed for `id`, bits, parameter and component counts (`components` = the section's components),
-/// finite parameters. kCorruptData.
-Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components);
+/// §3.3.2 Checks a quantized section's header and the header of its codes (a zstd frame, or an .xz stream's
+/// header, index and footer) without decoding: transform allowed for `id`, bits, parameter and component counts
+/// (`components` = the section's components), finite parameters; `*xz` (when given) says whether the codes are
+/// an .xz stream. kCorruptData.
+Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uint64_t n, uint32_t components,
+                              bool* xz = nullptr);
+/// §3.3.2 Whether a quantized section (its header checked by check_quantized_header, or written by this
+/// library) stores its codes as an .xz stream.
+bool quantized_codes_are_xz(const uint8_t* src, size_t size);
 /// §3.3.2 Decodes a quantized section into its raw runtime bytes (`raw_size` = the entry's raw size).
-/// kCorruptData (bad header, frame, or a code out of range), kChecksumMismatch (zstd content
+/// kCorruptData (bad header, frame or stream, or a code out of range), kChecksumMismatch (zstd content
 /// checksum), kOutOfMemory.
 Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8_t* src, size_t size, uint64_t n,
                         uint32_t components, uint8_t* dst, size_t raw_size);

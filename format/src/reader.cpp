@@ -269,6 +269,7 @@ struct RgsFileAccess {
   static Status read_small_section(const RgsFile& f, size_t index, uint64_t max_raw, std::vector<uint8_t>* raw);
   static Status parse_lod(RgsFile* f);
   static Status check_sh_colour_differences(const RgsFile& f);
+  static Status check_xz_codes(const RgsFile& f);
 
  public:
   /// kInvalidArgument naming the file unless `f` has a level-of-detail index holding (level, chunk).
@@ -478,10 +479,18 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
                             dec(f.header_.gaussian_count));
     const uint8_t* src = f.data_ + e.offset;
     const size_t size = static_cast<size_t>(e.stored_size);
+    bool xz = false;
     Status s = e.codec == Codec::kDraco
                    ? detail::check_draco_header(src, size, e.element_count)
-                   : detail::check_quantized_header(e.id, src, size, e.element_count, e.components);
+                   : detail::check_quantized_header(e.id, src, size, e.element_count, e.components, &xz);
     if (!s.ok()) return Status(s).prepend(label);
+    // §2.2, §3.3.2 Codes in an .xz stream come with their required flag, in a 1.5 file (check_xz_codes checks
+    // that the flag comes with them).
+    RGS_RETURN_ERROR_IF(xz && (f.header_.required_flags & kRequiredFlagXzCodes) == 0, StatusCode::kCorruptData,
+                        label + ": codes in an .xz stream without their required flag");
+    RGS_RETURN_ERROR_IF(xz && !version_at_least(version, kMinVersionForXzCodes), StatusCode::kCorruptData,
+                        label + ": codes in an .xz stream in a version " + dec(version.major) + "." +
+                            dec(version.minor) + " file");
   }
   return Status();
 }
@@ -631,6 +640,7 @@ Status RgsFileAccess::parse(RgsFile* f) {
 
   RGS_RETURN_IF_ERROR(parse_lod(f));
   RGS_RETURN_IF_ERROR(check_sh_colour_differences(*f));
+  RGS_RETURN_IF_ERROR(check_xz_codes(*f));
 
   // §4.2 Provenance (optional).
   if (const SectionEntry* prov = f->find(SectionId::kProvenance)) {
@@ -668,6 +678,19 @@ Status RgsFileAccess::check_sh_colour_differences(const RgsFile& f) {
                       label + ": transform 6 (colour differences) in a version " + dec(version.major) + "." +
                           dec(version.minor) + " file");
   return Status();
+}
+
+Status RgsFileAccess::check_xz_codes(const RgsFile& f) {
+  // §2.2 The .xz flag comes with codes in an .xz stream (check_entry checks the converse on each section, whose
+  // quantized header it has checked).
+  if ((f.header_.required_flags & kRequiredFlagXzCodes) == 0) return Status();
+  for (const SectionEntry& e : f.sections_) {
+    if (e.codec == Codec::kQuantized &&
+        detail::quantized_codes_are_xz(f.data_ + e.offset, static_cast<size_t>(e.stored_size))) {
+      return Status();
+    }
+  }
+  return Status(StatusCode::kCorruptData, "the .xz codes flag is set but no quantized section stores .xz codes");
 }
 
 Status RgsFileAccess::parse_lod(RgsFile* f) {

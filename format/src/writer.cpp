@@ -373,6 +373,10 @@ uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, ui
     if (n > 0 && sh[0] == static_cast<uint8_t>(detail::QuantizedTransform::kShColourDifferences)) {
       required_flags |= kRequiredFlagShColourDifferences;
     }
+    for (size_t i = 1; i < 5 && n > 0; ++i) {
+      const std::vector<uint8_t>& stored = plan[first + i].compressed;
+      if (detail::quantized_codes_are_xz(stored.data(), stored.size())) required_flags |= kRequiredFlagXzCodes;
+    }
   }
   return required_flags;
 }
@@ -389,6 +393,7 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
   if (required_flags & kRequiredFlagLod) require(kMinVersionForLod);
   if (required_flags & kRequiredFlagShColourDifferences) require(kMinVersionForShColourDifferences);
+  if (required_flags & kRequiredFlagXzCodes) require(kMinVersionForXzCodes);
   for (const PlannedSection& s : plan) {
     if (s.id == SectionId::kShDcResidual) require(kMinVersionForShDcResidual);
   }

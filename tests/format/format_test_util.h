@@ -3,6 +3,7 @@
 
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -40,6 +41,9 @@ inline uint64_t get_u64(const std::vector<uint8_t>& b, size_t at) {
 }
 inline uint32_t get_u32(const std::vector<uint8_t>& b, size_t at) {
   return static_cast<uint32_t>(b[at] | (b[at + 1] << 8) | (b[at + 2] << 16) | (static_cast<uint32_t>(b[at + 3]) << 24));
+}
+inline uint16_t get_u16(const std::vector<uint8_t>& b, size_t at) {
+  return static_cast<uint16_t>(b[at] | (b[at + 1] << 8));
 }
 inline void put_u64(std::vector<uint8_t>& b, size_t at, uint64_t v) {
   for (int i = 0; i < 8; ++i) b[at + i] = static_cast<uint8_t>(v >> (8 * i));
@@ -85,6 +89,25 @@ inline void fix_all_checksums(std::vector<uint8_t>& b) {
     fix_section_checksum(b, static_cast<size_t>(i));
   }
   fix_header_checksum(b);
+}
+
+/// Offset in the file of the codes of quantized section i (SPEC §3.3.2: after its 8-byte header, 4 bytes a
+/// parameter, and for SH transform 5 the codebook size).
+inline uint64_t quantized_codes_at(const std::vector<uint8_t>& b, size_t i) {
+  const uint64_t offset = get_u64(b, entry_at(i) + 24);
+  return offset + 8 + 4 * uint64_t{get_u16(b, static_cast<size_t>(offset) + 2)} + (b[offset] == 5 ? 4 : 0);
+}
+
+/// How many quantized sections of the file store their codes as an .xz stream (magic FD 37 7A 58 5A 00).
+inline uint32_t count_xz_sections(const std::vector<uint8_t>& b) {
+  static const uint8_t magic[6] = {0xFD, '7', 'z', 'X', 'Z', 0x00};
+  uint32_t count = 0;
+  for (size_t i = 0; i < get_u32(b, 32); ++i) {
+    if (get_u16(b, entry_at(i) + 4) != static_cast<uint16_t>(format::Codec::kQuantized)) continue;
+    const uint64_t at = quantized_codes_at(b, i);
+    if (at + 6 <= b.size() && std::equal(magic, magic + 6, b.begin() + static_cast<long>(at))) ++count;
+  }
+  return count;
 }
 
 inline const uint16_t kQuats[4][4] = {

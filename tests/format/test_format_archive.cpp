@@ -5,10 +5,12 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "format_test_util.h"
+#include "internal_xz.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/half.h"
 #include "rgs/format/reader.h"
@@ -160,9 +162,12 @@ TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to 
   CHECK(format::validate(bytes->data(), bytes->size()).ok());
   auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
   REQUIRE(file.ok());
-  CHECK(file->header().minor == 4);  // SH transform 6 (SPEC §6)
-  CHECK(file->header().required_flags ==
-        (format::kRequiredFlagArchiveCodecs | format::kRequiredFlagShColourDifferences));
+  // SH transform 6 sets its flag (1.4); codes the writer stored as .xz set theirs (1.5, SPEC §6).
+  const uint32_t xz_sections = count_xz_sections(*bytes);
+  CHECK(file->header().minor == (xz_sections > 0 ? 5 : 4));
+  CHECK(file->header().required_flags == (format::kRequiredFlagArchiveCodecs |
+                                          format::kRequiredFlagShColourDifferences |
+                                          (xz_sections > 0 ? format::kRequiredFlagXzCodes : 0u)));
   CHECK(file->find(format::SectionId::kMeans)->codec == format::Codec::kDraco);
   CHECK(file->find(format::SectionId::kSh)->codec == format::Codec::kQuantized);
   auto read = file->read_scene();
@@ -205,7 +210,62 @@ TEST_CASE("archive: a scene with the DC residual is archived at the INT8 DC step
   auto file = format::RgsFile::from_bytes(bytes->data(), bytes->size());
   REQUIRE(file.ok());
   CHECK(file->find(format::SectionId::kShDcResidual) == nullptr);
-  CHECK(file->header().minor == 4);
+  CHECK(file->header().minor == (count_xz_sections(*bytes) > 0 ? 5 : 4));  // not gated by the residual's 1.2
+}
+
+TEST_CASE("archive: each section's codes in the smaller of a zstd frame and an .xz stream, the same values") {
+  // Skewed codes, as trained scenes have (most opacities high, scales and colours clustered): LZMA's adaptive
+  // coding beats zstd's on some sections.
+  format::EncodedScene scene = make_random_scene(20000, 1, 23);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> clustered(0, 1);
+  for (uint64_t i = 0; i < scene.count; ++i) {
+    scene.opacities[i] = format::float_to_half_bits(std::min(1.0f, 0.9f + 0.05f * std::fabs(clustered(rng))));
+    for (int a = 0; a < 3; ++a) scene.scales[i * 3 + a] = format::float_to_half_bits(std::exp(-4 + 0.3f * clustered(rng)));
+  }
+  format::WriteOptions zstd = archive_options(), xz = archive_options();
+  zstd.archive.xz = false;
+  auto a = format::serialize_scene(scene, zstd), b = format::serialize_scene(scene, xz);
+  REQUIRE(a.ok());
+  REQUIRE(b.ok());
+  CHECK(count_xz_sections(*a) == 0);
+  const uint32_t xz_sections = count_xz_sections(*b);
+  CHECK(xz_sections > 0);
+  CHECK(b->size() < a->size());
+  auto fa = format::RgsFile::from_bytes(a->data(), a->size());
+  auto fb = format::RgsFile::from_bytes(b->data(), b->size());
+  REQUIRE(fa.ok());
+  REQUIRE(fb.ok());
+  CHECK(fa->header().minor == 4);
+  CHECK(fb->header().minor == 5);
+  CHECK((fb->header().required_flags & format::kRequiredFlagXzCodes) != 0);
+  for (format::SectionId id : {format::SectionId::kRotations, format::SectionId::kScales,
+                               format::SectionId::kOpacities, format::SectionId::kSh}) {
+    CAPTURE(static_cast<uint32_t>(id));
+    CHECK(fb->find(id)->stored_size <= fa->find(id)->stored_size);  // never larger than the zstd frame
+  }
+  auto ra = fa->read_scene(), rb = fb->read_scene();
+  REQUIRE(ra.ok());
+  REQUIRE(rb.ok());
+  check_same_scene(*ra, *rb);
+  CHECK(format::validate(b->data(), b->size()).ok());
+}
+
+TEST_CASE("archive: an .xz stream of several blocks has the same bytes whatever the threads, and decodes") {
+  // 17 MiB: blocks of 8, 8 and 1 MiB (SPEC §7).
+  std::vector<uint8_t> raw(size_t{17} << 20);
+  std::mt19937 rng(3);
+  std::geometric_distribution<int> skewed(0.2);
+  for (uint8_t& v : raw) v = static_cast<uint8_t>(skewed(rng));
+  std::vector<uint8_t> one, three;
+  REQUIRE(format::detail::compress_xz_stream(raw.data(), raw.size(), 4, 1, &one).ok());
+  REQUIRE(format::detail::compress_xz_stream(raw.data(), raw.size(), 4, 3, &three).ok());
+  CHECK(one == three);
+  CHECK(format::detail::check_xz_stream(one.data(), one.size(), raw.size()).ok());
+  CHECK(format::detail::check_xz_stream(one.data(), one.size(), raw.size() - 1).code() == StatusCode::kCorruptData);
+  std::vector<uint8_t> back(raw.size());
+  REQUIRE(format::detail::decode_xz_stream(one.data(), one.size(), back.data(), back.size()).ok());
+  CHECK(back == raw);
 }
 
 TEST_CASE("archive: deterministic whatever the thread count") {

@@ -1,10 +1,13 @@
-// The archive's SH transforms: the colour differences of transform 6 (SPEC §3.3.2: its byte layout, exactly
+// The archive's SH transforms and the coding of its codes: the colour differences of transform 6 (SPEC §3.3.2: its byte layout, exactly
 // transform 4's values, its flag and version) and the codebook of transform 5 (§3.3.3: round trip, determinism),
 // and the must-fail files tests/data/bad/archive/*.rgs (transform 6 without its flag, in a 1.3 file, the flag
 // without it, a code out of range; for the codebook a truncated frame, wrong sizes, an index or an entry code out
-// of range). The files are made here from small archive-coded scenes; RGS_WRITE_BAD_ARCHIVE=1 rewrites them,
-// otherwise the committed files are checked.
+// of range; for codes in an .xz stream the flag and version, the check, the filters, the dictionary, the sizes,
+// a check mismatch, a second stream and a truncated one). The files are made here from small archive-coded
+// scenes; RGS_WRITE_BAD_ARCHIVE=1 rewrites them, otherwise the committed files are checked. Also .xz codes that
+// follow SPEC §3.3.2 read back as the zstd frame's.
 #include <doctest/doctest.h>
+#include <lzma.h>
 #include <zstd.h>
 
 #include <array>
@@ -29,6 +32,7 @@ format::WriteOptions codebook_options(uint32_t size) {
   format::WriteOptions o;
   o.profile = format::StorageProfile::kArchive;
   o.archive.sh_codebook_size = size;
+  o.archive.xz = false;  // these tests read and edit the zstd frames of SPEC §3.3.2
   return o;
 }
 
@@ -86,8 +90,20 @@ ShFrame read_sh_frame(const std::vector<uint8_t>& b) {
   return f;
 }
 
-/// Rebuilds the file with the sh frame re-coded: the section grows or shrinks, so the file is the prefix
-/// up to the section, the new section, and the sections after it are not allowed (sh is the last one).
+/// Rebuilds the file with `codes` in place of the sh section's codes: the section grows or shrinks, so the file
+/// is the prefix up to the section, the new section, and the sections after it are not allowed (sh is the last
+/// one).
+std::vector<uint8_t> replace_sh_codes(const std::vector<uint8_t>& b, const ShFrame& f,
+                                      const std::vector<uint8_t>& codes) {
+  REQUIRE(f.offset + f.stored == b.size());  // sh is the last section
+  std::vector<uint8_t> out(b.begin(), b.begin() + static_cast<ptrdiff_t>(f.offset + f.header));
+  out.insert(out.end(), codes.begin(), codes.end());
+  put_u64(out, entry_at(f.entry) + 32, f.header + codes.size());
+  put_u64(out, 48, out.size());  // header file_size
+  fix_all_checksums(out);
+  return out;
+}
+/// The file with the sh frame re-coded (replace_sh_codes).
 std::vector<uint8_t> write_sh_frame(const std::vector<uint8_t>& b, const ShFrame& f) {
   std::vector<uint8_t> frame(ZSTD_compressBound(f.content.size()));
   ZSTD_CCtx* cctx = ZSTD_createCCtx();
@@ -96,12 +112,37 @@ std::vector<uint8_t> write_sh_frame(const std::vector<uint8_t>& b, const ShFrame
   const size_t n = ZSTD_compress2(cctx, frame.data(), frame.size(), f.content.data(), f.content.size());
   ZSTD_freeCCtx(cctx);
   REQUIRE(!ZSTD_isError(n));
-  REQUIRE(f.offset + f.stored == b.size());  // sh is the last section
-  std::vector<uint8_t> out(b.begin(), b.begin() + static_cast<ptrdiff_t>(f.offset + f.header));
-  out.insert(out.end(), frame.begin(), frame.begin() + static_cast<ptrdiff_t>(n));
-  put_u64(out, entry_at(f.entry) + 32, f.header + n);
-  put_u64(out, 48, out.size());  // header file_size
-  fix_all_checksums(out);
+  frame.resize(n);
+  return replace_sh_codes(b, f, frame);
+}
+/// How write_sh_xz codes the sh codes: the check, the dictionary, a delta filter before LZMA2.
+struct XzCoding {
+  lzma_check check = LZMA_CHECK_CRC32;
+  uint32_t dictionary = uint32_t{1} << 20;
+  bool delta = false;
+};
+/// The codes as one .xz stream (liblzma's one-block buffer encoder).
+std::vector<uint8_t> xz_stream(const std::vector<uint8_t>& content, const XzCoding& coding) {
+  lzma_options_lzma lzma;
+  REQUIRE(!lzma_lzma_preset(&lzma, 1));
+  lzma.dict_size = coding.dictionary;
+  lzma_options_delta delta{};
+  delta.type = LZMA_DELTA_TYPE_BYTE;
+  delta.dist = 1;
+  lzma_filter filters[3] = {{LZMA_FILTER_DELTA, &delta}, {LZMA_FILTER_LZMA2, &lzma}, {LZMA_VLI_UNKNOWN, nullptr}};
+  std::vector<uint8_t> stream(lzma_stream_buffer_bound(content.size()));
+  size_t pos = 0;
+  REQUIRE(lzma_stream_buffer_encode(coding.delta ? filters : filters + 1, coding.check, nullptr, content.data(),
+                                    content.size(), stream.data(), &pos, stream.size()) == LZMA_OK);
+  stream.resize(pos);
+  return stream;
+}
+/// The file with `stream` as the sh section's codes, the .xz flag set and stamped 1.5 (SPEC §2.2, §3.3.2).
+std::vector<uint8_t> write_sh_xz(const std::vector<uint8_t>& b, const ShFrame& f, const std::vector<uint8_t>& stream) {
+  std::vector<uint8_t> out = replace_sh_codes(b, f, stream);
+  put_u32(out, 16, get_u32(out, 16) | format::kRequiredFlagXzCodes);
+  put_u16(out, 10, 5);
+  fix_header_checksum(out);
   return out;
 }
 
@@ -136,9 +177,45 @@ const BadArchive kBadArchives[] = {
     {"codebook_size_over_n", StatusCode::kCorruptData, "SH codebook of"},
     {"codebook_wrong_content_size", StatusCode::kCorruptData, "codes"},
     {"codebook_truncated_frame", StatusCode::kCorruptData, "sh"},
+    {"xz_without_flag", StatusCode::kCorruptData, "codes in an .xz stream without their required flag"},
+    {"xz_in_1_4", StatusCode::kCorruptData, "codes in an .xz stream in a version 1.4 file"},
+    {"xz_flag_without_codes", StatusCode::kCorruptData,
+     "the .xz codes flag is set but no quantized section stores .xz codes"},
+    {"xz_check_none", StatusCode::kCorruptData, "SPEC 3.3.2 requires CRC32, CRC64 or SHA-256"},
+    {"xz_delta_filter", StatusCode::kCorruptData, "SPEC 3.3.2 allows the LZMA2 filter alone"},
+    {"xz_large_dictionary", StatusCode::kCorruptData, "LZMA2 dictionary of 67108864 bytes"},
+    {"xz_wrong_size", StatusCode::kCorruptData, ".xz stream decodes to"},
+    {"xz_check_mismatch", StatusCode::kCorruptData, "damaged data or check mismatch"},
+    {"xz_two_streams", StatusCode::kCorruptData, "(SPEC 3.3.2: one stream, no padding)"},
+    {"xz_truncated", StatusCode::kCorruptData, ".xz stream footer is damaged"},
 };
 
 std::vector<uint8_t> make_bad_archive(const std::string& name) {
+  if (name.rfind("xz_", 0) == 0) {
+    std::vector<uint8_t> b = good_colour_file();
+    ShFrame f = read_sh_frame(b);
+    if (name == "xz_flag_without_codes") {
+      put_u32(b, 16, get_u32(b, 16) | format::kRequiredFlagXzCodes);
+      put_u16(b, 10, 5);
+      fix_header_checksum(b);
+      return b;
+    }
+    XzCoding coding;
+    if (name == "xz_check_none") coding.check = LZMA_CHECK_NONE;
+    if (name == "xz_delta_filter") coding.delta = true;
+    if (name == "xz_large_dictionary") coding.dictionary = uint32_t{64} << 20;
+    if (name == "xz_wrong_size") f.content.push_back(0);
+    std::vector<uint8_t> stream = xz_stream(f.content, coding);
+    const uint64_t index_end = stream.size() - 12, index = index_end - (uint64_t{get_u32(stream, index_end + 4)} + 1) * 4;
+    if (name == "xz_check_mismatch") stream[index - 1] ^= 0x40;  // the block's CRC32, just before the index
+    if (name == "xz_two_streams") stream.insert(stream.end(), stream.begin(), stream.end());
+    if (name == "xz_truncated") stream.resize(stream.size() / 2);
+    std::vector<uint8_t> out = write_sh_xz(b, f, stream);
+    if (name == "xz_without_flag") put_u32(out, 16, get_u32(out, 16) & ~format::kRequiredFlagXzCodes);
+    if (name == "xz_in_1_4") put_u16(out, 10, 4);
+    fix_header_checksum(out);
+    return out;
+  }
   if (name.rfind("colour_", 0) == 0) {
     std::vector<uint8_t> b = name == "colour_flag_without_transform" ? good_codebook_file() : good_colour_file();
     if (name == "colour_without_flag") {
@@ -346,6 +423,33 @@ TEST_CASE("archive codebook: options out of range are refused") {
   auto bytes = format::serialize_scene(dc_only, codebook_options(16));
   REQUIRE(bytes.ok());
   CHECK(format::validate(bytes->data(), bytes->size()).ok());
+}
+
+TEST_CASE("archive .xz codes: a stream as SPEC 3.3.2 allows reads back as the zstd frame's codes") {
+  const std::vector<uint8_t> b = good_colour_file();
+  const ShFrame f = read_sh_frame(b);
+  auto zstd = format::RgsFile::from_bytes(b.data(), b.size());
+  REQUIRE(zstd.ok());
+  auto want = zstd->read_scene();
+  REQUIRE(want.ok());
+  for (lzma_check check : {LZMA_CHECK_CRC32, LZMA_CHECK_CRC64, LZMA_CHECK_SHA256}) {
+    // Up to the largest dictionary allowed for these codes: max(1 MiB, their size).
+    for (uint32_t dictionary : {uint32_t{4} << 10, uint32_t{1} << 20}) {
+      CAPTURE(static_cast<int>(check));
+      CAPTURE(dictionary);
+      XzCoding coding;
+      coding.check = check;
+      coding.dictionary = dictionary;
+      const std::vector<uint8_t> x = write_sh_xz(b, f, xz_stream(f.content, coding));
+      REQUIRE(format::validate(x.data(), x.size()).ok());
+      auto file = format::RgsFile::from_bytes(x.data(), x.size());
+      REQUIRE(file.ok());
+      CHECK(file->header().minor == 5);
+      auto read = file->read_scene();
+      REQUIRE(read.ok());
+      check_same_scene(*read, *want);
+    }
+  }
 }
 
 TEST_CASE("archive SH transforms: must-fail files tests/data/bad/archive/") {

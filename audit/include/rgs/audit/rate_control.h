@@ -51,10 +51,10 @@ struct FitOptions {
   std::optional<uint32_t> sh_degree;
   /// The archive options the search starts from; it chooses position_error, the bits and code steps of
   /// rotations, scales and opacities (rotation_step etc., in quarter bits), sh_step_multipliers and
-  /// opacity_floor, and keeps sh_codebook_size, zstd_level, draco_speed and threads. The search codes its
-  /// candidates at zstd level min(zstd_level, kSearchZstdLevel): the level changes the bytes, not the decoded
-  /// values, so the PSNR it measures is the file's, while the bytes it counts (FitPoint::bytes) are those of the
-  /// search's level (level 19 wrote the measured fits 1-10 % smaller, docs/AUDITS.md#sh-colour-differences).
+  /// opacity_floor, and keeps sh_codebook_size, zstd_level, xz, draco_speed and threads. The search codes its
+  /// candidates at zstd level min(zstd_level, kSearchZstdLevel) and without xz: they change the bytes, not the
+  /// decoded values, so the PSNR it measures is the file's, while the bytes it counts (FitPoint::bytes) are those
+  /// of the search's coding (level 19 and xz wrote the measured fits 4-15 % smaller, docs/AUDITS.md).
   format::ArchiveOptions start;
   /// The search renders the cameras reduced (field of view kept) so that their longer side is at most this
   /// many pixels (at least 16); the final check renders them at their own size. 0: kCpuSearchMaxSide with the

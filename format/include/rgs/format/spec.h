@@ -1,4 +1,4 @@
-// Constants of the .rgs container, version 1.4. Normative text: format/SPEC.md; section numbers below
+// Constants of the .rgs container, version 1.5. Normative text: format/SPEC.md; section numbers below
 // refer to it.
 #pragma once
 
@@ -13,7 +13,7 @@ inline constexpr uint8_t kMagic[8] = {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0
 /// §2 Version this library writes. Readers accept any minor of kFormatMajor; newer majors are refused
 /// with kUnsupportedVersion.
 inline constexpr uint16_t kFormatMajor = 1;
-inline constexpr uint16_t kFormatMinor = 4;
+inline constexpr uint16_t kFormatMinor = 5;
 
 /// §6 A format version, compared as (major, minor).
 struct FormatVersion {
@@ -39,6 +39,8 @@ inline constexpr FormatVersion kMinVersionForShDcResidual{1, 2};
 inline constexpr FormatVersion kMinVersionForLod{1, 3};
 /// §3.3.2 SH transform 6 (colour differences), with its required flag kRequiredFlagShColourDifferences.
 inline constexpr FormatVersion kMinVersionForShColourDifferences{1, 4};
+/// §3.3.2 Quantized codes stored as an .xz stream, with its required flag kRequiredFlagXzCodes.
+inline constexpr FormatVersion kMinVersionForXzCodes{1, 5};
 
 /// §2 Fixed sizes, in bytes.
 inline constexpr uint32_t kHeaderSize = 64;
@@ -49,7 +51,7 @@ inline constexpr uint32_t kMetadataSize = 128;
 inline constexpr uint64_t kSectionAlignment = 256;
 
 /// §2.2 Flag bits. Required bits this reader does not know give kUnsupportedFeature; unknown optional
-/// bits are ignored. Version 1.0 defines none of either; 1.1, 1.3 and 1.4 define one required bit each.
+/// bits are ignored. Version 1.0 defines none of either; 1.1, 1.3, 1.4 and 1.5 define one required bit each.
 /// §2.2 Set when any section uses codec 2 or 3 (§3.3), so that a 1.0 reader refuses the file
 /// (kUnsupportedFeature) instead of failing on an unknown codec deeper in the table.
 inline constexpr uint32_t kRequiredFlagArchiveCodecs = 1u << 0;
@@ -60,8 +62,11 @@ inline constexpr uint32_t kRequiredFlagLod = 1u << 1;
 /// §2.2, §3.3.2 Set when the sh section uses transform 6 (its codes stored as colour differences), which a 1.3
 /// reader would refuse as corrupt: with the flag it refuses the file as unsupported (kUnsupportedFeature).
 inline constexpr uint32_t kRequiredFlagShColourDifferences = 1u << 2;
+/// §2.2, §3.3.2 Set when a quantized section stores its codes as an .xz stream instead of a zstd frame, which a
+/// 1.4 reader would refuse as corrupt: with the flag it refuses the file as unsupported (kUnsupportedFeature).
+inline constexpr uint32_t kRequiredFlagXzCodes = 1u << 3;
 inline constexpr uint32_t kKnownRequiredFlags =
-    kRequiredFlagArchiveCodecs | kRequiredFlagLod | kRequiredFlagShColourDifferences;
+    kRequiredFlagArchiveCodecs | kRequiredFlagLod | kRequiredFlagShColourDifferences | kRequiredFlagXzCodes;
 inline constexpr uint32_t kKnownOptionalFlags = 0;
 
 /// §4 Section identifiers. Readers skip (but still bounds- and checksum-check) ids they do not know.
@@ -82,7 +87,7 @@ enum class Codec : uint16_t {
   kNone = 0,  ///< stored == raw
   kZstd = 1,  ///< one zstd frame with content size and content checksum
   kDraco = 2,      ///< §3.3.1 means only: a Draco point cloud (quantized positions), archive profile
-  kQuantized = 3,  ///< §3.3.2 rotations, scales, opacities, sh: transform header + zstd frame of codes
+  kQuantized = 3,  ///< §3.3.2 rotations, scales, opacities, sh: transform header + zstd frame (or .xz stream) of codes
 };
 
 /// §3.3 Whether `codec` is one of the archive profile's (decoded whole, lossy at encode).

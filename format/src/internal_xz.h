@@ -1,0 +1,40 @@
+// .xz streams of quantized codes (SPEC.md §3.3.2, version 1.5): written and checked with liblzma.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "rgs/format/status.h"
+
+namespace rgs::format::detail {
+
+/// §7 The raw bytes of each block of an .xz stream (liblzma's lzma_mt::block_size): blocks are compressed
+/// independently, so the stream does not depend on how many threads compress them.
+inline constexpr size_t kXzBlockBytes = size_t{8} << 20;
+/// The LZMA2 dictionary this library's writer uses: the codes are planes of small integers whose matches are
+/// near, and a larger dictionary saves nothing on the measured archives.
+inline constexpr uint32_t kXzDictionaryBytes = uint32_t{1} << 20;
+/// §3.3.2 The largest LZMA2 dictionary a reader accepts in a stream of `raw_size` bytes, max(1 MiB, raw_size):
+/// a dictionary need not be larger than what it decodes, and this library's writer's (kXzDictionaryBytes)
+/// fits any stream. The decoder's memory is about this.
+uint64_t xz_max_dictionary(uint64_t raw_size);
+
+/// True when the bytes start with the .xz stream magic (FD 37 7A 58 5A 00), which no zstd frame does.
+bool is_xz_stream(const uint8_t* src, size_t size);
+/// §3.3.2 Checks an .xz stream without decoding it: one stream of exactly `size` bytes (no padding, no second
+/// stream), a CRC32, CRC64 or SHA-256 check, and an index whose uncompressed size is `raw_size`.
+/// kCorruptData.
+Status check_xz_stream(const uint8_t* src, size_t size, uint64_t raw_size);
+/// §3.3.2 Checks and decodes an .xz stream into exactly `raw_size` bytes, block by block: each block LZMA2
+/// alone with a dictionary of at most xz_max_dictionary(raw_size). kCorruptData (damaged, another filter, a
+/// larger dictionary, or a block's check that does not match), kOutOfMemory.
+Status decode_xz_stream(const uint8_t* src, size_t size, uint8_t* dst, size_t raw_size);
+/// §3.3.2, §7 Appends one .xz stream of `size` raw bytes to `out`: LZMA2 (normal mode, kXzDictionaryBytes,
+/// `literal_context_bits` lc 0..4, lp 0, pb 0: the codes are bytes without alignment) in blocks of kXzBlockBytes,
+/// CRC32 checks, compressed by up to `workers` threads (0 counts as 1): the same bytes for any `workers`.
+/// kOutOfMemory, kInvalidArgument.
+Status compress_xz_stream(const uint8_t* raw, size_t size, uint32_t literal_context_bits, uint32_t workers,
+                          std::vector<uint8_t>* out);
+
+}  // namespace rgs::format::detail
