@@ -12,12 +12,13 @@ namespace rgs::format::detail {
 /// §7 The raw bytes of each block of an .xz stream (liblzma's lzma_mt::block_size): blocks are compressed
 /// independently, so the stream does not depend on how many threads compress them.
 inline constexpr size_t kXzBlockBytes = size_t{8} << 20;
-/// The LZMA2 dictionary this library's writer uses: the codes are planes of small integers whose matches are
-/// near, and a larger dictionary saves nothing on the measured archives.
-inline constexpr uint32_t kXzDictionaryBytes = uint32_t{1} << 20;
-/// §3.3.2 The largest LZMA2 dictionary a reader accepts in a stream of `raw_size` bytes, max(1 MiB, raw_size):
-/// a dictionary need not be larger than what it decodes, and this library's writer's (kXzDictionaryBytes)
-/// fits any stream. The decoder's memory is about this.
+/// The LZMA2 dictionary this library's writer uses for `raw_size` bytes of codes: raw_size rounded up to a
+/// power of 2, between 1 and 8 MiB (xz's preset 6; the records an SH codebook scene repeats lie up to a
+/// section apart).
+uint32_t xz_writer_dictionary(uint64_t raw_size);
+/// §3.3.2 The largest LZMA2 dictionary a reader accepts in a stream of `raw_size` bytes, max(1 MiB, 2 raw_size):
+/// a dictionary need not be much larger than what it decodes, and this library's writer's fits. The decoder's
+/// memory is about this.
 uint64_t xz_max_dictionary(uint64_t raw_size);
 
 /// True when the bytes start with the .xz stream magic (FD 37 7A 58 5A 00), which no zstd frame does.
@@ -30,9 +31,11 @@ Status check_xz_stream(const uint8_t* src, size_t size, uint64_t raw_size);
 /// alone with a dictionary of at most xz_max_dictionary(raw_size). kCorruptData (damaged, another filter, a
 /// larger dictionary, or a block's check that does not match), kOutOfMemory.
 Status decode_xz_stream(const uint8_t* src, size_t size, uint8_t* dst, size_t raw_size);
-/// §3.3.2, §7 Appends one .xz stream of `size` raw bytes to `out`: LZMA2 (normal mode, kXzDictionaryBytes,
-/// `literal_context_bits` lc 0..4, lp 0, pb 0: the codes are bytes without alignment) in blocks of kXzBlockBytes,
-/// CRC32 checks, compressed by up to `workers` threads (0 counts as 1): the same bytes for any `workers`.
+/// §3.3.2, §7 Appends one .xz stream of `size` raw bytes to `out`: LZMA2 (xz's preset 6: normal mode, binary-tree
+/// match finder; xz_writer_dictionary; `literal_context_bits` lc 0..4, lp 0, pb 0: the codes are bytes without
+/// alignment) in blocks of kXzBlockBytes, CRC32 checks, compressed by up to `workers` threads (0 counts as 1, at
+/// most one a block): the same bytes for any `workers`. Each thread holds an encoder and its block's input and
+/// output (lzma_stream_encoder_mt_memusage: 123 MB with the 8 MiB dictionary, 38 MB with 1 MiB).
 /// kOutOfMemory, kInvalidArgument.
 Status compress_xz_stream(const uint8_t* raw, size_t size, uint32_t literal_context_bits, uint32_t workers,
                           std::vector<uint8_t>* out);

@@ -103,16 +103,18 @@ TEST_CASE("convert: progress goes through each output's stages with non-decreasi
   CHECK(stages(failed) == std::vector<std::string>{"reading"});
 }
 
-TEST_CASE("convert: the archive profile codes its sections at zstd_level: fewer bytes at 19 than at 1, the same scene") {
+TEST_CASE("convert: the archive's codes at zstd level 19 take fewer bytes than at 1, with .xz tried fewer still, "
+          "the same scene") {
   const std::string source_path = test::repo_path(test::kGuitarSh3);
   test::TempDir dir;
   std::vector<format::EncodedScene> scenes;
   std::vector<uint64_t> sizes;
-  for (int level : {1, 19}) {
+  for (auto [level, xz] : {std::pair{1, false}, std::pair{19, false}, std::pair{19, true}}) {
     api::ConvertOptions options;
     options.profile = format::StorageProfile::kArchive;
     options.zstd_level = level;
-    const std::string path = dir.file("archive_" + std::to_string(level) + ".rgs");
+    options.archive.xz = xz;
+    const std::string path = dir.file("archive_" + std::to_string(level) + (xz ? "_xz" : "") + ".rgs");
     REQUIRE(api::convert(source_path, path, options).ok());
     auto file = format::RgsFile::open(path);
     REQUIRE(file.ok());
@@ -122,11 +124,14 @@ TEST_CASE("convert: the archive profile codes its sections at zstd_level: fewer 
     sizes.push_back(test::slurp(path).size());
   }
   CHECK(sizes[1] < sizes[0]);
-  CHECK(scenes[0].means == scenes[1].means);
-  CHECK(scenes[0].rotations == scenes[1].rotations);
-  CHECK(scenes[0].scales == scenes[1].scales);
-  CHECK(scenes[0].opacities == scenes[1].opacities);
-  CHECK(scenes[0].sh == scenes[1].sh);
+  CHECK(sizes[2] < sizes[1]);  // LZMA's coding wins on some of guitar's sections (SPEC §3.3.2)
+  for (size_t i = 1; i < scenes.size(); ++i) {
+    CHECK(scenes[0].means == scenes[i].means);
+    CHECK(scenes[0].rotations == scenes[i].rotations);
+    CHECK(scenes[0].scales == scenes[i].scales);
+    CHECK(scenes[0].opacities == scenes[i].opacities);
+    CHECK(scenes[0].sh == scenes[i].sh);
+  }
 }
 
 TEST_CASE("convert: the archive profile reports the errors of the decoded archive, not the runtime quantization") {

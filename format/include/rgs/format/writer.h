@@ -44,9 +44,10 @@ struct WriteOptions {
 
 /// Serializes `scene` (SPEC §3 layout, sections in the order metadata, provenance if non-empty, means,
 /// rotations, scales, opacities, sh, sh_dc_residual if any, lod with options.lod). Deterministic: the same scene
-/// and options give identical bytes (no timestamps; zstd jobs of a fixed size, whatever the threads; SPEC §7).
-/// Peak memory: the output plus the zstd frames, and a zstd context per compressing thread (ZSTD_estimateCCtxSize:
-/// 81 MB at level 19).
+/// and options give identical bytes (no timestamps; zstd jobs and .xz blocks of a fixed size, whatever the threads;
+/// SPEC §7). Peak memory: the output plus the zstd frames, and a zstd context per compressing thread
+/// (ZSTD_estimateCCtxSize: 81 MB at level 19); for the archive's .xz trials an LZMA encoder per thread (up to
+/// 123 MB, format/src/internal_xz.h).
 /// Errors: kInvalidArgument for inconsistent arrays, an invalid quantization (is_valid_quantization), an
 /// SH degree above 3, unknown enum values, non-finite or unordered bounds, a zstd level out of range, a
 /// codec for an unknown section, or any value validate() would reject (SPEC §4.3–§4.7: non-finite means
