@@ -87,13 +87,20 @@ struct CodePlanes {
   }
 };
 
-/// The literal context bits (LZMA's lc) of the .xz streams the writer tries: lc 0 codes each byte on its own
-/// (best on rotation codes), lc 4 by the high half of the byte before (best on scales and colours).
+/// The literal context bits (LZMA's lc) the writer chooses between: lc 0 codes each byte on its own (best on most
+/// rotation codes), lc 4 by the high half of the byte before (best on most scales and colours).
 constexpr uint32_t kXzLiteralContextBits[] = {0, 4};
+/// For planes of codes the writer chooses lc, and whether LZMA beats zstd at all, on the first this many bytes of
+/// the section's codes: the whole section is coded once more, not once for each choice.
+constexpr size_t kXzSampleBytes = size_t{1} << 20;
 
 /// Header (§3.3.2; the codebook transform adds its size, §3.3.3) + zstd frame of the codes, at `o.zstd_level`
 /// with up to `o.threads` workers (encode_archive sets them for each section); with `o.xz`, an .xz stream of
-/// them instead where one is smaller (ties keep zstd).
+/// them instead where one is smaller (ties keep zstd). Planes of codes take the literal context bits that code a
+/// sample best, and no .xz stream where zstd codes the sample better. SH records of rest coefficients (transforms
+/// 5 and 6 above degree 0) repeat a section apart, and a transform-5 section holds entries, DC codes and indices
+/// one after the other, so no sample stands for them: they are coded with each lc, with LZMA's slower far-match
+/// search.
 Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t components,
                         const std::vector<float>& params, const std::vector<uint8_t>& codes, const ArchiveOptions& o,
                         std::vector<uint8_t>* out, uint32_t codebook_size = 0) {
@@ -109,9 +116,24 @@ Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t co
   std::vector<uint8_t> xz(out->begin(), out->end());
   RGS_RETURN_IF_ERROR(detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out));
   if (!o.xz) return Status();
-  for (uint32_t lc : kXzLiteralContextBits) {
+  const bool records = codebook || (transform == QuantizedTransform::kShColourDifferences && components > 3);
+  const detail::XzMatches matches = records ? detail::XzMatches::kFar : detail::XzMatches::kNear;
+  std::vector<uint32_t> choices(std::begin(kXzLiteralContextBits), std::end(kXzLiteralContextBits));
+  if (!records) {
+    const size_t sample = std::min(codes.size(), kXzSampleBytes);
+    std::vector<uint8_t> zstd_sample, xz_sample;
+    RGS_RETURN_IF_ERROR(detail::compress_zstd_frame(codes.data(), sample, o.zstd_level, 1, &zstd_sample));
+    size_t best = SIZE_MAX;
+    for (uint32_t lc : kXzLiteralContextBits) {
+      xz_sample.clear();
+      RGS_RETURN_IF_ERROR(detail::compress_xz_stream(codes.data(), sample, lc, matches, 1, &xz_sample));
+      if (xz_sample.size() < best) best = xz_sample.size(), choices = {lc};
+    }
+    if (best >= zstd_sample.size()) return Status();  // zstd codes these planes better
+  }
+  for (uint32_t lc : choices) {
     xz.resize(header);
-    RGS_RETURN_IF_ERROR(detail::compress_xz_stream(codes.data(), codes.size(), lc, o.threads, &xz));
+    RGS_RETURN_IF_ERROR(detail::compress_xz_stream(codes.data(), codes.size(), lc, matches, o.threads, &xz));
     if (xz.size() < out->size()) out->swap(xz);
   }
   return Status();

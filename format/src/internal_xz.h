@@ -12,9 +12,16 @@ namespace rgs::format::detail {
 /// §7 The raw bytes of each block of an .xz stream (liblzma's lzma_mt::block_size): blocks are compressed
 /// independently, so the stream does not depend on how many threads compress them.
 inline constexpr size_t kXzBlockBytes = size_t{8} << 20;
-/// The LZMA2 dictionary this library's writer uses for `raw_size` bytes of codes: raw_size rounded up to a
-/// power of 2, between 1 and 8 MiB (xz's preset 6; the records an SH codebook scene repeats lie up to a
-/// section apart).
+/// How far back the writer's LZMA2 encoder looks for matches.
+enum class XzMatches {
+  /// Planes of codes, whose matches are near: xz's preset 1 in normal mode (hash chains, a 1 MiB dictionary),
+  /// within 0.1 % of kFar's bytes on them at four times its speed.
+  kNear,
+  /// SH records, which a codebook-trained scene repeats a section apart: xz's preset 6 (binary trees), with a
+  /// dictionary of the codes rounded up to a power of 2, 1 to 8 MiB (xz_writer_dictionary).
+  kFar,
+};
+/// The LZMA2 dictionary of XzMatches::kFar for `raw_size` bytes of codes.
 uint32_t xz_writer_dictionary(uint64_t raw_size);
 /// §3.3.2 The largest LZMA2 dictionary a reader accepts in a stream of `raw_size` bytes, max(1 MiB, 2 raw_size):
 /// a dictionary need not be much larger than what it decodes, and this library's writer's fits. The decoder's
@@ -31,13 +38,12 @@ Status check_xz_stream(const uint8_t* src, size_t size, uint64_t raw_size);
 /// alone with a dictionary of at most xz_max_dictionary(raw_size). kCorruptData (damaged, another filter, a
 /// larger dictionary, or a block's check that does not match), kOutOfMemory.
 Status decode_xz_stream(const uint8_t* src, size_t size, uint8_t* dst, size_t raw_size);
-/// §3.3.2, §7 Appends one .xz stream of `size` raw bytes to `out`: LZMA2 (xz's preset 6: normal mode, binary-tree
-/// match finder; xz_writer_dictionary; `literal_context_bits` lc 0..4, lp 0, pb 0: the codes are bytes without
-/// alignment) in blocks of kXzBlockBytes, CRC32 checks, compressed by up to `workers` threads (0 counts as 1, at
-/// most one a block): the same bytes for any `workers`. Each thread holds an encoder and its block's input and
-/// output (lzma_stream_encoder_mt_memusage: 123 MB with the 8 MiB dictionary, 38 MB with 1 MiB).
-/// kOutOfMemory, kInvalidArgument.
-Status compress_xz_stream(const uint8_t* raw, size_t size, uint32_t literal_context_bits, uint32_t workers,
-                          std::vector<uint8_t>* out);
+/// §3.3.2, §7 Appends one .xz stream of `size` raw bytes to `out`: LZMA2 (`matches`; `literal_context_bits` lc
+/// 0..4, lp 0, pb 0: the codes are bytes without alignment) in blocks of kXzBlockBytes, CRC32 checks, compressed
+/// by up to `workers` threads (0 counts as 1, at most one a block): the same bytes for any `workers`. Each thread
+/// holds an encoder and its block's input and output (lzma_stream_encoder_mt_memusage: 123 MB for kFar with the
+/// 8 MiB dictionary, 38 MB for kNear). kOutOfMemory, kInvalidArgument.
+Status compress_xz_stream(const uint8_t* raw, size_t size, uint32_t literal_context_bits, XzMatches matches,
+                          uint32_t workers, std::vector<uint8_t>* out);
 
 }  // namespace rgs::format::detail

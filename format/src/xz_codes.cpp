@@ -128,12 +128,14 @@ Status decode_xz_stream(const uint8_t* src, size_t size, uint8_t* dst, size_t ra
   return Status();
 }
 
-Status compress_xz_stream(const uint8_t* raw, size_t size, uint32_t literal_context_bits, uint32_t workers,
-                          std::vector<uint8_t>* out) {
+Status compress_xz_stream(const uint8_t* raw, size_t size, uint32_t literal_context_bits, XzMatches matches,
+                          uint32_t workers, std::vector<uint8_t>* out) {
   lzma_options_lzma options;
-  RGS_RETURN_ERROR_IF(lzma_lzma_preset(&options, 6) || literal_context_bits > LZMA_LCLP_MAX,
+  const bool far = matches == XzMatches::kFar;
+  RGS_RETURN_ERROR_IF(lzma_lzma_preset(&options, far ? 6 : 1) || literal_context_bits > LZMA_LCLP_MAX,
                       StatusCode::kInvalidArgument, "LZMA2 options refused");
-  options.dict_size = xz_writer_dictionary(size);
+  options.mode = LZMA_MODE_NORMAL;  // preset 1's fast mode takes 5 % more bytes of the codes
+  options.dict_size = far ? xz_writer_dictionary(size) : uint32_t{1} << 20;
   options.lc = literal_context_bits;
   options.lp = 0;
   options.pb = 0;

@@ -252,20 +252,31 @@ TEST_CASE("archive: each section's codes in the smaller of a zstd frame and an .
 }
 
 TEST_CASE("archive: an .xz stream of several blocks has the same bytes whatever the threads, and decodes") {
-  // 17 MiB: blocks of 8, 8 and 1 MiB (SPEC §7).
-  std::vector<uint8_t> raw(size_t{17} << 20);
-  std::mt19937 rng(3);
-  std::geometric_distribution<int> skewed(0.2);
-  for (uint8_t& v : raw) v = static_cast<uint8_t>(skewed(rng));
-  std::vector<uint8_t> one, three;
-  REQUIRE(format::detail::compress_xz_stream(raw.data(), raw.size(), 4, 1, &one).ok());
-  REQUIRE(format::detail::compress_xz_stream(raw.data(), raw.size(), 4, 3, &three).ok());
-  CHECK(one == three);
-  CHECK(format::detail::check_xz_stream(one.data(), one.size(), raw.size()).ok());
-  CHECK(format::detail::check_xz_stream(one.data(), one.size(), raw.size() - 1).code() == StatusCode::kCorruptData);
-  std::vector<uint8_t> back(raw.size());
-  REQUIRE(format::detail::decode_xz_stream(one.data(), one.size(), back.data(), back.size()).ok());
-  CHECK(back == raw);
+  // Blocks of 8 MiB (SPEC §7): 17 MiB make three for the planes' near matches, 9 MiB two for the records' far ones.
+  for (auto [matches, mib] : {std::pair{format::detail::XzMatches::kNear, 17}, std::pair{format::detail::XzMatches::kFar, 9}}) {
+    CAPTURE(mib);
+    // Skewed bytes, or for the far matches records of 24 drawn from 4,096 (as a codebook-trained scene's SH).
+    std::vector<uint8_t> raw(size_t(mib) << 20), palette(4096 * 24);
+    std::mt19937 rng(3);
+    std::geometric_distribution<int> skewed(0.2);
+    for (uint8_t& v : palette) v = static_cast<uint8_t>(skewed(rng));
+    if (matches == format::detail::XzMatches::kNear) {
+      for (uint8_t& v : raw) v = static_cast<uint8_t>(skewed(rng));
+    } else {
+      for (size_t i = 0; i + 24 <= raw.size(); i += 24) {
+        std::copy_n(palette.begin() + 24 * (rng() % 4096), 24, raw.begin() + static_cast<ptrdiff_t>(i));
+      }
+    }
+    std::vector<uint8_t> one, three;
+    REQUIRE(format::detail::compress_xz_stream(raw.data(), raw.size(), 4, matches, 1, &one).ok());
+    REQUIRE(format::detail::compress_xz_stream(raw.data(), raw.size(), 4, matches, 3, &three).ok());
+    CHECK(one == three);
+    CHECK(format::detail::check_xz_stream(one.data(), one.size(), raw.size()).ok());
+    CHECK(format::detail::check_xz_stream(one.data(), one.size(), raw.size() - 1).code() == StatusCode::kCorruptData);
+    std::vector<uint8_t> back(raw.size());
+    REQUIRE(format::detail::decode_xz_stream(one.data(), one.size(), back.data(), back.size()).ok());
+    CHECK(back == raw);
+  }
 }
 
 TEST_CASE("archive: deterministic whatever the thread count") {

@@ -55,10 +55,11 @@ struct ArchiveOptions {
   /// zstd level 1..22 of the coded sections (api::convert sets it from ConvertOptions::zstd_level). It changes
   /// the bytes, not the decoded values: 19 codes the measured archives 1-10 % smaller than 6 (docs/AUDITS.md).
   int zstd_level = 19;
-  /// Also code each quantized section's codes as an .xz stream (LZMA2, §3.3.2; version 1.5) and keep whichever
-  /// of that and the zstd frame is smaller: LZMA's adaptive literal coding takes 5-8 % off the codes of
-  /// scenes without repeated SH records, zstd's matches win where records repeat (docs/AUDITS.md). It changes
-  /// the bytes, not the decoded values; rate control's search codes without it (faster) and writes with it.
+  /// Also code each quantized section's codes as an .xz stream (LZMA2, §3.3.2; version 1.5) where LZMA beats
+  /// zstd on their first MiB, and keep whichever of it and the zstd frame is smaller: 3-7 % off the quantized
+  /// sections of the measured fits (docs/AUDITS.md#entropy-coding-of-the-codes), for about one more encoding of
+  /// each section. It changes the bytes, not the decoded values; rate control's search codes without it
+  /// (faster) and writes with it.
   bool xz = true;
   /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
   int draco_speed = 6;
