@@ -471,7 +471,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Rate control: image height of the views")
       ->check(CLI::Range(11, 32768));
-  app.add_option("--zstd-level", opt.convert.zstd_level, "zstd level 1..22 of the --zstd sections and of the archive profile")
+  app.add_option("--zstd-level", opt.convert.zstd_level,
+                 "zstd level 1..22 of the --zstd sections and of the archive profile; from 19 on, the archive's "
+                 "codes also try .xz (LZMA2) streams and keep the smaller")
       ->check(CLI::Range(1, 22))
       ->capture_default_str();
   app.add_flag("--sanitize", opt.convert.sanitize,

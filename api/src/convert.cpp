@@ -60,6 +60,7 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
     write.profile = format::StorageProfile::kArchive;
     write.archive = options.archive;
     write.archive.zstd_level = options.zstd_level;
+    write.archive.xz = options.archive.xz && options.zstd_level >= kArchiveXzMinZstdLevel;
   }
   for (const std::string& name : options.zstd_sections) {
     bool found = false;

@@ -485,7 +485,7 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
                    : detail::check_quantized_header(e.id, src, size, e.element_count, e.components, &xz);
     if (!s.ok()) return Status(s).prepend(label);
     // §2.2, §3.3.2 Codes in an .xz stream come with their required flag, in a 1.5 file (check_xz_codes checks
-    // that the flag comes with them).
+    // the converse).
     RGS_RETURN_ERROR_IF(xz && (f.header_.required_flags & kRequiredFlagXzCodes) == 0, StatusCode::kCorruptData,
                         label + ": codes in an .xz stream without their required flag");
     RGS_RETURN_ERROR_IF(xz && !version_at_least(version, kMinVersionForXzCodes), StatusCode::kCorruptData,

@@ -221,7 +221,9 @@ TEST_CASE("archive: each section's codes in the smaller of a zstd frame and an .
   std::normal_distribution<float> clustered(0, 1);
   for (uint64_t i = 0; i < scene.count; ++i) {
     scene.opacities[i] = format::float_to_half_bits(std::min(1.0f, 0.9f + 0.05f * std::fabs(clustered(rng))));
-    for (int a = 0; a < 3; ++a) scene.scales[i * 3 + a] = format::float_to_half_bits(std::exp(-4 + 0.3f * clustered(rng)));
+    for (int a = 0; a < 3; ++a) {
+      scene.scales[i * 3 + a] = format::float_to_half_bits(std::exp(-4 + 0.3f * clustered(rng)));
+    }
   }
   format::WriteOptions zstd = archive_options(), xz = archive_options();
   zstd.archive.xz = false;
@@ -253,14 +255,15 @@ TEST_CASE("archive: each section's codes in the smaller of a zstd frame and an .
 
 TEST_CASE("archive: an .xz stream of several blocks has the same bytes whatever the threads, and decodes") {
   // Blocks of 8 MiB (SPEC §7): 17 MiB make three for the planes' near matches, 9 MiB two for the records' far ones.
-  for (auto [matches, mib] : {std::pair{format::detail::XzMatches::kNear, 17}, std::pair{format::detail::XzMatches::kFar, 9}}) {
+  using format::detail::XzMatches;
+  for (auto [matches, mib] : {std::pair{XzMatches::kNear, 17}, std::pair{XzMatches::kFar, 9}}) {
     CAPTURE(mib);
     // Skewed bytes, or for the far matches records of 24 drawn from 4,096 (as a codebook-trained scene's SH).
     std::vector<uint8_t> raw(size_t(mib) << 20), palette(4096 * 24);
     std::mt19937 rng(3);
     std::geometric_distribution<int> skewed(0.2);
     for (uint8_t& v : palette) v = static_cast<uint8_t>(skewed(rng));
-    if (matches == format::detail::XzMatches::kNear) {
+    if (matches == XzMatches::kNear) {
       for (uint8_t& v : raw) v = static_cast<uint8_t>(skewed(rng));
     } else {
       for (size_t i = 0; i + 24 <= raw.size(); i += 24) {

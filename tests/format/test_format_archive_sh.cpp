@@ -1,5 +1,6 @@
-// The archive's SH transforms and the coding of its codes: the colour differences of transform 6 (SPEC §3.3.2: its byte layout, exactly
-// transform 4's values, its flag and version) and the codebook of transform 5 (§3.3.3: round trip, determinism),
+// The archive's SH transforms and the coding of its codes: the colour differences of transform 6 (SPEC §3.3.2:
+// its byte layout, exactly transform 4's values, its flag and version) and the codebook of transform 5 (§3.3.3:
+// round trip, determinism),
 // and the must-fail files tests/data/bad/archive/*.rgs (transform 6 without its flag, in a 1.3 file, the flag
 // without it, a code out of range; for the codebook a truncated frame, wrong sizes, an index or an entry code out
 // of range; for codes in an .xz stream the flag and version, the check, the filters, the dictionary, the sizes,
@@ -206,8 +207,10 @@ std::vector<uint8_t> make_bad_archive(const std::string& name) {
     if (name == "xz_large_dictionary") coding.dictionary = uint32_t{64} << 20;
     if (name == "xz_wrong_size") f.content.push_back(0);
     std::vector<uint8_t> stream = xz_stream(f.content, coding);
-    const uint64_t index_end = stream.size() - 12, index = index_end - (uint64_t{get_u32(stream, index_end + 4)} + 1) * 4;
-    if (name == "xz_check_mismatch") stream[index - 1] ^= 0x40;  // the block's CRC32, just before the index
+    // The footer's backward size gives where the index starts; the block's CRC32 ends just before it.
+    const uint64_t index_end = stream.size() - 12;
+    const uint64_t index = index_end - (uint64_t{get_u32(stream, index_end + 4)} + 1) * 4;
+    if (name == "xz_check_mismatch") stream[index - 1] ^= 0x40;
     if (name == "xz_two_streams") stream.insert(stream.end(), stream.begin(), stream.end());
     if (name == "xz_truncated") stream.resize(stream.size() / 2);
     std::vector<uint8_t> out = write_sh_xz(b, f, stream);

@@ -50,6 +50,11 @@ struct ConvertProgress {
   double fraction = 0;
 };
 
+/// The archive's quantized codes also try .xz streams (format::ArchiveOptions::xz) from this zstd level on, the
+/// default: LZMA takes 2-5 % off the measured archives for about the time zstd takes at this level, and a lower
+/// level asks for a quick conversion (docs/AUDITS.md#entropy-coding-of-the-codes).
+inline constexpr int kArchiveXzMinZstdLevel = 19;
+
 /// Options of convert(); the defaults are rgs-convert's.
 struct ConvertOptions {
   /// Output format; unset: the extension of `dst` decides (output_format_for).
@@ -75,7 +80,8 @@ struct ConvertOptions {
   /// Sections compressed with zstd: "all" or names among metadata, provenance, means, rotations, scales,
   /// opacities, sh, sh_dc_residual. Empty: every section stored raw (the runtime copies it to the GPU as is).
   std::vector<std::string> zstd_sections;
-  /// zstd level 1..22 of the zstd_sections and of the archive profile's coded sections.
+  /// zstd level 1..22 of the zstd_sections and of the archive profile's coded sections; from
+  /// kArchiveXzMinZstdLevel on, the archive's codes also try .xz streams (format::ArchiveOptions::xz).
   int zstd_level = 19;
   /// kRuntime (lossless sections, mapped as is) or kArchive (Draco means and quantized attributes,
   /// SPEC §3.3), coded with `archive`.

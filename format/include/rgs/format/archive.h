@@ -59,7 +59,7 @@ struct ArchiveOptions {
   /// zstd on their first MiB, and keep whichever of it and the zstd frame is smaller: 3-7 % off the quantized
   /// sections of the measured fits (docs/AUDITS.md#entropy-coding-of-the-codes), for about one more encoding of
   /// each section. It changes the bytes, not the decoded values; rate control's search codes without it
-  /// (faster) and writes with it.
+  /// (faster) and writes with it; api::convert keeps it only from zstd level 19 on (api::kArchiveXzMinZstdLevel).
   bool xz = true;
   /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
   int draco_speed = 6;
