@@ -49,8 +49,9 @@ Status read_xz_index(const uint8_t* src, size_t size, uint64_t raw_size, lzma_st
   size_t pos = size - kXzStreamFooterBytes - static_cast<size_t>(backward);
   const lzma_ret r = lzma_index_buffer_decode(&decoded, &memlimit, nullptr, src, &pos, size - kXzStreamFooterBytes);
   if (r == LZMA_MEM_ERROR) return Status(StatusCode::kOutOfMemory, "out of memory decoding an .xz index");
-  RGS_RETURN_ERROR_IF(r != LZMA_OK, StatusCode::kCorruptData, ".xz index is damaged");
-  index->reset(decoded);
+  if (decoded != nullptr) index->reset(decoded);
+  RGS_RETURN_ERROR_IF(r != LZMA_OK || pos != size - kXzStreamFooterBytes, StatusCode::kCorruptData,
+                      ".xz index is damaged or shorter than the footer says");
   RGS_RETURN_ERROR_IF(lzma_index_stream_flags(decoded, flags) != LZMA_OK, StatusCode::kCorruptData,
                       ".xz stream flags refused");
   RGS_RETURN_ERROR_IF(lzma_index_stream_size(decoded) != size, StatusCode::kCorruptData,
@@ -118,11 +119,10 @@ Status decode_xz_stream(const uint8_t* src, size_t size, uint8_t* dst, size_t ra
     size_t in_pos = offset + block.header_size;
     size_t out_pos = static_cast<size_t>(iter.block.uncompressed_file_offset);
     const size_t out_end = out_pos + static_cast<size_t>(iter.block.uncompressed_size);
-    const lzma_ret r = lzma_block_buffer_decode(&block, nullptr, src, &in_pos,
-                                                offset + static_cast<size_t>(iter.block.total_size), dst, &out_pos,
-                                                out_end);
+    const size_t block_end = offset + static_cast<size_t>(iter.block.total_size);
+    const lzma_ret r = lzma_block_buffer_decode(&block, nullptr, src, &in_pos, block_end, dst, &out_pos, out_end);
     if (r == LZMA_MEM_ERROR) return Status(StatusCode::kOutOfMemory, "out of memory decoding " + what);
-    RGS_RETURN_ERROR_IF(r != LZMA_OK || out_pos != out_end, StatusCode::kCorruptData,
+    RGS_RETURN_ERROR_IF(r != LZMA_OK || out_pos != out_end || in_pos != block_end, StatusCode::kCorruptData,
                         what + (r == LZMA_DATA_ERROR ? ": damaged data or check mismatch" : ": damaged"));
   }
   return Status();
