@@ -1134,11 +1134,12 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
     }
   }
   result.finest = search.finest();
-  for (FitPoint* p : {&result.chosen, result.finest ? &*result.finest : nullptr}) {
-    if (p == nullptr) continue;
-    p->options.zstd_level = file_zstd_level;
-    p->options.xz = file_xz;
-  }
+  auto as_asked = [&](format::ArchiveOptions* o) {
+    o->zstd_level = file_zstd_level;
+    o->xz = file_xz;
+  };
+  as_asked(&result.chosen.options);
+  if (result.finest) as_asked(&result.finest->options);
   result.encodings = measurer.encodings();
   result.renders = measurer.renders();
   result.encode_seconds = measurer.encode_seconds();

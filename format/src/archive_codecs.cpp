@@ -169,7 +169,7 @@ Status parse_quantized(SectionId id, const uint8_t* src, size_t size, uint64_t n
                       "quantized parameter count " + dec(h->param_count) + ", expected " + dec(want_params));
   RGS_RETURN_ERROR_IF(h->components != components, StatusCode::kCorruptData,
                       "quantized component count " + dec(h->components) + ", expected " + dec(components));
-  const size_t header = kQuantizedHeaderSize + 4 * size_t{h->param_count} + (codebook ? 4 : 0);
+  const size_t header = quantized_header_bytes(h->param_count, codebook);
   RGS_RETURN_ERROR_IF(size < header, StatusCode::kCorruptData,
                       "quantized section of " + dec(size) + " bytes is shorter than its " + dec(header) +
                           "-byte header");
@@ -233,7 +233,7 @@ Status check_quantized_header(SectionId id, const uint8_t* src, size_t size, uin
 bool quantized_codes_are_xz(const uint8_t* src, size_t size) {
   if (size < kQuantizedHeaderSize) return false;
   const bool codebook = src[0] == static_cast<uint8_t>(QuantizedTransform::kShCodebook);
-  const size_t header = kQuantizedHeaderSize + 4 * size_t{load_u16_le(src + 2)} + (codebook ? 4 : 0);
+  const size_t header = quantized_header_bytes(load_u16_le(src + 2), codebook);
   return size >= header && is_xz_stream(src + header, size - header);
 }
 

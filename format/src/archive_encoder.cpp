@@ -87,8 +87,9 @@ struct CodePlanes {
   }
 };
 
-/// The literal context bits (LZMA's lc) the writer chooses between: lc 0 codes each byte on its own (best on most
-/// rotation codes), lc 4 by the high half of the byte before (best on most scales and colours).
+/// The literal context bits (LZMA's lc) the writer chooses between: lc 0 codes each byte on its own, lc 4 by the
+/// high half of the byte before; which codes a section smaller depends on the scene (guitar's rotations take lc 0,
+/// biker's lc 4).
 constexpr uint32_t kXzLiteralContextBits[] = {0, 4};
 /// For planes of codes the writer chooses lc, and whether LZMA beats zstd at all, on the first this many bytes of
 /// the section's codes: the whole section is coded once more, not once for each choice.
@@ -100,12 +101,12 @@ constexpr size_t kXzSampleBytes = size_t{1} << 20;
 /// sample best, and no .xz stream where zstd codes the sample better. SH records of rest coefficients (transforms
 /// 5 and 6 above degree 0) repeat a section apart, and a transform-5 section holds entries, DC codes and indices
 /// one after the other, so no sample stands for them: they are coded at lc 0 (daffodils' 0.7 % smaller than at
-/// lc 4, flowers' 0.3 % larger), with LZMA's slower far-match search.
+/// lc 4, flowers' 0.2 % larger), with LZMA's slower far-match search.
 Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t components,
                         const std::vector<float>& params, const std::vector<uint8_t>& codes, const ArchiveOptions& o,
                         std::vector<uint8_t>* out, uint32_t codebook_size = 0) {
   const bool codebook = transform == QuantizedTransform::kShCodebook;
-  out->assign(detail::kQuantizedHeaderSize + 4 * params.size() + (codebook ? 4 : 0), 0);
+  out->assign(detail::quantized_header_bytes(params.size(), codebook), 0);
   (*out)[0] = static_cast<uint8_t>(transform);
   (*out)[1] = static_cast<uint8_t>(bits);
   detail::store_u16_le(out->data() + 2, static_cast<uint16_t>(params.size()));

@@ -19,6 +19,11 @@ inline constexpr uint64_t kArchiveRatioAllowance = 4;
 
 /// §3.3.2 Size of the quantized codec's fixed header before its parameters.
 inline constexpr size_t kQuantizedHeaderSize = 8;
+/// §3.3.2, §3.3.3 Bytes before a quantized section's codes: the fixed header, 4 a parameter, and for the SH
+/// codebook (transform 5) the codebook size.
+constexpr size_t quantized_header_bytes(size_t params, bool codebook) {
+  return kQuantizedHeaderSize + 4 * params + (codebook ? 4 : 0);
+}
 
 /// §3.3.2 Transform identifiers of the quantized codec.
 enum class QuantizedTransform : uint8_t {

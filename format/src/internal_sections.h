@@ -142,7 +142,8 @@ inline constexpr size_t kZstdJobBytes = size_t{8} << 20;
 inline constexpr int kZstdOverlapLog = 6;
 /// §3.1, §7 Appends one zstd frame of `size` raw bytes, with content size and checksum, to `out`: jobs of
 /// kZstdJobBytes compressed by up to `workers` threads (at most one a job; 0 counts as 1), the same bytes for
-/// any `workers`; each worker holds a compression context (ZSTD_estimateCCtxSize: 81 MB at level 19). Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
+/// any `workers`; each worker holds a compression context (ZSTD_estimateCCtxSize: 81 MB at level 19).
+/// Errors: kOutOfMemory, kInvalidArgument (level or size refused) (writer.cpp).
 Status compress_zstd_frame(const uint8_t* raw, size_t size, int level, uint32_t workers, std::vector<uint8_t>* out);
 /// §3.1 Decodes one whole zstd frame of exactly `stored_size` bytes into exactly `raw_size` bytes.
 Status decode_zstd_frame(const uint8_t* src, size_t stored_size, uint8_t* dst, size_t raw_size);

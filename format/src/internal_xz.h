@@ -15,7 +15,7 @@ inline constexpr size_t kXzBlockBytes = size_t{8} << 20;
 /// How far back the writer's LZMA2 encoder looks for matches.
 enum class XzMatches {
   /// Planes of codes, whose matches are near: xz's preset 1 in normal mode (hash chains, a 1 MiB dictionary),
-  /// within 0.1 % of kFar's bytes on them at four times its speed.
+  /// within 0.5 % of kFar's bytes on the measured planes at 1.4-1.8 times its speed (docs/AUDITS.md).
   kNear,
   /// SH records, which a codebook-trained scene repeats a section apart: xz's preset 6 (binary trees), with a
   /// dictionary of the codes rounded up to a power of 2, 1 to 8 MiB (xz_writer_dictionary).
