@@ -93,8 +93,12 @@ for t in $targets; do
     log "spz: mean PSNR $db dB on these views ($(since "$t0"))"
   fi
   t0=$(date +%s%N)
-  if "$tools/rgs-convert" -q "$source" "$out/$name.archive@$t.rgs" --target-psnr "$db" "${camera_args[@]}"; then
-    log "archive@$t ($db dB) fitted in $(since "$t0")"
+  if "$tools/rgs-convert" -q "$source" "$out/$name.archive@$t.rgs" --target-psnr "$db" "${camera_args[@]}" \
+    --json "$out/$name.archive@$t.json"; then
+    log "archive@$t ($db dB) fitted in $(since "$t0") ($(python3 -c 'import json, sys
+r = json.load(open(sys.argv[1]))["rate_control"]
+print("search: %d archives encoded in %.1f s, %d rendered in %.1f s" %
+      (r["encodings"], r["encode_seconds"], r["renders"], r["render_seconds"]))' "$out/$name.archive@$t.json"))"
     add "$out/$name.archive@$t.rgs" "archive@$t"
   else
     log "archive@$t: no fit at $db dB (above: why); left out of the curve"

@@ -52,8 +52,6 @@ constexpr double kMaxCodeStep = 16;
 /// never blend in the source (α ≤ opacity < 1/255), then by factors of √2 up to this: each step leaves out
 /// Gaussians that can blend, the faintest first. Floors the opacity code 0 already covers are skipped.
 constexpr double kMaxOpacityFloor = 32.0 / 255;
-/// The floor below which no Gaussian can blend (α ≤ opacity).
-constexpr double kLosslessOpacityFloor = 1.0 / 255;
 /// The fine scan of an SH multiplier tries at most this many integers above it.
 constexpr uint32_t kFineMultipliers = 16;
 /// Rounds of one-knob steps after the ladder, and of code steps at the end: bounds on the search's time.
@@ -66,6 +64,10 @@ constexpr uint32_t kMinBits = 4, kMaxBits = 16;
 /// with batches is in docs/AUDITS.md#rate-control-of-the-archive-profile---target-psnr---target-bytes).
 constexpr uint64_t kBatchBytes = uint64_t{4} << 30;
 constexpr uint64_t kBatchBytesPerGaussian = 100;
+/// Archives kept for their Draco points (Measurer::encode_archive): as many as fit this much memory at the
+/// estimate above, at least 2 and at most kMaxPointsKept.
+constexpr uint64_t kPointsBytes = uint64_t{2} << 30;
+constexpr uint64_t kMaxPointsKept = 8;
 /// On the GPU the source's renders of both view sets stay on the device, where the candidates' renders are
 /// compared with them, while they take at most this much (RGBA float32); beyond it they are kept on the host.
 constexpr uint64_t kDeviceSourceBytes = uint64_t{4} << 30;
@@ -75,12 +77,14 @@ constexpr int kFinestPositionLog2 = 25, kCoarsestPositionLog2 = 3;
 constexpr double kLadderFinest = -8, kLadderCoarsest = 8;
 /// How much above the target the final choice may be before the search is run again at an adjusted target.
 constexpr double kMaxAboveDb = 0.5;
-/// The last step's trades: how many coarser steps that miss the target are tried with finer SH steps, and the
-/// finest SH scale they are tried with.
-constexpr size_t kTradeCandidates = 2;
-constexpr double kTradeFinestScale = 0.25;
-/// The trades are tried only when the refinement ends more than this above the target.
-constexpr double kTradeMinSlackDb = 0.15;
+/// The scan of the SH multipliers and the code steps' stage spend only what the whole steps leave more than this
+/// above the target.
+constexpr double kMinSlackDb = 0.15;
+/// Exchanges (Search::exchange_for_psnr): the pairs of steps measured in each, the most taken in one search, and
+/// the share of the bytes an exchange must save for the search to look for another.
+constexpr size_t kExchangePairs = 4;
+constexpr int kMaxExchanges = 4;
+constexpr double kExchangeMinSaving = 0.0025;
 /// Searches (each checked at the cameras' own size) before the choice is settled.
 constexpr int kMaxAttempts = 3;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
@@ -101,12 +105,6 @@ uint32_t clamp_bits(double bits) { return uint32_t(std::clamp(std::lround(bits),
 
 double clamp_position(double error) {
   return std::clamp(error, std::ldexp(1.0, -kFinestPositionLog2), std::ldexp(1.0, -kCoarsestPositionLog2));
-}
-
-/// `o` with every SH step multiplier scaled by `factor` (rounded, 1..127).
-format::ArchiveOptions scale_sh(format::ArchiveOptions o, double factor) {
-  for (uint32_t& m : o.sh_step_multipliers) m = uint32_t(std::clamp(std::lround(double(m) * factor), 1L, 127L));
-  return o;
 }
 
 /// The ladder: every knob of `anchor` coarsened by `q` bits (q < 0: finer).
@@ -219,6 +217,7 @@ class Measurer {
     const uint64_t sh_per_gaussian = quantized_.count != 0 ? quantized_.sh.size() / quantized_.count : 0;
     const uint64_t per_archive = std::max<uint64_t>(1, quantized_.count * (kBatchBytesPerGaussian + sh_per_gaussian));
     batch_ = size_t(std::clamp<uint64_t>(kBatchBytes / per_archive, 1, parallel::available_cpus()));
+    points_kept_ = size_t(std::clamp<uint64_t>(kPointsBytes / per_archive, 2, kMaxPointsKept));
   }
 
   /// Creates the renderers and renders the source on both view sets. On the CPU with several threads, each
@@ -322,8 +321,9 @@ class Measurer {
   /// Encodes `o`, taking the sections whose settings it shares with an archive encoded before (the search moves
   /// one knob at a time, so most candidates encode one section). That archive is the last one, unless it
   /// codes other points for Draco than `o` will (other position bits, or other opacity settings, which change
-  /// the Gaussians left out) and the last one with other points does not: then Draco, the slowest section,
-  /// need not run again when the search steps back from a trial of the opacity or the position error.
+  /// the Gaussians left out) and one of the last archives with other points (points_) does not: then Draco, the
+  /// slowest section, need not run again when the search comes back to points it coded before (each round
+  /// steps the opacity and the position error from a point that differs from the last round's in another knob).
   Result<std::shared_ptr<const format::ArchiveScene>> encode_archive(const format::ArchiveOptions& o) {
     const auto start = Clock::now();
     RGS_ASSIGN_OR_RETURN(format::ArchiveScene archive, format::encode_archive(quantized_, o, lender(o)));
@@ -342,13 +342,21 @@ class Measurer {
 
   /// The archive encode_archive lends its sections to `o` (see encode_archive).
   const format::ArchiveScene* lender(const format::ArchiveOptions& o) const {
-    const bool last_differs = last_ && !same_points(last_, o);
-    return last_differs && same_points(other_points_, o) ? other_points_.get() : last_.get();
+    if (last_ && !same_points(last_, o)) {
+      for (const auto& a : points_) {
+        if (same_points(a, o)) return a.get();
+      }
+    }
+    return last_.get();
   }
 
-  /// Makes `a` the last archive encoded (and the one before it the last with other points when they differ).
+  /// Makes `a` the last archive encoded and the first of points_ (replacing the one with its points).
   std::shared_ptr<const format::ArchiveScene> keep_last(std::shared_ptr<const format::ArchiveScene> a) {
-    if (last_ && !same_points(last_, a->options)) other_points_ = std::move(last_);
+    const auto same =
+        std::find_if(points_.begin(), points_.end(), [&](const auto& p) { return same_points(p, a->options); });
+    if (same != points_.end()) points_.erase(same);
+    points_.insert(points_.begin(), a);
+    if (points_.size() > points_kept_) points_.pop_back();
     last_ = std::move(a);
     return last_;
   }
@@ -504,8 +512,9 @@ class Measurer {
   ViewSet search_, final_;
   std::map<Key, Entry> cache_;
   std::shared_ptr<const format::ArchiveScene> last_;  ///< the last archive encoded, lending its sections
-  /// The last archive encoded before last_ whose Draco points differ from last_'s (encode_archive).
-  std::shared_ptr<const format::ArchiveScene> other_points_;
+  /// The last archives encoded with distinct Draco points, the latest first (encode_archive), at most points_kept_.
+  std::vector<std::shared_ptr<const format::ArchiveScene>> points_;
+  size_t points_kept_ = 1;
   uint64_t overhead_ = 0;
   uint32_t renders_ = 0;
   size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
@@ -524,13 +533,12 @@ std::string db_text(double db) {
   return text;
 }
 
-/// The knobs the rounds move for a scene of SH degree `sh_degree`, the opacity floor only `with_floor`.
-std::vector<Knob> knobs_for(uint32_t sh_degree, bool with_floor) {
+/// The knobs the rounds move for a scene of SH degree `sh_degree`.
+std::vector<Knob> knobs_for(uint32_t sh_degree) {
   std::vector<Knob> out;
   for (Knob k : kKnobs) {
     const int band = int(k) - int(Knob::kSh0);
     if (band >= 0 && band <= 3 && uint32_t(band) > sh_degree) continue;
-    if (k == Knob::kOpacityFloor && !with_floor) continue;
     out.push_back(k);
   }
   return out;
@@ -538,11 +546,10 @@ std::vector<Knob> knobs_for(uint32_t sh_degree, bool with_floor) {
 
 class Search {
  public:
-  Search(Measurer& m, const FitOptions& options, uint32_t sh_degree, format::ArchiveOptions anchor,
-         bool with_floor = true)
+  Search(Measurer& m, const FitOptions& options, uint32_t sh_degree, format::ArchiveOptions anchor)
       : m_(m),
         options_(options),
-        knobs_(knobs_for(sh_degree, with_floor)),
+        knobs_(knobs_for(sh_degree)),
         anchor_(std::move(anchor)),
         sh_degree_(sh_degree) {}
 
@@ -564,7 +571,13 @@ class Search {
     }
     RGS_RETURN_IF_ERROR(refine_for_psnr(target, &path));
     RGS_RETURN_IF_ERROR(scan_multipliers_for_psnr(target, &path));
-    RGS_RETURN_IF_ERROR(trade_for_psnr(target, &path));
+    for (int exchange = 0; exchange < kMaxExchanges; ++exchange) {
+      const uint64_t before = path.back().bytes;
+      RGS_ASSIGN_OR_RETURN(const bool exchanged, exchange_for_psnr(target, &path));
+      if (!exchanged) break;
+      RGS_RETURN_IF_ERROR(refine_for_psnr(target, &path));
+      if (double(path.back().bytes) > double(before) * (1 - kExchangeMinSaving)) break;
+    }
     RGS_RETURN_IF_ERROR(fill_for_psnr(target, &path));
     return path;
   }
@@ -652,7 +665,7 @@ class Search {
   }
 
   /// kTargetPsnr's scan of each SH step multiplier's integers, while path->back() is more than
-  /// kTradeMinSlackDb above `target`: the integers between the multiplier and the second ladder value above it
+  /// kMinSlackDb above `target`: the integers between the multiplier and the second ladder value above it
   /// (at most kFineMultipliers). Where the source's colours already lie on a grid of their own (a scene that was
   /// 8-bit before it was a PLY), the error of a step depends on how it lines up with that grid, not only on its
   /// size, so a multiplier between two ladder values can be both smaller and closer to the target than either.
@@ -661,7 +674,7 @@ class Search {
     for (Knob knob : knobs_) {
       if (knob < Knob::kSh0 || knob > Knob::kSh3) continue;
       const FitPoint at = path->back();
-      if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) break;
+      if (!(at.psnr_mean_db > target + kMinSlackDb)) break;
       const size_t degree = size_t(int(knob) - int(Knob::kSh0));
       const uint32_t m = at.options.sh_step_multipliers[degree];
       auto next = std::upper_bound(kMultipliers.begin(), kMultipliers.end(), m);
@@ -691,68 +704,84 @@ class Search {
     return Status();
   }
 
-  /// kTargetPsnr's last step, finer than one knob's, when path->back() is more than kTradeMinSlackDb above
-  /// `target`: a coarser step of a bit count or of the position error that misses `target` on its own, with
-  /// another knob one step finer, or with every SH step multiplier scaled down by the factor (bisected) that
-  /// brings it back to the target; the smallest that meets the target is kept when it is smaller than
-  /// path->back().
-  Status trade_for_psnr(double target, std::vector<FitPoint>* path) {
+  /// kTargetPsnr's exchange between knobs, after the rounds, where no knob can go one step coarser on its own: the
+  /// knobs differ in bytes per squared error, so one step coarser with another step finer can meet `target` in
+  /// fewer bytes (a greedy path through the knobs ends off the rate-distortion curve otherwise). Every knob one step
+  /// coarser and one step finer, and every SH multiplier one step finer together, are measured at path->back() (the
+  /// coarser steps are the last round's, measured before); squared errors and bytes of two steps roughly add, so
+  /// the kExchangePairs pairs of a coarser and a finer step of two knobs predicted smallest among those predicted to
+  /// meet `target` are measured together. The smallest that meets it, if smaller than path->back(), is taken
+  /// (returns true).
+  Result<bool> exchange_for_psnr(double target, std::vector<FitPoint>* path) {
     const FitPoint at = path->back();
-    if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) return Status();  // little to gain
-    std::vector<FitPoint> misses;
-    for (Knob knob : knobs_) {
-      if (knob >= Knob::kSh0 && knob <= Knob::kSh3) continue;
-      const auto o = step(at.options, knob, true);
-      if (!o) continue;
-      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.measure({*o}));
-      if (!(p[0].psnr_mean_db >= target) && p[0].bytes < at.bytes) misses.push_back(p[0]);
+    struct Single {
+      format::ArchiveOptions options;
+      size_t knob;  ///< index in knobs_; knobs_.size() for every SH multiplier together
+    };
+    std::vector<Single> coarser, finer;
+    for (size_t k = 0; k < knobs_.size(); ++k) {
+      if (auto o = step(at.options, knobs_[k], true)) coarser.push_back({*o, k});
+      if (auto o = step(at.options, knobs_[k], false)) finer.push_back({*o, k});
     }
-    std::sort(misses.begin(), misses.end(), [](const FitPoint& a, const FitPoint& b) { return a.bytes < b.bytes; });
-    if (misses.size() > kTradeCandidates) misses.resize(kTradeCandidates);
-    std::optional<FitPoint> best;
-    for (const FitPoint& miss : misses) {
-      // One other knob a step finer: an exchange between knobs of different worth per byte.
-      std::vector<format::ArchiveOptions> exchanges;
-      for (Knob other : knobs_) {
-        const auto o = step(miss.options, other, false);
-        if (o && key_of(*o) != key_of(at.options)) exchanges.push_back(*o);
+    if (sh_degree_ > 0) {
+      format::ArchiveOptions o = at.options;
+      bool moved = false;
+      for (Knob knob : knobs_) {
+        if (knob < Knob::kSh0 || knob > Knob::kSh3) continue;
+        if (auto next = step(o, knob, false)) o = *next, moved = true;
       }
-      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> exchanged, m_.measure(exchanges));
-      for (const FitPoint& p : exchanged) {
-        if (p.psnr_mean_db >= target && p.bytes < at.bytes && (!best || p.bytes < best->bytes)) best = p;
-      }
-      // Bytes alone: the smallest scale whose archive is still smaller than `at`.
-      double lo = kTradeFinestScale, hi = 1;  // lo: not smaller (or untested); hi: smaller
-      for (int i = 0; i < 6; ++i) {
-        const double mid = (lo + hi) / 2;
-        RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.bytes({scale_sh(miss.options, mid)}));
-        (p[0].bytes < at.bytes ? hi : lo) = mid;
-      }
-      // PSNR: bisect the largest scale in [hi, 1) that meets the target.
-      double fail = 1, pass = hi;
-      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> finest, m_.measure({scale_sh(miss.options, pass)}));
-      if (!(finest[0].psnr_mean_db >= target) || finest[0].bytes >= at.bytes) continue;
-      FitPoint found = finest[0];
-      for (int i = 0; i < 3; ++i) {
-        const double mid = (pass + fail) / 2;
-        RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.measure({scale_sh(miss.options, mid)}));
-        if (p[0].psnr_mean_db >= target && p[0].bytes < at.bytes) {
-          pass = mid;
-          if (p[0].bytes < found.bytes) found = p[0];
+      if (moved) finer.push_back({o, knobs_.size()});
+    }
+    std::vector<format::ArchiveOptions> list;
+    for (const auto* singles : {&coarser, &finer}) {
+      for (const Single& one : *singles) list.push_back(one.options);
+    }
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
+    const double mse_at = mse_of(at.psnr_mean_db), allowed_mse = mse_of(target);
+    struct Pair {
+      double bytes;
+      format::ArchiveOptions options;
+    };
+    std::vector<Pair> pairs;
+    for (size_t c = 0; c < coarser.size(); ++c) {
+      const FitPoint& pc = points[c];
+      const bool sh_knob = knobs_[coarser[c].knob] >= Knob::kSh0 && knobs_[coarser[c].knob] <= Knob::kSh3;
+      for (size_t f = 0; f < finer.size(); ++f) {
+        const FitPoint& pf = points[coarser.size() + f];
+        const size_t fk = finer[f].knob;
+        if (fk == coarser[c].knob || (fk == knobs_.size() && sh_knob)) continue;
+        const double mse = mse_of(pc.psnr_mean_db) + mse_of(pf.psnr_mean_db) - mse_at;
+        const double bytes = double(pc.bytes) + double(pf.bytes) - double(at.bytes);
+        if (!(mse <= allowed_mse) || !(bytes < double(at.bytes))) continue;
+        format::ArchiveOptions o = pc.options;
+        if (fk == knobs_.size()) {
+          for (size_t d = 0; d < 4; ++d) o.sh_step_multipliers[d] = pf.options.sh_step_multipliers[d];
         } else {
-          fail = mid;
+          o = *step(o, knobs_[fk], false);
         }
+        pairs.push_back({bytes, o});
       }
-      if (!best || found.bytes < best->bytes) best = found;
     }
-    if (best) {
-      path->push_back(*best);
-      report_progress("trading", path->back());
+    std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.bytes < b.bytes; });
+    list.clear();
+    for (const Pair& pair : pairs) {
+      if (list.size() == kExchangePairs) break;
+      if (std::none_of(list.begin(), list.end(), [&](const auto& o) { return key_of(o) == key_of(pair.options); })) {
+        list.push_back(pair.options);
+      }
     }
-    return Status();
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> measured, m_.measure(list));
+    std::optional<FitPoint> best;
+    for (const FitPoint& p : measured) {
+      if (p.psnr_mean_db >= target && p.bytes < at.bytes && (!best || p.bytes < best->bytes)) best = p;
+    }
+    if (!best) return false;
+    path->push_back(*best);
+    report_progress("exchanging", path->back());
+    return true;
   }
 
-  /// kTargetPsnr's last stage, while path->back() is more than kTradeMinSlackDb above `target`: the code steps of
+  /// kTargetPsnr's last stage, while path->back() is more than kMinSlackDb above `target`: the code steps of
   /// rotations, scales and opacities, a quarter bit coarser at a time (finer than the bits, and below their
   /// 4-bit minimum), the step with the most bytes saved per squared error added that still meets `target` each
   /// round. It only spends what the knobs of whole steps leave above the target, so it never ends larger.
@@ -761,7 +790,7 @@ class Search {
     std::vector<bool> frozen(steps.size(), false);
     for (int round = 0; round < kMaxFillRounds; ++round) {
       const FitPoint at = path->back();
-      if (!(at.psnr_mean_db > target + kTradeMinSlackDb)) break;
+      if (!(at.psnr_mean_db > target + kMinSlackDb)) break;
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
       next_steps(steps, at.options, true, &frozen, &list, &knob_of);
@@ -1004,6 +1033,7 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
     const bool last_attempt = attempt + 1 == kMaxAttempts;
     // From the search's last (cheapest) step back, on the last attempt: the first that meets the target.
     FitPoint last_checked;
+    bool settled = false;  // this search's choice (or on the last attempt, a step before it) meets the target
     for (size_t back = 0; back < (last_attempt ? std::min<size_t>(path.size(), 3) : 1); ++back) {
       const FitPoint& at = path[path.size() - 1 - back];
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({at.options}, true));
@@ -1011,9 +1041,12 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
       search.report("check at " + size + ": " + db_text(checked[0].psnr_mean_db) + " (search views: " +
                     db_text(at.psnr_mean_db) + ")");
       keep(checked[0], at.psnr_mean_db);
-      if (checked[0].psnr_mean_db >= target) break;
+      if (checked[0].psnr_mean_db >= target) {
+        settled = checked[0].psnr_mean_db <= target + kMaxAboveDb;
+        break;
+      }
     }
-    if (best && best->psnr_mean_db <= target + kMaxAboveDb) break;
+    if (settled) break;
     // The difference between the search views and the final ones at the search's last step.
     const double offset = path.back().psnr_mean_db - last_checked.psnr_mean_db;
     double next = target + offset + kCalibrationMarginDb;
@@ -1119,19 +1152,6 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
     result.search_psnr_db = path.back().psnr_mean_db;
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
-    // The rounds are greedy: where they took a floor that leaves out Gaussians which can blend, the same search
-    // without the floor may end on a smaller file (it did for biker at 35 dB, docs/AUDITS.md#opacity-floor), so
-    // it runs too (its candidates measured before are not measured again) and the smaller choice is kept.
-    if (result.chosen.options.opacity_floor > kLosslessOpacityFloor) {
-      search.report("the same search without the opacity floor");
-      Search without(measurer, resolved, sh_degree, anchor, false);
-      FitResult other;
-      const Status s = fit_psnr(measurer, without, cameras[0], options.target_psnr_db, &other);
-      if (s.ok() && other.chosen.bytes < result.chosen.bytes) {
-        result.chosen = other.chosen;
-        result.search_psnr_db = other.search_psnr_db;
-      }
-    }
   }
   result.finest = search.finest();
   auto as_asked = [&](format::ArchiveOptions* o) {

@@ -114,13 +114,12 @@ struct FitResult {
 /// fits target_bytes. The search: a ladder that coarsens every knob together from the defaults
 /// (format::resolve_archive_options), bracketed at the search size; then rounds of one-knob steps
 /// (kTargetPsnr: the steps that keep the target taken together, by bytes saved per squared error added, a
-/// scan of the SH multipliers' integers, a last coarser bit or position step traded against finer SH steps,
-/// and the code steps coarsened a quarter bit at a time while the target holds; kTargetBytes: the finer step with the
-/// most dB gained per byte added). kTargetPsnr calibrates the difference between the search size and the
-/// cameras' own size at the ladder's point, and checks the search's choice at the cameras' own size,
-/// searching again with the measured difference while it misses the target or lands over 0.5 dB above it;
-/// when its choice has an opacity floor above 1/255, the same search without the floor runs too and the
-/// smaller choice is kept. Deterministic for a given backend.
+/// scan of the SH multipliers' integers, then exchanges of one knob a step coarser for another a step finer,
+/// each followed by more rounds, and the code steps coarsened a quarter bit at a time while the target holds;
+/// kTargetBytes: the finer step with the most dB gained per byte added). kTargetPsnr calibrates the difference
+/// between the search size and the cameras' own size at the ladder's point, and checks the search's choice at
+/// the cameras' own size, searching again with the measured difference while it misses the target or lands over
+/// 0.5 dB above it. Deterministic for a given backend.
 /// @return kInvalidArgument: no cameras, an empty or invalid source, a target that is not finite or positive,
 ///         a PSNR target above what the finest archive reaches (the message says what it reaches), a byte
 ///         budget below the coarsest archive (the message says its size); the errors of quantize,
