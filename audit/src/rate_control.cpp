@@ -281,7 +281,10 @@ class Measurer {
     return out;
   }
 
-  /// Bytes and PSNR on the search views (final: on the cameras at their own size, never cached).
+  /// Bytes and PSNR on the search views (final: on the cameras at their own size, never cached). An archive
+  /// checked at the cameras' size before reads at most that check plus search_offset() on the search views: the
+  /// two sizes differ by more for some knobs than for others, and a choice the check found below the target
+  /// must not meet the search's target again.
   Result<std::vector<FitPoint>> measure(const std::vector<format::ArchiveOptions>& list, bool final = false) {
     std::vector<FitPoint> out;
     for (size_t i = 0; i < list.size(); ++i) {
@@ -295,6 +298,11 @@ class Measurer {
         p.psnr_min_db = psnr.second;
         if (!final) e->point = p;
       }
+      if (final) {
+        e->checked_db = p.psnr_mean_db;
+      } else if (!std::isnan(e->checked_db)) {
+        p.psnr_mean_db = std::min(p.psnr_mean_db, e->checked_db + search_offset_);
+      }
       p.bytes += overhead_;
       out.push_back(p);
     }
@@ -306,6 +314,9 @@ class Measurer {
     return "CUDA device " + std::to_string(options_.audit.cuda_device);
   }
 
+  /// How far the search's target lies above the target at the cameras' size (see measure).
+  void set_search_offset(double db) { search_offset_ = db; }
+
   uint32_t encodings() const { return uint32_t(cache_.size()); }
   uint32_t renders() const { return renders_; }
   double encode_seconds() const { return encode_seconds_; }
@@ -314,6 +325,7 @@ class Measurer {
  private:
   struct Entry {
     FitPoint point;  ///< bytes: the sections only
+    double checked_db = kNaN;  ///< mean PSNR at the cameras' own size, once checked
     uint64_t sections = 0;
     std::shared_ptr<const format::ArchiveScene> archive;  ///< kept until it is rendered
   };
@@ -519,6 +531,7 @@ class Measurer {
   uint32_t renders_ = 0;
   size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
   double encode_seconds_ = 0, render_seconds_ = 0;
+  double search_offset_ = 0;
 };
 
 std::string group_digits(uint64_t n) {
@@ -563,7 +576,9 @@ class Search {
   Result<std::vector<FitPoint>> for_psnr(double target, const std::vector<FitPoint>& previous = {}) {
     std::vector<FitPoint> path;
     for (const FitPoint& p : previous) {
-      if (p.psnr_mean_db >= target) path = {p};
+      // Measured again (cached): a step checked at the cameras' size since reads as measure() says.
+      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> now, m_.measure({p.options}));
+      if (now[0].psnr_mean_db >= target) path = {now[0]};
     }
     if (path.empty()) {
       RGS_ASSIGN_OR_RETURN(FitPoint pass, ladder_for_psnr(target));
@@ -1023,6 +1038,7 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
   keep(calibration[0], ladder_point->psnr_mean_db);
   std::vector<FitPoint> path;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    measurer.set_search_offset(search_target - target);
     Result<std::vector<FitPoint>> searched = search.for_psnr(search_target, path);
     if (!searched.ok()) {
       if (!above_finest(searched.status(), search_target)) return std::move(searched).status();
