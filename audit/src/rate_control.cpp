@@ -768,13 +768,13 @@ class Search {
         const double mse = mse_of(pc.psnr_mean_db) + mse_of(pf.psnr_mean_db) - mse_at;
         const double bytes = double(pc.bytes) + double(pf.bytes) - double(at.bytes);
         if (!(mse <= allowed_mse) || !(bytes < double(at.bytes))) continue;
-        format::ArchiveOptions o = pc.options;
+        std::optional<format::ArchiveOptions> o = pc.options;
         if (fk == knobs_.size()) {
-          for (size_t d = 0; d < 4; ++d) o.sh_step_multipliers[d] = pf.options.sh_step_multipliers[d];
+          o->sh_step_multipliers = pf.options.sh_step_multipliers;
         } else {
-          o = *step(o, knobs_[fk], false);
+          o = step(*o, knobs_[fk], false);
         }
-        pairs.push_back({bytes, o});
+        if (o) pairs.push_back({bytes, *o});
       }
     }
     std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.bytes < b.bytes; });
