@@ -352,25 +352,24 @@ class Measurer {
            a->options.opacity_floor == want.opacity_floor;
   }
 
-  /// The archive encode_archive lends its sections to `o` (see encode_archive).
+  /// The archive encode_archive lends its sections to `o` (see encode_archive): the last one encoded (the first
+  /// of points_), unless another of points_ has the points `o` will code and it does not.
   const format::ArchiveScene* lender(const format::ArchiveOptions& o) const {
-    if (last_ && !same_points(last_, o)) {
-      for (const auto& a : points_) {
-        if (same_points(a, o)) return a.get();
-      }
+    if (points_.empty()) return nullptr;
+    for (const auto& a : points_) {
+      if (same_points(a, o)) return a.get();
     }
-    return last_.get();
+    return points_.front().get();
   }
 
-  /// Makes `a` the last archive encoded and the first of points_ (replacing the one with its points).
+  /// Makes `a` the last archive encoded: the first of points_, replacing the one with its points.
   std::shared_ptr<const format::ArchiveScene> keep_last(std::shared_ptr<const format::ArchiveScene> a) {
     const auto same =
         std::find_if(points_.begin(), points_.end(), [&](const auto& p) { return same_points(p, a->options); });
     if (same != points_.end()) points_.erase(same);
     points_.insert(points_.begin(), a);
     if (points_.size() > points_kept_) points_.pop_back();
-    last_ = std::move(a);
-    return last_;
+    return a;
   }
 
   /// Encodes the archives of list[begin, end) not encoded before at the same time, one worker each (the CPUs
@@ -523,10 +522,10 @@ class Measurer {
 #endif
   ViewSet search_, final_;
   std::map<Key, Entry> cache_;
-  std::shared_ptr<const format::ArchiveScene> last_;  ///< the last archive encoded, lending its sections
-  /// The last archives encoded with distinct Draco points, the latest first (encode_archive), at most points_kept_.
+  /// The last archives encoded with distinct Draco points, the last one encoded first (encode_archive), at most
+  /// points_kept_ (set by the constructor).
   std::vector<std::shared_ptr<const format::ArchiveScene>> points_;
-  size_t points_kept_ = 1;
+  size_t points_kept_ = 2;
   uint64_t overhead_ = 0;
   uint32_t renders_ = 0;
   size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
@@ -575,10 +574,12 @@ class Search {
   /// ladder.
   Result<std::vector<FitPoint>> for_psnr(double target, const std::vector<FitPoint>& previous = {}) {
     std::vector<FitPoint> path;
-    for (const FitPoint& p : previous) {
-      // Measured again (cached): a step checked at the cameras' size since reads as measure() says.
-      RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> now, m_.measure({p.options}));
-      if (now[0].psnr_mean_db >= target) path = {now[0]};
+    // Measured again (cached): a step checked at the cameras' size since reads as measure() says.
+    std::vector<format::ArchiveOptions> steps;
+    for (const FitPoint& p : previous) steps.push_back(p.options);
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> now, m_.measure(steps));
+    for (const FitPoint& p : now) {
+      if (p.psnr_mean_db >= target) path = {p};
     }
     if (path.empty()) {
       RGS_ASSIGN_OR_RETURN(FitPoint pass, ladder_for_psnr(target));

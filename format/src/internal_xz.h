@@ -12,6 +12,9 @@ namespace rgs::format::detail {
 /// §7 The raw bytes of each block of an .xz stream (liblzma's lzma_mt::block_size): blocks are compressed
 /// independently, so the stream does not depend on how many threads compress them.
 inline constexpr size_t kXzBlockBytes = size_t{8} << 20;
+/// §3.3.2 The smallest LZMA2 dictionary a reader accepts whatever the codes' size, and the dictionary of the
+/// writer's XzMatches::kNear.
+inline constexpr uint32_t kXzMinDictionaryBytes = uint32_t{1} << 20;
 /// How far back the writer's LZMA2 encoder looks for matches.
 enum class XzMatches {
   /// Planes of codes, whose matches are near: xz's preset 1 in normal mode (hash chains, a 1 MiB dictionary),

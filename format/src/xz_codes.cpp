@@ -66,12 +66,12 @@ Status read_xz_index(const uint8_t* src, size_t size, uint64_t raw_size, lzma_st
 }  // namespace
 
 uint32_t xz_writer_dictionary(uint64_t raw_size) {
-  uint32_t dictionary = uint32_t{1} << 20;
+  uint32_t dictionary = kXzMinDictionaryBytes;
   while (dictionary < raw_size && dictionary < (uint32_t{8} << 20)) dictionary *= 2;
   return dictionary;
 }
 
-uint64_t xz_max_dictionary(uint64_t raw_size) { return std::max<uint64_t>(uint64_t{1} << 20, 2 * raw_size); }
+uint64_t xz_max_dictionary(uint64_t raw_size) { return std::max<uint64_t>(kXzMinDictionaryBytes, 2 * raw_size); }
 
 bool is_xz_stream(const uint8_t* src, size_t size) {
   return size >= sizeof(kXzMagic) && std::memcmp(src, kXzMagic, sizeof(kXzMagic)) == 0;
@@ -135,7 +135,7 @@ Status compress_xz_stream(const uint8_t* raw, size_t size, uint32_t literal_cont
   RGS_RETURN_ERROR_IF(lzma_lzma_preset(&options, far ? 6 : 1) || literal_context_bits > LZMA_LCLP_MAX,
                       StatusCode::kInvalidArgument, "LZMA2 options refused");
   options.mode = LZMA_MODE_NORMAL;  // preset 1's fast mode takes 5 % more bytes of the codes
-  options.dict_size = far ? xz_writer_dictionary(size) : uint32_t{1} << 20;
+  options.dict_size = far ? xz_writer_dictionary(size) : kXzMinDictionaryBytes;
   options.lc = literal_context_bits;
   options.lp = 0;
   options.pb = 0;
