@@ -61,6 +61,7 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
     write.archive = options.archive;
     write.archive.zstd_level = options.zstd_level;
     write.archive.xz = options.archive.xz && options.zstd_level >= kArchiveXzMinZstdLevel;
+    write.archive_earlier = options.archive_earlier.get();
   }
   for (const std::string& name : options.zstd_sections) {
     bool found = false;
@@ -102,13 +103,6 @@ Status check_options(const ConvertOptions& options) {
   RGS_RETURN_ERROR_IF(options.sh_dc_bits != 8 && options.sh_dc_bits != 16, StatusCode::kInvalidArgument,
                       "convert: SH DC precision of " + std::to_string(options.sh_dc_bits) + " bits is not 8 or 16");
   return write_options(options).status();
-}
-
-converter::SceneReadOptions read_options(const ConvertOptions& options) {
-  converter::SceneReadOptions read = options.read;
-  read.invalid_policy = options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
-  read.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
-  return read;
 }
 
 format::FileSink& output_files(const ConvertOptions& options) {
@@ -438,6 +432,13 @@ Result<ConvertReport> convert_input(converter::InputScene input, const std::stri
 
 const char* output_format_name(OutputFormat format) { return entry(format).name; }
 
+converter::SceneReadOptions scene_read_options(const ConvertOptions& options) {
+  converter::SceneReadOptions read = options.read;
+  read.invalid_policy = options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+  read.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
+  return read;
+}
+
 Result<OutputFormat> parse_output_format(const std::string& name) {
   for (const FormatName& f : kFormatNames) {
     if (name == f.name) return f.format;
@@ -471,9 +472,18 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
   RGS_RETURN_IF_ERROR(check_options(options));
   ProgressReporter progress(options, output);
   progress.reading();
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, read_options(options)));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, scene_read_options(options)));
   // Every file the scene read is an input: `dst` may not be one of them, in any spelling.
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));
+  return convert_input(std::move(input), src, dst, output, options, start, progress);
+}
+
+Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,
+                                    const ConvertOptions& options) {
+  const auto start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
+  RGS_RETURN_IF_ERROR(check_options(options));
+  ProgressReporter progress(options, output);
   return convert_input(std::move(input), src, dst, output, options, start, progress);
 }
 
@@ -485,7 +495,7 @@ Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std:
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
-                       converter::read_scene_bytes(data, size, name, read_options(options)));
+                       converter::read_scene_bytes(data, size, name, scene_read_options(options)));
   return convert_input(std::move(input), name, dst, output, options, start, progress);
 }
 
@@ -497,7 +507,7 @@ Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::stri
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
-                       converter::scene_from_cloud(std::move(cloud), name, read_options(options)));
+                       converter::scene_from_cloud(std::move(cloud), name, scene_read_options(options)));
   return convert_input(std::move(input), name, dst, output, options, start, progress);
 }
 

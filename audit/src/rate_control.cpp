@@ -258,13 +258,15 @@ class Measurer {
     return Status();
   }
 
-  /// File bytes besides the per-Gaussian sections: measured once by serializing the start's archive.
+  /// File bytes besides the per-Gaussian sections: measured once by serializing the start's archive (its
+  /// sections lent by its encoding).
   Status measure_overhead() {
     format::WriteOptions write;
     write.profile = format::StorageProfile::kArchive;
     write.archive = options_.start;
-    RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, format::serialize_scene(quantized_, write));
     RGS_ASSIGN_OR_RETURN(const Entry* e, encode(write.archive));
+    write.archive_earlier = e->archive.get();
+    RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, format::serialize_scene(quantized_, write));
     overhead_ = bytes.size() - e->sections + options_.provenance_bytes;
     return Status();
   }
@@ -307,6 +309,15 @@ class Measurer {
       out.push_back(p);
     }
     return out;
+  }
+
+  /// An archive encoded with the points `o` codes for Draco (same_points), or null: what lends the file that
+  /// writes `o` its means.
+  std::shared_ptr<const format::ArchiveScene> archive_with_points(const format::ArchiveOptions& o) const {
+    for (const auto& a : points_) {
+      if (same_points(a, o)) return a;
+    }
+    return nullptr;
   }
 
   std::string device_name() const {
@@ -372,8 +383,9 @@ class Measurer {
     return a;
   }
 
-  /// Encodes the archives of list[begin, end) not encoded before at the same time, one worker each (the CPUs
-  /// shared among them for their sections), each lent sections by the archive encode_archive would lend it
+  /// Encodes the archives of list[begin, end) not encoded before at the same time, one worker each, each free to
+  /// code its sections on every CPU (a candidate whose points are new runs Draco on one thread first and codes
+  /// its sections when the others are done), each lent sections by the archive encode_archive would lend it
   /// before the batch: the candidates of one step of the search differ from one another, not from the archive they
   /// step from. The bytes and decoded values do not depend on the workers or the lender (format::encode_archive).
   Status encode_batch(const std::vector<format::ArchiveOptions>& list, size_t begin, size_t end) {
@@ -390,7 +402,7 @@ class Measurer {
     std::vector<const format::ArchiveScene*> lenders;
     for (format::ArchiveOptions& o : todo) {
       lenders.push_back(lender(o));
-      o.threads = std::max(1u, cpus / unsigned(todo.size()));
+      o.threads = cpus;
     }
     std::vector<std::optional<format::ArchiveScene>> archives(todo.size());
     std::vector<Status> results(todo.size());
@@ -1171,6 +1183,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
   }
   result.finest = search.finest();
+  result.archive = measurer.archive_with_points(result.chosen.options);
   auto as_asked = [&](format::ArchiveOptions* o) {
     o->zstd_level = file_zstd_level;
     o->xz = file_xz;
@@ -1188,9 +1201,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
 
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit) {
-  converter::SceneReadOptions read = options.read;
-  read.invalid_policy = options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, read));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, api::scene_read_options(options)));
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));
   RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, api::make_cameras(cameras, input.bounds));
   fit.quantize.scale_encoding = options.scale_encoding;
@@ -1205,10 +1216,10 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   auto fitted = fit_archive(input.cloud, views, fit);
   if (!fitted.ok()) return Status(fitted.status()).prepend(src);
   out.fit = std::move(fitted).value();
-  input = {};
   options.profile = format::StorageProfile::kArchive;
   options.archive = out.fit.chosen.options;
-  RGS_ASSIGN_OR_RETURN(out.convert, api::convert(src, dst, options));
+  options.archive_earlier = std::move(out.fit.archive);
+  RGS_ASSIGN_OR_RETURN(out.convert, api::convert_scene(std::move(input), src, dst, options));
   if (fit.goal == FitGoal::kTargetBytes && out.convert.output_bytes > fit.target_bytes) {
     return Status(StatusCode::kLimitExceeded,
                   dst + ": the archive has " + group_digits(out.convert.output_bytes) + " bytes, over the target of " +

@@ -284,12 +284,24 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
     case QuantizedTransform::kLogUniform: {
       RGS_RETURN_ERROR_IF(raw_size != n * 6, StatusCode::kInvalidArgument, "scale buffer size mismatch");
       const bool log = metadata.scale_encoding == ScaleEncoding::kLog;
+      auto scale_of = [&](uint32_t a, uint32_t code) {
+        const double v = static_cast<double>(h.params[a]) + code * static_cast<double>(h.params[3 + a]);
+        return float_to_half_bits(static_cast<float>(log ? v : std::exp(v)));
+      };
+      // With more Gaussians than codes, each code's scale is computed once per axis.
+      const uint64_t codes_per_axis = uint64_t{max_code} + 1;
+      std::vector<uint16_t> table;
+      if (n > codes_per_axis) {
+        table.resize(3 * codes_per_axis);
+        for (uint32_t a = 0; a < 3; ++a) {
+          for (uint32_t code = 0; code <= max_code; ++code) table[a * codes_per_axis + code] = scale_of(a, code);
+        }
+      }
       for (uint64_t i = 0; i < n; ++i) {
         for (uint32_t a = 0; a < 3; ++a) {
           const uint32_t code = code_at(a, i);
           if (code > max_code) return bad_code(i, a, code);
-          const double v = static_cast<double>(h.params[a]) + code * static_cast<double>(h.params[3 + a]);
-          store_u16_le(dst + i * 6 + a * 2, float_to_half_bits(static_cast<float>(log ? v : std::exp(v))));
+          store_u16_le(dst + i * 6 + a * 2, table.empty() ? scale_of(a, code) : table[a * codes_per_axis + code]);
         }
       }
       break;

@@ -85,6 +85,25 @@ struct CodePlanes {
     plane[i] = static_cast<uint8_t>(code);
     if (width == 2) plane[n + i] = static_cast<uint8_t>(code >> 8);
   }
+  /// The codes of Gaussians order[0], order[1], ... of these codes, in that order.
+  CodePlanes gathered(const std::vector<uint64_t>& order) const {
+    const uint64_t planes = n == 0 ? 0 : bytes.size() / n;
+    CodePlanes out(order.size(), static_cast<uint32_t>(planes / width), width == 2 ? 16 : 8);
+    for (uint64_t k = 0; k < planes; ++k) {
+      const uint8_t* from = bytes.data() + k * n;
+      uint8_t* to = out.bytes.data() + k * out.n;
+      for (uint64_t i = 0; i < order.size(); ++i) to[i] = from[order[i]];
+    }
+    return out;
+  }
+};
+
+/// A section's codes for every Gaussian of the scene, in the scene's order (including those the archive leaves
+/// out), and its transform's parameters: computed on sequential reads of the scene, while Draco runs when the
+/// points are new, then gathered into the archive's order (encode_archive).
+struct SourceCodes {
+  CodePlanes codes{0, 0, 8};
+  std::vector<float> params;
 };
 
 /// The literal context bits (LZMA's lc) the writer chooses between: lc 0 codes each byte on its own, lc 4 by the
@@ -113,26 +132,36 @@ Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t co
   detail::store_u32_le(out->data() + 4, components);
   for (size_t p = 0; p < params.size(); ++p) detail::store_f32_le(out->data() + 8 + 4 * p, params[p]);
   if (codebook) detail::store_u32_le(out->data() + 8 + 4 * params.size(), codebook_size);
+  if (!o.xz) return detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out);
+  // The zstd frame and the .xz trial run at the same time (each on `o.threads` workers): neither waits for the
+  // other's result.
   std::vector<uint8_t> xz(out->begin(), out->end());
-  RGS_RETURN_IF_ERROR(detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out));
-  if (!o.xz) return Status();
-  const bool records = codebook || (transform == QuantizedTransform::kShColourDifferences && components > 3);
-  const detail::XzMatches matches = records ? detail::XzMatches::kFar : detail::XzMatches::kNear;
-  uint32_t lc = 0;
-  if (!records) {
-    const size_t sample = std::min(codes.size(), kXzSampleBytes);
-    std::vector<uint8_t> zstd_sample, xz_sample;
-    RGS_RETURN_IF_ERROR(detail::compress_zstd_frame(codes.data(), sample, o.zstd_level, 1, &zstd_sample));
-    size_t best = SIZE_MAX;
-    for (uint32_t choice : kXzLiteralContextBits) {
-      xz_sample.clear();
-      RGS_RETURN_IF_ERROR(detail::compress_xz_stream(codes.data(), sample, choice, matches, 1, &xz_sample));
-      if (xz_sample.size() < best) best = xz_sample.size(), lc = choice;
-    }
-    if (best >= zstd_sample.size()) return Status();  // zstd codes these planes better
-  }
-  RGS_RETURN_IF_ERROR(detail::compress_xz_stream(codes.data(), codes.size(), lc, matches, o.threads, &xz));
-  if (xz.size() < out->size()) out->swap(xz);
+  bool xz_coded = false;
+  std::vector<std::function<Status()>> jobs = {
+      [&] { return detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out); },
+      [&] {
+        const bool records = codebook || (transform == QuantizedTransform::kShColourDifferences && components > 3);
+        const detail::XzMatches matches = records ? detail::XzMatches::kFar : detail::XzMatches::kNear;
+        uint32_t lc = 0;
+        if (!records) {
+          const size_t sample = std::min(codes.size(), kXzSampleBytes);
+          std::vector<uint8_t> zstd_sample, xz_sample;
+          RGS_RETURN_IF_ERROR(detail::compress_zstd_frame(codes.data(), sample, o.zstd_level, 1, &zstd_sample));
+          size_t best = SIZE_MAX;
+          for (uint32_t choice : kXzLiteralContextBits) {
+            xz_sample.clear();
+            RGS_RETURN_IF_ERROR(detail::compress_xz_stream(codes.data(), sample, choice, matches, 1, &xz_sample));
+            if (xz_sample.size() < best) best = xz_sample.size(), lc = choice;
+          }
+          if (best >= zstd_sample.size()) return Status();  // zstd codes these planes better
+        }
+        xz_coded = true;
+        return detail::compress_xz_stream(codes.data(), codes.size(), lc, matches, o.threads, &xz);
+      }};
+  std::vector<Status> results;
+  detail::run_jobs(jobs, 2, "coding a section", &results);
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  if (xz_coded && xz.size() < out->size()) out->swap(xz);
   return Status();
 }
 
@@ -165,15 +194,15 @@ uint32_t round_code(double v, double step, uint32_t max_code) {
   return round_code(step == 1 ? v : std::floor(v / step + 0.5) * step, max_code);
 }
 
-/// Gaussian `i` of the output comes from `order[i]` of the scene.
-Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
-                        std::vector<uint8_t>* out) {
+/// §3.3.2 transform 1 codes of every rotation of the scene.
+SourceCodes rotation_codes(const EncodedScene& s, const ArchiveOptions& o) {
   const uint64_t n = s.count;
   const uint32_t max_code = (1u << o.rotation_bits) - 1;
-  CodePlanes codes(n, 4, o.rotation_bits);
+  SourceCodes out;
+  CodePlanes& codes = out.codes = CodePlanes(n, 4, o.rotation_bits);
   const double inv = max_code / std::sqrt(2.0), lo = -std::sqrt(0.5);
   for (uint64_t i = 0; i < n; ++i) {
-    const uint16_t* h = &s.rotations[order[i] * 4];
+    const uint16_t* h = &s.rotations[i * 4];
     double q[4], n2 = 0;
     for (int a = 0; a < 4; ++a) {
       q[a] = half_bits_to_float(h[a]);
@@ -212,45 +241,60 @@ Status encode_rotations(const EncodedScene& s, const std::vector<uint64_t>& orde
     }
     for (uint32_t c = 0; c < 3; ++c) codes.set(c + 1, i, code[c]);
   }
-  return finish_quantized(QuantizedTransform::kSmallestThree, o.rotation_bits, 4, {}, codes.bytes, o, out);
+  return out;
 }
 
-Status encode_scales(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
-                     std::vector<uint8_t>* out) {
+/// §3.3.2 transform 2 codes of every scale of the scene, on the range of ln(scale) per axis over the Gaussians
+/// the archive keeps (`omitted`: ascending source indices of those it leaves out).
+SourceCodes scale_codes(const EncodedScene& s, const std::vector<uint64_t>& omitted, const ArchiveOptions& o) {
   const uint64_t n = s.count;
   const bool log = s.metadata.scale_encoding == ScaleEncoding::kLog;
   const uint32_t max_code = (1u << o.scale_bits) - 1;
-  auto ln = [&](uint16_t bits) {
-    const double v = half_bits_to_float(bits);
+  auto ln_of = [&](uint32_t bits) {
+    const double v = half_bits_to_float(static_cast<uint16_t>(bits));
     return log ? v : v > 0 ? std::log(v) : -std::numeric_limits<double>::infinity();
   };
+  // The scales are binary16: with more values than bit patterns, each pattern's logarithm is taken once.
+  std::vector<double> ln_table;
+  if (3 * n > 65536) {
+    ln_table.resize(65536);
+    for (uint32_t bits = 0; bits < 65536; ++bits) ln_table[bits] = ln_of(bits);
+  }
+  auto ln = [&](uint16_t bits) { return ln_table.empty() ? ln_of(bits) : ln_table[bits]; };
   double lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     lo[a] = std::numeric_limits<double>::infinity();
     hi[a] = -std::numeric_limits<double>::infinity();
   }
-  for (uint64_t i = 0; i < n * 3; ++i) {
-    const double v = ln(s.scales[i]);
-    if (!std::isfinite(v)) continue;
-    lo[i % 3] = std::min(lo[i % 3], v);
-    hi[i % 3] = std::max(hi[i % 3], v);
+  for (uint64_t i = 0, next = 0; i < n; ++i) {
+    if (next < omitted.size() && omitted[next] == i) {
+      ++next;
+      continue;
+    }
+    for (uint32_t a = 0; a < 3; ++a) {
+      const double v = ln(s.scales[i * 3 + a]);
+      if (!std::isfinite(v)) continue;
+      lo[a] = std::min(lo[a], v);
+      hi[a] = std::max(hi[a], v);
+    }
   }
-  std::vector<float> params(6);
+  SourceCodes out;
+  std::vector<float>& params = out.params = std::vector<float>(6);
   for (int a = 0; a < 3; ++a) {
     if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;  // every value zero: any offset decodes near 0
     // Offsets and steps are stored as float32; codes are computed against the stored values.
     params[a] = static_cast<float>(lo[a]);
     params[3 + a] = static_cast<float>((hi[a] - params[a]) / max_code * o.scale_step);
   }
-  CodePlanes codes(n, 3, o.scale_bits);
+  CodePlanes& codes = out.codes = CodePlanes(n, 3, o.scale_bits);
   for (uint64_t i = 0; i < n; ++i) {
     for (uint32_t a = 0; a < 3; ++a) {
-      const double v = ln(s.scales[order[i] * 3 + a]);
+      const double v = ln(s.scales[i * 3 + a]);
       const double step = params[3 + a];
       codes.set(a, i, !std::isfinite(v) || step == 0 ? 0 : round_code((v - params[a]) / step, max_code));
     }
   }
-  return finish_quantized(QuantizedTransform::kLogUniform, o.scale_bits, 3, params, codes.bytes, o, out);
+  return out;
 }
 
 /// The opacity code of a stored opacity (binary16 bits).
@@ -259,11 +303,12 @@ uint32_t opacity_code(uint16_t opacity, const ArchiveOptions& o) {
   return round_code(half_bits_to_float(opacity) * static_cast<double>(max_code), o.opacity_step, max_code);
 }
 
-Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
-                        std::vector<uint8_t>* out) {
-  CodePlanes codes(s.count, 1, o.opacity_bits);
-  for (uint64_t i = 0; i < s.count; ++i) codes.set(0, i, opacity_code(s.opacities[order[i]], o));
-  return finish_quantized(QuantizedTransform::kUniform, o.opacity_bits, 1, {}, codes.bytes, o, out);
+/// §3.3.2 transform 3 codes of every opacity of the scene.
+SourceCodes opacity_codes(const EncodedScene& s, const ArchiveOptions& o) {
+  SourceCodes out;
+  out.codes = CodePlanes(s.count, 1, o.opacity_bits);
+  for (uint64_t i = 0; i < s.count; ++i) out.codes.set(0, i, opacity_code(s.opacities[i], o));
+  return out;
 }
 
 /// §3.3.2 transform 6: transform 4's codes with each (R, G, B) triple stored as (R - G, G, B - G) modulo 256, since
@@ -272,7 +317,7 @@ Status encode_opacities(const EncodedScene& s, const std::vector<uint64_t>& orde
 /// repeat whole records, which zstd finds as matches (docs/AUDITS.md#sh-colour-differences).
 Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
                  std::vector<uint8_t>* out) {
-  const uint64_t n = s.count;
+  const uint64_t n = order.size();
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest_values = values - 3;
   CodePlanes codes(n, values, 8);
   uint8_t* rest = codes.bytes.data() + 3 * n;
@@ -318,7 +363,7 @@ struct ShCodebook {
 };
 
 ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, uint32_t target_size) {
-  const uint64_t n = s.count;
+  const uint64_t n = order.size();
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
   // Rest vectors in output order, contiguous (better locality than gathering through `order`).
   std::vector<int8_t> v(static_cast<size_t>(n * rest));
@@ -453,7 +498,7 @@ ShCodebook build_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>&
 /// false as soon as more than `max_entries` records are distinct.
 bool dedup_sh_records(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
                       uint64_t max_entries, std::vector<uint32_t>* first, std::vector<uint32_t>* index) {
-  const uint64_t n = s.count;
+  const uint64_t n = order.size();
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
   int mult[45];
   for (uint32_t j = 0; j < rest; ++j)
@@ -498,7 +543,7 @@ constexpr double kShDedupMaxShare = 0.75;
 
 Status encode_sh_codebook(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
                           std::vector<uint8_t>* out, bool* used) {
-  const uint64_t n = s.count;
+  const uint64_t n = order.size();
   const uint32_t values = 3 * sh_coefficient_count(s.metadata.sh_degree), rest = values - 3;
   std::vector<int8_t> entries;
   std::vector<uint32_t> index, first;
@@ -573,17 +618,17 @@ void sort_by_point(std::vector<QuantKey>* keys) {
   }
 }
 
-/// §3.3.1 Draco-codes the means and finds, for each decoded point, the source Gaussian it came from: the
-/// kd-tree coder emits points in its own order. Points are matched by their quantized coordinates
+/// §3.3.1 Draco-codes `means` ([n, 3] float32) and finds, for each decoded point i, the mean order[i] it came
+/// from: the kd-tree coder emits points in its own order. Points are matched by their quantized coordinates
 /// (computed with Draco's own quantizer); points with equal coordinates decode to equal means, so any
 /// pairing among them is exact; equal points pair in index order, so the file does not depend on the sort.
-Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, const ArchiveOptions& o,
+Status encode_means(const std::vector<float>& means, ArchivePositionQuantization* pq, const ArchiveOptions& o,
                     std::vector<uint8_t>* stored, std::vector<float>* decoded_means, std::vector<uint64_t>* order) {
-  const uint64_t n = s.count;
+  const uint64_t n = means.size() / 3;
   draco::PointCloudBuilder builder;
   builder.Start(static_cast<uint32_t>(n));
   const int att = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-  builder.SetAttributeValuesForAllPoints(att, s.means.data(), 12);
+  builder.SetAttributeValuesForAllPoints(att, means.data(), 12);
   std::unique_ptr<draco::PointCloud> pc = builder.Finalize(false);
   if (!pc) return Status(StatusCode::kOutOfMemory, "Draco point cloud construction failed");
   draco::Encoder encoder;
@@ -634,7 +679,7 @@ Status encode_means(const EncodedScene& s, ArchivePositionQuantization* pq, cons
     int32_t q[3] = {};
     qatt->GetMappedValue(draco::PointIndex(static_cast<uint32_t>(i)), q);
     for (int a = 0; a < 3; ++a) {
-      src[i].q[a] = quantizer.QuantizeFloat(s.means[i * 3 + a] - transform.min_value(a));
+      src[i].q[a] = quantizer.QuantizeFloat(means[i * 3 + a] - transform.min_value(a));
       dst[i].q[a] = q[a];
       const float value = dequantizer.DequantizeFloat(q[a]);
       (*decoded_means)[i * 3 + a] = value + transform.min_value(a);
@@ -688,30 +733,6 @@ std::vector<uint64_t> kept_gaussians(uint64_t count, const std::vector<uint64_t>
     kept.push_back(i);
   }
   return kept;
-}
-
-/// The Gaussians `kept` of `s`, in that order (metadata and provenance as `s`'s), without the DC residual, which
-/// the archive does not store (SPEC §4.8).
-EncodedScene subset(const EncodedScene& s, const std::vector<uint64_t>& kept) {
-  EncodedScene out;
-  out.metadata = s.metadata;
-  out.provenance = s.provenance;
-  out.count = kept.size();
-  const size_t values = 3 * sh_coefficient_count(s.metadata.sh_degree);
-  out.means.resize(kept.size() * 3);
-  out.rotations.resize(kept.size() * 4);
-  out.scales.resize(kept.size() * 3);
-  out.opacities.resize(kept.size());
-  out.sh.resize(kept.size() * values);
-  for (size_t j = 0; j < kept.size(); ++j) {
-    const uint64_t i = kept[j];
-    std::copy_n(&s.means[i * 3], 3, &out.means[j * 3]);
-    std::copy_n(&s.rotations[i * 4], 4, &out.rotations[j * 4]);
-    std::copy_n(&s.scales[i * 3], 3, &out.scales[j * 3]);
-    out.opacities[j] = s.opacities[i];
-    std::copy_n(&s.sh[i * values], values, &out.sh[j * values]);
-  }
-  return out;
 }
 
 /// The bounds of §4.1.1 for the decoded means, as the converter computes them (AABB centre, radius in
@@ -786,43 +807,22 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
     ArchiveScene out;
     out.options = options;
     out.source_count = source.count;
-    // The Gaussians whose opacity code is 0 or whose opacity is below the floor are left out (archive.h);
-    // `scene` is what is coded, Gaussian j of it source Gaussian kept[j] (`kept` is empty when nothing is left
-    // out: `scene` is `source`).
+    // The Gaussians whose opacity code is 0 or whose opacity is below the floor are left out (archive.h).
     out.omitted = omitted_gaussians(source, options);
-    const std::vector<uint64_t> kept = out.omitted.empty() ? std::vector<uint64_t>{}
-                                                           : kept_gaussians(source.count, out.omitted);
-    EncodedScene kept_scene;
-    if (!out.omitted.empty()) kept_scene = subset(source, kept);
-    const EncodedScene& scene = out.omitted.empty() ? source : kept_scene;
-    RGS_ASSIGN_OR_RETURN(out.position, choose_position_quantization(scene.metadata.bounds, options.position_error));
+    RGS_ASSIGN_OR_RETURN(out.position, choose_position_quantization(source.metadata.bounds, options.position_error));
     EncodedScene& d = out.decoded;
-    d.metadata = scene.metadata;
-    d.provenance = scene.provenance;
-    d.count = scene.count;
-    const uint64_t n = scene.count;
+    d.metadata = source.metadata;
+    d.provenance = source.provenance;
+    d.count = source.count - out.omitted.size();
+    const uint64_t n = d.count;
     if (n == 0) return out;  // the writer stores an empty scene with codec none
 
-    // Draco fixes the order, so it runs first; the other sections follow its order, in parallel. A section of
+    // Draco fixes the order; the codes of rotations, scales and opacities are computed in the source's order
+    // meanwhile, then gathered into Draco's order and coded with SH, each section on its own thread. A section of
     // `earlier` coded with the same settings, in the same order, is taken as it is: same bytes, same values.
     const ArchiveOptions* e = earlier ? &earlier->options : nullptr;
     const bool same_order = e && earlier->omitted == out.omitted && earlier->position.bits == out.position.bits &&
                             e->draco_speed == options.draco_speed;
-    std::vector<uint64_t> order;  // Gaussian i of the archive is Gaussian order[i] of `scene`
-    if (same_order) {
-      out.position = earlier->position;  // as Draco stored it
-      out.stored[0] = earlier->stored[0];
-      d.means = earlier->decoded.means;
-      order = earlier->source_index;
-      if (!kept.empty()) {  // source indices back to indices of `scene`
-        std::vector<uint32_t> rank(source.count, 0);
-        for (size_t j = 0; j < kept.size(); ++j) rank[kept[j]] = static_cast<uint32_t>(j);
-        for (uint64_t& i : order) i = rank[i];
-      }
-    } else {
-      RGS_RETURN_IF_ERROR(encode_means(scene, &out.position, options, &out.stored[0], &d.means, &order));
-    }
-    d.metadata.bounds = bounds_of(d.means);
     const bool same_zstd = same_order && e->zstd_level == options.zstd_level && e->xz == options.xz;
     const bool reuse[5] = {same_order, same_zstd && e->rotation_bits == options.rotation_bits &&
                                                   e->rotation_step == options.rotation_step,
@@ -831,23 +831,68 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
                                e->opacity_step == options.opacity_step,
                            same_zstd && e->sh_step_multipliers == options.sh_step_multipliers &&
                                e->sh_codebook_size == options.sh_codebook_size};
+    std::vector<uint64_t> order;  // Gaussian i of the archive is Gaussian order[i] of `source`
+    std::array<SourceCodes, 4> codes;  // rotations, scales, opacities at slots 1..3
+    std::vector<std::function<Status()>> jobs;
+    if (same_order) {
+      out.position = earlier->position;  // as Draco stored it
+      out.stored[0] = earlier->stored[0];
+      d.means = earlier->decoded.means;
+      order = earlier->source_index;
+    } else {
+      jobs.push_back([&] {
+        if (out.omitted.empty()) {
+          return encode_means(source.means, &out.position, options, &out.stored[0], &d.means, &order);
+        }
+        const std::vector<uint64_t> kept = kept_gaussians(source.count, out.omitted);
+        std::vector<float> kept_means(kept.size() * 3);
+        for (size_t j = 0; j < kept.size(); ++j) std::copy_n(&source.means[kept[j] * 3], 3, &kept_means[j * 3]);
+        RGS_RETURN_IF_ERROR(encode_means(kept_means, &out.position, options, &out.stored[0], &d.means, &order));
+        for (uint64_t& i : order) i = kept[i];
+        return Status();
+      });
+    }
+    auto add_codes = [&](size_t slot, auto make) {
+      if (reuse[slot]) return;
+      jobs.push_back([&codes, slot, make] {
+        codes[slot] = make();
+        return Status();
+      });
+    };
+    add_codes(1, [&] { return rotation_codes(source, options); });
+    add_codes(2, [&] { return scale_codes(source, out.omitted, options); });
+    add_codes(3, [&] { return opacity_codes(source, options); });
+    std::vector<Status> results;
+    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
+    for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+    d.metadata.bounds = bounds_of(d.means);
+
     // The sections to code share the threads: each its own, and its zstd frame's jobs (§7) the threads over.
     ArchiveOptions section = options;
     section.threads = detail::threads_per_job(options.threads, std::count(reuse + 1, reuse + 5, false));
-    std::vector<std::function<Status()>> jobs;
+    jobs.clear();
     if (!reuse[4]) {
       jobs.push_back([&] {
         bool codebook = false;
-        if (scene.metadata.sh_degree > 0) {
-          RGS_RETURN_IF_ERROR(encode_sh_codebook(scene, order, section, &out.stored[4], &codebook));
+        if (source.metadata.sh_degree > 0) {
+          RGS_RETURN_IF_ERROR(encode_sh_codebook(source, order, section, &out.stored[4], &codebook));
         }
-        return codebook ? Status() : encode_sh(scene, order, section, &out.stored[4]);
+        return codebook ? Status() : encode_sh(source, order, section, &out.stored[4]);
       });
     }
-    if (!reuse[1]) jobs.push_back([&] { return encode_rotations(scene, order, section, &out.stored[1]); });
-    if (!reuse[2]) jobs.push_back([&] { return encode_scales(scene, order, section, &out.stored[2]); });
-    if (!reuse[3]) jobs.push_back([&] { return encode_opacities(scene, order, section, &out.stored[3]); });
-    std::vector<Status> results;
+    constexpr QuantizedTransform kTransforms[4] = {{}, QuantizedTransform::kSmallestThree,
+                                                   QuantizedTransform::kLogUniform, QuantizedTransform::kUniform};
+    const uint32_t bits[4] = {0, options.rotation_bits, options.scale_bits, options.opacity_bits};
+    const uint32_t components[4] = {0, 4, 3, 1};
+    for (size_t slot = 1; slot < 4; ++slot) {
+      if (reuse[slot]) continue;
+      jobs.push_back([&, slot] {
+        const std::vector<uint8_t> gathered = codes[slot].codes.gathered(order).bytes;
+        codes[slot].codes = CodePlanes(0, 0, 8);  // freed before the coding's buffers exist
+        return finish_quantized(kTransforms[slot], bits[slot], components[slot], codes[slot].params, gathered,
+                                section, &out.stored[slot]);
+      });
+    }
     detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
 
@@ -882,11 +927,11 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
       add_decode(SectionId::kSh, 4, values, &EncodedScene::sh);
     } else {
       d.sh.resize(n * values);
-      jobs.push_back([&d, &scene, &order, &options, values, n] {
+      jobs.push_back([&d, &source, &order, &options, values, n] {
         int mult[48];
         for (uint32_t c = 0; c < values; ++c) mult[c] = sh_multiplier(options, c);
         for (uint64_t i = 0; i < n; ++i) {
-          const int8_t* q = &scene.sh[order[i] * values];
+          const int8_t* q = &source.sh[order[i] * values];
           for (uint32_t c = 0; c < values; ++c)
             d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
         }
@@ -899,9 +944,6 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
       for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {
         for (uint16_t& x : *v) x = detail::load_u16_le(reinterpret_cast<const uint8_t*>(&x));
       }
-    }
-    if (!kept.empty()) {
-      for (uint64_t& i : order) i = kept[i];
     }
     out.source_index = std::move(order);
     return out;

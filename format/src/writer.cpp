@@ -545,7 +545,7 @@ Result<PlannedFile> plan_profile(const EncodedScene& scene, const WriteOptions& 
   RGS_RETURN_IF_ERROR(check_options(options));
   RGS_RETURN_IF_ERROR(check_scene_shape(scene));
   RGS_RETURN_IF_ERROR(check_values(scene, 0, scene.count));
-  RGS_ASSIGN_OR_RETURN(ArchiveScene encoded, encode_archive(scene, options.archive));
+  RGS_ASSIGN_OR_RETURN(ArchiveScene encoded, encode_archive(scene, options.archive, options.archive_earlier));
   archive->emplace(std::move(encoded));
   return plan_file((*archive)->decoded, options, &**archive);
 }

@@ -128,6 +128,10 @@ TEST_CASE("archive: an opacity floor leaves out exactly the Gaussians below it, 
   for (uint64_t i = 0; i < scene.count; ++i) {
     scene.opacities[i] = format::float_to_half_bits(0.2f * float(i % 1000) / 1000.0f);
   }
+  // The last Gaussian, kept, has the largest scales (e^3 against at most e^1): the scale codes' range is that of
+  // the Gaussians kept, not of as many Gaussians from the start of the arrays.
+  const uint64_t last = scene.count - 1;
+  for (int a = 0; a < 3; ++a) scene.scales[last * 3 + a] = format::float_to_half_bits(std::exp(3.0f));
   format::ArchiveOptions o;
   o.opacity_bits = 16;
   o.opacity_floor = 0.05;
@@ -143,6 +147,11 @@ TEST_CASE("archive: an opacity floor leaves out exactly the Gaussians below it, 
   CHECK(archive->decoded.count == scene.count - expected.size());
   for (uint64_t i = 0; i < archive->decoded.count; ++i) {
     CHECK(format::half_bits_to_float(scene.opacities[archive->source_index[i]]) >= 0.05f);
+    if (archive->source_index[i] != last) continue;
+    for (int a = 0; a < 3; ++a) {
+      const float decoded = format::half_bits_to_float(archive->decoded.scales[i * 3 + a]);
+      CHECK(decoded == doctest::Approx(std::exp(3.0f)).epsilon(0.02));
+    }
   }
   check_file_decodes_to(scene, o, archive->decoded);
   // A floor of 0 leaves out only the Gaussians of opacity code 0.

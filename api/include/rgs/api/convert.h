@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -91,6 +92,11 @@ struct ConvertOptions {
   /// SH step multipliers per degree, SH codebook, Draco speed, threads; its sections are coded at zstd_level.
   /// audit::fit_archive chooses them for a PSNR target or a byte budget.
   format::ArchiveOptions archive;
+  /// An archive of this scene encoded before with these options' quantization (audit::FitResult::archive): it
+  /// lends the archive profile's encoding the sections coded with the same settings (format::encode_archive's
+  /// `earlier`; the means when its Draco points are those of `archive`), so they are not coded again. The file's
+  /// bytes do not depend on it.
+  std::shared_ptr<const format::ArchiveScene> archive_earlier;
   /// Levels of detail (format/SPEC.md §4.9, converter::build_lod, docs/LOD.md): unset writes an ordinary file;
   /// 0 chooses the count (coarsest level about 1/64 of the full detail), 1..16 sets it. Needs the runtime profile
   /// with the per-Gaussian sections stored raw (kInvalidArgument otherwise).
@@ -188,6 +194,17 @@ struct ConvertReport {
 ///         scene's files, an empty scene without allow_empty); the errors of reading `src` and of writing
 ///         `dst` (kIoError naming it).
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
+
+/// How convert() reads its source: `options.read`, the invalid-value policy of `options.sanitize`, and the
+/// file's XXH64 for the provenance.
+converter::SceneReadOptions scene_read_options(const ConvertOptions& options);
+
+/// convert() of a scene converter::read_scene has read from `src` with scene_read_options(options), whose files
+/// the caller has checked against `dst`
+/// (format::check_output_file): for a caller that works on the scene before writing it (audit::convert_fitted),
+/// without reading it twice. The report counts no reading time.
+Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,
+                                    const ConvertOptions& options = {});
 
 /// convert() of a scene held in memory (a PLY or .rgs read from standard input); `name` stands for the
 /// source in messages and provenance.

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -106,6 +107,9 @@ struct FitResult {
   /// Of `seconds`: encoding the candidates (format::encode_archive), and loading and rendering them with the
   /// PSNR against the source (the source's own renders not included).
   double encode_seconds = 0, render_seconds = 0;
+  /// An archive the search encoded with the chosen settings' Draco points (null if none is kept): it lends the
+  /// file that writes the choice its means (api::ConvertOptions::archive_earlier), so Draco does not run again.
+  std::shared_ptr<const format::ArchiveScene> archive;
 };
 
 /// Chooses the archive options for `source` (activated float Gaussians, as read) on `cameras`:
@@ -135,9 +139,10 @@ struct FittedConversion {
 
 /// Reads `src` (as api::convert does, with `options.read`, `sanitize`, `sh_degree`), builds `cameras`
 /// (api::make_cameras on the scene's bounds), runs fit_archive with `fit` (its quantize, sh_degree and start
-/// taken from `options`), then api::convert(src, dst, options) with the archive profile and the chosen
-/// ArchiveOptions. `fit.provenance_bytes` is set from the source's name. The output is written only on
-/// success. Errors: those of reading `src`, of make_cameras, fit_archive and api::convert; kInternal-free: a
+/// taken from `options`), then writes the scene it read with api::convert_scene(…, dst, options), the archive
+/// profile and the chosen ArchiveOptions (the fit's archive lending its means). `fit.provenance_bytes` is set
+/// from the source's name. The output is written only on success. Errors: those of reading `src`, of
+/// make_cameras, fit_archive and api::convert_scene; kInternal-free: a
 /// written file larger than a byte target is kLimitExceeded (and not kept by `options.files`' caller: the
 /// transaction is not committed by this function).
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,

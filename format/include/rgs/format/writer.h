@@ -31,6 +31,10 @@ struct WriteOptions {
   /// Choices of the archive profile (used when profile is kArchive). The file holds the scene as
   /// encode_archive() decodes it: in Draco's point order, with the bounds of the decoded means.
   ArchiveOptions archive;
+  /// With the archive profile: an archive of the same scene encoded before (rate control's last candidate with
+  /// the file's settings), which lends encode_archive() the sections it coded with the same settings (its
+  /// `earlier`: Draco's means when the points match). The file's bytes do not depend on it. Not owned.
+  const ArchiveScene* archive_earlier = nullptr;
   /// zstd compression level, 1..22 (ZSTD_maxCLevel()).
   int zstd_level = 19;
   /// Threads compressing each zstd section of the runtime profile (its frame's jobs, SPEC §7); the bytes do not
@@ -46,8 +50,8 @@ struct WriteOptions {
 /// rotations, scales, opacities, sh, sh_dc_residual if any, lod with options.lod). Deterministic: the same scene
 /// and options give identical bytes (no timestamps; zstd jobs and .xz blocks of a fixed size, whatever the threads;
 /// SPEC §7). Peak memory: the output plus the zstd frames, and a zstd context per compressing thread
-/// (ZSTD_estimateCCtxSize: 81 MB at level 19); for the archive's .xz trials an LZMA encoder per thread (up to
-/// 123 MB, format/src/internal_xz.h).
+/// (ZSTD_estimateCCtxSize: 81 MB at level 19); for the archive's .xz trials, which run beside each section's zstd
+/// frame, an LZMA encoder per thread as well (up to 123 MB, format/src/internal_xz.h).
 /// Errors: kInvalidArgument for inconsistent arrays, an invalid quantization (is_valid_quantization), an
 /// SH degree above 3, unknown enum values, non-finite or unordered bounds, a zstd level out of range, a
 /// codec for an unknown section, or any value validate() would reject (SPEC §4.3–§4.7: non-finite means
