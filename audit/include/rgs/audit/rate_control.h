@@ -142,9 +142,8 @@ struct FittedConversion {
 /// taken from `options`), then writes the scene it read with api::convert_scene(…, dst, options), the archive
 /// profile and the chosen ArchiveOptions (the fit's archive lending its means). `fit.provenance_bytes` is set
 /// from the source's name. The output is written only on success. Errors: those of reading `src`, of
-/// make_cameras, fit_archive and api::convert_scene; kInternal-free: a
-/// written file larger than a byte target is kLimitExceeded (and not kept by `options.files`' caller: the
-/// transaction is not committed by this function).
+/// make_cameras, fit_archive and api::convert_scene; kInternal-free: a written file larger than a byte target is
+/// kLimitExceeded (and not kept by `options.files`' caller: the transaction is not committed by this function).
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit);
 

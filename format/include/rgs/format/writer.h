@@ -31,8 +31,8 @@ struct WriteOptions {
   /// Choices of the archive profile (used when profile is kArchive). The file holds the scene as
   /// encode_archive() decodes it: in Draco's point order, with the bounds of the decoded means.
   ArchiveOptions archive;
-  /// With the archive profile: an archive of the same scene encoded before (rate control's last candidate with
-  /// the file's settings), which lends encode_archive() the sections it coded with the same settings (its
+  /// With the archive profile: an archive of the same scene encoded before (rate control's, with the chosen
+  /// settings' points), which lends encode_archive() the sections it coded with the same settings (its
   /// `earlier`: Draco's means when the points match). The file's bytes do not depend on it. Not owned.
   const ArchiveScene* archive_earlier = nullptr;
   /// zstd compression level, 1..22 (ZSTD_maxCLevel()).
