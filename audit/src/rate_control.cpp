@@ -366,11 +366,8 @@ class Measurer {
   /// The archive encode_archive lends its sections to `o` (see encode_archive): the last one encoded (the first
   /// of points_), unless another of points_ has the points `o` will code and it does not.
   const format::ArchiveScene* lender(const format::ArchiveOptions& o) const {
-    if (points_.empty()) return nullptr;
-    for (const auto& a : points_) {
-      if (same_points(a, o)) return a.get();
-    }
-    return points_.front().get();
+    if (const auto a = archive_with_points(o)) return a.get();
+    return points_.empty() ? nullptr : points_.front().get();
   }
 
   /// Makes `a` the last archive encoded: the first of points_, replacing the one with its points.

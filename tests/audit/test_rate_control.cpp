@@ -7,8 +7,6 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
@@ -63,12 +61,8 @@ TEST_CASE("rate control meets a 40 dB target on guitar within 0.5 dB") {
   const std::string chosen = dir.file("guitar_chosen_archive.rgs");
   auto again = api::convert(source, chosen, archive);
   REQUIRE_MESSAGE(again.ok(), again.status().to_string());
-  auto bytes = [](const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  };
-  CHECK(bytes(out) == bytes(chosen));
-  CHECK(!bytes(out).empty());
+  CHECK(test::slurp(out) == test::slurp(chosen));
+  CHECK(!test::slurp(out).empty());
 }
 
 TEST_CASE("rate control meets a 40 dB target within 0.5 dB on a scene of SH degree 3") {
