@@ -180,16 +180,25 @@ __device__ inline void blend_predicated(FoldedPixel& s, float alpha, float r, fl
   s.T = stop ? -fabsf(s.T) : test_T;
 }
 
-/// One (Gaussian, tile) pair as the folded loop reads it from shared memory: three 16-byte words at one base
-/// address, [C1 C2 C3 C4] [C5 C6 r g] [b depth · ·], so a pair costs three loads and no address arithmetic.
-struct alignas(16) PairRecord {
+/// One (Gaussian, tile) pair as the folded loop reads it from shared memory: 16-byte words at one base address,
+/// so a pair costs one load a word and no address arithmetic.
+/// - FP32 blending: [C1 C2 C3 C4] [C5 C6 r g] [b depth · ·];
+/// - binary16 blending (kHalf): [C1 C2 C3 C4] [C5 C6 (r, g) (b, ·)], the colour as binary16 pairs, read by
+///   the half2 instructions through operand swizzles (half2_low, half2_high), and [depth · · ·] only with depth:
+///   two loads a pair without it.
+template <bool kHalf, bool kDepth>
+struct PairRecord {
   float4 c1234;
   float4 c56rg;
   float4 bd;
 };
-constexpr int kRecordBytes = static_cast<int>(sizeof(PairRecord));
+template <>
+struct PairRecord<true, false> {
+  float4 c1234;
+  float4 c56rg;
+};
 /// A record that never passes: P = −1e30 at every pixel (no infinities, so 0·x stays 0), below exp̂'s
-/// 1/255 pattern and below expf's. The loop pads its pair lists with it to a multiple of kUnroll.
+/// 1/255 pattern, expf's and half2_alpha's (binary16 −∞). The loop pads its pair lists with it to a multiple of kUnroll.
 constexpr float kNeverPasses = -1e30f;
 /// Pairs per step of the folded loop: the pixels' liveness is tested once per step (a done pixel is left
 /// unchanged by blend_predicated, so testing less often changes no bit) and the loads of the step overlap.
@@ -200,11 +209,12 @@ constexpr int kUnroll = 4;
 template <bool kFastExp, bool kDepth, typename OffsetOf>
 __device__ inline void blend_pairs(const char* record_bytes, int padded, OffsetOf offset_of, const PixelTerms& terms,
                                    float fast_exp_bias, FoldedPixel& first, FoldedPixel& second) {
+  using Record = PairRecord<false, kDepth>;
   for (int k = 0; k < padded; k += kUnroll) {
     if (!first.live() && !second.live()) break;
 #pragma unroll
     for (int i = 0; i < kUnroll; ++i) {
-      const PairRecord& r = *reinterpret_cast<const PairRecord*>(record_bytes + offset_of(k + i));
+      const Record& r = *reinterpret_cast<const Record*>(record_bytes + offset_of(k + i));
       const float4 c1234 = r.c1234, c56rg = r.c56rg;
       const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};
       const float p_first = folded_power(f, terms);
@@ -237,29 +247,29 @@ struct HalfFoldedPixels {
   }
 };
 
-/// blend_pairs with half-precision blending: the same walk, the fast exp's FP32 argument v straight from the
-/// coefficients (fast_exp_half_coefficients), α from fast_exp_half2_of_v, and one blend_half2 for both pixels.
-/// The records carry those coefficients and the colour as binary16 pairs (c56rg.z, c56rg.w, bd.x).
+/// blend_pairs with half-precision blending: the same walk, the records' coefficients those of the power in
+/// base 2 (exp2_coefficients), α from half2_alpha and one blend_half2 for both pixels.
 template <bool kDepth, typename OffsetOf>
 __device__ inline void blend_pairs_half(const char* record_bytes, int padded, OffsetOf offset_of,
                                         const PixelTerms& terms, HalfFoldedPixels& pixels) {
+  using Record = PairRecord<true, kDepth>;
   for (int k = 0; k < padded; k += kUnroll) {
     if (!pixels.live()) break;
 #pragma unroll
     for (int i = 0; i < kUnroll; ++i) {
-      const PairRecord& r = *reinterpret_cast<const PairRecord*>(record_bytes + offset_of(k + i));
+      const Record& r = *reinterpret_cast<const Record*>(record_bytes + offset_of(k + i));
       const float4 c1234 = r.c1234, c56rg = r.c56rg;
       const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};  // of v
       const float v_first = folded_power(f, terms);
       const float v_second = dual_pixel_power(v_first, f, terms);
-      const Half2Bits alpha = fast_exp_half2_alpha(fast_exp_half2_of_v(v_first, v_second));
-      const float4 bd = r.bd;
-      const Half2Bits w = blend_half2(pixels.s, alpha, float_as_uint(c56rg.z), float_as_uint(c56rg.w),
-                                      float_as_uint(bd.x));
-      if (kDepth) {
+      const Half2Bits alpha = half2_alpha(v_first, v_second);
+      const Half2Bits rg = float_as_uint(c56rg.z), b = float_as_uint(c56rg.w);
+      const Half2Bits w = blend_half2(pixels.s, alpha, half2_low(rg), half2_high(rg), half2_low(b));
+      if constexpr (kDepth) {
+        const float depth = r.bd.x;
         for (int p = 0; p < 2; ++p) {
           const float wp = half_to_float(static_cast<uint16_t>(w >> (16 * p)));
-          pixels.depth_sum[p] = fmaf(bd.y, wp, pixels.depth_sum[p]);
+          pixels.depth_sum[p] = fmaf(depth, wp, pixels.depth_sum[p]);
           pixels.weight_sum[p] += wp;
         }
       }
@@ -407,12 +417,14 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   const float fast_exp_bias = kFastExp && !kHalf ? rgs::kernels::fast_exp_bias(sigma) : 0.f;
 
   // Slot s < kBatch holds the batch's pair s; slot kBatch is the padding record.
-  __shared__ PairRecord records[kBatch + 1];
+  using Record = PairRecord<kHalf, kDepth>;
+  constexpr int kRecordBytes = static_cast<int>(sizeof(Record));
+  __shared__ Record records[kBatch + 1];
   __shared__ uint32_t collected_mask[kCulls ? kBatch : 1];
   // Byte offsets into `records` of the slots each list walks, in batch order, padded to a multiple of kUnroll.
   __shared__ uint16_t walk_lists[kCulls ? kWarps * kListsPerWarp : 1][kListStride];
-  const PairRecord never{make_float4(0.f, 0.f, 0.f, 0.f), make_float4(0.f, kNeverPasses, 0.f, 0.f),
-                         make_float4(0.f, 0.f, 0.f, 0.f)};
+  Record never{};
+  never.c56rg.y = kNeverPasses;
   if (rank == 0) records[kBatch] = never;  // visible after the first barrier below
   const char* record_bytes = reinterpret_cast<const char*>(records);
   // The list this lane walks: its group's (block culling) or its warp's.
@@ -439,7 +451,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
       const int slot = rank + l * kDualThreads;
       const uint64_t p = batch + uint64_t(slot);
       uint32_t mask = 0;
-      PairRecord record = never;
+      Record record = never;
       if (p < end) {
         const uint32_t id = values[p];
         const float2 mean = in.means2d[id];
@@ -448,12 +460,12 @@ __global__ void __launch_bounds__(kDualThreads, 8)
         const float4 colour = in.colour_log_opacity[id];
         const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = colour.w;
         FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
-        if (kHalf) f = fast_exp_half_coefficients(f);
+        if (kHalf) f = exp2_coefficients(f);
         record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
-        if (kHalf) {  // the colour as binary16 pairs for blend_half2
-          record.c56rg = make_float4(f.c5, f.c6, uint_as_float(half2_broadcast(colour.x)),
-                                     uint_as_float(half2_broadcast(colour.y)));
-          record.bd = make_float4(uint_as_float(half2_broadcast(colour.z)), kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
+        if constexpr (kHalf) {  // the colour as binary16 pairs for blend_half2
+          record.c56rg = make_float4(f.c5, f.c6, uint_as_float(half2_pack(colour.x, colour.y)),
+                                     uint_as_float(half2_pack(colour.z, 0.f)));
+          if constexpr (kDepth) record.bd = make_float4(in.depths[id], 0.f, 0.f, 0.f);
         } else {
           record.c56rg = make_float4(f.c5, f.c6, colour.x, colour.y);
           record.bd = make_float4(colour.z, kDepth ? in.depths[id] : 0.f, 0.f, 0.f);

@@ -260,7 +260,7 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
 
 /// blend_tile_folded with half-precision blending (RoofgsOptions::half_blend; render.cu blend_pairs_half):
 /// each "thread" keeps its two pixels' T and C as binary16 pairs and blends both with blend_half2, α from
-/// fast_exp_half2_of_v on the fast exp's FP32 argument v (coefficients from fast_exp_half_coefficients).
+/// half2_alpha on the folded powers in base 2 (coefficients from exp2_coefficients).
 /// Pairs where neither pixel passes change no bit (α = +0), so they are skipped here, as are both pixels once
 /// done. A list of more than `chunk_pairs` pairs (frame_chunk_pairs; 0: off) is blended in chunks, each from
 /// T = 1, and the chunks' FP32 values merged in order (kernels/shared/tile_chunks.h), as the GPU's chunk blocks
@@ -268,8 +268,8 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
 void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
                             uint32_t chunk_pairs, RenderResult* out) {
   const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
-  std::vector<k::FoldedCoefficients> of_v(list.size());  // the coefficients of the fast exp's argument v
-  for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::fast_exp_half_coefficients(list[j].folded);
+  std::vector<k::FoldedCoefficients> of_v(list.size());  // the coefficients of the power in base 2, v
+  for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::exp2_coefficients(list[j].folded);
   const uint32_t chunks = k::tile_chunk_count(list.size(), chunk_pairs);
   for (int ly = 0; ly < k::kTileSize; ly += 2) {
     for (int lx = 0; lx < k::kTileSize; ++lx) {
@@ -287,7 +287,7 @@ void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int t
           const TileGaussian& g = list[j];
           const float v_first = k::folded_power(of_v[j], terms);
           const float v_second = k::dual_pixel_power(v_first, of_v[j], terms);
-          const k::Half2Bits alpha = k::fast_exp_half2_alpha(k::fast_exp_half2_of_v(v_first, v_second));
+          const k::Half2Bits alpha = k::half2_alpha(v_first, v_second);
           if (alpha == 0) continue;
           const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]),
                                                 k::half2_broadcast(g.rgb[1]), k::half2_broadcast(g.rgb[2]));

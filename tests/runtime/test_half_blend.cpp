@@ -1,7 +1,8 @@
 // Half-precision blending (kernels/shared/half_blend.h): the host emulation of the half2 instructions rounds
-// as IEEE binary16 does (against format::float_to_half_bits and an exact 113-bit evaluation), the binary16 fast
-// exp with its mantissa correction stays within its stated error on every pattern, clamps at 0.99 and skips
-// below 1/255, and one blend step follows its stated rules.
+// as IEEE binary16 does (against format::float_to_half_bits and an exact 113-bit evaluation), the device's
+// binary16 exp2 is emulated with margin on every pattern, α stays within its stated error of 2^v, clamps at
+// 0.99 and skips below 1/255, and one blend step follows its stated rules.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -120,57 +121,90 @@ TEST_CASE("half emulation: half2_min follows __hmin2 on NaN and signed zeros") {
   CHECK(k::half2_min(pair(0x7c00u, 0x3bd1u), pair(0x3bd1u, 0x7c00u)) == pair(0x3bd1u, 0x3bd1u));  // inf
 }
 
-TEST_CASE("fast_exp_half2: within its stated error on every pattern, and its clamp and skip rules") {
-  // Exhaustive over the patterns I whose value lies in [1/255, 1] (the α that are blended): the pattern is
-  // exp̂16 of the P at which v = 1.5·2^23 + I exactly, e^P = 2^((I − 15·2^10)/2^10).
-  double worst = 0, worst_bare = 0, sum = 0;
+TEST_CASE("half2_exp2: the device's truncated binary16 exp2, decided with margin on every pattern") {
+  // 2^x is an exact binary16 value only at integer x; elsewhere the emulation truncates a double exp2, which is
+  // safe when 2^x stays clear of the binary16 value below or above it by far more than a double's error.
+  int checked = 0;
+  double closest = 1.0;  // the smallest relative distance from 2^x to a binary16 value, over non-integer x
+  for (uint32_t x = 0; x < 0x10000u; ++x) {
+    const uint16_t bits = uint16_t(x);
+    const double v = k::detail::half_bits_to_double(bits);
+    if (!std::isfinite(v) || v >= 16.0 || bits == 0x8001u) continue;
+    const uint16_t r = k::detail::half_exp2_bits(bits);
+    const double e = std::exp2(v), value = k::detail::half_bits_to_double(r);
+    REQUIRE(value <= e);  // truncated: never above 2^x
+    if (v == std::floor(v) && e >= std::ldexp(1.0, -24)) {
+      CHECK(value == e);  // exact powers of two stay exact
+      continue;
+    }
+    // The next binary16 value lies above 2^x: r is the truncation of 2^x.
+    REQUIRE(k::detail::half_bits_to_double(uint16_t(r + 1)) > e);
+    if (e >= std::ldexp(1.0, -24)) {
+      closest = std::min({closest, (e - value) / e, (k::detail::half_bits_to_double(uint16_t(r + 1)) - e) / e});
+    }
+    ++checked;
+  }
+  MESSAGE(checked << " patterns; closest approach of 2^x to a binary16 value: " << closest);
+  CHECK(checked > 40000);
+  CHECK(closest > 1e-12);  // thousands of double ulps (2.2e-16): libm's exp2 cannot cross a boundary
+  // The special patterns, as the device returns them.
+  CHECK(k::detail::half_exp2_bits(0x0000u) == 0x3c00u);
+  CHECK(k::detail::half_exp2_bits(0x8001u) == 0x3c00u);  // −2^−24: 1, not 0x3bff
+  CHECK(k::detail::half_exp2_bits(0x8002u) == 0x3bffu);
+  CHECK(k::detail::half_exp2_bits(0xbc00u) == 0x3800u);  // 2^−1
+  CHECK(k::detail::half_exp2_bits(0xcc00u) == 0x0100u);  // 2^−16, subnormal
+  CHECK(k::detail::half_exp2_bits(0xd000u) == 0x0000u);  // 2^−32 truncates to +0
+  CHECK(k::detail::half_exp2_bits(0xfc00u) == 0x0000u);  // −inf
+  CHECK(k::detail::half_exp2_bits(0x7c00u) == 0x7c00u);  // +inf
+  CHECK(k::detail::half_exp2_bits(0x4c00u) == 0x7c00u);  // 2^16 overflows
+  CHECK(k::detail::half_exp2_bits(0x7e00u) == 0x7fffu);  // NaN
+  CHECK(k::half2_exp2(pair(0xbc00u, 0x0000u)) == pair(0x3800u, 0x3c00u));
+}
+
+TEST_CASE("half2_alpha: within its stated error of 2^v, and its clamp and skip rules") {
+  // Dense over v in [log2(1/255), log2(0.99)]: α = 2^RN16(v) truncated, against 2^v.
+  const double lowest = std::log2(1.0 / 255), highest = std::log2(0.99);
+  double worst = 0, sum = 0;
   int count = 0;
-  for (uint32_t I = 0x1c00u; I <= 0x3c00u; ++I) {
-    const double exact = std::exp2((double(I) - 15.0 * 1024.0) / 1024.0);
-    if (exact < 1.0 / 255) continue;
-    const float v = k::kFastExpHalfMagic + float(I);
-    const k::Half2Bits alpha = k::fast_exp_half2_of_v(v, v);
+  for (int i = 0; i <= 400000; ++i) {
+    const float v = float(lowest + (highest - lowest) * i / 400000.0);
+    const double exact = std::exp2(double(v));
+    if (exact < 1.0 / 255 * 1.003 || exact > 0.99) continue;  // clear of the 1/255 skip and the 0.99 clamp
+    const k::Half2Bits alpha = k::half2_alpha(v, v);
     REQUIRE(lane(alpha, 0) == lane(alpha, 1));
-    const double relative = double(k::half_to_float(lane(alpha, 0))) / exact - 1.0;
+    const double relative = k::detail::half_bits_to_double(lane(alpha, 0)) / exact - 1.0;
     worst = std::max(worst, std::fabs(relative));
-    worst_bare = std::max(worst_bare, std::fabs(k::detail::half_bits_to_double(uint16_t(I)) / exact - 1.0));
     sum += relative;
     ++count;
   }
-  MESSAGE(count << " patterns: max relative error " << worst << ", mean " << sum / count << ", bare pattern "
-                << worst_bare);
-  CHECK(count > 8000);
-  CHECK(worst <= k::kFastExpHalfMaxRelativeError);
-  CHECK(worst > 0.003);                       // an approximation, not exp
-  CHECK(std::fabs(sum / count) < 5e-4);       // and without a bias
-  CHECK(worst_bare > 0.06);                   // the correction is what brings the bare pattern's 6 % down
-  // fast_exp_half2 is the same function of P, one FP32 fma away.
-  for (const float P : {-5.f, -2.5f, -1.f, -0.25f, -1e-3f}) {
-    const float v = std::fmaf(P, k::kFastExpHalfScale, k::kFastExpHalfBias);
-    CHECK(k::fast_exp_half2(P, P) == k::fast_exp_half2_of_v(v, v));
-    CHECK(double(k::half_to_float(lane(k::fast_exp_half2(P, P), 0))) ==
-          doctest::Approx(std::exp(double(P))).epsilon(k::kFastExpHalfMaxRelativeError + 1e-3));
-  }
+  MESSAGE(count << " powers: max relative error " << worst << ", mean " << sum / count);
+  CHECK(count > 390000);
+  CHECK(worst <= k::kExp2HalfMaxRelativeError);
+  CHECK(worst > 0.001);                        // binary16 input and truncation: not exact
+  CHECK(sum / count < 0);                      // truncation biases it low,
+  CHECK(sum / count > -k::kExp2HalfMaxRelativeError / 2);  // by less than half the worst case
+  // The folded powers in base 2: exp2_coefficients scales every coefficient by log2 e.
+  const k::FoldedCoefficients f{-0.5f, 0.1f, -0.25f, 0.5f, -1.f, -0.75f};
+  const k::FoldedCoefficients g = k::exp2_coefficients(f);
+  CHECK(g.c1 == f.c1 * k::kLog2e);
+  CHECK(g.c6 == f.c6 * k::kLog2e);
 
-  const auto passes = [](float p_first, float p_second) {
-    return k::fast_exp_half2_alpha(k::fast_exp_half2(p_first, p_second));
-  };
   const uint16_t alpha_max = lane(k::kHalf2AlphaMax, 0);
   CHECK(alpha_max == format::float_to_half_bits(k::kAlphaMax));  // 0.99 to the nearest binary16
-  // In range: passes with its value; per lane.
-  CHECK(lane(passes(-1.f, -100.f), 0) == lane(k::fast_exp_half2(-1.f, 0.f), 0));
-  CHECK(lane(passes(-1.f, -100.f), 1) == 0);
-  // Below 1/255 (P < −ln 255 ≈ −5.54) and far below (clamped, no wrap-around): skipped.
-  CHECK(passes(-5.6f, -11.f) == 0);
-  CHECK(passes(-1e30f, -1e6f) == 0);
-  CHECK(passes(std::nanf(""), -INFINITY) == 0);
-  // P = 0 (exp̂16 ≈ 0.9966), P > 0 (a folded power only by rounding), a large finite pattern (P = 10.5) and the
-  // infinite and NaN patterns (P ≈ 11.1–11.8): clamped to 0.990234.
-  CHECK(passes(0.f, 1e-3f) == k::kHalf2AlphaMax);
-  CHECK(passes(5.f, 10.5f) == k::kHalf2AlphaMax);
-  for (int l = 0; l < 2; ++l) CHECK((lane(k::fast_exp_half2(11.2f, 11.6f), l) & 0x7c00u) == 0x7c00u);
-  CHECK(passes(11.2f, 11.6f) == k::kHalf2AlphaMax);
-  CHECK(passes(12.f, 12.f) == 0);  // patterns past the sign bit: negative, below 1/255
+  // In range: per lane.
+  CHECK(lane(k::half2_alpha(-1.f, -100.f), 0) == 0x3800u);  // 2^−1 exactly
+  CHECK(lane(k::half2_alpha(-1.f, -100.f), 1) == 0);
+  // Below 1/255 (v < log2(1/255) ≈ −7.99) and far below: skipped; the padding record's −1e30 is −inf.
+  CHECK(k::half2_alpha(-8.1f, -30.f) == 0);
+  CHECK(k::half2_alpha(-1e30f, -INFINITY) == 0);
+  // v = 0 and v > 0 (a folded power only by rounding) clamp to 0.990234; a NaN power is skipped.
+  CHECK(k::half2_alpha(0.f, 1e-3f) == k::kHalf2AlphaMax);
+  CHECK(k::half2_alpha(20.f, INFINITY) == k::kHalf2AlphaMax);
+  CHECK(k::half2_alpha(std::nanf(""), -1.f) == pair(0, 0x3800u));
+  // half2_pack rounds to nearest, first pixel low; half2_low / half2_high broadcast one half.
+  CHECK(k::half2_pack(1.f + 1.f / 2048, -2.f) == pair(0x3c00u, 0xc000u));  // a tie: to even
+  CHECK(k::half2_low(pair(0x3c00u, 0xc000u)) == pair(0x3c00u, 0x3c00u));
+  CHECK(k::half2_high(pair(0x3c00u, 0xc000u)) == pair(0xc000u, 0xc000u));
 }
 
 TEST_CASE("blend_half2: a skipped pair changes no bit, a done pixel stays done, a step rounds as stated") {

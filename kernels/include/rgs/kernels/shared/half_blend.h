@@ -1,13 +1,14 @@
 // Half-precision blending of the folded rasterizer (beyond the paper): α, transmittance T and the colour sum
 // C of a thread's two pixels held as pairs of IEEE binary16 values in one 32-bit word each (CUDA __half2, low
 // half = the first pixel (x, y), high half = the second (x, y + 1)), so that one half2 instruction blends
-// both pixels. The power P stays FP32 (folded_power, dual_pixel_power); α is the paper's fast exponential
-// with a binary16 result and a mantissa correction (fast_exp_half2). Every operation here is IEEE
-// round-to-nearest-even with subnormals kept (no flush to zero), on the device with the half2 instructions and
-// on the host in software, so the CPU reference and the GPU produce the same bits.
+// both pixels. The power P stays FP32 (folded_power, dual_pixel_power); α is the device's binary16 exp2 of it
+// in base 2 (half2_alpha), in place of the paper's fast exponential. Every operation here but that exp2 is
+// IEEE round-to-nearest-even with subnormals kept (no flush to zero), on the device with the half2
+// instructions and on the host in software; the exp2 is emulated as the device computes it, so the CPU
+// reference and the GPU produce the same bits.
 //
-// Error: binary16 keeps 11 significant bits (relative rounding 2^-12 a step); the corrected fast exp is off
-// by at most 0.41 % (kFastExpHalfMaxRelativeError). Against the FP32 blend of the same pairs the measured
+// Error: binary16 keeps 11 significant bits (relative rounding 2^-12 a step); α is off by at most 0.24 %
+// (kExp2HalfMaxRelativeError). Against the FP32 blend of the same pairs the measured
 // images are in docs/RENDERER.md#measured-quality-of-each-switch.
 #pragma once
 
@@ -194,75 +195,97 @@ RGS_HOST_DEVICE Half2Bits half2_broadcast(float v) {
 #endif
 }
 
-/// The binary16 fast exp's exponent-and-mantissa pattern, I = round(P·2^10·log2 e + 2^10·15) (the FP32
-/// fast_exp's construction for a 10-bit mantissa and exponent bias 15, with no σ: the mantissa correction of
-/// fast_exp_half2_of_v removes the bias that σ offsets there), evaluated as one FP32 fma whose result carries
-/// I in its low 16 bits: v = fma(P, 2^10·log2 e, kFastExpHalfBias). In [2^23, 2^24) a float's unit is 1, so
-/// the fma rounds v to the integer 1.5·2^23 + I, and the bits of 1.5·2^23 are 0 below bit 22.
-constexpr float kFastExpHalfScale = 1477.3197218702985f;  // 2^10·log2 e
-constexpr float kFastExpHalfMagic = 12582912.f;            // 1.5·2^23
-constexpr float kFastExpHalfBias = 1024.f * 15.f + kFastExpHalfMagic;
+/// The low (first pixel's) half of `h` in both halves (__low2half2; on the device an operand swizzle of the
+/// instruction that reads it).
+RGS_HOST_DEVICE Half2Bits half2_low(Half2Bits h) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__low2half2(detail::as_half2(h)));
+#else
+  return (h & 0xffffu) | (h << 16);
+#endif
+}
 
-/// The mantissa correction r(m) = c2·m² + c1·m + c0 ≈ 2^(m−1)/m on m in [1, 2) (fitted to the relative
-/// error, at most 0.354 % in exact arithmetic; coefficients rounded to binary16), in both halves. The bare
-/// pattern I read as binary16 is 2^e·m for the true 2^e·2^(m−1) (Schraudolph's linear mantissa, up to 6.1 %
-/// high); times r(m) its relative error is at most kFastExpHalfMaxRelativeError over every pattern, binary16
-/// roundings included.
-constexpr Half2Bits kFastExpHalfCorrection2 = 0x33773377u;  //  0.2332763671875
-constexpr Half2Bits kFastExpHalfCorrection1 = 0xb98bb98bu;  // −0.69287109375
-constexpr Half2Bits kFastExpHalfCorrection0 = 0x3dd33dd3u;  //  1.4560546875
-/// The largest |exp̂16(P) / e^P − 1| over every normal pattern with exp̂16 ≥ 1/255
-/// (tests/runtime/test_half_blend.cpp checks it exhaustively).
-constexpr double kFastExpHalfMaxRelativeError = 0.0041;
+/// The high half of `h` in both halves (__high2half2).
+RGS_HOST_DEVICE Half2Bits half2_high(Half2Bits h) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__high2half2(detail::as_half2(h)));
+#else
+  return (h >> 16) | (h & 0xffff0000u);
+#endif
+}
+
+/// log2 e as a float: the folded coefficients times it give the power in base 2 (exp2_coefficients).
+constexpr float kLog2e = 1.44269504088896341f;
+
+/// The folded coefficients whose power is v = P·log2 e instead of P (each one FP32 product, one rounding), so
+/// that folded_power and dual_pixel_power give both pixels' exponent in base 2 for half2_exp2.
+RGS_HOST_DEVICE FoldedCoefficients exp2_coefficients(const FoldedCoefficients& f) {
+  return FoldedCoefficients{f.c1 * kLog2e, f.c2 * kLog2e, f.c3 * kLog2e, f.c4 * kLog2e, f.c5 * kLog2e, f.c6 * kLog2e};
+}
+
+/// Two floats rounded to binary16, `first` in the low half (__floats2half2_rn: one F2FP instruction).
+RGS_HOST_DEVICE Half2Bits half2_pack(float first, float second) {
+#if defined(__CUDA_ARCH__)
+  return detail::as_bits(__floats2half2_rn(first, second));
+#else
+  return detail::half2_of(detail::half_bits_from_double(static_cast<double>(first)),
+                          detail::half_bits_from_double(static_cast<double>(second)));
+#endif
+}
+
+namespace detail {
+
+/// The device's binary16 exp2 (PTX ex2.approx.f16, SASS MUFU.EX2.F16) of one pattern, emulated: 2^x truncated
+/// toward zero to binary16 (+inf from x ≥ 16, 0 from −inf, a quiet NaN 0x7fff from a NaN), except that the
+/// smallest negative subnormal, −2^−24, gives 1. An sm_90 device agrees on all 65,536 patterns
+/// (tests/gpu/test_gpu_half_exp2.cpp checks the device at hand). The truncation is decided on a double exp2:
+/// 2^x is an exact binary16 value only at integer x, and elsewhere far enough from one for a double's error
+/// not to cross it (tests/runtime/test_half_blend.cpp checks the margin on every pattern).
+inline uint16_t half_exp2_bits(uint16_t x) {
+  const bool negative = (x & 0x8000u) != 0;
+  if ((x & 0x7c00u) == 0x7c00u) {
+    if ((x & 0x03ffu) != 0) return 0x7fffu;
+    return negative ? uint16_t(0) : uint16_t(0x7c00u);
+  }
+  if (x == 0x8001u) return 0x3c00u;
+  const double v = half_bits_to_double(x);
+  if (v >= 16.0) return 0x7c00u;
+  const double e = std::exp2(v);
+  const uint16_t nearest = half_bits_from_double(e);
+  return half_bits_to_double(nearest) > e ? uint16_t(nearest - 1) : nearest;  // positive: one pattern down
+}
+
+}  // namespace detail
+
+/// 2^x per half, the device's binary16 exp2 (ex2.approx.f16x2: two MUFU.EX2.F16): detail::half_exp2_bits.
+RGS_HOST_DEVICE Half2Bits half2_exp2(Half2Bits x) {
+#if defined(__CUDA_ARCH__)
+  Half2Bits result;
+  asm("ex2.approx.f16x2 %0, %1;" : "=r"(result) : "r"(x));
+  return result;
+#else
+  return detail::half2_of(detail::half_exp2_bits(detail::half_lane(x, 0)),
+                          detail::half_exp2_bits(detail::half_lane(x, 1)));
+#endif
+}
+
+/// The largest |2^RN16(v) truncated / 2^v − 1| for α ≥ 1/255 (v in [log2(1/255), 0]): the input's rounding to
+/// binary16 (half a unit of 2^−8 where |v| ≥ 4: 0.135 %) and the truncation (under 2^−10: 0.098 %)
+/// (tests/runtime/test_half_blend.cpp measures it).
+constexpr double kExp2HalfMaxRelativeError = 0.0024;
 /// 3DGS's α clamp 0.99 rounded to the nearest binary16 (0x3bec = 0.990234375), in both halves.
 constexpr Half2Bits kHalf2AlphaMax = 0x3bec3becu;
 
-/// exp̂16 of two pixels from their v = 1.5·2^23 + 2^10·log2 e·P + 2^10·15, as Half2Bits: the pattern I of each
-/// (v clamped below at 1.5·2^23, so I = 0 and α = +0 for P below about −10.4 and for NaN) times the mantissa
-/// correction r(m), m = I's mantissa with exponent 0 (one LOP3, two HFMA2 and one HMUL2 for both pixels).
-/// Above, I reaches the sign bit at P ≈ 11.8 (a negative α, skipped) and would wrap at P ≈ 34, which a folded
-/// power (≤ ln o ≤ 0 up to FP32 rounding) never is. Callers take α from the result with fast_exp_half2_alpha.
-RGS_HOST_DEVICE Half2Bits fast_exp_half2_of_v(float v_first, float v_second) {
-  const uint32_t first = float_as_uint(fmaxf(v_first, kFastExpHalfMagic));
-  const uint32_t second = float_as_uint(fmaxf(v_second, kFastExpHalfMagic));
-#if defined(__CUDA_ARCH__)
-  const Half2Bits pattern = __byte_perm(first, second, 0x5410);  // low half of each
-#else
-  const Half2Bits pattern = (first & 0xffffu) | (second << 16);
-#endif
-  const Half2Bits m = (pattern & 0x03ff03ffu) | kHalf2One;
-  const Half2Bits r =
-      half2_fma(half2_fma(kFastExpHalfCorrection2, m, kFastExpHalfCorrection1), m, kFastExpHalfCorrection0);
-  return half2_mul(pattern, r);
-}
-
-/// exp̂16 of two powers P: fast_exp_half2_of_v of v = fma(P, 2^10·log2 e, kFastExpHalfBias), one rounding.
-RGS_HOST_DEVICE Half2Bits fast_exp_half2(float p_first, float p_second) {
-  return fast_exp_half2_of_v(fmaf(p_first, kFastExpHalfScale, kFastExpHalfBias),
-                             fmaf(p_second, kFastExpHalfScale, kFastExpHalfBias));
-}
-
-/// The folded coefficients whose power is v instead of P: C1..C5 times 2^10·log2 e, and
-/// C6·2^10·log2 e + kFastExpHalfBias, so that folded_power and dual_pixel_power give both pixels' v for
-/// fast_exp_half2_of_v with no multiply-add of their own. Each FMA of the chain then rounds at v's unit (its
-/// sums lie near 1.5·2^23, where a float's unit is 1), a few units of I at most: α moves by up to about 0.4 %,
-/// the size of the corrected fast exp's own error (measured with it:
-/// docs/RENDERER.md#measured-quality-of-each-switch).
-RGS_HOST_DEVICE FoldedCoefficients fast_exp_half_coefficients(const FoldedCoefficients& f) {
-  return FoldedCoefficients{f.c1 * kFastExpHalfScale, f.c2 * kFastExpHalfScale, f.c3 * kFastExpHalfScale,
-                            f.c4 * kFastExpHalfScale, f.c5 * kFastExpHalfScale,
-                            fmaf(f.c6, kFastExpHalfScale, kFastExpHalfBias)};
-}
-
-/// The α each pixel blends with: min(exp̂16, 0.990234) where that is at least 1/255, else +0 (the pair is
-/// skipped there). The clamp takes the place of both 3DGS's 0.99 clamp and the FP32 loop's P > 0 skip: a
-/// folded power is ≤ ln o ≤ 0 but for rounding, and v's own rounding (fast_exp_half_coefficients) reaches a
-/// few units of I, so skipping where exp̂16 > 1 would drop opaque Gaussians at their centres. NaN and infinite
-/// patterns (P ≈ 11.1–11.8, never a folded power) clamp to 0.990234 too; negative ones (P ≥ 11.8) are skipped.
-/// @param alpha  fast_exp_half2's or fast_exp_half2_of_v's result
-RGS_HOST_DEVICE Half2Bits fast_exp_half2_alpha(Half2Bits alpha) {
-  const Half2Bits clamped = half2_min(alpha, kHalf2AlphaMax);
-  return clamped & half2_ge_mask(clamped, kHalf2AlphaMin);
+/// The α each pixel of a thread blends with, from both pixels' folded powers in base 2 (folded_power and
+/// dual_pixel_power of exp2_coefficients): e = half2_exp2(half2_pack(v_first, v_second)), then
+/// min(e, 0.990234) where e ≥ 1/255, else +0 (the pair is skipped there). Four instructions for both pixels
+/// (F2FP, two MUFU.EX2.F16, PRMT) before the clamp. The clamp takes the place of both 3DGS's 0.99 clamp and the
+/// FP32 loop's P > 0 skip: a folded power is ≤ ln o ≤ 0 but for rounding, and skipping where e > 1 would drop
+/// opaque Gaussians at their centres. A NaN power is skipped (the 1/255 test is on e, before the clamp, which
+/// would turn a NaN into 0.990234).
+RGS_HOST_DEVICE Half2Bits half2_alpha(float v_first, float v_second) {
+  const Half2Bits e = half2_exp2(half2_pack(v_first, v_second));
+  return half2_min(e, kHalf2AlphaMax) & half2_ge_mask(e, kHalf2AlphaMin);
 }
 
 /// The running state of a thread's two pixels: T and C per pixel as Half2Bits. The sign of T holds the stop
@@ -276,7 +299,7 @@ struct HalfPixelPair {
 /// T' = T − w, take the pair where T' ≥ 1e−4 (C += c·w, T = T'), else stop (T = −|T|). α = +0 (skipped) gives
 /// w = +0 and changes nothing; a done pixel (T < 0) gives T' < 0, which stops again and keeps T. Returns the
 /// taken weights w (0 where not taken) for callers that also sum depth.
-/// @param alpha  fast_exp_half2_alpha's result
+/// @param alpha  half2_alpha's result
 /// @param r, g, b  the Gaussian's colour in both halves (half2_broadcast)
 RGS_HOST_DEVICE Half2Bits blend_half2(HalfPixelPair& s, Half2Bits alpha, Half2Bits r, Half2Bits g, Half2Bits b) {
   const Half2Bits w = half2_mul(alpha, s.T);
