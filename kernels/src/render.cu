@@ -204,17 +204,35 @@ constexpr float kNeverPasses = -1e30f;
 /// unchanged by blend_predicated, so testing less often changes no bit) and the loads of the step overlap.
 constexpr int kUnroll = 4;
 
-/// Blends the pairs at byte offsets offset_of(0), …, offset_of(padded − 1) of `record_bytes` (padded: a
+/// The record at `address`, an address of the block's shared-memory window (__cvta_generic_to_shared), loaded
+/// 16 bytes at a time by ld.shared straight from that register: the walk lists hold such addresses, so a listed
+/// pair costs no address arithmetic.
+template <typename Record>
+__device__ inline Record load_record(uint32_t address) {
+  Record r;
+  asm volatile("ld.shared.v4.f32 {%0, %1, %2, %3}, [%8];\n\tld.shared.v4.f32 {%4, %5, %6, %7}, [%8+16];"
+               : "=f"(r.c1234.x), "=f"(r.c1234.y), "=f"(r.c1234.z), "=f"(r.c1234.w), "=f"(r.c56rg.x), "=f"(r.c56rg.y),
+                 "=f"(r.c56rg.z), "=f"(r.c56rg.w)
+               : "r"(address));
+  if constexpr (sizeof(Record) > 32) {
+    asm volatile("ld.shared.v4.f32 {%0, %1, %2, %3}, [%4+32];"
+                 : "=f"(r.bd.x), "=f"(r.bd.y), "=f"(r.bd.z), "=f"(r.bd.w)
+                 : "r"(address));
+  }
+  return r;
+}
+
+/// Blends the records at shared addresses address_of(0), …, address_of(padded − 1) (padded: a
 /// multiple of kUnroll) into the thread's two pixels, testing their liveness once per kUnroll pairs.
-template <bool kFastExp, bool kDepth, typename OffsetOf>
-__device__ inline void blend_pairs(const char* record_bytes, int padded, OffsetOf offset_of, const PixelTerms& terms,
-                                   float fast_exp_bias, FoldedPixel& first, FoldedPixel& second) {
+template <bool kFastExp, bool kDepth, typename AddressOf>
+__device__ inline void blend_pairs(int padded, AddressOf address_of, const PixelTerms& terms, float fast_exp_bias,
+                                   FoldedPixel& first, FoldedPixel& second) {
   using Record = PairRecord<false, kDepth>;
   for (int k = 0; k < padded; k += kUnroll) {
     if (!first.live() && !second.live()) break;
 #pragma unroll
     for (int i = 0; i < kUnroll; ++i) {
-      const Record& r = *reinterpret_cast<const Record*>(record_bytes + offset_of(k + i));
+      const Record r = load_record<Record>(address_of(k + i));
       const float4 c1234 = r.c1234, c56rg = r.c56rg;
       const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};
       const float p_first = folded_power(f, terms);
@@ -249,15 +267,15 @@ struct HalfFoldedPixels {
 
 /// blend_pairs with half-precision blending: the same walk, the records' coefficients those of the power in
 /// base 2 (exp2_coefficients), α from half2_alpha and one blend_half2 for both pixels.
-template <bool kDepth, typename OffsetOf>
-__device__ inline void blend_pairs_half(const char* record_bytes, int padded, OffsetOf offset_of,
-                                        const PixelTerms& terms, HalfFoldedPixels& pixels) {
+template <bool kDepth, typename AddressOf>
+__device__ inline void blend_pairs_half(int padded, AddressOf address_of, const PixelTerms& terms,
+                                        HalfFoldedPixels& pixels) {
   using Record = PairRecord<true, kDepth>;
   for (int k = 0; k < padded; k += kUnroll) {
     if (!pixels.live()) break;
 #pragma unroll
     for (int i = 0; i < kUnroll; ++i) {
-      const Record& r = *reinterpret_cast<const Record*>(record_bytes + offset_of(k + i));
+      const Record r = load_record<Record>(address_of(k + i));
       const float4 c1234 = r.c1234, c56rg = r.c56rg;
       const FoldedCoefficients f{c1234.x, c1234.y, c1234.z, c1234.w, c56rg.x, c56rg.y};  // of v
       const float v_first = folded_power(f, terms);
@@ -421,12 +439,15 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   constexpr int kRecordBytes = static_cast<int>(sizeof(Record));
   __shared__ Record records[kBatch + 1];
   __shared__ uint32_t collected_mask[kCulls ? kBatch : 1];
-  // Byte offsets into `records` of the slots each list walks, in batch order, padded to a multiple of kUnroll.
+  // Shared addresses of the slots each list walks, in batch order, padded to a multiple of kUnroll.
   __shared__ uint16_t walk_lists[kCulls ? kWarps * kListsPerWarp : 1][kListStride];
   Record never{};
   never.c56rg.y = kNeverPasses;
   if (rank == 0) records[kBatch] = never;  // visible after the first barrier below
-  const char* record_bytes = reinterpret_cast<const char*>(records);
+  // The records' shared-window address: the whole block's static shared memory lies below 2^16 bytes (with the
+  // window's reserved first kilobyte), so a slot's address fits the lists' 16 bits.
+  static_assert(sizeof(records) + sizeof(collected_mask) + sizeof(walk_lists) + 1024 < 65536);
+  const auto records_address = static_cast<uint32_t>(__cvta_generic_to_shared(records));
   // The list this lane walks: its group's (block culling) or its warp's.
   const int list = kCull == Cull::kBlock ? warp * kGroupsPerWarp + group : warp;
   const uint32_t lanes_below = (1u << lane) - 1u;
@@ -496,7 +517,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
           const uint32_t kept = __ballot_sync(0xffffffffu, keep);
           if (keep) {
             walk_lists[warp * kListsPerWarp + g][counts[g] + __popc(kept & lanes_below)] =
-                uint16_t((base + lane) * kRecordBytes);
+                uint16_t(records_address + uint32_t((base + lane) * kRecordBytes));
           }
           counts[g] += __popc(kept);
         }
@@ -510,24 +531,24 @@ __global__ void __launch_bounds__(kDualThreads, 8)
       // The lanes 0..kUnroll − 1 of the list's first group pad it with the never-passing record.
       const bool pads = kCull == Cull::kBlock || group == 0;
       if (pads && in_group < kUnroll && count % kUnroll != 0 && in_group >= count % kUnroll) {
-        walk_lists[list][count - count % kUnroll + in_group] = uint16_t(kBatch * kRecordBytes);
+        walk_lists[list][count - count % kUnroll + in_group] = uint16_t(records_address + kBatch * kRecordBytes);
       }
       __syncwarp();
     }
     const int padded = (count + kUnroll - 1) / kUnroll * kUnroll;  // ≤ kBatch
-    const uint16_t* offsets = walk_lists[kCulls ? list : 0];
-    const auto in_order = [](int k) { return k * kRecordBytes; };
-    const auto listed = [offsets](int k) { return int(offsets[k]); };
+    const uint16_t* addresses = walk_lists[kCulls ? list : 0];
+    const auto in_order = [records_address](int k) { return records_address + uint32_t(k * kRecordBytes); };
+    const auto listed = [addresses](int k) { return uint32_t(addresses[k]); };
     if (kHalf) {
       if (!kCulls || keeps_all) {  // warp-uniform
-        blend_pairs_half<kDepth>(record_bytes, padded, in_order, terms, pair);
+        blend_pairs_half<kDepth>(padded, in_order, terms, pair);
       } else {
-        blend_pairs_half<kDepth>(record_bytes, padded, listed, terms, pair);
+        blend_pairs_half<kDepth>(padded, listed, terms, pair);
       }
     } else if (!kCulls || keeps_all) {
-      blend_pairs<kFastExp, kDepth>(record_bytes, padded, in_order, terms, fast_exp_bias, first, second);
+      blend_pairs<kFastExp, kDepth>(padded, in_order, terms, fast_exp_bias, first, second);
     } else {
-      blend_pairs<kFastExp, kDepth>(record_bytes, padded, listed, terms, fast_exp_bias, first, second);
+      blend_pairs<kFastExp, kDepth>(padded, listed, terms, fast_exp_bias, first, second);
     }
   }
   if constexpr (kHalf) {
