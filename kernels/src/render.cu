@@ -213,13 +213,28 @@ __device__ inline Record load_record(uint32_t address) {
   asm volatile("ld.shared.v4.f32 {%0, %1, %2, %3}, [%8];\n\tld.shared.v4.f32 {%4, %5, %6, %7}, [%8+16];"
                : "=f"(r.c1234.x), "=f"(r.c1234.y), "=f"(r.c1234.z), "=f"(r.c1234.w), "=f"(r.c56rg.x), "=f"(r.c56rg.y),
                  "=f"(r.c56rg.z), "=f"(r.c56rg.w)
-               : "r"(address));
+               : "r"(address)
+               : "memory");
   if constexpr (sizeof(Record) > 32) {
     asm volatile("ld.shared.v4.f32 {%0, %1, %2, %3}, [%4+32];"
                  : "=f"(r.bd.x), "=f"(r.bd.y), "=f"(r.bd.z), "=f"(r.bd.w)
-                 : "r"(address));
+                 : "r"(address)
+                 : "memory");
   }
   return r;
+}
+
+/// Stores `value` at `address` of the block's shared-memory window (st.shared from that register).
+__device__ inline void store_shared_u16(uint32_t address, uint16_t value) {
+  asm volatile("st.shared.u16 [%0], %1;" ::"r"(address), "h"(value) : "memory");
+}
+
+/// `value` as the compiler cannot recompute it: a shared-window address computed once a batch, which it would
+/// otherwise rebuild from the CTA's id at every use (five instructions) when registers run short.
+__device__ inline uint32_t opaque(uint32_t value) {
+  uint32_t result;
+  asm volatile("mov.b32 %0, %1;" : "=r"(result) : "r"(value));
+  return result;
 }
 
 /// Blends the records at shared addresses address_of(0), …, address_of(padded − 1) (padded: a
@@ -501,12 +516,18 @@ __global__ void __launch_bounds__(kDualThreads, 8)
     int count = in_batch;
     bool keeps_all = true;  // warp-uniform: every list of the warp holds the whole batch
     if (kCulls) {
-      // Each list of this warp in batch order: slot s is kept when the list's bit of its mask is set.
+      // Each list of this warp in batch order: slot s is kept when the list's bit of its mask is set. Every lane
+      // stores for every list, the lanes that do not keep their slot into the list's spare entry past any batch
+      // (index kBatch + 1): no branch a list.
+      const uint32_t lists_address =
+          opaque(static_cast<uint32_t>(__cvta_generic_to_shared(walk_lists[warp * kListsPerWarp])));
+      constexpr uint32_t kListBytes = kListStride * sizeof(uint16_t);
       int counts[kListsPerWarp];
 #pragma unroll
       for (int g = 0; g < kListsPerWarp; ++g) counts[g] = 0;
       for (int base = 0; base < in_batch; base += 32) {
         const uint32_t slot_mask = collected_mask[base + lane];
+        const auto entry = uint16_t(records_address + uint32_t((base + lane) * kRecordBytes));
 #pragma unroll
         for (int g = 0; g < kListsPerWarp; ++g) {
           // Block culling: group g's block (block_x, block_y) as bit block_x + 4·block_y; else the quadrant.
@@ -515,10 +536,8 @@ __global__ void __launch_bounds__(kDualThreads, 8)
                               : warp;
           const bool keep = (slot_mask >> bit) & 1u;
           const uint32_t kept = __ballot_sync(0xffffffffu, keep);
-          if (keep) {
-            walk_lists[warp * kListsPerWarp + g][counts[g] + __popc(kept & lanes_below)] =
-                uint16_t(records_address + uint32_t((base + lane) * kRecordBytes));
-          }
+          const int index = keep ? counts[g] + __popc(kept & lanes_below) : kBatch + 1;
+          store_shared_u16(lists_address + uint32_t(g) * kListBytes + uint32_t(2 * index), entry);
           counts[g] += __popc(kept);
         }
       }
