@@ -517,14 +517,16 @@ __global__ void __launch_bounds__(kDualThreads, 8)
     bool keeps_all = true;  // warp-uniform: every list of the warp holds the whole batch
     if (kCulls) {
       // Each list of this warp in batch order: slot s is kept when the list's bit of its mask is set. Every lane
-      // stores for every list, the lanes that do not keep their slot into the list's spare entry past any batch
-      // (index kBatch + 1): no branch a list.
+      // stores for every list, at the list's cursor (the shared address of its next entry) plus its rank among
+      // the kept lanes, or, when it does not keep its slot, into the spare entry of the warp's first list (index
+      // kBatch + 1, never walked): no branch a list.
       const uint32_t lists_address =
           opaque(static_cast<uint32_t>(__cvta_generic_to_shared(walk_lists[warp * kListsPerWarp])));
       constexpr uint32_t kListBytes = kListStride * sizeof(uint16_t);
-      int counts[kListsPerWarp];
+      const uint32_t spare = lists_address + 2u * (kBatch + 1);
+      uint32_t cursors[kListsPerWarp];
 #pragma unroll
-      for (int g = 0; g < kListsPerWarp; ++g) counts[g] = 0;
+      for (int g = 0; g < kListsPerWarp; ++g) cursors[g] = lists_address + uint32_t(g) * kListBytes;
       for (int base = 0; base < in_batch; base += 32) {
         const uint32_t slot_mask = collected_mask[base + lane];
         const auto entry = uint16_t(records_address + uint32_t((base + lane) * kRecordBytes));
@@ -536,10 +538,14 @@ __global__ void __launch_bounds__(kDualThreads, 8)
                               : warp;
           const bool keep = (slot_mask >> bit) & 1u;
           const uint32_t kept = __ballot_sync(0xffffffffu, keep);
-          const int index = keep ? counts[g] + __popc(kept & lanes_below) : kBatch + 1;
-          store_shared_u16(lists_address + uint32_t(g) * kListBytes + uint32_t(2 * index), entry);
-          counts[g] += __popc(kept);
+          store_shared_u16(keep ? cursors[g] + 2u * __popc(kept & lanes_below) : spare, entry);
+          cursors[g] += 2u * __popc(kept);
         }
+      }
+      int counts[kListsPerWarp];
+#pragma unroll
+      for (int g = 0; g < kListsPerWarp; ++g) {
+        counts[g] = int((cursors[g] - lists_address - uint32_t(g) * kListBytes) / 2u);
       }
       count = counts[0];
 #pragma unroll
