@@ -198,7 +198,8 @@ struct PairRecord<true, false> {
   float4 c56rg;
 };
 /// A record that never passes: P = −1e30 at every pixel (no infinities, so 0·x stays 0), below exp̂'s
-/// 1/255 pattern, expf's and half2_alpha's (binary16 −∞). The loop pads its pair lists with it to a multiple of kUnroll.
+/// 1/255 pattern, expf's and half2_alpha's (binary16 −∞). The loop pads its pair lists with it to a multiple of
+/// kUnroll.
 constexpr float kNeverPasses = -1e30f;
 /// Pairs per step of the folded loop: the pixels' liveness is tested once per step (a done pixel is left
 /// unchanged by blend_predicated, so testing less often changes no bit) and the loads of the step overlap.
@@ -399,8 +400,9 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 /// Long tiles (kHalf with TileChunks, beyond the paper): a chunk block blends its chunk of the tile's list from
 /// T = 1 and finish_chunk merges the tile's chunks; the grid has TileChunks::item_rows rows of such blocks first.
 /// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and C as binary16 pairs
-/// and one half2 instruction blends both (blend_pairs_half): about 30 instructions a walk step instead of 42.
-/// Nine or ten blocks an SM (56 or 48 registers) were slower with it too, with or without spills
+/// and one half2 instruction blends both (blend_pairs_half): 28.5 instructions a pair of the walk on taebak at 4K
+/// (Nsight Compute).
+/// Nine blocks an SM (56 registers) were no faster with it, ten (48) slower
 /// (docs/BENCHMARKS.md#tried-and-not-kept).
 template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
 __global__ void __launch_bounds__(kDualThreads, 8)
