@@ -462,7 +462,8 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   never.c56rg.y = kNeverPasses;
   if (rank == 0) records[kBatch] = never;  // visible after the first barrier below
   // The records' shared-window address: the whole block's static shared memory lies below 2^16 bytes (with the
-  // window's reserved first kilobyte), so a slot's address fits the lists' 16 bits.
+  // window's reserved first kilobyte), so a slot's address fits the lists' 16 bits. On sm_90 the address also
+  // carries the block's rank in its cluster from bit 24 on, 0 here: the kernel is never launched in clusters.
   static_assert(sizeof(records) + sizeof(collected_mask) + sizeof(walk_lists) + 1024 < 65536);
   const auto records_address = static_cast<uint32_t>(__cvta_generic_to_shared(records));
   // The list this lane walks: its group's (block culling) or its warp's.
