@@ -483,6 +483,7 @@ Result<ConvertReport> convert_scene(converter::InputScene input, const std::stri
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // as convert(): dst is none of the inputs
   ProgressReporter progress(options, output);
   return convert_input(std::move(input), src, dst, output, options, start, progress);
 }

@@ -1199,7 +1199,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit) {
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, api::scene_read_options(options)));
-  RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));
+  RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // before the fit, not only at the write
   RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, api::make_cameras(cameras, input.bounds));
   fit.quantize.scale_encoding = options.scale_encoding;
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;

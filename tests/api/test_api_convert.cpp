@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <string>
 #include <vector>
@@ -91,6 +92,25 @@ TEST_CASE("convert_cloud: every output format, the bytes convert() writes from t
     CHECK(max_abs_difference(a->cloud.scales, b->cloud.scales) <= 1e-6f * 4);
     CHECK(max_abs_difference(a->cloud.opacities, b->cloud.opacities) <= 1e-6f);
   }
+}
+
+TEST_CASE("convert_scene: the bytes convert() writes, and no output onto a file the scene read") {
+  test::TempDir dir;
+  const std::string src = dir.file("guitar.ply");
+  std::filesystem::copy_file(test::repo_path(test::kGuitarSh3), src);
+  api::ConvertOptions options;
+  options.converter_name = "test";
+  REQUIRE(api::convert(src, dir.file("convert.rgs"), options).ok());
+  auto scene = converter::read_scene(src, api::scene_read_options(options));
+  REQUIRE(scene.ok());
+  auto written = api::convert_scene(*scene, src, dir.file("scene.rgs"), options);
+  REQUIRE_MESSAGE(written.ok(), written.status().to_string());
+  CHECK(test::slurp(dir.file("scene.rgs")) == test::slurp(dir.file("convert.rgs")));
+  // The source itself, in another spelling, as the output: refused, the source untouched.
+  const std::string before = test::slurp(src);
+  const auto onto_source = api::convert_scene(*scene, src, dir.file("./guitar.ply"), options);
+  CHECK_FALSE(onto_source.ok());
+  CHECK(test::slurp(src) == before);
 }
 
 }  // namespace

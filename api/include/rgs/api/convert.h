@@ -199,9 +199,10 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
 /// file's XXH64 for the provenance.
 converter::SceneReadOptions scene_read_options(const ConvertOptions& options);
 
-/// convert() of a scene converter::read_scene has read from `src` with scene_read_options(options), whose files
-/// the caller has checked against `dst` (format::check_output_file): for a caller that works on the scene before
-/// writing it (audit::convert_fitted), without reading it twice. The report counts no reading time.
+/// convert() of a scene converter::read_scene has read from `src` with scene_read_options(options): for a caller
+/// that works on the scene before writing it (audit::convert_fitted), without reading it twice. `dst` is checked
+/// against the files the scene read (format::check_output_file), as convert() does. The report counts no reading
+/// time.
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,
                                     const ConvertOptions& options = {});
 
