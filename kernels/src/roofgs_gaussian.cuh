@@ -303,12 +303,16 @@ struct TileWalk {
 
 /// Limits an AccuTile walk to the tile rows [row_begin, row_end): its slices when it walks rows, else every
 /// slice's span. The walk keeps the whole frame's direction and per-slice arithmetic, so it visits exactly the
-/// whole frame's tiles of those rows.
+/// whole frame's tiles of those rows. Both pairs are computed and the walk's direction selects one: a reference
+/// to either member would put the walk in local memory, stored and reloaded at addresses that differ by lane.
 __device__ inline void restrict_to_rows(AccutileWalk* w, int row_begin, int row_end) {
-  int& first = w->walk_rows ? w->u_first : w->v_first;
-  int& end = w->walk_rows ? w->u_end : w->v_end;
-  first = max(first, row_begin);
-  end = max(first, min(end, row_end));
+  const int u_first = max(w->u_first, row_begin), v_first = max(w->v_first, row_begin);
+  const int u_end = max(u_first, min(w->u_end, row_end)), v_end = max(v_first, min(w->v_end, row_end));
+  if (w->walk_rows) {
+    w->u_first = u_first, w->u_end = u_end;
+  } else {
+    w->v_first = v_first, w->v_end = v_end;
+  }
 }
 
 /// The walk of a projected Gaussian over the tile rows of this pass (FrameParams::tile_row_begin/end), built
