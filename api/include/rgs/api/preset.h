@@ -18,8 +18,8 @@ namespace rgs::api {
 enum class Preset {
   /// The fastest configuration measured on each backend. On the GPU (rgs-bench's "fastest"): RoofGS pipeline on the compact .rgs
   /// attributes, fused kernel, 32-bit keys with depth order (ties in exact depth order), SnugBox + AccuTile
-  /// within the 3DGS rectangle, folded dual-pixel rasterizer, half-precision blending (binary16 α from the
-  /// device's binary16 exp2, binary16 T and colour sums), long tiles in chunks, warp-balanced
+  /// within the 3DGS rectangle, folded dual-pixel rasterizer, half-precision blending (α the device's exp2
+  /// rounded to binary16, binary16 T and colour sums), long tiles in chunks, warp-balanced
   /// emission, per-frame sub-tile culling. Reads only the runtime sections. On the CPU: the 3DGS rules
   /// (cpu_backend_options).
   kFastest = 0,
