@@ -1,6 +1,7 @@
 // The device's α in half-precision blending (half2_alpha: ex2.approx.ftz.f32, then rounded to binary16) against
 // the CPU reference's (the exact 2^v rounded once): equal but where 2^v lies within the device's exp2 error of a
 // binary16 rounding boundary, and there one binary16 unit apart (kernels/shared/half_blend.h).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
