@@ -400,8 +400,8 @@ constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 /// Long tiles (kHalf with TileChunks, beyond the paper): a chunk block blends its chunk of the tile's list from
 /// T = 1 and finish_chunk merges the tile's chunks; the grid has TileChunks::item_rows rows of such blocks first.
 /// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and C as binary16 pairs
-/// and one half2 instruction blends both (blend_pairs_half): 28.5 instructions a pair of the walk on taebak at 4K
-/// (Nsight Compute).
+/// and one half2 instruction blends both (blend_pairs_half): 27.5 instructions a pair of the walk (its sm_90 SASS:
+/// 110 for a step of four pairs).
 /// Nine blocks an SM (56 registers) were no faster with it, ten (48) slower
 /// (docs/BENCHMARKS.md#tried-and-not-kept).
 template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
