@@ -198,7 +198,7 @@ struct PairRecord<true, false> {
   float4 c56rg;
 };
 /// A record that never passes: P = −1e30 at every pixel (no infinities, so 0·x stays 0), below exp̂'s
-/// 1/255 pattern, expf's and half2_alpha's (binary16 −∞). The loop pads its pair lists with it to a multiple of
+/// 1/255 pattern, expf's and half2_alpha's (2^v = 0). The loop pads its pair lists with it to a multiple of
 /// kUnroll.
 constexpr float kNeverPasses = -1e30f;
 /// Pairs per step of the folded loop: the pixels' liveness is tested once per step (a done pixel is left

@@ -55,13 +55,13 @@ TEST_CASE("half2_alpha: the device's alpha is the host's but within its exp2 err
       const bool skip_boundary = (d == 0 && h == alpha_min) || (h == 0 && d == alpha_min);
       if (skip_boundary) {
         ++at_skip_boundary;
-        const double boundary = (k::detail::half_bits_to_double(alpha_min) +
-                                 k::detail::half_bits_to_double(uint16_t(alpha_min - 1))) / 2;
-        farthest = std::max(farthest, std::fabs(exact - boundary) / exact);
-        continue;
+      } else {
+        CHECK(std::abs(int(d) - int(h)) == 1);  // adjacent binary16 values, on either side of 2^v's boundary
       }
-      CHECK(std::abs(int(d) - int(h)) == 1);  // adjacent binary16 values, on either side of 2^v's boundary
-      const double boundary = (k::detail::half_bits_to_double(d) + k::detail::half_bits_to_double(h)) / 2;
+      // The two values 2^v lies between: at the skip, 1/255's binary16 and the one below it.
+      const uint16_t upper = skip_boundary ? alpha_min : std::max(d, h);
+      const uint16_t lower = skip_boundary ? uint16_t(alpha_min - 1) : std::min(d, h);
+      const double boundary = (k::detail::half_bits_to_double(upper) + k::detail::half_bits_to_double(lower)) / 2;
       farthest = std::max(farthest, std::fabs(exact - boundary) / exact);
     }
   }
