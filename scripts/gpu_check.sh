@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|ab|all|cards]
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|sanitize|ab|all|cards]
 #   (default all; ab: see below; cards: taebak's quality card, not part of all)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
@@ -368,6 +368,44 @@ if [ "$what" = rate ] || [ "$what" = all ]; then
   rate_control flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.ply" --cameras \
     "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json" --every 8 --width 960
   [ -f "$taebak" ] && rate_control taebak "$taebak_dir/taebak_lod0_sog/lod-meta.json" --cameras "$taebak_cameras"
+fi
+if [ "$what" = sanitize ] || [ "$what" = all ]; then
+  # compute-sanitizer's four tools (memcheck, racecheck, synccheck, initcheck) on one frame of every preset at
+  # 1080p and 4K: rgs-render --backend cuda of each scene's first camera (taebak when prepared). Each run's
+  # error summary goes to the summary, its log to sanitize/; any error or failed run fails the script.
+  sanitizer="$(command -v compute-sanitizer || echo /usr/local/cuda/bin/compute-sanitizer)"
+  mkdir -p "$out/sanitize"
+  sanitize_scenes=(flowers daffodils)
+  [ -f "$taebak" ] && sanitize_scenes+=(taebak)
+  errors=0
+  runs=0
+  for scene in "${sanitize_scenes[@]}"; do
+    case $scene in
+      flowers) input=("$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs" --cameras "$RGS_DATA_DIR/mipnerf360_flowers_cameras.json") ;;
+      daffodils) input=("$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --orbit 1) ;;
+      taebak) input=("$taebak" --cameras "$taebak_cameras") ;;
+    esac
+    for preset in fastest faithful paper; do
+      for size in 1920x1080 3840x2160; do
+        for tool in memcheck racecheck synccheck initcheck; do
+          log="$out/sanitize/${scene}_${preset}_${size}_$tool.log"
+          rc=0
+          timeout 600 "$sanitizer" --tool "$tool" --error-exitcode 9 "$bin/rgs-render" "${input[@]}" --limit 1 \
+            --width "${size%x*}" --height "${size#*x}" --backend cuda --preset "$preset" --format ppm \
+            -o "/tmp/rgs_sanitize" >"$log" 2>&1 || rc=$?
+          runs=$((runs + 1))
+          # "ERROR SUMMARY: N errors" (memcheck, synccheck, initcheck); "RACECHECK SUMMARY: N hazards ..." (racecheck).
+          found=$(grep -hoE "(ERROR|RACECHECK) SUMMARY: [0-9]+" "$log" | grep -oE "[0-9]+$" | tail -1)
+          if [ "$rc" -ne 0 ] || [ "${found:-x}" != 0 ]; then
+            errors=$((errors + 1))
+            status=1
+            note "sanitize $scene $preset $size $tool: exit $rc, $(grep -hE "SUMMARY" "$log" | tail -1)"
+          fi
+        done
+      done
+    done
+  done
+  note "sanitize: $runs runs (memcheck, racecheck, synccheck, initcheck x presets x 1080p/4K x ${sanitize_scenes[*]}), $errors with errors"
 fi
 if [ "$what" = cards ]; then
   # taebak's quality card and rate-distortion curve (docs/AUDITS.md#quality-cards): audit_formats.sh against its

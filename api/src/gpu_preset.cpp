@@ -65,8 +65,8 @@ const std::vector<ModeEntry>& entries() {
       preset_mode(Preset::kFaithful,
                   "the 3DGS rasterizer, the baseline (FP32 attributes, 64-bit keys, 3-sigma rectangles, expf)"),
       preset_mode(Preset::kFastest,
-                  "roofgs with depth order, half-precision blending (binary16 alpha from a mantissa-corrected fast "
-                  "exp, binary16 transmittance and colour sums) and long tiles blended in chunks, a block each "
+                  "roofgs with depth order, half-precision blending (binary16 alpha: the device's FP32 exp2 of the "
+                  "power in base 2, rounded to binary16; binary16 transmittance and colour sums) and long tiles blended in chunks, a block each "
                   "(tiles of more than max(1024, pairs/2048) pairs, unless Gaussians of more than 32 tiles hold most "
                   "pairs); the fused kernel allocates pairs in arrival order: the depth order makes their emission "
                   "order moot"),

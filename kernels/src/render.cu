@@ -225,9 +225,13 @@ __device__ inline Record load_record(uint32_t address) {
   return r;
 }
 
-/// Stores `value` at `address` of the block's shared-memory window (st.shared from that register).
-__device__ inline void store_shared_u16(uint32_t address, uint16_t value) {
-  asm volatile("st.shared.u16 [%0], %1;" ::"r"(address), "h"(value) : "memory");
+/// Stores `value` at `address` of the block's shared-memory window (st.shared from that register) where `store`
+/// holds: one predicated store, no branch.
+__device__ inline void store_shared_u16_if(bool store, uint32_t address, uint16_t value) {
+  asm volatile(
+      "{\n\t.reg .pred p;\n\tsetp.ne.u32 p, %0, 0;\n\t@p st.shared.u16 [%1], %2;\n\t}" ::"r"(uint32_t(store)),
+      "r"(address), "h"(value)
+      : "memory");
 }
 
 /// `value` as the compiler cannot recompute it: a shared-window address computed once a batch, which it would
@@ -519,14 +523,12 @@ __global__ void __launch_bounds__(kDualThreads, 8)
     int count = in_batch;
     bool keeps_all = true;  // warp-uniform: every list of the warp holds the whole batch
     if (kCulls) {
-      // Each list of this warp in batch order: slot s is kept when the list's bit of its mask is set. Every lane
-      // stores for every list, at the list's cursor (the shared address of its next entry) plus its rank among
-      // the kept lanes, or, when it does not keep its slot, into the spare entry of the warp's first list (index
-      // kBatch + 1, never walked): no branch a list.
+      // Each list of this warp in batch order: slot s is kept when the list's bit of its mask is set. A lane that
+      // keeps its slot stores it at the list's cursor (the shared address of its next entry) plus its rank among
+      // the kept lanes, by a predicated store: no branch a list, and no two lanes store to one address.
       const uint32_t lists_address =
           opaque(static_cast<uint32_t>(__cvta_generic_to_shared(walk_lists[warp * kListsPerWarp])));
       constexpr uint32_t kListBytes = kListStride * sizeof(uint16_t);
-      const uint32_t spare = lists_address + 2u * (kBatch + 1);
       uint32_t cursors[kListsPerWarp];
 #pragma unroll
       for (int g = 0; g < kListsPerWarp; ++g) cursors[g] = lists_address + uint32_t(g) * kListBytes;
@@ -541,7 +543,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
                               : warp;
           const bool keep = (slot_mask >> bit) & 1u;
           const uint32_t kept = __ballot_sync(0xffffffffu, keep);
-          store_shared_u16(keep ? cursors[g] + 2u * __popc(kept & lanes_below) : spare, entry);
+          store_shared_u16_if(keep, cursors[g] + 2u * __popc(kept & lanes_below), entry);
           cursors[g] += 2u * __popc(kept);
         }
       }
