@@ -373,10 +373,11 @@ if [ "$what" = sanitize ] || [ "$what" = all ]; then
   # compute-sanitizer's four tools (memcheck, racecheck, synccheck, initcheck) on one frame of every preset at
   # 1080p and 4K: rgs-render --backend cuda of each scene's first camera (taebak when prepared). Each run's
   # error summary goes to the summary, its log to sanitize/; any error or failed run fails the script.
+  # $RGS_SANITIZE_SCENES and $RGS_SANITIZE_PRESETS pick scenes and presets (default: all three of each).
   sanitizer="$(command -v compute-sanitizer || echo /usr/local/cuda/bin/compute-sanitizer)"
   mkdir -p "$out/sanitize"
-  sanitize_scenes=(flowers daffodils)
-  [ -f "$taebak" ] && sanitize_scenes+=(taebak)
+  read -r -a sanitize_scenes <<<"${RGS_SANITIZE_SCENES:-flowers daffodils taebak}"
+  [ -f "$taebak" ] || sanitize_scenes=("${sanitize_scenes[@]/taebak/}")
   errors=0
   runs=0
   for scene in "${sanitize_scenes[@]}"; do
@@ -385,21 +386,27 @@ if [ "$what" = sanitize ] || [ "$what" = all ]; then
       daffodils) input=("$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --orbit 1) ;;
       taebak) input=("$taebak" --cameras "$taebak_cameras") ;;
     esac
-    for preset in fastest faithful paper; do
+    for preset in ${RGS_SANITIZE_PRESETS:-fastest faithful paper}; do
       for size in 1920x1080 3840x2160; do
-        for tool in memcheck racecheck synccheck initcheck; do
-          log="$out/sanitize/${scene}_${preset}_${size}_$tool.log"
-          rc=0
-          timeout 600 "$sanitizer" --tool "$tool" --error-exitcode 9 "$bin/rgs-render" "${input[@]}" --limit 1 \
-            --width "${size%x*}" --height "${size#*x}" --backend cuda --preset "$preset" --format ppm \
-            -o "/tmp/rgs_sanitize" >"$log" 2>&1 || rc=$?
+        tools=(memcheck racecheck synccheck initcheck)
+        for tool in "${tools[@]}"; do  # the four at once, each its own process and output folder
+          name="${scene}_${preset}_${size}_$tool"
+          (timeout 900 "$sanitizer" --tool "$tool" --error-exitcode 9 "$bin/rgs-render" "${input[@]}" --limit 1 \
+             --width "${size%x*}" --height "${size#*x}" --backend cuda --preset "$preset" --format ppm \
+             -o "/tmp/rgs_sanitize/$name" >"$out/sanitize/$name.log" 2>&1
+           echo $? >"$out/sanitize/$name.rc") &
+        done
+        wait
+        for tool in "${tools[@]}"; do
+          name="${scene}_${preset}_${size}_$tool"
+          rc=$(cat "$out/sanitize/$name.rc")
           runs=$((runs + 1))
           # "ERROR SUMMARY: N errors" (memcheck, synccheck, initcheck); "RACECHECK SUMMARY: N hazards ..." (racecheck).
-          found=$(grep -hoE "(ERROR|RACECHECK) SUMMARY: [0-9]+" "$log" | grep -oE "[0-9]+$" | tail -1)
+          found=$(grep -hoE "(ERROR|RACECHECK) SUMMARY: [0-9]+" "$out/sanitize/$name.log" | grep -oE "[0-9]+$" | tail -1)
           if [ "$rc" -ne 0 ] || [ "${found:-x}" != 0 ]; then
             errors=$((errors + 1))
             status=1
-            note "sanitize $scene $preset $size $tool: exit $rc, $(grep -hE "SUMMARY" "$log" | tail -1)"
+            note "sanitize $scene $preset $size $tool: exit $rc, $(grep -hE "SUMMARY" "$out/sanitize/$name.log" | tail -1)"
           fi
         done
       done
