@@ -244,15 +244,28 @@ SourceCodes rotation_codes(const EncodedScene& s, const ArchiveOptions& o) {
   return out;
 }
 
+/// A log-scale offset whose scale binary16 flushes to 0 (exp(-32) is far below 2^-25, where f16 rounds to 0): the
+/// transform-2 offset of a linear axis whose every scale is 0.
+constexpr float kZeroLinearScaleOffset = -32.0f;
+/// The log-scale the converter stores for a scale of 0 under the log encoding (the lowest finite binary16).
+constexpr double kZeroLogScale = -65504.0;
+
 /// §3.3.2 transform 2 codes of every scale of the scene, on the range of ln(scale) per axis over the Gaussians
 /// the archive keeps (`omitted`: ascending source indices of those it leaves out).
+///
+/// Scales of 0 (linear 0, or the log encoding's -65504) are outside the range, which they would stretch to
+/// ln 0 = -inf (or -65504): they take code 0. An axis whose every kept scale is 0 (the flat axis of a 2D-Gaussian
+/// or surfel scene) gets an offset that decodes to 0 again and a step of 0; so does a constant axis (one Gaussian,
+/// or one size for all) with its own value as the offset. Among non-zero scales a 0 decodes to the axis' smallest
+/// scale: the uniform grid cannot reach ln 0 without coarsening every other code of the axis.
 SourceCodes scale_codes(const EncodedScene& s, const std::vector<uint64_t>& omitted, const ArchiveOptions& o) {
   const uint64_t n = s.count;
   const bool log = s.metadata.scale_encoding == ScaleEncoding::kLog;
   const uint32_t max_code = (1u << o.scale_bits) - 1;
   auto ln_of = [&](uint32_t bits) {
     const double v = half_bits_to_float(static_cast<uint16_t>(bits));
-    return log ? v : v > 0 ? std::log(v) : -std::numeric_limits<double>::infinity();
+    if (log) return v <= kZeroLogScale ? -std::numeric_limits<double>::infinity() : v;
+    return v > 0 ? std::log(v) : -std::numeric_limits<double>::infinity();
   };
   // The scales are binary16: with more values than bit patterns, each pattern's logarithm is taken once.
   std::vector<double> ln_table;
@@ -281,10 +294,17 @@ SourceCodes scale_codes(const EncodedScene& s, const std::vector<uint64_t>& omit
   SourceCodes out;
   std::vector<float>& params = out.params = std::vector<float>(6);
   for (int a = 0; a < 3; ++a) {
-    if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;  // every value zero: any offset decodes near 0
-    // Offsets and steps are stored as float32; codes are computed against the stored values.
-    params[a] = static_cast<float>(lo[a]);
-    params[3 + a] = static_cast<float>((hi[a] - params[a]) / max_code * o.scale_step);
+    if (!(lo[a] <= hi[a])) {  // every kept scale of the axis is 0
+      params[a] = log ? static_cast<float>(kZeroLogScale) : kZeroLinearScaleOffset;
+      params[3 + a] = 0;
+      continue;
+    }
+    // Offsets and steps are stored as float32; codes are computed against the stored values. The offset is
+    // rounded down, so that the step (hi - offset) / max_code is never negative, which §3.3.2 forbids.
+    float offset = static_cast<float>(lo[a]);
+    if (static_cast<double>(offset) > lo[a]) offset = std::nextafter(offset, -std::numeric_limits<float>::infinity());
+    params[a] = offset;
+    params[3 + a] = lo[a] == hi[a] ? 0.0f : static_cast<float>((hi[a] - offset) / max_code * o.scale_step);
   }
   CodePlanes& codes = out.codes = CodePlanes(n, 3, o.scale_bits);
   for (uint64_t i = 0; i < n; ++i) {
