@@ -1198,9 +1198,16 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
 
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit) {
+  {
+    // The options the file is written with, refused before the search rather than after it.
+    api::ConvertOptions written = options;
+    written.profile = format::StorageProfile::kArchive;
+    RGS_RETURN_IF_ERROR(api::check_convert_options(written));
+  }
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, api::scene_read_options(options)));
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // before the fit, not only at the write
-  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, api::make_cameras(cameras, input.bounds));
+  auto views = api::make_cameras(cameras, input.bounds);
+  if (!views.ok()) return Status(views.status()).prepend(src + ": rate control's views");
   fit.quantize.scale_encoding = options.scale_encoding;
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
@@ -1210,7 +1217,7 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
                          options.converter_name.size();
   FittedConversion out;
-  auto fitted = fit_archive(input.cloud, views, fit);
+  auto fitted = fit_archive(input.cloud, *views, fit);
   if (!fitted.ok()) return Status(fitted.status()).prepend(src);
   out.fit = std::move(fitted).value();
   options.profile = format::StorageProfile::kArchive;

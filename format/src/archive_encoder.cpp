@@ -41,37 +41,6 @@ using detail::QuantizedTransform;
 
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
 
-Status check_options(const ArchiveOptions& o) {
-  for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
-                            std::pair{"opacity", o.opacity_bits}}) {
-    if (bits != 0 && (bits < 4 || bits > 16)) {
-      return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16 (or 0: by scene size)");
-    }
-  }
-  for (auto [name, step] : {std::pair{"rotation", o.rotation_step}, std::pair{"scale", o.scale_step},
-                            std::pair{"opacity", o.opacity_step}}) {
-    if (!(step >= 1 && step <= 4096)) {
-      return invalid(std::string(name) + " step " + std::to_string(step) + " outside 1..4096 (times the bits' own step)");
-    }
-  }
-  for (size_t d = 0; d < 4; ++d) {
-    if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
-      return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
-                     " outside 1..127");
-    }
-  }
-  if (!(o.opacity_floor >= 0 && o.opacity_floor < 1)) {
-    return invalid("opacity floor " + std::to_string(o.opacity_floor) + " outside [0, 1)");
-  }
-  if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
-    return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
-  }
-  RGS_RETURN_IF_ERROR(detail::check_zstd_level(o.zstd_level));
-  if (o.draco_speed < 0 || o.draco_speed > 10)
-    return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
-  return Status();
-}
-
 /// Planar code buffer of §3.3.2: `components` planes of n codes, 1 byte each (bits <= 8) or two byte
 /// planes (low bytes, then high bytes).
 struct CodePlanes {
@@ -785,6 +754,40 @@ SceneBounds bounds_of(const std::vector<float>& means) {
 
 }  // namespace
 
+Status check_archive_options(const ArchiveOptions& o) {
+  if (!(o.position_error > 0.0 && o.position_error <= 0.5)) {
+    return invalid("position error " + std::to_string(o.position_error) + " outside (0, 0.5]");
+  }
+  for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
+                            std::pair{"opacity", o.opacity_bits}}) {
+    if (bits != 0 && (bits < 4 || bits > 16)) {
+      return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16 (or 0: by scene size)");
+    }
+  }
+  for (auto [name, step] : {std::pair{"rotation", o.rotation_step}, std::pair{"scale", o.scale_step},
+                            std::pair{"opacity", o.opacity_step}}) {
+    if (!(step >= 1 && step <= 4096)) {
+      return invalid(std::string(name) + " step " + std::to_string(step) + " outside 1..4096 (times the bits' own step)");
+    }
+  }
+  for (size_t d = 0; d < 4; ++d) {
+    if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
+      return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
+                     " outside 1..127");
+    }
+  }
+  if (!(o.opacity_floor >= 0 && o.opacity_floor < 1)) {
+    return invalid("opacity floor " + std::to_string(o.opacity_floor) + " outside [0, 1)");
+  }
+  if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
+    return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
+  }
+  RGS_RETURN_IF_ERROR(detail::check_zstd_level(o.zstd_level));
+  if (o.draco_speed < 0 || o.draco_speed > 10)
+    return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
+  return Status();
+}
+
 ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians) {
   ArchiveOptions o = options;
   const bool dense = gaussians >= kArchiveDenseGaussians;
@@ -817,7 +820,7 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
 
 Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOptions& options_in,
                                     const ArchiveScene* earlier) {
-  RGS_RETURN_IF_ERROR(check_options(options_in));
+  RGS_RETURN_IF_ERROR(check_archive_options(options_in));
   const ArchiveOptions options = resolve_archive_options(options_in, source.count);
   if (!source.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
   if (source.count > UINT32_MAX / 2)
