@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <new>
 #include <optional>
 #include <tuple>
 #include <utility>
@@ -250,7 +251,7 @@ class Measurer {
         continue;
       }
       set->source.resize(set->cameras.size());
-      RGS_RETURN_IF_ERROR(for_views(set->cameras.size(), [&](api::Renderer& renderer, size_t v) -> Status {
+      RGS_RETURN_IF_ERROR(for_views(set->cameras, [&](api::Renderer& renderer, size_t v) -> Status {
         RGS_ASSIGN_OR_RETURN(set->source[v], render_rgb(renderer, scene, set->cameras[v]));
         return Status();
       }));
@@ -445,13 +446,22 @@ class Measurer {
     return api::load_cloud(std::move(cloud), bounds, name, load);
   }
 
-  /// fn(renderer, v) for every view v of [0, views), spread over the workers' renderers; the first error in view
-  /// order.
+  /// fn(renderer, v) for every view v of `cameras`, spread over the workers' renderers; the first error in view
+  /// order. A failed allocation is kOutOfMemory naming the view and its size, not only the worker thread.
   template <typename Fn>
-  Status for_views(size_t views, Fn&& fn) {
-    std::vector<Status> results(views);
-    RGS_RETURN_IF_ERROR(parallel::parallel_items(views, unsigned(renderers_.size()), [&](unsigned w, uint64_t v) {
-      results[v] = fn(renderers_[w], size_t(v));
+  Status for_views(const std::vector<runtime::Camera>& cameras, Fn&& fn) {
+    std::vector<Status> results(cameras.size());
+    RGS_RETURN_IF_ERROR(parallel::parallel_items(cameras.size(), unsigned(renderers_.size()), [&](unsigned w, uint64_t v) {
+      try {
+        results[v] = fn(renderers_[w], size_t(v));
+      } catch (const std::bad_alloc&) {
+        const runtime::Camera& cam = cameras[v];
+        char image[32];
+        std::snprintf(image, sizeof(image), "%.2f GB", double(cam.width) * cam.height * 3 * sizeof(float) / 1e9);
+        results[v] = Status(StatusCode::kOutOfMemory, "out of memory rendering view " + cam.name + " at " +
+                                                          std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                                                          " (" + image + " for its RGB image alone)");
+      }
     }));
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
     return Status();
@@ -506,7 +516,7 @@ class Measurer {
     e->archive.reset();
     RGS_ASSIGN_OR_RETURN(api::Scene scene, load(std::move(cloud), bounds, name));
     std::vector<double> psnr(set.cameras.size());
-    RGS_RETURN_IF_ERROR(for_views(set.cameras.size(), [&](api::Renderer& renderer, size_t v) -> Status {
+    RGS_RETURN_IF_ERROR(for_views(set.cameras, [&](api::Renderer& renderer, size_t v) -> Status {
       RGS_ASSIGN_OR_RETURN(psnr[v], view_psnr(renderer, scene, set, v));
       return Status();
     }));
