@@ -8,6 +8,8 @@
 
 #include <cctype>
 #include <cerrno>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -474,6 +476,43 @@ std::string scene_formats_help() {
   const std::vector<std::string> formats = converter::supported_scene_formats();
   for (size_t i = 0; i < formats.size(); ++i) text += (i ? "; " : "") + formats[i];
   return text;
+}
+
+Result<uint64_t> parse_whole_number(const std::string& text, uint64_t min, uint64_t max) {
+  const std::string rule = "a whole number of decimal digits in " + std::to_string(min) + ".." + std::to_string(max);
+  uint64_t value = 0;
+  bool fits = !text.empty() && text.size() <= 20;
+  for (size_t i = 0; fits && i < text.size(); ++i) {
+    const char c = text[i];
+    const uint64_t digit = static_cast<uint64_t>(c - '0');
+    fits = c >= '0' && c <= '9' && value <= (UINT64_MAX - digit) / 10;
+    value = value * 10 + digit;
+  }
+  if (!fits || value < min || value > max) {
+    return Status(StatusCode::kInvalidArgument, "'" + text + "' is not " + rule);
+  }
+  return value;
+}
+
+CLI::Validator whole_number_in(uint64_t min, uint64_t max) {
+  return CLI::Validator(
+      [min, max](std::string& text) -> std::string {
+        auto parsed = parse_whole_number(text, min, max);
+        return parsed.ok() ? std::string() : parsed.status().message();
+      },
+      "UINT in " + std::to_string(min) + ".." + std::to_string(max));
+}
+
+CLI::Validator finite_number_in(double min, double max) {
+  return CLI::Validator(
+      [min, max](std::string& text) -> std::string {
+        double value = 0;
+        const bool number = CLI::detail::lexical_cast(text, value);
+        if (number && std::isfinite(value) && value >= min && value <= max) return std::string();
+        return "'" + text + "' is not a finite number in [" + CLI::detail::to_string(min) + ", " +
+               CLI::detail::to_string(max) + "]";
+      },
+      "FLOAT in [" + CLI::detail::to_string(min) + ", " + CLI::detail::to_string(max) + "], finite");
 }
 
 Result<uint32_t> parse_lod_levels(const std::string& text) {

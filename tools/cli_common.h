@@ -20,6 +20,7 @@
 
 namespace CLI {
 class App;
+class Validator;
 }  // namespace CLI
 
 namespace rgs::tools {
@@ -151,6 +152,16 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
 
 /// format::ReadOptions with scene_read_options()' limits, checksums verified: for opening a .rgs directly.
 format::ReadOptions read_options();
+
+/// Parses a whole number written in decimal digits alone (no sign, exponent, fraction or spaces) in [min, max]:
+/// "-1" or "2^64" must not wrap round to a huge value, "5e21" not saturate to the largest.
+/// @return kInvalidArgument naming `text` and the range.
+Result<uint64_t> parse_whole_number(const std::string& text, uint64_t min, uint64_t max);
+/// A CLI11 check that the option's value is a whole number parse_whole_number() accepts in [min, max].
+CLI::Validator whole_number_in(uint64_t min, uint64_t max);
+/// A CLI11 check that the option's value is a finite number in [min, max]: CLI::Range lets NaN through (every
+/// comparison with NaN is false).
+CLI::Validator finite_number_in(double min, double max);
 
 /// --lod-levels of rgs-convert and rgs-bench: "auto" gives 0 (converter::LodBuildOptions::levels' auto), "1".."16"
 /// that count. kInvalidArgument otherwise.

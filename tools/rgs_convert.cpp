@@ -319,6 +319,10 @@ int run(Options& opt) {
     if (*output_format != api::OutputFormat::kRgs) why = std::string(flag) + " chooses the archive profile of a .rgs output";
     if (opt.profile == "runtime" && !opt.profile_defaulted) why = std::string(flag) + " writes the archive profile, not --profile runtime";
     if (opt.input == "-") why = std::string(flag) + " reads the input twice: name a file, not standard input";
+    if (opt.convert.lod_levels) {
+      why = std::string(flag) + " writes the archive profile, which has no levels of detail (--lod-levels needs "
+                                "the runtime profile)";
+    }
     if (!why.empty()) return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, why));
     opt.profile = "archive";
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) opt.cameras.orbit = 4;
@@ -334,6 +338,9 @@ int run(Options& opt) {
   opt.convert.profile = opt.profile == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
   opt.convert.read = tools::scene_read_options();  // --lod included
   opt.convert.converter_name = kTool;
+  // Options that contradict each other (levels of detail with the archive profile or zstd sections, an unknown
+  // section) are a usage error found before anything is read.
+  if (Status s = api::check_convert_options(opt.convert); !s.ok()) return tools::report_usage_error(kTool, s);
 
   tools::OutputSet outputs;
   if (opt.input != "-") {
@@ -429,7 +436,7 @@ int main(int argc, char** argv) {
   app.add_option("--sh-clip-percentile", opt.convert.sh_clip_percentile,
                  "Percentile of |SH| mapped to 127 per (degree, channel); 100 = max |SH| (the paper's rule); "
                  "lower values clip the tail")
-      ->check(CLI::Range(0.001f, 100.0f))
+      ->check(rgs::tools::finite_number_in(0.001, 100.0))
       ->capture_default_str();
   app.add_option("--sh-dc-bits", opt.convert.sh_dc_bits,
                  "Precision of the SH DC term (the whole colour at SH degree 0): 16 stores the INT8 code and a "
@@ -450,18 +457,23 @@ int main(int argc, char** argv) {
   app.add_option("--position-error", opt.convert.archive.position_error,
                  "Archive profile: largest position error relative to the scene extent (longest AABB side); "
                  "sets the Draco quantization bits")
-      ->check(CLI::Range(1e-9, 0.5))
+      ->check(rgs::tools::finite_number_in(1e-9, 0.5))
       ->capture_default_str();
   auto* target_psnr =
       app.add_option("--target-psnr", opt.target_psnr,
                      "Rate control: choose the archive profile's settings (bits and code steps of rotations, scales, opacities, SH "
                      "steps per degree, position error) for the fewest bytes whose mean PSNR over the views, render "
                      "against the input's render, is at least DB; implies --profile archive")
-          ->check(CLI::Range(1.0, 200.0));
-  app.add_option("--target-bytes", opt.target_bytes,
-                 "Rate control: the archive profile's settings for the best mean PSNR of a file of at most N bytes; "
-                 "implies --profile archive")
-      ->check(CLI::Range(uint64_t{1}, std::numeric_limits<uint64_t>::max()))
+          ->check(rgs::tools::finite_number_in(1.0, 200.0));
+  app.add_option_function<std::string>(
+         "--target-bytes",
+         [&opt](const std::string& text) {
+           opt.target_bytes = *rgs::tools::parse_whole_number(text, 1, std::numeric_limits<uint64_t>::max());
+         },
+         "Rate control: the archive profile's settings for the best mean PSNR of a file of at most N bytes "
+         "(decimal digits, 1..2^64-1); implies --profile archive")
+      ->type_name("UINT")
+      ->check(rgs::tools::whole_number_in(1, std::numeric_limits<uint64_t>::max()))
       ->excludes(target_psnr);
   rgs::tools::add_camera_options(app, opt.cameras,
                                  "Rate control's views: an INRIA cameras.json (native size by default)",
@@ -496,7 +508,8 @@ int main(int argc, char** argv) {
                  "With --lod-levels: most full-detail Gaussians in one chunk (what the renderer culls, selects and "
                  "streams)")
       ->check(CLI::Range(uint32_t{1}, uint32_t{1} << 30))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(app.get_option("--lod-levels"));
   app.add_flag("-q,--quiet", opt.quiet,
                "Print nothing on success: no summary, no notes, no progress line (which is drawn on stderr only "
                "when it is a terminal, for conversions over a second)");

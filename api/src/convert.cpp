@@ -94,16 +94,25 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
   return write;
 }
 
-/// Checks the options that need no input, before anything is read.
-Status check_options(const ConvertOptions& options) {
+}  // namespace
+
+Status check_convert_options(const ConvertOptions& options) {
   RGS_RETURN_ERROR_IF(options.sh_degree && *options.sh_degree > 3, StatusCode::kInvalidArgument,
                       "convert: SH degree " + std::to_string(*options.sh_degree) + " outside 0..3");
   RGS_RETURN_ERROR_IF(!(options.sh_clip_percentile > 0.0f && options.sh_clip_percentile <= 100.0f),
                       StatusCode::kInvalidArgument, "convert: SH clip percentile outside (0, 100]");
   RGS_RETURN_ERROR_IF(options.sh_dc_bits != 8 && options.sh_dc_bits != 16, StatusCode::kInvalidArgument,
                       "convert: SH DC precision of " + std::to_string(options.sh_dc_bits) + " bits is not 8 or 16");
+  if (options.profile == format::StorageProfile::kArchive) {
+    format::ArchiveOptions archive_options = options.archive;
+    archive_options.zstd_level = options.zstd_level;  // as write_options() codes the archive
+    Status archive = format::check_archive_options(archive_options);
+    if (!archive.ok()) return archive.prepend("convert: archive profile");
+  }
   return write_options(options).status();
 }
+
+namespace {
 
 format::FileSink& output_files(const ConvertOptions& options) {
   return options.files != nullptr ? *options.files : format::atomic_files();
@@ -469,7 +478,7 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(check_convert_options(options));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, scene_read_options(options)));
@@ -482,7 +491,7 @@ Result<ConvertReport> convert_scene(converter::InputScene input, const std::stri
                                     const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(check_convert_options(options));
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // as convert(): dst is none of the inputs
   ProgressReporter progress(options, output);
   return convert_input(std::move(input), src, dst, output, options, start, progress);
@@ -492,7 +501,7 @@ Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std:
                                     const std::string& dst, const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(check_convert_options(options));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
@@ -504,7 +513,7 @@ Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::stri
                                     const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_options(options));
+  RGS_RETURN_IF_ERROR(check_convert_options(options));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,

@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <new>
 #include <optional>
 #include <tuple>
 #include <utility>
@@ -250,7 +251,7 @@ class Measurer {
         continue;
       }
       set->source.resize(set->cameras.size());
-      RGS_RETURN_IF_ERROR(for_views(set->cameras.size(), [&](api::Renderer& renderer, size_t v) -> Status {
+      RGS_RETURN_IF_ERROR(for_views(set->cameras, [&](api::Renderer& renderer, size_t v) -> Status {
         RGS_ASSIGN_OR_RETURN(set->source[v], render_rgb(renderer, scene, set->cameras[v]));
         return Status();
       }));
@@ -445,13 +446,22 @@ class Measurer {
     return api::load_cloud(std::move(cloud), bounds, name, load);
   }
 
-  /// fn(renderer, v) for every view v of [0, views), spread over the workers' renderers; the first error in view
-  /// order.
+  /// fn(renderer, v) for every view v of `cameras`, spread over the workers' renderers; the first error in view
+  /// order. A failed allocation is kOutOfMemory naming the view and its size, not only the worker thread.
   template <typename Fn>
-  Status for_views(size_t views, Fn&& fn) {
-    std::vector<Status> results(views);
-    RGS_RETURN_IF_ERROR(parallel::parallel_items(views, unsigned(renderers_.size()), [&](unsigned w, uint64_t v) {
-      results[v] = fn(renderers_[w], size_t(v));
+  Status for_views(const std::vector<runtime::Camera>& cameras, Fn&& fn) {
+    std::vector<Status> results(cameras.size());
+    RGS_RETURN_IF_ERROR(parallel::parallel_items(cameras.size(), unsigned(renderers_.size()), [&](unsigned w, uint64_t v) {
+      try {
+        results[v] = fn(renderers_[w], size_t(v));
+      } catch (const std::bad_alloc&) {
+        const runtime::Camera& cam = cameras[v];
+        char image[32];
+        std::snprintf(image, sizeof(image), "%.2f GB", double(cam.width) * cam.height * 3 * sizeof(float) / 1e9);
+        results[v] = Status(StatusCode::kOutOfMemory, "out of memory rendering view " + cam.name + " at " +
+                                                          std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                                                          " (" + image + " for its RGB image alone)");
+      }
     }));
     for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
     return Status();
@@ -506,7 +516,7 @@ class Measurer {
     e->archive.reset();
     RGS_ASSIGN_OR_RETURN(api::Scene scene, load(std::move(cloud), bounds, name));
     std::vector<double> psnr(set.cameras.size());
-    RGS_RETURN_IF_ERROR(for_views(set.cameras.size(), [&](api::Renderer& renderer, size_t v) -> Status {
+    RGS_RETURN_IF_ERROR(for_views(set.cameras, [&](api::Renderer& renderer, size_t v) -> Status {
       RGS_ASSIGN_OR_RETURN(psnr[v], view_psnr(renderer, scene, set, v));
       return Status();
     }));
@@ -1198,9 +1208,16 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
 
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit) {
+  {
+    // The options the file is written with, refused before the search rather than after it.
+    api::ConvertOptions written = options;
+    written.profile = format::StorageProfile::kArchive;
+    RGS_RETURN_IF_ERROR(api::check_convert_options(written));
+  }
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, api::scene_read_options(options)));
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // before the fit, not only at the write
-  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, api::make_cameras(cameras, input.bounds));
+  auto views = api::make_cameras(cameras, input.bounds);
+  if (!views.ok()) return Status(views.status()).prepend(src + ": rate control's views");
   fit.quantize.scale_encoding = options.scale_encoding;
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
@@ -1210,7 +1227,7 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
                          options.converter_name.size();
   FittedConversion out;
-  auto fitted = fit_archive(input.cloud, views, fit);
+  auto fitted = fit_archive(input.cloud, *views, fit);
   if (!fitted.ok()) return Status(fitted.status()).prepend(src);
   out.fit = std::move(fitted).value();
   options.profile = format::StorageProfile::kArchive;

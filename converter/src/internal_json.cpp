@@ -48,6 +48,19 @@ Result<nlohmann::json> parse_scene_json(const uint8_t* data, size_t size, const 
   }
 }
 
+Result<nlohmann::json> parse_json_outline(const uint8_t* data, size_t size) {
+  // nlohmann's parser keeps its own stack (no recursion); values below the top level's members are dropped
+  // as they are parsed, so no deep document is ever built.
+  const nlohmann::json::parser_callback_t shallow = [](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+    return depth <= 1;
+  };
+  try {
+    return nlohmann::json::parse(data, data + size, shallow);
+  } catch (const nlohmann::json::exception& e) {
+    return Status(StatusCode::kCorruptData, "invalid JSON: " + bounded_text(e.what()));
+  }
+}
+
 std::string describe_json_value(const nlohmann::json& value) {
   if (value.is_string()) {
     const std::string& s = value.get_ref<const std::string&>();

@@ -21,6 +21,12 @@ inline constexpr size_t kMaxJsonDepth = 64;
 /// message, at most 160 bytes>".
 Result<nlohmann::json> parse_scene_json(const uint8_t* data, size_t size, const std::string& where);
 
+/// The outline of a JSON document that parse_scene_json refuses for its nesting alone: the top level with each
+/// member's container emptied (`{"tree": [[[...]]]}` gives `{"tree": []}`), built without the deep values, so that
+/// format detection still recognises a scene's JSON by its keys and hands it to the reader that names the problem.
+/// Errors: kCorruptData when the bytes are not JSON at all.
+Result<nlohmann::json> parse_json_outline(const uint8_t* data, size_t size);
+
 /// A JSON value for a message, never longer than about 100 bytes: a string quoted (its first 64 bytes),
 /// a number, boolean or null as written, "an array of N values", "an object of N members".
 std::string describe_json_value(const nlohmann::json& value);

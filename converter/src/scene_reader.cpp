@@ -393,6 +393,9 @@ Status make_probe(const std::string& path, Probe* probe) {
       probe->json_root = std::move(root).value();
     } else {
       probe->json_error = root.status().message();
+      // Nested too deep but JSON: its top-level keys still say which reader names the problem.
+      auto outline = detail::parse_json_outline(bytes.data() + i, bytes.size() - i);
+      if (outline.ok() && outline->is_object()) probe->json_root = std::move(outline).value();
     }
   }
   return Status();

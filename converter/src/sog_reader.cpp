@@ -162,8 +162,10 @@ Status file_names(const json& obj, const std::string& group, size_t expected, co
   return Status();
 }
 
-Result<json> parse_json(const std::vector<uint8_t>& bytes, const std::string& where) {
-  return detail::parse_scene_json(bytes.data(), bytes.size(), where);
+/// `bytes` of the file `where` as JSON; errors name the file and `what` it is (a SOG meta.json, a streamed SOG's
+/// lod-meta.json), as the reader's other messages do not say which format it took the file for.
+Result<json> parse_json(const std::vector<uint8_t>& bytes, const std::string& where, const char* what) {
+  return detail::parse_scene_json(bytes.data(), bytes.size(), where + ": " + what);
 }
 
 Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta) {
@@ -720,7 +722,7 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
   job.meta_name = meta_name;
   job.files = files.get();
   job.hash = options.hash_file && !bundled;
-  RGS_ASSIGN_OR_RETURN(json root, parse_json(meta_bytes, meta_name));
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(meta_bytes, meta_name, "SOG meta.json"));
   RGS_RETURN_IF_ERROR(parse_sog_meta(root, meta_name, &job.meta));
   RGS_RETURN_IF_ERROR(check_count(job.meta.count, options, meta_name));
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
@@ -871,7 +873,7 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
   const std::string& path = entry.path;
   const std::vector<uint8_t>& bytes = entry.bytes;
   const detail::SceneFolder& folder = *entry.folder;
-  RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, path));
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, path, "streamed SOG lod-meta.json"));
   if (!root.is_object()) return corrupt(path, "top level is a " + type_name(root) + ", not an object");
   InputScene scene;
   std::vector<uint64_t> hashes;
@@ -926,7 +928,7 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
     if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
     scene.file_bytes += meta_bytes.size();
     ++scene.file_count;
-    RGS_ASSIGN_OR_RETURN(json chunk_root, parse_json(meta_bytes, meta_path));
+    RGS_ASSIGN_OR_RETURN(json chunk_root, parse_json(meta_bytes, meta_path, "streamed SOG chunk meta.json"));
     ChunkJob job;
     job.meta_name = meta_path;
     RGS_RETURN_IF_ERROR(parse_sog_meta(chunk_root, meta_path, &job.meta));
@@ -985,7 +987,7 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
 /// folder) to `out`, as read_sog would name them.
 Status list_meta_images(const std::vector<uint8_t>& bytes, const std::string& where,
                         const detail::SceneFolder& folder, const std::string& base, std::vector<std::string>* out) {
-  RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, where));
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, where, "SOG meta.json"));
   SogMeta meta;
   RGS_RETURN_IF_ERROR(parse_sog_meta(root, where, &meta));
   for (size_t slot : image_slots(meta)) {
@@ -1025,7 +1027,7 @@ Result<std::vector<std::string>> list_sog_files(const std::string& path) {
 Result<std::vector<std::string>> list_sog_lod_files(const std::string& path) {
   SceneEntry entry;
   RGS_RETURN_IF_ERROR(read_entry(path, "lod-meta.json", kMaxMetaBytes, &entry));
-  RGS_ASSIGN_OR_RETURN(json root, parse_json(entry.bytes, entry.path));
+  RGS_ASSIGN_OR_RETURN(json root, parse_json(entry.bytes, entry.path, "streamed SOG lod-meta.json"));
   std::vector<std::string> files = {entry.path};
   const json* names = root.is_object() && root.contains("filenames") ? &root["filenames"] : nullptr;
   if (names == nullptr || !names->is_array()) return files;  // read_sog_lod names the problem

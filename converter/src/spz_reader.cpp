@@ -472,7 +472,11 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
 
 Result<InteropScene> read_any(const uint8_t* data, size_t size, const InteropReadOptions& options) {
   if (size >= 4 && le_u32(data) == detail::kSpzMagic) return read_v4(data, size, options);
-  if (size >= 2 && data[0] == 0x1f && data[1] == 0x8b) return read_legacy(data, size, options);
+  if (size >= 2 && data[0] == 0x1f && data[1] == 0x8b) {
+    auto scene = read_legacy(data, size, options);
+    if (!scene.ok()) return Status(scene.status()).prepend("gzip-wrapped SPZ (v2/v3)");
+    return scene;
+  }
   return Status(StatusCode::kCorruptData, "not an SPZ file (starts neither with 'NGSP' nor with a gzip member)");
 }
 
@@ -497,8 +501,9 @@ bool looks_like_spz(const uint8_t* head, size_t n) {
   const size_t got = sizeof(out) - zs.avail_out;
   inflateEnd(&zs);
   if (got == sizeof(out)) return le_u32(out) == detail::kSpzMagic;
-  // Could not inflate four bytes: a broken member, or a head too short to tell.
-  return r == Z_OK || r == Z_BUF_ERROR;
+  // Could not inflate four bytes: a head too short to tell, or a member damaged before them, which read_spz
+  // names (rather than "unsupported format"); only a whole member of fewer bytes is something else.
+  return r != Z_STREAM_END;
 }
 
 Result<InteropScene> read_spz(const std::string& path, const InteropReadOptions& options) {

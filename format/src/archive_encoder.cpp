@@ -41,37 +41,6 @@ using detail::QuantizedTransform;
 
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
 
-Status check_options(const ArchiveOptions& o) {
-  for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
-                            std::pair{"opacity", o.opacity_bits}}) {
-    if (bits != 0 && (bits < 4 || bits > 16)) {
-      return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16 (or 0: by scene size)");
-    }
-  }
-  for (auto [name, step] : {std::pair{"rotation", o.rotation_step}, std::pair{"scale", o.scale_step},
-                            std::pair{"opacity", o.opacity_step}}) {
-    if (!(step >= 1 && step <= 4096)) {
-      return invalid(std::string(name) + " step " + std::to_string(step) + " outside 1..4096 (times the bits' own step)");
-    }
-  }
-  for (size_t d = 0; d < 4; ++d) {
-    if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
-      return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
-                     " outside 1..127");
-    }
-  }
-  if (!(o.opacity_floor >= 0 && o.opacity_floor < 1)) {
-    return invalid("opacity floor " + std::to_string(o.opacity_floor) + " outside [0, 1)");
-  }
-  if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
-    return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
-  }
-  RGS_RETURN_IF_ERROR(detail::check_zstd_level(o.zstd_level));
-  if (o.draco_speed < 0 || o.draco_speed > 10)
-    return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
-  return Status();
-}
-
 /// Planar code buffer of §3.3.2: `components` planes of n codes, 1 byte each (bits <= 8) or two byte
 /// planes (low bytes, then high bytes).
 struct CodePlanes {
@@ -244,15 +213,28 @@ SourceCodes rotation_codes(const EncodedScene& s, const ArchiveOptions& o) {
   return out;
 }
 
+/// A log-scale offset whose scale binary16 flushes to 0 (exp(-32) is far below 2^-25, where f16 rounds to 0): the
+/// transform-2 offset of a linear axis whose every scale is 0.
+constexpr float kZeroLinearScaleOffset = -32.0f;
+/// The log-scale the converter stores for a scale of 0 under the log encoding (the lowest finite binary16).
+constexpr double kZeroLogScale = -65504.0;
+
 /// §3.3.2 transform 2 codes of every scale of the scene, on the range of ln(scale) per axis over the Gaussians
 /// the archive keeps (`omitted`: ascending source indices of those it leaves out).
+///
+/// Scales of 0 (linear 0, or the log encoding's -65504) are outside the range, which they would stretch to
+/// ln 0 = -inf (or -65504): they take code 0. An axis whose every kept scale is 0 (the flat axis of a 2D-Gaussian
+/// or surfel scene) gets an offset that decodes to 0 again and a step of 0; so does a constant axis (one Gaussian,
+/// or one size for all) with its own value as the offset. Among non-zero scales a 0 decodes to the axis' smallest
+/// scale: the uniform grid cannot reach ln 0 without coarsening every other code of the axis.
 SourceCodes scale_codes(const EncodedScene& s, const std::vector<uint64_t>& omitted, const ArchiveOptions& o) {
   const uint64_t n = s.count;
   const bool log = s.metadata.scale_encoding == ScaleEncoding::kLog;
   const uint32_t max_code = (1u << o.scale_bits) - 1;
   auto ln_of = [&](uint32_t bits) {
     const double v = half_bits_to_float(static_cast<uint16_t>(bits));
-    return log ? v : v > 0 ? std::log(v) : -std::numeric_limits<double>::infinity();
+    if (log) return v <= kZeroLogScale ? -std::numeric_limits<double>::infinity() : v;
+    return v > 0 ? std::log(v) : -std::numeric_limits<double>::infinity();
   };
   // The scales are binary16: with more values than bit patterns, each pattern's logarithm is taken once.
   std::vector<double> ln_table;
@@ -281,10 +263,17 @@ SourceCodes scale_codes(const EncodedScene& s, const std::vector<uint64_t>& omit
   SourceCodes out;
   std::vector<float>& params = out.params = std::vector<float>(6);
   for (int a = 0; a < 3; ++a) {
-    if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;  // every value zero: any offset decodes near 0
-    // Offsets and steps are stored as float32; codes are computed against the stored values.
-    params[a] = static_cast<float>(lo[a]);
-    params[3 + a] = static_cast<float>((hi[a] - params[a]) / max_code * o.scale_step);
+    if (!(lo[a] <= hi[a])) {  // every kept scale of the axis is 0
+      params[a] = log ? static_cast<float>(kZeroLogScale) : kZeroLinearScaleOffset;
+      params[3 + a] = 0;
+      continue;
+    }
+    // Offsets and steps are stored as float32; codes are computed against the stored values. The offset is
+    // rounded down, so that the step (hi - offset) / max_code is never negative, which §3.3.2 forbids.
+    float offset = static_cast<float>(lo[a]);
+    if (static_cast<double>(offset) > lo[a]) offset = std::nextafter(offset, -std::numeric_limits<float>::infinity());
+    params[a] = offset;
+    params[3 + a] = lo[a] == hi[a] ? 0.0f : static_cast<float>((hi[a] - offset) / max_code * o.scale_step);
   }
   CodePlanes& codes = out.codes = CodePlanes(n, 3, o.scale_bits);
   for (uint64_t i = 0; i < n; ++i) {
@@ -765,6 +754,40 @@ SceneBounds bounds_of(const std::vector<float>& means) {
 
 }  // namespace
 
+Status check_archive_options(const ArchiveOptions& o) {
+  if (!(o.position_error > 0.0 && o.position_error <= 0.5)) {
+    return invalid("position error " + std::to_string(o.position_error) + " outside (0, 0.5]");
+  }
+  for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
+                            std::pair{"opacity", o.opacity_bits}}) {
+    if (bits != 0 && (bits < 4 || bits > 16)) {
+      return invalid(std::string(name) + " bits " + dec(bits) + " outside 4..16 (or 0: by scene size)");
+    }
+  }
+  for (auto [name, step] : {std::pair{"rotation", o.rotation_step}, std::pair{"scale", o.scale_step},
+                            std::pair{"opacity", o.opacity_step}}) {
+    if (!(step >= 1 && step <= 4096)) {
+      return invalid(std::string(name) + " step " + std::to_string(step) + " outside 1..4096 (times the bits' own step)");
+    }
+  }
+  for (size_t d = 0; d < 4; ++d) {
+    if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
+      return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
+                     " outside 1..127");
+    }
+  }
+  if (!(o.opacity_floor >= 0 && o.opacity_floor < 1)) {
+    return invalid("opacity floor " + std::to_string(o.opacity_floor) + " outside [0, 1)");
+  }
+  if (o.sh_codebook_size == 1 || o.sh_codebook_size > 65536) {
+    return invalid("SH codebook size " + dec(o.sh_codebook_size) + " outside 0 (none) or 2..65536");
+  }
+  RGS_RETURN_IF_ERROR(detail::check_zstd_level(o.zstd_level));
+  if (o.draco_speed < 0 || o.draco_speed > 10)
+    return invalid("Draco speed " + std::to_string(o.draco_speed) + " outside 0..10");
+  return Status();
+}
+
 ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians) {
   ArchiveOptions o = options;
   const bool dense = gaussians >= kArchiveDenseGaussians;
@@ -797,7 +820,7 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
 
 Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOptions& options_in,
                                     const ArchiveScene* earlier) {
-  RGS_RETURN_IF_ERROR(check_options(options_in));
+  RGS_RETURN_IF_ERROR(check_archive_options(options_in));
   const ArchiveOptions options = resolve_archive_options(options_in, source.count);
   if (!source.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
   if (source.count > UINT32_MAX / 2)

@@ -78,6 +78,10 @@ else()
   # Limit raised to zstd's own 32768:1: --check streams the valid file in bounded memory; the tools that
   # need it decoded report the failed allocation as kOutOfMemory, exit 1.
   rgs_memory_case(info_rle_raised TOOL ${info} ARGS "--check|${raise}|${memory_rle}" EXIT 0 REGEX "check +ok")
+  # Rate control's views too large for memory: kOutOfMemory naming the input and the view, not a worker thread.
+  rgs_memory_case(convert_rate_control_huge_view TOOL ${convert}
+    ARGS "${PROJECT_SOURCE_DIR}/tests/fuzz/corpus/ply_read/guitar32_le.ply|${cli_dir}/memory_fit.rgs|--target-psnr|30|--orbit|1|--width|32768|--height|32768"
+    EXIT 1 REGEX "guitar32_le.ply: out of memory rendering view orbit_000 at 32768x32768 \\(12.88 GB for its RGB image alone\\) \\[kOutOfMemory\\]")
   rgs_memory_case(convert_rle_raised TOOL ${convert} ARGS "${raise}|${memory_rle}|${cli_dir}/memory_rle.ply" EXIT 1
     REGEX "rgs-convert: error: .*zstd_rle_2p26_gaussians.rgs.*\\[kOutOfMemory\\]")
   rgs_memory_case(render_rle_raised TOOL ${render}

@@ -3,7 +3,8 @@
 // the bound its codec promises relative to the runtime-profile scene, the Gaussians left out are exactly those
 // whose opacity code is 0, and the bytes do not depend on the thread count. Runs on the shipped sample and on
 // every real scene of $RGS_DATA_DIR (skipped visibly), and on the sample with code steps coarser than the bits
-// (ArchiveOptions::rotation_step, scale_step, opacity_step).
+// (ArchiveOptions::rotation_step, scale_step, opacity_step), and on scenes whose attributes leave a quantizer
+// nothing to span: a flat axis of zero scales (2D-Gaussian and surfel exports), constant attributes, one Gaussian.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -27,13 +28,20 @@ using namespace rgs;
 
 double half(uint16_t h) { return format::half_bits_to_float(h); }
 
-void check_archive_round_trip(const std::string& path, uint64_t expected_count, bool check_threads,
-                              const format::ArchiveOptions& options = {}) {
+format::GaussianCloud read_cloud(const std::string& path, uint64_t expected_count) {
   auto ply = converter::read_ply(path);
   REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
   REQUIRE(ply->cloud.size() == expected_count);
-  auto quantized = converter::quantize(ply->cloud, {});
-  REQUIRE(quantized.ok());
+  return std::move(ply->cloud);
+}
+
+void check_archive_round_trip(const format::GaussianCloud& cloud, bool check_threads,
+                              const format::ArchiveOptions& options = {},
+                              format::ScaleEncoding scale_encoding = format::ScaleEncoding::kLinear) {
+  converter::QuantizeOptions quantize;
+  quantize.scale_encoding = scale_encoding;
+  auto quantized = converter::quantize(cloud, quantize);
+  REQUIRE_MESSAGE(quantized.ok(), quantized.status().to_string());
   const format::EncodedScene& src = *quantized;
   const uint64_t n = src.count;
 
@@ -71,7 +79,10 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
   const bool log_scales = src.metadata.scale_encoding == format::ScaleEncoding::kLog;
   double lo[3], hi[3];
   for (int a = 0; a < 3; ++a) lo[a] = std::numeric_limits<double>::infinity(), hi[a] = -lo[a];
-  auto ln = [&](uint16_t h) { return log_scales ? half(h) : std::log(half(h)); };
+  auto ln = [&](uint16_t h) {
+    const double v = half(h);
+    return log_scales ? (v <= -65504.0 ? -std::numeric_limits<double>::infinity() : v) : std::log(v);
+  };
   for (uint64_t i = 0; i < n * 3; ++i) {
     const double v = ln(src.scales[i]);
     if (std::isfinite(v)) lo[i % 3] = std::min(lo[i % 3], v), hi[i % 3] = std::max(hi[i % 3], v);
@@ -109,7 +120,12 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
     for (int a = 0; a < 3; ++a) {
       const double want = ln(src.scales[s * 3 + a]), got = ln(d.scales[i * 3 + a]);
       const double smallest = std::log(6.2e-5);  // FP16 normals: relative rounding 2^-11
-      if (!std::isfinite(want) || (!log_scales && (want < smallest || got < smallest))) continue;
+      if (!std::isfinite(want) || (!log_scales && (want < smallest || got < smallest))) {
+        // A scale of 0 (linear 0, log -65504) decodes to 0 where the axis has no other, else to the axis' smallest.
+        const bool zero_axis = !(lo[a] <= hi[a]);
+        bad_scale += !std::isfinite(want) && (zero_axis ? got != want : !(got >= lo[a] - 1e-3 && got <= hi[a] + 1e-3));
+        continue;
+      }
       const double step = (hi[a] - lo[a]) / ((1u << o.scale_bits) - 1) * o.scale_step;
       bad_scale += std::fabs(got - want) > 0.5 * step + 1e-3 + (log_scales ? std::fabs(want) / 1024 : 0);
     }
@@ -119,6 +135,28 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
       bad_sh += std::abs(d.sh[i * values + c] - src.sh[s * values + c]) > m;
     }
   }
+  // A scale axis of one value in every kept Gaussian (a flat axis of zero scales, one size for all, a scene of one
+  // Gaussian) has a quantizer step of 0: it decodes to exactly the runtime profile's value. (Draco's kd-tree coder
+  // chooses its own grid for the means, and rotations, opacities and SH have fixed grids: the bounds below.)
+  auto check_constant = [&](const std::string& attribute, uint32_t components, auto&& src_value,
+                            auto&& decoded_value) {
+    if (d.count == 0) return;
+    for (uint32_t c = 0; c < components; ++c) {
+      const auto first = src_value(archive->source_index[0], c);
+      bool constant = true;
+      for (uint64_t i = 1; i < d.count && constant; ++i) constant = src_value(archive->source_index[i], c) == first;
+      if (!constant) continue;
+      uint64_t differ = 0;
+      for (uint64_t i = 0; i < d.count; ++i) differ += decoded_value(i, c) != first;
+      CAPTURE(attribute);
+      CAPTURE(c);
+      CAPTURE(double(first));
+      CAPTURE(double(decoded_value(0, c)));
+      CHECK(differ == 0);
+    }
+  };
+  check_constant("scale", 3, [&](uint64_t s, uint32_t a) { return src.scales[s * 3 + a]; },
+                 [&](uint64_t i, uint32_t a) { return d.scales[i * 3 + a]; });
   CHECK(bad_pos == 0);
   CHECK(bad_rot == 0);
   CHECK(bad_scale == 0);
@@ -131,10 +169,68 @@ void check_archive_round_trip(const std::string& path, uint64_t expected_count, 
   CHECK(double(used) <= std::ceil(double((1u << o.opacity_bits) - 1) / o.opacity_step) + 1);
 }
 
+/// The first `n` Gaussians of `cloud`; with `copies`, Gaussian 0 repeated n times.
+format::GaussianCloud first_gaussians(const format::GaussianCloud& cloud, size_t n, bool copies = false) {
+  format::GaussianCloud out;
+  out.sh_degree = cloud.sh_degree;
+  out.resize(n);
+  const size_t sh = size_t{cloud.sh_coefficients()} * 3;
+  for (size_t i = 0; i < n; ++i) {
+    const size_t j = copies ? 0 : i;
+    std::copy_n(&cloud.means[j * 3], 3, &out.means[i * 3]);
+    std::copy_n(&cloud.rotations[j * 4], 4, &out.rotations[i * 4]);
+    std::copy_n(&cloud.scales[j * 3], 3, &out.scales[i * 3]);
+    out.opacities[i] = cloud.opacities[j];
+    std::copy_n(&cloud.sh[j * sh], sh, &out.sh[i * sh]);
+  }
+  return out;
+}
+
 }  // namespace
 
+TEST_CASE("archive round trip: flat, constant-attribute and one-Gaussian scenes decode to the runtime profile's values") {
+  const format::GaussianCloud guitar = read_cloud(test::repo_path("samples/guitar.ply"), 90854);
+  const format::GaussianCloud sh3 = read_cloud(test::repo_path(test::kGuitarSh3), 8000);
+  for (const format::ScaleEncoding encoding : {format::ScaleEncoding::kLinear, format::ScaleEncoding::kLog}) {
+    const bool log = encoding == format::ScaleEncoding::kLog;
+    CAPTURE(log);
+    // One axis of one log-scale in every Gaussian, as 2D-Gaussian and surfel exports write their flat axis (-inf
+    // and values that linear FP16 flushes to 0), at the flush threshold and above it.
+    for (const double log_scale : {-std::numeric_limits<double>::infinity(), -30.0, -20.0, -17.34, -17.0, -13.8155,
+                                   -3.3}) {
+      CAPTURE(log_scale);
+      format::GaussianCloud flat = first_gaussians(guitar, 6000);
+      for (size_t i = 0; i < flat.size(); ++i) flat.scales[i * 3 + 2] = static_cast<float>(std::exp(log_scale));
+      check_archive_round_trip(flat, false, {}, encoding);
+    }
+    for (const format::GaussianCloud* cloud : {&guitar, &sh3}) {
+      CAPTURE(cloud->sh_degree);
+      check_archive_round_trip(first_gaussians(*cloud, 1), false, {}, encoding);            // one Gaussian
+      check_archive_round_trip(first_gaussians(*cloud, 3000, true), false, {}, encoding);   // one Gaussian, repeated
+      // One attribute constant, the others as trained.
+      for (const char* attribute : {"scales", "opacities", "rotations", "sh", "means"}) {
+        CAPTURE(attribute);
+        format::GaussianCloud c = first_gaussians(*cloud, 3000);
+        const std::string a = attribute;
+        std::vector<float>& v = a == "scales"      ? c.scales
+                                : a == "opacities" ? c.opacities
+                                : a == "rotations" ? c.rotations
+                                : a == "sh"        ? c.sh
+                                                   : c.means;
+        const size_t width = v.size() / c.size();
+        for (size_t i = 1; i < c.size(); ++i) std::copy_n(&v[0], width, &v[i * width]);
+        if (a == "means") {  // a flat scene: z constant, x and y as trained
+          c.means = first_gaussians(*cloud, 3000).means;
+          for (size_t i = 0; i < c.size(); ++i) c.means[i * 3 + 2] = c.means[2];
+        }
+        check_archive_round_trip(c, false, {}, encoding);
+      }
+    }
+  }
+}
+
 TEST_CASE("archive round trip: shipped guitar sample") {
-  check_archive_round_trip(test::repo_path("samples/guitar.ply"), 90854, true);
+  check_archive_round_trip(read_cloud(test::repo_path("samples/guitar.ply"), 90854), true);
 }
 
 TEST_CASE("archive round trip: code steps coarser than the bits, below the 4-bit minimum") {
@@ -143,7 +239,7 @@ TEST_CASE("archive round trip: code steps coarser than the bits, below the 4-bit
   o.rotation_step = 2.5;
   o.scale_step = 3;
   o.opacity_step = 1.5;
-  check_archive_round_trip(test::repo_path("samples/guitar.ply"), 90854, false, o);
+  check_archive_round_trip(read_cloud(test::repo_path("samples/guitar.ply"), 90854), false, o);
 }
 
 TEST_CASE("archive round trip: every real scene of $RGS_DATA_DIR") {
@@ -157,6 +253,6 @@ TEST_CASE("archive round trip: every real scene of $RGS_DATA_DIR") {
     CAPTURE(file);
     const std::string path = test::shared_scene(file);
     if (path.empty()) continue;  // shared_scene reported the skip
-    check_archive_round_trip(path, s.count, s.count < 200000);
+    check_archive_round_trip(read_cloud(path, s.count), s.count < 200000);
   }
 }

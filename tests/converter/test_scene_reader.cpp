@@ -221,6 +221,28 @@ TEST_CASE("read_scene reads a .rgs file as its dequantized scene, from a file an
   CHECK(read_status(tmp.file("guitar.bin"), options).code() == StatusCode::kLimitExceeded);
 }
 
+TEST_CASE("read_scene names the format of a SOG meta.json or lod-meta.json nested too deep, not 'unsupported format'") {
+  TempDir tmp;
+  const std::string deep = std::string(100, '[') + std::string(100, ']');
+  const struct {
+    const char* name;
+    std::string json;
+    const char* format;
+  } cases[] = {
+      {"lod-meta.json", "{\"lodLevels\": 1, \"filenames\": [\"0/meta.json\"], \"tree\": " + deep + "}",
+       "streamed SOG lod-meta.json"},
+      {"meta.json", "{\"means\": {\"shape\": " + deep + "}, \"quats\": {}, \"scales\": {}}", "SOG meta.json"},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.name);
+    const std::string path = tmp.file(c.name);
+    write_bytes(path, std::vector<uint8_t>(c.json.begin(), c.json.end()));
+    const Status s = read_status(path);
+    CHECK(s.code() == StatusCode::kCorruptData);
+    CHECK_MESSAGE(s.message() == path + ": " + c.format + ": JSON nested deeper than 64 levels", s.message());
+  }
+}
+
 TEST_CASE("read_scene names what an unsupported input looks like and lists the supported formats") {
   TempDir tmp;
   struct Case {
@@ -371,6 +393,21 @@ TEST_CASE("read_scene detects and reads SPZ, glTF/GLB and .splat files") {
   CHECK_FALSE(r.ok());
   CHECK(r.code() != StatusCode::kInvalidArgument);
   CHECK(r.message().find("unsupported format") == std::string::npos);
+  // A v3 SPZ (a gzip member) damaged right after its gzip header gets the SPZ reader's error, naming the file,
+  // the format and the damage; a whole gzip member of something else stays an unsupported format.
+  std::vector<uint8_t> v3 = load_bytes(repo_path("tests/data/interop/guitar_256_splat_transform_v3.spz"));
+  for (size_t i = 10; i < 30; ++i) v3[i] ^= 0x5a;
+  write_bytes(tmp.file("damaged_v3.spz"), v3);
+  const Status damaged = read_status(tmp.file("damaged_v3.spz"));
+  CHECK(damaged.code() == StatusCode::kCorruptData);
+  CHECK_MESSAGE(damaged.message().find(tmp.file("damaged_v3.spz") + ": gzip-wrapped SPZ (v2/v3): bad gzip data") == 0,
+                damaged.message());
+  // gzip -n of "hi\n": a complete member that inflates to 3 bytes.
+  write_bytes(tmp.file("hi.gz"), {0x1f, 0x8b, 0x08, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03, 0xcb, 0xc8, 0xe4,
+                                  0x02, 0x00, 0x7a, 0x7a, 0x6f, 0xed, 0x03, 0x00, 0x00, 0x00});
+  const Status other = read_status(tmp.file("hi.gz"));
+  CHECK(other.code() == StatusCode::kInvalidArgument);
+  CHECK_MESSAGE(other.message().find("unsupported format: gzip data") != std::string::npos, other.message());
 }
 
 TEST_CASE("read_scene reads biker.spz (real scene)") {

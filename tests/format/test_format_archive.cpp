@@ -117,8 +117,20 @@ TEST_CASE("archive: options out of range are refused, naming the option") {
     REQUIRE_FALSE(r.ok());
     CHECK(r.status().message().find("opacity floor") != std::string::npos);
   }
+  for (double bad : {0.0, 0.6, -1e-6, std::numeric_limits<double>::quiet_NaN(),
+                     std::numeric_limits<double>::infinity()}) {
+    CAPTURE(bad);
+    format::ArchiveOptions o;
+    o.position_error = bad;
+    const Status checked = format::check_archive_options(o);  // what tools and api::convert check up front
+    CHECK(checked.code() == StatusCode::kInvalidArgument);
+    CHECK(checked.message().find("position error") != std::string::npos);
+    CHECK(format::encode_archive(scene, o).status().code() == StatusCode::kInvalidArgument);
+  }
+  CHECK(format::check_archive_options({}).ok());
   format::ArchiveOptions o;
   o.rotation_bits = 3;
+  CHECK_FALSE(format::check_archive_options(o).ok());
   CHECK_FALSE(format::encode_archive(scene, o).ok());
 }
 

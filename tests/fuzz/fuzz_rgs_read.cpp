@@ -6,12 +6,14 @@
 //     codec none or (by the last input byte) zstd, and writes a file that validates and is byte-identical
 //     when written twice;
 //   - the PLY export reads back with the same number of Gaussians (some may be dropped as invalid, never
-//     lost silently).
+//     lost silently);
+//   - the scene archives (fuzz_archive.h: a constant scale axis decodes to its value).
 // The libFuzzer build adds a container-aware mutator (rgs_mutator.cpp) that recomputes the checksums.
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "fuzz_archive.h"
 #include "fuzz_check.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/ply_writer.h"
@@ -53,6 +55,7 @@ void check_round_trips(const rgs::format::EncodedScene& scene, const rgs::format
   RGS_FUZZ_CHECK(back->cloud.size() + back->hygiene.dropped_gaussians == cloud.size(),
                  "PLY round trip changed the Gaussian count");
   RGS_FUZZ_CHECK(back->cloud.sh_degree == cloud.sh_degree, "PLY round trip changed the SH degree");
+  rgs::fuzz::check_archive(scene);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "fuzz_archive.h"
 #include "fuzz_check.h"
 #include "rgs/converter/interop.h"
 #include "rgs/converter/ply_reader.h"
@@ -24,7 +25,7 @@ namespace rgs::fuzz {
 /// kSanitize keeps only Gaussians that can be rendered: finite values, opacity in [0, 1]. They quantize
 /// (linear scales, or log scales when `log_scales` or when linear ones overflow FP16) unless the means span
 /// more than float32 holds (their bounding sphere's radius overflows, SPEC §4.1.1: the one refusal of valid
-/// values), and the written file passes validate().
+/// values), the written file passes validate(), and the scene archives (check_archive).
 inline void check_converts(const format::GaussianCloud& cloud, bool log_scales) {
   auto all_finite = [](const std::vector<float>& v) {
     return std::all_of(v.begin(), v.end(), [](float x) { return std::isfinite(x); });
@@ -53,6 +54,7 @@ inline void check_converts(const format::GaussianCloud& cloud, bool log_scales) 
   RGS_FUZZ_CHECK(bytes.ok(), bytes.status().to_string());
   const Status valid = format::validate(bytes->data(), bytes->size());
   RGS_FUZZ_CHECK(valid.ok(), valid.to_string());
+  check_archive(*scene);
 }
 
 inline uint64_t declared_of(const converter::PlyScene& scene) { return scene.declared_vertices; }

@@ -5,8 +5,12 @@ samples/guitar.ply (the only scene the project may ship, $RGS_DATA_DIR/SOURCES.m
   rgs_read/    small .rgs files: guitar crops quantized as the converter does (SPEC §4), codec none and zstd,
                linear and log scales, SH degree 0, 1 and 3, and an empty scene. guitar has SH degree 0; the
                higher-degree crops take their f_rest values from the f_dc values of the following Gaussians.
+               Scenes that leave the archive's quantizers nothing to span: a flat axis (scale_2 of one log-scale
+               in every Gaussian, as 2D-Gaussian and surfel exports write it: -inf, -30, -20; -3.3), one
+               Gaussian, and one Gaussian repeated.
   ply_read/    small PLY crops: INRIA layout binary little- and big-endian, ascii, another property order with
-               double means, SH degree 3 (f_rest as above), and a face element after the vertices.
+               double means, SH degree 3 (f_rest as above), and a face element after the vertices; flat, one-
+               Gaussian and repeated-Gaussian crops as for rgs_read.
   render_cpu/  inputs of fuzz_render_cpu.cpp: a camera looking at a guitar crop, with the RoofGS switches off,
                all on, and with SH degree 1.
   sog_meta/    the meta.json files of tests/data/sog's guitar crop (v2 with SH 0 and 3, the unversioned layout),
@@ -204,6 +208,11 @@ def cameras_input(downscale, width, height, every_kth, count):
     return struct.pack("<dHHB", downscale, width, height, every_kth) + text.encode("ascii")
 
 
+def flat(rows, log_scale):
+    """`rows` with scale_2 = log_scale in every Gaussian (a flat axis)."""
+    return [dict(r, scale_2=log_scale) for r in rows]
+
+
 def build():
     g64 = read_guitar(64)
     files = {}
@@ -217,6 +226,11 @@ def build():
     add("rgs_read", "guitar24_sh1_log.rgs", rgs_file(with_sh(g64[:24], 1), 1, True, rgs.CODEC_NONE))
     add("rgs_read", "guitar12_sh3_linear_zstd.rgs", rgs_file(with_sh(g64[:12], 3), 3, False, rgs.CODEC_ZSTD))
     add("rgs_read", "guitar0_empty.rgs", rgs_file([], 0, False, rgs.CODEC_NONE))
+    add("rgs_read", "guitar16_flat_inf_linear.rgs", rgs_file(flat(g64[:16], -math.inf), 0, False, rgs.CODEC_NONE))
+    add("rgs_read", "guitar16_flat_30_log.rgs", rgs_file(flat(g64[:16], -30.0), 0, True, rgs.CODEC_NONE))
+    add("rgs_read", "guitar16_flat_3p3_linear.rgs", rgs_file(flat(g64[:16], -3.3), 0, False, rgs.CODEC_NONE))
+    add("rgs_read", "guitar1_sh1_log.rgs", rgs_file(with_sh(g64[:1], 1), 1, True, rgs.CODEC_NONE))
+    add("rgs_read", "guitar16_repeated_linear.rgs", rgs_file(g64[:1] * 16, 0, False, rgs.CODEC_NONE))
 
     sh3 = INRIA[:9] + ["f_rest_%d" % i for i in range(45)] + INRIA[9:]
     splat_transform_order = ["x", "y", "z", "rot_0", "rot_1", "rot_2", "rot_3", "scale_0", "scale_1", "scale_2",
@@ -227,6 +241,11 @@ def build():
     add("ply_read", "guitar16_reordered_double.ply",
         ply_file(g64[:16], splat_transform_order, types={"x": "double", "y": "double", "z": "double"}))
     add("ply_read", "guitar6_sh3.ply", ply_file(with_sh(g64[:6], 3), sh3))
+    add("ply_read", "guitar16_flat_inf.ply", ply_file(flat(g64[:16], -math.inf), INRIA))
+    add("ply_read", "guitar16_flat_20.ply", ply_file(flat(g64[:16], -20.0), INRIA))
+    add("ply_read", "guitar16_flat_3p3.ply", ply_file(flat(g64[:16], -3.3), INRIA))
+    add("ply_read", "guitar1.ply", ply_file(g64[:1], INRIA))
+    add("ply_read", "guitar16_repeated.ply", ply_file(g64[:1] * 16, INRIA))
     face = b"".join(struct.pack("<Biii", 3, i, i + 1, i + 2) for i in range(2))
     add("ply_read", "guitar8_le_face.ply",
         ply_file(g64[:8], INRIA, tail=face, extra_header="element face 2\nproperty list uchar int vertex_indices"))

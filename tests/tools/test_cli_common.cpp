@@ -4,8 +4,11 @@
 
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
+
+#include <CLI/CLI.hpp>
 
 #include "cli_common.h"
 
@@ -56,4 +59,37 @@ TEST_CASE("file_safe_name and group_digits") {
   CHECK(group_digits(999) == "999");
   CHECK(group_digits(1000) == "1,000");
   CHECK(group_digits(2725620000) == "2,725,620,000");
+}
+
+TEST_CASE("parse_whole_number: decimal digits alone, nothing that wraps or saturates") {
+  using rgs::tools::parse_whole_number;
+  constexpr uint64_t kMax = UINT64_MAX;
+  CHECK(*parse_whole_number("1", 1, kMax) == 1);
+  CHECK(*parse_whole_number("18446744073709551615", 1, kMax) == kMax);
+  CHECK(*parse_whole_number("007", 1, kMax) == 7);
+  for (const char* bad : {"", "0", "-1", "+5", "18446744073709551616", "99999999999999999999", "5e21", "1e3",
+                          "1.5", " 5", "5 ", "0x10", "nan", "inf"}) {
+    CAPTURE(bad);
+    const auto parsed = parse_whole_number(bad, 1, kMax);
+    REQUIRE_FALSE(parsed.ok());
+    CHECK(parsed.status().code() == StatusCode::kInvalidArgument);
+    CHECK(parsed.status().message().find("1..18446744073709551615") != std::string::npos);
+  }
+  CHECK_FALSE(parse_whole_number("11", 1, 10).ok());
+}
+
+TEST_CASE("finite_number_in and whole_number_in: NaN, infinities and out-of-range values are refused") {
+  CLI::Validator finite = rgs::tools::finite_number_in(1.0, 200.0);
+  for (std::string good : {"1", "40", "200", "3.5e1"}) {
+    CAPTURE(good);
+    CHECK(finite(good).empty());
+  }
+  for (std::string bad : {"nan", "NaN", "-nan", "inf", "-inf", "0.5", "201", "x"}) {
+    CAPTURE(bad);
+    CHECK(finite(bad).find("is not a finite number in [1, 200]") != std::string::npos);
+  }
+  CLI::Validator whole = rgs::tools::whole_number_in(1, 100);
+  std::string ok = "100", negative = "-1";
+  CHECK(whole(ok).empty());
+  CHECK_FALSE(whole(negative).empty());
 }

@@ -185,6 +185,12 @@ struct ConvertReport {
   ConvertTimes seconds;
 };
 
+/// Checks the options that need no input, as convert() does before reading anything: SH degree, clip percentile,
+/// DC bits, zstd level and sections, the archive options (format::check_archive_options) with the archive
+/// profile, and that levels of detail come with the runtime profile and raw per-Gaussian sections. Tools call it
+/// to refuse a command line before any work. @return kInvalidArgument naming the option and the rule.
+Status check_convert_options(const ConvertOptions& options);
+
 /// Converts the scene at `src` (any format converter::read_scene detects, .rgs included) into `dst` in
 /// options.to or the format its extension names: read (every file of the scene checked against `dst`),
 /// drop SH bands, then quantize into a .rgs (provenance records the source, its XXH64 and the options) or

@@ -137,12 +137,14 @@ struct FittedConversion {
   api::ConvertReport convert;
 };
 
-/// Reads `src` (as api::convert does, with `options.read`, `sanitize`, `sh_degree`), builds `cameras`
+/// Checks `options` as written with the archive profile (api::check_convert_options: kInvalidArgument before
+/// anything is read, e.g. levels of detail), reads `src` (as api::convert does, with `options.read`, `sanitize`,
+/// `sh_degree`), builds `cameras`
 /// (api::make_cameras on the scene's bounds), runs fit_archive with `fit` (its quantize, sh_degree and start
 /// taken from `options`), then writes the scene it read with api::convert_scene(…, dst, options), the archive
 /// profile and the chosen ArchiveOptions (the fit's archive lending its means). `fit.provenance_bytes` is set
 /// from the source's name. The output is written only on success. Errors: those of reading `src`, of
-/// make_cameras, fit_archive and api::convert_scene; kInternal-free: a written file larger than a byte target is
+/// make_cameras (prefixed with `src`), fit_archive and api::convert_scene; kInternal-free: a written file larger than a byte target is
 /// kLimitExceeded (and not kept by `options.files`' caller: the transaction is not committed by this function).
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit);

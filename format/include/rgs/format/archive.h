@@ -73,6 +73,11 @@ struct ArchiveOptions {
 /// lose 2.2 dB for 2.7 B/G less; the 38,347-Gaussian flowers would lose 2.6 dB at only 8/8/7 bits).
 inline constexpr uint64_t kArchiveDenseGaussians = uint64_t{1} << 18;
 
+/// Checks every field of `options` against the range its comment states (position error in (0, 0.5], NaN
+/// refused; bits, steps, SH multipliers, opacity floor, codebook size, zstd level, Draco speed), before any
+/// scene is read. Errors: kInvalidArgument naming the option, its value and the range.
+Status check_archive_options(const ArchiveOptions& options);
+
 /// `options` with its automatic (0) bit counts replaced by the defaults for a scene of `gaussians`.
 ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians);
 
