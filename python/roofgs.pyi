@@ -58,7 +58,8 @@ class DeviceImage:
     def __dlpack__(self, stream: Optional[int] = None, **kwargs: Any) -> Any: ...
     def __dlpack_device__(self) -> Tuple[int, int]: ...
     def __array__(self, *args: Any, **kwargs: Any) -> np.ndarray: ...
-    def synchronize(self) -> None: ...
+    def synchronize(self) -> None:
+        """Wait until the render that writes this plane has finished; numpy() and __array__ wait by themselves."""
     def numpy(self) -> np.ndarray: ...
 
 
@@ -112,14 +113,31 @@ def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",
     (> 0: the bound on how long a frame waits for the file; levels that do not fit come in later frames), on the
     CPU with every level in host memory.
     lod=False draws its full detail. Other files ignore these (info["notes"] says so for non-default values)."""
-def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, scale_encoding: str = "linear",
-            sh_clip_percentile: float = 100.0, sh_dc_bits: int = 16, zstd: Sequence[str] = (), zstd_level: int = 19,
-            profile: str = "runtime", position_error: float = ..., sh_degree: Optional[int] = None,
-            lod: Optional[int] = None, spz_frame: str = "rub", sanitize: bool = False,
-            allow_empty: bool = False) -> Dict[str, Any]: ...
+def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Optional[int] = None,
+            scale_encoding: Optional[str] = None, sh_clip_percentile: Optional[float] = None,
+            sh_dc_bits: Optional[int] = None, zstd: Optional[Sequence[str]] = None, profile: Optional[str] = None,
+            position_error: Optional[float] = None, target_psnr: Optional[float] = None,
+            target_bytes: Optional[int] = None, cameras: Optional[_Path] = None, every: Optional[int] = None,
+            limit: Optional[int] = None, orbit: Optional[int] = None, path: Optional[int] = None,
+            fly: Optional[int] = None, width: Optional[int] = None, height: Optional[int] = None,
+            zstd_level: Optional[int] = None, sanitize: bool = False, allow_empty: bool = False,
+            lod: Optional[int] = None, lod_levels: Union[str, int, None] = None, lod_chunk: Optional[int] = None,
+            max_gaussians: Optional[int] = None, max_decompression_ratio: Optional[int] = None,
+            spz_frame: Optional[str] = None) -> Dict[str, Any]:
+    """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default).
+    A value outside an option's range raises ValueError saying the rule."""
 def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
-         to: Optional[str] = None, sh_degree: Optional[int] = None, profile: str = "runtime",
-         sanitize: bool = False, **options: Any) -> Dict[str, Any]: ...
+         to: Optional[str] = None, sh_degree: Optional[int] = None, scale_encoding: Optional[str] = None,
+         sh_clip_percentile: Optional[float] = None, sh_dc_bits: Optional[int] = None,
+         zstd: Optional[Sequence[str]] = None, profile: Optional[str] = None, position_error: Optional[float] = None,
+         target_psnr: Optional[float] = None, target_bytes: Optional[int] = None, cameras: Optional[_Path] = None,
+         every: Optional[int] = None, limit: Optional[int] = None, orbit: Optional[int] = None,
+         camera_path: Optional[int] = None, fly: Optional[int] = None, width: Optional[int] = None,
+         height: Optional[int] = None, zstd_level: Optional[int] = None, sanitize: bool = False,
+         allow_empty: bool = False, lod: Optional[int] = None, lod_levels: Union[str, int, None] = None,
+         lod_chunk: Optional[int] = None, max_gaussians: Optional[int] = None,
+         max_decompression_ratio: Optional[int] = None, spz_frame: Optional[str] = None) -> Dict[str, Any]:
+    """convert()'s options; rgs-convert's --path (a camera path of N views) is camera_path here."""
 def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,
                   viewmats: _Array, Ks: _Array, width: int, height: int, *, near_plane: float = 0.01,
                   sh_degree: Optional[int] = None, backgrounds: Optional[_Array] = None, render_mode: str = "RGB",

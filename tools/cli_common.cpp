@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -268,6 +269,10 @@ Result<bool> append_standard_input(std::vector<uint8_t>* bytes, uint64_t n) {
     return Status(StatusCode::kIoError, std::string("-: cannot read standard input: ") + std::strerror(errno));
   }
   try {
+    // Grow by an eighth, not the vector's doubling: what is held stays close to the bytes received, however
+    // many the stream's header declares.
+    const size_t need = bytes->size() + static_cast<size_t>(got);
+    if (need > bytes->capacity()) bytes->reserve(std::max(need, bytes->size() + bytes->size() / 8 + (size_t{1} << 20)));
     bytes->insert(bytes->end(), buffer, buffer + got);
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,
@@ -298,7 +303,7 @@ Result<std::vector<uint8_t>> read_standard_input() {
           known = rgs = true;
         }
       } else if (std::memcmp(bytes.data(), "ply", 3) == 0 && (bytes[3] == '\n' || bytes[3] == '\r')) {
-        auto size = converter::ply_stream_bytes(bytes.data(), bytes.size());
+        auto size = converter::ply_stream_bytes(bytes.data(), bytes.size(), scene_read_options().max_gaussians);
         if (!size.ok()) return Status(size.status()).prepend("-");
         if (*size != 0) {
           limit = *size;

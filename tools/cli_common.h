@@ -97,8 +97,10 @@ int commit_outputs(const char* tool, OutputSet& outputs);
 
 /// Reads standard input (the tools' "-" input) as a stream, never more than its content proves: a .rgs up to
 /// the file_size of its header (more bytes: kCorruptData; above ReadLimits::max_file_bytes: kLimitExceeded),
-/// a PLY up to what its header's elements can hold (converter::ply_stream_bytes), anything else only its
-/// first bytes, for the reader to name. @return kIoError with the OS cause.
+/// a PLY up to what its header's elements can hold (converter::ply_stream_bytes; a vertex count above
+/// --max-gaussians: kLimitExceeded from the header), anything else only its first bytes, for the reader to name.
+/// The buffer grows with the bytes received (by an eighth at a time), never to what a header declares.
+/// @return kIoError with the OS cause.
 Result<std::vector<uint8_t>> read_standard_input();
 
 /// 1234567 -> "1,234,567".

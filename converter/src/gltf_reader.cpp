@@ -188,11 +188,18 @@ class Reader {
   const detail::SceneFolder* folder_;
   const InteropReadOptions& options_;
   std::map<uint64_t, std::vector<uint8_t>> loaded_;
-  /// Bytes of the external buffers read, and bytes the accessors decode (repeats counted): the latter is held
-  /// to the decompression-ratio limit, since accessors without data and shared data decode to more than
-  /// the file holds.
-  uint64_t buffer_file_bytes_ = 0;
+  /// The scene's input bytes: the glTF or GLB file (`file_bytes`) and its external buffers' files, each
+  /// distinct file counted once however many buffers name it (SceneFolder::distinct_bytes).
+  uint64_t input_bytes(uint64_t file_bytes) const {
+    return folder_ != nullptr ? std::max(file_bytes, folder_->distinct_bytes()) : file_bytes;
+  }
+  /// Bytes of the external buffers held (a file that several buffers name held once per buffer) and bytes the
+  /// accessors decode (repeats counted): both are held to the decompression-ratio limit of input_bytes(),
+  /// since accessors without data and shared data decode to more than the files hold.
+  uint64_t buffer_bytes_held_ = 0;
   uint64_t accessor_bytes_ = 0;
+  /// The glTF or GLB file's bytes, for input_bytes().
+  uint64_t file_bytes_ = 0;
   /// Nodes already visited: glTF nodes form disjoint trees, so a second visit is a cycle or a second parent.
   std::vector<bool> visited_;
   std::vector<Primitive> prims_;
@@ -364,7 +371,15 @@ Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
                                                              "buffers[" + std::to_string(index) + "].uri"));
       Status read = folder_->read_prefix(file, length, &bytes);
       if (!read.ok()) return read.prepend(where);
-      buffer_file_bytes_ += length;
+      buffer_bytes_held_ += length;
+      if (buffer_bytes_held_ > detail::decode_budget(input_bytes(file_bytes_), options_.max_decompression_ratio)) {
+        return Status(StatusCode::kLimitExceeded,
+                      where + ": the buffers name " + std::to_string(buffer_bytes_held_) + " bytes of files (a " +
+                          "file named again counted again), more than the decompression-ratio limit of " +
+                          std::to_string(options_.max_decompression_ratio) + " x the " +
+                          std::to_string(input_bytes(file_bytes_)) + " bytes of distinct files read (files under " +
+                          "1 MiB count as 1 MiB; format/SPEC.md 5.5); raise --max-decompression-ratio to read it");
+      }
     }
     if (bytes.size() < length) {
       return corrupt(where + " declares " + std::to_string(length) + " bytes but its data has " +
@@ -663,6 +678,7 @@ void copy_gaussians(const PrimitiveAccessors& d, const NodeTransform& t, uint64_
 }
 
 Result<InteropScene> Reader::read(const std::string& container, uint64_t file_bytes) {
+  file_bytes_ = file_bytes;
   if (!doc_.is_object()) return corrupt("glTF JSON is not an object");
   RGS_RETURN_IF_ERROR(check_asset());
   RGS_RETURN_IF_ERROR(find_primitives());
@@ -684,7 +700,7 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
     }
     parts.push_back(std::move(d));
     // Per primitive, so that many nodes drawing one mesh are refused before their parts pile up.
-    RGS_RETURN_IF_ERROR(detail::check_decode_budget(accessor_bytes_, file_bytes + buffer_file_bytes_,
+    RGS_RETURN_IF_ERROR(detail::check_decode_budget(accessor_bytes_, input_bytes(file_bytes),
                                                     options_.max_decompression_ratio, "",
                                                     "the accessors of " + std::to_string(total) + " Gaussians"));
   }
@@ -692,7 +708,7 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
   InteropScene scene;
   scene.format = container;
   scene.format_version = 2;
-  scene.file_bytes = file_bytes + buffer_file_bytes_;
+  scene.file_bytes = input_bytes(file_bytes);
   scene.declared_gaussians = total;
   scene.stored_frame = "LUF";
   format::GaussianCloud& cloud = scene.cloud;

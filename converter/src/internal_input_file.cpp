@@ -26,8 +26,9 @@ std::string file_kind(mode_t mode) {
   return "not a regular file";
 }
 
-/// Checks that the open descriptor `fd` is a regular file and returns its size; closes it otherwise.
-Status check_regular(int* fd, const std::string& path, uint64_t* size) {
+/// Checks that the open descriptor `fd` is a regular file and returns its size (and, when `identity` is not
+/// null, its device and inode); closes it otherwise.
+Status check_regular(int* fd, const std::string& path, uint64_t* size, FileIdentity* identity = nullptr) {
   struct stat st;
   if (::fstat(*fd, &st) != 0) {
     const int err = errno;
@@ -39,6 +40,7 @@ Status check_regular(int* fd, const std::string& path, uint64_t* size) {
     return Status(StatusCode::kIoError, path + ": not a regular file (" + file_kind(st.st_mode) + ")");
   }
   *size = static_cast<uint64_t>(st.st_size);
+  if (identity != nullptr) *identity = FileIdentity{static_cast<uint64_t>(st.st_dev), static_cast<uint64_t>(st.st_ino)};
   return Status();
 }
 
@@ -183,7 +185,15 @@ Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std
 
 SceneFolder::SceneFolder(std::string root, std::string entry) : root_(std::move(root)) {
   if (root_.empty()) root_ = ".";
-  if (!entry.empty()) files_.push_back(std::move(entry));
+  if (entry.empty()) return;
+  // The entry file was (or is about to be) read as the user named it; a name inside the scene that reaches
+  // it again reads nothing new.
+  struct stat st;
+  if (::stat(entry.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+    distinct_.emplace(FileIdentity{static_cast<uint64_t>(st.st_dev), static_cast<uint64_t>(st.st_ino)},
+                      static_cast<uint64_t>(st.st_size));
+  }
+  files_.push_back(std::move(entry));
 }
 
 Result<std::string> resolve_scene_reference(const std::string& reference, const std::string& base,
@@ -232,10 +242,24 @@ std::string SceneFolder::display_bounded(const std::string& relative) const {
   return display(relative.size() <= 96 ? relative : relative.substr(0, 96) + "...");
 }
 
-void SceneFolder::record(const std::string& relative) const {
+void SceneFolder::record(const std::string& relative, const FileIdentity& identity, uint64_t bytes) const {
   const std::string path = display(relative);
   std::lock_guard<std::mutex> lock(mutex_);
   if (std::find(files_.begin(), files_.end(), path) == files_.end()) files_.push_back(path);
+  uint64_t& counted = distinct_[identity];
+  counted = std::max(counted, bytes);
+}
+
+uint64_t SceneFolder::distinct_bytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  uint64_t total = 0;
+  for (const auto& [identity, bytes] : distinct_) total += bytes;
+  return total;
+}
+
+uint64_t SceneFolder::distinct_files() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return distinct_.size();
 }
 
 std::vector<std::string> SceneFolder::files() const {
@@ -243,7 +267,7 @@ std::vector<std::string> SceneFolder::files() const {
   return files_;
 }
 
-Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* size) const {
+Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* size, FileIdentity* identity) const {
   const std::string path = display_bounded(relative);
   int dir = ::open(root_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir < 0) return Status(StatusCode::kIoError, root_ + ": cannot open the scene's folder: " + errno_message(errno));
@@ -285,14 +309,15 @@ Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* si
     start = slash + 1;
   }
   // The file may have been swapped between the check and the open: check what was opened.
-  return check_regular(fd, path, size);
+  return check_regular(fd, path, size, identity);
 }
 
 Status SceneFolder::read(const std::string& relative, uint64_t max_bytes, std::vector<uint8_t>* out) const {
   int fd = -1;
   uint64_t size = 0;
-  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size));
-  record(relative);
+  FileIdentity identity;
+  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size, &identity));
+  record(relative, identity, std::min(size, max_bytes));
   if (size > max_bytes) {
     ::close(fd);
     return Status(StatusCode::kLimitExceeded, display_bounded(relative) + ": file is " + std::to_string(size) +
@@ -304,8 +329,9 @@ Status SceneFolder::read(const std::string& relative, uint64_t max_bytes, std::v
 Status SceneFolder::read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const {
   int fd = -1;
   uint64_t size = 0;
-  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size));
-  record(relative);
+  FileIdentity identity;
+  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size, &identity));
+  record(relative, identity, std::min(size, n));
   if (size < n) {
     ::close(fd);
     return Status(StatusCode::kCorruptData, display_bounded(relative) + ": file has " + std::to_string(size) +

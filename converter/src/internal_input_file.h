@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -44,6 +45,13 @@ std::string errno_message(int err);
 Result<std::string> resolve_scene_reference(const std::string& reference, const std::string& base,
                                             const std::string& where, const std::string& field);
 
+/// A file as the file system knows it, whatever name reached it: its device and inode.
+struct FileIdentity {
+  uint64_t device = 0;
+  uint64_t inode = 0;
+  bool operator<(const FileIdentity& o) const { return device != o.device ? device < o.device : inode < o.inode; }
+};
+
 /// The files of one multi-file scene (a SOG folder, a streamed SOG, a .gltf with its buffers), opened under
 /// one policy (docs/INPUT_HYGIENE.md "Files a scene names"):
 /// - a reference (SOG `files`, streamed SOG `filenames`, glTF `buffers[].uri`) is a URI reference, as the web
@@ -54,13 +62,16 @@ Result<std::string> resolve_scene_reference(const std::string& reference, const 
 ///   target's properties are not reported);
 /// - only regular files are opened (a FIFO, device or folder is refused before it is opened, so nothing
 ///   blocks);
-/// - every file read is recorded (files()), so that a tool can refuse an output that would replace it.
+/// - every file read is recorded (files()), so that a tool can refuse an output that would replace it;
+/// - every distinct file (device and inode) counts once towards the scene's bytes (distinct_bytes()), however
+///   many names reach it (spellings of one path, hard links), so that naming a file again never raises a limit
+///   that is set relative to the scene's size (the decompression ratio).
 /// The scene's folder itself (the folder of the file the user named) is trusted as named.
 /// Thread safety: read() may be called concurrently.
 class SceneFolder {
  public:
-  /// `root`: the folder holding the scene's entry file; `entry`: that file's path when it was read already
-  /// (it is recorded first in files()), else empty.
+  /// `root`: the folder holding the scene's entry file; `entry`: that file's path when it is read as named
+  /// (it is recorded first in files(), and counted in distinct_bytes() at its size), else empty.
   SceneFolder(std::string root, std::string entry);
 
   /// resolve_scene_reference for a file of this scene.
@@ -86,13 +97,21 @@ class SceneFolder {
   /// Every file read so far (the entry file first), in the order of their first read.
   std::vector<std::string> files() const;
 
+  /// Bytes of the distinct files read so far, each file (device and inode) counted once, at the most bytes
+  /// read of it (a prefix read counts its prefix); the entry file included. The basis of the scene's
+  /// decompression-ratio limit (decode_budget).
+  uint64_t distinct_bytes() const;
+  /// How many distinct files that is.
+  uint64_t distinct_files() const;
+
  private:
-  Status open_file(const std::string& relative, int* fd, uint64_t* size) const;
-  void record(const std::string& relative) const;
+  Status open_file(const std::string& relative, int* fd, uint64_t* size, FileIdentity* identity) const;
+  void record(const std::string& relative, const FileIdentity& identity, uint64_t bytes) const;
 
   std::string root_;
   mutable std::mutex mutex_;
   mutable std::vector<std::string> files_;
+  mutable std::map<FileIdentity, uint64_t> distinct_;
 };
 
 /// The files a multi-file scene names, listed without decoding it, for converter::list_scene_files. Each resolves

@@ -222,7 +222,7 @@ Status parse_ply_header(const uint8_t* data, size_t header_end, PlyHeader* out) 
 
 namespace rgs::converter {
 
-Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size) {
+Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size, uint64_t max_gaussians) {
   if (size >= 5 && !detail::starts_with_ply_magic(data, size)) {
     return Status(StatusCode::kCorruptData, "not a PLY file (no 'ply' line first)");
   }
@@ -237,6 +237,11 @@ Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size) {
   constexpr uint64_t kValueBound = 64, kListRowBound = uint64_t{64} << 10;
   uint64_t total = header.data_offset;
   for (const detail::PlyElement& e : header.elements) {
+    if (e.name == "vertex" && e.count > max_gaussians) {
+      return Status(StatusCode::kLimitExceeded, "PLY declares " + std::to_string(e.count) +
+                                                    " vertices, above the limit of " + std::to_string(max_gaussians) +
+                                                    " (refused from its header, before its data is read)");
+    }
     uint64_t row = 0;
     for (const detail::PlyProperty& p : e.properties) {
       const bool exact = header.storage != detail::PlyStorage::kAscii && !p.is_list && p.known_type;

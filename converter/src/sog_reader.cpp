@@ -280,9 +280,12 @@ class FolderFiles final : public SogFiles {
   std::string meta_;
 };
 
+/// Entries of a bundled .sog. Every entry is held to the decompression-ratio limit of the archive's bytes
+/// before it is inflated (a deflated entry may expand 1032-fold; SPEC 5.5's limit is far lower).
 class ZipFiles final : public SogFiles {
  public:
-  ZipFiles(const detail::ZipArchive* zip, std::string archive) : zip_(zip), archive_(std::move(archive)) {}
+  ZipFiles(const detail::ZipArchive* zip, std::string archive, uint64_t archive_bytes, uint32_t ratio)
+      : zip_(zip), archive_(std::move(archive)), archive_bytes_(archive_bytes), ratio_(ratio) {}
   Status read(const std::string& name, const std::string& field, uint64_t max_bytes,
               std::vector<uint8_t>* out) const override {
     // Entries are looked up, not opened, but a name that would leave a folder is refused as it is there.
@@ -292,7 +295,14 @@ class ZipFiles final : public SogFiles {
       return Status(StatusCode::kIoError,
                     archive_ + ": the archive has no entry '" + detail::bounded_text(name, 96) + "'");
     }
-    return zip_->extract(*entry, max_bytes, out);
+    return extract(*entry, max_bytes, out);
+  }
+  /// Inflates `entry` (at most `max_bytes`) once its declared size is within the archive's limit.
+  Status extract(const detail::ZipEntry& entry, uint64_t max_bytes, std::vector<uint8_t>* out) const {
+    RGS_RETURN_IF_ERROR(detail::check_decode_budget(
+        entry.uncompressed_size, archive_bytes_, ratio_, archive_,
+        "the deflated bytes of ZIP entry '" + detail::bounded_text(entry.name, 96) + "'"));
+    return zip_->extract(entry, max_bytes, out);
   }
   std::string display(const std::string& name) const override {
     return archive_ + ":" + detail::bounded_text(name, 96);
@@ -301,6 +311,8 @@ class ZipFiles final : public SogFiles {
  private:
   const detail::ZipArchive* zip_;
   std::string archive_;
+  uint64_t archive_bytes_;
+  uint32_t ratio_;
 };
 
 // ---------------------------------------------------------------------------------------------------
@@ -667,20 +679,29 @@ Status read_entry(const std::string& path, const char* entry_name, uint64_t max_
 }
 
 /// Reads every chunk's images and checks what they decode to against the decompression-ratio limit, before
-/// anything is allocated for pixels or Gaussians. `file_bytes`: the scene's bytes read so far; the images'
-/// own bytes are added unless they lie inside those (`in_file_bytes`: a bundle's entries).
-Status load_images(const std::vector<ChunkJob*>& jobs, uint64_t file_bytes, bool in_file_bytes,
+/// anything is allocated for pixels or Gaussians. The limit's basis is the scene's distinct files: those
+/// `folder` has read, each counted once however many chunks or fields name it (SceneFolder::distinct_bytes),
+/// or, for a bundle (`folder` null), the archive's `file_bytes`, which holds its entries. The image bytes held
+/// until decoding (a file named again is held again) stay within the limit of the distinct files read so far.
+Status load_images(const std::vector<ChunkJob*>& jobs, const detail::SceneFolder* folder, uint64_t file_bytes,
                    const SceneReadOptions& options, const std::string& where) {
-  uint64_t decoded = 0;
-  const uint64_t budget = detail::decode_budget(file_bytes, options.max_decompression_ratio);
+  const uint32_t ratio = options.max_decompression_ratio;
+  auto basis = [&] { return folder != nullptr ? folder->distinct_bytes() : file_bytes; };
+  uint64_t decoded = 0, held = 0;
   for (ChunkJob* job : jobs) {
     // Each image file is bounded by what may still be decoded: an image never decodes to less than its size.
-    RGS_RETURN_IF_ERROR(load_chunk_images(job, std::min(kMaxImageFileBytes, budget)));
-    if (!in_file_bytes) file_bytes += job->bytes_read;
+    RGS_RETURN_IF_ERROR(load_chunk_images(job, std::min(kMaxImageFileBytes, detail::decode_budget(basis(), ratio))));
+    held += job->bytes_read;
+    if (held > detail::decode_budget(basis(), ratio)) {
+      return Status(StatusCode::kLimitExceeded,
+                    where + ": the chunks name " + std::to_string(held) + " bytes of images (a file named again " +
+                        "counted again), more than the decompression-ratio limit of " + std::to_string(ratio) +
+                        " x the " + std::to_string(basis()) + " bytes of distinct files read (files under 1 MiB " +
+                        "count as 1 MiB; format/SPEC.md 5.5); raise --max-decompression-ratio to read it");
+    }
     decoded += job->decoded_bytes;
   }
-  return detail::check_decode_budget(decoded, file_bytes, options.max_decompression_ratio, where,
-                                     "the WebP images (RGBA8)");
+  return detail::check_decode_budget(decoded, basis(), ratio, where, "the WebP images (RGBA8)");
 }
 
 Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions& options) {
@@ -702,8 +723,10 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
       return Status(StatusCode::kCorruptData,
                     entry.path + ": ZIP archive has no meta.json, so it is not a bundled SOG");
     }
-    RGS_RETURN_IF_ERROR(zip.extract(*meta, kMaxMetaBytes, &meta_bytes));
-    files = std::make_unique<ZipFiles>(&zip, entry.path);
+    auto zip_files =
+        std::make_unique<ZipFiles>(&zip, entry.path, entry.bytes.size(), options.max_decompression_ratio);
+    RGS_RETURN_IF_ERROR(zip_files->extract(*meta, kMaxMetaBytes, &meta_bytes));
+    files = std::move(zip_files);
     scene.format_id = "sog_bundle";
     if (options.hash_file) scene.file_xxh64 = XXH64(entry.bytes.data(), entry.bytes.size(), 0);
   } else {
@@ -727,13 +750,14 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
   RGS_RETURN_IF_ERROR(check_count(job.meta.count, options, meta_name));
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
   job.ranges.push_back(Range{0, job.meta.count, 0});
-  RGS_RETURN_IF_ERROR(load_images({&job}, scene.file_bytes, bundled, options, meta_name));
+  RGS_RETURN_IF_ERROR(load_images({&job}, bundled ? nullptr : entry.folder.get(), scene.file_bytes, options,
+                                  meta_name));
   scene.cloud.sh_degree = declared_degree(job.meta);
   detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(job.meta.count));
   RGS_RETURN_IF_ERROR(decode_chunk(&job, detail::worker_count(UINT64_MAX, 1), &scene.cloud));
   if (!bundled) {
-    scene.file_bytes += job.bytes_read;
-    scene.file_count += job.files_read;
+    scene.file_bytes = entry.folder->distinct_bytes();
+    scene.file_count = entry.folder->distinct_files();
     if (options.hash_file) {
       hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
       scene.file_xxh64 = combine_hashes(hashes);
@@ -878,8 +902,6 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
   InputScene scene;
   std::vector<uint64_t> hashes;
   if (options.hash_file) hashes.push_back(XXH64(bytes.data(), bytes.size(), 0));
-  scene.file_bytes = bytes.size();
-  scene.file_count = 1;
 
   RGS_ASSIGN_OR_RETURN(const LodIndex index, parse_lod_index(root, path, folder, options));
   const auto& [levels, lod, names] = index;
@@ -926,8 +948,6 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
                                     detail::bounded_text(names[file], 96) + "'"));
     }
     if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
-    scene.file_bytes += meta_bytes.size();
-    ++scene.file_count;
     RGS_ASSIGN_OR_RETURN(json chunk_root, parse_json(meta_bytes, meta_path, "streamed SOG chunk meta.json"));
     ChunkJob job;
     job.meta_name = meta_path;
@@ -952,7 +972,7 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
 
   std::vector<ChunkJob*> job_pointers;
   for (ChunkJob& job : jobs) job_pointers.push_back(&job);
-  RGS_RETURN_IF_ERROR(load_images(job_pointers, scene.file_bytes, false, options, path));
+  RGS_RETURN_IF_ERROR(load_images(job_pointers, &folder, 0, options, path));
   scene.cloud.sh_degree = degree;
   detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(total));
   std::vector<Status> errors(jobs.size());
@@ -965,10 +985,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
     errors[item] = decode_chunk(&jobs[item], inner, &scene.cloud);
   }));
   for (Status& s : errors) RGS_RETURN_IF_ERROR(s);
-  for (const ChunkJob& job : jobs) {
-    scene.file_bytes += job.bytes_read;
-    scene.file_count += job.files_read;
-  }
+  scene.file_bytes = folder.distinct_bytes();
+  scene.file_count = folder.distinct_files();
   if (options.hash_file) {
     // Meta files first (read above, in file order), then each chunk's images in file order.
     for (const ChunkJob& job : jobs) hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());

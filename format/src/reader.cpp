@@ -962,6 +962,30 @@ Result<EncodedScene> RgsFile::read_scene() const {
       scene.opacities.resize(n);
       scene.sh.resize(n * k3);
       if (!scene.sh_dc_residual.empty()) scene.sh_dc_residual.resize(n * 3);
+      // Every level-0 range of the copy is checked as a loader of ranges checks its copy (read_lod_range):
+      // its XXH64 and the chunk sphere's rule, which the sections' checks above do not cover.
+      const auto bytes = [](const auto& array, uint64_t first, uint64_t record) {
+        return ByteView{reinterpret_cast<const uint8_t*>(array.data()) + first * record,
+                        static_cast<size_t>(record)};
+      };
+      for (uint32_t chunk = 0; chunk < lod_->chunk_count; ++chunk) {
+        const LodLevel& r = lod_->at(0, chunk);
+        LodRangeView view;
+        view.first = r.first;
+        view.count = r.count;
+        view.means = bytes(scene.means, r.first, 12);
+        view.rotations = bytes(scene.rotations, r.first, 8);
+        view.scales = bytes(scene.scales, r.first, 6);
+        view.opacities = bytes(scene.opacities, r.first, 2);
+        view.sh = bytes(scene.sh, r.first, k3);
+        if (!scene.sh_dc_residual.empty()) view.sh_dc_residual = bytes(scene.sh_dc_residual, r.first, 3);
+        for (ByteView* v : {&view.means, &view.rotations, &view.scales, &view.opacities, &view.sh,
+                            &view.sh_dc_residual}) {
+          v->size *= static_cast<size_t>(r.count);
+        }
+        Status s = detail::check_lod_range(*lod_, 0, chunk, view, metadata_, options_.verify_checksums);
+        if (!s.ok()) return s.prepend(name_);
+      }
     }
     return scene;
   } catch (const std::bad_alloc&) {

@@ -1,15 +1,20 @@
 // Python bindings of the RoofGS front door (rgs/api). Errors become roofgs.Error (a RuntimeError) carrying
 // .code (the StatusCode number) and .code_name ("kIoError", ...). GPU images implement the DLPack protocol
 // (__dlpack__, __dlpack_device__), so torch.from_dlpack() shares their memory without a copy.
+#include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <unistd.h>
+
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -307,9 +312,14 @@ py::array_t<float> float_array(const py::object& obj, const char* what) {
     if (device.first != kDLCPU && py::hasattr(obj, "cpu")) source = obj.attr("cpu")();
   }
   if (py::hasattr(source, "detach")) source = source.attr("detach")();
-  auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(source);
-  if (!a) raise(Status(StatusCode::kInvalidArgument, std::string(what) + ": not an array of numbers"));
-  return a;
+  // array_t::ensure() would clear the conversion's error: a MemoryError (an array too large to copy) must
+  // reach the caller as such, not as "not an array of numbers".
+  try {
+    return py::array_t<float, py::array::c_style | py::array::forcecast>(source);
+  } catch (py::error_already_set& e) {
+    if (e.matches(PyExc_MemoryError)) throw;
+  }
+  raise(Status(StatusCode::kInvalidArgument, std::string(what) + ": not an array of numbers"));
 }
 
 /// Checks that `shape` is [n, cols...] (n taken from the first array when *n is 0).
@@ -611,6 +621,31 @@ std::optional<ArraysKey> arrays_key(const std::array<const py::object*, 5>& arra
 }
 
 /// ConvertOptions from convert()'s and save()'s keyword arguments (the defaults are ConvertOptions's own).
+/// The integer `value` of option `name`, which must lie in [lo, hi]; ValueError saying the rule otherwise (a
+/// negative or 2**70 would else be pybind11's "Unable to cast Python instance").
+uint64_t integer_option(const py::handle& value, const char* name, uint64_t lo, uint64_t hi) {
+  const std::string rule = std::string(name) + " must be an integer in " + std::to_string(lo) + ".." +
+                           std::to_string(hi) + ", not " + std::string(py::repr(value)).substr(0, 40);
+  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value)) throw py::value_error(rule);
+  const py::int_ low(lo), high(hi);
+  const int below = PyObject_RichCompareBool(value.ptr(), low.ptr(), Py_LT);
+  const int above = PyObject_RichCompareBool(value.ptr(), high.ptr(), Py_GT);
+  if (below < 0 || above < 0) throw py::error_already_set();
+  if (below || above) throw py::value_error(rule);
+  return value.cast<uint64_t>();
+}
+
+/// A finite number option in [lo, hi]; ValueError saying the rule otherwise.
+double number_option(const py::handle& value, const char* name, double lo, double hi) {
+  const std::string rule = std::string(name) + " must be a number in " + std::to_string(lo) + ".." + std::to_string(hi);
+  if (py::isinstance<py::bool_>(value) || !(py::isinstance<py::int_>(value) || py::isinstance<py::float_>(value))) {
+    throw py::value_error(rule);
+  }
+  const double v = value.cast<double>();
+  if (!(v >= lo && v <= hi)) throw py::value_error(rule + ", not " + std::string(py::repr(value)).substr(0, 40));
+  return v;
+}
+
 api::ConvertOptions convert_options(const py::kwargs& kwargs) {
   api::ConvertOptions o;
   o.converter_name = "roofgs python";
@@ -628,19 +663,33 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
       if (p != "archive" && p != "runtime") raise(Status(StatusCode::kInvalidArgument, "profile must be 'runtime' or 'archive'"));
       o.profile = p == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
     } else if (key == "sh_clip_percentile") {
-      o.sh_clip_percentile = value.cast<float>();
+      o.sh_clip_percentile = static_cast<float>(number_option(value, "sh_clip_percentile", 0.001, 100.0));
     } else if (key == "sh_dc_bits") {
-      o.sh_dc_bits = value.cast<uint32_t>();
+      o.sh_dc_bits = static_cast<uint32_t>(integer_option(value, "sh_dc_bits", 8, 16));
+      if (o.sh_dc_bits != 8 && o.sh_dc_bits != 16) throw py::value_error("sh_dc_bits must be 8 or 16");
     } else if (key == "zstd") {
       o.zstd_sections = value.cast<std::vector<std::string>>();
     } else if (key == "zstd_level") {
-      o.zstd_level = value.cast<int>();
+      o.zstd_level = static_cast<int>(integer_option(value, "zstd_level", 1, 22));
     } else if (key == "position_error") {
-      o.archive.position_error = value.cast<double>();
+      o.archive.position_error = number_option(value, "position_error", 1e-9, 0.5);
     } else if (key == "sh_degree") {
-      o.sh_degree = value.cast<std::optional<uint32_t>>();
+      if (!value.is_none()) o.sh_degree = static_cast<uint32_t>(integer_option(value, "sh_degree", 0, 3));
     } else if (key == "lod") {
-      o.read.lod = value.cast<std::optional<uint32_t>>();
+      if (!value.is_none()) o.read.lod = static_cast<uint32_t>(integer_option(value, "lod", 0, 63));
+    } else if (key == "lod_levels") {
+      if (py::isinstance<py::str>(value) && value.cast<std::string>() == "auto") {
+        o.lod_levels = 0;
+      } else if (!value.is_none()) {
+        if (!py::isinstance<py::int_>(value)) throw py::value_error("lod_levels must be 'auto' or an integer in 1..16");
+        o.lod_levels = static_cast<uint32_t>(integer_option(value, "lod_levels", 1, 16));
+      }
+    } else if (key == "lod_chunk") {
+      o.lod_chunk_gaussians = static_cast<uint32_t>(integer_option(value, "lod_chunk", 1, uint64_t{1} << 30));
+    } else if (key == "max_gaussians") {
+      o.read.max_gaussians = integer_option(value, "max_gaussians", 1, UINT64_MAX);
+    } else if (key == "max_decompression_ratio") {
+      o.read.max_decompression_ratio = static_cast<uint32_t>(integer_option(value, "max_decompression_ratio", 1, 32768));
     } else if (key == "spz_frame") {
       spz_frame = value.cast<std::string>();
     } else if (key == "sanitize") {
@@ -650,7 +699,8 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
     } else {
       throw py::type_error("unexpected keyword argument '" + key +
                            "' (to, scale_encoding, sh_clip_percentile, sh_dc_bits, zstd, zstd_level, profile, position_error, "
-                           "sh_degree, lod, spz_frame, sanitize, allow_empty)");
+                           "sh_degree, lod, lod_levels, lod_chunk, max_gaussians, max_decompression_ratio, spz_frame, "
+                           "sanitize, allow_empty)");
     }
   }
   const converter::SceneReadOptions read = read_options(spz_frame);
@@ -1014,6 +1064,81 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
 
 }  // namespace
 
+/// convert() and save(): the options of rgs-convert in `kwargs` (by the snake_case of their long options; None
+/// never passed), written by `plain`, or with target_psnr / target_bytes through rate control
+/// (audit::convert_fitted) reading `src`. Returns the report's dict.
+py::dict convert_with_options(const std::string& src, const std::string& dst, py::kwargs kwargs,
+                              const std::function<Result<api::ConvertReport>(const api::ConvertOptions&)>& plain) {
+  // Rate control's arguments (audit::convert_fitted); the rest are ConvertOptions.
+  std::optional<double> target_psnr;
+  std::optional<uint64_t> target_bytes;
+  api::CameraChoice cameras;
+  bool views_chosen = false;
+  auto take = [&](const char* key) -> std::optional<py::object> {
+    if (!kwargs.contains(key)) return std::nullopt;
+    py::object value = kwargs[key];
+    PyDict_DelItemString(kwargs.ptr(), key);
+    if (value.is_none()) return std::nullopt;
+    return value;
+  };
+  constexpr uint64_t kMaxCount = 100000, kMaxEvery = 2147483647;
+  if (auto v = take("target_psnr")) target_psnr = number_option(*v, "target_psnr", 1.0, 200.0);
+  if (auto v = take("target_bytes")) target_bytes = integer_option(*v, "target_bytes", 1, UINT64_MAX);
+  if (auto v = take("cameras")) cameras.cameras_path = v->cast<std::filesystem::path>().string(), views_chosen = true;
+  if (auto v = take("every")) cameras.every = static_cast<uint32_t>(integer_option(*v, "every", 1, kMaxEvery));
+  if (auto v = take("limit")) cameras.limit = static_cast<uint32_t>(integer_option(*v, "limit", 1, kMaxEvery)), views_chosen = true;
+  if (auto v = take("orbit")) cameras.orbit = static_cast<uint32_t>(integer_option(*v, "orbit", 1, kMaxCount)), views_chosen = true;
+  if (auto v = take("path")) cameras.path = static_cast<uint32_t>(integer_option(*v, "path", 1, kMaxCount)), views_chosen = true;
+  if (auto v = take("fly")) cameras.fly = static_cast<uint32_t>(integer_option(*v, "fly", 1, kMaxCount)), views_chosen = true;
+  if (auto v = take("width")) cameras.width = static_cast<uint32_t>(integer_option(*v, "width", 11, 32768)), views_chosen = true;
+  if (auto v = take("height")) cameras.height = static_cast<uint32_t>(integer_option(*v, "height", 11, 32768)), views_chosen = true;
+  api::ConvertOptions options = convert_options(kwargs);
+  if (!target_psnr && !target_bytes) {
+    if (views_chosen) {
+      throw py::type_error("cameras, every, limit, orbit, path, fly, width and height choose the views of "
+                           "target_psnr or target_bytes");
+    }
+    Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
+    {
+      py::gil_scoped_release release;
+      r = plain(options);
+    }
+    return report_dict(unwrap(std::move(r)));
+  }
+  if (target_psnr && target_bytes) throw py::type_error("target_psnr and target_bytes exclude each other");
+  if (cameras.cameras_path.empty() && cameras.orbit == 0 && cameras.path == 0) cameras.orbit = 4;
+  cameras.orbit_width = 960;
+  cameras.orbit_height = 540;
+  audit::FitOptions fit;
+  fit.goal = target_psnr ? audit::FitGoal::kTargetPsnr : audit::FitGoal::kTargetBytes;
+  fit.target_psnr_db = target_psnr.value_or(0);
+  fit.target_bytes = target_bytes.value_or(0);
+  fit.audit.backend = api::cuda_available() ? audit::Backend::kCuda : audit::Backend::kCpu;
+  Result<audit::FittedConversion> r = Status(StatusCode::kInvalidArgument, "not converted");
+  {
+    py::gil_scoped_release release;
+    r = audit::convert_fitted(src, dst, options, cameras, fit);
+  }
+  audit::FittedConversion done = unwrap(std::move(r));
+  py::dict d = report_dict(done.convert);
+  const audit::FitResult& f = done.fit;
+  const format::ArchiveOptions& a = f.chosen.options;
+  py::dict settings(py::arg("position_error") = a.position_error, py::arg("rotation_bits") = a.rotation_bits,
+                    py::arg("rotation_step") = a.rotation_step, py::arg("scale_bits") = a.scale_bits,
+                    py::arg("scale_step") = a.scale_step, py::arg("opacity_bits") = a.opacity_bits,
+                    py::arg("opacity_step") = a.opacity_step, py::arg("opacity_floor") = a.opacity_floor,
+                    py::arg("sh_step_multipliers") = std::vector<uint32_t>(a.sh_step_multipliers.begin(),
+                                                                            a.sh_step_multipliers.end()));
+  d["rate_control"] = py::dict(
+      py::arg("psnr_mean_db") = f.chosen.psnr_mean_db, py::arg("psnr_min_db") = f.chosen.psnr_min_db,
+      py::arg("search_psnr_db") = f.search_psnr_db, py::arg("settings") = settings,
+      py::arg("views") = f.views, py::arg("width") = f.width, py::arg("height") = f.height,
+      py::arg("backend") = audit::backend_name(f.backend), py::arg("encodings") = f.encodings,
+      py::arg("renders") = f.renders, py::arg("seconds") = f.seconds,
+      py::arg("encode_seconds") = f.encode_seconds, py::arg("render_seconds") = f.render_seconds);
+  return d;
+}
+
 PYBIND11_MODULE(roofgs, m) {
   m.doc() = "RoofGS: load .rgs / 3DGS PLY scenes, render them with presets on the GPU or the CPU reference";
   m.attr("__version__") = RGS_VERSION_STRING;
@@ -1138,7 +1263,9 @@ PYBIND11_MODULE(roofgs, m) {
              const bool cuda = p.image->device() == api::Device::kCuda;
              return py::make_tuple(int(cuda ? kDLCUDA : kDLCPU), cuda ? p.image->cuda_device() : 0);
            })
-      .def("synchronize", [](const ImagePlane& p) { check(p.image->synchronize()); })
+      .def("synchronize", [](const ImagePlane& p) { check(p.image->synchronize()); },
+           "Wait until the render that writes this plane has finished (its stream synchronized); numpy() and "
+           "__array__ wait by themselves. roofgs.Error kCudaError naming the call if the render failed")
       .def("numpy", &plane_numpy, "Copy to a NumPy array (waits for the render)")
       .def("__array__", [](const ImagePlane& p, py::args, py::kwargs) { return plane_numpy(p); },
            "NumPy's protocol: np.asarray(image), PIL.Image.fromarray(image) of an rgba8 image")
@@ -1309,78 +1436,75 @@ PYBIND11_MODULE(roofgs, m) {
         "kLimitExceeded for a memory_budget below the frame arrays and the coarsest levels; kInvalidArgument for "
         "stream_bytes 0");
 
-  m.def("convert",
+  m.def("_convert",
         [](const std::filesystem::path& src, const std::filesystem::path& dst, py::kwargs kwargs) {
-          // Rate control's arguments (audit::convert_fitted); the rest are ConvertOptions.
-          std::optional<double> target_psnr;
-          std::optional<uint64_t> target_bytes;
-          api::CameraChoice cameras;
-          auto take = [&](const char* key) -> std::optional<py::object> {
-            if (!kwargs.contains(key)) return std::nullopt;
-            py::object value = kwargs[key];
-            PyDict_DelItemString(kwargs.ptr(), key);
-            if (value.is_none()) return std::nullopt;
-            return value;
-          };
-          if (auto v = take("target_psnr")) target_psnr = v->cast<double>();
-          if (auto v = take("target_bytes")) target_bytes = v->cast<uint64_t>();
-          if (auto v = take("cameras")) cameras.cameras_path = v->cast<std::filesystem::path>().string();
-          if (auto v = take("every")) cameras.every = v->cast<uint32_t>();
-          if (auto v = take("orbit")) cameras.orbit = v->cast<uint32_t>();
-          if (auto v = take("width")) cameras.width = v->cast<uint32_t>();
-          if (auto v = take("height")) cameras.height = v->cast<uint32_t>();
-          api::ConvertOptions options = convert_options(kwargs);
-          if (!target_psnr && !target_bytes) {
-            if (!cameras.cameras_path.empty() || cameras.orbit || cameras.width || cameras.height) {
-              throw py::type_error("cameras, every, orbit, width and height choose the views of target_psnr or "
-                                   "target_bytes");
-            }
-            Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
-            {
-              py::gil_scoped_release release;
-              r = api::convert(src.string(), dst.string(), options);
-            }
-            return report_dict(unwrap(std::move(r)));
+          return convert_with_options(src.string(), dst.string(), std::move(kwargs), [&](const api::ConvertOptions& o) {
+            return api::convert(src.string(), dst.string(), o);
+          });
+        },
+        py::arg("src"), py::arg("dst"), "convert()'s implementation: the options given, by name");
+  m.def("_save",
+        [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
+           const py::object& scales, const py::object& opacities, const py::object& sh, py::kwargs kwargs) {
+          format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
+          if (!kwargs.contains("target_psnr") && !kwargs.contains("target_bytes")) {
+            return convert_with_options("arrays", path.string(), std::move(kwargs), [&](const api::ConvertOptions& o) {
+              return api::convert_cloud(std::move(cloud), "arrays", path.string(), o);
+            });
           }
-          if (target_psnr && target_bytes) throw py::type_error("target_psnr and target_bytes exclude each other");
-          if (cameras.cameras_path.empty() && cameras.orbit == 0) cameras.orbit = 4;
-          cameras.orbit_width = 960;
-          cameras.orbit_height = 540;
-          audit::FitOptions fit;
-          fit.goal = target_psnr ? audit::FitGoal::kTargetPsnr : audit::FitGoal::kTargetBytes;
-          fit.target_psnr_db = target_psnr.value_or(0);
-          fit.target_bytes = target_bytes.value_or(0);
-          fit.audit.backend = api::cuda_available() ? audit::Backend::kCuda : audit::Backend::kCpu;
-          Result<audit::FittedConversion> r = Status(StatusCode::kInvalidArgument, "not converted");
+          // Rate control renders its candidates against the source's render: the arrays, written losslessly
+          // (FP32 PLY) to a scratch file the fit reads, removed afterwards.
+          static std::atomic<uint64_t> serial{0};
+          const std::filesystem::path scratch =
+              std::filesystem::temp_directory_path() /
+              ("roofgs_save_" + std::to_string(::getpid()) + "_" + std::to_string(serial++) + ".ply");
+          api::ConvertOptions plain;
+          plain.converter_name = "roofgs python";
+          plain.allow_empty = true;
+          Result<api::ConvertReport> written = Status(StatusCode::kInvalidArgument, "not written");
           {
             py::gil_scoped_release release;
-            r = audit::convert_fitted(src.string(), dst.string(), options, cameras, fit);
+            written = api::convert_cloud(std::move(cloud), "arrays", scratch.string(), plain);
           }
-          audit::FittedConversion done = unwrap(std::move(r));
-          py::dict d = report_dict(done.convert);
-          const audit::FitResult& f = done.fit;
-          const format::ArchiveOptions& a = f.chosen.options;
-          py::dict settings(py::arg("position_error") = a.position_error, py::arg("rotation_bits") = a.rotation_bits,
-                            py::arg("rotation_step") = a.rotation_step, py::arg("scale_bits") = a.scale_bits,
-                            py::arg("scale_step") = a.scale_step, py::arg("opacity_bits") = a.opacity_bits,
-                            py::arg("opacity_step") = a.opacity_step, py::arg("opacity_floor") = a.opacity_floor,
-                            py::arg("sh_step_multipliers") = std::vector<uint32_t>(a.sh_step_multipliers.begin(),
-                                                                                    a.sh_step_multipliers.end()));
-          d["rate_control"] = py::dict(
-              py::arg("psnr_mean_db") = f.chosen.psnr_mean_db, py::arg("psnr_min_db") = f.chosen.psnr_min_db,
-              py::arg("search_psnr_db") = f.search_psnr_db, py::arg("settings") = settings,
-              py::arg("views") = f.views, py::arg("width") = f.width, py::arg("height") = f.height,
-              py::arg("backend") = audit::backend_name(f.backend), py::arg("encodings") = f.encodings,
-              py::arg("renders") = f.renders, py::arg("seconds") = f.seconds,
-              py::arg("encode_seconds") = f.encode_seconds, py::arg("render_seconds") = f.render_seconds);
-          return d;
+          unwrap(std::move(written));
+          struct Remove {
+            std::filesystem::path p;
+            ~Remove() {
+              std::error_code ec;
+              std::filesystem::remove(p, ec);
+            }
+          } remove{scratch};
+          return convert_with_options(scratch.string(), path.string(), std::move(kwargs),
+                                      [&](const api::ConvertOptions& o) {
+                                        return api::convert(scratch.string(), path.string(), o);
+                                      });
         },
-        py::arg("src"), py::arg("dst"),
-        "convert(src, dst, *, to=None, scale_encoding='linear', sh_clip_percentile=100.0, sh_dc_bits=16, zstd=[], "
-        "zstd_level=19, "
-        "profile='runtime', position_error=..., sh_degree=None, lod=None, spz_frame='rub', sanitize=False, "
-        "allow_empty=False, target_psnr=None, target_bytes=None, cameras=None, every=1, orbit=None, width=None, "
-        "height=None)\n\n"
+        py::arg("path"), py::arg("means"), py::arg("quats"), py::arg("scales"), py::arg("opacities"), py::arg("sh"),
+        "save()'s implementation: the options given, by name");
+  // convert() and save() take every option of rgs-convert by the snake_case of its long option (test_roofgs.py
+  // compares them with rgs-convert --help), as Python functions whose signature inspect can read.
+  py::dict scope = m.attr("__dict__");
+  py::exec(R"(
+def convert(src, dst, *, to=None, sh_degree=None, scale_encoding=None, sh_clip_percentile=None, sh_dc_bits=None,
+            zstd=None, profile=None, position_error=None, target_psnr=None, target_bytes=None, cameras=None,
+            every=None, limit=None, orbit=None, path=None, fly=None, width=None, height=None, zstd_level=None,
+            sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, max_gaussians=None,
+            max_decompression_ratio=None, spz_frame=None):
+    options = {k: v for k, v in locals().items() if k not in ("src", "dst") and v is not None}
+    return _convert(src, dst, **options)
+
+def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, scale_encoding=None,
+         sh_clip_percentile=None, sh_dc_bits=None, zstd=None, profile=None, position_error=None, target_psnr=None,
+         target_bytes=None, cameras=None, every=None, limit=None, orbit=None, camera_path=None, fly=None,
+         width=None, height=None, zstd_level=None, sanitize=False, allow_empty=False, lod=None, lod_levels=None,
+         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None):
+    options = {k: v for k, v in locals().items()
+               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path") and v is not None}
+    if camera_path is not None:
+        options["path"] = camera_path
+    return _save(path, means, quats, scales, opacities, sh, **options)
+)", scope);
+  m.attr("convert").attr("__doc__") = py::str(
         "Convert a scene in any format into dst: .rgs, .ply, .spz or .glb, as `to` or dst's extension says "
         "(what rgs-convert does, same options). Returns a dict: input and output (format, description, bytes, "
         "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output. "
@@ -1391,19 +1515,7 @@ PYBIND11_MODULE(roofgs, m) {
         "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, "
         "backend, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
         "render_seconds loading and rendering them)");
-  m.def("save",
-        [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
-           const py::object& scales, const py::object& opacities, const py::object& sh, const py::kwargs& kwargs) {
-          format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
-          const api::ConvertOptions options = convert_options(kwargs);
-          Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not written");
-          {
-            py::gil_scoped_release release;
-            r = api::convert_cloud(std::move(cloud), "arrays", path.string(), options);
-          }
-          return report_dict(unwrap(std::move(r)));
-        },
-        py::arg("path"), py::arg("means"), py::arg("quats"), py::arg("scales"), py::arg("opacities"), py::arg("sh"),
+  m.attr("save").attr("__doc__") = py::str(
         "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb), with convert()'s "
         "keyword options. means [N, 3], quats [N, 4] (w, x, y, z; normalized here), scales [N, 3] linear "
         "(exp of the PLY's log scales), opacities [N] in [0, 1] (sigmoid of the PLY's logits), sh [N, K, 3] "

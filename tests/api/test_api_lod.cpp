@@ -12,12 +12,14 @@
 #include <vector>
 
 #include <doctest/doctest.h>
+#include <xxhash.h>
 
 #include "rgs/api/convert.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
+#include "rgs/format/spec.h"
 #include "rgs/runtime/cpu_renderer.h"
 #include "rgs/runtime/lod_selection.h"
 #include "temp_dir.h"
@@ -295,4 +297,59 @@ TEST_CASE("LOD CPU frames of the golden v1.3 file: chunks, levels and a budget o
   const Status refused = api::load(damaged, cpu_options(3, 1.0f)).status();
   CHECK(refused.code() == StatusCode::kChecksumMismatch);
   CHECK(refused.message().find(damaged) != std::string::npos);
+}
+
+TEST_CASE("LOD CPU load checks every level-0 range: Gaussians swapped in a range with its checksum stale are refused") {
+  // Sections and header consistent (their checksums recomputed), only the range's XXH64 (SPEC 4.9) stale:
+  // the CPU load must check the ranges of the full detail as the GPU's streamer checks every range it reads.
+  const std::string path = test::repo_path("tests/data/v1.3/small_sh1_lod.rgs");
+  std::string bytes = test::slurp(path);
+  auto file = format::RgsFile::from_bytes(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
+  REQUIRE(file.ok());
+  const format::LodLevel& range = file->lod()->at(0, 1);
+  REQUIRE(range.count >= 2);
+  const uint64_t a = range.first, b = range.first + range.count - 1;
+  const auto u64_at = [&](size_t at) {
+    uint64_t v = 0;
+    for (int k = 7; k >= 0; --k) v = (v << 8) | static_cast<uint8_t>(bytes[at + static_cast<size_t>(k)]);
+    return v;
+  };
+  const auto put_u64 = [&](size_t at, uint64_t v) {
+    for (int k = 0; k < 8; ++k) bytes[at + static_cast<size_t>(k)] = static_cast<char>(v >> (8 * k));
+  };
+  const uint32_t sections = static_cast<uint32_t>(file->sections().size());
+  bool differ = false;
+  for (uint32_t i = 0; i < sections; ++i) {
+    const format::SectionEntry& e = file->sections()[i];
+    if (e.element_type == format::ElementType::kBytes || e.element_count != file->gaussian_count()) continue;
+    const size_t record = static_cast<size_t>(e.raw_size / e.element_count);
+    std::string& d = bytes;
+    const size_t pa = static_cast<size_t>(e.offset + a * record), pb = static_cast<size_t>(e.offset + b * record);
+    differ = differ || d.compare(pa, record, d, pb, record) != 0;
+    for (size_t k = 0; k < record; ++k) std::swap(d[pa + k], d[pb + k]);
+    const size_t entry = format::kHeaderSize + format::kSectionEntrySize * i;
+    put_u64(entry + 48, XXH64(bytes.data() + e.offset, static_cast<size_t>(u64_at(entry + 32)), 0));
+  }
+  REQUIRE(differ);
+  std::string covered = bytes.substr(0, 56) + bytes.substr(format::kHeaderSize, format::kSectionEntrySize * sections);
+  put_u64(56, XXH64(covered.data(), covered.size(), 0));
+  test::TempDir dir;
+  const std::string stale = dir.file("stale_level0_range.rgs");
+  std::ofstream(stale, std::ios::binary) << bytes;
+  // The sections alone are valid: only the range's checksum tells.
+  auto reopened = format::RgsFile::from_bytes(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
+  REQUIRE_MESSAGE(reopened.ok(), reopened.status().to_string());
+  for (uint32_t i = 0; i < sections; ++i) {
+    CHECK_MESSAGE(reopened->verify_section(reopened->sections()[i].id).ok(), "section " << i);
+  }
+  CHECK(reopened->lod_range(0, 1).status().code() == StatusCode::kChecksumMismatch);
+
+  const Status refused = api::load(stale, cpu_options(0, 1.0f)).status();
+  CHECK(refused.code() == StatusCode::kChecksumMismatch);
+  CHECK(refused.message().find(stale) != std::string::npos);
+  CHECK(refused.message().find("chunk 1") != std::string::npos);
+  // The full detail alone (levels of detail not used) reads the same ranges.
+  const Status full = api::load(stale, cpu_options(0, 1.0f, false)).status();
+  CHECK(full.code() == StatusCode::kChecksumMismatch);
+  CHECK(full.message().find(stale) != std::string::npos);
 }

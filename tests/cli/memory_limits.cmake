@@ -5,7 +5,9 @@
 # libraries such as OpenImageIO's take hundreds of MiB of it), then runs `prlimit --as=<baseline + 64 MiB>
 # TOOL ARGS...` and checks the exit code and output. So a pass means: the tool allocated less than 64 MiB
 # beyond its baseline, or reported the failed allocation as kOutOfMemory with exit 1 (never SIGABRT).
-#   TOOL, ARGS ('|'-separated), EXPECT_EXIT, EXPECT_REGEX, PRLIMIT, HEADROOM_MIB (default 64)
+#   TOOL, ARGS ('|'-separated), EXPECT_EXIT, EXPECT_REGEX, PRLIMIT, HEADROOM_MIB (default 64);
+#   STDIN_PLY (a file written first and given as standard input: an ascii PLY declaring STDIN_PLY_VERTICES
+#   vertices and holding STDIN_PLY_ROWS rows of 14 zeros)
 if(CMAKE_SCRIPT_MODE_FILE)
   if(NOT HEADROOM_MIB)
     set(HEADROOM_MIB 64)
@@ -25,7 +27,17 @@ if(CMAKE_SCRIPT_MODE_FILE)
   math(EXPR limit "${baseline} + ${HEADROOM_MIB}")
   math(EXPR limit_bytes "${limit} * 1048576")
   string(REPLACE "|" ";" args "${ARGS}")
-  execute_process(COMMAND ${PRLIMIT} --as=${limit_bytes} ${TOOL} ${args}
+  set(stdin_args)
+  if(STDIN_PLY)
+    set(header "ply\nformat ascii 1.0\nelement vertex ${STDIN_PLY_VERTICES}\n")
+    foreach(p x y z f_dc_0 f_dc_1 f_dc_2 opacity scale_0 scale_1 scale_2 rot_0 rot_1 rot_2 rot_3)
+      string(APPEND header "property float ${p}\n")
+    endforeach()
+    string(REPEAT "0 0 0 0 0 0 0 0 0 0 0 0 0 0\n" ${STDIN_PLY_ROWS} rows)
+    file(WRITE ${STDIN_PLY} "${header}end_header\n${rows}")
+    set(stdin_args INPUT_FILE ${STDIN_PLY})
+  endif()
+  execute_process(COMMAND ${PRLIMIT} --as=${limit_bytes} ${TOOL} ${args} ${stdin_args}
                   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
   message("address space ${limit} MiB (baseline ${baseline} + ${HEADROOM_MIB})\n"
           "exit ${rc}\n--- stdout\n${out}--- stderr\n${err}")
@@ -127,6 +139,17 @@ else()
     rgs_memory_case(convert_${name} TOOL ${convert} ARGS "${hostile}/${bomb}|${cli_dir}/memory_${name}.ply" EXIT 1
       REGEX "rgs-convert: error: .*${file}.*\\[k(LimitExceeded|CorruptData)\\]")
   endforeach()
+endif()
+
+# A PLY on standard input is held to --max-gaussians from its header, before its body is read: 24 MiB of
+# rows declaring 2^28 + 1 vertices within 16 MiB of address space.
+if(RGS_PRLIMIT AND NOT RGS_SANITIZE)
+  add_test(NAME cli.memory.convert_stdin_ply_over_max_gaussians
+    COMMAND ${CMAKE_COMMAND} -DTOOL=${convert} "-DARGS=-|${cli_dir}/memory_stdin.rgs" -DEXPECT_EXIT=1
+            "-DEXPECT_REGEX=rgs-convert: error: -: PLY declares 268435457 vertices, above the limit of 268435456 .refused from its header, before its data is read. .kLimitExceeded."
+            -DPRLIMIT=${RGS_PRLIMIT} -DHEADROOM_MIB=16 -DSTDIN_PLY=${cli_dir}/memory_stdin_2p28.ply
+            -DSTDIN_PLY_VERTICES=268435457 -DSTDIN_PLY_ROWS=900000 -P ${CMAKE_CURRENT_LIST_DIR}/memory_limits.cmake)
+  set_tests_properties(cli.memory.convert_stdin_ply_over_max_gaussians PROPERTIES LABELS "cli;memory;slow" TIMEOUT 300)
 endif()
 
 # --max-gaussians below a real scene's count.

@@ -36,7 +36,10 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
+
+#include <zlib.h>
 
 #include "ply_test_util.h"
 #include "rgs/converter/scene_reader.h"
@@ -315,6 +318,108 @@ void make_gltf_scene(const std::string& dir) {
   fs::copy_file(hostile("gltf/scene.bin"), dir + "/scene.bin");
 }
 
+
+/// A lossless WebP of one colour (`argb`: a, r, g, b bytes) of width x height: five single-symbol prefix
+/// codes, zero bits a pixel (as make_hostile_corpus.py's solid_webp).
+std::string solid_webp(uint32_t width, uint32_t height, const uint8_t argb[4]) {
+  std::vector<int> bits;
+  auto put = [&](uint32_t value, int n) {
+    for (int i = 0; i < n; ++i) bits.push_back(static_cast<int>((value >> i) & 1));
+  };
+  put(width - 1, 14);
+  put(height - 1, 14);
+  put(1, 1);  // alpha_is_used
+  put(0, 3);  // version
+  put(0, 1);  // no transform
+  put(0, 1);  // no colour cache
+  put(0, 1);  // no meta prefix codes
+  for (uint32_t symbol : {uint32_t{argb[2]}, uint32_t{argb[1]}, uint32_t{argb[3]}, uint32_t{argb[0]}, 0u}) {
+    put(1, 1);  // simple code
+    put(0, 1);  // one symbol
+    put(1, 1);  // 8-bit symbol
+    put(symbol, 8);
+  }
+  while (bits.size() % 8 != 0) bits.push_back(0);
+  std::string data = "\x2f";
+  for (size_t i = 0; i < bits.size(); i += 8) {
+    int byte = 0;
+    for (int j = 0; j < 8; ++j) byte |= bits[i + j] << j;
+    data += static_cast<char>(byte);
+  }
+  data += std::string(2, '\0');
+  auto le32 = [](uint32_t v) {
+    std::string out(4, '\0');
+    for (int b = 0; b < 4; ++b) out[b] = static_cast<char>(v >> (8 * b));
+    return out;
+  };
+  std::string chunk = "VP8L" + le32(static_cast<uint32_t>(data.size())) + data;
+  if (data.size() % 2 != 0) chunk += '\0';
+  return "RIFF" + le32(static_cast<uint32_t>(4 + chunk.size())) + "WEBP" + chunk;
+}
+
+/// A SOG chunk in `dir` of side x side Gaussians in single-colour images (a few dozen bytes each) whose
+/// meta.json is padded with spaces to `meta_bytes`: a chunk whose bytes are its meta file's and which decodes
+/// to 20 bytes of RGBA8 a Gaussian.
+void make_solid_chunk(const std::string& dir, uint32_t side, size_t meta_bytes) {
+  fs::create_directories(dir);
+  const uint8_t colours[5][4] = {{255, 0, 0, 0}, {255, 128, 128, 128}, {252, 128, 128, 128}, {255, 128, 128, 128},
+                                 {200, 128, 128, 128}};  // a, r, g, b; the quaternion tag 252: w largest
+  for (size_t i = 0; i < 5; ++i) write_file(dir + "/" + kSogImages[i], solid_webp(side, side, colours[i]));
+  std::string meta = replace_first(read_file(hostile("sog/meta.json")), "\"count\":877",
+                                   "\"count\":" + std::to_string(uint64_t{side} * side));
+  REQUIRE(meta.size() < meta_bytes);
+  write_file(dir + "/meta.json", meta + std::string(meta_bytes - meta.size(), ' '));
+}
+
+/// A streamed SOG's lod-meta.json of one level whose `filenames` are `names`, each referenced whole (`count`
+/// Gaussians) by a node of its own.
+std::string lod_meta_naming(const std::vector<std::string>& names, uint64_t count) {
+  std::string files, nodes;
+  for (size_t i = 0; i < names.size(); ++i) {
+    files += (i ? "," : "") + ("\"" + names[i] + "\"");
+    nodes += (i ? "," : "") + ("{\"bound\":{\"min\":[0,0,0],\"max\":[1,1,1]},\"lods\":{\"0\":{\"file\":" +
+                               std::to_string(i) + ",\"offset\":0,\"count\":" + std::to_string(count) + "}}}");
+  }
+  const std::string total = std::to_string(count * names.size());
+  return "{\"version\":1,\"count\":" + total + ",\"counts\":[" + total + "],\"lodLevels\":1,\"filenames\":[" +
+         files + "],\"tree\":{\"bound\":{\"min\":[0,0,0],\"max\":[1,1,1]},\"children\":[" + nodes + "]}}";
+}
+
+/// A ZIP archive of `entries` (name, bytes, deflated?), no extra fields, as a bundled .sog is written.
+std::string zip_archive(const std::vector<std::tuple<std::string, std::string, bool>>& entries) {
+  auto le = [](uint64_t v, int n) {
+    std::string out(static_cast<size_t>(n), '\0');
+    for (int b = 0; b < n; ++b) out[static_cast<size_t>(b)] = static_cast<char>(v >> (8 * b));
+    return out;
+  };
+  std::string out, central;
+  for (const auto& [name, data, deflated] : entries) {
+    std::string stored = data;
+    if (deflated) {
+      z_stream z{};
+      REQUIRE(deflateInit2(&z, 9, Z_DEFLATED, -15, 9, Z_DEFAULT_STRATEGY) == Z_OK);
+      stored.resize(deflateBound(&z, static_cast<uLong>(data.size())));
+      z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
+      z.avail_in = static_cast<uInt>(data.size());
+      z.next_out = reinterpret_cast<Bytef*>(&stored[0]);
+      z.avail_out = static_cast<uInt>(stored.size());
+      REQUIRE(deflate(&z, Z_FINISH) == Z_STREAM_END);
+      stored.resize(z.total_out);
+      deflateEnd(&z);
+    }
+    const uint32_t crc = static_cast<uint32_t>(
+        crc32(0, reinterpret_cast<const Bytef*>(data.data()), static_cast<uInt>(data.size())));
+    const std::string fields = le(20, 2) + le(0, 2) + le(deflated ? 8 : 0, 2) + le(0, 2) + le(0x21, 2) +
+                               le(crc, 4) + le(stored.size(), 4) + le(data.size(), 4) + le(name.size(), 2) + le(0, 2);
+    central += le(0x02014b50, 4) + le(20, 2) + fields + le(0, 2) + le(0, 2) + le(0, 2) + le(0, 4) +
+               le(out.size(), 4) + name;
+    out += le(0x04034b50, 4) + fields + name + stored;
+  }
+  const size_t central_at = out.size();
+  return out + central + le(0x06054b50, 4) + le(0, 2) + le(0, 2) + le(entries.size(), 2) + le(entries.size(), 2) +
+         le(central.size(), 4) + le(central_at, 4) + le(0, 2);
+}
+
 // ---------------------------------------------------------------------------------------------------
 
 TEST_CASE("hostile scenes: the corpus's valid scenes read in a child process, within the memory bound") {
@@ -427,6 +532,70 @@ TEST_CASE("hostile scenes: valid scenes expanding past the decompression-ratio l
     CAPTURE(path);
     check_refused(read_in_child(hostile(path)), {StatusCode::kLimitExceeded}, c.names, nullptr);
   }
+}
+
+TEST_CASE("hostile scenes: a file named again, by any spelling or hard link, counts once towards the ratio limit") {
+  // One chunk of 65,536 Gaussians, its bytes a 1.5 MiB meta.json, named 16 times by a streamed SOG: 21 MB of
+  // images to decode from 1.5 MiB of distinct files, over the limit of 8 x 1.5 MiB. Counted once per name,
+  // the scene would seem to hold 24 MiB and its 1,048,576 Gaussians would be decoded.
+  ScratchDir tmp;
+  constexpr uint32_t kSide = 256;
+  constexpr size_t kMetaBytes = size_t{3} << 19;
+  constexpr int kNames = 16;
+  std::vector<std::string> spellings, links;
+  for (int i = 0; i < kNames; ++i) {
+    std::string prefix;
+    for (int k = 0; k < i; ++k) prefix += "./";
+    spellings.push_back(prefix + "chunk/meta.json");  // chunk/meta.json, ./chunk/meta.json, ././chunk/...
+    links.push_back("chunk_" + std::to_string(i) + "/meta.json");
+  }
+  make_solid_chunk(tmp / "spellings/chunk", kSide, kMetaBytes);
+  write_file(tmp / "spellings/lod-meta.json", lod_meta_naming(spellings, uint64_t{kSide} * kSide));
+
+  make_solid_chunk(tmp / "links/chunk_0", kSide, kMetaBytes);
+  for (int i = 1; i < kNames; ++i) {
+    const std::string dir = tmp / ("links/chunk_" + std::to_string(i));
+    fs::create_directories(dir);
+    for (const char* name : {"meta.json", "means_l.webp", "means_u.webp", "quats.webp", "scales.webp", "sh0.webp"}) {
+      fs::create_hard_link(tmp / ("links/chunk_0/" + std::string(name)), dir + "/" + name);
+    }
+  }
+  write_file(tmp / "links/lod-meta.json", lod_meta_naming(links, uint64_t{kSide} * kSide));
+
+  // The chunk once is a valid scene well within the limit.
+  make_solid_chunk(tmp / "once/chunk", kSide, kMetaBytes);
+  write_file(tmp / "once/lod-meta.json", lod_meta_naming({"chunk/meta.json"}, uint64_t{kSide} * kSide));
+  const ChildRead once = read_in_child(tmp / "once/lod-meta.json");
+  INFO(once.describe());
+  CHECK(once.ok);
+  CHECK(once.gaussians == uint64_t{kSide} * kSide);
+
+  for (const char* what : {"spellings", "links"}) {
+    CAPTURE(what);
+    check_refused(read_in_child(tmp / (std::string(what) + "/lod-meta.json")), {StatusCode::kLimitExceeded},
+                  "lod-meta.json", "decompression-ratio limit");
+  }
+}
+
+TEST_CASE("hostile scenes: a bundled .sog entry inflating past the ratio limit is kLimitExceeded, meta.json too") {
+  // meta.json padded with 9 MiB of spaces deflates to a few KB: over 8 x 1 MiB, whatever entry it is.
+  ScratchDir tmp;
+  const std::string meta = read_file(hostile("sog/meta.json"));
+  std::vector<std::tuple<std::string, std::string, bool>> entries = {
+      {"meta.json", meta + std::string(size_t{9} << 20, ' '), true}};
+  for (const char* image : kSogImages) entries.emplace_back(image, read_file(hostile(std::string("sog/") + image)), false);
+  write_file(tmp / "inflating_meta.sog", zip_archive(entries));
+  CHECK(fs::file_size(tmp / "inflating_meta.sog") < 100000);
+  check_refused(read_in_child(tmp / "inflating_meta.sog"), {StatusCode::kLimitExceeded}, "inflating_meta.sog",
+                "'meta.json'");
+
+  // The same archive with meta.json as written is read.
+  std::get<1>(entries[0]) = meta;
+  write_file(tmp / "plain.sog", zip_archive(entries));
+  const ChildRead plain = read_in_child(tmp / "plain.sog");
+  INFO(plain.describe());
+  CHECK(plain.ok);
+  CHECK(plain.gaussians == 877);
 }
 
 TEST_CASE("hostile scenes: JSON nested deeper than 64 levels is kCorruptData 'nested'") {

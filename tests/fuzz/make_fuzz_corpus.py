@@ -17,13 +17,13 @@ samples/guitar.ply (the only scene the project may ship, $RGS_DATA_DIR/SOURCES.m
                compacted, for fuzz_sog_meta.cpp, which reads them next to guitar_crop_sh3's images.
   sog_folder/  inputs of fuzz_sog_folder.cpp: a change to one image of the folder (none, removed, a symbolic link
                out of the folder, a FIFO, a folder, moved into sub/) and those meta.json files; one names
-               ../means_l.webp.
+               ../means_l.webp, one names means_l.webp under three spellings.
   gltf_json/   inputs of fuzz_gltf_json.cpp: the guitar_256 GLB of tests/data/interop as a .gltf over its buffer
                (tests/data/hostile/gltf/), with two transformed nodes, self-contained (16 Gaussians in a data:
                URI), with buffer uris leaving the folder (../scene.bin, %2e%2e%2fcanary.bin), a node cycle and
                JSON nested 100 deep.
-  zip/         inputs of fuzz_zip.cpp: guitar_crop_sh3 as a bundled .sog (stored), and guitar_crop deflated with
-               an archive comment.
+  zip/         inputs of fuzz_zip.cpp: guitar_crop_sh3 as a bundled .sog (stored), guitar_crop deflated with
+               an archive comment, and guitar_crop with a meta.json that inflates past the ratio limit.
   camera_json/ inputs of fuzz_camera_json.cpp: loader options and an INRIA cameras.json of a ring of cameras
                around the guitar crop (guitar has no cameras of its own).
 
@@ -263,6 +263,9 @@ def build():
     add("sog_folder", "folder_scales.bin", bytes([4, 3]) + sh0)
     add("sog_folder", "moved_sh0.bin", bytes([5, 4]) + sh0.replace(b'"sh0.webp"', b'"sub/sh0.webp"'))
     add("sog_folder", "escape_dotdot.bin", bytes([0, 0]) + sh0.replace(b'"means_l.webp"', b'"../means_l.webp"'))
+    # One file under several names (spellings of one path): its bytes count once towards the ratio limit.
+    add("sog_folder", "one_image_many_names.bin", bytes([0, 0]) + sh0.replace(b'"means_u.webp"', b'"./means_l.webp"')
+        .replace(b'"scales.webp"', b'".//means_l.webp"'))
 
     base, bin_bytes = hostile.split_glb()
     add("gltf_json", "guitar256.gltf", hostile.dumps(hostile.gltf_scene(base, bin_bytes)))
@@ -291,6 +294,10 @@ def build():
         [("meta.json", sh0, 8, None)] +
         [(n, hostile.read(os.path.join(sog, "guitar_crop", n)), 8, None) for n in hostile.SOG_IMAGES],
         comment=b"tests/fuzz/make_fuzz_corpus.py"), limit=32768)
+    # meta.json padded with 9 MiB of spaces, deflated: an entry past the ratio limit of the archive.
+    add("zip", "meta_inflating_9mib.sog", hostile.zip_archive(
+        [("meta.json", sh0 + b" " * (9 << 20), 8, None)] +
+        [(n, hostile.read(os.path.join(sog, "guitar_crop", n)), 0, None) for n in hostile.SOG_IMAGES]), limit=65536)
 
     add("render_cpu", "guitar32_baseline.bin", render_input(g64[:32], 0x00, 0))
     add("render_cpu", "guitar32_roofgs_all.bin", render_input(g64[:32], 0x1f, 0))

@@ -581,3 +581,73 @@ def test_from_arrays_of_cuda_tensors_follows_the_value_rules(cuda):
     for preset in ("faithful", "fastest"):
         assert np.array_equal(on_device.render(camera, preset=preset).numpy(),
                               from_host.render(camera, preset=preset).numpy())
+
+
+# Options of rgs-convert that concern one command-line run, not a conversion: none of them is a keyword.
+TOOL_ONLY_OPTIONS = {"help", "version", "json", "quiet"}
+
+
+def _signature_keywords(fn):
+    import inspect
+    return [p.name for p in inspect.signature(fn).parameters.values() if p.kind == p.KEYWORD_ONLY]
+
+
+def _stub_keywords(name):
+    import ast
+    tree = ast.parse((SOURCE_DIR / "python" / "roofgs.pyi").read_text())
+    fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == name)
+    return [a.arg for a in fn.args.kwonlyargs]
+
+
+def test_convert_and_save_take_every_option_of_rgs_convert():
+    import os
+    import subprocess
+    tool = os.environ.get("RGS_CONVERT")
+    if not tool:
+        pytest.skip("rgs-convert not built (RGS_CONVERT unset)")
+    help_text = subprocess.run([tool, "--help"], capture_output=True, text=True, check=True).stdout
+    options = set(re.findall(r"--([a-z][a-z0-9-]*)", help_text)) - TOOL_ONLY_OPTIONS
+    expected = {o.replace("-", "_") for o in options}
+    assert {"target_bytes", "lod_levels", "lod_chunk", "max_decompression_ratio"} <= expected
+    # save()'s first parameter is the output's path: the tool's --path (a camera path) is camera_path there.
+    for name, keywords in (("convert", expected), ("save", expected - {"path"} | {"camera_path"})):
+        for where, names in (("roofgs." + name, _signature_keywords(getattr(roofgs, name))),
+                             ("roofgs.pyi " + name, _stub_keywords(name))):
+            assert set(names) == keywords, (where, sorted(keywords - set(names)), sorted(set(names) - keywords))
+
+
+def test_option_values_out_of_range_raise_value_error(tmp_path):
+    src = str(SOURCE_DIR / "samples" / "guitar.ply")
+    for value in (-1, 2 ** 70, 0, True, 1.5):
+        with pytest.raises(ValueError, match="target_bytes must be an integer in 1..18446744073709551615"):
+            roofgs.convert(src, str(tmp_path / "x.rgs"), target_bytes=value)
+    with pytest.raises(ValueError, match="lod_levels must be"):
+        roofgs.convert(src, str(tmp_path / "x.rgs"), lod_levels=17)
+    with pytest.raises(ValueError, match="max_decompression_ratio must be an integer in 1..32768"):
+        roofgs.convert(src, str(tmp_path / "x.rgs"), max_decompression_ratio=0)
+    means, quats, scales, opacities, sh = (np.zeros((1, 3), np.float32), np.array([[1, 0, 0, 0]], np.float32),
+                                           np.full((1, 3), 0.01, np.float32), np.full(1, 0.5, np.float32),
+                                           np.zeros((1, 1, 3), np.float32))
+    with pytest.raises(ValueError, match="zstd_level must be an integer in 1..22"):
+        roofgs.save(str(tmp_path / "x.rgs"), means, quats, scales, opacities, sh, zstd_level=23)
+
+
+def test_convert_takes_level_of_detail_and_read_limits(tmp_path):
+    src = str(SOURCE_DIR / "samples" / "guitar.ply")
+    report = roofgs.convert(src, str(tmp_path / "lod.rgs"), lod_levels="auto", lod_chunk=4096)
+    scene = roofgs.load(str(tmp_path / "lod.rgs"), device="cpu")
+    assert scene.info["lod"]["chunks"] > 4 and report["gaussians"] == 90854
+    with pytest.raises(roofgs.Error) as e:
+        roofgs.convert(src, str(tmp_path / "x.rgs"), max_gaussians=1000)
+    assert e.value.code_name == "kLimitExceeded"
+
+
+def test_an_array_too_large_to_copy_raises_memory_error(tmp_path):
+    class TooLarge:
+        def __array__(self, dtype=None, copy=None):
+            raise MemoryError("Unable to allocate 1.00 TiB")
+
+    ok = np.zeros((1, 3), np.float32)
+    with pytest.raises(MemoryError):
+        roofgs.save(str(tmp_path / "x.rgs"), TooLarge(), np.array([[1, 0, 0, 0]], np.float32), ok,
+                    np.full(1, 0.5, np.float32), np.zeros((1, 1, 3), np.float32))

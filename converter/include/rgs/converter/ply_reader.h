@@ -79,7 +79,10 @@ Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::str
 /// (standard input) without buffering more than its header proves: binary PLY exactly the header plus every
 /// element's rows; ascii PLY, and binary elements with list properties, an upper bound of 64 bytes per
 /// value (a row of a list element: 64 KiB). 0 while `data` does not yet hold the whole header (read more).
-/// Errors: kCorruptData (not a PLY, malformed header, or no end_header within the first 1 MiB).
-Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size);
+/// A vertex count above `max_gaussians` is refused from the header, before the stream's body is read, as
+/// read_ply_bytes() would refuse it after.
+/// Errors: kCorruptData (not a PLY, malformed header, or no end_header within the first 1 MiB),
+/// kLimitExceeded (vertex count above max_gaussians).
+Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size, uint64_t max_gaussians = UINT64_MAX);
 
 }  // namespace rgs::converter

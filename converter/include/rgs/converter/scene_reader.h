@@ -64,7 +64,8 @@ struct InputScene {
   /// PLY inputs: the storage format of the `format` line ("binary_little_endian", ...). Others: format_id
   /// (SPZ and glTF with their version: "spz v4", "glb v2"; a .rgs in the archive profile: "rgs archive").
   std::string storage_format;
-  /// Bytes of every file read (meta files, images and chunks included) and how many files that was.
+  /// Bytes of every file read (meta files, images and chunks included) and how many files that was; a file
+  /// that several names reach (spellings of one path, hard links) counts once.
   uint64_t file_bytes = 0;
   uint64_t file_count = 0;
   /// Number of Gaussians the input declares (before any are dropped).

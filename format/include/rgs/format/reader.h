@@ -170,9 +170,11 @@ class RgsFile {
   /// Decodes every runtime section into an EncodedScene (host memory), each checked as verify_section()
   /// checks it (checksums, frames, value rules), so a scene this returns holds only values the renderers
   /// accept. Of a level-of-detail file (SPEC §4.9) it returns the full detail, level 0 of every chunk: the
-  /// first full_detail_count() Gaussians, which is the scene the file stores. A zstd section is verified in chunks before its raw size is allocated; an archive section
+  /// first full_detail_count() Gaussians, which is the scene the file stores, each of its level-0 ranges checked
+  /// in the copy as read_lod_range() checks one (its XXH64 when verify_checksums, the chunk sphere's rule). A zstd section is verified in chunks before its raw size is allocated; an archive section
   /// (Draco, quantized) is decoded once into its array and checked there (decode_verified_section()).
-  /// Errors: those of verify_section(), kOutOfMemory.
+  /// Errors: those of verify_section(), kChecksumMismatch or kCorruptData naming the file, chunk and level of a
+  /// level-0 range, kOutOfMemory.
   Result<EncodedScene> read_scene() const;
 
  private:
