@@ -60,8 +60,8 @@ std::string build_hello(const ServerState& state, const std::string& device_name
   }
   json cameras = json::array();
   for (size_t i = 0; i < state.options.cameras.size(); ++i) {
-    const api::Camera& camera = state.options.cameras[i];
-    json entry = camera_json(inria_from_camera(camera));
+    const NamedCamera& camera = state.options.cameras[i];
+    json entry = camera_json(camera.camera);
     entry["id"] = i;
     entry["img_name"] = camera.name;
     cameras.push_back(std::move(entry));
@@ -71,7 +71,7 @@ std::string build_hello(const ServerState& state, const std::string& device_name
   const uint32_t width = state.options.default_width, height = state.options.default_height;
   json home;
   if (!state.options.cameras.empty()) {
-    home = camera_json(inria_from_camera(state.options.cameras.front()));
+    home = camera_json(state.options.cameras.front().camera);
   } else {
     api::CameraChoice choice;
     choice.orbit = 1;

@@ -17,6 +17,7 @@
 #include "rgs/api/preset.h"
 #include "rgs/api/scene.h"
 #include "rgs/format/status.h"
+#include "rgs/view/protocol.h"
 
 namespace rgs::view {
 
@@ -36,8 +37,9 @@ struct ServerOptions {
   uint32_t io_threads = 2;
   /// The preset the page starts with; the scenes must be loaded for it.
   api::Preset preset = api::Preset::kFastest;
-  /// The scene's own cameras, offered to the page (hello "cameras"), e.g. api::make_cameras of a cameras.json.
-  std::vector<api::Camera> cameras;
+  /// The scene's own cameras, offered to the page (hello "cameras") with their numbers as given, e.g.
+  /// read_inria_cameras of a cameras.json.
+  std::vector<NamedCamera> cameras;
   /// The page's starting size (0: 1920 × 1080 on the GPU, 640 × 360 on the CPU).
   uint32_t default_width = 0, default_height = 0;
   /// Largest frame a client may ask for.
