@@ -409,7 +409,10 @@
       Object.assign($('split-line').style, { left: `${x}px`, top: `${box.y}px`, height: `${box.h}px`, bottom: 'auto' });
       Object.assign($('split-handle').style, { left: `${x}px`, top: `${box.y + box.h / 2}px` });
       Object.assign($('label-a').style, { left: `${box.x + 10}px`, right: 'auto', top: `${box.y + 10}px` });
-      Object.assign($('label-b').style, { left: 'auto', right: `${window.innerWidth - box.x - box.w + 10}px`,
+      // scene B's label at the right edge of the view, or left of the panel where the panel covers it
+      const panel = $('panel').getBoundingClientRect();
+      const rightEdge = Math.min(box.x + box.w, panel.top < box.y + 40 ? panel.left : Infinity);
+      Object.assign($('label-b').style, { left: 'auto', right: `${window.innerWidth - rightEdge + 10}px`,
         top: `${box.y + 10}px` });
     }
   }
@@ -668,11 +671,13 @@
     opts.background = [1, 3, 5].map((i) => parseInt(v.slice(i, i + 2), 16) / 255);
   };
   for (const m of ['off', 'split', 'diff']) $(`cmp-${m}`).onclick = () => setCompare(m);
-  $('panel-toggle').onclick = () => {
-    const p = $('panel');
-    p.classList.toggle('collapsed');
-    $('panel-toggle').textContent = p.classList.contains('collapsed') ? '+' : '–';
-  };
+  function collapsePanel(on) {
+    $('panel').classList.toggle('collapsed', on);
+    $('panel-toggle').textContent = on ? '+' : '–';
+    layout();
+  }
+  $('panel-toggle').onclick = () => collapsePanel(!$('panel').classList.contains('collapsed'));
+  if (window.innerWidth < 520 || window.innerHeight < 300) collapsePanel(true);  // phones: the view first
 
   // the split slider
   const handle = $('split-handle');
