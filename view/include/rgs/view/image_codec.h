@@ -29,7 +29,8 @@ struct ImageDifference {
 
 /// Compares `a` and `b`, both [height, width, 3] uint8 packed. When `heatmap` is given it receives
 /// [height, width, 3] uint8: per pixel the "turbo" colour map (Google, 2019; its 256-entry table's polynomial
-/// approximation) at min(max_c |a_c − b_c| / diff_scale, 1): dark blue at 0, red at 1. diff_scale > 0.
+/// approximation) at min(max_c |a_c − b_c| / diff_scale, 1): nearly black at 0, through blue, green and
+/// yellow, to dark red at 1. diff_scale > 0.
 ImageDifference compare_rgb(const uint8_t* a, const uint8_t* b, uint32_t width, uint32_t height, float diff_scale,
                             std::vector<uint8_t>* heatmap);
 
