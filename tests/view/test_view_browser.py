@@ -786,6 +786,7 @@ class Run:
         try:
             page.goto(self.main.local_url())
             page.wait("rgsView.frameCount >= 1", 60, "no frame for the README screenshot")
+            page.eval("rgsView.setOptions({scale: 1})")
             cam = orbit_camera(self.scene, 25.0, 1000, 560, elevation_deg=12.0, factor=1.45)
             page.eval(f"rgsView.waitForFrame(rgsView.setCamera({json.dumps(cam)}), 60000).then(() => true)", timeout=90)
             self.wait_still(page)

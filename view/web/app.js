@@ -19,7 +19,7 @@
 //                                        psnr, mse, diff_max, latency_ms, digest (FNV-1a of the image bytes,
 //                                        hex), camera (the view's camera as sent)} or null
 //   window.rgsView.camera()             the current camera, INRIA object (position, rotation, fx, fy, width,
-//                                        height) at the size a still frame is rendered at
+//                                        height) at the size a still frame is rendered at (resolution scale)
 //   window.rgsView.setCamera(cam, {exact})  jumps to an INRIA camera; exact: render exactly it (its size and
 //                                        focal lengths, numbers sent as given) until the next input; otherwise
 //                                        its pose and vertical field of view at the window's size. Returns the
@@ -169,7 +169,7 @@
         overlay(`server: ${fatalError}`);
         return;
       }
-      overlay(`disconnected (${ev.code}); retrying…`);
+      if (ev.code !== 1013) overlay(`disconnected (${ev.code}); retrying…`);
       setTimeout(connect, retryMs);
       retryMs = Math.min(retryMs * 2, 15000);
     };
@@ -180,7 +180,9 @@
     if (msg.type === 'hello') onHello(msg);
     else if (msg.type === 'error') {
       errors.push(msg);
-      if (msg.fatal) {
+      if (msg.fatal && msg.code === 'busy') {
+        overlay('server busy (too many clients); retrying…');  // the close that follows retries
+      } else if (msg.fatal) {
         fatalError = msg.message || msg.code || 'error';
         overlay(`server: ${fatalError}`);
       } else {
@@ -222,7 +224,7 @@
     // a first resolution whose pixel count is near the server's default size (the CPU backend is slow)
     if (!api._scaleChosen && msg.default_width && msg.default_height) {
       const [w, h] = frameSize(1);
-      const want = msg.default_width * msg.default_height * 1.3;
+      const want = msg.default_width * msg.default_height * 2;
       opts.scale = w * h <= want ? 1 : w * h / 4 <= want ? 0.5 : 0.25;
       $('scale').value = String(opts.scale);
     }
@@ -747,6 +749,7 @@
       return out;
     } finally {
       hold -= 1;
+      if (o.camera) lastSentKey = '';  // the screen shows another camera: the current view goes again
     }
   }
   const inriaMessageCamera = (c) => ({ position: c.position.slice(), rotation: c.rotation.map((r) => r.slice()),
@@ -865,7 +868,7 @@
     connected: false, frameCount: 0, hello: null, errors, split,
     _started: false, _scaleChosen: false,
     lastFrame: () => lastFrame,
-    camera: () => currentCamera(1),
+    camera: () => currentCamera(pinned ? 1 : opts.scale),
     setCamera, setOptions, waitForFrame, requestLossless,
     record: {
       start() { recording = true; path.length = 0; updatePathUi(); },
