@@ -3,7 +3,7 @@
 # into build-gpu and stages what the GPU host needs into ignored folders, each small enough to travel with the
 # repository in one call (a call carries at most 64 MiB with the working tree):
 #   .device_data/bin.tar.xz  test_gpu, test_api, test_audit, rgs-render, rgs-bench, rgs-convert, rgs-audit, rgs-info,
-#                            rgs-view (and rgs-view-bench) and the render_frame sample, stripped
+#                            rgs-view (and rgs-view-bench), test_view and the render_frame sample, stripped
 #   .device_data/py.tar.xz   the Python module's parts for the GPU host's own Python (3.12 there, 3.11 here):
 #                            libroofgs_core.so (every RoofGS library, code generated here), pybind11's headers
 #                            and the generated config.h; scripts/gpu_python.sh compiles the module there
@@ -29,7 +29,7 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA
   -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_LAB_KERNELS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
   -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON >/dev/null
 exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render tools/rgs-bench tools/rgs-convert
-      tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame tools/rgs-view)
+      tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame tools/rgs-view tests/viewer/test_view)
 # The viewer's benchmark client, once its source exists (tools/CMakeLists.txt builds it then).
 if [ -f "$root/tools/rgs_view_bench.cpp" ]; then exes+=(tools/rgs-view-bench); fi
 targets=()

@@ -436,3 +436,55 @@ TEST_CASE("server: compare mode sends a and b, or the heatmap, with the PSNR of 
   CHECK(decode_webp(diff.images[0], &w, &h) == heat);
   std::filesystem::remove(rgs_path);
 }
+
+TEST_CASE("server GPU: frames carry stage times and GPU memory, and equal the front door's GPU 8-bit render") {
+  std::string why;
+  if (!api::cuda_available(&why)) {
+    MESSAGE("skipped: no CUDA device (" << why << ")");
+    return;
+  }
+  api::LoadOptions gpu;
+  gpu.device = api::Device::kCuda;
+  auto scene = view::load_view_scene(test::repo_path("samples/guitar.ply"), gpu);
+  REQUIRE(scene.ok());
+  view::Server server = start({*scene});
+  WsClient client;
+  REQUIRE(client.connect(server.port(), "/ws") == 101);
+  const json hello = client.read_json();
+  CHECK(hello["backend"] == "cuda");
+  CHECK(hello["default_width"] == 1920);
+  CHECK(hello["presets"] == json({"fastest", "faithful", "paper"}));
+  const json camera = small_camera(hello, 640, 360);
+  for (const char* preset : {"fastest", "faithful"}) {
+    CAPTURE(preset);
+    json message = view_json(camera, 9, "lossless");
+    message["preset"] = preset;
+    client.send(message.dump());
+    const Frame frame = read_frame(client);
+    const json& stats = frame.header["stats"];
+    CHECK(stats["preprocess_ms"].get<double>() > 0);
+    CHECK(stats["total_gpu_ms"].get<double>() > 0);
+    CHECK(stats["gpu_memory_total_bytes"].get<uint64_t>() > stats["gpu_memory_used_bytes"].get<uint64_t>());
+    CHECK(stats["gpu_memory_used_bytes"].get<uint64_t>() >= scene->info().memory_bytes);
+    int w = 0, h = 0;
+    const std::vector<uint8_t> rgb = decode_webp(frame.images[0], &w, &h);
+    // The reference: the same camera through the front door on the GPU.
+    auto parsed = view::parse_client_message(message.dump(), {});
+    REQUIRE(parsed.ok());
+    auto cam = view::camera_from_request(parsed->view.camera);
+    REQUIRE(cam.ok());
+    auto renderer = api::Renderer::create(api::Device::kCuda);
+    REQUIRE(renderer.ok());
+    api::RenderSettings settings;
+    settings.preset = *api::parse_preset(preset);
+    settings.background = {0.2f, 0.1f, 0.0f};
+    auto image = renderer->render_image(*scene, *cam, settings, api::PixelFormat::kRgba8);
+    REQUIRE(image.ok());
+    std::vector<uint8_t> rgba(size_t(w) * h * 4), expected(size_t(w) * h * 3);
+    REQUIRE(image->copy_to_host(rgba.data(), nullptr).ok());
+    for (size_t p = 0; p < size_t(w) * h; ++p) {
+      for (int c = 0; c < 3; ++c) expected[p * 3 + c] = rgba[p * 4 + c];
+    }
+    CHECK(rgb == expected);
+  }
+}
