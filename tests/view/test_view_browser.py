@@ -527,7 +527,7 @@ class Run:
 
     def navigate(self):
         page = self.page
-        centre = self.scene["center"]
+        centre = page.eval("rgsView.target()")
         dist = lambda c: math.dist(c["position"], centre)
         before = page.eval("({c: rgsView.camera(), f: rgsView.lastFrame()})")
         d0 = dist(before["c"])
@@ -549,6 +549,62 @@ class Run:
         page.screenshot(os.path.join(self.work, "navigate.png"))
         log(f"  navigate: drag moved the camera {moved:.3f} (distance to the target {d0:.4f} kept), wheel "
             f"{dist(after['c']):.3f} -> {dist(wheel['c']):.3f}; frames {before['f']['digest']} -> {after['f']['digest']}")
+        self.fly_and_touch()
+
+    def fly_and_touch(self):
+        page = self.page
+        cam = lambda: page.eval("rgsView.camera()")
+        fwd = lambda c: [c["rotation"][i][2] for i in range(3)]
+        # fly: W moves along the view direction, a drag turns the camera in place
+        page.eval("rgsView.setOptions({mode: 'fly'})")
+        c0 = cam()
+        key = {"code": "KeyW", "key": "w", "windowsVirtualKeyCode": 87, "nativeVirtualKeyCode": 87}
+        page.call("Input.dispatchKeyEvent", dict(key, type="keyDown"))
+        time.sleep(0.4)
+        page.call("Input.dispatchKeyEvent", dict(key, type="keyUp"))
+        self.wait_still(page)
+        c1 = cam()
+        step = [a - b for a, b in zip(c1["position"], c0["position"])]
+        n = math.sqrt(sum(x * x for x in step))
+        check(n > 0.02 * self.scene["radius"], f"W moved the camera by {n}")
+        along = sum(a * b for a, b in zip(step, fwd(c0))) / n
+        check(along > 0.999 and c1["rotation"] == c0["rotation"], f"W moved at {along} to the view direction, or turned")
+        page.drag(400, 225, 470, 205)
+        self.wait_still(page)
+        c2 = cam()
+        turned = math.degrees(math.acos(max(-1.0, min(1.0, sum(a * b for a, b in zip(fwd(c1), fwd(c2)))))))
+        check(c2["position"] == c1["position"] and turned > 3, f"fly look: moved or turned {turned:.2f} deg only")
+        page.eval("rgsView.setOptions({mode: 'orbit'})")
+        # touch: one finger orbits (distance to the target kept), two fingers pinching out dolly in
+        page.call("Emulation.setTouchEmulationEnabled", {"enabled": True, "maxTouchPoints": 5})
+        t = page.eval("rgsView.target()")
+        d = lambda c: math.dist(c["position"], t)
+        c3 = cam()
+
+        def touch(kind, points):
+            page.call("Input.dispatchTouchEvent",
+                      {"type": kind, "touchPoints": [{"x": x, "y": y, "id": i} for i, (x, y) in enumerate(points)]})
+        touch("touchStart", [(300, 200)])
+        for i in range(1, 7):
+            touch("touchMove", [(300 + 12 * i, 200 + 3 * i)])
+            time.sleep(0.02)
+        touch("touchEnd", [])
+        self.wait_still(page)
+        c4 = cam()
+        check(math.dist(c4["position"], c3["position"]) > 0.05 * self.scene["radius"], "a one-finger drag did not orbit")
+        check(abs(d(c4) - d(c3)) < 1e-4 * d(c3), f"one-finger orbit changed the distance to the target {d(c3)} -> {d(c4)}")
+        touch("touchStart", [(350, 225), (450, 225)])
+        for i in range(1, 7):
+            touch("touchMove", [(350 - 10 * i, 225), (450 + 10 * i, 225)])
+            time.sleep(0.02)
+        touch("touchEnd", [])
+        self.wait_still(page)
+        c5 = cam()
+        t5 = page.eval("rgsView.target()")
+        check(math.dist(c5["position"], t5) < 0.75 * d(c4), f"pinching out did not dolly in: {d(c4)} -> {math.dist(c5['position'], t5)}")
+        page.call("Emulation.setTouchEmulationEnabled", {"enabled": False})
+        log(f"  fly: W moved {n:.3f} along the view, a drag turned {turned:.1f} deg in place; touch: one finger "
+            f"orbited (distance {d(c3):.3f} kept), a pinch dollied {d(c4):.3f} -> {math.dist(c5['position'], t5):.3f}")
 
     def lossless(self):
         page = self.page
@@ -608,13 +664,35 @@ class Run:
         log(f"  path: {len(recorded)} views recorded, rgs-render --cameras rendered {len(files)}, replay drew {n1 - n0} frames")
 
     def compare(self):
-        cmp_server = self.start_server("rgs-view-compare", [self.scene_path, self.scene2_path])
+        # the scene's own cameras too (--cameras): the page starts at the first, the list jumps to the others
+        cams = [orbit_camera(self.scene, az, 640, 480, name=f"scene_cam_{i}", cid=i)
+                for i, az in enumerate((-30.0, 40.0, 200.0))]
+        cams_path = os.path.join(self.work, "scene_cameras.json")
+        with open(cams_path, "w") as f:
+            json.dump(cams, f)
+        cmp_server = self.start_server("rgs-view-compare", [self.scene_path, self.scene2_path], "--cameras", cams_path)
         page = Page(self.browser.cdp, 800, 450)
         try:
             page.goto(cmp_server.local_url())
             page.wait("rgsView.connected", 60, "the compare page did not receive hello")
             hello = page.eval("rgsView.hello")
             check(hello["compare"] and len(hello["scenes"]) == 2, f"compare hello: {hello['scenes']}")
+            check(len(hello["cameras"]) == 3, f"hello has {len(hello['cameras'])} cameras, the file 3")
+
+            def same_pose(got, want, what):
+                check(math.dist(got["position"], want["position"]) < 1e-9, f"{what}: position {got['position']}")
+                err = max(abs(got["rotation"][a][b] - want["rotation"][a][b]) for a in range(3) for b in range(3))
+                check(err < 1e-6, f"{what}: rotation differs by {err}")
+                fov = lambda c: 2 * math.atan(c["height"] / (2 * c["fy"]))
+                check(abs(fov(got) - fov(want)) < 1e-6, f"{what}: field of view {fov(got)} != {fov(want)}")
+            same_pose(page.eval("rgsView.camera()"), cams[0], "the starting view (the first scene camera)")
+            check(page.eval("document.getElementById('camera-list').options.length") == 4, "the camera list")
+            page.eval("(() => { const s = document.getElementById('camera-list'); s.value = '2'; "
+                      "s.dispatchEvent(new Event('change')); })()")
+            same_pose(page.eval("rgsView.camera()"), cams[2], "after jumping to camera 2")
+            page.eval("(() => { const s = document.getElementById('camera-list'); s.value = '0'; "
+                      "s.dispatchEvent(new Event('change')); })()")
+            log("  scene cameras: the page starts at the first; the list jumps to camera 2 and back")
             check(page.eval("!document.getElementById('compare-box').hidden"), "the compare panel is hidden")
             page.wait("rgsView.frameCount >= 1", 60, "no frame in the compare page")
             n = page.eval("rgsView.lastFrame().seq")
@@ -824,12 +902,17 @@ class Run:
         log(f"  abuse: the two steady clients kept getting frames ({counts[0]}, {counts[1]}); the page reconnects and draws")
 
     def readme_screenshot(self):
-        page = Page(self.browser.cdp, 1000, 560)
+        page = Page(self.browser.cdp, 1280, 720)
         try:
             page.goto(self.main.local_url())
             page.wait("rgsView.frameCount >= 1", 60, "no frame for the README screenshot")
-            page.eval("rgsView.setOptions({scale: 1})")
-            cam = orbit_camera(self.scene, 25.0, 1000, 560, elevation_deg=12.0, factor=1.45)
+            page.eval("rgsView.setOptions({scale: 1, quality: 92})")
+            # the guitar's front, a little left of the middle (the panel covers the right)
+            c = orbit_camera(self.scene, -35.0, 1280, 720, elevation_deg=12.0, factor=2.7)
+            right = [c["rotation"][i][0] for i in range(3)]
+            shift = 0.4 * self.scene["radius"]
+            pos = [c["position"][i] + shift * right[i] for i in range(3)]
+            cam = look_at(pos, [self.scene["center"][i] + shift * right[i] for i in range(3)], 1280, 720, 50.0)
             page.eval(f"rgsView.waitForFrame(rgsView.setCamera({json.dumps(cam)}), 60000).then(() => true)", timeout=90)
             self.wait_still(page)
             time.sleep(0.5)
@@ -887,7 +970,7 @@ def main():
     ap.add_argument("guitar")
     ap.add_argument("work_dir")
     ap.add_argument("--only", help="comma list of steps (first_frame always runs)")
-    ap.add_argument("--save-screenshot", help="also write a screenshot of the page (1000x560) here")
+    ap.add_argument("--save-screenshot", help="also write a screenshot of the page (1280x720) here")
     ap.add_argument("--chromium", default=os.environ.get("RGS_CHROMIUM"))
     a = ap.parse_args()
     if not a.chromium:

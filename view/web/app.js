@@ -20,6 +20,8 @@
 //                                        hex), camera (the view's camera as sent)} or null
 //   window.rgsView.camera()             the current camera, INRIA object (position, rotation, fx, fy, width,
 //                                        height) at the size a still frame is rendered at (resolution scale)
+//   window.rgsView.target()             the orbit target, [x, y, z] (orbit keeps the distance to it)
+//   window.rgsView.mode()               'orbit' or 'fly'
 //   window.rgsView.setCamera(cam, {exact})  jumps to an INRIA camera; exact: render exactly it (its size and
 //                                        focal lengths, numbers sent as given) until the next input; otherwise
 //                                        its pose and vertical field of view at the window's size. Returns the
@@ -438,25 +440,28 @@
       ? (frameTimes.length - 1) * 1000 / (frameTimes[frameTimes.length - 1] - frameTimes[0]) : null;
     const mem = st.gpu_memory_used_bytes != null
       ? `${fmtBytes(st.gpu_memory_used_bytes)} / ${fmtBytes(st.gpu_memory_total_bytes)}` : '–';
+    const gpu = st.total_gpu_ms !== null && st.total_gpu_ms !== undefined;
+    const lod = !!(hello && hello.scenes && hello.scenes.some((sc) => sc.lod));
+    // rows the backend has no value for (the GPU stage times and memory on the CPU) are left out
     const rows = [
       ['frame', `${f.width} × ${f.height}${f.refine ? ' (refine)' : ''}`],
-      ['preprocess', fmtMs(st.preprocess_ms)],
-      ['sort', fmtMs(st.sort_ms)],
-      ['render', fmtMs(st.render_ms)],
-      ['total GPU', fmtMs(st.total_gpu_ms)],
+      gpu && ['preprocess', fmtMs(st.preprocess_ms)],
+      gpu && ['sort', fmtMs(st.sort_ms)],
+      gpu && ['render', fmtMs(st.render_ms)],
+      gpu && ['total GPU', fmtMs(st.total_gpu_ms)],
       ['render call', fmtMs(st.render_call_ms)],
-      ['readback', fmtMs(st.readback_ms)],
+      gpu && ['readback', fmtMs(st.readback_ms)],
       ['encode', fmtMs(st.encode_ms)],
       ['splats', fmtCount(st.splats)],
       ['pairs', fmtCount(st.pairs)],
-      ['GPU memory', mem],
-      ['LOD streamed', fmtBytes(st.lod_bytes_streamed)],
-      ['LOD resident', fmtBytes(st.lod_bytes_resident)],
+      st.gpu_memory_used_bytes != null && ['GPU memory', mem],
+      lod && ['LOD streamed', fmtBytes(st.lod_bytes_streamed)],
+      lod && ['LOD resident', fmtBytes(st.lod_bytes_resident)],
       ['frame bytes', `${fmtBytes(f.bytes)} (${f.images.map((i) => i.encoding).join('+')})`],
       ['received', fmtBytes(bytesTotal)],
       ['frames/s', fps === null ? '–' : fps.toFixed(1)],
       ['latency', f.latency_ms === null ? '–' : `${f.latency_ms.toFixed(0)} ms`],
-    ];
+    ].filter(Boolean);
     $('stats').tBodies[0].innerHTML = rows.map(([k, v]) => `<tr><td>${k}</td><td>${esc(v)}</td></tr>`).join('');
     if (hello && hello.compare) {
       $('psnr').textContent = f.psnr === null ? (f.mse === 0 ? '∞ (identical)' : '–') : `${f.psnr.toFixed(2)} dB`;
@@ -869,6 +874,8 @@
     _started: false, _scaleChosen: false,
     lastFrame: () => lastFrame,
     camera: () => currentCamera(pinned ? 1 : opts.scale),
+    target: () => target(),
+    mode: () => opts.mode,
     setCamera, setOptions, waitForFrame, requestLossless,
     record: {
       start() { recording = true; path.length = 0; updatePathUi(); },
