@@ -371,6 +371,20 @@ TEST_CASE("server: the ninth client is refused with busy and close code 1013, a 
   CHECK(again.read_json()["type"] == "hello");
 }
 
+TEST_CASE("server: the latest view wins, stale views are dropped, not queued") {
+  view::Server server = start({guitar()});
+  WsClient client;
+  REQUIRE(client.connect(server.port(), "/ws") == 101);
+  const json camera = small_camera(client.read_json(), 320, 180);
+  const uint64_t kViews = 30;
+  for (uint64_t seq = 0; seq < kViews; ++seq) client.send(view_json(camera, seq, "lossless").dump());
+  std::vector<uint64_t> seqs;
+  while (seqs.empty() || seqs.back() != kViews - 1) seqs.push_back(read_frame(client).header["seq"].get<uint64_t>());
+  MESSAGE(kViews << " views sent at once gave " << seqs.size() << " frames");
+  CHECK(seqs.size() < kViews / 2);
+  for (size_t i = 1; i < seqs.size(); ++i) CHECK(seqs[i] > seqs[i - 1]);
+}
+
 TEST_CASE("server: a client that never reads does not stall another, and stop() closes both with 1001") {
   view::Server server = start({guitar()});
   WsClient stuck, live;
