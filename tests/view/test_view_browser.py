@@ -335,10 +335,10 @@ def read_ppm(path):
     return w, h, pix
 
 
-def rgs_render(exe, scene, cameras_json, out_dir, work):
+def rgs_render(exe, scene, cameras_json, out_dir, work, extra=()):
     shutil.rmtree(out_dir, ignore_errors=True)
-    r = subprocess.run([exe, scene, "--cameras", cameras_json, "-o", out_dir, "--format", "ppm", "--backend", "cpu"],
-                       capture_output=True, text=True, timeout=300, cwd=work)
+    r = subprocess.run([exe, scene, "--cameras", cameras_json, "-o", out_dir, "--format", "ppm", "--backend", "cpu"]
+                       + list(extra), capture_output=True, text=True, timeout=300, cwd=work)
     check(r.returncode == 0, f"rgs-render --cameras {cameras_json} failed ({r.returncode}): {r.stderr[-1500:]}")
     return sorted(f for f in os.listdir(out_dir) if f.endswith(".ppm"))
 
@@ -612,23 +612,62 @@ class Run:
         path = os.path.join(self.work, "lossless_cameras.json")
         with open(path, "w") as f:
             json.dump([cam], f)
-        files = rgs_render(self.a.rgs_render, self.scene_path, path, os.path.join(self.work, "lossless_render"), self.work)
-        check(len(files) == 1, f"rgs-render wrote {files}")
-        w, h, ref = read_ppm(os.path.join(self.work, "lossless_render", files[0]))
-        got = page.eval(f"rgsView.requestLossless({{camera: {json.dumps(cam)}, pixels: true}})", timeout=120)
-        check((got["width"], got["height"]) == (w, h), f"lossless frame {got['width']}x{got['height']}, rgs-render {w}x{h}")
-        f = page.eval("rgsView.lastFrame()")
-        check(f["images"][0]["encoding"] == "webp-lossless", f"the lossless frame is {f['images']}")
-        pix = base64.b64decode(got["rgb"])
-        with open(os.path.join(self.work, "lossless_page.png"), "wb") as out:
-            out.write(base64.b64decode(got["png"].split(",", 1)[1]))
-        if pix != ref:
-            diff = [abs(a - b) for a, b in zip(pix, ref)]
-            bad = sum(1 for i in range(0, len(diff), 3) if diff[i] or diff[i + 1] or diff[i + 2])
-            raise Failed(f"the page's lossless frame differs from rgs-render's in {bad} of {w * h} pixels "
-                         f"(max {max(diff)}); lossless_page.png vs lossless_render/{files[0]}")
-        check(len(set(ref)) > 16, "the reference image is (nearly) blank: the camera misses the scene")
-        log(f"  lossless: {w}x{h} frame equals rgs-render --backend cpu's image byte for byte ({len(set(pix))} levels)")
+        # the default preset on black, and another preset on a coloured background
+        for preset, background in (("fastest", [0, 0, 0]), ("paper", [0.2, 0.4, 0.6])):
+            tag = f"{preset}_bg{'_'.join(str(v) for v in background)}"
+            out = os.path.join(self.work, f"lossless_render_{tag}")
+            files = rgs_render(self.a.rgs_render, self.scene_path, path, out, self.work,
+                               ["--preset", preset, "--background", ",".join(str(v) for v in background)])
+            check(len(files) == 1, f"rgs-render wrote {files}")
+            w, h, ref = read_ppm(os.path.join(out, files[0]))
+            page.eval(f"rgsView.setOptions({{preset: '{preset}', background: {json.dumps(background)}}})")
+            got = page.eval(f"rgsView.requestLossless({{camera: {json.dumps(cam)}, pixels: true}})", timeout=120)
+            check((got["width"], got["height"]) == (w, h),
+                  f"lossless frame {got['width']}x{got['height']}, rgs-render {w}x{h}")
+            f = page.eval("rgsView.lastFrame()")
+            check(f["images"][0]["encoding"] == "webp-lossless", f"the lossless frame is {f['images']}")
+            check(f["preset"] in (None, preset), f"the frame says preset {f['preset']}, asked {preset}")
+            pix = base64.b64decode(got["rgb"])
+            with open(os.path.join(self.work, f"lossless_page_{tag}.png"), "wb") as o:
+                o.write(base64.b64decode(got["png"].split(",", 1)[1]))
+            if pix != ref:
+                diff = [abs(a - b) for a, b in zip(pix, ref)]
+                bad = sum(1 for i in range(0, len(diff), 3) if diff[i] or diff[i + 1] or diff[i + 2])
+                raise Failed(f"{preset}: the page's lossless frame differs from rgs-render's in {bad} of {w * h} "
+                             f"pixels (max {max(diff)}); lossless_page_{tag}.png vs {out}/{files[0]}")
+            check(len(set(ref)) > 16, "the reference image is (nearly) blank: the camera misses the scene")
+            log(f"  lossless: preset {preset}, background {background}: the {w}x{h} frame equals rgs-render "
+                f"--backend cpu's image byte for byte ({len(set(pix))} levels)")
+        page.eval("rgsView.setOptions({preset: 'fastest', background: [0, 0, 0]})")
+        self.wait_still(page)
+        # interactive WebP frames decode too
+        for enc, name in (("webp", "webp"), ("lossless", "webp-lossless"), ("jpeg", "jpeg")):
+            page.eval(f"rgsView.setOptions({{encoding: '{enc}'}})")
+            page.wait(f"rgsView.lastFrame().images[0].encoding === '{name}'", 30, f"no {name} frame drawn")
+        # the screenshot button: a lossless frame of the current view at full size, saved as PNG
+        downloads = os.path.join(self.work, "downloads")
+        os.makedirs(downloads, exist_ok=True)
+        self.browser.cdp.call("Browser.setDownloadBehavior", {"behavior": "allow", "downloadPath": downloads})
+        page.eval("document.getElementById('screenshot').click()")
+        png = self.wait_download(downloads, ".png")
+        with open(png, "rb") as f:
+            head = f.read(24)
+        check(head[:8] == b"\x89PNG\r\n\x1a\n", f"{png} is not a PNG")
+        size = (int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big"))
+        check(size == (page.width, page.height), f"the screenshot is {size}, the window {page.width}x{page.height}")
+        log(f"  screenshot button: {os.path.basename(png)} ({size[0]}x{size[1]} PNG); interactive webp, "
+            "lossless and jpeg frames drawn")
+
+    def wait_download(self, folder, suffix, timeout=60):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            done = [f for f in os.listdir(folder) if f.endswith(suffix)]
+            if done:
+                path = os.path.join(folder, done[0])
+                time.sleep(0.3)
+                return path
+            time.sleep(0.1)
+        raise Failed(f"no {suffix} file was downloaded within {timeout} s; page console: {self.page.console()}")
 
     def path(self):
         page = self.page
@@ -653,6 +692,12 @@ class Run:
         path = os.path.join(self.work, "recorded_path.json")
         with open(path, "w") as f:
             f.write(text)
+        # the Save button downloads the same file
+        downloads = os.path.join(self.work, "downloads")
+        page.eval("document.getElementById('save-path').click()")
+        saved = self.wait_download(downloads, ".json")
+        with open(saved) as f:
+            check(f.read() == text, f"{saved} differs from the recorded path")
         files = rgs_render(self.a.rgs_render, self.scene_path, path, os.path.join(self.work, "path_render"), self.work)
         check(len(files) == len(recorded), f"rgs-render rendered {len(files)} views of {len(recorded)}")
         n0 = page.eval("rgsView.frameCount")
@@ -784,9 +829,15 @@ class Run:
         time.sleep(0.5)
         socks = []
         try:
-            for _ in range(8):
+            deadline = time.monotonic() + 30
+            while len(socks) < 8:
                 ws = ws_connect(self.main.ws_url())
-                recv_hello(ws)
+                first = json.loads(ws.recv())
+                if first.get("type") == "error" and first.get("code") == "busy" and time.monotonic() < deadline:
+                    ws.close()  # the page's connection may not have been closed on the server's side yet
+                    time.sleep(0.2)
+                    continue
+                check(first.get("type") == "hello", f"client {len(socks)}: first message {first}")
                 socks.append(ws)
             extra = ws_connect(self.main.ws_url())
             try:
@@ -975,8 +1026,8 @@ def main():
     a = ap.parse_args()
     if not a.chromium:
         a.chromium = next((c for c in CHROMIUM_CANDIDATES if os.access(c, os.X_OK)), None) or shutil.which("chromium")
-    if not a.chromium:
-        skip("no chromium (Debian package chromium)")
+    if not a.chromium or not os.access(a.chromium, os.X_OK):
+        skip(f"no chromium ({a.chromium or 'Debian package chromium'} not found)")
     if websocket is None:
         skip("no python3-websocket (the websocket module)")
     run = Run(a)

@@ -15,7 +15,7 @@
 //   window.rgsView.frameCount           frames drawn so far
 //   window.rgsView.hello                the server's hello message (null before it)
 //   window.rgsView.errors               error messages received (array of the server's objects)
-//   window.rgsView.lastFrame()          {seq, width, height, refine, images:[{role, encoding, bytes}], stats,
+//   window.rgsView.lastFrame()          {seq, width, height, refine, preset, images:[{role, encoding, bytes}], stats,
 //                                        psnr, mse, diff_max, latency_ms, digest (FNV-1a of the image bytes,
 //                                        hex), camera (the view's camera as sent)} or null
 //   window.rgsView.camera()             the current camera, INRIA object (position, rotation, fx, fy, width,
@@ -331,6 +331,7 @@
     const s = sent.get(header.seq);
     const info = {
       seq: header.seq, width: header.width, height: header.height, refine: !!header.refine,
+      preset: header.preset ?? null,
       images: (header.images || []).map((im) => ({ role: im.role, encoding: im.encoding, bytes: im.bytes })),
       stats: header.stats || {}, psnr: header.psnr ?? null, mse: header.mse ?? null,
       diff_max: header.diff_max ?? null, bytes: buf.byteLength, digest: digest.toString(16).padStart(8, '0'),
