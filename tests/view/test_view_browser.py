@@ -769,6 +769,13 @@ class Run:
             check(fd["psnr"] is not None and abs(fd["psnr"] - f["psnr"]) < 1e-6,
                   f"diff frame PSNR {fd['psnr']} != split frame's {f['psnr']} (same camera)")
             page.screenshot(os.path.join(self.work, "compare_diff.png"))
+            n = fd["seq"]
+            page.eval("rgsView.setOptions({diffScale: 4})")
+            page.wait(f"rgsView.lastFrame().seq > {n}", 60, "no frame after the diff scale changed")
+            self.wait_still(page)
+            fd4 = page.eval("rgsView.lastFrame()")
+            check(fd4["digest"] != fd["digest"], "the heatmap did not change with the diff scale")
+            page.screenshot(os.path.join(self.work, "compare_diff_scale4.png"))
             log(f"  compare: split frame a+b, PSNR {f['psnr']:.2f} dB shown as {shown!r}, diff_max {f['diff_max']}; "
                 f"slider dragged to {split:.3f}; heatmap frame; screenshots compare_split*.png, compare_diff.png")
         finally:

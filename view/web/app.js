@@ -26,8 +26,8 @@
 //                                        focal lengths, numbers sent as given) until the next input; otherwise
 //                                        its pose and vertical field of view at the window's size. Returns the
 //                                        seq of the view it sends (sent at once, not throttled).
-//   window.rgsView.setOptions({preset, encoding, quality, background:[r,g,b], compare, scale, motionScale,
-//                              mode, fovY, split})   the panel's settings
+//   window.rgsView.setOptions({preset, encoding, quality, background:[r,g,b], compare, diffScale, scale,
+//                              motionScale, mode, fovY, split})   the panel's settings
 //   window.rgsView.waitForFrame(seq, timeoutMs)  Promise of lastFrame() once a frame of seq ≥ `seq` is drawn
 //   window.rgsView.requestLossless({camera, pixels})  Promise of {seq, width, height, png (data URL),
 //                                        rgb (base64 of width·height·3 bytes, with pixels: true)}: a lossless
@@ -67,7 +67,7 @@
   let sceneRadius = 1;
   let pinned = null;            // exact INRIA camera set through setCamera(.., {exact: true})
   const opts = {
-    preset: 'fastest', encoding: 'jpeg', quality: 85, background: [0, 0, 0], compare: 'off',
+    preset: 'fastest', encoding: 'jpeg', quality: 85, background: [0, 0, 0], compare: 'off', diffScale: 32,
     scale: 1, motionScale: 0.5, mode: 'orbit',
   };
   let hello = null;
@@ -243,6 +243,7 @@
       }
     }
     syncControls();
+    answered = seq;  // views sent on an earlier connection will not be answered
     connected = true;
     api.connected = true;
     setConn('on', 'connected');
@@ -281,7 +282,7 @@
     return Object.assign({
       camera, preset: opts.preset, background: opts.background, encoding: opts.encoding, quality: opts.quality,
       compare: hello && hello.compare ? opts.compare : 'off',
-    }, over || {});
+    }, hello && hello.compare && opts.compare === 'diff' ? { diff_scale: opts.diffScale } : {}, over || {});
   }
   // The view the screen should show now: reduced resolution while the camera moves.
   function wantedView(now) {
@@ -645,6 +646,8 @@
     $('background').value = `#${hex.join('')}`;
     setMode(opts.mode);
     setCompare(opts.compare);
+    $('diff-scale').value = String(opts.diffScale);
+    $('diff-scale-value').textContent = String(opts.diffScale);
   }
   $('mode-orbit').onclick = () => setMode('orbit');
   $('mode-fly').onclick = () => setMode('fly');
@@ -679,6 +682,10 @@
     opts.background = [1, 3, 5].map((i) => parseInt(v.slice(i, i + 2), 16) / 255);
   };
   for (const m of ['off', 'split', 'diff']) $(`cmp-${m}`).onclick = () => setCompare(m);
+  $('diff-scale').oninput = (e) => {
+    opts.diffScale = Number(e.target.value);
+    $('diff-scale-value').textContent = e.target.value;
+  };
   function collapsePanel(on) {
     $('panel').classList.toggle('collapsed', on);
     $('panel-toggle').textContent = on ? '+' : '–';
@@ -863,6 +870,7 @@
     if (o.quality !== undefined) opts.quality = o.quality;
     if (o.background !== undefined) opts.background = o.background.slice();
     if (o.compare !== undefined) opts.compare = o.compare;
+    if (o.diffScale !== undefined) opts.diffScale = o.diffScale;
     if (o.scale !== undefined) { opts.scale = o.scale; api._scaleChosen = true; }
     if (o.motionScale !== undefined) opts.motionScale = o.motionScale;
     if (o.mode !== undefined) opts.mode = o.mode;
