@@ -80,7 +80,8 @@ Result<Endpoint> parse_url(const std::string& url) {
     if (url.rfind(scheme, 0) == 0) rest = url.substr(std::char_traits<char>::length(scheme));
   }
   if (rest.empty()) {
-    return Status(StatusCode::kInvalidArgument, "the URL must start with http:// or ws:// (https/wss are not supported)");
+    return Status(StatusCode::kInvalidArgument,
+                  "the URL must start with http:// or ws:// (https/wss are not supported)");
   }
   const size_t slash = rest.find_first_of("/?");
   const std::string authority = rest.substr(0, slash);

@@ -675,7 +675,10 @@
   $('scale').onchange = (e) => { opts.scale = Number(e.target.value); api._scaleChosen = true; };
   $('motion-scale').onchange = (e) => { opts.motionScale = Number(e.target.value); };
   $('encoding').onchange = (e) => { opts.encoding = e.target.value; syncControls(); };
-  $('quality').oninput = (e) => { opts.quality = Number(e.target.value); $('quality-value').textContent = e.target.value; };
+  $('quality').oninput = (e) => {
+    opts.quality = Number(e.target.value);
+    $('quality-value').textContent = e.target.value;
+  };
   $('background').oninput = (e) => {
     const v = e.target.value;
     // the renderer writes 8-bit values without a transfer curve, so the picked value is sent as is
