@@ -141,6 +141,7 @@ class Cdp:
         self.ws = websocket.create_connection(url, timeout=60, suppress_origin=True)
         self.next_id = 0
         self.events = []
+        self.exceptions = []  # every Runtime.exceptionThrown, kept whole
 
     def call(self, method, params=None, session=None, timeout=60):
         self.next_id += 1
@@ -163,6 +164,8 @@ class Cdp:
                 if "error" in reply:
                     raise Failed(f"DevTools {method}: {reply['error']}")
                 return reply.get("result", {})
+            if reply.get("method") == "Runtime.exceptionThrown":
+                self.exceptions.append(reply)
             self.events.append(reply)
             del self.events[:-500]
 
@@ -237,6 +240,15 @@ class Page:
         p = {"type": kind, "x": x, "y": y, "button": button, "buttons": buttons}
         p.update(extra)
         self.call("Input.dispatchMouseEvent", p)
+
+    def click(self, selector):
+        x, y = self.eval(f"(() => {{ const e = document.querySelector('{selector}'); "
+                         "e.scrollIntoView({block: 'nearest'}); const b = e.getBoundingClientRect(); "
+                         "return [b.left + b.width / 2, b.top + b.height / 2]; })()")
+        check(0 <= x < self.width and 0 <= y < self.height, f"{selector} is outside the window at ({x}, {y})")
+        self.mouse("mouseMoved", x, y)
+        self.mouse("mousePressed", x, y, "left", 1, clickCount=1)
+        self.mouse("mouseReleased", x, y, "left", 0, clickCount=1)
 
     def drag(self, x0, y0, x1, y1, steps=8, button="left"):
         mask = {"left": 1, "right": 2, "middle": 4}[button]
@@ -535,6 +547,10 @@ class Run:
         page.wait(f"rgsView.lastFrame().seq > {before['f']['seq']}", 30, "no frame after the drag")
         self.wait_still(page)
         after = page.eval("({c: rgsView.camera(), f: rgsView.lastFrame()})")
+        # while moving the page asks for half resolution, once still for the full size
+        sizes = [(f["width"], f["height"]) for f in page.eval("rgsView.frameLog()") if f["seq"] > before["f"]["seq"]]
+        check((page.width // 2, page.height // 2) in sizes and sizes[-1] == (page.width, page.height),
+              f"frame sizes during and after the drag: {sizes}")
         moved = math.dist(after["c"]["position"], before["c"]["position"])
         check(moved > 0.05 * self.scene["radius"], f"the drag moved the camera by {moved} only")
         # the home view orbits the scene centre: the distance to it is kept
@@ -700,13 +716,32 @@ class Run:
             check(f.read() == text, f"{saved} differs from the recorded path")
         files = rgs_render(self.a.rgs_render, self.scene_path, path, os.path.join(self.work, "path_render"), self.work)
         check(len(files) == len(recorded), f"rgs-render rendered {len(files)} views of {len(recorded)}")
+        # the panel's Record / Stop buttons: the view at the start and each distinct pose sent while recording
+        page.click("#record")
+        check(page.eval("rgsView.record.recording"), "the Record button did not start recording")
+        page.drag(150, 300, 250, 300)
+        self.wait_still(page)
+        page.drag(150, 300, 120, 260)
+        self.wait_still(page)
+        page.click("#record")
+        ui = page.eval("rgsView.record.cameras()")
+        check(not page.eval("rgsView.record.recording") and len(ui) >= 3,
+              f"recording with the buttons around two drags gave {len(ui)} views")
+        check(ui[-1]["position"] == page.eval("rgsView.camera()")["position"], "the last recorded view is not the current one")
+        with open(os.path.join(self.work, "recorded_ui.json"), "w") as f:
+            f.write(page.eval("rgsView.record.json()"))
+        files = rgs_render(self.a.rgs_render, self.scene_path, os.path.join(self.work, "recorded_ui.json"),
+                           os.path.join(self.work, "path_ui_render"), self.work)
+        check(len(files) == len(ui), f"rgs-render rendered {len(files)} views of {len(ui)} recorded with the buttons")
+        recorded = ui
         n0 = page.eval("rgsView.frameCount")
         page.eval("rgsView.record.replay().then(() => true)", timeout=120)
         n1 = page.eval("rgsView.frameCount")
         check(n1 - n0 >= len(recorded), f"replay drew {n1 - n0} frames for {len(recorded)} views")
         last = page.eval("rgsView.lastFrame().camera")
         check(last["position"] == recorded[-1]["position"], "replay did not end at the last recorded view")
-        log(f"  path: {len(recorded)} views recorded, rgs-render --cameras rendered {len(files)}, replay drew {n1 - n0} frames")
+        log(f"  path: {len(cams)} cameras set and recorded, rgs-render --cameras rendered them; recorded with the "
+            f"buttons around two drags: {len(ui)} views, all rendered; replay drew {n1 - n0} frames")
 
     def compare(self):
         # the scene's own cameras too (--cameras): the page starts at the first, the list jumps to the others
@@ -741,7 +776,7 @@ class Run:
             check(page.eval("!document.getElementById('compare-box').hidden"), "the compare panel is hidden")
             page.wait("rgsView.frameCount >= 1", 60, "no frame in the compare page")
             n = page.eval("rgsView.lastFrame().seq")
-            page.eval("rgsView.setOptions({compare: 'split'})")
+            page.click("#cmp-split")  # the panel's button, clicked with the mouse
             page.wait(f"(() => {{ const f = rgsView.lastFrame(); return f.seq > {n} && "
                       "f.images.map(i => i.role).join() === 'a,b'; })()", 60, "no split frame (images a, b)")
             self.wait_still(page)
@@ -1003,6 +1038,11 @@ class Run:
             log(f"  ({time.monotonic() - t0:.1f} s)")
         if self.a.save_screenshot:
             self.readme_screenshot()
+        # no script error in any page, all along
+        thrown = [e["params"]["exceptionDetails"] for e in self.browser.cdp.exceptions]
+        check(not thrown, "the page threw: " +
+              "; ".join(str((d.get("exception") or {}).get("description") or d.get("text")) for d in thrown))
+        log("no script error in the pages")
         self.page.close()
         log("shutdown:")
         code = self.main.stop()

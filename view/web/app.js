@@ -18,6 +18,7 @@
 //   window.rgsView.lastFrame()          {seq, width, height, refine, preset, images:[{role, encoding, bytes}], stats,
 //                                        psnr, mse, diff_max, latency_ms, digest (FNV-1a of the image bytes,
 //                                        hex), camera (the view's camera as sent)} or null
+//   window.rgsView.frameLog()           the last 100 frames drawn, [{seq, width, height}]
 //   window.rgsView.camera()             the current camera, INRIA object (position, rotation, fx, fy, width,
 //                                        height) at the size a still frame is rendered at (resolution scale)
 //   window.rgsView.target()             the orbit target, [x, y, z] (orbit keeps the distance to it)
@@ -86,6 +87,7 @@
   let bitmaps = null;           // the frame on screen: {a, b, diff}
   let split = 0.5;
   const frameTimes = [];        // arrival times of the last second's frames
+  const frameLog = [];          // the last 100 frames drawn: {seq, width, height}
   let bytesTotal = 0;
   const waiters = [];           // {seq, resolve, reject, timer}
   const errors = [];
@@ -345,6 +347,8 @@
       bitmaps = bms;
       info.latency_ms = s ? performance.now() - s.t : null;
       lastFrame = info;
+      frameLog.push({ seq: info.seq, width: info.width, height: info.height });
+      if (frameLog.length > 100) frameLog.shift();
       frameCount += 1;
       api.frameCount = frameCount;
       const t = performance.now();
@@ -885,6 +889,7 @@
     connected: false, frameCount: 0, hello: null, errors, split,
     _started: false, _scaleChosen: false,
     lastFrame: () => lastFrame,
+    frameLog: () => frameLog.slice(),
     camera: () => currentCamera(pinned ? 1 : opts.scale),
     target: () => target(),
     mode: () => opts.mode,
