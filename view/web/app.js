@@ -756,6 +756,7 @@
       c.height = info.height;
       const g = c.getContext('2d', { alpha: false, willReadFrequently: true });
       compose(g, bitmaps, info.width, info.height);
+      if (o.blob) return { seq: s, width: info.width, height: info.height, blob: await pngBlob(c) };
       const png = c.toDataURL('image/png');
       const out = { seq: s, width: info.width, height: info.height, png };
       if (o.pixels) {
@@ -772,15 +773,16 @@
       if (o.camera) lastSentKey = '';  // the screen shows another camera: the current view goes again
     }
   }
+  const pngBlob = (c) => new Promise((resolve, reject) =>
+    c.toBlob((b) => (b ? resolve(b) : reject(new Error('the browser could not encode the PNG'))), 'image/png'));
   const inriaMessageCamera = (c) => ({ position: c.position.slice(), rotation: c.rotation.map((r) => r.slice()),
     fx: c.fx, fy: c.fy, width: c.width, height: c.height });
   $('screenshot').onclick = async () => {
     const btn = $('screenshot');
     btn.disabled = true;
     try {
-      const shot = await requestLossless({});
-      const blob = await (await fetch(shot.png)).blob();
-      download(blob, `rgs_view_${shot.width}x${shot.height}_${shot.seq}.png`);
+      const shot = await requestLossless({ blob: true });
+      download(shot.blob, `rgs_view_${shot.width}x${shot.height}_${shot.seq}.png`);
     } catch (e) {
       overlay(`screenshot failed: ${e.message}`);
       setTimeout(() => overlay(''), 3000);
