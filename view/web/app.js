@@ -190,8 +190,12 @@
         fatalError = msg.message || msg.code || 'error';
         overlay(`server: ${fatalError}`);
       } else {
-        // a frame failed: its view is answered, the next one may go
+        // a frame failed: its view (the last one sent: one is in flight) is answered, the next one may go
         answered = seq;
+        for (const w of waiters.splice(0)) {
+          clearTimeout(w.timer);
+          w.reject(new Error(`the server could not render the view: ${msg.message || msg.code}`));
+        }
         overlay(`frame failed: ${msg.message || msg.code}`);
         setTimeout(() => overlay(''), 3000);
       }
@@ -595,6 +599,7 @@
     'ArrowRight']);
   window.addEventListener('keydown', (e) => {
     if (e.target && /^(INPUT|SELECT|TEXTAREA)$/.test(e.target.tagName) && e.target.type !== 'range') return;
+    if (e.ctrlKey || e.metaKey || e.altKey) return;  // the browser's shortcuts
     if (MOVE_KEYS.has(e.code)) { keys.add(e.code); e.preventDefault(); }
     if (e.code === 'KeyF' && !e.repeat) setMode(opts.mode === 'fly' ? 'orbit' : 'fly');
   });
