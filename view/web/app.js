@@ -460,7 +460,7 @@
       gpu && ['render', fmtMs(st.render_ms)],
       gpu && ['total GPU', fmtMs(st.total_gpu_ms)],
       ['render call', fmtMs(st.render_call_ms)],
-      gpu && ['readback', fmtMs(st.readback_ms)],
+      st.readback_ms != null && ['readback', fmtMs(st.readback_ms)],
       ['encode', fmtMs(st.encode_ms)],
       ['splats', fmtCount(st.splats)],
       ['pairs', fmtCount(st.pairs)],
