@@ -52,6 +52,18 @@ find_path(RGS_ZLIB_INCLUDE_DIR zlib.h REQUIRED)
 find_library(RGS_ZLIB_LIBRARY NAMES libz.a z REQUIRED)
 find_package(Threads REQUIRED)
 
+# The viewer (rgs-view, view/): Boost.Beast and Asio (header-only, Debian libboost-dev) and libturbojpeg (Debian
+# libturbojpeg0-dev; its static archive, so that the GPU host needs no libturbojpeg). RGS_BUILD_VIEWER defaults
+# to whether both are found.
+find_package(Boost 1.74 QUIET)
+find_path(RGS_TURBOJPEG_INCLUDE_DIR turbojpeg.h)
+find_library(RGS_TURBOJPEG_LIBRARY NAMES libturbojpeg.a turbojpeg)
+if(Boost_FOUND AND RGS_TURBOJPEG_INCLUDE_DIR AND RGS_TURBOJPEG_LIBRARY)
+  set(RGS_VIEWER_DEPENDENCIES_FOUND ON)
+else()
+  set(RGS_VIEWER_DEPENDENCIES_FOUND OFF)
+endif()
+
 if(RGS_BUILD_TESTS)
   find_package(doctest CONFIG REQUIRED)
   include(doctest)  # doctest_discover_tests()

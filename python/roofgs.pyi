@@ -159,3 +159,20 @@ def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Arra
     their defaults."""
 def audit(source: _Path, candidates: Sequence[_Path], *, cameras: Optional[Sequence[Camera]] = None, orbit: int = 4,
           width: int = 960, height: int = 540, device: str = "auto", spz_frame: str = "rub") -> Dict[str, Any]: ...
+
+class ViewServer:
+    """A running rgs-view server (roofgs.view()); in a notebook it displays the page inline (an iframe)."""
+    url: str
+    port: int
+    token: str
+    clients: int
+    def stop(self) -> None: ...
+    def __enter__(self) -> "ViewServer": ...
+    def __exit__(self, *args: Any) -> None: ...
+    def _repr_html_(self) -> str: ...
+
+def view(scene: Union[Scene, _Path], scene2: Optional[Union[Scene, _Path]] = None, device: str = "auto",
+         host: str = "127.0.0.1", port: int = 0, token: str = "", preset: str = "fastest", cameras: str = "",
+         max_clients: int = 8, cuda_device: int = 0, height: int = 600) -> ViewServer:
+    """Starts the rgs-view server in this process (docs/VIEWER.md) for `scene` (with `scene2`: the compare
+    mode) and returns its handle. Only built with the viewer (RGS_BUILD_VIEWER); absent otherwise."""

@@ -14,8 +14,11 @@ mkdir -p "$package"
 python_include="$(python3 -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
 suffix="$(python3 -c 'import sysconfig; print(sysconfig.get_config_var("EXT_SUFFIX"))')"
 includes=()
-for lib in audit api format converter runtime kernels; do includes+=(-I"$root/$lib/include"); done
-c++ -O2 -std=c++17 -shared -fPIC -fvisibility=hidden -I"$py/include" -I"$python_include" "${includes[@]}" \
+for lib in audit api format converter runtime kernels view; do includes+=(-I"$root/$lib/include"); done
+# roofgs.view() when the staged libraries hold the viewer (stage_gpu.sh marks it).
+viewer=()
+if [ -f "$py/with_viewer" ]; then viewer=(-DRGS_WITH_VIEWER=1); fi
+c++ -O2 -std=c++17 -shared -fPIC -fvisibility=hidden "${viewer[@]}" -I"$py/include" -I"$python_include" "${includes[@]}" \
   "$root/python/src/roofgs_module.cpp" -o "$package/roofgs$suffix" -L"$py" -lroofgs_core -Wl,-rpath,"$py"
 echo "gpu_python: built $package/roofgs$suffix for $(python3 --version)"
 log="${out:+$out/pytest.log}"

@@ -15,12 +15,13 @@ profile="${1:-tests}"
 sample=(
   build-essential cmake ninja-build pkg-config
   libzstd-dev liblzma-dev libxxhash-dev zlib1g-dev libwebp-dev libdraco-dev nlohmann-json3-dev libcli11-dev
+  libboost-dev libturbojpeg0-dev
 )
 tests=(
   "${sample[@]}"
   doctest-dev libopenimageio-dev libglm-dev
   python3 python3-dev python3-venv pybind11-dev python3-numpy python3-pytest python3-matplotlib time
-  chromium
+  chromium python3-websocket
   clang libclang-rt-14-dev llvm
 )
 case "$profile" in

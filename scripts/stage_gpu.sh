@@ -2,8 +2,8 @@
 # Development host: builds the GPU binaries (CUDA on, no OpenImageIO: CONTRIBUTING.md#one-build-two-hosts)
 # into build-gpu and stages what the GPU host needs into ignored folders, each small enough to travel with the
 # repository in one call (a call carries at most 64 MiB with the working tree):
-#   .device_data/bin.tar.xz  test_gpu, test_api, test_audit, rgs-render, rgs-bench, rgs-convert, rgs-audit, rgs-info and
-#                            the render_frame sample, stripped
+#   .device_data/bin.tar.xz  test_gpu, test_api, test_audit, rgs-render, rgs-bench, rgs-convert, rgs-audit, rgs-info,
+#                            rgs-view (and rgs-view-bench), test_view and the render_frame sample, stripped
 #   .device_data/py.tar.xz   the Python module's parts for the GPU host's own Python (3.12 there, 3.11 here):
 #                            libroofgs_core.so (every RoofGS library, code generated here), pybind11's headers
 #                            and the generated config.h; scripts/gpu_python.sh compiles the module there
@@ -29,10 +29,12 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA
   -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_LAB_KERNELS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
   -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON >/dev/null
 exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render tools/rgs-bench tools/rgs-convert
-      tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame)
+      tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame tools/rgs-view tests/viewer/test_view)
+# The viewer's benchmark client, once its source exists (tools/CMakeLists.txt builds it then).
+if [ -f "$root/tools/rgs_view_bench.cpp" ]; then exes+=(tools/rgs-view-bench); fi
 targets=()
 for exe in "${exes[@]}"; do targets+=("$(basename "$exe")"); done
-cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api rgs_audit
+cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api rgs_audit rgs_view
 
 # The Python module: a Python extension built here would be for this host's Python, so the libraries go over
 # as one shared library with their code generated here (LTO resolved by this compiler), and the GPU host
@@ -42,13 +44,15 @@ cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api rgs_audit
 py="$stage/py"
 rm -rf "$py"
 mkdir -p "$py/include"
-libs=(audit/librgs_audit.a api/librgs_api.a converter/librgs_converter.a runtime/librgs_runtime.a
+libs=(view/librgs_view.a audit/librgs_audit.a api/librgs_api.a converter/librgs_converter.a runtime/librgs_runtime.a
       format/librgs_format.a kernels/librgs_kernels.a)
+# roofgs.view(): the viewer library and libturbojpeg's archive (position-independent in Debian 12) go in too.
 (cd "$build" && c++ -shared -fPIC -O3 -flto -o "$py/libroofgs_core.so" -Wl,--whole-archive "${libs[@]}" \
-  -Wl,--no-whole-archive /usr/lib/x86_64-linux-gnu/libwebp.a \
+  -Wl,--no-whole-archive /usr/lib/x86_64-linux-gnu/libturbojpeg.a /usr/lib/x86_64-linux-gnu/libwebp.a \
   /usr/lib/x86_64-linux-gnu/libxxhash.a /usr/lib/x86_64-linux-gnu/libdraco.a \
   /usr/local/cuda/lib/libcudart_static.a -l:libzstd.so.1 -l:liblzma.so.5 -l:libz.so.1 -ldl -lrt -lpthread)
 strip "$py/libroofgs_core.so"
+touch "$py/with_viewer"
 cp -r /usr/include/pybind11 "$py/include/"
 cp -r "$build/generated/rgs" "$py/include/"
 tar -C "$stage" -cJf "$stage/py.tar.xz" py

@@ -68,6 +68,15 @@ int finish(const char* tool, int code);
 /// be ignored (nohup, background jobs) stays ignored.
 void install_interrupt_cleanup();
 
+/// For servers (rgs-view) that shut down cleanly instead: blocks SIGINT, SIGTERM and SIGHUP in the calling thread,
+/// so that every thread started after it inherits the mask and none is interrupted by them. Call it first in
+/// main, before any thread starts; then wait_for_termination_signal(). Signals the parent set to be ignored stay
+/// ignored.
+void block_termination_signals();
+
+/// Waits until SIGINT, SIGTERM or SIGHUP arrives (blocked by block_termination_signals()) and returns its number.
+int wait_for_termination_signal();
+
 /// Checks, without blocking, that `path` is a regular file that can be opened for reading: a FIFO, device,
 /// socket or directory is refused at once instead of hanging the tool or being misread.
 /// @return kIoError naming `path` and what it is ("no such file", "is a directory", "is a FIFO ...").

@@ -313,6 +313,7 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
                           " was loaded without them: list it in LoadOptions::presets");
   options.background = settings.background;
   options.scratch_budget = settings.gpu_scratch_budget;
+  options.time_stages = settings.time_stages;
   runtime::OutputImage out;
   out.width = target.width;
   out.height = target.height;
@@ -356,6 +357,14 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   stats.gaussians = gpu_stats.gaussians;
   stats.pairs = gpu_stats.pairs;
   stats.tile_groups = gpu_stats.tile_groups;
+  if (gpu_stats.timed) {
+    stats.times.timed = true;
+    stats.times.preprocess_ms = gpu_stats.times.preprocess_ms;
+    stats.times.sort_ms = gpu_stats.times.sort_ms;
+    stats.times.ranges_ms = gpu_stats.times.ranges_ms;
+    stats.times.render_ms = gpu_stats.times.render_ms;
+    stats.times.total_ms = gpu_stats.times.total_ms;
+  }
   return stats;
 #else
   (void)stream;

@@ -66,6 +66,10 @@ struct RenderSettings {
   std::array<float, 3> background = {0.f, 0.f, 0.f};
   /// CPU renderer threads; 0 = all hardware threads. The image does not depend on it.
   unsigned cpu_threads = 0;
+  /// GPU: record CUDA events around each stage of the frame and fill FrameStats::times. The call then waits on
+  /// the host until the frame is finished (so it no longer overlaps the caller's next work: for monitoring and
+  /// benchmarks, not for pipelines that keep the GPU busy). CPU: ignored (FrameStats::times.timed stays false).
+  bool time_stages = false;
   /// GPU: bound on the renderer's scratch memory in bytes (0: none). A frame whose (tile, Gaussian) pairs do
   /// not fit renders in groups of tile rows, with the same image; a budget too small for the scene's
   /// per-Gaussian buffers, or for one tile row's pairs, fails with kLimitExceeded
@@ -94,12 +98,24 @@ struct LodFrameCounts {
   uint64_t bytes_resident = 0;
 };
 
+/// Stage times of one GPU frame from CUDA events, milliseconds (RenderSettings::time_stages;
+/// runtime::StageTimes). A frame rendered in groups of tile rows sums each stage over its groups.
+struct StageTimes {
+  bool timed = false;       ///< true when the times below were measured (a GPU frame with time_stages)
+  float preprocess_ms = 0;  ///< projection, SH colour, the offset scan, the pair-count read-back and duplication
+  float sort_ms = 0;        ///< the (tile, Gaussian) pair sort
+  float ranges_ms = 0;      ///< per-tile ranges of the sorted pairs
+  float render_ms = 0;      ///< blending the tiles into the image (and its output conversion)
+  float total_ms = 0;       ///< the frame from its first event to its last (level-of-detail gathers excluded)
+};
+
 /// Counts of one frame.
 struct FrameStats {
   uint64_t gaussians = 0;  ///< input Gaussians (level-of-detail scenes: those of the frame's levels)
   uint64_t pairs = 0;      ///< (tile, Gaussian) pairs sorted
   uint32_t tile_groups = 1;  ///< GPU: passes over groups of tile rows (1: the whole frame at once)
   LodFrameCounts lod;        ///< level-of-detail scenes: what the frame selected and streamed
+  StageTimes times;          ///< GPU frames rendered with RenderSettings::time_stages
 };
 
 /// An image owned by the library (Renderer::render_image): device memory for GPU scenes (cudaMalloc), host

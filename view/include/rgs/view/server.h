@@ -1,0 +1,96 @@
+// rgs-view's server: serves the viewer page (view/web/, embedded in the library at build time) and renders each
+// client's views through the front door (api::Renderer) into JPEG/WebP frames over a WebSocket
+// (view/PROTOCOL.md). The library prints nothing and installs no signal handler: the caller starts it, shows
+// its url() and stops it.
+//
+// Threads: start() runs an Asio io_context on `io_threads` threads; each client gets a render thread (with its
+// own api::Renderer) and an encoder thread, so rendering frame k+1 overlaps encoding and sending frame k. The
+// scenes are shared by every client (api::Scene is immutable; level-of-detail GPU scenes take turns).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rgs/api/camera.h"
+#include "rgs/api/preset.h"
+#include "rgs/api/scene.h"
+#include "rgs/format/status.h"
+#include "rgs/view/protocol.h"
+
+namespace rgs::view {
+
+/// How the server listens and renders.
+struct ServerOptions {
+  /// Address to bind: "127.0.0.1" (default, this machine only), "::1", "localhost", or any other address, which
+  /// makes a token required (below).
+  std::string host = "127.0.0.1";
+  /// TCP port; 0 picks a free one (Server::port() says which).
+  uint16_t port = 8080;
+  /// Token every HTTP request and WebSocket upgrade must carry as ?token=...; empty: none on a loopback host,
+  /// a random one (32 hex digits from std::random_device) on any other host. Letters, digits, '-' and '_' only.
+  std::string token;
+  /// Most WebSocket clients at once (1..64); another one is told "busy" and closed (code 1013).
+  uint32_t max_clients = 8;
+  /// Threads of the network io_context (1..16).
+  uint32_t io_threads = 2;
+  /// The preset the page starts with; the scenes must be loaded for it.
+  api::Preset preset = api::Preset::kFastest;
+  /// The scene's own cameras, offered to the page (hello "cameras") with their numbers as given, e.g.
+  /// read_inria_cameras of a cameras.json.
+  std::vector<NamedCamera> cameras;
+  /// The page's starting size (0: 1920 × 1080 on the GPU, 640 × 360 on the CPU).
+  uint32_t default_width = 0, default_height = 0;
+  /// Largest frame a client may ask for.
+  uint32_t max_width = 7680, max_height = 4320;
+  /// Passed to every frame's api::RenderSettings.
+  unsigned cpu_threads = 0;
+  uint64_t gpu_scratch_budget = 0;
+  /// CUDA device of GPU scenes.
+  int cuda_device = 0;
+};
+
+/// A running server. Move-only; destroying it stops it.
+class Server {
+ public:
+  /// Starts serving `scenes` (one, or two for the compare mode: "a" and "b"; all on one device) with
+  /// `options`. Returns once the port is bound and accepting.
+  /// @return kInvalidArgument (no scene or more than two, scenes on different devices, a token with other
+  /// characters, max_clients or io_threads out of range, the preset not loaded), kIoError (the address cannot be
+  /// resolved or bound: the message names it and the OS's reason).
+  static Result<Server> start(std::vector<api::Scene> scenes, const ServerOptions& options);
+
+  Server(Server&&) noexcept;
+  Server& operator=(Server&&) noexcept;
+  ~Server();
+
+  /// The page's address, e.g. "http://127.0.0.1:8080/" or "http://0.0.0.0:8080/?token=..." (with the token
+  /// when one is required). For a wildcard host (0.0.0.0, ::) the URL names that host as given.
+  std::string url() const;
+  uint16_t port() const;
+  /// The token requests must carry; empty when none is required.
+  const std::string& token() const;
+  /// WebSocket clients connected now.
+  uint32_t clients() const;
+
+  /// Closes the listening socket and every connection (WebSocket close 1001), stops and joins every thread.
+  /// Idempotent; the destructor calls it.
+  void stop();
+
+  struct Impl;
+
+ private:
+  explicit Server(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Loads `path` for the viewer: api::load with `options`, listing every preset the device can render it with
+/// (all three; on the GPU a level-of-detail scene cannot read FP32, so it is loaded without kFaithful).
+/// @return api::load's errors.
+Result<api::Scene> load_view_scene(const std::string& path, api::LoadOptions options);
+
+/// The presets every one of `scenes` can render (in the order fastest, faithful, paper).
+std::vector<api::Preset> renderable_presets(const std::vector<api::Scene>& scenes);
+
+}  // namespace rgs::view

@@ -1,0 +1,88 @@
+// One client's frames: a render thread (its own api::Renderer) and an encoder thread with one slot between
+// them, so that frame k+1 renders while frame k is encoded and sent (view/PROTOCOL.md "Flow control").
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rgs/api/renderer.h"
+#include "rgs/api/scene.h"
+#include "rgs/view/protocol.h"
+#include "rgs/view/server.h"
+
+namespace rgs::view::detail {
+
+/// What every client of a server shares (immutable while it runs).
+struct ServerState {
+  std::vector<api::Scene> scenes;  ///< 1 or 2, on `device`
+  api::Device device = api::Device::kCpu;
+  ServerOptions options;
+  ProtocolLimits limits;
+  std::string hello_json;  ///< the hello message (build_hello)
+};
+
+/// The hello message of view/PROTOCOL.md for `state` (its hello_json unset). `device_name`: query_device's.
+std::string build_hello(const ServerState& state, const std::string& device_name);
+
+/// The text of an error message (PROTOCOL.md "error"); `message` may hold any bytes (invalid UTF-8 is replaced).
+std::string error_json(const std::string& code, const std::string& message, bool fatal);
+
+/// A frame rendered and read back, waiting for the encoder.
+struct RenderedFrame {
+  ViewRequest view;
+  bool refine = false;
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgb_a, rgb_b;  ///< [H, W, 3] 8-bit (rgb_b: compare modes)
+  api::FrameStats stats;               ///< scene a's
+  double render_call_ms = 0, readback_ms = 0;
+  std::optional<uint64_t> gpu_memory_used, gpu_memory_total;
+};
+
+/// The binary frame message (PROTOCOL.md "frame") of `frame`: its images encoded as the view asks.
+Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame);
+
+/// Renders and encodes one client's views. The callbacks are called from the pipeline's threads and must only
+/// hand their message over (e.g. post it to the connection's strand). Destroying it stops and joins its threads.
+class FramePipeline {
+ public:
+  using SendBinary = std::function<void(std::shared_ptr<std::vector<uint8_t>>)>;
+  using SendText = std::function<void(std::string)>;
+
+  FramePipeline(const ServerState& state, SendBinary send_frame, SendText send_text);
+  ~FramePipeline();
+  FramePipeline(const FramePipeline&) = delete;
+  FramePipeline& operator=(const FramePipeline&) = delete;
+
+  /// Makes `view` the next view to render, replacing one not yet started.
+  void submit(const ViewRequest& view);
+  /// The frame last handed to SendBinary has been written: the encoder may hand over the next.
+  void frame_sent();
+  /// Asks the threads to finish (what they are doing is dropped); the destructor joins them.
+  void stop();
+
+ private:
+  void render_loop();
+  void encode_loop();
+  Result<RenderedFrame> render_view(api::Renderer& renderer, const ViewRequest& view, bool refine);
+
+  const ServerState& state_;
+  SendBinary send_frame_;
+  SendText send_text_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::optional<ViewRequest> pending_;
+  std::optional<RenderedFrame> rendered_;
+  bool frame_in_flight_ = false;
+  bool stopping_ = false;
+  std::optional<api::Image> images_[2];  // render thread only: reused while the size stays
+  std::thread render_thread_, encode_thread_;
+};
+
+}  // namespace rgs::view::detail

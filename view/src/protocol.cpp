@@ -1,0 +1,298 @@
+// Client messages of the rgs-view protocol (view/PROTOCOL.md): parsing, validation and writing.
+#include "rgs/view/protocol.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+
+namespace rgs::view {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr int kMaxNesting = 8;
+constexpr double kMaxSeq = 9007199254740992.0;  // 2^53
+constexpr double kMaxFocal = 1e6;
+constexpr double kMaxCoordinate = 1e9;
+
+Status bad(const std::string& what) { return Status(StatusCode::kInvalidArgument, "view message: " + what); }
+
+// Deepest nesting of objects and arrays, outside strings; stops counting past `limit`.
+int nesting_depth(std::string_view text, int limit) {
+  int depth = 0, deepest = 0;
+  bool in_string = false, escaped = false;
+  for (char c : text) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') in_string = true;
+    else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > limit) return deepest;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+Status read_number(const json& object, const char* key, double* out) {
+  const auto it = object.find(key);
+  if (it == object.end()) return bad(std::string("missing \"") + key + "\"");
+  if (!it->is_number()) return bad(std::string("\"") + key + "\" is not a number");
+  *out = it->get<double>();
+  if (!std::isfinite(*out)) return bad(std::string("\"") + key + "\" is not finite");
+  return Status();
+}
+
+Status read_vector3(const json& value, const std::string& key, std::array<double, 3>* out) {
+  if (!value.is_array() || value.size() != 3) return bad("\"" + key + "\" is not an array of 3 numbers");
+  for (size_t i = 0; i < 3; ++i) {
+    if (!value[i].is_number()) return bad("\"" + key + "\" is not an array of 3 numbers");
+    (*out)[i] = value[i].get<double>();
+    if (!std::isfinite((*out)[i])) return bad("\"" + key + "\" holds a value that is not finite");
+  }
+  return Status();
+}
+
+Status read_size(const json& object, const char* key, uint32_t max, uint32_t* out) {
+  double v = 0;
+  RGS_RETURN_IF_ERROR(read_number(object, key, &v));
+  if (v != std::floor(v) || v < 1 || v > max) {
+    return bad(std::string("\"") + key + "\" must be an integer in 1.." + std::to_string(max));
+  }
+  *out = static_cast<uint32_t>(v);
+  return Status();
+}
+
+Status read_camera(const json& value, const ProtocolLimits& limits, InriaCamera* camera) {
+  if (!value.is_object()) return bad("\"camera\" is not an object");
+  const auto position = value.find("position");
+  if (position == value.end()) return bad("missing \"camera.position\"");
+  RGS_RETURN_IF_ERROR(read_vector3(*position, "camera.position", &camera->position));
+  for (double c : camera->position) {
+    if (std::fabs(c) > kMaxCoordinate) return bad("\"camera.position\" is outside ±1e9");
+  }
+  const auto rotation = value.find("rotation");
+  if (rotation == value.end()) return bad("missing \"camera.rotation\"");
+  if (!rotation->is_array() || rotation->size() != 3) return bad("\"camera.rotation\" is not 3 rows of 3 numbers");
+  for (size_t r = 0; r < 3; ++r) {
+    std::array<double, 3> row{};
+    RGS_RETURN_IF_ERROR(read_vector3((*rotation)[r], "camera.rotation[" + std::to_string(r) + "]", &row));
+    for (size_t c = 0; c < 3; ++c) camera->rotation_c2w[r * 3 + c] = row[c];
+  }
+  RGS_RETURN_IF_ERROR(read_number(value, "fx", &camera->fx));
+  RGS_RETURN_IF_ERROR(read_number(value, "fy", &camera->fy));
+  if (!(camera->fx > 0 && camera->fx <= kMaxFocal && camera->fy > 0 && camera->fy <= kMaxFocal)) {
+    return bad("\"camera.fx\" and \"camera.fy\" must be in (0, 1e6]");
+  }
+  RGS_RETURN_IF_ERROR(read_size(value, "width", limits.max_width, &camera->width));
+  RGS_RETURN_IF_ERROR(read_size(value, "height", limits.max_height, &camera->height));
+  // The rotation's check (orthonormal, det +1) is the front door's own.
+  auto checked = camera_from_request(*camera);
+  if (!checked.ok()) return bad("\"camera\": " + checked.status().message());
+  return Status();
+}
+
+Status read_string(const json& object, const char* key, std::string* out) {
+  const auto it = object.find(key);
+  if (it == object.end()) return Status();
+  if (!it->is_string()) return bad(std::string("\"") + key + "\" is not a string");
+  *out = it->get<std::string>();
+  return Status();
+}
+
+Status read_view(const json& message, const ProtocolLimits& limits, ViewRequest* view) {
+  double seq = 0;
+  RGS_RETURN_IF_ERROR(read_number(message, "seq", &seq));
+  if (seq < 0 || seq >= kMaxSeq || seq != std::floor(seq)) return bad("\"seq\" must be an integer in [0, 2^53)");
+  view->seq = static_cast<uint64_t>(seq);
+  const auto camera = message.find("camera");
+  if (camera == message.end()) return bad("missing \"camera\"");
+  RGS_RETURN_IF_ERROR(read_camera(*camera, limits, &view->camera));
+
+  std::string preset;
+  RGS_RETURN_IF_ERROR(read_string(message, "preset", &preset));
+  view->preset = limits.default_preset;
+  if (!preset.empty()) {
+    auto parsed = api::parse_preset(preset);
+    if (!parsed.ok()) return bad("\"preset\": " + parsed.status().message());
+    view->preset = *parsed;
+  }
+  if (!limits.presets.empty() &&
+      std::find(limits.presets.begin(), limits.presets.end(), view->preset) == limits.presets.end()) {
+    return bad(std::string("\"preset\" ") + api::preset_name(view->preset) + " is not offered by this server");
+  }
+  if (const auto background = message.find("background"); background != message.end()) {
+    std::array<double, 3> bg{};
+    RGS_RETURN_IF_ERROR(read_vector3(*background, "background", &bg));
+    for (size_t c = 0; c < 3; ++c) {
+      if (bg[c] < 0 || bg[c] > 1) return bad("\"background\" values must be in [0, 1]");
+      view->background[c] = static_cast<float>(bg[c]);
+    }
+  }
+  std::string encoding;
+  RGS_RETURN_IF_ERROR(read_string(message, "encoding", &encoding));
+  if (encoding.empty() || encoding == "jpeg") view->encoding = Encoding::kJpeg;
+  else if (encoding == "webp") view->encoding = Encoding::kWebp;
+  else if (encoding == "lossless") view->encoding = Encoding::kLossless;
+  else return bad("\"encoding\" must be \"jpeg\", \"webp\" or \"lossless\"");
+  if (message.contains("quality")) {
+    double quality = 0;
+    RGS_RETURN_IF_ERROR(read_number(message, "quality", &quality));
+    if (quality != std::floor(quality) || quality < 1 || quality > 100) {
+      return bad("\"quality\" must be an integer in 1..100");
+    }
+    view->quality = static_cast<int>(quality);
+  }
+  std::string compare;
+  RGS_RETURN_IF_ERROR(read_string(message, "compare", &compare));
+  if (compare.empty() || compare == "off") view->compare = CompareMode::kOff;
+  else if (compare == "split") view->compare = CompareMode::kSplit;
+  else if (compare == "diff") view->compare = CompareMode::kDiff;
+  else return bad("\"compare\" must be \"off\", \"split\" or \"diff\"");
+  if (view->compare != CompareMode::kOff && !limits.compare_available) {
+    return bad("\"compare\" " + compare + " needs a second scene (rgs-view SCENE SCENE2)");
+  }
+  if (message.contains("diff_scale")) {
+    double scale = 0;
+    RGS_RETURN_IF_ERROR(read_number(message, "diff_scale", &scale));
+    if (scale < 1 || scale > 255) return bad("\"diff_scale\" must be in [1, 255]");
+    view->diff_scale = static_cast<float>(scale);
+  }
+  return Status();
+}
+
+}  // namespace
+
+const char* encoding_name(Encoding encoding) {
+  switch (encoding) {
+    case Encoding::kJpeg: return "jpeg";
+    case Encoding::kWebp: return "webp";
+    case Encoding::kLossless: return "lossless";
+  }
+  return "jpeg";
+}
+
+const char* encoded_name(Encoding encoding) {
+  return encoding == Encoding::kLossless ? "webp-lossless" : encoding_name(encoding);
+}
+
+const char* compare_mode_name(CompareMode mode) {
+  switch (mode) {
+    case CompareMode::kOff: return "off";
+    case CompareMode::kSplit: return "split";
+    case CompareMode::kDiff: return "diff";
+  }
+  return "off";
+}
+
+InriaCamera inria_from_camera(const api::Camera& camera) {
+  InriaCamera out;
+  const auto& R = camera.rotation;
+  const auto& t = camera.translation;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out.rotation_c2w[r * 3 + c] = R[c * 3 + r];
+  }
+  for (int r = 0; r < 3; ++r) {
+    double s = 0;
+    for (int k = 0; k < 3; ++k) s += double(R[k * 3 + r]) * t[k];
+    out.position[r] = -s;
+  }
+  out.fx = camera.fx;
+  out.fy = camera.fy;
+  out.width = camera.width;
+  out.height = camera.height;
+  return out;
+}
+
+Result<api::Camera> camera_from_request(const InriaCamera& camera) {
+  return api::camera_from_inria(camera.rotation_c2w, camera.position, camera.fx, camera.fy, camera.width,
+                                camera.height);
+}
+
+Result<std::vector<NamedCamera>> read_inria_cameras(const std::string& path, const ProtocolLimits& limits) {
+  constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t{64} << 20;
+  constexpr size_t kMaxCameras = 100000;
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  RGS_RETURN_ERROR_IF(ec, StatusCode::kIoError, path + ": cannot read: " + ec.message());
+  RGS_RETURN_ERROR_IF(size > kMaxFileBytes, StatusCode::kLimitExceeded,
+                      path + ": " + std::to_string(size) + " bytes; cameras files are read up to 64 MiB");
+  std::ifstream in(path, std::ios::binary);
+  RGS_RETURN_ERROR_IF(!in, StatusCode::kIoError, path + ": cannot open for reading");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  RGS_RETURN_ERROR_IF(!in.good() && !in.eof(), StatusCode::kIoError, path + ": read error");
+  const json cameras = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  RGS_RETURN_ERROR_IF(cameras.is_discarded() || !cameras.is_array(), StatusCode::kCorruptData,
+                      path + ": not a JSON array of cameras");
+  RGS_RETURN_ERROR_IF(cameras.size() > kMaxCameras, StatusCode::kLimitExceeded,
+                      path + ": " + std::to_string(cameras.size()) + " cameras; at most 100000 are read");
+  std::vector<NamedCamera> out;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    NamedCamera named;
+    const Status status = read_camera(cameras[i], limits, &named.camera);
+    RGS_RETURN_ERROR_IF(!status.ok(), StatusCode::kCorruptData,
+                        path + ": camera " + std::to_string(i) + ": " + status.message().substr(14));
+    const auto name = cameras[i].find("img_name");
+    named.name = name != cameras[i].end() && name->is_string() ? name->get<std::string>() : "camera_" + std::to_string(i);
+    out.push_back(std::move(named));
+  }
+  return out;
+}
+
+Result<ClientMessage> parse_client_message(std::string_view text, const ProtocolLimits& limits) {
+  RGS_RETURN_ERROR_IF(text.size() > limits.max_message_bytes, StatusCode::kLimitExceeded,
+                      "message of " + std::to_string(text.size()) + " bytes exceeds the limit of " +
+                          std::to_string(limits.max_message_bytes));
+  RGS_RETURN_ERROR_IF(nesting_depth(text, kMaxNesting) > kMaxNesting, StatusCode::kLimitExceeded,
+                      "message nests arrays or objects deeper than " + std::to_string(kMaxNesting) + " levels");
+  const json message = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  if (message.is_discarded()) return bad("not valid JSON");
+  if (!message.is_object()) return bad("not a JSON object");
+  std::string type;
+  RGS_RETURN_IF_ERROR(read_string(message, "type", &type));
+  ClientMessage out;
+  if (type == "ping") {
+    out.type = ClientMessage::Type::kPing;
+    return out;
+  }
+  if (type != "view") return bad(type.empty() ? std::string("missing \"type\"") : "unknown type \"" + type + "\"");
+  out.type = ClientMessage::Type::kView;
+  RGS_RETURN_IF_ERROR(read_view(message, limits, &out.view));
+  return out;
+}
+
+std::string view_message_json(const ViewRequest& view) {
+  const InriaCamera& c = view.camera;
+  json rotation = json::array();
+  for (int r = 0; r < 3; ++r) {
+    rotation.push_back({c.rotation_c2w[r * 3], c.rotation_c2w[r * 3 + 1], c.rotation_c2w[r * 3 + 2]});
+  }
+  json message = {
+      {"type", "view"},
+      {"seq", view.seq},
+      {"camera",
+       {{"position", {c.position[0], c.position[1], c.position[2]}},
+        {"rotation", rotation},
+        {"fx", c.fx},
+        {"fy", c.fy},
+        {"width", c.width},
+        {"height", c.height}}},
+      {"preset", api::preset_name(view.preset)},
+      {"background", {view.background[0], view.background[1], view.background[2]}},
+      {"encoding", encoding_name(view.encoding)},
+      {"quality", view.quality},
+      {"compare", compare_mode_name(view.compare)},
+      {"diff_scale", view.diff_scale}};
+  return message.dump();
+}
+
+}  // namespace rgs::view
