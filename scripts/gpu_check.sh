@@ -2,7 +2,7 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|sanitize|ab|all|cards]
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|sanitize|view|ab|all|cards]
 #   (default all; ab: see below; cards: taebak's quality card, not part of all)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
@@ -415,6 +415,51 @@ if [ "$what" = sanitize ] || [ "$what" = all ]; then
     done
   done
   note "sanitize: $runs runs (memcheck, racecheck, synccheck, initcheck x presets x 1080p/4K x ${sanitize_scenes[*]}), $errors with errors"
+fi
+if [ "$what" = view ] || [ "$what" = all ]; then
+  # The viewer (docs/VIEWER.md#performance): rgs-view serving a scene on this GPU and rgs-view-bench, a scripted
+  # WebSocket client on loopback, flying 600 views through taebak's cameras at 1920x1080 (JPEG; one and two views
+  # in flight), then the same through the x16 taebak level-of-detail file (rgs-bench --replicate 16 --save-lod)
+  # under a 3M splat budget and 4 GiB.
+  view_bench() {  # NAME SCENE [rgs-view options...] -- [rgs-view-bench options...]
+    local name="$1" scene="$2" url="" rc=0 server_args=() bench_args=()
+    shift 2
+    while [ $# -gt 0 ] && [ "$1" != -- ]; do server_args+=("$1"); shift; done
+    [ $# -gt 0 ] && shift
+    bench_args=("$@")
+    "$bin/rgs-view" "$scene" --backend cuda --port 0 "${server_args[@]}" >"$out/view_${name}_server.log" 2>&1 &
+    local server=$!
+    for _ in $(seq 1 600); do  # loading the scene: up to 120 s
+      url=$(grep -om1 "http://127.0.0.1:[0-9]*/[^ ]*" "$out/view_${name}_server.log")
+      [ -n "$url" ] && break
+      kill -0 $server 2>/dev/null || break
+      sleep 0.2
+    done
+    if [ -z "$url" ]; then
+      note "view_$name: the server did not start: $(tail -2 "$out/view_${name}_server.log")"
+      kill $server 2>/dev/null; status=1; return
+    fi
+    "$bin/rgs-view-bench" "$url" -q "${bench_args[@]}" --json "$out/view_$name.json" >"$out/view_$name.log" 2>&1 || rc=$?
+    kill -TERM $server; wait $server || rc=$?
+    [ $rc -ne 0 ] && status=1
+    note "view_$name: exit $rc"
+    grep -E "frames|latency|bytes/frame|server medians" "$out/view_$name.log" | tee -a "$summary"
+  }
+  if [ -f "$taebak" ]; then
+    fly=(--cameras "$taebak_cameras" --fly 600 --width 1920 --height 1080 --warmup 16)
+    view_bench taebak_jpeg "$taebak" -- "${fly[@]}"
+    view_bench taebak_jpeg_2 "$taebak" -- "${fly[@]}" --in-flight 2
+    view_bench taebak_webp "$taebak" -- "${fly[@]}" --encoding webp
+    x16="$taebak_dir/taebak_x16_lod.rgs"
+    if [ ! -f "$x16" ]; then
+      "$bin/rgs-bench" "$taebak" --replicate 16 --cameras "$taebak_cameras" --limit 2 --splat-budget 3000000 \
+        --memory-budget 3GiB --scratch-budget 1GiB --save-lod "$x16" >"$out/view_x16_build.log" 2>&1 || status=1
+    fi
+    view_bench taebak_x16_lod "$x16" --splat-budget 3000000 --memory-budget 3GiB --scratch-budget 1GiB -- \
+      "${fly[@]}"
+  else
+    note "view: no taebak (scripts/gpu_prepare_taebak.sh first)"
+  fi
 fi
 if [ "$what" = cards ]; then
   # taebak's quality card and rate-distortion curve (docs/AUDITS.md#quality-cards): audit_formats.sh against its

@@ -46,9 +46,11 @@ rm -rf "$py"
 mkdir -p "$py/include"
 libs=(view/librgs_view.a audit/librgs_audit.a api/librgs_api.a converter/librgs_converter.a runtime/librgs_runtime.a
       format/librgs_format.a kernels/librgs_kernels.a)
-# roofgs.view(): the viewer library and libturbojpeg's archive (position-independent in Debian 12) go in too.
+# roofgs.view(): the viewer library goes in too, with libturbojpeg's shared library beside it (Debian's archive
+# of it is not position-independent; the GPU host has none), found through the core library's $ORIGIN.
+cp -L /usr/lib/x86_64-linux-gnu/libturbojpeg.so.0 "$py/"
 (cd "$build" && c++ -shared -fPIC -O3 -flto -o "$py/libroofgs_core.so" -Wl,--whole-archive "${libs[@]}" \
-  -Wl,--no-whole-archive /usr/lib/x86_64-linux-gnu/libturbojpeg.a /usr/lib/x86_64-linux-gnu/libwebp.a \
+  -Wl,--no-whole-archive -Wl,-rpath,'$ORIGIN' "$py/libturbojpeg.so.0" /usr/lib/x86_64-linux-gnu/libwebp.a \
   /usr/lib/x86_64-linux-gnu/libxxhash.a /usr/lib/x86_64-linux-gnu/libdraco.a \
   /usr/local/cuda/lib/libcudart_static.a -l:libzstd.so.1 -l:liblzma.so.5 -l:libz.so.1 -ldl -lrt -lpthread)
 strip "$py/libroofgs_core.so"

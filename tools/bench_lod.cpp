@@ -87,6 +87,11 @@ Status bench_lod(const LodBenchOptions& o,
                  const std::function<Result<std::vector<runtime::Camera>>(const format::SceneBounds&)>& make_cameras,
                  OutputSet& outputs) {
   RGS_ASSIGN_OR_RETURN(LodSource source, open_source(o));
+  if (!o.save_path.empty() && !source.bytes.empty()) {
+    RGS_RETURN_IF_ERROR(outputs.write(o.save_path, source.bytes.data(), source.bytes.size()));
+    std::printf("  saved            %s (%s bytes)\n", escape_text(o.save_path).c_str(),
+                group_digits(source.bytes.size()).c_str());
+  }
   const format::RgsFile& file = *source.file;
   const format::LodIndex& index = *file.lod();
   RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> cameras, make_cameras(file.metadata().bounds));

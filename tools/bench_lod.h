@@ -25,6 +25,9 @@ struct LodBenchOptions {
   /// Also render the full detail of every view and compare (PSNR) where it fits the device.
   bool quality = true;
   std::string json_path;
+  /// With replicate > 1: also write the level-of-detail file built in memory here (for rgs-view and the viewer
+  /// benchmark, which read files).
+  std::string save_path;
 };
 
 /// Loads or builds the scene, makes the cameras with `make_cameras(bounds)`, renders every view once in path

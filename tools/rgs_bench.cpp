@@ -82,6 +82,7 @@ struct Options {
   uint32_t replicate = 1;
   int device = 0;
   std::string json_path;
+  std::string save_lod_path;  ///< --save-lod
   bool front_door = false;
   bool quality = false;
   /// --reference: the scene --quality compares against (faithful's render of it); empty: the benched scene.
@@ -923,6 +924,7 @@ Status bench_streamed(const Options& opt, tools::OutputSet& outputs) {
   o.stream.stream_bytes_per_frame = opt.stream_bytes;
   o.scratch_budget = opt.scratch_budget;
   o.json_path = opt.json_path;
+  o.save_path = opt.save_lod_path;
   return tools::bench_lod(o, [&](const format::SceneBounds& bounds) -> Result<std::vector<runtime::Camera>> {
     RGS_ASSIGN_OR_RETURN(std::vector<CameraSet> sets, make_camera_sets(opt, bounds));
     return sets.front().cameras;
@@ -939,6 +941,9 @@ int run(const Options& opt) {
   if (!opt.json_path.empty()) {
     if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
     tools::report_notes(kTool, outputs.remove_stale_temporaries());
+  }
+  if (!opt.save_lod_path.empty()) {
+    if (int code = tools::declare_output(kTool, outputs, opt.save_lod_path); code != tools::kExitOk) return code;
   }
   Status measured = opt.streamed() ? bench_streamed(opt, outputs) : bench(opt, outputs, t_start);
   if (!measured.ok()) return tools::report_error(kTool, measured);
@@ -1015,6 +1020,9 @@ int main(int argc, char** argv) {
       "default auto)");
   app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
+  app.add_option("--save-lod", opt.save_lod_path,
+                 "Streamed mode with --replicate K: also write the level-of-detail .rgs built in memory to this "
+                 "path (a scene for rgs-view and rgs-view-bench)");
   app.add_flag("--front-door", opt.front_door,
                "Also time the front door (api::Renderer, preset fastest, into a caller RGBA32F and RGBA8 buffer) "
                "against GpuRenderer with fastest's options, per frame, same views (needs --replicate 1)");
@@ -1038,7 +1046,10 @@ int main(int argc, char** argv) {
       return "the streamed mode (--splat-budget, --memory-budget) measures its own quality; drop --quality, --floor "
              "and --front-door";
     }
-
+    if (!opt.save_lod_path.empty() && !(opt.streamed() && opt.replicate > 1)) {
+      return "--save-lod writes the levels of detail the streamed mode builds for --replicate K > 1: it needs "
+             "--replicate and --splat-budget or --memory-budget";
+    }
     return opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0
                ? "one of --cameras, --orbit or --path is required"
                : "";
