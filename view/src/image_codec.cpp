@@ -16,23 +16,25 @@ namespace {
 
 constexpr uint32_t kMaxWebpSide = 16383;  // WEBP_MAX_DIMENSION
 
-Result<std::vector<uint8_t>> encode_jpeg(const uint8_t* rgb, uint32_t width, uint32_t height, int quality) {
+Result<std::vector<uint8_t>> encode_jpeg(const uint8_t* rgb, uint32_t width, uint32_t height, uint32_t channels,
+                                         int quality) {
   std::unique_ptr<void, int (*)(tjhandle)> handle(tjInitCompress(), tjDestroy);
   RGS_RETURN_ERROR_IF(handle == nullptr, StatusCode::kOutOfMemory, "JPEG: tjInitCompress failed");
   unsigned char* out = nullptr;
   unsigned long size = 0;
   // 4:4:4 at high quality: colour edges (the compare mode's split line, thin splats) stay sharp.
   const int subsampling = quality >= 90 ? TJSAMP_444 : TJSAMP_420;
-  const int result = tjCompress2(handle.get(), rgb, int(width), int(width) * 3, int(height), TJPF_RGB, &out, &size,
-                                 subsampling, quality, TJFLAG_FASTDCT);
+  const int result = tjCompress2(handle.get(), rgb, int(width), int(width * channels), int(height),
+                                 channels == 4 ? TJPF_RGBX : TJPF_RGB, &out, &size, subsampling, quality,
+                                 TJFLAG_FASTDCT);
   std::unique_ptr<unsigned char, void (*)(unsigned char*)> owned(out, tjFree);
   RGS_RETURN_ERROR_IF(result != 0, StatusCode::kInvalidArgument,
                       std::string("JPEG: tjCompress2 failed: ") + tjGetErrorStr2(handle.get()));
   return std::vector<uint8_t>(out, out + size);
 }
 
-Result<std::vector<uint8_t>> encode_webp(const uint8_t* rgb, uint32_t width, uint32_t height, bool lossless,
-                                         int quality) {
+Result<std::vector<uint8_t>> encode_webp(const uint8_t* rgb, uint32_t width, uint32_t height, uint32_t channels,
+                                         bool lossless, int quality) {
   RGS_RETURN_ERROR_IF(width > kMaxWebpSide || height > kMaxWebpSide, StatusCode::kInvalidArgument,
                       "WebP: " + std::to_string(width) + " x " + std::to_string(height) +
                           " exceeds WebP's 16383 pixels a side");
@@ -57,7 +59,8 @@ Result<std::vector<uint8_t>> encode_webp(const uint8_t* rgb, uint32_t width, uin
   WebPMemoryWriterInit(&writer);
   picture.writer = WebPMemoryWrite;
   picture.custom_ptr = &writer;
-  const bool imported = WebPPictureImportRGB(&picture, rgb, int(width) * 3) != 0;
+  const bool imported = (channels == 4 ? WebPPictureImportRGBX(&picture, rgb, int(width * 4))
+                                       : WebPPictureImportRGB(&picture, rgb, int(width * 3))) != 0;
   const bool encoded = imported && WebPEncode(&config, &picture) != 0;
   const int error = picture.error_code;
   WebPPictureFree(&picture);
@@ -88,8 +91,10 @@ void turbo(float t, uint8_t* rgb) {
 }  // namespace
 
 Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint32_t height, Encoding encoding,
-                                        int quality) {
+                                        int quality, uint32_t channels) {
   RGS_RETURN_ERROR_IF(rgb == nullptr, StatusCode::kInvalidArgument, "encode_rgb: null image");
+  RGS_RETURN_ERROR_IF(channels != 3 && channels != 4, StatusCode::kInvalidArgument,
+                      "encode_rgb: " + std::to_string(channels) + " channels (3 or 4)");
   RGS_RETURN_ERROR_IF(width < 1 || height < 1 || width > kMaxWebpSide || height > kMaxWebpSide,
                       StatusCode::kInvalidArgument,
                       "encode_rgb: " + std::to_string(width) + " x " + std::to_string(height) +
@@ -97,15 +102,15 @@ Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint
   RGS_RETURN_ERROR_IF(encoding != Encoding::kLossless && (quality < 1 || quality > 100), StatusCode::kInvalidArgument,
                       "encode_rgb: quality " + std::to_string(quality) + " is outside 1..100");
   switch (encoding) {
-    case Encoding::kJpeg: return encode_jpeg(rgb, width, height, quality);
-    case Encoding::kWebp: return encode_webp(rgb, width, height, false, quality);
-    case Encoding::kLossless: return encode_webp(rgb, width, height, true, quality);
+    case Encoding::kJpeg: return encode_jpeg(rgb, width, height, channels, quality);
+    case Encoding::kWebp: return encode_webp(rgb, width, height, channels, false, quality);
+    case Encoding::kLossless: return encode_webp(rgb, width, height, channels, true, quality);
   }
   return Status(StatusCode::kInvalidArgument, "encode_rgb: unknown encoding");
 }
 
 ImageDifference compare_rgb(const uint8_t* a, const uint8_t* b, uint32_t width, uint32_t height, float diff_scale,
-                            std::vector<uint8_t>* heatmap) {
+                            std::vector<uint8_t>* heatmap, uint32_t channels) {
   ImageDifference out;
   const size_t pixels = size_t(width) * height;
   if (heatmap != nullptr) heatmap->resize(pixels * 3);
@@ -119,7 +124,7 @@ ImageDifference compare_rgb(const uint8_t* a, const uint8_t* b, uint32_t width, 
   for (size_t p = 0; p < pixels; ++p) {
     int worst = 0;
     for (int c = 0; c < 3; ++c) {
-      const int d = std::abs(int(a[p * 3 + c]) - int(b[p * 3 + c]));
+      const int d = std::abs(int(a[p * channels + c]) - int(b[p * channels + c]));
       sum_sq += uint64_t(d * d);
       worst = std::max(worst, d);
     }

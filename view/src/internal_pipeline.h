@@ -2,6 +2,7 @@
 // them, so that frame k+1 renders while frame k is encoded and sent (view/PROTOCOL.md "Flow control").
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -39,7 +40,7 @@ struct RenderedFrame {
   ViewRequest view;
   bool refine = false;
   uint32_t width = 0, height = 0;
-  std::vector<uint8_t> rgb_a, rgb_b;  ///< [H, W, 3] 8-bit (rgb_b: compare modes)
+  std::vector<uint8_t> rgba_a, rgba_b;  ///< [H, W, 4] 8-bit as read back, alpha ignored (rgba_b: compare modes)
   api::FrameStats stats;               ///< scene a's
   double render_call_ms = 0, readback_ms = 0;
   std::optional<uint64_t> gpu_memory_used, gpu_memory_total;
@@ -71,6 +72,14 @@ class FramePipeline {
   void render_loop();
   void encode_loop();
   Result<RenderedFrame> render_view(api::Renderer& renderer, const ViewRequest& view, bool refine);
+  /// A host image buffer of `bytes` (a spare one when there is one) and the frame's buffers back to the spares.
+  std::vector<uint8_t> take_buffer(size_t bytes);
+  void return_buffers(RenderedFrame& frame);
+
+  /// Host image buffers kept between frames: two frames (one rendering, one encoding) of two images each.
+  static constexpr size_t kSpareBuffers = 4;
+  /// How long a level-of-detail view must stay the newest before it is rendered again as its levels arrive.
+  static constexpr std::chrono::milliseconds kRefineDelay{40};
 
   const ServerState& state_;
   SendBinary send_frame_;
@@ -81,6 +90,7 @@ class FramePipeline {
   std::optional<RenderedFrame> rendered_;
   bool frame_in_flight_ = false;
   bool stopping_ = false;
+  std::vector<std::vector<uint8_t>> spare_buffers_;
   std::optional<api::Image> images_[2];  // render thread only: reused while the size stays
   std::thread render_thread_, encode_thread_;
 };

@@ -107,22 +107,22 @@ Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame) {
   std::vector<std::pair<const char*, std::vector<uint8_t>>> images;
   std::optional<ImageDifference> difference;
   if (view.compare == CompareMode::kOff) {
-    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgb_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality));
+    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
+                                            view.quality, 4));
     images.emplace_back("a", std::move(a));
   } else if (view.compare == CompareMode::kSplit) {
-    difference = compare_rgb(frame.rgb_a.data(), frame.rgb_b.data(), frame.width, frame.height, view.diff_scale,
-                             nullptr);
-    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgb_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality));
-    RGS_ASSIGN_OR_RETURN(auto b, encode_rgb(frame.rgb_b.data(), frame.width, frame.height, view.encoding,
-                                            view.quality));
+    difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
+                             nullptr, 4);
+    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
+                                            view.quality, 4));
+    RGS_ASSIGN_OR_RETURN(auto b, encode_rgb(frame.rgba_b.data(), frame.width, frame.height, view.encoding,
+                                            view.quality, 4));
     images.emplace_back("a", std::move(a));
     images.emplace_back("b", std::move(b));
   } else {
     std::vector<uint8_t> heatmap;
-    difference = compare_rgb(frame.rgb_a.data(), frame.rgb_b.data(), frame.width, frame.height, view.diff_scale,
-                             &heatmap);
+    difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
+                             &heatmap, 4);
     RGS_ASSIGN_OR_RETURN(auto d, encode_rgb(heatmap.data(), frame.width, frame.height, view.encoding, view.quality));
     images.emplace_back("diff", std::move(d));
   }
@@ -211,6 +211,26 @@ void FramePipeline::stop() {
   changed_.notify_all();
 }
 
+std::vector<uint8_t> FramePipeline::take_buffer(size_t bytes) {
+  std::vector<uint8_t> buffer;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!spare_buffers_.empty()) {
+      buffer = std::move(spare_buffers_.back());
+      spare_buffers_.pop_back();
+    }
+  }
+  buffer.resize(bytes);  // a buffer of the same size is reused as it is: no allocation, no page faults
+  return buffer;
+}
+
+void FramePipeline::return_buffers(RenderedFrame& frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (std::vector<uint8_t>* buffer : {&frame.rgba_a, &frame.rgba_b}) {
+    if (!buffer->empty() && spare_buffers_.size() < kSpareBuffers) spare_buffers_.push_back(std::move(*buffer));
+  }
+}
+
 Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const ViewRequest& view, bool refine) {
   RGS_ASSIGN_OR_RETURN(api::Camera camera, camera_from_request(view.camera));
   RenderedFrame frame;
@@ -225,7 +245,6 @@ Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const 
   settings.gpu_scratch_budget = state_.options.gpu_scratch_budget;
   settings.time_stages = state_.device == api::Device::kCuda;
   const size_t pixels = size_t(camera.width) * camera.height;
-  std::vector<uint8_t> rgba(pixels * 4);
   const size_t count = view.compare == CompareMode::kOff ? 1 : 2;
   for (size_t i = 0; i < count; ++i) {
     const api::Scene& scene = state_.scenes[i];
@@ -244,11 +263,10 @@ Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const 
     }
     frame.render_call_ms += ms_since(start);
     const auto readback = std::chrono::steady_clock::now();
+    std::vector<uint8_t>& rgba = i == 0 ? frame.rgba_a : frame.rgba_b;
+    rgba = take_buffer(pixels * 4);
     RGS_RETURN_IF_ERROR(image->copy_to_host(rgba.data(), nullptr));
     frame.readback_ms += ms_since(readback);
-    std::vector<uint8_t>& rgb = i == 0 ? frame.rgb_a : frame.rgb_b;
-    rgb.resize(pixels * 3);
-    for (size_t p = 0; p < pixels; ++p) std::memcpy(&rgb[p * 3], &rgba[p * 4], 3);
     if (i == 0) frame.stats = stats;
   }
   if (state_.device == api::Device::kCuda) {
@@ -275,6 +293,8 @@ void FramePipeline::render_loop() {
     {
       std::unique_lock<std::mutex> lock(mutex_);
       changed_.wait(lock, [&] { return stopping_ || pending_.has_value() || refine_wanted; });
+      // A refinement waits for the view to stay still a moment: a newer view (the camera still moving) wins.
+      if (!pending_ && refine_wanted) changed_.wait_for(lock, kRefineDelay, [&] { return stopping_ || pending_; });
       if (stopping_) return;
       if (pending_) {
         current = std::move(pending_);
@@ -316,6 +336,7 @@ void FramePipeline::encode_loop() {
     }
     changed_.notify_all();
     auto message = encode_frame(frame);
+    return_buffers(frame);
     if (!message.ok()) {
       send_text_(error_json("render_failed", message.status().message(), false));
       continue;

@@ -11,13 +11,14 @@
 
 namespace rgs::view {
 
-/// Encodes an 8-bit RGB image. `rgb` [height, width, 3] uint8, row-major, tightly packed (3·width bytes a row),
-/// top row first; width, height 1..16383 (WebP's limit; JPEG allows more). `quality` 1..100 (ignored for
+/// Encodes an 8-bit RGB image. `rgb` [height, width, channels] uint8, row-major, tightly packed (channels·width
+/// bytes a row), top row first, R, G, B first in each pixel; `channels` 3 or 4 (the fourth byte is ignored: the
+/// front door's kRgba8 images as they are read back); width, height 1..16383 (WebP's limit; JPEG allows more). `quality` 1..100 (ignored for
 /// kLossless). Deterministic for given input and options. Reentrant (each call has its own codec state).
 /// @return the file bytes (a JPEG or a RIFF WebP); kInvalidArgument (size or quality out of range),
 /// kOutOfMemory or kInvalidArgument with the codec's message when it fails.
 Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint32_t height, Encoding encoding,
-                                        int quality);
+                                        int quality, uint32_t channels = 3);
 
 /// How two 8-bit RGB images of one size differ.
 struct ImageDifference {
@@ -27,11 +28,11 @@ struct ImageDifference {
   uint32_t max_abs = 0;  ///< largest |a − b| over pixels and channels, 0..255
 };
 
-/// Compares `a` and `b`, both [height, width, 3] uint8 packed. When `heatmap` is given it receives
+/// Compares `a` and `b`, both [height, width, channels] uint8 packed (`channels` 3 or 4, the fourth ignored). When `heatmap` is given it receives
 /// [height, width, 3] uint8: per pixel the "turbo" colour map (Google, 2019; its 256-entry table's polynomial
 /// approximation) at min(max_c |a_c − b_c| / diff_scale, 1): nearly black at 0, through blue, green and
 /// yellow, to dark red at 1. diff_scale > 0.
 ImageDifference compare_rgb(const uint8_t* a, const uint8_t* b, uint32_t width, uint32_t height, float diff_scale,
-                            std::vector<uint8_t>* heatmap);
+                            std::vector<uint8_t>* heatmap, uint32_t channels = 3);
 
 }  // namespace rgs::view
