@@ -457,6 +457,8 @@ if [ "$what" = view ] || [ "$what" = all ]; then
     fi
     view_bench taebak_x16_lod "$x16" --splat-budget 3000000 --memory-budget 3GiB --scratch-budget 1GiB -- \
       "${fly[@]}"
+    view_bench taebak_x16_lod_2 "$x16" --splat-budget 3000000 --memory-budget 3GiB --scratch-budget 1GiB -- \
+      "${fly[@]}" --in-flight 2
   else
     note "view: no taebak (scripts/gpu_prepare_taebak.sh first)"
   fi
