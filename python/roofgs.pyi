@@ -9,6 +9,10 @@ __version__: str
 built_with_cuda: bool  # the module has the CUDA renderer
 has_cuda: bool  # ... and a CUDA device answered when it was imported
 
+
+def cuda_status() -> Dict[str, Any]:
+    """built_with_cuda, available (a CUDA device answers now) and reason (CUDA's own words when not)."""
+
 _Path = Union[str, "os.PathLike[str]"]
 _Matrix = Union[np.ndarray, Sequence[Sequence[float]]]
 
@@ -167,8 +171,11 @@ def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Arra
     cache=False always uploads). Every gsplat option is accepted at its default (rolling_shutter: None or
     gsplat's GLOBAL; far_plane: 1e10 or more); packed, channel_chunk and segmented at any value; any other
     value raises ValueError naming the option."""
-def audit(source: _Path, candidates: Sequence[_Path], *, cameras: Optional[Sequence[Camera]] = None, orbit: int = 4,
-          width: int = 960, height: int = 540, device: str = "auto", spz_frame: str = "rub") -> Dict[str, Any]: ...
+def audit(source: _Path, candidates: Union[_Path, Sequence[_Path]], *, cameras: Optional[Sequence[Camera]] = None,
+          orbit: int = 4, width: int = 960, height: int = 540, device: str = "auto", spz_frame: str = "rub",
+          threshold: float = 40.0) -> Dict[str, Any]:
+    """rgs-audit's measurement of one candidate path or a list of them against `source`; each candidate's dict
+    and the whole dict carry rgs-audit --json's verdict (mean PSNR >= threshold dB)."""
 
 class ViewServer:
     """A running rgs-view server (roofgs.view()); in a notebook it displays the page inline (an iframe)."""

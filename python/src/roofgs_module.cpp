@@ -25,6 +25,7 @@
 #include "rgs/api/device_gaussians.h"
 #include "rgs/api/roofgs.h"
 #include "rgs/audit/audit.h"
+#include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/audit/rate_control.h"
 #include "rgs/api/scene_loading.h"
@@ -700,10 +701,9 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
     } else if (key == "allow_empty") {
       o.allow_empty = value.cast<bool>();
     } else {
-      throw py::type_error("unexpected keyword argument '" + key +
-                           "' (to, scale_encoding, sh_clip_percentile, sh_dc_bits, zstd, zstd_level, profile, position_error, "
-                           "sh_degree, lod, lod_levels, lod_chunk, max_gaussians, max_decompression_ratio, spz_frame, "
-                           "sanitize, allow_empty)");
+      const py::object accepted = py::module_::import("roofgs").attr("_keyword_options")("convert");
+      throw py::type_error("unexpected keyword argument '" + key + "'; the options are " +
+                           py::str(", ").attr("join")(accepted).cast<std::string>());
     }
   }
   const converter::SceneReadOptions read = read_options(spz_frame);
@@ -732,9 +732,14 @@ api::Device resolve_device(const std::string& name) {
   std::string why;
   if (name == "auto") {
     if (api::cuda_available(&why)) return api::Device::kCuda;
-    // A RuntimeWarning, which Python's default filter shows once per calling line.
-    const std::string note = "roofgs: no CUDA device (" + why + "); scenes load on the CPU";
-    if (PyErr_WarnEx(PyExc_RuntimeWarning, note.c_str(), 1) != 0) throw py::error_already_set();
+    // Once per process (Python's default filter would show it once per calling line), in plain words: CUDA's
+    // own reason stays in roofgs.cuda_status().
+    static bool warned = false;  // under the GIL
+    if (!warned) {
+      warned = true;
+      const char* note = "roofgs: no usable CUDA device: rendering on the CPU reference (roofgs.cuda_status() says why)";
+      if (PyErr_WarnEx(PyExc_RuntimeWarning, note, 1) != 0) throw py::error_already_set();
+    }
     return api::Device::kCpu;
   }
   const api::Device device = unwrap(api::parse_device(name));
@@ -1150,7 +1155,20 @@ api::Scene view_scene(const py::object& scene_or_path, const std::string& device
 #endif
 
 PYBIND11_MODULE(roofgs, m) {
-  m.doc() = "RoofGS: load .rgs / 3DGS PLY scenes, render them with presets on the GPU or the CPU reference";
+  m.doc() =
+      "RoofGS: load scenes (.rgs, 3DGS PLY, PlayCanvas compressed PLY, SOG meta.json/.sog/folder, streamed SOG "
+      "lod-meta.json, SPZ, .splat, glTF/GLB), render them with presets on the GPU or the CPU reference, convert "
+      "and audit them";
+  m.def(
+      "cuda_status",
+      [] {
+        std::string why;
+        const bool available = api::cuda_available(&why);
+        return py::dict(py::arg("built_with_cuda") = bool(RGS_HAS_CUDA), py::arg("available") = available,
+                        py::arg("reason") = available ? std::string() : why);
+      },
+      "Whether CUDA renders here: a dict of built_with_cuda, available (a device answers) and reason (why not, "
+      "as CUDA says it; empty when available)");
   m.attr("__version__") = RGS_VERSION_STRING;
   m.attr("built_with_cuda") = bool(RGS_HAS_CUDA);
   m.attr("has_cuda") = api::cuda_available();
@@ -1203,7 +1221,9 @@ PYBIND11_MODULE(roofgs, m) {
             }
             return std::make_tuple(c.fx * q[0] / q[2] + c.cx - 0.5, c.fy * q[1] / q[2] + c.cy - 0.5, q[2]);
           },
-          "Pixel (x, y) with pixel centres at integers, and view depth z, of a world point")
+          py::arg("point"),
+          "Pixel (x, y) with pixel centres at integers, and view depth z, of `point` (x, y, z in world units); "
+          "z <= 0 is behind the camera")
       .def("resized", [](const api::Camera& c, uint32_t w, uint32_t h) { return runtime::resize_camera(c, w, h); },
            py::arg("width"), py::arg("height"), "The same view at width x height (field of view kept)")
       .def("__repr__", [](const api::Camera& c) {
@@ -1551,17 +1571,31 @@ def convert(src, dst, *, to=None, sh_degree=None, scale_encoding=None, sh_clip_p
             zstd=None, profile=None, position_error=None, target_psnr=None, target_bytes=None, cameras=None,
             every=None, limit=None, orbit=None, path=None, fly=None, width=None, height=None, zstd_level=None,
             sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, max_gaussians=None,
-            max_decompression_ratio=None, spz_frame=None):
-    options = {k: v for k, v in locals().items() if k not in ("src", "dst") and v is not None}
+            max_decompression_ratio=None, spz_frame=None, **unexpected):
+    _refuse_unexpected("convert", unexpected)
+    options = {k: v for k, v in locals().items() if k not in ("src", "dst", "unexpected") and v is not None}
     return _convert(src, dst, **options)
+
+def _keyword_options(name):
+    """The keyword options of convert() or save(), from their signatures (the one list of them)."""
+    import inspect
+    parameters = inspect.signature(globals()[name]).parameters.values()
+    return [p.name for p in parameters if p.kind == p.KEYWORD_ONLY]
+
+def _refuse_unexpected(name, unexpected):
+    if unexpected:
+        raise TypeError(name + "() got an unexpected keyword argument " + repr(next(iter(unexpected))) +
+                        "; the options are " + ", ".join(_keyword_options(name)))
 
 def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, scale_encoding=None,
          sh_clip_percentile=None, sh_dc_bits=None, zstd=None, profile=None, position_error=None, target_psnr=None,
          target_bytes=None, cameras=None, every=None, limit=None, orbit=None, camera_path=None, fly=None,
          width=None, height=None, zstd_level=None, sanitize=False, allow_empty=False, lod=None, lod_levels=None,
-         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None):
+         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None, **unexpected):
+    _refuse_unexpected("save", unexpected)
     options = {k: v for k, v in locals().items()
-               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path") and v is not None}
+               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path", "unexpected")
+               and v is not None}
     if camera_path is not None:
         options["path"] = camera_path
     return _save(path, means, quats, scales, opacities, sh, **options)
@@ -1704,9 +1738,15 @@ def _check_gsplat_options(given):
         "(gradients, antialiased mode, other camera models, far plane below 1e10, radius clip, eps2d, tile "
         "size, covariances, distortion, rolling shutter, distributed) raises ValueError naming the option");
   m.def("audit",
-        [](const std::filesystem::path& source, const std::vector<std::filesystem::path>& candidates,
+        [](const std::filesystem::path& source, const py::object& candidates_in,
            std::optional<std::vector<api::Camera>> cameras, uint32_t orbit, uint32_t width, uint32_t height,
-           const std::string& device, const std::string& spz_frame) {
+           const std::string& device, const std::string& spz_frame, double threshold) {
+          // One path (str or os.PathLike) or a sequence of them.
+          const bool one = py::isinstance<py::str>(candidates_in) || py::isinstance<py::bytes>(candidates_in) ||
+                           py::hasattr(candidates_in, "__fspath__");
+          const std::vector<std::filesystem::path> candidates =
+              one ? std::vector<std::filesystem::path>{candidates_in.cast<std::filesystem::path>()}
+                  : candidates_in.cast<std::vector<std::filesystem::path>>();
           const converter::SceneReadOptions read = read_options(spz_frame);
           audit::AuditOptions options;
           options.worst_views = 0;
@@ -1738,7 +1778,9 @@ def _check_gsplat_options(given):
           d["source"] = py::dict(py::arg("path") = r.source.path, py::arg("format") = r.source.format,
                                  py::arg("bytes") = r.source.file_bytes, py::arg("gaussians") = r.source.gaussians);
           py::list out;
-          for (const audit::CandidateResult& c : r.candidates) {
+          bool all_passed = true;
+          for (size_t i = 0; i < r.candidates.size(); ++i) {
+            const audit::CandidateResult& c = r.candidates[i];
             py::dict cd;
             cd["path"] = c.scene.path;
             cd["format"] = c.scene.format;
@@ -1765,18 +1807,34 @@ def _check_gsplat_options(given):
               cd["errors_note"] = c.attributes_note;
             }
             cd["notes"] = c.scene.notes;
+            // rgs-audit --json's verdict of the candidate (audit_report.cpp).
+            const audit::Verdict v = audit::verdict(r, i, threshold);
+            all_passed = all_passed && v.passed;
+            cd["verdict"] = py::dict(
+                py::arg("passed") = v.passed, py::arg("psnr_mean_db") = v.psnr_mean_db,
+                py::arg("worst_view") = py::dict(py::arg("name") = v.worst_view, py::arg("psnr_db") = v.worst_psnr_db),
+                py::arg("bytes_saved") = v.bytes_saved ? py::object(py::int_(*v.bytes_saved)) : py::object(py::none()),
+                py::arg("bytes_saved_fraction") =
+                    v.bytes_saved ? py::object(py::float_(v.bytes_saved_fraction)) : py::object(py::none()));
             out.append(cd);
           }
           d["candidates"] = out;
+          d["verdict"] = py::dict(py::arg("threshold_db") = threshold,
+                                  py::arg("criterion") = "mean PSNR over the views >= threshold_db",
+                                  py::arg("passed") = all_passed);
           return d;
         },
         py::arg("source"), py::arg("candidates"), py::kw_only(), py::arg("cameras") = py::none(),
         py::arg("orbit") = 4, py::arg("width") = 960, py::arg("height") = 540, py::arg("device") = "auto",
-        py::arg("spz_frame") = "rub",
+        py::arg("spz_frame") = "rub", py::arg("threshold") = audit::kDefaultVerdictThresholdDb,
         "What conversions cost, as rgs-audit measures it: every candidate (any format load() reads) rendered "
         "against the source on the same views (`cameras`, else an orbit of `orbit` cameras at width x height) "
         "with the faithful preset, on the GPU when `device` resolves to CUDA, else the CPU reference. Returns "
         "a dict: device, views, source (path, format, bytes, gaussians) and one dict per candidate: bytes, "
         "bytes_per_gaussian (per Gaussian of the source), sections (.rgs), PSNR mean/min (dB, clamped RGB), "
-        "SSIM mean/min, max_abs_diff, worst_view, and per-attribute errors when the Gaussians correspond one to one (else errors_note)");
+        "SSIM mean/min, max_abs_diff, worst_view, per-attribute errors when the Gaussians correspond one to one (else "
+        "errors_note), and verdict (rgs-audit --json's: passed when the mean PSNR is at least `threshold` dB, "
+        "psnr_mean_db, worst_view name and psnr_db, bytes_saved and bytes_saved_fraction against the source); "
+        "the dict's verdict: threshold_db, criterion, passed (every candidate passed). `candidates`: one path or "
+        "a list of them");
 }

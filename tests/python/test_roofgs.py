@@ -205,7 +205,8 @@ def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
     assert scene.render(camera, height=9).shape == (9, 16, 4)
     assert roofgs.built_with_cuda or not roofgs.has_cuda
     if not roofgs.has_cuda:
-        with pytest.warns(RuntimeWarning, match="no CUDA device"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # said once per process: see the test below
             auto = roofgs.load(rgs)
         assert auto.device == "cpu"
         with pytest.raises(roofgs.Error) as e:
@@ -213,6 +214,90 @@ def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
         assert e.value.code_name == "kUnsupportedFeature" and "device='cpu'" in str(e.value)
     else:
         assert roofgs.load(rgs).device == "cuda"
+
+
+def test_no_cuda_device_is_said_once_per_process_in_plain_words():
+    """device="auto" without a device warns once per process (not once per calling line), without CUDA's
+    wording, which roofgs.cuda_status() keeps."""
+    import subprocess
+    import sys
+    script = """
+import warnings, roofgs
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("default")
+    for line in range(3):
+        roofgs.load(%r)
+    roofgs.load(%r)
+    roofgs.load(%r)
+    roofgs.load(%r)
+print(len(caught))
+for w in caught:
+    print(w.category.__name__, w.message)
+""" % ((str(GUITAR),) * 4)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    lines = run.stdout.splitlines()
+    status = roofgs.cuda_status()
+    assert set(status) == {"built_with_cuda", "available", "reason"}
+    assert status["built_with_cuda"] == roofgs.built_with_cuda
+    if status["available"]:
+        assert lines == ["0"] and status["reason"] == ""
+        return
+    assert lines == ["1", "RuntimeWarning roofgs: no usable CUDA device: rendering on the CPU reference "
+                          "(roofgs.cuda_status() says why)"], run.stdout
+    assert status["reason"] and status["reason"] not in lines[1]
+
+
+def test_audit_takes_one_path_and_gives_the_verdict(tmp_path):
+    """audit() takes a single candidate path (str or os.PathLike) as well as a list, and carries rgs-audit
+    --json's verdict per candidate and for the run."""
+    ply = SOURCE_DIR / "samples" / "guitar.ply"
+    roofgs.convert(ply, tmp_path / "g.rgs")
+    args = dict(orbit=1, width=48, height=27, device="cpu")
+    for candidate in (str(tmp_path / "g.rgs"), tmp_path / "g.rgs"):
+        report = roofgs.audit(str(ply), candidate, **args)
+        assert len(report["candidates"]) == 1 and report["candidates"][0]["path"].endswith("g.rgs")
+    c = report["candidates"][0]
+    v = c["verdict"]
+    assert set(v) == {"passed", "psnr_mean_db", "worst_view", "bytes_saved", "bytes_saved_fraction"}
+    assert v["passed"] is True and v["psnr_mean_db"] == c["psnr_mean_db"] and v["worst_view"]["name"] == c["worst_view"]
+    assert v["bytes_saved"] == report["source"]["bytes"] - c["bytes"] and 0.3 < v["bytes_saved_fraction"] < 1
+    assert report["verdict"] == {"threshold_db": 40.0, "criterion": "mean PSNR over the views >= threshold_db",
+                                 "passed": True}
+    strict = roofgs.audit(ply, [tmp_path / "g.rgs"], threshold=1000.0, **args)
+    assert strict["verdict"]["passed"] is False and strict["candidates"][0]["verdict"]["passed"] is False
+
+
+def test_an_unknown_convert_option_lists_every_option(tmp_path):
+    """The TypeError of an unknown keyword names every option convert() and save() take."""
+    src = str(SOURCE_DIR / "samples" / "guitar.ply")
+    for call, name in ((lambda **k: roofgs.convert(src, str(tmp_path / "x.rgs"), **k), "convert"),
+                       (lambda **k: roofgs.save(str(tmp_path / "x.rgs"), *read_ply_arrays(GUITAR), **k), "save")):
+        with pytest.raises(TypeError, match="bogus") as e:
+            call(bogus=1)
+        listed = str(e.value).split("the options are ")[1].split(", ")
+        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == 27
+    with pytest.raises(TypeError, match="unexpected keyword argument 'bogus'; the options are to, sh_degree"):
+        roofgs._convert(src, str(tmp_path / "x.rgs"), bogus=1)
+
+
+def test_camera_project_takes_a_named_point():
+    camera = roofgs.camera_from_opencv([[100, 0, 32], [0, 100, 18], [0, 0, 1]], np.eye(3), [0, 0, 0], 64, 36)
+    x, y, z = camera.project(point=[0.0, 0.0, 2.0])
+    assert (x, y, z) == (32.0, 18.0, 2.0)  # OpenCV K: pixel centres at integers, as project()
+    assert "project(self: roofgs.Camera, point:" in roofgs.Camera.project.__doc__
+
+
+def test_module_docstring_names_every_format_it_reads():
+    import os
+    import subprocess
+    tool = os.environ.get("RGS_CONVERT")
+    if not tool:
+        pytest.skip("skipped: rgs-convert not built (RGS_CONVERT unset)")
+    help_text = " ".join(subprocess.run([tool, "--help"], capture_output=True, text=True, check=True).stdout.split())
+    formats = re.search(r"converter::read_scene detects \((.*?)\)", help_text).group(1).split(", ")
+    assert len(formats) >= 7
+    for name in formats + [".rgs"]:
+        assert name in roofgs.__doc__, name
 
 
 def test_audit_takes_any_format(tmp_path):
