@@ -1634,7 +1634,7 @@ def rasterization(means, quats, scales, opacities, colors, viewmats, Ks, width, 
                   thin_prism_coeffs=None, ftheta_coeffs=None, rolling_shutter=None, viewmats_rs=None, *,
                   preset="fastest", device="auto", cache=True):
     _check_gsplat_options(locals())
-    lead = tuple(means.shape[:-2])
+    lead = tuple(_numpy().shape(means)[:-2])  # nested lists too (any array-like the renderer converts)
     one = lambda b: _rasterization(*b[:7], width, height, near_plane=near_plane, sh_degree=sh_degree,
                                    backgrounds=b[7], render_mode=render_mode, preset=preset, device=device,
                                    cache=cache)
@@ -1652,7 +1652,9 @@ def rasterization(means, quats, scales, opacities, colors, viewmats, Ks, width, 
         if a is None:
             flat.append(None)
             continue
-        if tuple(a.shape[:-tail]) != lead:
+        if not hasattr(a, "reshape"):
+            a = _numpy().asarray(a, dtype=_numpy().float32)
+        if tuple(a.shape[:-tail]) != lead or len(a.shape) != len(lead) + tail:
             raise ValueError(name + ": expected the leading batch dimensions " + str(list(lead)) + " of means, "
                              "then " + str(tail) + " dimensions; got shape " + str(list(a.shape)))
         flat.append(a.reshape((count,) + tuple(a.shape[len(lead):])))

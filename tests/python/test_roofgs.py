@@ -593,6 +593,14 @@ def test_rasterization_keeps_gsplats_leading_batch_dimensions():
     assert colors.shape == (2, 1, 2, h, w, 3) and meta["n_cameras"] == 4 and len(meta["pairs"]) == 4
     assert np.array_equal(alphas[0, 0], base_alphas[:2]) and alphas[0, 0].max() > 0.5
     assert alphas[1, 0].max() == 0 and np.all(colors[1, 0] == 1)  # nothing in view: the background
+    # Nested lists, with and without a batch dimension.
+    few = [a[:300] for a in gaussians]
+    listed, _, _ = roofgs.rasterization(*(a.tolist() for a in few), viewmats.tolist(), Ks.tolist(), w, h,
+                                        sh_degree=0, device="cpu")
+    batched, _, _ = roofgs.rasterization(*([a.tolist()] for a in few), [viewmats.tolist()], [Ks.tolist()], w, h,
+                                         sh_degree=0, device="cpu")
+    direct, _, _ = roofgs.rasterization(*few, viewmats, Ks, w, h, sh_degree=0, device="cpu")
+    assert np.array_equal(listed, direct) and np.array_equal(batched[0], direct) and direct.max() > 0
     with pytest.raises(ValueError, match="viewmats: expected the leading batch dimensions"):
         roofgs.rasterization(*(a[None] for a in gaussians), viewmats, Ks, w, h, sh_degree=0, device="cpu")
 
