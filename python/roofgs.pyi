@@ -9,6 +9,10 @@ __version__: str
 built_with_cuda: bool  # the module has the CUDA renderer
 has_cuda: bool  # ... and a CUDA device answered when it was imported
 
+
+def cuda_status() -> Dict[str, Any]:
+    """built_with_cuda, available (a CUDA device answers now) and reason (CUDA's own words when not)."""
+
 _Path = Union[str, "os.PathLike[str]"]
 _Matrix = Union[np.ndarray, Sequence[Sequence[float]]]
 
@@ -139,26 +143,39 @@ def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _
          max_decompression_ratio: Optional[int] = None, spz_frame: Optional[str] = None) -> Dict[str, Any]:
     """convert()'s options; rgs-convert's --path (a camera path of N views) is camera_path here."""
 def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,
-                  viewmats: _Array, Ks: _Array, width: int, height: int, *, near_plane: float = 0.01,
-                  sh_degree: Optional[int] = None, backgrounds: Optional[_Array] = None, render_mode: str = "RGB",
-                  preset: str = "fastest", device: str = "auto", cache: bool = True,
-                  **gsplat_defaults: Any) -> Tuple[Any, Any, Dict[str, Any]]:
-    """gsplat's rasterization() for inference (docs/EMBEDDING.md).
+                  viewmats: _Array, Ks: _Array, width: int, height: int, near_plane: float = 0.01,
+                  far_plane: float = 1e10, radius_clip: float = 0.0, eps2d: float = 0.3,
+                  sh_degree: Optional[int] = None, packed: bool = True, tile_size: int = 16,
+                  backgrounds: Optional[_Array] = None, render_mode: str = "RGB", sparse_grad: bool = False,
+                  absgrad: bool = False, rasterize_mode: str = "classic", channel_chunk: int = 32,
+                  distributed: bool = False, camera_model: str = "pinhole", segmented: bool = False,
+                  covars: Optional[_Array] = None, with_ut: bool = False, with_eval3d: bool = False,
+                  radial_coeffs: Optional[_Array] = None, tangential_coeffs: Optional[_Array] = None,
+                  thin_prism_coeffs: Optional[_Array] = None, ftheta_coeffs: Any = None, rolling_shutter: Any = None,
+                  viewmats_rs: Optional[_Array] = None, *, preset: str = "fastest", device: str = "auto",
+                  cache: bool = True) -> Tuple[Any, Any, Dict[str, Any]]:
+    """gsplat's rasterization() for inference, with gsplat's signature (docs/EMBEDDING.md).
 
-    means [N, 3], quats [N, 4] (w, x, y, z), scales [N, 3] linear, opacities [N] (or [N, 1]) in [0, 1];
-    colors [N, K, 3] SH with sh_degree given (K = 1, 4, 9, 16; min(sh_degree, degree of K) is rendered), else
-    [N, 3] RGB. viewmats [C, 4, 4] world-to-camera (OpenCV axes), Ks [C, 3, 3] (pixel centres at
-    half-integers), backgrounds [C, 3]; render_mode RGB, D, ED, RGB+D or RGB+ED.
+    means [..., N, 3], quats [..., N, 4] (w, x, y, z), scales [..., N, 3] linear, opacities [..., N] in
+    [0, 1]; colors [..., N, K, 3] SH with sh_degree given (K = 1, 4, 9, 16; min(sh_degree, degree of K) is
+    rendered), else [..., N, 3] RGB. viewmats [..., C, 4, 4] world-to-camera (OpenCV axes), Ks [..., C, 3, 3]
+    (pixel centres at half-integers), backgrounds [..., C, 3]; render_mode RGB, D, ED, RGB+D or RGB+ED.
+    Leading batch dimensions (the same on every array) are rendered element by element and kept on the outputs.
 
-    Returns (colors [C, H, W, 3] (+1 depth channel; 1 for D or ED alone), alphas [C, H, W, 1], meta):
-    float32 NumPy arrays for host arrays; for CUDA arrays (the five Gaussian arrays on one device; mixing host
-    and CUDA arrays raises ValueError), float32 torch CUDA tensors on that device, computed on the device and
-    written on torch's current stream (needs torch). meta: preset, width, height, n_cameras, pairs per view,
-    and for CUDA arrays uploaded (False: the last call's upload of the same, unchanged torch tensors was
-    reused; cache=False always uploads). gsplat's training options are refused with ValueError unless at
-    their defaults."""
-def audit(source: _Path, candidates: Sequence[_Path], *, cameras: Optional[Sequence[Camera]] = None, orbit: int = 4,
-          width: int = 960, height: int = 540, device: str = "auto", spz_frame: str = "rub") -> Dict[str, Any]: ...
+    Returns (colors [..., C, H, W, 3] (+1 depth channel; 1 for D or ED alone), alphas [..., C, H, W, 1], meta)
+    as float32 arrays of the caller's type: NumPy for NumPy, torch CPU tensors for torch CPU tensors; for CUDA
+    arrays (the five Gaussian arrays on one device; mixing host and CUDA arrays raises ValueError), torch CUDA
+    tensors on that device, computed on the device and written on torch's current stream (needs torch). meta:
+    preset, width, height, n_cameras (images rendered), pairs per image, batch_dims with batch dimensions, and
+    for CUDA arrays uploaded (False: the last call's upload of the same, unchanged torch tensors was reused;
+    cache=False always uploads). Every gsplat option is accepted at its default (rolling_shutter: None or
+    gsplat's GLOBAL; far_plane: 1e10 or more); packed, channel_chunk and segmented at any value; any other
+    value raises ValueError naming the option."""
+def audit(source: _Path, candidates: Union[_Path, Sequence[_Path]], *, cameras: Optional[Sequence[Camera]] = None,
+          orbit: int = 4, width: int = 960, height: int = 540, device: str = "auto", spz_frame: str = "rub",
+          threshold: float = 40.0) -> Dict[str, Any]:
+    """rgs-audit's measurement of one candidate path or a list of them against `source`; each candidate's dict
+    and the whole dict carry rgs-audit --json's verdict (mean PSNR >= threshold dB)."""
 
 class ViewServer:
     """A running rgs-view server (roofgs.view()); in a notebook it displays the page inline (an iframe)."""

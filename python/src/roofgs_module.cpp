@@ -25,6 +25,7 @@
 #include "rgs/api/device_gaussians.h"
 #include "rgs/api/roofgs.h"
 #include "rgs/audit/audit.h"
+#include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/audit/rate_control.h"
 #include "rgs/api/scene_loading.h"
@@ -700,10 +701,9 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
     } else if (key == "allow_empty") {
       o.allow_empty = value.cast<bool>();
     } else {
-      throw py::type_error("unexpected keyword argument '" + key +
-                           "' (to, scale_encoding, sh_clip_percentile, sh_dc_bits, zstd, zstd_level, profile, position_error, "
-                           "sh_degree, lod, lod_levels, lod_chunk, max_gaussians, max_decompression_ratio, spz_frame, "
-                           "sanitize, allow_empty)");
+      const py::object accepted = py::module_::import("roofgs").attr("_keyword_options")("convert");
+      throw py::type_error("unexpected keyword argument '" + key + "'; the options are " +
+                           py::str(", ").attr("join")(accepted).cast<std::string>());
     }
   }
   const converter::SceneReadOptions read = read_options(spz_frame);
@@ -732,9 +732,14 @@ api::Device resolve_device(const std::string& name) {
   std::string why;
   if (name == "auto") {
     if (api::cuda_available(&why)) return api::Device::kCuda;
-    // A RuntimeWarning, which Python's default filter shows once per calling line.
-    const std::string note = "roofgs: no CUDA device (" + why + "); scenes load on the CPU";
-    if (PyErr_WarnEx(PyExc_RuntimeWarning, note.c_str(), 1) != 0) throw py::error_already_set();
+    // Once per process (Python's default filter would show it once per calling line), in plain words: CUDA's
+    // own reason stays in roofgs.cuda_status().
+    static bool warned = false;  // under the GIL
+    if (!warned) {
+      warned = true;
+      const char* note = "roofgs: no usable CUDA device: rendering on the CPU reference (roofgs.cuda_status() says why)";
+      if (PyErr_WarnEx(PyExc_RuntimeWarning, note, 1) != 0) throw py::error_already_set();
+    }
     return api::Device::kCpu;
   }
   const api::Device device = unwrap(api::parse_device(name));
@@ -816,25 +821,6 @@ struct PyScene {
     return py::make_tuple(py::cast(colour), py::cast(ImagePlane{shared, true}));
   }
 };
-
-/// gsplat's rasterization() arguments this call takes only at their defaults (it renders, it does not train).
-void check_gsplat_defaults(const py::kwargs& kwargs) {
-  for (const auto& [key_obj, value] : kwargs) {
-    const std::string key = py::str(key_obj);
-    const bool at_default =
-        (key == "far_plane" && value.cast<double>() >= 1e10) || (key == "radius_clip" && value.cast<double>() == 0) ||
-        (key == "eps2d" && std::abs(value.cast<double>() - 0.3) < 1e-9) || key == "packed" ||
-        (key == "tile_size" && value.cast<int>() == 16) || (key == "sparse_grad" && !value.cast<bool>()) ||
-        (key == "absgrad" && !value.cast<bool>()) ||
-        (key == "rasterize_mode" && value.cast<std::string>() == "classic") ||
-        (key == "camera_model" && value.cast<std::string>() == "pinhole");
-    if (!at_default) {
-      throw py::value_error("roofgs.rasterization renders for inference with gsplat's defaults; " + key + "=" +
-                            std::string(py::str(value)) +
-                            " is not supported (no gradients, antialiased mode, other camera models or clipping)");
-    }
-  }
-}
 
 /// The views of a rasterization() call: gsplat's viewmats [C, 4, 4] and Ks [C, 3, 3] as cameras, and their
 /// backgrounds [C, 3] (black when none).
@@ -998,13 +984,13 @@ py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>&
   return py::make_tuple(out_colors, out_alphas, meta);
 }
 
-/// gsplat's rasterization() for inference: see its docstring below.
+/// gsplat's rasterization() for inference on one batch element (the Python rasterization() below checks
+/// gsplat's options, loops over leading batch dimensions and returns the caller's array type).
 py::tuple rasterization(const py::object& means, const py::object& quats, const py::object& scales,
                         const py::object& opacities, const py::object& colors, const py::object& viewmats,
                         const py::object& Ks, uint32_t width, uint32_t height, float near_plane,
                         std::optional<uint32_t> sh_degree, const py::object& backgrounds, const std::string& render_mode,
-                        const std::string& preset, const std::string& device, bool cache, const py::kwargs& kwargs) {
-  check_gsplat_defaults(kwargs);
+                        const std::string& preset, const std::string& device, bool cache) {
   const bool rgb_out = render_mode.rfind("RGB", 0) == 0;
   const std::string depth_mode = rgb_out ? (render_mode.size() > 3 ? render_mode.substr(4) : "") : render_mode;
   if ((rgb_out && render_mode.size() > 3 && render_mode[3] != '+') || (depth_mode != "" && depth_mode != "D" &&
@@ -1169,7 +1155,20 @@ api::Scene view_scene(const py::object& scene_or_path, const std::string& device
 #endif
 
 PYBIND11_MODULE(roofgs, m) {
-  m.doc() = "RoofGS: load .rgs / 3DGS PLY scenes, render them with presets on the GPU or the CPU reference";
+  m.doc() =
+      "RoofGS: load scenes (.rgs, 3DGS PLY, PlayCanvas compressed PLY, SOG meta.json/.sog/folder, streamed SOG "
+      "lod-meta.json, SPZ, .splat, glTF/GLB), render them with presets on the GPU or the CPU reference, convert "
+      "and audit them";
+  m.def(
+      "cuda_status",
+      [] {
+        std::string why;
+        const bool available = api::cuda_available(&why);
+        return py::dict(py::arg("built_with_cuda") = bool(RGS_HAS_CUDA), py::arg("available") = available,
+                        py::arg("reason") = available ? std::string() : why);
+      },
+      "Whether CUDA renders here: a dict of built_with_cuda, available (a device answers) and reason (why not, "
+      "as CUDA says it; empty when available)");
   m.attr("__version__") = RGS_VERSION_STRING;
   m.attr("built_with_cuda") = bool(RGS_HAS_CUDA);
   m.attr("has_cuda") = api::cuda_available();
@@ -1222,7 +1221,9 @@ PYBIND11_MODULE(roofgs, m) {
             }
             return std::make_tuple(c.fx * q[0] / q[2] + c.cx - 0.5, c.fy * q[1] / q[2] + c.cy - 0.5, q[2]);
           },
-          "Pixel (x, y) with pixel centres at integers, and view depth z, of a world point")
+          py::arg("point"),
+          "Pixel (x, y) with pixel centres at integers, and view depth z, of `point` (x, y, z in world units); "
+          "z <= 0 is behind the camera")
       .def("resized", [](const api::Camera& c, uint32_t w, uint32_t h) { return runtime::resize_camera(c, w, h); },
            py::arg("width"), py::arg("height"), "The same view at width x height (field of view kept)")
       .def("__repr__", [](const api::Camera& c) {
@@ -1570,17 +1571,31 @@ def convert(src, dst, *, to=None, sh_degree=None, scale_encoding=None, sh_clip_p
             zstd=None, profile=None, position_error=None, target_psnr=None, target_bytes=None, cameras=None,
             every=None, limit=None, orbit=None, path=None, fly=None, width=None, height=None, zstd_level=None,
             sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, max_gaussians=None,
-            max_decompression_ratio=None, spz_frame=None):
-    options = {k: v for k, v in locals().items() if k not in ("src", "dst") and v is not None}
+            max_decompression_ratio=None, spz_frame=None, **unexpected):
+    _refuse_unexpected("convert", unexpected)
+    options = {k: v for k, v in locals().items() if k not in ("src", "dst", "unexpected") and v is not None}
     return _convert(src, dst, **options)
+
+def _keyword_options(name):
+    """The keyword options of convert() or save(), from their signatures (the one list of them)."""
+    import inspect
+    parameters = inspect.signature(globals()[name]).parameters.values()
+    return [p.name for p in parameters if p.kind == p.KEYWORD_ONLY]
+
+def _refuse_unexpected(name, unexpected):
+    if unexpected:
+        raise TypeError(name + "() got an unexpected keyword argument " + repr(next(iter(unexpected))) +
+                        "; the options are " + ", ".join(_keyword_options(name)))
 
 def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, scale_encoding=None,
          sh_clip_percentile=None, sh_dc_bits=None, zstd=None, profile=None, position_error=None, target_psnr=None,
          target_bytes=None, cameras=None, every=None, limit=None, orbit=None, camera_path=None, fly=None,
          width=None, height=None, zstd_level=None, sanitize=False, allow_empty=False, lod=None, lod_levels=None,
-         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None):
+         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None, **unexpected):
+    _refuse_unexpected("save", unexpected)
     options = {k: v for k, v in locals().items()
-               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path") and v is not None}
+               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path", "unexpected")
+               and v is not None}
     if camera_path is not None:
         options["path"] = camera_path
     return _save(path, means, quats, scales, opacities, sh, **options)
@@ -1602,30 +1617,138 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "(exp of the PLY's log scales), opacities [N] in [0, 1] (sigmoid of the PLY's logits), sh [N, K, 3] "
         "(K = 1, 4, 9, 16; PLY f_dc then f_rest reordered coefficient-major); float32 or convertible. The value "
         "rules of a file apply (sanitize=True drops what they reject). Returns convert()'s dict");
-  m.def("rasterization", &rasterization, py::arg("means"), py::arg("quats"), py::arg("scales"),
+  m.def("_rasterization", &rasterization, py::arg("means"), py::arg("quats"), py::arg("scales"),
         py::arg("opacities"), py::arg("colors"), py::arg("viewmats"), py::arg("Ks"), py::arg("width"),
-        py::arg("height"), py::kw_only(), py::arg("near_plane") = 0.01f, py::arg("sh_degree") = py::none(),
-        py::arg("backgrounds") = py::none(), py::arg("render_mode") = "RGB", py::arg("preset") = "fastest",
-        py::arg("device") = "auto", py::arg("cache") = true,
+        py::arg("height"), py::kw_only(), py::arg("near_plane"), py::arg("sh_degree"), py::arg("backgrounds"),
+        py::arg("render_mode"), py::arg("preset"), py::arg("device"), py::arg("cache"),
+        "rasterization()'s implementation: one batch element, gsplat's options already checked");
+  // rasterization() takes gsplat's signature as it is (every option, positional or by name, so a gsplat call
+  // runs unchanged); its defaults are the one list of what is accepted. Options that change only how gsplat
+  // computes (memory layout, channel chunks, sort) take any value; the others only their default.
+  py::exec(R"py(
+def rasterization(means, quats, scales, opacities, colors, viewmats, Ks, width, height, near_plane=0.01,
+                  far_plane=1e10, radius_clip=0.0, eps2d=0.3, sh_degree=None, packed=True, tile_size=16,
+                  backgrounds=None, render_mode="RGB", sparse_grad=False, absgrad=False, rasterize_mode="classic",
+                  channel_chunk=32, distributed=False, camera_model="pinhole", segmented=False, covars=None,
+                  with_ut=False, with_eval3d=False, radial_coeffs=None, tangential_coeffs=None,
+                  thin_prism_coeffs=None, ftheta_coeffs=None, rolling_shutter=None, viewmats_rs=None, *,
+                  preset="fastest", device="auto", cache=True):
+    _check_gsplat_options(locals())
+    lead = tuple(_numpy().shape(means)[:-2])  # nested lists too (any array-like the renderer converts)
+    one = lambda b: _rasterization(*b[:7], width, height, near_plane=near_plane, sh_degree=sh_degree,
+                                   backgrounds=b[7], render_mode=render_mode, preset=preset, device=device,
+                                   cache=cache)
+    arrays = [means, quats, scales, opacities, colors, viewmats, Ks, backgrounds]
+    if not lead:
+        out_colors, out_alphas, meta = one(arrays)
+        return _as_caller_array(out_colors, means), _as_caller_array(out_alphas, means), meta
+    # gsplat's leading batch dimensions [..., N, 3] / [..., C, 4, 4]: one render per batch element.
+    import math
+    count = math.prod(lead)
+    tails = {"means": 2, "quats": 2, "scales": 2, "opacities": 1, "colors": 3 if sh_degree is not None else 2,
+             "viewmats": 3, "Ks": 3, "backgrounds": 2}
+    flat = []
+    for (name, tail), a in zip(tails.items(), arrays):
+        if a is None:
+            flat.append(None)
+            continue
+        if not hasattr(a, "reshape"):
+            a = _numpy().asarray(a, dtype=_numpy().float32)
+        if tuple(a.shape[:-tail]) != lead or len(a.shape) != len(lead) + tail:
+            raise ValueError(name + ": expected the leading batch dimensions " + str(list(lead)) + " of means, "
+                             "then " + str(tail) + " dimensions; got shape " + str(list(a.shape)))
+        flat.append(a.reshape((count,) + tuple(a.shape[len(lead):])))
+    results = [one([a if a is None else a[b] for a in flat]) for b in range(count)]
+    meta = dict(results[0][2])
+    meta["batch_dims"] = list(lead)
+    meta["n_cameras"] = sum(r[2]["n_cameras"] for r in results)
+    meta["pairs"] = [p for r in results for p in r[2]["pairs"]]
+    if "uploaded" in meta:
+        meta["uploaded"] = any(r[2]["uploaded"] for r in results)
+    def stacked(i):
+        parts = [r[i] for r in results]
+        torch = _torch_of(parts[0])
+        whole = torch.stack(parts) if torch is not None else _numpy().stack(parts)
+        return _as_caller_array(whole.reshape(lead + tuple(whole.shape[1:])), means)
+    return stacked(0), stacked(1), meta
+
+def _numpy():
+    import numpy
+    return numpy
+
+def _torch_of(array):
+    """torch when `array` is a torch tensor (torch already imported by the caller), else None."""
+    import sys
+    torch = sys.modules.get("torch")
+    return torch if torch is not None and isinstance(array, torch.Tensor) else None
+
+def _as_caller_array(out, like):
+    """`out` as the array type of `like`: a host NumPy result becomes a torch CPU tensor for torch inputs."""
+    torch = _torch_of(like)
+    if torch is not None and _torch_of(out) is None:
+        return torch.from_numpy(out)
+    return out
+
+# Options that change only how gsplat computes, never the image: any value is taken.
+_GSPLAT_ANY_VALUE = ("packed", "channel_chunk", "segmented")
+
+def _check_gsplat_options(given):
+    import inspect
+    import numbers
+    for name, p in inspect.signature(rasterization).parameters.items():
+        if p.default is inspect.Parameter.empty or p.kind == p.KEYWORD_ONLY or name in _GSPLAT_ANY_VALUE:
+            continue
+        if name in ("near_plane", "sh_degree", "backgrounds", "render_mode"):
+            continue  # rendered as gsplat does
+        value = given[name]
+        if p.default is None:
+            ok = value is None or (name == "rolling_shutter" and getattr(value, "name", None) == "GLOBAL")
+        elif isinstance(p.default, bool):
+            ok = isinstance(value, (bool, int)) and bool(value) == p.default
+        elif isinstance(p.default, str):
+            ok = value == p.default
+        else:
+            ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and (
+                value == p.default or (name == "far_plane" and value >= p.default))
+        if not ok:
+            shown = repr(value)[:40] if isinstance(value, (numbers.Real, str)) else "<" + type(value).__name__ + ">"
+            raise ValueError("roofgs.rasterization renders gsplat's classic pinhole inference without gradients; "
+                             + name + "=" + shown + " is not supported (only " + name + "="
+                             + repr(p.default) + ", gsplat's default" + (", or more" if name == "far_plane" else "")
+                             + ")")
+)py", scope);
+  m.attr("rasterization").attr("__doc__") = py::str(
         "gsplat.rasterization's call for inference: swap the import to render trained Gaussians with RoofGS.\n"
-        "means [N, 3]; quats [N, 4] (w, x, y, z, normalized here); scales [N, 3] activated (linear); opacities "
-        "[N] activated, in [0, 1]; colors [N, K, 3] SH with sh_degree given (its first (sh_degree+1)^2 "
-        "coefficients are used), else [N, 3] RGB; viewmats [C, 4, 4] world-to-camera (OpenCV axes: x right, y "
-        "down, z forward); Ks [C, 3, 3] pixel intrinsics with gsplat's pixel centres at half-integers; width, "
-        "height in pixels; near_plane: Gaussians nearer are culled; backgrounds [C, 3]; render_mode RGB, D, "
-        "ED, RGB+D or RGB+ED (ED: expected depth, D: accumulated = ED x alpha).\n"
-        "Host arrays (NumPy, CPU tensors): float32 NumPy outputs (colors [C, H, W, 3 or 4], alphas [C, H, W, 1], "
-        "meta). CUDA arrays (torch tensors; any DLPack producer's float32 C-contiguous arrays): the Gaussians are "
-        "copied and checked on their device (no host copy) unless device='cpu', rendered on torch's current "
-        "stream, and the outputs are torch CUDA tensors on that device. With cache=True the upload of the last "
-        "torch tensors is reused while they are the same tensors with the same version counter (in-place "
-        "changes bump it; writes through .data or raw pointers do not: pass cache=False then); "
-        "meta['uploaded'] says whether the call uploaded. gsplat's training options (gradients, antialiased "
-        "mode, other cameras, far plane, radius clip) are refused with ValueError unless at their defaults");
+        "means [..., N, 3]; quats [..., N, 4] (w, x, y, z, normalized here); scales [..., N, 3] activated "
+        "(linear); opacities [..., N] activated, in [0, 1]; colors [..., N, K, 3] SH with sh_degree given (its "
+        "first (sh_degree+1)^2 coefficients are used), else [..., N, 3] RGB; viewmats [..., C, 4, 4] "
+        "world-to-camera (OpenCV axes: x right, y down, z forward); Ks [..., C, 3, 3] pixel intrinsics with "
+        "gsplat's pixel centres at half-integers; width, height in pixels; near_plane: Gaussians nearer are "
+        "culled; backgrounds [..., C, 3]; render_mode RGB, D, ED, RGB+D or RGB+ED (ED: expected depth, D: "
+        "accumulated = ED x alpha). Leading batch dimensions (gsplat's `...`, the same on every array) are "
+        "rendered one batch element after the other and kept on the outputs.\n"
+        "Outputs: colors [..., C, H, W, 3 or 4], alphas [..., C, H, W, 1] (float32) in the caller's array type, "
+        "and meta. NumPy arrays in: NumPy out. torch CPU tensors in: torch CPU tensors out. CUDA arrays (torch "
+        "tensors; any DLPack producer's float32 C-contiguous arrays): the Gaussians are copied and checked on "
+        "their device (no host copy) unless device='cpu', rendered on torch's current stream, and the outputs "
+        "are torch CUDA tensors on that device. With cache=True the upload of the last torch tensors is reused "
+        "while they are the same tensors with the same version counter (in-place changes bump it; writes "
+        "through .data or raw pointers do not: pass cache=False then); meta['uploaded'] says whether the call "
+        "uploaded. meta: preset, width, height, n_cameras (images rendered), pairs per image, batch_dims with "
+        "batch dimensions. Every other gsplat option is accepted at its default value; packed, channel_chunk "
+        "and segmented (how gsplat computes, not what) at any value; a non-default value of the others "
+        "(gradients, antialiased mode, other camera models, far plane below 1e10, radius clip, eps2d, tile "
+        "size, covariances, distortion, rolling shutter, distributed) raises ValueError naming the option");
   m.def("audit",
-        [](const std::filesystem::path& source, const std::vector<std::filesystem::path>& candidates,
+        [](const std::filesystem::path& source, const py::object& candidates_in,
            std::optional<std::vector<api::Camera>> cameras, uint32_t orbit, uint32_t width, uint32_t height,
-           const std::string& device, const std::string& spz_frame) {
+           const std::string& device, const std::string& spz_frame, double threshold) {
+          // One path (str or os.PathLike) or a sequence of them.
+          const bool one = py::isinstance<py::str>(candidates_in) || py::isinstance<py::bytes>(candidates_in) ||
+                           py::hasattr(candidates_in, "__fspath__");
+          const std::vector<std::filesystem::path> candidates =
+              one ? std::vector<std::filesystem::path>{candidates_in.cast<std::filesystem::path>()}
+                  : candidates_in.cast<std::vector<std::filesystem::path>>();
           const converter::SceneReadOptions read = read_options(spz_frame);
           audit::AuditOptions options;
           options.worst_views = 0;
@@ -1657,7 +1780,9 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
           d["source"] = py::dict(py::arg("path") = r.source.path, py::arg("format") = r.source.format,
                                  py::arg("bytes") = r.source.file_bytes, py::arg("gaussians") = r.source.gaussians);
           py::list out;
-          for (const audit::CandidateResult& c : r.candidates) {
+          bool all_passed = true;
+          for (size_t i = 0; i < r.candidates.size(); ++i) {
+            const audit::CandidateResult& c = r.candidates[i];
             py::dict cd;
             cd["path"] = c.scene.path;
             cd["format"] = c.scene.format;
@@ -1684,18 +1809,34 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
               cd["errors_note"] = c.attributes_note;
             }
             cd["notes"] = c.scene.notes;
+            // rgs-audit --json's verdict of the candidate (audit_report.cpp).
+            const audit::Verdict v = audit::verdict(r, i, threshold);
+            all_passed = all_passed && v.passed;
+            cd["verdict"] = py::dict(
+                py::arg("passed") = v.passed, py::arg("psnr_mean_db") = v.psnr_mean_db,
+                py::arg("worst_view") = py::dict(py::arg("name") = v.worst_view, py::arg("psnr_db") = v.worst_psnr_db),
+                py::arg("bytes_saved") = v.bytes_saved ? py::object(py::int_(*v.bytes_saved)) : py::object(py::none()),
+                py::arg("bytes_saved_fraction") =
+                    v.bytes_saved ? py::object(py::float_(v.bytes_saved_fraction)) : py::object(py::none()));
             out.append(cd);
           }
           d["candidates"] = out;
+          d["verdict"] = py::dict(py::arg("threshold_db") = threshold,
+                                  py::arg("criterion") = "mean PSNR over the views >= threshold_db",
+                                  py::arg("passed") = all_passed);
           return d;
         },
         py::arg("source"), py::arg("candidates"), py::kw_only(), py::arg("cameras") = py::none(),
         py::arg("orbit") = 4, py::arg("width") = 960, py::arg("height") = 540, py::arg("device") = "auto",
-        py::arg("spz_frame") = "rub",
+        py::arg("spz_frame") = "rub", py::arg("threshold") = audit::kDefaultVerdictThresholdDb,
         "What conversions cost, as rgs-audit measures it: every candidate (any format load() reads) rendered "
         "against the source on the same views (`cameras`, else an orbit of `orbit` cameras at width x height) "
         "with the faithful preset, on the GPU when `device` resolves to CUDA, else the CPU reference. Returns "
         "a dict: device, views, source (path, format, bytes, gaussians) and one dict per candidate: bytes, "
         "bytes_per_gaussian (per Gaussian of the source), sections (.rgs), PSNR mean/min (dB, clamped RGB), "
-        "SSIM mean/min, max_abs_diff, worst_view, and per-attribute errors when the Gaussians correspond one to one (else errors_note)");
+        "SSIM mean/min, max_abs_diff, worst_view, per-attribute errors when the Gaussians correspond one to one (else "
+        "errors_note), and verdict (rgs-audit --json's: passed when the mean PSNR is at least `threshold` dB, "
+        "psnr_mean_db, worst_view name and psnr_db, bytes_saved and bytes_saved_fraction against the source); "
+        "the dict's verdict: threshold_db, criterion, passed (every candidate passed). `candidates`: one path or "
+        "a list of them");
 }

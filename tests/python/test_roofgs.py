@@ -205,7 +205,8 @@ def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
     assert scene.render(camera, height=9).shape == (9, 16, 4)
     assert roofgs.built_with_cuda or not roofgs.has_cuda
     if not roofgs.has_cuda:
-        with pytest.warns(RuntimeWarning, match="no CUDA device"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # said once per process: see the test below
             auto = roofgs.load(rgs)
         assert auto.device == "cpu"
         with pytest.raises(roofgs.Error) as e:
@@ -213,6 +214,90 @@ def test_paths_devices_sizes_and_reprs(guitar_rgs, tmp_path):
         assert e.value.code_name == "kUnsupportedFeature" and "device='cpu'" in str(e.value)
     else:
         assert roofgs.load(rgs).device == "cuda"
+
+
+def test_no_cuda_device_is_said_once_per_process_in_plain_words():
+    """device="auto" without a device warns once per process (not once per calling line), without CUDA's
+    wording, which roofgs.cuda_status() keeps."""
+    import subprocess
+    import sys
+    script = """
+import warnings, roofgs
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("default")
+    for line in range(3):
+        roofgs.load(%r)
+    roofgs.load(%r)
+    roofgs.load(%r)
+    roofgs.load(%r)
+print(len(caught))
+for w in caught:
+    print(w.category.__name__, w.message)
+""" % ((str(GUITAR),) * 4)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    lines = run.stdout.splitlines()
+    status = roofgs.cuda_status()
+    assert set(status) == {"built_with_cuda", "available", "reason"}
+    assert status["built_with_cuda"] == roofgs.built_with_cuda
+    if status["available"]:
+        assert lines == ["0"] and status["reason"] == ""
+        return
+    assert lines == ["1", "RuntimeWarning roofgs: no usable CUDA device: rendering on the CPU reference "
+                          "(roofgs.cuda_status() says why)"], run.stdout
+    assert status["reason"] and status["reason"] not in lines[1]
+
+
+def test_audit_takes_one_path_and_gives_the_verdict(tmp_path):
+    """audit() takes a single candidate path (str or os.PathLike) as well as a list, and carries rgs-audit
+    --json's verdict per candidate and for the run."""
+    ply = SOURCE_DIR / "samples" / "guitar.ply"
+    roofgs.convert(ply, tmp_path / "g.rgs")
+    args = dict(orbit=1, width=48, height=27, device="cpu")
+    for candidate in (str(tmp_path / "g.rgs"), tmp_path / "g.rgs"):
+        report = roofgs.audit(str(ply), candidate, **args)
+        assert len(report["candidates"]) == 1 and report["candidates"][0]["path"].endswith("g.rgs")
+    c = report["candidates"][0]
+    v = c["verdict"]
+    assert set(v) == {"passed", "psnr_mean_db", "worst_view", "bytes_saved", "bytes_saved_fraction"}
+    assert v["passed"] is True and v["psnr_mean_db"] == c["psnr_mean_db"] and v["worst_view"]["name"] == c["worst_view"]
+    assert v["bytes_saved"] == report["source"]["bytes"] - c["bytes"] and 0.3 < v["bytes_saved_fraction"] < 1
+    assert report["verdict"] == {"threshold_db": 40.0, "criterion": "mean PSNR over the views >= threshold_db",
+                                 "passed": True}
+    strict = roofgs.audit(ply, [tmp_path / "g.rgs"], threshold=1000.0, **args)
+    assert strict["verdict"]["passed"] is False and strict["candidates"][0]["verdict"]["passed"] is False
+
+
+def test_an_unknown_convert_option_lists_every_option(tmp_path):
+    """The TypeError of an unknown keyword names every option convert() and save() take."""
+    src = str(SOURCE_DIR / "samples" / "guitar.ply")
+    for call, name in ((lambda **k: roofgs.convert(src, str(tmp_path / "x.rgs"), **k), "convert"),
+                       (lambda **k: roofgs.save(str(tmp_path / "x.rgs"), *read_ply_arrays(GUITAR), **k), "save")):
+        with pytest.raises(TypeError, match="bogus") as e:
+            call(bogus=1)
+        listed = str(e.value).split("the options are ")[1].split(", ")
+        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == 27
+    with pytest.raises(TypeError, match="unexpected keyword argument 'bogus'; the options are to, sh_degree"):
+        roofgs._convert(src, str(tmp_path / "x.rgs"), bogus=1)
+
+
+def test_camera_project_takes_a_named_point():
+    camera = roofgs.camera_from_opencv([[100, 0, 32], [0, 100, 18], [0, 0, 1]], np.eye(3), [0, 0, 0], 64, 36)
+    x, y, z = camera.project(point=[0.0, 0.0, 2.0])
+    assert (x, y, z) == (32.0, 18.0, 2.0)  # OpenCV K: pixel centres at integers, as project()
+    assert "project(self: roofgs.Camera, point:" in roofgs.Camera.project.__doc__
+
+
+def test_module_docstring_names_every_format_it_reads():
+    import os
+    import subprocess
+    tool = os.environ.get("RGS_CONVERT")
+    if not tool:
+        pytest.skip("skipped: rgs-convert not built (RGS_CONVERT unset)")
+    help_text = " ".join(subprocess.run([tool, "--help"], capture_output=True, text=True, check=True).stdout.split())
+    formats = re.search(r"converter::read_scene detects \((.*?)\)", help_text).group(1).split(", ")
+    assert len(formats) >= 7
+    for name in formats + [".rgs"]:
+        assert name in roofgs.__doc__, name
 
 
 def test_audit_takes_any_format(tmp_path):
@@ -435,6 +520,134 @@ def test_rasterization_is_gsplats_call_on_the_cpu_reference():
         roofgs.rasterization(means, quats, scales, opacities, rgb, viewmats, Ks, 80, 48, absgrad=True)
 
 
+def _small_gsplat_call(count=2, width=40, height=24):
+    """A small rasterization() call on the guitar: its arrays (sh [N, 1, 3], sh_degree=0) and views."""
+    means, quats, scales, opacities, sh = read_ply_arrays(GUITAR)
+    cameras = roofgs.Scene.from_arrays(means, quats, scales, opacities, sh, device="cpu").orbit_cameras(count, width,
+                                                                                                      height)
+    viewmats, Ks = gsplat_cameras(cameras)
+    return [means, quats, scales, opacities, sh, viewmats, Ks, width, height]
+
+
+# gsplat.rasterization's options after `height` and their defaults (gsplat 1.5); rolling_shutter's default is
+# gsplat's RollingShutterType.GLOBAL, which is not importable here.
+GSPLAT_DEFAULTS = dict(near_plane=0.01, far_plane=1e10, radius_clip=0.0, eps2d=0.3, sh_degree=None, packed=True,
+                       tile_size=16, backgrounds=None, render_mode="RGB", sparse_grad=False, absgrad=False,
+                       rasterize_mode="classic", channel_chunk=32, distributed=False, camera_model="pinhole",
+                       segmented=False, covars=None, with_ut=False, with_eval3d=False, radial_coeffs=None,
+                       tangential_coeffs=None, thin_prism_coeffs=None, ftheta_coeffs=None, viewmats_rs=None)
+
+
+def test_rasterization_takes_every_gsplat_option_at_its_default():
+    """Each gsplat option, at its default, renders the same image; packed, channel_chunk and segmented at any
+    value; any other non-default value raises ValueError naming the option."""
+    import inspect
+    args = _small_gsplat_call()
+    parameters = inspect.signature(roofgs.rasterization).parameters
+    assert list(parameters)[9:9 + len(GSPLAT_DEFAULTS) + 1] == [*list(GSPLAT_DEFAULTS)[:-1], "rolling_shutter",
+                                                               "viewmats_rs"]
+    assert _stub_positional("rasterization") == list(parameters)[:len(_stub_positional("rasterization"))]
+    base, _, _ = roofgs.rasterization(*args, sh_degree=0, device="cpu")
+    options = dict(GSPLAT_DEFAULTS, sh_degree=0)
+    for name, value in options.items():
+        colors, _, _ = roofgs.rasterization(*args, **{"sh_degree": 0, name: value}, device="cpu")
+        assert np.array_equal(colors, base), name
+    every, _, _ = roofgs.rasterization(*args, **options, device="cpu")
+    assert np.array_equal(every, base)
+
+    class Global:  # gsplat's RollingShutterType.GLOBAL, by name
+        name = "GLOBAL"
+
+    any_value = dict(packed=False, channel_chunk=4, segmented=True, far_plane=1e12, rolling_shutter=Global())
+    colors, _, _ = roofgs.rasterization(*args, sh_degree=0, device="cpu", **any_value)
+    assert np.array_equal(colors, base)
+    refused = dict(far_plane=100.0, radius_clip=1.0, eps2d=0.1, tile_size=8, sparse_grad=True, absgrad=True,
+                   rasterize_mode="antialiased", distributed=True, camera_model="fisheye", covars=np.eye(3),
+                   with_ut=True, with_eval3d=True, radial_coeffs=np.zeros((2, 6)), tangential_coeffs=np.zeros((2, 2)),
+                   thin_prism_coeffs=np.zeros((2, 4)), ftheta_coeffs=object(), rolling_shutter="ROLLING_TOP_TO_BOTTOM",
+                   viewmats_rs=args[5])
+    for name, value in refused.items():
+        with pytest.raises(ValueError, match="; " + name + "=.* is not supported"):
+            roofgs.rasterization(*args, **{name: value}, sh_degree=0, device="cpu")
+    with pytest.raises(TypeError, match="bogus"):
+        roofgs.rasterization(*args, bogus=1)
+
+
+def test_rasterization_keeps_gsplats_leading_batch_dimensions():
+    """means[None] and viewmats[None] render as without the batch; a batch of 2 renders each element, and the
+    outputs carry the batch dimensions as gsplat's do."""
+    means, quats, scales, opacities, sh, viewmats, Ks, w, h = _small_gsplat_call(count=3)
+    gaussians = (means, quats, scales, opacities, sh)
+    base, base_alphas, _ = roofgs.rasterization(*gaussians, viewmats, Ks, w, h, sh_degree=0, device="cpu")
+    colors, alphas, meta = roofgs.rasterization(*(a[None] for a in gaussians), viewmats[None], Ks[None], w, h,
+                                                sh_degree=0, device="cpu")
+    assert colors.shape == (1, 3, h, w, 3) and alphas.shape == (1, 3, h, w, 1) and meta["batch_dims"] == [1]
+    assert np.array_equal(colors[0], base) and np.array_equal(alphas[0], base_alphas)
+    # [2, 1] batch: element (1, 0) has the Gaussians shifted away and other views.
+    shifted = means + np.float32(1000)
+    batch = lambda a, b: np.stack([a, b])[:, None]
+    colors, alphas, meta = roofgs.rasterization(batch(means, shifted), *(batch(a, a) for a in gaussians[1:]),
+                                                batch(viewmats[:2], viewmats[1:]), batch(Ks[:2], Ks[1:]), w, h,
+                                                sh_degree=0, backgrounds=np.ones((2, 1, 2, 3), np.float32),
+                                                device="cpu")
+    assert colors.shape == (2, 1, 2, h, w, 3) and meta["n_cameras"] == 4 and len(meta["pairs"]) == 4
+    assert np.array_equal(alphas[0, 0], base_alphas[:2]) and alphas[0, 0].max() > 0.5
+    assert alphas[1, 0].max() == 0 and np.all(colors[1, 0] == 1)  # nothing in view: the background
+    # Nested lists, with and without a batch dimension.
+    few = [a[:300] for a in gaussians]
+    listed, _, _ = roofgs.rasterization(*(a.tolist() for a in few), viewmats.tolist(), Ks.tolist(), w, h,
+                                        sh_degree=0, device="cpu")
+    batched, _, _ = roofgs.rasterization(*([a.tolist()] for a in few), [viewmats.tolist()], [Ks.tolist()], w, h,
+                                         sh_degree=0, device="cpu")
+    direct, _, _ = roofgs.rasterization(*few, viewmats, Ks, w, h, sh_degree=0, device="cpu")
+    assert np.array_equal(listed, direct) and np.array_equal(batched[0], direct) and direct.max() > 0
+    with pytest.raises(ValueError, match="viewmats: expected the leading batch dimensions"):
+        roofgs.rasterization(*(a[None] for a in gaussians), viewmats, Ks, w, h, sh_degree=0, device="cpu")
+
+
+def _fake_torch():
+    """A stand-in for torch with what rasterization()'s array-type dispatch uses: Tensor, from_numpy, stack."""
+    import types
+    fake = types.ModuleType("torch")
+
+    class Tensor(np.ndarray):
+        pass
+
+    fake.Tensor = Tensor
+    fake.from_numpy = lambda a: a.view(Tensor)
+    fake.stack = lambda parts, dim=0: np.stack(parts, axis=dim).view(Tensor)
+    return fake
+
+
+def test_rasterization_returns_the_callers_array_type(monkeypatch):
+    """Host tensors in, the same tensor type out (here a stand-in torch; torch itself where installed); NumPy
+    in, NumPy out; with and without batch dimensions."""
+    args = _small_gsplat_call(count=1)
+    base, _, _ = roofgs.rasterization(*args, sh_degree=0, device="cpu")
+    assert type(base) is np.ndarray
+    fake = _fake_torch()
+    monkeypatch.setitem(__import__("sys").modules, "torch", fake)
+    tensors = [fake.from_numpy(a) if isinstance(a, np.ndarray) else a for a in args]
+    colors, alphas, _ = roofgs.rasterization(*tensors, sh_degree=0, device="cpu")
+    assert type(colors) is fake.Tensor and type(alphas) is fake.Tensor and np.array_equal(colors, base)
+    batched = [a[None] for a in tensors[:7]] + args[7:]
+    colors, alphas, _ = roofgs.rasterization(*batched, sh_degree=0, device="cpu")
+    assert type(colors) is fake.Tensor and colors.shape == (1,) + base.shape and np.array_equal(colors[0], base)
+
+
+def test_rasterization_of_torch_cpu_tensors_returns_torch_cpu_tensors():
+    torch = pytest.importorskip("torch", reason="skipped: torch is not installed")
+    args = _small_gsplat_call(count=1)
+    base, _, _ = roofgs.rasterization(*args, sh_degree=0, device="cpu")
+    tensors = [torch.from_numpy(a) if isinstance(a, np.ndarray) else a for a in args]
+    colors, alphas, _ = roofgs.rasterization(*tensors, sh_degree=0, device="cpu")
+    assert isinstance(colors, torch.Tensor) and colors.device.type == "cpu" and colors.dtype == torch.float32
+    image = colors.clamp(0, 1).permute(0, 3, 1, 2).cpu()  # a gsplat user's next line
+    assert image.shape == (1, 3, args[8], args[7]) and np.array_equal(colors.numpy(), base)
+    colors, _, _ = roofgs.rasterization(*(t[None] for t in tensors[:7]), *args[7:], sh_degree=0, device="cpu")
+    assert isinstance(colors, torch.Tensor) and np.array_equal(colors[0].numpy(), base)
+
+
 def test_arrays_and_rasterization_on_the_gpu(cuda):
     """from_arrays and rasterization on CUDA agree with the CPU reference (faithful: the same 3DGS rules;
     fastest within the GPU's binary16 blending, PSNR > 50 dB), and torch tensors are taken as they are."""
@@ -597,6 +810,13 @@ def _stub_keywords(name):
     tree = ast.parse((SOURCE_DIR / "python" / "roofgs.pyi").read_text())
     fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == name)
     return [a.arg for a in fn.args.kwonlyargs]
+
+
+def _stub_positional(name):
+    import ast
+    tree = ast.parse((SOURCE_DIR / "python" / "roofgs.pyi").read_text())
+    fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == name)
+    return [a.arg for a in fn.args.args]
 
 
 def test_convert_and_save_take_every_option_of_rgs_convert():
