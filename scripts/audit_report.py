@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""Renders an rgs-audit JSON (schema "rgs-audit", version 3) and its worst-view images into one self-contained
+"""Renders an rgs-audit JSON (schema "rgs-audit", version 4) and its worst-view images into one self-contained
 HTML file: plots as inline SVG drawn by matplotlib, images as base64 PNG, the source/candidate slider as inline
 JavaScript; no network access needed to open it.
 
-The page opens with the verdict (the JSON's "verdict": each candidate's mean PSNR against the threshold, its
-worst view and the bytes it saves); every heatmap is drawn on the JSON's one "heat_scale" under one colour bar;
-the PSNR plots show the threshold on a y axis at least MIN_PSNR_SPAN_DB wide.
+The page opens with the verdict (the JSON's "verdict": each candidate's mean PSNR in the verdict's metric, the
+foreground PSNR where the source has background, against the threshold, the whole frame's beside it, its worst
+view and the bytes it saves); each candidate's heatmaps are drawn on its own "heat_scale" (a percentile of its
+|d|) under its own colour bar, with the largest |d| written; the PSNR plots show the threshold on a y axis at
+least MIN_PSNR_SPAN_DB wide.
 
     scripts/audit_report.py result.json report.html
 
@@ -31,7 +33,7 @@ except ImportError as e:  # the caller prints how to make the HTML elsewhere
     sys.stderr.write(f"audit_report.py: needs python3-matplotlib and numpy ({e})\n")
     sys.exit(1)
 
-SUPPORTED_SCHEMA = 3
+SUPPORTED_SCHEMA = 4
 # The PSNR axes span at least this many dB (threshold included), so that a fraction of a dB between views does
 # not fill the plot.
 MIN_PSNR_SPAN_DB = 10.0
@@ -133,16 +135,22 @@ def threshold_lines(ax, doc):
     """The verdict's threshold and the --min-psnr gate as horizontal lines; returns their values."""
     lines = []
     verdict = doc.get("verdict")
+    what = metric_words(doc)
     if verdict:
         t = verdict["threshold_db"]
-        ax.axhline(t, color="crimson", ls="-", lw=1.2, label=f"threshold {t:g} dB (mean)")
+        ax.axhline(t, color="crimson", ls="-", lw=1.2, label=f"threshold {t:g} dB (mean, {what})")
         lines.append(t)
     gate = doc.get("gate")
     if gate:
         g = gate["min_psnr_db"]
-        ax.axhline(g, color="crimson", ls=":", lw=1.2, label=f"--min-psnr {g:g} dB (each view)")
+        ax.axhline(g, color="crimson", ls=":", lw=1.2, label=f"--min-psnr {g:g} dB (each view, {what})")
         lines.append(g)
     return lines
+
+
+def metric_words(doc):
+    """What the verdict and the gate compare, in words."""
+    return "foreground" if (doc.get("verdict") or {}).get("metric") == "foreground" else "whole frame"
 
 
 def plot_views(doc):
@@ -247,12 +255,13 @@ def plot_size_quality(doc):
     return svg_of(fig)
 
 
-def colour_bar(scale):
-    """The heatmaps' one colour bar, 0 to `scale` (|d|), as inline SVG."""
+def colour_bar(scale, largest):
+    """A candidate's colour bar, 0 to `scale` (|d|; larger values at the top colour, up to `largest`), as inline
+    SVG."""
     fig, ax = plt.subplots(figsize=(6, 0.9))
     fig.colorbar(matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, scale), cmap=HEAT_CMAP), cax=ax,
-                 orientation="horizontal")
-    ax.set_xlabel("|d|, max over R, G, B (clamped values)", fontsize=9)
+                 orientation="horizontal", extend="max" if largest > scale else "neither")
+    ax.set_xlabel(f"|d|, max over R, G, B (clamped values); largest {largest:.4f}", fontsize=9)
     ax.tick_params(labelsize=8)
     return svg_of(fig)
 
@@ -266,8 +275,10 @@ def verdict_html(doc):
     t = v["threshold_db"]
     cands = doc["candidates"]
     passed = sum(1 for c in cands if c["verdict"]["passed"])
+    metric = v.get("metric", "whole_frame")
+    what = metric_words(doc)
     head = (f"<b class='{'gate-pass' if v['passed'] else 'gate-fail'}'>{'PASS' if v['passed'] else 'FAIL'}</b>: "
-            f"{passed} of {len(cands)} candidate(s) have a mean PSNR over the views of at least {t:g} dB")
+            f"{passed} of {len(cands)} candidate(s) have a mean {what} PSNR over the views of at least {t:g} dB")
     items = []
     for c in cands:
         cv = c["verdict"]
@@ -280,14 +291,18 @@ def verdict_html(doc):
         else:
             size = f"adds {group(-saved)} bytes ({-100 * cv['bytes_saved_fraction']:.0f}% of the source)"
         wv = cv["worst_view"]
+        beside = (f" (whole frame {num(cv['whole_frame_psnr_mean_db'])} dB)" if metric == "foreground" else "")
         items.append(
             f"<li class='verdict-cand' data-label='{esc(c['label'])}' data-passed='{str(ok).lower()}' "
+            f"data-metric='{esc(metric)}' data-psnr-mean='{esc(num(cv['psnr_mean_db']))}' "
             f"data-worst-view='{esc(wv['name'])}' data-worst-psnr='{esc(num(wv['psnr_db']))}'>"
             f"<b class='{'gate-pass' if ok else 'gate-fail'}'>{'PASS' if ok else 'FAIL'}</b> {esc(c['label'])}: "
-            f"mean PSNR {num(cv['psnr_mean_db'])} dB {'&ge;' if ok else '&lt;'} {t:g} dB; worst view "
-            f"{esc(wv['name'])} {num(wv['psnr_db'])} dB; {size}</li>")
-    return (f"<div id='verdict' class='verdict' data-passed='{str(v['passed']).lower()}' data-threshold='{t:g}'>"
-            f"{head} (rgs-audit --threshold).<ul>{''.join(items)}</ul></div>")
+            f"mean {what} PSNR {num(cv['psnr_mean_db'])} dB {'&ge;' if ok else '&lt;'} {t:g} dB{beside}; worst "
+            f"view {esc(wv['name'])} {num(wv['psnr_db'])} dB; {size}</li>")
+    why = (" The foreground PSNR decides: the black background raises the whole-frame PSNR (below)."
+           if metric == "foreground" else "")
+    return (f"<div id='verdict' class='verdict' data-passed='{str(v['passed']).lower()}' data-threshold='{t:g}' "
+            f"data-metric='{esc(metric)}'>{head} (rgs-audit --threshold).{why}<ul>{''.join(items)}</ul></div>")
 
 
 def background_note(doc):
@@ -362,17 +377,28 @@ def candidate_section(doc, i, c, base_dir):
     out.append("</div>")
     if c["worst_views"]:
         out.append("<h3>Worst views: source against candidate, and the difference</h3>")
+        scale = c.get("heat_scale")
+        if scale is not None and any(w.get("diff_image") for w in c["worst_views"]):
+            pct = doc.get("heat_scale_percentile", 99)
+            top = (f"the top of the colour bar is {scale:.4f}, the {pct:g}th percentile of the non-zero |d| of "
+                   f"these heatmaps; larger |d|, up to the largest, {c['max_abs_diff']:.4f}, take the top colour"
+                   if scale > 0 else "this candidate does not differ from the source here, so its heatmaps are black")
+            out.append(f"<p class='note'>Heatmaps of {esc(c['label'])} on its own scale: black is no difference; "
+                       f"{top}. Compare candidates by the numbers, not by brightness.</p>"
+                       f"<div class='colorbar' data-heat-scale='{scale!r}' data-max-abs-diff='{c['max_abs_diff']!r}'>"
+                       f"{colour_bar(scale if scale > 0 else 1.0, c['max_abs_diff'])}</div>")
         per_view = {v["name"]: v for v in c["views"]}
         for w in c["worst_views"]:
             if "source_image" not in w:
                 continue
             uri = {key: png_data_uri(read_netpbm(os.path.join(base_dir, w[key])), HEAT_CMAP if key == "diff_image"
                                      else None) for key in ("source_image", "candidate_image", "diff_image")}
-            scale = doc.get("heat_scale", w["heat_scale"])  # older JSONs: each view on its own scale
-            cap = (f"|d| max over RGB, {per_view[w['name']]['max_abs_diff']:.4f} at most here; colour bar above: "
-                   f"0 to {scale:.4f}" if "heat_scale" in doc else f"|d| max over RGB, 0 to {scale:.4f} (this view)")
-            heat = (f"<figure><img class='view heatmap' data-heat-scale='{scale!r}' alt='difference' "
-                    f"src='{uri['diff_image']}'><figcaption>{esc(cap)}</figcaption></figure>")
+            scale = w["heat_scale"]
+            view_max = per_view[w["name"]]["max_abs_diff"]
+            cap = (f"|d| max over RGB: largest here {view_max:.4f}; colour bar above: 0 to {scale:.4f}"
+                   + (" and more" if view_max > scale else ""))
+            heat = (f"<figure><img class='view heatmap' data-heat-scale='{scale!r}' data-max-abs-diff='{view_max!r}' "
+                    f"alt='difference' src='{uri['diff_image']}'><figcaption>{esc(cap)}</figcaption></figure>")
             fg = per_view[w["name"]].get("foreground_psnr_db")
             fg_text = f", foreground {num(fg)} dB" if "foreground_psnr_db" in per_view[w["name"]] else ""
             out.append(f"<div class='worst'><p><b>{esc(w['name'])}</b>: PSNR {num(w['psnr_db'])} dB{fg_text}</p>"
@@ -497,15 +523,11 @@ def main(argv):
     parts.append(f"<div class='plot'>{plot_views(doc)}</div>")
     parts.append(views_table(doc))
     parts.append(f"<div class='plot'>{plot_sizes(doc)}</div>")
-    if "heat_scale" in doc and any(w.get("diff_image") for c in cands for w in c["worst_views"]):
-        scale = doc["heat_scale"]
-        top = (f"the top of the colour bar is {scale:.4f}, the largest |d| of any view of any candidate, so a "
-               "candidate's heatmap is as bright as its error is large" if scale > 0 else
-               "no candidate differs from the source in any view, so every heatmap is black")
-        parts.append("<h2>Differences</h2><p class='note'>Every heatmap below is on one scale: black is no "
-                     f"difference; {top}. Heatmaps reduced for the page keep the largest |d| of each block.</p>"
-                     f"<div class='colorbar' data-heat-scale='{scale!r}'>{colour_bar(scale if scale > 0 else 1.0)}"
-                     "</div>")
+    if any(w.get("diff_image") for c in cands for w in c["worst_views"]):
+        parts.append("<h2>Differences</h2><p class='note'>Each candidate's heatmaps are on its own scale, under its "
+                     "own colour bar, so that every candidate's structure shows (one shared scale topped by one "
+                     "candidate's brightest pixel leaves the others black); the largest |d| is written beside each. "
+                     "Heatmaps reduced for the page keep the largest |d| of each block.</p>")
     for i, c in enumerate(cands):
         parts.append(candidate_section(doc, i, c, base_dir))
     parts.append(f"<p><small>PSNR: {esc(doc['metrics']['psnr'])}. SSIM: {esc(doc['metrics']['ssim'])}. "

@@ -6,7 +6,7 @@ curves with every format as a point, one panel per scene.
     scripts/quality_cards.py [--doc docs/AUDITS.md] [--plot docs/images/rate_distortion.png] \\
         flowers=out/flowers/mipnerf360_flowers_c3dgs.audit.json guitar=out/guitar/guitar.audit.json ...
 
-Each argument is NAME=JSON: a scene's name in the tables and the rgs-audit JSON (schema "rgs-audit", version 3)
+Each argument is NAME=JSON: a scene's name in the tables and the rgs-audit JSON (schema "rgs-audit", version 3 or 4)
 that audit_formats.sh wrote for it, or several JSONs joined by commas (runs of one scene on the same views). Candidates labelled SERIES@POINT (archive@40, archive@spz) are the points of
 a curve. With --doc the tables replace what lies between the markers <!-- quality-cards:begin --> and
 <!-- quality-cards:end --> of that file, else they are printed. Needs python3-matplotlib for --plot.
@@ -45,8 +45,8 @@ def db(v):
 def read_audit(path):
     with open(path, encoding="utf-8") as f:
         doc = json.load(f)
-    if doc.get("schema") != "rgs-audit" or doc.get("schema_version") != 3:
-        raise ValueError(f"{path}: not an rgs-audit JSON of schema version 3")
+    if doc.get("schema") != "rgs-audit" or doc.get("schema_version") not in (3, 4):
+        raise ValueError(f"{path}: not an rgs-audit JSON of schema version 3 or 4")
     return doc
 
 

@@ -7,6 +7,8 @@
 //   rgs-audit scene.ply a.rgs b.rgs c.rgs --label max --label p99 ...     one run, several candidates
 //   rgs-audit scene.ply a.rgs b.spz --threshold 50                       verdict: mean PSNR >= 50 dB passes
 //   rgs-audit scene.ply scene.rgs --min-psnr 40 --report ci/audit.html    CI gate: exit 3 below 40 dB
+// The verdict and the gate compare the foreground PSNR where the source's renders have background, else the
+// whole frame's (audit::verdict_metric).
 //   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
 //
 // Every output of a run (the HTML report, its JSON, its images, --json, --heatmap) is declared before any work,
@@ -373,19 +375,28 @@ Result<audit::AuditResult> measure(const Options& opt) {
   return audit::run_audit(source, candidates, cameras, options);
 }
 
-/// "verdict          PASS a: mean PSNR 75.1 dB >= 40 dB; worst view orbit_002 73.9 dB; saves 3,360,261 bytes (54%)"
+/// "foreground PSNR" or "whole-frame PSNR": what a verdict compares.
+std::string metric_text(audit::VerdictMetric metric) {
+  return metric == audit::VerdictMetric::kForeground ? "foreground PSNR" : "whole-frame PSNR";
+}
+
+/// "verdict          PASS a: mean foreground PSNR 62.8 dB >= 40 dB (whole frame 75.1 dB); worst view orbit_002
+/// 61.9 dB; saves 3,360,261 bytes (54%)"
 void print_verdict(std::FILE* out, const audit::AuditResult& r, size_t candidate, double threshold) {
   const audit::Verdict v = audit::verdict(r, candidate, threshold);
+  const bool foreground = v.metric == audit::VerdictMetric::kForeground;
+  const std::string beside = foreground ? " (whole frame " + db(v.whole_frame_psnr_mean_db) + " dB)" : "";
   std::string saved = "no file size";
   if (v.bytes_saved) {
     saved = *v.bytes_saved >= 0 ? "saves " + tools::group_digits(uint64_t(*v.bytes_saved)) + " bytes"
                                 : "adds " + tools::group_digits(uint64_t(-*v.bytes_saved)) + " bytes";
     saved += " (" + tools::fixed(100.0 * std::fabs(v.bytes_saved_fraction), 0) + "% of the source)";
   }
-  std::fprintf(out, "  verdict          %s %s: mean PSNR %s dB %s %s dB; worst view %s %s dB; %s\n",
+  std::fprintf(out, "  verdict          %s %s: mean %s %s dB %s %s dB%s; worst view %s %s dB; %s\n",
                v.passed ? "PASS" : "FAIL", tools::escape_text(r.candidates[candidate].scene.label).c_str(),
-               db(v.psnr_mean_db).c_str(), v.passed ? ">=" : "<", tools::fixed(threshold, 2).c_str(),
-               tools::escape_text(v.worst_view).c_str(), db(v.worst_psnr_db).c_str(), saved.c_str());
+               metric_text(v.metric).c_str(), db(v.psnr_mean_db).c_str(), v.passed ? ">=" : "<",
+               tools::fixed(threshold, 2).c_str(), beside.c_str(), tools::escape_text(v.worst_view).c_str(),
+               db(v.worst_psnr_db).c_str(), saved.c_str());
 }
 
 /// The summary table: the source, each candidate's sizes and quality, the worst views, the files written.
@@ -398,20 +409,26 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
                tools::escape_text(r.device).c_str());
   std::fprintf(out, "  load             source %s s\n", tools::fixed(r.source.load_seconds, 2).c_str());
   for (const auto& c : r.candidates) print_candidate(out, r, c);
+  // Labels are printed whole: the columns widen to the longest one.
+  size_t label_width = 0;
+  for (const auto& c : r.candidates) label_width = std::max(label_width, tools::escape_text(c.scene.label).size());
+  const int view_column = int(std::max<size_t>(12, label_width));
+  const int candidate_column = int(std::max<size_t>(16, label_width));
   std::fprintf(out, "  %-22s", "view");
-  for (const auto& c : r.candidates) std::fprintf(out, " %12.12s", tools::escape_text(c.scene.label).c_str());
+  for (const auto& c : r.candidates) std::fprintf(out, " %*s", view_column, tools::escape_text(c.scene.label).c_str());
   std::fprintf(out, "   PSNR dB\n");
   for (size_t v = 0; v < r.views.size(); ++v) {
     std::fprintf(out, "  %-22s", tools::escape_text(r.views[v].name).c_str());
-    for (const auto& c : r.candidates) std::fprintf(out, " %12s", db(c.views[v].psnr_db).c_str());
+    for (const auto& c : r.candidates) std::fprintf(out, " %*s", view_column, db(c.views[v].psnr_db).c_str());
     std::fprintf(out, "\n");
   }
-  std::fprintf(out, "  %-16s %8s %14s %8s %9s %9s %10s %10s %9s\n", "candidate", "format", "bytes", "B/G", "ratio",
-               "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
+  std::fprintf(out, "  %-*s %8s %14s %8s %9s %9s %10s %10s %9s\n", candidate_column, "candidate", "format", "bytes",
+               "B/G", "ratio", "PSNR mean", "PSNR min", "SSIM mean", "max |d|");
   for (const auto& c : r.candidates) {
     const double per_g = r.source.gaussians ? double(c.scene.file_bytes) / double(r.source.gaussians) : 0.0;
     std::fprintf(
-        out, "  %-16.16s %8s %14s %8s %8sx %9s %10s %10s %9s\n", tools::escape_text(c.scene.label).c_str(),
+        out, "  %-*s %8s %14s %8s %8sx %9s %10s %10s %9s\n", candidate_column,
+        tools::escape_text(c.scene.label).c_str(),
         tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),
         tools::fixed(per_g, 1).c_str(),
         tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
@@ -428,10 +445,13 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
                  tools::fixed(c.summary.ssim_min, 5).c_str(), suffix.c_str());
   }
   if (!opt.heatmap_path.empty()) {
-    std::fprintf(out, "  heatmap          %s (%s: |d| max over RGB, 0 black, %s white: the report's scale)\n",
+    std::fprintf(out,
+                 "  heatmap          %s (%s: |d| max over RGB, 0 black, %s and above white: the report's scale of "
+                 "this candidate; its largest |d| %s)\n",
                  tools::escape_text(opt.heatmap_path).c_str(),
                  tools::escape_text(r.views[r.candidates[0].summary.worst_view].name).c_str(),
-                 tools::fixed(r.heat_scale, 4).c_str());
+                 tools::fixed(r.candidates[0].heat_scale, 4).c_str(),
+                 tools::fixed(r.candidates[0].summary.max_abs_diff, 4).c_str());
   }
   for (size_t i = 0; i < r.candidates.size(); ++i) print_verdict(out, r, i, opt.threshold);
   if (!report_json.empty()) std::fprintf(out, "  json             %s\n", tools::escape_text(report_json).c_str());
@@ -518,11 +538,12 @@ int run(const Options& opt) {
 
   const bool below_gate = opt.min_psnr_set && !audit::passes_gate(r, opt.min_psnr);
   if (below_gate) {
-    for (const auto& c : r.candidates) {
-      if (c.summary.psnr_min_db < opt.min_psnr) {
-        std::fprintf(stderr, "%s: error: %s: min PSNR %s dB (view %s) is below --min-psnr %s dB\n", kTool,
-                     tools::escape_text(c.scene.label).c_str(), db(c.summary.psnr_min_db).c_str(),
-                     tools::escape_text(r.views[c.summary.worst_view].name).c_str(),
+    for (size_t i = 0; i < r.candidates.size(); ++i) {
+      const audit::Verdict v = audit::verdict(r, i, opt.min_psnr);
+      if (v.worst_psnr_db < opt.min_psnr) {
+        std::fprintf(stderr, "%s: error: %s: min %s %s dB (view %s) is below --min-psnr %s dB\n", kTool,
+                     tools::escape_text(r.candidates[i].scene.label).c_str(), metric_text(v.metric).c_str(),
+                     db(v.worst_psnr_db).c_str(), tools::escape_text(v.worst_view).c_str(),
                      tools::fixed(opt.min_psnr, 2).c_str());
       }
     }
@@ -573,10 +594,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(16, 32768));
   auto* minp = app.add_option("--min-psnr", opt.min_psnr,
                               "CI gate: exit 3 when any candidate's lowest per-view PSNR is below DB (the reports are "
-                              "still written)");
+                              "still written); the verdict's metric: foreground PSNR where the source's renders "
+                              "have background, else the whole frame's");
   auto* threshold = app.add_option("--threshold", opt.threshold,
                  "The report's verdict: a candidate passes when its mean PSNR over the views is at least DB "
-                 "(default 40; the exit status is --min-psnr's)")
+                 "(default 40; foreground PSNR where the source's renders have background, else the whole "
+                 "frame's; the exit status is --min-psnr's)")
       ->check(CLI::Range(-1000.0, 1000.0));
   app.add_flag("-q,--quiet", opt.quiet, "No table");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));

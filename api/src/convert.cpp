@@ -465,7 +465,8 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   if (!to) {
     RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
                         dst + ": cannot tell the output format from this name; name the output *.rgs, *.ply, "
-                              "*.spz or *.glb, or choose the format (rgs, ply, spz, glb)");
+                              "*.spz or *.glb, or choose the format with rgs-convert --to or Python's to= "
+                              "(rgs, ply, spz, glb)");
     return by_ext->format;
   }
   RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext->format != *to, StatusCode::kInvalidArgument,

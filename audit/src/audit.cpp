@@ -211,22 +211,41 @@ Result<CandidateResult> candidate_with_attributes(const AuditScene& source, cons
   return c;
 }
 
-/// Each candidate's summary, then every heatmap on one scale, known only now: the largest |Δ| of the whole audit.
-void summarize_on_one_scale(AuditResult* result, const std::vector<float>& worst_heatmap,
-                            std::pair<uint32_t, uint32_t> worst_heatmap_size) {
-  for (CandidateResult& c : result->candidates) {
-    c.summary = summarize(c.views);
-    result->heat_scale = std::max(result->heat_scale, c.summary.max_abs_diff);
+/// The kHeatScalePercentile-th percentile (nearest rank) of the non-zero values of `maps`; 0 when there are none.
+float percentile_of_nonzero(const std::vector<const std::vector<float>*>& maps) {
+  std::vector<float> values;
+  for (const std::vector<float>* m : maps) {
+    for (float v : *m) {
+      if (v > 0.f) values.push_back(v);
+    }
   }
-  for (CandidateResult& c : result->candidates) {
+  if (values.empty()) return 0.f;
+  const size_t rank = size_t(std::ceil(kHeatScalePercentile / 100.0 * double(values.size())));
+  const auto at = values.begin() + std::ptrdiff_t(std::clamp<size_t>(rank, 1, values.size()) - 1);
+  std::nth_element(values.begin(), at, values.end());
+  return *at;
+}
+
+/// Each candidate's summary, then its heatmaps on its own scale, known only now: a percentile of its kept |Δ|.
+/// One scale per candidate, not one for the audit: a single bright pixel of one candidate would otherwise
+/// leave the others' heatmaps black.
+void summarize_and_scale(AuditResult* result, const std::vector<float>& worst_heatmap,
+                         std::pair<uint32_t, uint32_t> worst_heatmap_size) {
+  for (size_t i = 0; i < result->candidates.size(); ++i) {
+    CandidateResult& c = result->candidates[i];
+    c.summary = summarize(c.views);
+    std::vector<const std::vector<float>*> maps;
+    for (const ViewImages& w : c.worst) maps.push_back(&w.abs_difference);
+    if (maps.empty() && i == 0 && !worst_heatmap.empty()) maps.push_back(&worst_heatmap);
+    c.heat_scale = percentile_of_nonzero(maps);
     for (ViewImages& w : c.worst) {
-      w.heat_scale = result->heat_scale;
-      w.difference = heatmap(w.abs_difference, w.source.width, w.source.height, result->heat_scale);
+      w.heat_scale = c.heat_scale;
+      w.difference = heatmap(w.abs_difference, w.source.width, w.source.height, c.heat_scale);
     }
   }
   if (!worst_heatmap.empty()) {
-    result->candidates[0].worst_heatmap =
-        heatmap(worst_heatmap, worst_heatmap_size.first, worst_heatmap_size.second, result->heat_scale);
+    CandidateResult& c = result->candidates[0];
+    c.worst_heatmap = heatmap(worst_heatmap, worst_heatmap_size.first, worst_heatmap_size.second, c.heat_scale);
   }
 }
 
@@ -363,7 +382,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       options.progress(progress);
     }
   }
-  summarize_on_one_scale(&result, worst_heatmap, worst_heatmap_size);
+  summarize_and_scale(&result, worst_heatmap, worst_heatmap_size);
   result.render_seconds = seconds_since(t_start);
   return result;
 }

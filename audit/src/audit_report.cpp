@@ -27,7 +27,10 @@ std::string image_name(size_t candidate, size_t view, const char* what, const ch
 
 json verdict_json(const Verdict& v) {
   return {{"passed", v.passed},
+          {"metric", verdict_metric_name(v.metric)},
           {"psnr_mean_db", db_json(v.psnr_mean_db)},
+          {"whole_frame_psnr_mean_db", db_json(v.whole_frame_psnr_mean_db)},
+          {"foreground_psnr_mean_db", db_json(v.foreground_psnr_mean_db)},
           {"worst_view", {{"name", v.worst_view}, {"psnr_db", db_json(v.worst_psnr_db)}}},
           {"bytes_saved", v.bytes_saved ? json(*v.bytes_saved) : json(nullptr)},
           {"bytes_saved_fraction", v.bytes_saved ? json(v.bytes_saved_fraction) : json(nullptr)}};
@@ -80,14 +83,43 @@ json attributes_json(const AttributeReport& a, uint32_t degree) {
 
 }  // namespace
 
+const char* verdict_metric_name(VerdictMetric metric) {
+  return metric == VerdictMetric::kForeground ? "foreground" : "whole_frame";
+}
+
+VerdictMetric verdict_metric(const AuditResult& result) {
+  bool background = false, foreground = false;
+  for (const ViewMetrics& m : result.candidates.at(0).views) {
+    background = background || m.foreground_fraction < 1.0;
+    foreground = foreground || m.foreground_fraction > 0.0;
+  }
+  return background && foreground ? VerdictMetric::kForeground : VerdictMetric::kWholeFrame;
+}
+
 Verdict verdict(const AuditResult& result, size_t candidate, double threshold_db) {
   const CandidateResult& c = result.candidates.at(candidate);
   Verdict v;
   v.threshold_db = threshold_db;
-  v.psnr_mean_db = c.summary.psnr_mean_db;
-  v.passed = c.summary.psnr_mean_db >= threshold_db;
-  v.worst_view = result.views.at(c.summary.worst_view).name;
-  v.worst_psnr_db = c.summary.psnr_min_db;
+  v.metric = verdict_metric(result);
+  v.whole_frame_psnr_mean_db = c.summary.psnr_mean_db;
+  v.foreground_psnr_mean_db = c.summary.foreground_psnr_mean_db;
+  const bool foreground = v.metric == VerdictMetric::kForeground;
+  v.psnr_mean_db = foreground ? c.summary.foreground_psnr_mean_db : c.summary.psnr_mean_db;
+  v.passed = v.psnr_mean_db >= threshold_db;
+  size_t worst = c.summary.worst_view;
+  if (foreground) {
+    // Views without foreground (NaN) are left out, as in the foreground mean.
+    bool found = false;
+    for (size_t i = 0; i < c.views.size(); ++i) {
+      const double p = c.views[i].foreground_psnr_db;
+      if (!std::isnan(p) && (!found || p < c.views[worst].foreground_psnr_db)) {
+        worst = i;
+        found = true;
+      }
+    }
+  }
+  v.worst_view = result.views.at(worst).name;
+  v.worst_psnr_db = foreground ? c.views.at(worst).foreground_psnr_db : c.summary.psnr_min_db;
   if (c.scene.file_bytes > 0) {
     v.bytes_saved = int64_t(result.source.file_bytes) - int64_t(c.scene.file_bytes);
     v.bytes_saved_fraction = result.source.file_bytes > 0 ? double(*v.bytes_saved) / double(result.source.file_bytes)
@@ -97,8 +129,8 @@ Verdict verdict(const AuditResult& result, size_t candidate, double threshold_db
 }
 
 bool passes_gate(const AuditResult& result, double min_psnr_db) {
-  for (const CandidateResult& c : result.candidates) {
-    if (c.summary.psnr_min_db < min_psnr_db) return false;
+  for (size_t i = 0; i < result.candidates.size(); ++i) {
+    if (verdict(result, i, min_psnr_db).worst_psnr_db < min_psnr_db) return false;
   }
   return true;
 }
@@ -119,10 +151,12 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
                                       "black background"}};
   bool all_passed = true;
   for (size_t i = 0; i < r.candidates.size(); ++i) all_passed = all_passed && verdict(r, i, options.threshold_db).passed;
+  const char* metric = verdict_metric_name(verdict_metric(r));
   j["verdict"] = {{"threshold_db", options.threshold_db},
-                  {"criterion", "mean PSNR over the views >= threshold_db"},
+                  {"metric", metric},
+                  {"criterion", std::string("mean over the views of the ") + metric + " PSNR >= threshold_db"},
                   {"passed", all_passed}};
-  j["heat_scale"] = r.heat_scale;
+  j["heat_scale_percentile"] = kHeatScalePercentile;
   j["source"] = scene_json(r.source, 0, r.source.gaussians);
   json views = json::array();
   for (const ViewInfo& v : r.views) views.push_back({{"name", v.name}, {"width", v.width}, {"height", v.height}});
@@ -153,6 +187,7 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
     cj["render_seconds"] = c.summary.render_seconds;
     if (!r.views.empty()) cj["verdict"] = verdict_json(verdict(r, i, options.threshold_db));
     cj["max_abs_diff"] = c.summary.max_abs_diff;
+    cj["heat_scale"] = c.heat_scale;
     cj["worst_view"] = r.views.empty() ? std::string() : r.views[c.summary.worst_view].name;
     json worst = json::array();
     for (const ViewImages& w : c.worst) {
@@ -171,7 +206,10 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
   j["candidates"] = cands;
   j["time_seconds"] = {{"total", options.total_seconds}, {"views", r.render_seconds}};
   if (options.min_psnr_db) {
-    j["gate"] = {{"min_psnr_db", *options.min_psnr_db}, {"passed", passes_gate(r, *options.min_psnr_db)}};
+    j["gate"] = {{"min_psnr_db", *options.min_psnr_db},
+                 {"metric", metric},
+                 {"criterion", std::string("every view's ") + metric + " PSNR >= min_psnr_db"},
+                 {"passed", passes_gate(r, *options.min_psnr_db)}};
   }
   return j.dump(2) + "\n";
 }

@@ -906,13 +906,13 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
     constexpr QuantizedTransform kTransforms[4] = {{}, QuantizedTransform::kSmallestThree,
                                                    QuantizedTransform::kLogUniform, QuantizedTransform::kUniform};
     const uint32_t bits[4] = {0, options.rotation_bits, options.scale_bits, options.opacity_bits};
-    const uint32_t components[4] = {0, 4, 3, 1};
+    const uint32_t slot_components[4] = {0, 4, 3, 1};
     for (size_t slot = 1; slot < 4; ++slot) {
       if (reuse[slot]) continue;
       jobs.push_back([&, slot] {
         const std::vector<uint8_t> gathered = codes[slot].codes.gathered(order).bytes;
         codes[slot].codes = CodePlanes(0, 0, 8);  // freed before the coding's buffers exist
-        return finish_quantized(kTransforms[slot], bits[slot], components[slot], codes[slot].params, gathered,
+        return finish_quantized(kTransforms[slot], bits[slot], slot_components[slot], codes[slot].params, gathered,
                                 section, &out.stored[slot]);
       });
     }

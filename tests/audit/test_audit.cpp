@@ -2,9 +2,11 @@
 // the gate, on the bundled guitar and a conversion of it made in memory.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "audit_test_util.h"
 #include "rgs/audit/audit.h"
@@ -74,18 +76,36 @@ TEST_CASE("CPU audit of guitar against its conversion") {
   CHECK(c.worst[0].source.width == 53);
   CHECK(c.worst[0].source.height == 30);
   CHECK(c.worst[0].difference.channels == 1);
-  // One heatmap scale for the whole audit: the largest |Δ| of any view.
-  CHECK(result->heat_scale == c.summary.max_abs_diff);
-  CHECK(result->heat_scale > 0.f);
+  // The candidate's own heat scale: the 99th percentile (nearest rank) of the non-zero |Δ| of its heatmaps,
+  // so that most heatmap pixels with a difference are visibly above black.
+  std::vector<float> nonzero;
   for (const auto& w : c.worst) {
-    CHECK(w.heat_scale == result->heat_scale);
+    for (float d : w.abs_difference) {
+      if (d > 0.f) nonzero.push_back(d);
+    }
+  }
+  REQUIRE(!nonzero.empty());
+  std::sort(nonzero.begin(), nonzero.end());
+  CHECK(c.heat_scale == nonzero[size_t(std::ceil(0.99 * double(nonzero.size()))) - 1]);
+  CHECK(c.heat_scale > 0.f);
+  CHECK(c.heat_scale <= c.summary.max_abs_diff);
+  // Pixels visibly above black (16 of 255) on this scale and on the largest |Δ|'s.
+  size_t lit = 0, lit_on_max = 0, total = 0;
+  for (const auto& w : c.worst) {
+    CHECK(w.heat_scale == c.heat_scale);
     REQUIRE(w.abs_difference.size() == size_t{53} * 30);
     REQUIRE(w.difference.pixels.size() == w.abs_difference.size());
     for (size_t p = 0; p < w.abs_difference.size(); ++p) {
-      const double expected = std::floor(double(w.abs_difference[p]) / result->heat_scale * 255.0 + 0.5);
+      const double expected = std::floor(double(w.abs_difference[p]) / c.heat_scale * 255.0 + 0.5);
       CHECK(double(w.difference.pixels[p]) == std::min(expected, 255.0));
+      lit += w.difference.pixels[p] >= 16;
+      lit_on_max += w.abs_difference[p] / c.summary.max_abs_diff * 255.f >= 15.5f;
+      ++total;
     }
   }
+  MESSAGE("heatmap pixels above 16/255: " << lit << " of " << total << " (" << lit_on_max << " on the largest |d|)");
+  CHECK(lit >= lit_on_max);
+  CHECK(double(lit) > 0.01 * double(total));
   CHECK(c.worst_heatmap.width == 160);
   CHECK(c.worst_heatmap.height == 90);
   // Foreground PSNR: guitar on a black background covers part of each view; the background only adds zero
@@ -116,10 +136,27 @@ TEST_CASE("CPU audit of guitar against its conversion") {
   CHECK(j["candidates"][0]["worst_views"].size() == 2);
   CHECK(j["candidates"][0]["worst_views"][0]["source_image"].get<std::string>().rfind("imgs/c0_v", 0) == 0);
   CHECK(j["gate"]["passed"] == true);
-  CHECK(j["heat_scale"].get<float>() == result->heat_scale);
+  CHECK(j["candidates"][0]["heat_scale"].get<float>() == c.heat_scale);
+  CHECK(j["heat_scale_percentile"] == audit::kHeatScalePercentile);
   CHECK(j["verdict"]["threshold_db"] == audit::kDefaultVerdictThresholdDb);
   CHECK(j["verdict"]["passed"] == true);
-  CHECK(j["candidates"][0]["verdict"]["worst_view"]["name"] == j["candidates"][0]["worst_view"]);
+  // Guitar has background: the verdict and the gate are on the foreground PSNR, the whole frame beside it.
+  CHECK(audit::verdict_metric(*result) == audit::VerdictMetric::kForeground);
+  CHECK(j["verdict"]["metric"] == "foreground");
+  CHECK(j["gate"]["metric"] == "foreground");
+  const auto& cv = j["candidates"][0]["verdict"];
+  CHECK(cv["metric"] == "foreground");
+  CHECK(cv["psnr_mean_db"].get<double>() == c.summary.foreground_psnr_mean_db);
+  CHECK(cv["foreground_psnr_mean_db"].get<double>() == c.summary.foreground_psnr_mean_db);
+  CHECK(cv["whole_frame_psnr_mean_db"].get<double>() == c.summary.psnr_mean_db);
+  CHECK(cv["worst_view"]["psnr_db"].get<double>() == c.summary.foreground_psnr_min_db);
+  // A threshold between the foreground and the whole-frame mean fails: the whole frame would pass it.
+  const double between = (c.summary.foreground_psnr_mean_db + c.summary.psnr_mean_db) / 2;
+  CHECK(!audit::verdict(*result, 0, between).passed);
+  CHECK(audit::verdict(*result, 0, c.summary.foreground_psnr_mean_db).passed);
+  // The gate on every view's foreground PSNR: between the foreground and the whole-frame minimum it fails.
+  CHECK(!audit::passes_gate(*result, (c.summary.foreground_psnr_min_db + c.summary.psnr_min_db) / 2));
+  CHECK(audit::passes_gate(*result, c.summary.foreground_psnr_min_db));
   CHECK(j["candidates"][0]["views"][0]["foreground_psnr_db"].get<double>() == c.views[0].foreground_psnr_db);
   CHECK(audit::passes_gate(*result, 40.0));
   CHECK(!audit::passes_gate(*result, 200.0));
@@ -155,9 +192,14 @@ TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference, two candidat
     CHECK(v.ssim == doctest::Approx(1.0).epsilon(1e-12));
     CHECK(v.max_abs_diff == 0.f);
   }
-  // The shared heatmap scale is the other candidate's: the identical one's heatmap is black on it.
-  CHECK(result->candidates[0].worst[0].heat_scale == result->candidates[1].summary.max_abs_diff);
+  // Each candidate on its own scale: the identical one has none (0) and a black heatmap, the other one's is
+  // not 0 and at most its largest |Δ|.
+  CHECK(result->candidates[0].heat_scale == 0.f);
+  CHECK(result->candidates[0].worst[0].heat_scale == 0.f);
   for (uint8_t p : result->candidates[0].worst[0].difference.pixels) CHECK(p == 0);
+  CHECK(result->candidates[1].heat_scale > 0.f);
+  CHECK(result->candidates[1].heat_scale <= result->candidates[1].summary.max_abs_diff);
+  CHECK(result->candidates[1].worst[0].heat_scale == result->candidates[1].heat_scale);
   CHECK(std::isinf(result->candidates[0].summary.foreground_psnr_mean_db));
   CHECK(std::isfinite(result->candidates[1].summary.psnr_min_db));
   CHECK(audit::passes_gate(*result, 45.0));
@@ -219,6 +261,56 @@ TEST_CASE("verdict: mean PSNR against the threshold, worst view, bytes saved") {
   CHECK(j["candidates"][3]["verdict"]["psnr_mean_db"] == "inf");
   ro.threshold_db = 30.0;
   CHECK(nlohmann::json::parse(audit::audit_json(r, ro))["verdict"]["passed"] == true);
+}
+
+TEST_CASE("verdict and gate on the foreground PSNR where the source has background") {
+  audit::AuditResult r;
+  r.views = {{"a", 16, 16}, {"b", 16, 16}, {"c", 16, 16}};
+  audit::CandidateResult c;
+  // Whole frame (psnr, foreground psnr, fraction) per view; view c has no foreground.
+  const double kNaN = std::numeric_limits<double>::quiet_NaN();
+  const double views[3][3] = {{60.0, 50.0, 0.1}, {58.0, 52.0, 0.25}, {70.0, kNaN, 0.0}};
+  for (const auto& v : views) {
+    audit::ViewMetrics m;
+    m.psnr_db = v[0];
+    m.foreground_psnr_db = v[1];
+    m.foreground_fraction = v[2];
+    c.views.push_back(m);
+  }
+  c.summary.psnr_mean_db = (60.0 + 58.0 + 70.0) / 3;
+  c.summary.psnr_min_db = 58.0;
+  c.summary.worst_view = 1;
+  c.summary.foreground_psnr_mean_db = 51.0;
+  c.summary.foreground_psnr_min_db = 50.0;
+  r.candidates.push_back(c);
+  CHECK(audit::verdict_metric(r) == audit::VerdictMetric::kForeground);
+  const audit::Verdict v = audit::verdict(r, 0, 55.0);  // between the foreground and the whole-frame mean
+  CHECK(!v.passed);
+  CHECK(v.metric == audit::VerdictMetric::kForeground);
+  CHECK(v.psnr_mean_db == 51.0);
+  CHECK(v.whole_frame_psnr_mean_db == c.summary.psnr_mean_db);
+  CHECK(v.foreground_psnr_mean_db == 51.0);
+  CHECK(v.worst_view == "a");  // lowest foreground PSNR, not b (lowest whole frame) nor c (no foreground)
+  CHECK(v.worst_psnr_db == 50.0);
+  CHECK(audit::verdict(r, 0, 51.0).passed);
+  CHECK(!audit::passes_gate(r, 54.0));  // every view's foreground: a is at 50
+  CHECK(audit::passes_gate(r, 50.0));
+  audit::ReportOptions ro;
+  ro.threshold_db = 55.0;
+  ro.min_psnr_db = 54.0;
+  const auto j = nlohmann::json::parse(audit::audit_json(r, ro));
+  CHECK(j["verdict"]["metric"] == "foreground");
+  CHECK(j["verdict"]["passed"] == false);
+  CHECK(j["candidates"][0]["verdict"]["psnr_mean_db"] == 51.0);
+  CHECK(j["candidates"][0]["verdict"]["whole_frame_psnr_mean_db"].get<double>() == c.summary.psnr_mean_db);
+  CHECK(j["gate"]["passed"] == false);
+
+  // A source that covers every pixel of every view: the whole frame decides.
+  for (auto& m : r.candidates[0].views) m.foreground_fraction = 1.0;
+  CHECK(audit::verdict_metric(r) == audit::VerdictMetric::kWholeFrame);
+  CHECK(audit::verdict(r, 0, 55.0).passed);
+  CHECK(audit::verdict(r, 0, 55.0).worst_view == "b");
+  CHECK(audit::passes_gate(r, 54.0));
 }
 
 TEST_CASE("attribution: the source with one attribute group from the candidate, the INT8 DC term costing most") {

@@ -83,10 +83,10 @@ struct ViewImages {
   /// [H, W] float32 of the reduced size: per-pixel max over R, G, B of |Δ| of the clamped values (box maximum
   /// when reduced, so that single pixels stay visible).
   std::vector<float> abs_difference;
-  /// Grey: abs_difference scaled so that heat_scale is 255, floor(v / heat_scale · 255 + 0.5), clamped.
+  /// Grey: abs_difference scaled so that heat_scale is 255, floor(v / heat_scale · 255 + 0.5), clamped (a |Δ|
+  /// above the scale is 255).
   Image8 difference;
-  /// The |Δ| that maps to 255: AuditResult::heat_scale, one scale for every view of every candidate (0 when
-  /// no candidate differs from the source anywhere).
+  /// The |Δ| that maps to 255: CandidateResult::heat_scale, one scale for every heatmap of this candidate.
   float heat_scale = 0;
 };
 
@@ -110,6 +110,10 @@ struct Summary {
   size_t worst_view = 0;   ///< lowest PSNR (first of equals)
 };
 
+/// Percentile of the non-zero |Δ| of a candidate's heatmaps that is the top of its heat scale
+/// (CandidateResult::heat_scale): nearest rank, ceil(p/100 · n)-th smallest.
+inline constexpr double kHeatScalePercentile = 99.0;
+
 /// Everything about one candidate.
 struct CandidateResult {
   SceneInfo scene;
@@ -118,8 +122,12 @@ struct CandidateResult {
   std::vector<ViewMetrics> views;  ///< one per AuditResult::views entry
   Summary summary;
   std::vector<ViewImages> worst;  ///< lowest PSNR first, at most AuditOptions::worst_views
+  /// The |Δ| shown as 255 in this candidate's heatmaps: the kHeatScalePercentile-th percentile of the non-zero
+  /// |Δ| of its heatmaps (the worst views' reduced |Δ|, or the full-size one without them), so that one bright
+  /// pixel does not darken the rest; 0 when they have no non-zero |Δ|. summary.max_abs_diff is the largest.
+  float heat_scale = 0;
   /// Full-size difference of the worst view (keep_worst_heatmap, first candidate), grey, scaled like the
-  /// report's images (AuditResult::heat_scale is 255).
+  /// report's images (heat_scale is 255).
   Image8 worst_heatmap;
 };
 
@@ -136,9 +144,6 @@ struct AuditResult {
   SceneInfo source;
   std::vector<ViewInfo> views;
   std::vector<CandidateResult> candidates;
-  /// The heatmaps' one scale: the largest |Δ| of any view of any candidate (the |Δ| shown as 255; 0 when every
-  /// candidate renders every view exactly like the source).
-  float heat_scale = 0;
   double render_seconds = 0;  ///< the per-view loop (uploads and CUDA set-up included)
 };
 

@@ -18,21 +18,43 @@ namespace rgs::audit {
 inline constexpr const char* kAuditSchemaName = "rgs-audit";
 /// The JSON's "schema_version": raised when a field changes meaning or goes away; new fields do not raise it.
 /// Version 1 was the single-candidate report of earlier rgs-audit releases (no schema field); version 2 divided
-/// each file's bytes by its own Gaussians, version 3 by the source's (a file may store fewer Gaussians, or more).
-inline constexpr int kAuditSchemaVersion = 3;
+/// each file's bytes by its own Gaussians, version 3 by the source's (a file may store fewer Gaussians, or more);
+/// version 4 has a heat scale per candidate instead of the top-level one, and decides the verdict and the gate on
+/// the foreground PSNR where the source has background (verdict_metric).
+inline constexpr int kAuditSchemaVersion = 4;
 
 /// Default threshold of the report's verdict (rgs-audit --threshold): a candidate passes when its mean PSNR
-/// over the views is at least this many dB.
+/// over the views (verdict_metric's) is at least this many dB.
 inline constexpr double kDefaultVerdictThresholdDb = 40.0;
 
-/// The report's first line for one candidate: pass or fail against a mean-PSNR threshold, its worst view and
-/// the bytes it saves against the source file.
+/// The PSNR that the verdict and the --min-psnr gate compare.
+enum class VerdictMetric {
+  kWholeFrame,  ///< ViewMetrics::psnr_db, over every pixel
+  kForeground,  ///< ViewMetrics::foreground_psnr_db, over the source render's foreground
+};
+
+/// "whole_frame" or "foreground" (the JSON's `metric`).
+const char* verdict_metric_name(VerdictMetric metric);
+
+/// The metric of every verdict and the gate of `result`: kForeground when the source's renders have background
+/// (some view's foreground_fraction is below 1) and a foreground (some view's is above 0), because the
+/// background's zero errors raise the whole-frame PSNR by 10·log10(1/fraction) (docs/AUDITS.md); else
+/// kWholeFrame. Depends on the source's renders only, so it is the same for every candidate.
+/// Precondition: result has at least one candidate.
+VerdictMetric verdict_metric(const AuditResult& result);
+
+/// The report's first line for one candidate: pass or fail against a mean-PSNR threshold on verdict_metric,
+/// its worst view and the bytes it saves against the source file.
 struct Verdict {
   bool passed = false;        ///< psnr_mean_db ≥ threshold_db (an identical image's +inf passes any threshold)
   double threshold_db = 0;    ///< dB
-  double psnr_mean_db = 0;    ///< the candidate's mean over the views, dB (+inf when every view is identical)
-  std::string worst_view;     ///< name of the view of lowest PSNR
-  double worst_psnr_db = 0;   ///< its PSNR, dB
+  VerdictMetric metric = VerdictMetric::kWholeFrame;  ///< verdict_metric(result): what psnr_mean_db is
+  /// The candidate's mean over the views of `metric`, dB (+inf when every view is identical there).
+  double psnr_mean_db = 0;
+  double whole_frame_psnr_mean_db = 0;  ///< Summary::psnr_mean_db, dB
+  double foreground_psnr_mean_db = 0;   ///< Summary::foreground_psnr_mean_db, dB (NaN: no view has foreground)
+  std::string worst_view;     ///< name of the view of lowest `metric` (views without foreground left out)
+  double worst_psnr_db = 0;   ///< its PSNR in `metric`, dB
   /// Source file bytes minus candidate file bytes (negative when the candidate is larger); empty for a scene
   /// not read from a file (--attribution), which has no size.
   std::optional<int64_t> bytes_saved;
@@ -48,15 +70,15 @@ struct ReportOptions {
   std::string tool_version;        ///< e.g. RGS_VERSION_STRING
   std::string command_line;        ///< as run, for the record
   std::optional<double> min_psnr_db;  ///< the gate, when one was asked for
-  double threshold_db = kDefaultVerdictThresholdDb;  ///< the verdict's mean-PSNR threshold, dB
+  double threshold_db = kDefaultVerdictThresholdDb;  ///< the verdict's mean-PSNR threshold, dB (verdict_metric)
   double total_seconds = 0;        ///< loading included
   /// Folder of the images relative to the JSON file (e.g. "flowers_files/"), as written by
   /// write_report_images; empty: the JSON names no images.
   std::string image_dir;
 };
 
-/// True when every candidate's minimum per-view PSNR is at least `min_psnr_db` (an identical image's +inf
-/// passes any gate).
+/// True when every candidate's minimum per-view PSNR in verdict_metric(result) (Verdict::worst_psnr_db) is at
+/// least `min_psnr_db` (an identical image's +inf passes any gate).
 bool passes_gate(const AuditResult& result, double min_psnr_db);
 
 /// The audit as JSON text (UTF-8, 2-space indent, newline at the end). PSNR +inf is written as the string
