@@ -18,6 +18,7 @@
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/audit/image_metrics.h"
+#include "rgs/audit/scene_views.h"
 #include "rgs/config.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
@@ -87,6 +88,9 @@ constexpr int kMaxExchanges = 4;
 constexpr double kExchangeMinSaving = 0.0025;
 /// Searches (each checked at the cameras' own size) before the choice is settled.
 constexpr int kMaxAttempts = 3;
+/// kTargetBytes: the PSNR searches of its bisection over targets at most, and the width in dB at which it stops.
+constexpr int kMaxBytesSearches = 8;
+constexpr double kBytesTargetResolutionDb = 0.1;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 constexpr double kCalibrationMarginDb = 0.15;
 
@@ -306,10 +310,21 @@ class Measurer {
         p.psnr_mean_db = std::min(p.psnr_mean_db, e->checked_db + search_offset_);
       }
       p.bytes += overhead_;
+      if (!final && budget_ && p.bytes <= *budget_ && (!best_within_ || p.psnr_mean_db > best_within_->psnr_mean_db)) {
+        best_within_ = p;
+      }
       out.push_back(p);
     }
     return out;
   }
+
+  /// From now on, measure() keeps the archive of the highest mean PSNR on the search views among those of at most
+  /// `bytes` (best_within).
+  void watch_budget(uint64_t bytes) {
+    budget_ = bytes;
+    best_within_.reset();
+  }
+  const std::optional<FitPoint>& best_within() const { return best_within_; }
 
   /// An archive encoded with the points `o` codes for Draco (same_points), or null: what lends the file that
   /// writes `o` its means.
@@ -540,6 +555,8 @@ class Measurer {
   size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
   double encode_seconds_ = 0, render_seconds_ = 0;
   double search_offset_ = 0;
+  std::optional<uint64_t> budget_;
+  std::optional<FitPoint> best_within_;
 };
 
 std::string group_digits(uint64_t n) {
@@ -829,8 +846,15 @@ class Search {
     return Status();
   }
 
-  /// kTargetBytes at the search size: the path of accepted archives, coarsest first, each within `budget`.
-  Result<std::vector<FitPoint>> for_bytes(uint64_t budget) {
+  /// kTargetBytes at the search size: the archive of the highest mean PSNR within `budget` among every archive
+  /// the search measured (Measurer::watch_budget). The searches are kTargetPsnr's (for_psnr), over the same
+  /// knobs and with the same rounds, scans, exchanges and code steps, so that no PSNR search finds a file of at
+  /// most these bytes that reads higher on these views: a bisection over PSNR targets, from the ladder's point
+  /// that fits the budget, for the highest target whose search ends within it (at most kMaxBytesSearches
+  /// searches, to kBytesTargetResolutionDb). Then the finer steps of one knob at a time that still fit spend
+  /// what the budget leaves, the step with the most dB gained per byte added each round.
+  Result<FitPoint> for_bytes(uint64_t budget) {
+    m_.watch_budget(budget);
     // The ladder by bytes alone (no renders): bisect the finest q whose file fits.
     double lo = kLadderFinest, hi = kLadderCoarsest;  // invariant: hi fits (checked), lo does not (or untested)
     RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> coarsest, m_.bytes({ladder(anchor_, hi)}));
@@ -857,12 +881,42 @@ class Search {
       }
     }
     RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> start, m_.measure({fit.options}));
-    std::vector<FitPoint> path = {start[0]};
-    report_progress("ladder", path.back());
-    // One knob at a time: the finer step with the most dB gained per byte added that still fits.
+    report_progress("ladder", start[0]);
+    // The bisection over targets: `reached` is met within the budget, `missed` (once known) is not.
+    double reached = start[0].psnr_mean_db, missed = std::numeric_limits<double>::infinity(), step_db = 1;
+    std::vector<FitPoint> previous;
+    for (int search = 0; search < kMaxBytesSearches && std::isfinite(reached); ++search) {
+      const double target = std::isinf(missed) ? reached + step_db : (reached + missed) / 2;
+      if (missed - reached < kBytesTargetResolutionDb) break;
+      Result<std::vector<FitPoint>> searched = for_psnr(target, previous);
+      if (!searched.ok()) {
+        if (searched.status().code() != StatusCode::kInvalidArgument) return std::move(searched).status();
+        missed = target;  // above what the finest archive reaches on these views
+        continue;
+      }
+      previous = std::move(searched).value();
+      if (previous.back().bytes <= budget) {
+        reached = std::max(reached, previous.back().psnr_mean_db);
+        step_db *= 2;
+      } else {
+        missed = target;
+      }
+      report_progress("searching", m_.best_within());
+    }
+    RGS_RETURN_IF_ERROR(fill_for_bytes(budget));
+    return *m_.best_within();
+  }
+
+  const std::optional<FitPoint>& finest() const { return finest_; }
+  uint32_t sh_degree() const { return sh_degree_; }
+
+ private:
+  /// kTargetBytes's last stage, from the best archive within `budget` measured so far: each round, of the finer
+  /// steps of one knob that still fit, the one with the most dB gained per byte added (at most kMaxRounds).
+  Status fill_for_bytes(uint64_t budget) {
     std::vector<bool> frozen(knobs_.size(), false);
     for (int round = 0; round < kMaxRounds; ++round) {
-      const FitPoint& at = path.back();
+      const FitPoint at = *m_.best_within();
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
       next_steps(knobs_, at.options, false, &frozen, &list, &knob_of);
@@ -881,32 +935,15 @@ class Search {
       }
       if (fitting.empty()) break;
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(fitting));
-      double best_ratio = 0;
-      size_t best = points.size();
       for (size_t i = 0; i < points.size(); ++i) {
-        const FitPoint& p = points[i];
-        const double gained = p.psnr_mean_db - at.psnr_mean_db;
-        if (!(gained > 0)) {
-          frozen[fitting_knob[i]] = true;  // no better for its bytes
-          continue;
-        }
-        const double added = std::max(double(p.bytes) - double(at.bytes), 1.0);
-        if (gained / added > best_ratio) {
-          best_ratio = gained / added;
-          best = i;
-        }
+        if (!(points[i].psnr_mean_db > at.psnr_mean_db)) frozen[fitting_knob[i]] = true;  // no better for its bytes
       }
-      if (best == points.size()) break;
-      path.push_back(points[best]);
-      report_progress("refining", path.back());
+      if (!(m_.best_within()->psnr_mean_db > at.psnr_mean_db)) break;
+      report_progress("refining", m_.best_within());
     }
-    return path;
+    return Status();
   }
 
-  const std::optional<FitPoint>& finest() const { return finest_; }
-  uint32_t sh_degree() const { return sh_degree_; }
-
- private:
   /// One step of every knob of `knobs` not yet frozen, coarser or finer, into `list` with its index in `knobs`
   /// in `knob_of`; a knob that has no such step left is frozen.
   static void next_steps(const std::vector<Knob>& knobs, const format::ArchiveOptions& at, bool coarser,
@@ -1172,10 +1209,10 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   result.backend = options.audit.backend;
 
   if (options.goal == FitGoal::kTargetBytes) {
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> path, search.for_bytes(options.target_bytes));
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({path.back().options}, true));
+    RGS_ASSIGN_OR_RETURN(const FitPoint best, search.for_bytes(options.target_bytes));
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({best.options}, true));
     result.chosen = checked[0];
-    result.search_psnr_db = path.back().psnr_mean_db;
+    result.search_psnr_db = best.psnr_mean_db;
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
   }
@@ -1200,7 +1237,15 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
                                         const api::CameraChoice& cameras, FitOptions fit) {
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, api::scene_read_options(options)));
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // before the fit, not only at the write
-  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, api::make_cameras(cameras, input.bounds));
+  FittedConversion out;
+  std::vector<runtime::Camera> views;
+  if (cameras.cameras_path.empty() && cameras.orbit == 0 && cameras.path == 0) {
+    RGS_ASSIGN_OR_RETURN(DefaultViews found, default_views(src, input.cloud, cameras));
+    views = std::move(found.cameras);
+    out.views_note = std::move(found.note);
+  } else {
+    RGS_ASSIGN_OR_RETURN(views, api::make_cameras(cameras, input.bounds));
+  }
   fit.quantize.scale_encoding = options.scale_encoding;
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
@@ -1209,7 +1254,6 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   // The provenance: the source's name and storage, the converter's name and the options' text.
   fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
                          options.converter_name.size();
-  FittedConversion out;
   auto fitted = fit_archive(input.cloud, views, fit);
   if (!fitted.ok()) return Status(fitted.status()).prepend(src);
   out.fit = std::move(fitted).value();

@@ -119,8 +119,12 @@ struct FitResult {
 /// (format::resolve_archive_options), bracketed at the search size; then rounds of one-knob steps
 /// (kTargetPsnr: the steps that keep the target taken together, by bytes saved per squared error added, a
 /// scan of the SH multipliers' integers, then exchanges of one knob a step coarser for another a step finer,
-/// each followed by more rounds, and the code steps coarsened a quarter bit at a time while the target holds;
-/// kTargetBytes: the finer step with the most dB gained per byte added). kTargetPsnr calibrates the difference
+/// each followed by more rounds, and the code steps coarsened a quarter bit at a time while the target holds).
+/// kTargetBytes runs those kTargetPsnr searches at the search size, bisecting over their target for the highest
+/// one whose file fits, then spends what the budget leaves on finer single steps, and keeps the archive of the
+/// highest PSNR within the budget of all it measured: no PSNR search on the same views finds a file of at most
+/// these bytes that reads higher there (but for the search size's difference from the cameras' own size).
+/// kTargetPsnr calibrates the difference
 /// between the search size and the cameras' own size at the ladder's point, and checks the search's choice at
 /// the cameras' own size, searching again with the measured difference while it misses the target or lands over
 /// 0.5 dB above it. Deterministic for a given backend.
@@ -135,14 +139,17 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
 struct FittedConversion {
   FitResult fit;
   api::ConvertReport convert;
+  /// Which views the fit measured when `cameras` named none (DefaultViews::note); empty otherwise.
+  std::string views_note;
 };
 
 /// Reads `src` (as api::convert does, with `options.read`, `sanitize`, `sh_degree`), builds `cameras`
-/// (api::make_cameras on the scene's bounds), runs fit_archive with `fit` (its quantize, sh_degree and start
+/// (api::make_cameras on the scene's bounds; when it names no cameras file, orbit or path, default_views: the
+/// scene's own cameras.json found beside it, else views guessed from its content), runs fit_archive with `fit` (its quantize, sh_degree and start
 /// taken from `options`), then writes the scene it read with api::convert_scene(…, dst, options), the archive
 /// profile and the chosen ArchiveOptions (the fit's archive lending its means). `fit.provenance_bytes` is set
 /// from the source's name. The output is written only on success. Errors: those of reading `src`, of
-/// make_cameras, fit_archive and api::convert_scene; kInternal-free: a written file larger than a byte target is
+/// make_cameras or default_views, fit_archive and api::convert_scene; kInternal-free: a written file larger than a byte target is
 /// kLimitExceeded (and not kept by `options.files`' caller: the transaction is not committed by this function).
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit);
