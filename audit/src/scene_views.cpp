@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 
 constexpr double kPi = 3.14159265358979323846;
 /// The guessed views' vertical field of view (runtime::OrbitOptions' default) and elevations.
-constexpr double kFovYDeg = 50, kLowElevationDeg = 10, kHighElevationDeg = 35;
+constexpr double kFovYDeg = 50, kLowElevationDeg = 0, kHighElevationDeg = 20;
 /// 3DGS's near plane, used unless the cameras stand closer than 20 times it to what they look at.
 constexpr float kNearPlane = 0.2f;
 

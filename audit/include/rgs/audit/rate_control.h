@@ -130,7 +130,8 @@ struct FitResult {
 /// 0.5 dB above it. Deterministic for a given backend.
 /// @return kInvalidArgument: no cameras, an empty or invalid source, a target that is not finite or positive,
 ///         a PSNR target above what the finest archive reaches (the message says what it reaches), a byte
-///         budget below the coarsest archive (the message says its size); the errors of quantize,
+///         budget below the coarsest archive (the message says its size); kLimitExceeded: no archive the
+///         bytes search measured fits target_bytes once coded at the file's zstd level; the errors of quantize,
 ///         encode_archive and run_audit.
 Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::vector<runtime::Camera>& cameras,
                               const FitOptions& options);

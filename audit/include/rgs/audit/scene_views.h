@@ -52,9 +52,9 @@ constexpr double kSurroundRatio = 3.0;
 /// (ContentViewsInfo), so a few far Gaussians, however far, move nothing. Six views of width × height pixels,
 /// vertical field of view 50°, square pixels, up = −y (the scenes' convention, as runtime::orbit_cameras):
 /// - one object: a ring around the frame sphere at the distance where it just fits the narrower field of view,
-///   azimuths 60° apart, elevations alternating 10° and 35° ("guess_in_000" ...);
+///   azimuths 60° apart, elevations alternating 0° and 20° ("guess_in_000" ...);
 /// - content that surrounds a core (a capture): the cameras stand inside the content, on a ring at the distance
-///   where the core fits the view: four look at the core (elevations alternating 10° and 35°, azimuths 90°
+///   where the core fits the view: four look at the core (elevations alternating 0° and 20°, azimuths 90°
 ///   apart), two (views 2 and 5, "guess_out_002", "guess_out_005") look level and outward, at the content that
 ///   surrounds the ring, from azimuths 45° and 225°.
 /// near_plane is min(0.2, distance / 20). Deterministic.
