@@ -19,6 +19,17 @@ namespace fs = std::filesystem;
 constexpr double kPi = 3.14159265358979323846;
 /// The guessed views' vertical field of view (runtime::OrbitOptions' default) and elevations.
 constexpr double kFovYDeg = 50, kLowElevationDeg = 0, kHighElevationDeg = 20;
+/// The guessed views of content that surrounds a core: five look at the core, at the two distances
+/// (ContentViewsInfo) and both elevations, one looks level and outward from the ring.
+struct SurroundView {
+  double azimuth_deg, elevation_deg;
+  bool near, outward;
+};
+constexpr uint32_t kGuessedViews = 6;
+constexpr SurroundView kSurroundViews[kGuessedViews] = {
+    {0, kLowElevationDeg, false, false},   {72, kHighElevationDeg, true, false},
+    {144, kHighElevationDeg, false, false}, {216, kLowElevationDeg, true, false},
+    {288, kLowElevationDeg, false, false},  {36, 0, false, true}};
 /// 3DGS's near plane, used unless the cameras stand closer than 20 times it to what they look at.
 constexpr float kNearPlane = 0.2f;
 
@@ -198,29 +209,30 @@ Result<std::vector<runtime::Camera>> content_views(const format::GaussianCloud& 
 
   const double fov_y = kFovYDeg * kPi / 180;
   const double focal = runtime::focal_from_fov(fov_y, height);
-  const double fov_min = std::min(fov_y, runtime::fov_from_focal(focal, width));
+  const double fov_x = runtime::fov_from_focal(focal, width);
+  const double fov_min = std::min(fov_y, fov_x), fov_max = std::max(fov_y, fov_x);
   where.distance = where.frame_radius / std::sin(fov_min / 2);
+  where.near_distance = where.surrounds ? where.frame_radius / std::sin(fov_max / 2) : where.distance;
   format::SceneBounds ring;
   std::copy_n(where.target, 3, ring.sphere_center);
   ring.sphere_radius = float(where.frame_radius);
   runtime::OrbitOptions orbit;
   orbit.fov_y_deg = kFovYDeg;
-  orbit.near_plane = float(std::min(double(kNearPlane), where.distance / 20));
+  orbit.near_plane = float(std::min(double(kNearPlane), where.near_distance / 20));
 
   std::vector<runtime::Camera> views;
   char name[32];
-  for (uint32_t v = 0; v < 6; ++v) {
-    const bool outward = where.surrounds && (v == 2 || v == 5);
-    if (where.surrounds) {
-      // Inward views at azimuths 0, 90, 180, 270; the outward ones from 45 and 225.
-      orbit.start_azimuth_deg = outward ? (v == 2 ? 45.0 : 225.0) : 90.0 * (v - (v > 2 ? 1 : 0));
-    } else {
-      orbit.start_azimuth_deg = 60.0 * v;
-    }
-    orbit.elevation_deg = outward ? 0.0 : (v % 2 == 0 ? kLowElevationDeg : kHighElevationDeg);
-    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> one, runtime::orbit_cameras(ring, 1, width, height, orbit));
-    runtime::Camera cam = outward ? turned_around(std::move(one[0])) : std::move(one[0]);
-    std::snprintf(name, sizeof(name), outward ? "guess_out_%03u" : "guess_in_%03u", v);
+  for (uint32_t v = 0; v < kGuessedViews; ++v) {
+    // Content around a core: kSurroundViews; one object: a ring 60° apart, elevations alternating.
+    const SurroundView one_object = {60.0 * v, v % 2 == 0 ? kLowElevationDeg : kHighElevationDeg, false, false};
+    const SurroundView& view = where.surrounds ? kSurroundViews[v] : one_object;
+    orbit.start_azimuth_deg = view.azimuth_deg;
+    orbit.elevation_deg = view.elevation_deg;
+    orbit.distance_factor = view.near ? where.near_distance / where.distance : 1.0;
+    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> ring_view,
+                         runtime::orbit_cameras(ring, 1, width, height, orbit));
+    runtime::Camera cam = view.outward ? turned_around(std::move(ring_view[0])) : std::move(ring_view[0]);
+    std::snprintf(name, sizeof(name), view.outward ? "guess_out_%03u" : "guess_in_%03u", v);
     cam.name = name;
     views.push_back(std::move(cam));
   }
@@ -269,8 +281,8 @@ Result<DefaultViews> default_views(const std::string& scene_path, const format::
   const std::string shape =
       where.surrounds
           ? "the content surrounds a core of radius " + text(where.frame_radius) + " around " +
-                point_text(where.target) + ": cameras inside it on a ring of radius " + text(where.distance) +
-                ", 4 looking at the core, 2 outward"
+                point_text(where.target) + ": cameras inside it, 4 looking at the core from " + text(where.near_distance) + " and " +
+                text(where.distance) + ", 1 outward"
           : "one object of radius " + text(where.frame_radius) + " around " + point_text(where.target) +
                 " (opacity-weighted 5-95th percentiles): a ring of radius " + text(where.distance);
   out.note = "views: no cameras.json beside the scene, so " + std::to_string(out.cameras.size()) +

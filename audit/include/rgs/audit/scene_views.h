@@ -39,8 +39,9 @@ struct ContentViewsInfo {
   /// the box of the means' weighted 5th-95th percentiles per axis (around that box's centre, `target`).
   double frame_radius = 0;
   float target[3] = {0, 0, 0};
-  /// Distance of the cameras from `target`.
-  double distance = 0;
+  /// Distance of the cameras from `target`: where the frame sphere just fits the narrower field of view, and (content
+  /// that surrounds a core; else the same) where it just fits the wider one.
+  double distance = 0, near_distance = 0;
 };
 
 /// The content surrounds its core when half its weight lies more than this many times farther out than a quarter
@@ -53,11 +54,12 @@ constexpr double kSurroundRatio = 3.0;
 /// vertical field of view 50°, square pixels, up = −y (the scenes' convention, as runtime::orbit_cameras):
 /// - one object: a ring around the frame sphere at the distance where it just fits the narrower field of view,
 ///   azimuths 60° apart, elevations alternating 0° and 20° ("guess_in_000" ...);
-/// - content that surrounds a core (a capture): the cameras stand inside the content, on a ring at the distance
-///   where the core fits the view: four look at the core (elevations alternating 0° and 20°, azimuths 90°
-///   apart), two (views 2 and 5, "guess_out_002", "guess_out_005") look level and outward, at the content that
-///   surrounds the ring, from azimuths 45° and 225°.
-/// near_plane is min(0.2, distance / 20). Deterministic.
+/// - content that surrounds a core (a capture): the cameras stand inside the content, around the core. Five look at
+///   it (azimuths 72° apart, elevations 0° and 20°), three from where it just fits the narrower field of view
+///   (`distance`) and two, views 1 and 3, from where it just fits the wider one (`near_distance`), as a capture's
+///   cameras come at different distances; one, view 5 ("guess_out_005"), looks level and outward from `distance`
+///   at the content around it (how these views compare with a capture's own: docs/AUDITS.md#default-views).
+/// near_plane is min(0.2, near_distance / 20). Deterministic.
 /// @return kInvalidArgument for an empty cloud, no finite mean, or a size outside [11, 32768].
 Result<std::vector<runtime::Camera>> content_views(const format::GaussianCloud& cloud, uint32_t width,
                                                    uint32_t height, ContentViewsInfo* info = nullptr);
