@@ -91,6 +91,8 @@ constexpr int kMaxAttempts = 3;
 /// kTargetBytes: the PSNR searches of its bisection over targets at most, and the width in dB at which it stops.
 constexpr int kMaxBytesSearches = 8;
 constexpr double kBytesTargetResolutionDb = 0.1;
+/// kTargetBytes: the slope its search over targets assumes before it has measured one, dB per doubling of the bytes.
+constexpr double kDbPerDoubling = 6;
 /// kTargetBytes: the share of the budget a file may leave unused before the search runs again on a larger one.
 constexpr double kBytesSlack = 0.005;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
@@ -872,9 +874,9 @@ class Search {
   /// kTargetBytes at the search size: the archive of the highest mean PSNR within `budget` among every archive
   /// the search measured (Measurer::watch_budget). The searches are kTargetPsnr's (for_psnr), over the same
   /// knobs and with the same rounds, scans, exchanges and code steps, so that no PSNR search finds a file of at
-  /// most these bytes that reads higher on these views: a bisection over PSNR targets, from the ladder's point
-  /// that fits the budget, for the highest target whose search ends within it (at most kMaxBytesSearches
-  /// searches, to kBytesTargetResolutionDb). Then the finer steps of one knob at a time that still fit spend
+  /// most these bytes that reads higher on these views: from the ladder's point that fits the budget, a search
+  /// over PSNR targets (secant steps in log bytes, bracketed) for the highest target whose search ends within it
+  /// (at most kMaxBytesSearches searches, to kBytesTargetResolutionDb or within kBytesSlack of the budget). Then the finer steps of one knob at a time that still fit spend
   /// what the budget leaves, the step with the most dB gained per byte added each round.
   Result<FitPoint> for_bytes(uint64_t budget) {
     m_.watch_budget(budget);
@@ -910,26 +912,56 @@ class Search {
     }
     RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> start, m_.measure({fit.options}));
     report_progress("ladder", start[0]);
-    // The bisection over targets: `reached` is met within the budget, `missed` (once known) is not.
-    double reached = start[0].psnr_mean_db, missed = std::numeric_limits<double>::infinity(), step_db = 1;
+    // The search over targets, in log2 of the bytes: `below` is the highest target whose search ended within the
+    // budget (with that search's bytes and PSNR), `above` the lowest whose search ended over it or failed (bytes
+    // +inf). Between the two, the next target is interpolated where the bytes would meet the budget (kept off
+    // either end by a tenth of the bracket); above every search within it, extrapolated along the slope of the two
+    // highest (kDbPerDoubling until there are two).
+    struct Probe {
+      double target, log_bytes, psnr;
+    };
+    const double log_budget = std::log2(double(budget));
+    std::optional<Probe> below, above, below_before;
     std::vector<FitPoint> previous;
-    for (int search = 0; search < kMaxBytesSearches && std::isfinite(reached); ++search) {
-      const double target = std::isinf(missed) ? reached + step_db : (reached + missed) / 2;
-      if (missed - reached < kBytesTargetResolutionDb) break;
+    double target = start[0].psnr_mean_db + 1;
+    for (int search = 0; search < kMaxBytesSearches; ++search) {
       Result<std::vector<FitPoint>> searched = for_psnr(target, previous);
       if (!searched.ok()) {
         if (searched.status().code() != StatusCode::kInvalidArgument) return std::move(searched).status();
-        missed = target;  // above what the finest archive reaches on these views
-        continue;
-      }
-      previous = std::move(searched).value();
-      if (previous.back().bytes <= budget) {
-        reached = std::max(reached, previous.back().psnr_mean_db);
-        step_db *= 2;
+        above = Probe{target, std::numeric_limits<double>::infinity(), kNaN};  // above what the finest reaches
       } else {
-        missed = target;
+        previous = std::move(searched).value();
+        const FitPoint& p = previous.back();
+        const Probe probe{target, std::log2(double(p.bytes)), p.psnr_mean_db};
+        if (p.bytes <= budget) {
+          if (!below || probe.target > below->target) below_before = below, below = probe;
+        } else if (!above || probe.target < above->target) {
+          above = probe;
+        }
       }
       report_progress("searching", m_.best_within());
+      if (below && double(budget) - std::exp2(below->log_bytes) <= kBytesSlack * double(budget)) break;
+      if (below && above) {
+        const double width = above->target - below->target;
+        if (width < kBytesTargetResolutionDb) break;
+        double t = below->target + width / 2;
+        if (std::isfinite(above->log_bytes) && above->log_bytes > below->log_bytes) {
+          t = below->target + width * (log_budget - below->log_bytes) / (above->log_bytes - below->log_bytes);
+        }
+        target = std::clamp(t, below->target + width / 10, above->target - width / 10);
+      } else if (below) {
+        double slope = kDbPerDoubling;
+        if (below_before && below->log_bytes > below_before->log_bytes) {
+          slope = std::clamp((below->psnr - below_before->psnr) / (below->log_bytes - below_before->log_bytes),
+                             kDbPerDoubling / 4, kDbPerDoubling * 8);
+        }
+        target = std::max(below->psnr, below->target) +
+                 std::max(slope * (log_budget - below->log_bytes), kBytesTargetResolutionDb);
+      } else {
+        // Even the first search ended over the budget: halfway down to the ladder's point, which fits.
+        target = (start[0].psnr_mean_db + above->target) / 2;
+        below = Probe{start[0].psnr_mean_db, std::log2(double(start[0].bytes)), start[0].psnr_mean_db};
+      }
     }
     RGS_RETURN_IF_ERROR(fill_for_bytes(budget));
     return *m_.best_within();
