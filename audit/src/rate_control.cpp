@@ -89,12 +89,14 @@ constexpr double kExchangeMinSaving = 0.0025;
 /// Searches (each checked at the cameras' own size) before the choice is settled.
 constexpr int kMaxAttempts = 3;
 /// kTargetBytes: the PSNR searches of its bisection over targets at most, and the width in dB at which it stops.
-constexpr int kMaxBytesSearches = 8;
+constexpr int kMaxBytesSearches = 10;
 constexpr double kBytesTargetResolutionDb = 0.1;
 /// kTargetBytes: the slope its search over targets assumes before it has measured one, dB per doubling of the bytes.
 constexpr double kDbPerDoubling = 6;
 /// kTargetBytes: the share of the budget a file may leave unused before the search runs again on a larger one.
 constexpr double kBytesSlack = 0.005;
+/// kTargetBytes: the archives of the highest search PSNR within the budget checked at the cameras' own size.
+constexpr size_t kBytesFinalists = 3;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 constexpr double kCalibrationMarginDb = 0.15;
 
@@ -350,6 +352,21 @@ class Measurer {
     return sections + overhead_;
   }
   const std::optional<FitPoint>& best_within() const { return best_within_; }
+
+  /// The `count` archives of the highest mean PSNR on the search views among those measured of at most `bytes`,
+  /// highest first.
+  std::vector<FitPoint> best_within(uint64_t bytes, size_t count) const {
+    std::vector<FitPoint> out;
+    for (const auto& [key, e] : cache_) {
+      FitPoint p = e.point;
+      p.bytes += overhead_;
+      if (p.bytes <= bytes && std::isfinite(p.psnr_mean_db)) out.push_back(p);
+    }
+    std::stable_sort(out.begin(), out.end(),
+                     [](const FitPoint& a, const FitPoint& b) { return a.psnr_mean_db > b.psnr_mean_db; });
+    if (out.size() > count) out.resize(count);
+    return out;
+  }
 
   /// An archive encoded with the points `o` codes for Draco (same_points), or null: what lends the file that
   /// writes `o` its means.
@@ -876,7 +893,7 @@ class Search {
   /// knobs and with the same rounds, scans, exchanges and code steps, so that no PSNR search finds a file of at
   /// most these bytes that reads higher on these views: from the ladder's point that fits the budget, a search
   /// over PSNR targets (secant steps in log bytes, bracketed) for the highest target whose search ends within it
-  /// (at most kMaxBytesSearches searches, to kBytesTargetResolutionDb or within kBytesSlack of the budget). Then the finer steps of one knob at a time that still fit spend
+  /// (at most kMaxBytesSearches searches, to kBytesTargetResolutionDb; the searches of earlier budgets count). Then the finer steps of one knob at a time that still fit spend
   /// what the budget leaves, the step with the most dB gained per byte added each round.
   Result<FitPoint> for_bytes(uint64_t budget) {
     m_.watch_budget(budget);
@@ -912,56 +929,64 @@ class Search {
     }
     RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> start, m_.measure({fit.options}));
     report_progress("ladder", start[0]);
-    // The search over targets, in log2 of the bytes: `below` is the highest target whose search ended within the
-    // budget (with that search's bytes and PSNR), `above` the lowest whose search ended over it or failed (bytes
-    // +inf). Between the two, the next target is interpolated where the bytes would meet the budget (kept off
-    // either end by a tenth of the bracket); above every search within it, extrapolated along the slope of the two
-    // highest (kDbPerDoubling until there are two).
-    struct Probe {
-      double target, log_bytes, psnr;
-    };
+    // The search over targets, in log2 of the bytes, from every PSNR search run so far (probes_, kept across
+    // budgets): `below` is the highest target whose search ended within the budget, `above` the lowest above it
+    // whose search ended over it or failed (bytes +inf). Between the two, the next target is interpolated where
+    // the bytes would meet the budget (kept off either end by a tenth of the bracket); above every search that
+    // fits, extrapolated along the slope of the two highest (kDbPerDoubling until there are two), by at least a
+    // step that doubles from 1 dB (on a flat stretch of the curve, a few per cent of bytes are several dB).
     const double log_budget = std::log2(double(budget));
     std::optional<Probe> below, above, below_before;
-    std::vector<FitPoint> previous;
-    double target = start[0].psnr_mean_db + 1;
-    for (int search = 0; search < kMaxBytesSearches; ++search) {
-      Result<std::vector<FitPoint>> searched = for_psnr(target, previous);
-      if (!searched.ok()) {
-        if (searched.status().code() != StatusCode::kInvalidArgument) return std::move(searched).status();
-        above = Probe{target, std::numeric_limits<double>::infinity(), kNaN};  // above what the finest reaches
-      } else {
-        previous = std::move(searched).value();
-        const FitPoint& p = previous.back();
-        const Probe probe{target, std::log2(double(p.bytes)), p.psnr_mean_db};
-        if (p.bytes <= budget) {
-          if (!below || probe.target > below->target) below_before = below, below = probe;
-        } else if (!above || probe.target < above->target) {
-          above = probe;
-        }
+    for (const Probe& p : probes_) {
+      if (p.bytes <= double(budget)) {
+        if (!below || p.target > below->target) below_before = below, below = p;
       }
-      report_progress("searching", m_.best_within());
-      if (below && double(budget) - std::exp2(below->log_bytes) <= kBytesSlack * double(budget)) break;
-      if (below && above) {
+    }
+    for (const Probe& p : probes_) {
+      if (p.bytes > double(budget) && (!below || p.target > below->target) && (!above || p.target < above->target)) {
+        above = p;
+      }
+    }
+    if (!below) below = Probe{start[0].psnr_mean_db, double(start[0].bytes), start[0].psnr_mean_db};
+    std::vector<FitPoint> previous;
+    double min_step = 1;
+    for (int search = 0; search < kMaxBytesSearches; ++search) {
+      double target = 0;
+      if (above) {
         const double width = above->target - below->target;
         if (width < kBytesTargetResolutionDb) break;
-        double t = below->target + width / 2;
-        if (std::isfinite(above->log_bytes) && above->log_bytes > below->log_bytes) {
-          t = below->target + width * (log_budget - below->log_bytes) / (above->log_bytes - below->log_bytes);
+        target = below->target + width / 2;
+        if (std::isfinite(above->bytes) && above->bytes > below->bytes) {
+          target = below->target + width * (log_budget - std::log2(below->bytes)) /
+                                       (std::log2(above->bytes) - std::log2(below->bytes));
         }
-        target = std::clamp(t, below->target + width / 10, above->target - width / 10);
-      } else if (below) {
+        target = std::clamp(target, below->target + width / 10, above->target - width / 10);
+      } else {
         double slope = kDbPerDoubling;
-        if (below_before && below->log_bytes > below_before->log_bytes) {
-          slope = std::clamp((below->psnr - below_before->psnr) / (below->log_bytes - below_before->log_bytes),
-                             kDbPerDoubling / 4, kDbPerDoubling * 8);
+        if (below_before && below->bytes > below_before->bytes && below->psnr > below_before->psnr) {
+          slope = (below->psnr - below_before->psnr) / std::log2(below->bytes / below_before->bytes);
         }
         target = std::max(below->psnr, below->target) +
-                 std::max(slope * (log_budget - below->log_bytes), kBytesTargetResolutionDb);
-      } else {
-        // Even the first search ended over the budget: halfway down to the ladder's point, which fits.
-        target = (start[0].psnr_mean_db + above->target) / 2;
-        below = Probe{start[0].psnr_mean_db, std::log2(double(start[0].bytes)), start[0].psnr_mean_db};
+                 std::max(slope * (log_budget - std::log2(below->bytes)), min_step);
+        min_step *= 2;
       }
+      Result<std::vector<FitPoint>> searched = for_psnr(target, previous);
+      Probe probe{target, std::numeric_limits<double>::infinity(), kNaN};  // failed: above what the finest reaches
+      if (!searched.ok()) {
+        if (searched.status().code() != StatusCode::kInvalidArgument) return std::move(searched).status();
+      } else {
+        previous = std::move(searched).value();
+        probe.bytes = double(previous.back().bytes);
+        probe.psnr = previous.back().psnr_mean_db;
+      }
+      probes_.push_back(probe);
+      if (probe.bytes <= double(budget)) {
+        below_before = below;
+        below = probe;
+      } else {
+        above = probe;
+      }
+      report_progress("searching", m_.best_within());
     }
     RGS_RETURN_IF_ERROR(fill_for_bytes(budget));
     return *m_.best_within();
@@ -1055,8 +1080,15 @@ class Search {
     report(line);
   }
 
+  /// A PSNR search of the bytes search: its target, and its choice's bytes (+inf when the target is above the
+  /// finest archive) and PSNR.
+  struct Probe {
+    double target, bytes, psnr;
+  };
+
   Measurer& m_;
   const FitOptions& options_;
+  std::vector<Probe> probes_;  ///< every PSNR search for_bytes ran, whatever its budget
   std::vector<Knob> knobs_;
   format::ArchiveOptions anchor_;
   uint32_t sh_degree_;
@@ -1095,29 +1127,43 @@ std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras
 /// of the rate-distortion curve a few per cent of bytes are several dB (guitar: 35 to 40 dB in 4 % more bytes), so
 /// the search runs again on the budget that puts the choice's file at `target` (the ratio of the two byte counts
 /// measured at the choice), at most kMaxAttempts searches, while the file is over the target or more than
-/// kBytesSlack below it. Returns the archive of the highest search PSNR whose file fits; its bytes (FitPoint::bytes)
-/// are the file's.
-Result<FitPoint> fit_bytes(Measurer& measurer, Search& search, uint64_t target, int file_zstd_level, bool file_xz) {
-  uint64_t budget = target;
-  std::optional<FitPoint> chosen;
+/// kBytesSlack below it. Of the archives within the largest budget whose choice's file fit, the kBytesFinalists of
+/// the highest search PSNR whose files fit are measured at the cameras' own size, where the search views rank
+/// close archives differently, and the highest is chosen. Sets result->chosen and result->search_psnr_db.
+Status fit_bytes(Measurer& measurer, Search& search, uint64_t target, int file_zstd_level, bool file_xz,
+                 FitResult* result) {
+  uint64_t budget = target, fitting_budget = 0;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
-    RGS_ASSIGN_OR_RETURN(FitPoint best, search.for_bytes(budget));
+    RGS_ASSIGN_OR_RETURN(const FitPoint best, search.for_bytes(budget));
     RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(best.options, file_zstd_level, file_xz));
     search.report("search's choice within " + group_digits(budget) + " bytes: " + group_digits(best.bytes) +
                   " bytes there, " + group_digits(file) + " in the file");
-    const uint64_t search_bytes = best.bytes;
-    best.bytes = file;
-    if (file <= target && (!chosen || best.psnr_mean_db > chosen->psnr_mean_db)) chosen = best;
+    if (file <= target) fitting_budget = std::max(fitting_budget, budget);
     if (file <= target && double(target - file) <= kBytesSlack * double(target)) break;
-    const auto next = uint64_t(double(target) * double(search_bytes) / double(std::max<uint64_t>(file, 1)));
+    const auto next = uint64_t(double(target) * double(best.bytes) / double(std::max<uint64_t>(file, 1)));
     if (next == budget) break;
     budget = next;
+  }
+  std::optional<FitPoint> chosen;
+  double chosen_search_db = kNaN;
+  for (const FitPoint& p : measurer.best_within(fitting_budget, kBytesFinalists)) {
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(p.options, file_zstd_level, file_xz));
+    if (file > target) continue;
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({p.options}, true));
+    search.report("check at the cameras' size: " + db_text(checked[0].psnr_mean_db) + " (search views: " +
+                  db_text(p.psnr_mean_db) + "), " + group_digits(file) + " bytes in the file");
+    if (!chosen || checked[0].psnr_mean_db > chosen->psnr_mean_db) {
+      chosen = checked[0];
+      chosen_search_db = p.psnr_mean_db;
+    }
   }
   if (!chosen) {
     return Status(StatusCode::kLimitExceeded, "no archive the search measured codes into " + group_digits(target) +
                                                   " bytes at zstd level " + std::to_string(file_zstd_level));
   }
-  return *chosen;
+  result->chosen = *chosen;
+  result->search_psnr_db = chosen_search_db;
+  return Status();
 }
 
 /// kTargetPsnr: checks the ladder's point for the target on the cameras at their own size, searches at the
@@ -1299,11 +1345,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   result.backend = options.audit.backend;
 
   if (options.goal == FitGoal::kTargetBytes) {
-    RGS_ASSIGN_OR_RETURN(const FitPoint best,
-                         fit_bytes(measurer, search, options.target_bytes, file_zstd_level, file_xz));
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({best.options}, true));
-    result.chosen = checked[0];
-    result.search_psnr_db = best.psnr_mean_db;
+    RGS_RETURN_IF_ERROR(fit_bytes(measurer, search, options.target_bytes, file_zstd_level, file_xz, &result));
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
   }

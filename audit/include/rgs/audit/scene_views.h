@@ -36,7 +36,8 @@ struct ContentViewsInfo {
   /// background spreads far beyond its subject) rather than forming one object.
   bool surrounds = false;
   /// Radius of the sphere the inward views frame: radius_25 when the content surrounds, else half the diagonal of
-  /// the box of the means' weighted 5th-95th percentiles per axis (around that box's centre, `target`).
+  /// the box of the means' weighted 5th-95th percentiles per axis (around that box's centre, `target`); when that is
+  /// 0 (all the weight at one point), 3 times the largest scale of any Gaussian, else 1.
   double frame_radius = 0;
   float target[3] = {0, 0, 0};
   /// Distance of the cameras from `target`: where the frame sphere just fits the narrower field of view, and (content
