@@ -120,10 +120,11 @@ struct FitResult {
 /// (kTargetPsnr: the steps that keep the target taken together, by bytes saved per squared error added, a
 /// scan of the SH multipliers' integers, then exchanges of one knob a step coarser for another a step finer,
 /// each followed by more rounds, and the code steps coarsened a quarter bit at a time while the target holds).
-/// kTargetBytes runs those kTargetPsnr searches at the search size, bisecting over their target for the highest
-/// one whose file fits, then spends what the budget leaves on finer single steps, and keeps the archive of the
-/// highest PSNR within the budget of all it measured: no PSNR search on the same views finds a file of at most
-/// these bytes that reads higher there (but for the search size's difference from the cameras' own size).
+/// kTargetBytes runs those kTargetPsnr searches at the search size, searching over their target for the highest
+/// one whose file fits, then spends what the budget leaves on finer single steps; of all the archives it measured
+/// within the budget (counted as the file codes them), the few of the highest PSNR on the search views are checked
+/// at the cameras' own size and the highest there is chosen: a PSNR search on the same views finds no file of at
+/// most these bytes that reads higher, but for how differently the two sizes rank close archives.
 /// kTargetPsnr calibrates the difference
 /// between the search size and the cameras' own size at the ladder's point, and checks the search's choice at
 /// the cameras' own size, searching again with the measured difference while it misses the target or lands over
