@@ -97,6 +97,9 @@ constexpr double kDbPerDoubling = 6;
 constexpr double kBytesSlack = 0.005;
 /// kTargetBytes: the archives of the highest search PSNR within the budget checked at the cameras' own size.
 constexpr size_t kBytesFinalists = 3;
+/// kTargetBytes's climb (fit_bytes): PSNR fits this far above its choice first, and at most this many.
+constexpr double kBytesClimbDb = 0.25;
+constexpr int kMaxBytesClimbs = 4;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 constexpr double kCalibrationMarginDb = 0.15;
 
@@ -1122,50 +1125,6 @@ std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras
   return out;
 }
 
-/// kTargetBytes: Search::for_bytes on a budget of the search's bytes (zstd level kSearchZstdLevel, no .xz), then
-/// the bytes of its choice as the file codes it (`file_zstd_level`, `file_xz`), which are fewer: on a flat stretch
-/// of the rate-distortion curve a few per cent of bytes are several dB (guitar: 35 to 40 dB in 4 % more bytes), so
-/// the search runs again on the budget that puts the choice's file at `target` (the ratio of the two byte counts
-/// measured at the choice), at most kMaxAttempts searches, while the file is over the target or more than
-/// kBytesSlack below it. Of the archives within the largest budget whose choice's file fit, the kBytesFinalists of
-/// the highest search PSNR whose files fit are measured at the cameras' own size, where the search views rank
-/// close archives differently, and the highest is chosen. Sets result->chosen and result->search_psnr_db.
-Status fit_bytes(Measurer& measurer, Search& search, uint64_t target, int file_zstd_level, bool file_xz,
-                 FitResult* result) {
-  uint64_t budget = target, fitting_budget = 0;
-  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
-    RGS_ASSIGN_OR_RETURN(const FitPoint best, search.for_bytes(budget));
-    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(best.options, file_zstd_level, file_xz));
-    search.report("search's choice within " + group_digits(budget) + " bytes: " + group_digits(best.bytes) +
-                  " bytes there, " + group_digits(file) + " in the file");
-    if (file <= target) fitting_budget = std::max(fitting_budget, budget);
-    if (file <= target && double(target - file) <= kBytesSlack * double(target)) break;
-    const auto next = uint64_t(double(target) * double(best.bytes) / double(std::max<uint64_t>(file, 1)));
-    if (next == budget) break;
-    budget = next;
-  }
-  std::optional<FitPoint> chosen;
-  double chosen_search_db = kNaN;
-  for (const FitPoint& p : measurer.best_within(fitting_budget, kBytesFinalists)) {
-    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(p.options, file_zstd_level, file_xz));
-    if (file > target) continue;
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({p.options}, true));
-    search.report("check at the cameras' size: " + db_text(checked[0].psnr_mean_db) + " (search views: " +
-                  db_text(p.psnr_mean_db) + "), " + group_digits(file) + " bytes in the file");
-    if (!chosen || checked[0].psnr_mean_db > chosen->psnr_mean_db) {
-      chosen = checked[0];
-      chosen_search_db = p.psnr_mean_db;
-    }
-  }
-  if (!chosen) {
-    return Status(StatusCode::kLimitExceeded, "no archive the search measured codes into " + group_digits(target) +
-                                                  " bytes at zstd level " + std::to_string(file_zstd_level));
-  }
-  result->chosen = *chosen;
-  result->search_psnr_db = chosen_search_db;
-  return Status();
-}
-
 /// kTargetPsnr: checks the ladder's point for the target on the cameras at their own size, searches at the
 /// target moved by the difference measured between the two sizes, checks the search's last step, and searches
 /// again at a target moved by the difference measured between the two sizes while the check
@@ -1262,6 +1221,74 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
   return settle();
 }
 
+/// kTargetBytes: Search::for_bytes on a budget of the search's bytes (zstd level kSearchZstdLevel, no .xz), then
+/// the bytes of its choice as the file codes it (`file_zstd_level`, `file_xz`), which are fewer: on a flat stretch
+/// of the rate-distortion curve a few per cent of bytes are several dB (guitar: 35 to 40 dB in 4 % more bytes), so
+/// the search runs again on the budget that puts the choice's file at `target` (the ratio of the two byte counts
+/// measured at the choice), at most kMaxAttempts searches, while the file is over the target or more than
+/// kBytesSlack below it. Of the archives within the largest budget whose choice's file fit, the kBytesFinalists of
+/// the highest search PSNR whose files fit are measured at the cameras' own size, where the search views rank
+/// close archives differently, and the highest is chosen. Then the climb: kTargetPsnr fits (fit_psnr, checked at
+/// the cameras' own size) at kBytesClimbDb above the choice, the step doubling after each that does not fit or
+/// reads no higher, at most kMaxBytesClimbs; one whose file fits and reads higher is chosen. Sets result->chosen
+/// and result->search_psnr_db.
+Status fit_bytes(Measurer& measurer, Search& search, const runtime::Camera& first, uint64_t target,
+                 int file_zstd_level, bool file_xz, FitResult* result) {
+  uint64_t budget = target, fitting_budget = 0;
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    RGS_ASSIGN_OR_RETURN(const FitPoint best, search.for_bytes(budget));
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(best.options, file_zstd_level, file_xz));
+    search.report("search's choice within " + group_digits(budget) + " bytes: " + group_digits(best.bytes) +
+                  " bytes there, " + group_digits(file) + " in the file");
+    if (file <= target) fitting_budget = std::max(fitting_budget, budget);
+    if (file <= target && double(target - file) <= kBytesSlack * double(target)) break;
+    const auto next = uint64_t(double(target) * double(best.bytes) / double(std::max<uint64_t>(file, 1)));
+    if (next == budget) break;
+    budget = next;
+  }
+  std::optional<FitPoint> chosen;
+  double chosen_search_db = kNaN;
+  for (const FitPoint& p : measurer.best_within(fitting_budget, kBytesFinalists)) {
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(p.options, file_zstd_level, file_xz));
+    if (file > target) continue;
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({p.options}, true));
+    search.report("check at the cameras' size: " + db_text(checked[0].psnr_mean_db) + " (search views: " +
+                  db_text(p.psnr_mean_db) + "), " + group_digits(file) + " bytes in the file");
+    if (!chosen || checked[0].psnr_mean_db > chosen->psnr_mean_db) {
+      chosen = checked[0];
+      chosen_search_db = p.psnr_mean_db;
+    }
+  }
+  if (!chosen) {
+    return Status(StatusCode::kLimitExceeded, "no archive the search measured codes into " + group_digits(target) +
+                                                  " bytes at zstd level " + std::to_string(file_zstd_level));
+  }
+  // The climb: the searches' bytes are not monotonic in their target (guitar's 35 dB fit is smaller than its
+  // 33.11 dB one), so PSNR fits a little above the choice, at the cameras' own size, may still fit.
+  double step_db = kBytesClimbDb;
+  for (int climb = 0; climb < kMaxBytesClimbs; ++climb) {
+    FitResult fitted;
+    const Status status = fit_psnr(measurer, search, first, chosen->psnr_mean_db + step_db, &fitted);
+    if (!status.ok()) {
+      if (status.code() != StatusCode::kInvalidArgument) return status;
+      break;  // above what the finest archive reaches
+    }
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(fitted.chosen.options, file_zstd_level, file_xz));
+    search.report("fit for " + db_text(chosen->psnr_mean_db + step_db) + ": " +
+                  db_text(fitted.chosen.psnr_mean_db) + ", " + group_digits(file) + " bytes in the file");
+    if (file <= target && fitted.chosen.psnr_mean_db > chosen->psnr_mean_db) {
+      chosen = fitted.chosen;
+      chosen_search_db = fitted.search_psnr_db;
+      step_db = kBytesClimbDb;
+    } else {
+      step_db *= 2;
+    }
+  }
+  result->chosen = *chosen;
+  result->search_psnr_db = chosen_search_db;
+  return Status();
+}
+
 }  // namespace
 
 std::string describe_archive_options(const format::ArchiveOptions& o, uint32_t sh_degree) {
@@ -1345,7 +1372,8 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   result.backend = options.audit.backend;
 
   if (options.goal == FitGoal::kTargetBytes) {
-    RGS_RETURN_IF_ERROR(fit_bytes(measurer, search, options.target_bytes, file_zstd_level, file_xz, &result));
+    RGS_RETURN_IF_ERROR(
+        fit_bytes(measurer, search, cameras[0], options.target_bytes, file_zstd_level, file_xz, &result));
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
   }
