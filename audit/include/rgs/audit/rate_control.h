@@ -123,8 +123,8 @@ struct FitResult {
 /// kTargetBytes runs those kTargetPsnr searches at the search size, searching over their target for the highest
 /// one whose file fits, then spends what the budget leaves on finer single steps; of all the archives it measured
 /// within the budget (counted as the file codes them), the few of the highest PSNR on the search views are checked
-/// at the cameras' own size and the highest there is chosen: a PSNR search on the same views finds no file of at
-/// most these bytes that reads higher, but for how differently the two sizes rank close archives.
+/// at the cameras' own size and the highest there is chosen; then kTargetPsnr fits a little above that choice
+/// replace it while one fits and reads higher at the cameras' size.
 /// kTargetPsnr calibrates the difference
 /// between the search size and the cameras' own size at the ladder's point, and checks the search's choice at
 /// the cameras' own size, searching again with the measured difference while it misses the target or lands over
