@@ -41,6 +41,7 @@
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
+#include "rgs/audit/scene_views.h"
 #include "rgs/config.h"
 
 extern char** environ;
@@ -354,7 +355,14 @@ Result<audit::AuditResult> measure(const Options& opt) {
       for (audit::AuditScene& h : hybrids) candidates.push_back(std::move(h));
     }
   }
-  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> cameras, api::make_cameras(opt.cameras, source.bounds));
+  std::vector<runtime::Camera> cameras;
+  if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
+    RGS_ASSIGN_OR_RETURN(audit::DefaultViews found, audit::default_views(opt.scenes[0], source.cloud, opt.cameras));
+    tools::report_notes(kTool, {found.note}, opt.quiet);
+    cameras = std::move(found.cameras);
+  } else {
+    RGS_ASSIGN_OR_RETURN(cameras, api::make_cameras(opt.cameras, source.bounds));
+  }
 
   std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
                audit::backend_name(options.backend),
@@ -562,7 +570,8 @@ int main(int argc, char** argv) {
       "PSNR/SSIM/max |d| of each candidate's render against the source's (3DGS baseline, FP32). Renders on the "
       "GPU when a CUDA device is present (--backend), else on the CPU reference. Writes a JSON next to an "
       "HTML report (default <first candidate>.audit.html), all committed together at the end. Without a camera "
-      "option: --orbit 4 at 960x540. Exit status: 0 ok, 1 failure (nothing written), 2 usage error, 3 below "
+      "option: the source's own cameras.json of the 3DGS output layout beside it, else views guessed from its "
+      "content. Exit status: 0 ok, 1 failure (nothing written), 2 usage error, 3 below "
       "--min-psnr (reports written).",
       kTool};
   app.add_option("scenes", opt.scenes, "SOURCE CANDIDATE [CANDIDATE...]: scenes in any format, " + rgs::tools::scene_formats_help());
@@ -572,7 +581,7 @@ int main(int argc, char** argv) {
                "candidate (means, rotations, scales, opacities, SH DC, SH bands 1+): what each attribute's "
                "encoding alone costs (needs the source's Gaussians in the same order)");
   rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json (native size by default)", "At most N views",
-                                 "Orbit of N cameras (default 4, at 960x540)");
+                                 "Orbit of N cameras (at 960x540)");
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
   app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
@@ -627,7 +636,6 @@ int main(int argc, char** argv) {
     const std::filesystem::path first(opt.scenes[1]);
     opt.report_path = (first.parent_path() / (first.stem().string() + ".audit.html")).string();
   }
-  if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) opt.cameras.orbit = 4;
   opt.cameras.orbit_width = 960;
   opt.cameras.orbit_height = 540;
   return rgs::tools::finish(kTool, run(opt));

@@ -325,7 +325,6 @@ int run(Options& opt) {
     }
     if (!why.empty()) return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, why));
     opt.profile = "archive";
-    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) opt.cameras.orbit = 4;
     opt.cameras.orbit_width = 960;
     opt.cameras.orbit_height = 540;
   } else if (camera_option) {
@@ -376,6 +375,8 @@ int run(Options& opt) {
     }
     auto fitted = audit::convert_fitted(opt.input, opt.output, opt.convert, opt.cameras, fit);
     if (fitted.ok()) {
+      progress.clear();
+      if (!fitted->views_note.empty()) tools::report_notes(kTool, {fitted->views_note}, opt.quiet);
       opt.fit = std::move(fitted->fit);
       opt.convert.archive = opt.fit->chosen.options;
       report = std::move(fitted->convert);
@@ -478,7 +479,8 @@ int main(int argc, char** argv) {
   rgs::tools::add_camera_options(app, opt.cameras,
                                  "Rate control's views: an INRIA cameras.json (native size by default)",
                                  "Rate control: at most N views",
-                                 "Rate control: an orbit of N cameras (default 4, at 960x540)");
+                                 "Rate control: an orbit of N cameras (at 960x540); without a camera option the scene's own "
+                                 "cameras.json beside it, else views guessed from its content");
   app.add_option("--width", opt.cameras.width, "Rate control: image width of the views (field of view kept)")
       ->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Rate control: image height of the views")

@@ -19,6 +19,7 @@
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/audit/image_metrics.h"
+#include "rgs/audit/scene_views.h"
 #include "rgs/config.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
@@ -88,6 +89,18 @@ constexpr int kMaxExchanges = 4;
 constexpr double kExchangeMinSaving = 0.0025;
 /// Searches (each checked at the cameras' own size) before the choice is settled.
 constexpr int kMaxAttempts = 3;
+/// kTargetBytes: the PSNR searches of its bisection over targets at most, and the width in dB at which it stops.
+constexpr int kMaxBytesSearches = 10;
+constexpr double kBytesTargetResolutionDb = 0.1;
+/// kTargetBytes: the slope its search over targets assumes before it has measured one, dB per doubling of the bytes.
+constexpr double kDbPerDoubling = 6;
+/// kTargetBytes: the share of the budget a file may leave unused before the search runs again on a larger one.
+constexpr double kBytesSlack = 0.005;
+/// kTargetBytes: the archives of the highest search PSNR within the budget checked at the cameras' own size.
+constexpr size_t kBytesFinalists = 3;
+/// kTargetBytes's climb (fit_bytes): PSNR fits this far above its choice first, and at most this many.
+constexpr double kBytesClimbDb = 0.25;
+constexpr int kMaxBytesClimbs = 4;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 constexpr double kCalibrationMarginDb = 0.15;
 
@@ -307,8 +320,55 @@ class Measurer {
         p.psnr_mean_db = std::min(p.psnr_mean_db, e->checked_db + search_offset_);
       }
       p.bytes += overhead_;
+      if (!final && budget_ && p.bytes <= *budget_ && (!best_within_ || p.psnr_mean_db > best_within_->psnr_mean_db)) {
+        best_within_ = p;
+      }
       out.push_back(p);
     }
+    return out;
+  }
+
+  /// From now on, measure() keeps the archive of the highest mean PSNR on the search views among those of at most
+  /// `bytes` (best_within).
+  void watch_budget(uint64_t bytes) {
+    budget_ = bytes;
+    best_within_.reset();
+    for (const auto& [key, e] : cache_) {
+      FitPoint p = e.point;
+      p.bytes += overhead_;
+      if (p.bytes <= bytes && std::isfinite(p.psnr_mean_db) &&
+          (!best_within_ || p.psnr_mean_db > best_within_->psnr_mean_db)) {
+        best_within_ = p;
+      }
+    }
+  }
+
+  /// The bytes of the file that codes `o` at zstd level `zstd_level` (with `xz`: each code stream as the smaller of
+  /// zstd and .xz), as FitPoint::bytes counts them; not cached.
+  Result<uint64_t> file_bytes(format::ArchiveOptions o, int zstd_level, bool xz) {
+    o.zstd_level = zstd_level;
+    o.xz = xz;
+    const auto start = Clock::now();
+    RGS_ASSIGN_OR_RETURN(const format::ArchiveScene archive, format::encode_archive(quantized_, o, lender(o)));
+    encode_seconds_ += seconds_since(start);
+    uint64_t sections = 0;
+    for (const std::vector<uint8_t>& s : archive.stored) sections += s.size();
+    return sections + overhead_;
+  }
+  const std::optional<FitPoint>& best_within() const { return best_within_; }
+
+  /// The `count` archives of the highest mean PSNR on the search views among those measured of at most `bytes`,
+  /// highest first.
+  std::vector<FitPoint> best_within(uint64_t bytes, size_t count) const {
+    std::vector<FitPoint> out;
+    for (const auto& [key, e] : cache_) {
+      FitPoint p = e.point;
+      p.bytes += overhead_;
+      if (p.bytes <= bytes && std::isfinite(p.psnr_mean_db)) out.push_back(p);
+    }
+    std::stable_sort(out.begin(), out.end(),
+                     [](const FitPoint& a, const FitPoint& b) { return a.psnr_mean_db > b.psnr_mean_db; });
+    if (out.size() > count) out.resize(count);
     return out;
   }
 
@@ -550,6 +610,8 @@ class Measurer {
   size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
   double encode_seconds_ = 0, render_seconds_ = 0;
   double search_offset_ = 0;
+  std::optional<uint64_t> budget_;
+  std::optional<FitPoint> best_within_;
 };
 
 std::string group_digits(uint64_t n) {
@@ -839,24 +901,36 @@ class Search {
     return Status();
   }
 
-  /// kTargetBytes at the search size: the path of accepted archives, coarsest first, each within `budget`.
-  Result<std::vector<FitPoint>> for_bytes(uint64_t budget) {
+  /// kTargetBytes at the search size: the archive of the highest mean PSNR within `budget` among every archive
+  /// the search measured (Measurer::watch_budget). The searches are kTargetPsnr's (for_psnr), over the same
+  /// knobs and with the same rounds, scans, exchanges and code steps, so that no PSNR search finds a file of at
+  /// most these bytes that reads higher on these views: from the ladder's point that fits the budget, a search
+  /// over PSNR targets (secant steps in log bytes, bracketed) for the highest target whose search ends within it
+  /// (at most kMaxBytesSearches searches, to kBytesTargetResolutionDb; the searches of earlier budgets count). Then the finer steps of one knob at a time that still fit spend
+  /// what the budget leaves, the step with the most dB gained per byte added each round.
+  Result<FitPoint> for_bytes(uint64_t budget) {
+    m_.watch_budget(budget);
     // The ladder by bytes alone (no renders): bisect the finest q whose file fits.
     double lo = kLadderFinest, hi = kLadderCoarsest;  // invariant: hi fits (checked), lo does not (or untested)
-    RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> coarsest, m_.bytes({ladder(anchor_, hi)}));
-    if (coarsest[0].bytes > budget) {
+    // The smallest archive the searches make: the ladder's coarsest with the coarsest opacity floor and code steps
+    // (knobs the ladder leaves alone, which the PSNR searches move).
+    format::ArchiveOptions smallest_options = ladder(anchor_, hi);
+    smallest_options.opacity_floor = kMaxOpacityFloor;
+    smallest_options.rotation_step = smallest_options.scale_step = smallest_options.opacity_step = kMaxCodeStep;
+    RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> coarsest, m_.bytes({ladder(anchor_, hi), smallest_options}));
+    if (coarsest[1].bytes > budget) {
       return Status(StatusCode::kInvalidArgument,
                     group_digits(budget) + " bytes is below the smallest archive the search makes: " +
-                        group_digits(coarsest[0].bytes) + " bytes at the coarsest settings (" +
-                        describe_archive_options(coarsest[0].options, sh_degree_) + ")");
+                        group_digits(coarsest[1].bytes) + " bytes at the coarsest settings (" +
+                        describe_archive_options(coarsest[1].options, sh_degree_) + ")");
     }
+    FitPoint fit = coarsest[0].bytes <= budget ? coarsest[0] : coarsest[1];
     RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> finest, m_.bytes({ladder(anchor_, lo)}));
-    FitPoint fit = coarsest[0];
     if (finest[0].bytes <= budget) {
       fit = finest[0];
       hi = lo;
     }
-    while (hi - lo > 0.125) {
+    while (coarsest[0].bytes <= budget && hi - lo > 0.125) {
       const double mid = (lo + hi) / 2;
       RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> p, m_.bytes({ladder(anchor_, mid)}));
       if (p[0].bytes <= budget) {
@@ -867,12 +941,80 @@ class Search {
       }
     }
     RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> start, m_.measure({fit.options}));
-    std::vector<FitPoint> path = {start[0]};
-    report_progress("ladder", path.back());
-    // One knob at a time: the finer step with the most dB gained per byte added that still fits.
+    report_progress("ladder", start[0]);
+    // The search over targets, in log2 of the bytes, from every PSNR search run so far (probes_, kept across
+    // budgets): `below` is the highest target whose search ended within the budget, `above` the lowest above it
+    // whose search ended over it or failed (bytes +inf). Between the two, the next target is interpolated where
+    // the bytes would meet the budget (kept off either end by a tenth of the bracket); above every search that
+    // fits, extrapolated along the slope of the two highest (kDbPerDoubling until there are two), by at least a
+    // step that doubles from 1 dB (on a flat stretch of the curve, a few per cent of bytes are several dB).
+    const double log_budget = std::log2(double(budget));
+    std::optional<Probe> below, above, below_before;
+    for (const Probe& p : probes_) {
+      if (p.bytes <= double(budget)) {
+        if (!below || p.target > below->target) below_before = below, below = p;
+      }
+    }
+    for (const Probe& p : probes_) {
+      if (p.bytes > double(budget) && (!below || p.target > below->target) && (!above || p.target < above->target)) {
+        above = p;
+      }
+    }
+    if (!below) below = Probe{start[0].psnr_mean_db, double(start[0].bytes), start[0].psnr_mean_db};
+    std::vector<FitPoint> previous;
+    double min_step = 1;
+    for (int search = 0; search < kMaxBytesSearches; ++search) {
+      double target = 0;
+      if (above) {
+        const double width = above->target - below->target;
+        if (width < kBytesTargetResolutionDb) break;
+        target = below->target + width / 2;
+        if (std::isfinite(above->bytes) && above->bytes > below->bytes) {
+          target = below->target + width * (log_budget - std::log2(below->bytes)) /
+                                       (std::log2(above->bytes) - std::log2(below->bytes));
+        }
+        target = std::clamp(target, below->target + width / 10, above->target - width / 10);
+      } else {
+        double slope = kDbPerDoubling;
+        if (below_before && below->bytes > below_before->bytes && below->psnr > below_before->psnr) {
+          slope = (below->psnr - below_before->psnr) / std::log2(below->bytes / below_before->bytes);
+        }
+        target = std::max(below->psnr, below->target) +
+                 std::max(slope * (log_budget - std::log2(below->bytes)), min_step);
+        min_step *= 2;
+      }
+      Result<std::vector<FitPoint>> searched = for_psnr(target, previous);
+      Probe probe{target, std::numeric_limits<double>::infinity(), kNaN};  // failed: above what the finest reaches
+      if (!searched.ok()) {
+        if (searched.status().code() != StatusCode::kInvalidArgument) return std::move(searched).status();
+      } else {
+        previous = std::move(searched).value();
+        probe.bytes = double(previous.back().bytes);
+        probe.psnr = previous.back().psnr_mean_db;
+      }
+      probes_.push_back(probe);
+      if (probe.bytes <= double(budget)) {
+        below_before = below;
+        below = probe;
+      } else {
+        above = probe;
+      }
+      report_progress("searching", m_.best_within());
+    }
+    RGS_RETURN_IF_ERROR(fill_for_bytes(budget));
+    return *m_.best_within();
+  }
+
+  const std::optional<FitPoint>& finest() const { return finest_; }
+  uint32_t sh_degree() const { return sh_degree_; }
+
+ private:
+  /// kTargetBytes's last stage, from the best archive within `budget` measured so far: each round, of the finer
+  /// steps of one knob that still fit, the one with the most dB gained per byte added (at most kMaxRounds).
+  Status fill_for_bytes(uint64_t budget) {
     std::vector<bool> frozen(knobs_.size(), false);
     for (int round = 0; round < kMaxRounds; ++round) {
-      const FitPoint& at = path.back();
+      const FitPoint at = *m_.best_within();
       std::vector<format::ArchiveOptions> list;
       std::vector<size_t> knob_of;
       next_steps(knobs_, at.options, false, &frozen, &list, &knob_of);
@@ -891,32 +1033,15 @@ class Search {
       }
       if (fitting.empty()) break;
       RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(fitting));
-      double best_ratio = 0;
-      size_t best = points.size();
       for (size_t i = 0; i < points.size(); ++i) {
-        const FitPoint& p = points[i];
-        const double gained = p.psnr_mean_db - at.psnr_mean_db;
-        if (!(gained > 0)) {
-          frozen[fitting_knob[i]] = true;  // no better for its bytes
-          continue;
-        }
-        const double added = std::max(double(p.bytes) - double(at.bytes), 1.0);
-        if (gained / added > best_ratio) {
-          best_ratio = gained / added;
-          best = i;
-        }
+        if (!(points[i].psnr_mean_db > at.psnr_mean_db)) frozen[fitting_knob[i]] = true;  // no better for its bytes
       }
-      if (best == points.size()) break;
-      path.push_back(points[best]);
-      report_progress("refining", path.back());
+      if (!(m_.best_within()->psnr_mean_db > at.psnr_mean_db)) break;
+      report_progress("refining", m_.best_within());
     }
-    return path;
+    return Status();
   }
 
-  const std::optional<FitPoint>& finest() const { return finest_; }
-  uint32_t sh_degree() const { return sh_degree_; }
-
- private:
   /// One step of every knob of `knobs` not yet frozen, coarser or finer, into `list` with its index in `knobs`
   /// in `knob_of`; a knob that has no such step left is frozen.
   static void next_steps(const std::vector<Knob>& knobs, const format::ArchiveOptions& at, bool coarser,
@@ -968,8 +1093,15 @@ class Search {
     report(line);
   }
 
+  /// A PSNR search of the bytes search: its target, and its choice's bytes (+inf when the target is above the
+  /// finest archive) and PSNR.
+  struct Probe {
+    double target, bytes, psnr;
+  };
+
   Measurer& m_;
   const FitOptions& options_;
+  std::vector<Probe> probes_;  ///< every PSNR search for_bytes ran, whatever its budget
   std::vector<Knob> knobs_;
   format::ArchiveOptions anchor_;
   uint32_t sh_degree_;
@@ -1099,6 +1231,74 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
   return settle();
 }
 
+/// kTargetBytes: Search::for_bytes on a budget of the search's bytes (zstd level kSearchZstdLevel, no .xz), then
+/// the bytes of its choice as the file codes it (`file_zstd_level`, `file_xz`), which are fewer: on a flat stretch
+/// of the rate-distortion curve a few per cent of bytes are several dB (guitar: 35 to 40 dB in 4 % more bytes), so
+/// the search runs again on the budget that puts the choice's file at `target` (the ratio of the two byte counts
+/// measured at the choice), at most kMaxAttempts searches, while the file is over the target or more than
+/// kBytesSlack below it. Of the archives within the largest budget whose choice's file fit, the kBytesFinalists of
+/// the highest search PSNR whose files fit are measured at the cameras' own size, where the search views rank
+/// close archives differently, and the highest is chosen. Then the climb: kTargetPsnr fits (fit_psnr, checked at
+/// the cameras' own size) at kBytesClimbDb above the choice, the step doubling after each that does not fit or
+/// reads no higher, at most kMaxBytesClimbs; one whose file fits and reads higher is chosen. Sets result->chosen
+/// and result->search_psnr_db.
+Status fit_bytes(Measurer& measurer, Search& search, const runtime::Camera& first, uint64_t target,
+                 int file_zstd_level, bool file_xz, FitResult* result) {
+  uint64_t budget = target, fitting_budget = 0;
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    RGS_ASSIGN_OR_RETURN(const FitPoint best, search.for_bytes(budget));
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(best.options, file_zstd_level, file_xz));
+    search.report("search's choice within " + group_digits(budget) + " bytes: " + group_digits(best.bytes) +
+                  " bytes there, " + group_digits(file) + " in the file");
+    if (file <= target) fitting_budget = std::max(fitting_budget, budget);
+    if (file <= target && double(target - file) <= kBytesSlack * double(target)) break;
+    const auto next = uint64_t(double(target) * double(best.bytes) / double(std::max<uint64_t>(file, 1)));
+    if (next == budget) break;
+    budget = next;
+  }
+  std::optional<FitPoint> chosen;
+  double chosen_search_db = kNaN;
+  for (const FitPoint& p : measurer.best_within(fitting_budget, kBytesFinalists)) {
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(p.options, file_zstd_level, file_xz));
+    if (file > target) continue;
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({p.options}, true));
+    search.report("check at the cameras' size: " + db_text(checked[0].psnr_mean_db) + " (search views: " +
+                  db_text(p.psnr_mean_db) + "), " + group_digits(file) + " bytes in the file");
+    if (!chosen || checked[0].psnr_mean_db > chosen->psnr_mean_db) {
+      chosen = checked[0];
+      chosen_search_db = p.psnr_mean_db;
+    }
+  }
+  if (!chosen) {
+    return Status(StatusCode::kLimitExceeded, "no archive the search measured codes into " + group_digits(target) +
+                                                  " bytes at zstd level " + std::to_string(file_zstd_level));
+  }
+  // The climb: the searches' bytes are not monotonic in their target (guitar's 35 dB fit is smaller than its
+  // 33.11 dB one), so PSNR fits a little above the choice, at the cameras' own size, may still fit.
+  double step_db = kBytesClimbDb;
+  for (int climb = 0; climb < kMaxBytesClimbs; ++climb) {
+    FitResult fitted;
+    const Status status = fit_psnr(measurer, search, first, chosen->psnr_mean_db + step_db, &fitted);
+    if (!status.ok()) {
+      if (status.code() != StatusCode::kInvalidArgument) return status;
+      break;  // above what the finest archive reaches
+    }
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(fitted.chosen.options, file_zstd_level, file_xz));
+    search.report("fit for " + db_text(chosen->psnr_mean_db + step_db) + ": " +
+                  db_text(fitted.chosen.psnr_mean_db) + ", " + group_digits(file) + " bytes in the file");
+    if (file <= target && fitted.chosen.psnr_mean_db > chosen->psnr_mean_db) {
+      chosen = fitted.chosen;
+      chosen_search_db = fitted.search_psnr_db;
+      step_db = kBytesClimbDb;
+    } else {
+      step_db *= 2;
+    }
+  }
+  result->chosen = *chosen;
+  result->search_psnr_db = chosen_search_db;
+  return Status();
+}
+
 }  // namespace
 
 std::string describe_archive_options(const format::ArchiveOptions& o, uint32_t sh_degree) {
@@ -1182,10 +1382,8 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   result.backend = options.audit.backend;
 
   if (options.goal == FitGoal::kTargetBytes) {
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> path, search.for_bytes(options.target_bytes));
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> checked, measurer.measure({path.back().options}, true));
-    result.chosen = checked[0];
-    result.search_psnr_db = path.back().psnr_mean_db;
+    RGS_RETURN_IF_ERROR(
+        fit_bytes(measurer, search, cameras[0], options.target_bytes, file_zstd_level, file_xz, &result));
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
   }
@@ -1216,8 +1414,17 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   }
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, api::scene_read_options(options)));
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // before the fit, not only at the write
-  auto views = api::make_cameras(cameras, input.bounds);
-  if (!views.ok()) return Status(views.status()).prepend(src + ": rate control's views");
+  FittedConversion out;
+  std::vector<runtime::Camera> views;
+  if (cameras.cameras_path.empty() && cameras.orbit == 0 && cameras.path == 0) {
+    RGS_ASSIGN_OR_RETURN(DefaultViews found, default_views(src, input.cloud, cameras));
+    views = std::move(found.cameras);
+    out.views_note = std::move(found.note);
+  } else {
+    auto made = api::make_cameras(cameras, input.bounds);
+    if (!made.ok()) return Status(made.status()).prepend(src + ": rate control's views");
+    views = std::move(made).value();
+  }
   fit.quantize.scale_encoding = options.scale_encoding;
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
@@ -1226,8 +1433,7 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   // The provenance: the source's name and storage, the converter's name and the options' text.
   fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
                          options.converter_name.size();
-  FittedConversion out;
-  auto fitted = fit_archive(input.cloud, *views, fit);
+  auto fitted = fit_archive(input.cloud, views, fit);
   if (!fitted.ok()) return Status(fitted.status()).prepend(src);
   out.fit = std::move(fitted).value();
   options.profile = format::StorageProfile::kArchive;

@@ -119,14 +119,20 @@ struct FitResult {
 /// (format::resolve_archive_options), bracketed at the search size; then rounds of one-knob steps
 /// (kTargetPsnr: the steps that keep the target taken together, by bytes saved per squared error added, a
 /// scan of the SH multipliers' integers, then exchanges of one knob a step coarser for another a step finer,
-/// each followed by more rounds, and the code steps coarsened a quarter bit at a time while the target holds;
-/// kTargetBytes: the finer step with the most dB gained per byte added). kTargetPsnr calibrates the difference
+/// each followed by more rounds, and the code steps coarsened a quarter bit at a time while the target holds).
+/// kTargetBytes runs those kTargetPsnr searches at the search size, searching over their target for the highest
+/// one whose file fits, then spends what the budget leaves on finer single steps; of all the archives it measured
+/// within the budget (counted as the file codes them), the few of the highest PSNR on the search views are checked
+/// at the cameras' own size and the highest there is chosen; then kTargetPsnr fits a little above that choice
+/// replace it while one fits and reads higher at the cameras' size.
+/// kTargetPsnr calibrates the difference
 /// between the search size and the cameras' own size at the ladder's point, and checks the search's choice at
 /// the cameras' own size, searching again with the measured difference while it misses the target or lands over
 /// 0.5 dB above it. Deterministic for a given backend.
 /// @return kInvalidArgument: no cameras, an empty or invalid source, a target that is not finite or positive,
 ///         a PSNR target above what the finest archive reaches (the message says what it reaches), a byte
-///         budget below the coarsest archive (the message says its size); the errors of quantize,
+///         budget below the coarsest archive (the message says its size); kLimitExceeded: no archive the
+///         bytes search measured fits target_bytes once coded at the file's zstd level; the errors of quantize,
 ///         encode_archive and run_audit.
 Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::vector<runtime::Camera>& cameras,
                               const FitOptions& options);
@@ -135,17 +141,21 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
 struct FittedConversion {
   FitResult fit;
   api::ConvertReport convert;
+  /// Which views the fit measured when `cameras` named none (DefaultViews::note); empty otherwise.
+  std::string views_note;
 };
 
 /// Checks `options` as written with the archive profile (api::check_convert_options: kInvalidArgument before
 /// anything is read, e.g. levels of detail), reads `src` (as api::convert does, with `options.read`, `sanitize`,
-/// `sh_degree`), builds `cameras`
-/// (api::make_cameras on the scene's bounds), runs fit_archive with `fit` (its quantize, sh_degree and start
-/// taken from `options`), then writes the scene it read with api::convert_scene(…, dst, options), the archive
-/// profile and the chosen ArchiveOptions (the fit's archive lending its means). `fit.provenance_bytes` is set
-/// from the source's name. The output is written only on success. Errors: those of reading `src`, of
-/// make_cameras (prefixed with `src`), fit_archive and api::convert_scene; kInternal-free: a written file larger than a byte target is
-/// kLimitExceeded (and not kept by `options.files`' caller: the transaction is not committed by this function).
+/// `sh_degree`), builds `cameras` (api::make_cameras on the scene's bounds; when it names no cameras file, orbit
+/// or path, default_views: the scene's own cameras.json found beside it, else views guessed from its content),
+/// runs fit_archive with `fit` (its quantize, sh_degree and start taken from `options`), then writes the scene
+/// it read with api::convert_scene(…, dst, options), the archive profile and the chosen ArchiveOptions (the
+/// fit's archive lending its means). `fit.provenance_bytes` is set from the source's name. The output is
+/// written only on success. Errors: those of reading `src`, of make_cameras (prefixed with `src`) or
+/// default_views, fit_archive and api::convert_scene; kInternal-free: a written file larger than a byte target
+/// is kLimitExceeded (and not kept by `options.files`' caller: the transaction is not committed by this
+/// function).
 Result<FittedConversion> convert_fitted(const std::string& src, const std::string& dst, api::ConvertOptions options,
                                         const api::CameraChoice& cameras, FitOptions fit);
 
