@@ -172,10 +172,12 @@ def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Arra
     gsplat's GLOBAL; far_plane: 1e10 or more); packed, channel_chunk and segmented at any value; any other
     value raises ValueError naming the option."""
 def audit(source: _Path, candidates: Union[_Path, Sequence[_Path]], *, cameras: Optional[Sequence[Camera]] = None,
-          orbit: int = 4, width: int = 960, height: int = 540, device: str = "auto", spz_frame: str = "rub",
-          threshold: float = 40.0) -> Dict[str, Any]:
-    """rgs-audit's measurement of one candidate path or a list of them against `source`; each candidate's dict
-    and the whole dict carry rgs-audit --json's verdict (mean PSNR >= threshold dB)."""
+          orbit: Optional[int] = None, width: int = 960, height: int = 540, device: str = "auto",
+          spz_frame: str = "rub", threshold: float = 40.0) -> Dict[str, Any]:
+    """rgs-audit's measurement of one candidate path or a list of them against `source` on `cameras`, an orbit,
+    or (neither given) the source's own cameras.json or views guessed from its content (views_note); each
+    candidate's dict and the whole dict carry rgs-audit --json's verdict (mean PSNR in the verdict's metric,
+    foreground where the source has background, >= threshold dB)."""
 
 class ViewServer:
     """A running rgs-view server (roofgs.view()); in a notebook it displays the page inline (an iframe)."""

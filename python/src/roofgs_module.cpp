@@ -28,6 +28,7 @@
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/audit/rate_control.h"
+#include "rgs/audit/scene_views.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/archive.h"
@@ -1095,7 +1096,8 @@ py::dict convert_with_options(const std::string& src, const std::string& dst, py
     return report_dict(unwrap(std::move(r)));
   }
   if (target_psnr && target_bytes) throw py::type_error("target_psnr and target_bytes exclude each other");
-  if (cameras.cameras_path.empty() && cameras.orbit == 0 && cameras.path == 0) cameras.orbit = 4;
+  // No camera option: audit::default_views (the scene's own cameras.json, else views guessed from its content),
+  // as rgs-convert does.
   cameras.orbit_width = 960;
   cameras.orbit_height = 540;
   audit::FitOptions fit;
@@ -1124,7 +1126,8 @@ py::dict convert_with_options(const std::string& src, const std::string& dst, py
       py::arg("views") = f.views, py::arg("width") = f.width, py::arg("height") = f.height,
       py::arg("backend") = audit::backend_name(f.backend), py::arg("encodings") = f.encodings,
       py::arg("renders") = f.renders, py::arg("seconds") = f.seconds,
-      py::arg("encode_seconds") = f.encode_seconds, py::arg("render_seconds") = f.render_seconds);
+      py::arg("encode_seconds") = f.encode_seconds, py::arg("render_seconds") = f.render_seconds,
+      py::arg("views_note") = done.views_note);
   return d;
 }
 
@@ -1606,7 +1609,9 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output. "
         "target_psnr (dB) or target_bytes: rate control of the archive profile (audit::fit_archive, as "
         "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
-        "or an orbit (default 4 at 960x540), at width x height; the dict then has rate_control: psnr_mean_db, "
+        "an orbit or a path, at width x height; with none of these, the scene's own cameras.json of the 3DGS output "
+        "layout beside it, else views guessed from its content (rate_control's views_note says which); the dict "
+        "then has rate_control: psnr_mean_db, "
         "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, rotation_step, scale_bits, "
         "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, "
         "backend, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
@@ -1741,8 +1746,8 @@ def _check_gsplat_options(given):
         "size, covariances, distortion, rolling shutter, distributed) raises ValueError naming the option");
   m.def("audit",
         [](const std::filesystem::path& source, const py::object& candidates_in,
-           std::optional<std::vector<api::Camera>> cameras, uint32_t orbit, uint32_t width, uint32_t height,
-           const std::string& device, const std::string& spz_frame, double threshold) {
+           std::optional<std::vector<api::Camera>> cameras, std::optional<uint32_t> orbit, uint32_t width,
+           uint32_t height, const std::string& device, const std::string& spz_frame, double threshold) {
           // One path (str or os.PathLike) or a sequence of them.
           const bool one = py::isinstance<py::str>(candidates_in) || py::isinstance<py::bytes>(candidates_in) ||
                            py::hasattr(candidates_in, "__fspath__");
@@ -1754,6 +1759,7 @@ def _check_gsplat_options(given):
           options.worst_views = 0;
           options.backend = resolve_device(device) == api::Device::kCuda ? audit::Backend::kCuda : audit::Backend::kCpu;
           Result<audit::AuditResult> result = Status(StatusCode::kInvalidArgument, "not audited");
+          std::string views_note;
           {
             py::gil_scoped_release release;
             auto run = [&]() -> Result<audit::AuditResult> {
@@ -1766,8 +1772,16 @@ def _check_gsplat_options(given):
               std::vector<api::Camera> views;
               if (cameras) {
                 views = *cameras;
-              } else {
-                RGS_ASSIGN_OR_RETURN(views, runtime::orbit_cameras(src.bounds, orbit, width, height));
+              } else if (orbit) {
+                RGS_ASSIGN_OR_RETURN(views, runtime::orbit_cameras(src.bounds, *orbit, width, height));
+              } else {  // as rgs-audit: the scene's own cameras.json, else views guessed from its content
+                api::CameraChoice choice;
+                choice.width = width;
+                choice.height = height;
+                RGS_ASSIGN_OR_RETURN(audit::DefaultViews found,
+                                     audit::default_views(source.string(), src.cloud, choice));
+                views = std::move(found.cameras);
+                views_note = std::move(found.note);
               }
               return audit::run_audit(src, scenes, views, options);
             };
@@ -1777,6 +1791,7 @@ def _check_gsplat_options(given):
           py::dict d;
           d["device"] = r.device;
           d["views"] = r.views.size();
+          if (!views_note.empty()) d["views_note"] = views_note;
           d["source"] = py::dict(py::arg("path") = r.source.path, py::arg("format") = r.source.format,
                                  py::arg("bytes") = r.source.file_bytes, py::arg("gaussians") = r.source.gaussians);
           py::list out;
@@ -1813,7 +1828,10 @@ def _check_gsplat_options(given):
             const audit::Verdict v = audit::verdict(r, i, threshold);
             all_passed = all_passed && v.passed;
             cd["verdict"] = py::dict(
-                py::arg("passed") = v.passed, py::arg("psnr_mean_db") = v.psnr_mean_db,
+                py::arg("passed") = v.passed, py::arg("metric") = audit::verdict_metric_name(v.metric),
+                py::arg("psnr_mean_db") = v.psnr_mean_db,
+                py::arg("whole_frame_psnr_mean_db") = v.whole_frame_psnr_mean_db,
+                py::arg("foreground_psnr_mean_db") = v.foreground_psnr_mean_db,
                 py::arg("worst_view") = py::dict(py::arg("name") = v.worst_view, py::arg("psnr_db") = v.worst_psnr_db),
                 py::arg("bytes_saved") = v.bytes_saved ? py::object(py::int_(*v.bytes_saved)) : py::object(py::none()),
                 py::arg("bytes_saved_fraction") =
@@ -1822,21 +1840,25 @@ def _check_gsplat_options(given):
           }
           d["candidates"] = out;
           d["verdict"] = py::dict(py::arg("threshold_db") = threshold,
-                                  py::arg("criterion") = "mean PSNR over the views >= threshold_db",
+                                  py::arg("criterion") =
+                                      "mean PSNR over the views (each candidate's verdict metric) >= threshold_db",
                                   py::arg("passed") = all_passed);
           return d;
         },
         py::arg("source"), py::arg("candidates"), py::kw_only(), py::arg("cameras") = py::none(),
-        py::arg("orbit") = 4, py::arg("width") = 960, py::arg("height") = 540, py::arg("device") = "auto",
+        py::arg("orbit") = py::none(), py::arg("width") = 960, py::arg("height") = 540, py::arg("device") = "auto",
         py::arg("spz_frame") = "rub", py::arg("threshold") = audit::kDefaultVerdictThresholdDb,
         "What conversions cost, as rgs-audit measures it: every candidate (any format load() reads) rendered "
-        "against the source on the same views (`cameras`, else an orbit of `orbit` cameras at width x height) "
+        "against the source on the same views (`cameras`; else an orbit of `orbit` cameras at width x height; else, "
+        "as rgs-audit, the source's own cameras.json of the 3DGS output layout beside it or views guessed from its "
+        "content, said in the dict's views_note) "
         "with the faithful preset, on the GPU when `device` resolves to CUDA, else the CPU reference. Returns "
         "a dict: device, views, source (path, format, bytes, gaussians) and one dict per candidate: bytes, "
         "bytes_per_gaussian (per Gaussian of the source), sections (.rgs), PSNR mean/min (dB, clamped RGB), "
         "SSIM mean/min, max_abs_diff, worst_view, per-attribute errors when the Gaussians correspond one to one (else "
-        "errors_note), and verdict (rgs-audit --json's: passed when the mean PSNR is at least `threshold` dB, "
-        "psnr_mean_db, worst_view name and psnr_db, bytes_saved and bytes_saved_fraction against the source); "
+        "errors_note), and verdict (rgs-audit --json's: metric, foreground where the source's renders have "
+        "background, else whole_frame; passed when the mean PSNR in it is at least `threshold` dB; psnr_mean_db "
+        "in it, whole_frame_psnr_mean_db, foreground_psnr_mean_db, worst_view name and psnr_db in it, bytes_saved and bytes_saved_fraction against the source); "
         "the dict's verdict: threshold_db, criterion, passed (every candidate passed). `candidates`: one path or "
         "a list of them");
 }
