@@ -486,10 +486,10 @@ int main(int argc, char** argv) {
   app.add_option("--height", opt.cameras.height, "Rate control: image height of the views")
       ->check(CLI::Range(11, 32768));
   app.add_option("--zstd-level", opt.convert.zstd_level,
-                 "zstd level 1..22 of the --zstd sections and of the archive profile; from 19 on, the archive's "
-                 "codes also try .xz (LZMA2) streams and keep the smaller")
-      ->check(CLI::Range(1, 22))
-      ->capture_default_str();
+                 "zstd level 1..22 of the --zstd sections (default 19) and of the archive profile (default 9, "
+                 "quick); from 19 on, the archive's codes also try .xz (LZMA2) streams and keep the smaller: "
+                 "2-7 % smaller archives in 5-21 times the time")
+      ->check(CLI::Range(1, 22));
   app.add_flag("--sanitize", opt.convert.sanitize,
                "Drop Gaussians with NaN/Inf values or zero-norm quaternions instead of failing "
                "(docs/INPUT_HYGIENE.md)");

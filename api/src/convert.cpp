@@ -52,15 +52,16 @@ constexpr std::pair<const char*, format::SectionId> kSectionNames[] = {
     {"sh_dc_residual", format::SectionId::kShDcResidual}};
 
 Result<format::WriteOptions> write_options(const ConvertOptions& options) {
-  RGS_RETURN_ERROR_IF(options.zstd_level < 1 || options.zstd_level > 22, StatusCode::kInvalidArgument,
-                      "convert: zstd level " + std::to_string(options.zstd_level) + " outside 1..22");
+  const int level = zstd_level_for(options);
+  RGS_RETURN_ERROR_IF(level < 1 || level > 22, StatusCode::kInvalidArgument,
+                      "convert: zstd level " + std::to_string(level) + " outside 1..22");
   format::WriteOptions write;
-  write.zstd_level = options.zstd_level;
+  write.zstd_level = level;
   if (options.profile == format::StorageProfile::kArchive) {
     write.profile = format::StorageProfile::kArchive;
     write.archive = options.archive;
-    write.archive.zstd_level = options.zstd_level;
-    write.archive.xz = options.archive.xz && options.zstd_level >= kArchiveXzMinZstdLevel;
+    write.archive.zstd_level = level;
+    write.archive.xz = options.archive.xz && level >= kArchiveXzMinZstdLevel;
     write.archive_earlier = options.archive_earlier.get();
   }
   for (const std::string& name : options.zstd_sections) {
@@ -96,6 +97,11 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
 
 }  // namespace
 
+int zstd_level_for(const ConvertOptions& options) {
+  const bool archive = options.profile == format::StorageProfile::kArchive;
+  return options.zstd_level.value_or(archive ? kArchiveDefaultZstdLevel : kDefaultZstdLevel);
+}
+
 Status check_convert_options(const ConvertOptions& options) {
   RGS_RETURN_ERROR_IF(options.sh_degree && *options.sh_degree > 3, StatusCode::kInvalidArgument,
                       "convert: SH degree " + std::to_string(*options.sh_degree) + " outside 0..3");
@@ -105,7 +111,7 @@ Status check_convert_options(const ConvertOptions& options) {
                       "convert: SH DC precision of " + std::to_string(options.sh_dc_bits) + " bits is not 8 or 16");
   if (options.profile == format::StorageProfile::kArchive) {
     format::ArchiveOptions archive_options = options.archive;
-    archive_options.zstd_level = options.zstd_level;  // as write_options() codes the archive
+    archive_options.zstd_level = zstd_level_for(options);  // as write_options() codes the archive
     Status archive = format::check_archive_options(archive_options);
     if (!archive.ok()) return archive.prepend("convert: archive profile");
   }
@@ -253,7 +259,7 @@ std::string options_text(const ConvertOptions& options) {
   std::ostringstream text;
   text << "scale_encoding=" << (options.scale_encoding == format::ScaleEncoding::kLog ? "log" : "linear")
        << " sh_clip_percentile=" << options.sh_clip_percentile << " sh_dc_bits=" << options.sh_dc_bits << " sanitize=" << (options.sanitize ? 1 : 0)
-       << " zstd_level=" << options.zstd_level << " zstd=";
+       << " zstd_level=" << zstd_level_for(options) << " zstd=";
   for (size_t i = 0; i < options.zstd_sections.size(); ++i) text << (i ? "," : "") << options.zstd_sections[i];
   if (options.sh_degree) text << " sh_degree=" << *options.sh_degree;
   if (options.read.lod) text << " lod=" << *options.read.lod;

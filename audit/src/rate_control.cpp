@@ -1429,14 +1429,14 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
   fit.start = options.archive;
-  fit.start.zstd_level = options.zstd_level;  // as api::convert codes the archive
+  options.profile = format::StorageProfile::kArchive;
+  fit.start.zstd_level = api::zstd_level_for(options);  // as api::convert codes the archive
   // The provenance: the source's name and storage, the converter's name and the options' text.
   fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
                          options.converter_name.size();
   auto fitted = fit_archive(input.cloud, views, fit);
   if (!fitted.ok()) return Status(fitted.status()).prepend(src);
   out.fit = std::move(fitted).value();
-  options.profile = format::StorageProfile::kArchive;
   options.archive = out.fit.chosen.options;
   options.archive_earlier = std::move(out.fit.archive);
   RGS_ASSIGN_OR_RETURN(out.convert, api::convert_scene(std::move(input), src, dst, options));

@@ -142,6 +142,45 @@ TEST_CASE("convert: the archive's codes at zstd level 19 take fewer bytes than a
   }
 }
 
+TEST_CASE("convert: the default archive is the quick one (zstd level 9, no .xz), level 19's search decodes to the "
+          "same scene in fewer bytes") {
+  api::ConvertOptions runtime;
+  CHECK(api::zstd_level_for(runtime) == api::kDefaultZstdLevel);
+  api::ConvertOptions archive;
+  archive.profile = format::StorageProfile::kArchive;
+  CHECK(api::zstd_level_for(archive) == api::kArchiveDefaultZstdLevel);
+  CHECK(api::kArchiveDefaultZstdLevel < api::kArchiveXzMinZstdLevel);
+  CHECK(archive.archive.xz);  // tried only from kArchiveXzMinZstdLevel on
+
+  const std::string source_path = test::repo_path(test::kGuitarSh3);
+  test::TempDir dir;
+  api::ConvertOptions explicit_level = archive;
+  explicit_level.zstd_level = api::kArchiveDefaultZstdLevel;
+  api::ConvertOptions slow = archive;
+  slow.zstd_level = api::kArchiveXzMinZstdLevel;
+  std::vector<std::string> paths;
+  for (const api::ConvertOptions* options : {&archive, &explicit_level, &slow}) {
+    paths.push_back(dir.file("archive_" + std::to_string(paths.size()) + ".rgs"));
+    REQUIRE(api::convert(source_path, paths.back(), *options).ok());
+  }
+  CHECK(test::slurp(paths[0]) == test::slurp(paths[1]));
+  CHECK(test::slurp(paths[2]).size() < test::slurp(paths[0]).size());
+  std::vector<format::EncodedScene> scenes;
+  for (size_t i : {size_t{0}, size_t{2}}) {
+    auto file = format::RgsFile::open(paths[i]);
+    REQUIRE(file.ok());
+    CHECK(((file->header().required_flags & format::kRequiredFlagXzCodes) != 0) == (i == 2));
+    auto scene = file->read_scene();
+    REQUIRE(scene.ok());
+    scenes.push_back(std::move(scene).value());
+  }
+  CHECK(scenes[0].means == scenes[1].means);
+  CHECK(scenes[0].rotations == scenes[1].rotations);
+  CHECK(scenes[0].scales == scenes[1].scales);
+  CHECK(scenes[0].opacities == scenes[1].opacities);
+  CHECK(scenes[0].sh == scenes[1].sh);
+}
+
 TEST_CASE("convert: the archive profile reports the errors of the decoded archive, not the runtime quantization") {
   const std::string source_path = test::repo_path(test::kGuitarSh3);
   auto source = converter::read_scene(source_path);

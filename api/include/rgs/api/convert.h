@@ -51,10 +51,18 @@ struct ConvertProgress {
   double fraction = 0;
 };
 
-/// The archive's quantized codes also try .xz streams (format::ArchiveOptions::xz) from this zstd level on, the
-/// default: LZMA takes 2-5 % off the measured archives for about the time zstd takes at this level, and a lower
-/// level asks for a quick conversion (docs/AUDITS.md#entropy-coding-of-the-codes).
+/// The archive's quantized codes also try .xz streams (format::ArchiveOptions::xz) from this zstd level on: LZMA
+/// takes 2-5 % off the measured archives for about the time zstd takes at this level; a lower level asks for a
+/// quick conversion (docs/AUDITS.md#entropy-coding-of-the-codes).
 inline constexpr int kArchiveXzMinZstdLevel = 19;
+
+/// zstd level of ConvertOptions::zstd_sections when ConvertOptions::zstd_level is unset.
+inline constexpr int kDefaultZstdLevel = 19;
+
+/// zstd level of the archive profile when ConvertOptions::zstd_level is unset: quick, no .xz trials. Level 19 with
+/// the .xz trials (`--zstd-level 19`) codes the measured archives 2-7 % smaller in 5-21 times the time
+/// (docs/AUDITS.md#entropy-coding-of-the-codes).
+inline constexpr int kArchiveDefaultZstdLevel = 9;
 
 /// Options of convert(); the defaults are rgs-convert's.
 struct ConvertOptions {
@@ -82,8 +90,9 @@ struct ConvertOptions {
   /// opacities, sh, sh_dc_residual. Empty: every section stored raw (the runtime copies it to the GPU as is).
   std::vector<std::string> zstd_sections;
   /// zstd level 1..22 of the zstd_sections and of the archive profile's coded sections; from
-  /// kArchiveXzMinZstdLevel on, the archive's codes also try .xz streams (format::ArchiveOptions::xz).
-  int zstd_level = 19;
+  /// kArchiveXzMinZstdLevel on, the archive's codes also try .xz streams (format::ArchiveOptions::xz). Unset:
+  /// kArchiveDefaultZstdLevel for the archive profile, kDefaultZstdLevel otherwise (zstd_level_for).
+  std::optional<int> zstd_level;
   /// kRuntime (lossless sections, mapped as is) or kArchive (Draco means and quantized attributes,
   /// SPEC §3.3), coded with `archive`.
   format::StorageProfile profile = format::StorageProfile::kRuntime;
@@ -114,6 +123,10 @@ struct ConvertOptions {
   /// The library prints nothing itself; rgs-convert draws a progress line from these calls.
   std::function<void(const ConvertProgress&)> progress;
 };
+
+/// The zstd level convert() codes with: `options.zstd_level`, or when unset kArchiveDefaultZstdLevel for the
+/// archive profile and kDefaultZstdLevel otherwise. Not checked against 1..22 (check_convert_options does that).
+int zstd_level_for(const ConvertOptions& options);
 
 /// What the .rgs quantization cost (.rgs output only).
 struct RgsOutputReport {
