@@ -1430,7 +1430,9 @@ Result<FittedConversion> convert_fitted(const std::string& src, const std::strin
   fit.sh_degree = options.sh_degree;
   fit.start = options.archive;
   options.profile = format::StorageProfile::kArchive;
-  fit.start.zstd_level = api::zstd_level_for(options);  // as api::convert codes the archive
+  // As api::convert codes the archive: at its zstd level, with .xz streams only from kArchiveXzMinZstdLevel on.
+  fit.start.zstd_level = api::zstd_level_for(options);
+  fit.start.xz = options.archive.xz && fit.start.zstd_level >= api::kArchiveXzMinZstdLevel;
   // The provenance: the source's name and storage, the converter's name and the options' text.
   fit.provenance_bytes = 768 + std::filesystem::path(src).filename().string().size() + input.storage_format.size() +
                          options.converter_name.size();
