@@ -220,6 +220,14 @@ TEST_CASE("server: serves the embedded page and nothing else") {
   }
   CHECK(http_request(server.port(), "/", http::verb::post).status == 405);
   CHECK(http_request(server.port(), "/ws").status == 400);  // not an upgrade
+  // The page works without internet: the page and what it loads name no other host (no CDN, no web font).
+  for (const char* path : {"/", "/app.js", "/style.css"}) {
+    CAPTURE(path);
+    const Reply reply = http_request(server.port(), path);
+    CHECK(reply.status == 200);
+    CHECK(reply.body.find("://") == std::string::npos);
+    CHECK(reply.body.find("@import") == std::string::npos);
+  }
   server.stop();
   server.stop();  // idempotent
 }
