@@ -75,10 +75,13 @@ struct Server::Impl {
   std::atomic<bool> stopping{false};
   bool stopped = false;
   // Pipelines of closed connections, joined here so that an io thread never waits for a render to finish.
+  // Their callbacks hold executors of `ioc`'s strands, so none may outlive `ioc`: stop() drains the reaper
+  // before it destroys `ioc`, and the sessions that destruction ends join theirs at once (`retire_inline`).
   std::mutex retired_mutex;
   std::condition_variable retired_changed;
   std::vector<std::unique_ptr<detail::FramePipeline>> retired;
   bool reaper_done = false;
+  bool retire_inline = false;
   std::thread reaper;
 
   void accept();
@@ -87,8 +90,11 @@ struct Server::Impl {
     pipeline->stop();
     {
       std::lock_guard<std::mutex> lock(retired_mutex);
-      retired.push_back(std::move(pipeline));
+      if (!retire_inline) {
+        retired.push_back(std::move(pipeline));
+      }
     }
+    pipeline.reset();  // when inline: joins its threads here, while `ioc` still exists
     retired_changed.notify_all();
   }
   void reap() {
@@ -508,14 +514,18 @@ void Server::stop() {
   s.ioc->stop();
   for (std::thread& t : s.threads) t.join();
   s.threads.clear();
-  s.acceptor.reset();
-  s.ioc.reset();  // destroys the handlers still queued, and with them the sessions they held
   {
     std::lock_guard<std::mutex> lock(s.retired_mutex);
     s.reaper_done = true;
   }
   s.retired_changed.notify_all();
-  s.reaper.join();
+  s.reaper.join();  // every pipeline retired so far is destroyed, `ioc` still alive
+  {
+    std::lock_guard<std::mutex> lock(s.retired_mutex);
+    s.retire_inline = true;
+  }
+  s.acceptor.reset();
+  s.ioc.reset();  // destroys the handlers still queued, and with them the sessions they held (and their pipelines)
 }
 
 // ---------------------------------------------------------------------------------------------------------
