@@ -807,6 +807,12 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
     q.origin[a] = bounds.aabb_min[a];
     extent = std::max(extent, static_cast<double>(bounds.aabb_max[a]) - bounds.aabb_min[a]);
   }
+  // The grid's range is a float32 at least the extent (Draco's): an extent of float32's largest value or more has
+  // none (such means are valid, and the runtime profile keeps them).
+  if (!(extent < static_cast<double>(std::numeric_limits<float>::max()))) {
+    return invalid("the means span " + std::to_string(extent) +
+                   " units on one axis, more than the archive's float32 position grid can cover");
+  }
   q.range = static_cast<float>(extent);
   if (static_cast<double>(q.range) < extent) q.range = std::nextafter(q.range, std::numeric_limits<float>::infinity());
   if (!(q.range > 0.0f)) q.range = 1.0f;  // a single position: any grid holds it exactly

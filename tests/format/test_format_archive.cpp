@@ -95,6 +95,23 @@ TEST_CASE("archive: sections lent by an earlier archive give the archive encoded
   CHECK_FALSE(format::encode_archive(make_random_scene(10, 0, 1), base, &*earlier).ok());
 }
 
+TEST_CASE("archive: means spanning float32's largest value on an axis are refused, any narrower span has a grid") {
+  format::SceneBounds bounds;
+  const float big = std::numeric_limits<float>::max();
+  for (int a = 0; a < 3; ++a) bounds.aabb_max[a] = 1.f;
+  bounds.aabb_min[0] = -big / 2;
+  bounds.aabb_max[0] = big / 2;  // an extent of float32's largest value
+  auto refused = format::choose_position_quantization(bounds, 1e-3);
+  REQUIRE_FALSE(refused.ok());
+  CHECK(refused.status().code() == StatusCode::kInvalidArgument);
+  CHECK(refused.status().message().find("span") != std::string::npos);
+  bounds.aabb_max[0] = big / 4;  // three quarters of it
+  auto held = format::choose_position_quantization(bounds, 1e-3);
+  REQUIRE(held.ok());
+  CHECK(std::isfinite(held->range));
+  CHECK(double(held->range) >= double(big / 4) + double(big / 2));
+}
+
 TEST_CASE("archive: options out of range are refused, naming the option") {
   const format::EncodedScene scene = make_random_scene(100, 1, 3);
   for (double bad : {0.5, 0.0, -1.0, 5000.0, std::numeric_limits<double>::quiet_NaN()}) {

@@ -3,6 +3,8 @@
 // keeps any scene the runtime profile keeps.
 #pragma once
 
+#include <algorithm>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -17,7 +19,8 @@ namespace rgs::fuzz {
 /// Scenes up to this many Gaussians are also archived (Draco and the section coders are slow next to the rest).
 inline constexpr uint64_t kFuzzArchiveGaussians = 4096;
 
-/// `scene` (a valid runtime-profile scene) encodes to the archive profile, the file validates and decodes to
+/// `scene` (a valid runtime-profile scene whose means span less than float32's largest value: wider ones are
+/// refused with kInvalidArgument) encodes to the archive profile, the file validates and decodes to
 /// encode_archive's scene, and a scale axis of one value in every kept Gaussian (a flat axis of zero scales, one
 /// size for all, a scene of one Gaussian: a quantizer step of 0) decodes to exactly that value.
 inline void check_archive(const format::EncodedScene& scene) {
@@ -28,6 +31,15 @@ inline void check_archive(const format::EncodedScene& scene) {
   write.archive.xz = false;
   write.archive.threads = 1;
   auto archive = format::encode_archive(scene, write.archive);
+  double extent = 0;  // means beyond the float32 position grid's reach are refused, and only those
+  for (int a = 0; a < 3; ++a) {
+    extent = std::max(extent, double(scene.metadata.bounds.aabb_max[a]) - scene.metadata.bounds.aabb_min[a]);
+  }
+  if (!(extent < double(std::numeric_limits<float>::max()))) {
+    RGS_FUZZ_CHECK(!archive.ok() && archive.status().code() == StatusCode::kInvalidArgument,
+                   "means of extent " + std::to_string(extent) + " archived");
+    return;
+  }
   RGS_FUZZ_CHECK(archive.ok(), archive.status().to_string());
   auto bytes = format::serialize_scene(scene, write);
   RGS_FUZZ_CHECK(bytes.ok(), bytes.status().to_string());

@@ -90,7 +90,8 @@ struct ArchivePositionQuantization {
 };
 
 /// Chooses the position quantization for `bounds` and `position_error` (see ArchiveOptions).
-/// Errors: kInvalidArgument when the error is outside (0, 0.5] or not finite.
+/// Errors: kInvalidArgument when the error is outside (0, 0.5] or not finite, or when the bounds span float32's
+/// largest value or more on an axis (no float32 grid range covers them; the runtime profile keeps such means).
 Result<ArchivePositionQuantization> choose_position_quantization(const SceneBounds& bounds, double position_error);
 
 /// An archive-coded scene: what a reader will decode, and the stored bytes of each per-Gaussian section.
