@@ -668,7 +668,15 @@ Status encode_means(const std::vector<float>& means, ArchivePositionQuantization
     int32_t q[3] = {};
     qatt->GetMappedValue(draco::PointIndex(static_cast<uint32_t>(i)), q);
     for (int a = 0; a < 3; ++a) {
-      src[i].q[a] = quantizer.QuantizeFloat(means[i * 3 + a] - transform.min_value(a));
+      // Draco's grid is its own (derived from the points): one too narrow for float32 (an infinite inverse step)
+      // is refused rather than quantized.
+      const float offset = means[i * 3 + a] - transform.min_value(a);
+      const float scaled = offset * (static_cast<float>(max_quantized) / transform.range());
+      if (!(std::fabs(scaled) <= static_cast<float>(max_quantized) + 1.f)) {
+        return invalid("the means lie too close together on an axis for the archive's position grid (Draco's "
+                       "range " + std::to_string(transform.range()) + "); the runtime profile keeps them");
+      }
+      src[i].q[a] = quantizer.QuantizeFloat(offset);
       dst[i].q[a] = q[a];
       const float value = dequantizer.DequantizeFloat(q[a]);
       (*decoded_means)[i * 3 + a] = value + transform.min_value(a);

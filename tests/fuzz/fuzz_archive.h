@@ -11,6 +11,7 @@
 #include "fuzz_check.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/encoded_scene.h"
+#include "rgs/format/half.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
 
@@ -40,6 +41,8 @@ inline void check_archive(const format::EncodedScene& scene) {
                    "means of extent " + std::to_string(extent) + " archived");
     return;
   }
+  // Means too close together for Draco's float32 grid are refused, by name (format/src/archive_encoder.cpp).
+  if (!archive.ok() && archive.status().message().find("too close together") != std::string::npos) return;
   RGS_FUZZ_CHECK(archive.ok(), archive.status().to_string());
   auto bytes = format::serialize_scene(scene, write);
   RGS_FUZZ_CHECK(bytes.ok(), bytes.status().to_string());
@@ -59,7 +62,8 @@ inline void check_archive(const format::EncodedScene& scene) {
     bool constant = true;
     for (uint64_t i = 1; i < d.count && constant; ++i) constant = scene.scales[archive->source_index[i] * 3 + a] == first;
     for (uint64_t i = 0; i < d.count && constant; ++i) {
-      RGS_FUZZ_CHECK(d.scales[i * 3 + a] == first,
+      // The value, not the bits: −0 and +0 are one scale (a log scale of 0, or a linear scale of 0).
+      RGS_FUZZ_CHECK(format::half_bits_to_float(d.scales[i * 3 + a]) == format::half_bits_to_float(first),
                      "scale axis " + std::to_string(a) + " of one value in every Gaussian decodes to another");
     }
   }
