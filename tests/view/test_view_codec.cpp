@@ -13,10 +13,12 @@
 #include "rgs/api/scene.h"
 #include "rgs/view/image_codec.h"
 #include "test_data.h"
+#include "view_test_util.h"
 
 namespace {
 
 using namespace rgs;
+using test::decode_webp;
 
 // A real frame: the guitar sample rendered by the CPU reference, 8-bit RGB.
 std::vector<uint8_t> guitar_rgb(uint32_t w, uint32_t h) {
@@ -37,14 +39,6 @@ std::vector<uint8_t> guitar_rgb(uint32_t w, uint32_t h) {
   for (size_t p = 0; p < size_t(w) * h; ++p) {
     for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = rgba[p * 4 + c];
   }
-  return rgb;
-}
-
-std::vector<uint8_t> decode_webp(const std::vector<uint8_t>& bytes, int* w, int* h) {
-  uint8_t* out = WebPDecodeRGB(bytes.data(), bytes.size(), w, h);
-  REQUIRE(out != nullptr);
-  std::vector<uint8_t> rgb(out, out + size_t(*w) * size_t(*h) * 3);
-  WebPFree(out);
   return rgb;
 }
 

@@ -25,10 +25,12 @@
 #include "rgs/view/image_codec.h"
 #include "rgs/view/server.h"
 #include "test_data.h"
+#include "view_test_util.h"
 
 namespace {
 
 using namespace rgs;
+using test::decode_webp;
 namespace beast = boost::beast;
 namespace http = beast::http;
 namespace websocket = beast::websocket;
@@ -152,14 +154,6 @@ Frame read_frame(WsClient& client) {
   }
   CHECK(at == message.size());
   return frame;
-}
-
-std::vector<uint8_t> decode_webp(const std::vector<uint8_t>& bytes, int* w, int* h) {
-  uint8_t* out = WebPDecodeRGB(bytes.data(), bytes.size(), w, h);
-  REQUIRE(out != nullptr);
-  std::vector<uint8_t> rgb(out, out + size_t(*w) * size_t(*h) * 3);
-  WebPFree(out);
-  return rgb;
 }
 
 json view_json(const json& camera, uint64_t seq, const std::string& encoding, const std::string& compare = "off") {
