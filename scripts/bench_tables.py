@@ -14,7 +14,7 @@ fastest preset):
   3. the PSNR of its images against the reference's (mean / min over the views), where the runs had --quality;
   4. with --modes SCENE@RES, every mode of that frame (the ablation);
   5. where the runs had --floor, the true floor: what the image needs (the CPU reference's census) and each
-     stage's time over the time that work takes at the measured roofs (docs/ROOFLINE.md#the-true-floor).
+     stage's time over the time that work takes at the measured roofs (docs/lab/ROOFLINE.md#the-true-floor).
 With --ab the inputs are the runs of `scripts/gpu_check.sh ... ab` (ab_<scene>_<a|b><round>.json: side A is
 the other build, B this one) and the output is one table of total medians per side and B's change over A.
 With --floor-only the output is the floor tables (5.) alone. With --update FILE the output replaces the lines

@@ -4,7 +4,8 @@ a section (`FILE.md#anchor`, `#anchor`), the file has a heading with that anchor
 
     scripts/check_doc_links.py [ROOT]        # ROOT: the repository (default: this script's parent folder)
 
-What is checked, in the files git tracks under ROOT (every tracked file when ROOT is not a git checkout):
+What is checked, in the files of ROOT that git tracks or would track (not ignored; every file outside build*/ and
+hidden folders when ROOT is not a git checkout):
   - in Markdown files, every link and image `[text](target)` whose target is relative (no scheme, not absolute):
     the target exists, relative to the linking file; a `.md` target's `#anchor` (or a bare `#anchor`, the file
     itself) names a heading of it. Fenced code blocks and inline code are not links and are skipped.
@@ -86,7 +87,7 @@ def anchors(path):
 
 def tracked_files(root):
     try:
-        out = subprocess.run(["git", "-C", root, "ls-files", "-z"], check=True, capture_output=True).stdout
+        out = subprocess.run(["git", "-C", root, "ls-files", "-z", "--cached", "--others", "--exclude-standard"], check=True, capture_output=True).stdout
         return [p for p in out.decode("utf-8").split("\0") if p and os.path.isfile(os.path.join(root, p))]
     except (OSError, subprocess.CalledProcessError):
         files = []
@@ -108,24 +109,26 @@ def check_anchor(target_path, anchor, shown):
 def check_markdown(root, rel, problems):
     path = os.path.join(root, rel)
     with open(path, encoding="utf-8") as f:
-        lines = strip_fenced(f.read().split("\n"))
-    for number, line in enumerate(lines, 1):
-        line = re.sub(r"(`+)(?:(?!\1).)+?\1", "", line)  # inline code spans
-        for target in MD_LINK.findall(line):
-            if re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:", target) or target.startswith("/"):
-                continue  # a URL (http:, mailto:) or an absolute path: not the repository's
-            file_part, _, anchor = target.partition("#")
-            if file_part:
-                resolved = os.path.normpath(os.path.join(os.path.dirname(path), file_part))
-                if not os.path.exists(resolved):
-                    problems.append(f"{rel}:{number}: {target}: no file {os.path.relpath(resolved, root)}")
-                    continue
-            else:
-                resolved = path
-            if os.path.isfile(resolved):
-                why = check_anchor(resolved, anchor or None, os.path.relpath(resolved, root))
-                if why:
-                    problems.append(f"{rel}:{number}: {target}: {why}")
+        text = "\n".join(strip_fenced(f.read().split("\n")))
+    # Inline code spans (within a paragraph) become blanks of the same length, so offsets keep their line.
+    text = re.sub(r"(`+)(?:(?!\1|\n[ \t]*\n)[\s\S])+?\1", lambda m: re.sub(r"[^\n]", " ", m.group(0)), text)
+    for m in MD_LINK.finditer(text):
+        target = m.group(1)
+        number = text.count("\n", 0, m.start(1)) + 1
+        if re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:", target) or target.startswith("/"):
+            continue  # a URL (http:, mailto:) or an absolute path: not the repository's
+        file_part, _, anchor = target.partition("#")
+        if file_part:
+            resolved = os.path.normpath(os.path.join(os.path.dirname(path), file_part))
+            if not os.path.exists(resolved):
+                problems.append(f"{rel}:{number}: {target}: no file {os.path.relpath(resolved, root)}")
+                continue
+        else:
+            resolved = path
+        if os.path.isfile(resolved):
+            why = check_anchor(resolved, anchor or None, os.path.relpath(resolved, root))
+            if why:
+                problems.append(f"{rel}:{number}: {target}: {why}")
 
 
 def check_mentions(root, rel, top_level, by_name, problems):

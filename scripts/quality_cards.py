@@ -3,20 +3,43 @@
 against render, on every scene audited by scripts/audit_formats.sh; and the archive profile's rate-distortion
 curves with every format as a point, one panel per scene.
 
+    scripts/quality_cards.py --measure out --doc docs/AUDITS.md --plot docs/images/rate_distortion.png \\
+        taebak=out/taebak_a.audit.json,out/taebak_b.audit.json      # the one command of docs/AUDITS.md
     scripts/quality_cards.py [--doc docs/AUDITS.md] [--plot docs/images/rate_distortion.png] \\
         flowers=out/flowers/mipnerf360_flowers_c3dgs.audit.json guitar=out/guitar/guitar.audit.json ...
 
-Each argument is NAME=JSON: a scene's name in the tables and the rgs-audit JSON (schema "rgs-audit", version 3 or 4)
-that audit_formats.sh wrote for it, or several JSONs joined by commas (runs of one scene on the same views). Candidates labelled SERIES@POINT (archive@40, archive@spz) are the points of
+With --measure OUT_DIR it first runs scripts/audit_formats.sh on the scenes of the cards that a development host
+audits on its CPU (flowers, daffodils, guitar, biker: the real scenes under $RGS_DATA_DIR and the bundled guitar,
+each with its views; SCENES below), into OUT_DIR/<scene>/, and takes their JSONs; a scene whose JSON is already
+there is not audited again (delete it to measure anew). --dry-run prints those commands instead. Each argument is
+NAME=JSON: a scene's name in the tables and the rgs-audit JSON (schema "rgs-audit", version 3 or 4) that
+audit_formats.sh wrote for it, or several JSONs joined by commas (runs of one scene on the same views; taebak's
+come from `scripts/gpu_check.sh .device_data OUT cards` on a GPU host). The measured scenes come first, then the
+arguments in their order. Candidates labelled SERIES@POINT (archive@40, archive@spz) are the points of
 a curve. With --doc the tables replace what lies between the markers <!-- quality-cards:begin --> and
 <!-- quality-cards:end --> of that file, else they are printed. Needs python3-matplotlib for --plot.
-Exit status: 0 ok, 1 a file that cannot be read or has no markers, 2 usage.
+Exit status: 0 ok, 1 a file that cannot be read or has no markers, or an audit that failed, 2 usage.
 """
 import argparse
 import json
 import math
 import os
+import shlex
+import subprocess
 import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# The scenes --measure audits: name, source, rgs-audit camera options, extra candidates, environment. "$DATA" is
+# $RGS_DATA_DIR (the real scenes that are not shipped), "$ROOT" this checkout. daffodils' SOG is left out
+# (SPLAT_TRANSFORM=/bin/false): splat-transform's k-means does not finish on its 542,104 Gaussians in reasonable time.
+ORBIT = ["--orbit", "4", "--width", "480", "--height", "270"]
+SCENES = [
+    ("flowers", "$DATA/mipnerf360_flowers_c3dgs.ply",
+     ["--cameras", "$DATA/mipnerf360_flowers_cameras.json", "--every", "4", "--width", "960"], [], {}),
+    ("daffodils", "$DATA/playcanvas_flowers_lod0.ply", ORBIT, [], {"SPLAT_TRANSFORM": "/bin/false"}),
+    ("guitar", "$ROOT/samples/guitar.ply", ORBIT, ["$DATA/guitar.compressed.ply"], {}),
+    ("biker", "$DATA/biker.ply", ORBIT, ["$DATA/biker.spz"], {}),
+]
 
 BEGIN, END = "<!-- quality-cards:begin -->", "<!-- quality-cards:end -->"
 # Formats in the order of the cards; a label not here follows them in the order first met.
@@ -149,14 +172,54 @@ def plot(scenes, path):
     os.replace(tmp, path)
 
 
+def measure(out_dir, dry_run):
+    """Runs audit_formats.sh on each scene of SCENES whose JSON is not in OUT_DIR yet; returns NAME=JSON arguments."""
+    data = os.environ.get("RGS_DATA_DIR", "")
+    if not data or not os.path.isdir(data):
+        raise ValueError("--measure: set RGS_DATA_DIR to the folder of the real scenes (flowers, daffodils, biker)")
+    args = []
+    for name, source, views, extra, env in SCENES:
+        expand = lambda v: v.replace("$DATA", data).replace("$ROOT", ROOT)  # noqa: E731
+        source, views, extra = expand(source), [expand(v) for v in views], [expand(v) for v in extra]
+        scene_dir = os.path.join(out_dir, name)
+        stem = os.path.basename(source).split(".", 1)[0]
+        result = os.path.join(scene_dir, stem + ".audit.json")
+        args.append(f"{name}={result}")
+        command = [os.path.join(ROOT, "scripts", "audit_formats.sh"), source, scene_dir] + views
+        command += ["--"] + extra if extra else []
+        shown = " ".join(f"{k}={shlex.quote(v)}" for k, v in env.items()) + " " * bool(env) + shlex.join(command)
+        if dry_run:
+            print(shown)
+            continue
+        if os.path.exists(result):
+            sys.stderr.write(f"quality_cards.py: {name}: {result} exists, not audited again\n")
+            continue
+        sys.stderr.write(f"quality_cards.py: {name}: {shown}\n")
+        if subprocess.run(command, env={**os.environ, **env}).returncode != 0:
+            raise ValueError(f"{name}: audit_formats.sh failed (above: why)")
+    return args
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("scenes", nargs="+", metavar="NAME=JSON[,JSON...]")
+    ap.add_argument("scenes", nargs="*", metavar="NAME=JSON[,JSON...]")
+    ap.add_argument("--measure", metavar="OUT_DIR", help="audit the scenes of SCENES into OUT_DIR first")
+    ap.add_argument("--dry-run", action="store_true", help="with --measure: print its commands and stop")
     ap.add_argument("--doc", help="Markdown file whose quality-card markers are replaced")
     ap.add_argument("--plot", help="PNG of the rate-distortion panels")
     args = ap.parse_args(argv[1:])
+    if not args.scenes and not args.measure:
+        ap.error("no scenes: give NAME=JSON arguments, --measure OUT_DIR, or both")
+    if args.dry_run and not args.measure:
+        ap.error("--dry-run goes with --measure")
     try:
-        scenes = [load(a) for a in args.scenes]
+        measured = measure(args.measure, args.dry_run) if args.measure else []
+        if args.dry_run:
+            return 0
+        scenes = [load(a) for a in measured + args.scenes]
+        names = [n for n, _ in scenes]
+        if len(set(names)) != len(names):
+            raise ValueError(f"a scene named twice: {names}")
         text = "\n".join(cards(scenes) + [""] + curve_table(scenes)) + "\n"
         if args.plot:
             plot(scenes, args.plot)

@@ -2,7 +2,7 @@
 """Markdown table of the viewer's figures from `rgs-view-bench --json` outputs (python3 standard library only).
 
     scripts/view_tables.py OUT/view_*.json                                        # print the table
-    scripts/view_tables.py --update docs/VIEWER.md --block view OUT/view_*.json   # replace it in place
+    scripts/view_tables.py --update docs/BENCHMARKS.md --block view OUT/view_*.json   # replace it in place
 
 One row per run (scripts/gpu_check.sh ... view leaves view_<name>.json under its OUT folder): the scene, the
 frame size, the encoding and views in flight; frames per second sustained; the latency from a view sent to its
