@@ -1,20 +1,22 @@
 #!/usr/bin/env python3
 """Checks that every link to a Markdown file of the repository resolves: the file exists and, where the link names
-a section (`FILE.md#anchor`, `#anchor`), the file has a heading with that anchor (python3 standard library only).
+a section (a `.md` name, then `#` and an anchor; or `#` and an anchor alone), that file has a heading with that
+anchor (python3 standard library only).
 
     scripts/check_doc_links.py [ROOT]        # ROOT: the repository (default: this script's parent folder)
 
 What is checked, in the files of ROOT that git tracks or would track (not ignored; every file outside build*/ and
 hidden folders when ROOT is not a git checkout):
   - in Markdown files, every link and image `[text](target)` whose target is relative (no scheme, not absolute):
-    the target exists, relative to the linking file; a `.md` target's `#anchor` (or a bare `#anchor`, the file
-    itself) names a heading of it. Fenced code blocks and inline code are not links and are skipped.
-  - in every other text file (source comments, scripts, CMake), each mention `PATH.md` or `PATH.md#anchor`:
-    a mention with an anchor, or whose first path component is a top-level entry of the repository
-    (`docs/LOD.md`), must resolve, relative to the mentioning file or to ROOT; a bare name (`SPEC.md`) is looked
-    up beside the mentioning file, then at ROOT, then as the one tracked file of that name (file names are unique
-    in the repository). A mention preceded by `$` or `}` (a variable's folder) and a bare name no tracked file has
-    without an anchor (an output file a script writes) are not links and are skipped.
+    the target exists, relative to the linking file, and a `.md` target's anchor (or a bare `#anchor`: the file
+    itself) names one of its headings. Links in fenced code blocks and code spans are not links and are skipped.
+  - in every text file (source comments, scripts, CMake; Markdown outside its links), each mention of a `.md` path,
+    with or without `#` and an anchor: a mention with an anchor, or whose first path component is a top-level
+    entry of the repository (`docs/LOD.md`), must resolve, relative to the mentioning file or to ROOT; a bare name
+    (`SPEC.md`) is looked up beside the mentioning file, then at ROOT, then as the one tracked file of that name
+    (file names are unique in the repository). A mention preceded by `$` or `}` (a variable's folder), one under a
+    folder the repository does not have, and a bare name without an anchor that no tracked file has (an output
+    file a script writes) are not links and are skipped.
 Anchors follow GitHub's rules: the heading's text with inline markup removed (code spans keep their text, links
 their label), lower-cased, every character that is not a letter, digit, underscore, space or hyphen dropped, each
 space turned into a hyphen; a repeated anchor gets -1, -2, ... in order. `<a name="x">` and `<a id="x">` count too.
@@ -106,10 +108,11 @@ def check_anchor(target_path, anchor, shown):
     return None
 
 
-def check_markdown(root, rel, problems):
+def check_markdown(root, rel, top_level, by_name, problems):
     path = os.path.join(root, rel)
     with open(path, encoding="utf-8") as f:
-        text = "\n".join(strip_fenced(f.read().split("\n")))
+        lines = strip_fenced(f.read().split("\n"))
+    text = "\n".join(lines)
     # Inline code spans (within a paragraph) become blanks of the same length, so offsets keep their line.
     text = re.sub(r"(`+)(?:(?!\1|\n[ \t]*\n)[\s\S])+?\1", lambda m: re.sub(r"[^\n]", " ", m.group(0)), text)
     for m in MD_LINK.finditer(text):
@@ -129,15 +132,19 @@ def check_markdown(root, rel, problems):
             why = check_anchor(resolved, anchor or None, os.path.relpath(resolved, root))
             if why:
                 problems.append(f"{rel}:{number}: {target}: {why}")
+    # Mentions outside links (`docs/AUDITS.md#default-views` in prose or code spans), as in source files.
+    unlinked = MD_LINK.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), "\n".join(lines))
+    check_mentions(root, rel, top_level, by_name, problems, unlinked)
 
 
-def check_mentions(root, rel, top_level, by_name, problems):
+def check_mentions(root, rel, top_level, by_name, problems, text=None):
     path = os.path.join(root, rel)
-    try:
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
-    except UnicodeDecodeError:
-        return
+    if text is None:
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except UnicodeDecodeError:
+            return
     for number, line in enumerate(text.split("\n"), 1):
         for m in MENTION.finditer(line):
             name, anchor = m.group(1), m.group(2)
@@ -177,7 +184,7 @@ def main(argv):
     problems = []
     for rel in sorted(files):
         if rel.endswith(".md"):
-            check_markdown(root, rel, problems)
+            check_markdown(root, rel, top_level, by_name, problems)
         elif rel.endswith(TEXT_SUFFIXES) or os.path.basename(rel) == "CMakeLists.txt":
             check_mentions(root, rel, top_level, by_name, problems)
     for p in problems:

@@ -16,6 +16,7 @@ set +e
 ctest --test-dir "$build" --output-on-failure --parallel "$(nproc)" 2>&1 | tee "$summary"
 status=${PIPESTATUS[0]}
 set -e
+python3 "$root/scripts/check_doc_links.py" || status=1  # every link to a Markdown file and heading resolves
 # Why tests skipped (no GPU, no ../shared/data, ...): the reasons of the skipped tests and of the skipped
 # parts of passing ones, counted, from the output CTest keeps.
 log="$build/Testing/Temporary/LastTest.log"
