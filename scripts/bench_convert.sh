@@ -10,7 +10,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${RGS_BUILD_DIR:-$root/build}"
-data="${RGS_DATA_DIR:-$root/../shared/data}"
+data="${RGS_DATA_DIR:-$root/data}"
 ply="${1:-$data/playcanvas_flowers_lod0.ply}"
 repeats="${2:-5}"
 shift $(( $# > 2 ? 2 : $# )) || true

@@ -2,7 +2,7 @@
 # Installs dependencies, builds everything (CUDA parts only when nvcc is found) and runs the whole test
 # suite with CTest, one line per test as it finishes. Extra arguments are CMake arguments for the build. GPU
 # tests print "skipped: no CUDA device" on machines without a GPU, and tests on the real scenes that are not
-# shipped ($RGS_DATA_DIR, default ../shared/data) "skipped: ..." when they are absent; CTest reports a test
+# shipped ($RGS_DATA_DIR, default data/ in the checkout) "skipped: ..." when they are absent; CTest reports a test
 # that skipped everything as "Skipped" (listed after its summary), not as passed.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -17,7 +17,7 @@ ctest --test-dir "$build" --output-on-failure --parallel "$(nproc)" 2>&1 | tee "
 status=${PIPESTATUS[0]}
 set -e
 python3 "$root/scripts/check_doc_links.py" || status=1  # every link to a Markdown file and heading resolves
-# Why tests skipped (no GPU, no ../shared/data, ...): the reasons of the skipped tests and of the skipped
+# Why tests skipped (no GPU, no real scenes, ...): the reasons of the skipped tests and of the skipped
 # parts of passing ones, counted, from the output CTest keeps.
 log="$build/Testing/Temporary/LastTest.log"
 if [ -f "$log" ] && grep -q "skipped: " "$log"; then

@@ -17,10 +17,10 @@
 # Then, on the GPU host, one call each while the machine stays warm (what an earlier call carried stays there):
 # carry .device_taebak_a; carry .device_taebak_b and run scripts/gpu_prepare_taebak.sh .device_taebak_a
 # .device_taebak_b; carry .device_scenes; carry .device_data and run scripts/gpu_check.sh .device_data "$OUT".
-# Usage: scripts/stage_gpu.sh [DATA_DIR]   (DATA_DIR: the real scenes, default ../shared/data)
+# Usage: scripts/stage_gpu.sh [DATA_DIR]   (DATA_DIR: the real scenes, default data/ in the checkout)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-data="${1:-$root/../shared/data}"
+data="${1:-$root/data}"
 build="$root/build-gpu"
 stage="$root/.device_data"
 scenes="$root/.device_scenes"

@@ -1,4 +1,4 @@
-// Locating test data: files shipped in the repository, and real scenes from ../shared/data.
+// Locating test data: files shipped in the repository, and real scenes from $RGS_DATA_DIR.
 #pragma once
 
 #include <cstdlib>
@@ -18,7 +18,7 @@ inline std::string repo_path(const std::string& relative) {
   return (std::filesystem::path(RGS_SOURCE_DIR) / relative).string();
 }
 
-/// Directory of the real scenes that are not shipped (RGS_DATA_DIR, default ../shared/data).
+/// Directory of the real scenes that are not shipped (RGS_DATA_DIR, default data/ in the checkout).
 inline std::filesystem::path shared_data_dir() {
   if (const char* env = std::getenv("RGS_DATA_DIR"); env && *env) return env;
   return RGS_DEFAULT_DATA_DIR;
