@@ -12,9 +12,6 @@
 #include "rgs/kernels/shared/tile_culling.h"
 
 namespace rgs::kernels {
-#ifndef RGS_LAB_KERNELS
-#define RGS_LAB_KERNELS 0  // the product build (kernels/CMakeLists.txt sets it)
-#endif
 
 namespace {
 
@@ -643,17 +640,12 @@ void launch_folded(const FoldedLists& lists, const RenderInputs& in, const Frame
     launch_folded<kFastExp, Cull::kNone, kHalf>(lists, in, frame, sigma, image, stream);
     return;
   }
-#if !RGS_LAB_KERNELS
-  if constexpr (kHalf)  // FP32 blending with culling: a lab variant
-#endif
     launch_folded<kFastExp, Cull::kBlock, kHalf>(lists, in, frame, sigma, image, stream);
 }
 
 }  // namespace
 
-bool lab_kernels_compiled() { return RGS_LAB_KERNELS != 0; }
-
-bool raster_variant_compiled(const RasterOptions& raster) { return lab_kernels_compiled() || !is_lab_variant(raster); }
+bool raster_variant_compiled(const RasterOptions&) { return true; }
 
 cudaError_t render_baseline(const uint64_t* ranges, const uint32_t* sorted_values, const ProjectedArrays& projected,
                             const FrameParams& frame, const ImageView& image, cudaStream_t stream) {
@@ -680,7 +672,6 @@ cudaError_t render_roofgs(const uint64_t* ranges, const TileChunks& chunks, cons
   } else if (raster.folded && raster.fast_exp) {
     launch_folded<true, false>(lists, in, frame, sigma, raster, image, stream);
   } else {
-#if RGS_LAB_KERNELS
     if (raster.folded) {
       launch_folded<false, false>(lists, in, frame, sigma, raster, image, stream);
     } else if (raster.fast_exp) {
@@ -688,7 +679,6 @@ cudaError_t render_roofgs(const uint64_t* ranges, const TileChunks& chunks, cons
     } else {
       launch_pixel<true, false>(ranges, sorted_values, in, frame, sigma, image, stream);
     }
-#endif
   }
   return detail::launch_result();
 }

@@ -226,9 +226,6 @@ cudaError_t list_tile_chunks(const uint64_t* ranges, uint32_t tiles, const TileC
 /// Whether this build holds the render kernel `raster` needs.
 bool raster_variant_compiled(const RasterOptions& raster);
 
-/// True in builds with RGS_LAB_KERNELS.
-bool lab_kernels_compiled();
-
 /// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,
 /// α = min(0.99, exp(P)), P = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 (skip P > 0), 128 threads per tile
 /// (a warp per 8×8 quadrant, two vertically adjacent pixels per thread). `chunks` (with `folded` and

@@ -21,9 +21,9 @@
 
 #include <cstdint>
 
-#include "rgs/runtime/frame_census.h"
+#include "rgs/lab/frame_census.h"
 
-namespace rgs::runtime {
+namespace rgs::lab {
 
 /// Stages timed by rgs-bench (runtime::StageTimes without the total).
 enum class RooflineStage : int { kPreprocess = 0, kSort = 1, kRanges = 2, kRender = 3 };
@@ -183,4 +183,4 @@ struct RooflinePoint {
 /// Places `work`, timed at `ms` milliseconds, against `peaks`. A non-positive time gives zero rates.
 RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePeaks& peaks);
 
-}  // namespace rgs::runtime
+}  // namespace rgs::lab
