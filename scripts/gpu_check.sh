@@ -39,9 +39,10 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
   note "test_gpu: exit $rc in $(( $(date +%s) - start )) s; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu.log" | tr '\n' ' ')"
   grep -h "MESSAGE: " "$out/test_gpu.log" | sed 's/.*MESSAGE: //' >"$out/test_gpu_messages.txt"
   grep -E "ERROR|FAILED|skipped" "$out/test_gpu.log" | head -20 | tee -a "$summary"
-  # The front door (render into caller memory, presets, GPU memory per scene), the GPU audit metrics and the
-  # viewer's server (GPU frames equal the front door's, stage times, GPU memory).
-  for suite in test_api test_audit test_view; do
+  # The lab's RoofGS configurations technique by technique, the front door (render into caller memory, presets,
+  # GPU memory per scene), the GPU audit metrics and the viewer's server (GPU frames equal the front door's,
+  # stage times, GPU memory).
+  for suite in test_lab_gpu test_api test_audit test_view; do
     [ -x "$bin/$suite" ] || continue
     start=$(date +%s)
     rc=0

@@ -6,6 +6,7 @@
 #include "rgs/api/gpu_preset.h"
 #include "rgs/api/preset.h"
 #include "rgs/kernels/shared/frame_switches.h"
+#include "rgs/lab/roofgs_stages.h"
 #include "rgs/runtime/frame_plan.h"
 
 namespace rgs::lab {
@@ -119,11 +120,12 @@ const std::vector<ModeEntry>& entries() {
   return modes;
 }
 
-/// Whether `o` may render with a lab variant of the render kernel (kernels::is_lab_variant): with sub-tile
-/// culling kAuto, the plans of a frame without large Gaussians and of one made of them both count.
-bool uses_lab_variant(const GpuRenderOptions& o) {
+/// Whether `o` needs a stage of the lab's (roofgs_stages()): the separate preprocess and duplication, or a lab
+/// variant of the render kernel (kernels::is_lab_variant; with sub-tile culling kAuto, the plans of a frame
+/// without large Gaussians and of one made of them both count).
+bool uses_lab_stages(const GpuRenderOptions& o) {
   if (o.pipeline == runtime::GpuPipeline::kBaseline) return false;
-  return kernels::is_lab_variant(runtime::plan_blend(o.roofgs, 1, 0).raster) ||
+  return !o.roofgs.fused_preprocess || kernels::is_lab_variant(runtime::plan_blend(o.roofgs, 1, 0).raster) ||
          kernels::is_lab_variant(runtime::plan_blend(o.roofgs, 1, 1).raster);
 }
 
@@ -134,7 +136,7 @@ const std::vector<GpuMode>& gpu_modes() {
     std::vector<GpuMode> m;
     for (const ModeEntry& e : entries()) {
       m.push_back(e.mode);
-      m.back().lab = uses_lab_variant(e.options(false));
+      m.back().lab = uses_lab_stages(e.options(false));
     }
     return m;
   }();
@@ -146,7 +148,10 @@ Result<GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_ha
     if (e.mode.name != name) continue;
     RGS_RETURN_ERROR_IF(e.mode.requires_compact && !scene_has_compact, StatusCode::kInvalidArgument,
                         "mode " + name + " reads compact attributes, which only a .rgs scene has");
-    return e.options(scene_has_compact);
+    GpuRenderOptions options = e.options(scene_has_compact);
+    // The product's stages render the presets' configurations; the others need the lab's.
+    if (uses_lab_stages(options)) options.stages = roofgs_stages();
+    return options;
   }
   std::string names;
   for (const ModeEntry& e : entries()) names += (names.empty() ? "" : ", ") + e.mode.name;

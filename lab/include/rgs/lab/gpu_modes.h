@@ -16,8 +16,8 @@ struct GpuMode {
   std::string description;  ///< one line for --help and reports
   /// True when the mode must read compact attributes (fails on a scene without them).
   bool requires_compact = false;
-  /// True when the mode may render with a lab variant of the render kernel (kernels::is_lab_variant): the
-  /// product's render stage lacks it, and gpu_mode_options() gives the lab's (lab_render_launcher()).
+  /// True when the mode needs the lab's stages (roofgs_stages(): the separate preprocess and duplication, or a
+  /// lab variant of the render kernel, kernels::is_lab_variant), which gpu_mode_options() then sets.
   bool lab = false;
 };
 
@@ -28,7 +28,8 @@ struct GpuMode {
 /// The names are the same in rgs-bench's --mode, its JSON and the CLI's --preset.
 const std::vector<GpuMode>& gpu_modes();
 
-/// Options of the mode called `name` for a scene with or without compact attributes.
+/// Options of the mode called `name` for a scene with or without compact attributes; with the lab's stages
+/// (GpuRenderOptions::stages) for the modes that need them, the product's otherwise.
 /// @return kInvalidArgument for an unknown name, or a mode that needs compact attributes on a scene
 /// without them (the message says so).
 Result<runtime::GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_has_compact);

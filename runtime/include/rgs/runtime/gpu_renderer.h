@@ -13,6 +13,7 @@
 #include "rgs/format/status.h"
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/kernels/output_convert.h"
+#include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/device_buffer.h"
 #include "rgs/runtime/frame_plan.h"
@@ -100,6 +101,11 @@ struct GpuRenderOptions {
   GpuPipeline pipeline = GpuPipeline::kBaseline;
   /// Used when pipeline == kRoofgs.
   GpuRoofgsOptions roofgs;
+  /// The RoofGS launches that exist in variants no preset reaches (used when pipeline == kRoofgs); the default,
+  /// the product's, renders every configuration of the presets. Separate stages (roofgs.fused_preprocess off)
+  /// need stages.preprocess and stages.duplicate, and a render-kernel variant render_roofgs lacks
+  /// (kernels::raster_variant_compiled) needs another stages.render: the lab's (lab/) have them.
+  kernels::RoofgsStages stages;
   /// Background colour (linear RGB, out = C + T·bg).
   std::array<float, 3> background = {0.f, 0.f, 0.f};
   /// Record CUDA events around each stage and fill GpuRenderStats::times (waits for the frame to finish).
@@ -234,7 +240,8 @@ class GpuRenderer {
                               int key_bits, bool large_list, uint32_t min_chunk);
   /// The RoofGS preprocess and pair emission stage (fused or separate, as `plan` says) of a non-empty scene.
   Status emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
-                           uint64_t limit, GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream);
+                           const kernels::RoofgsStages& stages, uint64_t limit, GpuRenderStats* stats,
+                           PairCounts* counts, cudaStream_t stream);
   std::unique_ptr<Buffers> buffers_;  // scratch buffers and events (gpu_renderer.cpp)
 };
 
