@@ -7,6 +7,7 @@
 #include "rgs/api/preset.h"
 #include "rgs/kernels/shared/frame_switches.h"
 #include "rgs/lab/roofgs_stages.h"
+#include "rgs/lab/technique_options.h"
 #include "rgs/runtime/frame_plan.h"
 
 namespace rgs::lab {
@@ -20,12 +21,7 @@ using runtime::GpuRenderOptions;
 using runtime::RoofgsOptions;
 
 GpuRenderOptions roofgs_pipeline(bool compact, bool fused, const RoofgsOptions& techniques) {
-  GpuRenderOptions o;
-  o.pipeline = runtime::GpuPipeline::kRoofgs;
-  o.roofgs.compact_attributes = compact;
-  o.roofgs.fused_preprocess = fused;
-  o.roofgs.techniques = techniques;
-  return o;
+  return gpu_technique_options(techniques, compact, fused);
 }
 
 struct ModeEntry {
@@ -149,8 +145,9 @@ Result<GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_ha
     RGS_RETURN_ERROR_IF(e.mode.requires_compact && !scene_has_compact, StatusCode::kInvalidArgument,
                         "mode " + name + " reads compact attributes, which only a .rgs scene has");
     GpuRenderOptions options = e.options(scene_has_compact);
-    // The product's stages render the presets' configurations; the others need the lab's.
-    if (uses_lab_stages(options)) options.stages = roofgs_stages();
+    // The product's stages render the presets' configurations (timed as the product runs them); the others
+    // need the lab's.
+    options.stages = uses_lab_stages(options) ? roofgs_stages() : kernels::RoofgsStages{};
     return options;
   }
   std::string names;
