@@ -388,6 +388,94 @@ enum class Cull {
 constexpr int kGroupLanes = kCullBlockSize * kCullBlockSize / 2;
 constexpr int kGroupsPerWarp = 32 / kGroupLanes;
 
+/// Pair `p` of a batch as the folded kernel's shared record: the coefficients folded at the tile's origin
+/// (origin_x, origin_y), in base 2 with kHalf, the colour (binary16 pairs with kHalf) and the depth; with kCulls
+/// its block_mask in *mask (0 otherwise). Past the batch's end (p ≥ end): `never` and mask 0.
+template <bool kHalf, bool kDepth, bool kCulls>
+__device__ __forceinline__ PairRecord<kHalf, kDepth> load_folded_record(const RenderInputs& in,
+                                                                        const uint32_t* __restrict__ values,
+                                                                        uint64_t p, uint64_t end, float origin_x,
+                                                                        float origin_y,
+                                                                        const PairRecord<kHalf, kDepth>& never,
+                                                                        uint32_t* mask) {
+  PairRecord<kHalf, kDepth> record = never;
+  if (p < end) {
+    const uint32_t id = values[p];
+    const float2 mean = in.means2d[id];
+    const float4 co = in.conic_opacity[id];
+    const Conic conic{co.x, co.y, co.z};
+    const float4 colour = in.colour_log_opacity[id];
+    const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = colour.w;
+    FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
+    if (kHalf) f = exp2_coefficients(f);
+    record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
+    if constexpr (kHalf) {  // the colour as binary16 pairs for blend_half2
+      record.c56rg = make_float4(f.c5, f.c6, uint_as_float(half2_pack(colour.x, colour.y)),
+                                 uint_as_float(half2_pack(colour.z, 0.f)));
+      if constexpr (kDepth) record.bd = make_float4(in.depths[id], 0.f, 0.f, 0.f);
+    } else {
+      record.c56rg = make_float4(f.c5, f.c6, colour.x, colour.y);
+      record.bd = make_float4(colour.z, kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
+    }
+    if (kCulls) *mask = block_mask(conic, u, v, log_opacity);
+  }
+  return record;
+}
+
+/// The walk lists of one batch of `in_batch` pairs for the lists of warp `warp` (its lane groups' with block
+/// culling, the warp's own otherwise), built from the pairs' masks (collected_mask) into walk_lists; this lane
+/// walks list `list`. @return the length of this lane's list; *keeps_all becomes false (warp-uniform) unless
+/// every list of the warp holds the whole batch.
+template <Cull kCull, int kListsPerWarp, int kListStride, int kRecordBytes, int kBatch>
+__device__ __forceinline__ int list_kept_pairs(uint16_t (*walk_lists)[kListStride], const uint32_t* collected_mask,
+                                               uint32_t records_address, int in_batch, int warp, int lane, int list,
+                                               bool* keeps_all) {
+  const int group = lane / kGroupLanes, in_group = lane % kGroupLanes;
+  const uint32_t lanes_below = (1u << lane) - 1u;
+  // Each list of this warp in batch order: slot s is kept when the list's bit of its mask is set. A lane that
+  // keeps its slot stores it at the list's cursor (the shared address of its next entry) plus its rank among
+  // the kept lanes, by a predicated store: no branch a list, and no two lanes store to one address.
+  const uint32_t lists_address =
+      opaque(static_cast<uint32_t>(__cvta_generic_to_shared(walk_lists[warp * kListsPerWarp])));
+  constexpr uint32_t kListBytes = kListStride * sizeof(uint16_t);
+  uint32_t cursors[kListsPerWarp];
+#pragma unroll
+  for (int g = 0; g < kListsPerWarp; ++g) cursors[g] = lists_address + uint32_t(g) * kListBytes;
+  for (int base = 0; base < in_batch; base += 32) {
+    const uint32_t slot_mask = collected_mask[base + lane];
+    const auto entry = uint16_t(records_address + uint32_t((base + lane) * kRecordBytes));
+#pragma unroll
+    for (int g = 0; g < kListsPerWarp; ++g) {
+      // Block culling: group g's block (block_x, block_y) as bit block_x + 4·block_y; else the quadrant.
+      const int bit = kCull == Cull::kBlock
+                          ? (2 * (warp % 2) + g % 2) + kCullBlocksPerSide * (2 * (warp / 2) + g / 2)
+                          : warp;
+      const bool keep = (slot_mask >> bit) & 1u;
+      const uint32_t kept = __ballot_sync(0xffffffffu, keep);
+      store_shared_u16_if(keep, cursors[g] + 2u * __popc(kept & lanes_below), entry);
+      cursors[g] += 2u * __popc(kept);
+    }
+  }
+  int counts[kListsPerWarp];
+#pragma unroll
+  for (int g = 0; g < kListsPerWarp; ++g) {
+    counts[g] = int((cursors[g] - lists_address - uint32_t(g) * kListBytes) / 2u);
+  }
+  int count = counts[0];
+#pragma unroll
+  for (int g = 0; g < kListsPerWarp; ++g) {
+    if (group == g) count = counts[g];
+    *keeps_all = *keeps_all && counts[g] == in_batch;
+  }
+  // The lanes 0..kUnroll − 1 of the list's first group pad it with the never-passing record.
+  const bool pads = kCull == Cull::kBlock || group == 0;
+  if (pads && in_group < kUnroll && count % kUnroll != 0 && in_group >= count % kUnroll) {
+    walk_lists[list][count - count % kUnroll + in_group] = uint16_t(records_address + kBatch * kRecordBytes);
+  }
+  __syncwarp();
+  return count;
+}
+
 /// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local
 /// coordinates; pixel terms hoisted; each thread shades (x, y) and (x, y + 1) with
 /// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; alpha tested in the integer domain (fast_exp_alpha_passes);
@@ -473,7 +561,6 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   const auto records_address = static_cast<uint32_t>(__cvta_generic_to_shared(records));
   // The list this lane walks: its group's (block culling) or its warp's.
   const int list = kCull == Cull::kBlock ? warp * kGroupsPerWarp + group : warp;
-  const uint32_t lanes_below = (1u << lane) - 1u;
 
   FoldedPixel first, second;
   HalfFoldedPixels pair;
@@ -495,27 +582,8 @@ __global__ void __launch_bounds__(kDualThreads, 8)
       const int slot = rank + l * kDualThreads;
       const uint64_t p = batch + uint64_t(slot);
       uint32_t mask = 0;
-      Record record = never;
-      if (p < end) {
-        const uint32_t id = values[p];
-        const float2 mean = in.means2d[id];
-        const float4 co = in.conic_opacity[id];
-        const Conic conic{co.x, co.y, co.z};
-        const float4 colour = in.colour_log_opacity[id];
-        const float u = mean.x - origin_x, v = mean.y - origin_y, log_opacity = colour.w;
-        FoldedCoefficients f = fold_coefficients(conic, u, v, log_opacity);
-        if (kHalf) f = exp2_coefficients(f);
-        record.c1234 = make_float4(f.c1, f.c2, f.c3, f.c4);
-        if constexpr (kHalf) {  // the colour as binary16 pairs for blend_half2
-          record.c56rg = make_float4(f.c5, f.c6, uint_as_float(half2_pack(colour.x, colour.y)),
-                                     uint_as_float(half2_pack(colour.z, 0.f)));
-          if constexpr (kDepth) record.bd = make_float4(in.depths[id], 0.f, 0.f, 0.f);
-        } else {
-          record.c56rg = make_float4(f.c5, f.c6, colour.x, colour.y);
-          record.bd = make_float4(colour.z, kDepth ? in.depths[id] : 0.f, 0.f, 0.f);
-        }
-        if (kCulls) mask = block_mask(conic, u, v, log_opacity);
-      }
+      const Record record = load_folded_record<kHalf, kDepth, kCulls>(in, values, p, end, origin_x, origin_y, never,
+                                                                       &mask);
       records[slot] = record;  // slots past the batch's end get the padding record
       if (kCulls) collected_mask[slot] = mask;
     }
@@ -524,47 +592,8 @@ __global__ void __launch_bounds__(kDualThreads, 8)
     int count = in_batch;
     bool keeps_all = true;  // warp-uniform: every list of the warp holds the whole batch
     if (kCulls) {
-      // Each list of this warp in batch order: slot s is kept when the list's bit of its mask is set. A lane that
-      // keeps its slot stores it at the list's cursor (the shared address of its next entry) plus its rank among
-      // the kept lanes, by a predicated store: no branch a list, and no two lanes store to one address.
-      const uint32_t lists_address =
-          opaque(static_cast<uint32_t>(__cvta_generic_to_shared(walk_lists[warp * kListsPerWarp])));
-      constexpr uint32_t kListBytes = kListStride * sizeof(uint16_t);
-      uint32_t cursors[kListsPerWarp];
-#pragma unroll
-      for (int g = 0; g < kListsPerWarp; ++g) cursors[g] = lists_address + uint32_t(g) * kListBytes;
-      for (int base = 0; base < in_batch; base += 32) {
-        const uint32_t slot_mask = collected_mask[base + lane];
-        const auto entry = uint16_t(records_address + uint32_t((base + lane) * kRecordBytes));
-#pragma unroll
-        for (int g = 0; g < kListsPerWarp; ++g) {
-          // Block culling: group g's block (block_x, block_y) as bit block_x + 4·block_y; else the quadrant.
-          const int bit = kCull == Cull::kBlock
-                              ? (2 * (warp % 2) + g % 2) + kCullBlocksPerSide * (2 * (warp / 2) + g / 2)
-                              : warp;
-          const bool keep = (slot_mask >> bit) & 1u;
-          const uint32_t kept = __ballot_sync(0xffffffffu, keep);
-          store_shared_u16_if(keep, cursors[g] + 2u * __popc(kept & lanes_below), entry);
-          cursors[g] += 2u * __popc(kept);
-        }
-      }
-      int counts[kListsPerWarp];
-#pragma unroll
-      for (int g = 0; g < kListsPerWarp; ++g) {
-        counts[g] = int((cursors[g] - lists_address - uint32_t(g) * kListBytes) / 2u);
-      }
-      count = counts[0];
-#pragma unroll
-      for (int g = 0; g < kListsPerWarp; ++g) {
-        if (group == g) count = counts[g];
-        keeps_all = keeps_all && counts[g] == in_batch;
-      }
-      // The lanes 0..kUnroll − 1 of the list's first group pad it with the never-passing record.
-      const bool pads = kCull == Cull::kBlock || group == 0;
-      if (pads && in_group < kUnroll && count % kUnroll != 0 && in_group >= count % kUnroll) {
-        walk_lists[list][count - count % kUnroll + in_group] = uint16_t(records_address + kBatch * kRecordBytes);
-      }
-      __syncwarp();
+      count = list_kept_pairs<kCull, kListsPerWarp, kListStride, kRecordBytes, kBatch>(
+          walk_lists, collected_mask, records_address, in_batch, warp, lane, list, &keeps_all);
     }
     const int padded = (count + kUnroll - 1) / kUnroll * kUnroll;  // ≤ kBatch
     const uint16_t* addresses = walk_lists[kCulls ? list : 0];
