@@ -138,7 +138,7 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 \
     --quality
   bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 --front-door --quality
-  # 542,104 x 4 = 2,168,416 Gaussians (converter::replicate, compact attributes kept); fewer repetitions.
+  # 542,104 x 4 = 2,168,416 Gaussians (lab::replicate, compact attributes kept); fewer repetitions.
   bench daffodils_x4 "$daffodils" --replicate 4 --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 3 --repeat 5
   # 38,347 x 53 = 2,032,391 Gaussians seen from flowers' own cameras (its neighbours fill the background).
   bench flowers_x53 "$flowers" --cameras "$cameras" --every 8 --replicate 53 "${sizes[@]}" "${modes[@]}" --warmup 2 \

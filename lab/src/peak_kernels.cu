@@ -1,4 +1,4 @@
-// The FP32 and half2 FMA loops of the device-peak measurement (kernels/device_peaks.h).
+// The FP32 and half2 FMA loops of the device-peak measurement (internal_peak_kernels.h).
 #include <cuda_fp16.h>
 
 #include "launch_util.cuh"

@@ -16,7 +16,7 @@
 //
 // Roofline (docs/ROOFLINE.md): the device's memory and FP32 peaks are measured first in the same run
 // (lab::measure_device_peaks: a 1 GiB device-to-device copy, an FMA loop), and every stage of every mode
-// and resolution is placed against them with the analytic bytes and FLOPs of runtime/roofline_model.h (mean over the
+// and resolution is placed against them with the analytic bytes and FLOPs of lab/roofline_model.h (mean over the
 // views' pair counts) and the stage's median time: GB/s, GFLOP/s, FLOP/B, % of each peak, the bounding roof.
 //
 // --floor adds the true floor (docs/ROOFLINE.md#the-true-floor): each view counted by the CPU reference
@@ -231,7 +231,7 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
   return run;
 }
 
-// Roofline: the model's bytes and FLOPs (runtime/roofline_model.h) per stage, against the measured peaks.
+// Roofline: the model's bytes and FLOPs (lab/roofline_model.h) per stage, against the measured peaks.
 
 /// The model's inputs for one view of a run. The renderer does not report how many Gaussians survive
 /// culling, so `visible` is N (an upper bound, docs/ROOFLINE.md).
@@ -294,7 +294,7 @@ nlohmann::json peaks_json(const lab::DevicePeaks& p) {
             {"median_ms", p.copy_median_ms},
             {"gbps", p.memory_gbps}}},
           {"compute",
-           {{"method", "FP32 FMA loop (kernels/device_peaks.h), 2 FLOPs per FMA, CUDA events, median"},
+           {{"method", "FP32 FMA loop (lab/src/peak_kernels.cu), 2 FLOPs per FMA, CUDA events, median"},
             {"blocks", p.fma_blocks},
             {"blocks_per_sm", p.fma_blocks_per_sm},
             {"threads_per_block", p.fma_threads_per_block},
@@ -988,7 +988,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names));
   app.add_option("--replicate", opt.replicate,
-                 "Tile the scene K times on a grid in the x-z plane (converter::replicate) before timing, keeping "
+                 "Tile the scene K times on a grid in the x-z plane (lab::replicate) before timing, keeping "
                  "compact attributes: a .rgs as stored, a PLY quantized with rgs-convert's defaults. Orbit cameras "
                  "frame the replicated scene; --cameras views are used as they are. K x Gaussians must stay "
                  "<= 2^31 - 1")

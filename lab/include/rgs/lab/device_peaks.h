@@ -18,7 +18,7 @@ struct DevicePeakOptions {
   uint64_t copy_bytes = uint64_t{1} << 30;
   /// Timed copies and FMA launches after one untimed warm-up of each; the medians are reported.
   uint32_t repeats = 7;
-  /// Threads per block of the FMA loop (kernels/device_peaks.h).
+  /// Threads per block of the FMA loop (lab/src/internal_peak_kernels.h).
   uint32_t fma_threads_per_block = 256;
   /// Grid of the FMA loop in full waves: SMs × resident blocks per SM × fma_waves.
   uint32_t fma_waves = 2;

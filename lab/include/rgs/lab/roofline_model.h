@@ -14,9 +14,9 @@
 // (12 fma + 1 add + 2 mul); the Schraudolph fast exp = 2 (one fma). The FMA peak is counted the same way
 // (2 per FMA), so the two sides of the roofline agree.
 //
-// It lives in the runtime, next to the kernels' launchers and runtime/device_peaks.h (the measured roofs),
-// because it describes what the runtime's GPU pipelines do and must change with them; it is plain host code
-// (no CUDA), built in every configuration so that its tests run without a GPU.
+// It lives in the lab beside device_peaks.h (the measured roofs) and describes what the runtime's GPU pipelines
+// do, so it must change with them; it is plain host code (no CUDA), built in every lab configuration so that its
+// tests run without a GPU.
 #pragma once
 
 #include <cstdint>
