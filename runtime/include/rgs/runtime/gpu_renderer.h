@@ -180,7 +180,8 @@ class GpuRenderer {
   /// already had one), all work on `stream`. When it returns ok the frame is enqueued (and finished if
   /// options.time_stages). Errors: kInvalidArgument (validate_camera(), background not finite, fast exp σ
   /// outside [0, 1), compact attributes of a scene without them, the 32-bit key without scene bounds),
-  /// kLimitExceeded (an image too large for the 32-bit key),
+  /// kLimitExceeded (an image too large for the 32-bit key), kUnsupportedFeature (a RoofGS configuration no
+  /// preset uses, without the stages it needs in options.stages),
   /// kOutOfMemory (pair buffers too large for the device: the message gives the pair count; the renderer
   /// frees what it held and stays usable), kCudaError (a failed launch or copy, naming the stage).
   Result<GpuRenderStats> render(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
