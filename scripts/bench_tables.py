@@ -4,7 +4,7 @@
     scripts/bench_tables.py OUT/bench_*.json                              # print the tables
     scripts/bench_tables.py --update docs/BENCHMARKS.md OUT/bench_*.json  # replace them in place
 
-Reads the JSON that tools/rgs_bench.cpp writes (one file per rgs-bench run; scripts/gpu_check.sh ... bench
+Reads the JSON that lab/tools/rgs_bench.cpp writes (one file per rgs-bench run; scripts/gpu_check.sh ... bench
 leaves bench_<name>.json under its OUT folder) and prints, for the mode given by --mode (default fastest, the
 fastest preset):
   1. its median frame time and its speedup over --reference (default faithful, the 3DGS baseline) in the same run, a row per scene
@@ -46,7 +46,7 @@ SCENE_NAMES = {
 
 STAGES = ("preprocess", "sort", "ranges", "render", "total")
 
-# The keys rgs-bench writes (tools/rgs_bench.cpp); anything else is a shape this script does not know.
+# The keys rgs-bench writes (lab/tools/rgs_bench.cpp); anything else is a shape this script does not know.
 TOP_KEYS = {"tool", "version", "date", "timestamp_utc", "device", "device_peaks", "scene", "cameras",
             "warmup_frames", "repetitions", "statistic", "results", "quality", "front_door", "floor_census"}
 TOP_REQUIRED = {"tool", "date", "device", "scene", "statistic", "results"}

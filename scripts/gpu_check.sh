@@ -39,9 +39,10 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
   note "test_gpu: exit $rc in $(( $(date +%s) - start )) s; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu.log" | tr '\n' ' ')"
   grep -h "MESSAGE: " "$out/test_gpu.log" | sed 's/.*MESSAGE: //' >"$out/test_gpu_messages.txt"
   grep -E "ERROR|FAILED|skipped" "$out/test_gpu.log" | head -20 | tee -a "$summary"
-  # The front door (render into caller memory, presets, GPU memory per scene), the GPU audit metrics and the
-  # viewer's server (GPU frames equal the front door's, stage times, GPU memory).
-  for suite in test_api test_audit test_view; do
+  # The lab's RoofGS configurations technique by technique, the front door (render into caller memory, presets,
+  # GPU memory per scene), the GPU audit metrics and the viewer's server (GPU frames equal the front door's,
+  # stage times, GPU memory).
+  for suite in test_lab_gpu test_api test_audit test_view; do
     [ -x "$bin/$suite" ] || continue
     start=$(date +%s)
     rc=0
@@ -137,7 +138,7 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
   bench flowers "$flowers" --cameras "$cameras" --every 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 \
     --quality
   bench daffodils "$daffodils" --orbit 8 "${sizes[@]}" "${ablation[@]}" --warmup 5 --repeat 10 --front-door --quality
-  # 542,104 x 4 = 2,168,416 Gaussians (converter::replicate, compact attributes kept); fewer repetitions.
+  # 542,104 x 4 = 2,168,416 Gaussians (lab::replicate, compact attributes kept); fewer repetitions.
   bench daffodils_x4 "$daffodils" --replicate 4 --orbit 8 "${sizes[@]}" "${modes[@]}" --warmup 3 --repeat 5
   # 38,347 x 53 = 2,032,391 Gaussians seen from flowers' own cameras (its neighbours fill the background).
   bench flowers_x53 "$flowers" --cameras "$cameras" --every 8 --replicate 53 "${sizes[@]}" "${modes[@]}" --warmup 2 \

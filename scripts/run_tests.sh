@@ -9,7 +9,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${RGS_BUILD_DIR:-$root/build}"
 "$root/scripts/install_deps.sh" tests
 # Explicit, so a build folder configured by run_sample.sh (tools only) gets the whole project.
-"$root/scripts/build.sh" -- -DRGS_BUILD_TESTS=ON -DRGS_BUILD_SAMPLES=ON -DRGS_WITH_OPENIMAGEIO=ON "$@"
+"$root/scripts/build.sh" -- -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_SAMPLES=ON -DRGS_WITH_OPENIMAGEIO=ON "$@"
 mkdir -p "$build/Testing"
 summary="$build/Testing/ctest_output.txt"
 set +e

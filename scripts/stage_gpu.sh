@@ -26,12 +26,11 @@ stage="$root/.device_data"
 scenes="$root/.device_scenes"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
-  -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_LAB_KERNELS=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
+  -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
   -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON >/dev/null
-exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render tools/rgs-bench tools/rgs-convert
-      tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame tools/rgs-view tests/view/test_view)
-# The viewer's benchmark client, once its source exists (tools/CMakeLists.txt builds it then).
-if [ -f "$root/tools/rgs_view_bench.cpp" ]; then exes+=(tools/rgs-view-bench); fi
+exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render lab/rgs-bench tools/rgs-convert
+      tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame tools/rgs-view tests/view/test_view lab/rgs-view-bench
+      lab/tests/test_lab_gpu)
 targets=()
 for exe in "${exes[@]}"; do targets+=("$(basename "$exe")"); done
 cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rgs_api rgs_audit rgs_view

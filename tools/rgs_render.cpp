@@ -52,12 +52,6 @@ struct Options {
   /// --splat-budget, --memory-budget, --pixel-error, --stream-bytes, --no-lod: api::LoadOptions::lod
   api::LodSettings lod;
   bool no_lod = false;
-  runtime::RoofgsOptions techniques;  ///< the technique flags; any of them replaces the preset's techniques
-
-  bool any_technique() const {
-    const runtime::RoofgsOptions& t = techniques;
-    return t.key32 || t.snugbox_accutile || t.folded_coefficients || t.fast_exp || t.half_blend;
-  }
 };
 
 Result<std::array<float, 3>> parse_background(const std::string& text) {
@@ -90,27 +84,15 @@ struct RenderedView {
   double render_ms = 0;  ///< wall time of the render, to its completion on the device
 };
 
-std::string technique_names(const runtime::RoofgsOptions& r) {
-  std::string s;
-  if (r.key32) s += " key32";
-  if (r.snugbox_accutile) s += " accutile";
-  if (r.folded_coefficients) s += " folded";
-  if (r.fast_exp) s += " fast-exp(σ=" + tools::fixed(r.fast_exp_sigma, 6) + ")";
-  if (r.half_blend && r.folded_coefficients && r.fast_exp) s += " half-blend";
-  return s;
-}
-
 /// The run's scene and renderer: the front door (api::load, api::Renderer) on the device --backend names.
 struct View {
   api::Scene scene;
   api::Renderer renderer;
   api::RenderSettings settings;
 
-  /// "cpu preset fastest", "cuda techniques key32 accutile ..."
+  /// "cpu preset fastest", "cuda preset faithful", ...
   std::string mode() const {
-    const std::string device = api::device_name(scene.device());
-    if (settings.techniques) return device + " techniques" + technique_names(*settings.techniques);
-    return device + " preset " + api::preset_name(settings.preset);
+    return std::string(api::device_name(scene.device())) + " preset " + api::preset_name(settings.preset);
   }
 
   Result<RenderedView> render(const runtime::Camera& camera) {
@@ -142,7 +124,6 @@ Result<View> open_view(const Options& opt, const std::array<float, 3>& backgroun
   RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(opt.preset));
   settings.background = background;
   settings.gpu_scratch_budget = opt.scratch_budget;
-  if (opt.any_technique()) settings.techniques = opt.techniques;
   api::LoadOptions load;
   load.device = device;
   load.cuda_device = opt.device;
@@ -402,25 +383,12 @@ int main(int argc, char** argv) {
       ->excludes(memory_budget)
       ->excludes(pixel_error)
       ->excludes(stream_bytes);
-  runtime::RoofgsOptions& t = opt.techniques;
-  app.add_flag("--roofgs-key", t.key32, "RoofGS: 32-bit sort keys with per-camera depth range");
-  app.add_flag("--accutile", t.snugbox_accutile, "RoofGS: SnugBox + AccuTile tile sets");
-  app.add_flag("--folded", t.folded_coefficients, "RoofGS: folded coefficients C1..C6 with the dual-pixel update");
-  app.add_flag("--fast-exp", t.fast_exp, "RoofGS: Schraudolph fast exp");
-  app.add_option("--fast-exp-sigma", t.fast_exp_sigma, "sigma of the fast exp")->capture_default_str();
-  app.add_flag("--half-blend", t.half_blend,
-               "Blend in binary16, two pixels per half2 instruction on the GPU (beyond the paper; needs --folded and "
-               "--fast-exp)");
-  app.footer("Any RoofGS technique flag renders exactly those techniques instead of the preset's (a lab "
-             "configuration: on the GPU the RoofGS pipeline, compact attributes for .rgs input; combinations no "
-             "preset uses need a build with RGS_LAB_KERNELS).");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
       return "one of --cameras, --orbit or --path is required";
     }
-    if (t.half_blend && !(t.folded_coefficients && t.fast_exp)) return "--half-blend needs --folded and --fast-exp";
     return {};
   };
   if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;

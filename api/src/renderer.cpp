@@ -276,7 +276,6 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   const LodState* lod = scene.impl_->lod.get();
   if (impl_->device == Device::kCpu) {
     runtime::RenderOptions options = cpu_backend_options(settings.preset, info.bounds);
-    if (settings.techniques) options.roofgs = *settings.techniques;
     options.background = settings.background;
     options.num_threads = settings.cpu_threads;
     // A level-of-detail scene draws the frame's selection with every level resident (select_lod is pure: no lock).
@@ -298,10 +297,6 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   }
 #if RGS_HAS_CUDA
   runtime::GpuRenderOptions options = gpu_render_options(settings.preset, info.has_compact);
-  if (settings.techniques) {  // lab: these techniques on the RoofGS pipeline, compact when the scene has them
-    options = gpu_render_options(Preset::kFastest, info.has_compact);
-    options.roofgs.techniques = *settings.techniques;
-  }
   RGS_RETURN_ERROR_IF(reads_fp32_attributes(options) && lod != nullptr, StatusCode::kInvalidArgument,
                       std::string("Renderer: preset ") + preset_name(settings.preset) +
                           " reads FP32 attributes, and the level-of-detail scene " + info.path +

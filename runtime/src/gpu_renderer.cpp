@@ -584,8 +584,8 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
 }
 
 Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
-                                      uint64_t limit, GpuRenderStats* stats, PairCounts* counts,
-                                      cudaStream_t stream) {
+                                      const kernels::RoofgsStages& stages, uint64_t limit, GpuRenderStats* stats,
+                                      PairCounts* counts, cudaStream_t stream) {
   Buffers& b = *buffers_;
   const uint32_t n = scene.size();
   const kernels::RoofgsFrame& rf = plan.switches;
@@ -651,7 +651,7 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
       ++stats->fused_relaunches;
     }
   } else {
-    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_roofgs(source, frame, rf, projected, b.large_pairs.data(), stream),
+    RGS_RETURN_IF_CUDA_ERROR(stages.preprocess(source, frame, rf, projected, b.large_pairs.data(), stream),
                              "GpuRenderer: preprocess kernel");
     RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.scan_and_count(n, b.large_pairs.data(), stream));
     pairs = totals.pairs;
@@ -659,8 +659,8 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
     if (pairs > 0 && pairs <= limit) {
       RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, key32, key_bits, limit, stream));
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
-      RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_roofgs(projected, b.offsets.data(), n, frame, rf, large,
-                                                         b.sort.keys64(), b.sort.keys32(), b.sort.values(), stream),
+      RGS_RETURN_IF_CUDA_ERROR(stages.duplicate(projected, b.offsets.data(), n, frame, rf, large, b.sort.keys64(),
+                                                b.sort.keys32(), b.sort.values(), stream),
                                "GpuRenderer: duplicate kernel");
       RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.sort.keys64(),
                                                              b.sort.keys32(), b.sort.values(), {}, stream),
@@ -681,6 +681,14 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   RGS_ASSIGN_OR_RETURN(const FramePlan plan,
                        plan_frame(options.roofgs, camera, scene.bounds(), scene.has_compact()));
   const kernels::RoofgsFrame& rf = plan.switches;
+  const kernels::RoofgsStages& stages = options.stages;
+  RGS_RETURN_ERROR_IF(!plan.fused && (stages.preprocess == nullptr || stages.duplicate == nullptr),
+                      StatusCode::kUnsupportedFeature,
+                      "GpuRenderer: separate preprocess and duplicate stages (fused_preprocess off) are not among "
+                      "the product's launches; GpuRenderOptions::stages must give them "
+                      "(docs/RENDERER.md#product-and-lab-kernels)");
+  RGS_RETURN_ERROR_IF(stages.render == nullptr, StatusCode::kInvalidArgument,
+                      "GpuRenderer: GpuRenderOptions::stages.render is null");
   const bool key32 = rf.key32;
   const int key_bits = plan.sort_bits;
   if (key32) {
@@ -698,7 +706,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                                         plan.balanced_emission, may_chunk ? t.tile_chunk_pairs : 0));
 
   const EmitPass emit = [&](const kernels::FrameParams& pass, uint64_t max_pairs, PairCounts* counts) {
-    return n > 0 ? emit_roofgs_pairs(scene, pass, plan, max_pairs, stats, counts, stream) : Status();
+    return n > 0 ? emit_roofgs_pairs(scene, pass, plan, stages, max_pairs, stats, counts, stream) : Status();
   };
   const FinishPass finish = [&](const kernels::FrameParams& pass, const PairCounts& counts,
                                 const PairCounts& whole) -> Status {
@@ -713,9 +721,11 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     // The blend is planned with the whole frame's counts, whatever rows this pass renders.
     const BlendPlan blend = plan_blend(options.roofgs, whole.pairs, whole.large_pairs);
     stats->subtile_culling = blend.raster.subtile_culling;
-    RGS_RETURN_ERROR_IF(!kernels::raster_variant_compiled(blend.raster), StatusCode::kUnsupportedFeature,
-                        "GpuRenderer: this combination of RoofGS techniques renders with a lab kernel variant, "
-                        "which only builds with RGS_LAB_KERNELS=ON compile (docs/RENDERER.md#product-and-lab-kernels)");
+    RGS_RETURN_ERROR_IF(stages.render == kernels::render_roofgs && !kernels::raster_variant_compiled(blend.raster),
+                        StatusCode::kUnsupportedFeature,
+                        "GpuRenderer: this combination of RoofGS techniques renders with a kernel variant no preset "
+                        "uses, which the product's render stage lacks; GpuRenderOptions::stages must give one that "
+                        "has it (docs/RENDERER.md#product-and-lab-kernels)");
     kernels::TileChunks chunks;
     if (blend.chunk_pairs > 0) {
       RGS_ASSIGN_OR_RETURN(chunks, b.chunks.list(blend.chunk_pairs, counts.pairs, pass, b.tiles.ranges(),
@@ -723,8 +733,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       stats->tile_chunks_listed = true;
     }
     if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
-    RGS_RETURN_IF_CUDA_ERROR(kernels::render_roofgs(b.tiles.ranges(), chunks, sorted_values, b.roofgs_projected(),
-                                                    pass, rf, blend.raster, view, stream),
+    RGS_RETURN_IF_CUDA_ERROR(stages.render(b.tiles.ranges(), chunks, sorted_values, b.roofgs_projected(), pass, rf,
+                                           blend.raster, view, stream),
                              "GpuRenderer: render kernel");
     return Status();
   };

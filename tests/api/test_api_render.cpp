@@ -22,7 +22,6 @@
 #include <cuda_runtime_api.h>
 
 #include "rgs/api/gpu_preset.h"
-#include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_scene.h"
 #endif
@@ -99,34 +98,10 @@ TEST_CASE("presets: names parse back, faithful renders the 3DGS reference, the o
   CHECK(fastest_db >= 47.5);
   CHECK(paper_db >= 43.0);
 #if RGS_HAS_CUDA
-  // The GPU presets and modes: every listed mode parses; a scene without compact attributes falls back to the
-  // FP32 arrays under a preset, and is refused by the modes that exist to read the compact ones.
-  // Lab modes exist only in builds with the lab kernel variants (docs/RENDERER.md#product-and-lab-kernels); the
-  // presets' configurations are product ones.
-  const bool lab = kernels::lab_kernels_compiled();
-  for (const api::GpuMode& mode : api::gpu_modes()) {
-    CAPTURE(mode.name);
-    CHECK(api::gpu_mode_options(mode.name, true).ok() == (lab || !mode.lab));
-    if (lab || !mode.lab) CHECK(api::gpu_mode_options(mode.name, false).ok() == !mode.requires_compact);
-    const bool product = mode.name == "faithful" || mode.name == "fastest" || mode.name == "paper" ||
-                         mode.name == "fastest-whole-tiles" || mode.name == "roofgs-no-subtile";
-    CHECK(mode.lab == !product);
-  }
-  // One registry: the presets are the first modes, under the names parse_preset() reads.
-  const api::Preset presets[] = {api::Preset::kFaithful, api::Preset::kFastest, api::Preset::kPaper};
-  for (size_t i = 0; i < 3; ++i) {
-    REQUIRE(api::gpu_modes().size() > i);
-    CHECK(api::gpu_modes()[i].name == api::preset_name(presets[i]));
-    CHECK(api::parse_preset(api::gpu_modes()[i].name).value() == presets[i]);
-  }
-  if (!lab) {
-    const Status refused = api::gpu_mode_options("only-folded", true).status();
-    CHECK(refused.code() == StatusCode::kUnsupportedFeature);
-    CHECK(refused.message().find("RGS_LAB_KERNELS") != std::string::npos);
-  }
+  // A scene without compact attributes falls back to the FP32 arrays under a preset (the named modes of the
+  // lab: lab/tests/test_gpu_modes.cpp).
   CHECK_FALSE(api::gpu_render_options(api::Preset::kFastest, false).roofgs.compact_attributes);
   CHECK(api::gpu_render_options(api::Preset::kFastest, true).roofgs.compact_attributes);
-  CHECK(api::gpu_mode_options("nope", true).status().code() == StatusCode::kInvalidArgument);
 #endif
 }
 

@@ -32,6 +32,9 @@
 #include "rgs/runtime/gpu_renderer.h"
 #include "rgs/runtime/gpu_scene.h"
 #include "test_data.h"
+#if RGS_TEST_WITH_LAB
+#include "rgs/lab/roofgs_stages.h"
+#endif
 
 namespace rgs::test {
 
@@ -356,6 +359,20 @@ inline std::vector<float> download_floats(const float* device, size_t count) {
     REQUIRE(cudaMemcpy(host.data(), device, count * sizeof(float), cudaMemcpyDeviceToHost) == cudaSuccess);
   }
   return host;
+}
+
+/// Gives `options` the lab's RoofGS stages (lab::roofgs_stages()) for a configuration no preset uses (the
+/// separate preprocess and duplication, a lab variant of the render kernel), when this build has the lab
+/// (RGS_BUILD_LAB). @return false without the lab: the caller skips the configuration, saying so.
+inline bool use_lab_stages(runtime::GpuRenderOptions* options) {
+#if RGS_TEST_WITH_LAB
+  options->stages = lab::roofgs_stages();
+  return true;
+#else
+  (void)options;
+  MESSAGE("skipped: a configuration no preset uses needs the lab's stages (RGS_BUILD_LAB=ON)");
+  return false;
+#endif
 }
 
 }  // namespace rgs::test

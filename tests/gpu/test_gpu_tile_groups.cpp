@@ -35,7 +35,7 @@ std::vector<Config> configs(bool compact) {
   c.push_back({"paper", api::gpu_render_options(api::Preset::kPaper, compact)});
   GpuRenderOptions separate = api::gpu_render_options(api::Preset::kFastest, compact);
   separate.roofgs.fused_preprocess = false;
-  c.push_back({"fastest, separate stages", separate});
+  if (use_lab_stages(&separate)) c.push_back({"fastest, separate stages", separate});
   return c;
 }
 

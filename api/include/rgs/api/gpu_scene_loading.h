@@ -41,7 +41,7 @@ Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::Gp
                                       cudaStream_t stream = nullptr,
                                       const converter::SceneReadOptions& read_options = {});
 
-/// Uploads a replicate_scene_file() result (or any complete .rgs file in memory) onto the current device
+/// Uploads a complete .rgs file in memory onto the current device
 /// through format::RgsFile::from_bytes and GpuScene::from_rgs(options); `name` appears in errors. The bytes
 /// may be freed once this returns. is_rgs is true, file_bytes = `source_file_bytes`.
 Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, uint64_t source_file_bytes,

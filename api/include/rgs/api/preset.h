@@ -1,4 +1,4 @@
-// Named render configurations: the three presets of the front door, and every variant rgs-bench measures.
+// Named render configurations: the three presets of the front door.
 // Header usable without CUDA (runtime::RenderOptions of the CPU reference); the GPU options are in
 // gpu_preset.h.
 #pragma once

@@ -9,13 +9,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
-#include <optional>
 
 #include "rgs/api/camera.h"
 #include "rgs/api/preset.h"
 #include "rgs/api/scene.h"
 #include "rgs/format/status.h"
-#include "rgs/runtime/roofgs_options.h"
 
 /// The CUDA runtime's stream type without including CUDA headers: cudaStream_t is `CUstream_st*`, so a
 /// cudaStream_t converts to api::Stream and back implicitly.
@@ -75,11 +73,6 @@ struct RenderSettings {
   /// per-Gaussian buffers, or for one tile row's pairs, fails with kLimitExceeded
   /// (docs/RENDERER.md#bounded-pair-memory). The CPU renderer ignores it.
   uint64_t gpu_scratch_budget = 0;
-  /// Lab: the RoofGS techniques exactly as given instead of the preset's (one-technique ablations,
-  /// rgs-render's technique flags); on the GPU the RoofGS pipeline with them (compact attributes when the
-  /// scene has them). A combination with no product kernel variant renders only in builds with
-  /// RGS_LAB_KERNELS (kUnsupportedFeature otherwise; docs/RENDERER.md#product-and-lab-kernels).
-  std::optional<runtime::RoofgsOptions> techniques;
 };
 
 /// Level-of-detail counts of one frame of a level-of-detail scene (SceneInfo::lod.active; docs/LOD.md); all zero

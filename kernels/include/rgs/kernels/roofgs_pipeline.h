@@ -5,16 +5,15 @@
 // compute exactly what the baseline's do. The CPU reference's RoofGS mode (runtime/cpu_renderer.h) does the
 // same math on the host; kernels are compiled with --fmad=false to match it term by term.
 //
-//   preprocess_roofgs        per Gaussian, as the baseline, plus SnugBox culling, depth bins, ln o
-//   + inclusive_scan + duplicate_roofgs      (separate stages), or
-//   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs
+//   fused_preprocess_roofgs  one kernel: preprocess + tile count + order-preserving allocation + pairs, or
+//                            (RoofgsStages, the lab's) preprocess per Gaussian + inclusive_scan + duplication
 //   emit_large_gaussians     pairs of the Gaussians with many tiles, a warp per chunk (after either)
 //   sort_pairs (32 or 64-bit keys), tile_ranges (baseline_pipeline.h)
 //   [order_equal_keys_by_depth]  optional with the 32-bit key: tied keys in exact depth order, and the
 //                            ranges (RoofGS+; replaces tile_ranges)
 //   [list_tile_chunks]       optional with half-precision blending: the long tiles' chunks
-//   render_roofgs            folded coefficients with two pixels per thread, or the baseline loop; expf or
-//                            the fast exp
+//   render_roofgs            folded coefficients with two pixels per thread and the fast exp (the presets'
+//                            variants; a RenderRoofgsStage of the lab's adds the baseline loop and expf)
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -125,20 +124,22 @@ cudaError_t emit_large_gaussians(const RoofgsProjected& projected, const LargeGa
                                  uint64_t* keys64, uint32_t* keys32, uint32_t* values, const HostTotals& totals,
                                  cudaStream_t stream);
 
-/// Preprocess (separate stages). Thread g writes Gaussian g's per-Gaussian outputs and its tile count
-/// tiles_touched[g] (0 when culled); *large_pairs ([1], zeroed here) receives the pairs of the Gaussians with
-/// more than kSubtileLargeTiles tiles, as FusedScratch::totals[1].
-cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& frame, const RoofgsFrame& roofgs,
-                              const RoofgsProjected& out, unsigned long long* large_pairs, cudaStream_t stream);
+/// Preprocess of the separate stages (the fused kernel's twin, which no preset uses: a launch of the lab's,
+/// RoofgsStages). Thread g writes Gaussian g's per-Gaussian outputs and its tile count tiles_touched[g] (0 when
+/// culled); *large_pairs ([1], zeroed here) receives the pairs of the Gaussians with more than
+/// kSubtileLargeTiles tiles, as FusedScratch::totals[1].
+using PreprocessRoofgsStage = cudaError_t (*)(const GaussianSource& source, const FrameParams& frame,
+                                              const RoofgsFrame& roofgs, const RoofgsProjected& out,
+                                              unsigned long long* large_pairs, cudaStream_t stream);
 
-/// Duplication (separate stages). Thread g writes Gaussian g's pairs at [offsets[g−1], offsets[g])
-/// (inclusive scan of tiles_touched): its tiles in row-major order, or in
+/// Duplication of the separate stages (after PreprocessRoofgsStage and an inclusive scan of tiles_touched).
+/// Thread g writes Gaussian g's pairs at [offsets[g−1], offsets[g]): its tiles in row-major order, or in
 /// AccuTile's walk order; key = key32 ? tile << b_d | bin : tile << 32 | float_bits(depth); value = g.
 /// Gaussians with more than kSerialTileLimit tiles go to `large` instead (emit_large_gaussians writes them).
-cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* offsets, uint32_t count,
-                             const FrameParams& frame, const RoofgsFrame& roofgs,
-                             const LargeGaussianList& large, uint64_t* keys64, uint32_t* keys32, uint32_t* values,
-                             cudaStream_t stream);
+using DuplicateRoofgsStage = cudaError_t (*)(const RoofgsProjected& projected, const uint64_t* offsets,
+                                             uint32_t count, const FrameParams& frame, const RoofgsFrame& roofgs,
+                                             const LargeGaussianList& large, uint64_t* keys64, uint32_t* keys32,
+                                             uint32_t* values, cudaStream_t stream);
 
 /// Scratch of the fused kernel's order-preserving allocation (decoupled look-back over thread blocks).
 struct FusedScratch {
@@ -223,19 +224,33 @@ inline uint32_t tile_chunk_record_words(bool depth) { return depth ? 8 : 4; }
 /// the ranges of a frame of at most the pairs chunks.capacity was sized for.
 cudaError_t list_tile_chunks(const uint64_t* ranges, uint32_t tiles, const TileChunks& chunks, cudaStream_t stream);
 
-/// Whether this build holds the render kernel `raster` needs.
+/// Whether render_roofgs (the product's render stage) holds the render kernel `raster` needs: every variant but
+/// the lab ones (is_lab_variant), which the lab's RoofgsStages render.
 bool raster_variant_compiled(const RasterOptions& raster);
-
-/// True in builds with RGS_LAB_KERNELS.
-bool lab_kernels_compiled();
 
 /// Render stage of the RoofGS pipeline. Same outputs and per-pixel rules as render_baseline; with `folded`,
 /// α = min(0.99, exp(P)), P = C1·x² + C2·xy + C3·y² + C4·x + C5·y + C6 (skip P > 0), 128 threads per tile
 /// (a warp per 8×8 quadrant, two vertically adjacent pixels per thread). `chunks` (with `folded` and
 /// `half_blend`; listed by list_tile_chunks) renders the long tiles in chunks, before the other tiles.
-/// cudaErrorNotSupported when this build lacks the variant (raster_variant_compiled).
+/// cudaErrorNotSupported for a variant it lacks (raster_variant_compiled).
 cudaError_t render_roofgs(const uint64_t* ranges, const TileChunks& chunks, const uint32_t* sorted_values,
                           const RoofgsProjected& projected, const FrameParams& frame, const RoofgsFrame& roofgs,
                           const RasterOptions& raster, const ImageView& image, cudaStream_t stream);
+
+/// A render stage with render_roofgs's contract: render_roofgs itself, or one that also holds the variants the
+/// presets do not reach (the lab's).
+using RenderRoofgsStage = cudaError_t (*)(const uint64_t* ranges, const TileChunks& chunks,
+                                          const uint32_t* sorted_values, const RoofgsProjected& projected,
+                                          const FrameParams& frame, const RoofgsFrame& roofgs,
+                                          const RasterOptions& raster, const ImageView& image, cudaStream_t stream);
+
+/// The launches of the RoofGS pipeline that exist in variants no preset reaches, as the GPU renderer calls
+/// them (runtime::GpuRenderOptions::stages), each once per pass. The default is the product's: no separate
+/// stages (a frame needs the fused kernel) and render_roofgs; the lab's (lab/) give all of them.
+struct RoofgsStages {
+  PreprocessRoofgsStage preprocess = nullptr;  ///< null: the separate stages are not available
+  DuplicateRoofgsStage duplicate = nullptr;    ///< with `preprocess`
+  RenderRoofgsStage render = render_roofgs;
+};
 
 }  // namespace rgs::kernels

@@ -13,6 +13,7 @@
 #include "rgs/format/status.h"
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/kernels/output_convert.h"
+#include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/device_buffer.h"
 #include "rgs/runtime/frame_plan.h"
@@ -100,6 +101,11 @@ struct GpuRenderOptions {
   GpuPipeline pipeline = GpuPipeline::kBaseline;
   /// Used when pipeline == kRoofgs.
   GpuRoofgsOptions roofgs;
+  /// The RoofGS launches that exist in variants no preset reaches (used when pipeline == kRoofgs); the default,
+  /// the product's, renders every configuration of the presets. Separate stages (roofgs.fused_preprocess off)
+  /// need stages.preprocess and stages.duplicate, and a render-kernel variant render_roofgs lacks
+  /// (kernels::raster_variant_compiled) needs another stages.render: the lab's (lab/) have them.
+  kernels::RoofgsStages stages;
   /// Background colour (linear RGB, out = C + T·bg).
   std::array<float, 3> background = {0.f, 0.f, 0.f};
   /// Record CUDA events around each stage and fill GpuRenderStats::times (waits for the frame to finish).
@@ -174,7 +180,8 @@ class GpuRenderer {
   /// already had one), all work on `stream`. When it returns ok the frame is enqueued (and finished if
   /// options.time_stages). Errors: kInvalidArgument (validate_camera(), background not finite, fast exp σ
   /// outside [0, 1), compact attributes of a scene without them, the 32-bit key without scene bounds),
-  /// kLimitExceeded (an image too large for the 32-bit key),
+  /// kLimitExceeded (an image too large for the 32-bit key), kUnsupportedFeature (a RoofGS configuration no
+  /// preset uses, without the stages it needs in options.stages),
   /// kOutOfMemory (pair buffers too large for the device: the message gives the pair count; the renderer
   /// frees what it held and stays usable), kCudaError (a failed launch or copy, naming the stage).
   Result<GpuRenderStats> render(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
@@ -234,7 +241,8 @@ class GpuRenderer {
                               int key_bits, bool large_list, uint32_t min_chunk);
   /// The RoofGS preprocess and pair emission stage (fused or separate, as `plan` says) of a non-empty scene.
   Status emit_roofgs_pairs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
-                           uint64_t limit, GpuRenderStats* stats, PairCounts* counts, cudaStream_t stream);
+                           const kernels::RoofgsStages& stages, uint64_t limit, GpuRenderStats* stats,
+                           PairCounts* counts, cudaStream_t stream);
   std::unique_ptr<Buffers> buffers_;  // scratch buffers and events (gpu_renderer.cpp)
 };
 

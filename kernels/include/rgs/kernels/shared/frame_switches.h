@@ -70,11 +70,11 @@ struct RasterOptions {
   bool half_blend = false;
 };
 
-/// Whether `raster` renders with a lab variant of the kernel. The product build compiles the variants the
-/// presets reach: fastest (folded, fast exp, binary16 blending, sub-tile culling on or off) and paper
-/// (folded, fast exp, FP32 blending, no culling), besides the baseline kernel of faithful. Builds with
-/// RGS_LAB_KERNELS (CMake option, on with the tests) add the lab variants: the RoofGS pixel kernel, the folded
-/// kernel without the fast exp, FP32 blending with culling (the one-technique ablations, comparison modes).
+/// Whether `raster` renders with a lab variant of the kernel. The product (kernels::render_roofgs) compiles the
+/// variants the presets reach: fastest (folded, fast exp, binary16 blending, sub-tile culling on or off) and
+/// paper (folded, fast exp, FP32 blending, no culling), besides the baseline kernel of faithful. The lab (lab/,
+/// RGS_BUILD_LAB) compiles the others: the RoofGS pixel kernel, the folded kernel without the fast exp, FP32
+/// blending with culling (the one-technique ablations, comparison modes).
 inline bool is_lab_variant(const RasterOptions& raster) {
   if (!raster.folded || !raster.fast_exp) return true;  // the RoofGS pixel kernel, folded without fast exp
   return !raster.half_blend && raster.subtile_culling;  // FP32 blending with culling

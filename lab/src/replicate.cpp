@@ -1,4 +1,4 @@
-#include "rgs/converter/replicate.h"
+#include "rgs/lab/replicate.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 
 #include "rgs/converter/quantize.h"
 
-namespace rgs::converter {
+namespace rgs::lab {
 namespace {
 
 /// The value at quantile q ∈ [0, 1] of axis `axis` of the means (nth_element on a copy).
@@ -68,9 +68,9 @@ Result<format::EncodedScene> replicate(const format::EncodedScene& scene, uint32
       positions.means.push_back(scene.means[i * 3 + 2] + dz);
     }
   }
-  out.metadata.bounds = compute_bounds(positions);
+  out.metadata.bounds = converter::compute_bounds(positions);
   out.means = std::move(positions.means);
   return out;
 }
 
-}  // namespace rgs::converter
+}  // namespace rgs::lab

@@ -1,4 +1,6 @@
-// RoofGS preprocess and duplication as separate stages.
+// RoofGS preprocess and duplication as separate stages (kernels::PreprocessRoofgsStage, DuplicateRoofgsStage):
+// the fused kernel's twin, which no preset uses.
+#include "internal_lab_stages.h"
 #include "launch_util.cuh"
 #include "roofgs_gaussian.cuh"
 
@@ -43,6 +45,16 @@ __global__ void __launch_bounds__(detail::kBlockSize)
 }
 
 }  // namespace
+}  // namespace rgs::kernels
+
+namespace rgs::lab {
+
+using kernels::FrameParams;
+using kernels::GaussianSource;
+using kernels::LargeGaussianList;
+using kernels::RoofgsFrame;
+using kernels::RoofgsProjected;
+namespace detail = kernels::detail;
 
 cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& frame, const RoofgsFrame& roofgs,
                               const RoofgsProjected& out, unsigned long long* large_pairs, cudaStream_t stream) {
@@ -52,10 +64,10 @@ cudaError_t preprocess_roofgs(const GaussianSource& source, const FrameParams& f
   const uint32_t degree = roofgs.compact ? source.compact.sh_degree : source.fp32.sh_degree;
   const cudaError_t launched = detail::with_sh_degree(degree, [&](auto d) {
     if (roofgs.compact) {
-      preprocess_roofgs_kernel<true, decltype(d)::value><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out,
+      kernels::preprocess_roofgs_kernel<true, decltype(d)::value><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs, out,
                                                                                        large_pairs);
     } else {
-      preprocess_roofgs_kernel<false, decltype(d)::value><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs,
+      kernels::preprocess_roofgs_kernel<false, decltype(d)::value><<<blocks, detail::kBlockSize, 0, stream>>>(source, frame, roofgs,
                                                                                         out, large_pairs);
     }
   });
@@ -68,9 +80,9 @@ cudaError_t duplicate_roofgs(const RoofgsProjected& projected, const uint64_t* o
                              cudaStream_t stream) {
   const cudaError_t zeroed = cudaMemsetAsync(large.count, 0, sizeof(*large.count), stream);
   if (zeroed != cudaSuccess || count == 0) return zeroed;
-  duplicate_roofgs_kernel<<<detail::blocks_for(count), detail::kBlockSize, 0, stream>>>(
+  kernels::duplicate_roofgs_kernel<<<detail::blocks_for(count), detail::kBlockSize, 0, stream>>>(
       projected, offsets, count, frame, roofgs, large, detail::PairSink{~uint64_t{0}, keys64, keys32, values});
   return detail::launch_result();
 }
 
-}  // namespace rgs::kernels
+}  // namespace rgs::lab

@@ -1,13 +1,13 @@
 // Micro-kernels that measure a device's FP32 and binary16 (half2) compute peaks for the roofline of rgs-bench (docs/ROOFLINE.md:
 // achieved GB/s and GFLOP/s per stage against the device's measured peaks). The memory peak needs no kernel
-// (a cudaMemcpyAsync device-to-device copy, runtime/device_peaks.h).
+// (a cudaMemcpyAsync device-to-device copy, rgs/lab/device_peaks.h).
 #pragma once
 
 #include <cuda_runtime_api.h>
 
 #include <cstdint>
 
-namespace rgs::kernels {
+namespace rgs::lab {
 
 /// Independent FMA chains per thread of the FMA loop: enough that, with a full SM, the FP32 pipes never wait on
 /// an FMA's latency.
@@ -47,4 +47,4 @@ cudaError_t fma_peak_blocks_per_sm(uint32_t threads_per_block, int* blocks_per_s
 /// `out`, zero blocks or a block size that is not a multiple of 32 in [32, 1024]; else the launch's error.
 cudaError_t launch_fma_peak(const FmaPeakParams& params, cudaStream_t stream);
 
-}  // namespace rgs::kernels
+}  // namespace rgs::lab

@@ -1,14 +1,14 @@
-// The roofline model of rgs-bench (runtime/include/rgs/runtime/roofline_model.h) against values computed by hand from
+// The roofline model of rgs-bench (runtime/include/rgs/lab/roofline_model.h) against values computed by hand from
 // the formulas of docs/ROOFLINE.md, so that a changed term shows up here.
 #include <doctest/doctest.h>
 
 #include <cstring>
 
-#include "rgs/runtime/roofline_model.h"
+#include "rgs/lab/roofline_model.h"
 
 namespace {
 
-using namespace rgs::runtime;
+using namespace rgs::lab;
 
 const StageWork& stage(const FrameWork& w, RooflineStage s) { return w[s]; }
 

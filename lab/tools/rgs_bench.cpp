@@ -15,14 +15,14 @@
 // count and date.
 //
 // Roofline (docs/ROOFLINE.md): the device's memory and FP32 peaks are measured first in the same run
-// (runtime::measure_device_peaks: a 1 GiB device-to-device copy, an FMA loop), and every stage of every mode
-// and resolution is placed against them with the analytic bytes and FLOPs of runtime/roofline_model.h (mean over the
+// (lab::measure_device_peaks: a 1 GiB device-to-device copy, an FMA loop), and every stage of every mode
+// and resolution is placed against them with the analytic bytes and FLOPs of lab/roofline_model.h (mean over the
 // views' pair counts) and the stage's median time: GB/s, GFLOP/s, FLOP/B, % of each peak, the bounding roof.
 //
 // --floor adds the true floor (docs/ROOFLINE.md#the-true-floor): each view counted by the CPU reference
-// (runtime::census_frame) and, per stage, the time the work the image needs takes at the measured roofs.
+// (lab::census_frame) and, per stage, the time the work the image needs takes at the measured roofs.
 //
-// --replicate K tiles the scene K times (converter::replicate, api::replicate_scene_file) before the
+// --replicate K tiles the scene K times (lab::replicate, lab::replicate_scene_file) before the
 // upload, keeping compact attributes, so that multi-million-Gaussian scenes can be timed; orbit cameras frame
 // the replicated bounds. Exit status: 0 ok, 1 failure (no device, scene, render), 2 usage error.
 
@@ -48,12 +48,14 @@
 #include "rgs/api/scene_loading.h"
 #include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/config.h"
+#include "rgs/lab/device_peaks.h"
+#include "rgs/lab/frame_census.h"
+#include "rgs/lab/gpu_modes.h"
+#include "rgs/lab/replicated_scene.h"
+#include "rgs/lab/roofline_model.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
-#include "rgs/runtime/device_peaks.h"
-#include "rgs/runtime/frame_census.h"
 #include "rgs/runtime/gpu_renderer.h"
-#include "rgs/runtime/roofline_model.h"
 
 namespace {
 
@@ -61,12 +63,12 @@ using namespace rgs;
 using Clock = std::chrono::steady_clock;
 constexpr const char* kTool = "rgs-bench";
 
-// Modes: what is benchmarked, api::gpu_modes() (new variants go there); api::gpu_mode_options() turns one into
+// Modes: what is benchmarked, lab::gpu_modes() (new variants go there); lab::gpu_mode_options() turns one into
 // GpuRenderOptions for a scene, or says why it cannot run on it.
 
 /// The description of the mode called `name` (names are checked at parse time against the same list).
 std::string mode_description(const std::string& name) {
-  for (const api::GpuMode& m : api::gpu_modes()) {
+  for (const lab::GpuMode& m : lab::gpu_modes()) {
     if (m.name == name) return m.description;
   }
   return "";
@@ -229,13 +231,13 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
   return run;
 }
 
-// Roofline: the model's bytes and FLOPs (runtime/roofline_model.h) per stage, against the measured peaks.
+// Roofline: the model's bytes and FLOPs (lab/roofline_model.h) per stage, against the measured peaks.
 
 /// The model's inputs for one view of a run. The renderer does not report how many Gaussians survive
 /// culling, so `visible` is N (an upper bound, docs/ROOFLINE.md).
-runtime::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const runtime::GpuScene& scene,
+lab::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const runtime::GpuScene& scene,
                                    const ViewResult& v) {
-  runtime::FrameWorkInputs in;
+  lab::FrameWorkInputs in;
   in.roofgs = o.pipeline == runtime::GpuPipeline::kRoofgs;
   if (in.roofgs) {
     in.compact = o.roofgs.compact_attributes;
@@ -261,30 +263,30 @@ runtime::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const r
 
 /// One run on the roofline: the model's work per frame (mean over views) and each stage's point.
 struct RunRoofline {
-  runtime::FrameWorkInputs inputs;  ///< of the first view (for the JSON; mean_pairs is over all views)
+  lab::FrameWorkInputs inputs;  ///< of the first view (for the JSON; mean_pairs is over all views)
   double mean_pairs = 0;
-  runtime::StageWork work[runtime::kRooflineStages];
-  runtime::RooflinePoint points[runtime::kRooflineStages];
+  lab::StageWork work[lab::kRooflineStages];
+  lab::RooflinePoint points[lab::kRooflineStages];
 };
 
-RunRoofline roofline_of(const RunResult& r, const runtime::GpuScene& scene, const runtime::RooflinePeaks& peaks) {
+RunRoofline roofline_of(const RunResult& r, const runtime::GpuScene& scene, const lab::RooflinePeaks& peaks) {
   RunRoofline out;
   for (const ViewResult& v : r.views) {
-    const runtime::FrameWork w = runtime::frame_work(work_inputs(r.options, scene, v));
-    for (int s = 0; s < runtime::kRooflineStages; ++s) {
+    const lab::FrameWork w = lab::frame_work(work_inputs(r.options, scene, v));
+    for (int s = 0; s < lab::kRooflineStages; ++s) {
       out.work[s].bytes += w.stages[s].bytes / double(r.views.size());
       out.work[s].flops += w.stages[s].flops / double(r.views.size());
     }
   }
   if (!r.views.empty()) out.inputs = work_inputs(r.options, scene, r.views.front());
   out.mean_pairs = r.mean_pairs;
-  for (int s = 0; s < runtime::kRooflineStages; ++s) {
-    out.points[s] = runtime::roofline_point(out.work[s], r.stages[s].median, peaks);
+  for (int s = 0; s < lab::kRooflineStages; ++s) {
+    out.points[s] = lab::roofline_point(out.work[s], r.stages[s].median, peaks);
   }
   return out;
 }
 
-nlohmann::json peaks_json(const runtime::DevicePeaks& p) {
+nlohmann::json peaks_json(const lab::DevicePeaks& p) {
   return {{"memory",
            {{"method", "cudaMemcpyAsync device to device, CUDA events, median; bytes = read + write"},
             {"copy_bytes", p.copy_bytes},
@@ -292,7 +294,7 @@ nlohmann::json peaks_json(const runtime::DevicePeaks& p) {
             {"median_ms", p.copy_median_ms},
             {"gbps", p.memory_gbps}}},
           {"compute",
-           {{"method", "FP32 FMA loop (kernels/device_peaks.h), 2 FLOPs per FMA, CUDA events, median"},
+           {{"method", "FP32 FMA loop (lab/src/peak_kernels.cu), 2 FLOPs per FMA, CUDA events, median"},
             {"blocks", p.fma_blocks},
             {"blocks_per_sm", p.fma_blocks_per_sm},
             {"threads_per_block", p.fma_threads_per_block},
@@ -312,7 +314,7 @@ nlohmann::json peaks_json(const runtime::DevicePeaks& p) {
 }
 
 nlohmann::json roofline_json(const RunRoofline& rl) {
-  const runtime::FrameWorkInputs& in = rl.inputs;
+  const lab::FrameWorkInputs& in = rl.inputs;
   nlohmann::json inputs = {{"pipeline", in.roofgs ? "roofgs" : "baseline"},
                            {"attributes", in.compact ? "compact" : "fp32"},
                            {"fused", in.fused},
@@ -328,13 +330,13 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
                            {"sh_degree", in.sh_degree},
                            {"mean_pairs", rl.mean_pairs},
                            {"sort_bits", in.sort_bits},
-                           {"radix_passes", runtime::radix_passes(in.sort_bits)},
+                           {"radix_passes", lab::radix_passes(in.sort_bits)},
                            {"tiles", in.tiles},
                            {"pixels", in.pixels}};
   nlohmann::json stages;
-  for (int s = 0; s < runtime::kRooflineStages; ++s) {
-    const runtime::RooflinePoint& p = rl.points[s];
-    stages[runtime::roofline_stage_name(runtime::RooflineStage(s))] = {
+  for (int s = 0; s < lab::kRooflineStages; ++s) {
+    const lab::RooflinePoint& p = rl.points[s];
+    stages[lab::roofline_stage_name(lab::RooflineStage(s))] = {
         {"median_ms", p.ms},          {"bytes", p.bytes},
         {"flops", p.flops},           {"gbps", p.gbps},
         {"gflops", p.gflops},         {"flop_per_byte", p.intensity},
@@ -376,14 +378,14 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
                                                 const api::LoadedGpuScene& reference_scene,
                                                 const std::vector<CameraSet>& sets, runtime::GpuRenderer& renderer) {
   RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions reference,
-                       api::gpu_mode_options("faithful", reference_scene.scene.has_compact()));
+                       lab::gpu_mode_options("faithful", reference_scene.scene.has_compact()));
   std::vector<QualityRow> rows;
   audit::GpuImageComparer comparer;
   runtime::DeviceImage expected, image;
   for (const std::string& mode_name : opt.modes) {
     if (mode_name == "faithful" && opt.reference.empty()) continue;
     RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions options,
-                         api::gpu_mode_options(mode_name, scene.scene.has_compact()));
+                         lab::gpu_mode_options(mode_name, scene.scene.has_compact()));
     for (const CameraSet& set : sets) {
       QualityRow row;
       row.mode = mode_name;
@@ -427,7 +429,7 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
   RGS_ASSIGN_OR_RETURN(api::Renderer front, api::Renderer::create(api::Device::kCuda, opt.device));
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions expert_options,
-                       api::gpu_mode_options("fastest", expert_scene.scene.has_compact()));
+                       lab::gpu_mode_options("fastest", expert_scene.scene.has_compact()));
   std::vector<FrontDoorRow> rows;
   runtime::DeviceImage image;
   for (const CameraSet& set : sets) {
@@ -471,8 +473,8 @@ Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const a
 struct FloorSet {
   std::string resolution;
   std::vector<std::string> view_names;
-  std::vector<runtime::FrameCensus> census;          ///< per view
-  runtime::StageWork work[runtime::kRooflineStages];  ///< runtime::floor_work, mean over the views
+  std::vector<lab::FrameCensus> census;          ///< per view
+  lab::StageWork work[lab::kRooflineStages];  ///< lab::floor_work, mean over the views
 };
 
 Result<std::vector<FloorSet>> count_floor(const Options& opt, const std::vector<CameraSet>& sets) {
@@ -484,10 +486,10 @@ Result<std::vector<FloorSet>> count_floor(const Options& opt, const std::vector<
     const double n = double(set.cameras.size());
     for (const runtime::Camera& cam : set.cameras) {
       std::fprintf(stderr, "floor %s: counting view %s on the CPU ...\n", set.label.c_str(), cam.name.c_str());
-      auto census = runtime::census_frame(host.cloud, cam);
+      auto census = lab::census_frame(host.cloud, cam);
       if (!census.ok()) return Status(census.status()).prepend("view " + cam.name);
-      const runtime::FrameWork w = runtime::floor_work(*census, host.cloud.sh_degree);
-      for (int s = 0; s < runtime::kRooflineStages; ++s) {
+      const lab::FrameWork w = lab::floor_work(*census, host.cloud.sh_degree);
+      for (int s = 0; s < lab::kRooflineStages; ++s) {
         f.work[s].bytes += w.stages[s].bytes / n;
         f.work[s].flops += w.stages[s].flops / n;
         f.work[s].half_flops += w.stages[s].half_flops / n;
@@ -501,13 +503,13 @@ Result<std::vector<FloorSet>> count_floor(const Options& opt, const std::vector<
 }
 
 /// The floor of each stage of run `r` (0 where --floor was not given).
-std::vector<runtime::RooflinePoint> floor_points(const RunResult& r, const std::vector<FloorSet>& floors,
-                                                 const runtime::RooflinePeaks& peaks) {
+std::vector<lab::RooflinePoint> floor_points(const RunResult& r, const std::vector<FloorSet>& floors,
+                                                 const lab::RooflinePeaks& peaks) {
   for (const FloorSet& f : floors) {
     if (f.resolution != r.resolution) continue;
-    std::vector<runtime::RooflinePoint> points;
-    for (int s = 0; s < runtime::kRooflineStages; ++s) {
-      points.push_back(runtime::roofline_point(f.work[s], r.stages[s].median, peaks));
+    std::vector<lab::RooflinePoint> points;
+    for (int s = 0; s < lab::kRooflineStages; ++s) {
+      points.push_back(lab::roofline_point(f.work[s], r.stages[s].median, peaks));
     }
     return points;
   }
@@ -527,7 +529,7 @@ std::pair<double, double> view_spread(const RunResult& r) {
 
 /// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
 /// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
-Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::ReplicatedScene* replicated, bool fp32) {
+Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, lab::ReplicatedScene* replicated, bool fp32) {
   runtime::GpuSceneOptions scene_options;
   scene_options.fp32_attributes = fp32;
   if (opt.replicate <= 1) return api::load_gpu_scene(opt.input, scene_options, nullptr, tools::scene_read_options());
@@ -540,7 +542,7 @@ Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, api::Replicated
 /// What a run measured, for the table and the JSON.
 struct BenchReport {
   runtime::CudaDeviceInfo device;
-  runtime::DevicePeaks peaks;
+  lab::DevicePeaks peaks;
   std::string date;
   double load_ms = 0;
   /// Per-frame device buffers: the renderer's scratch (pairs, keys, sort and scan storage, ranges,
@@ -552,11 +554,11 @@ struct BenchReport {
   std::vector<QualityRow> quality;
   std::vector<FrontDoorRow> front_door;
   std::vector<FloorSet> floors;
-  runtime::RooflinePeaks roofs;
+  lab::RooflinePeaks roofs;
 };
 
 /// The tables on stdout: scene, stage times, roofline, quality, front door.
-void print_report(const Options& opt, const api::LoadedGpuScene& scene, const api::ReplicatedScene& replicated,
+void print_report(const Options& opt, const api::LoadedGpuScene& scene, const lab::ReplicatedScene& replicated,
                   const BenchReport& report) {
   std::printf("%s %s\n", kTool, opt.input.c_str());
   std::printf("  device           %s (sm_%d%d, %d SMs), %s\n", report.device.name.c_str(), report.device.compute_major,
@@ -607,10 +609,10 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
   std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage",
               "ms", "floor ms", "x floor", "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
   for (size_t i = 0; i < report.results.size(); ++i) {
-    for (int s = 0; s < runtime::kRooflineStages; ++s) {
-      const runtime::RooflinePoint& p = report.rooflines[i].points[s];
+    for (int s = 0; s < lab::kRooflineStages; ++s) {
+      const lab::RooflinePoint& p = report.rooflines[i].points[s];
       std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", report.results[i].mode.c_str(),
-                  report.results[i].resolution.c_str(), runtime::roofline_stage_name(runtime::RooflineStage(s)),
+                  report.results[i].resolution.c_str(), lab::roofline_stage_name(lab::RooflineStage(s)),
                   tools::fixed(p.ms, 3).c_str(), tools::fixed(p.floor_ms, 3).c_str(),
                   tools::fixed(p.times_floor, 1).c_str(), tools::fixed(p.bytes / 1e6, 2).c_str(),
                   tools::fixed(p.flops / 1e6, 1).c_str(), tools::fixed(p.gbps, 1).c_str(),
@@ -626,7 +628,7 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
                 "contributing", "3DGS pairs", "pairs 16x16", "pairs 8x8", "pairs 4x4", "reach 16x16");
     for (const FloorSet& f : report.floors) {
       double blended = 0, skipped = 0, pixels = 0, contributing = 0, rect = 0, p16 = 0, p8 = 0, p4 = 0, reach = 0;
-      for (const runtime::FrameCensus& c : f.census) {
+      for (const lab::FrameCensus& c : f.census) {
         blended += double(c.blended);
         skipped += double(c.skipped);
         pixels += double(c.pixels());
@@ -646,12 +648,12 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
     }
     std::printf("  %-12s %-10s %-10s %8s %9s %8s\n", "mode", "resolution", "stage", "ms", "floor ms", "x floor");
     for (const RunResult& r : report.results) {
-      const std::vector<runtime::RooflinePoint> points = floor_points(r, report.floors, report.roofs);
+      const std::vector<lab::RooflinePoint> points = floor_points(r, report.floors, report.roofs);
       double floor_total = 0;
       for (int s = 0; s < int(points.size()); ++s) {
         floor_total += points[s].floor_ms;
         std::printf("  %-12s %-10s %-10s %8s %9s %8s\n", r.mode.c_str(), r.resolution.c_str(),
-                    runtime::roofline_stage_name(runtime::RooflineStage(s)), tools::fixed(points[s].ms, 3).c_str(),
+                    lab::roofline_stage_name(lab::RooflineStage(s)), tools::fixed(points[s].ms, 3).c_str(),
                     tools::fixed(points[s].floor_ms, 4).c_str(), tools::fixed(points[s].times_floor, 1).c_str());
       }
       if (!points.empty()) {
@@ -682,7 +684,7 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const ap
 }
 
 /// The run as JSON (docs/BENCHMARKS.md "Reproducing"; scripts/bench_tables.py reads it).
-std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, const api::ReplicatedScene& replicated,
+std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, const lab::ReplicatedScene& replicated,
                        const BenchReport& report) {
   nlohmann::json j;
   j["tool"] = kTool;
@@ -752,9 +754,9 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
     }
     const auto [lo, hi] = view_spread(r);
     nlohmann::json floor;
-    const std::vector<runtime::RooflinePoint> points = floor_points(r, report.floors, report.roofs);
+    const std::vector<lab::RooflinePoint> points = floor_points(r, report.floors, report.roofs);
     for (int s = 0; s < int(points.size()); ++s) {
-      floor[runtime::roofline_stage_name(runtime::RooflineStage(s))] = {{"floor_ms", points[s].floor_ms},
+      floor[lab::roofline_stage_name(lab::RooflineStage(s))] = {{"floor_ms", points[s].floor_ms},
                                                                           {"times_floor", points[s].times_floor}};
     }
     runs.push_back({{"mode", r.mode},
@@ -776,7 +778,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
   for (const FloorSet& f : report.floors) {
     nlohmann::json views = nlohmann::json::array(), work;
     for (size_t v = 0; v < f.census.size(); ++v) {
-      const runtime::FrameCensus& c = f.census[v];
+      const lab::FrameCensus& c = f.census[v];
       views.push_back({{"name", f.view_names[v]},
                        {"pixels", c.pixels()},
                        {"gaussians", c.gaussians},
@@ -791,8 +793,8 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                        {"reaching_pairs", {{"16x16", c.reaching_pairs[0]}, {"8x8", c.reaching_pairs[1]},
                                            {"4x4", c.reaching_pairs[2]}}}});
     }
-    for (int s = 0; s < runtime::kRooflineStages; ++s) {
-      work[runtime::roofline_stage_name(runtime::RooflineStage(s))] = {
+    for (int s = 0; s < lab::kRooflineStages; ++s) {
+      work[lab::roofline_stage_name(lab::RooflineStage(s))] = {
           {"bytes", f.work[s].bytes}, {"flops", f.work[s].flops}, {"half_flops", f.work[s].half_flops}};
     }
     j["floor_census"].push_back({{"resolution", f.resolution}, {"work", work}, {"views", views}});
@@ -815,10 +817,10 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
 /// Measures, prints the report and stages the JSON in `outputs`.
 Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_start) {
   // Replication is host work and checks the Gaussian count before the device is touched.
-  api::ReplicatedScene replicated;
+  lab::ReplicatedScene replicated;
   if (opt.replicate > 1) {
     std::fprintf(stderr, "replicating %s x%u ...\n", opt.input.c_str(), opt.replicate);
-    auto r = api::replicate_scene_file(opt.input, opt.replicate, tools::scene_read_options());
+    auto r = lab::replicate_scene_file(opt.input, opt.replicate, tools::scene_read_options());
     if (!r.ok()) return Status(r.status()).prepend("--replicate " + std::to_string(opt.replicate));
     replicated = std::move(r).value();
   }
@@ -827,7 +829,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   const bool compact_scene = opt.replicate > 1 || api::is_rgs_path(opt.input);
   bool fp32 = !compact_scene || opt.quality;  // --quality renders the baseline, which reads the FP32 arrays
   for (const std::string& mode : opt.modes) {
-    auto options = api::gpu_mode_options(mode, compact_scene);
+    auto options = lab::gpu_mode_options(mode, compact_scene);
     if (!options.ok()) return Status(options.status()).prepend(opt.input);
     fp32 = fp32 || api::reads_fp32_attributes(*options);
   }
@@ -836,9 +838,9 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
 
   // Peaks first, while the device memory is free.
   std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
-  auto peaks = runtime::measure_device_peaks();
+  auto peaks = lab::measure_device_peaks();
   if (!peaks.ok()) return Status(peaks.status()).prepend("device peaks");
-  const runtime::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops, peaks->half_gflops};
+  const lab::RooflinePeaks roofs{peaks->memory_gbps, peaks->fp32_gflops, peaks->half_gflops};
 
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderer renderer, runtime::GpuRenderer::create());
   // Load time: read, decode (an archive .rgs decodes its Draco and quantized sections here) and upload, to the
@@ -853,7 +855,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   runtime::DeviceImage image;
   std::vector<RunResult> results;
   for (const std::string& mode : opt.modes) {
-    auto options = api::gpu_mode_options(mode, scene.scene.has_compact());
+    auto options = lab::gpu_mode_options(mode, scene.scene.has_compact());
     if (!options.ok()) return Status(options.status()).prepend("mode " + mode);
     for (const CameraSet& set : sets) {
       std::fprintf(stderr, "%s %s: %u warm-up + %zu views x %u ...\n", mode.c_str(), set.label.c_str(), opt.warmup,
@@ -956,8 +958,8 @@ int main(int argc, char** argv) {
   Options opt;
   std::string mode_help = "Mode to benchmark (repeatable; default faithful and fastest):";
   std::vector<std::string> mode_names;
-  for (const api::GpuMode& m : api::gpu_modes()) {
-    mode_help += "\n  " + m.name + ": " + m.description + (m.lab ? " [lab: builds with RGS_LAB_KERNELS]" : "");
+  for (const lab::GpuMode& m : lab::gpu_modes()) {
+    mode_help += "\n  " + m.name + ": " + m.description + (m.lab ? " [lab kernel variant]" : "");
     mode_names.push_back(m.name);
   }
   CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
@@ -986,7 +988,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--mode", opt.modes, mode_help)->check(CLI::IsMember(mode_names));
   app.add_option("--replicate", opt.replicate,
-                 "Tile the scene K times on a grid in the x-z plane (converter::replicate) before timing, keeping "
+                 "Tile the scene K times on a grid in the x-z plane (lab::replicate) before timing, keeping "
                  "compact attributes: a .rgs as stored, a PLY quantized with rgs-convert's defaults. Orbit cameras "
                  "frame the replicated scene; --cameras views are used as they are. K x Gaussians must stay "
                  "<= 2^31 - 1")

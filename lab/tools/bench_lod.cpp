@@ -11,7 +11,8 @@
 #include <memory>
 
 #include "cli_common.h"
-#include "rgs/api/gpu_preset.h"
+#include "rgs/lab/gpu_modes.h"
+#include "rgs/lab/replicated_scene.h"
 #include "rgs/api/scene_loading.h"
 #include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/converter/lod_builder.h"
@@ -47,7 +48,7 @@ Result<LodSource> open_source(const LodBenchOptions& o) {
   }
   std::fprintf(stderr, "replicating %s x%u and building its levels of detail ...\n", o.input.c_str(), o.replicate);
   const auto t0 = Clock::now();
-  RGS_ASSIGN_OR_RETURN(api::ReplicatedScene replicated, api::replicate_scene_file(o.input, o.replicate,
+  RGS_ASSIGN_OR_RETURN(lab::ReplicatedScene replicated, lab::replicate_scene_file(o.input, o.replicate,
                                                                                     scene_read_options()));
   format::ReadOptions unlimited = read_options();
   unlimited.limits.max_gaussians = uint64_t{1} << 31;
@@ -96,7 +97,7 @@ Status bench_lod(const LodBenchOptions& o,
   const format::LodIndex& index = *file.lod();
   RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> cameras, make_cameras(file.metadata().bounds));
   RGS_ASSIGN_OR_RETURN(runtime::CudaDeviceInfo device, runtime::cuda_device_info(0));
-  RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions options, api::gpu_mode_options("fastest", true));
+  RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions options, lab::gpu_mode_options("fastest", true));
   options.scratch_budget = o.scratch_budget;
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderer renderer, runtime::GpuRenderer::create());
 

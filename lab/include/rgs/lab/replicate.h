@@ -6,7 +6,7 @@
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/status.h"
 
-namespace rgs::converter {
+namespace rgs::lab {
 
 /// `copies` copies of `scene` laid out on a grid in the horizontal x–z plane (y points down in 3DGS scenes):
 /// ceil(sqrt(K)) columns along x, rows along z, copy i at column i % cols, row i / cols. The spacing on each
@@ -17,4 +17,4 @@ namespace rgs::converter {
 /// Errors: kInvalidArgument (copies 0, inconsistent scene), kLimitExceeded (more than 2^31 − 1 Gaussians).
 Result<format::EncodedScene> replicate(const format::EncodedScene& scene, uint32_t copies);
 
-}  // namespace rgs::converter
+}  // namespace rgs::lab

@@ -16,7 +16,7 @@ namespace rgs::tools {
 
 struct LodBenchOptions {
   std::string input;
-  /// > 1: the input tiled this many times (converter::replicate) and given levels of detail in memory
+  /// > 1: the input tiled this many times (lab::replicate) and given levels of detail in memory
   /// (converter::build_lod with `lod_levels`), the recipe of the big scene in docs/LOD.md.
   uint32_t replicate = 1;
   uint32_t lod_levels = 0;  ///< 0: auto

@@ -5,7 +5,7 @@
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
-#include "rgs/converter/replicate.h"
+#include "rgs/lab/replicate.h"
 #include "test_data.h"
 
 namespace rgs::test {
@@ -22,7 +22,7 @@ format::EncodedScene guitar_scene() {
 TEST_CASE("replicate: K copies on an x-z grid, attributes repeated, bounds containing every mean") {
   const format::EncodedScene scene = guitar_scene();
   const uint64_t n = scene.count;
-  auto r = converter::replicate(scene, 5);  // 3 columns, 2 rows
+  auto r = lab::replicate(scene, 5);  // 3 columns, 2 rows
   REQUIRE_MESSAGE(r.ok(), r.status().to_string());
   const format::EncodedScene& out = *r;
   CHECK(out.is_consistent());
@@ -57,11 +57,11 @@ TEST_CASE("replicate: K copies on an x-z grid, attributes repeated, bounds conta
 
 TEST_CASE("replicate: one copy keeps the scene, zero copies fail") {
   const format::EncodedScene scene = guitar_scene();
-  auto one = converter::replicate(scene, 1);
+  auto one = lab::replicate(scene, 1);
   REQUIRE(one.ok());
   CHECK(one->means == scene.means);
   CHECK(one->rotations == scene.rotations);
-  CHECK(converter::replicate(scene, 0).status().code() == StatusCode::kInvalidArgument);
+  CHECK(lab::replicate(scene, 0).status().code() == StatusCode::kInvalidArgument);
 }
 
 }  // namespace

@@ -9,7 +9,7 @@
 
 #include "rgs/format/status.h"
 
-namespace rgs::runtime {
+namespace rgs::lab {
 
 /// What measure_device_peaks() does.
 struct DevicePeakOptions {
@@ -18,7 +18,7 @@ struct DevicePeakOptions {
   uint64_t copy_bytes = uint64_t{1} << 30;
   /// Timed copies and FMA launches after one untimed warm-up of each; the medians are reported.
   uint32_t repeats = 7;
-  /// Threads per block of the FMA loop (kernels/device_peaks.h).
+  /// Threads per block of the FMA loop (lab/src/internal_peak_kernels.h).
   uint32_t fma_threads_per_block = 256;
   /// Grid of the FMA loop in full waves: SMs × resident blocks per SM × fma_waves.
   uint32_t fma_waves = 2;
@@ -33,9 +33,9 @@ struct DevicePeaks {
   std::vector<float> copy_ms;          ///< each timed copy, CUDA events
   double copy_median_ms = 0;
   double memory_gbps = 0;              ///< 2 · copy_bytes / median time
-  // Compute: the FP32 FMA loop (kernels::launch_fma_peak), 2 FLOPs per FMA.
+  // Compute: the FP32 FMA loop (launch_fma_peak), 2 FLOPs per FMA.
   uint32_t fma_blocks = 0, fma_threads_per_block = 0, fma_iterations = 0, fma_blocks_per_sm = 0;
-  uint32_t fma_chains_per_thread = 0;  ///< kernels::kFmaPeakChains
+  uint32_t fma_chains_per_thread = 0;  ///< kFmaPeakChains
   double fma_flops = 0;                ///< FLOPs of one launch
   std::vector<float> fma_ms;           ///< each timed launch, CUDA events
   double fma_median_ms = 0;
@@ -55,4 +55,4 @@ struct DevicePeaks {
 /// size the kernel refuses), kOutOfMemory (not even 2 × 64 MiB free), kCudaError (a failed call, named).
 Result<DevicePeaks> measure_device_peaks(const DevicePeakOptions& options = {}, cudaStream_t stream = nullptr);
 
-}  // namespace rgs::runtime
+}  // namespace rgs::lab

@@ -14,16 +14,16 @@
 // (12 fma + 1 add + 2 mul); the Schraudolph fast exp = 2 (one fma). The FMA peak is counted the same way
 // (2 per FMA), so the two sides of the roofline agree.
 //
-// It lives in the runtime, next to the kernels' launchers and runtime/device_peaks.h (the measured roofs),
-// because it describes what the runtime's GPU pipelines do and must change with them; it is plain host code
-// (no CUDA), built in every configuration so that its tests run without a GPU.
+// It lives in the lab beside device_peaks.h (the measured roofs) and describes what the runtime's GPU pipelines
+// do, so it must change with them; it is plain host code (no CUDA), built in every lab configuration so that its
+// tests run without a GPU.
 #pragma once
 
 #include <cstdint>
 
-#include "rgs/runtime/frame_census.h"
+#include "rgs/lab/frame_census.h"
 
-namespace rgs::runtime {
+namespace rgs::lab {
 
 /// Stages timed by rgs-bench (runtime::StageTimes without the total).
 enum class RooflineStage : int { kPreprocess = 0, kSort = 1, kRanges = 2, kRender = 3 };
@@ -183,4 +183,4 @@ struct RooflinePoint {
 /// Places `work`, timed at `ms` milliseconds, against `peaks`. A non-positive time gives zero rates.
 RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePeaks& peaks);
 
-}  // namespace rgs::runtime
+}  // namespace rgs::lab

@@ -1,10 +1,10 @@
-// The FP32 and half2 FMA loops of the device-peak measurement (kernels/device_peaks.h).
+// The FP32 and half2 FMA loops of the device-peak measurement (internal_peak_kernels.h).
 #include <cuda_fp16.h>
 
 #include "launch_util.cuh"
-#include "rgs/kernels/device_peaks.h"
+#include "internal_peak_kernels.h"
 
-namespace rgs::kernels {
+namespace rgs::lab {
 namespace {
 
 constexpr uint32_t kMaxThreadsPerBlock = 1024;
@@ -64,7 +64,7 @@ cudaError_t launch_fma_peak(const FmaPeakParams& params, cudaStream_t stream) {
   const auto kernel = params.half2 ? hfma2_peak_kernel : fma_peak_kernel;
   kernel<<<params.blocks, params.threads_per_block, 0, stream>>>(params.out, params.iterations, params.mul,
                                                                  params.add);
-  return detail::launch_result();
+  return kernels::detail::launch_result();
 }
 
-}  // namespace rgs::kernels
+}  // namespace rgs::lab

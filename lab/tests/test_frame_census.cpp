@@ -9,13 +9,13 @@
 #include <vector>
 
 #include "render_test_util.h"
-#include "rgs/runtime/frame_census.h"
+#include "rgs/lab/frame_census.h"
 
 namespace rgs::test {
 namespace {
 
-using runtime::CensusCell;
-using runtime::FrameCensus;
+using lab::CensusCell;
+using lab::FrameCensus;
 
 struct CensusWithMap {
   FrameCensus census;
@@ -24,7 +24,7 @@ struct CensusWithMap {
 
 CensusWithMap census_ok(const format::GaussianCloud& cloud, const runtime::Camera& camera, unsigned threads = 0) {
   CensusWithMap out;
-  auto r = runtime::census_frame(cloud, camera, threads, &out.map);
+  auto r = lab::census_frame(cloud, camera, threads, &out.map);
   REQUIRE_MESSAGE(r.ok(), r.status().to_string());
   out.census = *r;
   return out;
@@ -46,7 +46,7 @@ void check_invariants(const FrameCensus& c) {
   CHECK(c.contributing <= c.visible);
   CHECK(c.visible <= c.gaussians);
   CHECK(c.reaching_pairs[int(CensusCell::k16)] <= c.rect_pairs);
-  for (int cell = 0; cell < runtime::kCensusCells; ++cell) {
+  for (int cell = 0; cell < lab::kCensusCells; ++cell) {
     CAPTURE(cell);
     CHECK(c.blending_pairs[cell] <= c.reaching_pairs[cell]);
     if (cell > 0) {
@@ -106,7 +106,7 @@ TEST_CASE("census: stacked copies of one Gaussian blend where its alpha does, un
       CHECK(c.census.max_blended == kCopies);
       // Without early termination every pair that reaches 1/255 blends, and each cell the single Gaussian
       // covers holds the k copies.
-      for (int cell = 0; cell < runtime::kCensusCells; ++cell) {
+      for (int cell = 0; cell < lab::kCensusCells; ++cell) {
         CHECK(c.census.blending_pairs[cell] == c.census.reaching_pairs[cell]);
       }
       CHECK(c.census.blending_pairs[int(CensusCell::k16)] == kCopies * covered_cells(single, 16));
@@ -144,7 +144,7 @@ TEST_CASE("census of guitar: pixels that blend are the pixels the render covers,
     CHECK(threaded.census.blended == c.census.blended);
     CHECK(threaded.census.skipped == c.census.skipped);
     CHECK(threaded.census.contributing == c.census.contributing);
-    for (int cell = 0; cell < runtime::kCensusCells; ++cell) {
+    for (int cell = 0; cell < lab::kCensusCells; ++cell) {
       CHECK(threaded.census.blending_pairs[cell] == c.census.blending_pairs[cell]);
       CHECK(threaded.census.reaching_pairs[cell] == c.census.reaching_pairs[cell]);
     }

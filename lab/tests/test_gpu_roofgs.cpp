@@ -13,6 +13,8 @@
 //   Gaussians of that pixel then see a T changed by the same relative amount. Bound: max |Δ| ≤ 0.02 per
 //   channel, PSNR ≥ 70 dB (measured: see the MESSAGE lines).
 // Quality against the GPU baseline: the CPU-measured budgets of tests/runtime/test_render_real.cpp.
+// Every RoofGS configuration here renders with the lab's stages (lab::roofgs_stages()), which launch the
+// product's kernels for the presets' variants.
 #include <algorithm>
 #include <cstring>
 #include <limits>
@@ -25,6 +27,7 @@
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/runtime/device_buffer.h"
+#include "rgs/lab/roofgs_stages.h"
 #include "zero_opacity_scene.h"
 
 namespace rgs::test {
@@ -76,6 +79,7 @@ GpuRenderOptions roofgs_options(const RoofgsOptions& techniques, bool compact = 
   o.roofgs.techniques = techniques;
   o.roofgs.compact_attributes = compact;
   o.roofgs.fused_preprocess = fused;
+  o.stages = lab::roofgs_stages();
   return o;
 }
 
@@ -167,6 +171,42 @@ TEST_CASE("a Gaussian of opacity 0 changes no pixel on the GPU: the scene withou
       CHECK(with.rgba == wo.rgba);
     }
   }
+}
+
+TEST_CASE("the product's stages refuse what no preset uses, the lab's render it and the presets' variants alike") {
+  // Without GpuRenderOptions::stages the renderer has the product's launches: the separate stages and the
+  // render kernel's lab variants are refused with kUnsupportedFeature before any launch; with the lab's stages
+  // they render, and a configuration of the presets renders the same bits through either.
+  if (!have_gpu()) return;
+  auto renderer = runtime::GpuRenderer::create();
+  REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
+  const GpuScenePair guitar = guitar_sh3(1);
+  auto scene = runtime::GpuScene::from_cloud(guitar.cloud, guitar.bounds);
+  REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
+  auto cams = runtime::orbit_cameras(guitar.bounds, 1, 160, 90);
+  REQUIRE(cams.ok());
+  const Camera& cam = (*cams)[0];
+  runtime::DeviceImage image;
+  RoofgsOptions folded_only;
+  folded_only.folded_coefficients = true;
+  GpuRenderOptions separate = roofgs_options(RoofgsOptions::all(), false, false);
+  GpuRenderOptions lab_variant = roofgs_options(folded_only, false);
+  for (GpuRenderOptions* o : {&separate, &lab_variant}) {
+    GpuRenderOptions product = *o;
+    product.stages = {};
+    const auto refused = renderer->render(*scene, cam, product, &image);
+    CHECK(refused.status().code() == StatusCode::kUnsupportedFeature);
+    const auto rendered = renderer->render(*scene, cam, *o, &image);
+    CHECK_MESSAGE(rendered.ok(), rendered.status().to_string());
+  }
+  RoofgsOptions preset = RoofgsOptions::all();
+  preset.half_blend = true;
+  GpuRenderOptions with_lab = roofgs_options(preset, false);
+  GpuRenderOptions with_product = with_lab;
+  with_product.stages = {};
+  const GpuFrame a = render_gpu(*renderer, *scene, cam, with_lab, false);
+  const GpuFrame b = render_gpu(*renderer, *scene, cam, with_product, false);
+  CHECK(a.rgba == b.rgba);
 }
 
 TEST_CASE("GPU RoofGS agrees with the CPU reference term by term at SH 1, 2 and 3 (shipped guitar_sh3, 628x414)") {

@@ -12,7 +12,7 @@
 #include "rgs/format/status.h"
 #include "rgs/runtime/camera.h"
 
-namespace rgs::runtime {
+namespace rgs::lab {
 
 /// Cell sizes of FrameCensus's pair counts: 16×16 tiles, 8×8 sub-tiles, 4×4 blocks.
 enum class CensusCell : int { k16 = 0, k8 = 1, k4 = 2 };
@@ -52,7 +52,7 @@ struct FrameCensus {
 /// @param blended_map  when not null: [H, W] uint16, row-major, the Gaussians each pixel blends (at most
 ///                     2,344: each blend leaves T ≤ 254/255 of what it was, and T stays ≥ 10⁻⁴).
 /// @return kInvalidArgument (inconsistent cloud or camera), kLimitExceeded, kOutOfMemory: those of render_cpu.
-Result<FrameCensus> census_frame(const format::GaussianCloud& cloud, const Camera& camera, unsigned num_threads = 0,
+Result<FrameCensus> census_frame(const format::GaussianCloud& cloud, const runtime::Camera& camera, unsigned num_threads = 0,
                                  std::vector<uint16_t>* blended_map = nullptr);
 
-}  // namespace rgs::runtime
+}  // namespace rgs::lab

@@ -1,12 +1,12 @@
-// The per-stage bytes and FLOPs model of rgs-bench (rgs/runtime/roofline_model.h; docs/ROOFLINE.md derives each term).
+// The per-stage bytes and FLOPs model of rgs-bench (rgs/lab/roofline_model.h; docs/ROOFLINE.md derives each term).
 // Notation: N Gaussians, V visible, K = (degree + 1)² SH coefficients per channel, A attribute bytes per
 // Gaussian, P pairs, kb key bytes (8 or 4), T tiles, X pixels.
-#include "rgs/runtime/roofline_model.h"
+#include "rgs/lab/roofline_model.h"
 
 #include <algorithm>
 #include <cmath>
 
-namespace rgs::runtime {
+namespace rgs::lab {
 
 namespace {
 
@@ -187,4 +187,4 @@ RooflinePoint roofline_point(const StageWork& work, double ms, const RooflinePea
   return pt;
 }
 
-}  // namespace rgs::runtime
+}  // namespace rgs::lab

@@ -1,6 +1,6 @@
-// The census of one frame (rgs/runtime/frame_census.h): the CPU reference's 3DGS preprocess and pair sort,
+// The census of one frame (rgs/lab/frame_census.h): the CPU reference's 3DGS preprocess and pair sort,
 // then every pixel of every tile against every Gaussian of the tile's list, in list order.
-#include "rgs/runtime/frame_census.h"
+#include "rgs/lab/frame_census.h"
 
 #include <algorithm>
 #include <bitset>
@@ -9,14 +9,15 @@
 #include <string>
 #include <vector>
 
-#include "internal_parallel.h"
 #include "rgs/kernels/shared/blend_math.h"
+#include "rgs/parallel/fork_join.h"
 #include "rgs/runtime/cpu_renderer.h"
 
-namespace rgs::runtime {
+namespace rgs::lab {
 namespace {
 
 namespace k = kernels;
+using runtime::ProjectedGaussian;
 
 /// 4×4 blocks per tile side.
 constexpr int kBlocksPerSide = k::kTileSize / 4;
@@ -97,15 +98,15 @@ void census_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t
 
 }  // namespace
 
-Result<FrameCensus> census_frame(const format::GaussianCloud& cloud, const Camera& camera, unsigned num_threads,
+Result<FrameCensus> census_frame(const format::GaussianCloud& cloud, const runtime::Camera& camera, unsigned num_threads,
                                  std::vector<uint16_t>* blended_map) {
-  RenderOptions options;  // the 3DGS baseline
+  runtime::RenderOptions options;  // the 3DGS baseline
   options.num_threads = num_threads;
-  RGS_ASSIGN_OR_RETURN(const FrameSetup frame, setup_frame(cloud, camera, options));
-  RenderStats stats;
+  RGS_ASSIGN_OR_RETURN(const runtime::FrameSetup frame, runtime::setup_frame(cloud, camera, options));
+  runtime::RenderStats stats;
   std::vector<ProjectedGaussian> projected;
-  RGS_RETURN_IF_ERROR(preprocess_cpu(cloud, camera, frame, options, &stats, &projected));
-  RGS_ASSIGN_OR_RETURN(const TileBins bins, bin_and_sort_cpu(projected, frame, options));
+  RGS_RETURN_IF_ERROR(runtime::preprocess_cpu(cloud, camera, frame, options, &stats, &projected));
+  RGS_ASSIGN_OR_RETURN(const runtime::TileBins bins, runtime::bin_and_sort_cpu(projected, frame, options));
 
   FrameCensus census;
   census.width = frame.width;
@@ -125,7 +126,7 @@ Result<FrameCensus> census_frame(const format::GaussianCloud& cloud, const Camer
                   "census: out of memory for the flags of " + std::to_string(bins.values.size()) + " pairs and " +
                       std::to_string(projected.size()) + " Gaussians");
   }
-  Status walked = detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(num_threads),
+  Status walked = parallel::parallel_for(uint64_t(frame.tiles_y), parallel::thread_count(num_threads),
                                              [&](uint64_t ty) {
     std::vector<uint16_t> blend_blocks, reach_blocks;  // per worker, reused across the row's tiles
     for (int tx = 0; tx < frame.tiles_x; ++tx) {
@@ -152,4 +153,4 @@ Result<FrameCensus> census_frame(const format::GaussianCloud& cloud, const Camer
   return census;
 }
 
-}  // namespace rgs::runtime
+}  // namespace rgs::lab

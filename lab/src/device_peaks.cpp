@@ -1,16 +1,16 @@
 // Device peaks for the roofline: a large device-to-device copy and the FP32 FMA loop, each timed with CUDA
 // events after a warm-up, medians over the repeats.
-#include "rgs/runtime/device_peaks.h"
+#include "rgs/lab/device_peaks.h"
 
 #include <algorithm>
 #include <string>
 #include <utility>
 
-#include "rgs/kernels/device_peaks.h"
+#include "internal_peak_kernels.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/device_buffer.h"
 
-namespace rgs::runtime {
+namespace rgs::lab {
 namespace {
 
 constexpr uint64_t kMinCopyBytes = uint64_t{64} << 20;
@@ -63,7 +63,7 @@ Result<std::vector<float>> time_repeats(uint32_t repeats, const EventPair& ev, c
 }
 
 Status measure_copy(const DevicePeakOptions& options, const EventPair& ev, cudaStream_t stream, DevicePeaks* out) {
-  DeviceBuffer<uint8_t> src, dst;
+  runtime::DeviceBuffer<uint8_t> src, dst;
   uint64_t bytes = options.copy_bytes;
   for (;;) {
     Status a = src.allocate_exactly(bytes, "device peaks: copy source");
@@ -92,34 +92,34 @@ Status measure_fma(const DevicePeakOptions& options, const EventPair& ev, cudaSt
   RGS_RETURN_IF_CUDA_ERROR(cudaGetDevice(&device), "device peaks: cudaGetDevice");
   RGS_RETURN_IF_CUDA_ERROR(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device),
                            "device peaks: cudaDeviceGetAttribute(multiprocessors)");
-  RGS_RETURN_IF_CUDA_ERROR(kernels::fma_peak_blocks_per_sm(options.fma_threads_per_block, &per_sm),
+  RGS_RETURN_IF_CUDA_ERROR(fma_peak_blocks_per_sm(options.fma_threads_per_block, &per_sm),
                            "device peaks: occupancy of the FMA loop at " +
                                std::to_string(options.fma_threads_per_block) + " threads per block");
   RGS_RETURN_ERROR_IF(sms <= 0 || per_sm <= 0, StatusCode::kCudaError,
                       "device peaks: " + std::to_string(sms) + " SMs, " + std::to_string(per_sm) +
                           " resident FMA-loop blocks per SM");
-  kernels::FmaPeakParams params;
+  FmaPeakParams params;
   params.blocks = uint32_t(sms) * uint32_t(per_sm) * options.fma_waves;
   params.threads_per_block = options.fma_threads_per_block;
   params.iterations = options.fma_iterations;
-  DeviceBuffer<float> sink;
+  runtime::DeviceBuffer<float> sink;
   RGS_RETURN_IF_ERROR(
       sink.allocate_exactly(size_t(params.blocks) * params.threads_per_block, "device peaks: FMA sink"));
   params.out = sink.data();
   RGS_ASSIGN_OR_RETURN(out->fma_ms, time_repeats(options.repeats, ev, stream, "device peaks: FMA loop kernel",
-                                                 [&] { return kernels::launch_fma_peak(params, stream); }));
+                                                 [&] { return launch_fma_peak(params, stream); }));
   out->fma_blocks = params.blocks;
   out->fma_threads_per_block = params.threads_per_block;
   out->fma_iterations = params.iterations;
   out->fma_blocks_per_sm = uint32_t(per_sm);
-  out->fma_chains_per_thread = kernels::kFmaPeakChains;
-  out->fma_flops = kernels::fma_peak_flops(params);
+  out->fma_chains_per_thread = kFmaPeakChains;
+  out->fma_flops = fma_peak_flops(params);
   out->fma_median_ms = median(out->fma_ms);
   out->fp32_gflops = out->fma_median_ms > 0 ? out->fma_flops / (out->fma_median_ms * 1e-3) / 1e9 : 0.0;
   params.half2 = true;
   RGS_ASSIGN_OR_RETURN(out->hfma2_ms, time_repeats(options.repeats, ev, stream, "device peaks: half2 FMA loop kernel",
-                                                   [&] { return kernels::launch_fma_peak(params, stream); }));
-  out->hfma2_flops = kernels::fma_peak_flops(params);
+                                                   [&] { return launch_fma_peak(params, stream); }));
+  out->hfma2_flops = fma_peak_flops(params);
   out->hfma2_median_ms = median(out->hfma2_ms);
   out->half_gflops = out->hfma2_median_ms > 0 ? out->hfma2_flops / (out->hfma2_median_ms * 1e-3) / 1e9 : 0.0;
   return Status();
@@ -144,4 +144,4 @@ Result<DevicePeaks> measure_device_peaks(const DevicePeakOptions& options, cudaS
   return peaks;
 }
 
-}  // namespace rgs::runtime
+}  // namespace rgs::lab

@@ -1,0 +1,2 @@
+// doctest main of the lab GPU suite.
+#include "test_main.h"
