@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "output_set.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/status.h"

@@ -29,7 +29,7 @@
 #include "progress_line.h"
 #include "rgs/api/convert.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/audit/rate_control.h"
 #include "rgs/config.h"
 

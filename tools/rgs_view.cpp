@@ -10,9 +10,8 @@
 #include <vector>
 
 #include "cli_common.h"
-#include "rgs/api/device_info.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/config.h"
 #include "rgs/view/server.h"
 

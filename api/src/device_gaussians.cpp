@@ -4,7 +4,7 @@
 #include "internal_scene.h"
 
 #if RGS_HAS_CUDA
-#include "rgs/api/gpu_scene_loading.h"
+#include "internal_gpu_scene_loading.h"
 #include "rgs/runtime/device_arrays.h"
 #endif
 

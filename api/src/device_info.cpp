@@ -1,5 +1,5 @@
 // query_device: the device's name and memory in use (runtime::cuda_device_info, cudaMemGetInfo).
-#include "rgs/api/device_info.h"
+#include "rgs/api/scene.h"
 
 #include <algorithm>
 #include <thread>
@@ -9,7 +9,7 @@
 #if RGS_HAS_CUDA
 #include <cuda_runtime_api.h>
 
-#include "rgs/api/gpu_scene_loading.h"
+#include "internal_gpu_scene_loading.h"
 #include "rgs/runtime/cuda_device.h"
 #endif
 

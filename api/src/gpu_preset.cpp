@@ -1,5 +1,5 @@
 // GPU options of the presets.
-#include "rgs/api/gpu_preset.h"
+#include "internal_gpu_preset.h"
 
 namespace rgs::api {
 

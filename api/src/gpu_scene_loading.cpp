@@ -1,5 +1,5 @@
 // Scene loading straight into device memory (CUDA builds).
-#include "rgs/api/gpu_scene_loading.h"
+#include "internal_gpu_scene_loading.h"
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"

@@ -15,8 +15,8 @@
 #include "rgs/runtime/lod_selection.h"
 
 #if RGS_HAS_CUDA
-#include "rgs/api/gpu_preset.h"
-#include "rgs/api/gpu_scene_loading.h"
+#include "internal_gpu_preset.h"
+#include "internal_gpu_scene_loading.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_renderer.h"
 #include "rgs/runtime/lod_streamer.h"

@@ -5,7 +5,7 @@
 #include <optional>
 
 #include "internal_scene.h"
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
@@ -13,7 +13,7 @@
 #include "rgs/format/writer.h"
 
 #if RGS_HAS_CUDA
-#include "rgs/api/gpu_scene_loading.h"
+#include "internal_gpu_scene_loading.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/lod_streamer.h"
 #endif

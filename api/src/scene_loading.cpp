@@ -1,5 +1,5 @@
 // Host scene loading and camera choice (shared by the tools and the front door).
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 
 #include <algorithm>
 #include <cmath>

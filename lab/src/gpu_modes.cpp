@@ -3,7 +3,7 @@
 
 #include <functional>
 
-#include "rgs/api/gpu_preset.h"
+#include "internal_gpu_preset.h"
 #include "rgs/api/preset.h"
 #include "rgs/kernels/shared/frame_switches.h"
 #include "rgs/lab/roofgs_stages.h"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 #include "rgs/format/reader.h"
 #include "rgs/lab/replicated_scene.h"
 #include "test_data.h"

@@ -13,7 +13,7 @@
 #include "cli_common.h"
 #include "rgs/lab/gpu_modes.h"
 #include "rgs/lab/replicated_scene.h"
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 #include "rgs/audit/gpu_image_metrics.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/format/reader.h"

@@ -33,7 +33,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_common.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/view/protocol.h"
 
 namespace {

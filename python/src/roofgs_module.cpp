@@ -29,7 +29,7 @@
 #include "rgs/audit/audit_scene.h"
 #include "rgs/audit/rate_control.h"
 #include "rgs/audit/scene_views.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/reader.h"

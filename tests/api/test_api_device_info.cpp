@@ -7,9 +7,8 @@
 #include <doctest/doctest.h>
 
 #include "rgs/api/camera.h"
-#include "rgs/api/device_info.h"
-#include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
+#include "rgs/api/renderer.h"
 #include "rgs/config.h"
 #include "test_data.h"
 

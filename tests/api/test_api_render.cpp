@@ -12,7 +12,7 @@
 #include "rgs/api/preset.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 #include "rgs/config.h"
 #include "rgs/format/half.h"
 #include "rgs/runtime/cpu_renderer.h"
@@ -21,7 +21,7 @@
 #if RGS_HAS_CUDA
 #include <cuda_runtime_api.h>
 
-#include "rgs/api/gpu_preset.h"
+#include "internal_gpu_preset.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_scene.h"
 #endif

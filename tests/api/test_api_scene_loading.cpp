@@ -11,7 +11,7 @@
 #include "rgs/config.h"
 #include "rgs/format/reader.h"
 #include "rgs/api/scene.h"
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 #include "temp_dir.h"
 #include "test_data.h"
 

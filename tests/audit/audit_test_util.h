@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/converter/quantize.h"

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "audit_test_util.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/audit/audit.h"
 #include "rgs/audit/rate_control.h"
 #include "temp_dir.h"

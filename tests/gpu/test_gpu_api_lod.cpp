@@ -16,7 +16,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "rgs/api/gpu_preset.h"
+#include "internal_gpu_preset.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/converter/lod_builder.h"

@@ -10,7 +10,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "rgs/api/gpu_preset.h"
+#include "internal_gpu_preset.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"

@@ -28,9 +28,9 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "rgs/api/gpu_preset.h"
+#include "internal_gpu_preset.h"
 #include "rgs/api/preset.h"
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/kernels/shared/tile_chunks.h"
 

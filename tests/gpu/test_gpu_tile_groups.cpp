@@ -9,7 +9,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "rgs/api/gpu_preset.h"
+#include "internal_gpu_preset.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/runtime/device_buffer.h"

@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "rgs/api/device_info.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/scene.h"
+#include "rgs/api/camera.h"
 #include "rgs/view/image_codec.h"
 
 namespace rgs::view::detail {

@@ -18,7 +18,7 @@
 
 #include "internal_pipeline.h"
 #include "internal_routes.h"
-#include "rgs/api/device_info.h"
+#include "rgs/api/scene.h"
 
 namespace rgs::view {
 

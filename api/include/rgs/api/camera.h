@@ -6,7 +6,9 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
+#include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 #include "rgs/runtime/camera.h"
 
@@ -92,5 +94,34 @@ Mat4ColumnMajor opengl_view_matrix(const Camera& camera);
 /// An OpenGL projection matrix (column-major) for `camera` with the given depth range (0 < z_near < z_far);
 /// camera_from_opengl(opengl_view_matrix(c), opengl_projection_matrix(c, n, f), W, H) gives c back.
 Mat4ColumnMajor opengl_projection_matrix(const Camera& camera, float z_near, float z_far);
+
+/// Which views to render.
+struct CameraChoice {
+  /// INRIA cameras.json; empty: an orbit.
+  std::string cameras_path;
+  uint32_t every = 1;  ///< every k-th camera of the file
+  uint32_t limit = 0;  ///< at most this many key views of the file, or views of an orbit or path (0 = all)
+  /// With cameras_path: this many views flown through the file's cameras (after `every` and `limit`) in order
+  /// (runtime::fly_through_cameras: a centripetal Catmull–Rom spline through their centres at steady speed,
+  /// rotations slerped), at width × height as for the file's cameras; 0: the file's cameras themselves.
+  /// Needs cameras_path.
+  uint32_t fly = 0;
+  uint32_t orbit = 0;  ///< orbit camera count when cameras_path is empty
+  /// Camera path view count (runtime::path_cameras: a rising spiral, near and far) when cameras_path is
+  /// empty; used instead of `orbit` when not 0.
+  uint32_t path = 0;
+  /// Requested size; 0 = default (cameras: the file's own; orbit: `orbit_width` × `orbit_height`). With only
+  /// one side given, the other keeps the default's aspect ratio.
+  uint32_t width = 0, height = 0;
+  uint32_t orbit_width = 1920, orbit_height = 1080;
+};
+
+/// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize), flown through with
+/// runtime::fly_through_cameras when `fly` is set (keys whose sizes differ are first resized to the first key's
+/// size, field of view kept), runtime::path_cameras or runtime::orbit_cameras around `bounds`.
+/// Errors: those of the loaders and of fly_through_cameras (prefixed with the cameras path: e.g. fewer than 2
+/// cameras left after `every` and `limit`); kInvalidArgument for an orbit of 0 cameras or `fly` without
+/// cameras_path.
+Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
 
 }  // namespace rgs::api

@@ -12,8 +12,7 @@
 
 #include "rgs/api/camera.h"
 #include "rgs/api/convert.h"
-#include "rgs/api/device_info.h"
+#include "rgs/api/scene.h"
 #include "rgs/api/preset.h"
 #include "rgs/api/renderer.h"
-#include "rgs/api/scene.h"
 #include "rgs/config.h"

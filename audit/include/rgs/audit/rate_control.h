@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "rgs/api/convert.h"
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/audit/audit.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/archive.h"

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "rgs/api/scene_loading.h"
+#include "rgs/api/camera.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/status.h"
 #include "rgs/runtime/camera.h"

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "rgs/api/scene_loading.h"
+#include "internal_scene_loading.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 #include "rgs/runtime/gpu_scene.h"
