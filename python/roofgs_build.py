@@ -3,7 +3,8 @@
 `python3 -m pip install .` (or `pip wheel .`) first asks for the metadata (prepare_metadata_for_build_wheel,
 instant: pip then resolves NumPy before anything is compiled), then calls build_wheel(), which configures the
 repository with CMake for the interpreter running it (Python_EXECUTABLE = sys.executable), builds the `roofgs`
-module and the command-line tools, and writes a wheel holding the module, its type stubs, the tools
+module and the command-line tools, and writes a wheel holding the package roofgs/ (the module, loaded by
+roofgs_loader.py as `roofgs` itself, `python -m roofgs` from roofgs_main.py, the type stubs), the tools
 (rgs-convert, rgs-info, rgs-render, rgs-audit, and rgs-view when the viewer is built; pip puts them on the
 environment's PATH) and the metadata. No build requirement is downloaded: CMake, a C++ compiler, pybind11 and
 the libraries come from the system (scripts/install_deps.sh tests installs them).
@@ -222,9 +223,13 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     module, tools = _build(config_settings)
     version = _version()
     dist_info = f"roofgs-{version}.dist-info"
+    # The package roofgs/: the compiled module, the loader that makes `import roofgs` give it, `python -m roofgs`
+    # and the type stubs.
     files = {
-        module.name: (module.read_bytes(), 0o100755),
-        "roofgs.pyi": ((ROOT / "python" / "roofgs.pyi").read_bytes(), 0o100644),
+        f"roofgs/{module.name}": (module.read_bytes(), 0o100755),
+        "roofgs/__init__.py": ((ROOT / "python" / "roofgs_loader.py").read_bytes(), 0o100644),
+        "roofgs/__main__.py": ((ROOT / "python" / "roofgs_main.py").read_bytes(), 0o100644),
+        "roofgs/__init__.pyi": ((ROOT / "python" / "roofgs.pyi").read_bytes(), 0o100644),
     }
     # The .data/scripts files go to the environment's bin folder (the wheel format, PEP 427).
     for tool in tools:
