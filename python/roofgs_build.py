@@ -137,7 +137,7 @@ def _run(args, messages, progress_prefix=None):
     for line in process.stdout:
         messages.output(line)
         m = re.match(r"\[(\d+)/(\d+)\]", line)
-        if progress_prefix and m and int(m.group(2)) > 0:
+        if progress_prefix and m and int(m.group(1)) > 0:  # [0/N]: Ninja's check of the build files
             tenth = 10 * int(m.group(1)) // int(m.group(2))
             if tenth > shown:
                 shown = tenth
