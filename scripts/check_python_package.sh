@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The roofgs Python package as a user installs it: a fresh virtual environment of Debian's python3 (with its
 # NumPy and pytest), `python -m pip install .` of this checkout (the README's command; CPU-only here unless
-# CMAKE_ARGS says otherwise, to keep CI short), then the Python tests against the installed module, run from
-# outside the checkout. Then a second CPython, when one is found ($RGS_SECOND_PYTHON, else pyenv's newest
+# CMAKE_ARGS says otherwise, to keep CI short), the command-line tools it installs on the environment's PATH
+# (rgs-convert converts and rgs-info reads a scene, also through `python -m roofgs`), then the Python tests against the installed module, run
+# from outside the checkout. Then a second CPython, when one is found ($RGS_SECOND_PYTHON, else pyenv's newest
 # 3.12 or 3.13), installs the module into its own environment and loads and renders a scene with it.
 # Usage: scripts/check_python_package.sh [WORK_DIR]   (default build-python-check in the checkout)
 set -euo pipefail
@@ -23,6 +24,20 @@ install() {  # install PYTHON VENV [pip options...]
 }
 
 install /usr/bin/python3 "$work/venv" --system-site-packages
+# The command-line tools come with the module, on the environment's PATH.
+tool="$(PATH="$work/venv/bin:$PATH" command -v rgs-convert || true)"
+if [ "$tool" != "$work/venv/bin/rgs-convert" ]; then
+  echo "check_python_package: rgs-convert is not on the environment's PATH (found: '${tool}')" >&2
+  exit 1
+fi
+"$tool" "$root/samples/guitar.ply" "$work/guitar_cli.rgs" --quiet
+"$work/venv/bin/rgs-info" "$work/guitar_cli.rgs" > /dev/null
+echo "check_python_package: $("$tool" --version) on the environment's PATH"
+# python -m roofgs lists the tools and runs them.
+listing="$(cd "$work" && "$work/venv/bin/python" -m roofgs)"
+grep -q "$work/venv/bin/rgs-convert" <<< "$listing"
+described="$(cd "$work" && "$work/venv/bin/python" -m roofgs info "$work/guitar_cli.rgs")"
+grep -q "gaussians *90,854" <<< "$described"
 (cd "$work" && RGS_SOURCE_DIR="$root" "$work/venv/bin/python" -m pytest "$root/tests/python" -q -p no:cacheprovider)
 
 second="${RGS_SECOND_PYTHON:-$(ls -d "$HOME"/.pyenv/versions/3.1[23]*/bin/python3 2>/dev/null | sort -V | tail -1)}"

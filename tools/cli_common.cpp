@@ -463,13 +463,33 @@ void add_scene_read_options(CLI::App& app, bool with_spz_frame) {
       ->check(CLI::Range(1u, 32768u))
       ->capture_default_str();
   if (!with_spz_frame) return;
-  app.add_option_function<std::string>(
+  app.add_option_function<std::vector<std::string>>(
          "--spz-frame",
-         [&options](const std::string& name) { options.spz_frame = *converter::parse_spz_frame(name); },
-         "Axes of SPZ files read or written: rub (Niantic's convention, turned to and from RoofGS's RDF) or "
-         "as-stored (no turn: the PLY's axes, as splat-transform 3.7 writes and reads SPZ). Nothing in an SPZ "
-         "file tells the two apart (converter/INTEROP.md)")
-      ->check(CLI::IsMember({"rub", "as-stored"}))
+         [&options](const std::vector<std::string>& values) {
+           for (const std::string& value : values) {
+             const size_t eq = value.rfind('=');
+             if (eq == std::string::npos) {
+               options.spz_frame = *converter::parse_spz_frame(value);
+             } else {
+               options.spz_frame_by_path[value.substr(0, eq)] = *converter::parse_spz_frame(value.substr(eq + 1));
+             }
+           }
+         },
+         "Axes of SPZ files read or written, when a file does not declare them: rub (Niantic's convention, "
+         "turned to and from RoofGS's RDF) or as-stored (no turn: the PLY's axes, as splat-transform 3.7 writes "
+         "and reads SPZ); FILE=rub or FILE=as-stored for one file (repeat the option for several: "
+         "--spz-frame theirs.spz=as-stored). Only a coordinate-system extension in the file tells them apart, "
+         "and it wins (converter/INTEROP.md)")
+      ->check([](const std::string& value) -> std::string {
+        const size_t eq = value.rfind('=');
+        const std::string frame = eq == std::string::npos ? value : value.substr(eq + 1);
+        if (eq == 0) return value + " names no file before '='";
+        return converter::parse_spz_frame(frame) ? ""
+                                                 : value + " is not a frame (rub, as-stored, FILE=rub, FILE=as-stored)";
+      })
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
       ->default_str("rub");
 }
 

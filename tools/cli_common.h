@@ -149,8 +149,8 @@ std::string extension_of(const std::string& path);
 converter::SceneReadOptions& scene_read_options();
 
 /// Adds `--max-gaussians N`, `--max-decompression-ratio R` (defaults as in SPEC §5.5) and
-/// `--spz-frame rub|as-stored` (converter::SpzFrame; tools that read only .rgs leave it out) to `app`, bound to
-/// scene_read_options(); shown in --help.
+/// `--spz-frame rub|as-stored|FILE=rub|FILE=as-stored`, repeatable (converter::SpzFrame for all SPZ files or one;
+/// tools that read only .rgs leave it out) to `app`, bound to scene_read_options(); shown in --help.
 void add_scene_read_options(CLI::App& app, bool with_spz_frame = true);
 
 /// Adds --cameras, --every, --limit, --fly, --orbit and --path to `app`, bound to `choice`

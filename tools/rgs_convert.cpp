@@ -111,7 +111,7 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
                 {"scales_clamped", r.spz->scales_clamped},
                 {"colors_clamped", r.spz->colors_clamped},
                 {"sh_clamped", r.spz->sh_clamped},
-                {"frame", converter::spz_frame_name(opt.convert.read.spz_frame)}};
+                {"frame", converter::spz_frame_name(converter::spz_frame_for(opt.convert.read, opt.output))}};
   }
   if (opt.fit) {
     const audit::FitResult& f = *opt.fit;

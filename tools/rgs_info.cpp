@@ -1,17 +1,21 @@
-// rgs-info: prints a .rgs file's header, sections, conventions, bounds, SH scales and provenance.
-// With --check it validates everything (checksums, codecs, values) and exits 1 on the first problem.
-// "-" reads the file from standard input. Strings from the file (provenance) are printed escaped.
+// rgs-info: prints a .rgs file's header, sections, conventions, bounds, SH scales and provenance, and for any
+// other scene the converter reads (PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) its format, Gaussian count,
+// SH degree, bounds, size and reading notes. With --check it validates everything (a .rgs file's checksums,
+// codecs and values; another scene is read and decoded in full) and exits 1 on the first problem. "-" reads a
+// .rgs or PLY file from standard input. Strings from the file (provenance, names) are printed escaped.
 
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
 
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "cli_common.h"
 #include "rgs/config.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
@@ -133,7 +137,65 @@ void print_text(const format::RgsFile& file) {
   }
 }
 
+nlohmann::json bounds_json(const format::SceneBounds& b) {
+  return {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max}, {"sphere_center", b.sphere_center},
+          {"sphere_radius", b.sphere_radius}};
+}
+
+nlohmann::json to_json(const std::string& path, const converter::InputScene& scene) {
+  nlohmann::json j;
+  j["file"] = path;
+  j["format"] = scene.format_id;
+  j["description"] = scene.description;
+  j["storage_format"] = scene.storage_format;
+  j["bytes"] = scene.file_bytes;
+  j["files"] = scene.files;
+  j["gaussians"] = scene.cloud.size();
+  j["declared_gaussians"] = scene.declared_vertices;
+  j["sh_degree"] = scene.cloud.sh_degree;
+  j["bounds"] = bounds_json(scene.bounds);
+  j["notes"] = scene.notes;
+  return j;
+}
+
+void print_text(const std::string& path, const converter::InputScene& scene) {
+  const uint64_t n = scene.cloud.size();
+  const format::SceneBounds& b = scene.bounds;
+  std::printf("%s\n", tools::escape_text(path).c_str());
+  std::printf("  format           %s (%s)\n", tools::escape_text(scene.description).c_str(), scene.format_id.c_str());
+  std::printf("  size             %s bytes in %s file%s (%s B/Gaussian)\n", tools::group_digits(scene.file_bytes).c_str(),
+              tools::group_digits(scene.file_count).c_str(), scene.file_count == 1 ? "" : "s",
+              tools::fixed(n ? static_cast<double>(scene.file_bytes) / static_cast<double>(n) : 0.0, 2).c_str());
+  std::printf("  gaussians        %s, SH degree %u", tools::group_digits(n).c_str(), scene.cloud.sh_degree);
+  if (scene.declared_vertices != n) {
+    std::printf(" (the file declares %s)", tools::group_digits(scene.declared_vertices).c_str());
+  }
+  std::printf("\n  aabb             [%g, %g, %g] .. [%g, %g, %g]\n", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
+              b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
+  std::printf("  bounding sphere  centre (%g, %g, %g), radius %g\n", b.sphere_center[0], b.sphere_center[1],
+              b.sphere_center[2], b.sphere_radius);
+  for (const std::string& note : scene.notes) std::printf("  note             %s\n", tools::escape_text(note).c_str());
+}
+
+/// Any scene the converter reads, through its reading door: a file or folder, or `data` (standard input).
+int describe_scene(const std::string& path, const uint8_t* data, size_t size, bool check, bool json) {
+  auto scene = data ? converter::read_scene_bytes(data, size, path, tools::scene_read_options())
+                    : converter::read_scene(path, tools::scene_read_options());
+  if (!scene.ok()) return tools::report_error(kTool, scene.status());
+  if (json) {
+    nlohmann::json j = to_json(path, *scene);
+    if (check) j["check"] = "ok";
+    std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
+  } else {
+    print_text(path, *scene);
+    if (check) std::printf("  check            ok (read and decoded in full, every value checked)\n");
+  }
+  return tools::kExitOk;
+}
+
 int run(const std::string& path, bool check, bool json) {
+  std::error_code ec;
+  if (path != "-" && std::filesystem::is_directory(path, ec)) return describe_scene(path, nullptr, 0, check, json);
   // The file's bytes: mapped, or standard input's content for "-".
   std::shared_ptr<const format::MappedFile> mapping;
   std::vector<uint8_t> stdin_bytes;
@@ -152,12 +214,8 @@ int run(const std::string& path, bool check, bool json) {
   const size_t size = mapping ? mapping->size() : stdin_bytes.size();
   auto file = format::RgsFile::from_bytes(data, size, tools::read_options(), path);
   if (!file.ok()) {
-    // Name the common mix-up instead of only the magic mismatch.
-    if (file.status().code() == StatusCode::kNotRgsFile && size >= 4 &&
-        std::equal(data, data + 4, reinterpret_cast<const uint8_t*>("ply\n"))) {
-      return tools::report_error(kTool, Status(StatusCode::kNotRgsFile,
-                                               path + ": this is a PLY file, not .rgs; rgs-info reads .rgs files "
-                                                      "(convert it with: rgs-convert " + path + " out.rgs)"));
+    if (file.status().code() == StatusCode::kNotRgsFile) {
+      return describe_scene(path, path == "-" ? data : nullptr, size, check, json);
     }
     return tools::report_error(kTool, file.status());
   }
@@ -183,14 +241,20 @@ int main(int argc, char** argv) {
   std::string path;
   bool check = false;
   bool json = false;
-  CLI::App app{"Print a .rgs file's header, sections, conventions and provenance; --check validates every "
-               "checksum, codec frame and value.",
+  CLI::App app{"Print a .rgs file's header, sections, conventions and provenance, or any other scene's format, "
+               "Gaussian count, SH degree, bounds and size (PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat); "
+               "--check validates every checksum, codec frame and value.",
                kTool};
-  app.add_option("file", path, ".rgs file; - reads standard input")->required();
-  app.add_flag("--check", check, "Validate fully; exit 1 and name the first problem if the file is invalid");
+  app.add_option("file", path,
+                 "Scene file or folder (.rgs, PLY, compressed PLY, SOG meta.json/.sog/folder, lod-meta.json, SPZ, "
+                 "glTF/GLB, .splat); - reads a .rgs or PLY file from standard input")
+      ->required();
+  app.add_flag("--check", check,
+               "Validate fully (a .rgs file's checksums, codecs and values; another scene read and decoded in "
+               "full); exit 1 and name the first problem if the file is invalid");
   app.add_flag("--json", json, "Print JSON instead of text");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
-  rgs::tools::add_scene_read_options(app, /*with_spz_frame=*/false);
+  rgs::tools::add_scene_read_options(app);
   if (auto code = tools::parse_command_line(app, argc, argv, kTool)) return *code;
   return tools::finish(kTool, run(path, check, json));
 }

@@ -374,7 +374,7 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
     }
     case OutputFormat::kSpz: {
       converter::SpzWriteOptions spz_options;
-      spz_options.frame = options.read.spz_frame;
+      spz_options.frame = converter::spz_frame_for(options.read, dst);
       RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz, converter::write_spz(dst, cloud, spz_options, files));
       report->output_bytes = spz.bytes;
       report->output_description = "SPZ v" + std::to_string(spz.version);

@@ -606,52 +606,59 @@ Status check_inputs(const format::EncodedScene& scene, const LodBuildOptions& op
   return Status();
 }
 
-Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& options) {
-  const uint64_t n0 = in.count;
-  const unsigned workers = parallel::thread_count(options.threads);
-  Progress progress(options.progress, 3 * n0);
-
-  // 1. Chunks: Morton sort over the scene's cube, octree leaves of at most max_chunk_gaussians.
+/// Scene-wide Morton order: the input's box, its Gaussians sorted by Morton code over that box's cube, and the
+/// octree leaves ([begin, end) into `index`) that become the chunks.
+struct MortonOrder {
   float box_lo[3], box_hi[3];
-  for (int a = 0; a < 3; ++a) box_lo[a] = box_hi[a] = in.means[static_cast<size_t>(a)];
-  for (uint64_t i = 0; i < n0; ++i) {
-    for (int a = 0; a < 3; ++a) {
-      box_lo[a] = std::min(box_lo[a], in.means[i * 3 + a]);
-      box_hi[a] = std::max(box_hi[a], in.means[i * 3 + a]);
-    }
-  }
   std::vector<uint64_t> keys;
   std::vector<uint32_t> index;
+  std::vector<std::pair<uint64_t, uint64_t>> leaves;
+};
+
+/// Step 1, the chunks: Morton sort over the scene's cube, octree leaves of at most max_chunk_gaussians.
+Result<MortonOrder> sort_into_chunks(const format::EncodedScene& in, uint64_t max_chunk_gaussians, unsigned workers) {
+  const uint64_t n0 = in.count;
+  MortonOrder order;
+  for (int a = 0; a < 3; ++a) order.box_lo[a] = order.box_hi[a] = in.means[static_cast<size_t>(a)];
+  for (uint64_t i = 0; i < n0; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      order.box_lo[a] = std::min(order.box_lo[a], in.means[i * 3 + a]);
+      order.box_hi[a] = std::max(order.box_hi[a], in.means[i * 3 + a]);
+    }
+  }
+  std::vector<uint64_t>& keys = order.keys;
+  std::vector<uint32_t>& index = order.index;
   detail::resize_huge(keys, n0);
   detail::resize_huge(index, n0);
+  const MortonGrid grid(order.box_lo, order.box_hi);
+  RGS_RETURN_IF_ERROR(detail::parallel_slices(n0, parallel::worker_count(n0, 65536, workers), [&](unsigned, uint64_t b, uint64_t e) {
+    for (uint64_t i = b; i < e; ++i) {
+      keys[i] = grid.code(&in.means[i * 3]);
+      index[i] = static_cast<uint32_t>(i);
+    }
+  }));
   {
-    const MortonGrid grid(box_lo, box_hi);
-    RGS_RETURN_IF_ERROR(detail::parallel_slices(n0, parallel::worker_count(n0, 65536, workers), [&](unsigned, uint64_t b, uint64_t e) {
-      for (uint64_t i = b; i < e; ++i) {
-        keys[i] = grid.code(&in.means[i * 3]);
-        index[i] = static_cast<uint32_t>(i);
-      }
-    }));
     std::vector<uint64_t> tmp_keys;
     std::vector<uint32_t> tmp_index;
     detail::resize_huge(tmp_keys, n0);
     detail::resize_huge(tmp_index, n0);
     radix_sort(keys.data(), index.data(), n0, tmp_keys.data(), tmp_index.data());
   }
-  std::vector<std::pair<uint64_t, uint64_t>> leaves;
-  split_node(keys.data(), 0, n0, 0, options.max_chunk_gaussians, &leaves);
-  const uint32_t chunk_count = static_cast<uint32_t>(leaves.size());
-  progress.add(n0 / 2);
-  progress.report();
+  split_node(keys.data(), 0, n0, 0, max_chunk_gaussians, &order.leaves);
+  return order;
+}
 
-  // 2. Per chunk: its box, its Gaussians sorted by local Morton code, each level's grid.
-  const uint32_t planned_levels = options.levels == 0 ? kAutoMaxLevels : options.levels;
+/// Step 2, per chunk: its box, its Gaussians sorted by local Morton code, each level's grid.
+Result<std::vector<ChunkPlan>> plan_chunks(const format::EncodedScene& in, uint32_t planned_levels, unsigned workers,
+                                           MortonOrder* order, std::vector<Scratch>* scratch, Progress* progress) {
+  const auto chunk_count = static_cast<uint32_t>(order->leaves.size());
   std::vector<ChunkPlan> plans(chunk_count);
-  std::vector<Scratch> scratch(workers);
+  std::vector<uint64_t>& keys = order->keys;
+  std::vector<uint32_t>& index = order->index;
   RGS_RETURN_IF_ERROR(detail::parallel_items(chunk_count, workers, [&](unsigned worker, uint64_t c) {
     ChunkPlan& plan = plans[c];
-    plan.begin = leaves[c].first;
-    plan.end = leaves[c].second;
+    plan.begin = order->leaves[c].first;
+    plan.end = order->leaves[c].second;
     const uint64_t n = plan.end - plan.begin;
     for (int a = 0; a < 3; ++a) plan.lo[a] = plan.hi[a] = in.means[static_cast<uint64_t>(index[plan.begin]) * 3 + a];
     for (uint64_t j = plan.begin; j < plan.end; ++j) {
@@ -663,51 +670,52 @@ Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& op
     }
     const MortonGrid grid(plan.lo, plan.hi);
     for (uint64_t j = plan.begin; j < plan.end; ++j) keys[j] = grid.code(&in.means[static_cast<uint64_t>(index[j]) * 3]);
-    Scratch& s = scratch[worker];
+    Scratch& s = (*scratch)[worker];
     if (s.tmp_keys.size() < n) {
       s.tmp_keys.resize(n);
       s.tmp_values.resize(n);
     }
     radix_sort(&keys[plan.begin], &index[plan.begin], n, s.tmp_keys.data(), s.tmp_values.data());
     plan_levels(&keys[plan.begin], n, grid.edge, planned_levels, &plan);
-    progress.add(n / 2);
-    if (worker == 0) progress.report();
+    progress->add(n / 2);
+    if (worker == 0) progress->report();
   }));
+  return plans;
+}
 
-  // 3. Levels, ranges, output arrays.
-  uint64_t totals[format::kMaxLodLevels] = {};
+/// Step 3, the number of levels: `options.levels`, or with 0 (auto) the first level holding at most 1/64 of
+/// the full detail, or where every chunk is down to one Gaussian (further levels would repeat it).
+uint32_t choose_level_count(const std::vector<ChunkPlan>& plans, uint32_t planned_levels,
+                            const LodBuildOptions& options, uint64_t n0, uint64_t totals[format::kMaxLodLevels]) {
   for (const ChunkPlan& p : plans) {
     for (uint32_t l = 0; l < planned_levels; ++l) totals[l] += p.count[l];
   }
-  uint32_t levels = planned_levels;
-  if (options.levels == 0) {
-    // Auto: stop at the first level holding at most 1/64 of the full detail, or where every chunk is down to
-    // one Gaussian (further levels would repeat it).
-    for (uint32_t l = 0; l < kAutoMaxLevels; ++l) {
-      if (totals[l] * kAutoRatio <= n0 || totals[l] == chunk_count) {
-        levels = l + 1;
-        break;
-      }
-    }
+  if (options.levels != 0) return planned_levels;
+  for (uint32_t l = 0; l < kAutoMaxLevels; ++l) {
+    if (totals[l] * kAutoRatio <= n0 || totals[l] == plans.size()) return l + 1;
   }
-  uint64_t total = 0;
-  for (uint32_t l = 0; l < levels; ++l) total += totals[l];
-  RGS_RETURN_ERROR_IF(total > kMaxOutputGaussians, StatusCode::kLimitExceeded,
-                      "build_lod: " + std::to_string(levels) + " levels of " + std::to_string(n0) +
-                          " Gaussians make " + std::to_string(total) + ", more than 2^31 - 1");
+  return planned_levels;
+}
+
+/// Step 3, the output's first index of each (level, chunk) range: levels coarse after fine, chunks in order.
+Layouts lay_out_ranges(const std::vector<ChunkPlan>& plans, uint32_t levels) {
+  const auto chunk_count = static_cast<uint32_t>(plans.size());
   Layouts ranges;
   ranges.chunks = chunk_count;
   ranges.levels = levels;
   ranges.first.resize(static_cast<size_t>(levels) * chunk_count);
-  {
-    uint64_t offset = 0;
-    for (uint32_t l = 0; l < levels; ++l) {
-      for (uint32_t c = 0; c < chunk_count; ++c) {
-        ranges.first[static_cast<size_t>(l) * chunk_count + c] = offset;
-        offset += plans[c].count[l];
-      }
+  uint64_t offset = 0;
+  for (uint32_t l = 0; l < levels; ++l) {
+    for (uint32_t c = 0; c < chunk_count; ++c) {
+      ranges.first[static_cast<size_t>(l) * chunk_count + c] = offset;
+      offset += plans[c].count[l];
     }
   }
+  return ranges;
+}
+
+/// The input's attribute layout that the merge needs: SH sizes and scales, scale and DC-residual encodings.
+Layout describe_layout(const format::EncodedScene& in) {
   Layout t;
   t.k_count = format::sh_coefficient_count(in.metadata.sh_degree);
   t.sh_values = t.k_count * 3;
@@ -716,9 +724,13 @@ Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& op
   for (uint32_t j = 0; j < t.sh_values; ++j) {
     t.sh_scale[j] = in.metadata.sh_quantization.scales[format::sh_degree_of_coefficient(j / 3)][j % 3];
   }
+  return t;
+}
 
-  LodScene result;
-  format::EncodedScene& out = result.scene;
+/// Step 3, the output scene's metadata and arrays of `total` Gaussians, and an LOD index of the given shape.
+void allocate_output(const format::EncodedScene& in, const Layout& t, uint32_t levels, uint32_t chunk_count,
+                     uint64_t total, LodScene* result) {
+  format::EncodedScene& out = result->scene;
   out.metadata = in.metadata;
   out.provenance = in.provenance;
   out.provenance.emplace_back("lod_levels", std::to_string(levels));
@@ -731,27 +743,80 @@ Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& op
   detail::resize_huge(out.sh, total * t.sh_values);
   if (t.dc_residual) detail::resize_huge(out.sh_dc_residual, total * 3);
 
-  format::LodIndex& lod = result.index;
+  format::LodIndex& lod = result->index;
   lod.chunk_count = chunk_count;
   lod.level_count = levels;
   lod.chunks.resize(chunk_count);
   lod.levels.resize(static_cast<size_t>(levels) * chunk_count);
-  std::vector<ChunkReach> reaches(chunk_count);
+}
+
+/// Step 5: each chunk's bounding radius and levels in the LOD index, and the scene's sphere radius.
+Status fill_lod_index(const std::vector<ChunkPlan>& plans, const std::vector<ChunkReach>& reaches,
+                      const Layouts& ranges, LodScene* result) {
+  format::LodIndex& lod = result->index;
+  double scene_d2 = 0;
+  for (uint32_t c = 0; c < lod.chunk_count; ++c) {
+    scene_d2 = std::max(scene_d2, reaches[c].scene_d2);
+    const float radius = round_up_float(reaches[c].radius * (1 + 1e-6));
+    RGS_RETURN_ERROR_IF(!std::isfinite(radius), StatusCode::kInvalidArgument,
+                        "build_lod: chunk " + std::to_string(c) +
+                            " holds a Gaussian whose 3-sigma extent overflows float32");
+    lod.chunks[c].radius = radius;
+    for (uint32_t l = 0; l < lod.level_count; ++l) {
+      format::LodLevel& level = lod.at(l, c);
+      level.first = ranges.at(l, c);
+      level.count = plans[c].count[l];
+      level.error = plans[c].error[l];
+      level.checksum = 0;
+    }
+  }
+  result->scene.metadata.bounds.sphere_radius = format::sphere_radius_for(scene_d2);
+  return Status();
+}
+
+Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& options) {
+  const uint64_t n0 = in.count;
+  const unsigned workers = parallel::thread_count(options.threads);
+  Progress progress(options.progress, 3 * n0);
+
+  RGS_ASSIGN_OR_RETURN(MortonOrder order, sort_into_chunks(in, options.max_chunk_gaussians, workers));
+  const auto chunk_count = static_cast<uint32_t>(order.leaves.size());
+  progress.add(n0 / 2);
+  progress.report();
+
+  const uint32_t planned_levels = options.levels == 0 ? kAutoMaxLevels : options.levels;
+  std::vector<Scratch> scratch(workers);
+  RGS_ASSIGN_OR_RETURN(std::vector<ChunkPlan> plans,
+                       plan_chunks(in, planned_levels, workers, &order, &scratch, &progress));
+
+  uint64_t totals[format::kMaxLodLevels] = {};
+  const uint32_t levels = choose_level_count(plans, planned_levels, options, n0, totals);
+  uint64_t total = 0;
+  for (uint32_t l = 0; l < levels; ++l) total += totals[l];
+  RGS_RETURN_ERROR_IF(total > kMaxOutputGaussians, StatusCode::kLimitExceeded,
+                      "build_lod: " + std::to_string(levels) + " levels of " + std::to_string(n0) +
+                          " Gaussians make " + std::to_string(total) + ", more than 2^31 - 1");
+  const Layouts ranges = lay_out_ranges(plans, levels);
+  const Layout t = describe_layout(in);
+  LodScene result;
+  allocate_output(in, t, levels, chunk_count, total, &result);
+
   // Scene bounds by compute_bounds()' rule over every output mean: parents are clamped into their chunk's
   // AABB, so the AABB is the input means' (box_lo, box_hi); the sphere's centre follows from it and its
   // radius from the largest distance, measured per chunk below.
-  format::SceneBounds& bounds = out.metadata.bounds;
+  format::SceneBounds& bounds = result.scene.metadata.bounds;
   for (int a = 0; a < 3; ++a) {
-    bounds.aabb_min[a] = box_lo[a];
-    bounds.aabb_max[a] = box_hi[a];
+    bounds.aabb_min[a] = order.box_lo[a];
+    bounds.aabb_max[a] = order.box_hi[a];
   }
   double scene_center[3];
   format::set_sphere_center(&bounds, scene_center);
 
   // 4. Per chunk: level 0 copied, coarser levels merged, sphere.
+  std::vector<ChunkReach> reaches(chunk_count);
   RGS_RETURN_IF_ERROR(detail::parallel_items(chunk_count, workers, [&](unsigned worker, uint64_t c) {
     const ChunkPlan& plan = plans[c];
-    format::LodChunk& chunk = lod.chunks[c];
+    format::LodChunk& chunk = result.index.chunks[c];
     double center[3];
     for (int a = 0; a < 3; ++a) {
       chunk.center[a] = static_cast<float>(0.5 * (static_cast<double>(plan.lo[a]) + static_cast<double>(plan.hi[a])));
@@ -760,29 +825,12 @@ Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& op
       const volatile float stored = chunk.center[a];
       center[a] = stored;
     }
-    reaches[c] = build_chunk(in, index, keys, plan, static_cast<uint32_t>(c), ranges, t, center, scene_center,
-                             &scratch[worker], &out);
+    reaches[c] = build_chunk(in, order.index, order.keys, plan, static_cast<uint32_t>(c), ranges, t, center,
+                             scene_center, &scratch[worker], &result.scene);
     progress.add(2 * (plan.end - plan.begin));
     if (worker == 0) progress.report();
   }));
-  double scene_d2 = 0;
-  for (uint32_t c = 0; c < chunk_count; ++c) {
-    scene_d2 = std::max(scene_d2, reaches[c].scene_d2);
-    const float radius = round_up_float(reaches[c].radius * (1 + 1e-6));
-    RGS_RETURN_ERROR_IF(!std::isfinite(radius), StatusCode::kInvalidArgument,
-                        "build_lod: chunk " + std::to_string(c) +
-                            " holds a Gaussian whose 3-sigma extent overflows float32");
-    lod.chunks[c].radius = radius;
-    for (uint32_t l = 0; l < levels; ++l) {
-      format::LodLevel& level = lod.at(l, c);
-      level.first = ranges.at(l, c);
-      level.count = plans[c].count[l];
-      level.error = plans[c].error[l];
-      level.checksum = 0;
-    }
-  }
-
-  bounds.sphere_radius = format::sphere_radius_for(scene_d2);
+  RGS_RETURN_IF_ERROR(fill_lod_index(plans, reaches, ranges, &result));
   progress.finish();
   return result;
 }

@@ -199,9 +199,13 @@ InteropReadOptions interop_options(const SceneReadOptions& options) {
 Result<InputScene> read_spz_scene(const std::string& path, const SceneReadOptions& options) {
   RGS_RETURN_IF_ERROR(refuse_lod(path, options, "an SPZ file"));
   InteropReadOptions o = interop_options(options);
-  o.convert_frame = options.spz_frame == SpzFrame::kRub;
+  const SpzFrame frame = spz_frame_for(options, path);
+  o.convert_frame = frame == SpzFrame::kRub;
   RGS_ASSIGN_OR_RETURN(InteropScene spz, read_spz(path, o));
-  spz.notes.insert(spz.notes.begin(), spz_frame_note(options.spz_frame, /*writing=*/false));
+  spz.notes.insert(spz.notes.begin(),
+                   spz.frame_declared ? "SPZ axes declared by the file (coordinate-system extension: " +
+                                            spz.stored_frame + "), turned to RDF; no spz frame is assumed"
+                                      : spz_frame_note(frame, /*writing=*/false));
   const std::string description = "Niantic SPZ v" + std::to_string(spz.format_version);
   return to_input_scene(path, std::move(spz), options, description);
 }
@@ -413,6 +417,15 @@ Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
 }
 
 }  // namespace
+
+SpzFrame spz_frame_for(const SceneReadOptions& options, const std::string& path) {
+  if (options.spz_frame_by_path.empty()) return options.spz_frame;
+  const std::filesystem::path wanted = std::filesystem::path(path).lexically_normal();
+  for (const auto& [entry, frame] : options.spz_frame_by_path) {
+    if (std::filesystem::path(entry).lexically_normal() == wanted) return frame;
+  }
+  return options.spz_frame;
+}
 
 format::ReadOptions rgs_read_options(const SceneReadOptions& options) {
   format::ReadOptions read_options;

@@ -80,8 +80,10 @@ Status check_header(const Header& h, const InteropReadOptions& options, StreamSi
   return Status();
 }
 
-/// Parses `[u32 type][u32 length][payload]` records; a coordinate-system record sets *frame.
-Status parse_extensions(const uint8_t* p, uint64_t n, std::string* frame, std::vector<std::string>* notes) {
+/// Parses `[u32 type][u32 length][payload]` records; a coordinate-system record naming a frame sets *frame and
+/// *declared.
+Status parse_extensions(const uint8_t* p, uint64_t n, std::string* frame, bool* declared,
+                        std::vector<std::string>* notes) {
   uint64_t pos = 0;
   while (pos < n) {
     if (n - pos < 8) {
@@ -100,6 +102,7 @@ Status parse_extensions(const uint8_t* p, uint64_t n, std::string* frame, std::v
       const uint32_t value = le_u32(p + pos);
       if (value >= 1 && value <= 8) {
         *frame = detail::spz_frame_name(value);
+        *declared = true;
       } else if (value >= 9 && value <= 16) {
         return Status(StatusCode::kUnsupportedFeature,
                       "SPZ coordinate-system extension names rotated frame " + std::to_string(value) +
@@ -165,7 +168,7 @@ Status finish(const Header& h, const std::string& stored_frame, const InteropRea
   scene->format_version = h.version;
   scene->declared_gaussians = h.num_points;
   scene->stored_frame = stored_frame;
-  if (options.convert_frame) {
+  if (options.convert_frame || scene->frame_declared) {
     detail::AxisFlip flip;
     if (!detail::flip_to_rdf(stored_frame, &flip)) {
       return Status(StatusCode::kUnsupportedFeature, "SPZ frame '" + stored_frame + "' cannot be converted");
@@ -243,7 +246,7 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
   InteropScene scene;
   std::string frame = "RUB";
   RGS_RETURN_IF_ERROR(parse_extensions(data + detail::kSpzV4HeaderBytes, toc_offset - detail::kSpzV4HeaderBytes,
-                                       &frame, &scene.notes));
+                                       &frame, &scene.frame_declared, &scene.notes));
   // Every stream inside the file, back to back, the last ending at the end of the file.
   uint64_t offsets[detail::kSpzStreamCount] = {};
   uint64_t compressed[detail::kSpzStreamCount] = {};
@@ -452,7 +455,7 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
   InteropScene scene;
   std::string frame = "RUB";
   if (h.flags & detail::kSpzFlagExtensions) {
-    RGS_RETURN_IF_ERROR(parse_extensions(tail.data(), tail.size(), &frame, &scene.notes));
+    RGS_RETURN_IF_ERROR(parse_extensions(tail.data(), tail.size(), &frame, &scene.frame_declared, &scene.notes));
   } else if (!tail.empty()) {
     return Status(StatusCode::kCorruptData, std::to_string(tail.size()) +
                                                 " bytes follow the SPZ arrays but the extension flag is not set");

@@ -237,157 +237,194 @@ bool quantized_codes_are_xz(const uint8_t* src, size_t size) {
   return size >= header && is_xz_stream(src + header, size - header);
 }
 
+namespace {
+
+/// A quantized section's codes after its frame is decoded, with the header that says how to read them.
+struct QuantizedCodes {
+  const QuantizedHeader& h;
+  std::vector<uint8_t> codes;
+  uint64_t n;
+  uint32_t width;     ///< Bytes per code in the planar transforms.
+  uint32_t max_code;  ///< 2^bits - 1.
+
+  /// Code of component `c` of Gaussian `i` in the planar layout (one byte plane per code byte).
+  uint32_t at(uint32_t c, uint64_t i) const { return read_code(codes.data() + c * n * width, width, n, i); }
+};
+
+Status bad_code(uint64_t i, uint32_t c, uint32_t code) {
+  return Status(StatusCode::kCorruptData,
+                "Gaussian " + dec(i) + ": code " + dec(code) + " of component " + dec(c) + " is out of range");
+}
+
+/// Transform 1: rotations as the smallest three quaternion components, into [N, 4] float16.
+Status decode_smallest_three(const QuantizedCodes& q, uint8_t* dst, size_t raw_size) {
+  const uint64_t n = q.n;
+  RGS_RETURN_ERROR_IF(raw_size != n * 8, StatusCode::kInvalidArgument, "rotation buffer size mismatch");
+  const double scale = std::sqrt(2.0) / q.max_code, lo = -std::sqrt(0.5);
+  for (uint64_t i = 0; i < n; ++i) {
+    const uint32_t largest = q.at(0, i);
+    if (largest > 3) return bad_code(i, 0, largest);
+    double quat[4];
+    double sum = 0;
+    for (uint32_t c = 1, slot = 0; c < 4; ++c, ++slot) {
+      if (slot == largest) ++slot;
+      const uint32_t code = q.at(c, i);
+      if (code > q.max_code) return bad_code(i, c, code);
+      quat[slot] = lo + code * scale;
+      sum += quat[slot] * quat[slot];
+    }
+    quat[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
+    for (int a = 0; a < 4; ++a) store_u16_le(dst + i * 8 + a * 2, float_to_half_bits(static_cast<float>(quat[a])));
+  }
+  return Status();
+}
+
+/// Transform 2: scales uniform in log space, into [N, 3] float16 in the scene's scale encoding.
+Status decode_log_uniform(const QuantizedCodes& q, ScaleEncoding encoding, uint8_t* dst, size_t raw_size) {
+  const uint64_t n = q.n;
+  const uint32_t max_code = q.max_code;
+  RGS_RETURN_ERROR_IF(raw_size != n * 6, StatusCode::kInvalidArgument, "scale buffer size mismatch");
+  const bool log = encoding == ScaleEncoding::kLog;
+  auto scale_of = [&](uint32_t a, uint32_t code) {
+    const double v = static_cast<double>(q.h.params[a]) + code * static_cast<double>(q.h.params[3 + a]);
+    return float_to_half_bits(static_cast<float>(log ? v : std::exp(v)));
+  };
+  // With more Gaussians than codes, each code's scale is computed once per axis.
+  const uint64_t codes_per_axis = uint64_t{max_code} + 1;
+  std::vector<uint16_t> table;
+  if (n > codes_per_axis) {
+    table.resize(3 * codes_per_axis);
+    for (uint32_t a = 0; a < 3; ++a) {
+      for (uint32_t code = 0; code <= max_code; ++code) table[a * codes_per_axis + code] = scale_of(a, code);
+    }
+  }
+  for (uint64_t i = 0; i < n; ++i) {
+    for (uint32_t a = 0; a < 3; ++a) {
+      const uint32_t code = q.at(a, i);
+      if (code > max_code) return bad_code(i, a, code);
+      store_u16_le(dst + i * 6 + a * 2, table.empty() ? scale_of(a, code) : table[a * codes_per_axis + code]);
+    }
+  }
+  return Status();
+}
+
+/// Transform 3: opacities uniform in [0, 1], into [N] float16.
+Status decode_uniform(const QuantizedCodes& q, uint8_t* dst, size_t raw_size) {
+  RGS_RETURN_ERROR_IF(raw_size != q.n * 2, StatusCode::kInvalidArgument, "opacity buffer size mismatch");
+  for (uint64_t i = 0; i < q.n; ++i) {
+    const uint32_t code = q.at(0, i);
+    if (code > q.max_code) return bad_code(i, 0, code);
+    store_u16_le(dst + i * 2, float_to_half_bits(static_cast<float>(static_cast<double>(code) / q.max_code)));
+  }
+  return Status();
+}
+
+/// Transform 4: SH int8 codes times a per-degree multiplier, into [N, components] int8.
+Status decode_sh_multiplier(const QuantizedCodes& q, uint32_t components, uint8_t* dst, size_t raw_size) {
+  const uint64_t n = q.n;
+  RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
+  for (uint32_t c = 0; c < components; ++c) {
+    const int m = static_cast<int>(q.h.params[sh_degree_of_coefficient(c / 3)]);
+    // Gaussian-major records, unlike the planes of the other transforms.
+    for (uint64_t i = 0; i < n; ++i) {
+      const uint8_t code = q.codes[i * components + c];
+      const int value = static_cast<int8_t>(code) * m;
+      if (value < -127 || value > 127) return bad_code(i, c, code);
+      dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(value));
+    }
+  }
+  return Status();
+}
+
+/// Transform 6: SH colour differences, into [N, components] int8.
+Status decode_sh_colour_differences(const QuantizedCodes& q, uint32_t components, uint8_t* dst, size_t raw_size) {
+  const uint64_t n = q.n;
+  RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
+  // The DC triples as three planes of N, then N records of the rest triples; each triple holds
+  // (R - G, G, B - G) modulo 256, so R = (R - G) + G modulo 256, read as int8.
+  const uint8_t* rest = q.codes.data() + 3 * n;
+  const uint32_t rest_values = components - 3;
+  for (uint64_t i = 0; i < n; ++i) {
+    for (uint32_t c = 0; c < components; c += 3) {
+      uint8_t triple[3];
+      for (uint32_t k = 0; k < 3; ++k) triple[k] = c == 0 ? q.codes[k * n + i] : rest[i * rest_values + c - 3 + k];
+      const uint8_t green = triple[1];
+      const uint8_t rgb[3] = {static_cast<uint8_t>(triple[0] + green), green, static_cast<uint8_t>(triple[2] + green)};
+      const int m = static_cast<int>(q.h.params[sh_degree_of_coefficient(c / 3)]);
+      for (uint32_t k = 0; k < 3; ++k) {
+        const int value = static_cast<int8_t>(rgb[k]) * m;
+        if (value < -127 || value > 127) return bad_code(i, c + k, rgb[k]);
+        dst[i * components + c + k] = static_cast<uint8_t>(static_cast<int8_t>(value));
+      }
+    }
+  }
+  return Status();
+}
+
+/// Transform 5: SH rest coefficients through a codebook, DC as transform 4, into [N, components] int8. The
+/// codebook entries decode in place of their codes in `q`.
+Status decode_sh_codebook(QuantizedCodes& q, uint32_t components, uint8_t* dst, size_t raw_size) {
+  const uint64_t n = q.n;
+  RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
+  const uint32_t rest = components - 3;
+  const uint64_t k = q.h.codebook_size;
+  const uint8_t* entries = q.codes.data();
+  const uint8_t* dc = entries + k * rest;
+  const uint8_t* index = dc + n * 3;
+  // Entries decode in place of their codes: value = code x m[deg] (checked like transform 4's codes).
+  std::vector<uint8_t>& book = q.codes;
+  for (uint64_t e = 0; e < k * rest; ++e) {
+    const uint32_t j = static_cast<uint32_t>(e % rest);
+    const int value = static_cast<int8_t>(book[e]) * static_cast<int>(q.h.params[sh_degree_of_coefficient(1 + j / 3)]);
+    if (value < -127 || value > 127) {
+      return Status(StatusCode::kCorruptData, "SH codebook entry " + dec(e / rest) + ": code " +
+                                                  std::to_string(static_cast<int8_t>(book[e])) + " of value " +
+                                                  dec(j) + " is out of range");
+    }
+    book[e] = static_cast<uint8_t>(static_cast<int8_t>(value));
+  }
+  const int m = static_cast<int>(q.h.params[0]);
+  for (uint64_t i = 0; i < n; ++i) {
+    for (uint32_t c = 0; c < 3; ++c) {
+      const uint8_t code = dc[i * 3 + c];
+      const int value = static_cast<int8_t>(code) * m;
+      if (value < -127 || value > 127) return bad_code(i, c, code);
+      dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(value));
+    }
+    const uint32_t e = read_code(index, q.width, n, i);
+    if (e >= k) {
+      return Status(StatusCode::kCorruptData, "Gaussian " + dec(i) + ": SH codebook index " + dec(e) +
+                                                  " >= codebook size " + dec(k));
+    }
+    std::memcpy(dst + i * components + 3, entries + uint64_t{e} * rest, rest);
+  }
+  return Status();
+}
+
+}  // namespace
+
 Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8_t* src, size_t size, uint64_t n,
                         uint32_t components, uint8_t* dst, size_t raw_size) {
   QuantizedHeader h;
   RGS_RETURN_IF_ERROR(parse_quantized(id, src, size, n, components, &h));
-  std::vector<uint8_t> codes;
+  QuantizedCodes q{h, {}, n, code_width(h.bits), (1u << h.bits) - 1};
   try {
-    codes.resize(static_cast<size_t>(h.codes_size));
+    q.codes.resize(static_cast<size_t>(h.codes_size));
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory, "out of memory for " + dec(h.codes_size) + " bytes of codes");
   }
   {
-    Status s = h.xz ? decode_xz_stream(h.frame, h.frame_size, codes.data(), codes.size())
-                    : decode_zstd_frame(h.frame, h.frame_size, codes.data(), codes.size());
+    Status s = h.xz ? decode_xz_stream(h.frame, h.frame_size, q.codes.data(), q.codes.size())
+                    : decode_zstd_frame(h.frame, h.frame_size, q.codes.data(), q.codes.size());
     if (!s.ok()) return s.prepend("codes");
   }
-  const uint32_t width = code_width(h.bits);
-  const uint32_t max_code = (1u << h.bits) - 1;
-  const uint64_t plane = n * width;
-  auto code_at = [&](uint32_t c, uint64_t i) { return read_code(codes.data() + c * plane, width, n, i); };
-  auto bad_code = [&](uint64_t i, uint32_t c, uint32_t code) {
-    return Status(StatusCode::kCorruptData, "Gaussian " + dec(i) + ": code " + dec(code) + " of component " +
-                                                dec(c) + " is out of range");
-  };
   switch (h.transform) {
-    case QuantizedTransform::kSmallestThree: {
-      RGS_RETURN_ERROR_IF(raw_size != n * 8, StatusCode::kInvalidArgument, "rotation buffer size mismatch");
-      const double scale = std::sqrt(2.0) / max_code, lo = -std::sqrt(0.5);
-      for (uint64_t i = 0; i < n; ++i) {
-        const uint32_t largest = code_at(0, i);
-        if (largest > 3) return bad_code(i, 0, largest);
-        double q[4];
-        double sum = 0;
-        for (uint32_t c = 1, slot = 0; c < 4; ++c, ++slot) {
-          if (slot == largest) ++slot;
-          const uint32_t code = code_at(c, i);
-          if (code > max_code) return bad_code(i, c, code);
-          q[slot] = lo + code * scale;
-          sum += q[slot] * q[slot];
-        }
-        q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
-        for (int a = 0; a < 4; ++a) store_u16_le(dst + i * 8 + a * 2, float_to_half_bits(static_cast<float>(q[a])));
-      }
-      break;
-    }
-    case QuantizedTransform::kLogUniform: {
-      RGS_RETURN_ERROR_IF(raw_size != n * 6, StatusCode::kInvalidArgument, "scale buffer size mismatch");
-      const bool log = metadata.scale_encoding == ScaleEncoding::kLog;
-      auto scale_of = [&](uint32_t a, uint32_t code) {
-        const double v = static_cast<double>(h.params[a]) + code * static_cast<double>(h.params[3 + a]);
-        return float_to_half_bits(static_cast<float>(log ? v : std::exp(v)));
-      };
-      // With more Gaussians than codes, each code's scale is computed once per axis.
-      const uint64_t codes_per_axis = uint64_t{max_code} + 1;
-      std::vector<uint16_t> table;
-      if (n > codes_per_axis) {
-        table.resize(3 * codes_per_axis);
-        for (uint32_t a = 0; a < 3; ++a) {
-          for (uint32_t code = 0; code <= max_code; ++code) table[a * codes_per_axis + code] = scale_of(a, code);
-        }
-      }
-      for (uint64_t i = 0; i < n; ++i) {
-        for (uint32_t a = 0; a < 3; ++a) {
-          const uint32_t code = code_at(a, i);
-          if (code > max_code) return bad_code(i, a, code);
-          store_u16_le(dst + i * 6 + a * 2, table.empty() ? scale_of(a, code) : table[a * codes_per_axis + code]);
-        }
-      }
-      break;
-    }
-    case QuantizedTransform::kUniform: {
-      RGS_RETURN_ERROR_IF(raw_size != n * 2, StatusCode::kInvalidArgument, "opacity buffer size mismatch");
-      for (uint64_t i = 0; i < n; ++i) {
-        const uint32_t code = code_at(0, i);
-        if (code > max_code) return bad_code(i, 0, code);
-        store_u16_le(dst + i * 2, float_to_half_bits(static_cast<float>(static_cast<double>(code) / max_code)));
-      }
-      break;
-    }
-    case QuantizedTransform::kShMultiplier: {
-      RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
-      for (uint32_t c = 0; c < components; ++c) {
-        const int m = static_cast<int>(h.params[sh_degree_of_coefficient(c / 3)]);
-        // Gaussian-major records, unlike the planes of the other transforms.
-        for (uint64_t i = 0; i < n; ++i) {
-          const uint8_t code = codes[i * components + c];
-          const int q = static_cast<int8_t>(code) * m;
-          if (q < -127 || q > 127) return bad_code(i, c, code);
-          dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(q));
-        }
-      }
-      break;
-    }
-    case QuantizedTransform::kShColourDifferences: {
-      RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
-      // The DC triples as three planes of N, then N records of the rest triples; each triple holds
-      // (R - G, G, B - G) modulo 256, so R = (R - G) + G modulo 256, read as int8.
-      const uint8_t* rest = codes.data() + 3 * n;
-      const uint32_t rest_values = components - 3;
-      for (uint64_t i = 0; i < n; ++i) {
-        for (uint32_t c = 0; c < components; c += 3) {
-          uint8_t triple[3];
-          for (uint32_t k = 0; k < 3; ++k) triple[k] = c == 0 ? codes[k * n + i] : rest[i * rest_values + c - 3 + k];
-          const uint8_t green = triple[1];
-          const uint8_t rgb[3] = {static_cast<uint8_t>(triple[0] + green), green,
-                                  static_cast<uint8_t>(triple[2] + green)};
-          const int m = static_cast<int>(h.params[sh_degree_of_coefficient(c / 3)]);
-          for (uint32_t k = 0; k < 3; ++k) {
-            const int q = static_cast<int8_t>(rgb[k]) * m;
-            if (q < -127 || q > 127) return bad_code(i, c + k, rgb[k]);
-            dst[i * components + c + k] = static_cast<uint8_t>(static_cast<int8_t>(q));
-          }
-        }
-      }
-      break;
-    }
-    case QuantizedTransform::kShCodebook: {
-      RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
-      const uint32_t rest = components - 3;
-      const uint64_t k = h.codebook_size;
-      const uint8_t* entries = codes.data();
-      const uint8_t* dc = entries + k * rest;
-      const uint8_t* index = dc + n * 3;
-      // Entries decode in place of their codes: value = code x m[deg] (checked like transform 4's codes).
-      std::vector<uint8_t>& book = codes;
-      for (uint64_t e = 0; e < k * rest; ++e) {
-        const uint32_t j = static_cast<uint32_t>(e % rest);
-        const int q = static_cast<int8_t>(book[e]) * static_cast<int>(h.params[sh_degree_of_coefficient(1 + j / 3)]);
-        if (q < -127 || q > 127) {
-          return Status(StatusCode::kCorruptData, "SH codebook entry " + dec(e / rest) + ": code " +
-                                                      std::to_string(static_cast<int8_t>(book[e])) + " of value " +
-                                                      dec(j) + " is out of range");
-        }
-        book[e] = static_cast<uint8_t>(static_cast<int8_t>(q));
-      }
-      const int m = static_cast<int>(h.params[0]);
-      for (uint64_t i = 0; i < n; ++i) {
-        for (uint32_t c = 0; c < 3; ++c) {
-          const uint8_t code = dc[i * 3 + c];
-          const int q = static_cast<int8_t>(code) * m;
-          if (q < -127 || q > 127) return bad_code(i, c, code);
-          dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(q));
-        }
-        const uint32_t e = read_code(index, width, n, i);
-        if (e >= k) {
-          return Status(StatusCode::kCorruptData, "Gaussian " + dec(i) + ": SH codebook index " + dec(e) +
-                                                      " >= codebook size " + dec(k));
-        }
-        std::memcpy(dst + i * components + 3, entries + uint64_t{e} * rest, rest);
-      }
-      break;
-    }
+    case QuantizedTransform::kSmallestThree: return decode_smallest_three(q, dst, raw_size);
+    case QuantizedTransform::kLogUniform: return decode_log_uniform(q, metadata.scale_encoding, dst, raw_size);
+    case QuantizedTransform::kUniform: return decode_uniform(q, dst, raw_size);
+    case QuantizedTransform::kShMultiplier: return decode_sh_multiplier(q, components, dst, raw_size);
+    case QuantizedTransform::kShColourDifferences: return decode_sh_colour_differences(q, components, dst, raw_size);
+    case QuantizedTransform::kShCodebook: return decode_sh_codebook(q, components, dst, raw_size);
   }
   return Status();
 }

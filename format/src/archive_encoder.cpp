@@ -832,6 +832,163 @@ Result<ArchivePositionQuantization> choose_position_quantization(const SceneBoun
   return q;
 }
 
+namespace {
+
+/// Slots of the archive's sections in `ArchiveScene::stored`: means, rotations, scales, opacities, SH.
+using SectionFlags = std::array<bool, 5>;
+
+/// The sections of `earlier` coded with the same settings, in the same order, as `out` will be: those are taken
+/// as they are (same bytes, same values). Slot 0 (the means) also says that Draco's order is the same.
+SectionFlags reusable_sections(const ArchiveScene* earlier, const ArchiveScene& out, const ArchiveOptions& options) {
+  if (!earlier) return {};
+  const ArchiveOptions& e = earlier->options;
+  const bool same_order = earlier->omitted == out.omitted && earlier->position.bits == out.position.bits &&
+                          e.draco_speed == options.draco_speed;
+  const bool same_zstd = same_order && e.zstd_level == options.zstd_level && e.xz == options.xz;
+  return {same_order, same_zstd && e.rotation_bits == options.rotation_bits && e.rotation_step == options.rotation_step,
+          same_zstd && e.scale_bits == options.scale_bits && e.scale_step == options.scale_step,
+          same_zstd && e.opacity_bits == options.opacity_bits && e.opacity_step == options.opacity_step,
+          same_zstd && e.sh_step_multipliers == options.sh_step_multipliers &&
+              e.sh_codebook_size == options.sh_codebook_size};
+}
+
+/// Step 1: the means coded by Draco, which fixes the order (`order[i]` is the source index of the archive's
+/// Gaussian i), and meanwhile the codes of rotations, scales and opacities in the source's order (slots 1..3).
+Status order_means_and_quantize(const EncodedScene& source, const ArchiveOptions& options, const ArchiveScene* earlier,
+                                const SectionFlags& reuse, ArchiveScene* out, std::vector<uint64_t>* order,
+                                std::array<SourceCodes, 4>* codes) {
+  EncodedScene& d = out->decoded;
+  std::vector<std::function<Status()>> jobs;
+  if (reuse[0]) {
+    out->position = earlier->position;  // as Draco stored it
+    out->stored[0] = earlier->stored[0];
+    d.means = earlier->decoded.means;
+    *order = earlier->source_index;
+  } else {
+    jobs.push_back([&] {
+      if (out->omitted.empty()) {
+        return encode_means(source.means, &out->position, options, &out->stored[0], &d.means, order);
+      }
+      const std::vector<uint64_t> kept = kept_gaussians(source.count, out->omitted);
+      std::vector<float> kept_means(kept.size() * 3);
+      for (size_t j = 0; j < kept.size(); ++j) std::copy_n(&source.means[kept[j] * 3], 3, &kept_means[j * 3]);
+      RGS_RETURN_IF_ERROR(encode_means(kept_means, &out->position, options, &out->stored[0], &d.means, order));
+      for (uint64_t& i : *order) i = kept[i];
+      return Status();
+    });
+  }
+  auto add_codes = [&](size_t slot, auto make) {
+    if (reuse[slot]) return;
+    jobs.push_back([codes, slot, make] {
+      (*codes)[slot] = make();
+      return Status();
+    });
+  };
+  add_codes(1, [&] { return rotation_codes(source, options); });
+  add_codes(2, [&] { return scale_codes(source, out->omitted, options); });
+  add_codes(3, [&] { return opacity_codes(source, options); });
+  std::vector<Status> results;
+  detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  return Status();
+}
+
+/// Step 2: the sections not reused, coded in Draco's order. They share the threads: each its own, and its zstd
+/// frame's jobs (§7) the threads over. Each slot's codes are freed once gathered.
+Status code_sections(const EncodedScene& source, const ArchiveOptions& options, const SectionFlags& reuse,
+                     const std::vector<uint64_t>& order, std::array<SourceCodes, 4>* codes, ArchiveScene* out) {
+  ArchiveOptions section = options;
+  section.threads = detail::threads_per_job(options.threads, std::count(reuse.begin() + 1, reuse.end(), false));
+  std::vector<std::function<Status()>> jobs;
+  if (!reuse[4]) {
+    jobs.push_back([&] {
+      bool codebook = false;
+      if (source.metadata.sh_degree > 0) {
+        RGS_RETURN_IF_ERROR(encode_sh_codebook(source, order, section, &out->stored[4], &codebook));
+      }
+      return codebook ? Status() : encode_sh(source, order, section, &out->stored[4]);
+    });
+  }
+  constexpr QuantizedTransform kTransforms[4] = {{}, QuantizedTransform::kSmallestThree,
+                                                 QuantizedTransform::kLogUniform, QuantizedTransform::kUniform};
+  const uint32_t bits[4] = {0, options.rotation_bits, options.scale_bits, options.opacity_bits};
+  const uint32_t slot_components[4] = {0, 4, 3, 1};
+  for (size_t slot = 1; slot < 4; ++slot) {
+    if (reuse[slot]) continue;
+    jobs.push_back([&, slot] {
+      SourceCodes& slot_codes = (*codes)[slot];
+      const std::vector<uint8_t> gathered = slot_codes.codes.gathered(order).bytes;
+      slot_codes.codes = CodePlanes(0, 0, 8);  // freed before the coding's buffers exist
+      return finish_quantized(kTransforms[slot], bits[slot], slot_components[slot], slot_codes.params, gathered,
+                              section, &out->stored[slot]);
+    });
+  }
+  std::vector<Status> results;
+  detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  return Status();
+}
+
+/// Step 3: decodes what was written into `out->decoded`, bit for bit what readers get; reused sections are
+/// copied from `earlier`.
+Status decode_sections(const EncodedScene& source, const ArchiveOptions& options, const ArchiveScene* earlier,
+                       const SectionFlags& reuse, const std::vector<uint64_t>& order, ArchiveScene* out) {
+  EncodedScene& d = out->decoded;
+  const uint64_t n = d.count;
+  const uint32_t values = 3 * sh_coefficient_count(d.metadata.sh_degree);
+  std::vector<std::function<Status()>> jobs;
+  auto add_decode = [&](SectionId id, size_t slot, uint32_t components, auto EncodedScene::*member) {
+    auto& array = d.*member;
+    if (reuse[slot]) {
+      out->stored[slot] = earlier->stored[slot];
+      array = earlier->decoded.*member;
+      return;
+    }
+    array.resize(n * components);
+    jobs.push_back([&d, out, &array, id, slot, components, n] {
+      Status s = detail::decode_quantized(id, d.metadata, out->stored[slot].data(), out->stored[slot].size(), n,
+                                          components, reinterpret_cast<uint8_t*>(array.data()),
+                                          array.size() * sizeof(array[0]));
+      return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(id));
+    });
+  };
+  add_decode(SectionId::kRotations, 1, 4, &EncodedScene::rotations);
+  add_decode(SectionId::kScales, 2, 3, &EncodedScene::scales);
+  add_decode(SectionId::kOpacities, 3, 1, &EncodedScene::opacities);
+  // Transforms 4 and 6 and the exact transform 5 decode to the transform-4 value of every source value, so the
+  // SH values are computed here instead of decompressing the section again (saving its code buffer,
+  // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
+  if (reuse[4]) {
+    out->stored[4] = earlier->stored[4];
+    d.sh = earlier->decoded.sh;
+  } else if (options.sh_codebook_size != 0) {
+    add_decode(SectionId::kSh, 4, values, &EncodedScene::sh);
+  } else {
+    d.sh.resize(n * values);
+    jobs.push_back([&d, &source, &order, &options, values, n] {
+      int mult[48];
+      for (uint32_t c = 0; c < values; ++c) mult[c] = sh_multiplier(options, c);
+      for (uint64_t i = 0; i < n; ++i) {
+        const int8_t* q = &source.sh[order[i] * values];
+        for (uint32_t c = 0; c < values; ++c)
+          d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
+      }
+      return Status();
+    });
+  }
+  std::vector<Status> results;
+  detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  if constexpr (!detail::kHostLittleEndian) {
+    for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {
+      for (uint16_t& x : *v) x = detail::load_u16_le(reinterpret_cast<const uint8_t*>(&x));
+    }
+  }
+  return Status();
+}
+
+}  // namespace
+
 Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOptions& options_in,
                                     const ArchiveScene* earlier) {
   RGS_RETURN_IF_ERROR(check_archive_options(options_in));
@@ -851,137 +1008,17 @@ Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOpt
     d.metadata = source.metadata;
     d.provenance = source.provenance;
     d.count = source.count - out.omitted.size();
-    const uint64_t n = d.count;
-    if (n == 0) return out;  // the writer stores an empty scene with codec none
+    if (d.count == 0) return out;  // the writer stores an empty scene with codec none
 
     // Draco fixes the order; the codes of rotations, scales and opacities are computed in the source's order
-    // meanwhile, then gathered into Draco's order and coded with SH, each section on its own thread. A section of
-    // `earlier` coded with the same settings, in the same order, is taken as it is: same bytes, same values.
-    const ArchiveOptions* e = earlier ? &earlier->options : nullptr;
-    const bool same_order = e && earlier->omitted == out.omitted && earlier->position.bits == out.position.bits &&
-                            e->draco_speed == options.draco_speed;
-    const bool same_zstd = same_order && e->zstd_level == options.zstd_level && e->xz == options.xz;
-    const bool reuse[5] = {same_order, same_zstd && e->rotation_bits == options.rotation_bits &&
-                                                  e->rotation_step == options.rotation_step,
-                           same_zstd && e->scale_bits == options.scale_bits && e->scale_step == options.scale_step,
-                           same_zstd && e->opacity_bits == options.opacity_bits &&
-                               e->opacity_step == options.opacity_step,
-                           same_zstd && e->sh_step_multipliers == options.sh_step_multipliers &&
-                               e->sh_codebook_size == options.sh_codebook_size};
-    std::vector<uint64_t> order;  // Gaussian i of the archive is Gaussian order[i] of `source`
+    // meanwhile, then gathered into Draco's order and coded with SH, each section on its own thread.
+    const SectionFlags reuse = reusable_sections(earlier, out, options);
+    std::vector<uint64_t> order;       // Gaussian i of the archive is Gaussian order[i] of `source`
     std::array<SourceCodes, 4> codes;  // rotations, scales, opacities at slots 1..3
-    std::vector<std::function<Status()>> jobs;
-    if (same_order) {
-      out.position = earlier->position;  // as Draco stored it
-      out.stored[0] = earlier->stored[0];
-      d.means = earlier->decoded.means;
-      order = earlier->source_index;
-    } else {
-      jobs.push_back([&] {
-        if (out.omitted.empty()) {
-          return encode_means(source.means, &out.position, options, &out.stored[0], &d.means, &order);
-        }
-        const std::vector<uint64_t> kept = kept_gaussians(source.count, out.omitted);
-        std::vector<float> kept_means(kept.size() * 3);
-        for (size_t j = 0; j < kept.size(); ++j) std::copy_n(&source.means[kept[j] * 3], 3, &kept_means[j * 3]);
-        RGS_RETURN_IF_ERROR(encode_means(kept_means, &out.position, options, &out.stored[0], &d.means, &order));
-        for (uint64_t& i : order) i = kept[i];
-        return Status();
-      });
-    }
-    auto add_codes = [&](size_t slot, auto make) {
-      if (reuse[slot]) return;
-      jobs.push_back([&codes, slot, make] {
-        codes[slot] = make();
-        return Status();
-      });
-    };
-    add_codes(1, [&] { return rotation_codes(source, options); });
-    add_codes(2, [&] { return scale_codes(source, out.omitted, options); });
-    add_codes(3, [&] { return opacity_codes(source, options); });
-    std::vector<Status> results;
-    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
-    for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+    RGS_RETURN_IF_ERROR(order_means_and_quantize(source, options, earlier, reuse, &out, &order, &codes));
     d.metadata.bounds = bounds_of(d.means);
-
-    // The sections to code share the threads: each its own, and its zstd frame's jobs (§7) the threads over.
-    ArchiveOptions section = options;
-    section.threads = detail::threads_per_job(options.threads, std::count(reuse + 1, reuse + 5, false));
-    jobs.clear();
-    if (!reuse[4]) {
-      jobs.push_back([&] {
-        bool codebook = false;
-        if (source.metadata.sh_degree > 0) {
-          RGS_RETURN_IF_ERROR(encode_sh_codebook(source, order, section, &out.stored[4], &codebook));
-        }
-        return codebook ? Status() : encode_sh(source, order, section, &out.stored[4]);
-      });
-    }
-    constexpr QuantizedTransform kTransforms[4] = {{}, QuantizedTransform::kSmallestThree,
-                                                   QuantizedTransform::kLogUniform, QuantizedTransform::kUniform};
-    const uint32_t bits[4] = {0, options.rotation_bits, options.scale_bits, options.opacity_bits};
-    const uint32_t slot_components[4] = {0, 4, 3, 1};
-    for (size_t slot = 1; slot < 4; ++slot) {
-      if (reuse[slot]) continue;
-      jobs.push_back([&, slot] {
-        const std::vector<uint8_t> gathered = codes[slot].codes.gathered(order).bytes;
-        codes[slot].codes = CodePlanes(0, 0, 8);  // freed before the coding's buffers exist
-        return finish_quantized(kTransforms[slot], bits[slot], slot_components[slot], codes[slot].params, gathered,
-                                section, &out.stored[slot]);
-      });
-    }
-    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
-    for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
-
-    // Decode what was written: `decoded` is bit for bit what readers get.
-    const uint32_t values = 3 * sh_coefficient_count(d.metadata.sh_degree);
-    jobs.clear();
-    auto add_decode = [&](SectionId id, size_t slot, uint32_t components, auto EncodedScene::*member) {
-      auto& array = d.*member;
-      if (reuse[slot]) {
-        out.stored[slot] = earlier->stored[slot];
-        array = earlier->decoded.*member;
-        return;
-      }
-      array.resize(n * components);
-      jobs.push_back([&d, &out, &array, id, slot, components, n] {
-        Status s = detail::decode_quantized(id, d.metadata, out.stored[slot].data(), out.stored[slot].size(), n,
-                                            components, reinterpret_cast<uint8_t*>(array.data()),
-                                            array.size() * sizeof(array[0]));
-        return s.ok() ? s : s.prepend(std::string("internal error decoding ") + section_name(id));
-      });
-    };
-    add_decode(SectionId::kRotations, 1, 4, &EncodedScene::rotations);
-    add_decode(SectionId::kScales, 2, 3, &EncodedScene::scales);
-    add_decode(SectionId::kOpacities, 3, 1, &EncodedScene::opacities);
-    // Transforms 4 and 6 and the exact transform 5 decode to the transform-4 value of every source value, so the
-    // SH values are computed here instead of decompressing the section again (saving its code buffer,
-    // the largest, at the peak); the tests check the file decodes to them. A lossy codebook is decoded.
-    if (reuse[4]) {
-      out.stored[4] = earlier->stored[4];
-      d.sh = earlier->decoded.sh;
-    } else if (options.sh_codebook_size != 0) {
-      add_decode(SectionId::kSh, 4, values, &EncodedScene::sh);
-    } else {
-      d.sh.resize(n * values);
-      jobs.push_back([&d, &source, &order, &options, values, n] {
-        int mult[48];
-        for (uint32_t c = 0; c < values; ++c) mult[c] = sh_multiplier(options, c);
-        for (uint64_t i = 0; i < n; ++i) {
-          const int8_t* q = &source.sh[order[i] * values];
-          for (uint32_t c = 0; c < values; ++c)
-            d.sh[i * values + c] = static_cast<int8_t>(sh_code(q[c], mult[c]) * mult[c]);
-        }
-        return Status();
-      });
-    }
-    detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
-    for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
-    if constexpr (!detail::kHostLittleEndian) {
-      for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {
-        for (uint16_t& x : *v) x = detail::load_u16_le(reinterpret_cast<const uint8_t*>(&x));
-      }
-    }
+    RGS_RETURN_IF_ERROR(code_sections(source, options, reuse, order, &codes, &out));
+    RGS_RETURN_IF_ERROR(decode_sections(source, options, earlier, reuse, order, &out));
     out.source_index = std::move(order);
     return out;
   } catch (const std::bad_alloc&) {

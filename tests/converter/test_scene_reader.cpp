@@ -18,6 +18,7 @@
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
+#include "rgs/converter/spz.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/spec.h"
@@ -356,6 +357,36 @@ TEST_CASE("read_scene detects and reads SPZ, glTF/GLB and .splat files") {
   CHECK(kept.notes.front() == spz_frame_note(SpzFrame::kAsStored, false));
   CHECK(turned.notes.front() == spz_frame_note(SpzFrame::kRub, false));
   CHECK(turned.notes.front().find("as-stored") != std::string::npos);
+  // One read set, two writers: the splat-transform file named as stored, every other SPZ as RUB.
+  {
+    TempDir dir;
+    const std::string ours = dir.file("ours.spz");
+    converter::SpzWriteOptions rub;
+    REQUIRE(converter::write_spz(ours, source.cloud, rub).ok());
+    SceneReadOptions both;
+    both.spz_frame_by_path[spz] = SpzFrame::kAsStored;
+    CHECK(converter::spz_frame_for(both, spz) == SpzFrame::kAsStored);
+    CHECK(converter::spz_frame_for(both, ours) == SpzFrame::kRub);
+    const InputScene theirs_read = read_ok(spz, both), ours_read = read_ok(ours, both);
+    CHECK(theirs_read.cloud.means == kept.cloud.means);
+    CHECK(theirs_read.notes.front() == spz_frame_note(SpzFrame::kAsStored, false));
+    CHECK(ours_read.notes.front() == spz_frame_note(SpzFrame::kRub, false));
+    float ours_error = 0.0f;
+    for (size_t i = 0; i < source.cloud.means.size(); ++i) {
+      ours_error = std::max(ours_error, std::fabs(ours_read.cloud.means[i] - source.cloud.means[i]));
+    }
+    CHECK(ours_error <= 0.5f / 4096.0f + 1e-6f);
+    // Paths are compared after lexical normalization; a path not listed takes spz_frame.
+    SceneReadOptions dotted;
+    dotted.spz_frame_by_path[dir.file("./sub/../ours.spz")] = SpzFrame::kAsStored;
+    CHECK(converter::spz_frame_for(dotted, ours) == SpzFrame::kAsStored);
+    CHECK(converter::spz_frame_for(dotted, spz) == SpzFrame::kRub);
+    dotted.spz_frame = SpzFrame::kAsStored;
+    dotted.spz_frame_by_path.clear();
+    dotted.spz_frame_by_path[ours] = SpzFrame::kRub;
+    CHECK(converter::spz_frame_for(dotted, spz) == SpzFrame::kAsStored);
+    CHECK(read_ok(ours, dotted).cloud.means == ours_read.cloud.means);
+  }
   // A file of 32-byte records that are not plausible Gaussians is not taken for .splat...
   std::vector<uint8_t> noise(64, 0xff);
   write_bytes(tmp.file("noise.bin"), noise);

@@ -231,11 +231,49 @@ TEST_CASE("spz: coordinate-system extension sets the stored frame") {
   bytes[16] = 32 + 12;
   const InteropScene out = read_ok(bytes);
   CHECK(out.stored_frame == "RDF");
+  CHECK(out.frame_declared);
   CHECK(diff_clouds(in, out.cloud).position <= 0.5 / 4096 + 1e-6);
+  // The file tells, so the assumption for files that do not (convert_frame) changes nothing...
+  InteropReadOptions raw;
+  raw.convert_frame = false;
+  CHECK(diff_clouds(in, read_ok(bytes, raw).cloud).position <= 0.5 / 4096 + 1e-6);
+  // ...and a declared RUB is turned even when files without the record are read as stored.
+  std::vector<uint8_t> rub = encode(in);  // stored as RUB
+  rub.insert(rub.begin() + 32, ext.begin(), ext.end());
+  rub[14] |= 0x2;
+  rub[16] = 32 + 12;
+  rub[32 + 8] = 4;  // RUB: value − 1 = 0b011 (R, U, B)
+  const InteropScene declared_rub = read_ok(rub, raw);
+  CHECK(declared_rub.stored_frame == "RUB");
+  CHECK(declared_rub.frame_converted);
+  CHECK(diff_clouds(in, declared_rub.cloud).position <= 0.5 / 4096 + 1e-6);
   bytes[32 + 8] = 11;  // LFU: a rotated frame
   CHECK(read_code(bytes) == StatusCode::kUnsupportedFeature);
   bytes[32 + 4] = 40;  // record longer than the block
   CHECK(read_code(bytes) == StatusCode::kCorruptData);
+}
+
+TEST_CASE("spz: each frame round-trips with itself and turns the scene over with the other") {
+  const format::GaussianCloud in = make_interop_cloud(200, 2);
+  for (const converter::SpzFrame written : {converter::SpzFrame::kRub, converter::SpzFrame::kAsStored}) {
+    CAPTURE(converter::spz_frame_name(written));
+    SpzWriteOptions o;
+    o.frame = written;
+    const std::vector<uint8_t> bytes = encode(in, o);
+    InteropReadOptions same, other;
+    same.convert_frame = written == converter::SpzFrame::kRub;
+    other.convert_frame = !same.convert_frame;
+    const InteropScene right = read_ok(bytes, same), wrong = read_ok(bytes, other);
+    CHECK_FALSE(right.frame_declared);
+    CHECK(diff_clouds(in, right.cloud).position <= 0.5 / 4096 + 1e-6);
+    // Read with the other frame, y and z come back negated: upside down.
+    CHECK(diff_clouds(in, wrong.cloud).position > 0.1);
+    for (size_t i = 0; i < right.cloud.size(); ++i) {
+      CHECK(wrong.cloud.means[i * 3 + 0] == right.cloud.means[i * 3 + 0]);
+      CHECK(wrong.cloud.means[i * 3 + 1] == -right.cloud.means[i * 3 + 1]);
+      CHECK(wrong.cloud.means[i * 3 + 2] == -right.cloud.means[i * 3 + 2]);
+    }
+  }
 }
 
 TEST_CASE("spz: inputs that must fail") {

@@ -13,14 +13,16 @@
 
 namespace rgs::converter {
 
-/// The axes an SPZ file is taken to hold (converter/INTEROP.md "SPZ axes"). Nothing in an SPZ file tells
-/// the two kinds of writer apart, so the reader and writer assume kRub unless told otherwise.
+/// The axes an SPZ file is taken to hold when the file does not say (converter/INTEROP.md "SPZ axes"). Only a
+/// SPZ_ADOBE_coordinate_system extension says; otherwise nothing in an SPZ file tells the two kinds of writer
+/// apart, so the reader and writer assume kRub unless told otherwise (for all files, or per file:
+/// SceneReadOptions::spz_frame_by_path).
 enum class SpzFrame : uint8_t {
   /// RUB (x right, y up, z back), as Niantic's format description and spz library prescribe: turned
-  /// into RoofGS's RDF on read (y and z negated) and back on write. A SPZ_ADOBE_coordinate_system
-  /// extension in the file names another frame and is honoured.
+  /// into RoofGS's RDF on read (y and z negated) and back on write.
   kRub = 0,
   /// The axes as stored, no turn: the PLY's own axes, as splat-transform (3.7) writes and reads SPZ.
+  /// A frame the file declares (SPZ_ADOBE_coordinate_system) is still turned to RDF.
   kAsStored = 1,
 };
 
@@ -45,7 +47,8 @@ struct InteropReadOptions {
   uint32_t max_decompression_ratio = 8;
   /// Convert from the format's stored axes into the PLY/COLMAP frame RoofGS uses everywhere (x right,
   /// y down, z forward: "RDF"). False keeps the stored axes, for files whose writer skipped the
-  /// conversion its format prescribes (some SPZ writers store the PLY's axes unchanged).
+  /// conversion its format prescribes (some SPZ writers store the PLY's axes unchanged); an SPZ file that
+  /// declares its frame (InteropScene::frame_declared) is converted from that frame either way.
   bool convert_frame = true;
 };
 
@@ -71,6 +74,9 @@ struct InteropScene {
   std::string stored_frame;
   /// Whether the cloud was converted from stored_frame to RDF.
   bool frame_converted = false;
+  /// Whether the file itself names stored_frame (SPZ: a SPZ_ADOBE_coordinate_system extension), so that no
+  /// assumption about its writer was needed.
+  bool frame_declared = false;
   /// What the file said that the cloud cannot hold or that was ignored, one sentence each, for the
   /// conversion summary (e.g. "SPZ antialiased flag set: the cloud carries no mip-splat filter").
   std::vector<std::string> notes;

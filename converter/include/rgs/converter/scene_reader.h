@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,10 +38,18 @@ struct SceneReadOptions {
   /// Level of detail of a streamed SOG (lod-meta.json): 0 is the finest. Unset reads LOD 0. Setting it for
   /// any other input is an error (kInvalidArgument), so a user's --lod is never silently ignored.
   std::optional<uint32_t> lod;
-  /// SPZ inputs: the axes the file is taken to hold (SpzFrame; converter/INTEROP.md "SPZ axes"). Every
-  /// SPZ read adds spz_frame_note() to InputScene::notes. Other formats ignore it.
+  /// SPZ inputs: the axes the file is taken to hold when it does not declare them (SpzFrame;
+  /// converter/INTEROP.md "SPZ axes"). Every SPZ read adds a note on the axes to InputScene::notes
+  /// (spz_frame_note(), or that the file declared them). Other formats ignore it.
   SpzFrame spz_frame = SpzFrame::kRub;
+  /// SPZ files read or written with another frame than spz_frame, by path as given (compared after
+  /// lexical normalization: "./a.spz" is "a.spz"). spz_frame_for() looks them up.
+  std::map<std::string, SpzFrame> spz_frame_by_path;
 };
+
+/// The frame SPZ file `path` is read or written with: its entry in options.spz_frame_by_path, else
+/// options.spz_frame.
+SpzFrame spz_frame_for(const SceneReadOptions& options, const std::string& path);
 
 /// format::ReadOptions carrying `options`' limits and checksum choice: what a .rgs file is opened with
 /// (format::RgsFile::open) by read_scene and by callers that map a .rgs themselves (the GPU upload).

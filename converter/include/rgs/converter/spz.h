@@ -47,8 +47,8 @@ bool looks_like_spz(const uint8_t* head, size_t n);
 /// frames (PackOptions::from, UnpackOptions::to), so writers that leave them unspecified store the PLY's
 /// axes unchanged (splat-transform 3.7 among them): read those with convert_frame = false
 /// (read_scene: SpzFrame::kAsStored; converter/INTEROP.md "SPZ axes"). A SPZ_ADOBE_coordinate_system extension
-/// (0xADBE0003) naming a flip-only frame overrides RUB as the stored frame; a rotated frame
-/// (LFD..RBU) is kUnsupportedFeature. Other extensions are skipped and listed in notes.
+/// (0xADBE0003) naming a flip-only frame is the stored frame, turned to RDF whatever convert_frame says
+/// (InteropScene::frame_declared); a rotated frame (LFD..RBU) is kUnsupportedFeature. Other extensions are skipped and listed in notes.
 ///
 /// Checks before any allocation: version, SH degree, count <= max_gaussians, stream sizes implied by
 /// the count, TOC inside the file and streams ending exactly at its end (v4), declared sizes within the
