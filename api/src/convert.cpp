@@ -118,8 +118,8 @@ bool names_views(const CameraChoice& choice) {
 Status check_target(const ConvertOptions& options) {
   const ConvertTarget& target = options.target;
   RGS_RETURN_ERROR_IF(!target.active() && names_views(target.views), StatusCode::kInvalidArgument,
-                      "convert: the target's views (cameras, every, limit, fly, orbit, path, width, height) choose "
-                      "the views of a PSNR or byte target; set target psnr_db or bytes");
+                      "convert: views (cameras, every, limit, fly, orbit, path, width, height) are chosen only for "
+                      "a PSNR or byte target, and none is set");
   if (!target.active()) return Status();
   RGS_RETURN_ERROR_IF(target.psnr_db && target.bytes, StatusCode::kInvalidArgument,
                       "convert: a PSNR target and a byte target exclude each other");
