@@ -524,6 +524,7 @@ Result<ConvertReport> convert_input(converter::InputScene input, const std::stri
     progress.done();
     return report;
   }
+  const double read_seconds = seconds_since(start);
   ConvertOptions fitted = options;
   RGS_ASSIGN_OR_RETURN(RateControlReport rate,
                        detail::fit_target(input, src_name, &fitted,
@@ -538,6 +539,7 @@ Result<ConvertReport> convert_input(converter::InputScene input, const std::stri
                       " bytes, over the target of " + detail::group_digits(*options.target.bytes) +
                       " (its provenance is larger than the fit allowed for)");
   }
+  report.seconds.read = read_seconds;  // the fit's time is rate_control.seconds (and in total)
   report.rate_control = std::move(rate);
   progress.done();
   return report;

@@ -242,7 +242,8 @@ struct RgsOutputReport {
 
 /// Seconds spent, wall clock.
 struct ConvertTimes {
-  double read = 0, quantize = 0, lod = 0, write = 0, total = 0;  ///< quantize includes measuring the errors
+  /// quantize includes measuring the errors; total includes rate control (RateControlReport::seconds).
+  double read = 0, quantize = 0, lod = 0, write = 0, total = 0;
 };
 
 /// What convert() read and wrote.
