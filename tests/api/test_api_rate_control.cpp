@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "internal_rate_control.h"
 #include "rgs/api/convert.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
@@ -308,4 +309,40 @@ TEST_CASE("a target is checked before anything is read") {
   CHECK_MESSAGE(std::string(refused.status().message()).find("archive profile of a .rgs output") != std::string::npos,
                 refused.status().message());
   CHECK_FALSE(std::filesystem::exists(ply));
+}
+
+TEST_CASE("rate control's progress: parts give back the steps they did not use, and done / bound never falls") {
+  std::vector<std::pair<uint32_t, uint32_t>> seen;  // (done, bound) at each report
+  api::detail::FitProgress progress([&](const std::string&, uint32_t done, uint32_t bound) {
+    seen.emplace_back(done, bound);
+  });
+  progress.begin(22);  // a PSNR fit
+  CHECK(progress.bound() == 22);
+  progress.advance("ladder and its check", 2);
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const uint32_t before = progress.bound();
+    progress.begin(5);  // a search inside the fit's reservation: the bound stays
+    CHECK(progress.bound() == before);
+    progress.advance("ladder");
+    progress.advance("refined");
+    progress.end();  // three stages not needed leave the bound
+    progress.advance("check");
+  }
+  CHECK(progress.done() == 8);
+  CHECK(progress.bound() == 16);
+  progress.advance("text only", 0);
+  progress.end();  // settled: the rest of the fit's reservation leaves too
+  CHECK(progress.bound() == progress.done());
+  progress.begin(3);
+  progress.advance("one more part");
+  progress.end();
+  CHECK(progress.bound() == progress.done());
+  REQUIRE(seen.size() == 9);
+  for (size_t i = 0; i < seen.size(); ++i) {
+    CAPTURE(i);
+    CHECK(seen[i].first <= seen[i].second);
+    if (i > 0 && seen[i - 1].second > 0) {
+      CHECK(double(seen[i].first) / seen[i].second >= double(seen[i - 1].first) / seen[i - 1].second);
+    }
+  }
 }
