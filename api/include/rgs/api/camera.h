@@ -99,7 +99,8 @@ Mat4ColumnMajor opengl_view_matrix(const Camera& camera);
 /// camera_from_opengl(opengl_view_matrix(c), opengl_projection_matrix(c, n, f), W, H) gives c back.
 Mat4ColumnMajor opengl_projection_matrix(const Camera& camera, float z_near, float z_far);
 
-// The views a scene is judged on when no camera option names them.
+// The views a scene is judged on when no camera option names them (default_views).
+
 /// The cameras.json the standard 3DGS output layout puts beside a model, for the scene file (or folder) at
 /// `scene_path`: `<dir>/cameras.json`, where `<dir>` is the scene's folder, and, when `<dir>` is
 /// `<model>/point_cloud/iteration_<digits>` (train.py's `point_cloud/iteration_N/point_cloud.ply`),
