@@ -41,7 +41,7 @@
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
-#include "rgs/audit/scene_views.h"
+#include "rgs/api/camera.h"
 #include "rgs/config.h"
 
 extern char** environ;
@@ -357,7 +357,7 @@ Result<audit::AuditResult> measure(const Options& opt) {
   }
   std::vector<runtime::Camera> cameras;
   if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
-    RGS_ASSIGN_OR_RETURN(audit::DefaultViews found, audit::default_views(opt.scenes[0], source.cloud, opt.cameras));
+    RGS_ASSIGN_OR_RETURN(api::DefaultViews found, api::default_views(opt.scenes[0], source.cloud, opt.cameras));
     tools::report_notes(kTool, {found.note}, opt.quiet);
     cameras = std::move(found.cameras);
   } else {

@@ -6,7 +6,7 @@
 //   rgs-convert scene.sog scene.spz --sh-degree 1     any input to any output, dropping SH bands
 //   cat scene.ply | rgs-convert - scene.rgs --json -  read standard input, JSON summary on standard output
 //   rgs-convert scene.ply scene.rgs --target-psnr 40 --cameras cameras.json --every 8 --width 960
-//                                                     the archive profile's settings for 40 dB (audit::fit_archive)
+//                                                     the archive profile's settings for 40 dB (rate control)
 //
 // The output format follows --to, else the output's extension (.rgs, .ply, .spz, .glb); a name whose
 // extension is another of these four than --to says is a usage error.
@@ -30,7 +30,6 @@
 #include "rgs/api/convert.h"
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
-#include "rgs/audit/rate_control.h"
 #include "rgs/config.h"
 
 namespace {
@@ -49,14 +48,8 @@ struct Options {
   std::string lod_levels;  ///< --lod-levels: "auto", "1".."16", or empty (no levels of detail)
   bool quiet = false;
   api::ConvertOptions convert;  ///< everything else, parsed straight into the library's options
-  /// Rate control (--target-psnr, --target-bytes) and the views it measures on.
-  std::optional<double> target_psnr;
-  std::optional<uint64_t> target_bytes;
-  api::CameraChoice cameras;
-  /// Rate control's choice and what it measured, once run.
-  std::optional<audit::FitResult> fit;
 
-  bool rate_control() const { return target_psnr || target_bytes; }
+  bool rate_control() const { return convert.target.active(); }
 
   bool json_to_stdout() const { return json_path == "-"; }
   /// The text summary goes to stdout unless -q or the JSON takes its place.
@@ -113,16 +106,16 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
                 {"sh_clamped", r.spz->sh_clamped},
                 {"frame", converter::spz_frame_name(converter::spz_frame_for(opt.convert.read, opt.output))}};
   }
-  if (opt.fit) {
-    const audit::FitResult& f = *opt.fit;
-    const format::ArchiveOptions& a = f.chosen.options;
+  if (r.rate_control) {
+    const api::RateControlReport& f = *r.rate_control;
+    const format::ArchiveOptions& a = f.settings;
     nlohmann::json target;
-    if (opt.target_psnr) target["psnr_db"] = *opt.target_psnr;
-    if (opt.target_bytes) target["bytes"] = *opt.target_bytes;
+    if (opt.convert.target.psnr_db) target["psnr_db"] = *opt.convert.target.psnr_db;
+    if (opt.convert.target.bytes) target["bytes"] = *opt.convert.target.bytes;
     j["rate_control"] = {
         {"target", target},
-        {"psnr_mean_db", f.chosen.psnr_mean_db},
-        {"psnr_min_db", f.chosen.psnr_min_db},
+        {"psnr_mean_db", f.psnr_mean_db},
+        {"psnr_min_db", f.psnr_min_db},
         {"search_psnr_db", f.search_psnr_db},
         {"settings", {{"position_error", a.position_error},
                       {"rotation_bits", a.rotation_bits},
@@ -138,8 +131,8 @@ nlohmann::json report_json(const Options& opt, const api::ConvertReport& r) {
         {"height", f.height},
         {"search_width", f.search_width},
         {"search_height", f.search_height},
-        {"backend", audit::backend_name(f.backend)},
-        {"device", f.device},
+        {"backend", api::device_name(f.device)},
+        {"device", f.device_name},
         {"encodings", f.encodings},
         {"renders", f.renders},
         {"seconds", f.seconds},
@@ -255,16 +248,15 @@ void note_larger_than_input(const Options& opt, const api::ConvertReport& r) {
 }
 
 /// Rate control's rows of the text summary: the target, what the written archive reached, its settings.
-void print_fit(const Options& opt, const api::ConvertReport& r, const audit::FitResult& f) {
-  const std::string target = opt.target_psnr ? "mean PSNR >= " + tools::fixed(*opt.target_psnr, 2) + " dB"
-                                             : "at most " + tools::group_digits(*opt.target_bytes) + " bytes";
+void print_fit(const Options& opt, const api::ConvertReport& r, const api::RateControlReport& f) {
+  const api::ConvertTarget& t = opt.convert.target;
+  const std::string target = t.psnr_db ? "mean PSNR >= " + tools::fixed(*t.psnr_db, 2) + " dB"
+                                       : "at most " + tools::group_digits(*t.bytes) + " bytes";
   std::printf("  rate control     %s: reached %s dB mean (lowest view %s dB) over %u views at %ux%u, "
               "render against the input's render (%s)\n",
-              target.c_str(), tools::fixed(f.chosen.psnr_mean_db, 2).c_str(),
-              tools::fixed(f.chosen.psnr_min_db, 2).c_str(), f.views, f.width, f.height,
-              audit::backend_name(f.backend));
-  std::printf("  settings         %s\n",
-              audit::describe_archive_options(f.chosen.options, r.sh_degree).c_str());
+              target.c_str(), tools::fixed(f.psnr_mean_db, 2).c_str(), tools::fixed(f.psnr_min_db, 2).c_str(),
+              f.views, f.width, f.height, api::device_name(f.device));
+  std::printf("  settings         %s\n", api::describe_archive_options(f.settings, r.sh_degree).c_str());
   std::printf("  search           %u archives encoded (%s s), %u rendered at %ux%u (%s dB there; %s s), %s s\n",
               f.encodings, tools::fixed(f.encode_seconds, 1).c_str(), f.renders, f.search_width, f.search_height,
               tools::fixed(f.search_psnr_db, 2).c_str(), tools::fixed(f.render_seconds, 1).c_str(),
@@ -290,7 +282,7 @@ void print_summary(const Options& opt, const api::ConvertReport& r) {
               tools::group_digits(h.infinite_opacity_logits).c_str(), tools::group_digits(h.dropped_gaussians).c_str());
   for (const std::string& note : r.input_notes) std::printf("  input note       %s\n", tools::escape_text(note).c_str());
   for (const std::string& note : r.output_notes) std::printf("  output note      %s\n", tools::escape_text(note).c_str());
-  if (opt.fit) print_fit(opt, r, *opt.fit);
+  if (r.rate_control) print_fit(opt, r, *r.rate_control);
   if (r.rgs) print_rgs_errors(opt, r);
   std::printf("  time             %s s (read %s, quantize + measure %s, write %s)\n",
               tools::fixed(r.seconds.total, 3).c_str(), tools::fixed(r.seconds.read, 3).c_str(),
@@ -311,22 +303,23 @@ int run(Options& opt) {
   const auto output_format = api::output_format_for(opt.output, opt.convert.to);
   if (!output_format.ok()) return tools::report_usage_error(kTool, output_format.status());
   opt.convert.to = *output_format;
-  const bool camera_option = !opt.cameras.cameras_path.empty() || opt.cameras.orbit || opt.cameras.path ||
-                             opt.cameras.limit || opt.cameras.width || opt.cameras.height;
+  const api::CameraChoice& views = opt.convert.target.views;
+  const bool camera_option = !views.cameras_path.empty() || views.orbit || views.path || views.limit || views.width ||
+                             views.height;
+  // The target's rules in the terms of the command line (api::check_convert_options below has them too).
   if (opt.rate_control()) {
-    const char* flag = opt.target_psnr ? "--target-psnr" : "--target-bytes";
+    const char* flag = opt.convert.target.psnr_db ? "--target-psnr" : "--target-bytes";
     std::string why;
-    if (*output_format != api::OutputFormat::kRgs) why = std::string(flag) + " chooses the archive profile of a .rgs output";
     if (opt.profile == "runtime" && !opt.profile_defaulted) why = std::string(flag) + " writes the archive profile, not --profile runtime";
-    if (opt.input == "-") why = std::string(flag) + " reads the input twice: name a file, not standard input";
+    if (opt.input == "-") {
+      why = std::string(flag) + " looks for the scene's own views beside the input: name a file, not standard input";
+    }
     if (opt.convert.lod_levels) {
       why = std::string(flag) + " writes the archive profile, which has no levels of detail (--lod-levels needs "
                                 "the runtime profile)";
     }
     if (!why.empty()) return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, why));
     opt.profile = "archive";
-    opt.cameras.orbit_width = 960;
-    opt.cameras.orbit_height = 540;
   } else if (camera_option) {
     return tools::report_usage_error(
         kTool, Status(StatusCode::kInvalidArgument,
@@ -346,8 +339,8 @@ int run(Options& opt) {
     // The scene and every file it names are inputs: no output may replace one of them.
     if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
   }
-  if (!opt.cameras.cameras_path.empty()) {
-    if (int code = tools::declare_input(kTool, outputs, opt.cameras.cameras_path); code != tools::kExitOk) return code;
+  if (!views.cameras_path.empty()) {
+    if (int code = tools::declare_input(kTool, outputs, views.cameras_path); code != tools::kExitOk) return code;
   }
   if (int code = tools::declare_output(kTool, outputs, opt.output); code != tools::kExitOk) return code;
   if (!opt.json_path.empty() && !opt.json_to_stdout()) {
@@ -360,30 +353,8 @@ int run(Options& opt) {
   tools::ProgressLine progress(stderr, kTool, !opt.quiet && tools::stderr_is_terminal());
   opt.convert.progress = [&progress](const api::ConvertProgress& p) { progress.update(p); };
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
-  if (opt.rate_control()) {
-    audit::FitOptions fit;
-    fit.goal = opt.target_psnr ? audit::FitGoal::kTargetPsnr : audit::FitGoal::kTargetBytes;
-    fit.target_psnr_db = opt.target_psnr.value_or(0);
-    fit.target_bytes = opt.target_bytes.value_or(0);
-    std::string why;
-    fit.audit.backend = api::cuda_available(&why) ? audit::Backend::kCuda : audit::Backend::kCpu;
-    if (!opt.quiet) {
-      fit.progress = [&progress](const std::string& line) {
-        const std::string stage = "rate control, " + line;
-        progress.update({stage.c_str(), 0.0});
-      };
-    }
-    auto fitted = audit::convert_fitted(opt.input, opt.output, opt.convert, opt.cameras, fit);
-    if (fitted.ok()) {
-      progress.clear();
-      if (!fitted->views_note.empty()) tools::report_notes(kTool, {fitted->views_note}, opt.quiet);
-      opt.fit = std::move(fitted->fit);
-      opt.convert.archive = opt.fit->chosen.options;
-      report = std::move(fitted->convert);
-    } else {
-      report = fitted.status();
-    }
-  } else if (opt.input == "-") {
+  if (opt.rate_control()) opt.convert.target.device = api::cuda_available() ? api::Device::kCuda : api::Device::kCpu;
+  if (opt.input == "-") {
     auto bytes = tools::read_standard_input();
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
     report = api::convert_bytes(bytes->data(), bytes->size(), opt.input, opt.output, opt.convert);
@@ -392,6 +363,12 @@ int run(Options& opt) {
   }
   progress.clear();
   if (!report.ok()) return tools::report_error(kTool, report.status());
+  if (report->rate_control) {
+    opt.convert.archive = report->rate_control->settings;  // what the summary and the JSON describe
+    if (!report->rate_control->views_note.empty()) {
+      tools::report_notes(kTool, {report->rate_control->views_note}, opt.quiet);
+    }
+  }
   if (!opt.quiet) note_larger_than_input(opt, *report);
   if (!opt.json_path.empty()) {
     const std::string text =
@@ -461,7 +438,7 @@ int main(int argc, char** argv) {
       ->check(rgs::tools::finite_number_in(1e-9, 0.5))
       ->capture_default_str();
   auto* target_psnr =
-      app.add_option("--target-psnr", opt.target_psnr,
+      app.add_option("--target-psnr", opt.convert.target.psnr_db,
                      "Rate control: choose the archive profile's settings (bits and code steps of rotations, scales, opacities, SH "
                      "steps per degree, position error) for the fewest bytes whose mean PSNR over the views, render "
                      "against the input's render, is at least DB; implies --profile archive")
@@ -469,21 +446,21 @@ int main(int argc, char** argv) {
   app.add_option_function<std::string>(
          "--target-bytes",
          [&opt](const std::string& text) {
-           opt.target_bytes = *rgs::tools::parse_whole_number(text, 1, std::numeric_limits<uint64_t>::max());
+           opt.convert.target.bytes = *rgs::tools::parse_whole_number(text, 1, std::numeric_limits<uint64_t>::max());
          },
          "Rate control: the archive profile's settings for the best mean PSNR of a file of at most N bytes "
          "(decimal digits, 1..2^64-1); implies --profile archive")
       ->type_name("UINT")
       ->check(rgs::tools::whole_number_in(1, std::numeric_limits<uint64_t>::max()))
       ->excludes(target_psnr);
-  rgs::tools::add_camera_options(app, opt.cameras,
+  rgs::tools::add_camera_options(app, opt.convert.target.views,
                                  "Rate control's views: an INRIA cameras.json (native size by default)",
                                  "Rate control: at most N views",
                                  "Rate control: an orbit of N cameras (at 960x540); without a camera option the scene's own "
                                  "cameras.json beside it, else views guessed from its content");
-  app.add_option("--width", opt.cameras.width, "Rate control: image width of the views (field of view kept)")
+  app.add_option("--width", opt.convert.target.views.width, "Rate control: image width of the views (field of view kept)")
       ->check(CLI::Range(11, 32768));
-  app.add_option("--height", opt.cameras.height, "Rate control: image height of the views")
+  app.add_option("--height", opt.convert.target.views.height, "Rate control: image height of the views")
       ->check(CLI::Range(11, 32768));
   app.add_option("--zstd-level", opt.convert.zstd_level,
                  "zstd level 1..22 of the --zstd sections (default 19) and of the archive profile (default 9, "

@@ -1,14 +1,18 @@
-// convert(): read any scene, write .rgs, PLY, SPZ or GLB, and report what it cost.
+// convert(): read any scene, write .rgs, PLY, SPZ or GLB (with a target, the archive profile fitted to it by rate
+// control, internal_rate_control.h), and report what it cost.
 #include "rgs/api/convert.h"
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <utility>
 
+#include "internal_rate_control.h"
+#include "internal_rate_knobs.h"
 #include "rgs/config.h"
 #include "rgs/converter/gltf.h"
 #include "rgs/converter/lod_builder.h"
@@ -102,7 +106,47 @@ int zstd_level_for(const ConvertOptions& options) {
   return options.zstd_level.value_or(archive ? kArchiveDefaultZstdLevel : kDefaultZstdLevel);
 }
 
+namespace {
+
+/// Whether `choice` differs from the default CameraChoice (the orbit's default size aside).
+bool names_views(const CameraChoice& choice) {
+  return !choice.cameras_path.empty() || choice.every != 1 || choice.limit != 0 || choice.fly != 0 ||
+         choice.orbit != 0 || choice.path != 0 || choice.width != 0 || choice.height != 0;
+}
+
+/// The target's own rules (check_convert_options).
+Status check_target(const ConvertOptions& options) {
+  const ConvertTarget& target = options.target;
+  RGS_RETURN_ERROR_IF(!target.active() && names_views(target.views), StatusCode::kInvalidArgument,
+                      "convert: views (cameras, every, limit, fly, orbit, path, width, height) are chosen only for "
+                      "a PSNR or byte target, and none is set");
+  if (!target.active()) return Status();
+  RGS_RETURN_ERROR_IF(target.psnr_db && target.bytes, StatusCode::kInvalidArgument,
+                      "convert: a PSNR target and a byte target exclude each other");
+  RGS_RETURN_ERROR_IF(target.psnr_db && !(std::isfinite(*target.psnr_db) && *target.psnr_db > 0),
+                      StatusCode::kInvalidArgument,
+                      "convert: target PSNR " + std::to_string(target.psnr_db.value_or(0)) +
+                          " dB is not a finite, positive number");
+  RGS_RETURN_ERROR_IF(target.bytes && *target.bytes == 0, StatusCode::kInvalidArgument,
+                      "convert: a target of 0 bytes");
+  RGS_RETURN_ERROR_IF(options.lod_levels.has_value(), StatusCode::kInvalidArgument,
+                      "convert: a PSNR or byte target writes the archive profile, which has no levels of detail "
+                      "(they need the runtime profile)");
+  RGS_RETURN_ERROR_IF(options.to && *options.to != OutputFormat::kRgs, StatusCode::kInvalidArgument,
+                      std::string("convert: a PSNR or byte target chooses the archive profile of a .rgs output, not ") +
+                          output_format_name(*options.to));
+  return Status();
+}
+
+}  // namespace
+
 Status check_convert_options(const ConvertOptions& options) {
+  RGS_RETURN_IF_ERROR(check_target(options));
+  if (options.target.active() && options.profile != format::StorageProfile::kArchive) {
+    ConvertOptions archive = options;  // a target writes the archive profile
+    archive.profile = format::StorageProfile::kArchive;
+    return check_convert_options(archive);
+  }
   RGS_RETURN_ERROR_IF(options.sh_degree && *options.sh_degree > 3, StatusCode::kInvalidArgument,
                       "convert: SH degree " + std::to_string(*options.sh_degree) + " outside 0..3");
   RGS_RETURN_ERROR_IF(!(options.sh_clip_percentile > 0.0f && options.sh_clip_percentile <= 100.0f),
@@ -130,7 +174,13 @@ struct StageShares {
   double quantize, encode, write;
 };
 
-StageShares stage_shares(OutputFormat output, format::StorageProfile profile) {
+/// With a target, rate control runs between reading and quantizing: it spreads its steps over
+/// [kFitStart, kFitEnd) of the whole, and the stages that write its choice take the rest.
+constexpr double kFitStart = 0.02, kFitEnd = 0.95;
+
+StageShares stage_shares(OutputFormat output, const ConvertOptions& options) {
+  if (options.target.active()) return StageShares{kFitEnd, kFitEnd + 0.01, 0.99};
+  const format::StorageProfile profile = options.profile;
   if (output == OutputFormat::kRgs) {
     return profile == format::StorageProfile::kArchive ? StageShares{0.1, 0.25, 0.95} : StageShares{0.45, 0.85, 0.85};
   }
@@ -141,8 +191,20 @@ StageShares stage_shares(OutputFormat output, format::StorageProfile profile) {
 class ProgressReporter {
  public:
   ProgressReporter(const ConvertOptions& options, OutputFormat output)
-      : callback_(options.progress), shares_(stage_shares(output, options.profile)) {}
+      : callback_(options.progress), shares_(stage_shares(output, options)) {}
   void reading() { report("reading", 0.0); }
+  /// Rate control's `done` steps of at most `bound`, with what its search is doing.
+  void fitting(const std::string& what, uint32_t done, uint32_t bound) {
+    if (!callback_) return;
+    text_ = "rate control, step " + std::to_string(done) + " of <= " + std::to_string(bound) + ": " + what;
+    stage_ = text_.c_str();
+    const double share = bound > 0 ? double(done) / double(bound) : 0.0;
+    fraction_ = std::max(fraction_, kFitStart + (kFitEnd - kFitStart) * share);
+    ConvertProgress p{stage_, fraction_};
+    p.step = done;
+    p.steps = bound;
+    callback_(p);
+  }
   void quantizing() { report("quantizing", shares_.quantize); }
   void encoding_archive() { report("encoding the archive", shares_.encode); }
   void building_lod() { report("building levels of detail", shares_.quantize); }
@@ -158,6 +220,7 @@ class ProgressReporter {
   }
   const std::function<void(const ConvertProgress&)>& callback_;
   StageShares shares_;
+  std::string text_;  ///< rate control's stage text
   const char* stage_ = nullptr;
   double fraction_ = 0;
 };
@@ -405,9 +468,9 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
 }
 
 /// Everything after reading: checks, SH bands, the output, the report.
-Result<ConvertReport> convert_input(converter::InputScene input, const std::string& src_name,
-                                    const std::string& dst, OutputFormat output, const ConvertOptions& options,
-                                    Clock::time_point start, ProgressReporter& progress) {
+Result<ConvertReport> write_input(converter::InputScene input, const std::string& src_name, const std::string& dst,
+                                  OutputFormat output, const ConvertOptions& options, Clock::time_point start,
+                                  ProgressReporter& progress) {
   ConvertReport report;
   report.seconds.read = seconds_since(start);
   report.output_format = output;
@@ -439,6 +502,45 @@ Result<ConvertReport> convert_input(converter::InputScene input, const std::stri
     RGS_RETURN_IF_ERROR(write_float(dst, options, input, &report, progress));
   }
   report.seconds.total = seconds_since(start);
+  return report;
+}
+
+/// The checks of check_convert_options that need the output format: a target writes a .rgs.
+Status check_output(const std::string& dst, OutputFormat output, const ConvertOptions& options) {
+  RGS_RETURN_ERROR_IF(options.target.active() && output != OutputFormat::kRgs, StatusCode::kInvalidArgument,
+                      dst + ": a PSNR or byte target chooses the archive profile of a .rgs output, not " +
+                          output_format_name(output));
+  return check_convert_options(options);
+}
+
+/// write_input(), after rate control with a target: the archive options fitted to it on the scene as read (its
+/// SH bands all rendered as the source), then written; a file over a byte target is kLimitExceeded.
+Result<ConvertReport> convert_input(converter::InputScene input, const std::string& src_name,
+                                    const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                                    Clock::time_point start, ProgressReporter& progress) {
+  if (!options.target.active()) {
+    RGS_ASSIGN_OR_RETURN(ConvertReport report, write_input(std::move(input), src_name, dst, output, options, start,
+                                                           progress));
+    progress.done();
+    return report;
+  }
+  const double read_seconds = seconds_since(start);
+  ConvertOptions fitted = options;
+  RGS_ASSIGN_OR_RETURN(RateControlReport rate,
+                       detail::fit_target(input, src_name, &fitted,
+                                          [&](const std::string& what, uint32_t done, uint32_t bound) {
+                                            progress.fitting(what, done, bound);
+                                          }));
+  RGS_ASSIGN_OR_RETURN(ConvertReport report,
+                       write_input(std::move(input), src_name, dst, output, fitted, start, progress));
+  if (options.target.bytes && report.output_bytes > *options.target.bytes) {
+    return Status(StatusCode::kLimitExceeded,
+                  dst + ": the archive has " + detail::group_digits(report.output_bytes) +
+                      " bytes, over the target of " + detail::group_digits(*options.target.bytes) +
+                      " (its provenance is larger than the fit allowed for)");
+  }
+  report.seconds.read = read_seconds;  // the fit's time is rate_control.seconds (and in total)
+  report.rate_control = std::move(rate);
   progress.done();
   return report;
 }
@@ -485,7 +587,7 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_options(options));
+  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, scene_read_options(options)));
@@ -498,7 +600,7 @@ Result<ConvertReport> convert_scene(converter::InputScene input, const std::stri
                                     const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_options(options));
+  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // as convert(): dst is none of the inputs
   ProgressReporter progress(options, output);
   return convert_input(std::move(input), src, dst, output, options, start, progress);
@@ -508,7 +610,7 @@ Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std:
                                     const std::string& dst, const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_options(options));
+  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
@@ -520,7 +622,7 @@ Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::stri
                                     const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_options(options));
+  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,

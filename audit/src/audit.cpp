@@ -7,13 +7,13 @@
 #include <thread>
 
 #include "rgs/api/renderer.h"
-#include "rgs/audit/image_metrics.h"
+#include "rgs/runtime/image_metrics.h"
 #include "rgs/config.h"
 #include "rgs/format/spec.h"
 #include "rgs/kernels/shared/blend_math.h"
 
 #if RGS_HAS_CUDA
-#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/runtime/gpu_image_metrics.h"
 #include "rgs/runtime/cuda_device.h"
 #endif
 
@@ -38,7 +38,7 @@ uint32_t reduction_factor(uint32_t width, uint32_t height, uint32_t max_side) {
 }
 
 /// Box mean of the clamped RGB values over f × f blocks (the last partial row/column dropped).
-Image8 reduce_colour(const ImageRef& img, uint32_t f) {
+Image8 reduce_colour(const runtime::ImageRef& img, uint32_t f) {
   Image8 out;
   out.width = std::max(1u, img.width / f);
   out.height = std::max(1u, img.height / f);
@@ -62,7 +62,7 @@ Image8 reduce_colour(const ImageRef& img, uint32_t f) {
 }
 
 /// Per-pixel max over R, G, B of |Δ| of the clamped values, box maximum over f × f blocks: [H / f, W / f].
-std::vector<float> reduce_difference(const ImageRef& a, const ImageRef& b, uint32_t f) {
+std::vector<float> reduce_difference(const runtime::ImageRef& a, const runtime::ImageRef& b, uint32_t f) {
   const uint32_t width = std::max(1u, a.width / f), height = std::max(1u, a.height / f);
   std::vector<float> out(size_t(width) * height, 0.f);
   for (uint32_t y = 0; y < height; ++y) {
@@ -162,7 +162,7 @@ Status render_into(api::Renderer& renderer, const api::Scene& scene, const runti
 
 /// The image's RGBA32F pixels on the host: its own memory on the CPU, a copy (`host`, made once per render) of a
 /// GPU image.
-Result<ImageRef> host_pixels(const api::Image& image, std::vector<float>* host) {
+Result<runtime::ImageRef> host_pixels(const api::Image& image, std::vector<float>* host) {
   const float* pixels = static_cast<const float*>(image.color());
   if (image.device() != api::Device::kCpu) {
     if (host->empty()) {
@@ -171,7 +171,7 @@ Result<ImageRef> host_pixels(const api::Image& image, std::vector<float>* host) 
     }
     pixels = host->data();
   }
-  return ImageRef{pixels, image.width(), image.height(), 4};
+  return runtime::ImageRef{pixels, image.width(), image.height(), 4};
 }
 
 /// "CPU reference renderer (N threads)", or the CUDA device's name.
@@ -258,7 +258,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   RGS_RETURN_ERROR_IF(cameras.empty(), StatusCode::kInvalidArgument, "audit: no views selected");
   RGS_RETURN_ERROR_IF(candidates.empty(), StatusCode::kInvalidArgument, "audit: no candidate scene to compare");
   for (const runtime::Camera& cam : cameras) {
-    RGS_RETURN_ERROR_IF(cam.width < uint32_t(kSsimWindow) || cam.height < uint32_t(kSsimWindow),
+    RGS_RETURN_ERROR_IF(cam.width < uint32_t(runtime::kSsimWindow) || cam.height < uint32_t(runtime::kSsimWindow),
                         StatusCode::kInvalidArgument,
                         "audit: view " + cam.name + " is " + std::to_string(cam.width) + "x" +
                             std::to_string(cam.height) + "; SSIM needs at least 11x11 pixels");
@@ -276,7 +276,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   }
 
   // The renders go through the front door (api::Renderer, the faithful preset, black background); the images
-  // are compared where they are (compare_images on the host, GpuImageComparer on the device).
+  // are compared where they are (runtime::compare_images on the host, runtime::GpuImageComparer on the device).
   const api::Device device = options.backend == Backend::kCuda ? api::Device::kCuda : api::Device::kCpu;
   RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(device, options.cuda_device));
   api::RenderSettings settings;
@@ -294,7 +294,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   }
   RGS_ASSIGN_OR_RETURN(result.device, device_description(options));
 #if RGS_HAS_CUDA
-  GpuImageComparer comparer;
+  runtime::GpuImageComparer comparer;
 #endif
   std::optional<api::Image> source_image, candidate_image;
   std::vector<float> source_host, candidate_host;  // GPU images copied for the report
@@ -326,14 +326,14 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       const float* a = static_cast<const float*>(source_image->color());
       const float* b = static_cast<const float*>(candidate_image->color());
 #if RGS_HAS_CUDA
-      Result<ImageMetrics> metrics = device == api::Device::kCpu
-                                         ? compare_images({a, cam.width, cam.height, 4}, {b, cam.width, cam.height, 4})
+      Result<runtime::ImageMetrics> metrics = device == api::Device::kCpu
+                                         ? runtime::compare_images({a, cam.width, cam.height, 4}, {b, cam.width, cam.height, 4})
                                          : comparer.compare(a, b, cam.width, cam.height, 4);
 #else
-      Result<ImageMetrics> metrics = compare_images({a, cam.width, cam.height, 4}, {b, cam.width, cam.height, 4});
+      Result<runtime::ImageMetrics> metrics = runtime::compare_images({a, cam.width, cam.height, 4}, {b, cam.width, cam.height, 4});
 #endif
       if (!metrics.ok()) return Status(metrics.status()).prepend("view " + cam.name);
-      const ImageMetrics& m = *metrics;
+      const runtime::ImageMetrics& m = *metrics;
       ViewMetrics& vm = c.views[v];
       vm.psnr_db = m.psnr_db;
       vm.ssim = m.ssim;
@@ -351,8 +351,8 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       const bool keep_heatmap = options.keep_worst_heatmap && i == 0 && new_worst;
       if (keep_images || keep_heatmap) {
         // GPU images are copied to the host only here (once per view and scene).
-        RGS_ASSIGN_OR_RETURN(const ImageRef source_pixels, host_pixels(*source_image, &source_host));
-        RGS_ASSIGN_OR_RETURN(const ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
+        RGS_ASSIGN_OR_RETURN(const runtime::ImageRef source_pixels, host_pixels(*source_image, &source_host));
+        RGS_ASSIGN_OR_RETURN(const runtime::ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
         if (keep_images) {
           const uint32_t f = reduction_factor(cam.width, cam.height, options.image_max_side);
           ViewImages vi;

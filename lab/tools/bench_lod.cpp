@@ -14,7 +14,7 @@
 #include "rgs/lab/gpu_modes.h"
 #include "rgs/lab/replicated_scene.h"
 #include "internal_scene_loading.h"
-#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/runtime/gpu_image_metrics.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
@@ -139,7 +139,7 @@ Status bench_lod(const LodBenchOptions& o,
       // A second streamer flies the same path from the same cold pool: streaming is deterministic, so its frames
       // are those of the timed fly-through, which the full renders would have slowed.
       RGS_ASSIGN_OR_RETURN(runtime::LodStreamer replay, runtime::LodStreamer::open(file, o.stream));
-      audit::GpuImageComparer comparer;
+      runtime::GpuImageComparer comparer;
       runtime::DeviceImage expected;
       // The full detail is rendered without a scratch budget, by a renderer of its own: the budgeted renderer's
       // per-Gaussian buffers stay sized by the frames it draws.
@@ -153,7 +153,7 @@ Status bench_lod(const LodBenchOptions& o,
         if (!a.ok()) return Status(a.status()).prepend("full render, view " + cam.name);
         auto b = renderer.render(replay.scene(), cam, options, &image);
         if (!b.ok()) return Status(b.status()).prepend("view " + cam.name);
-        RGS_ASSIGN_OR_RETURN(const audit::ImageMetrics m,
+        RGS_ASSIGN_OR_RETURN(const runtime::ImageMetrics m,
                              comparer.compare(expected.rgba(), image.rgba(), cam.width, cam.height, 4));
         frames[v].psnr = m.psnr_db;
       }

@@ -46,7 +46,7 @@
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "internal_scene_loading.h"
-#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/runtime/gpu_image_metrics.h"
 #include "rgs/config.h"
 #include "rgs/lab/device_peaks.h"
 #include "rgs/lab/frame_census.h"
@@ -371,7 +371,7 @@ struct QualityRow {
 };
 
 /// --quality: every view of every camera set rendered once by the baseline and once by each other mode,
-/// compared on the GPU (audit::GpuImageComparer: PSNR, SSIM and max |Δ| of the clamped RGB, the audit's
+/// compared on the GPU (runtime::GpuImageComparer: PSNR, SSIM and max |Δ| of the clamped RGB, the audit's
 /// definitions). The baseline renders `reference` (the benched scene, or --reference: e.g. the source the .rgs
 /// was converted from, so that faithful's own row is what the conversion costs) and reads its FP32 arrays.
 Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::LoadedGpuScene& scene,
@@ -380,7 +380,7 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
   RGS_ASSIGN_OR_RETURN(const runtime::GpuRenderOptions reference,
                        lab::gpu_mode_options("faithful", reference_scene.scene.has_compact()));
   std::vector<QualityRow> rows;
-  audit::GpuImageComparer comparer;
+  runtime::GpuImageComparer comparer;
   runtime::DeviceImage expected, image;
   for (const std::string& mode_name : opt.modes) {
     if (mode_name == "faithful" && opt.reference.empty()) continue;
@@ -396,7 +396,7 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
         if (!base.ok()) return Status(base.status()).prepend("faithful, view " + cam.name);
         auto frame = renderer.render(scene.scene, cam, options, &image);
         if (!frame.ok()) return Status(frame.status()).prepend(mode_name + ", view " + cam.name);
-        RGS_ASSIGN_OR_RETURN(const audit::ImageMetrics m,
+        RGS_ASSIGN_OR_RETURN(const runtime::ImageMetrics m,
                              comparer.compare(expected.rgba(), image.rgba(), cam.width, cam.height, 4));
         row.psnr_mean += m.psnr_db;
         row.psnr_min = std::min(row.psnr_min, m.psnr_db);

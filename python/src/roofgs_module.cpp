@@ -27,8 +27,6 @@
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
-#include "rgs/audit/rate_control.h"
-#include "rgs/audit/scene_views.h"
 #include "rgs/api/camera.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/archive.h"
@@ -1055,15 +1053,12 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
 }  // namespace
 
 /// convert() and save(): the options of rgs-convert in `kwargs` (by the snake_case of their long options; None
-/// never passed), written by `plain`, or with target_psnr / target_bytes through rate control
-/// (audit::convert_fitted) reading `src`. Returns the report's dict.
-py::dict convert_with_options(const std::string& src, const std::string& dst, py::kwargs kwargs,
-                              const std::function<Result<api::ConvertReport>(const api::ConvertOptions&)>& plain) {
-  // Rate control's arguments (audit::convert_fitted); the rest are ConvertOptions.
-  std::optional<double> target_psnr;
-  std::optional<uint64_t> target_bytes;
-  api::CameraChoice cameras;
-  bool views_chosen = false;
+/// never passed), written by `write` (api::convert, api::convert_cloud); with target_psnr / target_bytes the
+/// conversion fits the archive profile to them (ConvertOptions::target). Returns the report's dict.
+py::dict convert_with_options(py::kwargs kwargs,
+                              const std::function<Result<api::ConvertReport>(const api::ConvertOptions&)>& write) {
+  // The target and its views (api::ConvertTarget); the rest are ConvertOptions.
+  api::ConvertTarget target;
   auto take = [&](const char* key) -> std::optional<py::object> {
     if (!kwargs.contains(key)) return std::nullopt;
     py::object value = kwargs[key];
@@ -1072,48 +1067,30 @@ py::dict convert_with_options(const std::string& src, const std::string& dst, py
     return value;
   };
   constexpr uint64_t kMaxCount = 100000, kMaxEvery = 2147483647;
-  if (auto v = take("target_psnr")) target_psnr = number_option(*v, "target_psnr", 1.0, 200.0);
-  if (auto v = take("target_bytes")) target_bytes = integer_option(*v, "target_bytes", 1, UINT64_MAX);
-  if (auto v = take("cameras")) cameras.cameras_path = v->cast<std::filesystem::path>().string(), views_chosen = true;
-  if (auto v = take("every")) cameras.every = static_cast<uint32_t>(integer_option(*v, "every", 1, kMaxEvery));
-  if (auto v = take("limit")) cameras.limit = static_cast<uint32_t>(integer_option(*v, "limit", 1, kMaxEvery)), views_chosen = true;
-  if (auto v = take("orbit")) cameras.orbit = static_cast<uint32_t>(integer_option(*v, "orbit", 1, kMaxCount)), views_chosen = true;
-  if (auto v = take("path")) cameras.path = static_cast<uint32_t>(integer_option(*v, "path", 1, kMaxCount)), views_chosen = true;
-  if (auto v = take("fly")) cameras.fly = static_cast<uint32_t>(integer_option(*v, "fly", 1, kMaxCount)), views_chosen = true;
-  if (auto v = take("width")) cameras.width = static_cast<uint32_t>(integer_option(*v, "width", 11, 32768)), views_chosen = true;
-  if (auto v = take("height")) cameras.height = static_cast<uint32_t>(integer_option(*v, "height", 11, 32768)), views_chosen = true;
+  api::CameraChoice& views = target.views;
+  if (auto v = take("target_psnr")) target.psnr_db = number_option(*v, "target_psnr", 1.0, 200.0);
+  if (auto v = take("target_bytes")) target.bytes = integer_option(*v, "target_bytes", 1, UINT64_MAX);
+  if (auto v = take("cameras")) views.cameras_path = v->cast<std::filesystem::path>().string();
+  if (auto v = take("every")) views.every = static_cast<uint32_t>(integer_option(*v, "every", 1, kMaxEvery));
+  if (auto v = take("limit")) views.limit = static_cast<uint32_t>(integer_option(*v, "limit", 1, kMaxEvery));
+  if (auto v = take("orbit")) views.orbit = static_cast<uint32_t>(integer_option(*v, "orbit", 1, kMaxCount));
+  if (auto v = take("path")) views.path = static_cast<uint32_t>(integer_option(*v, "path", 1, kMaxCount));
+  if (auto v = take("fly")) views.fly = static_cast<uint32_t>(integer_option(*v, "fly", 1, kMaxCount));
+  if (auto v = take("width")) views.width = static_cast<uint32_t>(integer_option(*v, "width", 11, 32768));
+  if (auto v = take("height")) views.height = static_cast<uint32_t>(integer_option(*v, "height", 11, 32768));
   api::ConvertOptions options = convert_options(kwargs);
-  if (!target_psnr && !target_bytes) {
-    if (views_chosen) {
-      throw py::type_error("cameras, every, limit, orbit, path, fly, width and height choose the views of "
-                           "target_psnr or target_bytes");
-    }
-    Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
-    {
-      py::gil_scoped_release release;
-      r = plain(options);
-    }
-    return report_dict(unwrap(std::move(r)));
-  }
-  if (target_psnr && target_bytes) throw py::type_error("target_psnr and target_bytes exclude each other");
-  // No camera option: audit::default_views (the scene's own cameras.json, else views guessed from its content),
-  // as rgs-convert does.
-  cameras.orbit_width = 960;
-  cameras.orbit_height = 540;
-  audit::FitOptions fit;
-  fit.goal = target_psnr ? audit::FitGoal::kTargetPsnr : audit::FitGoal::kTargetBytes;
-  fit.target_psnr_db = target_psnr.value_or(0);
-  fit.target_bytes = target_bytes.value_or(0);
-  fit.audit.backend = api::cuda_available() ? audit::Backend::kCuda : audit::Backend::kCpu;
-  Result<audit::FittedConversion> r = Status(StatusCode::kInvalidArgument, "not converted");
+  if (target.active()) target.device = api::cuda_available() ? api::Device::kCuda : api::Device::kCpu;
+  options.target = std::move(target);
+  Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
   {
     py::gil_scoped_release release;
-    r = audit::convert_fitted(src, dst, options, cameras, fit);
+    r = write(options);
   }
-  audit::FittedConversion done = unwrap(std::move(r));
-  py::dict d = report_dict(done.convert);
-  const audit::FitResult& f = done.fit;
-  const format::ArchiveOptions& a = f.chosen.options;
+  const api::ConvertReport report = unwrap(std::move(r));
+  py::dict d = report_dict(report);
+  if (!report.rate_control) return d;
+  const api::RateControlReport& f = *report.rate_control;
+  const format::ArchiveOptions& a = f.settings;
   py::dict settings(py::arg("position_error") = a.position_error, py::arg("rotation_bits") = a.rotation_bits,
                     py::arg("rotation_step") = a.rotation_step, py::arg("scale_bits") = a.scale_bits,
                     py::arg("scale_step") = a.scale_step, py::arg("opacity_bits") = a.opacity_bits,
@@ -1121,13 +1098,13 @@ py::dict convert_with_options(const std::string& src, const std::string& dst, py
                     py::arg("sh_step_multipliers") = std::vector<uint32_t>(a.sh_step_multipliers.begin(),
                                                                             a.sh_step_multipliers.end()));
   d["rate_control"] = py::dict(
-      py::arg("psnr_mean_db") = f.chosen.psnr_mean_db, py::arg("psnr_min_db") = f.chosen.psnr_min_db,
+      py::arg("psnr_mean_db") = f.psnr_mean_db, py::arg("psnr_min_db") = f.psnr_min_db,
       py::arg("search_psnr_db") = f.search_psnr_db, py::arg("settings") = settings,
       py::arg("views") = f.views, py::arg("width") = f.width, py::arg("height") = f.height,
-      py::arg("backend") = audit::backend_name(f.backend), py::arg("encodings") = f.encodings,
+      py::arg("backend") = api::device_name(f.device), py::arg("encodings") = f.encodings,
       py::arg("renders") = f.renders, py::arg("seconds") = f.seconds,
       py::arg("encode_seconds") = f.encode_seconds, py::arg("render_seconds") = f.render_seconds,
-      py::arg("views_note") = done.views_note);
+      py::arg("views_note") = f.views_note);
   return d;
 }
 
@@ -1523,7 +1500,7 @@ PYBIND11_MODULE(roofgs, m) {
 
   m.def("_convert",
         [](const std::filesystem::path& src, const std::filesystem::path& dst, py::kwargs kwargs) {
-          return convert_with_options(src.string(), dst.string(), std::move(kwargs), [&](const api::ConvertOptions& o) {
+          return convert_with_options(std::move(kwargs), [&](const api::ConvertOptions& o) {
             return api::convert(src.string(), dst.string(), o);
           });
         },
@@ -1532,37 +1509,9 @@ PYBIND11_MODULE(roofgs, m) {
         [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
            const py::object& scales, const py::object& opacities, const py::object& sh, py::kwargs kwargs) {
           format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
-          if (!kwargs.contains("target_psnr") && !kwargs.contains("target_bytes")) {
-            return convert_with_options("arrays", path.string(), std::move(kwargs), [&](const api::ConvertOptions& o) {
-              return api::convert_cloud(std::move(cloud), "arrays", path.string(), o);
-            });
-          }
-          // Rate control renders its candidates against the source's render: the arrays, written losslessly
-          // (FP32 PLY) to a scratch file the fit reads, removed afterwards.
-          static std::atomic<uint64_t> serial{0};
-          const std::filesystem::path scratch =
-              std::filesystem::temp_directory_path() /
-              ("roofgs_save_" + std::to_string(::getpid()) + "_" + std::to_string(serial++) + ".ply");
-          api::ConvertOptions plain;
-          plain.converter_name = "roofgs python";
-          plain.allow_empty = true;
-          Result<api::ConvertReport> written = Status(StatusCode::kInvalidArgument, "not written");
-          {
-            py::gil_scoped_release release;
-            written = api::convert_cloud(std::move(cloud), "arrays", scratch.string(), plain);
-          }
-          unwrap(std::move(written));
-          struct Remove {
-            std::filesystem::path p;
-            ~Remove() {
-              std::error_code ec;
-              std::filesystem::remove(p, ec);
-            }
-          } remove{scratch};
-          return convert_with_options(scratch.string(), path.string(), std::move(kwargs),
-                                      [&](const api::ConvertOptions& o) {
-                                        return api::convert(scratch.string(), path.string(), o);
-                                      });
+          return convert_with_options(std::move(kwargs), [&](const api::ConvertOptions& o) {
+            return api::convert_cloud(std::move(cloud), "arrays", path.string(), o);
+          });
         },
         py::arg("path"), py::arg("means"), py::arg("quats"), py::arg("scales"), py::arg("opacities"), py::arg("sh"),
         "save()'s implementation: the options given, by name");
@@ -1607,7 +1556,7 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "Convert a scene in any format into dst: .rgs, .ply, .spz or .glb, as `to` or dst's extension says "
         "(what rgs-convert does, same options). Returns a dict: input and output (format, description, bytes, "
         "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output. "
-        "target_psnr (dB) or target_bytes: rate control of the archive profile (audit::fit_archive, as "
+        "target_psnr (dB) or target_bytes: rate control of the archive profile (api::ConvertOptions::target, as "
         "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
         "an orbit or a path, at width x height; with none of these, the scene's own cameras.json of the 3DGS output "
         "layout beside it, else views guessed from its content (rate_control's views_note says which); the dict "
@@ -1778,8 +1727,8 @@ def _check_gsplat_options(given):
                 api::CameraChoice choice;
                 choice.width = width;
                 choice.height = height;
-                RGS_ASSIGN_OR_RETURN(audit::DefaultViews found,
-                                     audit::default_views(source.string(), src.cloud, choice));
+                RGS_ASSIGN_OR_RETURN(api::DefaultViews found,
+                                     api::default_views(source.string(), src.cloud, choice));
                 views = std::move(found.cameras);
                 views_note = std::move(found.note);
               }

@@ -1,4 +1,4 @@
-// The scene loading the tools share (rgs/api/scene_loading.h): every input format through load_host_scene
+// The scene loading the tools share (api/src/internal_scene_loading.h): every input format through load_host_scene
 // with the caller's read limits; make_cameras' fly-through of a cameras.json.
 #include <doctest/doctest.h>
 

@@ -1,5 +1,5 @@
 // Helpers of the audit suite: scenes converted in memory and written to a temporary .rgs file, so the tests go
-// through load_audit_scene like the tool does; the views of the rate-control fits and their PSNR by run_audit.
+// through load_audit_scene like the tool does; the views of the rate-control fit of the GPU suite and its PSNR by run_audit.
 #pragma once
 
 #include <doctest/doctest.h>
@@ -40,7 +40,7 @@ inline audit::AuditScene audit_scene(const std::string& path) {
   return std::move(scene).value();
 }
 
-/// Two orbit views at 480x270: what the rate-control fits of the suite are measured on.
+/// Two orbit views at 480x270: what the rate-control fits are measured on (as in tests/api).
 inline api::CameraChoice small_orbit() {
   api::CameraChoice choice;
   choice.orbit = 2;

@@ -9,10 +9,10 @@
 #include <cstring>
 
 #include "audit_test_util.h"
+#include "rgs/api/convert.h"
 #include "rgs/api/scene.h"
 #include "rgs/audit/audit.h"
-#include "rgs/audit/image_metrics.h"
-#include "rgs/audit/rate_control.h"
+#include "rgs/runtime/image_metrics.h"
 #include "rgs/config.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cpu_renderer.h"
@@ -21,7 +21,7 @@
 #if RGS_HAS_CUDA
 #include <cuda_runtime_api.h>
 
-#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/runtime/gpu_image_metrics.h"
 #include "rgs/runtime/device_buffer.h"
 #endif
 
@@ -89,7 +89,7 @@ TEST_CASE("GPU metrics equal the CPU metrics on real renders, foreground PSNR in
       REQUIRE(a.ok());
       REQUIRE(b.ok());
       std::vector<float> cpu_diff;
-      auto cpu = audit::compare_images({a->rgb.data(), cam.width, cam.height, 3},
+      auto cpu = runtime::compare_images({a->rgb.data(), cam.width, cam.height, 3},
                                        {b->rgb.data(), cam.width, cam.height, 3}, &cpu_diff);
       REQUIRE(cpu.ok());
       const size_t pixels = size_t(cam.width) * cam.height;
@@ -100,7 +100,7 @@ TEST_CASE("GPU metrics equal the CPU metrics on real renders, foreground PSNR in
       REQUIRE(cudaMemcpy(da.data(), a->rgb.data(), pixels * 3 * 4, cudaMemcpyHostToDevice) == cudaSuccess);
       REQUIRE(cudaMemcpy(db.data(), b->rgb.data(), pixels * 3 * 4, cudaMemcpyHostToDevice) == cudaSuccess);
       REQUIRE(cudaMemset(ddiff.data(), 0xff, pixels * 4) == cudaSuccess);  // NaN poison
-      audit::GpuImageComparer comparer;
+      runtime::GpuImageComparer comparer;
       auto gpu = comparer.compare(da.data(), db.data(), cam.width, cam.height, 3, ddiff.data());
       REQUIRE_MESSAGE(gpu.ok(), gpu.status().to_string());
       CHECK(std::fabs(gpu->psnr_db - cpu->psnr_db) <= 1e-9);
@@ -160,17 +160,19 @@ TEST_CASE("CUDA rate control meets a 40 dB target on guitar, measured by a CUDA 
   test::TempDir dir;
   const std::string source = test::repo_path("samples/guitar.ply");
   const std::string out = dir.file("guitar_40db_cuda.rgs");
-  audit::FitOptions fit;
-  fit.target_psnr_db = 40;
-  fit.audit.backend = audit::Backend::kCuda;
-  auto fitted = audit::convert_fitted(source, out, {}, test::small_orbit(), fit);
+  api::ConvertOptions fit;
+  fit.target.psnr_db = 40;
+  fit.target.views = test::small_orbit();
+  fit.target.device = api::Device::kCuda;
+  auto fitted = api::convert(source, out, fit);
   REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
-  CHECK(fitted->fit.device.find("CUDA") != std::string::npos);
+  REQUIRE(fitted->rate_control.has_value());
+  CHECK(fitted->rate_control->device_name.find("CUDA") != std::string::npos);
   const double psnr = test::measured_psnr(source, out, test::small_orbit(), audit::Backend::kCuda);
   CHECK(psnr >= 40);
   CHECK(psnr <= 40.5);
-  CHECK(fitted->fit.chosen.psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
-  MESSAGE("guitar at 40 dB on the GPU: " << fitted->convert.output_bytes << " bytes, " << psnr << " dB");
+  CHECK(fitted->rate_control->psnr_mean_db == doctest::Approx(psnr).epsilon(1e-9));
+  MESSAGE("guitar at 40 dB on the GPU: " << fitted->output_bytes << " bytes, " << psnr << " dB");
 }
 
 TEST_CASE("the CUDA backend without a device or CUDA build is kUnsupportedFeature") {

@@ -476,6 +476,21 @@ def test_save_writes_every_format(output, tmp_path):
         assert np.allclose(back.render(camera), direct.render(camera), atol=1e-6)
 
 
+def test_save_and_convert_fit_a_target(tmp_path):
+    # Rate control through api::convert: the arrays themselves are the source (no scratch file), and the report
+    # says what the fit reached; a target needs a .rgs output.
+    scene = roofgs.load(GUITAR, device="cpu", quantize_other_formats=False)
+    report = roofgs.save(tmp_path / "g30.rgs", *scene.arrays(), target_psnr=30, orbit=2, width=96)
+    fit = report["rate_control"]
+    assert fit["psnr_mean_db"] >= 30 and fit["views"] == 2 and fit["width"] == 96
+    assert report["output"]["bytes"] == (tmp_path / "g30.rgs").stat().st_size
+    report = roofgs.convert(GUITAR, tmp_path / "g_bytes.rgs", target_bytes=300000, orbit=2, width=96)
+    assert report["output"]["bytes"] <= 300000 and report["rate_control"]["psnr_mean_db"] > 30
+    with pytest.raises(Exception, match="archive profile of a .rgs output"):
+        roofgs.convert(GUITAR, tmp_path / "g.ply", target_psnr=30)
+    assert not (tmp_path / "g.ply").exists()
+
+
 def test_arrays_follow_the_value_rules():
     means, quats, scales, opacities, sh = (a[:100].copy() for a in read_ply_arrays(GUITAR))
     with pytest.raises(roofgs.Error) as e:

@@ -1,5 +1,6 @@
-// The one conversion: any scene format in, .rgs / INRIA PLY / SPZ / glTF binary out. rgs-convert and
-// Python's roofgs.convert call it and only parse options and print its report.
+// The one conversion: any scene format in, .rgs / INRIA PLY / SPZ / glTF binary out, optionally fitted to a
+// quality or size target (rate control of the archive profile, ConvertOptions::target). rgs-convert and Python's
+// roofgs.convert call it and only parse options and print its report.
 //
 // Thread safety: convert() and convert_bytes() are reentrant (no shared state besides the files they name).
 #pragma once
@@ -11,10 +12,13 @@
 #include <string>
 #include <vector>
 
+#include "rgs/api/scene.h"
+#include "rgs/api/camera.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/spz.h"
+#include "rgs/format/archive.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 #include "rgs/format/writer.h"
@@ -44,12 +48,86 @@ Result<OutputFormat> parse_output_format(const std::string& name);
 /// Where a running conversion is, for a progress display (ConvertOptions::progress).
 struct ConvertProgress {
   /// The stage now running: "reading" (and decoding the input), "quantizing", "encoding the archive"
-  /// (archive profile), "writing"; "done" once, with fraction 1, when the output is written.
+  /// (archive profile), "writing"; "done" once, with fraction 1, when the output is written. With a target
+  /// (ConvertOptions::target), between reading and quantizing, rate control's steps in words: "rate control,
+  /// step 3 of <= 22: refining: 40 archives encoded, 12 rendered; at 41.20 dB, 1,234,567 bytes". Valid only
+  /// during the call.
   const char* stage = "";
   /// Fraction of the whole conversion done, in [0, 1]: each stage starts at its share of a typical
-  /// conversion's time, so that elapsed * (1 - fraction) / fraction estimates the time left.
+  /// conversion's time, so that elapsed * (1 - fraction) / fraction estimates the time left. Rate control
+  /// spreads its steps over most of the range: step / steps of it once `step` steps are done.
   double fraction = 0;
+  /// Rate control: steps done (a stage of a search or a check of an archive at the views' own size) and an
+  /// upper bound on the steps of the whole fit (the bound shrinks as the search settles; step <= steps); 0 and
+  /// 0 outside rate control.
+  uint32_t step = 0, steps = 0;
 };
+
+/// A quality or a size the archive profile is fitted to (rate control, ConvertOptions::target): format::ArchiveOptions
+/// (bits and code steps of rotations, scales and opacities, SH step multipliers per degree, position error, opacity
+/// floor) chosen so that the archive's render meets a PSNR target against the source's render at the fewest bytes,
+/// or fits a byte budget at the best PSNR. The search encodes each candidate in memory and measures it on the
+/// views reduced in size (search_max_side, search_max_views); the choice is then checked at the views' own size.
+/// How it searches and what it reaches: docs/AUDITS.md#rate-control-of-the-archive-profile.
+struct ConvertTarget {
+  ConvertTarget() {
+    views.orbit_width = 960;
+    views.orbit_height = 540;
+  }
+  /// The mean over the views of the per-view PSNR (dB, peak 1, clamped RGB, the whole frame: runtime::psnr_rgb)
+  /// of the archive's render against the source's, at the views' own size: at least this, at the fewest bytes.
+  /// Finite and positive.
+  std::optional<double> psnr_db;
+  /// The largest output file, bytes (sections, header, metadata and provenance): at most this, at the highest
+  /// mean PSNR. Positive; excludes psnr_db.
+  std::optional<uint64_t> bytes;
+  /// The views the PSNR is measured on (make_cameras on the scene's bounds: a cameras file, an orbit or a path,
+  /// with `every`, `limit`, `fly`, `width` and `height`; an orbit or path is 960x540 unless orbit_width and
+  /// orbit_height say otherwise). Naming no cameras file, orbit or path: default_views (the scene's own
+  /// cameras.json found beside it, else views guessed from its content), with `limit`, `width` and `height`.
+  CameraChoice views;
+  /// Renderer of the measurements: the CPU reference or CUDA (device cuda_device); CPU threads (0: all). The
+  /// renders are the faithful preset on a black background; on the GPU the PSNR is computed on the device
+  /// (runtime::GpuImageComparer: the same PSNR but for the order of its float64 sums).
+  Device device = Device::kCpu;
+  int cuda_device = 0;
+  unsigned cpu_threads = 0;
+  /// The search renders the views reduced (field of view kept) so that their longer side is at most this many
+  /// pixels (at least 16); the final check renders them at their own size. 0: 320 on the CPU, 1920 with CUDA,
+  /// where renders are cheap next to encoding and the reduced views of a dense scene read several dB above its
+  /// full ones (docs/AUDITS.md, rate control).
+  uint32_t search_max_side = 0;
+  /// The search renders at most this many of the views, evenly spread; the final check renders them all.
+  uint32_t search_max_views = 6;
+
+  /// Whether a target is set (psnr_db or bytes).
+  bool active() const { return psnr_db.has_value() || bytes.has_value(); }
+};
+
+/// What rate control chose and measured (ConvertReport::rate_control).
+struct RateControlReport {
+  /// The archive options of the written file.
+  format::ArchiveOptions settings;
+  /// The written archive's mean and lowest per-view PSNR (dB) on the views at their own size, and its mean on
+  /// the search's reduced views.
+  double psnr_mean_db = 0, psnr_min_db = 0, search_psnr_db = 0;
+  uint32_t views = 0;                            ///< views measured
+  uint32_t width = 0, height = 0;                ///< first view's own size (the final check)
+  uint32_t search_width = 0, search_height = 0;  ///< first view's size in the search
+  uint32_t encodings = 0;                        ///< archives encoded (each measured for bytes)
+  uint32_t renders = 0;                          ///< archives rendered (each on every search view)
+  Device device = Device::kCpu;
+  std::string device_name;                       ///< "CPU reference renderer" or "CUDA device N"
+  /// Wall time of the fit, and of it encoding the candidates and loading and rendering them with the PSNR
+  /// against the source (the source's own renders not included).
+  double seconds = 0, encode_seconds = 0, render_seconds = 0;
+  /// Which views were measured when ConvertTarget::views named none (DefaultViews::note); empty otherwise.
+  std::string views_note;
+};
+
+/// "rotation 10, scale 9, opacity 8 bits; SH step x1/3/5/6; position error 7.63e-06 of the extent": archive
+/// options in words, SH multipliers up to `sh_degree`.
+std::string describe_archive_options(const format::ArchiveOptions& options, uint32_t sh_degree);
 
 /// The archive's quantized codes also try .xz streams (format::ArchiveOptions::xz) from this zstd level on: LZMA
 /// takes 2-5 % off the measured archives for about the time zstd takes at this level; a lower level asks for a
@@ -99,9 +177,13 @@ struct ConvertOptions {
   /// The archive profile's choices (format::ArchiveOptions): largest position error as a fraction of the
   /// scene's longest AABB side (position_error), bits of rotations, scales and opacities (0: by scene size),
   /// SH step multipliers per degree, SH codebook, Draco speed, threads; its sections are coded at zstd_level.
-  /// audit::fit_archive chooses them for a PSNR target or a byte budget.
+  /// With a `target`, rate control chooses the bits, steps, multipliers, position error and opacity floor and
+  /// keeps the rest (sh_codebook_size, draco_speed, threads, xz).
   format::ArchiveOptions archive;
-  /// An archive of this scene encoded before with these options' quantization (audit::FitResult::archive): it
+  /// Rate control: fit the archive profile to a PSNR or a byte target on `target.views` (ConvertTarget). A .rgs
+  /// output only; the archive profile is written whatever `profile` says; no levels of detail.
+  ConvertTarget target;
+  /// An archive of this scene encoded before with these options' quantization (rate control's search): it
   /// lends the archive profile's encoding the sections coded with the same settings (format::encode_archive's
   /// `earlier`; the means when its Draco points are those of `archive`), so they are not coded again. The file's
   /// bytes do not depend on it.
@@ -118,8 +200,9 @@ struct ConvertOptions {
   /// Where the output file goes; null: written atomically in place (format::atomic_files()). A tool passes
   /// its run's transaction, which commits the output with its other files.
   format::FileSink* files = nullptr;
-  /// Called on the converting thread as each stage starts, with non-decreasing fractions, and once with
-  /// stage "done" and fraction 1 after a successful conversion (not after a failed one). Empty: not called.
+  /// Called on the converting thread as each stage starts (with a target, also after each of rate control's
+  /// steps), with non-decreasing fractions, and once with stage "done" and fraction 1 after a successful
+  /// conversion (not after a failed one). Empty: not called.
   /// The library prints nothing itself; rgs-convert draws a progress line from these calls.
   std::function<void(const ConvertProgress&)> progress;
 };
@@ -159,7 +242,8 @@ struct RgsOutputReport {
 
 /// Seconds spent, wall clock.
 struct ConvertTimes {
-  double read = 0, quantize = 0, lod = 0, write = 0, total = 0;  ///< quantize includes measuring the errors
+  /// quantize includes measuring the errors; total includes rate control (RateControlReport::seconds).
+  double read = 0, quantize = 0, lod = 0, write = 0, total = 0;
 };
 
 /// What convert() read and wrote.
@@ -195,13 +279,17 @@ struct ConvertReport {
   std::optional<converter::SpzWriteSummary> spz;
   /// PLY output: zero scales written as converter::kZeroScaleLog instead of −inf.
   uint64_t zero_scales = 0;
+  /// With ConvertOptions::target: what rate control chose and measured.
+  std::optional<RateControlReport> rate_control;
   ConvertTimes seconds;
 };
 
 /// Checks the options that need no input, as convert() does before reading anything: SH degree, clip percentile,
 /// DC bits, zstd level and sections, the archive options (format::check_archive_options) with the archive
-/// profile, and that levels of detail come with the runtime profile and raw per-Gaussian sections. Tools call it
-/// to refuse a command line before any work. @return kInvalidArgument naming the option and the rule.
+/// profile or a target, that levels of detail come with the runtime profile and raw per-Gaussian sections, and
+/// the target (ConvertTarget: one of psnr_db, finite and positive, or bytes, positive; no levels of detail; a
+/// .rgs output when `to` is set; views named only with a target). Tools call it to refuse a command line before any work.
+/// @return kInvalidArgument naming the option and the rule.
 Status check_convert_options(const ConvertOptions& options);
 
 /// Converts the scene at `src` (any format converter::read_scene detects, .rgs included) into `dst` in
@@ -209,9 +297,26 @@ Status check_convert_options(const ConvertOptions& options);
 /// drop SH bands, then quantize into a .rgs (provenance records the source, its XXH64 and the options) or
 /// write PLY / SPZ / GLB from the float Gaussians (a .rgs input dequantized). `dst` is replaced atomically
 /// and only on success: a failed conversion leaves an existing `dst` untouched.
+/// With options.target, the archive options are first fitted to the target on the scene as read (its SH bands
+/// all rendered as the source; the fit's candidates drop those above sh_degree): kTargetPsnr the fewest bytes
+/// whose mean PSNR at the views' own size meets psnr_db; bytes the highest such PSNR whose file fits. The search:
+/// a ladder that coarsens every knob together from the defaults (format::resolve_archive_options), bracketed at
+/// the search size; then rounds of one-knob steps (the steps that keep the target taken together, by bytes saved
+/// per squared error added, a scan of the SH multipliers' integers, exchanges of one knob a step coarser for
+/// another a step finer, and the code steps coarsened a quarter bit at a time while the target holds), checked at
+/// the views' own size and searched again with the measured difference between the sizes while it misses the
+/// target or lands over 0.5 dB above it. A byte target runs such PSNR searches over their target for the highest
+/// one whose file fits, spends what the budget leaves on finer single steps, checks the best few at the views'
+/// own size, and climbs with PSNR fits a little above its choice while one fits and reads higher. Deterministic
+/// for a given device. The archive is then written with the chosen options (ConvertReport::rate_control).
 /// @return kInvalidArgument (bad options, an unknown zstd section, no output format, `dst` being one of the
-///         scene's files, an empty scene without allow_empty); the errors of reading `src` and of writing
-///         `dst` (kIoError naming it).
+///         scene's files, an empty scene without allow_empty; with a target: a non-.rgs output, no views, a PSNR
+///         target above what the finest archive reaches (the message says what it reaches), a byte budget below
+///         the coarsest archive (the message says its size), the views' errors prefixed with "<src>: rate
+///         control's views"); kLimitExceeded (a byte target no measured archive fits once coded at the file's
+///         zstd level, or a written file over it: its provenance larger than the fit allowed for; that file is
+///         written when options.files is null); the errors of reading `src`, of rendering and of writing `dst`
+///         (kIoError naming it).
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
 
 /// How convert() reads its source: `options.read`, the invalid-value policy of `options.sanitize`, and the
@@ -219,7 +324,7 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
 converter::SceneReadOptions scene_read_options(const ConvertOptions& options);
 
 /// convert() of a scene converter::read_scene has read from `src` with scene_read_options(options): for a caller
-/// that works on the scene before writing it (audit::convert_fitted), without reading it twice. `dst` is checked
+/// that works on the scene before writing it, without reading it twice. `dst` is checked
 /// against the files the scene read (format::check_output_file), as convert() does. The report counts no reading
 /// time.
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,

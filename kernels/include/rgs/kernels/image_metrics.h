@@ -1,8 +1,9 @@
-// Image comparison on the GPU for the audit: PSNR's squared-error sum (whole frame and a's foreground), SSIM's
-// per-channel window sums and the per-pixel maximum difference of two float images in device memory. The window weights and constants come
-// from the caller (rgs::audit's CPU reference, audit/include/rgs/audit/image_metrics.h), and every window is
-// evaluated with the CPU reference's float64 operations in its order (the library is built with
-// --fmad=false), so per-window values agree bit for bit; only the order of the final sums differs.
+// Image comparison on the GPU (runtime::GpuImageComparer, for the audit and rate control): PSNR's squared-error
+// sum (whole frame and a's foreground), SSIM's per-channel window sums and the per-pixel maximum difference of two
+// float images in device memory. The window weights and constants come from the caller (the CPU reference,
+// runtime/include/rgs/runtime/image_metrics.h), and every window is evaluated with the CPU reference's float64
+// operations in its order (the library is built with --fmad=false), so per-window values agree bit for bit; only
+// the order of the final sums differs.
 #pragma once
 
 #include <cuda_runtime_api.h>

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "rgs/audit/scene_views.h"
+#include "rgs/api/camera.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/runtime/camera.h"
 #include "temp_dir.h"
@@ -102,18 +102,18 @@ TEST_CASE("a cameras.json of the 3DGS output layout is found beside the scene, a
   const fs::path model = dir.path() / "model";
   const fs::path ply = model / "point_cloud" / "iteration_30000" / "point_cloud.ply";
   write_text(ply, "not read");
-  auto found = audit::find_scene_cameras(ply.string());
+  auto found = api::find_scene_cameras(ply.string());
   REQUIRE_MESSAGE(found.ok(), found.status().to_string());
   CHECK(found->empty());  // absent
 
   write_text(model / "cameras.json", three_cameras_json());
-  found = audit::find_scene_cameras(ply.string());
+  found = api::find_scene_cameras(ply.string());
   REQUIRE_MESSAGE(found.ok(), found.status().to_string());
   CHECK(fs::equivalent(*found, model / "cameras.json"));
 
   // In the scene's own folder, which comes first.
   write_text(ply.parent_path() / "cameras.json", three_cameras_json());
-  found = audit::find_scene_cameras(ply.string());
+  found = api::find_scene_cameras(ply.string());
   REQUIRE(found.ok());
   CHECK(fs::equivalent(*found, ply.parent_path() / "cameras.json"));
 
@@ -125,7 +125,7 @@ TEST_CASE("a cameras.json of the 3DGS output layout is found beside the scene, a
     write_text(other, "not read");
     write_text(other.parent_path().parent_path().parent_path() / "cameras.json", "garbage that must not be read");
     write_text(other.parent_path().parent_path() / "cameras.json", "garbage that must not be read");
-    auto none = audit::find_scene_cameras(other.string());
+    auto none = api::find_scene_cameras(other.string());
     REQUIRE_MESSAGE(none.ok(), none.status().to_string());
     CHECK(none->empty());
   }
@@ -143,7 +143,7 @@ TEST_CASE("a cameras.json found beside the scene is hostile input: garbled, not 
 
   SUBCASE("garbled JSON: an error that names the file and says it was found beside the scene") {
     write_text(model / "cameras.json", "[{\"id\": 0, \"width\": 640, \"height\": ");
-    auto views = audit::default_views(ply.string(), cloud);
+    auto views = api::default_views(ply.string(), cloud);
     REQUIRE_FALSE(views.ok());
     CHECK(views.status().code() == StatusCode::kCorruptData);
     const std::string message = views.status().message();
@@ -154,13 +154,13 @@ TEST_CASE("a cameras.json found beside the scene is hostile input: garbled, not 
     std::string json = three_cameras_json();
     json.replace(json.find("\"rotation\": [[") + 14, 1, "7");
     write_text(model / "cameras.json", json);
-    auto views = audit::default_views(ply.string(), cloud);
+    auto views = api::default_views(ply.string(), cloud);
     REQUIRE_FALSE(views.ok());
     CHECK(views.status().code() == StatusCode::kCorruptData);
   }
   SUBCASE("a directory named cameras.json") {
     fs::create_directories(model / "cameras.json");
-    auto found = audit::find_scene_cameras(ply.string());
+    auto found = api::find_scene_cameras(ply.string());
     REQUIRE_FALSE(found.ok());
     CHECK(found.status().code() == StatusCode::kInvalidArgument);
     CHECK_MESSAGE(std::string(found.status().message()).find("not a regular file") != std::string::npos,
@@ -170,24 +170,24 @@ TEST_CASE("a cameras.json found beside the scene is hostile input: garbled, not 
     const fs::path outside = dir.path() / "elsewhere" / "secret.json";
     write_text(outside, three_cameras_json());
     fs::create_symlink(outside, model / "cameras.json");
-    auto found = audit::find_scene_cameras(ply.string());
+    auto found = api::find_scene_cameras(ply.string());
     REQUIRE_FALSE(found.ok());
     CHECK(found.status().code() == StatusCode::kInvalidArgument);
     const std::string message = found.status().message();
     CHECK_MESSAGE(message.find("outside the scene's folder") != std::string::npos, message);
-    auto views = audit::default_views(ply.string(), cloud);
+    auto views = api::default_views(ply.string(), cloud);
     CHECK_FALSE(views.ok());
   }
   SUBCASE("a link that stays inside it is read") {
     write_text(model / "cams" / "all.json", three_cameras_json());
     fs::create_symlink(model / "cams" / "all.json", model / "cameras.json");
-    auto views = audit::default_views(ply.string(), cloud);
+    auto views = api::default_views(ply.string(), cloud);
     REQUIRE_MESSAGE(views.ok(), views.status().to_string());
     CHECK(views->cameras.size() == 3);
   }
   SUBCASE("a dangling link") {
     fs::create_symlink(model / "missing.json", model / "cameras.json");
-    auto found = audit::find_scene_cameras(ply.string());
+    auto found = api::find_scene_cameras(ply.string());
     REQUIRE_FALSE(found.ok());
     CHECK(found.status().code() == StatusCode::kInvalidArgument);
   }
@@ -203,7 +203,7 @@ TEST_CASE("the default views are the scene's own cameras when found, each resize
   const float origin[3] = {0, 0, 0};
   add_shell(&cloud, &rng, origin, 0, 1, 100, 0.5f);
   api::CameraChoice choice;
-  auto views = audit::default_views(ply.string(), cloud, choice);
+  auto views = api::default_views(ply.string(), cloud, choice);
   REQUIRE_MESSAGE(views.ok(), views.status().to_string());
   REQUIRE(views->cameras.size() == 3);
   CHECK(views->cameras[0].name == "cam_0");
@@ -212,7 +212,7 @@ TEST_CASE("the default views are the scene's own cameras when found, each resize
   CHECK(!views->cameras_path.empty());
   choice.limit = 2;  // every 2nd
   choice.width = 320;
-  views = audit::default_views(ply.string(), cloud, choice);
+  views = api::default_views(ply.string(), cloud, choice);
   REQUIRE(views.ok());
   REQUIRE(views->cameras.size() == 2);
   CHECK(views->cameras[1].name == "cam_2");
@@ -220,7 +220,7 @@ TEST_CASE("the default views are the scene's own cameras when found, each resize
   CHECK(views->cameras[1].height == 240);
 
   fs::remove(dir.path() / "cameras.json");
-  views = audit::default_views(ply.string(), cloud, {});
+  views = api::default_views(ply.string(), cloud, {});
   REQUIRE(views.ok());
   CHECK(views->cameras_path.empty());
   CHECK(views->cameras.size() == 6);
@@ -237,8 +237,8 @@ TEST_CASE("guessed views frame the dense content of a scene with far floaters, w
     format::GaussianCloud cloud;
     add_shell(&cloud, &rng, object, 0, 1, 3800, 0.8f);
     add_shell(&cloud, &rng, object, 200, 2000, 160, 0.95f);
-    audit::ContentViewsInfo info;
-    auto views = audit::content_views(cloud, 960, 540, &info);
+    api::ContentViewsInfo info;
+    auto views = api::content_views(cloud, 960, 540, &info);
     REQUIRE_MESSAGE(views.ok(), views.status().to_string());
     CHECK_FALSE(info.surrounds);
     REQUIRE(views->size() == 6);
@@ -264,8 +264,8 @@ TEST_CASE("guessed views of content that surrounds a core stand inside it, looki
   format::GaussianCloud cloud;
   add_shell(&cloud, &rng, core, 0, 1, 3000, 0.9f);
   add_shell(&cloud, &rng, core, 10, 40, 6000, 0.9f);
-  audit::ContentViewsInfo info;
-  auto views = audit::content_views(cloud, 960, 540, &info);
+  api::ContentViewsInfo info;
+  auto views = api::content_views(cloud, 960, 540, &info);
   REQUIRE_MESSAGE(views.ok(), views.status().to_string());
   CHECK(info.surrounds);
   REQUIRE(views->size() == 6);
@@ -295,7 +295,7 @@ TEST_CASE("guessed views of one Gaussian, or of Gaussians without opacity, are s
   cloud.scales = {0.5f, 0.5f, 0.5f};
   cloud.rotations = {1, 0, 0, 0};
   cloud.opacities = {0};
-  auto views = audit::content_views(cloud, 64, 64);
+  auto views = api::content_views(cloud, 64, 64);
   REQUIRE_MESSAGE(views.ok(), views.status().to_string());
   for (const runtime::Camera& cam : *views) {
     CHECK(runtime::validate_camera(cam).ok());
@@ -303,5 +303,5 @@ TEST_CASE("guessed views of one Gaussian, or of Gaussians without opacity, are s
     CHECK(framing(cam, mean, 0.5).second);
   }
   cloud.means = {NAN, 0, 0};
-  CHECK(audit::content_views(cloud, 64, 64).status().code() == StatusCode::kInvalidArgument);
+  CHECK(api::content_views(cloud, 64, 64).status().code() == StatusCode::kInvalidArgument);
 }

@@ -1,11 +1,11 @@
-#include "rgs/audit/image_metrics.h"
+#include "rgs/runtime/image_metrics.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
-namespace rgs::audit {
+namespace rgs::runtime {
 
 namespace {
 
@@ -183,4 +183,4 @@ Result<double> ssim_rgb(const std::vector<float>& a, const std::vector<float>& b
   return ssim_of(ra, rb);
 }
 
-}  // namespace rgs::audit
+}  // namespace rgs::runtime

@@ -1,4 +1,4 @@
-// The audit's image metrics on the GPU (CUDA builds only: rgs/config.h RGS_HAS_CUDA). Same definitions as
+// Image metrics on the GPU (CUDA builds only: rgs/config.h RGS_HAS_CUDA). Same definitions as
 // compare_images() in image_metrics.h; per-window SSIM values are the CPU reference's bits, and PSNR and SSIM
 // differ from it only by the order of the final float64 sums (relative 1e-12 or less).
 #pragma once
@@ -7,12 +7,12 @@
 
 #include <cstdint>
 
-#include "rgs/audit/image_metrics.h"
+#include "rgs/runtime/image_metrics.h"
 #include "rgs/format/status.h"
 #include "rgs/kernels/image_metrics.h"
 #include "rgs/runtime/device_buffer.h"
 
-namespace rgs::audit {
+namespace rgs::runtime {
 
 /// Compares images in device memory (kernels::launch_image_metrics). Keeps its scratch buffers between calls
 /// and grows them as needed. Not thread-safe; move-only.
@@ -32,4 +32,4 @@ class GpuImageComparer {
   runtime::PinnedBuffer host_sums_;
 };
 
-}  // namespace rgs::audit
+}  // namespace rgs::runtime

@@ -1,4 +1,4 @@
-// Image quality metrics of the audit: PSNR, SSIM and the per-pixel maximum difference of two float RGB images
+// Image quality metrics of two renders (the audit's and rate control's): PSNR, SSIM and the per-pixel maximum difference of two float RGB images
 // (CPU reference). The GPU version (gpu_image_metrics.h) uses the same window and constants and gives the same
 // per-window values; only the order of the final sums differs.
 #pragma once
@@ -9,7 +9,7 @@
 
 #include "rgs/format/status.h"
 
-namespace rgs::audit {
+namespace rgs::runtime {
 
 /// SSIM window radius: an 11×11 window (Wang et al. 2004).
 inline constexpr int kSsimRadius = 5;
@@ -90,4 +90,4 @@ Result<double> psnr_rgb(const std::vector<float>& a, const std::vector<float>& b
 /// @return kInvalidArgument when the sizes mismatch or a side is below 11 pixels.
 Result<double> ssim_rgb(const std::vector<float>& a, const std::vector<float>& b, uint32_t width, uint32_t height);
 
-}  // namespace rgs::audit
+}  // namespace rgs::runtime

@@ -1,4 +1,4 @@
-#include "rgs/audit/gpu_image_metrics.h"
+#include "rgs/runtime/gpu_image_metrics.h"
 
 #include <cmath>
 #include <limits>
@@ -6,7 +6,7 @@
 
 #include "rgs/runtime/cuda_device.h"
 
-namespace rgs::audit {
+namespace rgs::runtime {
 
 Result<ImageMetrics> GpuImageComparer::compare(const float* a, const float* b, uint32_t width, uint32_t height,
                                                uint32_t channels, float* d_diff, cudaStream_t stream) {
@@ -52,4 +52,4 @@ Result<ImageMetrics> GpuImageComparer::compare(const float* a, const float* b, u
   return m;
 }
 
-}  // namespace rgs::audit
+}  // namespace rgs::runtime

@@ -1,6 +1,6 @@
 // default_views(): the scene's own cameras.json when the standard 3DGS layout puts one beside it, else views
 // guessed from where its content is (content_views).
-#include "rgs/audit/scene_views.h"
+#include "rgs/api/camera.h"
 
 #include <algorithm>
 #include <array>
@@ -10,7 +10,7 @@
 #include <system_error>
 #include <utility>
 
-namespace rgs::audit {
+namespace rgs::api {
 
 namespace {
 
@@ -291,4 +291,4 @@ Result<DefaultViews> default_views(const std::string& scene_path, const format::
   return out;
 }
 
-}  // namespace rgs::audit
+}  // namespace rgs::api

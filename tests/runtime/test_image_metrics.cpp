@@ -1,4 +1,4 @@
-// CPU image metrics of the audit on hand-made images: identical images, constant images (closed form), clamping,
+// CPU image metrics (runtime/image_metrics.h) on hand-made images: identical images, constant images (closed form), clamping,
 // a direct (non-separable, per-window) evaluation of the SSIM definition, RGBA input and the difference map.
 #include <doctest/doctest.h>
 
@@ -7,12 +7,12 @@
 #include <random>
 #include <vector>
 
-#include "rgs/audit/image_metrics.h"
+#include "rgs/runtime/image_metrics.h"
 
 namespace {
 
-using rgs::audit::psnr_rgb;
-using rgs::audit::ssim_rgb;
+using rgs::runtime::psnr_rgb;
+using rgs::runtime::ssim_rgb;
 
 std::vector<float> random_image(uint32_t w, uint32_t h, unsigned seed) {
   std::mt19937 rng(seed);
@@ -95,7 +95,7 @@ TEST_CASE("bad sizes are kInvalidArgument") {
 }
 
 TEST_CASE("the SSIM window is normalized and symmetric") {
-  const auto g = rgs::audit::ssim_window_weights();
+  const auto g = rgs::runtime::ssim_window_weights();
   double sum = 0;
   for (double v : g) sum += v;
   CHECK(sum == doctest::Approx(1.0).epsilon(1e-15));
@@ -118,7 +118,7 @@ TEST_CASE("compare_images: RGBA input, maximum difference and its map") {
   const float expected_green =
       std::min(1.f, rgb[(size_t{3} * w + 7) * 3 + 1] + 0.5f) - rgb[(size_t{3} * w + 7) * 3 + 1];
   std::vector<float> diff;
-  auto m = rgs::audit::compare_images({rgba.data(), w, h, 4}, {other.data(), w, h, 3}, &diff);
+  auto m = rgs::runtime::compare_images({rgba.data(), w, h, 4}, {other.data(), w, h, 3}, &diff);
   REQUIRE(m.ok());
   CHECK(m->max_abs_diff == doctest::Approx(std::max(expected_blue, expected_green)));
   REQUIRE(diff.size() == size_t{w} * h);
@@ -147,7 +147,7 @@ TEST_CASE("foreground PSNR: over the source's non-background pixels only") {
   for (size_t p = 0; p < size_t{w} * h; ++p) {
     if (ref[p * 4 + 3] > 0.f) cand[p * 4 + 1] += 0.1f;  // green off by 0.1 on the foreground
   }
-  auto f = rgs::audit::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  auto f = rgs::runtime::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
   REQUIRE(f.ok());
   CHECK(f->pixels == 20);
   CHECK(f->total_pixels == w * h);
@@ -155,7 +155,7 @@ TEST_CASE("foreground PSNR: over the source's non-background pixels only") {
   const double d = double(0.5f + 0.1f) - 0.5;
   CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / (d * d))).epsilon(1e-12));
   // The whole frame adds 220 black pixels with no error: inflated by exactly 10·log10(240 / 20) dB.
-  auto whole = rgs::audit::compare_images({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  auto whole = rgs::runtime::compare_images({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
   REQUIRE(whole.ok());
   CHECK(whole->psnr_db - f->psnr_db == doctest::Approx(10 * std::log10(240.0 / 20.0)).epsilon(1e-9));
 
@@ -163,17 +163,17 @@ TEST_CASE("foreground PSNR: over the source's non-background pixels only") {
   ref[(size_t{10} * w + 15) * 4 + 3] = 0.2f;
   ref[(size_t{0} * w + 0) * 4 + 2] = 0.3f;
   cand = ref;
-  auto same = rgs::audit::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  auto same = rgs::runtime::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
   REQUIRE(same.ok());
   CHECK(same->pixels == 22);
   CHECK(std::isinf(same->psnr_db));
 
   // A candidate's stray colour on the source's background is not in the foreground PSNR.
   cand[(size_t{11} * w + 19) * 4 + 0] = 1.f;
-  auto stray = rgs::audit::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
+  auto stray = rgs::runtime::foreground_psnr({ref.data(), w, h, 4}, {cand.data(), w, h, 4});
   REQUIRE(stray.ok());
   CHECK(std::isinf(stray->psnr_db));
-  CHECK(std::isfinite(rgs::audit::compare_images({ref.data(), w, h, 4}, {cand.data(), w, h, 4})->psnr_db));
+  CHECK(std::isfinite(rgs::runtime::compare_images({ref.data(), w, h, 4}, {cand.data(), w, h, 4})->psnr_db));
 }
 
 TEST_CASE("foreground PSNR: RGB input (colour decides), no foreground, bad inputs") {
@@ -183,31 +183,31 @@ TEST_CASE("foreground PSNR: RGB input (colour decides), no foreground, bad input
   ref[(size_t{5} * w + 5) * 3 + 1] = -0.5f;    // clamps to 0: background
   ref[(size_t{6} * w + 6) * 3 + 2] = std::nanf("");  // NaN counts as 0: background
   cand[(size_t{4} * w + 4) * 3 + 0] = 0.6f;
-  auto f = rgs::audit::foreground_psnr({ref.data(), w, h, 3}, {cand.data(), w, h, 3});
+  auto f = rgs::runtime::foreground_psnr({ref.data(), w, h, 3}, {cand.data(), w, h, 3});
   REQUIRE(f.ok());
   CHECK(f->pixels == 1);
   const double d = double(0.8f) - double(0.6f);
   CHECK(f->psnr_db == doctest::Approx(10 * std::log10(3.0 / (d * d))).epsilon(1e-12));
 
   const std::vector<float> black(size_t{w} * h * 3, 0.f);
-  auto none = rgs::audit::foreground_psnr({black.data(), w, h, 3}, {cand.data(), w, h, 3});
+  auto none = rgs::runtime::foreground_psnr({black.data(), w, h, 3}, {cand.data(), w, h, 3});
   REQUIRE(none.ok());
   CHECK(none->pixels == 0);
   CHECK(std::isnan(none->psnr_db));
 
-  CHECK(rgs::audit::foreground_psnr({ref.data(), w, h, 3}, {cand.data(), w, h - 1, 3}).status().code() ==
+  CHECK(rgs::runtime::foreground_psnr({ref.data(), w, h, 3}, {cand.data(), w, h - 1, 3}).status().code() ==
         rgs::StatusCode::kInvalidArgument);
-  CHECK(rgs::audit::foreground_psnr({nullptr, w, h, 3}, {cand.data(), w, h, 3}).status().code() ==
+  CHECK(rgs::runtime::foreground_psnr({nullptr, w, h, 3}, {cand.data(), w, h, 3}).status().code() ==
         rgs::StatusCode::kInvalidArgument);
 }
 
 TEST_CASE("compare_images: bad inputs are kInvalidArgument") {
   const auto a = random_image(12, 12, 6);
-  CHECK(rgs::audit::compare_images({a.data(), 12, 12, 3}, {a.data(), 12, 11, 3}).status().code() ==
+  CHECK(rgs::runtime::compare_images({a.data(), 12, 12, 3}, {a.data(), 12, 11, 3}).status().code() ==
         rgs::StatusCode::kInvalidArgument);
-  CHECK(rgs::audit::compare_images({a.data(), 12, 12, 2}, {a.data(), 12, 12, 3}).status().code() ==
+  CHECK(rgs::runtime::compare_images({a.data(), 12, 12, 2}, {a.data(), 12, 12, 3}).status().code() ==
         rgs::StatusCode::kInvalidArgument);
-  CHECK(rgs::audit::compare_images({nullptr, 12, 12, 3}, {a.data(), 12, 12, 3}).status().code() ==
+  CHECK(rgs::runtime::compare_images({nullptr, 12, 12, 3}, {a.data(), 12, 12, 3}).status().code() ==
         rgs::StatusCode::kInvalidArgument);
 }
 
