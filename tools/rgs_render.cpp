@@ -114,8 +114,9 @@ struct View {
 };
 
 /// Opens the renderer first (so that a missing device fails before any loading), then loads the scene with
-/// what the settings read: the file's own values (no quantization of other formats), FP32 arrays on the GPU
-/// for the faithful preset.
+/// what the settings read, as api::load does for every caller (a file other than .rgs quantized in memory
+/// as rgs-convert writes it, so that a PLY and its .rgs give the same image), FP32 arrays on the GPU for the
+/// faithful preset.
 Result<View> open_view(const Options& opt, const std::array<float, 3>& background) {
   RGS_ASSIGN_OR_RETURN(const api::Device device, api::parse_device(opt.backend));
   auto renderer = api::Renderer::create(device, opt.device);
@@ -128,7 +129,6 @@ Result<View> open_view(const Options& opt, const std::array<float, 3>& backgroun
   load.device = device;
   load.cuda_device = opt.device;
   load.presets = {settings.preset};
-  load.quantize_other_formats = false;
   load.read_options = tools::scene_read_options();
   load.lod = opt.lod;
   load.lod.enabled = !opt.no_lod;
@@ -322,7 +322,7 @@ int main(int argc, char** argv) {
                kTool};
   app.add_option("scene", opt.input,
                  "Scene in any format, " + rgs::tools::scene_formats_help() +
-                     ". cpu: read into host memory; cuda: a .rgs uploaded as stored, others as FP32 arrays")
+                     "; a file other than .rgs is quantized in memory as rgs-convert writes it, so it renders as its .rgs does")
       ->required();
   rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json", "Render at most N views",
                                  "Orbit of N cameras around the scene's bounding sphere (default size 1920x1080)");
