@@ -31,9 +31,7 @@ Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::Gp
                                       cudaStream_t stream, const converter::SceneReadOptions& read_options) {
   if (is_rgs_path(path)) {
     RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, converter::rgs_read_options(read_options)));
-    auto scene = runtime::GpuScene::from_rgs(file, options, stream);  // checks checksums, frames and values first
-    if (!scene.ok()) return naming(scene.status(), path);
-    return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, file.file_size(), "RoofGS .rgs", {}};
+    return upload_rgs_file(file, file.file_size(), path, options, stream);
   }
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
   const format::SceneBounds& bounds = input.bounds;
@@ -47,7 +45,12 @@ Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, u
                                         const std::string& name, const runtime::GpuSceneOptions& options,
                                         cudaStream_t stream) {
   RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(rgs_bytes.data(), rgs_bytes.size(), {}, name));
-  auto scene = runtime::GpuScene::from_rgs(file, options, stream);
+  return upload_rgs_file(file, source_file_bytes, name, options, stream);
+}
+
+Result<LoadedGpuScene> upload_rgs_file(const format::RgsFile& file, uint64_t source_file_bytes, const std::string& name,
+                                       const runtime::GpuSceneOptions& options, cudaStream_t stream) {
+  auto scene = runtime::GpuScene::from_rgs(file, options, stream);  // checks checksums, frames and values first
   if (!scene.ok()) return naming(scene.status(), name);
   return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, source_file_bytes, "RoofGS .rgs", {}};
 }

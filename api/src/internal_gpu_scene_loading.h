@@ -48,4 +48,10 @@ Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, u
                                         const std::string& name, const runtime::GpuSceneOptions& options = {},
                                         cudaStream_t stream = nullptr);
 
+/// Uploads an opened .rgs file onto the current device through GpuScene::from_rgs(options) (what
+/// load_gpu_scene and upload_rgs_bytes do once the file is open); `name` appears in errors. is_rgs is true,
+/// file_bytes = `source_file_bytes`. Synchronous on `stream`.
+Result<LoadedGpuScene> upload_rgs_file(const format::RgsFile& file, uint64_t source_file_bytes, const std::string& name,
+                                       const runtime::GpuSceneOptions& options = {}, cudaStream_t stream = nullptr);
+
 }  // namespace rgs::api

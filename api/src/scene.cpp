@@ -90,8 +90,10 @@ Status check_lod_settings(const LodSettings& s, const std::string& path) {
 
 /// A scene loaded whole (not level-of-detail): with options.lod.enabled, a note when the budgets differ from the
 /// defaults (the file has no levels to use them on); without, the index of a level-of-detail file in info->lod
-/// (inactive), so that callers can tell that the full detail of such a file was loaded.
-void describe_unused_levels(const std::string& path, const LoadOptions& options, SceneInfo* info) {
+/// (inactive), so that callers can tell that the full detail of such a file was loaded. `opened`: the .rgs file
+/// already open, or null to open `path`.
+void describe_unused_levels(const std::string& path, const LoadOptions& options, SceneInfo* info,
+                            const format::RgsFile* opened = nullptr) {
   const LodSettings& s = options.lod;
   const LodSettings d;
   if (s.enabled) {
@@ -104,11 +106,17 @@ void describe_unused_levels(const std::string& path, const LoadOptions& options,
     return;
   }
   if (!info->source_is_rgs) return;
-  auto file = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
-  if (file.ok() && file->lod() != nullptr) {
-    info->lod.chunks = file->lod()->chunk_count;
-    info->lod.levels = file->lod()->level_count;
-    info->lod.stored_gaussians = file->gaussian_count();
+  std::optional<format::RgsFile> reopened;
+  if (opened == nullptr) {
+    auto file = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
+    if (!file.ok()) return;
+    reopened.emplace(std::move(file).value());
+    opened = &*reopened;
+  }
+  if (opened->lod() != nullptr) {
+    info->lod.chunks = opened->lod()->chunk_count;
+    info->lod.levels = opened->lod()->level_count;
+    info->lod.stored_gaussians = opened->gaussian_count();
   }
 }
 
@@ -304,15 +312,26 @@ Result<Scene> load_cuda_lod(const format::RgsFile& file, const std::string& path
 
 Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   RGS_RETURN_IF_ERROR(require_cuda_device(options.cuda_device));
-  if (std::optional<format::RgsFile> lod_file = open_lod_file(path, options)) {
-    return load_cuda_lod(*lod_file, path, options);
+  // A .rgs file is sniffed and opened once: the same RgsFile is streamed (levels of detail) or uploaded.
+  std::optional<format::RgsFile> rgs_file;
+  if (is_rgs_path(path)) {
+    auto opened = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
+    if (!opened.ok()) return naming(opened.status(), path);
+    rgs_file.emplace(std::move(opened).value());
+    // A streamed-SOG level (read_options.lod) given for a .rgs file: the file is uploaded whole.
+    if (options.lod.enabled && !options.read_options.lod.has_value() && rgs_file->lod() != nullptr) {
+      return load_cuda_lod(*rgs_file, path, options);
+    }
   }
   runtime::GpuSceneOptions gpu_options;
   gpu_options.fp32_attributes = false;
   for (Preset p : options.presets) gpu_options.fp32_attributes |= preset_reads_fp32(p);
 
   std::optional<LoadedGpuScene> loaded;
-  if (is_rgs_path(path) || !options.quantize_other_formats) {
+  if (rgs_file) {
+    RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, upload_rgs_file(*rgs_file, rgs_file->file_size(), path, gpu_options));
+    loaded.emplace(std::move(l));
+  } else if (!options.quantize_other_formats) {
     RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, load_gpu_scene(path, gpu_options, nullptr, options.read_options));
     loaded.emplace(std::move(l));
   } else {
@@ -346,7 +365,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   info.has_fp32 = gpu.has_fp32();
   info.memory_bytes = gpu.device_bytes();
   info.runtime_section_bytes = gpu.runtime_section_bytes();
-  describe_unused_levels(path, options, &info);
+  describe_unused_levels(path, options, &info, rgs_file ? &*rgs_file : nullptr);
   return Scene(std::move(impl));
 }
 #endif
