@@ -110,7 +110,7 @@ if [ "$what" = ab ]; then
 fi
 
 if [ "$what" = bench ] || [ "$what" = all ]; then
-  # Per-stage times and the roofline (device peaks measured in each run; docs/ROOFLINE.md), JSON under $out
+  # Per-stage times and the roofline (device peaks measured in each run; docs/lab/ROOFLINE.md), JSON under $out
   # (plot on a host: scripts/plot_roofline.py bench_X.json bench_X.png). Each run's wall time goes to the
   # summary; the replicated scene runs fewer repetitions to keep the whole bench part short.
   flowers="$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs"
@@ -234,7 +234,7 @@ if [ "$what" = lod ] || [ "$what" = all ]; then
   fi
 fi
 if [ "$what" = floor ] || [ "$what" = all ]; then
-  # The true floor (docs/ROOFLINE.md#the-true-floor): faithful and fastest against what each view needs, counted
+  # The true floor (docs/lab/ROOFLINE.md#the-true-floor): faithful and fastest against what each view needs, counted
   # by the CPU reference on this host's cores, at 1080p and 4K; and a camera path of 32 views (near and far,
   # low and high) for the spread over views the scenes' own cameras do not show.
   floor_bench() {  # NAME ARGS...

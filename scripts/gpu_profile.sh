@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # GPU host: Nsight Compute profiles of the RoofGS frame's kernels on one view, from a folder staged by
-# scripts/stage_gpu.sh, to find what bounds each stage (the evidence behind docs/BENCHMARKS.md#tried-and-not-kept).
+# scripts/stage_gpu.sh, to find what bounds each stage (the evidence behind docs/lab/TRIED.md#tried-and-not-kept).
 # Writes, per scene, the kernel durations (<scene>_times.csv) and the full sections of the kernels named
 # by KERNELS (<scene>_full.txt: occupancy, issue, stall reasons, memory throughput) under OUT_DIR.
 # Usage: scripts/gpu_profile.sh STAGE_DIR OUT_DIR [MODE]   (MODE: an rgs-bench mode, default roofgs)

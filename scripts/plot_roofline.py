@@ -8,7 +8,7 @@ Log-log axes: arithmetic intensity (FLOP per byte) against achieved GFLOP/s. The
 same run measured (device_peaks: the device-to-device copy for the memory roof, the FP32 FMA loop for the
 compute roof), meeting at the ridge point. One point per (mode, resolution, stage): colour = mode, marker =
 stage, filled for the first resolution and hollow for the others; every point is labelled. Bytes and FLOPs
-come from the analytic model of docs/ROOFLINE.md (upper bounds), times from the run's stage medians.
+come from the analytic model of docs/lab/ROOFLINE.md (upper bounds), times from the run's stage medians.
 
 Stages without FP32 work (sort, ranges) have intensity 0, which a log axis cannot show: they are drawn at the
 left edge of the plot, at the height where their achieved bandwidth meets the memory roof's slope, so their

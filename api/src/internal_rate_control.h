@@ -1,6 +1,6 @@
 // Rate control of the archive profile (ConvertOptions::target), private to rgs_api: fit_archive chooses
 // format::ArchiveOptions for a PSNR target or a byte budget; fit_target runs it for convert() on the scene it read.
-// How it searches and what it reaches: docs/AUDITS.md#rate-control-of-the-archive-profile.
+// How it searches and what it reaches: docs/AUDITS.md#rate-control-of-the-archive-profile---target-psnr---target-bytes.
 #pragma once
 
 #include <cstdint>
@@ -97,7 +97,7 @@ struct FitOptions {
   /// candidates at zstd level min(zstd_level, kSearchZstdLevel) and without xz: they change the bytes, not the
   /// decoded values, so the PSNR it measures is the file's, while the bytes it counts (FitPoint::bytes) are those
   /// of the search's coding (level 19 wrote the measured fits 1-10 % smaller, the .xz codes 2-5 % smaller again,
-  /// docs/AUDITS.md#entropy-coding-of-the-codes).
+  /// docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes).
   format::ArchiveOptions start;
   /// ConvertTarget::search_max_side and search_max_views.
   uint32_t search_max_side = 0;

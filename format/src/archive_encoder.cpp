@@ -303,7 +303,7 @@ SourceCodes opacity_codes(const EncodedScene& s, const ArchiveOptions& o) {
 /// §3.3.2 transform 6: transform 4's codes with each (R, G, B) triple stored as (R - G, G, B - G) modulo 256, since
 /// the channels of a trained colour move together; the DC triples as three planes, which zstd codes with a
 /// table each; the rest as one record of 3K - 3 codes per Gaussian, since scenes whose SH come from a codebook
-/// repeat whole records, which zstd finds as matches (docs/AUDITS.md#sh-colour-differences).
+/// repeat whole records, which zstd finds as matches (docs/lab/AUDIT_RUNS.md#sh-colour-differences).
 Status encode_sh(const EncodedScene& s, const std::vector<uint64_t>& order, const ArchiveOptions& o,
                  std::vector<uint8_t>* out) {
   const uint64_t n = order.size();

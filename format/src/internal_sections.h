@@ -137,7 +137,7 @@ Status check_zstd_level(int level);
 /// a job it may refer to (ZSTD_c_overlapLog: 6 is an eighth of the window; the default, the whole window, makes
 /// each job index up to 8 MiB again at level 19). The frame's bytes depend on them, not on how many workers run
 /// the jobs; taebak's archive sections at level 19 take 0.02-0.07 % more bytes than in one job, jobs of 4 MiB
-/// 0.65 % (docs/BENCHMARKS.md#tried-and-not-kept).
+/// 0.65 % (docs/lab/TRIED.md#tried-and-not-kept).
 inline constexpr size_t kZstdJobBytes = size_t{8} << 20;
 inline constexpr int kZstdOverlapLog = 6;
 /// §3.1, §7 Appends one zstd frame of `size` raw bytes, with content size and checksum, to `out`: jobs of

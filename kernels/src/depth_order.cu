@@ -16,7 +16,7 @@ namespace {
 /// length) reads per pair, as the render's own loop over the tile's pairs). Real scenes tie in short runs, yet
 /// on taebak at 4K 95 % of the warps hold one and 45 % one that crosses their ends. The pass is bound by its
 /// instructions there (Nsight Compute), so Index is uint32_t whenever the positions fit (64-bit positions are
-/// slower: docs/BENCHMARKS.md#tried-and-not-kept).
+/// slower: docs/lab/TRIED.md#tried-and-not-kept).
 template <typename Index>
 __global__ void __launch_bounds__(detail::kBlockSize)
     order_equal_keys_kernel(const uint32_t* __restrict__ keys, const uint32_t* __restrict__ values_in,

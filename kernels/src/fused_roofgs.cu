@@ -68,7 +68,7 @@ __device__ unsigned long long look_back(unsigned long long* status, uint32_t blo
 /// Eight blocks an SM (64 registers, 4–22 bytes of spills by variant) instead of the seven that 68 registers
 /// allow: the kernel waits on its loads (long-scoreboard stalls lead its Nsight Compute samples on taebak), and
 /// the extra warps hide more of them (measured with the ticket's removal below:
-/// docs/BENCHMARKS.md#tried-and-not-kept).
+/// docs/lab/TRIED.md#tried-and-not-kept).
 template <bool kCompact, int kDegree>
 __global__ void __launch_bounds__(kFusedBlockSize, 8)
     fused_kernel(GaussianSource src, FrameParams frame, RoofgsFrame roofgs, RoofgsProjected out,

@@ -489,14 +489,14 @@ __device__ __forceinline__ int list_kept_pairs(uint16_t (*walk_lists)[kListStrid
 /// warp walk lists of different lengths: the warp takes as many steps as the longest, each step serving up to
 /// four pairs, one per group. Eight blocks an SM (64 registers): the block-culled kernel needs no more
 /// (block_mask without square roots), and the unculled one runs faster with them than with the 40 ptxas picks
-/// by itself (docs/BENCHMARKS.md#tried-and-not-kept).
+/// by itself (docs/lab/TRIED.md#tried-and-not-kept).
 /// Long tiles (kHalf with TileChunks, beyond the paper): a chunk block blends its chunk of the tile's list from
 /// T = 1 and finish_chunk merges the tile's chunks; the grid has TileChunks::item_rows rows of such blocks first.
 /// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and C as binary16 pairs
 /// and one half2 instruction blends both (blend_pairs_half): 27.5 instructions a pair of the walk (its sm_90 SASS:
 /// 110 for a step of four pairs).
 /// Nine blocks an SM (56 registers) were no faster with it, ten (48) slower
-/// (docs/BENCHMARKS.md#tried-and-not-kept).
+/// (docs/lab/TRIED.md#tried-and-not-kept).
 template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
 __global__ void __launch_bounds__(kDualThreads, 8)
     render_folded_kernel(const uint64_t* __restrict__ ranges, const uint32_t* __restrict__ values, RenderInputs in,
@@ -507,7 +507,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   constexpr bool kCulls = kCull != Cull::kNone;
   // Pairs per batch: with block culling two for each thread to load, since a block waits at a barrier for its
   // slowest lane group once per batch and the groups' lists of different lengths even out over more pairs
-  // (batches of 128, 384 and 512 measured: docs/BENCHMARKS.md#tried-and-not-kept).
+  // (batches of 128, 384 and 512 measured: docs/lab/TRIED.md#tried-and-not-kept).
   constexpr int kBatch = kCull == Cull::kBlock ? 2 * kDualThreads : kDualThreads;
   constexpr int kLoads = kBatch / kDualThreads;
   // Entries per walk list: a batch's slots plus 2, so that the 4 lists a warp reads at once start in 4
@@ -576,7 +576,7 @@ __global__ void __launch_bounds__(kDualThreads, 8)
     const bool live = kHalf ? pair.live() : first.live() || second.live();
     if (__syncthreads_count(!live) == kDualThreads) break;
     // One pair at a time: the two loads' gathers, folds and masks unrolled held more registers at once than
-    // the walk needs (docs/BENCHMARKS.md#tried-and-not-kept).
+    // the walk needs (docs/lab/TRIED.md#tried-and-not-kept).
 #pragma unroll 1
     for (int l = 0; l < kLoads; ++l) {
       const int slot = rank + l * kDualThreads;

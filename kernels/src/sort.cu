@@ -56,7 +56,7 @@ cudaError_t public_bytes(uint64_t count, int begin_bit, int end_bit, size_t* byt
 #if RGS_TUNED_ONESWEEP
 /// CUB's policies for the RoofGS sort of 32-bit keys and values with 32-bit offsets (the onesweep radix sort
 /// CUB runs on sm_89 and sm_90, 8 bits a pass), changed where H100 runs of a standalone program measured a
-/// difference (docs/BENCHMARKS.md#tried-and-not-kept; tile-ordered keys), for counts whose 384-thread
+/// difference (docs/lab/TRIED.md#tried-and-not-kept; tile-ordered keys), for counts whose 384-thread
 /// onesweep tiles (CUB's choice for sm_90, 23 keys a thread) are more than one per SM:
 /// - the digit histograms are built by 1,024-thread blocks instead of 128: the kernel runs as many blocks as
 ///   fit and each adds its 4 × 256 counts into the same global bins with atomics, so 8× fewer blocks make

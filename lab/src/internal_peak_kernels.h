@@ -1,4 +1,4 @@
-// Micro-kernels that measure a device's FP32 and binary16 (half2) compute peaks for the roofline of rgs-bench (docs/ROOFLINE.md:
+// Micro-kernels that measure a device's FP32 and binary16 (half2) compute peaks for the roofline of rgs-bench (docs/lab/ROOFLINE.md:
 // achieved GB/s and GFLOP/s per stage against the device's measured peaks). The memory peak needs no kernel
 // (a cudaMemcpyAsync device-to-device copy, rgs/lab/device_peaks.h).
 #pragma once

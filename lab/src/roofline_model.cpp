@@ -1,4 +1,4 @@
-// The per-stage bytes and FLOPs model of rgs-bench (rgs/lab/roofline_model.h; docs/ROOFLINE.md derives each term).
+// The per-stage bytes and FLOPs model of rgs-bench (rgs/lab/roofline_model.h; docs/lab/ROOFLINE.md derives each term).
 // Notation: N Gaussians, V visible, K = (degree + 1)² SH coefficients per channel, A attribute bytes per
 // Gaussian, P pairs, kb key bytes (8 or 4), T tiles, X pixels.
 #include "rgs/lab/roofline_model.h"

@@ -1,5 +1,5 @@
 // The roofline model of rgs-bench (runtime/include/rgs/lab/roofline_model.h) against values computed by hand from
-// the formulas of docs/ROOFLINE.md, so that a changed term shows up here.
+// the formulas of docs/lab/ROOFLINE.md, so that a changed term shows up here.
 #include <doctest/doctest.h>
 
 #include <cstring>

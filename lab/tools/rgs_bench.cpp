@@ -14,12 +14,12 @@
 // 1000 / median total, the mean (tile, Gaussian) pair count over views, with the device, scene, Gaussian
 // count and date.
 //
-// Roofline (docs/ROOFLINE.md): the device's memory and FP32 peaks are measured first in the same run
+// Roofline (docs/lab/ROOFLINE.md): the device's memory and FP32 peaks are measured first in the same run
 // (lab::measure_device_peaks: a 1 GiB device-to-device copy, an FMA loop), and every stage of every mode
 // and resolution is placed against them with the analytic bytes and FLOPs of lab/roofline_model.h (mean over the
 // views' pair counts) and the stage's median time: GB/s, GFLOP/s, FLOP/B, % of each peak, the bounding roof.
 //
-// --floor adds the true floor (docs/ROOFLINE.md#the-true-floor): each view counted by the CPU reference
+// --floor adds the true floor (docs/lab/ROOFLINE.md#the-true-floor): each view counted by the CPU reference
 // (lab::census_frame) and, per stage, the time the work the image needs takes at the measured roofs.
 //
 // --replicate K tiles the scene K times (lab::replicate, lab::replicate_scene_file) before the
@@ -234,7 +234,7 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
 // Roofline: the model's bytes and FLOPs (lab/roofline_model.h) per stage, against the measured peaks.
 
 /// The model's inputs for one view of a run. The renderer does not report how many Gaussians survive
-/// culling, so `visible` is N (an upper bound, docs/ROOFLINE.md).
+/// culling, so `visible` is N (an upper bound, docs/lab/ROOFLINE.md).
 lab::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const runtime::GpuScene& scene,
                                    const ViewResult& v) {
   lab::FrameWorkInputs in;
@@ -345,7 +345,7 @@ nlohmann::json roofline_json(const RunRoofline& rl) {
         {"pct_of_roof", p.pct_of_roof}, {"floor_ms", p.floor_ms},
         {"times_floor", p.times_floor}};
   }
-  return {{"model", "docs/ROOFLINE.md: bytes requested from global memory and FP32 FLOPs per frame (mean over "
+  return {{"model", "docs/lab/ROOFLINE.md: bytes requested from global memory and FP32 FLOPs per frame (mean over "
                     "views), visible = all Gaussians, render FLOPs without early termination (upper bounds)"},
           {"inputs", inputs},
           {"stages", stages}};
@@ -605,7 +605,7 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
               tools::fixed(report.peaks.memory_gbps, 1).c_str(), tools::group_digits(report.peaks.copy_bytes >> 20).c_str(),
               report.peaks.copy_ms.size(), tools::fixed(report.peaks.fp32_gflops, 0).c_str(), report.peaks.fma_ms.size(),
               tools::fixed(report.peaks.half_gflops, 0).c_str(), tools::fixed(report.peaks.ridge_flop_per_byte(), 2).c_str());
-  std::printf("  roofline         model: docs/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
+  std::printf("  roofline         model: docs/lab/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
   std::printf("  %-12s %-10s %-10s %8s %8s %7s %10s %10s %9s %9s %8s %6s %6s %-7s\n", "mode", "resolution", "stage",
               "ms", "floor ms", "x floor", "MB", "MFLOP", "GB/s", "GFLOP/s", "FLOP/B", "%BW", "%FP32", "bound");
   for (size_t i = 0; i < report.results.size(); ++i) {
@@ -622,7 +622,7 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
   }
 
   if (!report.floors.empty()) {
-    std::printf("  true floor       the work the image needs at the measured roofs (docs/ROOFLINE.md#the-true-floor); "
+    std::printf("  true floor       the work the image needs at the measured roofs (docs/lab/ROOFLINE.md#the-true-floor); "
                 "per frame, mean over the views\n");
     std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s\n", "resolution", "blended/px", "skipped/px",
                 "contributing", "3DGS pairs", "pairs 16x16", "pairs 8x8", "pairs 4x4", "reach 16x16");
@@ -964,7 +964,7 @@ int main(int argc, char** argv) {
   }
   CLI::App app{"Benchmark the CUDA renderer: per-stage GPU times (CUDA events) after warm-up, median over views x "
                "repetitions, FPS, pair counts, per mode and resolution, and a per-stage roofline (analytic bytes "
-               "and FLOPs, docs/ROOFLINE.md, against the device's memory and FP32 peaks measured in the same "
+               "and FLOPs, docs/lab/ROOFLINE.md, against the device's memory and FP32 peaks measured in the same "
                "run); a table on stdout and the full results as JSON.",
                kTool};
   app.add_option(
@@ -1039,7 +1039,7 @@ int main(int argc, char** argv) {
   app.add_flag("--floor", opt.floor,
                "Also count every view with the CPU reference (what each pixel blends and tests in vain, the pairs "
                "the image needs per 16x16, 8x8 and 4x4 cell) and print each stage's true floor: the time the work "
-               "the image needs takes at the measured roofs (docs/ROOFLINE.md#the-true-floor; needs --replicate 1)");
+               "the image needs takes at the measured roofs (docs/lab/ROOFLINE.md#the-true-floor; needs --replicate 1)");
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {

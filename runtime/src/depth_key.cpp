@@ -40,7 +40,7 @@ Result<DepthKey> make_depth_key(const Camera& camera, const std::optional<format
   // View-space depths (the z row of R·p + t, in double, once per camera) of the sphere centre and of the
   // AABB's corners. Every mean lies in both (format::validate checks them against the AABB), so the range is
   // their intersection: on taebak's aerial views the AABB's range is the narrower one, which leaves fewer
-  // pairs in runs of tied keys (docs/BENCHMARKS.md#tried-and-not-kept).
+  // pairs in runs of tied keys (docs/lab/TRIED.md#tried-and-not-kept).
   const auto& R = camera.rotation;
   const auto view_depth = [&](double x, double y, double z) {
     return double(R[6]) * x + double(R[7]) * y + double(R[8]) * z + camera.translation[2];

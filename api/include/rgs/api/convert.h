@@ -68,7 +68,7 @@ struct ConvertProgress {
 /// floor) chosen so that the archive's render meets a PSNR target against the source's render at the fewest bytes,
 /// or fits a byte budget at the best PSNR. The search encodes each candidate in memory and measures it on the
 /// views reduced in size (search_max_side, search_max_views); the choice is then checked at the views' own size.
-/// How it searches and what it reaches: docs/AUDITS.md#rate-control-of-the-archive-profile.
+/// How it searches and what it reaches: docs/AUDITS.md#rate-control-of-the-archive-profile---target-psnr---target-bytes.
 struct ConvertTarget {
   ConvertTarget() {
     views.orbit_width = 960;
@@ -131,7 +131,7 @@ std::string describe_archive_options(const format::ArchiveOptions& options, uint
 
 /// The archive's quantized codes also try .xz streams (format::ArchiveOptions::xz) from this zstd level on: LZMA
 /// takes 2-5 % off the measured archives for about the time zstd takes at this level; a lower level asks for a
-/// quick conversion (docs/AUDITS.md#entropy-coding-of-the-codes).
+/// quick conversion (docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes).
 inline constexpr int kArchiveXzMinZstdLevel = 19;
 
 /// zstd level of ConvertOptions::zstd_sections when ConvertOptions::zstd_level is unset.
@@ -139,7 +139,7 @@ inline constexpr int kDefaultZstdLevel = 19;
 
 /// zstd level of the archive profile when ConvertOptions::zstd_level is unset: quick, no .xz trials. Level 19 with
 /// the .xz trials (`--zstd-level 19`) codes the measured archives 2-7 % smaller in 5-21 times the time
-/// (docs/AUDITS.md#entropy-coding-of-the-codes).
+/// (docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes).
 inline constexpr int kArchiveDefaultZstdLevel = 9;
 
 /// Options of convert(); the defaults are rgs-convert's.

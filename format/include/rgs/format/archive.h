@@ -57,7 +57,7 @@ struct ArchiveOptions {
   int zstd_level = 19;
   /// Also code each quantized section's codes as an .xz stream (LZMA2, §3.3.2; version 1.5) where LZMA beats
   /// zstd on their first MiB, and keep whichever of it and the zstd frame is smaller: 3-7 % off the quantized
-  /// sections of the measured fits (docs/AUDITS.md#entropy-coding-of-the-codes), for about one more encoding of
+  /// sections of the measured fits (docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes), for about one more encoding of
   /// each section. It changes the bytes, not the decoded values; rate control's search codes without it
   /// (faster) and writes with it; api::convert keeps it only from zstd level 19 on (api::kArchiveXzMinZstdLevel).
   bool xz = true;

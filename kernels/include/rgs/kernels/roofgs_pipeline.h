@@ -56,7 +56,7 @@ struct GaussianSource {
 /// Pair emission (duplicate_roofgs and the fused kernel): a Gaussian with at most this many tiles is written
 /// by its own thread; a larger one is listed and written by emit_large_gaussians, a warp per chunk of its
 /// walk, in the same positions and order. 16 rather than 8: a warp rebuilds a listed Gaussian's walk, which
-/// costs more than a lane writing up to 16 pairs (8, 24 and 32 measured: docs/BENCHMARKS.md#tried-and-not-kept).
+/// costs more than a lane writing up to 16 pairs (8, 24 and 32 measured: docs/lab/TRIED.md#tried-and-not-kept).
 constexpr uint32_t kSerialTileLimit = 16;
 
 /// A large Gaussian's tile walk is listed in chunks of consecutive slices, a work item each: at most

@@ -1,4 +1,4 @@
-// Measured peaks of the current CUDA device, the roofs of rgs-bench's roofline (docs/ROOFLINE.md). Available
+// Measured peaks of the current CUDA device, the roofs of rgs-bench's roofline (docs/lab/ROOFLINE.md). Available
 // only with RGS_WITH_CUDA.
 #pragma once
 

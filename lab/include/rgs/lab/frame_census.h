@@ -1,7 +1,7 @@
 // What the image of one frame needs, counted pixel by pixel with the CPU reference's 3DGS rules: how many
 // Gaussians each pixel blends, how many it tests in vain, and how many (cell, Gaussian) pairs a renderer
 // needs at 16×16, 8×8 and 4×4 cells. These counts give the true floor of a frame (floor_work in
-// roofline_model.h; docs/ROOFLINE.md#the-true-floor): the work any algorithm must do for this image, as
+// roofline_model.h; docs/lab/ROOFLINE.md#the-true-floor): the work any algorithm must do for this image, as
 // opposed to the work of the pipeline rgs-bench times.
 #pragma once
 

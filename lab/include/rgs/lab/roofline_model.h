@@ -1,5 +1,5 @@
 // Analytic bytes moved and FLOPs per stage of one frame of the CUDA renderer, for rgs-bench's roofline
-// (docs/ROOFLINE.md "How the counts are derived" explains every term and its assumptions).
+// (docs/lab/ROOFLINE.md "How the counts are derived" explains every term and its assumptions).
 //
 // The model counts what the kernels *request* from global memory and the FP32 arithmetic they *issue*, from
 // quantities rgs-bench knows: Gaussian count, SH degree, attribute format, pair count, sort bits, tiles and
@@ -76,7 +76,7 @@ struct FrameWork {
   const StageWork& operator[](RooflineStage s) const { return stages[static_cast<int>(s)]; }
 };
 
-// Per-item FLOP counts of the model (docs/ROOFLINE.md has the derivation of each).
+// Per-item FLOP counts of the model (docs/lab/ROOFLINE.md has the derivation of each).
 
 /// expf as compiled by CUDA 13 (4 fma + add + mul; the SFU ex2 is not counted).
 inline constexpr double kFlopsExpf = 10;
@@ -131,10 +131,10 @@ int radix_passes(int sort_bits);
 /// Baseline 33, fast exp 25, folded 26.5, folded + fast exp 18.5; + 4 (folded: + 3) with a depth plane.
 double render_eval_flops(bool folded, bool fast_exp, bool depth_plane);
 
-/// Bytes and FLOPs of every stage of one frame (formulas in roofline_model.cpp and docs/ROOFLINE.md).
+/// Bytes and FLOPs of every stage of one frame (formulas in roofline_model.cpp and docs/lab/ROOFLINE.md).
 FrameWork frame_work(const FrameWorkInputs& in);
 
-/// The work one frame cannot avoid whatever the algorithm, from its census (docs/ROOFLINE.md#the-true-floor):
+/// The work one frame cannot avoid whatever the algorithm, from its census (docs/lab/ROOFLINE.md#the-true-floor):
 /// preprocess: read every mean (12 B) to cull, the rest of the geometry of the visible Gaussians (rotation,
 /// scale, opacity: 16 B, compact) to project them, the SH (3K B) of the contributing ones, and write a 24 B
 /// splat record (mean 8, conic and ln o 8, colour 6, pad 2) for each contributing one; FLOPs: view transform

@@ -50,7 +50,7 @@ enum class PairAllocation {
 /// Fractions measured with the CPU reference's preprocess (SnugBox + AccuTile, 3 views each): flowers
 /// 0.66–0.71 at 1080p, 0.89–0.92 at 4K, 0.98 at 8K; flowers ×53 0.60 / 0.82; daffodils 0.01 / 0.05;
 /// daffodils ×4 0.003 / 0.02 (1080p / 4K). What the culling gains and costs on those scenes:
-/// docs/BENCHMARKS.md#tried-and-not-kept.
+/// docs/lab/TRIED.md#tried-and-not-kept.
 constexpr uint32_t kSubtileLargeTiles = 32;
 constexpr double kSubtileMaxLargePairFraction = 0.5;
 

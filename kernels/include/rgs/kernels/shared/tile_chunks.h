@@ -25,7 +25,7 @@ namespace rgs::kernels {
 /// Pairs a chunk of the fastest preset holds at least: a small part of a 1080p frame's work for one block, so
 /// that a late long tile ends soon after the rest of the frame. Frames of more than 1024 · kTileChunksPerFrame
 /// pairs (taebak at every size) take a larger K (frame_chunk_pairs). Other minimums measured:
-/// docs/BENCHMARKS.md#tried-and-not-kept.
+/// docs/lab/TRIED.md#tried-and-not-kept.
 constexpr uint32_t kTileChunkPairs = 1024;
 
 /// A frame's chunks hold at least 1/kTileChunksPerFrame of its pairs. A chunk block that starts from T = 1
@@ -40,7 +40,7 @@ constexpr uint32_t kChunkLargeTiles = 32;
 /// kChunkLargeTiles tiles: max(tile_chunk_pairs, ⌈frame_pairs / kTileChunksPerFrame⌉); 0 (off) when
 /// tile_chunk_pairs is 0 or large Gaussians hold more than half of the pairs. Their tiles go opaque within
 /// their first chunk, and every later chunk, which starts from T = 1, would blend until it goes opaque too
-/// (flowers ×53: docs/BENCHMARKS.md#tried-and-not-kept). Depends on the frame's content only, so the
+/// (flowers ×53: docs/lab/TRIED.md#tried-and-not-kept). Depends on the frame's content only, so the
 /// CPU reference and the GPU chunk alike.
 RGS_HOST_DEVICE uint32_t frame_chunk_pairs(uint64_t frame_pairs, uint64_t large_pairs, uint32_t tile_chunk_pairs) {
   if (tile_chunk_pairs == 0 || large_pairs > frame_pairs / 2) return 0;

@@ -301,7 +301,7 @@ RGS_HOST_DEVICE uint32_t block_span_bits(float c, float h2) {
 /// quadrants where it reaches all four clears a few more blocks of tilted Gaussians, but a warp would run the
 /// quadrant test whenever one of its 32 pairs needed it; and the squared comparison in place of two square
 /// roots keeps the kernel at 64 registers, eight blocks an SM (both measured on taebak:
-/// docs/BENCHMARKS.md#tried-and-not-kept).
+/// docs/lab/TRIED.md#tried-and-not-kept).
 /// @param conic          conic (a, b, c) of the Gaussian (positive definite), pixel⁻² units
 /// @param u, v           tile-local projected mean, pixels
 /// @param log_opacity    ln o
