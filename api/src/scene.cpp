@@ -10,7 +10,6 @@
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/reader.h"
-#include "rgs/format/writer.h"
 
 #if RGS_HAS_CUDA
 #include "internal_gpu_scene_loading.h"
@@ -340,13 +339,12 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
     auto encoded = converter::quantize(ply.cloud, converter::QuantizeOptions{});
     if (!encoded.ok()) return Status(encoded.status()).prepend(path);
     ply.cloud = format::GaussianCloud{};
-    auto bytes = format::serialize_scene(*encoded);
-    if (!bytes.ok()) return Status(bytes.status()).prepend(path);
-    RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, upload_rgs_bytes(*bytes, ply.file_bytes, path, gpu_options));
-    l.is_rgs = false;
-    l.notes = std::move(l_notes);
-    l.description = ply.description + ", quantized in memory as rgs-convert would";
-    loaded.emplace(std::move(l));
+    // Uploaded from the quantized arrays themselves: the device holds what the .rgs file rgs-convert writes
+    // would give it, without that file's bytes being made and parsed again.
+    auto scene = runtime::GpuScene::from_encoded(*encoded, gpu_options, path);
+    if (!scene.ok()) return scene.status();
+    loaded.emplace(LoadedGpuScene{std::move(scene).value(), encoded->metadata.bounds, false, ply.file_bytes,
+                                  ply.description + ", quantized in memory as rgs-convert would", std::move(l_notes)});
   }
   auto impl = std::make_shared<Scene::Impl>();
   SceneInfo& info = impl->info;

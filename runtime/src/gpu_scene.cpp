@@ -130,15 +130,59 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   }
 
   GpuScene scene;
-  scene.count_ = uint32_t(n);
-  scene.sh_degree_ = meta.sh_degree;
-  scene.bounds_ = meta.bounds;
-  scene.has_compact_ = true;
-  const std::string& name = file.name();
-  RGS_RETURN_IF_ERROR(scene.means_.allocate_exactly(n * 3, name + ": means"));
-  RGS_RETURN_IF_ERROR(scene.rotations_fp16_.allocate_exactly(n * 4, name + ": rotations"));
-  RGS_RETURN_IF_ERROR(scene.scales_fp16_.allocate_exactly(n * 3, name + ": scales"));
-  RGS_RETURN_IF_ERROR(scene.opacities_fp16_.allocate_exactly(n, name + ": opacities"));
+  RGS_RETURN_IF_ERROR(scene.allocate_compact(n, meta.sh_degree, dc_residual, file.name(), stream));
+  using format::SectionId;
+  const uint64_t sh_bytes = n * k * 3;
+  std::vector<SectionUpload> uploads = {
+      {SectionId::kMeans, scene.means_.data(), scene.means_.bytes()},
+      {SectionId::kRotations, scene.rotations_fp16_.data(), scene.rotations_fp16_.bytes()},
+      {SectionId::kScales, scene.scales_fp16_.data(), scene.scales_fp16_.bytes()},
+      {SectionId::kOpacities, scene.opacities_fp16_.data(), scene.opacities_fp16_.bytes()},
+      {SectionId::kSh, scene.sh_int8_.data(), sh_bytes}};
+  if (dc_residual) uploads.push_back({SectionId::kShDcResidual, scene.sh_dc_residual_.data(), n * 3});
+  RGS_RETURN_IF_ERROR(upload_sections(file, uploads, stream));
+  RGS_RETURN_IF_ERROR(scene.finish_compact(meta, dc_residual, options, file.name(), stream));
+  return scene;
+}
+
+Result<GpuScene> GpuScene::from_encoded(const format::EncodedScene& encoded, const GpuSceneOptions& options,
+                                        const std::string& name, cudaStream_t stream) {
+  RGS_RETURN_ERROR_IF(!encoded.is_consistent(), StatusCode::kInvalidArgument,
+                      name + ": the quantized arrays do not match the count and SH degree");
+  const uint64_t n = encoded.count;
+  RGS_RETURN_IF_ERROR(check_count(n, name));
+  const bool dc_residual = !encoded.sh_dc_residual.empty();
+  GpuScene scene;
+  RGS_RETURN_IF_ERROR(scene.allocate_compact(n, encoded.metadata.sh_degree, dc_residual, name, stream));
+  const std::string what = name + ": upload of the quantized arrays";
+  auto upload = [&](void* dst, const void* src, size_t bytes) -> Status {
+    if (bytes == 0) return Status();
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream), what);
+    return Status();
+  };
+  RGS_RETURN_IF_ERROR(upload(scene.means_.data(), encoded.means.data(), encoded.means.size() * sizeof(float)));
+  RGS_RETURN_IF_ERROR(upload(scene.rotations_fp16_.data(), encoded.rotations.data(), encoded.rotations.size() * 2));
+  RGS_RETURN_IF_ERROR(upload(scene.scales_fp16_.data(), encoded.scales.data(), encoded.scales.size() * 2));
+  RGS_RETURN_IF_ERROR(upload(scene.opacities_fp16_.data(), encoded.opacities.data(), encoded.opacities.size() * 2));
+  RGS_RETURN_IF_ERROR(upload(scene.sh_int8_.data(), encoded.sh.data(), encoded.sh.size()));
+  if (dc_residual) {
+    RGS_RETURN_IF_ERROR(upload(scene.sh_dc_residual_.data(), encoded.sh_dc_residual.data(), encoded.sh_dc_residual.size()));
+  }
+  // The host arrays must stay untouched until the copies are done.
+  RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), what);
+  RGS_RETURN_IF_ERROR(scene.finish_compact(encoded.metadata, dc_residual, options, name, stream));
+  return scene;
+}
+
+Status GpuScene::allocate_compact(uint64_t n, uint32_t sh_degree, bool dc_residual, const std::string& name,
+                                  cudaStream_t stream) {
+  count_ = uint32_t(n);
+  sh_degree_ = sh_degree;
+  has_compact_ = true;
+  RGS_RETURN_IF_ERROR(means_.allocate_exactly(n * 3, name + ": means"));
+  RGS_RETURN_IF_ERROR(rotations_fp16_.allocate_exactly(n * 4, name + ": rotations"));
+  RGS_RETURN_IF_ERROR(scales_fp16_.allocate_exactly(n * 3, name + ": scales"));
+  RGS_RETURN_IF_ERROR(opacities_fp16_.allocate_exactly(n, name + ": opacities"));
   // The int8 arrays are padded with zeros, so that no kernel reads uninitialized bytes (kCompactShPadding).
   auto allocate_padded = [&](DeviceBuffer<int8_t>* buffer, uint64_t bytes, const char* what) -> Status {
     const uint64_t padded = (bytes + kernels::kCompactShPadding - 1) / kernels::kCompactShPadding *
@@ -150,27 +194,23 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
     }
     return Status();
   };
-  const uint64_t sh_bytes = n * k * 3;
-  RGS_RETURN_IF_ERROR(allocate_padded(&scene.sh_int8_, sh_bytes, "SH"));
-  if (dc_residual) RGS_RETURN_IF_ERROR(allocate_padded(&scene.sh_dc_residual_, n * 3, "SH DC residual"));
+  RGS_RETURN_IF_ERROR(allocate_padded(&sh_int8_, n * format::sh_coefficient_count(sh_degree) * 3, "SH"));
+  if (dc_residual) RGS_RETURN_IF_ERROR(allocate_padded(&sh_dc_residual_, n * 3, "SH DC residual"));
+  return Status();
+}
 
-  using format::SectionId;
-  std::vector<SectionUpload> uploads = {
-      {SectionId::kMeans, scene.means_.data(), scene.means_.bytes()},
-      {SectionId::kRotations, scene.rotations_fp16_.data(), scene.rotations_fp16_.bytes()},
-      {SectionId::kScales, scene.scales_fp16_.data(), scene.scales_fp16_.bytes()},
-      {SectionId::kOpacities, scene.opacities_fp16_.data(), scene.opacities_fp16_.bytes()},
-      {SectionId::kSh, scene.sh_int8_.data(), sh_bytes}};
-  if (dc_residual) uploads.push_back({SectionId::kShDcResidual, scene.sh_dc_residual_.data(), n * 3});
-  RGS_RETURN_IF_ERROR(upload_sections(file, uploads, stream));
-
-  kernels::CompactGaussiansView& view = scene.compact_view_;
-  view.means = scene.means_.data();
-  view.rotations = scene.rotations_fp16_.data();
-  view.scales = scene.scales_fp16_.data();
-  view.opacities = scene.opacities_fp16_.data();
-  view.sh = scene.sh_int8_.data();
-  view.sh_dc_residual = dc_residual ? scene.sh_dc_residual_.data() : nullptr;
+Status GpuScene::finish_compact(const format::SceneMetadata& meta, bool dc_residual, const GpuSceneOptions& options,
+                                const std::string& name, cudaStream_t stream) {
+  bounds_ = meta.bounds;
+  const uint64_t n = count_;
+  const uint64_t k = format::sh_coefficient_count(meta.sh_degree);
+  kernels::CompactGaussiansView& view = compact_view_;
+  view.means = means_.data();
+  view.rotations = rotations_fp16_.data();
+  view.scales = scales_fp16_.data();
+  view.opacities = opacities_fp16_.data();
+  view.sh = sh_int8_.data();
+  view.sh_dc_residual = dc_residual ? sh_dc_residual_.data() : nullptr;
   for (int d = 0; d < 4; ++d) {
     for (int c = 0; c < 3; ++c) view.sh_scales[d][c] = meta.sh_quantization.scales[d][c];
   }
@@ -179,20 +219,20 @@ Result<GpuScene> GpuScene::from_rgs(const format::RgsFile& file, const GpuSceneO
   view.sh_degree = meta.sh_degree;
   view.count = uint32_t(n);
 
-  scene.runtime_section_bytes_ = n * (12 + 8 + 6 + 2 + (dc_residual ? 3 : 0)) + sh_bytes;
-  if (!options.fp32_attributes) return scene;
+  runtime_section_bytes_ = n * (12 + 8 + 6 + 2 + (dc_residual ? 3 : 0)) + n * k * 3;
+  if (!options.fp32_attributes) return Status();
 
   // FP32 attributes for the baseline, widened on the device.
-  RGS_RETURN_IF_ERROR(scene.rotations_.allocate_exactly(n * 4, name + ": FP32 rotations"));
-  RGS_RETURN_IF_ERROR(scene.scales_.allocate_exactly(n * 3, name + ": FP32 scales"));
-  RGS_RETURN_IF_ERROR(scene.opacities_.allocate_exactly(n, name + ": FP32 opacities"));
-  RGS_RETURN_IF_ERROR(scene.sh_.allocate_exactly(n * k * 3, name + ": FP32 SH"));
-  RGS_RETURN_IF_CUDA_ERROR(kernels::dequantize(view, scene.rotations_.data(), scene.scales_.data(),
-                                               scene.opacities_.data(), scene.sh_.data(), stream),
+  RGS_RETURN_IF_ERROR(rotations_.allocate_exactly(n * 4, name + ": FP32 rotations"));
+  RGS_RETURN_IF_ERROR(scales_.allocate_exactly(n * 3, name + ": FP32 scales"));
+  RGS_RETURN_IF_ERROR(opacities_.allocate_exactly(n, name + ": FP32 opacities"));
+  RGS_RETURN_IF_ERROR(sh_.allocate_exactly(n * k * 3, name + ": FP32 SH"));
+  RGS_RETURN_IF_CUDA_ERROR(kernels::dequantize(view, rotations_.data(), scales_.data(), opacities_.data(),
+                                               sh_.data(), stream),
                            name + ": dequantize kernel");
   RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), name + ": dequantize kernel");
-  scene.has_fp32_ = true;
-  return scene;
+  has_fp32_ = true;
+  return Status();
 }
 
 Result<GpuScene> GpuScene::from_cloud(const format::GaussianCloud& cloud,

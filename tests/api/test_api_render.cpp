@@ -1,5 +1,6 @@
 // The front door end to end: load (PLY through the converter, .rgs directly), presets, rendering into caller
 // memory with pitch and format on the CPU, and on the GPU when there is one (skipped visibly otherwise).
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -324,5 +325,48 @@ TEST_CASE("GPU: fastest holds only the runtime sections, renders into a pitched 
     cudaFree(depth);
   }
   cudaStreamDestroy(stream);
+#endif
+}
+
+TEST_CASE("GPU: a PLY loads as its conversion does, from the quantized arrays (same memory, same images)") {
+#if !RGS_HAS_CUDA
+  MESSAGE("skipped: this build has no CUDA support");
+#else
+  std::string why;
+  if (runtime::cuda_device_count(&why) == 0) {
+    MESSAGE("skipped: no CUDA device (" << why << ")");
+    return;
+  }
+  api::LoadOptions both;
+  both.presets = {api::Preset::kFastest, api::Preset::kFaithful};
+  auto from_ply = api::load(test::repo_path("samples/guitar.ply"), both);
+  REQUIRE(from_ply.ok());
+  auto from_rgs = api::load(guitar_rgs(), both);
+  REQUIRE(from_rgs.ok());
+  CHECK_FALSE(from_ply->info().source_is_rgs);
+  CHECK(from_ply->info().gaussians == from_rgs->info().gaussians);
+  CHECK(from_ply->info().memory_bytes == from_rgs->info().memory_bytes);
+  CHECK(from_ply->info().runtime_section_bytes == from_rgs->info().runtime_section_bytes);
+  CHECK(from_ply->info().has_compact);
+  CHECK(from_ply->info().has_fp32);
+  auto renderer = api::Renderer::create();
+  REQUIRE(renderer.ok());
+  const api::Camera camera = small_camera(*from_rgs, 320, 180);
+  for (api::Preset preset : {api::Preset::kFastest, api::Preset::kFaithful, api::Preset::kPaper}) {
+    CAPTURE(api::preset_name(preset));
+    api::RenderSettings settings;
+    settings.preset = preset;
+    std::vector<std::vector<uint8_t>> pixels;
+    for (const api::Scene* scene : {&*from_ply, &*from_rgs}) {
+      auto image = renderer->render_image(*scene, camera, settings, api::PixelFormat::kRgba8);
+      REQUIRE(image.ok());
+      std::vector<uint8_t> host(size_t(camera.width) * camera.height * 4);
+      REQUIRE(cudaDeviceSynchronize() == cudaSuccess);
+      REQUIRE(cudaMemcpy(host.data(), image->color(), host.size(), cudaMemcpyDeviceToHost) == cudaSuccess);
+      pixels.push_back(std::move(host));
+    }
+    CHECK(std::count_if(pixels[1].begin(), pixels[1].end(), [](uint8_t v) { return v != 0; }) > 1000);
+    CHECK(pixels[0] == pixels[1]);
+  }
 #endif
 }

@@ -6,7 +6,9 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 
+#include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/reader.h"
@@ -52,6 +54,14 @@ class GpuScene {
   /// Same, keeping the FP32 arrays only when options.fp32_attributes (has_fp32()).
   static Result<GpuScene> from_rgs(const format::RgsFile& file, const GpuSceneOptions& options,
                                    cudaStream_t stream = nullptr);
+
+  /// Uploads a runtime profile held in host memory (converter::quantize's output: a scene quantized in memory and
+  /// never serialized) on `stream` and waits for it: the same device arrays as from_rgs() of the file it would
+  /// write, the FP32 arrays only when options.fp32_attributes. `name` prefixes the messages. Errors:
+  /// kInvalidArgument (arrays inconsistent with the count and SH degree), kLimitExceeded (≥ 2^31 Gaussians),
+  /// kOutOfMemory / kCudaError from the device.
+  static Result<GpuScene> from_encoded(const format::EncodedScene& encoded, const GpuSceneOptions& options,
+                                       const std::string& name, cudaStream_t stream = nullptr);
 
   /// Uploads FP32 Gaussians on `stream` and waits for it. `bounds` (e.g. converter::compute_bounds) is
   /// kept for the RoofGS depth key; without it bounds() is empty. Errors: kInvalidArgument (inconsistent
@@ -107,6 +117,14 @@ class GpuScene {
   kernels::CompactGaussiansView compact() const { return compact_view_; }
 
  private:
+  /// from_rgs() and from_encoded(): allocates the compact arrays of `n` Gaussians (the int8 ones zero-padded).
+  Status allocate_compact(uint64_t n, uint32_t sh_degree, bool dc_residual, const std::string& name,
+                          cudaStream_t stream);
+  /// from_rgs() and from_encoded(), once the compact arrays hold the sections: the compact view from `meta`, and
+  /// the FP32 arrays widened on the device when options.fp32_attributes.
+  Status finish_compact(const format::SceneMetadata& meta, bool dc_residual, const GpuSceneOptions& options,
+                        const std::string& name, cudaStream_t stream);
+
   GpuScene() = default;
 
   uint32_t count_ = 0;
