@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
+#include "rgs/api/scene.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
