@@ -1,7 +1,7 @@
 # Type stubs of the roofgs module (python/src/roofgs_module.cpp), installed next to it so that editors and type
 # checkers complete its functions. Shapes are [rows, columns]; images are top row first.
 import os
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -107,7 +107,7 @@ class Scene:
 
 
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
-         quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: str = "rub", *, lod: bool = True,
+         quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: Union[str, Mapping[Union[str, os.PathLike], str]] = "rub", *, lod: bool = True,
          splat_budget: int = 3000000, pixel_error: float = 1.0, memory_budget: int = 0,
          stream_bytes: int = 33554432) -> Scene:
     """A scene in any format on device "cuda", "cpu" or "auto". A level-of-detail .rgs (docs/LOD.md) with
@@ -127,7 +127,7 @@ def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Opti
             zstd_level: Optional[int] = None, sanitize: bool = False, allow_empty: bool = False,
             lod: Optional[int] = None, lod_levels: Union[str, int, None] = None, lod_chunk: Optional[int] = None,
             max_gaussians: Optional[int] = None, max_decompression_ratio: Optional[int] = None,
-            spz_frame: Optional[str] = None) -> Dict[str, Any]:
+            spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None) -> Dict[str, Any]:
     """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default).
     A value outside an option's range raises ValueError saying the rule."""
 def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
@@ -140,7 +140,7 @@ def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _
          height: Optional[int] = None, zstd_level: Optional[int] = None, sanitize: bool = False,
          allow_empty: bool = False, lod: Optional[int] = None, lod_levels: Union[str, int, None] = None,
          lod_chunk: Optional[int] = None, max_gaussians: Optional[int] = None,
-         max_decompression_ratio: Optional[int] = None, spz_frame: Optional[str] = None) -> Dict[str, Any]:
+         max_decompression_ratio: Optional[int] = None, spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None) -> Dict[str, Any]:
     """convert()'s options; rgs-convert's --path (a camera path of N views) is camera_path here."""
 def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,
                   viewmats: _Array, Ks: _Array, width: int, height: int, near_plane: float = 0.01,
@@ -173,7 +173,7 @@ def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Arra
     value raises ValueError naming the option."""
 def audit(source: _Path, candidates: Union[_Path, Sequence[_Path]], *, cameras: Optional[Sequence[Camera]] = None,
           orbit: Optional[int] = None, width: int = 960, height: int = 540, device: str = "auto",
-          spz_frame: str = "rub", threshold: float = 40.0) -> Dict[str, Any]:
+          spz_frame: Union[str, Mapping[Union[str, os.PathLike], str]] = "rub", threshold: float = 40.0) -> Dict[str, Any]:
     """rgs-audit's measurement of one candidate path or a list of them against `source` on `cameras`, an orbit,
     or (neither given) the source's own cameras.json or views guessed from its content (views_note); each
     candidate's dict and the whole dict carry rgs-audit --json's verdict (mean PSNR in the verdict's metric,

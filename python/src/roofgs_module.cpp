@@ -293,12 +293,27 @@ py::dict frame_stats_dict(const api::FrameStats& stats) {
   return d;
 }
 
-/// converter::SceneReadOptions from the keyword arguments every reading function takes.
-converter::SceneReadOptions read_options(const std::string& spz_frame) {
+/// converter::SceneReadOptions from the keyword arguments every reading function takes. `spz_frame`: "rub" or
+/// "as-stored" for every SPZ file, or a mapping {path: frame} for those files (the others "rub"), as rgs-convert's
+/// repeated --spz-frame FILE=FRAME.
+converter::SceneReadOptions read_options(const py::object& spz_frame) {
   converter::SceneReadOptions options;
-  const std::optional<converter::SpzFrame> frame = converter::parse_spz_frame(spz_frame);
-  if (!frame) raise(Status(StatusCode::kInvalidArgument, "spz_frame must be 'rub' or 'as-stored'"));
-  options.spz_frame = *frame;
+  auto parse = [](const py::handle& value) {
+    const std::optional<converter::SpzFrame> frame = converter::parse_spz_frame(py::str(value).cast<std::string>());
+    if (!frame || !py::isinstance<py::str>(value)) {
+      raise(Status(StatusCode::kInvalidArgument,
+                   "spz_frame must be 'rub' or 'as-stored', or a mapping of SPZ paths to one of them"));
+    }
+    return *frame;
+  };
+  if (py::isinstance<py::dict>(spz_frame)) {
+    const py::object fspath = py::module_::import("os").attr("fspath");
+    for (const auto& [path, value] : spz_frame.cast<py::dict>()) {
+      options.spz_frame_by_path[fspath(path).cast<std::string>()] = parse(value);
+    }
+  } else {
+    options.spz_frame = parse(spz_frame);
+  }
   return options;
 }
 
@@ -652,7 +667,7 @@ double number_option(const py::handle& value, const char* name, double lo, doubl
 api::ConvertOptions convert_options(const py::kwargs& kwargs) {
   api::ConvertOptions o;
   o.converter_name = "roofgs python";
-  std::string spz_frame = "rub";
+  py::object spz_frame = py::str("rub");
   for (const auto& [key_obj, value] : kwargs) {
     const std::string key = py::str(key_obj);
     if (key == "to") {
@@ -694,7 +709,7 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
     } else if (key == "max_decompression_ratio") {
       o.read.max_decompression_ratio = static_cast<uint32_t>(integer_option(value, "max_decompression_ratio", 1, 32768));
     } else if (key == "spz_frame") {
-      spz_frame = value.cast<std::string>();
+      if (!value.is_none()) spz_frame = py::reinterpret_borrow<py::object>(value);
     } else if (key == "sanitize") {
       o.sanitize = value.cast<bool>();
     } else if (key == "allow_empty") {
@@ -707,6 +722,7 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
   }
   const converter::SceneReadOptions read = read_options(spz_frame);
   o.read.spz_frame = read.spz_frame;
+  o.read.spz_frame_by_path = read.spz_frame_by_path;
   return o;
 }
 
@@ -1456,7 +1472,7 @@ PYBIND11_MODULE(roofgs, m) {
 #endif
   m.def("load",
         [](const std::filesystem::path& path, const std::string& device, std::vector<std::string> presets,
-           bool quantize_other_formats, int cuda_device, const std::string& spz_frame, bool lod,
+           bool quantize_other_formats, int cuda_device, const py::object& spz_frame, bool lod,
            uint64_t splat_budget, float pixel_error, uint64_t memory_budget, uint64_t stream_bytes) {
           api::LoadOptions options;
           options.read_options = read_options(spz_frame);
@@ -1485,7 +1501,8 @@ PYBIND11_MODULE(roofgs, m) {
         "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) onto device "
         "'cuda', 'cpu' or 'auto' (CUDA when a device answers, else the CPU, said once); the GPU copy holds only "
         "what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
-        "(Niantic's convention) or 'as-stored' (splat-transform's); info['notes'] says which was assumed. "
+        "(Niantic's convention) or 'as-stored' (splat-transform's), or a dict {path: frame} for those files (the "
+        "others 'rub'); a frame the file declares is always used; info['notes'] says which was assumed. "
         "A level-of-detail .rgs (rgs-convert --lod-levels auto; docs/LOD.md) renders, with lod=True, each frame's "
         "selection of levels: at most splat_budget Gaussians (0: no limit), levels whose projected error is at "
         "most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget bytes of device "
@@ -1696,7 +1713,7 @@ def _check_gsplat_options(given):
   m.def("audit",
         [](const std::filesystem::path& source, const py::object& candidates_in,
            std::optional<std::vector<api::Camera>> cameras, std::optional<uint32_t> orbit, uint32_t width,
-           uint32_t height, const std::string& device, const std::string& spz_frame, double threshold) {
+           uint32_t height, const std::string& device, const py::object& spz_frame, double threshold) {
           // One path (str or os.PathLike) or a sequence of them.
           const bool one = py::isinstance<py::str>(candidates_in) || py::isinstance<py::bytes>(candidates_in) ||
                            py::hasattr(candidates_in, "__fspath__");

@@ -81,6 +81,16 @@ def test_convert_options_match_the_tool(tmp_path):
                    for note in scene.info["notes"])
     with pytest.raises(roofgs.Error):
         roofgs.convert(ply, str(tmp_path / "x.spz"), spz_frame="flu")
+    # One audit compares SPZ files of both conventions: the frame is given per file.
+    rub, stored = tmp_path / "rub.spz", tmp_path / "as-stored.spz"
+    per_file = roofgs.audit(ply, [str(rub), str(stored)], orbit=2, width=96, height=54, device="cpu",
+                            spz_frame={stored: "as-stored"})
+    one_frame = roofgs.audit(ply, [str(rub), str(stored)], orbit=2, width=96, height=54, device="cpu")
+    psnr = lambda report, i: report["candidates"][i]["psnr_mean_db"]
+    assert psnr(per_file, 0) == psnr(one_frame, 0) and psnr(per_file, 1) == pytest.approx(psnr(per_file, 0), abs=1e-6)
+    assert psnr(one_frame, 1) < psnr(per_file, 1) - 10  # read in the other frame: upside down
+    with pytest.raises(roofgs.Error):
+        roofgs.load(str(stored), device="cpu", spz_frame={stored: "flu"})
 
 
 def test_errors_carry_codes(tmp_path):
