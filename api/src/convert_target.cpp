@@ -80,27 +80,6 @@ FitOptions fit_options(const ConvertOptions& options, const converter::InputScen
   return fit;
 }
 
-RateControlReport report_of(const FitResult& f) {
-  RateControlReport r;
-  r.settings = f.chosen.options;
-  r.psnr_mean_db = f.chosen.psnr_mean_db;
-  r.psnr_min_db = f.chosen.psnr_min_db;
-  r.search_psnr_db = f.search_psnr_db;
-  r.views = f.views;
-  r.width = f.width;
-  r.height = f.height;
-  r.search_width = f.search_width;
-  r.search_height = f.search_height;
-  r.encodings = f.encodings;
-  r.renders = f.renders;
-  r.device = f.device;
-  r.device_name = f.device_name;
-  r.seconds = f.seconds;
-  r.encode_seconds = f.encode_seconds;
-  r.render_seconds = f.render_seconds;
-  return r;
-}
-
 }  // namespace
 
 Result<RateControlReport> fit_target(const converter::InputScene& input, const std::string& src_name,
@@ -115,7 +94,7 @@ Result<RateControlReport> fit_target(const converter::InputScene& input, const s
   options->profile = format::StorageProfile::kArchive;
   options->archive = fitted->chosen.options;
   options->archive_earlier = std::move(fitted->archive);
-  RateControlReport report = report_of(*fitted);
+  RateControlReport report = std::move(fitted->report);
   report.views_note = std::move(note);
   return report;
 }

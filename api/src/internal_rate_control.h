@@ -127,22 +127,13 @@ struct FitPoint {
 struct FitResult {
   /// The chosen archive, measured at the cameras' own size (psnr_*: the final check).
   FitPoint chosen;
-  /// The chosen archive's mean PSNR at the search size.
-  double search_psnr_db = 0;
   /// The finest archive the search measured on the way (kTargetPsnr: when a target is refused, the best it
   /// reaches). Measured at the search size.
   std::optional<FitPoint> finest;
-  uint32_t views = 0;                            ///< cameras measured
-  uint32_t search_width = 0, search_height = 0;  ///< first camera's size in the search
-  uint32_t width = 0, height = 0;                ///< first camera's own size (the final check)
-  uint32_t encodings = 0;                        ///< archives encoded (each measured for bytes)
-  uint32_t renders = 0;                          ///< archives rendered (each on every camera)
-  Device device = Device::kCpu;
-  std::string device_name;                       ///< "CPU reference renderer" or "CUDA device N"
-  double seconds = 0;                            ///< wall time of fit_archive
-  /// Of `seconds`: encoding the candidates (format::encode_archive), and loading and rendering them with the
-  /// PSNR against the source (the source's own renders not included).
-  double encode_seconds = 0, render_seconds = 0;
+  /// What the fit reports (ConvertReport::rate_control): fit_archive fills every field but views_note, the chosen
+  /// settings and PSNRs from `chosen` once it is settled; the search sets search_psnr_db (the chosen archive's mean
+  /// PSNR at the search size).
+  RateControlReport report;
   /// An archive the search encoded with the chosen settings' Draco points (null if none is kept): it lends the
   /// file that writes the choice its means (ConvertOptions::archive_earlier), so Draco does not run again.
   std::shared_ptr<const format::ArchiveScene> archive;

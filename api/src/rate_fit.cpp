@@ -54,7 +54,7 @@ std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras
 /// misses the target or lands more than kMaxAboveDb above it. On the last attempt, a miss is followed by
 /// checks of the earlier steps of the path. A (moved) target above the finest archive on the search views
 /// ends the search with a check of that finest archive: the search views may read below or above the
-/// cameras' own size. Sets result->chosen and result->search_psnr_db.
+/// cameras' own size. Sets result->chosen and result->report.search_psnr_db.
 Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first, double target, FitResult* result) {
   const FitSteps steps = search.part(kFitPsnrSteps);
   const std::string size = std::to_string(first.width) + "x" + std::to_string(first.height);
@@ -86,7 +86,7 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
   };
   auto settle = [&]() {
     result->chosen = *best;
-    result->search_psnr_db = best_search_psnr;
+    result->report.search_psnr_db = best_search_psnr;
     return Status();
   };
 
@@ -158,7 +158,7 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
 /// close archives differently, and the highest is chosen. Then the climb: kTargetPsnr fits (fit_psnr, checked at
 /// the cameras' own size) at kBytesClimbDb above the choice, the step doubling after each that does not fit or
 /// reads no higher, at most kMaxBytesClimbs; one whose file fits and reads higher is chosen. Sets result->chosen
-/// and result->search_psnr_db.
+/// and result->report.search_psnr_db.
 Status fit_bytes(Measurer& measurer, Search& search, const runtime::Camera& first, uint64_t target,
                  int file_zstd_level, bool file_xz, FitResult* result) {
   uint64_t budget = target, fitting_budget = 0;
@@ -212,14 +212,14 @@ Status fit_bytes(Measurer& measurer, Search& search, const runtime::Camera& firs
                   db_text(fitted.chosen.psnr_mean_db) + ", " + group_digits(file) + " bytes in the file");
     if (file <= target && fitted.chosen.psnr_mean_db > chosen->psnr_mean_db) {
       chosen = fitted.chosen;
-      chosen_search_db = fitted.search_psnr_db;
+      chosen_search_db = fitted.report.search_psnr_db;
       step_db = kBytesClimbDb;
     } else {
       step_db *= 2;
     }
   }
   result->chosen = *chosen;
-  result->search_psnr_db = chosen_search_db;
+  result->report.search_psnr_db = chosen_search_db;
   return Status();
 }
 
@@ -292,12 +292,12 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   Search search(measurer, resolved, sh_degree, anchor);
 
   FitResult result;
-  result.views = uint32_t(cameras.size());
-  result.search_width = search_cameras[0].width;
-  result.search_height = search_cameras[0].height;
-  result.width = cameras[0].width;
-  result.height = cameras[0].height;
-  result.device = options.device;
+  result.report.views = uint32_t(cameras.size());
+  result.report.search_width = search_cameras[0].width;
+  result.report.search_height = search_cameras[0].height;
+  result.report.width = cameras[0].width;
+  result.report.height = cameras[0].height;
+  result.report.device = options.device;
 
   if (options.goal == FitGoal::kTargetBytes) {
     RGS_RETURN_IF_ERROR(
@@ -313,12 +313,15 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   };
   as_asked(&result.chosen.options);
   if (result.finest) as_asked(&result.finest->options);
-  result.encodings = measurer.encodings();
-  result.renders = measurer.renders();
-  result.encode_seconds = measurer.encode_seconds();
-  result.render_seconds = measurer.render_seconds();
-  result.device_name = measurer.device_name();
-  result.seconds = seconds_since(start);
+  result.report.settings = result.chosen.options;
+  result.report.psnr_mean_db = result.chosen.psnr_mean_db;
+  result.report.psnr_min_db = result.chosen.psnr_min_db;
+  result.report.encodings = measurer.encodings();
+  result.report.renders = measurer.renders();
+  result.report.encode_seconds = measurer.encode_seconds();
+  result.report.render_seconds = measurer.render_seconds();
+  result.report.device_name = measurer.device_name();
+  result.report.seconds = seconds_since(start);
   return result;
 }
 
