@@ -57,9 +57,7 @@ Result<std::vector<runtime::Camera>> target_views(const ConvertTarget& target, c
 FitOptions fit_options(const ConvertOptions& options, const converter::InputScene& input, const std::string& src_name) {
   const ConvertTarget& target = options.target;
   FitOptions fit;
-  fit.goal = target.psnr_db ? FitGoal::kTargetPsnr : FitGoal::kTargetBytes;
-  fit.target_psnr_db = target.psnr_db.value_or(0);
-  fit.target_bytes = target.bytes.value_or(0);
+  fit.target = target;
   fit.quantize.scale_encoding = options.scale_encoding;
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
@@ -72,11 +70,6 @@ FitOptions fit_options(const ConvertOptions& options, const converter::InputScen
   // The provenance: the source's name and storage, the converter's name and the options' text.
   fit.provenance_bytes = 768 + std::filesystem::path(src_name).filename().string().size() +
                          input.storage_format.size() + options.converter_name.size();
-  fit.search_max_side = target.search_max_side;
-  fit.search_max_views = target.search_max_views;
-  fit.device = target.device;
-  fit.cuda_device = target.cuda_device;
-  fit.cpu_threads = target.cpu_threads;
   return fit;
 }
 

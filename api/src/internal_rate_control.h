@@ -21,17 +21,11 @@
 
 namespace rgs::api::detail {
 
-/// What fit_archive() aims at.
-enum class FitGoal {
-  kTargetPsnr,   ///< mean PSNR over the views >= target_psnr_db at the fewest bytes
-  kTargetBytes,  ///< file bytes <= target_bytes at the highest mean PSNR
-};
-
 /// zstd level at which the search codes its candidates when the file's is higher (FitOptions::start): level 19
 /// costs 8x the time of 6 on a 542k-Gaussian scene, and rate control encodes dozens of candidates.
 constexpr int kSearchZstdLevel = 6;
 
-/// FitOptions::search_max_side's automatic values, pixels on the longer side.
+/// ConvertTarget::search_max_side's automatic values, pixels on the longer side.
 constexpr uint32_t kCpuSearchMaxSide = 320, kCudaSearchMaxSide = 1920;
 
 /// Rate control's progress in steps (a stage of a search, a check at the views' own size) against an upper bound
@@ -80,12 +74,10 @@ class FitSteps {
 
 /// Options of fit_archive().
 struct FitOptions {
-  FitGoal goal = FitGoal::kTargetPsnr;
-  /// kTargetPsnr: the mean over the views of the per-view PSNR (dB, peak 1, clamped RGB, the whole frame) of the
-  /// archive's render against the source's, at the cameras' own size.
-  double target_psnr_db = 40;
-  /// kTargetBytes: the largest output file, bytes (sections, header, metadata and provenance).
-  uint64_t target_bytes = 0;
+  /// The goal (psnr_db or bytes: one is set, check_convert_options), the search's reduced views
+  /// (search_max_side, search_max_views) and the renderer (device, cuda_device, cpu_threads). Its `views` are
+  /// fit_archive's `cameras`, built by the caller.
+  ConvertTarget target;
   /// How the source is quantized before the archive codecs (convert's settings; sh_dc_bits is 8 in the archive
   /// profile whatever it says).
   converter::QuantizeOptions quantize;
@@ -99,16 +91,9 @@ struct FitOptions {
   /// of the search's coding (level 19 wrote the measured fits 1-10 % smaller, the .xz codes 2-5 % smaller again,
   /// docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes).
   format::ArchiveOptions start;
-  /// ConvertTarget::search_max_side and search_max_views.
-  uint32_t search_max_side = 0;
-  uint32_t search_max_views = 6;
   /// Bytes the file will hold besides the sections the search measures and the metadata it knows: the
   /// provenance (convert writes the source name, its hash and the options there).
   uint64_t provenance_bytes = 1024;
-  /// Rendering: ConvertTarget::device, cuda_device, cpu_threads. The source is rendered once.
-  Device device = Device::kCpu;
-  int cuda_device = 0;
-  unsigned cpu_threads = 0;
   /// Where the search's steps are reported; may be null.
   FitProgress* progress = nullptr;
 };
@@ -127,7 +112,7 @@ struct FitPoint {
 struct FitResult {
   /// The chosen archive, measured at the cameras' own size (psnr_*: the final check).
   FitPoint chosen;
-  /// The finest archive the search measured on the way (kTargetPsnr: when a target is refused, the best it
+  /// The finest archive the search measured on the way (a PSNR target: when it is refused, the best it
   /// reaches). Measured at the search size.
   std::optional<FitPoint> finest;
   /// What the fit reports (ConvertReport::rate_control): fit_archive fills every field but views_note, the chosen
@@ -144,7 +129,7 @@ struct FitResult {
 /// check_convert_options.
 /// @return kInvalidArgument: no cameras, an empty source, a PSNR target above what the finest archive reaches (the
 ///         message says what it reaches), a byte budget below the coarsest archive (the message says its size);
-///         kLimitExceeded: no archive the bytes search measured fits target_bytes once coded at the file's zstd
+///         kLimitExceeded: no archive the bytes search measured fits target.bytes once coded at the file's zstd
 ///         level; the errors of quantize, encode_archive and rendering.
 Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::vector<runtime::Camera>& cameras,
                               const FitOptions& options);

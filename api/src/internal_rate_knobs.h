@@ -70,22 +70,22 @@ inline constexpr int kMaxExchanges = 4;
 inline constexpr double kExchangeMinSaving = 0.0025;
 /// Searches (each checked at the cameras' own size) before the choice is settled.
 inline constexpr int kMaxAttempts = 3;
-/// kTargetBytes: the PSNR searches of its bisection over targets at most, and the width in dB at which it stops.
+/// A byte target: the PSNR searches of its bisection over targets at most, and the width in dB at which it stops.
 inline constexpr int kMaxBytesSearches = 10;
 inline constexpr double kBytesTargetResolutionDb = 0.1;
-/// kTargetBytes: the slope its search over targets assumes before it has measured one, dB per doubling of the bytes.
+/// A byte target: the slope its search over targets assumes before it has measured one, dB per doubling of the bytes.
 inline constexpr double kDbPerDoubling = 6;
-/// kTargetBytes: the share of the budget a file may leave unused before the search runs again on a larger one.
+/// A byte target: the share of the budget a file may leave unused before the search runs again on a larger one.
 inline constexpr double kBytesSlack = 0.005;
-/// kTargetBytes: the archives of the highest search PSNR within the budget checked at the cameras' own size.
+/// A byte target: the archives of the highest search PSNR within the budget checked at the cameras' own size.
 inline constexpr size_t kBytesFinalists = 3;
-/// kTargetBytes's climb (fit_bytes): PSNR fits this far above its choice first, and at most this many.
+/// A byte target's climb (fit_bytes): PSNR fits this far above its choice first, and at most this many.
 inline constexpr double kBytesClimbDb = 0.25;
 inline constexpr int kMaxBytesClimbs = 4;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 inline constexpr double kCalibrationMarginDb = 0.15;
 
-/// The knobs the search moves, one at a time: kKnobs in the rounds, kCodeSteps in a kTargetPsnr search's last
+/// The knobs the search moves, one at a time: kKnobs in the rounds, kCodeSteps in a PSNR search's last
 /// stage (Search::fill_for_psnr).
 enum class Knob {
   kRotation, kScale, kOpacity, kSh0, kSh1, kSh2, kSh3, kPosition, kOpacityFloor, kRotationStep, kScaleStep,

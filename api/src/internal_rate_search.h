@@ -35,21 +35,21 @@ class Search {
   FitSteps part(uint32_t most) { return FitSteps(options_.progress, most); }
   FitProgress* progress() const { return options_.progress; }
 
-  /// kTargetPsnr at the search size: the path of accepted archives, finest first, each meeting `target`. It
+  /// A PSNR target at the search size: the path of accepted archives, finest first, each meeting `target`. It
   /// starts from the last step of `previous` (an earlier search's path) that meets `target`, else from the
   /// ladder.
   Result<std::vector<FitPoint>> for_psnr(double target, const std::vector<FitPoint>& previous = {});
 
-  /// kTargetPsnr's ladder: the coarsest point of the ladder that meets `target`, bracketed to a quarter bit.
+  /// A PSNR target's ladder: the coarsest point of the ladder that meets `target`, bracketed to a quarter bit.
   Result<FitPoint> ladder_for_psnr(double target);
 
-  /// kTargetPsnr's refinement from path->back(): each round moves every knob one step coarser on its own; the
+  /// A PSNR target's refinement from path->back(): each round moves every knob one step coarser on its own; the
   /// steps that still meet `target` are taken together, best bytes saved per unit of squared error first,
   /// while the sum of their error increments (errors of different knobs add, roughly) stays within what the
   /// target allows; the combination is measured and kept when it meets the target, else the best single step.
   Status refine_for_psnr(double target, std::vector<FitPoint>* path);
 
-  /// kTargetPsnr's scan of each SH step multiplier's integers, while path->back() is more than
+  /// A PSNR target's scan of each SH step multiplier's integers, while path->back() is more than
   /// kMinSlackDb above `target`: the integers between the multiplier and the second ladder value above it
   /// (at most kFineMultipliers). Where the source's colours already lie on a grid of their own (a scene that was
   /// 8-bit before it was a PLY), the error of a step depends on how it lines up with that grid, not only on its
@@ -57,7 +57,7 @@ class Search {
   /// The smallest archive that meets `target` is kept when it is smaller than path->back().
   Status scan_multipliers_for_psnr(double target, std::vector<FitPoint>* path);
 
-  /// kTargetPsnr's exchange between knobs, after the rounds, where no knob can go one step coarser on its own: the
+  /// A PSNR target's exchange between knobs, after the rounds, where no knob can go one step coarser on its own: the
   /// knobs differ in bytes per squared error, so one step coarser with another step finer can meet `target` in
   /// fewer bytes (a greedy path through the knobs ends off the rate-distortion curve otherwise). Every knob one step
   /// coarser and one step finer, and every SH multiplier one step finer together, are measured at path->back() (the
@@ -67,14 +67,14 @@ class Search {
   /// (returns true).
   Result<bool> exchange_for_psnr(double target, std::vector<FitPoint>* path);
 
-  /// kTargetPsnr's last stage, while path->back() is more than kMinSlackDb above `target`: the code steps of
+  /// A PSNR target's last stage, while path->back() is more than kMinSlackDb above `target`: the code steps of
   /// rotations, scales and opacities, a quarter bit coarser at a time (finer than the bits, and below their
   /// 4-bit minimum), the step with the most bytes saved per squared error added that still meets `target` each
   /// round. It only spends what the knobs of whole steps leave above the target, so it never ends larger.
   Status fill_for_psnr(double target, std::vector<FitPoint>* path);
 
-  /// kTargetBytes at the search size: the archive of the highest mean PSNR within `budget` among every archive
-  /// the search measured (Measurer::watch_budget). The searches are kTargetPsnr's (for_psnr), over the same
+  /// A byte budget at the search size: the archive of the highest mean PSNR within `budget` among every archive
+  /// the search measured (Measurer::watch_budget). The searches are PSNR searches (for_psnr), over the same
   /// knobs and with the same rounds, scans, exchanges and code steps, so that no PSNR search finds a file of at
   /// most these bytes that reads higher on these views: from the ladder's point that fits the budget, a search
   /// over PSNR targets (secant steps in log bytes, bracketed) for the highest target whose search ends within it
@@ -86,7 +86,7 @@ class Search {
   uint32_t sh_degree() const { return sh_degree_; }
 
  private:
-  /// kTargetBytes's last stage, from the best archive within `budget` measured so far: each round, of the finer
+  /// A byte budget's last stage, from the best archive within `budget` measured so far: each round, of the finer
   /// steps of one knob that still fit, the one with the most dB gained per byte added (at most kMaxRounds).
   Status fill_for_bytes(uint64_t budget);
 

@@ -22,8 +22,8 @@ namespace {
 constexpr uint32_t kFitPsnrSteps = 2 + kMaxAttempts * (kPsnrSearchSteps + 1) + 2;
 
 uint32_t search_max_side(const FitOptions& options) {
-  if (options.search_max_side != 0) return options.search_max_side;
-  return options.device == Device::kCuda ? kCudaSearchMaxSide : kCpuSearchMaxSide;
+  if (options.target.search_max_side != 0) return options.target.search_max_side;
+  return options.target.device == Device::kCuda ? kCudaSearchMaxSide : kCpuSearchMaxSide;
 }
 
 /// The search's views: at most `max_views` of `cameras`, evenly spread, reduced to `max_side`.
@@ -48,7 +48,7 @@ std::vector<runtime::Camera> reduced(const std::vector<runtime::Camera>& cameras
   return out;
 }
 
-/// kTargetPsnr: checks the ladder's point for the target on the cameras at their own size, searches at the
+/// A PSNR target: checks the ladder's point for the target on the cameras at their own size, searches at the
 /// target moved by the difference measured between the two sizes, checks the search's last step, and searches
 /// again at a target moved by the difference measured between the two sizes while the check
 /// misses the target or lands more than kMaxAboveDb above it. On the last attempt, a miss is followed by
@@ -148,14 +148,14 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
   return settle();
 }
 
-/// kTargetBytes: Search::for_bytes on a budget of the search's bytes (zstd level kSearchZstdLevel, no .xz), then
+/// A byte target: Search::for_bytes on a budget of the search's bytes (zstd level kSearchZstdLevel, no .xz), then
 /// the bytes of its choice as the file codes it (`file_zstd_level`, `file_xz`), which are fewer: on a flat stretch
 /// of the rate-distortion curve a few per cent of bytes are several dB (guitar: 35 to 40 dB in 4 % more bytes), so
 /// the search runs again on the budget that puts the choice's file at `target` (the ratio of the two byte counts
 /// measured at the choice), at most kMaxAttempts searches, while the file is over the target or more than
 /// kBytesSlack below it. Of the archives within the largest budget whose choice's file fit, the kBytesFinalists of
 /// the highest search PSNR whose files fit are measured at the cameras' own size, where the search views rank
-/// close archives differently, and the highest is chosen. Then the climb: kTargetPsnr fits (fit_psnr, checked at
+/// close archives differently, and the highest is chosen. Then the climb: PSNR fits (fit_psnr, checked at
 /// the cameras' own size) at kBytesClimbDb above the choice, the step doubling after each that does not fit or
 /// reads no higher, at most kMaxBytesClimbs; one whose file fits and reads higher is chosen. Sets result->chosen
 /// and result->report.search_psnr_db.
@@ -285,7 +285,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   FitOptions resolved = options;
   resolved.start = anchor;
   const std::vector<runtime::Camera> search_cameras =
-      reduced(cameras, search_max_side(options), options.search_max_views);
+      reduced(cameras, search_max_side(options), options.target.search_max_views);
   Measurer measurer(source, bounds, std::move(quantized), resolved);
   RGS_RETURN_IF_ERROR(measurer.start(search_cameras, cameras));
   RGS_RETURN_IF_ERROR(measurer.measure_overhead());
@@ -297,13 +297,13 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   result.report.search_height = search_cameras[0].height;
   result.report.width = cameras[0].width;
   result.report.height = cameras[0].height;
-  result.report.device = options.device;
+  result.report.device = options.target.device;
 
-  if (options.goal == FitGoal::kTargetBytes) {
+  if (options.target.bytes) {
     RGS_RETURN_IF_ERROR(
-        fit_bytes(measurer, search, cameras[0], options.target_bytes, file_zstd_level, file_xz, &result));
+        fit_bytes(measurer, search, cameras[0], *options.target.bytes, file_zstd_level, file_xz, &result));
   } else {
-    RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target_psnr_db, &result));
+    RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target.psnr_db.value_or(0), &result));
   }
   result.finest = search.finest();
   result.archive = measurer.archive_with_points(result.chosen.options);

@@ -12,14 +12,14 @@
 namespace rgs::api::detail {
 
 Status Measurer::start(std::vector<runtime::Camera> search_cameras, std::vector<runtime::Camera> cameras) {
-  device_ = options_.device;
-  const unsigned workers = device_ == api::Device::kCpu ? parallel::thread_count(options_.cpu_threads) : 1;
+  device_ = options_.target.device;
+  const unsigned workers = device_ == api::Device::kCpu ? parallel::thread_count(options_.target.cpu_threads) : 1;
   for (unsigned w = 0; w < workers; ++w) {
-    RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(device_, options_.cuda_device));
+    RGS_ASSIGN_OR_RETURN(api::Renderer renderer, api::Renderer::create(device_, options_.target.cuda_device));
     renderers_.push_back(std::move(renderer));
   }
   settings_.preset = api::Preset::kFaithful;
-  settings_.cpu_threads = workers > 1 ? 1 : options_.cpu_threads;
+  settings_.cpu_threads = workers > 1 ? 1 : options_.target.cpu_threads;
   search_.cameras = std::move(search_cameras);
   final_.cameras = std::move(cameras);
   RGS_ASSIGN_OR_RETURN(api::Scene scene, load(source_, bounds_, "source"));
@@ -140,7 +140,7 @@ std::shared_ptr<const format::ArchiveScene> Measurer::archive_with_points(const 
 
 std::string Measurer::device_name() const {
   if (device_ == api::Device::kCpu) return "CPU reference renderer";
-  return "CUDA device " + std::to_string(options_.cuda_device);
+  return "CUDA device " + std::to_string(options_.target.cuda_device);
 }
 
 Result<std::shared_ptr<const format::ArchiveScene>> Measurer::encode_archive(const format::ArchiveOptions& o) {
@@ -230,7 +230,7 @@ Result<api::Scene> Measurer::load(format::GaussianCloud cloud, const format::Sce
                                   const std::string& name) {
   api::LoadOptions load;
   load.device = device_;
-  load.cuda_device = options_.cuda_device;
+  load.cuda_device = options_.target.cuda_device;
   return api::load_cloud(std::move(cloud), bounds, name, load);
 }
 
