@@ -123,7 +123,10 @@ OutputSet::OutputSet() : state_(std::make_unique<State>()) {}
 OutputSet::~OutputSet() {
   state_->outputs.clear();  // the temporaries first, so that a folder this run created can be empty
   std::error_code ec;
-  for (const std::string& dir : state_->created_directories) std::filesystem::remove(dir, ec);
+  // Newest first: a folder created inside another one this run created is removed before it.
+  for (auto dir = state_->created_directories.rbegin(); dir != state_->created_directories.rend(); ++dir) {
+    std::filesystem::remove(*dir, ec);
+  }
 }
 
 Status OutputSet::add_input(const std::string& path) {

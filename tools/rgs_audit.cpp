@@ -10,9 +10,11 @@
 // The verdict and the gate compare the foreground PSNR where the source's renders have background, else the
 // whole frame's (audit::verdict_metric).
 //   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
+//   rgs-audit scene.ply scene.rgs --save-renders renders/ --format ppm    every render, as rgs-render writes it
 //
-// Every output of a run (the HTML report, its JSON, its images, --json, --heatmap) is declared before any work,
-// may not be an input or another output, and is committed together at the end (tools::OutputSet); the HTML
+// Every output of a run (the HTML report, its JSON, its images, --json, --heatmap, --save-renders) is declared
+// before it is written (the report's images and the renders once the views are known), may not be an input or
+// another output, and is committed together at the end (tools::OutputSet); the HTML
 // script writes into the report's staged temporary. Exit status: 0 ok, 1 failure (no output written or
 // changed), 2 usage error, 3 a candidate below --min-psnr (the audit itself succeeded: its reports are
 // written), 128 + N on signal N. --json - prints the JSON on standard output and the table on standard error.
@@ -42,6 +44,7 @@
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/api/camera.h"
+#include "rgs/runtime/image_io.h"
 #include "rgs/config.h"
 
 extern char** environ;
@@ -65,6 +68,8 @@ struct Options {
   std::string report_from;
   std::string json_path;
   std::string heatmap_path;
+  std::string renders_dir;   ///< --save-renders: every render as an 8-bit image, one folder per scene
+  std::string image_format;  ///< of --save-renders: "png" or "ppm"; empty: png when the build has OpenImageIO
   uint32_t worst = 3;
   uint32_t image_size = 1024;
   unsigned threads = 0;
@@ -320,10 +325,44 @@ int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* re
   return tools::kExitOk;
 }
 
+/// --save-renders: creates the folder of each scene's renders in opt.renders_dir, "source" and then each
+/// candidate's label made file-safe (a name used twice gets its index).
+Result<std::vector<std::string>> render_folders(const Options& opt, const std::vector<audit::AuditScene>& candidates,
+                                                tools::OutputSet& outputs) {
+  RGS_RETURN_IF_ERROR(outputs.create_directory(opt.renders_dir, "renders folder"));
+  std::vector<std::string> folders{(std::filesystem::path(opt.renders_dir) / "source").string()};
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    std::string folder =
+        (std::filesystem::path(opt.renders_dir) / tools::file_safe_name(candidates[i].info.label, i + 1)).string();
+    if (std::find(folders.begin(), folders.end(), folder) != folders.end()) folder += "_" + std::to_string(i + 1);
+    folders.push_back(folder);
+  }
+  for (const std::string& folder : folders) RGS_RETURN_IF_ERROR(outputs.create_directory(folder, "renders folder"));
+  return folders;
+}
+
+/// --save-renders: stages one render as "<folder>/<view>.png" or ".ppm", named as rgs-render names its views,
+/// with rgs-render's 8-bit rule (runtime::to_8bit), so that the two can be compared byte for byte.
+Status save_render(const Options& opt, tools::OutputSet& outputs, const std::string& folder,
+                   const std::vector<runtime::Camera>& cameras, size_t view, const runtime::ImageRef& rgba) {
+  std::string name = tools::file_safe_name(cameras[view].name, view);
+  for (size_t i = 0; i < view; ++i) {
+    if (tools::file_safe_name(cameras[i].name, i) == name) {
+      name += "_" + std::to_string(view);
+      break;
+    }
+  }
+  const std::string path = (std::filesystem::path(folder) / name).string() + "." + opt.image_format;
+  RGS_RETURN_IF_ERROR(outputs.add_output(path));
+  std::vector<float> rgb(size_t(rgba.width) * rgba.height * 3);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = rgba.data[i / 3 * 4 + i % 3];
+  return tools::write_image8(outputs, path, rgba.width, rgba.height, 3, runtime::to_8bit(rgb));
+}
+
 /// Loads the source (the first scene) and the candidates, their reader notes printed, and audits them on the
 /// backend --backend chooses: an explicit --backend cuda without a device fails before any loading. Every
 /// scene goes through audit::load_audit_scene, the one place that picks a reader.
-Result<audit::AuditResult> measure(const Options& opt) {
+Result<audit::AuditResult> measure(const Options& opt, tools::OutputSet& outputs) {
   audit::AuditOptions options;
   std::string why;
   const bool have_cuda = api::cuda_available(&why);
@@ -380,6 +419,13 @@ Result<audit::AuditResult> measure(const Options& opt) {
                  tools::escape_text(p.view).c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
                  tools::fixed(p.remaining_s, 0).c_str());
   };
+  std::vector<std::string> folders;  // --save-renders: one per scene, the source's first
+  if (!opt.renders_dir.empty()) {
+    RGS_ASSIGN_OR_RETURN(folders, render_folders(opt, candidates, outputs));
+    options.on_render = [&](size_t view, size_t scene, const runtime::ImageRef& rgba) {
+      return save_render(opt, outputs, folders[scene], cameras, view, rgba);
+    };
+  }
   return audit::run_audit(source, candidates, cameras, options);
 }
 
@@ -474,6 +520,10 @@ int run(const Options& opt) {
     Status heatmap_ok = tools::check_image8_path(opt.heatmap_path, 1);
     if (!heatmap_ok.ok()) return tools::report_error(kTool, heatmap_ok);
   }
+  if (!opt.renders_dir.empty()) {
+    Status format_ok = tools::check_image8_path("render." + opt.image_format, 3);
+    if (!format_ok.ok()) return tools::report_error(kTool, format_ok.prepend("--save-renders"));
+  }
 
   // Every identity is checked before any work: no output may replace an input or another output. The report's
   // image files are named by the audit's worst views, so they are declared once it has run (before writing).
@@ -482,7 +532,7 @@ int run(const Options& opt) {
   if (int code = declare_files(opt, outputs, &report_json, &report_files); code != tools::kExitOk) return code;
   tools::report_notes(kTool, outputs.remove_stale_temporaries());
 
-  auto result = measure(opt);
+  auto result = measure(opt, outputs);
   if (!result.ok()) return tools::report_error(kTool, result.status());
   const audit::AuditResult& r = *result;
 
@@ -598,6 +648,13 @@ int main(int argc, char** argv) {
   app.add_option(
       "--heatmap", opt.heatmap_path,
       "Full-size |difference| of the first candidate's worst view as a grey image: .png (OpenImageIO), .pgm, .ppm");
+  app.add_option("--save-renders", opt.renders_dir,
+                 "Also write every render as an 8-bit image, as rgs-render writes them (same names and 8-bit rule): "
+                 "DIR/source/<view> and DIR/<candidate label>/<view>");
+  app.add_option("--format", opt.image_format,
+                 std::string("8-bit image format of --save-renders: png (needs OpenImageIO) or ppm (binary P6); "
+                             "default ") + (rgs::tools::have_openimageio() ? "png" : "ppm"))
+      ->check(CLI::IsMember({"png", "ppm"}));
   app.add_option("--worst", opt.worst, "Worst views per candidate shown in the report (default 3)");
   app.add_option("--image-size", opt.image_size, "Largest side of the report's images (default 1024)")
       ->check(CLI::Range(16, 32768));
@@ -632,6 +689,7 @@ int main(int argc, char** argv) {
   rgs::tools::install_interrupt_cleanup();
   if (!opt.report_from.empty()) return rgs::tools::finish(kTool, run_report_only(opt));
   opt.min_psnr_set = minp->count() > 0;
+  if (opt.image_format.empty()) opt.image_format = rgs::tools::have_openimageio() ? "png" : "ppm";
   if (opt.report_path.empty() && !opt.no_report) {
     const std::filesystem::path first(opt.scenes[1]);
     opt.report_path = (first.parent_path() / (first.stem().string() + ".audit.html")).string();

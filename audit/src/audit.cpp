@@ -306,6 +306,10 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
     const auto t_source = Clock::now();
     RGS_RETURN_IF_ERROR(render_into(renderer, scenes[0], cam, settings, &source_image));
     source_host.clear();
+    if (options.on_render) {
+      RGS_ASSIGN_OR_RETURN(const runtime::ImageRef pixels, host_pixels(*source_image, &source_host));
+      RGS_RETURN_IF_ERROR(options.on_render(v, 0, pixels));
+    }
     const double source_seconds = seconds_since(t_source) / double(candidates.size());
     AuditProgress progress;
     for (size_t i = 0; i < candidates.size(); ++i) {
@@ -323,6 +327,10 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
 #endif
       const double render_seconds = seconds_since(t_view);
       candidate_host.clear();
+      if (options.on_render) {
+        RGS_ASSIGN_OR_RETURN(const runtime::ImageRef pixels, host_pixels(*candidate_image, &candidate_host));
+        RGS_RETURN_IF_ERROR(options.on_render(v, i + 1, pixels));
+      }
       const float* a = static_cast<const float*>(source_image->color());
       const float* b = static_cast<const float*>(candidate_image->color());
 #if RGS_HAS_CUDA

@@ -5,8 +5,9 @@
 #   - the C++ sample render_frame (its own OpenGL camera): the PLY's image equals the .rgs's;
 #   - Python (roofgs.load(...).render(..., format="rgba8") of the same orbit camera): both equal rgs-render's
 #     PPM pixels; skipped, with the reason printed, without the module or NumPy.
-# rgs-audit renders the source with the FP32 baseline and writes only its report's images, so it is not here.
-#   CONVERT, RENDER, SAMPLE, PLY, WORK_DIR [, PYTHON, PYTHON_MODULE_DIR]
+#   - rgs-audit (--save-renders, the faithful preset of every audit): its render of the .rgs equals rgs-render's
+#     faithful image of the .rgs and of the PLY (its source render is the unquantized baseline, so not compared);
+#   CONVERT, RENDER, AUDIT, SAMPLE, PLY, WORK_DIR [, PYTHON, PYTHON_MODULE_DIR]
 function(run)
   execute_process(COMMAND ${ARGV} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT rc EQUAL 0)
@@ -46,6 +47,22 @@ foreach(input IN ITEMS ply rgs)
   endif()
 endforeach()
 expect_same(${render_ply} ${render_rgs} "rgs-render of the PLY and of its .rgs")
+
+foreach(input IN ITEMS ply rgs)
+  if(input STREQUAL ply)
+    set(file ${PLY})
+  else()
+    set(file ${rgs})
+  endif()
+  run(${RENDER} ${file} --backend cpu --preset faithful --orbit 1 --width 160 --height 90 --format ppm
+      -o ${WORK_DIR}/faithful_${input})
+endforeach()
+expect_same(${WORK_DIR}/faithful_ply/orbit_000.ppm ${WORK_DIR}/faithful_rgs/orbit_000.ppm
+            "rgs-render --preset faithful of the PLY and of its .rgs")
+run(${AUDIT} ${PLY} ${rgs} --label converted --backend cpu --orbit 1 --width 160 --height 90 --no-report --quiet
+    --save-renders ${WORK_DIR}/audit --format ppm)
+expect_same(${WORK_DIR}/audit/converted/orbit_000.ppm ${WORK_DIR}/faithful_rgs/orbit_000.ppm
+            "rgs-audit's render of the .rgs and rgs-render's (faithful)")
 if(SAMPLE)
   expect_same(${WORK_DIR}/sample_ply.ppm ${WORK_DIR}/sample_rgs.ppm "render_frame of the PLY and of its .rgs")
 else()

@@ -16,6 +16,7 @@
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 #include "rgs/runtime/camera.h"
+#include "rgs/runtime/image_metrics.h"
 
 namespace rgs::audit {
 
@@ -52,6 +53,10 @@ struct AuditOptions {
   unsigned cpu_threads = 0;
   /// Called after each view on the calling thread; may be empty.
   std::function<void(const AuditProgress&)> progress;
+  /// Called with every render before it is compared, on the calling thread; may be empty. `scene` is 0 for the
+  /// source and i + 1 for candidate i; `rgba` is the render, [H, W, 4] float32 on the host, linear RGB (not
+  /// clamped) and alpha = 1 − T, top row first. An error stops the audit with that error.
+  std::function<Status(size_t view, size_t scene, const runtime::ImageRef& rgba)> on_render;
 };
 
 /// Metrics of one view of one candidate.
