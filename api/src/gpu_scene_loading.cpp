@@ -29,7 +29,7 @@ Status require_cuda_device(int ordinal) {
 
 Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options,
                                       cudaStream_t stream, const converter::SceneReadOptions& read_options) {
-  if (is_rgs_path(path)) {
+  if (format::is_rgs_path(path)) {
     RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, converter::rgs_read_options(read_options)));
     return upload_rgs_file(file, file.file_size(), path, options, stream);
   }

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "internal_scene_loading.h"
+#include "rgs/converter/scene_reader.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
 #include "rgs/runtime/gpu_scene.h"
@@ -21,9 +21,9 @@ struct LoadedGpuScene {
   /// True for a .rgs input (then scene.has_compact()); sniffed by its magic or the .rgs extension.
   bool is_rgs = false;
   uint64_t file_bytes = 0;
-  /// The format in words, as HostScene::description.
+  /// The format in words, as converter::InputScene::description.
   std::string description;
-  /// What the reader noted, as HostScene::notes.
+  /// What the reader noted, as converter::InputScene::notes.
   std::vector<std::string> notes;
 };
 

@@ -5,7 +5,6 @@
 #include <optional>
 
 #include "internal_scene.h"
-#include "internal_scene_loading.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
@@ -123,7 +122,7 @@ void describe_unused_levels(const std::string& path, const LoadOptions& options,
 /// input, read the ordinary way (which also reports the errors of a file that does not open).
 std::optional<format::RgsFile> open_lod_file(const std::string& path, const LoadOptions& options) {
   // A streamed-SOG level (read_options.lod) given for a .rgs is refused by converter::read_scene.
-  if (!options.lod.enabled || options.read_options.lod.has_value() || !is_rgs_path(path)) return std::nullopt;
+  if (!options.lod.enabled || options.read_options.lod.has_value() || !format::is_rgs_path(path)) return std::nullopt;
   auto file = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
   if (!file.ok() || file->lod() == nullptr) return std::nullopt;
   return std::move(file).value();
@@ -313,7 +312,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   RGS_RETURN_IF_ERROR(require_cuda_device(options.cuda_device));
   // A .rgs file is sniffed and opened once: the same RgsFile is streamed (levels of detail) or uploaded.
   std::optional<format::RgsFile> rgs_file;
-  if (is_rgs_path(path)) {
+  if (format::is_rgs_path(path)) {
     auto opened = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
     if (!opened.ok()) return naming(opened.status(), path);
     rgs_file.emplace(std::move(opened).value());

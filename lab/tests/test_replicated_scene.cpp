@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "internal_scene_loading.h"
+#include "rgs/api/camera.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/lab/replicated_scene.h"
 #include "test_data.h"
@@ -33,7 +35,7 @@ TEST_CASE("replicate_scene_file: a PLY tiled twice, quantized with the defaults,
   // The bounds handed to the orbit cameras are the file's, and cover both copies (side by side along x).
   const format::SceneBounds& b = file->metadata().bounds;
   CHECK(r->bounds.sphere_radius == b.sphere_radius);
-  auto single = api::load_host_scene(test::repo_path("samples/guitar.ply"));
+  auto single = converter::read_scene(test::repo_path("samples/guitar.ply"));
   REQUIRE(single.ok());
   CHECK(b.aabb_max[0] - b.aabb_min[0] > single->bounds.aabb_max[0] - single->bounds.aabb_min[0]);
   bool replicated = false;

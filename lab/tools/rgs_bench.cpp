@@ -45,7 +45,9 @@
 #include "internal_gpu_scene_loading.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
-#include "internal_scene_loading.h"
+#include "rgs/api/camera.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/format/reader.h"
 #include "rgs/runtime/gpu_image_metrics.h"
 #include "rgs/config.h"
 #include "rgs/lab/device_peaks.h"
@@ -478,7 +480,7 @@ struct FloorSet {
 };
 
 Result<std::vector<FloorSet>> count_floor(const Options& opt, const std::vector<CameraSet>& sets) {
-  RGS_ASSIGN_OR_RETURN(const api::HostScene host, api::load_host_scene(opt.input, tools::scene_read_options()));
+  RGS_ASSIGN_OR_RETURN(const converter::InputScene host, converter::read_scene(opt.input, tools::scene_read_options()));
   std::vector<FloorSet> out;
   for (const CameraSet& set : sets) {
     FloorSet f;
@@ -826,7 +828,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   }
   // Which modes read the FP32 arrays: the scene keeps them on the device only for those. A .rgs scene (or a
   // replicated one) has the compact sections; other formats are uploaded as FP32 arrays only.
-  const bool compact_scene = opt.replicate > 1 || api::is_rgs_path(opt.input);
+  const bool compact_scene = opt.replicate > 1 || format::is_rgs_path(opt.input);
   bool fp32 = !compact_scene || opt.quality;  // --quality renders the baseline, which reads the FP32 arrays
   for (const std::string& mode : opt.modes) {
     auto options = lab::gpu_mode_options(mode, compact_scene);

@@ -21,6 +21,7 @@
 #include "rgs/converter/spz.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
 #include "rgs/format/writer.h"
 #include "test_data.h"
@@ -933,6 +934,51 @@ TEST_CASE("seeded corruption and truncation of PlayCanvas inputs give errors, ne
     write_bytes(tmp.file(input.name), good);
   }
   MESSAGE(failures << " of " << runs << " damaged inputs were rejected; the rest still decoded consistently");
+}
+
+TEST_CASE("read_scene: every input format, with the read limits") {
+  struct Case {
+    std::string path, format_id;
+    uint64_t gaussians;
+  };
+  const std::vector<Case> cases = {
+      {repo_path("samples/guitar.ply"), "ply", 90854},
+      {repo_path("tests/data/interop/guitar_256_splat_transform_v4.spz"), "spz", 256},
+      {repo_path("tests/data/interop/guitar_256_splat_transform.glb"), "glb", 256},
+      {repo_path("tests/data/interop/guitar_256_splat_transform.splat"), "splat", 256},
+      {repo_path("tests/data/sog/guitar_crop.sog"), "sog_bundle", 0},
+      {repo_path("tests/data/v1.0/small_sh3.rgs"), "rgs", 0},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.path);
+    auto scene = read_scene(c.path);
+    REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
+    CHECK(scene->format_id == c.format_id);
+    CHECK_FALSE(scene->description.empty());
+    if (c.gaussians != 0) CHECK(scene->cloud.size() == c.gaussians);
+    CHECK(scene->cloud.size() > 0);
+    CHECK(scene->bounds.sphere_radius > 0);
+    // The limit is honoured for every format, before the cloud is built.
+    SceneReadOptions tight;
+    tight.max_gaussians = scene->cloud.size() - 1;
+    auto refused = read_scene(c.path, tight);
+    REQUIRE_FALSE(refused.ok());
+    CHECK(refused.status().code() == StatusCode::kLimitExceeded);
+  }
+  auto unsupported = read_scene(repo_path("tests/data/sog/make_sog_reference.py"));
+  REQUIRE_FALSE(unsupported.ok());
+  CHECK(unsupported.status().code() == StatusCode::kInvalidArgument);
+  CHECK(unsupported.status().message().find("unsupported format") != std::string::npos);
+}
+
+TEST_CASE("is_rgs_path: the .rgs magic or a name ending in .rgs") {
+  CHECK(format::is_rgs_path(repo_path("tests/data/v1.0/small_sh3.rgs")));
+  CHECK_FALSE(format::is_rgs_path(repo_path("samples/guitar.ply")));
+  // A missing or unreadable file ending in .rgs (any case) still goes to the .rgs reader for its error.
+  CHECK(format::is_rgs_path("/nonexistent/scene.RGS"));
+  CHECK(format::is_rgs_path(".rgs"));
+  CHECK_FALSE(format::is_rgs_path("/nonexistent/scene.ply"));
+  CHECK_FALSE(format::is_rgs_path("rgs"));
 }
 
 }  // namespace

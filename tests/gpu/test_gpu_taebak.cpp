@@ -30,7 +30,9 @@
 #include "gpu_test_util.h"
 #include "internal_gpu_preset.h"
 #include "rgs/api/preset.h"
-#include "internal_scene_loading.h"
+#include "rgs/api/camera.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/format/reader.h"
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/kernels/shared/tile_chunks.h"
 

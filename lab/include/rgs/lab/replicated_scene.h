@@ -30,7 +30,7 @@ struct ReplicatedScene {
   uint64_t source_file_bytes = 0;
   /// How the copies were quantized (the source .rgs's own quantization, or the converter's defaults).
   std::string quantization;
-  /// What the reader noted about the source (HostScene::notes).
+  /// What the reader noted about the source (converter::InputScene::notes).
   std::vector<std::string> notes;
 };
 

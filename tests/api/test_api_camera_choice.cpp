@@ -1,5 +1,4 @@
-// The scene loading the tools share (api/src/internal_scene_loading.h): every input format through load_host_scene
-// with the caller's read limits; make_cameras' fly-through of a cameras.json.
+// The front door's device choice (parse_device) and make_cameras' fly-through of a cameras.json.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -10,60 +9,14 @@
 
 #include "rgs/config.h"
 #include "rgs/format/reader.h"
+#include "rgs/api/camera.h"
 #include "rgs/api/scene.h"
-#include "internal_scene_loading.h"
 #include "temp_dir.h"
 #include "test_data.h"
 
 namespace {
 
 using namespace rgs;
-
-TEST_CASE("load_host_scene: every input format through converter::read_scene, with the read limits") {
-  struct Case {
-    std::string path, format_id;
-    uint64_t gaussians;
-  };
-  const std::vector<Case> cases = {
-      {test::repo_path("samples/guitar.ply"), "ply", 90854},
-      {test::repo_path("tests/data/interop/guitar_256_splat_transform_v4.spz"), "spz", 256},
-      {test::repo_path("tests/data/interop/guitar_256_splat_transform.glb"), "glb", 256},
-      {test::repo_path("tests/data/interop/guitar_256_splat_transform.splat"), "splat", 256},
-      {test::repo_path("tests/data/sog/guitar_crop.sog"), "sog_bundle", 0},
-      {test::repo_path("tests/data/v1.0/small_sh3.rgs"), "rgs", 0},
-  };
-  for (const Case& c : cases) {
-    CAPTURE(c.path);
-    auto scene = api::load_host_scene(c.path);
-    REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
-    CHECK(scene->format_id == c.format_id);
-    CHECK(scene->is_rgs == (c.format_id == "rgs"));
-    CHECK_FALSE(scene->description.empty());
-    if (c.gaussians != 0) CHECK(scene->cloud.size() == c.gaussians);
-    CHECK(scene->cloud.size() > 0);
-    CHECK(scene->bounds.sphere_radius > 0);
-    // The limit is honoured for every format, before the cloud is built.
-    converter::SceneReadOptions tight;
-    tight.max_gaussians = scene->cloud.size() - 1;
-    auto refused = api::load_host_scene(c.path, tight);
-    REQUIRE_FALSE(refused.ok());
-    CHECK(refused.status().code() == StatusCode::kLimitExceeded);
-  }
-  auto unsupported = api::load_host_scene(test::repo_path("tests/data/sog/make_sog_reference.py"));
-  REQUIRE_FALSE(unsupported.ok());
-  CHECK(unsupported.status().code() == StatusCode::kInvalidArgument);
-  CHECK(unsupported.status().message().find("unsupported format") != std::string::npos);
-}
-
-TEST_CASE("is_rgs_path: the .rgs magic or a name ending in .rgs") {
-  CHECK(api::is_rgs_path(test::repo_path("tests/data/v1.0/small_sh3.rgs")));
-  CHECK_FALSE(api::is_rgs_path(test::repo_path("samples/guitar.ply")));
-  // A missing or unreadable file ending in .rgs (any case) still goes to the .rgs reader for its error.
-  CHECK(api::is_rgs_path("/nonexistent/scene.RGS"));
-  CHECK(api::is_rgs_path(".rgs"));
-  CHECK_FALSE(api::is_rgs_path("/nonexistent/scene.ply"));
-  CHECK_FALSE(api::is_rgs_path("rgs"));
-}
 
 TEST_CASE("parse_device: cpu, cuda (gpu), and auto following cuda_available") {
   CHECK(api::parse_device("cpu").value() == api::Device::kCpu);

@@ -1,28 +1,10 @@
-// Host scene loading and camera choice (shared by the tools and the front door).
-#include "internal_scene_loading.h"
-
+// The views of a run: a CameraChoice (cameras.json, orbit, path, fly-through) turned into cameras.
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 
-#include "rgs/converter/ply_reader.h"
-#include "rgs/converter/scene_reader.h"
-#include "rgs/format/reader.h"
+#include "rgs/api/camera.h"
 
 namespace rgs::api {
-
-Result<HostScene> load_host_scene(const std::string& path, const converter::SceneReadOptions& options) {
-  HostScene scene;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, options));
-  scene.cloud = std::move(input.cloud);
-  scene.bounds = input.bounds;
-  scene.is_rgs = input.format_id == "rgs";
-  scene.file_bytes = input.file_bytes;
-  scene.format_id = std::move(input.format_id);
-  scene.description = std::move(input.description);
-  scene.notes = std::move(input.notes);
-  return scene;
-}
 
 Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds) {
   std::vector<runtime::Camera> cameras;
@@ -68,6 +50,5 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
   if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
   return cameras;
 }
-
 
 }  // namespace rgs::api
