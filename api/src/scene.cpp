@@ -89,9 +89,9 @@ Status check_lod_settings(const LodSettings& s, const std::string& path) {
 /// A scene loaded whole (not level-of-detail): with options.lod.enabled, a note when the budgets differ from the
 /// defaults (the file has no levels to use them on); without, the index of a level-of-detail file in info->lod
 /// (inactive), so that callers can tell that the full detail of such a file was loaded. `opened`: the .rgs file
-/// already open, or null to open `path`.
+/// loaded, or null for another format.
 void describe_unused_levels(const std::string& path, const LoadOptions& options, SceneInfo* info,
-                            const format::RgsFile* opened = nullptr) {
+                            const format::RgsFile* opened) {
   const LodSettings& s = options.lod;
   const LodSettings d;
   if (s.enabled) {
@@ -103,29 +103,25 @@ void describe_unused_levels(const std::string& path, const LoadOptions& options,
     }
     return;
   }
-  if (!info->source_is_rgs) return;
-  std::optional<format::RgsFile> reopened;
-  if (opened == nullptr) {
-    auto file = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
-    if (!file.ok()) return;
-    reopened.emplace(std::move(file).value());
-    opened = &*reopened;
-  }
-  if (opened->lod() != nullptr) {
+  if (opened != nullptr && opened->lod() != nullptr) {
     info->lod.chunks = opened->lod()->chunk_count;
     info->lod.levels = opened->lod()->level_count;
     info->lod.stored_gaussians = opened->gaussian_count();
   }
 }
 
-/// The .rgs file at `path` when it has levels of detail that options.lod asks to use; nullopt for any other
-/// input, read the ordinary way (which also reports the errors of a file that does not open).
-std::optional<format::RgsFile> open_lod_file(const std::string& path, const LoadOptions& options) {
-  // A streamed-SOG level (read_options.lod) given for a .rgs is refused by converter::read_scene.
-  if (!options.lod.enabled || options.read_options.lod.has_value() || !format::is_rgs_path(path)) return std::nullopt;
-  auto file = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
-  if (!file.ok() || file->lod() == nullptr) return std::nullopt;
-  return std::move(file).value();
+/// The .rgs file at `path`, opened once for every use a load makes of it; nullopt for another format.
+Result<std::optional<format::RgsFile>> open_if_rgs(const std::string& path, const LoadOptions& options) {
+  if (!format::is_rgs_path(path)) return std::optional<format::RgsFile>();
+  auto opened = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
+  if (!opened.ok()) return naming(opened.status(), path);
+  return std::optional<format::RgsFile>(std::move(opened).value());
+}
+
+/// True when the levels of detail of `file` are to be used: the file has them and options.lod asks for them (a
+/// streamed-SOG level, read_options.lod, given for a .rgs loads the file whole, where read_scene refuses it).
+bool use_levels(const format::RgsFile& file, const LoadOptions& options) {
+  return options.lod.enabled && !options.read_options.lod.has_value() && file.lod() != nullptr;
 }
 
 SceneLodInfo lod_info(const format::RgsFile& file, const LodSettings& settings) {
@@ -235,12 +231,13 @@ Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path,
 }
 
 Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
-  if (std::optional<format::RgsFile> lod_file = open_lod_file(path, options)) {
-    return load_cpu_lod(*lod_file, path, options);
-  }
+  // A .rgs file is sniffed and opened once: its levels are loaded, or its full detail read.
+  RGS_ASSIGN_OR_RETURN(std::optional<format::RgsFile> rgs_file, open_if_rgs(path, options));
+  if (rgs_file && use_levels(*rgs_file, options)) return load_cpu_lod(*rgs_file, path, options);
   auto impl = std::make_shared<Scene::Impl>();
   SceneInfo& info = impl->info;
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, options.read_options));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, rgs_file ? converter::rgs_file_scene(*rgs_file, options.read_options)
+                                                             : converter::read_scene(path, options.read_options));
   info.notes = std::move(input.notes);
   info.description = input.description;
   info.source_is_rgs = input.format_id == "rgs";
@@ -264,7 +261,7 @@ Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
   info.runtime_section_bytes = (info.source_is_rgs || options.quantize_other_formats)
                                    ? runtime_bytes(info.gaussians, info.sh_degree)
                                    : 0;
-  describe_unused_levels(path, options, &info);
+  describe_unused_levels(path, options, &info, rgs_file ? &*rgs_file : nullptr);
   return Scene(std::move(impl));
 }
 
@@ -311,16 +308,8 @@ Result<Scene> load_cuda_lod(const format::RgsFile& file, const std::string& path
 Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   RGS_RETURN_IF_ERROR(require_cuda_device(options.cuda_device));
   // A .rgs file is sniffed and opened once: the same RgsFile is streamed (levels of detail) or uploaded.
-  std::optional<format::RgsFile> rgs_file;
-  if (format::is_rgs_path(path)) {
-    auto opened = format::RgsFile::open(path, converter::rgs_read_options(options.read_options));
-    if (!opened.ok()) return naming(opened.status(), path);
-    rgs_file.emplace(std::move(opened).value());
-    // A streamed-SOG level (read_options.lod) given for a .rgs file: the file is uploaded whole.
-    if (options.lod.enabled && !options.read_options.lod.has_value() && rgs_file->lod() != nullptr) {
-      return load_cuda_lod(*rgs_file, path, options);
-    }
-  }
+  RGS_ASSIGN_OR_RETURN(std::optional<format::RgsFile> rgs_file, open_if_rgs(path, options));
+  if (rgs_file && use_levels(*rgs_file, options)) return load_cuda_lod(*rgs_file, path, options);
   runtime::GpuSceneOptions gpu_options;
   gpu_options.fp32_attributes = false;
   for (Preset p : options.presets) gpu_options.fp32_attributes |= preset_reads_fp32(p);

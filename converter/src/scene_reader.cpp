@@ -224,28 +224,12 @@ Result<InputScene> read_splat_scene(const std::string& path, const SceneReadOpti
   return to_input_scene(path, std::move(splat), options, "antimatter15 .splat");
 }
 
-/// A .rgs file in memory (mapped, or standard input's bytes): every runtime section checked (checksums,
-/// codec frames, values: RgsFile::read_scene), then dequantized.
+/// A .rgs file in memory (mapped, or standard input's bytes): rgs_file_scene, and its XXH64 when asked for.
 Result<InputScene> rgs_input_scene(const uint8_t* data, size_t size, const std::string& name,
                                    const SceneReadOptions& options) {
   RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a .rgs file"));
   RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(data, size, rgs_read_options(options), name));
-  auto encoded = file.read_scene();
-  if (!encoded.ok()) return Status(encoded.status()).prepend(name);
-  auto cloud = format::dequantize(*encoded);
-  if (!cloud.ok()) return Status(cloud.status()).prepend(name);
-  InputScene scene;
-  scene.cloud = std::move(cloud).value();
-  scene.bounds = file.metadata().bounds;
-  if (options.keep_encoded) scene.encoded = std::move(encoded).value();
-  scene.format_id = "rgs";
-  const bool archive = (file.header().required_flags & format::kRequiredFlagArchiveCodecs) != 0;
-  scene.description = archive ? "RoofGS .rgs, archive profile, decoded" : "RoofGS .rgs, dequantized";
-  scene.storage_format = archive ? "rgs archive" : "rgs";
-  scene.file_bytes = size;
-  scene.file_count = 1;
-  scene.files = {name};
-  scene.declared_vertices = file.gaussian_count();
+  RGS_ASSIGN_OR_RETURN(InputScene scene, rgs_file_scene(file, options));
   if (options.hash_file) scene.file_xxh64 = XXH64(data, size, 0);
   return scene;
 }
@@ -433,6 +417,28 @@ format::ReadOptions rgs_read_options(const SceneReadOptions& options) {
   read_options.limits.max_decompression_ratio = options.max_decompression_ratio;
   read_options.verify_checksums = options.verify_checksums;
   return read_options;
+}
+
+Result<InputScene> rgs_file_scene(const format::RgsFile& file, const SceneReadOptions& options) {
+  const std::string& name = file.name();
+  RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a .rgs file"));
+  auto encoded = file.read_scene();
+  if (!encoded.ok()) return Status(encoded.status()).prepend(name);
+  auto cloud = format::dequantize(*encoded);
+  if (!cloud.ok()) return Status(cloud.status()).prepend(name);
+  InputScene scene;
+  scene.cloud = std::move(cloud).value();
+  scene.bounds = file.metadata().bounds;
+  if (options.keep_encoded) scene.encoded = std::move(encoded).value();
+  scene.format_id = "rgs";
+  const bool archive = (file.header().required_flags & format::kRequiredFlagArchiveCodecs) != 0;
+  scene.description = archive ? "RoofGS .rgs, archive profile, decoded" : "RoofGS .rgs, dequantized";
+  scene.storage_format = archive ? "rgs archive" : "rgs";
+  scene.file_bytes = file.file_size();
+  scene.file_count = 1;
+  scene.files = {name};
+  scene.declared_vertices = file.gaussian_count();
+  return scene;
 }
 
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options) {

@@ -116,6 +116,13 @@ struct InputScene {
 /// Thread safety: may be called concurrently; decodes on up to 16 threads of its own.
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options = {});
 
+/// The scene of an opened .rgs file, as read_scene reads one: every runtime section checked
+/// (format::RgsFile::read_scene), then dequantized; bounds from its metadata. For callers that opened the file
+/// already, so that it is opened once (the front door). file_xxh64 stays empty (read_scene computes it from the
+/// file's bytes with SceneReadOptions::hash_file). Errors name the file: those of RgsFile::read_scene and
+/// format::dequantize; kInvalidArgument when options.lod asks for a streamed-SOG level.
+Result<InputScene> rgs_file_scene(const format::RgsFile& file, const SceneReadOptions& options = {});
+
 /// Reads a 3DGS PLY or a .rgs held in memory (a file given on standard input) into the InputScene read_scene
 /// gives for the same file. `name` names the input in errors. Only PLY and .rgs are read from memory; other
 /// formats need a file (read_scene). Errors: those of read_scene's PLY and .rgs readers, and
