@@ -1,10 +1,9 @@
-// GpuRenderer: the baseline pipeline's stages (kernels/baseline_pipeline.h) with buffers that grow as
-// needed, every CUDA call checked.
+// GpuRenderer: a frame of either pipeline, composed of the stages of internal_gpu_stages.h (projection and
+// pair counts, sort, tile ranges, chunk list) and the blend, every CUDA call checked.
 #include "rgs/runtime/gpu_renderer.h"
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -18,13 +17,6 @@
 
 namespace rgs::runtime {
 namespace {
-
-/// Counts a frame reads back before its sort: its pairs and, for RoofGS, those of the Gaussians with more than
-/// kernels::kSubtileLargeTiles tiles (0 for the baseline).
-struct FrameCounts {
-  uint64_t pairs = 0;
-  uint64_t large_pairs = 0;
-};
 
 /// Largest image side the renderer accepts (validate_camera's bound as well).
 constexpr uint32_t kMaxImageSide = 32768;
@@ -114,182 +106,41 @@ Result<HostImage> download(const DeviceImage& image, cudaStream_t stream) {
 // GpuRenderer
 
 struct GpuRenderer::Buffers {
-  // Per Gaussian.
-  // rgb: the baseline's colours; colour_log_opacity: RoofGS's colours with ln o, [N, 4].
-  DeviceBuffer<float> depths, means2d, conic_opacity, rgb, colour_log_opacity, cov2d, snug_t;
-  DeviceBuffer<int32_t> radii;
-  DeviceBuffer<uint32_t> depth_bins;
-  DeviceBuffer<uint64_t> tiles_touched, offsets;
-  DeviceBuffer<uint8_t> scan_temp;
-  // Gaussians with many tiles, emitted a warp per chunk of their walks: the work list and its count.
-  DeviceBuffer<kernels::LargeGaussian> large_items;
-  DeviceBuffer<unsigned long long> large_count;
-  // Pairs of the large Gaussians (separate stages; the fused kernel counts them in fused_total[1]).
-  DeviceBuffer<unsigned long long> large_pairs;
-  // Fused kernel scratch: ticket, one status word per block, pair totals (all pairs, large Gaussians' pairs).
-  DeviceBuffer<uint32_t> fused_ticket;
-  DeviceBuffer<unsigned long long> fused_status, fused_total;
-  // The stages after emission: the pairs and their sort, the tile ranges, the long tiles' chunks.
+  // The stages: projection and pair counts (emission), the pairs and their sort, the tile ranges, the long
+  // tiles' chunks; each owns its buffers.
+  GaussianProjection projection;
   PairSort sort;
   TileRanges tiles;
   TileChunkList chunks;
   // The frame rendered for an OutputImage that the render kernel cannot write directly (converted after).
   DeviceImage staging;
-  // Counts read back from the device: the pair count and (RoofGS) the large Gaussians' pairs.
-  PinnedBuffer pair_count;
   // The last frame's pairs, key width and where its final values are (download_sorted_pairs).
   uint64_t last_pairs = 0;
   bool last_key32 = false;
   bool last_values_reordered = false;
   // Stage boundaries: start, after duplicate, after sort, after ranges, after render.
   cudaEvent_t events[5] = {nullptr, nullptr, nullptr, nullptr, nullptr};
-  // The kernel after the fused one publishes its totals to pair_count (kernels::HostTotals) with a new
-  // sequence number each launch; large_done, recorded after that kernel, ends the host's wait if they never
-  // come (a failed kernel).
-  cudaEvent_t large_done = nullptr;
-  unsigned long long fused_sequence = 0;
-
-  /// Where a frame's large-Gaussian work list is counted: with the fused kernel beside its totals, which its
-  /// launcher zeroes together (kernels::kFusedLargeCount), else in large_count.
-  unsigned long long* large_list_count(bool fused_preprocess) {
-    return fused_preprocess ? fused_total.data() + kernels::kFusedLargeCount : large_count.data();
-  }
 
   ~Buffers() {
     for (cudaEvent_t& e : events) {
       if (e != nullptr) cudaEventDestroy(e);
     }
-    if (large_done != nullptr) cudaEventDestroy(large_done);
   }
 
   uint64_t bytes() const {
-    return depths.bytes() + means2d.bytes() + conic_opacity.bytes() + rgb.bytes() + colour_log_opacity.bytes() +
-           cov2d.bytes() + snug_t.bytes() + radii.bytes() + depth_bins.bytes() + tiles_touched.bytes() +
-           offsets.bytes() + scan_temp.bytes() + large_items.bytes() + large_count.bytes() + large_pairs.bytes() +
-           fused_ticket.bytes() + fused_status.bytes() + fused_total.bytes() + sort.bytes() + tiles.bytes() +
-           chunks.bytes() +
+    return projection.bytes() + sort.bytes() + tiles.bytes() + chunks.bytes() +
            uint64_t(staging.width()) * staging.height() * (staging.has_depth() ? 20 : 16);
-  }
-
-  /// Per-Gaussian arrays both pipelines use (exactly n entries: the scene sizes them, not the frame).
-  Status reserve_common(uint32_t n) {
-    RGS_RETURN_IF_ERROR(depths.reserve_exact(n, "GpuRenderer: depths"));
-    RGS_RETURN_IF_ERROR(means2d.reserve_exact(size_t(n) * 2, "GpuRenderer: 2D means"));
-    RGS_RETURN_IF_ERROR(conic_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: conics"));
-    RGS_RETURN_IF_ERROR(radii.reserve_exact(n, "GpuRenderer: radii"));
-    return Status();
-  }
-
-  /// Per-Gaussian tile counts and their scan (the baseline and the separate RoofGS stages; the fused kernel
-  /// allocates its pairs itself).
-  Status reserve_scan(uint32_t n) {
-    RGS_RETURN_IF_ERROR(tiles_touched.reserve_exact(n, "GpuRenderer: tiles touched"));
-    RGS_RETURN_IF_ERROR(offsets.reserve_exact(n, "GpuRenderer: pair offsets"));
-    return Status();
-  }
-
-  /// Per-Gaussian arrays of the RoofGS pipeline (`fused`: the fused kernel's block status instead of the scan's
-  /// arrays).
-  Status reserve_roofgs(uint32_t n, bool fused) {
-    RGS_RETURN_IF_ERROR(reserve_common(n));
-    if (fused) {
-      RGS_RETURN_IF_ERROR(fused_ticket.reserve(1, "GpuRenderer: fused ticket"));
-      RGS_RETURN_IF_ERROR(fused_status.reserve(kernels::fused_blocks(n), "GpuRenderer: fused block status"));
-    } else {
-      RGS_RETURN_IF_ERROR(reserve_scan(n));
-    }
-    RGS_RETURN_IF_ERROR(colour_log_opacity.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
-    RGS_RETURN_IF_ERROR(large_pairs.reserve(1, "GpuRenderer: large Gaussian pairs"));
-    // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
-    RGS_RETURN_IF_ERROR(cov2d.reserve_exact(size_t(n) * 3, "GpuRenderer: 2D covariances"));
-    RGS_RETURN_IF_ERROR(snug_t.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
-    RGS_RETURN_IF_ERROR(depth_bins.reserve_exact(n, "GpuRenderer: depth bins"));
-    RGS_RETURN_IF_ERROR(large_count.reserve(1, "GpuRenderer: large Gaussian count"));
-    return fused_total.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals");
-  }
-
-  /// Inclusive scan of tiles_touched into offsets, and the pair count read back to the host (one wait), with
-  /// the counter at `second` (device uint64, or null) read in the same wait.
-  Result<FrameCounts> scan_and_count(uint32_t n, const void* second, cudaStream_t stream) {
-    size_t scan_bytes = 0;
-    RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(nullptr, &scan_bytes, tiles_touched.data(), offsets.data(), n,
-                                                     stream),
-                             "GpuRenderer: scan size query");
-    RGS_RETURN_IF_ERROR(scan_temp.reserve(scan_bytes, "GpuRenderer: scan scratch"));
-    scan_bytes = scan_temp.bytes();
-    RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(scan_temp.data(), &scan_bytes, tiles_touched.data(),
-                                                     offsets.data(), n, stream),
-                             "GpuRenderer: offset scan");
-    return read_back(offsets.data() + (n - 1), second, stream);
-  }
-
-  /// Reads the uint64 at `first` and, unless null, the one at `second` from the device (waits for the stream).
-  Result<FrameCounts> read_back(const void* first, const void* second, cudaStream_t stream) {
-    auto* host = static_cast<uint64_t*>(pair_count.data());
-    host[1] = 0;
-    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host, first, sizeof(uint64_t), cudaMemcpyDeviceToHost, stream),
-                             "GpuRenderer: pair count read-back");
-    if (second != nullptr) {
-      RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host + 1, second, sizeof(uint64_t), cudaMemcpyDeviceToHost, stream),
-                               "GpuRenderer: pair count read-back");
-    }
-    RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: preprocess");
-    return FrameCounts{host[0], host[1]};
-  }
-
-  /// The fused kernel's totals once they are published with `sequence` (kernels::HostTotals): the host polls
-  /// pinned memory while the stream's later work runs, and stops polling when `event`, recorded after the
-  /// publishing kernel, completes without them (a failed kernel).
-  Result<FrameCounts> wait_for_totals(unsigned long long sequence, cudaEvent_t event) {
-    const auto* host = static_cast<volatile unsigned long long*>(pair_count.data());
-    while (host[2] != sequence) {
-      const cudaError_t ended = cudaEventQuery(event);
-      if (ended == cudaErrorNotReady) continue;
-      RGS_RETURN_IF_CUDA_ERROR(ended, "GpuRenderer: preprocess");
-      RGS_RETURN_ERROR_IF(host[2] != sequence, StatusCode::kCudaError,
-                          "GpuRenderer: the fused kernel ended without publishing its pair count");
-    }
-    std::atomic_thread_fence(std::memory_order_acquire);
-    return FrameCounts{host[0], host[1]};
-  }
-
-  kernels::ProjectedArrays projected() const {
-    kernels::ProjectedArrays p;
-    p.depths = depths.data();
-    p.means2d = means2d.data();
-    p.conic_opacity = conic_opacity.data();
-    p.rgb = rgb.data();
-    p.radii = radii.data();
-    p.tiles_touched = tiles_touched.data();
-    return p;
-  }
-
-  kernels::RoofgsProjected roofgs_projected() const {
-    kernels::RoofgsProjected p;
-    p.depths = depths.data();
-    p.means2d = means2d.data();
-    p.conic_opacity = conic_opacity.data();
-    p.colour_log_opacity = colour_log_opacity.data();
-    p.cov2d = cov2d.data();
-    p.snug_t = snug_t.data();
-    p.radii = radii.data();
-    p.depth_bins = depth_bins.data();
-    p.tiles_touched = tiles_touched.data();
-    return p;
   }
 };
 
 Result<GpuRenderer> GpuRenderer::create() {
   GpuRenderer renderer;
   renderer.buffers_ = std::make_unique<Buffers>();
-  RGS_RETURN_IF_ERROR(renderer.buffers_->pair_count.reserve(3 * sizeof(uint64_t), "GpuRenderer: pair count",
-                                                             cudaHostAllocMapped));
   Buffers& b = *renderer.buffers_;
+  RGS_RETURN_IF_ERROR(b.projection.create());
   for (cudaEvent_t& e : b.events) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventCreate(&e), "GpuRenderer: cudaEventCreate");
   }
-  RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&b.large_done, cudaEventDisableTiming),
-                           "GpuRenderer: cudaEventCreateWithFlags");
   return renderer;
 }
 
@@ -434,7 +285,7 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
     const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
     if (listed && scene.size() > 0) {
       unsigned long long large = 0;
-      const unsigned long long* count = buffers_->large_list_count(options.roofgs.fused_preprocess);
+      const unsigned long long* count = buffers_->projection.large_list_count(options.roofgs.fused_preprocess);
       RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, count, sizeof(large), cudaMemcpyDeviceToHost, stream),
                                "GpuRenderer: large Gaussian count read-back");
       RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
@@ -513,7 +364,7 @@ Result<uint64_t> GpuRenderer::pass_limit(const GpuRenderOptions& options, uint32
   RGS_ASSIGN_OR_RETURN(uint64_t per_pair, PairSort::bytes_per_pair(key32, key_bits));
   // What is held now but the buffers sized by the pairs, and those buffers' parts that the pairs do not size:
   // CUB's fixed scratch (1 MiB), the large-Gaussian list's item per Gaussian.
-  uint64_t fixed = b.bytes() - b.sort.bytes() - b.large_items.bytes() - b.chunks.bytes() + (uint64_t{1} << 20);
+  uint64_t fixed = b.bytes() - b.sort.bytes() - b.projection.large_list_bytes() - b.chunks.bytes() + (uint64_t{1} << 20);
   if (large_list) {
     per_pair += 2;  // one 16-byte item per kLargeChunkSlices pairs, with the buffer's headroom
     fixed += (uint64_t(gaussians) + 1) * sizeof(kernels::LargeGaussian) * 5 / 4;
@@ -545,9 +396,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   const int key_bits = 32 + ceil_log2(num_tiles);
   stats->sort_bits = key_bits;
   if (n > 0) {
-    RGS_RETURN_IF_ERROR(b.reserve_common(scene.capacity()));
-    RGS_RETURN_IF_ERROR(b.reserve_scan(scene.capacity()));
-    RGS_RETURN_IF_ERROR(b.rgb.reserve_exact(size_t(scene.capacity()) * 3, "GpuRenderer: colours"));
+    RGS_RETURN_IF_ERROR(b.projection.reserve_baseline(scene.capacity()));
   }
   RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
   RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, false, key_bits, false, 0));
@@ -555,14 +404,14 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   // 1. Preprocess, 2. offsets, pair count, duplication.
   const EmitPass emit = [&](const kernels::FrameParams& pass, uint64_t max_pairs, PairCounts* counts) -> Status {
     if (n == 0) return Status();
-    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), pass, b.projected(), stream),
+    RGS_RETURN_IF_CUDA_ERROR(kernels::preprocess_baseline(scene.fp32(), pass, b.projection.projected(), stream),
                              "GpuRenderer: preprocess kernel");
-    RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.scan_and_count(n, nullptr, stream));
+    RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.projection.scan_and_count(n, nullptr, stream));
     counts->pairs = totals.pairs;
     if (counts->pairs == 0 || counts->pairs > max_pairs) return Status();
     RGS_RETURN_IF_ERROR(b.sort.reserve(counts->pairs, false, key_bits, max_pairs, stream));
-    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projected(), b.offsets.data(), n, pass, b.sort.keys64(),
-                                                         b.sort.values(), stream),
+    RGS_RETURN_IF_CUDA_ERROR(kernels::duplicate_baseline(b.projection.projected(), b.projection.offsets(), n, pass,
+                                                         b.sort.keys64(), b.sort.values(), stream),
                              "GpuRenderer: duplicate kernel");
     return Status();
   };
@@ -575,8 +424,8 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
                          b.tiles.build(b.sort, counts.pairs, false, 0, num_tiles, nullptr, stream));
     if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
     // 5. Blend.
-    RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.tiles.ranges(), sorted_values, b.projected(), pass, view,
-                                                      stream),
+    RGS_RETURN_IF_CUDA_ERROR(kernels::render_baseline(b.tiles.ranges(), sorted_values, b.projection.projected(),
+                                                      pass, view, stream),
                              "GpuRenderer: render kernel");
     return Status();
   };
@@ -602,20 +451,12 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
   // The per-Gaussian arrays are reserved by render_roofgs, before the pass limit is set.
   // The large Gaussians' work list for a frame of at most `max_pairs` pairs (capacity 0: listing off), never
   // longer than a pass of `limit` pairs needs (a list grown by earlier frames is given back first).
-  const auto large_list = [&](uint64_t max_pairs) -> Result<kernels::LargeGaussianList> {
-    unsigned long long* const count = b.large_list_count(plan.fused);
-    if (!plan.balanced_emission) return kernels::LargeGaussianList{nullptr, count, 0};
-    const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
-    const uint64_t most = kernels::large_list_capacity(n, limit);
-    if (b.large_items.size() > most) b.large_items.release();
-    RGS_RETURN_IF_ERROR(b.large_items.reserve(capacity, "GpuRenderer: large Gaussian list", most));
-    return kernels::LargeGaussianList{b.large_items.data(), count, capacity};
+  const auto large_list = [&](uint64_t max_pairs) {
+    return b.projection.large_list(n, max_pairs, limit, plan.balanced_emission, plan.fused);
   };
-  const kernels::RoofgsProjected projected = b.roofgs_projected();  // after every reserve above
+  const kernels::RoofgsProjected projected = b.projection.roofgs_projected();  // after every reserve above
   if (plan.fused) {
-    const kernels::FusedScratch scratch{b.fused_ticket.data(), b.fused_status.data(), b.fused_total.data()};
-    RGS_ASSIGN_OR_RETURN(void* const host_totals, b.pair_count.device_pointer());
-    kernels::HostTotals published{b.fused_total.data(), static_cast<volatile unsigned long long*>(host_totals)};
+    const kernels::FusedScratch scratch = b.projection.fused_scratch();
     // Capacity: what the pair buffers hold now (sized by earlier frames), at least 2 pairs per Gaussian, at most
     // `limit`. A frame with more pairs runs the fused kernel again with enough (fused_relaunches), or, beyond
     // `limit`, leaves them to groups of tile rows; frames of dense scenes hold 1.5-3 pairs a Gaussian (taebak:
@@ -625,7 +466,7 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
       RGS_RETURN_IF_ERROR(b.sort.reserve(capacity, key32, key_bits, limit, stream));
       capacity = b.sort.capacity();
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(capacity));
-      published.sequence = ++b.fused_sequence;
+      RGS_ASSIGN_OR_RETURN(const kernels::HostTotals published, b.projection.next_published_totals());
       RGS_RETURN_IF_CUDA_ERROR(kernels::fused_preprocess_roofgs(source, frame, rf, projected, scratch, large,
                                                                 capacity, plan.allocation, b.sort.keys64(),
                                                                 b.sort.keys32(), b.sort.values(), stream),
@@ -634,14 +475,14 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
       RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, capacity, b.sort.keys64(),
                                                              b.sort.keys32(), b.sort.values(), published, stream),
                                "GpuRenderer: large Gaussian kernel");
-      RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(b.large_done, stream), "GpuRenderer: cudaEventRecord");
+      RGS_RETURN_IF_ERROR(b.projection.record_publisher_done(stream));
       // The sort's counters need no pair count: zeroed now, while the host waits for it, not after.
       if (key32) {
         RGS_RETURN_IF_ERROR(b.sort.clear_counters(capacity, key_bits, stream));
         sort_counters = capacity;
       }
       // The host enqueues the sort as soon as it has the count, while the large Gaussians' pairs are written.
-      RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.wait_for_totals(published.sequence, b.large_done));
+      RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.projection.wait_for_totals());
       pairs = totals.pairs;
       large_pairs = totals.large_pairs;
       if (pairs <= capacity || pairs > limit) break;
@@ -651,15 +492,15 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
       ++stats->fused_relaunches;
     }
   } else {
-    RGS_RETURN_IF_CUDA_ERROR(stages.preprocess(source, frame, rf, projected, b.large_pairs.data(), stream),
+    RGS_RETURN_IF_CUDA_ERROR(stages.preprocess(source, frame, rf, projected, b.projection.large_pairs(), stream),
                              "GpuRenderer: preprocess kernel");
-    RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.scan_and_count(n, b.large_pairs.data(), stream));
+    RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.projection.scan_and_count(n, b.projection.large_pairs(), stream));
     pairs = totals.pairs;
     large_pairs = totals.large_pairs;
     if (pairs > 0 && pairs <= limit) {
       RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, key32, key_bits, limit, stream));
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
-      RGS_RETURN_IF_CUDA_ERROR(stages.duplicate(projected, b.offsets.data(), n, frame, rf, large, b.sort.keys64(),
+      RGS_RETURN_IF_CUDA_ERROR(stages.duplicate(projected, b.projection.offsets(), n, frame, rf, large, b.sort.keys64(),
                                                 b.sort.keys32(), b.sort.values(), stream),
                                "GpuRenderer: duplicate kernel");
       RGS_RETURN_IF_CUDA_ERROR(kernels::emit_large_gaussians(projected, large, frame, rf, pairs, b.sort.keys64(),
@@ -698,7 +539,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     stats->z_far = plan.key.empty_depth_range ? plan.key.quantizer.z_near : plan.key.quantizer.z_far;
   }
   stats->sort_bits = key_bits;
-  if (n > 0) RGS_RETURN_IF_ERROR(b.reserve_roofgs(scene.capacity(), plan.fused));
+  if (n > 0) RGS_RETURN_IF_ERROR(b.projection.reserve_roofgs(scene.capacity(), plan.fused));
   RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
   const RoofgsOptions& t = options.roofgs.techniques;
   const bool may_chunk = t.folded_coefficients && t.fast_exp && t.half_blend;
@@ -716,7 +557,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
     // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order.
     RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
                          b.tiles.build(b.sort, counts.pairs, key32, rf.key_depth_bits, num_tiles,
-                                       plan.reorder_ties ? b.depths.data() : nullptr, stream));
+                                       plan.reorder_ties ? b.projection.depths() : nullptr, stream));
     b.last_values_reordered = plan.reorder_ties;
     // The blend is planned with the whole frame's counts, whatever rows this pass renders.
     const BlendPlan blend = plan_blend(options.roofgs, whole.pairs, whole.large_pairs);
@@ -733,8 +574,8 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
       stats->tile_chunks_listed = true;
     }
     if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[3], stream), "GpuRenderer: cudaEventRecord");
-    RGS_RETURN_IF_CUDA_ERROR(stages.render(b.tiles.ranges(), chunks, sorted_values, b.roofgs_projected(), pass, rf,
-                                           blend.raster, view, stream),
+    RGS_RETURN_IF_CUDA_ERROR(stages.render(b.tiles.ranges(), chunks, sorted_values, b.projection.roofgs_projected(),
+                                           pass, rf, blend.raster, view, stream),
                              "GpuRenderer: render kernel");
     return Status();
   };

@@ -1,13 +1,155 @@
-// The GPU pipelines' shared stages: pair sort, tile ranges with depth order, tile chunk list.
+// The GPU pipelines' stages: the projection with its pair counts, pair sort, tile ranges with depth order,
+// tile chunk list.
 #include "internal_gpu_stages.h"
 
 #include <array>
+#include <atomic>
 #include <string>
 
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/runtime/cuda_device.h"
 
 namespace rgs::runtime {
+
+Status GaussianProjection::create() {
+  RGS_RETURN_IF_ERROR(counts_.reserve(3 * sizeof(uint64_t), "GpuRenderer: pair count", cudaHostAllocMapped));
+  RGS_RETURN_IF_CUDA_ERROR(cudaEventCreateWithFlags(&publisher_done_, cudaEventDisableTiming),
+                           "GpuRenderer: cudaEventCreateWithFlags");
+  return Status();
+}
+
+GaussianProjection::~GaussianProjection() {
+  if (publisher_done_ != nullptr) cudaEventDestroy(publisher_done_);
+}
+
+Status GaussianProjection::reserve_baseline(uint32_t n) {
+  RGS_RETURN_IF_ERROR(depths_.reserve_exact(n, "GpuRenderer: depths"));
+  RGS_RETURN_IF_ERROR(means2d_.reserve_exact(size_t(n) * 2, "GpuRenderer: 2D means"));
+  RGS_RETURN_IF_ERROR(conic_opacity_.reserve_exact(size_t(n) * 4, "GpuRenderer: conics"));
+  RGS_RETURN_IF_ERROR(radii_.reserve_exact(n, "GpuRenderer: radii"));
+  RGS_RETURN_IF_ERROR(tiles_touched_.reserve_exact(n, "GpuRenderer: tiles touched"));
+  RGS_RETURN_IF_ERROR(offsets_.reserve_exact(n, "GpuRenderer: pair offsets"));
+  return rgb_.reserve_exact(size_t(n) * 3, "GpuRenderer: colours");
+}
+
+Status GaussianProjection::reserve_roofgs(uint32_t n, bool fused) {
+  RGS_RETURN_IF_ERROR(depths_.reserve_exact(n, "GpuRenderer: depths"));
+  RGS_RETURN_IF_ERROR(means2d_.reserve_exact(size_t(n) * 2, "GpuRenderer: 2D means"));
+  RGS_RETURN_IF_ERROR(conic_opacity_.reserve_exact(size_t(n) * 4, "GpuRenderer: conics"));
+  RGS_RETURN_IF_ERROR(radii_.reserve_exact(n, "GpuRenderer: radii"));
+  if (fused) {
+    RGS_RETURN_IF_ERROR(fused_ticket_.reserve(1, "GpuRenderer: fused ticket"));
+    RGS_RETURN_IF_ERROR(fused_status_.reserve(kernels::fused_blocks(n), "GpuRenderer: fused block status"));
+  } else {
+    // The scan of the tile counts (the fused kernel allocates its pairs itself).
+    RGS_RETURN_IF_ERROR(tiles_touched_.reserve_exact(n, "GpuRenderer: tiles touched"));
+    RGS_RETURN_IF_ERROR(offsets_.reserve_exact(n, "GpuRenderer: pair offsets"));
+  }
+  RGS_RETURN_IF_ERROR(colour_log_opacity_.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
+  RGS_RETURN_IF_ERROR(large_pairs_.reserve(1, "GpuRenderer: large Gaussian pairs"));
+  // The tile walk's inputs (every visible Gaussian with separate stages, the large ones when fused).
+  RGS_RETURN_IF_ERROR(cov2d_.reserve_exact(size_t(n) * 3, "GpuRenderer: 2D covariances"));
+  RGS_RETURN_IF_ERROR(snug_t_.reserve_exact(n, "GpuRenderer: SnugBox thresholds"));
+  RGS_RETURN_IF_ERROR(depth_bins_.reserve_exact(n, "GpuRenderer: depth bins"));
+  RGS_RETURN_IF_ERROR(large_count_.reserve(1, "GpuRenderer: large Gaussian count"));
+  return fused_total_.reserve(kernels::kFusedTotals, "GpuRenderer: fused pair totals");
+}
+
+kernels::ProjectedArrays GaussianProjection::projected() const {
+  kernels::ProjectedArrays p;
+  p.depths = depths_.data();
+  p.means2d = means2d_.data();
+  p.conic_opacity = conic_opacity_.data();
+  p.rgb = rgb_.data();
+  p.radii = radii_.data();
+  p.tiles_touched = tiles_touched_.data();
+  return p;
+}
+
+kernels::RoofgsProjected GaussianProjection::roofgs_projected() const {
+  kernels::RoofgsProjected p;
+  p.depths = depths_.data();
+  p.means2d = means2d_.data();
+  p.conic_opacity = conic_opacity_.data();
+  p.colour_log_opacity = colour_log_opacity_.data();
+  p.cov2d = cov2d_.data();
+  p.snug_t = snug_t_.data();
+  p.radii = radii_.data();
+  p.depth_bins = depth_bins_.data();
+  p.tiles_touched = tiles_touched_.data();
+  return p;
+}
+
+Result<FrameCounts> GaussianProjection::scan_and_count(uint32_t n, const void* second, cudaStream_t stream) {
+  size_t scan_bytes = 0;
+  RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(nullptr, &scan_bytes, tiles_touched_.data(), offsets_.data(), n,
+                                                   stream),
+                           "GpuRenderer: scan size query");
+  RGS_RETURN_IF_ERROR(scan_temp_.reserve(scan_bytes, "GpuRenderer: scan scratch"));
+  scan_bytes = scan_temp_.bytes();
+  RGS_RETURN_IF_CUDA_ERROR(kernels::inclusive_scan(scan_temp_.data(), &scan_bytes, tiles_touched_.data(),
+                                                   offsets_.data(), n, stream),
+                           "GpuRenderer: offset scan");
+  return read_back(offsets_.data() + (n - 1), second, stream);
+}
+
+Result<FrameCounts> GaussianProjection::read_back(const void* first, const void* second, cudaStream_t stream) {
+  auto* host = static_cast<uint64_t*>(counts_.data());
+  host[1] = 0;
+  RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host, first, sizeof(uint64_t), cudaMemcpyDeviceToHost, stream),
+                           "GpuRenderer: pair count read-back");
+  if (second != nullptr) {
+    RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(host + 1, second, sizeof(uint64_t), cudaMemcpyDeviceToHost, stream),
+                             "GpuRenderer: pair count read-back");
+  }
+  RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: preprocess");
+  return FrameCounts{host[0], host[1]};
+}
+
+Result<kernels::LargeGaussianList> GaussianProjection::large_list(uint32_t n, uint64_t max_pairs, uint64_t limit,
+                                                                  bool balanced, bool fused) {
+  unsigned long long* const count = large_list_count(fused);
+  if (!balanced) return kernels::LargeGaussianList{nullptr, count, 0};
+  const uint64_t capacity = kernels::large_list_capacity(n, max_pairs);
+  const uint64_t most = kernels::large_list_capacity(n, limit);
+  if (large_items_.size() > most) large_items_.release();
+  RGS_RETURN_IF_ERROR(large_items_.reserve(capacity, "GpuRenderer: large Gaussian list", most));
+  return kernels::LargeGaussianList{large_items_.data(), count, capacity};
+}
+
+kernels::FusedScratch GaussianProjection::fused_scratch() const {
+  return kernels::FusedScratch{fused_ticket_.data(), fused_status_.data(), fused_total_.data()};
+}
+
+Result<kernels::HostTotals> GaussianProjection::next_published_totals() {
+  RGS_ASSIGN_OR_RETURN(void* const host, counts_.device_pointer());
+  return kernels::HostTotals{fused_total_.data(), static_cast<volatile unsigned long long*>(host), ++sequence_};
+}
+
+Status GaussianProjection::record_publisher_done(cudaStream_t stream) {
+  RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(publisher_done_, stream), "GpuRenderer: cudaEventRecord");
+  return Status();
+}
+
+Result<FrameCounts> GaussianProjection::wait_for_totals() {
+  const auto* host = static_cast<volatile unsigned long long*>(counts_.data());
+  while (host[2] != sequence_) {
+    const cudaError_t ended = cudaEventQuery(publisher_done_);
+    if (ended == cudaErrorNotReady) continue;
+    RGS_RETURN_IF_CUDA_ERROR(ended, "GpuRenderer: preprocess");
+    RGS_RETURN_ERROR_IF(host[2] != sequence_, StatusCode::kCudaError,
+                        "GpuRenderer: the fused kernel ended without publishing its pair count");
+  }
+  std::atomic_thread_fence(std::memory_order_acquire);
+  return FrameCounts{host[0], host[1]};
+}
+
+uint64_t GaussianProjection::bytes() const {
+  return depths_.bytes() + means2d_.bytes() + conic_opacity_.bytes() + rgb_.bytes() + colour_log_opacity_.bytes() +
+         cov2d_.bytes() + snug_t_.bytes() + radii_.bytes() + depth_bins_.bytes() + tiles_touched_.bytes() +
+         offsets_.bytes() + scan_temp_.bytes() + large_items_.bytes() + large_count_.bytes() + large_pairs_.bytes() +
+         fused_ticket_.bytes() + fused_status_.bytes() + fused_total_.bytes();
+}
 
 Status PairSort::reserve(uint64_t pairs, bool key32, int key_bits, uint64_t at_most, cudaStream_t stream) {
   if (capacity() > at_most) release();

@@ -1,6 +1,6 @@
-// The stages after pair emission that the GPU pipelines share, each owning its device buffers and counting
-// their bytes: the pair sort, the per-tile ranges (with depth order), and the list of long tiles' chunks.
-// GpuRenderer composes them with its preprocess and blend (docs/RENDERER.md#the-frame-plan).
+// The stages of the GPU pipelines, each owning its device buffers and counting their bytes: the projection
+// of the Gaussians with their pair counts (emission), the pair sort, the per-tile ranges (with depth order),
+// and the list of long tiles' chunks. GpuRenderer composes them with the blend (docs/RENDERER.md#the-frame-plan).
 #pragma once
 
 #include <cstdint>
@@ -10,6 +10,88 @@
 #include "rgs/runtime/device_buffer.h"
 
 namespace rgs::runtime {
+
+/// Counts a frame reads back before its sort: its pairs and, for RoofGS, those of the Gaussians with more than
+/// kernels::kSubtileLargeTiles tiles (0 for the baseline).
+struct FrameCounts {
+  uint64_t pairs = 0;
+  uint64_t large_pairs = 0;
+};
+
+/// The emission stage's buffers: the projected Gaussians (depths, 2D means, conics, radii, colours and the tile
+/// walk's inputs, [n, k] per Gaussian, sized by the scene) and the frame's pair counting: the per-Gaussian tile
+/// counts and their scan, the large Gaussians' work list, the fused kernel's scratch, and the pinned words
+/// through which the counts reach the host.
+class GaussianProjection {
+ public:
+  /// The pinned count words and the event that ends a wait for the fused kernel's totals. Errors: kCudaError,
+  /// kOutOfMemory.
+  Status create();
+  ~GaussianProjection();
+
+  /// Arrays of the baseline pipeline for `n` Gaussians (exactly n entries).
+  Status reserve_baseline(uint32_t n);
+  /// Arrays of the RoofGS pipeline for `n` Gaussians; `fused`: the fused kernel's block status instead of the
+  /// scan's arrays.
+  Status reserve_roofgs(uint32_t n, bool fused);
+
+  kernels::ProjectedArrays projected() const;
+  kernels::RoofgsProjected roofgs_projected() const;
+  const float* depths() const { return depths_.data(); }
+  const uint64_t* offsets() const { return offsets_.data(); }
+  unsigned long long* large_pairs() const { return large_pairs_.data(); }
+
+  /// Inclusive scan of the tile counts into offsets(), and the pair count read back to the host (one wait),
+  /// with the counter at `second` (device uint64, or null) read in the same wait.
+  Result<FrameCounts> scan_and_count(uint32_t n, const void* second, cudaStream_t stream);
+
+  /// The large Gaussians' work list of a frame of at most `max_pairs` pairs over `n` Gaussians, never longer
+  /// than a pass of `limit` pairs needs (a list grown by earlier frames is given back first); capacity 0
+  /// (listing off) unless `balanced`. Counted beside the fused kernel's totals when `fused`.
+  Result<kernels::LargeGaussianList> large_list(uint32_t n, uint64_t max_pairs, uint64_t limit, bool balanced,
+                                                bool fused);
+  uint64_t large_list_bytes() const { return large_items_.bytes(); }
+  /// Device counter of the large Gaussians' work items: with the fused kernel beside its totals, which its
+  /// launcher zeroes together (kernels::kFusedLargeCount).
+  unsigned long long* large_list_count(bool fused) const {
+    return fused ? fused_total_.data() + kernels::kFusedLargeCount : large_count_.data();
+  }
+
+  /// The fused kernel's scratch, and where it publishes its totals for the host with a new sequence number.
+  kernels::FusedScratch fused_scratch() const;
+  Result<kernels::HostTotals> next_published_totals();
+  /// Records, after the kernel that publishes the totals, the event that ends wait_for_totals() if they never
+  /// come (a failed kernel).
+  Status record_publisher_done(cudaStream_t stream);
+  /// The fused kernel's totals once they are published with the sequence of the last next_published_totals():
+  /// the host polls pinned memory while the stream's later work runs.
+  Result<FrameCounts> wait_for_totals();
+
+  uint64_t bytes() const;
+
+ private:
+  /// Reads the uint64 at `first` and, unless null, the one at `second` from the device (waits for the stream).
+  Result<FrameCounts> read_back(const void* first, const void* second, cudaStream_t stream);
+
+  // rgb: the baseline's colours; colour_log_opacity: RoofGS's colours with ln o, [N, 4].
+  DeviceBuffer<float> depths_, means2d_, conic_opacity_, rgb_, colour_log_opacity_, cov2d_, snug_t_;
+  DeviceBuffer<int32_t> radii_;
+  DeviceBuffer<uint32_t> depth_bins_;
+  DeviceBuffer<uint64_t> tiles_touched_, offsets_;
+  DeviceBuffer<uint8_t> scan_temp_;
+  // Gaussians with many tiles, emitted a warp per chunk of their walks: the work list and its count.
+  DeviceBuffer<kernels::LargeGaussian> large_items_;
+  DeviceBuffer<unsigned long long> large_count_;
+  // Pairs of the large Gaussians (separate stages; the fused kernel counts them in fused_total_[1]).
+  DeviceBuffer<unsigned long long> large_pairs_;
+  // Fused kernel scratch: ticket, one status word per block, pair totals (all pairs, large Gaussians' pairs).
+  DeviceBuffer<uint32_t> fused_ticket_;
+  DeviceBuffer<unsigned long long> fused_status_, fused_total_;
+  // Counts read back from the device: the pair count, the large Gaussians' pairs, the published sequence.
+  PinnedBuffer counts_;
+  unsigned long long sequence_ = 0;
+  cudaEvent_t publisher_done_ = nullptr;
+};
 
 /// The (key, value) pairs of a frame and their stable radix sort. Keys are 64-bit (tile << 32 | depth, the
 /// baseline and key32 off) or 32-bit (runtime/depth_key.h); values are Gaussian indices. The emission writes
