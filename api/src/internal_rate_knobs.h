@@ -79,8 +79,9 @@ inline constexpr double kDbPerDoubling = 6;
 inline constexpr double kBytesSlack = 0.005;
 /// A byte target: the archives of the highest search PSNR within the budget checked at the cameras' own size.
 inline constexpr size_t kBytesFinalists = 3;
-/// A byte target's climb (fit_bytes): PSNR fits this far above its choice first, and at most this many.
-inline constexpr double kBytesClimbDb = 0.25;
+/// A byte target's climb (fit_bytes): PSNR fits this far above its choice first, and at most this many. The
+/// first step is the margin by which a byte target's file may read below a PSNR target's file of no more bytes.
+inline constexpr double kBytesClimbDb = 0.3;
 inline constexpr int kMaxBytesClimbs = 4;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 inline constexpr double kCalibrationMarginDb = 0.15;

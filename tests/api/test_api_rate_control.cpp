@@ -242,6 +242,11 @@ TEST_CASE("rate control's byte search is never worse than a PSNR search at no mo
     const double psnr = measured_psnr(source, out, small_orbit());
     CHECK(psnr == doctest::Approx(by_bytes->rate_control->psnr_mean_db).epsilon(1e-9));
     CHECK(psnr >= by_psnr.rate_control->psnr_mean_db - 0.3);
+    // And the other way: the PSNR search 0.3 dB above the byte search's file gives no file within the budget
+    // that reads higher.
+    const api::ConvertReport above = fit_db(source, dir.file("above.rgs"), psnr + 0.3);
+    CAPTURE(above.output_bytes);
+    CHECK((above.output_bytes > *fit.target.bytes || above.rate_control->psnr_mean_db <= psnr + 0.3));
   }
 }
 
