@@ -109,14 +109,15 @@ class Scene:
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
          quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: Union[str, Mapping[Union[str, os.PathLike], str]] = "rub", *, lod: bool = True,
          splat_budget: int = 3000000, pixel_error: float = 1.0, memory_budget: int = 0,
-         stream_bytes: int = 33554432) -> Scene:
+         stream_bytes: int = 33554432, antialiased: bool = False) -> Scene:
     """A scene in any format on device "cuda", "cpu" or "auto". A level-of-detail .rgs (docs/LOD.md) with
     lod=True draws each frame's selection of levels: at most splat_budget Gaussians (0: no limit), levels whose
     projected error is at most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget
     bytes of device memory (0: a pool that holds every level), reading and uploading at most stream_bytes a frame
     (> 0: the bound on how long a frame waits for the file; levels that do not fit come in later frames), on the
     CPU with every level in host memory.
-    lod=False draws its full detail. Other files ignore these (info["notes"] says so for non-default values)."""
+    lod=False draws its full detail. Other files ignore these (info["notes"] says so for non-default values).
+    antialiased=True: trained with the 2D Mip filter, for formats that cannot say so (info["antialiased"])."""
 def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Optional[int] = None,
             scale_encoding: Optional[str] = None, sh_clip_percentile: Optional[float] = None,
             sh_dc_bits: Optional[int] = None, zstd: Optional[Sequence[str]] = None, profile: Optional[str] = None,
@@ -127,7 +128,8 @@ def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Opti
             zstd_level: Optional[int] = None, sanitize: bool = False, allow_empty: bool = False,
             lod: Optional[int] = None, lod_levels: Union[str, int, None] = None, lod_chunk: Optional[int] = None,
             max_gaussians: Optional[int] = None, max_decompression_ratio: Optional[int] = None,
-            spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None) -> Dict[str, Any]:
+            spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
+            antialiased: bool = False) -> Dict[str, Any]:
     """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default).
     A value outside an option's range raises ValueError saying the rule."""
 def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
@@ -140,7 +142,8 @@ def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _
          height: Optional[int] = None, zstd_level: Optional[int] = None, sanitize: bool = False,
          allow_empty: bool = False, lod: Optional[int] = None, lod_levels: Union[str, int, None] = None,
          lod_chunk: Optional[int] = None, max_gaussians: Optional[int] = None,
-         max_decompression_ratio: Optional[int] = None, spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None) -> Dict[str, Any]:
+         max_decompression_ratio: Optional[int] = None, spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
+         antialiased: bool = False) -> Dict[str, Any]:
     """convert()'s options; rgs-convert's --path (a camera path of N views) is camera_path here."""
 def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,
                   viewmats: _Array, Ks: _Array, width: int, height: int, near_plane: float = 0.01,

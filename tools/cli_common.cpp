@@ -462,6 +462,11 @@ void add_scene_read_options(CLI::App& app, bool with_spz_frame) {
                  "(SPEC 5.5; zstd allows up to 32768)")
       ->check(CLI::Range(1u, 32768u))
       ->capture_default_str();
+  app.add_flag("--antialiased", options.antialiased,
+               "The input was trained with the 2D Mip filter (Mip-Splatting; gsplat's rasterize_mode=\"antialiased\"), "
+               "which PLY, glTF, SOG and .splat files cannot say: render it with the filter's opacity compensation "
+               "and write the flag into .rgs and SPZ outputs. A .rgs or SPZ file that carries the flag needs no "
+               "option (docs/RENDERER.md#anti-aliased-scenes)");
   if (!with_spz_frame) return;
   app.add_option_function<std::vector<std::string>>(
          "--spz-frame",

@@ -148,7 +148,7 @@ std::string extension_of(const std::string& path);
 /// (add_scene_read_options). Every tool's scene loading passes it to the library's loaders.
 converter::SceneReadOptions& scene_read_options();
 
-/// Adds `--max-gaussians N`, `--max-decompression-ratio R` (defaults as in SPEC §5.5) and
+/// Adds `--max-gaussians N`, `--max-decompression-ratio R` (defaults as in SPEC §5.5), `--antialiased` and
 /// `--spz-frame rub|as-stored|FILE=rub|FILE=as-stored`, repeatable (converter::SpzFrame for all SPZ files or one;
 /// tools that read only .rgs leave it out) to `app`, bound to scene_read_options(); shown in --help.
 void add_scene_read_options(CLI::App& app, bool with_spz_frame = true);

@@ -52,6 +52,7 @@ nlohmann::json to_json(const format::RgsFile& file) {
   j["optional_flags"] = h.optional_flags;
   j["gaussians"] = h.gaussian_count;
   j["sh_degree"] = m.sh_degree;
+  j["antialiased"] = m.antialiased;
   j["conventions"] = {{"frame", format::to_string(m.frame)},
                       {"quaternion_order", format::to_string(m.quaternion_order)},
                       {"scale_encoding", format::to_string(m.scale_encoding)},
@@ -100,6 +101,9 @@ void print_text(const format::RgsFile& file) {
               format::to_string(m.frame), format::to_string(m.quaternion_order),
               format::to_string(m.scale_encoding), format::to_string(m.opacity_encoding),
               format::to_string(m.sh_layout));
+  if (m.antialiased) {
+    std::printf("  anti-aliased     yes: trained with the 2D Mip filter, opacities compensated when rendered\n");
+  }
   std::printf("  aabb             [%g, %g, %g] .. [%g, %g, %g]\n", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
               b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
   std::printf("  bounding sphere  centre (%g, %g, %g), radius %g\n", b.sphere_center[0], b.sphere_center[1],

@@ -461,6 +461,12 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
     case OutputFormat::kRgs:
       return Status(StatusCode::kInvalidArgument, "convert: .rgs is not a float output");
   }
+  if (cloud.antialiased && report->output_format != OutputFormat::kSpz) {
+    // PLY and KHR_gaussian_splatting have no field for it; SPZ keeps it in its header flag.
+    report->output_notes.push_back(
+        "anti-aliased scene (2D Mip filter): this format cannot say so; read the file back with --antialiased "
+        "(Python: antialiased=True) to render it as trained");
+  }
   report->seconds.write = seconds_since(write_start);
   report->gaussians = cloud.size();
   report->sh_degree = cloud.sh_degree;

@@ -26,6 +26,7 @@ Result<Scene> load_device_gaussians(const DeviceGaussians& gaussians, const Devi
   runtime::DeviceImportOptions import;
   import.drop_invalid = options.invalid_policy == converter::InvalidPolicy::kSanitize;
   import.name = options.name;
+  import.antialiased = options.antialiased;
   uint64_t dropped = 0;
   RGS_ASSIGN_OR_RETURN(runtime::GpuScene gpu, runtime::GpuScene::from_device(source, import, options.stream, &dropped));
   auto impl = std::make_shared<Scene::Impl>();
@@ -35,6 +36,7 @@ Result<Scene> load_device_gaussians(const DeviceGaussians& gaussians, const Devi
   info.bounds = gpu.bounds().value_or(format::SceneBounds{});
   info.gaussians = gpu.size();
   info.sh_degree = gpu.sh_degree();
+  info.antialiased = gpu.antialiased();
   info.description = "float Gaussians in device memory";
   info.has_fp32 = true;
   info.memory_bytes = gpu.device_bytes();

@@ -106,6 +106,7 @@ Result<format::GaussianCloud> lod_frame_cloud(const format::GaussianCloud& full,
   for (const runtime::LodChoice& choice : selection.choices) total += lod.index.at(choice.level, choice.chunk).count;
   format::GaussianCloud out;
   out.sh_degree = full.sh_degree;
+  out.antialiased = full.antialiased;
   try {
     out.resize(total);
   } catch (const std::bad_alloc&) {

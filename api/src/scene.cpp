@@ -195,6 +195,7 @@ SceneInfo lod_scene_info(const format::RgsFile& file, const std::string& path, c
   info.file_bytes = file.file_size();
   info.gaussians = file.lod()->full_detail_count();
   info.sh_degree = file.metadata().sh_degree;
+  info.antialiased = file.metadata().antialiased;
   info.lod = lod_info(file, options.lod);
   return info;
 }
@@ -257,6 +258,7 @@ Result<Scene> load_cpu(const std::string& path, const LoadOptions& options) {
   info.path = path;
   info.gaussians = impl->cloud.size();
   info.sh_degree = impl->cloud.sh_degree;
+  info.antialiased = impl->cloud.antialiased;
   info.memory_bytes = cloud_bytes(impl->cloud);
   info.runtime_section_bytes = (info.source_is_rgs || options.quantize_other_formats)
                                    ? runtime_bytes(info.gaussians, info.sh_degree)
@@ -347,6 +349,7 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   const runtime::GpuScene& gpu = *impl->gpu;
   info.gaussians = gpu.size();
   info.sh_degree = gpu.sh_degree();
+  info.antialiased = gpu.antialiased();
   info.has_compact = gpu.has_compact();
   info.has_fp32 = gpu.has_fp32();
   info.memory_bytes = gpu.device_bytes();
@@ -369,6 +372,7 @@ Result<Scene> load_cloud(format::GaussianCloud cloud, const format::SceneBounds&
   info.bounds = bounds;
   info.gaussians = cloud.size();
   info.sh_degree = cloud.sh_degree;
+  info.antialiased = cloud.antialiased;
   info.description = "float Gaussians in memory";
   if (options.device == Device::kCpu) {
     info.memory_bytes = cloud_bytes(cloud);

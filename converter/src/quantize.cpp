@@ -415,6 +415,7 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
     out.metadata.sh_degree = degree;
     out.metadata.scale_encoding = options.scale_encoding;
     out.metadata.sh_quantization = shq;
+    out.metadata.antialiased = cloud.antialiased;
     out.metadata.bounds = compute_bounds(cloud);
     if (!std::isfinite(out.metadata.bounds.sphere_radius)) {
       // Finite means can still span more than float32 holds: e.g. ±3e38 on each axis is 1e39 across.

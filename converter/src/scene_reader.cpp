@@ -446,6 +446,7 @@ Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& o
   RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
   RGS_ASSIGN_OR_RETURN(InputScene scene, format->read(probe.path, options));
   if (scene.format_id != "rgs") scene.bounds = compute_bounds(scene.cloud);
+  if (options.antialiased && scene.format_id != "rgs") scene.cloud.antialiased = true;  // a .rgs says so itself
   return scene;
 }
 
@@ -456,6 +457,7 @@ Result<InputScene> read_scene_bytes(const uint8_t* data, size_t size, const std:
   RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply_bytes(data, size, name, ply_read_options(options)));
   InputScene scene = ply_input_scene(std::move(ply), name);
   scene.bounds = compute_bounds(scene.cloud);
+  scene.cloud.antialiased = options.antialiased;
   return scene;
 }
 
@@ -518,6 +520,7 @@ Result<InputScene> scene_from_cloud(format::GaussianCloud cloud, const std::stri
   Status values = detail::finish_hygiene(options.invalid_policy, "Gaussian", &cloud, &scene.hygiene);
   if (!values.ok()) return values.prepend(name);
   scene.cloud = std::move(cloud);
+  if (options.antialiased) scene.cloud.antialiased = true;
   scene.bounds = compute_bounds(scene.cloud);
   scene.format_id = "arrays";
   scene.storage_format = "arrays";

@@ -176,10 +176,8 @@ Status finish(const Header& h, const std::string& stored_frame, const InteropRea
     detail::apply_axis_flip(flip, &scene->cloud);
     scene->frame_converted = true;
   }
-  if (h.flags & detail::kSpzFlagAntialiased) {
-    scene->notes.push_back("SPZ antialiased flag set: trained with mip-splatting's 2D filter, which RoofGS "
-                           "renderers do not apply");
-  }
+  // Trained with the 2D Mip filter: the renderers apply its opacity compensation (GaussianCloud::antialiased).
+  scene->cloud.antialiased = (h.flags & detail::kSpzFlagAntialiased) != 0;
   const uint8_t unknown = h.flags & ~(detail::kSpzFlagAntialiased | detail::kSpzFlagExtensions);
   if (unknown != 0) {
     scene->notes.push_back("SPZ header flag bits 0x" + detail::hex32(unknown) + " unknown and ignored");

@@ -196,7 +196,7 @@ Result<std::vector<uint8_t>> wrap_v4(const SpzWriteOptions& o, const format::Gau
   std::vector<uint8_t> bytes(static_cast<size_t>(total), 0);
   uint8_t* h = bytes.data();
   put_header(h, 4, cloud, fb);
-  h[14] = 0;  // flags: not antialiased, no extensions
+  h[14] = cloud.antialiased ? detail::kSpzFlagAntialiased : 0;  // flags: no extensions
   h[15] = static_cast<uint8_t>(streams.size());
   detail::put_u32(h + 16, static_cast<uint32_t>(detail::kSpzV4HeaderBytes));
   size_t at = detail::kSpzV4HeaderBytes;

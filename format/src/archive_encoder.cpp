@@ -669,10 +669,11 @@ Status encode_means(const std::vector<float>& means, ArchivePositionQuantization
     qatt->GetMappedValue(draco::PointIndex(static_cast<uint32_t>(i)), q);
     for (int a = 0; a < 3; ++a) {
       // Draco's grid is its own (derived from the points): one too narrow for float32 (an infinite inverse step)
-      // is refused rather than quantized.
+      // is refused rather than quantized. Draco scales in float32, which puts the farthest point up to a few
+      // float32 units past the last code at 20 bits and more: that is rounding, not a grid too narrow.
       const float offset = means[i * 3 + a] - transform.min_value(a);
       const float scaled = offset * (static_cast<float>(max_quantized) / transform.range());
-      if (!(std::fabs(scaled) <= static_cast<float>(max_quantized) + 1.f)) {
+      if (!(std::fabs(double(scaled)) <= double(max_quantized) * (1.0 + 0x1p-20) + 1.0)) {
         return invalid("the means lie too close together on an axis for the archive's position grid (Draco's "
                        "range " + std::to_string(transform.range()) + "); the runtime profile keeps them");
       }

@@ -81,6 +81,7 @@ constexpr uint64_t kDequantizeChunk = uint64_t{1} << 16;
 Status dequantize_range(const EncodedScene& scene, uint64_t first, uint64_t count, GaussianCloud* out) {
   RGS_RETURN_IF_ERROR(check_range(scene, first, count));
   RGS_RETURN_IF_ERROR(resize_cloud(count, scene.metadata.sh_degree, out));
+  out->antialiased = scene.metadata.antialiased;
   dequantize_into(scene, first, count, 0, out);
   return Status();
 }
@@ -89,6 +90,7 @@ Result<GaussianCloud> dequantize(const EncodedScene& scene, uint32_t threads) {
   RGS_RETURN_IF_ERROR(check_range(scene, 0, scene.count));
   GaussianCloud cloud;
   RGS_RETURN_IF_ERROR(resize_cloud(scene.count, scene.metadata.sh_degree, &cloud));
+  cloud.antialiased = scene.metadata.antialiased;
   std::vector<std::function<Status()>> jobs;
   for (uint64_t first = 0; first < scene.count; first += kDequantizeChunk) {
     jobs.push_back([&scene, &cloud, first] {

@@ -627,6 +627,11 @@ Status RgsFileAccess::parse(RgsFile* f) {
                           !version_at_least(version, kMinVersionForLogScales),
                       StatusCode::kCorruptData, "log scales in a version " + dec(version.major) + "." +
                                                     dec(version.minor) + " file");
+  // §2.2 The anti-aliased scene's flag, in a 1.6 file.
+  f->metadata_.antialiased = (f->header_.required_flags & kRequiredFlagAntialiased) != 0;
+  RGS_RETURN_ERROR_IF(f->metadata_.antialiased && !version_at_least(version, kMinVersionForAntialiased),
+                      StatusCode::kCorruptData, "the anti-aliased flag in a version " + dec(version.major) + "." +
+                                                    dec(version.minor) + " file");
 
   for (size_t i = 0; i < f->sections_.size(); ++i) {
     RGS_RETURN_IF_ERROR(check_layout(*f, i, f->metadata_.sh_degree));

@@ -394,6 +394,7 @@ FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedS
   if (required_flags & kRequiredFlagLod) require(kMinVersionForLod);
   if (required_flags & kRequiredFlagShColourDifferences) require(kMinVersionForShColourDifferences);
   if (required_flags & kRequiredFlagXzCodes) require(kMinVersionForXzCodes);
+  if (required_flags & kRequiredFlagAntialiased) require(kMinVersionForAntialiased);
   for (const PlannedSection& s : plan) {
     if (s.id == SectionId::kShDcResidual) require(kMinVersionForShDcResidual);
   }
@@ -512,6 +513,7 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
   if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return invalid(why);
   PlannedFile file;
   uint32_t required_flags = add_sections(scene, options, provenance_bytes, archive, &file);
+  if (scene.metadata.antialiased) required_flags |= kRequiredFlagAntialiased;
   if (options.lod != nullptr) {
     RGS_RETURN_IF_ERROR(add_lod_section(*options.lod, scene, options, &file.sections));
     required_flags |= kRequiredFlagLod;

@@ -49,10 +49,12 @@ __global__ void __launch_bounds__(detail::kBlockSize)
   float rgb[3];
   sh_to_colour(g.sh + i * sh_stride, int(g.sh_degree), dir[0], dir[1], dir[2], rgb);
 
+  float opacity = g.opacities[i];
+  if (frame.antialiased) opacity *= antialias_compensation(cov, det);
   out.depths[i] = p_cam[2];
   out.means2d[2 * i] = px;
   out.means2d[2 * i + 1] = py;
-  reinterpret_cast<float4*>(out.conic_opacity)[i] = make_float4(conic.a, conic.b, conic.c, g.opacities[i]);
+  reinterpret_cast<float4*>(out.conic_opacity)[i] = make_float4(conic.a, conic.b, conic.c, opacity);
   out.rgb[3 * i] = rgb[0];
   out.rgb[3 * i + 1] = rgb[1];
   out.rgb[3 * i + 2] = rgb[2];

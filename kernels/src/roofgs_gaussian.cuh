@@ -208,6 +208,7 @@ __device__ inline bool project_gaussian(const GaussianSource& src, uint32_t g, c
   const Cov2 cov = ewa_covariance_2d(cov3d, frame.view_rotation, p_cam, frame.fx, frame.fy, frame.ewa_clamp);
   const float det = determinant(cov);
   if (det == 0.f) return false;
+  if (frame.antialiased) opacity *= antialias_compensation(cov, det);
   const Conic conic = conic_from_covariance(cov, det);
   const int radius = screen_radius(cov, det);
   float px, py;

@@ -250,6 +250,7 @@ py::dict scene_info(const api::SceneInfo& info) {
   d["device"] = api::device_name(info.device);
   d["gaussians"] = info.gaussians;
   d["sh_degree"] = info.sh_degree;
+  d["antialiased"] = info.antialiased;
   d["source_is_rgs"] = info.source_is_rgs;
   d["file_bytes"] = info.file_bytes;
   d["has_compact"] = info.has_compact;
@@ -710,6 +711,8 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
       o.read.max_decompression_ratio = static_cast<uint32_t>(integer_option(value, "max_decompression_ratio", 1, 32768));
     } else if (key == "spz_frame") {
       if (!value.is_none()) spz_frame = py::reinterpret_borrow<py::object>(value);
+    } else if (key == "antialiased") {
+      o.read.antialiased = value.cast<bool>();
     } else if (key == "sanitize") {
       o.sanitize = value.cast<bool>();
     } else if (key == "allow_empty") {
@@ -905,7 +908,7 @@ CudaRasterizer& cuda_rasterizer(int device) {
 /// rasterization() on Gaussians in CUDA memory: uploaded on the device (or taken from the cache), rendered
 /// view by view into a scratch frame and split into torch tensors on torch's current stream.
 py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>& arrays, bool rgb,
-                             std::optional<uint32_t> sh_degree, const GsplatViews& views, uint32_t width,
+                             std::optional<uint32_t> sh_degree, bool antialiased, const GsplatViews& views, uint32_t width,
                              uint32_t height, bool rgb_out, api::DepthOutput depth, const std::string& preset,
                              bool cache) {
   const py::module_ torch = import_torch();
@@ -925,7 +928,8 @@ py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>&
   const api::Stream s = reinterpret_cast<api::Stream>(static_cast<uintptr_t>(stream));
 
   std::optional<ArraysKey> key = cache ? arrays_key(arrays, rgb, sh_degree) : std::nullopt;
-  const bool upload = !key || !state.key || !state.scene || !key->matches(*state.key);
+  const bool upload = !key || !state.key || !state.scene || !key->matches(*state.key) ||
+                      state.scene->info().antialiased != antialiased;
   if (upload) {
     state.scene.reset();  // frees the last upload before the next one
     state.key.reset();
@@ -934,6 +938,7 @@ py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>&
     api::DeviceLoadOptions options;
     options.cuda_device = device;
     options.stream = s;
+    options.antialiased = antialiased;
     Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
     {
       py::gil_scoped_release release;
@@ -1005,7 +1010,7 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
                         const py::object& opacities, const py::object& colors, const py::object& viewmats,
                         const py::object& Ks, uint32_t width, uint32_t height, float near_plane,
                         std::optional<uint32_t> sh_degree, const py::object& backgrounds, const std::string& render_mode,
-                        const std::string& preset, const std::string& device, bool cache) {
+                        bool antialiased, const std::string& preset, const std::string& device, bool cache) {
   const bool rgb_out = render_mode.rfind("RGB", 0) == 0;
   const std::string depth_mode = rgb_out ? (render_mode.size() > 3 ? render_mode.substr(4) : "") : render_mode;
   if ((rgb_out && render_mode.size() > 3 && render_mode[3] != '+') || (depth_mode != "" && depth_mode != "D" &&
@@ -1018,11 +1023,12 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
     const api::DepthOutput depth = depth_mode.empty()  ? api::DepthOutput::kNone
                                    : depth_mode == "D" ? api::DepthOutput::kAccumulated
                                                        : api::DepthOutput::kExpected;
-    return rasterization_cuda(*cuda, arrays, !sh_degree, sh_degree, views, width, height, rgb_out, depth, preset,
-                              cache);
+    return rasterization_cuda(*cuda, arrays, !sh_degree, sh_degree, antialiased, views, width, height, rgb_out, depth,
+                              preset, cache);
   }
   format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, colors, !sh_degree);
   if (sh_degree) check(converter::reduce_sh_degree(&cloud, *sh_degree));
+  cloud.antialiased = antialiased;
   api::LoadOptions load;
   load.device = resolve_device(device);
   api::RenderSettings settings;
@@ -1473,9 +1479,11 @@ PYBIND11_MODULE(roofgs, m) {
   m.def("load",
         [](const std::filesystem::path& path, const std::string& device, std::vector<std::string> presets,
            bool quantize_other_formats, int cuda_device, const py::object& spz_frame, bool lod,
-           uint64_t splat_budget, float pixel_error, uint64_t memory_budget, uint64_t stream_bytes) {
+           uint64_t splat_budget, float pixel_error, uint64_t memory_budget, uint64_t stream_bytes,
+           bool antialiased) {
           api::LoadOptions options;
           options.read_options = read_options(spz_frame);
+          options.read_options.antialiased = antialiased;
           options.device = resolve_device(device);
           options.cuda_device = cuda_device;
           options.quantize_other_formats = quantize_other_formats;
@@ -1497,12 +1505,14 @@ PYBIND11_MODULE(roofgs, m) {
         py::arg("quantize_other_formats") = true, py::arg("cuda_device") = 0, py::arg("spz_frame") = "rub",
         py::kw_only(), py::arg("lod") = true, py::arg("splat_budget") = api::LodSettings{}.splat_budget,
         py::arg("pixel_error") = api::LodSettings{}.pixel_error, py::arg("memory_budget") = uint64_t{0},
-        py::arg("stream_bytes") = api::LodSettings{}.stream_bytes_per_frame,
+        py::arg("stream_bytes") = api::LodSettings{}.stream_bytes_per_frame, py::arg("antialiased") = false,
         "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) onto device "
         "'cuda', 'cpu' or 'auto' (CUDA when a device answers, else the CPU, said once); the GPU copy holds only "
         "what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
         "(Niantic's convention) or 'as-stored' (splat-transform's), or a dict {path: frame} for those files (the "
         "others 'rub'); a frame the file declares is always used; info['notes'] says which was assumed. "
+        "antialiased=True: the scene was trained with the 2D Mip filter (rgs-convert --antialiased), for formats "
+        "that cannot say so; a .rgs or SPZ file that says so needs nothing. "
         "A level-of-detail .rgs (rgs-convert --lod-levels auto; docs/LOD.md) renders, with lod=True, each frame's "
         "selection of levels: at most splat_budget Gaussians (0: no limit), levels whose projected error is at "
         "most pixel_error pixels where the budget allows; on CUDA streamed into memory_budget bytes of device "
@@ -1540,7 +1550,7 @@ def convert(src, dst, *, to=None, sh_degree=None, scale_encoding=None, sh_clip_p
             zstd=None, profile=None, position_error=None, target_psnr=None, target_bytes=None, cameras=None,
             every=None, limit=None, orbit=None, path=None, fly=None, width=None, height=None, zstd_level=None,
             sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, max_gaussians=None,
-            max_decompression_ratio=None, spz_frame=None, **unexpected):
+            max_decompression_ratio=None, spz_frame=None, antialiased=False, **unexpected):
     _refuse_unexpected("convert", unexpected)
     options = {k: v for k, v in locals().items() if k not in ("src", "dst", "unexpected") and v is not None}
     return _convert(src, dst, **options)
@@ -1560,7 +1570,8 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
          sh_clip_percentile=None, sh_dc_bits=None, zstd=None, profile=None, position_error=None, target_psnr=None,
          target_bytes=None, cameras=None, every=None, limit=None, orbit=None, camera_path=None, fly=None,
          width=None, height=None, zstd_level=None, sanitize=False, allow_empty=False, lod=None, lod_levels=None,
-         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None, **unexpected):
+         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None, antialiased=False,
+         **unexpected):
     _refuse_unexpected("save", unexpected)
     options = {k: v for k, v in locals().items()
                if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path", "unexpected")
@@ -1591,7 +1602,7 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
   m.def("_rasterization", &rasterization, py::arg("means"), py::arg("quats"), py::arg("scales"),
         py::arg("opacities"), py::arg("colors"), py::arg("viewmats"), py::arg("Ks"), py::arg("width"),
         py::arg("height"), py::kw_only(), py::arg("near_plane"), py::arg("sh_degree"), py::arg("backgrounds"),
-        py::arg("render_mode"), py::arg("preset"), py::arg("device"), py::arg("cache"),
+        py::arg("render_mode"), py::arg("antialiased"), py::arg("preset"), py::arg("device"), py::arg("cache"),
         "rasterization()'s implementation: one batch element, gsplat's options already checked");
   // rasterization() takes gsplat's signature as it is (every option, positional or by name, so a gsplat call
   // runs unchanged); its defaults are the one list of what is accepted. Options that change only how gsplat
@@ -1607,7 +1618,8 @@ def rasterization(means, quats, scales, opacities, colors, viewmats, Ks, width, 
     _check_gsplat_options(locals())
     lead = tuple(_numpy().shape(means)[:-2])  # nested lists too (any array-like the renderer converts)
     one = lambda b: _rasterization(*b[:7], width, height, near_plane=near_plane, sh_degree=sh_degree,
-                                   backgrounds=b[7], render_mode=render_mode, preset=preset, device=device,
+                                   backgrounds=b[7], render_mode=render_mode,
+                                   antialiased=rasterize_mode == "antialiased", preset=preset, device=device,
                                    cache=cache)
     arrays = [means, quats, scales, opacities, colors, viewmats, Ks, backgrounds]
     if not lead:
@@ -1671,6 +1683,8 @@ def _check_gsplat_options(given):
             continue
         if name in ("near_plane", "sh_degree", "backgrounds", "render_mode"):
             continue  # rendered as gsplat does
+        if name == "rasterize_mode" and given[name] in ("classic", "antialiased"):
+            continue  # antialiased: opacities scaled by the 2D filter's compensation, as gsplat does
         value = given[name]
         if p.default is None:
             ok = value is None or (name == "rolling_shutter" and getattr(value, "name", None) == "GLOBAL")
@@ -1706,9 +1720,11 @@ def _check_gsplat_options(given):
         "while they are the same tensors with the same version counter (in-place changes bump it; writes "
         "through .data or raw pointers do not: pass cache=False then); meta['uploaded'] says whether the call "
         "uploaded. meta: preset, width, height, n_cameras (images rendered), pairs per image, batch_dims with "
-        "batch dimensions. Every other gsplat option is accepted at its default value; packed, channel_chunk "
+        "batch dimensions. rasterize_mode 'antialiased' scales each opacity by the 2D filter's compensation "
+        "sqrt(det Σ2 / det(Σ2 + 0.3 I)), as gsplat does (a scene trained with Mip-Splatting's filter). Every other "
+        "gsplat option is accepted at its default value; packed, channel_chunk "
         "and segmented (how gsplat computes, not what) at any value; a non-default value of the others "
-        "(gradients, antialiased mode, other camera models, far plane below 1e10, radius clip, eps2d, tile "
+        "(gradients, other camera models, far plane below 1e10, radius clip, eps2d, tile "
         "size, covariances, distortion, rolling shutter, distributed) raises ValueError naming the option");
   m.def("audit",
         [](const std::filesystem::path& source, const py::object& candidates_in,

@@ -405,6 +405,7 @@ Status preprocess_into(const format::GaussianCloud& cloud, const Camera& camera,
       g.det = det;
       g.conic = conic;
       g.opacity = cloud.opacities[i];
+      if (cloud.antialiased) g.opacity *= k::antialias_compensation(cov, det);
       g.log_opacity = std::log(g.opacity);
       g.radius = radius;
       g.rect = rect;

@@ -111,6 +111,7 @@ Result<GpuScene> GpuScene::from_device(const kernels::GaussianImportSource& sour
   GpuScene scene;
   scene.count_ = uint32_t(kept);
   scene.sh_degree_ = degree;
+  scene.antialiased_ = options.antialiased;
   scene.has_fp32_ = true;
   format::SceneBounds bounds;
   kernels::GaussianImportTarget target;

@@ -21,7 +21,7 @@ namespace {
 /// Largest image side the renderer accepts (validate_camera's bound as well).
 constexpr uint32_t kMaxImageSide = 32768;
 
-kernels::FrameParams make_frame_params(const Camera& camera, const GpuRenderOptions& options) {
+kernels::FrameParams make_frame_params(const Camera& camera, const GpuRenderOptions& options, bool antialiased) {
   kernels::FrameParams f{};
   for (int i = 0; i < 9; ++i) f.view_rotation[i] = camera.rotation[i];
   for (int i = 0; i < 3; ++i) f.view_translation[i] = camera.translation[i];
@@ -41,6 +41,7 @@ kernels::FrameParams make_frame_params(const Camera& camera, const GpuRenderOpti
   f.tiles_y = uint32_t(kernels::tile_count_for(int(camera.height)));
   f.tile_row_begin = 0;
   f.tile_row_end = f.tiles_y;
+  f.antialiased = antialiased ? 1u : 0u;
   return f;
 }
 
@@ -259,7 +260,7 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
                           " reads FP32 attributes, and this scene was uploaded without them "
                           "(GpuSceneOptions::fp32_attributes)");
 
-  const kernels::FrameParams frame = make_frame_params(camera, options);
+  const kernels::FrameParams frame = make_frame_params(camera, options, scene.antialiased());
   const bool timed = options.time_stages;
   GpuRenderStats stats;
   stats.gaussians = scene.size();

@@ -202,6 +202,7 @@ Status GpuScene::allocate_compact(uint64_t n, uint32_t sh_degree, bool dc_residu
 Status GpuScene::finish_compact(const format::SceneMetadata& meta, bool dc_residual, const GpuSceneOptions& options,
                                 const std::string& name, cudaStream_t stream) {
   bounds_ = meta.bounds;
+  antialiased_ = meta.antialiased;
   const uint64_t n = count_;
   const uint64_t k = format::sh_coefficient_count(meta.sh_degree);
   kernels::CompactGaussiansView& view = compact_view_;
@@ -245,6 +246,7 @@ Result<GpuScene> GpuScene::from_cloud(const format::GaussianCloud& cloud,
   scene.count_ = uint32_t(cloud.size());
   scene.sh_degree_ = cloud.sh_degree;
   scene.bounds_ = bounds;
+  scene.antialiased_ = cloud.antialiased;
   scene.has_fp32_ = true;
   RGS_RETURN_IF_ERROR(upload_vector(cloud.means, &scene.means_, "GpuScene: means", stream));
   RGS_RETURN_IF_ERROR(upload_vector(cloud.rotations, &scene.rotations_, "GpuScene: rotations", stream));
@@ -262,8 +264,9 @@ uint64_t GpuScene::device_bytes() const {
 }
 
 GpuScene GpuScene::compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds,
-                                uint32_t capacity) {
+                                uint32_t capacity, bool antialiased) {
   GpuScene scene;
+  scene.antialiased_ = antialiased;
   scene.count_ = view.count;
   scene.capacity_ = capacity;
   scene.sh_degree_ = view.sh_degree;

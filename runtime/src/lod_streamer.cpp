@@ -447,7 +447,7 @@ Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t st
                                                                          : kernels::CompactScaleEncoding::kLinear;
   view.sh_degree = meta.sh_degree;
   view.count = static_cast<uint32_t>(dst);
-  frame_scene_ = GpuScene::compact_view(view, meta.bounds, static_cast<uint32_t>(frame_capacity_));
+  frame_scene_ = GpuScene::compact_view(view, meta.bounds, static_cast<uint32_t>(frame_capacity_), meta.antialiased);
 
   // Requests for the wanted ranges, in chunk order, within the per-frame byte budget and the pool; the reader
   // checks and stages them while this frame renders.

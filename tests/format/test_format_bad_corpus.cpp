@@ -39,7 +39,7 @@ const BadFile kBadFiles[] = {
     {"future_major", C::kUnsupportedVersion, kOpen, "format version 2.0 is newer than this reader (1.x)"},
     {"major_zero", C::kUnsupportedVersion, kOpen, "format version 0.0 was never released"},
     {"unknown_required_flag", C::kUnsupportedFeature, kOpen,
-     "unknown required flag bits 0x00000100 (this reader knows 0x0000000f)"},
+     "unknown required flag bits 0x00000100 (this reader knows 0x0000001f)"},
     {"header_size_mismatch", C::kCorruptData, kOpen, "header_size is 72, must be 64"},
     {"header_reserved_nonzero", C::kCorruptData, kOpen, "header reserved field (bytes 36..39) is 1"},
     {"table_offset_mismatch", C::kCorruptData, kOpen, "table_offset is 128, must be 64"},

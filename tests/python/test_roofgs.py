@@ -292,7 +292,7 @@ def test_an_unknown_convert_option_lists_every_option(tmp_path):
         with pytest.raises(TypeError, match="bogus") as e:
             call(bogus=1)
         listed = str(e.value).split("the options are ")[1].split(", ")
-        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == 27
+        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == 28
     with pytest.raises(TypeError, match="unexpected keyword argument 'bogus'; the options are to, sh_degree"):
         roofgs._convert(src, str(tmp_path / "x.rgs"), bogus=1)
 
@@ -594,7 +594,7 @@ def test_rasterization_takes_every_gsplat_option_at_its_default():
     colors, _, _ = roofgs.rasterization(*args, sh_degree=0, device="cpu", **any_value)
     assert np.array_equal(colors, base)
     refused = dict(far_plane=100.0, radius_clip=1.0, eps2d=0.1, tile_size=8, sparse_grad=True, absgrad=True,
-                   rasterize_mode="antialiased", distributed=True, camera_model="fisheye", covars=np.eye(3),
+                   rasterize_mode="mip", distributed=True, camera_model="fisheye", covars=np.eye(3),
                    with_ut=True, with_eval3d=True, radial_coeffs=np.zeros((2, 6)), tangential_coeffs=np.zeros((2, 2)),
                    thin_prism_coeffs=np.zeros((2, 4)), ftheta_coeffs=object(), rolling_shutter="ROLLING_TOP_TO_BOTTOM",
                    viewmats_rs=args[5])
@@ -603,6 +603,44 @@ def test_rasterization_takes_every_gsplat_option_at_its_default():
             roofgs.rasterization(*args, **{name: value}, sh_degree=0, device="cpu")
     with pytest.raises(TypeError, match="bogus"):
         roofgs.rasterization(*args, bogus=1)
+
+
+def test_rasterization_antialiased_scales_opacity_by_the_2d_filters_compensation():
+    """rasterize_mode="antialiased" (gsplat's Mip-Splatting mode): a Gaussian's peak alpha is its opacity times
+    sqrt(det S / det(S + 0.3 I)) of its projected covariance S, here (fx s / z)^2 I on the optical axis; NumPy and,
+    when torch is importable, torch CPU tensors."""
+    fx, z, opacity, side = 100.0, 10.0, 0.9, 41
+    viewmats = np.eye(4, dtype=np.float32)[None]
+    Ks = np.array([[[fx, 0, side / 2], [0, fx, side / 2], [0, 0, 1]]], np.float32)  # centre pixel 20 at 20.5
+    quats = np.array([[1, 0, 0, 0]], np.float32)
+    colors = np.ones((1, 3), np.float32)
+    arrays = []
+    for scale in (0.004, 0.01, 0.05, 0.5):
+        sigma = fx * scale / z
+        factor = sigma * sigma / (sigma * sigma + 0.3)
+        means = np.array([[0, 0, z]], np.float32)
+        scales = np.full((1, 3), scale, np.float32)
+        opacities = np.array([opacity], np.float32)
+        arrays.append((means, quats, scales, opacities, colors))
+        alphas = {}
+        for mode in ("classic", "antialiased"):
+            _, a, _ = roofgs.rasterization(means, quats, scales, opacities, colors, viewmats, Ks, side, side,
+                                           rasterize_mode=mode, preset="faithful", device="cpu")
+            alphas[mode] = float(a[0, 20, 20, 0])
+        assert alphas["classic"] == pytest.approx(opacity, rel=1e-5), sigma
+        assert alphas["antialiased"] == pytest.approx(opacity * factor, rel=1e-4), sigma
+    try:
+        import torch
+    except ImportError:
+        print("skipped: torch CPU tensors (no torch)")
+        return
+    means, quats_, scales, opacities, colors_ = (torch.from_numpy(a) for a in arrays[2])
+    _, a, _ = roofgs.rasterization(means, quats_, scales, opacities, colors_, torch.from_numpy(viewmats),
+                                   torch.from_numpy(Ks), side, side, rasterize_mode="antialiased",
+                                   preset="faithful", device="cpu")
+    sigma = fx * 0.05 / z
+    assert isinstance(a, torch.Tensor)
+    assert float(a[0, 20, 20, 0]) == pytest.approx(opacity * sigma * sigma / (sigma * sigma + 0.3), rel=1e-4)
 
 
 def test_rasterization_keeps_gsplats_leading_batch_dimensions():

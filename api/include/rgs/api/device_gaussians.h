@@ -37,6 +37,9 @@ struct DeviceLoadOptions {
   converter::InvalidPolicy invalid_policy = converter::InvalidPolicy::kReject;
   /// Stands for the path in SceneInfo and messages.
   std::string name = "arrays";
+  /// The Gaussians were trained with the 2D Mip filter (format::SceneMetadata::antialiased): renders scale their
+  /// opacities by its compensation.
+  bool antialiased = false;
   /// The work is enqueued on this stream, after what the caller enqueued there (the producer of the arrays).
   Stream stream = nullptr;
 };

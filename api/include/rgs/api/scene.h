@@ -118,6 +118,9 @@ struct SceneInfo {
   Device device = Device::kCpu;
   uint64_t gaussians = 0;
   uint32_t sh_degree = 0;
+  /// Trained with the 2D Mip filter (format::SceneMetadata::antialiased): every render scales the opacities by
+  /// the filter's compensation (docs/RENDERER.md#anti-aliased-scenes).
+  bool antialiased = false;
   /// Scene AABB and bounding sphere (the .rgs metadata, or converter::compute_bounds of a PLY).
   format::SceneBounds bounds;
   /// True when the file was a .rgs (sniffed by magic or extension).

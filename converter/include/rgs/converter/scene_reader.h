@@ -45,6 +45,10 @@ struct SceneReadOptions {
   /// SPZ files read or written with another frame than spz_frame, by path as given (compared after
   /// lexical normalization: "./a.spz" is "a.spz"). spz_frame_for() looks them up.
   std::map<std::string, SpzFrame> spz_frame_by_path;
+  /// Read the scene as trained with the 2D Mip filter (GaussianCloud::antialiased), for inputs that cannot say
+  /// so: PLY, glTF, SOG, .splat, and SPZ files whose writer left the flag unset. A .rgs file carries its own flag
+  /// (SPEC §2.2), which this does not change.
+  bool antialiased = false;
 };
 
 /// The frame SPZ file `path` is read or written with: its entry in options.spz_frame_by_path, else

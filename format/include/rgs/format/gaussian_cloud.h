@@ -29,6 +29,8 @@ struct GaussianCloud {
   /// [N, K, 3] float32 SH coefficients, coefficient-major with the colour channel fastest:
   /// sh[(i*K + k)*3 + c]. k = 0 is the DC term (PLY f_dc_c); k >= 1 is PLY f_rest[c*(K-1) + k-1].
   std::vector<float> sh;
+  /// Trained with the 2D Mip filter: renderers scale each opacity by its compensation (SceneMetadata::antialiased).
+  bool antialiased = false;
 
   size_t size() const { return means.size() / 3; }
   uint32_t sh_coefficients() const { return sh_coefficient_count(sh_degree); }

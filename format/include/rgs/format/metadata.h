@@ -64,6 +64,11 @@ struct SceneMetadata {
   ShLayout sh_layout = ShLayout::kCoefficientMajor;
   SceneBounds bounds;
   ShQuantization sh_quantization;
+  /// The scene was trained with the 2D Mip filter (Mip-Splatting, Yu et al. CVPR 2024; gsplat's
+  /// rasterize_mode="antialiased"): every renderer scales each opacity by the filter's compensation
+  /// sqrt(det Σ₂ / det(Σ₂ + 0.3·I)) of its projected covariance Σ₂ (kernels::antialias_compensation). Stored as
+  /// the header's required flag kRequiredFlagAntialiased (SPEC §2.2), not in the metadata record.
+  bool antialiased = false;
 };
 
 /// Ordered key/value strings (UTF-8) saying where a file came from: source file name, size and hash,

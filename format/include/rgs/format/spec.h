@@ -1,4 +1,4 @@
-// Constants of the .rgs container, version 1.5. Normative text: format/SPEC.md; section numbers below
+// Constants of the .rgs container, version 1.6. Normative text: format/SPEC.md; section numbers below
 // refer to it.
 #pragma once
 
@@ -13,7 +13,7 @@ inline constexpr uint8_t kMagic[8] = {0x89, 'R', 'G', 'S', 0x0d, 0x0a, 0x1a, 0x0
 /// §2 Version this library writes. Readers accept any minor of kFormatMajor; newer majors are refused
 /// with kUnsupportedVersion.
 inline constexpr uint16_t kFormatMajor = 1;
-inline constexpr uint16_t kFormatMinor = 5;
+inline constexpr uint16_t kFormatMinor = 6;
 
 /// §6 A format version, compared as (major, minor).
 struct FormatVersion {
@@ -41,6 +41,8 @@ inline constexpr FormatVersion kMinVersionForLod{1, 3};
 inline constexpr FormatVersion kMinVersionForShColourDifferences{1, 4};
 /// §3.3.2 Quantized codes stored as an .xz stream, with its required flag kRequiredFlagXzCodes.
 inline constexpr FormatVersion kMinVersionForXzCodes{1, 5};
+/// §2.2, §4.6 Opacities of a scene trained with the 2D Mip filter, with its required flag kRequiredFlagAntialiased.
+inline constexpr FormatVersion kMinVersionForAntialiased{1, 6};
 
 /// §2 Fixed sizes, in bytes.
 inline constexpr uint32_t kHeaderSize = 64;
@@ -51,7 +53,7 @@ inline constexpr uint32_t kMetadataSize = 128;
 inline constexpr uint64_t kSectionAlignment = 256;
 
 /// §2.2 Flag bits. Required bits this reader does not know give kUnsupportedFeature; unknown optional
-/// bits are ignored. Version 1.0 defines none of either; 1.1, 1.3, 1.4 and 1.5 define one required bit each.
+/// bits are ignored. Version 1.0 defines none of either; 1.1, 1.3, 1.4, 1.5 and 1.6 define one required bit each.
 /// §2.2 Set when any section uses codec 2 or 3 (§3.3), so that a 1.0 reader refuses the file
 /// (kUnsupportedFeature) instead of failing on an unknown codec deeper in the table.
 inline constexpr uint32_t kRequiredFlagArchiveCodecs = 1u << 0;
@@ -65,8 +67,13 @@ inline constexpr uint32_t kRequiredFlagShColourDifferences = 1u << 2;
 /// §2.2, §3.3.2 Set when a quantized section stores its codes as an .xz stream instead of a zstd frame, which a
 /// 1.4 reader would refuse as corrupt: with the flag it refuses the file as unsupported (kUnsupportedFeature).
 inline constexpr uint32_t kRequiredFlagXzCodes = 1u << 3;
-inline constexpr uint32_t kKnownRequiredFlags =
-    kRequiredFlagArchiveCodecs | kRequiredFlagLod | kRequiredFlagShColourDifferences | kRequiredFlagXzCodes;
+/// §2.2, §4.6 Set when the scene was trained with the 2D Mip filter (Mip-Splatting; gsplat's antialiased mode):
+/// a renderer scales each opacity by the filter's compensation (SceneMetadata::antialiased). A 1.5 reader would
+/// draw the scene too opaque where Gaussians are small on screen, so it must refuse the file (kUnsupportedFeature).
+inline constexpr uint32_t kRequiredFlagAntialiased = 1u << 4;
+inline constexpr uint32_t kKnownRequiredFlags = kRequiredFlagArchiveCodecs | kRequiredFlagLod |
+                                                kRequiredFlagShColourDifferences | kRequiredFlagXzCodes |
+                                                kRequiredFlagAntialiased;
 inline constexpr uint32_t kKnownOptionalFlags = 0;
 
 /// §4 Section identifiers. Readers skip (but still bounds- and checksum-check) ids they do not know.

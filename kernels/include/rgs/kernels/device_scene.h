@@ -69,6 +69,9 @@ struct FrameParams {
   /// whole grid, or one group of rows of a frame rendered in groups (docs/RENDERER.md#bounded-pair-memory).
   /// Tile ids, keys and ranges stay those of the whole grid, so each tile's pairs are those of the whole frame.
   uint32_t tile_row_begin, tile_row_end;
+  /// Nonzero for a scene trained with the 2D Mip filter: each opacity is scaled by antialias_compensation()
+  /// of its projected covariance (format::SceneMetadata::antialiased).
+  uint32_t antialiased;
 };
 
 /// `rect` without the tile rows outside the frame's rows [tile_row_begin, tile_row_end) (empty if none is left).

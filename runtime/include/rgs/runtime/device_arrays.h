@@ -17,6 +17,8 @@ struct DeviceImportOptions {
   /// Drop the Gaussians with a non-finite value or a zero quaternion (InvalidPolicy::kSanitize of a file)
   /// instead of failing with kCorruptData.
   bool drop_invalid = false;
+  /// The arrays are a scene trained with the 2D Mip filter (GpuScene::antialiased).
+  bool antialiased = false;
   /// Names the arrays in messages.
   std::string name = "arrays";
 };

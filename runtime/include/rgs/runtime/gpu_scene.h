@@ -88,7 +88,7 @@ class GpuScene {
   /// most Gaussians the arrays hold (0: view.count), which renderers size their per-Gaussian buffers for, so
   /// that views of a count that changes frame by frame allocate nothing after the first.
   static GpuScene compact_view(const kernels::CompactGaussiansView& view, const format::SceneBounds& bounds,
-                               uint32_t capacity = 0);
+                               uint32_t capacity = 0, bool antialiased = false);
 
   GpuScene(GpuScene&&) noexcept = default;
   GpuScene& operator=(GpuScene&&) noexcept = default;
@@ -99,6 +99,9 @@ class GpuScene {
   uint32_t sh_degree() const { return sh_degree_; }
   /// Scene AABB and bounding sphere (the .rgs metadata, or what from_cloud() was given).
   const std::optional<format::SceneBounds>& bounds() const { return bounds_; }
+  /// The scene was trained with the 2D Mip filter (format::SceneMetadata::antialiased, GaussianCloud::antialiased,
+  /// DeviceImportOptions::antialiased): renderers scale its opacities by their compensation.
+  bool antialiased() const { return antialiased_; }
   /// True for scenes from a .rgs file: compact() is then valid.
   bool has_compact() const { return has_compact_; }
   /// True when the FP32 arrays are on the device (from_cloud(), or from_rgs() with fp32_attributes): the
@@ -131,6 +134,7 @@ class GpuScene {
   uint32_t capacity_ = 0;
   uint32_t sh_degree_ = 0;
   std::optional<format::SceneBounds> bounds_;
+  bool antialiased_ = false;
   bool has_compact_ = false;
   bool has_fp32_ = false;
   uint64_t runtime_section_bytes_ = 0;

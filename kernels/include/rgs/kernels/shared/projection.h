@@ -149,6 +149,17 @@ RGS_HOST_DEVICE Cov2 ewa_covariance_2d(const float cov3d[6], const float W[9], c
 /// Determinant xx·yy − xy² of a 2D covariance (3DGS: cull the Gaussian only when it is exactly 0).
 RGS_HOST_DEVICE float determinant(const Cov2& cov) { return cov.xx * cov.yy - cov.xy * cov.xy; }
 
+/// The opacity factor of a scene trained with the 2D Mip filter (Mip-Splatting, Yu et al. CVPR 2024, Eq. 9;
+/// gsplat's rasterize_mode="antialiased" `compensations`): sqrt(det Σ₂ / det(Σ₂ + s·I)), with `cov` = Σ₂ + s·I the
+/// dilated covariance (ewa_covariance_2d, s = kCovarianceDilation) and `det` its determinant (≠ 0). Σ₂'s own
+/// determinant is (xx − s)(yy − s) − xy², taken as 0 where rounding makes it negative. In [0, 1]: 1 for a
+/// Gaussian much larger than a pixel, → 0 for one much smaller, which the dilation would otherwise draw as a
+/// pixel-sized blob at full opacity.
+RGS_HOST_DEVICE float antialias_compensation(const Cov2& cov, float det) {
+  const float undilated = (cov.xx - kCovarianceDilation) * (cov.yy - kCovarianceDilation) - cov.xy * cov.xy;
+  return sqrtf(fmaxf(undilated, 0.f) / det);
+}
+
 /// Conic (inverse covariance) (yy, −xy, xx) / det, computed as 3DGS does with det_inv = 1/det. det ≠ 0.
 RGS_HOST_DEVICE Conic conic_from_covariance(const Cov2& cov, float det) {
   const float det_inv = 1.f / det;
