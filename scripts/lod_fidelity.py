@@ -5,7 +5,7 @@ scene rendered 2x2 supersampled, with the plain full render's own score beside i
 
     scripts/lod_fidelity.py SCENE_LOD.rgs [SCENE_LOD.rgs ...] (--cameras cameras.json --fly N | --path N)
         [--width 320] [--height H] [--budgets 0,250000,1000000] [--pixel-errors 0.5,1,2,4]
-        [--backend cpu|cuda] [--out DIR] [--update-doc docs/LOD.md] [--tools build/tools] [--jobs N]
+        [--backend cpu|cuda] [--stream-bytes N] [--out DIR] [--update-doc docs/LOD.md] [--tools build/tools] [--jobs N]
 
 For each scene, every view of the camera path is rendered by rgs-render:
 - the reference: the full detail (`--no-lod`) at twice the width and height (the camera's fx, fy, cx, cy doubled),
@@ -13,6 +13,8 @@ For each scene, every view of the camera path is rendered by rgs-render:
 - the floor: the plain full render at the width and height, scored against the reference;
 - the budget sweep: the levels at each splat budget B of --budgets with `--pixel-error 0` (the budget alone chooses);
 - the pixel-error sweep: the levels at each pixel error E of --pixel-errors with no budget (`--splat-budget 0`).
+With --backend cuda the level-of-detail frames are the streamer's, from a cold pool: a level comes two frames after
+a frame wants it, within --stream-bytes a frame (passed to rgs-render), so the first views draw coarser levels.
 Each render gets PSNR (clamped RGB, peak 1) and SSIM (11x11 Gaussian window, sigma 1.5, valid windows, the
 definition of runtime::ssim_rgb) against the reference, mean and min over the views, and its popping: the mean over
 consecutive views of mean |I_t - I_(t-1)| (clamped RGB, all pixels and channels, 8-bit levels) minus the same of the
@@ -22,8 +24,9 @@ Writes into --out (default lod_quality/): lod_quality.md (the tables and the rul
 figure) and lod_quality.png (PSNR against splats a view, one curve per scene with its floor; needs matplotlib,
 else only a note). The rule: the default pixel error is the largest swept E whose mean PSNR is within 1 dB of the
 floor's; the budget at which quality drops 3 dB is the smallest swept budget whose mean PSNR is within 3 dB of the
-floor's above every swept budget that drops further. With --update-doc, the block between the markers `<!-- lod_fidelity -->`
-and `<!-- /lod_fidelity -->` of that file is replaced by the tables, and the plot is copied beside it.
+floor's above every swept budget that drops further. With --update-doc, the block between the markers
+`<!-- lod_fidelity -->` and `<!-- /lod_fidelity -->` of that file is replaced by the tables, and the plot is
+copied beside it.
 Needs NumPy. Exit status: 0 ok, 1 a failed render or a missing marker, 2 usage.
 """
 import argparse
@@ -69,16 +72,17 @@ def _filter_valid(plane, g):
 
 
 def ssim(a, b):
-    """Mean SSIM of clamped [H, W, 3] images: runtime::ssim_rgb's definition."""
-    g, total = _ssim_window(), 0.0
+    """Mean SSIM of clamped [H, W, 3] images: runtime::ssim_rgb's definition, filtered in float32 (the mean SSIM
+    agrees with the float64 definition to about 1e-5)."""
+    g, total = _ssim_window().astype(np.float32), 0.0
     for c in range(3):
-        x, y = a[..., c], b[..., c]
+        x, y = a[..., c].astype(np.float32), b[..., c].astype(np.float32)
         mx, my = _filter_valid(x, g), _filter_valid(y, g)
         vx = _filter_valid(x * x, g) - mx * mx
         vy = _filter_valid(y * y, g) - my * my
         cxy = _filter_valid(x * y, g) - mx * my
         s = (2 * mx * my + 1e-4) * (2 * cxy + 9e-4) / ((mx * mx + my * my + 1e-4) * (vx + vy + 9e-4))
-        total += float(s.mean())
+        total += float(s.mean(dtype=np.float64))
     return total / 3
 
 
@@ -157,11 +161,13 @@ def sweep_scene(args, pool, scene, work):
         shutil.rmtree(out)
 
     measure("full detail (floor)", ["--no-lod"], "floor", None)
+    stream = ["--stream-bytes", args.stream_bytes] if args.stream_bytes and args.backend == "cuda" else []
     for budget in (int(float(b)) for b in args.budgets.split(",") if b):
-        measure(f"levels, budget {budget:,}", ["--splat-budget", str(budget), "--pixel-error", "0"], "budget", budget)
+        measure(f"levels, budget {budget:,}", ["--splat-budget", str(budget), "--pixel-error", "0", *stream],
+                "budget", budget)
     for error in (float(e) for e in args.pixel_errors.split(",") if e):
-        measure(f"levels, pixel error {error:g}", ["--splat-budget", "0", "--pixel-error", f"{error:g}"], "error",
-                error)
+        measure(f"levels, pixel error {error:g}", ["--splat-budget", "0", "--pixel-error", f"{error:g}", *stream],
+                "error", error)
     floor = rows[0]
     for r in rows:
         r["popping_8bit"] = r["frame_change_8bit"] - floor["frame_change_8bit"]
@@ -255,6 +261,7 @@ def parse_args():
     parser.add_argument("--budgets", default="100000,300000,1000000,3000000")
     parser.add_argument("--pixel-errors", default="0.5,1,2,4")
     parser.add_argument("--backend", default="cpu", choices=["cpu", "cuda"])
+    parser.add_argument("--stream-bytes", help="--backend cuda: rgs-render's --stream-bytes (e.g. 8GiB)")
     parser.add_argument("--out", default="lod_quality")
     parser.add_argument("--update-doc", help="Markdown file whose lod_fidelity block receives the tables")
     parser.add_argument("--plot-from", help="only redraw the plot (and --update-doc) from this lod_quality.json")
