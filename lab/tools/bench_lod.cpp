@@ -88,14 +88,6 @@ struct ViewQuality {
   double change_lod = psnr, change_full = psnr;
 };
 
-Status download_rgba(const runtime::DeviceImage& image, std::vector<float>* host) {
-  host->resize(size_t{image.width()} * image.height() * 4);
-  RGS_RETURN_IF_CUDA_ERROR(cudaMemcpy(host->data(), image.rgba(), host->size() * sizeof(float),
-                                      cudaMemcpyDeviceToHost),
-                           "image download");
-  return Status();
-}
-
 /// Renders the full detail of each view at 1× and 2×, builds the supersampled reference (runtime::area_downsample_2x
 /// on the host) and scores a level-of-detail render and the plain full render against it on the device.
 class QualityMeter {
@@ -109,9 +101,9 @@ class QualityMeter {
     if (!a.ok()) return Status(a.status()).prepend("full render, view " + cam.name);
     auto b = renderer_.render(full_, runtime::resize_camera(cam, 2 * cam.width, 2 * cam.height), options_, &fine_);
     if (!b.ok()) return Status(b.status()).prepend("2x full render, view " + cam.name);
-    RGS_RETURN_IF_ERROR(download_rgba(fine_, &host_fine_));
+    RGS_ASSIGN_OR_RETURN(const runtime::HostImage fine, runtime::download(fine_));
     RGS_ASSIGN_OR_RETURN(const std::vector<float> reference,
-                         runtime::area_downsample_2x({host_fine_.data(), fine_.width(), fine_.height(), 4}));
+                         runtime::area_downsample_2x({fine.rgba.data(), fine.width, fine.height, 4}));
     RGS_RETURN_IF_ERROR(reference_.reserve_exact(reference.size(), "supersampled reference"));
     RGS_RETURN_IF_CUDA_ERROR(cudaMemcpy(reference_.data(), reference.data(), reference.size() * sizeof(float),
                                         cudaMemcpyHostToDevice),
@@ -125,15 +117,16 @@ class QualityMeter {
     q.ssim = m.ssim;
     q.floor_psnr = f.psnr_db;
     q.floor_ssim = f.ssim;
-    RGS_RETURN_IF_ERROR(download_rgba(lod, &lod_));
-    RGS_RETURN_IF_ERROR(download_rgba(plain_, &full_frame_));
-    if (lod_.size() == previous_lod_.size()) {
+    RGS_ASSIGN_OR_RETURN(runtime::HostImage lod_frame, runtime::download(lod));
+    RGS_ASSIGN_OR_RETURN(runtime::HostImage full_frame, runtime::download(plain_));
+    if (lod_frame.rgba.size() == previous_lod_.size()) {
       auto frame = [&](const std::vector<float>& v) { return runtime::ImageRef{v.data(), cam.width, cam.height, 4}; };
-      RGS_ASSIGN_OR_RETURN(q.change_lod, runtime::mean_abs_difference(frame(lod_), frame(previous_lod_)));
-      RGS_ASSIGN_OR_RETURN(q.change_full, runtime::mean_abs_difference(frame(full_frame_), frame(previous_full_)));
+      RGS_ASSIGN_OR_RETURN(q.change_lod, runtime::mean_abs_difference(frame(lod_frame.rgba), frame(previous_lod_)));
+      RGS_ASSIGN_OR_RETURN(q.change_full,
+                           runtime::mean_abs_difference(frame(full_frame.rgba), frame(previous_full_)));
     }
-    lod_.swap(previous_lod_);
-    full_frame_.swap(previous_full_);
+    previous_lod_ = std::move(lod_frame.rgba);
+    previous_full_ = std::move(full_frame.rgba);
     return q;
   }
 
@@ -144,7 +137,7 @@ class QualityMeter {
   runtime::GpuImageComparer comparer_;
   runtime::DeviceImage plain_, fine_;
   runtime::DeviceBuffer<float> reference_;
-  std::vector<float> host_fine_, lod_, full_frame_, previous_lod_, previous_full_;
+  std::vector<float> previous_lod_, previous_full_;  // the previous view's frames, [H, W, 4]
 };
 
 std::string dash_or(double v, int digits) { return std::isnan(v) ? "-" : fixed(v, digits); }
