@@ -183,7 +183,7 @@ def rule(result):
     dropped = [i for i, r in enumerate(budgets) if r["psnr_mean"] < floor - 3]
     budget_3db = None
     if dropped:
-        budget_3db = budgets[dropped[-1] + 1]["value"] if dropped[-1] + 1 < len(budgets) else "above every swept"
+        budget_3db = budgets[dropped[-1] + 1]["value"] if dropped[-1] + 1 < len(budgets) else "every swept"
     return (max(errors, key=lambda r: r["value"])["value"] if errors else None), budget_3db
 
 
@@ -202,7 +202,7 @@ def markdown(results, args):
                   + (f"**{default_error:g} px**" if default_error is not None else "none of those swept") +
                   "; the budget under which PSNR drops more than 3 dB below the floor's: "
                   + (f"**{budget_3db:,} splats** (the smallest swept budget within 3 dB)" if isinstance(budget_3db, int)
-                     else f"{budget_3db} budget" if budget_3db else "none of those swept drops 3 dB")
+                     else "every swept budget drops 3 dB" if budget_3db else "none of those swept drops 3 dB")
                   + ".", ""]
     return "\n".join(lines)
 
