@@ -1004,7 +1004,8 @@ int main(int argc, char** argv) {
   app.add_option("--splat-budget", opt.splat_budget,
                  "Streamed mode: render a level-of-detail .rgs (rgs-convert --lod-levels) along the views as a "
                  "fly-through, drawing at most N Gaussians a frame (docs/LOD.md); per view the frame time, splats, "
-                 "bytes streamed and resident, and the PSNR against the full detail where it fits")
+                 "bytes streamed and resident, and where the full detail fits its PSNR and SSIM against the full detail "
+                 "2x2 supersampled, the plain full render's (the floor) and the popping (docs/LOD.md#measuring-quality)")
       ->check(CLI::Range(uint64_t{1}, uint64_t{0x7fffffff}));
   app.add_option("--memory-budget", opt.memory_budget,
                  "Streamed mode: device memory for the scene's pool, frame arrays and upload buffer (e.g. 3GiB); 0: a "
