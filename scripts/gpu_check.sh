@@ -191,8 +191,8 @@ if [ "$what" = lod ] || [ "$what" = all ]; then
   # Levels of detail (docs/LOD.md): the streamer's GPU tests and the >2^31-pair frame; taebak given levels of
   # detail by rgs-convert (time, peak RSS, check); then 120-view paths at 1080p under a 3M splat budget, 3 GiB
   # of device memory for the scene's pool, frame and upload arrays and 1 GiB of render scratch (4 GiB in all),
-  # for taebak x1, x4 and x16 (the big scene: replicated and given its levels in memory), each with the PSNR
-  # against the full detail: a fly-through along taebak's cameras (--fly) and a spiral that frames the whole
+  # for taebak x1, x4 and x16 (the big scene: replicated and given its levels in memory), each scored against
+  # the full detail rendered 2x2 supersampled beside the plain full render (docs/LOD.md#measuring-quality): a fly-through along taebak's cameras (--fly) and a spiral that frames the whole
   # grid (--path, the worst case: every chunk in view).
   t0=$(date +%s)
   rc=0
