@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "rgs/api/convert.h"
+#include "rgs/config.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/converter/scene_reader.h"
