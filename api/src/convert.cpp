@@ -17,6 +17,7 @@
 #include "rgs/converter/gltf.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/ply_writer.h"
+#include "rgs/converter/sog_writer.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/file_io.h"
 
@@ -38,7 +39,8 @@ struct FormatName {
 constexpr FormatName kFormatNames[] = {{OutputFormat::kRgs, "rgs", ".rgs"},
                                        {OutputFormat::kPly, "ply", ".ply"},
                                        {OutputFormat::kSpz, "spz", ".spz"},
-                                       {OutputFormat::kGlb, "glb", ".glb"}};
+                                       {OutputFormat::kGlb, "glb", ".glb"},
+                                       {OutputFormat::kSog, "sog", ".sog"}};
 
 const FormatName& entry(OutputFormat format) {
   for (const FormatName& f : kFormatNames) {
@@ -458,6 +460,17 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
       report->output_notes = glb.limitations;
       break;
     }
+    case OutputFormat::kSog: {
+      converter::SogWriteOptions sog_options;
+      sog_options.container = converter::is_sog_folder_path(dst) ? converter::SogContainer::kFolder
+                                                                  : converter::SogContainer::kBundle;
+      RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog, converter::write_sog(dst, cloud, sog_options, files));
+      report->output_bytes = sog.bytes;
+      report->output_description =
+          sog_options.container == converter::SogContainer::kFolder ? "PlayCanvas SOG v2 folder" : "PlayCanvas SOG v2";
+      report->output_notes = sog.limitations;
+      break;
+    }
     case OutputFormat::kRgs:
       return Status(StatusCode::kInvalidArgument, "convert: .rgs is not a float output");
   }
@@ -560,7 +573,12 @@ Result<OutputFormat> parse_output_format(const std::string& name) {
   for (const FormatName& f : kFormatNames) {
     if (name == f.name) return f.format;
   }
-  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use rgs, ply, spz or glb)");
+  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use rgs, ply, spz, glb or sog)");
+}
+
+std::vector<std::string> output_paths(const std::string& dst, OutputFormat output) {
+  if (output == OutputFormat::kSog && converter::is_sog_folder_path(dst)) return converter::sog_folder_files(dst);
+  return {dst};
 }
 
 Result<OutputFormat> output_format_for(const std::string& dst, std::optional<OutputFormat> to) {
@@ -568,13 +586,13 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   const FormatName* by_ext = nullptr;
   for (const FormatName& f : kFormatNames) {
-    if (ext == f.extension) by_ext = &f;
+    if (ext == f.extension || (f.format == OutputFormat::kSog && converter::is_sog_folder_path(dst))) by_ext = &f;
   }
   if (!to) {
     RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
                         dst + ": cannot tell the output format from this name; name the output *.rgs, *.ply, "
-                              "*.spz or *.glb, or choose the format with rgs-convert --to or Python's to= "
-                              "(rgs, ply, spz, glb)");
+                              "*.spz, *.glb, *.sog or meta.json (a SOG folder), or choose the format with "
+                              "rgs-convert --to or Python's to= (rgs, ply, spz, glb, sog)");
     return by_ext->format;
   }
   RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext->format != *to, StatusCode::kInvalidArgument,
