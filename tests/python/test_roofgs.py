@@ -28,7 +28,7 @@ def test_convert_reports_sizes_and_errors(guitar_rgs, tmp_path):
 
 
 # The first bytes of each output format.
-SIGNATURES = {"rgs": b"\x89RGS\r\n\x1a\n", "ply": b"ply\n", "spz": b"NGSP", "glb": b"glTF"}
+SIGNATURES = {"rgs": b"\x89RGS\r\n\x1a\n", "ply": b"ply\n", "spz": b"NGSP", "glb": b"glTF", "sog": b"PK\x03\x04"}
 DATA = SOURCE_DIR / "tests" / "data"
 INPUTS = {
     "ply": DATA / "interop" / "guitar_256.ply",
