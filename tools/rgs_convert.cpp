@@ -31,6 +31,7 @@
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
 #include "rgs/config.h"
+#include "rgs/converter/sog_writer.h"
 
 namespace {
 
@@ -352,7 +353,9 @@ int run(Options& opt) {
   tools::report_notes(kTool, outputs.remove_stale_temporaries(), opt.quiet);
 
   // Staged in `outputs`, renamed into place by commit() below with the JSON report.
-  opt.convert.files = &outputs;
+  // A streamed SOG's chunk files are known only once its levels are built: they are written one by one, its
+  // lod-meta.json last, and converter::write_sog_lod removes what it wrote if it fails.
+  opt.convert.files = converter::is_sog_lod_path(opt.output) ? nullptr : &outputs;
   tools::ProgressLine progress(stderr, kTool, !opt.quiet && tools::stderr_is_terminal());
   opt.convert.progress = [&progress](const api::ConvertProgress& p) { progress.update(p); };
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");

@@ -480,6 +480,39 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
   return Status();
 }
 
+/// A streamed SOG (dst named lod-meta.json): the cloud quantized to the runtime profile, its levels of detail
+/// built (ConvertOptions::lod_levels, default 0 = auto), each level's chunks written as SOG files.
+Status write_sog_lod_output(const std::string& src_name, const std::string& dst, const ConvertOptions& options,
+                            converter::InputScene* input, ConvertReport* report, ProgressReporter& progress) {
+  converter::QuantizeOptions quantize_options;
+  quantize_options.scale_encoding = options.scale_encoding;
+  quantize_options.sh_clip_percentile = options.sh_clip_percentile;
+  progress.quantizing();
+  const auto quantize_start = Clock::now();
+  auto encoded = converter::quantize(input->cloud, quantize_options);
+  if (!encoded.ok()) return Status(encoded.status()).prepend(src_name);
+  report->seconds.quantize = seconds_since(quantize_start);
+  report->gaussians = input->cloud.size();
+  report->sh_degree = input->cloud.sh_degree;
+  input->cloud = {};
+  progress.building_lod();
+  const auto lod_start = Clock::now();
+  converter::LodBuildOptions lod_options;
+  lod_options.levels = options.lod_levels.value_or(0);
+  lod_options.max_chunk_gaussians = options.lod_chunk_gaussians;
+  auto lod = converter::build_lod(*encoded, lod_options);
+  if (!lod.ok()) return Status(lod.status()).prepend(src_name);
+  report->seconds.lod = seconds_since(lod_start);
+  StageSink files(output_files(options), progress);
+  const auto write_start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog, converter::write_sog_lod(dst, *lod, {}, files));
+  report->seconds.write = seconds_since(write_start);
+  report->output_bytes = sog.bytes;
+  report->output_description = "PlayCanvas streamed SOG";
+  report->output_notes = sog.limitations;
+  return Status();
+}
+
 /// Everything after reading: checks, SH bands, the output, the report.
 Result<ConvertReport> write_input(converter::InputScene input, const std::string& src_name, const std::string& dst,
                                   OutputFormat output, const ConvertOptions& options, Clock::time_point start,
@@ -510,6 +543,8 @@ Result<ConvertReport> write_input(converter::InputScene input, const std::string
   }
   if (output == OutputFormat::kRgs) {
     RGS_RETURN_IF_ERROR(write_rgs(src_name, dst, options, &input, &report, progress));
+  } else if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) {
+    RGS_RETURN_IF_ERROR(write_sog_lod_output(src_name, dst, options, &input, &report, progress));
   } else {
     progress.writing();
     RGS_RETURN_IF_ERROR(write_float(dst, options, input, &report, progress));
@@ -586,12 +621,14 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   const FormatName* by_ext = nullptr;
   for (const FormatName& f : kFormatNames) {
-    if (ext == f.extension || (f.format == OutputFormat::kSog && converter::is_sog_folder_path(dst))) by_ext = &f;
+    const bool sog_entry = converter::is_sog_folder_path(dst) || converter::is_sog_lod_path(dst);
+    if (ext == f.extension || (f.format == OutputFormat::kSog && sog_entry)) by_ext = &f;
   }
   if (!to) {
     RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
                         dst + ": cannot tell the output format from this name; name the output *.rgs, *.ply, "
-                              "*.spz, *.glb, *.sog or meta.json (a SOG folder), or choose the format with "
+                              "*.spz, *.glb, *.sog, meta.json (a SOG folder) or lod-meta.json (a streamed SOG), or "
+                              "choose the format with "
                               "rgs-convert --to or Python's to= (rgs, ply, spz, glb, sog)");
     return by_ext->format;
   }

@@ -5,13 +5,17 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ply_test_util.h"
 #include "rgs/converter/attribute_errors.h"
+#include "rgs/converter/lod_builder.h"
 #include "rgs/converter/playcanvas_readers.h"
+#include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/sog_writer.h"
+#include "rgs/format/encoded_scene.h"
 #include "test_data.h"
 
 namespace rgs::test {
@@ -167,6 +171,69 @@ TEST_CASE("SOG output that fails leaves nothing behind and an existing file unch
     ++entries;
   }
   CHECK(entries == 1);  // scene.sog as it was
+  fs::remove_all(dir);
+}
+
+/// `cloud`'s levels of detail (runtime profile, build_lod with `levels`, 0 = auto, small chunks so there are
+/// several) written as a streamed SOG under `dir`; checks every level reads back with its Gaussian count and
+/// returns level 0 read back beside the runtime profile's level 0 it was written from.
+std::pair<format::GaussianCloud, format::GaussianCloud> streamed_round_trip(const format::GaussianCloud& cloud,
+                                                                           const fs::path& dir) {
+  auto encoded = converter::quantize(cloud, {});
+  REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
+  converter::LodBuildOptions lod_options;
+  lod_options.max_chunk_gaussians = 16384;
+  auto lod = converter::build_lod(*encoded, lod_options);
+  REQUIRE_MESSAGE(lod.ok(), lod.status().to_string());
+  const std::string path = (dir / "lod-meta.json").string();
+  auto written = converter::write_sog_lod(path, *lod);
+  REQUIRE_MESSAGE(written.ok(), written.status().to_string());
+  const format::LodIndex& index = lod->index;
+  REQUIRE(index.chunk_count > 1);
+  REQUIRE(index.level_count > 1);
+  for (uint32_t l = 0; l < index.level_count; ++l) {
+    converter::SceneReadOptions o;
+    o.lod = l;
+    auto back = converter::read_sog_lod(path, o);
+    REQUIRE_MESSAGE(back.ok(), back.status().to_string());
+    uint64_t expected = 0;
+    for (uint32_t c = 0; c < index.chunk_count; ++c) expected += index.at(l, c).count;
+    CHECK(back->cloud.size() == expected);
+  }
+  auto level0 = converter::read_sog_lod(path);
+  REQUIRE(level0.ok());
+  format::GaussianCloud written0;
+  REQUIRE(format::dequantize_range(lod->scene, 0, index.full_detail_count(), &written0).ok());
+  return {std::move(written0), std::move(level0).value().cloud};
+}
+
+TEST_CASE("Streamed SOG output reads back every level, level 0 within SOG's bounds of the runtime profile") {
+  const fs::path dir = fresh_folder("streamed");
+  auto [written0, back0] = streamed_round_trip(read_cloud(repo_path("samples/guitar.ply")), dir);
+  check_errors(written0, back0, {1.0, 0.03, 0.025, 0});
+  fs::remove_all(dir);
+}
+
+TEST_CASE("Streamed SOG output of the SH-3 flowers scene keeps level 0 within its bounds") {
+  const std::string path = shared_scene("mipnerf360_flowers_c3dgs.ply");
+  if (path.empty()) return;
+  const fs::path dir = fresh_folder("streamed_flowers");
+  auto [written0, back0] = streamed_round_trip(read_cloud(path), dir);
+  check_errors(written0, back0, {1.0, 0.03, 0.025, 0.01});
+  fs::remove_all(dir);
+}
+
+TEST_CASE("Streamed SOG output that fails removes the folders it created") {
+  format::GaussianCloud cloud = read_cloud(repo_path("samples/guitar.ply"));
+  auto encoded = converter::quantize(cloud, {});
+  REQUIRE(encoded.ok());
+  auto lod = converter::build_lod(*encoded, {});
+  REQUIRE(lod.ok());
+  lod->index.at(0, 0).count = lod->scene.count + 1;  // a range outside the scene
+  const fs::path dir = fresh_folder("streamed_fail");
+  auto r = converter::write_sog_lod((dir / "lod-meta.json").string(), *lod);
+  CHECK(r.status().code() == StatusCode::kCorruptData);
+  CHECK(fs::is_empty(dir));
   fs::remove_all(dir);
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rgs/converter/lod_builder.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/status.h"
@@ -79,5 +80,24 @@ std::vector<std::string> sog_folder_files(const std::string& meta_path);
 Result<SogWriteSummary> write_sog(const std::string& path, const format::GaussianCloud& cloud,
                                   const SogWriteOptions& options = {},
                                   format::FileSink& files = format::atomic_files());
+
+/// True when `path` names a streamed SOG's entry: its last component is "lod-meta.json" (any case).
+bool is_sog_lod_path(const std::string& path);
+
+/// Most Gaussians of one chunk file of a streamed SOG: consecutive chunks of a level share a file up to it.
+inline constexpr uint64_t kSogLodFileGaussians = 524288;
+
+/// Writes the levels of detail of `lod` (converter::build_lod's output) as a PlayCanvas streamed SOG:
+/// `lod_meta_path` (lod-meta.json: `lodLevels`, `environment` null, `filenames` "L_K/meta.json", and a
+/// binary `tree` over the chunks in their Morton order, each node with its `bound` {min, max} of the chunk's
+/// level-0 means, each leaf with `lods` {level: {file, offset, count}}) and, next to it, one folder "L_K" per
+/// file: SOG v2 (encode_sog) of consecutive chunks of level L, up to kSogLodFileGaussians Gaussians. The
+/// Gaussians are the dequantized runtime-profile values of `lod.scene`. Folders are created as needed; the
+/// files go through `files`, lod-meta.json last; on failure the files and folders this call created are
+/// removed. read_sog_lod reads level l back in chunk order. Errors: as encode_sog, kIoError naming the file
+/// or folder, kCorruptData (an inconsistent `lod`).
+Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const LodScene& lod,
+                                      const SogWriteOptions& options = {},
+                                      format::FileSink& files = format::atomic_files());
 
 }  // namespace rgs::converter
