@@ -44,14 +44,23 @@ std::vector<float> kmeans_codebook(const float* values, size_t n, uint32_t k, ui
       weight.push_back(count[b]);
     }
   }
+  // Half the starts at quantiles (where the values are dense), half spread evenly over the range, so that sparse
+  // tails (the few huge background Gaussians of a capture) keep codes of their own: Lloyd's iterations alone
+  // never move a centre far into a tail that quantile starts left empty.
   std::vector<double> centre(k);
+  const uint32_t quantile_starts = k - k / 2;
   double seen = 0;
   size_t at = 0;
-  for (uint32_t j = 0; j < k; ++j) {  // quantile starts
-    const double target = (j + 0.5) * static_cast<double>(n) / k;
+  for (uint32_t j = 0; j < quantile_starts; ++j) {
+    const double target = (j + 0.5) * static_cast<double>(n) / quantile_starts;
     while (at + 1 < bins.size() && seen + weight[at] < target) seen += weight[at++];
     centre[j] = bins[at];
   }
+  for (uint32_t j = quantile_starts; j < k; ++j) {
+    const double unit = k / 2 > 1 ? static_cast<double>(j - quantile_starts) / (k / 2 - 1) : 0.5;
+    centre[j] = lo + unit * (static_cast<double>(hi) - lo);
+  }
+  std::sort(centre.begin(), centre.end());
   std::vector<double> csum(k), ccount(k);
   for (uint32_t it = 0; it < iterations; ++it) {
     std::fill(csum.begin(), csum.end(), 0.0);

@@ -142,7 +142,7 @@ Status encode_scales_and_sh0(const format::GaussianCloud& cloud, uint32_t iterat
   const uint32_t k_count = cloud.sh_coefficients();
   std::vector<float> values(n * 3);
   for (size_t j = 0; j < n * 3; ++j) {
-    values[j] = cloud.scales[j] > 0 ? std::max(kZeroScaleLog, std::log(cloud.scales[j])) : kZeroScaleLog;
+    values[j] = cloud.scales[j] > 0 ? std::log(cloud.scales[j]) : kZeroScaleLog;
   }
   RGS_ASSIGN_OR_RETURN(std::vector<float> scales, encode_codebook(values, n, 3, iterations, &img->image[kScales]));
   for (size_t i = 0; i < n; ++i) {

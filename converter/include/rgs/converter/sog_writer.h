@@ -53,7 +53,7 @@ struct SogFile {
 /// means_l.webp / means_u.webp (per axis the 16-bit lerp between mins and maxs of sign(x)·ln(|x| + 1), low
 /// and high bytes in R, G, B), quats.webp (smallest three of the normalized (w, x, y, z) with the largest
 /// made positive, each (v·√2 + 1)/2·255 rounded; alpha = 252 + the largest's index), scales.webp (codes into
-/// a 256-entry codebook of log scales), sh0.webp (codes into a 256-entry codebook of SH DC coefficients;
+/// a 256-entry codebook of log scales; a zero scale counts as log-scale kZeroScaleLog), sh0.webp (codes into a 256-entry codebook of SH DC coefficients;
 /// alpha = round(opacity·255)) and, with SH bands, shN_centroids.webp (a palette of at most 65,536 SH rest
 /// vectors, 64 entries per row, coefficient by coefficient, each value a code into a 256-entry codebook)
 /// and shN_labels.webp (16-bit palette index, low byte in R, high in G). Pixel i of a per-Gaussian image is
