@@ -621,8 +621,10 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   const FormatName* by_ext = nullptr;
   for (const FormatName& f : kFormatNames) {
+    // A SOG entry's name (meta.json, lod-meta.json) chooses SOG only when `to` does not choose: as a .json it
+    // contradicts no format.
     const bool sog_entry = converter::is_sog_folder_path(dst) || converter::is_sog_lod_path(dst);
-    if (ext == f.extension || (f.format == OutputFormat::kSog && sog_entry)) by_ext = &f;
+    if (ext == f.extension || (!to && f.format == OutputFormat::kSog && sog_entry)) by_ext = &f;
   }
   if (!to) {
     RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,

@@ -38,7 +38,7 @@ enum class OutputFormat {
 const char* output_format_name(OutputFormat format);
 
 /// The output format of `dst`: `to` when given, else the extension (.rgs, .ply, .spz, .glb, .sog, any case;
-/// a name "meta.json" is a SOG folder).
+/// without `to`, a name "meta.json" is a SOG folder and "lod-meta.json" a streamed SOG).
 /// @return kInvalidArgument when neither decides, or when the extension names another of these four formats
 ///         than `to` (a GLB called scene.rgs would mislead every later reader of the name); an unrelated
 ///         extension is accepted with `to`.
