@@ -31,7 +31,8 @@ enum class OutputFormat {
   kPly = 1,  ///< INRIA 3DGS PLY (float32, 62 properties at SH degree 3), readable by every 3DGS tool
   kSpz = 2,  ///< Niantic SPZ v4 (lossy: converter::serialize_spz documents the quantization)
   kGlb = 3,  ///< binary glTF with KHR_gaussian_splatting (float32)
-  kSog = 4,  ///< PlayCanvas SOG v2: a bundled .sog, or a folder when dst is named meta.json (converter::encode_sog)
+  kSog = 4,  ///< PlayCanvas SOG v2: a bundled .sog, a folder when dst is named meta.json (converter::encode_sog), a
+             ///< streamed SOG when named lod-meta.json (converter::write_sog_lod)
 };
 
 /// "rgs", "ply", "spz", "glb" or "sog": the spelling of rgs-convert's --to, Python's `to=` and the JSON report.
