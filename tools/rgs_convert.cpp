@@ -8,8 +8,8 @@
 //   rgs-convert scene.ply scene.rgs --target-psnr 40 --cameras cameras.json --every 8 --width 960
 //                                                     the archive profile's settings for 40 dB (rate control)
 //
-// The output format follows --to, else the output's extension (.rgs, .ply, .spz, .glb); a name whose
-// extension is another of these four than --to says is a usage error.
+// The output format follows --to, else the output's extension (.rgs, .ply, .spz, .glb, .sog; a name meta.json is
+// a SOG folder); a name whose extension is another of these than --to says is a usage error.
 //
 // Exit status: 0 on success (every output written), 1 when the conversion failed (no output written, an
 // existing one left as it was), 2 on a usage error (nothing read or written), 128 + N on signal N.
@@ -31,6 +31,7 @@
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
 #include "rgs/config.h"
+#include "rgs/converter/sog_writer.h"
 
 namespace {
 
@@ -40,7 +41,7 @@ constexpr const char* kTool = "rgs-convert";
 struct Options {
   std::string input;
   std::string output;
-  std::string to;  ///< --to: rgs, ply, spz or glb; empty: the output's extension decides
+  std::string to;  ///< --to: rgs, ply, spz, glb or sog; empty: the output's extension decides
   std::string scale_encoding = "linear";
   std::string profile = "runtime";
   bool profile_defaulted = true;  ///< --profile not given
@@ -342,14 +343,19 @@ int run(Options& opt) {
   if (!views.cameras_path.empty()) {
     if (int code = tools::declare_input(kTool, outputs, views.cameras_path); code != tools::kExitOk) return code;
   }
-  if (int code = tools::declare_output(kTool, outputs, opt.output); code != tools::kExitOk) return code;
+  // A SOG folder (output named meta.json) writes its images next to it: all are outputs of the run.
+  for (const std::string& path : api::output_paths(opt.output, *opt.convert.to)) {
+    if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
+  }
   if (!opt.json_path.empty() && !opt.json_to_stdout()) {
     if (int code = tools::declare_output(kTool, outputs, opt.json_path); code != tools::kExitOk) return code;
   }
   tools::report_notes(kTool, outputs.remove_stale_temporaries(), opt.quiet);
 
   // Staged in `outputs`, renamed into place by commit() below with the JSON report.
-  opt.convert.files = &outputs;
+  // A streamed SOG's chunk files are known only once its levels are built: they are written one by one, its
+  // lod-meta.json last, and converter::write_sog_lod removes what it wrote if it fails.
+  opt.convert.files = converter::is_sog_lod_path(opt.output) ? nullptr : &outputs;
   tools::ProgressLine progress(stderr, kTool, !opt.quiet && tools::stderr_is_terminal());
   opt.convert.progress = [&progress](const api::ConvertProgress& p) { progress.update(p); };
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
@@ -390,7 +396,7 @@ int main(int argc, char** argv) {
   CLI::App app{"Convert a trained 3DGS scene into the compact .rgs runtime format (INT8 SH with a scale per "
                "degree and channel, FP16 rotation/scale/opacity, FP32 means), a standard INRIA PLY, an SPZ v4 "
                "file or a KHR_gaussian_splatting GLB. The input's format follows its content (a .rgs input is "
-               "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb).",
+               "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb, .sog).",
                kTool};
   app.add_option("input", opt.input,
                  "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "
@@ -398,12 +404,13 @@ int main(int argc, char** argv) {
                  "- reads a PLY or .rgs from standard input")
       ->required();
   app.add_option("output", opt.output,
-                 "Output .rgs, .ply, .spz or .glb file (replaced atomically on success only)")
+                 "Output .rgs, .ply, .spz, .glb or .sog file, or a SOG folder's meta.json (replaced atomically on "
+                 "success only)")
       ->required();
   app.add_option("--to", opt.to,
-                 "Output format: rgs, ply (INRIA PLY), spz (SPZ v4) or glb (KHR_gaussian_splatting); default: the "
-                 "output's extension. A name ending in another of these four is a usage error")
-      ->check(CLI::IsMember({"rgs", "ply", "spz", "glb"}));
+                 "Output format: rgs, ply (INRIA PLY), spz (SPZ v4), glb (KHR_gaussian_splatting) or sog (PlayCanvas "
+                 "SOG v2); default: the output's extension. A name ending in another of these is a usage error")
+      ->check(CLI::IsMember({"rgs", "ply", "spz", "glb", "sog"}));
   app.add_option("--sh-degree", opt.convert.sh_degree,
                  "Drop the SH bands above this degree (0..3) before writing any output")
       ->check(CLI::Range(0, 3));

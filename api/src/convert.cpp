@@ -17,6 +17,7 @@
 #include "rgs/converter/gltf.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/ply_writer.h"
+#include "rgs/converter/sog_writer.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/file_io.h"
 
@@ -38,7 +39,8 @@ struct FormatName {
 constexpr FormatName kFormatNames[] = {{OutputFormat::kRgs, "rgs", ".rgs"},
                                        {OutputFormat::kPly, "ply", ".ply"},
                                        {OutputFormat::kSpz, "spz", ".spz"},
-                                       {OutputFormat::kGlb, "glb", ".glb"}};
+                                       {OutputFormat::kGlb, "glb", ".glb"},
+                                       {OutputFormat::kSog, "sog", ".sog"}};
 
 const FormatName& entry(OutputFormat format) {
   for (const FormatName& f : kFormatNames) {
@@ -458,6 +460,17 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
       report->output_notes = glb.limitations;
       break;
     }
+    case OutputFormat::kSog: {
+      converter::SogWriteOptions sog_options;
+      sog_options.container = converter::is_sog_folder_path(dst) ? converter::SogContainer::kFolder
+                                                                  : converter::SogContainer::kBundle;
+      RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog, converter::write_sog(dst, cloud, sog_options, files));
+      report->output_bytes = sog.bytes;
+      report->output_description =
+          sog_options.container == converter::SogContainer::kFolder ? "PlayCanvas SOG v2 folder" : "PlayCanvas SOG v2";
+      report->output_notes = sog.limitations;
+      break;
+    }
     case OutputFormat::kRgs:
       return Status(StatusCode::kInvalidArgument, "convert: .rgs is not a float output");
   }
@@ -470,6 +483,39 @@ Status write_float(const std::string& dst, const ConvertOptions& options, const 
   report->seconds.write = seconds_since(write_start);
   report->gaussians = cloud.size();
   report->sh_degree = cloud.sh_degree;
+  return Status();
+}
+
+/// A streamed SOG (dst named lod-meta.json): the cloud quantized to the runtime profile, its levels of detail
+/// built (ConvertOptions::lod_levels, default 0 = auto), each level's chunks written as SOG files.
+Status write_sog_lod_output(const std::string& src_name, const std::string& dst, const ConvertOptions& options,
+                            converter::InputScene* input, ConvertReport* report, ProgressReporter& progress) {
+  converter::QuantizeOptions quantize_options;
+  quantize_options.scale_encoding = options.scale_encoding;
+  quantize_options.sh_clip_percentile = options.sh_clip_percentile;
+  progress.quantizing();
+  const auto quantize_start = Clock::now();
+  auto encoded = converter::quantize(input->cloud, quantize_options);
+  if (!encoded.ok()) return Status(encoded.status()).prepend(src_name);
+  report->seconds.quantize = seconds_since(quantize_start);
+  report->gaussians = input->cloud.size();
+  report->sh_degree = input->cloud.sh_degree;
+  input->cloud = {};
+  progress.building_lod();
+  const auto lod_start = Clock::now();
+  converter::LodBuildOptions lod_options;
+  lod_options.levels = options.lod_levels.value_or(0);
+  lod_options.max_chunk_gaussians = options.lod_chunk_gaussians;
+  auto lod = converter::build_lod(*encoded, lod_options);
+  if (!lod.ok()) return Status(lod.status()).prepend(src_name);
+  report->seconds.lod = seconds_since(lod_start);
+  StageSink files(output_files(options), progress);
+  const auto write_start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog, converter::write_sog_lod(dst, *lod, {}, files));
+  report->seconds.write = seconds_since(write_start);
+  report->output_bytes = sog.bytes;
+  report->output_description = "PlayCanvas streamed SOG";
+  report->output_notes = sog.limitations;
   return Status();
 }
 
@@ -503,6 +549,8 @@ Result<ConvertReport> write_input(converter::InputScene input, const std::string
   }
   if (output == OutputFormat::kRgs) {
     RGS_RETURN_IF_ERROR(write_rgs(src_name, dst, options, &input, &report, progress));
+  } else if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) {
+    RGS_RETURN_IF_ERROR(write_sog_lod_output(src_name, dst, options, &input, &report, progress));
   } else {
     progress.writing();
     RGS_RETURN_IF_ERROR(write_float(dst, options, input, &report, progress));
@@ -566,7 +614,12 @@ Result<OutputFormat> parse_output_format(const std::string& name) {
   for (const FormatName& f : kFormatNames) {
     if (name == f.name) return f.format;
   }
-  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use rgs, ply, spz or glb)");
+  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use rgs, ply, spz, glb or sog)");
+}
+
+std::vector<std::string> output_paths(const std::string& dst, OutputFormat output) {
+  if (output == OutputFormat::kSog && converter::is_sog_folder_path(dst)) return converter::sog_folder_files(dst);
+  return {dst};
 }
 
 Result<OutputFormat> output_format_for(const std::string& dst, std::optional<OutputFormat> to) {
@@ -574,13 +627,17 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   const FormatName* by_ext = nullptr;
   for (const FormatName& f : kFormatNames) {
-    if (ext == f.extension) by_ext = &f;
+    // A SOG entry's name (meta.json, lod-meta.json) chooses SOG only when `to` does not choose: as a .json it
+    // contradicts no format.
+    const bool sog_entry = converter::is_sog_folder_path(dst) || converter::is_sog_lod_path(dst);
+    if (ext == f.extension || (!to && f.format == OutputFormat::kSog && sog_entry)) by_ext = &f;
   }
   if (!to) {
     RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
                         dst + ": cannot tell the output format from this name; name the output *.rgs, *.ply, "
-                              "*.spz or *.glb, or choose the format with rgs-convert --to or Python's to= "
-                              "(rgs, ply, spz, glb)");
+                              "*.spz, *.glb, *.sog, meta.json (a SOG folder) or lod-meta.json (a streamed SOG), or "
+                              "choose the format with "
+                              "rgs-convert --to or Python's to= (rgs, ply, spz, glb, sog)");
     return by_ext->format;
   }
   RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext->format != *to, StatusCode::kInvalidArgument,

@@ -1,6 +1,7 @@
 #include "internal_webp.h"
 
 #include <webp/decode.h>
+#include <webp/encode.h>
 
 #include <new>
 
@@ -64,6 +65,42 @@ Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, c
                                                 std::to_string(riff_bytes) + " bytes)");
   }
   return Status();
+}
+
+Result<std::vector<uint8_t>> encode_webp_lossless(const RgbaImage& image, const std::string& name) {
+  RGS_RETURN_ERROR_IF(image.width == 0 || image.height == 0 || image.width > WEBP_MAX_DIMENSION ||
+                          image.height > WEBP_MAX_DIMENSION || image.rgba.size() != image.pixels() * 4,
+                      StatusCode::kInvalidArgument,
+                      name + ": cannot encode a " + std::to_string(image.width) + " x " +
+                          std::to_string(image.height) + " WebP image (1.." + std::to_string(WEBP_MAX_DIMENSION) +
+                          " pixels a side)");
+  WebPConfig config;
+  WebPPicture picture;
+  if (!WebPConfigInit(&config) || !WebPPictureInit(&picture)) {
+    return Status(StatusCode::kIoError, name + ": libwebp version mismatch");
+  }
+  config.lossless = 1;
+  config.exact = 1;  // SOG images are data: RGB under a zero alpha is a value too
+  config.quality = 75;
+  config.method = 4;
+  picture.use_argb = 1;
+  picture.width = static_cast<int>(image.width);
+  picture.height = static_cast<int>(image.height);
+  WebPMemoryWriter writer;
+  WebPMemoryWriterInit(&writer);
+  picture.writer = WebPMemoryWrite;
+  picture.custom_ptr = &writer;
+  const bool imported = WebPPictureImportRGBA(&picture, image.rgba.data(), static_cast<int>(image.width) * 4) != 0;
+  const bool encoded = imported && WebPEncode(&config, &picture) != 0;
+  const int error = static_cast<int>(picture.error_code);
+  WebPPictureFree(&picture);
+  std::vector<uint8_t> out;
+  if (encoded) out.assign(writer.mem, writer.mem + writer.size);
+  WebPMemoryWriterClear(&writer);
+  if (!encoded) {
+    return Status(StatusCode::kIoError, name + ": WebP encoding failed (libwebp error " + std::to_string(error) + ")");
+  }
+  return out;
 }
 
 }  // namespace rgs::converter::detail

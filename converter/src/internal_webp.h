@@ -1,4 +1,4 @@
-// WebP decoding into RGBA8 for the SOG reader (private to rgs_converter).
+// WebP decoding into RGBA8 for the SOG reader and lossless encoding for the SOG writer (private to rgs_converter).
 #pragma once
 
 #include <cstddef>
@@ -28,5 +28,10 @@ Status read_webp_size(const uint8_t* data, size_t size, const std::string& name,
 /// before anything is allocated. Errors name `name`: kCorruptData (not a WebP, truncated, undecodable),
 /// kLimitExceeded (more than max_pixels pixels), kOutOfMemory.
 Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, const std::string& name, RgbaImage* out);
+
+/// Encodes `image` ([height, width, 4] uint8 RGBA, width and height 1..16383) as a lossless WebP, every pixel
+/// kept exactly (RGB under alpha 0 included). Deterministic. Errors: kInvalidArgument (size), kIoError
+/// (libwebp failed, its error code named).
+Result<std::vector<uint8_t>> encode_webp_lossless(const RgbaImage& image, const std::string& name);
 
 }  // namespace rgs::converter::detail

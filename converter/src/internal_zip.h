@@ -1,4 +1,5 @@
-// Reading entries of a ZIP archive held in memory (the bundled .sog container; private to rgs_converter).
+// Reading entries of a ZIP archive held in memory, and writing a stored one (the bundled .sog container;
+// private to rgs_converter).
 #pragma once
 
 #include <cstddef>
@@ -50,5 +51,16 @@ class ZipArchive {
 
 /// True when `data` starts with a ZIP local file header or an empty archive's end record ("PK\3\4"/"PK\5\6").
 bool has_zip_magic(const uint8_t* data, size_t size);
+
+/// One file to archive by write_stored_zip.
+struct ZipSource {
+  std::string name;
+  const std::vector<uint8_t>* bytes = nullptr;
+};
+
+/// A ZIP archive of `sources` in order, every entry stored (method 0: the SOG images are WebP already), with
+/// a zero timestamp so the same files give the same bytes. No ZIP64: the caller keeps every size, offset and
+/// the entry count below 2^32 − 1 and 65,535 (assert).
+std::vector<uint8_t> write_stored_zip(const std::vector<ZipSource>& sources);
 
 }  // namespace rgs::converter::detail

@@ -1581,7 +1581,8 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
     return _save(path, means, quats, scales, opacities, sh, **options)
 )", scope);
   m.attr("convert").attr("__doc__") = py::str(
-        "Convert a scene in any format into dst: .rgs, .ply, .spz or .glb, as `to` or dst's extension says "
+        "Convert a scene in any format into dst: .rgs, .ply, .spz, .glb or .sog (or a SOG folder's meta.json), as `to` or "
+        "dst's extension says "
         "(what rgs-convert does, same options). Returns a dict: input and output (format, description, bytes, "
         "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output. "
         "target_psnr (dB) or target_bytes: rate control of the archive profile (api::ConvertOptions::target, as "
@@ -1594,7 +1595,8 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "backend, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
         "render_seconds loading and rendering them)");
   m.attr("save").attr("__doc__") = py::str(
-        "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb), with convert()'s "
+        "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb, .sog or a SOG "
+        "folder's meta.json), with convert()'s "
         "keyword options. means [N, 3], quats [N, 4] (w, x, y, z; normalized here), scales [N, 3] linear "
         "(exp of the PLY's log scales), opacities [N] in [0, 1] (sigmoid of the PLY's logits), sh [N, K, 3] "
         "(K = 1, 4, 9, 16; PLY f_dc then f_rest reordered coefficient-major); float32 or convertible. The value "

@@ -28,7 +28,7 @@ def test_convert_reports_sizes_and_errors(guitar_rgs, tmp_path):
 
 
 # The first bytes of each output format.
-SIGNATURES = {"rgs": b"\x89RGS\r\n\x1a\n", "ply": b"ply\n", "spz": b"NGSP", "glb": b"glTF"}
+SIGNATURES = {"rgs": b"\x89RGS\r\n\x1a\n", "ply": b"ply\n", "spz": b"NGSP", "glb": b"glTF", "sog": b"PK\x03\x04"}
 DATA = SOURCE_DIR / "tests" / "data"
 INPUTS = {
     "ply": DATA / "interop" / "guitar_256.ply",
@@ -55,6 +55,19 @@ def test_convert_writes_the_format_dst_names(input_format, output, tmp_path):
     assert report["output"]["bytes"] == dst.stat().st_size
     back = roofgs.load(str(dst), device="cpu", quantize_other_formats=False)
     assert back.info["gaussians"] == report["gaussians"] > 0
+
+
+def test_convert_writes_sog_folders_and_streamed_sog(tmp_path):
+    src = str(SOURCE_DIR / "tests" / "data" / "guitar_sh3.ply")
+    folder = roofgs.convert(src, str(tmp_path / "meta.json"))
+    assert folder["output"]["format"] == "sog" and (tmp_path / "shN_labels.webp").is_file()
+    (tmp_path / "lod").mkdir()
+    streamed = roofgs.convert(src, str(tmp_path / "lod" / "lod-meta.json"), lod_levels="auto")
+    assert streamed["output"]["description"] == "PlayCanvas streamed SOG"
+    assert (tmp_path / "lod" / "0_0" / "meta.json").is_file()
+    for path in (tmp_path / "meta.json", tmp_path / "lod" / "lod-meta.json"):
+        back = roofgs.load(str(path), device="cpu", quantize_other_formats=False)
+        assert back.info["gaussians"] == folder["gaussians"] == 8000
 
 
 def test_convert_options_match_the_tool(tmp_path):

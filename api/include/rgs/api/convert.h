@@ -31,19 +31,27 @@ enum class OutputFormat {
   kPly = 1,  ///< INRIA 3DGS PLY (float32, 62 properties at SH degree 3), readable by every 3DGS tool
   kSpz = 2,  ///< Niantic SPZ v4 (lossy: converter::serialize_spz documents the quantization)
   kGlb = 3,  ///< binary glTF with KHR_gaussian_splatting (float32)
+  kSog = 4,  ///< PlayCanvas SOG v2: a bundled .sog, a folder when dst is named meta.json (converter::encode_sog), a
+             ///< streamed SOG when named lod-meta.json (converter::write_sog_lod)
 };
 
-/// "rgs", "ply", "spz" or "glb": the spelling of rgs-convert's --to, Python's `to=` and the JSON report.
+/// "rgs", "ply", "spz", "glb" or "sog": the spelling of rgs-convert's --to, Python's `to=` and the JSON report.
 const char* output_format_name(OutputFormat format);
 
-/// The output format of `dst`: `to` when given, else the extension (.rgs, .ply, .spz, .glb, any case).
+/// The output format of `dst`: `to` when given, else the extension (.rgs, .ply, .spz, .glb, .sog, any case;
+/// without `to`, a name "meta.json" is a SOG folder and "lod-meta.json" a streamed SOG).
 /// @return kInvalidArgument when neither decides, or when the extension names another of these four formats
 ///         than `to` (a GLB called scene.rgs would mislead every later reader of the name); an unrelated
 ///         extension is accepted with `to`.
 Result<OutputFormat> output_format_for(const std::string& dst, std::optional<OutputFormat> to = std::nullopt);
 
-/// Parses "rgs" / "ply" / "spz" / "glb". @return kInvalidArgument otherwise.
+/// Parses "rgs" / "ply" / "spz" / "glb" / "sog". @return kInvalidArgument otherwise.
 Result<OutputFormat> parse_output_format(const std::string& name);
+
+/// Every file a conversion to `dst` in `output` may write: `dst` itself, and for a SOG folder (`dst` named
+/// meta.json) the images next to it (converter::sog_folder_files), so that an output transaction can declare
+/// them all before any work.
+std::vector<std::string> output_paths(const std::string& dst, OutputFormat output);
 
 /// Where a running conversion is, for a progress display (ConvertOptions::progress).
 struct ConvertProgress {

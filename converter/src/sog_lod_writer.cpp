@@ -1,0 +1,192 @@
+// PlayCanvas streamed SOG writer: lod-meta.json over chunk folders of SOG v2, from the project's own levels of
+// detail (converter::build_lod; docs/LOD.md "Streamed SOG out").
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "rgs/converter/sog_writer.h"
+#include "rgs/format/encoded_scene.h"
+
+namespace rgs::converter {
+
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+/// One file of one level: chunks [first_chunk, end_chunk).
+struct LodFile {
+  uint32_t level = 0;
+  uint32_t first_chunk = 0, end_chunk = 0;
+  std::string name;  ///< "L_K/meta.json"
+};
+
+std::vector<LodFile> plan_files(const format::LodIndex& index) {
+  std::vector<LodFile> files;
+  for (uint32_t l = 0; l < index.level_count; ++l) {
+    uint32_t k = 0;
+    for (uint32_t c = 0; c < index.chunk_count;) {
+      LodFile f{l, c, c, std::to_string(l) + "_" + std::to_string(k++) + "/meta.json"};
+      uint64_t n = 0;
+      while (f.end_chunk < index.chunk_count &&
+             (f.end_chunk == c || n + index.at(l, f.end_chunk).count <= kSogLodFileGaussians)) {
+        n += index.at(l, f.end_chunk++).count;
+      }
+      c = f.end_chunk;
+      files.push_back(f);
+    }
+  }
+  return files;
+}
+
+/// Removes what a failed write created, newest first.
+struct Created {
+  std::vector<fs::path> paths;
+  bool keep = false;
+  ~Created() {
+    if (keep) return;
+    std::error_code ec;
+    for (auto p = paths.rbegin(); p != paths.rend(); ++p) fs::remove(*p, ec);
+  }
+};
+
+/// The tree over chunk leaves: consecutive nodes paired level by level up to one root.
+json build_tree(std::vector<json> nodes) {
+  if (nodes.empty()) return json::object();
+  while (nodes.size() > 1) {
+    std::vector<json> up;
+    for (size_t i = 0; i < nodes.size(); i += 2) {
+      if (i + 1 == nodes.size()) {
+        up.push_back(std::move(nodes[i]));
+        continue;
+      }
+      json bound = nodes[i]["bound"];
+      for (int a = 0; a < 3; ++a) {
+        bound["min"][a] = std::min(bound["min"][a].get<double>(), nodes[i + 1]["bound"]["min"][a].get<double>());
+        bound["max"][a] = std::max(bound["max"][a].get<double>(), nodes[i + 1]["bound"]["max"][a].get<double>());
+      }
+      up.push_back({{"bound", bound}, {"children", {std::move(nodes[i]), std::move(nodes[i + 1])}}});
+    }
+    nodes = std::move(up);
+  }
+  return std::move(nodes[0]);
+}
+
+Status check_lod(const LodScene& lod) {
+  const format::LodIndex& index = lod.index;
+  RGS_RETURN_ERROR_IF(index.chunk_count == 0 || index.level_count == 0 ||
+                          index.levels.size() != uint64_t{index.chunk_count} * index.level_count,
+                      StatusCode::kCorruptData,
+                      "streamed SOG: the level-of-detail index has " + std::to_string(index.levels.size()) +
+                          " records for " + std::to_string(index.chunk_count) + " chunks x " +
+                          std::to_string(index.level_count) + " levels");
+  for (const format::LodLevel& r : index.levels) {
+    RGS_RETURN_ERROR_IF(r.first + r.count > lod.scene.count || r.count == 0, StatusCode::kCorruptData,
+                        "streamed SOG: a level-of-detail range [" + std::to_string(r.first) + ", +" +
+                            std::to_string(r.count) + ") is empty or outside the scene's " +
+                            std::to_string(lod.scene.count) + " Gaussians");
+  }
+  return Status();
+}
+
+/// The leaves: per chunk the AABB of its level-0 means and where each level lies in the files.
+Result<std::vector<json>> chunk_leaves(const LodScene& lod, const std::vector<LodFile>& files) {
+  const format::LodIndex& index = lod.index;
+  std::vector<json> leaves(index.chunk_count);
+  for (uint32_t c = 0; c < index.chunk_count; ++c) {
+    format::GaussianCloud level0;
+    RGS_RETURN_IF_ERROR(format::dequantize_range(lod.scene, index.at(0, c).first, index.at(0, c).count, &level0));
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) lo[a] = hi[a] = level0.means[a];
+    for (size_t i = 0; i < level0.size(); ++i) {
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], static_cast<double>(level0.means[i * 3 + a]));
+        hi[a] = std::max(hi[a], static_cast<double>(level0.means[i * 3 + a]));
+      }
+    }
+    leaves[c] = {{"bound", {{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}}}, {"lods", json::object()}};
+  }
+  for (size_t f = 0; f < files.size(); ++f) {
+    uint64_t offset = 0;
+    for (uint32_t c = files[f].first_chunk; c < files[f].end_chunk; ++c) {
+      const uint64_t count = index.at(files[f].level, c).count;
+      leaves[c]["lods"][std::to_string(files[f].level)] = {{"file", f}, {"offset", offset}, {"count", count}};
+      offset += count;
+    }
+  }
+  return leaves;
+}
+
+/// Dequantizes the chunks of `file` (their ranges of its level, in chunk order) into one cloud.
+Result<format::GaussianCloud> file_cloud(const LodScene& lod, const LodFile& file) {
+  format::GaussianCloud cloud;
+  cloud.sh_degree = lod.scene.metadata.sh_degree;
+  for (uint32_t c = file.first_chunk; c < file.end_chunk; ++c) {
+    const format::LodLevel& r = lod.index.at(file.level, c);
+    format::GaussianCloud part;
+    RGS_RETURN_IF_ERROR(format::dequantize_range(lod.scene, r.first, r.count, &part));
+    cloud.means.insert(cloud.means.end(), part.means.begin(), part.means.end());
+    cloud.rotations.insert(cloud.rotations.end(), part.rotations.begin(), part.rotations.end());
+    cloud.scales.insert(cloud.scales.end(), part.scales.begin(), part.scales.end());
+    cloud.opacities.insert(cloud.opacities.end(), part.opacities.begin(), part.opacities.end());
+    cloud.sh.insert(cloud.sh.end(), part.sh.begin(), part.sh.end());
+  }
+  return cloud;
+}
+
+}  // namespace
+
+bool is_sog_lod_path(const std::string& path) {
+  std::string name = fs::path(path).filename().string();
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return name == "lod-meta.json";
+}
+
+Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const LodScene& lod,
+                                      const SogWriteOptions& options, format::FileSink& sink) {
+  RGS_RETURN_IF_ERROR(check_lod(lod));
+  const fs::path root = fs::path(lod_meta_path).parent_path();
+  const std::vector<LodFile> files = plan_files(lod.index);
+  RGS_ASSIGN_OR_RETURN(std::vector<json> leaves, chunk_leaves(lod, files));
+  SogWriteSummary summary;
+  Created created;
+  json names = json::array();
+  SogWriteOptions folder = options;
+  folder.container = SogContainer::kFolder;
+  for (const LodFile& file : files) {
+    names.push_back(file.name);
+    const fs::path meta = root / file.name;
+    std::error_code ec;
+    if (!fs::is_directory(meta.parent_path(), ec)) {
+      if (!fs::create_directory(meta.parent_path(), ec)) {
+        return Status(StatusCode::kIoError, "cannot create " + meta.parent_path().string() + ": " + ec.message());
+      }
+      created.paths.push_back(meta.parent_path());
+    }
+    RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, file_cloud(lod, file));
+    auto written = write_sog(meta.string(), cloud, folder, sink);
+    if (!written.ok()) return written.status();
+    created.paths.insert(created.paths.end(), written->files.begin(), written->files.end());
+    summary.bytes += written->bytes;
+    summary.sh_degree = written->sh_degree;
+    summary.limitations = written->limitations;
+  }
+  json meta = {{"lodLevels", lod.index.level_count},
+               {"environment", nullptr},
+               {"filenames", names},
+               {"tree", build_tree(std::move(leaves))}};
+  const std::string text = meta.dump();
+  RGS_RETURN_IF_ERROR(sink.write(lod_meta_path, text.data(), text.size()));
+  summary.bytes += text.size();
+  summary.files = {lod_meta_path};
+  summary.limitations.push_back(std::to_string(lod.index.level_count) + " levels of detail over " +
+                                std::to_string(lod.index.chunk_count) + " chunks in " +
+                                std::to_string(files.size()) + " SOG files, from the runtime profile's values");
+  created.keep = true;
+  return summary;
+}
+
+}  // namespace rgs::converter
