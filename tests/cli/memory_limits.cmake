@@ -176,6 +176,17 @@ foreach(value IN ITEMS 0 -1 4x 1.5GiB 18446744073709551616)
     REGEX "rgs-convert: error: --memory-limit: " ABSENT ${cli_dir}/memory_limit_bad_${value_name}.rgs)
 endforeach()
 
+# scripts/make_big_scene.py (docs/LOD.md#scenes-larger-than-memory): the sample tiled twice, streaming, converts
+# with levels of detail to twice its Gaussians; without its arguments it prints its usage, exit 2.
+rgs_cli_case(make_big_scene_tiles
+  CMD "${Python3_EXECUTABLE}|${PROJECT_SOURCE_DIR}/scripts/make_big_scene.py|${sample}|${cli_dir}/guitar_x2.ply|2"
+  REGEX "guitar_x2.ply: 181708 Gaussians \\(2 copies of " OUTPUT ${cli_dir}/guitar_x2.ply SETUP guitar_x2)
+rgs_cli_case(make_big_scene_converts
+  CMD "${convert}|${cli_dir}/guitar_x2.ply|${cli_dir}/guitar_x2_lod.rgs|--lod-levels|auto|--memory-limit|1GiB"
+  REGEX "gaussians +181,708 .*levels of detail" OUTPUT ${cli_dir}/guitar_x2_lod.rgs REQUIRES guitar_x2)
+rgs_cli_case(make_big_scene_usage CMD "${Python3_EXECUTABLE}|${PROJECT_SOURCE_DIR}/scripts/make_big_scene.py|${sample}"
+  EXIT 2 REGEX "Usage: scripts/make_big_scene.py SOURCE.ply OUTPUT.ply COPIES")
+
 # Every loading path applies the value rules of SPEC §4.3-4.6: the CPU render and the audit refuse files
 # whose checksums are valid but whose values are not (as rgs-convert and rgs-info --check do above).
 foreach(name IN ITEMS nan_mean zero_rotation negative_linear_scale opacity_above_one)
