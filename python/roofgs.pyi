@@ -127,11 +127,13 @@ def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Opti
             fly: Optional[int] = None, width: Optional[int] = None, height: Optional[int] = None,
             zstd_level: Optional[int] = None, sanitize: bool = False, allow_empty: bool = False,
             lod: Optional[int] = None, lod_levels: Union[str, int, None] = None, lod_chunk: Optional[int] = None,
-            max_gaussians: Optional[int] = None, max_decompression_ratio: Optional[int] = None,
+            memory_limit: Optional[int] = None, max_gaussians: Optional[int] = None,
+            max_decompression_ratio: Optional[int] = None,
             spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
             antialiased: bool = False) -> Dict[str, Any]:
     """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default).
-    A value outside an option's range raises ValueError saying the rule."""
+    A value outside an option's range raises ValueError saying the rule. memory_limit is in bytes (0: half the
+    physical memory); an input whose estimated peak memory is above it raises kLimitExceeded before it is read."""
 def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
          to: Optional[str] = None, sh_degree: Optional[int] = None, scale_encoding: Optional[str] = None,
          sh_clip_percentile: Optional[float] = None, sh_dc_bits: Optional[int] = None,
@@ -141,10 +143,11 @@ def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _
          camera_path: Optional[int] = None, fly: Optional[int] = None, width: Optional[int] = None,
          height: Optional[int] = None, zstd_level: Optional[int] = None, sanitize: bool = False,
          allow_empty: bool = False, lod: Optional[int] = None, lod_levels: Union[str, int, None] = None,
-         lod_chunk: Optional[int] = None, max_gaussians: Optional[int] = None,
+         lod_chunk: Optional[int] = None, memory_limit: Optional[int] = None, max_gaussians: Optional[int] = None,
          max_decompression_ratio: Optional[int] = None, spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
          antialiased: bool = False) -> Dict[str, Any]:
-    """convert()'s options; rgs-convert's --path (a camera path of N views) is camera_path here."""
+    """convert()'s options; rgs-convert's --path (a camera path of N views) is camera_path here. The arrays are
+    already in memory: memory_limit is accepted and not checked."""
 def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,
                   viewmats: _Array, Ks: _Array, width: int, height: int, near_plane: float = 0.01,
                   far_plane: float = 1e10, radius_clip: float = 0.0, eps2d: float = 0.3,

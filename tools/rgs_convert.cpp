@@ -496,6 +496,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(uint32_t{1}, uint32_t{1} << 30))
       ->capture_default_str()
       ->needs(app.get_option("--lod-levels"));
+  app.add_option("--memory-limit", opt.convert.memory_limit,
+                 "Most memory the conversion may use (e.g. 4GiB, 512MB; at least 1 byte; default: half the physical "
+                 "memory). The input is read whole: a file whose estimated peak is above the limit is refused before "
+                 "it is read (docs/LOD.md, scenes larger than memory; standard input is not estimated)")
+      ->transform(CLI::AsSizeValue(false))
+      ->check(rgs::tools::whole_number_in(1, std::numeric_limits<uint64_t>::max()));
   app.add_flag("-q,--quiet", opt.quiet,
                "Print nothing on success: no summary, no notes, no progress line (which is drawn on stderr only "
                "when it is a terminal, for conversions over a second)");

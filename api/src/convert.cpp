@@ -11,6 +11,7 @@
 #include <sstream>
 #include <utility>
 
+#include "internal_convert_memory.h"
 #include "internal_rate_control.h"
 #include "internal_rate_knobs.h"
 #include "rgs/config.h"
@@ -653,6 +654,7 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
   RGS_RETURN_IF_ERROR(check_output(dst, output, options));
   ProgressReporter progress(options, output);
   progress.reading();
+  RGS_RETURN_IF_ERROR(detail::check_convert_memory(src, options));
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, scene_read_options(options)));
   // Every file the scene read is an input: `dst` may not be one of them, in any spelling.
   RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));

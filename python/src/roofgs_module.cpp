@@ -705,6 +705,8 @@ api::ConvertOptions convert_options(const py::kwargs& kwargs) {
       }
     } else if (key == "lod_chunk") {
       o.lod_chunk_gaussians = static_cast<uint32_t>(integer_option(value, "lod_chunk", 1, uint64_t{1} << 30));
+    } else if (key == "memory_limit") {
+      o.memory_limit = integer_option(value, "memory_limit", 0, UINT64_MAX);
     } else if (key == "max_gaussians") {
       o.read.max_gaussians = integer_option(value, "max_gaussians", 1, UINT64_MAX);
     } else if (key == "max_decompression_ratio") {
@@ -1549,8 +1551,8 @@ PYBIND11_MODULE(roofgs, m) {
 def convert(src, dst, *, to=None, sh_degree=None, scale_encoding=None, sh_clip_percentile=None, sh_dc_bits=None,
             zstd=None, profile=None, position_error=None, target_psnr=None, target_bytes=None, cameras=None,
             every=None, limit=None, orbit=None, path=None, fly=None, width=None, height=None, zstd_level=None,
-            sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, max_gaussians=None,
-            max_decompression_ratio=None, spz_frame=None, antialiased=False, **unexpected):
+            sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, memory_limit=None,
+            max_gaussians=None, max_decompression_ratio=None, spz_frame=None, antialiased=False, **unexpected):
     _refuse_unexpected("convert", unexpected)
     options = {k: v for k, v in locals().items() if k not in ("src", "dst", "unexpected") and v is not None}
     return _convert(src, dst, **options)
@@ -1570,7 +1572,8 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
          sh_clip_percentile=None, sh_dc_bits=None, zstd=None, profile=None, position_error=None, target_psnr=None,
          target_bytes=None, cameras=None, every=None, limit=None, orbit=None, camera_path=None, fly=None,
          width=None, height=None, zstd_level=None, sanitize=False, allow_empty=False, lod=None, lod_levels=None,
-         lod_chunk=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None, antialiased=False,
+         lod_chunk=None, memory_limit=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None,
+         antialiased=False,
          **unexpected):
     _refuse_unexpected("save", unexpected)
     options = {k: v for k, v in locals().items()
@@ -1593,14 +1596,17 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, rotation_step, scale_bits, "
         "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, "
         "backend, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
-        "render_seconds loading and rendering them)");
+        "render_seconds loading and rendering them). memory_limit: most bytes of memory the conversion may use "
+        "(int; 0 or None: half the physical memory); the input is read whole, so one whose estimated peak is "
+        "above it raises roofgs.Error kLimitExceeded before it is read (api::ConvertOptions::memory_limit)");
   m.attr("save").attr("__doc__") = py::str(
         "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb, .sog or a SOG "
         "folder's meta.json), with convert()'s "
         "keyword options. means [N, 3], quats [N, 4] (w, x, y, z; normalized here), scales [N, 3] linear "
         "(exp of the PLY's log scales), opacities [N] in [0, 1] (sigmoid of the PLY's logits), sh [N, K, 3] "
         "(K = 1, 4, 9, 16; PLY f_dc then f_rest reordered coefficient-major); float32 or convertible. The value "
-        "rules of a file apply (sanitize=True drops what they reject). Returns convert()'s dict");
+        "rules of a file apply (sanitize=True drops what they reject). Returns convert()'s dict. The arrays are "
+        "already in memory: memory_limit is accepted and not checked");
   m.def("_rasterization", &rasterization, py::arg("means"), py::arg("quats"), py::arg("scales"),
         py::arg("opacities"), py::arg("colors"), py::arg("viewmats"), py::arg("Ks"), py::arg("width"),
         py::arg("height"), py::kw_only(), py::arg("near_plane"), py::arg("sh_degree"), py::arg("backgrounds"),

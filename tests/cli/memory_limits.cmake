@@ -158,6 +158,35 @@ rgs_cli_case(memory_max_gaussians
   EXIT 1 REGEX "guitar.rgs: 90854 Gaussians exceed the limit of 1000 \\[kLimitExceeded\\]" REQUIRES guitar_rgs)
 rgs_cli_case(memory_max_gaussians_help CMD "${info}|--help" REGEX "--max-gaussians.*--max-decompression-ratio")
 
+# --memory-limit: an input whose estimated peak is above it is refused before it is read, the output untouched;
+# with room, the level-of-detail file is written and checks; values that are no size are usage errors.
+rgs_cli_case(convert_memory_limit_refused
+  CMD "${convert}|${sample}|${cli_dir}/memory_limit_refused.rgs|--lod-levels|auto|--memory-limit|16MiB" EXIT 1
+  REGEX "guitar.ply: converting it is estimated to need [0-9.]+ MiB of memory, above the memory limit of 16.0 MiB \\(the input is read whole\\). raise it with memory_limit \\(--memory-limit\\) \\[kLimitExceeded\\]"
+  GUARD ${cli_dir}/memory_limit_refused.rgs)
+rgs_cli_case(convert_memory_limit_room
+  CMD "${convert}|-q|${sample}|${cli_dir}/memory_limit_room.rgs|--lod-levels|auto|--memory-limit|1GiB"
+  OUTPUT ${cli_dir}/memory_limit_room.rgs SETUP memory_limit_room)
+rgs_cli_case(convert_memory_limit_room_checks CMD "${info}|--check|${cli_dir}/memory_limit_room.rgs"
+  REGEX "check +ok" REQUIRES memory_limit_room)
+foreach(value IN ITEMS 0 -1 4x 1.5GiB 18446744073709551616)
+  string(MAKE_C_IDENTIFIER "${value}" value_name)
+  rgs_cli_case(convert_memory_limit_bad_${value_name}
+    CMD "${convert}|${sample}|${cli_dir}/memory_limit_bad_${value_name}.rgs|--memory-limit|${value}" EXIT 2
+    REGEX "rgs-convert: error: --memory-limit: " ABSENT ${cli_dir}/memory_limit_bad_${value_name}.rgs)
+endforeach()
+
+# scripts/make_big_scene.py (docs/LOD.md#scenes-larger-than-memory): the sample tiled twice, streaming, converts
+# with levels of detail to twice its Gaussians; without its arguments it prints its usage, exit 2.
+rgs_cli_case(make_big_scene_tiles
+  CMD "${Python3_EXECUTABLE}|${PROJECT_SOURCE_DIR}/scripts/make_big_scene.py|${sample}|${cli_dir}/guitar_x2.ply|2"
+  REGEX "guitar_x2.ply: 181708 Gaussians \\(2 copies of " OUTPUT ${cli_dir}/guitar_x2.ply SETUP guitar_x2)
+rgs_cli_case(make_big_scene_converts
+  CMD "${convert}|${cli_dir}/guitar_x2.ply|${cli_dir}/guitar_x2_lod.rgs|--lod-levels|auto|--memory-limit|1GiB"
+  REGEX "gaussians +181,708 .*levels of detail" OUTPUT ${cli_dir}/guitar_x2_lod.rgs REQUIRES guitar_x2)
+rgs_cli_case(make_big_scene_usage CMD "${Python3_EXECUTABLE}|${PROJECT_SOURCE_DIR}/scripts/make_big_scene.py|${sample}"
+  EXIT 2 REGEX "Usage: scripts/make_big_scene.py SOURCE.ply OUTPUT.ply COPIES")
+
 # Every loading path applies the value rules of SPEC §4.3-4.6: the CPU render and the audit refuse files
 # whose checksums are valid but whose values are not (as rgs-convert and rgs-info --check do above).
 foreach(name IN ITEMS nan_mean zero_rotation negative_linear_scale opacity_above_one)

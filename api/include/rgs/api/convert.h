@@ -203,6 +203,12 @@ struct ConvertOptions {
   /// Most full-detail Gaussians in one chunk of a level-of-detail file: the unit a renderer culls, selects and
   /// streams.
   uint32_t lod_chunk_gaussians = 65536;
+  /// Most bytes of memory the conversion may use; 0: half the machine's physical memory
+  /// (convert_memory_limit). convert() reads its input whole, so an input whose estimated peak
+  /// (estimate_convert_memory) is above the limit is refused with kLimitExceeded before it is read, naming the
+  /// file, the estimate and the limit (docs/LOD.md#scenes-larger-than-memory). convert_bytes, convert_scene and
+  /// convert_cloud take a scene already in memory and do not check it.
+  uint64_t memory_limit = 0;
   /// Name recorded as the provenance's "converter" (with the library version).
   std::string converter_name = "roofgs api";
   /// Where the output file goes; null: written atomically in place (format::atomic_files()). A tool passes
@@ -218,6 +224,17 @@ struct ConvertOptions {
 /// The zstd level convert() codes with: `options.zstd_level`, or when unset kArchiveDefaultZstdLevel for the
 /// archive profile and kDefaultZstdLevel otherwise. Not checked against 1..22 (check_convert_options does that).
 int zstd_level_for(const ConvertOptions& options);
+
+/// The memory limit convert() applies, in bytes: `options.memory_limit`, or when it is 0 half of the machine's
+/// physical memory (0 when the system does not say: no limit).
+uint64_t convert_memory_limit(const ConvertOptions& options);
+
+/// The peak memory in bytes that convert() is estimated to need for the scene at `src`, from the bytes of the
+/// files it reads (converter::list_scene_files, those present) times a factor per input format, plus 64 MiB:
+/// measured peak RSS over input bytes on real scenes converted with levels of detail, rounded up
+/// (docs/LOD.md#scenes-larger-than-memory). Reads only the scene's start and its JSON files.
+/// Errors: those of converter::detect_scene_format and converter::list_scene_files.
+Result<uint64_t> estimate_convert_memory(const std::string& src);
 
 /// What the .rgs quantization cost (.rgs output only).
 struct RgsOutputReport {
@@ -321,7 +338,8 @@ Status check_convert_options(const ConvertOptions& options);
 ///         scene's files, an empty scene without allow_empty; with a target: a non-.rgs output, no views, a PSNR
 ///         target above what the finest archive reaches (the message says what it reaches), a byte budget below
 ///         the coarsest archive (the message says its size), the views' errors prefixed with "<src>: rate
-///         control's views"); kLimitExceeded (a byte target no measured archive fits once coded at the file's
+///         control's views"); kLimitExceeded (an input whose estimated memory is above options.memory_limit,
+///         refused before it is read; a byte target no measured archive fits once coded at the file's
 ///         zstd level, or a written file over it: its provenance larger than the fit allowed for; that file is
 ///         written when options.files is null); the errors of reading `src`, of rendering and of writing `dst`
 ///         (kIoError naming it).

@@ -1,0 +1,87 @@
+// The memory a conversion may use (ConvertOptions::memory_limit) and the estimate of what it needs, checked
+// before the input is read (docs/LOD.md#scenes-larger-than-memory).
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "internal_convert_memory.h"
+#include "rgs/api/convert.h"
+#include "rgs/converter/scene_reader.h"
+
+namespace rgs::api {
+
+namespace {
+
+/// Peak RSS over input bytes, by converter::detect_scene_format's id, rounded up from conversions to a .rgs
+/// with levels of detail (docs/LOD.md#scenes-larger-than-memory): a float PLY needs about its own size,
+/// a .rgs about three times its own, the compact formats seven to ten times theirs.
+struct MemoryFactor {
+  const char* format_id;
+  double peak_per_input_byte;
+};
+constexpr MemoryFactor kMemoryFactors[] = {{"ply", 1.5}, {"rgs", 4.0}};
+/// Every other format: compact encodings (SPZ, SOG, compressed PLY, glTF, .splat).
+constexpr double kCompactPeakPerInputByte = 8.0;
+/// What a conversion holds whatever its input: the program, its libraries and the writer's buffers.
+constexpr uint64_t kBaseBytes = uint64_t{64} << 20;
+
+double peak_per_input_byte(const std::string& format_id) {
+  for (const MemoryFactor& f : kMemoryFactors) {
+    if (format_id == f.format_id) return f.peak_per_input_byte;
+  }
+  return kCompactPeakPerInputByte;
+}
+
+std::string bytes_text(uint64_t bytes) {
+  char text[32];
+  const bool gib = bytes >= (uint64_t{1} << 30);
+  std::snprintf(text, sizeof(text), gib ? "%.2f GiB" : "%.1f MiB",
+                double(bytes) / double(uint64_t{1} << (gib ? 30 : 20)));
+  return text;
+}
+
+}  // namespace
+
+uint64_t convert_memory_limit(const ConvertOptions& options) {
+  if (options.memory_limit != 0) return options.memory_limit;
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  const long page_size = sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || page_size <= 0) return 0;
+  return uint64_t(pages) * uint64_t(page_size) / 2;
+}
+
+Result<uint64_t> estimate_convert_memory(const std::string& src) {
+  RGS_ASSIGN_OR_RETURN(std::string format_id, converter::detect_scene_format(src));
+  RGS_ASSIGN_OR_RETURN(std::vector<std::string> files, converter::list_scene_files(src));
+  uint64_t input_bytes = 0;
+  for (const std::string& file : files) {
+    // A streamed SOG lists the files of every level, and a folder may hold only some: the reader reports those
+    // it needs and cannot find.
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(file, ec);
+    if (!ec) input_bytes += uint64_t(size);
+  }
+  return kBaseBytes + uint64_t(double(input_bytes) * peak_per_input_byte(format_id));
+}
+
+namespace detail {
+
+Status check_convert_memory(const std::string& src, const ConvertOptions& options) {
+  const uint64_t limit = convert_memory_limit(options);
+  if (limit == 0) return Status();
+  RGS_ASSIGN_OR_RETURN(uint64_t estimate, estimate_convert_memory(src));
+  RGS_RETURN_ERROR_IF(estimate > limit, StatusCode::kLimitExceeded,
+                      src + ": converting it is estimated to need " + bytes_text(estimate) +
+                          " of memory, above the memory limit of " + bytes_text(limit) +
+                          " (the input is read whole); raise it with memory_limit (--memory-limit)");
+  return Status();
+}
+
+}  // namespace detail
+
+}  // namespace rgs::api

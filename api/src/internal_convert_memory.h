@@ -1,0 +1,14 @@
+// The memory check convert() runs before it reads its input (convert_memory.cpp).
+#pragma once
+
+#include <string>
+
+#include "rgs/api/convert.h"
+
+namespace rgs::api::detail {
+
+/// kLimitExceeded naming `src`, the estimate and the limit when estimate_convert_memory(src) is above
+/// convert_memory_limit(options); no check when the limit is 0 (unknown physical memory).
+Status check_convert_memory(const std::string& src, const ConvertOptions& options);
+
+}  // namespace rgs::api::detail
