@@ -144,7 +144,8 @@ api::CameraChoice corpus_views() {
 
 }  // namespace
 
-TEST_CASE("degenerate scenes: every profile, target and levels of detail render as the runtime profile, or fail naming the input") {
+TEST_CASE("degenerate scenes: every profile, target and levels of detail render as the runtime profile, or fail naming the input" *
+          doctest::test_suite("slow")) {
   test::TempDir dir;
   for (const Case& c : degenerate_corpus()) {
     CAPTURE(c.name);
