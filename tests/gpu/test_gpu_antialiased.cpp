@@ -1,4 +1,4 @@
-// Anti-aliased scenes on the GPU (docs/DESIGN.md#anti-aliased-scenes): the guitar flagged as trained with
+// Anti-aliased scenes on the GPU (docs/RENDERER.md#anti-aliased-scenes): the guitar flagged as trained with
 // Mip-Splatting's 2D filter, as a .rgs (compact and FP32 views), against the CPU reference of the same flagged
 // scene. The baseline pipeline keeps the suite's bounds (test_gpu_baseline.cpp: max |Δ| ≤ 0.02, PSNR ≥ 70 dB);
 // every preset must be far closer to the flagged reference than the flagged and unflagged references are to

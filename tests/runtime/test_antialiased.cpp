@@ -1,4 +1,4 @@
-// Anti-aliased scenes (docs/DESIGN.md#anti-aliased-scenes): the CPU reference scales each Gaussian's opacity by
+// Anti-aliased scenes (docs/RENDERER.md#anti-aliased-scenes): the CPU reference scales each Gaussian's opacity by
 // Mip-Splatting's compensation sqrt(det Σ₂ / det(Σ₂ + 0.3·I)), checked on single Gaussians against the analytic
 // value, from footprints far below a pixel (factor << 1) to large ones (factor → 1).
 #include <doctest/doctest.h>
