@@ -22,28 +22,31 @@ GaussianProjection::~GaussianProjection() {
   if (publisher_done_ != nullptr) cudaEventDestroy(publisher_done_);
 }
 
-Status GaussianProjection::reserve_baseline(uint32_t n) {
+Status GaussianProjection::reserve_common(uint32_t n) {
   RGS_RETURN_IF_ERROR(depths_.reserve_exact(n, "GpuRenderer: depths"));
   RGS_RETURN_IF_ERROR(means2d_.reserve_exact(size_t(n) * 2, "GpuRenderer: 2D means"));
   RGS_RETURN_IF_ERROR(conic_opacity_.reserve_exact(size_t(n) * 4, "GpuRenderer: conics"));
-  RGS_RETURN_IF_ERROR(radii_.reserve_exact(n, "GpuRenderer: radii"));
+  return radii_.reserve_exact(n, "GpuRenderer: radii");
+}
+
+Status GaussianProjection::reserve_scan(uint32_t n) {
   RGS_RETURN_IF_ERROR(tiles_touched_.reserve_exact(n, "GpuRenderer: tiles touched"));
-  RGS_RETURN_IF_ERROR(offsets_.reserve_exact(n, "GpuRenderer: pair offsets"));
+  return offsets_.reserve_exact(n, "GpuRenderer: pair offsets");
+}
+
+Status GaussianProjection::reserve_baseline(uint32_t n) {
+  RGS_RETURN_IF_ERROR(reserve_common(n));
+  RGS_RETURN_IF_ERROR(reserve_scan(n));
   return rgb_.reserve_exact(size_t(n) * 3, "GpuRenderer: colours");
 }
 
 Status GaussianProjection::reserve_roofgs(uint32_t n, bool fused) {
-  RGS_RETURN_IF_ERROR(depths_.reserve_exact(n, "GpuRenderer: depths"));
-  RGS_RETURN_IF_ERROR(means2d_.reserve_exact(size_t(n) * 2, "GpuRenderer: 2D means"));
-  RGS_RETURN_IF_ERROR(conic_opacity_.reserve_exact(size_t(n) * 4, "GpuRenderer: conics"));
-  RGS_RETURN_IF_ERROR(radii_.reserve_exact(n, "GpuRenderer: radii"));
+  RGS_RETURN_IF_ERROR(reserve_common(n));
   if (fused) {
     RGS_RETURN_IF_ERROR(fused_ticket_.reserve(1, "GpuRenderer: fused ticket"));
     RGS_RETURN_IF_ERROR(fused_status_.reserve(kernels::fused_blocks(n), "GpuRenderer: fused block status"));
   } else {
-    // The scan of the tile counts (the fused kernel allocates its pairs itself).
-    RGS_RETURN_IF_ERROR(tiles_touched_.reserve_exact(n, "GpuRenderer: tiles touched"));
-    RGS_RETURN_IF_ERROR(offsets_.reserve_exact(n, "GpuRenderer: pair offsets"));
+    RGS_RETURN_IF_ERROR(reserve_scan(n));  // the fused kernel allocates its pairs itself
   }
   RGS_RETURN_IF_ERROR(colour_log_opacity_.reserve_exact(size_t(n) * 4, "GpuRenderer: colours and log opacities"));
   RGS_RETURN_IF_ERROR(large_pairs_.reserve(1, "GpuRenderer: large Gaussian pairs"));

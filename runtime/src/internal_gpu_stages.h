@@ -70,6 +70,10 @@ class GaussianProjection {
   uint64_t bytes() const;
 
  private:
+  /// Per-Gaussian arrays both pipelines use: depths, 2D means, conics, radii.
+  Status reserve_common(uint32_t n);
+  /// The tile counts and their scan (the baseline and the separate RoofGS stages).
+  Status reserve_scan(uint32_t n);
   /// Reads the uint64 at `first` and, unless null, the one at `second` from the device (waits for the stream).
   Result<FrameCounts> read_back(const void* first, const void* second, cudaStream_t stream);
 

@@ -42,21 +42,13 @@ foreach(input IN ITEMS ply rgs)
     message(FATAL_ERROR "rgs-render wrote ${count} PPM files in ${WORK_DIR}/render_${input}")
   endif()
   set(render_${input} ${ppm})
+  run(${RENDER} ${file} --backend cpu --preset faithful --orbit 1 --width 160 --height 90 --format ppm
+      -o ${WORK_DIR}/faithful_${input})
   if(SAMPLE)
     run(${SAMPLE} ${file} cpu ${WORK_DIR}/sample_${input}.ppm)
   endif()
 endforeach()
 expect_same(${render_ply} ${render_rgs} "rgs-render of the PLY and of its .rgs")
-
-foreach(input IN ITEMS ply rgs)
-  if(input STREQUAL ply)
-    set(file ${PLY})
-  else()
-    set(file ${rgs})
-  endif()
-  run(${RENDER} ${file} --backend cpu --preset faithful --orbit 1 --width 160 --height 90 --format ppm
-      -o ${WORK_DIR}/faithful_${input})
-endforeach()
 expect_same(${WORK_DIR}/faithful_ply/orbit_000.ppm ${WORK_DIR}/faithful_rgs/orbit_000.ppm
             "rgs-render --preset faithful of the PLY and of its .rgs")
 run(${AUDIT} ${PLY} ${rgs} --label converted --backend cpu --orbit 1 --width 160 --height 90 --no-report --quiet
