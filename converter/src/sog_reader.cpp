@@ -26,6 +26,7 @@
 #include "internal_interop.h"
 #include "internal_json.h"
 #include "internal_parallel.h"
+#include "internal_sog.h"
 #include "internal_webp.h"
 #include "internal_zip.h"
 #include "rgs/converter/playcanvas_readers.h"
@@ -40,12 +41,9 @@ namespace fs = std::filesystem;
 constexpr uint64_t kMaxMetaBytes = uint64_t{64} << 20;
 constexpr uint64_t kMaxImageFileBytes = uint64_t{1} << 30;
 constexpr uint64_t kMaxBundleBytes = uint64_t{4} << 30;
-/// Entries of every v2 codebook (one per 8-bit code).
-constexpr size_t kCodebookSize = 256;
-/// Largest SH palette: labels are 16-bit.
-constexpr uint64_t kMaxPaletteEntries = 65536;
-/// Palette entries per row of the centroids image.
-constexpr uint32_t kPaletteColumns = 64;
+using detail::kCodebookSize;
+using detail::kMaxPaletteEntries;
+using detail::kPaletteColumns;
 /// Gaussians per worker below which a single SOG's expansion stays on one thread.
 constexpr uint64_t kMinGaussiansPerWorker = 65536;
 /// Deepest lod-meta.json tree accepted (guards the traversal against hostile nesting).

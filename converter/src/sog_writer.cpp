@@ -13,6 +13,7 @@
 #include "internal_interop.h"
 #include "internal_kmeans.h"
 #include "internal_parallel.h"
+#include "internal_sog.h"
 #include "internal_webp.h"
 #include "internal_zip.h"
 #include "rgs/converter/ply_writer.h"
@@ -23,11 +24,9 @@ namespace {
 
 using nlohmann::json;
 
-/// Entries of every codebook (8-bit codes).
-constexpr uint32_t kCodebookSize = 256;
-/// Largest SH palette (16-bit labels) and palette entries per row of the centroids image.
-constexpr uint32_t kMaxPaletteEntries = 65536;
-constexpr uint32_t kPaletteColumns = 64;
+using detail::kCodebookSize;
+using detail::kMaxPaletteEntries;
+using detail::kPaletteColumns;
 /// Gaussians per worker of the per-Gaussian passes.
 constexpr uint64_t kMinGaussiansPerWorker = 65536;
 

@@ -23,11 +23,13 @@
 #include "rgs/converter/scene_reader.h"
 #include "rgs/runtime/image_metrics.h"
 #include "temp_dir.h"
+#include "gaussian_subset.h"
 #include "test_data.h"
 
 namespace {
 
 using namespace rgs;
+using test::first_gaussians;
 
 constexpr size_t kCorpusGaussians = 3000;
 /// The views every output is rendered on (and rate control measures on): the default views at this size.
@@ -42,23 +44,6 @@ struct Case {
   std::string name;
   format::GaussianCloud cloud;
 };
-
-/// The first `n` Gaussians of `cloud`; with `copies`, Gaussian 0 repeated n times.
-format::GaussianCloud first_gaussians(const format::GaussianCloud& cloud, size_t n, bool copies = false) {
-  format::GaussianCloud out;
-  out.sh_degree = cloud.sh_degree;
-  out.resize(n);
-  const size_t sh = size_t{cloud.sh_coefficients()} * 3;
-  for (size_t i = 0; i < n; ++i) {
-    const size_t j = copies ? 0 : i;
-    std::copy_n(&cloud.means[j * 3], 3, &out.means[i * 3]);
-    std::copy_n(&cloud.rotations[j * 4], 4, &out.rotations[i * 4]);
-    std::copy_n(&cloud.scales[j * 3], 3, &out.scales[i * 3]);
-    out.opacities[i] = cloud.opacities[j];
-    std::copy_n(&cloud.sh[j * sh], sh, &out.sh[i * sh]);
-  }
-  return out;
-}
 
 /// `base` with `edit` applied to each Gaussian i.
 format::GaussianCloud edited(const format::GaussianCloud& base, const std::function<void(format::GaussianCloud&, size_t)>& edit) {

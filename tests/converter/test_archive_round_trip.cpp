@@ -20,11 +20,13 @@
 #include "rgs/format/half.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/writer.h"
+#include "gaussian_subset.h"
 #include "test_data.h"
 
 namespace {
 
 using namespace rgs;
+using test::first_gaussians;
 
 double half(uint16_t h) { return format::half_bits_to_float(h); }
 
@@ -167,23 +169,6 @@ void check_archive_round_trip(const format::GaussianCloud& cloud, bool check_thr
   std::sort(opacities.begin(), opacities.end());
   const auto used = std::unique(opacities.begin(), opacities.end()) - opacities.begin();
   CHECK(double(used) <= std::ceil(double((1u << o.opacity_bits) - 1) / o.opacity_step) + 1);
-}
-
-/// The first `n` Gaussians of `cloud`; with `copies`, Gaussian 0 repeated n times.
-format::GaussianCloud first_gaussians(const format::GaussianCloud& cloud, size_t n, bool copies = false) {
-  format::GaussianCloud out;
-  out.sh_degree = cloud.sh_degree;
-  out.resize(n);
-  const size_t sh = size_t{cloud.sh_coefficients()} * 3;
-  for (size_t i = 0; i < n; ++i) {
-    const size_t j = copies ? 0 : i;
-    std::copy_n(&cloud.means[j * 3], 3, &out.means[i * 3]);
-    std::copy_n(&cloud.rotations[j * 4], 4, &out.rotations[i * 4]);
-    std::copy_n(&cloud.scales[j * 3], 3, &out.scales[i * 3]);
-    out.opacities[i] = cloud.opacities[j];
-    std::copy_n(&cloud.sh[j * sh], sh, &out.sh[i * sh]);
-  }
-  return out;
 }
 
 }  // namespace
