@@ -1,4 +1,5 @@
-// Level-of-detail builder (format/SPEC.md §4.9): octree chunks, nested grid levels, moment-matched parents.
+// Level-of-detail builder in memory (format/SPEC.md §4.9): octree chunks, nested grid levels, moment-matched
+// parents; the building blocks are internal_lod_chunks.h's.
 //
 // Plan: (1) Morton-sort every mean on a grid over the scene's cube and cut the sorted order into octree
 // leaves (the chunks). (2) Per chunk, in parallel: re-sort its Gaussians by Morton code on a grid over the
@@ -12,11 +13,7 @@
 #include "rgs/converter/lod_builder.h"
 
 #include <algorithm>
-#include <array>
-#include <atomic>
-#include <chrono>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <new>
 #include <string>
@@ -24,569 +21,13 @@
 #include <vector>
 
 #include "internal_huge_pages.h"
+#include "internal_lod_chunks.h"
 #include "internal_parallel.h"
-#include "rgs/format/half.h"
 
 namespace rgs::converter {
 namespace {
 
-/// Levels the automatic choice stops at.
-constexpr uint32_t kAutoMaxLevels = 8;
-/// The auto levels stop once the coarsest level holds at most 1/kAutoRatio of the full detail.
-constexpr uint64_t kAutoRatio = 64;
-/// Morton grids: 21 bits per axis, codes of 63 bits; shift k groups codes by code >> 3k (k = 21: one cell).
-constexpr int kGridBits = 21;
-constexpr int kMaxShift = kGridBits;
-constexpr uint32_t kGridCells = uint32_t{1} << kGridBits;
-constexpr uint64_t kMaxOutputGaussians = 0x7fffffff;
-/// Floor of the parent's eigenvalues (scale 1e-18): keeps log scales finite for flat parents.
-constexpr double kTinyEigenvalue = 1e-36;
-constexpr double kMaxMergeOpacity = 0.999;
-/// Largest finite binary16; log scales are capped like quantize() does (SPEC §4.5).
-constexpr float kLargestHalf = 65504.0f;
-constexpr float kLargestLogScale = 88.6875f;
-constexpr float kLowestHalf = -65504.0f;
-
-// ---------------------------------------------------------------------------------------------------------
-// Morton codes and sorting.
-
-/// The 21 low bits of v spread to every third bit.
-inline uint64_t spread_bits(uint32_t v) {
-  uint64_t x = v & 0x1fffffu;
-  x = (x | x << 32) & 0x1f00000000ffffull;
-  x = (x | x << 16) & 0x1f0000ff0000ffull;
-  x = (x | x << 8) & 0x100f00f00f00f00full;
-  x = (x | x << 4) & 0x10c30c30c30c30c3ull;
-  x = (x | x << 2) & 0x1249249249249249ull;
-  return x;
-}
-
-/// A grid of 2^21 cells per axis over the cube [lo, lo + edge]^3 (edge = the box's largest extent).
-struct MortonGrid {
-  double lo[3] = {0, 0, 0};
-  double edge = 0;
-  double cells_per_unit = 0;  ///< 2^21 / edge, 0 when the box is a point
-
-  MortonGrid(const float box_lo[3], const float box_hi[3]) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = box_lo[a];
-      edge = std::max(edge, static_cast<double>(box_hi[a]) - static_cast<double>(box_lo[a]));
-    }
-    if (edge > 0 && std::isfinite(edge)) cells_per_unit = static_cast<double>(kGridCells) / edge;
-  }
-  uint32_t cell(float v, int a) const {
-    const double t = (static_cast<double>(v) - lo[a]) * cells_per_unit;
-    if (!(t > 0)) return 0;  // NaN too
-    if (t >= static_cast<double>(kGridCells - 1)) return kGridCells - 1;
-    return static_cast<uint32_t>(t);
-  }
-  uint64_t code(const float* mean) const {
-    return spread_bits(cell(mean[0], 0)) << 2 | spread_bits(cell(mean[1], 1)) << 1 | spread_bits(cell(mean[2], 2));
-  }
-};
-
-/// Stable LSD radix sort of (keys, values) by key, 8 bits a pass, skipping passes whose digit is the same for
-/// every key. tmp_keys / tmp_values hold at least n elements.
-void radix_sort(uint64_t* keys, uint32_t* values, size_t n, uint64_t* tmp_keys, uint32_t* tmp_values) {
-  if (n < 2) return;
-  std::vector<std::array<uint32_t, 256>> hist(8);
-  for (auto& h : hist) h.fill(0);
-  for (size_t i = 0; i < n; ++i) {
-    const uint64_t k = keys[i];
-    for (int d = 0; d < 8; ++d) ++hist[static_cast<size_t>(d)][(k >> (8 * d)) & 0xff];
-  }
-  uint64_t* src_k = keys;
-  uint32_t* src_v = values;
-  uint64_t* dst_k = tmp_keys;
-  uint32_t* dst_v = tmp_values;
-  for (int d = 0; d < 8; ++d) {
-    auto& h = hist[static_cast<size_t>(d)];
-    if (h[(src_k[0] >> (8 * d)) & 0xff] == n) continue;  // one digit value: the pass would change nothing
-    uint32_t offset = 0;
-    for (uint32_t& c : h) {
-      const uint32_t count = c;
-      c = offset;
-      offset += count;
-    }
-    for (size_t i = 0; i < n; ++i) {
-      const uint32_t slot = h[(src_k[i] >> (8 * d)) & 0xff]++;
-      dst_k[slot] = src_k[i];
-      dst_v[slot] = src_v[i];
-    }
-    std::swap(src_k, dst_k);
-    std::swap(src_v, dst_v);
-  }
-  if (src_k != keys) {
-    std::memcpy(keys, src_k, n * sizeof(uint64_t));
-    std::memcpy(values, src_v, n * sizeof(uint32_t));
-  }
-}
-
-/// Octree leaves of the Morton-sorted keys [begin, end) of the node at `depth`: nodes holding more than
-/// `max_count` split into their eight children (empty ones dropped); a finest cell still too large is cut
-/// by index into equal pieces. Leaves are appended in Morton order.
-void split_node(const uint64_t* keys, uint64_t begin, uint64_t end, int depth, uint64_t max_count,
-                std::vector<std::pair<uint64_t, uint64_t>>* leaves) {
-  const uint64_t n = end - begin;
-  if (n <= max_count) {
-    leaves->emplace_back(begin, end);
-    return;
-  }
-  if (depth == kGridBits) {
-    const uint64_t pieces = (n + max_count - 1) / max_count;
-    for (uint64_t p = 0; p < pieces; ++p) leaves->emplace_back(begin + n * p / pieces, begin + n * (p + 1) / pieces);
-    return;
-  }
-  const int shift = 3 * (kGridBits - 1 - depth);
-  uint64_t pos = begin;
-  for (uint64_t child = 0; child < 8 && pos < end; ++child) {
-    const uint64_t child_end = static_cast<uint64_t>(
-        std::partition_point(keys + pos, keys + end, [&](uint64_t k) { return ((k >> shift) & 7) <= child; }) -
-        keys);
-    if (child_end > pos) split_node(keys, pos, child_end, depth + 1, max_count, leaves);
-    pos = child_end;
-  }
-}
-
-// ---------------------------------------------------------------------------------------------------------
-// Plans.
-
-/// What the analysis of one chunk decides: its range in the sorted order, its box and each level's grid.
-struct ChunkPlan {
-  uint64_t begin = 0, end = 0;  ///< level-0 Gaussians: sorted positions [begin, end)
-  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  int shift[format::kMaxLodLevels] = {};  ///< grid shift of level l ≥ 1 (cells of 2^shift finest cells)
-  uint64_t count[format::kMaxLodLevels] = {};
-  float error[format::kMaxLodLevels] = {};
-};
-
-/// The float32 at or above v (v ≥ 0 finite).
-float round_up_float(double v) {
-  const volatile float rounded = static_cast<float>(v);  // volatile: see the chunk centres in build()
-  float f = rounded;
-  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
-}
-
-/// Levels 1..levels−1 of a chunk from its sorted local codes: level l uses the finest grid coarser than
-/// level l − 1's with at most a quarter of its count of cells (or one cell).
-void plan_levels(const uint64_t* codes, uint64_t n, double cube_edge, uint32_t levels, ChunkPlan* plan) {
-  // cells[k] = distinct values of code >> 3k = 1 + number of adjacent pairs whose highest differing bit is
-  // at or above 3k.
-  uint64_t above[kMaxShift + 2] = {};
-  for (uint64_t i = 1; i < n; ++i) {
-    const uint64_t x = codes[i - 1] ^ codes[i];
-    if (x != 0) ++above[(63 - __builtin_clzll(x)) / 3];
-  }
-  uint64_t cells[kMaxShift + 1];
-  uint64_t running = 0;
-  for (int k = kMaxShift; k >= 0; --k) {
-    running += above[k];
-    cells[k] = 1 + running;
-  }
-  plan->count[0] = n;
-  plan->error[0] = 0;
-  int prev_shift = -1;
-  for (uint32_t l = 1; l < levels; ++l) {
-    const uint64_t prev = plan->count[l - 1];
-    if (prev == 1) {  // one Gaussian left: repeated as is
-      plan->shift[l] = prev_shift;
-      plan->count[l] = 1;
-      plan->error[l] = plan->error[l - 1];
-      continue;
-    }
-    int k = prev_shift + 1;
-    while (k < kMaxShift && !(cells[k] * 4 <= prev || cells[k] == 1)) ++k;
-    plan->shift[l] = k;
-    plan->count[l] = cells[k];
-    const double diagonal = std::sqrt(3.0) * cube_edge * std::ldexp(1.0, k - kGridBits);
-    plan->error[l] = std::max(plan->error[l - 1], round_up_float(diagonal));
-    prev_shift = k;
-  }
-}
-
-// ---------------------------------------------------------------------------------------------------------
-// Merging.
-
-/// Shapes and tables of the scene the levels are built for.
-struct Layout {
-  uint32_t k_count = 1;
-  uint32_t sh_values = 3;
-  bool log_scale = false;
-  bool dc_residual = false;
-  float sh_scale[48] = {};  ///< s[deg(j / 3)][j % 3] per value j
-};
-
-/// Copies Gaussian `i` of `src` to Gaussian `j` of `dst` bit for bit.
-void copy_gaussian(const format::EncodedScene& src, uint64_t i, format::EncodedScene* dst, uint64_t j,
-                   const Layout& t) {
-  std::memcpy(&dst->means[j * 3], &src.means[i * 3], 3 * sizeof(float));
-  std::memcpy(&dst->rotations[j * 4], &src.rotations[i * 4], 4 * sizeof(uint16_t));
-  std::memcpy(&dst->scales[j * 3], &src.scales[i * 3], 3 * sizeof(uint16_t));
-  dst->opacities[j] = src.opacities[i];
-  std::memcpy(&dst->sh[j * t.sh_values], &src.sh[i * t.sh_values], t.sh_values);
-  if (t.dc_residual) std::memcpy(&dst->sh_dc_residual[j * 3], &src.sh_dc_residual[i * 3], 3);
-}
-
-/// Linear scale of a stored scale, as dequantize_range() decodes it.
-inline float linear_scale(uint16_t bits, bool log_scale) {
-  const float v = format::half_bits_to_float(bits);
-  return log_scale ? std::exp(v) : v;
-}
-
-/// Eigen-decomposition of the symmetric 3×3 `a` by cyclic Jacobi rotations: a = v diag(values) vᵀ, the
-/// eigenvectors the columns of v.
-void jacobi_eigen(double a[3][3], double values[3], double v[3][3]) {
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) v[r][c] = r == c ? 1.0 : 0.0;
-  }
-  for (int sweep = 0; sweep < 50; ++sweep) {
-    const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-    const double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-    if (off == 0 || off <= 1e-36 * diag) break;
-    static constexpr int kPairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
-    for (const auto& pair : kPairs) {
-      const int p = pair[0], q = pair[1];
-      if (a[p][q] == 0) continue;
-      // Rotation zeroing a[p][q] (Numerical Recipes §11.1): t = tan of the angle, the smaller root.
-      const double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
-      const double t = std::fabs(theta) > 1e150
-                           ? 0.5 / theta
-                           : (theta >= 0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1));
-      const double c = 1 / std::sqrt(t * t + 1);
-      const double s = t * c;
-      // a ← Jᵀ a J and v ← v J, J the identity with J[p][p] = J[q][q] = c, J[p][q] = s, J[q][p] = −s.
-      for (int k = 0; k < 3; ++k) {  // columns p, q
-        const double akp = a[k][p], akq = a[k][q];
-        a[k][p] = c * akp - s * akq;
-        a[k][q] = s * akp + c * akq;
-      }
-      for (int k = 0; k < 3; ++k) {  // rows p, q
-        const double apk = a[p][k], aqk = a[q][k];
-        a[p][k] = c * apk - s * aqk;
-        a[q][k] = s * apk + c * aqk;
-      }
-      a[p][q] = a[q][p] = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double vkp = v[k][p], vkq = v[k][q];
-        v[k][p] = c * vkp - s * vkq;
-        v[k][q] = s * vkp + c * vkq;
-      }
-    }
-  }
-  for (int i = 0; i < 3; ++i) values[i] = a[i][i];
-}
-
-/// Unit quaternion (w, x, y, z), w ≥ 0, of the rotation matrix r (r = 3DGS build_rotation(q)).
-void quaternion_of(const double r[3][3], double q[4]) {
-  const double trace = r[0][0] + r[1][1] + r[2][2];
-  if (trace > 0) {
-    const double s = 2 * std::sqrt(trace + 1);
-    q[0] = 0.25 * s;
-    q[1] = (r[2][1] - r[1][2]) / s;
-    q[2] = (r[0][2] - r[2][0]) / s;
-    q[3] = (r[1][0] - r[0][1]) / s;
-  } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
-    const double s = 2 * std::sqrt(1 + r[0][0] - r[1][1] - r[2][2]);
-    q[0] = (r[2][1] - r[1][2]) / s;
-    q[1] = 0.25 * s;
-    q[2] = (r[0][1] + r[1][0]) / s;
-    q[3] = (r[0][2] + r[2][0]) / s;
-  } else if (r[1][1] > r[2][2]) {
-    const double s = 2 * std::sqrt(1 + r[1][1] - r[0][0] - r[2][2]);
-    q[0] = (r[0][2] - r[2][0]) / s;
-    q[1] = (r[0][1] + r[1][0]) / s;
-    q[2] = 0.25 * s;
-    q[3] = (r[1][2] + r[2][1]) / s;
-  } else {
-    const double s = 2 * std::sqrt(1 + r[2][2] - r[0][0] - r[1][1]);
-    q[0] = (r[1][0] - r[0][1]) / s;
-    q[1] = (r[0][2] + r[2][0]) / s;
-    q[2] = (r[1][2] + r[2][1]) / s;
-    q[3] = 0.25 * s;
-  }
-  const double sign = q[0] < 0 ? -1.0 : 1.0;
-  const double inv = sign / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  for (int a = 0; a < 4; ++a) q[a] *= inv;
-}
-
-/// Per child of the cell being merged: its weight, area term and opacity.
-struct ChildTerms {
-  double weight, area, alpha;
-};
-
-/// Per-worker buffers, reused from chunk to chunk.
-struct Scratch {
-  std::vector<uint64_t> tmp_keys;
-  std::vector<uint32_t> tmp_values;
-  std::vector<uint64_t> codes, next_codes;
-  std::vector<ChildTerms> children;
-};
-
-/// The renderer's low-pass in pixels² (cov2D + 0.3, docs/DESIGN.md#conventions): a level's merge sees its
-/// children as drawn where its error is one pixel.
-constexpr double kLowPassPixels2 = 0.3;
-
-/// s1 s2 + s1 s3 + s2 s3 of the scales sqrt(s_a² + dilation2): the area term of a Gaussian as drawn.
-double drawn_area(const double s[3], double dilation2) {
-  double d[3];
-  for (int a = 0; a < 3; ++a) d[a] = std::sqrt(s[a] * s[a] + dilation2);
-  return d[0] * d[1] + d[0] * d[2] + d[1] * d[2];
-}
-
-/// Merges Gaussians [b, e) of `out` into Gaussian `p` of `out` (moment matching; lod_builder.h has the
-/// rule), clamping the mean into [lo, hi]. `dilation2`: the low-pass in world units² (δ² of lod_builder.h).
-void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, const Layout& t, const float lo[3],
-                const float hi[3], double dilation2, std::vector<ChildTerms>* children) {
-  const uint64_t m = e - b;
-  children->resize(m);
-  double total_weight = 0, total_area = 0;
-  for (uint64_t i = 0; i < m; ++i) {
-    const uint64_t g = b + i;
-    double scales[3];
-    for (int a = 0; a < 3; ++a) scales[a] = linear_scale(out->scales[g * 3 + a], t.log_scale);
-    const double area = drawn_area(scales, dilation2);
-    const double alpha = format::half_bits_to_float(out->opacities[g]);
-    (*children)[i] = {alpha * area, area, alpha};
-    total_weight += alpha * area;
-    total_area += area;
-  }
-  if (!(total_weight > 0) || !std::isfinite(total_weight)) {  // no weight anywhere: equal weights
-    for (ChildTerms& c : *children) c.weight = 1;
-    total_weight = static_cast<double>(m);
-  }
-  // Moments about the first child's mean (offsets are cell-sized, so no cancellation against the coordinates).
-  double origin[3];
-  for (int a = 0; a < 3; ++a) origin[a] = out->means[b * 3 + a];
-  double first[3] = {0, 0, 0};
-  double second[6] = {0, 0, 0, 0, 0, 0};  // xx, xy, xz, yy, yz, zz of Σ w (Σ_i + d dᵀ)
-  double sh[48] = {};
-  for (uint64_t i = 0; i < m; ++i) {
-    const uint64_t g = b + i;
-    const double w = (*children)[i].weight;
-    double d[3];
-    for (int a = 0; a < 3; ++a) d[a] = static_cast<double>(out->means[g * 3 + a]) - origin[a];
-    double q[4], n2 = 0;
-    for (int a = 0; a < 4; ++a) {
-      q[a] = format::half_bits_to_float(out->rotations[g * 4 + a]);
-      n2 += q[a] * q[a];
-    }
-    if (n2 > 0) {
-      const double inv = 1 / std::sqrt(n2);
-      for (double& c : q) c *= inv;
-    } else {
-      q[0] = 1, q[1] = q[2] = q[3] = 0;
-    }
-    const double qw = q[0], x = q[1], y = q[2], z = q[3];
-    const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - qw * z), 2 * (x * z + qw * y)},
-                            {2 * (x * y + qw * z), 1 - 2 * (x * x + z * z), 2 * (y * z - qw * x)},
-                            {2 * (x * z - qw * y), 2 * (y * z + qw * x), 1 - 2 * (x * x + y * y)}};
-    double s2[3];
-    for (int a = 0; a < 3; ++a) {
-      const double s = linear_scale(out->scales[g * 3 + a], t.log_scale);
-      s2[a] = s * s;
-    }
-    static constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
-    static constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
-    for (int u = 0; u < 6; ++u) {
-      const int ra = kRow[u], cb = kCol[u];
-      const double cov = r[ra][0] * r[cb][0] * s2[0] + r[ra][1] * r[cb][1] * s2[1] + r[ra][2] * r[cb][2] * s2[2];
-      second[u] += w * (cov + d[ra] * d[cb]);
-    }
-    for (int a = 0; a < 3; ++a) first[a] += w * d[a];
-    // SH decoded as dequantize_range() does: s · q, the DC term s · (q + r / 256) with a residual.
-    const int8_t* codes = &out->sh[g * t.sh_values];
-    float values[48];
-    for (uint32_t j = 0; j < t.sh_values; ++j) values[j] = t.sh_scale[j] * static_cast<float>(codes[j]);
-    if (t.dc_residual) {
-      const int8_t* res = &out->sh_dc_residual[g * 3];
-      for (int c = 0; c < 3; ++c) values[c] = format::sh_dc_value(t.sh_scale[c], codes[c], res[c]);
-    }
-    for (uint32_t j = 0; j < t.sh_values; ++j) sh[j] += w * values[j];
-  }
-  const double inv_w = 1 / total_weight;
-  double mean_offset[3];
-  for (int a = 0; a < 3; ++a) mean_offset[a] = first[a] * inv_w;
-  double cov[3][3];
-  {
-    static constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
-    static constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
-    for (int u = 0; u < 6; ++u) {
-      const int ra = kRow[u], cb = kCol[u];
-      cov[ra][cb] = cov[cb][ra] = second[u] * inv_w - mean_offset[ra] * mean_offset[cb];
-    }
-  }
-  double values[3], vectors[3][3];
-  jacobi_eigen(cov, values, vectors);
-  // Descending eigenvalues; a right-handed frame (det +1) so it is a rotation.
-  int order[3] = {0, 1, 2};
-  std::sort(order, order + 3, [&](int i, int j) { return values[i] > values[j] || (values[i] == values[j] && i < j); });
-  double rot[3][3], scale[3];
-  for (int c = 0; c < 3; ++c) {
-    scale[c] = std::sqrt(std::max(values[order[c]], kTinyEigenvalue));
-    for (int r = 0; r < 3; ++r) rot[r][c] = vectors[r][order[c]];
-  }
-  const double det = rot[0][0] * (rot[1][1] * rot[2][2] - rot[1][2] * rot[2][1]) -
-                     rot[0][1] * (rot[1][0] * rot[2][2] - rot[1][2] * rot[2][0]) +
-                     rot[0][2] * (rot[1][0] * rot[2][1] - rot[1][1] * rot[2][0]);
-  if (det < 0) {
-    for (int r = 0; r < 3; ++r) rot[r][2] = -rot[r][2];
-  }
-  double quat[4];
-  quaternion_of(rot, quat);
-
-  // Opacity: coverage of the children over the parent's area, both as drawn (our rule; lod_builder.h).
-  const double parent_area = drawn_area(scale, dilation2);
-  double log_transmittance = 0;
-  for (const ChildTerms& c : *children) {
-    const double ln_t = std::log1p(-std::min(c.alpha, kMaxMergeOpacity));
-    // Children without area (points) share the parent's area equally.
-    log_transmittance += (total_area > 0 ? c.area / parent_area : 1.0 / static_cast<double>(m)) * ln_t;
-  }
-  const double alpha = std::clamp(-std::expm1(log_transmittance), 0.0, 1.0);
-
-  // Encode into Gaussian p.
-  for (int a = 0; a < 3; ++a) {
-    const float v = static_cast<float>(origin[a] + mean_offset[a]);
-    out->means[p * 3 + a] = std::clamp(v, lo[a], hi[a]);
-  }
-  for (int a = 0; a < 4; ++a) out->rotations[p * 4 + a] = format::float_to_half_bits(static_cast<float>(quat[a]));
-  for (int a = 0; a < 3; ++a) {
-    float v;
-    if (t.log_scale) {
-      v = std::min(static_cast<float>(std::log(scale[a])), kLargestLogScale);
-      v = std::max(v, kLowestHalf);
-    } else {
-      v = static_cast<float>(std::min(scale[a], static_cast<double>(kLargestHalf)));
-    }
-    out->scales[p * 3 + a] = format::float_to_half_bits(v);
-  }
-  out->opacities[p] = format::float_to_half_bits(static_cast<float>(alpha));
-  int8_t* codes = &out->sh[p * t.sh_values];
-  for (uint32_t j = 0; j < t.sh_values; ++j) {
-    const double v = sh[j] * inv_w;
-    const double s = t.sh_scale[j];
-    const double q = s > 0 ? std::clamp(std::round(v / s), -127.0, 127.0) : 0.0;
-    codes[j] = static_cast<int8_t>(q);
-    if (t.dc_residual && j < 3) {
-      // As quantize(): r = round-half-away(256 · (v / s − q)) clamped to [−127, 127]; 0 for a zero scale.
-      const double r = s > 0 ? std::clamp(std::round((v / s - q) * 256.0), -127.0, 127.0) : 0.0;
-      out->sh_dc_residual[p * 3 + j] = static_cast<int8_t>(r);
-    }
-  }
-}
-
-/// Where each record's range starts: first[l·C + c].
-struct Layouts {
-  uint32_t chunks = 0, levels = 0;
-  std::vector<uint64_t> first;
-  uint64_t at(uint32_t level, uint32_t chunk) const { return first[static_cast<size_t>(level) * chunks + chunk]; }
-};
-
-/// What build_chunk() measures over every level of its chunk, in double: the chunk sphere's radius about
-/// its centre (+inf when a Gaussian's extent overflows) and the largest squared distance of a mean from the
-/// scene sphere's centre.
-struct ChunkReach {
-  double radius = 0;
-  double scene_d2 = 0;
-};
-
-/// Builds every level of chunk `c` into `out`.
-ChunkReach build_chunk(const format::EncodedScene& in, const std::vector<uint32_t>& sorted_index,
-                       const std::vector<uint64_t>& sorted_codes, const ChunkPlan& plan, uint32_t c,
-                       const Layouts& ranges, const Layout& t, const double center[3], const double scene_center[3],
-                       Scratch* scratch, format::EncodedScene* out) {
-  const uint64_t n = plan.end - plan.begin;
-  const uint64_t first0 = ranges.at(0, c);
-  for (uint64_t j = 0; j < n; ++j) copy_gaussian(in, sorted_index[plan.begin + j], out, first0 + j, t);
-  std::vector<uint64_t>& codes = scratch->codes;
-  std::vector<uint64_t>& next = scratch->next_codes;
-  codes.assign(sorted_codes.begin() + static_cast<std::ptrdiff_t>(plan.begin),
-               sorted_codes.begin() + static_cast<std::ptrdiff_t>(plan.end));
-  for (uint32_t l = 1; l < ranges.levels; ++l) {
-    const uint64_t prev_first = ranges.at(l - 1, c);
-    const uint64_t prev_count = plan.count[l - 1];
-    const uint64_t level_first = ranges.at(l, c);
-    if (prev_count == 1) {
-      copy_gaussian(*out, prev_first, out, level_first, t);
-      continue;
-    }
-    const int shift = 3 * plan.shift[l];
-    next.clear();
-    uint64_t p = level_first;
-    for (uint64_t g0 = 0; g0 < prev_count;) {
-      const uint64_t cell = codes[g0] >> shift;
-      uint64_t g1 = g0 + 1;
-      while (g1 < prev_count && (codes[g1] >> shift) == cell) ++g1;
-      if (g1 - g0 == 1) {
-        copy_gaussian(*out, prev_first + g0, out, p, t);
-      } else {
-        const double pixel = plan.error[l];  // world size of a pixel where level l is drawn first
-        merge_cell(out, prev_first + g0, prev_first + g1, p, t, plan.lo, plan.hi, kLowPassPixels2 * pixel * pixel,
-                   &scratch->children);
-      }
-      next.push_back(codes[g0]);
-      ++p;
-      g0 = g1;
-    }
-    std::swap(codes, next);
-  }
-  // Sphere radius over every level of the chunk: |mean − centre| + 3 · largest linear scale, in double.
-  ChunkReach reach;
-  double radius = 0;
-  for (uint32_t l = 0; l < ranges.levels; ++l) {
-    const uint64_t f = ranges.at(l, c);
-    for (uint64_t g = f; g < f + plan.count[l]; ++g) {
-      double d2 = 0, scene_d2 = 0;
-      for (int a = 0; a < 3; ++a) {
-        const double m = out->means[g * 3 + a];
-        d2 += (m - center[a]) * (m - center[a]);
-        scene_d2 += (m - scene_center[a]) * (m - scene_center[a]);
-      }
-      reach.scene_d2 = std::max(reach.scene_d2, scene_d2);
-      double largest = 0;
-      for (int a = 0; a < 3; ++a) {
-        const uint16_t bits = out->scales[g * 3 + a];
-        double s = linear_scale(bits, t.log_scale);
-        if (t.log_scale) s = std::max(s, std::exp(static_cast<double>(format::half_bits_to_float(bits))));
-        largest = std::max(largest, s);
-      }
-      radius = std::max(radius, std::sqrt(d2) + 3 * largest);
-    }
-  }
-  reach.radius = std::isfinite(radius) ? radius : std::numeric_limits<double>::infinity();
-  return reach;
-}
-
-/// Calls options.progress with done / total from the calling thread, at most every 10 ms.
-class Progress {
- public:
-  Progress(const std::function<void(double)>& fn, uint64_t total) : fn_(fn), total_(std::max<uint64_t>(total, 1)) {}
-  void add(uint64_t work) { done_.fetch_add(work, std::memory_order_relaxed); }
-  /// From the calling thread only.
-  void report() {
-    if (!fn_) return;
-    const auto now = std::chrono::steady_clock::now();
-    if (reported_ && now - last_ < std::chrono::milliseconds(10)) return;
-    const double f = std::min(1.0, static_cast<double>(done_.load(std::memory_order_relaxed)) / static_cast<double>(total_));
-    if (reported_ && f <= last_fraction_) return;
-    reported_ = true;
-    last_ = now;
-    last_fraction_ = f;
-    fn_(f);
-  }
-  void finish() {
-    if (fn_) fn_(1.0);
-  }
-
- private:
-  const std::function<void(double)>& fn_;
-  uint64_t total_;
-  std::atomic<uint64_t> done_{0};
-  bool reported_ = false;
-  double last_fraction_ = 0;
-  std::chrono::steady_clock::time_point last_;
-};
+using namespace detail;
 
 Status check_inputs(const format::EncodedScene& scene, const LodBuildOptions& options) {
   RGS_RETURN_ERROR_IF(!scene.is_consistent(), StatusCode::kInvalidArgument,
@@ -605,15 +46,6 @@ Status check_inputs(const format::EncodedScene& scene, const LodBuildOptions& op
                       "build_lod: unknown scale encoding " + std::to_string(static_cast<int>(encoding)));
   return Status();
 }
-
-/// Scene-wide Morton order: the input's box, its Gaussians sorted by Morton code over that box's cube, and the
-/// octree leaves ([begin, end) into `index`) that become the chunks.
-struct MortonOrder {
-  float box_lo[3], box_hi[3];
-  std::vector<uint64_t> keys;
-  std::vector<uint32_t> index;
-  std::vector<std::pair<uint64_t, uint64_t>> leaves;
-};
 
 /// Step 1, the chunks: Morton sort over the scene's cube, octree leaves of at most max_chunk_gaussians.
 Result<MortonOrder> sort_into_chunks(const format::EncodedScene& in, uint64_t max_chunk_gaussians, unsigned workers) {
@@ -648,54 +80,12 @@ Result<MortonOrder> sort_into_chunks(const format::EncodedScene& in, uint64_t ma
   return order;
 }
 
-/// Step 2, per chunk: its box, its Gaussians sorted by local Morton code, each level's grid.
-Result<std::vector<ChunkPlan>> plan_chunks(const format::EncodedScene& in, uint32_t planned_levels, unsigned workers,
-                                           MortonOrder* order, std::vector<Scratch>* scratch, Progress* progress) {
-  const auto chunk_count = static_cast<uint32_t>(order->leaves.size());
-  std::vector<ChunkPlan> plans(chunk_count);
-  std::vector<uint64_t>& keys = order->keys;
-  std::vector<uint32_t>& index = order->index;
-  RGS_RETURN_IF_ERROR(detail::parallel_items(chunk_count, workers, [&](unsigned worker, uint64_t c) {
-    ChunkPlan& plan = plans[c];
-    plan.begin = order->leaves[c].first;
-    plan.end = order->leaves[c].second;
-    const uint64_t n = plan.end - plan.begin;
-    for (int a = 0; a < 3; ++a) plan.lo[a] = plan.hi[a] = in.means[static_cast<uint64_t>(index[plan.begin]) * 3 + a];
-    for (uint64_t j = plan.begin; j < plan.end; ++j) {
-      const float* mean = &in.means[static_cast<uint64_t>(index[j]) * 3];
-      for (int a = 0; a < 3; ++a) {
-        plan.lo[a] = std::min(plan.lo[a], mean[a]);
-        plan.hi[a] = std::max(plan.hi[a], mean[a]);
-      }
-    }
-    const MortonGrid grid(plan.lo, plan.hi);
-    for (uint64_t j = plan.begin; j < plan.end; ++j) keys[j] = grid.code(&in.means[static_cast<uint64_t>(index[j]) * 3]);
-    Scratch& s = (*scratch)[worker];
-    if (s.tmp_keys.size() < n) {
-      s.tmp_keys.resize(n);
-      s.tmp_values.resize(n);
-    }
-    radix_sort(&keys[plan.begin], &index[plan.begin], n, s.tmp_keys.data(), s.tmp_values.data());
-    plan_levels(&keys[plan.begin], n, grid.edge, planned_levels, &plan);
-    progress->add(n / 2);
-    if (worker == 0) progress->report();
-  }));
-  return plans;
-}
-
-/// Step 3, the number of levels: `options.levels`, or with 0 (auto) the first level holding at most 1/64 of
-/// the full detail, or where every chunk is down to one Gaussian (further levels would repeat it).
-uint32_t choose_level_count(const std::vector<ChunkPlan>& plans, uint32_t planned_levels,
-                            const LodBuildOptions& options, uint64_t n0, uint64_t totals[format::kMaxLodLevels]) {
-  for (const ChunkPlan& p : plans) {
-    for (uint32_t l = 0; l < planned_levels; ++l) totals[l] += p.count[l];
-  }
-  if (options.levels != 0) return planned_levels;
-  for (uint32_t l = 0; l < kAutoMaxLevels; ++l) {
-    if (totals[l] * kAutoRatio <= n0 || totals[l] == plans.size()) return l + 1;
-  }
-  return planned_levels;
-}
+/// Where each record's range starts: first[l·C + c].
+struct Layouts {
+  uint32_t chunks = 0, levels = 0;
+  std::vector<uint64_t> first;
+  uint64_t at(uint32_t level, uint32_t chunk) const { return first[static_cast<size_t>(level) * chunks + chunk]; }
+};
 
 /// Step 3, the output's first index of each (level, chunk) range: levels coarse after fine, chunks in order.
 Layouts lay_out_ranges(const std::vector<ChunkPlan>& plans, uint32_t levels) {
@@ -712,19 +102,6 @@ Layouts lay_out_ranges(const std::vector<ChunkPlan>& plans, uint32_t levels) {
     }
   }
   return ranges;
-}
-
-/// The input's attribute layout that the merge needs: SH sizes and scales, scale and DC-residual encodings.
-Layout describe_layout(const format::EncodedScene& in) {
-  Layout t;
-  t.k_count = format::sh_coefficient_count(in.metadata.sh_degree);
-  t.sh_values = t.k_count * 3;
-  t.log_scale = in.metadata.scale_encoding == format::ScaleEncoding::kLog;
-  t.dc_residual = !in.sh_dc_residual.empty();
-  for (uint32_t j = 0; j < t.sh_values; ++j) {
-    t.sh_scale[j] = in.metadata.sh_quantization.scales[format::sh_degree_of_coefficient(j / 3)][j % 3];
-  }
-  return t;
 }
 
 /// Step 3, the output scene's metadata and arrays of `total` Gaussians, and an LOD index of the given shape.
@@ -756,12 +133,8 @@ Status fill_lod_index(const std::vector<ChunkPlan>& plans, const std::vector<Chu
   format::LodIndex& lod = result->index;
   double scene_d2 = 0;
   for (uint32_t c = 0; c < lod.chunk_count; ++c) {
-    scene_d2 = std::max(scene_d2, reaches[c].scene_d2);
-    const float radius = round_up_float(reaches[c].radius * (1 + 1e-6));
-    RGS_RETURN_ERROR_IF(!std::isfinite(radius), StatusCode::kInvalidArgument,
-                        "build_lod: chunk " + std::to_string(c) +
-                            " holds a Gaussian whose 3-sigma extent overflows float32");
-    lod.chunks[c].radius = radius;
+    scene_d2 = std::max(scene_d2, reaches[c].scene_d2_over(lod.level_count));
+    RGS_ASSIGN_OR_RETURN(lod.chunks[c].radius, chunk_radius(reaches[c], lod.level_count, c));
     for (uint32_t l = 0; l < lod.level_count; ++l) {
       format::LodLevel& level = lod.at(l, c);
       level.first = ranges.at(l, c);
@@ -818,15 +191,11 @@ Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& op
     const ChunkPlan& plan = plans[c];
     format::LodChunk& chunk = result.index.chunks[c];
     double center[3];
-    for (int a = 0; a < 3; ++a) {
-      chunk.center[a] = static_cast<float>(0.5 * (static_cast<double>(plan.lo[a]) + static_cast<double>(plan.hi[a])));
-      // Read back through a volatile, as set_sphere_center() does: GCC 12 at -O3 otherwise forwards the
-      // unrounded double, and the radius would be measured from a centre that is not the stored one.
-      const volatile float stored = chunk.center[a];
-      center[a] = stored;
-    }
-    reaches[c] = build_chunk(in, order.index, order.keys, plan, static_cast<uint32_t>(c), ranges, t, center,
-                             scene_center, &scratch[worker], &result.scene);
+    chunk_center(plan, chunk.center, center);
+    uint64_t first[format::kMaxLodLevels];
+    for (uint32_t l = 0; l < levels; ++l) first[l] = ranges.at(l, static_cast<uint32_t>(c));
+    reaches[c] = build_chunk(in, order.index.data(), order.keys.data(), plan, first, levels, t, center, scene_center,
+                             &scratch[worker], &result.scene);
     progress.add(2 * (plan.end - plan.begin));
     if (worker == 0) progress.report();
   }));
