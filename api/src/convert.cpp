@@ -104,6 +104,8 @@ Result<format::WriteOptions> write_options(const ConvertOptions& options) {
 
 }  // namespace
 
+Result<format::WriteOptions> detail::rgs_write_options(const ConvertOptions& options) { return write_options(options); }
+
 int zstd_level_for(const ConvertOptions& options) {
   const bool archive = options.profile == format::StorageProfile::kArchive;
   return options.zstd_level.value_or(archive ? kArchiveDefaultZstdLevel : kDefaultZstdLevel);
@@ -342,6 +344,24 @@ std::string options_text(const ConvertOptions& options) {
   return text.str();
 }
 
+}  // namespace
+
+format::Provenance detail::rgs_provenance(const std::string& src_name, const ConvertOptions& options,
+                                          uint64_t file_bytes, uint64_t file_xxh64, const std::string& storage,
+                                          uint64_t dropped_gaussians) {
+  return {
+      {"source_file", std::filesystem::path(src_name).filename().string()},
+      {"source_bytes", std::to_string(file_bytes)},
+      {"source_xxh64", hex64(file_xxh64)},
+      {"source_storage", storage},
+      {"converter", options.converter_name + " " + RGS_VERSION_STRING},
+      {"options", options_text(options)},
+      {"dropped_gaussians", std::to_string(dropped_gaussians)},
+  };
+}
+
+namespace {
+
 Status write_rgs(const std::string& src_name, const std::string& dst, const ConvertOptions& options,
                  converter::InputScene* input, ConvertReport* report, ProgressReporter& progress) {
   RGS_ASSIGN_OR_RETURN(format::WriteOptions write, write_options(options));
@@ -361,15 +381,8 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
   // Not read again by the runtime profile: freed before the writer's buffers exist (peak RSS). The archive
   // profile measures its errors against it.
   if (!archive) input->cloud = {};
-  encoded->provenance = {
-      {"source_file", std::filesystem::path(src_name).filename().string()},
-      {"source_bytes", std::to_string(input->file_bytes)},
-      {"source_xxh64", hex64(input->file_xxh64.value_or(0))},
-      {"source_storage", input->storage_format},
-      {"converter", options.converter_name + " " + RGS_VERSION_STRING},
-      {"options", options_text(options)},
-      {"dropped_gaussians", std::to_string(input->hygiene.dropped_gaussians)},
-  };
+  encoded->provenance = detail::rgs_provenance(src_name, options, input->file_bytes, input->file_xxh64.value_or(0),
+                                               input->storage_format, input->hygiene.dropped_gaussians);
   std::optional<converter::LodScene> lod;
   if (options.lod_levels) {
     progress.building_lod();
@@ -654,6 +667,8 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
   RGS_RETURN_IF_ERROR(check_output(dst, output, options));
   ProgressReporter progress(options, output);
   progress.reading();
+  RGS_ASSIGN_OR_RETURN(const bool out_of_core, detail::converts_out_of_core(src, output, options));
+  if (out_of_core) return detail::convert_out_of_core(src, dst, options);
   RGS_RETURN_IF_ERROR(detail::check_convert_memory(src, options));
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, scene_read_options(options)));
   // Every file the scene read is an input: `dst` may not be one of them, in any spelling.

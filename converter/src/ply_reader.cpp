@@ -682,7 +682,18 @@ Status decode_ascii(ByteSource* source, const PlyHeader& header, const PlyElemen
 // ---------------------------------------------------------------------------------------------------
 // The whole read.
 
-Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& options) {
+/// A PLY's header and where its vertices are: what every way of reading the vertex data starts from.
+struct PlyBody {
+  PlyHeader header;
+  size_t vertex_element = 0;  ///< index of the vertex element in header.elements
+  VertexLayout layout;
+  uint64_t n = 0;  ///< vertices
+  bool swap = false;  ///< binary data in the other byte order than the host's
+  const PlyElement& vertex() const { return header.elements[vertex_element]; }
+};
+
+/// Reads and checks the header of `source` and locates the vertex data (read_ply's header errors).
+Result<PlyBody> read_body(ByteSource* source, const PlyReadOptions& options) {
   const uint64_t file_size = source->size();
   // Header: look for end_header in the first bytes, growing the window up to kMaxPlyHeaderBytes.
   size_t window = static_cast<size_t>(std::min<uint64_t>(file_size, 64 * 1024));
@@ -705,7 +716,8 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
     return Status(StatusCode::kCorruptData, "PLY header has no 'end_header' line in its first " +
                                                 std::to_string(detail::kMaxPlyHeaderBytes) + " bytes");
   }
-  PlyHeader header;
+  PlyBody body;
+  PlyHeader& header = body.header;
   RGS_RETURN_IF_ERROR(detail::parse_ply_header(head, header_end, &header));
 
   // Elements before the vertex element are allowed only when empty (they would shift its data).
@@ -729,7 +741,8 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
     }
   }
 
-  VertexLayout layout;
+  body.vertex_element = static_cast<size_t>(vertex - header.elements.data());
+  VertexLayout& layout = body.layout;
   RGS_RETURN_IF_ERROR(resolve_layout(*vertex, header.storage, &layout));
 
   const uint64_t n = vertex->count;
@@ -756,6 +769,18 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
             (n <= UINT64_MAX / layout.stride ? std::to_string(n * layout.stride) : std::string("more than 2^64")) +
             " (truncated file?)");
   }
+  body.n = n;
+  body.swap = (header.storage == PlyStorage::kBinaryBigEndian) == kHostLittleEndian;
+  return body;
+}
+
+Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& options) {
+  const uint64_t file_size = source->size();
+  RGS_ASSIGN_OR_RETURN(PlyBody body, read_body(source, options));
+  const PlyHeader& header = body.header;
+  const PlyElement* vertex = &body.vertex();
+  const VertexLayout& layout = body.layout;
+  const uint64_t n = body.n;
 
   PlyScene scene;
   scene.file_bytes = file_size;
@@ -777,7 +802,7 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
     // Ascii files are tokenized through a sliding window; hash them in a second, sequential pass.
     if (hash_state) RGS_RETURN_IF_ERROR(hash_range(source, 0, file_size, hash_state.get()));
   } else {
-    const bool swap = (header.storage == PlyStorage::kBinaryBigEndian) == kHostLittleEndian;
+    const bool swap = body.swap;
     if (hash_state) RGS_RETURN_IF_ERROR(hash_range(source, 0, header.data_offset, hash_state.get()));
     OrderedHasher hasher(hash_state.get());
     // The memory source hashes its vertex bytes in one call below instead of chunk by chunk.
@@ -814,6 +839,98 @@ Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::str
     if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
     MemorySource source(data, size);
     return read_from_source(&source, options);
+  });
+}
+
+struct PlyStream::State {
+  std::string path;
+  PlyReadOptions options;
+  FileSource source;
+  PlyBody body;
+  uint64_t next = 0;  ///< next vertex of this pass
+  HygieneCounts pass_counts;  ///< hygiene of this pass (invalid indices not kept)
+  std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> hash{nullptr, XXH64_freeState};
+  bool hashing = false;  ///< the first pass, hashing the file as it goes
+  std::optional<uint64_t> file_xxh64;
+};
+
+Result<std::unique_ptr<PlyStream>> PlyStream::open(const std::string& path, const PlyReadOptions& options) {
+  return detail::guarded<std::unique_ptr<PlyStream>>(path, "opening the PLY", [&]() -> Result<std::unique_ptr<PlyStream>> {
+    auto state = std::make_unique<State>();
+    state->path = path;
+    state->options = options;
+    RGS_RETURN_IF_ERROR(state->source.open(path));
+    RGS_ASSIGN_OR_RETURN(state->body, read_body(&state->source, options));
+    RGS_RETURN_ERROR_IF(state->body.header.storage == PlyStorage::kAscii, StatusCode::kUnsupportedFeature,
+                        "an ascii PLY is read whole, not in batches; convert it to binary first "
+                        "(rgs-convert in.ply binary.ply)");
+    if (options.hash_file) {
+      state->hash.reset(XXH64_createState());
+      if (!state->hash) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
+      XXH64_reset(state->hash.get(), 0);
+      RGS_RETURN_IF_ERROR(hash_range(&state->source, 0, state->body.header.data_offset, state->hash.get()));
+      state->hashing = true;
+    }
+    std::unique_ptr<PlyStream> stream(new PlyStream());
+    stream->state_ = std::move(state);
+    return stream;
+  });
+}
+
+PlyStream::~PlyStream() = default;
+
+uint64_t PlyStream::vertex_count() const { return state_->body.n; }
+uint32_t PlyStream::sh_degree() const { return state_->body.layout.sh_degree; }
+uint64_t PlyStream::file_bytes() const { return state_->source.size(); }
+std::string PlyStream::storage_format() const { return detail::ply_storage_name(state_->body.header.storage); }
+const InputHygiene& PlyStream::hygiene() const { return state_->pass_counts; }
+std::optional<uint64_t> PlyStream::file_xxh64() const { return state_->file_xxh64; }
+
+void PlyStream::rewind() {
+  state_->next = 0;
+  state_->pass_counts = HygieneCounts();
+  state_->hashing = false;  // the first pass hashed the file, or stopped early and left the hash unfinished
+}
+
+Result<uint64_t> PlyStream::read(uint64_t max, format::GaussianCloud* batch) {
+  State& st = *state_;
+  return detail::guarded<uint64_t>(st.path, "decoding the PLY", [&]() -> Result<uint64_t> {
+    const uint64_t first = st.next;
+    const uint64_t rows = std::min(max, st.body.n - first);
+    batch->sh_degree = st.body.layout.sh_degree;
+    detail::resize_cloud_huge(batch, static_cast<size_t>(rows));
+    if (rows == 0) return uint64_t{0};
+    const uint64_t stride = st.body.layout.stride;
+    const uint64_t data_offset = st.body.header.data_offset;
+    OrderedHasher hasher(st.hash.get());
+    HygieneCounts counts;
+    RGS_RETURN_IF_ERROR(decode_binary(st.source, data_offset + first * stride, rows, st.body.layout, st.body.swap,
+                                      st.hashing ? &hasher : nullptr, batch, &counts));
+    st.next = first + rows;
+    HygieneCounts& pass = st.pass_counts;
+    pass.nonfinite_values += counts.nonfinite_values;
+    pass.gaussians_with_nonfinite += counts.gaussians_with_nonfinite;
+    pass.zero_norm_quaternions += counts.zero_norm_quaternions;
+    pass.infinite_opacity_logits += counts.infinite_opacity_logits;
+    if (!counts.invalid.empty()) {
+      if (pass.first_invalid_index < 0) pass.first_invalid_index = static_cast<int64_t>(first + counts.invalid.front());
+      if (st.options.invalid_policy == InvalidPolicy::kReject) {
+        return Status(StatusCode::kCorruptData,
+                      "vertex " + std::to_string(pass.first_invalid_index) +
+                          " has non-finite values or a zero-norm quaternion (" +
+                          std::to_string(pass.gaussians_with_nonfinite + pass.zero_norm_quaternions) +
+                          " such Gaussians in the first " + std::to_string(st.next) +
+                          " vertices); rerun with --sanitize to drop them");
+      }
+      batch->remove_gaussians(counts.invalid);
+      pass.dropped_gaussians += counts.invalid.size();
+    }
+    if (st.hashing && st.next == st.body.n) {
+      RGS_RETURN_IF_ERROR(hash_range(&st.source, data_offset + st.body.n * stride, st.source.size(), st.hash.get()));
+      st.file_xxh64 = static_cast<uint64_t>(XXH64_digest(st.hash.get()));
+      st.hashing = false;
+    }
+    return rows;
   });
 }
 

@@ -156,10 +156,10 @@ Status check_quantize_inputs(const format::GaussianCloud& cloud, const QuantizeO
   return Status();
 }
 
-/// Pass 1: validates every Gaussian (the first bad one of the first slice that has one is reported) and finds
-/// max |SH| per (degree, channel) into `max_abs`.
+/// Pass 1: validates every Gaussian (the first bad one of the first slice that has one is reported, named as
+/// Gaussian first + its index) and finds max |SH| per (degree, channel) into `max_abs`.
 Status scan_cloud(const format::GaussianCloud& cloud, const QuantizeOptions& options, unsigned workers,
-                  float max_abs[4][3]) {
+                  float max_abs[4][3], uint64_t first = 0) {
   std::vector<ScanResult> scans(workers);
   RGS_RETURN_IF_ERROR(detail::parallel_slices(cloud.size(), workers, [&](unsigned t, uint64_t b, uint64_t e) {
     scan_slice(cloud, options, b, e, &scans[t]);
@@ -167,7 +167,7 @@ Status scan_cloud(const format::GaussianCloud& cloud, const QuantizeOptions& opt
   for (const ScanResult& s : scans) {
     if (s.bad_index != std::numeric_limits<uint64_t>::max()) {
       return Status(StatusCode::kInvalidArgument,
-                    "cannot quantize Gaussian " + std::to_string(s.bad_index) + ": " + s.why);
+                    "cannot quantize Gaussian " + std::to_string(first + s.bad_index) + ": " + s.why);
     }
     for (int d = 0; d < 4; ++d) {
       for (int c = 0; c < 3; ++c) max_abs[d][c] = std::max(max_abs[d][c], s.max_abs[d][c]);
@@ -398,64 +398,113 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   return b;
 }
 
+namespace {
+
+/// Encodes `cloud` (checked by scan_cloud) with the SH scales `shq`; metadata as quantize() fills it.
+Result<format::EncodedScene> encode_cloud(const format::GaussianCloud& cloud, const QuantizeOptions& options,
+                                          const format::ShQuantization& shq, QuantizationReport* report,
+                                          AttributeErrors* errors) {
+  const uint64_t n = cloud.size();
+  const uint32_t degree = cloud.sh_degree;
+  const uint32_t k_count = cloud.sh_coefficients();
+  const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
+  format::EncodedScene out;
+  out.count = n;
+  out.metadata.sh_degree = degree;
+  out.metadata.scale_encoding = options.scale_encoding;
+  out.metadata.sh_quantization = shq;
+  out.metadata.antialiased = cloud.antialiased;
+  out.metadata.bounds = compute_bounds(cloud);
+  if (!std::isfinite(out.metadata.bounds.sphere_radius)) {
+    // Finite means can still span more than float32 holds: e.g. ±3e38 on each axis is 1e39 across.
+    const format::SceneBounds& b = out.metadata.bounds;
+    char span[160];
+    std::snprintf(span, sizeof span, "(%g, %g, %g)..(%g, %g, %g)", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
+                  b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
+    return Status(StatusCode::kInvalidArgument,
+                  std::string("the means span ") + span +
+                      ": the radius of their bounding sphere exceeds the float32 range (SPEC §4.1.1)");
+  }
+  std::string why;
+  if (!format::is_valid_quantization(shq, degree, &why)) {
+    return Status(StatusCode::kInvalidArgument, "computed SH quantization is invalid: " + why);
+  }
+  detail::resize_huge(out.means, cloud.means.size());
+  if (!cloud.means.empty()) std::memcpy(out.means.data(), cloud.means.data(), cloud.means.size() * sizeof(float));
+  detail::resize_huge(out.rotations, n * 4);
+  detail::resize_huge(out.scales, n * 3);
+  detail::resize_huge(out.opacities, n);
+  detail::resize_huge(out.sh, n * k_count * 3);
+  const bool dc_residual = options.sh_dc_bits == 16;
+  if (dc_residual) detail::resize_huge(out.sh_dc_residual, n * 3);
+
+  // Pass 2: encode, in chunks of kErrorChunkGaussians taken by the workers in turn. Per chunk: clip and
+  // FP16 counts (integers) and, when asked, the error accumulators of the dequantized values (merged in
+  // chunk order below), so nothing depends on which worker ran a chunk.
+  const EncodeTables tables(shq, k_count, options.scale_encoding == format::ScaleEncoding::kLog, dc_residual,
+                            errors != nullptr);
+  const uint64_t chunks = (n + detail::kErrorChunkGaussians - 1) / detail::kErrorChunkGaussians;
+  std::vector<ChunkResult> chunk_results(static_cast<size_t>(chunks));
+  RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned, uint64_t chunk) {
+    const uint64_t b = chunk * detail::kErrorChunkGaussians;
+    encode_chunk(cloud, tables, b, std::min(n, b + detail::kErrorChunkGaussians), &out, &chunk_results[chunk]);
+  }));
+  merge_chunks(chunk_results, tables.sh_values, report, errors);
+  return out;
+}
+
+Status out_of_memory(const format::GaussianCloud& cloud) {
+  return Status(StatusCode::kOutOfMemory, "out of memory quantizing " + std::to_string(cloud.size()) + " Gaussians");
+}
+
+}  // namespace
+
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
                                       QuantizationReport* report, AttributeErrors* errors) {
   RGS_RETURN_IF_ERROR(check_quantize_inputs(cloud, options));
   try {
-    const uint64_t n = cloud.size();
-    const uint32_t degree = cloud.sh_degree;
-    const uint32_t k_count = cloud.sh_coefficients();
-    const unsigned workers = detail::worker_count(n, kMinGaussiansPerWorker);
     float max_abs[4][3] = {};
-    RGS_RETURN_IF_ERROR(scan_cloud(cloud, options, workers, max_abs));
-    const format::ShQuantization shq = sh_quantization(cloud, options.sh_clip_percentile, max_abs);
-
-    format::EncodedScene out;
-    out.count = n;
-    out.metadata.sh_degree = degree;
-    out.metadata.scale_encoding = options.scale_encoding;
-    out.metadata.sh_quantization = shq;
-    out.metadata.antialiased = cloud.antialiased;
-    out.metadata.bounds = compute_bounds(cloud);
-    if (!std::isfinite(out.metadata.bounds.sphere_radius)) {
-      // Finite means can still span more than float32 holds: e.g. ±3e38 on each axis is 1e39 across.
-      const format::SceneBounds& b = out.metadata.bounds;
-      char span[160];
-      std::snprintf(span, sizeof span, "(%g, %g, %g)..(%g, %g, %g)", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
-                    b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
-      return Status(StatusCode::kInvalidArgument,
-                    std::string("the means span ") + span +
-                        ": the radius of their bounding sphere exceeds the float32 range (SPEC §4.1.1)");
-    }
-    std::string why;
-    if (!format::is_valid_quantization(shq, degree, &why)) {
-      return Status(StatusCode::kInvalidArgument, "computed SH quantization is invalid: " + why);
-    }
-    detail::resize_huge(out.means, cloud.means.size());
-    if (!cloud.means.empty()) std::memcpy(out.means.data(), cloud.means.data(), cloud.means.size() * sizeof(float));
-    detail::resize_huge(out.rotations, n * 4);
-    detail::resize_huge(out.scales, n * 3);
-    detail::resize_huge(out.opacities, n);
-    detail::resize_huge(out.sh, n * k_count * 3);
-    const bool dc_residual = options.sh_dc_bits == 16;
-    if (dc_residual) detail::resize_huge(out.sh_dc_residual, n * 3);
-
-    // Pass 2: encode, in chunks of kErrorChunkGaussians taken by the workers in turn. Per chunk: clip and
-    // FP16 counts (integers) and, when asked, the error accumulators of the dequantized values (merged in
-    // chunk order below), so nothing depends on which worker ran a chunk.
-    const EncodeTables tables(shq, k_count, options.scale_encoding == format::ScaleEncoding::kLog, dc_residual,
-                              errors != nullptr);
-    const uint64_t chunks = (n + detail::kErrorChunkGaussians - 1) / detail::kErrorChunkGaussians;
-    std::vector<ChunkResult> chunk_results(static_cast<size_t>(chunks));
-    RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned, uint64_t chunk) {
-      const uint64_t b = chunk * detail::kErrorChunkGaussians;
-      encode_chunk(cloud, tables, b, std::min(n, b + detail::kErrorChunkGaussians), &out, &chunk_results[chunk]);
-    }));
-    merge_chunks(chunk_results, tables.sh_values, report, errors);
-    return out;
+    RGS_RETURN_IF_ERROR(scan_cloud(cloud, options, detail::worker_count(cloud.size(), kMinGaussiansPerWorker), max_abs));
+    return encode_cloud(cloud, options, sh_quantization(cloud, options.sh_clip_percentile, max_abs), report, errors);
   } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  "out of memory quantizing " + std::to_string(cloud.size()) + " Gaussians");
+    return out_of_memory(cloud);
+  }
+}
+
+QuantizeScan::QuantizeScan(const QuantizeOptions& options) : options_(options) {}
+
+Status QuantizeScan::add(const format::GaussianCloud& batch, uint64_t first) {
+  RGS_RETURN_IF_ERROR(check_quantize_inputs(batch, options_));
+  RGS_RETURN_ERROR_IF(options_.sh_clip_percentile != 100.0f, StatusCode::kInvalidArgument,
+                      "an SH clip percentile needs every coefficient at once; a scene read in batches takes the "
+                      "max rule (percentile 100)");
+  float max_abs[4][3] = {};
+  try {
+    RGS_RETURN_IF_ERROR(
+        scan_cloud(batch, options_, detail::worker_count(batch.size(), kMinGaussiansPerWorker), max_abs, first));
+  } catch (const std::bad_alloc&) {
+    return out_of_memory(batch);
+  }
+  for (int d = 0; d < 4; ++d) {
+    for (int c = 0; c < 3; ++c) max_abs_[d][c] = std::max(max_abs_[d][c], max_abs[d][c]);
+  }
+  return Status();
+}
+
+format::ShQuantization QuantizeScan::sh_quantization(uint32_t sh_degree) const {
+  format::GaussianCloud shape;
+  shape.sh_degree = sh_degree;
+  return converter::sh_quantization(shape, 100.0f, max_abs_);
+}
+
+Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
+                                      const format::ShQuantization& shq, QuantizationReport* report,
+                                      AttributeErrors* errors) {
+  RGS_RETURN_IF_ERROR(check_quantize_inputs(cloud, options));
+  try {
+    return encode_cloud(cloud, options, shq, report, errors);
+  } catch (const std::bad_alloc&) {
+    return out_of_memory(cloud);
   }
 }
 

@@ -1,7 +1,13 @@
 // Serializes an EncodedScene into .rgs 1.0 bytes (SPEC.md §2–§4, §7).
 #include "rgs/format/writer.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+#include <xxhash.h>
 #include <zstd.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include <algorithm>
 #include <atomic>
@@ -320,34 +326,48 @@ struct PlannedFile {
 /// Adds the sections of `scene` to `file` in §4 order: metadata, provenance (only when non-empty,
 /// `provenance_bytes` long), then the runtime sections, each with the codec `options` asks for. With
 /// `archive`, the runtime sections take its stored bytes (moved out). Returns the file's required flags.
+/// Appends section `id` of `count` elements (SPEC §3.1 layout of a scene of SH degree `sh_degree`) to `plan`,
+/// with the codec `options` asks for; its bytes are set by the caller.
+PlannedSection& add_section(SectionId id, uint64_t count, uint32_t sh_degree, const WriteOptions& options,
+                            std::vector<PlannedSection>* plan) {
+  PlannedSection& s = plan->emplace_back();
+  detail::SectionLayout layout;
+  (void)detail::expected_layout(id, sh_degree, &layout);  // every id added here is known
+  s.id = id;
+  s.element_type = layout.element_type;
+  s.components = layout.components;
+  s.element_count = count;
+  const auto it = options.codecs.find(id);
+  s.codec = it == options.codecs.end() ? Codec::kNone : it->second;
+  return s;
+}
+
+/// Adds the metadata section and, when `provenance` is not empty, the provenance section of
+/// `provenance_bytes` (§4.1, §4.2).
+void add_head_sections(const SceneMetadata& metadata, const Provenance& provenance, uint64_t provenance_bytes,
+                       const WriteOptions& options, std::vector<PlannedSection>* plan) {
+  auto add_owned = [&](SectionId id, uint64_t size) {
+    PlannedSection& s = add_section(id, size, metadata.sh_degree, options, plan);
+    s.owned_raw.resize(size);
+    s.raw = s.owned_raw.data();
+    s.raw_size = size;
+    return s.owned_raw.data();
+  };
+  detail::encode_metadata(metadata, add_owned(SectionId::kMetadata, kMetadataSize));
+  if (!provenance.empty()) {
+    detail::encode_provenance(provenance, add_owned(SectionId::kProvenance, provenance_bytes), provenance_bytes);
+  }
+}
+
 uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, uint64_t provenance_bytes,
                       ArchiveScene* archive, PlannedFile* file) {
   const uint64_t n = scene.count;
   std::vector<PlannedSection>& plan = file->sections;
   plan.reserve(8);
   auto add = [&](SectionId id, uint64_t count) -> PlannedSection& {
-    PlannedSection& s = plan.emplace_back();
-    detail::SectionLayout layout;
-    (void)detail::expected_layout(id, scene.metadata.sh_degree, &layout);  // every id added here is known
-    s.id = id;
-    s.element_type = layout.element_type;
-    s.components = layout.components;
-    s.element_count = count;
-    const auto it = options.codecs.find(id);
-    s.codec = it == options.codecs.end() ? Codec::kNone : it->second;
-    return s;
+    return add_section(id, count, scene.metadata.sh_degree, options, &plan);
   };
-  auto add_owned = [&](SectionId id, uint64_t size) {
-    PlannedSection& s = add(id, size);
-    s.owned_raw.resize(size);
-    s.raw = s.owned_raw.data();
-    s.raw_size = size;
-    return s.owned_raw.data();
-  };
-  detail::encode_metadata(scene.metadata, add_owned(SectionId::kMetadata, kMetadataSize));
-  if (!scene.provenance.empty()) {
-    detail::encode_provenance(scene.provenance, add_owned(SectionId::kProvenance, provenance_bytes), provenance_bytes);
-  }
+  add_head_sections(scene.metadata, scene.provenance, provenance_bytes, options, &plan);
   set_array_raw(&add(SectionId::kMeans, n), scene.means);
   set_array_raw(&add(SectionId::kRotations, n), scene.rotations);
   set_array_raw(&add(SectionId::kScales, n), scene.scales);
@@ -382,14 +402,14 @@ uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, ui
 }
 
 /// §6 The oldest version that has every feature the file uses.
-FormatVersion file_version(const EncodedScene& scene, const std::vector<PlannedSection>& plan,
-                           uint32_t required_flags) {
+FormatVersion file_version(const SceneMetadata& metadata, const Provenance& provenance,
+                           const std::vector<PlannedSection>& plan, uint32_t required_flags) {
   FormatVersion version{kFormatMajor, 0};
   auto require = [&version](FormatVersion v) {
     if (!version_at_least(version, v)) version = v;
   };
-  if (!scene.provenance.empty()) require(kMinVersionForProvenance);
-  if (scene.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
+  if (!provenance.empty()) require(kMinVersionForProvenance);
+  if (metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
   if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
   if (required_flags & kRequiredFlagLod) require(kMinVersionForLod);
   if (required_flags & kRequiredFlagShColourDifferences) require(kMinVersionForShColourDifferences);
@@ -518,7 +538,7 @@ Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& opt
     RGS_RETURN_IF_ERROR(add_lod_section(*options.lod, scene, options, &file.sections));
     required_flags |= kRequiredFlagLod;
   }
-  const FormatVersion version = file_version(scene, file.sections, required_flags);
+  const FormatVersion version = file_version(scene.metadata, scene.provenance, file.sections, required_flags);
   RGS_RETURN_IF_ERROR(compress_sections(options, &file.sections));
   RGS_ASSIGN_OR_RETURN(const uint64_t table_end, lay_out(&file));
   RGS_ASSIGN_OR_RETURN(const std::vector<uint64_t> checksums, check_and_checksum(scene, file.sections));
@@ -591,6 +611,159 @@ Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& s
   RGS_RETURN_IF_ERROR(files.write(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
   if (archive_out != nullptr && archive) *archive_out = std::move(*archive);  // the plan is not used again
   return file->file_size;
+}
+
+namespace {
+
+/// Element bytes of per-Gaussian section `id` in a scene of `k3` SH values a Gaussian.
+uint64_t element_bytes(SectionId id, uint64_t k3) {
+  switch (id) {
+    case SectionId::kMeans: return 12;
+    case SectionId::kRotations: return 8;
+    case SectionId::kScales: return 6;
+    case SectionId::kOpacities: return 2;
+    case SectionId::kSh: return k3;
+    default: return 3;  // kShDcResidual
+  }
+}
+
+/// Checks element `index` of per-Gaussian section `id` (SPEC §4.3–§4.7), as check_values() does.
+Status check_element(SectionId id, const uint8_t* element, uint64_t index, uint64_t k3, const SceneMetadata& metadata) {
+  Status s;
+  switch (id) {
+    case SectionId::kMeans: {
+      float xyz[3];
+      std::memcpy(xyz, element, sizeof xyz);
+      s = detail::check_mean(xyz, index, metadata.bounds);
+      break;
+    }
+    case SectionId::kRotations: {
+      uint16_t wxyz[4];
+      std::memcpy(wxyz, element, sizeof wxyz);
+      s = detail::check_rotation(wxyz, index);
+      break;
+    }
+    case SectionId::kScales: {
+      uint16_t xyz[3];
+      std::memcpy(xyz, element, sizeof xyz);
+      s = detail::check_scale(xyz, index, metadata.scale_encoding);
+      break;
+    }
+    case SectionId::kOpacities: {
+      uint16_t v;
+      std::memcpy(&v, element, sizeof v);
+      s = detail::check_opacity(v, index);
+      break;
+    }
+    case SectionId::kSh: s = detail::check_sh(reinterpret_cast<const int8_t*>(element), k3, index); break;
+    default: break;
+  }
+  return s.ok() ? s : invalid(s.message());
+}
+
+/// pwrite() of all of [data, data + size) at `offset`.
+Status write_at(int fd, const void* data, size_t size, uint64_t offset, const std::string& path) {
+  const uint8_t* bytes = static_cast<const uint8_t*>(data);
+  while (size > 0) {
+    const ssize_t done = ::pwrite(fd, bytes, size, static_cast<off_t>(offset));
+    if (done < 0 && errno == EINTR) continue;
+    if (done <= 0) return Status(StatusCode::kIoError, "cannot write " + path + ": " + std::strerror(errno));
+    bytes += done;
+    size -= static_cast<size_t>(done);
+    offset += static_cast<uint64_t>(done);
+  }
+  return Status();
+}
+
+/// Writes the planned `file` into the open `fd`: the stored sections as they are, the streamed ones from
+/// scene.produce (checked, hashed and written as they come), then the header and table with their checksums.
+Status emit_streamed(int fd, const std::string& path, const StreamedScene& scene, FormatVersion version,
+                     uint32_t required_flags, uint64_t table_end, PlannedFile* file) {
+  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
+  std::vector<uint64_t> checksums;
+  for (const PlannedSection& section : file->sections) {
+    if (section.raw != nullptr || section.raw_size == 0) {
+      RGS_RETURN_IF_ERROR(write_at(fd, section.stored(), static_cast<size_t>(section.stored_size()), section.offset, path));
+      checksums.push_back(detail::xxh64(section.stored(), section.stored_size()));
+      continue;
+    }
+    std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> hash(XXH64_createState(), XXH64_freeState);
+    if (!hash) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
+    XXH64_reset(hash.get(), 0);
+    const uint64_t width = element_bytes(section.id, k3);
+    uint64_t written = 0;
+    RGS_RETURN_IF_ERROR(scene.produce(section.id, [&](const void* data, size_t size) -> Status {
+      const auto* bytes = static_cast<const uint8_t*>(data);
+      RGS_RETURN_ERROR_IF(size % width != 0 || written + size > section.raw_size, StatusCode::kInvalidArgument,
+                          std::string("internal error: section ") + section_name(section.id) +
+                              " streamed in pieces that are not whole elements or past its size");
+      for (uint64_t e = 0; e < size / width; ++e) {
+        RGS_RETURN_IF_ERROR(check_element(section.id, bytes + e * width, written / width + e, k3, scene.metadata));
+      }
+      XXH64_update(hash.get(), bytes, size);
+      RGS_RETURN_IF_ERROR(write_at(fd, bytes, size, section.offset + written, path));
+      written += size;
+      return Status();
+    }));
+    RGS_RETURN_ERROR_IF(written != section.raw_size, StatusCode::kInvalidArgument,
+                        std::string("internal error: section ") + section_name(section.id) + " streamed " +
+                            dec(written) + " bytes of " + dec(section.raw_size));
+    checksums.push_back(static_cast<uint64_t>(XXH64_digest(hash.get())));
+  }
+  RGS_RETURN_IF_ERROR(encode_head(version, required_flags, scene.count, table_end, checksums, file));
+  RGS_RETURN_IF_ERROR(write_at(fd, file->head.data(), file->head.size(), 0, path));
+  if (::ftruncate(fd, static_cast<off_t>(file->file_size)) != 0) {
+    return Status(StatusCode::kIoError, "cannot size " + path + ": " + std::strerror(errno));
+  }
+  return Status();
+}
+
+}  // namespace
+
+Result<uint64_t> write_streamed_scene_file(const std::string& path, const StreamedScene& scene,
+                                           const WriteOptions& options, FileSink& files) {
+  auto fail = [&](const Status& s) { return Status(s).prepend(path); };
+  if (Status s = check_options(options); !s.ok()) return fail(s);
+  if (options.profile != StorageProfile::kRuntime) return fail(invalid("a streamed scene is written in the runtime profile"));
+  if (Status s = detail::check_metadata(scene.metadata); !s.ok()) return fail(invalid("metadata: " + s.message()));
+  uint64_t provenance_bytes = 0;
+  std::string why;
+  if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return fail(invalid(why));
+  PlannedFile file;
+  add_head_sections(scene.metadata, scene.provenance, provenance_bytes, options, &file.sections);
+  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
+  std::vector<SectionId> ids = {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
+                                SectionId::kSh};
+  if (scene.sh_dc_residual) ids.push_back(SectionId::kShDcResidual);
+  for (SectionId id : ids) {
+    PlannedSection& section = add_section(id, scene.count, scene.metadata.sh_degree, options, &file.sections);
+    if (section.codec != Codec::kNone) {
+      return fail(invalid(std::string("a streamed scene stores section ") + section_name(id) + " raw"));
+    }
+    section.raw_size = scene.count * element_bytes(id, k3);
+  }
+  uint32_t required_flags = scene.metadata.antialiased ? kRequiredFlagAntialiased : 0;
+  if (options.lod != nullptr) {
+    if (Status s = detail::check_lod_structure(*options.lod, scene.count); !s.ok()) return fail(invalid(s.message()));
+    PlannedSection& section = add_section(SectionId::kLod, 0, scene.metadata.sh_degree, options, &file.sections);
+    section.owned_raw = detail::encode_lod(*options.lod);
+    section.raw = section.owned_raw.data();
+    section.raw_size = section.owned_raw.size();
+    section.element_count = section.raw_size;
+    required_flags |= kRequiredFlagLod;
+  }
+  const FormatVersion version = file_version(scene.metadata, scene.provenance, file.sections, required_flags);
+  if (Status s = compress_sections(options, &file.sections); !s.ok()) return fail(s);
+  auto table_end = lay_out(&file);
+  if (!table_end.ok()) return fail(table_end.status());
+  RGS_RETURN_IF_ERROR(files.write_by_name(path, [&](const std::string& temporary) -> Status {
+    const int fd = ::open(temporary.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0) return Status(StatusCode::kIoError, "cannot open " + temporary + ": " + std::strerror(errno));
+    Status s = emit_streamed(fd, path, scene, version, required_flags, *table_end, &file);
+    if (::close(fd) != 0 && s.ok()) s = Status(StatusCode::kIoError, "cannot close " + path + ": " + std::strerror(errno));
+    return s;
+  }));
+  return file.file_size;
 }
 
 }  // namespace rgs::format

@@ -263,6 +263,9 @@ struct RgsOutputReport {
   uint32_t lod_levels = 0;
   uint32_t lod_chunks = 0;
   uint64_t lod_gaussians = 0;
+  /// Partition files of a conversion built out of core (docs/LOD.md#scenes-larger-than-memory); 0 when the
+  /// scene was converted in memory.
+  uint32_t out_of_core_partitions = 0;
 };
 
 /// Seconds spent, wall clock.

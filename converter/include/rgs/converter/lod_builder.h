@@ -4,10 +4,12 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/lod.h"
 #include "rgs/format/status.h"
+#include "rgs/format/writer.h"
 
 namespace rgs::converter {
 
@@ -82,5 +84,61 @@ struct LodScene {
 /// Errors: kInvalidArgument (inconsistent or empty scene, levels > 16, max_chunk_gaussians 0, a Gaussian
 /// whose 3σ extent overflows float32), kLimitExceeded (more than 2^31 − 1 Gaussians out), kOutOfMemory.
 Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOptions& options = {});
+
+/// A scene's quantized Gaussians read in batches, pass after pass (a scene larger than memory): every pass
+/// yields the same Gaussians in the same order.
+class EncodedBatches {
+ public:
+  virtual ~EncodedBatches() = default;
+  /// Starts a new pass at the first Gaussian.
+  virtual Status rewind() = 0;
+  /// The next batch of this pass in `*batch` (replaced: arrays of batch->count Gaussians, metadata unused);
+  /// false at the end of the pass.
+  virtual Result<bool> next(format::EncodedScene* batch) = 0;
+};
+
+struct OutOfCoreLodOptions {
+  /// As build_lod's (progress aside: see below).
+  LodBuildOptions lod;
+  /// Bytes the build may hold at once (the batches of `EncodedBatches` apart): the partitions are sized to it.
+  uint64_t memory_limit = uint64_t{4} << 30;
+  /// Whether the Gaussians carry the DC residual (sh_dc_residual arrays in the batches).
+  bool sh_dc_residual = true;
+  /// How the file is written; `lod` is set by the build.
+  format::WriteOptions write;
+  /// Called with the stage ("counting", "partitioning", "building levels of detail", "writing") and the
+  /// fraction of the build done, non-decreasing, from the calling thread (may be empty).
+  std::function<void(const char* stage, double fraction)> progress;
+};
+
+/// What an out-of-core build did.
+struct OutOfCoreLodReport {
+  uint64_t bytes = 0;  ///< of the file written
+  uint32_t chunks = 0, levels = 0;
+  uint64_t gaussians = 0;  ///< every level's
+  /// Partition files the scene was cut into, and the most Gaussians one held at once.
+  uint32_t partitions = 0;
+  uint64_t partition_capacity = 0;
+};
+
+/// Builds the levels of detail of a scene larger than memory and writes it as a .rgs at `path` through `files`:
+/// the same bytes as build_lod() of the whole scene written by format::write_scene_file() with its index.
+/// `head`: the scene without its arrays: count N (the Gaussians every pass yields), metadata (SH degree and
+/// quantization, scale encoding, flags; bounds.aabb the box of every mean) and provenance as the file gets
+/// them (the build adds its bounds sphere and the lod entries).
+///
+/// Two passes over `batches`: counts of the means on a grid of up to 256 cells per axis over the scene's cube,
+/// from which build_lod's octree chunks follow, then each Gaussian appended to a partition file (consecutive
+/// octree nodes, as many Gaussians as memory_limit holds). Each partition is then read, sorted and cut into
+/// chunks, their levels built in parallel and appended to spill files per (level, section), which are finally
+/// streamed into the file. Files live in a folder `<path>.lod-XXXXXX` beside the output, removed however the
+/// build ends. Disk: about twice the output's size beside it.
+/// Errors: build_lod's; kLimitExceeded when memory_limit cannot hold a chunk's worth of the build, when more
+/// than one cell of the count grid's Gaussians would have to be held at once, or beyond 512 partitions;
+/// kCorruptData when the passes disagree (the input changed); kIoError naming the temporary files; the
+/// writer's errors naming `path`.
+Result<OutOfCoreLodReport> build_lod_out_of_core(const std::string& path, EncodedBatches& batches,
+                                                 const format::EncodedScene& head, const OutOfCoreLodOptions& options,
+                                                 format::FileSink& files = format::atomic_files());
 
 }  // namespace rgs::converter

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -74,6 +75,45 @@ Result<PlyScene> read_ply(const std::string& path, const PlyReadOptions& options
 /// Same as read_ply on bytes in memory (tests, fuzzing). `name` is used in error messages.
 Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
                                 const PlyReadOptions& options = {});
+
+/// A binary PLY read in batches of vertices, in file order, pass after pass, without holding the file or its
+/// whole cloud (out-of-core conversion). A batch holds exactly what read_ply gives for those vertices; under
+/// InvalidPolicy::kSanitize its invalid Gaussians are dropped and counted in hygiene(), under kReject the
+/// first one fails the read. Memory: one 1 MB buffer per decoding thread and the caller's batch.
+class PlyStream {
+ public:
+  /// Opens `path` and checks its header as read_ply does. Errors name `path`: read_ply's header errors, and
+  /// kUnsupportedFeature for an ascii PLY (read whole with read_ply).
+  static Result<std::unique_ptr<PlyStream>> open(const std::string& path, const PlyReadOptions& options = {});
+  ~PlyStream();
+  PlyStream(const PlyStream&) = delete;
+  PlyStream& operator=(const PlyStream&) = delete;
+
+  /// Vertices the header declares, and the SH degree their f_rest properties give.
+  uint64_t vertex_count() const;
+  uint32_t sh_degree() const;
+  uint64_t file_bytes() const;
+  /// "binary_little_endian" or "binary_big_endian".
+  std::string storage_format() const;
+
+  /// Reads the next at most `max` vertices of this pass into `*batch` (replaced; activations as read_ply).
+  /// @return how many vertices of the file it consumed (0 at the end of the pass; the batch holds fewer when
+  ///         some were dropped). Errors name the path: kIoError (short or unreadable file), kCorruptData (an
+  ///         invalid Gaussian under kReject, named by its vertex index), kOutOfMemory.
+  Result<uint64_t> read(uint64_t max, format::GaussianCloud* batch);
+  /// Starts a new pass at the first vertex; hygiene() restarts.
+  void rewind();
+  /// The hygiene counts of the vertices read in this pass (first_invalid_index a file index).
+  const InputHygiene& hygiene() const;
+  /// With PlyReadOptions::hash_file: XXH64 (seed 0) of the whole file once the first pass has read every
+  /// vertex (computed as it read them); else empty.
+  std::optional<uint64_t> file_xxh64() const;
+
+ private:
+  PlyStream() = default;
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 /// The most bytes a PLY whose header starts `data[0, size)` can hold, for reading one from a stream
 /// (standard input) without buffering more than its header proves: binary PLY exactly the header plus every

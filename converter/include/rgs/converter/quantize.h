@@ -54,6 +54,30 @@ struct QuantizationReport {
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
                                       QuantizationReport* report = nullptr, AttributeErrors* errors = nullptr);
 
+/// The scene-wide statistics quantize() takes from a whole cloud, gathered batch by batch for a scene read in
+/// batches (out-of-core conversion): every value checked as quantize() checks it, and max |SH| per (degree,
+/// channel). Only the max rule (sh_clip_percentile 100): a percentile needs every coefficient at once.
+class QuantizeScan {
+ public:
+  explicit QuantizeScan(const QuantizeOptions& options);
+  /// Checks and scans `batch`, whose first Gaussian is Gaussian `first` of the scene (errors name that index).
+  /// Errors: kInvalidArgument as quantize() (and for a percentile below 100), kOutOfMemory.
+  Status add(const format::GaussianCloud& batch, uint64_t first);
+  /// The SH scales of every batch added, as quantize() computes them for the whole cloud.
+  format::ShQuantization sh_quantization(uint32_t sh_degree) const;
+
+ private:
+  QuantizeOptions options_;
+  float max_abs_[4][3] = {};
+};
+
+/// quantize() with given SH scales (QuantizeScan's) instead of scales computed from `cloud`: a batch of a scene
+/// gets exactly the codes quantize() of the whole scene gives its Gaussians. Metadata as quantize() fills it,
+/// its bounds those of `cloud`. Errors: those of quantize() (an invalid `shq` is kInvalidArgument).
+Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
+                                      const format::ShQuantization& shq, QuantizationReport* report = nullptr,
+                                      AttributeErrors* errors = nullptr);
+
 /// Bounds of the means: AABB, and a sphere centred on the AABB centre whose radius is the largest
 /// distance to a mean (computed in double, rounded up, so every mean is inside in float32). The radius is
 /// +inf when the means span more than float32 holds (quantize() refuses such a cloud).

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -67,5 +68,28 @@ Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const Wr
 Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene,
                                   const WriteOptions& options = {}, FileSink& files = atomic_files(),
                                   ArchiveScene* archive = nullptr);
+
+/// A runtime-profile scene whose per-Gaussian sections are streamed rather than held in memory (a scene built
+/// out of core, converter::build_lod_out_of_core): metadata, provenance and count as in EncodedScene.
+struct StreamedScene {
+  SceneMetadata metadata;
+  Provenance provenance;
+  uint64_t count = 0;
+  /// Whether the file has the sh_dc_residual section (§4.8).
+  bool sh_dc_residual = false;
+  /// Streams the raw little-endian bytes of per-Gaussian section `id` (means, rotations, scales, opacities, sh,
+  /// sh_dc_residual: [count, components] as §4.3–§4.8 lay them out) into `sink`, in order, whole elements per
+  /// call. Called once per section, in file order.
+  std::function<Status(SectionId id, const ChunkSink& sink)> produce;
+};
+
+/// Writes `scene` into `files` as write_scene_file() writes the EncodedScene holding the same arrays: the same
+/// bytes. The runtime profile only, every per-Gaussian section raw (zstd only for metadata, provenance and lod);
+/// options.lod, when set, must carry its range checksums (lod_range_checksum over the stored bytes), which the
+/// writer cannot compute from sections streamed one at a time. Each value is checked as it streams past (as
+/// serialize_scene checks it); the lod index's structure is checked, its chunk spheres are not. Peak memory: one
+/// piece of `produce` and the small sections. Errors: those of write_scene_file, naming `path`.
+Result<uint64_t> write_streamed_scene_file(const std::string& path, const StreamedScene& scene,
+                                           const WriteOptions& options = {}, FileSink& files = atomic_files());
 
 }  // namespace rgs::format

@@ -1,0 +1,277 @@
+// convert() of a binary PLY larger than its memory limit into a level-of-detail .rgs: the PLY read in batches,
+// quantized batch by batch with the scene's own SH scales, its levels built by converter::build_lod_out_of_core
+// (docs/LOD.md#scenes-larger-than-memory).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "internal_convert_memory.h"
+#include "rgs/converter/lod_builder.h"
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/format/file_io.h"
+
+namespace rgs::api::detail {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Gaussians a batch holds at most, and the share of the memory limit the batches take.
+constexpr uint64_t kMaxBatchGaussians = uint64_t{1} << 20;
+constexpr uint64_t kMinBatchGaussians = uint64_t{1} << 12;
+constexpr uint64_t kBatchShareOfLimit = 16;
+
+/// Where each stage of an out-of-core conversion starts, as a fraction of the whole.
+constexpr double kScanShare = 0.2;
+
+/// Bytes a batch takes per Gaussian: the float cloud as read and its quantized copy.
+uint64_t batch_bytes_per_gaussian(uint32_t sh_degree) {
+  const uint64_t sh = uint64_t{3} * format::sh_coefficient_count(sh_degree);
+  return (3 + 4 + 3 + 1 + sh) * sizeof(float) + 12 + 8 + 6 + 2 + sh + 3;
+}
+
+void merge_stats(const converter::ErrorStats& part, converter::ErrorStats* total) {
+  const uint64_t n = total->samples + part.samples;
+  if (n == 0) return;
+  total->rms = std::sqrt((total->rms * total->rms * double(total->samples) + part.rms * part.rms * double(part.samples)) /
+                         double(n));
+  total->max = std::max(total->max, part.max);
+  total->samples = n;
+}
+
+/// Adds one batch's errors to the scene's (max and root-mean-square over every sample).
+void merge_errors(const converter::AttributeErrors& part, converter::AttributeErrors* total) {
+  merge_stats(part.position, &total->position);
+  merge_stats(part.rotation_deg, &total->rotation_deg);
+  merge_stats(part.scale_relative, &total->scale_relative);
+  merge_stats(part.scale_of_largest_axis, &total->scale_of_largest_axis);
+  merge_stats(part.opacity, &total->opacity);
+  for (int d = 0; d < 4; ++d) {
+    merge_stats(part.sh[d], &total->sh[d]);
+    for (int c = 0; c < 3; ++c) merge_stats(part.sh_channel[d][c], &total->sh_channel[d][c]);
+  }
+}
+
+void merge_quantization(const converter::QuantizationReport& part, converter::QuantizationReport* total) {
+  for (int d = 0; d < 4; ++d) {
+    for (int c = 0; c < 3; ++c) total->sh_clipped[d][c] += part.sh_clipped[d][c];
+  }
+  total->scales_subnormal += part.scales_subnormal;
+  total->scales_flushed_to_zero += part.scales_flushed_to_zero;
+  total->max_flushed_of_largest_axis = std::max(total->max_flushed_of_largest_axis, part.max_flushed_of_largest_axis);
+}
+
+/// The PLY's batches as convert() reads the scene: SH bands above ConvertOptions::sh_degree dropped, the
+/// anti-aliasing flag applied.
+class PlyBatches {
+ public:
+  PlyBatches(converter::PlyStream* stream, const ConvertOptions& options, uint64_t batch)
+      : stream_(stream), options_(options), batch_(batch) {}
+  Result<bool> next(format::GaussianCloud* cloud) {
+    for (;;) {
+      RGS_ASSIGN_OR_RETURN(const uint64_t consumed, stream_->read(batch_, cloud));
+      if (consumed == 0) return false;
+      if (cloud->size() == 0) continue;  // every Gaussian of the batch dropped by sanitizing
+      cloud->antialiased = options_.read.antialiased;
+      if (options_.sh_degree && *options_.sh_degree < cloud->sh_degree) {
+        RGS_RETURN_IF_ERROR(converter::reduce_sh_degree(cloud, *options_.sh_degree));
+      }
+      return true;
+    }
+  }
+  void rewind() { stream_->rewind(); }
+
+ private:
+  converter::PlyStream* stream_;
+  const ConvertOptions& options_;
+  uint64_t batch_;
+};
+
+/// The quantized batches build_lod_out_of_core() reads in its passes; the first pass also measures what
+/// quantizing cost (RgsOutputReport::errors and quantization).
+class QuantizedBatches final : public converter::EncodedBatches {
+ public:
+  QuantizedBatches(PlyBatches* batches, const converter::QuantizeOptions& options, const format::ShQuantization& shq,
+                   RgsOutputReport* report)
+      : batches_(batches), options_(options), shq_(shq), report_(report) {}
+  Status rewind() override {
+    batches_->rewind();
+    ++pass_;
+    return Status();
+  }
+  Result<bool> next(format::EncodedScene* batch) override {
+    RGS_ASSIGN_OR_RETURN(const bool more, batches_->next(&cloud_));
+    if (!more) return false;
+    if (pass_ != 1) {
+      RGS_ASSIGN_OR_RETURN(*batch, converter::quantize(cloud_, options_, shq_));
+      return true;
+    }
+    converter::QuantizationReport quantization;
+    converter::AttributeErrors errors;
+    RGS_ASSIGN_OR_RETURN(*batch, converter::quantize(cloud_, options_, shq_, &quantization, &errors));
+    merge_quantization(quantization, &report_->quantization);
+    merge_errors(errors, &report_->errors);
+    return true;
+  }
+
+ private:
+  PlyBatches* batches_;
+  converter::QuantizeOptions options_;
+  format::ShQuantization shq_;
+  RgsOutputReport* report_;
+  format::GaussianCloud cloud_;
+  int pass_ = 0;
+};
+
+/// What the first pass learns: every value checked, the SH scales, the means' box, the count, the errors.
+struct SceneStatistics {
+  uint64_t count = 0;
+  uint32_t sh_degree = 0;
+  float box_lo[3] = {0, 0, 0}, box_hi[3] = {0, 0, 0};
+  format::ShQuantization shq;
+  converter::QuantizationReport quantization;
+  converter::AttributeErrors errors;
+};
+
+Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptions& quantize,
+                             const converter::PlyStream& stream, const ConvertOptions& options) {
+  SceneStatistics stats;
+  converter::QuantizeScan scan(quantize);
+  format::GaussianCloud cloud;
+  for (;;) {
+    RGS_ASSIGN_OR_RETURN(const bool more, batches.next(&cloud));
+    if (!more) break;
+    RGS_RETURN_IF_ERROR(scan.add(cloud, stats.count));
+    stats.sh_degree = cloud.sh_degree;
+    for (uint64_t i = 0; i < cloud.size(); ++i) {
+      for (int a = 0; a < 3; ++a) {
+        const float v = cloud.means[i * 3 + a];
+        stats.box_lo[a] = stats.count + i == 0 ? v : std::min(stats.box_lo[a], v);
+        stats.box_hi[a] = stats.count + i == 0 ? v : std::max(stats.box_hi[a], v);
+      }
+    }
+    stats.count += cloud.size();
+    if (options.progress) {
+      const double read = double(stream.hygiene().dropped_gaussians + stats.count) / double(stream.vertex_count());
+      options.progress(ConvertProgress{"reading", kScanShare * read});
+    }
+  }
+  stats.shq = scan.sh_quantization(stats.sh_degree);
+  return stats;
+}
+
+}  // namespace
+
+Result<bool> converts_out_of_core(const std::string& src, OutputFormat output, const ConvertOptions& options) {
+  if (output != OutputFormat::kRgs || !options.lod_levels || options.target.active() ||
+      options.profile != format::StorageProfile::kRuntime) {
+    return false;
+  }
+  const uint64_t limit = convert_memory_limit(options);
+  if (limit == 0) return false;
+  RGS_ASSIGN_OR_RETURN(const uint64_t estimate, estimate_convert_memory(src));
+  if (estimate <= limit) return false;
+  RGS_ASSIGN_OR_RETURN(const std::string format_id, converter::detect_scene_format(src));
+  return format_id == "ply";
+}
+
+Result<ConvertReport> convert_out_of_core(const std::string& src, const std::string& dst,
+                                          const ConvertOptions& options) {
+  const auto start = Clock::now();
+  RGS_RETURN_IF_ERROR(format::check_output_file(dst, {src}));
+  RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
+                      src + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
+  const converter::SceneReadOptions read = scene_read_options(options);
+  converter::PlyReadOptions ply;
+  ply.invalid_policy = read.invalid_policy;
+  ply.max_gaussians = read.max_gaussians;
+  ply.hash_file = true;
+  RGS_ASSIGN_OR_RETURN(std::unique_ptr<converter::PlyStream> stream, converter::PlyStream::open(src, ply));
+  const uint64_t limit = convert_memory_limit(options);
+  const uint64_t batch = std::clamp(limit / kBatchShareOfLimit / batch_bytes_per_gaussian(stream->sh_degree()),
+                                    kMinBatchGaussians, kMaxBatchGaussians);
+  converter::QuantizeOptions quantize;
+  quantize.scale_encoding = options.scale_encoding;
+  quantize.sh_clip_percentile = options.sh_clip_percentile;
+  quantize.sh_dc_bits = options.sh_dc_bits;
+  PlyBatches batches(stream.get(), options, batch);
+  auto scanned = scan(batches, quantize, *stream, options);
+  if (!scanned.ok()) return Status(scanned.status()).prepend(src);
+  SceneStatistics stats = std::move(scanned).value();
+  const converter::InputHygiene hygiene = stream->hygiene();
+  if (stats.count == 0 && !options.allow_empty) {
+    return Status(StatusCode::kInvalidArgument,
+                  src + ": " + (hygiene.dropped_gaussians > 0 ? "sanitizing (--sanitize) dropped every Gaussian"
+                                                               : std::string("the input has no Gaussians")));
+  }
+  ConvertReport report;
+  report.seconds.read = std::chrono::duration<double>(Clock::now() - start).count();
+  report.output_format = OutputFormat::kRgs;
+  report.input_format = "ply";
+  report.input_storage = stream->storage_format();
+  report.input_description = report.input_storage + " PLY";
+  report.input_bytes = stream->file_bytes();
+  report.declared_gaussians = stream->vertex_count();
+  report.hygiene = hygiene;
+  if (options.sh_degree && *options.sh_degree < stream->sh_degree()) {
+    report.input_notes.push_back("SH degree " + std::to_string(stream->sh_degree()) + " reduced to " +
+                                 std::to_string(*options.sh_degree));
+  }
+
+  // The scene as build_lod_out_of_core() needs it without its arrays: what quantize() of the whole cloud fills.
+  format::EncodedScene head;
+  head.count = stats.count;
+  head.metadata.sh_degree = stats.sh_degree;
+  head.metadata.scale_encoding = options.scale_encoding;
+  head.metadata.sh_quantization = stats.shq;
+  head.metadata.antialiased = options.read.antialiased;
+  for (int a = 0; a < 3; ++a) {
+    head.metadata.bounds.aabb_min[a] = stats.box_lo[a];
+    head.metadata.bounds.aabb_max[a] = stats.box_hi[a];
+  }
+  head.provenance = rgs_provenance(src, options, stream->file_bytes(), stream->file_xxh64().value_or(0),
+                                   stream->storage_format(), hygiene.dropped_gaussians);
+
+  RgsOutputReport rgs;
+  QuantizedBatches quantized(&batches, quantize, stats.shq, &rgs);
+  converter::OutOfCoreLodOptions lod;
+  lod.lod.levels = *options.lod_levels;
+  lod.lod.max_chunk_gaussians = options.lod_chunk_gaussians;
+  lod.memory_limit = limit - std::min(limit, batch * batch_bytes_per_gaussian(stream->sh_degree()));
+  lod.sh_dc_residual = options.sh_dc_bits == 16;
+  RGS_ASSIGN_OR_RETURN(lod.write, rgs_write_options(options));
+  lod.progress = [&](const char* stage, double fraction) {
+    if (options.progress) options.progress(ConvertProgress{stage, kScanShare + (1 - kScanShare) * fraction});
+  };
+  const auto build_start = Clock::now();
+  auto built = converter::build_lod_out_of_core(dst, quantized, head, lod,
+                                                options.files != nullptr ? *options.files : format::atomic_files());
+  if (!built.ok()) return Status(built.status()).prepend(src);
+  report.seconds.lod = std::chrono::duration<double>(Clock::now() - build_start).count();
+  rgs.sh_quantization = stats.shq;
+  rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],
+                         double(stats.box_hi[2]) - stats.box_lo[2], 0.0});
+  rgs.lod_levels = built->levels;
+  rgs.lod_chunks = built->chunks;
+  rgs.lod_gaussians = built->gaussians;
+  report.rgs = std::move(rgs);
+  report.output_bytes = built->bytes;
+  report.output_description = "RoofGS .rgs, runtime profile with levels of detail";
+  report.rgs->out_of_core_partitions = built->partitions;
+  report.output_notes.push_back("built out of core in " + std::to_string(built->partitions) +
+                                " partitions of at most " + std::to_string(built->partition_capacity) +
+                                " Gaussians (memory limit " + std::to_string(limit) + " bytes)");
+  report.gaussians = stats.count;
+  report.sh_degree = stats.sh_degree;
+  report.seconds.total = std::chrono::duration<double>(Clock::now() - start).count();
+  if (options.progress) options.progress(ConvertProgress{"done", 1.0});
+  return report;
+}
+
+}  // namespace rgs::api::detail

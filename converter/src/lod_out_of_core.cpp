@@ -1,0 +1,603 @@
+// Level-of-detail build of a scene larger than memory (lod_builder.h, build_lod_out_of_core): the chunks of
+// build_lod, found from counts instead of one sort of the whole scene, built bucket by bucket from partition
+// files on disk, their levels spilled per (level, section) and streamed into the file at the end.
+//
+// Passes over the input: (1) counts of the means on a grid of 8^D cells over the scene's cube (the octree of
+// counts), from which the octree nodes that build_lod would keep whole or split further follow; (2) every
+// Gaussian appended to the partition file of its node's bucket (consecutive nodes in Morton order, as many as
+// fit the memory limit). Then per bucket: its Gaussians sorted by Morton code (stable: the input order within a
+// bucket is the input order), its nodes cut into chunks exactly as build_lod cuts them, each chunk's levels
+// built by the same code, each level appended to its spill file. The file is level-major, so the spill files of
+// a section, level after level, are that section.
+//
+// Same bytes as build_lod + write_scene_file: the chunks, their Gaussians' order and every level are the same;
+// levels are built up to the most the options allow and the count is chosen at the end (level l depends only on
+// level l - 1, so the levels kept do not depend on the ones built beyond them).
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <xxhash.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "internal_lod_chunks.h"
+#include "internal_parallel.h"
+#include "rgs/converter/lod_builder.h"
+#include "rgs/format/writer.h"
+
+namespace rgs::converter {
+namespace {
+
+using namespace detail;
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "partition and spill files hold host-order arrays");
+
+/// Most cells per axis of the count grid: 2^kMaxCountDepth (8^8 cells, 64 MiB of counts).
+constexpr int kMaxCountDepth = 8;
+/// Most buckets at once: each keeps a write buffer during the partition pass.
+constexpr uint64_t kMaxBuckets = 512;
+/// Write buffers: of a partition file (the partition pass shares a quarter of the memory limit among them),
+/// and of a spill file (6 sections × the levels at once).
+constexpr size_t kMaxPartitionBufferBytes = size_t{1} << 20;
+constexpr size_t kMinPartitionBufferBytes = size_t{64} << 10;
+constexpr size_t kSpillBufferBytes = size_t{64} << 10;
+/// Bytes a Gaussian of a bucket costs beyond its record while the bucket is sorted: key, index and the radix
+/// sort's copies of both.
+constexpr uint64_t kSortBytesPerGaussian = 24;
+/// The allocator's slack and the small arrays (nodes, chunk records) beside the budgeted ones.
+constexpr uint64_t kSlackBytes = uint64_t{4} << 20;
+/// Chunks built at once per worker before their levels are spilled in order.
+constexpr uint32_t kChunksPerWorker = 2;
+
+Status io_error(const std::string& what, const std::string& path) {
+  return Status(StatusCode::kIoError, what + " " + path + ": " + std::strerror(errno));
+}
+
+/// An append-only file written through a buffer, or read back whole in pieces.
+class SpillFile {
+ public:
+  ~SpillFile() { close(); }
+  Status open(const std::string& path, size_t buffer_bytes) {
+    path_ = path;
+    buffer_bytes_ = buffer_bytes;
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
+    return fd_ < 0 ? io_error("cannot create", path) : Status();
+  }
+  bool is_open() const { return fd_ >= 0; }
+  Status append(const void* data, size_t size) {
+    const auto* bytes = static_cast<const uint8_t*>(data);
+    if (buffer_.size() + size > buffer_bytes_) RGS_RETURN_IF_ERROR(flush());
+    if (size >= buffer_bytes_) return write_all(bytes, size);
+    buffer_.insert(buffer_.end(), bytes, bytes + size);
+    return Status();
+  }
+  Status flush() {
+    Status s = write_all(buffer_.data(), buffer_.size());
+    buffer_.clear();
+    return s;
+  }
+  uint64_t size() const { return written_ + buffer_.size(); }
+  /// Reads [offset, offset + size) of what was written and flushed.
+  Status read(uint64_t offset, void* data, size_t size) const {
+    auto* bytes = static_cast<uint8_t*>(data);
+    while (size > 0) {
+      const ssize_t got = ::pread(fd_, bytes, size, static_cast<off_t>(offset));
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0) return got == 0 ? Status(StatusCode::kIoError, "short read of " + path_) : io_error("cannot read", path_);
+      bytes += got;
+      size -= static_cast<size_t>(got);
+      offset += static_cast<uint64_t>(got);
+    }
+    return Status();
+  }
+  void close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+    std::vector<uint8_t>().swap(buffer_);
+  }
+
+ private:
+  Status write_all(const uint8_t* bytes, size_t size) {
+    while (size > 0) {
+      const ssize_t done = ::write(fd_, bytes, size);
+      if (done < 0 && errno == EINTR) continue;
+      if (done <= 0) return io_error("cannot write", path_);
+      bytes += done;
+      size -= static_cast<size_t>(done);
+      written_ += static_cast<uint64_t>(done);
+    }
+    return Status();
+  }
+  std::string path_;
+  size_t buffer_bytes_ = 0;
+  int fd_ = -1;
+  uint64_t written_ = 0;
+  std::vector<uint8_t> buffer_;
+};
+
+/// The temporary folder of a build, removed with everything in it however the build ends.
+class TempFolder {
+ public:
+  ~TempFolder() {
+    if (path_.empty()) return;
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  Status create(const std::string& output) {
+    const std::filesystem::path out(output);
+    const std::filesystem::path parent = out.has_parent_path() ? out.parent_path() : std::filesystem::path(".");
+    std::string pattern = (parent / (out.filename().string() + ".lod-XXXXXX")).string();
+    if (::mkdtemp(pattern.data()) == nullptr) return io_error("cannot create a temporary folder beside", output);
+    path_ = pattern;
+    return Status();
+  }
+  std::string file(const std::string& name) const { return (std::filesystem::path(path_) / name).string(); }
+
+ private:
+  std::string path_;
+};
+
+/// A Gaussian's bytes in a partition file: its values of every per-Gaussian section, in section order.
+struct RecordLayout {
+  uint64_t sh = 0;  ///< SH values
+  bool residual = false;
+  uint64_t bytes() const { return 12 + 8 + 6 + 2 + sh + (residual ? 3 : 0); }
+};
+
+void put_record(const format::EncodedScene& s, uint64_t i, const RecordLayout& r, uint8_t* out) {
+  std::memcpy(out, &s.means[i * 3], 12);
+  std::memcpy(out + 12, &s.rotations[i * 4], 8);
+  std::memcpy(out + 20, &s.scales[i * 3], 6);
+  std::memcpy(out + 26, &s.opacities[i], 2);
+  std::memcpy(out + 28, &s.sh[i * r.sh], r.sh);
+  if (r.residual) std::memcpy(out + 28 + r.sh, &s.sh_dc_residual[i * 3], 3);
+}
+
+void get_record(const uint8_t* in, const RecordLayout& r, uint64_t i, format::EncodedScene* s) {
+  std::memcpy(&s->means[i * 3], in, 12);
+  std::memcpy(&s->rotations[i * 4], in + 12, 8);
+  std::memcpy(&s->scales[i * 3], in + 20, 6);
+  std::memcpy(&s->opacities[i], in + 26, 2);
+  std::memcpy(&s->sh[i * r.sh], in + 28, r.sh);
+  if (r.residual) std::memcpy(&s->sh_dc_residual[i * 3], in + 28 + r.sh, 3);
+}
+
+/// `s` sized for n Gaussians of the layout (its vectors keep their capacity from bucket to bucket).
+void size_scene(const RecordLayout& r, uint64_t n, format::EncodedScene* s) {
+  s->count = n;
+  s->means.resize(n * 3);
+  s->rotations.resize(n * 4);
+  s->scales.resize(n * 3);
+  s->opacities.resize(n);
+  s->sh.resize(n * r.sh);
+  s->sh_dc_residual.resize(r.residual ? n * 3 : 0);
+}
+
+/// An octree node of the count grid that build_lod keeps whole (a chunk) or cuts further (`split`: a finest
+/// cell of the count grid holding more than a chunk), and the bucket it goes to.
+struct Node {
+  uint64_t first_cell = 0, end_cell = 0;  ///< count-grid cells [first, end) in Morton order
+  uint64_t count = 0;
+  bool split = false;
+  uint32_t bucket = 0;
+};
+
+/// The nodes under (depth, prefix), appended in Morton order: build_lod's split_node() on counts.
+void collect_nodes(const std::vector<uint32_t>& prefix_counts, int count_depth, int depth, uint64_t prefix,
+                   uint64_t max_count, std::vector<Node>* nodes) {
+  const int below = 3 * (count_depth - depth);
+  const uint64_t first = prefix << below, end = (prefix + 1) << below;
+  const uint64_t count = prefix_counts[end] - prefix_counts[first];
+  if (count == 0) return;
+  if (count <= max_count || depth == count_depth) {
+    nodes->push_back(Node{first, end, count, count > max_count, 0});
+    return;
+  }
+  for (uint64_t child = 0; child < 8; ++child) {
+    collect_nodes(prefix_counts, count_depth, depth + 1, prefix * 8 + child, max_count, nodes);
+  }
+}
+
+/// What is kept of a chunk once its levels are spilled.
+struct BuiltChunk {
+  ChunkPlan plan;
+  ChunkReach reach;
+  float center[3];
+  uint64_t checksum[format::kMaxLodLevels];
+};
+
+/// The build: its options, the scene's layout, the files and what the chunks left.
+class OutOfCoreBuild {
+ public:
+  OutOfCoreBuild(const format::EncodedScene& head, const OutOfCoreLodOptions& options)
+      : head_(head), options_(options), grid_(head.metadata.bounds.aabb_min, head.metadata.bounds.aabb_max) {
+    record_.sh = uint64_t{3} * format::sh_coefficient_count(head.metadata.sh_degree);
+    record_.residual = options.sh_dc_residual;
+    workers_ = parallel::thread_count(options.lod.threads);
+    planned_levels_ = options.lod.levels == 0 ? kAutoMaxLevels : options.lod.levels;
+    format::SceneBounds bounds = head.metadata.bounds;
+    format::set_sphere_center(&bounds, scene_center_);
+  }
+
+  Result<OutOfCoreLodReport> run(const std::string& path, EncodedBatches& batches, format::FileSink& files) {
+    RGS_RETURN_IF_ERROR(temp_.create(path));
+    RGS_RETURN_IF_ERROR(count_cells(batches));
+    RGS_RETURN_IF_ERROR(plan_buckets());
+    RGS_RETURN_IF_ERROR(partition(batches));
+    for (uint32_t b = 0; b < bucket_count_; ++b) RGS_RETURN_IF_ERROR(build_bucket(b));
+    return write(path, files);
+  }
+
+ private:
+  void report(const char* stage, double fraction) {
+    if (options_.progress) options_.progress(stage, fraction);
+  }
+
+  /// Pass 1: counts per cell of the count grid, then their prefix sums.
+  Status count_cells(EncodedBatches& batches) {
+    const uint64_t budget = options_.memory_limit / 16;
+    count_depth_ = 1;
+    while (count_depth_ < kMaxCountDepth && (uint64_t{8} << (3 * count_depth_)) * 4 <= budget) ++count_depth_;
+    const uint64_t cells = uint64_t{1} << (3 * count_depth_);
+    prefix_.assign(cells + 1, 0);
+    RGS_RETURN_IF_ERROR(batches.rewind());
+    format::EncodedScene batch;
+    uint64_t seen = 0;
+    for (;;) {
+      RGS_ASSIGN_OR_RETURN(const bool more, batches.next(&batch));
+      if (!more) break;
+      for (uint64_t i = 0; i < batch.count; ++i) ++prefix_[cell_of(&batch.means[i * 3]) + 1];
+      seen += batch.count;
+      report("counting", 0.25 * static_cast<double>(seen) / static_cast<double>(head_.count));
+    }
+    RGS_RETURN_ERROR_IF(seen != head_.count, StatusCode::kCorruptData,
+                        "the input gave " + std::to_string(seen) + " Gaussians, " + std::to_string(head_.count) +
+                            " before (did it change while it was read?)");
+    for (uint64_t c = 0; c < cells; ++c) prefix_[c + 1] += prefix_[c];
+    return Status();
+  }
+
+  uint64_t cell_of(const float* mean) const { return grid_.code(mean) >> (3 * (kGridBits - count_depth_)); }
+
+  /// The nodes, and consecutive nodes grouped into buckets that fit the memory limit; the cell → bucket map.
+  Status plan_buckets() {
+    const uint64_t max_chunk = options_.lod.max_chunk_gaussians;
+    collect_nodes(prefix_, count_depth_, 0, 0, max_chunk, &nodes_);
+    const uint64_t per_gaussian = record_.bytes() + kSortBytesPerGaussian;
+    // Held while a bucket is built: the cell map, the spill buffers, the chunk outputs of a group (levels at
+    // most 4/3 of the full detail: 2× is ample) and the workers' sort scratch.
+    const uint64_t fixed = kSlackBytes + 4 * (uint64_t{1} << (3 * count_depth_)) +
+                           uint64_t{6} * planned_levels_ * kSpillBufferBytes +
+                           workers_ * kChunksPerWorker * 2 * max_chunk * record_.bytes() +
+                           workers_ * max_chunk * kSortBytesPerGaussian;
+    RGS_RETURN_ERROR_IF(options_.memory_limit < fixed + max_chunk * per_gaussian, StatusCode::kLimitExceeded,
+                        "a memory limit of " + std::to_string(options_.memory_limit) + " bytes is below the " +
+                            std::to_string(fixed + max_chunk * per_gaussian) +
+                            " an out-of-core build of chunks of " + std::to_string(max_chunk) + " Gaussians needs");
+    capacity_ = (options_.memory_limit - fixed) / per_gaussian;
+    uint64_t in_bucket = 0;
+    for (Node& node : nodes_) {
+      if (in_bucket > 0 && in_bucket + node.count > capacity_) {
+        ++bucket_count_;
+        in_bucket = 0;
+      }
+      node.bucket = bucket_count_;
+      in_bucket += node.count;
+      RGS_RETURN_ERROR_IF(in_bucket > capacity_, StatusCode::kLimitExceeded,
+                          std::to_string(node.count) + " Gaussians lie in one cell of 1/" +
+                              std::to_string(uint64_t{1} << count_depth_) +
+                              " of the scene's extent, more than the memory limit holds at once (" +
+                              std::to_string(capacity_) + ")");
+    }
+    ++bucket_count_;
+    RGS_RETURN_ERROR_IF(bucket_count_ > kMaxBuckets, StatusCode::kLimitExceeded,
+                        "the scene needs " + std::to_string(bucket_count_) + " partitions of at most " +
+                            std::to_string(capacity_) + " Gaussians, more than " + std::to_string(kMaxBuckets) +
+                            "; raise the memory limit");
+    // prefix_ becomes the cell → bucket map (its counts are no longer needed).
+    for (const Node& node : nodes_) {
+      for (uint64_t c = node.first_cell; c < node.end_cell; ++c) prefix_[c] = node.bucket;
+    }
+    return Status();
+  }
+
+  /// Pass 2: every Gaussian appended to its bucket's partition file.
+  Status partition(EncodedBatches& batches) {
+    buckets_.resize(bucket_count_);
+    const size_t buffer = std::clamp<size_t>(options_.memory_limit / 4 / bucket_count_, kMinPartitionBufferBytes,
+                                             kMaxPartitionBufferBytes);
+    for (uint32_t b = 0; b < bucket_count_; ++b) {
+      buckets_[b] = std::make_unique<SpillFile>();
+      RGS_RETURN_IF_ERROR(buckets_[b]->open(temp_.file("partition-" + std::to_string(b)), buffer));
+    }
+    RGS_RETURN_IF_ERROR(batches.rewind());
+    format::EncodedScene batch;
+    std::vector<uint8_t> record(record_.bytes());
+    uint64_t seen = 0;
+    for (;;) {
+      RGS_ASSIGN_OR_RETURN(const bool more, batches.next(&batch));
+      if (!more) break;
+      RGS_RETURN_ERROR_IF(seen + batch.count > head_.count, StatusCode::kCorruptData,
+                          "the input gave more Gaussians than in its first pass (did it change while it was read?)");
+      for (uint64_t i = 0; i < batch.count; ++i) {
+        put_record(batch, i, record_, record.data());
+        RGS_RETURN_IF_ERROR(buckets_[prefix_[cell_of(&batch.means[i * 3])]]->append(record.data(), record.size()));
+      }
+      seen += batch.count;
+      report("partitioning", 0.25 + 0.25 * static_cast<double>(seen) / static_cast<double>(head_.count));
+    }
+    std::vector<uint32_t>().swap(prefix_);
+    for (auto& b : buckets_) RGS_RETURN_IF_ERROR(b->flush());
+    for (uint32_t b = 0; b < bucket_count_; ++b) {
+      uint64_t expected = 0;
+      for (const Node& node : nodes_) expected += node.bucket == b ? node.count : 0;
+      RGS_RETURN_ERROR_IF(buckets_[b]->size() != expected * record_.bytes(), StatusCode::kCorruptData,
+                          "the input gave other Gaussians than in its first pass (did it change while it was read?)");
+    }
+    return Status();
+  }
+
+  /// Reads bucket b, sorts it and cuts its nodes into chunks: the bucket's part of build_lod's MortonOrder.
+  Status load_bucket(uint32_t b, MortonOrder* order) {
+    SpillFile& file = *buckets_[b];
+    const uint64_t n = file.size() / record_.bytes();
+    size_scene(record_, n, &bucket_);
+    bucket_.metadata = head_.metadata;
+    std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / record_.bytes()) * record_.bytes());
+    for (uint64_t i = 0; i < n;) {
+      const uint64_t m = std::min<uint64_t>(n - i, piece.size() / record_.bytes());
+      RGS_RETURN_IF_ERROR(file.read(i * record_.bytes(), piece.data(), static_cast<size_t>(m * record_.bytes())));
+      for (uint64_t j = 0; j < m; ++j) get_record(piece.data() + j * record_.bytes(), record_, i + j, &bucket_);
+      i += m;
+    }
+    file.close();
+    std::error_code ignored;
+    std::filesystem::remove(temp_.file("partition-" + std::to_string(b)), ignored);  // disk back as it goes
+    order->keys.resize(n);
+    order->index.resize(n);
+    for (uint64_t i = 0; i < n; ++i) {
+      order->keys[i] = grid_.code(&bucket_.means[i * 3]);
+      order->index[i] = static_cast<uint32_t>(i);
+    }
+    tmp_keys_.resize(n);
+    tmp_index_.resize(n);
+    radix_sort(order->keys.data(), order->index.data(), n, tmp_keys_.data(), tmp_index_.data());
+    uint64_t position = 0;
+    for (const Node& node : nodes_) {
+      if (node.bucket != b) continue;
+      if (node.split) {
+        split_node(order->keys.data(), position, position + node.count, count_depth_, options_.lod.max_chunk_gaussians,
+                   &order->leaves);
+      } else {
+        order->leaves.emplace_back(position, position + node.count);
+      }
+      position += node.count;
+    }
+    return Status();
+  }
+
+  /// The chunks of bucket b: planned, built in groups on the workers, their levels spilled in chunk order.
+  Status build_bucket(uint32_t b) {
+    MortonOrder order;
+    RGS_RETURN_IF_ERROR(load_bucket(b, &order));
+    std::vector<Scratch> scratch(workers_);
+    const std::function<void(double)> silent;
+    Progress quiet(silent, 1);
+    RGS_ASSIGN_OR_RETURN(std::vector<ChunkPlan> plans,
+                         plan_chunks(bucket_, planned_levels_, workers_, &order, &scratch, &quiet));
+    const Layout t = describe_layout(bucket_);
+    const uint64_t group = uint64_t{workers_} * kChunksPerWorker;
+    std::vector<format::EncodedScene> outputs(group);
+    std::vector<BuiltChunk> built(group);
+    for (uint64_t g0 = 0; g0 < plans.size(); g0 += group) {
+      const uint64_t g1 = std::min<uint64_t>(plans.size(), g0 + group);
+      RGS_RETURN_IF_ERROR(parallel_items(g1 - g0, workers_, [&](unsigned worker, uint64_t k) {
+        BuiltChunk& chunk = built[k];
+        chunk.plan = plans[g0 + k];
+        uint64_t first[format::kMaxLodLevels], total = 0;
+        for (uint32_t l = 0; l < planned_levels_; ++l) {
+          first[l] = total;
+          total += chunk.plan.count[l];
+        }
+        size_scene(record_, total, &outputs[k]);
+        double center[3];
+        chunk_center(chunk.plan, chunk.center, center);
+        chunk.reach = build_chunk(bucket_, order.index.data(), order.keys.data(), chunk.plan, first, planned_levels_,
+                                  t, center, scene_center_, &scratch[worker], &outputs[k]);
+        for (uint32_t l = 0; l < planned_levels_; ++l) {
+          chunk.checksum[l] = range_checksum(outputs[k], first[l], chunk.plan.count[l]);
+        }
+      }));
+      for (uint64_t k = 0; k < g1 - g0; ++k) {
+        RGS_RETURN_IF_ERROR(spill(outputs[k], built[k].plan));
+        chunks_.push_back(built[k]);
+      }
+      done_ += (plans[g1 - 1].end - plans[g0].begin);
+      report("building levels of detail", 0.5 + 0.4 * static_cast<double>(done_) / static_cast<double>(head_.count));
+    }
+    return Status();
+  }
+
+  /// XXH64 of Gaussians [first, first + count) of `s` across its sections (SPEC §4.9 `checksum`).
+  uint64_t range_checksum(const format::EncodedScene& s, uint64_t first, uint64_t count) const {
+    XXH64_state_t* state = XXH64_createState();
+    XXH64_reset(state, 0);
+    XXH64_update(state, &s.means[first * 3], count * 12);
+    XXH64_update(state, &s.rotations[first * 4], count * 8);
+    XXH64_update(state, &s.scales[first * 3], count * 6);
+    XXH64_update(state, &s.opacities[first], count * 2);
+    XXH64_update(state, &s.sh[first * record_.sh], count * record_.sh);
+    if (record_.residual) XXH64_update(state, &s.sh_dc_residual[first * 3], count * 3);
+    const uint64_t digest = XXH64_digest(state);
+    XXH64_freeState(state);
+    return digest;
+  }
+
+  static constexpr int kSections = 6;
+  SpillFile& spill_file(uint32_t level, int section) { return *spills_[level * kSections + section]; }
+
+  /// Appends each level of a built chunk to the spill files of its sections.
+  Status spill(const format::EncodedScene& s, const ChunkPlan& plan) {
+    if (spills_.empty()) {
+      spills_.resize(planned_levels_ * kSections);
+      for (size_t i = 0; i < spills_.size(); ++i) {
+        spills_[i] = std::make_unique<SpillFile>();
+        RGS_RETURN_IF_ERROR(spills_[i]->open(
+            temp_.file("level-" + std::to_string(i / kSections) + "-section-" + std::to_string(i % kSections)),
+            kSpillBufferBytes));
+      }
+    }
+    uint64_t first = 0;
+    for (uint32_t l = 0; l < planned_levels_; ++l) {
+      const uint64_t n = plan.count[l];
+      RGS_RETURN_IF_ERROR(spill_file(l, 0).append(&s.means[first * 3], n * 12));
+      RGS_RETURN_IF_ERROR(spill_file(l, 1).append(&s.rotations[first * 4], n * 8));
+      RGS_RETURN_IF_ERROR(spill_file(l, 2).append(&s.scales[first * 3], n * 6));
+      RGS_RETURN_IF_ERROR(spill_file(l, 3).append(&s.opacities[first], n * 2));
+      RGS_RETURN_IF_ERROR(spill_file(l, 4).append(&s.sh[first * record_.sh], n * record_.sh));
+      if (record_.residual) RGS_RETURN_IF_ERROR(spill_file(l, 5).append(&s.sh_dc_residual[first * 3], n * 3));
+      first += n;
+    }
+    return Status();
+  }
+
+  /// The level count, the index and the metadata, then the file streamed from the spill files.
+  Result<OutOfCoreLodReport> write(const std::string& path, format::FileSink& files) {
+    bucket_ = format::EncodedScene{};
+    std::vector<uint64_t>().swap(tmp_keys_);
+    std::vector<uint32_t>().swap(tmp_index_);
+    std::vector<ChunkPlan> plans;
+    plans.reserve(chunks_.size());
+    for (const BuiltChunk& c : chunks_) plans.push_back(c.plan);
+    uint64_t totals[format::kMaxLodLevels] = {};
+    const uint32_t levels = choose_level_count(plans, planned_levels_, options_.lod, head_.count, totals);
+    uint64_t total = 0;
+    for (uint32_t l = 0; l < levels; ++l) total += totals[l];
+    RGS_RETURN_ERROR_IF(total > kMaxOutputGaussians, StatusCode::kLimitExceeded,
+                        "build_lod: " + std::to_string(levels) + " levels of " + std::to_string(head_.count) +
+                            " Gaussians make " + std::to_string(total) + ", more than 2^31 - 1");
+    const auto chunk_count = static_cast<uint32_t>(chunks_.size());
+    format::LodIndex index;
+    index.chunk_count = chunk_count;
+    index.level_count = levels;
+    index.chunks.resize(chunk_count);
+    index.levels.resize(static_cast<size_t>(levels) * chunk_count);
+    double scene_d2 = 0;
+    uint64_t first = 0;
+    for (uint32_t l = 0; l < levels; ++l) {
+      for (uint32_t c = 0; c < chunk_count; ++c) {
+        const BuiltChunk& chunk = chunks_[c];
+        format::LodLevel& level = index.at(l, c);
+        level.first = first;
+        level.count = chunk.plan.count[l];
+        level.error = chunk.plan.error[l];
+        level.checksum = chunk.checksum[l];
+        first += level.count;
+      }
+    }
+    for (uint32_t c = 0; c < chunk_count; ++c) {
+      std::copy_n(chunks_[c].center, 3, index.chunks[c].center);
+      RGS_ASSIGN_OR_RETURN(index.chunks[c].radius, chunk_radius(chunks_[c].reach, levels, c));
+      scene_d2 = std::max(scene_d2, chunks_[c].reach.scene_d2_over(levels));
+    }
+    for (auto& s : spills_) RGS_RETURN_IF_ERROR(s->flush());
+
+    format::StreamedScene scene;
+    scene.metadata = head_.metadata;
+    double center[3];
+    format::set_sphere_center(&scene.metadata.bounds, center);
+    scene.metadata.bounds.sphere_radius = format::sphere_radius_for(scene_d2);
+    scene.provenance = head_.provenance;
+    scene.provenance.emplace_back("lod_levels", std::to_string(levels));
+    scene.provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
+    scene.count = total;
+    scene.sh_dc_residual = record_.residual;
+    uint64_t streamed = 0;
+    scene.produce = [&](format::SectionId id, const format::ChunkSink& sink) -> Status {
+      static constexpr format::SectionId kOrder[kSections] = {
+          format::SectionId::kMeans, format::SectionId::kRotations, format::SectionId::kScales,
+          format::SectionId::kOpacities, format::SectionId::kSh, format::SectionId::kShDcResidual};
+      const int section = static_cast<int>(std::find(kOrder, kOrder + kSections, id) - kOrder);
+      const uint64_t width = section == 0 ? 12 : section == 1 ? 8 : section == 2 ? 6 : section == 3 ? 2
+                             : section == 4 ? record_.sh : 3;
+      std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / width) * width);
+      for (uint32_t l = 0; l < levels; ++l) {
+        SpillFile& file = spill_file(l, section);
+        for (uint64_t at = 0; at < file.size();) {
+          const size_t size = static_cast<size_t>(std::min<uint64_t>(piece.size(), file.size() - at));
+          RGS_RETURN_IF_ERROR(file.read(at, piece.data(), size));
+          RGS_RETURN_IF_ERROR(sink(piece.data(), size));
+          at += size;
+          streamed += size;
+        }
+      }
+      report("writing", 0.9 + 0.1 * std::min(1.0, static_cast<double>(streamed) /
+                                                       static_cast<double>(total * record_.bytes())));
+      return Status();
+    };
+    format::WriteOptions write = options_.write;
+    write.lod = &index;
+    RGS_ASSIGN_OR_RETURN(const uint64_t bytes, format::write_streamed_scene_file(path, scene, write, files));
+    OutOfCoreLodReport result;
+    result.bytes = bytes;
+    result.chunks = chunk_count;
+    result.levels = levels;
+    result.gaussians = total;
+    result.partitions = bucket_count_;
+    result.partition_capacity = capacity_;
+    return result;
+  }
+
+  const format::EncodedScene& head_;
+  const OutOfCoreLodOptions& options_;
+  MortonGrid grid_;
+  RecordLayout record_;
+  unsigned workers_ = 1;
+  uint32_t planned_levels_ = 1;
+  double scene_center_[3] = {0, 0, 0};
+  TempFolder temp_;
+  int count_depth_ = 1;
+  std::vector<uint32_t> prefix_;  ///< counts per cell, their prefix sums, then the cell → bucket map
+  std::vector<Node> nodes_;
+  uint64_t capacity_ = 0;
+  uint32_t bucket_count_ = 0;
+  std::vector<std::unique_ptr<SpillFile>> buckets_;
+  format::EncodedScene bucket_;
+  std::vector<uint64_t> tmp_keys_;
+  std::vector<uint32_t> tmp_index_;
+  std::vector<std::unique_ptr<SpillFile>> spills_;
+  std::vector<BuiltChunk> chunks_;
+  uint64_t done_ = 0;
+};
+
+}  // namespace
+
+Result<OutOfCoreLodReport> build_lod_out_of_core(const std::string& path, EncodedBatches& batches,
+                                                 const format::EncodedScene& head, const OutOfCoreLodOptions& options,
+                                                 format::FileSink& files) {
+  RGS_RETURN_ERROR_IF(head.count == 0, StatusCode::kInvalidArgument, "build_lod: the scene has no Gaussians");
+  RGS_RETURN_ERROR_IF(options.lod.levels > format::kMaxLodLevels, StatusCode::kInvalidArgument,
+                      "build_lod: " + std::to_string(options.lod.levels) + " levels exceed the format's " +
+                          std::to_string(format::kMaxLodLevels));
+  RGS_RETURN_ERROR_IF(options.lod.max_chunk_gaussians == 0, StatusCode::kInvalidArgument,
+                      "build_lod: max_chunk_gaussians must be >= 1");
+  RGS_RETURN_ERROR_IF(head.count > kMaxOutputGaussians, StatusCode::kLimitExceeded,
+                      "build_lod: " + std::to_string(head.count) + " Gaussians exceed 2^31 - 1");
+  try {
+    OutOfCoreBuild build(head, options);
+    return build.run(path, batches, files);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "build_lod: out of memory building the levels of " +
+                                                std::to_string(head.count) + " Gaussians out of core");
+  }
+}
+
+}  // namespace rgs::converter
