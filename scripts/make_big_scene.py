@@ -18,6 +18,11 @@ import os
 import struct
 import sys
 
+try:  # NumPy moves a block's means in one step; without it every row is unpacked in Python (far slower)
+    import numpy
+except ImportError:
+    numpy = None
+
 PLY_TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h", "ushort": "H",
              "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I", "float": "f", "float32": "f",
              "double": "d", "float64": "d"}
@@ -76,8 +81,21 @@ def blocks(path, header_bytes, row_size, count):
             yield bytearray(data)
 
 
+def means_view(block, row_size, offsets):
+    """A NumPy view of `block`'s rows as records of their x, y and z."""
+    dtype = numpy.dtype({"names": ["x", "y", "z"], "formats": ["<f4"] * 3, "offsets": offsets, "itemsize": row_size})
+    return numpy.frombuffer(block, dtype=dtype)
+
+
 def means_box(path, header_bytes, row, offsets, count):
     lo, hi = [math.inf] * 3, [-math.inf] * 3
+    if numpy is not None:
+        for block in blocks(path, header_bytes, row.size, count):
+            view = means_view(block, row.size, offsets)
+            for a, axis in enumerate("xyz"):
+                lo[a] = min(lo[a], float(view[axis].min()))
+                hi[a] = max(hi[a], float(view[axis].max()))
+        return lo, hi
     xyz = struct.Struct("<3f") if offsets[1] == offsets[0] + 4 and offsets[2] == offsets[0] + 8 else None
     for block in blocks(path, header_bytes, row.size, count):
         for start in range(0, len(block), row.size):
@@ -94,7 +112,12 @@ def means_box(path, header_bytes, row, offsets, count):
 
 
 def shifted(block, row_size, offsets, shift):
-    """`block` with every row's x, y, z moved by `shift`, in place."""
+    """`block` with every row's x, y, z moved by `shift` (in float32, as the rows hold them), in place."""
+    if numpy is not None:
+        view = means_view(block, row_size, offsets)
+        for a, axis in enumerate("xyz"):
+            view[axis] += numpy.float32(shift[a])
+        return block
     floats = struct.Struct("<f")
     for start in range(0, len(block), row_size):
         for a in range(3):

@@ -667,8 +667,8 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
   RGS_RETURN_IF_ERROR(check_output(dst, output, options));
   ProgressReporter progress(options, output);
   progress.reading();
-  RGS_ASSIGN_OR_RETURN(const bool out_of_core, detail::converts_out_of_core(src, output, options));
-  if (out_of_core) return detail::convert_out_of_core(src, dst, options);
+  RGS_ASSIGN_OR_RETURN(std::unique_ptr<converter::PlyStream> stream, detail::out_of_core_input(src, output, options));
+  if (stream) return detail::convert_out_of_core(std::move(stream), src, dst, options);
   RGS_RETURN_IF_ERROR(detail::check_convert_memory(src, options));
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, scene_read_options(options)));
   // Every file the scene read is an input: `dst` may not be one of them, in any spelling.

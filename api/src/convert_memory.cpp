@@ -78,7 +78,8 @@ Status check_convert_memory(const std::string& src, const ConvertOptions& option
   RGS_RETURN_ERROR_IF(estimate > limit, StatusCode::kLimitExceeded,
                       src + ": converting it is estimated to need " + bytes_text(estimate) +
                           " of memory, above the memory limit of " + bytes_text(limit) +
-                          " (the input is read whole); raise it with memory_limit (--memory-limit)");
+                          " (the input is read whole: only a binary PLY converted with levels of detail is read in batches); "
+                          "raise it with memory_limit (--memory-limit)");
   return Status();
 }
 

@@ -1,15 +1,19 @@
 // convert() of a binary PLY larger than its memory limit into a level-of-detail .rgs: the PLY read in batches,
 // quantized batch by batch with the scene's own SH scales, its levels built by converter::build_lod_out_of_core
 // (docs/LOD.md#scenes-larger-than-memory).
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <string>
 #include <utility>
 
 #include "internal_convert_memory.h"
+#include "internal_rate_knobs.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
@@ -29,6 +33,18 @@ constexpr uint64_t kBatchShareOfLimit = 16;
 
 /// Where each stage of an out-of-core conversion starts, as a fraction of the whole.
 constexpr double kScanShare = 0.2;
+
+/// The process's resident memory now (Linux /proc/self/statm), 0 when unknown: what the memory limit holds
+/// before the conversion's own arrays.
+uint64_t resident_bytes() {
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (f == nullptr) return 0;
+  unsigned long long size = 0, resident = 0;
+  const int read = std::fscanf(f, "%llu %llu", &size, &resident);
+  std::fclose(f);
+  const long page = sysconf(_SC_PAGE_SIZE);
+  return read == 2 && page > 0 ? uint64_t(resident) * uint64_t(page) : 0;
+}
 
 /// Bytes a batch takes per Gaussian: the float cloud as read and its quantized copy.
 uint64_t batch_bytes_per_gaussian(uint32_t sh_degree) {
@@ -168,31 +184,35 @@ Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptio
 
 }  // namespace
 
-Result<bool> converts_out_of_core(const std::string& src, OutputFormat output, const ConvertOptions& options) {
+Result<std::unique_ptr<converter::PlyStream>> out_of_core_input(const std::string& src, OutputFormat output,
+                                                                 const ConvertOptions& options) {
+  std::unique_ptr<converter::PlyStream> none;
   if (output != OutputFormat::kRgs || !options.lod_levels || options.target.active() ||
       options.profile != format::StorageProfile::kRuntime) {
-    return false;
+    return none;
   }
   const uint64_t limit = convert_memory_limit(options);
-  if (limit == 0) return false;
+  if (limit == 0) return none;
   RGS_ASSIGN_OR_RETURN(const uint64_t estimate, estimate_convert_memory(src));
-  if (estimate <= limit) return false;
+  if (estimate <= limit) return none;
   RGS_ASSIGN_OR_RETURN(const std::string format_id, converter::detect_scene_format(src));
-  return format_id == "ply";
-}
-
-Result<ConvertReport> convert_out_of_core(const std::string& src, const std::string& dst,
-                                          const ConvertOptions& options) {
-  const auto start = Clock::now();
-  RGS_RETURN_IF_ERROR(format::check_output_file(dst, {src}));
-  RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
-                      src + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
+  if (format_id != "ply") return none;
   const converter::SceneReadOptions read = scene_read_options(options);
   converter::PlyReadOptions ply;
   ply.invalid_policy = read.invalid_policy;
   ply.max_gaussians = read.max_gaussians;
   ply.hash_file = true;
-  RGS_ASSIGN_OR_RETURN(std::unique_ptr<converter::PlyStream> stream, converter::PlyStream::open(src, ply));
+  auto stream = converter::PlyStream::open(src, ply);
+  if (!stream.ok() && stream.status().code() == StatusCode::kUnsupportedFeature) return none;  // an ascii PLY
+  return stream;
+}
+
+Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> stream, const std::string& src,
+                                          const std::string& dst, const ConvertOptions& options) {
+  const auto start = Clock::now();
+  RGS_RETURN_IF_ERROR(format::check_output_file(dst, {src}));
+  RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
+                      src + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
   const uint64_t limit = convert_memory_limit(options);
   const uint64_t batch = std::clamp(limit / kBatchShareOfLimit / batch_bytes_per_gaussian(stream->sh_degree()),
                                     kMinBatchGaussians, kMaxBatchGaussians);
@@ -243,7 +263,9 @@ Result<ConvertReport> convert_out_of_core(const std::string& src, const std::str
   converter::OutOfCoreLodOptions lod;
   lod.lod.levels = *options.lod_levels;
   lod.lod.max_chunk_gaussians = options.lod_chunk_gaussians;
-  lod.memory_limit = limit - std::min(limit, batch * batch_bytes_per_gaussian(stream->sh_degree()));
+  // The limit bounds the whole process: what it holds already and the batches are not the build's.
+  const uint64_t held = resident_bytes() + batch * batch_bytes_per_gaussian(stream->sh_degree());
+  lod.memory_limit = limit - std::min(limit, held);
   lod.sh_dc_residual = options.sh_dc_bits == 16;
   RGS_ASSIGN_OR_RETURN(lod.write, rgs_write_options(options));
   lod.progress = [&](const char* stage, double fraction) {
@@ -264,9 +286,10 @@ Result<ConvertReport> convert_out_of_core(const std::string& src, const std::str
   report.output_bytes = built->bytes;
   report.output_description = "RoofGS .rgs, runtime profile with levels of detail";
   report.rgs->out_of_core_partitions = built->partitions;
-  report.output_notes.push_back("built out of core in " + std::to_string(built->partitions) +
-                                " partitions of at most " + std::to_string(built->partition_capacity) +
-                                " Gaussians (memory limit " + std::to_string(limit) + " bytes)");
+  report.output_notes.push_back(
+      "built out of core: " + group_digits(built->partitions) + (built->partitions == 1 ? " partition" : " partitions") +
+      " of at most " + group_digits(built->partition_capacity) + " Gaussians in a memory limit of " +
+      group_digits(limit) + " bytes");
   report.gaussians = stats.count;
   report.sh_degree = stats.sh_degree;
   report.seconds.total = std::chrono::duration<double>(Clock::now() - start).count();

@@ -3,9 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "rgs/api/convert.h"
+#include "rgs/converter/ply_reader.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/writer.h"
 
@@ -15,16 +17,17 @@ namespace rgs::api::detail {
 /// convert_memory_limit(options); no check when the limit is 0 (unknown physical memory).
 Status check_convert_memory(const std::string& src, const ConvertOptions& options);
 
-/// Whether convert() builds `src` out of core: a binary PLY (by content) converted to a level-of-detail .rgs
-/// (ConvertOptions::lod_levels, runtime profile, no target) whose estimated peak memory in memory is above
-/// convert_memory_limit(options).
-Result<bool> converts_out_of_core(const std::string& src, OutputFormat output, const ConvertOptions& options);
+/// The input of a conversion convert() builds out of core, opened: a binary PLY (by content) converted to a
+/// level-of-detail .rgs (ConvertOptions::lod_levels, runtime profile, no target) whose estimated peak memory in
+/// memory is above convert_memory_limit(options). Null for every other conversion (an ascii PLY included).
+Result<std::unique_ptr<converter::PlyStream>> out_of_core_input(const std::string& src, OutputFormat output,
+                                                                 const ConvertOptions& options);
 
 /// convert() of such an input (docs/LOD.md#scenes-larger-than-memory): the PLY read in batches, once for the
 /// statistics quantize() takes (bounds, SH scales, hygiene, the file's hash) and twice by
 /// converter::build_lod_out_of_core; the same bytes as the conversion in memory.
-Result<ConvertReport> convert_out_of_core(const std::string& src, const std::string& dst,
-                                          const ConvertOptions& options);
+Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> stream, const std::string& src,
+                                          const std::string& dst, const ConvertOptions& options);
 
 /// The write options of a .rgs conversion (profile, codecs, zstd level), checked.
 Result<format::WriteOptions> rgs_write_options(const ConvertOptions& options);

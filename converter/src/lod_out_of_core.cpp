@@ -170,7 +170,7 @@ void get_record(const uint8_t* in, const RecordLayout& r, uint64_t i, format::En
   if (r.residual) std::memcpy(&s->sh_dc_residual[i * 3], in + 28 + r.sh, 3);
 }
 
-/// `s` sized for n Gaussians of the layout (its vectors keep their capacity from bucket to bucket).
+/// `s` sized for n Gaussians of the layout.
 void size_scene(const RecordLayout& r, uint64_t n, format::EncodedScene* s) {
   s->count = n;
   s->means.resize(n * 3);
@@ -279,9 +279,11 @@ class OutOfCoreBuild {
                            workers_ * kChunksPerWorker * 2 * max_chunk * record_.bytes() +
                            workers_ * max_chunk * kSortBytesPerGaussian;
     RGS_RETURN_ERROR_IF(options_.memory_limit < fixed + max_chunk * per_gaussian, StatusCode::kLimitExceeded,
-                        "a memory limit of " + std::to_string(options_.memory_limit) + " bytes is below the " +
-                            std::to_string(fixed + max_chunk * per_gaussian) +
-                            " an out-of-core build of chunks of " + std::to_string(max_chunk) + " Gaussians needs");
+                        "the out-of-core build has " + std::to_string(options_.memory_limit) +
+                            " bytes of memory, below the " + std::to_string(fixed + max_chunk * per_gaussian) +
+                            " that chunks of " + std::to_string(max_chunk) +
+                            " Gaussians need; raise the memory limit (--memory-limit) or make the chunks smaller "
+                            "(--lod-chunk)");
     capacity_ = (options_.memory_limit - fixed) / per_gaussian;
     uint64_t in_bucket = 0;
     for (Node& node : nodes_) {
@@ -349,6 +351,7 @@ class OutOfCoreBuild {
   Status load_bucket(uint32_t b, MortonOrder* order) {
     SpillFile& file = *buckets_[b];
     const uint64_t n = file.size() / record_.bytes();
+    bucket_ = format::EncodedScene{};  // sized afresh: growing the last bucket's arrays would copy them
     size_scene(record_, n, &bucket_);
     bucket_.metadata = head_.metadata;
     std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / record_.bytes()) * record_.bytes());
@@ -367,9 +370,11 @@ class OutOfCoreBuild {
       order->keys[i] = grid_.code(&bucket_.means[i * 3]);
       order->index[i] = static_cast<uint32_t>(i);
     }
-    tmp_keys_.resize(n);
-    tmp_index_.resize(n);
-    radix_sort(order->keys.data(), order->index.data(), n, tmp_keys_.data(), tmp_index_.data());
+    {
+      std::vector<uint64_t> tmp_keys(n);
+      std::vector<uint32_t> tmp_index(n);
+      radix_sort(order->keys.data(), order->index.data(), n, tmp_keys.data(), tmp_index.data());
+    }
     uint64_t position = 0;
     for (const Node& node : nodes_) {
       if (node.bucket != b) continue;
@@ -472,8 +477,6 @@ class OutOfCoreBuild {
   /// The level count, the index and the metadata, then the file streamed from the spill files.
   Result<OutOfCoreLodReport> write(const std::string& path, format::FileSink& files) {
     bucket_ = format::EncodedScene{};
-    std::vector<uint64_t>().swap(tmp_keys_);
-    std::vector<uint32_t>().swap(tmp_index_);
     std::vector<ChunkPlan> plans;
     plans.reserve(chunks_.size());
     for (const BuiltChunk& c : chunks_) plans.push_back(c.plan);
@@ -571,8 +574,6 @@ class OutOfCoreBuild {
   uint32_t bucket_count_ = 0;
   std::vector<std::unique_ptr<SpillFile>> buckets_;
   format::EncodedScene bucket_;
-  std::vector<uint64_t> tmp_keys_;
-  std::vector<uint32_t> tmp_index_;
   std::vector<std::unique_ptr<SpillFile>> spills_;
   std::vector<BuiltChunk> chunks_;
   uint64_t done_ = 0;

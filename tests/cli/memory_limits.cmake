@@ -158,12 +158,25 @@ rgs_cli_case(memory_max_gaussians
   EXIT 1 REGEX "guitar.rgs: 90854 Gaussians exceed the limit of 1000 \\[kLimitExceeded\\]" REQUIRES guitar_rgs)
 rgs_cli_case(memory_max_gaussians_help CMD "${info}|--help" REGEX "--max-gaussians.*--max-decompression-ratio")
 
-# --memory-limit: an input whose estimated peak is above it is refused before it is read, the output untouched;
-# with room, the level-of-detail file is written and checks; values that are no size are usage errors.
+# --memory-limit: an input whose estimated peak is above it is refused before it is read, the output untouched,
+# unless it is a binary PLY converted with levels of detail, which is built out of core (and refused when the
+# limit cannot hold one chunk's build); with room, the level-of-detail file is written and checks; values that
+# are no size are usage errors.
+set(interop_spz ${PROJECT_SOURCE_DIR}/tests/data/interop/guitar_256_splat_transform_v4.spz)
 rgs_cli_case(convert_memory_limit_refused
-  CMD "${convert}|${sample}|${cli_dir}/memory_limit_refused.rgs|--lod-levels|auto|--memory-limit|16MiB" EXIT 1
-  REGEX "guitar.ply: converting it is estimated to need [0-9.]+ MiB of memory, above the memory limit of 16.0 MiB \\(the input is read whole\\). raise it with memory_limit \\(--memory-limit\\) \\[kLimitExceeded\\]"
+  CMD "${convert}|${interop_spz}|${cli_dir}/memory_limit_refused.rgs|--lod-levels|auto|--memory-limit|16MiB" EXIT 1
+  REGEX "guitar_256_splat_transform_v4.spz: converting it is estimated to need [0-9.]+ MiB of memory, above the memory limit of 16.0 MiB \\(the input is read whole: only a binary PLY converted with levels of detail is read in batches\\). raise it with memory_limit \\(--memory-limit\\) \\[kLimitExceeded\\]"
   GUARD ${cli_dir}/memory_limit_refused.rgs)
+rgs_cli_case(convert_out_of_core
+  CMD "${convert}|${sample}|${cli_dir}/out_of_core.rgs|--lod-levels|auto|--lod-chunk|4096|--memory-limit|72MiB"
+  REGEX "built out of core: 1 partition of at most [0-9,]+ Gaussians in a memory limit of 75,497,472 bytes"
+  OUTPUT ${cli_dir}/out_of_core.rgs SETUP out_of_core)
+rgs_cli_case(convert_out_of_core_checks CMD "${info}|--check|${cli_dir}/out_of_core.rgs"
+  REGEX "check +ok" REQUIRES out_of_core)
+rgs_cli_case(convert_out_of_core_too_small
+  CMD "${convert}|${sample}|${cli_dir}/out_of_core_small.rgs|--lod-levels|auto|--memory-limit|16MiB" EXIT 1
+  REGEX "guitar.ply: the out-of-core build has [0-9]+ bytes of memory, below the [0-9]+ that chunks of 65536 Gaussians need. raise the memory limit .--memory-limit. or make the chunks smaller .--lod-chunk. \\[kLimitExceeded\\]"
+  GUARD ${cli_dir}/out_of_core_small.rgs)
 rgs_cli_case(convert_memory_limit_room
   CMD "${convert}|-q|${sample}|${cli_dir}/memory_limit_room.rgs|--lod-levels|auto|--memory-limit|1GiB"
   OUTPUT ${cli_dir}/memory_limit_room.rgs SETUP memory_limit_room)

@@ -1,0 +1,189 @@
+// build_lod_out_of_core(): the same file as build_lod() written in memory, whatever the partitions the memory
+// limit cuts the scene into, with nothing left on disk after success or failure.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "rgs/converter/lod_builder.h"
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/format/reader.h"
+#include "rgs/format/writer.h"
+#include "temp_dir.h"
+#include "test_data.h"
+
+namespace rgs::test {
+namespace {
+
+using converter::EncodedBatches;
+using converter::OutOfCoreLodOptions;
+
+format::EncodedScene quantized(const std::string& path, format::ScaleEncoding encoding) {
+  auto ply = converter::read_ply(repo_path(path));
+  REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
+  converter::QuantizeOptions options;
+  options.scale_encoding = encoding;
+  auto encoded = converter::quantize(ply->cloud, options);
+  REQUIRE_MESSAGE(encoded.ok(), encoded.status().to_string());
+  encoded->provenance = {{"source_file", path}};
+  return std::move(encoded).value();
+}
+
+/// Gaussians [first, first + n) of `s` as a scene of their own.
+format::EncodedScene slice(const format::EncodedScene& s, uint64_t first, uint64_t n) {
+  const uint64_t k3 = uint64_t{3} * format::sh_coefficient_count(s.metadata.sh_degree);
+  format::EncodedScene out;
+  out.count = n;
+  auto copy = [&](const auto& from, auto* to, uint64_t width) {
+    to->assign(from.begin() + first * width, from.begin() + (first + n) * width);
+  };
+  copy(s.means, &out.means, 3);
+  copy(s.rotations, &out.rotations, 4);
+  copy(s.scales, &out.scales, 3);
+  copy(s.opacities, &out.opacities, 1);
+  copy(s.sh, &out.sh, k3);
+  if (!s.sh_dc_residual.empty()) copy(s.sh_dc_residual, &out.sh_dc_residual, 3);
+  return out;
+}
+
+/// A scene in memory read in batches of `batch` Gaussians; from pass `change_in_pass` on, one Gaussian fewer.
+class SceneBatches final : public EncodedBatches {
+ public:
+  SceneBatches(const format::EncodedScene& scene, uint64_t batch, int change_in_pass = 0)
+      : scene_(scene), batch_(batch), change_in_pass_(change_in_pass) {}
+  Status rewind() override {
+    next_ = 0;
+    ++pass_;
+    return Status();
+  }
+  Result<bool> next(format::EncodedScene* batch) override {
+    const uint64_t end = scene_.count - (change_in_pass_ != 0 && pass_ >= change_in_pass_ ? 1 : 0);
+    if (next_ >= end) return false;
+    const uint64_t n = std::min(batch_, end - next_);
+    *batch = slice(scene_, next_, n);
+    next_ += n;
+    return true;
+  }
+  int passes() const { return pass_; }
+
+ private:
+  const format::EncodedScene& scene_;
+  uint64_t batch_;
+  int change_in_pass_;
+  uint64_t next_ = 0;
+  int pass_ = 0;
+};
+
+/// The scene without its arrays, as build_lod_out_of_core() takes it.
+format::EncodedScene head_of(const format::EncodedScene& s) {
+  format::EncodedScene head;
+  head.count = s.count;
+  head.metadata = s.metadata;
+  head.provenance = s.provenance;
+  return head;
+}
+
+std::vector<uint8_t> file_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// build_lod() of `scene` written in memory, and build_lod_out_of_core() of it in batches: the same bytes.
+void check_same_file(const format::EncodedScene& scene, const OutOfCoreLodOptions& options, uint32_t min_partitions) {
+  auto built = converter::build_lod(scene, options.lod);
+  REQUIRE_MESSAGE(built.ok(), built.status().to_string());
+  format::WriteOptions write = options.write;
+  write.lod = &built->index;
+  auto expected = format::serialize_scene(built->scene, write);
+  REQUIRE_MESSAGE(expected.ok(), expected.status().to_string());
+
+  TempDir dir;
+  const std::filesystem::path out = dir.path() / "out_of_core.rgs";
+  SceneBatches batches(scene, 1000);
+  auto report = converter::build_lod_out_of_core(out.string(), batches, head_of(scene), options);
+  REQUIRE_MESSAGE(report.ok(), report.status().to_string());
+  CHECK(report->partitions >= min_partitions);
+  CHECK(report->bytes == expected->size());
+  CHECK(report->chunks == built->index.chunk_count);
+  CHECK(report->levels == built->index.level_count);
+  CHECK(batches.passes() == 2);
+  CHECK(file_bytes(out) == *expected);
+  CHECK(dir.entries() == std::vector<std::string>{"out_of_core.rgs"});  // the partitions and spills are gone
+  auto file = format::RgsFile::open(out.string());
+  REQUIRE_MESSAGE(file.ok(), file.status().to_string());
+  CHECK(file->lod() != nullptr);
+}
+
+TEST_CASE("build_lod_out_of_core: guitar in several partitions is build_lod's file byte for byte") {
+  const format::EncodedScene scene = quantized("samples/guitar.ply", format::ScaleEncoding::kLinear);
+  OutOfCoreLodOptions options;
+  options.lod.max_chunk_gaussians = 4096;
+  options.sh_dc_residual = !scene.sh_dc_residual.empty();
+  options.lod.threads = 2;  // the memory a build holds apart from its partitions grows with its threads
+  options.memory_limit = uint64_t{9} << 20;  // about 10,000 Gaussians a partition
+  SUBCASE("auto levels") { check_same_file(scene, options, 4); }
+  SUBCASE("three levels, one thread") {
+    options.lod.levels = 3;
+    options.lod.threads = 1;
+    check_same_file(scene, options, 2);
+  }
+  SUBCASE("one partition") {
+    options.memory_limit = uint64_t{256} << 20;
+    check_same_file(scene, options, 1);
+  }
+}
+
+TEST_CASE("build_lod_out_of_core: SH 3 with log scales, DC residuals and zstd metadata is build_lod's file") {
+  const format::EncodedScene scene = quantized(kGuitarSh3, format::ScaleEncoding::kLog);
+  REQUIRE(!scene.sh_dc_residual.empty());
+  OutOfCoreLodOptions options;
+  options.lod.max_chunk_gaussians = 256;
+  options.lod.threads = 2;
+  options.sh_dc_residual = true;
+  options.memory_limit = uint64_t{8} << 20;  // about 5,000 Gaussians a partition
+  options.write.codecs[format::SectionId::kMetadata] = format::Codec::kZstd;
+  options.write.codecs[format::SectionId::kProvenance] = format::Codec::kZstd;
+  check_same_file(scene, options, 2);
+}
+
+TEST_CASE("build_lod_out_of_core: failures leave nothing behind, and a limit too small for a chunk is refused") {
+  const format::EncodedScene scene = quantized("samples/guitar.ply", format::ScaleEncoding::kLinear);
+  OutOfCoreLodOptions options;
+  options.lod.max_chunk_gaussians = 4096;
+  options.sh_dc_residual = !scene.sh_dc_residual.empty();
+  options.lod.threads = 2;
+  options.memory_limit = uint64_t{9} << 20;
+  TempDir dir;
+  const std::string out = (dir.path() / "failed.rgs").string();
+
+  SUBCASE("an input that changes between passes") {
+    SceneBatches changing(scene, 1000, 2);
+    auto r = converter::build_lod_out_of_core(out, changing, head_of(scene), options);
+    REQUIRE(!r.ok());
+    CHECK(r.status().code() == StatusCode::kCorruptData);
+    CHECK(r.status().message().find("did it change while it was read?") != std::string::npos);
+  }
+  SUBCASE("a memory limit below what one chunk needs") {
+    options.memory_limit = uint64_t{1} << 20;
+    SceneBatches batches(scene, 1000);
+    auto r = converter::build_lod_out_of_core(out, batches, head_of(scene), options);
+    REQUIRE(!r.ok());
+    CHECK(r.status().code() == StatusCode::kLimitExceeded);
+    CHECK(r.status().message().find("that chunks of 4096 Gaussians need") != std::string::npos);
+  }
+  SUBCASE("an output folder that does not exist") {
+    SceneBatches batches(scene, 1000);
+    auto r = converter::build_lod_out_of_core((dir.path() / "missing" / "x.rgs").string(), batches, head_of(scene),
+                                              options);
+    REQUIRE(!r.ok());
+    CHECK(r.status().code() == StatusCode::kIoError);
+  }
+  CHECK(dir.entries().empty());
+}
+
+}  // namespace
+}  // namespace rgs::test
