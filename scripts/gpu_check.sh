@@ -2,8 +2,8 @@
 # GPU host: runs every GPU test, the benchmark and the GPU audits from a folder staged by scripts/stage_gpu.sh,
 # writing full logs and JSON under OUT_DIR and printing a short summary last (CONTRIBUTING.md#one-build-two-hosts).
 # taebak (4.25M Gaussians) is included when scripts/gpu_prepare_taebak.sh left /tmp/rgs_taebak/taebak.rgs.
-# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|sanitize|view|ab|all|cards]
-#   (default all; ab: see below; cards: taebak's quality card, not part of all)
+# Usage: scripts/gpu_check.sh STAGE_DIR OUT_DIR [tests|bench|groups|lod|floor|pybench|audit|fidelity|rate|sanitize|view|ab|all|cards|big]
+#   (default all; ab: see below; cards: taebak's quality card and big: the 250M-Gaussian scene, not part of all)
 set -uo pipefail
 stage="$(cd "$1" && pwd)"
 out="$2"
@@ -25,6 +25,18 @@ note() { echo "$*" | tee -a "$summary"; }
 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.max.sm --format=csv >"$out/device.txt" 2>&1
 note "device: $(sed -n 2p "$out/device.txt")"
 
+# rgs-bench in streamed mode at 1080p, its JSON and log under OUT_DIR, a summary of each run.
+lod_bench() {  # NAME ARGS...
+  local name="$1" t0 rc=0
+  shift
+  t0=$(date +%s)
+  /usr/bin/time -v "$bin/rgs-bench" "$@" --resolution 1920x1080 --json "$out/lod_$name.json" \
+    >"$out/lod_$name.log" 2>&1 || rc=$?
+  [ $rc -ne 0 ] && status=1
+  note "lod_$name: exit $rc in $(( $(date +%s) - t0 )) s"
+  grep -E "error|scene  |budgets|open  |frame time|splats  |quality|Maximum resident" "$out/lod_$name.log" |
+    tee -a "$summary"
+}
 status=0
 if [ "$what" = tests ] || [ "$what" = all ]; then
   start=$(date +%s)
@@ -207,17 +219,6 @@ if [ "$what" = lod ] || [ "$what" = all ]; then
     [ $rc -ne 0 ] && status=1
     note "lod_convert: exit $rc"
     grep -E "profile|time  |Maximum resident|check|level " "$out/lod_convert.log" | tee -a "$summary"
-    lod_bench() {  # NAME ARGS...
-      local name="$1" t0 rc=0
-      shift
-      t0=$(date +%s)
-      /usr/bin/time -v "$bin/rgs-bench" "$@" --resolution 1920x1080 --json "$out/lod_$name.json" \
-        >"$out/lod_$name.log" 2>&1 || rc=$?
-      [ $rc -ne 0 ] && status=1
-      note "lod_$name: exit $rc in $(( $(date +%s) - t0 )) s"
-      grep -E "error|scene  |budgets|open  |frame time|splats  |quality|Maximum resident" "$out/lod_$name.log" |
-        tee -a "$summary"
-    }
     fly=(--cameras "$taebak_cameras" --fly 120)
     spiral=(--path 120)
     budget=(--splat-budget 3000000 --memory-budget 3GiB --scratch-budget 1GiB)
@@ -232,6 +233,32 @@ if [ "$what" = lod ] || [ "$what" = all ]; then
     lod_bench taebak_x16_fly_12m "$taebak" --replicate 16 "${fly[@]}" --splat-budget 12000000 --memory-budget 2GiB \
       --scratch-budget 2GiB
   fi
+fi
+if [ "$what" = big ]; then
+  # A scene larger than the development machine's memory (docs/LOD.md#scenes-larger-than-memory): taebak tiled 59
+  # times (250,708,874 Gaussians, a 17 GB PLY), converted out of core within 4 GiB, checked, then flown at 1080p
+  # under a 3M splat budget in 4 GiB of device memory (3 GiB for the scene, 1 GiB of render scratch).
+  big_dir=/tmp/rgs_big
+  mkdir -p "$big_dir"
+  rc=0
+  "$bin/rgs-convert" -q "$RGS_DATA_DIR/taebak_lod0_sog/lod-meta.json" "$big_dir/taebak.ply" >"$out/big_make.log" 2>&1 || rc=$?
+  t0=$(date +%s)
+  python3 "$(dirname "$0")/make_big_scene.py" "$big_dir/taebak.ply" "$big_dir/taebak_x59.ply" 59 >>"$out/big_make.log" 2>&1 || rc=$?
+  note "big scene made: exit $rc in $(( $(date +%s) - t0 )) s; $(tail -1 "$out/big_make.log")"
+  t0=$(date +%s)
+  /usr/bin/time -v "$bin/rgs-convert" "$big_dir/taebak_x59.ply" "$big_dir/taebak_x59_lod.rgs" --lod-levels auto \
+    --memory-limit 4GiB >"$out/big_convert.log" 2>&1 || rc=$?
+  note "big convert: exit $rc in $(( $(date +%s) - t0 )) s"
+  grep -E "output|profile|time  |Maximum resident|Elapsed" "$out/big_convert.log" | tee -a "$summary"
+  rm -f "$big_dir/taebak_x59.ply" "$big_dir/taebak.ply"
+  t0=$(date +%s)
+  # Its levels make 292M Gaussians in all, over the readers' default limit of 2^28.
+  "$bin/rgs-info" "$big_dir/taebak_x59_lod.rgs" --check --max-gaussians 300000000 >"$out/big_check.log" 2>&1 || rc=$?
+  note "big check: exit $rc in $(( $(date +%s) - t0 )) s; $(grep -E '^ *check' "$out/big_check.log")"
+  [ $rc -ne 0 ] && status=1
+  budget=(--splat-budget 3000000 --memory-budget 3GiB --scratch-budget 1GiB --max-gaussians 300000000)
+  lod_bench big_fly "$big_dir/taebak_x59_lod.rgs" --cameras "$taebak_cameras" --fly 120 "${budget[@]}"
+  lod_bench big_spiral "$big_dir/taebak_x59_lod.rgs" --path 120 "${budget[@]}"
 fi
 if [ "$what" = floor ] || [ "$what" = all ]; then
   # The true floor (docs/lab/ROOFLINE.md#the-true-floor): faithful and fastest against what each view needs, counted

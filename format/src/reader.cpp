@@ -352,7 +352,8 @@ Status RgsFileAccess::parse_header(RgsFile* f) {
   RGS_RETURN_ERROR_IF(computed != h.checksum, StatusCode::kChecksumMismatch,
                       "header checksum " + hex64(h.checksum) + " does not match the computed " + hex64(computed));
   RGS_RETURN_ERROR_IF(h.gaussian_count > limits.max_gaussians, StatusCode::kLimitExceeded,
-                      dec(h.gaussian_count) + " Gaussians exceed the limit of " + dec(limits.max_gaussians));
+                      dec(h.gaussian_count) + " Gaussians exceed the limit of " + dec(limits.max_gaussians) +
+                          " (a file you trust reads with a higher max_gaussians: --max-gaussians)");
   f->header_ = h;
   return Status();
 }

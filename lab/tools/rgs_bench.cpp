@@ -97,7 +97,7 @@ struct Options {
   /// Streamed mode (--splat-budget, --memory-budget): a level-of-detail scene under budgets (bench_lod.h).
   uint64_t splat_budget = 0;
   uint64_t memory_budget = 0;
-  float pixel_error = 1.0f;
+  float pixel_error = runtime::LodBudget{}.pixel_error;
   uint64_t stream_bytes = runtime::LodStreamOptions{}.stream_bytes_per_frame;
   std::string lod_levels = "auto";
   bool streamed() const { return splat_budget > 0 || memory_budget > 0; }

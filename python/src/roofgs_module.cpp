@@ -1597,8 +1597,9 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, "
         "backend, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
         "render_seconds loading and rendering them). memory_limit: most bytes of memory the conversion may use "
-        "(int; 0 or None: half the physical memory); the input is read whole, so one whose estimated peak is "
-        "above it raises roofgs.Error kLimitExceeded before it is read (api::ConvertOptions::memory_limit)");
+        "(int; 0 or None: half the physical memory); an input whose estimated peak when read whole is above it "
+        "is built out of core when it is a binary PLY converted with lod_levels (the same bytes), else raises "
+        "roofgs.Error kLimitExceeded before it is read (api::ConvertOptions::memory_limit)");
   m.attr("save").attr("__doc__") = py::str(
         "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb, .sog or a SOG "
         "folder's meta.json), with convert()'s "

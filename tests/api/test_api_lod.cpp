@@ -139,7 +139,7 @@ TEST_CASE("LOD settings: out-of-range values refused, settings a scene cannot us
   }
 
   // A file without levels: defaults pass silently, a budget of the caller's is noted as unused.
-  auto quiet = api::load(plain, cpu_options(api::LodSettings{}.splat_budget, 1.0f));
+  auto quiet = api::load(plain, cpu_options(api::LodSettings{}.splat_budget, api::LodSettings{}.pixel_error));
   REQUIRE(quiet.ok());
   CHECK_FALSE(quiet->info().lod.active);
   CHECK_FALSE(has_note(quiet->info(), "level-of-detail"));

@@ -104,7 +104,7 @@ else()
     REGEX "rgs-audit: error: .*\\[kOutOfMemory\\]")
   # A few more Gaussians than the ratio limit allows, but --max-gaussians below the count: refused by it.
   rgs_memory_case(info_rle_max_gaussians TOOL ${info} ARGS "--check|${raise}|--max-gaussians|1000000|${memory_rle}"
-    EXIT 1 REGEX "67108864 Gaussians exceed the limit of 1000000 \\[kLimitExceeded\\]")
+    EXIT 1 REGEX "67108864 Gaussians exceed the limit of 1000000 .a file you trust reads with a higher max_gaussians: --max-gaussians. \\[kLimitExceeded\\]")
   # Bogus frames claiming 2^28 Gaussians (8 GB): corrupt, found while streaming, with either limit.
   foreach(limits IN ITEMS default raised)
     if(limits STREQUAL "raised")
@@ -155,7 +155,7 @@ endif()
 # --max-gaussians below a real scene's count.
 rgs_cli_case(memory_max_gaussians
   CMD "${render}|--max-gaussians|1000|${cli_dir}/guitar.rgs|--orbit|1|-o|${cli_dir}/memory_max"
-  EXIT 1 REGEX "guitar.rgs: 90854 Gaussians exceed the limit of 1000 \\[kLimitExceeded\\]" REQUIRES guitar_rgs)
+  EXIT 1 REGEX "guitar.rgs: 90854 Gaussians exceed the limit of 1000 .a file you trust reads with a higher max_gaussians: --max-gaussians. \\[kLimitExceeded\\]" REQUIRES guitar_rgs)
 rgs_cli_case(memory_max_gaussians_help CMD "${info}|--help" REGEX "--max-gaussians.*--max-decompression-ratio")
 
 # --memory-limit: an input whose estimated peak is above it is refused before it is read, the output untouched,

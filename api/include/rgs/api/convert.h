@@ -203,11 +203,14 @@ struct ConvertOptions {
   /// Most full-detail Gaussians in one chunk of a level-of-detail file: the unit a renderer culls, selects and
   /// streams.
   uint32_t lod_chunk_gaussians = 65536;
-  /// Most bytes of memory the conversion may use; 0: half the machine's physical memory
-  /// (convert_memory_limit). convert() reads its input whole, so an input whose estimated peak
-  /// (estimate_convert_memory) is above the limit is refused with kLimitExceeded before it is read, naming the
-  /// file, the estimate and the limit (docs/LOD.md#scenes-larger-than-memory). convert_bytes, convert_scene and
-  /// convert_cloud take a scene already in memory and do not check it.
+  /// Most bytes of memory the conversion may use (the process's peak resident memory); 0: half the machine's
+  /// physical memory (convert_memory_limit). When the estimated peak of reading the input whole
+  /// (estimate_convert_memory) is above the limit, convert() builds a binary PLY into a level-of-detail .rgs out of
+  /// core (lod_levels set, runtime profile, no target): the PLY read in batches, its levels built from partition
+  /// files in a temporary folder beside the output, the same bytes as in memory; any other input is refused with
+  /// kLimitExceeded before it is read, naming the file, the estimate and the limit
+  /// (docs/LOD.md#scenes-larger-than-memory). convert_bytes, convert_scene and convert_cloud take a scene already
+  /// in memory and do not check it.
   uint64_t memory_limit = 0;
   /// Name recorded as the provenance's "converter" (with the library version).
   std::string converter_name = "roofgs api";
@@ -342,7 +345,8 @@ Status check_convert_options(const ConvertOptions& options);
 ///         target above what the finest archive reaches (the message says what it reaches), a byte budget below
 ///         the coarsest archive (the message says its size), the views' errors prefixed with "<src>: rate
 ///         control's views"); kLimitExceeded (an input whose estimated memory is above options.memory_limit,
-///         refused before it is read; a byte target no measured archive fits once coded at the file's
+///         refused before it is read unless it is built out of core; a limit too small for the out-of-core build
+///         of one chunk; a byte target no measured archive fits once coded at the file's
 ///         zstd level, or a written file over it: its provenance larger than the fit allowed for; that file is
 ///         written when options.files is null); the errors of reading `src`, of rendering and of writing `dst`
 ///         (kIoError naming it).
