@@ -241,7 +241,7 @@ if [ "$what" = big ]; then
   big_dir=/tmp/rgs_big
   mkdir -p "$big_dir"
   rc=0
-  "$bin/rgs-convert" -q "$RGS_DATA_DIR/taebak_lod0_sog/lod-meta.json" "$big_dir/taebak.ply" >"$out/big_make.log" 2>&1 || rc=$?
+  "$bin/rgs-convert" -q "$taebak" "$big_dir/taebak.ply" >"$out/big_make.log" 2>&1 || rc=$?
   t0=$(date +%s)
   python3 "$(dirname "$0")/make_big_scene.py" "$big_dir/taebak.ply" "$big_dir/taebak_x59.ply" 59 >>"$out/big_make.log" 2>&1 || rc=$?
   note "big scene made: exit $rc in $(( $(date +%s) - t0 )) s; $(tail -1 "$out/big_make.log")"

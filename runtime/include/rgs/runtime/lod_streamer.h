@@ -32,7 +32,7 @@ namespace rgs::runtime {
 /// The budgets of LodStreamer.
 struct LodStreamOptions {
   /// Splat budget and pixel threshold of the selection.
-  LodBudget budget{3'000'000, 1.0f};
+  LodBudget budget{3'000'000, LodBudget{}.pixel_error};
   /// Device bytes for the page pool, the frame arrays and the upload buffer together; 0: a pool that holds the
   /// whole file. The renderer's scratch is not included (GpuRenderOptions::scratch_budget bounds it).
   uint64_t memory_budget = 0;
