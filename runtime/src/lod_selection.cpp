@@ -26,25 +26,34 @@ bool sphere_in_frustum(const Camera& camera, const float center[3], float radius
            outside(camera.fy, top, p[1], p[2]) || outside(-camera.fy, bottom, p[1], p[2]));
 }
 
-double projected_error(const Camera& camera, const format::LodChunk& chunk, float error) {
-  const std::array<float, 3> c = camera_centre(camera);
+namespace {
+
+/// The distance d of SPEC §4.9.1 from the camera centre `c` to `chunk`: max(near, |c − centre| − radius).
+double chunk_distance(const Camera& camera, const std::array<float, 3>& c, const format::LodChunk& chunk) {
   const double dx = double(c[0]) - chunk.center[0], dy = double(c[1]) - chunk.center[1],
                dz = double(c[2]) - chunk.center[2];
-  const double d = std::max<double>(camera.near_plane, std::sqrt(dx * dx + dy * dy + dz * dz) - chunk.radius);
-  return double(error) * std::max(camera.fx, camera.fy) / d;
+  return std::max<double>(camera.near_plane, std::sqrt(dx * dx + dy * dy + dz * dz) - chunk.radius);
+}
+
+}  // namespace
+
+double projected_error(const Camera& camera, const format::LodChunk& chunk, float error) {
+  return double(error) * std::max(camera.fx, camera.fy) / chunk_distance(camera, camera_centre(camera), chunk);
 }
 
 LodSelection select_lod(const format::LodIndex& index, const Camera& camera, const LodBudget& budget) {
   LodSelection out;
   const uint32_t coarsest = index.level_count == 0 ? 0 : index.level_count - 1;
   std::vector<double> scale;  // f / d per chosen chunk: projected error = error · scale
+  const std::array<float, 3> centre = camera_centre(camera);
+  const double focal = std::max(camera.fx, camera.fy);
   for (uint32_t c = 0; c < index.chunk_count; ++c) {
     const format::LodChunk& chunk = index.chunks[c];
     if (!sphere_in_frustum(camera, chunk.center, chunk.radius)) {
       ++out.culled;
       continue;
     }
-    const double s = projected_error(camera, chunk, 1.0f);
+    const double s = focal / chunk_distance(camera, centre, chunk);  // projected_error(camera, chunk, 1)
     uint32_t level = coarsest;
     while (level > 0 && index.at(level, c).error * s > budget.pixel_error) --level;
     out.choices.push_back({c, level});

@@ -159,6 +159,8 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
   s.residual_ = file.find(format::SectionId::kShDcResidual) != nullptr;
   const uint64_t bpg = gaussian_bytes(s.sh_bytes_, s.residual_);
   const uint32_t coarsest = index->level_count - 1;
+  s.level_count_ = index->level_count;
+  s.ranges_.assign(size_t{index->chunk_count} * index->level_count, Range{});
 
   uint64_t coarse_total = 0, coarse_pages = 0, all_pages = 0, largest = 0;
   for (uint32_t c = 0; c < index->chunk_count; ++c) {
@@ -229,7 +231,7 @@ Result<LodStreamer> LodStreamer::open(const format::RgsFile& file, const LodStre
     if (batch.staged + index->at(coarsest, c).count > s.upload_capacity_) RGS_RETURN_IF_ERROR(flush());
     RGS_RETURN_ERROR_IF(!s.request_range(coarsest, c, 0, &batch), StatusCode::kLimitExceeded,
                         file.name() + ": the LOD pool has no room for the coarsest level of chunk " + std::to_string(c));
-    s.resident_[{c, coarsest}].pinned = true;
+    s.range_at({c, coarsest}).pinned = true;
   }
   RGS_RETURN_IF_ERROR(flush());
   return s;
@@ -242,29 +244,36 @@ bool LodStreamer::make_room(uint64_t pages, uint64_t frame) {
     victims_.clear();
     next_victim_ = 0;
     victims_frame_ = frame;
-    for (const auto& [key, r] : resident_) {
-      if (!r.pinned && r.state == RangeState::kReady && r.last_used < frame) victims_.push_back(key);
+    for (size_t i = 0; i < ranges_.size(); ++i) {
+      const Range& r = ranges_[i];
+      if (!r.pinned && r.state == RangeState::kReady && r.last_used < frame) {
+        victims_.push_back({static_cast<uint32_t>(i / level_count_), static_cast<uint32_t>(i % level_count_)});
+      }
     }
     std::stable_sort(victims_.begin(), victims_.end(), [this](const Key& a, const Key& b) {
-      return resident_.at(a).last_used < resident_.at(b).last_used;
+      return range_at(a).last_used < range_at(b).last_used;
     });
   }
   while (free_pages_.size() < pages) {
     if (next_victim_ == victims_.size()) return false;
-    const Key key = victims_[next_victim_++];
-    const auto victim = resident_.find(key);
-    free_pages_.insert(free_pages_.end(), victim->second.pages.rbegin(), victim->second.pages.rend());
-    resident_bytes_ -= range_bytes(key.second, key.first);
-    resident_.erase(victim);
+    evict(victims_[next_victim_++]);
   }
   return true;
+}
+
+void LodStreamer::evict(const Key& key) {
+  Range& range = range_at(key);
+  free_pages_.insert(free_pages_.end(), range.pages.rbegin(), range.pages.rend());
+  range.pages.clear();
+  range.state = RangeState::kAbsent;
+  resident_bytes_ -= range_bytes(key.second, key.first);
 }
 
 bool LodStreamer::request_range(uint32_t level, uint32_t chunk, uint64_t frame, Batch* batch) {
   const uint64_t count = file_->lod()->at(level, chunk).count;
   const uint64_t pages = pages_for(count);
   if (!make_room(pages, frame)) return false;
-  Range& range = resident_[{chunk, level}];
+  Range& range = range_at({chunk, level});
   range.pages.assign(free_pages_.rbegin(), free_pages_.rbegin() + static_cast<ptrdiff_t>(pages));
   free_pages_.resize(free_pages_.size() - pages);
   range.last_used = frame;
@@ -283,11 +292,7 @@ bool LodStreamer::request_range(uint32_t level, uint32_t chunk, uint64_t frame, 
 
 void LodStreamer::drop(const Batch& batch) {
   for (const Key& key : batch.keys) {
-    const auto it = resident_.find(key);
-    if (it == resident_.end()) continue;
-    free_pages_.insert(free_pages_.end(), it->second.pages.rbegin(), it->second.pages.rend());
-    resident_bytes_ -= range_bytes(key.second, key.first);
-    resident_.erase(it);
+    if (range_at(key).state != RangeState::kAbsent) evict(key);
   }
 }
 
@@ -354,7 +359,7 @@ Status LodStreamer::upload_read(double* wait_ms, double* read_ms) {
                                                      pool_.view(), sh_bytes_, copy_stream_.get()),
                            "LOD scatter kernel");
   RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(uploaded_.get(), copy_stream_.get()), "LOD upload");
-  for (const Key& key : batch.keys) resident_[key].state = RangeState::kUploading;
+  for (const Key& key : batch.keys) range_at(key).state = RangeState::kUploading;
   uploading_ = std::move(batch.keys);
   return Status();
 }
@@ -366,7 +371,7 @@ Status LodStreamer::finish_uploads(double* wait_ms) {
   if (!uploading_.empty()) {
     // Also frees the staging buffer and the scatter run list of that upload for reuse.
     RGS_RETURN_IF_CUDA_ERROR(cudaEventSynchronize(uploaded_.get()), "LOD upload");
-    for (const Key& key : uploading_) resident_[key].state = RangeState::kReady;
+    for (const Key& key : uploading_) range_at(key).state = RangeState::kReady;
     uploading_.clear();
   }
   *wait_ms += ms_since(t0);
@@ -390,20 +395,17 @@ Result<LodFrameStats> LodStreamer::prepare(const Camera& camera, cudaStream_t st
   std::vector<kernels::GatherRun> runs;
   std::vector<Key> wanted;
   uint64_t dst = 0;
-  auto drawable = [this](std::map<Key, Range>::iterator it) {
-    return it != resident_.end() && it->second.state == RangeState::kReady;
-  };
   for (const LodChoice& choice : selection.choices) {
     uint32_t level = choice.level;
-    auto it = resident_.find({choice.chunk, level});
-    if (!drawable(it)) {
-      if (it == resident_.end()) wanted.push_back({choice.chunk, choice.level});
+    Range* r = &range_at({choice.chunk, level});
+    if (r->state != RangeState::kReady) {
+      if (r->state == RangeState::kAbsent) wanted.push_back({choice.chunk, choice.level});
       ++stats.chunks_not_resident;
       do {
-        it = resident_.find({choice.chunk, ++level});
-      } while (level < coarsest && !drawable(it));
+        r = &range_at({choice.chunk, ++level});
+      } while (level < coarsest && r->state != RangeState::kReady);
     }
-    Range& range = it->second;
+    Range& range = *r;
     range.last_used = frame;
     uint64_t left = index.at(level, choice.chunk).count;
     for (uint32_t page : range.pages) {

@@ -8,7 +8,6 @@
 
 #include <cstdint>
 #include <future>
-#include <map>
 #include <memory>
 #include <type_traits>
 #include <string>
@@ -100,14 +99,14 @@ class LodStreamer {
 
  private:
   LodStreamer() = default;
-  /// One level of one chunk in the pool: its pages, in order, the last frame that drew or requested it, whether
-  /// it is the chunk's coarsest (never evicted), and where it is in the pipeline.
-  enum class RangeState { kReading, kUploading, kReady };
+  /// One level of one chunk: its pages in the pool, in order, the last frame that drew or requested it, whether
+  /// it is the chunk's coarsest (never evicted), and where it is in the pipeline (kAbsent: not in the pool).
+  enum class RangeState { kAbsent, kReading, kUploading, kReady };
   struct Range {
     std::vector<uint32_t> pages;
     uint64_t last_used = 0;
     bool pinned = false;
-    RangeState state = RangeState::kReading;
+    RangeState state = RangeState::kAbsent;
   };
   using Key = std::pair<uint32_t, uint32_t>;  // (chunk, level)
   /// One level of one chunk to read: its place in the staging buffer, in Gaussians.
@@ -146,7 +145,13 @@ class LodStreamer {
   uint32_t sh_bytes_ = 0;
   bool residual_ = false;
   uint64_t frame_index_ = 0;
-  std::map<Key, Range> resident_;
+  /// Every (chunk, level) of the file, chunk-major (ranges_[chunk · levels + level]): found in constant time by
+  /// the frame, which looks up every chunk it draws.
+  std::vector<Range> ranges_;
+  uint32_t level_count_ = 0;
+  Range& range_at(const Key& key) { return ranges_[size_t{key.first} * level_count_ + key.second]; }
+  /// Returns a range's pages to the free list and marks it absent.
+  void evict(const Key& key);
   uint64_t resident_bytes_ = 0;
   std::vector<Key> uploading_;
   std::vector<uint32_t> free_pages_;
