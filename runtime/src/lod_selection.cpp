@@ -8,22 +8,47 @@
 
 namespace rgs::runtime {
 
-bool sphere_in_frustum(const Camera& camera, const float center[3], float radius) {
-  const auto& R = camera.rotation;
-  double p[3];
-  for (int i = 0; i < 3; ++i) {
-    p[i] = double(R[i * 3 + 0]) * center[0] + double(R[i * 3 + 1]) * center[1] + double(R[i * 3 + 2]) * center[2] +
-           camera.translation[i];
+namespace {
+
+/// The view frustum's planes in camera space, computed once per frame: the near plane z = near, and the four side
+/// planes through the camera centre and the image edges (pixel centres at integer coordinates, so the edges are
+/// at −0.5 and width − 0.5), each as a unit inward normal (a, b) in the (x, z) or (y, z) plane: a·x + b·z ≥ 0
+/// inside.
+struct Frustum {
+  explicit Frustum(const Camera& camera) : camera_(camera) {
+    const double left = camera.cx, right = double(camera.width) - camera.cx;
+    const double top = camera.cy, bottom = double(camera.height) - camera.cy;
+    const double planes[4][2] = {{camera.fx, left}, {-camera.fx, right}, {camera.fy, top}, {-camera.fy, bottom}};
+    for (int k = 0; k < 4; ++k) {
+      const double length = std::hypot(planes[k][0], planes[k][1]);
+      normal_[k][0] = planes[k][0] / length;
+      normal_[k][1] = planes[k][1] / length;
+    }
   }
-  const double r = radius;
-  if (p[2] + r <= camera.near_plane) return false;
-  // Side planes through the camera centre and the image edges (pixel centres at integer coordinates, so the
-  // edges are at −0.5 and width − 0.5): a·x + b·z ≥ 0 inside, with (a, b) the plane's inward normal.
-  const double left = camera.cx, right = double(camera.width) - camera.cx;
-  const double top = camera.cy, bottom = double(camera.height) - camera.cy;
-  auto outside = [r](double a, double b, double x, double z) { return (a * x + b * z) / std::hypot(a, b) < -r; };
-  return !(outside(camera.fx, left, p[0], p[2]) || outside(-camera.fx, right, p[0], p[2]) ||
-           outside(camera.fy, top, p[1], p[2]) || outside(-camera.fy, bottom, p[1], p[2]));
+  bool holds(const float center[3], float radius) const {
+    const auto& R = camera_.rotation;
+    double p[3];
+    for (int i = 0; i < 3; ++i) {
+      p[i] = double(R[i * 3 + 0]) * center[0] + double(R[i * 3 + 1]) * center[1] + double(R[i * 3 + 2]) * center[2] +
+             camera_.translation[i];
+    }
+    const double r = radius;
+    if (p[2] + r <= camera_.near_plane) return false;
+    for (int k = 0; k < 4; ++k) {
+      if (normal_[k][0] * p[k < 2 ? 0 : 1] + normal_[k][1] * p[2] < -r) return false;
+    }
+    return true;
+  }
+
+ private:
+  const Camera& camera_;
+  double normal_[4][2];
+};
+
+}  // namespace
+
+bool sphere_in_frustum(const Camera& camera, const float center[3], float radius) {
+  return Frustum(camera).holds(center, radius);
 }
 
 namespace {
@@ -47,9 +72,10 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
   std::vector<double> scale;  // f / d per chosen chunk: projected error = error · scale
   const std::array<float, 3> centre = camera_centre(camera);
   const double focal = std::max(camera.fx, camera.fy);
+  const Frustum frustum(camera);
   for (uint32_t c = 0; c < index.chunk_count; ++c) {
     const format::LodChunk& chunk = index.chunks[c];
-    if (!sphere_in_frustum(camera, chunk.center, chunk.radius)) {
+    if (!frustum.holds(chunk.center, chunk.radius)) {
       ++out.culled;
       continue;
     }
