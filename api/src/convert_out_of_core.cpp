@@ -19,6 +19,7 @@
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/file_io.h"
+#include "rgs/parallel/fork_join.h"
 
 namespace rgs::api::detail {
 
@@ -30,6 +31,10 @@ using Clock = std::chrono::steady_clock;
 constexpr uint64_t kMaxBatchGaussians = uint64_t{1} << 20;
 constexpr uint64_t kMinBatchGaussians = uint64_t{1} << 12;
 constexpr uint64_t kBatchShareOfLimit = 16;
+
+/// Memory the reading holds beside its batches: per thread (a PLY read buffer, a stack), and in all.
+constexpr uint64_t kThreadBytes = uint64_t{2} << 20;
+constexpr uint64_t kReadSlackBytes = uint64_t{16} << 20;
 
 /// Where each stage of an out-of-core conversion starts, as a fraction of the whole.
 constexpr double kScanShare = 0.2;
@@ -263,8 +268,10 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
   converter::OutOfCoreLodOptions lod;
   lod.lod.levels = *options.lod_levels;
   lod.lod.max_chunk_gaussians = options.lod_chunk_gaussians;
-  // The limit bounds the whole process: what it holds already and the batches are not the build's.
-  const uint64_t held = resident_bytes() + batch * batch_bytes_per_gaussian(stream->sh_degree());
+  // The limit bounds the whole process: what it holds already, the batches and the reading threads' buffers and
+  // stacks are not the build's.
+  const uint64_t held = resident_bytes() + batch * batch_bytes_per_gaussian(stream->sh_degree()) + kReadSlackBytes +
+                        uint64_t{parallel::available_cpus()} * kThreadBytes;
   lod.memory_limit = limit - std::min(limit, held);
   lod.sh_dc_residual = options.sh_dc_bits == 16;
   RGS_ASSIGN_OR_RETURN(lod.write, rgs_write_options(options));

@@ -1,6 +1,7 @@
 // ConvertOptions::memory_limit: the estimate of a conversion's peak memory and the refusal, before reading, of an
 // input whose estimate is above the limit.
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -66,6 +67,14 @@ TEST_CASE("convert: an input over memory_limit that cannot be read in batches is
   CHECK(std::filesystem::exists(dst));
 }
 
+/// The resident memory of this process (Linux), 0 when unknown.
+uint64_t resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  uint64_t size = 0, pages = 0;
+  statm >> size >> pages;
+  return pages * uint64_t(sysconf(_SC_PAGE_SIZE));
+}
+
 std::string read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
@@ -85,6 +94,13 @@ TEST_CASE("convert: a binary PLY over memory_limit converts out of core to the b
   CHECK(memory->rgs->out_of_core_partitions == 0);
   auto estimate = api::estimate_convert_memory(src);
   REQUIRE(estimate.ok());
+  // The limit bounds the whole process: a suite run in one process (the GPU host's) may already hold more than
+  // this small scene's estimate leaves the build. ctest runs each case in a process of its own.
+  if (resident_bytes() + (uint64_t{40} << 20) > *estimate) {
+    MESSAGE("skipped: this process already holds " << resident_bytes() << " bytes, too many for a limit of "
+                                                   << *estimate - 1);
+    return;
+  }
   options.memory_limit = *estimate - 1;
   std::vector<std::string> stages;
   options.progress = [&](const api::ConvertProgress& p) { stages.push_back(p.stage); };
