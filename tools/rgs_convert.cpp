@@ -499,8 +499,8 @@ int main(int argc, char** argv) {
   app.add_option("--memory-limit", opt.convert.memory_limit,
                  "Most memory the conversion may use (e.g. 4GiB, 512MB; at least 1 byte; default: half the physical "
                  "memory). An input whose estimated peak when read whole is above the limit is built out of core when "
-                 "it is a binary PLY converted with --lod-levels (the same bytes; partition files in a folder beside "
-                 "the output), else refused before it is read (docs/LOD.md, scenes larger than memory; standard input "
+                 "it is a binary PLY converted with --lod-levels (the same bytes; partition files on the output's "
+                 "disk, about twice its size), else refused before it is read (docs/LOD.md, scenes larger than memory; standard input "
                  "is not estimated)")
       ->transform(CLI::AsSizeValue(false))
       ->check(rgs::tools::whole_number_in(1, std::numeric_limits<uint64_t>::max()));

@@ -8,7 +8,8 @@
 // fit the memory limit). Then per bucket: its Gaussians sorted by Morton code (stable: the input order within a
 // bucket is the input order), its nodes cut into chunks exactly as build_lod cuts them, each chunk's levels
 // built by the same code, each level appended to its spill file. The file is level-major, so the spill files of
-// a section, level after level, are that section.
+// a section, level after level, are that section. Partition and spill files have no name (O_TMPFILE), so
+// nothing is left on disk however the process ends.
 //
 // Same bytes as build_lod + write_scene_file: the chunks, their Gaussians' order and every level are the same;
 // levels are built up to the most the options allow and the count is chosen at the end (level l depends only on
@@ -65,11 +66,18 @@ Status io_error(const std::string& what, const std::string& path) {
 class SpillFile {
  public:
   ~SpillFile() { close(); }
-  Status open(const std::string& path, size_t buffer_bytes) {
-    path_ = path;
+  /// Creates an unnamed file in `folder` (O_TMPFILE; where the file system has none, a named one removed at once):
+  /// its disk space goes back when it is closed or the process ends, however it ends.
+  Status open(const std::string& folder, const std::string& what, size_t buffer_bytes) {
+    path_ = what + " in " + folder;
     buffer_bytes_ = buffer_bytes;
-    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
-    return fd_ < 0 ? io_error("cannot create", path) : Status();
+    fd_ = ::open(folder.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+    if (fd_ < 0 && (errno == EOPNOTSUPP || errno == EISDIR || errno == EINVAL)) {
+      std::string name = (std::filesystem::path(folder) / ".rgs-spill-XXXXXX").string();
+      fd_ = ::mkostemp(name.data(), O_CLOEXEC);
+      if (fd_ >= 0) ::unlink(name.c_str());
+    }
+    return fd_ < 0 ? io_error("cannot create a temporary file for the", path_) : Status();
   }
   bool is_open() const { return fd_ >= 0; }
   Status append(const void* data, size_t size) {
@@ -121,28 +129,6 @@ class SpillFile {
   int fd_ = -1;
   uint64_t written_ = 0;
   std::vector<uint8_t> buffer_;
-};
-
-/// The temporary folder of a build, removed with everything in it however the build ends.
-class TempFolder {
- public:
-  ~TempFolder() {
-    if (path_.empty()) return;
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  Status create(const std::string& output) {
-    const std::filesystem::path out(output);
-    const std::filesystem::path parent = out.has_parent_path() ? out.parent_path() : std::filesystem::path(".");
-    std::string pattern = (parent / (out.filename().string() + ".lod-XXXXXX")).string();
-    if (::mkdtemp(pattern.data()) == nullptr) return io_error("cannot create a temporary folder beside", output);
-    path_ = pattern;
-    return Status();
-  }
-  std::string file(const std::string& name) const { return (std::filesystem::path(path_) / name).string(); }
-
- private:
-  std::string path_;
 };
 
 /// A Gaussian's bytes in a partition file: its values of every per-Gaussian section, in section order.
@@ -228,7 +214,8 @@ class OutOfCoreBuild {
   }
 
   Result<OutOfCoreLodReport> run(const std::string& path, EncodedBatches& batches, format::FileSink& files) {
-    RGS_RETURN_IF_ERROR(temp_.create(path));
+    const std::filesystem::path out(path);
+    folder_ = out.has_parent_path() ? out.parent_path().string() : std::string(".");
     RGS_RETURN_IF_ERROR(count_cells(batches));
     RGS_RETURN_IF_ERROR(plan_buckets());
     RGS_RETURN_IF_ERROR(partition(batches));
@@ -318,7 +305,7 @@ class OutOfCoreBuild {
                                              kMaxPartitionBufferBytes);
     for (uint32_t b = 0; b < bucket_count_; ++b) {
       buckets_[b] = std::make_unique<SpillFile>();
-      RGS_RETURN_IF_ERROR(buckets_[b]->open(temp_.file("partition-" + std::to_string(b)), buffer));
+      RGS_RETURN_IF_ERROR(buckets_[b]->open(folder_, "partition " + std::to_string(b), buffer));
     }
     RGS_RETURN_IF_ERROR(batches.rewind());
     format::EncodedScene batch;
@@ -361,9 +348,7 @@ class OutOfCoreBuild {
       for (uint64_t j = 0; j < m; ++j) get_record(piece.data() + j * record_.bytes(), record_, i + j, &bucket_);
       i += m;
     }
-    file.close();
-    std::error_code ignored;
-    std::filesystem::remove(temp_.file("partition-" + std::to_string(b)), ignored);  // disk back as it goes
+    file.close();  // its disk space goes back
     order->keys.resize(n);
     order->index.resize(n);
     for (uint64_t i = 0; i < n; ++i) {
@@ -456,7 +441,7 @@ class OutOfCoreBuild {
       for (size_t i = 0; i < spills_.size(); ++i) {
         spills_[i] = std::make_unique<SpillFile>();
         RGS_RETURN_IF_ERROR(spills_[i]->open(
-            temp_.file("level-" + std::to_string(i / kSections) + "-section-" + std::to_string(i % kSections)),
+            folder_, "level " + std::to_string(i / kSections) + " section " + std::to_string(i % kSections),
             kSpillBufferBytes));
       }
     }
@@ -566,7 +551,7 @@ class OutOfCoreBuild {
   unsigned workers_ = 1;
   uint32_t planned_levels_ = 1;
   double scene_center_[3] = {0, 0, 0};
-  TempFolder temp_;
+  std::string folder_;  ///< the output's, where the unnamed partition and spill files are made
   int count_depth_ = 1;
   std::vector<uint32_t> prefix_;  ///< counts per cell, their prefix sums, then the cell → bucket map
   std::vector<Node> nodes_;

@@ -207,7 +207,7 @@ struct ConvertOptions {
   /// physical memory (convert_memory_limit). When the estimated peak of reading the input whole
   /// (estimate_convert_memory) is above the limit, convert() builds a binary PLY into a level-of-detail .rgs out of
   /// core (lod_levels set, runtime profile, no target): the PLY read in batches, its levels built from partition
-  /// files in a temporary folder beside the output, the same bytes as in memory; any other input is refused with
+  /// files (unnamed, on the output's file system), the same bytes as in memory; any other input is refused with
   /// kLimitExceeded before it is read, naming the file, the estimate and the limit
   /// (docs/LOD.md#scenes-larger-than-memory). convert_bytes, convert_scene and convert_cloud take a scene already
   /// in memory and do not check it.

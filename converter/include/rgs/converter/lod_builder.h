@@ -131,8 +131,8 @@ struct OutOfCoreLodReport {
 /// from which build_lod's octree chunks follow, then each Gaussian appended to a partition file (consecutive
 /// octree nodes, as many Gaussians as memory_limit holds). Each partition is then read, sorted and cut into
 /// chunks, their levels built in parallel and appended to spill files per (level, section), which are finally
-/// streamed into the file. Files live in a folder `<path>.lod-XXXXXX` beside the output, removed however the
-/// build ends. Disk: about twice the output's size beside it.
+/// streamed into the file. These are unnamed files (O_TMPFILE) on the output's file system: nothing is left
+/// behind however the build or the process ends. Disk: about twice the output's size beside it.
 /// Errors: build_lod's; kLimitExceeded when memory_limit cannot hold a chunk's worth of the build, when more
 /// than one cell of the count grid's Gaussians would have to be held at once, or beyond 512 partitions;
 /// kCorruptData when the passes disagree (the input changed); kIoError naming the temporary files; the
