@@ -150,14 +150,12 @@ class QuantizedBatches final : public converter::EncodedBatches {
   int pass_ = 0;
 };
 
-/// What the first pass learns: every value checked, the SH scales, the means' box, the count, the errors.
+/// What the first pass learns (every value checked on the way): the count, the SH scales, the means' box.
 struct SceneStatistics {
   uint64_t count = 0;
   uint32_t sh_degree = 0;
   float box_lo[3] = {0, 0, 0}, box_hi[3] = {0, 0, 0};
   format::ShQuantization shq;
-  converter::QuantizationReport quantization;
-  converter::AttributeErrors errors;
 };
 
 Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptions& quantize,

@@ -692,7 +692,7 @@ Status emit_streamed(int fd, const std::string& path, const StreamedScene& scene
     XXH64_reset(hash.get(), 0);
     const uint64_t width = element_bytes(section.id, k3);
     uint64_t written = 0;
-    RGS_RETURN_IF_ERROR(scene.produce(section.id, [&](const void* data, size_t size) -> Status {
+    const Status produced = scene.produce(section.id, [&](const void* data, size_t size) -> Status {
       const auto* bytes = static_cast<const uint8_t*>(data);
       RGS_RETURN_ERROR_IF(size % width != 0 || written + size > section.raw_size, StatusCode::kInvalidArgument,
                           std::string("internal error: section ") + section_name(section.id) +
@@ -704,7 +704,8 @@ Status emit_streamed(int fd, const std::string& path, const StreamedScene& scene
       RGS_RETURN_IF_ERROR(write_at(fd, bytes, size, section.offset + written, path));
       written += size;
       return Status();
-    }));
+    });
+    RGS_RETURN_IF_ERROR(produced);
     RGS_RETURN_ERROR_IF(written != section.raw_size, StatusCode::kInvalidArgument,
                         std::string("internal error: section ") + section_name(section.id) + " streamed " +
                             dec(written) + " bytes of " + dec(section.raw_size));
