@@ -346,6 +346,15 @@ std::string options_text(const ConvertOptions& options) {
 
 }  // namespace
 
+void detail::note_read_limit(uint64_t gaussians, ConvertReport* report) {
+  const uint64_t limit = format::ReadLimits{}.max_gaussians;
+  if (gaussians <= limit) return;
+  report->output_notes.push_back("the file holds " + group_digits(gaussians) +
+                                 " Gaussians with its levels, over the readers' default limit of " +
+                                 group_digits(limit) + ": read it with --max-gaussians " + std::to_string(gaussians) +
+                                 " (Python max_gaussians=, format::ReadLimits::max_gaussians)");
+}
+
 format::Provenance detail::rgs_provenance(const std::string& src_name, const ConvertOptions& options,
                                           uint64_t file_bytes, uint64_t file_xxh64, const std::string& storage,
                                           uint64_t dropped_gaussians) {
@@ -429,6 +438,7 @@ Status write_rgs(const std::string& src_name, const std::string& dst, const Conv
                                : lod   ? "RoofGS .rgs, runtime profile with levels of detail"
                                        : "RoofGS .rgs, runtime profile";
   report->rgs = std::move(rgs);
+  if (lod) detail::note_read_limit(lod->scene.count, report);
   return Status();
 }
 

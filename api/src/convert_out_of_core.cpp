@@ -295,6 +295,7 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
       "built out of core: " + group_digits(built->partitions) + (built->partitions == 1 ? " partition" : " partitions") +
       " of at most " + group_digits(built->partition_capacity) + " Gaussians in a memory limit of " +
       group_digits(limit) + " bytes");
+  note_read_limit(built->gaussians, &report);
   report.gaussians = stats.count;
   report.sh_degree = stats.sh_degree;
   report.seconds.total = std::chrono::duration<double>(Clock::now() - start).count();

@@ -29,6 +29,10 @@ Result<std::unique_ptr<converter::PlyStream>> out_of_core_input(const std::strin
 Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> stream, const std::string& src,
                                           const std::string& dst, const ConvertOptions& options);
 
+/// Adds a note to `report` when a written .rgs of `gaussians` (every level) is over the readers' default
+/// max_gaussians (format::ReadLimits): what to pass to read it.
+void note_read_limit(uint64_t gaussians, ConvertReport* report);
+
 /// The write options of a .rgs conversion (profile, codecs, zstd level), checked.
 Result<format::WriteOptions> rgs_write_options(const ConvertOptions& options);
 
