@@ -245,6 +245,16 @@ if [ "$what" = big ]; then
   t0=$(date +%s)
   python3 "$(dirname "$0")/make_big_scene.py" "$big_dir/taebak.ply" "$big_dir/taebak_x59.ply" 59 >>"$out/big_make.log" 2>&1 || rc=$?
   note "big scene made: exit $rc in $(( $(date +%s) - t0 )) s; $(tail -1 "$out/big_make.log")"
+  # taebak converted in memory and out of core (in 2 partitions) gives the same bytes.
+  "$bin/rgs-convert" -q "$big_dir/taebak.ply" "$big_dir/taebak_memory.rgs" --lod-levels auto || rc=$?
+  "$bin/rgs-convert" -q "$big_dir/taebak.ply" "$big_dir/taebak_out_of_core.rgs" --lod-levels auto --memory-limit 256MiB ||
+    rc=$?
+  if cmp -s "$big_dir/taebak_memory.rgs" "$big_dir/taebak_out_of_core.rgs"; then
+    note "taebak in memory and out of core: the same bytes"
+  else
+    note "taebak in memory and out of core: the files differ"
+    rc=1
+  fi
   t0=$(date +%s)
   /usr/bin/time -v "$bin/rgs-convert" "$big_dir/taebak_x59.ply" "$big_dir/taebak_x59_lod.rgs" --lod-levels auto \
     --memory-limit 4GiB >"$out/big_convert.log" 2>&1 || rc=$?
