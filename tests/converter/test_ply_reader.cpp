@@ -476,5 +476,84 @@ TEST_CASE("timing: read + quantize of the 88 MB daffodils scene (printed, not as
                        << " s, total " << mb / (read_s + quant_s) << " MB/s");
 }
 
+void write_file(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+}
+
+/// Every batch of a PlyStream pass, appended into one cloud.
+format::GaussianCloud stream_all(converter::PlyStream& stream, uint64_t batch) {
+  format::GaussianCloud all, part;
+  for (;;) {
+    auto consumed = stream.read(batch, &part);
+    REQUIRE_MESSAGE(consumed.ok(), consumed.status().to_string());
+    if (*consumed == 0) break;
+    all.sh_degree = part.sh_degree;
+    all.means.insert(all.means.end(), part.means.begin(), part.means.end());
+    all.rotations.insert(all.rotations.end(), part.rotations.begin(), part.rotations.end());
+    all.scales.insert(all.scales.end(), part.scales.begin(), part.scales.end());
+    all.opacities.insert(all.opacities.end(), part.opacities.begin(), part.opacities.end());
+    all.sh.insert(all.sh.end(), part.sh.begin(), part.sh.end());
+  }
+  return all;
+}
+
+TEST_CASE("PlyStream: batches in every pass are read_ply's cloud, the first pass hashes the file") {
+  const std::string path = repo_path(kGuitarSh3);
+  PlyReadOptions options;
+  options.hash_file = true;
+  auto whole = read_ply(path, options);
+  REQUIRE_MESSAGE(whole.ok(), whole.status().to_string());
+  auto stream = converter::PlyStream::open(path, options);
+  REQUIRE_MESSAGE(stream.ok(), stream.status().to_string());
+  CHECK((*stream)->vertex_count() == whole->declared_vertices);
+  CHECK((*stream)->sh_degree() == whole->cloud.sh_degree);
+  CHECK((*stream)->storage_format() == whole->storage_format);
+  CHECK(same_cloud(stream_all(**stream, 1000), whole->cloud));
+  REQUIRE((*stream)->file_xxh64().has_value());
+  CHECK(*(*stream)->file_xxh64() == *whole->file_xxh64);
+  (*stream)->rewind();
+  CHECK(same_cloud(stream_all(**stream, 333), whole->cloud));  // a second pass, other batch sizes
+}
+
+TEST_CASE("PlyStream: invalid Gaussians fail the batch that holds them, or are dropped and counted") {
+  const Sh3FromGuitar src(40);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const auto bytes = build_ply("binary_little_endian", inria_props(1), 40, [&](uint64_t i, const std::string& n) {
+    if (i == 25 && n == "opacity") return double(nan);
+    if (i == 31 && n.rfind("rot_", 0) == 0) return 0.0;
+    return src(i, n);
+  });
+  const auto path = (std::filesystem::temp_directory_path() / "rgs_test_converter_stream_hygiene.ply").string();
+  write_file(path, bytes);
+  format::GaussianCloud batch;
+  auto rejecting = converter::PlyStream::open(path);
+  REQUIRE(rejecting.ok());
+  auto first = (*rejecting)->read(20, &batch);
+  REQUIRE(first.ok());
+  CHECK(batch.size() == 20);
+  auto failed = (*rejecting)->read(20, &batch);
+  REQUIRE(!failed.ok());
+  CHECK(failed.status().code() == StatusCode::kCorruptData);
+  CHECK(failed.status().message().find("vertex 25 has non-finite values or a zero-norm quaternion") !=
+        std::string::npos);
+
+  PlyReadOptions sanitize;
+  sanitize.invalid_policy = InvalidPolicy::kSanitize;
+  auto sanitizing = converter::PlyStream::open(path, sanitize);
+  REQUIRE(sanitizing.ok());
+  const format::GaussianCloud kept = stream_all(**sanitizing, 16);
+  CHECK(kept.size() == 38);
+  CHECK((*sanitizing)->hygiene().dropped_gaussians == 2);
+  CHECK((*sanitizing)->hygiene().first_invalid_index == 25);
+  CHECK(same_cloud(kept, read_ok(bytes, sanitize).cloud));
+
+  const auto ascii = (std::filesystem::temp_directory_path() / "rgs_test_converter_stream_ascii.ply").string();
+  write_file(ascii, build_ply("ascii", inria_props(0), 2, [&](uint64_t i, const std::string& n) { return src(i, n); }));
+  CHECK(converter::PlyStream::open(ascii).status().code() == StatusCode::kUnsupportedFeature);
+  std::filesystem::remove(path);
+  std::filesystem::remove(ascii);
+}
+
 }  // namespace
 }  // namespace rgs::test
