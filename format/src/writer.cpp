@@ -1,4 +1,4 @@
-// Serializes an EncodedScene into .rgs 1.0 bytes (SPEC.md §2–§4, §7).
+// Serializes an EncodedScene, or a StreamedScene section by section, into .rgs bytes (SPEC.md §2–§4, §7).
 #include "rgs/format/writer.h"
 
 #include <fcntl.h>

@@ -1,4 +1,4 @@
-// Serializes an EncodedScene into .rgs version 1.0 bytes (SPEC.md §2–§4).
+// Serializes an EncodedScene, or a scene streamed section by section, into .rgs bytes (SPEC.md §2–§4).
 #pragma once
 
 #include <cstdint>
