@@ -513,8 +513,8 @@ class OutOfCoreBuild {
           format::SectionId::kMeans, format::SectionId::kRotations, format::SectionId::kScales,
           format::SectionId::kOpacities, format::SectionId::kSh, format::SectionId::kShDcResidual};
       const int section = static_cast<int>(std::find(kOrder, kOrder + kSections, id) - kOrder);
-      const uint64_t width = section == 0 ? 12 : section == 1 ? 8 : section == 2 ? 6 : section == 3 ? 2
-                             : section == 4 ? record_.sh : 3;
+      const uint64_t widths[kSections] = {12, 8, 6, 2, record_.sh, 3};  // bytes a Gaussian, as in kOrder
+      const uint64_t width = widths[section];
       std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / width) * width);
       for (uint32_t l = 0; l < levels; ++l) {
         SpillFile& file = spill_file(l, section);
