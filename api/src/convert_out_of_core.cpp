@@ -114,8 +114,9 @@ class PlyBatches {
   uint64_t batch_;
 };
 
-/// The quantized batches build_lod_out_of_core() reads in its passes; the first pass also measures what
-/// quantizing cost (RgsOutputReport::errors and quantization).
+/// The quantized batches build_lod_out_of_core() reads in its passes (the pass that needs only the means skips
+/// quantizing); the first pass that quantizes also measures what it cost (RgsOutputReport::errors and
+/// quantization).
 class QuantizedBatches final : public converter::EncodedBatches {
  public:
   QuantizedBatches(PlyBatches* batches, const converter::QuantizeOptions& options, const format::ShQuantization& shq,
@@ -126,10 +127,16 @@ class QuantizedBatches final : public converter::EncodedBatches {
     ++pass_;
     return Status();
   }
+  Result<bool> next_means(std::vector<float>* means) override {
+    RGS_ASSIGN_OR_RETURN(const bool more, batches_->next(&cloud_));
+    if (more) means->swap(cloud_.means);
+    return more;
+  }
   Result<bool> next(format::EncodedScene* batch) override {
     RGS_ASSIGN_OR_RETURN(const bool more, batches_->next(&cloud_));
     if (!more) return false;
-    if (pass_ != 1) {
+    if (measured_pass_ == 0) measured_pass_ = pass_;
+    if (pass_ != measured_pass_) {
       RGS_ASSIGN_OR_RETURN(*batch, converter::quantize(cloud_, options_, shq_));
       return true;
     }
@@ -148,6 +155,7 @@ class QuantizedBatches final : public converter::EncodedBatches {
   RgsOutputReport* report_;
   format::GaussianCloud cloud_;
   int pass_ = 0;
+  int measured_pass_ = 0;  ///< the pass whose batches measure the errors: the first that quantizes
 };
 
 /// What the first pass learns (every value checked on the way): the count, the SH scales, the means' box.

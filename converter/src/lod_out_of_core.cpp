@@ -235,13 +235,14 @@ class OutOfCoreBuild {
     const uint64_t cells = uint64_t{1} << (3 * count_depth_);
     prefix_.assign(cells + 1, 0);
     RGS_RETURN_IF_ERROR(batches.rewind());
-    format::EncodedScene batch;
+    std::vector<float> means;
     uint64_t seen = 0;
     for (;;) {
-      RGS_ASSIGN_OR_RETURN(const bool more, batches.next(&batch));
+      RGS_ASSIGN_OR_RETURN(const bool more, batches.next_means(&means));
       if (!more) break;
-      for (uint64_t i = 0; i < batch.count; ++i) ++prefix_[cell_of(&batch.means[i * 3]) + 1];
-      seen += batch.count;
+      const uint64_t n = means.size() / 3;
+      for (uint64_t i = 0; i < n; ++i) ++prefix_[cell_of(&means[i * 3]) + 1];
+      seen += n;
       report("counting", 0.25 * static_cast<double>(seen) / static_cast<double>(head_.count));
     }
     RGS_RETURN_ERROR_IF(seen != head_.count, StatusCode::kCorruptData,
@@ -564,6 +565,13 @@ class OutOfCoreBuild {
 };
 
 }  // namespace
+
+Result<bool> EncodedBatches::next_means(std::vector<float>* means) {
+  format::EncodedScene batch;
+  RGS_ASSIGN_OR_RETURN(const bool more, next(&batch));
+  if (more) *means = std::move(batch.means);
+  return more;
+}
 
 Result<OutOfCoreLodReport> build_lod_out_of_core(const std::string& path, EncodedBatches& batches,
                                                  const format::EncodedScene& head, const OutOfCoreLodOptions& options,

@@ -187,6 +187,14 @@ struct HygieneCounts : InputHygiene {
   std::vector<uint64_t> invalid;
 };
 
+/// Adds the counts of `part` to `total` (the invalid indices are the caller's).
+void add_counts(const InputHygiene& part, InputHygiene* total) {
+  total->nonfinite_values += part.nonfinite_values;
+  total->gaussians_with_nonfinite += part.gaussians_with_nonfinite;
+  total->zero_norm_quaternions += part.zero_norm_quaternions;
+  total->infinite_opacity_logits += part.infinite_opacity_logits;
+}
+
 /// Converts to float32 without the undefined behaviour of casting an out-of-range double.
 inline float to_float(double v) {
   constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
@@ -500,10 +508,7 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
   }
   for (const Status& s : errors) RGS_RETURN_IF_ERROR(s);
   for (HygieneCounts& p : parts) {
-    total->nonfinite_values += p.nonfinite_values;
-    total->gaussians_with_nonfinite += p.gaussians_with_nonfinite;
-    total->zero_norm_quaternions += p.zero_norm_quaternions;
-    total->infinite_opacity_logits += p.infinite_opacity_logits;
+    add_counts(p, total);
     total->invalid.insert(total->invalid.end(), p.invalid.begin(), p.invalid.end());
   }
   return Status();
@@ -908,10 +913,7 @@ Result<uint64_t> PlyStream::read(uint64_t max, format::GaussianCloud* batch) {
                                       st.hashing ? &hasher : nullptr, batch, &counts));
     st.next = first + rows;
     HygieneCounts& pass = st.pass_counts;
-    pass.nonfinite_values += counts.nonfinite_values;
-    pass.gaussians_with_nonfinite += counts.gaussians_with_nonfinite;
-    pass.zero_norm_quaternions += counts.zero_norm_quaternions;
-    pass.infinite_opacity_logits += counts.infinite_opacity_logits;
+    add_counts(counts, &pass);
     if (!counts.invalid.empty()) {
       if (pass.first_invalid_index < 0) pass.first_invalid_index = static_cast<int64_t>(first + counts.invalid.front());
       if (st.options.invalid_policy == InvalidPolicy::kReject) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/lod.h"
@@ -95,6 +96,10 @@ class EncodedBatches {
   /// The next batch of this pass in `*batch` (replaced: arrays of batch->count Gaussians, metadata unused);
   /// false at the end of the pass.
   virtual Result<bool> next(format::EncodedScene* batch) = 0;
+  /// The means ([n, 3] float32, as next() would give them) of the next batch of this pass in `*means`, for the
+  /// pass that needs nothing else; false at the end of the pass. By default next()'s; a source that quantizes
+  /// its batches can skip that here.
+  virtual Result<bool> next_means(std::vector<float>* means);
 };
 
 struct OutOfCoreLodOptions {
@@ -132,7 +137,8 @@ struct OutOfCoreLodReport {
 /// octree nodes, as many Gaussians as memory_limit holds). Each partition is then read, sorted and cut into
 /// chunks, their levels built in parallel and appended to spill files per (level, section), which are finally
 /// streamed into the file. These are unnamed files (O_TMPFILE) on the output's file system: nothing is left
-/// behind however the build or the process ends. Disk: about twice the output's size beside it.
+/// behind however the build or the process ends. Disk: the spill files hold the whole output until it is
+/// written, so about twice the output's size beside it.
 /// Errors: build_lod's; kLimitExceeded when memory_limit cannot hold a chunk's worth of the build, when more
 /// than one cell of the count grid's Gaussians would have to be held at once, or beyond 512 partitions;
 /// kCorruptData when the passes disagree (the input changed); kIoError naming the temporary files; the
