@@ -203,8 +203,9 @@ struct PairRecord<true, false> {
 /// kUnroll.
 constexpr float kNeverPasses = -1e30f;
 /// Pairs per step of the folded loop: the pixels' liveness is tested once per step (a done pixel is left
-/// unchanged by blend_predicated, so testing less often changes no bit) and the loads of the step overlap.
-constexpr int kUnroll = 4;
+/// unchanged by blend_predicated, so testing less often changes no bit) and the loads of the step overlap;
+/// with binary16 blending a step is a colour window.
+constexpr int kUnroll = kColourWindowEntries;
 
 /// The record at `address`, an address of the block's shared-memory window (__cvta_generic_to_shared), loaded
 /// 16 bytes at a time by ld.shared straight from that register: the walk lists hold such addresses, so a listed
@@ -268,8 +269,8 @@ __device__ inline void blend_pairs(int padded, AddressOf address_of, const Pixel
   }
 }
 
-/// The two pixels of a folded-loop thread under half-precision blending (half_blend.h): T and C as binary16
-/// pairs, the depth sums (kDepth) in FP32 from the taken weights.
+/// The two pixels of a folded-loop thread under half-precision blending (half_blend.h): T and the colour
+/// window as binary16 pairs, the closed windows' colour and the depth sums (kDepth) in FP32.
 struct HalfFoldedPixels {
   HalfPixelPair s;
   float depth_sum[2] = {0.f, 0.f}, weight_sum[2] = {0.f, 0.f};
@@ -280,14 +281,15 @@ struct HalfFoldedPixels {
     const auto lane = [i](Half2Bits h) { return half_to_float(static_cast<uint16_t>(h >> (16 * i))); };
     Pixel p;
     p.T = fabsf(lane(s.T));
-    p.C[0] = lane(s.r), p.C[1] = lane(s.g), p.C[2] = lane(s.b);
+    for (int c = 0; c < 3; ++c) p.C[c] = half_pixel_colour(s, i, c);
     p.depth_sum = depth_sum[i], p.weight_sum = weight_sum[i];
     return p;
   }
 };
 
 /// blend_pairs with half-precision blending: the same walk, the records' coefficients those of the power in
-/// base 2 (exp2_coefficients), α from half2_alpha and one blend_half2 for both pixels.
+/// base 2 (exp2_coefficients), α from half2_alpha and one blend_half2 for both pixels; each step of kUnroll
+/// pairs is a colour window (half_blend.h), closed at its end.
 template <bool kDepth, typename AddressOf>
 __device__ inline void blend_pairs_half(int padded, AddressOf address_of, const PixelTerms& terms,
                                         HalfFoldedPixels& pixels) {
@@ -313,18 +315,20 @@ __device__ inline void blend_pairs_half(int padded, AddressOf address_of, const 
         }
       }
     }
+    close_colour_window(pixels.s);
   }
 }
 
 /// A chunk record's word `word` of thread `rank` in slot `slot` (TileChunks::records: [slot, word, thread]).
 template <bool kDepth>
 __device__ inline uint32_t* chunk_word(const TileChunks& chunks, uint32_t slot, int word, int rank) {
-  constexpr uint32_t kWords = kDepth ? 8 : 4;  // tile_chunk_record_words
+  constexpr uint32_t kWords = kDepth ? 11 : 7;  // tile_chunk_record_words
   return chunks.records + (uint64_t(slot) * kWords + uint32_t(word)) * kDualThreads + uint32_t(rank);
 }
 
-/// A chunk block's end. Stores this thread's two pixels in the chunk's record slot (T, r, g, b as binary16
-/// pairs, the sign of T the stop flag; kDepth: the depth sums) and counts the block as arrived; the tile's last
+/// A chunk block's end. Stores this thread's two pixels in the chunk's record slot (T as binary16 pairs, the
+/// sign of T the stop flag; the colours in FP32, the last window closed; kDepth: the depth sums) and counts the
+/// block as arrived; the tile's last
 /// chunk block to arrive then merges the tile's records in chunk order (merge_chunk, as the CPU reference's
 /// blend_tile_folded_half) and stores the pixels. The threadfence pattern: every block fences its stores before
 /// its arrival is counted, and the merging block reads the records past L1.
@@ -336,13 +340,16 @@ __device__ inline void finish_chunk(const TileChunks& chunks, uint32_t tile, uin
   const int rank = int(threadIdx.x);
   const uint32_t first_slot = chunks.first_item[tile];
   *chunk_word<kDepth>(chunks, first_slot + chunk, 0, rank) = pixels.s.T;
-  *chunk_word<kDepth>(chunks, first_slot + chunk, 1, rank) = pixels.s.r;
-  *chunk_word<kDepth>(chunks, first_slot + chunk, 2, rank) = pixels.s.g;
-  *chunk_word<kDepth>(chunks, first_slot + chunk, 3, rank) = pixels.s.b;
+  for (int p = 0; p < 2; ++p) {
+    for (int c = 0; c < 3; ++c) {
+      *chunk_word<kDepth>(chunks, first_slot + chunk, 1 + 3 * p + c, rank) =
+          __float_as_uint(half_pixel_colour(pixels.s, p, c));
+    }
+  }
   if (kDepth) {
     for (int p = 0; p < 2; ++p) {
-      *chunk_word<kDepth>(chunks, first_slot + chunk, 4 + p, rank) = __float_as_uint(pixels.depth_sum[p]);
-      *chunk_word<kDepth>(chunks, first_slot + chunk, 6 + p, rank) = __float_as_uint(pixels.weight_sum[p]);
+      *chunk_word<kDepth>(chunks, first_slot + chunk, 7 + p, rank) = __float_as_uint(pixels.depth_sum[p]);
+      *chunk_word<kDepth>(chunks, first_slot + chunk, 9 + p, rank) = __float_as_uint(pixels.weight_sum[p]);
     }
   }
   __threadfence();
@@ -354,16 +361,16 @@ __device__ inline void finish_chunk(const TileChunks& chunks, uint32_t tile, uin
   ChunkPixel merged[2];
   for (uint32_t c = 0; c < tile_chunks; ++c) {
     const uint32_t slot = first_slot + c;
-    HalfPixelPair record;
+    HalfPixelPair record;  // the window sums +0: the colours are the record's
     record.T = __ldcg(chunk_word<kDepth>(chunks, slot, 0, rank));
-    record.r = __ldcg(chunk_word<kDepth>(chunks, slot, 1, rank));
-    record.g = __ldcg(chunk_word<kDepth>(chunks, slot, 2, rank));
-    record.b = __ldcg(chunk_word<kDepth>(chunks, slot, 3, rank));
+    for (int p = 0; p < 2; ++p) {
+      for (int c = 0; c < 3; ++c) record.C[p][c] = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 1 + 3 * p + c, rank)));
+    }
     for (int p = 0; p < 2; ++p) {
       float depth_sum = 0.f, weight_sum = 0.f;
       if (kDepth) {
-        depth_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 4 + p, rank)));
-        weight_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 6 + p, rank)));
+        depth_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 7 + p, rank)));
+        weight_sum = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 9 + p, rank)));
       }
       merge_chunk(merged[p], chunk_pixel_of_half(record, p, depth_sum, weight_sum));
     }
@@ -492,9 +499,9 @@ __device__ __forceinline__ int list_kept_pairs(uint16_t (*walk_lists)[kListStrid
 /// by itself (docs/lab/TRIED.md#tried-and-not-kept).
 /// Long tiles (kHalf with TileChunks, beyond the paper): a chunk block blends its chunk of the tile's list from
 /// T = 1 and finish_chunk merges the tile's chunks; the grid has TileChunks::item_rows rows of such blocks first.
-/// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and C as binary16 pairs
-/// and one half2 instruction blends both (blend_pairs_half): 27.5 instructions a pair of the walk (its sm_90 SASS:
-/// 110 for a step of four pairs).
+/// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and the colour window as
+/// binary16 pairs and one half2 instruction blends both (blend_pairs_half), each step closing its colour window
+/// into FP32 (docs/RENDERER.md#colour-windows).
 /// Nine blocks an SM (56 registers) were no faster with it, ten (48) slower
 /// (docs/lab/TRIED.md#tried-and-not-kept).
 template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
@@ -508,7 +515,8 @@ __global__ void __launch_bounds__(kDualThreads, 8)
   // Pairs per batch: with block culling two for each thread to load, since a block waits at a barrier for its
   // slowest lane group once per batch and the groups' lists of different lengths even out over more pairs
   // (batches of 128, 384 and 512 measured: docs/lab/TRIED.md#tried-and-not-kept).
-  constexpr int kBatch = kCull == Cull::kBlock ? 2 * kDualThreads : kDualThreads;
+  constexpr int kBatch = static_cast<int>(walk_batch_pairs(kCull == Cull::kBlock));  // the colour windows' batches
+  static_assert(kBatch % kDualThreads == 0);
   constexpr int kLoads = kBatch / kDualThreads;
   // Entries per walk list: a batch's slots plus 2, so that the 4 lists a warp reads at once start in 4
   // different banks (an odd stride in words).

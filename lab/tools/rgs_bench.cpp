@@ -30,6 +30,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <functional>
@@ -367,15 +368,31 @@ struct QualityRow {
   std::string mode;
   std::string resolution;
   double psnr_mean = 0, psnr_min = 0;  ///< dB over the clamped RGB of each view (+inf when equal)
+  /// dB over the 8-bit images of each view (rgs-render's rule, runtime::to_8bit): what a viewer or a PNG shows
+  double psnr8_mean = 0, psnr8_min = 0;
   double ssim_mean = 0;
   float max_abs_diff = 0;  ///< largest over the views
   size_t views = 0;
 };
 
+/// PSNR in dB of the 8-bit images (runtime::to_8bit's rule) of two RGBA images; +inf when they are equal.
+double psnr_8bit(const runtime::HostImage& a, const runtime::HostImage& b) {
+  const auto level = [](float v) { return std::floor((std::isnan(v) ? 0.f : std::clamp(v, 0.f, 1.f)) * 255.f + 0.5f); };
+  double squared = 0;
+  for (size_t i = 0; i < a.rgba.size(); ++i) {
+    if (i % 4 == 3) continue;
+    const double d = double(level(a.rgba[i]) - level(b.rgba[i])) / 255.0;
+    squared += d * d;
+  }
+  const double mse = squared / double(a.rgba.size() / 4 * 3);
+  return mse > 0 ? 10.0 * std::log10(1.0 / mse) : std::numeric_limits<double>::infinity();
+}
+
 /// --quality: every view of every camera set rendered once by the baseline and once by each other mode,
 /// compared on the GPU (runtime::GpuImageComparer: PSNR, SSIM and max |Δ| of the clamped RGB, the audit's
-/// definitions). The baseline renders `reference` (the benched scene, or --reference: e.g. the source the .rgs
-/// was converted from, so that faithful's own row is what the conversion costs) and reads its FP32 arrays.
+/// definitions), and their 8-bit images on the host. The baseline renders `reference` (the benched scene, or
+/// --reference: e.g. the source the .rgs was converted from, so that faithful's own row is what the conversion
+/// costs) and reads its FP32 arrays.
 Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::LoadedGpuScene& scene,
                                                 const api::LoadedGpuScene& reference_scene,
                                                 const std::vector<CameraSet>& sets, runtime::GpuRenderer& renderer) {
@@ -392,7 +409,7 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
       QualityRow row;
       row.mode = mode_name;
       row.resolution = set.label;
-      row.psnr_min = std::numeric_limits<double>::infinity();
+      row.psnr_min = row.psnr8_min = std::numeric_limits<double>::infinity();
       for (const runtime::Camera& cam : set.cameras) {
         auto base = renderer.render(reference_scene.scene, cam, reference, &expected);
         if (!base.ok()) return Status(base.status()).prepend("faithful, view " + cam.name);
@@ -402,12 +419,18 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
                              comparer.compare(expected.rgba(), image.rgba(), cam.width, cam.height, 4));
         row.psnr_mean += m.psnr_db;
         row.psnr_min = std::min(row.psnr_min, m.psnr_db);
+        RGS_ASSIGN_OR_RETURN(const runtime::HostImage expected8, runtime::download(expected));
+        RGS_ASSIGN_OR_RETURN(const runtime::HostImage image8, runtime::download(image));
+        const double psnr8 = psnr_8bit(expected8, image8);
+        row.psnr8_mean += psnr8;
+        row.psnr8_min = std::min(row.psnr8_min, psnr8);
         row.ssim_mean += m.ssim;
         row.max_abs_diff = std::max(row.max_abs_diff, m.max_abs_diff);
         ++row.views;
       }
       if (row.views > 0) {
         row.psnr_mean /= double(row.views);
+        row.psnr8_mean /= double(row.views);
         row.ssim_mean /= double(row.views);
       }
       rows.push_back(row);
@@ -668,11 +691,12 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
   if (!report.quality.empty()) {
     std::printf("  quality          against faithful's render of the same views of %s (clamped RGB; PSNR dB, SSIM)\n",
                 opt.reference.empty() ? "the same scene" : opt.reference.c_str());
-    std::printf("  %-12s %-10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min", "SSIM mean",
-                "max |d|", "views");
+    std::printf("  %-12s %-10s %10s %10s %10s %10s %10s %9s %6s\n", "mode", "resolution", "PSNR mean", "PSNR min",
+                "8-bit mean", "8-bit min", "SSIM mean", "max |d|", "views");
     for (const QualityRow& r : report.quality) {
-      std::printf("  %-12s %-10s %10s %10s %10s %9s %6zu\n", r.mode.c_str(), r.resolution.c_str(),
+      std::printf("  %-12s %-10s %10s %10s %10s %10s %10s %9s %6zu\n", r.mode.c_str(), r.resolution.c_str(),
                   tools::fixed(r.psnr_mean, 2).c_str(), tools::fixed(r.psnr_min, 2).c_str(),
+                  tools::fixed(r.psnr8_mean, 2).c_str(), tools::fixed(r.psnr8_min, 2).c_str(),
                   tools::fixed(r.ssim_mean, 5).c_str(), tools::fixed(r.max_abs_diff, 4).c_str(), r.views);
     }
   }
@@ -806,6 +830,8 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                             {"resolution", r.resolution},
                             {"psnr_mean_db", r.psnr_mean},
                             {"psnr_min_db", r.psnr_min},
+                            {"psnr8_mean_db", r.psnr8_mean},
+                            {"psnr8_min_db", r.psnr8_min},
                             {"ssim_mean", r.ssim_mean},
                             {"max_abs_diff", r.max_abs_diff},
                             {"views", r.views}});

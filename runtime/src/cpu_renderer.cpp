@@ -10,6 +10,7 @@
 #include "internal_parallel.h"
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/kernels/shared/fast_exp.h"
+#include "rgs/kernels/shared/frame_switches.h"
 #include "rgs/kernels/shared/half_blend.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
@@ -258,22 +259,40 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
   }
 }
 
+/// Which pairs of a tile's list the GPU's lane group of each 4×4 block walks: bit b of masks[j] (b = block_x +
+/// 4·block_y) where pair j is in block b's list. Under block culling the pair's block_mask, computed as the
+/// GPU's rasterizer computes it when it loads the pair; else every block.
+std::vector<uint32_t> walk_masks(const std::vector<TileGaussian>& list, int tx, int ty, bool block_culling) {
+  const float origin_x = static_cast<float>(tx * k::kTileSize), origin_y = static_cast<float>(ty * k::kTileSize);
+  std::vector<uint32_t> masks(list.size(), 0xffffu);
+  if (!block_culling) return masks;
+  for (size_t j = 0; j < list.size(); ++j) {
+    const TileGaussian& g = list[j];
+    masks[j] = k::block_mask(g.conic, g.mean[0] - origin_x, g.mean[1] - origin_y, g.log_opacity);
+  }
+  return masks;
+}
+
 /// blend_tile_folded with half-precision blending (RoofgsOptions::half_blend; render.cu blend_pairs_half):
-/// each "thread" keeps its two pixels' T and C as binary16 pairs and blends both with blend_half2, α from
-/// half2_alpha on the folded powers in base 2 (coefficients from exp2_coefficients).
-/// Pairs where neither pixel passes change no bit (α = +0), so they are skipped here, as are both pixels once
-/// done. A list of more than `chunk_pairs` pairs (frame_chunk_pairs; 0: off) is blended in chunks, each from
-/// T = 1, and the chunks' FP32 values merged in order (kernels/shared/tile_chunks.h), as the GPU's chunk blocks
-/// do.
+/// each "thread" keeps its two pixels' T and colour window as binary16 pairs and blends both with blend_half2,
+/// α from half2_alpha on the folded powers in base 2 (coefficients from exp2_coefficients). The pairs are
+/// walked as the GPU walks them, batch by batch (walk_batch_pairs), each batch's pairs that the thread's 4×4
+/// block keeps (walk_masks), in colour windows of kColourWindowEntries of them (half_blend.h). Pairs where
+/// neither pixel passes change no bit but count in their window. A list of more than `chunk_pairs` pairs
+/// (frame_chunk_pairs; 0: off) is blended in chunks, each from T = 1, and the chunks' FP32 values merged in
+/// order (kernels/shared/tile_chunks.h), as the GPU's chunk blocks do.
 void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
-                            uint32_t chunk_pairs, RenderResult* out) {
+                            uint32_t chunk_pairs, bool block_culling, RenderResult* out) {
   const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
   std::vector<k::FoldedCoefficients> of_v(list.size());  // the coefficients of the power in base 2, v
   for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::exp2_coefficients(list[j].folded);
+  const std::vector<uint32_t> masks = walk_masks(list, tx, ty, block_culling);
+  const size_t batch_pairs = k::walk_batch_pairs(block_culling);
   const uint32_t chunks = k::tile_chunk_count(list.size(), chunk_pairs);
   for (int ly = 0; ly < k::kTileSize; ly += 2) {
     for (int lx = 0; lx < k::kTileSize; ++lx) {
       const uint32_t x = x0 + uint32_t(lx), y = y0 + uint32_t(ly);
+      const uint32_t block_bit = 1u << (lx / k::kCullBlockSize + k::kCullBlocksPerSide * (ly / k::kCullBlockSize));
       const k::PixelTerms terms = k::pixel_terms(static_cast<float>(lx), static_cast<float>(ly));
       k::ChunkPixel merged[2];
       for (uint32_t chunk = 0; chunk < chunks; ++chunk) {
@@ -283,19 +302,26 @@ void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int t
         if (!(x < out->width && y < out->height)) pair.T |= 0x8000u;  // outside the image: done
         if (!(x < out->width && y + 1 < out->height)) pair.T |= 0x80000000u;
         float depth_sum[2] = {0.f, 0.f}, weight_sum[2] = {0.f, 0.f};
-        for (size_t j = first; j < last && k::half_pair_live(pair); ++j) {
-          const TileGaussian& g = list[j];
-          const float v_first = k::folded_power(of_v[j], terms);
-          const float v_second = k::dual_pixel_power(v_first, of_v[j], terms);
-          const k::Half2Bits alpha = k::half2_alpha(v_first, v_second);
-          if (alpha == 0) continue;
-          const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]),
-                                                k::half2_broadcast(g.rgb[1]), k::half2_broadcast(g.rgb[2]));
-          for (int p = 0; p < 2; ++p) {
-            const float wp = k::half_to_float(static_cast<uint16_t>(w >> (16 * p)));
-            depth_sum[p] = std::fmaf(g.depth, wp, depth_sum[p]);
-            weight_sum[p] += wp;
+        for (size_t batch = first; batch < last && k::half_pair_live(pair); batch += batch_pairs) {
+          int walked = 0;  // entries of this batch's walk list
+          for (size_t j = batch; j < std::min(last, batch + batch_pairs) && k::half_pair_live(pair); ++j) {
+            if ((masks[j] & block_bit) == 0) continue;
+            const TileGaussian& g = list[j];
+            const float v_first = k::folded_power(of_v[j], terms);
+            const float v_second = k::dual_pixel_power(v_first, of_v[j], terms);
+            const k::Half2Bits alpha = k::half2_alpha(v_first, v_second);
+            if (alpha != 0) {
+              const k::Half2Bits w = k::blend_half2(pair, alpha, k::half2_broadcast(g.rgb[0]),
+                                                    k::half2_broadcast(g.rgb[1]), k::half2_broadcast(g.rgb[2]));
+              for (int p = 0; p < 2; ++p) {
+                const float wp = k::half_to_float(static_cast<uint16_t>(w >> (16 * p)));
+                depth_sum[p] = std::fmaf(g.depth, wp, depth_sum[p]);
+                weight_sum[p] += wp;
+              }
+            }
+            if (++walked % k::kColourWindowEntries == 0) k::close_colour_window(pair);
           }
+          k::close_colour_window(pair);  // the batch's last window, padded on the GPU
         }
         for (int p = 0; p < 2; ++p) {
           k::merge_chunk(merged[p], k::chunk_pixel_of_half(pair, p, depth_sum[p], weight_sum[p]));
@@ -575,13 +601,16 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
                                                 "x" + std::to_string(frame.height) + " image");
   }
   const bool folded = options.roofgs.folded_coefficients;
-  uint64_t large_pairs = 0;  // pairs of Gaussians with more than kChunkLargeTiles tiles (frame_chunk_pairs)
-  if (options.roofgs.tile_chunk_pairs > 0) {
-    for (const ProjectedGaussian& g : gaussians) {
-      if (g.tiles_touched > k::kChunkLargeTiles) large_pairs += g.tiles_touched;
-    }
+  // Pairs of Gaussians with more than kChunkLargeTiles (= kSubtileLargeTiles) tiles: frame_chunk_pairs and the
+  // GPU's automatic block culling, whose walk lists the half blend follows.
+  static_assert(k::kChunkLargeTiles == k::kSubtileLargeTiles);
+  uint64_t large_pairs = 0;
+  for (const ProjectedGaussian& g : gaussians) {
+    if (g.tiles_touched > k::kChunkLargeTiles) large_pairs += g.tiles_touched;
   }
   const uint32_t chunk_pairs = k::frame_chunk_pairs(bins.values.size(), large_pairs, options.roofgs.tile_chunk_pairs);
+  const bool block_culling =
+      k::auto_block_culling(options.roofgs.snugbox_accutile, bins.values.size(), large_pairs);
   Status work = detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),
                                      [&](uint64_t row) {
     std::vector<TileGaussian> list;  // per worker, reused across the row's tiles
@@ -591,7 +620,7 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
       const uint64_t begin = bins.tile_begin[id], end = bins.tile_begin[id + 1];
       gather_tile(gaussians, bins.values.data() + begin, end - begin, tx, ty, folded, &list);
       if (folded && options.roofgs.fast_exp && options.roofgs.half_blend) {
-        blend_tile_folded_half(list, tx, ty, options, chunk_pairs, result);
+        blend_tile_folded_half(list, tx, ty, options, chunk_pairs, block_culling, result);
       } else if (folded) {
         blend_tile_folded(list, tx, ty, options, result);
       } else {

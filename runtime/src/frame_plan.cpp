@@ -52,8 +52,7 @@ BlendPlan plan_blend(const GpuRoofgsOptions& options, uint64_t pairs, uint64_t l
   // nearly all covered; with 3σ rectangles its corner tiles are not, and the culling pays for them.
   const bool subtile = options.subtile_culling == SubtileCulling::kOn ||
                        (options.subtile_culling == SubtileCulling::kAuto &&
-                        (!t.snugbox_accutile ||
-                         double(large_pairs) <= kernels::kSubtileMaxLargePairFraction * double(pairs)));
+                        kernels::auto_block_culling(t.snugbox_accutile, pairs, large_pairs));
   BlendPlan plan;
   plan.raster = kernels::RasterOptions{t.folded_coefficients, t.fast_exp, t.folded_coefficients && subtile,
                                        t.half_blend};

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <utility>
 
 #include <doctest/doctest.h>
 
@@ -214,6 +215,44 @@ TEST_CASE("blend_half2: a skipped pair changes no bit, a done pixel stays done, 
   CHECK(lane(near.r, 0) == 0);
   CHECK(lane(taken, 1) != 0);
   CHECK(k::half_pair_live(near));
+}
+
+TEST_CASE("colour windows: a binary16 sum drops late contributions, windows closed into FP32 keep them") {
+  // A pixel behind an opaque-ish front: one Gaussian of α 0.6, then 200 faint ones of α 0.004, every colour
+  // 0.9. Each faint weight is 0.004·T (T ≥ 0.17 after 200 of them), so each adds c·w ≈ 1.4e-3..3.6e-4 to a
+  // colour sum near 0.54..0.75, whose binary16 half unit is 2^−12 ≈ 2.4e-4 there: summed in one window, the
+  // roundings of 200 such additions pile up; in windows of kColourWindowEntries they do not. The exact colour
+  // sums the same binary16 weights in double.
+  const uint16_t colour = format::float_to_half_bits(0.9f);
+  const auto run = [&](int window) {
+    k::HalfPixelPair s;
+    double exact = 0;
+    for (int i = 0; i < 201; ++i) {
+      const uint16_t alpha = format::float_to_half_bits(i == 0 ? 0.6f : 0.004f);
+      const k::Half2Bits w = k::blend_half2(s, pair(alpha, alpha), pair(colour, colour), 0u, 0u);
+      exact += k::detail::half_bits_to_double(colour) * k::detail::half_bits_to_double(lane(w, 0));
+      if ((i + 1) % window == 0) k::close_colour_window(s);
+    }
+    return std::pair<double, double>(k::half_pixel_colour(s, 0, 0), exact);
+  };
+  const auto [single, exact_single] = run(1 << 30);  // one window: the plain binary16 sum
+  const auto [windowed, exact_windowed] = run(k::kColourWindowEntries);
+  CHECK(exact_single == exact_windowed);  // the weights do not depend on the windows
+  MESSAGE("one window: " << single << ", windows of " << k::kColourWindowEntries << ": " << windowed
+                         << ", exact " << exact_windowed);
+  // Deterministic arithmetic: one window is off by 2.09e-3, more than half an 8-bit level (0.5 / 255); the
+  // windows by 1.0e-4.
+  CHECK(std::abs(single - exact_single) > 0.5 / 255);
+  CHECK(std::abs(windowed - exact_windowed) < 2e-4);
+  // Closing a window is exact bookkeeping: the pixel's colour does not change at the close itself.
+  k::HalfPixelPair s;
+  s.r = pair(format::float_to_half_bits(0.3f), format::float_to_half_bits(0.7f));
+  s.C[0][0] = 0.125f, s.C[1][0] = 0.25f;
+  const float before[2] = {k::half_pixel_colour(s, 0, 0), k::half_pixel_colour(s, 1, 0)};
+  k::close_colour_window(s);
+  CHECK(s.r == 0u);
+  CHECK(k::half_pixel_colour(s, 0, 0) == before[0]);
+  CHECK(k::half_pixel_colour(s, 1, 0) == before[1]);
 }
 
 }  // namespace

@@ -236,9 +236,9 @@ std::vector<Switch> switches() {
   o.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
   s.push_back({"all four + depth order, sigma=0.05798", o, 47.5});
   o.half_blend = true;
-  s.push_back({"all four + depth order + half blend (exp2 rounded to binary16)", o, 60.0});
+  s.push_back({"all four + depth order + half blend (exp2 rounded to binary16)", o, 69.0});
   o.tile_chunk_pairs = kernels::kTileChunkPairs;
-  s.push_back({"the fastest preset: half blend with long tiles in chunks", o, 60.0});
+  s.push_back({"the fastest preset: half blend with long tiles in chunks", o, 69.0});
   return s;
 }
 
@@ -292,7 +292,8 @@ TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the bas
   // budget is within 40 dB of it (measured: camera 20 for the key, fast exp and the combinations, 40 for
   // SnugBox + AccuTile unclipped; 120 is the next lowest of the latter and within 0.2 dB of the key's), so
   // the 3 give the 9-view minima at a third of the renders. Half blending (binary16, α the exp2 rounded to
-  // binary16) has its budget at 60: measured 65.9 dB over all 9 views at this size, 66.6 over these 3.
+  // binary16, colour windows) has its budget at 69: measured 71.9 dB over all 9 views at this size, 72.4 over
+  // these 3 (65.9 and 66.6 without the colour windows).
   const FlowersScene& scene = flowers();
   if (!scene.available) return;
   const std::vector<Camera> nine = flowers_cameras(scene);
@@ -321,6 +322,32 @@ TEST_CASE("each RoofGS switch alone stays within its PSNR budget against the bas
                     << finite_views << "/" << cams.size() << " finite), max |diff| " << worst_diff << ", pairs "
                     << pairs << " vs " << base_pairs);
     CHECK(min_psnr >= sw.min_psnr);
+  }
+}
+
+TEST_CASE("the fastest preset's techniques: the 8-bit image within 60 dB of the baseline's, colour windows" *
+          doctest::test_suite("slow")) {
+  // What a PNG or a viewer shows: the 8-bit images (runtime::to_8bit) of the half blend with colour windows
+  // (half_blend.h) against the FP32 baseline's, flowers cameras 20, 40 and 120 at 628×414 (the views of the
+  // switch budgets above). A rounding flip of one 8-bit level in 6.5 % of the values reads 60 dB. Measured
+  // 62.0–62.9 dB with the windows; the binary16 sum alone (no window closed) read 59.2–59.9.
+  const FlowersScene& scene = flowers();
+  if (!scene.available) return;
+  const std::vector<Camera> nine = flowers_cameras(scene);
+  RoofgsOptions o = RoofgsOptions::all();
+  o.depth_order = true;
+  o.fast_exp_sigma = kernels::kFastExpSigmaZeroMean;
+  o.half_blend = true;
+  o.tile_chunk_pairs = kernels::kTileChunkPairs;
+  for (const Camera& cam : {nine[1], nine[2], nine[6]}) {
+    const RenderResult base = render_ok(scene.cloud, cam, with_bounds(scene));
+    const RenderResult fast = render_ok(scene.cloud, cam, with_bounds(scene, o));
+    const std::vector<uint8_t> a = runtime::to_8bit(base.rgb), b = runtime::to_8bit(fast.rgb);
+    double squared = 0;
+    for (size_t i = 0; i < a.size(); ++i) squared += std::pow((double(a[i]) - double(b[i])) / 255.0, 2);
+    const double psnr8 = 10.0 * std::log10(double(a.size()) / squared);
+    MESSAGE(cam.name << ": 8-bit PSNR " << psnr8 << " dB");
+    CHECK(psnr8 >= 60.0);
   }
 }
 

@@ -19,7 +19,8 @@ enum class Preset {
   /// The fastest configuration measured on each backend. On the GPU (rgs-bench's "fastest"): RoofGS pipeline on the compact .rgs
   /// attributes, fused kernel, 32-bit keys with depth order (ties in exact depth order), SnugBox + AccuTile
   /// within the 3DGS rectangle, folded dual-pixel rasterizer, half-precision blending (α the device's exp2
-  /// rounded to binary16, binary16 T and colour sums), long tiles in chunks, warp-balanced
+  /// rounded to binary16, binary16 T, colours summed in binary16 over windows of 4 pairs and in FP32 across
+  /// them), long tiles in chunks, warp-balanced
   /// emission, per-frame sub-tile culling. Reads only the runtime sections. On the CPU: the 3DGS rules
   /// (cpu_backend_options).
   kFastest = 0,

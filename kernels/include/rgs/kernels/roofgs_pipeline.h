@@ -214,9 +214,9 @@ inline uint64_t tile_chunk_capacity(uint64_t pairs, uint32_t chunk_pairs) {
   return chunk_pairs == 0 ? 0 : 2 * (pairs / chunk_pairs);
 }
 
-/// 32-bit words per thread of a chunk record: T, r, g, b as binary16 pairs, and the two pixels' depth sums
-/// (Σ w·z, Σ w) with depth.
-inline uint32_t tile_chunk_record_words(bool depth) { return depth ? 8 : 4; }
+/// 32-bit words per thread of a chunk record: T as a binary16 pair, the two pixels' colours in FP32, and their
+/// depth sums (Σ w·z, Σ w) with depth.
+inline uint32_t tile_chunk_record_words(bool depth) { return depth ? 11 : 7; }
 
 /// Lists the chunks of the tiles of more than chunks.chunk_pairs pairs into chunks.items (a tile's chunks
 /// consecutive, tiles in any order: the pixels do not depend on it), counting them in *chunks.item_count

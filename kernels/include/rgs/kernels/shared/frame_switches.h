@@ -54,6 +54,12 @@ enum class PairAllocation {
 constexpr uint32_t kSubtileLargeTiles = 32;
 constexpr double kSubtileMaxLargePairFraction = 0.5;
 
+/// The automatic choice above for a frame of `pairs` pairs, `large_pairs` of them from Gaussians with more
+/// than kSubtileLargeTiles tiles: whether its rasterizer culls 4×4 blocks.
+constexpr bool auto_block_culling(bool snugbox_accutile, uint64_t pairs, uint64_t large_pairs) {
+  return !snugbox_accutile || double(large_pairs) <= kSubtileMaxLargePairFraction * double(pairs);
+}
+
 /// Rasterizer switches.
 struct RasterOptions {
   /// Folded C1..C6 in tile-local coordinates, hoisted pixel terms, two vertically adjacent pixels per thread.
@@ -65,8 +71,9 @@ struct RasterOptions {
   /// lanes of the blocks it reaches and not the whole warp. Fewer iterations, the same output bits (up to
   /// subtile_mask's caveat on pairs whose folded P is dominated by its own FP32 rounding).
   bool subtile_culling = false;
-  /// With `folded` and `fast_exp` (beyond the paper): α, T and C of a thread's two pixels in binary16, one
-  /// half2 instruction for both (shared/half_blend.h); ignored otherwise.
+  /// With `folded` and `fast_exp` (beyond the paper): α, T and the colour window of a thread's two pixels in
+  /// binary16, one half2 instruction for both, the closed windows' colour in FP32 (shared/half_blend.h);
+  /// ignored otherwise.
   bool half_blend = false;
 };
 

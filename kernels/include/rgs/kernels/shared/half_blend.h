@@ -1,7 +1,7 @@
 // Half-precision blending of the folded rasterizer (beyond the paper): α, transmittance T and the colour sum
-// C of a thread's two pixels held as pairs of IEEE binary16 values in one 32-bit word each (CUDA __half2, low
-// half = the first pixel (x, y), high half = the second (x, y + 1)), so that one half2 instruction blends
-// both pixels. The power P stays FP32 (folded_power, dual_pixel_power); α is 2^v of it in base 2, rounded to
+// of the current colour window of a thread's two pixels held as pairs of IEEE binary16 values in one 32-bit
+// word each (CUDA __half2, low half = the first pixel (x, y), high half = the second (x, y + 1)), so that one
+// half2 instruction blends both pixels; the closed windows' colour is FP32. The power P stays FP32 (folded_power, dual_pixel_power); α is 2^v of it in base 2, rounded to
 // binary16 (half2_alpha), in place of the paper's fast exponential. Every operation here but that exp2 is IEEE
 // round-to-nearest-even with subnormals kept (no flush to zero), on the device with the half2 instructions and on
 // the host in software, bit for bit. The exp2 is the device's FP32 approximation, which the host does not
@@ -262,17 +262,48 @@ RGS_HOST_DEVICE Half2Bits half2_alpha(float v_first, float v_second) {
   return half2_min(e, kHalf2AlphaMax) & half2_ge_mask(e, kHalf2AlphaMin);
 }
 
-/// The running state of a thread's two pixels: T and C per pixel as Half2Bits. The sign of T holds the stop
-/// flag as in the FP32 loop (T < 0: done, −T the final transmittance).
+/// Colour windows (beyond the paper). Summed in binary16 alone, a pixel's colour loses every late contribution
+/// below half a unit of the sum (2^−12 of it): taebak's 8-bit image read 60.5–60.8 dB against the 3DGS
+/// rasterizer's. So a pixel sums its colour in binary16 over a window of kColourWindowEntries consecutive
+/// entries of its walk list only, then adds the window's sum to an FP32 colour (close_colour_window):
+/// docs/RENDERER.md#colour-windows for what it measured and cost. A window is one step of the GPU's walk
+/// (render_kernels.cuh: kUnroll pairs, one liveness test), so its bounds follow the walk lists: the pairs of a
+/// batch of walk_batch_pairs consecutive pairs of the tile's list (of a chunk's, from its first pair) that the
+/// pixel's 4×4 block keeps (block_mask) under block culling, else every pair of the batch, each batch's list
+/// walked in windows from its start. The CPU reference builds the same lists.
+constexpr int kColourWindowEntries = 4;
+
+/// Pairs per batch of the GPU's folded rasterizer: two a thread with block culling, one without.
+constexpr uint32_t walk_batch_pairs(bool block_culling) { return block_culling ? 256u : 128u; }
+
+/// The running state of a thread's two pixels: T as Half2Bits, the sign of T the stop flag as in the FP32 loop
+/// (T < 0: done, −T the final transmittance); the colour as the binary16 sum of the current colour window
+/// (r, g, b: Half2Bits) plus the FP32 sum of the windows closed before it (C[pixel][channel]).
 struct HalfPixelPair {
   Half2Bits T = kHalf2One;
   Half2Bits r = 0, g = 0, b = 0;
+  float C[2][3] = {{0.f, 0.f, 0.f}, {0.f, 0.f, 0.f}};
 };
 
+/// Channel `channel` (0 r, 1 g, 2 b) of pixel `lane`'s colour: the closed windows' FP32 sum plus the current
+/// window's binary16 sum, one FP32 addition.
+RGS_HOST_DEVICE float half_pixel_colour(const HalfPixelPair& s, int lane, int channel) {
+  const Half2Bits window = channel == 0 ? s.r : channel == 1 ? s.g : s.b;
+  return s.C[lane][channel] + half_to_float(static_cast<uint16_t>(window >> (16 * lane)));
+}
+
+/// Ends the current colour window (kColourWindowEntries): its sums join C, and the next window starts at +0.
+RGS_HOST_DEVICE void close_colour_window(HalfPixelPair& s) {
+  for (int lane = 0; lane < 2; ++lane) {
+    for (int channel = 0; channel < 3; ++channel) s.C[lane][channel] = half_pixel_colour(s, lane, channel);
+  }
+  s.r = s.g = s.b = 0;
+}
+
 /// One front-to-back step of both pixels (the FP32 blend_predicated's rule in binary16): w = α·T,
-/// T' = T − w, take the pair where T' ≥ 1e−4 (C += c·w, T = T'), else stop (T = −|T|). α = +0 (skipped) gives
-/// w = +0 and changes nothing; a done pixel (T < 0) gives T' < 0, which stops again and keeps T. Returns the
-/// taken weights w (0 where not taken) for callers that also sum depth.
+/// T' = T − w, take the pair where T' ≥ 1e−4 (window colour += c·w, T = T'), else stop (T = −|T|). α = +0
+/// (skipped) gives w = +0 and changes nothing; a done pixel (T < 0) gives T' < 0, which stops again and keeps
+/// T. Returns the taken weights w (0 where not taken) for callers that also sum depth.
 /// @param alpha  half2_alpha's result
 /// @param r, g, b  the Gaussian's colour in both halves (half2_broadcast)
 RGS_HOST_DEVICE Half2Bits blend_half2(HalfPixelPair& s, Half2Bits alpha, Half2Bits r, Half2Bits g, Half2Bits b) {

@@ -65,17 +65,15 @@ struct ChunkPixel {
   bool done = false;
 };
 
-/// Pixel `lane` (0: (x, y), 1: (x, y + 1)) of a thread's chunk blended in binary16 (half_blend.h): T, r, g, b
-/// as HalfPixelPair holds them (the sign of T the stop flag), and that pixel's FP32 depth sums.
+/// Pixel `lane` (0: (x, y), 1: (x, y + 1)) of a thread's chunk blended in binary16 (half_blend.h): T as
+/// HalfPixelPair holds it (the sign the stop flag), its colour (half_pixel_colour), and its FP32 depth sums.
 RGS_HOST_DEVICE ChunkPixel chunk_pixel_of_half(const HalfPixelPair& s, int lane, float depth_sum, float weight_sum) {
-  const auto half = [lane](Half2Bits h) { return static_cast<uint16_t>(h >> (16 * lane)); };
+  const uint16_t T = static_cast<uint16_t>(s.T >> (16 * lane));
   ChunkPixel p;
-  p.C[0] = half_to_float(half(s.r));
-  p.C[1] = half_to_float(half(s.g));
-  p.C[2] = half_to_float(half(s.b));
-  p.T = fabsf(half_to_float(half(s.T)));
+  for (int c = 0; c < 3; ++c) p.C[c] = half_pixel_colour(s, lane, c);
+  p.T = fabsf(half_to_float(T));
   p.depth_sum = depth_sum, p.weight_sum = weight_sum;
-  p.done = (half(s.T) & 0x8000u) != 0;
+  p.done = (T & 0x8000u) != 0;
   return p;
 }
 
