@@ -53,7 +53,8 @@ TOP_REQUIRED = {"tool", "date", "device", "scene", "statistic", "results"}
 RESULT_KEYS = {"mode", "mode_description", "resolution", "views", "frames", "median_ms", "stages", "fps",
                "mean_pairs", "max_tile_groups", "roofline", "per_view", "floor", "view_total_ms"}
 RESULT_REQUIRED = {"mode", "resolution", "views", "median_ms"}
-QUALITY_KEYS = {"mode", "resolution", "psnr_mean_db", "psnr_min_db", "ssim_mean", "max_abs_diff", "views"}
+QUALITY_KEYS = {"mode", "resolution", "psnr_mean_db", "psnr_min_db", "psnr8_mean_db", "psnr8_min_db", "ssim_mean",
+                "max_abs_diff", "views"}
 
 
 class ShapeError(Exception):
@@ -138,12 +139,12 @@ def load_run(path):
     for i, q in enumerate(quality):
         where = f"{path}: quality[{i}]"
         check_keys(q, QUALITY_KEYS, QUALITY_KEYS, where)
-        for key in ("psnr_mean_db", "psnr_min_db"):
+        keys = ("psnr_mean_db", "psnr_min_db", "psnr8_mean_db", "psnr8_min_db")
+        for key in keys:
             # nlohmann::json writes +inf (identical images) as null.
             need(q[key] is None or is_number(q[key]), f"{where}.{key}", f"{q[key]!r} is not a PSNR")
         rows.append({"mode": q["mode"], "resolution": q["resolution"],
-                     "mean": math.inf if q["psnr_mean_db"] is None else float(q["psnr_mean_db"]),
-                     "min": math.inf if q["psnr_min_db"] is None else float(q["psnr_min_db"])})
+                     "psnr": tuple(math.inf if q[key] is None else float(q[key]) for key in keys)})
 
     census = {}
     for i, c in enumerate(j.get("floor_census", [])):
@@ -235,7 +236,7 @@ def collect(runs, names):
         for q in run["quality"]:
             k = (q["mode"], q["resolution"])
             need(k not in scene.quality, run["path"], f"quality of {scene.name} {k[0]} {k[1]} appears twice")
-            scene.quality[k] = (q["mean"], q["min"])
+            scene.quality[k] = q["psnr"]
     ordered = sorted(scenes.values(), key=lambda s: (s.replicate > 1, -s.gaussians, s.name))
     return ordered, devices.pop(), sorted({r["date"] for r in runs})
 
@@ -317,10 +318,10 @@ def render(scenes, device, dates, mode, reference, stage_specs, mode_specs, floo
             cells = []
             for r in q_res:
                 q = s.quality.get((mode, r))
-                cells.append(f"{db(q[0])} / {db(q[1])}" if q else "–")
+                cells.append(f"{db(q[0])} / {db(q[1])}; 8-bit {db(q[2])} / {db(q[3])}" if q else "–")
             rows.append([s.label] + cells)
         out += ["", f"`{mode}` against `{reference}`'s image of the same views (`--quality`), PSNR mean / min over "
-                "the views, dB:", ""]
+                "the views, dB, of the float images and of their 8-bit images (what a PNG or the viewer shows):", ""]
         out += table(["scene"] + [resolution_label(r) for r in q_res], rows)
 
     out += floor_tables(scenes, resolutions, mode)

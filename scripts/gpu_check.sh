@@ -385,6 +385,7 @@ if [ "$what" = fidelity ] || [ "$what" = all ]; then
   [ -f "$RGS_DATA_DIR/playcanvas_flowers_lod0.ply" ] && fidelity daffodils "$RGS_DATA_DIR/playcanvas_flowers_lod0.ply" \
     --orbit 8
   [ -f "$taebak" ] && fidelity taebak "$taebak_dir/taebak_lod0_sog/lod-meta.json" --cameras "$taebak_cameras"
+  [ -f "$taebak" ] && fidelity taebak_path "$taebak_dir/taebak_lod0_sog/lod-meta.json" --path 16
 fi
 if [ "$what" = rate ] || [ "$what" = all ]; then
   # Rate control on the GPU (rgs-convert --target-psnr; docs/AUDITS.md, "Rate control of the archive profile"):

@@ -492,7 +492,7 @@ __device__ __forceinline__ int list_kept_pairs(uint16_t (*walk_lists)[kListStrid
 /// thread that loads a pair also computes its block_mask, and each lane group walks only the pairs whose mask
 /// holds its pixels, listed in batch order with ballots;
 /// the other pairs cannot pass the 1/255 test there, so the output bits are the same (up to the caveat of
-/// subtile_mask). A warp whose lists keep every pair of a batch walks the slots directly. Lane groups of one
+/// subtile_mask; with kHalf the colour windows follow the lists). A warp whose lists keep every pair of a batch walks the slots directly. Lane groups of one
 /// warp walk lists of different lengths: the warp takes as many steps as the longest, each step serving up to
 /// four pairs, one per group. Eight blocks an SM (64 registers): the block-culled kernel needs no more
 /// (block_mask without square roots), and the unculled one runs faster with them than with the 40 ptxas picks

@@ -44,7 +44,9 @@ struct GpuRoofgsOptions {
   bool balanced_emission = true;
   /// With folded coefficients: whether each group of 8 lanes of the rasterizer skips the pairs that cannot
   /// reach alpha 1/255 on its 4×4 block of the tile (kernels::RasterOptions::subtile_culling); the same image
-  /// bits on every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat).
+  /// bits on every SnugBox + AccuTile frame tested (see kernels::subtile_mask for the caveat), but for the half
+  /// blend's colour windows, which follow the lists (kernels/shared/half_blend.h). The CPU reference follows
+  /// kAuto.
   SubtileCulling subtile_culling = SubtileCulling::kAuto;
   /// The techniques shared with the CPU reference (32-bit key, SnugBox + AccuTile, folded coefficients with
   /// dual pixels, fast exp and its σ, depth order). The 32-bit key needs GpuScene::bounds().

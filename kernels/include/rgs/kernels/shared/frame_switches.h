@@ -69,7 +69,8 @@ struct RasterOptions {
   /// With `folded` (beyond the paper): each group of 8 lanes skips the pairs that cannot reach alpha 1/255
   /// on its 4×4 block (block_mask in shared/tile_culling.h), so that a Gaussian a few pixels wide costs the
   /// lanes of the blocks it reaches and not the whole warp. Fewer iterations, the same output bits (up to
-  /// subtile_mask's caveat on pairs whose folded P is dominated by its own FP32 rounding).
+  /// subtile_mask's caveat on pairs whose folded P is dominated by its own FP32 rounding); with half_blend the
+  /// colour windows follow the lists, so the colour moves by their roundings (T and depth keep their bits).
   bool subtile_culling = false;
   /// With `folded` and `fast_exp` (beyond the paper): α, T and the colour window of a thread's two pixels in
   /// binary16, one half2 instruction for both, the closed windows' colour in FP32 (shared/half_blend.h);
