@@ -326,12 +326,11 @@ __device__ inline uint32_t* chunk_word(const TileChunks& chunks, uint32_t slot, 
   return chunks.records + (uint64_t(slot) * kWords + uint32_t(word)) * kDualThreads + uint32_t(rank);
 }
 
-/// A chunk block's end. Stores this thread's two pixels in the chunk's record slot (T as binary16 pairs, the
-/// sign of T the stop flag; the colours in FP32, the last window closed; kDepth: the depth sums) and counts the
-/// block as arrived; the tile's last
-/// chunk block to arrive then merges the tile's records in chunk order (merge_chunk, as the CPU reference's
-/// blend_tile_folded_half) and stores the pixels. The threadfence pattern: every block fences its stores before
-/// its arrival is counted, and the merging block reads the records past L1.
+/// A chunk block's end. Stores this thread's two pixels in the chunk's record slot (T as binary16 pairs, the sign of T
+/// the stop flag; the colours in FP32; kDepth: the depth sums) and counts the block as arrived; the tile's last chunk
+/// block to arrive then merges the tile's records in chunk order (merge_chunk, as the CPU reference's
+/// blend_tile_folded_half) and stores the pixels. The threadfence pattern: every block fences its stores before its
+/// arrival is counted, and the merging block reads the records past L1.
 template <bool kDepth>
 __device__ inline void finish_chunk(const TileChunks& chunks, uint32_t tile, uint32_t chunk, uint32_t tile_chunks,
                                     const HalfFoldedPixels& pixels, uint32_t x, uint32_t y, const FrameParams& frame,
@@ -364,7 +363,9 @@ __device__ inline void finish_chunk(const TileChunks& chunks, uint32_t tile, uin
     HalfPixelPair record;  // the window sums +0: the colours are the record's
     record.T = __ldcg(chunk_word<kDepth>(chunks, slot, 0, rank));
     for (int p = 0; p < 2; ++p) {
-      for (int c = 0; c < 3; ++c) record.C[p][c] = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 1 + 3 * p + c, rank)));
+      for (int c = 0; c < 3; ++c) {
+        record.C[p][c] = __uint_as_float(__ldcg(chunk_word<kDepth>(chunks, slot, 1 + 3 * p + c, rank)));
+      }
     }
     for (int p = 0; p < 2; ++p) {
       float depth_sum = 0.f, weight_sum = 0.f;
@@ -483,26 +484,23 @@ __device__ __forceinline__ int list_kept_pairs(uint16_t (*walk_lists)[kListStrid
   return count;
 }
 
-/// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local
-/// coordinates; pixel terms hoisted; each thread shades (x, y) and (x, y + 1) with
-/// P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; alpha tested in the integer domain (fast_exp_alpha_passes);
-/// blending without branches (blend_predicated). 128 threads per tile: warp w shades the 8×8 quadrant
-/// (w mod 2, w / 2), its lane group g = l / 8 the 4×4 block (g mod 2, g / 2) of that quadrant, lane l the
-/// pixels (i mod 4, 2·(i / 4)) of the block (i = l mod 8) and the ones below. Culling (beyond the paper): the
-/// thread that loads a pair also computes its block_mask, and each lane group walks only the pairs whose mask
-/// holds its pixels, listed in batch order with ballots;
-/// the other pairs cannot pass the 1/255 test there, so the output bits are the same (up to the caveat of
-/// subtile_mask; with kHalf the colour windows follow the lists). A warp whose lists keep every pair of a batch walks the slots directly. Lane groups of one
-/// warp walk lists of different lengths: the warp takes as many steps as the longest, each step serving up to
-/// four pairs, one per group. Eight blocks an SM (64 registers): the block-culled kernel needs no more
-/// (block_mask without square roots), and the unculled one runs faster with them than with the 40 ptxas picks
-/// by itself (docs/lab/TRIED.md#tried-and-not-kept).
-/// Long tiles (kHalf with TileChunks, beyond the paper): a chunk block blends its chunk of the tile's list from
-/// T = 1 and finish_chunk merges the tile's chunks; the grid has TileChunks::item_rows rows of such blocks first.
-/// kHalf (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and the colour window as
-/// binary16 pairs and one half2 instruction blends both (blend_pairs_half), each step closing its colour window
-/// into FP32 (docs/RENDERER.md#colour-windows).
-/// Nine blocks an SM (56 registers) were no faster with it, ten (48) slower
+/// RoofGS rasterizer: coefficients folded per Gaussian at the shared-memory load, in tile-local coordinates; pixel
+/// terms hoisted; each thread shades (x, y) and (x, y + 1) with P(x, y + 1) = P(x, y) + C2·x + C3·(2y + 1) + C5; alpha
+/// tested in the integer domain (fast_exp_alpha_passes); blending without branches (blend_predicated). 128 threads per
+/// tile: warp w shades the 8×8 quadrant (w mod 2, w / 2), its lane group g = l / 8 the 4×4 block (g mod 2, g / 2) of
+/// that quadrant, lane l the pixels (i mod 4, 2·(i / 4)) of the block (i = l mod 8) and the ones below. Culling (beyond
+/// the paper): the thread that loads a pair also computes its block_mask, and each lane group walks only the pairs
+/// whose mask holds its pixels, listed in batch order with ballots; the other pairs cannot pass the 1/255 test there,
+/// so the output bits are the same (up to the caveat of subtile_mask; with kHalf the colour windows follow the lists).
+/// A warp whose lists keep every pair of a batch walks the slots directly. Lane groups of one warp walk lists of
+/// different lengths: the warp takes as many steps as the longest, each step serving up to four pairs, one per group.
+/// Eight blocks an SM (64 registers): the block-culled kernel needs no more (block_mask without square roots), and the
+/// unculled one runs faster with them than with the 40 ptxas picks by itself (docs/lab/TRIED.md#tried-and-not-kept).
+/// Long tiles (kHalf with TileChunks, beyond the paper): a chunk block blends its chunk of the tile's list from T = 1
+/// and finish_chunk merges the tile's chunks; the grid has TileChunks::item_rows rows of such blocks first. kHalf
+/// (RasterOptions::half_blend, beyond the paper): a thread's two pixels keep α, T and the colour window as binary16
+/// pairs and one half2 instruction blends both (blend_pairs_half), each step closing its colour window into FP32
+/// (docs/RENDERER.md#colour-windows). Nine blocks an SM (56 registers) were no faster with it, ten (48) slower
 /// (docs/lab/TRIED.md#tried-and-not-kept).
 template <bool kFastExp, bool kDepth, Cull kCull, bool kHalf>
 __global__ void __launch_bounds__(kDualThreads, 8)

@@ -299,13 +299,13 @@ TEST_CASE(
 TEST_CASE(
     "sub-tile culling with SnugBox + AccuTile: the same bytes, with half blending the same alpha and depth "
     "(flowers at 1080p and 4K, daffodils at 4K)") {
-  // Each group of 8 lanes of the folded rasterizer skips the pairs whose block_mask clears its 4x4 block; those
-  // pairs cannot pass the 1/255 test there, so colour, alpha and depth keep every bit (with half blending alpha
-  // and depth; the colour windows move with the lists). Without AccuTile, a 3-sigma rectangle hands needle-like Gaussians
-  // tiles ~1,000 px from their mean, where the folded P's FP32 rounding (terms ~1e6) exceeds the mask's margin
-  // and lets a pixel pass by rounding alone (flowers camera 0 at 4K: one such pixel of 9 million pairs); the
-  // mask, computed without that cancellation, removes it. So folded-only frames may differ in a few pixels, by
-  // at most one alpha-1/255 contribution.
+  // Each group of 8 lanes of the folded rasterizer skips the pairs whose block_mask clears its 4x4 block; those pairs
+  // cannot pass the 1/255 test there, so colour, alpha and depth keep every bit (with half blending alpha and depth;
+  // the colour windows move with the lists). Without AccuTile, a 3-sigma rectangle hands needle-like Gaussians tiles
+  // ~1,000 px from their mean, where the folded P's FP32 rounding (terms ~1e6) exceeds the mask's margin and lets a
+  // pixel pass by rounding alone (flowers camera 0 at 4K: one such pixel of 9 million pairs); the mask, computed
+  // without that cancellation, removes it. So folded-only frames may differ in a few pixels, by at most one alpha-1/255
+  // contribution.
   if (!have_gpu()) return;
   auto renderer = runtime::GpuRenderer::create();
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());

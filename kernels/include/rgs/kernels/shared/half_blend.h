@@ -1,8 +1,9 @@
 // Half-precision blending of the folded rasterizer (beyond the paper): α, transmittance T and the colour sum
 // of the current colour window of a thread's two pixels held as pairs of IEEE binary16 values in one 32-bit
 // word each (CUDA __half2, low half = the first pixel (x, y), high half = the second (x, y + 1)), so that one
-// half2 instruction blends both pixels; the closed windows' colour is FP32. The power P stays FP32 (folded_power, dual_pixel_power); α is 2^v of it in base 2, rounded to
-// binary16 (half2_alpha), in place of the paper's fast exponential. Every operation here but that exp2 is IEEE
+// half2 instruction blends both pixels; the closed windows' colour is FP32. The power P stays FP32
+// (folded_power, dual_pixel_power); α is 2^v of it in base 2, rounded to binary16 (half2_alpha), in place of the
+// paper's fast exponential. Every operation here but that exp2 is IEEE
 // round-to-nearest-even with subnormals kept (no flush to zero), on the device with the half2 instructions and on
 // the host in software, bit for bit. The exp2 is the device's FP32 approximation, which the host does not
 // reproduce: it rounds the exact 2^v, and the two differ by one binary16 unit of α where 2^v lies within the
