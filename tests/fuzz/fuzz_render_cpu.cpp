@@ -1,5 +1,5 @@
 // Fuzz target: the CPU reference renderer on tiny scenes and images, to find crashes and undefined
-// behaviour in projection, EWA covariance, radius, tile rectangle, AccuTile and key math.
+// behaviour in projection, EWA covariance, radius, tile rectangle, AccuTile, key math and the half blend's walk.
 //
 // The input is read as a camera, render switches and up to 64 Gaussians in the .rgs runtime profile
 // (FP16 rotations, scales and opacities, INT8 SH with per-degree scales), forced into the value ranges
@@ -100,6 +100,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   options.roofgs.fast_exp = switches & 8;
   options.roofgs.depth_order = switches & 16;
   options.roofgs.accutile_within_baseline_rect = !(switches & 32);
+  // Half blending (with folded coefficients and the fast exp) walks the GPU's lists in colour windows; bit 128
+  // adds long tiles in chunks of the smallest size.
+  options.roofgs.half_blend = switches & 64;
+  options.roofgs.tile_chunk_pairs = (switches & 128) ? 1 : 0;
   const rgs::runtime::Camera camera = read_camera(in);
   if (!rgs::runtime::validate_camera(camera).ok()) return 0;  // float rounding of an odd quaternion
 
