@@ -30,7 +30,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <functional>
@@ -50,6 +49,8 @@
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/runtime/gpu_image_metrics.h"
+#include "rgs/runtime/image_io.h"
+#include "rgs/runtime/image_metrics.h"
 #include "rgs/config.h"
 #include "rgs/lab/device_peaks.h"
 #include "rgs/lab/frame_census.h"
@@ -375,17 +376,21 @@ struct QualityRow {
   size_t views = 0;
 };
 
-/// PSNR in dB of the 8-bit images (runtime::to_8bit's rule) of two RGBA images; +inf when they are equal.
-double psnr_8bit(const runtime::HostImage& a, const runtime::HostImage& b) {
-  const auto level = [](float v) { return std::floor((std::isnan(v) ? 0.f : std::clamp(v, 0.f, 1.f)) * 255.f + 0.5f); };
-  double squared = 0;
-  for (size_t i = 0; i < a.rgba.size(); ++i) {
-    if (i % 4 == 3) continue;
-    const double d = double(level(a.rgba[i]) - level(b.rgba[i])) / 255.0;
-    squared += d * d;
-  }
-  const double mse = squared / double(a.rgba.size() / 4 * 3);
-  return mse > 0 ? 10.0 * std::log10(1.0 / mse) : std::numeric_limits<double>::infinity();
+/// PSNR in dB of the 8-bit images (runtime::to_8bit) of two RGBA images of one size (runtime::psnr_rgb of the
+/// levels / 255); +inf when they are equal.
+Result<double> psnr_8bit(const runtime::HostImage& a, const runtime::HostImage& b) {
+  const auto levels = [](const runtime::HostImage& image) {
+    std::vector<float> rgb;
+    rgb.reserve(image.rgba.size() / 4 * 3);
+    for (size_t i = 0; i < image.rgba.size(); ++i) {
+      if (i % 4 != 3) rgb.push_back(image.rgba[i]);
+    }
+    std::vector<float> scaled;
+    scaled.reserve(rgb.size());
+    for (const uint8_t v : runtime::to_8bit(rgb)) scaled.push_back(float(v) / 255.f);
+    return scaled;
+  };
+  return runtime::psnr_rgb(levels(a), levels(b), a.width, a.height);
 }
 
 /// --quality: every view of every camera set rendered once by the baseline and once by each other mode,
@@ -421,7 +426,7 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
         row.psnr_min = std::min(row.psnr_min, m.psnr_db);
         RGS_ASSIGN_OR_RETURN(const runtime::HostImage expected8, runtime::download(expected));
         RGS_ASSIGN_OR_RETURN(const runtime::HostImage image8, runtime::download(image));
-        const double psnr8 = psnr_8bit(expected8, image8);
+        RGS_ASSIGN_OR_RETURN(const double psnr8, psnr_8bit(expected8, image8));
         row.psnr8_mean += psnr8;
         row.psnr8_min = std::min(row.psnr8_min, psnr8);
         row.ssim_mean += m.ssim;
