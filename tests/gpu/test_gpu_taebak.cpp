@@ -10,7 +10,7 @@
 //   (~1.1M pairs) in 2.0-3.6 s (the 4K frame has 8.25M pairs over 32 times the pixels). Measured with
 //   half-precision blending and colour windows: 108.1-112.9 dB, max |Δ| ≤ 0.00098 (binary16 units of a colour: α
 //   differs by a unit where 2^v lies within the device's exp2 error of a rounding boundary,
-//   test_gpu_half_alpha.cpp); with FP32 blending 162 dB, ≤ 1.2e-6.
+//   lab/tests/test_gpu_half_alpha.cpp); with FP32 blending 162 dB, ≤ 1.2e-6.
 // - Long tiles in chunks (the fastest preset): two 1080p views against whole tiles, and a 256x256 window around
 //   the longest tiles against the CPU reference.
 // - Quality against the GPU FP32 baseline (preset faithful) of the same .rgs over the 8 views at 4K: mean

@@ -7,7 +7,7 @@
 // round-to-nearest-even with subnormals kept (no flush to zero), on the device with the half2 instructions and on
 // the host in software, bit for bit. The exp2 is the device's FP32 approximation, which the host does not
 // reproduce: it rounds the exact 2^v, and the two differ by one binary16 unit of α where 2^v lies within the
-// approximation's error of a rounding boundary (tests/gpu/test_gpu_half_alpha.cpp counts how often).
+// approximation's error of a rounding boundary (lab/tests/test_gpu_half_alpha.cpp counts how often).
 //
 // Error: binary16 keeps 11 significant bits (relative rounding 2^-12 a step); α is off by at most 0.05 %
 // (kHalfAlphaMaxRelativeError). Against the FP32 blend of the same pairs the measured
@@ -237,7 +237,7 @@ RGS_HOST_DEVICE Half2Bits half2_pack(float first, float second) {
 
 /// The largest |α / 2^v − 1| of half2_alpha for α ≥ 1/255 (v in [log2(1/255), 0]): the rounding to binary16,
 /// at most 2^−11 relative for these normal values, plus the device's FP32 exp2 approximation, about 2^−22
-/// (tests/runtime/test_half_blend.cpp measures the host's form, tests/gpu/test_gpu_half_alpha.cpp the device's).
+/// (tests/runtime/test_half_blend.cpp measures the host's form, lab/tests/test_gpu_half_alpha.cpp the device's).
 constexpr double kHalfAlphaMaxRelativeError = 0.0005;
 /// 3DGS's α clamp 0.99 rounded to the nearest binary16 (0x3bec = 0.990234375), in both halves.
 constexpr Half2Bits kHalf2AlphaMax = 0x3bec3becu;

@@ -10,8 +10,8 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "rgs/kernels/half_alpha.h"
 #include "rgs/kernels/shared/half_blend.h"
+#include "rgs/lab/half_alpha.h"
 
 namespace rgs::test {
 namespace {
@@ -37,7 +37,7 @@ TEST_CASE("half2_alpha: the device's alpha is the host's but within its exp2 err
   REQUIRE(device_alpha.allocate_exactly(pairs, "alpha").ok());
   REQUIRE(cudaMemcpy(device_powers.data(), powers.data(), powers.size() * sizeof(float), cudaMemcpyHostToDevice) ==
           cudaSuccess);
-  REQUIRE(k::device_half_alpha(device_powers.data(), device_alpha.data(), pairs, nullptr) == cudaSuccess);
+  REQUIRE(lab::device_half_alpha(device_powers.data(), device_alpha.data(), pairs, nullptr) == cudaSuccess);
   std::vector<uint32_t> alpha(pairs);
   REQUIRE(cudaMemcpy(alpha.data(), device_alpha.data(), pairs * sizeof(uint32_t), cudaMemcpyDeviceToHost) ==
           cudaSuccess);
