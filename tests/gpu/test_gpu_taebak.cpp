@@ -195,7 +195,7 @@ TEST_CASE("taebak at 1080p: long tiles in chunks agree with the CPU reference an
   // and the change stays within the bound of kernels/shared/tile_chunks.h (measured max |diff| 0.0047, 85.1 dB;
   // the CPU test "long tiles in chunks" on flowers, with many more chunks: 0.0182, 78.3 dB). (2) A 256x256
   // window of view 0 around its longest tiles (14,116 pairs in tile (65, 26)) against the CPU reference, which
-  // chunks the same lists: the tolerances of the 4K window test (measured: identical).
+  // chunks the same lists: the tolerances of the 4K window test (measured 107.9 dB, max |diff| 0.00059).
   if (!have_gpu()) return;
   const GpuScenePair& scene = taebak();
   if (!scene.available) return;
