@@ -601,12 +601,13 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
                                                 "x" + std::to_string(frame.height) + " image");
   }
   const bool folded = options.roofgs.folded_coefficients;
-  // Pairs of Gaussians with more than kChunkLargeTiles (= kSubtileLargeTiles) tiles: frame_chunk_pairs and the
-  // GPU's automatic block culling, whose walk lists the half blend follows.
+  const bool half = folded && options.roofgs.fast_exp && options.roofgs.half_blend;
+  // Pairs of Gaussians with more than kChunkLargeTiles (= kSubtileLargeTiles) tiles, for the half blend only:
+  // frame_chunk_pairs and the GPU's automatic block culling, whose walk lists the half blend follows.
   static_assert(k::kChunkLargeTiles == k::kSubtileLargeTiles);
   uint64_t large_pairs = 0;
-  for (const ProjectedGaussian& g : gaussians) {
-    if (g.tiles_touched > k::kChunkLargeTiles) large_pairs += g.tiles_touched;
+  for (size_t i = 0; half && i < gaussians.size(); ++i) {
+    if (gaussians[i].tiles_touched > k::kChunkLargeTiles) large_pairs += gaussians[i].tiles_touched;
   }
   const uint32_t chunk_pairs = k::frame_chunk_pairs(bins.values.size(), large_pairs, options.roofgs.tile_chunk_pairs);
   const bool block_culling =
@@ -619,7 +620,7 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
       const uint64_t id = uint64_t(ty) * uint64_t(frame.tiles_x) + uint64_t(tx);
       const uint64_t begin = bins.tile_begin[id], end = bins.tile_begin[id + 1];
       gather_tile(gaussians, bins.values.data() + begin, end - begin, tx, ty, folded, &list);
-      if (folded && options.roofgs.fast_exp && options.roofgs.half_blend) {
+      if (half) {
         blend_tile_folded_half(list, tx, ty, options, chunk_pairs, block_culling, result);
       } else if (folded) {
         blend_tile_folded(list, tx, ty, options, result);
