@@ -12,10 +12,10 @@
 #include "rgs/format/half.h"
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/preset_techniques.h"
 #include "rgs/runtime/lod_selection.h"
 
 #if RGS_HAS_CUDA
-#include "internal_gpu_preset.h"
 #include "internal_gpu_scene_loading.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_renderer.h"
@@ -276,7 +276,7 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
   FrameStats stats;
   const LodState* lod = scene.impl_->lod.get();
   if (impl_->device == Device::kCpu) {
-    runtime::RenderOptions options = cpu_backend_options(settings.preset, info.bounds);
+    runtime::RenderOptions options = runtime::cpu_backend_options(settings.preset, info.bounds);
     options.background = settings.background;
     options.num_threads = settings.cpu_threads;
     // A level-of-detail scene draws the frame's selection with every level resident (select_lod is pure: no lock).
@@ -297,13 +297,15 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
     return stats;
   }
 #if RGS_HAS_CUDA
-  runtime::GpuRenderOptions options = gpu_render_options(settings.preset, info.has_compact);
-  RGS_RETURN_ERROR_IF(reads_fp32_attributes(options) && lod != nullptr, StatusCode::kInvalidArgument,
+  runtime::GpuRenderOptions options;
+  options.preset = settings.preset;
+  const bool reads_fp32 = runtime::gpu_techniques(settings.preset, info.has_compact).reads_fp32();
+  RGS_RETURN_ERROR_IF(reads_fp32 && lod != nullptr, StatusCode::kInvalidArgument,
                       std::string("Renderer: preset ") + preset_name(settings.preset) +
                           " reads FP32 attributes, and the level-of-detail scene " + info.path +
                           " streams the compact ones only: load it with LoadOptions::lod.enabled = false to render "
                           "its full detail");
-  RGS_RETURN_ERROR_IF(reads_fp32_attributes(options) && !info.has_fp32, StatusCode::kInvalidArgument,
+  RGS_RETURN_ERROR_IF(reads_fp32 && !info.has_fp32, StatusCode::kInvalidArgument,
                       std::string("Renderer: preset ") + preset_name(settings.preset) +
                           " reads FP32 attributes, and " + info.path +
                           " was loaded without them: list it in LoadOptions::presets");

@@ -3,8 +3,7 @@
 
 #include <functional>
 
-#include "internal_gpu_preset.h"
-#include "rgs/api/preset.h"
+#include "rgs/runtime/preset.h"
 #include "rgs/kernels/shared/frame_switches.h"
 #include "rgs/lab/roofgs_stages.h"
 #include "rgs/lab/technique_options.h"
@@ -13,9 +12,8 @@
 namespace rgs::lab {
 namespace {
 
-using api::gpu_render_options;
-using api::Preset;
-using api::preset_name;
+using runtime::Preset;
+using runtime::preset_name;
 
 using runtime::GpuRenderOptions;
 using runtime::RoofgsOptions;
@@ -34,7 +32,7 @@ ModeEntry roofgs_variant(const std::string& name, const std::string& description
                          void (*set)(runtime::GpuRoofgsOptions&)) {
   return {{name, description, false}, [set](bool compact) {
             GpuRenderOptions o = roofgs_pipeline(compact, true, RoofgsOptions::all());
-            set(o.roofgs);
+            set(o.lab_techniques->roofgs);
             return o;
           }};
 }
@@ -51,15 +49,19 @@ ModeEntry only_mode(const std::string& name, const std::string& what, bool compa
 /// A preset under its own name (preset_name()): the presets are the first modes of the registry.
 ModeEntry preset_mode(Preset preset, const std::string& description) {
   return {{preset_name(preset), description, false},
-          [preset](bool compact) { return gpu_render_options(preset, compact); }};
+          [preset](bool) {
+            GpuRenderOptions o;
+            o.preset = preset;
+            return o;
+          }};
 }
 
 /// A variant of the fastest preset with one of its techniques changed.
 ModeEntry fastest_variant(const std::string& name, const std::string& description,
                           void (*set)(runtime::RoofgsOptions&)) {
   return {{name, description, false}, [set](bool compact) {
-            GpuRenderOptions o = gpu_render_options(Preset::kFastest, compact);
-            set(o.roofgs.techniques);
+            GpuRenderOptions o = gpu_preset_techniques(Preset::kFastest, compact);
+            set(o.lab_techniques->roofgs.techniques);
             return o;
           }};
 }
@@ -120,9 +122,10 @@ const std::vector<ModeEntry>& entries() {
 /// variant of the render kernel (kernels::is_lab_variant; with sub-tile culling kAuto, the plans of a frame
 /// without large Gaussians and of one made of them both count).
 bool uses_lab_stages(const GpuRenderOptions& o) {
-  if (o.pipeline == runtime::GpuPipeline::kBaseline) return false;
-  return !o.roofgs.fused_preprocess || kernels::is_lab_variant(runtime::plan_blend(o.roofgs, 1, 0).raster) ||
-         kernels::is_lab_variant(runtime::plan_blend(o.roofgs, 1, 1).raster);
+  const runtime::GpuTechniques t = planned_techniques(o, false);
+  if (t.pipeline == runtime::GpuPipeline::kBaseline) return false;
+  return !t.roofgs.fused_preprocess || kernels::is_lab_variant(runtime::plan_blend(t.roofgs, 1, 0).raster) ||
+         kernels::is_lab_variant(runtime::plan_blend(t.roofgs, 1, 1).raster);
 }
 
 }  // namespace

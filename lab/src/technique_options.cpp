@@ -1,7 +1,7 @@
 // Options that render chosen RoofGS techniques (rgs/lab/technique_options.h).
 #include "rgs/lab/technique_options.h"
 
-#include "rgs/api/preset.h"
+#include "rgs/runtime/preset_techniques.h"
 #if RGS_HAS_CUDA
 #include "rgs/lab/roofgs_stages.h"
 #endif
@@ -18,7 +18,7 @@ Status check_techniques(const runtime::RoofgsOptions& techniques) {
 
 runtime::RenderOptions cpu_technique_options(const runtime::RoofgsOptions& techniques,
                                              const format::SceneBounds& bounds) {
-  runtime::RenderOptions options = api::cpu_render_options(api::Preset::kFaithful, bounds);
+  runtime::RenderOptions options = runtime::cpu_render_options(runtime::Preset::kFaithful, bounds);
   options.roofgs = techniques;
   return options;
 }
@@ -27,12 +27,25 @@ runtime::RenderOptions cpu_technique_options(const runtime::RoofgsOptions& techn
 runtime::GpuRenderOptions gpu_technique_options(const runtime::RoofgsOptions& techniques, bool scene_has_compact,
                                                 bool fused) {
   runtime::GpuRenderOptions options;
-  options.pipeline = runtime::GpuPipeline::kRoofgs;
-  options.roofgs.compact_attributes = scene_has_compact;
-  options.roofgs.fused_preprocess = fused;
-  options.roofgs.techniques = techniques;
+  runtime::GpuTechniques& t = options.lab_techniques.emplace();
+  t.pipeline = runtime::GpuPipeline::kRoofgs;
+  t.roofgs.compact_attributes = scene_has_compact;
+  t.roofgs.fused_preprocess = fused;
+  t.roofgs.techniques = techniques;
   options.stages = roofgs_stages();
   return options;
+}
+
+runtime::GpuRenderOptions gpu_preset_techniques(runtime::Preset preset, bool scene_has_compact) {
+  runtime::GpuRenderOptions options;
+  options.preset = preset;
+  options.lab_techniques = runtime::gpu_techniques(preset, scene_has_compact);
+  options.stages = roofgs_stages();
+  return options;
+}
+
+runtime::GpuTechniques planned_techniques(const runtime::GpuRenderOptions& options, bool scene_has_compact) {
+  return options.lab_techniques.value_or(runtime::gpu_techniques(options.preset, scene_has_compact));
 }
 #endif
 

@@ -28,13 +28,13 @@
 #include "rgs/kernels/roofgs_pipeline.h"
 #include "rgs/runtime/device_buffer.h"
 #include "rgs/lab/roofgs_stages.h"
+#include "rgs/lab/technique_options.h"
 #include "zero_opacity_scene.h"
 
 namespace rgs::test {
 namespace {
 
 using runtime::Camera;
-using runtime::GpuPipeline;
 using runtime::GpuRenderOptions;
 using runtime::RoofgsOptions;
 
@@ -74,13 +74,7 @@ Rig make_rig(const CompactFlowers& flowers) {
 }
 
 GpuRenderOptions roofgs_options(const RoofgsOptions& techniques, bool compact = true, bool fused = true) {
-  GpuRenderOptions o;
-  o.pipeline = GpuPipeline::kRoofgs;
-  o.roofgs.techniques = techniques;
-  o.roofgs.compact_attributes = compact;
-  o.roofgs.fused_preprocess = fused;
-  o.stages = lab::roofgs_stages();
-  return o;
+  return lab::gpu_technique_options(techniques, compact, fused);
 }
 
 struct Mode {
@@ -286,7 +280,7 @@ TEST_CASE(
     const GpuFrame separate =
         render_gpu(rig.renderer, rig.scene, cam, roofgs_options(mode.techniques, true, false), false);
     GpuRenderOptions one_thread_each = roofgs_options(mode.techniques);
-    one_thread_each.roofgs.balanced_emission = false;
+    one_thread_each.lab_techniques->roofgs.balanced_emission = false;
     const GpuFrame unbalanced = render_gpu(rig.renderer, rig.scene, cam, one_thread_each, false);
     CHECK(same_bits(fused.rgba, again.rgba));
     CHECK(same_bits(fused.rgba, separate.rgba));
@@ -318,9 +312,9 @@ TEST_CASE(
     plus_half.half_blend = true;
     for (const RoofgsOptions& techniques : {RoofgsOptions::all(), plus, plus_half, folded_only}) {
       GpuRenderOptions culled = roofgs_options(techniques, scene.has_compact());
-      culled.roofgs.subtile_culling = runtime::SubtileCulling::kOn;
+      culled.lab_techniques->roofgs.subtile_culling = runtime::SubtileCulling::kOn;
       GpuRenderOptions whole_tile = culled;
-      whole_tile.roofgs.subtile_culling = runtime::SubtileCulling::kOff;
+      whole_tile.lab_techniques->roofgs.subtile_culling = runtime::SubtileCulling::kOff;
       for (const Camera& cam : cams) {
         CAPTURE(cam.name);
         CAPTURE(cam.width);

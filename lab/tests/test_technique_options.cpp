@@ -46,10 +46,12 @@ TEST_CASE("technique options: half blend with every technique renders on the CPU
   CHECK(refused.message().find("half_blend needs folded_coefficients and fast_exp") != std::string::npos);
 #if RGS_HAS_CUDA
   const runtime::GpuRenderOptions gpu = lab::gpu_technique_options(t, true);
-  CHECK(gpu.pipeline == runtime::GpuPipeline::kRoofgs);
-  CHECK(gpu.roofgs.compact_attributes);
-  CHECK(gpu.roofgs.fused_preprocess);
-  CHECK(gpu.roofgs.techniques.half_blend);
+  REQUIRE(gpu.lab_techniques.has_value());
+  CHECK(gpu.lab_techniques->pipeline == runtime::GpuPipeline::kRoofgs);
+  CHECK(gpu.lab_techniques->roofgs.compact_attributes);
+  CHECK(gpu.lab_techniques->roofgs.fused_preprocess);
+  CHECK(gpu.lab_techniques->roofgs.techniques.half_blend);
+  CHECK(lab::planned_techniques(gpu, true).roofgs.techniques.half_blend);
   CHECK((gpu.stages.preprocess != nullptr));
   CHECK((gpu.stages.render != kernels::render_roofgs));
 #endif

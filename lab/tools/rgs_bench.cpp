@@ -41,7 +41,6 @@
 
 #include "bench_lod.h"
 #include "cli_common.h"
-#include "internal_gpu_preset.h"
 #include "internal_gpu_scene_loading.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
@@ -57,6 +56,7 @@
 #include "rgs/lab/gpu_modes.h"
 #include "rgs/lab/replicated_scene.h"
 #include "rgs/lab/roofline_model.h"
+#include "rgs/lab/technique_options.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_renderer.h"
@@ -242,16 +242,17 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
 lab::FrameWorkInputs work_inputs(const runtime::GpuRenderOptions& o, const runtime::GpuScene& scene,
                                    const ViewResult& v) {
   lab::FrameWorkInputs in;
-  in.roofgs = o.pipeline == runtime::GpuPipeline::kRoofgs;
+  const runtime::GpuTechniques t = lab::planned_techniques(o, scene.has_compact());
+  in.roofgs = t.pipeline == runtime::GpuPipeline::kRoofgs;
   if (in.roofgs) {
-    in.compact = o.roofgs.compact_attributes;
+    in.compact = t.roofgs.compact_attributes;
     in.dc_residual = scene.has_compact() && scene.compact().sh_dc_residual != nullptr;
-    in.fused = o.roofgs.fused_preprocess;
-    in.key32 = o.roofgs.techniques.key32;
-    in.snugbox = o.roofgs.techniques.snugbox_accutile;
-    in.folded = o.roofgs.techniques.folded_coefficients;
-    in.fast_exp = o.roofgs.techniques.fast_exp;
-    in.depth_order = o.roofgs.techniques.depth_order;
+    in.fused = t.roofgs.fused_preprocess;
+    in.key32 = t.roofgs.techniques.key32;
+    in.snugbox = t.roofgs.techniques.snugbox_accutile;
+    in.folded = t.roofgs.techniques.folded_coefficients;
+    in.fast_exp = t.roofgs.techniques.fast_exp;
+    in.depth_order = t.roofgs.techniques.depth_order;
   }
   in.depth_plane = false;  // rgs-bench's DeviceImage has no depth plane
   in.gaussians = scene.size();
@@ -864,7 +865,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   for (const std::string& mode : opt.modes) {
     auto options = lab::gpu_mode_options(mode, compact_scene);
     if (!options.ok()) return Status(options.status()).prepend(opt.input);
-    fp32 = fp32 || api::reads_fp32_attributes(*options);
+    fp32 = fp32 || lab::planned_techniques(*options, compact_scene).reads_fp32();
   }
   RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.device));
   RGS_ASSIGN_OR_RETURN(runtime::CudaDeviceInfo device, runtime::cuda_device_info(opt.device));

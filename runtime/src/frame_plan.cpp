@@ -9,16 +9,28 @@
 
 namespace rgs::runtime {
 
-Result<FramePlan> plan_frame(const GpuRoofgsOptions& options, const Camera& camera,
+Result<FramePlan> plan_frame(Preset preset, const Camera& camera, const std::optional<format::SceneBounds>& bounds,
+                             bool scene_has_compact) {
+  return plan_frame(gpu_techniques(preset, scene_has_compact), camera, bounds, scene_has_compact);
+}
+
+Result<FramePlan> plan_frame(const GpuTechniques& techniques, const Camera& camera,
                              const std::optional<format::SceneBounds>& bounds, bool scene_has_compact) {
+  FramePlan plan;
+  plan.techniques = techniques;
+  plan.tiles_x = uint32_t(kernels::tile_count_for(int(camera.width)));
+  plan.tiles_y = uint32_t(kernels::tile_count_for(int(camera.height)));
+  if (techniques.pipeline == GpuPipeline::kBaseline) {
+    plan.sort_bits = 32 + kernels::key32_tile_bits(plan.tiles_x * plan.tiles_y);
+    plan.fused = plan.balanced_emission = false;
+    return plan;
+  }
+  const GpuRoofgsOptions& options = techniques.roofgs;
   const RoofgsOptions& t = options.techniques;
   RGS_RETURN_ERROR_IF(!(t.fast_exp_sigma >= 0.f && t.fast_exp_sigma < 1.f), StatusCode::kInvalidArgument,
                       "GpuRenderer: fast_exp_sigma " + std::to_string(t.fast_exp_sigma) + " outside [0, 1)");
   RGS_RETURN_ERROR_IF(options.compact_attributes && !scene_has_compact, StatusCode::kInvalidArgument,
                       "GpuRenderer: compact attributes asked for a scene without them (load a .rgs file)");
-  FramePlan plan;
-  plan.tiles_x = uint32_t(kernels::tile_count_for(int(camera.width)));
-  plan.tiles_y = uint32_t(kernels::tile_count_for(int(camera.height)));
   kernels::RoofgsFrame& rf = plan.switches;
   rf.compact = options.compact_attributes;
   rf.key32 = t.key32;

@@ -58,13 +58,6 @@ Status add_stage_times(cudaEvent_t const events[5], StageTimes* times) {
   return Status();
 }
 
-/// ceil(log2(n)) for n ≥ 1.
-int ceil_log2(uint64_t n) {
-  int bits = 0;
-  while ((uint64_t{1} << bits) < n) ++bits;
-  return bits;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------
@@ -252,11 +245,15 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
   for (float c : options.background) {
     RGS_RETURN_ERROR_IF(!std::isfinite(c), StatusCode::kInvalidArgument, "GpuRenderer: background is not finite");
   }
-  const bool reads_fp32 = options.pipeline == GpuPipeline::kBaseline || !options.roofgs.compact_attributes;
-  RGS_RETURN_ERROR_IF(reads_fp32 && !scene.has_fp32(), StatusCode::kInvalidArgument,
+  RGS_ASSIGN_OR_RETURN(const FramePlan plan,
+                       options.lab_techniques
+                           ? plan_frame(*options.lab_techniques, camera, scene.bounds(), scene.has_compact())
+                           : plan_frame(options.preset, camera, scene.bounds(), scene.has_compact()));
+  const GpuTechniques& techniques = plan.techniques;
+  const bool roofgs = techniques.pipeline == GpuPipeline::kRoofgs;
+  RGS_RETURN_ERROR_IF(techniques.reads_fp32() && !scene.has_fp32(), StatusCode::kInvalidArgument,
                       std::string("GpuRenderer: the ") +
-                          (options.pipeline == GpuPipeline::kBaseline ? "baseline pipeline"
-                                                                      : "RoofGS pipeline without compact attributes") +
+                          (roofgs ? "RoofGS pipeline without compact attributes" : "baseline pipeline") +
                           " reads FP32 attributes, and this scene was uploaded without them "
                           "(GpuSceneOptions::fp32_attributes)");
 
@@ -270,23 +267,22 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
   buffers_->last_pairs = 0;  // until this frame's pairs are sorted (render_passes)
   buffers_->last_values_reordered = false;
   if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[0], stream), "GpuRenderer: cudaEventRecord");
-  if (options.pipeline == GpuPipeline::kRoofgs) {
-    RGS_RETURN_IF_ERROR(render_roofgs(scene, camera, frame, options, view, &stats, stream));
+  if (roofgs) {
+    RGS_RETURN_IF_ERROR(render_roofgs(scene, frame, plan, options, view, &stats, stream));
   } else {
-    RGS_RETURN_IF_ERROR(render_baseline(scene, frame, options, view, &stats, stream));
+    RGS_RETURN_IF_ERROR(render_baseline(scene, frame, plan, options, view, &stats, stream));
   }
   if (convert != nullptr) {
     RGS_RETURN_IF_CUDA_ERROR(kernels::launch_convert_output(*convert, stream), "GpuRenderer: output conversion kernel");
   }
-  buffers_->last_key32 = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.techniques.key32;
+  buffers_->last_key32 = roofgs && techniques.roofgs.techniques.key32;
   if (timed) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[4], stream), "GpuRenderer: cudaEventRecord");
     RGS_RETURN_IF_ERROR(add_stage_times(ev, &stats.times));
     stats.timed = true;
-    const bool listed = options.pipeline == GpuPipeline::kRoofgs && options.roofgs.balanced_emission;
-    if (listed && scene.size() > 0) {
+    if (roofgs && plan.balanced_emission && scene.size() > 0) {
       unsigned long long large = 0;
-      const unsigned long long* count = buffers_->projection.large_list_count(options.roofgs.fused_preprocess);
+      const unsigned long long* count = buffers_->projection.large_list_count(plan.fused);
       RGS_RETURN_IF_CUDA_ERROR(cudaMemcpyAsync(&large, count, sizeof(large), cudaMemcpyDeviceToHost, stream),
                                "GpuRenderer: large Gaussian count read-back");
       RGS_RETURN_IF_CUDA_ERROR(cudaStreamSynchronize(stream), "GpuRenderer: large Gaussian count read-back");
@@ -386,7 +382,7 @@ Result<uint64_t> GpuRenderer::pass_limit(const GpuRenderOptions& options, uint32
   return limit;
 }
 
-Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameParams& frame,
+Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
                                     const GpuRenderOptions& options, const kernels::ImageView& view,
                                     GpuRenderStats* stats, cudaStream_t stream) {
   Buffers& b = *buffers_;
@@ -394,7 +390,7 @@ Status GpuRenderer::render_baseline(const GpuScene& scene, const kernels::FrameP
   const bool timed = options.time_stages;
   const uint32_t n = scene.size();
   const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
-  const int key_bits = 32 + ceil_log2(num_tiles);
+  const int key_bits = plan.sort_bits;
   stats->sort_bits = key_bits;
   if (n > 0) {
     RGS_RETURN_IF_ERROR(b.projection.reserve_baseline(scene.capacity()));
@@ -512,7 +508,7 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
   return Status();
 }
 
-Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
+Status GpuRenderer::render_roofgs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
                                   const GpuRenderOptions& options, const kernels::ImageView& view,
                                   GpuRenderStats* stats, cudaStream_t stream) {
   Buffers& b = *buffers_;
@@ -520,8 +516,6 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   const bool timed = options.time_stages;
   const uint32_t n = scene.size();
   const uint32_t num_tiles = frame.tiles_x * frame.tiles_y;
-  RGS_ASSIGN_OR_RETURN(const FramePlan plan,
-                       plan_frame(options.roofgs, camera, scene.bounds(), scene.has_compact()));
   const kernels::RoofgsFrame& rf = plan.switches;
   const kernels::RoofgsStages& stages = options.stages;
   RGS_RETURN_ERROR_IF(!plan.fused && (stages.preprocess == nullptr || stages.duplicate == nullptr),
@@ -542,7 +536,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
   stats->sort_bits = key_bits;
   if (n > 0) RGS_RETURN_IF_ERROR(b.projection.reserve_roofgs(scene.capacity(), plan.fused));
   RGS_RETURN_IF_ERROR(b.tiles.reserve(num_tiles));
-  const RoofgsOptions& t = options.roofgs.techniques;
+  const RoofgsOptions& t = plan.techniques.roofgs.techniques;
   const bool may_chunk = t.folded_coefficients && t.fast_exp && t.half_blend;
   RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, key32, key_bits,
                                                         plan.balanced_emission, may_chunk ? t.tile_chunk_pairs : 0));
@@ -561,7 +555,7 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const Camera& camera, c
                                        plan.reorder_ties ? b.projection.depths() : nullptr, stream));
     b.last_values_reordered = plan.reorder_ties;
     // The blend is planned with the whole frame's counts, whatever rows this pass renders.
-    const BlendPlan blend = plan_blend(options.roofgs, whole.pairs, whole.large_pairs);
+    const BlendPlan blend = plan_blend(plan.techniques.roofgs, whole.pairs, whole.large_pairs);
     stats->subtile_culling = blend.raster.subtile_culling;
     RGS_RETURN_ERROR_IF(stages.render == kernels::render_roofgs && !kernels::raster_variant_compiled(blend.raster),
                         StatusCode::kUnsupportedFeature,

@@ -21,6 +21,7 @@
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/preset_techniques.h"
 #include "rgs/runtime/lod_selection.h"
 #include "temp_dir.h"
 #include "test_data.h"
@@ -247,7 +248,7 @@ TEST_CASE("LOD CPU frames: no budget and no error is the full render bit for bit
     const format::GaussianCloud expected_cloud = selected_cloud(*file, selection);
     CHECK(expected_cloud.size() == selection.splats);
     auto expected = runtime::render_cpu(expected_cloud, camera,
-                                        api::cpu_backend_options(api::Preset::kFastest, file->metadata().bounds));
+                                        runtime::cpu_backend_options(api::Preset::kFastest, file->metadata().bounds));
     REQUIRE(expected.ok());
     CHECK(small.stats.pairs == expected->stats.pairs);
     bool same = true;

@@ -19,12 +19,13 @@
 #include "rgs/config.h"
 #include "rgs/format/half.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/frame_plan.h"
+#include "rgs/runtime/preset_techniques.h"
 #include "test_data.h"
 
 #if RGS_HAS_CUDA
 #include <cuda_runtime_api.h>
 
-#include "internal_gpu_preset.h"
 #include "rgs/runtime/cuda_device.h"
 #include "rgs/runtime/gpu_scene.h"
 #endif
@@ -80,9 +81,9 @@ TEST_CASE("presets: names parse back, faithful renders the 3DGS reference, the o
   reference.scene_bounds = scene->info().bounds;
   const format::SceneBounds& bounds = scene->info().bounds;
   const runtime::RenderResult base = render(reference);
-  const runtime::RenderResult faithful = render(api::cpu_render_options(api::Preset::kFaithful, bounds));
-  const runtime::RenderResult fastest = render(api::cpu_render_options(api::Preset::kFastest, bounds));
-  const runtime::RenderResult paper = render(api::cpu_render_options(api::Preset::kPaper, bounds));
+  const runtime::RenderResult faithful = render(runtime::cpu_render_options(runtime::Preset::kFaithful, bounds));
+  const runtime::RenderResult fastest = render(runtime::cpu_render_options(runtime::Preset::kFastest, bounds));
+  const runtime::RenderResult paper = render(runtime::cpu_render_options(runtime::Preset::kPaper, bounds));
   CHECK(faithful.rgb == base.rgb);
   CHECK(faithful.alpha == base.alpha);
   const auto psnr = [](const std::vector<float>& a, const std::vector<float>& b) {
@@ -103,8 +104,8 @@ TEST_CASE("presets: names parse back, faithful renders the 3DGS reference, the o
 #if RGS_HAS_CUDA
   // A scene without compact attributes falls back to the FP32 arrays under a preset (the named modes of the
   // lab: lab/tests/test_gpu_modes.cpp).
-  CHECK_FALSE(api::gpu_render_options(api::Preset::kFastest, false).roofgs.compact_attributes);
-  CHECK(api::gpu_render_options(api::Preset::kFastest, true).roofgs.compact_attributes);
+  CHECK_FALSE(runtime::gpu_techniques(api::Preset::kFastest, false).roofgs.compact_attributes);
+  CHECK(runtime::gpu_techniques(api::Preset::kFastest, true).roofgs.compact_attributes);
 #endif
 }
 
@@ -143,7 +144,7 @@ TEST_CASE("CPU: render into caller memory with pitch, every format, alpha and de
     api::RenderSettings settings;
     settings.preset = preset;
     settings.background = {0.25f, 0.5f, 1.f};
-    runtime::RenderOptions ref_options = api::cpu_backend_options(preset, scene->info().bounds);
+    runtime::RenderOptions ref_options = runtime::cpu_backend_options(preset, scene->info().bounds);
     ref_options.background = settings.background;
     auto ref = runtime::render_cpu(*scene->cloud(), camera, ref_options);
     REQUIRE(ref.ok());

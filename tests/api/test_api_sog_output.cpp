@@ -11,6 +11,7 @@
 #include "rgs/api/preset.h"
 #include "rgs/api/scene.h"
 #include "rgs/runtime/cpu_renderer.h"
+#include "rgs/runtime/preset_techniques.h"
 #include "test_data.h"
 
 namespace {
@@ -33,7 +34,7 @@ double sog_render_psnr(const std::string& src, const std::string& name, uint32_t
   const auto bounds = a->info().bounds;
   auto cameras = runtime::orbit_cameras(bounds, views, 160, 90);
   REQUIRE(cameras.ok());
-  const runtime::RenderOptions options = api::cpu_backend_options(api::Preset::kFaithful, bounds);
+  const runtime::RenderOptions options = runtime::cpu_backend_options(api::Preset::kFaithful, bounds);
   double sum = 0;
   *min_db = 1e9;
   for (const api::Camera& camera : *cameras) {

@@ -31,6 +31,7 @@
 #include "rgs/runtime/device_buffer.h"
 #include "rgs/runtime/gpu_renderer.h"
 #include "rgs/runtime/gpu_scene.h"
+#include "rgs/runtime/preset_techniques.h"
 #include "test_data.h"
 #if RGS_TEST_WITH_LAB
 #include "rgs/lab/roofgs_stages.h"
@@ -359,6 +360,20 @@ inline std::vector<float> download_floats(const float* device, size_t count) {
     REQUIRE(cudaMemcpy(host.data(), device, count * sizeof(float), cudaMemcpyDeviceToHost) == cudaSuccess);
   }
   return host;
+}
+
+/// GpuRenderOptions of `preset`, as the product renders it.
+inline runtime::GpuRenderOptions preset_options(runtime::Preset preset) {
+  runtime::GpuRenderOptions options;
+  options.preset = preset;
+  return options;
+}
+
+/// GpuRenderOptions with `preset`'s techniques set out for a test to change (GpuRenderOptions::lab_techniques).
+inline runtime::GpuRenderOptions preset_techniques_options(runtime::Preset preset, bool scene_has_compact) {
+  runtime::GpuRenderOptions options = preset_options(preset);
+  options.lab_techniques = runtime::gpu_techniques(preset, scene_has_compact);
+  return options;
 }
 
 /// Gives `options` the lab's RoofGS stages (lab::roofgs_stages()) for a configuration no preset uses (the

@@ -12,7 +12,6 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "internal_gpu_preset.h"
 
 namespace rgs::test {
 namespace {
@@ -98,11 +97,12 @@ TEST_CASE("antialiased guitar: every preset renders the flagged CPU reference, a
     CHECK(base.stats.pairs == ref.stats.pairs);
 
     // Every preset (compact and FP32 attributes): much nearer the flagged reference than the unflagged one is.
-    for (api::Preset preset : {api::Preset::kFastest, api::Preset::kFaithful, api::Preset::kPaper}) {
+    for (runtime::Preset preset : {runtime::Preset::kFastest, runtime::Preset::kFaithful, runtime::Preset::kPaper}) {
       for (bool compact : {true, false}) {
         CAPTURE(int(preset));
         CAPTURE(compact);
-        const GpuFrame f = render_gpu(*renderer, *flagged.gpu, cam, api::gpu_render_options(preset, compact), false);
+        const GpuFrame f = render_gpu(*renderer, *flagged.gpu, cam, preset_techniques_options(preset, compact),
+                                      false);
         const Diff d = compare_rgb(f.rgba, ref.rgb);
         const Diff d_plain = compare_rgb(f.rgba, ref_plain.rgb);
         MESSAGE(cam.name << " preset " << int(preset) << (compact ? " compact" : " fp32") << ": " << d.psnr
@@ -111,7 +111,8 @@ TEST_CASE("antialiased guitar: every preset renders the flagged CPU reference, a
         CHECK(d.psnr >= effect + 10.0);
         CHECK(d.psnr > d_plain.psnr + 10.0);
         // The unflagged scene renders as before: the same preset on it is far from the flagged reference.
-        const GpuFrame g = render_gpu(*renderer, *plain.gpu, cam, api::gpu_render_options(preset, compact), false);
+        const GpuFrame g = render_gpu(*renderer, *plain.gpu, cam, preset_techniques_options(preset, compact),
+                                      false);
         CHECK(compare_rgb(g.rgba, ref_plain.rgb).psnr > compare_rgb(g.rgba, ref.rgb).psnr + 10.0);
       }
     }

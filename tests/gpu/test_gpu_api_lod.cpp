@@ -16,7 +16,6 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "internal_gpu_preset.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/converter/lod_builder.h"
@@ -105,7 +104,7 @@ TEST_CASE("API LOD GPU scene: a camera path's frames equal LodStreamer + GpuRend
   REQUIRE(renderer.ok());
   auto cameras = runtime::path_cameras(file->metadata().bounds, 16, 480, 270);
   REQUIRE(cameras.ok());
-  const runtime::GpuRenderOptions fastest = api::gpu_render_options(api::Preset::kFastest, true);
+  const runtime::GpuRenderOptions fastest = preset_options(runtime::Preset::kFastest);
   uint64_t streamed = 0, behind = 0;
   for (const runtime::Camera& camera : *cameras) {
     CAPTURE(camera.name);

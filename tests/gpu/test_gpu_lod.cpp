@@ -10,7 +10,6 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "internal_gpu_preset.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
@@ -21,7 +20,7 @@
 namespace rgs::test {
 namespace {
 
-runtime::GpuRenderOptions fastest() { return api::gpu_render_options(api::Preset::kFastest, true); }
+runtime::GpuRenderOptions fastest() { return preset_options(runtime::Preset::kFastest); }
 
 TEST_CASE("LOD streamer at full detail draws the full render bit for bit, two frames after the request") {
   if (!have_gpu()) return;

@@ -27,7 +27,6 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "internal_gpu_preset.h"
 #include "rgs/api/preset.h"
 #include "rgs/api/camera.h"
 #include "rgs/converter/scene_reader.h"
@@ -93,7 +92,7 @@ TEST_CASE("taebak at 4K: sorted pairs of the fastest preset equal the CPU refere
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
   const Camera cam = taebak_cameras(scene, 3840, 2160)[0];
   CAPTURE(cam.name);
-  const runtime::RenderOptions cpu_options = api::cpu_render_options(api::Preset::kFastest, scene.bounds);
+  const runtime::RenderOptions cpu_options = runtime::cpu_render_options(runtime::Preset::kFastest, scene.bounds);
   auto start = std::chrono::steady_clock::now();
   auto setup = runtime::setup_frame(scene.cloud, cam, cpu_options);
   REQUIRE_MESSAGE(setup.ok(), setup.status().to_string());
@@ -121,10 +120,10 @@ TEST_CASE("taebak at 4K: sorted pairs of the fastest preset equal the CPU refere
   CHECK(largest > kernels::kSerialTileLimit);  // warps emitted the pairs of the large Gaussians
   for (bool fused : {true, false}) {
     CAPTURE(fused);
-    GpuRenderOptions options = api::gpu_render_options(api::Preset::kFastest, scene.gpu->has_compact());
-    options.roofgs.fused_preprocess = fused;
+    GpuRenderOptions options = preset_techniques_options(runtime::Preset::kFastest, scene.gpu->has_compact());
+    options.lab_techniques->roofgs.fused_preprocess = fused;
     if (!fused && !use_lab_stages(&options)) continue;
-    const runtime::RoofgsOptions& t = options.roofgs.techniques;
+    const runtime::RoofgsOptions& t = options.lab_techniques->roofgs.techniques;
     REQUIRE(t.key32);  // the preset's techniques are the CPU's
     REQUIRE(t.depth_order);
     REQUIRE(t.folded_coefficients == cpu_options.roofgs.folded_coefficients);
@@ -162,8 +161,8 @@ TEST_CASE("taebak at 4K: the fastest preset's image equals the CPU reference's o
   if (!scene.available) return;
   auto renderer = runtime::GpuRenderer::create();
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
-  const runtime::RenderOptions cpu_options = api::cpu_render_options(api::Preset::kFastest, scene.bounds);
-  const GpuRenderOptions gpu_options = api::gpu_render_options(api::Preset::kFastest, scene.gpu->has_compact());
+  const runtime::RenderOptions cpu_options = runtime::cpu_render_options(runtime::Preset::kFastest, scene.bounds);
+  const GpuRenderOptions gpu_options = preset_options(runtime::Preset::kFastest);
   constexpr uint32_t kSide = 512;
   for (const Camera& view : taebak_cameras(scene, 3840, 2160)) {
     const uint32_t x0 = (view.width - kSide) / 2 / 16 * 16, y0 = (view.height - kSide) / 2 / 16 * 16;
@@ -201,11 +200,12 @@ TEST_CASE("taebak at 1080p: long tiles in chunks agree with the CPU reference an
   if (!scene.available) return;
   auto renderer = runtime::GpuRenderer::create();
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
-  GpuRenderOptions chunked = api::gpu_render_options(api::Preset::kFastest, scene.gpu->has_compact());
+  GpuRenderOptions chunked = preset_options(runtime::Preset::kFastest);
   chunked.time_stages = true;  // reads back the chunk count
-  REQUIRE(chunked.roofgs.techniques.tile_chunk_pairs == kernels::kTileChunkPairs);
-  GpuRenderOptions whole = chunked;
-  whole.roofgs.techniques.tile_chunk_pairs = 0;
+  GpuRenderOptions whole = preset_techniques_options(runtime::Preset::kFastest, scene.gpu->has_compact());
+  whole.time_stages = true;
+  REQUIRE(whole.lab_techniques->roofgs.techniques.tile_chunk_pairs == kernels::kTileChunkPairs);
+  whole.lab_techniques->roofgs.techniques.tile_chunk_pairs = 0;
   const std::vector<Camera> cams = taebak_cameras(scene, 1920, 1080);
   for (const Camera& cam : {cams[0], cams[5]}) {
     CAPTURE(cam.name);
@@ -231,7 +231,7 @@ TEST_CASE("taebak at 1080p: long tiles in chunks agree with the CPU reference an
   const Camera window = window_of(cams[0], 960, 320, 256, 256);
   CAPTURE(window.name);
   const auto start = std::chrono::steady_clock::now();
-  auto cpu = runtime::render_cpu(scene.cloud, window, api::cpu_render_options(api::Preset::kFastest, scene.bounds));
+  auto cpu = runtime::render_cpu(scene.cloud, window, runtime::cpu_render_options(runtime::Preset::kFastest, scene.bounds));
   REQUIRE_MESSAGE(cpu.ok(), cpu.status().to_string());
   const double cpu_s = seconds_since(start);
   const GpuFrame gpu = render_gpu(*renderer, *scene.gpu, window, chunked, false);
@@ -256,8 +256,8 @@ TEST_CASE("taebak at 4K: fastest preset quality against the GPU FP32 baseline ov
   REQUIRE(scene.gpu->has_fp32());
   auto renderer = runtime::GpuRenderer::create();
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
-  const GpuRenderOptions baseline = api::gpu_render_options(api::Preset::kFaithful, scene.gpu->has_compact());
-  const GpuRenderOptions fastest = api::gpu_render_options(api::Preset::kFastest, scene.gpu->has_compact());
+  const GpuRenderOptions baseline = preset_options(runtime::Preset::kFaithful);
+  const GpuRenderOptions fastest = preset_options(runtime::Preset::kFastest);
   const std::vector<Camera> cams = taebak_cameras(scene, 3840, 2160);
   double sum = 0, min = std::numeric_limits<double>::infinity();
   for (const Camera& cam : cams) {

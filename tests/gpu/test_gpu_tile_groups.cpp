@@ -9,7 +9,6 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_util.h"
-#include "internal_gpu_preset.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/kernels/baseline_pipeline.h"
 #include "rgs/runtime/device_buffer.h"
@@ -30,11 +29,11 @@ struct Config {
 /// rectangle, so its walks reach tiles that rectangle does not).
 std::vector<Config> configs(bool compact) {
   std::vector<Config> c;
-  c.push_back({"fastest", api::gpu_render_options(api::Preset::kFastest, compact)});
-  c.push_back({"faithful", api::gpu_render_options(api::Preset::kFaithful, compact)});
-  c.push_back({"paper", api::gpu_render_options(api::Preset::kPaper, compact)});
-  GpuRenderOptions separate = api::gpu_render_options(api::Preset::kFastest, compact);
-  separate.roofgs.fused_preprocess = false;
+  c.push_back({"fastest", preset_options(runtime::Preset::kFastest)});
+  c.push_back({"faithful", preset_options(runtime::Preset::kFaithful)});
+  c.push_back({"paper", preset_options(runtime::Preset::kPaper)});
+  GpuRenderOptions separate = preset_techniques_options(runtime::Preset::kFastest, compact);
+  separate.lab_techniques->roofgs.fused_preprocess = false;
   if (use_lab_stages(&separate)) c.push_back({"fastest, separate stages", separate});
   return c;
 }

@@ -10,12 +10,15 @@
 #include "render_test_util.h"
 #include "rgs/kernels/shared/tile_chunks.h"
 #include "rgs/runtime/frame_plan.h"
+#include "rgs/runtime/preset_techniques.h"
 
 namespace rgs::test {
 namespace {
 
 namespace k = rgs::kernels;
 using runtime::GpuRoofgsOptions;
+using runtime::GpuTechniques;
+using runtime::Preset;
 using runtime::RoofgsOptions;
 using runtime::SubtileCulling;
 
@@ -30,21 +33,24 @@ format::SceneBounds unit_sphere_at(float z) {
   return b;
 }
 
-/// The options of the fastest preset (api::gpu_render_options(kFastest)): every technique, depth order,
-/// binary16 blending, long tiles in chunks.
-GpuRoofgsOptions fastest() {
-  GpuRoofgsOptions o;
-  o.techniques = RoofgsOptions::all();
-  o.techniques.depth_order = true;
-  o.techniques.half_blend = true;
-  o.techniques.tile_chunk_pairs = k::kTileChunkPairs;
-  return o;
-}
+/// The fastest preset's RoofGS options on a scene with the compact sections.
+GpuRoofgsOptions fastest() { return runtime::gpu_techniques(Preset::kFastest, true).roofgs; }
+
+/// The RoofGS pipeline with `options` (the lab's plan factory's input).
+GpuTechniques roofgs(const GpuRoofgsOptions& options) { return {runtime::GpuPipeline::kRoofgs, options}; }
 
 TEST_CASE("frame plan: the fastest preset's frame at 1080p") {
   const runtime::Camera camera = identity_camera(1920, 1080, 1000.f);
-  auto plan = runtime::plan_frame(fastest(), camera, unit_sphere_at(5.f), true);
+  auto plan = runtime::plan_frame(Preset::kFastest, camera, unit_sphere_at(5.f), true);
   REQUIRE_MESSAGE(plan.ok(), plan.status().to_string());
+  // Every technique, depth order, binary16 blending, long tiles in chunks, the fused kernel, balanced emission.
+  const RoofgsOptions& t = plan->techniques.roofgs.techniques;
+  CHECK(plan->techniques.pipeline == runtime::GpuPipeline::kRoofgs);
+  CHECK((t.key32 && t.snugbox_accutile && t.folded_coefficients && t.fast_exp && t.depth_order && t.half_blend));
+  CHECK(t.tile_chunk_pairs == k::kTileChunkPairs);
+  CHECK(plan->fused);
+  CHECK(plan->balanced_emission);
+  CHECK(plan->techniques.roofgs.subtile_culling == SubtileCulling::kAuto);
   CHECK(plan->tiles_x == 120);
   CHECK(plan->tiles_y == 68);
   CHECK(plan->switches.key32);
@@ -58,9 +64,8 @@ TEST_CASE("frame plan: the fastest preset's frame at 1080p") {
   CHECK(plan->reorder_ties);
   CHECK(plan->allocation == k::PairAllocation::kArrivalOrder);
   // The same layout as the CPU reference's frame setup (one function for both).
-  runtime::RenderOptions cpu;
-  cpu.roofgs = fastest().techniques;
-  cpu.scene_bounds = unit_sphere_at(5.f);
+  const runtime::RenderOptions cpu = runtime::cpu_render_options(Preset::kFastest, unit_sphere_at(5.f));
+  CHECK(cpu.roofgs.half_blend == t.half_blend);
   format::GaussianCloud cloud;
   add_gaussian(&cloud, 0.f, 0.f, 5.f, 0.1f, 0.5f, 0.f, 0.f, 0.f);
   auto setup = runtime::setup_frame(cloud, camera, cpu);
@@ -71,11 +76,19 @@ TEST_CASE("frame plan: the fastest preset's frame at 1080p") {
 }
 
 TEST_CASE("frame plan: without the 32-bit key the sort covers the tile bits and the exact depth") {
+  // The faithful preset: the baseline pipeline, separate stages; 3840×2160: 240×135 = 32,400 tiles → 15 tile
+  // bits above the 32 depth bits.
+  auto baseline = runtime::plan_frame(Preset::kFaithful, identity_camera(3840, 2160, 2000.f), std::nullopt, true);
+  REQUIRE_MESSAGE(baseline.ok(), baseline.status().to_string());
+  CHECK(baseline->techniques.pipeline == runtime::GpuPipeline::kBaseline);
+  CHECK(baseline->techniques.reads_fp32());
+  CHECK(baseline->sort_bits == 47);
+  CHECK_FALSE(baseline->fused);
+  // The RoofGS pipeline with every technique off.
   GpuRoofgsOptions o;
   o.techniques = RoofgsOptions{};
   o.compact_attributes = false;
-  // 3840×2160: 240×135 = 32,400 tiles → 15 tile bits above the 32 depth bits.
-  auto plan = runtime::plan_frame(o, identity_camera(3840, 2160, 2000.f), std::nullopt, false);
+  auto plan = runtime::plan_frame(roofgs(o), identity_camera(3840, 2160, 2000.f), std::nullopt, false);
   REQUIRE_MESSAGE(plan.ok(), plan.status().to_string());
   CHECK_FALSE(plan->switches.key32);
   CHECK(plan->sort_bits == 47);
@@ -83,7 +96,7 @@ TEST_CASE("frame plan: without the 32-bit key the sort covers the tile bits and 
   CHECK(plan->allocation == k::PairAllocation::kBlockOrder);
   // Depth order without the 32-bit key changes nothing in the plan: the 64-bit key holds the depth.
   o.techniques.depth_order = true;
-  auto same = runtime::plan_frame(o, identity_camera(3840, 2160, 2000.f), std::nullopt, false);
+  auto same = runtime::plan_frame(roofgs(o), identity_camera(3840, 2160, 2000.f), std::nullopt, false);
   REQUIRE(same.ok());
   CHECK_FALSE(same->reorder_ties);
 }
@@ -91,13 +104,19 @@ TEST_CASE("frame plan: without the 32-bit key the sort covers the tile bits and 
 TEST_CASE("frame plan: what cannot be planned") {
   const runtime::Camera camera = identity_camera(640, 360, 500.f);
   GpuRoofgsOptions o = fastest();
-  // Compact attributes of a scene uploaded from a float cloud.
-  CHECK(runtime::plan_frame(o, camera, unit_sphere_at(5.f), false).status().code() == StatusCode::kInvalidArgument);
+  // Compact attributes of a scene uploaded from a float cloud; the preset reads its FP32 arrays instead.
+  CHECK(runtime::plan_frame(roofgs(o), camera, unit_sphere_at(5.f), false).status().code() ==
+        StatusCode::kInvalidArgument);
+  auto fallback = runtime::plan_frame(Preset::kFastest, camera, unit_sphere_at(5.f), false);
+  REQUIRE(fallback.ok());
+  CHECK(fallback->techniques.reads_fp32());
   // The 32-bit key without bounds.
-  CHECK(runtime::plan_frame(o, camera, std::nullopt, true).status().code() == StatusCode::kInvalidArgument);
+  CHECK(runtime::plan_frame(Preset::kFastest, camera, std::nullopt, true).status().code() ==
+        StatusCode::kInvalidArgument);
   // σ of the fast exp outside [0, 1).
   o.techniques.fast_exp_sigma = 1.f;
-  CHECK(runtime::plan_frame(o, camera, unit_sphere_at(5.f), true).status().code() == StatusCode::kInvalidArgument);
+  CHECK(runtime::plan_frame(roofgs(o), camera, unit_sphere_at(5.f), true).status().code() ==
+        StatusCode::kInvalidArgument);
 }
 
 TEST_CASE("blend plan: sub-tile culling per frame, at the large-pair threshold") {
@@ -136,9 +155,8 @@ TEST_CASE("blend plan: the presets' rasterizers are product variants, the ablati
   CHECK_FALSE(k::is_lab_variant(runtime::plan_blend(fastest(), 1000, 0).raster));
   CHECK_FALSE(k::is_lab_variant(runtime::plan_blend(fastest(), 1000, 1000).raster));
   // paper: every technique of the paper, FP32 blending, no culling.
-  GpuRoofgsOptions paper;
-  paper.techniques = RoofgsOptions::all();
-  paper.subtile_culling = SubtileCulling::kOff;
+  GpuRoofgsOptions paper = runtime::gpu_techniques(Preset::kPaper, true).roofgs;
+  CHECK(paper.subtile_culling == SubtileCulling::kOff);
   CHECK_FALSE(k::is_lab_variant(runtime::plan_blend(paper, 1000, 0).raster));
   // FP32 blending with culling, the folded rasterizer alone, the fast exp alone.
   paper.subtile_culling = SubtileCulling::kOn;

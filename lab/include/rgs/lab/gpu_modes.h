@@ -22,7 +22,7 @@ struct GpuMode {
 };
 
 /// Every named configuration, in rgs-bench's order: the presets under their own names (faithful, fastest,
-/// paper: api::gpu_render_options()), then the lab configurations: roofgs, fastest-fp32-blend,
+/// paper: GpuRenderOptions::preset), then the lab configurations: roofgs, fastest-fp32-blend,
 /// fastest-whole-tiles, roofgs-serial-emission, roofgs-no-subtile, roofgs-subtile-always, roofgs-none, and the
 /// paper's one-technique ablation only-compact, only-fused, only-key32, only-snugbox, only-folded, only-fastexp.
 /// The names are the same in rgs-bench's --mode, its JSON and the CLI's --preset.

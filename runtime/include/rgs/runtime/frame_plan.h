@@ -1,8 +1,9 @@
-// The frame plan of the RoofGS GPU pipeline: every per-frame decision (technique switches the kernels read,
-// the 32-bit key's layout, the sort's key bits, how pairs are allocated, the rasterizer variant, sub-tile
-// culling, long tiles in chunks) made by pure host functions from the options, the camera and the frame's pair
-// counts. GpuRenderer::render_roofgs executes the plan and decides nothing itself; these functions
-// build and are tested without CUDA (docs/RENDERER.md#the-frame-plan).
+// The frame plan of the GPU pipelines: every per-frame decision (the pipeline, technique switches the kernels
+// read, the 32-bit key's layout, the sort's key bits, how pairs are allocated, the rasterizer variant, sub-tile
+// culling, long tiles in chunks) made by pure host functions from a preset, the camera and the frame's pair
+// counts. GpuRenderer executes the plan and decides nothing itself; these functions build and are tested
+// without CUDA (docs/RENDERER.md#the-frame-plan). The product plans from a Preset; the lab's plan factory
+// (lab/technique_options.h) plans any combination of the techniques through the same functions.
 #pragma once
 
 #include <cstdint>
@@ -14,6 +15,7 @@
 #include "rgs/kernels/shared/frame_switches.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/depth_key.h"
+#include "rgs/runtime/preset.h"
 #include "rgs/runtime/roofgs_options.h"
 
 namespace rgs::runtime {
@@ -53,8 +55,31 @@ struct GpuRoofgsOptions {
   RoofgsOptions techniques = RoofgsOptions::all();
 };
 
+/// Which pipeline renders a frame.
+enum class GpuPipeline {
+  kBaseline,  ///< the 3DGS rasterizer, faithfully (kernels/baseline_pipeline.h)
+  kRoofgs,    ///< the RoofGS pipeline with the techniques of GpuRoofgsOptions (kernels/roofgs_pipeline.h)
+};
+
+/// What a GPU frame is planned from: the pipeline and, for kRoofgs, its techniques.
+struct GpuTechniques {
+  GpuPipeline pipeline = GpuPipeline::kBaseline;
+  /// Used when pipeline == kRoofgs.
+  GpuRoofgsOptions roofgs;
+  /// Whether the frame reads the scene's FP32 arrays: the baseline, or RoofGS without compact attributes
+  /// (what runtime::GpuSceneOptions::fp32_attributes must be for it).
+  bool reads_fp32() const { return pipeline == GpuPipeline::kBaseline || !roofgs.compact_attributes; }
+};
+
+/// The techniques `preset` renders with on the GPU. `scene_has_compact`: whether the scene holds the compact
+/// .rgs sections; the RoofGS presets read them when present and fall back to the FP32 arrays otherwise (a scene
+/// uploaded from a float cloud).
+GpuTechniques gpu_techniques(Preset preset, bool scene_has_compact);
+
 /// The decisions made before the preprocess.
 struct FramePlan {
+  /// What the frame was planned from.
+  GpuTechniques techniques;
   /// Tile grid of the frame (16×16 tiles).
   uint32_t tiles_x = 0, tiles_y = 0;
   /// What the preprocess and emission kernels read: technique switches and the 32-bit key's layout.
@@ -75,11 +100,16 @@ struct FramePlan {
   bool balanced_emission = true;
 };
 
-/// Plans a RoofGS frame of `camera` over a scene with `bounds` (needed by key32) that holds the compact
-/// sections or not. Errors: kInvalidArgument (fast_exp_sigma outside [0, 1), compact attributes asked of a
-/// scene without them, key32 without bounds or with non-finite ones), kLimitExceeded (a tile grid leaving
-/// fewer than 8 depth bits): those of make_depth_key.
-Result<FramePlan> plan_frame(const GpuRoofgsOptions& options, const Camera& camera,
+/// Plans a frame of `preset` from `camera` over a scene with `bounds` (needed by the 32-bit key) that holds the
+/// compact sections or not: the product's seam, plan_frame(gpu_techniques(preset, scene_has_compact), ...).
+Result<FramePlan> plan_frame(Preset preset, const Camera& camera, const std::optional<format::SceneBounds>& bounds,
+                             bool scene_has_compact);
+
+/// Plans a frame with `techniques` (the lab's plan factory; the presets come here too). A baseline frame plans
+/// only its tile grid and sort bits (32 + ceil(log2(tiles))). Errors, RoofGS only: kInvalidArgument
+/// (fast_exp_sigma outside [0, 1), compact attributes asked of a scene without them, key32 without bounds or
+/// with non-finite ones), kLimitExceeded (a tile grid leaving fewer than 8 depth bits): those of make_depth_key.
+Result<FramePlan> plan_frame(const GpuTechniques& techniques, const Camera& camera,
                              const std::optional<format::SceneBounds>& bounds, bool scene_has_compact);
 
 /// The decisions made once the frame's pair count is known.
@@ -91,7 +121,7 @@ struct BlendPlan {
   uint32_t chunk_pairs = 0;
 };
 
-/// Plans the blend of a frame of `pairs` pairs, `large_pairs` of them from Gaussians with more than
+/// Plans the blend of a RoofGS frame of `pairs` pairs, `large_pairs` of them from Gaussians with more than
 /// kernels::kSubtileLargeTiles tiles: sub-tile culling as options.subtile_culling says (kAuto: off where
 /// SnugBox + AccuTile is on and large Gaussians hold more than kernels::kSubtileMaxLargePairFraction of the
 /// pairs), and the chunk size (kernels::frame_chunk_pairs).

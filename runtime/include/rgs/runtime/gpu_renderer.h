@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "rgs/format/status.h"
@@ -90,19 +91,17 @@ struct OutputImage {
 /// documented there. @return kInvalidArgument naming the first problem.
 Status validate_output_image(const OutputImage& target, uint32_t width, uint32_t height);
 
-/// Which pipeline renders a frame.
-enum class GpuPipeline {
-  kBaseline,  ///< the 3DGS rasterizer, faithfully (kernels/baseline_pipeline.h)
-  kRoofgs,    ///< the RoofGS pipeline with the techniques of GpuRoofgsOptions (kernels/roofgs_pipeline.h)
-};
-
 /// Options of GpuRenderer::render().
 struct GpuRenderOptions {
-  GpuPipeline pipeline = GpuPipeline::kBaseline;
-  /// Used when pipeline == kRoofgs.
-  GpuRoofgsOptions roofgs;
-  /// The RoofGS launches that exist in variants no preset reaches (used when pipeline == kRoofgs); the default,
-  /// the product's, renders every configuration of the presets. Separate stages (roofgs.fused_preprocess off)
+  /// What the frame is rendered with (plan_frame(Preset, ...)); by default the 3DGS rasterizer, the reference
+  /// every other frame is measured against (the front door's default is api::RenderSettings').
+  Preset preset = Preset::kFaithful;
+  /// The lab's plan factory (lab/technique_options.h): when set, the frame is planned from these techniques
+  /// instead of the preset's, any combination of them (ablations). A combination no preset uses may need
+  /// `stages` to have its launches.
+  std::optional<GpuTechniques> lab_techniques;
+  /// The RoofGS launches that exist in variants no preset reaches (used by a RoofGS frame); the default, the
+  /// product's, renders every configuration of the presets. Separate stages (roofgs.fused_preprocess off)
   /// need stages.preprocess and stages.duplicate, and a render-kernel variant render_roofgs lacks
   /// (kernels::raster_variant_compiled) needs another stages.render: the lab's (lab/) have them.
   kernels::RoofgsStages stages;
@@ -158,7 +157,7 @@ struct GpuRenderStats {
   StageTimes times;
 };
 
-/// Renders scenes with the 3DGS baseline pipeline or the RoofGS pipeline (GpuRenderOptions::pipeline). Both
+/// Renders scenes with the 3DGS baseline pipeline or the RoofGS pipeline (the plan's GpuTechniques::pipeline). Both
 /// follow render_cpu() (runtime/cpu_renderer.h) with the same RoofgsOptions: the same conventions and
 /// per-Gaussian bits; pixels differ from it only through the device's expf and logf. Keeps its scratch buffers between
 /// frames and grows them as needed (by a quarter more than asked), so a steady sequence of frames allocates nothing.
@@ -215,9 +214,10 @@ class GpuRenderer {
   Result<GpuRenderStats> render_frame(const GpuScene& scene, const Camera& camera, const GpuRenderOptions& options,
                                       const kernels::ImageView& view, const kernels::OutputConvertParams* convert,
                                       cudaStream_t stream);
-  Status render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, const GpuRenderOptions& options,
-                         const kernels::ImageView& view, GpuRenderStats* stats, cudaStream_t stream);
-  Status render_roofgs(const GpuScene& scene, const Camera& camera, const kernels::FrameParams& frame,
+  Status render_baseline(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
+                         const GpuRenderOptions& options, const kernels::ImageView& view, GpuRenderStats* stats,
+                         cudaStream_t stream);
+  Status render_roofgs(const GpuScene& scene, const kernels::FrameParams& frame, const FramePlan& plan,
                        const GpuRenderOptions& options, const kernels::ImageView& view, GpuRenderStats* stats,
                        cudaStream_t stream);
   /// Pairs of a pass, and the sort counters zeroed ahead of the count (0: none).
