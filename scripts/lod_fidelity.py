@@ -9,7 +9,7 @@ scene rendered 2x2 supersampled, with the plain full render's own score beside i
 
 For each scene, every view of the camera path is rendered by rgs-render:
 - the reference: the full detail (`--no-lod`) at twice the width and height (the camera's fx, fy, cx, cy doubled),
-  area-downsampled 2x2 (each output pixel the mean of its four sub-pixels), as runtime::area_downsample_2x does;
+  area-downsampled 2x2 (each output pixel the mean of its four sub-pixels), as lab::area_downsample_2x does;
 - the floor: the plain full render at the width and height, scored against the reference;
 - the budget sweep: the levels at each splat budget B of --budgets with `--pixel-error 0` (the budget alone chooses);
 - the pixel-error sweep: the levels at each pixel error E of --pixel-errors with no budget (`--splat-budget 0`).
@@ -56,7 +56,7 @@ def read_pfm(path):
 
 
 def area_downsample_2x(image):
-    """[2H, 2W, C] -> [H, W, C]: each pixel the mean of its 2x2 block (runtime::area_downsample_2x)."""
+    """[2H, 2W, C] -> [H, W, C]: each pixel the mean of its 2x2 block (lab::area_downsample_2x)."""
     h, w = image.shape[0] // 2, image.shape[1] // 2
     return image.reshape(h, 2, w, 2, -1).mean(axis=(1, 3))
 

@@ -128,19 +128,6 @@ std::string sci(double value);
 /// Seconds since `start`.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
-/// An image size in pixels.
-struct Resolution {
-  uint32_t width = 0, height = 0;
-};
-
-/// Parses "WIDTHxHEIGHT" ("1920x1080", 'X' also accepted) or a name: 720p (1280x720), 1080p (1920x1080),
-/// 1440p (2560x1440), 4k or 2160p (3840x2160). Each side must be in [1, 32768].
-/// @return kInvalidArgument naming `text` and the accepted forms.
-Result<Resolution> parse_resolution(const std::string& text);
-
-/// "1920x1080".
-std::string resolution_string(const Resolution& resolution);
-
 /// Lower-case file extension including the dot (".ply"), "" when none.
 std::string extension_of(const std::string& path);
 
@@ -179,9 +166,6 @@ CLI::Validator finite_number_in(double min, double max);
 Result<uint32_t> parse_lod_levels(const std::string& text);
 /// Adds --lod-levels to `app`, into `levels`, checked with parse_lod_levels().
 void add_lod_levels_option(CLI::App& app, std::string& levels, const std::string& help);
-
-/// The local (or, with `utc`, UTC) time now, as strftime's `pattern` writes it (e.g. "%Y-%m-%d").
-std::string format_time(const char* pattern, bool utc);
 
 /// The input formats every scene-reading tool accepts, found by content (converter::supported_scene_formats),
 /// as one sentence for --help.

@@ -218,11 +218,9 @@ Result<std::vector<uint8_t>> serialize_glb(const format::GaussianCloud& cloud, c
 Result<GltfWriteSummary> write_glb(const std::string& path, const format::GaussianCloud& cloud,
                                    const GltfWriteOptions& options, format::FileSink& files) {
   GltfWriteSummary summary;
-  auto bytes = detail::guarded<std::vector<uint8_t>>(path, "encoding GLB", [&]() {
+  RGS_RETURN_IF_ERROR(detail::write_encoded(path, "encoding GLB", files, [&]() {
     return serialize(cloud, options, &summary);
-  });
-  if (!bytes.ok()) return std::move(bytes).status();
-  RGS_RETURN_IF_ERROR(files.write(path, bytes->data(), bytes->size()));
+  }));
   return summary;
 }
 

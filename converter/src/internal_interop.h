@@ -131,4 +131,13 @@ Result<T> guarded(const std::string& name, const char* activity, Fn&& fn) {
 /// Errors: kInvalidArgument.
 Status check_writable_cloud(const format::GaussianCloud& cloud);
 
+/// The writers' file step: runs `encode` (returning Result<std::vector<uint8_t>>, the file's bytes) under
+/// guarded(path, activity) and writes its bytes to `path` through `files`.
+/// Errors: guarded's, then files.write's.
+template <typename Encode>
+Status write_encoded(const std::string& path, const char* activity, format::FileSink& files, Encode&& encode) {
+  RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, guarded<std::vector<uint8_t>>(path, activity, encode));
+  return files.write(path, bytes.data(), bytes.size());
+}
+
 }  // namespace rgs::converter::detail

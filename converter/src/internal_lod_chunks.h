@@ -1,6 +1,6 @@
 // Level-of-detail building blocks shared by the in-memory builder (lod_builder.cpp) and the out-of-core one
-// (lod_out_of_core.cpp): the Morton order and its octree chunks, each chunk's level plan, and the merge that
-// builds a chunk's levels. The rules are lod_builder.h's.
+// (lod_out_of_core.cpp): the Morton order and its octree chunks, each chunk's level plan, the merge that
+// builds a chunk's levels, and the level count and index they share. The rules are lod_builder.h's.
 #pragma once
 
 #include <algorithm>
@@ -191,10 +191,31 @@ struct MortonOrder {
 Result<std::vector<ChunkPlan>> plan_chunks(const format::EncodedScene& in, uint32_t planned_levels, unsigned workers,
                                            MortonOrder* order, std::vector<Scratch>* scratch, Progress* progress);
 
+/// The checks both builders make of a request to build the levels of `count` Gaussians: kInvalidArgument for
+/// no Gaussians, options.levels above the format's kMaxLodLevels or options.max_chunk_gaussians 0,
+/// kLimitExceeded for more than 2^31 - 1 Gaussians.
+Status check_lod_request(uint64_t count, const LodBuildOptions& options);
+
+/// The levels chosen and the Gaussians they hold over every chunk (the output's count).
+struct LevelChoice {
+  uint32_t levels = 0;
+  uint64_t total = 0;
+};
+
 /// The number of levels: `options.levels`, or with 0 (auto) the first level holding at most 1/64 of the full
-/// detail, or where every chunk is down to one Gaussian (further levels would repeat it). totals[l] receives
-/// the Gaussians of level l over every chunk, l < planned_levels.
-uint32_t choose_level_count(const std::vector<ChunkPlan>& plans, uint32_t planned_levels,
-                            const LodBuildOptions& options, uint64_t n0, uint64_t totals[format::kMaxLodLevels]);
+/// detail (n0 Gaussians), or where every chunk is down to one Gaussian (further levels would repeat it); with
+/// the Gaussians of those levels over every chunk. kLimitExceeded when that total exceeds 2^31 - 1.
+Result<LevelChoice> choose_levels(const std::vector<ChunkPlan>& plans, uint32_t planned_levels,
+                                  const LodBuildOptions& options, uint64_t n0);
+
+/// An LOD index of `levels` levels over the chunks `plans` describes, its records' ranges laid out in the
+/// output's order (levels coarse after fine, chunks in order), each with its plan's count and error. Checksums,
+/// chunk centres and radii are left 0 for the caller.
+format::LodIndex lay_out_index(const std::vector<ChunkPlan>& plans, uint32_t levels);
+
+/// Sets each chunk's radius in `index` (chunk_radius of reaches[c] over the index's levels) and returns the
+/// scene sphere's radius: sphere_radius_for the largest squared distance of a kept mean from the scene's
+/// centre. Errors: chunk_radius's, for the first chunk that fails.
+Result<float> set_chunk_radii(const std::vector<ChunkReach>& reaches, format::LodIndex* index);
 
 }  // namespace rgs::converter::detail

@@ -32,14 +32,7 @@ using namespace detail;
 Status check_inputs(const format::EncodedScene& scene, const LodBuildOptions& options) {
   RGS_RETURN_ERROR_IF(!scene.is_consistent(), StatusCode::kInvalidArgument,
                       "build_lod: scene arrays do not match its count and SH degree");
-  RGS_RETURN_ERROR_IF(scene.count == 0, StatusCode::kInvalidArgument, "build_lod: the scene has no Gaussians");
-  RGS_RETURN_ERROR_IF(options.levels > format::kMaxLodLevels, StatusCode::kInvalidArgument,
-                      "build_lod: " + std::to_string(options.levels) + " levels exceed the format's " +
-                          std::to_string(format::kMaxLodLevels));
-  RGS_RETURN_ERROR_IF(options.max_chunk_gaussians == 0, StatusCode::kInvalidArgument,
-                      "build_lod: max_chunk_gaussians must be >= 1");
-  RGS_RETURN_ERROR_IF(scene.count > kMaxOutputGaussians, StatusCode::kLimitExceeded,
-                      "build_lod: " + std::to_string(scene.count) + " Gaussians exceed 2^31 - 1");
+  RGS_RETURN_IF_ERROR(check_lod_request(scene.count, options));
   const auto encoding = scene.metadata.scale_encoding;
   RGS_RETURN_ERROR_IF(encoding != format::ScaleEncoding::kLinear && encoding != format::ScaleEncoding::kLog,
                       StatusCode::kInvalidArgument,
@@ -80,71 +73,20 @@ Result<MortonOrder> sort_into_chunks(const format::EncodedScene& in, uint64_t ma
   return order;
 }
 
-/// Where each record's range starts: first[l·C + c].
-struct Layouts {
-  uint32_t chunks = 0, levels = 0;
-  std::vector<uint64_t> first;
-  uint64_t at(uint32_t level, uint32_t chunk) const { return first[static_cast<size_t>(level) * chunks + chunk]; }
-};
-
-/// Step 3, the output's first index of each (level, chunk) range: levels coarse after fine, chunks in order.
-Layouts lay_out_ranges(const std::vector<ChunkPlan>& plans, uint32_t levels) {
-  const auto chunk_count = static_cast<uint32_t>(plans.size());
-  Layouts ranges;
-  ranges.chunks = chunk_count;
-  ranges.levels = levels;
-  ranges.first.resize(static_cast<size_t>(levels) * chunk_count);
-  uint64_t offset = 0;
-  for (uint32_t l = 0; l < levels; ++l) {
-    for (uint32_t c = 0; c < chunk_count; ++c) {
-      ranges.first[static_cast<size_t>(l) * chunk_count + c] = offset;
-      offset += plans[c].count[l];
-    }
-  }
-  return ranges;
-}
-
-/// Step 3, the output scene's metadata and arrays of `total` Gaussians, and an LOD index of the given shape.
+/// Step 3, the output scene's metadata and arrays of `total` Gaussians.
 void allocate_output(const format::EncodedScene& in, const Layout& t, uint32_t levels, uint32_t chunk_count,
-                     uint64_t total, LodScene* result) {
-  format::EncodedScene& out = result->scene;
-  out.metadata = in.metadata;
-  out.provenance = in.provenance;
-  out.provenance.emplace_back("lod_levels", std::to_string(levels));
-  out.provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
-  out.count = total;
-  detail::resize_huge(out.means, total * 3);
-  detail::resize_huge(out.rotations, total * 4);
-  detail::resize_huge(out.scales, total * 3);
-  detail::resize_huge(out.opacities, total);
-  detail::resize_huge(out.sh, total * t.sh_values);
-  if (t.dc_residual) detail::resize_huge(out.sh_dc_residual, total * 3);
-
-  format::LodIndex& lod = result->index;
-  lod.chunk_count = chunk_count;
-  lod.level_count = levels;
-  lod.chunks.resize(chunk_count);
-  lod.levels.resize(static_cast<size_t>(levels) * chunk_count);
-}
-
-/// Step 5: each chunk's bounding radius and levels in the LOD index, and the scene's sphere radius.
-Status fill_lod_index(const std::vector<ChunkPlan>& plans, const std::vector<ChunkReach>& reaches,
-                      const Layouts& ranges, LodScene* result) {
-  format::LodIndex& lod = result->index;
-  double scene_d2 = 0;
-  for (uint32_t c = 0; c < lod.chunk_count; ++c) {
-    scene_d2 = std::max(scene_d2, reaches[c].scene_d2_over(lod.level_count));
-    RGS_ASSIGN_OR_RETURN(lod.chunks[c].radius, chunk_radius(reaches[c], lod.level_count, c));
-    for (uint32_t l = 0; l < lod.level_count; ++l) {
-      format::LodLevel& level = lod.at(l, c);
-      level.first = ranges.at(l, c);
-      level.count = plans[c].count[l];
-      level.error = plans[c].error[l];
-      level.checksum = 0;
-    }
-  }
-  result->scene.metadata.bounds.sphere_radius = format::sphere_radius_for(scene_d2);
-  return Status();
+                     uint64_t total, format::EncodedScene* out) {
+  out->metadata = in.metadata;
+  out->provenance = in.provenance;
+  out->provenance.emplace_back("lod_levels", std::to_string(levels));
+  out->provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
+  out->count = total;
+  detail::resize_huge(out->means, total * 3);
+  detail::resize_huge(out->rotations, total * 4);
+  detail::resize_huge(out->scales, total * 3);
+  detail::resize_huge(out->opacities, total);
+  detail::resize_huge(out->sh, total * t.sh_values);
+  if (t.dc_residual) detail::resize_huge(out->sh_dc_residual, total * 3);
 }
 
 Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& options) {
@@ -162,17 +104,12 @@ Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& op
   RGS_ASSIGN_OR_RETURN(std::vector<ChunkPlan> plans,
                        plan_chunks(in, planned_levels, workers, &order, &scratch, &progress));
 
-  uint64_t totals[format::kMaxLodLevels] = {};
-  const uint32_t levels = choose_level_count(plans, planned_levels, options, n0, totals);
-  uint64_t total = 0;
-  for (uint32_t l = 0; l < levels; ++l) total += totals[l];
-  RGS_RETURN_ERROR_IF(total > kMaxOutputGaussians, StatusCode::kLimitExceeded,
-                      "build_lod: " + std::to_string(levels) + " levels of " + std::to_string(n0) +
-                          " Gaussians make " + std::to_string(total) + ", more than 2^31 - 1");
-  const Layouts ranges = lay_out_ranges(plans, levels);
+  RGS_ASSIGN_OR_RETURN(const LevelChoice choice, choose_levels(plans, planned_levels, options, n0));
+  const uint32_t levels = choice.levels;
   const Layout t = describe_layout(in);
   LodScene result;
-  allocate_output(in, t, levels, chunk_count, total, &result);
+  result.index = lay_out_index(plans, levels);
+  allocate_output(in, t, levels, chunk_count, choice.total, &result.scene);
 
   // Scene bounds by compute_bounds()' rule over every output mean: parents are clamped into their chunk's
   // AABB, so the AABB is the input means' (box_lo, box_hi); the sphere's centre follows from it and its
@@ -193,13 +130,14 @@ Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& op
     double center[3];
     chunk_center(plan, chunk.center, center);
     uint64_t first[format::kMaxLodLevels];
-    for (uint32_t l = 0; l < levels; ++l) first[l] = ranges.at(l, static_cast<uint32_t>(c));
+    for (uint32_t l = 0; l < levels; ++l) first[l] = result.index.at(l, static_cast<uint32_t>(c)).first;
     reaches[c] = build_chunk(in, order.index.data(), order.keys.data(), plan, first, levels, t, center, scene_center,
                              &scratch[worker], &result.scene);
     progress.add(2 * (plan.end - plan.begin));
     if (worker == 0) progress.report();
   }));
-  RGS_RETURN_IF_ERROR(fill_lod_index(plans, reaches, ranges, &result));
+  // 5. Each chunk's bounding radius, and the scene's.
+  RGS_ASSIGN_OR_RETURN(bounds.sphere_radius, set_chunk_radii(reaches, &result.index));
   progress.finish();
   return result;
 }

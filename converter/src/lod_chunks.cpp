@@ -15,6 +15,7 @@
 
 #include "internal_parallel.h"
 #include "rgs/format/half.h"
+#include "rgs/format/metadata.h"
 
 namespace rgs::converter::detail {
 namespace {
@@ -522,16 +523,67 @@ Result<std::vector<ChunkPlan>> plan_chunks(const format::EncodedScene& in, uint3
   return plans;
 }
 
-uint32_t choose_level_count(const std::vector<ChunkPlan>& plans, uint32_t planned_levels,
-                            const LodBuildOptions& options, uint64_t n0, uint64_t totals[format::kMaxLodLevels]) {
+Status check_lod_request(uint64_t count, const LodBuildOptions& options) {
+  RGS_RETURN_ERROR_IF(count == 0, StatusCode::kInvalidArgument, "build_lod: the scene has no Gaussians");
+  RGS_RETURN_ERROR_IF(options.levels > format::kMaxLodLevels, StatusCode::kInvalidArgument,
+                      "build_lod: " + std::to_string(options.levels) + " levels exceed the format's " +
+                          std::to_string(format::kMaxLodLevels));
+  RGS_RETURN_ERROR_IF(options.max_chunk_gaussians == 0, StatusCode::kInvalidArgument,
+                      "build_lod: max_chunk_gaussians must be >= 1");
+  RGS_RETURN_ERROR_IF(count > kMaxOutputGaussians, StatusCode::kLimitExceeded,
+                      "build_lod: " + std::to_string(count) + " Gaussians exceed 2^31 - 1");
+  return Status();
+}
+
+Result<LevelChoice> choose_levels(const std::vector<ChunkPlan>& plans, uint32_t planned_levels,
+                                  const LodBuildOptions& options, uint64_t n0) {
+  uint64_t totals[format::kMaxLodLevels] = {};
   for (const ChunkPlan& p : plans) {
     for (uint32_t l = 0; l < planned_levels; ++l) totals[l] += p.count[l];
   }
-  if (options.levels != 0) return planned_levels;
-  for (uint32_t l = 0; l < kAutoMaxLevels; ++l) {
-    if (totals[l] * kAutoRatio <= n0 || totals[l] == plans.size()) return l + 1;
+  LevelChoice choice;
+  choice.levels = planned_levels;
+  if (options.levels == 0) {
+    for (uint32_t l = 0; l < kAutoMaxLevels; ++l) {
+      if (totals[l] * kAutoRatio <= n0 || totals[l] == plans.size()) {
+        choice.levels = l + 1;
+        break;
+      }
+    }
   }
-  return planned_levels;
+  for (uint32_t l = 0; l < choice.levels; ++l) choice.total += totals[l];
+  RGS_RETURN_ERROR_IF(choice.total > kMaxOutputGaussians, StatusCode::kLimitExceeded,
+                      "build_lod: " + std::to_string(choice.levels) + " levels of " + std::to_string(n0) +
+                          " Gaussians make " + std::to_string(choice.total) + ", more than 2^31 - 1");
+  return choice;
+}
+
+format::LodIndex lay_out_index(const std::vector<ChunkPlan>& plans, uint32_t levels) {
+  format::LodIndex index;
+  index.chunk_count = static_cast<uint32_t>(plans.size());
+  index.level_count = levels;
+  index.chunks.resize(index.chunk_count);
+  index.levels.resize(static_cast<size_t>(levels) * index.chunk_count);
+  uint64_t first = 0;
+  for (uint32_t l = 0; l < levels; ++l) {
+    for (uint32_t c = 0; c < index.chunk_count; ++c) {
+      format::LodLevel& level = index.at(l, c);
+      level.first = first;
+      level.count = plans[c].count[l];
+      level.error = plans[c].error[l];
+      first += level.count;
+    }
+  }
+  return index;
+}
+
+Result<float> set_chunk_radii(const std::vector<ChunkReach>& reaches, format::LodIndex* index) {
+  double scene_d2 = 0;
+  for (uint32_t c = 0; c < index->chunk_count; ++c) {
+    RGS_ASSIGN_OR_RETURN(index->chunks[c].radius, chunk_radius(reaches[c], index->level_count, c));
+    scene_d2 = std::max(scene_d2, reaches[c].scene_d2_over(index->level_count));
+  }
+  return format::sphere_radius_for(scene_d2);
 }
 
 }  // namespace rgs::converter::detail

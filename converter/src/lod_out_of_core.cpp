@@ -462,47 +462,31 @@ class OutOfCoreBuild {
   /// The level count, the index and the metadata, then the file streamed from the spill files.
   Result<OutOfCoreLodReport> write(const std::string& path, format::FileSink& files) {
     bucket_ = format::EncodedScene{};
-    std::vector<ChunkPlan> plans;
-    plans.reserve(chunks_.size());
-    for (const BuiltChunk& c : chunks_) plans.push_back(c.plan);
-    uint64_t totals[format::kMaxLodLevels] = {};
-    const uint32_t levels = choose_level_count(plans, planned_levels_, options_.lod, head_.count, totals);
-    uint64_t total = 0;
-    for (uint32_t l = 0; l < levels; ++l) total += totals[l];
-    RGS_RETURN_ERROR_IF(total > kMaxOutputGaussians, StatusCode::kLimitExceeded,
-                        "build_lod: " + std::to_string(levels) + " levels of " + std::to_string(head_.count) +
-                            " Gaussians make " + std::to_string(total) + ", more than 2^31 - 1");
     const auto chunk_count = static_cast<uint32_t>(chunks_.size());
-    format::LodIndex index;
-    index.chunk_count = chunk_count;
-    index.level_count = levels;
-    index.chunks.resize(chunk_count);
-    index.levels.resize(static_cast<size_t>(levels) * chunk_count);
-    double scene_d2 = 0;
-    uint64_t first = 0;
-    for (uint32_t l = 0; l < levels; ++l) {
-      for (uint32_t c = 0; c < chunk_count; ++c) {
-        const BuiltChunk& chunk = chunks_[c];
-        format::LodLevel& level = index.at(l, c);
-        level.first = first;
-        level.count = chunk.plan.count[l];
-        level.error = chunk.plan.error[l];
-        level.checksum = chunk.checksum[l];
-        first += level.count;
-      }
+    std::vector<ChunkPlan> plans;
+    std::vector<ChunkReach> reaches;
+    plans.reserve(chunk_count);
+    reaches.reserve(chunk_count);
+    for (const BuiltChunk& c : chunks_) {
+      plans.push_back(c.plan);
+      reaches.push_back(c.reach);
     }
+    RGS_ASSIGN_OR_RETURN(const LevelChoice choice, choose_levels(plans, planned_levels_, options_.lod, head_.count));
+    const uint32_t levels = choice.levels;
+    const uint64_t total = choice.total;
+    format::LodIndex index = lay_out_index(plans, levels);
     for (uint32_t c = 0; c < chunk_count; ++c) {
       std::copy_n(chunks_[c].center, 3, index.chunks[c].center);
-      RGS_ASSIGN_OR_RETURN(index.chunks[c].radius, chunk_radius(chunks_[c].reach, levels, c));
-      scene_d2 = std::max(scene_d2, chunks_[c].reach.scene_d2_over(levels));
+      for (uint32_t l = 0; l < levels; ++l) index.at(l, c).checksum = chunks_[c].checksum[l];
     }
+    RGS_ASSIGN_OR_RETURN(const float sphere_radius, set_chunk_radii(reaches, &index));
     for (auto& s : spills_) RGS_RETURN_IF_ERROR(s->flush());
 
     format::StreamedScene scene;
     scene.metadata = head_.metadata;
     double center[3];
     format::set_sphere_center(&scene.metadata.bounds, center);
-    scene.metadata.bounds.sphere_radius = format::sphere_radius_for(scene_d2);
+    scene.metadata.bounds.sphere_radius = sphere_radius;
     scene.provenance = head_.provenance;
     scene.provenance.emplace_back("lod_levels", std::to_string(levels));
     scene.provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
@@ -576,14 +560,7 @@ Result<bool> EncodedBatches::next_means(std::vector<float>* means) {
 Result<OutOfCoreLodReport> build_lod_out_of_core(const std::string& path, EncodedBatches& batches,
                                                  const format::EncodedScene& head, const OutOfCoreLodOptions& options,
                                                  format::FileSink& files) {
-  RGS_RETURN_ERROR_IF(head.count == 0, StatusCode::kInvalidArgument, "build_lod: the scene has no Gaussians");
-  RGS_RETURN_ERROR_IF(options.lod.levels > format::kMaxLodLevels, StatusCode::kInvalidArgument,
-                      "build_lod: " + std::to_string(options.lod.levels) + " levels exceed the format's " +
-                          std::to_string(format::kMaxLodLevels));
-  RGS_RETURN_ERROR_IF(options.lod.max_chunk_gaussians == 0, StatusCode::kInvalidArgument,
-                      "build_lod: max_chunk_gaussians must be >= 1");
-  RGS_RETURN_ERROR_IF(head.count > kMaxOutputGaussians, StatusCode::kLimitExceeded,
-                      "build_lod: " + std::to_string(head.count) + " Gaussians exceed 2^31 - 1");
+  RGS_RETURN_IF_ERROR(check_lod_request(head.count, options.lod));
   try {
     OutOfCoreBuild build(head, options);
     return build.run(path, batches, files);

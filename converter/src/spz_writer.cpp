@@ -299,11 +299,9 @@ Result<std::vector<uint8_t>> serialize_spz(const format::GaussianCloud& cloud, c
 Result<SpzWriteSummary> write_spz(const std::string& path, const format::GaussianCloud& cloud,
                                   const SpzWriteOptions& options, format::FileSink& files) {
   SpzWriteSummary summary;
-  auto bytes = detail::guarded<std::vector<uint8_t>>(path, "encoding SPZ", [&]() {
+  RGS_RETURN_IF_ERROR(detail::write_encoded(path, "encoding SPZ", files, [&]() {
     return serialize(cloud, options, &summary);
-  });
-  if (!bytes.ok()) return std::move(bytes).status();
-  RGS_RETURN_IF_ERROR(files.write(path, bytes->data(), bytes->size()));
+  }));
   return summary;
 }
 

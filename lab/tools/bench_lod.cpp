@@ -11,7 +11,9 @@
 #include <memory>
 
 #include "cli_common.h"
+#include "rgs/lab/bench_options.h"
 #include "rgs/lab/gpu_modes.h"
+#include "rgs/lab/lod_quality.h"
 #include "rgs/lab/replicated_scene.h"
 #include "rgs/api/camera.h"
 #include "rgs/converter/scene_reader.h"
@@ -88,7 +90,7 @@ struct ViewQuality {
   double change_lod = psnr, change_full = psnr;
 };
 
-/// Renders the full detail of each view at 1× and 2×, builds the supersampled reference (runtime::area_downsample_2x
+/// Renders the full detail of each view at 1× and 2×, builds the supersampled reference (lab::area_downsample_2x
 /// on the host) and scores a level-of-detail render and the plain full render against it on the device.
 class QualityMeter {
  public:
@@ -103,7 +105,7 @@ class QualityMeter {
     if (!b.ok()) return Status(b.status()).prepend("2x full render, view " + cam.name);
     RGS_ASSIGN_OR_RETURN(const runtime::HostImage fine, runtime::download(fine_));
     RGS_ASSIGN_OR_RETURN(const std::vector<float> reference,
-                         runtime::area_downsample_2x({fine.rgba.data(), fine.width, fine.height, 4}));
+                         lab::area_downsample_2x({fine.rgba.data(), fine.width, fine.height, 4}));
     RGS_RETURN_IF_ERROR(reference_.reserve_exact(reference.size(), "supersampled reference"));
     RGS_RETURN_IF_CUDA_ERROR(cudaMemcpy(reference_.data(), reference.data(), reference.size() * sizeof(float),
                                         cudaMemcpyHostToDevice),
@@ -121,9 +123,9 @@ class QualityMeter {
     RGS_ASSIGN_OR_RETURN(runtime::HostImage full_frame, runtime::download(plain_));
     if (lod_frame.rgba.size() == previous_lod_.size()) {
       auto frame = [&](const std::vector<float>& v) { return runtime::ImageRef{v.data(), cam.width, cam.height, 4}; };
-      RGS_ASSIGN_OR_RETURN(q.change_lod, runtime::mean_abs_difference(frame(lod_frame.rgba), frame(previous_lod_)));
+      RGS_ASSIGN_OR_RETURN(q.change_lod, lab::mean_abs_difference(frame(lod_frame.rgba), frame(previous_lod_)));
       RGS_ASSIGN_OR_RETURN(q.change_full,
-                           runtime::mean_abs_difference(frame(full_frame.rgba), frame(previous_full_)));
+                           lab::mean_abs_difference(frame(full_frame.rgba), frame(previous_full_)));
     }
     previous_lod_ = std::move(lod_frame.rgba);
     previous_full_ = std::move(full_frame.rgba);
@@ -272,7 +274,7 @@ Status bench_lod(const LodBenchOptions& o,
   const double psnr_mean = mean_of(psnr), floor_mean = mean_of(floor_psnr);
   const double popping = mean_of(change_lod) - mean_of(change_full);
   std::printf("rgs-bench %s (streamed, levels of detail)\n", source.description.c_str());
-  std::printf("  device           %s, %s\n", device.name.c_str(), format_time("%Y-%m-%d", false).c_str());
+  std::printf("  device           %s, %s\n", device.name.c_str(), lab::format_time("%Y-%m-%d", false).c_str());
   std::printf("  scene            %s Gaussians in %u chunks x %u levels (%s at full detail), SH degree %u\n",
               group_digits(file.gaussian_count()).c_str(), index.chunk_count, index.level_count,
               group_digits(index.full_detail_count()).c_str(), file.metadata().sh_degree);

@@ -51,6 +51,7 @@
 #include "rgs/runtime/image_io.h"
 #include "rgs/runtime/image_metrics.h"
 #include "rgs/config.h"
+#include "rgs/lab/bench_options.h"
 #include "rgs/lab/device_peaks.h"
 #include "rgs/lab/frame_census.h"
 #include "rgs/lab/gpu_modes.h"
@@ -160,9 +161,9 @@ struct CameraSet {
 };
 
 Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format::SceneBounds& bounds) {
-  std::vector<tools::Resolution> sizes;
+  std::vector<lab::Resolution> sizes;
   for (const std::string& text : opt.resolutions) {
-    RGS_ASSIGN_OR_RETURN(tools::Resolution r, tools::parse_resolution(text));
+    RGS_ASSIGN_OR_RETURN(lab::Resolution r, lab::parse_resolution(text));
     sizes.push_back(r);
   }
   std::vector<CameraSet> sets;
@@ -174,20 +175,20 @@ Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format
       sets.push_back({"native", std::move(native)});
       return sets;
     }
-    for (const tools::Resolution& r : sizes) {
-      CameraSet set{tools::resolution_string(r), {}};
+    for (const lab::Resolution& r : sizes) {
+      CameraSet set{lab::resolution_string(r), {}};
       for (const runtime::Camera& c : native) set.cameras.push_back(runtime::resize_camera(c, r.width, r.height));
       sets.push_back(std::move(set));
     }
     return sets;
   }
   if (sizes.empty()) sizes.push_back({opt.cameras.orbit_width, opt.cameras.orbit_height});
-  for (const tools::Resolution& r : sizes) {
+  for (const lab::Resolution& r : sizes) {
     api::CameraChoice choice = opt.cameras;
     choice.width = r.width;
     choice.height = r.height;
     RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> cams, api::make_cameras(choice, bounds));
-    sets.push_back({tools::resolution_string(r), std::move(cams)});
+    sets.push_back({lab::resolution_string(r), std::move(cams)});
   }
   return sets;
 }
@@ -722,7 +723,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
   j["tool"] = kTool;
   j["version"] = RGS_VERSION_STRING;
   j["date"] = report.date;
-  j["timestamp_utc"] = tools::format_time("%Y-%m-%dT%H:%M:%SZ", true);
+  j["timestamp_utc"] = lab::format_time("%Y-%m-%dT%H:%M:%SZ", true);
   j["device"] = {{"ordinal", report.device.ordinal},
                  {"name", report.device.name},
                  {"compute_capability", std::to_string(report.device.compute_major) + "." +
@@ -885,7 +886,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
   const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
   RGS_ASSIGN_OR_RETURN(const std::vector<CameraSet> sets, make_camera_sets(opt, scene.bounds));
 
-  const std::string date = tools::format_time("%Y-%m-%d", false);
+  const std::string date = lab::format_time("%Y-%m-%d", false);
   runtime::DeviceImage image;
   std::vector<RunResult> results;
   for (const std::string& mode : opt.modes) {
@@ -1012,7 +1013,7 @@ int main(int argc, char** argv) {
                  "default: the cameras' own size, or 1920x1080 for --orbit")
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
-            auto r = rgs::tools::parse_resolution(text);
+            auto r = lab::parse_resolution(text);
             return r.ok() ? std::string() : r.status().message();
           },
           "RESOLUTION"));

@@ -45,14 +45,6 @@ struct Frustum {
   double normal_[4][2];
 };
 
-}  // namespace
-
-bool sphere_in_frustum(const Camera& camera, const float center[3], float radius) {
-  return Frustum(camera).holds(center, radius);
-}
-
-namespace {
-
 /// The distance d of SPEC §4.9.1 from the camera centre `c` to `chunk`: max(near, |c − centre| − radius).
 double chunk_distance(const Camera& camera, const std::array<float, 3>& c, const format::LodChunk& chunk) {
   const double dx = double(c[0]) - chunk.center[0], dy = double(c[1]) - chunk.center[1],

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
@@ -30,6 +31,16 @@ inline double psnr(const std::vector<float>& a, const std::vector<float>& b) {
   }
   if (se == 0) return std::numeric_limits<double>::infinity();
   return 10.0 * std::log10(double(a.size()) / se);
+}
+
+/// Writes `rgb8` ([H, W, 3] uint8, row-major, top row first) as a binary PPM (P6) to look at; false when the
+/// size does not match or the file cannot be written.
+inline bool write_ppm(const std::string& path, uint32_t width, uint32_t height, const std::vector<uint8_t>& rgb8) {
+  if (rgb8.size() != size_t{width} * height * 3) return false;
+  std::ofstream out(path, std::ios::binary);
+  out << "P6\n" << width << " " << height << "\n255\n";
+  out.write(reinterpret_cast<const char*>(rgb8.data()), std::streamsize(rgb8.size()));
+  return bool(out);
 }
 
 /// Largest |a − b| over all values.

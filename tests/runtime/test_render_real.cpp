@@ -96,13 +96,11 @@ TEST_CASE("flowers, camera 0, 628x414: a plausible image, identical bits for any
   CHECK(one.stats.pairs > one.stats.visible);
 
   const std::string ppm = tmp_path("rgs_flowers_cam0_628x414.ppm");
-  Status written = runtime::write_ppm(ppm, one.width, one.height, runtime::to_8bit(one.rgb));
-  CHECK_MESSAGE(written.ok(), written.to_string());
+  CHECK(write_ppm(ppm, one.width, one.height, runtime::to_8bit(one.rgb)));
   std::vector<float> alpha_rgb(pixels * 3);
   for (size_t p = 0; p < pixels; ++p) alpha_rgb[p * 3 + 0] = alpha_rgb[p * 3 + 1] = alpha_rgb[p * 3 + 2] = one.alpha[p];
   const std::string alpha_ppm = tmp_path("rgs_flowers_cam0_628x414_alpha.ppm");
-  written = runtime::write_ppm(alpha_ppm, one.width, one.height, runtime::to_8bit(alpha_rgb));
-  CHECK_MESSAGE(written.ok(), written.to_string());
+  CHECK(write_ppm(alpha_ppm, one.width, one.height, runtime::to_8bit(alpha_rgb)));
   MESSAGE("wrote " << ppm << " and " << alpha_ppm);
 }
 
@@ -494,7 +492,7 @@ TEST_CASE("timing: flowers and daffodils at 1920x1080" * doctest::skip()) {
     REQUIRE(cams.ok());
     const RenderResult r = time_render(scene.cloud, (*cams)[0], with_bounds(scene), "flowers cam 0 1920x1080 baseline");
     time_render(scene.cloud, (*cams)[0], with_bounds(scene, RoofgsOptions::all()), "flowers cam 0 1920x1080 RoofGS all");
-    CHECK(runtime::write_ppm(tmp_path("rgs_flowers_cam0_1920x1080.ppm"), r.width, r.height, runtime::to_8bit(r.rgb)).ok());
+    CHECK(write_ppm(tmp_path("rgs_flowers_cam0_1920x1080.ppm"), r.width, r.height, runtime::to_8bit(r.rgb)));
   }
   const std::string daffodils = shared_scene("playcanvas_flowers_lod0.ply");
   if (daffodils.empty()) return;
@@ -507,8 +505,8 @@ TEST_CASE("timing: flowers and daffodils at 1920x1080" * doctest::skip()) {
   REQUIRE(orbit.ok());
   for (size_t v = 0; v < orbit->size(); ++v) {
     const RenderResult r = time_render(cloud, (*orbit)[v], options, "daffodils " + (*orbit)[v].name + " 1920x1080 baseline");
-    CHECK(runtime::write_ppm(tmp_path("rgs_daffodils_" + (*orbit)[v].name + "_1920x1080.ppm"), r.width, r.height,
-                             runtime::to_8bit(r.rgb)).ok());
+    CHECK(write_ppm(tmp_path("rgs_daffodils_" + (*orbit)[v].name + "_1920x1080.ppm"), r.width, r.height,
+                    runtime::to_8bit(r.rgb)));
     if (v == 0) {
       RenderOptions all = options;
       all.roofgs = RoofgsOptions::all();

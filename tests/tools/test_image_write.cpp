@@ -1,5 +1,5 @@
 // Library-free image output of rgs-render/rgs-audit (PPM/PGM, PFM, the dispatch by extension and the
-// OpenImageIO-less errors) and the --resolution parser of rgs-bench.
+// OpenImageIO-less errors).
 #include <doctest/doctest.h>
 
 #include <cstdint>
@@ -33,32 +33,6 @@ std::string read_bytes(const fs::path& path) {
 }
 
 }  // namespace
-
-TEST_CASE("parse_resolution: WIDTHxHEIGHT and names") {
-  auto r = rgs::tools::parse_resolution("1920x1080");
-  REQUIRE(r.ok());
-  CHECK(r->width == 1920);
-  CHECK(r->height == 1080);
-  r = rgs::tools::parse_resolution("640X480");
-  REQUIRE(r.ok());
-  CHECK(r->width == 640);
-  r = rgs::tools::parse_resolution("4K");
-  REQUIRE(r.ok());
-  CHECK((r->width == 3840 && r->height == 2160));
-  r = rgs::tools::parse_resolution("1080p");
-  REQUIRE(r.ok());
-  CHECK((r->width == 1920 && r->height == 1080));
-  CHECK(rgs::tools::resolution_string({1256, 832}) == "1256x832");
-  for (const char* bad : {"", "x", "1920", "1920x", "x1080", "0x10", "10x0", "32769x10", "-5x10", "1920x1080x3",
-                          "1920by1080", "19 20x1080", "+5x5", "8k"}) {
-    INFO(bad);
-    auto e = rgs::tools::parse_resolution(bad);
-    REQUIRE_FALSE(e.ok());
-    CHECK(e.status().code() == StatusCode::kInvalidArgument);
-    CHECK(e.status().message().find(std::string("'") + bad + "'") != std::string::npos);
-  }
-  CHECK(rgs::tools::parse_resolution("32768x1").ok());
-}
 
 TEST_CASE("audit::write_netpbm, the tools' Netpbm writer: P6 and P5 bytes") {
   using rgs::audit::write_netpbm;

@@ -40,10 +40,6 @@ struct LodSelection {
   bool within_budget = true;
 };
 
-/// True when the sphere (`center`, `radius`, world units) meets the camera's view frustum: in front of the near
-/// plane and inside the four side planes through the image edges, each widened by the radius.
-bool sphere_in_frustum(const Camera& camera, const float center[3], float radius);
-
 /// Projected error in pixels of a world-space `error` at chunk `chunk` seen by `camera` (SPEC §4.9.1):
 /// error · max(fx, fy) / max(near_plane, |camera centre − center| − radius).
 double projected_error(const Camera& camera, const format::LodChunk& chunk, float error);

@@ -7,7 +7,7 @@
 #include "render_test_util.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/cpu_renderer.h"
-#include "rgs/runtime/image_metrics.h"
+#include "rgs/lab/lod_quality.h"
 
 namespace rgs::test {
 namespace {
@@ -27,21 +27,21 @@ format::GaussianCloud two_gaussians() {
 
 TEST_CASE("area downsample: a constant image stays identical, a 2x2 block becomes its mean") {
   std::vector<float> constant(size_t{8} * 6 * 4, 0.37f);
-  auto down = runtime::area_downsample_2x({constant.data(), 8, 6, 4});
+  auto down = lab::area_downsample_2x({constant.data(), 8, 6, 4});
   REQUIRE(down.ok());
   CHECK(down->size() == size_t{4} * 3 * 4);
   for (float v : *down) CHECK(v == 0.37f);
 
   // 4×2 image, 1 channel: blocks {1, 2, 5, 6} and {3, 4, 7, 8}.
   const std::vector<float> ramp = {1, 2, 3, 4, 5, 6, 7, 8};
-  down = runtime::area_downsample_2x({ramp.data(), 4, 2, 1});
+  down = lab::area_downsample_2x({ramp.data(), 4, 2, 1});
   REQUIRE(down.ok());
   REQUIRE(down->size() == 2);
   CHECK((*down)[0] == 3.5f);
   CHECK((*down)[1] == 5.5f);
 
-  CHECK(runtime::area_downsample_2x({ramp.data(), 3, 2, 1}).status().code() == StatusCode::kInvalidArgument);
-  CHECK(runtime::area_downsample_2x({nullptr, 4, 2, 1}).status().code() == StatusCode::kInvalidArgument);
+  CHECK(lab::area_downsample_2x({ramp.data(), 3, 2, 1}).status().code() == StatusCode::kInvalidArgument);
+  CHECK(lab::area_downsample_2x({nullptr, 4, 2, 1}).status().code() == StatusCode::kInvalidArgument);
 }
 
 TEST_CASE("the 2x2 supersampled render of large Gaussians matches the 1x render, a half-pixel shift does not") {
@@ -55,7 +55,7 @@ TEST_CASE("the 2x2 supersampled render of large Gaussians matches the 1x render,
   CHECK(twice.cx == 2 * cam.cx);
   CHECK(twice.cy == 2 * cam.cy);
   const runtime::RenderResult fine = render_ok(cloud, twice);
-  auto down = runtime::area_downsample_2x(rgb_ref(fine));
+  auto down = lab::area_downsample_2x(rgb_ref(fine));
   REQUIRE(down.ok());
   auto m = runtime::compare_images(rgb_ref(plain), {down->data(), 64, 48, 3});
   REQUIRE(m.ok());
@@ -68,7 +68,7 @@ TEST_CASE("the 2x2 supersampled render of large Gaussians matches the 1x render,
   shifted.cx += 1.f;
   shifted.cy += 1.f;
   const runtime::RenderResult off = render_ok(cloud, shifted);
-  auto down_off = runtime::area_downsample_2x(rgb_ref(off));
+  auto down_off = lab::area_downsample_2x(rgb_ref(off));
   REQUIRE(down_off.ok());
   auto m_off = runtime::compare_images(rgb_ref(plain), {down_off->data(), 64, 48, 3});
   REQUIRE(m_off.ok());
@@ -81,24 +81,24 @@ TEST_CASE("mean absolute difference: 0 for a static camera, else |a - b| of clam
   const Camera cam = identity_camera(64, 48, 50.f);
   const runtime::RenderResult first = render_ok(cloud, cam);
   const runtime::RenderResult second = render_ok(cloud, cam);
-  auto still = runtime::mean_abs_difference(rgb_ref(first), rgb_ref(second));
+  auto still = lab::mean_abs_difference(rgb_ref(first), rgb_ref(second));
   REQUIRE(still.ok());
   CHECK(*still == 0.0);
 
   Camera moved = cam;
   moved.cx += 0.5f;
   const runtime::RenderResult third = render_ok(cloud, moved);
-  auto change = runtime::mean_abs_difference(rgb_ref(first), rgb_ref(third));
+  auto change = lab::mean_abs_difference(rgb_ref(first), rgb_ref(third));
   REQUIRE(change.ok());
   CHECK(*change > 0.0);
 
   // RGBA against RGB; 1.5 clamps to 1 and −0.2 to 0.
   const std::vector<float> a = {0.25f, 1.5f, -0.2f, 0.9f, 0.5f, 0.5f, 0.5f, 0.1f};
   const std::vector<float> b = {0.75f, 1.0f, 0.1f, 0.5f, 0.5f, 0.5f};
-  auto d = runtime::mean_abs_difference({a.data(), 2, 1, 4}, {b.data(), 2, 1, 3});
+  auto d = lab::mean_abs_difference({a.data(), 2, 1, 4}, {b.data(), 2, 1, 3});
   REQUIRE(d.ok());
   CHECK(*d == doctest::Approx((0.5 + 0.0 + 0.1 + 0.0 + 0.0 + 0.0) / 6));
-  CHECK(runtime::mean_abs_difference({a.data(), 2, 1, 4}, {b.data(), 1, 2, 3}).status().code() ==
+  CHECK(lab::mean_abs_difference({a.data(), 2, 1, 4}, {b.data(), 1, 2, 3}).status().code() ==
         StatusCode::kInvalidArgument);
 }
 
