@@ -3,11 +3,11 @@
 
 #include <functional>
 
-#include "rgs/runtime/preset.h"
 #include "rgs/kernels/shared/frame_switches.h"
 #include "rgs/lab/roofgs_stages.h"
 #include "rgs/lab/technique_options.h"
 #include "rgs/runtime/frame_plan.h"
+#include "rgs/runtime/preset.h"
 
 namespace rgs::lab {
 namespace {

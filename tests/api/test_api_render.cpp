@@ -101,12 +101,10 @@ TEST_CASE("presets: names parse back, faithful renders the 3DGS reference, the o
   CHECK(fastest.rgb != paper.rgb);
   CHECK(fastest_db >= 47.5);
   CHECK(paper_db >= 43.0);
-#if RGS_HAS_CUDA
-  // A scene without compact attributes falls back to the FP32 arrays under a preset (the named modes of the
-  // lab: lab/tests/test_gpu_modes.cpp).
+  // On the GPU a scene without compact attributes falls back to the FP32 arrays under a preset (the named modes
+  // of the lab: lab/tests/test_gpu_modes.cpp).
   CHECK_FALSE(runtime::gpu_techniques(api::Preset::kFastest, false).roofgs.compact_attributes);
   CHECK(runtime::gpu_techniques(api::Preset::kFastest, true).roofgs.compact_attributes);
-#endif
 }
 
 TEST_CASE("load: errors carry codes, a PLY renders as its conversion does") {
