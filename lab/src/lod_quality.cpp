@@ -13,7 +13,7 @@ double clamp01(float v) { return std::isnan(v) ? 0.0 : std::clamp(static_cast<do
 
 }  // namespace
 
-Result<std::vector<float>> area_downsample_2x(const ImageRef& image) {
+Result<std::vector<float>> area_downsample_2x(const runtime::ImageRef& image) {
   RGS_RETURN_ERROR_IF(image.data == nullptr || image.channels == 0, StatusCode::kInvalidArgument,
                       "area downsample: null image or no channel");
   RGS_RETURN_ERROR_IF(image.width == 0 || image.height == 0 || image.width % 2 != 0 || image.height % 2 != 0,
@@ -34,7 +34,7 @@ Result<std::vector<float>> area_downsample_2x(const ImageRef& image) {
   return out;
 }
 
-Result<double> mean_abs_difference(const ImageRef& a, const ImageRef& b) {
+Result<double> mean_abs_difference(const runtime::ImageRef& a, const runtime::ImageRef& b) {
   RGS_RETURN_ERROR_IF(a.data == nullptr || b.data == nullptr || a.channels < 3 || b.channels < 3,
                       StatusCode::kInvalidArgument, "mean absolute difference: null image or fewer than 3 channels");
   RGS_RETURN_ERROR_IF(a.width != b.width || a.height != b.height || a.width == 0 || a.height == 0,

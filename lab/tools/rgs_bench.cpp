@@ -382,15 +382,13 @@ struct QualityRow {
 /// levels / 255); +inf when they are equal.
 Result<double> psnr_8bit(const runtime::HostImage& a, const runtime::HostImage& b) {
   const auto levels = [](const runtime::HostImage& image) {
+    const std::vector<uint8_t> rgba8 = runtime::to_8bit(image.rgba);
     std::vector<float> rgb;
-    rgb.reserve(image.rgba.size() / 4 * 3);
-    for (size_t i = 0; i < image.rgba.size(); ++i) {
-      if (i % 4 != 3) rgb.push_back(image.rgba[i]);
+    rgb.reserve(rgba8.size() / 4 * 3);
+    for (size_t i = 0; i < rgba8.size(); ++i) {
+      if (i % 4 != 3) rgb.push_back(float(rgba8[i]) / 255.f);
     }
-    std::vector<float> scaled;
-    scaled.reserve(rgb.size());
-    for (const uint8_t v : runtime::to_8bit(rgb)) scaled.push_back(float(v) / 255.f);
-    return scaled;
+    return rgb;
   };
   return runtime::psnr_rgb(levels(a), levels(b), a.width, a.height);
 }

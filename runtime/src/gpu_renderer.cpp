@@ -275,7 +275,7 @@ Result<GpuRenderStats> GpuRenderer::render_frame(const GpuScene& scene, const Ca
   if (convert != nullptr) {
     RGS_RETURN_IF_CUDA_ERROR(kernels::launch_convert_output(*convert, stream), "GpuRenderer: output conversion kernel");
   }
-  buffers_->last_key32 = roofgs && techniques.roofgs.techniques.key32;
+  buffers_->last_key32 = plan.switches.key32;
   if (timed) {
     RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[4], stream), "GpuRenderer: cudaEventRecord");
     RGS_RETURN_IF_ERROR(add_stage_times(ev, &stats.times));
