@@ -4,7 +4,6 @@
 #include <functional>
 
 #include "rgs/kernels/shared/frame_switches.h"
-#include "rgs/lab/macro_tile_binning.h"
 #include "rgs/lab/roofgs_stages.h"
 #include "rgs/lab/technique_options.h"
 #include "rgs/runtime/frame_plan.h"
@@ -27,8 +26,6 @@ struct ModeEntry {
   GpuMode mode;
   /// Options for a scene with (true) or without compact attributes.
   std::function<GpuRenderOptions(bool compact)> options;
-  /// The lab's macro-tile binning in place of duplicate, sort and ranges (RoofgsStages::binning).
-  bool macro_tile_binning = false;
 };
 
 ModeEntry roofgs_variant(const std::string& name, const std::string& description,
@@ -94,17 +91,6 @@ const std::vector<ModeEntry>& entries() {
        [](bool compact) { return roofgs_pipeline(compact, true, RoofgsOptions::all()); }},
       fastest_variant("fastest-fp32-blend", "fastest with FP32 blending (FP32 fast exp, sigma 0.05798)",
                       [](RoofgsOptions& t) { t.half_blend = false; }),
-      {{"fastest-macro-bins",
-        "fastest with the tiles' lists built by macro-tile binning (8x4 tiles; buckets of macro-tile and depth slab "
-        "sorted a block each) after the separate preprocess, in place of the pair sort and the depth order pass; "
-        "the same lists and image",
-        false},
-       [](bool compact) {
-         GpuRenderOptions o = gpu_preset_techniques(Preset::kFastest, compact);
-         o.lab_techniques->roofgs.fused_preprocess = false;
-         return o;
-       },
-       true},
       fastest_variant("fastest-whole-tiles",
                       "fastest with every tile blended by one block (fastest blends long tiles in chunks, a block "
                       "each, merged front to back)",
@@ -165,7 +151,6 @@ Result<GpuRenderOptions> gpu_mode_options(const std::string& name, bool scene_ha
     // The product's stages render the presets' configurations (timed as the product runs them); the others
     // need the lab's.
     options.stages = uses_lab_stages(options) ? roofgs_stages() : kernels::RoofgsStages{};
-    if (e.macro_tile_binning) options.stages.binning = macro_tile_binning();
     return options;
   }
   std::string names;

@@ -494,7 +494,7 @@ Status GpuRenderer::emit_roofgs_pairs(const GpuScene& scene, const kernels::Fram
     RGS_ASSIGN_OR_RETURN(const FrameCounts totals, b.projection.scan_and_count(n, b.projection.large_pairs(), stream));
     pairs = totals.pairs;
     large_pairs = totals.large_pairs;
-    if (pairs > 0 && pairs <= limit && stages.binning == nullptr) {
+    if (pairs > 0 && pairs <= limit) {
       RGS_RETURN_IF_ERROR(b.sort.reserve(pairs, key32, key_bits, limit, stream));
       RGS_ASSIGN_OR_RETURN(const kernels::LargeGaussianList large, large_list(pairs));
       RGS_RETURN_IF_CUDA_ERROR(stages.duplicate(projected, b.projection.offsets(), n, frame, rf, large, b.sort.keys64(),
@@ -525,8 +525,6 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const kernels::FramePar
                       "(docs/RENDERER.md#product-and-lab-kernels)");
   RGS_RETURN_ERROR_IF(stages.render == nullptr, StatusCode::kInvalidArgument,
                       "GpuRenderer: GpuRenderOptions::stages.render is null");
-  RGS_RETURN_ERROR_IF(stages.binning != nullptr && (plan.fused || !rf.key32), StatusCode::kUnsupportedFeature,
-                      "GpuRenderer: stages.binning needs the separate stages and the 32-bit key");
   const bool key32 = rf.key32;
   const int key_bits = plan.sort_bits;
   if (key32) {
@@ -543,33 +541,19 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const kernels::FramePar
   RGS_ASSIGN_OR_RETURN(const uint64_t limit, pass_limit(options, n, num_tiles, key32, key_bits,
                                                         plan.balanced_emission, may_chunk ? t.tile_chunk_pairs : 0));
 
-  // The lab's binning, when given, replaces duplicate, sort and ranges; a frame it cannot bin exactly is
-  // rendered again without it.
-  kernels::RoofgsStages used = stages;
   const EmitPass emit = [&](const kernels::FrameParams& pass, uint64_t max_pairs, PairCounts* counts) {
-    return n > 0 ? emit_roofgs_pairs(scene, pass, plan, used, max_pairs, stats, counts, stream) : Status();
+    return n > 0 ? emit_roofgs_pairs(scene, pass, plan, stages, max_pairs, stats, counts, stream) : Status();
   };
-  // Sorted values and ranges of the pass's pairs.
-  const auto sort_and_range = [&](const kernels::FrameParams& pass, const PairCounts& counts) -> Result<const uint32_t*> {
-    if (used.binning != nullptr) {
-      const uint32_t* binned = nullptr;
-      RGS_RETURN_IF_CUDA_ERROR(used.binning->bin(b.projection.roofgs_projected(), n, counts.pairs, pass, rf,
-                                                 b.tiles.mutable_ranges(), &binned, stream),
-                               "GpuRenderer: binning stage");
-      if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
-      return binned;
-    }
+  const FinishPass finish = [&](const kernels::FrameParams& pass, const PairCounts& counts,
+                                const PairCounts& whole) -> Status {
     // Stable radix sort over the key: 32 bits (4 passes) with key32, else 32 + ceil(log2(tiles)).
     RGS_RETURN_IF_ERROR(b.sort.sort(counts.pairs, key32, key_bits, counts.sort_counters, stream));
     if (timed) RGS_RETURN_IF_CUDA_ERROR(cudaEventRecord(ev[2], stream), "GpuRenderer: cudaEventRecord");
     // Tile ranges; with depth order and key32, the same pass puts the runs of tied keys in exact depth order.
+    RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values,
+                         b.tiles.build(b.sort, counts.pairs, key32, rf.key_depth_bits, num_tiles,
+                                       plan.reorder_ties ? b.projection.depths() : nullptr, stream));
     b.last_values_reordered = plan.reorder_ties;
-    return b.tiles.build(b.sort, counts.pairs, key32, rf.key_depth_bits, num_tiles,
-                         plan.reorder_ties ? b.projection.depths() : nullptr, stream);
-  };
-  const FinishPass finish = [&](const kernels::FrameParams& pass, const PairCounts& counts,
-                                const PairCounts& whole) -> Status {
-    RGS_ASSIGN_OR_RETURN(const uint32_t* sorted_values, sort_and_range(pass, counts));
     // The blend is planned with the whole frame's counts, whatever rows this pass renders.
     const BlendPlan blend = plan_blend(plan.techniques.roofgs, whole.pairs, whole.large_pairs);
     stats->subtile_culling = blend.raster.subtile_culling;
@@ -590,13 +574,6 @@ Status GpuRenderer::render_roofgs(const GpuScene& scene, const kernels::FramePar
                              "GpuRenderer: render kernel");
     return Status();
   };
-  RGS_RETURN_IF_ERROR(render_passes(frame, limit, timed, emit, finish, stats, stream));
-  if (used.binning == nullptr) return Status();
-  b.last_pairs = 0;  // download_sorted_pairs: the binning holds no keys
-  bool exact = false;
-  RGS_RETURN_IF_CUDA_ERROR(used.binning->last_frame_exact(&exact, stream), "GpuRenderer: binning stage");
-  if (exact) return Status();
-  used.binning = nullptr;
   return render_passes(frame, limit, timed, emit, finish, stats, stream);
 }
 

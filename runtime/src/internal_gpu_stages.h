@@ -148,8 +148,6 @@ class TileRanges {
   /// Holds the ranges of `num_tiles` tiles (build() does too).
   Status reserve(uint32_t num_tiles);
   const uint64_t* ranges() const { return ranges_.data(); }
-  /// The ranges for a stage that writes them itself (kernels::PairBinning), after reserve().
-  uint64_t* mutable_ranges() { return ranges_.data(); }
   uint64_t bytes() const { return ranges_.bytes(); }
 
  private:

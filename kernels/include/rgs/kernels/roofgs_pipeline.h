@@ -244,8 +244,6 @@ using RenderRoofgsStage = cudaError_t (*)(const uint64_t* ranges, const TileChun
                                           const FrameParams& frame, const RoofgsFrame& roofgs,
                                           const RasterOptions& raster, const ImageView& image, cudaStream_t stream);
 
-class PairBinning;
-
 /// The launches of the RoofGS pipeline that exist in variants no preset reaches, as the GPU renderer calls
 /// them (runtime::GpuRenderOptions::stages), each once per pass. The default is the product's: no separate
 /// stages (a frame needs the fused kernel) and render_roofgs; the lab's (lab/) give all of them.
@@ -253,26 +251,6 @@ struct RoofgsStages {
   PreprocessRoofgsStage preprocess = nullptr;  ///< null: the separate stages are not available
   DuplicateRoofgsStage duplicate = nullptr;    ///< with `preprocess`
   RenderRoofgsStage render = render_roofgs;
-  /// With `preprocess` and the 32-bit key: builds the tiles' depth-ordered lists from the projected Gaussians
-  /// in place of duplicate, sort and ranges (the lab's macro-tile binning); null: those stages.
-  PairBinning* binning = nullptr;
-};
-
-/// A stage that turns the separate preprocess's outputs into what the render reads — per-tile ranges and the
-/// Gaussian ids of each tile in (view depth, id) order, the order the sort and the depth order pass give — without
-/// the pair sort. Owns its device buffers. Implemented by the lab (rgs/lab/macro_tile_binning.h).
-class PairBinning {
- public:
-  virtual ~PairBinning() = default;
-  /// Enqueues the binning of the frame's `pairs` pairs (Σ tiles_touched, which the caller has read back) of
-  /// `count` projected Gaussians into ranges [num_tiles, 2] and *sorted_values [pairs]. Errors: a CUDA error
-  /// (cudaErrorMemoryAllocation when its buffers cannot grow).
-  virtual cudaError_t bin(const RoofgsProjected& projected, uint32_t count, uint64_t pairs, const FrameParams& frame,
-                          const RoofgsFrame& roofgs, uint64_t* ranges, const uint32_t** sorted_values,
-                          cudaStream_t stream) = 0;
-  /// Waits for `stream` and says whether the last bin() built the lists exactly; false when the frame is
-  /// beyond it (a bucket over its capacity), and the caller renders the frame with the pair sort instead.
-  virtual cudaError_t last_frame_exact(bool* exact, cudaStream_t stream) = 0;
 };
 
 }  // namespace rgs::kernels
