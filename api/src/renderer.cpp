@@ -12,8 +12,8 @@
 #include "rgs/format/half.h"
 #include "rgs/kernels/shared/blend_math.h"
 #include "rgs/runtime/cpu_renderer.h"
-#include "rgs/runtime/preset_techniques.h"
 #include "rgs/runtime/lod_selection.h"
+#include "rgs/runtime/preset_techniques.h"
 
 #if RGS_HAS_CUDA
 #include "internal_gpu_scene_loading.h"
