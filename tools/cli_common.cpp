@@ -244,7 +244,7 @@ Status check_scene_input(const std::string& path) {
 
 }  // namespace
 
-int declare_input(const char* tool, OutputSet& outputs, const std::string& path, bool scene) {
+int declare_input(const char* tool, format::OutputTransaction& outputs, const std::string& path, bool scene) {
   Status readable = scene ? check_scene_input(path) : check_input_file(path);
   if (!readable.ok()) return report_error(tool, readable);
   std::vector<std::string> files = {path};
@@ -261,7 +261,7 @@ int declare_input(const char* tool, OutputSet& outputs, const std::string& path,
   return kExitOk;
 }
 
-int declare_inputs(const char* tool, OutputSet& outputs, const std::vector<std::string>& scenes,
+int declare_inputs(const char* tool, format::OutputTransaction& outputs, const std::vector<std::string>& scenes,
                    const std::string& cameras_path) {
   for (const std::string& scene : scenes) {
     if (int code = declare_input(tool, outputs, scene, true); code != kExitOk) return code;
@@ -269,18 +269,26 @@ int declare_inputs(const char* tool, OutputSet& outputs, const std::vector<std::
   return cameras_path.empty() ? kExitOk : declare_input(tool, outputs, cameras_path);
 }
 
-int declare_output(const char* tool, OutputSet& outputs, const std::string& path) {
+int declare_output(const char* tool, format::OutputTransaction& outputs, const std::string& path) {
   Status declared = outputs.add_output(path);
   if (declared.ok()) return kExitOk;
   return declared.code() == StatusCode::kInvalidArgument ? report_usage_error(tool, declared)
                                                          : report_error(tool, declared);
 }
 
-int commit_outputs(const char* tool, OutputSet& outputs) {
+int commit_outputs(const char* tool, format::OutputTransaction& outputs, bool quiet) {
   Status flushed = flush_standard_streams();
   if (!flushed.ok()) return report_error(tool, flushed);
   Status committed = outputs.commit();
   if (!committed.ok()) return report_error(tool, committed);
+  const std::vector<std::string> replaced = outputs.replaced();
+  if (!quiet && !replaced.empty()) {
+    std::string list;
+    for (size_t i = 0; i < replaced.size() && i < 3; ++i) list += (i ? ", " : "") + replaced[i];
+    if (replaced.size() > 3) list += " and " + std::to_string(replaced.size() - 3) + " more";
+    report_note(tool, "note: replaced " + std::string(replaced.size() == 1 ? "the existing file " : "existing files: ") +
+                          list);
+  }
   return kExitOk;
 }
 

@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "output_set.h"
+#include "rgs/format/output_transaction.h"
 #include "rgs/api/camera.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
@@ -87,22 +87,22 @@ Status check_input_file(const std::string& path);
 /// declares it as an input of `outputs`, so that no output of the run replaces it; for a scene, also every
 /// file it names (converter::list_scene_files: a SOG's images, a streamed SOG's chunks, a .gltf's buffers).
 /// @return kExitOk; else the error is printed and the exit code returned: kExitFailure for a path that cannot
-/// be read, kExitUsage for one that OutputSet::add_input refuses.
-int declare_input(const char* tool, OutputSet& outputs, const std::string& path, bool scene = false);
+/// be read, kExitUsage for one that format::OutputTransaction::add_input refuses.
+int declare_input(const char* tool, format::OutputTransaction& outputs, const std::string& path, bool scene = false);
 
 /// declare_input for every scene of `scenes` and for the file `cameras_path` unless it is empty.
-int declare_inputs(const char* tool, OutputSet& outputs, const std::vector<std::string>& scenes,
+int declare_inputs(const char* tool, format::OutputTransaction& outputs, const std::vector<std::string>& scenes,
                    const std::string& cameras_path);
 
 /// Declares `path` as an output of `outputs`. @return kExitOk; else the error is printed and the exit code
 /// returned: kExitUsage for an alias of an input or another output or a device (kInvalidArgument),
 /// kExitFailure for an existing directory or an OS error.
-int declare_output(const char* tool, OutputSet& outputs, const std::string& path);
+int declare_output(const char* tool, format::OutputTransaction& outputs, const std::string& path);
 
 /// A run's last steps: flushes stdout and stderr, so that its report has been written before the files
-/// appear (a failed report leaves none), then commits `outputs`. @return kExitOk, or kExitFailure with the
-/// error printed.
-int commit_outputs(const char* tool, OutputSet& outputs);
+/// appear (a failed report leaves none), then commits `outputs` and, unless `quiet`, says in one note which
+/// existing files it replaced. @return kExitOk, or kExitFailure with the error printed.
+int commit_outputs(const char* tool, format::OutputTransaction& outputs, bool quiet = false);
 
 /// Reads standard input (the tools' "-" input) as a stream, never more than its content proves: a .rgs up to
 /// the file_size of its header (more bytes: kCorruptData; above ReadLimits::max_file_bytes: kLimitExceeded),

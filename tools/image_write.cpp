@@ -24,7 +24,7 @@ Status no_openimageio_error(const std::string& path, const std::string& what) {
 }
 
 /// Writes `data` ([H, W, channels] uint8 or float32; a 4th channel is alpha) through OpenImageIO's
-/// `format_name` writer into `files` (staged in the run's OutputSet, or a temporary renamed over `path`): the
+/// `format_name` writer into `files` (staged in the run's format::OutputTransaction, or a temporary renamed over `path`): the
 /// format is chosen by name rather than by the temporary's extension. Without OpenImageIO, kUnsupportedFeature
 /// for `what` ("PNG output").
 #if RGS_WITH_OPENIMAGEIO

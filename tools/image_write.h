@@ -1,7 +1,7 @@
 // Image output of rgs-render and rgs-audit. PPM/PGM (8-bit) and PFM (float) are written here without any
 // library, so they exist in every build; PNG and EXR go through OpenImageIO and exist only when the build has
 // it (CMake option RGS_WITH_OPENIMAGEIO; GPU-host builds leave it OFF: CONTRIBUTING.md#one-build-two-hosts). Every
-// writer writes into the sink it is given: the run's OutputSet, which stages the file and commits it with the
+// writer writes into the sink it is given: the run's format::OutputTransaction, which stages the file and commits it with the
 // run's other outputs.
 #pragma once
 

@@ -14,7 +14,7 @@
 //
 // Every output of a run (the HTML report, its JSON, its images, --json, --heatmap, --save-renders) is declared
 // before it is written (the report's images and the renders once the views are known), may not be an input or
-// another output, and is committed together at the end (tools::OutputSet); the HTML
+// another output, and is committed together at the end (format::OutputTransaction); the HTML
 // script writes into the report's staged temporary. Exit status: 0 ok, 1 failure (no output written or
 // changed), 2 usage error, 3 a candidate below --min-psnr (the audit itself succeeded: its reports are
 // written), 128 + N on signal N. --json - prints the JSON on standard output and the table on standard error.
@@ -233,7 +233,7 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
 /// The HTML of the report whose JSON is `report_json` (naming its images relative to itself), made by the
 /// script from a copy of the JSON and the images in a private scratch folder (the report's own files are still
 /// staged under temporary names until the commit) and staged in `outputs` as `html_path`.
-Status stage_html(tools::OutputSet& outputs, const audit::AuditResult& r, const std::string& report_json,
+Status stage_html(format::OutputTransaction& outputs, const audit::AuditResult& r, const std::string& report_json,
                   const std::string& text, const std::string& html_path) {
   std::error_code ec;
   std::string pattern = (std::filesystem::temp_directory_path(ec) / "rgs-audit.XXXXXX").string();
@@ -259,7 +259,7 @@ int run_report_only(const Options& opt) {
     return tools::report_usage_error(kTool,
                                      Status(StatusCode::kInvalidArgument, "--report-from needs --report OUT.html"));
   }
-  tools::OutputSet outputs;
+  format::OutputTransaction outputs;
   if (int code = tools::declare_input(kTool, outputs, opt.report_from); code != tools::kExitOk) return code;
   if (int code = tools::declare_output(kTool, outputs, opt.report_path); code != tools::kExitOk) return code;
   tools::report_notes(kTool, outputs.remove_stale_temporaries());
@@ -287,7 +287,7 @@ std::filesystem::path link_target(const std::filesystem::path& path) {
 /// that file, written once.
 bool json_is_report_json(const Options& opt, const std::string& report_json) {
   if (report_json.empty() || opt.json_path.empty() || opt.json_path == "-") return false;
-  tools::OutputSet probe;
+  format::OutputTransaction probe;
   if (probe.add_output(report_json).ok() && probe.has_output(opt.json_path)) return true;
   std::error_code ec1, ec2;
   const auto a = std::filesystem::weakly_canonical(report_json, ec1);
@@ -298,7 +298,7 @@ bool json_is_report_json(const Options& opt, const std::string& report_json) {
 /// Declares the scenes and cameras as inputs and the outputs known before the audit runs (report HTML and
 /// JSON, --json, --heatmap); sets the report's JSON path and image folder (empty with --no-report).
 /// @return tools::kExitOk, or the exit code of the error reported.
-int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* report_json, std::string* report_files) {
+int declare_files(const Options& opt, format::OutputTransaction& outputs, std::string* report_json, std::string* report_files) {
   if (int code = tools::declare_inputs(kTool, outputs, opt.scenes, opt.cameras.cameras_path); code != tools::kExitOk) {
     return code;
   }
@@ -328,8 +328,8 @@ int declare_files(const Options& opt, tools::OutputSet& outputs, std::string* re
 /// --save-renders: creates the folder of each scene's renders in opt.renders_dir, "source" and then each
 /// candidate's label made file-safe (a name used twice gets its index).
 Result<std::vector<std::string>> render_folders(const Options& opt, const std::vector<audit::AuditScene>& candidates,
-                                                tools::OutputSet& outputs) {
-  RGS_RETURN_IF_ERROR(outputs.create_directory(opt.renders_dir, "renders folder"));
+                                                format::OutputTransaction& outputs) {
+  RGS_RETURN_IF_ERROR(outputs.create_folder(opt.renders_dir));
   std::vector<std::string> folders{(std::filesystem::path(opt.renders_dir) / "source").string()};
   for (size_t i = 0; i < candidates.size(); ++i) {
     std::string folder =
@@ -337,13 +337,13 @@ Result<std::vector<std::string>> render_folders(const Options& opt, const std::v
     if (std::find(folders.begin(), folders.end(), folder) != folders.end()) folder += "_" + std::to_string(i + 1);
     folders.push_back(folder);
   }
-  for (const std::string& folder : folders) RGS_RETURN_IF_ERROR(outputs.create_directory(folder, "renders folder"));
+  for (const std::string& folder : folders) RGS_RETURN_IF_ERROR(outputs.create_folder(folder));
   return folders;
 }
 
 /// --save-renders: stages one render as "<folder>/<view>.png" or ".ppm", named as rgs-render names its views,
 /// with rgs-render's 8-bit rule (runtime::to_8bit), so that the two can be compared byte for byte.
-Status save_render(const Options& opt, tools::OutputSet& outputs, const std::string& folder,
+Status save_render(const Options& opt, format::OutputTransaction& outputs, const std::string& folder,
                    const std::vector<runtime::Camera>& cameras, size_t view, const runtime::ImageRef& rgba) {
   std::string name = tools::file_safe_name(cameras[view].name, view);
   for (size_t i = 0; i < view; ++i) {
@@ -362,7 +362,7 @@ Status save_render(const Options& opt, tools::OutputSet& outputs, const std::str
 /// Loads the source (the first scene) and the candidates, their reader notes printed, and audits them on the
 /// backend --backend chooses: an explicit --backend cuda without a device fails before any loading. Every
 /// scene goes through audit::load_audit_scene, the one place that picks a reader.
-Result<audit::AuditResult> measure(const Options& opt, tools::OutputSet& outputs) {
+Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction& outputs) {
   audit::AuditOptions options;
   std::string why;
   const bool have_cuda = api::cuda_available(&why);
@@ -527,7 +527,7 @@ int run(const Options& opt) {
 
   // Every identity is checked before any work: no output may replace an input or another output. The report's
   // image files are named by the audit's worst views, so they are declared once it has run (before writing).
-  tools::OutputSet outputs;
+  format::OutputTransaction outputs;
   std::string report_json, report_files;
   if (int code = declare_files(opt, outputs, &report_json, &report_files); code != tools::kExitOk) return code;
   tools::report_notes(kTool, outputs.remove_stale_temporaries());
@@ -548,7 +548,7 @@ int run(const Options& opt) {
     for (const auto& [path, image] : audit::report_images(r, report_files)) {
       if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
     }
-    Status created = outputs.create_directory(report_files, "the report's image folder");
+    Status created = outputs.create_folder(report_files);
     if (!created.ok()) return tools::report_error(kTool, created);
     tools::report_notes(kTool, outputs.remove_stale_temporaries());
     Status st = audit::write_report_images(r, report_files, outputs);
@@ -606,7 +606,7 @@ int run(const Options& opt) {
       }
     }
   }
-  if (int code = tools::commit_outputs(kTool, outputs); code != tools::kExitOk) return code;
+  if (int code = tools::commit_outputs(kTool, outputs, opt.quiet); code != tools::kExitOk) return code;
   return below_gate ? kExitBelowMinPsnr : tools::kExitOk;
 }
 

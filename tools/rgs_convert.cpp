@@ -31,7 +31,6 @@
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
 #include "rgs/config.h"
-#include "rgs/converter/sog_writer.h"
 
 namespace {
 
@@ -333,9 +332,11 @@ int run(Options& opt) {
   opt.convert.converter_name = kTool;
   // Options that contradict each other (levels of detail with the archive profile or zstd sections, an unknown
   // section) are a usage error found before anything is read.
-  if (Status s = api::check_convert_options(opt.convert); !s.ok()) return tools::report_usage_error(kTool, s);
+  if (Status s = api::check_convert_output(opt.output, *opt.convert.to, opt.convert); !s.ok()) {
+    return tools::report_usage_error(kTool, s);
+  }
 
-  tools::OutputSet outputs;
+  format::OutputTransaction outputs;
   if (opt.input != "-") {
     // The scene and every file it names are inputs: no output may replace one of them.
     if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
@@ -352,10 +353,9 @@ int run(Options& opt) {
   }
   tools::report_notes(kTool, outputs.remove_stale_temporaries(), opt.quiet);
 
-  // Staged in `outputs`, renamed into place by commit() below with the JSON report.
-  // A streamed SOG's chunk files are known only once its levels are built: they are written one by one, its
-  // lod-meta.json last, and converter::write_sog_lod removes what it wrote if it fails.
-  opt.convert.files = converter::is_sog_lod_path(opt.output) ? nullptr : &outputs;
+  // Staged in `outputs`, renamed into place by commit() below with the JSON report. A streamed SOG's chunk files
+  // are known only once its levels are built: its writer declares them to `outputs` then, before writing any.
+  opt.convert.files = &outputs;
   tools::ProgressLine progress(stderr, kTool, !opt.quiet && tools::stderr_is_terminal());
   opt.convert.progress = [&progress](const api::ConvertProgress& p) { progress.update(p); };
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
@@ -386,7 +386,7 @@ int run(Options& opt) {
     }
   }
   if (opt.print_summary()) print_summary(opt, *report);
-  return tools::commit_outputs(kTool, outputs);
+  return tools::commit_outputs(kTool, outputs, opt.quiet);
 }
 
 }  // namespace

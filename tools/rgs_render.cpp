@@ -10,7 +10,7 @@
 //
 // Exit status: 0 on success (every image written), 1 when loading, rendering or writing failed or the build
 // lacks what was asked for (CUDA, OpenImageIO; message naming the cause; no image written or changed), 2 on a
-// usage error, 128 + N on signal N. The images of a run are committed together (tools::OutputSet).
+// usage error, 128 + N on signal N. The images of a run are committed together (format::OutputTransaction).
 
 #include <CLI/CLI.hpp>
 
@@ -154,7 +154,7 @@ std::vector<std::string> view_files(const Options& opt, const std::string& base)
   return files;
 }
 
-Status write_view(tools::OutputSet& outputs, const Options& opt, const std::string& base, const RenderedView& view) {
+Status write_view(format::OutputTransaction& outputs, const Options& opt, const std::string& base, const RenderedView& view) {
   const std::string image8 = base + (opt.image_format == "png" ? ".png" : ".ppm");
   RGS_RETURN_IF_ERROR(tools::write_image8(outputs, image8, view.width, view.height, 3, runtime::to_8bit(view.rgb)));
   if (opt.exr) RGS_RETURN_IF_ERROR(tools::write_exr_rgba(outputs, base + ".exr", view.width, view.height, view.rgba));
@@ -230,7 +230,7 @@ int run(Options opt) {
 
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
   // them. The output directory is removed again if the run fails after creating it.
-  tools::OutputSet outputs;
+  format::OutputTransaction outputs;
   if (int code = tools::declare_inputs(kTool, outputs, {opt.input}, opt.cameras.cameras_path); code != tools::kExitOk) {
     return code;
   }
@@ -247,7 +247,7 @@ int run(Options opt) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
   }
 
-  Status created = outputs.create_directory(opt.output_dir, "output directory");
+  Status created = outputs.create_folder(opt.output_dir);
   if (!created.ok()) return tools::report_error(kTool, created);
   // One file base per view; a camera name used twice gets its index, so that no view replaces another.
   const size_t count = cameras->size();

@@ -169,9 +169,8 @@ Status check_convert_options(const ConvertOptions& options) {
 
 namespace {
 
-format::FileSink& output_files(const ConvertOptions& options) {
-  return options.files != nullptr ? *options.files : format::atomic_files();
-}
+/// The transaction of a conversion (ConvertOptions::files, set by OwnedOutputs before any writing).
+format::FileSink& output_files(const ConvertOptions& options) { return *options.files; }
 
 /// Where each stage of a conversion starts, as a fraction of the whole, by output: rough shares of the
 /// time of typical conversions (reading and quantizing are quick next to the archive and SPZ encoders).
@@ -248,6 +247,8 @@ class StageSink final : public format::FileSink {
     progress_.writing();
     return inner_.write_by_name(path, write_to);
   }
+  Status declare(const std::vector<std::string>& paths) override { return inner_.declare(paths); }
+  Status create_folder(const std::string& path) override { return inner_.create_folder(path); }
 
  private:
   format::FileSink& inner_;
@@ -583,14 +584,6 @@ Result<ConvertReport> write_input(converter::InputScene input, const std::string
   return report;
 }
 
-/// The checks of check_convert_options that need the output format: a target writes a .rgs.
-Status check_output(const std::string& dst, OutputFormat output, const ConvertOptions& options) {
-  RGS_RETURN_ERROR_IF(options.target.active() && output != OutputFormat::kRgs, StatusCode::kInvalidArgument,
-                      dst + ": a PSNR or byte target chooses the archive profile of a .rgs output, not " +
-                          output_format_name(output));
-  return check_convert_options(options);
-}
-
 /// write_input(), after rate control with a target: the archive options fitted to it on the scene as read (its
 /// SH bands all rendered as the source), then written; a file over a byte target is kLimitExceeded.
 Result<ConvertReport> convert_input(converter::InputScene input, const std::string& src_name,
@@ -626,6 +619,18 @@ Result<ConvertReport> convert_input(converter::InputScene input, const std::stri
 }  // namespace
 
 const char* output_format_name(OutputFormat format) { return entry(format).name; }
+
+Status check_convert_output(const std::string& dst, OutputFormat output, const ConvertOptions& options) {
+  RGS_RETURN_ERROR_IF(options.target.active() && output != OutputFormat::kRgs, StatusCode::kInvalidArgument,
+                      dst + ": a PSNR or byte target chooses the archive profile of a .rgs output, not " +
+                          output_format_name(output));
+  const bool levels_out = output == OutputFormat::kRgs || (output == OutputFormat::kSog && converter::is_sog_lod_path(dst));
+  RGS_RETURN_ERROR_IF(options.lod_levels && !levels_out, StatusCode::kInvalidArgument,
+                      dst + ": levels of detail (lod_levels, --lod-levels) are written into a .rgs or a streamed SOG "
+                            "(lod-meta.json), and a " + std::string(output_format_name(output)) +
+                          " output has none");
+  return check_convert_options(options);
+}
 
 converter::SceneReadOptions scene_read_options(const ConvertOptions& options) {
   converter::SceneReadOptions read = options.read;
@@ -671,53 +676,89 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   return *to;
 }
 
+namespace {
+
+/// The output transaction of one conversion: the caller's (ConvertOptions::files), or one of its own that
+/// commit() commits. `options()` are the caller's with `files` pointing to it.
+class ConversionOutputs {
+ public:
+  explicit ConversionOutputs(const ConvertOptions& options) : options_(options) {
+    if (options_.files == nullptr) options_.files = &own_;
+  }
+  const ConvertOptions& options() const { return options_; }
+  /// Declares the files of `dst` (OutputFormat `output`) and the files read, `inputs`, to the transaction.
+  Status declare(const std::string& dst, OutputFormat output, const std::vector<std::string>& inputs) {
+    for (const std::string& input : inputs) RGS_RETURN_IF_ERROR(options_.files->add_input(input));
+    return options_.files->declare(output_paths(dst, output));
+  }
+  /// Commits the transaction when it is the conversion's own; `report` is passed through.
+  Result<ConvertReport> commit(Result<ConvertReport> report) {
+    if (!report.ok() || options_.files != &own_) return report;
+    RGS_RETURN_IF_ERROR(own_.commit());
+    return report;
+  }
+
+ private:
+  format::OutputTransaction own_;
+  ConvertOptions options_;
+};
+
+}  // namespace
+
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
+  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
+  ConversionOutputs outputs(options);
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {src}));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(std::unique_ptr<converter::PlyStream> stream, detail::out_of_core_input(src, output, options));
-  if (stream) return detail::convert_out_of_core(std::move(stream), src, dst, options);
+  if (stream) return outputs.commit(detail::convert_out_of_core(std::move(stream), src, dst, outputs.options()));
   RGS_RETURN_IF_ERROR(detail::check_convert_memory(src, options));
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(src, scene_read_options(options)));
-  // Every file the scene read is an input: `dst` may not be one of them, in any spelling.
-  RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));
-  return convert_input(std::move(input), src, dst, output, options, start, progress);
+  // Every file the scene read is an input: no output may be one of them, in any spelling.
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, input.files));
+  return outputs.commit(convert_input(std::move(input), src, dst, output, outputs.options(), start, progress));
 }
 
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,
                                     const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
-  RGS_RETURN_IF_ERROR(format::check_output_file(dst, input.files));  // as convert(): dst is none of the inputs
+  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
+  ConversionOutputs outputs(options);
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, input.files));
   ProgressReporter progress(options, output);
-  return convert_input(std::move(input), src, dst, output, options, start, progress);
+  return outputs.commit(convert_input(std::move(input), src, dst, output, outputs.options(), start, progress));
 }
 
 Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
                                     const std::string& dst, const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
+  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
+  ConversionOutputs outputs(options);
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
                        converter::read_scene_bytes(data, size, name, scene_read_options(options)));
-  return convert_input(std::move(input), name, dst, output, options, start, progress);
+  return outputs.commit(convert_input(std::move(input), name, dst, output, outputs.options(), start, progress));
 }
 
 Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::string& name, const std::string& dst,
                                     const ConvertOptions& options) {
   const auto start = Clock::now();
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_output(dst, output, options));
+  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
+  ConversionOutputs outputs(options);
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
   ProgressReporter progress(options, output);
   progress.reading();
   RGS_ASSIGN_OR_RETURN(converter::InputScene input,
                        converter::scene_from_cloud(std::move(cloud), name, scene_read_options(options)));
-  return convert_input(std::move(input), name, dst, output, options, start, progress);
+  return outputs.commit(convert_input(std::move(input), name, dst, output, outputs.options(), start, progress));
 }
 
 }  // namespace rgs::api

@@ -221,7 +221,6 @@ Result<std::unique_ptr<converter::PlyStream>> out_of_core_input(const std::strin
 Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> stream, const std::string& src,
                                           const std::string& dst, const ConvertOptions& options) {
   const auto start = Clock::now();
-  RGS_RETURN_IF_ERROR(format::check_output_file(dst, {src}));
   RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
                       src + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
   const uint64_t limit = convert_memory_limit(options);
@@ -285,8 +284,7 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
     if (options.progress) options.progress(ConvertProgress{stage, kScanShare + (1 - kScanShare) * fraction});
   };
   const auto build_start = Clock::now();
-  auto built = converter::build_lod_out_of_core(dst, quantized, head, lod,
-                                                options.files != nullptr ? *options.files : format::atomic_files());
+  auto built = converter::build_lod_out_of_core(dst, quantized, head, lod, *options.files);
   if (!built.ok()) return Status(built.status()).prepend(src);
   report.seconds.lod = std::chrono::duration<double>(Clock::now() - build_start).count();
   rgs.sh_quantization = stats.shq;

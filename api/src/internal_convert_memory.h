@@ -25,7 +25,8 @@ Result<std::unique_ptr<converter::PlyStream>> out_of_core_input(const std::strin
 
 /// convert() of such an input (docs/LOD.md#scenes-larger-than-memory): the PLY read in batches, once for the
 /// statistics quantize() takes (bounds, SH scales, hygiene, the file's hash) and twice by
-/// converter::build_lod_out_of_core; the same bytes as the conversion in memory.
+/// converter::build_lod_out_of_core; the same bytes as the conversion in memory. `options.files` is the
+/// conversion's transaction (never null here), with `src` and `dst` declared.
 Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> stream, const std::string& src,
                                           const std::string& dst, const ConvertOptions& options);
 

@@ -42,17 +42,6 @@ std::vector<LodFile> plan_files(const format::LodIndex& index) {
   return files;
 }
 
-/// Removes what a failed write created, newest first.
-struct Created {
-  std::vector<fs::path> paths;
-  bool keep = false;
-  ~Created() {
-    if (keep) return;
-    std::error_code ec;
-    for (auto p = paths.rbegin(); p != paths.rend(); ++p) fs::remove(*p, ec);
-  }
-};
-
 /// The tree over chunk leaves: consecutive nodes paired level by level up to one root.
 json build_tree(std::vector<json> nodes) {
   if (nodes.empty()) return json::object();
@@ -151,25 +140,25 @@ Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Lo
   const fs::path root = fs::path(lod_meta_path).parent_path();
   const std::vector<LodFile> files = plan_files(lod.index);
   RGS_ASSIGN_OR_RETURN(std::vector<json> leaves, chunk_leaves(lod, files));
+  // Every file is declared before the first is written: a sink that is a transaction refuses the set when one
+  // of them is an input (an older streamed SOG in the same folder, say).
+  std::vector<std::string> paths;
+  for (const LodFile& file : files) {
+    for (std::string& image : sog_folder_files((root / file.name).string())) paths.push_back(std::move(image));
+  }
+  paths.push_back(lod_meta_path);
+  RGS_RETURN_IF_ERROR(sink.declare(paths));
   SogWriteSummary summary;
-  Created created;
   json names = json::array();
   SogWriteOptions folder = options;
   folder.container = SogContainer::kFolder;
   for (const LodFile& file : files) {
     names.push_back(file.name);
     const fs::path meta = root / file.name;
-    std::error_code ec;
-    if (!fs::is_directory(meta.parent_path(), ec)) {
-      if (!fs::create_directory(meta.parent_path(), ec)) {
-        return Status(StatusCode::kIoError, "cannot create " + meta.parent_path().string() + ": " + ec.message());
-      }
-      created.paths.push_back(meta.parent_path());
-    }
+    RGS_RETURN_IF_ERROR(sink.create_folder(meta.parent_path().string()));
     RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, file_cloud(lod, file));
     auto written = write_sog(meta.string(), cloud, folder, sink);
     if (!written.ok()) return written.status();
-    created.paths.insert(created.paths.end(), written->files.begin(), written->files.end());
     summary.bytes += written->bytes;
     summary.sh_degree = written->sh_degree;
     summary.limitations = written->limitations;
@@ -185,7 +174,6 @@ Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Lo
   summary.limitations.push_back(std::to_string(lod.index.level_count) + " levels of detail over " +
                                 std::to_string(lod.index.chunk_count) + " chunks in " +
                                 std::to_string(files.size()) + " SOG files, from the runtime profile's values");
-  created.keep = true;
   return summary;
 }
 

@@ -290,9 +290,14 @@ Result<SogWriteSummary> write_sog(const std::string& path, const format::Gaussia
   }
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   // Images first, meta.json last: a reader that finds meta.json finds its images.
+  std::vector<std::string> targets;
+  for (size_t f = 1; f <= files.size(); ++f) {
+    targets.push_back(f % files.size() == 0 ? path : (folder / files[f].name).string());
+  }
+  RGS_RETURN_IF_ERROR(sink.declare(targets));
   for (size_t f = 1; f <= files.size(); ++f) {
     const SogFile& file = files[f % files.size()];
-    const std::string target = f % files.size() == 0 ? path : (folder / file.name).string();
+    const std::string& target = targets[f - 1];
     RGS_RETURN_IF_ERROR(sink.write(target, file.bytes.data(), file.bytes.size()));
     summary.bytes += file.bytes.size();
     summary.files.push_back(target);

@@ -12,12 +12,15 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <new>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "internal_created_folders.h"
 
 namespace rgs::format {
 namespace {
@@ -93,43 +96,80 @@ void start_writeback(int fd, uint64_t offset, size_t size) {
 #endif
 }
 
-// --- Temporaries an interrupt must remove ------------------------------------------------------------------
+// --- Paths an interrupt must remove -------------------------------------------------------------------------
 //
 // A fixed table of C strings that a signal handler can walk without locks or allocation. A slot holds a path
-// from strdup() while its temporary exists. A path is freed on removal from the table only while no handler is
-// walking the table (g_walkers): a handler on another thread may still be reading it otherwise. A walker counts
+// from strdup() while it is registered. A path is freed on removal from the table only while no handler is
+// walking the table (walkers_): a handler on another thread may still be reading it otherwise. A walker counts
 // itself in before it loads any slot, and a removal empties its slot before it looks at the count, so a walker
 // that starts after the check can no longer see the path (sequentially consistent atomics).
 
-constexpr size_t kMaxTemporaries = size_t{1} << 16;
-std::atomic<char*> g_temporaries[kMaxTemporaries];
-std::atomic<size_t> g_temporaries_used{0};  ///< slots at or above this index were never used
-std::atomic<int> g_walkers{0};
-static_assert(std::atomic<int>::is_always_lock_free && std::atomic<char*>::is_always_lock_free,
-              "signal handlers may only touch lock-free atomics");
-std::mutex g_temporaries_mutex;
+class SignalPathTable {
+ public:
+  static constexpr size_t kCapacity = size_t{1} << 16;
 
-/// Registers `path`; returns its slot, or kMaxTemporaries when the table is full (or out of memory).
-size_t register_temporary(const std::string& path) {
-  char* copy = ::strdup(path.c_str());
-  if (copy == nullptr) return kMaxTemporaries;
-  std::lock_guard<std::mutex> lock(g_temporaries_mutex);
-  const size_t used = g_temporaries_used.load();
-  for (size_t i = 0; i < kMaxTemporaries; ++i) {
-    if (i < used && g_temporaries[i].load() != nullptr) continue;
-    g_temporaries[i].store(copy);
-    if (i >= used) g_temporaries_used.store(i + 1);
-    return i;
+  /// Registers `path`; returns its slot, or kCapacity when the table is full (or out of memory).
+  size_t add(const std::string& path) {
+    char* copy = ::strdup(path.c_str());
+    if (copy == nullptr) return kCapacity;
+    std::lock_guard<std::mutex> lock(mutex_);
+    const size_t used = used_.load();
+    for (size_t i = 0; i < kCapacity; ++i) {
+      if (i < used && slots_[i].load() != nullptr) continue;
+      slots_[i].store(copy);
+      if (i >= used) used_.store(i + 1);
+      return i;
+    }
+    std::free(copy);
+    return kCapacity;
   }
-  std::free(copy);
-  return kMaxTemporaries;
-}
 
-void unregister_temporary(size_t slot) {
-  if (slot >= kMaxTemporaries) return;
-  char* path = g_temporaries[slot].exchange(nullptr);
-  if (path != nullptr && g_walkers.load() == 0) std::free(path);
-}
+  void remove(size_t slot) {
+    if (slot >= kCapacity) return;
+    char* path = slots_[slot].exchange(nullptr);
+    if (path != nullptr && walkers_.load() == 0) std::free(path);
+  }
+
+  bool contains(const std::string& path) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const size_t used = used_.load();
+    for (size_t i = 0; i < used; ++i) {
+      const char* p = slots_[i].load();
+      if (p != nullptr && path == p) return true;
+    }
+    return false;
+  }
+
+  /// Calls `remove_path` on every registered path, newest slot last. Async-signal-safe when `remove_path` is.
+  /// Returns how many calls returned 0.
+  template <typename RemovePath>
+  size_t for_each_path(RemovePath remove_path) noexcept {
+    walkers_.fetch_add(1);
+    size_t removed = 0;
+    const size_t used = used_.load();
+    for (size_t i = 0; i < used && i < kCapacity; ++i) {
+      const char* path = slots_[i].load();
+      if (path != nullptr && remove_path(path) == 0) ++removed;
+    }
+    walkers_.fetch_sub(1);
+    return removed;
+  }
+
+ private:
+  std::atomic<char*> slots_[kCapacity];
+  std::atomic<size_t> used_{0};  ///< slots at or above this index were never used
+  std::atomic<int> walkers_{0};
+  std::mutex mutex_;
+  static_assert(std::atomic<int>::is_always_lock_free && std::atomic<char*>::is_always_lock_free,
+                "signal handlers may only touch lock-free atomics");
+};
+
+SignalPathTable g_temporaries;  ///< StagedFile temporaries: unlinked
+SignalPathTable g_folders;      ///< folders created for outputs: removed when empty
+
+constexpr size_t kMaxTemporaries = SignalPathTable::kCapacity;
+size_t register_temporary(const std::string& path) { return g_temporaries.add(path); }
+void unregister_temporary(size_t slot) { g_temporaries.remove(slot); }
 
 /// Creates "<dir>/<name>.<pid>[-<n>].rgs-partial" next to `path` exclusively (never opens anyone else's file)
 /// and registers it in `*slot`. Returns the descriptor.
@@ -241,6 +281,18 @@ class AtomicFiles final : public FileSink {
   Status write_by_name(const std::string& path, const ByNameWriter& write_to) override {
     RGS_ASSIGN_OR_RETURN(StagedFile staged, StagedFile::write_by_name(path, write_to));
     return staged.commit();
+  }
+  Status declare(const std::vector<std::string>& paths) override {
+    for (const std::string& path : paths) RGS_RETURN_IF_ERROR(check_output_file(path, {}));
+    return Status();
+  }
+  Status create_folder(const std::string& path) override {
+    std::error_code ec;
+    std::filesystem::create_directories(path, ec);
+    if (ec || !std::filesystem::is_directory(path)) {
+      return Status(StatusCode::kIoError, path + ": cannot create folder" + (ec ? ": " + ec.message() : std::string()));
+    }
+    return Status();
   }
 };
 
@@ -381,24 +433,17 @@ Status check_output_file(const std::string& output, const std::vector<std::strin
   return Status();
 }
 
-bool is_pending_temporary(const std::string& path) {
-  std::lock_guard<std::mutex> lock(g_temporaries_mutex);
-  const size_t used = g_temporaries_used.load();
-  for (size_t i = 0; i < used; ++i) {
-    const char* p = g_temporaries[i].load();
-    if (p != nullptr && path == p) return true;
-  }
-  return false;
-}
+bool is_pending_temporary(const std::string& path) { return g_temporaries.contains(path); }
 
 void remove_pending_temporaries() noexcept {
-  g_walkers.fetch_add(1);
-  const size_t used = g_temporaries_used.load();
-  for (size_t i = 0; i < used && i < kMaxTemporaries; ++i) {
-    const char* path = g_temporaries[i].load();
-    if (path != nullptr) ::unlink(path);
+  g_temporaries.for_each_path([](const char* path) { return ::unlink(path); });
+  // A folder created inside another created folder is empty only once the inner one is gone: a few passes.
+  for (int pass = 0; pass < 8; ++pass) {
+    if (g_folders.for_each_path([](const char* path) { return ::rmdir(path); }) == 0) break;
   }
-  g_walkers.fetch_sub(1);
 }
+
+size_t detail::register_created_folder(const std::string& path) { return g_folders.add(path); }
+void detail::unregister_created_folder(size_t slot) { g_folders.remove(slot); }
 
 }  // namespace rgs::format

@@ -208,7 +208,7 @@ Result<std::string> measure_quality(const format::RgsFile& file, const LodBenchO
 
 Status bench_lod(const LodBenchOptions& o,
                  const std::function<Result<std::vector<runtime::Camera>>(const format::SceneBounds&)>& make_cameras,
-                 OutputSet& outputs) {
+                 format::OutputTransaction& outputs) {
   RGS_ASSIGN_OR_RETURN(LodSource source, open_source(o));
   if (!o.save_path.empty() && !source.bytes.empty()) {
     RGS_RETURN_IF_ERROR(outputs.write(o.save_path, source.bytes.data(), source.bytes.size()));

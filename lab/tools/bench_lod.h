@@ -11,7 +11,7 @@
 #include "rgs/format/status.h"
 #include "rgs/runtime/camera.h"
 #include "rgs/runtime/lod_streamer.h"
-#include "output_set.h"
+#include "rgs/format/output_transaction.h"
 
 namespace rgs::tools {
 
@@ -39,6 +39,6 @@ struct LodBenchOptions {
 /// the JSON to `outputs`.
 Status bench_lod(const LodBenchOptions& options,
                  const std::function<Result<std::vector<runtime::Camera>>(const format::SceneBounds&)>& make_cameras,
-                 OutputSet& outputs);
+                 format::OutputTransaction& outputs);
 
 }  // namespace rgs::tools

@@ -848,7 +848,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
 }
 
 /// Measures, prints the report and stages the JSON in `outputs`.
-Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_start) {
+Status bench(const Options& opt, format::OutputTransaction& outputs, Clock::time_point t_start) {
   // Replication is host work and checks the Gaussian count before the device is touched.
   lab::ReplicatedScene replicated;
   if (opt.replicate > 1) {
@@ -947,7 +947,7 @@ Status bench(const Options& opt, tools::OutputSet& outputs, Clock::time_point t_
 }
 
 /// The streamed mode: bench_lod() with the options and cameras of this run.
-Status bench_streamed(const Options& opt, tools::OutputSet& outputs) {
+Status bench_streamed(const Options& opt, format::OutputTransaction& outputs) {
   RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.device));
   tools::LodBenchOptions o;
   o.input = opt.input;
@@ -969,7 +969,7 @@ Status bench_streamed(const Options& opt, tools::OutputSet& outputs) {
 int run(const Options& opt) {
   const auto t_start = Clock::now();
   // The JSON report may not replace an input; inputs are checked without blocking (a FIFO is refused at once).
-  tools::OutputSet outputs;
+  format::OutputTransaction outputs;
   if (int code = tools::declare_inputs(kTool, outputs, {opt.input}, opt.cameras.cameras_path); code != tools::kExitOk) {
     return code;
   }

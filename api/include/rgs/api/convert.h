@@ -20,6 +20,7 @@
 #include "rgs/converter/spz.h"
 #include "rgs/format/archive.h"
 #include "rgs/format/metadata.h"
+#include "rgs/format/output_transaction.h"
 #include "rgs/format/status.h"
 #include "rgs/format/writer.h"
 
@@ -214,9 +215,11 @@ struct ConvertOptions {
   uint64_t memory_limit = 0;
   /// Name recorded as the provenance's "converter" (with the library version).
   std::string converter_name = "roofgs api";
-  /// Where the output file goes; null: written atomically in place (format::atomic_files()). A tool passes
-  /// its run's transaction, which commits the output with its other files.
-  format::FileSink* files = nullptr;
+  /// The output transaction the output files go through; null: the conversion makes its own and commits it
+  /// when it succeeds. Either way the files the scene reads are its inputs and every output file is declared
+  /// to it before it is written, so that no output replaces an input; a tool passes its run's transaction,
+  /// which it commits with the run's other files.
+  format::OutputTransaction* files = nullptr;
   /// Called on the converting thread as each stage starts (with a target, also after each of rate control's
   /// steps), with non-decreasing fractions, and once with stage "done" and fraction 1 after a successful
   /// conversion (not after a failed one). Empty: not called.
@@ -323,6 +326,11 @@ struct ConvertReport {
 /// @return kInvalidArgument naming the option and the rule.
 Status check_convert_options(const ConvertOptions& options);
 
+/// check_convert_options, and the rules that need the output: a target writes a .rgs; levels of detail are
+/// written into a .rgs or a streamed SOG (lod-meta.json) only. convert() checks them before reading anything.
+/// @return kInvalidArgument naming `dst`, the option and the rule.
+Status check_convert_output(const std::string& dst, OutputFormat output, const ConvertOptions& options);
+
 /// Converts the scene at `src` (any format converter::read_scene detects, .rgs included) into `dst` in
 /// options.to or the format its extension names: read (every file of the scene checked against `dst`),
 /// drop SH bands, then quantize into a .rgs (provenance records the source, its XXH64 and the options) or
@@ -347,9 +355,9 @@ Status check_convert_options(const ConvertOptions& options);
 ///         control's views"); kLimitExceeded (an input whose estimated memory is above options.memory_limit,
 ///         refused before it is read unless it is built out of core; a limit too small for the out-of-core build
 ///         of one chunk; a byte target no measured archive fits once coded at the file's
-///         zstd level, or a written file over it: its provenance larger than the fit allowed for; that file is
-///         written when options.files is null); the errors of reading `src`, of rendering and of writing `dst`
-///         (kIoError naming it).
+///         zstd level, or a written file over it: its provenance larger than the fit allowed for); the errors of
+///         reading `src`, of rendering and of writing `dst` (kIoError naming it). On any error no output is
+///         committed.
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
 
 /// How convert() reads its source: `options.read`, the invalid-value policy of `options.sanitize`, and the
@@ -357,8 +365,8 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
 converter::SceneReadOptions scene_read_options(const ConvertOptions& options);
 
 /// convert() of a scene converter::read_scene has read from `src` with scene_read_options(options): for a caller
-/// that works on the scene before writing it, without reading it twice. `dst` is checked
-/// against the files the scene read (format::check_output_file), as convert() does. The report counts no reading
+/// that works on the scene before writing it, without reading it twice. The files the scene read are the
+/// transaction's inputs, as in convert(). The report counts no reading
 /// time.
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,
                                     const ConvertOptions& options = {});

@@ -75,8 +75,8 @@ bool is_sog_folder_path(const std::string& path);
 std::vector<std::string> sog_folder_files(const std::string& meta_path);
 
 /// Writes `cloud` to `path`: a .sog bundle, or (SogContainer::kFolder) `path` is the meta.json and the images
-/// go next to it, each through `files` (an output transaction commits or drops them together). The folder
-/// must exist. Errors: as encode_sog, kIoError naming the file.
+/// go next to it, all declared to `files` first, then each written through it (an output transaction commits
+/// or drops them together). The folder must exist. Errors: as encode_sog, kIoError naming the file.
 Result<SogWriteSummary> write_sog(const std::string& path, const format::GaussianCloud& cloud,
                                   const SogWriteOptions& options = {},
                                   format::FileSink& files = format::atomic_files());
@@ -92,9 +92,10 @@ inline constexpr uint64_t kSogLodFileGaussians = 524288;
 /// binary `tree` over the chunks in their Morton order, each node with its `bound` {min, max} of the chunk's
 /// level-0 means, each leaf with `lods` {level: {file, offset, count}}) and, next to it, one folder "L_K" per
 /// file: SOG v2 (encode_sog) of consecutive chunks of level L, up to kSogLodFileGaussians Gaussians. The
-/// Gaussians are the dequantized runtime-profile values of `lod.scene`. Folders are created as needed; the
-/// files go through `files`, lod-meta.json last; on failure the files and folders this call created are
-/// removed. read_sog_lod reads level l back in chunk order. Errors: as encode_sog, kIoError naming the file
+/// Gaussians are the dequantized runtime-profile values of `lod.scene`. Every file is declared to `files`
+/// before the first is written, the folders are created through it (FileSink::create_folder), lod-meta.json
+/// is written last; given an output transaction, a failure or an interrupt leaves nothing new and changes
+/// nothing that existed. read_sog_lod reads level l back in chunk order. Errors: as encode_sog, kIoError naming the file
 /// or folder, kCorruptData (an inconsistent `lod`).
 Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const LodScene& lod,
                                       const SogWriteOptions& options = {},

@@ -54,9 +54,13 @@ inline constexpr const char kPartialSuffix[] = ".rgs-partial";
 using ByNameWriter = std::function<Status(const std::string& temp_path)>;
 
 /// Where a writer puts the files it writes. Every library writer (write_scene_file, converter::write_ply,
-/// write_spz, write_glb, audit::write_report_images) takes one explicitly: atomic_files() writes each file
-/// atomically in place; a command-line tool passes its run's transaction, which stages every output and
-/// renames them all at its end.
+/// write_spz, write_glb, write_sog, write_sog_lod, audit::write_report_images) takes one explicitly:
+/// atomic_files() writes each file atomically in place; an OutputTransaction (output_transaction.h) stages
+/// every output, refuses any that is an input, and renames them all at its end.
+///
+/// A writer of several files calls declare() with all of them before it writes the first, and creates the
+/// folders it needs with create_folder(), so that a transaction can refuse the set (and remove the folders
+/// again) before anything is written.
 class FileSink {
  public:
   virtual ~FileSink() = default;
@@ -65,6 +69,14 @@ class FileSink {
   virtual Status write(const std::string& path, const ChunkProducer& produce) = 0;
   /// The same for a writer that can only open a file by name: `write_to` is given a temporary path.
   virtual Status write_by_name(const std::string& path, const ByNameWriter& write_to) = 0;
+  /// Says that `paths` will be written, before any of them is.
+  /// @return kInvalidArgument for a path that may not be written (an input of the transaction, a device or
+  ///         pipe), kIoError for an existing directory; nothing is created either way.
+  virtual Status declare(const std::vector<std::string>& paths) = 0;
+  /// Creates the folder `path` (and its parents) for files still to be written; an existing folder is kept.
+  /// A transaction removes the folders it created (when empty) if it is not committed, on an interrupt too.
+  /// @return kIoError "<path>: cannot create folder: <OS cause>".
+  virtual Status create_folder(const std::string& path) = 0;
   /// One in-memory buffer.
   Status write(const std::string& path, const void* data, size_t size);
 };

@@ -1,8 +1,9 @@
-// tools::OutputSet, the output transaction of a command-line run: outputs appear together at commit, a failed
-// run changes nothing, identities (an output is never an input or another output), and the temporaries of
-// killed runs.
+// format::OutputTransaction: outputs appear together at commit, a failed or interrupted run changes nothing and
+// leaves nothing (files and folders), identities (an output is never an input or another output), and the
+// temporaries of killed runs.
 #include <doctest/doctest.h>
 
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "../format/format_test_util.h"
-#include "output_set.h"
+#include "format_test_util.h"
 #include "temp_dir.h"
 #include "rgs/format/file_io.h"
+#include "rgs/format/output_transaction.h"
 #include "rgs/format/writer.h"
 
 namespace {
@@ -48,12 +49,12 @@ bool contains(const std::vector<std::string>& names, const std::string& name) {
 
 }  // namespace
 
-TEST_CASE("OutputSet: outputs appear together at commit, never before") {
+TEST_CASE("OutputTransaction: outputs appear together at commit, never before") {
   TempDir dir;
   const std::string a = dir.file("a.rgs"), b = dir.file("b.json");
   REQUIRE(write_file_atomic(b, "old json", 8).ok());
   {
-    tools::OutputSet set;
+    OutputTransaction set;
     REQUIRE(set.add_output(a).ok());
     REQUIRE(set.add_output(b).ok());
     CHECK(set.remove_stale_temporaries().empty());
@@ -73,12 +74,12 @@ TEST_CASE("OutputSet: outputs appear together at commit, never before") {
   CHECK(names == std::vector<std::string>{"a.rgs", "b.json"});
 }
 
-TEST_CASE("OutputSet: a run that fails after staging changes nothing") {
+TEST_CASE("OutputTransaction: a run that fails after staging changes nothing") {
   TempDir dir;
   const std::string a = dir.file("a.rgs"), b = dir.file("b.json");
   REQUIRE(write_file_atomic(a, "old scene", 9).ok());
   {
-    tools::OutputSet set;
+    OutputTransaction set;
     REQUIRE(set.add_output(a).ok());
     REQUIRE(set.add_output(b).ok());
     REQUIRE(set.write(a, "new scene", 9).ok());
@@ -94,11 +95,11 @@ TEST_CASE("OutputSet: a run that fails after staging changes nothing") {
   CHECK(dir.entries() == std::vector<std::string>{"a.rgs"});
 }
 
-TEST_CASE("OutputSet: a library writer given the set stages into it, others write in place") {
+TEST_CASE("OutputTransaction: a library writer given the set stages into it, others write in place") {
   TempDir dir;
   const std::string rgs = dir.file("scene.rgs");
   const EncodedScene scene = test::make_random_scene(16, 0, 5);
-  tools::OutputSet set;
+  OutputTransaction set;
   REQUIRE(set.add_output(rgs).ok());
   auto written = write_scene_file(rgs, scene, {}, set);
   REQUIRE_MESSAGE(written.ok(), written.status().to_string());
@@ -113,7 +114,7 @@ TEST_CASE("OutputSet: a library writer given the set stages into it, others writ
   CHECK(fs::file_size(rgs) == *written);
 }
 
-TEST_CASE("OutputSet: an output may not be an input or another output, whatever path names it") {
+TEST_CASE("OutputTransaction: an output may not be an input or another output, whatever path names it") {
   TempDir dir;
   const std::string input = dir.file("in.ply");
   REQUIRE(write_file_atomic(input, "ply", 3).ok());
@@ -122,7 +123,7 @@ TEST_CASE("OutputSet: an output may not be an input or another output, whatever 
   fs::create_symlink(input, dir.file("soft.ply"));
   fs::create_directory_symlink(dir.path(), dir.file("again"));
 
-  tools::OutputSet set;
+  OutputTransaction set;
   REQUIRE(set.add_input(input).ok());
   CHECK(set.add_input(dir.file("missing.ply")).ok());  // its reader reports it
   for (const std::string& alias : {input, dir.file("hard.ply"), dir.file("soft.ply"), dir.file("sub/../in.ply"),
@@ -142,7 +143,7 @@ TEST_CASE("OutputSet: an output may not be an input or another output, whatever 
   REQUIRE(set.add_output(dir.file("late.rgs")).ok());
   REQUIRE(write_file_atomic(dir.file("late_src"), "x", 1).ok());
   fs::rename(dir.file("late_src"), dir.file("late.rgs"));
-  tools::OutputSet late;
+  OutputTransaction late;
   REQUIRE(late.add_output(dir.file("late.rgs")).ok());
   CHECK(late.add_input(dir.file("late.rgs")).code() == StatusCode::kInvalidArgument);
 
@@ -156,7 +157,7 @@ TEST_CASE("OutputSet: an output may not be an input or another output, whatever 
   CHECK(slurp(input) == "ply");
 }
 
-TEST_CASE("OutputSet: temporaries of killed runs are removed once their process is gone") {
+TEST_CASE("OutputTransaction: temporaries of killed runs are removed once their process is gone") {
   TempDir dir;
   const std::string out = dir.file("out.rgs");
   const std::string stale = "out.rgs." + std::to_string(dead_pid()) + kPartialSuffix;
@@ -167,7 +168,7 @@ TEST_CASE("OutputSet: temporaries of killed runs are removed once their process 
   for (const std::string& name : {stale, stale_second, alive, other, not_ours}) {
     REQUIRE(write_file_atomic(dir.file(name), "partial", 7).ok());
   }
-  tools::OutputSet set;
+  OutputTransaction set;
   REQUIRE(set.add_output(out).ok());
   const std::vector<std::string> notes = set.remove_stale_temporaries();
   std::string all;
@@ -186,11 +187,102 @@ TEST_CASE("OutputSet: temporaries of killed runs are removed once their process 
   // A same-named file that is an input of the run is never removed.
   const std::string input_like = "in.rgs." + std::to_string(dead_pid()) + kPartialSuffix;
   REQUIRE(write_file_atomic(dir.file(input_like), "input", 5).ok());
-  tools::OutputSet second;
+  OutputTransaction second;
   REQUIRE(second.add_input(dir.file(input_like)).ok());
   REQUIRE(second.add_output(dir.file("in.rgs")).ok());
   const auto kept = second.remove_stale_temporaries();
   REQUIRE(kept.size() == 1);
   CHECK(kept[0].find("is an input of this one; left in place") != std::string::npos);
   CHECK(slurp(dir.file(input_like)) == "input");
+}
+
+TEST_CASE("OutputTransaction: writers declare what they find they must write, with the same checks") {
+  TempDir dir;
+  const std::string input = dir.file("in.ply"), out = dir.file("out.rgs");
+  REQUIRE(write_file_atomic(input, "ply", 3).ok());
+  fs::create_directory_symlink(dir.path(), dir.file("again"));
+  OutputTransaction set;
+  REQUIRE(set.add_input(input).ok());
+  REQUIRE(set.add_input(dir.file("again/in.ply")).ok());  // the same input twice: harmless
+  REQUIRE(set.add_output(out).ok());
+  CHECK(set.declare({out, dir.file("again/out.rgs")}).ok());  // declared already, in any spelling
+  CHECK(set.declare({dir.file("more.json")}).ok());
+  CHECK(set.has_output(dir.file("more.json")));
+  const Status refused = set.declare({dir.file("chunk.json"), dir.file("again/in.ply")});
+  CHECK(refused.code() == StatusCode::kInvalidArgument);
+  CHECK_MESSAGE(refused.message().find("is the input file") != std::string::npos, refused.message());
+  CHECK(set.write(dir.file("again/in.ply"), "x", 1).code() == StatusCode::kInvalidArgument);
+  CHECK(slurp(input) == "ply");
+}
+
+TEST_CASE("OutputTransaction: folders it created go when it is not committed, stay when it is") {
+  TempDir dir;
+  fs::create_directory(dir.file("existing"));
+  const std::string nested = dir.file("new/deeper/leaf");
+  {
+    OutputTransaction set;
+    REQUIRE(set.create_folder(nested).ok());
+    REQUIRE(set.create_folder(dir.file("existing")).ok());
+    REQUIRE(set.add_output(nested + "/a.json").ok());
+    REQUIRE(set.write(nested + "/a.json", "{}", 2).ok());
+    CHECK(fs::is_directory(nested));
+  }  // failed run: not committed
+  CHECK_FALSE(fs::exists(dir.file("new")));
+  CHECK(fs::is_directory(dir.file("existing")));
+  {
+    OutputTransaction set;
+    REQUIRE(set.create_folder(nested).ok());
+    REQUIRE(set.add_output(nested + "/a.json").ok());
+    REQUIRE(set.write(nested + "/a.json", "{}", 2).ok());
+    REQUIRE(set.commit().ok());
+  }
+  CHECK(slurp(nested + "/a.json") == "{}");
+  REQUIRE(write_file_atomic(dir.file("plain"), "x", 1).ok());
+  OutputTransaction set;
+  CHECK(set.create_folder(dir.file("plain/sub")).code() == StatusCode::kIoError);
+}
+
+TEST_CASE("OutputTransaction: replaced() names the outputs that existed and were replaced") {
+  TempDir dir;
+  const std::string old_file = dir.file("old.rgs"), new_file = dir.file("new.json"), unwritten = dir.file("x.png");
+  REQUIRE(write_file_atomic(old_file, "old", 3).ok());
+  REQUIRE(write_file_atomic(unwritten, "keep", 4).ok());
+  OutputTransaction set;
+  for (const std::string& path : {old_file, new_file, unwritten}) REQUIRE(set.add_output(path).ok());
+  REQUIRE(set.write(old_file, "new", 3).ok());
+  REQUIRE(set.write(new_file, "{}", 2).ok());
+  CHECK(set.replaced().empty());
+  REQUIRE(set.commit().ok());
+  CHECK(set.replaced() == std::vector<std::string>{old_file});
+  CHECK(slurp(unwritten) == "keep");
+}
+
+namespace {
+void remove_and_exit(int) {
+  remove_pending_temporaries();
+  ::_exit(0);
+}
+}  // namespace
+
+TEST_CASE("OutputTransaction: an interrupt removes its temporaries and the folders it created") {
+  TempDir dir;
+  REQUIRE(write_file_atomic(dir.file("kept.json"), "old", 3).ok());
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::signal(SIGTERM, remove_and_exit);
+    OutputTransaction set;
+    const std::string folder = dir.file("0_0/inner");
+    const bool ok = set.create_folder(folder).ok() && set.add_output(folder + "/meta.json").ok() &&
+                    set.add_output(dir.file("kept.json")).ok() && set.write(folder + "/meta.json", "{}", 2).ok() &&
+                    set.write(dir.file("kept.json"), "new", 3).ok();
+    if (!ok) ::_exit(3);
+    ::raise(SIGTERM);  // as the tools' handler does: remove_pending_temporaries(), then end
+    ::_exit(4);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(child, &status, 0) == child);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  CHECK(dir.entries() == std::vector<std::string>{"kept.json"});
+  CHECK(slurp(dir.file("kept.json")) == "old");
 }

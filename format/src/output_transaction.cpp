@@ -1,6 +1,6 @@
-// OutputSet: the outputs of one command-line run, staged and committed together; the temporaries earlier
-// runs left behind, removed once their process is gone.
-#include "output_set.h"
+// OutputTransaction: the outputs of one run, staged and committed together; the temporaries earlier runs left
+// behind, removed once their process is gone.
+#include "rgs/format/output_transaction.h"
 
 #include <dirent.h>
 #include <signal.h>
@@ -14,7 +14,9 @@
 #include <optional>
 #include <utility>
 
-namespace rgs::tools {
+#include "internal_created_folders.h"
+
+namespace rgs::format {
 namespace {
 
 /// Splits "dir/name" into ("dir", "name"); a bare name lives in ".".
@@ -31,7 +33,7 @@ std::string join_path(const std::string& dir, const std::string& name) {
 /// Where an output goes: its directory's identity and its last component, or the path as written when the
 /// directory cannot be examined (the write reports why).
 struct OutputKey {
-  std::optional<format::FileId> dir;
+  std::optional<FileId> dir;
   std::string name;
   std::string lexical;
   bool operator==(const OutputKey& o) const {
@@ -44,7 +46,7 @@ OutputKey output_key(const std::string& path) {
   OutputKey key;
   std::string dir;
   std::tie(dir, key.name) = split_path(path);
-  key.dir = format::file_id(dir);
+  key.dir = file_id(dir);
   key.lexical = path;
   return key;
 }
@@ -81,22 +83,38 @@ std::string remove_stale(const std::string& temp, long long pid, bool is_input) 
 
 }  // namespace
 
-struct OutputSet::State {
+struct OutputTransaction::State {
   struct Input {
     std::string path;
-    format::FileId id;
+    FileId id;
   };
   struct Output {
     std::string path;
     std::string dir, name;
     OutputKey key;
-    std::optional<format::FileId> id;      ///< when it exists
-    std::optional<format::StagedFile> staged;  ///< its content, once written
+    std::optional<FileId> id;      ///< when it exists
+    std::optional<StagedFile> staged;  ///< its content, once written
+    bool replaced = false;             ///< it existed and commit() renamed its new content over it
+  };
+  struct CreatedFolder {
+    std::string path;
+    size_t slot;  ///< in the table an interrupt walks (internal_created_folders.h)
   };
   std::vector<Input> inputs;
   std::vector<Output> outputs;
-  std::vector<std::string> created_directories;  ///< removed when empty unless the commit succeeds
+  std::vector<CreatedFolder> created_folders;  ///< removed when empty unless the commit succeeds
   bool closed = false;
+
+  /// Unregisters the created folders from the interrupt's table, removing them first unless `keep`.
+  void release_folders(bool keep) {
+    std::error_code ec;
+    // Newest first: a folder created inside another one is removed before it.
+    for (auto folder = created_folders.rbegin(); folder != created_folders.rend(); ++folder) {
+      if (!keep) std::filesystem::remove(folder->path, ec);
+      detail::unregister_created_folder(folder->slot);
+    }
+    created_folders.clear();
+  }
 
   Output* find(const std::string& path) {
     const OutputKey key = output_key(path);
@@ -118,34 +136,33 @@ struct OutputSet::State {
   }
 };
 
-OutputSet::OutputSet() : state_(std::make_unique<State>()) {}
+OutputTransaction::OutputTransaction() : state_(std::make_unique<State>()) {}
 
-OutputSet::~OutputSet() {
+OutputTransaction::~OutputTransaction() {
   state_->outputs.clear();  // the temporaries first, so that a folder this run created can be empty
-  std::error_code ec;
-  // Newest first: a folder created inside another one this run created is removed before it.
-  for (auto dir = state_->created_directories.rbegin(); dir != state_->created_directories.rend(); ++dir) {
-    std::filesystem::remove(*dir, ec);
-  }
+  state_->release_folders(false);
 }
 
-Status OutputSet::add_input(const std::string& path) {
-  const auto id = format::file_id(path);
+Status OutputTransaction::add_input(const std::string& path) {
+  const auto id = file_id(path);
   if (!id) return Status();
   for (const State::Output& o : state_->outputs) {
     if (o.id == id) return Status(StatusCode::kInvalidArgument, o.path + ": this output is the input file " + path);
+  }
+  for (const State::Input& in : state_->inputs) {
+    if (in.id == *id) return Status();
   }
   state_->inputs.push_back({path, *id});
   return Status();
 }
 
-Status OutputSet::add_output(const std::string& path) {
-  RGS_RETURN_IF_ERROR(format::check_output_file(path, {}));  // a file name, not a directory, device or pipe
+Status OutputTransaction::add_output(const std::string& path) {
+  RGS_RETURN_IF_ERROR(check_output_file(path, {}));  // a file name, not a directory, device or pipe
   State::Output out;
   out.path = path;
   std::tie(out.dir, out.name) = split_path(path);
   out.key = output_key(path);
-  out.id = format::file_id(path);
+  out.id = file_id(path);
   for (const State::Input& in : state_->inputs) {  // identities as recorded by add_input
     if (out.id == in.id) {
       return Status(StatusCode::kInvalidArgument, path + ": this output is the input file " + in.path + " (same file)");
@@ -160,13 +177,20 @@ Status OutputSet::add_output(const std::string& path) {
   return Status();
 }
 
-std::vector<std::string> OutputSet::remove_stale_temporaries() {
+Status OutputTransaction::declare(const std::vector<std::string>& paths) {
+  for (const std::string& path : paths) {
+    if (!has_output(path)) RGS_RETURN_IF_ERROR(add_output(path));
+  }
+  return Status();
+}
+
+std::vector<std::string> OutputTransaction::remove_stale_temporaries() {
   std::vector<std::string> notes;
   std::vector<std::string> dirs;
   for (const State::Output& o : state_->outputs) {
     if (std::find(dirs.begin(), dirs.end(), o.dir) == dirs.end()) dirs.push_back(o.dir);
   }
-  const std::string suffix = format::kPartialSuffix;
+  const std::string suffix = kPartialSuffix;
   for (const std::string& dir : dirs) {
     DIR* d = ::opendir(dir.c_str());
     if (d == nullptr) continue;  // the write reports a missing or unreadable directory
@@ -189,8 +213,8 @@ std::vector<std::string> OutputSet::remove_stale_temporaries() {
     ::closedir(d);
     for (const auto& [entry, pid] : found) {
       const std::string temp = join_path(dir, entry);
-      if (format::is_pending_temporary(temp)) continue;  // ours, being written
-      const auto id = format::file_id(temp);
+      if (is_pending_temporary(temp)) continue;  // ours, being written
+      const auto id = file_id(temp);
       bool is_input = false;
       for (const State::Input& in : state_->inputs) is_input = is_input || (id && in.id == *id);
       notes.push_back(remove_stale(temp, pid, is_input));
@@ -199,19 +223,19 @@ std::vector<std::string> OutputSet::remove_stale_temporaries() {
   return notes;
 }
 
-Status OutputSet::write(const std::string& path, const format::ChunkProducer& produce) {
+Status OutputTransaction::write(const std::string& path, const ChunkProducer& produce) {
   RGS_ASSIGN_OR_RETURN(State::Output * out, state_->restage(path));
-  RGS_ASSIGN_OR_RETURN(out->staged, format::StagedFile::write(path, produce));
+  RGS_ASSIGN_OR_RETURN(out->staged, StagedFile::write(path, produce));
   return Status();
 }
 
-Status OutputSet::write_by_name(const std::string& path, const format::ByNameWriter& write_to) {
+Status OutputTransaction::write_by_name(const std::string& path, const ByNameWriter& write_to) {
   RGS_ASSIGN_OR_RETURN(State::Output * out, state_->restage(path));
-  RGS_ASSIGN_OR_RETURN(out->staged, format::StagedFile::write_by_name(path, write_to));
+  RGS_ASSIGN_OR_RETURN(out->staged, StagedFile::write_by_name(path, write_to));
   return Status();
 }
 
-Status OutputSet::commit() {
+Status OutputTransaction::commit() {
   RGS_RETURN_ERROR_IF(state_->closed, StatusCode::kInvalidArgument, "the outputs of this run were already committed");
   state_->closed = true;
   // An interrupt between two renames would leave some outputs new and some old.
@@ -224,25 +248,53 @@ Status OutputSet::commit() {
   Status status;
   for (State::Output& o : state_->outputs) {
     if (!o.staged) continue;
-    if (status.ok()) status = o.staged->commit();
+    if (status.ok()) {
+      status = o.staged->commit();
+      o.replaced = status.ok() && o.id.has_value();
+    }
     o.staged.reset();  // after a failure, the rest are removed
   }
+  if (status.ok()) state_->release_folders(true);
   if (masked) ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
-  if (status.ok()) state_->created_directories.clear();
   return status;
 }
 
-bool OutputSet::has_output(const std::string& path) const { return state_->find(path) != nullptr; }
-
-Status OutputSet::create_directory(const std::string& path, const std::string& what) {
-  std::error_code ec;
-  const bool existed = std::filesystem::exists(path, ec);
-  std::filesystem::create_directories(path, ec);
-  if (ec || !std::filesystem::is_directory(path)) {
-    return Status(StatusCode::kIoError, path + ": cannot create " + what + (ec ? ": " + ec.message() : std::string()));
+std::vector<std::string> OutputTransaction::replaced() const {
+  std::vector<std::string> paths;
+  for (const State::Output& o : state_->outputs) {
+    if (o.replaced) paths.push_back(o.path);
   }
-  if (!existed) state_->created_directories.push_back(path);
+  return paths;
+}
+
+bool OutputTransaction::has_output(const std::string& path) const { return state_->find(path) != nullptr; }
+
+Status OutputTransaction::create_folder(const std::string& path) {
+  std::error_code ec;
+  // Each missing ancestor is created (and registered) on its own, so that all of them can be removed again.
+  std::vector<std::filesystem::path> missing;
+  for (std::filesystem::path p = path; !p.empty() && !std::filesystem::exists(p, ec); p = p.parent_path()) {
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  for (auto p = missing.rbegin(); p != missing.rend(); ++p) {
+    // Registered before it exists: an interrupt between the two finds nothing to remove, never a folder it
+    // does not know.
+    const size_t slot = detail::register_created_folder(p->string());
+    if (!std::filesystem::create_directory(*p, ec) && !ec) {
+      detail::unregister_created_folder(slot);  // created by someone else meanwhile: not ours to remove
+      continue;
+    }
+    if (ec) {
+      detail::unregister_created_folder(slot);
+      break;
+    }
+    state_->created_folders.push_back({p->string(), slot});
+  }
+  if (ec || !std::filesystem::is_directory(path)) {
+    return Status(StatusCode::kIoError, path + ": cannot create folder" + (ec ? ": " + ec.message() : std::string()));
+  }
   return Status();
 }
 
-}  // namespace rgs::tools
+}  // namespace rgs::format
