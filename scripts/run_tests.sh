@@ -8,8 +8,13 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${RGS_BUILD_DIR:-$root/build}"
 "$root/scripts/install_deps.sh" tests
-# Explicit, so a build folder configured by run_sample.sh (tools only) gets the whole project.
-"$root/scripts/build.sh" -- -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_SAMPLES=ON -DRGS_WITH_OPENIMAGEIO=ON "$@"
+# Explicit, so a build folder configured by run_sample.sh (tools only, CUDA only with a device) gets the whole
+# project: CUDA whenever nvcc is found (the GPU tests are built here and run on a GPU host) unless the arguments
+# say otherwise.
+cuda_default=(-URGS_WITH_CUDA)
+for arg in "$@"; do [[ "$arg" == -DRGS_WITH_CUDA* ]] && cuda_default=(); done
+"$root/scripts/build.sh" -- -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_SAMPLES=ON -DRGS_WITH_OPENIMAGEIO=ON \
+  "${cuda_default[@]}" "$@"
 mkdir -p "$build/Testing"
 summary="$build/Testing/ctest_output.txt"
 set +e

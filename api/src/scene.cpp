@@ -196,6 +196,9 @@ SceneInfo lod_scene_info(const format::RgsFile& file, const std::string& path, c
   info.gaussians = file.lod()->full_detail_count();
   info.sh_degree = file.metadata().sh_degree;
   info.antialiased = file.metadata().antialiased;
+  if (std::string note = converter::rgs_antialiased_note(file, options.read_options); !note.empty()) {
+    info.notes.push_back(std::move(note));
+  }
   info.lod = lod_info(file, options.lod);
   return info;
 }
@@ -319,6 +322,9 @@ Result<Scene> load_cuda(const std::string& path, const LoadOptions& options) {
   std::optional<LoadedGpuScene> loaded;
   if (rgs_file) {
     RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, upload_rgs_file(*rgs_file, rgs_file->file_size(), path, gpu_options));
+    if (std::string note = converter::rgs_antialiased_note(*rgs_file, options.read_options); !note.empty()) {
+      l.notes.push_back(std::move(note));
+    }
     loaded.emplace(std::move(l));
   } else if (!options.quantize_other_formats) {
     RGS_ASSIGN_OR_RETURN(LoadedGpuScene l, load_gpu_scene(path, gpu_options, nullptr, options.read_options));

@@ -294,7 +294,6 @@ std::string describe_unknown(const Probe& p) {
   if (extension_of(p.path) == ".ksplat") {
     return "a GaussianSplats3D .ksplat file, which RoofGS does not read (export .ply or .splat from it)";
   }
-  if (head_starts_with(p, "NGSP")) return "a Niantic SPZ file";
   if (p.head.size() >= 2 && p.head[0] == 0x1f && p.head[1] == 0x8b) return "gzip data (an SPZ file before v4?)";
   if (head_starts_with(p, "glTF")) return "a binary glTF (.glb)";
   if (head_starts_with(p, "RIFF") && head_starts_with(p, "WEBP", 8)) return "a WebP image";
@@ -438,7 +437,14 @@ Result<InputScene> rgs_file_scene(const format::RgsFile& file, const SceneReadOp
   scene.file_count = 1;
   scene.files = {name};
   scene.declared_vertices = file.gaussian_count();
+  if (std::string note = rgs_antialiased_note(file, options); !note.empty()) scene.notes.push_back(std::move(note));
   return scene;
+}
+
+std::string rgs_antialiased_note(const format::RgsFile& file, const SceneReadOptions& options) {
+  if (!options.antialiased || file.metadata().antialiased) return std::string();
+  return file.name() + ": antialiased (--antialiased) ignored: a .rgs file records whether its scene was trained "
+                       "with the 2D Mip filter, and this one records that it was not";
 }
 
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options) {

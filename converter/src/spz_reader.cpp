@@ -25,6 +25,9 @@ namespace {
 using detail::le_u32;
 using detail::le_u64;
 
+/// Above this, an SPZ version field is damage, not a version from the future (they count 1, 2, 3, 4, ...).
+constexpr uint32_t kMaxPlausibleSpzVersion = 255;
+
 /// Largest expansion of a zstd stream: a block (at most 128 KiB of output) takes at least 4 bytes
 /// (3-byte header + 1 RLE byte), so output <= 32768 × input.
 constexpr uint64_t kMaxZstdExpansion = 32768;
@@ -54,6 +57,10 @@ struct StreamSizes {
 
 /// Checks the header fields every version shares; fills the stream sizes.
 Status check_header(const Header& h, const InteropReadOptions& options, StreamSizes* sizes) {
+  if (h.version == 0 || h.version > kMaxPlausibleSpzVersion) {
+    return Status(StatusCode::kCorruptData, "damaged SPZ file: its version field reads " + std::to_string(h.version) +
+                                                ", which no SPZ version has");
+  }
   if (h.version < kMinSpzVersion || h.version > kMaxSpzVersion) {
     return Status(StatusCode::kUnsupportedVersion,
                   "SPZ version " + std::to_string(h.version) + " is not supported (this build reads " +
@@ -203,13 +210,13 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
   const Header h = read_header(data);
   const uint32_t num_streams = data[15];
   const uint32_t toc_offset = le_u32(data + 16);
+  StreamSizes sizes;
+  RGS_RETURN_IF_ERROR(check_header(h, options, &sizes));
   if (h.version < kMinSpzVersionForZstd) {
     return Status(StatusCode::kUnsupportedVersion,
                   "plaintext SPZ header with version " + std::to_string(h.version) +
                       " (versions before 4 are gzip-wrapped and start with 1f 8b)");
   }
-  StreamSizes sizes;
-  RGS_RETURN_IF_ERROR(check_header(h, options, &sizes));
   for (size_t b = 20; b < detail::kSpzV4HeaderBytes; ++b) {
     if (data[b] != 0) {
       return Status(StatusCode::kCorruptData, "SPZ header reserved byte " + std::to_string(b) + " is " +
@@ -485,10 +492,8 @@ Result<InteropScene> read_any(const uint8_t* data, size_t size, const InteropRea
 
 bool looks_like_spz(const uint8_t* head, size_t n) {
   if (head == nullptr) return false;
-  if (n >= 8 && le_u32(head) == detail::kSpzMagic) {
-    const uint32_t version = le_u32(head + 4);
-    return version >= kMinSpzVersionForZstd && version <= kMaxSpzVersion;
-  }
+  // The magic alone decides: a version this build does not read, or a damaged one, is read_spz's to name.
+  if (n >= 8 && le_u32(head) == detail::kSpzMagic) return true;
   if (n < 3 || head[0] != 0x1f || head[1] != 0x8b || head[2] != 0x08) return false;
   z_stream zs{};
   if (inflateInit2(&zs, 16 + MAX_WBITS) != Z_OK) return false;

@@ -300,6 +300,15 @@ TEST_CASE("spz: inputs that must fail") {
   SUBCASE("v4 header fields") {
     CHECK(read_code(patched(v4, 4, 5)) == StatusCode::kUnsupportedVersion);
     CHECK(read_code(patched(v4, 4, 3)) == StatusCode::kUnsupportedVersion);
+    // A version field no SPZ has is damage, and the file is still recognised as an SPZ file.
+    for (const auto& [at, value] : {std::pair<size_t, uint8_t>{4, 0}, {6, 0xc7}, {7, 0x01}}) {
+      const std::vector<uint8_t> damaged = patched(v4, at, value);
+      CHECK(converter::looks_like_spz(damaged.data(), damaged.size()));
+      auto r = read_spz_bytes(damaged.data(), damaged.size(), "test.spz", {});
+      CHECK(r.status().code() == StatusCode::kCorruptData);
+      CHECK_MESSAGE(r.status().message().find("damaged SPZ file: its version field reads") != std::string::npos,
+                    r.status().to_string());
+    }
     CHECK(read_code(patched(v4, 12, 4)) == StatusCode::kUnsupportedFeature);
     CHECK(read_code(patched(v4, 12, 9)) == StatusCode::kCorruptData);
     CHECK(read_code(patched(v4, 15, 5)) == StatusCode::kCorruptData);    // stream count

@@ -127,6 +127,10 @@ Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& o
 /// format::dequantize; kInvalidArgument when options.lod asks for a streamed-SOG level.
 Result<InputScene> rgs_file_scene(const format::RgsFile& file, const SceneReadOptions& options = {});
 
+/// The note every reader of a .rgs gives when options.antialiased asks for the 2D Mip filter and the file records
+/// that its scene was trained without it: the option is ignored (the file's flag decides). Empty otherwise.
+std::string rgs_antialiased_note(const format::RgsFile& file, const SceneReadOptions& options);
+
 /// Reads a 3DGS PLY or a .rgs held in memory (a file given on standard input) into the InputScene read_scene
 /// gives for the same file. `name` names the input in errors. Only PLY and .rgs are read from memory; other
 /// formats need a file (read_scene). Errors: those of read_scene's PLY and .rgs readers, and

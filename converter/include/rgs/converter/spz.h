@@ -24,7 +24,8 @@ constexpr uint32_t kMinSpzVersionForSmallestThree = 3;
 constexpr uint32_t kMinSpzVersionForZstd = 4;
 
 /// True when `head` (the first `n` bytes of a file; pass at least 64, ideally 4096) starts an SPZ file:
-/// "NGSP" with version 4, or a gzip member (1f 8b 08) whose first inflated bytes are "NGSP". When the
+/// "NGSP" (whatever its version: read_spz names a version it does not read, or a damaged one), or a gzip member
+/// (1f 8b 08) whose first inflated bytes are "NGSP". When the
 /// head is too short to inflate four bytes, or the member is damaged before them (so that the SPZ reader names
 /// the damage), a gzip member alone counts. Never reads past head[n - 1].
 bool looks_like_spz(const uint8_t* head, size_t n);
