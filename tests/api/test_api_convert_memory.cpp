@@ -45,6 +45,26 @@ TEST_CASE("convert_memory_limit: the option, else half the physical memory") {
   CHECK(api::convert_memory_limit(options) == 12345);
 }
 
+TEST_CASE("max_whole_input_bytes: the largest input of a format whose estimate is within the memory limit") {
+  const std::string ply = test::repo_path(test::kGuitarSh3);
+  const uint64_t bytes = std::filesystem::file_size(ply);
+  auto estimate = api::estimate_convert_memory(ply);
+  REQUIRE(estimate.ok());
+  api::ConvertOptions options;
+  options.memory_limit = *estimate;
+  CHECK(api::max_whole_input_bytes("ply", options) >= bytes);
+  options.memory_limit = *estimate - 1;  // the file's estimate is above it
+  CHECK(api::max_whole_input_bytes("ply", options) < bytes);
+  options.memory_limit = uint64_t{96} << 20;  // 32 MiB above what every conversion holds
+  CHECK(api::max_whole_input_bytes("ply", options) == (uint64_t{32} << 20) * 2 / 3);
+  CHECK(api::max_whole_input_bytes("rgs", options) == (uint64_t{32} << 20) / 4);
+  CHECK(api::max_whole_input_bytes("spz", options) == (uint64_t{32} << 20) / 8);
+  options.memory_limit = uint64_t{64} << 20;
+  CHECK(api::max_whole_input_bytes("ply", options) == 0);
+  options.memory_limit = 1;
+  CHECK(api::max_whole_input_bytes("rgs", options) == 0);
+}
+
 TEST_CASE("convert: an input over memory_limit that cannot be read in batches is refused before it is read") {
   test::TempDir dir;
   const std::string src = test::repo_path("tests/data/interop/guitar_256_splat_transform_v4.spz");
