@@ -317,15 +317,20 @@ Result<bool> append_standard_input(std::vector<uint8_t>* bytes, uint64_t n) {
 
 }  // namespace
 
-Result<std::vector<uint8_t>> read_standard_input() {
+Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* convert) {
   std::vector<uint8_t> bytes;
   // How much the stream may hold: known from its first bytes (a .rgs header's file_size, a PLY header's
   // element counts); until then, the head. Content that is neither stops at its first bytes.
   uint64_t limit = format::kHeaderSize;
   bool known = false, rgs = false;
+  // The most the conversion may hold of it, once its format is known: what the memory limit allows a file of
+  // that format read whole.
+  const char* format_id = nullptr;
+  uint64_t most = UINT64_MAX;
   for (;;) {
     if (!known && bytes.size() >= 8) {
       if (std::memcmp(bytes.data(), format::kMagic, 8) == 0) {
+        format_id = "rgs";
         if (bytes.size() >= 56) {
           limit = 0;
           for (int b = 7; b >= 0; --b) limit = (limit << 8) | bytes[48 + b];  // file_size (SPEC §2)
@@ -337,6 +342,7 @@ Result<std::vector<uint8_t>> read_standard_input() {
           known = rgs = true;
         }
       } else if (std::memcmp(bytes.data(), "ply", 3) == 0 && (bytes[3] == '\n' || bytes[3] == '\r')) {
+        format_id = "ply";
         auto size = converter::ply_stream_bytes(bytes.data(), bytes.size(), scene_read_options().max_gaussians);
         if (!size.ok()) return Status(size.status()).prepend("-");
         if (*size != 0) {
@@ -348,9 +354,20 @@ Result<std::vector<uint8_t>> read_standard_input() {
       } else {
         return bytes;  // neither: the reader names what it is from these bytes
       }
+      if (convert != nullptr) most = api::max_whole_input_bytes(format_id, *convert);
+    }
+    if (bytes.size() > most) {
+      return Status(StatusCode::kLimitExceeded,
+                    "standard input: more than " + group_digits(most) + " bytes, the most a " +
+                        (std::strcmp(format_id, "rgs") == 0 ? ".rgs" : "PLY") +
+                        " read whole may have within the memory limit of " +
+                        group_digits(api::convert_memory_limit(*convert)) +
+                        " bytes (--memory-limit); convert it from a file instead (a binary PLY converted with "
+                        "--lod-levels is then built out of core)");
     }
     if (bytes.size() >= limit) break;
-    RGS_ASSIGN_OR_RETURN(bool more, append_standard_input(&bytes, limit - bytes.size()));
+    const uint64_t until = most == UINT64_MAX ? limit : std::min(limit, most + 1);
+    RGS_ASSIGN_OR_RETURN(bool more, append_standard_input(&bytes, until - bytes.size()));
     if (!more) return bytes;
   }
   if (rgs) {

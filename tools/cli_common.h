@@ -14,6 +14,7 @@
 
 #include "rgs/format/output_transaction.h"
 #include "rgs/api/camera.h"
+#include "rgs/api/convert.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/status.h"
@@ -108,9 +109,12 @@ int commit_outputs(const char* tool, format::OutputTransaction& outputs, bool qu
 /// the file_size of its header (more bytes: kCorruptData; above ReadLimits::max_file_bytes: kLimitExceeded),
 /// a PLY up to what its header's elements can hold (converter::ply_stream_bytes; a vertex count above
 /// --max-gaussians: kLimitExceeded from the header), anything else only its first bytes, for the reader to name.
+/// With `convert` (a conversion's options), never more than api::max_whole_input_bytes allows its format under
+/// the conversion's memory limit either: one byte more ends the reading with kLimitExceeded ("standard input:
+/// more than N bytes, ... the memory limit of M bytes (--memory-limit) ..."), whatever the header declares.
 /// The buffer grows with the bytes received (by an eighth at a time), never to what a header declares.
 /// @return kIoError with the OS cause.
-Result<std::vector<uint8_t>> read_standard_input();
+Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* convert = nullptr);
 
 /// 1234567 -> "1,234,567".
 std::string group_digits(uint64_t n);

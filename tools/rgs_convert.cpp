@@ -361,7 +361,7 @@ int run(Options& opt) {
   Result<api::ConvertReport> report = Status(StatusCode::kInvalidArgument, "not converted");
   if (opt.rate_control()) opt.convert.target.device = api::cuda_available() ? api::Device::kCuda : api::Device::kCpu;
   if (opt.input == "-") {
-    auto bytes = tools::read_standard_input();
+    auto bytes = tools::read_standard_input(&opt.convert);
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
     report = api::convert_bytes(bytes->data(), bytes->size(), opt.input, opt.output, opt.convert);
   } else {
@@ -500,8 +500,8 @@ int main(int argc, char** argv) {
                  "Most memory the conversion may use (e.g. 4GiB, 512MB; at least 1 byte; default: half the physical "
                  "memory). An input whose estimated peak when read whole is above the limit is built out of core when "
                  "it is a binary PLY converted with --lod-levels (the same bytes; partition files on the output's "
-                 "disk, about twice its size), else refused before it is read (docs/LOD.md, scenes larger than memory; standard input "
-                 "is not estimated)")
+                 "disk, about twice its size), else refused before it is read (docs/LOD.md, scenes larger than memory); standard "
+                 "input, held whole, is read up to what a file of its format read whole may have")
       ->transform(CLI::AsSizeValue(false))
       ->check(rgs::tools::whole_number_in(1, std::numeric_limits<uint64_t>::max()));
   app.add_flag("-q,--quiet", opt.quiet,

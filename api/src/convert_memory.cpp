@@ -37,6 +37,11 @@ double peak_per_input_byte(const std::string& format_id) {
   return kCompactPeakPerInputByte;
 }
 
+/// The estimated peak of reading `input_bytes` of a format whole.
+uint64_t estimate_bytes(uint64_t input_bytes, double factor) {
+  return kBaseBytes + uint64_t(double(input_bytes) * factor);
+}
+
 std::string bytes_text(uint64_t bytes) {
   char text[32];
   const bool gib = bytes >= (uint64_t{1} << 30);
@@ -66,7 +71,17 @@ Result<uint64_t> estimate_convert_memory(const std::string& src) {
     const uintmax_t size = std::filesystem::file_size(file, ec);
     if (!ec) input_bytes += uint64_t(size);
   }
-  return kBaseBytes + uint64_t(double(input_bytes) * peak_per_input_byte(format_id));
+  return estimate_bytes(input_bytes, peak_per_input_byte(format_id));
+}
+
+uint64_t max_whole_input_bytes(const std::string& format_id, const ConvertOptions& options) {
+  const uint64_t limit = convert_memory_limit(options);
+  if (limit == 0) return UINT64_MAX;
+  if (limit <= kBaseBytes) return 0;
+  const double factor = peak_per_input_byte(format_id);
+  uint64_t most = uint64_t(double(limit - kBaseBytes) / factor);
+  while (estimate_bytes(most + 1, factor) <= limit) ++most;  // the estimate rounds down
+  return most;
 }
 
 namespace detail {

@@ -106,7 +106,7 @@ class PlyBatches {
       return true;
     }
   }
-  void rewind() { stream_->rewind(); }
+  Status rewind() { return stream_->rewind(); }
 
  private:
   converter::PlyStream* stream_;
@@ -123,9 +123,8 @@ class QuantizedBatches final : public converter::EncodedBatches {
                    RgsOutputReport* report)
       : batches_(batches), options_(options), shq_(shq), report_(report) {}
   Status rewind() override {
-    batches_->rewind();
     ++pass_;
-    return Status();
+    return batches_->rewind();
   }
   Result<bool> next_means(std::vector<float>* means) override {
     RGS_ASSIGN_OR_RETURN(const bool more, batches_->next(&cloud_));
@@ -157,6 +156,14 @@ class QuantizedBatches final : public converter::EncodedBatches {
   int pass_ = 0;
   int measured_pass_ = 0;  ///< the pass whose batches measure the errors: the first that quantizes
 };
+
+/// The error of a pass over `stream`, naming `src` once (the stream's errors name it already, the build's do
+/// not); a file that changed since the stream opened it is named as the cause of whatever the pass found.
+Status pass_error(Status status, const converter::PlyStream& stream, const std::string& src) {
+  RGS_RETURN_IF_ERROR(stream.check_unchanged());
+  if (status.message().compare(0, src.size() + 2, src + ": ") != 0) status.prepend(src);
+  return status;
+}
 
 /// What the first pass learns (every value checked on the way): the count, the SH scales, the means' box.
 struct SceneStatistics {
@@ -232,7 +239,7 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
   quantize.sh_dc_bits = options.sh_dc_bits;
   PlyBatches batches(stream.get(), options, batch);
   auto scanned = scan(batches, quantize, *stream, options);
-  if (!scanned.ok()) return Status(scanned.status()).prepend(src);
+  if (!scanned.ok()) return pass_error(scanned.status(), *stream, src);
   SceneStatistics stats = std::move(scanned).value();
   const converter::InputHygiene hygiene = stream->hygiene();
   if (stats.count == 0 && !options.allow_empty) {
@@ -285,7 +292,7 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
   };
   const auto build_start = Clock::now();
   auto built = converter::build_lod_out_of_core(dst, quantized, head, lod, *options.files);
-  if (!built.ok()) return Status(built.status()).prepend(src);
+  if (!built.ok()) return pass_error(built.status(), *stream, src);
   report.seconds.lod = std::chrono::duration<double>(Clock::now() - build_start).count();
   rgs.sh_quantization = stats.shq;
   rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],

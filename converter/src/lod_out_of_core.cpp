@@ -11,6 +11,10 @@
 // a section, level after level, are that section. Partition and spill files have no name (O_TMPFILE), so
 // nothing is left on disk however the process ends.
 //
+// The passes must see the same Gaussians: every mean of a later pass is checked against the scene's box and the
+// counts' nodes before it indexes a count, a node or a partition, and a disagreement is kCorruptData, never a
+// write outside an array or a file built from two inputs.
+//
 // Same bytes as build_lod + write_scene_file: the chunks, their Gaussians' order and every level are the same;
 // levels are built up to the most the options allow and the count is chosen at the end (level l depends only on
 // level l - 1, so the levels kept do not depend on the ones built beyond them).
@@ -21,6 +25,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -56,6 +62,8 @@ constexpr uint64_t kSortBytesPerGaussian = 24;
 constexpr uint64_t kSlackBytes = uint64_t{4} << 20;
 /// Chunks built at once per worker before their levels are spilled in order.
 constexpr uint32_t kChunksPerWorker = 2;
+/// A cell of the count grid in no node (the counts found it empty).
+constexpr uint32_t kNoNode = UINT32_MAX;
 
 Status io_error(const std::string& what, const std::string& path) {
   return Status(StatusCode::kIoError, what + " " + path + ": " + std::strerror(errno));
@@ -234,6 +242,7 @@ class OutOfCoreBuild {
     while (count_depth_ < kMaxCountDepth && (uint64_t{8} << (3 * count_depth_)) * 4 <= budget) ++count_depth_;
     const uint64_t cells = uint64_t{1} << (3 * count_depth_);
     prefix_.assign(cells + 1, 0);
+    report("counting", 0);
     RGS_RETURN_IF_ERROR(batches.rewind());
     std::vector<float> means;
     uint64_t seen = 0;
@@ -241,7 +250,10 @@ class OutOfCoreBuild {
       RGS_ASSIGN_OR_RETURN(const bool more, batches.next_means(&means));
       if (!more) break;
       const uint64_t n = means.size() / 3;
-      for (uint64_t i = 0; i < n; ++i) ++prefix_[cell_of(&means[i * 3]) + 1];
+      for (uint64_t i = 0; i < n; ++i) {
+        RGS_RETURN_IF_ERROR(check_inside_box(&means[i * 3]));
+        ++prefix_[cell_of(&means[i * 3]) + 1];
+      }
       seen += n;
       report("counting", 0.25 * static_cast<double>(seen) / static_cast<double>(head_.count));
     }
@@ -252,9 +264,28 @@ class OutOfCoreBuild {
     return Status();
   }
 
+  /// The count-grid cell of a mean inside the scene's box (MortonGrid::code clamps any other value, NaN
+  /// included, to a cell at the grid's edge: check_inside_box first).
   uint64_t cell_of(const float* mean) const { return grid_.code(mean) >> (3 * (kGridBits - count_depth_)); }
 
-  /// The nodes, and consecutive nodes grouped into buckets that fit the memory limit; the cell → bucket map.
+  /// kCorruptData unless the mean lies inside head.metadata.bounds' box, which every pass must respect: a mean
+  /// outside it (or NaN) means the input changed between its passes.
+  Status check_inside_box(const float* mean) const {
+    const format::SceneBounds& b = head_.metadata.bounds;
+    for (int a = 0; a < 3; ++a) {
+      if (mean[a] >= b.aabb_min[a] && mean[a] <= b.aabb_max[a]) continue;
+      char text[256];
+      std::snprintf(text, sizeof(text),
+                    "(%.9g, %.9g, %.9g) outside the scene's box (%.9g, %.9g, %.9g)..(%.9g, %.9g, %.9g)", mean[0],
+                    mean[1], mean[2], b.aabb_min[0], b.aabb_min[1], b.aabb_min[2], b.aabb_max[0], b.aabb_max[1],
+                    b.aabb_max[2]);
+      return Status(StatusCode::kCorruptData,
+                    std::string("the input gave a mean ") + text + " (did it change while it was read?)");
+    }
+    return Status();
+  }
+
+  /// The nodes, and consecutive nodes grouped into buckets that fit the memory limit; the cell → node map.
   Status plan_buckets() {
     const uint64_t max_chunk = options_.lod.max_chunk_gaussians;
     collect_nodes(prefix_, count_depth_, 0, 0, max_chunk, &nodes_);
@@ -291,14 +322,18 @@ class OutOfCoreBuild {
                         "the scene needs " + std::to_string(bucket_count_) + " partitions of at most " +
                             std::to_string(capacity_) + " Gaussians, more than " + std::to_string(kMaxBuckets) +
                             "; raise the memory limit");
-    // prefix_ becomes the cell → bucket map (its counts are no longer needed).
-    for (const Node& node : nodes_) {
-      for (uint64_t c = node.first_cell; c < node.end_cell; ++c) prefix_[c] = node.bucket;
+    // prefix_ becomes the cell → node map (its counts are no longer needed); cells the counts found empty are
+    // in no node.
+    std::fill(prefix_.begin(), prefix_.end(), kNoNode);
+    for (uint32_t k = 0; k < nodes_.size(); ++k) {
+      for (uint64_t c = nodes_[k].first_cell; c < nodes_[k].end_cell; ++c) prefix_[c] = k;
     }
     return Status();
   }
 
-  /// Pass 2: every Gaussian appended to its bucket's partition file.
+  /// Pass 2: every Gaussian appended to its bucket's partition file. Each must lie in the box and in a node the
+  /// counts gave it, no node holding more than it counted, before it indexes anything: a file's bytes can change
+  /// between passes (the source checks its own bytes only at a pass's end).
   Status partition(EncodedBatches& batches) {
     buckets_.resize(bucket_count_);
     const size_t buffer = std::clamp<size_t>(options_.memory_limit / 4 / bucket_count_, kMinPartitionBufferBytes,
@@ -307,9 +342,13 @@ class OutOfCoreBuild {
       buckets_[b] = std::make_unique<SpillFile>();
       RGS_RETURN_IF_ERROR(buckets_[b]->open(folder_, "partition " + std::to_string(b), buffer));
     }
+    report("partitioning", 0.25);
     RGS_RETURN_IF_ERROR(batches.rewind());
     format::EncodedScene batch;
     std::vector<uint8_t> record(record_.bytes());
+    std::vector<uint64_t> in_node(nodes_.size(), 0);
+    const Status changed(StatusCode::kCorruptData,
+                         "the input gave other Gaussians than in its first pass (did it change while it was read?)");
     uint64_t seen = 0;
     for (;;) {
       RGS_ASSIGN_OR_RETURN(const bool more, batches.next(&batch));
@@ -317,19 +356,19 @@ class OutOfCoreBuild {
       RGS_RETURN_ERROR_IF(seen + batch.count > head_.count, StatusCode::kCorruptData,
                           "the input gave more Gaussians than in its first pass (did it change while it was read?)");
       for (uint64_t i = 0; i < batch.count; ++i) {
+        RGS_RETURN_IF_ERROR(check_inside_box(&batch.means[i * 3]));
+        const uint32_t node = prefix_[cell_of(&batch.means[i * 3])];
+        if (node == kNoNode || ++in_node[node] > nodes_[node].count) return changed;
         put_record(batch, i, record_, record.data());
-        RGS_RETURN_IF_ERROR(buckets_[prefix_[cell_of(&batch.means[i * 3])]]->append(record.data(), record.size()));
+        RGS_RETURN_IF_ERROR(buckets_[nodes_[node].bucket]->append(record.data(), record.size()));
       }
       seen += batch.count;
       report("partitioning", 0.25 + 0.25 * static_cast<double>(seen) / static_cast<double>(head_.count));
     }
     std::vector<uint32_t>().swap(prefix_);
     for (auto& b : buckets_) RGS_RETURN_IF_ERROR(b->flush());
-    for (uint32_t b = 0; b < bucket_count_; ++b) {
-      uint64_t expected = 0;
-      for (const Node& node : nodes_) expected += node.bucket == b ? node.count : 0;
-      RGS_RETURN_ERROR_IF(buckets_[b]->size() != expected * record_.bytes(), StatusCode::kCorruptData,
-                          "the input gave other Gaussians than in its first pass (did it change while it was read?)");
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      if (in_node[k] != nodes_[k].count) return changed;
     }
     return Status();
   }
@@ -537,7 +576,7 @@ class OutOfCoreBuild {
   double scene_center_[3] = {0, 0, 0};
   std::string folder_;  ///< the output's, where the unnamed partition and spill files are made
   int count_depth_ = 1;
-  std::vector<uint32_t> prefix_;  ///< counts per cell, their prefix sums, then the cell → bucket map
+  std::vector<uint32_t> prefix_;  ///< counts per cell, their prefix sums, then the cell → node map
   std::vector<Node> nodes_;
   uint64_t capacity_ = 0;
   uint32_t bucket_count_ = 0;

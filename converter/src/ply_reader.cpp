@@ -4,7 +4,8 @@
 // Memory: read_ply() streams the vertex data with pread() through one reusable 1 MB buffer per worker
 // thread, so the peak is the decoded cloud plus a few MB, not the file (mmap'd pages would count toward
 // RSS); read_ply_bytes() decodes the caller's span in place. With PlyReadOptions::hash_file the same
-// pass feeds the bytes to XXH64 in file order, so the file is read once.
+// pass feeds the bytes to XXH64 in file order, so the file is read once. PlyStream hashes every one of its passes
+// so, and compares each later pass's hash and the file's identity with the first pass's.
 #include "rgs/converter/ply_reader.h"
 
 #include <fcntl.h>
@@ -19,6 +20,7 @@
 #include <charconv>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
@@ -376,8 +378,11 @@ class FileSource final : public ByteSource {
     if (S_ISDIR(st.st_mode)) return Status(StatusCode::kIoError, "is a directory, not a PLY file");
     if (!S_ISREG(st.st_mode)) return Status(StatusCode::kIoError, "not a regular file");
     size_ = static_cast<uint64_t>(st.st_size);
+    opened_ = st;
     return Status();
   }
+  /// The file as open() found it (fstat of its descriptor).
+  const struct stat& opened() const { return opened_; }
   Result<const uint8_t*> view(uint64_t offset, size_t n) override {
     if (buffer_.size() < n) {
       buffer_.clear();
@@ -410,6 +415,7 @@ class FileSource final : public ByteSource {
  private:
   int fd_ = -1;
   uint64_t size_ = 0;
+  struct stat opened_ {};
   std::vector<uint8_t> buffer_;
 };
 
@@ -847,6 +853,16 @@ Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::str
   });
 }
 
+namespace {
+
+std::string time_text(const struct timespec& t) {
+  char text[48];
+  std::snprintf(text, sizeof(text), "%lld.%09ld", static_cast<long long>(t.tv_sec), static_cast<long>(t.tv_nsec));
+  return text;
+}
+
+}  // namespace
+
 struct PlyStream::State {
   std::string path;
   PlyReadOptions options;
@@ -854,9 +870,103 @@ struct PlyStream::State {
   PlyBody body;
   uint64_t next = 0;  ///< next vertex of this pass
   HygieneCounts pass_counts;  ///< hygiene of this pass (invalid indices not kept)
+  /// XXH64 of what this pass read so far, in file order (from the header on).
   std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> hash{nullptr, XXH64_freeState};
-  bool hashing = false;  ///< the first pass, hashing the file as it goes
-  std::optional<uint64_t> file_xxh64;
+  bool hashing = false;  ///< this pass has hashed every byte before its next vertex
+  bool pass_checked = false;  ///< this pass's end was checked
+  std::optional<uint64_t> file_xxh64;  ///< the first whole pass's
+
+  /// kIoError when the file at `path` is not the one open() found (another file put in its place, removed,
+  /// another size or modification time), or when `digest` (a later pass's XXH64) is not the first pass's: the
+  /// passes of the out-of-core build must read the same bytes.
+  Status check_unchanged(std::optional<uint64_t> digest = std::nullopt) const {
+    const struct stat& was = source.opened();
+    struct stat now {};
+    std::string why;
+    if (::stat(path.c_str(), &now) != 0) {
+      why = "it can no longer be found: " + errno_text(errno);
+    } else if (now.st_dev != was.st_dev || now.st_ino != was.st_ino) {
+      why = "another file was put in its place: inode " + std::to_string(was.st_ino) + " → " +
+            std::to_string(now.st_ino);
+    } else if (now.st_size != was.st_size) {
+      why = "size " + std::to_string(was.st_size) + " → " + std::to_string(now.st_size) + " bytes";
+    } else if (now.st_mtim.tv_sec != was.st_mtim.tv_sec || now.st_mtim.tv_nsec != was.st_mtim.tv_nsec) {
+      why = "modification time " + time_text(was.st_mtim) + " → " + time_text(now.st_mtim) + " s";
+    } else if (digest && file_xxh64 && *digest != *file_xxh64) {
+      char text[64];
+      std::snprintf(text, sizeof(text), "%016llx → %016llx", static_cast<unsigned long long>(*file_xxh64),
+                    static_cast<unsigned long long>(*digest));
+      why = std::string("other bytes of the same size and time: XXH64 ") + text;
+    }
+    if (why.empty()) return Status();
+    return Status(StatusCode::kIoError, "the file changed during the passes of the out-of-core build (" + why + ")");
+  }
+
+  /// Starts a pass: its hash from the header's bytes.
+  Status start_pass() {
+    next = 0;
+    pass_counts = HygieneCounts();
+    XXH64_reset(hash.get(), 0);
+    hashing = false;
+    pass_checked = false;
+    RGS_RETURN_IF_ERROR(hash_range(&source, 0, body.header.data_offset, hash.get()));
+    hashing = true;
+    return Status();
+  }
+
+  /// Ends a pass that read every vertex: the rest of the file hashed; the first pass keeps its digest, a later
+  /// one must give the same, and the file must still be the one open() found.
+  Status finish_pass() {
+    pass_checked = true;
+    if (!hashing) return check_unchanged();
+    hashing = false;
+    const uint64_t vertex_end = body.header.data_offset + body.n * body.layout.stride;
+    RGS_RETURN_IF_ERROR(hash_range(&source, vertex_end, source.size(), hash.get()));
+    const auto digest = static_cast<uint64_t>(XXH64_digest(hash.get()));
+    if (file_xxh64) return check_unchanged(digest);
+    file_xxh64 = digest;
+    return check_unchanged();
+  }
+
+  /// The next at most `max` vertices of this pass into `batch` (PlyStream::read without the file's name).
+  Result<uint64_t> read(uint64_t max, format::GaussianCloud* batch) {
+    const uint64_t first = next;
+    const uint64_t rows = std::min(max, body.n - first);
+    batch->sh_degree = body.layout.sh_degree;
+    detail::resize_cloud_huge(batch, static_cast<size_t>(rows));
+    if (rows == 0) {
+      if (!pass_checked && max > 0) RGS_RETURN_IF_ERROR(finish_pass());
+      return uint64_t{0};
+    }
+    const uint64_t stride = body.layout.stride;
+    OrderedHasher hasher(hash.get());
+    HygieneCounts counts;
+    const Status decoded = decode_binary(source, body.header.data_offset + first * stride, rows, body.layout,
+                                         body.swap, hashing ? &hasher : nullptr, batch, &counts);
+    if (!decoded.ok()) {
+      hashing = false;  // this pass's hash misses bytes
+      return decoded;
+    }
+    next = first + rows;
+    add_counts(counts, &pass_counts);
+    if (!counts.invalid.empty()) {
+      if (pass_counts.first_invalid_index < 0) {
+        pass_counts.first_invalid_index = static_cast<int64_t>(first + counts.invalid.front());
+      }
+      if (options.invalid_policy == InvalidPolicy::kReject) {
+        return Status(StatusCode::kCorruptData,
+                      "vertex " + std::to_string(pass_counts.first_invalid_index) +
+                          " has non-finite values or a zero-norm quaternion (" +
+                          std::to_string(pass_counts.gaussians_with_nonfinite + pass_counts.zero_norm_quaternions) +
+                          " such Gaussians in the first " + std::to_string(next) +
+                          " vertices); rerun with --sanitize to drop them");
+      }
+      batch->remove_gaussians(counts.invalid);
+      pass_counts.dropped_gaussians += counts.invalid.size();
+    }
+    if (next == body.n) RGS_RETURN_IF_ERROR(finish_pass());
+    return rows;
+  }
 };
 
 Result<std::unique_ptr<PlyStream>> PlyStream::open(const std::string& path, const PlyReadOptions& options) {
@@ -869,13 +979,9 @@ Result<std::unique_ptr<PlyStream>> PlyStream::open(const std::string& path, cons
     RGS_RETURN_ERROR_IF(state->body.header.storage == PlyStorage::kAscii, StatusCode::kUnsupportedFeature,
                         "an ascii PLY is read whole, not in batches; convert it to binary first "
                         "(rgs-convert in.ply binary.ply)");
-    if (options.hash_file) {
-      state->hash.reset(XXH64_createState());
-      if (!state->hash) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
-      XXH64_reset(state->hash.get(), 0);
-      RGS_RETURN_IF_ERROR(hash_range(&state->source, 0, state->body.header.data_offset, state->hash.get()));
-      state->hashing = true;
-    }
+    state->hash.reset(XXH64_createState());
+    if (!state->hash) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
+    RGS_RETURN_IF_ERROR(state->start_pass());
     std::unique_ptr<PlyStream> stream(new PlyStream());
     stream->state_ = std::move(state);
     return stream;
@@ -889,49 +995,27 @@ uint32_t PlyStream::sh_degree() const { return state_->body.layout.sh_degree; }
 uint64_t PlyStream::file_bytes() const { return state_->source.size(); }
 std::string PlyStream::storage_format() const { return detail::ply_storage_name(state_->body.header.storage); }
 const InputHygiene& PlyStream::hygiene() const { return state_->pass_counts; }
-std::optional<uint64_t> PlyStream::file_xxh64() const { return state_->file_xxh64; }
+std::optional<uint64_t> PlyStream::file_xxh64() const {
+  return state_->options.hash_file ? state_->file_xxh64 : std::nullopt;
+}
 
-void PlyStream::rewind() {
-  state_->next = 0;
-  state_->pass_counts = HygieneCounts();
-  state_->hashing = false;  // the first pass hashed the file, or stopped early and left the hash unfinished
+Status PlyStream::check_unchanged() const { return Status(state_->check_unchanged()).prepend(state_->path); }
+
+Status PlyStream::rewind() {
+  State& st = *state_;
+  return detail::guarded<bool>(st.path, "starting a pass over the PLY", [&]() -> Result<bool> {
+    RGS_RETURN_IF_ERROR(st.check_unchanged());
+    RGS_RETURN_IF_ERROR(st.start_pass());
+    return true;
+  }).status();
 }
 
 Result<uint64_t> PlyStream::read(uint64_t max, format::GaussianCloud* batch) {
   State& st = *state_;
   return detail::guarded<uint64_t>(st.path, "decoding the PLY", [&]() -> Result<uint64_t> {
-    const uint64_t first = st.next;
-    const uint64_t rows = std::min(max, st.body.n - first);
-    batch->sh_degree = st.body.layout.sh_degree;
-    detail::resize_cloud_huge(batch, static_cast<size_t>(rows));
-    if (rows == 0) return uint64_t{0};
-    const uint64_t stride = st.body.layout.stride;
-    const uint64_t data_offset = st.body.header.data_offset;
-    OrderedHasher hasher(st.hash.get());
-    HygieneCounts counts;
-    RGS_RETURN_IF_ERROR(decode_binary(st.source, data_offset + first * stride, rows, st.body.layout, st.body.swap,
-                                      st.hashing ? &hasher : nullptr, batch, &counts));
-    st.next = first + rows;
-    HygieneCounts& pass = st.pass_counts;
-    add_counts(counts, &pass);
-    if (!counts.invalid.empty()) {
-      if (pass.first_invalid_index < 0) pass.first_invalid_index = static_cast<int64_t>(first + counts.invalid.front());
-      if (st.options.invalid_policy == InvalidPolicy::kReject) {
-        return Status(StatusCode::kCorruptData,
-                      "vertex " + std::to_string(pass.first_invalid_index) +
-                          " has non-finite values or a zero-norm quaternion (" +
-                          std::to_string(pass.gaussians_with_nonfinite + pass.zero_norm_quaternions) +
-                          " such Gaussians in the first " + std::to_string(st.next) +
-                          " vertices); rerun with --sanitize to drop them");
-      }
-      batch->remove_gaussians(counts.invalid);
-      pass.dropped_gaussians += counts.invalid.size();
-    }
-    if (st.hashing && st.next == st.body.n) {
-      RGS_RETURN_IF_ERROR(hash_range(&st.source, data_offset + st.body.n * stride, st.source.size(), st.hash.get()));
-      st.file_xxh64 = static_cast<uint64_t>(XXH64_digest(st.hash.get()));
-      st.hashing = false;
-    }
+    Result<uint64_t> rows = st.read(max, batch);
+    // Bytes that end early or values that are not valid in a file that changed: the change is the cause.
+    if (!rows.ok()) RGS_RETURN_IF_ERROR(st.check_unchanged());
     return rows;
   });
 }

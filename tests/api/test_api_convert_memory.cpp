@@ -4,11 +4,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <vector>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "rgs/api/convert.h"
 #include "temp_dir.h"
@@ -41,6 +43,26 @@ TEST_CASE("convert_memory_limit: the option, else half the physical memory") {
   CHECK(machine > (uint64_t{64} << 20));  // any machine that runs the suite
   options.memory_limit = 12345;
   CHECK(api::convert_memory_limit(options) == 12345);
+}
+
+TEST_CASE("max_whole_input_bytes: the largest input of a format whose estimate is within the memory limit") {
+  const std::string ply = test::repo_path(test::kGuitarSh3);
+  const uint64_t bytes = std::filesystem::file_size(ply);
+  auto estimate = api::estimate_convert_memory(ply);
+  REQUIRE(estimate.ok());
+  api::ConvertOptions options;
+  options.memory_limit = *estimate;
+  CHECK(api::max_whole_input_bytes("ply", options) >= bytes);
+  options.memory_limit = *estimate - 1;  // the file's estimate is above it
+  CHECK(api::max_whole_input_bytes("ply", options) < bytes);
+  options.memory_limit = uint64_t{96} << 20;  // 32 MiB above what every conversion holds
+  CHECK(api::max_whole_input_bytes("ply", options) == (uint64_t{32} << 20) * 2 / 3);
+  CHECK(api::max_whole_input_bytes("rgs", options) == (uint64_t{32} << 20) / 4);
+  CHECK(api::max_whole_input_bytes("spz", options) == (uint64_t{32} << 20) / 8);
+  options.memory_limit = uint64_t{64} << 20;
+  CHECK(api::max_whole_input_bytes("ply", options) == 0);
+  options.memory_limit = 1;
+  CHECK(api::max_whole_input_bytes("rgs", options) == 0);
 }
 
 TEST_CASE("convert: an input over memory_limit that cannot be read in batches is refused before it is read") {
@@ -116,6 +138,181 @@ TEST_CASE("convert: a binary PLY over memory_limit converts out of core to the b
     CHECK_MESSAGE(std::find(stages.begin(), stages.end(), stage) != stages.end(), stage);
   }
   CHECK(dir.entries().size() == 2);  // the temporary folder is gone
+}
+
+/// A version an input PLY is rewritten to while it is converted out of core: a new file renamed over it, or
+/// written in place (the same inode), then given back its modification time or not.
+struct Rewrite {
+  std::string bytes;
+  bool renamed = false;
+  bool keep_time = false;
+};
+
+/// What the versions of kRewrites change.
+constexpr const char* kRewrites[] = {"means moved outside the box, the same size",
+                                     "means moved among the vertices, inside the box",
+                                     "other colours, the same means and size",
+                                     "truncated to half",
+                                     "grown by 50 vertices",
+                                     "the same bytes, a new file renamed over it",
+                                     "other colours, the same means, size and modification time",
+                                     "means moved outside the box, the same size and modification time"};
+
+/// Version `kind` (an index of kRewrites) of a binary PLY of float properties, x y z first.
+Rewrite rewrite_of(const std::string& ply, size_t kind) {
+  const size_t header = ply.find("end_header\n") + 11;
+  const std::string head = ply.substr(0, header);
+  size_t properties = 0, f_dc_0 = 0;
+  for (size_t at = head.find("property float "); at != std::string::npos; at = head.find("property float ", at + 1)) {
+    if (head.compare(at + 15, 7, "f_dc_0\n") == 0) f_dc_0 = properties;
+    ++properties;
+  }
+  REQUIRE(head.find("property float x\nproperty float y\nproperty float z\n") != std::string::npos);
+  const size_t stride = 4 * properties;
+  const size_t count = (ply.size() - header) / stride;
+  REQUIRE(count > 100);
+  auto get = [&](size_t vertex, size_t column) {
+    float v;
+    std::memcpy(&v, &ply[header + vertex * stride + 4 * column], 4);
+    return v;
+  };
+  Rewrite r{ply};
+  auto put = [&](size_t vertex, size_t column, float v) {
+    std::memcpy(&r.bytes[header + vertex * stride + 4 * column], &v, 4);
+  };
+  const std::string declared = "element vertex " + std::to_string(count) + "\n";
+  r.keep_time = kind >= 6;
+  switch (kind) {
+    case 0:
+    case 7:
+      for (size_t i = 0; i < count; i += 7) put(i, 0, get(i, 0) + 1e4f);  // far beyond the box along x
+      break;
+    case 1:
+      for (size_t i = 0; i < count; ++i) {
+        for (size_t a = 0; a < 3; ++a) put(i, a, get((i + 1) % count, a));
+      }
+      break;
+    case 2:
+    case 6:
+      for (size_t i = 0; i < count; ++i) put(i, f_dc_0, get(i, f_dc_0) + 0.5f);
+      break;
+    case 3:
+      r.bytes.resize(ply.size() / 2);
+      break;
+    case 4:
+      r.bytes.replace(r.bytes.find(declared), declared.size(), "element vertex " + std::to_string(count + 50) + "\n");
+      r.bytes += ply.substr(header, 50 * stride);
+      break;
+    case 5:
+      r.renamed = true;
+      break;
+  }
+  return r;
+}
+
+/// Replaces the file at `path` by `r`: written over it from its first byte and cut to its size, or renamed over it.
+void rewrite(const std::string& path, const Rewrite& r) {
+  const auto time = std::filesystem::last_write_time(path);
+  const std::string target = r.renamed ? path + ".new" : path;
+  {
+    std::fstream out(target, r.renamed ? std::ios::out | std::ios::binary | std::ios::trunc
+                                       : std::ios::in | std::ios::out | std::ios::binary);
+    REQUIRE(out.good());
+    out.write(r.bytes.data(), static_cast<std::streamsize>(r.bytes.size()));
+  }
+  std::filesystem::resize_file(target, r.bytes.size());
+  if (r.renamed) std::filesystem::rename(target, path);
+  if (r.keep_time) std::filesystem::last_write_time(path, time);
+}
+
+TEST_CASE("convert: a PLY that changes between or during the passes of the out-of-core build fails, no output") {
+  test::TempDir dir;
+  const std::string original = read_bytes(test::repo_path("samples/guitar.ply"));
+  const std::string src = dir.file("input.ply");
+  const std::string dst = dir.file("out.rgs");
+  const std::string reference = dir.file("reference.rgs");
+  api::ConvertOptions options;
+  options.lod_levels = 0;
+  options.lod_chunk_gaussians = 4096;
+  {
+    std::ofstream(src, std::ios::binary) << original;
+  }
+  auto estimate = api::estimate_convert_memory(src);
+  REQUIRE(estimate.ok());
+  if (resident_bytes() + (uint64_t{40} << 20) > *estimate) {
+    MESSAGE("skipped: this process already holds " << resident_bytes() << " bytes, too many for a limit of "
+                                                   << *estimate - 1);
+    return;
+  }
+  options.memory_limit = *estimate - 1;
+  // The file of the unchanged input, out of core as well (the same bytes as in memory: the case above), so that
+  // this process stays within the limit.
+  auto unchanged = api::convert(src, reference, options);
+  REQUIRE_MESSAGE(unchanged.ok(), unchanged.status().to_string());
+  REQUIRE(unchanged->rgs->out_of_core_partitions >= 1);
+  // Where the file is rewritten: the n-th progress call of a stage. The stages report as they start and after
+  // each batch (two a pass here): "reading" 2 is within the first pass, "counting" 1 and "partitioning" 1
+  // between passes, "counting" 2 and "partitioning" 2 within a later pass; once the levels are built every pass
+  // is over, and the output is the original's.
+  const std::pair<const char*, int> within_passes[] = {
+      {"reading", 2}, {"counting", 1}, {"counting", 2}, {"partitioning", 1}, {"partitioning", 2}};
+  const std::pair<const char*, int> after_passes = {"building levels of detail", 1};
+  const std::string changed = "the file changed during the passes of the out-of-core build (";
+  constexpr int kRounds = 10;  // the checks race nothing here; repeated, file times fall in one clock tick or two
+  for (int round = 0; round < kRounds; ++round) {
+    for (size_t kind = 0; kind < std::size(kRewrites); ++kind) {
+      const Rewrite r = rewrite_of(original, kind);
+      for (const auto& [stage, call] : within_passes) {
+        const std::string where = std::string(kRewrites[kind]) + ", at " + stage + " " + std::to_string(call);
+        CAPTURE(round);
+        CAPTURE(where);
+        {
+          std::ofstream(src, std::ios::binary | std::ios::trunc) << original;
+        }
+        int calls = 0;
+        options.progress = [&, stage = stage, call = call](const api::ConvertProgress& p) {
+          if (std::string(p.stage) == stage && ++calls == call) rewrite(src, r);
+        };
+        auto converted = api::convert(src, dst, options);
+        REQUIRE_MESSAGE(calls >= call, converted.status().to_string());
+        REQUIRE(!converted.ok());
+        const std::string message = converted.status().message();
+        const bool named_change = message.rfind(src + ": " + changed, 0) == 0;
+        if (kind == 7) {
+          // A mean outside the box is refused where it is found, before anything is built from it; only the hash
+          // at the pass's end would say more, and the file's time does not tell.
+          const bool refused_mean = message.rfind(src + ": the input gave a mean (", 0) == 0;
+          CHECK_MESSAGE((named_change || refused_mean), message);
+        } else {
+          CHECK(converted.status().code() == StatusCode::kIoError);
+          CHECK_MESSAGE(named_change, message);
+        }
+        if (kind == 6) {
+          CHECK_MESSAGE(message.find("(other bytes of the same size and time: XXH64 ") != std::string::npos, message);
+        }
+        CHECK(!std::filesystem::exists(dst));
+        CHECK(dir.entries().size() == 2);  // input.ply and reference.rgs: no temporary left
+      }
+    }
+  }
+  const std::string expected = read_bytes(reference);
+  for (size_t kind = 0; kind < std::size(kRewrites); ++kind) {
+    const std::string what = kRewrites[kind];
+    CAPTURE(what);
+    const Rewrite r = rewrite_of(original, kind);
+    {
+      std::ofstream(src, std::ios::binary | std::ios::trunc) << original;
+    }
+    int calls = 0;
+    options.progress = [&](const api::ConvertProgress& p) {
+      if (std::string(p.stage) == after_passes.first && ++calls == after_passes.second) rewrite(src, r);
+    };
+    auto converted = api::convert(src, dst, options);
+    REQUIRE_MESSAGE(converted.ok(), converted.status().to_string());
+    CHECK(converted->rgs->out_of_core_partitions >= 1);
+    CHECK(read_bytes(dst) == expected);
+    std::filesystem::remove(dst);
+  }
 }
 
 TEST_CASE("convert: an ascii PLY over memory_limit is refused, as it is read whole") {

@@ -174,10 +174,23 @@ if(NOT RGS_SANITIZE)
     OUTPUT ${cli_dir}/out_of_core.rgs SETUP out_of_core)
   rgs_cli_case(convert_out_of_core_checks CMD "${info}|--check|${cli_dir}/out_of_core.rgs"
     REGEX "check +ok" REQUIRES out_of_core)
+  # Another process rewrites the PLY while the out-of-core build reads it in passes: exit 1 naming the change, or
+  # exit 0 with the file of one of the two versions; never a signal, never a mixed file.
+  add_test(NAME cli.convert_out_of_core_input_rewritten
+    COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_LIST_DIR}/test_out_of_core_rewrite.py ${convert} ${sample}
+            ${cli_dir}/out_of_core_rewrite 40)
+  set_tests_properties(cli.convert_out_of_core_input_rewritten PROPERTIES LABELS "cli;memory;slow" TIMEOUT 600)
+  # Standard input is held whole: endless streams stop at what --memory-limit allows a PLY read whole, in memory
+  # below the limit.
+  add_test(NAME cli.convert_stdin_memory_limit
+    COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_LIST_DIR}/test_stdin_memory_limit.py ${convert}
+            ${cli_dir}/stdin_memory_limit)
+  set_tests_properties(cli.convert_stdin_memory_limit PROPERTIES LABELS "cli;memory" TIMEOUT 300)
 else()
   # The limit bounds the whole process, and a sanitized rgs-convert holds more than 72 MiB before it converts.
   add_test(NAME cli.convert_out_of_core.skipped_under_sanitizers
-    COMMAND ${CMAKE_COMMAND} -E echo "skipped: cli.convert_out_of_core (a sanitized tool holds more than its limit)")
+    COMMAND ${CMAKE_COMMAND} -E echo "skipped: cli.convert_out_of_core, cli.convert_out_of_core_input_rewritten and \
+cli.convert_stdin_memory_limit (a sanitized tool holds more than its limit)")
   set_tests_properties(cli.convert_out_of_core.skipped_under_sanitizers PROPERTIES LABELS cli
     SKIP_REGULAR_EXPRESSION "^skipped: ")
 endif()

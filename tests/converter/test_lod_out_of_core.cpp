@@ -2,8 +2,13 @@
 // limit cuts the scene into, with nothing left on disk after success or failure.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -50,30 +55,44 @@ format::EncodedScene slice(const format::EncodedScene& s, uint64_t first, uint64
   return out;
 }
 
-/// A scene in memory read in batches of `batch` Gaussians; from pass `change_in_pass` on, one Gaussian fewer.
+/// A scene in memory read in batches of `batch` Gaussians; from pass `change_in_pass` on, one Gaussian fewer, or
+/// (move_mean) one Gaussian's mean elsewhere. The build's passes are 1 (counts) and 2 (partitions).
 class SceneBatches final : public EncodedBatches {
  public:
   SceneBatches(const format::EncodedScene& scene, uint64_t batch, int change_in_pass = 0)
       : scene_(scene), batch_(batch), change_in_pass_(change_in_pass) {}
+  /// From pass `pass` on, Gaussian `index` has the mean `mean` (the count stays).
+  void move_mean(uint64_t index, const std::array<float, 3>& mean, int pass) {
+    moved_index_ = index;
+    moved_mean_ = mean;
+    change_in_pass_ = pass;
+  }
   Status rewind() override {
     next_ = 0;
     ++pass_;
     return Status();
   }
   Result<bool> next(format::EncodedScene* batch) override {
-    const uint64_t end = scene_.count - (change_in_pass_ != 0 && pass_ >= change_in_pass_ ? 1 : 0);
+    const bool changed = change_in_pass_ != 0 && pass_ >= change_in_pass_;
+    const uint64_t end = scene_.count - (changed && moved_index_ == kNone ? 1 : 0);
     if (next_ >= end) return false;
     const uint64_t n = std::min(batch_, end - next_);
     *batch = slice(scene_, next_, n);
+    if (changed && moved_index_ >= next_ && moved_index_ < next_ + n) {
+      std::copy(moved_mean_.begin(), moved_mean_.end(), &batch->means[(moved_index_ - next_) * 3]);
+    }
     next_ += n;
     return true;
   }
   int passes() const { return pass_; }
 
  private:
+  static constexpr uint64_t kNone = UINT64_MAX;
   const format::EncodedScene& scene_;
   uint64_t batch_;
   int change_in_pass_;
+  uint64_t moved_index_ = kNone;
+  std::array<float, 3> moved_mean_{};
   uint64_t next_ = 0;
   int pass_ = 0;
 };
@@ -194,6 +213,79 @@ TEST_CASE("build_lod_out_of_core: failures leave nothing behind, and a limit too
     CHECK(r.status().code() == StatusCode::kIoError);
   }
   CHECK(dir.entries().empty());
+}
+
+/// A corner of the scene's box with no mean within 1/8 of the box's largest side of it (in every axis): its cell
+/// of any count grid of 8 or more cells per axis is empty.
+std::array<float, 3> empty_corner(const format::EncodedScene& scene) {
+  const auto& b = scene.metadata.bounds;
+  float edge = 0;
+  for (int a = 0; a < 3; ++a) edge = std::max(edge, b.aabb_max[a] - b.aabb_min[a]);
+  for (int corner = 0; corner < 8; ++corner) {
+    std::array<float, 3> p;
+    for (int a = 0; a < 3; ++a) p[a] = (corner >> a & 1) ? b.aabb_max[a] : b.aabb_min[a];
+    bool empty = true;
+    for (uint64_t i = 0; i < scene.count && empty; ++i) {
+      bool near = true;
+      for (int a = 0; a < 3; ++a) near = near && std::fabs(scene.means[i * 3 + a] - p[a]) < edge / 8;
+      empty = !near;
+    }
+    if (empty) return p;
+  }
+  FAIL("no corner of the box without a mean near it");
+  return {};
+}
+
+TEST_CASE("build_lod_out_of_core: a later pass's mean outside the box or in another cell is refused, nothing kept") {
+  const format::EncodedScene scene = quantized("samples/guitar.ply", format::ScaleEncoding::kLinear);
+  OutOfCoreLodOptions options;
+  options.lod.max_chunk_gaussians = 4096;
+  options.sh_dc_residual = !scene.sh_dc_residual.empty();
+  options.lod.threads = 2;
+  options.memory_limit = uint64_t{9} << 20;  // several partitions
+  TempDir dir;
+  const std::string out = (dir.path() / "failed.rgs").string();
+  const auto& box = scene.metadata.bounds;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // The Gaussian farthest from Gaussian 0: another octree node of the counts whatever their depth.
+  uint64_t far = 0;
+  double far_distance = 0;
+  for (uint64_t i = 1; i < scene.count; ++i) {
+    double d = 0;
+    for (int a = 0; a < 3; ++a) d += std::pow(double(scene.means[i * 3 + a]) - scene.means[a], 2);
+    if (d > far_distance) far_distance = d, far = i;
+  }
+  const std::array<float, 3> far_mean = {scene.means[far * 3], scene.means[far * 3 + 1], scene.means[far * 3 + 2]};
+  struct Case {
+    const char* what;
+    std::array<float, 3> mean;
+    int pass;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"beyond the box, counting", {box.aabb_max[0] + 1, box.aabb_min[1], box.aabb_min[2]}, 1,
+       "outside the scene's box"},
+      {"beyond the box, partitioning", {box.aabb_min[0], box.aabb_min[1] - 1e30f, box.aabb_min[2]}, 2,
+       "outside the scene's box"},
+      {"NaN, partitioning", {nan, box.aabb_min[1], box.aabb_min[2]}, 2, "outside the scene's box"},
+      {"a cell the counts found empty, partitioning", empty_corner(scene), 2, "other Gaussians than in its first pass"},
+      {"another node, partitioning", far_mean, 2, "other Gaussians than in its first pass"},
+  };
+  for (const uint64_t memory : {uint64_t{9} << 20, uint64_t{256} << 20}) {  // several partitions, then one
+    options.memory_limit = memory;
+    for (const Case& c : cases) {
+      CAPTURE(memory);
+      CAPTURE(std::string(c.what));
+      SceneBatches changing(scene, 1000);
+      changing.move_mean(0, c.mean, c.pass);
+      auto r = converter::build_lod_out_of_core(out, changing, head_of(scene), options);
+      REQUIRE(!r.ok());
+      CHECK(r.status().code() == StatusCode::kCorruptData);
+      CHECK_MESSAGE(r.status().message().find(c.message) != std::string::npos, r.status().message());
+      CHECK(r.status().message().find("did it change while it was read?") != std::string::npos);
+      CHECK(dir.entries().empty());
+    }
+  }
 }
 
 }  // namespace

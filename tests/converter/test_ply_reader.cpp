@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <limits>
 
 #include "ply_test_util.h"
@@ -512,7 +513,7 @@ TEST_CASE("PlyStream: batches in every pass are read_ply's cloud, the first pass
   CHECK(same_cloud(stream_all(**stream, 1000), whole->cloud));
   REQUIRE((*stream)->file_xxh64().has_value());
   CHECK(*(*stream)->file_xxh64() == *whole->file_xxh64);
-  (*stream)->rewind();
+  REQUIRE((*stream)->rewind().ok());
   CHECK(same_cloud(stream_all(**stream, 333), whole->cloud));  // a second pass, other batch sizes
 }
 
@@ -553,6 +554,85 @@ TEST_CASE("PlyStream: invalid Gaussians fail the batch that holds them, or are d
   CHECK(converter::PlyStream::open(ascii).status().code() == StatusCode::kUnsupportedFeature);
   std::filesystem::remove(path);
   std::filesystem::remove(ascii);
+}
+
+TEST_CASE("PlyStream: a file that changes between or during its passes fails the pass that sees it, naming it") {
+  const Sh3FromGuitar src(3000);
+  auto value = [&](uint64_t i, const std::string& n) { return src(i, n); };
+  const auto bytes = build_ply("binary_little_endian", inria_props(0), src.count, value);
+  auto other = build_ply("binary_little_endian", inria_props(0), src.count, [&](uint64_t i, const std::string& n) {
+    return n == "f_dc_0" ? src(i, n) + 0.25 : src(i, n);  // the same size, other colours
+  });
+  REQUIRE(other.size() == bytes.size());
+  const auto path = (std::filesystem::temp_directory_path() / "rgs_test_converter_stream_changes.ply").string();
+  const std::string changed = path + ": the file changed during the passes of the out-of-core build (";
+  format::GaussianCloud batch;
+  struct Change {
+    const char* what;
+    std::function<void()> apply;
+    const char* why;
+  };
+  const std::string size = "size " + std::to_string(bytes.size()) + " → ";
+  const std::string shorter = size + std::to_string(bytes.size() - 100) + " bytes";
+  const std::string longer = size + std::to_string(bytes.size() + 1) + " bytes";
+  const Change changes[] = {
+      {"cut short", [&] { std::filesystem::resize_file(path, bytes.size() - 100); }, shorter.c_str()},
+      {"grown", [&] { std::filesystem::resize_file(path, bytes.size() + 1); }, longer.c_str()},
+      {"other bytes, the same size and time",
+       [&] {
+         const auto time = std::filesystem::last_write_time(path);
+         write_file(path, other);
+         std::filesystem::last_write_time(path, time);
+       },
+       "other bytes of the same size and time: XXH64 "},
+      {"another file renamed over it",
+       [&] {
+         write_file(path + ".new", bytes);
+         std::filesystem::rename(path + ".new", path);
+       },
+       "another file was put in its place: inode "},
+      {"removed", [&] { std::filesystem::remove(path); }, "it can no longer be found: "},
+  };
+  for (const Change& change : changes) {
+    for (const bool within_pass : {false, true}) {
+      CAPTURE(std::string(change.what));
+      CAPTURE(within_pass);
+      write_file(path, bytes);
+      auto stream = converter::PlyStream::open(path);
+      REQUIRE(stream.ok());
+      REQUIRE((*stream)->read(src.count, &batch).ok());  // the first pass, whole
+      Status failed;
+      if (within_pass) {
+        REQUIRE((*stream)->rewind().ok());
+        REQUIRE((*stream)->read(1000, &batch).ok());
+        change.apply();
+        auto rest = (*stream)->read(src.count, &batch);  // the read that ends the pass checks it
+        failed = rest.status();
+      } else {
+        change.apply();
+        failed = (*stream)->rewind();
+        // Bytes of the same size and time are found by the hash of the pass they change, at its end.
+        if (failed.ok()) failed = (*stream)->read(src.count, &batch).status();
+      }
+      REQUIRE(!failed.ok());
+      CHECK(failed.code() == StatusCode::kIoError);
+      CHECK_MESSAGE(failed.message().rfind(changed, 0) == 0, failed.message());
+      CHECK_MESSAGE(failed.message().find(change.why) != std::string::npos, failed.message());
+      // What the file's metadata tells without reading it; the same size and time take the hash of a pass.
+      const bool same_metadata = std::string(change.what) == "other bytes, the same size and time";
+      CHECK((*stream)->check_unchanged().ok() == same_metadata);
+    }
+  }
+  // Unchanged, every pass ends well and check_unchanged() agrees.
+  write_file(path, bytes);
+  auto stream = converter::PlyStream::open(path);
+  REQUIRE(stream.ok());
+  for (int pass = 0; pass < 3; ++pass) {
+    if (pass > 0) REQUIRE((*stream)->rewind().ok());
+    CHECK(stream_all(**stream, 700).size() == src.count);
+  }
+  CHECK((*stream)->check_unchanged().ok());
+  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -242,6 +242,14 @@ uint64_t convert_memory_limit(const ConvertOptions& options);
 /// Errors: those of converter::detect_scene_format and converter::list_scene_files.
 Result<uint64_t> estimate_convert_memory(const std::string& src);
 
+/// The most bytes of an input in the format `format_id` (converter::detect_scene_format's id: "ply", "rgs", ...)
+/// that a conversion reading it whole may be given within convert_memory_limit(options): the largest input whose
+/// estimated peak, by estimate_convert_memory's rule for that format, is within the limit; 0 when the limit is
+/// below what every conversion holds (64 MiB); UINT64_MAX when there is no limit (0). For a stream that is held
+/// whole before convert_bytes() converts it, as rgs-convert holds standard input: a stream cannot be read in
+/// passes, so it is never built out of core.
+uint64_t max_whole_input_bytes(const std::string& format_id, const ConvertOptions& options);
+
 /// What the .rgs quantization cost (.rgs output only).
 struct RgsOutputReport {
   /// Per-attribute errors of the written scene, as readers decode it, against the read one: for the

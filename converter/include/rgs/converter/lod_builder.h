@@ -87,7 +87,9 @@ struct LodScene {
 Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOptions& options = {});
 
 /// A scene's quantized Gaussians read in batches, pass after pass (a scene larger than memory): every pass
-/// yields the same Gaussians in the same order.
+/// yields the same Gaussians in the same order. A source that can change between passes (a file) checks that it
+/// did not, at the latest when a pass ends (PlyStream does); build_lod_out_of_core refuses what it can see of a
+/// change (counts, means outside the box or in other cells) as it reads it.
 class EncodedBatches {
  public:
   virtual ~EncodedBatches() = default;
@@ -141,8 +143,10 @@ struct OutOfCoreLodReport {
 /// written, so about twice the output's size beside it.
 /// Errors: build_lod's; kLimitExceeded when memory_limit cannot hold a chunk's worth of the build, when more
 /// than one cell of the count grid's Gaussians would have to be held at once, or beyond 512 partitions;
-/// kCorruptData when the passes disagree (the input changed); kIoError naming the temporary files; the
-/// writer's errors naming `path`.
+/// kCorruptData when the passes disagree (the input changed: another count, a mean outside head's box or NaN,
+/// a mean in an octree node that the counting pass found with fewer Gaussians), refused before the Gaussian
+/// indexes a count, node or partition; kIoError naming the temporary files; the writer's errors naming `path`;
+/// the errors of `batches`.
 Result<OutOfCoreLodReport> build_lod_out_of_core(const std::string& path, EncodedBatches& batches,
                                                  const format::EncodedScene& head, const OutOfCoreLodOptions& options,
                                                  format::FileSink& files = format::atomic_files());

@@ -80,6 +80,14 @@ Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::str
 /// whole cloud (out-of-core conversion). A batch holds exactly what read_ply gives for those vertices; under
 /// InvalidPolicy::kSanitize its invalid Gaussians are dropped and counted in hygiene(), under kReject the
 /// first one fails the read. Memory: one 1 MB buffer per decoding thread and the caller's batch.
+///
+/// Every pass reads the file open() found, or fails: when a pass starts (open(), rewind()) and when it has read
+/// its last vertex, the file at the path must have the device, inode, size and modification time open() saw,
+/// and each pass hashes what it reads (XXH64, the header and the bytes after the vertices included), which must
+/// be the first pass's hash. Otherwise the read that ends the pass (or rewind()) fails with kIoError:
+/// "<path>: the file changed during the passes of the out-of-core build (size 123 → 456 bytes)". A batch read
+/// before the end of a pass can hold bytes of a file that is changing: a caller builds nothing that outlasts the
+/// pass until the pass has ended without error.
 class PlyStream {
  public:
   /// Opens `path` and checks its header as read_ply does. Errors name `path`: read_ply's header errors, and
@@ -97,12 +105,19 @@ class PlyStream {
   std::string storage_format() const;
 
   /// Reads the next at most `max` vertices of this pass into `*batch` (replaced; activations as read_ply).
+  /// The read that consumes the last vertex also checks the pass (see the class).
   /// @return how many vertices of the file it consumed (0 at the end of the pass; the batch holds fewer when
-  ///         some were dropped). Errors name the path: kIoError (short or unreadable file), kCorruptData (an
+  ///         some were dropped). Errors name the path: kIoError (short or unreadable file, or a file that
+  ///         changed since open(), which is named as the cause of any other error too), kCorruptData (an
   ///         invalid Gaussian under kReject, named by its vertex index), kOutOfMemory.
   Result<uint64_t> read(uint64_t max, format::GaussianCloud* batch);
-  /// Starts a new pass at the first vertex; hygiene() restarts.
-  void rewind();
+  /// Starts a new pass at the first vertex; hygiene() restarts. Errors name the path: kIoError when the file
+  /// changed since open() (see the class), or cannot be read.
+  Status rewind();
+  /// kIoError naming the path when the file at the path is not the one open() found (another device, inode,
+  /// size or modification time; see the class); else OK. For a caller whose own checks failed on a batch, to
+  /// name the change as the cause.
+  Status check_unchanged() const;
   /// The hygiene counts of the vertices read in this pass (first_invalid_index a file index).
   const InputHygiene& hygiene() const;
   /// With PlyReadOptions::hash_file: XXH64 (seed 0) of the whole file once the first pass has read every
