@@ -372,6 +372,15 @@ def candidate_section(doc, i, c, base_dir):
                     note = f"scale {ch['scale']:.3e}, {group(ch['clipped'])} clipped"
                 out.append(stats_row(f"  {ch['channel']}", ch["error"], note))
         out.append("</table>")
+        pairing = e.get("pairing")  # reports before it existed paired index by index
+        if pairing and pairing["method"] == "content":
+            text = (f"Gaussians paired by content: each with a source Gaussian within "
+                    f"{pairing['position_tolerance_scene_units']:.3e} scene units")
+        else:
+            text = "Gaussians paired index by index (the source's Gaussians in its order)"
+        if pairing and pairing["source_gaussians_unpaired"]:
+            text += f"; {group(pairing['source_gaussians_unpaired'])} source Gaussians not in the candidate"
+        out.append(f"<p>{esc(text)}.</p>")
     else:
         out.append(f"<p>{esc(c.get('errors_note', 'no per-attribute errors'))}</p>")
     out.append("</div>")

@@ -206,6 +206,16 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
       std::fprintf(out, "  %-22s %12s %12s  %s\n", name.c_str(), tools::sci(s.max).c_str(), tools::sci(s.rms).c_str(),
                    unit.c_str());
     };
+    if (c.attributes->pairing == converter::PairingMethod::kIndex) {
+      std::fprintf(out, "  paired           index by index (the source's Gaussians in its order)\n");
+    } else {
+      std::fprintf(out, "  paired           by content: each Gaussian with a source Gaussian within %s scene units\n",
+                   tools::sci(c.attributes->position_tolerance).c_str());
+    }
+    if (c.attributes->source_unpaired > 0) {
+      std::fprintf(out, "  not in candidate %s source Gaussians (left out of the errors)\n",
+                   tools::group_digits(c.attributes->source_unpaired).c_str());
+    }
     std::fprintf(out, "  %-22s %12s %12s\n", "error", "max", "rms");
     converter::ErrorStats pos = e.position;
     pos.max *= 1000;
@@ -629,7 +639,8 @@ int main(int argc, char** argv) {
   app.add_flag("--attribution", opt.attribution,
                "Also audit, for each candidate, the source with one attribute group at a time taken from the "
                "candidate (means, rotations, scales, opacities, SH DC, SH bands 1+): what each attribute's "
-               "encoding alone costs (needs the source's Gaussians in the same order)");
+               "encoding alone costs (needs every candidate Gaussian paired with a source Gaussian, in any order: "
+               "docs/AUDITS.md#how-gaussians-are-paired)");
   rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json (native size by default)", "At most N views",
                                  "Orbit of N cameras (at 960x540)");
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));

@@ -94,11 +94,12 @@ Image8 heatmap(const std::vector<float>& abs_difference, uint32_t width, uint32_
   return out;
 }
 
-/// Source coefficients that the candidate's SH scales clip: |SH| ≥ 127.5·s (round-half-away of SH/s would
-/// exceed 127), or s = 0 with SH ≠ 0.
-void count_clipped(const format::GaussianCloud& source, const format::ShQuantization& shq, uint64_t clipped[4][3]) {
+/// Coefficients of the source Gaussians `paired` that the candidate's SH scales clip: |SH| ≥ 127.5·s
+/// (round-half-away of SH/s would exceed 127), or s = 0 with SH ≠ 0.
+void count_clipped(const format::GaussianCloud& source, const std::vector<uint64_t>& paired,
+                   const format::ShQuantization& shq, uint64_t clipped[4][3]) {
   const uint32_t k_count = source.sh_coefficients();
-  for (uint64_t i = 0; i < source.size(); ++i) {
+  for (const uint64_t i : paired) {
     for (uint32_t k = 0; k < k_count; ++k) {
       const uint32_t d = format::sh_degree_of_coefficient(k);
       for (uint32_t c = 0; c < 3; ++c) {
@@ -188,24 +189,32 @@ Result<std::string> device_description(const AuditOptions& options) {
 #endif
 }
 
-/// A candidate's result before its views: its file, and its attribute errors where the Gaussians correspond one
-/// to one (else a note saying why there are none).
+/// A candidate's result before its views: its file, and its attribute errors where every candidate Gaussian is
+/// paired with a source Gaussian (else a note saying why there are none).
 Result<CandidateResult> candidate_with_attributes(const AuditScene& source, const AuditScene& cand) {
   CandidateResult c;
   c.scene = cand.info;
-  if (cand.cloud.size() != source.cloud.size() || cand.cloud.sh_degree != source.cloud.sh_degree) {
-    c.attributes_note = "no per-attribute errors: " + std::to_string(cand.cloud.size()) + " Gaussians of SH degree " +
+  if (cand.cloud.sh_degree != source.cloud.sh_degree) {
+    c.attributes_note = "attribute errors not measured: the candidate's SH degree " +
                         std::to_string(cand.cloud.sh_degree) + " against the source's " +
-                        std::to_string(source.cloud.size()) + " of degree " + std::to_string(source.cloud.sh_degree);
+                        std::to_string(source.cloud.sh_degree);
     return c;
   }
-  auto errors = converter::measure_attribute_errors(source.cloud, cand.cloud);
+  RGS_ASSIGN_OR_RETURN(const converter::GaussianPairing pairing, pair_with_source(source, cand));
+  if (!pairing.complete()) {
+    c.attributes_note = "attribute errors not measured: " + unpaired_note(pairing, cand.cloud.size());
+    return c;
+  }
+  auto errors = converter::measure_paired_attribute_errors(source.cloud, cand.cloud, pairing.reference_of_test);
   if (!errors.ok()) return Status(errors.status()).prepend(cand.info.path);
   AttributeReport report;
   report.errors = *errors;
+  report.pairing = pairing.method;
+  report.position_tolerance = pairing.position_tolerance;
+  report.source_unpaired = pairing.unpaired_reference;
   if (cand.sh_quantization) {
     report.sh_quantization = cand.sh_quantization;
-    count_clipped(source.cloud, *cand.sh_quantization, report.clipped);
+    count_clipped(source.cloud, pairing.reference_of_test, *cand.sh_quantization, report.clipped);
   }
   c.attributes = report;
   return c;

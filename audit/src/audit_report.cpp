@@ -78,7 +78,10 @@ json attributes_json(const AttributeReport& a, uint32_t degree) {
           {"scale_relative", stats_json(a.errors.scale_relative)},
           {"scale_of_largest_axis", stats_json(a.errors.scale_of_largest_axis)},
           {"opacity", stats_json(a.errors.opacity)},
-          {"sh", sh}};
+          {"sh", sh},
+          {"pairing", {{"method", a.pairing == converter::PairingMethod::kIndex ? "index" : "content"},
+                       {"position_tolerance_scene_units", a.position_tolerance},
+                       {"source_gaussians_unpaired", a.source_unpaired}}}};
 }
 
 }  // namespace

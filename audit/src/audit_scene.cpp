@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <utility>
@@ -15,6 +17,30 @@
 namespace rgs::audit {
 
 namespace {
+
+/// The longest side of the box of `cloud`'s means (0 without Gaussians).
+double means_extent(const format::GaussianCloud& cloud) {
+  if (cloud.size() == 0) return 0;
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = cloud.means[size_t(a)];
+  for (uint64_t i = 1; i < cloud.size(); ++i) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], double(cloud.means[i * 3 + a]));
+      hi[a] = std::max(hi[a], double(cloud.means[i * 3 + a]));
+    }
+  }
+  return std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+}
+
+/// `n` with a comma every three digits.
+std::string group_digits(uint64_t n) {
+  std::string digits = std::to_string(n), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
 
 Status naming(Status status, const std::string& path) {
   if (status.message().find(path) == std::string::npos) status.prepend(path);
@@ -62,26 +88,59 @@ Result<AuditScene> load_audit_scene(const std::string& path, const std::string& 
   return scene;
 }
 
+Result<converter::GaussianPairing> pair_with_source(const AuditScene& source, const AuditScene& candidate) {
+  if (candidate.source_order && candidate.cloud.size() == source.cloud.size()) {
+    converter::GaussianPairing pairing;
+    pairing.reference_of_test.resize(candidate.cloud.size());
+    for (uint64_t i = 0; i < candidate.cloud.size(); ++i) pairing.reference_of_test[i] = i;
+    return pairing;
+  }
+  converter::PairingOptions options;
+  options.max_position_distance = kPairingMaxDistanceOfExtent * means_extent(source.cloud);
+  auto pairing = converter::pair_gaussians(source.cloud, candidate.cloud, options);
+  if (!pairing.ok()) return naming(pairing.status(), candidate.info.path);
+  return pairing;
+}
+
+std::string unpaired_note(const converter::GaussianPairing& pairing, uint64_t candidate_gaussians) {
+  char within[96];
+  std::snprintf(within, sizeof(within), "within %.3g scene units", pairing.position_tolerance);
+  const std::string of = " of " + group_digits(candidate_gaussians) + " candidate Gaussians ";
+  if (pairing.far_test > 0) {
+    return group_digits(pairing.far_test) + of + "have no source Gaussian " + within + " (1/" +
+           std::to_string(std::lround(1 / kPairingMaxDistanceOfExtent)) + " of the source's extent)";
+  }
+  return group_digits(pairing.unpaired_test) + of + "cannot be paired one to one with a source Gaussian " + within +
+         ": every source Gaussian that near them is paired with a candidate Gaussian nearer to it";
+}
+
 Result<std::vector<AuditScene>> attribution_scenes(const AuditScene& source, const AuditScene& candidate) {
   const format::GaussianCloud& a = source.cloud;
   const format::GaussianCloud& b = candidate.cloud;
-  RGS_RETURN_ERROR_IF(a.size() != b.size() || a.sh_degree != b.sh_degree, StatusCode::kInvalidArgument,
-                      candidate.info.path + ": attribution needs the source's Gaussians in the same order (" +
-                          std::to_string(b.size()) + " of SH degree " + std::to_string(b.sh_degree) + " against " +
-                          std::to_string(a.size()) + " of degree " + std::to_string(a.sh_degree) + ")");
+  RGS_RETURN_ERROR_IF(a.sh_degree != b.sh_degree, StatusCode::kInvalidArgument,
+                      candidate.info.path + ": attribution needs the source's SH degree (" +
+                          std::to_string(b.sh_degree) + " against " + std::to_string(a.sh_degree) + ")");
+  RGS_ASSIGN_OR_RETURN(const converter::GaussianPairing pairing, pair_with_source(source, candidate));
+  RGS_RETURN_ERROR_IF(!pairing.complete(), StatusCode::kInvalidArgument,
+                      candidate.info.path +
+                          ": attribution needs every candidate Gaussian paired with a source Gaussian: " +
+                          unpaired_note(pairing, b.size()));
+  const std::vector<uint64_t>& to = pairing.reference_of_test;
   const size_t k = a.sh_coefficients();
-  // Each group copies its values from the candidate into a copy of the source.
+  // Each group copies its values from candidate Gaussian j into source Gaussian to[j] of a copy of the source.
+  auto copy = [&](const std::vector<float>& from, std::vector<float>* into, size_t width, size_t offset, size_t n) {
+    for (size_t j = 0; j < to.size(); ++j) std::copy_n(&from[j * width + offset], n, &(*into)[to[j] * width + offset]);
+  };
   const std::vector<std::pair<std::string, std::function<void(format::GaussianCloud&)>>> groups = {
-      {"means", [&](format::GaussianCloud& c) { c.means = b.means; }},
-      {"rotations", [&](format::GaussianCloud& c) { c.rotations = b.rotations; }},
-      {"scales", [&](format::GaussianCloud& c) { c.scales = b.scales; }},
-      {"opacities", [&](format::GaussianCloud& c) { c.opacities = b.opacities; }},
-      {"SH DC", [&](format::GaussianCloud& c) {
-         for (size_t i = 0; i < c.size(); ++i) std::copy_n(&b.sh[i * k * 3], 3, &c.sh[i * k * 3]);
+      {"means", [&](format::GaussianCloud& c) { copy(b.means, &c.means, 3, 0, 3); }},
+      {"rotations", [&](format::GaussianCloud& c) { copy(b.rotations, &c.rotations, 4, 0, 4); }},
+      {"scales", [&](format::GaussianCloud& c) { copy(b.scales, &c.scales, 3, 0, 3); }},
+      {"opacities", [&](format::GaussianCloud& c) {
+         std::fill(c.opacities.begin(), c.opacities.end(), 0.f);  // the Gaussians the candidate left out
+         copy(b.opacities, &c.opacities, 1, 0, 1);
        }},
-      {"SH bands 1+", [&](format::GaussianCloud& c) {
-         for (size_t i = 0; i < c.size(); ++i) std::copy_n(&b.sh[i * k * 3 + 3], (k - 1) * 3, &c.sh[i * k * 3 + 3]);
-       }},
+      {"SH DC", [&](format::GaussianCloud& c) { copy(b.sh, &c.sh, k * 3, 0, 3); }},
+      {"SH bands 1+", [&](format::GaussianCloud& c) { copy(b.sh, &c.sh, k * 3, 3, (k - 1) * 3); }},
   };
   std::vector<AuditScene> scenes;
   for (const auto& [group, take] : groups) {
@@ -89,9 +148,12 @@ Result<std::vector<AuditScene>> attribution_scenes(const AuditScene& source, con
     AuditScene hybrid;
     hybrid.cloud = a;
     take(hybrid.cloud);
-    hybrid.bounds = group == "means" ? candidate.bounds : source.bounds;
+    // The means scene holds the candidate's means and the source's where the candidate has none.
+    hybrid.bounds = group == "means" ? converter::compute_bounds(hybrid.cloud) : source.bounds;
+    hybrid.source_order = true;
     hybrid.info = candidate.info;
     hybrid.info.label = candidate.info.label + ": " + group + " only";
+    hybrid.info.gaussians = a.size();
     hybrid.info.file_bytes = 0;  // not a file: no size to report
     hybrid.info.sections.clear();
     hybrid.info.overhead_bytes = 0;

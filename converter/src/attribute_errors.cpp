@@ -85,6 +85,42 @@ Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& re
   }
 }
 
+Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCloud& reference,
+                                                        const format::GaussianCloud& test,
+                                                        const std::vector<uint64_t>& reference_of_test) {
+  RGS_RETURN_IF_ERROR(detail::check_consistent(reference, "reference cloud"));
+  RGS_RETURN_IF_ERROR(detail::check_consistent(test, "test cloud"));
+  if (reference.sh_degree != test.sh_degree || reference_of_test.size() != test.size()) {
+    return Status(StatusCode::kInvalidArgument,
+                  "cannot compare " + std::to_string(reference.size()) + " Gaussians at SH degree " +
+                      std::to_string(reference.sh_degree) + " with " + std::to_string(test.size()) + " at SH degree " +
+                      std::to_string(test.sh_degree) + " paired by " + std::to_string(reference_of_test.size()) +
+                      " indices");
+  }
+  constexpr uint64_t kUnpaired = std::numeric_limits<uint64_t>::max();
+  try {
+    std::vector<uint64_t> test_of_reference(reference.size(), kUnpaired);
+    for (uint64_t j = 0; j < test.size(); ++j) {
+      const uint64_t i = reference_of_test[j];
+      const bool beyond = i >= reference.size();
+      RGS_RETURN_ERROR_IF(beyond || test_of_reference[i] != kUnpaired, StatusCode::kInvalidArgument,
+                          "test Gaussian " + std::to_string(j) + " is paired with reference Gaussian " +
+                              std::to_string(i) + ", which is " +
+                              (beyond ? "out of range (" + std::to_string(reference.size()) + ")"
+                                      : "paired with test Gaussian " + std::to_string(test_of_reference[i])));
+      test_of_reference[i] = j;
+    }
+    return accumulate_chunks(reference.size(), [&](uint64_t first, uint64_t count, Accumulators* acc) {
+      for (uint64_t i = first; i < first + count; ++i) {
+        if (test_of_reference[i] != kUnpaired) accumulate(reference, i, test, test_of_reference[i], 1, acc);
+      }
+      return Status();
+    });
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "out of memory measuring paired attribute errors");
+  }
+}
+
 Result<AttributeErrors> measure_quantization_errors(const format::GaussianCloud& reference,
                                                     const format::EncodedScene& encoded) {
   RGS_RETURN_IF_ERROR(detail::check_consistent(reference, "reference cloud"));

@@ -95,9 +95,18 @@ struct ViewImages {
   float heat_scale = 0;
 };
 
-/// Per-attribute errors of a candidate against the source (only when both have the same Gaussians).
+/// Per-attribute errors of a candidate against the source: each candidate Gaussian against the source Gaussian
+/// it is paired with (pair_with_source), only when every candidate Gaussian has one.
 struct AttributeReport {
+  /// converter::measure_paired_attribute_errors over the pairs; source Gaussians without a pair are left out.
   converter::AttributeErrors errors;
+  /// How the Gaussians were paired: index by index, or by content (a candidate stored in another order).
+  converter::PairingMethod pairing = converter::PairingMethod::kIndex;
+  /// Largest distance between the means of a pair allowed by content, scene units (0 index by index).
+  double position_tolerance = 0;
+  /// Source Gaussians the candidate has no version of (an archive leaves out those of opacity code 0 or below its
+  /// opacity floor).
+  uint64_t source_unpaired = 0;
   /// Candidate .rgs only: SH scales s[d][c] and the source's coefficients clipped by them
   /// (|SH| ≥ 127.5·s, or s = 0 with SH ≠ 0).
   std::optional<format::ShQuantization> sh_quantization;
@@ -123,7 +132,7 @@ inline constexpr double kHeatScalePercentile = 99.0;
 struct CandidateResult {
   SceneInfo scene;
   std::optional<AttributeReport> attributes;
-  std::string attributes_note;  ///< why there are no attribute errors (different Gaussian count, ...)
+  std::string attributes_note;  ///< why there are no attribute errors (SH degrees, Gaussians without a pair)
   std::vector<ViewMetrics> views;  ///< one per AuditResult::views entry
   Summary summary;
   std::vector<ViewImages> worst;  ///< lowest PSNR first, at most AuditOptions::worst_views

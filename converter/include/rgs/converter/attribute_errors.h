@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
@@ -43,6 +44,17 @@ struct AttributeErrors {
 /// Compares two clouds of equal size and SH degree. Errors: kInvalidArgument otherwise.
 Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& reference,
                                                  const format::GaussianCloud& test);
+
+/// Errors of each `test` Gaussian against the `reference` Gaussian it is paired with: test Gaussian j against
+/// reference Gaussian reference_of_test[j] (GaussianPairing::reference_of_test, gaussian_pairing.h), for clouds
+/// stored in different orders or a test cloud that lacks some reference Gaussians (those are left out of every
+/// figure). Accumulated in the reference's order, so the result does not depend on the test cloud's order; for the
+/// identity pairing it equals measure_attribute_errors() bit for bit. Errors: kInvalidArgument for clouds of
+/// different SH degrees, a pairing whose size is not the test cloud's, or an index that is out of range or paired
+/// twice.
+Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCloud& reference,
+                                                        const format::GaussianCloud& test,
+                                                        const std::vector<uint64_t>& reference_of_test);
 
 /// Errors of the dequantized `encoded` scene against `reference` (the cloud it was quantized from),
 /// identical to measure_attribute_errors(reference, dequantize(encoded)) but dequantizing in chunks of
