@@ -183,13 +183,22 @@ Result<int> create_temporary(const std::string& path, std::string* temporary, si
     // A second temporary of the same output in this process (two threads) gets a "-<n>" tail.
     *temporary = (dir == "/" ? std::string("/") : dir + "/") + name + "." + pid +
                  (attempt ? "-" + std::to_string(attempt) : "") + kPartialSuffix;
+    // Registered before it exists, so that an interrupt between the two cannot miss it.
+    *slot = register_temporary(*temporary);
+    if (*slot == kMaxTemporaries) {
+      temporary->clear();
+      return Status(StatusCode::kLimitExceeded, "cannot create " + path + ": more than " +
+                                                    std::to_string(kMaxTemporaries) + " temporaries at once");
+    }
     do {
       fd = ::open(temporary->c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
     } while (fd < 0 && errno == EINTR);
-    open_errno = fd < 0 ? errno : 0;
-    if (fd < 0 && open_errno != EEXIST) break;
-    // Same pid but not ours: left by an earlier process that had this pid and was killed.
-    if (fd < 0 && !is_pending_temporary(*temporary)) {
+    if (fd >= 0) break;
+    open_errno = errno;
+    unregister_temporary(*slot);
+    if (open_errno != EEXIST) break;
+    // Same pid but not another thread's: left by an earlier process that had this pid and was killed.
+    if (!is_pending_temporary(*temporary)) {
       struct stat st {};
       if (::lstat(temporary->c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::unlink(temporary->c_str()) == 0) {
         --attempt;  // retry the same name once it is gone
@@ -201,14 +210,6 @@ Result<int> create_temporary(const std::string& path, std::string* temporary, si
     temporary->clear();
     return Status(StatusCode::kIoError, "cannot create " + path + ": cannot create a temporary file in directory " +
                                             dir + ": " + os_error(open_errno));
-  }
-  *slot = register_temporary(*temporary);
-  if (*slot == kMaxTemporaries) {
-    ::close(fd);
-    ::unlink(temporary->c_str());
-    temporary->clear();
-    return Status(StatusCode::kLimitExceeded, "cannot create " + path + ": more than " +
-                                                  std::to_string(kMaxTemporaries) + " temporaries at once");
   }
   return fd;
 }
