@@ -11,14 +11,10 @@
 #include <tuple>
 #include <vector>
 
+#include "internal_pipeline.h"
 #include "rgs/format/archive.h"
 
 namespace rgs::api::detail {
-
-using Clock = std::chrono::steady_clock;
-
-/// Seconds since `start`.
-double seconds_since(Clock::time_point start);
 
 inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -111,8 +107,6 @@ Key key_of(const format::ArchiveOptions& o);
 /// The knobs the rounds move for a scene of SH degree `sh_degree`.
 std::vector<Knob> knobs_for(uint32_t sh_degree);
 
-/// 1234567 -> "1,234,567".
-std::string group_digits(uint64_t n);
 /// "40.31 dB".
 std::string db_text(double db);
 

@@ -104,15 +104,7 @@ Key key_of(const format::ArchiveOptions& o) {
           o.opacity_step,  o.opacity_floor, o.sh_step_multipliers, o.position_error};
 }
 
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
 double mse_of(double psnr_db) { return std::pow(10.0, -psnr_db / 10); }
-
-std::string group_digits(uint64_t n) {
-  std::string s = std::to_string(n);
-  for (int i = int(s.size()) - 3; i > 0; i -= 3) s.insert(size_t(i), ",");
-  return s;
-}
 
 std::string db_text(double db) {
   char text[32];

@@ -1,6 +1,6 @@
-// convert() of a binary PLY larger than its memory limit into a level-of-detail .rgs: the PLY read in batches,
-// quantized batch by batch with the scene's own SH scales, its levels built by converter::build_lod_out_of_core
-// (docs/LOD.md#scenes-larger-than-memory).
+// The stages and the .rgs sink of a batched source: a binary PLY larger than its memory limit read in batches,
+// quantized batch by batch with the scene's own SH scales, its levels of detail built and written by
+// converter::build_lod_out_of_core (docs/LOD.md#scenes-larger-than-memory).
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,8 +12,7 @@
 #include <string>
 #include <utility>
 
-#include "internal_convert_memory.h"
-#include "internal_rate_knobs.h"
+#include "../internal_pipeline.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/quantize.h"
@@ -25,8 +24,6 @@ namespace rgs::api::detail {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
 /// Gaussians a batch holds at most, and the share of the memory limit the batches take.
 constexpr uint64_t kMaxBatchGaussians = uint64_t{1} << 20;
 constexpr uint64_t kMinBatchGaussians = uint64_t{1} << 12;
@@ -36,8 +33,6 @@ constexpr uint64_t kBatchShareOfLimit = 16;
 constexpr uint64_t kThreadBytes = uint64_t{2} << 20;
 constexpr uint64_t kReadSlackBytes = uint64_t{16} << 20;
 
-/// Where each stage of an out-of-core conversion starts, as a fraction of the whole.
-constexpr double kScanShare = 0.2;
 
 /// The process's resident memory now (Linux /proc/self/statm), 0 when unknown: what the memory limit holds
 /// before the conversion's own arrays.
@@ -174,7 +169,7 @@ struct SceneStatistics {
 };
 
 Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptions& quantize,
-                             const converter::PlyStream& stream, const ConvertOptions& options) {
+                             const converter::PlyStream& stream, ProgressReporter* progress) {
   SceneStatistics stats;
   converter::QuantizeScan scan(quantize);
   format::GaussianCloud cloud;
@@ -191,10 +186,7 @@ Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptio
       }
     }
     stats.count += cloud.size();
-    if (options.progress) {
-      const double read = double(stream.hygiene().dropped_gaussians + stats.count) / double(stream.vertex_count());
-      options.progress(ConvertProgress{"reading", kScanShare * read});
-    }
+    progress->scanning(double(stream.hygiene().dropped_gaussians + stats.count) / double(stream.vertex_count()));
   }
   stats.shq = scan.sh_quantization(stats.sh_degree);
   return stats;
@@ -202,43 +194,19 @@ Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptio
 
 }  // namespace
 
-Result<std::unique_ptr<converter::PlyStream>> out_of_core_input(const std::string& src, OutputFormat output,
-                                                                 const ConvertOptions& options) {
-  std::unique_ptr<converter::PlyStream> none;
-  if (output != OutputFormat::kRgs || !options.lod_levels || options.target.active() ||
-      options.profile != format::StorageProfile::kRuntime) {
-    return none;
-  }
-  const uint64_t limit = convert_memory_limit(options);
-  if (limit == 0) return none;
-  RGS_ASSIGN_OR_RETURN(const uint64_t estimate, estimate_convert_memory(src));
-  if (estimate <= limit) return none;
-  RGS_ASSIGN_OR_RETURN(const std::string format_id, converter::detect_scene_format(src));
-  if (format_id != "ply") return none;
-  const converter::SceneReadOptions read = scene_read_options(options);
-  converter::PlyReadOptions ply;
-  ply.invalid_policy = read.invalid_policy;
-  ply.max_gaussians = read.max_gaussians;
-  ply.hash_file = true;
-  auto stream = converter::PlyStream::open(src, ply);
-  if (!stream.ok() && stream.status().code() == StatusCode::kUnsupportedFeature) return none;  // an ascii PLY
-  return stream;
-}
-
-Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> stream, const std::string& src,
-                                          const std::string& dst, const ConvertOptions& options) {
-  const auto start = Clock::now();
+Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst, const ConvertOptions& options,
+                                      format::FileSink& files, ProgressReporter* progress) {
+  const auto start = source.start;
+  const std::string& src = source.name;
+  std::unique_ptr<converter::PlyStream>& stream = source.stream;
   RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
                       src + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
   const uint64_t limit = convert_memory_limit(options);
   const uint64_t batch = std::clamp(limit / kBatchShareOfLimit / batch_bytes_per_gaussian(stream->sh_degree()),
                                     kMinBatchGaussians, kMaxBatchGaussians);
-  converter::QuantizeOptions quantize;
-  quantize.scale_encoding = options.scale_encoding;
-  quantize.sh_clip_percentile = options.sh_clip_percentile;
-  quantize.sh_dc_bits = options.sh_dc_bits;
+  const converter::QuantizeOptions quantize = rgs_quantize_options(options);
   PlyBatches batches(stream.get(), options, batch);
-  auto scanned = scan(batches, quantize, *stream, options);
+  auto scanned = scan(batches, quantize, *stream, progress);
   if (!scanned.ok()) return pass_error(scanned.status(), *stream, src);
   SceneStatistics stats = std::move(scanned).value();
   const converter::InputHygiene hygiene = stream->hygiene();
@@ -248,7 +216,7 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
                                                                : std::string("the input has no Gaussians")));
   }
   ConvertReport report;
-  report.seconds.read = std::chrono::duration<double>(Clock::now() - start).count();
+  report.seconds.read = seconds_since(start);
   report.output_format = OutputFormat::kRgs;
   report.input_format = "ply";
   report.input_storage = stream->storage_format();
@@ -287,13 +255,11 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
   lod.memory_limit = limit - std::min(limit, held);
   lod.sh_dc_residual = options.sh_dc_bits == 16;
   RGS_ASSIGN_OR_RETURN(lod.write, rgs_write_options(options));
-  lod.progress = [&](const char* stage, double fraction) {
-    if (options.progress) options.progress(ConvertProgress{stage, kScanShare + (1 - kScanShare) * fraction});
-  };
+  lod.progress = [&](const char* stage, double fraction) { progress->out_of_core(stage, fraction); };
   const auto build_start = Clock::now();
-  auto built = converter::build_lod_out_of_core(dst, quantized, head, lod, *options.files);
+  auto built = converter::build_lod_out_of_core(dst, quantized, head, lod, files);
   if (!built.ok()) return pass_error(built.status(), *stream, src);
-  report.seconds.lod = std::chrono::duration<double>(Clock::now() - build_start).count();
+  report.seconds.lod = seconds_since(build_start);
   rgs.sh_quantization = stats.shq;
   rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],
                          double(stats.box_hi[2]) - stats.box_lo[2], 0.0});
@@ -311,8 +277,8 @@ Result<ConvertReport> convert_out_of_core(std::unique_ptr<converter::PlyStream> 
   note_read_limit(built->gaussians, &report);
   report.gaussians = stats.count;
   report.sh_degree = stats.sh_degree;
-  report.seconds.total = std::chrono::duration<double>(Clock::now() - start).count();
-  if (options.progress) options.progress(ConvertProgress{"done", 1.0});
+  report.seconds.total = seconds_since(start);
+  progress->done();
   return report;
 }
 

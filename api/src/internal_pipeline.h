@@ -1,0 +1,163 @@
+// The conversion pipeline, private to rgs_api: a source yields the scene (whole, or in batches pass after pass
+// when it is larger than memory), stages act on it in order, and one sink writes it through the output
+// transaction. convert(), convert_bytes(), convert_scene() and convert_cloud() differ only in their source
+// (docs/DESIGN.md#the-scene-pipeline).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rgs/api/convert.h"
+#include "rgs/converter/lod_builder.h"
+#include "rgs/converter/ply_reader.h"
+#include "rgs/converter/scene_reader.h"
+#include "rgs/format/encoded_scene.h"
+#include "rgs/format/output_transaction.h"
+
+namespace rgs::api::detail {
+
+using Clock = std::chrono::steady_clock;
+
+/// Seconds from `start` to now.
+double seconds_since(Clock::time_point start);
+
+/// "1,234,567": a count with its thousands grouped, for messages.
+std::string group_digits(uint64_t n);
+
+/// Calls ConvertOptions::progress, if set, once per stage, keeping the fractions non-decreasing. Each stage
+/// starts at its share of a typical conversion to the output (reading and quantizing are quick next to the
+/// archive and SPZ encoders); rate control spreads its steps over most of the range.
+class ProgressReporter {
+ public:
+  ProgressReporter(const ConvertOptions& options, OutputFormat output);
+  void reading() { report("reading", 0.0); }
+  /// Rate control's `done` steps of at most `bound`, with what its search is doing.
+  void fitting(const std::string& what, uint32_t done, uint32_t bound);
+  void quantizing() { report("quantizing", shares_.quantize); }
+  void encoding_archive() { report("encoding the archive", shares_.encode); }
+  void building_lod() { report("building levels of detail", shares_.quantize); }
+  void writing() { report("writing", shares_.write); }
+  /// The out-of-core conversion's reading pass, `fraction` of it done.
+  void scanning(double fraction);
+  /// A stage of the out-of-core build at `fraction` of it, which starts after the reading pass.
+  void out_of_core(const char* stage, double fraction);
+  void done() { report("done", 1.0); }
+
+ private:
+  struct Shares {
+    double quantize, encode, write;
+  };
+  void report(const char* stage, double fraction);
+  const std::function<void(const ConvertProgress&)>& callback_;
+  Shares shares_;
+  std::string text_;  ///< rate control's stage text
+  const char* stage_ = nullptr;
+  double fraction_ = 0;
+};
+
+/// Where a conversion's Gaussians come from: a scene read whole (a file, bytes, a cloud, a scene read already),
+/// or a binary PLY too large for memory, read in batches pass after pass (docs/LOD.md#scenes-larger-than-memory).
+struct SceneSource {
+  /// The source as named in messages and in the provenance.
+  std::string name;
+  /// The whole scene (unset for a batched source): its cloud and what was learned reading it.
+  std::optional<converter::InputScene> scene;
+  /// The batched PLY (null for a whole source).
+  std::unique_ptr<converter::PlyStream> stream;
+  /// When reading began (ConvertTimes::read).
+  Clock::time_point start = Clock::now();
+};
+
+/// The file at `src` as the source of a conversion to `output`: in batches when it is a binary PLY converted to a
+/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole is above
+/// convert_memory_limit(options); else read whole (converter::read_scene, after check_convert_memory).
+Result<SceneSource> open_file_source(const std::string& src, OutputFormat output, const ConvertOptions& options);
+
+/// The scene on its way from the stages to the sink: the float cloud as read (freed once quantized where nothing
+/// reads it again), its quantized form, its levels of detail, and the report filled as the work goes.
+struct PipelineScene {
+  converter::InputScene input;
+  std::string name;  ///< the source as named in messages and provenance
+  std::optional<format::EncodedScene> encoded;
+  std::optional<converter::LodScene> lod;
+  ConvertReport report;
+};
+
+/// A stage: acts on the scene in place (reduce its SH bands, fit the archive to a target, quantize, build its
+/// levels of detail), reporting what it did in scene->report.
+using Stage = std::function<Status(PipelineScene* scene)>;
+
+/// The stages a conversion to `output` at `dst` runs on a whole scene, in order: the empty-scene check, the SH
+/// reduction, rate control with a target, then for a .rgs or a streamed SOG quantizing and levels of detail.
+/// `options` must outlive the stages (rate control changes `*options`' archive settings).
+std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output, ConvertOptions* options,
+                                     ProgressReporter* progress);
+
+/// Writes a scene through the output transaction.
+class Sink {
+ public:
+  virtual ~Sink() = default;
+  /// Writes `scene` (after the stages) to the sink's destination through `files`, filling scene->report's output
+  /// fields.
+  virtual Status write(PipelineScene* scene, format::FileSink& files) = 0;
+};
+
+/// The .rgs sink (runtime or archive profile, levels of detail): the scene's `encoded` (and `lod`) written.
+std::unique_ptr<Sink> make_rgs_sink(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress);
+
+/// The sink of a float format, `output` kPly, kSpz, kGlb or kSog (a bundle, or a folder when `dst` is named
+/// meta.json): the scene's cloud written. Null for kRgs.
+std::unique_ptr<Sink> make_cloud_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                                      ProgressReporter* progress);
+
+/// The streamed SOG sink (`dst` named lod-meta.json): the scene's `lod` written.
+std::unique_ptr<Sink> make_sog_lod_sink(const std::string& dst, ProgressReporter* progress);
+
+/// A batched source converted to a level-of-detail .rgs out of core: the PLY scanned once for the statistics the
+/// quantizer takes, then quantized batch by batch into converter::build_lod_out_of_core, which writes `dst`
+/// through `files` (the stages and the .rgs sink of a whole scene, fused: the build spills to disk what a whole
+/// scene holds in memory).
+Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst, const ConvertOptions& options,
+                                      format::FileSink& files, ProgressReporter* progress);
+
+/// Forwards to another sink, reporting the "writing" stage when the first bytes reach the file (before that,
+/// the archive profile's encoder or the SPZ compressor is still running).
+class ProgressSink final : public format::FileSink {
+ public:
+  ProgressSink(format::FileSink& inner, ProgressReporter* progress) : inner_(inner), progress_(progress) {}
+  using format::FileSink::write;
+  Status write(const std::string& path, const format::ChunkProducer& produce) override;
+  Status write_by_name(const std::string& path, const format::ByNameWriter& write_to) override;
+  Status declare(const std::vector<std::string>& paths) override { return inner_.declare(paths); }
+  Status create_folder(const std::string& path) override { return inner_.create_folder(path); }
+
+ private:
+  format::FileSink& inner_;
+  ProgressReporter* progress_;
+};
+
+/// The provenance a .rgs conversion writes (SPEC §4.2): the source file's name, bytes, XXH64 and storage, the
+/// converter and the options that change the bytes, the Gaussians dropped by sanitizing.
+format::Provenance rgs_provenance(const std::string& src_name, const ConvertOptions& options, uint64_t file_bytes,
+                                  uint64_t file_xxh64, const std::string& storage, uint64_t dropped_gaussians);
+
+/// The write options of a .rgs conversion (profile, codecs, zstd level), checked.
+Result<format::WriteOptions> rgs_write_options(const ConvertOptions& options);
+
+/// How a .rgs conversion quantizes: scale encoding, SH clip percentile and DC bits (8 for the archive profile,
+/// which drops the DC residual: SPEC §4.8).
+converter::QuantizeOptions rgs_quantize_options(const ConvertOptions& options);
+
+/// Adds a note to `report` when a written .rgs of `gaussians` (every level) is over the readers' default
+/// max_gaussians (format::ReadLimits): what to pass to read it.
+void note_read_limit(uint64_t gaussians, ConvertReport* report);
+
+/// The report's input fields from what the reader learned (ConvertReport documents them).
+void describe_input(const converter::InputScene& input, ConvertReport* report);
+
+}  // namespace rgs::api::detail

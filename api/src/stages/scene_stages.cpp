@@ -1,0 +1,125 @@
+// The stages of a conversion of a whole scene, in the order they run: rate control (with a target), the
+// empty-scene check, the SH reduction, quantizing and the levels of detail (a .rgs or a streamed SOG).
+#include <algorithm>
+
+#include "../internal_pipeline.h"
+#include "../internal_rate_control.h"
+#include "rgs/converter/quantize.h"
+#include "rgs/converter/sog_writer.h"
+
+namespace rgs::api::detail {
+
+namespace {
+
+/// Rate control (ConvertOptions::target): the archive options fitted on the scene as read (its SH bands all
+/// rendered as the source's), written into `*options` for the stages and the sink that follow.
+Status fit(PipelineScene* scene, ConvertOptions* options, ProgressReporter* progress) {
+  RGS_ASSIGN_OR_RETURN(RateControlReport rate,
+                       fit_target(scene->input, scene->name, options,
+                                  [progress](const std::string& what, uint32_t done, uint32_t bound) {
+                                    progress->fitting(what, done, bound);
+                                  }));
+  scene->report.rate_control = std::move(rate);
+  return Status();
+}
+
+Status check_not_empty(const PipelineScene& scene, const ConvertOptions& options) {
+  const converter::InputScene& input = scene.input;
+  if (input.cloud.size() > 0 || options.allow_empty) return Status();
+  const std::string why = input.hygiene.dropped_gaussians > 0
+                              ? "sanitizing (--sanitize) dropped all " +
+                                    std::to_string(input.hygiene.dropped_gaussians) + " Gaussians, so the scene is empty"
+                              : "the input has no Gaussians";
+  return Status(StatusCode::kInvalidArgument,
+                scene.name + ": " + why + "; allow_empty (--allow-empty) writes an empty scene");
+}
+
+Status reduce_sh(PipelineScene* scene, uint32_t degree) {
+  format::GaussianCloud& cloud = scene->input.cloud;
+  if (degree >= cloud.sh_degree) return Status();
+  scene->report.input_notes.push_back("SH degree " + std::to_string(cloud.sh_degree) + " reduced to " +
+                                      std::to_string(degree));
+  return converter::reduce_sh_degree(&cloud, degree);
+}
+
+/// Quantizes the cloud for a .rgs: the quantization report and, for the runtime profile, its errors measured in
+/// the same pass (the archive's are measured on what it decodes to, by the sink); the provenance set. The cloud
+/// is freed unless the archive's sink measures against it.
+Status quantize_rgs(PipelineScene* scene, const ConvertOptions& options, ProgressReporter* progress) {
+  const bool archive = options.profile == format::StorageProfile::kArchive;
+  RgsOutputReport& rgs = scene->report.rgs.emplace();
+  progress->quantizing();
+  const auto start = Clock::now();
+  auto encoded = converter::quantize(scene->input.cloud, rgs_quantize_options(options), &rgs.quantization,
+                                     archive ? nullptr : &rgs.errors);
+  if (!encoded.ok()) return Status(encoded.status()).prepend(scene->name);
+  scene->report.seconds.quantize = seconds_since(start);
+  // Not read again by the runtime profile: freed before the writer's buffers exist (peak RSS).
+  if (!archive) scene->input.cloud = {};
+  const converter::InputScene& input = scene->input;
+  encoded->provenance = rgs_provenance(scene->name, options, input.file_bytes, input.file_xxh64.value_or(0),
+                                       input.storage_format, input.hygiene.dropped_gaussians);
+  scene->encoded.emplace(std::move(encoded).value());
+  return Status();
+}
+
+/// Quantizes the cloud for a streamed SOG, which writes the runtime profile's values: no report, the cloud freed.
+Status quantize_sog_lod(PipelineScene* scene, const ConvertOptions& options, ProgressReporter* progress) {
+  converter::QuantizeOptions quantize;
+  quantize.scale_encoding = options.scale_encoding;
+  quantize.sh_clip_percentile = options.sh_clip_percentile;
+  progress->quantizing();
+  const auto start = Clock::now();
+  auto encoded = converter::quantize(scene->input.cloud, quantize);
+  if (!encoded.ok()) return Status(encoded.status()).prepend(scene->name);
+  scene->report.seconds.quantize = seconds_since(start);
+  scene->report.gaussians = scene->input.cloud.size();
+  scene->report.sh_degree = scene->input.cloud.sh_degree;
+  scene->input.cloud = {};
+  scene->encoded.emplace(std::move(encoded).value());
+  return Status();
+}
+
+/// The levels of detail of the quantized scene (converter::build_lod): `levels` per chunk (0: auto).
+Status build_levels(PipelineScene* scene, uint32_t levels, const ConvertOptions& options, ProgressReporter* progress) {
+  progress->building_lod();
+  const auto start = Clock::now();
+  converter::LodBuildOptions lod;
+  lod.levels = levels;
+  lod.max_chunk_gaussians = options.lod_chunk_gaussians;
+  auto built = converter::build_lod(*scene->encoded, lod);
+  if (!built.ok()) return Status(built.status()).prepend(scene->name);
+  scene->lod.emplace(std::move(built).value());
+  scene->report.seconds.lod = seconds_since(start);
+  return Status();
+}
+
+}  // namespace
+
+std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output, ConvertOptions* options,
+                                     ProgressReporter* progress) {
+  std::vector<Stage> stages;
+  if (options->target.active()) {
+    stages.push_back([options, progress](PipelineScene* s) { return fit(s, options, progress); });
+  }
+  stages.push_back([options](PipelineScene* s) { return check_not_empty(*s, *options); });
+  if (options->sh_degree) {
+    stages.push_back([degree = *options->sh_degree](PipelineScene* s) { return reduce_sh(s, degree); });
+  }
+  if (output == OutputFormat::kRgs) {
+    stages.push_back([options, progress](PipelineScene* s) { return quantize_rgs(s, *options, progress); });
+    if (options->lod_levels) {
+      stages.push_back([options, progress](PipelineScene* s) {
+        return build_levels(s, *options->lod_levels, *options, progress);
+      });
+    }
+  } else if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) {
+    stages.push_back([options, progress](PipelineScene* s) { return quantize_sog_lod(s, *options, progress); });
+    stages.push_back([options, progress](PipelineScene* s) {
+      return build_levels(s, options->lod_levels.value_or(0), *options, progress);
+    });
+  }
+  return stages;
+}
+
+}  // namespace rgs::api::detail
