@@ -17,7 +17,8 @@ seconds="${1:-60}"
 build="${RGS_BUILD_DIR:-$root/build-fuzz}"
 out="${RGS_FUZZ_OUT:-$build/fuzz-out}"
 jobs="${RGS_FUZZ_JOBS:-$(nproc)}"
-targets=(rgs_read ply_read interop_read sog_meta sog_folder gltf_json zip render_cpu camera_json view_message)
+targets=(rgs_read ply_read interop_read sog_meta sog_folder gltf_json zip render_cpu camera_json view_message
+         view_request)
 
 if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
   echo "run_fuzzers: seconds per target must be a positive integer, got '$seconds'" >&2
@@ -51,6 +52,7 @@ seeds_zip=("$root/tests/fuzz/corpus/zip" "$root/tests/data/sog" "$root/tests/dat
 seeds_render_cpu=("$root/tests/fuzz/corpus/render_cpu")
 seeds_camera_json=("$root/tests/fuzz/corpus/camera_json")
 seeds_view_message=("$root/tests/fuzz/corpus/view_message")
+seeds_view_request=("$root/tests/fuzz/corpus/view_request")
 args_rgs_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_rgs_read.dict")
 args_ply_read=(-max_len=8192 "-dict=$root/tests/fuzz/fuzz_ply_read.dict")
 args_interop_read=(-max_len=20480 "-dict=$root/tests/fuzz/fuzz_interop_read.dict")
@@ -61,6 +63,7 @@ args_zip=(-max_len=32768 "-dict=$root/tests/fuzz/fuzz_zip.dict")
 args_render_cpu=(-max_len=4096)
 args_camera_json=(-max_len=4096 "-dict=$root/tests/fuzz/fuzz_camera_json.dict")
 args_view_message=(-max_len=70000)
+args_view_request=(-max_len=9000 "-dict=$root/tests/fuzz/fuzz_view_request.dict")
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:allocator_may_return_null=1}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"

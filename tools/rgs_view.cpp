@@ -140,10 +140,36 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--port", opt.server.port, "TCP port (0: any free port)")->capture_default_str();
   app.add_option("--token", opt.server.token,
-                 "Token every request must carry (?token=...; letters, digits, - and _); default: random when the "
-                 "host is not loopback, none otherwise");
+                 "Token every request must carry (?token=...; at least " + std::to_string(view::kMinTokenLength) +
+                     " letters, digits, - and _); default: random (32 hex digits) when the host is not loopback, "
+                     "none otherwise. With a token, any Host name reaches the server")
+      ->check(CLI::Validator(
+          [](std::string& token) {
+            return token.size() >= view::kMinTokenLength
+                       ? std::string()
+                       : "a token needs at least " + std::to_string(view::kMinTokenLength) + " characters, not " +
+                             std::to_string(token.size());
+          },
+          ""));
   app.add_option("--max-clients", opt.server.max_clients, "Most browser connections at once")
       ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  app.add_option("--idle-timeout", opt.server.idle_timeout_s,
+                 "Seconds without a message after which a browser connection is closed, freeing its slot (the "
+                 "page pings every 20 s)")
+      ->check(CLI::Range(0.05, 86400.0))
+      ->capture_default_str();
+  app.add_option("--frame-memory", opt.server.frame_memory,
+                 "Host memory all clients' frames share (e.g. 2GiB, at least 16MiB): buffers, encoders and "
+                 "encoded frames waiting to be sent; a client that does not read waits, a frame needing more "
+                 "fails")
+      ->transform(CLI::AsSizeValue(false))
+      ->check(CLI::Validator(
+          [](std::string& bytes) {
+            const bool enough = std::stoull(bytes) >= (uint64_t(16) << 20);
+            return enough ? std::string() : "at least 16MiB, not " + bytes + " bytes";
+          },
+          ""))
       ->capture_default_str();
   app.add_option("--cpu-threads", opt.server.cpu_threads, "CPU backend: threads per frame (0: all)")
       ->capture_default_str();

@@ -10,13 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include <boost/asio/connect.hpp>
-#include <boost/asio/ip/tcp.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/http.hpp>
-#include <boost/beast/websocket.hpp>
 #include <doctest/doctest.h>
-#include <nlohmann/json.hpp>
 #include <webp/decode.h>
 
 #include "rgs/api/convert.h"
@@ -25,141 +19,13 @@
 #include "rgs/view/image_codec.h"
 #include "rgs/view/server.h"
 #include "test_data.h"
+#include "view_server_client.h"
 #include "view_test_util.h"
 
 namespace {
 
 using namespace rgs;
-using test::decode_webp;
-namespace beast = boost::beast;
-namespace http = beast::http;
-namespace websocket = beast::websocket;
-namespace net = boost::asio;
-using tcp = net::ip::tcp;
-using nlohmann::json;
-
-api::Scene cpu_scene(const std::string& path, bool quantize = true) {
-  api::LoadOptions cpu;
-  cpu.device = api::Device::kCpu;
-  cpu.quantize_other_formats = quantize;
-  auto scene = view::load_view_scene(path, cpu);
-  REQUIRE(scene.ok());
-  return *scene;
-}
-
-const api::Scene& guitar() {
-  static const api::Scene scene = cpu_scene(test::repo_path("samples/guitar.ply"));
-  return scene;
-}
-
-view::Server start(std::vector<api::Scene> scenes, view::ServerOptions options = {}) {
-  options.port = 0;
-  auto server = view::Server::start(std::move(scenes), options);
-  REQUIRE_MESSAGE(server.ok(), server.status().message());
-  return std::move(*server);
-}
-
-struct Reply {
-  unsigned status = 0;
-  std::string content_type, body;
-};
-
-// One request; `upgrade` adds the WebSocket upgrade headers (Beast's client does not report a declined
-// handshake's status).
-Reply http_request(uint16_t port, const std::string& target, http::verb verb = http::verb::get,
-                   bool upgrade = false) {
-  net::io_context ioc;
-  tcp::socket socket(ioc);
-  socket.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
-  http::request<http::empty_body> request(verb, target, 11);
-  request.set(http::field::host, "127.0.0.1");
-  if (upgrade) {
-    request.set(http::field::connection, "Upgrade");
-    request.set(http::field::upgrade, "websocket");
-    request.set(http::field::sec_websocket_version, "13");
-    request.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
-  }
-  http::write(socket, request);
-  beast::flat_buffer buffer;
-  http::response_parser<http::string_body> parser;
-  parser.skip(verb == http::verb::head);
-  http::read_header(socket, buffer, parser);
-  if (parser.get().result() != http::status::switching_protocols) http::read(socket, buffer, parser);
-  const auto& response = parser.get();
-  return {response.result_int(), std::string(response[http::field::content_type]), response.body()};
-}
-
-// A WebSocket client; connect() reports the handshake's HTTP status (101 when upgraded).
-struct WsClient {
-  net::io_context ioc;
-  websocket::stream<tcp::socket> ws{ioc};
-  beast::flat_buffer buffer;
-
-  unsigned connect(uint16_t port, const std::string& target) {
-    ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
-    websocket::response_type response;
-    beast::error_code ec;
-    ws.handshake(response, "127.0.0.1", target, ec);
-    return response.result_int();
-  }
-  // The next message: its text or bytes; `binary` says which; false at a close (ws.reason() has the code).
-  bool read(std::string* out, bool* binary = nullptr) {
-    beast::error_code ec;
-    buffer.clear();
-    ws.read(buffer, ec);
-    if (ec) return false;
-    *out = beast::buffers_to_string(buffer.data());
-    if (binary) *binary = ws.got_binary();
-    return true;
-  }
-  json read_json() {
-    std::string text;
-    bool binary = true;
-    REQUIRE(read(&text, &binary));
-    REQUIRE_FALSE(binary);
-    return json::parse(text);
-  }
-  void send(const std::string& text) {
-    ws.text(true);
-    ws.write(net::buffer(text));
-  }
-};
-
-struct Frame {
-  json header;
-  std::vector<std::vector<uint8_t>> images;
-};
-
-Frame read_frame(WsClient& client) {
-  std::string message;
-  bool binary = false;
-  for (;;) {  // skip text (pongs)
-    REQUIRE(client.read(&message, &binary));
-    if (binary) break;
-    const json text = json::parse(message);
-    REQUIRE_MESSAGE(text["type"] != "error", text.dump());
-  }
-  REQUIRE(message.size() >= 4);
-  const uint32_t n = uint32_t(uint8_t(message[0])) | uint32_t(uint8_t(message[1])) << 8 |
-                     uint32_t(uint8_t(message[2])) << 16 | uint32_t(uint8_t(message[3])) << 24;
-  REQUIRE(4 + n <= message.size());
-  Frame frame;
-  frame.header = json::parse(message.substr(4, n));
-  size_t at = 4 + n;
-  for (const json& image : frame.header["images"]) {
-    const size_t bytes = image["bytes"].get<size_t>();
-    REQUIRE(at + bytes <= message.size());
-    frame.images.emplace_back(message.begin() + long(at), message.begin() + long(at + bytes));
-    at += bytes;
-  }
-  CHECK(at == message.size());
-  return frame;
-}
-
-json view_json(const json& camera, uint64_t seq, const std::string& encoding, const std::string& compare = "off") {
-  return {{"type", "view"}, {"seq", seq},          {"camera", camera}, {"encoding", encoding},
-          {"compare", compare}, {"background", {0.2, 0.1, 0.0}}};
-}
+using namespace rgs::test;
 
 // The front door's 8-bit RGB of `scene` from the protocol camera `camera` (as rgs-render writes it).
 std::vector<uint8_t> reference_rgb(const api::Scene& scene, const json& camera) {
@@ -181,16 +47,6 @@ std::vector<uint8_t> reference_rgb(const api::Scene& scene, const json& camera) 
     for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = rgba[p * 4 + c];
   }
   return rgb;
-}
-
-json small_camera(const json& hello, uint32_t w, uint32_t h) {
-  json camera = hello["home_camera"];
-  const double scale = double(w) / camera["width"].get<double>();
-  camera["fx"] = camera["fx"].get<double>() * scale;
-  camera["fy"] = camera["fy"].get<double>() * scale;
-  camera["width"] = w;
-  camera["height"] = h;
-  return camera;
 }
 
 }  // namespace
@@ -228,21 +84,21 @@ TEST_CASE("server: serves the embedded page and nothing else") {
 
 TEST_CASE("server: with a token, requests and upgrades without it get 403") {
   view::ServerOptions options;
-  options.token = "secret-token_1";
+  options.token = "secret-token_0001";
   view::Server server = start({guitar()}, options);
-  CHECK(server.url() == "http://127.0.0.1:" + std::to_string(server.port()) + "/?token=secret-token_1");
+  CHECK(server.url() == "http://127.0.0.1:" + std::to_string(server.port()) + "/?token=secret-token_0001");
   CHECK(http_request(server.port(), "/").status == 403);
-  CHECK(http_request(server.port(), "/?token=secret-token_2").status == 403);
-  CHECK(http_request(server.port(), "/?token=secret-token_").status == 403);
+  CHECK(http_request(server.port(), "/?token=secret-token_0002").status == 403);
+  CHECK(http_request(server.port(), "/?token=secret-token_000").status == 403);
   CHECK(http_request(server.port(), "/CMakeLists.txt").status == 403);
-  CHECK(http_request(server.port(), "/?token=secret-token_1").status == 200);
-  CHECK(http_request(server.port(), "/app.js?x=1&token=secret-token_1").status ==
-        (http_request(server.port(), "/app.js?token=secret-token_1").status));
+  CHECK(http_request(server.port(), "/?token=secret-token_0001").status == 200);
+  CHECK(http_request(server.port(), "/app.js?x=1&token=secret-token_0001").status ==
+        (http_request(server.port(), "/app.js?token=secret-token_0001").status));
   CHECK(http_request(server.port(), "/ws", http::verb::get, true).status == 403);
   CHECK(http_request(server.port(), "/ws?token=nope", http::verb::get, true).status == 403);
-  CHECK(http_request(server.port(), "/ws?token=secret-token_1", http::verb::get, true).status == 101);
+  CHECK(http_request(server.port(), "/ws?token=secret-token_0001", http::verb::get, true).status == 101);
   WsClient client;
-  REQUIRE(client.connect(server.port(), "/ws?token=secret-token_1") == 101);
+  REQUIRE(client.connect(server.port(), "/ws?token=secret-token_0001") == 101);
   CHECK(client.read_json()["type"] == "hello");
 
   // A host other than loopback gets a random token of 32 hex digits.

@@ -1,7 +1,9 @@
 // One client's frames: a render thread (its own api::Renderer) and an encoder thread with one slot between
-// them, so that frame k+1 renders while frame k is encoded and sent (view/PROTOCOL.md "Flow control").
+// them, so that frame k+1 renders while frame k is encoded and sent, every frame drawing its host memory from the
+// server's FrameBudget (view/PROTOCOL.md "Flow control and memory").
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -13,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "internal_frame_budget.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/view/protocol.h"
@@ -41,6 +44,7 @@ struct RenderedFrame {
   bool refine = false;
   uint32_t width = 0, height = 0;
   std::vector<uint8_t> rgba_a, rgba_b;  ///< [H, W, 4] 8-bit as read back, alpha ignored (rgba_b: compare modes)
+  Charge charge;                       ///< what the frame holds of the budget until it is sent
   api::FrameStats stats;               ///< scene a's
   double render_call_ms = 0, readback_ms = 0;
   std::optional<uint64_t> gpu_memory_used, gpu_memory_total;
@@ -50,18 +54,20 @@ struct RenderedFrame {
 Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame);
 
 /// Renders and encodes one client's views. The callbacks are called from the pipeline's threads and must only
-/// hand their message over (e.g. post it to the connection's strand). Destroying it stops and joins its threads.
+/// hand their message over (e.g. post it to the connection's strand). A frame message holds its part of `budget`
+/// until the last copy of its shared pointer is gone. Destroying the pipeline stops and joins its threads;
+/// `state` and `budget` must outlive it and every frame message.
 class FramePipeline {
  public:
   using SendBinary = std::function<void(std::shared_ptr<std::vector<uint8_t>>)>;
   using SendText = std::function<void(std::string)>;
 
-  FramePipeline(const ServerState& state, SendBinary send_frame, SendText send_text);
+  FramePipeline(const ServerState& state, FrameBudget& budget, SendBinary send_frame, SendText send_text);
   ~FramePipeline();
   FramePipeline(const FramePipeline&) = delete;
   FramePipeline& operator=(const FramePipeline&) = delete;
 
-  /// Makes `view` the next view to render, replacing one not yet started.
+  /// Makes `view` the next view to render, replacing one not yet started (also one waiting for the budget).
   void submit(const ViewRequest& view);
   /// The frame last handed to SendBinary has been written: the encoder may hand over the next.
   void frame_sent();
@@ -69,29 +75,54 @@ class FramePipeline {
   void stop();
 
  private:
+  /// A host image buffer kept between frames with its part of the budget.
+  struct SpareBuffer {
+    std::vector<uint8_t> bytes;
+    Charge charge;
+  };
+  /// What the render thread does next.
+  struct Work {
+    bool stop = false, refine = false;
+  };
+
   void render_loop();
   void encode_loop();
-  Result<RenderedFrame> render_view(api::Renderer& renderer, const ViewRequest& view, bool refine);
-  /// A host image buffer of `bytes` (a spare one when there is one) and the frame's buffers back to the spares.
-  std::vector<uint8_t> take_buffer(size_t bytes);
-  void return_buffers(RenderedFrame& frame);
+  /// Waits until there is a view to render (or render again) and room for another unsent frame; takes it into
+  /// `current`. Drops the spare buffers after kSpareHold without work.
+  Work next_work(std::optional<ViewRequest>* current, int* refinements, bool* refine_wanted);
+  /// The budget for a frame of `view`, with spare buffers of its size in `buffers` when the rest fits at once
+  /// (else it waits holding nothing); kLimitExceeded when the frame needs more than the whole budget; an empty
+  /// Charge when a newer view (or stop) came first.
+  Result<Charge> reserve(const ViewRequest& view, std::vector<std::vector<uint8_t>>* buffers);
+  Result<RenderedFrame> render_view(api::Renderer& renderer, const ViewRequest& view, bool refine,
+                                    std::vector<std::vector<uint8_t>> buffers);
+  /// `buffer` back to the spares with `bytes` of `charge`; beyond kSpareBuffers it is freed.
+  void keep_spare(std::vector<uint8_t> buffer, Charge charge);
+  void frame_dropped();
 
   /// Host image buffers kept between frames: two frames (one rendering, one encoding) of two images each.
   static constexpr size_t kSpareBuffers = 4;
+  /// Frames rendered (or being rendered) and not yet sent, at most: one being sent while the next renders.
+  static constexpr int kMaxUnsentFrames = 2;
+  /// How long spare buffers are kept while the client asks for nothing.
+  static constexpr std::chrono::milliseconds kSpareHold{1000};
   /// How long a level-of-detail view must stay the newest before it is rendered again as its levels arrive.
   static constexpr std::chrono::milliseconds kRefineDelay{40};
 
   const ServerState& state_;
+  FrameBudget& budget_;
   SendBinary send_frame_;
   SendText send_text_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::optional<ViewRequest> pending_;
   std::optional<RenderedFrame> rendered_;
+  int unsent_frames_ = 0;
   bool frame_in_flight_ = false;
   bool stopping_ = false;
-  std::vector<std::vector<uint8_t>> spare_buffers_;
-  std::optional<api::Image> images_[2];  // render thread only: reused while the size stays
+  std::atomic<bool> interrupted_{false};  // a newer view or stop(): a wait for the budget gives up
+  std::vector<SpareBuffer> spares_;
+  std::optional<api::Image> images_[2];  // render thread only, GPU: reused while the size stays
   std::thread render_thread_, encode_thread_;
 };
 

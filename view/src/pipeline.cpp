@@ -1,182 +1,36 @@
-// A client's frame pipeline: render (api::Renderer, one per client thread), read back, encode, hand over; and the
-// server's JSON messages (hello, frame header, error) of view/PROTOCOL.md.
-#include "internal_pipeline.h"
-
+// A client's frame pipeline: render (api::Renderer, one per client thread), read back, encode, hand over, each
+// frame holding its part of the server's frame memory budget from its render until it is sent.
 #include <algorithm>
 #include <chrono>
-#include <cstring>
-#include <filesystem>
-#include <nlohmann/json.hpp>
 
-#include "rgs/api/scene.h"
+#include "internal_pipeline.h"
 #include "rgs/api/camera.h"
-#include "rgs/view/image_codec.h"
+#include "rgs/api/scene.h"
 
 namespace rgs::view::detail {
 
 namespace {
 
-using nlohmann::json;
-
 // Views of a level-of-detail scene rendered again while levels are still arriving (PROTOCOL.md "Refinement").
 constexpr int kMaxRefinements = 8;
-
-std::string dump(const json& value) { return value.dump(-1, ' ', false, json::error_handler_t::replace); }
-
-json camera_json(const InriaCamera& c) {
-  json rotation = json::array();
-  for (int r = 0; r < 3; ++r) {
-    rotation.push_back({c.rotation_c2w[r * 3], c.rotation_c2w[r * 3 + 1], c.rotation_c2w[r * 3 + 2]});
-  }
-  return {{"width", c.width},
-          {"height", c.height},
-          {"position", {c.position[0], c.position[1], c.position[2]}},
-          {"rotation", rotation},
-          {"fx", c.fx},
-          {"fy", c.fy}};
-}
 
 double ms_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-json nullable(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+std::string megabytes(uint64_t bytes) { return std::to_string((bytes + (1 << 20) - 1) >> 20) + " MiB"; }
+
+// A frame message that gives its part of the budget back when its bytes are freed.
+struct ChargedMessage {
+  std::vector<uint8_t> bytes;
+  Charge charge;
+};
 
 }  // namespace
 
-std::string build_hello(const ServerState& state, const std::string& device_name) {
-  json scenes = json::array();
-  static const char* const kNames[] = {"a", "b"};
-  for (size_t i = 0; i < state.scenes.size(); ++i) {
-    const api::SceneInfo& info = state.scenes[i].info();
-    const auto& sphere = info.bounds;
-    scenes.push_back({{"name", kNames[i]},
-                      {"path_basename", std::filesystem::path(info.path).filename().string()},
-                      {"gaussians", info.gaussians},
-                      {"sh_degree", info.sh_degree},
-                      {"center", {sphere.sphere_center[0], sphere.sphere_center[1], sphere.sphere_center[2]}},
-                      {"radius", sphere.sphere_radius},
-                      {"lod", info.lod.active}});
-  }
-  json cameras = json::array();
-  for (size_t i = 0; i < state.options.cameras.size(); ++i) {
-    const NamedCamera& camera = state.options.cameras[i];
-    json entry = camera_json(camera.camera);
-    entry["id"] = i;
-    entry["img_name"] = camera.name;
-    cameras.push_back(std::move(entry));
-  }
-  json presets = json::array();
-  for (api::Preset p : state.limits.presets) presets.push_back(api::preset_name(p));
-  const uint32_t width = state.options.default_width, height = state.options.default_height;
-  json home;
-  if (!state.options.cameras.empty()) {
-    home = camera_json(state.options.cameras.front().camera);
-  } else {
-    api::CameraChoice choice;
-    choice.orbit = 1;
-    choice.orbit_width = width;
-    choice.orbit_height = height;
-    auto orbit = api::make_cameras(choice, state.scenes.front().info().bounds);
-    if (orbit.ok() && !orbit->empty()) home = camera_json(inria_from_camera(orbit->front()));
-  }
-  const json hello = {{"type", "hello"},
-                      {"version", kProtocolVersion},
-                      {"backend", api::device_name(state.device)},
-                      {"device", device_name},
-                      {"scenes", scenes},
-                      {"compare", state.scenes.size() == 2},
-                      {"cameras", cameras},
-                      {"home_camera", home},
-                      {"presets", presets},
-                      {"preset", api::preset_name(state.limits.default_preset)},
-                      {"max_width", state.limits.max_width},
-                      {"max_height", state.limits.max_height},
-                      {"default_width", width},
-                      {"default_height", height}};
-  return dump(hello);
-}
-
-std::string error_json(const std::string& code, const std::string& message, bool fatal) {
-  return dump({{"type", "error"}, {"code", code}, {"message", message}, {"fatal", fatal}});
-}
-
-Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame) {
-  const auto start = std::chrono::steady_clock::now();
-  const ViewRequest& view = frame.view;
-  std::vector<std::pair<const char*, std::vector<uint8_t>>> images;
-  std::optional<ImageDifference> difference;
-  if (view.compare == CompareMode::kOff) {
-    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4));
-    images.emplace_back("a", std::move(a));
-  } else if (view.compare == CompareMode::kSplit) {
-    difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
-                             nullptr, 4);
-    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4));
-    RGS_ASSIGN_OR_RETURN(auto b, encode_rgb(frame.rgba_b.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4));
-    images.emplace_back("a", std::move(a));
-    images.emplace_back("b", std::move(b));
-  } else {
-    std::vector<uint8_t> heatmap;
-    difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
-                             &heatmap, 4);
-    RGS_ASSIGN_OR_RETURN(auto d, encode_rgb(heatmap.data(), frame.width, frame.height, view.encoding, view.quality));
-    images.emplace_back("diff", std::move(d));
-  }
-  const double encode_ms = ms_since(start);
-
-  const api::FrameStats& s = frame.stats;
-  const api::StageTimes& t = s.times;
-  const auto timed = [&](float ms) { return t.timed ? json(ms) : json(nullptr); };
-  json stats = {{"preprocess_ms", timed(t.preprocess_ms)},
-                {"sort_ms", timed(t.sort_ms)},
-                {"render_ms", timed(t.ranges_ms + t.render_ms)},
-                {"total_gpu_ms", timed(t.total_ms)},
-                {"render_call_ms", frame.render_call_ms},
-                {"readback_ms", frame.readback_ms},
-                {"encode_ms", encode_ms},
-                {"pairs", s.pairs},
-                {"splats", s.gaussians},
-                {"gpu_memory_used_bytes", frame.gpu_memory_used ? json(*frame.gpu_memory_used) : json(nullptr)},
-                {"gpu_memory_total_bytes", frame.gpu_memory_total ? json(*frame.gpu_memory_total) : json(nullptr)},
-                {"lod_bytes_streamed", s.lod.bytes_streamed},
-                {"lod_bytes_resident", s.lod.bytes_resident}};
-  json image_list = json::array();
-  for (const auto& [role, bytes] : images) {
-    image_list.push_back({{"role", role}, {"encoding", encoded_name(view.encoding)}, {"bytes", bytes.size()}});
-  }
-  const json header = {
-      {"type", "frame"},
-      {"seq", view.seq},
-      {"refine", frame.refine},
-      {"width", frame.width},
-      {"height", frame.height},
-      {"preset", api::preset_name(view.preset)},
-      {"images", image_list},
-      {"stats", stats},
-      {"psnr", difference ? nullable(difference->psnr_db) : json(nullptr)},
-      {"mse", difference ? json(difference->mse) : json(nullptr)},
-      {"diff_max", difference ? json(difference->max_abs) : json(nullptr)},
-      {"diff_scale", difference ? json(view.diff_scale) : json(nullptr)}};
-  const std::string text = dump(header);
-  size_t total = 4 + text.size();
-  for (const auto& image : images) total += image.second.size();
-  std::vector<uint8_t> message;
-  message.reserve(total);
-  const uint32_t n = static_cast<uint32_t>(text.size());
-  for (int i = 0; i < 4; ++i) message.push_back(static_cast<uint8_t>(n >> (8 * i)));
-  message.insert(message.end(), text.begin(), text.end());
-  for (const auto& image : images) message.insert(message.end(), image.second.begin(), image.second.end());
-  return message;
-}
-
-// ---------------------------------------------------------------------------------------------------------
-
-FramePipeline::FramePipeline(const ServerState& state, SendBinary send_frame, SendText send_text)
-    : state_(state), send_frame_(std::move(send_frame)), send_text_(std::move(send_text)) {
+FramePipeline::FramePipeline(const ServerState& state, FrameBudget& budget, SendBinary send_frame,
+                             SendText send_text)
+    : state_(state), budget_(budget), send_frame_(std::move(send_frame)), send_text_(std::move(send_text)) {
   render_thread_ = std::thread([this] { render_loop(); });
   encode_thread_ = std::thread([this] { encode_loop(); });
 }
@@ -191,14 +45,25 @@ void FramePipeline::submit(const ViewRequest& view) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     pending_ = view;
+    interrupted_.store(true);
   }
   changed_.notify_all();
+  budget_.wake();
 }
 
 void FramePipeline::frame_sent() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     frame_in_flight_ = false;
+    --unsent_frames_;
+  }
+  changed_.notify_all();
+}
+
+void FramePipeline::frame_dropped() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    --unsent_frames_;
   }
   changed_.notify_all();
 }
@@ -207,31 +72,84 @@ void FramePipeline::stop() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
+    interrupted_.store(true);
   }
   changed_.notify_all();
+  budget_.wake();
 }
 
-std::vector<uint8_t> FramePipeline::take_buffer(size_t bytes) {
-  std::vector<uint8_t> buffer;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!spare_buffers_.empty()) {
-      buffer = std::move(spare_buffers_.back());
-      spare_buffers_.pop_back();
+void FramePipeline::keep_spare(std::vector<uint8_t> buffer, Charge charge) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (buffer.empty() || spares_.size() >= kSpareBuffers) return;  // freed here, with its charge
+  spares_.push_back({std::move(buffer), std::move(charge)});
+}
+
+FramePipeline::Work FramePipeline::next_work(std::optional<ViewRequest>* current, int* refinements,
+                                             bool* refine_wanted) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const auto ready = [&] { return (pending_ || *refine_wanted) && unsent_frames_ < kMaxUnsentFrames; };
+  while (!stopping_ && !ready()) {
+    // Spare buffers are worth keeping while frames follow each other, not while the client is still or stuck.
+    if (spares_.empty()) {
+      changed_.wait(lock);
+    } else if (changed_.wait_for(lock, kSpareHold) == std::cv_status::timeout) {
+      spares_.clear();
     }
   }
-  buffer.resize(bytes);  // a buffer of the same size is reused as it is: no allocation, no page faults
-  return buffer;
-}
-
-void FramePipeline::return_buffers(RenderedFrame& frame) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  for (std::vector<uint8_t>* buffer : {&frame.rgba_a, &frame.rgba_b}) {
-    if (!buffer->empty() && spare_buffers_.size() < kSpareBuffers) spare_buffers_.push_back(std::move(*buffer));
+  // A refinement waits for the view to stay still a moment: a newer view (the camera still moving) wins.
+  if (!stopping_ && !pending_) changed_.wait_for(lock, kRefineDelay, [&] { return stopping_ || pending_; });
+  Work work;
+  work.stop = stopping_;
+  if (work.stop) return work;
+  if (pending_) {
+    *current = std::move(pending_);
+    pending_.reset();
+    *refinements = 0;
+  } else {
+    work.refine = true;
+    ++*refinements;
   }
+  *refine_wanted = false;
+  interrupted_.store(false);
+  return work;
 }
 
-Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const ViewRequest& view, bool refine) {
+Result<Charge> FramePipeline::reserve(const ViewRequest& view, std::vector<std::vector<uint8_t>>* buffers) {
+  const uint64_t need = frame_memory_bytes(view, state_.device);
+  RGS_RETURN_ERROR_IF(need > budget_.capacity(), StatusCode::kLimitExceeded,
+                      "a " + std::to_string(view.camera.width) + " x " + std::to_string(view.camera.height) + " " +
+                          encoding_name(view.encoding) + " frame" +
+                          (view.compare == CompareMode::kOff ? "" : std::string(" (compare ") +
+                                                                       compare_mode_name(view.compare) + ")") +
+                          " needs " + megabytes(need) + " of frame memory, more than the server's " +
+                          megabytes(budget_.capacity()) + " (rgs-view --frame-memory)");
+  const size_t rgba_bytes = size_t(view.camera.width) * view.camera.height * 4;
+  const size_t images = view.compare == CompareMode::kOff ? 1 : 2;
+  Charge charge;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (SpareBuffer& spare : spares_) {
+      if (buffers->size() < images && spare.bytes.size() == rgba_bytes) {
+        buffers->push_back(std::move(spare.bytes));
+        charge.absorb(std::move(spare.charge));
+      }
+    }
+    spares_.clear();  // the rest are of another size
+  }
+  const uint64_t more = need - std::min<uint64_t>(need, charge.bytes());
+  if (std::optional<Charge> rest = budget_.try_acquire(more)) {
+    charge.absorb(std::move(*rest));
+    return charge;
+  }
+  // A wait holds nothing: waiters holding bytes could keep each other waiting for good.
+  buffers->clear();
+  charge.reset();
+  std::optional<Charge> all = budget_.acquire(need, interrupted_);
+  return all ? std::move(*all) : Charge();  // empty when a newer view or stop() came first
+}
+
+Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const ViewRequest& view, bool refine,
+                                                 std::vector<std::vector<uint8_t>> buffers) {
   RGS_ASSIGN_OR_RETURN(api::Camera camera, camera_from_request(view.camera));
   RenderedFrame frame;
   frame.view = view;
@@ -246,27 +164,43 @@ Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const 
   settings.time_stages = state_.device == api::Device::kCuda;
   const size_t pixels = size_t(camera.width) * camera.height;
   const size_t count = view.compare == CompareMode::kOff ? 1 : 2;
+  buffers.resize(count);
   for (size_t i = 0; i < count; ++i) {
     const api::Scene& scene = state_.scenes[i];
-    std::optional<api::Image>& image = images_[i];
-    const auto start = std::chrono::steady_clock::now();
+    std::vector<uint8_t>& rgba = i == 0 ? frame.rgba_a : frame.rgba_b;
+    rgba = std::move(buffers[i]);
+    rgba.resize(pixels * 4);  // a spare buffer has this size already: no allocation, no page faults
     api::FrameStats stats;
-    if (image && image->width() == camera.width && image->height() == camera.height) {
-      api::ImageTarget target = image->target();
+    const auto start = std::chrono::steady_clock::now();
+    if (state_.device == api::Device::kCpu) {
+      // The CPU renderer writes the host buffer itself.
+      api::ImageTarget target;
+      target.width = camera.width;
+      target.height = camera.height;
+      target.color = rgba.data();
+      target.color_pitch = size_t(camera.width) * 4;
+      target.format = api::PixelFormat::kRgba8;
       target.write_alpha = false;
       RGS_ASSIGN_OR_RETURN(stats, renderer.render(scene, camera, settings, target));
+      frame.render_call_ms += ms_since(start);
     } else {
-      image.reset();  // frees the old size's memory first
-      RGS_ASSIGN_OR_RETURN(api::Image fresh, renderer.render_image(scene, camera, settings, api::PixelFormat::kRgba8));
-      stats = fresh.frame_stats();
-      image.emplace(std::move(fresh));
+      std::optional<api::Image>& image = images_[i];
+      if (image && image->width() == camera.width && image->height() == camera.height) {
+        api::ImageTarget target = image->target();
+        target.write_alpha = false;
+        RGS_ASSIGN_OR_RETURN(stats, renderer.render(scene, camera, settings, target));
+      } else {
+        image.reset();  // frees the old size's memory first
+        RGS_ASSIGN_OR_RETURN(api::Image fresh,
+                             renderer.render_image(scene, camera, settings, api::PixelFormat::kRgba8));
+        stats = fresh.frame_stats();
+        image.emplace(std::move(fresh));
+      }
+      frame.render_call_ms += ms_since(start);
+      const auto readback = std::chrono::steady_clock::now();
+      RGS_RETURN_IF_ERROR(image->copy_to_host(rgba.data(), nullptr));
+      frame.readback_ms += ms_since(readback);
     }
-    frame.render_call_ms += ms_since(start);
-    const auto readback = std::chrono::steady_clock::now();
-    std::vector<uint8_t>& rgba = i == 0 ? frame.rgba_a : frame.rgba_b;
-    rgba = take_buffer(pixels * 4);
-    RGS_RETURN_IF_ERROR(image->copy_to_host(rgba.data(), nullptr));
-    frame.readback_ms += ms_since(readback);
     if (i == 0) frame.stats = stats;
   }
   if (state_.device == api::Device::kCuda) {
@@ -289,28 +223,27 @@ void FramePipeline::render_loop() {
   int refinements = 0;
   bool refine_wanted = false;
   for (;;) {
-    bool refine = false;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      changed_.wait(lock, [&] { return stopping_ || pending_.has_value() || refine_wanted; });
-      // A refinement waits for the view to stay still a moment: a newer view (the camera still moving) wins.
-      if (!pending_ && refine_wanted) changed_.wait_for(lock, kRefineDelay, [&] { return stopping_ || pending_; });
-      if (stopping_) return;
-      if (pending_) {
-        current = std::move(pending_);
-        pending_.reset();
-        refinements = 0;
-      } else {
-        refine = true;
-        ++refinements;
-      }
-      refine_wanted = false;
+    const Work work = next_work(&current, &refinements, &refine_wanted);
+    if (work.stop) return;
+    std::vector<std::vector<uint8_t>> buffers;
+    auto charge = reserve(*current, &buffers);
+    if (!charge.ok()) {
+      send_text_(error_json("render_failed", charge.status().message(), false));
+      continue;
     }
-    auto frame = render_view(*renderer, *current, refine);
+    if (charge->bytes() == 0) continue;  // a newer view, or stop
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++unsent_frames_;
+    }
+    auto frame = render_view(*renderer, *current, work.refine, std::move(buffers));
     if (!frame.ok()) {
+      frame_dropped();
       send_text_(error_json("render_failed", frame.status().message(), false));
       continue;
     }
+    charge->split(render_scratch_bytes(*current, state_.device)).reset();
+    frame->charge = std::move(*charge);
     const api::LodFrameCounts& lod = frame->stats.lod;
     const bool lod_active = state_.scenes.front().info().lod.active;
     std::unique_lock<std::mutex> lock(mutex_);
@@ -336,18 +269,26 @@ void FramePipeline::encode_loop() {
     }
     changed_.notify_all();
     auto message = encode_frame(frame);
-    return_buffers(frame);
+    for (std::vector<uint8_t>* rgba : {&frame.rgba_a, &frame.rgba_b}) {
+      Charge charge = frame.charge.split(rgba->size());
+      keep_spare(std::move(*rgba), std::move(charge));
+    }
     if (!message.ok()) {
+      frame_dropped();
       send_text_(error_json("render_failed", message.status().message(), false));
       continue;
     }
+    auto charged = std::make_shared<ChargedMessage>();
+    charged->bytes = std::move(*message);
+    charged->charge = frame.charge.split(charged->bytes.size());
+    frame.charge.reset();  // the encoder's working memory
     {
       std::unique_lock<std::mutex> lock(mutex_);
       changed_.wait(lock, [&] { return stopping_ || !frame_in_flight_; });
       if (stopping_) return;
       frame_in_flight_ = true;
     }
-    send_frame_(std::make_shared<std::vector<uint8_t>>(std::move(*message)));
+    send_frame_(std::shared_ptr<std::vector<uint8_t>>(charged, &charged->bytes));
   }
 }
 

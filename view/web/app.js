@@ -45,6 +45,7 @@
   const MAX_IN_FLIGHT = 1;      // views sent whose frame has not arrived: the newest view goes next
   const STILL_MS = 150;         // full resolution after this long without input
   const FRAME_TIMEOUT_MS = 10000;
+  const PING_MS = 20000;        // the server closes a socket that sends nothing for its idle timeout (120 s)
 
   // ---- vectors -------------------------------------------------------------------------------------------
   const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
@@ -151,6 +152,10 @@
     return `${proto}//${location.host}/ws` + (token ? `?token=${encodeURIComponent(token)}` : '');
   }
   let retryMs = 1000;
+  // A still camera sends no views: pings keep the connection from counting as idle.
+  setInterval(() => {
+    if (ws && ws.readyState === WebSocket.OPEN && connected) ws.send('{"type":"ping"}');
+  }, PING_MS);
   function connect() {
     setConn('connecting', 'connecting…');
     try {
