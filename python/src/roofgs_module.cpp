@@ -1244,6 +1244,7 @@ py::dict convert_with_options(const char* fn, py::kwargs kwargs,
     return value;
   };
   constexpr uint32_t kMaxCount = 100000, kMaxEvery = 2147483647;
+  const char* path_name = std::string(fn) == "save" ? "camera_path" : "path";  // save()'s `path` is its output
   api::CameraChoice& views = target.views;
   if (auto v = take("target_psnr")) target.psnr_db = float_arg(*v, fn, "target_psnr", {1.0, 200.0});
   if (auto v = take("target_bytes")) target.bytes = int_arg<uint64_t>(*v, fn, "target_bytes", 1);
@@ -1251,7 +1252,7 @@ py::dict convert_with_options(const char* fn, py::kwargs kwargs,
   if (auto v = take("every")) views.every = int_arg<uint32_t>(*v, fn, "every", 1, kMaxEvery);
   if (auto v = take("limit")) views.limit = int_arg<uint32_t>(*v, fn, "limit", 1, kMaxEvery);
   if (auto v = take("orbit")) views.orbit = int_arg<uint32_t>(*v, fn, "orbit", 1, kMaxCount);
-  if (auto v = take("path")) views.path = int_arg<uint32_t>(*v, fn, "path", 1, kMaxCount);
+  if (auto v = take(path_name)) views.path = int_arg<uint32_t>(*v, fn, path_name, 1, kMaxCount);
   if (auto v = take("fly")) views.fly = int_arg<uint32_t>(*v, fn, "fly", 1, kMaxCount);
   if (auto v = take("width")) views.width = int_arg<uint32_t>(*v, fn, "width", 11, kMaxImageSide);
   if (auto v = take("height")) views.height = int_arg<uint32_t>(*v, fn, "height", 11, kMaxImageSide);
@@ -1767,10 +1768,7 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
          **unexpected):
     _refuse_unexpected("save", unexpected)
     options = {k: v for k, v in locals().items()
-               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path", "unexpected")
-               and v is not None}
-    if camera_path is not None:
-        options["path"] = camera_path
+               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "unexpected") and v is not None}
     return _save(path, means, quats, scales, opacities, sh, **options)
 )", scope);
   m.attr("convert").attr("__doc__") = py::str(

@@ -147,6 +147,7 @@ RULES = [
     ("convert", "lod_levels", ["fast", 0], [2.0]),
     ("convert", "sanitize", [], ["yes"]),
     ("save", "path", [], [5]),
+    ("save", "camera_path", [0], ["4"]),
     ("save", "width", [0], []),
     ("save", "zstd_level", [0], ["3"]),
     ("rasterization", "width", [0, -1], ["16", 16.0]),
@@ -246,3 +247,8 @@ def test_a_bad_view_argument_is_refused_before_the_server_starts(ctx, argument, 
         server = roofgs.view(ctx.scene, device="cpu", **{argument: value})
         server.stop()  # reached only where the argument was not refused
 
+
+def test_save_takes_camera_path(ctx):
+    """save()'s camera_path is rgs-convert's --path (save's own `path` is the output): N views of a camera path."""
+    report = CALLS["save"](ctx, path=ctx.out / "fit.rgs", target_psnr=30, camera_path=3, width=16)
+    assert report["rate_control"]["views"] == 3
