@@ -1,5 +1,8 @@
 # Type stubs of the roofgs module (python/src/roofgs_module.cpp), installed next to it so that editors and type
 # checkers complete its functions. Shapes are [rows, columns]; images are top row first.
+# Arguments: a value of the wrong type raises TypeError, one outside the argument's rule (a size of 0, a number that
+# is not finite, a negative cuda_device) ValueError, both before any work and in the words
+# "audit(): threshold must be a finite number in -1000..1000, got nan"; what the library refuses is roofgs.Error.
 import os
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -108,7 +111,7 @@ class Scene:
 
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
          quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: Union[str, Mapping[Union[str, os.PathLike], str]] = "rub", *, lod: bool = True,
-         splat_budget: int = 3000000, pixel_error: float = 1.0, memory_budget: int = 0,
+         splat_budget: int = 3000000, pixel_error: float = 4.0, memory_budget: int = 0,
          stream_bytes: int = 33554432, antialiased: bool = False) -> Scene:
     """A scene in any format on device "cuda", "cpu" or "auto". A level-of-detail .rgs (docs/LOD.md) with
     lod=True draws each frame's selection of levels: at most splat_budget Gaussians (0: no limit), levels whose
@@ -132,7 +135,8 @@ def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Opti
             spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
             antialiased: bool = False) -> Dict[str, Any]:
     """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default).
-    A value outside an option's range raises ValueError saying the rule. memory_limit is in bytes (0: half the
+    A value outside an option's range raises ValueError saying the rule (lod_chunk without lod_levels too, as
+    rgs-convert refuses it), a value of the wrong type TypeError. memory_limit is in bytes (0: half the
     physical memory); an input whose estimated peak memory is above it raises kLimitExceeded before it is read."""
 def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _Array, sh: _Array, *,
          to: Optional[str] = None, sh_degree: Optional[int] = None, scale_encoding: Optional[str] = None,

@@ -1,6 +1,8 @@
 // Python bindings of the RoofGS front door (rgs/api). Errors become roofgs.Error (a RuntimeError) carrying
-// .code (the StatusCode number) and .code_name ("kIoError", ...). GPU images implement the DLPack protocol
-// (__dlpack__, __dlpack_device__), so torch.from_dlpack() shares their memory without a copy.
+// .code (the StatusCode number) and .code_name ("kIoError", ...); an argument of the wrong type or outside its
+// rule raises TypeError or ValueError naming the function and the argument (Arguments below). GPU images
+// implement the DLPack protocol (__dlpack__, __dlpack_device__), so torch.from_dlpack() shares their memory
+// without a copy.
 #include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -13,8 +15,10 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -60,6 +64,195 @@ T unwrap(Result<T> result) {
 
 void check(const Status& status) {
   if (!status.ok()) raise(status);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Arguments. The public functions take their numbers, strings and paths as the caller passed them (Arg) and
+// convert them with the helpers below, so that a wrong type (TypeError) or value (ValueError) names the
+// function, the argument and the rule ("audit(): threshold must be a finite number in -1000..1000, got nan")
+// where pybind11 would list the whole signature.
+
+/// An argument as the caller passed it; help() shows it as `Name::name`.
+template <typename Name>
+struct Arg {
+  py::object value;
+  operator py::handle() const { return value; }  // NOLINT(google-explicit-constructor): the helpers take a handle
+};
+// clang-format off
+struct IntName { static constexpr auto name = py::detail::const_name("int"); };
+struct FloatName { static constexpr auto name = py::detail::const_name("float"); };
+struct StrName { static constexpr auto name = py::detail::const_name("str"); };
+struct PathName { static constexpr auto name = py::detail::const_name("os.PathLike"); };
+struct StrListName { static constexpr auto name = py::detail::const_name("List[str]"); };
+struct PointName { static constexpr auto name = py::detail::const_name("List[float[3]]"); };
+// clang-format on
+using IntArg = Arg<IntName>;
+using FloatArg = Arg<FloatName>;
+using StrArg = Arg<StrName>;
+using PathArg = Arg<PathName>;
+using StrListArg = Arg<StrListName>;
+using PointArg = Arg<PointName>;
+
+}  // namespace
+
+namespace pybind11::detail {
+/// Takes any object as an Arg: the function's body converts it.
+template <typename Name>
+struct type_caster<Arg<Name>> {
+  PYBIND11_TYPE_CASTER(Arg<Name>, Name::name);
+  bool load(handle src, bool) {
+    value.value = reinterpret_borrow<object>(src);
+    return true;
+  }
+  static handle cast(const Arg<Name>& arg, return_value_policy, handle) { return arg.value.inc_ref(); }
+};
+}  // namespace pybind11::detail
+
+namespace {
+
+/// Largest image side a camera takes (runtime::validate_camera), and the highest CUDA device ordinal the tools
+/// take (--device).
+constexpr uint32_t kMaxImageSide = 32768;
+constexpr int kMaxCudaDevice = 1023;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string number_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", v);
+  return text;
+}
+
+/// TypeError "fn(): name must be <what>, got <type of value>".
+py::type_error type_error(const char* fn, const char* name, const std::string& what, py::handle value) {
+  return py::type_error(std::string(fn) + "(): " + name + " must be " + what + ", got " +
+                        Py_TYPE(value.ptr())->tp_name);
+}
+
+/// ValueError "fn(): name must be <rule>, got <got>".
+py::value_error value_error(const char* fn, const char* name, const std::string& rule, const std::string& got) {
+  return py::value_error(std::string(fn) + "(): " + name + " must be " + rule + ", got " + got.substr(0, 40));
+}
+
+/// Integer argument `name` of `fn` in [lo, hi]: a Python int or anything with __index__ (NumPy's integers), not a
+/// bool.
+template <typename T>
+T int_arg(py::handle value, const char* fn, const char* name, T lo = std::numeric_limits<T>::min(),
+          T hi = std::numeric_limits<T>::max()) {
+  if (PyBool_Check(value.ptr()) || !PyIndex_Check(value.ptr())) throw type_error(fn, name, "an int", value);
+  const auto index = py::reinterpret_steal<py::object>(PyNumber_Index(value.ptr()));
+  if (!index) throw py::error_already_set();
+  const py::int_ low(lo), high(hi);
+  const int below = PyObject_RichCompareBool(index.ptr(), low.ptr(), Py_LT);
+  const int above = PyObject_RichCompareBool(index.ptr(), high.ptr(), Py_GT);
+  if (below < 0 || above < 0) throw py::error_already_set();
+  if (below || above) {
+    throw value_error(fn, name, "an integer in " + std::to_string(lo) + ".." + std::to_string(hi), py::repr(index));
+  }
+  return index.cast<T>();
+}
+
+/// int_arg of an argument that may be None (nullopt).
+template <typename T, typename Name>
+std::optional<T> int_arg(const std::optional<Arg<Name>>& value, const char* fn, const char* name,
+                         T lo = std::numeric_limits<T>::min(), T hi = std::numeric_limits<T>::max()) {
+  if (!value) return std::nullopt;
+  return int_arg<T>(*value, fn, name, lo, hi);
+}
+
+/// The values a number argument takes: finite, from lo to hi, lo itself excluded when `above`.
+struct NumberRule {
+  double lo = -kInf, hi = kInf;
+  bool above = false;
+};
+constexpr NumberRule kFinite{}, kPositive{0.0, kInf, true};
+
+/// Number argument `name` of `fn` (int, float or anything with __float__, not a bool) that follows `rule`.
+double float_arg(py::handle value, const char* fn, const char* name, NumberRule rule = kFinite) {
+  if (PyBool_Check(value.ptr()) || !PyNumber_Check(value.ptr())) throw type_error(fn, name, "a number", value);
+  double v = PyFloat_AsDouble(value.ptr());
+  std::string got = number_text(v);
+  if (v == -1.0 && PyErr_Occurred()) {
+    const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError);  // an int beyond the double range
+    PyErr_Clear();
+    if (!overflow) throw type_error(fn, name, "a number", value);
+    v = kInf;
+    got = py::repr(value);
+  }
+  const bool high_enough = rule.above ? v > rule.lo : v >= rule.lo;
+  if (std::isfinite(v) && high_enough && v <= rule.hi) return v;
+  std::string text = "a finite number";
+  if (rule.lo > -kInf && rule.hi < kInf) {
+    text += " in " + number_text(rule.lo) + ".." + number_text(rule.hi);
+  } else if (rule.lo > -kInf) {
+    text += (rule.above ? " > " : " >= ") + number_text(rule.lo);
+  }
+  throw value_error(fn, name, text, got);
+}
+
+/// Argument `name` of `fn` converted to T by pybind11 (strings, paths, lists of them, bools); TypeError saying
+/// it must be `what` when it cannot be.
+template <typename T>
+T cast_arg(py::handle value, const char* fn, const char* name, const char* what) {
+  try {
+    return value.cast<T>();
+  } catch (const py::cast_error&) {
+    throw type_error(fn, name, what, value);
+  }
+}
+
+std::string str_arg(py::handle value, const char* fn, const char* name) {
+  return cast_arg<std::string>(value, fn, name, "a str");
+}
+
+std::filesystem::path path_arg(py::handle value, const char* fn, const char* name) {
+  return cast_arg<std::filesystem::path>(value, fn, name, "a str or os.PathLike");
+}
+
+/// M[row][col] of a numpy-like rows × cols matrix of finite numbers (cols 1: a vector).
+std::vector<double> matrix(py::handle value, size_t rows, size_t cols, const char* fn, const char* name) {
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(value);
+  if (!a || value.is_none()) throw type_error(fn, name, "an array of numbers", value);
+  const std::string shape = std::to_string(rows) + (cols == 1 ? "" : "x" + std::to_string(cols)) + " finite numbers";
+  const size_t n = size_t(a.size());
+  if (n != rows * cols) throw value_error(fn, name, shape, std::to_string(n) + (n == 1 ? " number" : " numbers"));
+  const std::vector<double> m(a.data(), a.data() + a.size());
+  for (double v : m) {
+    if (!std::isfinite(v)) throw value_error(fn, name, shape, number_text(v));
+  }
+  return m;
+}
+
+/// matrix() as an array, row-major.
+template <size_t Rows, size_t Cols = 1>
+std::array<double, Rows * Cols> arr(py::handle value, const char* fn, const char* name) {
+  const auto v = matrix(value, Rows, Cols, fn, name);
+  std::array<double, Rows * Cols> out{};
+  for (size_t i = 0; i < out.size(); ++i) out[i] = v[i];
+  return out;
+}
+
+api::Mat4ColumnMajor gl_matrix(py::handle value, const char* fn, const char* name) {
+  const auto m = matrix(value, 4, 4, fn, name);
+  api::Mat4ColumnMajor out{};
+  for (size_t r = 0; r < 4; ++r) {
+    for (size_t c = 0; c < 4; ++c) out[4 * c + r] = float(m[4 * r + c]);
+  }
+  return out;
+}
+
+/// The arguments every camera_from_* function of `fn` takes after its matrices: the image size and the options.
+struct CameraArgs {
+  uint32_t width = 0, height = 0;
+  api::CameraOptions options;
+};
+
+CameraArgs camera_args(const char* fn, py::handle width, py::handle height, py::handle near_plane, py::handle name) {
+  CameraArgs a;
+  a.width = int_arg<uint32_t>(width, fn, "width", 1, kMaxImageSide);
+  a.height = int_arg<uint32_t>(height, fn, "height", 1, kMaxImageSide);
+  a.options.near_plane = float(float_arg(near_plane, fn, "near_plane", kPositive));
+  a.options.name = str_arg(name, fn, "name");
+  return a;
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -137,7 +330,7 @@ void capsule_destructor(PyObject* capsule) {
 py::object plane_dlpack(const ImagePlane& plane, py::object stream) {
   if (plane.image->device() == api::Device::kCuda) {
     // DLPack: None means the legacy default stream (1); -1 asks for no synchronization.
-    int64_t s = stream.is_none() ? 1 : stream.cast<int64_t>();
+    const int64_t s = stream.is_none() ? 1 : int_arg<int64_t>(stream, "__dlpack__", "stream");
     if (s != -1) check(plane.image->make_stream_wait(reinterpret_cast<api::Stream>(static_cast<uintptr_t>(s))));
   }
   auto* ctx = new DLContext;
@@ -182,43 +375,6 @@ py::array plane_numpy(const ImagePlane& plane) {
     check(plane.image->copy_to_host(out.mutable_data(), nullptr));
   }
   return out;
-}
-
-// ---------------------------------------------------------------------------------------------------------
-// Matrices and cameras
-
-/// M[row][col] of a numpy-like r × c matrix.
-std::vector<double> matrix(const py::object& obj, size_t rows, size_t cols, const char* what) {
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
-  if (!a || size_t(a.size()) != rows * cols) {
-    raise(Status(StatusCode::kInvalidArgument, std::string(what) + ": expected " + std::to_string(rows) + "x" +
-                                                   std::to_string(cols) + " numbers"));
-  }
-  return std::vector<double>(a.data(), a.data() + a.size());
-}
-
-template <size_t N>
-std::array<double, N> arr(const py::object& obj, const char* what) {
-  const auto v = matrix(obj, N, 1, what);
-  std::array<double, N> out{};
-  for (size_t i = 0; i < N; ++i) out[i] = v[i];
-  return out;
-}
-
-api::Mat4ColumnMajor gl_matrix(const py::object& obj, const char* what) {
-  const auto m = matrix(obj, 4, 4, what);
-  api::Mat4ColumnMajor out{};
-  for (size_t r = 0; r < 4; ++r) {
-    for (size_t c = 0; c < 4; ++c) out[4 * c + r] = float(m[4 * r + c]);
-  }
-  return out;
-}
-
-api::CameraOptions camera_options(float near_plane, const std::string& name) {
-  api::CameraOptions o;
-  o.near_plane = near_plane;
-  o.name = name;
-  return o;
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -639,88 +795,72 @@ std::optional<ArraysKey> arrays_key(const std::array<const py::object*, 5>& arra
   return key;
 }
 
-/// ConvertOptions from convert()'s and save()'s keyword arguments (the defaults are ConvertOptions's own).
-/// The integer `value` of option `name`, which must lie in [lo, hi]; ValueError saying the rule otherwise (a
-/// negative or 2**70 would else be pybind11's "Unable to cast Python instance").
-uint64_t integer_option(const py::handle& value, const char* name, uint64_t lo, uint64_t hi) {
-  const std::string rule = std::string(name) + " must be an integer in " + std::to_string(lo) + ".." +
-                           std::to_string(hi) + ", not " + std::string(py::repr(value)).substr(0, 40);
-  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value)) throw py::value_error(rule);
-  const py::int_ low(lo), high(hi);
-  const int below = PyObject_RichCompareBool(value.ptr(), low.ptr(), Py_LT);
-  const int above = PyObject_RichCompareBool(value.ptr(), high.ptr(), Py_GT);
-  if (below < 0 || above < 0) throw py::error_already_set();
-  if (below || above) throw py::value_error(rule);
-  return value.cast<uint64_t>();
-}
-
-/// A finite number option in [lo, hi]; ValueError saying the rule otherwise.
-double number_option(const py::handle& value, const char* name, double lo, double hi) {
-  const std::string rule = std::string(name) + " must be a number in " + std::to_string(lo) + ".." + std::to_string(hi);
-  if (py::isinstance<py::bool_>(value) || !(py::isinstance<py::int_>(value) || py::isinstance<py::float_>(value))) {
-    throw py::value_error(rule);
+/// ConvertOptions from the keyword arguments of convert() or save() (`fn`) that are not the target's (the
+/// defaults are ConvertOptions's own).
+api::ConvertOptions convert_options(const char* fn, const py::kwargs& kwargs) {
+  if (kwargs.contains("lod_chunk") && !kwargs.contains("lod_levels")) {
+    throw py::value_error(std::string(fn) + "(): lod_chunk requires lod_levels, as rgs-convert's --lod-chunk does");
   }
-  const double v = value.cast<double>();
-  if (!(v >= lo && v <= hi)) throw py::value_error(rule + ", not " + std::string(py::repr(value)).substr(0, 40));
-  return v;
-}
-
-api::ConvertOptions convert_options(const py::kwargs& kwargs) {
   api::ConvertOptions o;
   o.converter_name = "roofgs python";
   py::object spz_frame = py::str("rub");
   for (const auto& [key_obj, value] : kwargs) {
     const std::string key = py::str(key_obj);
     if (key == "to") {
-      if (!value.is_none()) o.to = unwrap(api::parse_output_format(value.cast<std::string>()));
+      if (!value.is_none()) o.to = unwrap(api::parse_output_format(str_arg(value, fn, "to")));
     } else if (key == "scale_encoding") {
-      const std::string e = value.cast<std::string>();
+      const std::string e = str_arg(value, fn, "scale_encoding");
       if (e != "log" && e != "linear") raise(Status(StatusCode::kInvalidArgument, "scale_encoding must be 'linear' or 'log'"));
       o.scale_encoding = e == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
     } else if (key == "profile") {
-      const std::string p = value.cast<std::string>();
+      const std::string p = str_arg(value, fn, "profile");
       if (p != "archive" && p != "runtime") raise(Status(StatusCode::kInvalidArgument, "profile must be 'runtime' or 'archive'"));
       o.profile = p == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
     } else if (key == "sh_clip_percentile") {
-      o.sh_clip_percentile = static_cast<float>(number_option(value, "sh_clip_percentile", 0.001, 100.0));
+      o.sh_clip_percentile = float(float_arg(value, fn, "sh_clip_percentile", {0.001, 100.0}));
     } else if (key == "sh_dc_bits") {
-      o.sh_dc_bits = static_cast<uint32_t>(integer_option(value, "sh_dc_bits", 8, 16));
-      if (o.sh_dc_bits != 8 && o.sh_dc_bits != 16) throw py::value_error("sh_dc_bits must be 8 or 16");
+      o.sh_dc_bits = int_arg<uint32_t>(value, fn, "sh_dc_bits", 8, 16);
+      if (o.sh_dc_bits != 8 && o.sh_dc_bits != 16) throw value_error(fn, "sh_dc_bits", "8 or 16", py::repr(value));
     } else if (key == "zstd") {
-      o.zstd_sections = value.cast<std::vector<std::string>>();
+      o.zstd_sections = cast_arg<std::vector<std::string>>(value, fn, "zstd", "a sequence of str");
     } else if (key == "zstd_level") {
-      o.zstd_level = static_cast<int>(integer_option(value, "zstd_level", 1, 22));
+      o.zstd_level = int_arg<int>(value, fn, "zstd_level", 1, 22);
     } else if (key == "position_error") {
-      o.archive.position_error = number_option(value, "position_error", 1e-9, 0.5);
+      o.archive.position_error = float_arg(value, fn, "position_error", {1e-9, 0.5});
     } else if (key == "sh_degree") {
-      if (!value.is_none()) o.sh_degree = static_cast<uint32_t>(integer_option(value, "sh_degree", 0, 3));
+      if (!value.is_none()) o.sh_degree = int_arg<uint32_t>(value, fn, "sh_degree", 0, 3);
     } else if (key == "lod") {
-      if (!value.is_none()) o.read.lod = static_cast<uint32_t>(integer_option(value, "lod", 0, 63));
+      if (!value.is_none()) o.read.lod = int_arg<uint32_t>(value, fn, "lod", 0, 63);
     } else if (key == "lod_levels") {
-      if (py::isinstance<py::str>(value) && value.cast<std::string>() == "auto") {
+      if (py::isinstance<py::str>(value)) {
+        if (value.cast<std::string>() != "auto") {
+          throw value_error(fn, "lod_levels", "'auto' or an integer in 1..16", py::repr(value));
+        }
         o.lod_levels = 0;
       } else if (!value.is_none()) {
-        if (!py::isinstance<py::int_>(value)) throw py::value_error("lod_levels must be 'auto' or an integer in 1..16");
-        o.lod_levels = static_cast<uint32_t>(integer_option(value, "lod_levels", 1, 16));
+        if (PyBool_Check(value.ptr()) || !PyIndex_Check(value.ptr())) {
+          throw type_error(fn, "lod_levels", "'auto' or an int", value);
+        }
+        o.lod_levels = int_arg<uint32_t>(value, fn, "lod_levels", 1, 16);
       }
     } else if (key == "lod_chunk") {
-      o.lod_chunk_gaussians = static_cast<uint32_t>(integer_option(value, "lod_chunk", 1, uint64_t{1} << 30));
+      o.lod_chunk_gaussians = int_arg<uint32_t>(value, fn, "lod_chunk", 1, uint32_t{1} << 30);
     } else if (key == "memory_limit") {
-      o.memory_limit = integer_option(value, "memory_limit", 0, UINT64_MAX);
+      o.memory_limit = int_arg<uint64_t>(value, fn, "memory_limit");
     } else if (key == "max_gaussians") {
-      o.read.max_gaussians = integer_option(value, "max_gaussians", 1, UINT64_MAX);
+      o.read.max_gaussians = int_arg<uint64_t>(value, fn, "max_gaussians", 1);
     } else if (key == "max_decompression_ratio") {
-      o.read.max_decompression_ratio = static_cast<uint32_t>(integer_option(value, "max_decompression_ratio", 1, 32768));
+      o.read.max_decompression_ratio = int_arg<uint32_t>(value, fn, "max_decompression_ratio", 1, 32768);
     } else if (key == "spz_frame") {
       if (!value.is_none()) spz_frame = py::reinterpret_borrow<py::object>(value);
     } else if (key == "antialiased") {
-      o.read.antialiased = value.cast<bool>();
+      o.read.antialiased = cast_arg<bool>(value, fn, "antialiased", "a bool");
     } else if (key == "sanitize") {
-      o.sanitize = value.cast<bool>();
+      o.sanitize = cast_arg<bool>(value, fn, "sanitize", "a bool");
     } else if (key == "allow_empty") {
-      o.allow_empty = value.cast<bool>();
+      o.allow_empty = cast_arg<bool>(value, fn, "allow_empty", "a bool");
     } else {
-      const py::object accepted = py::module_::import("roofgs").attr("_keyword_options")("convert");
+      const py::object accepted = py::module_::import("roofgs").attr("_keyword_options")(fn);
       throw py::type_error("unexpected keyword argument '" + key + "'; the options are " +
                            py::str(", ").attr("join")(accepted).cast<std::string>());
     }
@@ -797,9 +937,20 @@ struct PyScene {
 
   explicit PyScene(api::Scene s, int device = 0) : scene(std::move(s)), cuda_device(device) {}
 
-  py::object render(const api::Camera& camera_in, const std::string& preset, std::optional<uint32_t> width,
-                    std::optional<uint32_t> height, std::array<float, 3> background, const std::string& format,
-                    bool depth, py::object stream, uint64_t scratch_budget) {
+  py::object render(const api::Camera& camera_in, const StrArg& preset, const std::optional<IntArg>& width_arg,
+                    const std::optional<IntArg>& height_arg, const PointArg& background, const StrArg& format,
+                    bool depth, const py::object& stream, const IntArg& scratch_budget) {
+    const std::optional<uint32_t> width = int_arg<uint32_t>(width_arg, "render", "width", 1, kMaxImageSide);
+    const std::optional<uint32_t> height = int_arg<uint32_t>(height_arg, "render", "height", 1, kMaxImageSide);
+    const std::array<double, 3> rgb = arr<3>(background, "render", "background");
+    api::RenderSettings settings;
+    settings.preset = unwrap(api::parse_preset(str_arg(preset, "render", "preset")));
+    settings.background = {float(rgb[0]), float(rgb[1]), float(rgb[2])};
+    settings.gpu_scratch_budget = int_arg<uint64_t>(scratch_budget, "render", "scratch_budget");
+    const api::PixelFormat pixel_format = unwrap(api::parse_pixel_format(str_arg(format, "render", "format")));
+    const api::Stream s = stream.is_none() ? nullptr
+                                           : reinterpret_cast<api::Stream>(static_cast<uintptr_t>(
+                                                 int_arg<int64_t>(stream, "render", "stream")));
     api::Camera camera = camera_in;
     if (width || height) {
       // One side alone keeps the camera's aspect ratio (as rgs-render --width does).
@@ -808,13 +959,6 @@ struct PyScene {
       const uint32_t h = height ? *height : uint32_t(std::max(1.0, std::round(double(*width) * aspect)));
       if (w != camera.width || h != camera.height) camera = runtime::resize_camera(camera, w, h);
     }
-    api::RenderSettings settings;
-    settings.preset = unwrap(api::parse_preset(preset));
-    settings.background = background;
-    settings.gpu_scratch_budget = scratch_budget;
-    const api::PixelFormat pixel_format = unwrap(api::parse_pixel_format(format));
-    const api::Stream s =
-        stream.is_none() ? nullptr : reinterpret_cast<api::Stream>(static_cast<uintptr_t>(stream.cast<int64_t>()));
     Result<api::Image> image = Status(StatusCode::kInvalidArgument, "not rendered");
     {
       py::gil_scoped_release release;
@@ -1010,14 +1154,22 @@ py::tuple rasterization_cuda(int device, const std::array<const py::object*, 5>&
 /// gsplat's options, loops over leading batch dimensions and returns the caller's array type).
 py::tuple rasterization(const py::object& means, const py::object& quats, const py::object& scales,
                         const py::object& opacities, const py::object& colors, const py::object& viewmats,
-                        const py::object& Ks, uint32_t width, uint32_t height, float near_plane,
-                        std::optional<uint32_t> sh_degree, const py::object& backgrounds, const std::string& render_mode,
-                        bool antialiased, const std::string& preset, const std::string& device, bool cache) {
+                        const py::object& Ks, const IntArg& width_arg, const IntArg& height_arg,
+                        const FloatArg& near_plane_arg, const std::optional<IntArg>& sh_degree_arg,
+                        const py::object& backgrounds, const StrArg& render_mode_arg, bool antialiased,
+                        const StrArg& preset_arg, const StrArg& device_arg, bool cache) {
+  const char* fn = "rasterization";
+  const uint32_t width = int_arg<uint32_t>(width_arg, fn, "width", 1, kMaxImageSide);
+  const uint32_t height = int_arg<uint32_t>(height_arg, fn, "height", 1, kMaxImageSide);
+  const float near_plane = float(float_arg(near_plane_arg, fn, "near_plane", kPositive));
+  const std::optional<uint32_t> sh_degree = int_arg<uint32_t>(sh_degree_arg, fn, "sh_degree");
+  const std::string render_mode = str_arg(render_mode_arg, fn, "render_mode");
+  const std::string preset = str_arg(preset_arg, fn, "preset"), device = str_arg(device_arg, fn, "device");
   const bool rgb_out = render_mode.rfind("RGB", 0) == 0;
   const std::string depth_mode = rgb_out ? (render_mode.size() > 3 ? render_mode.substr(4) : "") : render_mode;
   if ((rgb_out && render_mode.size() > 3 && render_mode[3] != '+') || (depth_mode != "" && depth_mode != "D" &&
                                                                        depth_mode != "ED")) {
-    throw py::value_error("render_mode must be RGB, D, ED, RGB+D or RGB+ED, not " + render_mode);
+    throw value_error(fn, "render_mode", "RGB, D, ED, RGB+D or RGB+ED", py::repr(render_mode_arg));
   }
   const GsplatViews views = gsplat_views(viewmats, Ks, backgrounds, width, height, near_plane);
   const std::array<const py::object*, 5> arrays{&means, &quats, &scales, &opacities, &colors};
@@ -1076,10 +1228,11 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
 
 }  // namespace
 
-/// convert() and save(): the options of rgs-convert in `kwargs` (by the snake_case of their long options; None
-/// never passed), written by `write` (api::convert, api::convert_cloud); with target_psnr / target_bytes the
-/// conversion fits the archive profile to them (ConvertOptions::target). Returns the report's dict.
-py::dict convert_with_options(py::kwargs kwargs,
+/// convert() and save() (`fn`, which their errors name): the options of rgs-convert in `kwargs` (by the
+/// snake_case of their long options; None never passed), written by `write` (api::convert, api::convert_cloud);
+/// with target_psnr / target_bytes the conversion fits the archive profile to them (ConvertOptions::target).
+/// Returns the report's dict.
+py::dict convert_with_options(const char* fn, py::kwargs kwargs,
                               const std::function<Result<api::ConvertReport>(const api::ConvertOptions&)>& write) {
   // The target and its views (api::ConvertTarget); the rest are ConvertOptions.
   api::ConvertTarget target;
@@ -1090,19 +1243,20 @@ py::dict convert_with_options(py::kwargs kwargs,
     if (value.is_none()) return std::nullopt;
     return value;
   };
-  constexpr uint64_t kMaxCount = 100000, kMaxEvery = 2147483647;
+  constexpr uint32_t kMaxCount = 100000, kMaxEvery = 2147483647;
+  const char* path_name = std::string(fn) == "save" ? "camera_path" : "path";  // save()'s `path` is its output
   api::CameraChoice& views = target.views;
-  if (auto v = take("target_psnr")) target.psnr_db = number_option(*v, "target_psnr", 1.0, 200.0);
-  if (auto v = take("target_bytes")) target.bytes = integer_option(*v, "target_bytes", 1, UINT64_MAX);
-  if (auto v = take("cameras")) views.cameras_path = v->cast<std::filesystem::path>().string();
-  if (auto v = take("every")) views.every = static_cast<uint32_t>(integer_option(*v, "every", 1, kMaxEvery));
-  if (auto v = take("limit")) views.limit = static_cast<uint32_t>(integer_option(*v, "limit", 1, kMaxEvery));
-  if (auto v = take("orbit")) views.orbit = static_cast<uint32_t>(integer_option(*v, "orbit", 1, kMaxCount));
-  if (auto v = take("path")) views.path = static_cast<uint32_t>(integer_option(*v, "path", 1, kMaxCount));
-  if (auto v = take("fly")) views.fly = static_cast<uint32_t>(integer_option(*v, "fly", 1, kMaxCount));
-  if (auto v = take("width")) views.width = static_cast<uint32_t>(integer_option(*v, "width", 11, 32768));
-  if (auto v = take("height")) views.height = static_cast<uint32_t>(integer_option(*v, "height", 11, 32768));
-  api::ConvertOptions options = convert_options(kwargs);
+  if (auto v = take("target_psnr")) target.psnr_db = float_arg(*v, fn, "target_psnr", {1.0, 200.0});
+  if (auto v = take("target_bytes")) target.bytes = int_arg<uint64_t>(*v, fn, "target_bytes", 1);
+  if (auto v = take("cameras")) views.cameras_path = path_arg(*v, fn, "cameras").string();
+  if (auto v = take("every")) views.every = int_arg<uint32_t>(*v, fn, "every", 1, kMaxEvery);
+  if (auto v = take("limit")) views.limit = int_arg<uint32_t>(*v, fn, "limit", 1, kMaxEvery);
+  if (auto v = take("orbit")) views.orbit = int_arg<uint32_t>(*v, fn, "orbit", 1, kMaxCount);
+  if (auto v = take(path_name)) views.path = int_arg<uint32_t>(*v, fn, path_name, 1, kMaxCount);
+  if (auto v = take("fly")) views.fly = int_arg<uint32_t>(*v, fn, "fly", 1, kMaxCount);
+  if (auto v = take("width")) views.width = int_arg<uint32_t>(*v, fn, "width", 11, kMaxImageSide);
+  if (auto v = take("height")) views.height = int_arg<uint32_t>(*v, fn, "height", 11, kMaxImageSide);
+  api::ConvertOptions options = convert_options(fn, kwargs);
   if (target.active()) target.device = api::cuda_available() ? api::Device::kCuda : api::Device::kCpu;
   options.target = std::move(target);
   Result<api::ConvertReport> r = Status(StatusCode::kInvalidArgument, "not converted");
@@ -1217,7 +1371,8 @@ PYBIND11_MODULE(roofgs, m) {
       .def_readonly("name", &api::Camera::name)
       .def(
           "project",
-          [](const api::Camera& c, std::array<double, 3> p) {
+          [](const api::Camera& c, const PointArg& point) {
+            const std::array<double, 3> p = arr<3>(point, "project", "point");
             double q[3];
             for (int r = 0; r < 3; ++r) {
               q[r] = c.translation[size_t(r)];
@@ -1228,7 +1383,11 @@ PYBIND11_MODULE(roofgs, m) {
           py::arg("point"),
           "Pixel (x, y) with pixel centres at integers, and view depth z, of `point` (x, y, z in world units); "
           "z <= 0 is behind the camera")
-      .def("resized", [](const api::Camera& c, uint32_t w, uint32_t h) { return runtime::resize_camera(c, w, h); },
+      .def("resized",
+           [](const api::Camera& c, const IntArg& width, const IntArg& height) {
+             return runtime::resize_camera(c, int_arg<uint32_t>(width, "resized", "width", 1, kMaxImageSide),
+                                           int_arg<uint32_t>(height, "resized", "height", 1, kMaxImageSide));
+           },
            py::arg("width"), py::arg("height"), "The same view at width x height (field of view kept)")
       .def("__repr__", [](const api::Camera& c) {
         return "<roofgs.Camera " + std::to_string(c.width) + "x" + std::to_string(c.height) + " fx=" +
@@ -1236,51 +1395,67 @@ PYBIND11_MODULE(roofgs, m) {
       });
 
   m.def("camera_from_inria",
-        [](py::object rotation_c2w, py::object position, double fx, double fy, uint32_t width, uint32_t height,
-           float near_plane, const std::string& name) {
-          return unwrap(api::camera_from_inria(arr<9>(rotation_c2w, "rotation"), arr<3>(position, "position"), fx,
-                                               fy, width, height, camera_options(near_plane, name)));
+        [](py::object rotation_c2w, py::object position, const FloatArg& fx, const FloatArg& fy, const IntArg& width,
+           const IntArg& height, const FloatArg& near_plane, const StrArg& name) {
+          const char* fn = "camera_from_inria";
+          const CameraArgs a = camera_args(fn, width, height, near_plane, name);
+          return unwrap(api::camera_from_inria(arr<3, 3>(rotation_c2w, fn, "rotation_c2w"),
+                                               arr<3>(position, fn, "position"), float_arg(fx, fn, "fx", kPositive),
+                                               float_arg(fy, fn, "fy", kPositive), a.width, a.height, a.options));
         },
         py::arg("rotation_c2w"), py::arg("position"), py::arg("fx"), py::arg("fy"), py::arg("width"),
         py::arg("height"), py::arg("near_plane") = 0.2f, py::arg("name") = "",
         "INRIA cameras.json entry: camera-to-world rotation [3, 3], camera centre, focal lengths in pixels");
   m.def("camera_from_colmap",
-        [](py::object qvec, py::object tvec, double fx, double fy, double cx, double cy, uint32_t width,
-           uint32_t height, float near_plane, const std::string& name) {
-          return unwrap(api::camera_from_colmap(arr<4>(qvec, "qvec"), arr<3>(tvec, "tvec"), fx, fy, cx, cy, width,
-                                                height, camera_options(near_plane, name)));
+        [](py::object qvec, py::object tvec, const FloatArg& fx, const FloatArg& fy, const FloatArg& cx,
+           const FloatArg& cy, const IntArg& width, const IntArg& height, const FloatArg& near_plane,
+           const StrArg& name) {
+          const char* fn = "camera_from_colmap";
+          const CameraArgs a = camera_args(fn, width, height, near_plane, name);
+          return unwrap(api::camera_from_colmap(arr<4>(qvec, fn, "qvec"), arr<3>(tvec, fn, "tvec"),
+                                                float_arg(fx, fn, "fx", kPositive), float_arg(fy, fn, "fy", kPositive),
+                                                float_arg(cx, fn, "cx"), float_arg(cy, fn, "cy"), a.width, a.height,
+                                                a.options));
         },
         py::arg("qvec"), py::arg("tvec"), py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"),
         py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f, py::arg("name") = "",
         "COLMAP: world-to-camera quaternion (w, x, y, z), translation, PINHOLE intrinsics (origin at the corner)");
   m.def("camera_from_opencv",
-        [](py::object K, py::object R, py::object t, uint32_t width, uint32_t height, float near_plane,
-           const std::string& name) {
-          return unwrap(api::camera_from_opencv(arr<9>(K, "K"), arr<9>(R, "R"), arr<3>(t, "t"), width, height,
-                                                camera_options(near_plane, name)));
+        [](py::object K, py::object R, py::object t, const IntArg& width, const IntArg& height,
+           const FloatArg& near_plane, const StrArg& name) {
+          const char* fn = "camera_from_opencv";
+          const CameraArgs a = camera_args(fn, width, height, near_plane, name);
+          return unwrap(api::camera_from_opencv(arr<3, 3>(K, fn, "K"), arr<3, 3>(R, fn, "R"), arr<3>(t, fn, "t"),
+                                                a.width, a.height, a.options));
         },
         py::arg("K"), py::arg("R"), py::arg("t"), py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f,
         py::arg("name") = "", "OpenCV: K [3, 3], world-to-camera R [3, 3] and t; pixel centres at integers");
   m.def("camera_from_opengl",
-        [](py::object view, py::object projection, uint32_t width, uint32_t height, float near_plane,
-           const std::string& name) {
-          return unwrap(api::camera_from_opengl(gl_matrix(view, "view"), gl_matrix(projection, "projection"), width,
-                                                height, camera_options(near_plane, name)));
+        [](py::object view, py::object projection, const IntArg& width, const IntArg& height,
+           const FloatArg& near_plane, const StrArg& name) {
+          const char* fn = "camera_from_opengl";
+          const CameraArgs a = camera_args(fn, width, height, near_plane, name);
+          return unwrap(api::camera_from_opengl(gl_matrix(view, fn, "view"), gl_matrix(projection, fn, "projection"),
+                                                a.width, a.height, a.options));
         },
         py::arg("view"), py::arg("projection"), py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f,
         py::arg("name") = "",
         "OpenGL view and projection matrices, 4x4 indexed [row, column] as written in math (M @ p); "
         "np.array(glm_matrix).T for a column-major GLM/pyglm matrix");
   m.def("camera_from_vulkan",
-        [](py::object view, py::object projection, uint32_t width, uint32_t height, float near_plane,
-           const std::string& name) {
-          return unwrap(api::camera_from_vulkan(gl_matrix(view, "view"), gl_matrix(projection, "projection"), width,
-                                                height, camera_options(near_plane, name)));
+        [](py::object view, py::object projection, const IntArg& width, const IntArg& height,
+           const FloatArg& near_plane, const StrArg& name) {
+          const char* fn = "camera_from_vulkan";
+          const CameraArgs a = camera_args(fn, width, height, near_plane, name);
+          return unwrap(api::camera_from_vulkan(gl_matrix(view, fn, "view"), gl_matrix(projection, fn, "projection"),
+                                                a.width, a.height, a.options));
         },
         py::arg("view"), py::arg("projection"), py::arg("width"), py::arg("height"), py::arg("near_plane") = 0.2f,
         py::arg("name") = "", "Vulkan (clip y down) view and projection matrices, [row, column]");
   m.def("load_cameras",
-        [](const std::filesystem::path& path) { return unwrap(runtime::load_inria_cameras(path.string())); },
+        [](const PathArg& path) {
+          return unwrap(runtime::load_inria_cameras(path_arg(path, "load_cameras", "path").string()));
+        },
         py::arg("path"),
         "Cameras of an INRIA 3DGS cameras.json");
 
@@ -1341,7 +1516,9 @@ PYBIND11_MODULE(roofgs, m) {
       .def_static(
           "from_arrays",
           [](const py::object& means, const py::object& quats, const py::object& scales, const py::object& opacities,
-             const py::object& sh, const std::string& device, bool sanitize, const std::string& name) {
+             const py::object& sh, const StrArg& device_arg, bool sanitize, const StrArg& name_arg) {
+            const std::string device = str_arg(device_arg, "from_arrays", "device");
+            const std::string name = str_arg(name_arg, "from_arrays", "name");
             const std::array<const py::object*, 5> arrays{&means, &quats, &scales, &opacities, &sh};
             if (const std::optional<int> cuda = device_arrays_device(arrays, device)) {
               // On the device: no Gaussian passes through host memory.
@@ -1411,8 +1588,12 @@ PYBIND11_MODULE(roofgs, m) {
            "The Gaussians of a CPU scene as from_arrays() takes them: (means [N, 3], quats [N, 4], scales [N, 3] "
            "linear, opacities [N], sh [N, K, 3]), float32 NumPy copies of what the CPU reference renders")
       .def("orbit_cameras",
-           [](const PyScene& s, uint32_t count, uint32_t width, uint32_t height) {
-             return unwrap(runtime::orbit_cameras(s.scene.info().bounds, count, width, height));
+           [](const PyScene& s, const IntArg& count, const IntArg& width, const IntArg& height) {
+             const char* fn = "orbit_cameras";
+             return unwrap(runtime::orbit_cameras(s.scene.info().bounds,
+                                                  int_arg<uint32_t>(count, fn, "count", 1, 100000),
+                                                  int_arg<uint32_t>(width, fn, "width", 1, kMaxImageSide),
+                                                  int_arg<uint32_t>(height, fn, "height", 1, kMaxImageSide)));
            },
            py::arg("count"), py::arg("width") = 1920, py::arg("height") = 1080,
            "A ring of cameras around the scene's bounding sphere")
@@ -1445,8 +1626,12 @@ PYBIND11_MODULE(roofgs, m) {
       .def("__repr__", [](const PyViewServer& v) { return "<roofgs.ViewServer " + v.url + ">"; });
   m.def("view",
         [](const py::object& scene, const py::object& scene2, const std::string& device, const std::string& host,
-           uint16_t port, const std::string& token, const std::string& preset, const std::string& cameras,
-           uint32_t max_clients, int cuda_device, uint32_t height) {
+           const IntArg& port_arg, const std::string& token, const std::string& preset, const std::string& cameras,
+           const IntArg& max_clients_arg, const IntArg& cuda_device_arg, const IntArg& height_arg) {
+          const auto port = int_arg<uint16_t>(port_arg, "view", "port");
+          const auto max_clients = int_arg<uint32_t>(max_clients_arg, "view", "max_clients", 1, 64);
+          const int cuda_device = int_arg<int>(cuda_device_arg, "view", "cuda_device", 0, kMaxCudaDevice);
+          const auto height = int_arg<uint32_t>(height_arg, "view", "height", 1, kMaxImageSide);
           std::vector<api::Scene> scenes = {view_scene(scene, device, cuda_device)};
           if (!scene2.is_none()) {
             // A path loads on the first scene's device.
@@ -1479,27 +1664,30 @@ PYBIND11_MODULE(roofgs, m) {
         "they can render; `cameras` is an INRIA cameras.json whose cameras the page offers");
 #endif
   m.def("load",
-        [](const std::filesystem::path& path, const std::string& device, std::vector<std::string> presets,
-           bool quantize_other_formats, int cuda_device, const py::object& spz_frame, bool lod,
-           uint64_t splat_budget, float pixel_error, uint64_t memory_budget, uint64_t stream_bytes,
-           bool antialiased) {
+        [](const PathArg& path, const StrArg& device, const StrListArg& presets, bool quantize_other_formats,
+           const IntArg& cuda_device, const py::object& spz_frame, bool lod, const IntArg& splat_budget,
+           const FloatArg& pixel_error, const IntArg& memory_budget, const IntArg& stream_bytes, bool antialiased) {
+          const char* fn = "load";
           api::LoadOptions options;
+          options.cuda_device = int_arg<int>(cuda_device, fn, "cuda_device", 0, kMaxCudaDevice);
+          options.lod.splat_budget = int_arg<uint64_t>(splat_budget, fn, "splat_budget");
+          options.lod.pixel_error = float(float_arg(pixel_error, fn, "pixel_error", {0.0, 1000.0}));
+          options.lod.memory_budget = int_arg<uint64_t>(memory_budget, fn, "memory_budget");
+          options.lod.stream_bytes_per_frame = int_arg<uint64_t>(stream_bytes, fn, "stream_bytes", 1);
+          options.presets.clear();
+          for (const std::string& p : cast_arg<std::vector<std::string>>(presets, fn, "presets", "a sequence of str")) {
+            options.presets.push_back(unwrap(api::parse_preset(p)));
+          }
+          const std::string file = path_arg(path, fn, "path").string();
           options.read_options = read_options(spz_frame);
           options.read_options.antialiased = antialiased;
-          options.device = resolve_device(device);
-          options.cuda_device = cuda_device;
+          options.device = resolve_device(str_arg(device, fn, "device"));
           options.quantize_other_formats = quantize_other_formats;
           options.lod.enabled = lod;
-          options.lod.splat_budget = splat_budget;
-          options.lod.pixel_error = pixel_error;
-          options.lod.memory_budget = memory_budget;
-          options.lod.stream_bytes_per_frame = stream_bytes;
-          options.presets.clear();
-          for (const std::string& p : presets) options.presets.push_back(unwrap(api::parse_preset(p)));
           Result<api::Scene> scene = Status(StatusCode::kInvalidArgument, "not loaded");
           {
             py::gil_scoped_release release;
-            scene = api::load(path.string(), options);
+            scene = api::load(file, options);
           }
           return std::make_unique<PyScene>(unwrap(std::move(scene)));
         },
@@ -1522,24 +1710,27 @@ PYBIND11_MODULE(roofgs, m) {
         "scratch_budget), reading and uploading at most stream_bytes a frame (> 0: the bound on how long a frame "
         "waits for the file; levels that do not fit come in later frames), on the CPU with every level in host "
         "memory. lod=False renders its full detail. Files without levels ignore these (info['notes'] says so "
-        "for values other than the defaults); info['lod'] tells, frame_stats['lod'] counts each frame. roofgs.Error kInvalidArgument for pixel_error "
-        "< 0 or not finite, or a level-of-detail CUDA scene with a preset reading FP32 (faithful); "
-        "kLimitExceeded for a memory_budget below the frame arrays and the coarsest levels; kInvalidArgument for "
-        "stream_bytes 0");
+        "for values other than the defaults); info['lod'] tells, frame_stats['lod'] counts each frame. "
+        "ValueError for pixel_error outside 0..1000 or not finite, stream_bytes 0 or cuda_device outside 0..1023; "
+        "roofgs.Error kInvalidArgument for a level-of-detail CUDA scene with a preset reading FP32 (faithful); "
+        "kLimitExceeded for a memory_budget below the frame arrays and the coarsest levels");
 
   m.def("_convert",
-        [](const std::filesystem::path& src, const std::filesystem::path& dst, py::kwargs kwargs) {
-          return convert_with_options(std::move(kwargs), [&](const api::ConvertOptions& o) {
-            return api::convert(src.string(), dst.string(), o);
+        [](const PathArg& src, const PathArg& dst, py::kwargs kwargs) {
+          const std::string from = path_arg(src, "convert", "src").string();
+          const std::string to = path_arg(dst, "convert", "dst").string();
+          return convert_with_options("convert", std::move(kwargs), [&](const api::ConvertOptions& o) {
+            return api::convert(from, to, o);
           });
         },
         py::arg("src"), py::arg("dst"), "convert()'s implementation: the options given, by name");
   m.def("_save",
-        [](const std::filesystem::path& path, const py::object& means, const py::object& quats,
-           const py::object& scales, const py::object& opacities, const py::object& sh, py::kwargs kwargs) {
+        [](const PathArg& path, const py::object& means, const py::object& quats, const py::object& scales,
+           const py::object& opacities, const py::object& sh, py::kwargs kwargs) {
+          const std::string dst = path_arg(path, "save", "path").string();
           format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
-          return convert_with_options(std::move(kwargs), [&](const api::ConvertOptions& o) {
-            return api::convert_cloud(std::move(cloud), "arrays", path.string(), o);
+          return convert_with_options("save", std::move(kwargs), [&](const api::ConvertOptions& o) {
+            return api::convert_cloud(std::move(cloud), "arrays", dst, o);
           });
         },
         py::arg("path"), py::arg("means"), py::arg("quats"), py::arg("scales"), py::arg("opacities"), py::arg("sh"),
@@ -1577,10 +1768,7 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
          **unexpected):
     _refuse_unexpected("save", unexpected)
     options = {k: v for k, v in locals().items()
-               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "camera_path", "unexpected")
-               and v is not None}
-    if camera_path is not None:
-        options["path"] = camera_path
+               if k not in ("path", "means", "quats", "scales", "opacities", "sh", "unexpected") and v is not None}
     return _save(path, means, quats, scales, opacities, sh, **options)
 )", scope);
   m.attr("convert").attr("__doc__") = py::str(
@@ -1736,19 +1924,27 @@ def _check_gsplat_options(given):
         "(gradients, other camera models, far plane below 1e10, radius clip, eps2d, tile "
         "size, covariances, distortion, rolling shutter, distributed) raises ValueError naming the option");
   m.def("audit",
-        [](const std::filesystem::path& source, const py::object& candidates_in,
-           std::optional<std::vector<api::Camera>> cameras, std::optional<uint32_t> orbit, uint32_t width,
-           uint32_t height, const std::string& device, const py::object& spz_frame, double threshold) {
+        [](const PathArg& source_arg, const py::object& candidates_in, std::optional<std::vector<api::Camera>> cameras,
+           const std::optional<IntArg>& orbit_arg, const IntArg& width_arg, const IntArg& height_arg,
+           const StrArg& device, const py::object& spz_frame, const FloatArg& threshold_arg) {
+          const char* fn = "audit";  // the rules of rgs-audit's options
+          const std::optional<uint32_t> orbit = int_arg<uint32_t>(orbit_arg, fn, "orbit", 1, 100000);
+          const uint32_t width = int_arg<uint32_t>(width_arg, fn, "width", 11, kMaxImageSide);
+          const uint32_t height = int_arg<uint32_t>(height_arg, fn, "height", 11, kMaxImageSide);
+          const double threshold = float_arg(threshold_arg, fn, "threshold", {-1000.0, 1000.0});
+          const std::filesystem::path source = path_arg(source_arg, fn, "source");
           // One path (str or os.PathLike) or a sequence of them.
           const bool one = py::isinstance<py::str>(candidates_in) || py::isinstance<py::bytes>(candidates_in) ||
                            py::hasattr(candidates_in, "__fspath__");
           const std::vector<std::filesystem::path> candidates =
-              one ? std::vector<std::filesystem::path>{candidates_in.cast<std::filesystem::path>()}
-                  : candidates_in.cast<std::vector<std::filesystem::path>>();
+              one ? std::vector<std::filesystem::path>{path_arg(candidates_in, fn, "candidates")}
+                  : cast_arg<std::vector<std::filesystem::path>>(candidates_in, fn, "candidates",
+                                                                  "a path (str or os.PathLike) or a sequence of them");
           const converter::SceneReadOptions read = read_options(spz_frame);
           audit::AuditOptions options;
           options.worst_views = 0;
-          options.backend = resolve_device(device) == api::Device::kCuda ? audit::Backend::kCuda : audit::Backend::kCpu;
+          const bool cuda = resolve_device(str_arg(device, fn, "device")) == api::Device::kCuda;
+          options.backend = cuda ? audit::Backend::kCuda : audit::Backend::kCpu;
           Result<audit::AuditResult> result = Status(StatusCode::kInvalidArgument, "not audited");
           std::string views_note;
           {
