@@ -3,6 +3,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <vector>
 
 namespace rgs::audit::detail {
@@ -53,6 +54,34 @@ std::string base64(const std::string& bytes) {
   return out;
 }
 
+int paeth(int a, int b, int c) {
+  const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+  return pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+}
+
+/// Writes `row` (`stride` bytes, `bpp` per pixel; `up` the row above it, nullptr for the first) into `out` as its
+/// filter type byte and filtered bytes: of None, Sub, Up, Average and Paeth (PNG specification §6.2), the one whose
+/// bytes read as signed have the smallest sum of magnitudes, the specification's heuristic for deflate.
+void filter_row(const uint8_t* row, const uint8_t* up, size_t stride, size_t bpp, uint8_t* out) {
+  std::vector<uint8_t> filtered[5];
+  long best_cost = -1;
+  for (int f = 0; f < 5; ++f) {
+    filtered[f].resize(stride);
+    long cost = 0;
+    for (size_t i = 0; i < stride; ++i) {
+      const int a = i >= bpp ? row[i - bpp] : 0, b = up ? up[i] : 0, cc = up && i >= bpp ? up[i - bpp] : 0;
+      const int predicted = f == 0 ? 0 : f == 1 ? a : f == 2 ? b : f == 3 ? (a + b) / 2 : paeth(a, b, cc);
+      filtered[f][i] = uint8_t(row[i] - predicted);
+      cost += std::abs(int(int8_t(filtered[f][i])));
+    }
+    if (best_cost < 0 || cost < best_cost) {
+      best_cost = cost;
+      out[0] = uint8_t(f);
+    }
+  }
+  std::copy(filtered[out[0]].begin(), filtered[out[0]].end(), out + 1);
+}
+
 }  // namespace
 
 std::array<uint8_t, 3> inferno(uint8_t level) {
@@ -69,24 +98,15 @@ Result<std::string> png_data_uri(const Image8& image, bool heat) {
   RGS_RETURN_ERROR_IF(w == 0 || h == 0 || image.pixels.size() != w * h * c, StatusCode::kInvalidArgument,
                       "report image: " + std::to_string(image.pixels.size()) + " bytes for " + std::to_string(w) +
                           "x" + std::to_string(h) + "x" + std::to_string(c));
-  const size_t out_c = heat && c == 1 ? 3 : c;
-  // Every row with filter type 1 (Sub): each byte stored as its difference to the pixel on its left.
-  std::vector<uint8_t> rows((w * out_c + 1) * h);
-  std::vector<uint8_t> row(w * out_c);
-  for (size_t y = 0; y < h; ++y) {
-    const uint8_t* src = image.pixels.data() + y * w * c;
-    for (size_t x = 0; x < w; ++x) {
-      if (out_c == c) {
-        for (size_t k = 0; k < c; ++k) row[x * c + k] = src[x * c + k];
-      } else {
-        const auto rgb = inferno(src[x]);
-        for (size_t k = 0; k < 3; ++k) row[x * 3 + k] = rgb[k];
-      }
-    }
-    uint8_t* dst = rows.data() + y * (w * out_c + 1);
-    dst[0] = 1;
-    for (size_t i = 0; i < row.size(); ++i) dst[1 + i] = uint8_t(row[i] - (i >= out_c ? row[i - out_c] : 0));
+  const size_t out_c = heat && c == 1 ? 3 : c, stride = w * out_c;
+  std::vector<uint8_t> pixels(stride * h);  // as stored: the heatmaps coloured
+  for (size_t i = 0; i < w * h; ++i) {
+    const std::array<uint8_t, 3> heat_rgb = out_c != c ? inferno(image.pixels[i]) : std::array<uint8_t, 3>{};
+    for (size_t k = 0; k < out_c; ++k) pixels[i * out_c + k] = out_c == c ? image.pixels[i * c + k] : heat_rgb[k];
   }
+  std::vector<uint8_t> rows((stride + 1) * h);
+  for (size_t y = 0; y < h; ++y) filter_row(pixels.data() + y * stride, y ? pixels.data() + (y - 1) * stride : nullptr,
+                                             stride, out_c, rows.data() + y * (stride + 1));
   uLongf packed_size = compressBound(uLong(rows.size()));
   std::string packed(packed_size, '\0');
   const int z = compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size, rows.data(), uLong(rows.size()), 9);

@@ -124,7 +124,7 @@ bool has_non_finite_coordinate(const std::string& html) {
       html, std::regex(" (x|y|cx|cy|width|height|d|transform|viewBox)='[^']*(nan|inf)", std::regex::icase));
 }
 
-/// The pixels of a PNG written by report_html: 8-bit grey or RGB, filters None and Sub.
+/// The pixels of a PNG written by report_html: 8-bit grey or RGB, not interlaced, any of the five filters.
 audit::Image8 decode_png(const std::string& data_uri) {
   const std::string prefix = "data:image/png;base64,";
   REQUIRE(data_uri.rfind(prefix, 0) == 0);
@@ -156,10 +156,16 @@ audit::Image8 decode_png(const std::string& data_uri) {
   REQUIRE(size == rows.size());
   for (uint32_t y = 0; y < image.height; ++y) {
     const uint8_t filter = rows[y * (stride + 1)];
-    REQUIRE(filter <= 1);
+    REQUIRE(filter <= 4);
     for (size_t i = 0; i < stride; ++i) {
-      const uint8_t left = filter == 1 && i >= image.channels ? image.pixels[y * stride + i - image.channels] : 0;
-      image.pixels.push_back(uint8_t(rows[y * (stride + 1) + 1 + i] + left));
+      const size_t at = y * stride + i, bpp = image.channels;
+      const int a = i >= bpp ? image.pixels[at - bpp] : 0, b = y ? image.pixels[at - stride] : 0;
+      const int c = y && i >= bpp ? image.pixels[at - stride - bpp] : 0, p = a + b - c;
+      const int paeth = std::abs(p - a) <= std::abs(p - b) && std::abs(p - a) <= std::abs(p - c) ? a
+                        : std::abs(p - b) <= std::abs(p - c)                                 ? b
+                                                                                              : c;
+      const int predicted = filter == 0 ? 0 : filter == 1 ? a : filter == 2 ? b : filter == 3 ? (a + b) / 2 : paeth;
+      image.pixels.push_back(uint8_t(rows[y * (stride + 1) + 1 + i] + predicted));
     }
   }
   return image;
@@ -388,6 +394,12 @@ TEST_CASE("report of a real audit: guitar against itself and its conversion") {
   CHECK(count(views, "class='pt inf'") == 6);  // the identical candidate, whole frame and foreground
   CHECK(count(html, "<img class='view heatmap'") == 4);
   CHECK(count(html, "class='colorbar'") == 2);
+  // The renders as the page holds them are the audit's pixels (rows of every PNG filter type).
+  const auto sources = image_sources(html, "view under");
+  REQUIRE(sources.size() == 4);
+  for (size_t k = 0; k < 4; ++k) {
+    CHECK(decode_png(sources[k]).pixels == result->candidates[k / 2].worst[k % 2].source.pixels);
+  }
   // The identical candidate's heatmaps are inferno's black; the conversion's are not.
   const auto heatmaps = image_sources(html, "view heatmap");
   REQUIRE(heatmaps.size() == 4);
