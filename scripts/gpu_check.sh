@@ -315,8 +315,7 @@ if [ "$what" = pybench ] || [ "$what" = all ]; then
 fi
 if [ "$what" = audit ] || [ "$what" = all ]; then
   # What the conversion cost, on the GPU: every flowers camera at its native 5025x3312, and taebak's cameras
-  # at 4K against its SOG source. The HTML step needs matplotlib, which the GPU host lacks: the JSON comes
-  # back and `rgs-audit --report-from` draws the report on a development host.
+  # at 4K against its SOG source, each with its HTML report, JSON and images.
   audit() {  # NAME ARGS...
     local name="$1"
     shift

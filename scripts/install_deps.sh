@@ -4,9 +4,8 @@
 #   sample  what rgs-convert and rgs-info need to build (the README's first command)
 #   tests   everything the whole test suite needs (default): the render and audit tools' image I/O, doctest,
 #           GLM (camera tests of the front door), python3 with pybind11, NumPy, pytest and venv (the roofgs module
-#           and its pip install check),
-#           matplotlib and chromium (the audit's HTML report and its headless screenshot test), clang's
-#           libFuzzer and sanitizers (scripts/run_fuzzers.sh)
+#           and its pip install check), matplotlib (the scripts' plots), chromium and python3-websocket (the
+#           audit report's test in a headless browser), clang's libFuzzer and sanitizers (scripts/run_fuzzers.sh)
 # Idempotent: skips apt when everything is present. Uses sudo when not run as root. Waits (up to 10 minutes)
 # for another apt or dpkg to release its lock, as happens right after a fresh machine boots.
 set -euo pipefail

@@ -1,7 +1,7 @@
 // rgs-audit: what a conversion or a format costs. A thin front end of rgs::audit (audit/): sizes per section and
 // per Gaussian, per-attribute errors, per-view PSNR/SSIM/max |d| of each candidate's render against the
 // source's (3DGS baseline, FP32), on the GPU when one is present, else on the CPU reference; JSON always next
-// to the report, and a self-contained HTML report drawn by scripts/audit_report.py (python3-matplotlib).
+// to the report, and a self-contained HTML report with its figures as inline SVG (audit::report_html).
 //
 //   rgs-audit scene.ply scene.rgs --cameras cameras.json                 every camera, native size
 //   rgs-audit scene.ply a.rgs b.rgs c.rgs --label max --label p99 ...     one run, several candidates
@@ -14,25 +14,17 @@
 //
 // Every output of a run (the HTML report, its JSON, its images, --json, --heatmap, --save-renders) is declared
 // before it is written (the report's images and the renders once the views are known), may not be an input or
-// another output, and is committed together at the end (format::OutputTransaction); the HTML
-// script writes into the report's staged temporary. Exit status: 0 ok, 1 failure (no output written or
-// changed), 2 usage error, 3 a candidate below --min-psnr (the audit itself succeeded: its reports are
-// written), 128 + N on signal N. --json - prints the JSON on standard output and the table on standard error.
+// another output, and is committed together at the end (format::OutputTransaction). Exit status: 0 ok, 1
+// failure (no output written or changed), 2 usage error, 3 a candidate below --min-psnr (the audit itself
+// succeeded: its reports are written), 128 + N on signal N. --json - prints the JSON on standard output and the
+// table on standard error.
 
 #include <CLI/CLI.hpp>
 
-#include <sys/prctl.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -43,11 +35,10 @@
 #include "rgs/audit/audit.h"
 #include "rgs/audit/audit_report.h"
 #include "rgs/audit/audit_scene.h"
+#include "rgs/audit/report_html.h"
 #include "rgs/api/camera.h"
 #include "rgs/runtime/image_io.h"
 #include "rgs/config.h"
-
-extern char** environ;
 
 namespace {
 
@@ -82,86 +73,6 @@ struct Options {
 };
 
 std::string db(double v) { return std::isinf(v) ? std::string(v > 0 ? "inf" : "-inf") : tools::fixed(v, 2); }
-
-/// The HTML script: $RGS_AUDIT_REPORT_SCRIPT, else scripts/audit_report.py of this source tree, else
-/// ../share/rgs/audit_report.py beside the executable.
-std::string report_script() {
-  if (const char* env = std::getenv("RGS_AUDIT_REPORT_SCRIPT"); env && *env) return env;
-  const std::filesystem::path in_tree = RGS_AUDIT_REPORT_SCRIPT_IN_TREE;
-  if (std::filesystem::exists(in_tree)) return in_tree.string();
-  std::error_code ec;
-  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    const auto installed = exe.parent_path() / ".." / "share" / "rgs" / "audit_report.py";
-    if (std::filesystem::exists(installed)) return installed.string();
-  }
-  return in_tree.string();
-}
-
-/// Runs `PYTHON SCRIPT json html` ($RGS_PYTHON, else /usr/bin/python3 when present, else python3 from PATH);
-/// ok when it exits 0. Its own messages go to stderr. A failure names the command with `shown_json` and
-/// `shown_html`, the files the user knows, instead of the scratch or staged paths the script was given.
-Status render_html(const std::string& json_path, const std::string& html_path, const std::string& shown_json,
-                   const std::string& shown_html) {
-  const std::string script = report_script();
-  // Debian's python3-matplotlib lives under /usr/bin/python3, which a python3 earlier in PATH may lack.
-  std::string python = "python3";
-  if (const char* env = std::getenv("RGS_PYTHON"); env && *env) {
-    python = env;
-  } else if (std::filesystem::exists("/usr/bin/python3")) {
-    python = "/usr/bin/python3";
-  }
-  // The interpreter is looked up here, so that the child only makes async-signal-safe calls before exec.
-  std::string program = python;
-  if (program.find('/') == std::string::npos) {
-    const char* path_env = std::getenv("PATH");
-    std::string dirs = path_env ? path_env : "/usr/local/bin:/usr/bin:/bin";
-    for (size_t begin = 0; begin <= dirs.size();) {
-      size_t end = dirs.find(':', begin);
-      if (end == std::string::npos) end = dirs.size();
-      const std::string dir = end > begin ? dirs.substr(begin, end - begin) : ".";
-      const std::string candidate = dir + "/" + python;
-      if (access(candidate.c_str(), X_OK) == 0) {
-        program = candidate;
-        break;
-      }
-      begin = end + 1;
-    }
-  }
-  RGS_RETURN_ERROR_IF(access(program.c_str(), X_OK) != 0, StatusCode::kUnsupportedFeature,
-                      "cannot run " + python + " for the HTML report: " + std::strerror(errno));
-  std::vector<std::string> args = {python, script, json_path, html_path};
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  // The script dies with this process (an interrupt removes the staged HTML; an orphaned script would write
-  // it again after that cleanup).
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  RGS_RETURN_ERROR_IF(pid < 0, StatusCode::kIoError,
-                      "cannot start " + python + " for the HTML report: " + std::strerror(errno));
-  if (pid == 0) {
-    // Until exec, a signal must not run this process's cleanup handler, which removes the parent's temporaries.
-    for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
-      struct sigaction current {};
-      if (sigaction(sig, nullptr, &current) == 0 && current.sa_handler != SIG_IGN) signal(sig, SIG_DFL);
-    }
-    prctl(PR_SET_PDEATHSIG, SIGTERM);
-    if (getppid() != parent) _exit(127);
-    execve(program.c_str(), argv.data(), environ);
-    _exit(127);
-  }
-  int wstatus = 0;
-  pid_t waited = 0;
-  do {
-    waited = waitpid(pid, &wstatus, 0);
-  } while (waited < 0 && errno == EINTR);
-  RGS_RETURN_ERROR_IF(waited != pid, StatusCode::kIoError, "waiting for " + script + " failed");
-  RGS_RETURN_ERROR_IF(!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0, StatusCode::kUnsupportedFeature,
-                      python + " " + script + " " + shown_json + " " + shown_html + " failed (exit " +
-                          std::to_string(WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1) + ")");
-  return Status();
-}
 
 /// "out.html" -> "out.json"; "out_files/" for the images.
 std::string with_suffix(const std::string& html, const std::string& suffix) {
@@ -240,30 +151,6 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
   }
 }
 
-/// The HTML of the report whose JSON is `report_json` (naming its images relative to itself), made by the
-/// script from a copy of the JSON and the images in a private scratch folder (the report's own files are still
-/// staged under temporary names until the commit) and staged in `outputs` as `html_path`.
-Status stage_html(format::OutputTransaction& outputs, const audit::AuditResult& r, const std::string& report_json,
-                  const std::string& text, const std::string& html_path) {
-  std::error_code ec;
-  std::string pattern = (std::filesystem::temp_directory_path(ec) / "rgs-audit.XXXXXX").string();
-  if (ec) pattern = "/tmp/rgs-audit.XXXXXX";
-  std::string scratch = pattern;
-  RGS_RETURN_ERROR_IF(mkdtemp(scratch.data()) == nullptr, StatusCode::kIoError,
-                      pattern + ": cannot create a scratch folder: " + std::strerror(errno));
-  const std::string scratch_json =
-      (std::filesystem::path(scratch) / std::filesystem::path(report_json).filename()).string();
-  Status st = audit::write_report_images(r, with_suffix(scratch_json, "_files"));
-  if (st.ok()) st = format::write_file_atomic(scratch_json, text.data(), text.size());
-  if (st.ok()) {
-    st = outputs.write_by_name(html_path, [&](const std::string& temp_path) {
-      return render_html(scratch_json, temp_path, report_json, html_path);
-    });
-  }
-  std::filesystem::remove_all(scratch, ec);
-  return st;
-}
-
 int run_report_only(const Options& opt) {
   if (opt.report_path.empty()) {
     return tools::report_usage_error(kTool,
@@ -273,9 +160,9 @@ int run_report_only(const Options& opt) {
   if (int code = tools::declare_input(kTool, outputs, opt.report_from); code != tools::kExitOk) return code;
   if (int code = tools::declare_output(kTool, outputs, opt.report_path); code != tools::kExitOk) return code;
   tools::report_notes(kTool, outputs.remove_stale_temporaries());
-  Status st = outputs.write_by_name(opt.report_path, [&](const std::string& temp_path) {
-    return render_html(opt.report_from, temp_path, opt.report_from, opt.report_path);
-  });
+  auto html = audit::report_html_from_file(opt.report_from);
+  if (!html.ok()) return tools::report_error(kTool, html.status());
+  Status st = outputs.write(opt.report_path, html->data(), html->size());
   if (!st.ok()) return tools::report_error(kTool, st);
   tools::report_note(kTool, "report " + opt.report_path);
   return tools::commit_outputs(kTool, outputs);
@@ -574,6 +461,9 @@ int run(const Options& opt) {
   if (!report_json.empty()) {
     Status st = outputs.write(report_json, text.data(), text.size());
     if (!st.ok()) return tools::report_error(kTool, st);
+    auto html = audit::report_html(r, ro);
+    if (html.ok()) st = outputs.write(opt.report_path, html->data(), html->size());
+    if (!st.ok() || !html.ok()) return tools::report_error(kTool, html.ok() ? st : html.status());
   }
   if (!opt.json_path.empty() && !json_stdout && !json_is_report_json(opt, report_json)) {
     ro.image_dir.clear();  // image paths are relative to the report's JSON
@@ -584,24 +474,13 @@ int run(const Options& opt) {
 
   // The table (stderr when stdout carries the JSON).
   std::FILE* out = json_stdout ? stderr : stdout;
-  if (!opt.quiet) print_table(out, opt, r, report_json, t_start);
+  if (!opt.quiet) {
+    print_table(out, opt, r, report_json, t_start);
+    if (!opt.no_report) std::fprintf(out, "  report           %s\n", tools::escape_text(opt.report_path).c_str());
+  }
   if (json_stdout) {
     std::fwrite(text.data(), 1, text.size(), stdout);
-    std::fflush(stdout);  // before the HTML script runs, which shares stdout
-  }
-
-  if (!opt.no_report) {
-    Status st = stage_html(outputs, r, report_json, text, opt.report_path);
-    if (st.ok()) {
-      if (!opt.quiet) std::fprintf(out, "  report           %s\n", tools::escape_text(opt.report_path).c_str());
-    } else {
-      // The JSON and the images are still committed; the HTML can be made on another host.
-      std::fprintf(stderr,
-                   "%s: warning: no HTML report (%s); on a host with python3-matplotlib run: %s --report-from %s "
-                   "--report %s\n",
-                   kTool, tools::escape_text(st.message()).c_str(), kTool, tools::escape_text(report_json).c_str(),
-                   tools::escape_text(opt.report_path).c_str());
-    }
+    std::fflush(stdout);
   }
 
   const bool below_gate = opt.min_psnr_set && !audit::passes_gate(r, opt.min_psnr);

@@ -1,5 +1,6 @@
 #include "rgs/audit/audit_report.h"
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -215,6 +216,41 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
                  {"passed", passes_gate(r, *options.min_psnr_db)}};
   }
   return j.dump(2) + "\n";
+}
+
+Result<Image8> read_netpbm(const std::string& path) {
+  RGS_ASSIGN_OR_RETURN(const auto file, format::MappedFile::open(path));
+  const uint8_t* data = file->data();
+  const size_t size = file->size();
+  size_t pos = 2;
+  RGS_RETURN_ERROR_IF(size < 2 || data[0] != 'P' || (data[1] != '5' && data[1] != '6'), StatusCode::kCorruptData,
+                      path + ": not a binary PPM (P6) or PGM (P5)");
+  uint64_t fields[3] = {};
+  for (uint64_t& field : fields) {
+    while (pos < size && (std::isspace(data[pos]) || data[pos] == '#')) {
+      if (data[pos] == '#') {
+        while (pos < size && data[pos] != '\n') ++pos;
+      } else {
+        ++pos;
+      }
+    }
+    const size_t start = pos;
+    while (pos < size && pos - start < 9 && std::isdigit(data[pos])) field = field * 10 + (data[pos++] - '0');
+    RGS_RETURN_ERROR_IF(pos == start, StatusCode::kCorruptData, path + ": damaged netpbm header");
+  }
+  Image8 image;
+  image.channels = data[1] == '6' ? 3 : 1;
+  const uint64_t bytes = fields[0] * fields[1] * image.channels;
+  RGS_RETURN_ERROR_IF(fields[2] != 255 || fields[0] == 0 || fields[1] == 0, StatusCode::kCorruptData,
+                      path + ": a " + std::to_string(fields[0]) + "x" + std::to_string(fields[1]) +
+                          " image of maxval " + std::to_string(fields[2]) + " (expected 255)");
+  RGS_RETURN_ERROR_IF(pos >= size || !std::isspace(data[pos]) || size - pos - 1 < bytes, StatusCode::kCorruptData,
+                      path + ": " + std::to_string(bytes) + " pixel bytes expected, the file has " +
+                          std::to_string(pos < size ? size - pos - 1 : 0));
+  image.width = uint32_t(fields[0]);
+  image.height = uint32_t(fields[1]);
+  image.pixels.assign(data + pos + 1, data + pos + 1 + bytes);
+  return image;
 }
 
 Status write_netpbm(const std::string& path, const Image8& image, format::FileSink& files) {

@@ -1,5 +1,5 @@
 // Machine-readable output of an audit: versioned JSON, and the worst views' images as binary PPM/PGM files
-// that the HTML report (scripts/audit_report.py) embeds.
+// that the HTML report (report_html.h) embeds.
 #pragma once
 
 #include <cstdint>
@@ -98,5 +98,10 @@ Status write_report_images(const AuditResult& result, const std::string& dir,
 /// Writes `image` as binary PPM (P6, 3 channels) or PGM (P5, 1 channel), maxval 255, into `files`.
 /// Errors: kInvalidArgument (size or channel mismatch), kIoError naming `path`.
 Status write_netpbm(const std::string& path, const Image8& image, format::FileSink& files = format::atomic_files());
+
+/// Reads a binary PPM (P6) or PGM (P5) of maxval 255, as write_netpbm writes it (comments allowed).
+/// Errors: kIoError naming `path` (missing, unreadable), kCorruptData naming it (another format, a size that
+/// does not match its bytes).
+Result<Image8> read_netpbm(const std::string& path);
 
 }  // namespace rgs::audit
