@@ -48,8 +48,7 @@ Status naming(Status status, const std::string& path) {
 }
 
 /// The section table of a .rgs file: what each section stores and decodes to (header and table only).
-Status list_sections(const std::string& path, const format::ReadOptions& options, AuditScene* scene) {
-  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, options));
+void list_sections(const format::RgsFile& file, AuditScene* scene) {
   uint64_t stored = 0;
   for (const format::SectionEntry& e : file.sections()) {
     scene->info.sections.push_back(
@@ -57,7 +56,17 @@ Status list_sections(const std::string& path, const format::ReadOptions& options
     stored += e.stored_size;
   }
   scene->info.overhead_bytes = scene->info.file_bytes >= stored ? scene->info.file_bytes - stored : 0;
-  return Status();
+}
+
+/// The scene at `path` read whole; a .rgs opened once, for its Gaussians and its section table.
+Result<converter::InputScene> read_audit_input(const std::string& path, const converter::SceneReadOptions& options,
+                                               AuditScene* scene) {
+  if (!format::is_rgs_path(path)) return converter::read_scene(path, options);
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, converter::rgs_read_options(options)));
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::rgs_file_scene(file, options));
+  scene->info.file_bytes = input.file_bytes;
+  list_sections(file, scene);
+  return input;
 }
 
 }  // namespace
@@ -67,19 +76,15 @@ Result<AuditScene> load_audit_scene(const std::string& path, const std::string& 
   const auto t_start = std::chrono::steady_clock::now();
   converter::SceneReadOptions read_options = options;
   read_options.keep_encoded = true;  // a .rgs candidate's SH quantization
-  auto input = converter::read_scene(path, read_options);
-  if (!input.ok()) return naming(input.status(), path);
   AuditScene scene;
+  auto input = read_audit_input(path, read_options, &scene);
+  if (!input.ok()) return naming(input.status(), path);
   scene.cloud = std::move(input->cloud);
   scene.bounds = input->bounds;
   scene.info.format = input->format_id;
   scene.info.file_bytes = input->file_bytes;
   scene.info.notes = std::move(input->notes);
-  if (input->encoded) {
-    scene.sh_quantization = input->encoded->metadata.sh_quantization;
-    input->encoded.reset();
-    RGS_RETURN_IF_ERROR(list_sections(path, converter::rgs_read_options(options), &scene));
-  }
+  if (input->encoded) scene.sh_quantization = input->encoded->metadata.sh_quantization;
   scene.info.path = path;
   scene.info.label = label.empty() ? std::filesystem::path(path).filename().string() : label;
   scene.info.gaussians = scene.cloud.size();

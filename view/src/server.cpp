@@ -264,12 +264,7 @@ std::vector<api::Preset> renderable_presets(const std::vector<api::Scene>& scene
 
 Result<api::Scene> load_view_scene(const std::string& path, api::LoadOptions options) {
   options.presets = {api::Preset::kFastest, api::Preset::kFaithful, api::Preset::kPaper};
-  auto scene = api::load(path, options);
-  if (scene.ok() || options.device != api::Device::kCuda || scene.status().code() != StatusCode::kInvalidArgument) {
-    return scene;
-  }
-  // A level-of-detail scene streams the compact attributes only: load it without the preset that reads FP32.
-  options.presets = {api::Preset::kFastest, api::Preset::kPaper};
+  options.skip_unrenderable_presets = true;  // a level-of-detail scene on CUDA: not faithful
   return api::load(path, options);
 }
 

@@ -1,7 +1,9 @@
-// The stages of a conversion of a whole scene, in the order they run: rate control (with a target), the
-// empty-scene check, the SH reduction, quantizing and the levels of detail (a .rgs or a streamed SOG).
+// The stages of a whole scene: a conversion's, in the order they run (rate control with a target, the empty-scene
+// check, the SH reduction, quantizing and the levels of detail for a .rgs or a streamed SOG), and load()'s
+// quantizing of formats other than .rgs.
 #include <algorithm>
 
+#include "../internal_load.h"
 #include "../internal_pipeline.h"
 #include "../internal_rate_control.h"
 #include "rgs/converter/quantize.h"
@@ -120,6 +122,15 @@ std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output
     });
   }
   return stages;
+}
+
+Status quantize_for_load(LoadScene* scene, const LoadOptions& options) {
+  if (!scene->input || !options.quantize_other_formats) return Status();
+  auto encoded = converter::quantize(scene->input->cloud, converter::QuantizeOptions{});
+  if (!encoded.ok()) return Status(encoded.status()).prepend(scene->name);
+  scene->input->cloud = format::GaussianCloud{};
+  scene->encoded.emplace(std::move(encoded).value());
+  return Status();
 }
 
 }  // namespace rgs::api::detail

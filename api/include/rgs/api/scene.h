@@ -84,6 +84,10 @@ struct LoadOptions {
   /// FP32 arrays (about 4× the bytes at SH degree 3). Rendering a preset not listed here may fail with
   /// kInvalidArgument. Ignored on the CPU.
   std::vector<Preset> presets = {Preset::kFastest};
+  /// Presets of `presets` that the scene cannot render are left out instead of failing the load: kFaithful reads
+  /// FP32 attributes, which a level-of-detail scene on CUDA does not hold (it streams the compact ones). For a
+  /// caller that offers every preset the scene can render (rgs-view); SceneInfo (has_fp32, lod.active) says which.
+  bool skip_unrenderable_presets = false;
   /// Files other than .rgs (any format converter::read_scene detects): true quantizes them in memory with the
   /// converter's defaults (what `rgs-convert in.ply out.rgs` writes, converter::QuantizeOptions{}), so that they render
   /// exactly as the converted file would and the GPU holds the compact profile; false keeps the PLY's float values
@@ -180,7 +184,8 @@ class Scene {
 /// @return errors naming `path`: kIoError, kNotRgsFile, kCorruptData, kChecksumMismatch, kLimitExceeded,
 /// kOutOfMemory; kInvalidArgument for options.lod out of range (pixel_error negative or not finite,
 /// stream_bytes_per_frame 0) and for a level-of-detail scene on CUDA with a preset that reads FP32 attributes
-/// (kFaithful: load with options.lod.enabled = false to render the full detail); kUnsupportedFeature for
+/// (kFaithful: load with options.lod.enabled = false to render the full detail) unless
+/// options.skip_unrenderable_presets; kUnsupportedFeature for
 /// device kCuda in a build without CUDA or on a host without a usable device (the message says which);
 /// kCudaError.
 Result<Scene> load(const std::string& path, const LoadOptions& options = {});

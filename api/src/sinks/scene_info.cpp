@@ -1,0 +1,70 @@
+// What the host and GPU sinks of load() report alike about a scene: its sizes and its levels of detail.
+#include "../internal_load.h"
+
+namespace rgs::api::detail {
+
+uint64_t runtime_bytes(uint64_t n, uint32_t degree) {
+  return n * (12 + 8 + 6 + 2) + n * format::sh_coefficient_count(degree) * 3;
+}
+
+uint64_t cloud_bytes(const format::GaussianCloud& c) {
+  return (c.means.size() + c.rotations.size() + c.scales.size() + c.opacities.size() + c.sh.size()) * sizeof(float);
+}
+
+uint64_t stored_gaussian_bytes(const format::RgsFile& file) {
+  const bool residual = file.find(format::SectionId::kShDcResidual) != nullptr;
+  return runtime_bytes(1, file.metadata().sh_degree) + (residual ? 3 : 0);
+}
+
+Status naming(Status status, const std::string& path) {
+  if (status.message().find(path) == std::string::npos) status.prepend(path);
+  return status;
+}
+
+bool use_levels(const format::RgsFile& file, const LoadOptions& options) {
+  return options.lod.enabled && !options.read_options.lod.has_value() && file.lod() != nullptr;
+}
+
+SceneInfo lod_scene_info(const format::RgsFile& file, const std::string& path, const LoadOptions& options,
+                         Device device) {
+  SceneInfo info;
+  info.device = device;
+  info.path = path;
+  info.bounds = file.metadata().bounds;
+  info.source_is_rgs = true;
+  info.file_bytes = file.file_size();
+  info.gaussians = file.lod()->full_detail_count();
+  info.sh_degree = file.metadata().sh_degree;
+  info.antialiased = file.metadata().antialiased;
+  if (std::string note = converter::rgs_antialiased_note(file, options.read_options); !note.empty()) {
+    info.notes.push_back(std::move(note));
+  }
+  info.lod.active = true;
+  info.lod.chunks = file.lod()->chunk_count;
+  info.lod.levels = file.lod()->level_count;
+  info.lod.stored_gaussians = file.gaussian_count();
+  info.lod.settings = options.lod;
+  return info;
+}
+
+void describe_unused_levels(const std::string& path, const LoadOptions& options, SceneInfo* info,
+                            const format::RgsFile* opened) {
+  const LodSettings& s = options.lod;
+  const LodSettings d;
+  if (s.enabled) {
+    if (s.splat_budget != d.splat_budget || s.pixel_error != d.pixel_error || s.memory_budget != d.memory_budget ||
+        s.stream_bytes_per_frame != d.stream_bytes_per_frame) {
+      info->notes.push_back("level-of-detail budgets not used: " + path +
+                            " has no levels of detail (rgs-convert --lod-levels auto writes them); every Gaussian "
+                            "is drawn");
+    }
+    return;
+  }
+  if (opened != nullptr && opened->lod() != nullptr) {
+    info->lod.chunks = opened->lod()->chunk_count;
+    info->lod.levels = opened->lod()->level_count;
+    info->lod.stored_gaussians = opened->gaussian_count();
+  }
+}
+
+}  // namespace rgs::api::detail
