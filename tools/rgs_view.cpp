@@ -65,7 +65,7 @@ int run(const Options& opt) {
   server.gpu_scratch_budget = opt.scratch_budget;
   if (!opt.cameras.empty()) {
     if (const Status input = tools::check_input_file(opt.cameras); !input.ok()) return tools::report_error(kTool, input);
-    auto cameras = view::read_inria_cameras(opt.cameras);
+    auto cameras = api::read_inria_cameras(opt.cameras);
     if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
     server.cameras = std::move(*cameras);
   }

@@ -1459,7 +1459,7 @@ PYBIND11_MODULE(roofgs, m) {
           options.preset = unwrap(api::parse_preset(preset));
           options.max_clients = max_clients;
           options.cuda_device = cuda_device;
-          if (!cameras.empty()) options.cameras = unwrap(view::read_inria_cameras(cameras));
+          if (!cameras.empty()) options.cameras = unwrap(api::read_inria_cameras(cameras));
           auto handle = std::make_unique<PyViewServer>();
           {
             py::gil_scoped_release release;
