@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <sstream>
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/scene_reader.h"
@@ -382,6 +383,27 @@ Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* conv
     }
   }
   return bytes;
+}
+
+Result<std::array<float, 3>> parse_background(const std::string& text) {
+  std::array<float, 3> bg{};
+  std::istringstream in(text);
+  std::string part;
+  int i = 0;
+  while (std::getline(in, part, ',')) {
+    RGS_RETURN_ERROR_IF(i >= 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
+    try {
+      size_t used = 0;
+      bg[i] = std::stof(part, &used);
+      RGS_RETURN_ERROR_IF(used != part.size() || !std::isfinite(bg[i]), StatusCode::kInvalidArgument,
+                          "--background: '" + part + "' is not a finite number");
+    } catch (const std::exception&) {
+      return Status(StatusCode::kInvalidArgument, "--background: '" + part + "' is not a finite number");
+    }
+    ++i;
+  }
+  RGS_RETURN_ERROR_IF(i != 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
+  return bg;
 }
 
 std::string version_line(const char* tool) {

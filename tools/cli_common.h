@@ -5,6 +5,7 @@
 // help text agree across tools (format/SPEC.md §5.5, converter/INTEROP.md).
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -117,6 +118,10 @@ int commit_outputs(const char* tool, format::OutputTransaction& outputs, bool qu
 /// The buffer grows with the bytes received (by an eighth at a time), never to what a header declares.
 /// @return kIoError with the OS cause.
 Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* convert = nullptr);
+
+/// Parses a --background value "r,g,b": three finite numbers (linear RGB) separated by commas.
+/// @return kInvalidArgument quoting the text or the part that is not a number.
+Result<std::array<float, 3>> parse_background(const std::string& text);
 
 /// 1234567 -> "1,234,567".
 std::string group_digits(uint64_t n);

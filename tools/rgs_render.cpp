@@ -19,7 +19,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -46,27 +45,6 @@ struct Options {
   bool pfm = false;
   tools::RenderOptions render;  ///< --backend (cpu by default), --device, --preset, budgets
 };
-
-Result<std::array<float, 3>> parse_background(const std::string& text) {
-  std::array<float, 3> bg{};
-  std::istringstream in(text);
-  std::string part;
-  int i = 0;
-  while (std::getline(in, part, ',')) {
-    RGS_RETURN_ERROR_IF(i >= 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
-    try {
-      size_t used = 0;
-      bg[i] = std::stof(part, &used);
-      RGS_RETURN_ERROR_IF(used != part.size(), StatusCode::kInvalidArgument,
-                          "--background: '" + part + "' is not a number");
-    } catch (const std::exception&) {
-      return Status(StatusCode::kInvalidArgument, "--background: '" + part + "' is not a number");
-    }
-    ++i;
-  }
-  RGS_RETURN_ERROR_IF(i != 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
-  return bg;
-}
 
 /// One rendered view on the host.
 struct RenderedView {
@@ -212,7 +190,7 @@ std::string output_kinds(const Options& opt) {
 
 int run(Options opt) {
   if (opt.image_format.empty()) opt.image_format = tools::have_openimageio() ? "png" : "ppm";
-  auto background = parse_background(opt.background);
+  auto background = tools::parse_background(opt.background);
   if (!background.ok()) return tools::report_usage_error(kTool, background.status());
   Status supported = check_outputs(opt);
   if (!supported.ok()) return tools::report_error(kTool, supported);

@@ -703,6 +703,22 @@ class ConversionOutputs {
   ConvertOptions options_;
 };
 
+/// convert_bytes and convert_cloud: the scene `read` makes in memory (no file of it for an output to replace),
+/// named `name`, written as convert() writes a scene it read.
+template <typename Read>
+Result<ConvertReport> convert_in_memory(const std::string& name, const std::string& dst, const ConvertOptions& options,
+                                        Read&& read) {
+  const auto start = Clock::now();
+  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
+  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
+  ConversionOutputs outputs(options);
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
+  ProgressReporter progress(options, output);
+  progress.reading();
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, read(scene_read_options(options)));
+  return outputs.commit(convert_input(std::move(input), name, dst, output, outputs.options(), start, progress));
+}
+
 }  // namespace
 
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
@@ -735,30 +751,16 @@ Result<ConvertReport> convert_scene(converter::InputScene input, const std::stri
 
 Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
                                     const std::string& dst, const ConvertOptions& options) {
-  const auto start = Clock::now();
-  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
-  ConversionOutputs outputs(options);
-  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
-  ProgressReporter progress(options, output);
-  progress.reading();
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input,
-                       converter::read_scene_bytes(data, size, name, scene_read_options(options)));
-  return outputs.commit(convert_input(std::move(input), name, dst, output, outputs.options(), start, progress));
+  return convert_in_memory(name, dst, options, [&](const converter::SceneReadOptions& read) {
+    return converter::read_scene_bytes(data, size, name, read);
+  });
 }
 
 Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::string& name, const std::string& dst,
                                     const ConvertOptions& options) {
-  const auto start = Clock::now();
-  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
-  ConversionOutputs outputs(options);
-  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
-  ProgressReporter progress(options, output);
-  progress.reading();
-  RGS_ASSIGN_OR_RETURN(converter::InputScene input,
-                       converter::scene_from_cloud(std::move(cloud), name, scene_read_options(options)));
-  return outputs.commit(convert_input(std::move(input), name, dst, output, outputs.options(), start, progress));
+  return convert_in_memory(name, dst, options, [&](const converter::SceneReadOptions& read) {
+    return converter::scene_from_cloud(std::move(cloud), name, read);
+  });
 }
 
 }  // namespace rgs::api
