@@ -14,6 +14,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
+#include <sstream>
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/scene_reader.h"
@@ -383,6 +385,27 @@ Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* conv
   return bytes;
 }
 
+Result<std::array<float, 3>> parse_background(const std::string& text) {
+  std::array<float, 3> bg{};
+  std::istringstream in(text);
+  std::string part;
+  int i = 0;
+  while (std::getline(in, part, ',')) {
+    RGS_RETURN_ERROR_IF(i >= 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
+    try {
+      size_t used = 0;
+      bg[i] = std::stof(part, &used);
+      RGS_RETURN_ERROR_IF(used != part.size() || !std::isfinite(bg[i]), StatusCode::kInvalidArgument,
+                          "--background: '" + part + "' is not a finite number");
+    } catch (const std::exception&) {
+      return Status(StatusCode::kInvalidArgument, "--background: '" + part + "' is not a finite number");
+    }
+    ++i;
+  }
+  RGS_RETURN_ERROR_IF(i != 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
+  return bg;
+}
+
 std::string version_line(const char* tool) {
   return std::string(tool) + " " + RGS_VERSION_STRING + " (commit " + RGS_TOOL_COMMIT + ")";
 }
@@ -513,6 +536,76 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
       ->excludes(path);
   cameras->excludes(orbit)->excludes(path);
   orbit->excludes(path);
+}
+
+void add_render_options(CLI::App& app, RenderOptions& options, unsigned offered, const std::string& cpu_threads_name) {
+  if (offered & kBackendOption) {
+    app.add_option("--backend", options.backend,
+                   "Renderer: auto (cuda when a device answers, else cpu), cuda or cpu (the CPU reference)")
+        ->check(CLI::IsMember({"auto", "cuda", "cpu"}))
+        ->capture_default_str();
+  }
+  app.add_option("--device", options.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
+  if (offered & kPresetOption) {
+    app.add_option("--preset", options.preset,
+                   "fastest (the default: RoofGS+ on the GPU, the 3DGS rules on the CPU, where they are faster), "
+                   "faithful (the 3DGS rasterizer) or paper (the paper's techniques)")
+        ->check(CLI::IsMember({"fastest", "faithful", "paper"}))
+        ->capture_default_str();
+  }
+  if (offered & kScratchBudgetOption) {
+    app.add_option("--scratch-budget", options.scratch_budget,
+                   "GPU: bound on the renderer's scratch memory (e.g. 1GiB, 512MB; 0: none); frames whose pairs do "
+                   "not fit render in groups of tile rows, with the same image (docs/RENDERER.md#bounded-pair-memory)")
+        ->transform(CLI::AsSizeValue(false))
+        ->capture_default_str();
+  }
+  if (offered & kLodOptions) {
+    const std::string lod_help = "Level-of-detail .rgs (rgs-convert --lod-levels; docs/LOD.md): ";
+    api::LodSettings& lod = options.lod;
+    auto* splat_budget = app.add_option("--splat-budget", lod.splat_budget,
+                                        lod_help + "most Gaussians a frame draws (0: no limit); chunks are drawn at "
+                                                   "coarser levels until the frame fits")
+                             ->capture_default_str();
+    auto* memory_budget =
+        app.add_option("--memory-budget", lod.memory_budget,
+                       lod_help + "GPU: device memory for the level pool, the frame arrays and the upload buffer (e.g. "
+                                  "3GiB, 512MB); 0: a pool that holds every level. The renderer's scratch is bounded "
+                                  "by --scratch-budget; the CPU holds every level in host memory")
+            ->transform(CLI::AsSizeValue(false))
+            ->capture_default_str();
+    auto* pixel_error =
+        app.add_option("--pixel-error", lod.pixel_error,
+                       lod_help + "largest projected error of a drawn level, in pixels (format/SPEC.md 4.9.1)")
+            ->check(CLI::Range(0.0f, 1000.0f))
+            ->capture_default_str();
+    auto* stream_bytes =
+        app.add_option("--stream-bytes", lod.stream_bytes_per_frame,
+                       lod_help + "GPU: most bytes read and uploaded a frame, the bound on a frame's wait for the disk "
+                                  "(levels that do not fit come in later frames)")
+            ->transform(CLI::AsSizeValue(false))
+            ->check(CLI::Range(uint64_t{1}, std::numeric_limits<uint64_t>::max()))
+            ->capture_default_str();
+    app.add_flag_callback("--no-lod", [&lod] { lod.enabled = false; },
+                          lod_help + "render the full detail (level 0 of every chunk), no budgets")
+        ->excludes(splat_budget)
+        ->excludes(memory_budget)
+        ->excludes(pixel_error)
+        ->excludes(stream_bytes);
+  }
+  if (!cpu_threads_name.empty()) {
+    app.add_option(cpu_threads_name, options.cpu_threads, "CPU backend: threads per frame (0: all cores)")
+        ->capture_default_str();
+  }
+}
+
+api::LoadOptions load_options(const RenderOptions& options, api::Device device) {
+  api::LoadOptions load;
+  load.device = device;
+  load.cuda_device = options.device;
+  load.read_options = scene_read_options();
+  load.lod = options.lod;
+  return load;
 }
 
 format::ReadOptions read_options() { return converter::rgs_read_options(scene_read_options()); }

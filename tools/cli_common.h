@@ -1,9 +1,11 @@
 // Helpers shared by the command-line tools: error reporting, terminal-safe text, standard streams, command-line
 // parsing, input and output declaration, interrupt cleanup and number formatting; and the scene-reading options of
-// every tool that reads scenes (--max-gaussians, --max-decompression-ratio, --spz-frame), defined once so that
-// their names, defaults and help text agree across tools (format/SPEC.md §5.5, converter/INTEROP.md).
+// every tool that reads scenes (--max-gaussians, --max-decompression-ratio, --spz-frame), the camera options and the
+// rendering options (--backend, --device, --preset, budgets), each defined once so that their names, defaults and
+// help text agree across tools (format/SPEC.md §5.5, converter/INTEROP.md).
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -15,6 +17,7 @@
 #include "rgs/format/output_transaction.h"
 #include "rgs/api/camera.h"
 #include "rgs/api/convert.h"
+#include "rgs/api/scene.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/status.h"
@@ -116,6 +119,10 @@ int commit_outputs(const char* tool, format::OutputTransaction& outputs, bool qu
 /// @return kIoError with the OS cause.
 Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* convert = nullptr);
 
+/// Parses a --background value "r,g,b": three finite numbers (linear RGB) separated by commas.
+/// @return kInvalidArgument quoting the text or the part that is not a number.
+Result<std::array<float, 3>> parse_background(const std::string& text);
+
 /// 1234567 -> "1,234,567".
 std::string group_digits(uint64_t n);
 
@@ -151,6 +158,41 @@ void add_scene_read_options(CLI::App& app, bool with_spz_frame = true);
 /// `orbit_help` describe --cameras, --limit and --orbit.
 void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::string& cameras_help,
                         const std::string& limit_help, const std::string& orbit_help);
+
+/// The rendering options of the tools that render scenes (rgs-render, rgs-view, rgs-audit, the lab's rgs-bench),
+/// declared once by add_render_options so that their names, checks, defaults and help agree across tools.
+struct RenderOptions {
+  /// --backend auto|cuda|cpu (api::parse_device); each tool sets its default before add_render_options.
+  std::string backend = "auto";
+  /// --device: CUDA device ordinal.
+  int device = 0;
+  /// --preset fastest|faithful|paper (api::parse_preset).
+  std::string preset = "fastest";
+  /// --scratch-budget: api::RenderSettings::gpu_scratch_budget (bytes; 0: none).
+  uint64_t scratch_budget = 0;
+  /// --splat-budget, --memory-budget, --pixel-error, --stream-bytes; --no-lod clears `enabled`: api::LoadOptions::lod.
+  api::LodSettings lod;
+  /// --cpu-threads (rgs-audit: --threads): CPU backend threads per frame, 0: all cores.
+  unsigned cpu_threads = 0;
+};
+
+/// The groups of RenderOptions a tool offers (add_render_options), or-ed together; --device always comes.
+enum RenderOptionGroup : unsigned {
+  kBackendOption = 1u << 0,        ///< --backend
+  kPresetOption = 1u << 1,         ///< --preset
+  kScratchBudgetOption = 1u << 2,  ///< --scratch-budget
+  /// --splat-budget, --memory-budget, --pixel-error, --stream-bytes, and --no-lod, which excludes the four
+  kLodOptions = 1u << 3,
+};
+
+/// Adds --device and the groups `offered` names to `app`, bound to `options`, shown in --help with their defaults;
+/// with `cpu_threads_name` ("--cpu-threads"; rgs-audit keeps "--threads"), also the CPU thread count under it.
+void add_render_options(CLI::App& app, RenderOptions& options, unsigned offered,
+                        const std::string& cpu_threads_name = "");
+
+/// api::LoadOptions for scenes rendered on `device` with `options`: its CUDA ordinal and level-of-detail settings,
+/// and scene_read_options().
+api::LoadOptions load_options(const RenderOptions& options, api::Device device);
 
 /// format::ReadOptions with scene_read_options()' limits, checksums verified: for opening a .rgs directly.
 format::ReadOptions read_options();

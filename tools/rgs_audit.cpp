@@ -52,8 +52,7 @@ struct Options {
   std::vector<std::string> scenes;  // source, then candidates
   std::vector<std::string> labels;
   api::CameraChoice cameras;
-  std::string backend = "auto";
-  int device = 0;
+  tools::RenderOptions render;  ///< --backend, --device, --threads
   std::string report_path;
   bool no_report = false;
   std::string report_from;
@@ -63,7 +62,6 @@ struct Options {
   std::string image_format;  ///< of --save-renders: "png" or "ppm"; empty: png when the build has OpenImageIO
   uint32_t worst = 3;
   uint32_t image_size = 1024;
-  unsigned threads = 0;
   double min_psnr = -1;
   bool min_psnr_set = false;
   double threshold = audit::kDefaultVerdictThresholdDb;
@@ -263,15 +261,15 @@ Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction
   audit::AuditOptions options;
   std::string why;
   const bool have_cuda = api::cuda_available(&why);
-  if (opt.backend == "cuda" || (opt.backend == "auto" && have_cuda)) {
+  if (opt.render.backend == "cuda" || (opt.render.backend == "auto" && have_cuda)) {
     RGS_RETURN_ERROR_IF(!have_cuda, StatusCode::kUnsupportedFeature, "--backend cuda: " + why);
     options.backend = audit::Backend::kCuda;
   }
-  options.cuda_device = opt.device;
+  options.cuda_device = opt.render.device;
   options.worst_views = opt.worst;
   options.image_max_side = opt.image_size;
   options.keep_worst_heatmap = !opt.heatmap_path.empty();
-  options.cpu_threads = opt.threads;
+  options.cpu_threads = opt.render.cpu_threads;
 
   RGS_ASSIGN_OR_RETURN(const audit::AuditScene source,
                        audit::load_audit_scene(opt.scenes[0], "source", tools::scene_read_options()));
@@ -302,7 +300,7 @@ Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction
 
   std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
                audit::backend_name(options.backend),
-               options.backend == audit::Backend::kCpu && opt.backend == "auto"
+               options.backend == audit::Backend::kCpu && opt.render.backend == "auto"
                    ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
                cameras.size(), candidates.size(), candidates.size() == 1 ? "" : "s");
   auto last_print = Clock::now() - std::chrono::hours(1);
@@ -524,11 +522,8 @@ int main(int argc, char** argv) {
                                  "Orbit of N cameras (at 960x540)");
   app.add_option("--width", opt.cameras.width, "Image width (field of view kept)")->check(CLI::Range(11, 32768));
   app.add_option("--height", opt.cameras.height, "Image height")->check(CLI::Range(11, 32768));
-  app.add_option("--backend", opt.backend, "auto (cuda when a device is present, else cpu), cuda or cpu")
-      ->check(CLI::IsMember({"auto", "cuda", "cpu"}));
-  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023));
+  rgs::tools::add_render_options(app, opt.render, rgs::tools::kBackendOption, "--threads");
   rgs::tools::add_scene_read_options(app);
-  app.add_option("--threads", opt.threads, "CPU backend threads (0 = all cores)");
   auto* report = app.add_option("--report", opt.report_path,
                                 "HTML report; its JSON (.json) and images (_files/) go next to it");
   auto* no_report = app.add_flag("--no-report", opt.no_report, "Write no report, JSON or images (see --json)");

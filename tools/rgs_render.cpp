@@ -18,9 +18,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <limits>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -45,35 +43,8 @@ struct Options {
   std::string image_format;  ///< "png" or "ppm"; empty: png when the build has OpenImageIO, else ppm
   bool exr = false;
   bool pfm = false;
-  std::string backend = "cpu";
-  int device = 0;
-  std::string preset = "fastest";
-  uint64_t scratch_budget = 0;  ///< --scratch-budget: api::RenderSettings::gpu_scratch_budget
-  /// --splat-budget, --memory-budget, --pixel-error, --stream-bytes, --no-lod: api::LoadOptions::lod
-  api::LodSettings lod;
-  bool no_lod = false;
+  tools::RenderOptions render;  ///< --backend (cpu by default), --device, --preset, budgets
 };
-
-Result<std::array<float, 3>> parse_background(const std::string& text) {
-  std::array<float, 3> bg{};
-  std::istringstream in(text);
-  std::string part;
-  int i = 0;
-  while (std::getline(in, part, ',')) {
-    RGS_RETURN_ERROR_IF(i >= 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
-    try {
-      size_t used = 0;
-      bg[i] = std::stof(part, &used);
-      RGS_RETURN_ERROR_IF(used != part.size(), StatusCode::kInvalidArgument,
-                          "--background: '" + part + "' is not a number");
-    } catch (const std::exception&) {
-      return Status(StatusCode::kInvalidArgument, "--background: '" + part + "' is not a number");
-    }
-    ++i;
-  }
-  RGS_RETURN_ERROR_IF(i != 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
-  return bg;
-}
 
 /// One rendered view on the host.
 struct RenderedView {
@@ -118,20 +89,16 @@ struct View {
 /// as rgs-convert writes it, so that a PLY and its .rgs give the same image), FP32 arrays on the GPU for the
 /// faithful preset.
 Result<View> open_view(const Options& opt, const std::array<float, 3>& background) {
-  RGS_ASSIGN_OR_RETURN(const api::Device device, api::parse_device(opt.backend));
-  auto renderer = api::Renderer::create(device, opt.device);
-  if (!renderer.ok()) return Status(renderer.status()).prepend("--backend " + opt.backend);
+  const tools::RenderOptions& render = opt.render;
+  RGS_ASSIGN_OR_RETURN(const api::Device device, api::parse_device(render.backend));
+  auto renderer = api::Renderer::create(device, render.device);
+  if (!renderer.ok()) return Status(renderer.status()).prepend("--backend " + render.backend);
   api::RenderSettings settings;
-  RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(opt.preset));
+  RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(render.preset));
   settings.background = background;
-  settings.gpu_scratch_budget = opt.scratch_budget;
-  api::LoadOptions load;
-  load.device = device;
-  load.cuda_device = opt.device;
+  settings.gpu_scratch_budget = render.scratch_budget;
+  api::LoadOptions load = tools::load_options(render, device);
   load.presets = {settings.preset};
-  load.read_options = tools::scene_read_options();
-  load.lod = opt.lod;
-  load.lod.enabled = !opt.no_lod;
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
   return View{std::move(scene), std::move(renderer).value(), settings};
 }
@@ -223,7 +190,7 @@ std::string output_kinds(const Options& opt) {
 
 int run(Options opt) {
   if (opt.image_format.empty()) opt.image_format = tools::have_openimageio() ? "png" : "ppm";
-  auto background = parse_background(opt.background);
+  auto background = tools::parse_background(opt.background);
   if (!background.ok()) return tools::report_usage_error(kTool, background.status());
   Status supported = check_outputs(opt);
   if (!supported.ok()) return tools::report_error(kTool, supported);
@@ -338,51 +305,10 @@ int main(int argc, char** argv) {
   app.add_flag("--exr", opt.exr, "Also write <view>.exr (float RGBA: linear RGB not clamped, alpha = 1 - T; needs "
                                  "OpenImageIO)");
   app.add_flag("--pfm", opt.pfm, "Also write <view>.pfm (float RGB PFM, linear, not clamped, no alpha)");
-  app.add_option("--backend", opt.backend, "Renderer: cpu (reference) or cuda")
-      ->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
-  app.add_option("--device", opt.device, "CUDA device ordinal (--backend cuda)")->check(CLI::Range(0, 1023))
-      ->capture_default_str();
-  app.add_option("--preset", opt.preset,
-                 "fastest (the default: RoofGS+ on the GPU, the 3DGS rules on the CPU, where they are faster), "
-                 "faithful (the 3DGS rasterizer) or paper (the paper's techniques)")
-      ->check(CLI::IsMember({"fastest", "faithful", "paper"}))
-      ->capture_default_str();
-  app.add_option("--scratch-budget", opt.scratch_budget,
-                 "--backend cuda: bound on the renderer's scratch memory (e.g. 1GiB, 512MB; 0: none); frames whose "
-                 "pairs do not fit render in groups of tile rows, with the same image "
-                 "(docs/RENDERER.md#bounded-pair-memory)")
-      ->transform(CLI::AsSizeValue(false))
-      ->capture_default_str();
-  const std::string lod_help = "Level-of-detail .rgs (rgs-convert --lod-levels; docs/LOD.md): ";
-  auto* splat_budget =
-      app.add_option("--splat-budget", opt.lod.splat_budget,
-                     lod_help + "most Gaussians a frame draws (0: no limit); chunks are drawn at coarser levels "
-                                "until the frame fits")
-          ->capture_default_str();
-  auto* memory_budget =
-      app.add_option("--memory-budget", opt.lod.memory_budget,
-                     lod_help + "--backend cuda: device memory for the level pool, the frame arrays and the upload "
-                                "buffer (e.g. 3GiB, 512MB); 0: a pool that holds every level. The renderer's scratch "
-                                "is bounded by --scratch-budget; the CPU holds every level in host memory")
-          ->transform(CLI::AsSizeValue(false))
-          ->capture_default_str();
-  auto* pixel_error =
-      app.add_option("--pixel-error", opt.lod.pixel_error,
-                     lod_help + "largest projected error of a drawn level, in pixels (format/SPEC.md 4.9.1)")
-          ->check(CLI::Range(0.0f, 1000.0f))
-          ->capture_default_str();
-  auto* stream_bytes =
-      app.add_option("--stream-bytes", opt.lod.stream_bytes_per_frame,
-                     lod_help + "--backend cuda: most bytes read and uploaded a frame, the bound on a frame's wait "
-                                "for the disk (levels that do not fit come in later frames)")
-          ->transform(CLI::AsSizeValue(false))
-          ->check(CLI::Range(uint64_t{1}, std::numeric_limits<uint64_t>::max()))
-          ->capture_default_str();
-  app.add_flag("--no-lod", opt.no_lod, lod_help + "render the full detail (level 0 of every chunk), no budgets")
-      ->excludes(splat_budget)
-      ->excludes(memory_budget)
-      ->excludes(pixel_error)
-      ->excludes(stream_bytes);
+  opt.render.backend = "cpu";  // the CPU reference unless told: the same images on every machine
+  rgs::tools::add_render_options(app, opt.render,
+                                 rgs::tools::kBackendOption | rgs::tools::kPresetOption |
+                                     rgs::tools::kScratchBudgetOption | rgs::tools::kLodOptions);
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {

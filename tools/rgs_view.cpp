@@ -23,31 +23,22 @@ constexpr const char* kTool = "rgs-view";
 
 struct Options {
   std::string scene, scene2;
-  std::string backend = "auto";
-  int device = 0;
-  std::string preset = "fastest";
+  tools::RenderOptions render;  ///< --backend, --device, --preset (the page's first), budgets, --cpu-threads
   std::string cameras;
-  api::LodSettings lod;
-  bool no_lod = false;
-  uint64_t scratch_budget = 0;
   view::ServerOptions server;
   bool quiet = false;
 };
 
 int run(const Options& opt) {
-  auto device = api::parse_device(opt.backend);
+  const tools::RenderOptions& render = opt.render;
+  auto device = api::parse_device(render.backend);
   if (!device.ok()) return tools::report_usage_error(kTool, device.status());
   std::string why;
-  if (opt.backend == "auto" && *device == api::Device::kCpu && !opt.quiet) {
+  if (render.backend == "auto" && *device == api::Device::kCpu && !opt.quiet) {
     api::cuda_available(&why);
     tools::report_note(kTool, "no CUDA device (" + why + "): the CPU reference renders, at 640x360 by default");
   }
-  api::LoadOptions load;
-  load.device = *device;
-  load.cuda_device = opt.device;
-  load.read_options = tools::scene_read_options();
-  load.lod = opt.lod;
-  load.lod.enabled = !opt.no_lod;
+  const api::LoadOptions load = tools::load_options(render, *device);
   std::vector<api::Scene> scenes;
   for (const std::string& path : {opt.scene, opt.scene2}) {
     if (path.empty()) continue;
@@ -58,20 +49,21 @@ int run(const Options& opt) {
     scenes.push_back(std::move(*scene));
   }
   view::ServerOptions server = opt.server;
-  auto preset = api::parse_preset(opt.preset);
+  auto preset = api::parse_preset(render.preset);
   if (!preset.ok()) return tools::report_usage_error(kTool, preset.status());
   server.preset = *preset;
-  server.cuda_device = opt.device;
-  server.gpu_scratch_budget = opt.scratch_budget;
+  server.cuda_device = render.device;
+  server.gpu_scratch_budget = render.scratch_budget;
+  server.cpu_threads = render.cpu_threads;
   if (!opt.cameras.empty()) {
     if (const Status input = tools::check_input_file(opt.cameras); !input.ok()) return tools::report_error(kTool, input);
-    auto cameras = view::read_inria_cameras(opt.cameras);
+    auto cameras = api::read_inria_cameras(opt.cameras);
     if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
     server.cameras = std::move(*cameras);
   }
   auto started = view::Server::start(std::move(scenes), server);
   if (!started.ok()) return tools::report_error(kTool, started.status());
-  auto info = api::query_device(*device, opt.device);
+  auto info = api::query_device(*device, render.device);
   std::printf("%s: serving %s%s%s on %s (%s)\n", kTool, tools::escape_text(opt.scene).c_str(),
               opt.scene2.empty() ? "" : " vs ", tools::escape_text(opt.scene2).c_str(), api::device_name(*device),
               info.ok() ? tools::escape_text(info->name).c_str() : "?");
@@ -105,36 +97,11 @@ int main(int argc, char** argv) {
                kTool};
   app.add_option("scene", opt.scene, "Scene in any format, " + tools::scene_formats_help())->required();
   app.add_option("scene2", opt.scene2, "Second scene: compare it with the first (same cameras)");
-  app.add_option("--backend", opt.backend, "auto (cuda when a device answers, else cpu), cuda or cpu")
-      ->check(CLI::IsMember({"auto", "cuda", "cpu"}))
-      ->capture_default_str();
-  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
-  app.add_option("--preset", opt.preset, "Preset the page starts with: fastest, faithful or paper")
-      ->check(CLI::IsMember({"fastest", "faithful", "paper"}))
-      ->capture_default_str();
   app.add_option("--cameras", opt.cameras, "INRIA cameras.json whose cameras the page can jump to");
-  const std::string lod_help = "Level-of-detail .rgs (docs/LOD.md): ";
-  auto* splat_budget = app.add_option("--splat-budget", opt.lod.splat_budget,
-                                      lod_help + "most Gaussians a frame draws (0: no limit)")
-                           ->capture_default_str();
-  auto* memory_budget =
-      app.add_option("--memory-budget", opt.lod.memory_budget,
-                     lod_help + "GPU memory for the level pool, frame arrays and upload buffer (e.g. 2GiB; 0: every "
-                                "level)")
-          ->transform(CLI::AsSizeValue(false))
-          ->capture_default_str();
-  auto* pixel_error = app.add_option("--pixel-error", opt.lod.pixel_error,
-                                     lod_help + "largest projected error of a drawn level, in pixels")
-                          ->check(CLI::Range(0.0f, 1000.0f))
-                          ->capture_default_str();
-  app.add_flag("--no-lod", opt.no_lod, lod_help + "render the full detail, no budgets")
-      ->excludes(splat_budget)
-      ->excludes(memory_budget)
-      ->excludes(pixel_error);
-  app.add_option("--scratch-budget", opt.scratch_budget,
-                 "GPU: bound on each client's renderer scratch memory (e.g. 1GiB; 0: none)")
-      ->transform(CLI::AsSizeValue(false))
-      ->capture_default_str();
+  tools::add_render_options(app, opt.render,
+                            tools::kBackendOption | tools::kPresetOption | tools::kScratchBudgetOption |
+                                tools::kLodOptions,
+                            "--cpu-threads");
   app.add_option("--host", opt.server.host,
                  "Address to listen on; anything but 127.0.0.1, ::1 or localhost requires the printed URL's token")
       ->capture_default_str();
@@ -170,8 +137,6 @@ int main(int argc, char** argv) {
             return enough ? std::string() : "at least 16MiB, not " + bytes + " bytes";
           },
           ""))
-      ->capture_default_str();
-  app.add_option("--cpu-threads", opt.server.cpu_threads, "CPU backend: threads per frame (0: all)")
       ->capture_default_str();
   app.add_flag("-q,--quiet", opt.quiet, "Print only the URL line and errors");
   app.set_version_flag("--version", tools::version_line(kTool));

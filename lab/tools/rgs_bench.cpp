@@ -87,7 +87,6 @@ struct Options {
   uint32_t warmup = 5;
   uint32_t repeat = 20;
   uint32_t replicate = 1;
-  int device = 0;
   std::string json_path;
   std::string save_lod_path;  ///< --save-lod
   bool front_door = false;
@@ -95,8 +94,8 @@ struct Options {
   /// --reference: the scene --quality compares against (faithful's render of it); empty: the benched scene.
   std::string reference;
   bool floor = false;
-  /// --scratch-budget: GpuRenderOptions::scratch_budget of every mode (0: none).
-  uint64_t scratch_budget = 0;
+  /// --device; --scratch-budget: GpuRenderOptions::scratch_budget of every mode (0: none).
+  tools::RenderOptions render;
   /// Streamed mode (--splat-budget, --memory-budget): a level-of-detail scene under budgets (bench_lod.h).
   uint64_t splat_budget = 0;
   uint64_t memory_budget = 0;
@@ -199,7 +198,7 @@ Result<RunResult> run_one(const Options& opt, const std::string& mode, const run
                           runtime::DeviceImage& image) {
   runtime::GpuRenderOptions options = base_options;
   options.time_stages = true;
-  options.scratch_budget = opt.scratch_budget;
+  options.scratch_budget = opt.render.scratch_budget;
   const size_t n = set.cameras.size();
   for (uint32_t i = 0; i < opt.warmup; ++i) {
     const runtime::Camera& cam = set.cameras[i % n];
@@ -450,14 +449,11 @@ Result<std::vector<QualityRow>> measure_quality(const Options& opt, const api::L
 Result<std::vector<FrontDoorRow>> compare_front_door(const Options& opt, const api::LoadedGpuScene& expert_scene,
                                                       const std::vector<CameraSet>& sets,
                                                       runtime::GpuRenderer& renderer) {
-  api::LoadOptions load;
-  load.device = api::Device::kCuda;
-  load.cuda_device = opt.device;
+  api::LoadOptions load = tools::load_options(opt.render, api::Device::kCuda);
   load.presets = {api::Preset::kFastest};
-  load.read_options = tools::scene_read_options();
   load.lod.enabled = false;  // the expert path renders a level-of-detail file's full detail too
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));
-  RGS_ASSIGN_OR_RETURN(api::Renderer front, api::Renderer::create(api::Device::kCuda, opt.device));
+  RGS_ASSIGN_OR_RETURN(api::Renderer front, api::Renderer::create(api::Device::kCuda, opt.render.device));
   RGS_ASSIGN_OR_RETURN(runtime::GpuRenderOptions expert_options,
                        lab::gpu_mode_options("fastest", expert_scene.scene.has_compact()));
   std::vector<FrontDoorRow> rows;
@@ -611,9 +607,9 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
   }
   std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame%s) + %s MB image\n",
               tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(),
-              opt.scratch_budget == 0
+              opt.render.scratch_budget == 0
                   ? ""
-                  : (", budget " + tools::fixed(double(opt.scratch_budget) / 1e6, 1) + " MB").c_str(),
+                  : (", budget " + tools::fixed(double(opt.render.scratch_budget) / 1e6, 1) + " MB").c_str(),
               tools::fixed(double(report.image_bytes) / 1e6, 1).c_str());
   std::printf("  views            %zu (%s), %u warm-up frames, %u repetitions; medians in ms\n", report.view_count,
               !opt.cameras.cameras_path.empty() ? "cameras.json" : opt.cameras.path > 0 ? "path" : "orbit",
@@ -740,7 +736,7 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                 {"device_bytes", scene.scene.device_bytes()},
                 {"load_ms", report.load_ms},
                 {"renderer_scratch_bytes", report.scratch_bytes},
-                {"scratch_budget_bytes", opt.scratch_budget},
+                {"scratch_budget_bytes", opt.render.scratch_budget},
                 {"image_bytes", report.image_bytes},
                 {"replicate", opt.replicate}};
   if (opt.replicate > 1) {
@@ -866,8 +862,8 @@ Status bench(const Options& opt, format::OutputTransaction& outputs, Clock::time
     if (!options.ok()) return Status(options.status()).prepend(opt.input);
     fp32 = fp32 || lab::planned_techniques(*options, compact_scene).reads_fp32();
   }
-  RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.device));
-  RGS_ASSIGN_OR_RETURN(runtime::CudaDeviceInfo device, runtime::cuda_device_info(opt.device));
+  RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.render.device));
+  RGS_ASSIGN_OR_RETURN(runtime::CudaDeviceInfo device, runtime::cuda_device_info(opt.render.device));
 
   // Peaks first, while the device memory is free.
   std::fprintf(stderr, "measuring device peaks (device-to-device copy, FP32 FMA loop) ...\n");
@@ -948,7 +944,7 @@ Status bench(const Options& opt, format::OutputTransaction& outputs, Clock::time
 
 /// The streamed mode: bench_lod() with the options and cameras of this run.
 Status bench_streamed(const Options& opt, format::OutputTransaction& outputs) {
-  RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.device));
+  RGS_RETURN_IF_ERROR(api::require_cuda_device(opt.render.device));
   tools::LodBenchOptions o;
   o.input = opt.input;
   o.replicate = opt.replicate;
@@ -957,7 +953,7 @@ Status bench_streamed(const Options& opt, format::OutputTransaction& outputs) {
   o.stream.budget.pixel_error = opt.pixel_error;
   o.stream.memory_budget = opt.memory_budget;
   o.stream.stream_bytes_per_frame = opt.stream_bytes;
-  o.scratch_budget = opt.scratch_budget;
+  o.scratch_budget = opt.render.scratch_budget;
   o.json_path = opt.json_path;
   o.save_path = opt.save_lod_path;
   return tools::bench_lod(o, [&](const format::SceneBounds& bounds) -> Result<std::vector<runtime::Camera>> {
@@ -1027,11 +1023,7 @@ int main(int argc, char** argv) {
                  "<= 2^31 - 1")
       ->check(CLI::Range(uint32_t{1}, uint32_t{0x7fffffff}))
       ->capture_default_str();
-  app.add_option("--scratch-budget", opt.scratch_budget,
-                 "Bound on the renderer's scratch memory (e.g. 1GiB, 512MB; 0: none): frames whose pairs do not fit "
-                 "render in groups of tile rows, with the same image (docs/RENDERER.md#bounded-pair-memory)")
-      ->transform(CLI::AsSizeValue(false))
-      ->capture_default_str();
+  rgs::tools::add_render_options(app, opt.render, rgs::tools::kScratchBudgetOption);
   app.add_option("--splat-budget", opt.splat_budget,
                  "Streamed mode: render a level-of-detail .rgs (rgs-convert --lod-levels) along the views as a "
                  "fly-through, drawing at most N Gaussians a frame (docs/LOD.md); per view the frame time, splats, "
@@ -1054,7 +1046,6 @@ int main(int argc, char** argv) {
       app, opt.lod_levels,
       "Streamed mode with --replicate K: levels of detail built in memory for the tiled scene (auto or 1..16; "
       "default auto)");
-  app.add_option("--device", opt.device, "CUDA device ordinal")->check(CLI::Range(0, 1023))->capture_default_str();
   app.add_option("--json", opt.json_path, "Write the full results (every sample) as JSON");
   app.add_option("--save-lod", opt.save_lod_path,
                  "Streamed mode with --replicate K: also write the level-of-detail .rgs built in memory to this "

@@ -120,26 +120,6 @@ Result<Endpoint> parse_url(const std::string& url) {
   return e;
 }
 
-Result<std::array<float, 3>> parse_background(const std::string& text) {
-  std::array<float, 3> rgb{};
-  size_t at = 0;
-  for (int i = 0; i < 3; ++i) {
-    const size_t comma = text.find(',', at);
-    if ((i < 2) != (comma != std::string::npos)) break;
-    const std::string part = text.substr(at, comma == std::string::npos ? std::string::npos : comma - at);
-    try {
-      size_t used = 0;
-      rgb[i] = std::stof(part, &used);
-      if (used != part.size() || !(rgb[i] >= 0.f && rgb[i] <= 1.f)) throw std::invalid_argument(part);
-    } catch (const std::exception&) {
-      return Status(StatusCode::kInvalidArgument, "--background: '" + part + "' is not a number in [0, 1]");
-    }
-    at = comma == std::string::npos ? text.size() : comma + 1;
-    if (i == 2) return rgb;
-  }
-  return Status(StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
-}
-
 double median(std::vector<double> v) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
@@ -209,7 +189,12 @@ const char* const kStatKeys[] = {"preprocess_ms", "sort_ms",    "render_ms",    
 int run(const Options& opt) {
   auto endpoint = parse_url(opt.url);
   if (!endpoint.ok()) return tools::report_usage_error(kTool, endpoint.status());
-  auto background = parse_background(opt.background);
+  auto background = tools::parse_background(opt.background);
+  for (size_t c = 0; background.ok() && c < 3; ++c) {
+    if (!((*background)[c] >= 0.f && (*background)[c] <= 1.f)) {
+      background = Status(StatusCode::kInvalidArgument, "--background: '" + opt.background + "' is not in [0, 1]");
+    }
+  }
   if (!background.ok()) return tools::report_usage_error(kTool, background.status());
   view::Encoding encoding = view::Encoding::kJpeg;
   if (opt.encoding == "webp") encoding = view::Encoding::kWebp;

@@ -871,21 +871,6 @@ api::ConvertOptions convert_options(const char* fn, const py::kwargs& kwargs) {
   return o;
 }
 
-py::dict report_dict(const api::ConvertReport& report) {
-  py::dict d;
-  d["input"] = py::dict(py::arg("format") = report.input_format, py::arg("description") = report.input_description,
-                        py::arg("bytes") = report.input_bytes, py::arg("compact") = report.input_compact,
-                        py::arg("notes") = report.input_notes);
-  d["output"] = py::dict(py::arg("format") = api::output_format_name(report.output_format),
-                         py::arg("description") = report.output_description, py::arg("bytes") = report.output_bytes,
-                         py::arg("notes") = report.output_notes);
-  d["gaussians"] = report.gaussians;
-  d["sh_degree"] = report.sh_degree;
-  d["dropped_gaussians"] = report.hygiene.dropped_gaussians;
-  if (report.rgs) d["errors"] = attribute_errors(report.rgs->errors);
-  return d;
-}
-
 /// The device `name` asks for: "auto" is CUDA when a device answers, else the CPU (with a warning);
 /// "cuda" without a device raises an error that names the alternatives.
 api::Device resolve_device(const std::string& name) {
@@ -1231,8 +1216,8 @@ py::tuple rasterization(const py::object& means, const py::object& quats, const 
 /// convert() and save() (`fn`, which their errors name): the options of rgs-convert in `kwargs` (by the
 /// snake_case of their long options; None never passed), written by `write` (api::convert, api::convert_cloud);
 /// with target_psnr / target_bytes the conversion fits the archive profile to them (ConvertOptions::target).
-/// Returns the report's dict.
-py::dict convert_with_options(const char* fn, py::kwargs kwargs,
+/// Returns the report's dict: rgs-convert --json's (api::convert_report_json) for `src` converted into `dst`.
+py::dict convert_with_options(const char* fn, py::kwargs kwargs, const std::string& src, const std::string& dst,
                               const std::function<Result<api::ConvertReport>(const api::ConvertOptions&)>& write) {
   // The target and its views (api::ConvertTarget); the rest are ConvertOptions.
   api::ConvertTarget target;
@@ -1264,26 +1249,8 @@ py::dict convert_with_options(const char* fn, py::kwargs kwargs,
     py::gil_scoped_release release;
     r = write(options);
   }
-  const api::ConvertReport report = unwrap(std::move(r));
-  py::dict d = report_dict(report);
-  if (!report.rate_control) return d;
-  const api::RateControlReport& f = *report.rate_control;
-  const format::ArchiveOptions& a = f.settings;
-  py::dict settings(py::arg("position_error") = a.position_error, py::arg("rotation_bits") = a.rotation_bits,
-                    py::arg("rotation_step") = a.rotation_step, py::arg("scale_bits") = a.scale_bits,
-                    py::arg("scale_step") = a.scale_step, py::arg("opacity_bits") = a.opacity_bits,
-                    py::arg("opacity_step") = a.opacity_step, py::arg("opacity_floor") = a.opacity_floor,
-                    py::arg("sh_step_multipliers") = std::vector<uint32_t>(a.sh_step_multipliers.begin(),
-                                                                            a.sh_step_multipliers.end()));
-  d["rate_control"] = py::dict(
-      py::arg("psnr_mean_db") = f.psnr_mean_db, py::arg("psnr_min_db") = f.psnr_min_db,
-      py::arg("search_psnr_db") = f.search_psnr_db, py::arg("settings") = settings,
-      py::arg("views") = f.views, py::arg("width") = f.width, py::arg("height") = f.height,
-      py::arg("backend") = api::device_name(f.device), py::arg("encodings") = f.encodings,
-      py::arg("renders") = f.renders, py::arg("seconds") = f.seconds,
-      py::arg("encode_seconds") = f.encode_seconds, py::arg("render_seconds") = f.render_seconds,
-      py::arg("views_note") = f.views_note);
-  return d;
+  const std::string report = api::convert_report_json(unwrap(std::move(r)), src, dst, options);
+  return py::module_::import("json").attr("loads")(report);
 }
 
 #if RGS_WITH_VIEWER
@@ -1644,7 +1611,7 @@ PYBIND11_MODULE(roofgs, m) {
           options.preset = unwrap(api::parse_preset(preset));
           options.max_clients = max_clients;
           options.cuda_device = cuda_device;
-          if (!cameras.empty()) options.cameras = unwrap(view::read_inria_cameras(cameras));
+          if (!cameras.empty()) options.cameras = unwrap(api::read_inria_cameras(cameras));
           auto handle = std::make_unique<PyViewServer>();
           {
             py::gil_scoped_release release;
@@ -1719,7 +1686,7 @@ PYBIND11_MODULE(roofgs, m) {
         [](const PathArg& src, const PathArg& dst, py::kwargs kwargs) {
           const std::string from = path_arg(src, "convert", "src").string();
           const std::string to = path_arg(dst, "convert", "dst").string();
-          return convert_with_options("convert", std::move(kwargs), [&](const api::ConvertOptions& o) {
+          return convert_with_options("convert", std::move(kwargs), from, to, [&](const api::ConvertOptions& o) {
             return api::convert(from, to, o);
           });
         },
@@ -1729,7 +1696,7 @@ PYBIND11_MODULE(roofgs, m) {
            const py::object& opacities, const py::object& sh, py::kwargs kwargs) {
           const std::string dst = path_arg(path, "save", "path").string();
           format::GaussianCloud cloud = cloud_from_arrays(means, quats, scales, opacities, sh, false);
-          return convert_with_options("save", std::move(kwargs), [&](const api::ConvertOptions& o) {
+          return convert_with_options("save", std::move(kwargs), "arrays", dst, [&](const api::ConvertOptions& o) {
             return api::convert_cloud(std::move(cloud), "arrays", dst, o);
           });
         },
@@ -1774,16 +1741,17 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
   m.attr("convert").attr("__doc__") = py::str(
         "Convert a scene in any format into dst: .rgs, .ply, .spz, .glb or .sog (or a SOG folder's meta.json), as `to` or "
         "dst's extension says "
-        "(what rgs-convert does, same options). Returns a dict: input and output (format, description, bytes, "
-        "notes), gaussians, sh_degree, dropped_gaussians, and errors (per attribute) for a .rgs output. "
+        "(what rgs-convert does, same options). Returns rgs-convert --json's report as a dict (api::"
+        "convert_report_json): input and output (path, bytes, format, ..., notes), gaussians, sh_degree, hygiene "
+        "(dropped_gaussians, ...), and errors (per attribute, SH per degree) for a .rgs output. "
         "target_psnr (dB) or target_bytes: rate control of the archive profile (api::ConvertOptions::target, as "
         "rgs-convert --target-psnr / --target-bytes) on the views of cameras (an INRIA cameras.json, every K-th) "
         "an orbit or a path, at width x height; with none of these, the scene's own cameras.json of the 3DGS output "
-        "layout beside it, else views guessed from its content (rate_control's views_note says which); the dict "
-        "then has rate_control: psnr_mean_db, "
+        "layout beside it, else views guessed from its content; the dict "
+        "then has rate_control: target, psnr_mean_db, "
         "psnr_min_db, search_psnr_db, settings (position_error, rotation_bits, rotation_step, scale_bits, "
         "scale_step, opacity_bits, opacity_step, opacity_floor, sh_step_multipliers), views, width, height, "
-        "backend, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
+        "backend, device, encodings, renders, seconds (of which encode_seconds encoding the candidates and "
         "render_seconds loading and rendering them). memory_limit: most bytes of memory the conversion may use "
         "(int; 0 or None: half the physical memory); an input whose estimated peak when read whole is above it "
         "is built out of core when it is a binary PLY converted with lod_levels (the same bytes), else raises "

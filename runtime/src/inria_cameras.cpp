@@ -1,10 +1,9 @@
-// INRIA 3DGS cameras.json loader (camera.h). nlohmann::json exceptions are caught here and never leave the
-// library; every value is type- and range-checked before use.
+// INRIA 3DGS cameras.json reader (camera.h): the one reader of the format, for the renderers (load_inria_cameras)
+// and for the viewer, which sends the numbers as written (read_inria_cameras). nlohmann::json exceptions are caught
+// here and never leave the library; every value is type- and range-checked before use.
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -16,8 +15,13 @@ namespace {
 
 using nlohmann::json;
 
-constexpr uint64_t kMaxCamerasFileBytes = uint64_t{256} << 20;
+constexpr uint64_t kMaxCamerasFileBytes = uint64_t{64} << 20;
+constexpr size_t kMaxCameras = 100000;
+/// A cameras.json nests four levels (array, camera, rotation, row); deeper input is refused while it is parsed.
+constexpr int kMaxNesting = 8;
 constexpr int64_t kMaxImageSide = 32768;
+constexpr double kMaxFocal = 1e6;
+constexpr double kMaxCoordinate = 1e9;
 
 Status corrupt(const std::string& name, const std::string& what) {
   return Status(StatusCode::kCorruptData, name + ": " + what);
@@ -62,6 +66,65 @@ Status get_vector(const json& v, size_t n, const std::string& what, double* out)
   return Status::ok_status();
 }
 
+/// The Camera of `c` rendered at out_w × out_h: R = rotation_c2wᵀ, t = −R·position (double, then float), the field
+/// of view kept (fx' = fx·W'/W), principal point at the image centre. Not validated.
+Camera camera_from_entry(const InriaCamera& c, uint32_t out_w, uint32_t out_h, float near_plane) {
+  Camera camera;
+  for (int i = 0; i < 3; ++i) {
+    double t = 0;
+    for (int j = 0; j < 3; ++j) {
+      camera.rotation[i * 3 + j] = static_cast<float>(c.rotation_c2w[j * 3 + i]);
+      t -= c.rotation_c2w[j * 3 + i] * c.position[j];
+    }
+    camera.translation[i] = static_cast<float>(t);
+  }
+  camera.fx = static_cast<float>(c.fx * out_w / c.width);
+  camera.fy = static_cast<float>(c.fy * out_h / c.height);
+  camera.cx = static_cast<float>(out_w / 2.0);
+  camera.cy = static_cast<float>(out_h / 2.0);
+  camera.width = out_w;
+  camera.height = out_h;
+  camera.near_plane = near_plane;
+  return camera;
+}
+
+/// Parses and checks camera `index` of the array.
+Result<NamedInriaCamera> parse_entry(const json& cam, size_t index, const std::string& name) {
+  const std::string where = name + ": camera " + std::to_string(index);
+  RGS_RETURN_ERROR_IF(!cam.is_object(), StatusCode::kCorruptData, where + " is not a JSON object");
+  NamedInriaCamera entry;
+  InriaCamera& c = entry.camera;
+  RGS_RETURN_IF_ERROR(get_side(cam, "width", where, &c.width));
+  RGS_RETURN_IF_ERROR(get_side(cam, "height", where, &c.height));
+  RGS_RETURN_IF_ERROR(get_number(cam, "fx", where, &c.fx));
+  RGS_RETURN_IF_ERROR(get_number(cam, "fy", where, &c.fy));
+  RGS_RETURN_ERROR_IF(!(c.fx > 0 && c.fx <= kMaxFocal && c.fy > 0 && c.fy <= kMaxFocal), StatusCode::kCorruptData,
+                      where + ": focal lengths must be in (0, 1e6] (fx=" + std::to_string(c.fx) +
+                          ", fy=" + std::to_string(c.fy) + ")");
+  const auto pos_it = cam.find("position");
+  RGS_RETURN_ERROR_IF(pos_it == cam.end(), StatusCode::kCorruptData, where + ": missing 'position'");
+  RGS_RETURN_IF_ERROR(get_vector(*pos_it, 3, where + ": 'position'", c.position.data()));
+  for (double v : c.position) {
+    RGS_RETURN_ERROR_IF(std::fabs(v) > kMaxCoordinate, StatusCode::kCorruptData,
+                        where + ": 'position' is outside ±1e9");
+  }
+  const auto rot_it = cam.find("rotation");
+  RGS_RETURN_ERROR_IF(rot_it == cam.end(), StatusCode::kCorruptData, where + ": missing 'rotation'");
+  RGS_RETURN_ERROR_IF(!rot_it->is_array() || rot_it->size() != 3, StatusCode::kCorruptData,
+                      where + ": 'rotation' is not a 3x3 array");
+  for (size_t i = 0; i < 3; ++i) {
+    RGS_RETURN_IF_ERROR(get_vector((*rot_it)[i], 3, where + ": 'rotation'[" + std::to_string(i) + "]",
+                                   c.rotation_c2w.data() + 3 * i));
+  }
+  const auto name_it = cam.find("img_name");
+  entry.name = (name_it != cam.end() && name_it->is_string()) ? name_it->get<std::string>()
+                                                              : "camera_" + std::to_string(index);
+  // The rotation (orthonormal, det +1) is checked as every camera is, at the file's own size.
+  const Status valid = validate_camera(camera_from_entry(c, c.width, c.height, Camera{}.near_plane));
+  if (!valid.ok()) return corrupt(where, valid.message());
+  return entry;
+}
+
 /// Output resolution for a camera of the file's size under `options`.
 void output_size(uint32_t w, uint32_t h, const InriaCameraOptions& options, uint32_t* out_w, uint32_t* out_h) {
   // Clamped so that the cast stays defined for any downscale > 0; validate_camera() refuses sides over the limit.
@@ -81,70 +144,8 @@ void output_size(uint32_t w, uint32_t h, const InriaCameraOptions& options, uint
   }
 }
 
-/// Parses camera `index` of the array.
-Result<Camera> parse_camera(const json& cam, size_t index, const std::string& name,
-                            const InriaCameraOptions& options) {
-  const std::string where = name + ": camera " + std::to_string(index);
-  RGS_RETURN_ERROR_IF(!cam.is_object(), StatusCode::kCorruptData, where + " is not a JSON object");
-  uint32_t width = 0, height = 0;
-  RGS_RETURN_IF_ERROR(get_side(cam, "width", where, &width));
-  RGS_RETURN_IF_ERROR(get_side(cam, "height", where, &height));
-  double fx = 0, fy = 0;
-  RGS_RETURN_IF_ERROR(get_number(cam, "fx", where, &fx));
-  RGS_RETURN_IF_ERROR(get_number(cam, "fy", where, &fy));
-  RGS_RETURN_ERROR_IF(!(fx > 0) || !(fy > 0), StatusCode::kCorruptData,
-                      where + ": focal lengths must be > 0 (fx=" + std::to_string(fx) +
-                          ", fy=" + std::to_string(fy) + ")");
-  const auto pos_it = cam.find("position");
-  RGS_RETURN_ERROR_IF(pos_it == cam.end(), StatusCode::kCorruptData, where + ": missing 'position'");
-  double position[3];
-  RGS_RETURN_IF_ERROR(get_vector(*pos_it, 3, where + ": 'position'", position));
-  const auto rot_it = cam.find("rotation");
-  RGS_RETURN_ERROR_IF(rot_it == cam.end(), StatusCode::kCorruptData, where + ": missing 'rotation'");
-  RGS_RETURN_ERROR_IF(!rot_it->is_array() || rot_it->size() != 3, StatusCode::kCorruptData,
-                      where + ": 'rotation' is not a 3x3 array");
-  double c2w[3][3];  // camera-to-world, c2w[i] = JSON row i
-  for (size_t i = 0; i < 3; ++i) {
-    RGS_RETURN_IF_ERROR(get_vector((*rot_it)[i], 3, where + ": 'rotation'[" + std::to_string(i) + "]", c2w[i]));
-  }
-
-  Camera camera;
-  // R (world-to-camera) = c2wᵀ; t = −R·position.
-  for (int i = 0; i < 3; ++i) {
-    double t = 0;
-    for (int j = 0; j < 3; ++j) {
-      camera.rotation[i * 3 + j] = static_cast<float>(c2w[j][i]);
-      t -= c2w[j][i] * position[j];
-    }
-    camera.translation[i] = static_cast<float>(t);
-  }
-  uint32_t out_w = 0, out_h = 0;
-  output_size(width, height, options, &out_w, &out_h);
-  // Keep the field of view: fx' = fx·W'/W.
-  camera.fx = static_cast<float>(fx * out_w / width);
-  camera.fy = static_cast<float>(fy * out_h / height);
-  camera.cx = static_cast<float>(out_w / 2.0);
-  camera.cy = static_cast<float>(out_h / 2.0);
-  camera.width = out_w;
-  camera.height = out_h;
-  camera.near_plane = options.near_plane;
-  const auto name_it = cam.find("img_name");
-  camera.name = (name_it != cam.end() && name_it->is_string()) ? name_it->get<std::string>()
-                                                               : "camera_" + std::to_string(index);
-  Status valid = validate_camera(camera);
-  if (!valid.ok()) {
-    // The rotation, or a size above the limit from a tiny downscale, fails here (focals were checked).
-    return corrupt(where, valid.message());
-  }
-  return camera;
-}
-
-}  // namespace
-
-Result<std::vector<Camera>> parse_inria_cameras(const std::string& json_text, const std::string& name,
-                                                const InriaCameraOptions& options) {
-  RGS_RETURN_ERROR_IF(options.every_kth < 1, StatusCode::kInvalidArgument,
-                      name + ": every_kth must be >= 1");
+Status check_options(const std::string& name, const InriaCameraOptions& options) {
+  RGS_RETURN_ERROR_IF(options.every_kth < 1, StatusCode::kInvalidArgument, name + ": every_kth must be >= 1");
   RGS_RETURN_ERROR_IF(!options.indices.empty() && options.every_kth != 1, StatusCode::kInvalidArgument,
                       name + ": give either indices or every_kth, not both");
   RGS_RETURN_ERROR_IF(!std::isfinite(options.downscale) || !(options.downscale > 0), StatusCode::kInvalidArgument,
@@ -153,43 +154,41 @@ Result<std::vector<Camera>> parse_inria_cameras(const std::string& json_text, co
                       StatusCode::kInvalidArgument, name + ": requested size above 32768");
   RGS_RETURN_ERROR_IF(!std::isfinite(options.near_plane) || !(options.near_plane > 0),
                       StatusCode::kInvalidArgument, name + ": near_plane must be finite and > 0");
+  return Status::ok_status();
+}
 
-  json root;
-  try {
-    root = json::parse(json_text);
-  } catch (const json::exception& e) {
-    return corrupt(name, std::string("not valid JSON (") + e.what() + ")");
-  }
-  RGS_RETURN_ERROR_IF(!root.is_array(), StatusCode::kCorruptData,
-                      name + ": expected a JSON array of cameras, found " + root.type_name());
-  RGS_RETURN_ERROR_IF(root.empty(), StatusCode::kCorruptData, name + ": the camera array is empty");
-
+/// The selected entries as cameras at the size `options` asks for.
+Result<std::vector<Camera>> select_cameras(const std::vector<NamedInriaCamera>& entries, const std::string& name,
+                                           const InriaCameraOptions& options) {
   std::vector<size_t> selected;
   if (!options.indices.empty()) {
     for (uint32_t index : options.indices) {
-      RGS_RETURN_ERROR_IF(index >= root.size(), StatusCode::kInvalidArgument,
+      RGS_RETURN_ERROR_IF(index >= entries.size(), StatusCode::kInvalidArgument,
                           name + ": camera index " + std::to_string(index) + " >= camera count " +
-                              std::to_string(root.size()));
+                              std::to_string(entries.size()));
       selected.push_back(index);
     }
   } else {
-    for (size_t i = 0; i < root.size(); i += options.every_kth) selected.push_back(i);
+    for (size_t i = 0; i < entries.size(); i += options.every_kth) selected.push_back(i);
   }
-
   std::vector<Camera> cameras;
   cameras.reserve(selected.size());
-  try {
-    for (size_t index : selected) {
-      RGS_ASSIGN_OR_RETURN(Camera camera, parse_camera(root[index], index, name, options));
-      cameras.push_back(std::move(camera));
-    }
-  } catch (const json::exception& e) {  // defensive: every access above is type-checked first
-    return corrupt(name, std::string("unexpected JSON content (") + e.what() + ")");
+  for (size_t index : selected) {
+    const InriaCamera& c = entries[index].camera;
+    uint32_t out_w = 0, out_h = 0;
+    output_size(c.width, c.height, options, &out_w, &out_h);
+    Camera camera = camera_from_entry(c, out_w, out_h, options.near_plane);
+    camera.name = entries[index].name;
+    // A size above the limit from a tiny downscale fails here (the entry itself was checked).
+    const Status valid = validate_camera(camera);
+    if (!valid.ok()) return corrupt(name + ": camera " + std::to_string(index), valid.message());
+    cameras.push_back(std::move(camera));
   }
   return cameras;
 }
 
-Result<std::vector<Camera>> load_inria_cameras(const std::string& path, const InriaCameraOptions& options) {
+/// The whole file at `path`, refused above kMaxCamerasFileBytes before it is read.
+Result<std::string> read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   RGS_RETURN_ERROR_IF(!in, StatusCode::kIoError, path + ": cannot open for reading");
   in.seekg(0, std::ios::end);
@@ -204,6 +203,69 @@ Result<std::vector<Camera>> load_inria_cameras(const std::string& path, const In
   RGS_RETURN_ERROR_IF(!in || in.gcount() != size, StatusCode::kIoError,
                       path + ": read failed after " + std::to_string(in.gcount()) + " of " + std::to_string(size) +
                           " bytes");
+  return text;
+}
+
+}  // namespace
+
+Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::string& json_text,
+                                                                 const std::string& name) {
+  RGS_RETURN_ERROR_IF(json_text.size() > kMaxCamerasFileBytes, StatusCode::kLimitExceeded,
+                      name + ": " + std::to_string(json_text.size()) + " bytes exceeds the cameras.json limit of " +
+                          std::to_string(kMaxCamerasFileBytes));
+  // Nesting and the camera count are bounded while the text is parsed, before the tree they would build.
+  struct Refused {
+    std::string why;
+  };
+  size_t top_level = 0;
+  const json::parser_callback_t bounded = [&top_level](int depth, json::parse_event_t event, json&) {
+    const bool opens = event == json::parse_event_t::object_start || event == json::parse_event_t::array_start;
+    if (opens && depth >= kMaxNesting) {
+      throw Refused{"nested deeper than " + std::to_string(kMaxNesting) + " levels"};
+    }
+    if (depth == 1 && (opens || event == json::parse_event_t::value) && ++top_level > kMaxCameras) {
+      throw Refused{"more than " + std::to_string(kMaxCameras) + " cameras"};
+    }
+    return true;
+  };
+  json root;
+  try {
+    root = json::parse(json_text, bounded);
+  } catch (const Refused& refused) {
+    return Status(StatusCode::kLimitExceeded, name + ": " + refused.why);
+  } catch (const json::exception& e) {
+    return corrupt(name, std::string("not valid JSON (") + e.what() + ")");
+  }
+  RGS_RETURN_ERROR_IF(!root.is_array(), StatusCode::kCorruptData,
+                      name + ": expected a JSON array of cameras, found " + root.type_name());
+  RGS_RETURN_ERROR_IF(root.empty(), StatusCode::kCorruptData, name + ": the camera array is empty");
+  std::vector<NamedInriaCamera> entries;
+  entries.reserve(root.size());
+  try {
+    for (size_t i = 0; i < root.size(); ++i) {
+      RGS_ASSIGN_OR_RETURN(NamedInriaCamera entry, parse_entry(root[i], i, name));
+      entries.push_back(std::move(entry));
+    }
+  } catch (const json::exception& e) {  // defensive: every access above is type-checked first
+    return corrupt(name, std::string("unexpected JSON content (") + e.what() + ")");
+  }
+  return entries;
+}
+
+Result<std::vector<NamedInriaCamera>> read_inria_cameras(const std::string& path) {
+  RGS_ASSIGN_OR_RETURN(const std::string text, read_text(path));
+  return parse_inria_camera_entries(text, path);
+}
+
+Result<std::vector<Camera>> parse_inria_cameras(const std::string& json_text, const std::string& name,
+                                                const InriaCameraOptions& options) {
+  RGS_RETURN_IF_ERROR(check_options(name, options));
+  RGS_ASSIGN_OR_RETURN(const std::vector<NamedInriaCamera> entries, parse_inria_camera_entries(json_text, name));
+  return select_cameras(entries, name, options);
+}
+
+Result<std::vector<Camera>> load_inria_cameras(const std::string& path, const InriaCameraOptions& options) {
+  RGS_ASSIGN_OR_RETURN(const std::string text, read_text(path));
   return parse_inria_cameras(text, path, options);
 }
 

@@ -27,6 +27,24 @@ def test_convert_reports_sizes_and_errors(guitar_rgs, tmp_path):
     assert roofgs.convert(str(tmp_path / "a.rgs"), str(tmp_path / "a.ply"))["input"]["compact"]
 
 
+def test_convert_report_is_rgs_convert_json(tmp_path):
+    """convert()'s dict is rgs-convert --json's report (api::convert_report_json): the same keys and values."""
+    import json
+    import os
+    import subprocess
+    tool = os.environ.get("RGS_CONVERT")
+    if not tool:
+        pytest.skip("rgs-convert not built (RGS_CONVERT unset)")
+    src = str(SOURCE_DIR / "samples" / "guitar.ply")
+    for name, options in (("g.rgs", ["--profile", "archive"]), ("g.spz", [])):
+        dst = str(tmp_path / name)
+        report = roofgs.convert(src, dst, profile="archive" if options else None)
+        subprocess.run([tool, src, dst, *options, "--json", str(tmp_path / "cli.json"), "-q"], check=True)
+        cli = json.loads((tmp_path / "cli.json").read_text())
+        assert set(report.pop("seconds")) == set(cli.pop("seconds")) == {"read", "quantize", "lod", "write", "total"}
+        assert report == cli, name
+
+
 # The first bytes of each output format.
 SIGNATURES = {"rgs": b"\x89RGS\r\n\x1a\n", "ply": b"ply\n", "spz": b"NGSP", "glb": b"glTF", "sog": b"PK\x03\x04"}
 DATA = SOURCE_DIR / "tests" / "data"

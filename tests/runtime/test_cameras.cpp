@@ -147,6 +147,26 @@ TEST_CASE("cameras.json: errors name the file, the camera and the cause") {
   CHECK(with(R"([0, 1, 0])", R"([0, 2, 0])").code() == StatusCode::kCorruptData);   // not orthonormal
   CHECK(with(R"([0, 0, 1]])", R"([0, 0, -1]])").code() == StatusCode::kCorruptData);  // reflection
   CHECK(with(R"([0, 1, 0])", R"([0, "x", 0])").code() == StatusCode::kCorruptData);
+  CHECK(with(R"("fx": 50)", R"("fx": 1000001)").code() == StatusCode::kCorruptData);  // focal above 1e6
+  CHECK(with(R"("position": [0, 0, 0])", R"("position": [0, -2e9, 0])").code() == StatusCode::kCorruptData);
+
+  // Hostile files are bounded while parsing: nesting deeper than a cameras.json has, too many cameras, too many
+  // bytes (kLimitExceeded, not the tree they would build).
+  s = parse("[" + good + ", " + std::string(1 << 20, '[') + std::string(1 << 20, ']') + "]");
+  CHECK(s.code() == StatusCode::kLimitExceeded);
+  CHECK(s.message().find("cams.json: nested deeper than 8 levels") == 0);
+  CHECK(parse("[" + good + ", [[[[[[[1]]]]]]]]").code() == StatusCode::kCorruptData);  // 8 levels: parsed, then refused
+  std::string many = "[" + good;
+  for (int i = 0; i < 100000; ++i) many += ",0";
+  s = parse(many + "]");
+  CHECK(s.code() == StatusCode::kLimitExceeded);
+  CHECK(s.message().find("more than 100000 cameras") != std::string::npos);
+  CHECK(parse("[" + good + "]" + std::string((64 << 20) - good.size(), ' ')).code() == StatusCode::kLimitExceeded);
+
+  // Every entry is checked, whichever is selected: the viewer and the renderers refuse the same files.
+  InriaCameraOptions first;
+  first.indices = {0};
+  CHECK(parse("[" + good + ", 1]", first).code() == StatusCode::kCorruptData);
 
   InriaCameraOptions bad;
   bad.indices = {1};

@@ -9,6 +9,7 @@
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
 
+#include "rgs/api/camera.h"
 #include "rgs/view/protocol.h"
 
 namespace {
@@ -215,16 +216,14 @@ TEST_CASE("protocol: other fields out of range or of the wrong type are refused"
   CHECK(parse(m).ok());
 }
 
-TEST_CASE("read_inria_cameras: numbers kept as written, entries checked like views") {
+TEST_CASE("the viewer's cameras.json reader (api::read_inria_cameras): numbers as written, hostile files refused") {
   const auto path = std::filesystem::temp_directory_path() / "rgs_test_view_cameras.json";
-  {
-    std::ofstream out(path);
-    out << R"([{"id":0,"img_name":"a","width":640,"height":360,"position":[0.1,0.2,-3.3],
-               "rotation":[[1,0,0],[0,1,0],[0,0,1]],"fx":500.25,"fy":500.5},
-              {"id":1,"width":320,"height":180,"position":[1,2,3],
-               "rotation":[[0,0,1],[0,1,0],[-1,0,0]],"fx":250,"fy":250}])";
-  }
-  auto cameras = view::read_inria_cameras(path.string());
+  const auto write = [&](const std::string& text) { std::ofstream(path) << text; };
+  write(R"([{"id":0,"img_name":"a","width":640,"height":360,"position":[0.1,0.2,-3.3],
+             "rotation":[[1,0,0],[0,1,0],[0,0,1]],"fx":500.25,"fy":500.5},
+            {"id":1,"width":320,"height":180,"position":[1,2,3],
+             "rotation":[[0,0,1],[0,1,0],[-1,0,0]],"fx":250,"fy":250}])");
+  auto cameras = api::read_inria_cameras(path.string());
   REQUIRE(cameras.ok());
   REQUIRE(cameras->size() == 2);
   CHECK((*cameras)[0].name == "a");
@@ -232,14 +231,29 @@ TEST_CASE("read_inria_cameras: numbers kept as written, entries checked like vie
   CHECK((*cameras)[0].camera.fx == 500.25);
   CHECK((*cameras)[1].name == "camera_1");
   CHECK((*cameras)[1].camera.rotation_c2w[2] == 1.0);
-  {
-    std::ofstream out(path);
-    out << R"([{"width":640,"height":360,"position":[0,0,0],"rotation":[[1,0,0],[0,1,0],[0,0,2]],"fx":1,"fy":1}])";
-  }
-  auto bad = view::read_inria_cameras(path.string());
-  REQUIRE_FALSE(bad.ok());
-  CHECK(bad.status().code() == StatusCode::kCorruptData);
-  CHECK(bad.status().message().find("camera 0") != std::string::npos);
+  // What the renderers' reader refuses the viewer refuses too, with the same code: a rotation that is not one,
+  // sizes that are not integers, an empty array, nesting deeper than a cameras.json has.
+  const auto refused = [&](const std::string& text, StatusCode code, const std::string& needle) {
+    write(text);
+    auto bad = api::read_inria_cameras(path.string());
+    REQUIRE_FALSE(bad.ok());
+    CHECK(bad.status().code() == code);
+    CHECK_MESSAGE(bad.status().message().find(needle) != std::string::npos, bad.status().message());
+  };
+  const std::string camera = R"({"width":640,"height":360,"position":[0,0,0],"rotation":[[1,0,0],[0,1,0],[0,0,1]],
+                                 "fx":100,"fy":100})";
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string text = camera;
+    text.replace(text.find(from), from.size(), to);
+    return "[" + camera + "," + text + "]";
+  };
+  refused(with("[0,0,1]]", "[0,0,2]]"), StatusCode::kCorruptData, "camera 1");
+  refused(with("\"width\":640", "\"width\":640.0"), StatusCode::kCorruptData, "'width' is not an integer");
+  refused(with("\"fx\":100", "\"fx\":1e7"), StatusCode::kCorruptData, "focal lengths");
+  refused(with("\"position\":[0,0,0]", "\"position\":[0,0,1e10]"), StatusCode::kCorruptData, "outside");
+  refused("[]", StatusCode::kCorruptData, "empty");
+  refused("[" + camera + "," + std::string(100000, '[') + std::string(100000, ']') + "]", StatusCode::kLimitExceeded,
+          "nested deeper than 8 levels");
   std::filesystem::remove(path);
-  CHECK(view::read_inria_cameras(path.string()).status().code() == StatusCode::kIoError);
+  CHECK(api::read_inria_cameras(path.string()).status().code() == StatusCode::kIoError);
 }

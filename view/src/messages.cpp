@@ -57,7 +57,7 @@ std::string build_hello(const ServerState& state, const std::string& device_name
   }
   json cameras = json::array();
   for (size_t i = 0; i < state.options.cameras.size(); ++i) {
-    const NamedCamera& camera = state.options.cameras[i];
+    const api::NamedInriaCamera& camera = state.options.cameras[i];
     json entry = camera_json(camera.camera);
     entry["id"] = i;
     entry["img_name"] = camera.name;

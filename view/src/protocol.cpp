@@ -3,9 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <nlohmann/json.hpp>
 
 namespace rgs::view {
@@ -216,36 +213,6 @@ InriaCamera inria_from_camera(const api::Camera& camera) {
 Result<api::Camera> camera_from_request(const InriaCamera& camera) {
   return api::camera_from_inria(camera.rotation_c2w, camera.position, camera.fx, camera.fy, camera.width,
                                 camera.height);
-}
-
-Result<std::vector<NamedCamera>> read_inria_cameras(const std::string& path, const ProtocolLimits& limits) {
-  constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t{64} << 20;
-  constexpr size_t kMaxCameras = 100000;
-  std::error_code ec;
-  const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  RGS_RETURN_ERROR_IF(ec, StatusCode::kIoError, path + ": cannot read: " + ec.message());
-  RGS_RETURN_ERROR_IF(size > kMaxFileBytes, StatusCode::kLimitExceeded,
-                      path + ": " + std::to_string(size) + " bytes; cameras files are read up to 64 MiB");
-  std::ifstream in(path, std::ios::binary);
-  RGS_RETURN_ERROR_IF(!in, StatusCode::kIoError, path + ": cannot open for reading");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  RGS_RETURN_ERROR_IF(!in.good() && !in.eof(), StatusCode::kIoError, path + ": read error");
-  const json cameras = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  RGS_RETURN_ERROR_IF(cameras.is_discarded() || !cameras.is_array(), StatusCode::kCorruptData,
-                      path + ": not a JSON array of cameras");
-  RGS_RETURN_ERROR_IF(cameras.size() > kMaxCameras, StatusCode::kLimitExceeded,
-                      path + ": " + std::to_string(cameras.size()) + " cameras; at most 100000 are read");
-  std::vector<NamedCamera> out;
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    NamedCamera named;
-    const Status status = read_camera(cameras[i], limits, &named.camera);
-    RGS_RETURN_ERROR_IF(!status.ok(), StatusCode::kCorruptData,
-                        path + ": camera " + std::to_string(i) + ": " + status.message().substr(14));
-    const auto name = cameras[i].find("img_name");
-    named.name = name != cameras[i].end() && name->is_string() ? name->get<std::string>() : "camera_" + std::to_string(i);
-    out.push_back(std::move(named));
-  }
-  return out;
 }
 
 Result<ClientMessage> parse_client_message(std::string_view text, const ProtocolLimits& limits) {

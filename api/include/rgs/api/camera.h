@@ -20,6 +20,12 @@ namespace rgs::api {
 
 using runtime::Camera;
 
+/// A cameras.json entry with its numbers as written, and the file's one reader (runtime::read_inria_cameras: every
+/// entry checked, hostile input bounded); make_cameras and default_views load the same file through it.
+using runtime::InriaCamera;
+using runtime::NamedInriaCamera;
+using runtime::read_inria_cameras;
+
 /// Settings every camera builder takes.
 struct CameraOptions {
   /// Gaussians at view depth z ≤ near_plane (world units) are culled; 0.2 is the 3DGS rasterizer's value.

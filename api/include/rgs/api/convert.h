@@ -326,6 +326,17 @@ struct ConvertReport {
   ConvertTimes seconds;
 };
 
+/// The JSON text of a conversion's report: what rgs-convert --json writes and Python's convert() and save() return
+/// (parsed), the one place its keys are chosen. `src`, `dst` and `options` are the conversion's (paths recorded as
+/// given; the SPZ axes and rate control's target come from `options`). Keys: input {path, bytes, format, storage,
+/// declared_vertices, compact, notes}, output {path, bytes, format, description, notes}, gaussians, sh_degree,
+/// bytes_per_gaussian {input, output}, ratio, hygiene {the InputHygiene counts}; zero_scales (PLY output), spz (SPZ
+/// output), rate_control (with a target), scales_fp16, extent, lod, archive_omitted and errors (per attribute, SH per
+/// degree; .rgs output); seconds {read, quantize, lod, write, total}. Two-space indents, no final newline; bytes that
+/// are not UTF-8 (in a path) become U+FFFD. The same report gives the same text but for the timings.
+std::string convert_report_json(const ConvertReport& report, const std::string& src, const std::string& dst,
+                                const ConvertOptions& options);
+
 /// Checks the options that need no input, as convert() does before reading anything: SH degree, clip percentile,
 /// DC bits, zstd level and sections, the archive options (format::check_archive_options) with the archive
 /// profile or a target, that levels of detail come with the runtime profile and raw per-Gaussian sections, and

@@ -77,14 +77,44 @@ struct InriaCameraOptions {
   float near_plane = 0.2f;
 };
 
-/// Loads an INRIA 3DGS cameras.json (a JSON array of {id, img_name, width, height, position[3],
-/// rotation[3][3], fx, fy}). `rotation` is camera-to-world (its rows as JSON arrays; its columns are the camera
-/// axes in world coordinates) and `position` the camera centre, so R = rotationᵀ and t = −R·position (double,
-/// then float); fx, fy in pixels; principal point at the image centre (cx = W/2, cy = H/2).
-/// @return the selected cameras in order. Errors name `path` (and the camera index): kIoError (cannot open or
-/// read), kLimitExceeded (file above 256 MiB), kCorruptData (not JSON, not an array, empty, a field missing
-/// or of the wrong type, non-finite or non-positive values, rotation not orthonormal), kInvalidArgument
-/// (bad options, an index beyond the camera count).
+/// A camera of an INRIA 3DGS cameras.json with its numbers as written: `rotation_c2w` camera-to-world, row-major
+/// [3, 3] (the JSON's "rotation" rows; its columns are the camera axes in world coordinates), `position` the camera
+/// centre (world units), fx, fy in pixels for width × height, principal point at the image centre, COLMAP camera
+/// frame (x right, y down, z forward). The Camera it stands for has R = rotation_c2wᵀ and t = −R·position.
+struct InriaCamera {
+  std::array<double, 9> rotation_c2w = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::array<double, 3> position = {0, 0, 0};
+  double fx = 0, fy = 0;
+  uint32_t width = 0, height = 0;
+};
+
+/// One entry of a cameras.json: its camera and its label (the entry's "img_name", else "camera_<index>").
+struct NamedInriaCamera {
+  std::string name;
+  InriaCamera camera;
+};
+
+/// Reads an INRIA 3DGS cameras.json (a JSON array of {id, img_name, width, height, position[3], rotation[3][3],
+/// fx, fy}) as written: every number kept as the file gives it (so that a camera sent elsewhere and back renders
+/// the image load_inria_cameras gives). The one reader of the format; load_inria_cameras builds on it. Every entry
+/// is checked, whichever a caller later selects: width and height integers in [1, 32768], fx and fy in (0, 1e6],
+/// position components finite and within ±1e9, rotation finite and orthonormal with det +1 (validate_camera()).
+/// Hostile input is bounded before it is used: files up to 64 MiB, at most 100000 cameras and 8 levels of nesting
+/// (both refused while parsing, before the tree they would build).
+/// @return the entries in file order. Errors name `path` (and the camera index): kIoError (cannot open or read),
+/// kLimitExceeded (a limit above), kCorruptData (not JSON, not an array, empty, a field missing or of the wrong
+/// type, a value out of range).
+Result<std::vector<NamedInriaCamera>> read_inria_cameras(const std::string& path);
+
+/// Same as read_inria_cameras on JSON text in memory; `name` is used in error messages.
+Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::string& json_text,
+                                                                 const std::string& name);
+
+/// Loads the cameras of an INRIA 3DGS cameras.json (read_inria_cameras: its checks and limits) for rendering:
+/// R = rotationᵀ and t = −R·position (double, then float); fx, fy in pixels; principal point at the image centre
+/// (cx = W/2, cy = H/2); the subset and size `options` ask for.
+/// @return the selected cameras in order. Errors: those of read_inria_cameras, kCorruptData naming the camera for
+/// a size above 32768 from `options`, kInvalidArgument (bad options, an index beyond the camera count).
 Result<std::vector<Camera>> load_inria_cameras(const std::string& path, const InriaCameraOptions& options = {});
 
 /// Same as load_inria_cameras on JSON text in memory; `name` is used in error messages.

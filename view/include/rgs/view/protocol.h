@@ -41,21 +41,10 @@ enum class CompareMode {
 /// "off", "split", "diff".
 const char* compare_mode_name(CompareMode mode);
 
-/// A camera in the INRIA 3DGS cameras.json convention: `rotation_c2w` camera-to-world, row-major [3, 3] (the
-/// JSON's "rotation" rows), `position` the camera centre (world units), COLMAP camera frame (x right, y down,
-/// z forward), fx, fy in pixels for width × height, principal point at the image centre.
-struct InriaCamera {
-  std::array<double, 9> rotation_c2w = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  std::array<double, 3> position = {0, 0, 0};
-  double fx = 0, fy = 0;
-  uint32_t width = 0, height = 0;
-};
-
-/// A camera of a cameras.json with its label (the entry's "img_name").
-struct NamedCamera {
-  std::string name;
-  InriaCamera camera;
-};
+/// A view's camera, in the INRIA 3DGS cameras.json convention (api::InriaCamera): `rotation_c2w` camera-to-world,
+/// row-major [3, 3], `position` the camera centre, fx, fy in pixels for width × height, principal point at the
+/// image centre.
+using api::InriaCamera;
 
 /// The INRIA form of `camera` (rotation_c2w = Rᵀ, position = −Rᵀ·t); cx, cy are not kept (the convention puts
 /// the principal point at the image centre).
@@ -91,14 +80,6 @@ struct ProtocolLimits {
   /// Whether compare modes other than "off" are allowed (the server has a second scene).
   bool compare_available = false;
 };
-
-/// Reads an INRIA 3DGS cameras.json (an array of objects with "position", "rotation", "fx", "fy", "width",
-/// "height", optional "img_name"), keeping each number as written (so that a view sent back with them renders
-/// the image rgs-render renders for that file). Each camera is checked as a view's camera is (finite,
-/// rotation, focal lengths, size up to `limits`). At most 100000 cameras; files up to 64 MiB.
-/// @return kIoError (cannot read `path`), kCorruptData (not that layout; the message names the entry),
-/// kLimitExceeded; messages name `path`.
-Result<std::vector<NamedCamera>> read_inria_cameras(const std::string& path, const ProtocolLimits& limits = {});
 
 /// Parses and validates one text message (PROTOCOL.md): a JSON object of "type" "view" or "ping". A view's
 /// camera: every number finite, rotation a proper rotation (‖RᵀR − I‖max ≤ 1e-3, det > 0; api::

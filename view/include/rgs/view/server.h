@@ -57,8 +57,8 @@ struct ServerOptions {
   /// The preset the page starts with; the scenes must be loaded for it.
   api::Preset preset = api::Preset::kFastest;
   /// The scene's own cameras, offered to the page (hello "cameras") with their numbers as given, e.g.
-  /// read_inria_cameras of a cameras.json.
-  std::vector<NamedCamera> cameras;
+  /// api::read_inria_cameras of a cameras.json.
+  std::vector<api::NamedInriaCamera> cameras;
   /// The page's starting size (0: 1920 × 1080 on the GPU, 640 × 360 on the CPU).
   uint32_t default_width = 0, default_height = 0;
   /// Largest frame a client may ask for.
