@@ -295,7 +295,7 @@ def partial_below(folder):
 
 def interrupted_write_keeps_older_output(scratch):
     """SIGTERM while a streamed SOG is written over an older one (once its first temporary appears, and at a few
-    other moments): either the run finished (exit 0) or it ended with 143, the older scene as it was and
+    other moments): either the run finished (exit 0) or it ended by the signal, the older scene as it was and
     nothing new."""
     out = os.path.join(scratch, "interrupted")
     os.makedirs(out)
@@ -324,7 +324,10 @@ def interrupted_write_keeps_older_output(scratch):
             run(older_args)
             older = snapshot(out)
             continue
-        check(p.returncode == 143, "SIGTERM (%s): exit %d" % (delay or "while writing", p.returncode))
+        # 143 from the tool's handler; -15 when the signal came before the handler was installed (a sanitized
+        # tool starts slowly), which is as good while nothing was written.
+        check(p.returncode in (143, -signal.SIGTERM),
+              "SIGTERM (%s): exit %d" % (delay or "while writing", p.returncode))
         check(snapshot(out) == older, "SIGTERM (%s) changed the older scene or left files: %s" %
               (delay or "while writing", sorted(set(snapshot(out)) ^ set(older))[:6]))
     check(while_writing > 0, "no SIGTERM arrived while chunk files were staged: the interrupt was not tested")
