@@ -1,4 +1,4 @@
-# Type stubs of the roofgs module (python/src/roofgs_module.cpp), installed next to it so that editors and type
+# Type stubs of the roofgs module (python/src/), installed next to it so that editors and type
 # checkers complete its functions. Shapes are [rows, columns]; images are top row first.
 # Arguments: a value of the wrong type raises TypeError, one outside the argument's rule (a size of 0, a number that
 # is not finite, a negative cuda_device) ValueError, both before any work and in the words

@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Reports every C++/CUDA function whose body is longer than a limit, and exits 1 if there is one.
 
-Scans the product's sources (format/ converter/ kernels/ runtime/ api/ audit/ view/ parallel/ tools/; not
-tests/, samples/, python/ or lab/) with a brace-matching pass over the text after comments, string and
-character literals and preprocessor lines are blanked out. A function's length is counted from the line of its
-opening brace to the line of its closing brace, both included. Functions defined inside classes and namespaces
-count; lambdas and blocks inside a function count towards that function.
+Scans the product's sources (format/ converter/ kernels/ runtime/ api/ audit/ view/ parallel/ tools/), the lab
+(lab/) and the Python module (python/), but no tests/ or samples/ folder (lab/tests/ neither), with a
+brace-matching pass over the text after comments, string and character literals and preprocessor lines are
+blanked out. A function's length is counted from the line of its opening brace to the line of its closing brace,
+both included. Functions defined inside classes and namespaces count; lambdas and blocks inside a function count
+towards that function.
 
-Usage: scripts/check_function_length.py [--max-lines N] [PATH ...]   (default 150 lines, the product dirs)
+Usage: scripts/check_function_length.py [--max-lines N] [PATH ...]   (default 150 lines, the folders above)
 Exit status: 0 when no function is longer than N lines, 1 when one is, 2 on a usage error.
 """
 import argparse
@@ -16,7 +17,8 @@ import re
 import sys
 
 PRODUCT_DIRS = ["format", "converter", "kernels", "runtime", "api", "audit", "view", "parallel", "tools"]
-SKIPPED_DIRS = {"lab", "tests", "python", "samples", "build"}
+CHECKED_DIRS = PRODUCT_DIRS + ["lab", "python"]
+SKIPPED_DIRS = {"tests", "samples", "build"}
 SOURCE_SUFFIXES = (".h", ".hpp", ".cpp", ".cc", ".cu", ".cuh")
 
 _CONTAINER_HEADER = re.compile(r"^\s*(?:template\s*<.*>\s*)?(?:class|struct|union|namespace|extern)\b", re.S)
@@ -173,10 +175,10 @@ def source_files(paths):
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--max-lines", type=int, default=150, help="longest allowed function body (default 150)")
-    parser.add_argument("paths", nargs="*", help="files or folders (default: the product folders)")
+    parser.add_argument("paths", nargs="*", help="files or folders (default: the product's, lab and python)")
     args = parser.parse_args(argv)
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    paths = args.paths or [os.path.join(root, d) for d in PRODUCT_DIRS if os.path.isdir(os.path.join(root, d))]
+    paths = args.paths or [os.path.join(root, d) for d in CHECKED_DIRS if os.path.isdir(os.path.join(root, d))]
     found = 0
     for path in source_files(paths):
         with open(path, encoding="utf-8", errors="replace") as f:

@@ -18,8 +18,14 @@ for lib in audit api format converter runtime kernels view; do includes+=(-I"$ro
 # roofgs.view() when the staged libraries hold the viewer (stage_gpu.sh marks it).
 viewer=()
 if [ -f "$py/with_viewer" ]; then viewer=(-DRGS_WITH_VIEWER=1); fi
+# The module's sources, as python/CMakeLists.txt lists them.
+sources=()
+for name in roofgs_module py_arguments py_arrays py_audit py_cameras py_conversion py_images py_rasterization \
+  py_scenes py_viewer; do
+  sources+=("$root/python/src/$name.cpp")
+done
 c++ -O2 -std=c++17 -shared -fPIC -fvisibility=hidden "${viewer[@]}" -I"$py/include" -I"$python_include" "${includes[@]}" \
-  "$root/python/src/roofgs_module.cpp" -o "$package/roofgs$suffix" -L"$py" -lroofgs_core -Wl,-rpath,"$py"
+  "${sources[@]}" -o "$package/roofgs$suffix" -L"$py" -lroofgs_core -Wl,-rpath,"$py"
 echo "gpu_python: built $package/roofgs$suffix for $(python3 --version)"
 log="${out:+$out/pytest.log}"
 PYTHONPATH="$package" RGS_SOURCE_DIR="$root" python3 -m pytest -v -rs -p no:cacheprovider "$root/tests/python" \

@@ -22,7 +22,7 @@ ctest --test-dir "$build" --output-on-failure --parallel "$(nproc)" 2>&1 | tee "
 status=${PIPESTATUS[0]}
 set -e
 python3 "$root/scripts/check_doc_links.py" || status=1  # every link to a Markdown file and heading resolves
-python3 "$root/scripts/check_function_length.py" || status=1  # no product function over 150 lines
+python3 "$root/scripts/check_function_length.py" || status=1  # no function over 150 lines (product, lab/, python/)
 # Why tests skipped (no GPU, no real scenes, ...): the reasons of the skipped tests and of the skipped
 # parts of passing ones, counted, from the output CTest keeps.
 log="$build/Testing/Temporary/LastTest.log"

@@ -186,62 +186,52 @@ const char* const kStatKeys[] = {"preprocess_ms", "sort_ms",    "render_ms",    
                                  "splats",         "gpu_memory_used_bytes", "lod_bytes_streamed",
                                  "lod_bytes_resident"};
 
-int run(const Options& opt) {
-  auto endpoint = parse_url(opt.url);
-  if (!endpoint.ok()) return tools::report_usage_error(kTool, endpoint.status());
-  auto background = tools::parse_background(opt.background);
-  for (size_t c = 0; background.ok() && c < 3; ++c) {
-    if (!((*background)[c] >= 0.f && (*background)[c] <= 1.f)) {
-      background = Status(StatusCode::kInvalidArgument, "--background: '" + opt.background + "' is not in [0, 1]");
-    }
-  }
-  if (!background.ok()) return tools::report_usage_error(kTool, background.status());
-  view::Encoding encoding = view::Encoding::kJpeg;
-  if (opt.encoding == "webp") encoding = view::Encoding::kWebp;
-  if (opt.encoding == "lossless") encoding = view::Encoding::kLossless;
+/// kIoError saying `what`; when the watchdog closed the socket, also that nothing came for `timeout_s`.
+Status io_error(const Watchdog& watchdog, const std::string& what, double timeout_s) {
+  return Status(StatusCode::kIoError, watchdog.fired() ? what + ": nothing from the server for " +
+                                                             std::to_string(timeout_s) + " s"
+                                                       : what);
+}
 
-  net::io_context ioc;
-  websocket::stream<tcp::socket> ws{ioc};
-  json hello;
+/// Opens the WebSocket of `endpoint` on `ws` (TCP without Nagle's delay, messages up to 1 GiB).
+Status open_websocket(websocket::stream<tcp::socket>& ws, net::io_context& ioc, const Endpoint& endpoint) {
   try {
     tcp::resolver resolver{ioc};
-    const auto addresses = resolver.resolve(endpoint->host, endpoint->port);
+    const auto addresses = resolver.resolve(endpoint.host, endpoint.port);
     net::connect(ws.next_layer(), addresses.begin(), addresses.end());
     ws.next_layer().set_option(tcp::no_delay(true));
     ws.set_option(websocket::stream_base::decorator(
         [](websocket::request_type& req) { req.set(beast::http::field::user_agent, "rgs-view-bench"); }));
     ws.read_message_max(1ull << 30);
-    ws.handshake(endpoint->host + ":" + endpoint->port, endpoint->target);
+    ws.handshake(endpoint.host + ":" + endpoint.port, endpoint.target);
   } catch (const std::exception& e) {
-    return tools::report_error(kTool, Status(StatusCode::kIoError, "cannot connect to " + endpoint->shown + ": " +
-                                                                        e.what()));
+    return Status(StatusCode::kIoError, "cannot connect to " + endpoint.shown + ": " + e.what());
   }
-  Watchdog watchdog(ws.next_layer().native_handle(), std::chrono::duration<double>(opt.timeout_s));
-  beast::flat_buffer buffer;
-  const auto fail = [&](const std::string& what) {
-    return tools::report_error(kTool, Status(StatusCode::kIoError,
-                                             watchdog.fired() ? what + ": nothing from the server for " +
-                                                                    std::to_string(opt.timeout_s) + " s"
-                                                              : what));
-  };
+  return Status();
+}
+
+/// The server's first message, a hello with at least one scene (view/PROTOCOL.md).
+Result<json> read_hello(websocket::stream<tcp::socket>& ws, beast::flat_buffer& buffer, Watchdog& watchdog,
+                        double timeout_s) {
+  json hello;
   try {
     ws.read(buffer);
     watchdog.progress();
     hello = json::parse(beast::buffers_to_string(buffer.data()));
     buffer.consume(buffer.size());
   } catch (const std::exception& e) {
-    return fail(std::string("no hello from the server: ") + e.what());
+    return io_error(watchdog, std::string("no hello from the server: ") + e.what(), timeout_s);
   }
   if (!hello.is_object() || hello.value("type", "") != "hello" || !hello.contains("scenes") ||
       !hello["scenes"].is_array() || hello["scenes"].empty()) {
-    return fail("the server's first message is not a hello with scenes");
+    return io_error(watchdog, "the server's first message is not a hello with scenes", timeout_s);
   }
-  const json& scene = hello["scenes"][0];
-  std::string preset_name = opt.preset.empty() ? hello.value("preset", std::string("fastest")) : opt.preset;
-  auto preset = api::parse_preset(preset_name);
-  if (!preset.ok()) return tools::report_usage_error(kTool, preset.status());
+  return hello;
+}
 
-  // The cameras: the front door's, around the hello's bounding sphere for an orbit or a path.
+/// The cameras of `choice`: the front door's, around the bounding sphere of the hello's `scene` for an orbit or
+/// a path.
+Result<std::vector<api::Camera>> scene_cameras(const api::CameraChoice& choice, const json& scene) {
   rgs::format::SceneBounds bounds;
   const json& c = scene["center"];
   for (int i = 0; i < 3; ++i) bounds.sphere_center[i] = c.is_array() && c.size() == 3 ? c[i].get<float>() : 0.f;
@@ -250,39 +240,29 @@ int run(const Options& opt) {
     bounds.aabb_min[i] = bounds.sphere_center[i] - bounds.sphere_radius;
     bounds.aabb_max[i] = bounds.sphere_center[i] + bounds.sphere_radius;
   }
-  auto cameras = api::make_cameras(opt.cameras, bounds);
-  if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
-  if (cameras->empty()) return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no cameras"));
-  const size_t count = cameras->size();
-  std::vector<std::string> messages;
-  messages.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    view::ViewRequest req;
-    req.seq = i + 1;
-    req.camera = view::inria_from_camera((*cameras)[i]);
-    req.preset = *preset;
-    req.background = *background;
-    req.encoding = encoding;
-    req.quality = opt.quality;
-    messages.push_back(view::view_message_json(req));
-  }
-  const uint32_t width = (*cameras)[0].width, height = (*cameras)[0].height;
-  if (!opt.quiet) {
-    std::fprintf(stderr, "%s: %s: %s on %s (%s), %zu views %ux%u, %s, %u in flight\n", kTool,
-                 endpoint->shown.c_str(), tools::escape_text(scene.value("path_basename", std::string("?"))).c_str(),
-                 tools::escape_text(hello.value("backend", std::string("?"))).c_str(),
-                 tools::escape_text(hello.value("device", std::string("?"))).c_str(), count, width, height,
-                 opt.encoding.c_str(), opt.in_flight);
-  }
+  return api::make_cameras(choice, bounds);
+}
 
+/// What the measured loop saw: every frame counted, and the measurements of those after the warm-up.
+struct Measurements {
+  size_t frames = 0, refine_frames = 0, failed = 0, dropped = 0;
+  std::vector<double> latency_ms, bytes, frame_arrival_s;  ///< per measured frame
+  std::map<std::string, std::vector<double>> stats;        ///< kStatKeys of the measured frames' headers
+  double total_s = 0;                                      ///< from the first view sent to the last frame
+};
+
+/// Sends the views (view k + 1 is messages[k]) paced by the frames that come back, `opt.in_flight` views
+/// outstanding, measures the frames after the first `opt.warmup`, and closes the connection.
+Result<Measurements> measure(websocket::stream<tcp::socket>& ws, beast::flat_buffer& buffer, Watchdog& watchdog,
+                             const std::vector<std::string>& messages, const Options& opt) {
+  const auto fail = [&](const std::string& what) { return io_error(watchdog, what, opt.timeout_s); };
+  const size_t count = messages.size();
   // Send views paced by frames: `in_flight` views outstanding. A frame of seq s answers every view up to s
   // (the server may replace a pending view by a newer one: those never get a frame and count as dropped).
   std::vector<Clock::time_point> sent_at(count + 1);
   std::vector<bool> answered(count + 1, false);
   size_t next = 1, highest_answered = 0;
-  std::vector<double> latency_ms, bytes, frame_arrival_s;
-  std::map<std::string, std::vector<double>> stats;
-  size_t frames = 0, refine_frames = 0, failed = 0, dropped = 0;
+  Measurements m;
   Clock::time_point start, measured_from;
   bool measuring = false;
   const auto send_next = [&]() {
@@ -305,7 +285,7 @@ int run(const Options& opt) {
         if (msg.is_object() && msg.value("type", "") == "error") {
           if (msg.value("fatal", true)) return fail("server error: " + msg.value("message", data));
           // a frame failed to render: the oldest view outstanding
-          ++failed;
+          ++m.failed;
           if (highest_answered < next - 1) answered[++highest_answered] = true;
           while (next <= count && next - 1 - highest_answered < opt.in_flight) send_next();
         }
@@ -322,29 +302,29 @@ int run(const Options& opt) {
       const uint64_t seq = header["seq"].get<uint64_t>();
       if (seq == 0 || seq > next - 1) return fail("a frame of seq " + std::to_string(seq) + ", never sent");
       if (header.value("refine", false)) {
-        ++refine_frames;
+        ++m.refine_frames;
         continue;
       }
       if (answered[seq]) continue;
       for (uint64_t s = highest_answered + 1; s < seq; ++s) {
-        if (!answered[s]) ++dropped;
+        if (!answered[s]) ++m.dropped;
         answered[s] = true;
       }
       answered[seq] = true;
       highest_answered = std::max<size_t>(highest_answered, seq);
-      ++frames;
-      if (!measuring && frames > opt.warmup) {
+      ++m.frames;
+      if (!measuring && m.frames > opt.warmup) {
         measuring = true;
         measured_from = sent_at[seq];
       }
-      if (frames > opt.warmup) {
-        latency_ms.push_back(std::chrono::duration<double, std::milli>(arrival - sent_at[seq]).count());
-        bytes.push_back(double(data.size()));
-        frame_arrival_s.push_back(std::chrono::duration<double>(arrival - measured_from).count());
+      if (m.frames > opt.warmup) {
+        m.latency_ms.push_back(std::chrono::duration<double, std::milli>(arrival - sent_at[seq]).count());
+        m.bytes.push_back(double(data.size()));
+        m.frame_arrival_s.push_back(std::chrono::duration<double>(arrival - measured_from).count());
         if (header.contains("stats") && header["stats"].is_object()) {
           for (const char* key : kStatKeys) {
             const auto it = header["stats"].find(key);
-            if (it != header["stats"].end() && it->is_number()) stats[key].push_back(it->get<double>());
+            if (it != header["stats"].end() && it->is_number()) m.stats[key].push_back(it->get<double>());
           }
         }
       }
@@ -353,27 +333,34 @@ int run(const Options& opt) {
   } catch (const std::exception& e) {
     return fail(std::string("connection lost: ") + e.what());
   }
-  const double total_s = std::chrono::duration<double>(Clock::now() - start).count();
+  m.total_s = std::chrono::duration<double>(Clock::now() - start).count();
   try {
     ws.close(websocket::close_code::normal);
   } catch (const std::exception&) {
     // the server went first; the measurements are complete
   }
+  return m;
+}
 
-  const size_t measured = latency_ms.size();
-  const double span = frame_arrival_s.empty() ? 0 : frame_arrival_s.back();
+/// Prints the report of `m` for the `count` views at width x height, and writes it as JSON when asked. Returns
+/// the exit code: an I/O error when no frame arrived or the JSON cannot be written.
+int summarize(const Options& opt, const Endpoint& endpoint, const json& hello, const std::string& preset_name,
+              size_t count, uint32_t width, uint32_t height, const Measurements& m) {
+  const json& scene = hello["scenes"][0];
+  const size_t measured = m.latency_ms.size();
+  const double span = m.frame_arrival_s.empty() ? 0 : m.frame_arrival_s.back();
   // frames measured over the time from sending the first measured view to the last frame's arrival
   const double fps = span > 0 ? double(measured) / span : NAN;
   double mean_bytes = NAN;
-  if (!bytes.empty()) {
+  if (!m.bytes.empty()) {
     double sum = 0;
-    for (double b : bytes) sum += b;
-    mean_bytes = sum / double(bytes.size());
+    for (double b : m.bytes) sum += b;
+    mean_bytes = sum / double(m.bytes.size());
   }
   json report = {
       {"tool", kTool},
       {"benchmark", true},
-      {"url", endpoint->shown},
+      {"url", endpoint.shown},
       {"backend", hello.value("backend", "")},
       {"device", hello.value("device", "")},
       {"scene", scene.value("path_basename", "")},
@@ -387,24 +374,25 @@ int run(const Options& opt) {
       {"encoding", opt.encoding},
       {"quality", opt.quality},
       {"in_flight", opt.in_flight},
-      {"warmup_frames", std::min<size_t>(opt.warmup, frames)},
-      {"frames", frames},
+      {"warmup_frames", std::min<size_t>(opt.warmup, m.frames)},
+      {"frames", m.frames},
       {"measured_frames", measured},
-      {"refine_frames", refine_frames},
-      {"dropped_views", dropped},
-      {"failed_views", failed},
-      {"seconds", total_s},
+      {"refine_frames", m.refine_frames},
+      {"dropped_views", m.dropped},
+      {"failed_views", m.failed},
+      {"seconds", m.total_s},
       {"frames_per_second", number_or_null(fps)},
       {"latency_ms",
-       {{"median", number_or_null(median(latency_ms))},
-        {"p95", number_or_null(percentile(latency_ms, 95))},
-        {"max", number_or_null(latency_ms.empty() ? NAN : *std::max_element(latency_ms.begin(), latency_ms.end()))}}},
-      {"bytes_per_frame", {{"median", number_or_null(median(bytes))}, {"mean", number_or_null(mean_bytes)}}},
+       {{"median", number_or_null(median(m.latency_ms))},
+        {"p95", number_or_null(percentile(m.latency_ms, 95))},
+        {"max",
+         number_or_null(m.latency_ms.empty() ? NAN : *std::max_element(m.latency_ms.begin(), m.latency_ms.end()))}}},
+      {"bytes_per_frame", {{"median", number_or_null(median(m.bytes))}, {"mean", number_or_null(mean_bytes)}}},
   };
   json server = json::object();
   for (const char* key : kStatKeys) {
-    const auto it = stats.find(key);
-    server[key] = it == stats.end() ? json(nullptr) : number_or_null(median(it->second));
+    const auto it = m.stats.find(key);
+    server[key] = it == m.stats.end() ? json(nullptr) : number_or_null(median(it->second));
   }
   report["server_median"] = server;
 
@@ -415,7 +403,7 @@ int run(const Options& opt) {
   std::printf("  views            %zu at %ux%u, %s q%d, preset %s, %u in flight\n", count, width, height,
               opt.encoding.c_str(), opt.quality, preset_name.c_str(), opt.in_flight);
   std::printf("  frames           %zu (%zu measured after %u warm-up), %zu dropped, %zu failed, %zu refinements\n",
-              frames, measured, opt.warmup, dropped, failed, refine_frames);
+              m.frames, measured, opt.warmup, m.dropped, m.failed, m.refine_frames);
   std::printf("  frames/s         %.2f sustained\n", fps);
   std::printf("  latency          median %.2f ms, p95 %.2f ms, max %.2f ms (view sent -> its frame received)\n",
               ms(report["latency_ms"]["median"]), ms(report["latency_ms"]["p95"]), ms(report["latency_ms"]["max"]));
@@ -434,8 +422,65 @@ int run(const Options& opt) {
       return tools::report_error(kTool, Status(StatusCode::kIoError, "cannot write " + opt.json_path));
     }
   }
-  if (frames == 0) return tools::report_error(kTool, Status(StatusCode::kIoError, "no frame arrived"));
+  if (m.frames == 0) return tools::report_error(kTool, Status(StatusCode::kIoError, "no frame arrived"));
   return tools::kExitOk;
+}
+
+/// The benchmark: connect, read the hello, make the views, send them paced by their frames, report.
+int run(const Options& opt) {
+  auto endpoint = parse_url(opt.url);
+  if (!endpoint.ok()) return tools::report_usage_error(kTool, endpoint.status());
+  auto background = tools::parse_background(opt.background);
+  for (size_t c = 0; background.ok() && c < 3; ++c) {
+    if (!((*background)[c] >= 0.f && (*background)[c] <= 1.f)) {
+      background = Status(StatusCode::kInvalidArgument, "--background: '" + opt.background + "' is not in [0, 1]");
+    }
+  }
+  if (!background.ok()) return tools::report_usage_error(kTool, background.status());
+  view::Encoding encoding = view::Encoding::kJpeg;
+  if (opt.encoding == "webp") encoding = view::Encoding::kWebp;
+  if (opt.encoding == "lossless") encoding = view::Encoding::kLossless;
+
+  net::io_context ioc;
+  websocket::stream<tcp::socket> ws{ioc};
+  if (Status opened = open_websocket(ws, ioc, *endpoint); !opened.ok()) return tools::report_error(kTool, opened);
+  Watchdog watchdog(ws.next_layer().native_handle(), std::chrono::duration<double>(opt.timeout_s));
+  beast::flat_buffer buffer;
+  auto hello = read_hello(ws, buffer, watchdog, opt.timeout_s);
+  if (!hello.ok()) return tools::report_error(kTool, hello.status());
+  const json& scene = (*hello)["scenes"][0];
+  std::string preset_name = opt.preset.empty() ? hello->value("preset", std::string("fastest")) : opt.preset;
+  auto preset = api::parse_preset(preset_name);
+  if (!preset.ok()) return tools::report_usage_error(kTool, preset.status());
+
+  auto cameras = scene_cameras(opt.cameras, scene);
+  if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
+  if (cameras->empty()) return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no cameras"));
+  const size_t count = cameras->size();
+  std::vector<std::string> messages;
+  messages.reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    view::ViewRequest req;
+    req.seq = i + 1;
+    req.camera = view::inria_from_camera((*cameras)[i]);
+    req.preset = *preset;
+    req.background = *background;
+    req.encoding = encoding;
+    req.quality = opt.quality;
+    messages.push_back(view::view_message_json(req));
+  }
+  const uint32_t width = (*cameras)[0].width, height = (*cameras)[0].height;
+  if (!opt.quiet) {
+    std::fprintf(stderr, "%s: %s: %s on %s (%s), %zu views %ux%u, %s, %u in flight\n", kTool,
+                 endpoint->shown.c_str(), tools::escape_text(scene.value("path_basename", std::string("?"))).c_str(),
+                 tools::escape_text(hello->value("backend", std::string("?"))).c_str(),
+                 tools::escape_text(hello->value("device", std::string("?"))).c_str(), count, width, height,
+                 opt.encoding.c_str(), opt.in_flight);
+  }
+
+  auto measured = measure(ws, buffer, watchdog, messages, opt);
+  if (!measured.ok()) return tools::report_error(kTool, measured.status());
+  return summarize(opt, *endpoint, *hello, preset_name, count, width, height, *measured);
 }
 
 }  // namespace
