@@ -133,8 +133,11 @@ def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Opti
             memory_limit: Optional[int] = None, max_gaussians: Optional[int] = None,
             max_decompression_ratio: Optional[int] = None,
             spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
-            antialiased: bool = False) -> Dict[str, Any]:
-    """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default).
+            antialiased: bool = False, edits: Optional[Sequence[Tuple[str, str]]] = None) -> Dict[str, Any]:
+    """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default), but the edits
+    (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere, -outside forms), which act
+    in the order given and so are one list, `edits`: (name, value) pairs in rgs-convert's spelling, e.g.
+    [("rotate", "0,0,90"), ("filter", "opacity gt 0.1"), ("filter-nan", "")] (README, editing on the way).
     A value outside an option's range raises ValueError saying the rule (lod_chunk without lod_levels too, as
     rgs-convert refuses it), a value of the wrong type TypeError. memory_limit is in bytes (0: half the
     physical memory); an input whose estimated peak memory is above it raises kLimitExceeded before it is read."""
@@ -149,7 +152,7 @@ def save(path: _Path, means: _Array, quats: _Array, scales: _Array, opacities: _
          allow_empty: bool = False, lod: Optional[int] = None, lod_levels: Union[str, int, None] = None,
          lod_chunk: Optional[int] = None, memory_limit: Optional[int] = None, max_gaussians: Optional[int] = None,
          max_decompression_ratio: Optional[int] = None, spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
-         antialiased: bool = False) -> Dict[str, Any]:
+         antialiased: bool = False, edits: Optional[Sequence[Tuple[str, str]]] = None) -> Dict[str, Any]:
     """convert()'s options; rgs-convert's --path (a camera path of N views) is camera_path here. The arrays are
     already in memory: memory_limit is accepted and not checked."""
 def rasterization(means: _Array, quats: _Array, scales: _Array, opacities: _Array, colors: _Array,

@@ -4,6 +4,8 @@
 //   rgs-convert point_cloud.ply scene.rgs [options]   quantize and print what it cost
 //   rgs-convert scene.rgs restored.ply                dequantize to a PLY other 3DGS tools load
 //   rgs-convert scene.sog scene.spz --sh-degree 1     any input to any output, dropping SH bands
+//   rgs-convert in.ply out.ply --rotate 180,0,0 --crop-box -2,-2,-2,2,2,2 --filter 'opacity gt 0.05'
+//                                                     edits, in the order given (the SH colour turns too)
 //   cat scene.ply | rgs-convert - scene.rgs --json -  read standard input, JSON summary on standard output
 //   rgs-convert scene.ply scene.rgs --target-psnr 40 --cameras cameras.json --every 8 --width 960
 //                                                     the archive profile's settings for 40 dB (rate control)
@@ -17,7 +19,9 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <optional>
 #include <string>
@@ -30,6 +34,7 @@
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
 #include "rgs/config.h"
+#include "rgs/converter/cloud_edits.h"
 
 namespace {
 
@@ -47,6 +52,7 @@ struct Options {
   std::string lod_levels;  ///< --lod-levels: "auto", "1".."16", or empty (no levels of detail)
   bool quiet = false;
   api::ConvertOptions convert;  ///< everything else, parsed straight into the library's options
+  std::array<std::vector<std::string>, 9> edit_values;  ///< what each edit option (kEditOptions) was given, in order
 
   bool rate_control() const { return convert.target.active(); }
 
@@ -54,6 +60,63 @@ struct Options {
   /// The text summary goes to stdout unless -q or the JSON takes its place.
   bool print_summary() const { return !quiet && !json_to_stdout(); }
 };
+
+/// The edit options: --NAME (converter::parse_edit_action's name), its value's type, its help.
+struct EditOption {
+  const char* name;
+  const char* type;
+  const char* help;
+};
+constexpr EditOption kEditOptions[] = {
+    {"translate", "X,Y,Z", "Edit: move every Gaussian by X,Y,Z scene units"},
+    {"rotate", "X,Y,Z|W,X,Y,Z",
+     "Edit: rotate about the origin by Euler angles in degrees about the fixed world axes, x first, then y, then z "
+     "(extrinsic x-y-z, the same as intrinsic z-y'-x'': R = Rz(Z)*Ry(Y)*Rx(X); right-handed, a positive angle turns "
+     "counter-clockwise seen from the axis' positive end), or by a unit quaternion W,X,Y,Z (4 numbers; norm within "
+     "1e-3 of 1). Means, Gaussian rotations (left-multiplied) and the SH colour (bands 1-3) turn together"},
+    {"scale", "S", "Edit: scale uniformly about the origin by S > 0 (means and scales times S, log scales + ln S)"},
+    {"filter-nan", "", "Edit: drop the Gaussians with a non-finite value (reads the input as --sanitize does)"},
+    {"filter", "'NAME OP VALUE'",
+     "Edit: keep the Gaussians whose property NAME compares true with VALUE; NAME: x, y, z, opacity (after the "
+     "sigmoid), scale_0..2 (after exp), rot_0..3, f_dc_0..2, f_rest_K; OP: lt le gt ge eq ne (or < <= > >= == !=)"},
+    {"crop-box", "MINX,MINY,MINZ,MAXX,MAXY,MAXZ",
+     "Edit: keep the Gaussians whose mean is inside the box (bounds included)"},
+    {"crop-box-outside", "MINX,MINY,MINZ,MAXX,MAXY,MAXZ", "Edit: keep the Gaussians whose mean is outside the box"},
+    {"crop-sphere", "CX,CY,CZ,R", "Edit: keep the Gaussians whose mean is inside the sphere (surface included; R > 0)"},
+    {"crop-sphere-outside", "CX,CY,CZ,R", "Edit: keep the Gaussians whose mean is outside the sphere"},
+};
+
+/// Adds the edit options to `app`, each repeatable, their values into opt->edit_values.
+void add_edit_options(CLI::App& app, Options* opt) {
+  static_assert(std::size(kEditOptions) == std::tuple_size<decltype(Options::edit_values)>::value);
+  for (size_t i = 0; i < std::size(kEditOptions); ++i) {
+    const EditOption& e = kEditOptions[i];
+    if (*e.type == '\0') {
+      app.add_flag(std::string("--") + e.name, e.help)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    } else {
+      app.add_option(std::string("--") + e.name, opt->edit_values[i], e.help)
+          ->type_name(e.type)
+          ->expected(1)  // one value per occurrence, so that a repeated option keeps its place in the order
+          ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    }
+  }
+}
+
+/// The edits of the command line in the order given (CLI11's parse order), parsed by converter::parse_edit_action
+/// into opt->convert.edits. @return "" or the first problem, naming the option.
+std::string collect_edits(const CLI::App& app, Options* opt) {
+  size_t used[std::size(kEditOptions)] = {};
+  for (const CLI::Option* option : app.parse_order()) {
+    for (size_t i = 0; i < std::size(kEditOptions); ++i) {
+      if (option->get_name() != std::string("--") + kEditOptions[i].name) continue;
+      const std::string value = *kEditOptions[i].type == '\0' ? "" : opt->edit_values[i].at(used[i]++);
+      auto edit = converter::parse_edit_action(kEditOptions[i].name, value);
+      if (!edit.ok()) return "--" + edit.status().message();
+      opt->convert.edits.push_back(std::move(edit).value());
+    }
+  }
+  return "";
+}
 
 /// One row of the error table: name, max, rms, then a free-text unit or note.
 void print_stats_row(const std::string& name, const converter::ErrorStats& s, const std::string& unit) {
@@ -287,7 +350,10 @@ int main(int argc, char** argv) {
   CLI::App app{"Convert a trained 3DGS scene into the compact .rgs runtime format (INT8 SH with a scale per "
                "degree and channel, FP16 rotation/scale/opacity, FP32 means), a standard INRIA PLY, an SPZ v4 "
                "file or a KHR_gaussian_splatting GLB. The input's format follows its content (a .rgs input is "
-               "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb, .sog).",
+               "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb, .sog). "
+               "The edits (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere and their "
+               "-outside forms) may be repeated and act on the scene as read in the order given, before --sh-degree "
+               "and everything else.",
                kTool};
   app.add_option("input", opt.input,
                  "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "
@@ -302,8 +368,9 @@ int main(int argc, char** argv) {
                  "Output format: rgs, ply (INRIA PLY), spz (SPZ v4), glb (KHR_gaussian_splatting) or sog (PlayCanvas "
                  "SOG v2); default: the output's extension. A name ending in another of these is a usage error")
       ->check(CLI::IsMember({"rgs", "ply", "spz", "glb", "sog"}));
+  add_edit_options(app, &opt);
   app.add_option("--sh-degree", opt.convert.sh_degree,
-                 "Drop the SH bands above this degree (0..3) before writing any output")
+                 "Drop the SH bands above this degree (0..3) before writing any output, after the edits")
       ->check(CLI::Range(0, 3));
   app.add_option("--scale-encoding", opt.scale_encoding,
                  "FP16 scale encoding: linear (exp applied; best quality) or log (wider range)")
@@ -400,7 +467,9 @@ int main(int argc, char** argv) {
                "when it is a terminal, for conversions over a second)");
   rgs::tools::add_scene_read_options(app);
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
-  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool)) return *code;
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, [&] { return collect_edits(app, &opt); })) {
+    return *code;
+  }
   opt.profile_defaulted = app.count("--profile") == 0;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));

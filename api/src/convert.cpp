@@ -81,6 +81,9 @@ Status check_convert_options(const ConvertOptions& options) {
     archive.profile = format::StorageProfile::kArchive;
     return check_convert_options(archive);
   }
+  for (const converter::EditAction& edit : options.edits) {
+    if (Status s = converter::check_edit_action(edit); !s.ok()) return s.prepend("convert: edit");
+  }
   RGS_RETURN_ERROR_IF(options.sh_degree && *options.sh_degree > 3, StatusCode::kInvalidArgument,
                       "convert: SH degree " + std::to_string(*options.sh_degree) + " outside 0..3");
   RGS_RETURN_ERROR_IF(!(options.sh_clip_percentile > 0.0f && options.sh_clip_percentile <= 100.0f),
@@ -112,7 +115,11 @@ Status check_convert_output(const std::string& dst, OutputFormat output, const C
 
 converter::SceneReadOptions scene_read_options(const ConvertOptions& options) {
   converter::SceneReadOptions read = options.read;
-  read.invalid_policy = options.sanitize ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+  const bool filter_nan = std::any_of(options.edits.begin(), options.edits.end(), [](const converter::EditAction& e) {
+    return e.kind == converter::EditKind::kFilterNan;
+  });
+  read.invalid_policy =
+      options.sanitize || filter_nan ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
   read.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
   return read;
 }

@@ -86,17 +86,34 @@ struct PipelineScene {
   std::optional<format::EncodedScene> encoded;
   std::optional<converter::LodScene> lod;
   ConvertReport report;
+  uint64_t edited_out = 0;  ///< Gaussians the edits removed (ConvertOptions::edits)
 };
 
 /// A stage: acts on the scene in place (reduce its SH bands, fit the archive to a target, quantize, build its
 /// levels of detail), reporting what it did in scene->report.
 using Stage = std::function<Status(PipelineScene* scene)>;
 
-/// The stages a conversion to `output` at `dst` runs on a whole scene, in order: the empty-scene check, the SH
-/// reduction, rate control with a target, then for a .rgs or a streamed SOG quantizing and levels of detail.
+/// The stages a conversion to `output` at `dst` runs on a whole scene, in order: the edits, rate control with a
+/// target, the empty-scene check, the SH reduction, then for a .rgs or a streamed SOG quantizing and levels of
+/// detail.
 /// `options` must outlive the stages (rate control changes `*options`' archive settings).
 std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output, ConvertOptions* options,
                                      ProgressReporter* progress);
+
+/// The error of a conversion whose scene is empty (refused unless ConvertOptions::allow_empty), naming `name` and
+/// why: the edits removed the rest (`edited_out`), sanitizing dropped every Gaussian (`sanitized`), or the input
+/// has none.
+Status empty_scene_error(const std::string& name, uint64_t sanitized, uint64_t edited_out);
+
+/// Applies `edits` in order to `cloud` (converter::apply_edit), adding to (*removed)[i] the Gaussians edit i
+/// removed (`removed` has one entry per edit). Whole scenes and the batches of an out-of-core build alike.
+Status apply_edits(const std::vector<converter::EditAction>& edits, format::GaussianCloud* cloud,
+                   std::vector<uint64_t>* removed);
+
+/// One input note per filtering edit (filter-nan, filter, crop): how many Gaussians it removed (for filter-nan, also
+/// those reading dropped, report->hygiene, which must be set).
+void note_edits(const std::vector<converter::EditAction>& edits, const std::vector<uint64_t>& removed,
+                ConvertReport* report);
 
 /// Writes a scene through the output transaction.
 class Sink {

@@ -110,6 +110,9 @@ std::string options_text(const ConvertOptions& options) {
        << " zstd_level=" << zstd_level_for(options) << " zstd=";
   for (size_t i = 0; i < options.zstd_sections.size(); ++i) text << (i ? "," : "") << options.zstd_sections[i];
   if (options.sh_degree) text << " sh_degree=" << *options.sh_degree;
+  for (size_t i = 0; i < options.edits.size(); ++i) {
+    text << (i ? "; " : " edits=") << converter::edit_action_text(options.edits[i]);
+  }
   if (options.read.lod) text << " lod=" << *options.read.lod;
   text << " spz_frame=" << converter::spz_frame_name(options.read.spz_frame);
   if (options.profile == format::StorageProfile::kArchive) {

@@ -17,6 +17,33 @@ namespace rgs::python {
 
 namespace {
 
+/// The `edits` argument of convert() or save() (`fn`): a sequence of (name, value) pairs of str in rgs-convert's
+/// spelling, parsed by converter::parse_edit_action (("filter-nan",) or ("filter-nan", "") for the flag).
+/// TypeError for other types; ValueError "fn(): edits[i]: <the parser's message>".
+std::vector<converter::EditAction> edits_arg(py::handle value, const char* fn) {
+  const char* pairs = "a sequence of (name, value) pairs of str";
+  if (py::isinstance<py::str>(value) || !py::isinstance<py::sequence>(value)) {
+    throw type_error(fn, "edits", pairs, value);
+  }
+  std::vector<converter::EditAction> edits;
+  for (const py::handle item : value) {
+    const std::string where = "edits[" + std::to_string(edits.size()) + "]";
+    if (py::isinstance<py::str>(item) || !py::isinstance<py::sequence>(item)) {
+      throw type_error(fn, where.c_str(), "a (name, value) pair of str", item);
+    }
+    const auto pair = py::reinterpret_borrow<py::sequence>(item);
+    if (pair.size() != 1 && pair.size() != 2) {
+      throw value_error(fn, where.c_str(), "a (name, value) pair", py::repr(item).cast<std::string>());
+    }
+    const std::string name = str_arg(pair[0], fn, where.c_str());
+    const std::string text = pair.size() == 2 ? str_arg(pair[1], fn, where.c_str()) : std::string();
+    auto edit = converter::parse_edit_action(name, text);
+    if (!edit.ok()) throw py::value_error(std::string(fn) + "(): " + where + ": " + edit.status().message());
+    edits.push_back(std::move(edit).value());
+  }
+  return edits;
+}
+
 /// ConvertOptions from the keyword arguments of convert() or save() (`fn`) that are not the target's (the
 /// defaults are ConvertOptions's own).
 api::ConvertOptions convert_options(const char* fn, const py::kwargs& kwargs) {
@@ -81,6 +108,8 @@ api::ConvertOptions convert_options(const char* fn, const py::kwargs& kwargs) {
       o.sanitize = cast_arg<bool>(value, fn, "sanitize", "a bool");
     } else if (key == "allow_empty") {
       o.allow_empty = cast_arg<bool>(value, fn, "allow_empty", "a bool");
+    } else if (key == "edits") {
+      if (!value.is_none()) o.edits = edits_arg(value, fn);
     } else {
       const py::object accepted = py::module_::import("roofgs").attr("_keyword_options")(fn);
       throw py::type_error("unexpected keyword argument '" + key + "'; the options are " +
@@ -164,7 +193,8 @@ def convert(src, dst, *, to=None, sh_degree=None, scale_encoding=None, sh_clip_p
             zstd=None, profile=None, position_error=None, target_psnr=None, target_bytes=None, cameras=None,
             every=None, limit=None, orbit=None, path=None, fly=None, width=None, height=None, zstd_level=None,
             sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, memory_limit=None,
-            max_gaussians=None, max_decompression_ratio=None, spz_frame=None, antialiased=False, **unexpected):
+            max_gaussians=None, max_decompression_ratio=None, spz_frame=None, antialiased=False, edits=None,
+            **unexpected):
     _refuse_unexpected("convert", unexpected)
     options = {k: v for k, v in locals().items() if k not in ("src", "dst", "unexpected") and v is not None}
     return _convert(src, dst, **options)
@@ -185,7 +215,7 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
          target_bytes=None, cameras=None, every=None, limit=None, orbit=None, camera_path=None, fly=None,
          width=None, height=None, zstd_level=None, sanitize=False, allow_empty=False, lod=None, lod_levels=None,
          lod_chunk=None, memory_limit=None, max_gaussians=None, max_decompression_ratio=None, spz_frame=None,
-         antialiased=False,
+         antialiased=False, edits=None,
          **unexpected):
     _refuse_unexpected("save", unexpected)
     options = {k: v for k, v in locals().items()
@@ -209,7 +239,15 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "render_seconds loading and rendering them). memory_limit: most bytes of memory the conversion may use "
         "(int; 0 or None: half the physical memory); an input whose estimated peak when read whole is above it "
         "is built out of core when it is a binary PLY converted with lod_levels (the same bytes), else raises "
-        "roofgs.Error kLimitExceeded before it is read (api::ConvertOptions::memory_limit)");
+        "roofgs.Error kLimitExceeded before it is read (api::ConvertOptions::memory_limit). edits: the scene's edits "
+        "in the order they act, each a (name, value) pair in rgs-convert's spelling: [('rotate', '0,0,90'), "
+        "('filter', 'opacity gt 0.1'), ('crop-box', '-1,-1,-1,1,1,1'), ('filter-nan', '')]; the names are "
+        "translate (x,y,z scene units), rotate (x,y,z Euler degrees, extrinsic x then y then z, or a unit quaternion "
+        "w,x,y,z; the SH colour turns too), scale (s > 0), filter-nan, filter ('NAME OP VALUE'), crop-box, "
+        "crop-box-outside (minx,miny,minz,maxx,maxy,maxz), crop-sphere, crop-sphere-outside (cx,cy,cz,r) "
+        "(api::ConvertOptions::edits, converter::parse_edit_action); a bad one raises ValueError naming edits[i] "
+        "and the rule. rgs-convert's --translate, --rotate, --scale, --filter-nan, --filter, --crop-box, "
+        "--crop-sphere and their -outside forms are this one keyword, since their order matters");
   m.attr("save").attr("__doc__") = py::str(
         "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb, .sog or a SOG "
         "folder's meta.json), with convert()'s "
@@ -217,7 +255,7 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "(exp of the PLY's log scales), opacities [N] in [0, 1] (sigmoid of the PLY's logits), sh [N, K, 3] "
         "(K = 1, 4, 9, 16; PLY f_dc then f_rest reordered coefficient-major); float32 or convertible. The value "
         "rules of a file apply (sanitize=True drops what they reject). Returns convert()'s dict. The arrays are "
-        "already in memory: memory_limit is accepted and not checked");
+        "already in memory: memory_limit is accepted and not checked. edits: as convert()'s, on the arrays");
 }
 
 }  // namespace rgs::python

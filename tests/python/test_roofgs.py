@@ -899,6 +899,9 @@ def test_from_arrays_of_cuda_tensors_follows_the_value_rules(cuda):
 
 # Options of rgs-convert that concern one command-line run, not a conversion: none of them is a keyword.
 TOOL_ONLY_OPTIONS = {"help", "version", "json", "quiet"}
+# rgs-convert's edits act in the order given: in Python they are one keyword, edits=[(name, value), ...].
+EDIT_OPTIONS = {"translate", "rotate", "scale", "filter-nan", "filter", "crop-box", "crop-box-outside", "crop-sphere",
+                "crop-sphere-outside"}
 
 
 def _signature_keywords(fn):
@@ -928,13 +931,33 @@ def test_convert_and_save_take_every_option_of_rgs_convert():
         pytest.skip("rgs-convert not built (RGS_CONVERT unset)")
     help_text = subprocess.run([tool, "--help"], capture_output=True, text=True, check=True).stdout
     options = set(re.findall(r"--([a-z][a-z0-9-]*)", help_text)) - TOOL_ONLY_OPTIONS
-    expected = {o.replace("-", "_") for o in options}
+    assert EDIT_OPTIONS <= options
+    expected = {o.replace("-", "_") for o in options - EDIT_OPTIONS} | {"edits"}
     assert {"target_bytes", "lod_levels", "lod_chunk", "max_decompression_ratio"} <= expected
     # save()'s first parameter is the output's path: the tool's --path (a camera path) is camera_path there.
     for name, keywords in (("convert", expected), ("save", expected - {"path"} | {"camera_path"})):
         for where, names in (("roofgs." + name, _signature_keywords(getattr(roofgs, name))),
                              ("roofgs.pyi " + name, _stub_keywords(name))):
             assert set(names) == keywords, (where, sorted(keywords - set(names)), sorted(set(names) - keywords))
+
+
+def test_edits_act_in_order_and_bad_ones_raise_value_error_naming_them(tmp_path):
+    src = str(SOURCE_DIR / "samples" / "guitar.ply")
+    report = roofgs.convert(src, str(tmp_path / "a.ply"), edits=[("translate", "1,0,0"), ("rotate", "0,0,90"),
+                                                               ("filter", "opacity gt 0.5"), ("filter-nan", "")])
+    assert report["gaussians"] == 31311
+    assert "filter 'opacity gt 0.5' removed 59,543 Gaussians" in report["input"]["notes"]
+    roofgs.convert(src, str(tmp_path / "b.ply"), edits=[("rotate", "0,0,90"), ("translate", "1,0,0"),
+                                                       ("filter", "opacity gt 0.5"), ("filter-nan",)])
+    assert (tmp_path / "a.ply").read_bytes() != (tmp_path / "b.ply").read_bytes()
+    for edits, message in (([("rotate", "1,1,0,0")], r"edits\[0\]: rotate '1,1,0,0': .*a rotation that is not one"),
+                           ([("scale", "2"), ("filter", "colour gt 1")], r"edits\[1\]: filter 'colour gt 1': unknown property"),
+                           ([("crop-box", "1,2,3")], r"edits\[0\]: crop-box '1,2,3': takes 6 numbers, not 3"),
+                           ([("spin", "1")], r"edits\[0\]: unknown edit 'spin'")):
+        with pytest.raises(ValueError, match=message):
+            roofgs.convert(src, str(tmp_path / "x.rgs"), edits=edits)
+    with pytest.raises(TypeError, match=r"^convert\(\): edits must be a sequence of \(name, value\) pairs of str"):
+        roofgs.convert(src, str(tmp_path / "x.rgs"), edits="rotate 0,0,90")
 
 
 def test_option_values_out_of_range_raise_value_error(tmp_path):

@@ -83,17 +83,19 @@ void merge_quantization(const converter::QuantizationReport& part, converter::Qu
   total->max_flushed_of_largest_axis = std::max(total->max_flushed_of_largest_axis, part.max_flushed_of_largest_axis);
 }
 
-/// The PLY's batches as convert() reads the scene: SH bands above ConvertOptions::sh_degree dropped, the
-/// anti-aliasing flag applied.
+/// The PLY's batches as convert() reads the scene: the edits applied (ConvertOptions::edits: each acts on one
+/// Gaussian at a time, so batch by batch is the whole scene's result), then SH bands above
+/// ConvertOptions::sh_degree dropped, the anti-aliasing flag applied.
 class PlyBatches {
  public:
   PlyBatches(converter::PlyStream* stream, const ConvertOptions& options, uint64_t batch)
-      : stream_(stream), options_(options), batch_(batch) {}
+      : stream_(stream), options_(options), batch_(batch), removed_(options.edits.size(), 0) {}
   Result<bool> next(format::GaussianCloud* cloud) {
     for (;;) {
       RGS_ASSIGN_OR_RETURN(const uint64_t consumed, stream_->read(batch_, cloud));
       if (consumed == 0) return false;
-      if (cloud->size() == 0) continue;  // every Gaussian of the batch dropped by sanitizing
+      RGS_RETURN_IF_ERROR(apply_edits(options_.edits, cloud, &removed_));
+      if (cloud->size() == 0) continue;  // every Gaussian of the batch dropped by sanitizing or the edits
       cloud->antialiased = options_.read.antialiased;
       if (options_.sh_degree && *options_.sh_degree < cloud->sh_degree) {
         RGS_RETURN_IF_ERROR(converter::reduce_sh_degree(cloud, *options_.sh_degree));
@@ -101,12 +103,19 @@ class PlyBatches {
       return true;
     }
   }
-  Status rewind() { return stream_->rewind(); }
+  /// Back to the first batch; the counts of what the edits removed start again.
+  Status rewind() {
+    removed_.assign(removed_.size(), 0);
+    return stream_->rewind();
+  }
+  /// Gaussians each edit removed since the last rewind (one entry per edit).
+  const std::vector<uint64_t>& removed() const { return removed_; }
 
  private:
   converter::PlyStream* stream_;
   const ConvertOptions& options_;
   uint64_t batch_;
+  std::vector<uint64_t> removed_;
 };
 
 /// The quantized batches build_lod_out_of_core() reads in its passes (the pass that needs only the means skips
@@ -186,7 +195,9 @@ Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptio
       }
     }
     stats.count += cloud.size();
-    progress->scanning(double(stream.hygiene().dropped_gaussians + stats.count) / double(stream.vertex_count()));
+    uint64_t read = stream.hygiene().dropped_gaussians + stats.count;
+    for (const uint64_t r : batches.removed()) read += r;
+    progress->scanning(double(read) / double(stream.vertex_count()));
   }
   stats.shq = scan.sh_quantization(stats.sh_degree);
   return stats;
@@ -210,11 +221,9 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   if (!scanned.ok()) return pass_error(scanned.status(), *stream, src);
   SceneStatistics stats = std::move(scanned).value();
   const converter::InputHygiene hygiene = stream->hygiene();
-  if (stats.count == 0 && !options.allow_empty) {
-    return Status(StatusCode::kInvalidArgument,
-                  src + ": " + (hygiene.dropped_gaussians > 0 ? "sanitizing (--sanitize) dropped every Gaussian"
-                                                               : std::string("the input has no Gaussians")));
-  }
+  uint64_t edited_out = 0;
+  for (const uint64_t r : batches.removed()) edited_out += r;
+  if (stats.count == 0 && !options.allow_empty) return empty_scene_error(src, hygiene.dropped_gaussians, edited_out);
   ConvertReport report;
   report.seconds.read = seconds_since(start);
   report.output_format = OutputFormat::kRgs;
@@ -224,6 +233,7 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   report.input_bytes = stream->file_bytes();
   report.declared_gaussians = stream->vertex_count();
   report.hygiene = hygiene;
+  note_edits(options.edits, batches.removed(), &report);
   if (options.sh_degree && *options.sh_degree < stream->sh_degree()) {
     report.input_notes.push_back("SH degree " + std::to_string(stream->sh_degree()) + " reduced to " +
                                  std::to_string(*options.sh_degree));

@@ -1,6 +1,6 @@
-// The stages of a whole scene: a conversion's, in the order they run (rate control with a target, the empty-scene
-// check, the SH reduction, quantizing and the levels of detail for a .rgs or a streamed SOG), and load()'s
-// quantizing of formats other than .rgs.
+// The stages of a whole scene: a conversion's, in the order they run (the edits, rate control with a target, the
+// empty-scene check, the SH reduction, quantizing and the levels of detail for a .rgs or a streamed SOG), and
+// load()'s quantizing of formats other than .rgs.
 #include <algorithm>
 
 #include "../internal_load.h"
@@ -26,14 +26,19 @@ Status fit(PipelineScene* scene, ConvertOptions* options, ProgressReporter* prog
 }
 
 Status check_not_empty(const PipelineScene& scene, const ConvertOptions& options) {
-  const converter::InputScene& input = scene.input;
-  if (input.cloud.size() > 0 || options.allow_empty) return Status();
-  const std::string why = input.hygiene.dropped_gaussians > 0
-                              ? "sanitizing (--sanitize) dropped all " +
-                                    std::to_string(input.hygiene.dropped_gaussians) + " Gaussians, so the scene is empty"
-                              : "the input has no Gaussians";
-  return Status(StatusCode::kInvalidArgument,
-                scene.name + ": " + why + "; allow_empty (--allow-empty) writes an empty scene");
+  if (scene.input.cloud.size() > 0 || options.allow_empty) return Status();
+  return empty_scene_error(scene.name, scene.input.hygiene.dropped_gaussians, scene.edited_out);
+}
+
+/// The edits (ConvertOptions::edits) on the whole cloud, in order; the bounds follow the edited means.
+Status edit(PipelineScene* scene, const std::vector<converter::EditAction>& edits) {
+  std::vector<uint64_t> removed(edits.size(), 0);
+  RGS_RETURN_IF_ERROR(apply_edits(edits, &scene->input.cloud, &removed));
+  for (const uint64_t r : removed) scene->edited_out += r;
+  note_edits(edits, removed, &scene->report);
+  scene->input.bounds = converter::compute_bounds(scene->input.cloud);
+  scene->input.encoded.reset();
+  return Status();
 }
 
 Status reduce_sh(PipelineScene* scene, uint32_t degree) {
@@ -98,9 +103,50 @@ Status build_levels(PipelineScene* scene, uint32_t levels, const ConvertOptions&
 
 }  // namespace
 
+Status empty_scene_error(const std::string& name, uint64_t sanitized, uint64_t edited_out) {
+  const std::string why =
+      edited_out > 0 ? "the edits (filter, crop) removed all " + std::to_string(edited_out) +
+                           " Gaussians left after reading, so the scene is empty"
+      : sanitized > 0 ? "sanitizing (--sanitize) dropped all " + std::to_string(sanitized) +
+                            " Gaussians, so the scene is empty"
+                      : "the input has no Gaussians";
+  return Status(StatusCode::kInvalidArgument,
+                name + ": " + why + "; allow_empty (--allow-empty) writes an empty scene");
+}
+
+Status apply_edits(const std::vector<converter::EditAction>& edits, format::GaussianCloud* cloud,
+                   std::vector<uint64_t>* removed) {
+  for (size_t i = 0; i < edits.size(); ++i) {
+    RGS_ASSIGN_OR_RETURN(const uint64_t r, converter::apply_edit(cloud, edits[i]));
+    (*removed)[i] += r;
+  }
+  return Status();
+}
+
+void note_edits(const std::vector<converter::EditAction>& edits, const std::vector<uint64_t>& removed,
+                ConvertReport* report) {
+  for (size_t i = 0; i < edits.size(); ++i) {
+    const converter::EditKind kind = edits[i].kind;
+    if (kind == converter::EditKind::kTranslate || kind == converter::EditKind::kRotate ||
+        kind == converter::EditKind::kScale) {
+      continue;
+    }
+    const uint64_t dropped = report->hygiene.dropped_gaussians;
+    report->input_notes.push_back(
+        converter::edit_action_text(edits[i]) + " removed " + group_digits(removed[i]) +
+        (removed[i] == 1 ? " Gaussian" : " Gaussians") +
+        (kind == converter::EditKind::kFilterNan && dropped > 0
+             ? " (and reading dropped " + group_digits(dropped) + " with a non-finite value or a zero-norm rotation)"
+             : ""));
+  }
+}
+
 std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output, ConvertOptions* options,
                                      ProgressReporter* progress) {
   std::vector<Stage> stages;
+  if (!options->edits.empty()) {
+    stages.push_back([options](PipelineScene* s) { return edit(s, options->edits); });
+  }
   if (options->target.active()) {
     stages.push_back([options, progress](PipelineScene* s) { return fit(s, options, progress); });
   }

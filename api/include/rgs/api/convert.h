@@ -15,6 +15,7 @@
 #include "rgs/api/camera.h"
 #include "rgs/api/scene.h"
 #include "rgs/converter/attribute_errors.h"
+#include "rgs/converter/cloud_edits.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/spz.h"
@@ -162,8 +163,18 @@ struct ConvertOptions {
   bool sanitize = false;
   /// Write a scene without Gaussians instead of failing with kInvalidArgument.
   bool allow_empty = false;
-  /// Drop the SH bands above this degree (0..3) before writing (converter::reduce_sh_degree).
+  /// Drop the SH bands above this degree (0..3) before writing (converter::reduce_sh_degree), after the edits.
   std::optional<uint32_t> sh_degree;
+  /// Edits applied to the scene as read, in this order, before anything else (rate control, the SH reduction,
+  /// quantizing): translate (scene units), rotate (a unit quaternion w,x,y,z about the origin, SH bands rotated
+  /// too), scale (uniform s > 0 about the origin), filter-nan, filter (a property compared with a value), crop-box
+  /// and crop-sphere (keep inside, or outside); converter::EditAction documents units and encodings and
+  /// converter::parse_edit_action makes one from rgs-convert's spelling ("rotate", "0,90,0"). A filter-nan reads
+  /// the input under the sanitize policy (docs/INPUT_HYGIENE.md), so that the Gaussians with a non-finite value
+  /// are dropped instead of refused. A scene built out of core gets the same edits batch by batch (the same
+  /// bytes). Edits that remove every Gaussian leave an empty scene, refused unless allow_empty. Each edit is
+  /// checked by check_convert_options (converter::check_edit_action).
+  std::vector<converter::EditAction> edits;
 
   // .rgs output only.
   /// FP16 scales stored linear (activated) or as the natural log.
@@ -302,7 +313,8 @@ struct ConvertReport {
   /// archive-profile .rgs (input_storage "rgs archive").
   bool input_compact = false;
   converter::InputHygiene hygiene;
-  /// What the reader noted (the SPZ axes assumed, ignored fields) and the SH bands dropped.
+  /// What the reader noted (the SPZ axes assumed, ignored fields), the Gaussians each filtering edit removed
+  /// (ConvertOptions::edits) and the SH bands dropped.
   std::vector<std::string> input_notes;
 
   OutputFormat output_format = OutputFormat::kRgs;
@@ -339,7 +351,8 @@ std::string convert_report_json(const ConvertReport& report, const std::string& 
 
 /// Checks the options that need no input, as convert() does before reading anything: SH degree, clip percentile,
 /// DC bits, zstd level and sections, the archive options (format::check_archive_options) with the archive
-/// profile or a target, that levels of detail come with the runtime profile and raw per-Gaussian sections, and
+/// profile or a target, that levels of detail come with the runtime profile and raw per-Gaussian sections, each
+/// edit (converter::check_edit_action), and
 /// the target (ConvertTarget: one of psnr_db, finite and positive, or bytes, positive; no levels of detail; a
 /// .rgs output when `to` is set; views named only with a target). Tools call it to refuse a command line before any work.
 /// @return kInvalidArgument naming the option and the rule.
@@ -351,11 +364,11 @@ Status check_convert_options(const ConvertOptions& options);
 Status check_convert_output(const std::string& dst, OutputFormat output, const ConvertOptions& options);
 
 /// Converts the scene at `src` (any format converter::read_scene detects, .rgs included) into `dst` in
-/// options.to or the format its extension names: read (every file of the scene checked against `dst`),
-/// drop SH bands, then quantize into a .rgs (provenance records the source, its XXH64 and the options) or
-/// write PLY / SPZ / GLB from the float Gaussians (a .rgs input dequantized). `dst` is replaced atomically
-/// and only on success: a failed conversion leaves an existing `dst` untouched.
-/// With options.target, the archive options are first fitted to the target on the scene as read (its SH bands
+/// options.to or the format its extension names: read (every file of the scene checked against `dst`), edit
+/// (options.edits, in order), drop SH bands, then quantize into a .rgs (provenance records the source, its XXH64
+/// and the options) or write PLY / SPZ / GLB from the float Gaussians (a .rgs input dequantized). `dst` is
+/// replaced atomically and only on success: a failed conversion leaves an existing `dst` untouched.
+/// With options.target, the archive options are first fitted to the target on the scene as edited (its SH bands
 /// all rendered as the source; the fit's candidates drop those above sh_degree): kTargetPsnr the fewest bytes
 /// whose mean PSNR at the views' own size meets psnr_db; bytes the highest such PSNR whose file fits. The search:
 /// a ladder that coarsens every knob together from the defaults (format::resolve_archive_options), bracketed at
