@@ -2,6 +2,7 @@
 // settings of a .rgs output (write options, quantization, provenance).
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <sstream>
 
@@ -66,7 +67,8 @@ void ProgressReporter::out_of_core(const char* stage, double fraction) {
 }
 
 void ProgressReporter::report(const char* stage, double fraction) {
-  if (!callback_ || stage == stage_) return;
+  // By content: the same literal can have several addresses (inline copies in several files, sanitizers).
+  if (!callback_ || (stage_ != nullptr && std::strcmp(stage, stage_) == 0)) return;
   stage_ = stage;
   fraction_ = std::max(fraction_, fraction);
   callback_(ConvertProgress{stage, fraction_});
