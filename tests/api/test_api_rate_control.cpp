@@ -21,6 +21,7 @@
 #include "rgs/format/reader.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/runtime/image_metrics.h"
+#include "sanitized.h"
 #include "temp_dir.h"
 #include "test_data.h"
 
@@ -138,6 +139,10 @@ TEST_CASE("rate control meets a 40 dB target within 0.5 dB on a scene of SH degr
 }
 
 TEST_CASE("rate control's files grow with the target on guitar: 35, 40 and 45 dB") {
+  if (test::kSanitized) {  // a property of the search, not of memory: the sanitized suite runs the other cases
+    MESSAGE("skipped: the slowest rate-control searches (about ten minutes each under the sanitizers)");
+    return;
+  }
   // The exchanges between knobs take each fit off the rounds' greedy path; a search that stopped at an earlier
   // check's choice instead of searching again after a miss ended the 40 dB fit above the 45 dB one.
   // The quality cards' views (an orbit of 4 at 480x270).
@@ -166,6 +171,10 @@ TEST_CASE("rate control lands within 0.5 dB where whole steps cannot: biker at 3
 }
 
 TEST_CASE("rate control keeps a byte budget on guitar") {
+  if (test::kSanitized) {  // a property of the search, not of memory: the sanitized suite runs the other cases
+    MESSAGE("skipped: the slowest rate-control searches (about ten minutes each under the sanitizers)");
+    return;
+  }
   test::TempDir dir;
   const std::string source = test::repo_path("samples/guitar.ply");
   const std::string out = dir.file("guitar_budget.rgs");
@@ -226,6 +235,10 @@ TEST_CASE("rate control takes the finest archive when the search views cannot re
 }
 
 TEST_CASE("rate control's byte search is never worse than a PSNR search at no more bytes on guitar") {
+  if (test::kSanitized) {  // a property of the search, not of memory: the sanitized suite runs the other cases
+    MESSAGE("skipped: the slowest rate-control searches (about ten minutes each under the sanitizers)");
+    return;
+  }
   // The PSNR search's file at 35 and 45 dB, then a byte budget of its size: the byte search's file, on the same
   // views, reads as high within 0.3 dB (both searches compare archives on reduced views, which rank close archives
   // differently from the views' own size; the byte search checks its best few at that size).

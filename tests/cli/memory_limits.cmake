@@ -190,7 +190,7 @@ else()
   # The limit bounds the whole process, and a sanitized rgs-convert holds more than 72 MiB before it converts.
   add_test(NAME cli.convert_out_of_core.skipped_under_sanitizers
     COMMAND ${CMAKE_COMMAND} -E echo "skipped: cli.convert_out_of_core, cli.convert_out_of_core_input_rewritten and \
-cli.convert_stdin_memory_limit (a sanitized tool holds more than its limit)")
+cli.convert_stdin_memory_limit and cli.edit_lod_out_of_core (a sanitized tool holds more than its limit)")
   set_tests_properties(cli.convert_out_of_core.skipped_under_sanitizers PROPERTIES LABELS cli
     SKIP_REGULAR_EXPRESSION "^skipped: ")
 endif()

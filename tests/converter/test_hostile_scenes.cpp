@@ -43,15 +43,9 @@
 
 #include "ply_test_util.h"
 #include "rgs/converter/scene_reader.h"
+#include "sanitized.h"
 #include "test_data.h"
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define RGS_TEST_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
-#define RGS_TEST_SANITIZED 1
-#endif
-#endif
 
 namespace rgs::test {
 namespace {
