@@ -321,7 +321,7 @@ def test_an_unknown_convert_option_lists_every_option(tmp_path):
         with pytest.raises(TypeError, match="bogus") as e:
             call(bogus=1)
         listed = str(e.value).split("the options are ")[1].split(", ")
-        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == 29
+        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == 30
     with pytest.raises(TypeError, match="unexpected keyword argument 'bogus'; the options are to, sh_degree"):
         roofgs._convert(src, str(tmp_path / "x.rgs"), bogus=1)
 
