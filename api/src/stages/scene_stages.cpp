@@ -33,7 +33,8 @@ Status check_not_empty(const PipelineScene& scene, const ConvertOptions& options
 /// The edits (ConvertOptions::edits) on the whole cloud, in order; the bounds follow the edited means.
 Status edit(PipelineScene* scene, const std::vector<converter::EditAction>& edits) {
   std::vector<uint64_t> removed(edits.size(), 0);
-  RGS_RETURN_IF_ERROR(apply_edits(edits, &scene->input.cloud, &removed));
+  Status applied = apply_edits(edits, &scene->input.cloud, &removed);
+  if (!applied.ok()) return applied.prepend(scene->name);
   for (const uint64_t r : removed) scene->edited_out += r;
   note_edits(edits, removed, &scene->report);
   scene->input.bounds = converter::compute_bounds(scene->input.cloud);
