@@ -220,6 +220,17 @@ Result<uint64_t> filter_cloud(format::GaussianCloud* cloud, const EditAction& ac
   return remove_unless(cloud, [&](uint64_t i) { return compare(value_of(i), action.compare, value); });
 }
 
+/// 0 when a translation or a scale left every mean and scale finite, else the error naming the first Gaussian it
+/// took out of float32's range.
+Result<uint64_t> in_float_range(const format::GaussianCloud& cloud, const EditAction& action) {
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!all_finite(&cloud.means[i * 3], 3) || !all_finite(&cloud.scales[i * 3], 3)) {
+      return invalid(action, "takes Gaussian " + std::to_string(i) + " out of float32's range");
+    }
+  }
+  return uint64_t{0};
+}
+
 }  // namespace
 
 std::string edit_action_text(const EditAction& action) {
@@ -318,14 +329,14 @@ Result<uint64_t> apply_edit(format::GaussianCloud* cloud, const EditAction& acti
   switch (action.kind) {
     case EditKind::kTranslate:
       for (size_t i = 0; i < n * 3; ++i) cloud->means[i] = float(double(cloud->means[i]) + v[i % 3]);
-      return uint64_t{0};
+      return in_float_range(*cloud, action);
     case EditKind::kRotate:
       rotate_cloud(cloud, v);
       return uint64_t{0};
     case EditKind::kScale:
       for (float& m : cloud->means) m = float(double(m) * v[0]);
       for (float& s : cloud->scales) s = float(double(s) * v[0]);
-      return uint64_t{0};
+      return in_float_range(*cloud, action);
     case EditKind::kFilterNan: {
       const size_t sh = size_t{cloud->sh_coefficients()} * 3;
       return remove_unless(cloud, [&](uint64_t i) {
