@@ -138,6 +138,19 @@ TEST_CASE("server: a token is at least 16 characters") {
   CHECK(view::Server::start({guitar()}, options).ok());
 }
 
+TEST_CASE("server: a port in use is named, with the option that chooses another") {
+  view::Server first = start({guitar()});
+  view::ServerOptions options;
+  options.port = first.port();
+  const auto second = view::Server::start({guitar()}, options);
+  REQUIRE_FALSE(second.ok());
+  CHECK(second.status().code() == StatusCode::kIoError);
+  const std::string message = second.status().message();
+  CHECK_MESSAGE(message.find("port " + std::to_string(first.port()) + " of 127.0.0.1 is in use") != std::string::npos,
+                message);
+  CHECK_MESSAGE(message.find("(--port)") != std::string::npos, message);
+}
+
 TEST_CASE("server: idle TCP connections cannot lock clients out, and are closed 5 s after their last request") {
   view::Server server = start({guitar()});
   const uint16_t port = server.port();

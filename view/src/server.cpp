@@ -188,6 +188,11 @@ Result<Server> Server::start(std::vector<api::Scene> scenes, const ServerOptions
   if (ec) return fail("cannot open a socket for");
   impl->acceptor->set_option(net::socket_base::reuse_address(true), ec);
   impl->acceptor->bind(endpoint, ec);
+  if (ec == net::error::address_in_use) {
+    return Status(StatusCode::kIoError, "view server: port " + std::to_string(options.port) + " of " + options.host +
+                                            " is in use (another server, or another rgs-view); choose another with "
+                                            "port (--port), or 0 for a free one");
+  }
   if (ec) return fail("cannot bind to");
   impl->acceptor->listen(net::socket_base::max_listen_connections, ec);
   if (ec) return fail("cannot listen on");
