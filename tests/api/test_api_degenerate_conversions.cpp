@@ -41,7 +41,7 @@ constexpr double kTargetDb = 40;
 /// (docs/AUDITS.md#degenerate-scenes).
 constexpr double kArchiveDb = 65;
 /// The rate-control conversions (a PSNR and a byte target) run on every corpus scene, or under the sanitizers,
-/// where their searches take most of a quarter of an hour, on every fourth.
+/// where their searches take over twenty minutes, on every fourth.
 constexpr size_t kTargetsEvery = test::kSanitized ? 4 : 1;
 
 struct Case {
