@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <utility>
 
 #include "internal_pipeline.h"
@@ -235,6 +236,22 @@ Result<ConvertReport> convert_read(Result<converter::InputScene> input, const st
   return outputs->commit(convert_whole(std::move(source), dst, output, outputs->options(), progress));
 }
 
+/// convert_scene(), convert_bytes() and convert_cloud(): the output checked, then the whole scene `read` gives
+/// (named `name`) converted to `dst`. `reads` when `read` still has the reading to do: the output is declared
+/// before it, so that a refused output costs no read, and the "reading" stage is reported.
+Result<ConvertReport> convert_whole_source(const std::string& name, const std::string& dst,
+                                           const ConvertOptions& options, bool reads,
+                                           const std::function<Result<converter::InputScene>()>& read) {
+  const auto start = detail::Clock::now();
+  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
+  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
+  ConversionOutputs outputs(options);
+  if (reads) RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
+  detail::ProgressReporter progress(options, output);
+  if (reads) progress.reading();
+  return convert_read(read(), name, dst, output, &outputs, &progress, start);
+}
+
 }  // namespace
 
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
@@ -256,38 +273,21 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
 
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,
                                     const ConvertOptions& options) {
-  const auto start = detail::Clock::now();
-  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
-  ConversionOutputs outputs(options);
-  detail::ProgressReporter progress(options, output);
-  return convert_read(std::move(input), src, dst, output, &outputs, &progress, start);
+  return convert_whole_source(src, dst, options, false, [&] { return Result<converter::InputScene>(std::move(input)); });
 }
 
 Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
                                     const std::string& dst, const ConvertOptions& options) {
-  const auto start = detail::Clock::now();
-  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
-  ConversionOutputs outputs(options);
-  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
-  detail::ProgressReporter progress(options, output);
-  progress.reading();
-  return convert_read(converter::read_scene_bytes(data, size, name, scene_read_options(options)), name, dst, output,
-                      &outputs, &progress, start);
+  return convert_whole_source(name, dst, options, true, [&] {
+    return converter::read_scene_bytes(data, size, name, scene_read_options(options));
+  });
 }
 
 Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::string& name, const std::string& dst,
                                     const ConvertOptions& options) {
-  const auto start = detail::Clock::now();
-  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
-  ConversionOutputs outputs(options);
-  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
-  detail::ProgressReporter progress(options, output);
-  progress.reading();
-  return convert_read(converter::scene_from_cloud(std::move(cloud), name, scene_read_options(options)), name, dst,
-                      output, &outputs, &progress, start);
+  return convert_whole_source(name, dst, options, true, [&] {
+    return converter::scene_from_cloud(std::move(cloud), name, scene_read_options(options));
+  });
 }
 
 }  // namespace rgs::api
