@@ -140,7 +140,7 @@ TEST_CASE("rate control meets a 40 dB target within 0.5 dB on a scene of SH degr
 
 TEST_CASE("rate control's files grow with the target on guitar: 35, 40 and 45 dB") {
   if (test::kSanitized) {  // a property of the search, not of memory: the sanitized suite runs the other cases
-    MESSAGE("skipped: the slowest rate-control searches (about ten minutes each under the sanitizers)");
+    MESSAGE("skipped: the slowest rate-control searches (minutes each under the sanitizers)");
     return;
   }
   // The exchanges between knobs take each fit off the rounds' greedy path; a search that stopped at an earlier
@@ -172,7 +172,7 @@ TEST_CASE("rate control lands within 0.5 dB where whole steps cannot: biker at 3
 
 TEST_CASE("rate control keeps a byte budget on guitar") {
   if (test::kSanitized) {  // a property of the search, not of memory: the sanitized suite runs the other cases
-    MESSAGE("skipped: the slowest rate-control searches (about ten minutes each under the sanitizers)");
+    MESSAGE("skipped: the slowest rate-control searches (minutes each under the sanitizers)");
     return;
   }
   test::TempDir dir;
@@ -236,7 +236,7 @@ TEST_CASE("rate control takes the finest archive when the search views cannot re
 
 TEST_CASE("rate control's byte search is never worse than a PSNR search at no more bytes on guitar") {
   if (test::kSanitized) {  // a property of the search, not of memory: the sanitized suite runs the other cases
-    MESSAGE("skipped: the slowest rate-control searches (about ten minutes each under the sanitizers)");
+    MESSAGE("skipped: the slowest rate-control searches (minutes each under the sanitizers)");
     return;
   }
   // The PSNR search's file at 35 and 45 dB, then a byte budget of its size: the byte search's file, on the same
