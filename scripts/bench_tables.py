@@ -17,7 +17,8 @@ fastest preset):
      stage's time over the time that work takes at the measured roofs (docs/lab/ROOFLINE.md#the-true-floor).
 With --ab the inputs are the runs of `scripts/gpu_check.sh ... ab` (ab_<scene>_<a|b><round>.json: side A is
 the other build, B this one) and the output is one table of total medians per side and B's change over A.
-With --floor-only the output is the floor tables (5.) alone. With --update FILE the output replaces the lines
+With --floor-only the output is the floor tables (5.) alone. With --occlusion it is one table of the pairs behind
+saturated tiles (docs/lab/OCCLUSION.md), a row per input run (its camera set named) and resolution. With --update FILE the output replaces the lines
 between the markers
     <!-- bench_tables: begin ... -->
     <!-- bench_tables: end -->
@@ -131,6 +132,7 @@ def load_run(path):
         spread = r.get("view_total_ms")
         frames.append({"mode": r["mode"], "resolution": r["resolution"],
                        "ms": {s: float(med[s + "_ms"]) for s in STAGES}, "floor": floor,
+                       "pairs": float(r["mean_pairs"]) if is_number(r.get("mean_pairs")) else None,
                        "spread": (float(spread["min"]), float(spread["max"])) if spread else None})
 
     quality = j.get("quality", [])
@@ -157,11 +159,17 @@ def load_run(path):
             "blended_px": mean("blended") / mean("pixels"), "skipped_px": mean("skipped") / mean("pixels"),
             "contributing": mean("contributing"), "rect": mean("rect_pairs"),
             "p16": mean("blending_pairs", "16x16"), "p8": mean("blending_pairs", "8x8"),
-            "p4": mean("blending_pairs", "4x4"), "reach16": mean("reaching_pairs", "16x16")}
+            "p4": mean("blending_pairs", "4x4"), "reach16": mean("reaching_pairs", "16x16"),
+            "hidden_rect": mean("hidden_rect_pairs") if all("hidden_rect_pairs" in v for v in views) else None,
+            "hidden_reach": mean("hidden_reaching_pairs") if all("hidden_reaching_pairs" in v for v in views) else None,
+            "saturated": mean("saturated_tiles") if all("saturated_tiles" in v for v in views) else None}
 
     stem = os.path.basename(scene["path"].rstrip("/"))
     stem = re.sub(r"\.(rgs|ply|spz|glb|gltf|splat|sog|json)$", "", stem)
+    cams = j.get("cameras") if isinstance(j.get("cameras"), dict) else {}
+    views = {"path": "camera path", "orbit": "orbit"}.get(cams.get("source"), "own cameras")
     return {"path": path, "date": j["date"], "stem": stem, "replicate": replicate,
+            "views": f"{views} ({cams['views']})" if isinstance(cams.get("views"), int) else views,
             "gaussians": scene["gaussians"],
             "device": (dev["name"], dev["compute_capability"], dev["multiprocessors"]),
             "frames": frames, "quality": rows, "census": census}
@@ -193,6 +201,7 @@ class Scene:
         self.replicate = run["replicate"]
         self.gaussians = run["gaussians"]
         self.frames = {}   # (mode, resolution) -> stage ms
+        self.pairs = {}    # (mode, resolution) -> mean pairs per frame (None where the JSON has none)
         self.modes = []    # in the order the runs list them
         self.quality = {}  # (mode, resolution) -> (mean, min)
         self.floor = {}    # (mode, resolution) -> stage floor ms
@@ -226,6 +235,7 @@ def collect(runs, names):
             k = (f["mode"], f["resolution"])
             need(k not in scene.frames, run["path"], f"{scene.name} {k[0]} {k[1]} appears twice in the inputs")
             scene.frames[k] = f["ms"]
+            scene.pairs[k] = f["pairs"]
             if f["floor"]:
                 scene.floor[k] = f["floor"]
             if f["spread"]:
@@ -369,8 +379,41 @@ def floor_tables(scenes, resolutions, mode):
         out += ["", f"`{mode}` per stage against the true floor, ms (measured / floor), and the spread of the views' "
                 "median totals:", ""]
         out += table(["frame"] + list(STAGES[:-1]) + ["total (× floor)", "views min–max"], rows)
-
     return out
+
+
+def occlusion_table(runs, names, mode):
+    """Pairs behind saturated tiles (docs/lab/OCCLUSION.md), a row per run and resolution with --floor: the census's
+    hidden pairs, the bounds of their share of the mode's pairs, and its sort + ranges scaled to the pairs left at
+    the lower bound."""
+    rows = []
+    floor_frames = []
+    for run in runs:
+        scenes, _, _ = collect([run], names)
+        floor_frames += [(run, s, res) for s in scenes for res in sorted(s.census, key=resolution_order)]
+    for run, s, res in floor_frames:
+        c, pairs = s.census[res], s.pairs.get((mode, res))
+        if c["hidden_rect"] is None or not pairs:
+            continue
+        w, h = (int(v) for v in res.split("x"))
+        tiles = -(-w // 16) * -(-h // 16)
+        # The mode's pairs F hold the reaching pairs and lie within the 3DGS rectangles' pairs, so the hidden ones
+        # among them are at least the hidden reaching pairs and at most those plus F's pairs that reach nowhere.
+        low = c["hidden_reach"] / pairs
+        high = min(c["hidden_rect"], c["hidden_reach"] + max(pairs - c["reach16"], 0)) / pairs
+        ms = s.frames[(mode, res)]
+        rows.append([f"{s.label}, {resolution_label(res)}", run["views"], f"{100 * c['saturated'] / tiles:.0f} %",
+                     f"{100 * c['hidden_rect'] / c['rect']:.1f} %", f"{100 * c['hidden_reach'] / c['reach16']:.1f} %",
+                     f"{pairs / 1e6:.2f}M", f"{100 * low:.1f}–{100 * high:.1f} %",
+                     f"{ms['sort'] + ms['ranges']:.3f} → {(ms['sort'] + ms['ranges']) * (1 - low):.3f}"])
+    if not rows:
+        raise ShapeError("no run with --floor and the census's hidden pairs among the inputs")
+    devices = {r["device"] for r in runs}
+    dates = sorted({r["date"] for r in runs})
+    out = [f"Device: {', '.join(f'{d[0]} (sm {d[1]}, {d[2]} SMs)' for d in sorted(devices))}; "
+           f"{', '.join(dates)}. Mean per view:", ""]
+    return out + table(["frame", "views", "saturated tiles", "hidden 3DGS", "hidden reaching", f"{mode} pairs",
+                        "hidden share", "sort + ranges ms"], rows)
 
 
 def ab_table(runs, names):
@@ -446,6 +489,8 @@ def main(argv):
     parser.add_argument("--floor-only", action="store_true", help="only the true floor's tables (runs with --floor)")
     parser.add_argument("--block", metavar="NAME", help="with --update: the markers of the block NAME")
     parser.add_argument("--ab", action="store_true", help="A/B runs of gpu_check.sh ab: one comparison table")
+    parser.add_argument("--occlusion", action="store_true",
+                        help="runs with --floor: one table of the pairs behind saturated tiles, a row per run")
     parser.add_argument("--name", action="append", default=[], metavar="STEM=LABEL",
                         help="short name of a scene file (e.g. garden_30k=garden)")
     args = parser.parse_args(argv)
@@ -461,6 +506,13 @@ def main(argv):
         runs = [load_run(p) for p in args.json]
         if args.ab:
             sys.stdout.write("\n".join(ab_table(runs, names)) + "\n")
+            return 0
+        if args.occlusion:
+            text = "\n".join(occlusion_table(runs, names, args.mode)) + "\n"
+            if args.update:
+                update(args.update, text, args.block)
+            else:
+                sys.stdout.write(text)
             return 0
         scenes, device, dates = collect(runs, names)
         text = render(scenes, device, dates, args.mode, args.reference, args.stages, args.modes, args.floor_only)

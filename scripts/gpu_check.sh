@@ -271,9 +271,10 @@ if [ "$what" = big ]; then
   lod_bench big_spiral "$big_dir/taebak_x59_lod.rgs" --path 120 "${budget[@]}"
 fi
 if [ "$what" = floor ] || [ "$what" = all ]; then
-  # The true floor (docs/lab/ROOFLINE.md#the-true-floor): faithful and fastest against what each view needs, counted
-  # by the CPU reference on this host's cores, at 1080p and 4K; and a camera path of 32 views (near and far,
-  # low and high) for the spread over views the scenes' own cameras do not show.
+  # The true floor (docs/lab/ROOFLINE.md#the-true-floor) and the pairs behind saturated tiles
+  # (docs/lab/OCCLUSION.md): faithful and fastest against what each view needs, counted by the CPU reference on
+  # this host's cores, at 1080p and 4K, on the scenes' own views and on a camera path of 16 views (near and far,
+  # low and high) that the scenes' cameras do not show.
   floor_bench() {  # NAME ARGS...
     local name="$1"
     shift
@@ -285,12 +286,13 @@ if [ "$what" = floor ] || [ "$what" = all ]; then
     note "floor_$name: exit $rc in $(( $(date +%s) - t0 )) s"
     grep -v -e ' \.\.\.$' "$out/floor_$name.log" | tee -a "$summary"
   }
-  floor_bench daffodils "$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --orbit 8 --floor
-  floor_bench daffodils_path "$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --path 32
   if [ -f "$taebak" ]; then
     floor_bench taebak "$taebak" --cameras "$taebak_cameras" --floor
-    floor_bench taebak_path "$taebak" --path 32
+    floor_bench taebak_path "$taebak" --path 16 --floor
   fi
+  floor_bench flowers "$RGS_DATA_DIR/mipnerf360_flowers_c3dgs.rgs" --path 16 --floor  # 173 own views: too long to count
+  floor_bench daffodils "$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --orbit 8 --floor
+  floor_bench daffodils_path "$RGS_DATA_DIR/playcanvas_flowers_lod0.rgs" --path 16 --floor
 fi
 if [ "$what" = pybench ] || [ "$what" = all ]; then
   # roofgs.rasterization() on torch CUDA tensors against rgs-bench's fastest on the same views: taebak's 8

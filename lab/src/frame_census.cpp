@@ -28,6 +28,7 @@ struct RowCounts {
   uint32_t max_blended = 0;
   uint64_t blending_pairs[kCensusCells] = {0, 0, 0};
   uint64_t reaching_pairs[kCensusCells] = {0, 0, 0};
+  uint64_t saturated_tiles = 0, hidden_rect_pairs = 0, hidden_reaching_pairs = 0;
 };
 
 /// α of `g` at pixel (x, y) by the 3DGS rule, or −1 when the pair does not blend there (power > 0 or
@@ -52,7 +53,8 @@ void count_cells(uint16_t blocks, uint64_t* pairs) {
 }
 
 /// Walks tile (tx, ty): every pixel against every Gaussian of its list, tracking per pair the 4×4 blocks where
-/// it blends and where it reaches α ≥ 1/255; `blends[j]` is set when pair j blends anywhere.
+/// it blends and where it reaches α ≥ 1/255; `blends[j]` is set when pair j blends anywhere. The pairs from the
+/// largest index at which a pixel's walk ended onwards are hidden when every pixel's walk ended.
 void census_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t* ids, uint64_t count, int tx, int ty,
                  const FrameCensus& frame, std::vector<uint16_t>* blend_blocks, std::vector<uint16_t>* reach_blocks,
                  uint8_t* blends, uint16_t* blended_map, RowCounts* row) {
@@ -61,6 +63,7 @@ void census_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t
   const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
   const uint32_t x1 = std::min<uint32_t>(x0 + k::kTileSize, frame.width);
   const uint32_t y1 = std::min<uint32_t>(y0 + k::kTileSize, frame.height);
+  uint64_t saturation = 0;  // largest index at which a pixel's walk ended; `count` once one never ends
   for (uint32_t y = y0; y < y1; ++y) {
     for (uint32_t x = x0; x < x1; ++x) {
       const uint16_t block = uint16_t(1u << (((y - y0) / 4) * kBlocksPerSide + (x - x0) / 4));
@@ -78,12 +81,14 @@ void census_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t
         const float test_T = T * (1.f - alpha);
         if (test_T < k::kTransmittanceMin) {
           done = true;
+          saturation = std::max(saturation, j);
           continue;
         }
         T = test_T;
         ++blended;
         (*blend_blocks)[j] |= block;
       }
+      if (!done) saturation = count;
       row->blended += blended;
       if (blended_map != nullptr) blended_map[size_t(y) * frame.width + x] = uint16_t(blended);
       row->max_blended = std::max(row->max_blended, blended);
@@ -94,6 +99,10 @@ void census_tile(const std::vector<ProjectedGaussian>& gaussians, const uint32_t
     count_cells((*reach_blocks)[j], row->reaching_pairs);
     blends[j] = (*blend_blocks)[j] != 0;
   }
+  if (saturation >= count) return;
+  row->saturated_tiles += 1;
+  row->hidden_rect_pairs += count - saturation;
+  for (uint64_t j = saturation; j < count; ++j) row->hidden_reaching_pairs += (*reach_blocks)[j] != 0;
 }
 
 }  // namespace
@@ -143,6 +152,9 @@ Result<FrameCensus> census_frame(const format::GaussianCloud& cloud, const runti
     census.blended += row.blended;
     census.skipped += row.skipped;
     census.max_blended = std::max(census.max_blended, row.max_blended);
+    census.saturated_tiles += row.saturated_tiles;
+    census.hidden_rect_pairs += row.hidden_rect_pairs;
+    census.hidden_reaching_pairs += row.hidden_reaching_pairs;
     for (int c = 0; c < kCensusCells; ++c) {
       census.blending_pairs[c] += row.blending_pairs[c];
       census.reaching_pairs[c] += row.reaching_pairs[c];

@@ -57,6 +57,11 @@ void check_invariants(const FrameCensus& c) {
     }
   }
   CHECK(c.blended >= c.blending_pairs[int(CensusCell::k4)]);  // a blending pair blends at one pixel at least
+  // Hidden pairs lie beyond every pixel's walk: none of them blends, so they and the blending ones are disjoint.
+  CHECK(c.hidden_reaching_pairs <= c.hidden_rect_pairs);
+  CHECK(c.hidden_rect_pairs <= c.rect_pairs);
+  CHECK(c.blending_pairs[int(CensusCell::k16)] + c.hidden_reaching_pairs <= c.reaching_pairs[int(CensusCell::k16)]);
+  CHECK((c.saturated_tiles == 0) <= (c.hidden_rect_pairs == 0));
 }
 
 }  // namespace
@@ -118,6 +123,30 @@ TEST_CASE("census: stacked copies of one Gaussian blend where its alpha does, un
   }
 }
 
+TEST_CASE("census: behind a Gaussian that saturates every pixel, the rest of each tile's list is hidden") {
+  // A Gaussian far wider than the view has α = 0.99 at every pixel; a second copy would take T below 1e-4, so every
+  // walk ends at list index 1 and each tile's copies from there on are hidden.
+  const runtime::Camera camera = identity_camera(64, 48, 60.f);
+  constexpr int kCopies = 5;
+  format::GaussianCloud stack;
+  for (int i = 0; i < kCopies; ++i) add_gaussian(&stack, 0.f, 0.f, 4.f + 0.01f * float(i), 100.f, 0.999f, 0.3f, 0.2f, 0.1f);
+  const CensusWithMap c = census_ok(stack, camera);
+  check_invariants(c.census);
+  const uint64_t tiles = (64 / 16) * (48 / 16);
+  CHECK(c.census.rect_pairs == kCopies * tiles);
+  CHECK(c.census.saturated_tiles == tiles);
+  CHECK(c.census.hidden_rect_pairs == (kCopies - 1) * tiles);
+  CHECK(c.census.hidden_reaching_pairs == (kCopies - 1) * tiles);
+  CHECK(c.census.blending_pairs[int(CensusCell::k16)] == tiles);
+  // Half as opaque, no walk ends: nothing is hidden.
+  format::GaussianCloud faint;
+  for (int i = 0; i < kCopies; ++i) add_gaussian(&faint, 0.f, 0.f, 4.f + 0.01f * float(i), 100.f, 0.5f, 0.3f, 0.2f, 0.1f);
+  const CensusWithMap f = census_ok(faint, camera);
+  check_invariants(f.census);
+  CHECK(f.census.saturated_tiles == 0);
+  CHECK(f.census.hidden_rect_pairs == 0);
+}
+
 TEST_CASE("census of guitar: pixels that blend are the pixels the render covers, counts independent of threads") {
   auto ply = converter::read_ply(repo_path("samples/guitar.ply"));
   REQUIRE_MESSAGE(ply.ok(), ply.status().to_string());
@@ -148,6 +177,9 @@ TEST_CASE("census of guitar: pixels that blend are the pixels the render covers,
       CHECK(threaded.census.blending_pairs[cell] == c.census.blending_pairs[cell]);
       CHECK(threaded.census.reaching_pairs[cell] == c.census.reaching_pairs[cell]);
     }
+    CHECK(threaded.census.saturated_tiles == c.census.saturated_tiles);
+    CHECK(threaded.census.hidden_rect_pairs == c.census.hidden_rect_pairs);
+    CHECK(threaded.census.hidden_reaching_pairs == c.census.hidden_reaching_pairs);
   }
 }
 

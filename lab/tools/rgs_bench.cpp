@@ -650,10 +650,12 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
   if (!report.floors.empty()) {
     std::printf("  true floor       the work the image needs at the measured roofs (docs/lab/ROOFLINE.md#the-true-floor); "
                 "per frame, mean over the views\n");
-    std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s\n", "resolution", "blended/px", "skipped/px",
-                "contributing", "3DGS pairs", "pairs 16x16", "pairs 8x8", "pairs 4x4", "reach 16x16");
+    std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s %12s %12s\n", "resolution", "blended/px",
+                "skipped/px", "contributing", "3DGS pairs", "pairs 16x16", "pairs 8x8", "pairs 4x4", "reach 16x16",
+                "hidden 3DGS", "hidden reach");
     for (const FloorSet& f : report.floors) {
       double blended = 0, skipped = 0, pixels = 0, contributing = 0, rect = 0, p16 = 0, p8 = 0, p4 = 0, reach = 0;
+      double hidden_rect = 0, hidden_reach = 0;
       for (const lab::FrameCensus& c : f.census) {
         blended += double(c.blended);
         skipped += double(c.skipped);
@@ -664,13 +666,17 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
         p8 += double(c.blending_pairs[1]);
         p4 += double(c.blending_pairs[2]);
         reach += double(c.reaching_pairs[0]);
+        hidden_rect += double(c.hidden_rect_pairs);
+        hidden_reach += double(c.hidden_reaching_pairs);
       }
+      const auto share = [](double part, double whole) { return tools::fixed(whole > 0 ? 100 * part / whole : 0, 1) + " %"; };
       const double n = double(std::max<size_t>(f.census.size(), 1));
       const auto count = [&](double v) { return tools::group_digits(uint64_t(v / n + 0.5)); };
-      std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s\n", f.resolution.c_str(),
+      std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s %12s %12s\n", f.resolution.c_str(),
                   tools::fixed(blended / pixels, 2).c_str(), tools::fixed(skipped / pixels, 2).c_str(),
                   count(contributing).c_str(), count(rect).c_str(), count(p16).c_str(), count(p8).c_str(),
-                  count(p4).c_str(), count(reach).c_str());
+                  count(p4).c_str(), count(reach).c_str(), share(hidden_rect, rect).c_str(),
+                  share(hidden_reach, reach).c_str());
     }
     std::printf("  %-12s %-10s %-10s %8s %9s %8s\n", "mode", "resolution", "stage", "ms", "floor ms", "x floor");
     for (const RunResult& r : report.results) {
@@ -818,7 +824,10 @@ std::string bench_json(const Options& opt, const api::LoadedGpuScene& scene, con
                        {"blending_pairs", {{"16x16", c.blending_pairs[0]}, {"8x8", c.blending_pairs[1]},
                                            {"4x4", c.blending_pairs[2]}}},
                        {"reaching_pairs", {{"16x16", c.reaching_pairs[0]}, {"8x8", c.reaching_pairs[1]},
-                                           {"4x4", c.reaching_pairs[2]}}}});
+                                           {"4x4", c.reaching_pairs[2]}}},
+                       {"saturated_tiles", c.saturated_tiles},
+                       {"hidden_rect_pairs", c.hidden_rect_pairs},
+                       {"hidden_reaching_pairs", c.hidden_reaching_pairs}});
     }
     for (int s = 0; s < lab::kRooflineStages; ++s) {
       work[lab::roofline_stage_name(lab::RooflineStage(s))] = {

@@ -42,6 +42,15 @@ struct FrameCensus {
   /// [CensusCell] (cell, Gaussian) pairs where α ≥ 1/255 at one pixel of the cell or more, whatever the
   /// transmittance there: what exact culling without knowledge of the image emits (≥ blending_pairs).
   uint64_t reaching_pairs[kCensusCells] = {0, 0, 0};
+  /// 16×16 tiles where every pixel's walk ended (T would fall below 10⁻⁴) before the end of the tile's list.
+  uint64_t saturated_tiles = 0;
+  /// 3DGS pairs at or beyond their tile's saturation position (the largest index at which a pixel of the tile
+  /// ended its walk): no pixel of the tile tests them, so an exact occlusion cull could skip emitting, sorting and
+  /// ranging them (docs/lab/OCCLUSION.md).
+  uint64_t hidden_rect_pairs = 0;
+  /// The reaching 16×16 pairs (reaching_pairs[k16]) among hidden_rect_pairs: the hidden share of what an exact
+  /// emission keeps.
+  uint64_t hidden_reaching_pairs = 0;
 
   uint64_t pixels() const { return uint64_t(width) * height; }
 };
