@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <doctest/doctest.h>
@@ -11,6 +12,7 @@
 
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
+#include "rgs/parallel/worker_pool.h"
 #include "rgs/view/image_codec.h"
 #include "test_data.h"
 #include "view_test_util.h"
@@ -95,6 +97,71 @@ TEST_CASE("encode_rgb: lossless WebP decodes to the same bytes, lossy codecs to 
         StatusCode::kInvalidArgument);
   CHECK(view::encode_rgb(rgb.data(), W, H, view::Encoding::kJpeg, 0).status().code() == StatusCode::kInvalidArgument);
   CHECK(view::encode_rgb(nullptr, W, H, view::Encoding::kWebp, 80).status().code() == StatusCode::kInvalidArgument);
+}
+
+namespace {
+
+std::vector<uint8_t> decode_jpeg(const std::vector<uint8_t>& jpeg, uint32_t w, uint32_t h) {
+  tjhandle d = tjInitDecompress();
+  std::vector<uint8_t> out(size_t(w) * h * 3);
+  const int r = tjDecompress2(d, jpeg.data(), jpeg.size(), out.data(), int(w), int(w) * 3, int(h), TJPF_RGB, 0);
+  const std::string error = r == 0 ? "" : tjGetErrorStr2(d);
+  tjDestroy(d);
+  REQUIRE_MESSAGE(r == 0, error);
+  return out;
+}
+
+/// How many restart markers (FF D0..D7) the entropy-coded data holds: byte-stuffed FF 00 is data, and no other
+/// marker may appear there.
+size_t restart_markers(const std::vector<uint8_t>& jpeg) {
+  size_t sos = 0;
+  for (size_t i = 2; i + 1 < jpeg.size(); ++i) {
+    if (jpeg[i] == 0xFF && jpeg[i + 1] == 0xDA) {
+      sos = i;
+      break;
+    }
+  }
+  REQUIRE(sos != 0);
+  size_t n = 0;
+  for (size_t i = sos + 2 + (size_t(jpeg[sos + 2]) << 8 | jpeg[sos + 3]); i + 2 < jpeg.size(); ++i) {
+    if (jpeg[i] != 0xFF || jpeg[i + 1] == 0x00) continue;
+    CHECK(jpeg[i + 1] == uint8_t(0xD0 + n % 8));  // RST0..RST7 in turn
+    ++n;
+  }
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("encode_rgb on workers: strips joined by restart markers decode to exactly the one-thread JPEG's pixels") {
+  parallel::WorkerPool workers(4);
+  REQUIRE(workers.workers() == 4);
+  // 4:2:0 (quality 85, 16-row MCUs) and 4:4:4 (95, 8-row MCUs); heights with a short last strip, and one too low
+  // to split (fewer than 2 x 4 MCU rows), which is encoded in one thread.
+  struct Case {
+    uint32_t w, h;
+    int quality;
+    size_t markers;
+  };
+  for (const Case c : {Case{640, 360, 85, 3}, Case{333, 197, 85, 2}, Case{333, 197, 95, 3}, Case{1001, 100, 95, 2},
+                       Case{320, 100, 85, 0}}) {
+    CAPTURE(c.w);
+    CAPTURE(c.h);
+    CAPTURE(c.quality);
+    const std::vector<uint8_t> rgb = guitar_rgb(c.w, c.h);
+    auto one = view::encode_rgb(rgb.data(), c.w, c.h, view::Encoding::kJpeg, c.quality);
+    auto strips = view::encode_rgb(rgb.data(), c.w, c.h, view::Encoding::kJpeg, c.quality, 3, &workers);
+    REQUIRE(one.ok());
+    REQUIRE(strips.ok());
+    CHECK(restart_markers(*strips) == c.markers);
+    if (c.markers == 0) CHECK(*strips == *one);
+    // The same blocks: the decoded pixels are identical, not only close.
+    CHECK(decode_jpeg(*strips, c.w, c.h) == decode_jpeg(*one, c.w, c.h));
+    // Per strip the marker, a padded byte and the absolute DC of its first blocks; the DRI segment once.
+    CHECK(strips->size() <= one->size() + (c.markers > 0 ? 6 : 0) + 8 * c.markers);
+    // The same bytes on every run and for any scheduling of the strips.
+    CHECK(*view::encode_rgb(rgb.data(), c.w, c.h, view::Encoding::kJpeg, c.quality, 3, &workers) == *strips);
+  }
 }
 
 TEST_CASE("compare_rgb: PSNR, largest difference and the heatmap's scale") {

@@ -16,6 +16,7 @@
 #include "rgs/api/convert.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
+#include "rgs/parallel/fork_join.h"
 #include "rgs/view/image_codec.h"
 #include "rgs/view/server.h"
 #include "test_data.h"
@@ -132,6 +133,7 @@ TEST_CASE("server: a lossless frame is the front door's 8-bit render of the same
   CHECK(hello["scenes"][0]["path_basename"] == "guitar.ply");
   CHECK(hello["presets"] == json({"fastest", "faithful", "paper"}));
   CHECK(hello["max_width"] == 7680);
+  CHECK(hello["encoder"] == view::jpeg_encoder_name(std::min(parallel::available_cpus(), 8u)));
 
   const json camera = small_camera(hello, 200, 120);
   client.send(view_json(camera, 41, "lossless").dump());

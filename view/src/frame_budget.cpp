@@ -19,7 +19,7 @@ struct EncoderBytes {
 
 EncoderBytes encoder_bytes(Encoding encoding) {
   switch (encoding) {
-    case Encoding::kJpeg: return {5, 4.2};      // tjCompress2's output buffer; 4:4:4 at quality 100
+    case Encoding::kJpeg: return {9.2, 4.2};  // tjCompress2's output buffers, the strips' copies; 4:4:4 at q 100
     case Encoding::kWebp: return {2, 1.5};      // the YUV picture and the encoder's rows
     case Encoding::kLossless: return {29, 3.1};  // ARGB picture, hash chains and backward references
   }

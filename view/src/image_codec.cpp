@@ -7,8 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <string>
+
+#include "rgs/parallel/worker_pool.h"
 
 namespace rgs::view {
 
@@ -16,14 +19,16 @@ namespace {
 
 constexpr uint32_t kMaxWebpSide = 16383;  // WEBP_MAX_DIMENSION
 
+// 4:4:4 at high quality: colour edges (the compare mode's split line, thin splats) stay sharp.
+int jpeg_subsampling(int quality) { return quality >= 90 ? TJSAMP_444 : TJSAMP_420; }
+
 Result<std::vector<uint8_t>> encode_jpeg(const uint8_t* rgb, uint32_t width, uint32_t height, uint32_t channels,
                                          int quality) {
   std::unique_ptr<void, int (*)(tjhandle)> handle(tjInitCompress(), tjDestroy);
   RGS_RETURN_ERROR_IF(handle == nullptr, StatusCode::kOutOfMemory, "JPEG: tjInitCompress failed");
   unsigned char* out = nullptr;
   unsigned long size = 0;
-  // 4:4:4 at high quality: colour edges (the compare mode's split line, thin splats) stay sharp.
-  const int subsampling = quality >= 90 ? TJSAMP_444 : TJSAMP_420;
+  const int subsampling = jpeg_subsampling(quality);
   const int result = tjCompress2(handle.get(), rgb, int(width), int(width * channels), int(height),
                                  channels == 4 ? TJPF_RGBX : TJPF_RGB, &out, &size, subsampling, quality,
                                  TJFLAG_FASTDCT);
@@ -31,6 +36,87 @@ Result<std::vector<uint8_t>> encode_jpeg(const uint8_t* rgb, uint32_t width, uin
   RGS_RETURN_ERROR_IF(result != 0, StatusCode::kInvalidArgument,
                       std::string("JPEG: tjCompress2 failed: ") + tjGetErrorStr2(handle.get()));
   return std::vector<uint8_t>(out, out + size);
+}
+
+/// The parts of a baseline JPEG as libturbojpeg writes it: the marker segments before SOS, the SOS segment, and
+/// the entropy-coded data up to EOI. False for a stream of another shape.
+struct JpegParts {
+  size_t sof = 0;       ///< offset of the SOF0 marker (its height field is 5 bytes on)
+  size_t sos = 0;       ///< offset of the SOS marker
+  size_t data = 0;      ///< first byte of the entropy-coded data
+  size_t data_end = 0;  ///< offset of the EOI marker
+};
+bool split_jpeg(const std::vector<uint8_t>& j, JpegParts* parts) {
+  size_t at = 2;  // after SOI
+  while (at + 4 <= j.size() && j[at] == 0xFF) {
+    const uint8_t marker = j[at + 1];
+    const size_t length = size_t(j[at + 2]) << 8 | j[at + 3];
+    if (marker == 0xC0) parts->sof = at;
+    if (marker == 0xDA) {
+      parts->sos = at;
+      parts->data = at + 2 + length;
+      parts->data_end = j.size() - 2;
+      return parts->sof != 0 && parts->data <= parts->data_end && j[j.size() - 2] == 0xFF && j.back() == 0xD9;
+    }
+    at += 2 + length;
+  }
+  return false;
+}
+
+/// Encodes `rgb` on the pool's workers: the image cut into strips of whole MCU rows, each encoded alone by
+/// libturbojpeg with the same quantization and (standard) Huffman tables, then joined into one baseline JPEG
+/// whose restart interval (DRI) is one strip. A restart marker resets the DC predictions as the start of a scan
+/// does (ITU-T T.81, F.1.2.1 and F.1.4.4), and each strip's data ends padded to a byte as data before a marker
+/// must, so the strips' entropy-coded data join unchanged; the blocks, and so the decoded pixels, are the
+/// one-thread encoding's. Empty when the strips do not share their tables (the caller encodes in one thread).
+Result<std::vector<uint8_t>> encode_jpeg_strips(const uint8_t* rgb, uint32_t width, uint32_t height,
+                                                uint32_t channels, int quality, uint32_t strip_rows,
+                                                parallel::WorkerPool& workers) {
+  const uint32_t strips = (height + strip_rows - 1) / strip_rows;
+  std::vector<std::vector<uint8_t>> parts(strips);
+  RGS_RETURN_IF_ERROR(workers.run(strips, strips, [&](unsigned, uint64_t i) {
+    const uint32_t y0 = uint32_t(i) * strip_rows;
+    auto part = encode_jpeg(rgb + size_t(y0) * width * channels, width, std::min(strip_rows, height - y0), channels,
+                            quality);
+    if (part.ok()) parts[i] = std::move(*part);  // an empty part: the join below gives up
+  }));
+  std::vector<JpegParts> at(strips);
+  for (uint32_t i = 0; i < strips; ++i) {
+    // Every strip's tables and scan header equal the first's (only the SOF's height may differ).
+    if (!split_jpeg(parts[i], &at[i]) || at[i].data != at[0].data ||
+        std::memcmp(parts[i].data(), parts[0].data(), at[0].sof + 5) != 0 ||
+        std::memcmp(parts[i].data() + at[0].sof + 7, parts[0].data() + at[0].sof + 7, at[0].data - at[0].sof - 7) != 0) {
+      return std::vector<uint8_t>{};
+    }
+  }
+  const uint32_t mcu_w = uint32_t(tjMCUWidth[jpeg_subsampling(quality)]);
+  const uint32_t mcu_h = uint32_t(tjMCUHeight[jpeg_subsampling(quality)]);
+  const uint32_t interval = (width + mcu_w - 1) / mcu_w * (strip_rows / mcu_h);
+  std::vector<uint8_t> out(parts[0].begin(), parts[0].begin() + at[0].sos);
+  out[at[0].sof + 5] = uint8_t(height >> 8);
+  out[at[0].sof + 6] = uint8_t(height & 0xFF);
+  const uint8_t dri[6] = {0xFF, 0xDD, 0x00, 0x04, uint8_t(interval >> 8), uint8_t(interval & 0xFF)};
+  out.insert(out.end(), dri, dri + 6);
+  out.insert(out.end(), parts[0].begin() + at[0].sos, parts[0].begin() + at[0].data);
+  for (uint32_t i = 0; i < strips; ++i) {
+    if (i > 0) out.insert(out.end(), {0xFF, uint8_t(0xD0 + (i - 1) % 8)});  // RST0..RST7 in turn
+    out.insert(out.end(), parts[i].begin() + at[i].data, parts[i].begin() + at[i].data_end);
+  }
+  out.insert(out.end(), {0xFF, 0xD9});
+  return out;
+}
+
+/// Rows per strip for `workers`: whole MCU rows, at least 4 of them, each strip's MCUs within DRI's 16 bits; 0
+/// when the frame is too small to split.
+uint32_t jpeg_strip_rows(uint32_t width, uint32_t height, int quality, unsigned workers) {
+  const uint32_t mcu_w = uint32_t(tjMCUWidth[jpeg_subsampling(quality)]);
+  const uint32_t mcu_h = uint32_t(tjMCUHeight[jpeg_subsampling(quality)]);
+  const uint32_t mcu_rows = (height + mcu_h - 1) / mcu_h, mcus_per_row = (width + mcu_w - 1) / mcu_w;
+  constexpr uint32_t kMinMcuRows = 4;
+  const uint32_t strips = std::min<uint32_t>(workers, mcu_rows / kMinMcuRows);
+  if (strips < 2) return 0;
+  const uint32_t rows = std::min((mcu_rows + strips - 1) / strips, 65535 / mcus_per_row);
+  return rows * mcu_h;
 }
 
 Result<std::vector<uint8_t>> encode_webp(const uint8_t* rgb, uint32_t width, uint32_t height, uint32_t channels,
@@ -91,7 +177,7 @@ void turbo(float t, uint8_t* rgb) {
 }  // namespace
 
 Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint32_t height, Encoding encoding,
-                                        int quality, uint32_t channels) {
+                                        int quality, uint32_t channels, parallel::WorkerPool* workers) {
   RGS_RETURN_ERROR_IF(rgb == nullptr, StatusCode::kInvalidArgument, "encode_rgb: null image");
   RGS_RETURN_ERROR_IF(channels != 3 && channels != 4, StatusCode::kInvalidArgument,
                       "encode_rgb: " + std::to_string(channels) + " channels (3 or 4)");
@@ -102,11 +188,25 @@ Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint
   RGS_RETURN_ERROR_IF(encoding != Encoding::kLossless && (quality < 1 || quality > 100), StatusCode::kInvalidArgument,
                       "encode_rgb: quality " + std::to_string(quality) + " is outside 1..100");
   switch (encoding) {
-    case Encoding::kJpeg: return encode_jpeg(rgb, width, height, channels, quality);
+    case Encoding::kJpeg: {
+      const uint32_t rows = workers != nullptr ? jpeg_strip_rows(width, height, quality, workers->workers()) : 0;
+      if (rows != 0) {
+        RGS_ASSIGN_OR_RETURN(std::vector<uint8_t> joined,
+                             encode_jpeg_strips(rgb, width, height, channels, quality, rows, *workers));
+        if (!joined.empty()) return joined;
+      }
+      return encode_jpeg(rgb, width, height, channels, quality);
+    }
     case Encoding::kWebp: return encode_webp(rgb, width, height, channels, false, quality);
     case Encoding::kLossless: return encode_webp(rgb, width, height, channels, true, quality);
   }
   return Status(StatusCode::kInvalidArgument, "encode_rgb: unknown encoding");
+}
+
+std::string jpeg_encoder_name(unsigned workers) {
+  return workers > 1 ? "JPEG: libjpeg-turbo on " + std::to_string(workers) +
+                           " threads, in strips joined by restart markers"
+                     : "JPEG: libjpeg-turbo in one thread";
 }
 
 ImageDifference compare_rgb(const uint8_t* a, const uint8_t* b, uint32_t width, uint32_t height, float diff_scale,

@@ -18,6 +18,7 @@
 #include "internal_frame_budget.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
+#include "rgs/parallel/worker_pool.h"
 #include "rgs/view/protocol.h"
 #include "rgs/view/server.h"
 
@@ -50,8 +51,12 @@ struct RenderedFrame {
   std::optional<uint64_t> gpu_memory_used, gpu_memory_total;
 };
 
-/// The binary frame message (PROTOCOL.md "frame") of `frame`: its images encoded as the view asks.
-Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame);
+/// Workers of each client's JPEG encoder: the CPUs the server may use, at most 8.
+inline unsigned encode_workers() { return std::min(parallel::available_cpus(), 8u); }
+
+/// The binary frame message (PROTOCOL.md "frame") of `frame`: its images encoded as the view asks, JPEG on
+/// `workers` (encode_rgb).
+Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::WorkerPool* workers = nullptr);
 
 /// Renders and encodes one client's views. The callbacks are called from the pipeline's threads and must only
 /// hand their message over (e.g. post it to the connection's strand). A frame message holds its part of `budget`
@@ -123,6 +128,8 @@ class FramePipeline {
   std::atomic<bool> interrupted_{false};  // a newer view or stop(): a wait for the budget gives up
   std::vector<SpareBuffer> spares_;
   std::optional<api::Image> images_[2];  // render thread only, GPU: reused while the size stays
+  /// The JPEG encoder's workers (the encode thread and encode_workers() − 1 more), encode thread only.
+  parallel::WorkerPool encoders_{encode_workers()};
   std::thread render_thread_, encode_thread_;
 };
 

@@ -90,7 +90,8 @@ std::string build_hello(const ServerState& state, const std::string& device_name
                       {"max_width", state.limits.max_width},
                       {"max_height", state.limits.max_height},
                       {"default_width", width},
-                      {"default_height", height}};
+                      {"default_height", height},
+                      {"encoder", jpeg_encoder_name(encode_workers())}};
   return dump(hello);
 }
 
@@ -98,29 +99,30 @@ std::string error_json(const std::string& code, const std::string& message, bool
   return dump({{"type", "error"}, {"code", code}, {"message", message}, {"fatal", fatal}});
 }
 
-Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame) {
+Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::WorkerPool* workers) {
   const auto start = std::chrono::steady_clock::now();
   const ViewRequest& view = frame.view;
   std::vector<std::pair<const char*, std::vector<uint8_t>>> images;
   std::optional<ImageDifference> difference;
   if (view.compare == CompareMode::kOff) {
     RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4));
+                                            view.quality, 4, workers));
     images.emplace_back("a", std::move(a));
   } else if (view.compare == CompareMode::kSplit) {
     difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
                              nullptr, 4);
     RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4));
+                                            view.quality, 4, workers));
     RGS_ASSIGN_OR_RETURN(auto b, encode_rgb(frame.rgba_b.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4));
+                                            view.quality, 4, workers));
     images.emplace_back("a", std::move(a));
     images.emplace_back("b", std::move(b));
   } else {
     std::vector<uint8_t> heatmap;
     difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
                              &heatmap, 4);
-    RGS_ASSIGN_OR_RETURN(auto d, encode_rgb(heatmap.data(), frame.width, frame.height, view.encoding, view.quality));
+    RGS_ASSIGN_OR_RETURN(auto d, encode_rgb(heatmap.data(), frame.width, frame.height, view.encoding, view.quality, 3,
+                                            workers));
     images.emplace_back("diff", std::move(d));
   }
   const double encode_ms = ms_since(start);

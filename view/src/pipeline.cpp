@@ -268,7 +268,7 @@ void FramePipeline::encode_loop() {
       rendered_.reset();
     }
     changed_.notify_all();
-    auto message = encode_frame(frame);
+    auto message = encode_frame(frame, &encoders_);
     for (std::vector<uint8_t>* rgba : {&frame.rgba_a, &frame.rgba_b}) {
       Charge charge = frame.charge.split(rgba->size());
       keep_spare(std::move(*rgba), std::move(charge));

@@ -233,7 +233,8 @@
     // the info line
     const sc = (msg.scenes || []).map((s) =>
       `${esc(s.path_basename || s.name)}: ${fmtCount(s.gaussians)} Gaussians, SH ${s.sh_degree}${s.lod ? ', LOD' : ''}`);
-    $('scene-info').innerHTML = `${esc(msg.backend)} · ${esc(msg.device || '')}<br>${sc.join('<br>')}`;
+    $('scene-info').innerHTML = `${esc(msg.backend)} · ${esc(msg.device || '')}<br>${sc.join('<br>')}` +
+      (msg.encoder ? `<br>${esc(msg.encoder)}` : '');
     // a first resolution whose pixel count is near the server's default size (the CPU backend is slow)
     if (!api._scaleChosen && msg.default_width && msg.default_height) {
       const [w, h] = frameSize(1);

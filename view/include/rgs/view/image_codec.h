@@ -4,10 +4,15 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "rgs/format/status.h"
 #include "rgs/view/protocol.h"
+
+namespace rgs::parallel {
+class WorkerPool;
+}
 
 namespace rgs::view {
 
@@ -15,10 +20,17 @@ namespace rgs::view {
 /// bytes a row), top row first, R, G, B first in each pixel; `channels` 3 or 4 (the fourth byte is ignored: the
 /// front door's kRgba8 images as they are read back); width, height 1..16383 (WebP's limit; JPEG allows more). `quality` 1..100 (ignored for
 /// kLossless). Deterministic for given input and options. Reentrant (each call has its own codec state).
+/// With `workers` (JPEG only), a frame of enough rows is encoded by the pool's workers in strips joined into one
+/// baseline JPEG with restart markers (encode_jpeg_strips in image_codec.cpp); it decodes to exactly the pixels
+/// of the one-thread encoding. The pool must not be running another call.
 /// @return the file bytes (a JPEG or a RIFF WebP); kInvalidArgument (size or quality out of range),
 /// kOutOfMemory or kInvalidArgument with the codec's message when it fails.
 Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint32_t height, Encoding encoding,
-                                        int quality, uint32_t channels = 3);
+                                        int quality, uint32_t channels = 3, parallel::WorkerPool* workers = nullptr);
+
+/// What encode_rgb's JPEG with `workers` threads is, for display: "JPEG: libjpeg-turbo on N threads, in strips
+/// joined by restart markers" (or "in one thread").
+std::string jpeg_encoder_name(unsigned workers);
 
 /// How two 8-bit RGB images of one size differ.
 struct ImageDifference {
