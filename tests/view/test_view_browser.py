@@ -10,7 +10,7 @@ compare mode). Checks, in order:
                PPM of that camera (written to a cameras.json) byte for byte
   path         a camera path recorded in the page (cameras set through the test hook) is an INRIA
                cameras.json that rgs-render --cameras renders, one image per recorded view; replay draws them
-  compare      with two scenes: split view (frames carry images a and b), PSNR shown and finite, the split
+  compare      with two scenes: the page opens on the split view (frames carry images a and b), PSNR shown and finite, the split
                slider follows a drag of its handle; the difference heatmap (image "diff")
   security     the default server listens on loopback only (not reachable on another address of this machine,
                when it has one); with --host 0.0.0.0 a token is required: 403 without it (page and WebSocket),
@@ -775,8 +775,15 @@ class Run:
             log("  scene cameras: the page starts at the first; the list jumps to camera 2 and back")
             check(page.eval("!document.getElementById('compare-box').hidden"), "the compare panel is hidden")
             page.wait("rgsView.frameCount >= 1", 60, "no frame in the compare page")
+            # Two scenes open on the split view: the first frame already carries images a and b.
+            check(page.eval("document.getElementById('cmp-split').classList.contains('on')"),
+                  "the compare page did not open on the split view")
+            page.wait("rgsView.lastFrame().images.map(i => i.role).join() === 'a,b'", 60,
+                      "the first compare frames are not split frames (images a, b)")
+            page.click("#cmp-off")  # the panel's buttons, clicked with the mouse
+            page.wait("rgsView.lastFrame().images.map(i => i.role).join() === 'a'", 60, "no plain frame after 'off'")
             n = page.eval("rgsView.lastFrame().seq")
-            page.click("#cmp-split")  # the panel's button, clicked with the mouse
+            page.click("#cmp-split")
             page.wait(f"(() => {{ const f = rgsView.lastFrame(); return f.seq > {n} && "
                       "f.images.map(i => i.role).join() === 'a,b'; })()", 60, "no split frame (images a, b)")
             self.wait_still(page)

@@ -245,6 +245,7 @@
     // the starting view: the first scene camera, else the server's home camera, else an orbit view
     if (!api._started) {
       api._started = true;
+      if (msg.compare && opts.compare === 'off') opts.compare = 'split';  // two scenes open side by side
       if (msg.cameras && msg.cameras.length && validInria(msg.cameras[0])) {
         worldUp = mul(columnOf(msg.cameras[0].rotation, 1), -1);
         poseFromInria(msg.cameras[0]);
