@@ -478,16 +478,16 @@ if [ "$what" = sanitize ] || [ "$what" = all ]; then
 fi
 if [ "$what" = view ] || [ "$what" = all ]; then
   # The viewer (docs/VIEWER.md#performance): rgs-view serving a scene on this GPU and rgs-view-bench, a scripted
-  # WebSocket client on loopback, flying 600 views through taebak's cameras at 1920x1080 (JPEG; one and two views
-  # in flight), then the same through the x16 taebak level-of-detail file (rgs-bench --replicate 16 --save-lod)
-  # under a 3M splat budget and 4 GiB.
+  # WebSocket client on loopback, flying 600 views through taebak's cameras at 1920x1080 and 3840x2160 (JPEG; one
+  # and two views in flight) and along a path of 600 views, then through the x16 taebak level-of-detail file
+  # (rgs-bench --replicate 16 --save-lod) under a 3M splat budget and 4 GiB.
   view_bench() {  # NAME SCENE [rgs-view options...] -- [rgs-view-bench options...]
     local name="$1" scene="$2" url="" rc=0 server_args=() bench_args=()
     shift 2
     while [ $# -gt 0 ] && [ "$1" != -- ]; do server_args+=("$1"); shift; done
     [ $# -gt 0 ] && shift
     bench_args=("$@")
-    "$bin/rgs-view" "$scene" --backend cuda --port 0 "${server_args[@]}" >"$out/view_${name}_server.log" 2>&1 &
+    "${view_server:-$bin/rgs-view}" "$scene" --backend cuda --port 0 "${server_args[@]}" >"$out/view_${name}_server.log" 2>&1 &
     local server=$!
     for _ in $(seq 1 600); do  # loading the scene: up to 120 s
       url=$(grep -om1 "http://127.0.0.1:[0-9]*/[^ ]*" "$out/view_${name}_server.log")
@@ -507,8 +507,19 @@ if [ "$what" = view ] || [ "$what" = all ]; then
   }
   if [ -f "$taebak" ]; then
     fly=(--cameras "$taebak_cameras" --fly 600 --width 1920 --height 1080 --warmup 16)
+    fly4k=(--cameras "$taebak_cameras" --fly 600 --width 3840 --height 2160 --warmup 16)
     view_bench taebak_jpeg "$taebak" -- "${fly[@]}"
+    view_bench taebak_jpeg_4k "$taebak" -- "${fly4k[@]}"
+    # A/B: another build's rgs-view (STAGE_DIR/ab/rgs-view.xz, e.g. the landed tree's) on the same flights.
+    if [ -f "$stage/ab/rgs-view.xz" ]; then
+      xz -dkf "$stage/ab/rgs-view.xz" && chmod +x "$stage/ab/rgs-view"
+      view_server="$stage/ab/rgs-view" view_bench a_taebak_jpeg "$taebak" -- "${fly[@]}"
+      view_server="$stage/ab/rgs-view" view_bench a_taebak_jpeg_4k "$taebak" -- "${fly4k[@]}"
+    fi
     view_bench taebak_jpeg_2 "$taebak" -- "${fly[@]}" --in-flight 2
+    # A camera path the scene's cameras do not show (near and far, low and high; rgs-bench --path).
+    view_bench taebak_jpeg_path "$taebak" -- --path 600 --width 1920 --height 1080 --warmup 16
+    view_bench taebak_jpeg_path_4k "$taebak" -- --path 600 --width 3840 --height 2160 --warmup 16
     view_bench taebak_webp "$taebak" -- "${fly[@]}" --encoding webp
     x16="$taebak_dir/taebak_x16_lod.rgs"
     if [ ! -f "$x16" ]; then

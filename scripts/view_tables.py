@@ -5,7 +5,7 @@
     scripts/view_tables.py --update docs/BENCHMARKS.md --block view OUT/view_*.json   # replace it in place
 
 One row per run (scripts/gpu_check.sh ... view leaves view_<name>.json under its OUT folder): the scene, the
-frame size, the encoding and views in flight; frames per second sustained; the latency from a view sent to its
+views (a fly-through of its cameras, or a path around it), the frame size, the encoding and views in flight; frames per second sustained; the latency from a view sent to its
 frame received (median, p95, max); the median frame's bytes; and the server's medians of the frame's render
 call (the front door's render, level-of-detail streaming included), its GPU stages, the read-back and the
 encoding. --update replaces the lines between the markers of the block, as scripts/bench_tables.py does. A file
@@ -39,12 +39,19 @@ def ms(v):
     return "–" if v is None else f"{v:.2f}"
 
 
+def views(r):
+    """The camera path: a fly-through of the scene's cameras, or a path or orbit around it."""
+    if r.get("cameras") and r.get("fly"):
+        return f"{r['fly']} through its cameras"
+    return f"{r.get('views', '?')} {'on its cameras' if r.get('cameras') else 'on a path'}"
+
+
 def rows(runs):
     out = []
     for r in runs:
         s, lat = r["server_median"], r["latency_ms"]
         out.append([
-            f"{r['scene']} ({r['gaussians'] / 1e6:.2f}M)" if r.get("gaussians") else r["scene"],
+            f"{r['scene']} ({r['gaussians'] / 1e6:.2f}M)" if r.get("gaussians") else r["scene"], views(r),
             f"{r['width']}×{r['height']}", f"{r['encoding']} q{r.get('quality', '')}".strip(), str(r["in_flight"]),
             str(r["measured_frames"]), f"{r['frames_per_second']:.1f}",
             f"{lat['median']:.1f} / {lat['p95']:.1f} / {lat['max']:.1f}",
@@ -66,7 +73,7 @@ def main(argv):
         devices = {r["device"] for r in runs}
         if len(devices) != 1:
             raise ShapeError(f"runs from several devices: {sorted(devices)}")
-        header = ["scene", "frame", "encoding", "in flight", "frames", "frames/s", "latency ms median / p95 / max",
+        header = ["scene", "views", "frame", "encoding", "in flight", "frames", "frames/s", "latency ms median / p95 / max",
                   "frame bytes", "render call ms", "GPU stages ms", "read-back ms", "encode ms", "splats"]
         text = f"{devices.pop()}:\n\n" + "\n".join(table(header, rows(runs))) + "\n"
         if args.update:
