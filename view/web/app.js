@@ -235,11 +235,12 @@
       `${esc(s.path_basename || s.name)}: ${fmtCount(s.gaussians)} Gaussians, SH ${s.sh_degree}${s.lod ? ', LOD' : ''}`);
     $('scene-info').innerHTML = `${esc(msg.backend)} · ${esc(msg.device || '')}<br>${sc.join('<br>')}` +
       (msg.encoder ? `<br>${esc(msg.encoder)}` : '');
-    // a first resolution whose pixel count is near the server's default size (the CPU backend is slow)
+    // The first resolution: on the GPU the window's device pixels (devicePixelRatio; the server renders and encodes
+    // 4K at display rate); on the CPU backend, which is slow, a pixel count near the server's default size.
     if (!api._scaleChosen && msg.default_width && msg.default_height) {
       const [w, h] = frameSize(1);
       const want = msg.default_width * msg.default_height * 2;
-      opts.scale = w * h <= want ? 1 : w * h / 4 <= want ? 0.5 : 0.25;
+      opts.scale = msg.backend !== 'cpu' || w * h <= want ? 1 : w * h / 4 <= want ? 0.5 : 0.25;
       $('scale').value = String(opts.scale);
     }
     // the starting view: the first scene camera, else the server's home camera, else an orbit view
