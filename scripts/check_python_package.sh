@@ -13,12 +13,12 @@ mkdir -p "$work"
 export CMAKE_ARGS="${CMAKE_ARGS:--DRGS_WITH_CUDA=OFF}"
 unset PYTHONPATH
 
-install() {  # install PYTHON VENV [pip options...]
-  local python="$1" venv="$2"
+install() {  # install PYTHON VENV [pip options...]; CMake builds in $work-<venv name> (beside the checkout's
+  local python="$1" venv="$2"  # other build folders, so that ccache's relative paths match theirs: .ci/run)
   shift 2
   rm -rf "$venv"
   "$python" -m venv "$@" "$venv"
-  RGS_PYTHON_BUILD_DIR="$venv-cmake" "$venv/bin/python" -m pip install --quiet --no-input \
+  RGS_PYTHON_BUILD_DIR="$work-$(basename "$venv")" "$venv/bin/python" -m pip install --quiet --no-input \
     ${RGS_PIP_OPTIONS:-} "$root"
   echo "check_python_package: installed $("$venv/bin/python" -c 'import roofgs; print(roofgs.__file__)')"
 }

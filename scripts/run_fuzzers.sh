@@ -31,7 +31,11 @@ for tool in clang clang++; do
   fi
 done
 
+# -O1 with line tables only, as OSS-Fuzz builds its fuzzers: about half the compile time of -O2 -g, and the
+# sanitizers' reports still name file and line.
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" \
+  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" \
   -DRGS_BUILD_FUZZERS=ON -DRGS_WITH_CUDA=OFF -DRGS_BUILD_TESTS=ON -DRGS_BUILD_TOOLS=OFF \
   -DRGS_BUILD_SAMPLES=OFF -DRGS_INSTALL=OFF -DRGS_WITH_OPENIMAGEIO=OFF >/dev/null
 cmake --build "$build" --parallel "$jobs" --target "${targets[@]/#/fuzz_}"
