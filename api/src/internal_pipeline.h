@@ -73,10 +73,13 @@ struct SceneSource {
   Clock::time_point start = Clock::now();
 };
 
-/// The file at `src` as the source of a conversion to `output`: in batches when it is a binary PLY converted to a
-/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole is above
-/// convert_memory_limit(options); else read whole (converter::read_scene, after check_convert_memory).
-Result<SceneSource> open_file_source(const std::string& src, OutputFormat output, const ConvertOptions& options);
+/// The files at `srcs` (one or more) as the source of a conversion to `output`, named by their names joined with
+/// " + ": in batches, file after file (converter::PlyStream of them all), when they are binary PLYs converted to a
+/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole together is above
+/// convert_memory_limit(options); else each read whole (converter::read_scene, after check_convert_memory of
+/// their sum) and merged (converter::merge_scenes).
+Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, OutputFormat output,
+                                     const ConvertOptions& options);
 
 /// The scene on its way from the stages to the sink: the float cloud as read (freed once quantized where nothing
 /// reads it again), its quantized form, its levels of detail, and the report filled as the work goes.
