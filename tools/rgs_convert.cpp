@@ -87,9 +87,8 @@ constexpr EditOption kEditOptions[] = {
     {"crop-sphere", "CX,CY,CZ,R", "Edit: keep the Gaussians whose mean is inside the sphere (surface included; R > 0)"},
     {"crop-sphere-outside", "CX,CY,CZ,R", "Edit: keep the Gaussians whose mean is outside the sphere"},
     {"decimate", "N|FRACTION",
-     "Edit: merge Gaussians down to at most N (an integer >= 1) or FRACTION in (0, 1) of them by the levels of detail's "
-     "merge: the cut a renderer draws under that splat budget, quantized as a .rgs holds it (docs/LOD.md); needs the "
-     "whole scene, so an out-of-core build refuses it"},
+     "Edit: at most N Gaussians (an integer >= 1) or FRACTION in (0, 1) of them, merged by the levels of detail's rule "
+     "as a .rgs holds them (docs/LOD.md); needs the whole scene, so an out-of-core build refuses it"},
 };
 
 /// Adds the edit options to `app`, each repeatable, their values into opt->edit_values.
@@ -253,9 +252,8 @@ void print_summary(const Options& opt, const api::ConvertReport& r) {
 int run(Options& opt) {
   // Every identity and option is checked before anything is read or written.
   for (const std::string& input : opt.inputs) opt.input += (opt.input.empty() ? "" : " + ") + input;
-  const Status alone(StatusCode::kInvalidArgument, "standard input (-) is converted alone, not merged: name files");
   if (opt.inputs.size() > 1 && std::count(opt.inputs.begin(), opt.inputs.end(), "-") > 0) {
-    return tools::report_usage_error(kTool, alone);
+    return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, "standard input (-) is converted alone"));
   }
   if (opt.output == "-") {
     return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,

@@ -1,5 +1,7 @@
 // The source of a conversion from files: their scenes read whole and merged, or binary PLYs too large for memory
 // opened to be read in batches, one file after the other (docs/LOD.md#scenes-larger-than-memory).
+#include <filesystem>
+
 #include "../internal_convert_memory.h"
 #include "../internal_pipeline.h"
 #include "rgs/converter/scene_reader.h"
@@ -42,6 +44,7 @@ Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, Outpu
   uint64_t estimate = 0;  // of reading every input whole, when there is a limit
   for (const std::string& src : srcs) {
     source.name += (source.name.empty() ? "" : " + ") + src;
+    source.source_file += (source.source_file.empty() ? "" : " + ") + std::filesystem::path(src).filename().string();
     if (convert_memory_limit(options) == 0) continue;
     RGS_ASSIGN_OR_RETURN(const uint64_t bytes, estimate_convert_memory(src));
     estimate += bytes;

@@ -256,7 +256,7 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
     head.metadata.bounds.aabb_min[a] = stats.box_lo[a];
     head.metadata.bounds.aabb_max[a] = stats.box_hi[a];
   }
-  head.provenance = rgs_provenance(src, options, stream->file_bytes(), stream->file_xxh64().value_or(0),
+  head.provenance = rgs_provenance(source.source_file, options, stream->file_bytes(), stream->file_xxh64().value_or(0),
                                    stream->storage_format(), hygiene.dropped_gaussians);
 
   RgsOutputReport rgs;
