@@ -161,9 +161,8 @@ class ProgressSink final : public format::FileSink {
   ProgressReporter* progress_;
 };
 
-/// The provenance a .rgs conversion writes (SPEC §4.2): the source file's name (SceneSource::source_file), bytes,
-/// XXH64 and storage, the
-/// converter and the options that change the bytes, the Gaussians dropped by sanitizing.
+/// The provenance a .rgs conversion writes (SPEC §4.2): the source's file name (SceneSource::source_file), bytes,
+/// XXH64 and storage, the converter and the options that change the bytes, the Gaussians dropped by sanitizing.
 format::Provenance rgs_provenance(const std::string& source_file, const ConvertOptions& options, uint64_t file_bytes,
                                   uint64_t file_xxh64, const std::string& storage, uint64_t dropped_gaussians);
 

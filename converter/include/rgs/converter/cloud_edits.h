@@ -1,5 +1,5 @@
-// Per-Gaussian edits of a scene on its way through a conversion: rgs-convert's --translate, --rotate, --scale,
-// --filter-nan, --filter, --crop-box and --crop-sphere (and their -outside forms), --decimate, api::ConvertOptions::edits and
+// Edits of a scene on its way through a conversion: rgs-convert's --translate, --rotate, --scale, --filter-nan,
+// --filter, --crop-box and --crop-sphere (and their -outside forms), --decimate, api::ConvertOptions::edits and
 // Python's edits=. One parser (parse_edit_action) turns the command line's spelling into an EditAction for all of
 // them; apply_edit acts on a float cloud (docs/DESIGN.md#the-scene-pipeline, README "Editing on the way").
 #pragma once
