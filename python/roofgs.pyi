@@ -121,7 +121,7 @@ def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",
     CPU with every level in host memory.
     lod=False draws its full detail. Other files ignore these (info["notes"] says so for non-default values).
     antialiased=True: trained with the 2D Mip filter, for formats that cannot say so (info["antialiased"])."""
-def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Optional[int] = None,
+def convert(src: Union[_Path, Sequence[_Path]], dst: _Path, *, to: Optional[str] = None, sh_degree: Optional[int] = None,
             scale_encoding: Optional[str] = None, sh_clip_percentile: Optional[float] = None,
             sh_dc_bits: Optional[int] = None, zstd: Optional[Sequence[str]] = None, profile: Optional[str] = None,
             position_error: Optional[float] = None, target_psnr: Optional[float] = None,
@@ -135,9 +135,11 @@ def convert(src: _Path, dst: _Path, *, to: Optional[str] = None, sh_degree: Opti
             spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
             antialiased: bool = False, edits: Optional[Sequence[Tuple[str, str]]] = None) -> Dict[str, Any]:
     """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default), but the edits
-    (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere, -outside forms), which act
-    in the order given and so are one list, `edits`: (name, value) pairs in rgs-convert's spelling, e.g.
-    [("rotate", "0,0,90"), ("filter", "opacity gt 0.1"), ("filter-nan", "")] (README, editing on the way).
+    (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere, -outside forms, --decimate),
+    which act in the order given and so are one list, `edits`: (name, value) pairs in rgs-convert's spelling, e.g.
+    [("rotate", "0,0,90"), ("filter", "opacity gt 0.1"), ("decimate", "0.5")] (README, editing on the way).
+    src: a path, or a list or tuple of paths whose scenes are merged into one before the edits (highest SH degree,
+    missing bands zero; differing anti-aliasing flags raise roofgs.Error kInvalidArgument naming both files).
     A value outside an option's range raises ValueError saying the rule (lod_chunk without lod_levels too, as
     rgs-convert refuses it), a value of the wrong type TypeError. memory_limit is in bytes (0: half the
     physical memory); an input whose estimated peak memory is above it raises kLimitExceeded before it is read."""

@@ -6,6 +6,7 @@
 //   rgs-convert scene.sog scene.spz --sh-degree 1     any input to any output, dropping SH bands
 //   rgs-convert in.ply out.ply --rotate 180,0,0 --crop-box -2,-2,-2,2,2,2 --filter 'opacity gt 0.05'
 //                                                     edits, in the order given (the SH colour turns too)
+//   rgs-convert a.ply b.spz merged.rgs --decimate 0.5  two scenes merged into one, then halved
 //   cat scene.ply | rgs-convert - scene.rgs --json -  read standard input, JSON summary on standard output
 //   rgs-convert scene.ply scene.rgs --target-psnr 40 --cameras cameras.json --every 8 --width 960
 //                                                     the archive profile's settings for 40 dB (rate control)
@@ -42,7 +43,8 @@ using namespace rgs;
 constexpr const char* kTool = "rgs-convert";
 
 struct Options {
-  std::string input;
+  std::vector<std::string> inputs;
+  std::string input;  ///< the inputs joined by " + ", as the library names them
   std::string output;
   std::string to;  ///< --to: rgs, ply, spz, glb or sog; empty: the output's extension decides
   std::string scale_encoding = "linear";
@@ -52,7 +54,7 @@ struct Options {
   std::string lod_levels;  ///< --lod-levels: "auto", "1".."16", or empty (no levels of detail)
   bool quiet = false;
   api::ConvertOptions convert;  ///< everything else, parsed straight into the library's options
-  std::array<std::vector<std::string>, 9> edit_values;  ///< what each edit option (kEditOptions) was given, in order
+  std::array<std::vector<std::string>, 10> edit_values;  ///< what each edit option (kEditOptions) was given, in order
 
   bool rate_control() const { return convert.target.active(); }
 
@@ -84,6 +86,9 @@ constexpr EditOption kEditOptions[] = {
     {"crop-box-outside", "MINX,MINY,MINZ,MAXX,MAXY,MAXZ", "Edit: keep the Gaussians whose mean is outside the box"},
     {"crop-sphere", "CX,CY,CZ,R", "Edit: keep the Gaussians whose mean is inside the sphere (surface included; R > 0)"},
     {"crop-sphere-outside", "CX,CY,CZ,R", "Edit: keep the Gaussians whose mean is outside the sphere"},
+    {"decimate", "N|FRACTION",
+     "Edit: at most N Gaussians (an integer >= 1) or FRACTION in (0, 1) of them, merged by the levels of detail's rule "
+     "as a .rgs holds them (docs/LOD.md); needs the whole scene, so an out-of-core build refuses it"},
 };
 
 /// Adds the edit options to `app`, each repeatable, their values into opt->edit_values.
@@ -246,6 +251,10 @@ void print_summary(const Options& opt, const api::ConvertReport& r) {
 
 int run(Options& opt) {
   // Every identity and option is checked before anything is read or written.
+  for (const std::string& input : opt.inputs) opt.input += (opt.input.empty() ? "" : " + ") + input;
+  if (opt.inputs.size() > 1 && std::count(opt.inputs.begin(), opt.inputs.end(), "-") > 0) {
+    return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, "standard input (-) is converted alone"));
+  }
   if (opt.output == "-") {
     return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
                                                    "the output cannot be standard output (-): name a .rgs, .ply, "
@@ -292,9 +301,10 @@ int run(Options& opt) {
   }
 
   format::OutputTransaction outputs;
-  if (opt.input != "-") {
-    // The scene and every file it names are inputs: no output may replace one of them.
-    if (int code = tools::declare_input(kTool, outputs, opt.input, true); code != tools::kExitOk) return code;
+  for (const std::string& input : opt.inputs) {
+    // Each scene and every file it names are inputs: no output may replace one of them.
+    if (input == "-") continue;
+    if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
   }
   if (!views.cameras_path.empty()) {
     if (int code = tools::declare_input(kTool, outputs, views.cameras_path); code != tools::kExitOk) return code;
@@ -320,7 +330,7 @@ int run(Options& opt) {
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
     report = api::convert_bytes(bytes->data(), bytes->size(), opt.input, opt.output, opt.convert);
   } else {
-    report = api::convert(opt.input, opt.output, opt.convert);
+    report = api::convert(opt.inputs, opt.output, opt.convert);
   }
   progress.clear();
   if (!report.ok()) return tools::report_error(kTool, report.status());
@@ -352,18 +362,19 @@ int main(int argc, char** argv) {
                "file or a KHR_gaussian_splatting GLB. The input's format follows its content (a .rgs input is "
                "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb, .sog). "
                "The edits (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere and their "
-               "-outside forms) may be repeated and act on the scene as read in the order given, before --sh-degree "
-               "and everything else.",
+               "-outside forms, --decimate) may be repeated and act on the scene as read in the order given, before "
+               "--sh-degree and everything else. Several inputs are merged into one scene before the edits: their "
+               "Gaussians in the order given, at the highest SH degree (the bands an input lacks zero); inputs whose "
+               "anti-aliasing flags differ are refused.",
                kTool};
-  app.add_option("input", opt.input,
+  app.add_option("input", opt.inputs,
                  "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "
                  "compressed PLY, SOG meta.json/.sog/folder, streamed SOG lod-meta.json, SPZ, .splat, glTF/GLB); "
-                 "- reads a PLY or .rgs from standard input")
-      ->required();
+                 "- reads a PLY or .rgs from standard input; several inputs are merged into one scene (required)")
+      ->expected(1, -1);  // takes every positional, the output too: `check` below splits it off
   app.add_option("output", opt.output,
                  "Output .rgs, .ply, .spz, .glb or .sog file, or a SOG folder's meta.json (replaced atomically on "
-                 "success only)")
-      ->required();
+                 "success only; required)");
   app.add_option("--to", opt.to,
                  "Output format: rgs, ply (INRIA PLY), spz (SPZ v4), glb (KHR_gaussian_splatting) or sog (PlayCanvas "
                  "SOG v2); default: the output's extension. A name ending in another of these is a usage error")
@@ -467,7 +478,14 @@ int main(int argc, char** argv) {
                "when it is a terminal, for conversions over a second)");
   rgs::tools::add_scene_read_options(app);
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
-  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, [&] { return collect_edits(app, &opt); })) {
+  const auto check = [&]() -> std::string {
+    if (opt.inputs.empty()) return "input is required";
+    if (opt.inputs.size() == 1) return "output is required";
+    opt.output = opt.inputs.back();
+    opt.inputs.pop_back();
+    return collect_edits(app, &opt);
+  };
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) {
     return *code;
   }
   opt.profile_defaulted = app.count("--profile") == 0;

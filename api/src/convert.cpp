@@ -203,6 +203,7 @@ Result<ConvertReport> convert_whole(detail::SceneSource source, const std::strin
   ConvertOptions settings = options;  // rate control writes its choice here
   detail::PipelineScene scene;
   scene.name = source.name;
+  scene.source_file = source.source_file;
   scene.input = std::move(*source.scene);
   scene.report.output_format = output;
   detail::describe_input(scene.input, &scene.report);
@@ -231,6 +232,7 @@ Result<ConvertReport> convert_read(Result<converter::InputScene> input, const st
   RGS_RETURN_IF_ERROR(outputs->declare(dst, output, input->files));
   detail::SceneSource source;
   source.name = name;
+  source.source_file = std::filesystem::path(name).filename().string();
   source.scene.emplace(std::move(input).value());
   source.start = start;
   return outputs->commit(convert_whole(std::move(source), dst, output, outputs->options(), progress));
@@ -255,20 +257,27 @@ Result<ConvertReport> convert_whole_source(const std::string& name, const std::s
 }  // namespace
 
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options) {
+  return convert(std::vector<std::string>{src}, dst, options);
+}
+
+Result<ConvertReport> convert(const std::vector<std::string>& srcs, const std::string& dst,
+                              const ConvertOptions& options) {
   const auto start = detail::Clock::now();
+  RGS_RETURN_ERROR_IF(srcs.empty(), StatusCode::kInvalidArgument, dst + ": no input to convert");
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
   ConversionOutputs outputs(options);
-  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {src}));
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, srcs));
   detail::ProgressReporter progress(options, output);
   progress.reading();
-  RGS_ASSIGN_OR_RETURN(detail::SceneSource source, detail::open_file_source(src, output, options));
+  RGS_ASSIGN_OR_RETURN(detail::SceneSource source, detail::open_file_source(srcs, output, options));
   source.start = start;
   if (source.stream) {
     return outputs.commit(
         detail::convert_batches(std::move(source), dst, outputs.options(), *outputs.options().files, &progress));
   }
-  return convert_read(std::move(*source.scene), src, dst, output, &outputs, &progress, start);
+  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, source.scene->files));
+  return outputs.commit(convert_whole(std::move(source), dst, output, outputs.options(), &progress));
 }
 
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,

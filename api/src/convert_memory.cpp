@@ -86,11 +86,9 @@ uint64_t max_whole_input_bytes(const std::string& format_id, const ConvertOption
 
 namespace detail {
 
-Status check_convert_memory(const std::string& src, const ConvertOptions& options) {
+Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options) {
   const uint64_t limit = convert_memory_limit(options);
-  if (limit == 0) return Status();
-  RGS_ASSIGN_OR_RETURN(uint64_t estimate, estimate_convert_memory(src));
-  RGS_RETURN_ERROR_IF(estimate > limit, StatusCode::kLimitExceeded,
+  RGS_RETURN_ERROR_IF(limit != 0 && estimate > limit, StatusCode::kLimitExceeded,
                       src + ": converting it is estimated to need " + bytes_text(estimate) +
                           " of memory, above the memory limit of " + bytes_text(limit) +
                           " (the input is read whole: only a binary PLY converted with levels of detail is read in batches); "

@@ -63,8 +63,8 @@ class ProgressReporter {
 /// Where a conversion's Gaussians come from: a scene read whole (a file, bytes, a cloud, a scene read already),
 /// or a binary PLY too large for memory, read in batches pass after pass (docs/LOD.md#scenes-larger-than-memory).
 struct SceneSource {
-  /// The source as named in messages and in the provenance.
-  std::string name;
+  /// The source as named in messages, and the provenance's source_file (each file's name, joined by " + ").
+  std::string name, source_file;
   /// The whole scene (unset for a batched source): its cloud and what was learned reading it.
   std::optional<converter::InputScene> scene;
   /// The batched PLY (null for a whole source).
@@ -73,16 +73,19 @@ struct SceneSource {
   Clock::time_point start = Clock::now();
 };
 
-/// The file at `src` as the source of a conversion to `output`: in batches when it is a binary PLY converted to a
-/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole is above
-/// convert_memory_limit(options); else read whole (converter::read_scene, after check_convert_memory).
-Result<SceneSource> open_file_source(const std::string& src, OutputFormat output, const ConvertOptions& options);
+/// The files at `srcs` (one or more) as the source of a conversion to `output`, named by their names joined with
+/// " + ": in batches, file after file (converter::PlyStream of them all), when they are binary PLYs converted to a
+/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole together is above
+/// convert_memory_limit(options); else each read whole (converter::read_scene, after check_convert_memory of
+/// their sum) and merged (converter::merge_scenes).
+Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, OutputFormat output,
+                                     const ConvertOptions& options);
 
 /// The scene on its way from the stages to the sink: the float cloud as read (freed once quantized where nothing
 /// reads it again), its quantized form, its levels of detail, and the report filled as the work goes.
 struct PipelineScene {
   converter::InputScene input;
-  std::string name;  ///< the source as named in messages and provenance
+  std::string name, source_file;  ///< SceneSource's
   std::optional<format::EncodedScene> encoded;
   std::optional<converter::LodScene> lod;
   ConvertReport report;
@@ -158,9 +161,9 @@ class ProgressSink final : public format::FileSink {
   ProgressReporter* progress_;
 };
 
-/// The provenance a .rgs conversion writes (SPEC §4.2): the source file's name, bytes, XXH64 and storage, the
-/// converter and the options that change the bytes, the Gaussians dropped by sanitizing.
-format::Provenance rgs_provenance(const std::string& src_name, const ConvertOptions& options, uint64_t file_bytes,
+/// The provenance a .rgs conversion writes (SPEC §4.2): the source's file name (SceneSource::source_file), bytes,
+/// XXH64 and storage, the converter and the options that change the bytes, the Gaussians dropped by sanitizing.
+format::Provenance rgs_provenance(const std::string& source_file, const ConvertOptions& options, uint64_t file_bytes,
                                   uint64_t file_xxh64, const std::string& storage, uint64_t dropped_gaussians);
 
 /// The write options of a .rgs conversion (profile, codecs, zstd level), checked.

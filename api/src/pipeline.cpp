@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <sstream>
 
 #include "internal_pipeline.h"
@@ -151,10 +150,10 @@ void note_read_limit(uint64_t gaussians, ConvertReport* report) {
                                  " (Python max_gaussians=, format::ReadLimits::max_gaussians)");
 }
 
-format::Provenance rgs_provenance(const std::string& src_name, const ConvertOptions& options, uint64_t file_bytes,
+format::Provenance rgs_provenance(const std::string& source_file, const ConvertOptions& options, uint64_t file_bytes,
                                   uint64_t file_xxh64, const std::string& storage, uint64_t dropped_gaussians) {
   return {
-      {"source_file", std::filesystem::path(src_name).filename().string()},
+      {"source_file", source_file},
       {"source_bytes", std::to_string(file_bytes)},
       {"source_xxh64", hex64(file_xxh64)},
       {"source_storage", storage},

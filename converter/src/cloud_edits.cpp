@@ -1,11 +1,16 @@
 // The edits of a conversion's edit chain: parsing rgs-convert's spelling, checking, applying to a float cloud.
 #include "rgs/converter/cloud_edits.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
+#include <tuple>
+#include <utility>
 
+#include "rgs/converter/lod_builder.h"
+#include "rgs/converter/quantize.h"
 #include "rgs/converter/sh_rotation.h"
 
 namespace rgs::converter {
@@ -27,7 +32,7 @@ constexpr NameKind kNames[] = {
     {"scale", EditKind::kScale, false},         {"filter-nan", EditKind::kFilterNan, false},
     {"filter", EditKind::kFilter, false},       {"crop-box", EditKind::kCropBox, false},
     {"crop-box-outside", EditKind::kCropBox, true}, {"crop-sphere", EditKind::kCropSphere, false},
-    {"crop-sphere-outside", EditKind::kCropSphere, true},
+    {"crop-sphere-outside", EditKind::kCropSphere, true}, {"decimate", EditKind::kDecimate, false},
 };
 
 /// EditCompare's spellings, in its order: the word and the symbol.
@@ -231,6 +236,55 @@ Result<uint64_t> in_float_range(const format::GaussianCloud& cloud, const EditAc
   return uint64_t{0};
 }
 
+/// The level of each chunk of `index` in the cut apply_edit's decimation takes (cloud_edits.h); empty when even
+/// the coarsest levels hold more than `target`.
+std::vector<uint32_t> decimation_cut(const format::LodIndex& index, uint64_t target) {
+  std::vector<std::tuple<float, uint32_t, uint32_t>> steps;  // error, chunk, level
+  for (uint32_t l = 1; l < index.level_count; ++l) {
+    for (uint32_t c = 0; c < index.chunk_count; ++c) steps.emplace_back(index.at(l, c).error, c, l);
+  }
+  std::sort(steps.begin(), steps.end());  // a chunk's errors do not decrease with its level
+  std::vector<uint32_t> level(index.chunk_count, 0);
+  uint64_t total = index.full_detail_count();
+  for (const auto& [error, c, l] : steps) {
+    if (total <= target) break;
+    total -= index.at(l - 1, c).count - index.at(l, c).count;
+    level[c] = l;
+  }
+  if (total > target) level.clear();
+  return level;
+}
+
+Result<uint64_t> decimate_cloud(format::GaussianCloud* cloud, double value) {
+  const uint64_t n = cloud->size();
+  const uint64_t target = value < 1 ? std::max<uint64_t>(1, uint64_t(std::llround(value * double(n)))) : uint64_t(value);
+  if (n <= target) return uint64_t{0};
+  RGS_ASSIGN_OR_RETURN(const format::EncodedScene encoded, quantize(*cloud, QuantizeOptions{}));
+  for (uint64_t chunk = std::max<uint64_t>(target / 16, 64);; chunk *= 8) {
+    LodBuildOptions options;
+    options.levels = format::kMaxLodLevels;
+    options.max_chunk_gaussians = uint32_t(std::min(chunk, n));
+    RGS_ASSIGN_OR_RETURN(LodScene lod, build_lod(encoded, options));
+    const std::vector<uint32_t> level = decimation_cut(lod.index, target);
+    if (level.empty() && chunk < n) continue;
+    if (level.empty()) return Status(StatusCode::kInvalidArgument, "cannot decimate to " + std::to_string(target));
+    format::GaussianCloud out, part;
+    out.sh_degree = cloud->sh_degree;
+    out.antialiased = cloud->antialiased;
+    for (uint32_t c = 0; c < lod.index.chunk_count; ++c) {
+      const format::LodLevel& range = lod.index.at(level[c], c);
+      RGS_RETURN_IF_ERROR(format::dequantize_range(lod.scene, range.first, range.count, &part));
+      for (auto [to, from] : {std::pair(&out.means, &part.means), std::pair(&out.rotations, &part.rotations),
+                              std::pair(&out.scales, &part.scales), std::pair(&out.opacities, &part.opacities),
+                              std::pair(&out.sh, &part.sh)}) {
+        to->insert(to->end(), from->begin(), from->end());
+      }
+    }
+    *cloud = std::move(out);
+    return n - cloud->size();
+  }
+}
+
 }  // namespace
 
 std::string edit_action_text(const EditAction& action) {
@@ -247,7 +301,7 @@ std::string edit_action_text(const EditAction& action) {
 }
 
 Status check_edit_action(const EditAction& action) {
-  static constexpr size_t kCounts[] = {3, 4, 1, 0, 1, 6, 4};
+  static constexpr size_t kCounts[] = {3, 4, 1, 0, 1, 6, 4, 1};
   const size_t want = kCounts[size_t(action.kind)];
   const std::vector<double>& v = action.values;
   if (v.size() != want) {
@@ -276,6 +330,12 @@ Status check_edit_action(const EditAction& action) {
   }
   if (action.kind == EditKind::kScale && !(v[0] > 0)) return invalid(action, "the scale must be positive");
   if (action.kind == EditKind::kCropSphere && !(v[3] > 0)) return invalid(action, "the radius must be positive");
+  if (action.kind == EditKind::kDecimate) {
+    const bool count = v[0] >= 1 && v[0] == std::floor(v[0]) && v[0] < 0x1p64;
+    if (!count && !(v[0] > 0 && v[0] < 1)) {
+      return invalid(action, "takes a count of Gaussians (an integer >= 1) or a fraction of them in (0, 1)");
+    }
+  }
   if (action.kind == EditKind::kCropBox) {
     for (int a = 0; a < 3; ++a) {
       if (v[a] > v[a + 3]) {
@@ -301,7 +361,7 @@ Result<EditAction> parse_edit_action(const std::string& name, const std::string&
   if (found == nullptr) {
     return Status(StatusCode::kInvalidArgument,
                   "unknown edit '" + name + "' (translate, rotate, scale, filter-nan, filter, crop-box, "
-                  "crop-box-outside, crop-sphere, crop-sphere-outside)");
+                  "crop-box-outside, crop-sphere, crop-sphere-outside, decimate)");
   }
   action.kind = found->kind;
   action.outside = found->outside;
@@ -360,6 +420,11 @@ Result<uint64_t> apply_edit(format::GaussianCloud* cloud, const EditAction& acti
         const double dx = p[0] - v[0], dy = p[1] - v[1], dz = p[2] - v[2];
         return (dx * dx + dy * dy + dz * dz <= v[3] * v[3]) != action.outside;
       });
+    case EditKind::kDecimate: {
+      Result<uint64_t> removed = decimate_cloud(cloud, v[0]);
+      if (!removed.ok()) return invalid(action, removed.status().message());
+      return removed;
+    }
   }
   return uint64_t{0};
 }

@@ -103,6 +103,13 @@ Status apply_invalid_policy(InvalidPolicy policy, const char* what, const std::v
 /// those Gaussians (kSanitize). `what` names a Gaussian in messages ("splat", "vertex").
 Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCloud* cloud, InputHygiene* hygiene);
 
+/// Adds the counts of `part` (dropped Gaussians included) to `total`; total's first_invalid_index becomes
+/// part's + `offset` (the Gaussians before part's input) when total has none.
+void add_hygiene(const InputHygiene& part, uint64_t offset, InputHygiene* total);
+
+/// XXH64 (seed 0) over the little-endian bytes of `hashes`: the hash of an input made of several files.
+uint64_t combine_hashes(const std::vector<uint64_t>& hashes);
+
 inline std::string prefix(const std::string& name) { return name.empty() ? std::string() : name + ": "; }
 
 /// Runs `fn` (returning Result<T>), prefixing errors with `name` and turning allocation failures and

@@ -35,6 +35,7 @@
 #include "internal_interop.h"
 #include "internal_parallel.h"
 #include "internal_ply_header.h"
+#include "rgs/converter/scene_reader.h"
 
 namespace rgs::converter {
 
@@ -188,14 +189,6 @@ struct RawGaussian {
 struct HygieneCounts : InputHygiene {
   std::vector<uint64_t> invalid;
 };
-
-/// Adds the counts of `part` to `total` (the invalid indices are the caller's).
-void add_counts(const InputHygiene& part, InputHygiene* total) {
-  total->nonfinite_values += part.nonfinite_values;
-  total->gaussians_with_nonfinite += part.gaussians_with_nonfinite;
-  total->zero_norm_quaternions += part.zero_norm_quaternions;
-  total->infinite_opacity_logits += part.infinite_opacity_logits;
-}
 
 /// Converts to float32 without the undefined behaviour of casting an out-of-range double.
 inline float to_float(double v) {
@@ -514,7 +507,7 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
   }
   for (const Status& s : errors) RGS_RETURN_IF_ERROR(s);
   for (HygieneCounts& p : parts) {
-    add_counts(p, total);
+    detail::add_hygiene(p, 0, total);  // the invalid indices are ours
     total->invalid.insert(total->invalid.end(), p.invalid.begin(), p.invalid.end());
   }
   return Status();
@@ -948,7 +941,7 @@ struct PlyStream::State {
       return decoded;
     }
     next = first + rows;
-    add_counts(counts, &pass_counts);
+    detail::add_hygiene(counts, 0, &pass_counts);
     if (!counts.invalid.empty()) {
       if (pass_counts.first_invalid_index < 0) {
         pass_counts.first_invalid_index = static_cast<int64_t>(first + counts.invalid.front());
@@ -970,54 +963,97 @@ struct PlyStream::State {
 };
 
 Result<std::unique_ptr<PlyStream>> PlyStream::open(const std::string& path, const PlyReadOptions& options) {
-  return detail::guarded<std::unique_ptr<PlyStream>>(path, "opening the PLY", [&]() -> Result<std::unique_ptr<PlyStream>> {
-    auto state = std::make_unique<State>();
-    state->path = path;
-    state->options = options;
-    RGS_RETURN_IF_ERROR(state->source.open(path));
-    RGS_ASSIGN_OR_RETURN(state->body, read_body(&state->source, options));
-    RGS_RETURN_ERROR_IF(state->body.header.storage == PlyStorage::kAscii, StatusCode::kUnsupportedFeature,
-                        "an ascii PLY is read whole, not in batches; convert it to binary first "
-                        "(rgs-convert in.ply binary.ply)");
-    state->hash.reset(XXH64_createState());
-    if (!state->hash) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
-    RGS_RETURN_IF_ERROR(state->start_pass());
-    std::unique_ptr<PlyStream> stream(new PlyStream());
-    stream->state_ = std::move(state);
-    return stream;
-  });
+  return open(std::vector<std::string>{path}, options);
+}
+
+Result<std::unique_ptr<PlyStream>> PlyStream::open(const std::vector<std::string>& paths,
+                                                   const PlyReadOptions& options) {
+  std::unique_ptr<PlyStream> stream(new PlyStream());
+  for (const std::string& path : paths) {
+    RGS_ASSIGN_OR_RETURN(auto state, detail::guarded<std::unique_ptr<State>>(path, "opening the PLY", [&]() -> Result<std::unique_ptr<State>> {
+      auto state = std::make_unique<State>();
+      state->path = path;
+      state->options = options;
+      RGS_RETURN_IF_ERROR(state->source.open(path));
+      RGS_ASSIGN_OR_RETURN(state->body, read_body(&state->source, options));
+      RGS_RETURN_ERROR_IF(state->body.header.storage == PlyStorage::kAscii, StatusCode::kUnsupportedFeature,
+                          "an ascii PLY is read whole, not in batches; convert it to binary first "
+                          "(rgs-convert in.ply binary.ply)");
+      state->hash.reset(XXH64_createState());
+      if (!state->hash) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
+      RGS_RETURN_IF_ERROR(state->start_pass());
+      return state;
+    }));
+    const std::string storage = detail::ply_storage_name(state->body.header.storage);
+    if (stream->storage_.find(storage) == std::string::npos) stream->storage_ += " + " + storage;
+    stream->vertices_ += state->body.n;
+    stream->degree_ = std::max(stream->degree_, state->body.layout.sh_degree);
+    stream->bytes_ += state->source.size();
+    stream->states_.push_back(std::move(state));
+  }
+  RGS_RETURN_ERROR_IF(paths.empty(), StatusCode::kInvalidArgument, "PlyStream::open: no file named");
+  return stream;
 }
 
 PlyStream::~PlyStream() = default;
 
-uint64_t PlyStream::vertex_count() const { return state_->body.n; }
-uint32_t PlyStream::sh_degree() const { return state_->body.layout.sh_degree; }
-uint64_t PlyStream::file_bytes() const { return state_->source.size(); }
-std::string PlyStream::storage_format() const { return detail::ply_storage_name(state_->body.header.storage); }
-const InputHygiene& PlyStream::hygiene() const { return state_->pass_counts; }
+uint64_t PlyStream::vertex_count() const { return vertices_; }
+uint32_t PlyStream::sh_degree() const { return degree_; }
+uint64_t PlyStream::file_bytes() const { return bytes_; }
+std::string PlyStream::storage_format() const { return storage_.substr(3); }  // after the first " + "
+const InputHygiene& PlyStream::hygiene() const {
+  hygiene_ = InputHygiene();
+  uint64_t offset = 0;
+  for (const auto& st : states_) {
+    detail::add_hygiene(st->pass_counts, offset, &hygiene_);
+    offset += st->body.n;
+  }
+  return hygiene_;
+}
 std::optional<uint64_t> PlyStream::file_xxh64() const {
-  return state_->options.hash_file ? state_->file_xxh64 : std::nullopt;
+  std::vector<uint64_t> hashes;
+  for (const auto& st : states_) {
+    if (!st->options.hash_file || !st->file_xxh64) return std::nullopt;
+    hashes.push_back(*st->file_xxh64);
+  }
+  return hashes.size() == 1 ? hashes.front() : detail::combine_hashes(hashes);
 }
 
-Status PlyStream::check_unchanged() const { return Status(state_->check_unchanged()).prepend(state_->path); }
+Status PlyStream::check_unchanged() const {
+  for (const auto& st : states_) RGS_RETURN_IF_ERROR(Status(st->check_unchanged()).prepend(st->path));
+  return Status();
+}
 
 Status PlyStream::rewind() {
-  State& st = *state_;
-  return detail::guarded<bool>(st.path, "starting a pass over the PLY", [&]() -> Result<bool> {
-    RGS_RETURN_IF_ERROR(st.check_unchanged());
-    RGS_RETURN_IF_ERROR(st.start_pass());
-    return true;
-  }).status();
+  current_ = 0;
+  for (const auto& state : states_) {
+    State& st = *state;
+    const Result<bool> started = detail::guarded<bool>(st.path, "starting a pass over the PLY", [&]() -> Result<bool> {
+      RGS_RETURN_IF_ERROR(st.check_unchanged());
+      RGS_RETURN_IF_ERROR(st.start_pass());
+      return true;
+    });
+    if (!started.ok()) return started.status();
+  }
+  return Status();
 }
 
 Result<uint64_t> PlyStream::read(uint64_t max, format::GaussianCloud* batch) {
-  State& st = *state_;
-  return detail::guarded<uint64_t>(st.path, "decoding the PLY", [&]() -> Result<uint64_t> {
-    Result<uint64_t> rows = st.read(max, batch);
-    // Bytes that end early or values that are not valid in a file that changed: the change is the cause.
-    if (!rows.ok()) RGS_RETURN_IF_ERROR(st.check_unchanged());
+  for (; current_ < states_.size(); ++current_) {
+    State& st = *states_[current_];
+    const Result<uint64_t> rows = detail::guarded<uint64_t>(st.path, "decoding the PLY", [&]() -> Result<uint64_t> {
+      Result<uint64_t> read = st.read(max, batch);
+      // Bytes that end early or values that are not valid in a file that changed: the change is the cause.
+      if (!read.ok()) RGS_RETURN_IF_ERROR(st.check_unchanged());
+      return read;
+    });
+    if (!rows.ok()) return rows;
+    if (*rows == 0 && max > 0) continue;  // this file's pass ended (and was checked): the next file's
+    RGS_RETURN_IF_ERROR(raise_sh_degree(batch, sh_degree()));
     return rows;
-  });
+  }
+  batch->resize(0);
+  return uint64_t{0};
 }
 
 }  // namespace rgs::converter

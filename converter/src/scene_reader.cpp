@@ -542,4 +542,106 @@ std::vector<std::string> supported_scene_formats() {
   return out;
 }
 
+Status raise_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {
+  RGS_RETURN_ERROR_IF(degree > 3 || !cloud->is_consistent(), StatusCode::kInvalidArgument,
+                      "raise_sh_degree: SH degree " + std::to_string(degree) + " above 3 or an inconsistent cloud");
+  if (cloud->sh_degree >= degree) return Status();
+  const size_t n = cloud->size();
+  const size_t from = cloud->sh_coefficients() * 3;
+  const size_t to = format::sh_coefficient_count(degree) * 3;
+  try {
+    cloud->sh.resize(n * to);
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "raise_sh_degree: no memory for the larger SH array");
+  }
+  // In place, back to front: Gaussian i's values move to i * to, never before i * from.
+  float* sh = cloud->sh.data();
+  for (size_t i = n; i-- > 0;) {
+    std::memmove(sh + i * to, sh + i * from, from * sizeof(float));
+    std::fill(sh + i * to + from, sh + (i + 1) * to, 0.0f);
+  }
+  cloud->sh_degree = degree;
+  return Status();
+}
+
+namespace {
+
+/// `text` with `part` appended after " + ", unless it holds it already.
+void join_distinct(const std::string& part, std::string* text) {
+  if ((" + " + *text + " + ").find(" + " + part + " + ") == std::string::npos) {
+    *text += (text->empty() ? "" : " + ") + part;
+  }
+}
+
+}  // namespace
+
+Result<InputScene> merge_scenes(std::vector<InputScene> scenes) {
+  RGS_RETURN_ERROR_IF(scenes.empty(), StatusCode::kInvalidArgument, "merge_scenes: no scene to merge");
+  if (scenes.size() == 1) return std::move(scenes.front());
+  InputScene out;
+  std::vector<uint64_t> hashes;
+  const auto name = [](const InputScene& s) { return s.files.empty() ? s.description : s.files.front(); };
+  for (InputScene& s : scenes) {
+    out.cloud.sh_degree = std::max(out.cloud.sh_degree, s.cloud.sh_degree);
+    const bool aa = s.cloud.antialiased, first_aa = scenes.front().cloud.antialiased;
+    RGS_RETURN_ERROR_IF(aa != first_aa, StatusCode::kInvalidArgument,
+                        name(scenes.front()) + (first_aa ? " is" : " is not") + " anti-aliased (trained with the 2D "
+                        "Mip filter) and " + name(s) + (aa ? " is" : " is not") + ": the filter's opacity "
+                        "compensation depends on the view, so one scene cannot render both as trained; merge scenes "
+                        "of one kind (--antialiased sets the flag of inputs that cannot carry it)");
+  }
+  out.cloud.antialiased = scenes.front().cloud.antialiased;
+  for (InputScene& s : scenes) {
+    RGS_RETURN_IF_ERROR(raise_sh_degree(&s.cloud, out.cloud.sh_degree));
+    format::GaussianCloud& c = out.cloud;
+    try {
+      c.means.insert(c.means.end(), s.cloud.means.begin(), s.cloud.means.end());
+      c.rotations.insert(c.rotations.end(), s.cloud.rotations.begin(), s.cloud.rotations.end());
+      c.scales.insert(c.scales.end(), s.cloud.scales.begin(), s.cloud.scales.end());
+      c.opacities.insert(c.opacities.end(), s.cloud.opacities.begin(), s.cloud.opacities.end());
+      c.sh.insert(c.sh.end(), s.cloud.sh.begin(), s.cloud.sh.end());
+    } catch (const std::bad_alloc&) {
+      return Status(StatusCode::kOutOfMemory, "merge_scenes: no memory for the merged scene");
+    }
+    s.cloud = format::GaussianCloud();
+    detail::add_hygiene(s.hygiene, out.declared_vertices, &out.hygiene);
+    join_distinct(s.format_id, &out.format_id);
+    join_distinct(s.description, &out.description);
+    join_distinct(s.storage_format, &out.storage_format);
+    out.file_bytes += s.file_bytes;
+    out.file_count += s.file_count;
+    out.declared_vertices += s.declared_vertices;
+    out.files.insert(out.files.end(), s.files.begin(), s.files.end());
+    for (const std::string& note : s.notes) out.notes.push_back(name(s) + ": " + note);
+    if (s.file_xxh64) hashes.push_back(*s.file_xxh64);
+  }
+  if (hashes.size() == scenes.size()) out.file_xxh64 = detail::combine_hashes(hashes);
+  out.bounds = compute_bounds(out.cloud);
+  return out;
+}
+
+namespace detail {
+
+void add_hygiene(const InputHygiene& part, uint64_t offset, InputHygiene* total) {
+  total->nonfinite_values += part.nonfinite_values;
+  total->gaussians_with_nonfinite += part.gaussians_with_nonfinite;
+  total->zero_norm_quaternions += part.zero_norm_quaternions;
+  total->infinite_opacity_logits += part.infinite_opacity_logits;
+  total->dropped_gaussians += part.dropped_gaussians;
+  if (total->first_invalid_index < 0 && part.first_invalid_index >= 0) {
+    total->first_invalid_index = part.first_invalid_index + static_cast<int64_t>(offset);
+  }
+}
+
+uint64_t combine_hashes(const std::vector<uint64_t>& hashes) {
+  std::vector<uint8_t> bytes;
+  bytes.reserve(hashes.size() * 8);
+  for (uint64_t h : hashes) {
+    for (int b = 0; b < 8; ++b) bytes.push_back(static_cast<uint8_t>(h >> (8 * b)));
+  }
+  return XXH64(bytes.data(), bytes.size(), 0);
+}
+
+}  // namespace detail
+
 }  // namespace rgs::converter

@@ -592,15 +592,6 @@ Status decode_chunk(ChunkJob* job, unsigned workers, format::GaussianCloud* clou
 // ---------------------------------------------------------------------------------------------------
 // Whole reads.
 
-uint64_t combine_hashes(const std::vector<uint64_t>& hashes) {
-  std::vector<uint8_t> bytes;
-  bytes.reserve(hashes.size() * 8);
-  for (uint64_t h : hashes) {
-    for (int b = 0; b < 8; ++b) bytes.push_back(static_cast<uint8_t>(h >> (8 * b)));
-  }
-  return XXH64(bytes.data(), bytes.size(), 0);
-}
-
 /// SH degree a meta file implies; the earlier layout names it only through its centroids image, so its
 /// scenes report the degree decode_chunk checks against (`bands` from the image, see resolve_earlier_bands).
 uint32_t declared_degree(const SogMeta& meta) { return meta.has_shn ? meta.sh_bands : 0; }
@@ -758,7 +749,7 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
     scene.file_count = entry.folder->distinct_files();
     if (options.hash_file) {
       hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
-      scene.file_xxh64 = combine_hashes(hashes);
+      scene.file_xxh64 = detail::combine_hashes(hashes);
     }
   }
   scene.files = bundled ? std::vector<std::string>{entry.path} : entry.folder->files();
@@ -988,7 +979,7 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
   if (options.hash_file) {
     // Meta files first (read above, in file order), then each chunk's images in file order.
     for (const ChunkJob& job : jobs) hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
-    scene.file_xxh64 = combine_hashes(hashes);
+    scene.file_xxh64 = detail::combine_hashes(hashes);
   }
   scene.files = folder.files();
   scene.format_id = "sog_lod";

@@ -166,10 +166,17 @@ py::dict convert_with_options(const char* fn, py::kwargs kwargs, const std::stri
 
 void bind_conversion(py::module_& m) {
   m.def("_convert",
-        [](const PathArg& src, const PathArg& dst, py::kwargs kwargs) {
-          const std::string from = path_arg(src, "convert", "src").string();
+        [](const py::object& src, const PathArg& dst, py::kwargs kwargs) {
+          // One path, or a list or tuple of them merged into one scene.
+          std::vector<std::string> from;
+          const bool several = py::isinstance<py::list>(src) || py::isinstance<py::tuple>(src);
+          for (py::handle s : several ? py::iterable(src) : py::iterable(py::make_tuple(src))) {
+            from.push_back(path_arg(s, "convert", "src").string());
+          }
+          std::string name;
+          for (const std::string& f : from) name += (name.empty() ? "" : " + ") + f;
           const std::string to = path_arg(dst, "convert", "dst").string();
-          return convert_with_options("convert", std::move(kwargs), from, to, [&](const api::ConvertOptions& o) {
+          return convert_with_options("convert", std::move(kwargs), name, to, [&](const api::ConvertOptions& o) {
             return api::convert(from, to, o);
           });
         },
@@ -224,7 +231,9 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
 )", scope);
   m.attr("convert").attr("__doc__") = py::str(
         "Convert a scene in any format into dst: .rgs, .ply, .spz, .glb or .sog (or a SOG folder's meta.json), as `to` or "
-        "dst's extension says "
+        "dst's extension says. src: a path (str or os.PathLike), or a list or tuple of paths whose scenes are merged "
+        "into one before the edits (their Gaussians in the order given, at the highest SH degree, missing bands zero; "
+        "differing anti-aliasing flags raise roofgs.Error kInvalidArgument naming both files) "
         "(what rgs-convert does, same options). Returns rgs-convert --json's report as a dict (api::"
         "convert_report_json): input and output (path, bytes, format, ..., notes), gaussians, sh_degree, hygiene "
         "(dropped_gaussians, ...), and errors (per attribute, SH per degree) for a .rgs output. "
@@ -244,10 +253,12 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "('filter', 'opacity gt 0.1'), ('crop-box', '-1,-1,-1,1,1,1'), ('filter-nan', '')]; the names are "
         "translate (x,y,z scene units), rotate (x,y,z Euler degrees, extrinsic x then y then z, or a unit quaternion "
         "w,x,y,z; the SH colour turns too), scale (s > 0), filter-nan, filter ('NAME OP VALUE'), crop-box, "
-        "crop-box-outside (minx,miny,minz,maxx,maxy,maxz), crop-sphere, crop-sphere-outside (cx,cy,cz,r) "
+        "crop-box-outside (minx,miny,minz,maxx,maxy,maxz), crop-sphere, crop-sphere-outside (cx,cy,cz,r), "
+        "decimate (N, an integer >= 1, or a fraction in (0, 1): at most that many Gaussians, merged by the levels "
+        "of detail's rule; refused out of core) "
         "(api::ConvertOptions::edits, converter::parse_edit_action); a bad one raises ValueError naming edits[i] "
         "and the rule. rgs-convert's --translate, --rotate, --scale, --filter-nan, --filter, --crop-box, "
-        "--crop-sphere and their -outside forms are this one keyword, since their order matters");
+        "--crop-sphere, their -outside forms and --decimate are this one keyword, since their order matters");
   m.attr("save").attr("__doc__") = py::str(
         "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb, .sog or a SOG "
         "folder's meta.json), with convert()'s "

@@ -901,7 +901,7 @@ def test_from_arrays_of_cuda_tensors_follows_the_value_rules(cuda):
 TOOL_ONLY_OPTIONS = {"help", "version", "json", "quiet"}
 # rgs-convert's edits act in the order given: in Python they are one keyword, edits=[(name, value), ...].
 EDIT_OPTIONS = {"translate", "rotate", "scale", "filter-nan", "filter", "crop-box", "crop-box-outside", "crop-sphere",
-                "crop-sphere-outside"}
+                "crop-sphere-outside", "decimate"}
 
 
 def _signature_keywords(fn):
@@ -958,6 +958,21 @@ def test_edits_act_in_order_and_bad_ones_raise_value_error_naming_them(tmp_path)
             roofgs.convert(src, str(tmp_path / "x.rgs"), edits=edits)
     with pytest.raises(TypeError, match=r"^convert\(\): edits must be a sequence of \(name, value\) pairs of str"):
         roofgs.convert(src, str(tmp_path / "x.rgs"), edits="rotate 0,0,90")
+
+
+def test_convert_merges_a_list_of_inputs_and_decimates(tmp_path):
+    sh0, sh3 = str(SOURCE_DIR / "samples" / "guitar.ply"), SOURCE_DIR / "tests" / "data" / "guitar_sh3.ply"
+    report = roofgs.convert([sh0, sh3], str(tmp_path / "merged.rgs"))  # a str and an os.PathLike
+    assert report["gaussians"] == 98854 and report["sh_degree"] == 3
+    assert report["input"]["path"] == sh0 + " + " + str(sh3)
+    report = roofgs.convert((sh0, sh3), str(tmp_path / "decimated.ply"), edits=[("decimate", "1000")])
+    assert 1000 - 64 < report["gaussians"] <= 1000
+    assert "decimate '1000' removed %s Gaussians" % format(98854 - report["gaussians"], ",") in report["input"]["notes"]
+    with pytest.raises(ValueError, match=r"edits\[0\]: decimate '1.5': takes a count of Gaussians"):
+        roofgs.convert(sh0, str(tmp_path / "x.rgs"), edits=[("decimate", "1.5")])
+    roofgs.convert(sh3, str(tmp_path / "aa.rgs"), antialiased=True)
+    with pytest.raises(roofgs.Error, match="aa.rgs is anti-aliased .* and .*guitar.ply is not"):
+        roofgs.convert([str(tmp_path / "aa.rgs"), sh0], str(tmp_path / "mixed.rgs"))
 
 
 def test_option_values_out_of_range_raise_value_error(tmp_path):

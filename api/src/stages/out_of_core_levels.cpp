@@ -212,6 +212,12 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   std::unique_ptr<converter::PlyStream>& stream = source.stream;
   RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
                       src + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
+  RGS_RETURN_ERROR_IF(std::any_of(options.edits.begin(), options.edits.end(),
+                                  [](const converter::EditAction& e) { return e.kind == converter::EditKind::kDecimate; }),
+                      StatusCode::kInvalidArgument,
+                      src + ": decimate needs the whole scene in memory, and this conversion reads it in batches "
+                            "(out of core: its estimated peak is above the memory limit); raise memory_limit "
+                            "(--memory-limit) to read it whole");
   const uint64_t limit = convert_memory_limit(options);
   const uint64_t batch = std::clamp(limit / kBatchShareOfLimit / batch_bytes_per_gaussian(stream->sh_degree()),
                                     kMinBatchGaussians, kMaxBatchGaussians);
@@ -250,7 +256,7 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
     head.metadata.bounds.aabb_min[a] = stats.box_lo[a];
     head.metadata.bounds.aabb_max[a] = stats.box_hi[a];
   }
-  head.provenance = rgs_provenance(src, options, stream->file_bytes(), stream->file_xxh64().value_or(0),
+  head.provenance = rgs_provenance(source.source_file, options, stream->file_bytes(), stream->file_xxh64().value_or(0),
                                    stream->storage_format(), hygiene.dropped_gaussians);
 
   RgsOutputReport rgs;

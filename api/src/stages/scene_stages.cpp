@@ -65,7 +65,7 @@ Status quantize_rgs(PipelineScene* scene, const ConvertOptions& options, Progres
   // Not read again by the runtime profile: freed before the writer's buffers exist (peak RSS).
   if (!archive) scene->input.cloud = {};
   const converter::InputScene& input = scene->input;
-  encoded->provenance = rgs_provenance(scene->name, options, input.file_bytes, input.file_xxh64.value_or(0),
+  encoded->provenance = rgs_provenance(scene->source_file, options, input.file_bytes, input.file_xxh64.value_or(0),
                                        input.storage_format, input.hygiene.dropped_gaussians);
   scene->encoded.emplace(std::move(encoded).value());
   return Status();

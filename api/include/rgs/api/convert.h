@@ -392,6 +392,13 @@ Status check_convert_output(const std::string& dst, OutputFormat output, const C
 ///         committed.
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
 
+/// convert() of several scenes (`srcs`, one or more, any formats) merged into one before the edits by
+/// converter::merge_scenes, or out of core read file after file (converter::PlyStream). Messages, the report and the
+/// provenance name them joined by " + "; the output may replace none of their files. @return convert()'s errors,
+/// and kInvalidArgument for no input or inputs whose anti-aliasing flags differ (naming both files).
+Result<ConvertReport> convert(const std::vector<std::string>& srcs, const std::string& dst,
+                              const ConvertOptions& options = {});
+
 /// How convert() reads its source: `options.read`, the invalid-value policy of `options.sanitize`, and the
 /// file's XXH64 for the provenance.
 converter::SceneReadOptions scene_read_options(const ConvertOptions& options);

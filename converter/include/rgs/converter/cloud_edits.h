@@ -1,5 +1,5 @@
-// Per-Gaussian edits of a scene on its way through a conversion: rgs-convert's --translate, --rotate, --scale,
-// --filter-nan, --filter, --crop-box and --crop-sphere (and their -outside forms), api::ConvertOptions::edits and
+// Edits of a scene on its way through a conversion: rgs-convert's --translate, --rotate, --scale, --filter-nan,
+// --filter, --crop-box and --crop-sphere (and their -outside forms), --decimate, api::ConvertOptions::edits and
 // Python's edits=. One parser (parse_edit_action) turns the command line's spelling into an EditAction for all of
 // them; apply_edit acts on a float cloud (docs/DESIGN.md#the-scene-pipeline, README "Editing on the way").
 #pragma once
@@ -22,6 +22,7 @@ enum class EditKind : uint8_t {
   kFilter = 4,      ///< keep Gaussians whose property compares true with a value
   kCropBox = 5,     ///< keep Gaussians whose mean is inside (or outside) an axis-aligned box
   kCropSphere = 6,  ///< keep Gaussians whose mean is inside (or outside) a sphere
+  kDecimate = 7,    ///< merge Gaussians by the level-of-detail rule down to a count or fraction
 };
 
 /// The comparison of a kFilter edit: lt le gt ge eq ne (also written < <= > >= == !=).
@@ -38,6 +39,7 @@ struct EditAction {
   /// - kFilter [1]: the value the property is compared with, rounded to float32 as the property is held.
   /// - kCropBox [6]: min x, y, z then max x, y, z, scene units, min <= max per axis; inside means min <= p <= max.
   /// - kCropSphere [4]: centre x, y, z and radius r > 0, scene units; inside means |p - centre| <= r.
+  /// - kDecimate [1]: at most N Gaussians (an integer N >= 1) or a FRACTION in (0, 1) of them (rounded, at least 1).
   /// - kFilterNan: none.
   std::vector<double> values;
   /// kFilter: the property compared, named as in an INRIA PLY but read from the cloud's activated values: x, y,
@@ -61,11 +63,13 @@ struct EditAction {
 ///   turns counter-clockwise seen from the axis' positive end); or rotate "w,x,y,z": a unit quaternion;
 /// - filter "NAME OP VALUE" (three words separated by spaces; NAME as EditAction::property, OP one of lt le gt ge
 ///   eq ne < <= > >= == !=);
-/// - crop-box "minx,miny,minz,maxx,maxy,maxz", crop-sphere "cx,cy,cz,r", and their -outside forms.
+/// - crop-box "minx,miny,minz,maxx,maxy,maxz", crop-sphere "cx,cy,cz,r", and their -outside forms;
+/// - decimate "N" (an integer >= 1) or "FRACTION" (in (0, 1)).
 /// Numbers are decimal (strtod), separated by commas, spaces around them allowed.
 /// @return kInvalidArgument naming the action and its value ("rotate '1,1,0,0': ...") for an unknown name or
 ///         property, a number that is not one or not finite, a wrong count of numbers, a quaternion that is not a
-///         rotation (norm not within 1e-3 of 1), a scale or radius that is not positive, a box with min > max.
+///         rotation (norm not within 1e-3 of 1), a scale or radius that is not positive, a box with min > max, a
+///         decimation that is neither an integer >= 1 nor a fraction in (0, 1).
 Result<EditAction> parse_edit_action(const std::string& name, const std::string& value);
 
 /// `action.text` when set, else the action in parse_edit_action's spelling with its numbers at full precision (a
@@ -81,6 +85,12 @@ Status check_edit_action(const EditAction& action);
 /// about the origin (p' = R·p, in double), left-multiplies each quaternion (q' = q_R·q, normalized) and rotates the
 /// SH bands 1..3 by their Wigner D-matrices (sh_rotation.h) so that each Gaussian shows the same colour towards
 /// the rotated directions; translate and scale change means (and scales) in double, rounded to float32.
+/// Decimation to a target T leaves a scene of at most T as it is; a larger one is quantized (quantize()'s defaults),
+/// its levels built (build_lod: 16 levels, chunks of at most max(T / 16, 64) Gaussians, eight times more while the
+/// coarsest levels exceed T), and it becomes the cut a renderer under a budget of T splats draws: from the full
+/// detail, the chunk whose next level has the smallest error (ties: the lower chunk) moves one level coarser while
+/// the total exceeds T. So T - chunk size < count <= T, in chunk order, dequantized as the .rgs holds it
+/// (docs/LOD.md#decimation).
 /// @return the number of Gaussians removed (0 for translate, rotate, scale); kInvalidArgument for an action
 ///         check_edit_action refuses, an inconsistent cloud, or f_rest_K beyond the cloud's SH degree.
 Result<uint64_t> apply_edit(format::GaussianCloud* cloud, const EditAction& action);

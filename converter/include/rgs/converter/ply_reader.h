@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/status.h"
@@ -93,6 +94,14 @@ class PlyStream {
   /// Opens `path` and checks its header as read_ply does. Errors name `path`: read_ply's header errors, and
   /// kUnsupportedFeature for an ascii PLY (read whole with read_ply).
   static Result<std::unique_ptr<PlyStream>> open(const std::string& path, const PlyReadOptions& options = {});
+  /// Opens the binary PLYs at `paths` (one or more) as one stream of their vertices in the order given (a merge):
+  /// each pass reads every file in turn, each checked as above, a batch holding vertices of one file at the
+  /// highest SH degree of the files (the bands a file lacks zero: raise_sh_degree). The counts below are the
+  /// files' together: vertex_count and file_bytes their sums, storage_format the distinct formats joined by
+  /// " + ", hygiene() summed (first_invalid_index counted over the files in turn), file_xxh64 for several files
+  /// XXH64 over each file's little-endian XXH64 (InputScene::file_xxh64's rule). Errors: open()'s for each file.
+  static Result<std::unique_ptr<PlyStream>> open(const std::vector<std::string>& paths,
+                                                 const PlyReadOptions& options = {});
   ~PlyStream();
   PlyStream(const PlyStream&) = delete;
   PlyStream& operator=(const PlyStream&) = delete;
@@ -127,7 +136,12 @@ class PlyStream {
  private:
   PlyStream() = default;
   struct State;
-  std::unique_ptr<State> state_;
+  std::vector<std::unique_ptr<State>> states_;  ///< one per file, read in turn
+  size_t current_ = 0;  ///< the file this pass reads
+  uint64_t vertices_ = 0, bytes_ = 0;  ///< the files' together
+  uint32_t degree_ = 0;
+  std::string storage_;
+  mutable InputHygiene hygiene_;  ///< hygiene()'s sum
 };
 
 /// The most bytes a PLY whose header starts `data[0, size)` can hold, for reading one from a stream

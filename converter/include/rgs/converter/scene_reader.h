@@ -168,6 +168,21 @@ Result<std::vector<std::string>> list_scene_files(const std::string& path);
 /// Errors: kInvalidArgument for `degree` above 3 or an inconsistent cloud; kOutOfMemory.
 Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree);
 
+/// Raises the SH degree of `cloud` to `degree` (a no-op when the cloud's is not below it), keeping its
+/// coefficients bit for bit and setting the added bands to zero, so that the cloud renders as before.
+/// Errors: kInvalidArgument for `degree` above 3 or an inconsistent cloud; kOutOfMemory.
+Status raise_sh_degree(format::GaussianCloud* cloud, uint32_t degree);
+
+/// Several scenes, each as its reader gave it (axes and activations normalised), as one: their Gaussians in the
+/// order given at the highest SH degree (raise_sh_degree); bounds compute_bounds(); counts, bytes, files and notes
+/// (prefixed with their entry file) summed or joined in order; format_id, description and storage_format the
+/// distinct ones joined by " + "; file_xxh64 XXH64 over each scene's little-endian XXH64 when all have one.
+/// One scene is returned as it is.
+/// @return kInvalidArgument for no scene, or for scenes whose anti-aliasing flags (GaussianCloud::antialiased)
+///         differ, naming the first two such entry files: the 2D Mip filter's opacity compensation depends on
+///         the view, so no flag renders both as trained; kOutOfMemory.
+Result<InputScene> merge_scenes(std::vector<InputScene> scenes);
+
 /// One line per supported input format, for help texts: "3DGS PLY (.ply)", ...
 std::vector<std::string> supported_scene_formats();
 
