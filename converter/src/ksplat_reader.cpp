@@ -100,7 +100,8 @@ Status parse_sections(const uint8_t* d, uint64_t size, uint32_t level, uint64_t 
 void decode_section(const uint8_t* d, const Section& c, uint32_t level, const float sh_range[2],
                     format::GaussianCloud* cloud, uint64_t first) {
   const uint32_t k_cloud = cloud->sh_coefficients();
-  const double step = level == 0 ? 0.0 : c.block_size / 2.0 / c.position_range;
+  // Float arithmetic: a huge block size or centre overflows to inf (refused as non-finite), never out of range.
+  const float range = static_cast<float>(c.position_range), step = c.block_size / 2.0f / range;
   auto value = [level](const uint8_t* p, uint64_t i) -> float {  // float i of a record part at p
     return level == 0 ? le_f32(p + 4 * i) : format::half_bits_to_float(le_u16(p + 2 * i));
   };
@@ -115,10 +116,8 @@ void decode_section(const uint8_t* d, const Section& c, uint32_t level, const fl
       const uint64_t i = first + j;
       const uint8_t* part = r + (level == 0 ? 12 : 6);
       for (int a = 0; a < 3; ++a) {
-        cloud->means[i * 3 + a] =
-            level == 0 ? le_f32(r + 4 * a)
-                       : static_cast<float>((static_cast<double>(le_u16(r + 2 * a)) - c.position_range) * step +
-                                            le_f32(d + c.centres + 12 * b + 4 * a));
+        const float offset = (le_u16(r + 2 * a) - range) * step;  // levels 1-2
+        cloud->means[i * 3 + a] = level == 0 ? le_f32(r + 4 * a) : offset + le_f32(d + c.centres + 12 * b + 4 * a);
         cloud->scales[i * 3 + a] = value(part, a);
       }
       for (int a = 0; a < 4; ++a) cloud->rotations[i * 4 + a] = value(part, 3 + a);
