@@ -44,7 +44,7 @@ seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$roo
                 "$root/tests/data/bad/archive")
 seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
 seeds_interop_read=("$root/tests/fuzz/corpus/interop_read" "$root/tests/data/interop" "$root/tests/data/sog")
-seeds_ksplat_read=("$root/tests/data/ksplat" "$root/tests/data/hostile/ksplat")
+seeds_ksplat_read=("$root/tests/fuzz/corpus/ksplat_read" "$root/tests/data/ksplat" "$root/tests/data/hostile/ksplat")
 seeds_sog_meta=("$root/tests/fuzz/corpus/sog_meta")
 seeds_sog_folder=("$root/tests/fuzz/corpus/sog_folder")
 seeds_gltf_json=("$root/tests/fuzz/corpus/gltf_json" "$root/tests/data/hostile/gltf"
