@@ -2,7 +2,7 @@
 """The edit chain of rgs-convert against PlayCanvas splat-transform's actions: the same chains, run through both
 tools on the shipped SH-3 scene (tests/data/guitar_sh3.ply, 8,000 Gaussians) to a PLY, must give the same
 Gaussians, in the same order and the same count; and splat-transform's .ksplat reader must give the Gaussians
-ours gives for each file of tests/data/ksplat.
+ours gives for each file of tests/data/ksplat and tests/fuzz/corpus/ksplat_read (SH degree 3 there).
 
 Conventions (splat-transform 3.7.0, dist/index.mjs: processDataTable, Transform, convertToSpace). splat-transform
 reads a PLY as raw columns with a pending transform Transform.PLY, a 180° turn about z into PlayCanvas's engine
@@ -189,9 +189,13 @@ def main():
     assert compare(os.path.join(work, "nan_rgs.ply"), os.path.join(work, "nan_st.ply"), "filter-nan",
                    EDIT_TOL) == 7996
     # .ksplat: splat-transform's reader (an implementation independent of ours) against ours, file by file.
-    ksplat_dir = os.path.join(source_dir, "tests", "data", "ksplat")
-    for name in sorted(f for f in os.listdir(ksplat_dir) if f.endswith(".ksplat")):
-        path = os.path.join(ksplat_dir, name)
+    # The fuzz seeds add SH degree 3, which GaussianSplats3D's PLY path never writes.
+    ksplat_files = [os.path.join(d, f) for d in (os.path.join(source_dir, "tests", "data", "ksplat"),
+                                                 os.path.join(source_dir, "tests", "fuzz", "corpus", "ksplat_read"))
+                    for f in sorted(os.listdir(d)) if f.endswith(".ksplat")]
+    assert len(ksplat_files) == 9, ksplat_files
+    for path in ksplat_files:
+        name = os.path.basename(path)
         theirs, ours = os.path.join(work, name + "_st.ply"), os.path.join(work, name + "_rgs.ply")
         run([splat_transform, "-q", "-w", path, theirs])
         run([rgs_convert, "-q", path, ours])
