@@ -24,11 +24,11 @@ bool looks_like_ksplat(const uint8_t* head, size_t n, uint64_t file_size);
 /// writeSplatDataToSectionBuffer; converter/INTEROP.md ".ksplat") lays it out:
 /// - header, 4096 bytes: u8 version major (0) and minor (1); u32 at byte 4 section count, at 8 sections loaded,
 ///   at 12 Gaussian count, at 16 Gaussians loaded; u16 at 20 compression level; f32 at 24..32 scene centre
-///   (unused); f32 at 36 and 40 the range [min, max] of 8-bit SH values (0 stands for ∓1.5, as in the JS).
+///   (unused); f32 at 36 and 40 the range [min, max] of 8-bit SH values (0 or NaN stands for ∓1.5, as in the JS).
 /// - one 1024-byte header per section: u32 at 0 Gaussians loaded, at 4 Gaussian count, at 8 bucket size, at
-///   12 bucket count; f32 at 16 bucket block size; u16 at 20 bytes per bucket (12); u32 at 24 the position
-///   range R (0 stands for 32767), at 28 the section's bytes, at 32 full buckets, at 36 partially filled buckets;
-///   u16 at 40 SH degree.
+///   12 bucket count; f32 at 16 bucket block size; u16 at 20 bytes per bucket (12); u32 at 24 the position range
+///   R (0 stands for 32767), at 28 the section's bytes (not read: the counts decide), at 32 full buckets, at 36
+///   partially filled buckets; u16 at 40 SH degree.
 /// - the sections, in order: the u32 lengths of the partially filled buckets, each bucket's centre (3 × f32),
 ///   then the Gaussians, bucket after bucket: full buckets hold `bucket size` each, the others their length.
 /// - one Gaussian: position, scale (linear), rotation (w, x, y, z), colour RGBA as 4 × u8, then SH rest.
