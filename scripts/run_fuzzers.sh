@@ -17,7 +17,7 @@ seconds="${1:-60}"
 build="${RGS_BUILD_DIR:-$root/build-fuzz}"
 out="${RGS_FUZZ_OUT:-$build/fuzz-out}"
 jobs="${RGS_FUZZ_JOBS:-$(nproc)}"
-targets=(rgs_read ply_read interop_read sog_meta sog_folder gltf_json zip render_cpu camera_json view_message
+targets=(rgs_read ply_read interop_read ksplat_read sog_meta sog_folder gltf_json zip render_cpu camera_json view_message
          view_request)
 
 if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
@@ -48,6 +48,7 @@ seeds_rgs_read=("$root/tests/fuzz/corpus/rgs_read" "$root/tests/data/v1.0" "$roo
                 "$root/tests/data/bad/archive")
 seeds_ply_read=("$root/tests/fuzz/corpus/ply_read" "$root/tests/data/bad")
 seeds_interop_read=("$root/tests/fuzz/corpus/interop_read" "$root/tests/data/interop" "$root/tests/data/sog")
+seeds_ksplat_read=("$root/tests/fuzz/corpus/ksplat_read" "$root/tests/data/ksplat" "$root/tests/data/hostile/ksplat")
 seeds_sog_meta=("$root/tests/fuzz/corpus/sog_meta")
 seeds_sog_folder=("$root/tests/fuzz/corpus/sog_folder")
 seeds_gltf_json=("$root/tests/fuzz/corpus/gltf_json" "$root/tests/data/hostile/gltf"
@@ -60,6 +61,7 @@ seeds_view_request=("$root/tests/fuzz/corpus/view_request")
 args_rgs_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_rgs_read.dict")
 args_ply_read=(-max_len=8192 "-dict=$root/tests/fuzz/fuzz_ply_read.dict")
 args_interop_read=(-max_len=20480 "-dict=$root/tests/fuzz/fuzz_interop_read.dict")
+args_ksplat_read=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_ksplat_read.dict")
 args_sog_meta=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_sog_meta.dict")
 args_sog_folder=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_sog_folder.dict")
 args_gltf_json=(-max_len=16384 "-dict=$root/tests/fuzz/fuzz_gltf_json.dict")

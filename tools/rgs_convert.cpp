@@ -1,4 +1,4 @@
-// rgs-convert: any supported scene (3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .splat, .rgs) into
+// rgs-convert: any supported scene (3DGS PLY, PlayCanvas compressed PLY / SOG, SPZ, glTF, .ksplat, .splat, .rgs) into
 // a .rgs runtime profile, an INRIA PLY, an SPZ v4 file or a KHR_gaussian_splatting GLB.
 //
 //   rgs-convert point_cloud.ply scene.rgs [options]   quantize and print what it cost
@@ -369,8 +369,9 @@ int main(int argc, char** argv) {
                kTool};
   app.add_option("input", opt.inputs,
                  "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "
-                 "compressed PLY, SOG meta.json/.sog/folder, streamed SOG lod-meta.json, SPZ, .splat, glTF/GLB); "
-                 "- reads a PLY or .rgs from standard input; several inputs are merged into one scene (required)")
+                 "compressed PLY, SOG meta.json/.sog/folder, streamed SOG lod-meta.json, SPZ, .ksplat, .splat, "
+                 "glTF/GLB); - reads a PLY or .rgs from standard input; several inputs are merged into one scene "
+                 "(required)")
       ->expected(1, -1);  // takes every positional, the output too: `check` below splits it off
   app.add_option("output", opt.output,
                  "Output .rgs, .ply, .spz, .glb or .sog file, or a SOG folder's meta.json (replaced atomically on "

@@ -1,5 +1,5 @@
 // rgs-info: prints a .rgs file's header, sections, conventions, bounds, SH scales and provenance, and for any
-// other scene the converter reads (PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) its format, Gaussian count,
+// other scene the converter reads (PLY, compressed PLY, SOG, SPZ, glTF/GLB, .ksplat, .splat) its format, Gaussian count,
 // SH degree, bounds, size and reading notes. With --check it validates everything (a .rgs file's checksums,
 // codecs and values; another scene is read and decoded in full) and exits 1 on the first problem. "-" reads a
 // .rgs or PLY file from standard input. Strings from the file (provenance, names) are printed escaped.
@@ -246,12 +246,12 @@ int main(int argc, char** argv) {
   bool check = false;
   bool json = false;
   CLI::App app{"Print a .rgs file's header, sections, conventions and provenance, or any other scene's format, "
-               "Gaussian count, SH degree, bounds and size (PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat); "
+               "Gaussian count, SH degree, bounds and size (PLY, compressed PLY, SOG, SPZ, glTF/GLB, .ksplat, .splat); "
                "--check validates every checksum, codec frame and value.",
                kTool};
   app.add_option("file", path,
                  "Scene file or folder (.rgs, PLY, compressed PLY, SOG meta.json/.sog/folder, lod-meta.json, SPZ, "
-                 "glTF/GLB, .splat); - reads a .rgs or PLY file from standard input")
+                 "glTF/GLB, .ksplat, .splat); - reads a .rgs or PLY file from standard input")
       ->required();
   app.add_flag("--check", check,
                "Validate fully (a .rgs file's checksums, codecs and values; another scene read and decoded in "

@@ -25,7 +25,7 @@ struct MemoryFactor {
   double peak_per_input_byte;
 };
 constexpr MemoryFactor kMemoryFactors[] = {{"ply", 1.5}, {"rgs", 4.0}};
-/// Every other format: compact encodings (SPZ, SOG, compressed PLY, glTF, .splat).
+/// Every other format: compact encodings (SPZ, SOG, compressed PLY, glTF, .ksplat, .splat).
 constexpr double kCompactPeakPerInputByte = 8.0;
 /// What a conversion holds whatever its input: the program, its libraries and the writer's buffers.
 constexpr uint64_t kBaseBytes = uint64_t{64} << 20;

@@ -10,7 +10,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <iterator>
 #include <nlohmann/json.hpp>
 #include <new>
 #include <optional>
@@ -23,6 +22,7 @@
 #include "internal_ply_header.h"
 #include "internal_zip.h"
 #include "rgs/converter/gltf.h"
+#include "rgs/converter/ksplat_reader.h"
 #include "rgs/converter/playcanvas_readers.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/splat_reader.h"
@@ -122,6 +122,7 @@ bool detect_spz(const Probe& p) { return looks_like_spz(p.head.data(), p.head.si
 
 bool detect_gltf(const Probe& p) { return looks_like_gltf(p.head.data(), p.head.size()); }
 
+bool detect_ksplat(const Probe& p) { return looks_like_ksplat(p.head.data(), p.head.size(), p.size); }
 bool detect_splat(const Probe& p) { return looks_like_splat(p.head.data(), p.head.size(), p.size); }
 
 // --- readers not in playcanvas_readers.h ----------------------------------------------------------
@@ -224,6 +225,12 @@ Result<InputScene> read_splat_scene(const std::string& path, const SceneReadOpti
   return to_input_scene(path, std::move(splat), options, "antimatter15 .splat");
 }
 
+Result<InputScene> read_ksplat_scene(const std::string& path, const SceneReadOptions& options) {
+  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a .ksplat file"));
+  RGS_ASSIGN_OR_RETURN(InteropScene ksplat, read_ksplat(path, interop_options(options)));
+  return to_input_scene(path, std::move(ksplat), options, "GaussianSplats3D .ksplat v0.1");
+}
+
 /// A .rgs file in memory (mapped, or standard input's bytes): rgs_file_scene, and its XXH64 when asked for.
 Result<InputScene> rgs_input_scene(const uint8_t* data, size_t size, const std::string& name,
                                    const SceneReadOptions& options) {
@@ -248,8 +255,8 @@ struct SceneFormat {
   Result<InputScene> (*read)(const std::string& path, const SceneReadOptions& options);
 };
 
-/// First match wins: more specific detectors come before the general ones of the same family, and .splat,
-/// which has no signature, comes last.
+/// First match wins: more specific detectors come before the general ones of the same family, and .ksplat and
+/// .splat, which have no signature, come last.
 const SceneFormat kFormats[] = {
     {"compressed_ply", "PlayCanvas compressed PLY (.compressed.ply)", detect_compressed_ply, read_compressed_ply},
     {"ply", "3DGS PLY (.ply, INRIA layout or any property order)", detect_ply, read_ply_scene},
@@ -260,6 +267,7 @@ const SceneFormat kFormats[] = {
      read_sog_lod},
     {"spz", "Niantic SPZ v2-v4 (.spz)", detect_spz, read_spz_scene},
     {"gltf", "KHR_gaussian_splatting glTF (.glb, .gltf)", detect_gltf, read_gltf_scene},
+    {"ksplat", "GaussianSplats3D .ksplat (compression levels 0-2)", detect_ksplat, read_ksplat_scene},
     {"splat", "antimatter15 .splat (32-byte records)", detect_splat, read_splat_scene},
 };
 
@@ -291,9 +299,6 @@ std::string hex_bytes(const std::vector<uint8_t>& head, size_t n) {
 /// What an input no reader accepts looks like, in words.
 std::string describe_unknown(const Probe& p) {
   if (p.size == 0) return "an empty file";
-  if (extension_of(p.path) == ".ksplat") {
-    return "a GaussianSplats3D .ksplat file, which RoofGS does not read (export .ply or .splat from it)";
-  }
   if (p.head.size() >= 2 && p.head[0] == 0x1f && p.head[1] == 0x8b) return "gzip data (an SPZ file before v4?)";
   if (head_starts_with(p, "glTF")) return "a binary glTF (.glb)";
   if (head_starts_with(p, "RIFF") && head_starts_with(p, "WEBP", 8)) return "a WebP image";
@@ -393,9 +398,11 @@ Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
   for (const SceneFormat& f : kFormats) {
     if (f.detect(*probe)) return &f;
   }
-  // .splat has no signature, so a damaged one fails detection; a file named so gets the reader's reason.
-  const SceneFormat& splat = kFormats[std::size(kFormats) - 1];
-  if (extension_of(probe->path) == ".splat" && probe->size > 0) return &splat;
+  // .ksplat and .splat have no signature, so a damaged one fails detection; a file named so gets the reader's reason.
+  for (const SceneFormat& f : kFormats) {
+    const bool unsigned_format = f.detect == detect_ksplat || f.detect == detect_splat;
+    if (unsigned_format && probe->size > 0 && extension_of(probe->path) == "." + std::string(f.id)) return &f;
+  }
   return unsupported(path, describe_unknown(*probe));
 }
 

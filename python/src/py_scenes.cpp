@@ -283,7 +283,7 @@ void bind_loading(py::module_& m) {
         py::kw_only(), py::arg("lod") = true, py::arg("splat_budget") = api::LodSettings{}.splat_budget,
         py::arg("pixel_error") = api::LodSettings{}.pixel_error, py::arg("memory_budget") = uint64_t{0},
         py::arg("stream_bytes") = api::LodSettings{}.stream_bytes_per_frame, py::arg("antialiased") = false,
-        "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .splat) onto device "
+        "Load a scene in any format (.rgs, 3DGS PLY, compressed PLY, SOG, SPZ, glTF/GLB, .ksplat, .splat) onto device "
         "'cuda', 'cpu' or 'auto' (CUDA when a device answers, else the CPU, said once); the GPU copy holds only "
         "what `presets` read. spz_frame: the axes of an SPZ file, 'rub' "
         "(Niantic's convention) or 'as-stored' (splat-transform's), or a dict {path: frame} for those files (the "

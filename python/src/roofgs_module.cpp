@@ -28,7 +28,7 @@ PyObject* g_error_type = nullptr;
 PYBIND11_MODULE(roofgs, m) {
   m.doc() =
       "RoofGS: load scenes (.rgs, 3DGS PLY, PlayCanvas compressed PLY, SOG meta.json/.sog/folder, streamed SOG "
-      "lod-meta.json, SPZ, .splat, glTF/GLB), render them with presets on the GPU or the CPU reference, convert "
+      "lod-meta.json, SPZ, .ksplat, .splat, glTF/GLB), render them with presets on the GPU or the CPU reference, convert "
       "and audit them";
   m.def(
       "cuda_status",

@@ -443,7 +443,7 @@ TEST_CASE("hostile scenes: the corpus's valid scenes read in a child process, wi
   }
   for (const std::string shipped :
        {"tests/data/sog/guitar_crop.sog", "tests/data/interop/guitar_256_splat_transform_v4.spz",
-        "tests/data/interop/guitar_256_splat_transform.glb"}) {
+        "tests/data/interop/guitar_256_splat_transform.glb", "tests/data/ksplat/guitar_sh3_1024_l1_sh2.ksplat"}) {
     CAPTURE(shipped);
     const ChildRead r = read_in_child(repo_path(shipped));
     INFO(r.describe());
@@ -504,6 +504,12 @@ TEST_CASE("hostile scenes: declared sizes the file cannot hold are refused befor
       {"sog_bundle/entry_deflate_1gib.sog", "entry_deflate_1gib.sog", size_codes},  // 1 GiB from 2.7 KB deflated
       {"sog_bundle/entry_stored_1gib.sog", "entry_stored_1gib.sog", size_codes},    // stored: sizes differ
       {"spz/v4_garbage_40m.spz", "v4_garbage_40m.spz", size_codes},                 // 24 KB of noise declaring 800 MB
+      // .ksplat has no codec: every count must be held by the file's bytes (5-79 KB declaring 2^32 - 1 of a kind).
+      {"ksplat/count_4g.ksplat", "count_4g.ksplat", size_codes},
+      {"ksplat/sections_4g.ksplat", "sections_4g.ksplat", size_codes},
+      {"ksplat/buckets_4g.ksplat", "buckets_4g.ksplat", size_codes},
+      {"ksplat/bucket_size_4g.ksplat", "bucket_size_4g.ksplat", size_codes},
+      {"ksplat/partial_4g.ksplat", "partial_4g.ksplat", size_codes},
   };
   for (const Case& c : cases) {
     const std::string path = c.path;

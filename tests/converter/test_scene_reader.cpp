@@ -412,11 +412,11 @@ TEST_CASE("read_scene detects and reads SPZ, glTF/GLB and .splat files") {
   const Status bad_record = read_status(tmp.file("negative.splat"));
   CHECK(bad_record.code() == StatusCode::kCorruptData);
   CHECK(bad_record.message().find("(the first in record 5 of 256)") != std::string::npos);
-  // A GaussianSplats3D .ksplat is named as such.
+  // A file named .ksplat that its detector refuses gets the .ksplat reader's reason.
   write_bytes(tmp.file("scene.ksplat"), std::vector<uint8_t>(4096, 0));
   const Status ksplat = read_status(tmp.file("scene.ksplat"));
-  CHECK(ksplat.code() == StatusCode::kInvalidArgument);
-  CHECK(ksplat.message().find("GaussianSplats3D .ksplat") != std::string::npos);
+  CHECK(ksplat.code() == StatusCode::kUnsupportedVersion);
+  CHECK(ksplat.message().find("scene.ksplat: GaussianSplats3D .ksplat: version 0.0 (0.1 is read)") != std::string::npos);
   // A damaged .rgs gets the .rgs reader's error even when its size would suit .splat.
   std::vector<uint8_t> rgs(64, 0);
   std::copy(format::kMagic, format::kMagic + 8, rgs.begin());

@@ -11,6 +11,10 @@ samples/guitar.ply (the only scene the project may ship, $RGS_DATA_DIR/SOURCES.m
   ply_read/    small PLY crops: INRIA layout binary little- and big-endian, ascii, another property order with
                double means, SH degree 3 (f_rest as above), and a face element after the vertices; flat, one-
                Gaussian and repeated-Gaussian crops as for rgs_read.
+  ksplat_read/ small GaussianSplats3D .ksplat files (SplatBuffer 0.1, laid out as converter/include/rgs/converter/
+               ksplat_reader.h describes): 16 Gaussians at level 0 (float32), 24 at level 1 (float16, positions as
+               16-bit bucket offsets) with SH degree 1 in two sections of full and partially filled buckets of 8,
+               12 at level 2 (8-bit SH) with SH degree 3; f_rest as for rgs_read.
   render_cpu/  inputs of fuzz_render_cpu.cpp: a camera looking at a guitar crop, with the RoofGS switches off,
                all on, and with SH degree 1.
   sog_meta/    the meta.json files of tests/data/sog's guitar crop (v2 with SH 0 and 3, the unversioned layout),
@@ -208,6 +212,60 @@ def cameras_input(downscale, width, height, every_kth, count):
     return struct.pack("<dHHB", downscale, width, height, every_kth) + text.encode("ascii")
 
 
+def ksplat_file(rows, level, degree, section_size, bucket_size):
+    """A .ksplat of `rows` in sections of `section_size`, each cut into buckets of `bucket_size` in row order (the
+    last partially filled), each bucket's centre the middle of its means' box and its block twice the largest
+    offset; as GaussianSplats3D's SplatBuffer writes one, with its encodings (floor for 8-bit values)."""
+    k = (degree + 1) ** 2
+    rest = [] if degree == 0 else [(band, c, m) for band in range(1, degree + 1) for c in range(3)
+                                   for m in range(2 * band + 1)]
+    values = [r["f_rest_%d" % (c * (k - 1) + band * band + m - 1)] for r in rows for band, c, m in rest]
+    lo, hi = (min(values), max(values)) if values else (-1.5, 1.5)
+    half = lambda v: struct.pack("<H", half_bits(v))
+    sections = [rows[i:i + section_size] for i in range(0, len(rows), section_size)]
+    headers, bodies = b"", b""
+    for sec in sections:
+        buckets = [sec[i:i + bucket_size] for i in range(0, len(sec), bucket_size)] if level else [sec]
+        full = [b for b in buckets if len(b) == bucket_size] if level else []
+        partial = [b for b in buckets if len(b) != bucket_size] if level else []
+        centres, records = b"", b""
+        block = 0.0
+        for b in full + partial:
+            centre = [(min(r[a] for r in b) + max(r[a] for r in b)) / 2 for a in "xyz"]
+            block = max([block] + [2.0001 * abs(r[a] - centre[i]) for r in b for i, a in enumerate("xyz")])
+            centres += struct.pack("<3f", *centre)
+        block = f32(block or 1.0)
+        for bi, b in enumerate(full + partial if level else buckets):
+            centre = struct.unpack_from("<3f", centres, 12 * bi) if level else None
+            for r in b:
+                q = [r["rot_%d" % i] for i in range(4)]
+                n = math.sqrt(sum(v * v for v in q))
+                scales = [math.exp(r["scale_%d" % i]) for i in range(3)]
+                if level == 0:
+                    rec = struct.pack("<3f3f4f", r["x"], r["y"], r["z"], *scales, *[v / n for v in q])
+                else:
+                    rec = b"".join(struct.pack("<H", min(65535, max(0, round((r[a] - centre[i]) * 32767 / (block / 2))
+                                                                   + 32767))) for i, a in enumerate("xyz"))
+                    rec += b"".join(half(v) for v in scales) + b"".join(half(v / n) for v in q)
+                rec += bytes(min(255, max(0, math.floor((0.5 + 0.28209479177387814 * r["f_dc_%d" % c]) * 255)))
+                             for c in range(3))
+                rec += bytes([min(255, math.floor(255 / (1 + math.exp(-r["opacity"]))))])
+                for band, c, m in rest:
+                    v = r["f_rest_%d" % (c * (k - 1) + band * band + m - 1)]
+                    rec += (struct.pack("<f", v) if level == 0 else half(v) if level == 1 else
+                            bytes([min(255, max(0, math.floor((v - lo) / (hi - lo) * 255)))]))
+                records += rec
+        body = b"".join(struct.pack("<I", len(b)) for b in partial) + (centres if level else b"") + records
+        h = struct.pack("<4IfH2x4I", len(sec), len(sec), bucket_size if level else 0, len(full + partial) if level
+                        else 0, block if level else 0.0, 12 if level else 0, 32767 if level else 0, len(body),
+                        len(full), len(partial)) + struct.pack("<H", degree)
+        headers += h + bytes(1024 - len(h))
+        bodies += body
+    head = struct.pack("<BBxxIIIIH2x3fff", 0, 1, len(sections), len(sections), len(rows), len(rows), level,
+                       0.0, 0.0, 0.0, lo, hi)
+    return head + bytes(4096 - len(head)) + headers + bodies
+
+
 def flat(rows, log_scale):
     """`rows` with scale_2 = log_scale in every Gaussian (a flat axis)."""
     return [dict(r, scale_2=log_scale) for r in rows]
@@ -298,6 +356,10 @@ def build():
     add("zip", "meta_inflating_9mib.sog", hostile.zip_archive(
         [("meta.json", sh0 + b" " * (9 << 20), 8, None)] +
         [(n, hostile.read(os.path.join(sog, "guitar_crop", n)), 0, None) for n in hostile.SOG_IMAGES]), limit=65536)
+
+    add("ksplat_read", "guitar16_l0_sh0.ksplat", ksplat_file(g64[:16], 0, 0, 16, 256))
+    add("ksplat_read", "guitar24_l1_sh1_2sections.ksplat", ksplat_file(with_sh(g64[:24], 1), 1, 1, 12, 8))
+    add("ksplat_read", "guitar12_l2_sh3.ksplat", ksplat_file(with_sh(g64[:12], 3), 2, 3, 12, 256))
 
     add("render_cpu", "guitar32_baseline.bin", render_input(g64[:32], 0x00, 0))
     add("render_cpu", "guitar32_roofgs_all.bin", render_input(g64[:32], 0x1f, 0))

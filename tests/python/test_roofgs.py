@@ -58,6 +58,7 @@ INPUTS = {
     "spz": DATA / "interop" / "guitar_256_splat_transform_v4.spz",
     "glb": DATA / "interop" / "guitar_256_splat_transform.glb",
     "splat": DATA / "interop" / "guitar_256_splat_transform.splat",
+    "ksplat": DATA / "ksplat" / "guitar_sh3_1024_l1_sh2.ksplat",
 }
 
 

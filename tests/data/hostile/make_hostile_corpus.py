@@ -40,6 +40,14 @@ are written field by field (PKWARE APPNOTE 4.3).
   sog_bundle/  bundled .sog files: entry_deflate_1gib.sog (means_l.webp's deflated entry declares 1 GiB - 1
                bytes), entry_stored_1gib.sog (its stored entry declares 1 GiB - 1), solid_33m.sog (sog_solid_33m
                zipped), escape_dotdot.sog (meta.json names ../means_l.webp), deep_100.sog
+  ksplat/      made from tests/data/ksplat/guitar_256_l1.ksplat (one section, one full bucket of 256 Gaussians,
+               11 KB; its 4,096-byte header and section header alone, 5 KB, for the counts) and, for a partially
+               filled bucket, guitar_sh3_1024_l1_sh2.ksplat (3 sections of 400, 400 and 224 Gaussians, 79 KB):
+               count_4g.ksplat      every Gaussian count 2^32 - 1 (section 0 and the header, loaded and not)
+               sections_4g.ksplat   2^32 - 1 sections (4 TiB of section headers)
+               buckets_4g.ksplat    2^32 - 1 buckets, all full (48 GiB of bucket centres)
+               bucket_size_4g.ksplat  the full bucket holds 2^32 - 1 Gaussians (the section's count stays 256)
+               partial_4g.ksplat    section 0's partially filled bucket is 2^32 - 1 long (the count stays 400)
   spz/         v4_rle_16m.spz     valid: 16,777,216 Gaussians in RLE blocks (10 KB)
                v3_gzip_1m.spz     valid: 1,048,576 Gaussians of zero bytes, gzip (20 KB)
                v4_garbage_40m.spz 40M Gaussians, streams of zstd frames whose blocks are noise but whose sizes
@@ -65,6 +73,8 @@ GLB = os.path.join(ROOT, "tests", "data", "interop", "guitar_256_splat_transform
 SOG_IMAGES = ["means_l.webp", "means_u.webp", "quats.webp", "scales.webp", "sh0.webp"]
 MILLION40 = 40000000
 GIB = 1 << 30
+KSPLAT_SMALL = os.path.join(ROOT, "tests", "data", "ksplat", "guitar_256_l1.ksplat")
+KSPLAT_PARTIAL = os.path.join(ROOT, "tests", "data", "ksplat", "guitar_sh3_1024_l1_sh2.ksplat")
 
 
 def read(path):
@@ -435,9 +445,34 @@ def spz_files():
     return files
 
 
+def ksplat_files():
+    """GaussianSplats3D .ksplat (SplatBuffer 0.1): header u32 counts at 4 (sections), 8 (loaded), 12 (Gaussians),
+    16 (loaded); section headers of 1024 bytes from byte 4096: u32 loaded at 0, count at 4, bucket size at 8,
+    buckets at 12, full buckets at 32, partially filled at 36."""
+    small, partial = read(KSPLAT_SMALL), read(KSPLAT_PARTIAL)
+    head = small[:4096 + 1024]
+    big = 0xFFFFFFFF
+
+    def with_u32(data, fields):
+        data = bytearray(data)
+        for offset in fields:
+            struct.pack_into("<I", data, offset, big)
+        return bytes(data)
+
+    s0 = 4096
+    partial0 = 4096 + 3 * 1024  # section 0's first partially filled bucket length
+    return {
+        "ksplat/count_4g.ksplat": with_u32(head, [12, 16, s0, s0 + 4]),
+        "ksplat/sections_4g.ksplat": with_u32(head, [4, 8]),
+        "ksplat/buckets_4g.ksplat": with_u32(small, [s0 + 12, s0 + 32]),
+        "ksplat/bucket_size_4g.ksplat": with_u32(small, [s0 + 8]),
+        "ksplat/partial_4g.ksplat": with_u32(partial, [partial0]),
+    }
+
+
 def build():
     files = {}
-    for part in (gltf_files(), sog_files(), spz_files()):
+    for part in (gltf_files(), sog_files(), spz_files(), ksplat_files()):
         files.update(part)
     return {os.path.join(HERE, *name.split("/")): data for name, data in files.items()}
 

@@ -173,7 +173,7 @@ class Scene {
 };
 
 /// Loads `path` (a .rgs file, or any format converter::read_scene detects: 3DGS PLY, PlayCanvas compressed
-/// PLY / SOG, SPZ, glTF, .splat) for `options.device`.
+/// PLY / SOG, SPZ, glTF, .ksplat, .splat) for `options.device`.
 /// - CUDA, .rgs: sections uploaded as stored (runtime::GpuScene::from_rgs), FP32 arrays only when a listed
 ///   preset reads them; CUDA, other formats: quantized in memory then uploaded the same way (or FP32, see options).
 /// - CPU: the dequantized float Gaussians (the values the GPU's compact reads produce).

@@ -59,7 +59,7 @@ struct AuditScene {
 
 /// Loads any scene file the audit can compare through converter::read_scene(path, options): a .rgs
 /// dequantized (with its SH quantization and section table), or any other format it detects by content
-/// (PLY, compressed PLY, SOG, SPZ, .splat, glTF). `label` defaults to the file name. Errors: those of
+/// (PLY, compressed PLY, SOG, SPZ, .ksplat, .splat, glTF). `label` defaults to the file name. Errors: those of
 /// read_scene, naming `path`.
 Result<AuditScene> load_audit_scene(const std::string& path, const std::string& label = {},
                                     const converter::SceneReadOptions& options = {});

@@ -46,7 +46,7 @@ struct SceneReadOptions {
   /// lexical normalization: "./a.spz" is "a.spz"). spz_frame_for() looks them up.
   std::map<std::string, SpzFrame> spz_frame_by_path;
   /// Read the scene as trained with the 2D Mip filter (GaussianCloud::antialiased), for inputs that cannot say
-  /// so: PLY, glTF, SOG, .splat, and SPZ files whose writer left the flag unset. A .rgs file carries its own flag
+  /// so: PLY, glTF, SOG, .ksplat, .splat, and SPZ files whose writer left the flag unset. A .rgs file carries its own flag
   /// (SPEC §2.2), which this does not change.
   bool antialiased = false;
 };
@@ -69,7 +69,7 @@ struct InputScene {
   std::optional<format::EncodedScene> encoded;
   InputHygiene hygiene;
   /// Short identifier of the input format: "rgs", "ply", "compressed_ply", "sog", "sog_bundle", "sog_lod",
-  /// "spz", "glb", "gltf", "splat".
+  /// "spz", "glb", "gltf", "ksplat", "splat".
   std::string format_id;
   /// The format in words for summaries, e.g. "binary_little_endian PLY", "PlayCanvas SOG v2 (bundled .sog)",
   /// "PlayCanvas streamed SOG, LOD 0 of 5 (8 chunks)".
@@ -93,7 +93,7 @@ struct InputScene {
   /// file-index order, then each chunk's images in the same order. Else empty.
   std::optional<uint64_t> file_xxh64;
   /// What the input said that the cloud cannot hold or that was ignored, and the frame conversion applied,
-  /// one sentence each (SPZ, glTF, .splat: InteropScene::notes); empty for the other formats.
+  /// one sentence each (SPZ, glTF, .ksplat, .splat: InteropScene::notes); empty for the other formats.
   std::vector<std::string> notes;
 };
 
@@ -109,9 +109,12 @@ struct InputScene {
 /// - KHR_gaussian_splatting glTF, binary (.glb) or JSON (.gltf) with its buffers (read_gltf);
 /// - RoofGS .rgs (format::RgsFile: every section's checksum, frame and values checked, then dequantized; the
 ///   limits max_gaussians and max_decompression_ratio as format::ReadLimits);
+/// - GaussianSplats3D .ksplat v0.1 (read_ksplat), compression levels 0-2, found by its version bytes, compression
+///   level and size (the format has no magic);
 /// - antimatter15 .splat (read_splat), tried last: the format has no signature, so a file is taken as .splat
 ///   only when no other detector matched and looks_like_splat accepts its size and first records.
-/// The order of the checks: PLY family, .rgs, SOG family, SPZ, glTF, .splat.
+/// The order of the checks: PLY family, .rgs, SOG family, SPZ, glTF, .ksplat, .splat. A file named .ksplat or
+/// .splat that its detector refuses goes to that reader, which names what is wrong with it.
 /// A directory is read through the lod-meta.json or meta.json it contains.
 /// Errors name `path` and the cause: kInvalidArgument "unsupported format: <what it looks like>; supported:
 /// <list>" for other content, and for a lod given for a non-streamed input; otherwise the errors of the
