@@ -14,38 +14,10 @@ Usage: test_sog_splat_transform.py RGS_CONVERT SCENE.ply SOURCE_DIR WORK_DIR
 import math
 import os
 import shutil
-import struct
 import subprocess
 import sys
 
-
-def find_splat_transform(source_dir):
-    candidates = [os.environ.get("RGS_SPLAT_TRANSFORM", ""),
-                  os.path.join(source_dir, ".splat_transform", "node_modules", ".bin", "splat-transform"),
-                  shutil.which("splat-transform") or ""]
-    for c in candidates:
-        if c and os.path.isfile(c) and os.access(c, os.X_OK):
-            return c
-    return None
-
-
-def read_ply(path):
-    """Vertex properties of a binary little-endian float PLY: {name: [values]}."""
-    with open(path, "rb") as f:
-        data = f.read()
-    end = data.index(b"end_header\n") + len(b"end_header\n")
-    count, names = 0, []
-    for line in data[:end].decode("ascii").splitlines():
-        parts = line.split()
-        if parts[:2] == ["element", "vertex"]:
-            count = int(parts[2])
-        elif parts[:2] == ["property", "float"]:
-            names.append(parts[2])
-        elif parts and parts[0] == "property":
-            raise SystemExit(f"{path}: unexpected property type in '{line}'")
-    values = struct.unpack_from("<%df" % (count * len(names)), data, end)
-    k = len(names)
-    return count, {n: values[i::k] for i, n in enumerate(names)}
+from splat_transform_util import find_splat_transform, read_ply
 
 
 def run(cmd):
