@@ -4,9 +4,14 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "rgs/api/renderer.h"
+#include "rgs/converter/cloud_edits.h"
+#include "rgs/converter/quantize.h"
 #include "rgs/runtime/image_metrics.h"
 #include "rgs/config.h"
 #include "rgs/format/spec.h"
@@ -220,6 +225,35 @@ Result<CandidateResult> candidate_with_attributes(const AuditScene& source, cons
   return c;
 }
 
+/// The source as the conversion that wrote `cand` edited it (AuditScene::conversion_options): its recorded edits
+/// applied in order to a copy, --decimate left out (what decimation removed is part of what the conversion cost,
+/// as a coarser level's is). Unset when the conversion edited nothing else; `note` says what was done.
+Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const AuditScene& cand, std::string* note) {
+  auto recorded = converter::parse_recorded_edits(cand.conversion_options);
+  if (!recorded.ok()) {
+    *note = "its provenance's edits are not understood (" + recorded.status().message() +
+            "): compared with the unedited source";
+    return std::optional<AuditScene>();
+  }
+  std::vector<std::string> applied;
+  AuditScene out;
+  for (const converter::EditAction& edit : *recorded) {
+    if (edit.kind == converter::EditKind::kDecimate) continue;
+    if (applied.empty()) out = source;
+    auto removed = converter::apply_edit(&out.cloud, edit);
+    if (!removed.ok()) return Status(removed.status()).prepend("the source under the edits of " + cand.info.path);
+    applied.push_back(converter::edit_action_text(edit));
+  }
+  if (applied.empty()) return std::optional<AuditScene>();
+  out.bounds = converter::compute_bounds(out.cloud);
+  out.info.gaussians = out.cloud.size();
+  std::string chain;
+  for (const std::string& text : applied) chain += (chain.empty() ? "" : "; ") + text;
+  *note = "compared with the source under the edits its conversion recorded (" + chain + "): what they moved or "
+          "removed is not counted as loss";
+  return std::optional<AuditScene>(std::move(out));
+}
+
 /// The kHeatScalePercentile-th percentile (nearest rank) of the non-zero values of `maps`; 0 when there are none.
 float percentile_of_nonzero(const std::vector<const std::vector<float>*>& maps) {
   std::vector<float> values;
@@ -278,8 +312,19 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   result.source = source.info;
   for (const runtime::Camera& cam : cameras) result.views.push_back(ViewInfo{cam.name, cam.width, cam.height});
 
-  for (const AuditScene& cand : candidates) {
-    RGS_ASSIGN_OR_RETURN(CandidateResult c, candidate_with_attributes(source, cand));
+  // Each candidate against its reference: the source, or the source edited as the candidate's conversion was.
+  std::vector<AuditScene> edited;                       // the edited sources
+  std::vector<size_t> reference(candidates.size(), 0);  // 0: the source; k: edited[k − 1]
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    std::string note;
+    RGS_ASSIGN_OR_RETURN(std::optional<AuditScene> ref, edited_source(source, candidates[i], &note));
+    if (ref) {
+      edited.push_back(std::move(*ref));
+      reference[i] = edited.size();
+    }
+    RGS_ASSIGN_OR_RETURN(CandidateResult c,
+                         candidate_with_attributes(reference[i] ? edited.back() : source, candidates[i]));
+    if (!note.empty()) c.scene.notes.push_back(note);
     c.views.resize(cameras.size());
     result.candidates.push_back(std::move(c));
   }
@@ -301,6 +346,12 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
     RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load_cloud(cand.cloud, cand.bounds, cand.info.path, load));
     scenes.push_back(std::move(scene));
   }
+  for (const AuditScene& ref : edited) {  // scenes[1 + candidates.size() + k]: edited[k]
+    RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load_cloud(ref.cloud, ref.bounds, source.info.path, load));
+    scenes.push_back(std::move(scene));
+  }
+  std::vector<std::optional<api::Image>> edited_images(edited.size());
+  std::vector<float> edited_host;
   RGS_ASSIGN_OR_RETURN(result.device, device_description(options));
 #if RGS_HAS_CUDA
   runtime::GpuImageComparer comparer;
@@ -324,6 +375,13 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
     for (size_t i = 0; i < candidates.size(); ++i) {
       CandidateResult& c = result.candidates[i];
       const auto t_view = Clock::now();
+      const size_t k = reference[i];  // each edited source serves one candidate
+      if (k != 0) {
+        RGS_RETURN_IF_ERROR(render_into(renderer, scenes[candidates.size() + k], cam, settings, &edited_images[k - 1]));
+      }
+      const api::Image& reference_image = k == 0 ? *source_image : *edited_images[k - 1];
+      std::vector<float>& reference_host = k == 0 ? source_host : edited_host;
+      edited_host.clear();
       RGS_RETURN_IF_ERROR(render_into(renderer, scenes[i + 1], cam, settings, &candidate_image));
 #if RGS_HAS_CUDA
       // The GPU render is asynchronous: wait for it so that render_seconds is the render's (the comparison
@@ -340,7 +398,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
         RGS_ASSIGN_OR_RETURN(const runtime::ImageRef pixels, host_pixels(*candidate_image, &candidate_host));
         RGS_RETURN_IF_ERROR(options.on_render(v, i + 1, pixels));
       }
-      const float* a = static_cast<const float*>(source_image->color());
+      const float* a = static_cast<const float*>(reference_image.color());
       const float* b = static_cast<const float*>(candidate_image->color());
 #if RGS_HAS_CUDA
       Result<runtime::ImageMetrics> metrics = device == api::Device::kCpu
@@ -368,7 +426,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       const bool keep_heatmap = options.keep_worst_heatmap && i == 0 && new_worst;
       if (keep_images || keep_heatmap) {
         // GPU images are copied to the host only here (once per view and scene).
-        RGS_ASSIGN_OR_RETURN(const runtime::ImageRef source_pixels, host_pixels(*source_image, &source_host));
+        RGS_ASSIGN_OR_RETURN(const runtime::ImageRef source_pixels, host_pixels(reference_image, &reference_host));
         RGS_ASSIGN_OR_RETURN(const runtime::ImageRef candidate_pixels, host_pixels(*candidate_image, &candidate_host));
         if (keep_images) {
           const uint32_t f = reduction_factor(cam.width, cam.height, options.image_max_side);

@@ -66,6 +66,9 @@ Result<converter::InputScene> read_audit_input(const std::string& path, const co
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::rgs_file_scene(file, options));
   scene->info.file_bytes = input.file_bytes;
   list_sections(file, scene);
+  for (const auto& [key, value] : file.provenance()) {
+    if (key == "options") scene->conversion_options = value;
+  }
   return input;
 }
 

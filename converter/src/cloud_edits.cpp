@@ -381,6 +381,30 @@ Result<EditAction> parse_edit_action(const std::string& name, const std::string&
   return action;
 }
 
+Result<std::vector<EditAction>> parse_recorded_edits(const std::string& options) {
+  std::vector<EditAction> out;
+  size_t at = options.find(" edits=");
+  if (at == std::string::npos) return out;
+  at += 7;
+  for (;;) {  // NAME 'VALUE' or NAME, then "; " and the next, or a space and the next option
+    const size_t name_end = std::min(options.find_first_of(" ;", at), options.size());
+    const std::string name = options.substr(at, name_end - at);
+    std::string value;
+    at = name_end;
+    if (options.compare(at, 2, " '") == 0) {
+      const size_t close = options.find('\'', at + 2);
+      RGS_RETURN_ERROR_IF(close == std::string::npos, StatusCode::kInvalidArgument,
+                          "recorded edits: no closing quote after '" + name + "'");
+      value = options.substr(at + 2, close - at - 2);
+      at = close + 1;
+    }
+    RGS_ASSIGN_OR_RETURN(EditAction action, parse_edit_action(name, value));
+    out.push_back(std::move(action));
+    if (options.compare(at, 2, "; ") != 0) return out;
+    at += 2;
+  }
+}
+
 Result<uint64_t> apply_edit(format::GaussianCloud* cloud, const EditAction& action) {
   RGS_RETURN_IF_ERROR(check_edit_action(action));
   if (!cloud->is_consistent()) return invalid(action, "the cloud's arrays disagree with its size and SH degree");

@@ -55,6 +55,10 @@ struct AuditScene {
   /// Made from the source Gaussian by Gaussian (attribution_scenes): Gaussian i is a version of the source's
   /// Gaussian i, so pair_with_source pairs it index by index without a search.
   bool source_order = false;
+  /// .rgs only: its provenance's "options" entry, the settings of the conversion that wrote it. run_audit compares
+  /// a candidate whose conversion edited the scene with the source under the same edits, --decimate apart
+  /// (converter::parse_recorded_edits).
+  std::string conversion_options;
 };
 
 /// Loads any scene file the audit can compare through converter::read_scene(path, options): a .rgs

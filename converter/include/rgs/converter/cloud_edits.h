@@ -76,6 +76,11 @@ Result<EditAction> parse_edit_action(const std::string& name, const std::string&
 /// rotation as its quaternion): "rotate '0.70710678118654757,0,0.70710678118654757,0'".
 std::string edit_action_text(const EditAction& action);
 
+/// The edits of a .rgs provenance's "options" entry (its " edits=" part: edit_action_text of each, joined by "; ",
+/// as the conversion that wrote the file recorded them), parsed back in order; empty when it has none.
+/// kInvalidArgument when that part is not such a list.
+Result<std::vector<EditAction>> parse_recorded_edits(const std::string& options);
+
 /// Checks an action's values as parse_edit_action does (for actions built in code): the count by kind, every
 /// number finite, the quaternion's norm, s > 0, r > 0, min <= max, a known property.
 /// @return kInvalidArgument naming the action (its `text`, else its kind).
