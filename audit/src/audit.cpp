@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "rgs/api/renderer.h"
@@ -254,6 +255,27 @@ Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const 
   return std::optional<AuditScene>(std::move(out));
 }
 
+/// Each candidate's result before the renders, its attribute errors measured against its reference: the source,
+/// or the source edited as the candidate's conversion was (appended to `edited`; reference[i] = k for edited[k − 1],
+/// 0 for the source).
+Status compare_attributes(const AuditScene& source, const std::vector<AuditScene>& candidates, size_t views,
+                          AuditResult* result, std::vector<AuditScene>* edited, std::vector<size_t>* reference) {
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    std::string note;
+    RGS_ASSIGN_OR_RETURN(std::optional<AuditScene> ref, edited_source(source, candidates[i], &note));
+    if (ref) {
+      edited->push_back(std::move(*ref));
+      (*reference)[i] = edited->size();
+    }
+    RGS_ASSIGN_OR_RETURN(CandidateResult c,
+                         candidate_with_attributes((*reference)[i] ? edited->back() : source, candidates[i]));
+    if (!note.empty()) c.scene.notes.push_back(note);
+    c.views.resize(views);
+    result->candidates.push_back(std::move(c));
+  }
+  return Status();
+}
+
 /// The kHeatScalePercentile-th percentile (nearest rank) of the non-zero values of `maps`; 0 when there are none.
 float percentile_of_nonzero(const std::vector<const std::vector<float>*>& maps) {
   std::vector<float> values;
@@ -312,22 +334,9 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   result.source = source.info;
   for (const runtime::Camera& cam : cameras) result.views.push_back(ViewInfo{cam.name, cam.width, cam.height});
 
-  // Each candidate against its reference: the source, or the source edited as the candidate's conversion was.
   std::vector<AuditScene> edited;                       // the edited sources
   std::vector<size_t> reference(candidates.size(), 0);  // 0: the source; k: edited[k − 1]
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    std::string note;
-    RGS_ASSIGN_OR_RETURN(std::optional<AuditScene> ref, edited_source(source, candidates[i], &note));
-    if (ref) {
-      edited.push_back(std::move(*ref));
-      reference[i] = edited.size();
-    }
-    RGS_ASSIGN_OR_RETURN(CandidateResult c,
-                         candidate_with_attributes(reference[i] ? edited.back() : source, candidates[i]));
-    if (!note.empty()) c.scene.notes.push_back(note);
-    c.views.resize(cameras.size());
-    result.candidates.push_back(std::move(c));
-  }
+  RGS_RETURN_IF_ERROR(compare_attributes(source, candidates, cameras.size(), &result, &edited, &reference));
 
   // The renders go through the front door (api::Renderer, the faithful preset, black background); the images
   // are compared where they are (runtime::compare_images on the host, runtime::GpuImageComparer on the device).
@@ -339,16 +348,15 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   api::LoadOptions load;
   load.device = device;
   load.cuda_device = options.cuda_device;
-  std::vector<api::Scene> scenes;  // the source, then the candidates
+  // The source, the candidates, then the edited sources: scenes[candidates.size() + k] is edited[k − 1].
+  std::vector<api::Scene> scenes;
   RGS_ASSIGN_OR_RETURN(api::Scene source_scene, api::load_cloud(source.cloud, source.bounds, source.info.path, load));
   scenes.push_back(std::move(source_scene));
-  for (const AuditScene& cand : candidates) {
-    RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load_cloud(cand.cloud, cand.bounds, cand.info.path, load));
-    scenes.push_back(std::move(scene));
-  }
-  for (const AuditScene& ref : edited) {  // scenes[1 + candidates.size() + k]: edited[k]
-    RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load_cloud(ref.cloud, ref.bounds, source.info.path, load));
-    scenes.push_back(std::move(scene));
+  for (const std::vector<AuditScene>* group : {&candidates, &std::as_const(edited)}) {
+    for (const AuditScene& scene : *group) {
+      RGS_ASSIGN_OR_RETURN(api::Scene loaded, api::load_cloud(scene.cloud, scene.bounds, scene.info.path, load));
+      scenes.push_back(std::move(loaded));
+    }
   }
   std::vector<std::optional<api::Image>> edited_images(edited.size());
   std::vector<float> edited_host;
