@@ -31,8 +31,8 @@ for tool in clang clang++; do
   fi
 done
 
-# -O1 with line tables only, as OSS-Fuzz builds its fuzzers: about half the compile time of -O2 -g, and the
-# sanitizers' reports still name file and line.
+# -O1 with line tables only, as OSS-Fuzz builds its fuzzers (CONTRIBUTING.md#tests): the sanitizers' reports still
+# name file and line.
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" \
   "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" \
