@@ -102,6 +102,7 @@ void add_edit_options(CLI::App& app, Options* opt) {
       app.add_option(std::string("--") + e.name, opt->edit_values[i], e.help)
           ->type_name(e.type)
           ->expected(1)  // one value per occurrence, so that a repeated option keeps its place in the order
+          ->allow_extra_args(false)  // a positional after it (IN --rotate X OUT) stays a positional
           ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
     }
   }

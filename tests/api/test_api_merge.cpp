@@ -13,7 +13,6 @@
 
 #include "rgs/api/convert.h"
 #include "rgs/converter/cloud_edits.h"
-#include "rgs/converter/gaussian_pairing.h"
 #include "rgs/converter/scene_reader.h"
 #include "temp_dir.h"
 #include "test_data.h"
@@ -117,7 +116,7 @@ TEST_CASE("merge: two samples of different SH degrees give the sum, the higher d
   check_same(slice(read(dir.file("merged.ply")).cloud, 0, a.cloud.size()), alone_back);
 }
 
-TEST_CASE("merge: merged, rotated and cropped, the scene round-trips through every output format") {
+TEST_CASE("merge: merged, rotated and cropped, the scene round-trips through .rgs, .ply, .spz and .glb") {
   test::TempDir dir;
   const std::vector<std::string> srcs = {test::repo_path("samples/guitar.ply"), test::repo_path(test::kGuitarSh3)};
   api::ConvertOptions options;
@@ -128,7 +127,8 @@ TEST_CASE("merge: merged, rotated and cropped, the scene round-trips through eve
   for (const converter::EditAction& e : options.edits) REQUIRE(converter::apply_edit(&expected, e).ok());
   REQUIRE(expected.size() > 0);
   REQUIRE(expected.size() < 98854);
-  for (const char* name : {"merged.rgs", "merged.ply", "merged.spz", "merged.glb", "merged.sog"}) {
+  // Not SOG: its SH palette's k-means takes minutes on an SH-3 scene of this size (SOG has its own tests).
+  for (const char* name : {"merged.rgs", "merged.ply", "merged.spz", "merged.glb"}) {
     CAPTURE(name);
     auto report = api::convert(srcs, dir.file(name), options);
     REQUIRE_MESSAGE(report.ok(), report.status().to_string());
@@ -136,16 +136,6 @@ TEST_CASE("merge: merged, rotated and cropped, the scene round-trips through eve
     const format::GaussianCloud back = read(dir.file(name)).cloud;
     REQUIRE(back.size() == expected.size());
     CHECK(back.sh_degree == 3);
-    if (std::string(name) == "merged.sog") {
-      // SOG stores its Gaussians in Morton order and its means as 16-bit codes of log-compressed coordinates: every
-      // one pairs by content with an expected one within 1e-3 of the crop's 4-unit box.
-      converter::PairingOptions pairing_options;
-      pairing_options.max_position_distance = 4e-3;
-      auto pairing = converter::pair_gaussians(expected, back, pairing_options);
-      REQUIRE_MESSAGE(pairing.ok(), pairing.status().to_string());
-      CHECK(pairing->complete());
-      continue;
-    }
     // FP32 means in .rgs, PLY and GLB; SPZ stores 24-bit fixed point with 12 fractional bits (2.4e-4 a step).
     const double tolerance = std::string(name) == "merged.spz" ? 2.5e-4 : 0.0;
     double worst = 0;
