@@ -4,6 +4,11 @@ import shutil
 import struct
 
 
+# What a test prints, and then exits 77 (skipped), when find_splat_transform finds none.
+NOT_FOUND = ("skipped: splat-transform not found (set RGS_SPLAT_TRANSFORM, or npm install --prefix "
+             ".splat_transform @playcanvas/splat-transform@3.7 in the checkout)")
+
+
 def find_splat_transform(source_dir):
     """splat-transform's command: $RGS_SPLAT_TRANSFORM, the checkout's .splat_transform (npm install
     --prefix .splat_transform @playcanvas/splat-transform), or the PATH's; None when none is found."""

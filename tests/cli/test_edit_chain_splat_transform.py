@@ -40,7 +40,7 @@ import struct
 import subprocess
 import sys
 
-from splat_transform_util import find_splat_transform, read_ply
+from splat_transform_util import NOT_FOUND, find_splat_transform, read_ply
 
 
 def write_damaged(src, dst, damage):
@@ -135,8 +135,7 @@ def main():
     rgs_convert, source_dir, work = sys.argv[1:]
     splat_transform = find_splat_transform(source_dir)
     if splat_transform is None:
-        print("skipped: splat-transform not found (set RGS_SPLAT_TRANSFORM, or npm install --prefix "
-              ".splat_transform @playcanvas/splat-transform@3.7)")
+        print(NOT_FOUND)
         return 77
     os.makedirs(work, exist_ok=True)
     scene = os.path.join(source_dir, "tests", "data", "guitar_sh3.ply")

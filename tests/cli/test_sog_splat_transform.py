@@ -17,7 +17,7 @@ import shutil
 import subprocess
 import sys
 
-from splat_transform_util import find_splat_transform, read_ply
+from splat_transform_util import NOT_FOUND, find_splat_transform, read_ply
 
 
 def run(cmd):
@@ -63,8 +63,7 @@ def main():
     convert, scene, source_dir, work = sys.argv[1:5]
     tool = find_splat_transform(source_dir)
     if tool is None:
-        print("skipped: splat-transform not found (set RGS_SPLAT_TRANSFORM, or npm install --prefix "
-              ".splat_transform @playcanvas/splat-transform@3.7 in the checkout)")
+        print(NOT_FOUND)
         return 77
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(os.path.join(work, "folder"))

@@ -72,8 +72,8 @@ class FrameBudget {
 /// Host bytes a frame of `view` may hold from its render to its send, the unit the budget is drawn in: per image
 /// rendered its 8-bit RGBA buffer (4 bytes a pixel); on the CPU backend the renderer's float planes (20 bytes a
 /// pixel, one image at a time); the compare heatmap (3 bytes a pixel); the encoder's working memory and, twice
-/// (the images and the assembled message), its output per image, by encoding: JPEG 9.2 + 4.2 (in strips: their
-/// output buffers and copies before the join), lossy WebP 2 + 1.5,
+/// (the images and the assembled message), its output per image, by encoding: JPEG 9.2 + 4.2 (the measured 5 of
+/// libturbojpeg's buffers plus, in strips, a copy of the output before the join), lossy WebP 2 + 1.5,
 /// lossless WebP 29 + 3.1 bytes a pixel (libturbojpeg and libwebp at the viewer's settings on noise images, their
 /// worst case). What depends on the scene (the CPU renderer's Gaussian and pair arrays) is not counted.
 uint64_t frame_memory_bytes(const ViewRequest& view, api::Device device);
