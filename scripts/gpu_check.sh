@@ -503,13 +503,18 @@ if [ "$what" = view ] || [ "$what" = all ]; then
     kill -TERM $server; wait $server || rc=$?
     [ $rc -ne 0 ] && status=1
     note "view_$name: exit $rc"
+    grep -m1 "^rgs-view: frames " "$out/view_${name}_server.log" | tee -a "$summary"
     grep -E "frames|latency|bytes/frame|server medians" "$out/view_$name.log" | tee -a "$summary"
   }
+  note "view: nvJPEG on this host: $( (ldconfig -p | grep -o 'libnvjpeg.so[.0-9]*' | sort -u; ls /usr/local/cuda/lib64/libnvjpeg.so.* 2>/dev/null) | tr '\n' ' ')"
   if [ -f "$taebak" ]; then
     fly=(--cameras "$taebak_cameras" --fly 600 --width 1920 --height 1080 --warmup 16)
     fly4k=(--cameras "$taebak_cameras" --fly 600 --width 3840 --height 2160 --warmup 16)
     view_bench taebak_jpeg "$taebak" -- "${fly[@]}"
     view_bench taebak_jpeg_4k "$taebak" -- "${fly4k[@]}"
+    # The same flights with frames encoded on the CPU (--cpu-jpeg): what the GPU encoder changes.
+    view_bench taebak_cpujpeg "$taebak" --cpu-jpeg -- "${fly[@]}"
+    view_bench taebak_cpujpeg_4k "$taebak" --cpu-jpeg -- "${fly4k[@]}"
     # A/B: another build's rgs-view (STAGE_DIR/ab/rgs-view.xz, e.g. the landed tree's) on the same flights.
     if [ -f "$stage/ab/rgs-view.xz" ]; then
       xz -dkf "$stage/ab/rgs-view.xz" && chmod +x "$stage/ab/rgs-view"

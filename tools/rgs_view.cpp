@@ -68,6 +68,7 @@ int run(const Options& opt) {
               opt.scene2.empty() ? "" : " vs ", tools::escape_text(opt.scene2).c_str(), api::device_name(*device),
               info.ok() ? tools::escape_text(info->name).c_str() : "?");
   std::printf("%s\n", started->url().c_str());
+  if (!opt.quiet) std::printf("%s: frames %s\n", kTool, tools::escape_text(started->jpeg_encoder()).c_str());
   if (!started->token().empty() && !opt.quiet) {
     std::fprintf(stderr, "%s: the URL's token is required by every request (host %s is not loopback)\n", kTool,
                  tools::escape_text(opt.server.host).c_str());
@@ -138,6 +139,8 @@ int main(int argc, char** argv) {
           },
           ""))
       ->capture_default_str();
+  app.add_flag_callback("--cpu-jpeg", [&opt] { opt.server.gpu_jpeg = false; },
+                        "GPU backend: encode JPEG frames on the CPU even where nvJPEG is found");
   app.add_flag("-q,--quiet", opt.quiet, "Print only the URL line and errors");
   app.set_version_flag("--version", tools::version_line(kTool));
   tools::add_scene_read_options(app);

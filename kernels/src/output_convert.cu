@@ -1,4 +1,5 @@
-// launch_convert_output: float RGBA frame → caller image (RGBA32F / RGBA16F / RGBA8, any pitch, depth).
+// launch_convert_output: float RGBA frame → caller image (RGBA32F / RGBA16F / RGBA8, any pitch, depth);
+// launch_pack_rgb8: RGBA8 → packed RGB8.
 #include <cuda_fp16.h>
 
 #include "rgs/kernels/output_convert.h"
@@ -52,6 +53,18 @@ __global__ void convert_output_kernel(OutputConvertParams p) {
   }
 }
 
+__global__ void pack_rgb8_kernel(const uint8_t* rgba, size_t rgba_pitch, uint32_t width, uint32_t height,
+                                 uint8_t* rgb) {
+  const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x;
+  const uint32_t y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= width || y >= height) return;
+  const uint8_t* in = rgba + size_t(y) * rgba_pitch + size_t(x) * 4;
+  uint8_t* out = rgb + (size_t(y) * width + x) * 3;
+  out[0] = in[0];
+  out[1] = in[1];
+  out[2] = in[2];
+}
+
 }  // namespace
 
 cudaError_t launch_convert_output(const OutputConvertParams& params, cudaStream_t stream) {
@@ -59,6 +72,15 @@ cudaError_t launch_convert_output(const OutputConvertParams& params, cudaStream_
   const dim3 block(32, 8);
   const dim3 grid((params.width + block.x - 1) / block.x, (params.height + block.y - 1) / block.y);
   convert_output_kernel<<<grid, block, 0, stream>>>(params);
+  return cudaGetLastError();
+}
+
+cudaError_t launch_pack_rgb8(const uint8_t* rgba, size_t rgba_pitch, uint32_t width, uint32_t height, uint8_t* rgb,
+                             cudaStream_t stream) {
+  if (width == 0 || height == 0) return cudaSuccess;
+  const dim3 block(32, 8);
+  const dim3 grid((width + block.x - 1) / block.x, (height + block.y - 1) / block.y);
+  pack_rgb8_kernel<<<grid, block, 0, stream>>>(rgba, rgba_pitch, width, height, rgb);
   return cudaGetLastError();
 }
 

@@ -20,6 +20,7 @@
 namespace {
 
 using namespace rgs;
+using test::decode_jpeg;
 using test::decode_webp;
 
 // A real frame: the guitar sample rendered by the CPU reference, 8-bit RGB.
@@ -100,16 +101,6 @@ TEST_CASE("encode_rgb: lossless WebP decodes to the same bytes, lossy codecs to 
 }
 
 namespace {
-
-std::vector<uint8_t> decode_jpeg(const std::vector<uint8_t>& jpeg, uint32_t w, uint32_t h) {
-  tjhandle d = tjInitDecompress();
-  std::vector<uint8_t> out(size_t(w) * h * 3);
-  const int r = tjDecompress2(d, jpeg.data(), jpeg.size(), out.data(), int(w), int(w) * 3, int(h), TJPF_RGB, 0);
-  const std::string error = r == 0 ? "" : tjGetErrorStr2(d);
-  tjDestroy(d);
-  REQUIRE_MESSAGE(r == 0, error);
-  return out;
-}
 
 /// How many restart markers (FF D0..D7) the entropy-coded data holds: byte-stuffed FF 00 is data, and no other
 /// marker may appear there.

@@ -1,13 +1,16 @@
 // An rgs::view server on 127.0.0.1 (port 0, CPU backend, samples/guitar.ply) answering Beast HTTP and WebSocket
 // clients: the embedded page and nothing else, the token rule, the connection limit, protocol violations closing
 // only the offending client, frames whose lossless image is the front door's 8-bit render of the same camera,
-// the compare mode's images and PSNR, and a clean stop.
+// the compare mode's images and PSNR, and a clean stop; on a GPU, frames equal to the front door's GPU render and
+// JPEG frames encoded on the GPU within JPEG's tolerance of the CPU encoder's.
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <doctest/doctest.h>
@@ -361,4 +364,85 @@ TEST_CASE("server GPU: frames carry stage times and GPU memory, and equal the fr
     }
     CHECK(rgb == expected);
   }
+}
+
+TEST_CASE("server GPU: JPEG frames encoded with nvJPEG decode within JPEG's tolerance of the CPU encoder's") {
+  std::string why;
+  if (!api::cuda_available(&why)) {
+    MESSAGE("skipped: no CUDA device (" << why << ")");
+    return;
+  }
+  auto encoder = api::GpuJpegEncoder::create();
+  if (!encoder.ok()) {
+    MESSAGE("skipped: " << encoder.status().message());
+    return;
+  }
+  api::LoadOptions gpu;
+  gpu.device = api::Device::kCuda;
+  auto scene = view::load_view_scene(test::repo_path("samples/guitar.ply"), gpu);
+  REQUIRE(scene.ok());
+  auto renderer = api::Renderer::create(api::Device::kCuda);
+  REQUIRE(renderer.ok());
+  api::RenderSettings settings;
+  settings.background = {0.2f, 0.1f, 0.0f};
+  // The server's frames: the hello names nvJPEG, and a frame is the GPU encoding of the front door's render.
+  view::Server server = start({*scene});
+  WsClient client;
+  REQUIRE(client.connect(server.port(), "/ws") == 101);
+  const json hello = client.read_json();
+  CHECK(hello["encoder"].get<std::string>().find("nvJPEG") != std::string::npos);
+  // Odd sizes (partial MCUs), 4:2:0 below quality 90 and 4:4:4 from it.
+  for (const auto& [w, h, quality] : {std::tuple{640u, 360u, 85}, std::tuple{637u, 359u, 60}, std::tuple{641u, 353u, 95}}) {
+    CAPTURE(w);
+    CAPTURE(quality);
+    const json camera = small_camera(hello, w, h);
+    json message = view_json(camera, 5, "jpeg");
+    message["quality"] = quality;
+    client.send(message.dump());
+    const Frame frame = read_frame(client);
+    REQUIRE(frame.images.size() == 1);
+    auto parsed = view::parse_client_message(message.dump(), {});
+    REQUIRE(parsed.ok());
+    auto cam = view::camera_from_request(parsed->view.camera);
+    REQUIRE(cam.ok());
+    auto image = renderer->render_image(*scene, *cam, settings, api::PixelFormat::kRgba8);
+    REQUIRE(image.ok());
+    std::vector<uint8_t> rgba(size_t(w) * h * 4);
+    REQUIRE(image->copy_to_host(rgba.data(), nullptr).ok());
+    std::vector<uint8_t> on_gpu;
+    REQUIRE(encoder->encode(*image, quality, view::jpeg_subsamples_chroma(quality), &on_gpu).ok());
+    CHECK(frame.images[0] == on_gpu);  // the server's frame is this encoding
+    auto on_cpu = view::encode_rgb(rgba.data(), w, h, view::Encoding::kJpeg, quality, 4);
+    REQUIRE(on_cpu.ok());
+    const std::vector<uint8_t> gpu_rgb = decode_jpeg(on_gpu, w, h), cpu_rgb = decode_jpeg(*on_cpu, w, h);
+    // Each against the render, and the two decodings against each other: the encoders differ only in their
+    // colour conversion's and DCT's rounding and their chroma filters.
+    const view::ImageDifference gpu_error = view::compare_rgb(gpu_rgb.data(), rgba.data(), w, h, 1.f, nullptr, 3);
+    const view::ImageDifference cpu_error = view::compare_rgb(cpu_rgb.data(), rgba.data(), w, h, 1.f, nullptr, 3);
+    const view::ImageDifference between = view::compare_rgb(gpu_rgb.data(), cpu_rgb.data(), w, h, 1.f, nullptr, 3);
+    REQUIRE(gpu_error.psnr_db);
+    REQUIRE(cpu_error.psnr_db);
+    MESSAGE("quality " << quality << ": GPU " << *gpu_error.psnr_db << " dB, CPU " << *cpu_error.psnr_db
+                       << " dB against the render; " << on_gpu.size() << " and " << on_cpu->size() << " bytes");
+    CHECK(std::abs(*gpu_error.psnr_db - *cpu_error.psnr_db) < 1.0);
+    CHECK(between.psnr_db.value_or(99.0) > 38.0);
+    CHECK(double(on_gpu.size()) < 1.3 * double(on_cpu->size()));
+  }
+  // What the encoder refuses: a CPU image, a quality out of range.
+  auto host_scene = view::load_view_scene(test::repo_path("samples/guitar.ply"), {});
+  REQUIRE(host_scene.ok());
+  auto parsed = view::parse_client_message(view_json(small_camera(hello, 64, 48), 6, "jpeg").dump(), {});
+  REQUIRE(parsed.ok());
+  auto cam = view::camera_from_request(parsed->view.camera);
+  REQUIRE(cam.ok());
+  auto cpu_renderer = api::Renderer::create(api::Device::kCpu);
+  REQUIRE(cpu_renderer.ok());
+  auto cpu_image = cpu_renderer->render_image(*host_scene, *cam, settings, api::PixelFormat::kRgba8);
+  REQUIRE(cpu_image.ok());
+  std::vector<uint8_t> out;
+  CHECK(encoder->encode(*cpu_image, 80, true, &out).code() == StatusCode::kInvalidArgument);
+  auto gpu_image = renderer->render_image(*scene, *cam, settings, api::PixelFormat::kRgba8);
+  REQUIRE(gpu_image.ok());
+  CHECK(encoder->encode(*gpu_image, 0, true, &out).code() == StatusCode::kInvalidArgument);
+  CHECK(encoder->encode(*gpu_image, 101, true, &out).code() == StatusCode::kInvalidArgument);
 }

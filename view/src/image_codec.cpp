@@ -20,7 +20,7 @@ namespace {
 constexpr uint32_t kMaxWebpSide = 16383;  // WEBP_MAX_DIMENSION
 
 // 4:4:4 at high quality: colour edges (the compare mode's split line, thin splats) stay sharp.
-int jpeg_subsampling(int quality) { return quality >= 90 ? TJSAMP_444 : TJSAMP_420; }
+int jpeg_subsampling(int quality) { return jpeg_subsamples_chroma(quality) ? TJSAMP_420 : TJSAMP_444; }
 
 Result<std::vector<uint8_t>> encode_jpeg(const uint8_t* rgb, uint32_t width, uint32_t height, uint32_t channels,
                                          int quality) {
@@ -202,6 +202,8 @@ Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint
   }
   return Status(StatusCode::kInvalidArgument, "encode_rgb: unknown encoding");
 }
+
+bool jpeg_subsamples_chroma(int quality) { return quality < 90; }
 
 std::string jpeg_encoder_name(unsigned workers) {
   return workers > 1 ? "JPEG: libjpeg-turbo on " + std::to_string(workers) +

@@ -31,6 +31,10 @@ struct ServerState {
   ServerOptions options;
   ProtocolLimits limits;
   std::string hello_json;  ///< the hello message (build_hello)
+  /// JPEG frames of GPU scenes are encoded on the GPU (ServerOptions::gpu_jpeg, and nvJPEG loaded).
+  bool gpu_jpeg = false;
+  /// How JPEG frames are encoded, for display (hello "encoder").
+  std::string jpeg_encoder;
 };
 
 /// The hello message of view/PROTOCOL.md for `state` (its hello_json unset). `device_name`: query_device's.
@@ -45,6 +49,8 @@ struct RenderedFrame {
   bool refine = false;
   uint32_t width = 0, height = 0;
   std::vector<uint8_t> rgba_a, rgba_b;  ///< [H, W, 4] 8-bit as read back, alpha ignored (rgba_b: compare modes)
+  std::vector<uint8_t> jpeg_a;          ///< scene a's JPEG encoded on the GPU (then rgba_a is empty)
+  double gpu_encode_ms = 0;             ///< the wall time of jpeg_a's encode
   Charge charge;                       ///< what the frame holds of the budget until it is sent
   api::FrameStats stats;               ///< scene a's
   double render_call_ms = 0, readback_ms = 0;
@@ -99,8 +105,10 @@ class FramePipeline {
   /// (else it waits holding nothing); kLimitExceeded when the frame needs more than the whole budget; an empty
   /// Charge when a newer view (or stop) came first.
   Result<Charge> reserve(const ViewRequest& view, std::vector<std::vector<uint8_t>>* buffers);
-  Result<RenderedFrame> render_view(api::Renderer& renderer, const ViewRequest& view, bool refine,
-                                    std::vector<std::vector<uint8_t>> buffers);
+  /// Renders `view`; with `gpu_jpeg` (GPU scenes) a JPEG view without compare is encoded on the GPU, else the
+  /// images are read back into `buffers`.
+  Result<RenderedFrame> render_view(api::Renderer& renderer, api::GpuJpegEncoder* gpu_jpeg, const ViewRequest& view,
+                                    bool refine, std::vector<std::vector<uint8_t>> buffers);
   /// `buffer` back to the spares with `bytes` of `charge`; beyond kSpareBuffers it is freed.
   void keep_spare(std::vector<uint8_t> buffer, Charge charge);
   void frame_dropped();

@@ -91,7 +91,7 @@ std::string build_hello(const ServerState& state, const std::string& device_name
                       {"max_height", state.limits.max_height},
                       {"default_width", width},
                       {"default_height", height},
-                      {"encoder", jpeg_encoder_name(encode_workers())}};
+                      {"encoder", state.jpeg_encoder}};
   return dump(hello);
 }
 
@@ -104,7 +104,9 @@ Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::
   const ViewRequest& view = frame.view;
   std::vector<std::pair<const char*, std::vector<uint8_t>>> images;
   std::optional<ImageDifference> difference;
-  if (view.compare == CompareMode::kOff) {
+  if (!frame.jpeg_a.empty()) {
+    images.emplace_back("a", frame.jpeg_a);
+  } else if (view.compare == CompareMode::kOff) {
     RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
                                             view.quality, 4, workers));
     images.emplace_back("a", std::move(a));
@@ -125,7 +127,7 @@ Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::
                                             workers));
     images.emplace_back("diff", std::move(d));
   }
-  const double encode_ms = ms_since(start);
+  const double encode_ms = frame.jpeg_a.empty() ? ms_since(start) : frame.gpu_encode_ms;
 
   const api::FrameStats& s = frame.stats;
   const api::StageTimes& t = s.times;

@@ -6,6 +6,7 @@
 #include "internal_pipeline.h"
 #include "rgs/api/camera.h"
 #include "rgs/api/scene.h"
+#include "rgs/view/image_codec.h"
 
 namespace rgs::view::detail {
 
@@ -148,7 +149,8 @@ Result<Charge> FramePipeline::reserve(const ViewRequest& view, std::vector<std::
   return all ? std::move(*all) : Charge();  // empty when a newer view or stop() came first
 }
 
-Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const ViewRequest& view, bool refine,
+Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, api::GpuJpegEncoder* gpu_jpeg,
+                                                 const ViewRequest& view, bool refine,
                                                  std::vector<std::vector<uint8_t>> buffers) {
   RGS_ASSIGN_OR_RETURN(api::Camera camera, camera_from_request(view.camera));
   RenderedFrame frame;
@@ -164,12 +166,14 @@ Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const 
   settings.time_stages = state_.device == api::Device::kCuda;
   const size_t pixels = size_t(camera.width) * camera.height;
   const size_t count = view.compare == CompareMode::kOff ? 1 : 2;
+  const bool encode_on_gpu = gpu_jpeg != nullptr && count == 1 && view.encoding == Encoding::kJpeg;
   buffers.resize(count);
   for (size_t i = 0; i < count; ++i) {
     const api::Scene& scene = state_.scenes[i];
     std::vector<uint8_t>& rgba = i == 0 ? frame.rgba_a : frame.rgba_b;
     rgba = std::move(buffers[i]);
-    rgba.resize(pixels * 4);  // a spare buffer has this size already: no allocation, no page faults
+    // A spare buffer has this size already: no allocation, no page faults.
+    if (!encode_on_gpu) rgba.resize(pixels * 4);
     api::FrameStats stats;
     const auto start = std::chrono::steady_clock::now();
     if (state_.device == api::Device::kCpu) {
@@ -198,8 +202,13 @@ Result<RenderedFrame> FramePipeline::render_view(api::Renderer& renderer, const 
       }
       frame.render_call_ms += ms_since(start);
       const auto readback = std::chrono::steady_clock::now();
-      RGS_RETURN_IF_ERROR(image->copy_to_host(rgba.data(), nullptr));
-      frame.readback_ms += ms_since(readback);
+      if (encode_on_gpu) {
+        RGS_RETURN_IF_ERROR(gpu_jpeg->encode(*image, view.quality, jpeg_subsamples_chroma(view.quality), &frame.jpeg_a));
+        frame.gpu_encode_ms = ms_since(readback);
+      } else {
+        RGS_RETURN_IF_ERROR(image->copy_to_host(rgba.data(), nullptr));
+        frame.readback_ms += ms_since(readback);
+      }
     }
     if (i == 0) frame.stats = stats;
   }
@@ -219,6 +228,15 @@ void FramePipeline::render_loop() {
     send_text_(error_json("render_failed", renderer.status().message(), false));
     return;
   }
+  std::optional<api::GpuJpegEncoder> gpu_jpeg;
+  if (state_.gpu_jpeg) {
+    auto encoder = api::GpuJpegEncoder::create(state_.options.cuda_device);
+    if (!encoder.ok()) {
+      send_text_(error_json("render_failed", encoder.status().message(), false));
+      return;
+    }
+    gpu_jpeg.emplace(std::move(*encoder));
+  }
   std::optional<ViewRequest> current;
   int refinements = 0;
   bool refine_wanted = false;
@@ -236,7 +254,7 @@ void FramePipeline::render_loop() {
       std::lock_guard<std::mutex> lock(mutex_);
       ++unsent_frames_;
     }
-    auto frame = render_view(*renderer, *current, work.refine, std::move(buffers));
+    auto frame = render_view(*renderer, gpu_jpeg ? &*gpu_jpeg : nullptr, *current, work.refine, std::move(buffers));
     if (!frame.ok()) {
       frame_dropped();
       send_text_(error_json("render_failed", frame.status().message(), false));

@@ -9,7 +9,9 @@
 #include <random>
 
 #include "internal_server.h"
+#include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
+#include "rgs/view/image_codec.h"
 
 namespace rgs::view {
 
@@ -117,6 +119,10 @@ const std::string& Server::token() const {
   static const std::string kNone;
   return impl_ ? impl_->token : kNone;
 }
+const std::string& Server::jpeg_encoder() const {
+  static const std::string kNone;
+  return impl_ ? impl_->state.jpeg_encoder : kNone;
+}
 uint32_t Server::clients() const { return impl_ ? impl_->ws_clients.load() : 0; }
 uint64_t Server::frame_memory_held() const { return impl_ ? impl_->budget.held() : 0; }
 uint64_t Server::frame_memory_peak() const { return impl_ ? impl_->budget.peak() : 0; }
@@ -166,6 +172,13 @@ Result<Server> Server::start(std::vector<api::Scene> scenes, const ServerOptions
                       std::string("view server: the scenes were not loaded for preset ") +
                           api::preset_name(options.preset) + " (load_view_scene lists every preset they can render)");
   RGS_ASSIGN_OR_RETURN(api::DeviceInfo device, api::query_device(state.device, options.cuda_device));
+  state.jpeg_encoder = jpeg_encoder_name(detail::encode_workers());
+  if (state.device == api::Device::kCuda && options.gpu_jpeg) {
+    auto gpu_jpeg = api::GpuJpegEncoder::create(options.cuda_device);
+    state.gpu_jpeg = gpu_jpeg.ok();
+    state.jpeg_encoder = gpu_jpeg.ok() ? "JPEG: " + gpu_jpeg->name() + " on the GPU"
+                                       : state.jpeg_encoder + " (" + gpu_jpeg.status().message() + ")";
+  }
   state.hello_json = detail::build_hello(state, device.name);
 
   impl->token = options.token;

@@ -9,6 +9,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "rgs/api/camera.h"
 #include "rgs/api/preset.h"
@@ -148,6 +150,36 @@ class Image {
 
  private:
   friend class Renderer;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Encodes GPU images as baseline JPEG on their GPU with nvJPEG (runtime::GpuJpegEncoder), which is loaded at
+/// run time, so every binary still runs where it is absent (docs/VIEWER.md#frames-encoded-on-the-gpu). One per
+/// thread; move-only.
+class GpuJpegEncoder {
+ public:
+  /// An encoder on CUDA device `cuda_device`. Errors: kUnsupportedFeature (no CUDA in this build, no usable
+  /// device, or no nvJPEG library: the message says which), kCudaError.
+  static Result<GpuJpegEncoder> create(int cuda_device = 0);
+
+  GpuJpegEncoder(GpuJpegEncoder&&) noexcept;
+  GpuJpegEncoder& operator=(GpuJpegEncoder&&) noexcept;
+  ~GpuJpegEncoder();
+
+  /// The library in use, e.g. "nvJPEG 13.0.1 (libnvjpeg.so.13)".
+  const std::string& name() const;
+
+  /// Encodes the colour of `image` (a GPU kRgba8 image on this encoder's device; alpha ignored) with the
+  /// standard tables scaled to `quality` (1..100), 4:2:0 chroma when `subsample_chroma`, else 4:4:4. Waits on
+  /// the GPU (not the host) for the render that produced the image, then on the host for the bitstream, which
+  /// replaces `jpeg`'s contents. Errors: kInvalidArgument (a CPU image, another format or device, quality out
+  /// of range), kOutOfMemory, kCudaError.
+  Status encode(const Image& image, int quality, bool subsample_chroma, std::vector<uint8_t>* jpeg);
+
+  struct Impl;
+
+ private:
+  explicit GpuJpegEncoder(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
 

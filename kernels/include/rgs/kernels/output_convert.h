@@ -1,4 +1,5 @@
-// Conversion of a rendered float RGBA frame into a caller's image: pixel format, row pitch, alpha and depth.
+// Conversion of a rendered float RGBA frame into a caller's image: pixel format, row pitch, alpha and depth;
+// and of an 8-bit RGBA image into packed RGB for an encoder.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -36,5 +37,11 @@ struct OutputConvertParams {
 /// Writes the frame in `params.rgba` (and depth) to the caller's image with format conversion, one thread
 /// per pixel, on `stream`. No-op for a zero size. Returns the launch error (cudaGetLastError folded in).
 cudaError_t launch_convert_output(const OutputConvertParams& params, cudaStream_t stream);
+
+/// Packs an 8-bit RGBA image (row y at rgba + y·rgba_pitch bytes) into tightly packed [H, W, 3] RGB at `rgb`
+/// (the interleaved input of a JPEG encoder), alpha dropped, on `stream`. Device pointers; no-op for a zero
+/// size. Returns the launch error.
+cudaError_t launch_pack_rgb8(const uint8_t* rgba, size_t rgba_pitch, uint32_t width, uint32_t height, uint8_t* rgb,
+                             cudaStream_t stream);
 
 }  // namespace rgs::kernels

@@ -28,6 +28,9 @@ namespace rgs::view {
 Result<std::vector<uint8_t>> encode_rgb(const uint8_t* rgb, uint32_t width, uint32_t height, Encoding encoding,
                                         int quality, uint32_t channels = 3, parallel::WorkerPool* workers = nullptr);
 
+/// Whether encode_rgb's JPEG at `quality` halves the chroma resolution (4:2:0, below 90) or keeps it (4:4:4).
+bool jpeg_subsamples_chroma(int quality);
+
 /// What encode_rgb's JPEG with `workers` threads is, for display: "JPEG: libjpeg-turbo on N threads, in strips
 /// joined by restart markers" (or "in one thread").
 std::string jpeg_encoder_name(unsigned workers);

@@ -68,6 +68,9 @@ struct ServerOptions {
   uint64_t gpu_scratch_budget = 0;
   /// CUDA device of GPU scenes.
   int cuda_device = 0;
+  /// GPU scenes: encode JPEG frames on the GPU with nvJPEG (api::GpuJpegEncoder) where it loads; false, or where
+  /// it does not, on the CPU (encode_rgb). The hello message says which.
+  bool gpu_jpeg = true;
 };
 
 /// A running server. Move-only; destroying it stops it.
@@ -91,6 +94,9 @@ class Server {
   uint16_t port() const;
   /// The token requests must carry; empty when none is required.
   const std::string& token() const;
+  /// How JPEG frames are encoded (the hello message's "encoder"), e.g. "JPEG: nvJPEG 13.0.1 (libnvjpeg.so.13) on
+  /// the GPU".
+  const std::string& jpeg_encoder() const;
   /// WebSocket clients holding a client slot now (one that is closing has given its slot back).
   uint32_t clients() const;
   /// Bytes of ServerOptions::frame_memory the clients' frames hold now, and the most they held at once.
