@@ -5,7 +5,8 @@
     scripts/view_tables.py --update docs/BENCHMARKS.md --block view OUT/view_*.json   # replace it in place
 
 One row per run (scripts/gpu_check.sh ... view leaves view_<name>.json under its OUT folder): the scene, the
-views (a fly-through of its cameras, or a path around it), the frame size, the encoding and views in flight; frames per second sustained; the latency from a view sent to its
+views (a fly-through of its cameras, or a path around it), the frame size, the encoding (JPEG: whether the GPU or
+the CPU encoded it) and views in flight; frames per second sustained; the latency from a view sent to its
 frame received (median, p95, max); the median frame's bytes; and the server's medians of the frame's render
 call (the front door's render, level-of-detail streaming included), its GPU stages, the read-back and the
 encoding. --update replaces the lines between the markers of the block, as scripts/bench_tables.py does. A file
@@ -46,13 +47,21 @@ def views(r):
     return f"{r.get('views', '?')} {'on its cameras' if r.get('cameras') else 'on a path'}"
 
 
+def encoding(r):
+    """The encoding and quality, and for JPEG where it was encoded (the hello's encoder, when the report has it)."""
+    text = f"{r['encoding']} q{r.get('quality', '')}".strip()
+    if r["encoding"] == "jpeg" and r.get("encoder"):
+        text += " (GPU)" if "nvJPEG" in r["encoder"] else " (CPU)"
+    return text
+
+
 def rows(runs):
     out = []
     for r in runs:
         s, lat = r["server_median"], r["latency_ms"]
         out.append([
             f"{r['scene']} ({r['gaussians'] / 1e6:.2f}M)" if r.get("gaussians") else r["scene"], views(r),
-            f"{r['width']}×{r['height']}", f"{r['encoding']} q{r.get('quality', '')}".strip(), str(r["in_flight"]),
+            f"{r['width']}×{r['height']}", encoding(r), str(r["in_flight"]),
             str(r["measured_frames"]), f"{r['frames_per_second']:.1f}",
             f"{lat['median']:.1f} / {lat['p95']:.1f} / {lat['max']:.1f}",
             f"{r['bytes_per_frame']['median'] / 1024:.0f} KiB",

@@ -363,6 +363,7 @@ int summarize(const Options& opt, const Endpoint& endpoint, const json& hello, c
       {"url", endpoint.shown},
       {"backend", hello.value("backend", "")},
       {"device", hello.value("device", "")},
+      {"encoder", hello.value("encoder", "")},
       {"scene", scene.value("path_basename", "")},
       {"gaussians", scene.value("gaussians", 0)},
       {"cameras", opt.cameras.cameras_path},
