@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "internal_rate_control.h"
+#include "rate_control/rate_control.h"
 #include "rgs/api/convert.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"

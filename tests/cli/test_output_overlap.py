@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Every output kind against every input kind, through every spelling of the same file: refused, and the input's
-bytes unchanged; a failed or interrupted write leaves the earlier output as it was and nothing new.
+bytes unchanged; a failed or interrupted write leaves the earlier output as it was and nothing new. The outputs
+are the sinks rgs-convert lists (its --to choices): one it lists and this test does not aim at fails it.
 
 Usage: test_output_overlap.py RGS_CONVERT RGS_RENDER RGS_AUDIT SMALL_PLY SAMPLE_PLY WORK_DIR
 
@@ -167,6 +168,18 @@ def convert_outputs(target):
     kinds = [ext[1:]] if ext in FORMAT_EXTENSIONS else [e[1:] for e in FORMAT_EXTENSIONS]
     return [(k, [target, "--to", k]) for k in kinds] + [("json", [os.path.join(WORK, "json_out.rgs"), "--json",
                                                                    target])]
+
+
+def sinks_listed_by_the_tool():
+    """The output formats rgs-convert's --help offers (its --to choices) must be those this test aims outputs with:
+    a sink added to the tool and not here fails the test until its overlap cases are added."""
+    global cases
+    cases += 1
+    r = run([CONVERT, "--help"])
+    listed = next((line.split("{", 1)[1].split("}", 1)[0] for line in r.stdout.splitlines() if "--to TEXT:{" in line), "")
+    covered = sorted(e[1:] for e in FORMAT_EXTENSIONS)
+    check(sorted(listed.split(",")) == covered,
+          "rgs-convert --help lists the outputs {%s}; this test covers %s" % (listed, ", ".join(covered)))
 
 
 def case_insensitive(folder):
@@ -339,7 +352,7 @@ def main():
     scratch = os.path.join(WORK, "scratch")
     os.makedirs(scratch)
     inputs = make_inputs(os.path.join(WORK, "inputs"))
-    for step in (lambda: overlap_matrix(inputs, scratch), lambda: streamed_sog_collisions(inputs, scratch),
+    for step in (sinks_listed_by_the_tool, lambda: overlap_matrix(inputs, scratch), lambda: streamed_sog_collisions(inputs, scratch),
                  lambda: failed_write_keeps_older_output(scratch), lambda: interrupted_write_keeps_older_output(scratch)):
         start, before = time.time(), cases
         step()

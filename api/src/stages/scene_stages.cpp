@@ -5,7 +5,7 @@
 
 #include "../internal_load.h"
 #include "../internal_pipeline.h"
-#include "../internal_rate_control.h"
+#include "../rate_control/rate_control.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/sog_writer.h"
 

@@ -7,9 +7,9 @@
 #include <utility>
 #include <vector>
 
-#include "internal_rate_control.h"
-#include "internal_rate_knobs.h"
-#include "internal_rate_measurer.h"
+#include "rate_control.h"
+#include "knobs.h"
+#include "measurer.h"
 
 namespace rgs::api::detail {
 

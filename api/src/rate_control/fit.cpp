@@ -9,10 +9,10 @@
 #include <utility>
 #include <vector>
 
-#include "internal_rate_control.h"
-#include "internal_rate_knobs.h"
-#include "internal_rate_measurer.h"
-#include "internal_rate_search.h"
+#include "rate_control.h"
+#include "knobs.h"
+#include "measurer.h"
+#include "search.h"
 #include "rgs/converter/scene_reader.h"
 
 namespace rgs::api::detail {

@@ -13,8 +13,8 @@
 #include <utility>
 #include <vector>
 
-#include "internal_rate_control.h"
-#include "internal_rate_knobs.h"
+#include "rate_control.h"
+#include "knobs.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/config.h"

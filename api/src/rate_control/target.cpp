@@ -5,8 +5,8 @@
 #include <utility>
 #include <vector>
 
-#include "internal_rate_control.h"
-#include "internal_rate_knobs.h"
+#include "rate_control.h"
+#include "knobs.h"
 #include "rgs/api/camera.h"
 #include "rgs/api/convert.h"
 

@@ -1,5 +1,5 @@
 // Rate control's knobs (private to rgs_api): the archive options the search moves, their ranges and the
-// constants that bound the search (internal_rate_control.h).
+// constants that bound the search (rate_control.h).
 #pragma once
 
 #include <array>
@@ -11,7 +11,7 @@
 #include <tuple>
 #include <vector>
 
-#include "internal_pipeline.h"
+#include "../internal_pipeline.h"
 #include "rgs/format/archive.h"
 
 namespace rgs::api::detail {

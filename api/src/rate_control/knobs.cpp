@@ -1,5 +1,5 @@
 // Rate control's knobs: the ladder that coarsens every knob together and the one-knob steps.
-#include "internal_rate_knobs.h"
+#include "knobs.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,11 +1,11 @@
 // Rate control's measurements: archives encoded (in batches, lending one another their sections) and rendered
-// against the source's renders (internal_rate_measurer.h).
+// against the source's renders (measurer.h).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <new>
 
-#include "internal_rate_measurer.h"
+#include "measurer.h"
 #include "rgs/format/writer.h"
 #include "rgs/runtime/image_metrics.h"
 

@@ -1,10 +1,10 @@
 // Rate control's search: the ladder, rounds of one-knob steps, scans, exchanges and code steps for a PSNR target,
-// and the search over PSNR targets for a byte budget (internal_rate_search.h).
+// and the search over PSNR targets for a byte budget (search.h).
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "internal_rate_search.h"
+#include "search.h"
 
 namespace rgs::api::detail {
 
