@@ -504,7 +504,7 @@ if [ "$what" = view ] || [ "$what" = all ]; then
     [ $rc -ne 0 ] && status=1
     note "view_$name: exit $rc"
     grep -m1 "^rgs-view: frames " "$out/view_${name}_server.log" | tee -a "$summary"
-    grep -E "frames|latency|bytes/frame|server medians" "$out/view_$name.log" | tee -a "$summary"
+    grep -E "frames|latency|bytes/frame|budget|server medians" "$out/view_$name.log" | tee -a "$summary"
   }
   note "view: nvJPEG on this host: $( (ldconfig -p | grep -o 'libnvjpeg.so[.0-9]*' | sort -u; ls /usr/local/cuda/lib64/libnvjpeg.so.* 2>/dev/null) | tr '\n' ' ')"
   if [ -f "$taebak" ]; then
@@ -526,6 +526,12 @@ if [ "$what" = view ] || [ "$what" = all ]; then
     view_bench taebak_jpeg_path "$taebak" -- --path 600 --width 1920 --height 1080 --warmup 16
     view_bench taebak_jpeg_path_4k "$taebak" -- --path 600 --width 3840 --height 2160 --warmup 16
     view_bench taebak_webp "$taebak" -- "${fly[@]}" --encoding webp
+    # The bandwidth budget (docs/VIEWER.md#bandwidth-budget): the 1080p flight through the bench's shaping relay,
+    # 50 Mbit/s and 20 ms round trip, without a budget and with one of 50 Mbit/s, and the PSNR
+    # of every 10th frame against the lossless frame of its view.
+    shaped=(--shape-mbps 50 --shape-rtt-ms 20 --psnr-every 10)
+    view_bench taebak_jpeg_shaped "$taebak" -- "${fly[@]}" "${shaped[@]}"
+    view_bench taebak_jpeg_shaped_budget "$taebak" -- "${fly[@]}" "${shaped[@]}" --max-mbps 50
     x16="$taebak_dir/taebak_x16_lod.rgs"
     if [ ! -f "$x16" ]; then
       "$bin/rgs-bench" "$taebak" --replicate 16 --cameras "$taebak_cameras" --limit 2 --splat-budget 3000000 \

@@ -9,7 +9,10 @@ views (a fly-through of its cameras, or a path around it), the frame size, the e
 the CPU encoded it) and views in flight; frames per second sustained; the latency from a view sent to its
 frame received (median, p95, max); the median frame's bytes; and the server's medians of the frame's render
 call (the front door's render, level-of-detail streaming included), its GPU stages, the read-back and the
-encoding. --update replaces the lines between the markers of the block, as scripts/bench_tables.py does. A file
+encoding. Runs through rgs-view-bench's shaping relay (--shape-mbps) go in a second table: the link, the bandwidth
+budget, frames per second, latency, Mbit/s received, the median frame, the quality and scale the budget chose
+(medians) and the PSNR of the received frames against the lossless frames of their views (mean / min).
+--update replaces the lines between the markers of the block, as scripts/bench_tables.py does. A file
 that is not an rgs-view-bench report, or runs from different devices, is an error (exit 1).
 """
 import argparse
@@ -71,6 +74,23 @@ def rows(runs):
     return out
 
 
+def shaped_rows(runs):
+    out = []
+    for r in runs:
+        lat, sh, p = r["latency_ms"], r["shaping"], r.get("psnr_db") or {}
+        out.append([
+            f"{r['scene']} ({r['gaussians'] / 1e6:.2f}M)" if r.get("gaussians") else r["scene"], views(r),
+            f"{r['width']}×{r['height']}", f"{r['encoding']} q{r.get('quality', '')}".strip(), str(r["in_flight"]),
+            f"{sh['mbps']:g} Mbit/s, {sh['rtt_ms']:g} ms", f"{r['max_mbps']:g}" if r.get("max_mbps") else "none",
+            str(r["measured_frames"]), f"{r['frames_per_second']:.1f}",
+            f"{lat['median']:.1f} / {lat['p95']:.1f} / {lat['max']:.1f}", ms(r.get("mbps")),
+            f"{r['bytes_per_frame']['median'] / 1024:.0f} KiB",
+            f"q{r['quality_median']:.0f}, {r['scale_median']:g}" if r.get("quality_median") is not None else "–",
+            f"{ms(p.get('mean'))} / {ms(p.get('min'))} ({p.get('views', 0)})",
+        ])
+    return out
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("json", nargs="+", help="rgs-view-bench --json outputs")
@@ -84,7 +104,14 @@ def main(argv):
             raise ShapeError(f"runs from several devices: {sorted(devices)}")
         header = ["scene", "views", "frame", "encoding", "in flight", "frames", "frames/s", "latency ms median / p95 / max",
                   "frame bytes", "render call ms", "GPU stages ms", "read-back ms", "encode ms", "splats"]
-        text = f"{devices.pop()}:\n\n" + "\n".join(table(header, rows(runs))) + "\n"
+        plain = [r for r in runs if not r.get("shaping")]
+        shaped = [r for r in runs if r.get("shaping")]
+        text = f"{devices.pop()}:\n\n" + "\n".join(table(header, rows(plain))) + "\n"
+        if shaped:
+            header = ["scene", "views", "frame", "encoding", "in flight", "link", "budget Mbit/s", "frames",
+                      "frames/s", "latency ms median / p95 / max", "Mbit/s", "frame bytes", "quality, scale",
+                      "PSNR dB vs lossless mean / min (views)"]
+            text += "\nThrough rgs-view-bench's shaping relay:\n\n" + "\n".join(table(header, shaped_rows(shaped))) + "\n"
         if args.update:
             update(args.update, text, args.block)
             print(f"view_tables: updated {args.update} from {len(runs)} file(s)", file=sys.stderr)

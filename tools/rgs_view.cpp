@@ -139,6 +139,12 @@ int main(int argc, char** argv) {
           },
           ""))
       ->capture_default_str();
+  app.add_option("--max-mbps", opt.server.max_mbps,
+                 "Bandwidth budget of each browser, Mbit/s (0: none; the page may set a lower one): while the "
+                 "camera moves, frames are encoded at a lower JPEG/WebP quality and rendered smaller to keep "
+                 "within it; the view it stops at comes at full quality")
+      ->check(tools::finite_number_in(0, view::kMaxMbps))
+      ->capture_default_str();
   app.add_flag_callback("--cpu-jpeg", [&opt] { opt.server.gpu_jpeg = false; },
                         "GPU backend: encode JPEG frames on the CPU even where nvJPEG is found");
   app.add_flag("-q,--quiet", opt.quiet, "Print only the URL line and errors");

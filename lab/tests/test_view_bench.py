@@ -2,7 +2,8 @@
 """rgs-view-bench against `rgs-view --backend cpu` on the bundled guitar (converted to .rgs here): not a timing
 test. Checks that a fly-through of 20 views at 320x240 through three key cameras (a cameras.json written here)
 gets 20 frames, that the JSON report is well-formed and complete (frames per second, latency median/p95/max,
-bytes per frame, the server's medians), the same for an orbit with two views in flight and WebP frames, and that
+bytes per frame, the server's medians), the same for an orbit with two views in flight and WebP frames, through the
+shaping relay with and without a bandwidth budget (round trip, smaller frames, PSNR against lossless), and that
 the client fails cleanly (exit 1, an error line) without the token a non-loopback server requires.
 
     test_view_bench.py RGS_VIEW RGS_VIEW_BENCH RGS_CONVERT GUITAR_PLY WORK_DIR
@@ -141,6 +142,27 @@ def main():
             fail(f"orbit.json: in_flight {rep['in_flight']}, encoding {rep['encoding']}")
         print(f"orbit: {rep['frames']} frames, {rep['dropped_views']} views replaced by newer ones, with two views "
               "in flight, WebP")
+        # through the shaping relay (1 Mbit/s, 40 ms round trip): every frame takes the round trip at least; with
+        # the budget the moving frames are smaller and their PSNR against the lossless frames is finite
+        shaped = ["--orbit", "10", "--width", "320", "--height", "180", "--warmup", "2", "--shape-mbps", "1",
+                  "--shape-rtt-ms", "40", "--psnr-every", "2"]
+        plain = bench(rgs_bench, url, shaped, os.path.join(work, "shaped.json"), work, 10)
+        budget = bench(rgs_bench, url, shaped + ["--max-mbps", "1"], os.path.join(work, "budget.json"), work, 10)
+        for rep in (plain, budget):
+            if rep["latency_ms"]["median"] < 40 or rep["shaping"] != {"mbps": 1, "rtt_ms": 40}:
+                fail(f"shaped: latency {rep['latency_ms']}, shaping {rep['shaping']}")
+            if rep["psnr_db"]["views"] != 4 or not finite(rep["psnr_db"]["mean"]) or not finite(rep["mbps"]):
+                fail(f"shaped: PSNR {rep['psnr_db']}, {rep['mbps']} Mbit/s")
+        if plain["quality_median"] != 85 or plain["max_mbps"] is not None or budget["max_mbps"] != 1 or \
+                not (budget["quality_median"] < 85 or budget["scale_median"] < 1) or \
+                budget["bytes_per_frame"]["median"] >= plain["bytes_per_frame"]["median"]:
+            fail(f"budget: quality {budget['quality_median']} scale {budget['scale_median']} bytes "
+                 f"{budget['bytes_per_frame']['median']} against {plain['bytes_per_frame']['median']} without")
+        print(f"shaped 1 Mbit/s, 40 ms: {plain['frames_per_second']:.1f} frames/s, "
+              f"{plain['bytes_per_frame']['median']:.0f} B/frame, PSNR {plain['psnr_db']['mean']:.1f} dB; with a "
+              f"1 Mbit/s budget {budget['frames_per_second']:.1f} frames/s, quality {budget['quality_median']:.0f} "
+              f"scale {budget['scale_median']}, {budget['bytes_per_frame']['median']:.0f} B/frame, PSNR "
+              f"{budget['psnr_db']['mean']:.1f} dB (not a timing test)")
         code = stop(proc)
         if code != 0:
             fail(f"rgs-view exited {code} on SIGTERM")

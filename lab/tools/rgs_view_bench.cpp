@@ -6,6 +6,13 @@
 //
 //   rgs-view-bench http://127.0.0.1:8080/ --cameras cameras.json --fly 600 --width 1920 --height 1080
 //   rgs-view-bench "http://host:8080/?token=..." --orbit 120 --encoding webp --in-flight 2 --json out.json
+//   rgs-view-bench URL --cameras c.json --fly 600 --shape-mbps 50 --shape-rtt-ms 20 --max-mbps 50 --psnr-every 10
+//
+// --shape-mbps puts a TCP relay on 127.0.0.1 between the bench and the server that shapes the connection like a
+// link of that rate and round trip (shaping_proxy.h); --max-mbps sends the views with that bandwidth budget
+// (view/PROTOCOL.md "Bandwidth budget"); --psnr-every K decodes every K-th measured frame and compares it with the
+// lossless frame of the same view, asked for after the flight on a direct connection (upscaled bilinearly to full
+// size first when the budget rendered it smaller, as the page draws it).
 //
 // The cameras are built by the front door (api::make_cameras, as rgs-render builds them) and sent in the INRIA
 // form (view::inria_from_camera: rotation c2w = Rᵀ, position = −Rᵀ·t). The URL's token is used, never printed.
@@ -17,6 +24,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <numeric>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -24,6 +32,8 @@
 #include <vector>
 
 #include <sys/socket.h>
+#include <turbojpeg.h>
+#include <webp/decode.h>
 
 #include <CLI/CLI.hpp>
 #include <boost/asio/connect.hpp>
@@ -34,7 +44,9 @@
 
 #include "cli_common.h"
 #include "rgs/api/camera.h"
+#include "rgs/view/image_codec.h"
 #include "rgs/view/protocol.h"
+#include "shaping_proxy.h"
 
 namespace {
 
@@ -63,6 +75,8 @@ struct Options {
   uint32_t in_flight = 1;
   uint32_t warmup = 3;
   double timeout_s = 60;
+  double shape_mbps = 0, shape_rtt_ms = 0, max_mbps = 0;
+  uint32_t psnr_every = 0;
   std::string json_path;
   bool quiet = false;
 };
@@ -137,6 +151,12 @@ double percentile(std::vector<double> v, double p) {
 
 json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
+std::string number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
 /// Closes the socket when nothing arrives for `timeout`: a blocking read then fails instead of hanging.
 class Watchdog {
  public:
@@ -193,11 +213,14 @@ Status io_error(const Watchdog& watchdog, const std::string& what, double timeou
                                                        : what);
 }
 
-/// Opens the WebSocket of `endpoint` on `ws` (TCP without Nagle's delay, messages up to 1 GiB).
-Status open_websocket(websocket::stream<tcp::socket>& ws, net::io_context& ioc, const Endpoint& endpoint) {
+/// Opens the WebSocket of `endpoint` on `ws` (TCP without Nagle's delay, messages up to 1 GiB); through
+/// 127.0.0.1:`relay_port` when one is given (the shaping proxy), still naming the server in its Host header.
+Status open_websocket(websocket::stream<tcp::socket>& ws, net::io_context& ioc, const Endpoint& endpoint,
+                      uint16_t relay_port = 0) {
   try {
     tcp::resolver resolver{ioc};
-    const auto addresses = resolver.resolve(endpoint.host, endpoint.port);
+    const auto addresses = relay_port ? resolver.resolve("127.0.0.1", std::to_string(relay_port))
+                                      : resolver.resolve(endpoint.host, endpoint.port);
     net::connect(ws.next_layer(), addresses.begin(), addresses.end());
     ws.next_layer().set_option(tcp::no_delay(true));
     ws.set_option(websocket::stream_base::decorator(
@@ -248,7 +271,10 @@ struct Measurements {
   size_t frames = 0, refine_frames = 0, failed = 0, dropped = 0;
   std::vector<double> latency_ms, bytes, frame_arrival_s;  ///< per measured frame
   std::map<std::string, std::vector<double>> stats;        ///< kStatKeys of the measured frames' headers
+  std::vector<double> quality, scale;                      ///< the headers' (the bandwidth budget's choice)
   double total_s = 0;                                      ///< from the first view sent to the last frame
+  /// Every psnr_every-th measured frame's image (seq → its encoding and bytes), for the PSNR pass.
+  std::map<uint64_t, std::pair<std::string, std::string>> kept;
 };
 
 /// Sends the views (view k + 1 is messages[k]) paced by the frames that come back, `opt.in_flight` views
@@ -321,6 +347,13 @@ Result<Measurements> measure(websocket::stream<tcp::socket>& ws, beast::flat_buf
         m.latency_ms.push_back(std::chrono::duration<double, std::milli>(arrival - sent_at[seq]).count());
         m.bytes.push_back(double(data.size()));
         m.frame_arrival_s.push_back(std::chrono::duration<double>(arrival - measured_from).count());
+        if (header.value("quality", json()).is_number()) m.quality.push_back(header["quality"].get<double>());
+        m.scale.push_back(header.value("scale", 1.0));
+        const json images = header.value("images", json::array());
+        const size_t image_bytes = images.empty() ? 0 : images[0].value("bytes", size_t(0));
+        if (opt.psnr_every && m.latency_ms.size() % opt.psnr_every == 0 && image_bytes <= data.size() - 4 - n) {
+          m.kept[seq] = {images[0].value("encoding", ""), data.substr(4 + n, image_bytes)};
+        }
         if (header.contains("stats") && header["stats"].is_object()) {
           for (const char* key : kStatKeys) {
             const auto it = header["stats"].find(key);
@@ -342,10 +375,100 @@ Result<Measurements> measure(websocket::stream<tcp::socket>& ws, beast::flat_buf
   return m;
 }
 
+/// 8-bit RGB [h, w, 3] of a frame's image (`encoding` as in the frame header: jpeg, webp, webp-lossless).
+Result<std::vector<uint8_t>> decode_rgb(const std::string& encoding, const std::string& bytes, int* w, int* h) {
+  const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+  if (encoding == "jpeg") {
+    tjhandle d = tjInitDecompress();
+    int subsampling = 0, colorspace = 0;
+    std::vector<uint8_t> rgb;
+    bool ok = d && tjDecompressHeader3(d, data, bytes.size(), w, h, &subsampling, &colorspace) == 0;
+    if (ok) {
+      rgb.resize(size_t(*w) * *h * 3);
+      ok = tjDecompress2(d, data, bytes.size(), rgb.data(), *w, *w * 3, *h, TJPF_RGB, 0) == 0;
+    }
+    if (d) tjDestroy(d);
+    if (!ok) return Status(StatusCode::kCorruptData, "a JPEG frame does not decode");
+    return rgb;
+  }
+  uint8_t* rgb = WebPDecodeRGB(data, bytes.size(), w, h);
+  if (!rgb) return Status(StatusCode::kCorruptData, "a WebP frame does not decode");
+  std::vector<uint8_t> out(rgb, rgb + size_t(*w) * *h * 3);
+  WebPFree(rgb);
+  return out;
+}
+
+/// `rgb` [sh, sw, 3] resized to [dh, dw, 3], bilinear with pixel centres aligned (as a canvas draws it scaled).
+std::vector<uint8_t> resize_rgb(const std::vector<uint8_t>& rgb, int sw, int sh, int dw, int dh) {
+  std::vector<uint8_t> out(size_t(dw) * dh * 3);
+  for (int y = 0; y < dh; ++y) {
+    const double fy = std::clamp((y + 0.5) * sh / dh - 0.5, 0.0, double(sh - 1));
+    const int y0 = int(fy), y1 = std::min(y0 + 1, sh - 1);
+    for (int x = 0; x < dw; ++x) {
+      const double fx = std::clamp((x + 0.5) * sw / dw - 0.5, 0.0, double(sw - 1));
+      const int x0 = int(fx), x1 = std::min(x0 + 1, sw - 1);
+      const double ax = fx - x0, ay = fy - y0;
+      for (int c = 0; c < 3; ++c) {
+        const auto at = [&](int xx, int yy) { return double(rgb[(size_t(yy) * sw + xx) * 3 + c]); };
+        const double v = (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x1, y0)) +
+                         ay * ((1 - ax) * at(x0, y1) + ax * at(x1, y1));
+        out[(size_t(y) * dw + x) * 3 + c] = uint8_t(std::lround(v));
+      }
+    }
+  }
+  return out;
+}
+
+/// PSNR (dB) of each kept frame against the lossless frame of its view, asked for on a direct connection to the
+/// server (no shaping, no budget); identical images are left out (infinite PSNR).
+Result<std::vector<double>> psnr_against_lossless(const Endpoint& endpoint, const Options& opt,
+                                                  const std::vector<view::ViewRequest>& requests,
+                                                  const Measurements& m) {
+  net::io_context ioc;
+  websocket::stream<tcp::socket> ws{ioc};
+  RGS_RETURN_IF_ERROR(open_websocket(ws, ioc, endpoint));
+  Watchdog watchdog(ws.next_layer().native_handle(), std::chrono::duration<double>(opt.timeout_s));
+  beast::flat_buffer buffer;
+  RGS_RETURN_IF_ERROR(read_hello(ws, buffer, watchdog, opt.timeout_s).status());
+  std::vector<double> psnr;
+  try {
+    for (const auto& [seq, image] : m.kept) {
+      view::ViewRequest lossless = requests[seq - 1];
+      lossless.encoding = view::Encoding::kLossless;
+      lossless.still = true;
+      lossless.max_mbps = 0;
+      ws.text(true);
+      ws.write(net::buffer(view::view_message_json(lossless)));
+      std::string data;
+      do {  // the frame (text messages: pongs, errors)
+        buffer.consume(buffer.size());
+        ws.read(buffer);
+        watchdog.progress();
+        data = beast::buffers_to_string(buffer.data());
+      } while (ws.got_text());
+      if (data.size() < 4) return io_error(watchdog, "a binary message shorter than its header length", opt.timeout_s);
+      const uint32_t n = uint32_t(uint8_t(data[0])) | uint32_t(uint8_t(data[1])) << 8 |
+                         uint32_t(uint8_t(data[2])) << 16 | uint32_t(uint8_t(data[3])) << 24;
+      if (n > data.size() - 4) return io_error(watchdog, "a frame header longer than its message", opt.timeout_s);
+      int fw = 0, fh = 0, w = 0, h = 0;
+      RGS_ASSIGN_OR_RETURN(auto full, decode_rgb("webp-lossless", data.substr(4 + n), &fw, &fh));
+      RGS_ASSIGN_OR_RETURN(auto got, decode_rgb(image.first, image.second, &w, &h));
+      if (w != fw || h != fh) got = resize_rgb(got, w, h, fw, fh);
+      const view::ImageDifference d = view::compare_rgb(got.data(), full.data(), uint32_t(fw), uint32_t(fh), 32,
+                                                        nullptr, 3);
+      if (d.psnr_db) psnr.push_back(*d.psnr_db);
+    }
+    ws.close(websocket::close_code::normal);
+  } catch (const std::exception& e) {
+    return io_error(watchdog, std::string("the lossless frames: ") + e.what(), opt.timeout_s);
+  }
+  return psnr;
+}
+
 /// Prints the report of `m` for the `count` views at width x height, and writes it as JSON when asked. Returns
 /// the exit code: an I/O error when no frame arrived or the JSON cannot be written.
 int summarize(const Options& opt, const Endpoint& endpoint, const json& hello, const std::string& preset_name,
-              size_t count, uint32_t width, uint32_t height, const Measurements& m) {
+              size_t count, uint32_t width, uint32_t height, const Measurements& m, const std::vector<double>& psnr) {
   const json& scene = hello["scenes"][0];
   const size_t measured = m.latency_ms.size();
   const double span = m.frame_arrival_s.empty() ? 0 : m.frame_arrival_s.back();
@@ -357,6 +480,8 @@ int summarize(const Options& opt, const Endpoint& endpoint, const json& hello, c
     for (double b : m.bytes) sum += b;
     mean_bytes = sum / double(m.bytes.size());
   }
+  // bits of the measured frames over the span they arrived in (as frames/s)
+  const double mbps = span > 0 ? mean_bytes * double(measured) * 8 / span / 1e6 : NAN;
   json report = {
       {"tool", kTool},
       {"benchmark", true},
@@ -389,6 +514,16 @@ int summarize(const Options& opt, const Endpoint& endpoint, const json& hello, c
         {"max",
          number_or_null(m.latency_ms.empty() ? NAN : *std::max_element(m.latency_ms.begin(), m.latency_ms.end()))}}},
       {"bytes_per_frame", {{"median", number_or_null(median(m.bytes))}, {"mean", number_or_null(mean_bytes)}}},
+      {"shaping", opt.shape_mbps > 0 ? json{{"mbps", opt.shape_mbps}, {"rtt_ms", opt.shape_rtt_ms}} : json(nullptr)},
+      {"max_mbps", opt.max_mbps > 0 ? json(opt.max_mbps) : json(nullptr)},
+      {"mbps", number_or_null(mbps)},
+      {"quality_median", number_or_null(median(m.quality))},
+      {"scale_median", number_or_null(median(m.scale))},
+      {"psnr_db",
+       {{"views", psnr.size()},
+        {"mean", number_or_null(psnr.empty() ? NAN
+                                              : std::accumulate(psnr.begin(), psnr.end(), 0.0) / double(psnr.size()))},
+        {"min", number_or_null(psnr.empty() ? NAN : *std::min_element(psnr.begin(), psnr.end()))}}},
   };
   json server = json::object();
   for (const char* key : kStatKeys) {
@@ -408,8 +543,18 @@ int summarize(const Options& opt, const Endpoint& endpoint, const json& hello, c
   std::printf("  frames/s         %.2f sustained\n", fps);
   std::printf("  latency          median %.2f ms, p95 %.2f ms, max %.2f ms (view sent -> its frame received)\n",
               ms(report["latency_ms"]["median"]), ms(report["latency_ms"]["p95"]), ms(report["latency_ms"]["max"]));
-  std::printf("  bytes/frame      median %.0f, mean %.0f\n", ms(report["bytes_per_frame"]["median"]),
-              ms(report["bytes_per_frame"]["mean"]));
+  std::printf("  bytes/frame      median %.0f, mean %.0f; %.2f Mbit/s\n", ms(report["bytes_per_frame"]["median"]),
+              ms(report["bytes_per_frame"]["mean"]), mbps);
+  if (opt.shape_mbps > 0 || opt.max_mbps > 0 || opt.psnr_every > 0) {
+    std::printf("  budget           link %s, budget %s: quality median %.0f, scale median %.2f; PSNR vs lossless "
+                "mean %.2f dB, min %.2f dB over %zu views\n",
+                opt.shape_mbps > 0
+                    ? (number(opt.shape_mbps) + " Mbit/s, " + number(opt.shape_rtt_ms) + " ms round trip").c_str()
+                    : "loopback",
+                opt.max_mbps > 0 ? (number(opt.max_mbps) + " Mbit/s").c_str() : "none",
+                ms(report["quality_median"]), ms(report["scale_median"]), ms(report["psnr_db"]["mean"]),
+                ms(report["psnr_db"]["min"]), psnr.size());
+  }
   std::printf("  server medians  ");
   for (const char* key : kStatKeys) {
     if (server[key].is_number()) std::printf(" %s %.6g", key, server[key].get<double>());
@@ -442,9 +587,17 @@ int run(const Options& opt) {
   if (opt.encoding == "webp") encoding = view::Encoding::kWebp;
   if (opt.encoding == "lossless") encoding = view::Encoding::kLossless;
 
+  std::unique_ptr<rgs::lab::ShapingProxy> proxy;
+  if (opt.shape_mbps > 0) {
+    auto started = rgs::lab::ShapingProxy::start(endpoint->host, endpoint->port, opt.shape_mbps, opt.shape_rtt_ms);
+    if (!started.ok()) return tools::report_error(kTool, started.status());
+    proxy = std::move(*started);
+  }
   net::io_context ioc;
   websocket::stream<tcp::socket> ws{ioc};
-  if (Status opened = open_websocket(ws, ioc, *endpoint); !opened.ok()) return tools::report_error(kTool, opened);
+  if (Status opened = open_websocket(ws, ioc, *endpoint, proxy ? proxy->port() : 0); !opened.ok()) {
+    return tools::report_error(kTool, opened);
+  }
   Watchdog watchdog(ws.next_layer().native_handle(), std::chrono::duration<double>(opt.timeout_s));
   beast::flat_buffer buffer;
   auto hello = read_hello(ws, buffer, watchdog, opt.timeout_s);
@@ -459,15 +612,16 @@ int run(const Options& opt) {
   if (cameras->empty()) return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no cameras"));
   const size_t count = cameras->size();
   std::vector<std::string> messages;
-  messages.reserve(count);
+  std::vector<view::ViewRequest> requests(count);
   for (size_t i = 0; i < count; ++i) {
-    view::ViewRequest req;
+    view::ViewRequest& req = requests[i];
     req.seq = i + 1;
     req.camera = view::inria_from_camera((*cameras)[i]);
     req.preset = *preset;
     req.background = *background;
     req.encoding = encoding;
     req.quality = opt.quality;
+    req.max_mbps = opt.max_mbps;  // a flight: moving views (still false)
     messages.push_back(view::view_message_json(req));
   }
   const uint32_t width = (*cameras)[0].width, height = (*cameras)[0].height;
@@ -481,7 +635,14 @@ int run(const Options& opt) {
 
   auto measured = measure(ws, buffer, watchdog, messages, opt);
   if (!measured.ok()) return tools::report_error(kTool, measured.status());
-  return summarize(opt, *endpoint, *hello, preset_name, count, width, height, *measured);
+  proxy.reset();
+  std::vector<double> psnr;
+  if (!measured->kept.empty()) {
+    auto compared = psnr_against_lossless(*endpoint, opt, requests, *measured);
+    if (!compared.ok()) return tools::report_error(kTool, compared.status());
+    psnr = std::move(*compared);
+  }
+  return summarize(opt, *endpoint, *hello, preset_name, count, width, height, *measured, psnr);
 }
 
 }  // namespace
@@ -519,6 +680,16 @@ int main(int argc, char** argv) {
   app.add_option("--warmup", opt.warmup, "Frames left out of the statistics at the start")->capture_default_str();
   app.add_option("--timeout", opt.timeout_s, "Give up when nothing arrives for this many seconds")
       ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  app.add_option("--shape-mbps", opt.shape_mbps, "Connect through a relay on 127.0.0.1 that shapes both directions "
+                                                 "like a link of this many Mbit/s (0: direct)")
+      ->check(tools::finite_number_in(0, 1e6));
+  app.add_option("--shape-rtt-ms", opt.shape_rtt_ms, "The shaped link's round trip, ms (half each way)")
+      ->check(tools::finite_number_in(0, 1e5));
+  app.add_option("--max-mbps", opt.max_mbps, "Send the views with this bandwidth budget, Mbit/s (0: none)")
+      ->check(tools::finite_number_in(0, view::kMaxMbps));
+  app.add_option("--psnr-every", opt.psnr_every, "PSNR of every K-th measured frame against the lossless frame of "
+                                                 "its view (0: none)")
       ->capture_default_str();
   app.add_option("--json", opt.json_path, "Also write the report as JSON here");
   app.add_flag("-q,--quiet", opt.quiet, "No progress line on stderr");

@@ -106,7 +106,8 @@ usage = subprocess.run([rgs_view, scene, "--backend", "tpu"], capture_output=Tru
 assert usage.returncode == 2, usage
 short = subprocess.run([rgs_view, scene, "--token", "fifteen-chars-x"], capture_output=True, text=True)
 assert short.returncode == 2 and "at least 16" in short.stderr, short
-for option, value in (("--idle-timeout", "0"), ("--frame-memory", "1MiB")):
+for option, value in (("--idle-timeout", "0"), ("--frame-memory", "1MiB"), ("--max-mbps", "nan"),
+                      ("--max-mbps", "-1"), ("--max-mbps", "1e9")):
     bad = subprocess.run([rgs_view, scene, option, value], capture_output=True, text=True)
     assert bad.returncode == 2, (option, bad)
 missing = subprocess.run([rgs_view, scene + ".missing", "--port", "0"], capture_output=True, text=True)

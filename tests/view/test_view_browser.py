@@ -12,6 +12,11 @@ compare mode). Checks, in order:
                cameras.json that rgs-render --cameras renders, one image per recorded view; replay draws them
   compare      with two scenes: the page opens on the split view (frames carry images a and b), PSNR shown and finite, the split
                slider follows a drag of its handle; the difference heatmap (image "diff")
+  budget       the panel's "Max Mbit/s" control: a tiny budget typed in goes with the views; while a drag moves
+               the camera the server sends smaller frames (scale or quality under the page's asking, the budget
+               in the header), the statistics panel shows Mbit/s and the quality used; once still, the frame is
+               full size at the asked quality; a value the server would refuse (negative, not a number) is sent
+               as no budget
   security     the default server listens on loopback only (not reachable on another address of this machine,
                when it has one); with --host 0.0.0.0 a token is required: 403 without it (page and WebSocket),
                200 with it
@@ -21,8 +26,8 @@ compare mode). Checks, in order:
                closed with an error while two others keep getting frames; the page still works afterwards
   shutdown     SIGTERM: rgs-view exits 0
 
-Screenshots (Page.captureScreenshot) go to WORK_DIR: first_frame.png, navigate.png, compare_split.png,
-compare_diff.png; with --save-screenshot PATH a larger one of the page is written to PATH (docs/images).
+Screenshots (Page.captureScreenshot) go to WORK_DIR: first_frame.png, navigate.png, budget_moving.png,
+compare_split.png, compare_diff.png; with --save-screenshot PATH a larger one of the page is written to PATH (docs/images).
 
     test_view_browser.py RGS_VIEW RGS_RENDER RGS_CONVERT GUITAR_PLY WORK_DIR [--only a,b] [--save-screenshot P]
 
@@ -622,6 +627,62 @@ class Run:
         log(f"  fly: W moved {n:.3f} along the view, a drag turned {turned:.1f} deg in place; touch: one finger "
             f"orbited (distance {d(c3):.3f} kept), a pinch dollied {d(c4):.3f} -> {math.dist(c5['position'], t5):.3f}")
 
+    def budget(self):
+        page = self.page
+        set_budget = ("(v) => { const e = document.getElementById('max-mbps'); e.value = v; "
+                      "e.dispatchEvent(new Event('change')); return rgsView.camera(); }")
+        page.eval(f"({set_budget})('0.2')")
+        page.wait("rgsView.lastFrame().max_mbps === 0.2", 30, "no frame under the budget typed in")
+        self.wait_still(page)
+        before = page.eval("rgsView.lastFrame()")
+        check(before["quality"] == 85 and before["scale"] == 1 and before["max_mbps"] == 0.2,
+              f"the still frame under a budget: quality {before['quality']}, scale {before['scale']}, "
+              f"budget {before['max_mbps']}")
+        # a drag held down: moving frames under 0.2 Mbit/s
+        x, y = 250, 200
+        page.mouse("mouseMoved", x, y)
+        page.mouse("mousePressed", x, y, "left", 1, clickCount=1)
+        moving = []
+        deadline = time.monotonic() + 60
+        while len(moving) < 3 and time.monotonic() < deadline:
+            x += 6
+            page.mouse("mouseMoved", x, y, "left", 1)
+            time.sleep(0.05)
+            f = page.eval("rgsView.lastFrame()")
+            if f["seq"] > before["seq"] and f["camera"] and f["camera"]["width"] < page.width and \
+                    (not moving or f["seq"] != moving[-1]["seq"]):
+                moving.append(f)
+        text = page.eval("document.getElementById('stats').innerText")
+        page.eval("document.getElementById('stats').scrollIntoView({block: 'end'})")
+        page.screenshot(os.path.join(self.work, "budget_moving.png"))
+        page.mouse("mouseReleased", x, y, "left", 0, clickCount=1)
+        check(len(moving) >= 3, f"only {len(moving)} moving frames in 60 s")
+        last = moving[-1]
+        asked = (last["camera"]["width"], last["camera"]["height"])
+        check(last["max_mbps"] == 0.2 and (last["scale"] < 1 or last["quality"] < 85),
+              f"a moving frame under 0.2 Mbit/s: quality {last['quality']}, scale {last['scale']}")
+        check(last["width"] == round(asked[0] * last["scale"]), f"frame {last['width']} wide for {asked} "
+              f"at scale {last['scale']}")
+        check("Mbit/s" in text and "budget 0.2" in text and "quality" in text, f"the stats panel shows: {text!r}")
+        self.wait_still(page)
+        still = page.eval("rgsView.lastFrame()")
+        check((still["width"], still["height"]) == (page.width, page.height) and still["quality"] == 85 and
+              still["scale"] == 1, f"the still frame: {still['width']}x{still['height']} q{still['quality']}")
+        log(f"  budget: moving frames {[(f['width'], f['quality'], f['bytes']) for f in moving]} (asked {asked}), "
+            f"still {still['width']}x{still['height']} q{still['quality']} {still['bytes']} bytes; "
+            f"screenshot budget_moving.png")
+        # values the server would refuse are not sent: no budget, no error
+        errors = len(page.eval("rgsView.errors"))
+        for bad in ("-5", "abc", "1e400"):
+            page.eval(f"({set_budget})('{bad}')")
+            check(page.eval("document.getElementById('max-mbps').value") == "0", f"the control kept {bad!r}")
+            page.drag(300, 200, 320, 210, steps=3)
+            self.wait_still(page)
+            f = page.eval("rgsView.lastFrame()")
+            check(f["max_mbps"] is None, f"budget {bad!r}: the frame says {f['max_mbps']}")
+        check(len(page.eval("rgsView.errors")) == errors and page.eval("rgsView.connected"),
+              "a bad budget in the control made an error")
+
     def lossless(self):
         page = self.page
         cam = orbit_camera(self.scene, 35.0, 256, 192, elevation_deg=10.0, name="lossless_view")
@@ -962,6 +1023,9 @@ class Run:
                 ("unknown type", "text", '{"type":"launch"}'),
                 ("a camera that is no rotation", "text", view_message(1, bad_rotation)),
                 ("a negative width", "text", view_message(1, dict(good, width=-5))),
+                ("a negative budget", "text", view_message(1, good, max_mbps=-1)),
+                ("a huge budget", "text", view_message(1, good, max_mbps=1e12)),
+                ("a budget that is no number", "text", view_message(1, good, max_mbps="50")),
                 ("oversized message (100 KiB)", "text", json.dumps({"type": "view", "pad": "x" * 100000})),
                 ("binary message", "binary", b"\x00\x01\x02\x03"),
             ]
@@ -1032,7 +1096,7 @@ class Run:
                                timeout=300)
             check(r.returncode == 0, f"rgs-convert {' '.join(extra)} failed: {r.stderr[-1000:]}")
         only = set(self.a.only.split(",")) if self.a.only else None
-        steps = ["first_frame", "navigate", "lossless", "path", "compare", "security", "clients", "abuse"]
+        steps = ["first_frame", "navigate", "budget", "lossless", "path", "compare", "security", "clients", "abuse"]
         self.main = self.start_server("rgs-view", [self.scene_path])
         self.browser = Browser(self.a.chromium, self.work)
         self.page = Page(self.browser.cdp, 800, 450)

@@ -202,6 +202,31 @@ TEST_CASE("protocol: other fields out of range or of the wrong type are refused"
   check_refused_json(m, "compare");
   m = v, m["diff_scale"] = 0.5;
   check_refused_json(m, "diff_scale");
+  // The bandwidth budget: a finite number in [0, 100000] Mbit/s; still: a boolean.
+  for (const json& bad : {json(-1), json(100001), json(1e300), json("50"), json(nullptr), json::array()}) {
+    m = v, m["max_mbps"] = bad;
+    check_refused_json(m, "max_mbps");
+  }
+  // Numbers JSON cannot hold (an overflow to infinity, NaN) are not JSON.
+  for (const char* bad : {"1e400", "-1e400", "NaN", "Infinity"}) {
+    check_refused(R"({"type":"view","seq":1,"camera":)" + v["camera"].dump() + ",\"max_mbps\":" + bad + "}",
+                  "not valid JSON");
+  }
+  for (const json& bad : {json(1), json("true"), json(nullptr)}) {
+    m = v, m["still"] = bad;
+    check_refused_json(m, "still");
+  }
+  m = v, m["max_mbps"] = 12.5, m["still"] = true;
+  auto budgeted = parse(m);
+  REQUIRE(budgeted.ok());
+  CHECK(budgeted->view.max_mbps == 12.5);
+  CHECK(budgeted->view.still);
+  auto written = view::parse_client_message(view::view_message_json(budgeted->view), {});
+  REQUIRE(written.ok());
+  CHECK(written->view.max_mbps == 12.5);
+  CHECK(written->view.still);
+  CHECK_FALSE(parse(v)->view.still);
+  CHECK(parse(v)->view.max_mbps == 0);
   // Compare modes need a second scene; a preset the server does not offer is refused.
   m = v, m["compare"] = "split";
   check_refused_json(m, "second scene");

@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "internal_bandwidth.h"
 #include "internal_frame_budget.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
@@ -55,6 +56,8 @@ struct RenderedFrame {
   api::FrameStats stats;               ///< scene a's
   double render_call_ms = 0, readback_ms = 0;
   std::optional<uint64_t> gpu_memory_used, gpu_memory_total;
+  RateChoice rate;      ///< its quality and scale under the bandwidth budget
+  double max_mbps = 0;  ///< the bandwidth budget it was rendered under; 0: none
 };
 
 /// Workers of each client's JPEG encoder: the CPUs the server may use, at most 8.
@@ -135,6 +138,7 @@ class FramePipeline {
   bool stopping_ = false;
   std::atomic<bool> interrupted_{false};  // a newer view or stop(): a wait for the budget gives up
   std::vector<SpareBuffer> spares_;
+  RateControl rate_;  // the bandwidth budget's quality and scale (under mutex_)
   std::optional<api::Image> images_[2];  // render thread only, GPU: reused while the size stays
   /// The JPEG encoder's workers (the encode thread and encode_workers() − 1 more), encode thread only.
   parallel::WorkerPool encoders_{encode_workers()};

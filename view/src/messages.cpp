@@ -91,6 +91,7 @@ std::string build_hello(const ServerState& state, const std::string& device_name
                       {"max_height", state.limits.max_height},
                       {"default_width", width},
                       {"default_height", height},
+                      {"max_mbps", state.options.max_mbps},
                       {"encoder", state.jpeg_encoder}};
   return dump(hello);
 }
@@ -156,6 +157,9 @@ Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::
       {"width", frame.width},
       {"height", frame.height},
       {"preset", api::preset_name(view.preset)},
+      {"quality", view.encoding == Encoding::kLossless ? json(nullptr) : json(view.quality)},
+      {"scale", frame.rate.scale},
+      {"max_mbps", frame.max_mbps > 0 ? json(frame.max_mbps) : json(nullptr)},
       {"images", image_list},
       {"stats", stats},
       {"psnr", difference ? nullable(difference->psnr_db) : json(nullptr)},

@@ -243,8 +243,15 @@ void FramePipeline::render_loop() {
   for (;;) {
     const Work work = next_work(&current, &refinements, &refine_wanted);
     if (work.stop) return;
+    const double mbps = effective_mbps(state_.options.max_mbps, current->max_mbps);
+    RateChoice rate;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      rate = rate_.choose(mbps, *current, current->still || work.refine);
+    }
+    const ViewRequest view = apply_rate(*current, rate);
     std::vector<std::vector<uint8_t>> buffers;
-    auto charge = reserve(*current, &buffers);
+    auto charge = reserve(view, &buffers);
     if (!charge.ok()) {
       send_text_(error_json("render_failed", charge.status().message(), false));
       continue;
@@ -254,14 +261,16 @@ void FramePipeline::render_loop() {
       std::lock_guard<std::mutex> lock(mutex_);
       ++unsent_frames_;
     }
-    auto frame = render_view(*renderer, gpu_jpeg ? &*gpu_jpeg : nullptr, *current, work.refine, std::move(buffers));
+    auto frame = render_view(*renderer, gpu_jpeg ? &*gpu_jpeg : nullptr, view, work.refine, std::move(buffers));
     if (!frame.ok()) {
       frame_dropped();
       send_text_(error_json("render_failed", frame.status().message(), false));
       continue;
     }
-    charge->split(render_scratch_bytes(*current, state_.device)).reset();
+    charge->split(render_scratch_bytes(view, state_.device)).reset();
     frame->charge = std::move(*charge);
+    frame->rate = rate;
+    frame->max_mbps = mbps;
     const api::LodFrameCounts& lod = frame->stats.lod;
     const bool lod_active = state_.scenes.front().info().lod.active;
     std::unique_lock<std::mutex> lock(mutex_);
@@ -303,8 +312,14 @@ void FramePipeline::encode_loop() {
     {
       std::unique_lock<std::mutex> lock(mutex_);
       changed_.wait(lock, [&] { return stopping_ || !frame_in_flight_; });
+      const auto seconds = [] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+      };
+      changed_.wait_for(lock, std::chrono::duration<double>(rate_.wait_s(seconds())), [&] { return stopping_; });
       if (stopping_) return;
       frame_in_flight_ = true;
+      rate_.record(charged->bytes.size(), uint64_t(frame.width) * frame.height, frame.view.quality,
+                   frame.view.encoding != Encoding::kLossless, frame.rate.limited ? frame.max_mbps : 0, seconds());
     }
     send_frame_(std::shared_ptr<std::vector<uint8_t>>(charged, &charged->bytes));
   }

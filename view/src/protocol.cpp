@@ -164,6 +164,14 @@ Status read_view(const json& message, const ProtocolLimits& limits, ViewRequest*
     if (scale < 1 || scale > 255) return bad("\"diff_scale\" must be in [1, 255]");
     view->diff_scale = static_cast<float>(scale);
   }
+  if (const auto still = message.find("still"); still != message.end()) {
+    if (!still->is_boolean()) return bad("\"still\" is not a boolean");
+    view->still = still->get<bool>();
+  }
+  if (message.contains("max_mbps")) {
+    RGS_RETURN_IF_ERROR(read_number(message, "max_mbps", &view->max_mbps));
+    if (view->max_mbps < 0 || view->max_mbps > kMaxMbps) return bad("\"max_mbps\" must be in [0, 100000]");
+  }
   return Status();
 }
 
@@ -258,7 +266,9 @@ std::string view_message_json(const ViewRequest& view) {
       {"encoding", encoding_name(view.encoding)},
       {"quality", view.quality},
       {"compare", compare_mode_name(view.compare)},
-      {"diff_scale", view.diff_scale}};
+      {"diff_scale", view.diff_scale},
+      {"still", view.still}};
+  if (view.max_mbps > 0) message["max_mbps"] = view.max_mbps;
   return message.dump();
 }
 

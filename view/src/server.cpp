@@ -147,6 +147,8 @@ Result<Server> Server::start(std::vector<api::Scene> scenes, const ServerOptions
   RGS_RETURN_ERROR_IF(options.frame_memory < kMinFrameMemory, StatusCode::kInvalidArgument,
                       "view server: frame_memory " + std::to_string(options.frame_memory) +
                           " bytes is below the least, 16 MiB");
+  RGS_RETURN_ERROR_IF(!(options.max_mbps >= 0 && options.max_mbps <= kMaxMbps), StatusCode::kInvalidArgument,
+                      "view server: max_mbps " + std::to_string(options.max_mbps) + " is outside 0..100000");
   RGS_RETURN_ERROR_IF(options.max_width < 1 || options.max_width > 7680 || options.max_height < 1 ||
                           options.max_height > 4320,
                       StatusCode::kInvalidArgument, "view server: the largest frame must be within 7680 x 4320");

@@ -17,7 +17,9 @@
 //   window.rgsView.errors               error messages received (array of the server's objects)
 //   window.rgsView.lastFrame()          {seq, width, height, refine, preset, images:[{role, encoding, bytes}], stats,
 //                                        psnr, mse, diff_max, latency_ms, digest (FNV-1a of the image bytes,
-//                                        hex), camera (the view's camera as sent)} or null
+//                                        hex), camera (the view's camera as sent), quality, scale, max_mbps
+//                                        (the server's rate choice and budget), mbps (received, last second)}
+//                                        or null
 //   window.rgsView.frameLog()           the last 100 frames drawn, [{seq, width, height}]
 //   window.rgsView.camera()             the current camera, INRIA object (position, rotation, fx, fy, width,
 //                                        height) at the size a still frame is rendered at (resolution scale)
@@ -28,7 +30,7 @@
 //                                        its pose and vertical field of view at the window's size. Returns the
 //                                        seq of the view it sends (sent at once, not throttled).
 //   window.rgsView.setOptions({preset, encoding, quality, background:[r,g,b], compare, diffScale, scale,
-//                              motionScale, mode, fovY, split})   the panel's settings
+//                              motionScale, maxMbps, mode, fovY, split})   the panel's settings
 //   window.rgsView.waitForFrame(seq, timeoutMs)  Promise of lastFrame() once a frame of seq ≥ `seq` is drawn
 //   window.rgsView.requestLossless({camera, pixels})  Promise of {seq, width, height, png (data URL),
 //                                        rgb (base64 of width·height·3 bytes, with pixels: true)}: a lossless
@@ -70,7 +72,7 @@
   let pinned = null;            // exact INRIA camera set through setCamera(.., {exact: true})
   const opts = {
     preset: 'fastest', encoding: 'jpeg', quality: 85, background: [0, 0, 0], compare: 'off', diffScale: 32,
-    scale: 1, motionScale: 0.5, mode: 'orbit',
+    scale: 1, motionScale: 0.5, maxMbps: 0, mode: 'orbit',
   };
   let hello = null;
   let ws = null;
@@ -90,6 +92,7 @@
   const frameTimes = [];        // arrival times of the last second's frames
   const frameLog = [];          // the last 100 frames drawn: {seq, width, height}
   let bytesTotal = 0;
+  const received = [];          // the last second's frame messages: {t, bytes}
   const waiters = [];           // {seq, resolve, reject, timer}
   const errors = [];
 
@@ -256,6 +259,7 @@
         homeOrbit();
       }
     }
+    $('server-mbps').textContent = msg.max_mbps > 0 ? `server ${msg.max_mbps}` : '';
     syncControls();
     answered = seq;  // views sent on an earlier connection will not be answered
     connected = true;
@@ -292,17 +296,19 @@
     if (sent.size > 64) sent.delete(sent.keys().next().value);
     return seq;
   }
+  // A view of `camera`; still (the default) asks for full quality whatever the bandwidth budget.
   function viewFor(camera, over) {
     return Object.assign({
       camera, preset: opts.preset, background: opts.background, encoding: opts.encoding, quality: opts.quality,
-      compare: hello && hello.compare ? opts.compare : 'off',
-    }, hello && hello.compare && opts.compare === 'diff' ? { diff_scale: opts.diffScale } : {}, over || {});
+      compare: hello && hello.compare ? opts.compare : 'off', still: true,
+    }, hello && hello.compare && opts.compare === 'diff' ? { diff_scale: opts.diffScale } : {},
+    opts.maxMbps > 0 ? { max_mbps: opts.maxMbps } : {}, over || {});
   }
   // The view the screen should show now: reduced resolution while the camera moves.
   function wantedView(now) {
     const moving = now - lastInput < STILL_MS;
     const scale = moving ? opts.scale * Math.min(1, opts.motionScale) : opts.scale;
-    return viewFor(currentCamera(pinned ? 1 : scale));
+    return viewFor(currentCamera(pinned ? 1 : scale), { still: !moving });
   }
   function pump(now) {
     if (!connected || hold || seq - answered >= MAX_IN_FLIGHT) {
@@ -333,6 +339,8 @@
     try { header = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n))); } catch (e) { return; }
     if (header.seq > answered) answered = header.seq;
     bytesTotal += buf.byteLength;
+    received.push({ t: arrival, bytes: buf.byteLength });
+    while (arrival - received[0].t > 1000) received.shift();
     if (header.seq < drawnSeq) return;  // older than what is on screen: dropped
     let off = 4 + n;
     let digest = 2166136261;
@@ -351,6 +359,8 @@
       stats: header.stats || {}, psnr: header.psnr ?? null, mse: header.mse ?? null,
       diff_max: header.diff_max ?? null, bytes: buf.byteLength, digest: digest.toString(16).padStart(8, '0'),
       camera: s ? s.camera : null, latency_ms: null, arrival_latency_ms: s ? arrival - s.t : null,
+      quality: header.quality ?? null, scale: header.scale ?? 1, max_mbps: header.max_mbps ?? null,
+      mbps: received.reduce((sum, r) => sum + r.bytes, 0) * 8 / 1e6,
     };
     decode(parts).then((bms) => {
       if (header.seq < drawnSeq) { closeAll(bms); return; }
@@ -477,6 +487,8 @@
       lod && ['LOD resident', fmtBytes(st.lod_bytes_resident)],
       ['frame bytes', `${fmtBytes(f.bytes)} (${f.images.map((i) => i.encoding).join('+')})`],
       ['received', fmtBytes(bytesTotal)],
+      ['Mbit/s', `${f.mbps.toFixed(1)}${f.max_mbps ? ` (budget ${f.max_mbps})` : ''}`],
+      ['quality', `${f.quality ?? 'lossless'}${f.scale < 1 ? ` at ${Math.round(f.scale * 100)}% size` : ''}`],
       ['frames/s', fps === null ? '–' : fps.toFixed(1)],
       ['latency', f.latency_ms === null ? '–' : `${f.latency_ms.toFixed(0)} ms`],
     ].filter(Boolean);
@@ -659,6 +671,7 @@
     $('quality').value = String(opts.quality);
     $('quality-value').textContent = String(opts.quality);
     $('quality').disabled = opts.encoding === 'lossless';
+    $('max-mbps').value = String(opts.maxMbps);
     const hex = opts.background.map((v) => Math.round(Math.min(1, Math.max(0, v)) * 255).toString(16).padStart(2, '0'));
     $('background').value = `#${hex.join('')}`;
     setMode(opts.mode);
@@ -696,6 +709,9 @@
     opts.quality = Number(e.target.value);
     $('quality-value').textContent = e.target.value;
   };
+  // The budget typed in: not a number, 0 or negative is none (0); more than the protocol's 100000 is 100000.
+  const budgetOf = (v) => (Number.isFinite(Number(v)) && Number(v) > 0 ? Math.min(Number(v), 100000) : 0);
+  $('max-mbps').onchange = (e) => { opts.maxMbps = budgetOf(e.target.value); syncControls(); };
   $('background').oninput = (e) => {
     const v = e.target.value;
     // the renderer writes 8-bit values without a transfer curve, so the picked value is sent as is
@@ -895,6 +911,7 @@
     if (o.diffScale !== undefined) opts.diffScale = o.diffScale;
     if (o.scale !== undefined) { opts.scale = o.scale; api._scaleChosen = true; }
     if (o.motionScale !== undefined) opts.motionScale = o.motionScale;
+    if (o.maxMbps !== undefined) opts.maxMbps = budgetOf(o.maxMbps);
     if (o.mode !== undefined) opts.mode = o.mode;
     if (o.fovY !== undefined) { cam.fovY = o.fovY; pinned = null; }
     if (o.split !== undefined) setSplit(o.split);

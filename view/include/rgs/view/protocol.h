@@ -60,7 +60,14 @@ struct ViewRequest {
   int quality = 85;  ///< 1..100 (jpeg, webp)
   CompareMode compare = CompareMode::kOff;
   float diff_scale = 32.f;  ///< [1, 255]: |a − b| in 8-bit levels at the top of the heatmap's colour map
+  /// The camera has stopped: rendered at full size and quality whatever the bandwidth budget.
+  bool still = false;
+  /// The client's bandwidth budget, Mbit/s in [0, kMaxMbps]; 0: none (PROTOCOL.md "Bandwidth budget").
+  double max_mbps = 0;
 };
+
+/// The largest bandwidth budget a view or the server may name, Mbit/s.
+inline constexpr double kMaxMbps = 100000;
 
 /// One parsed client message.
 struct ClientMessage {
@@ -85,8 +92,9 @@ struct ProtocolLimits {
 /// camera: every number finite, rotation a proper rotation (‖RᵀR − I‖max ≤ 1e-3, det > 0; api::
 /// camera_from_inria's check), fx, fy in (0, 1e6], position components within ±1e9, width 1..max_width and
 /// height 1..max_height (integers); background three numbers in [0, 1]; quality an integer 1..100; diff_scale
-/// in [1, 255]; preset among `limits.presets`; compare "split"/"diff" only with compare_available. Unknown keys
-/// are ignored. Never throws; nesting deeper than 8 levels is refused before parsing.
+/// in [1, 255]; still a boolean; max_mbps in [0, kMaxMbps]; preset among `limits.presets`; compare
+/// "split"/"diff" only with compare_available. Unknown keys are ignored. Never throws; nesting deeper than 8
+/// levels is refused before parsing.
 /// @return kLimitExceeded (over max_message_bytes, or nested too deep), kInvalidArgument (malformed JSON, a
 /// missing key, a wrong type, a value out of range; the message names the key).
 Result<ClientMessage> parse_client_message(std::string_view text, const ProtocolLimits& limits);

@@ -52,6 +52,10 @@ struct ServerOptions {
   /// read, is not rendered for meanwhile; a frame that needs more than the whole budget fails (render_failed).
   /// The default holds the largest frame (7680 × 4320, lossless, split compare, CPU backend: 2.3 GB).
   uint64_t frame_memory = uint64_t(2560) << 20;
+  /// Bandwidth budget of each client, Mbit/s in [0, kMaxMbps] (0: none); a view may ask for less. While the
+  /// camera moves, frames are encoded at a lower quality and rendered smaller to keep within it
+  /// (view/PROTOCOL.md "Bandwidth budget").
+  double max_mbps = 0;
   /// Threads of the network io_context (1..16).
   uint32_t io_threads = 2;
   /// The preset the page starts with; the scenes must be loaded for it.
@@ -79,7 +83,7 @@ class Server {
   /// Starts serving `scenes` (one, or two for the compare mode: "a" and "b"; all on one device) with
   /// `options`. Returns once the port is bound and accepting.
   /// @return kInvalidArgument (no scene or more than two, scenes on different devices, a token shorter than
-  /// kMinTokenLength or with other characters, max_clients, io_threads, idle_timeout_s or frame_memory out of
+  /// kMinTokenLength or with other characters, max_clients, max_mbps, io_threads, idle_timeout_s or frame_memory out of
   /// range, the preset not loaded), kIoError (the address cannot be resolved or bound: the message names it and
   /// the OS's reason).
   static Result<Server> start(std::vector<api::Scene> scenes, const ServerOptions& options);
