@@ -73,7 +73,7 @@ Result<ZipArchive> ZipArchive::open(const uint8_t* data, size_t size, const std:
     if (zip_stat_index(z, static_cast<zip_uint64_t>(i), ZIP_FL_ENC_RAW, &st) != 0) {
       return zip_status(zip_get_error(z), name + ": ZIP entry " + std::to_string(i));
     }
-    archive.entries_.push_back({st.name, static_cast<uint64_t>(i), st.comp_method,
+    archive.entries_.push_back({st.name != nullptr ? st.name : "", static_cast<uint64_t>(i), st.comp_method,
                                 st.encryption_method != ZIP_EM_NONE, st.comp_size, st.size});
   }
   return archive;
@@ -91,7 +91,10 @@ Result<std::vector<std::string>> ZipArchive::list(const std::string& path) {
   }
   std::vector<std::string> names;
   const zip_int64_t n = zip_get_num_entries(z, 0);
-  for (zip_int64_t i = 0; i < n; ++i) names.emplace_back(zip_get_name(z, static_cast<zip_uint64_t>(i), ZIP_FL_ENC_RAW));
+  for (zip_int64_t i = 0; i < n; ++i) {
+    const char* name = zip_get_name(z, static_cast<zip_uint64_t>(i), ZIP_FL_ENC_RAW);
+    names.emplace_back(name != nullptr ? name : "");
+  }
   zip_discard(z);
   return names;
 }
