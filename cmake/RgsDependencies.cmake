@@ -33,19 +33,23 @@ add_library(rgs_draco INTERFACE)
 target_include_directories(rgs_draco SYSTEM INTERFACE "$<BUILD_INTERFACE:${RGS_DRACO_INCLUDE_DIR}>")
 target_link_libraries(rgs_draco INTERFACE "$<BUILD_INTERFACE:${RGS_DRACO_LIBRARY}>")
 
-# zlib: gzip-wrapped SPZ versions 2 and 3 and deflated entries of bundled .sog archives (rgs_converter; the
-# converter tests also make gzip inputs with it).
+# zlib: gzip-wrapped SPZ versions 2 and 3 and the bundled .sog writer's CRC-32 (rgs_converter; the converter tests
+# also make gzip inputs with it).
 find_package(ZLIB REQUIRED)
+# libzip (Debian libzip-dev) reads the bundled .sog archives. Debian ships only its shared library: binaries need
+# libzip.so.4, which scripts/stage_gpu.sh puts beside them for the GPU host. Its CMake config names tools of
+# another package (zipcmp), so it is found by its files.
+find_path(RGS_LIBZIP_INCLUDE_DIR zip.h REQUIRED)
+find_library(RGS_LIBZIP_LIBRARY NAMES zip REQUIRED)
 # nlohmann-json (header only): the converter reads SOG meta.json / lod-meta.json and glTF; the tools write JSON.
 find_package(nlohmann_json CONFIG REQUIRED)
 if(RGS_BUILD_TOOLS)
   find_package(CLI11 CONFIG REQUIRED)
 endif()
 
-# libwebp decodes the SOG images and zlib inflates deflated entries of bundled .sog archives (Debian
-# libwebp-dev, zlib1g-dev). Both are linked from their static archives when those exist, so binaries
-# that run on the GPU host need no shared libraries beyond libc/libstdc++; installed consumers link them
-# by name.
+# libwebp decodes the SOG images and zlib inflates gzip-wrapped SPZ (Debian libwebp-dev, zlib1g-dev). Both are
+# linked from their static archives when those exist, so binaries that run on the GPU host need no shared
+# libraries beyond libc/libstdc++ (and libzip); installed consumers link them by name.
 find_path(RGS_WEBP_INCLUDE_DIR webp/decode.h REQUIRED)
 find_library(RGS_WEBP_LIBRARY NAMES libwebp.a webp REQUIRED)
 find_path(RGS_ZLIB_INCLUDE_DIR zlib.h REQUIRED)

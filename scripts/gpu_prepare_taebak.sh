@@ -19,6 +19,7 @@ mkdir -p "$dest/taebak_lod0_sog"
 for stage in "${stages[@]}"; do
   cp -r "$stage/taebak_lod0_sog/." "$dest/taebak_lod0_sog/"
   if [ -f "$stage/rgs-convert.xz" ]; then xz -dc "$stage/rgs-convert.xz" >"$dest/rgs-convert"; fi
+  if [ -f "$stage/libzip.so.4" ]; then cp "$stage/libzip.so.4" "$dest/"; fi  # beside rgs-convert, its $ORIGIN
 done
 chmod +x "$dest/rgs-convert"
 (cd "$dest/taebak_lod0_sog" && sha256sum --quiet -c SHA256SUMS)

@@ -14,7 +14,7 @@ set -euo pipefail
 profile="${1:-tests}"
 sample=(
   build-essential cmake ninja-build pkg-config
-  libzstd-dev liblzma-dev libxxhash-dev zlib1g-dev libwebp-dev libdraco-dev nlohmann-json3-dev libcli11-dev
+  libzstd-dev liblzma-dev libxxhash-dev zlib1g-dev libzip-dev libwebp-dev libdraco-dev nlohmann-json3-dev libcli11-dev
   libboost-dev libturbojpeg0-dev
 )
 tests=(

@@ -27,7 +27,7 @@ scenes="$root/.device_scenes"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
   -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
-  -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON >/dev/null
+  -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON -DCMAKE_BUILD_RPATH='$ORIGIN' >/dev/null
 exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render lab/rgs-bench tools/rgs-convert
       tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame tools/rgs-view tests/view/test_view lab/rgs-view-bench
       lab/tests/test_lab_gpu)
@@ -47,9 +47,10 @@ libs=(view/librgs_view.a audit/librgs_audit.a api/librgs_api.a converter/librgs_
       format/librgs_format.a kernels/librgs_kernels.a)
 # roofgs.view(): the viewer library goes in too, with libturbojpeg's shared library beside it (Debian's archive
 # of it is not position-independent; the GPU host has none), found through the core library's $ORIGIN.
-cp -L /usr/lib/x86_64-linux-gnu/libturbojpeg.so.0 "$py/"
+# libzip likewise (Debian ships no archive of it).
+cp -L /usr/lib/x86_64-linux-gnu/libturbojpeg.so.0 /usr/lib/x86_64-linux-gnu/libzip.so.4 "$py/"
 (cd "$build" && c++ -shared -fPIC -O3 -flto -o "$py/libroofgs_core.so" -Wl,--whole-archive "${libs[@]}" \
-  -Wl,--no-whole-archive -Wl,-rpath,'$ORIGIN' "$py/libturbojpeg.so.0" /usr/lib/x86_64-linux-gnu/libwebp.a \
+  -Wl,--no-whole-archive -Wl,-rpath,'$ORIGIN' "$py/libturbojpeg.so.0" "$py/libzip.so.4" /usr/lib/x86_64-linux-gnu/libwebp.a \
   /usr/lib/x86_64-linux-gnu/libxxhash.a /usr/lib/x86_64-linux-gnu/libdraco.a \
   /usr/local/cuda/lib/libcudart_static.a -l:libzstd.so.1 -l:liblzma.so.5 -l:libz.so.1 -ldl -lrt -lpthread)
 strip "$py/libroofgs_core.so"
@@ -65,15 +66,18 @@ for exe in "${exes[@]}"; do
   cp "$build/$exe" "$stage/bin/"
   strip "$stage/bin/$(basename "$exe")"
 done
-# GPU binaries must not need any shared library beyond the C/C++ runtime, libzstd.so.1 and liblzma.so.5
-# (CONTRIBUTING.md#one-build-two-hosts).
+# GPU binaries must not need any shared library beyond the C/C++ runtime, libzstd.so.1, liblzma.so.5 and libzip.so.4
+# (CONTRIBUTING.md#one-build-two-hosts). libzip.so.4 goes beside them (found through their $ORIGIN run path), and
+# what it needs (libbz2, libcrypto, libz) the GPU host has.
+cp -L /usr/lib/x86_64-linux-gnu/libzip.so.4 "$stage/bin/"
 for exe in "$stage"/bin/*; do
-  allowed='linux-vdso|libstdc\+\+|libm\.so|libgcc_s|libc\.so|ld-linux|libzstd\.so\.1|liblzma\.so\.5'
+  allowed='linux-vdso|libstdc\+\+|libm\.so|libgcc_s|libc\.so|ld-linux|libzstd\.so\.1|liblzma\.so\.5|libzip\.so\.4|libbz2|libcrypto|libz\.so'
   if ldd "$exe" | grep -vE "$allowed" | grep -q .; then
-    echo "stage_gpu.sh: $exe links more than the C/C++ runtime, libzstd and liblzma:" >&2; ldd "$exe" >&2; exit 1
+    echo "stage_gpu.sh: $exe links more than the C/C++ runtime, libzstd, liblzma and libzip:" >&2; ldd "$exe" >&2; exit 1
   fi
 done
 xz -c "$stage/bin/rgs-convert" >"$root/.device_taebak_a/rgs-convert.xz"  # every byte counts in that call
+cp -L /usr/lib/x86_64-linux-gnu/libzip.so.4 "$root/.device_taebak_a/"
 tar -C "$stage" -cJf "$stage/bin.tar.xz" bin
 rm -rf "$stage/bin"
 

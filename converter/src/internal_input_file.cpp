@@ -44,13 +44,16 @@ Status check_regular(int* fd, const std::string& path, uint64_t* size, FileIdent
   return Status();
 }
 
-/// Opens `path` read-only as a regular file; returns the descriptor and size. O_NONBLOCK: opening a FIFO
-/// returns at once (and is then refused) instead of waiting for a writer.
+}  // namespace
+
+// O_NONBLOCK: opening a FIFO returns at once (and is then refused) instead of waiting for a writer.
 Status open_regular(const std::string& path, int* fd, uint64_t* size) {
   *fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (*fd < 0) return Status(StatusCode::kIoError, path + ": cannot open: " + errno_message(errno));
   return check_regular(fd, path, size);
 }
+
+namespace {
 
 Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0) {
   size_t done = 0;

@@ -17,6 +17,10 @@ namespace rgs::converter::detail {
 /// or device (refused without blocking), unreadable, changed while reading), kLimitExceeded (larger than max_bytes), kOutOfMemory.
 Status read_whole_file(const std::string& path, uint64_t max_bytes, std::vector<uint8_t>* out);
 
+/// Opens `path` read-only as a regular file; returns the descriptor (the caller closes it) and the size.
+/// Errors name `path`: kIoError (missing, a directory, a FIFO or device, unreadable).
+Status open_regular(const std::string& path, int* fd, uint64_t* size);
+
 /// Reads up to `max_bytes` from the start of `path` into `out` and its size into `file_size`.
 /// Errors as read_whole_file (kIoError only).
 Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uint8_t>* out, uint64_t* file_size);

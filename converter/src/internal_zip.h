@@ -1,50 +1,53 @@
-// Reading entries of a ZIP archive held in memory, and writing a stored one (the bundled .sog container;
+// Reading entries of a ZIP archive through libzip, and writing a stored one (the bundled .sog container;
 // private to rgs_converter).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "rgs/format/status.h"
 
+struct zip;
+
 namespace rgs::converter::detail {
 
 /// One file of the archive, from its central directory record.
 struct ZipEntry {
-  std::string name;
+  std::string name;  ///< as stored (no character-set conversion)
+  uint64_t index = 0;
   uint16_t method = 0;  ///< 0 stored, 8 deflate
-  uint32_t crc32 = 0;
+  bool encrypted = false;
   uint64_t compressed_size = 0;
   uint64_t uncompressed_size = 0;
-  uint64_t local_header_offset = 0;
 };
 
-/// A ZIP archive over caller-owned bytes (they must outlive it). Supports what SOG writers produce: stored
-/// and deflated entries, data descriptors, no ZIP64, no encryption, one disk.
+/// A ZIP archive over caller-owned bytes (they must outlive it), read through libzip. Extracts what SOG writers
+/// produce: stored and deflated entries, no encryption. Not for concurrent use.
 class ZipArchive {
  public:
-  /// Parses the end-of-central-directory record and the central directory, checking every offset and size
-  /// against `size`. Errors name `name`: kCorruptData (no or malformed directory, offsets outside the
-  /// archive), kUnsupportedFeature (ZIP64, multi-disk, encrypted entries).
-  /// `data` may also be only the end of the file, from byte `base_offset` on (detection reads a tail): the
-  /// entries are then listed, but extract() needs the whole file (base_offset 0).
-  static Result<ZipArchive> parse(const uint8_t* data, size_t size, const std::string& name, uint64_t base_offset = 0);
+  /// Reads the end record and the central directory. Errors name `name`: kCorruptData (no or malformed
+  /// directory), kUnsupportedFeature (multi-disk), kOutOfMemory.
+  static Result<ZipArchive> open(const uint8_t* data, size_t size, const std::string& name);
+  /// The entry names of the regular file `path`, reading only its end record and central directory (format
+  /// detection). Errors as open(), and kIoError.
+  static Result<std::vector<std::string>> list(const std::string& path);
 
   const std::vector<ZipEntry>& entries() const { return entries_; }
-  /// The entry named exactly `name`, or null.
+  /// The first entry named exactly `name`, or null.
   const ZipEntry* find(const std::string& name) const;
 
-  /// Copies (stored) or inflates (deflate, through zlib) `entry` into `out` and checks its CRC-32.
-  /// Errors: kLimitExceeded (uncompressed size above max_bytes), kCorruptData (local header or size
-  /// mismatch, bad deflate stream), kChecksumMismatch (CRC-32), kUnsupportedFeature (another method).
+  /// Copies or inflates `entry` into `out` (CRC-32 checked). Sizes the archive's bytes cannot produce are
+  /// refused before anything is allocated. Errors: kLimitExceeded (uncompressed size above max_bytes),
+  /// kCorruptData (sizes, bad deflate stream), kChecksumMismatch (CRC-32), kUnsupportedFeature (another
+  /// method, encryption).
   Status extract(const ZipEntry& entry, uint64_t max_bytes, std::vector<uint8_t>* out) const;
 
  private:
-  const uint8_t* data_ = nullptr;
+  std::shared_ptr<zip> zip_;
   size_t size_ = 0;
-  uint64_t base_offset_ = 0;
   std::string name_;
   std::vector<ZipEntry> entries_;
 };

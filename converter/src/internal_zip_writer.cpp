@@ -1,5 +1,6 @@
-// A stored-only ZIP writer (APPNOTE 6.3: local headers, central directory, end record). zlib gives the CRC-32;
-// Debian's minizip ships no development headers here, and a stored archive needs no deflate.
+// A stored-only ZIP writer (APPNOTE 6.3: local headers, central directory, end record). zlib gives the CRC-32.
+// Not libzip, which reads the bundles: libzip 1.7.3 writes "version made by" 6.3 and "version needed" 1.0 for a
+// stored entry, with no call to set either, so every .sog would change in three bytes per entry (ours: 2.0, 2.0).
 #include <zlib.h>
 
 #include <cassert>

@@ -41,8 +41,6 @@ using nlohmann::json;
 
 /// Bytes read for detection (a PLY header longer than this is still detected as PLY by its first line).
 constexpr size_t kHeadBytes = 64 * 1024;
-/// Bytes read from the end of a ZIP archive to list its entries (end record, comment, central directory).
-constexpr uint64_t kZipTailBytes = 1024 * 1024;
 /// JSON files larger than this are not parsed for detection.
 constexpr uint64_t kMaxDetectJsonBytes = uint64_t{64} << 20;
 
@@ -356,15 +354,11 @@ Status make_probe(const std::string& path, Probe* probe) {
   }
   RGS_RETURN_IF_ERROR(detail::read_file_head(probe->path, kHeadBytes, &probe->head, &probe->size));
   if (detail::has_zip_magic(probe->head.data(), probe->head.size())) {
-    // The central directory is at the end: read the tail (the whole file when it is small).
-    std::vector<uint8_t> tail;
-    const uint64_t tail_offset = probe->size > kZipTailBytes ? probe->size - kZipTailBytes : 0;
-    RGS_RETURN_IF_ERROR(detail::read_file_range(probe->path, tail_offset, probe->size - tail_offset, &tail));
-    auto zip = detail::ZipArchive::parse(tail.data(), tail.size(), probe->path, tail_offset);
-    if (zip.ok()) {
-      for (const detail::ZipEntry& e : zip->entries()) probe->zip_entries.push_back(e.name);
+    auto names = detail::ZipArchive::list(probe->path);  // the end record and central directory only
+    if (names.ok()) {
+      probe->zip_entries = std::move(*names);
     } else {
-      probe->zip_error = zip.status().message();
+      probe->zip_error = names.status().message();
     }
   }
   // JSON: an object, possibly after a UTF-8 byte order mark and whitespace.

@@ -706,7 +706,7 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
   scene.file_count = 1;
   if (bundled) {
     RGS_RETURN_IF_ERROR(reject_lod(options, entry.path, "a bundled SOG (.sog)"));
-    RGS_ASSIGN_OR_RETURN(zip, detail::ZipArchive::parse(entry.bytes.data(), entry.bytes.size(), entry.path));
+    RGS_ASSIGN_OR_RETURN(zip, detail::ZipArchive::open(entry.bytes.data(), entry.bytes.size(), entry.path));
     const detail::ZipEntry* meta = zip.find("meta.json");
     if (meta == nullptr) {
       return Status(StatusCode::kCorruptData,
