@@ -1,6 +1,7 @@
 // The stages and the .rgs sink of a batched source: a binary PLY larger than its memory limit read in batches,
 // quantized batch by batch with the scene's own SH scales, its levels of detail built and written by
 // converter::build_lod_out_of_core (docs/LOD.md#scenes-larger-than-memory).
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -35,8 +36,10 @@ constexpr uint64_t kReadSlackBytes = uint64_t{16} << 20;
 
 
 /// The process's resident memory now (Linux /proc/self/statm), 0 when unknown: what the memory limit holds
-/// before the conversion's own arrays.
+/// before the conversion's own arrays. The heap that earlier work freed goes back to the system first
+/// (malloc_trim), so that it is not counted as held.
 uint64_t resident_bytes() {
+  malloc_trim(0);
   std::FILE* f = std::fopen("/proc/self/statm", "r");
   if (f == nullptr) return 0;
   unsigned long long size = 0, resident = 0;
