@@ -80,7 +80,7 @@ def shaped_rows(runs):
         lat, sh, p = r["latency_ms"], r["shaping"], r.get("psnr_db") or {}
         out.append([
             f"{r['scene']} ({r['gaussians'] / 1e6:.2f}M)" if r.get("gaussians") else r["scene"], views(r),
-            f"{r['width']}×{r['height']}", f"{r['encoding']} q{r.get('quality', '')}".strip(), str(r["in_flight"]),
+            f"{r['width']}×{r['height']}", encoding(r), str(r["in_flight"]),
             f"{sh['mbps']:g} Mbit/s, {sh['rtt_ms']:g} ms", f"{r['max_mbps']:g}" if r.get("max_mbps") else "none",
             str(r["measured_frames"]), f"{r['frames_per_second']:.1f}",
             f"{lat['median']:.1f} / {lat['p95']:.1f} / {lat['max']:.1f}", ms(r.get("mbps")),
