@@ -66,11 +66,13 @@ void bind_viewer(py::module_& m) {
   m.def("view",
         [](const py::object& scene, const py::object& scene2, const std::string& device, const std::string& host,
            const IntArg& port_arg, const std::string& token, const std::string& preset, const std::string& cameras,
-           const IntArg& max_clients_arg, const IntArg& cuda_device_arg, const IntArg& height_arg) {
+           const IntArg& max_clients_arg, const IntArg& cuda_device_arg, const IntArg& height_arg,
+           const py::object& max_mbps_arg) {
           const auto port = int_arg<uint16_t>(port_arg, "view", "port");
           const auto max_clients = int_arg<uint32_t>(max_clients_arg, "view", "max_clients", 1, 64);
           const int cuda_device = int_arg<int>(cuda_device_arg, "view", "cuda_device", 0, kMaxCudaDevice);
           const auto height = int_arg<uint32_t>(height_arg, "view", "height", 1, kMaxImageSide);
+          const double max_mbps = float_arg(max_mbps_arg, "view", "max_mbps", {0.0, view::kMaxMbps});
           std::vector<api::Scene> scenes = {view_scene(scene, device, cuda_device)};
           if (!scene2.is_none()) {
             // A path loads on the first scene's device.
@@ -83,6 +85,7 @@ void bind_viewer(py::module_& m) {
           options.preset = unwrap(api::parse_preset(preset));
           options.max_clients = max_clients;
           options.cuda_device = cuda_device;
+          options.max_mbps = max_mbps;
           if (!cameras.empty()) options.cameras = unwrap(api::read_inria_cameras(cameras));
           auto handle = std::make_unique<PyViewServer>();
           {
@@ -95,12 +98,13 @@ void bind_viewer(py::module_& m) {
         },
         py::arg("scene"), py::arg("scene2") = py::none(), py::arg("device") = "auto", py::arg("host") = "127.0.0.1",
         py::arg("port") = 0, py::arg("token") = "", py::arg("preset") = "fastest", py::arg("cameras") = "",
-        py::arg("max_clients") = 8, py::arg("cuda_device") = 0, py::arg("height") = 600,
+        py::arg("max_clients") = 8, py::arg("cuda_device") = 0, py::arg("height") = 600, py::arg("max_mbps") = 0,
         "Starts the rgs-view server (docs/VIEWER.md) in this process for `scene` (a roofgs.Scene or a path; with "
         "`scene2`, the compare mode) and returns a ViewServer: open .url in a browser, or display it in a "
         "notebook (an inline iframe); .stop() ends it. port 0 picks a free port; a host other than 127.0.0.1 "
         "requires the URL's token (random unless `token` is given). Paths load on `device` with every preset "
-        "they can render; `cameras` is an INRIA cameras.json whose cameras the page offers");
+        "they can render; `cameras` is an INRIA cameras.json whose cameras the page offers; `max_mbps` (Mbit/s, 0: none) "
+        "is each browser's bandwidth budget, as rgs-view --max-mbps");
 }
 
 }  // namespace rgs::python

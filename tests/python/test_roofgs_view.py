@@ -105,6 +105,10 @@ def test_view_takes_a_scene_and_a_token():
         roofgs.view(scene, token="abc-1")
     with pytest.raises(roofgs.Error):
         roofgs.view(scene, preset="nonsense")
+    # The bandwidth budget: a finite number of Mbit/s in 0..100000, in the hello.
+    for bad in (float("nan"), -1, 1e9, True):
+        with pytest.raises((ValueError, TypeError), match="max_mbps"):
+            roofgs.view(scene, max_mbps=bad)
     # Two scenes: the compare mode.
     with roofgs.view(scene, scene2=GUITAR, device="cpu") as server:
         assert get(server.url)[0] == 200

@@ -31,6 +31,17 @@ namespace {
 using namespace rgs;
 using namespace rgs::test;
 
+// The 8-bit RGB of a kRgba8 image (its alpha dropped), copied to the host.
+std::vector<uint8_t> host_rgb(const api::Image& image) {
+  const size_t pixels = size_t(image.width()) * image.height();
+  std::vector<uint8_t> rgba(pixels * 4), rgb(pixels * 3);
+  REQUIRE(image.copy_to_host(rgba.data(), nullptr).ok());
+  for (size_t p = 0; p < pixels; ++p) {
+    for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = rgba[p * 4 + c];
+  }
+  return rgb;
+}
+
 // The front door's 8-bit RGB of `scene` from the protocol camera `camera` (as rgs-render writes it).
 std::vector<uint8_t> reference_rgb(const api::Scene& scene, const json& camera) {
   view::ViewRequest request;
@@ -44,13 +55,7 @@ std::vector<uint8_t> reference_rgb(const api::Scene& scene, const json& camera) 
   settings.background = {0.2f, 0.1f, 0.0f};
   auto image = renderer->render_image(scene, *cam, settings, api::PixelFormat::kRgba8);
   REQUIRE(image.ok());
-  const size_t pixels = size_t(cam->width) * cam->height;
-  std::vector<uint8_t> rgba(pixels * 4), rgb(pixels * 3);
-  REQUIRE(image->copy_to_host(rgba.data(), nullptr).ok());
-  for (size_t p = 0; p < pixels; ++p) {
-    for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = rgba[p * 4 + c];
-  }
-  return rgb;
+  return host_rgb(*image);
 }
 
 }  // namespace
@@ -357,12 +362,7 @@ TEST_CASE("server GPU: frames carry stage times and GPU memory, and equal the fr
     settings.background = {0.2f, 0.1f, 0.0f};
     auto image = renderer->render_image(*scene, *cam, settings, api::PixelFormat::kRgba8);
     REQUIRE(image.ok());
-    std::vector<uint8_t> rgba(size_t(w) * h * 4), expected(size_t(w) * h * 3);
-    REQUIRE(image->copy_to_host(rgba.data(), nullptr).ok());
-    for (size_t p = 0; p < size_t(w) * h; ++p) {
-      for (int c = 0; c < 3; ++c) expected[p * 3 + c] = rgba[p * 4 + c];
-    }
-    CHECK(rgb == expected);
+    CHECK(rgb == host_rgb(*image));
   }
 }
 
@@ -407,15 +407,11 @@ TEST_CASE("server GPU: JPEG frames encoded with nvJPEG decode within JPEG's tole
     REQUIRE(cam.ok());
     auto image = renderer->render_image(*scene, *cam, settings, api::PixelFormat::kRgba8);
     REQUIRE(image.ok());
-    std::vector<uint8_t> rgba(size_t(w) * h * 4), rgb(size_t(w) * h * 3);
-    REQUIRE(image->copy_to_host(rgba.data(), nullptr).ok());
-    for (size_t p = 0; p < size_t(w) * h; ++p) {
-      for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = rgba[p * 4 + c];
-    }
+    const std::vector<uint8_t> rgb = host_rgb(*image);
     std::vector<uint8_t> on_gpu;
     REQUIRE(encoder->encode(*image, quality, view::jpeg_subsamples_chroma(quality), &on_gpu).ok());
     CHECK(frame.images[0] == on_gpu);  // the server's frame is this encoding
-    auto on_cpu = view::encode_rgb(rgba.data(), w, h, view::Encoding::kJpeg, quality, 4);
+    auto on_cpu = view::encode_rgb(rgb.data(), w, h, view::Encoding::kJpeg, quality, 3);
     REQUIRE(on_cpu.ok());
     const std::vector<uint8_t> gpu_rgb = decode_jpeg(on_gpu, w, h), cpu_rgb = decode_jpeg(*on_cpu, w, h);
     // Each against the render, and the two decodings against each other: the encoders differ only in their
