@@ -30,14 +30,15 @@ ViewRequest apply_rate(const ViewRequest& view, const RateChoice& choice);
 /// even the smallest choice is over.
 class RateControl {
  public:
-  static constexpr double kHoldFps = 30;
-  static constexpr double kMinShare = 0.25;
-  static constexpr double kPauseS = 1.0;
-  static constexpr int kKneeQuality = 60;
-  static constexpr int kMinQuality = 30;
-  static constexpr double kRaiseMargin = 0.8;
+  static constexpr double kHoldFps = 30;        ///< the frame rate a moving view is given room for
+  static constexpr double kMinShare = 0.25;      ///< the least share of 1/kHoldFps a frame may take on the link
+  static constexpr double kPauseS = 1.0;         ///< a longer interval between frames is a pause, not a rate
+  static constexpr int kKneeQuality = 60;        ///< the lowest quality before the frame is made smaller
+  static constexpr int kMinQuality = 30;         ///< the lowest quality at half size
+  static constexpr double kRaiseMargin = 0.8;    ///< a larger scale is taken back only within 0.8 of the target
 
-  /// The next frame's quality and scale for a budget of `mbps` (0: none), `pixels` = the view's width·height.
+  /// The next frame's quality and scale for `view` under a budget of `mbps` (0: none); a `still` view, a lossless
+  /// one or one without a budget keeps its size and quality.
   RateChoice choose(double mbps, const ViewRequest& view, bool still);
   /// A frame of `bytes` handed over at `now_s` (seconds, any steady origin), encoded from `pixels` rendered
   /// pixels at `quality` (`lossy`: JPEG or WebP; a lossless frame counts for the timing only) under a budget of
