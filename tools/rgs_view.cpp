@@ -90,7 +90,7 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   // Before any thread: the server's threads inherit the mask, and the main thread takes the signal (sigwait).
   tools::block_termination_signals();
-  // The CPU renderer allocates each frame's arrays afresh (tens of MB); glibc would hand them back to the system
+  // The CPU renderer allocates each frame's arrays afresh (megabytes); glibc would hand them back to the system
   // after a frame and fault them in again for the next (docs/VIEWER.md#performance): keep them for reuse.
   mallopt(M_MMAP_THRESHOLD, 64 << 20);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);

@@ -1,5 +1,5 @@
-// GpuJpegEncoder: nvJPEG loaded with dlopen. The few declarations below are nvJPEG's public C API (its
-// nvjpeg.h, unchanged since CUDA 10): opaque handles, the image struct, and the enumerators this file uses.
+// GpuJpegEncoder: nvJPEG loaded with dlopen. The few declarations below are nvJPEG's public C API as its
+// nvjpeg.h declares them: opaque handles, the image struct, and the enumerators this file uses.
 #include "rgs/runtime/gpu_jpeg.h"
 
 #include <dlfcn.h>

@@ -64,8 +64,8 @@ struct RenderedFrame {
 inline unsigned encode_workers() { return std::min(parallel::available_cpus(), 8u); }
 
 /// The binary frame message (PROTOCOL.md "frame") of `frame`: its images encoded as the view asks, JPEG on
-/// `workers` (encode_rgb).
-Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::WorkerPool* workers = nullptr);
+/// `workers` (encode_rgb); a JPEG encoded on the GPU (jpeg_a) is moved into it.
+Result<std::vector<uint8_t>> encode_frame(RenderedFrame& frame, parallel::WorkerPool* workers = nullptr);
 
 /// Renders and encodes one client's views. The callbacks are called from the pipeline's threads and must only
 /// hand their message over (e.g. post it to the connection's strand). A frame message holds its part of `budget`

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
@@ -100,13 +101,14 @@ std::string error_json(const std::string& code, const std::string& message, bool
   return dump({{"type", "error"}, {"code", code}, {"message", message}, {"fatal", fatal}});
 }
 
-Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::WorkerPool* workers) {
+Result<std::vector<uint8_t>> encode_frame(RenderedFrame& frame, parallel::WorkerPool* workers) {
   const auto start = std::chrono::steady_clock::now();
   const ViewRequest& view = frame.view;
   std::vector<std::pair<const char*, std::vector<uint8_t>>> images;
   std::optional<ImageDifference> difference;
-  if (!frame.jpeg_a.empty()) {
-    images.emplace_back("a", frame.jpeg_a);
+  const bool encoded_on_gpu = !frame.jpeg_a.empty();
+  if (encoded_on_gpu) {
+    images.emplace_back("a", std::move(frame.jpeg_a));
   } else if (view.compare == CompareMode::kOff) {
     RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
                                             view.quality, 4, workers));
@@ -128,7 +130,7 @@ Result<std::vector<uint8_t>> encode_frame(const RenderedFrame& frame, parallel::
                                             workers));
     images.emplace_back("diff", std::move(d));
   }
-  const double encode_ms = frame.jpeg_a.empty() ? ms_since(start) : frame.gpu_encode_ms;
+  const double encode_ms = encoded_on_gpu ? frame.gpu_encode_ms : ms_since(start);
 
   const api::FrameStats& s = frame.stats;
   const api::StageTimes& t = s.times;

@@ -31,9 +31,8 @@ class GpuJpegEncoder {
   const std::string& name() const;
 
   /// Encodes `rgba` ([H, W, 4] uint8 R, G, B, A in device memory, row y at rgba + y·pitch bytes; alpha
-  /// ignored) as a baseline JPEG (JFIF, BT.601 full-range YCbCr as libjpeg converts) with the standard tables
-  /// scaled to `quality` (1..100), chroma at half resolution in both directions (4:2:0) when
-  /// `subsample_chroma`, else 4:4:4. Enqueued on `stream` after the work already there; waits on the host
+  /// ignored) as a baseline YCbCr JPEG with the standard tables scaled to `quality` (1..100), chroma at half
+  /// resolution in both directions (4:2:0) when `subsample_chroma`, else 4:4:4. Enqueued on `stream` after the work already there; waits on the host
   /// for the bitstream, which replaces `jpeg`'s contents.
   /// Errors: kInvalidArgument (null, zero or over-65535 size, pitch < 4·width, quality out of range),
   /// kOutOfMemory, kCudaError (a CUDA or nvJPEG call failed, named with its status code).
