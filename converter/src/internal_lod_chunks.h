@@ -186,6 +186,11 @@ struct MortonOrder {
   std::vector<std::pair<uint64_t, uint64_t>> leaves;
 };
 
+/// order->keys and order->index: the Morton codes of the means of `in` on `grid` and the Gaussians' indices,
+/// sorted by code (stable, so equal codes keep the input's order). Leaves are left to the caller. Errors: a
+/// worker's kOutOfMemory.
+Status sort_by_morton(const format::EncodedScene& in, const MortonGrid& grid, unsigned workers, MortonOrder* order);
+
 /// Per chunk of `order` (its leaves): its box, its Gaussians sorted by Morton code on a grid over the chunk's
 /// own cube (order->keys and order->index rewritten in place), and each of planned_levels levels' grid.
 Result<std::vector<ChunkPlan>> plan_chunks(const format::EncodedScene& in, uint32_t planned_levels, unsigned workers,

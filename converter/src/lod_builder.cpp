@@ -51,25 +51,8 @@ Result<MortonOrder> sort_into_chunks(const format::EncodedScene& in, uint64_t ma
       order.box_hi[a] = std::max(order.box_hi[a], in.means[i * 3 + a]);
     }
   }
-  std::vector<uint64_t>& keys = order.keys;
-  std::vector<uint32_t>& index = order.index;
-  detail::resize_huge(keys, n0);
-  detail::resize_huge(index, n0);
-  const MortonGrid grid(order.box_lo, order.box_hi);
-  RGS_RETURN_IF_ERROR(detail::parallel_slices(n0, parallel::worker_count(n0, 65536, workers), [&](unsigned, uint64_t b, uint64_t e) {
-    for (uint64_t i = b; i < e; ++i) {
-      keys[i] = grid.code(&in.means[i * 3]);
-      index[i] = static_cast<uint32_t>(i);
-    }
-  }));
-  {
-    std::vector<uint64_t> tmp_keys;
-    std::vector<uint32_t> tmp_index;
-    detail::resize_huge(tmp_keys, n0);
-    detail::resize_huge(tmp_index, n0);
-    radix_sort(keys.data(), index.data(), n0, tmp_keys.data(), tmp_index.data());
-  }
-  split_node(keys.data(), 0, n0, 0, max_chunk_gaussians, &order.leaves);
+  RGS_RETURN_IF_ERROR(sort_by_morton(in, MortonGrid(order.box_lo, order.box_hi), workers, &order));
+  split_node(order.keys.data(), 0, n0, 0, max_chunk_gaussians, &order.leaves);
   return order;
 }
 

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "internal_huge_pages.h"
 #include "internal_parallel.h"
 #include "rgs/format/half.h"
 #include "rgs/format/metadata.h"
@@ -487,6 +488,26 @@ void chunk_center(const ChunkPlan& plan, float stored[3], double center[3]) {
     const volatile float rounded = stored[a];
     center[a] = rounded;
   }
+}
+
+Status sort_by_morton(const format::EncodedScene& in, const MortonGrid& grid, unsigned workers, MortonOrder* order) {
+  const uint64_t n = in.count;
+  resize_huge(order->keys, n);
+  resize_huge(order->index, n);
+  uint64_t* keys = order->keys.data();
+  uint32_t* index = order->index.data();
+  RGS_RETURN_IF_ERROR(parallel_slices(n, parallel::worker_count(n, 65536, workers), [&](unsigned, uint64_t b, uint64_t e) {
+    for (uint64_t i = b; i < e; ++i) {
+      keys[i] = grid.code(&in.means[i * 3]);
+      index[i] = static_cast<uint32_t>(i);
+    }
+  }));
+  std::vector<uint64_t> tmp_keys;
+  std::vector<uint32_t> tmp_index;
+  resize_huge(tmp_keys, n);
+  resize_huge(tmp_index, n);
+  radix_sort(keys, index, n, tmp_keys.data(), tmp_index.data());
+  return Status();
 }
 
 Result<std::vector<ChunkPlan>> plan_chunks(const format::EncodedScene& in, uint32_t planned_levels, unsigned workers,

@@ -388,17 +388,7 @@ class OutOfCoreBuild {
       i += m;
     }
     file.close();  // its disk space goes back
-    order->keys.resize(n);
-    order->index.resize(n);
-    for (uint64_t i = 0; i < n; ++i) {
-      order->keys[i] = grid_.code(&bucket_.means[i * 3]);
-      order->index[i] = static_cast<uint32_t>(i);
-    }
-    {
-      std::vector<uint64_t> tmp_keys(n);
-      std::vector<uint32_t> tmp_index(n);
-      radix_sort(order->keys.data(), order->index.data(), n, tmp_keys.data(), tmp_index.data());
-    }
+    RGS_RETURN_IF_ERROR(sort_by_morton(bucket_, grid_, workers_, order));
     uint64_t position = 0;
     for (const Node& node : nodes_) {
       if (node.bucket != b) continue;
