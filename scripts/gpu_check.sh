@@ -255,11 +255,25 @@ if [ "$what" = big ]; then
     note "taebak in memory and out of core: the files differ"
     rc=1
   fi
-  t0=$(date +%s)
-  /usr/bin/time -v "$bin/rgs-convert" "$big_dir/taebak_x59.ply" "$big_dir/taebak_x59_lod.rgs" --lod-levels auto \
-    --memory-limit 4GiB >"$out/big_convert.log" 2>&1 || rc=$?
-  note "big convert: exit $rc in $(( $(date +%s) - t0 )) s"
-  grep -E "output|profile|time  |Maximum resident|Elapsed" "$out/big_convert.log" | tee -a "$summary"
+  # With another build's rgs-convert staged (STAGE_DIR/ab/rgs-convert.xz, e.g. the landed tree's), it converts the
+  # same file first, for the A/B of time and memory (docs/LOD.md#a-scene-of-250-million-gaussians).
+  sides=(b)
+  if [ -f "$stage/ab/rgs-convert.xz" ]; then
+    xz -dkf "$stage/ab/rgs-convert.xz" && chmod +x "$stage/ab/rgs-convert"
+    sides=(a b)
+  fi
+  for side in "${sides[@]}"; do
+    exe="$bin/rgs-convert"
+    [ "$side" = a ] && exe="$stage/ab/rgs-convert"
+    log="$out/big_convert.log"
+    [ "$side" = a ] && log="$out/big_convert_a.log"
+    rm -f "$big_dir/taebak_x59_lod.rgs"
+    t0=$(date +%s)
+    /usr/bin/time -v "$exe" "$big_dir/taebak_x59.ply" "$big_dir/taebak_x59_lod.rgs" --lod-levels auto \
+      --memory-limit 4GiB >"$log" 2>&1 || rc=$?
+    note "big convert ($side): exit $rc in $(( $(date +%s) - t0 )) s"
+    grep -E "output|profile|time  |Maximum resident|Elapsed" "$log" | tee -a "$summary"
+  done
   rm -f "$big_dir/taebak_x59.ply" "$big_dir/taebak.ply"
   t0=$(date +%s)
   # Its levels make 292M Gaussians in all, over the readers' default limit of 2^28.
