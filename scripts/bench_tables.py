@@ -32,6 +32,7 @@ import json
 import math
 import os
 import re
+import statistics
 import sys
 import tempfile
 
@@ -418,7 +419,7 @@ def occlusion_table(runs, names, mode):
 
 def ab_table(runs, names):
     """Total medians of A and B runs of the same frames, one row per scene and resolution with every mode's
-    runs (A's, then B's) and B's change over A (mean of the rounds)."""
+    runs (A's, then B's) and B's change over A (median of the rounds, so that one slow run does not decide)."""
     totals = {}  # (scene label, resolution) -> {mode: {"a": [...], "b": [...]}}
     modes = []
     for run in runs:
@@ -439,7 +440,7 @@ def ab_table(runs, names):
                 cells += ["–", "–"]
                 continue
             need(sides["a"] and sides["b"], label, f"{mode} {res} lacks an A or a B run")
-            a, b = sum(sides["a"]) / len(sides["a"]), sum(sides["b"]) / len(sides["b"])
+            a, b = statistics.median(sides["a"]), statistics.median(sides["b"])
             cells += [" ".join(f"{v:.3f}" for v in sides["a"]) + " → " + " ".join(f"{v:.3f}" for v in sides["b"]),
                       f"{100 * (b / a - 1):+.1f} %"]
         rows.append([label, resolution_label(res)] + cells)
