@@ -256,8 +256,7 @@ int declare_input(const char* tool, format::OutputTransaction& outputs, const st
     files.insert(files.end(), listed->begin(), listed->end());
   }
   for (const std::string& file : files) {
-    Status declared = outputs.add_input(file);
-    if (!declared.ok()) return report_usage_error(tool, declared);
+    if (Status declared = outputs.add_input(file); !declared.ok()) return report_usage_error(tool, declared);
   }
   return kExitOk;
 }
@@ -278,10 +277,8 @@ int declare_output(const char* tool, format::OutputTransaction& outputs, const s
 }
 
 int commit_outputs(const char* tool, format::OutputTransaction& outputs, bool quiet) {
-  Status flushed = flush_standard_streams();
-  if (!flushed.ok()) return report_error(tool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return report_error(tool, committed);
+  if (Status flushed = flush_standard_streams(); !flushed.ok()) return report_error(tool, flushed);
+  if (Status committed = outputs.commit(); !committed.ok()) return report_error(tool, committed);
   const std::vector<std::string> replaced = outputs.replaced();
   if (!quiet && !replaced.empty()) {
     std::string list;

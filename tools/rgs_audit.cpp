@@ -437,8 +437,7 @@ int run(const Options& opt) {
     for (const auto& [path, image] : audit::report_images(r, report_files)) {
       if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
     }
-    Status created = outputs.create_folder(report_files);
-    if (!created.ok()) return tools::report_error(kTool, created);
+    if (Status created = outputs.create_folder(report_files); !created.ok()) return tools::report_error(kTool, created);
     tools::report_notes(kTool, outputs.remove_stale_temporaries());
     Status st = audit::write_report_images(r, report_files, outputs);
     if (!st.ok()) return tools::report_error(kTool, st);

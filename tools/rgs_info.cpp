@@ -207,8 +207,7 @@ int run(const std::string& path, bool check, bool json) {
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
     stdin_bytes = std::move(bytes).value();
   } else {
-    Status readable = tools::check_input_file(path);
-    if (!readable.ok()) return tools::report_error(kTool, readable);
+    if (Status readable = tools::check_input_file(path); !readable.ok()) return tools::report_error(kTool, readable);
     auto mapped = format::MappedFile::open(path);
     if (!mapped.ok()) return tools::report_error(kTool, mapped.status());
     mapping = std::move(mapped).value();

@@ -192,8 +192,7 @@ int run(Options opt) {
   if (opt.image_format.empty()) opt.image_format = tools::have_openimageio() ? "png" : "ppm";
   auto background = tools::parse_background(opt.background);
   if (!background.ok()) return tools::report_usage_error(kTool, background.status());
-  Status supported = check_outputs(opt);
-  if (!supported.ok()) return tools::report_error(kTool, supported);
+  if (Status supported = check_outputs(opt); !supported.ok()) return tools::report_error(kTool, supported);
 
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
   // them. The output directory is removed again if the run fails after creating it.
@@ -214,8 +213,7 @@ int run(Options opt) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
   }
 
-  Status created = outputs.create_folder(opt.output_dir);
-  if (!created.ok()) return tools::report_error(kTool, created);
+  if (Status created = outputs.create_folder(opt.output_dir); !created.ok()) return tools::report_error(kTool, created);
   // One file base per view (tools::file_safe_names: a camera name used twice gets its index, so that no view
   // replaces another).
   const size_t count = cameras->size();
