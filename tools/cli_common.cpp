@@ -78,6 +78,18 @@ void on_interrupt(int signal_number) {
   ::_exit(128 + signal_number);
 }
 
+/// SIGINT, SIGTERM and SIGHUP, less those the parent set to be ignored.
+sigset_t termination_signals() {
+  sigset_t set;
+  sigemptyset(&set);
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+    struct sigaction current {};
+    if (::sigaction(signal_number, nullptr, &current) == 0 && current.sa_handler == SIG_IGN) continue;
+    sigaddset(&set, signal_number);
+  }
+  return set;
+}
+
 }  // namespace
 
 std::string escape_text(std::string_view text) {
@@ -168,28 +180,15 @@ int finish(const char* tool, int code) {
 }
 
 void install_interrupt_cleanup() {
+  const sigset_t set = termination_signals();
   for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
-    struct sigaction current {};
-    if (::sigaction(signal_number, nullptr, &current) == 0 && current.sa_handler == SIG_IGN) continue;
+    if (!sigismember(&set, signal_number)) continue;
     struct sigaction action {};
     action.sa_handler = on_interrupt;
     sigemptyset(&action.sa_mask);
     ::sigaction(signal_number, &action, nullptr);
   }
 }
-
-namespace {
-sigset_t termination_signals() {
-  sigset_t set;
-  sigemptyset(&set);
-  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
-    struct sigaction current {};
-    if (::sigaction(signal_number, nullptr, &current) == 0 && current.sa_handler == SIG_IGN) continue;
-    sigaddset(&set, signal_number);
-  }
-  return set;
-}
-}  // namespace
 
 void block_termination_signals() {
   const sigset_t set = termination_signals();
@@ -257,8 +256,7 @@ int declare_input(const char* tool, format::OutputTransaction& outputs, const st
     files.insert(files.end(), listed->begin(), listed->end());
   }
   for (const std::string& file : files) {
-    Status declared = outputs.add_input(file);
-    if (!declared.ok()) return report_usage_error(tool, declared);
+    if (Status declared = outputs.add_input(file); !declared.ok()) return report_usage_error(tool, declared);
   }
   return kExitOk;
 }
@@ -279,10 +277,8 @@ int declare_output(const char* tool, format::OutputTransaction& outputs, const s
 }
 
 int commit_outputs(const char* tool, format::OutputTransaction& outputs, bool quiet) {
-  Status flushed = flush_standard_streams();
-  if (!flushed.ok()) return report_error(tool, flushed);
-  Status committed = outputs.commit();
-  if (!committed.ok()) return report_error(tool, committed);
+  if (Status flushed = flush_standard_streams(); !flushed.ok()) return report_error(tool, flushed);
+  if (Status committed = outputs.commit(); !committed.ok()) return report_error(tool, committed);
   const std::vector<std::string> replaced = outputs.replaced();
   if (!quiet && !replaced.empty()) {
     std::string list;
@@ -420,17 +416,23 @@ std::string group_digits(uint64_t n) {
   return out;
 }
 
-std::string file_safe_name(const std::string& name, size_t index) {
-  if (name.empty()) {
-    char buf[32];
-    std::snprintf(buf, sizeof(buf), "view_%03zu", index);
-    return buf;
+std::vector<std::string> file_safe_names(const std::vector<std::string>& names) {
+  std::vector<std::string> out;
+  for (size_t i = 0; i < names.size(); ++i) {
+    std::string name = names[i];
+    for (char& ch : name) {
+      if (ch == '/' || ch == '\\' || static_cast<unsigned char>(ch) < 32) ch = '_';
+    }
+    if (name.empty()) {
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), "view_%03zu", i);
+      name = buf;
+    } else if (name == "." || name == "..") {
+      name = "view_" + std::to_string(i);
+    }
+    if (std::find(out.begin(), out.end(), name) != out.end()) name += "_" + std::to_string(i);
+    out.push_back(std::move(name));
   }
-  std::string out = name;
-  for (char& ch : out) {
-    if (ch == '/' || ch == '\\' || static_cast<unsigned char>(ch) < 32) ch = '_';
-  }
-  if (out == "." || out == "..") out = "view_" + std::to_string(index);
   return out;
 }
 

@@ -128,9 +128,10 @@ std::string group_digits(uint64_t n);
 
 /// What --version prints: "<tool> <version> (commit <hash>)", the commit CMake was configured from.
 std::string version_line(const char* tool);
-/// A view name usable as a file name: '/', '\\' and control characters replaced by '_'; "view_<i>" (three
-/// digits) if empty, "view_<i>" for "." and "..".
-std::string file_safe_name(const std::string& name, size_t index);
+/// `names` usable as file names, all different: in name i, '/', '\\' and control characters replaced by '_';
+/// "view_<i>" (three digits) if empty, "view_<i>" for "." and ".."; "_<i>" appended when an earlier name is the
+/// same. rgs-render's views and rgs-audit --save-renders' folders and views are named so.
+std::vector<std::string> file_safe_names(const std::vector<std::string>& names);
 /// Fixed-point with `digits` decimals ("%.*f").
 std::string fixed(double value, int digits);
 /// Scientific with 3 significant decimals ("1.234e-05"), or "0" for zero.

@@ -221,33 +221,25 @@ int declare_files(const Options& opt, format::OutputTransaction& outputs, std::s
 }
 
 /// --save-renders: creates the folder of each scene's renders in opt.renders_dir, "source" and then each
-/// candidate's label made file-safe (a name used twice gets its index).
+/// candidate's label (tools::file_safe_names).
 Result<std::vector<std::string>> render_folders(const Options& opt, const std::vector<audit::AuditScene>& candidates,
                                                 format::OutputTransaction& outputs) {
   RGS_RETURN_IF_ERROR(outputs.create_folder(opt.renders_dir));
-  std::vector<std::string> folders{(std::filesystem::path(opt.renders_dir) / "source").string()};
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    std::string folder =
-        (std::filesystem::path(opt.renders_dir) / tools::file_safe_name(candidates[i].info.label, i + 1)).string();
-    if (std::find(folders.begin(), folders.end(), folder) != folders.end()) folder += "_" + std::to_string(i + 1);
-    folders.push_back(folder);
+  std::vector<std::string> folders{"source"};
+  for (const audit::AuditScene& candidate : candidates) folders.push_back(candidate.info.label);
+  folders = tools::file_safe_names(folders);
+  for (std::string& folder : folders) {
+    folder = (std::filesystem::path(opt.renders_dir) / folder).string();
+    RGS_RETURN_IF_ERROR(outputs.create_folder(folder));
   }
-  for (const std::string& folder : folders) RGS_RETURN_IF_ERROR(outputs.create_folder(folder));
   return folders;
 }
 
-/// --save-renders: stages one render as "<folder>/<view>.png" or ".ppm", named as rgs-render names its views,
-/// with rgs-render's 8-bit rule (runtime::to_8bit), so that the two can be compared byte for byte.
-Status save_render(const Options& opt, format::OutputTransaction& outputs, const std::string& folder,
-                   const std::vector<runtime::Camera>& cameras, size_t view, const runtime::ImageRef& rgba) {
-  std::string name = tools::file_safe_name(cameras[view].name, view);
-  for (size_t i = 0; i < view; ++i) {
-    if (tools::file_safe_name(cameras[i].name, i) == name) {
-      name += "_" + std::to_string(view);
-      break;
-    }
-  }
-  const std::string path = (std::filesystem::path(folder) / name).string() + "." + opt.image_format;
+/// --save-renders: stages one render as "<base>.png" or ".ppm", named as rgs-render names its views, with
+/// rgs-render's 8-bit rule (runtime::to_8bit), so that the two can be compared byte for byte.
+Status save_render(const Options& opt, format::OutputTransaction& outputs, const std::string& base,
+                   const runtime::ImageRef& rgba) {
+  const std::string path = base + "." + opt.image_format;
   RGS_RETURN_IF_ERROR(outputs.add_output(path));
   std::vector<float> rgb(size_t(rgba.width) * rgba.height * 3);
   for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = rgba.data[i / 3 * 4 + i % 3];
@@ -314,11 +306,13 @@ Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction
                  tools::escape_text(p.view).c_str(), psnrs.c_str(), tools::fixed(p.elapsed_s, 1).c_str(),
                  tools::fixed(p.remaining_s, 0).c_str());
   };
-  std::vector<std::string> folders;  // --save-renders: one per scene, the source's first
+  std::vector<std::string> folders, names;  // --save-renders: a folder per scene (the source's first), a name per view
   if (!opt.renders_dir.empty()) {
     RGS_ASSIGN_OR_RETURN(folders, render_folders(opt, candidates, outputs));
+    for (const runtime::Camera& camera : cameras) names.push_back(camera.name);
+    names = tools::file_safe_names(names);
     options.on_render = [&](size_t view, size_t scene, const runtime::ImageRef& rgba) {
-      return save_render(opt, outputs, folders[scene], cameras, view, rgba);
+      return save_render(opt, outputs, (std::filesystem::path(folders[scene]) / names[view]).string(), rgba);
     };
   }
   return audit::run_audit(source, candidates, cameras, options);
@@ -443,8 +437,7 @@ int run(const Options& opt) {
     for (const auto& [path, image] : audit::report_images(r, report_files)) {
       if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
     }
-    Status created = outputs.create_folder(report_files);
-    if (!created.ok()) return tools::report_error(kTool, created);
+    if (Status created = outputs.create_folder(report_files); !created.ok()) return tools::report_error(kTool, created);
     tools::report_notes(kTool, outputs.remove_stale_temporaries());
     Status st = audit::write_report_images(r, report_files, outputs);
     if (!st.ok()) return tools::report_error(kTool, st);

@@ -302,14 +302,10 @@ int run(Options& opt) {
   }
 
   format::OutputTransaction outputs;
-  for (const std::string& input : opt.inputs) {
-    // Each scene and every file it names are inputs: no output may replace one of them.
-    if (input == "-") continue;
-    if (int code = tools::declare_input(kTool, outputs, input, true); code != tools::kExitOk) return code;
-  }
-  if (!views.cameras_path.empty()) {
-    if (int code = tools::declare_input(kTool, outputs, views.cameras_path); code != tools::kExitOk) return code;
-  }
+  // Each scene and every file it names are inputs: no output may replace one of them (standard input is converted
+  // alone).
+  const std::vector<std::string> scenes = opt.input == "-" ? std::vector<std::string>() : opt.inputs;
+  if (int code = tools::declare_inputs(kTool, outputs, scenes, views.cameras_path); code != tools::kExitOk) return code;
   // A SOG folder (output named meta.json) writes its images next to it: all are outputs of the run.
   for (const std::string& path : api::output_paths(opt.output, *opt.convert.to)) {
     if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;

@@ -40,10 +40,22 @@ LevelTotals level_totals(const format::LodIndex& lod, uint32_t level) {
   return t;
 }
 
+nlohmann::json bounds_json(const format::SceneBounds& b) {
+  return {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max}, {"sphere_center", b.sphere_center},
+          {"sphere_radius", b.sphere_radius}};
+}
+
+/// The bounds' lines of the text output.
+void print_bounds(const format::SceneBounds& b) {
+  std::printf("  aabb             [%g, %g, %g] .. [%g, %g, %g]\n", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
+              b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
+  std::printf("  bounding sphere  centre (%g, %g, %g), radius %g\n", b.sphere_center[0], b.sphere_center[1],
+              b.sphere_center[2], b.sphere_radius);
+}
+
 nlohmann::json to_json(const format::RgsFile& file) {
   const auto& h = file.header();
   const auto& m = file.metadata();
-  const auto& b = m.bounds;
   nlohmann::json j;
   j["file"] = file.name();
   j["bytes"] = file.file_size();
@@ -58,8 +70,7 @@ nlohmann::json to_json(const format::RgsFile& file) {
                       {"scale_encoding", format::to_string(m.scale_encoding)},
                       {"opacity_encoding", format::to_string(m.opacity_encoding)},
                       {"sh_layout", format::to_string(m.sh_layout)}};
-  j["bounds"] = {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max},
-                 {"sphere_center", b.sphere_center}, {"sphere_radius", b.sphere_radius}};
+  j["bounds"] = bounds_json(m.bounds);
   j["sh_quantization"] = {{"bits", m.sh_quantization.bits},
                           {"clip_percentile", m.sh_quantization.clip_percentile},
                           {"scales", m.sh_quantization.scales}};
@@ -89,7 +100,6 @@ nlohmann::json to_json(const format::RgsFile& file) {
 void print_text(const format::RgsFile& file) {
   const auto& h = file.header();
   const auto& m = file.metadata();
-  const auto& b = m.bounds;
   const uint64_t n = h.gaussian_count;
   std::printf("%s\n", tools::escape_text(file.name()).c_str());
   std::printf("  format           .rgs %u.%u, flags required 0x%08x optional 0x%08x\n", h.major, h.minor,
@@ -104,10 +114,7 @@ void print_text(const format::RgsFile& file) {
   if (m.antialiased) {
     std::printf("  anti-aliased     yes: trained with the 2D Mip filter, opacities compensated when rendered\n");
   }
-  std::printf("  aabb             [%g, %g, %g] .. [%g, %g, %g]\n", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
-              b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
-  std::printf("  bounding sphere  centre (%g, %g, %g), radius %g\n", b.sphere_center[0], b.sphere_center[1],
-              b.sphere_center[2], b.sphere_radius);
+  print_bounds(m.bounds);
   std::printf("  SH quantization  INT%u, clip percentile %g; scale s[d] (R, G, B):\n", m.sh_quantization.bits,
               m.sh_quantization.clip_percentile);
   for (uint32_t d = 0; d <= m.sh_degree; ++d) {
@@ -141,11 +148,6 @@ void print_text(const format::RgsFile& file) {
   }
 }
 
-nlohmann::json bounds_json(const format::SceneBounds& b) {
-  return {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max}, {"sphere_center", b.sphere_center},
-          {"sphere_radius", b.sphere_radius}};
-}
-
 nlohmann::json to_json(const std::string& path, const converter::InputScene& scene) {
   nlohmann::json j;
   j["file"] = path;
@@ -164,7 +166,6 @@ nlohmann::json to_json(const std::string& path, const converter::InputScene& sce
 
 void print_text(const std::string& path, const converter::InputScene& scene) {
   const uint64_t n = scene.cloud.size();
-  const format::SceneBounds& b = scene.bounds;
   std::printf("%s\n", tools::escape_text(path).c_str());
   std::printf("  format           %s (%s)\n", tools::escape_text(scene.description).c_str(), scene.format_id.c_str());
   std::printf("  size             %s bytes in %s file%s (%s B/Gaussian)\n", tools::group_digits(scene.file_bytes).c_str(),
@@ -174,10 +175,8 @@ void print_text(const std::string& path, const converter::InputScene& scene) {
   if (scene.declared_vertices != n) {
     std::printf(" (the file declares %s)", tools::group_digits(scene.declared_vertices).c_str());
   }
-  std::printf("\n  aabb             [%g, %g, %g] .. [%g, %g, %g]\n", b.aabb_min[0], b.aabb_min[1], b.aabb_min[2],
-              b.aabb_max[0], b.aabb_max[1], b.aabb_max[2]);
-  std::printf("  bounding sphere  centre (%g, %g, %g), radius %g\n", b.sphere_center[0], b.sphere_center[1],
-              b.sphere_center[2], b.sphere_radius);
+  std::printf("\n");
+  print_bounds(scene.bounds);
   for (const std::string& note : scene.notes) std::printf("  note             %s\n", tools::escape_text(note).c_str());
 }
 
@@ -208,8 +207,7 @@ int run(const std::string& path, bool check, bool json) {
     if (!bytes.ok()) return tools::report_error(kTool, bytes.status());
     stdin_bytes = std::move(bytes).value();
   } else {
-    Status readable = tools::check_input_file(path);
-    if (!readable.ok()) return tools::report_error(kTool, readable);
+    if (Status readable = tools::check_input_file(path); !readable.ok()) return tools::report_error(kTool, readable);
     auto mapped = format::MappedFile::open(path);
     if (!mapped.ok()) return tools::report_error(kTool, mapped.status());
     mapping = std::move(mapped).value();

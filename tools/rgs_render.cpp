@@ -192,8 +192,7 @@ int run(Options opt) {
   if (opt.image_format.empty()) opt.image_format = tools::have_openimageio() ? "png" : "ppm";
   auto background = tools::parse_background(opt.background);
   if (!background.ok()) return tools::report_usage_error(kTool, background.status());
-  Status supported = check_outputs(opt);
-  if (!supported.ok()) return tools::report_error(kTool, supported);
+  if (Status supported = check_outputs(opt); !supported.ok()) return tools::report_error(kTool, supported);
 
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
   // them. The output directory is removed again if the run fails after creating it.
@@ -214,19 +213,18 @@ int run(Options opt) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
   }
 
-  Status created = outputs.create_folder(opt.output_dir);
-  if (!created.ok()) return tools::report_error(kTool, created);
-  // One file base per view; a camera name used twice gets its index, so that no view replaces another.
+  if (Status created = outputs.create_folder(opt.output_dir); !created.ok()) return tools::report_error(kTool, created);
+  // One file base per view (tools::file_safe_names: a camera name used twice gets its index, so that no view
+  // replaces another).
   const size_t count = cameras->size();
   std::vector<std::string> bases;
-  for (size_t i = 0; i < count; ++i) {
-    std::string name = tools::file_safe_name((*cameras)[i].name, i);
-    std::string base = (std::filesystem::path(opt.output_dir) / name).string();
-    if (std::find(bases.begin(), bases.end(), base) != bases.end()) base += "_" + std::to_string(i);
+  for (const runtime::Camera& camera : *cameras) bases.push_back(camera.name);
+  bases = tools::file_safe_names(bases);
+  for (std::string& base : bases) {
+    base = (std::filesystem::path(opt.output_dir) / base).string();
     for (const std::string& file : view_files(opt, base)) {
       if (int code = tools::declare_output(kTool, outputs, file); code != tools::kExitOk) return code;
     }
-    bases.push_back(base);
   }
   tools::report_notes(kTool, outputs.remove_stale_temporaries());
 

@@ -8,6 +8,7 @@
 #include <functional>
 #include <utility>
 
+#include "internal_report_svg.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/encoded_scene.h"
@@ -17,6 +18,8 @@
 namespace rgs::audit {
 
 namespace {
+
+using detail::group_digits;
 
 /// The longest side of the box of `cloud`'s means (0 without Gaussians).
 double means_extent(const format::GaussianCloud& cloud) {
@@ -30,16 +33,6 @@ double means_extent(const format::GaussianCloud& cloud) {
     }
   }
   return std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-}
-
-/// `n` with a comma every three digits.
-std::string group_digits(uint64_t n) {
-  std::string digits = std::to_string(n), out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
 }
 
 Status naming(Status status, const std::string& path) {

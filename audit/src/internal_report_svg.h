@@ -1,5 +1,5 @@
 // The report's figures as inline SVG written by the audit: line and point plots on stacked panels, horizontal
-// stacked bars and a colour bar, and the text helpers the report's HTML shares with them.
+// stacked bars and a colour bar, and the text helpers the report's HTML (and the audit's notes) share with them.
 #pragma once
 
 #include <cstddef>

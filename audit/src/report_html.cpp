@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <filesystem>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "internal_report_assets.h"
 #include "internal_report_image.h"
 #include "internal_report_svg.h"
 #include "rgs/format/file_io.h"
@@ -31,8 +33,9 @@ constexpr const char* kDash = "\xE2\x80\x93";  // en dash: no value
 
 std::string esc(const json& v) { return escape_html(v.is_string() ? v.get<std::string>() : v.dump()); }
 std::string fixed(double v, int digits) { return format_number(("%." + std::to_string(digits) + "f").c_str(), v); }
+std::string fixed(const json& v, int digits) { return fixed(v.get<double>(), digits); }
 std::string general(double v) { return format_number("%g", v); }
-std::string sci(double v) { return format_number("%.3e", v); }
+std::string sci(const json& v) { return format_number("%.3e", v.get<double>()); }
 std::string group(const json& v) { return detail::group_digits(v.get<long long>()); }
 
 /// A dB value of the JSON: a number, "inf" / "-inf", or null (NaN: no value).
@@ -51,6 +54,13 @@ detail::PlotSeries series(std::string label, const char* kind, const char* colou
   return s;
 }
 
+/// The cells of a table row: "<td>a</td><td>b</td>..." (`tag` "th": a header row's).
+std::string cells(std::initializer_list<std::string> texts, const char* tag = "td") {
+  std::string out;
+  for (const std::string& text : texts) out += std::string("<") + tag + ">" + text + "</" + tag + ">";
+  return out;
+}
+
 /// A member that may be missing or null: null then.
 const json& member(const json& j, const char* key) {
   static const json kNull;
@@ -61,7 +71,7 @@ const json& member(const json& j, const char* key) {
 /// The report's text of a dB value: "inf" as written, a dash for none, else two decimals.
 std::string num(const json& v, int digits = 2) {
   if (v.is_string()) return escape_html(v.get<std::string>());
-  return v.is_null() ? kDash : fixed(v.get<double>(), digits);
+  return v.is_null() ? kDash : fixed(v, digits);
 }
 
 std::string metric_words(const json& doc) {
@@ -331,8 +341,7 @@ std::string background_note(const json& doc) {
 }
 
 std::string stats_row(const std::string& name, const json& s, const std::string& unit) {
-  return "<tr><td>" + escape_html(name) + "</td><td>" + sci(s.at("max").get<double>()) + "</td><td>" +
-         sci(s.at("rms").get<double>()) + "</td><td>" + escape_html(unit) + "</td></tr>";
+  return "<tr>" + cells({escape_html(name), sci(s.at("max")), sci(s.at("rms")), escape_html(unit)}) + "</tr>";
 }
 
 /// The per-attribute errors of a candidate and how its Gaussians were paired, or why there are none.
@@ -354,7 +363,7 @@ std::string errors_html(const json& c) {
   for (const json& d : e.at("sh")) {
     out += stats_row("SH degree " + d.at("degree").dump(), d.at("error"), "absolute");
     for (const json& ch : d.at("channels")) {
-      const std::string note = ch.contains("scale") ? "scale " + sci(ch.at("scale").get<double>()) + ", " +
+      const std::string note = ch.contains("scale") ? "scale " + sci(ch.at("scale")) + ", " +
                                                           group(ch.at("clipped")) + " clipped"
                                                     : "";
       out += stats_row("  " + ch.at("channel").get<std::string>(), ch.at("error"), note);
@@ -365,7 +374,7 @@ std::string errors_html(const json& c) {
   std::string text = "Gaussians paired index by index (the source's Gaussians in its order)";
   if (!pairing.is_null() && pairing.at("method") == "content") {
     text = "Gaussians paired by content: each with a source Gaussian within " +
-           sci(pairing.at("position_tolerance_scene_units").get<double>()) + " scene units";
+           sci(pairing.at("position_tolerance_scene_units")) + " scene units";
   }
   if (!pairing.is_null() && pairing.at("source_gaussians_unpaired").get<long long>() != 0) {
     text += "; " + group(pairing.at("source_gaussians_unpaired")) + " source Gaussians not in the candidate";
@@ -374,7 +383,7 @@ std::string errors_html(const json& c) {
 }
 
 /// Source and candidate stacked; the slider moves the split (source left, candidate right), flip swaps
-/// between all source and all candidate. Driven by kSliderJs.
+/// between all source and all candidate. Driven by audit/report/report.js.
 std::string compare_widget(const std::string& source_uri, const std::string& candidate_uri, const json& label) {
   return "<figure class='compare' data-split='50'><div class='stack'><img class='view under' alt='source' src='" +
          source_uri + "'><img class='view over' alt='" + esc(label) + "' src='" + candidate_uri +
@@ -445,22 +454,21 @@ Result<std::string> candidate_section(const json& doc, size_t index, const json&
   const json& fg = member(c, "foreground_psnr_db");
   const std::string fg_text = fg.is_null() ? "" : "foreground PSNR mean " + num(member(fg, "mean")) + " dB, min " +
                                                       num(member(fg, "min")) + " dB; ";
-  out += "<p>" + group(c.at("bytes")) + " bytes, " + fixed(c.at("bytes_per_gaussian").get<double>(), 2) +
-         " B/Gaussian, ratio " + fixed(c.value("ratio", 0.0), 2) + "x to the source; PSNR mean " +
-         num(c.at("psnr_db").at("mean")) + " dB, min " + num(c.at("psnr_db").at("min")) + " dB (view " +
-         esc(c.at("worst_view")) + "); " + fg_text + "SSIM mean " + fixed(c.at("ssim").at("mean").get<double>(), 5) +
-         ", min " + fixed(c.at("ssim").at("min").get<double>(), 5) + "; max |d| " +
-         fixed(c.at("max_abs_diff").get<double>(), 4) + ".</p><div class='cols'>";
+  out += "<p>" + group(c.at("bytes")) + " bytes, " + fixed(c.at("bytes_per_gaussian"), 2) + " B/Gaussian, ratio " +
+         fixed(c.value("ratio", 0.0), 2) + "x to the source; PSNR mean " + num(c.at("psnr_db").at("mean")) +
+         " dB, min " + num(c.at("psnr_db").at("min")) + " dB (view " + esc(c.at("worst_view")) + "); " + fg_text +
+         "SSIM mean " + fixed(c.at("ssim").at("mean"), 5) + ", min " + fixed(c.at("ssim").at("min"), 5) +
+         "; max |d| " + fixed(c.at("max_abs_diff"), 4) + ".</p><div class='cols'>";
   if (!c.at("sections").empty()) {
-    out += "<table><tr><th>section</th><th>codec</th><th>bytes</th><th>B/Gaussian</th></tr>";
+    out += "<table><tr>" + cells({"section", "codec", "bytes", "B/Gaussian"}, "th") + "</tr>";
     for (const json& s : c.at("sections")) {
-      out += "<tr><td>" + esc(s.at("name")) + "</td><td>" + esc(s.at("codec")) + "</td><td>" + group(s.at("bytes")) +
-             "</td><td>" + fixed(s.at("bytes_per_gaussian").get<double>(), 3) + "</td></tr>";
+      out += "<tr>" + cells({esc(s.at("name")), esc(s.at("codec")), group(s.at("bytes")),
+                             fixed(s.at("bytes_per_gaussian"), 3)}) + "</tr>";
     }
     const long long overhead = c.value("header_table_padding_bytes", 0LL);
-    out += "<tr><td>header, table, padding</td><td></td><td>" + detail::group_digits(overhead) + "</td><td>" +
-           fixed(double(overhead) / double(std::max(c.at("gaussians").get<long long>(), 1LL)), 3) +
-           "</td></tr></table>";
+    const double gaussians = double(std::max(c.at("gaussians").get<long long>(), 1LL));
+    out += "<tr>" + cells({"header, table, padding", "", detail::group_digits(overhead),
+                           fixed(double(overhead) / gaussians, 3)}) + "</tr></table>";
   }
   out += errors_html(c) + "</div>";
   RGS_ASSIGN_OR_RETURN(const std::string worst, worst_views_html(doc, index, c, read_image));
@@ -470,23 +478,20 @@ Result<std::string> candidate_section(const json& doc, size_t index, const json&
 std::string views_table(const json& doc) {
   const json& cands = doc.at("candidates");
   std::string head, rows;
-  for (const json& c : cands) {
-    head += "<th>" + esc(c.at("label")) + " PSNR</th><th>PSNR fg</th><th>SSIM</th><th>max |d|</th>";
-  }
+  for (const json& c : cands) head += cells({esc(c.at("label")) + " PSNR", "PSNR fg", "SSIM", "max |d|"}, "th");
   const json& views = doc.at("views");
   for (size_t k = 0; k < views.size(); ++k) {
-    rows += "<tr><td>" + esc(views[k].at("name")) + "</td><td>" + views[k].at("width").dump() + "x" +
-            views[k].at("height").dump() + "</td>";
+    const std::string size = views[k].at("width").dump() + "x" + views[k].at("height").dump();
+    rows += "<tr>" + cells({esc(views[k].at("name")), size});
     for (const json& c : cands) {
       const json& v = c.at("views").at(k);
-      rows += "<td>" + num(v.at("psnr_db")) + "</td><td>" + num(member(v, "foreground_psnr_db")) + "</td><td>" +
-              fixed(v.at("ssim").get<double>(), 5) + "</td><td>" + fixed(v.at("max_abs_diff").get<double>(), 4) +
-              "</td>";
+      rows += cells({num(v.at("psnr_db")), num(member(v, "foreground_psnr_db")), fixed(v.at("ssim"), 5),
+                     fixed(v.at("max_abs_diff"), 4)});
     }
     rows += "</tr>";
   }
-  return "<details><summary>Per-view table (" + std::to_string(views.size()) + " views)</summary><table><tr>"
-         "<th>view</th><th>size</th>" + head + "</tr>" + rows + "</table></details>";
+  return "<details><summary>Per-view table (" + std::to_string(views.size()) + " views)</summary><table><tr>" +
+         cells({"view", "size"}, "th") + head + "</tr>" + rows + "</table></details>";
 }
 
 /// The heading, the source's line and the summary table with its notes.
@@ -503,26 +508,27 @@ std::string summary_html(const json& doc) {
   const std::string backend = doc.at("backend").get<std::string>();
   std::string out = "<h1>rgs-audit: " + esc(src.at("path")) + "</h1><p>Source: " + esc(src.at("format")) + ", " +
                     group(src.at("gaussians")) + " Gaussians (SH degree " + src.at("sh_degree").dump() + "), " +
-                    group(src.at("bytes")) + " bytes (" + fixed(src.at("bytes_per_gaussian").get<double>(), 1) +
+                    group(src.at("bytes")) + " bytes (" + fixed(src.at("bytes_per_gaussian"), 1) +
                     " B/Gaussian). " + std::to_string(doc.at("views").size()) + " views (" + first.at("width").dump() +
                     "x" + first.at("height").dump() + " first), " + std::to_string(cands.size()) +
                     " candidate(s); backend <b>" + escape_html(backend) + "</b> (" + esc(doc.at("device")) + "), " +
-                    esc(doc.at("renderer")) + "; " + fixed(doc.at("time_seconds").at("total").get<double>(), 1) +
-                    " s" + gate_html + ". rgs-audit " + esc(doc.value("tool_version", "")) + ".</p>"
-                    "<table><tr><th>candidate</th><th>format</th><th>bytes</th><th>B/Gaussian</th><th>ratio</th>"
-                    "<th>PSNR mean</th><th>PSNR min</th><th>PSNR fg mean</th><th>PSNR fg min</th><th>SSIM mean</th>"
-                    "<th>SSIM min</th><th>max |d|</th><th>load s</th><th>render s</th></tr>";
+                    esc(doc.at("renderer")) + "; " + fixed(doc.at("time_seconds").at("total"), 1) +
+                    " s" + gate_html + ". rgs-audit " + esc(doc.value("tool_version", "")) + ".</p><table><tr>" +
+                    cells({"candidate", "format", "bytes", "B/Gaussian", "ratio", "PSNR mean", "PSNR min",
+                           "PSNR fg mean", "PSNR fg min", "SSIM mean", "SSIM min", "max |d|", "load s", "render s"},
+                          "th") +
+                    "</tr>";
   for (const json& c : cands) {
     const json& fg = member(c, "foreground_psnr_db");
     const double load = c.value("load_seconds", 0.0);
-    out += "<tr><td>" + esc(c.at("label")) + "</td><td>" + esc(c.at("format")) + "</td><td>" + group(c.at("bytes")) +
-           "</td><td>" + fixed(c.at("bytes_per_gaussian").get<double>(), 2) + "</td><td>" +
-           fixed(c.value("ratio", 0.0), 2) + "x</td><td>" + num(c.at("psnr_db").at("mean")) + "</td><td>" +
-           num(c.at("psnr_db").at("min")) + "</td><td>" + num(member(fg, "mean")) + "</td><td>" +
-           num(member(fg, "min")) + "</td><td>" + fixed(c.at("ssim").at("mean").get<double>(), 5) + "</td><td>" +
-           fixed(c.at("ssim").at("min").get<double>(), 5) + "</td><td>" + fixed(c.at("max_abs_diff").get<double>(), 4) +
-           "</td><td>" + (load != 0 ? fixed(load, 2) : kDash) + "</td><td>" +
-           (c.contains("render_seconds") ? fixed(c.at("render_seconds").get<double>(), 2) : kDash) + "</td></tr>";
+    out += "<tr>" +
+           cells({esc(c.at("label")), esc(c.at("format")), group(c.at("bytes")), fixed(c.at("bytes_per_gaussian"), 2),
+                  fixed(c.value("ratio", 0.0), 2) + "x", num(c.at("psnr_db").at("mean")),
+                  num(c.at("psnr_db").at("min")), num(member(fg, "mean")), num(member(fg, "min")),
+                  fixed(c.at("ssim").at("mean"), 5), fixed(c.at("ssim").at("min"), 5), fixed(c.at("max_abs_diff"), 4),
+                  load != 0 ? fixed(load, 2) : kDash,
+                  c.contains("render_seconds") ? fixed(c.at("render_seconds"), 2) : kDash}) +
+           "</tr>";
   }
   return out + "</table><p class='note'>PSNR fg: over the foreground. load s: reading and decoding the file (source " +
          fixed(src.value("load_seconds", 0.0), 2) + " s). render s: the candidate's renders, summed over the views (" +
@@ -530,56 +536,12 @@ std::string summary_html(const json& doc) {
          ").</p>" + background_note(doc);
 }
 
-constexpr const char* kCss = R"(
-body{font:14px/1.4 system-ui,sans-serif;margin:24px auto;max-width:1400px;color:#222;padding:0 16px}
-h1{font-size:22px}h2{font-size:18px;border-top:1px solid #ccc;padding-top:12px}h2 small{font-weight:normal;color:#666}
-table{border-collapse:collapse;margin:8px 16px 8px 0;font-size:13px}td,th{border:1px solid #ddd;padding:2px 8px;
-text-align:right}td:first-child,th:first-child{text-align:left;white-space:pre}.cols{display:flex;flex-wrap:wrap;
-align-items:flex-start}.row{display:flex;gap:8px}figure{margin:0;flex:1}img.view{width:100%;image-rendering:auto;
-border:1px solid #ccc}figcaption{font-size:12px;color:#555}.plot{margin:16px 0}.plot svg{max-width:100%;height:auto}
-.gate-pass{color:#17702b}.gate-fail{color:#b00020}
-.verdict{font-size:16px;border:1px solid #ccc;padding:6px 12px;background:#fafafa}.verdict ul{margin:4px 0;
-padding-left:20px}.note{color:#444;max-width:1000px}.colorbar svg{width:480px;max-width:100%;height:auto}
-.stack{position:relative;line-height:0}.stack img.over{position:absolute;left:0;top:0}.divider{position:absolute;
-top:0;bottom:0;width:2px;margin-left:-1px;background:#0af;pointer-events:none}.controls{display:flex;gap:8px;
-align-items:center}.controls input{flex:1}
-)";
-
-// The source/candidate comparison: the slider sets the split (percent of the width from the left at which the
-// candidate begins), flip jumps between all candidate (0) and all source (100). Delegated, so no set-up is needed.
-constexpr const char* kSliderJs = R"(
-function rgsSetSplit(box, v) {
-  v = Math.max(0, Math.min(100, Number(v)));
-  box.querySelector('img.over').style.clipPath = 'inset(0 0 0 ' + v + '%)';
-  box.querySelector('.divider').style.left = v + '%';
-  box.querySelector('input.slider').value = v;
-  box.setAttribute('data-split', String(v));
+/// The text of the embedded file `path` (audit/report/, internal_report_assets.h).
+std::string asset_text(const char* path) {
+  const detail::Asset* asset = detail::find_asset(path);
+  assert(asset != nullptr);  // audit/CMakeLists.txt embeds every file the page names
+  return std::string(reinterpret_cast<const char*>(asset->data), asset->size);
 }
-document.addEventListener('input', function (e) {
-  if (!e.target.classList || !e.target.classList.contains('slider')) return;
-  rgsSetSplit(e.target.closest('.compare'), e.target.value);
-});
-document.addEventListener('click', function (e) {
-  if (!e.target.classList || !e.target.classList.contains('flip')) return;
-  var box = e.target.closest('.compare');
-  rgsSetSplit(box, Number(box.getAttribute('data-split')) > 0 ? 0 : 100);
-});
-)";
-
-// Marks the page once every image has decoded and every plot is laid out; the report test reads it.
-constexpr const char* kCheckJs = R"(
-window.addEventListener('load', function () {
-  var imgs = Array.prototype.slice.call(document.querySelectorAll('img'));
-  var okImgs = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
-  var plots = Array.prototype.slice.call(document.querySelectorAll('.plot svg'));
-  var okPlots = plots.filter(function (s) {
-    var r = s.getBoundingClientRect();
-    return r.width > 50 && r.height > 50;
-  }).length;
-  document.body.setAttribute('data-render-check',
-    'images ' + okImgs + '/' + imgs.length + ' plots ' + okPlots + '/' + plots.length);
-});
-)";
 
 Result<std::string> page(const json& doc, const ReportImageReader& read_image) {
   RGS_RETURN_ERROR_IF(doc.value("schema", "") != kAuditSchemaName ||
@@ -593,7 +555,8 @@ Result<std::string> page(const json& doc, const ReportImageReader& read_image) {
   std::string out = "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'><title>rgs-audit: " +
                     esc(src.at("label")) + " " +
                     escape_html(std::filesystem::path(src.at("path").get<std::string>()).filename().string()) +
-                    "</title><style>" + kCss + "</style><script>" + kCheckJs + kSliderJs + "</script></head><body>\n" +
+                    "</title><style>\n" + asset_text("/report.css") + "</style><script>\n" + asset_text("/report.js") +
+                    "</script></head><body>\n" +
                     verdict_html(doc) + "\n" + summary_html(doc) + "\n";
   if (cands.size() > 1) out += "<div class='plot'>" + plot_size_quality(doc) + "</div>\n";
   out += "<div class='plot'>" + plot_views(doc) + "</div>\n" + views_table(doc) + "\n<div class='plot'>" +

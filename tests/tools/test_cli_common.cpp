@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -49,12 +50,12 @@ TEST_CASE("report_error: the whole message and its code reach stderr, escaped") 
   CHECK(std::string(buffer, n) == "rgs-test: error: name\\x00\\x1b]0;pwned\\x07 tail [kCorruptData]\n");
 }
 
-TEST_CASE("file_safe_name and group_digits") {
-  using rgs::tools::file_safe_name;
+TEST_CASE("file_safe_names and group_digits") {
   using rgs::tools::group_digits;
-  CHECK(file_safe_name("a/b\\c", 0) == "a_b_c");
-  CHECK(file_safe_name("", 7) == "view_007");
-  CHECK(file_safe_name("..", 3) == "view_3");
+  // A name an earlier one already has gets its index, also when that name itself was made so.
+  const std::vector<std::string> names = {"a/b\\c", "", "..", "a_b_c", "a_b_c_3"};
+  CHECK(rgs::tools::file_safe_names(names) ==
+        std::vector<std::string>{"a_b_c", "view_001", "view_2", "a_b_c_3", "a_b_c_3_4"});
   CHECK(group_digits(0) == "0");
   CHECK(group_digits(999) == "999");
   CHECK(group_digits(1000) == "1,000");
