@@ -193,6 +193,19 @@ Status decode_lod(const uint8_t* raw, size_t size, uint64_t gaussian_count, LodI
   return Status();
 }
 
+LodRangeView lod_range_view(const std::array<const uint8_t*, 6>& parts, uint64_t first, uint64_t count,
+                            uint32_t sh_degree) {
+  const uint64_t record[6] = {12, 8, 6, 2, uint64_t{3} * sh_coefficient_count(sh_degree), 3};
+  LodRangeView view;
+  view.first = first;
+  view.count = count;
+  ByteView* views[6] = {&view.means, &view.rotations, &view.scales, &view.opacities, &view.sh, &view.sh_dc_residual};
+  for (int a = 0; a < 6; ++a) {
+    if (parts[a] != nullptr) *views[a] = ByteView{parts[a] + first * record[a], static_cast<size_t>(count * record[a])};
+  }
+  return view;
+}
+
 uint64_t lod_range_checksum(const LodRangeView& range) {
   XXH64_state_t* state = XXH64_createState();
   XXH64_reset(state, 0);

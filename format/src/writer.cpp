@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <functional>
 #include <memory>
@@ -134,16 +135,15 @@ uint32_t threads_per_job(uint32_t threads, size_t jobs) {
   return static_cast<uint32_t>((threads + n - 1) / n);
 }
 
-void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
-              std::vector<Status>* results) {
-  results->assign(jobs.size(), Status());
+Status run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what) {
+  std::vector<Status> results(jobs.size());
   std::atomic<size_t> next{0};
   auto worker = [&] {
     for (size_t j; (j = next.fetch_add(1)) < jobs.size();) {
       try {  // nothing may escape a thread: error messages allocate
-        (*results)[j] = jobs[j]();
+        results[j] = jobs[j]();
       } catch (const std::exception&) {
-        (*results)[j] = Status(StatusCode::kOutOfMemory, std::string("out of memory ") + what);
+        results[j] = Status(StatusCode::kOutOfMemory, std::string("out of memory ") + what);
       }
     }
   };
@@ -158,6 +158,8 @@ void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, cons
   }
   worker();
   for (std::thread& t : pool) t.join();
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  return Status();
 }
 
 }  // namespace detail
@@ -287,8 +289,7 @@ Status plan_sections(const SceneMetadata& metadata, const Provenance& provenance
     detail::encode_provenance(provenance, bytes.data(), bytes.size());
     add_owned_section(SectionId::kProvenance, std::move(bytes), options, file);
   }
-  for (SectionId id : {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
-                       SectionId::kSh, SectionId::kShDcResidual}) {
+  for (SectionId id : detail::kGaussianSections) {
     if (id != SectionId::kShDcResidual || residual) add_section(id, count, metadata.sh_degree, options, &file->sections);
   }
   return Status();
@@ -360,17 +361,10 @@ Status add_lod_section(const LodIndex& index, const WriteOptions& options, Plann
     add_owned_section(SectionId::kLod, detail::encode_lod(index), options, file);
     return Status();
   }
-  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(file->metadata.sh_degree);
-  auto raw_of = [&](SectionId id) -> const uint8_t* {
-    const PlannedSection* s = find_section(file, id);
-    return s == nullptr ? nullptr : s->raw;
-  };
-  const uint8_t* parts[6] = {means->raw,
-                             raw_of(SectionId::kRotations),
-                             raw_of(SectionId::kScales),
-                             raw_of(SectionId::kOpacities),
-                             raw_of(SectionId::kSh),
-                             raw_of(SectionId::kShDcResidual)};
+  std::array<const uint8_t*, 6> parts{};
+  for (size_t a = 0; a < 6; ++a) {
+    if (const PlannedSection* s = find_section(file, detail::kGaussianSections[a])) parts[a] = s->raw;
+  }
   LodIndex checked = index;
   const size_t records = checked.levels.size();
   auto check_records = [&](size_t begin, size_t end) {
@@ -378,11 +372,7 @@ Status add_lod_section(const LodIndex& index, const WriteOptions& options, Plann
       const uint32_t level = static_cast<uint32_t>(r / checked.chunk_count);
       const uint32_t chunk = static_cast<uint32_t>(r % checked.chunk_count);
       LodLevel& v = checked.levels[r];
-      auto view = [&](const uint8_t* base, uint64_t record) {
-        return base == nullptr ? ByteView{} : ByteView{base + v.first * record, static_cast<size_t>(v.count * record)};
-      };
-      const LodRangeView range{v.first,           v.count,           view(parts[0], 12), view(parts[1], 8),
-                               view(parts[2], 6), view(parts[3], 2), view(parts[4], k3), view(parts[5], 3)};
+      const LodRangeView range = detail::lod_range_view(parts, v.first, v.count, file->metadata.sh_degree);
       Status s = detail::check_lod_range(checked, level, chunk, range, file->metadata, false);
       if (!s.ok()) return invalid(s.message());
       v.checksum = detail::lod_range_checksum(range);
@@ -391,9 +381,7 @@ Status add_lod_section(const LodIndex& index, const WriteOptions& options, Plann
   };
   std::vector<std::function<Status()>> halves = {[&] { return check_records(0, records / 2); },
                                                  [&] { return check_records(records / 2, records); }};
-  std::vector<Status> results;
-  detail::run_jobs(halves, 2, "checking the level-of-detail ranges", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  RGS_RETURN_IF_ERROR(detail::run_jobs(halves, 2, "checking the level-of-detail ranges"));
   add_owned_section(SectionId::kLod, detail::encode_lod(checked), options, file);
   return Status();
 }
@@ -456,10 +444,7 @@ Status compress_sections(const WriteOptions& options, std::vector<PlannedSection
       return st.ok() ? st : st.prepend(std::string("section ") + section_name(s.id));
     });
   }
-  std::vector<Status> results;
-  detail::run_jobs(jobs, options.threads, "compressing sections", &results);
-  for (const Status& st : results) RGS_RETURN_IF_ERROR(st);
-  return Status();
+  return detail::run_jobs(jobs, options.threads, "compressing sections");
 }
 
 /// Ends the plan of `file`: its version, the zstd sections compressed and the §3 layout, the table after the
