@@ -256,10 +256,16 @@ Status bad_code(uint64_t i, uint32_t c, uint32_t code) {
                 "Gaussian " + dec(i) + ": code " + dec(code) + " of component " + dec(c) + " is out of range");
 }
 
+/// SH value `code` (an int8) times the multiplier `m` into *out; false when it leaves [-127, 127].
+bool sh_value(uint8_t code, int m, uint8_t* out) {
+  const int value = static_cast<int8_t>(code) * m;
+  *out = static_cast<uint8_t>(static_cast<int8_t>(value));
+  return value >= -127 && value <= 127;
+}
+
 /// Transform 1: rotations as the smallest three quaternion components, into [N, 4] float16.
-Status decode_smallest_three(const QuantizedCodes& q, uint8_t* dst, size_t raw_size) {
+Status decode_smallest_three(const QuantizedCodes& q, uint8_t* dst) {
   const uint64_t n = q.n;
-  RGS_RETURN_ERROR_IF(raw_size != n * 8, StatusCode::kInvalidArgument, "rotation buffer size mismatch");
   const double scale = std::sqrt(2.0) / q.max_code, lo = -std::sqrt(0.5);
   for (uint64_t i = 0; i < n; ++i) {
     const uint32_t largest = q.at(0, i);
@@ -280,10 +286,9 @@ Status decode_smallest_three(const QuantizedCodes& q, uint8_t* dst, size_t raw_s
 }
 
 /// Transform 2: scales uniform in log space, into [N, 3] float16 in the scene's scale encoding.
-Status decode_log_uniform(const QuantizedCodes& q, ScaleEncoding encoding, uint8_t* dst, size_t raw_size) {
+Status decode_log_uniform(const QuantizedCodes& q, ScaleEncoding encoding, uint8_t* dst) {
   const uint64_t n = q.n;
   const uint32_t max_code = q.max_code;
-  RGS_RETURN_ERROR_IF(raw_size != n * 6, StatusCode::kInvalidArgument, "scale buffer size mismatch");
   const bool log = encoding == ScaleEncoding::kLog;
   auto scale_of = [&](uint32_t a, uint32_t code) {
     const double v = static_cast<double>(q.h.params[a]) + code * static_cast<double>(q.h.params[3 + a]);
@@ -309,8 +314,7 @@ Status decode_log_uniform(const QuantizedCodes& q, ScaleEncoding encoding, uint8
 }
 
 /// Transform 3: opacities uniform in [0, 1], into [N] float16.
-Status decode_uniform(const QuantizedCodes& q, uint8_t* dst, size_t raw_size) {
-  RGS_RETURN_ERROR_IF(raw_size != q.n * 2, StatusCode::kInvalidArgument, "opacity buffer size mismatch");
+Status decode_uniform(const QuantizedCodes& q, uint8_t* dst) {
   for (uint64_t i = 0; i < q.n; ++i) {
     const uint32_t code = q.at(0, i);
     if (code > q.max_code) return bad_code(i, 0, code);
@@ -320,26 +324,22 @@ Status decode_uniform(const QuantizedCodes& q, uint8_t* dst, size_t raw_size) {
 }
 
 /// Transform 4: SH int8 codes times a per-degree multiplier, into [N, components] int8.
-Status decode_sh_multiplier(const QuantizedCodes& q, uint32_t components, uint8_t* dst, size_t raw_size) {
+Status decode_sh_multiplier(const QuantizedCodes& q, uint32_t components, uint8_t* dst) {
   const uint64_t n = q.n;
-  RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
   for (uint32_t c = 0; c < components; ++c) {
     const int m = static_cast<int>(q.h.params[sh_degree_of_coefficient(c / 3)]);
     // Gaussian-major records, unlike the planes of the other transforms.
     for (uint64_t i = 0; i < n; ++i) {
       const uint8_t code = q.codes[i * components + c];
-      const int value = static_cast<int8_t>(code) * m;
-      if (value < -127 || value > 127) return bad_code(i, c, code);
-      dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(value));
+      if (!sh_value(code, m, &dst[i * components + c])) return bad_code(i, c, code);
     }
   }
   return Status();
 }
 
 /// Transform 6: SH colour differences, into [N, components] int8.
-Status decode_sh_colour_differences(const QuantizedCodes& q, uint32_t components, uint8_t* dst, size_t raw_size) {
+Status decode_sh_colour_differences(const QuantizedCodes& q, uint32_t components, uint8_t* dst) {
   const uint64_t n = q.n;
-  RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
   // The DC triples as three planes of N, then N records of the rest triples; each triple holds
   // (R - G, G, B - G) modulo 256, so R = (R - G) + G modulo 256, read as int8.
   const uint8_t* rest = q.codes.data() + 3 * n;
@@ -352,9 +352,7 @@ Status decode_sh_colour_differences(const QuantizedCodes& q, uint32_t components
       const uint8_t rgb[3] = {static_cast<uint8_t>(triple[0] + green), green, static_cast<uint8_t>(triple[2] + green)};
       const int m = static_cast<int>(q.h.params[sh_degree_of_coefficient(c / 3)]);
       for (uint32_t k = 0; k < 3; ++k) {
-        const int value = static_cast<int8_t>(rgb[k]) * m;
-        if (value < -127 || value > 127) return bad_code(i, c + k, rgb[k]);
-        dst[i * components + c + k] = static_cast<uint8_t>(static_cast<int8_t>(value));
+        if (!sh_value(rgb[k], m, &dst[i * components + c + k])) return bad_code(i, c + k, rgb[k]);
       }
     }
   }
@@ -363,9 +361,8 @@ Status decode_sh_colour_differences(const QuantizedCodes& q, uint32_t components
 
 /// Transform 5: SH rest coefficients through a codebook, DC as transform 4, into [N, components] int8. The
 /// codebook entries decode in place of their codes in `q`.
-Status decode_sh_codebook(QuantizedCodes& q, uint32_t components, uint8_t* dst, size_t raw_size) {
+Status decode_sh_codebook(QuantizedCodes& q, uint32_t components, uint8_t* dst) {
   const uint64_t n = q.n;
-  RGS_RETURN_ERROR_IF(raw_size != n * components, StatusCode::kInvalidArgument, "SH buffer size mismatch");
   const uint32_t rest = components - 3;
   const uint64_t k = q.h.codebook_size;
   const uint8_t* entries = q.codes.data();
@@ -375,21 +372,18 @@ Status decode_sh_codebook(QuantizedCodes& q, uint32_t components, uint8_t* dst, 
   std::vector<uint8_t>& book = q.codes;
   for (uint64_t e = 0; e < k * rest; ++e) {
     const uint32_t j = static_cast<uint32_t>(e % rest);
-    const int value = static_cast<int8_t>(book[e]) * static_cast<int>(q.h.params[sh_degree_of_coefficient(1 + j / 3)]);
-    if (value < -127 || value > 127) {
+    const uint8_t code = book[e];
+    if (!sh_value(code, static_cast<int>(q.h.params[sh_degree_of_coefficient(1 + j / 3)]), &book[e])) {
       return Status(StatusCode::kCorruptData, "SH codebook entry " + dec(e / rest) + ": code " +
-                                                  std::to_string(static_cast<int8_t>(book[e])) + " of value " +
+                                                  std::to_string(static_cast<int8_t>(code)) + " of value " +
                                                   dec(j) + " is out of range");
     }
-    book[e] = static_cast<uint8_t>(static_cast<int8_t>(value));
   }
   const int m = static_cast<int>(q.h.params[0]);
   for (uint64_t i = 0; i < n; ++i) {
     for (uint32_t c = 0; c < 3; ++c) {
       const uint8_t code = dc[i * 3 + c];
-      const int value = static_cast<int8_t>(code) * m;
-      if (value < -127 || value > 127) return bad_code(i, c, code);
-      dst[i * components + c] = static_cast<uint8_t>(static_cast<int8_t>(value));
+      if (!sh_value(code, m, &dst[i * components + c])) return bad_code(i, c, code);
     }
     const uint32_t e = read_code(index, q.width, n, i);
     if (e >= k) {
@@ -407,6 +401,11 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
                         uint32_t components, uint8_t* dst, size_t raw_size) {
   QuantizedHeader h;
   RGS_RETURN_IF_ERROR(parse_quantized(id, src, size, n, components, &h));
+  // [N, components] of float16 (rotations, scales, opacities) or int8 (sh).
+  const uint64_t element_bytes = id == SectionId::kSh ? 1 : 2;
+  RGS_RETURN_ERROR_IF(raw_size != n * components * element_bytes, StatusCode::kInvalidArgument,
+                      std::string(section_name(id)) + " buffer of " + dec(raw_size) + " bytes for " + dec(n) +
+                          " Gaussians");
   QuantizedCodes q{h, {}, n, code_width(h.bits), (1u << h.bits) - 1};
   try {
     q.codes.resize(static_cast<size_t>(h.codes_size));
@@ -419,12 +418,12 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
     if (!s.ok()) return s.prepend("codes");
   }
   switch (h.transform) {
-    case QuantizedTransform::kSmallestThree: return decode_smallest_three(q, dst, raw_size);
-    case QuantizedTransform::kLogUniform: return decode_log_uniform(q, metadata.scale_encoding, dst, raw_size);
-    case QuantizedTransform::kUniform: return decode_uniform(q, dst, raw_size);
-    case QuantizedTransform::kShMultiplier: return decode_sh_multiplier(q, components, dst, raw_size);
-    case QuantizedTransform::kShColourDifferences: return decode_sh_colour_differences(q, components, dst, raw_size);
-    case QuantizedTransform::kShCodebook: return decode_sh_codebook(q, components, dst, raw_size);
+    case QuantizedTransform::kSmallestThree: return decode_smallest_three(q, dst);
+    case QuantizedTransform::kLogUniform: return decode_log_uniform(q, metadata.scale_encoding, dst);
+    case QuantizedTransform::kUniform: return decode_uniform(q, dst);
+    case QuantizedTransform::kShMultiplier: return decode_sh_multiplier(q, components, dst);
+    case QuantizedTransform::kShColourDifferences: return decode_sh_colour_differences(q, components, dst);
+    case QuantizedTransform::kShCodebook: return decode_sh_codebook(q, components, dst);
   }
   return Status();
 }

@@ -127,9 +127,7 @@ Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t co
         xz_coded = true;
         return detail::compress_xz_stream(codes.data(), codes.size(), lc, matches, o.threads, &xz);
       }};
-  std::vector<Status> results;
-  detail::run_jobs(jobs, 2, "coding a section", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  RGS_RETURN_IF_ERROR(detail::run_jobs(jobs, 2, "coding a section"));
   if (xz_coded && xz.size() < out->size()) out->swap(xz);
   return Status();
 }
@@ -690,9 +688,7 @@ Status encode_means(const std::vector<float>& means, ArchivePositionQuantization
       return Status();
     });
   }
-  std::vector<Status> sorted;
-  detail::run_jobs(sorts, o.threads, "pairing Draco's points", &sorted);
-  for (const Status& st_sort : sorted) RGS_RETURN_IF_ERROR(st_sort);
+  RGS_RETURN_IF_ERROR(detail::run_jobs(sorts, o.threads, "pairing Draco's points"));
   order->assign(static_cast<size_t>(n), 0);
   for (uint64_t i = 0; i < n; ++i) {
     if (!src[i].same_point(dst[i])) {
@@ -888,10 +884,7 @@ Status order_means_and_quantize(const EncodedScene& source, const ArchiveOptions
   add_codes(1, [&] { return rotation_codes(source, options); });
   add_codes(2, [&] { return scale_codes(source, out->omitted, options); });
   add_codes(3, [&] { return opacity_codes(source, options); });
-  std::vector<Status> results;
-  detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
-  return Status();
+  return detail::run_jobs(jobs, options.threads, "encoding the archive");
 }
 
 /// Step 2: the sections not reused, coded in Draco's order. They share the threads: each its own, and its zstd
@@ -924,10 +917,7 @@ Status code_sections(const EncodedScene& source, const ArchiveOptions& options, 
                               section, &out->stored[slot]);
     });
   }
-  std::vector<Status> results;
-  detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
-  return Status();
+  return detail::run_jobs(jobs, options.threads, "encoding the archive");
 }
 
 /// Step 3: decodes what was written into `out->decoded`, bit for bit what readers get; reused sections are
@@ -977,9 +967,7 @@ Status decode_sections(const EncodedScene& source, const ArchiveOptions& options
       return Status();
     });
   }
-  std::vector<Status> results;
-  detail::run_jobs(jobs, options.threads, "encoding the archive", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  RGS_RETURN_IF_ERROR(detail::run_jobs(jobs, options.threads, "encoding the archive"));
   if constexpr (!detail::kHostLittleEndian) {
     for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {
       for (uint16_t& x : *v) x = detail::load_u16_le(reinterpret_cast<const uint8_t*>(&x));

@@ -99,9 +99,7 @@ Result<GaussianCloud> dequantize(const EncodedScene& scene, uint32_t threads) {
       return Status();
     });
   }
-  std::vector<Status> results;
-  detail::run_jobs(jobs, threads, "dequantizing", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  RGS_RETURN_IF_ERROR(detail::run_jobs(jobs, threads, "dequantizing"));
   return cloud;
 }
 

@@ -17,10 +17,11 @@
 #include <new>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
-#include "internal_created_folders.h"
+#include "internal_file_io.h"
 
 namespace rgs::format {
 namespace {
@@ -60,17 +61,10 @@ int write_all(int fd, const uint8_t* data, size_t size) {
   return 0;
 }
 
-/// Splits "dir/name" into ("dir", "name"); a bare name lives in ".".
-void split_path(const std::string& path, std::string* dir, std::string* name) {
-  const size_t slash = path.find_last_of('/');
-  *dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
-  *name = slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
 /// Validates the last component of `path` and splits it; kIoError for "", ".", ".." or a trailing slash.
 Status split_output_path(const std::string& path, std::string* dir, std::string* name) {
   if (path.empty()) return Status(StatusCode::kInvalidArgument, "output path is empty");
-  split_path(path, dir, name);
+  std::tie(*dir, *name) = detail::split_path(path);
   if (name->empty() || *name == "." || *name == "..") {
     return Status(StatusCode::kIoError, "cannot write " + path + ": not a file name");
   }
@@ -181,8 +175,7 @@ Result<int> create_temporary(const std::string& path, std::string* temporary, si
   int open_errno = 0;
   for (int attempt = 0; attempt < 16 && fd < 0; ++attempt) {
     // A second temporary of the same output in this process (two threads) gets a "-<n>" tail.
-    *temporary = (dir == "/" ? std::string("/") : dir + "/") + name + "." + pid +
-                 (attempt ? "-" + std::to_string(attempt) : "") + kPartialSuffix;
+    *temporary = detail::join_path(dir, name + "." + pid + (attempt ? "-" + std::to_string(attempt) : "") + kPartialSuffix);
     // Registered before it exists, so that an interrupt between the two cannot miss it.
     *slot = register_temporary(*temporary);
     if (*slot == kMaxTemporaries) {
@@ -389,8 +382,7 @@ Status StagedFile::commit() {
   temporary_.clear();
   // Best effort: persist the rename. The content is already durable; some file systems refuse fsync on a
   // directory, which is not a failure of the write.
-  std::string dir, name;
-  split_path(path_, &dir, &name);
+  const std::string dir = detail::split_path(path_).first;
   const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir_fd >= 0) {
     (void)::fsync(dir_fd);

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <string>
 
@@ -72,7 +73,6 @@ class ByteReader {
  public:
   ByteReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
 
-  size_t position() const { return pos_; }
   size_t remaining() const { return size_ - pos_; }
 
   [[nodiscard]] bool read_u8(uint8_t* out) { return read_with(1, out, [](const uint8_t* p) { return *p; }); }
@@ -107,15 +107,11 @@ class ByteReader {
   size_t pos_ = 0;
 };
 
-/// Writes little-endian scalars into a caller-sized byte range. A write past the end is dropped and
-/// makes ok() false for good; the writer sizes buffers exactly, so that is a programming error the
-/// caller turns into a Status.
+/// Writes little-endian scalars into a caller-sized byte range. A write past the end is dropped (the writer
+/// sizes its buffers exactly: the golden files catch a layout that does not fit).
 class ByteWriter {
  public:
   ByteWriter(uint8_t* data, size_t size) : data_(data), size_(size) {}
-
-  bool ok() const { return ok_; }
-  size_t position() const { return pos_; }
 
   void put_u8(uint8_t v) { put_bytes(&v, 1); }
   void put_u16(uint16_t v) { put_with(2, v, store_u16_le); }
@@ -136,10 +132,7 @@ class ByteWriter {
     if (uint8_t* p = claim(n)) store(p, v);
   }
   uint8_t* claim(size_t n) {
-    if (!ok_ || size_ - pos_ < n) {
-      ok_ = false;
-      return nullptr;
-    }
+    if (size_ - pos_ < n) return nullptr;
     uint8_t* p = data_ + pos_;
     pos_ += n;
     return p;
@@ -148,7 +141,6 @@ class ByteWriter {
   uint8_t* data_;
   size_t size_;
   size_t pos_ = 0;
-  bool ok_ = true;
 };
 
 /// "0x" followed by 16 lowercase hex digits, for checksums in messages.
@@ -164,5 +156,12 @@ inline std::string hex32(uint32_t v) { return "0x" + hex64(v).substr(10); }
 
 /// Decimal string of an unsigned 64-bit value.
 inline std::string dec(uint64_t v) { return std::to_string(v); }
+
+/// A value in messages, to float32's 9 significant digits.
+inline std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
 
 }  // namespace rgs::format::detail

@@ -2,6 +2,7 @@
 // validator: its record, its structural rules, and the per-range checks (lod.cpp).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -24,6 +25,12 @@ std::vector<uint8_t> encode_lod(const LodIndex& index);
 /// §4.9 Parses the raw bytes of a lod section (size 16 + 16·C + 24·L·C exactly, reserved fields 0), fills each
 /// level's `first` from the record order and applies check_lod_structure(). kCorruptData otherwise.
 Status decode_lod(const uint8_t* raw, size_t size, uint64_t gaussian_count, LodIndex* out);
+
+/// §4.9 Views of Gaussians [first, first + count) of the per-Gaussian sections whose raw little-endian bytes start
+/// at `parts` (means, rotations, scales, opacities, sh, sh_dc_residual; a null part gives an empty view) in a scene
+/// of SH degree `sh_degree`.
+LodRangeView lod_range_view(const std::array<const uint8_t*, 6>& parts, uint64_t first, uint64_t count,
+                            uint32_t sh_degree);
 
 /// §4.9 XXH64 of a range's bytes: means, rotations, scales, opacities, sh, then sh_dc_residual when present,
 /// as one stream.

@@ -37,6 +37,10 @@ struct SectionLayout {
   bool per_gaussian = false;  ///< element_count must equal the header's gaussian_count
 };
 
+/// §4.3–§4.8 The per-Gaussian sections, in file order (sh_dc_residual optional).
+inline constexpr SectionId kGaussianSections[6] = {SectionId::kMeans,     SectionId::kRotations, SectionId::kScales,
+                                                   SectionId::kOpacities, SectionId::kSh,        SectionId::kShDcResidual};
+
 /// True for the section ids version 1.0 defines.
 bool is_known_section(SectionId id);
 /// Layout of known section `id` for an SH degree (it sets the components of kSh); false if unknown.
@@ -123,11 +127,10 @@ Status check_zstd_frame_header(const uint8_t* src, size_t stored_size, uint64_t 
 /// Turns a zstd error code into kChecksumMismatch (content checksum) or kCorruptData (reader.cpp).
 Status zstd_error_status(size_t code, const std::string& what);
 /// Runs the jobs on up to `threads` threads (0: the machine's hardware threads), never more than there are jobs
-/// (the calling one included; fewer when no thread can be started);
-/// job j's result goes to (*results)[j], an exception escaping it to kOutOfMemory "out of memory <what>"
+/// (the calling one included; fewer when no thread can be started). Returns the status of the first job, in job
+/// order, that failed once all have run; an exception escaping a job is kOutOfMemory "out of memory <what>"
 /// (writer.cpp).
-void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
-              std::vector<Status>* results);
+Status run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what);
 /// Each of `jobs` jobs' share of `threads` threads (0: the machine's hardware threads), rounded up, at least 1:
 /// what a job that runs threads of its own (a zstd frame's workers) may use beside the others (writer.cpp).
 uint32_t threads_per_job(uint32_t threads, size_t jobs);

@@ -20,12 +20,6 @@ std::string level_label(uint32_t level, uint32_t chunk) {
   return "lod chunk " + dec(chunk) + " level " + dec(level);
 }
 
-std::string real(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.9g", v);
-  return buf;
-}
-
 /// exp of every binary16 value, in double: the largest linear scale of a log-scale Gaussian (§4.5) by lookup.
 const double* exp_of_halves() {
   static const std::vector<double> table = [] {
@@ -89,8 +83,8 @@ Status check_lod_structure(const LodIndex& index, uint64_t gaussian_count) {
     RGS_RETURN_ERROR_IF(!std::isfinite(k.center[0]) || !std::isfinite(k.center[1]) || !std::isfinite(k.center[2]) ||
                             !std::isfinite(k.radius) || !(k.radius >= 0.0f),
                         StatusCode::kCorruptData,
-                        "lod chunk " + dec(c) + ": centre (" + real(k.center[0]) + ", " + real(k.center[1]) + ", " +
-                            real(k.center[2]) + ") or radius " + real(k.radius) +
+                        "lod chunk " + dec(c) + ": centre (" + num(k.center[0]) + ", " + num(k.center[1]) + ", " +
+                            num(k.center[2]) + ") or radius " + num(k.radius) +
                             " is not finite (radius >= 0)");
   }
   uint64_t first = 0;
@@ -107,18 +101,18 @@ Status check_lod_structure(const LodIndex& index, uint64_t gaussian_count) {
                               dec(gaussian_count));
       first += v.count;
       RGS_RETURN_ERROR_IF(!std::isfinite(v.error) || !(v.error >= 0.0f), StatusCode::kCorruptData,
-                          label + ": error " + real(v.error) + " is not finite and >= 0");
+                          label + ": error " + num(v.error) + " is not finite and >= 0");
       if (l == 0) {
         RGS_RETURN_ERROR_IF(v.error != 0.0f, StatusCode::kCorruptData,
-                            label + ": error " + real(v.error) + ", level 0 (the full detail) must have 0");
+                            label + ": error " + num(v.error) + ", level 0 (the full detail) must have 0");
       } else {
         const LodLevel& finer = index.at(l - 1, c);
         RGS_RETURN_ERROR_IF(v.count > finer.count, StatusCode::kCorruptData,
                             label + ": " + dec(v.count) + " Gaussians, more than level " + dec(l - 1) + "'s " +
                                 dec(finer.count));
         RGS_RETURN_ERROR_IF(v.error < finer.error, StatusCode::kCorruptData,
-                            label + ": error " + real(v.error) + " below level " + dec(l - 1) + "'s " +
-                                real(finer.error));
+                            label + ": error " + num(v.error) + " below level " + dec(l - 1) + "'s " +
+                                num(finer.error));
       }
     }
   }
@@ -191,6 +185,19 @@ Status decode_lod(const uint8_t* raw, size_t size, uint64_t gaussian_count, LodI
   RGS_RETURN_IF_ERROR(check_lod_structure(index, gaussian_count));
   *out = std::move(index);
   return Status();
+}
+
+LodRangeView lod_range_view(const std::array<const uint8_t*, 6>& parts, uint64_t first, uint64_t count,
+                            uint32_t sh_degree) {
+  const uint64_t record[6] = {12, 8, 6, 2, uint64_t{3} * sh_coefficient_count(sh_degree), 3};
+  LodRangeView view;
+  view.first = first;
+  view.count = count;
+  ByteView* views[6] = {&view.means, &view.rotations, &view.scales, &view.opacities, &view.sh, &view.sh_dc_residual};
+  for (int a = 0; a < 6; ++a) {
+    if (parts[a] != nullptr) *views[a] = ByteView{parts[a] + first * record[a], static_cast<size_t>(count * record[a])};
+  }
+  return view;
 }
 
 uint64_t lod_range_checksum(const LodRangeView& range) {
@@ -273,8 +280,8 @@ Status check_lod_values(const LodIndex& index, uint32_t level, uint32_t chunk, c
   for (uint64_t j = 0; j < n; ++j) {
     const double r = reach(terms(j));
     RGS_RETURN_ERROR_IF(!(r <= limit), StatusCode::kCorruptData,
-                        label + ": Gaussian " + dec(range.first + j) + " reaches " + real(r) +
-                            " from the chunk centre, outside its radius " + real(k.radius));
+                        label + ": Gaussian " + dec(range.first + j) + " reaches " + num(r) +
+                            " from the chunk centre, outside its radius " + num(k.radius));
   }
   return Status();
 }

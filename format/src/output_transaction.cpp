@@ -14,21 +14,13 @@
 #include <optional>
 #include <utility>
 
-#include "internal_created_folders.h"
+#include "internal_file_io.h"
 
 namespace rgs::format {
 namespace {
 
-/// Splits "dir/name" into ("dir", "name"); a bare name lives in ".".
-std::pair<std::string, std::string> split_path(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  if (slash == std::string::npos) return {".", path};
-  return {slash == 0 ? "/" : path.substr(0, slash), path.substr(slash + 1)};
-}
-
-std::string join_path(const std::string& dir, const std::string& name) {
-  return (dir == "/" ? std::string("/") : dir + "/") + name;
-}
+using detail::join_path;
+using detail::split_path;
 
 /// Where an output goes: its directory's identity and its last component, or the path as written when the
 /// directory cannot be examined (the write reports why).
@@ -98,7 +90,7 @@ struct OutputTransaction::State {
   };
   struct CreatedFolder {
     std::string path;
-    size_t slot;  ///< in the table an interrupt walks (internal_created_folders.h)
+    size_t slot;  ///< in the table an interrupt walks (internal_file_io.h)
   };
   std::vector<Input> inputs;
   std::vector<Output> outputs;

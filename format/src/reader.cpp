@@ -270,6 +270,8 @@ struct RgsFileAccess {
   static Status parse_lod(RgsFile* f);
   static Status check_sh_colour_differences(const RgsFile& f);
   static Status check_xz_codes(const RgsFile& f);
+  /// kCorruptData "<what> in a version M.m file" unless the file's version is at least `min` (§6).
+  static Status require_version(const RgsFile& f, FormatVersion min, const std::string& what);
 
  public:
   /// kInvalidArgument naming the file unless `f` has a level-of-detail index holding (level, chunk).
@@ -426,6 +428,12 @@ Status RgsFileAccess::check_placement(const RgsFile& f) {
   return Status();
 }
 
+Status RgsFileAccess::require_version(const RgsFile& f, FormatVersion min, const std::string& what) {
+  RGS_RETURN_ERROR_IF(!version_at_least({f.header_.major, f.header_.minor}, min), StatusCode::kCorruptData,
+                      what + " in a version " + dec(f.header_.major) + "." + dec(f.header_.minor) + " file");
+  return Status();
+}
+
 Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
   // §3.1 Rules that hold for every entry, known or not.
   const SectionEntry& e = f.sections_[index];
@@ -450,14 +458,12 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
   RGS_RETURN_ERROR_IF(e.raw_size > limits.max_section_raw_bytes, StatusCode::kLimitExceeded,
                       label + ": raw size " + dec(e.raw_size) + " bytes exceeds the limit of " +
                           dec(limits.max_section_raw_bytes));
-  const FormatVersion version{f.header_.major, f.header_.minor};
   if (e.codec == Codec::kNone) {
     RGS_RETURN_ERROR_IF(e.stored_size != e.raw_size, StatusCode::kCorruptData,
                         label + ": codec none but stored_size " + dec(e.stored_size) + " != raw_size " +
                             dec(e.raw_size));
   } else if (e.codec == Codec::kZstd) {
-    RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForZstdCodec), StatusCode::kCorruptData,
-                        label + ": zstd codec in a version " + dec(version.major) + "." + dec(version.minor) + " file");
+    RGS_RETURN_IF_ERROR(require_version(f, kMinVersionForZstdCodec, label + ": zstd codec"));
     uint64_t max_raw = 0;
     const bool bounded = detail::checked_mul(e.stored_size, detail::kZstdMaxExpansion, &max_raw);
     RGS_RETURN_ERROR_IF(bounded && e.raw_size > max_raw, StatusCode::kCorruptData,
@@ -468,9 +474,7 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
   } else if (is_archive_codec(e.codec)) {
     // §3.3 Archive codecs: gated by version and the required flag, only on their sections, headers
     // checked here (the point or code count before anything is allocated from it).
-    RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForArchiveCodecs), StatusCode::kCorruptData,
-                        label + ": " + codec_name(e.codec) + " codec in a version " + dec(version.major) + "." +
-                            dec(version.minor) + " file");
+    RGS_RETURN_IF_ERROR(require_version(f, kMinVersionForArchiveCodecs, label + ": " + codec_name(e.codec) + " codec"));
     RGS_RETURN_ERROR_IF((f.header_.required_flags & kRequiredFlagArchiveCodecs) == 0, StatusCode::kCorruptData,
                         label + ": " + codec_name(e.codec) + " codec without the archive-codecs required flag");
     RGS_RETURN_ERROR_IF(!detail::archive_codec_allowed(e.id, e.codec), StatusCode::kCorruptData,
@@ -489,9 +493,7 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
     // the converse).
     RGS_RETURN_ERROR_IF(xz && (f.header_.required_flags & kRequiredFlagXzCodes) == 0, StatusCode::kCorruptData,
                         label + ": codes in an .xz stream without their required flag");
-    RGS_RETURN_ERROR_IF(xz && !version_at_least(version, kMinVersionForXzCodes), StatusCode::kCorruptData,
-                        label + ": codes in an .xz stream in a version " + dec(version.major) + "." +
-                            dec(version.minor) + " file");
+    if (xz) RGS_RETURN_IF_ERROR(require_version(f, kMinVersionForXzCodes, label + ": codes in an .xz stream"));
   }
   return Status();
 }
@@ -619,29 +621,27 @@ Status RgsFileAccess::parse(RgsFile* f) {
     s = detail::decode_metadata(raw.data(), raw.size(), &f->metadata_);
     if (!s.ok()) return s.prepend(section_label(meta_index, meta->id));
   }
-  const FormatVersion version{f->header_.major, f->header_.minor};
   const ReadLimits& limits = f->options_.limits;
   RGS_RETURN_ERROR_IF(f->metadata_.sh_degree > limits.max_sh_degree, StatusCode::kLimitExceeded,
                       "SH degree " + dec(f->metadata_.sh_degree) + " exceeds the limit of " +
                           dec(limits.max_sh_degree));
-  RGS_RETURN_ERROR_IF(f->metadata_.scale_encoding == ScaleEncoding::kLog &&
-                          !version_at_least(version, kMinVersionForLogScales),
-                      StatusCode::kCorruptData, "log scales in a version " + dec(version.major) + "." +
-                                                    dec(version.minor) + " file");
+  if (f->metadata_.scale_encoding == ScaleEncoding::kLog) {
+    RGS_RETURN_IF_ERROR(require_version(*f, kMinVersionForLogScales, "log scales"));
+  }
   // §2.2 The anti-aliased scene's flag, in a 1.6 file.
   f->metadata_.antialiased = (f->header_.required_flags & kRequiredFlagAntialiased) != 0;
-  RGS_RETURN_ERROR_IF(f->metadata_.antialiased && !version_at_least(version, kMinVersionForAntialiased),
-                      StatusCode::kCorruptData, "the anti-aliased flag in a version " + dec(version.major) + "." +
-                                                    dec(version.minor) + " file");
+  if (f->metadata_.antialiased) {
+    RGS_RETURN_IF_ERROR(require_version(*f, kMinVersionForAntialiased, "the anti-aliased flag"));
+  }
 
   for (size_t i = 0; i < f->sections_.size(); ++i) {
     RGS_RETURN_IF_ERROR(check_layout(*f, i, f->metadata_.sh_degree));
   }
 
   if (const SectionEntry* residual = f->find(SectionId::kShDcResidual)) {
-    RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForShDcResidual), StatusCode::kCorruptData,
-                        section_label(static_cast<size_t>(residual - f->sections_.data()), residual->id) +
-                            " in a version " + dec(version.major) + "." + dec(version.minor) + " file");
+    RGS_RETURN_IF_ERROR(require_version(
+        *f, kMinVersionForShDcResidual,
+        section_label(static_cast<size_t>(residual - f->sections_.data()), residual->id)));
   }
 
   RGS_RETURN_IF_ERROR(parse_lod(f));
@@ -652,8 +652,7 @@ Status RgsFileAccess::parse(RgsFile* f) {
   if (const SectionEntry* prov = f->find(SectionId::kProvenance)) {
     const size_t index = static_cast<size_t>(prov - f->sections_.data());
     const std::string label = section_label(index, prov->id);
-    RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForProvenance), StatusCode::kCorruptData,
-                        label + " in a version " + dec(version.major) + "." + dec(version.minor) + " file");
+    RGS_RETURN_IF_ERROR(require_version(*f, kMinVersionForProvenance, label));
     RGS_RETURN_ERROR_IF(prov->raw_size > limits.max_provenance_bytes, StatusCode::kLimitExceeded,
                         label + ": " + dec(prov->raw_size) + " bytes exceed the limit of " +
                             dec(limits.max_provenance_bytes));
@@ -679,11 +678,7 @@ Status RgsFileAccess::check_sh_colour_differences(const RgsFile& f) {
   const std::string label = section_label(static_cast<size_t>(e - f.sections_.data()), e->id);
   RGS_RETURN_ERROR_IF(!flagged, StatusCode::kCorruptData,
                       label + ": transform 6 (colour differences) without its required flag");
-  const FormatVersion version{f.header_.major, f.header_.minor};
-  RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForShColourDifferences), StatusCode::kCorruptData,
-                      label + ": transform 6 (colour differences) in a version " + dec(version.major) + "." +
-                          dec(version.minor) + " file");
-  return Status();
+  return require_version(f, kMinVersionForShColourDifferences, label + ": transform 6 (colour differences)");
 }
 
 Status RgsFileAccess::check_xz_codes(const RgsFile& f) {
@@ -710,9 +705,7 @@ Status RgsFileAccess::parse_lod(RgsFile* f) {
   const size_t index = static_cast<size_t>(e - f->sections_.data());
   const std::string label = section_label(index, e->id);
   RGS_RETURN_ERROR_IF(!flagged, StatusCode::kCorruptData, label + " without the level-of-detail required flag");
-  const FormatVersion version{f->header_.major, f->header_.minor};
-  RGS_RETURN_ERROR_IF(!version_at_least(version, kMinVersionForLod), StatusCode::kCorruptData,
-                      label + " in a version " + dec(version.major) + "." + dec(version.minor) + " file");
+  RGS_RETURN_IF_ERROR(require_version(*f, kMinVersionForLod, label));
   for (size_t i = 0; i < f->sections_.size(); ++i) {
     const SectionEntry& s = f->sections_[i];
     detail::SectionLayout layout;
@@ -748,21 +741,11 @@ Status RgsFileAccess::check_range_index(const RgsFile& f, uint32_t level, uint32
 
 LodRangeView RgsFileAccess::range_view(const RgsFile& f, uint32_t level, uint32_t chunk) {
   const LodLevel& v = f.lod_->at(level, chunk);
-  LodRangeView view;
-  view.first = v.first;
-  view.count = v.count;
-  auto part = [&](SectionId id, uint64_t record) {
-    const SectionEntry* e = f.find(id);
-    if (e == nullptr) return ByteView{};
-    return ByteView{f.data_ + e->offset + v.first * record, static_cast<size_t>(v.count * record)};
-  };
-  view.means = part(SectionId::kMeans, 12);
-  view.rotations = part(SectionId::kRotations, 8);
-  view.scales = part(SectionId::kScales, 6);
-  view.opacities = part(SectionId::kOpacities, 2);
-  view.sh = part(SectionId::kSh, 3 * sh_coefficient_count(f.metadata_.sh_degree));
-  view.sh_dc_residual = part(SectionId::kShDcResidual, 3);
-  return view;
+  std::array<const uint8_t*, 6> parts{};
+  for (size_t a = 0; a < 6; ++a) {
+    if (const SectionEntry* e = f.find(detail::kGaussianSections[a])) parts[a] = f.data_ + e->offset;
+  }
+  return detail::lod_range_view(parts, v.first, v.count, f.metadata_.sh_degree);
 }
 
 Result<LodRangeView> RgsFile::lod_range(uint32_t level, uint32_t chunk) const {
@@ -942,8 +925,7 @@ Result<EncodedScene> RgsFile::read_scene() const {
     // Checksums, frames and values first, in bounded memory: a damaged zstd frame or an invalid value fails
     // before the arrays it claims are allocated, and no path renders values the spec rules out. Archive
     // sections decode whole either way: decode_array checks them once decoded, instead of decoding twice.
-    for (SectionId id : {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
-                         SectionId::kSh, SectionId::kShDcResidual}) {
+    for (SectionId id : detail::kGaussianSections) {
       const SectionEntry* e = find(id);
       if (id == SectionId::kShDcResidual && e == nullptr) continue;  // optional
       if (e != nullptr && is_archive_codec(e->codec)) continue;
@@ -970,25 +952,15 @@ Result<EncodedScene> RgsFile::read_scene() const {
       if (!scene.sh_dc_residual.empty()) scene.sh_dc_residual.resize(n * 3);
       // Every level-0 range of the copy is checked as a loader of ranges checks its copy (read_lod_range):
       // its XXH64 and the chunk sphere's rule, which the sections' checks above do not cover.
-      const auto bytes = [](const auto& array, uint64_t first, uint64_t record) {
-        return ByteView{reinterpret_cast<const uint8_t*>(array.data()) + first * record,
-                        static_cast<size_t>(record)};
+      const auto bytes = [](const auto& array) {
+        return array.empty() ? nullptr : reinterpret_cast<const uint8_t*>(array.data());
       };
+      const std::array<const uint8_t*, 6> parts = {bytes(scene.means),     bytes(scene.rotations), bytes(scene.scales),
+                                                   bytes(scene.opacities), bytes(scene.sh),
+                                                   bytes(scene.sh_dc_residual)};
       for (uint32_t chunk = 0; chunk < lod_->chunk_count; ++chunk) {
         const LodLevel& r = lod_->at(0, chunk);
-        LodRangeView view;
-        view.first = r.first;
-        view.count = r.count;
-        view.means = bytes(scene.means, r.first, 12);
-        view.rotations = bytes(scene.rotations, r.first, 8);
-        view.scales = bytes(scene.scales, r.first, 6);
-        view.opacities = bytes(scene.opacities, r.first, 2);
-        view.sh = bytes(scene.sh, r.first, k3);
-        if (!scene.sh_dc_residual.empty()) view.sh_dc_residual = bytes(scene.sh_dc_residual, r.first, 3);
-        for (ByteView* v : {&view.means, &view.rotations, &view.scales, &view.opacities, &view.sh,
-                            &view.sh_dc_residual}) {
-          v->size *= static_cast<size_t>(r.count);
-        }
+        const LodRangeView view = detail::lod_range_view(parts, r.first, r.count, metadata_.sh_degree);
         Status s = detail::check_lod_range(*lod_, 0, chunk, view, metadata_, options_.verify_checksums);
         if (!s.ok()) return s.prepend(name_);
       }

@@ -12,12 +12,6 @@ namespace rgs::format {
 namespace detail {
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
-
 std::string triple(const float v[3]) { return "(" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + ")"; }
 
 std::string gaussian(uint64_t index) { return "Gaussian " + dec(index) + ": "; }

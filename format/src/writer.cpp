@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <functional>
 #include <memory>
@@ -134,16 +135,15 @@ uint32_t threads_per_job(uint32_t threads, size_t jobs) {
   return static_cast<uint32_t>((threads + n - 1) / n);
 }
 
-void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what,
-              std::vector<Status>* results) {
-  results->assign(jobs.size(), Status());
+Status run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, const char* what) {
+  std::vector<Status> results(jobs.size());
   std::atomic<size_t> next{0};
   auto worker = [&] {
     for (size_t j; (j = next.fetch_add(1)) < jobs.size();) {
       try {  // nothing may escape a thread: error messages allocate
-        (*results)[j] = jobs[j]();
+        results[j] = jobs[j]();
       } catch (const std::exception&) {
-        (*results)[j] = Status(StatusCode::kOutOfMemory, std::string("out of memory ") + what);
+        results[j] = Status(StatusCode::kOutOfMemory, std::string("out of memory ") + what);
       }
     }
   };
@@ -158,6 +158,8 @@ void run_jobs(std::vector<std::function<Status()>>& jobs, uint32_t threads, cons
   }
   worker();
   for (std::thread& t : pool) t.join();
+  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
+  return Status();
 }
 
 }  // namespace detail
@@ -168,7 +170,8 @@ using detail::ByteWriter;
 using detail::dec;
 
 /// One section as it will be written: raw bytes (a view into the scene, or owned when they had to be
-/// encoded), the zstd frame when compressed, and its place in the file.
+/// encoded; null when a StreamedScene produces them as the file is written), the zstd or archive-coded frame
+/// when compressed, and its place in the file.
 struct PlannedSection {
   SectionId id{};
   Codec codec = Codec::kNone;
@@ -183,6 +186,19 @@ struct PlannedSection {
 
   const uint8_t* stored() const { return codec != Codec::kNone ? compressed.data() : raw; }
   uint64_t stored_size() const { return codec != Codec::kNone ? compressed.size() : raw_size; }
+  bool streamed() const { return raw == nullptr && raw_size > 0; }
+};
+
+/// A file ready to be written: its sections in §4 order with their offsets, and what its header (§2) holds.
+struct PlannedFile {
+  std::vector<PlannedSection> sections;
+  SceneMetadata metadata;
+  uint64_t count = 0;
+  uint32_t required_flags = 0;
+  FormatVersion version;
+  uint64_t table_end = 0, file_size = 0;
+  /// Produces the bytes of the streamed sections (StreamedScene::produce); unset for an in-memory scene.
+  std::function<Status(SectionId, const ChunkSink&)> produce;
 };
 
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidArgument, message); }
@@ -200,20 +216,6 @@ Status check_scene_shape(const EncodedScene& scene) {
                    "), opacities " + dec(scene.opacities.size()) + " (" + dec(scene.count) + "), sh " +
                    dec(scene.sh.size()) + " (" + dec(scene.count * k * 3) + "), sh_dc_residual " +
                    dec(scene.sh_dc_residual.size()) + " (0 or " + dec(scene.count * 3) + ")");
-  }
-  return Status();
-}
-
-/// Checks the values of Gaussians [begin, end) (SPEC §4.3–§4.7); the first bad one in index order.
-Status check_values(const EncodedScene& scene, uint64_t begin, uint64_t end) {
-  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
-  for (uint64_t i = begin; i < end; ++i) {
-    Status s = detail::check_mean(&scene.means[i * 3], i, scene.metadata.bounds);
-    if (s.ok()) s = detail::check_rotation(&scene.rotations[i * 4], i);
-    if (s.ok()) s = detail::check_scale(&scene.scales[i * 3], i, scene.metadata.scale_encoding);
-    if (s.ok()) s = detail::check_opacity(scene.opacities[i], i);
-    if (s.ok()) s = detail::check_sh(&scene.sh[i * k3], k3, i);
-    if (!s.ok()) return invalid(s.message());
   }
   return Status();
 }
@@ -241,64 +243,70 @@ Status check_options(const WriteOptions& options) {
   return Status();
 }
 
-/// §4.9 Adds the lod section of `index` after the runtime sections of `plan`: the index checked against the
-/// scene (its structure, each range's values and chunk sphere) and each range's checksum computed, split
-/// over two threads by range. Errors are kInvalidArgument naming the chunk and level.
-Status add_lod_section(const LodIndex& index, const EncodedScene& scene, const WriteOptions& options,
-                       std::vector<PlannedSection>* plan) {
-  if (Status s = detail::check_lod_structure(index, scene.count); !s.ok()) return invalid(s.message());
-  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
-  auto raw_of = [&](SectionId id) -> const uint8_t* {
-    for (const PlannedSection& s : *plan) {
-      if (s.id == id) return s.raw;
-    }
-    return nullptr;
-  };
-  const uint8_t* means = raw_of(SectionId::kMeans);
-  const uint8_t* rotations = raw_of(SectionId::kRotations);
-  const uint8_t* scales = raw_of(SectionId::kScales);
-  const uint8_t* opacities = raw_of(SectionId::kOpacities);
-  const uint8_t* sh = raw_of(SectionId::kSh);
-  const uint8_t* residual = raw_of(SectionId::kShDcResidual);
-  LodIndex checked = index;
-  const size_t records = checked.levels.size();
-  auto check_records = [&](size_t begin, size_t end) {
-    for (size_t r = begin; r < end; ++r) {
-      const uint32_t level = static_cast<uint32_t>(r / checked.chunk_count);
-      const uint32_t chunk = static_cast<uint32_t>(r % checked.chunk_count);
-      LodLevel& v = checked.levels[r];
-      auto view = [&](const uint8_t* base, uint64_t record) {
-        return base == nullptr ? ByteView{} : ByteView{base + v.first * record, static_cast<size_t>(v.count * record)};
-      };
-      const LodRangeView range{v.first,         v.count,          view(means, 12), view(rotations, 8),
-                               view(scales, 6), view(opacities, 2), view(sh, k3),  view(residual, 3)};
-      Status s = detail::check_lod_range(checked, level, chunk, range, scene.metadata, false);
-      if (!s.ok()) return invalid(s.message());
-      v.checksum = detail::lod_range_checksum(range);
-    }
-    return Status();
-  };
-  std::vector<std::function<Status()>> halves = {[&] { return check_records(0, records / 2); },
-                                                 [&] { return check_records(records / 2, records); }};
-  std::vector<Status> results;
-  detail::run_jobs(halves, 2, "checking the level-of-detail ranges", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
-  PlannedSection& section = plan->emplace_back();
-  section.id = SectionId::kLod;
-  section.owned_raw = detail::encode_lod(checked);
-  section.raw = section.owned_raw.data();
-  section.raw_size = section.owned_raw.size();
-  section.element_count = section.raw_size;
-  const auto codec = options.codecs.find(SectionId::kLod);
-  if (codec != options.codecs.end()) section.codec = codec->second;
+/// Appends section `id` of `count` elements (SPEC §3.1 layout of a scene of SH degree `sh_degree`, raw_size
+/// from it) to `plan`, with the codec `options` asks for; its bytes are set by the caller.
+PlannedSection& add_section(SectionId id, uint64_t count, uint32_t sh_degree, const WriteOptions& options,
+                            std::vector<PlannedSection>* plan) {
+  PlannedSection& s = plan->emplace_back();
+  detail::SectionLayout layout;
+  (void)detail::expected_layout(id, sh_degree, &layout);  // every id added here is known
+  s.id = id;
+  s.element_type = layout.element_type;
+  s.components = layout.components;
+  s.element_count = count;
+  s.raw_size = count * layout.components * element_type_size(layout.element_type);
+  const auto it = options.codecs.find(id);
+  s.codec = it == options.codecs.end() ? Codec::kNone : it->second;
+  return s;
+}
+
+/// Appends a section whose raw bytes are `bytes` (owned by the section).
+void add_owned_section(SectionId id, std::vector<uint8_t> bytes, const WriteOptions& options, PlannedFile* file) {
+  PlannedSection& s = add_section(id, bytes.size(), 0, options, &file->sections);
+  s.owned_raw = std::move(bytes);
+  s.raw = s.owned_raw.data();
+}
+
+/// Starts the plan of a scene of `count` Gaussians: the options and metadata checked, then the sections in §4
+/// order, metadata, provenance (only when non-empty), means, rotations, scales, opacities, sh and, with
+/// `residual`, sh_dc_residual, the per-Gaussian ones without their bytes.
+Status plan_sections(const SceneMetadata& metadata, const Provenance& provenance, uint64_t count, bool residual,
+                     const WriteOptions& options, PlannedFile* file) {
+  RGS_RETURN_IF_ERROR(check_options(options));
+  if (Status s = detail::check_metadata(metadata); !s.ok()) return invalid("metadata: " + s.message());
+  uint64_t provenance_bytes = 0;
+  std::string why;
+  if (!detail::provenance_size(provenance, &provenance_bytes, &why)) return invalid(why);
+  file->metadata = metadata;
+  file->count = count;
+  file->required_flags = metadata.antialiased ? kRequiredFlagAntialiased : 0;
+  file->sections.reserve(9);
+  std::vector<uint8_t> bytes(kMetadataSize);
+  detail::encode_metadata(metadata, bytes.data());
+  add_owned_section(SectionId::kMetadata, std::move(bytes), options, file);
+  if (!provenance.empty()) {
+    bytes.assign(static_cast<size_t>(provenance_bytes), 0);
+    detail::encode_provenance(provenance, bytes.data(), bytes.size());
+    add_owned_section(SectionId::kProvenance, std::move(bytes), options, file);
+  }
+  for (SectionId id : detail::kGaussianSections) {
+    if (id != SectionId::kShDcResidual || residual) add_section(id, count, metadata.sh_degree, options, &file->sections);
+  }
   return Status();
+}
+
+/// The planned section `id`, or null.
+PlannedSection* find_section(PlannedFile* file, SectionId id) {
+  for (PlannedSection& s : file->sections) {
+    if (s.id == id) return &s;
+  }
+  return nullptr;
 }
 
 /// Points a section at a typed array's raw little-endian bytes: the array itself on little-endian
 /// hosts, an encoded copy otherwise.
 template <typename T>
 void set_array_raw(PlannedSection* s, const std::vector<T>& values) {
-  s->raw_size = uint64_t{values.size()} * sizeof(T);
   if constexpr (detail::kHostLittleEndian || sizeof(T) == 1) {
     s->raw = reinterpret_cast<const uint8_t*>(values.data());
   } else {
@@ -315,110 +323,108 @@ void set_array_raw(PlannedSection* s, const std::vector<T>& values) {
   }
 }
 
-/// A file ready to be written: its sections (stored bytes, checksums, offsets) and its header + table.
-struct PlannedFile {
-  std::vector<PlannedSection> sections;
-  /// Header and section table, kHeaderSize + entries × kSectionEntrySize bytes; sections follow.
-  std::vector<uint8_t> head;
-  uint64_t file_size = 0;
-};
-
-/// Adds the sections of `scene` to `file` in §4 order: metadata, provenance (only when non-empty,
-/// `provenance_bytes` long), then the runtime sections, each with the codec `options` asks for. With
-/// `archive`, the runtime sections take its stored bytes (moved out). Returns the file's required flags.
-/// Appends section `id` of `count` elements (SPEC §3.1 layout of a scene of SH degree `sh_degree`) to `plan`,
-/// with the codec `options` asks for; its bytes are set by the caller.
-PlannedSection& add_section(SectionId id, uint64_t count, uint32_t sh_degree, const WriteOptions& options,
-                            std::vector<PlannedSection>* plan) {
-  PlannedSection& s = plan->emplace_back();
-  detail::SectionLayout layout;
-  (void)detail::expected_layout(id, sh_degree, &layout);  // every id added here is known
-  s.id = id;
-  s.element_type = layout.element_type;
-  s.components = layout.components;
-  s.element_count = count;
-  const auto it = options.codecs.find(id);
-  s.codec = it == options.codecs.end() ? Codec::kNone : it->second;
-  return s;
+/// Plans the sections of an in-memory `scene` (its shape checked) with their bytes: views of its arrays.
+Status plan_scene(const EncodedScene& scene, bool residual, const WriteOptions& options, PlannedFile* file) {
+  RGS_RETURN_IF_ERROR(check_scene_shape(scene));
+  RGS_RETURN_IF_ERROR(plan_sections(scene.metadata, scene.provenance, scene.count, residual, options, file));
+  set_array_raw(find_section(file, SectionId::kMeans), scene.means);
+  set_array_raw(find_section(file, SectionId::kRotations), scene.rotations);
+  set_array_raw(find_section(file, SectionId::kScales), scene.scales);
+  set_array_raw(find_section(file, SectionId::kOpacities), scene.opacities);
+  set_array_raw(find_section(file, SectionId::kSh), scene.sh);
+  if (residual) set_array_raw(find_section(file, SectionId::kShDcResidual), scene.sh_dc_residual);
+  return Status();
 }
 
-/// Adds the metadata section and, when `provenance` is not empty, the provenance section of
-/// `provenance_bytes` (§4.1, §4.2).
-void add_head_sections(const SceneMetadata& metadata, const Provenance& provenance, uint64_t provenance_bytes,
-                       const WriteOptions& options, std::vector<PlannedSection>* plan) {
-  auto add_owned = [&](SectionId id, uint64_t size) {
-    PlannedSection& s = add_section(id, size, metadata.sh_degree, options, plan);
-    s.owned_raw.resize(size);
-    s.raw = s.owned_raw.data();
-    s.raw_size = size;
-    return s.owned_raw.data();
+/// §4.3–§4.7 Checks the values of every per-Gaussian section of `file` that has its bytes, as the reader does
+/// (check_records: the first bad Gaussian of the first section that has one), as kInvalidArgument.
+Status check_values(const PlannedFile& file) {
+  for (const PlannedSection& s : file.sections) {
+    if (s.raw == nullptr || s.element_count == 0) continue;  // check_records passes other sections
+    const uint64_t record = s.raw_size / s.element_count;
+    Status st = detail::check_records(s.id, file.metadata, s.raw, static_cast<size_t>(s.element_count),
+                                      static_cast<size_t>(record), 0);
+    if (!st.ok()) return invalid(st.message());
+  }
+  return Status();
+}
+
+/// §4.9 Adds the lod section of `index` after the runtime sections of `file`: the index's structure checked
+/// against the scene and, when the sections have their bytes, each range's values and chunk sphere checked and
+/// its checksum computed, split over two threads by range; the checksums of `index` are kept otherwise.
+/// Errors are kInvalidArgument naming the chunk and level.
+Status add_lod_section(const LodIndex& index, const WriteOptions& options, PlannedFile* file) {
+  if (Status s = detail::check_lod_structure(index, file->count); !s.ok()) return invalid(s.message());
+  file->required_flags |= kRequiredFlagLod;
+  const PlannedSection* means = find_section(file, SectionId::kMeans);
+  if (means->streamed()) {
+    add_owned_section(SectionId::kLod, detail::encode_lod(index), options, file);
+    return Status();
+  }
+  std::array<const uint8_t*, 6> parts{};
+  for (size_t a = 0; a < 6; ++a) {
+    if (const PlannedSection* s = find_section(file, detail::kGaussianSections[a])) parts[a] = s->raw;
+  }
+  LodIndex checked = index;
+  const size_t records = checked.levels.size();
+  auto check_records = [&](size_t begin, size_t end) {
+    for (size_t r = begin; r < end; ++r) {
+      const uint32_t level = static_cast<uint32_t>(r / checked.chunk_count);
+      const uint32_t chunk = static_cast<uint32_t>(r % checked.chunk_count);
+      LodLevel& v = checked.levels[r];
+      const LodRangeView range = detail::lod_range_view(parts, v.first, v.count, file->metadata.sh_degree);
+      Status s = detail::check_lod_range(checked, level, chunk, range, file->metadata, false);
+      if (!s.ok()) return invalid(s.message());
+      v.checksum = detail::lod_range_checksum(range);
+    }
+    return Status();
   };
-  detail::encode_metadata(metadata, add_owned(SectionId::kMetadata, kMetadataSize));
-  if (!provenance.empty()) {
-    detail::encode_provenance(provenance, add_owned(SectionId::kProvenance, provenance_bytes), provenance_bytes);
+  std::vector<std::function<Status()>> halves = {[&] { return check_records(0, records / 2); },
+                                                 [&] { return check_records(records / 2, records); }};
+  RGS_RETURN_IF_ERROR(detail::run_jobs(halves, 2, "checking the level-of-detail ranges"));
+  add_owned_section(SectionId::kLod, detail::encode_lod(checked), options, file);
+  return Status();
+}
+
+/// §3.3 Gives the per-Gaussian sections of `file`, in the order means, rotations, scales, opacities, sh, the
+/// archive codecs and `archive`'s stored bytes (moved out), and sets the flags they need; an empty scene keeps
+/// codec none (nothing to code).
+void use_archive_codecs(ArchiveScene* archive, PlannedFile* file) {
+  if (file->count == 0) return;
+  const SectionId ids[5] = {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
+                            SectionId::kSh};
+  for (size_t i = 0; i < 5; ++i) {
+    PlannedSection& s = *find_section(file, ids[i]);
+    s.codec = i == 0 ? Codec::kDraco : Codec::kQuantized;
+    s.compressed = std::move(archive->stored[i]);
+    if (i > 0 && detail::quantized_codes_are_xz(s.compressed.data(), s.compressed.size())) {
+      file->required_flags |= kRequiredFlagXzCodes;
+    }
+  }
+  file->required_flags |= kRequiredFlagArchiveCodecs;
+  // §2.2 The sh section's first byte is its transform (§3.3.2).
+  if (find_section(file, SectionId::kSh)->compressed[0] ==
+      static_cast<uint8_t>(detail::QuantizedTransform::kShColourDifferences)) {
+    file->required_flags |= kRequiredFlagShColourDifferences;
   }
 }
 
-uint32_t add_sections(const EncodedScene& scene, const WriteOptions& options, uint64_t provenance_bytes,
-                      ArchiveScene* archive, PlannedFile* file) {
-  const uint64_t n = scene.count;
-  std::vector<PlannedSection>& plan = file->sections;
-  plan.reserve(8);
-  auto add = [&](SectionId id, uint64_t count) -> PlannedSection& {
-    return add_section(id, count, scene.metadata.sh_degree, options, &plan);
-  };
-  add_head_sections(scene.metadata, scene.provenance, provenance_bytes, options, &plan);
-  set_array_raw(&add(SectionId::kMeans, n), scene.means);
-  set_array_raw(&add(SectionId::kRotations, n), scene.rotations);
-  set_array_raw(&add(SectionId::kScales, n), scene.scales);
-  set_array_raw(&add(SectionId::kOpacities, n), scene.opacities);
-  set_array_raw(&add(SectionId::kSh, n), scene.sh);
-  // §4.8 The archive stores the DC term at its INT8 step (times its multiplier), without the residual.
-  if (!scene.sh_dc_residual.empty() && archive == nullptr) {
-    set_array_raw(&add(SectionId::kShDcResidual, n), scene.sh_dc_residual);
-  }
-  uint32_t required_flags = 0;
-  if (archive != nullptr) {
-    // §3.3 The per-Gaussian sections, in the order means, rotations, scales, opacities, sh, take the
-    // archive codecs; an empty scene keeps codec none (nothing to code).
-    const size_t first = plan.size() - 5;
-    for (size_t i = 0; i < 5; ++i) {
-      PlannedSection& s = plan[first + i];
-      s.codec = n == 0 ? Codec::kNone : i == 0 ? Codec::kDraco : Codec::kQuantized;
-      if (n > 0) s.compressed = std::move(archive->stored[i]);
-    }
-    if (n > 0) required_flags |= kRequiredFlagArchiveCodecs;
-    // §2.2 The sh section's first byte is its transform (§3.3.2).
-    const std::vector<uint8_t>& sh = plan[first + 4].compressed;
-    if (n > 0 && sh[0] == static_cast<uint8_t>(detail::QuantizedTransform::kShColourDifferences)) {
-      required_flags |= kRequiredFlagShColourDifferences;
-    }
-    for (size_t i = 1; i < 5 && n > 0; ++i) {
-      const std::vector<uint8_t>& stored = plan[first + i].compressed;
-      if (detail::quantized_codes_are_xz(stored.data(), stored.size())) required_flags |= kRequiredFlagXzCodes;
-    }
-  }
-  return required_flags;
-}
-
-/// §6 The oldest version that has every feature the file uses.
-FormatVersion file_version(const SceneMetadata& metadata, const Provenance& provenance,
-                           const std::vector<PlannedSection>& plan, uint32_t required_flags) {
+/// §6 The oldest version that has every feature `file` uses.
+FormatVersion file_version(const PlannedFile& file) {
   FormatVersion version{kFormatMajor, 0};
   auto require = [&version](FormatVersion v) {
     if (!version_at_least(version, v)) version = v;
   };
-  if (!provenance.empty()) require(kMinVersionForProvenance);
-  if (metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
-  if (required_flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
-  if (required_flags & kRequiredFlagLod) require(kMinVersionForLod);
-  if (required_flags & kRequiredFlagShColourDifferences) require(kMinVersionForShColourDifferences);
-  if (required_flags & kRequiredFlagXzCodes) require(kMinVersionForXzCodes);
-  if (required_flags & kRequiredFlagAntialiased) require(kMinVersionForAntialiased);
-  for (const PlannedSection& s : plan) {
+  const uint32_t flags = file.required_flags;
+  if (file.metadata.scale_encoding == ScaleEncoding::kLog) require(kMinVersionForLogScales);
+  if (flags & kRequiredFlagArchiveCodecs) require(kMinVersionForArchiveCodecs);
+  if (flags & kRequiredFlagLod) require(kMinVersionForLod);
+  if (flags & kRequiredFlagShColourDifferences) require(kMinVersionForShColourDifferences);
+  if (flags & kRequiredFlagXzCodes) require(kMinVersionForXzCodes);
+  if (flags & kRequiredFlagAntialiased) require(kMinVersionForAntialiased);
+  for (const PlannedSection& s : file.sections) {
+    if (s.id == SectionId::kProvenance) require(kMinVersionForProvenance);
     if (s.id == SectionId::kShDcResidual) require(kMinVersionForShDcResidual);
-  }
-  for (const PlannedSection& s : plan) {
     if (s.codec == Codec::kZstd) require(kMinVersionForZstdCodec);
   }
   return version;
@@ -438,17 +444,16 @@ Status compress_sections(const WriteOptions& options, std::vector<PlannedSection
       return st.ok() ? st : st.prepend(std::string("section ") + section_name(s.id));
     });
   }
-  std::vector<Status> results;
-  detail::run_jobs(jobs, options.threads, "compressing sections", &results);
-  for (const Status& st : results) RGS_RETURN_IF_ERROR(st);
-  return Status();
+  return detail::run_jobs(jobs, options.threads, "compressing sections");
 }
 
-/// §3 Layout: the table after the header, each section at the next multiple of kSectionAlignment. Sets the
-/// sections' offsets and `file_size`; returns the end of the table.
-Result<uint64_t> lay_out(PlannedFile* file) {
-  const uint64_t table_end = kHeaderSize + uint64_t{kSectionEntrySize} * file->sections.size();
-  uint64_t end = table_end;
+/// Ends the plan of `file`: its version, the zstd sections compressed and the §3 layout, the table after the
+/// header and each section at the next multiple of kSectionAlignment.
+Status finish_plan(const WriteOptions& options, PlannedFile* file) {
+  file->version = file_version(*file);
+  RGS_RETURN_IF_ERROR(compress_sections(options, &file->sections));
+  file->table_end = kHeaderSize + uint64_t{kSectionEntrySize} * file->sections.size();
+  uint64_t end = file->table_end;
   for (PlannedSection& s : file->sections) {
     if (!detail::checked_align_up(end, kSectionAlignment, &s.offset) ||
         !detail::checked_add(s.offset, s.stored_size(), &end)) {
@@ -457,52 +462,50 @@ Result<uint64_t> lay_out(PlannedFile* file) {
   }
   if (end > SIZE_MAX) return Status(StatusCode::kOutOfMemory, "file of " + dec(end) + " bytes exceeds memory");
   file->file_size = end;
-  return table_end;
+  return Status();
 }
 
-/// Value checks (SPEC §4.3–§4.7) and section checksums (§3.2), each split over two threads: the first
-/// half of the Gaussians and the last section of `plan` on this thread, the rest on another. The first
-/// bad Gaussian in index order is reported, as a sequential check would. Returns one checksum per section.
-Result<std::vector<uint64_t>> check_and_checksum(const EncodedScene& scene, const std::vector<PlannedSection>& plan) {
-  const uint64_t n = scene.count;
-  std::vector<uint64_t> checksums(plan.size());
-  const size_t sh_index = plan.size() - 1;
-  std::vector<std::function<Status()>> halves = {
-      [&] {
-        checksums[sh_index] = detail::xxh64(plan[sh_index].stored(), plan[sh_index].stored_size());
-        return check_values(scene, 0, n / 2);
-      },
-      [&] {
-        for (size_t i = 0; i < sh_index; ++i) checksums[i] = detail::xxh64(plan[i].stored(), plan[i].stored_size());
-        return check_values(scene, n / 2, n);
-      }};
-  std::vector<Status> results;
-  detail::run_jobs(halves, 2, "reporting an invalid Gaussian", &results);
-  for (const Status& s : results) RGS_RETURN_IF_ERROR(s);
-  return checksums;
+/// Checks `scene` and `options` and lays the file out: everything but writing the section bytes. With the
+/// archive profile, `archive` receives the archive-coded scene, whose decoded arrays the plan points into.
+Status plan_file(const EncodedScene& scene, const WriteOptions& options, std::optional<ArchiveScene>* archive,
+                 PlannedFile* file) {
+  RGS_RETURN_IF_ERROR(check_options(options));
+  const EncodedScene* planned = &scene;
+  if (options.profile == StorageProfile::kArchive) {
+    PlannedFile source;
+    RGS_RETURN_IF_ERROR(plan_scene(scene, !scene.sh_dc_residual.empty(), options, &source));
+    RGS_RETURN_IF_ERROR(check_values(source));
+    RGS_ASSIGN_OR_RETURN(ArchiveScene encoded, encode_archive(scene, options.archive, options.archive_earlier));
+    planned = &archive->emplace(std::move(encoded)).decoded;
+  }
+  // §4.8 The archive stores the DC term at its INT8 step (times its multiplier), without the residual.
+  const bool residual = !planned->sh_dc_residual.empty() && !archive->has_value();
+  RGS_RETURN_IF_ERROR(plan_scene(*planned, residual, options, file));
+  RGS_RETURN_IF_ERROR(check_values(*file));
+  if (archive->has_value()) use_archive_codecs(&**archive, file);
+  if (options.lod != nullptr) RGS_RETURN_IF_ERROR(add_lod_section(*options.lod, options, file));
+  return finish_plan(options, file);
 }
 
-/// Encodes the header (§2) and the section table (§3.1) of a laid-out `file` of `count` Gaussians into
-/// `file->head`, `table_end` bytes.
-Status encode_head(FormatVersion version, uint32_t required_flags, uint64_t count, uint64_t table_end,
-                   const std::vector<uint64_t>& checksums, PlannedFile* file) {
-  const std::vector<PlannedSection>& plan = file->sections;
-  file->head.resize(static_cast<size_t>(table_end));  // zero-filled: reserved fields
-  ByteWriter header(file->head.data(), kHeaderSize);
+/// Encodes the header (§2) and the section table (§3.1) of a laid-out `file` whose sections have the
+/// `checksums`, table_end bytes.
+std::vector<uint8_t> encode_head(const PlannedFile& file, const std::vector<uint64_t>& checksums) {
+  std::vector<uint8_t> head(static_cast<size_t>(file.table_end));  // zero-filled: reserved fields
+  ByteWriter header(head.data(), kHeaderSize);
   for (uint8_t b : kMagic) header.put_u8(b);
-  header.put_u16(version.major);
-  header.put_u16(version.minor);
+  header.put_u16(file.version.major);
+  header.put_u16(file.version.minor);
   header.put_u32(kHeaderSize);
-  header.put_u32(required_flags);  // §2.2
+  header.put_u32(file.required_flags);  // §2.2
   header.put_u32(0);  // optional flags
-  header.put_u64(count);
-  header.put_u32(static_cast<uint32_t>(plan.size()));
+  header.put_u64(file.count);
+  header.put_u32(static_cast<uint32_t>(file.sections.size()));
   header.put_u32(0);  // reserved
   header.put_u64(kHeaderSize);  // table offset
-  header.put_u64(file->file_size);
-  ByteWriter table(file->head.data() + kHeaderSize, static_cast<size_t>(table_end - kHeaderSize));
-  for (size_t i = 0; i < plan.size(); ++i) {
-    const PlannedSection& s = plan[i];
+  header.put_u64(file.file_size);
+  ByteWriter table(head.data() + kHeaderSize, head.size() - kHeaderSize);
+  for (size_t i = 0; i < file.sections.size(); ++i) {
+    const PlannedSection& s = file.sections[i];
     table.put_u32(static_cast<uint32_t>(s.id));
     table.put_u16(static_cast<uint16_t>(s.codec));
     table.put_u16(static_cast<uint16_t>(s.element_type));
@@ -515,193 +518,38 @@ Status encode_head(FormatVersion version, uint32_t required_flags, uint64_t coun
     table.put_u64(checksums[i]);
     table.put_u64(0);  // reserved
   }
-  header.put_u64(
-      detail::header_checksum(file->head.data(), file->head.data() + kHeaderSize, table_end - kHeaderSize));
-  if (!header.ok() || !table.ok() || header.position() != kHeaderSize || table.position() != table_end - kHeaderSize) {
-    return Status(StatusCode::kInvalidArgument, "internal error: header or table size mismatch");
-  }
-  return Status();
+  header.put_u64(detail::header_checksum(head.data(), head.data() + kHeaderSize, head.size() - kHeaderSize));
+  return head;
 }
 
-/// Checks `scene` and `options` and lays the file out: everything but copying the section bytes. With
-/// `archive`, `scene` is its decoded scene and the runtime sections take its stored bytes (moved out).
-Result<PlannedFile> plan_file(const EncodedScene& scene, const WriteOptions& options, ArchiveScene* archive) {
-  RGS_RETURN_IF_ERROR(check_options(options));
-  RGS_RETURN_IF_ERROR(check_scene_shape(scene));
-  uint64_t provenance_bytes = 0;
-  std::string why;
-  if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return invalid(why);
-  PlannedFile file;
-  uint32_t required_flags = add_sections(scene, options, provenance_bytes, archive, &file);
-  if (scene.metadata.antialiased) required_flags |= kRequiredFlagAntialiased;
-  if (options.lod != nullptr) {
-    RGS_RETURN_IF_ERROR(add_lod_section(*options.lod, scene, options, &file.sections));
-    required_flags |= kRequiredFlagLod;
-  }
-  const FormatVersion version = file_version(scene.metadata, scene.provenance, file.sections, required_flags);
-  RGS_RETURN_IF_ERROR(compress_sections(options, &file.sections));
-  RGS_ASSIGN_OR_RETURN(const uint64_t table_end, lay_out(&file));
-  RGS_ASSIGN_OR_RETURN(const std::vector<uint64_t> checksums, check_and_checksum(scene, file.sections));
-  RGS_RETURN_IF_ERROR(encode_head(version, required_flags, scene.count, table_end, checksums, &file));
-  return file;
-}
+/// Writes `size` bytes at byte `offset` of the file being written.
+using WriteAt = std::function<Status(uint64_t offset, const void* data, size_t size)>;
 
-/// Emits the planned file in order: header + table, then each section after its zero padding.
-Status emit_file(const PlannedFile& file, const std::function<Status(const void*, size_t)>& sink) {
-  static const uint8_t kZeros[kSectionAlignment] = {};
-  RGS_RETURN_IF_ERROR(sink(file.head.data(), file.head.size()));
-  uint64_t position = file.head.size();
-  for (const PlannedSection& s : file.sections) {
-    if (s.offset > position) RGS_RETURN_IF_ERROR(sink(kZeros, static_cast<size_t>(s.offset - position)));
-    if (s.stored_size() > 0) RGS_RETURN_IF_ERROR(sink(s.stored(), static_cast<size_t>(s.stored_size())));
-    position = s.offset + s.stored_size();
-  }
-  return Status();
-}
-
-/// Plans the file of `scene` in the chosen profile; `archive` keeps the archive-coded scene alive while the
-/// plan points into it.
-Result<PlannedFile> plan_profile(const EncodedScene& scene, const WriteOptions& options,
-                                 std::optional<ArchiveScene>* archive) {
-  if (options.profile != StorageProfile::kArchive) return plan_file(scene, options, nullptr);
-  RGS_RETURN_IF_ERROR(check_options(options));
-  RGS_RETURN_IF_ERROR(check_scene_shape(scene));
-  RGS_RETURN_IF_ERROR(check_values(scene, 0, scene.count));
-  RGS_ASSIGN_OR_RETURN(ArchiveScene encoded, encode_archive(scene, options.archive, options.archive_earlier));
-  archive->emplace(std::move(encoded));
-  return plan_file((*archive)->decoded, options, &**archive);
-}
-
-Result<std::vector<uint8_t>> serialize_checked(const EncodedScene& scene, const WriteOptions& options) {
-  std::optional<ArchiveScene> archive;
-  RGS_ASSIGN_OR_RETURN(PlannedFile file, plan_profile(scene, options, &archive));
-  std::vector<uint8_t> out;
-  out.reserve(static_cast<size_t>(file.file_size));
-  RGS_RETURN_IF_ERROR(emit_file(file, [&out](const void* data, size_t size) {
-    const uint8_t* bytes = static_cast<const uint8_t*>(data);
-    out.insert(out.end(), bytes, bytes + size);
-    return Status();
-  }));
-  return out;
-}
-
-/// fn(), with an allocation failure turned into kOutOfMemory naming the scene's size.
-template <typename Fn>
-auto catch_out_of_memory(const EncodedScene& scene, Fn&& fn) -> decltype(fn()) {
-  try {
-    return fn();
-  } catch (const std::bad_alloc&) {
-  } catch (const std::length_error&) {
-  }
-  return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(scene.count) + " Gaussians");
-}
-
-}  // namespace
-
-Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options) {
-  return catch_out_of_memory(scene, [&] { return serialize_checked(scene, options); });
-}
-
-Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options,
-                                  FileSink& files, ArchiveScene* archive_out) {
-  // Streams the sections from the scene's own arrays (no serialized copy of the whole file in memory).
-  std::optional<ArchiveScene> archive;
-  auto file = catch_out_of_memory(scene, [&] { return plan_profile(scene, options, &archive); });
-  if (!file.ok()) return Status(file.status()).prepend(path);
-  RGS_RETURN_IF_ERROR(files.write(path, [&](const ChunkSink& sink) { return emit_file(*file, sink); }));
-  if (archive_out != nullptr && archive) *archive_out = std::move(*archive);  // the plan is not used again
-  return file->file_size;
-}
-
-namespace {
-
-/// Element bytes of per-Gaussian section `id` in a scene of `k3` SH values a Gaussian.
-uint64_t element_bytes(SectionId id, uint64_t k3) {
-  switch (id) {
-    case SectionId::kMeans: return 12;
-    case SectionId::kRotations: return 8;
-    case SectionId::kScales: return 6;
-    case SectionId::kOpacities: return 2;
-    case SectionId::kSh: return k3;
-    default: return 3;  // kShDcResidual
-  }
-}
-
-/// Checks element `index` of per-Gaussian section `id` (SPEC §4.3–§4.7), as check_values() does.
-Status check_element(SectionId id, const uint8_t* element, uint64_t index, uint64_t k3, const SceneMetadata& metadata) {
-  Status s;
-  switch (id) {
-    case SectionId::kMeans: {
-      float xyz[3];
-      std::memcpy(xyz, element, sizeof xyz);
-      s = detail::check_mean(xyz, index, metadata.bounds);
-      break;
-    }
-    case SectionId::kRotations: {
-      uint16_t wxyz[4];
-      std::memcpy(wxyz, element, sizeof wxyz);
-      s = detail::check_rotation(wxyz, index);
-      break;
-    }
-    case SectionId::kScales: {
-      uint16_t xyz[3];
-      std::memcpy(xyz, element, sizeof xyz);
-      s = detail::check_scale(xyz, index, metadata.scale_encoding);
-      break;
-    }
-    case SectionId::kOpacities: {
-      uint16_t v;
-      std::memcpy(&v, element, sizeof v);
-      s = detail::check_opacity(v, index);
-      break;
-    }
-    case SectionId::kSh: s = detail::check_sh(reinterpret_cast<const int8_t*>(element), k3, index); break;
-    default: break;
-  }
-  return s.ok() ? s : invalid(s.message());
-}
-
-/// pwrite() of all of [data, data + size) at `offset`.
-Status write_at(int fd, const void* data, size_t size, uint64_t offset, const std::string& path) {
-  const uint8_t* bytes = static_cast<const uint8_t*>(data);
-  while (size > 0) {
-    const ssize_t done = ::pwrite(fd, bytes, size, static_cast<off_t>(offset));
-    if (done < 0 && errno == EINTR) continue;
-    if (done <= 0) return Status(StatusCode::kIoError, "cannot write " + path + ": " + std::strerror(errno));
-    bytes += done;
-    size -= static_cast<size_t>(done);
-    offset += static_cast<uint64_t>(done);
-  }
-  return Status();
-}
-
-/// Writes the planned `file` into the open `fd`: the stored sections as they are, the streamed ones from
-/// scene.produce (checked, hashed and written as they come), then the header and table with their checksums.
-Status emit_streamed(int fd, const std::string& path, const StreamedScene& scene, FormatVersion version,
-                     uint32_t required_flags, uint64_t table_end, PlannedFile* file) {
-  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
+/// Writes the planned `file` through `write_at`: each section at its offset (a streamed one from file.produce,
+/// its values checked and its checksum computed as it comes), then the header and table with the checksums.
+/// The padding between sections is left to the destination, which holds zeros there.
+Status emit_file(const PlannedFile& file, const WriteAt& write_at) {
   std::vector<uint64_t> checksums;
-  for (const PlannedSection& section : file->sections) {
-    if (section.raw != nullptr || section.raw_size == 0) {
-      RGS_RETURN_IF_ERROR(write_at(fd, section.stored(), static_cast<size_t>(section.stored_size()), section.offset, path));
+  for (const PlannedSection& section : file.sections) {
+    if (!section.streamed()) {
+      RGS_RETURN_IF_ERROR(write_at(section.offset, section.stored(), static_cast<size_t>(section.stored_size())));
       checksums.push_back(detail::xxh64(section.stored(), section.stored_size()));
       continue;
     }
     std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> hash(XXH64_createState(), XXH64_freeState);
     if (!hash) return Status(StatusCode::kOutOfMemory, "cannot allocate an XXH64 state");
     XXH64_reset(hash.get(), 0);
-    const uint64_t width = element_bytes(section.id, k3);
+    const uint64_t width = section.raw_size / file.count;
     uint64_t written = 0;
-    const Status produced = scene.produce(section.id, [&](const void* data, size_t size) -> Status {
+    const Status produced = file.produce(section.id, [&](const void* data, size_t size) -> Status {
       const auto* bytes = static_cast<const uint8_t*>(data);
       RGS_RETURN_ERROR_IF(size % width != 0 || written + size > section.raw_size, StatusCode::kInvalidArgument,
                           std::string("internal error: section ") + section_name(section.id) +
                               " streamed in pieces that are not whole elements or past its size");
-      for (uint64_t e = 0; e < size / width; ++e) {
-        RGS_RETURN_IF_ERROR(check_element(section.id, bytes + e * width, written / width + e, k3, scene.metadata));
-      }
+      Status s = detail::check_records(section.id, file.metadata, bytes, size / width, width, written / width);
+      if (!s.ok()) return invalid(s.message());
       XXH64_update(hash.get(), bytes, size);
-      RGS_RETURN_IF_ERROR(write_at(fd, bytes, size, section.offset + written, path));
+      RGS_RETURN_IF_ERROR(write_at(section.offset + written, bytes, size));
       written += size;
       return Status();
     });
@@ -711,59 +559,93 @@ Status emit_streamed(int fd, const std::string& path, const StreamedScene& scene
                             dec(written) + " bytes of " + dec(section.raw_size));
     checksums.push_back(static_cast<uint64_t>(XXH64_digest(hash.get())));
   }
-  RGS_RETURN_IF_ERROR(encode_head(version, required_flags, scene.count, table_end, checksums, file));
-  RGS_RETURN_IF_ERROR(write_at(fd, file->head.data(), file->head.size(), 0, path));
-  if (::ftruncate(fd, static_cast<off_t>(file->file_size)) != 0) {
-    return Status(StatusCode::kIoError, "cannot size " + path + ": " + std::strerror(errno));
+  const std::vector<uint8_t> head = encode_head(file, checksums);
+  return write_at(0, head.data(), head.size());
+}
+
+/// Writes the planned `file` to `path` through `files`: pwrite() into the staged temporary.
+Status write_planned(const std::string& path, const PlannedFile& file, FileSink& files) {
+  return files.write_by_name(path, [&](const std::string& temporary) -> Status {
+    const int fd = ::open(temporary.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0) return Status(StatusCode::kIoError, "cannot open " + temporary + ": " + std::strerror(errno));
+    Status s = emit_file(file, [&](uint64_t offset, const void* data, size_t size) {
+      for (const uint8_t* bytes = static_cast<const uint8_t*>(data); size > 0;) {
+        const ssize_t done = ::pwrite(fd, bytes, size, static_cast<off_t>(offset));
+        if (done < 0 && errno == EINTR) continue;
+        if (done <= 0) return Status(StatusCode::kIoError, "cannot write " + path + ": " + std::strerror(errno));
+        bytes += done;
+        size -= static_cast<size_t>(done);
+        offset += static_cast<uint64_t>(done);
+      }
+      return Status();
+    });
+    if (s.ok() && ::ftruncate(fd, static_cast<off_t>(file.file_size)) != 0) {
+      s = Status(StatusCode::kIoError, "cannot size " + path + ": " + std::strerror(errno));
+    }
+    if (::close(fd) != 0 && s.ok()) s = Status(StatusCode::kIoError, "cannot close " + path + ": " + std::strerror(errno));
+    return s;
+  });
+}
+
+/// fn(), with an allocation failure turned into kOutOfMemory naming the scene's size.
+template <typename Fn>
+Status catch_out_of_memory(uint64_t count, Fn&& fn) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+  } catch (const std::length_error&) {
   }
-  return Status();
+  return Status(StatusCode::kOutOfMemory, "out of memory serializing " + dec(count) + " Gaussians");
 }
 
 }  // namespace
 
+Result<std::vector<uint8_t>> serialize_scene(const EncodedScene& scene, const WriteOptions& options) {
+  std::vector<uint8_t> out;
+  Status s = catch_out_of_memory(scene.count, [&] {
+    std::optional<ArchiveScene> archive;
+    PlannedFile file;
+    RGS_RETURN_IF_ERROR(plan_file(scene, options, &archive, &file));
+    out.assign(static_cast<size_t>(file.file_size), 0);
+    return emit_file(file, [&out](uint64_t offset, const void* data, size_t size) {
+      if (size > 0) std::memcpy(out.data() + offset, data, size);
+      return Status();
+    });
+  });
+  if (!s.ok()) return s;
+  return out;
+}
+
+Result<uint64_t> write_scene_file(const std::string& path, const EncodedScene& scene, const WriteOptions& options,
+                                  FileSink& files, ArchiveScene* archive_out) {
+  // Writes the sections from the scene's own arrays (no serialized copy of the whole file in memory).
+  std::optional<ArchiveScene> archive;
+  PlannedFile file;
+  Status s = catch_out_of_memory(scene.count, [&] { return plan_file(scene, options, &archive, &file); });
+  if (!s.ok()) return s.prepend(path);
+  RGS_RETURN_IF_ERROR(write_planned(path, file, files));
+  if (archive_out != nullptr && archive) *archive_out = std::move(*archive);  // the plan is not used again
+  return file.file_size;
+}
+
 Result<uint64_t> write_streamed_scene_file(const std::string& path, const StreamedScene& scene,
                                            const WriteOptions& options, FileSink& files) {
-  auto fail = [&](const Status& s) { return Status(s).prepend(path); };
-  if (Status s = check_options(options); !s.ok()) return fail(s);
-  if (options.profile != StorageProfile::kRuntime) return fail(invalid("a streamed scene is written in the runtime profile"));
-  if (Status s = detail::check_metadata(scene.metadata); !s.ok()) return fail(invalid("metadata: " + s.message()));
-  uint64_t provenance_bytes = 0;
-  std::string why;
-  if (!detail::provenance_size(scene.provenance, &provenance_bytes, &why)) return fail(invalid(why));
   PlannedFile file;
-  add_head_sections(scene.metadata, scene.provenance, provenance_bytes, options, &file.sections);
-  const uint64_t k3 = uint64_t{3} * sh_coefficient_count(scene.metadata.sh_degree);
-  std::vector<SectionId> ids = {SectionId::kMeans, SectionId::kRotations, SectionId::kScales, SectionId::kOpacities,
-                                SectionId::kSh};
-  if (scene.sh_dc_residual) ids.push_back(SectionId::kShDcResidual);
-  for (SectionId id : ids) {
-    PlannedSection& section = add_section(id, scene.count, scene.metadata.sh_degree, options, &file.sections);
-    if (section.codec != Codec::kNone) {
-      return fail(invalid(std::string("a streamed scene stores section ") + section_name(id) + " raw"));
+  Status s = catch_out_of_memory(scene.count, [&] {
+    RGS_RETURN_IF_ERROR(plan_sections(scene.metadata, scene.provenance, scene.count, scene.sh_dc_residual, options,
+                                      &file));
+    RGS_RETURN_ERROR_IF(options.profile != StorageProfile::kRuntime, StatusCode::kInvalidArgument,
+                        "a streamed scene is written in the runtime profile");
+    for (const PlannedSection& section : file.sections) {
+      RGS_RETURN_ERROR_IF(section.streamed() && section.codec != Codec::kNone, StatusCode::kInvalidArgument,
+                          std::string("a streamed scene stores section ") + section_name(section.id) + " raw");
     }
-    section.raw_size = scene.count * element_bytes(id, k3);
-  }
-  uint32_t required_flags = scene.metadata.antialiased ? kRequiredFlagAntialiased : 0;
-  if (options.lod != nullptr) {
-    if (Status s = detail::check_lod_structure(*options.lod, scene.count); !s.ok()) return fail(invalid(s.message()));
-    PlannedSection& section = add_section(SectionId::kLod, 0, scene.metadata.sh_degree, options, &file.sections);
-    section.owned_raw = detail::encode_lod(*options.lod);
-    section.raw = section.owned_raw.data();
-    section.raw_size = section.owned_raw.size();
-    section.element_count = section.raw_size;
-    required_flags |= kRequiredFlagLod;
-  }
-  const FormatVersion version = file_version(scene.metadata, scene.provenance, file.sections, required_flags);
-  if (Status s = compress_sections(options, &file.sections); !s.ok()) return fail(s);
-  auto table_end = lay_out(&file);
-  if (!table_end.ok()) return fail(table_end.status());
-  RGS_RETURN_IF_ERROR(files.write_by_name(path, [&](const std::string& temporary) -> Status {
-    const int fd = ::open(temporary.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC | O_NOFOLLOW);
-    if (fd < 0) return Status(StatusCode::kIoError, "cannot open " + temporary + ": " + std::strerror(errno));
-    Status s = emit_streamed(fd, path, scene, version, required_flags, *table_end, &file);
-    if (::close(fd) != 0 && s.ok()) s = Status(StatusCode::kIoError, "cannot close " + path + ": " + std::strerror(errno));
-    return s;
-  }));
+    if (options.lod != nullptr) RGS_RETURN_IF_ERROR(add_lod_section(*options.lod, options, &file));
+    return finish_plan(options, &file);
+  });
+  if (!s.ok()) return s.prepend(path);
+  file.produce = scene.produce;
+  RGS_RETURN_IF_ERROR(write_planned(path, file, files));
   return file.file_size;
 }
 
