@@ -168,22 +168,6 @@ Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uin
   return s;
 }
 
-Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std::vector<uint8_t>* out) {
-  int fd = -1;
-  uint64_t size = 0;
-  RGS_RETURN_IF_ERROR(open_regular(path, &fd, &size));
-  Status s;
-  if (offset > size || n > size - offset) {
-    s = Status(StatusCode::kIoError, path + ": bytes [" + std::to_string(offset) + ", " + std::to_string(offset + n) +
-                                         ") lie past the end of the " + std::to_string(size) + "-byte file");
-  } else {
-    out->resize(static_cast<size_t>(n));
-    s = read_exact(fd, path, out->data(), out->size(), offset);
-  }
-  ::close(fd);
-  return s;
-}
-
 // --- SceneFolder ----------------------------------------------------------------------------------
 
 SceneFolder::SceneFolder(std::string root, std::string entry) : root_(std::move(root)) {
@@ -315,32 +299,21 @@ Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* si
   return check_regular(fd, path, size, identity);
 }
 
-Status SceneFolder::read(const std::string& relative, uint64_t max_bytes, std::vector<uint8_t>* out) const {
-  int fd = -1;
-  uint64_t size = 0;
-  FileIdentity identity;
-  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size, &identity));
-  record(relative, identity, std::min(size, max_bytes));
-  if (size > max_bytes) {
-    ::close(fd);
-    return Status(StatusCode::kLimitExceeded, display_bounded(relative) + ": file is " + std::to_string(size) +
-                                                  " bytes, above the limit of " + std::to_string(max_bytes));
-  }
-  return read_and_close(fd, display_bounded(relative), size, out);
-}
-
-Status SceneFolder::read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const {
+Status SceneFolder::read(const std::string& relative, uint64_t n, std::vector<uint8_t>* out, bool prefix) const {
   int fd = -1;
   uint64_t size = 0;
   FileIdentity identity;
   RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size, &identity));
   record(relative, identity, std::min(size, n));
-  if (size < n) {
+  const std::string path = display_bounded(relative);
+  if (prefix ? size < n : size > n) {
     ::close(fd);
-    return Status(StatusCode::kCorruptData, display_bounded(relative) + ": file has " + std::to_string(size) +
-                                                " bytes, fewer than the " + std::to_string(n) + " declared");
+    return prefix ? Status(StatusCode::kCorruptData, path + ": file has " + std::to_string(size) +
+                                                         " bytes, fewer than the " + std::to_string(n) + " declared")
+                  : Status(StatusCode::kLimitExceeded, path + ": file is " + std::to_string(size) +
+                                                           " bytes, above the limit of " + std::to_string(n));
   }
-  return read_and_close(fd, display_bounded(relative), n, out);
+  return read_and_close(fd, path, prefix ? n : size, out);
 }
 
 }  // namespace rgs::converter::detail
