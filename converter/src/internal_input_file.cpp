@@ -53,18 +53,18 @@ Status open_regular(const std::string& path, int* fd, uint64_t* size) {
   return check_regular(fd, path, size);
 }
 
-namespace {
-
-Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0) {
+Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset) {
+  const std::string where = path.empty() ? std::string() : path + ": ";
   size_t done = 0;
   while (done < n) {
     const ssize_t got = ::pread(fd, dst + done, n - done, static_cast<off_t>(offset + done));
     if (got < 0) {
       if (errno == EINTR) continue;
-      return Status(StatusCode::kIoError, path + ": read failed: " + errno_message(errno));
+      return Status(StatusCode::kIoError, where + "read of " + std::to_string(n) + " bytes at offset " +
+                                              std::to_string(offset) + " failed: " + errno_message(errno));
     }
     if (got == 0) {
-      return Status(StatusCode::kIoError, path + ": file ends at byte " + std::to_string(offset + done) +
+      return Status(StatusCode::kIoError, where + "file ends at byte " + std::to_string(offset + done) +
                                               ", expected " + std::to_string(offset + n) +
                                               " (file changed while reading?)");
     }
@@ -72,6 +72,8 @@ Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint6
   }
   return Status();
 }
+
+namespace {
 
 /// Reads n bytes of `fd` from its start into `out`, allocated once the size is known; closes `fd`.
 Status read_and_close(int fd, const std::string& path, uint64_t n, std::vector<uint8_t>* out) {

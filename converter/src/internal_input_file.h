@@ -21,6 +21,10 @@ Status read_whole_file(const std::string& path, uint64_t max_bytes, std::vector<
 /// Errors name `path`: kIoError (missing, a directory, a FIFO or device, unreadable).
 Status open_regular(const std::string& path, int* fd, uint64_t* size);
 
+/// Reads bytes [offset, offset + n) of the open file `fd` into `dst` (pread: thread safe). Errors: kIoError naming
+/// `path` (unless empty) and the byte range: a failed read, or a file that ends first.
+Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0);
+
 /// Reads up to `max_bytes` from the start of `path` into `out` and its size into `file_size`.
 /// Errors as read_whole_file (kIoError only).
 Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uint8_t>* out, uint64_t* file_size);

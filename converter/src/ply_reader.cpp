@@ -336,21 +336,7 @@ class FileSource final : public ByteSource {
     return buffer_.data();
   }
   Status read_into(uint64_t offset, size_t n, uint8_t* dst) const override {
-    size_t done = 0;
-    while (done < n) {
-      const ssize_t got = ::pread(fd_, dst + done, n - done, static_cast<off_t>(offset + done));
-      if (got < 0) {
-        if (errno == EINTR) continue;
-        return Status(StatusCode::kIoError, "read of " + std::to_string(n) + " bytes at offset " +
-                                                std::to_string(offset) + " failed: " + detail::errno_message(errno));
-      }
-      if (got == 0) {
-        return Status(StatusCode::kIoError, "file ends at byte " + std::to_string(offset + done) + ", expected " +
-                                                std::to_string(offset + n) + " (file changed while reading?)");
-      }
-      done += static_cast<size_t>(got);
-    }
-    return Status();
+    return detail::read_exact(fd_, std::string(), dst, n, offset);
   }
   uint64_t size() const override { return size_; }
 
