@@ -262,10 +262,6 @@ inline void decode_gaussian(const uint8_t* data, const Layout& layout, const Chu
 }
 
 Result<InputScene> read_impl(const uint8_t* data, size_t size, const SceneReadOptions& options) {
-  if (options.lod.has_value()) {
-    return Status(StatusCode::kInvalidArgument,
-                  "a level of detail applies only to streamed SOG (lod-meta.json); this input is a compressed PLY");
-  }
   if (!detail::starts_with_ply_magic(data, size)) {
     return Status(StatusCode::kCorruptData, "not a PLY file (first line is not 'ply')");
   }

@@ -369,7 +369,7 @@ Status Reader::buffer(uint64_t index, const uint8_t** data, uint64_t* size) {
       }
       RGS_ASSIGN_OR_RETURN(std::string file, folder_->resolve(u, "", "glTF",
                                                              "buffers[" + std::to_string(index) + "].uri"));
-      Status read = folder_->read_prefix(file, length, &bytes);
+      Status read = folder_->read(file, length, &bytes, /*prefix=*/true);
       if (!read.ok()) return read.prepend(where);
       buffer_bytes_held_ += length;
       if (buffer_bytes_held_ > detail::decode_budget(input_bytes(file_bytes_), options_.max_decompression_ratio)) {

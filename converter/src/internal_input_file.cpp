@@ -53,18 +53,18 @@ Status open_regular(const std::string& path, int* fd, uint64_t* size) {
   return check_regular(fd, path, size);
 }
 
-namespace {
-
-Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0) {
+Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset) {
+  const std::string where = path.empty() ? std::string() : path + ": ";
   size_t done = 0;
   while (done < n) {
     const ssize_t got = ::pread(fd, dst + done, n - done, static_cast<off_t>(offset + done));
     if (got < 0) {
       if (errno == EINTR) continue;
-      return Status(StatusCode::kIoError, path + ": read failed: " + errno_message(errno));
+      return Status(StatusCode::kIoError, where + "read of " + std::to_string(n) + " bytes at offset " +
+                                              std::to_string(offset) + " failed: " + errno_message(errno));
     }
     if (got == 0) {
-      return Status(StatusCode::kIoError, path + ": file ends at byte " + std::to_string(offset + done) +
+      return Status(StatusCode::kIoError, where + "file ends at byte " + std::to_string(offset + done) +
                                               ", expected " + std::to_string(offset + n) +
                                               " (file changed while reading?)");
     }
@@ -72,6 +72,8 @@ Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint6
   }
   return Status();
 }
+
+namespace {
 
 /// Reads n bytes of `fd` from its start into `out`, allocated once the size is known; closes `fd`.
 Status read_and_close(int fd, const std::string& path, uint64_t n, std::vector<uint8_t>* out) {
@@ -164,22 +166,6 @@ Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uin
   RGS_RETURN_IF_ERROR(open_regular(path, &fd, file_size));
   out->resize(static_cast<size_t>(std::min<uint64_t>(*file_size, max_bytes)));
   Status s = read_exact(fd, path, out->data(), out->size());
-  ::close(fd);
-  return s;
-}
-
-Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std::vector<uint8_t>* out) {
-  int fd = -1;
-  uint64_t size = 0;
-  RGS_RETURN_IF_ERROR(open_regular(path, &fd, &size));
-  Status s;
-  if (offset > size || n > size - offset) {
-    s = Status(StatusCode::kIoError, path + ": bytes [" + std::to_string(offset) + ", " + std::to_string(offset + n) +
-                                         ") lie past the end of the " + std::to_string(size) + "-byte file");
-  } else {
-    out->resize(static_cast<size_t>(n));
-    s = read_exact(fd, path, out->data(), out->size(), offset);
-  }
   ::close(fd);
   return s;
 }
@@ -315,32 +301,21 @@ Status SceneFolder::open_file(const std::string& relative, int* fd, uint64_t* si
   return check_regular(fd, path, size, identity);
 }
 
-Status SceneFolder::read(const std::string& relative, uint64_t max_bytes, std::vector<uint8_t>* out) const {
-  int fd = -1;
-  uint64_t size = 0;
-  FileIdentity identity;
-  RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size, &identity));
-  record(relative, identity, std::min(size, max_bytes));
-  if (size > max_bytes) {
-    ::close(fd);
-    return Status(StatusCode::kLimitExceeded, display_bounded(relative) + ": file is " + std::to_string(size) +
-                                                  " bytes, above the limit of " + std::to_string(max_bytes));
-  }
-  return read_and_close(fd, display_bounded(relative), size, out);
-}
-
-Status SceneFolder::read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const {
+Status SceneFolder::read(const std::string& relative, uint64_t n, std::vector<uint8_t>* out, bool prefix) const {
   int fd = -1;
   uint64_t size = 0;
   FileIdentity identity;
   RGS_RETURN_IF_ERROR(open_file(relative, &fd, &size, &identity));
   record(relative, identity, std::min(size, n));
-  if (size < n) {
+  const std::string path = display_bounded(relative);
+  if (prefix ? size < n : size > n) {
     ::close(fd);
-    return Status(StatusCode::kCorruptData, display_bounded(relative) + ": file has " + std::to_string(size) +
-                                                " bytes, fewer than the " + std::to_string(n) + " declared");
+    return prefix ? Status(StatusCode::kCorruptData, path + ": file has " + std::to_string(size) +
+                                                         " bytes, fewer than the " + std::to_string(n) + " declared")
+                  : Status(StatusCode::kLimitExceeded, path + ": file is " + std::to_string(size) +
+                                                           " bytes, above the limit of " + std::to_string(n));
   }
-  return read_and_close(fd, display_bounded(relative), n, out);
+  return read_and_close(fd, path, prefix ? n : size, out);
 }
 
 }  // namespace rgs::converter::detail

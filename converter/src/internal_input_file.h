@@ -21,13 +21,13 @@ Status read_whole_file(const std::string& path, uint64_t max_bytes, std::vector<
 /// Errors name `path`: kIoError (missing, a directory, a FIFO or device, unreadable).
 Status open_regular(const std::string& path, int* fd, uint64_t* size);
 
+/// Reads bytes [offset, offset + n) of the open file `fd` into `dst` (pread: thread safe). Errors: kIoError naming
+/// `path` (unless empty) and the byte range: a failed read, or a file that ends first.
+Status read_exact(int fd, const std::string& path, uint8_t* dst, size_t n, uint64_t offset = 0);
+
 /// Reads up to `max_bytes` from the start of `path` into `out` and its size into `file_size`.
 /// Errors as read_whole_file (kIoError only).
 Status read_file_head(const std::string& path, size_t max_bytes, std::vector<uint8_t>* out, uint64_t* file_size);
-
-/// Reads bytes [offset, offset + n) of `path` into `out`. Errors as read_whole_file (kIoError when the file
-/// is shorter).
-Status read_file_range(const std::string& path, uint64_t offset, uint64_t n, std::vector<uint8_t>* out);
 
 /// The most bytes a scene's codec layers may decode to: `ratio` times `file_bytes`, counting the files as at
 /// least format::kDecompressionRatioMinBytes (SPEC §5.5, applied to every input format).
@@ -84,14 +84,12 @@ class SceneFolder {
     return resolve_scene_reference(reference, base, where, field);
   }
 
-  /// Reads the regular file at `relative` (from resolve) whole into `out`.
-  /// Errors name the file: kCorruptData (a symbolic link on the way), kIoError (missing, not a regular file,
-  /// unreadable), kLimitExceeded (larger than max_bytes), kOutOfMemory.
-  Status read(const std::string& relative, uint64_t max_bytes, std::vector<uint8_t>* out) const;
-
-  /// Reads the first `n` bytes of the regular file at `relative`; kCorruptData when the file is shorter.
-  /// Nothing is allocated before the file's size is known. Other errors as read().
-  Status read_prefix(const std::string& relative, uint64_t n, std::vector<uint8_t>* out) const;
+  /// Reads the regular file at `relative` (from resolve) whole into `out`, or with `prefix` its first `n` bytes.
+  /// Nothing is allocated before the file's size is known.
+  /// Errors name the file: kCorruptData (a symbolic link on the way; with `prefix` a file shorter than `n`),
+  /// kIoError (missing, not a regular file, unreadable), kLimitExceeded (without `prefix`: larger than `n`),
+  /// kOutOfMemory.
+  Status read(const std::string& relative, uint64_t n, std::vector<uint8_t>* out, bool prefix = false) const;
 
   /// How the file at `relative` is named in files(): the scene folder joined with it.
   std::string display(const std::string& relative) const;

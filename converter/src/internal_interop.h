@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cstdint>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -85,6 +87,35 @@ inline bool finite_bits(float v) {
   uint32_t u;
   std::memcpy(&u, &v, 4);
   return (u & 0x7f800000u) != 0x7f800000u;
+}
+
+/// The InputHygiene rules (docs/INPUT_HYGIENE.md) for Gaussian `i` of `cloud`, whose values are activated: counts
+/// its non-finite values (means, SH, scales, rotation; a NaN opacity) and a zero-norm quaternion into `h` and
+/// normalizes a finite, non-zero quaternion. @return whether the Gaussian is invalid (a policy keeps or drops it).
+inline bool check_gaussian(format::GaussianCloud* cloud, size_t i, InputHygiene* h) {
+  const size_t sv = size_t{cloud->sh_coefficients()} * 3;
+  uint64_t bad = 0;
+  for (int a = 0; a < 3; ++a) bad += !finite_bits(cloud->means[i * 3 + a]) + !finite_bits(cloud->scales[i * 3 + a]);
+  for (size_t j = 0; j < sv; ++j) bad += !finite_bits(cloud->sh[i * sv + j]);
+  bad += std::isnan(cloud->opacities[i]);
+  float* q = cloud->rotations.data() + i * 4;
+  bool zero_norm = false;
+  uint64_t q_bad = 0;
+  for (int a = 0; a < 4; ++a) q_bad += !finite_bits(q[a]);
+  if (q_bad == 0) {
+    double n2 = 0;
+    for (int a = 0; a < 4; ++a) n2 += static_cast<double>(q[a]) * q[a];
+    // A norm² that is zero or subnormal in float32 cannot be normalized by float code (the INRIA loader's
+    // F.normalize would leave a non-unit quaternion), so such rotations are invalid.
+    zero_norm = n2 < static_cast<double>(std::numeric_limits<float>::min());
+    const double inv = zero_norm ? 1.0 : 1.0 / std::sqrt(n2);
+    for (int a = 0; a < 4 && !zero_norm; ++a) q[a] = static_cast<float>(q[a] * inv);
+  }
+  bad += q_bad;
+  h->nonfinite_values += bad;
+  h->gaussians_with_nonfinite += bad != 0;
+  h->zero_norm_quaternions += zero_norm;
+  return bad != 0 || zero_norm;
 }
 
 /// Checks that `cloud` has SH degree <= 3 and arrays sized for its Gaussian count (GaussianCloud::

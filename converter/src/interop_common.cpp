@@ -101,37 +101,9 @@ void apply_axis_flip(const AxisFlip& flip, format::GaussianCloud* cloud) {
 }
 
 Status finish_hygiene(InvalidPolicy policy, const char* what, format::GaussianCloud* cloud, InputHygiene* h) {
-  const size_t n = cloud->size();
-  const size_t sv = size_t{cloud->sh_coefficients()} * 3;
   std::vector<uint64_t> invalid;
-  for (size_t i = 0; i < n; ++i) {
-    uint64_t bad = 0;
-    for (int a = 0; a < 3; ++a) bad += !finite_bits(cloud->means[i * 3 + a]);
-    for (size_t j = 0; j < sv; ++j) bad += !finite_bits(cloud->sh[i * sv + j]);
-    for (int a = 0; a < 3; ++a) bad += !finite_bits(cloud->scales[i * 3 + a]);
-    bad += std::isnan(cloud->opacities[i]);
-    float* q = cloud->rotations.data() + i * 4;
-    bool q_finite = true;
-    for (int a = 0; a < 4; ++a) {
-      const bool f = finite_bits(q[a]);
-      bad += !f;
-      q_finite = q_finite && f;
-    }
-    bool zero_norm = false;
-    if (q_finite) {
-      double n2 = 0;
-      for (int a = 0; a < 4; ++a) n2 += static_cast<double>(q[a]) * q[a];
-      if (n2 < static_cast<double>(std::numeric_limits<float>::min())) {
-        zero_norm = true;
-      } else {
-        const double inv = 1.0 / std::sqrt(n2);
-        for (int a = 0; a < 4; ++a) q[a] = static_cast<float>(q[a] * inv);
-      }
-    }
-    h->nonfinite_values += bad;
-    h->gaussians_with_nonfinite += bad != 0;
-    h->zero_norm_quaternions += zero_norm;
-    if (bad != 0 || zero_norm) invalid.push_back(i);
+  for (size_t i = 0; i < cloud->size(); ++i) {
+    if (check_gaussian(cloud, i, h)) invalid.push_back(i);
   }
   return apply_invalid_policy(policy, what, invalid, cloud, h);
 }

@@ -3,7 +3,7 @@
 //
 // Memory: read_ply() streams the vertex data with pread() through one reusable 1 MB buffer per worker
 // thread, so the peak is the decoded cloud plus a few MB, not the file (mmap'd pages would count toward
-// RSS); read_ply_bytes() decodes the caller's span in place. With PlyReadOptions::hash_file the same
+// RSS); read_ply_bytes() copies the caller's span through the same buffers. With PlyReadOptions::hash_file the same
 // pass feeds the bytes to XXH64 in file order, so the file is read once. PlyStream hashes every one of its passes
 // so, and compares each later pass's hash and the file's identity with the first pass's.
 #include "rgs/converter/ply_reader.h"
@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "internal_huge_pages.h"
+#include "internal_input_file.h"
 #include "internal_interop.h"
 #include "internal_parallel.h"
 #include "internal_ply_header.h"
@@ -211,58 +212,17 @@ inline void gather(const VertexLayout& layout, Get&& get, RawGaussian* g) {
 /// Applies the INRIA activations to Gaussian `i` and stores it; counts problems into `counts`.
 inline void activate_and_store(const RawGaussian& g, uint64_t i, uint32_t sh_values, format::GaussianCloud* cloud,
                                HygieneCounts* counts) {
-  uint64_t bad = 0;
-  float* mean = cloud->means.data() + i * 3;
-  for (int a = 0; a < 3; ++a) {
-    mean[a] = g.mean[a];
-    bad += !detail::finite_bits(g.mean[a]);
-  }
-  float* sh = cloud->sh.data() + i * sh_values;
-  for (uint32_t j = 0; j < sh_values; ++j) {
-    sh[j] = g.sh[j];
-    bad += !detail::finite_bits(g.sh[j]);
-  }
-  float* scale = cloud->scales.data() + i * 3;
+  std::copy(g.mean, g.mean + 3, cloud->means.data() + i * 3);
+  std::copy(g.sh, g.sh + sh_values, cloud->sh.data() + i * sh_values);
+  std::copy(g.rot, g.rot + 4, cloud->rotations.data() + i * 4);
   for (int a = 0; a < 3; ++a) {
     // exp(-inf) = 0 is a valid (degenerate) scale, the PLY encoding of scale 0; exp overflow is not.
-    scale[a] = to_float(std::exp(static_cast<double>(g.scale[a])));
-    bad += !detail::finite_bits(scale[a]);
+    cloud->scales[i * 3 + a] = to_float(std::exp(static_cast<double>(g.scale[a])));
   }
-  const float logit = g.opacity;
-  if (std::isnan(logit)) {
-    ++bad;
-    cloud->opacities[i] = logit;
-  } else {
-    counts->infinite_opacity_logits += std::isinf(logit);
-    // sigmoid; ±inf give exactly 1 and 0.
-    cloud->opacities[i] = static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(logit))));
-  }
-  float* rot = cloud->rotations.data() + i * 4;
-  bool rot_finite = true;
-  for (int a = 0; a < 4; ++a) rot_finite = rot_finite && detail::finite_bits(g.rot[a]);
-  bool zero_norm = false;
-  if (!rot_finite) {
-    for (int a = 0; a < 4; ++a) {
-      rot[a] = g.rot[a];
-      bad += !detail::finite_bits(g.rot[a]);
-    }
-  } else {
-    double n2 = 0;
-    for (int a = 0; a < 4; ++a) n2 += static_cast<double>(g.rot[a]) * g.rot[a];
-    // A norm² that is zero or subnormal in float32 cannot be normalized by float code (the INRIA
-    // loader's F.normalize would leave a non-unit quaternion), so such rotations are invalid.
-    if (n2 < static_cast<double>(std::numeric_limits<float>::min())) {
-      zero_norm = true;
-      for (int a = 0; a < 4; ++a) rot[a] = g.rot[a];
-    } else {
-      const double inv = 1.0 / std::sqrt(n2);
-      for (int a = 0; a < 4; ++a) rot[a] = static_cast<float>(g.rot[a] * inv);
-    }
-  }
-  counts->nonfinite_values += bad;
-  counts->gaussians_with_nonfinite += bad != 0;
-  counts->zero_norm_quaternions += zero_norm;
-  if (bad != 0 || zero_norm) counts->invalid.push_back(i);
+  // sigmoid; ±inf give exactly 1 and 0, NaN stays NaN.
+  counts->infinite_opacity_logits += std::isinf(g.opacity);
+  cloud->opacities[i] = static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(g.opacity))));
+  if (detail::check_gaussian(cloud, i, counts)) counts->invalid.push_back(i);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -328,8 +288,6 @@ class ByteSource {
   /// Bytes [offset, offset + n), valid until the next call. The caller keeps the range inside size().
   /// Not thread safe.
   virtual Result<const uint8_t*> view(uint64_t offset, size_t n) = 0;
-  /// The whole content when it is already in memory, else null.
-  virtual const uint8_t* memory() const = 0;
   /// Copies bytes [offset, offset + n) into `dst`. Thread safe.
   virtual Status read_into(uint64_t offset, size_t n, uint8_t* dst) const = 0;
   virtual uint64_t size() const = 0;
@@ -339,7 +297,6 @@ class MemorySource final : public ByteSource {
  public:
   MemorySource(const uint8_t* data, size_t size) : data_(data), size_(size) {}
   Result<const uint8_t*> view(uint64_t offset, size_t /*n*/) override { return data_ + offset; }
-  const uint8_t* memory() const override { return data_; }
   Status read_into(uint64_t offset, size_t n, uint8_t* dst) const override {
     if (n != 0) std::memcpy(dst, data_ + offset, n);
     return Status();
@@ -351,13 +308,6 @@ class MemorySource final : public ByteSource {
   size_t size_;
 };
 
-std::string errno_text(int err) {
-  if (err == ENOENT) return "no such file or directory";
-  if (err == EACCES) return "permission denied";
-  if (err == EISDIR) return "is a directory";
-  return std::strerror(err);
-}
-
 class FileSource final : public ByteSource {
  public:
   ~FileSource() override {
@@ -365,9 +315,9 @@ class FileSource final : public ByteSource {
   }
   Status open(const std::string& path) {
     fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);  // a FIFO is refused, not waited on
-    if (fd_ < 0) return Status(StatusCode::kIoError, "cannot open: " + errno_text(errno));
+    if (fd_ < 0) return Status(StatusCode::kIoError, "cannot open: " + detail::errno_message(errno));
     struct stat st;
-    if (::fstat(fd_, &st) != 0) return Status(StatusCode::kIoError, "cannot stat: " + errno_text(errno));
+    if (::fstat(fd_, &st) != 0) return Status(StatusCode::kIoError, "cannot stat: " + detail::errno_message(errno));
     if (S_ISDIR(st.st_mode)) return Status(StatusCode::kIoError, "is a directory, not a PLY file");
     if (!S_ISREG(st.st_mode)) return Status(StatusCode::kIoError, "not a regular file");
     size_ = static_cast<uint64_t>(st.st_size);
@@ -385,23 +335,8 @@ class FileSource final : public ByteSource {
     RGS_RETURN_IF_ERROR(read_into(offset, n, buffer_.data()));
     return buffer_.data();
   }
-  const uint8_t* memory() const override { return nullptr; }
   Status read_into(uint64_t offset, size_t n, uint8_t* dst) const override {
-    size_t done = 0;
-    while (done < n) {
-      const ssize_t got = ::pread(fd_, dst + done, n - done, static_cast<off_t>(offset + done));
-      if (got < 0) {
-        if (errno == EINTR) continue;
-        return Status(StatusCode::kIoError, "read of " + std::to_string(n) + " bytes at offset " +
-                                                std::to_string(offset) + " failed: " + errno_text(errno));
-      }
-      if (got == 0) {
-        return Status(StatusCode::kIoError, "file ends at byte " + std::to_string(offset + done) + ", expected " +
-                                                std::to_string(offset + n) + " (file changed while reading?)");
-      }
-      done += static_cast<size_t>(got);
-    }
-    return Status();
+    return detail::read_exact(fd_, std::string(), dst, n, offset);
   }
   uint64_t size() const override { return size_; }
 
@@ -445,66 +380,46 @@ class OrderedHasher {
   bool aborted_ = false;
 };
 
-/// Decodes the binary vertex rows. From memory, workers take contiguous slices. From a file, workers
-/// claim chunks of about kFileChunkBytes in file order, each reading into its own buffer (pread is thread
-/// safe), so reading and decoding both run in parallel while memory stays at one buffer per worker; when
-/// `hasher` is set, each chunk is also fed to it in file order right after it is read (still in cache).
-/// Counts are kept per slice or chunk and merged in file order, so the result does not depend on the
+/// Decodes the binary vertex rows: workers claim chunks of about kFileChunkBytes in file order, each reading into
+/// its own buffer (pread is thread safe), so reading and decoding both run in parallel while memory stays at one
+/// buffer per worker; when `hasher` is set, each chunk is also fed to it in file order right after it is read
+/// (still in cache). Counts are kept per chunk and merged in file order, so the result does not depend on the
 /// number of workers or on which worker decoded a chunk.
 Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n, const VertexLayout& layout,
                      bool swap, OrderedHasher* hasher, format::GaussianCloud* cloud, HygieneCounts* total) {
   const unsigned workers = detail::worker_count(n, kMinRowsPerWorker);
   const size_t stride = layout.stride;
-  auto decode = [&](const uint8_t* rows, uint64_t count, uint64_t first, HygieneCounts* counts) {
-    if (layout.all_float_native) {
-      decode_binary_rows<true>(rows, count, first, layout, swap, cloud, counts);
-    } else {
-      decode_binary_rows<false>(rows, count, first, layout, swap, cloud, counts);
-    }
-  };
-  std::vector<HygieneCounts> parts;
-  std::vector<Status> errors;
-  if (const uint8_t* memory = source.memory()) {
-    parts.resize(workers);
-    errors.resize(workers);
-    RGS_RETURN_IF_ERROR(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t b, uint64_t e) {
+  const uint64_t chunk_rows = std::max<uint64_t>(1, kFileChunkBytes / stride);
+  const uint64_t chunks = n == 0 ? 0 : (n - 1) / chunk_rows + 1;
+  std::vector<HygieneCounts> parts(static_cast<size_t>(chunks));
+  std::vector<Status> errors(static_cast<size_t>(chunks));
+  std::vector<std::vector<uint8_t>> buffers(workers);
+  for (auto& b : buffers) b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
+  std::atomic<bool> failed{false};
+  RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned t, uint64_t c) {
+    if (failed.load(std::memory_order_relaxed)) return;
+    const uint64_t first = c * chunk_rows;
+    const uint64_t rows = std::min(chunk_rows, n - first);
+    const size_t bytes = static_cast<size_t>(rows * stride);
+    Status s = source.read_into(data_offset + first * stride, bytes, buffers[t].data());
+    if (s.ok() && hasher != nullptr && !hasher->update(c, buffers[t].data(), bytes)) return;  // aborted
+    if (s.ok()) {
       try {  // the invalid-index list can grow; name what ran out
-        decode(memory + data_offset + b * stride, e - b, b, &parts[t]);
+        if (layout.all_float_native) {
+          decode_binary_rows<true>(buffers[t].data(), rows, first, layout, swap, cloud, &parts[c]);
+        } else {
+          decode_binary_rows<false>(buffers[t].data(), rows, first, layout, swap, cloud, &parts[c]);
+        }
       } catch (const std::bad_alloc&) {
-        errors[t] = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
+        s = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
       }
-    }));
-  } else {
-    const uint64_t chunk_rows = std::max<uint64_t>(1, kFileChunkBytes / stride);
-    const uint64_t chunks = n == 0 ? 0 : (n - 1) / chunk_rows + 1;
-    parts.resize(static_cast<size_t>(chunks));
-    errors.resize(static_cast<size_t>(chunks));
-    std::vector<std::vector<uint8_t>> buffers(workers);
-    for (auto& b : buffers)
-      b.resize(static_cast<size_t>(std::min(chunk_rows, n) * stride));  // may throw: before threads
-    std::atomic<bool> failed{false};
-    RGS_RETURN_IF_ERROR(detail::parallel_items(chunks, workers, [&](unsigned t, uint64_t c) {
-      if (failed.load(std::memory_order_relaxed)) return;
-      const uint64_t first = c * chunk_rows;
-      const uint64_t rows = std::min(chunk_rows, n - first);
-      const size_t bytes = static_cast<size_t>(rows * stride);
-      Status s = source.read_into(data_offset + first * stride, bytes, buffers[t].data());
-      if (s.ok() && hasher != nullptr && !hasher->update(c, buffers[t].data(), bytes)) return;  // aborted
-      if (!s.ok()) {
-        errors[c] = std::move(s);
-        failed = true;
-        if (hasher != nullptr) hasher->abort();
-        return;
-      }
-      try {
-        decode(buffers[t].data(), rows, first, &parts[c]);
-      } catch (const std::bad_alloc&) {
-        errors[c] = Status(StatusCode::kOutOfMemory, "out of memory listing invalid Gaussians");
-        failed = true;
-        if (hasher != nullptr) hasher->abort();
-      }
-    }));
-  }
+    }
+    if (!s.ok()) {
+      errors[c] = std::move(s);
+      failed = true;
+      if (hasher != nullptr) hasher->abort();
+    }
+  }));
   for (const Status& s : errors) RGS_RETURN_IF_ERROR(s);
   for (HygieneCounts& p : parts) {
     detail::add_hygiene(p, 0, total);  // the invalid indices are ours
@@ -515,10 +430,6 @@ Status decode_binary(const ByteSource& source, uint64_t data_offset, uint64_t n,
 
 /// Feeds bytes [begin, end) of `source` to `state` in order, through view() windows of kFileChunkBytes.
 Status hash_range(ByteSource* source, uint64_t begin, uint64_t end, XXH64_state_t* state) {
-  if (const uint8_t* memory = source->memory()) {
-    XXH64_update(state, memory + begin, static_cast<size_t>(end - begin));
-    return Status();
-  }
   for (uint64_t at = begin; at < end;) {
     const size_t size = static_cast<size_t>(std::min<uint64_t>(kFileChunkBytes, end - at));
     RGS_ASSIGN_OR_RETURN(const uint8_t* bytes, source->view(at, size));
@@ -566,18 +477,15 @@ class AsciiTokenizer {
         if (ch == ' ' || ch == '\n' || ch == '\t' || ch == '\r' || ch == '\f' || ch == '\v') break;
         ++p;
       }
-      if (p - start > kMaxAsciiToken) {
+      const bool cut = p == win_end_ && win_end_ < source_->size();  // the token may continue past the window
+      // Too long, or cut although the window starts at it: the token is absurdly long.
+      if (p - start > kMaxAsciiToken || (cut && win_start_ == start)) {
         return Status(StatusCode::kCorruptData, "line " + std::to_string(line_) + ": token longer than " +
                                                     std::to_string(kMaxAsciiToken) + " bytes");
       }
-      if (p == win_end_ && win_end_ < source_->size() && win_start_ != start) {
-        RGS_RETURN_IF_ERROR(slide(start));  // token may continue past the window: re-read from its start
+      if (cut) {
+        RGS_RETURN_IF_ERROR(slide(start));  // re-read from its start
         continue;
-      }
-      if (p == win_end_ && win_end_ < source_->size()) {
-        // Window starts at the token and still ends inside it: the token is absurdly long.
-        return Status(StatusCode::kCorruptData, "line " + std::to_string(line_) + ": token longer than " +
-                                                    std::to_string(kMaxAsciiToken) + " bytes");
       }
       *token = std::string_view(reinterpret_cast<const char*>(win_ + (start - win_start_)), p - start);
       pos_ = p;
@@ -806,18 +714,12 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
     // Ascii files are tokenized through a sliding window; hash them in a second, sequential pass.
     if (hash_state) RGS_RETURN_IF_ERROR(hash_range(source, 0, file_size, hash_state.get()));
   } else {
-    const bool swap = body.swap;
     if (hash_state) RGS_RETURN_IF_ERROR(hash_range(source, 0, header.data_offset, hash_state.get()));
     OrderedHasher hasher(hash_state.get());
-    // The memory source hashes its vertex bytes in one call below instead of chunk by chunk.
-    const bool hash_chunks = hash_state && source->memory() == nullptr;
-    RGS_RETURN_IF_ERROR(decode_binary(*source, header.data_offset, n, layout, swap, hash_chunks ? &hasher : nullptr,
-                                      &scene.cloud, &counts));
-    if (hash_state) {
-      const uint64_t vertex_end = header.data_offset + n * layout.stride;
-      RGS_RETURN_IF_ERROR(
-          hash_range(source, hash_chunks ? vertex_end : header.data_offset, file_size, hash_state.get()));
-    }
+    RGS_RETURN_IF_ERROR(decode_binary(*source, header.data_offset, n, layout, body.swap,
+                                      hash_state ? &hasher : nullptr, &scene.cloud, &counts));
+    const uint64_t vertex_end = header.data_offset + n * layout.stride;
+    if (hash_state) RGS_RETURN_IF_ERROR(hash_range(source, vertex_end, file_size, hash_state.get()));
   }
   if (hash_state) scene.file_xxh64 = static_cast<uint64_t>(XXH64_digest(hash_state.get()));
 
@@ -877,7 +779,7 @@ struct PlyStream::State {
     struct stat now {};
     std::string why;
     if (::stat(path.c_str(), &now) != 0) {
-      why = "it can no longer be found: " + errno_text(errno);
+      why = "it can no longer be found: " + detail::errno_message(errno);
     } else if (now.st_dev != was.st_dev || now.st_ino != was.st_ino) {
       why = "another file was put in its place: inode " + std::to_string(was.st_ino) + " → " +
             std::to_string(now.st_ino);

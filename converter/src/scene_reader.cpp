@@ -125,7 +125,8 @@ bool detect_splat(const Probe& p) { return looks_like_splat(p.head.data(), p.hea
 
 // --- readers not in playcanvas_readers.h ----------------------------------------------------------
 
-Status refuse_lod(const std::string& path, const SceneReadOptions& options, const char* what) {
+/// kInvalidArgument when `options` asks for a level of detail of `path`, an input of the format `what`.
+Status refuse_lod(const std::string& path, const SceneReadOptions& options, const std::string& what) {
   RGS_RETURN_ERROR_IF(options.lod.has_value(), StatusCode::kInvalidArgument,
                       path + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is " +
                           what);
@@ -156,24 +157,43 @@ InputScene ply_input_scene(PlyScene ply, std::string path) {
 }
 
 Result<InputScene> read_ply_scene(const std::string& path, const SceneReadOptions& options) {
-  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a PLY file"));
   RGS_ASSIGN_OR_RETURN(PlyScene ply, read_ply(path, ply_read_options(options)));
   return ply_input_scene(std::move(ply), path);
 }
 
-/// An InteropScene (SPZ, glTF, .splat) as an InputScene.
-Result<InputScene> to_input_scene(const std::string& path, InteropScene interop, const SceneReadOptions& options,
-                                  std::string description) {
-  InputScene scene;
-  scene.cloud = std::move(interop.cloud);
-  scene.hygiene = interop.hygiene;
-  scene.format_id = interop.format;
-  scene.storage_format =
-      interop.format_version ? interop.format + " v" + std::to_string(interop.format_version) : interop.format;
+/// Reads `path` with an InteropScene reader (SPZ, glTF, .splat, .ksplat) into an InputScene. An SPZ file is read
+/// in the frame spz_frame_for() gives, and its scene notes which axes were taken.
+template <Result<InteropScene> (*kRead)(const std::string&, const InteropReadOptions&)>
+Result<InputScene> read_interop_scene(const std::string& path, const SceneReadOptions& options) {
+  InteropReadOptions o;
+  o.invalid_policy = options.invalid_policy;
+  o.max_gaussians = options.max_gaussians;
+  o.max_decompression_ratio = options.max_decompression_ratio;
+  const bool spz = kRead == &read_spz;
+  const SpzFrame frame = spz_frame_for(options, path);
+  if (spz) o.convert_frame = frame == SpzFrame::kRub;
+  RGS_ASSIGN_OR_RETURN(InteropScene interop, kRead(path, o));
+  if (spz) {
+    interop.notes.insert(interop.notes.begin(),
+                         interop.frame_declared ? "SPZ axes declared by the file (coordinate-system extension: " +
+                                                      interop.stored_frame + "), turned to RDF; no spz frame is assumed"
+                                                : spz_frame_note(frame, /*writing=*/false));
+  }
+  const std::string& f = interop.format;
+  std::string description = f == "spz"    ? "Niantic SPZ v" + std::to_string(interop.format_version)
+                            : f == "glb"   ? "binary glTF (GLB) with KHR_gaussian_splatting"
+                            : f == "gltf"  ? "glTF with KHR_gaussian_splatting"
+                            : f == "splat" ? "antimatter15 .splat"
+                                           : "GaussianSplats3D .ksplat v0.1";
   if (!interop.stored_frame.empty() && interop.stored_frame != "RDF") {
     description += interop.frame_converted ? " (stored " + interop.stored_frame + ", turned to RDF)"
                                            : " (axes as stored)";
   }
+  InputScene scene;
+  scene.cloud = std::move(interop.cloud);
+  scene.hygiene = interop.hygiene;
+  scene.format_id = interop.format;
+  scene.storage_format = interop.format_version ? f + " v" + std::to_string(interop.format_version) : f;
   scene.description = std::move(description);
   scene.file_bytes = interop.file_bytes;
   scene.files = interop.files.empty() ? std::vector<std::string>{path} : std::move(interop.files);
@@ -187,52 +207,9 @@ Result<InputScene> to_input_scene(const std::string& path, InteropScene interop,
   return scene;
 }
 
-InteropReadOptions interop_options(const SceneReadOptions& options) {
-  InteropReadOptions o;
-  o.invalid_policy = options.invalid_policy;
-  o.max_gaussians = options.max_gaussians;
-  o.max_decompression_ratio = options.max_decompression_ratio;
-  return o;
-}
-
-Result<InputScene> read_spz_scene(const std::string& path, const SceneReadOptions& options) {
-  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "an SPZ file"));
-  InteropReadOptions o = interop_options(options);
-  const SpzFrame frame = spz_frame_for(options, path);
-  o.convert_frame = frame == SpzFrame::kRub;
-  RGS_ASSIGN_OR_RETURN(InteropScene spz, read_spz(path, o));
-  spz.notes.insert(spz.notes.begin(),
-                   spz.frame_declared ? "SPZ axes declared by the file (coordinate-system extension: " +
-                                            spz.stored_frame + "), turned to RDF; no spz frame is assumed"
-                                      : spz_frame_note(frame, /*writing=*/false));
-  const std::string description = "Niantic SPZ v" + std::to_string(spz.format_version);
-  return to_input_scene(path, std::move(spz), options, description);
-}
-
-Result<InputScene> read_gltf_scene(const std::string& path, const SceneReadOptions& options) {
-  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a glTF file"));
-  RGS_ASSIGN_OR_RETURN(InteropScene gltf, read_gltf(path, interop_options(options)));
-  const std::string description =
-      std::string(gltf.format == "glb" ? "binary glTF (GLB)" : "glTF") + " with KHR_gaussian_splatting";
-  return to_input_scene(path, std::move(gltf), options, description);
-}
-
-Result<InputScene> read_splat_scene(const std::string& path, const SceneReadOptions& options) {
-  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a .splat file"));
-  RGS_ASSIGN_OR_RETURN(InteropScene splat, read_splat(path, interop_options(options)));
-  return to_input_scene(path, std::move(splat), options, "antimatter15 .splat");
-}
-
-Result<InputScene> read_ksplat_scene(const std::string& path, const SceneReadOptions& options) {
-  RGS_RETURN_IF_ERROR(refuse_lod(path, options, "a .ksplat file"));
-  RGS_ASSIGN_OR_RETURN(InteropScene ksplat, read_ksplat(path, interop_options(options)));
-  return to_input_scene(path, std::move(ksplat), options, "GaussianSplats3D .ksplat v0.1");
-}
-
 /// A .rgs file in memory (mapped, or standard input's bytes): rgs_file_scene, and its XXH64 when asked for.
 Result<InputScene> rgs_input_scene(const uint8_t* data, size_t size, const std::string& name,
                                    const SceneReadOptions& options) {
-  RGS_RETURN_IF_ERROR(refuse_lod(name, options, "a .rgs file"));
   RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(data, size, rgs_read_options(options), name));
   RGS_ASSIGN_OR_RETURN(InputScene scene, rgs_file_scene(file, options));
   if (options.hash_file) scene.file_xxh64 = XXH64(data, size, 0);
@@ -263,19 +240,11 @@ const SceneFormat kFormats[] = {
     {"sog", "PlayCanvas SOG (meta.json with its WebP images, or their folder)", detect_sog_meta, read_sog},
     {"sog_lod", "PlayCanvas streamed SOG (lod-meta.json, or its folder; --lod picks the level)", detect_sog_lod,
      read_sog_lod},
-    {"spz", "Niantic SPZ v2-v4 (.spz)", detect_spz, read_spz_scene},
-    {"gltf", "KHR_gaussian_splatting glTF (.glb, .gltf)", detect_gltf, read_gltf_scene},
-    {"ksplat", "GaussianSplats3D .ksplat (compression levels 0-2)", detect_ksplat, read_ksplat_scene},
-    {"splat", "antimatter15 .splat (32-byte records)", detect_splat, read_splat_scene},
+    {"spz", "Niantic SPZ v2-v4 (.spz)", detect_spz, read_interop_scene<read_spz>},
+    {"gltf", "KHR_gaussian_splatting glTF (.glb, .gltf)", detect_gltf, read_interop_scene<read_gltf>},
+    {"ksplat", "GaussianSplats3D .ksplat (compression levels 0-2)", detect_ksplat, read_interop_scene<read_ksplat>},
+    {"splat", "antimatter15 .splat (32-byte records)", detect_splat, read_interop_scene<read_splat>},
 };
-
-std::string supported_list() {
-  std::string s;
-  for (const SceneFormat& f : kFormats) {
-    s += (s.empty() ? "" : ", ") + std::string(f.description);
-  }
-  return s;
-}
 
 /// The extension of `path` in lower case, with its dot ("" when none).
 std::string extension_of(const std::string& path) {
@@ -328,8 +297,9 @@ std::string describe_unknown(const Probe& p) {
 }
 
 Status unsupported(const std::string& path, const std::string& what) {
-  return Status(StatusCode::kInvalidArgument,
-                path + ": unsupported format: " + what + "; supported: " + supported_list());
+  std::string list;
+  for (const std::string& f : supported_scene_formats()) list += (list.empty() ? "" : ", ") + f;
+  return Status(StatusCode::kInvalidArgument, path + ": unsupported format: " + what + "; supported: " + list);
 }
 
 /// Fills `probe` for `path`, resolving a directory to the meta file inside it.
@@ -451,6 +421,9 @@ std::string rgs_antialiased_note(const format::RgsFile& file, const SceneReadOpt
 Result<InputScene> read_scene(const std::string& path, const SceneReadOptions& options) {
   Probe probe;
   RGS_ASSIGN_OR_RETURN(const SceneFormat* format, detect(path, &probe));
+  if (std::strcmp(format->id, "sog_lod") != 0) {
+    RGS_RETURN_IF_ERROR(refuse_lod(probe.path, options, format->description));
+  }
   RGS_ASSIGN_OR_RETURN(InputScene scene, format->read(probe.path, options));
   if (scene.format_id != "rgs") scene.bounds = compute_bounds(scene.cloud);
   if (options.antialiased && scene.format_id != "rgs") scene.cloud.antialiased = true;  // a .rgs says so itself

@@ -616,15 +616,6 @@ Status resolve_earlier_bands(SogMeta* meta, const SogFiles& files) {
                      " pixels wide; expected 192, 512 or 960 (SH bands 1, 2, 3)");
 }
 
-Status check_count(uint64_t count, const SceneReadOptions& options, const std::string& where) {
-  if (count > options.max_gaussians) {
-    return Status(StatusCode::kLimitExceeded, where + ": declares " + std::to_string(count) +
-                                                  " Gaussians, above the limit of " +
-                                                  std::to_string(options.max_gaussians));
-  }
-  return Status();
-}
-
 template <typename Fn>
 Result<InputScene> guarded(const std::string& path, Fn&& fn) {
   try {
@@ -636,15 +627,6 @@ Result<InputScene> guarded(const std::string& path, Fn&& fn) {
   } catch (const json::exception& e) {
     return Status(StatusCode::kCorruptData, path + ": malformed JSON field: " + e.what());
   }
-}
-
-Status reject_lod(const SceneReadOptions& options, const std::string& path, const char* what) {
-  if (options.lod.has_value()) {
-    return Status(StatusCode::kInvalidArgument, path + ": a level of detail (" + std::to_string(*options.lod) +
-                                                    ") applies only to streamed SOG (lod-meta.json); this input is " +
-                                                    what);
-  }
-  return Status();
 }
 
 /// The scene's folder and its entry file: `path` names a folder (its `entry_name` is read through the
@@ -705,7 +687,6 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
   scene.file_bytes = entry.bytes.size();
   scene.file_count = 1;
   if (bundled) {
-    RGS_RETURN_IF_ERROR(reject_lod(options, entry.path, "a bundled SOG (.sog)"));
     RGS_ASSIGN_OR_RETURN(zip, detail::ZipArchive::open(entry.bytes.data(), entry.bytes.size(), entry.path));
     const detail::ZipEntry* meta = zip.find("meta.json");
     if (meta == nullptr) {
@@ -719,7 +700,6 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
     scene.format_id = "sog_bundle";
     if (options.hash_file) scene.file_xxh64 = XXH64(entry.bytes.data(), entry.bytes.size(), 0);
   } else {
-    RGS_RETURN_IF_ERROR(reject_lod(options, entry.path, "a SOG meta.json"));
     if (entry.bytes.size() > kMaxMetaBytes) {
       return Status(StatusCode::kLimitExceeded, entry.path + ": meta file is " + std::to_string(entry.bytes.size()) +
                                                     " bytes, above the limit of " + std::to_string(kMaxMetaBytes));
@@ -736,7 +716,9 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
   job.hash = options.hash_file && !bundled;
   RGS_ASSIGN_OR_RETURN(json root, parse_json(meta_bytes, meta_name, "SOG meta.json"));
   RGS_RETURN_IF_ERROR(parse_sog_meta(root, meta_name, &job.meta));
-  RGS_RETURN_IF_ERROR(check_count(job.meta.count, options, meta_name));
+  RGS_RETURN_ERROR_IF(job.meta.count > options.max_gaussians, StatusCode::kLimitExceeded,
+                      meta_name + ": declares " + std::to_string(job.meta.count) + " Gaussians, above the limit of " +
+                          std::to_string(options.max_gaussians));
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
   job.ranges.push_back(Range{0, job.meta.count, 0});
   RGS_RETURN_IF_ERROR(load_images({&job}, bundled ? nullptr : entry.folder.get(), scene.file_bytes, options,
