@@ -131,15 +131,6 @@ Status gather_lod_frame(const format::GaussianCloud& full, const LodState& lod,
   return Status();
 }
 
-LodFrameCounts lod_counts(const runtime::LodSelection& selection) {
-  LodFrameCounts c;
-  c.splats = selection.splats;
-  c.chunks_drawn = static_cast<uint32_t>(selection.choices.size());
-  c.chunks_culled = selection.culled;
-  c.chunks_coarsened = selection.coarsened;
-  return c;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------
@@ -286,7 +277,10 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
       const runtime::LodSelection selection =
           runtime::select_lod(lod->index, camera, {info.lod.settings.splat_budget, info.lod.settings.pixel_error});
       RGS_RETURN_IF_ERROR(gather_lod_frame(*scene.cloud(), *lod, selection, impl_->lod_frame));
-      stats.lod = lod_counts(selection);
+      stats.lod.splats = selection.splats;
+      stats.lod.chunks_drawn = static_cast<uint32_t>(selection.choices.size());
+      stats.lod.chunks_culled = selection.culled;
+      stats.lod.chunks_coarsened = selection.coarsened;
       stats.lod.bytes_resident = lod->stored_bytes;
     }
     RGS_RETURN_IF_ERROR(
