@@ -4,7 +4,6 @@
 //   rgs-view big_lod.rgs --splat-budget 2000000 --memory-budget 2GiB --host 0.0.0.0 --port 9000
 // Prints the URL (with its token when the host is not loopback) and serves until SIGINT or SIGTERM (exit 0).
 #include <CLI/CLI.hpp>
-#include <malloc.h>
 
 #include <cstdio>
 #include <string>
@@ -90,10 +89,6 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   // Before any thread: the server's threads inherit the mask, and the main thread takes the signal (sigwait).
   tools::block_termination_signals();
-  // The CPU renderer allocates each frame's arrays afresh (megabytes); glibc would hand them back to the system
-  // after a frame and fault them in again for the next (docs/VIEWER.md#performance): keep them for reuse.
-  mallopt(M_MMAP_THRESHOLD, 64 << 20);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   Options opt;
   CLI::App app{std::string("Serve an interactive viewer of a scene (or of two, compared: split view, PSNR, "
                            "difference heatmap) to a web browser: orbit and fly, the scene's cameras, presets, "

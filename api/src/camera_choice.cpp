@@ -1,7 +1,4 @@
 // The views of a run: a CameraChoice (cameras.json, orbit, path, fly-through) turned into cameras.
-#include <algorithm>
-#include <cmath>
-
 #include "rgs/api/camera.h"
 
 namespace rgs::api {
@@ -32,15 +29,7 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
   } else {
     RGS_RETURN_ERROR_IF(choice.orbit == 0 && choice.path == 0, StatusCode::kInvalidArgument,
                         "--orbit needs at least 1 camera");
-    uint32_t w = choice.width, h = choice.height;
-    if (w == 0 && h == 0) {
-      w = choice.orbit_width;
-      h = choice.orbit_height;
-    } else if (h == 0) {
-      h = static_cast<uint32_t>(std::max(1.0, std::round(double(w) * choice.orbit_height / choice.orbit_width)));
-    } else if (w == 0) {
-      w = static_cast<uint32_t>(std::max(1.0, std::round(double(h) * choice.orbit_width / choice.orbit_height)));
-    }
+    const auto [w, h] = runtime::keep_aspect(choice.width, choice.height, choice.orbit_width, choice.orbit_height);
     if (choice.path > 0) {
       RGS_ASSIGN_OR_RETURN(cameras, runtime::path_cameras(bounds, choice.path, w, h));
     } else {

@@ -105,15 +105,9 @@ double weighted_quantile(const std::vector<std::pair<float, float>>& items, doub
 /// it looked level.
 runtime::Camera turned_around(runtime::Camera cam) {
   const std::array<float, 3> eye = runtime::camera_centre(cam);
-  for (int j = 0; j < 3; ++j) {
-    cam.rotation[j] = -cam.rotation[j];
-    cam.rotation[6 + j] = -cam.rotation[6 + j];
-  }
-  for (int row = 0; row < 3; ++row) {
-    double t = 0;
-    for (int j = 0; j < 3; ++j) t -= double(cam.rotation[row * 3 + j]) * eye[j];
-    cam.translation[row] = float(t);
-  }
+  std::array<double, 9> rows;
+  for (int i = 0; i < 9; ++i) rows[i] = i / 3 == 1 ? cam.rotation[i] : -cam.rotation[i];  // x and z axes reversed
+  runtime::set_pose(&cam, rows, {eye[0], eye[1], eye[2]});
   return cam;
 }
 
@@ -255,10 +249,10 @@ Result<DefaultViews> default_views(const std::string& scene_path, const format::
     const uint32_t every = (count + limit - 1) / limit;
     for (uint32_t i = 0; i < count; i += every) {
       const runtime::Camera& cam = (*all)[i];
-      uint32_t w = choice.width, h = choice.height;
-      if (w == 0 && h == 0) w = std::min(cam.width, kDefaultViewWidth);
-      if (h == 0) h = uint32_t(std::max(1.0, std::round(double(w) * cam.height / cam.width)));
-      if (w == 0) w = uint32_t(std::max(1.0, std::round(double(h) * cam.width / cam.height)));
+      // Both sides unset: the camera's own size, at most kDefaultViewWidth wide.
+      const uint32_t asked_width = choice.width == 0 && choice.height == 0 ? std::min(cam.width, kDefaultViewWidth)
+                                                                           : choice.width;
+      const auto [w, h] = runtime::keep_aspect(asked_width, choice.height, cam.width, cam.height);
       out.cameras.push_back(w == cam.width && h == cam.height ? cam : runtime::resize_camera(cam, w, h));
     }
     out.note = "views: the scene's own cameras, " + out.cameras_path + " (found beside the scene): " +
@@ -266,15 +260,7 @@ Result<DefaultViews> default_views(const std::string& scene_path, const format::
                ") at " + std::to_string(out.cameras[0].width) + "x" + std::to_string(out.cameras[0].height);
     return out;
   }
-  uint32_t w = choice.width, h = choice.height;
-  if (w == 0 && h == 0) {
-    w = kDefaultViewWidth;
-    h = kDefaultViewHeight;
-  } else if (h == 0) {
-    h = uint32_t(std::max(1.0, std::round(double(w) * kDefaultViewHeight / kDefaultViewWidth)));
-  } else if (w == 0) {
-    w = uint32_t(std::max(1.0, std::round(double(h) * kDefaultViewWidth / kDefaultViewHeight)));
-  }
+  const auto [w, h] = runtime::keep_aspect(choice.width, choice.height, kDefaultViewWidth, kDefaultViewHeight);
   ContentViewsInfo where;
   RGS_ASSIGN_OR_RETURN(out.cameras, content_views(cloud, w, h, &where));
   if (choice.limit != 0 && out.cameras.size() > choice.limit) out.cameras.resize(choice.limit);

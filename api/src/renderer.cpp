@@ -95,16 +95,15 @@ void write_host_target(const runtime::RenderResult& r, const ImageTarget& t) {
   }
 }
 
-/// The Gaussians a CPU frame of a level-of-detail scene draws: the chosen level of each chunk of `selection`, in
-/// its (chunk) order, copied from the full detail `full` (level 0) or the coarser levels `lod.coarse`. The GPU's
-/// LodStreamer gathers its resident levels in the same order.
-Result<format::GaussianCloud> lod_frame_cloud(const format::GaussianCloud& full, const LodState& lod,
-                                              const runtime::LodSelection& selection) {
+/// The Gaussians a CPU frame of a level-of-detail scene draws, into `out` (its memory reused): the chosen level of
+/// each chunk of `selection`, in its (chunk) order, copied from the full detail `full` (level 0) or the coarser
+/// levels `lod.coarse`. The GPU's LodStreamer gathers its resident levels in the same order.
+Status gather_lod_frame(const format::GaussianCloud& full, const LodState& lod,
+                        const runtime::LodSelection& selection, format::GaussianCloud& out) {
   const uint64_t n0 = full.size();
   const size_t k3 = size_t(full.sh_coefficients()) * 3;
   uint64_t total = 0;
   for (const runtime::LodChoice& choice : selection.choices) total += lod.index.at(choice.level, choice.chunk).count;
-  format::GaussianCloud out;
   out.sh_degree = full.sh_degree;
   out.antialiased = full.antialiased;
   try {
@@ -129,16 +128,7 @@ Result<format::GaussianCloud> lod_frame_cloud(const format::GaussianCloud& full,
     copy(src.sh, out.sh, k3);
     at += n;
   }
-  return out;
-}
-
-LodFrameCounts lod_counts(const runtime::LodSelection& selection) {
-  LodFrameCounts c;
-  c.splats = selection.splats;
-  c.chunks_drawn = static_cast<uint32_t>(selection.choices.size());
-  c.chunks_culled = selection.culled;
-  c.chunks_coarsened = selection.coarsened;
-  return c;
+  return Status();
 }
 
 }  // namespace
@@ -232,6 +222,9 @@ Status Image::copy_to_host(void* color_out, float* depth_out) const {
 struct Renderer::Impl {
   Device device = Device::kCpu;
   int cuda_device = 0;
+  /// CPU: the working memory of every frame, and a level-of-detail frame's Gaussians, kept between frames.
+  runtime::CpuScratch cpu;
+  format::GaussianCloud lod_frame;
 #if RGS_HAS_CUDA
   std::optional<runtime::GpuRenderer> gpu;
 #endif
@@ -280,17 +273,19 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
     options.background = settings.background;
     options.num_threads = settings.cpu_threads;
     // A level-of-detail scene draws the frame's selection with every level resident (select_lod is pure: no lock).
-    std::optional<format::GaussianCloud> frame;
     if (lod != nullptr) {
       const runtime::LodSelection selection =
           runtime::select_lod(lod->index, camera, {info.lod.settings.splat_budget, info.lod.settings.pixel_error});
-      RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, lod_frame_cloud(*scene.cloud(), *lod, selection));
-      frame.emplace(std::move(cloud));
-      stats.lod = lod_counts(selection);
+      RGS_RETURN_IF_ERROR(gather_lod_frame(*scene.cloud(), *lod, selection, impl_->lod_frame));
+      stats.lod.splats = selection.splats;
+      stats.lod.chunks_drawn = static_cast<uint32_t>(selection.choices.size());
+      stats.lod.chunks_culled = selection.culled;
+      stats.lod.chunks_coarsened = selection.coarsened;
       stats.lod.bytes_resident = lod->stored_bytes;
     }
-    RGS_ASSIGN_OR_RETURN(runtime::RenderResult result,
-                         runtime::render_cpu(frame ? *frame : *scene.cloud(), camera, options));
+    RGS_RETURN_IF_ERROR(
+        runtime::render_cpu(lod != nullptr ? impl_->lod_frame : *scene.cloud(), camera, options, &impl_->cpu));
+    const runtime::RenderResult& result = impl_->cpu.result;
     write_host_target(result, target);
     stats.gaussians = result.stats.gaussians;
     stats.pairs = result.stats.pairs;

@@ -33,6 +33,25 @@ std::array<float, 3> camera_centre(const Camera& camera) {
   return c;
 }
 
+void set_pose(Camera* camera, const std::array<double, 9>& rows, const std::array<double, 3>& eye) {
+  for (int row = 0; row < 3; ++row) {
+    double t = 0;
+    for (int j = 0; j < 3; ++j) {
+      camera->rotation[row * 3 + j] = static_cast<float>(rows[row * 3 + j]);
+      t -= rows[row * 3 + j] * eye[j];
+    }
+    camera->translation[row] = static_cast<float>(t);
+  }
+}
+
+std::array<uint32_t, 2> keep_aspect(uint32_t width, uint32_t height, uint32_t ref_width, uint32_t ref_height) {
+  auto side = [](double v) { return uint32_t(std::clamp(std::round(v), 1.0, kMaxImageSide + 1.0)); };
+  if (width == 0 && height == 0) return {ref_width, ref_height};
+  if (height == 0) return {width, side(double(width) * ref_height / ref_width)};
+  if (width == 0) return {side(double(height) * ref_width / ref_height), height};
+  return {width, height};
+}
+
 double fov_from_focal(double focal, double pixels) { return 2.0 * std::atan(pixels / (2.0 * focal)); }
 
 double focal_from_fov(double fov_rad, double pixels) { return pixels / (2.0 * std::tan(fov_rad / 2.0)); }
@@ -132,7 +151,7 @@ Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uin
     const double az = (options.start_azimuth_deg + 360.0 * double(i) / double(count)) * kPi / 180.0;
     // Eye on a sphere around the target; world up is −y, so a positive elevation means a smaller y.
     const double dir[3] = {std::cos(el) * std::sin(az), -std::sin(el), -std::cos(el) * std::cos(az)};
-    const double eye[3] = {c[0] + distance * dir[0], c[1] + distance * dir[1], c[2] + distance * dir[2]};
+    const std::array<double, 3> eye = {c[0] + distance * dir[0], c[1] + distance * dir[1], c[2] + distance * dir[2]};
     // Camera axes in world coordinates: z forward (towards the target), x right = z × up, y down = z × x.
     const double z_axis[3] = {-dir[0], -dir[1], -dir[2]};
     const double up[3] = {0.0, -1.0, 0.0};
@@ -144,15 +163,8 @@ Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uin
                               z_axis[2] * x_axis[0] - z_axis[0] * x_axis[2],
                               z_axis[0] * x_axis[1] - z_axis[1] * x_axis[0]};
     Camera cam;
-    const double* rows[3] = {x_axis, y_axis, z_axis};
-    for (int row = 0; row < 3; ++row) {
-      double t = 0;
-      for (int j = 0; j < 3; ++j) {
-        cam.rotation[row * 3 + j] = static_cast<float>(rows[row][j]);
-        t -= rows[row][j] * eye[j];
-      }
-      cam.translation[row] = static_cast<float>(t);
-    }
+    set_pose(&cam, {x_axis[0], x_axis[1], x_axis[2], y_axis[0], y_axis[1], y_axis[2], z_axis[0], z_axis[1], z_axis[2]},
+             eye);
     cam.fx = static_cast<float>(fx);
     cam.fy = static_cast<float>(fy);
     cam.cx = static_cast<float>(width / 2.0);

@@ -218,11 +218,7 @@ Result<std::vector<Camera>> fly_through_cameras(const std::vector<Camera>& keys,
       const size_t segment = sample / kArcSamples;
       const double u = (double(sample % kArcSamples) + frac) / kArcSamples;
       const Vec3 c = spline_point(spline, segment, u);
-      const std::array<double, 9> r = matrix_of(slerp(rotations[segment], rotations[segment + 1], u));
-      for (int i = 0; i < 9; ++i) cam.rotation[i] = float(r[i]);
-      for (int i = 0; i < 3; ++i) {
-        cam.translation[i] = float(-(r[i * 3] * c[0] + r[i * 3 + 1] * c[1] + r[i * 3 + 2] * c[2]));
-      }
+      set_pose(&cam, matrix_of(slerp(rotations[segment], rotations[segment + 1], u)), c);
     }
     out.push_back(std::move(cam));
   }

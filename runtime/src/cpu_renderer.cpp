@@ -49,18 +49,8 @@ void for_each_tile_of(const ProjectedGaussian& g, const FrameSetup& frame, const
   }
 }
 
-/// What the rasterizer reads per Gaussian of a tile, gathered once per tile into a contiguous array (the CPU
-/// counterpart of 3DGS's shared-memory batch: collected_xy, collected_conic_opacity, features, depth; with
-/// folded coefficients the C1..C6 are folded at this load, as RoofGS does).
-struct TileGaussian {
-  float mean[2];
-  k::Conic conic;
-  float opacity, log_opacity;
-  float rgb[3];
-  float depth;
-  k::FoldedCoefficients folded;
-  float skip_power;  // unfolded path: powers below this give α < 1/255 for sure (visible_power_floor)
-};
+using detail::TileGaussian;
+using detail::TileScratch;
 
 /// Pairs whose exponent (power, or P = power + ln o) is below this can never reach alpha 1/255:
 /// exp(−6) = 0.00248 < 1/255 = 0.00392 for any opacity ≤ 1, and the fast exp's ≤ 3.2 % error keeps it below
@@ -259,18 +249,18 @@ void blend_tile_folded(const std::vector<TileGaussian>& list, int tx, int ty, co
   }
 }
 
-/// Which pairs of a tile's list the GPU's lane group of each 4×4 block walks: bit b of masks[j] (b = block_x +
+/// Which pairs of a tile's list the GPU's lane group of each 4×4 block walks: bit b of (*masks)[j] (b = block_x +
 /// 4·block_y) where pair j is in block b's list. Under block culling the pair's block_mask, computed as the
 /// GPU's rasterizer computes it when it loads the pair; else every block.
-std::vector<uint32_t> walk_masks(const std::vector<TileGaussian>& list, int tx, int ty, bool block_culling) {
+void walk_masks(const std::vector<TileGaussian>& list, int tx, int ty, bool block_culling,
+                std::vector<uint32_t>* masks) {
   const float origin_x = static_cast<float>(tx * k::kTileSize), origin_y = static_cast<float>(ty * k::kTileSize);
-  std::vector<uint32_t> masks(list.size(), 0xffffu);
-  if (!block_culling) return masks;
+  masks->assign(list.size(), 0xffffu);
+  if (!block_culling) return;
   for (size_t j = 0; j < list.size(); ++j) {
     const TileGaussian& g = list[j];
-    masks[j] = k::block_mask(g.conic, g.mean[0] - origin_x, g.mean[1] - origin_y, g.log_opacity);
+    (*masks)[j] = k::block_mask(g.conic, g.mean[0] - origin_x, g.mean[1] - origin_y, g.log_opacity);
   }
-  return masks;
 }
 
 /// blend_tile_folded with half-precision blending (RoofgsOptions::half_blend; render.cu blend_pairs_half):
@@ -281,12 +271,15 @@ std::vector<uint32_t> walk_masks(const std::vector<TileGaussian>& list, int tx, 
 /// neither pixel passes change no bit but count in their window. A list of more than `chunk_pairs` pairs
 /// (frame_chunk_pairs; 0: off) is blended in chunks, each from T = 1, and the chunks' FP32 values merged in
 /// order (kernels/shared/tile_chunks.h), as the GPU's chunk blocks do.
-void blend_tile_folded_half(const std::vector<TileGaussian>& list, int tx, int ty, const RenderOptions& options,
-                            uint32_t chunk_pairs, bool block_culling, RenderResult* out) {
+void blend_tile_folded_half(TileScratch& tile, int tx, int ty, const RenderOptions& options, uint32_t chunk_pairs,
+                            bool block_culling, RenderResult* out) {
+  const std::vector<TileGaussian>& list = tile.list;
   const uint32_t x0 = uint32_t(tx) * k::kTileSize, y0 = uint32_t(ty) * k::kTileSize;
-  std::vector<k::FoldedCoefficients> of_v(list.size());  // the coefficients of the power in base 2, v
+  std::vector<k::FoldedCoefficients>& of_v = tile.exp2;  // the coefficients of the power in base 2, v
+  of_v.resize(list.size());
   for (size_t j = 0; j < list.size(); ++j) of_v[j] = k::exp2_coefficients(list[j].folded);
-  const std::vector<uint32_t> masks = walk_masks(list, tx, ty, block_culling);
+  walk_masks(list, tx, ty, block_culling, &tile.masks);
+  const std::vector<uint32_t>& masks = tile.masks;
   const size_t batch_pairs = k::walk_batch_pairs(block_culling);
   const uint32_t chunks = k::tile_chunk_count(list.size(), chunk_pairs);
   for (int ly = 0; ly < k::kTileSize; ly += 2) {
@@ -507,33 +500,32 @@ std::vector<ProjectedGaussian> preprocess_cpu(const format::GaussianCloud& cloud
 
 namespace {
 
-Result<TileBins> bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
-                              const RenderOptions& options) {
+/// bin_and_sort_cpu() into s.bins, with s.order, s.offsets and s.pairs as working memory.
+Status bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
+                    const RenderOptions& options, CpuScratch& s) {
   const uint64_t n = gaussians.size();
   const RoofgsOptions& roofgs = options.roofgs;
   const unsigned threads = detail::resolve_thread_count(options.num_threads);
 
-  // Emission order: Gaussian index, or (depth, index) with depth_order (a stable sort by depth).
-  std::vector<uint32_t> order(n);
+  // Emission order: Gaussian index, or (depth, index) with depth_order (depths are never NaN: culled ones are 0).
+  std::vector<uint32_t>& order = s.order;
+  order.resize(n);
   for (uint64_t i = 0; i < n; ++i) order[i] = uint32_t(i);
   if (roofgs.depth_order) {
-    std::stable_sort(order.begin(), order.end(),
-                     [&](uint32_t a, uint32_t b) { return gaussians[a].depth < gaussians[b].depth; });
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+      return gaussians[a].depth < gaussians[b].depth || (gaussians[a].depth == gaussians[b].depth && a < b);
+    });
   }
   // Offsets of each emitted Gaussian's pairs: exclusive prefix sum of tiles_touched in emission order.
-  std::vector<uint64_t> offsets(n + 1, 0);
+  std::vector<uint64_t>& offsets = s.offsets;
+  offsets.assign(n + 1, 0);
   for (uint64_t t = 0; t < n; ++t) offsets[t + 1] = offsets[t] + gaussians[order[t]].tiles_touched;
   const uint64_t pairs = offsets[n];
 
-  struct Pair {
-    uint64_t key;
-    uint32_t value;
-  };
-  std::vector<Pair> list;
-  TileBins bins;
+  TileBins& bins = s.bins;
   const uint64_t num_tiles = uint64_t(frame.tiles_x) * uint64_t(frame.tiles_y);
   try {
-    list.resize(pairs);
+    s.pairs.resize(pairs);
     bins.keys.resize(pairs);
     bins.values.resize(pairs);
     bins.tile_begin.assign(num_tiles + 1, 0);
@@ -542,53 +534,53 @@ Result<TileBins> bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, c
                   "render: cannot allocate " + std::to_string(pairs) + " (tile, Gaussian) pairs");
   }
 
-  // Duplicate with keys (3DGS duplicateWithKeys): the t-th emitted Gaussian writes [offsets[t], offsets[t+1]).
+  // Duplicate with keys (3DGS duplicateWithKeys): the t-th emitted Gaussian writes (key, t) to
+  // [offsets[t], offsets[t+1]).
   Status work = detail::parallel_chunks(n, kGaussianChunk, threads, [&](uint64_t begin, uint64_t end) {
     for (uint64_t t = begin; t < end; ++t) {
-      const uint32_t i = order[t];
-      const ProjectedGaussian& g = gaussians[i];
+      const ProjectedGaussian& g = gaussians[order[t]];
       if (g.tiles_touched == 0) continue;
       uint64_t off = offsets[t];
       for_each_tile_of(g, frame, roofgs, [&](int tx, int ty) {
         const uint32_t tile = uint32_t(ty) * uint32_t(frame.tiles_x) + uint32_t(tx);
         const uint64_t key = roofgs.key32 ? k::make_key32(tile, g.depth_bin, frame.key.depth_bits)
                                           : k::make_key64(tile, g.depth);
-        list[off++] = Pair{key, uint32_t(i)};
+        s.pairs[off++] = {key, uint32_t(t)};
       });
     }
   });
   RGS_RETURN_IF_ERROR(work);
 
-  // Stable sort by key: equal keys (same tile, same depth or depth bin) keep Gaussian index order, as CUB's
-  // radix sort does in 3DGS.
-  std::stable_sort(list.begin(), list.end(), [](const Pair& a, const Pair& b) { return a.key < b.key; });
+  // Sort by (key, emission rank): the order of a stable sort by key, in which equal keys (same tile, same depth
+  // or depth bin) keep emission order, as CUB's radix sort does in 3DGS; std::sort needs no buffer.
+  std::sort(s.pairs.begin(), s.pairs.end());
 
   // Per-tile ranges (3DGS identifyTileRanges), as offsets.
   const int tile_shift = roofgs.key32 ? frame.key.depth_bits : 32;
   for (uint64_t p = 0; p < pairs; ++p) {
-    bins.keys[p] = list[p].key;
-    bins.values[p] = list[p].value;
-    const uint64_t tile = tile_shift >= 64 ? 0 : (list[p].key >> tile_shift);
+    bins.keys[p] = s.pairs[p].first;
+    bins.values[p] = order[s.pairs[p].second];
+    const uint64_t tile = tile_shift >= 64 ? 0 : (s.pairs[p].first >> tile_shift);
     ++bins.tile_begin[tile + 1];
   }
   for (uint64_t t = 0; t < num_tiles; ++t) bins.tile_begin[t + 1] += bins.tile_begin[t];
-  return bins;
+  return Status();
 }
 
-}  // namespace
-
-Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
-                                  const RenderOptions& options) {
+/// bin_and_sort() giving kOutOfMemory for any allocation that fails.
+Status bin_and_sort_into(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
+                         const RenderOptions& options, CpuScratch& s) {
   try {
-    return bin_and_sort(gaussians, frame, options);
+    return bin_and_sort(gaussians, frame, options, s);
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,
                   "render: out of memory binning " + std::to_string(gaussians.size()) + " Gaussians into tiles");
   }
 }
 
-Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
-                 const RenderOptions& options, RenderResult* result) {
+/// blend_cpu() with one TileScratch per worker thread in `workers`.
+Status blend(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
+             const RenderOptions& options, std::vector<TileScratch>& workers, RenderResult* result) {
   const size_t pixels = size_t(frame.width) * frame.height;
   result->width = frame.width;
   result->height = frame.height;
@@ -612,56 +604,76 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
   const uint32_t chunk_pairs = k::frame_chunk_pairs(bins.values.size(), large_pairs, options.roofgs.tile_chunk_pairs);
   const bool block_culling =
       k::auto_block_culling(options.roofgs.snugbox_accutile, bins.values.size(), large_pairs);
-  Status work = detail::parallel_for(uint64_t(frame.tiles_y), detail::resolve_thread_count(options.num_threads),
-                                     [&](uint64_t row) {
-    std::vector<TileGaussian> list;  // per worker, reused across the row's tiles
+  const unsigned threads = detail::resolve_thread_count(options.num_threads);
+  if (workers.size() < threads) workers.resize(threads);
+  Status work = detail::parallel_items(uint64_t(frame.tiles_y), threads, [&](unsigned worker, uint64_t row) {
+    TileScratch& tile = workers[worker];
     const int ty = int(row);
     for (int tx = 0; tx < frame.tiles_x; ++tx) {
       const uint64_t id = uint64_t(ty) * uint64_t(frame.tiles_x) + uint64_t(tx);
       const uint64_t begin = bins.tile_begin[id], end = bins.tile_begin[id + 1];
-      gather_tile(gaussians, bins.values.data() + begin, end - begin, tx, ty, folded, &list);
+      gather_tile(gaussians, bins.values.data() + begin, end - begin, tx, ty, folded, &tile.list);
       if (half) {
-        blend_tile_folded_half(list, tx, ty, options, chunk_pairs, block_culling, result);
+        blend_tile_folded_half(tile, tx, ty, options, chunk_pairs, block_culling, result);
       } else if (folded) {
-        blend_tile_folded(list, tx, ty, options, result);
+        blend_tile_folded(tile.list, tx, ty, options, result);
       } else {
-        blend_tile_baseline(list, tx, ty, options, result);
+        blend_tile_baseline(tile.list, tx, ty, options, result);
       }
     }
   });
   return work.ok() ? work : work.prepend("render: blending");
 }
 
-namespace {
-
-Result<RenderResult> render(const format::GaussianCloud& cloud, const Camera& camera, const RenderOptions& options) {
+Status render(const format::GaussianCloud& cloud, const Camera& camera, const RenderOptions& options,
+              CpuScratch& scratch) {
   RGS_ASSIGN_OR_RETURN(const FrameSetup frame, setup_frame(cloud, camera, options));
-  RenderResult result;
-  std::vector<ProjectedGaussian> gaussians;
-  RGS_RETURN_IF_ERROR(preprocess_cpu(cloud, camera, frame, options, &result.stats, &gaussians));
-  RGS_ASSIGN_OR_RETURN(const TileBins bins, bin_and_sort_cpu(gaussians, frame, options));
-  RGS_RETURN_IF_ERROR(blend_cpu(gaussians, bins, frame, options, &result));
+  RenderResult& result = scratch.result;
+  result.stats = RenderStats{};
+  RGS_RETURN_IF_ERROR(preprocess_cpu(cloud, camera, frame, options, &result.stats, &scratch.gaussians));
+  RGS_RETURN_IF_ERROR(bin_and_sort_into(scratch.gaussians, frame, options, scratch));
+  RGS_RETURN_IF_ERROR(blend(scratch.gaussians, scratch.bins, frame, options, scratch.workers, &result));
   RenderStats& s = result.stats;
-  s.pairs = bins.values.size();
+  s.pairs = scratch.bins.values.size();
   s.tiles_x = frame.tiles_x;
   s.tiles_y = frame.tiles_y;
   s.key_tile_bits = frame.key.tile_bits;
   s.key_depth_bits = frame.key.depth_bits;
   s.z_near = options.roofgs.key32 ? frame.key.quantizer.z_near : 0.f;
   s.z_far = options.roofgs.key32 && !frame.key.empty_depth_range ? frame.key.quantizer.z_far : 0.f;
-  return result;
+  return Status();
 }
 
 }  // namespace
 
-Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
-                                const RenderOptions& options) {
+Result<TileBins> bin_and_sort_cpu(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
+                                  const RenderOptions& options) {
+  CpuScratch scratch;
+  RGS_RETURN_IF_ERROR(bin_and_sort_into(gaussians, frame, options, scratch));
+  return std::move(scratch.bins);
+}
+
+Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins& bins, const FrameSetup& frame,
+                 const RenderOptions& options, RenderResult* result) {
+  std::vector<TileScratch> workers;
+  return blend(gaussians, bins, frame, options, workers, result);
+}
+
+Status render_cpu(const format::GaussianCloud& cloud, const Camera& camera, const RenderOptions& options,
+                  CpuScratch* scratch) {
   try {
-    return render(cloud, camera, options);
+    return render(cloud, camera, options, *scratch);
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,
                   "render: out of memory rendering " + std::to_string(cloud.size()) + " Gaussians");
   }
+}
+
+Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
+                                const RenderOptions& options) {
+  CpuScratch scratch;
+  RGS_RETURN_IF_ERROR(render_cpu(cloud, camera, options, &scratch));
+  return std::move(scratch.result);
 }
 
 }  // namespace rgs::runtime

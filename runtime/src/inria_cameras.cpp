@@ -70,14 +70,9 @@ Status get_vector(const json& v, size_t n, const std::string& what, double* out)
 /// of view kept (fx' = fx·W'/W), principal point at the image centre. Not validated.
 Camera camera_from_entry(const InriaCamera& c, uint32_t out_w, uint32_t out_h, float near_plane) {
   Camera camera;
-  for (int i = 0; i < 3; ++i) {
-    double t = 0;
-    for (int j = 0; j < 3; ++j) {
-      camera.rotation[i * 3 + j] = static_cast<float>(c.rotation_c2w[j * 3 + i]);
-      t -= c.rotation_c2w[j * 3 + i] * c.position[j];
-    }
-    camera.translation[i] = static_cast<float>(t);
-  }
+  std::array<double, 9> rows;
+  for (int i = 0; i < 9; ++i) rows[i] = c.rotation_c2w[(i % 3) * 3 + i / 3];
+  set_pose(&camera, rows, c.position);
   camera.fx = static_cast<float>(c.fx * out_w / c.width);
   camera.fy = static_cast<float>(c.fy * out_h / c.height);
   camera.cx = static_cast<float>(out_w / 2.0);
@@ -126,22 +121,11 @@ Result<NamedInriaCamera> parse_entry(const json& cam, size_t index, const std::s
 }
 
 /// Output resolution for a camera of the file's size under `options`.
-void output_size(uint32_t w, uint32_t h, const InriaCameraOptions& options, uint32_t* out_w, uint32_t* out_h) {
+std::array<uint32_t, 2> output_size(uint32_t w, uint32_t h, const InriaCameraOptions& options) {
+  if (options.width != 0 || options.height != 0) return keep_aspect(options.width, options.height, w, h);
   // Clamped so that the cast stays defined for any downscale > 0; validate_camera() refuses sides over the limit.
   auto at_least_one = [](double v) { return uint32_t(std::clamp(std::round(v), 1.0, kMaxImageSide + 1.0)); };
-  if (options.width != 0 && options.height != 0) {
-    *out_w = options.width;
-    *out_h = options.height;
-  } else if (options.width != 0) {
-    *out_w = options.width;
-    *out_h = at_least_one(double(h) * options.width / w);
-  } else if (options.height != 0) {
-    *out_h = options.height;
-    *out_w = at_least_one(double(w) * options.height / h);
-  } else {
-    *out_w = at_least_one(w / options.downscale);
-    *out_h = at_least_one(h / options.downscale);
-  }
+  return {at_least_one(w / options.downscale), at_least_one(h / options.downscale)};
 }
 
 Status check_options(const std::string& name, const InriaCameraOptions& options) {
@@ -175,9 +159,8 @@ Result<std::vector<Camera>> select_cameras(const std::vector<NamedInriaCamera>& 
   cameras.reserve(selected.size());
   for (size_t index : selected) {
     const InriaCamera& c = entries[index].camera;
-    uint32_t out_w = 0, out_h = 0;
-    output_size(c.width, c.height, options, &out_w, &out_h);
-    Camera camera = camera_from_entry(c, out_w, out_h, options.near_plane);
+    const std::array<uint32_t, 2> size = output_size(c.width, c.height, options);
+    Camera camera = camera_from_entry(c, size[0], size[1], options.near_plane);
     camera.name = entries[index].name;
     // A size above the limit from a tiny downscale fails here (the entry itself was checked).
     const Status valid = validate_camera(camera);
@@ -206,8 +189,7 @@ Result<std::string> read_text(const std::string& path) {
   return text;
 }
 
-}  // namespace
-
+/// read_inria_cameras() on JSON text in memory; `name` is used in error messages.
 Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::string& json_text,
                                                                  const std::string& name) {
   RGS_RETURN_ERROR_IF(json_text.size() > kMaxCamerasFileBytes, StatusCode::kLimitExceeded,
@@ -251,6 +233,8 @@ Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::stri
   }
   return entries;
 }
+
+}  // namespace
 
 Result<std::vector<NamedInriaCamera>> read_inria_cameras(const std::string& path) {
   RGS_ASSIGN_OR_RETURN(const std::string text, read_text(path));

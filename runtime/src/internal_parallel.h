@@ -8,6 +8,7 @@ namespace rgs::runtime::detail {
 
 using parallel::parallel_chunks;
 using parallel::parallel_for;
+using parallel::parallel_items;
 
 /// Thread count for a request: `requested`, or parallel::available_cpus() when 0; at least 1.
 inline unsigned resolve_thread_count(unsigned requested) { return parallel::thread_count(requested); }

@@ -369,17 +369,10 @@ Status check_convert_output(const std::string& dst, OutputFormat output, const C
 /// and the options) or write PLY / SPZ / GLB from the float Gaussians (a .rgs input dequantized). `dst` is
 /// replaced atomically and only on success: a failed conversion leaves an existing `dst` untouched.
 /// With options.target, the archive options are first fitted to the target on the scene as edited (its SH bands
-/// all rendered as the source; the fit's candidates drop those above sh_degree): kTargetPsnr the fewest bytes
-/// whose mean PSNR at the views' own size meets psnr_db; bytes the highest such PSNR whose file fits. The search:
-/// a ladder that coarsens every knob together from the defaults (format::resolve_archive_options), bracketed at
-/// the search size; then rounds of one-knob steps (the steps that keep the target taken together, by bytes saved
-/// per squared error added, a scan of the SH multipliers' integers, exchanges of one knob a step coarser for
-/// another a step finer, and the code steps coarsened a quarter bit at a time while the target holds), checked at
-/// the views' own size and searched again with the measured difference between the sizes while it misses the
-/// target or lands over 0.5 dB above it. A byte target runs such PSNR searches over their target for the highest
-/// one whose file fits, spends what the budget leaves on finer single steps, checks the best few at the views'
-/// own size, and climbs with PSNR fits a little above its choice while one fits and reads higher. Deterministic
-/// for a given device. The archive is then written with the chosen options (ConvertReport::rate_control).
+/// all rendered as the source; the fit's candidates drop those above sh_degree): psnr_db the fewest bytes whose
+/// mean PSNR at the views' own size meets it; bytes the highest such PSNR whose file fits. Deterministic for a
+/// given device; how it searches: docs/AUDITS.md#rate-control-of-the-archive-profile---target-psnr---target-bytes.
+/// The archive is then written with the chosen options (ConvertReport::rate_control).
 /// @return kInvalidArgument (bad options, an unknown zstd section, no output format, `dst` being one of the
 ///         scene's files, an empty scene without allow_empty; with a target: a non-.rgs output, no views, a PSNR
 ///         target above what the finest archive reaches (the message says what it reaches), a byte budget below

@@ -184,7 +184,7 @@ class GpuJpegEncoder {
 };
 
 /// Renders Scenes with presets. Create one per thread/stream; it keeps scratch buffers between frames
-/// (a steady sequence of frames allocates nothing on the GPU).
+/// (a steady sequence of frames allocates nothing on the GPU, nor on the CPU: runtime::CpuScratch).
 class Renderer {
  public:
   /// A renderer for scenes on `device` (kCuda: on CUDA device `cuda_device`, made current on the calling

@@ -44,6 +44,15 @@ struct Camera {
 /// Camera centre in world coordinates, −Rᵀ·t (computed in double, rounded to float).
 std::array<float, 3> camera_centre(const Camera& camera);
 
+/// Sets `camera`'s pose from the world-to-camera rotation `rows` (row-major [3, 3]) and the camera centre `eye`
+/// (world units): rotation = rows, translation = −rows·eye, both computed in double and rounded to float.
+void set_pose(Camera* camera, const std::array<double, 9>& rows, const std::array<double, 3>& eye);
+
+/// The size of a view asked as `width` × `height` where 0 means "keep the aspect ratio of ref_width × ref_height":
+/// both given, as given; one 0, derived from the other (rounded, clamped to [1, 32769] so that validate_camera
+/// refuses what is too large); both 0, the reference size.
+std::array<uint32_t, 2> keep_aspect(uint32_t width, uint32_t height, uint32_t ref_width, uint32_t ref_height);
+
 /// Field of view (radians) that a focal length `focal` (pixels) gives over `pixels` pixels:
 /// 2·atan(pixels / (2·focal)).
 double fov_from_focal(double focal, double pixels);
@@ -105,10 +114,6 @@ struct NamedInriaCamera {
 /// kLimitExceeded (a limit above), kCorruptData (not JSON, not an array, empty, a field missing or of the wrong
 /// type, a value out of range).
 Result<std::vector<NamedInriaCamera>> read_inria_cameras(const std::string& path);
-
-/// Same as read_inria_cameras on JSON text in memory; `name` is used in error messages.
-Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::string& json_text,
-                                                                 const std::string& name);
 
 /// Loads the cameras of an INRIA 3DGS cameras.json (read_inria_cameras: its checks and limits) for rendering:
 /// R = rotationᵀ and t = −R·position (double, then float); fx, fy in pixels; principal point at the image centre

@@ -5,11 +5,13 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
+#include "rgs/kernels/shared/blend_math.h"
 #include "rgs/kernels/shared/projection.h"
 #include "rgs/kernels/shared/sort_key.h"
 #include "rgs/runtime/camera.h"
@@ -108,6 +110,45 @@ struct RenderResult {
   RenderStats stats;
 };
 
+namespace detail {
+
+/// What blending reads per Gaussian of a tile, gathered once per tile into a contiguous array (the CPU
+/// counterpart of 3DGS's shared-memory batch: collected_xy, collected_conic_opacity, features, depth; with
+/// folded coefficients the C1..C6 are folded at this load, as RoofGS does).
+struct TileGaussian {
+  float mean[2];
+  kernels::Conic conic;
+  float opacity, log_opacity;
+  float rgb[3];
+  float depth;
+  kernels::FoldedCoefficients folded;
+  float skip_power;  // unfolded path: powers below this give α < 1/255 for sure (visible_power_floor)
+};
+
+/// One blending worker's lists of the tile it blends.
+struct TileScratch {
+  std::vector<TileGaussian> list;
+  std::vector<kernels::FoldedCoefficients> exp2;  // half blend: the coefficients in base 2
+  std::vector<uint32_t> masks;                    // half blend: walk_masks
+};
+
+}  // namespace detail
+
+/// Working memory of a CPU render: the projected Gaussians, the (tile, Gaussian) pairs and per-tile lists, and the
+/// frame's images. A caller rendering many frames (api::Renderer) keeps one and passes it to each frame, which
+/// clears and refills its vectors (never shrinks them): a steady sequence of frames allocates nothing and faults
+/// no fresh pages in. Not thread-safe: one per thread. Fields are internal to render_cpu() except `result`.
+struct CpuScratch {
+  std::vector<ProjectedGaussian> gaussians;
+  TileBins bins;
+  std::vector<uint32_t> order;                        // emission order of the Gaussians
+  std::vector<uint64_t> offsets;                      // [N + 1] first pair of each emitted Gaussian
+  std::vector<std::pair<uint64_t, uint32_t>> pairs;   // (key, emission rank) before the sort
+  std::vector<detail::TileScratch> workers;           // blending's, one per worker thread
+  /// The frame render_cpu(…, scratch) rendered last; valid until the next call.
+  RenderResult result;
+};
+
 /// Renders `cloud` from `camera` on the CPU. Stages, in the order of docs/DESIGN.md#conventions:
 /// preprocess (cull z ≤ near, project, EWA clamp, cov2D + 0.3, cull det == 0, conic, radius, tile rect, SH
 /// colour) → pairs per touched tile with keys → stable sort → per-tile ranges → per-pixel front-to-back
@@ -121,6 +162,11 @@ struct RenderResult {
 /// 8 depth bits), kOutOfMemory (any allocation failed, on any worker thread).
 Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,
                                 const RenderOptions& options = {});
+
+/// render_cpu() with the caller's working memory: the frame is `scratch->result`. Errors as render_cpu(); after
+/// an error `scratch->result` is unspecified.
+Status render_cpu(const format::GaussianCloud& cloud, const Camera& camera, const RenderOptions& options,
+                  CpuScratch* scratch);
 
 /// Stage 0: checks the inputs and derives the frame parameters (tile grid, EWA clamp, key layout and depth
 /// range for key32). Errors as render_cpu().
