@@ -9,7 +9,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "internal_report_assets.h"
+#include "report_assets.h"
 #include "internal_report_image.h"
 #include "internal_report_svg.h"
 #include "rgs/format/file_io.h"
@@ -536,7 +536,7 @@ std::string summary_html(const json& doc) {
          ").</p>" + background_note(doc);
 }
 
-/// The text of the embedded file `path` (audit/report/, internal_report_assets.h).
+/// The text of the embedded file `path` (audit/report/, the generated report_assets.h).
 std::string asset_text(const char* path) {
   const detail::Asset* asset = detail::find_asset(path);
   assert(asset != nullptr);  // audit/CMakeLists.txt embeds every file the page names

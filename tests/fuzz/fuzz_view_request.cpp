@@ -18,6 +18,7 @@
 
 #include "fuzz_check.h"
 #include "internal_routes.h"
+#include "view_assets.h"
 
 namespace {
 

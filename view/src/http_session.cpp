@@ -8,6 +8,7 @@
 #include <boost/beast/http.hpp>
 
 #include "internal_server.h"
+#include "view_assets.h"
 
 namespace rgs::view::detail {
 

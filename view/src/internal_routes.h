@@ -10,9 +10,9 @@
 #include <string_view>
 #include <vector>
 
-#include "internal_assets.h"
-
 namespace rgs::view::detail {
+
+struct Asset;  // an embedded file of the page (the generated view_assets.h)
 
 /// Request line and headers, at most: a longer header is answered 431 and the connection closed; a request with
 /// a body is closed (the server's request parser takes no body).

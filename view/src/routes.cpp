@@ -4,6 +4,7 @@
 #include <cctype>
 
 #include "internal_routes.h"
+#include "view_assets.h"
 
 namespace rgs::view::detail {
 
