@@ -136,8 +136,8 @@ struct TileScratch {
 
 /// Working memory of a CPU render: the projected Gaussians, the (tile, Gaussian) pairs and per-tile lists, and the
 /// frame's images. A caller rendering many frames (api::Renderer) keeps one and passes it to each frame, which
-/// clears and refills its vectors (never shrinks them): a steady sequence of frames allocates nothing and faults
-/// no fresh pages in. Not thread-safe: one per thread. Fields are internal to render_cpu() except `result`.
+/// clears and refills its vectors (never shrinks them), so frames of a steady size reuse the same memory instead of
+/// allocating it afresh. Not thread-safe: one per thread. Fields are internal to render_cpu() except `result`.
 struct CpuScratch {
   std::vector<ProjectedGaussian> gaussians;
   TileBins bins;
