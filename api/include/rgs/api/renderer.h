@@ -184,7 +184,8 @@ class GpuJpegEncoder {
 };
 
 /// Renders Scenes with presets. Create one per thread/stream; it keeps scratch buffers between frames
-/// (a steady sequence of frames allocates nothing on the GPU, nor on the CPU: runtime::CpuScratch).
+/// (a steady sequence of frames allocates nothing on the GPU; on the CPU, runtime::CpuScratch keeps the frame's
+/// working memory for reuse).
 class Renderer {
  public:
   /// A renderer for scenes on `device` (kCuda: on CUDA device `cuda_device`, made current on the calling
