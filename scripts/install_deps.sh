@@ -6,7 +6,8 @@
 #           GLM (camera tests of the front door), python3 with pybind11, NumPy, pytest and venv (the roofgs module
 #           and its pip install check), matplotlib (the scripts' plots), chromium and python3-websocket (the
 #           audit report's test in a headless browser), clang's libFuzzer and sanitizers (scripts/run_fuzzers.sh),
-#           ccache (CI's stages share the objects they compile alike: .ci/run)
+#           ccache (CI's stages share the objects they compile alike: .ci/run), cloc (the line budgets:
+#           scripts/line_budget.py)
 # Idempotent: skips apt when everything is present. Uses sudo when not run as root. Waits (up to 10 minutes)
 # for another apt or dpkg to release its lock, as happens right after a fresh machine boots.
 set -euo pipefail
@@ -22,7 +23,7 @@ tests=(
   doctest-dev libopenimageio-dev libglm-dev
   python3 python3-dev python3-venv pybind11-dev python3-numpy python3-pytest python3-matplotlib time
   chromium python3-websocket
-  clang libclang-rt-14-dev llvm ccache
+  clang libclang-rt-14-dev llvm ccache cloc
 )
 case "$profile" in
   sample) packages=("${sample[@]}") ;;

@@ -6,8 +6,13 @@ view/ parallel/ tools/), as tracked by git; lab/, tests/, python/ and samples/ a
 (`wc -l`) and code lines (cloc: neither blank nor comment, so that comments and docs are never what is cut).
 Each layer's lines follow, largest first.
 
-Usage: scripts/line_budget.py [--check]   (--check: exit 1 when a budget is exceeded)
-Needs git and cloc (apt-get install cloc).
+Two limits (CONTRIBUTING.md#line-budgets): the budgets, where the product is to be, and the ceiling, which it may
+not pass. The ceiling is the product's size after the last cut; a cut lowers it, and only a commit that adds a
+feature raises it, by the line budget that commit states.
+
+Usage: scripts/line_budget.py [--check]   (--check: exit 1 above the ceiling; the test suite runs it)
+Needs git and cloc (apt-get install cloc). Outside a git checkout there is nothing to count: --check says so and
+exits 0.
 """
 import argparse
 import json
@@ -22,6 +27,8 @@ PRODUCT_DIRS = ["format", "converter", "kernels", "runtime", "api", "audit", "vi
 SOURCE_SUFFIXES = (".h", ".hpp", ".cpp", ".cc", ".cu", ".cuh")
 BUDGET_LINES = 38_500
 BUDGET_CODE_LINES = 29_500
+CEILING_LINES = 46_163
+CEILING_CODE_LINES = 34_994
 
 
 def product_sources():
@@ -47,27 +54,36 @@ def cloc_code_lines(paths):
     return json.loads(out)["SUM"]["code"]
 
 
-def row(name, value, budget):
+def row(name, value, budget, ceiling):
     state = "within" if value <= budget else "over by %d" % (value - budget)
-    return "%-28s %7d   budget %7d   %s" % (name, value, budget, state)
+    above = "" if value <= ceiling else "   ABOVE THE CEILING %d by %d" % (ceiling, value - ceiling)
+    return "%-20s %7d   budget %7d   %-14s ceiling %7d%s" % (name, value, budget, state, ceiling, above)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 when a budget is exceeded")
+    parser.add_argument("--check", action="store_true", help="exit 1 above the ceiling")
     args = parser.parse_args()
+    if not os.path.isdir(os.path.join(ROOT, ".git")) and not os.path.isfile(os.path.join(ROOT, ".git")):
+        print("line_budget: skipped: %s is not a git checkout" % ROOT)
+        return 0
     if shutil.which("cloc") is None:
         print("line_budget: cloc not found (apt-get install cloc)", file=sys.stderr)
         return 2
     paths = product_sources()
     lines, code = count_lines(paths), cloc_code_lines(paths)
     print("product sources: %d files" % len(paths))
-    print(row("lines (wc -l)", lines, BUDGET_LINES))
-    print(row("code lines (cloc)", code, BUDGET_CODE_LINES))
+    print(row("lines (wc -l)", lines, BUDGET_LINES, CEILING_LINES))
+    print(row("code lines (cloc)", code, BUDGET_CODE_LINES, CEILING_CODE_LINES))
     by_dir = {d: count_lines([p for p in paths if p.startswith(d + "/")]) for d in PRODUCT_DIRS}
     for d, n in sorted(by_dir.items(), key=lambda item: -item[1]):
         print("  %-10s %7d lines" % (d + "/", n))
-    return 1 if args.check and (lines > BUDGET_LINES or code > BUDGET_CODE_LINES) else 0
+    above = lines > CEILING_LINES or code > CEILING_CODE_LINES
+    if above:
+        print("line_budget: the product grew past its ceiling: cut as much elsewhere, or, for a new feature, raise "
+              "CEILING_LINES and CEILING_CODE_LINES in scripts/line_budget.py by the line budget its commit states",
+              file=sys.stderr)
+    return 1 if args.check and above else 0
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ status=${PIPESTATUS[0]}
 set -e
 python3 "$root/scripts/check_doc_links.py" || status=1  # every link to a Markdown file and heading resolves
 python3 "$root/scripts/check_function_length.py" || status=1  # no function over 150 lines (product, lab/, python/)
+python3 "$root/scripts/line_budget.py" --check || status=1  # the product's lines within their ceiling
 # Why tests skipped (no GPU, no real scenes, ...): the reasons of the skipped tests and of the skipped
 # parts of passing ones, counted, from the output CTest keeps.
 log="$build/Testing/Temporary/LastTest.log"
