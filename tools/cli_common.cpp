@@ -406,16 +406,6 @@ std::string version_line(const char* tool) {
   return std::string(tool) + " " + RGS_VERSION_STRING + " (commit " + RGS_TOOL_COMMIT + ")";
 }
 
-std::string group_digits(uint64_t n) {
-  std::string digits = std::to_string(n);
-  std::string out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
-
 std::vector<std::string> file_safe_names(const std::vector<std::string>& names) {
   std::vector<std::string> out;
   for (size_t i = 0; i < names.size(); ++i) {

@@ -123,9 +123,6 @@ Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* conv
 /// @return kInvalidArgument quoting the text or the part that is not a number.
 Result<std::array<float, 3>> parse_background(const std::string& text);
 
-/// 1234567 -> "1,234,567".
-std::string group_digits(uint64_t n);
-
 /// What --version prints: "<tool> <version> (commit <hash>)", the commit CMake was configured from.
 std::string version_line(const char* tool);
 /// `names` usable as file names, all different: in name i, '/', '\\' and control characters replaced by '_';

@@ -84,7 +84,7 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
   const double per_g = r.source.gaussians ? 1.0 / double(r.source.gaussians) : 0.0;
   std::fprintf(out, "candidate %s (%s, %s)\n", tools::escape_text(c.scene.label).c_str(),
                tools::escape_text(c.scene.path).c_str(), tools::escape_text(c.scene.format).c_str());
-  std::fprintf(out, "  gaussians        %s (SH degree %u)\n", tools::group_digits(c.scene.gaussians).c_str(),
+  std::fprintf(out, "  gaussians        %s (SH degree %u)\n", rgs::group_digits(c.scene.gaussians).c_str(),
                c.scene.sh_degree);
   if (c.scene.file_bytes > 0) {
     std::fprintf(out, "  load             %s s\n", tools::fixed(c.scene.load_seconds, 2).c_str());
@@ -94,7 +94,7 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
     std::fprintf(out, "  size             none: an attribution scene (--attribution), not a file\n");
   } else {
     std::fprintf(out, "  size             %s bytes  (%s B/Gaussian), ratio %sx\n",
-                 tools::group_digits(c.scene.file_bytes).c_str(),
+                 rgs::group_digits(c.scene.file_bytes).c_str(),
                  tools::fixed(double(c.scene.file_bytes) * per_g, 1).c_str(),
                  tools::fixed(double(r.source.file_bytes) / double(c.scene.file_bytes), 2).c_str());
   }
@@ -102,11 +102,11 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
     std::fprintf(out, "  %-22s %8s %14s %12s\n", "section", "codec", "bytes", "B/Gaussian");
     for (const auto& s : c.scene.sections) {
       std::fprintf(out, "  %-22s %8s %14s %12s\n", s.name.c_str(), s.codec.c_str(),
-                   tools::group_digits(s.stored_bytes).c_str(),
+                   rgs::group_digits(s.stored_bytes).c_str(),
                    tools::fixed(double(s.stored_bytes) * per_g, 3).c_str());
     }
     std::fprintf(out, "  %-22s %8s %14s %12s\n", "header, table, padding", "",
-                 tools::group_digits(c.scene.overhead_bytes).c_str(),
+                 rgs::group_digits(c.scene.overhead_bytes).c_str(),
                  tools::fixed(double(c.scene.overhead_bytes) * per_g, 3).c_str());
   }
   if (c.attributes) {
@@ -123,7 +123,7 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
     }
     if (c.attributes->source_unpaired > 0) {
       std::fprintf(out, "  not in candidate %s source Gaussians (left out of the errors)\n",
-                   tools::group_digits(c.attributes->source_unpaired).c_str());
+                   rgs::group_digits(c.attributes->source_unpaired).c_str());
     }
     std::fprintf(out, "  %-22s %12s %12s\n", "error", "max", "rms");
     converter::ErrorStats pos = e.position;
@@ -139,7 +139,7 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
         std::string note;
         if (c.attributes->sh_quantization) {
           note = "scale " + tools::sci(c.attributes->sh_quantization->scales[d][ch]) + ", " +
-                 tools::group_digits(c.attributes->clipped[d][ch]) + " clipped";
+                 rgs::group_digits(c.attributes->clipped[d][ch]) + " clipped";
         }
         row("  " + std::string(channel_names[ch]), e.sh_channel[d][ch], note);
       }
@@ -331,8 +331,8 @@ void print_verdict(std::FILE* out, const audit::AuditResult& r, size_t candidate
   const std::string beside = foreground ? " (whole frame " + db(v.whole_frame_psnr_mean_db) + " dB)" : "";
   std::string saved = "no file size";
   if (v.bytes_saved) {
-    saved = *v.bytes_saved >= 0 ? "saves " + tools::group_digits(uint64_t(*v.bytes_saved)) + " bytes"
-                                : "adds " + tools::group_digits(uint64_t(-*v.bytes_saved)) + " bytes";
+    saved = *v.bytes_saved >= 0 ? "saves " + rgs::group_digits(uint64_t(*v.bytes_saved)) + " bytes"
+                                : "adds " + rgs::group_digits(uint64_t(-*v.bytes_saved)) + " bytes";
     saved += " (" + tools::fixed(100.0 * std::fabs(v.bytes_saved_fraction), 0) + "% of the source)";
   }
   std::fprintf(out, "  verdict          %s %s: mean %s %s dB %s %s dB%s; worst view %s %s dB; %s\n",
@@ -347,7 +347,7 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
                  Clock::time_point t_start) {
   std::fprintf(out, "%s %s (%s, %s Gaussians, %s bytes)\n", kTool,
                tools::escape_text(r.source.path).c_str(), tools::escape_text(r.source.format).c_str(),
-               tools::group_digits(r.source.gaussians).c_str(), tools::group_digits(r.source.file_bytes).c_str());
+               rgs::group_digits(r.source.gaussians).c_str(), rgs::group_digits(r.source.file_bytes).c_str());
   std::fprintf(out, "  backend          %s (%s)\n", audit::backend_name(r.backend),
                tools::escape_text(r.device).c_str());
   std::fprintf(out, "  load             source %s s\n", tools::fixed(r.source.load_seconds, 2).c_str());
@@ -372,7 +372,7 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
     std::fprintf(
         out, "  %-*s %8s %14s %8s %8sx %9s %10s %10s %9s\n", candidate_column,
         tools::escape_text(c.scene.label).c_str(),
-        tools::escape_text(c.scene.format).c_str(), tools::group_digits(c.scene.file_bytes).c_str(),
+        tools::escape_text(c.scene.format).c_str(), rgs::group_digits(c.scene.file_bytes).c_str(),
         tools::fixed(per_g, 1).c_str(),
         tools::fixed(c.scene.file_bytes ? double(r.source.file_bytes) / double(c.scene.file_bytes) : 0.0, 2).c_str(),
         db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(),

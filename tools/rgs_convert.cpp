@@ -143,13 +143,13 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
       const double floor = opt.convert.archive.opacity_floor;
       std::printf("  omitted          %s Gaussians whose opacity code is 0 (they decode to opacity 0, which no "
                   "renderer draws)%s\n",
-                  tools::group_digits(q.archive_omitted).c_str(),
+                  rgs::group_digits(q.archive_omitted).c_str(),
                   floor > 0 ? (" or whose opacity is below " + tools::fixed(255 * floor, 2) + "/255").c_str() : "");
     }
   } else if (q.lod_levels > 0) {
     std::printf("  profile          runtime, levels of detail: %u chunks x %u levels, %s Gaussians in all (%s x the "
                 "full detail), built in %s s\n",
-                q.lod_chunks, q.lod_levels, tools::group_digits(q.lod_gaussians).c_str(),
+                q.lod_chunks, q.lod_levels, rgs::group_digits(q.lod_gaussians).c_str(),
                 tools::fixed(double(q.lod_gaussians) / double(std::max<uint64_t>(r.gaussians, 1)), 3).c_str(),
                 tools::fixed(r.seconds.lod, 2).c_str());
   } else {
@@ -166,8 +166,8 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
   const auto& fp16 = q.quantization;
   const std::string scale_note =
       archive ? std::string("of the Gaussian's largest axis") :
-      "of the Gaussian's largest axis; " + tools::group_digits(fp16.scales_subnormal) +
-      " axes FP16-subnormal (< 6.1e-5), " + tools::group_digits(fp16.scales_flushed_to_zero) + " flushed to 0" +
+      "of the Gaussian's largest axis; " + rgs::group_digits(fp16.scales_subnormal) +
+      " axes FP16-subnormal (< 6.1e-5), " + rgs::group_digits(fp16.scales_flushed_to_zero) + " flushed to 0" +
       (fp16.scales_flushed_to_zero ? " (each < 3e-8, at most " + tools::sci(fp16.max_flushed_of_largest_axis) +
                                          " of its largest axis: no visible effect)"
                                    : std::string());
@@ -179,7 +179,7 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
     const bool residual = d == 0 && !archive && opt.convert.sh_dc_bits == 16;
     const std::string note = std::string(archive ? "absolute" : residual ? "absolute, INT8 and DC residual (16-bit)"
                                                                          : "absolute, INT8") +
-                             (clipped ? ", " + tools::group_digits(clipped) + " clipped" : std::string());
+                             (clipped ? ", " + rgs::group_digits(clipped) + " clipped" : std::string());
     print_stats_row("SH degree " + std::to_string(d), q.errors.sh[d], note);
   }
 }
@@ -212,7 +212,7 @@ void note_larger_than_input(const Options& opt, const api::ConvertReport& r) {
 void print_fit(const Options& opt, const api::ConvertReport& r, const api::RateControlReport& f) {
   const api::ConvertTarget& t = opt.convert.target;
   const std::string target = t.psnr_db ? "mean PSNR >= " + tools::fixed(*t.psnr_db, 2) + " dB"
-                                       : "at most " + tools::group_digits(*t.bytes) + " bytes";
+                                       : "at most " + rgs::group_digits(*t.bytes) + " bytes";
   std::printf("  rate control     %s: reached %s dB mean (lowest view %s dB) over %u views at %ux%u, "
               "render against the input's render (%s)\n",
               target.c_str(), tools::fixed(f.psnr_mean_db, 2).c_str(), tools::fixed(f.psnr_min_db, 2).c_str(),
@@ -227,20 +227,20 @@ void print_fit(const Options& opt, const api::ConvertReport& r, const api::RateC
 void print_summary(const Options& opt, const api::ConvertReport& r) {
   const double per_gaussian = r.gaussians ? 1.0 / static_cast<double>(r.gaussians) : 0.0;
   std::printf("%s %s -> %s\n", kTool, tools::escape_text(opt.input).c_str(), tools::escape_text(opt.output).c_str());
-  std::printf("  gaussians        %s (SH degree %u, %s)\n", tools::group_digits(r.gaussians).c_str(), r.sh_degree,
+  std::printf("  gaussians        %s (SH degree %u, %s)\n", rgs::group_digits(r.gaussians).c_str(), r.sh_degree,
               r.input_description.c_str());
-  std::printf("  input            %s bytes  (%s B/Gaussian)\n", tools::group_digits(r.input_bytes).c_str(),
+  std::printf("  input            %s bytes  (%s B/Gaussian)\n", rgs::group_digits(r.input_bytes).c_str(),
               tools::fixed(double(r.input_bytes) * per_gaussian, 1).c_str());
   std::printf("  output           %s bytes (%s), %s B/Gaussian, ratio %sx\n",
-              tools::group_digits(r.output_bytes).c_str(), r.output_description.c_str(),
+              rgs::group_digits(r.output_bytes).c_str(), r.output_description.c_str(),
               tools::fixed(double(r.output_bytes) * per_gaussian, 2).c_str(),
               tools::fixed(r.output_bytes > 0 ? double(r.input_bytes) / double(r.output_bytes) : 0.0, 2).c_str());
   const auto& h = r.hygiene;
   std::printf("  input hygiene    %s non-finite values in %s Gaussians, %s zero-norm quaternions, "
               "%s infinite opacity logits (kept), %s Gaussians dropped\n",
-              tools::group_digits(h.nonfinite_values).c_str(), tools::group_digits(h.gaussians_with_nonfinite).c_str(),
-              tools::group_digits(h.zero_norm_quaternions).c_str(),
-              tools::group_digits(h.infinite_opacity_logits).c_str(), tools::group_digits(h.dropped_gaussians).c_str());
+              rgs::group_digits(h.nonfinite_values).c_str(), rgs::group_digits(h.gaussians_with_nonfinite).c_str(),
+              rgs::group_digits(h.zero_norm_quaternions).c_str(),
+              rgs::group_digits(h.infinite_opacity_logits).c_str(), rgs::group_digits(h.dropped_gaussians).c_str());
   for (const std::string& note : r.input_notes) std::printf("  input note       %s\n", tools::escape_text(note).c_str());
   for (const std::string& note : r.output_notes) std::printf("  output note      %s\n", tools::escape_text(note).c_str());
   if (r.rate_control) print_fit(opt, r, *r.rate_control);

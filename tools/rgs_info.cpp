@@ -104,9 +104,9 @@ void print_text(const format::RgsFile& file) {
   std::printf("%s\n", tools::escape_text(file.name()).c_str());
   std::printf("  format           .rgs %u.%u, flags required 0x%08x optional 0x%08x\n", h.major, h.minor,
               h.required_flags, h.optional_flags);
-  std::printf("  size             %s bytes (%s B/Gaussian)\n", tools::group_digits(file.file_size()).c_str(),
+  std::printf("  size             %s bytes (%s B/Gaussian)\n", rgs::group_digits(file.file_size()).c_str(),
               tools::fixed(n ? static_cast<double>(file.file_size()) / static_cast<double>(n) : 0.0, 2).c_str());
-  std::printf("  gaussians        %s, SH degree %u\n", tools::group_digits(n).c_str(), m.sh_degree);
+  std::printf("  gaussians        %s, SH degree %u\n", rgs::group_digits(n).c_str(), m.sh_degree);
   std::printf("  conventions      frame %s, quaternion %s, scale %s, opacity %s, SH %s\n",
               format::to_string(m.frame), format::to_string(m.quaternion_order),
               format::to_string(m.scale_encoding), format::to_string(m.opacity_encoding),
@@ -124,11 +124,11 @@ void print_text(const format::RgsFile& file) {
   }
   if (const format::LodIndex* lod = file.lod()) {
     std::printf("  levels of detail %u chunks x %u levels (format/SPEC.md 4.9); full detail %s Gaussians\n",
-                lod->chunk_count, lod->level_count, tools::group_digits(lod->full_detail_count()).c_str());
+                lod->chunk_count, lod->level_count, rgs::group_digits(lod->full_detail_count()).c_str());
     for (uint32_t l = 0; l < lod->level_count; ++l) {
       const LevelTotals t = level_totals(*lod, l);
       std::printf("    level %-2u       %s Gaussians, error <= %s scene units\n", l,
-                  tools::group_digits(t.gaussians).c_str(), tools::sci(t.max_error).c_str());
+                  rgs::group_digits(t.gaussians).c_str(), tools::sci(t.max_error).c_str());
     }
   }
   std::printf("  sections\n    %-4s %-14s %-5s %-5s %5s %12s %12s %14s %14s %7s\n", "id", "name", "codec", "type",
@@ -136,8 +136,8 @@ void print_text(const format::RgsFile& file) {
   for (const auto& s : file.sections()) {
     std::printf("    %-4u %-14s %-5s %-5s %5u %12s %12s %14s %14s %7s\n", static_cast<uint32_t>(s.id),
                 format::section_name(s.id), format::codec_name(s.codec), format::element_type_name(s.element_type),
-                s.components, tools::group_digits(s.element_count).c_str(), tools::group_digits(s.offset).c_str(),
-                tools::group_digits(s.stored_size).c_str(), tools::group_digits(s.raw_size).c_str(),
+                s.components, rgs::group_digits(s.element_count).c_str(), rgs::group_digits(s.offset).c_str(),
+                rgs::group_digits(s.stored_size).c_str(), rgs::group_digits(s.raw_size).c_str(),
                 tools::fixed(n ? static_cast<double>(s.stored_size) / static_cast<double>(n) : 0.0, 2).c_str());
   }
   if (!file.provenance().empty()) {
@@ -168,12 +168,12 @@ void print_text(const std::string& path, const converter::InputScene& scene) {
   const uint64_t n = scene.cloud.size();
   std::printf("%s\n", tools::escape_text(path).c_str());
   std::printf("  format           %s (%s)\n", tools::escape_text(scene.description).c_str(), scene.format_id.c_str());
-  std::printf("  size             %s bytes in %s file%s (%s B/Gaussian)\n", tools::group_digits(scene.file_bytes).c_str(),
-              tools::group_digits(scene.file_count).c_str(), scene.file_count == 1 ? "" : "s",
+  std::printf("  size             %s bytes in %s file%s (%s B/Gaussian)\n", rgs::group_digits(scene.file_bytes).c_str(),
+              rgs::group_digits(scene.file_count).c_str(), scene.file_count == 1 ? "" : "s",
               tools::fixed(n ? static_cast<double>(scene.file_bytes) / static_cast<double>(n) : 0.0, 2).c_str());
-  std::printf("  gaussians        %s, SH degree %u", tools::group_digits(n).c_str(), scene.cloud.sh_degree);
+  std::printf("  gaussians        %s, SH degree %u", rgs::group_digits(n).c_str(), scene.cloud.sh_degree);
   if (scene.declared_vertices != n) {
-    std::printf(" (the file declares %s)", tools::group_digits(scene.declared_vertices).c_str());
+    std::printf(" (the file declares %s)", rgs::group_digits(scene.declared_vertices).c_str());
   }
   std::printf("\n");
   print_bounds(scene.bounds);

@@ -148,10 +148,10 @@ struct LodTotals {
 /// ", 123,456 splats, 40 chunks (12 coarser for the budget, 3 behind), 1,234,567 B streamed" for a view's line
 /// (the CPU streams nothing: no "behind" and no bytes).
 std::string lod_view_text(const api::LodFrameCounts& c, bool gpu) {
-  std::string text = ", " + tools::group_digits(c.splats) + " splats, " + std::to_string(c.chunks_drawn) +
+  std::string text = ", " + rgs::group_digits(c.splats) + " splats, " + std::to_string(c.chunks_drawn) +
                      " chunks (" + std::to_string(c.chunks_coarsened) + " coarser for the budget";
   if (!gpu) return text + ")";
-  return text + ", " + std::to_string(c.chunks_not_resident) + " behind), " + tools::group_digits(c.bytes_streamed) +
+  return text + ", " + std::to_string(c.chunks_not_resident) + " behind), " + rgs::group_digits(c.bytes_streamed) +
          " B streamed";
 }
 
@@ -161,21 +161,21 @@ std::string lod_summary(const api::SceneInfo& scene, const LodTotals& t, size_t 
   const api::LodSettings& s = lod.settings;
   const bool gpu = scene.device == api::Device::kCuda;
   std::string text = "  level of detail  " + std::to_string(lod.chunks) + " chunks x " + std::to_string(lod.levels) +
-                     " levels (" + tools::group_digits(lod.stored_gaussians) + " Gaussians in all); budget " +
-                     (s.splat_budget ? tools::group_digits(s.splat_budget) : std::string("unlimited")) +
+                     " levels (" + rgs::group_digits(lod.stored_gaussians) + " Gaussians in all); budget " +
+                     (s.splat_budget ? rgs::group_digits(s.splat_budget) : std::string("unlimited")) +
                      " splats, " + tools::fixed(s.pixel_error, 2) + " px of error";
   if (gpu) {
-    text += ", " + (s.memory_budget ? tools::group_digits(s.memory_budget) + " B" : std::string("unbounded")) +
-            " of device memory (pool " + tools::group_digits(lod.pool_bytes) + " B)";
+    text += ", " + (s.memory_budget ? rgs::group_digits(s.memory_budget) + " B" : std::string("unbounded")) +
+            " of device memory (pool " + rgs::group_digits(lod.pool_bytes) + " B)";
   } else {
     text += ", every level in host memory";
   }
-  text += "\n  splats           mean " + tools::group_digits(t.splats / views) + ", max " +
-          tools::group_digits(t.max_splats) + " a view; chunks drawn " + tools::group_digits(t.chunks_drawn) +
-          ", coarser for the budget " + tools::group_digits(t.chunks_coarsened);
+  text += "\n  splats           mean " + rgs::group_digits(t.splats / views) + ", max " +
+          rgs::group_digits(t.max_splats) + " a view; chunks drawn " + rgs::group_digits(t.chunks_drawn) +
+          ", coarser for the budget " + rgs::group_digits(t.chunks_coarsened);
   if (gpu) {
-    text += ", behind (streaming) " + tools::group_digits(t.chunks_not_resident) + "\n  streamed         " +
-            tools::group_digits(t.bytes_streamed) + " B in all, at most " + tools::group_digits(t.max_resident) +
+    text += ", behind (streaming) " + rgs::group_digits(t.chunks_not_resident) + "\n  streamed         " +
+            rgs::group_digits(t.bytes_streamed) + " B in all, at most " + rgs::group_digits(t.max_resident) +
             " B resident";
   }
   return text + "\n";
@@ -247,7 +247,7 @@ int run(Options opt) {
     std::fprintf(stderr, "view %zu/%zu %s %s ms (%s), %s pairs%s\n", i + 1, count,
                  tools::escape_text(cam.name).c_str(),
                  tools::fixed(view->render_ms, view->render_ms < 100 ? 3 : 0).c_str(), "render",
-                 tools::group_digits(view->stats.pairs).c_str(), lod_text.c_str());
+                 rgs::group_digits(view->stats.pairs).c_str(), lod_text.c_str());
   }
 
   const runtime::Camera& first = cameras->front();
@@ -257,9 +257,9 @@ int run(Options opt) {
   std::printf("  views            %zu (%s, %s)\n", count, output_kinds(opt).c_str(),
               !opt.cameras.cameras_path.empty() ? "cameras.json" : opt.cameras.path > 0 ? "path" : "orbit");
   std::printf("  resolution       %ux%u\n", first.width, first.height);
-  std::printf("  gaussians        %s (SH degree %u, %s%s)\n", tools::group_digits(scene.gaussians).c_str(),
+  std::printf("  gaussians        %s (SH degree %u, %s%s)\n", rgs::group_digits(scene.gaussians).c_str(),
               scene.sh_degree, scene.description.c_str(), scene.device == api::Device::kCuda ? ", on the GPU" : "");
-  std::printf("  mean pairs       %s\n", tools::group_digits(total_pairs / count).c_str());
+  std::printf("  mean pairs       %s\n", rgs::group_digits(total_pairs / count).c_str());
   if (scene.lod.active) {
     std::printf("%s", lod_summary(scene, lod_totals, count).c_str());
   } else if (scene.lod.levels > 0) {

@@ -216,8 +216,8 @@ Result<ConvertReport> convert_whole(detail::SceneSource source, const std::strin
   report.seconds.total = detail::seconds_since(source.start);
   if (options.target.bytes && report.output_bytes > *options.target.bytes) {
     return Status(StatusCode::kLimitExceeded,
-                  dst + ": the archive has " + detail::group_digits(report.output_bytes) +
-                      " bytes, over the target of " + detail::group_digits(*options.target.bytes) +
+                  dst + ": the archive has " + rgs::group_digits(report.output_bytes) +
+                      " bytes, over the target of " + rgs::group_digits(*options.target.bytes) +
                       " (its provenance is larger than the fit allowed for)");
   }
   progress->done();

@@ -26,9 +26,6 @@ using Clock = std::chrono::steady_clock;
 /// Seconds from `start` to now.
 double seconds_since(Clock::time_point start);
 
-/// "1,234,567": a count with its thousands grouped, for messages.
-std::string group_digits(uint64_t n);
-
 /// Calls ConvertOptions::progress, if set, once per stage, keeping the fractions non-decreasing. Each stage
 /// starts at its share of a typical conversion to the output (reading and quantizing are quick next to the
 /// archive and SPZ encoders); rate control spreads its steps over most of the range.

@@ -12,12 +12,6 @@ namespace rgs::api::detail {
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-std::string group_digits(uint64_t n) {
-  std::string s = std::to_string(n);
-  for (int i = int(s.size()) - 3; i > 0; i -= 3) s.insert(size_t(i), ",");
-  return s;
-}
-
 namespace {
 
 /// With a target, rate control runs between reading and quantizing: it spreads its steps over

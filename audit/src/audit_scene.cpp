@@ -19,7 +19,6 @@ namespace rgs::audit {
 
 namespace {
 
-using detail::group_digits;
 
 /// The longest side of the box of `cloud`'s means (0 without Gaussians).
 double means_extent(const format::GaussianCloud& cloud) {

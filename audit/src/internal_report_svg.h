@@ -14,8 +14,6 @@ namespace rgs::audit::detail {
 std::string escape_html(std::string_view text);
 /// printf-style formatting of one number (e.g. "%.2f", "%g", "%.3e"), with a decimal point whatever the locale.
 std::string format_number(const char* format, double value);
-/// 1234567 -> "1,234,567".
-std::string group_digits(long long value);
 
 /// A colour of matplotlib's default cycle ("tab10"), i modulo 10.
 const char* cycle_colour(size_t i);

@@ -36,7 +36,7 @@ std::string fixed(double v, int digits) { return format_number(("%." + std::to_s
 std::string fixed(const json& v, int digits) { return fixed(v.get<double>(), digits); }
 std::string general(double v) { return format_number("%g", v); }
 std::string sci(const json& v) { return format_number("%.3e", v.get<double>()); }
-std::string group(const json& v) { return detail::group_digits(v.get<long long>()); }
+std::string group(const json& v) { return rgs::group_digits(v.get<long long>()); }
 
 /// A dB value of the JSON: a number, "inf" / "-inf", or null (NaN: no value).
 double number(const json& v) {
@@ -293,7 +293,7 @@ std::string verdict_html(const json& doc) {
     if (!saved.is_null()) {
       const long long s = saved.get<long long>();
       const double fraction = 100 * cv.at("bytes_saved_fraction").get<double>();
-      size = (s >= 0 ? "saves " : "adds ") + detail::group_digits(s >= 0 ? s : -s) + " bytes (" +
+      size = (s >= 0 ? "saves " : "adds ") + rgs::group_digits(s >= 0 ? s : -s) + " bytes (" +
              fixed(s >= 0 ? fraction : -fraction, 0) + "% of the source)";
     }
     const json& wv = cv.at("worst_view");
@@ -467,7 +467,7 @@ Result<std::string> candidate_section(const json& doc, size_t index, const json&
     }
     const long long overhead = c.value("header_table_padding_bytes", 0LL);
     const double gaussians = double(std::max(c.at("gaussians").get<long long>(), 1LL));
-    out += "<tr>" + cells({"header, table, padding", "", detail::group_digits(overhead),
+    out += "<tr>" + cells({"header, table, padding", "", rgs::group_digits(overhead),
                            fixed(double(overhead) / gaussians, 3)}) + "</tr></table>";
   }
   out += errors_html(c) + "</div>";

@@ -13,6 +13,16 @@ const char* status_code_name(StatusCode code) noexcept {
   return index < std::size(kNames) ? kNames[index] : "kUnknown";
 }
 
+std::string group_digits(int64_t value) {
+  const std::string digits = std::to_string(value < 0 ? -uint64_t(value) : uint64_t(value));
+  std::string out = value < 0 ? "-" : "";
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
 std::string Status::to_string() const {
   if (ok()) return "ok";
   return message_ + " [" + status_code_name(code_) + "]";

@@ -591,8 +591,8 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
               report.device.compute_minor, report.device.multiprocessors, report.date.c_str());
   if (opt.replicate > 1) {
     std::printf("  gaussians        %s = %u copies of %s (SH degree %u, %s source, %s MB on the device)\n",
-                tools::group_digits(scene.scene.size()).c_str(), opt.replicate,
-                tools::group_digits(replicated.source_gaussians).c_str(), scene.scene.sh_degree(),
+                rgs::group_digits(scene.scene.size()).c_str(), opt.replicate,
+                rgs::group_digits(replicated.source_gaussians).c_str(), scene.scene.sh_degree(),
                 replicated.source_is_rgs ? ".rgs" : "PLY",
                 tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
     std::printf("  replicated       %s\n", replicated.quantization.c_str());
@@ -600,10 +600,10 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
                 tools::fixed(report.load_ms, 1).c_str());
   } else {
     std::printf("  gaussians        %s (SH degree %u, %s, %s MB on the device)\n",
-                tools::group_digits(scene.scene.size()).c_str(), scene.scene.sh_degree(),
+                rgs::group_digits(scene.scene.size()).c_str(), scene.scene.sh_degree(),
                 scene.is_rgs ? ".rgs" : "PLY", tools::fixed(double(scene.scene.device_bytes()) / 1e6, 1).c_str());
     std::printf("  load             %s ms (file of %s bytes: read, decode, upload)\n",
-                tools::fixed(report.load_ms, 1).c_str(), tools::group_digits(scene.file_bytes).c_str());
+                tools::fixed(report.load_ms, 1).c_str(), rgs::group_digits(scene.file_bytes).c_str());
   }
   std::printf("  frame buffers    %s MB renderer scratch (grown to the run's largest frame%s) + %s MB image\n",
               tools::fixed(double(report.scratch_bytes) / 1e6, 1).c_str(),
@@ -623,12 +623,12 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
                 tools::fixed(r.stages[2].median, 3).c_str(), tools::fixed(r.stages[3].median, 3).c_str(),
                 tools::fixed(r.stages[4].median, 3).c_str(),
                 (tools::fixed(lo, 3) + "-" + tools::fixed(hi, 3)).c_str(), tools::fixed(r.fps, 1).c_str(),
-                tools::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str(), r.max_tile_groups);
+                rgs::group_digits(static_cast<uint64_t>(r.mean_pairs + 0.5)).c_str(), r.max_tile_groups);
   }
 
   std::printf("  peaks            memory %s GB/s (device-to-device copy of %s MiB, read + write, median of %zu); "
               "FP32 %s GFLOP/s (FMA loop, median of %zu); half2 %s GFLOP/s; ridge %s FLOP/B\n",
-              tools::fixed(report.peaks.memory_gbps, 1).c_str(), tools::group_digits(report.peaks.copy_bytes >> 20).c_str(),
+              tools::fixed(report.peaks.memory_gbps, 1).c_str(), rgs::group_digits(report.peaks.copy_bytes >> 20).c_str(),
               report.peaks.copy_ms.size(), tools::fixed(report.peaks.fp32_gflops, 0).c_str(), report.peaks.fma_ms.size(),
               tools::fixed(report.peaks.half_gflops, 0).c_str(), tools::fixed(report.peaks.ridge_flop_per_byte(), 2).c_str());
   std::printf("  roofline         model: docs/lab/ROOFLINE.md (requested bytes and FP32 FLOPs per frame, upper bounds)\n");
@@ -671,7 +671,7 @@ void print_report(const Options& opt, const api::LoadedGpuScene& scene, const la
       }
       const auto share = [](double part, double whole) { return tools::fixed(whole > 0 ? 100 * part / whole : 0, 1) + " %"; };
       const double n = double(std::max<size_t>(f.census.size(), 1));
-      const auto count = [&](double v) { return tools::group_digits(uint64_t(v / n + 0.5)); };
+      const auto count = [&](double v) { return rgs::group_digits(uint64_t(v / n + 0.5)); };
       std::printf("  %-10s %10s %10s %13s %13s %13s %13s %13s %13s %12s %12s\n", f.resolution.c_str(),
                   tools::fixed(blended / pixels, 2).c_str(), tools::fixed(skipped / pixels, 2).c_str(),
                   count(contributing).c_str(), count(rect).c_str(), count(p16).c_str(), count(p8).c_str(),

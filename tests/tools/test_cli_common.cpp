@@ -51,7 +51,7 @@ TEST_CASE("report_error: the whole message and its code reach stderr, escaped") 
 }
 
 TEST_CASE("file_safe_names and group_digits") {
-  using rgs::tools::group_digits;
+  using rgs::group_digits;
   // A name an earlier one already has gets its index, also when that name itself was made so.
   const std::vector<std::string> names = {"a/b\\c", "", "..", "a_b_c", "a_b_c_3"};
   CHECK(rgs::tools::file_safe_names(names) ==
@@ -60,6 +60,9 @@ TEST_CASE("file_safe_names and group_digits") {
   CHECK(group_digits(999) == "999");
   CHECK(group_digits(1000) == "1,000");
   CHECK(group_digits(2725620000) == "2,725,620,000");
+  CHECK(group_digits(-1234) == "-1,234");
+  CHECK(group_digits(-999) == "-999");
+  CHECK(group_digits(INT64_MIN) == "-9,223,372,036,854,775,808");
 }
 
 TEST_CASE("parse_whole_number: decimal digits alone, nothing that wraps or saturates") {

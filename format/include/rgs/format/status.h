@@ -28,6 +28,10 @@ enum class StatusCode : int {
 /// Stable identifier of a code, e.g. "kCorruptData". Never null.
 const char* status_code_name(StatusCode code) noexcept;
 
+/// `value` in decimal with a comma between groups of three digits, as messages and reports print counts:
+/// 4250000 -> "4,250,000", -1234 -> "-1,234".
+std::string group_digits(int64_t value);
+
 /// Outcome of an operation: kOk, or an error code with a message naming the cause and its numbers.
 class [[nodiscard]] Status {
  public:
