@@ -21,6 +21,10 @@ using nlohmann::json;
 
 std::string dump(const json& value) { return value.dump(-1, ' ', false, json::error_handler_t::replace); }
 
+json nullable(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+}  // namespace
+
 json camera_json(const InriaCamera& c) {
   json rotation = json::array();
   for (int r = 0; r < 3; ++r) {
@@ -33,14 +37,6 @@ json camera_json(const InriaCamera& c) {
           {"fx", c.fx},
           {"fy", c.fy}};
 }
-
-double ms_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
-
-json nullable(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
-
-}  // namespace
 
 std::string build_hello(const ServerState& state, const std::string& device_name) {
   json scenes = json::array();
