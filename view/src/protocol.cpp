@@ -49,16 +49,6 @@ Status read_number(const json& object, const char* key, double* out) {
   return Status();
 }
 
-Status read_vector3(const json& value, const std::string& key, std::array<double, 3>* out) {
-  if (!value.is_array() || value.size() != 3) return bad("\"" + key + "\" is not an array of 3 numbers");
-  for (size_t i = 0; i < 3; ++i) {
-    if (!value[i].is_number()) return bad("\"" + key + "\" is not an array of 3 numbers");
-    (*out)[i] = value[i].get<double>();
-    if (!std::isfinite((*out)[i])) return bad("\"" + key + "\" holds a value that is not finite");
-  }
-  return Status();
-}
-
 Status read_camera(const json& value, const ProtocolLimits& limits, InriaCamera* camera) {
   if (!value.is_object()) return bad("\"camera\" is not an object");
   // The cameras.json reader's checks (runtime::parse_inria_camera), within this server's frame size.
@@ -98,11 +88,13 @@ Status read_view(const json& message, const ProtocolLimits& limits, ViewRequest*
     return bad(std::string("\"preset\" ") + api::preset_name(view->preset) + " is not offered by this server");
   }
   if (const auto background = message.find("background"); background != message.end()) {
-    std::array<double, 3> bg{};
-    RGS_RETURN_IF_ERROR(read_vector3(*background, "background", &bg));
+    if (!background->is_array() || background->size() != 3) return bad("\"background\" is not 3 numbers");
     for (size_t c = 0; c < 3; ++c) {
-      if (bg[c] < 0 || bg[c] > 1) return bad("\"background\" values must be in [0, 1]");
-      view->background[c] = static_cast<float>(bg[c]);
+      const json& value = (*background)[c];
+      if (!value.is_number() || !(value.get<double>() >= 0 && value.get<double>() <= 1)) {
+        return bad("\"background\" values must be numbers in [0, 1]");
+      }
+      view->background[c] = value.get<float>();
     }
   }
   std::string encoding;
