@@ -9,13 +9,7 @@ namespace {
 Result<Camera> finish(const std::array<double, 9>& R, const std::array<double, 3>& t, double fx, double fy,
                       double cx, double cy, uint32_t width, uint32_t height, const CameraOptions& options,
                       const char* who) {
-  for (double v : R) {
-    RGS_RETURN_ERROR_IF(!std::isfinite(v), StatusCode::kInvalidArgument, std::string(who) + ": rotation not finite");
-  }
-  for (double v : {t[0], t[1], t[2], fx, fy, cx, cy}) {
-    RGS_RETURN_ERROR_IF(!std::isfinite(v), StatusCode::kInvalidArgument,
-                        std::string(who) + ": translation or intrinsics not finite");
-  }
+  // Values that are not finite, or overflow a float, are refused by validate_camera.
   Camera c;
   for (int i = 0; i < 9; ++i) c.rotation[size_t(i)] = float(R[size_t(i)]);
   for (int i = 0; i < 3; ++i) c.translation[size_t(i)] = float(t[size_t(i)]);
