@@ -9,13 +9,7 @@ namespace {
 Result<Camera> finish(const std::array<double, 9>& R, const std::array<double, 3>& t, double fx, double fy,
                       double cx, double cy, uint32_t width, uint32_t height, const CameraOptions& options,
                       const char* who) {
-  for (double v : R) {
-    RGS_RETURN_ERROR_IF(!std::isfinite(v), StatusCode::kInvalidArgument, std::string(who) + ": rotation not finite");
-  }
-  for (double v : {t[0], t[1], t[2], fx, fy, cx, cy}) {
-    RGS_RETURN_ERROR_IF(!std::isfinite(v), StatusCode::kInvalidArgument,
-                        std::string(who) + ": translation or intrinsics not finite");
-  }
+  // Values that are not finite, or overflow a float, are refused by validate_camera.
   Camera c;
   for (int i = 0; i < 9; ++i) c.rotation[size_t(i)] = float(R[size_t(i)]);
   for (int i = 0; i < 3; ++i) c.translation[size_t(i)] = float(t[size_t(i)]);
@@ -38,18 +32,13 @@ float at(const Mat4ColumnMajor& m, int r, int c) { return m[size_t(4 * c + r)]; 
 }  // namespace
 
 Result<Camera> camera_from_inria(const std::array<double, 9>& rotation_c2w, const std::array<double, 3>& position,
-                                 double fx, double fy, uint32_t width, uint32_t height,
-                                 const CameraOptions& options) {
-  std::array<double, 9> R{};
-  std::array<double, 3> t{};
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) R[size_t(3 * r + c)] = rotation_c2w[size_t(3 * c + r)];  // transpose
-  }
-  for (int r = 0; r < 3; ++r) {
-    t[size_t(r)] = -(R[size_t(3 * r)] * position[0] + R[size_t(3 * r + 1)] * position[1] +
-                     R[size_t(3 * r + 2)] * position[2]);
-  }
-  return finish(R, t, fx, fy, width / 2.0, height / 2.0, width, height, options, "camera_from_inria");
+                                 double fx, double fy, uint32_t width, uint32_t height, const CameraOptions& options) {
+  Camera c =
+      runtime::camera_from_inria({rotation_c2w, position, fx, fy, width, height}, width, height, options.near_plane);
+  c.name = options.name;
+  Status valid = runtime::validate_camera(c);
+  if (!valid.ok()) return valid.prepend("camera_from_inria");
+  return c;
 }
 
 Result<Camera> camera_from_colmap(const std::array<double, 4>& q, const std::array<double, 3>& tvec, double fx,

@@ -14,29 +14,25 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
     options.width = choice.width;
     options.height = choice.height;
     RGS_ASSIGN_OR_RETURN(cameras, runtime::load_inria_cameras(choice.cameras_path, options));
-    if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
-    if (choice.fly > 0) {
-      // A file may mix image sizes; the views take the first key's intrinsics, so the keys share its size.
-      for (runtime::Camera& key : cameras) {
-        if (key.width != cameras[0].width || key.height != cameras[0].height) {
-          key = runtime::resize_camera(key, cameras[0].width, cameras[0].height);
-        }
-      }
-      Result<std::vector<runtime::Camera>> flown = runtime::fly_through_cameras(cameras, choice.fly);
-      if (!flown.ok()) return Status(flown.status()).prepend(choice.cameras_path);
-      return flown;
-    }
   } else {
     RGS_RETURN_ERROR_IF(choice.orbit == 0 && choice.path == 0, StatusCode::kInvalidArgument,
                         "--orbit needs at least 1 camera");
     const auto [w, h] = runtime::keep_aspect(choice.width, choice.height, choice.orbit_width, choice.orbit_height);
-    if (choice.path > 0) {
-      RGS_ASSIGN_OR_RETURN(cameras, runtime::path_cameras(bounds, choice.path, w, h));
-    } else {
-      RGS_ASSIGN_OR_RETURN(cameras, runtime::orbit_cameras(bounds, choice.orbit, w, h));
-    }
+    RGS_ASSIGN_OR_RETURN(cameras, choice.path > 0 ? runtime::path_cameras(bounds, choice.path, w, h)
+                                                  : runtime::orbit_cameras(bounds, choice.orbit, w, h));
   }
   if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
+  if (choice.fly > 0) {  // through the file's cameras (checked above)
+    // A file may mix image sizes; the views take the first key's intrinsics, so the keys share its size.
+    for (runtime::Camera& key : cameras) {
+      if (key.width != cameras[0].width || key.height != cameras[0].height) {
+        key = runtime::resize_camera(key, cameras[0].width, cameras[0].height);
+      }
+    }
+    Result<std::vector<runtime::Camera>> flown = runtime::fly_through_cameras(cameras, choice.fly);
+    if (!flown.ok()) return Status(flown.status()).prepend(choice.cameras_path);
+    return flown;
+  }
   return cameras;
 }
 

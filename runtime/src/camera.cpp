@@ -113,10 +113,6 @@ Camera resize_camera(const Camera& camera, uint32_t width, uint32_t height) {
 Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uint32_t count, uint32_t width,
                                           uint32_t height, const OrbitOptions& options) {
   RGS_RETURN_ERROR_IF(count == 0, StatusCode::kInvalidArgument, "orbit: camera count must be >= 1");
-  RGS_RETURN_ERROR_IF(width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide,
-                      StatusCode::kInvalidArgument,
-                      "orbit: image size " + std::to_string(width) + "x" + std::to_string(height) +
-                          " outside [1, " + std::to_string(kMaxImageSide) + "]");
   const double r = bounds.sphere_radius;
   RGS_RETURN_ERROR_IF(!finite(r) || !(r > 0), StatusCode::kInvalidArgument,
                       "orbit: scene bounding sphere radius " + num(r) + " must be finite and > 0");
@@ -133,8 +129,6 @@ Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uin
                       "orbit: distance_factor " + num(options.distance_factor) + " must be finite and > 0");
   RGS_RETURN_ERROR_IF(!finite(options.start_azimuth_deg), StatusCode::kInvalidArgument,
                       "orbit: start_azimuth_deg is not finite");
-  RGS_RETURN_ERROR_IF(!finite(options.near_plane) || !(options.near_plane > 0), StatusCode::kInvalidArgument,
-                      "orbit: near_plane " + num(options.near_plane) + " must be finite and > 0");
 
   const double fov_y = options.fov_y_deg * kPi / 180.0;
   const double fy = focal_from_fov(fov_y, height);
@@ -175,7 +169,8 @@ Result<std::vector<Camera>> orbit_cameras(const format::SceneBounds& bounds, uin
     char name[32];
     std::snprintf(name, sizeof name, "orbit_%03u", i);
     cam.name = name;
-    // A sphere close to the float range puts the eye beyond it: refuse instead of returning an unusable camera.
+    // The image size and near_plane are checked here, and a sphere close to the float range, which puts the eye
+    // beyond it: refused instead of returning an unusable camera.
     RGS_RETURN_IF_ERROR(validate_camera(cam));
     cameras.push_back(std::move(cam));
   }

@@ -19,7 +19,7 @@ constexpr uint64_t kMaxCamerasFileBytes = uint64_t{64} << 20;
 constexpr size_t kMaxCameras = 100000;
 /// A cameras.json nests four levels (array, camera, rotation, row); deeper input is refused while it is parsed.
 constexpr int kMaxNesting = 8;
-constexpr int64_t kMaxImageSide = 32768;
+constexpr uint32_t kMaxImageSide = 32768;
 constexpr double kMaxFocal = 1e6;
 constexpr double kMaxCoordinate = 1e9;
 
@@ -28,26 +28,22 @@ Status corrupt(const std::string& name, const std::string& what) {
 }
 
 /// Reads a finite number field of `cam` into *out.
-Status get_number(const json& cam, const char* key, const std::string& where, double* out) {
+Status get_number(const json& cam, const char* key, double* out) {
   const auto it = cam.find(key);
-  RGS_RETURN_ERROR_IF(it == cam.end(), StatusCode::kCorruptData, where + ": missing '" + key + "'");
-  RGS_RETURN_ERROR_IF(!it->is_number(), StatusCode::kCorruptData, where + ": '" + key + "' is not a number");
-  const double v = it->get<double>();
-  RGS_RETURN_ERROR_IF(!std::isfinite(v), StatusCode::kCorruptData, where + ": '" + key + "' is not finite");
-  *out = v;
+  RGS_RETURN_ERROR_IF(it == cam.end(), StatusCode::kCorruptData, std::string("missing \"") + key + "\"");
+  RGS_RETURN_ERROR_IF(!it->is_number(), StatusCode::kCorruptData, std::string("\"") + key + "\" is not a number");
+  *out = it->get<double>();
+  RGS_RETURN_ERROR_IF(!std::isfinite(*out), StatusCode::kCorruptData, std::string("\"") + key + "\" is not finite");
   return Status::ok_status();
 }
 
-/// Reads an integer image side in [1, kMaxImageSide].
-Status get_side(const json& cam, const char* key, const std::string& where, uint32_t* out) {
+/// Reads an integer image side in [1, max] (a JSON integer: 640.0 is refused).
+Status get_side(const json& cam, const char* key, uint32_t max, uint32_t* out) {
   const auto it = cam.find(key);
-  RGS_RETURN_ERROR_IF(it == cam.end(), StatusCode::kCorruptData, where + ": missing '" + key + "'");
-  RGS_RETURN_ERROR_IF(!it->is_number_integer(), StatusCode::kCorruptData,
-                      where + ": '" + key + "' is not an integer");
-  const int64_t v = it->get<int64_t>();
-  RGS_RETURN_ERROR_IF(v < 1 || v > kMaxImageSide, StatusCode::kCorruptData,
-                      where + ": '" + key + "' = " + std::to_string(v) + " outside [1, " +
-                          std::to_string(kMaxImageSide) + "]");
+  RGS_RETURN_ERROR_IF(it == cam.end(), StatusCode::kCorruptData, std::string("missing \"") + key + "\"");
+  const int64_t v = it->is_number_integer() ? it->get<int64_t>() : 0;
+  RGS_RETURN_ERROR_IF(v < 1 || v > int64_t(max), StatusCode::kCorruptData,
+                      std::string("\"") + key + "\" must be an integer in 1.." + std::to_string(max));
   *out = static_cast<uint32_t>(v);
   return Status::ok_status();
 }
@@ -66,58 +62,47 @@ Status get_vector(const json& v, size_t n, const std::string& what, double* out)
   return Status::ok_status();
 }
 
-/// The Camera of `c` rendered at out_w × out_h: R = rotation_c2wᵀ, t = −R·position (double, then float), the field
-/// of view kept (fx' = fx·W'/W), principal point at the image centre. Not validated.
-Camera camera_from_entry(const InriaCamera& c, uint32_t out_w, uint32_t out_h, float near_plane) {
-  Camera camera;
-  std::array<double, 9> rows;
-  for (int i = 0; i < 9; ++i) rows[i] = c.rotation_c2w[(i % 3) * 3 + i / 3];
-  set_pose(&camera, rows, c.position);
-  camera.fx = static_cast<float>(c.fx * out_w / c.width);
-  camera.fy = static_cast<float>(c.fy * out_h / c.height);
-  camera.cx = static_cast<float>(out_w / 2.0);
-  camera.cy = static_cast<float>(out_h / 2.0);
-  camera.width = out_w;
-  camera.height = out_h;
-  camera.near_plane = near_plane;
-  return camera;
+/// Reads and checks the camera object `cam` (parse_inria_camera); messages have no prefix.
+Result<InriaCamera> read_camera(const json& cam, uint32_t max_width, uint32_t max_height,
+                                const std::string& key_prefix) {
+  RGS_RETURN_ERROR_IF(!cam.is_object(), StatusCode::kCorruptData, "not a JSON object");
+  InriaCamera c;
+  RGS_RETURN_IF_ERROR(get_side(cam, "width", max_width, &c.width));
+  RGS_RETURN_IF_ERROR(get_side(cam, "height", max_height, &c.height));
+  RGS_RETURN_IF_ERROR(get_number(cam, "fx", &c.fx));
+  RGS_RETURN_IF_ERROR(get_number(cam, "fy", &c.fy));
+  RGS_RETURN_ERROR_IF(!(c.fx > 0 && c.fx <= kMaxFocal && c.fy > 0 && c.fy <= kMaxFocal), StatusCode::kCorruptData,
+                      "focal lengths must be in (0, 1e6] (fx=" + std::to_string(c.fx) +
+                          ", fy=" + std::to_string(c.fy) + ")");
+  const std::string position = "\"" + key_prefix + "position\"", rotation = "\"" + key_prefix + "rotation\"";
+  const auto pos_it = cam.find("position");
+  RGS_RETURN_ERROR_IF(pos_it == cam.end(), StatusCode::kCorruptData, "missing " + position);
+  RGS_RETURN_IF_ERROR(get_vector(*pos_it, 3, position, c.position.data()));
+  for (double v : c.position) {
+    RGS_RETURN_ERROR_IF(std::fabs(v) > kMaxCoordinate, StatusCode::kCorruptData, position + " is outside ±1e9");
+  }
+  const auto rot_it = cam.find("rotation");
+  RGS_RETURN_ERROR_IF(rot_it == cam.end(), StatusCode::kCorruptData, "missing " + rotation);
+  RGS_RETURN_ERROR_IF(!rot_it->is_array() || rot_it->size() != 3, StatusCode::kCorruptData,
+                      rotation + " is not a 3x3 array");
+  for (size_t i = 0; i < 3; ++i) {
+    RGS_RETURN_IF_ERROR(
+        get_vector((*rot_it)[i], 3, rotation + "[" + std::to_string(i) + "]", c.rotation_c2w.data() + 3 * i));
+  }
+  // The rotation (orthonormal, det +1) is checked as every camera is, at the file's own size.
+  const Status valid = validate_camera(camera_from_inria(c, c.width, c.height));
+  if (!valid.ok()) return Status(StatusCode::kCorruptData, valid.message());
+  return c;
 }
 
 /// Parses and checks camera `index` of the array.
 Result<NamedInriaCamera> parse_entry(const json& cam, size_t index, const std::string& name) {
-  const std::string where = name + ": camera " + std::to_string(index);
-  RGS_RETURN_ERROR_IF(!cam.is_object(), StatusCode::kCorruptData, where + " is not a JSON object");
-  NamedInriaCamera entry;
-  InriaCamera& c = entry.camera;
-  RGS_RETURN_IF_ERROR(get_side(cam, "width", where, &c.width));
-  RGS_RETURN_IF_ERROR(get_side(cam, "height", where, &c.height));
-  RGS_RETURN_IF_ERROR(get_number(cam, "fx", where, &c.fx));
-  RGS_RETURN_IF_ERROR(get_number(cam, "fy", where, &c.fy));
-  RGS_RETURN_ERROR_IF(!(c.fx > 0 && c.fx <= kMaxFocal && c.fy > 0 && c.fy <= kMaxFocal), StatusCode::kCorruptData,
-                      where + ": focal lengths must be in (0, 1e6] (fx=" + std::to_string(c.fx) +
-                          ", fy=" + std::to_string(c.fy) + ")");
-  const auto pos_it = cam.find("position");
-  RGS_RETURN_ERROR_IF(pos_it == cam.end(), StatusCode::kCorruptData, where + ": missing 'position'");
-  RGS_RETURN_IF_ERROR(get_vector(*pos_it, 3, where + ": 'position'", c.position.data()));
-  for (double v : c.position) {
-    RGS_RETURN_ERROR_IF(std::fabs(v) > kMaxCoordinate, StatusCode::kCorruptData,
-                        where + ": 'position' is outside ±1e9");
-  }
-  const auto rot_it = cam.find("rotation");
-  RGS_RETURN_ERROR_IF(rot_it == cam.end(), StatusCode::kCorruptData, where + ": missing 'rotation'");
-  RGS_RETURN_ERROR_IF(!rot_it->is_array() || rot_it->size() != 3, StatusCode::kCorruptData,
-                      where + ": 'rotation' is not a 3x3 array");
-  for (size_t i = 0; i < 3; ++i) {
-    RGS_RETURN_IF_ERROR(get_vector((*rot_it)[i], 3, where + ": 'rotation'[" + std::to_string(i) + "]",
-                                   c.rotation_c2w.data() + 3 * i));
-  }
+  Result<InriaCamera> camera = read_camera(cam, kMaxImageSide, kMaxImageSide, "");
+  if (!camera.ok()) return corrupt(name + ": camera " + std::to_string(index), camera.status().message());
   const auto name_it = cam.find("img_name");
-  entry.name = (name_it != cam.end() && name_it->is_string()) ? name_it->get<std::string>()
-                                                              : "camera_" + std::to_string(index);
-  // The rotation (orthonormal, det +1) is checked as every camera is, at the file's own size.
-  const Status valid = validate_camera(camera_from_entry(c, c.width, c.height, Camera{}.near_plane));
-  if (!valid.ok()) return corrupt(where, valid.message());
-  return entry;
+  return NamedInriaCamera{
+      (name_it != cam.end() && name_it->is_string()) ? name_it->get<std::string>() : "camera_" + std::to_string(index),
+      *camera};
 }
 
 /// Output resolution for a camera of the file's size under `options`.
@@ -134,7 +119,7 @@ Status check_options(const std::string& name, const InriaCameraOptions& options)
                       name + ": give either indices or every_kth, not both");
   RGS_RETURN_ERROR_IF(!std::isfinite(options.downscale) || !(options.downscale > 0), StatusCode::kInvalidArgument,
                       name + ": downscale must be finite and > 0");
-  RGS_RETURN_ERROR_IF(options.width > uint32_t(kMaxImageSide) || options.height > uint32_t(kMaxImageSide),
+  RGS_RETURN_ERROR_IF(options.width > kMaxImageSide || options.height > kMaxImageSide,
                       StatusCode::kInvalidArgument, name + ": requested size above 32768");
   RGS_RETURN_ERROR_IF(!std::isfinite(options.near_plane) || !(options.near_plane > 0),
                       StatusCode::kInvalidArgument, name + ": near_plane must be finite and > 0");
@@ -160,7 +145,7 @@ Result<std::vector<Camera>> select_cameras(const std::vector<NamedInriaCamera>& 
   for (size_t index : selected) {
     const InriaCamera& c = entries[index].camera;
     const std::array<uint32_t, 2> size = output_size(c.width, c.height, options);
-    Camera camera = camera_from_entry(c, size[0], size[1], options.near_plane);
+    Camera camera = camera_from_inria(c, size[0], size[1], options.near_plane);
     camera.name = entries[index].name;
     // A size above the limit from a tiny downscale fails here (the entry itself was checked).
     const Status valid = validate_camera(camera);
@@ -189,13 +174,12 @@ Result<std::string> read_text(const std::string& path) {
   return text;
 }
 
-/// read_inria_cameras() on JSON text in memory; `name` is used in error messages.
-Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::string& json_text,
-                                                                 const std::string& name) {
+/// `json_text` parsed with the limits of a cameras.json: at most kMaxCamerasFileBytes, kMaxNesting levels and
+/// kMaxCameras values at the top level, refused while parsing (before the tree they would build).
+Result<json> parse_bounded(std::string_view json_text, const std::string& name) {
   RGS_RETURN_ERROR_IF(json_text.size() > kMaxCamerasFileBytes, StatusCode::kLimitExceeded,
                       name + ": " + std::to_string(json_text.size()) + " bytes exceeds the cameras.json limit of " +
                           std::to_string(kMaxCamerasFileBytes));
-  // Nesting and the camera count are bounded while the text is parsed, before the tree they would build.
   struct Refused {
     std::string why;
   };
@@ -210,14 +194,19 @@ Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::stri
     }
     return true;
   };
-  json root;
   try {
-    root = json::parse(json_text, bounded);
+    return json::parse(json_text, bounded);
   } catch (const Refused& refused) {
     return Status(StatusCode::kLimitExceeded, name + ": " + refused.why);
   } catch (const json::exception& e) {
     return corrupt(name, std::string("not valid JSON (") + e.what() + ")");
   }
+}
+
+/// read_inria_cameras() on JSON text in memory; `name` is used in error messages.
+Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::string& json_text,
+                                                                 const std::string& name) {
+  RGS_ASSIGN_OR_RETURN(const json root, parse_bounded(json_text, name));
   RGS_RETURN_ERROR_IF(!root.is_array(), StatusCode::kCorruptData,
                       name + ": expected a JSON array of cameras, found " + root.type_name());
   RGS_RETURN_ERROR_IF(root.empty(), StatusCode::kCorruptData, name + ": the camera array is empty");
@@ -235,6 +224,27 @@ Result<std::vector<NamedInriaCamera>> parse_inria_camera_entries(const std::stri
 }
 
 }  // namespace
+
+Camera camera_from_inria(const InriaCamera& c, uint32_t out_width, uint32_t out_height, float near_plane) {
+  Camera camera;
+  std::array<double, 9> rows;
+  for (int i = 0; i < 9; ++i) rows[i] = c.rotation_c2w[(i % 3) * 3 + i / 3];
+  set_pose(&camera, rows, c.position);
+  camera.fx = static_cast<float>(c.fx * out_width / c.width);
+  camera.fy = static_cast<float>(c.fy * out_height / c.height);
+  camera.cx = static_cast<float>(out_width / 2.0);
+  camera.cy = static_cast<float>(out_height / 2.0);
+  camera.width = out_width;
+  camera.height = out_height;
+  camera.near_plane = near_plane;
+  return camera;
+}
+
+Result<InriaCamera> parse_inria_camera(std::string_view json_object, uint32_t max_width, uint32_t max_height,
+                                       const std::string& key_prefix) {
+  RGS_ASSIGN_OR_RETURN(const json cam, parse_bounded(json_object, "camera"));
+  return read_camera(cam, max_width, max_height, key_prefix);
+}
 
 Result<std::vector<NamedInriaCamera>> read_inria_cameras(const std::string& path) {
   RGS_ASSIGN_OR_RETURN(const std::string text, read_text(path));

@@ -155,6 +155,8 @@ TEST_CASE("protocol: non-finite, non-orthonormal and out-of-range camera values 
   check_refused_json(m, "width");
   m = v, m["camera"]["width"] = 640.5;
   check_refused_json(m, "width");
+  m = v, m["camera"]["width"] = 1920.0;  // a JSON integer, as in a cameras.json
+  check_refused_json(m, "\"width\" must be an integer in 1..7680");
   m = v, m["camera"]["height"] = "1080";
   check_refused_json(m, "height");
   m = v, m["camera"].erase("fy");
@@ -273,7 +275,8 @@ TEST_CASE("the viewer's cameras.json reader (api::read_inria_cameras): numbers a
     return "[" + camera + "," + text + "]";
   };
   refused(with("[0,0,1]]", "[0,0,2]]"), StatusCode::kCorruptData, "camera 1");
-  refused(with("\"width\":640", "\"width\":640.0"), StatusCode::kCorruptData, "'width' is not an integer");
+  refused(with("\"width\":640", "\"width\":640.0"), StatusCode::kCorruptData,
+          "\"width\" must be an integer in 1..32768");
   refused(with("\"fx\":100", "\"fx\":1e7"), StatusCode::kCorruptData, "focal lengths");
   refused(with("\"position\":[0,0,0]", "\"position\":[0,0,1e10]"), StatusCode::kCorruptData, "outside");
   refused("[]", StatusCode::kCorruptData, "empty");

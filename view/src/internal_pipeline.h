@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <thread>
@@ -40,6 +41,15 @@ struct ServerState {
 
 /// The hello message of view/PROTOCOL.md for `state` (its hello_json unset). `device_name`: query_device's.
 std::string build_hello(const ServerState& state, const std::string& device_name);
+
+/// A camera as the protocol writes it (hello's "cameras" and "home_camera", a view's "camera"): the cameras.json
+/// keys width, height, position, rotation (3 rows), fx, fy.
+nlohmann::json camera_json(const InriaCamera& camera);
+
+/// Milliseconds from `start` to now.
+inline double ms_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
 
 /// The text of an error message (PROTOCOL.md "error"); `message` may hold any bytes (invalid UTF-8 is replaced).
 std::string error_json(const std::string& code, const std::string& message, bool fatal);

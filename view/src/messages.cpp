@@ -21,6 +21,10 @@ using nlohmann::json;
 
 std::string dump(const json& value) { return value.dump(-1, ' ', false, json::error_handler_t::replace); }
 
+json nullable(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+}  // namespace
+
 json camera_json(const InriaCamera& c) {
   json rotation = json::array();
   for (int r = 0; r < 3; ++r) {
@@ -33,14 +37,6 @@ json camera_json(const InriaCamera& c) {
           {"fx", c.fx},
           {"fy", c.fy}};
 }
-
-double ms_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
-
-json nullable(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
-
-}  // namespace
 
 std::string build_hello(const ServerState& state, const std::string& device_name) {
   json scenes = json::array();
@@ -107,28 +103,24 @@ Result<std::vector<uint8_t>> encode_frame(RenderedFrame& frame, parallel::Worker
   std::vector<std::pair<const char*, std::vector<uint8_t>>> images;
   std::optional<ImageDifference> difference;
   const bool encoded_on_gpu = !frame.jpeg_a.empty();
+  const auto add_image = [&](const char* role, const std::vector<uint8_t>& pixels, int channels) -> Status {
+    RGS_ASSIGN_OR_RETURN(auto bytes, encode_rgb(pixels.data(), frame.width, frame.height, view.encoding,
+                                                view.quality, channels, workers));
+    images.emplace_back(role, std::move(bytes));
+    return Status();
+  };
+  std::vector<uint8_t> heatmap;
+  if (view.compare != CompareMode::kOff) {
+    difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
+                             view.compare == CompareMode::kDiff ? &heatmap : nullptr, 4);
+  }
   if (encoded_on_gpu) {
     images.emplace_back("a", std::move(frame.jpeg_a));
-  } else if (view.compare == CompareMode::kOff) {
-    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4, workers));
-    images.emplace_back("a", std::move(a));
-  } else if (view.compare == CompareMode::kSplit) {
-    difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
-                             nullptr, 4);
-    RGS_ASSIGN_OR_RETURN(auto a, encode_rgb(frame.rgba_a.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4, workers));
-    RGS_ASSIGN_OR_RETURN(auto b, encode_rgb(frame.rgba_b.data(), frame.width, frame.height, view.encoding,
-                                            view.quality, 4, workers));
-    images.emplace_back("a", std::move(a));
-    images.emplace_back("b", std::move(b));
+  } else if (view.compare == CompareMode::kDiff) {
+    RGS_RETURN_IF_ERROR(add_image("diff", heatmap, 3));
   } else {
-    std::vector<uint8_t> heatmap;
-    difference = compare_rgb(frame.rgba_a.data(), frame.rgba_b.data(), frame.width, frame.height, view.diff_scale,
-                             &heatmap, 4);
-    RGS_ASSIGN_OR_RETURN(auto d, encode_rgb(heatmap.data(), frame.width, frame.height, view.encoding, view.quality, 3,
-                                            workers));
-    images.emplace_back("diff", std::move(d));
+    RGS_RETURN_IF_ERROR(add_image("a", frame.rgba_a, 4));
+    if (view.compare == CompareMode::kSplit) RGS_RETURN_IF_ERROR(add_image("b", frame.rgba_b, 4));
   }
   const double encode_ms = encoded_on_gpu ? frame.gpu_encode_ms : ms_since(start);
 

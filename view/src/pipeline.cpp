@@ -15,10 +15,6 @@ namespace {
 // Views of a level-of-detail scene rendered again while levels are still arriving (PROTOCOL.md "Refinement").
 constexpr int kMaxRefinements = 8;
 
-double ms_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
-
 std::string megabytes(uint64_t bytes) { return std::to_string((bytes + (1 << 20) - 1) >> 20) + " MiB"; }
 
 // A frame message that gives its part of the budget back when its bytes are freed.

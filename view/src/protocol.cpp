@@ -5,6 +5,8 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "internal_pipeline.h"
+
 namespace rgs::view {
 
 namespace {
@@ -13,8 +15,6 @@ using nlohmann::json;
 
 constexpr int kMaxNesting = 8;
 constexpr double kMaxSeq = 9007199254740992.0;  // 2^53
-constexpr double kMaxFocal = 1e6;
-constexpr double kMaxCoordinate = 1e9;
 
 Status bad(const std::string& what) { return Status(StatusCode::kInvalidArgument, "view message: " + what); }
 
@@ -49,52 +49,12 @@ Status read_number(const json& object, const char* key, double* out) {
   return Status();
 }
 
-Status read_vector3(const json& value, const std::string& key, std::array<double, 3>* out) {
-  if (!value.is_array() || value.size() != 3) return bad("\"" + key + "\" is not an array of 3 numbers");
-  for (size_t i = 0; i < 3; ++i) {
-    if (!value[i].is_number()) return bad("\"" + key + "\" is not an array of 3 numbers");
-    (*out)[i] = value[i].get<double>();
-    if (!std::isfinite((*out)[i])) return bad("\"" + key + "\" holds a value that is not finite");
-  }
-  return Status();
-}
-
-Status read_size(const json& object, const char* key, uint32_t max, uint32_t* out) {
-  double v = 0;
-  RGS_RETURN_IF_ERROR(read_number(object, key, &v));
-  if (v != std::floor(v) || v < 1 || v > max) {
-    return bad(std::string("\"") + key + "\" must be an integer in 1.." + std::to_string(max));
-  }
-  *out = static_cast<uint32_t>(v);
-  return Status();
-}
-
 Status read_camera(const json& value, const ProtocolLimits& limits, InriaCamera* camera) {
   if (!value.is_object()) return bad("\"camera\" is not an object");
-  const auto position = value.find("position");
-  if (position == value.end()) return bad("missing \"camera.position\"");
-  RGS_RETURN_IF_ERROR(read_vector3(*position, "camera.position", &camera->position));
-  for (double c : camera->position) {
-    if (std::fabs(c) > kMaxCoordinate) return bad("\"camera.position\" is outside ±1e9");
-  }
-  const auto rotation = value.find("rotation");
-  if (rotation == value.end()) return bad("missing \"camera.rotation\"");
-  if (!rotation->is_array() || rotation->size() != 3) return bad("\"camera.rotation\" is not 3 rows of 3 numbers");
-  for (size_t r = 0; r < 3; ++r) {
-    std::array<double, 3> row{};
-    RGS_RETURN_IF_ERROR(read_vector3((*rotation)[r], "camera.rotation[" + std::to_string(r) + "]", &row));
-    for (size_t c = 0; c < 3; ++c) camera->rotation_c2w[r * 3 + c] = row[c];
-  }
-  RGS_RETURN_IF_ERROR(read_number(value, "fx", &camera->fx));
-  RGS_RETURN_IF_ERROR(read_number(value, "fy", &camera->fy));
-  if (!(camera->fx > 0 && camera->fx <= kMaxFocal && camera->fy > 0 && camera->fy <= kMaxFocal)) {
-    return bad("\"camera.fx\" and \"camera.fy\" must be in (0, 1e6]");
-  }
-  RGS_RETURN_IF_ERROR(read_size(value, "width", limits.max_width, &camera->width));
-  RGS_RETURN_IF_ERROR(read_size(value, "height", limits.max_height, &camera->height));
-  // The rotation's check (orthonormal, det +1) is the front door's own.
-  auto checked = camera_from_request(*camera);
-  if (!checked.ok()) return bad("\"camera\": " + checked.status().message());
+  // The cameras.json reader's checks (runtime::parse_inria_camera), within this server's frame size.
+  auto parsed = api::parse_inria_camera(value.dump(), limits.max_width, limits.max_height, "camera.");
+  if (!parsed.ok()) return bad(parsed.status().message());
+  *camera = *parsed;
   return Status();
 }
 
@@ -128,11 +88,13 @@ Status read_view(const json& message, const ProtocolLimits& limits, ViewRequest*
     return bad(std::string("\"preset\" ") + api::preset_name(view->preset) + " is not offered by this server");
   }
   if (const auto background = message.find("background"); background != message.end()) {
-    std::array<double, 3> bg{};
-    RGS_RETURN_IF_ERROR(read_vector3(*background, "background", &bg));
+    if (!background->is_array() || background->size() != 3) return bad("\"background\" is not 3 numbers");
     for (size_t c = 0; c < 3; ++c) {
-      if (bg[c] < 0 || bg[c] > 1) return bad("\"background\" values must be in [0, 1]");
-      view->background[c] = static_cast<float>(bg[c]);
+      const json& value = (*background)[c];
+      if (!value.is_number() || !(value.get<double>() >= 0 && value.get<double>() <= 1)) {
+        return bad("\"background\" values must be numbers in [0, 1]");
+      }
+      view->background[c] = value.get<float>();
     }
   }
   std::string encoding;
@@ -246,21 +208,10 @@ Result<ClientMessage> parse_client_message(std::string_view text, const Protocol
 }
 
 std::string view_message_json(const ViewRequest& view) {
-  const InriaCamera& c = view.camera;
-  json rotation = json::array();
-  for (int r = 0; r < 3; ++r) {
-    rotation.push_back({c.rotation_c2w[r * 3], c.rotation_c2w[r * 3 + 1], c.rotation_c2w[r * 3 + 2]});
-  }
   json message = {
       {"type", "view"},
       {"seq", view.seq},
-      {"camera",
-       {{"position", {c.position[0], c.position[1], c.position[2]}},
-        {"rotation", rotation},
-        {"fx", c.fx},
-        {"fy", c.fy},
-        {"width", c.width},
-        {"height", c.height}}},
+      {"camera", detail::camera_json(view.camera)},
       {"preset", api::preset_name(view.preset)},
       {"background", {view.background[0], view.background[1], view.background[2]}},
       {"encoding", encoding_name(view.encoding)},

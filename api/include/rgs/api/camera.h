@@ -21,9 +21,11 @@ namespace rgs::api {
 using runtime::Camera;
 
 /// A cameras.json entry with its numbers as written, and the file's one reader (runtime::read_inria_cameras: every
-/// entry checked, hostile input bounded); make_cameras and default_views load the same file through it.
+/// entry checked, hostile input bounded); make_cameras and default_views load the same file through it. The viewer
+/// reads the camera of a view message with its per-camera half (runtime::parse_inria_camera).
 using runtime::InriaCamera;
 using runtime::NamedInriaCamera;
+using runtime::parse_inria_camera;
 using runtime::read_inria_cameras;
 
 /// Settings every camera builder takes.
@@ -38,7 +40,7 @@ struct CameraOptions {
 
 /// INRIA 3DGS cameras.json entry: `rotation` camera-to-world, row-major [3, 3] (its columns are the camera
 /// axes in world coordinates), `position` the camera centre (world units), fx, fy in pixels, principal point
-/// at the image centre. R = rotationᵀ, t = −R·position.
+/// at the image centre. R = rotationᵀ, t = −R·position (runtime::camera_from_inria, as cameras.json is loaded).
 /// @return kInvalidArgument (validate_camera(): non-orthonormal rotation, focal ≤ 0, size 0 or > 32768, ...).
 Result<Camera> camera_from_inria(const std::array<double, 9>& rotation_c2w, const std::array<double, 3>& position,
                                  double fx, double fy, uint32_t width, uint32_t height,

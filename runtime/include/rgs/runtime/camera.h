@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rgs/format/metadata.h"
@@ -96,6 +97,20 @@ struct InriaCamera {
   double fx = 0, fy = 0;
   uint32_t width = 0, height = 0;
 };
+
+/// The Camera `c` stands for at out_width × out_height: R = rotation_c2wᵀ, t = −R·position (double, then float),
+/// the field of view kept (fx' = fx·W'/W, fy' = fy·H'/H), principal point at the image centre. Not validated
+/// (validate_camera()); no name.
+Camera camera_from_inria(const InriaCamera& c, uint32_t out_width, uint32_t out_height, float near_plane = 0.2f);
+
+/// Parses one camera object of a cameras.json (`width`, `height`, `position`, `rotation`, `fx`, `fy`; other keys
+/// ignored), given as JSON text, with the checks read_inria_cameras makes of every entry but sides up to
+/// max_width × max_height. Messages name the keys in double quotes ("fx"), position and rotation as key_prefix +
+/// their name (the viewer's "camera.position"), with no file name.
+/// @return kCorruptData (not JSON, not an object, a key missing or of the wrong type, a value out of range, a
+/// rotation that is not one), kLimitExceeded (read_inria_cameras' bounds on the text).
+Result<InriaCamera> parse_inria_camera(std::string_view json_object, uint32_t max_width, uint32_t max_height,
+                                       const std::string& key_prefix = "");
 
 /// One entry of a cameras.json: its camera and its label (the entry's "img_name", else "camera_<index>").
 struct NamedInriaCamera {

@@ -89,9 +89,9 @@ struct ProtocolLimits {
 };
 
 /// Parses and validates one text message (PROTOCOL.md): a JSON object of "type" "view" or "ping". A view's
-/// camera: every number finite, rotation a proper rotation (‖RᵀR − I‖max ≤ 1e-3, det > 0; api::
-/// camera_from_inria's check), fx, fy in (0, 1e6], position components within ±1e9, width 1..max_width and
-/// height 1..max_height (integers); background three numbers in [0, 1]; quality an integer 1..100; diff_scale
+/// camera: a cameras.json entry's checks (api::parse_inria_camera: every number finite, rotation a proper rotation,
+/// fx, fy in (0, 1e6], position components within ±1e9), width 1..max_width and height 1..max_height (JSON
+/// integers); background three numbers in [0, 1]; quality an integer 1..100; diff_scale
 /// in [1, 255]; still a boolean; max_mbps in [0, kMaxMbps]; preset among `limits.presets`; compare
 /// "split"/"diff" only with compare_available. Unknown keys are ignored. Never throws; nesting deeper than 8
 /// levels is refused before parsing.
