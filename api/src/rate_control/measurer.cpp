@@ -28,7 +28,12 @@ Status Measurer::start(std::vector<runtime::Camera> search_cameras, std::vector<
     for (const runtime::Camera& cam : set->cameras) source_bytes += uint64_t{cam.width} * cam.height * 16;
   }
   for (ViewSet* set : {&search_, &final_}) {
-    if (device_ == api::Device::kCuda && source_bytes <= kDeviceSourceBytes) {
+    // The GPU comparer measures SSIM beside PSNR, so its views need sides of at least SSIM's window; a set with a
+    // smaller view is compared on the host, as on the CPU.
+    const bool comparable = std::all_of(set->cameras.begin(), set->cameras.end(), [](const runtime::Camera& cam) {
+      return cam.width >= uint32_t(runtime::kSsimWindow) && cam.height >= uint32_t(runtime::kSsimWindow);
+    });
+    if (device_ == api::Device::kCuda && source_bytes <= kDeviceSourceBytes && comparable) {
       for (const runtime::Camera& cam : set->cameras) {
         auto image = renderers_[0].render_image(scene, cam, settings_);
         if (!image.ok()) return Status(image.status()).prepend("source, view " + cam.name);

@@ -27,7 +27,7 @@
 namespace rgs::api::detail {
 
 /// One set of views with the source's renders, rendered once: [H, W, 3] float RGB on the host, or on the GPU
-/// (kDeviceSourceBytes) the RGBA32F images where it rendered them.
+/// (kDeviceSourceBytes, every view at least SSIM's window on each side) the RGBA32F images where it rendered them.
 struct ViewSet {
   std::vector<runtime::Camera> cameras;
   std::vector<std::vector<float>> source;
