@@ -27,8 +27,8 @@ PRODUCT_DIRS = ["format", "converter", "kernels", "runtime", "api", "audit", "vi
 SOURCE_SUFFIXES = (".h", ".hpp", ".cpp", ".cc", ".cu", ".cuh")
 BUDGET_LINES = 38_500
 BUDGET_CODE_LINES = 29_500
-CEILING_LINES = 46_163
-CEILING_CODE_LINES = 34_994
+CEILING_LINES = 46_103
+CEILING_CODE_LINES = 34_917
 
 
 def product_sources():
