@@ -3,7 +3,8 @@
 
 #include <unistd.h>
 
-#include <atomic>
+#include <cerrno>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -16,11 +17,11 @@ namespace rgs::test {
 /// A fresh directory under the system temp dir, removed with everything in it at scope exit.
 class TempDir {
  public:
+  /// A new, empty directory (mkdtemp): never one that a killed earlier run of a process with the same id left.
   TempDir() {
-    static std::atomic<int> counter{0};
-    path_ = std::filesystem::temp_directory_path() /
-            ("rgs_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    std::filesystem::create_directories(path_);
+    std::string name = (std::filesystem::temp_directory_path() / "rgs_test_XXXXXX").string();
+    if (::mkdtemp(name.data()) == nullptr) throw std::system_error(errno, std::generic_category(), "mkdtemp " + name);
+    path_ = name;
   }
   ~TempDir() {
     std::error_code ec;
