@@ -27,7 +27,7 @@ PRODUCT_DIRS = ["format", "converter", "kernels", "runtime", "api", "audit", "vi
 SOURCE_SUFFIXES = (".h", ".hpp", ".cpp", ".cc", ".cu", ".cuh")
 BUDGET_LINES = 38_500
 BUDGET_CODE_LINES = 29_500
-CEILING_LINES = 46_103
+CEILING_LINES = 46_102
 CEILING_CODE_LINES = 34_917
 
 

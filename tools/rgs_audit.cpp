@@ -331,8 +331,8 @@ void print_verdict(std::FILE* out, const audit::AuditResult& r, size_t candidate
   const std::string beside = foreground ? " (whole frame " + db(v.whole_frame_psnr_mean_db) + " dB)" : "";
   std::string saved = "no file size";
   if (v.bytes_saved) {
-    saved = *v.bytes_saved >= 0 ? "saves " + rgs::group_digits(uint64_t(*v.bytes_saved)) + " bytes"
-                                : "adds " + rgs::group_digits(uint64_t(-*v.bytes_saved)) + " bytes";
+    saved = *v.bytes_saved >= 0 ? "saves " + rgs::group_digits(*v.bytes_saved) + " bytes"
+                                : "adds " + rgs::group_digits(-*v.bytes_saved) + " bytes";
     saved += " (" + tools::fixed(100.0 * std::fabs(v.bytes_saved_fraction), 0) + "% of the source)";
   }
   std::fprintf(out, "  verdict          %s %s: mean %s %s dB %s %s dB%s; worst view %s %s dB; %s\n",

@@ -19,7 +19,6 @@ namespace rgs::audit {
 
 namespace {
 
-
 /// The longest side of the box of `cloud`'s means (0 without Gaussians).
 double means_extent(const format::GaussianCloud& cloud) {
   if (cloud.size() == 0) return 0;

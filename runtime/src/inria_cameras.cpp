@@ -90,7 +90,7 @@ Result<InriaCamera> read_camera(const json& cam, uint32_t max_width, uint32_t ma
         get_vector((*rot_it)[i], 3, rotation + "[" + std::to_string(i) + "]", c.rotation_c2w.data() + 3 * i));
   }
   // The rotation (orthonormal, det +1) is checked as every camera is, at the file's own size.
-  const Status valid = validate_camera(camera_from_inria(c, c.width, c.height));
+  const Status valid = validate_camera(camera_from_inria(c, c.width, c.height, Camera{}.near_plane));
   if (!valid.ok()) return Status(StatusCode::kCorruptData, valid.message());
   return c;
 }

@@ -1,8 +1,6 @@
 // A scratch directory for tests that write files, and reading a file back whole.
 #pragma once
 
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstdlib>
 #include <filesystem>

@@ -101,7 +101,7 @@ struct InriaCamera {
 /// The Camera `c` stands for at out_width × out_height: R = rotation_c2wᵀ, t = −R·position (double, then float),
 /// the field of view kept (fx' = fx·W'/W, fy' = fy·H'/H), principal point at the image centre. Not validated
 /// (validate_camera()); no name.
-Camera camera_from_inria(const InriaCamera& c, uint32_t out_width, uint32_t out_height, float near_plane = 0.2f);
+Camera camera_from_inria(const InriaCamera& c, uint32_t out_width, uint32_t out_height, float near_plane);
 
 /// Parses one camera object of a cameras.json (`width`, `height`, `position`, `rotation`, `fx`, `fy`; other keys
 /// ignored), given as JSON text, with the checks read_inria_cameras makes of every entry but sides up to
