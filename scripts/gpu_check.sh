@@ -43,9 +43,9 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
   rc=0
   if [ -f "$taebak" ]; then
     # With the taebak cases (sorted pairs, a window against the CPU reference, quality over its 8 views at 4K).
-    RGS_TAEBAK_RGS="$taebak" "$bin/test_gpu" -s >"$out/test_gpu.log" 2>&1 || rc=$?
+    RGS_TAEBAK_RGS="$taebak" "$bin/test_gpu" --duration=true >"$out/test_gpu.log" 2>&1 || rc=$?
   else
-    "$bin/test_gpu" -s >"$out/test_gpu.log" 2>&1 || rc=$?
+    "$bin/test_gpu" --duration=true >"$out/test_gpu.log" 2>&1 || rc=$?
   fi
   [ $rc -ne 0 ] && status=1
   note "test_gpu: exit $rc in $(( $(date +%s) - start )) s; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu.log" | tr '\n' ' ')"
@@ -59,9 +59,9 @@ if [ "$what" = tests ] || [ "$what" = all ]; then
     start=$(date +%s)
     rc=0
     if [ -f "$taebak" ]; then
-      RGS_TAEBAK_RGS="$taebak" "$bin/$suite" -s >"$out/$suite.log" 2>&1 || rc=$?
+      RGS_TAEBAK_RGS="$taebak" "$bin/$suite" --duration=true >"$out/$suite.log" 2>&1 || rc=$?
     else
-      "$bin/$suite" -s >"$out/$suite.log" 2>&1 || rc=$?
+      "$bin/$suite" --duration=true >"$out/$suite.log" 2>&1 || rc=$?
     fi
     [ $rc -ne 0 ] && status=1
     note "$suite: exit $rc in $(( $(date +%s) - start )) s; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/$suite.log" | tr '\n' ' ')"
@@ -208,7 +208,7 @@ if [ "$what" = lod ] || [ "$what" = all ]; then
   # grid (--path, the worst case: every chunk in view).
   t0=$(date +%s)
   rc=0
-  "$bin/test_gpu" -s -tc='*LOD*,*2^31*' >"$out/test_gpu_lod.log" 2>&1 || rc=$?
+  "$bin/test_gpu" --duration=true -tc='*LOD*,*2^31*' >"$out/test_gpu_lod.log" 2>&1 || rc=$?
   [ $rc -ne 0 ] && status=1
   note "test_gpu LOD and 2^31: exit $rc; $(grep -E '^\[doctest\] (test cases|assertions)' "$out/test_gpu_lod.log" | tr '\n' ' ')"
   if [ -f "$taebak" ]; then

@@ -7,15 +7,9 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${RGS_BUILD_DIR:-$root/build}"
 "$root/scripts/install_deps.sh" sample
-# The CUDA renderer only where it can run: nvcc and a CUDA device (/dev/nvidia<N>), as `pip install .` decides.
-# Without a device, compiling the kernels would take most of the run for nothing.
-cuda=OFF
-if compgen -G "/dev/nvidia[0-9]*" >/dev/null && { command -v nvcc >/dev/null || [ -x /usr/local/cuda/bin/nvcc ]; }; then
-  cuda=ON
-fi
-echo "run_sample: CUDA renderer $cuda ($( [ $cuda = ON ] && echo "nvcc and a CUDA device found" || echo "no CUDA device or no nvcc"))"
+# The CUDA renderer only where it can run (scripts/build.sh decides).
 "$root/scripts/build.sh" --target rgs-convert rgs-info -- \
-  -DRGS_BUILD_TESTS=OFF -DRGS_BUILD_SAMPLES=OFF -DRGS_WITH_OPENIMAGEIO=OFF -DRGS_WITH_CUDA=$cuda
+  -DRGS_BUILD_TESTS=OFF -DRGS_BUILD_SAMPLES=OFF -DRGS_WITH_OPENIMAGEIO=OFF
 mkdir -p "$build/samples"
 "$build/tools/rgs-convert" "$root/samples/guitar.ply" "$build/samples/guitar.rgs"
 echo

@@ -1,20 +1,16 @@
 #!/usr/bin/env bash
-# Installs dependencies, builds everything (CUDA parts only when nvcc is found) and runs the whole test
-# suite with CTest, one line per test as it finishes. Extra arguments are CMake arguments for the build. GPU
-# tests print "skipped: no CUDA device" on machines without a GPU, and tests on the real scenes that are not
-# shipped ($RGS_DATA_DIR, default data/ in the checkout) "skipped: ..." when they are absent; CTest reports a test
-# that skipped everything as "Skipped" (listed after its summary), not as passed.
+# Installs dependencies, builds everything (the CUDA parts only where they can run, or when asked for:
+# scripts/build.sh) and runs the whole test suite with CTest, one line per test as it finishes. Extra arguments
+# are CMake arguments for the build. GPU tests print "skipped: no CUDA device" on machines without a GPU (and
+# are not built there unless asked for), and tests on the real scenes that are not shipped ($RGS_DATA_DIR, default
+# data/ in the checkout) "skipped: ..." when they are absent; CTest reports a test that skipped everything as
+# "Skipped" (listed after its summary), not as passed.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${RGS_BUILD_DIR:-$root/build}"
 "$root/scripts/install_deps.sh" tests
-# Explicit, so a build folder configured by run_sample.sh (tools only, CUDA only with a device) gets the whole
-# project: CUDA whenever nvcc is found (the GPU tests are built here and run on a GPU host) unless the arguments
-# say otherwise.
-cuda_default=(-URGS_WITH_CUDA)
-for arg in "$@"; do [[ "$arg" == -DRGS_WITH_CUDA* ]] && cuda_default=(); done
 "$root/scripts/build.sh" -- -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_SAMPLES=ON -DRGS_WITH_OPENIMAGEIO=ON \
-  "${cuda_default[@]}" "$@"
+  "$@"
 mkdir -p "$build/Testing"
 summary="$build/Testing/ctest_output.txt"
 set +e
