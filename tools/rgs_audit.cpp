@@ -11,6 +11,8 @@
 // whole frame's (audit::verdict_metric).
 //   rgs-audit --report-from out.json --report out.html                   HTML of an earlier run
 //   rgs-audit scene.ply scene.rgs --save-renders renders/ --format ppm    every render, as rgs-render writes it
+// The report's image folder holds the images of the last run alone: an earlier run's are removed once this run's
+// outputs are committed (and all of them with --no-report-images).
 //
 // Every output of a run (the HTML report, its JSON, its images, --json, --heatmap, --save-renders) is declared
 // before it is written (the report's images and the renders once the views are known), may not be an input or
@@ -26,6 +28,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <regex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -55,6 +59,7 @@ struct Options {
   tools::RenderOptions render;  ///< --backend, --device, --threads
   std::string report_path;
   bool no_report = false;
+  bool no_report_images = false;  ///< --no-report-images: no _files/ folder (the HTML holds the images anyway)
   std::string report_from;
   std::string json_path;
   std::string heatmap_path;
@@ -188,6 +193,21 @@ bool json_is_report_json(const Options& opt, const std::string& report_json) {
   const auto a = std::filesystem::weakly_canonical(report_json, ec1);
   const auto b = std::filesystem::weakly_canonical(link_target(opt.json_path), ec2);
   return !ec1 && !ec2 && a == b;
+}
+
+/// After a committed run: removes the images an earlier run left in the report's image folder (the names
+/// audit::report_images gives) that this run did not write, `written`, then the folder if that left it empty; so
+/// the folder holds the images its JSON names and no others. Files of other names are never touched.
+void remove_stale_report_images(const std::string& folder, const std::set<std::string>& written) {
+  static const std::regex kImageName(R"(c[0-9]+_v[0-9]+_(source|candidate)\.ppm|c[0-9]+_v[0-9]+_diff\.pgm)");
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_regular_file(ec) && std::regex_match(name, kImageName) && written.count(name) == 0) {
+      std::filesystem::remove(entry.path(), ec);
+    }
+  }
+  std::filesystem::remove(folder, ec);  // fails, as it should, unless empty
 }
 
 /// Declares the scenes and cameras as inputs and the outputs known before the audit runs (report HTML and
@@ -381,9 +401,9 @@ void print_table(std::FILE* out, const Options& opt, const audit::AuditResult& r
   const audit::ViewInfo& first = r.views.front();
   for (const auto& c : r.candidates) {
     const std::string suffix = r.candidates.size() > 1 ? "  [" + tools::escape_text(c.scene.label) + "]" : "";
-    std::fprintf(out, "  PSNR             mean %s dB, min %s dB (%zu views, %ux%u, worst %s)%s\n",
+    std::fprintf(out, "  PSNR             mean %s dB, min %s dB (%zu views, %ux%u; worst view: the verdict's)%s\n",
                  db(c.summary.psnr_mean_db).c_str(), db(c.summary.psnr_min_db).c_str(), r.views.size(), first.width,
-                 first.height, tools::escape_text(r.views[c.summary.worst_view].name).c_str(), suffix.c_str());
+                 first.height, suffix.c_str());
     std::fprintf(out, "  SSIM             mean %s, min %s%s\n", tools::fixed(c.summary.ssim_mean, 5).c_str(),
                  tools::fixed(c.summary.ssim_min, 5).c_str(), suffix.c_str());
   }
@@ -432,10 +452,12 @@ int run(const Options& opt) {
   ro.command_line = opt.command_line;
   if (opt.min_psnr_set) ro.min_psnr_db = opt.min_psnr;
   ro.threshold_db = opt.threshold;
-  if (!opt.no_report) {
+  std::set<std::string> images_written;
+  if (!opt.no_report && !opt.no_report_images) {
     ro.image_dir = std::filesystem::path(report_files).filename().string() + "/";
     for (const auto& [path, image] : audit::report_images(r, report_files)) {
       if (int code = tools::declare_output(kTool, outputs, path); code != tools::kExitOk) return code;
+      images_written.insert(std::filesystem::path(path).filename().string());
     }
     if (Status created = outputs.create_folder(report_files); !created.ok()) return tools::report_error(kTool, created);
     tools::report_notes(kTool, outputs.remove_stale_temporaries());
@@ -487,6 +509,7 @@ int run(const Options& opt) {
     }
   }
   if (int code = tools::commit_outputs(kTool, outputs, opt.quiet); code != tools::kExitOk) return code;
+  if (!report_files.empty()) remove_stale_report_images(report_files, images_written);
   return below_gate ? kExitBelowMinPsnr : tools::kExitOk;
 }
 
@@ -521,6 +544,10 @@ int main(int argc, char** argv) {
                                 "HTML report; its JSON (.json) and images (_files/) go next to it");
   auto* no_report = app.add_flag("--no-report", opt.no_report, "Write no report, JSON or images (see --json)");
   report->excludes(no_report);
+  app.add_flag("--no-report-images", opt.no_report_images,
+               "Write the report and its JSON without the image folder (_files/: the worst views' raw images, "
+               "which only --report-from reads; the HTML holds them anyway)")
+      ->excludes(no_report);
   app.add_option("--report-from", opt.report_from, "Only make the HTML (--report) from the JSON of an earlier run");
   app.add_option("--json", opt.json_path, "Also write the JSON here ('-': stdout; the table then goes to stderr)");
   app.add_option(

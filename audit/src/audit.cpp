@@ -133,10 +133,8 @@ Summary summarize(const std::vector<ViewMetrics>& views) {
       s.foreground_psnr_min_db = std::min(s.foreground_psnr_min_db, views[v].foreground_psnr_db);
       ++foreground_views;
     }
-    if (views[v].psnr_db < s.psnr_min_db || v == 0) {
-      s.psnr_min_db = views[v].psnr_db;
-      s.worst_view = v;
-    }
+    s.psnr_min_db = std::min(s.psnr_min_db, views[v].psnr_db);
+    if (v == 0 || verdict_view_psnr_db(views[v]) < verdict_view_psnr_db(views[s.worst_view])) s.worst_view = v;
     s.ssim_min = std::min(s.ssim_min, views[v].ssim);
     s.max_abs_diff = std::max(s.max_abs_diff, views[v].max_abs_diff);
   }
@@ -426,11 +424,12 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
       vm.foreground_psnr_db = m.foreground.psnr_db;
       vm.foreground_fraction = double(m.foreground.pixels) / double(m.foreground.total_pixels);
 
-      const bool new_worst = v == 0 || m.psnr_db < c.views[c.summary.worst_view].psnr_db;
+      const double rank_db = verdict_view_psnr_db(vm);
+      const bool new_worst = v == 0 || rank_db < verdict_view_psnr_db(c.views[c.summary.worst_view]);
       if (new_worst) c.summary.worst_view = v;
+      const auto ranks_below = [&](double db, const ViewImages& w) { return db < verdict_view_psnr_db(c.views[w.view]); };
       const bool keep_images =
-          options.worst_views > 0 &&
-          (c.worst.size() < options.worst_views || m.psnr_db < c.worst.back().psnr_db);
+          options.worst_views > 0 && (c.worst.size() < options.worst_views || ranks_below(rank_db, c.worst.back()));
       const bool keep_heatmap = options.keep_worst_heatmap && i == 0 && new_worst;
       if (keep_images || keep_heatmap) {
         // GPU images are copied to the host only here (once per view and scene).
@@ -444,8 +443,7 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
           vi.source = reduce_colour(source_pixels, f);
           vi.candidate = reduce_colour(candidate_pixels, f);
           vi.abs_difference = reduce_difference(source_pixels, candidate_pixels, f);
-          auto at = std::upper_bound(c.worst.begin(), c.worst.end(), vi.psnr_db,
-                                     [](double p, const ViewImages& w) { return p < w.psnr_db; });
+          auto at = std::upper_bound(c.worst.begin(), c.worst.end(), rank_db, ranks_below);
           c.worst.insert(at, std::move(vi));
           if (c.worst.size() > options.worst_views) c.worst.pop_back();
         }

@@ -110,20 +110,8 @@ Verdict verdict(const AuditResult& result, size_t candidate, double threshold_db
   const bool foreground = v.metric == VerdictMetric::kForeground;
   v.psnr_mean_db = foreground ? c.summary.foreground_psnr_mean_db : c.summary.psnr_mean_db;
   v.passed = v.psnr_mean_db >= threshold_db;
-  size_t worst = c.summary.worst_view;
-  if (foreground) {
-    // Views without foreground (NaN) are left out, as in the foreground mean.
-    bool found = false;
-    for (size_t i = 0; i < c.views.size(); ++i) {
-      const double p = c.views[i].foreground_psnr_db;
-      if (!std::isnan(p) && (!found || p < c.views[worst].foreground_psnr_db)) {
-        worst = i;
-        found = true;
-      }
-    }
-  }
-  v.worst_view = result.views.at(worst).name;
-  v.worst_psnr_db = foreground ? c.views.at(worst).foreground_psnr_db : c.summary.psnr_min_db;
+  v.worst_view = result.views.at(c.summary.worst_view).name;
+  v.worst_psnr_db = verdict_view_psnr_db(c.views.at(c.summary.worst_view));
   if (c.scene.file_bytes > 0) {
     v.bytes_saved = int64_t(result.source.file_bytes) - int64_t(c.scene.file_bytes);
     v.bytes_saved_fraction = result.source.file_bytes > 0 ? double(*v.bytes_saved) / double(result.source.file_bytes)

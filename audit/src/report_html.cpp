@@ -456,7 +456,7 @@ Result<std::string> candidate_section(const json& doc, size_t index, const json&
                                                       num(member(fg, "min")) + " dB; ";
   out += "<p>" + group(c.at("bytes")) + " bytes, " + fixed(c.at("bytes_per_gaussian"), 2) + " B/Gaussian, ratio " +
          fixed(c.value("ratio", 0.0), 2) + "x to the source; PSNR mean " + num(c.at("psnr_db").at("mean")) +
-         " dB, min " + num(c.at("psnr_db").at("min")) + " dB (view " + esc(c.at("worst_view")) + "); " + fg_text +
+         " dB, min " + num(c.at("psnr_db").at("min")) + " dB; " + fg_text + "worst view " + esc(c.at("worst_view")) + "; " +
          "SSIM mean " + fixed(c.at("ssim").at("mean"), 5) + ", min " + fixed(c.at("ssim").at("min"), 5) +
          "; max |d| " + fixed(c.at("max_abs_diff"), 4) + ".</p><div class='cols'>";
   if (!c.at("sections").empty()) {

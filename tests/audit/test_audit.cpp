@@ -69,10 +69,10 @@ TEST_CASE("CPU audit of guitar against its conversion") {
     CHECK(v.max_abs_diff > 0.f);
     CHECK(v.max_abs_diff < 0.05f);
   }
-  CHECK(c.summary.psnr_min_db == c.views[c.summary.worst_view].psnr_db);
+  for (const auto& v : c.views) CHECK(audit::verdict_view_psnr_db(c.views[c.summary.worst_view]) <= audit::verdict_view_psnr_db(v));
   REQUIRE(c.worst.size() == 2);
   CHECK(c.worst[0].view == c.summary.worst_view);
-  CHECK(c.worst[0].psnr_db <= c.worst[1].psnr_db);
+  CHECK(audit::verdict_view_psnr_db(c.views[c.worst[0].view]) <= audit::verdict_view_psnr_db(c.views[c.worst[1].view]));
   CHECK(c.worst[0].source.width == 53);
   CHECK(c.worst[0].source.height == 30);
   CHECK(c.worst[0].difference.channels == 1);
@@ -177,6 +177,51 @@ TEST_CASE("CPU audit of guitar against its conversion") {
   CHECK(std::filesystem::file_size(first) == 53 * 30 + std::string("P5\n53 30\n255\n").size());
 }
 
+TEST_CASE("worst view: the summary, the images, the heatmap and the verdict name one view, by the verdict's PSNR") {
+  // Guitar with one bright Gaussian added near the first camera, in the corner of its image where the source shows
+  // background: that view's whole frame loses most, its foreground nothing. Ranked by the whole frame, the table
+  // and the images would name another view than the verdict, which judges the foreground.
+  const audit::AuditScene& source = guitar();
+  const auto cams = small_orbit(source.bounds, 6);
+  const runtime::Camera& cam = cams[0];
+  const std::array<float, 3> eye = runtime::camera_centre(cam);
+  const double depth = 0.5 * std::sqrt(std::pow(eye[0] - source.bounds.sphere_center[0], 2) +
+                                       std::pow(eye[1] - source.bounds.sphere_center[1], 2) +
+                                       std::pow(eye[2] - source.bounds.sphere_center[2], 2));
+  const double x = (8.0 - cam.cx) * depth / cam.fx, y = (8.0 - cam.cy) * depth / cam.fy;  // pixel (8, 8)
+  audit::AuditScene floater = source;
+  format::GaussianCloud& cloud = floater.cloud;
+  const size_t n = cloud.size(), k = cloud.sh_coefficients();
+  cloud.resize(n + 1);
+  for (int a = 0; a < 3; ++a) {  // eye + Rᵀ·(x, y, depth): the camera's axes are the rotation's rows
+    cloud.means[n * 3 + a] = float(eye[a] + cam.rotation[a] * x + cam.rotation[3 + a] * y + cam.rotation[6 + a] * depth);
+    cloud.scales[n * 3 + a] = float(3.0 * depth / cam.fx);  // about 3 pixels
+    cloud.sh[(n * k) * 3 + a] = 1.7f;                        // white
+  }
+  cloud.rotations[n * 4] = 1.f;
+  cloud.opacities[n] = 1.f;
+  floater.info.gaussians = n + 1;
+  audit::AuditOptions options;
+  options.worst_views = 2;
+  options.keep_worst_heatmap = true;
+  auto result = audit::run_audit(source, {floater}, cams, options);
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  const audit::CandidateResult& c = result->candidates[0];
+  size_t by_whole_frame = 0, by_verdict = 0;
+  for (size_t v = 0; v < c.views.size(); ++v) {
+    if (c.views[v].psnr_db < c.views[by_whole_frame].psnr_db) by_whole_frame = v;
+    if (audit::verdict_view_psnr_db(c.views[v]) < audit::verdict_view_psnr_db(c.views[by_verdict])) by_verdict = v;
+  }
+  REQUIRE_MESSAGE(by_whole_frame != by_verdict, "the floater must make the two rankings differ");
+  CHECK(c.summary.worst_view == by_verdict);
+  CHECK(audit::verdict(*result, 0, 40.0).worst_view == result->views[by_verdict].name);
+  REQUIRE(!c.worst.empty());
+  CHECK(c.worst[0].view == by_verdict);
+  const auto j = nlohmann::json::parse(audit::audit_json(*result, {}));
+  CHECK(j["candidates"][0]["worst_view"] == result->views[by_verdict].name);
+  CHECK(j["candidates"][0]["verdict"]["worst_view"]["name"] == result->views[by_verdict].name);
+}
+
 TEST_CASE("a scene against itself: PSNR inf, SSIM 1, no difference, two candidates in one run") {
   const audit::AuditScene& source = guitar();
   std::vector<audit::AuditScene> candidates;
@@ -218,6 +263,11 @@ TEST_CASE("verdict: mean PSNR against the threshold, worst view, bytes saved") {
     c.summary.psnr_mean_db = mean;
     c.summary.psnr_min_db = min;
     c.summary.worst_view = worst;
+    c.views.resize(3);  // whole frame only (no foreground): the worst view's PSNR is the minimum
+    for (size_t v = 0; v < 3; ++v) {
+      c.views[v].psnr_db = v == worst ? min : mean;
+      c.views[v].foreground_psnr_db = std::numeric_limits<double>::quiet_NaN();
+    }
     return c;
   };
   r.candidates.push_back(candidate(400, 41.0, 38.0, 2));   // passes 40 on the mean, though a view is below
@@ -279,7 +329,7 @@ TEST_CASE("verdict and gate on the foreground PSNR where the source has backgrou
   }
   c.summary.psnr_mean_db = (60.0 + 58.0 + 70.0) / 3;
   c.summary.psnr_min_db = 58.0;
-  c.summary.worst_view = 1;
+  c.summary.worst_view = 0;  // run_audit's rank: lowest foreground PSNR (verdict_view_psnr_db), not b's whole frame
   c.summary.foreground_psnr_mean_db = 51.0;
   c.summary.foreground_psnr_min_db = 50.0;
   r.candidates.push_back(c);
@@ -306,7 +356,8 @@ TEST_CASE("verdict and gate on the foreground PSNR where the source has backgrou
   CHECK(j["gate"]["passed"] == false);
 
   // A source that covers every pixel of every view: the whole frame decides.
-  for (auto& m : r.candidates[0].views) m.foreground_fraction = 1.0;
+  for (auto& m : r.candidates[0].views) m.foreground_fraction = 1.0, m.foreground_psnr_db = m.psnr_db;
+  r.candidates[0].summary.worst_view = 1;
   CHECK(audit::verdict_metric(r) == audit::VerdictMetric::kWholeFrame);
   CHECK(audit::verdict(r, 0, 55.0).passed);
   CHECK(audit::verdict(r, 0, 55.0).worst_view == "b");

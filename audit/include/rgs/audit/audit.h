@@ -73,6 +73,13 @@ struct ViewMetrics {
   double render_seconds = 0;
 };
 
+/// The PSNR that ranks a view for the verdict, the gate and every "worst view" (table, JSON, report, images,
+/// heatmap): the foreground PSNR where the source shows something, else the whole frame's (a view the source
+/// leaves black is judged by what the candidate draws there). So every place names the same worst view.
+inline double verdict_view_psnr_db(const ViewMetrics& m) {
+  return m.foreground_psnr_db == m.foreground_psnr_db ? m.foreground_psnr_db : m.psnr_db;  // NaN: no foreground
+}
+
 /// An 8-bit image, row-major, top row first.
 struct Image8 {
   uint32_t width = 0, height = 0, channels = 0;  ///< channels 1 (grey) or 3 (RGB)
@@ -121,7 +128,7 @@ struct Summary {
   double foreground_psnr_mean_db = 0, foreground_psnr_min_db = 0;
   double render_seconds = 0;  ///< sum of the views' render_seconds
   float max_abs_diff = 0;  ///< over all views
-  size_t worst_view = 0;   ///< lowest PSNR (first of equals)
+  size_t worst_view = 0;   ///< lowest verdict_view_psnr_db (first of equals)
 };
 
 /// Percentile of the non-zero |Δ| of a candidate's heatmaps that is the top of its heat scale
