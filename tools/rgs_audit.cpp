@@ -91,6 +91,7 @@ void print_candidate(std::FILE* out, const audit::AuditResult& r, const audit::C
                tools::escape_text(c.scene.path).c_str(), tools::escape_text(c.scene.format).c_str());
   std::fprintf(out, "  gaussians        %s (SH degree %u)\n", rgs::group_digits(c.scene.gaussians).c_str(),
                c.scene.sh_degree);
+  if (!c.reference.empty()) std::fprintf(out, "  compared with    %s\n", tools::escape_text(c.reference).c_str());
   if (c.scene.file_bytes > 0) {
     std::fprintf(out, "  load             %s s\n", tools::fixed(c.scene.load_seconds, 2).c_str());
   }
@@ -355,9 +356,11 @@ void print_verdict(std::FILE* out, const audit::AuditResult& r, size_t candidate
                                 : "adds " + rgs::group_digits(-*v.bytes_saved) + " bytes";
     saved += " (" + tools::fixed(100.0 * std::fabs(v.bytes_saved_fraction), 0) + "% of the source)";
   }
-  std::fprintf(out, "  verdict          %s %s: mean %s %s dB %s %s dB%s; worst view %s %s dB; %s\n",
+  const std::string lost = v.content_lost.empty() ? "" : "lost its content (" + v.content_lost + "); ";
+  std::fprintf(out, "  verdict          %s %s: %smean %s %s dB %s %s dB%s; worst view %s %s dB; %s\n",
                v.passed ? "PASS" : "FAIL", tools::escape_text(r.candidates[candidate].scene.label).c_str(),
-               metric_text(v.metric).c_str(), db(v.psnr_mean_db).c_str(), v.passed ? ">=" : "<",
+               lost.c_str(),
+               metric_text(v.metric).c_str(), db(v.psnr_mean_db).c_str(), v.psnr_mean_db >= threshold ? ">=" : "<",
                tools::fixed(threshold, 2).c_str(), beside.c_str(), tools::escape_text(v.worst_view).c_str(),
                db(v.worst_psnr_db).c_str(), saved.c_str());
 }

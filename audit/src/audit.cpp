@@ -226,12 +226,13 @@ Result<CandidateResult> candidate_with_attributes(const AuditScene& source, cons
 
 /// The source as the conversion that wrote `cand` edited it (AuditScene::conversion_options): its recorded edits
 /// applied in order to a copy, --decimate left out (what decimation removed is part of what the conversion cost,
-/// as a coarser level's is). Unset when the conversion edited nothing else; `note` says what was done.
-Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const AuditScene& cand, std::string* note) {
+/// as a coarser level's is). Unset when the conversion edited nothing else; `reference` says what was done
+/// (CandidateResult::reference).
+Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const AuditScene& cand,
+                                                std::string* reference) {
   auto recorded = converter::parse_recorded_edits(cand.conversion_options);
   if (!recorded.ok()) {
-    *note = "its provenance's edits are not understood (" + recorded.status().message() +
-            "): compared with the unedited source";
+    *reference = "the whole source: its provenance's edits are not understood (" + recorded.status().message() + ")";
     return std::optional<AuditScene>();
   }
   std::vector<std::string> applied;
@@ -248,8 +249,9 @@ Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const 
   out.info.gaussians = out.cloud.size();
   std::string chain;
   for (const std::string& text : applied) chain += (chain.empty() ? "" : "; ") + text;
-  *note = "compared with the source under the edits its conversion recorded (" + chain + "): what they moved or "
-          "removed is not counted as loss";
+  *reference = "the source under the edits its conversion recorded (" + chain + "), " +
+               rgs::group_digits(out.info.gaussians) + " of its " + rgs::group_digits(source.info.gaussians) +
+               " Gaussians: what they moved or removed is not counted as loss";
   return std::optional<AuditScene>(std::move(out));
 }
 
@@ -259,15 +261,16 @@ Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const 
 Status compare_attributes(const AuditScene& source, const std::vector<AuditScene>& candidates, size_t views,
                           AuditResult* result, std::vector<AuditScene>* edited, std::vector<size_t>* reference) {
   for (size_t i = 0; i < candidates.size(); ++i) {
-    std::string note;
-    RGS_ASSIGN_OR_RETURN(std::optional<AuditScene> ref, edited_source(source, candidates[i], &note));
+    std::string described;
+    RGS_ASSIGN_OR_RETURN(std::optional<AuditScene> ref, edited_source(source, candidates[i], &described));
     if (ref) {
       edited->push_back(std::move(*ref));
       (*reference)[i] = edited->size();
     }
-    RGS_ASSIGN_OR_RETURN(CandidateResult c,
-                         candidate_with_attributes((*reference)[i] ? edited->back() : source, candidates[i]));
-    if (!note.empty()) c.scene.notes.push_back(note);
+    const AuditScene& compared = (*reference)[i] ? edited->back() : source;
+    RGS_ASSIGN_OR_RETURN(CandidateResult c, candidate_with_attributes(compared, candidates[i]));
+    c.reference = described;
+    c.reference_gaussians = compared.info.gaussians;
     c.views.resize(views);
     result->candidates.push_back(std::move(c));
   }

@@ -34,7 +34,8 @@ json verdict_json(const Verdict& v) {
           {"foreground_psnr_mean_db", db_json(v.foreground_psnr_mean_db)},
           {"worst_view", {{"name", v.worst_view}, {"psnr_db", db_json(v.worst_psnr_db)}}},
           {"bytes_saved", v.bytes_saved ? json(*v.bytes_saved) : json(nullptr)},
-          {"bytes_saved_fraction", v.bytes_saved ? json(v.bytes_saved_fraction) : json(nullptr)}};
+          {"bytes_saved_fraction", v.bytes_saved ? json(v.bytes_saved_fraction) : json(nullptr)},
+          {"content_lost", v.content_lost.empty() ? json(nullptr) : json(v.content_lost)}};
 }
 
 /// `s` with its bytes per Gaussian of the source (`source_gaussians`), and its ratio to `source_bytes` if not 0.
@@ -109,7 +110,14 @@ Verdict verdict(const AuditResult& result, size_t candidate, double threshold_db
   v.foreground_psnr_mean_db = c.summary.foreground_psnr_mean_db;
   const bool foreground = v.metric == VerdictMetric::kForeground;
   v.psnr_mean_db = foreground ? c.summary.foreground_psnr_mean_db : c.summary.psnr_mean_db;
-  v.passed = v.psnr_mean_db >= threshold_db;
+  const uint64_t total = result.source.gaussians;
+  if (total > 0 && c.scene.gaussians == 0) {
+    v.content_lost = "it has no Gaussian";
+  } else if (total > 0 && double(c.reference_gaussians) < kMinContentKept * double(total)) {
+    v.content_lost = "its recorded edits kept " + rgs::group_digits(c.reference_gaussians) + " of the source's " +
+                     rgs::group_digits(total) + " Gaussians, under " + std::to_string(int(kMinContentKept * 100)) + "%";
+  }
+  v.passed = v.psnr_mean_db >= threshold_db && v.content_lost.empty();
   v.worst_view = result.views.at(c.summary.worst_view).name;
   v.worst_psnr_db = verdict_view_psnr_db(c.views.at(c.summary.worst_view));
   if (c.scene.file_bytes > 0) {
@@ -122,7 +130,8 @@ Verdict verdict(const AuditResult& result, size_t candidate, double threshold_db
 
 bool passes_gate(const AuditResult& result, double min_psnr_db) {
   for (size_t i = 0; i < result.candidates.size(); ++i) {
-    if (verdict(result, i, min_psnr_db).worst_psnr_db < min_psnr_db) return false;
+    const Verdict v = verdict(result, i, min_psnr_db);
+    if (v.worst_psnr_db < min_psnr_db || !v.content_lost.empty()) return false;
   }
   return true;
 }
@@ -177,6 +186,8 @@ std::string audit_json(const AuditResult& r, const ReportOptions& options) {
     cj["foreground_psnr_db"] = {{"mean", db_json(c.summary.foreground_psnr_mean_db)},
                                 {"min", db_json(c.summary.foreground_psnr_min_db)}};
     cj["render_seconds"] = c.summary.render_seconds;
+    cj["reference"] = {{"description", c.reference.empty() ? json("the whole source") : json(c.reference)},
+                       {"gaussians", c.reference_gaussians}};
     if (!r.views.empty()) cj["verdict"] = verdict_json(verdict(r, i, options.threshold_db));
     cj["max_abs_diff"] = c.summary.max_abs_diff;
     cj["heat_scale"] = c.heat_scale;

@@ -297,6 +297,10 @@ std::string verdict_html(const json& doc) {
              fixed(s >= 0 ? fraction : -fraction, 0) + "% of the source)";
     }
     const json& wv = cv.at("worst_view");
+    const json& lost_why = member(cv, "content_lost");
+    const std::string lost = lost_why.is_null() ? "" : "lost its content (" + esc(lost_why) + "); ";
+    const json& mean = cv.at("psnr_mean_db");
+    const bool at_least = mean == "inf" || (mean.is_number() && mean.get<double>() >= t);
     const std::string beside =
         metric == "foreground" ? " (whole frame " + num(cv.at("whole_frame_psnr_mean_db")) + " dB)" : "";
     const std::string cls = ok ? "gate-pass" : "gate-fail";
@@ -304,8 +308,8 @@ std::string verdict_html(const json& doc) {
              (ok ? "true" : "false") + "' data-metric='" + escape_html(metric) + "' data-psnr-mean='" +
              num(cv.at("psnr_mean_db")) + "' data-worst-view='" + esc(wv.at("name")) + "' data-worst-psnr='" +
              num(wv.at("psnr_db")) + "'><b class='" + cls + "'>" + (ok ? "PASS" : "FAIL") + "</b> " +
-             esc(c.at("label")) + ": mean " + what + " PSNR " + num(cv.at("psnr_mean_db")) + " dB " +
-             (ok ? "&ge; " : "&lt; ") + general(t) + " dB" + beside + "; worst view " + esc(wv.at("name")) + " " +
+             esc(c.at("label")) + ": " + lost + "mean " + what + " PSNR " + num(cv.at("psnr_mean_db")) + " dB " +
+             (at_least ? "&ge; " : "&lt; ") + general(t) + " dB" + beside + "; worst view " + esc(wv.at("name")) + " " +
              num(wv.at("psnr_db")) + " dB; " + size + "</li>";
   }
   const std::string why = metric == "foreground" ? " The foreground PSNR decides: the black background raises the "
@@ -454,6 +458,8 @@ Result<std::string> candidate_section(const json& doc, size_t index, const json&
   const json& fg = member(c, "foreground_psnr_db");
   const std::string fg_text = fg.is_null() ? "" : "foreground PSNR mean " + num(member(fg, "mean")) + " dB, min " +
                                                       num(member(fg, "min")) + " dB; ";
+  const json& reference = member(c, "reference");
+  if (!reference.is_null()) out += "<p class='reference'>Compared with " + esc(reference.at("description")) + ".</p>";
   out += "<p>" + group(c.at("bytes")) + " bytes, " + fixed(c.at("bytes_per_gaussian"), 2) + " B/Gaussian, ratio " +
          fixed(c.value("ratio", 0.0), 2) + "x to the source; PSNR mean " + num(c.at("psnr_db").at("mean")) +
          " dB, min " + num(c.at("psnr_db").at("min")) + " dB; " + fg_text + "worst view " + esc(c.at("worst_view")) + "; " +

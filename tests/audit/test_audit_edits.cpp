@@ -3,12 +3,14 @@
 #include <doctest/doctest.h>
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "audit_test_util.h"
 #include "rgs/api/convert.h"
 #include "rgs/audit/audit.h"
+#include "rgs/audit/audit_report.h"
 #include "rgs/converter/cloud_edits.h"
 #include "rgs/runtime/camera.h"
 
@@ -40,10 +42,7 @@ double mean_psnr(const audit::AuditScene& source, audit::AuditScene candidate, s
   candidates.push_back(std::move(candidate));
   auto result = audit::run_audit(source, candidates, *cams, {});
   REQUIRE_MESSAGE(result.ok(), result.status().to_string());
-  note->clear();
-  for (const std::string& n : result->candidates[0].scene.notes) {
-    if (n.find("edits its conversion recorded") != std::string::npos) *note = n;
-  }
+  *note = result->candidates[0].reference;
   return result->candidates[0].summary.psnr_mean_db;
 }
 
@@ -100,4 +99,44 @@ TEST_CASE("audit of a cropped, turned conversion: against the source under the s
       source, edited_conversion(guitar, {edit("decimate", "0.25")}, "rgs_test_audit_decimated.rgs"), &note);
   CHECK(note.empty());
   CHECK(decimated < understood);
+}
+
+TEST_CASE("audit of a conversion whose edits left (almost) nothing: it lost its content and fails, and says so") {
+  const std::string guitar = test::repo_path("samples/guitar.ply");
+  const audit::AuditScene source = test::audit_scene(guitar);
+  // A box around one Gaussian's mean keeps that Gaussian; a box beside the scene keeps none.
+  const float* m = &source.cloud.means[3 * 1000];
+  std::string around_one;
+  for (int bound : {-1, 1}) {
+    for (int a = 0; a < 3; ++a) around_one += (around_one.empty() ? "" : ",") + std::to_string(m[a] + bound * 1e-4f);
+  }
+  api::ConvertOptions allow_empty;
+  allow_empty.allow_empty = true;
+  const std::string empty_path = (std::filesystem::temp_directory_path() / "rgs_test_audit_empty.rgs").string();
+  allow_empty.edits = {edit("crop-box", "100,100,100,101,101,101")};
+  REQUIRE(api::convert(guitar, empty_path, allow_empty).ok());
+  std::vector<audit::AuditScene> candidates;
+  candidates.push_back(edited_conversion(guitar, {edit("crop-box", around_one)}, "rgs_test_audit_one.rgs"));
+  candidates.push_back(test::audit_scene(empty_path));
+  auto cams = runtime::orbit_cameras(source.bounds, 2, 160, 90);
+  REQUIRE(cams.ok());
+  auto result = audit::run_audit(source, candidates, *cams, {});
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  const audit::CandidateResult& one = result->candidates[0];
+  REQUIRE(one.reference_gaussians == 1);
+  CHECK(one.reference.find("crop-box") != std::string::npos);
+  CHECK(one.reference.find("1 of its 90,854 Gaussians") != std::string::npos);
+  CHECK(one.summary.psnr_mean_db > 60.0);  // against the one Gaussian left: a perfect match that says nothing
+  const audit::Verdict lost_one = audit::verdict(*result, 0, 40.0);
+  CHECK(!lost_one.passed);
+  CHECK(lost_one.content_lost.find("kept 1 of the source's 90,854 Gaussians") != std::string::npos);
+  const audit::Verdict lost_all = audit::verdict(*result, 1, 40.0);
+  CHECK(!lost_all.passed);
+  CHECK(lost_all.content_lost == "it has no Gaussian");
+  CHECK(!audit::passes_gate(*result, 0.0));
+  const auto j = nlohmann::json::parse(audit::audit_json(*result, {}));
+  CHECK(j["candidates"][0]["reference"]["gaussians"] == 1);
+  CHECK(j["candidates"][0]["reference"]["description"].get<std::string>().find("crop-box") != std::string::npos);
+  CHECK(j["candidates"][1]["verdict"]["content_lost"] == "it has no Gaussian");
+  CHECK(j["candidates"][1]["verdict"]["passed"] == false);
 }

@@ -140,6 +140,12 @@ struct CandidateResult {
   SceneInfo scene;
   std::optional<AttributeReport> attributes;
   std::string attributes_note;  ///< why there are no attribute errors (SH degrees, Gaussians without a pair)
+  /// What the candidate is compared with, when not the whole source: one sentence naming the edits its
+  /// conversion recorded, applied to a copy of the source (docs/AUDITS.md#how-rgs-audit-measures, "Edited candidates"), or why they
+  /// were not. Empty: the whole source.
+  std::string reference;
+  /// Gaussians of what the candidate is compared with: the source's, or what its recorded edits kept of them.
+  uint64_t reference_gaussians = 0;
   std::vector<ViewMetrics> views;  ///< one per AuditResult::views entry
   Summary summary;
   std::vector<ViewImages> worst;  ///< lowest PSNR first, at most AuditOptions::worst_views

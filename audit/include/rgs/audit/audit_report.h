@@ -43,10 +43,19 @@ const char* verdict_metric_name(VerdictMetric metric);
 /// Precondition: result has at least one candidate.
 VerdictMetric verdict_metric(const AuditResult& result);
 
+/// The smallest share of the source's Gaussians that a candidate compared with its edited source
+/// (CandidateResult::reference) may keep and still pass: below it, its PSNR against what is left says nothing of
+/// the source (a crop to one Gaussian reads 113 dB), so the candidate has lost its content and fails.
+inline constexpr double kMinContentKept = 0.01;
+
 /// The report's first line for one candidate: pass or fail against a mean-PSNR threshold on verdict_metric,
 /// its worst view and the bytes it saves against the source file.
 struct Verdict {
-  bool passed = false;        ///< psnr_mean_db ≥ threshold_db (an identical image's +inf passes any threshold)
+  /// psnr_mean_db ≥ threshold_db (an identical image's +inf passes any threshold) and no content_lost
+  bool passed = false;
+  /// Why the candidate fails whatever its PSNR: it has no Gaussian while the source has, or its recorded edits kept
+  /// under kMinContentKept of the source's Gaussians. Empty otherwise.
+  std::string content_lost;
   double threshold_db = 0;    ///< dB
   VerdictMetric metric = VerdictMetric::kWholeFrame;  ///< verdict_metric(result): what psnr_mean_db is
   /// The candidate's mean over the views of `metric`, dB (+inf when every view is identical there).
