@@ -18,6 +18,8 @@
 # carry .device_taebak_a; carry .device_taebak_b and run scripts/gpu_prepare_taebak.sh .device_taebak_a
 # .device_taebak_b; carry .device_scenes; carry .device_data and run scripts/gpu_check.sh .device_data "$OUT".
 # Usage: scripts/stage_gpu.sh [DATA_DIR]   (DATA_DIR: the real scenes, default data/ in the checkout)
+#   RGS_CUDA_ARCHITECTURES: the GPUs to build for (default "89;90"; "90" alone for an H100 or H200 halves the
+#   kernels' compile)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 data="${1:-$root/data}"
@@ -26,7 +28,7 @@ stage="$root/.device_data"
 scenes="$root/.device_scenes"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRGS_WITH_CUDA=ON -DRGS_WITH_OPENIMAGEIO=OFF \
-  -DCMAKE_CUDA_ARCHITECTURES="89;90" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
+  -DCMAKE_CUDA_ARCHITECTURES="${RGS_CUDA_ARCHITECTURES:-89;90}" -DRGS_BUILD_TESTS=ON -DRGS_BUILD_LAB=ON -DRGS_BUILD_TOOLS=ON -DRGS_BUILD_SAMPLES=ON \
   -DRGS_INSTALL=OFF -DRGS_BUILD_PYTHON=ON -DCMAKE_BUILD_RPATH='$ORIGIN' >/dev/null
 exes=(tests/gpu/test_gpu tests/api/test_api tests/audit/test_audit tools/rgs-render lab/rgs-bench tools/rgs-convert
       tools/rgs-audit tools/rgs-info samples/rgs_sample_render_frame tools/rgs-view tests/view/test_view lab/rgs-view-bench
