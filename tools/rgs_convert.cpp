@@ -7,6 +7,8 @@
 //   rgs-convert in.ply out.ply --rotate 180,0,0 --crop-box -2,-2,-2,2,2,2 --filter 'opacity gt 0.05'
 //                                                     edits, in the order given (the SH colour turns too)
 //   rgs-convert a.ply b.spz merged.rgs --decimate 0.5  two scenes merged into one, then halved
+//   rgs-convert a.ply --rotate 0,180,0 b.ply merged.rgs  a turned alone, then merged with b (edits after an input
+//                                                     act on it; after the output, on the merged scene)
 //   cat scene.ply | rgs-convert - scene.rgs --json -  read standard input, JSON summary on standard output
 //   rgs-convert scene.ply scene.rgs --target-psnr 40 --cameras cameras.json --every 8 --width 960
 //                                                     the archive profile's settings for 40 dB (rate control)
@@ -88,7 +90,7 @@ constexpr EditOption kEditOptions[] = {
     {"crop-sphere-outside", "CX,CY,CZ,R", "Edit: keep the Gaussians whose mean is outside the sphere"},
     {"decimate", "N|FRACTION",
      "Edit: at most N Gaussians (an integer >= 1) or FRACTION in (0, 1) of them, merged by the levels of detail's rule "
-     "as a .rgs holds them (docs/LOD.md); needs the whole scene, so an out-of-core build refuses it"},
+     "as a .rgs holds them (docs/LOD.md); needs the whole scene (or input), so an out-of-core build refuses it"},
 };
 
 /// Adds the edit options to `app`, each repeatable, their values into opt->edit_values.
@@ -108,17 +110,29 @@ void add_edit_options(CLI::App& app, Options* opt) {
   }
 }
 
-/// The edits of the command line in the order given (CLI11's parse order), parsed by converter::parse_edit_action
-/// into opt->convert.edits. @return "" or the first problem, naming the option.
+/// The edits of the command line in the order given (CLI11's parse order), parsed by converter::parse_edit_action:
+/// with several inputs, those written after an input and before the next input or the output into that input's
+/// opt->convert.input_edits (splat-transform's rule), the others (before the first input, after the output) into
+/// the merged scene's opt->convert.edits; with one input all into opt->convert.edits.
+/// @return "" or the first problem, naming the option.
 std::string collect_edits(const CLI::App& app, Options* opt) {
   size_t used[std::size(kEditOptions)] = {};
+  size_t positionals = 0;  // the inputs, then the output, met so far
+  const size_t inputs = opt->inputs.size();
   for (const CLI::Option* option : app.parse_order()) {
+    positionals += option->get_positional() ? 1 : 0;
     for (size_t i = 0; i < std::size(kEditOptions); ++i) {
       if (option->get_name() != std::string("--") + kEditOptions[i].name) continue;
       const std::string value = *kEditOptions[i].type == '\0' ? "" : opt->edit_values[i].at(used[i]++);
       auto edit = converter::parse_edit_action(kEditOptions[i].name, value);
       if (!edit.ok()) return "--" + edit.status().message();
-      opt->convert.edits.push_back(std::move(edit).value());
+      std::vector<std::vector<converter::EditAction>>& per_input = opt->convert.input_edits;
+      if (inputs > 1 && positionals >= 1 && positionals <= inputs) {
+        per_input.resize(std::max(per_input.size(), positionals));
+        per_input[positionals - 1].push_back(std::move(edit).value());
+      } else {
+        opt->convert.edits.push_back(std::move(edit).value());
+      }
     }
   }
   return "";
@@ -241,6 +255,19 @@ void print_summary(const Options& opt, const api::ConvertReport& r) {
               rgs::group_digits(h.nonfinite_values).c_str(), rgs::group_digits(h.gaussians_with_nonfinite).c_str(),
               rgs::group_digits(h.zero_norm_quaternions).c_str(),
               rgs::group_digits(h.infinite_opacity_logits).c_str(), rgs::group_digits(h.dropped_gaussians).c_str());
+  for (size_t i = 0; i < r.merge_inputs.size(); ++i) {
+    const api::MergeInput& in = r.merge_inputs[i];
+    std::string edits;
+    for (const std::string& edit : in.edits) edits += "; " + edit;
+    std::printf("  %-16s %s: %s Gaussians%s -> %s\n", ("merge input " + std::to_string(i + 1)).c_str(),
+                tools::escape_text(in.path).c_str(), rgs::group_digits(in.gaussians).c_str(),
+                tools::escape_text(edits).c_str(), rgs::group_digits(in.kept).c_str());
+  }
+  if (!r.merge_inputs.empty() && !opt.convert.edits.empty()) {
+    std::string edits;
+    for (const auto& edit : opt.convert.edits) edits += (edits.empty() ? "" : "; ") + converter::edit_action_text(edit);
+    std::printf("  merged edits     %s\n", tools::escape_text(edits).c_str());
+  }
   for (const std::string& note : r.input_notes) std::printf("  input note       %s\n", tools::escape_text(note).c_str());
   for (const std::string& note : r.output_notes) std::printf("  output note      %s\n", tools::escape_text(note).c_str());
   if (r.rate_control) print_fit(opt, r, *r.rate_control);
@@ -360,9 +387,12 @@ int main(int argc, char** argv) {
                "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb, .sog). "
                "The edits (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere and their "
                "-outside forms, --decimate) may be repeated and act on the scene as read in the order given, before "
-               "--sh-degree and everything else. Several inputs are merged into one scene before the edits: their "
-               "Gaussians in the order given, at the highest SH degree (the bands an input lacks zero); inputs whose "
-               "anti-aliasing flags differ are refused.",
+               "--sh-degree and everything else. Several inputs are merged into one scene: their Gaussians in the "
+               "order given, at the highest SH degree (the bands an input lacks zero); inputs whose anti-aliasing "
+               "flags differ are refused. With several inputs, the edits written after an input (before the next input or the "
+               "output) act on that input alone, before the merge, as splat-transform's actions do "
+               "(a.ply --rotate 0,180,0 b.ply out.ply turns a only); those after the output (or before the first "
+               "input) act on the merged scene.",
                kTool};
   app.add_option("input", opt.inputs,
                  "Input .rgs file, or a scene in any format converter::read_scene detects (3DGS PLY, PlayCanvas "

@@ -82,7 +82,9 @@ Status check_convert_options(const ConvertOptions& options) {
     archive.profile = format::StorageProfile::kArchive;
     return check_convert_options(archive);
   }
-  for (const converter::EditAction& edit : options.edits) {
+  std::vector<converter::EditAction> edits = options.edits;
+  for (const auto& input : options.input_edits) edits.insert(edits.end(), input.begin(), input.end());
+  for (const converter::EditAction& edit : edits) {
     if (Status s = converter::check_edit_action(edit); !s.ok()) return s.prepend("convert: edit");
   }
   RGS_RETURN_ERROR_IF(options.sh_degree && *options.sh_degree > 3, StatusCode::kInvalidArgument,
@@ -116,11 +118,9 @@ Status check_convert_output(const std::string& dst, OutputFormat output, const C
 
 converter::SceneReadOptions scene_read_options(const ConvertOptions& options) {
   converter::SceneReadOptions read = options.read;
-  const bool filter_nan = std::any_of(options.edits.begin(), options.edits.end(), [](const converter::EditAction& e) {
-    return e.kind == converter::EditKind::kFilterNan;
-  });
-  read.invalid_policy =
-      options.sanitize || filter_nan ? converter::InvalidPolicy::kSanitize : converter::InvalidPolicy::kReject;
+  read.invalid_policy = options.sanitize || detail::has_edit(options, converter::EditKind::kFilterNan)
+                            ? converter::InvalidPolicy::kSanitize
+                            : converter::InvalidPolicy::kReject;
   read.hash_file = true;  // provenance's source_xxh64, computed in the reading pass
   return read;
 }
@@ -189,6 +189,20 @@ class ConversionOutputs {
   ConvertOptions options_;
 };
 
+/// `options` for `inputs` inputs: input_edits one list each, but one input's before `edits` (they act alike).
+/// kInvalidArgument naming `dst` for the edits of more inputs.
+Result<ConvertOptions> per_input(ConvertOptions options, size_t inputs, const std::string& dst) {
+  RGS_RETURN_ERROR_IF(options.input_edits.size() > inputs, StatusCode::kInvalidArgument,
+                      dst + ": the edits of " + std::to_string(options.input_edits.size()) + " inputs for " +
+                          std::to_string(inputs));
+  options.input_edits.resize(inputs);
+  if (inputs != 1) return options;
+  std::vector<converter::EditAction>& own = options.input_edits[0];
+  options.edits.insert(options.edits.begin(), own.begin(), own.end());
+  own.clear();
+  return options;
+}
+
 std::unique_ptr<detail::Sink> make_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
                                         detail::ProgressReporter* progress) {
   if (output == OutputFormat::kRgs) return detail::make_rgs_sink(dst, options, progress);
@@ -205,6 +219,8 @@ Result<ConvertReport> convert_whole(detail::SceneSource source, const std::strin
   scene.name = source.name;
   scene.source_file = source.source_file;
   scene.input = std::move(*source.scene);
+  scene.report.merge_inputs = std::move(source.merge_inputs);
+  for (const MergeInput& input : scene.report.merge_inputs) scene.edited_out += input.gaussians - input.kept;
   scene.report.output_format = output;
   detail::describe_input(scene.input, &scene.report);
   scene.report.seconds.read = detail::seconds_since(source.start);
@@ -242,9 +258,10 @@ Result<ConvertReport> convert_read(Result<converter::InputScene> input, const st
 /// (named `name`) converted to `dst`. `reads` when `read` still has the reading to do: the output is declared
 /// before it, so that a refused output costs no read, and the "reading" stage is reported.
 Result<ConvertReport> convert_whole_source(const std::string& name, const std::string& dst,
-                                           const ConvertOptions& options, bool reads,
+                                           const ConvertOptions& given, bool reads,
                                            const std::function<Result<converter::InputScene>()>& read) {
   const auto start = detail::Clock::now();
+  RGS_ASSIGN_OR_RETURN(const ConvertOptions options, per_input(given, 1, dst));
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
   ConversionOutputs outputs(options);
@@ -261,9 +278,10 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
 }
 
 Result<ConvertReport> convert(const std::vector<std::string>& srcs, const std::string& dst,
-                              const ConvertOptions& options) {
+                              const ConvertOptions& given) {
   const auto start = detail::Clock::now();
   RGS_RETURN_ERROR_IF(srcs.empty(), StatusCode::kInvalidArgument, dst + ": no input to convert");
+  RGS_ASSIGN_OR_RETURN(const ConvertOptions options, per_input(given, srcs.size(), dst));
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
   ConversionOutputs outputs(options);

@@ -12,6 +12,7 @@
 #include "internal_convert_memory.h"
 #include "rgs/api/convert.h"
 #include "rgs/converter/scene_reader.h"
+#include "rgs/format/gaussian_cloud.h"
 
 namespace rgs::api {
 
@@ -74,6 +75,12 @@ Result<uint64_t> estimate_convert_memory(const std::string& src) {
   return estimate_bytes(input_bytes, peak_per_input_byte(format_id));
 }
 
+uint64_t estimate_merged_memory(uint64_t gaussians, uint32_t sh_degree) {
+  // An INRIA PLY holds 14 floats a Gaussian (normals included) and 3 per SH coefficient.
+  const uint64_t ply_bytes = sizeof(float) * (14 + 3 * uint64_t{format::sh_coefficient_count(sh_degree)});
+  return estimate_bytes(gaussians * ply_bytes, peak_per_input_byte("ply"));
+}
+
 uint64_t max_whole_input_bytes(const std::string& format_id, const ConvertOptions& options) {
   const uint64_t limit = convert_memory_limit(options);
   if (limit == 0) return UINT64_MAX;
@@ -86,10 +93,11 @@ uint64_t max_whole_input_bytes(const std::string& format_id, const ConvertOption
 
 namespace detail {
 
-Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options) {
+Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options,
+                            const std::string& what) {
   const uint64_t limit = convert_memory_limit(options);
   RGS_RETURN_ERROR_IF(limit != 0 && estimate > limit, StatusCode::kLimitExceeded,
-                      src + ": converting it is estimated to need " + bytes_text(estimate) +
+                      src + ": " + what + " is estimated to need " + bytes_text(estimate) +
                           " of memory, above the memory limit of " + bytes_text(limit) +
                           " (the input is read whole: only a binary PLY converted with levels of detail is read in batches); "
                           "raise it with memory_limit (--memory-limit)");

@@ -95,6 +95,15 @@ std::string convert_report_json(const ConvertReport& r, const std::string& src, 
         {"render_seconds", f.render_seconds},
         {"views_note", f.views_note}};
   }
+  if (!r.merge_inputs.empty()) {
+    json inputs = json::array();
+    for (const MergeInput& in : r.merge_inputs) {
+      inputs.push_back({{"path", in.path}, {"gaussians", in.gaussians}, {"kept", in.kept}, {"edits", in.edits}});
+    }
+    std::vector<std::string> edits;
+    for (const converter::EditAction& e : options.edits) edits.push_back(converter::edit_action_text(e));
+    j["merge"] = {{"inputs", inputs}, {"edits", edits}};
+  }
   if (r.rgs) {
     const RgsOutputReport& q = *r.rgs;
     json sh = json::array();

@@ -8,8 +8,10 @@
 
 namespace rgs::api::detail {
 
-/// kLimitExceeded naming `src`, the estimate and the limit when `estimate` (estimate_convert_memory of its inputs,
-/// summed) is above convert_memory_limit(options); no check when the limit is 0 (unknown physical memory).
-Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options);
+/// kLimitExceeded naming `src`, `what` needs the estimate ("converting it": estimate_convert_memory of its inputs,
+/// summed; or a merged scene's) and the limit when `estimate` is above convert_memory_limit(options); no check when
+/// the limit is 0 (unknown physical memory).
+Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options,
+                            const std::string& what = "converting it");
 
 }  // namespace rgs::api::detail

@@ -66,15 +66,18 @@ struct SceneSource {
   std::optional<converter::InputScene> scene;
   /// The batched PLY (null for a whole source).
   std::unique_ptr<converter::PlyStream> stream;
+  /// A merge's inputs (ConvertReport::merge_inputs); a batched source's counts are filled by its build.
+  std::vector<MergeInput> merge_inputs;
   /// When reading began (ConvertTimes::read).
   Clock::time_point start = Clock::now();
 };
 
 /// The files at `srcs` (one or more) as the source of a conversion to `output`, named by their names joined with
 /// " + ": in batches, file after file (converter::PlyStream of them all), when they are binary PLYs converted to a
-/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole together is above
-/// convert_memory_limit(options); else each read whole (converter::read_scene, after check_convert_memory of
-/// their sum) and merged (converter::merge_scenes).
+/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole together or when merged
+/// is above convert_memory_limit(options); else each read whole (converter::read_scene, after check_convert_memory
+/// of their sum), the merged scene's estimate checked, each input edited (ConvertOptions::input_edits) and merged
+/// (converter::merge_scenes). Their Gaussians together are held to options.read.max_gaussians.
 Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, OutputFormat output,
                                      const ConvertOptions& options);
 
@@ -110,10 +113,17 @@ Status empty_scene_error(const std::string& name, uint64_t sanitized, uint64_t e
 Status apply_edits(const std::vector<converter::EditAction>& edits, format::GaussianCloud* cloud,
                    std::vector<uint64_t>* removed);
 
+/// Whether an edit of `kind` is among `options`' edits, the scene's or an input's.
+bool has_edit(const ConvertOptions& options, converter::EditKind kind);
+
 /// One input note per filtering edit (filter-nan, filter, crop): how many Gaussians it removed (for filter-nan, also
 /// those reading dropped, report->hygiene, which must be set).
 void note_edits(const std::vector<converter::EditAction>& edits, const std::vector<uint64_t>& removed,
                 ConvertReport* report);
+
+/// Fills `input` (its path set) for a merge's input of `read` Gaussians whose `edits` removed `removed[i]` each.
+void describe_merge_input(const std::vector<converter::EditAction>& edits, uint64_t read,
+                          const std::vector<uint64_t>& removed, MergeInput* input);
 
 /// Writes a scene through the output transaction.
 class Sink {

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 #include <sstream>
+#include <utility>
 
 #include "internal_pipeline.h"
 #include "rgs/config.h"
@@ -105,8 +106,16 @@ std::string options_text(const ConvertOptions& options) {
        << " zstd_level=" << zstd_level_for(options) << " zstd=";
   for (size_t i = 0; i < options.zstd_sections.size(); ++i) text << (i ? "," : "") << options.zstd_sections[i];
   if (options.sh_degree) text << " sh_degree=" << *options.sh_degree;
-  for (size_t i = 0; i < options.edits.size(); ++i) {
-    text << (i ? "; " : " edits=") << converter::edit_action_text(options.edits[i]);
+  // A merge's edits of one input first, each named by its place among the inputs (source_file's order); then the
+  // merged scene's.
+  const char* separator = " edits=";
+  for (size_t i = 0; i < options.input_edits.size(); ++i) {
+    for (const converter::EditAction& edit : options.input_edits[i]) {
+      text << std::exchange(separator, "; ") << "input " << i + 1 << ": " << converter::edit_action_text(edit);
+    }
+  }
+  for (const converter::EditAction& edit : options.edits) {
+    text << std::exchange(separator, "; ") << converter::edit_action_text(edit);
   }
   if (options.read.lod) text << " lod=" << *options.read.lod;
   text << " spz_frame=" << converter::spz_frame_name(options.read.spz_frame);

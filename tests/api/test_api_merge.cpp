@@ -1,7 +1,8 @@
-// Several inputs merged into one scene before the edits (api::convert of a list, converter::merge_scenes), and
-// the decimation edit (converter::EditKind::kDecimate): counts, SH degrees, the first input's Gaussians kept bit for
-// bit, the outputs of every float format, the anti-aliasing rule, an output that is an input refused, the
-// out-of-core merge equal to the one in memory, and what decimation keeps of the scene.
+// Several inputs merged into one scene (api::convert of a list, converter::merge_scenes), and the decimation edit
+// (converter::EditKind::kDecimate): counts, SH degrees, the first input's Gaussians kept bit for bit, the outputs of
+// every float format, the anti-aliasing rule, an output that is an input refused, the limits held by the merged
+// scene, each input's edits (ConvertOptions::input_edits) and the merged scene's, the out-of-core merge equal to the
+// one in memory, and what decimation keeps of the scene.
 #include <doctest/doctest.h>
 #include <unistd.h>
 
@@ -14,6 +15,7 @@
 #include "rgs/api/convert.h"
 #include "rgs/converter/cloud_edits.h"
 #include "rgs/converter/scene_reader.h"
+#include "rgs/format/reader.h"
 #include "temp_dir.h"
 #include "test_data.h"
 
@@ -104,7 +106,8 @@ TEST_CASE("merge: two samples of different SH degrees give the sum, the higher d
 
   // Through convert(): the report counts them, the PLY written holds the first input as its own conversion does.
   test::TempDir dir;
-  auto report = api::convert(std::vector<std::string>{sh0, sh3}, dir.file("merged.ply"));
+  const api::ConvertOptions defaults;  // named: GCC 12 warns (falsely) of a map in the default argument's temporary
+  auto report = api::convert(std::vector<std::string>{sh0, sh3}, dir.file("merged.ply"), defaults);
   REQUIRE_MESSAGE(report.ok(), report.status().to_string());
   CHECK(report->gaussians == m.size());
   CHECK(report->sh_degree == 3);
@@ -188,6 +191,117 @@ TEST_CASE("merge: inputs whose anti-aliasing flags differ are refused, naming bo
   CHECK(read(dir.file("both.rgs")).cloud.antialiased);
 }
 
+TEST_CASE("merge: --max-gaussians and the memory limit hold for the merged scene, not input by input") {
+  test::TempDir dir;
+  const std::string sample = test::repo_path("samples/guitar.ply"), sh3 = test::repo_path(test::kGuitarSh3);
+  // Two guitars of 90,854 Gaussians each: under a limit of 100,000 each, not together.
+  api::ConvertOptions options;
+  options.read.max_gaussians = 100000;
+  for (const bool out_of_core : {false, true}) {
+    CAPTURE(out_of_core);
+    if (out_of_core) {
+      options.lod_levels = 0;
+      options.memory_limit = 64 << 20;  // below the guitars' estimate: read in batches
+    }
+    auto refused = api::convert(std::vector<std::string>{sample, sample}, dir.file("two.rgs"), options);
+    REQUIRE_FALSE(refused.ok());
+    CHECK(refused.status().code() == StatusCode::kLimitExceeded);
+    CHECK(refused.status().message().find(sample + " + " + sample + ": the ") == 0);
+    CHECK(refused.status().message().find("100,000") != std::string::npos);
+    CHECK_FALSE(std::filesystem::exists(dir.file("two.rgs")));
+  }
+  api::ConvertOptions both;
+  both.read.max_gaussians = 2 * 90854;
+  CHECK(api::convert(std::vector<std::string>{sample, sample}, dir.file("two.rgs"), both).ok());
+
+  // Six guitars in one SH-0 PLY (545,124 Gaussians, 37 MB) merged with the SH-3 scene: every Gaussian widened to
+  // SH 3 (56 bytes to 236), which the inputs' estimates, file by file, do not see.
+  const std::string big = dir.file("six.ply");
+  REQUIRE(api::convert(std::vector<std::string>(6, sample), big).ok());
+  const std::vector<std::string> srcs = {big, sh3};
+  uint64_t inputs = 0;
+  for (const std::string& src : srcs) inputs += api::estimate_convert_memory(src).value();
+  const uint64_t merged = api::estimate_merged_memory(6 * 90854 + 8000, 3);
+  REQUIRE(merged > inputs);
+  api::ConvertOptions limited;
+  limited.memory_limit = inputs;
+  auto refused = api::convert(srcs, dir.file("merged.ply"), limited);
+  REQUIRE_FALSE(refused.ok());
+  CHECK(refused.status().code() == StatusCode::kLimitExceeded);
+  CHECK(refused.status().message().find("the merged scene (553,124 Gaussians at SH degree 3, every input widened "
+                                        "to it) is estimated to need") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir.file("merged.ply")));
+  limited.memory_limit = merged;
+  CHECK(api::convert(srcs, dir.file("merged.ply"), limited).ok());
+}
+
+TEST_CASE("merge: edits written for an input act on it alone, before the merge and the merged scene's edits") {
+  test::TempDir dir;
+  const std::vector<std::string> srcs = {test::repo_path("samples/guitar.ply"), test::repo_path(test::kGuitarSh3)};
+  api::ConvertOptions options;
+  options.input_edits = {{edit("rotate", "0,0,90"), edit("crop-box", "-1,-1,-1,1,1,1")}, {edit("translate", "3,0,0")}};
+  options.edits = {edit("filter", "opacity ge 0.05")};
+  // Expected: each input read, widened to SH 3 and edited alone, then merged and filtered.
+  std::vector<converter::InputScene> scenes = {read(srcs[0]), read(srcs[1])};
+  std::vector<uint64_t> kept;
+  for (size_t i = 0; i < 2; ++i) {
+    REQUIRE(converter::raise_sh_degree(&scenes[i].cloud, 3).ok());
+    for (const converter::EditAction& e : options.input_edits[i]) REQUIRE(converter::apply_edit(&scenes[i].cloud, e).ok());
+    kept.push_back(scenes[i].cloud.size());
+  }
+  REQUIRE(kept[0] < 90854);
+  auto merged = converter::merge_scenes(std::move(scenes));
+  REQUIRE(merged.ok());
+  format::GaussianCloud expected = std::move(merged->cloud);
+  const uint64_t before_filter = expected.size();
+  REQUIRE(converter::apply_edit(&expected, options.edits[0]).ok());
+  REQUIRE(expected.size() < before_filter);
+
+  auto report = api::convert(srcs, dir.file("edited.ply"), options);
+  REQUIRE_MESSAGE(report.ok(), report.status().to_string());
+  const format::GaussianCloud back = read(dir.file("edited.ply")).cloud;
+  REQUIRE(back.size() == expected.size());
+  CHECK(back.means == expected.means);
+  CHECK(back.sh == expected.sh);
+  float worst = 0;  // the reader normalizes the quaternions again
+  for (size_t i = 0; i < back.rotations.size(); ++i) worst = std::max(worst, std::fabs(back.rotations[i] - expected.rotations[i]));
+  CHECK(worst < 1e-6f);
+  REQUIRE(report->merge_inputs.size() == 2);
+  CHECK(report->merge_inputs[0].path == srcs[0]);
+  CHECK(report->merge_inputs[0].gaussians == 90854);
+  CHECK(report->merge_inputs[0].kept == kept[0]);
+  CHECK(report->merge_inputs[0].edits ==
+        std::vector<std::string>{"rotate '0,0,90'", "crop-box '-1,-1,-1,1,1,1' removed " + group_digits(90854 - kept[0]) +
+                                                      " Gaussians"});
+  CHECK(report->merge_inputs[1].gaussians == 8000);
+  CHECK(report->merge_inputs[1].kept == 8000);
+  CHECK(report->merge_inputs[1].edits == std::vector<std::string>{"translate '3,0,0'"});
+  const std::string json = api::convert_report_json(*report, "a + b", "edited.ply", options);
+  CHECK(json.find("\"kept\": " + std::to_string(kept[0])) != std::string::npos);
+  CHECK(json.find("\"edits\": [\n      \"filter 'opacity ge 0.05'\"") != std::string::npos);
+
+  // A .rgs records which input each edit acted on, by its place among the inputs.
+  REQUIRE(api::convert(srcs, dir.file("edited.rgs"), options).ok());
+  auto file = format::RgsFile::open(dir.file("edited.rgs"));
+  REQUIRE(file.ok());
+  std::string recorded;
+  for (const auto& [key, value] : file->provenance()) recorded += key == "options" ? value : "";
+  CHECK(recorded.find(" edits=input 1: rotate '0,0,90'; input 1: crop-box '-1,-1,-1,1,1,1'; input 2: "
+                      "translate '3,0,0'; filter 'opacity ge 0.05' ") != std::string::npos);
+
+  // One input: its edits act as the scene's, before them (the same file); edits of more inputs than given refused.
+  api::ConvertOptions one;
+  one.input_edits = {options.input_edits[1]};
+  one.edits = options.edits;
+  REQUIRE(api::convert(srcs[1], dir.file("one_input.rgs"), one).ok());
+  one.edits.insert(one.edits.begin(), options.input_edits[1][0]);
+  one.input_edits.clear();
+  REQUIRE(api::convert(srcs[1], dir.file("one_scene.rgs"), one).ok());
+  CHECK(test::slurp(dir.file("one_input.rgs")) == test::slurp(dir.file("one_scene.rgs")));
+  options.input_edits.resize(3);
+  CHECK(api::convert(srcs, dir.file("three.ply"), options).status().code() == StatusCode::kInvalidArgument);
+}
+
 TEST_CASE("merge: an out-of-core merge of two PLYs gives the bytes of the merge in memory") {
   test::TempDir dir;
   const std::vector<std::string> srcs = {test::repo_path("samples/guitar.ply"), test::repo_path(test::kGuitarSh3)};
@@ -195,6 +309,7 @@ TEST_CASE("merge: an out-of-core merge of two PLYs gives the bytes of the merge 
   options.lod_levels = 0;
   options.lod_chunk_gaussians = 4096;
   options.edits = {edit("rotate", "10,20,30"), edit("filter", "opacity ge 0.05")};
+  options.input_edits = {{edit("crop-box-outside", "-0.2,-10,-10,0,10,10")}, {edit("translate", "0.5,0,0")}};
   auto memory = api::convert(srcs, dir.file("in_memory.rgs"), options);
   REQUIRE_MESSAGE(memory.ok(), memory.status().to_string());
   CHECK(memory->rgs->out_of_core_partitions == 0);
@@ -213,6 +328,12 @@ TEST_CASE("merge: an out-of-core merge of two PLYs gives the bytes of the merge 
   CHECK(streamed->rgs->out_of_core_partitions >= 1);
   CHECK(streamed->gaussians == memory->gaussians);
   CHECK(streamed->sh_degree == 3);
+  REQUIRE(streamed->merge_inputs.size() == 2);
+  for (size_t i = 0; i < 2; ++i) {
+    CHECK(streamed->merge_inputs[i].kept == memory->merge_inputs[i].kept);
+    CHECK(streamed->merge_inputs[i].edits == memory->merge_inputs[i].edits);
+  }
+  CHECK(memory->merge_inputs[0].kept < memory->merge_inputs[0].gaussians);
   CHECK(test::slurp(dir.file("out_of_core.rgs")) == test::slurp(dir.file("in_memory.rgs")));
   // The second input changed after the first pass: the next pass finds it, naming that file, and nothing is written.
   const std::string second = dir.file("second.ply");
@@ -233,11 +354,15 @@ TEST_CASE("merge: an out-of-core merge of two PLYs gives the bytes of the merge 
   CHECK(disturbed.status().message().find(second + ": the file changed during the passes") != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir.file("disturbed.rgs")));
   options.progress = nullptr;
-  // Decimation needs the whole scene: refused out of core, with the reason.
-  options.edits.push_back(edit("decimate", "1000"));
+  // Decimation needs the whole scene, or input: refused out of core, with the reason.
+  options.input_edits[1].push_back(edit("decimate", "1000"));
   auto decimated = api::convert(srcs, dir.file("decimated.rgs"), options);
   REQUIRE_FALSE(decimated.ok());
-  CHECK(decimated.status().message().find("decimate needs the whole scene in memory") != std::string::npos);
+  CHECK(decimated.status().message().find("decimate needs the whole scene (or input) in memory") != std::string::npos);
+  options.input_edits[1].pop_back();
+  options.edits.push_back(edit("decimate", "1000"));
+  decimated = api::convert(srcs, dir.file("decimated.rgs"), options);
+  CHECK(decimated.status().message().find("decimate needs the whole scene (or input) in memory") != std::string::npos);
 }
 
 TEST_CASE("decimate: at most N Gaussians, more than N minus one chunk, the weighted centroid kept") {

@@ -86,17 +86,24 @@ void merge_quantization(const converter::QuantizationReport& part, converter::Qu
   total->max_flushed_of_largest_axis = std::max(total->max_flushed_of_largest_axis, part.max_flushed_of_largest_axis);
 }
 
-/// The PLY's batches as convert() reads the scene: the edits applied (ConvertOptions::edits: each acts on one
-/// Gaussian at a time, so batch by batch is the whole scene's result), then SH bands above
-/// ConvertOptions::sh_degree dropped, the anti-aliasing flag applied.
+/// The PLY's batches as convert() reads the scene: the edits of the file each comes from
+/// (ConvertOptions::input_edits), then the scene's (ConvertOptions::edits) applied (each acts on one Gaussian at a
+/// time, so batch by batch is the whole scene's result), then SH bands above ConvertOptions::sh_degree dropped,
+/// the anti-aliasing flag applied.
 class PlyBatches {
  public:
+  /// `options` hold one list of input_edits per file of `stream`.
   PlyBatches(converter::PlyStream* stream, const ConvertOptions& options, uint64_t batch)
-      : stream_(stream), options_(options), batch_(batch), removed_(options.edits.size(), 0) {}
+      : stream_(stream), options_(options), batch_(batch) {
+    reset();
+  }
   Result<bool> next(format::GaussianCloud* cloud) {
     for (;;) {
       RGS_ASSIGN_OR_RETURN(const uint64_t consumed, stream_->read(batch_, cloud));
       if (consumed == 0) return false;
+      const size_t file = stream_->file();
+      read_[file] += cloud->size();
+      RGS_RETURN_IF_ERROR(apply_edits(options_.input_edits[file], cloud, &input_removed_[file]));
       RGS_RETURN_IF_ERROR(apply_edits(options_.edits, cloud, &removed_));
       if (cloud->size() == 0) continue;  // every Gaussian of the batch dropped by sanitizing or the edits
       cloud->antialiased = options_.read.antialiased;
@@ -108,17 +115,27 @@ class PlyBatches {
   }
   /// Back to the first batch; the counts of what the edits removed start again.
   Status rewind() {
-    removed_.assign(removed_.size(), 0);
+    reset();
     return stream_->rewind();
   }
-  /// Gaussians each edit removed since the last rewind (one entry per edit).
+  /// Since the last rewind: the Gaussians each edit of the scene removed (one entry per edit); per file, those
+  /// read and those each of its edits removed.
   const std::vector<uint64_t>& removed() const { return removed_; }
+  const std::vector<uint64_t>& read() const { return read_; }
+  const std::vector<std::vector<uint64_t>>& input_removed() const { return input_removed_; }
 
  private:
+  void reset() {
+    removed_.assign(options_.edits.size(), 0);
+    read_.assign(options_.input_edits.size(), 0);
+    input_removed_.clear();
+    for (const auto& edits : options_.input_edits) input_removed_.emplace_back(edits.size(), 0);
+  }
   converter::PlyStream* stream_;
   const ConvertOptions& options_;
   uint64_t batch_;
-  std::vector<uint64_t> removed_;
+  std::vector<uint64_t> removed_, read_;
+  std::vector<std::vector<uint64_t>> input_removed_;
 };
 
 /// The quantized batches build_lod_out_of_core() reads in its passes (the pass that needs only the means skips
@@ -198,8 +215,8 @@ Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptio
       }
     }
     stats.count += cloud.size();
-    uint64_t read = stream.hygiene().dropped_gaussians + stats.count;
-    for (const uint64_t r : batches.removed()) read += r;
+    uint64_t read = stream.hygiene().dropped_gaussians;
+    for (const uint64_t r : batches.read()) read += r;
     progress->scanning(double(read) / double(stream.vertex_count()));
   }
   stats.shq = scan.sh_quantization(stats.sh_degree);
@@ -215,11 +232,9 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   std::unique_ptr<converter::PlyStream>& stream = source.stream;
   RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
                       src + ": a level of detail applies only to streamed SOG (lod-meta.json); this input is a PLY file");
-  RGS_RETURN_ERROR_IF(std::any_of(options.edits.begin(), options.edits.end(),
-                                  [](const converter::EditAction& e) { return e.kind == converter::EditKind::kDecimate; }),
-                      StatusCode::kInvalidArgument,
-                      src + ": decimate needs the whole scene in memory, and this conversion reads it in batches "
-                            "(out of core: its estimated peak is above the memory limit); raise memory_limit "
+  RGS_RETURN_ERROR_IF(has_edit(options, converter::EditKind::kDecimate), StatusCode::kInvalidArgument,
+                      src + ": decimate needs the whole scene (or input) in memory, and this conversion reads it in "
+                            "batches (out of core: its estimated peak is above the memory limit); raise memory_limit "
                             "(--memory-limit) to read it whole");
   const uint64_t limit = convert_memory_limit(options);
   const uint64_t batch = std::clamp(limit / kBatchShareOfLimit / batch_bytes_per_gaussian(stream->sh_degree()),
@@ -232,6 +247,10 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   const converter::InputHygiene hygiene = stream->hygiene();
   uint64_t edited_out = 0;
   for (const uint64_t r : batches.removed()) edited_out += r;
+  for (size_t f = 0; f < source.merge_inputs.size(); ++f) {
+    describe_merge_input(options.input_edits[f], batches.read()[f], batches.input_removed()[f], &source.merge_inputs[f]);
+    edited_out += source.merge_inputs[f].gaussians - source.merge_inputs[f].kept;
+  }
   if (stats.count == 0 && !options.allow_empty) return empty_scene_error(src, hygiene.dropped_gaussians, edited_out);
   ConvertReport report;
   report.seconds.read = seconds_since(start);
@@ -296,6 +315,7 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   note_read_limit(built->gaussians, &report);
   report.gaussians = stats.count;
   report.sh_degree = stats.sh_degree;
+  report.merge_inputs = std::move(source.merge_inputs);
   report.seconds.total = seconds_since(start);
   progress->done();
   return report;

@@ -102,6 +102,18 @@ Status build_levels(PipelineScene* scene, uint32_t levels, const ConvertOptions&
   return Status();
 }
 
+bool moves(converter::EditKind kind) {
+  return kind == converter::EditKind::kTranslate || kind == converter::EditKind::kRotate ||
+         kind == converter::EditKind::kScale;
+}
+
+/// The edit's text, with the Gaussians it removed when it filters.
+std::string edit_summary(const converter::EditAction& edit, uint64_t removed) {
+  if (moves(edit.kind)) return converter::edit_action_text(edit);
+  return converter::edit_action_text(edit) + " removed " + group_digits(removed) +
+         (removed == 1 ? " Gaussian" : " Gaussians");
+}
+
 }  // namespace
 
 Status empty_scene_error(const std::string& name, uint64_t sanitized, uint64_t edited_out) {
@@ -124,18 +136,30 @@ Status apply_edits(const std::vector<converter::EditAction>& edits, format::Gaus
   return Status();
 }
 
+bool has_edit(const ConvertOptions& options, converter::EditKind kind) {
+  const auto is = [kind](const converter::EditAction& e) { return e.kind == kind; };
+  return std::any_of(options.edits.begin(), options.edits.end(), is) ||
+         std::any_of(options.input_edits.begin(), options.input_edits.end(),
+                     [&](const auto& edits) { return std::any_of(edits.begin(), edits.end(), is); });
+}
+
+void describe_merge_input(const std::vector<converter::EditAction>& edits, uint64_t read,
+                          const std::vector<uint64_t>& removed, MergeInput* input) {
+  input->gaussians = input->kept = read;
+  for (size_t i = 0; i < edits.size(); ++i) {
+    input->edits.push_back(edit_summary(edits[i], removed[i]));
+    input->kept -= removed[i];
+  }
+}
+
 void note_edits(const std::vector<converter::EditAction>& edits, const std::vector<uint64_t>& removed,
                 ConvertReport* report) {
   for (size_t i = 0; i < edits.size(); ++i) {
     const converter::EditKind kind = edits[i].kind;
-    if (kind == converter::EditKind::kTranslate || kind == converter::EditKind::kRotate ||
-        kind == converter::EditKind::kScale) {
-      continue;
-    }
+    if (moves(kind)) continue;
     const uint64_t dropped = report->hygiene.dropped_gaussians;
     report->input_notes.push_back(
-        converter::edit_action_text(edits[i]) + " removed " + group_digits(removed[i]) +
-        (removed[i] == 1 ? " Gaussian" : " Gaussians") +
+        edit_summary(edits[i], removed[i]) +
         (kind == converter::EditKind::kFilterNan && dropped > 0
              ? " (and reading dropped " + group_digits(dropped) + " with a non-finite value or a zero-norm rotation)"
              : ""));

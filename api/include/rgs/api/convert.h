@@ -173,8 +173,15 @@ struct ConvertOptions {
   /// the input under the sanitize policy (docs/INPUT_HYGIENE.md), so that the Gaussians with a non-finite value
   /// are dropped instead of refused. A scene built out of core gets the same edits batch by batch (the same
   /// bytes). Edits that remove every Gaussian leave an empty scene, refused unless allow_empty. Each edit is
-  /// checked by check_convert_options (converter::check_edit_action).
+  /// checked by check_convert_options (converter::check_edit_action). With several inputs they act on the merged
+  /// scene, after each input's `input_edits`.
   std::vector<converter::EditAction> edits;
+  /// A merge's edits of each input (convert() of several files): input_edits[i] act on srcs[i] as read, widened to
+  /// the merge's SH degree, in order, before the merge and `edits`; fewer entries than inputs leave the rest as
+  /// read (more are kInvalidArgument). A filter-nan of any input reads every input under the sanitize policy.
+  /// Out of core, each batch gets the edits of the file it comes from. With one input they act as `edits` do,
+  /// before them.
+  std::vector<std::vector<converter::EditAction>> input_edits;
 
   // .rgs output only.
   /// FP16 scales stored linear (activated) or as the natural log.
@@ -253,6 +260,10 @@ uint64_t convert_memory_limit(const ConvertOptions& options);
 /// Errors: those of converter::detect_scene_format and converter::list_scene_files.
 Result<uint64_t> estimate_convert_memory(const std::string& src);
 
+/// The peak memory in bytes that convert() is estimated to need for a merged scene of `gaussians` at `sh_degree`
+/// (every input widened to the highest degree): estimate_convert_memory's for a float PLY holding it.
+uint64_t estimate_merged_memory(uint64_t gaussians, uint32_t sh_degree);
+
 /// The most bytes of an input in the format `format_id` (converter::detect_scene_format's id: "ply", "rgs", ...)
 /// that a conversion reading it whole may be given within convert_memory_limit(options): the largest input whose
 /// estimated peak, by estimate_convert_memory's rule for that format, is within the limit; 0 when the limit is
@@ -291,6 +302,15 @@ struct RgsOutputReport {
   /// Partition files of a conversion built out of core (docs/LOD.md#scenes-larger-than-memory); 0 when the
   /// scene was converted in memory.
   uint32_t out_of_core_partitions = 0;
+};
+
+/// One input of a merge (convert() of several files), as the merge took it.
+struct MergeInput {
+  std::string path;
+  uint64_t gaussians = 0;  ///< as read (after sanitizing)
+  uint64_t kept = 0;       ///< after its edits (ConvertOptions::input_edits): what it gave the merged scene
+  /// Its edits in order (converter::edit_action_text), a filtering one with " removed N Gaussians".
+  std::vector<std::string> edits;
 };
 
 /// Seconds spent, wall clock.
@@ -335,6 +355,8 @@ struct ConvertReport {
   uint64_t zero_scales = 0;
   /// With ConvertOptions::target: what rate control chose and measured.
   std::optional<RateControlReport> rate_control;
+  /// A merge's inputs in order (empty for one input); ConvertOptions::edits acted on the merged scene after them.
+  std::vector<MergeInput> merge_inputs;
   ConvertTimes seconds;
 };
 
@@ -343,7 +365,8 @@ struct ConvertReport {
 /// given; the SPZ axes and rate control's target come from `options`). Keys: input {path, bytes, format, storage,
 /// declared_vertices, compact, notes}, output {path, bytes, format, description, notes}, gaussians, sh_degree,
 /// bytes_per_gaussian {input, output}, ratio, hygiene {the InputHygiene counts}; zero_scales (PLY output), spz (SPZ
-/// output), rate_control (with a target), scales_fp16, extent, lod, archive_omitted and errors (per attribute, SH per
+/// output), rate_control (with a target), merge {inputs [{path, gaussians, kept, edits}], edits} (several inputs;
+/// edits: those of the merged scene), scales_fp16, extent, lod, archive_omitted and errors (per attribute, SH per
 /// degree; .rgs output); seconds {read, quantize, lod, write, total}. Two-space indents, no final newline; bytes that
 /// are not UTF-8 (in a path) become U+FFFD. The same report gives the same text but for the timings.
 std::string convert_report_json(const ConvertReport& report, const std::string& src, const std::string& dst,
@@ -385,10 +408,15 @@ Status check_convert_output(const std::string& dst, OutputFormat output, const C
 ///         committed.
 Result<ConvertReport> convert(const std::string& src, const std::string& dst, const ConvertOptions& options = {});
 
-/// convert() of several scenes (`srcs`, one or more, any formats) merged into one before the edits by
-/// converter::merge_scenes, or out of core read file after file (converter::PlyStream). Messages, the report and the
-/// provenance name them joined by " + "; the output may replace none of their files. @return convert()'s errors,
-/// and kInvalidArgument for no input or inputs whose anti-aliasing flags differ (naming both files).
+/// convert() of several scenes (`srcs`, one or more, any formats), each edited by its options.input_edits, merged
+/// into one by converter::merge_scenes before options.edits, or out of core read file after file
+/// (converter::PlyStream). The limits hold for the merged scene: options.read.max_gaussians for the inputs'
+/// Gaussians together, the memory limit for the inputs read together and, once they are read, for the merged scene
+/// (estimate_merged_memory: every input widened to the highest SH degree), unless a merge of binary PLYs is built
+/// out of core. Messages, the report (ConvertReport::merge_inputs) and the provenance name them joined by " + ";
+/// the output may replace none of their files. @return convert()'s errors, kLimitExceeded naming the inputs for a
+/// merged scene over a limit, and kInvalidArgument for no input, more input_edits than inputs, or inputs whose
+/// anti-aliasing flags differ (naming both files).
 Result<ConvertReport> convert(const std::vector<std::string>& srcs, const std::string& dst,
                               const ConvertOptions& options = {});
 

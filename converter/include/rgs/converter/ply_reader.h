@@ -120,6 +120,8 @@ class PlyStream {
   ///         changed since open(), which is named as the cause of any other error too), kCorruptData (an
   ///         invalid Gaussian under kReject, named by its vertex index), kOutOfMemory.
   Result<uint64_t> read(uint64_t max, format::GaussianCloud* batch);
+  /// The file (its index in open()'s `paths`) whose vertices the last read() returned.
+  size_t file() const { return current_; }
   /// Starts a new pass at the first vertex; hygiene() restarts. Errors name the path: kIoError when the file
   /// changed since open() (see the class), or cannot be read.
   Status rewind();
