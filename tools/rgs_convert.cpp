@@ -389,8 +389,8 @@ int main(int argc, char** argv) {
                "-outside forms, --decimate) may be repeated and act on the scene as read in the order given, before "
                "--sh-degree and everything else. Several inputs are merged into one scene: their Gaussians in the "
                "order given, at the highest SH degree (the bands an input lacks zero); inputs whose anti-aliasing "
-               "flags differ are refused. With several inputs, the edits written after an input (before the next input or the "
-               "output) act on that input alone, before the merge, as splat-transform's actions do "
+               "flags differ are refused. With several inputs, the edits written after an input (before the next "
+               "input or the output) act on that input alone, before the merge, as splat-transform's actions do "
                "(a.ply --rotate 0,180,0 b.ply out.ply turns a only); those after the output (or before the first "
                "input) act on the merged scene.",
                kTool};

@@ -246,7 +246,9 @@ TEST_CASE("merge: edits written for an input act on it alone, before the merge a
   std::vector<uint64_t> kept;
   for (size_t i = 0; i < 2; ++i) {
     REQUIRE(converter::raise_sh_degree(&scenes[i].cloud, 3).ok());
-    for (const converter::EditAction& e : options.input_edits[i]) REQUIRE(converter::apply_edit(&scenes[i].cloud, e).ok());
+    for (const converter::EditAction& e : options.input_edits[i]) {
+      REQUIRE(converter::apply_edit(&scenes[i].cloud, e).ok());
+    }
     kept.push_back(scenes[i].cloud.size());
   }
   REQUIRE(kept[0] < 90854);
@@ -264,15 +266,17 @@ TEST_CASE("merge: edits written for an input act on it alone, before the merge a
   CHECK(back.means == expected.means);
   CHECK(back.sh == expected.sh);
   float worst = 0;  // the reader normalizes the quaternions again
-  for (size_t i = 0; i < back.rotations.size(); ++i) worst = std::max(worst, std::fabs(back.rotations[i] - expected.rotations[i]));
+  for (size_t i = 0; i < back.rotations.size(); ++i) {
+    worst = std::max(worst, std::fabs(back.rotations[i] - expected.rotations[i]));
+  }
   CHECK(worst < 1e-6f);
   REQUIRE(report->merge_inputs.size() == 2);
   CHECK(report->merge_inputs[0].path == srcs[0]);
   CHECK(report->merge_inputs[0].gaussians == 90854);
   CHECK(report->merge_inputs[0].kept == kept[0]);
   CHECK(report->merge_inputs[0].edits ==
-        std::vector<std::string>{"rotate '0,0,90'", "crop-box '-1,-1,-1,1,1,1' removed " + group_digits(90854 - kept[0]) +
-                                                      " Gaussians"});
+        std::vector<std::string>{"rotate '0,0,90'",
+                                 "crop-box '-1,-1,-1,1,1,1' removed " + group_digits(90854 - kept[0]) + " Gaussians"});
   CHECK(report->merge_inputs[1].gaussians == 8000);
   CHECK(report->merge_inputs[1].kept == 8000);
   CHECK(report->merge_inputs[1].edits == std::vector<std::string>{"translate '3,0,0'"});

@@ -16,9 +16,9 @@ namespace {
 /// files that of their merged scene (estimate_merged_memory), is above the memory limit. Null otherwise (an ascii
 /// PLY or another format among them included). kLimitExceeded when the files hold more Gaussians together than
 /// max_gaussians.
-Result<std::unique_ptr<converter::PlyStream>> open_batches(const std::vector<std::string>& srcs, const std::string& name,
-                                                           uint64_t estimate, OutputFormat output,
-                                                           const ConvertOptions& options) {
+Result<std::unique_ptr<converter::PlyStream>> open_batches(const std::vector<std::string>& srcs,
+                                                           const std::string& name, uint64_t estimate,
+                                                           OutputFormat output, const ConvertOptions& options) {
   std::unique_ptr<converter::PlyStream> none;
   if (output != OutputFormat::kRgs || !options.lod_levels || options.target.active() ||
       options.profile != format::StorageProfile::kRuntime) {
@@ -46,10 +46,10 @@ Result<std::unique_ptr<converter::PlyStream>> open_batches(const std::vector<std
   return stream;
 }
 
-/// Reads the scenes at `srcs` (named `name` together) whole, the Gaussians of the inputs before each one counted against
-/// options.read.max_gaussians (the merged scene's limit); with several, the merged scene's estimated memory
-/// checked, each input widened to its SH degree and edited (ConvertOptions::input_edits) and described in
-/// `*inputs`.
+/// Reads the scenes at `srcs` (named `name` together) whole, the Gaussians of the inputs before each one counted
+/// against options.read.max_gaussians (the merged scene's limit); with several, the merged scene's estimated memory
+/// checked, each input edited (ConvertOptions::input_edits, widened to the merge's SH degree first, as a batch is)
+/// and described in `*inputs`.
 Result<std::vector<converter::InputScene>> read_inputs(const std::vector<std::string>& srcs, const std::string& name,
                                                       const ConvertOptions& options, std::vector<MergeInput>* inputs) {
   converter::SceneReadOptions read = scene_read_options(options);
@@ -79,7 +79,7 @@ Result<std::vector<converter::InputScene>> read_inputs(const std::vector<std::st
     const std::vector<converter::EditAction>& edits = options.input_edits[i];
     std::vector<uint64_t> removed(edits.size(), 0);
     const uint64_t read_count = cloud.size();
-    if (!edits.empty()) RGS_RETURN_IF_ERROR(converter::raise_sh_degree(&cloud, degree));  // as a batch is
+    if (!edits.empty()) RGS_RETURN_IF_ERROR(converter::raise_sh_degree(&cloud, degree));
     if (Status s = apply_edits(edits, &cloud, &removed); !s.ok()) return s.prepend(srcs[i]);
     describe_merge_input(edits, read_count, removed, &(*inputs)[i]);
   }
@@ -103,7 +103,8 @@ Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, Outpu
   RGS_ASSIGN_OR_RETURN(source.stream, open_batches(srcs, source.name, estimate, output, options));
   if (source.stream) return source;
   RGS_RETURN_IF_ERROR(check_convert_memory(source.name, estimate, options));
-  RGS_ASSIGN_OR_RETURN(std::vector<converter::InputScene> scenes, read_inputs(srcs, source.name, options, &source.merge_inputs));
+  RGS_ASSIGN_OR_RETURN(std::vector<converter::InputScene> scenes,
+                       read_inputs(srcs, source.name, options, &source.merge_inputs));
   RGS_ASSIGN_OR_RETURN(source.scene, converter::merge_scenes(std::move(scenes)));
   return source;
 }

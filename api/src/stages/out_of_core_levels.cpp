@@ -248,7 +248,8 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   uint64_t edited_out = 0;
   for (const uint64_t r : batches.removed()) edited_out += r;
   for (size_t f = 0; f < source.merge_inputs.size(); ++f) {
-    describe_merge_input(options.input_edits[f], batches.read()[f], batches.input_removed()[f], &source.merge_inputs[f]);
+    describe_merge_input(options.input_edits[f], batches.read()[f], batches.input_removed()[f],
+                         &source.merge_inputs[f]);
     edited_out += source.merge_inputs[f].gaussians - source.merge_inputs[f].kept;
   }
   if (stats.count == 0 && !options.allow_empty) return empty_scene_error(src, hygiene.dropped_gaussians, edited_out);
