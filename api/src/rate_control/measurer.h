@@ -160,8 +160,9 @@ class Measurer {
   /// runtime::GpuImageComparer on the device (the same PSNR but for the order of its float64 sums).
   Result<double> view_psnr(api::Renderer& renderer, const api::Scene& scene, const ViewSet& set, size_t v);
 
-  /// A render's clamped-later RGB as [H, W, 3] floats on the host.
-  Result<std::vector<float>> render_rgb(api::Renderer& renderer, const api::Scene& scene, const runtime::Camera& cam);
+  /// A render's clamped-later RGB as [H, W, 3] floats on the host; the image itself into `kept` when not null.
+  Result<std::vector<float>> render_rgb(api::Renderer& renderer, const api::Scene& scene, const runtime::Camera& cam,
+                                        api::Image* kept = nullptr);
 
   /// Mean and lowest PSNR of the archive's renders against the source's on `set`; its decoded scene is
   /// freed (encoded again if it is rendered again).
