@@ -81,16 +81,17 @@ Result<std::vector<FitPoint>> Measurer::measure(const std::vector<format::Archiv
     if (i % batch_ == 0) RGS_RETURN_IF_ERROR(encode_batch(list, i, std::min(list.size(), i + batch_)));
     const format::ArchiveOptions& o = list[i];
     RGS_ASSIGN_OR_RETURN(Entry * e, encode(o));
-    FitPoint p = e->point;
-    if (final || std::isnan(p.psnr_mean_db)) {
+    if (final ? std::isnan(e->checked_db) : std::isnan(e->point.psnr_mean_db)) {
       RGS_ASSIGN_OR_RETURN(const auto psnr, render(e, final ? final_ : search_));
-      p.psnr_mean_db = psnr.first;
-      p.psnr_min_db = psnr.second;
-      if (!final) e->point = p;
+      (final ? e->checked_db : e->point.psnr_mean_db) = psnr.first;
+      (final ? e->checked_min_db : e->point.psnr_min_db) = psnr.second;
     }
+    FitPoint p = e->point;
     if (final) {
-      e->checked_db = p.psnr_mean_db;
-    } else if (!std::isnan(e->checked_db)) {
+      p.psnr_mean_db = e->checked_db;
+      p.psnr_min_db = e->checked_min_db;
+      e->checked_in = fit_;
+    } else if (e->checked_in == fit_) {
       p.psnr_mean_db = std::min(p.psnr_mean_db, e->checked_db + search_offset_);
     }
     p.bytes += overhead_;
