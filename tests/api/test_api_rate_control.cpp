@@ -28,6 +28,7 @@
 namespace {
 
 using namespace rgs;
+namespace fs = std::filesystem;
 
 /// Two orbit views at 480x270: what the rate-control fits of the suite are measured on.
 api::CameraChoice small_orbit() {
@@ -379,7 +380,7 @@ TEST_CASE("rate control's cameras of a file move with the edits that move the sc
   const std::string source = test::repo_path("samples/guitar.ply");
   api::CameraChoice views;
   views.cameras_path = test::repo_path("tests/data/guitar_cameras.json");
-  views.limit = 2;  // its two views of the guitar
+  views.every = 2;  // its two views of the guitar
   api::ConvertOptions options = psnr_target(35, views);
   for (const auto& [name, value] : {std::pair{"translate", "1000,0,0"}, {"rotate", "0,90,0"}, {"scale", "2"}}) {
     auto edit = converter::parse_edit_action(name, value);
@@ -414,7 +415,7 @@ TEST_CASE("rate control refuses views that see nothing of the scene, writing not
   // Both renders of such a view are black: it read +inf dB whatever the archive, and so did the mean.
   test::TempDir dir;
   api::CameraChoice views;
-  views.cameras_path = test::repo_path("tests/data/guitar_cameras.json");  // its third view looks away
+  views.cameras_path = test::repo_path("tests/data/guitar_cameras.json");  // its second view looks away
   const std::string out = dir.file("never.rgs");
   auto fitted = api::convert(test::repo_path("samples/guitar.ply"), out, psnr_target(35, views));
   REQUIRE_FALSE(fitted.ok());
@@ -423,4 +424,28 @@ TEST_CASE("rate control refuses views that see nothing of the scene, writing not
   CHECK_MESSAGE(message.find("view away sees nothing of the scene") != std::string::npos, message);
   CHECK_MESSAGE(message.find("guitar.ply") != std::string::npos, message);
   CHECK_FALSE(std::filesystem::exists(out));
+}
+
+TEST_CASE("rate control without views judges a scene on its capture's cameras named after it") {
+  // A fit on views guessed from the content is judged on the capture's cameras elsewhere: flowers' 40 dB fit on
+  // them read 39.71 dB on every 7th of its cameras, one aimed 0.5 dB higher 39.99 dB.
+  test::TempDir dir;
+  const fs::path scene = dir.path() / "guitar_c3dgs.ply";
+  fs::copy_file(test::repo_path("samples/guitar.ply"), scene);
+  fs::copy_file(test::repo_path("tests/data/guitar_cameras.json"), dir.path() / "guitar_cameras.json");
+  api::CameraChoice views;
+  views.limit = 2;  // every 2nd: its two views of the guitar
+  api::ConvertOptions options = psnr_target(35, views);
+  options.target.views = views;
+  const std::string out = dir.file("fitted.rgs");
+  auto fitted = api::convert(scene.string(), out, options);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  const std::string& note = fitted->rate_control->views_note;
+  CHECK_MESSAGE(note.find("guitar_cameras.json (found beside the scene): 2 of its 3") != std::string::npos, note);
+  api::CameraChoice judged;
+  judged.cameras_path = (dir.path() / "guitar_cameras.json").string();
+  judged.every = 2;
+  const double psnr = measured_psnr(scene.string(), out, judged);
+  CHECK(psnr >= 35);
+  CHECK(psnr == doctest::Approx(fitted->rate_control->psnr_mean_db).epsilon(1e-9));
 }
