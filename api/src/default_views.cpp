@@ -124,6 +124,12 @@ Result<std::string> find_scene_cameras(const std::string& scene_path) {
     root = dir.parent_path().parent_path();
     candidates.push_back(root / "cameras.json");
   }
+  // A capture's cameras named after the scene: PREFIX_cameras.json for each PREFIX of its name that ends before a
+  // '_', longest first (mipnerf360_flowers_cameras.json beside mipnerf360_flowers_c3dgs.ply).
+  const std::string stem = scene.stem().string();
+  for (size_t cut = stem.rfind('_'); cut != std::string::npos && cut > 0; cut = stem.rfind('_', cut - 1)) {
+    candidates.push_back(dir / (stem.substr(0, cut) + "_cameras.json"));
+  }
   for (const fs::path& candidate : candidates) {
     Result<fs::path> found = check_candidate(candidate, root);
     if (!found.ok()) return Status(found.status()).prepend("a cameras.json beside the scene " + scene_path);

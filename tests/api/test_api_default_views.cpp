@@ -131,6 +131,31 @@ TEST_CASE("a cameras.json of the 3DGS output layout is found beside the scene, a
   }
 }
 
+TEST_CASE("a capture's cameras named after the scene are found beside it: PREFIX_cameras.json") {
+  // As mipnerf360_flowers_cameras.json lies beside mipnerf360_flowers_c3dgs.ply.
+  test::TempDir dir;
+  const fs::path ply = dir.path() / "capture_flowers_c3dgs.ply";
+  write_text(ply, "not read");
+  write_text(dir.path() / "flowers_cameras.json", "not a prefix of the scene's name: never read");
+  write_text(dir.path() / "capture_flowers_c3dgs_cameras.json", "the whole name is no prefix: never read");
+  auto found = api::find_scene_cameras(ply.string());
+  REQUIRE_MESSAGE(found.ok(), found.status().to_string());
+  CHECK(found->empty());
+  write_text(dir.path() / "capture_cameras.json", three_cameras_json());
+  found = api::find_scene_cameras(ply.string());
+  REQUIRE(found.ok());
+  CHECK(fs::equivalent(*found, dir.path() / "capture_cameras.json"));
+  // The longest prefix first; a cameras.json in the folder before either.
+  write_text(dir.path() / "capture_flowers_cameras.json", three_cameras_json());
+  found = api::find_scene_cameras(ply.string());
+  REQUIRE(found.ok());
+  CHECK(fs::equivalent(*found, dir.path() / "capture_flowers_cameras.json"));
+  write_text(dir.path() / "cameras.json", three_cameras_json());
+  found = api::find_scene_cameras(ply.string());
+  REQUIRE(found.ok());
+  CHECK(fs::equivalent(*found, dir.path() / "cameras.json"));
+}
+
 TEST_CASE("a cameras.json found beside the scene is hostile input: garbled, not a file, or a link out") {
   test::TempDir dir;
   const fs::path model = dir.path() / "model";

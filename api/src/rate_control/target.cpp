@@ -1,5 +1,6 @@
 // convert()'s rate control (ConvertOptions::target): the views, the fit of the archive options on the scene it
 // read, the options that write the choice and its report.
+#include <array>
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -9,6 +10,7 @@
 #include "knobs.h"
 #include "rgs/api/camera.h"
 #include "rgs/api/convert.h"
+#include "rgs/converter/cloud_edits.h"
 
 namespace rgs::api {
 
@@ -38,19 +40,49 @@ namespace detail {
 
 namespace {
 
-/// The views of `target` for the scene read from `src_name`: make_cameras when it names a cameras file, an orbit
-/// or a path, else default_views (its note in `note`).
-Result<std::vector<runtime::Camera>> target_views(const ConvertTarget& target, const converter::InputScene& input,
+/// `cameras`, in the source's frame, moved with the scene by `edits`: each centre goes where the edits take a
+/// point, each view turns with their rotation and its near plane scales with them, so it sees the edited scene as
+/// it saw the source.
+void move_with_edits(const std::vector<converter::EditAction>& edits, std::vector<runtime::Camera>* cameras) {
+  const converter::EditMotion m = converter::edit_motion(edits);
+  for (runtime::Camera& cam : *cameras) {
+    const std::array<float, 3> c = runtime::camera_centre(cam);
+    std::array<double, 3> eye;
+    std::array<double, 9> rows;  // the camera's rotation times the edits' inverse (transposed) one
+    for (int i = 0; i < 3; ++i) {
+      eye[i] = m.offset[i] + m.scale * (m.rotation[i * 3] * c[0] + m.rotation[i * 3 + 1] * c[1] +
+                                        m.rotation[i * 3 + 2] * c[2]);
+      for (int j = 0; j < 3; ++j) {
+        rows[i * 3 + j] = double(cam.rotation[i * 3]) * m.rotation[j * 3] +
+                          double(cam.rotation[i * 3 + 1]) * m.rotation[j * 3 + 1] +
+                          double(cam.rotation[i * 3 + 2]) * m.rotation[j * 3 + 2];
+      }
+    }
+    runtime::set_pose(&cam, rows, eye);
+    cam.near_plane = float(cam.near_plane * m.scale);
+  }
+}
+
+/// The views of `options.target` for the scene read from `src_name`, after `options.edits`: make_cameras when it
+/// names a cameras file, an orbit or a path, else default_views (its note in `note`). Cameras of a file are in
+/// the source's frame and move with the edits; an orbit, a path or guessed views are made on the edited scene.
+Result<std::vector<runtime::Camera>> target_views(const ConvertOptions& options, const converter::InputScene& input,
                                                   const std::string& src_name, std::string* note) {
-  const CameraChoice& views = target.views;
-  if (views.cameras_path.empty() && views.orbit == 0 && views.path == 0) {
+  const CameraChoice& views = options.target.views;
+  std::vector<runtime::Camera> cameras;
+  bool from_file = !views.cameras_path.empty();
+  if (!from_file && views.orbit == 0 && views.path == 0) {
     RGS_ASSIGN_OR_RETURN(DefaultViews found, default_views(src_name, input.cloud, views));
     *note = std::move(found.note);
-    return std::move(found.cameras);
+    cameras = std::move(found.cameras);
+    from_file = !found.cameras_path.empty();
+  } else {
+    auto made = make_cameras(views, input.bounds);
+    if (!made.ok()) return Status(made.status()).prepend(src_name + ": rate control's views");
+    cameras = std::move(made).value();
   }
-  auto made = make_cameras(views, input.bounds);
-  if (!made.ok()) return Status(made.status()).prepend(src_name + ": rate control's views");
-  return made;
+  if (from_file) move_with_edits(options.edits, &cameras);
+  return cameras;
 }
 
 /// fit_archive's options for `options` (as convert() will write the archive) on the scene read from `src_name`.
@@ -78,7 +110,7 @@ FitOptions fit_options(const ConvertOptions& options, const converter::InputScen
 Result<RateControlReport> fit_target(const converter::InputScene& input, const std::string& src_name,
                                      ConvertOptions* options, const FitProgress::Sink& progress) {
   std::string note;
-  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, target_views(options->target, input, src_name, &note));
+  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, target_views(*options, input, src_name, &note));
   FitOptions fit = fit_options(*options, input, src_name);
   FitProgress steps(progress);
   fit.progress = &steps;

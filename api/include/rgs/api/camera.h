@@ -141,7 +141,10 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
 /// The cameras.json the standard 3DGS output layout puts beside a model, for the scene file (or folder) at
 /// `scene_path`: `<dir>/cameras.json`, where `<dir>` is the scene's folder, and, when `<dir>` is
 /// `<model>/point_cloud/iteration_<digits>` (train.py's `point_cloud/iteration_N/point_cloud.ply`),
-/// `<model>/cameras.json`. Nothing else is looked at. A candidate that does not exist is skipped; one that exists
+/// `<model>/cameras.json`; then `<dir>/PREFIX_cameras.json` for each PREFIX of the scene's name (without its
+/// extension) that ends before a `_`, longest first (a capture's cameras named after it:
+/// `mipnerf360_flowers_cameras.json` beside `mipnerf360_flowers_c3dgs.ply`). Nothing else is looked at. The first
+/// that exists is taken. A candidate that does not exist is skipped; one that exists
 /// is treated as hostile: it must be a regular file (links followed) whose real path lies inside the scene's
 /// folder tree (`<model>`, else `<dir>`).
 /// @return the path found (absolute, as looked up), or an empty string when neither exists; kInvalidArgument for a
