@@ -1,6 +1,5 @@
 // convert()'s rate control (ConvertOptions::target): the views, the fit of the archive options on the scene it
 // read, the options that write the choice and its report.
-#include <array>
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -40,29 +39,6 @@ namespace detail {
 
 namespace {
 
-/// `cameras`, in the source's frame, moved with the scene by `edits`: each centre goes where the edits take a
-/// point, each view turns with their rotation and its near plane scales with them, so it sees the edited scene as
-/// it saw the source.
-void move_with_edits(const std::vector<converter::EditAction>& edits, std::vector<runtime::Camera>* cameras) {
-  const converter::EditMotion m = converter::edit_motion(edits);
-  for (runtime::Camera& cam : *cameras) {
-    const std::array<float, 3> c = runtime::camera_centre(cam);
-    std::array<double, 3> eye;
-    std::array<double, 9> rows;  // the camera's rotation times the edits' inverse (transposed) one
-    for (int i = 0; i < 3; ++i) {
-      eye[i] = m.offset[i] + m.scale * (m.rotation[i * 3] * c[0] + m.rotation[i * 3 + 1] * c[1] +
-                                        m.rotation[i * 3 + 2] * c[2]);
-      for (int j = 0; j < 3; ++j) {
-        rows[i * 3 + j] = double(cam.rotation[i * 3]) * m.rotation[j * 3] +
-                          double(cam.rotation[i * 3 + 1]) * m.rotation[j * 3 + 1] +
-                          double(cam.rotation[i * 3 + 2]) * m.rotation[j * 3 + 2];
-      }
-    }
-    runtime::set_pose(&cam, rows, eye);
-    cam.near_plane = float(cam.near_plane * m.scale);
-  }
-}
-
 /// The views of `options.target` for the scene read from `src_name`, after `options.edits`: make_cameras when it
 /// names a cameras file, an orbit or a path, else default_views (its note in `note`). Cameras of a file are in
 /// the source's frame and move with the edits; an orbit, a path or guessed views are made on the edited scene.
@@ -81,7 +57,10 @@ Result<std::vector<runtime::Camera>> target_views(const ConvertOptions& options,
     if (!made.ok()) return Status(made.status()).prepend(src_name + ": rate control's views");
     cameras = std::move(made).value();
   }
-  if (from_file) move_with_edits(options.edits, &cameras);
+  if (from_file) {  // in the source's frame: moved with the scene
+    const converter::EditMotion m = converter::edit_motion(options.edits);
+    for (runtime::Camera& cam : cameras) runtime::move_camera(&cam, m.rotation, m.scale, m.offset);
+  }
   return cameras;
 }
 
