@@ -514,7 +514,7 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
   auto* path = app.add_option("--path", choice.path,
                               "Camera path of N views around the scene (runtime::path_cameras): two turns of a "
                               "spiral rising from 5 to 60 degrees, swinging between 0.3x and 1x the distance that "
-                              "frames its bounding sphere")
+                              "frames its content (as --orbit)")
                    ->check(CLI::Range(1, 100000))
                    ->excludes(cameras)
                    ->excludes(orbit);

@@ -39,10 +39,9 @@ api::CameraChoice small_orbit() {
 }
 
 /// The scene at `path` read as floats (a .rgs dequantized) and loaded for the CPU renderer.
-api::Scene load_floats(const std::string& path, format::SceneBounds* bounds = nullptr) {
+api::Scene load_floats(const std::string& path) {
   auto input = converter::read_scene(path);
   REQUIRE_MESSAGE(input.ok(), input.status().to_string());
-  if (bounds) *bounds = input->bounds;
   api::LoadOptions load;
   load.device = api::Device::kCpu;
   auto scene = api::load_cloud(std::move(input->cloud), input->bounds, path, load);
@@ -53,10 +52,9 @@ api::Scene load_floats(const std::string& path, format::SceneBounds* bounds = nu
 /// Mean PSNR of `candidate`'s render against `source`'s on `choice`'s cameras: both read as floats, rendered with
 /// the faithful preset on a black background by the CPU reference and compared over the whole frame.
 double measured_psnr(const std::string& source, const std::string& candidate, const api::CameraChoice& choice) {
-  format::SceneBounds bounds;
-  const api::Scene src = load_floats(source, &bounds);
+  const api::Scene src = load_floats(source);
   const api::Scene cand = load_floats(candidate);
-  auto cameras = api::make_cameras(choice, bounds);
+  auto cameras = api::make_cameras(choice, src.info().content);  // rate control's frame: the source's content
   REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
   auto renderer = api::Renderer::create(api::Device::kCpu);
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());

@@ -48,7 +48,7 @@ Result<std::vector<runtime::Camera>> target_views(const ConvertTarget& target, c
     *note = std::move(found.note);
     return std::move(found.cameras);
   }
-  auto made = make_cameras(views, input.bounds);
+  auto made = make_cameras(views, content_frame(input.cloud));
   if (!made.ok()) return Status(made.status()).prepend(src_name + ": rate control's views");
   return made;
 }
