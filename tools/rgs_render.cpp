@@ -1,9 +1,10 @@
 // rgs-render: render a scene in any format from its cameras or an orbit through the front door (api::load,
-// api::Renderer), on the CPU reference renderer or the CUDA renderer.
+// api::Renderer), on the CUDA renderer when a device answers, else the CPU reference renderer (--backend).
 //
 //   rgs-render scene.rgs --cameras cameras.json -o out/      one PNG per camera, named after img_name
-//   rgs-render scene.ply --orbit 8 -o out/ --exr             orbit_000.png ... (+ float RGBA .exr)
-//   rgs-render scene.rgs --orbit 8 -o out/ --backend cuda    the same on the GPU (preset fastest)
+//   rgs-render model/point_cloud/iteration_30000/point_cloud.ply -o out/    model/cameras.json, found beside it
+//   rgs-render scene.ply --orbit 8 -o out/ --exr             orbit_000.png ... (+ float RGBA .exr), around the content
+//   rgs-render scene.rgs --orbit 8 -o out/ --backend cpu     the CPU reference: the same images on every machine
 //   rgs-render scene.rgs --orbit 8 -o out/ --format ppm --pfm    no OpenImageIO needed (GPU-host builds)
 //   rgs-render scene_lod.rgs --path 60 -o out/ --backend cuda --splat-budget 1000000 --memory-budget 1GiB
 //                                                            a level-of-detail .rgs under budgets (docs/LOD.md)

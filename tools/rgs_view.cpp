@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
   app.add_option("scene", opt.scene, "Scene in any format, " + tools::scene_formats_help())->required();
   app.add_option("scene2", opt.scene2, "Second scene: compare it with the first (same cameras)");
   app.add_option("--cameras", opt.cameras, "INRIA cameras.json whose cameras the page can jump to (default: the one a "
-                 "trainer wrote beside the scene, api::find_scene_cameras)");
+                 "trainer wrote beside the scene, as rgs-audit finds it)");
   tools::add_render_options(app, opt.render,
                             tools::kBackendOption | tools::kPresetOption | tools::kScratchBudgetOption |
                                 tools::kLodOptions,

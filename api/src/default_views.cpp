@@ -194,7 +194,6 @@ ContentFrame content_frame(const format::GaussianCloud& cloud) {
   std::sort(items.begin(), items.end());
   where.radius_25 = weighted_quantile(items, total, 0.25);
   where.radius_50 = weighted_quantile(items, total, 0.5);
-  where.radius_90 = weighted_quantile(items, total, 0.9);
   where.surrounds = where.radius_50 > kSurroundRatio * where.radius_25;
   if (where.surrounds) {
     where.frame_radius = where.radius_25;

@@ -131,9 +131,9 @@ struct ContentFrame {
   uint64_t weighed = 0;
   /// Centre of the content: the opacity-weighted median of the means, per axis.
   float centre[3] = {0, 0, 0};
-  /// Opacity-weighted quantiles of the means' distance from `centre`: a quarter, half and nine tenths of the
-  /// weight lies within these radii.
-  double radius_25 = 0, radius_50 = 0, radius_90 = 0;
+  /// Opacity-weighted quantiles of the means' distance from `centre`: a quarter and half of the weight lies within
+  /// these radii.
+  double radius_25 = 0, radius_50 = 0;
   /// Whether the content surrounds a central core (radius_50 > kSurroundRatio · radius_25: a capture whose
   /// background spreads far beyond its subject) rather than forming one object.
   bool surrounds = false;
