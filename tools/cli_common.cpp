@@ -16,6 +16,8 @@
 #include <filesystem>
 #include <limits>
 #include <sstream>
+#include <string_view>
+#include <utility>
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/scene_reader.h"
@@ -62,8 +64,20 @@ size_t decode_utf8(std::string_view text, size_t i, uint32_t* code_point) {
   return length;
 }
 
+/// `text` with the libraries' hints that name an API setting turned into the option that sets it.
+std::string with_options(std::string text) {
+  static const std::pair<std::string_view, std::string_view> kHints[] = {
+      {"spz frame as-stored", "--spz-frame as-stored"},
+      {"use device cpu", "use --backend cpu"},
+      {"LoadOptions::lod.enabled = false", "--no-lod"}};
+  for (const auto& [api_words, option] : kHints) {  // no option holds its API words: each loop ends
+    for (size_t at; (at = text.find(api_words)) != std::string::npos;) text.replace(at, api_words.size(), option);
+  }
+  return text;
+}
+
 void print_error_line(const char* tool, const Status& status) {
-  const std::string text = escape_text(status.to_string());
+  const std::string text = escape_text(with_options(status.to_string()));
   std::fprintf(stderr, "%s: error: %s\n", tool, text.c_str());
 }
 
@@ -139,7 +153,7 @@ int report_usage_error(const char* tool, const Status& status) {
 }
 
 void report_note(const char* tool, const std::string& note) {
-  std::fprintf(stderr, "%s: %s\n", tool, escape_text(note).c_str());
+  std::fprintf(stderr, "%s: %s\n", tool, escape_text(with_options(note)).c_str());
 }
 
 void report_notes(const char* tool, const std::vector<std::string>& notes, bool quiet) {
@@ -514,7 +528,7 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
   auto* path = app.add_option("--path", choice.path,
                               "Camera path of N views around the scene (runtime::path_cameras): two turns of a "
                               "spiral rising from 5 to 60 degrees, swinging between 0.3x and 1x the distance that "
-                              "frames its bounding sphere")
+                              "frames its content (as --orbit)")
                    ->check(CLI::Range(1, 100000))
                    ->excludes(cameras)
                    ->excludes(orbit);

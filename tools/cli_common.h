@@ -40,7 +40,9 @@ inline constexpr int kExitUsage = 2;
 /// longer cuts the text short and escape sequences never reach the terminal.
 std::string escape_text(std::string_view text);
 
-/// Prints "<tool>: error: <message> [kCode]" (escaped) to stderr and returns kExitFailure.
+/// Prints "<tool>: error: <message> [kCode]" (escaped) to stderr and returns kExitFailure. Here and in the other
+/// report functions, a library's hint that names an API setting names the option instead ("spz frame as-stored":
+/// "--spz-frame as-stored"; "use device cpu": "use --backend cpu"; "LoadOptions::lod.enabled = false": "--no-lod").
 int report_error(const char* tool, const Status& status);
 
 /// Prints "<tool>: error: <message> [kCode]" (escaped) and a --help hint to stderr; returns kExitUsage.

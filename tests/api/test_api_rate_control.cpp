@@ -40,10 +40,9 @@ api::CameraChoice small_orbit() {
 }
 
 /// The scene at `path` read as floats (a .rgs dequantized) and loaded for the CPU renderer.
-api::Scene load_floats(const std::string& path, format::SceneBounds* bounds = nullptr) {
+api::Scene load_floats(const std::string& path) {
   auto input = converter::read_scene(path);
   REQUIRE_MESSAGE(input.ok(), input.status().to_string());
-  if (bounds) *bounds = input->bounds;
   api::LoadOptions load;
   load.device = api::Device::kCpu;
   auto scene = api::load_cloud(std::move(input->cloud), input->bounds, path, load);
@@ -51,11 +50,11 @@ api::Scene load_floats(const std::string& path, format::SceneBounds* bounds = nu
   return std::move(scene).value();
 }
 
-/// Mean PSNR of `cand`'s render against `src`'s on `choice`'s cameras (make_cameras on `bounds`), rendered
-/// with the faithful preset on a black background by the CPU reference and compared over the whole frame.
-double measured_psnr(const api::Scene& src, const api::Scene& cand, const format::SceneBounds& bounds,
-                     const api::CameraChoice& choice) {
-  auto cameras = api::make_cameras(choice, bounds);
+/// Mean PSNR of `cand`'s render against `src`'s on `choice`'s cameras (make_cameras on the source's content: rate
+/// control's frame), rendered with the faithful preset on a black background by the CPU reference and compared
+/// over the whole frame.
+double measured_psnr(const api::Scene& src, const api::Scene& cand, const api::CameraChoice& choice) {
+  auto cameras = api::make_cameras(choice, src.info().content);
   REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
   auto renderer = api::Renderer::create(api::Device::kCpu);
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
@@ -77,9 +76,8 @@ double measured_psnr(const api::Scene& src, const api::Scene& cand, const format
 
 /// measured_psnr of the scenes at `source` and `candidate`, both read as floats.
 double measured_psnr(const std::string& source, const std::string& candidate, const api::CameraChoice& choice) {
-  format::SceneBounds bounds;
-  const api::Scene src = load_floats(source, &bounds);
-  return measured_psnr(src, load_floats(candidate), bounds, choice);
+  const api::Scene src = load_floats(source);
+  return measured_psnr(src, load_floats(candidate), choice);
 }
 
 /// convert() options for a PSNR target on `views`.
@@ -401,14 +399,13 @@ TEST_CASE("rate control's cameras of a file move with the edits that move the sc
     REQUIRE(edit.ok());
     REQUIRE(converter::apply_edit(&input->cloud, *edit).ok());
   }
-  format::SceneBounds bounds;
-  const api::Scene src = load_floats(source, &bounds);
+  const api::Scene src = load_floats(source);
   api::LoadOptions load;
   load.device = api::Device::kCpu;
   const format::SceneBounds moved_back = converter::compute_bounds(input->cloud);
   auto back = api::load_cloud(std::move(input->cloud), moved_back, out, load);
   REQUIRE_MESSAGE(back.ok(), back.status().to_string());
-  CHECK(measured_psnr(src, *back, bounds, views) == doctest::Approx(reported).epsilon(0.002));
+  CHECK(measured_psnr(src, *back, views) == doctest::Approx(reported).epsilon(0.002));
 }
 
 TEST_CASE("rate control refuses views that see nothing of the scene, writing nothing") {

@@ -53,7 +53,7 @@ Result<std::vector<runtime::Camera>> target_views(const ConvertOptions& options,
     cameras = std::move(found.cameras);
     from_file = !found.cameras_path.empty();
   } else {
-    auto made = make_cameras(views, input.bounds);
+    auto made = make_cameras(views, content_frame(input.cloud));
     if (!made.ok()) return Status(made.status()).prepend(src_name + ": rate control's views");
     cameras = std::move(made).value();
   }
