@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <utility>
 
 #include "internal_parallel.h"
@@ -246,12 +247,24 @@ Status kmeans_palette(const float* data, size_t n, size_t stride, uint32_t dim, 
   }));
   std::vector<std::vector<size_t>> members(coarse_k);
   for (size_t i = 0; i < m; ++i) members[coarse_of[i]].push_back(i);
-  // Fine clusters per coarse one, in proportion to its members (at least one each non-empty one).
-  std::vector<uint32_t> first(coarse_k + 1, 0), fine_k(coarse_k, 0);
+  // Fine clusters per coarse one (at least one each non-empty one), in proportion to the Gaussians it holds (the
+  // palette's error counts per Gaussian) but at most its distinct vectors: clusters of the fewest distinct vectors
+  // per Gaussian go first, and what they cannot use goes to the others.
+  std::vector<double> held(coarse_k, 0.0);
+  for (size_t i = 0; i < m; ++i) held[coarse_of[i]] += set.weight[i];
+  std::vector<std::pair<double, uint32_t>> order(coarse_k);  // (distinct per Gaussian, cluster), empty ones last
   for (uint32_t c = 0; c < coarse_k; ++c) {
+    order[c] = {held[c] > 0 ? static_cast<double>(members[c].size()) / held[c] : std::numeric_limits<double>::infinity(), c};
+  }
+  std::sort(order.begin(), order.end());
+  std::vector<uint32_t> first(coarse_k + 1, 0), fine_k(coarse_k, 0);
+  double spare = k - coarse_k, unserved = static_cast<double>(n);
+  for (const auto& [density, c] : order) {
     if (members[c].empty()) continue;
-    const double share = static_cast<double>(k - coarse_k) * static_cast<double>(members[c].size()) / static_cast<double>(m);
-    fine_k[c] = static_cast<uint32_t>(std::min<size_t>(members[c].size(), 1 + static_cast<size_t>(share)));
+    const auto share = static_cast<size_t>(spare * held[c] / unserved);
+    fine_k[c] = static_cast<uint32_t>(std::min<size_t>(members[c].size(), 1 + share));
+    spare -= fine_k[c] - 1;
+    unserved -= held[c];
   }
   for (uint32_t c = 0; c < coarse_k; ++c) first[c + 1] = first[c] + fine_k[c];
   palette->assign(size_t{first[coarse_k]} * dim, 0.0f);
