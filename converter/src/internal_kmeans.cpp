@@ -13,8 +13,6 @@ namespace rgs::converter::detail {
 namespace {
 
 constexpr uint32_t kHistogramBins = 65536;
-/// Vectors per parallel block: blocks, not threads, fix how sums are grouped (determinism).
-constexpr size_t kBlockVectors = 16384;
 /// Fewest vectors worth a thread of their own in the palette's passes.
 constexpr size_t kMinVectorsPerWorker = 1024;
 /// Training samples per centroid at each level of the palette tree.
@@ -173,52 +171,38 @@ struct Centroids {
   }
 };
 
-/// Lloyd's k-means of the vectors `members` (distinct ids) into `k` centroids, started from evenly spaced
-/// members. Sums are kept per block of members and added in block order, so the result does not depend on threads.
-Status lloyd(const VectorSet& set, const std::vector<size_t>& members, uint32_t k, uint32_t iterations,
-             unsigned workers, std::vector<float>* centroids) {
+/// Lloyd's k-means of the vectors `members` (distinct ids) into `k` centroids ([k, dim]), started from evenly
+/// spaced members; it stops early once no member changes its centroid (the later ones would be the same).
+std::vector<float> lloyd(const VectorSet& set, const std::vector<size_t>& members, uint32_t k, uint32_t iterations) {
   const uint32_t dim = set.dim;
-  centroids->assign(size_t{k} * dim, 0.0f);
+  std::vector<float> centroids(size_t{k} * dim), scratch;
   for (uint32_t c = 0; c < k; ++c) {
     const float* v = set.at(members[static_cast<size_t>(uint64_t{c} * members.size() / k)]);
-    std::copy(v, v + dim, centroids->data() + size_t{c} * dim);
+    std::copy(v, v + dim, centroids.data() + size_t{c} * dim);
   }
-  const size_t blocks = (members.size() + kBlockVectors - 1) / kBlockVectors;
-  std::vector<std::vector<double>> sums(blocks), counts(blocks);
   std::vector<uint32_t> assigned(members.size(), k);
-  std::vector<uint8_t> changed(blocks);
+  std::vector<double> sums, counts;
   for (uint32_t it = 0; it < iterations; ++it) {
-    const Centroids near(centroids->data(), k, dim);
-    RGS_RETURN_IF_ERROR(parallel_items(blocks, workers, [&](unsigned, uint64_t b) {
-      sums[b].assign(size_t{k} * dim, 0.0);
-      changed[b] = 0;
-      counts[b].assign(k, 0.0);
-      std::vector<float> scratch;
-      const size_t end = std::min(members.size(), (b + 1) * kBlockVectors);
-      for (size_t m = b * kBlockVectors; m < end; ++m) {
-        const float* v = set.at(members[m]);
-        const double w = set.weight[members[m]];
-        const uint32_t c = near.nearest(v, &scratch);
-        changed[b] |= static_cast<uint8_t>(c != assigned[m]);
-        assigned[m] = c;
-        for (uint32_t e = 0; e < dim; ++e) sums[b][size_t{c} * dim + e] += w * v[e];
-        counts[b][c] += w;
-      }
-    }));
-    // No member changed its centroid: the centroids are those of the last update, and so are all later ones.
-    if (std::find(changed.begin(), changed.end(), 1) == changed.end()) break;
+    const Centroids near(centroids.data(), k, dim);
+    sums.assign(size_t{k} * dim, 0.0);
+    counts.assign(k, 0.0);
+    bool changed = false;
+    for (size_t m = 0; m < members.size(); ++m) {
+      const float* v = set.at(members[m]);
+      const uint32_t c = near.nearest(v, &scratch);
+      changed |= c != assigned[m];
+      assigned[m] = c;
+      for (uint32_t e = 0; e < dim; ++e) sums[size_t{c} * dim + e] += set.weight[members[m]] * v[e];
+      counts[c] += set.weight[members[m]];
+    }
+    if (!changed) break;
     for (uint32_t c = 0; c < k; ++c) {
-      double total = 0;
-      for (size_t b = 0; b < blocks; ++b) total += counts[b][c];
-      if (total == 0) continue;
-      for (uint32_t e = 0; e < dim; ++e) {
-        double s = 0;
-        for (size_t b = 0; b < blocks; ++b) s += sums[b][size_t{c} * dim + e];
-        (*centroids)[size_t{c} * dim + e] = static_cast<float>(s / total);
+      for (uint32_t e = 0; e < dim && counts[c] > 0; ++e) {
+        centroids[size_t{c} * dim + e] = static_cast<float>(sums[size_t{c} * dim + e] / counts[c]);
       }
     }
   }
-  return Status();
+  return centroids;
 }
 
 /// Evenly spaced picks of at most `limit` of `members`.
@@ -250,9 +234,8 @@ Status kmeans_palette(const float* data, size_t n, size_t stride, uint32_t dim, 
   const auto coarse_k = static_cast<uint32_t>(std::ceil(std::sqrt(static_cast<double>(k))));
   std::vector<size_t> all(m);
   for (size_t i = 0; i < m; ++i) all[i] = i;
-  std::vector<float> coarse;
-  RGS_RETURN_IF_ERROR(lloyd(set, sample(all, size_t{coarse_k} * kSamplesPerCentroid * 4), coarse_k, iterations,
-                            workers, &coarse));
+  const std::vector<float> coarse =
+      lloyd(set, sample(all, size_t{coarse_k} * kSamplesPerCentroid * 4), coarse_k, iterations);
   const Centroids coarse_near(coarse.data(), coarse_k, dim);
   std::vector<uint32_t> coarse_of(m);
   RGS_RETURN_IF_ERROR(parallel_slices(m, workers, [&](unsigned, uint64_t begin, uint64_t end) {
@@ -268,7 +251,8 @@ Status kmeans_palette(const float* data, size_t n, size_t stride, uint32_t dim, 
   for (size_t i = 0; i < m; ++i) held[coarse_of[i]] += set.weight[i];
   std::vector<std::pair<double, uint32_t>> order(coarse_k);  // (distinct per Gaussian, cluster), empty ones last
   for (uint32_t c = 0; c < coarse_k; ++c) {
-    order[c] = {held[c] > 0 ? static_cast<double>(members[c].size()) / held[c] : std::numeric_limits<double>::infinity(), c};
+    const double density = static_cast<double>(members[c].size()) / held[c];
+    order[c] = {held[c] > 0 ? density : std::numeric_limits<double>::infinity(), c};
   }
   std::sort(order.begin(), order.end());
   std::vector<uint32_t> first(coarse_k + 1, 0), fine_k(coarse_k, 0);
@@ -282,20 +266,22 @@ Status kmeans_palette(const float* data, size_t n, size_t stride, uint32_t dim, 
   }
   for (uint32_t c = 0; c < coarse_k; ++c) first[c + 1] = first[c] + fine_k[c];
   palette->assign(size_t{first[coarse_k]} * dim, 0.0f);
-  std::vector<Status> trained(coarse_k);  // coarse clusters train in parallel, each on one thread
-  RGS_RETURN_IF_ERROR(parallel_items(coarse_k, workers, [&](unsigned, uint64_t c) {
+  RGS_RETURN_IF_ERROR(parallel_items(coarse_k, workers, [&](unsigned, uint64_t c) {  // one thread a cluster
     if (fine_k[c] == 0) return;
-    std::vector<float> fine;
-    trained[c] = lloyd(set, sample(members[c], size_t{fine_k[c]} * kSamplesPerCentroid), fine_k[c], iterations, 1, &fine);
+    const std::vector<float> fine =
+        lloyd(set, sample(members[c], size_t{fine_k[c]} * kSamplesPerCentroid), fine_k[c], iterations);
     std::copy(fine.begin(), fine.end(), palette->begin() + size_t{first[c]} * dim);
   }));
-  for (const Status& s : trained) RGS_RETURN_IF_ERROR(s);
   std::vector<Centroids> fine_near;
-  for (uint32_t c = 0; c < coarse_k; ++c) fine_near.emplace_back(palette->data() + size_t{first[c]} * dim, fine_k[c], dim);
+  for (uint32_t c = 0; c < coarse_k; ++c) {
+    fine_near.emplace_back(palette->data() + size_t{first[c]} * dim, fine_k[c], dim);
+  }
   std::vector<uint32_t> label(m);
   RGS_RETURN_IF_ERROR(parallel_slices(m, workers, [&](unsigned, uint64_t begin, uint64_t end) {
     std::vector<float> scratch;
-    for (uint64_t i = begin; i < end; ++i) label[i] = first[coarse_of[i]] + fine_near[coarse_of[i]].nearest(set.at(i), &scratch);
+    for (uint64_t i = begin; i < end; ++i) {
+      label[i] = first[coarse_of[i]] + fine_near[coarse_of[i]].nearest(set.at(i), &scratch);
+    }
   }));
   for (size_t i = 0; i < n; ++i) (*labels)[i] = label[of[i]];
   return Status();

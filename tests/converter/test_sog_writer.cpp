@@ -145,7 +145,9 @@ TEST_CASE("SOG output of the real SH-3 flowers scene reads back within its bound
 size_t distinct_sh_rest(const format::GaussianCloud& cloud) {
   const size_t per = size_t{cloud.sh_coefficients()} * 3;
   std::set<std::vector<float>> rests;
-  for (size_t i = 0; i < cloud.size(); ++i) rests.emplace(cloud.sh.begin() + i * per + 3, cloud.sh.begin() + (i + 1) * per);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    rests.emplace(cloud.sh.begin() + i * per + 3, cloud.sh.begin() + (i + 1) * per);
+  }
   return rests.size();
 }
 
