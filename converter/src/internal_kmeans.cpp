@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <utility>
 
 #include "internal_parallel.h"
 
@@ -11,8 +13,8 @@ namespace rgs::converter::detail {
 namespace {
 
 constexpr uint32_t kHistogramBins = 65536;
-/// Vectors per parallel block: blocks, not threads, fix how sums are grouped (determinism).
-constexpr size_t kBlockVectors = 16384;
+/// Fewest vectors worth a thread of their own in the palette's passes.
+constexpr size_t kMinVectorsPerWorker = 1024;
 /// Training samples per centroid at each level of the palette tree.
 constexpr size_t kSamplesPerCentroid = 16;
 
@@ -91,69 +93,116 @@ uint8_t nearest_code(const std::vector<float>& codebook, float v) {
 
 namespace {
 
-/// Vectors of one k-means problem: indices into the data, dim floats each.
+/// The distinct vectors of one k-means problem, dim floats each: duplicates (every SH-0 Gaussian of a merge
+/// holds the zero vector) are one weighted vector, so they neither crowd the samples and starts nor claim palette
+/// entries of their own, which made training quadratic in the duplicates.
 struct VectorSet {
   const float* data;
   size_t stride;
   uint32_t dim;
-  const float* at(size_t i) const { return data + i * stride; }
+  std::vector<size_t> index;     ///< each distinct vector's first holder, ascending
+  std::vector<double> weight;    ///< how many vectors equal it
+  const float* at(size_t m) const { return data + index[m] * stride; }
 };
 
-uint32_t nearest_centroid(const float* v, const float* centroids, uint32_t k, uint32_t dim) {
-  uint32_t best = 0;
-  float best_d = std::numeric_limits<float>::infinity();
-  for (uint32_t c = 0; c < k; ++c) {
-    const float* q = centroids + size_t{c} * dim;
-    float d = 0;
-    for (uint32_t e = 0; e < dim; ++e) {
-      const float t = v[e] - q[e];
-      d += t * t;
+/// `data`'s distinct vectors into `set`, and `of[i]`, vector i's distinct one: equal bytes sort next to each
+/// other (by a hash, then the bytes, then the index).
+void find_distinct(size_t n, VectorSet* set, std::vector<uint32_t>* of) {
+  const size_t bytes = size_t{set->dim} * sizeof(float);
+  auto row = [&](size_t i) { return set->data + i * set->stride; };
+  std::vector<std::pair<uint64_t, uint32_t>> keys(n);
+  for (size_t i = 0; i < n; ++i) {
+    uint64_t h = 14695981039346656037ull;  // FNV-1a over 32-bit words
+    for (uint32_t e = 0; e < set->dim; ++e) {
+      uint32_t w;
+      std::memcpy(&w, row(i) + e, sizeof w);
+      h = (h ^ w) * 1099511628211ull;
     }
-    if (d < best_d) {
-      best_d = d;
-      best = c;
-    }
+    keys[i] = {h, static_cast<uint32_t>(i)};
   }
-  return best;
+  std::sort(keys.begin(), keys.end(), [&](const auto& a, const auto& b) {
+    if (a.first != b.first) return a.first < b.first;
+    const int c = std::memcmp(row(a.second), row(b.second), bytes);
+    return c != 0 ? c < 0 : a.second < b.second;
+  });
+  std::vector<uint32_t> first(n);  // the first holder of each vector's value
+  for (size_t s = 0; s < n; ++s) {
+    const uint32_t i = keys[s].second, p = s > 0 ? keys[s - 1].second : i;
+    first[i] = s > 0 && keys[s].first == keys[s - 1].first && !std::memcmp(row(i), row(p), bytes) ? first[p] : i;
+  }
+  of->resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    if (first[i] == i) {
+      set->index.push_back(i);
+      set->weight.push_back(0);
+    }
+    (*of)[i] = first[i] == i ? static_cast<uint32_t>(set->index.size() - 1) : (*of)[first[i]];
+    set->weight[(*of)[i]] += 1;
+  }
 }
 
-/// Lloyd's k-means of the vectors `members` (indices) into `k` centroids, started from evenly spaced members.
-/// Sums are kept per block of members and added in block order, so the result does not depend on threads.
-Status lloyd(const VectorSet& set, const std::vector<size_t>& members, uint32_t k, uint32_t iterations,
-             unsigned workers, std::vector<float>* centroids) {
+/// `k` centroids of `dim` floats stored dimension-major, so that the distances to all of them grow in lockstep:
+/// that loop vectorizes, where one distance at a time waits on its own chain of additions.
+struct Centroids {
+  uint32_t k, dim;
+  std::vector<float> t;  ///< [dim, k]
+  Centroids(const float* rows, uint32_t k_, uint32_t dim_) : k(k_), dim(dim_), t(size_t{k_} * dim_) {
+    for (uint32_t c = 0; c < k; ++c) {
+      for (uint32_t e = 0; e < dim; ++e) t[size_t{e} * k + c] = rows[size_t{c} * dim + e];
+    }
+  }
+  /// The nearest centroid to `v` (ties to the first); `d` is scratch.
+  uint32_t nearest(const float* v, std::vector<float>* d) const {
+    d->assign(k, 0.0f);
+    float* dist = d->data();
+    auto sq = [](float a) { return a * a; };
+    uint32_t e = 0;
+    for (; e + 4 <= dim; e += 4) {  // four dimensions a pass: a quarter of the loads and stores of `dist`
+      const float *q = t.data() + size_t{e} * k, *r = q + k, *s = r + k, *u = s + k;
+      for (uint32_t c = 0; c < k; ++c) {
+        dist[c] = dist[c] + sq(v[e] - q[c]) + sq(v[e + 1] - r[c]) + sq(v[e + 2] - s[c]) + sq(v[e + 3] - u[c]);
+      }
+    }
+    for (; e < dim; ++e) {
+      const float* q = t.data() + size_t{e} * k;
+      for (uint32_t c = 0; c < k; ++c) dist[c] += sq(v[e] - q[c]);
+    }
+    return static_cast<uint32_t>(std::min_element(dist, dist + k) - dist);
+  }
+};
+
+/// Lloyd's k-means of the vectors `members` (distinct ids) into `k` centroids ([k, dim]), started from evenly
+/// spaced members; it stops early once no member changes its centroid (the later ones would be the same).
+std::vector<float> lloyd(const VectorSet& set, const std::vector<size_t>& members, uint32_t k, uint32_t iterations) {
   const uint32_t dim = set.dim;
-  centroids->assign(size_t{k} * dim, 0.0f);
+  std::vector<float> centroids(size_t{k} * dim), scratch;
   for (uint32_t c = 0; c < k; ++c) {
     const float* v = set.at(members[static_cast<size_t>(uint64_t{c} * members.size() / k)]);
-    std::copy(v, v + dim, centroids->data() + size_t{c} * dim);
+    std::copy(v, v + dim, centroids.data() + size_t{c} * dim);
   }
-  const size_t blocks = (members.size() + kBlockVectors - 1) / kBlockVectors;
-  std::vector<std::vector<double>> sums(blocks);
-  std::vector<std::vector<uint32_t>> counts(blocks);
+  std::vector<uint32_t> assigned(members.size(), k);
+  std::vector<double> sums, counts;
   for (uint32_t it = 0; it < iterations; ++it) {
-    RGS_RETURN_IF_ERROR(parallel_items(blocks, workers, [&](unsigned, uint64_t b) {
-      sums[b].assign(size_t{k} * dim, 0.0);
-      counts[b].assign(k, 0);
-      const size_t end = std::min(members.size(), (b + 1) * kBlockVectors);
-      for (size_t m = b * kBlockVectors; m < end; ++m) {
-        const float* v = set.at(members[m]);
-        const uint32_t c = nearest_centroid(v, centroids->data(), k, dim);
-        for (uint32_t e = 0; e < dim; ++e) sums[b][size_t{c} * dim + e] += v[e];
-        ++counts[b][c];
-      }
-    }));
+    const Centroids near(centroids.data(), k, dim);
+    sums.assign(size_t{k} * dim, 0.0);
+    counts.assign(k, 0.0);
+    bool changed = false;
+    for (size_t m = 0; m < members.size(); ++m) {
+      const float* v = set.at(members[m]);
+      const uint32_t c = near.nearest(v, &scratch);
+      changed |= c != assigned[m];
+      assigned[m] = c;
+      for (uint32_t e = 0; e < dim; ++e) sums[size_t{c} * dim + e] += set.weight[members[m]] * v[e];
+      counts[c] += set.weight[members[m]];
+    }
+    if (!changed) break;
     for (uint32_t c = 0; c < k; ++c) {
-      double total = 0;
-      for (size_t b = 0; b < blocks; ++b) total += counts[b][c];
-      if (total == 0) continue;
-      for (uint32_t e = 0; e < dim; ++e) {
-        double s = 0;
-        for (size_t b = 0; b < blocks; ++b) s += sums[b][size_t{c} * dim + e];
-        (*centroids)[size_t{c} * dim + e] = static_cast<float>(s / total);
+      for (uint32_t e = 0; e < dim && counts[c] > 0; ++e) {
+        centroids[size_t{c} * dim + e] = static_cast<float>(sums[size_t{c} * dim + e] / counts[c]);
       }
     }
   }
-  return Status();
+  return centroids;
 }
 
 /// Evenly spaced picks of at most `limit` of `members`.
@@ -168,46 +217,74 @@ std::vector<size_t> sample(const std::vector<size_t>& members, size_t limit) {
 
 Status kmeans_palette(const float* data, size_t n, size_t stride, uint32_t dim, uint32_t k, uint32_t iterations,
                       std::vector<float>* palette, std::vector<uint32_t>* labels) {
-  const VectorSet set{data, stride, dim};
-  k = static_cast<uint32_t>(std::min<size_t>(k, n));
+  VectorSet set{data, stride, dim, {}, {}};
+  std::vector<uint32_t> of;
+  find_distinct(n, &set, &of);
+  const size_t m = set.index.size();
+  k = static_cast<uint32_t>(std::min<size_t>(k, m));
   labels->assign(n, 0);
   palette->clear();
-  if (n == 0 || k == 0) return Status();
-  const unsigned workers = worker_count(n, kBlockVectors);
+  if (m == 0 || k == 0) return Status();
+  if (k == m) {  // room for every distinct vector: the palette is exact
+    for (size_t i = 0; i < m; ++i) palette->insert(palette->end(), set.at(i), set.at(i) + dim);
+    *labels = std::move(of);
+    return Status();
+  }
+  const unsigned workers = worker_count(m, kMinVectorsPerWorker);
   const auto coarse_k = static_cast<uint32_t>(std::ceil(std::sqrt(static_cast<double>(k))));
-  std::vector<size_t> all(n);
-  for (size_t i = 0; i < n; ++i) all[i] = i;
-  std::vector<float> coarse;
-  RGS_RETURN_IF_ERROR(lloyd(set, sample(all, size_t{coarse_k} * kSamplesPerCentroid * 4), coarse_k, iterations,
-                            workers, &coarse));
-  std::vector<uint32_t> coarse_of(n);
-  RGS_RETURN_IF_ERROR(parallel_slices(n, workers, [&](unsigned, uint64_t begin, uint64_t end) {
-    for (uint64_t i = begin; i < end; ++i) coarse_of[i] = nearest_centroid(set.at(i), coarse.data(), coarse_k, dim);
+  std::vector<size_t> all(m);
+  for (size_t i = 0; i < m; ++i) all[i] = i;
+  const std::vector<float> coarse =
+      lloyd(set, sample(all, size_t{coarse_k} * kSamplesPerCentroid * 4), coarse_k, iterations);
+  const Centroids coarse_near(coarse.data(), coarse_k, dim);
+  std::vector<uint32_t> coarse_of(m);
+  RGS_RETURN_IF_ERROR(parallel_slices(m, workers, [&](unsigned, uint64_t begin, uint64_t end) {
+    std::vector<float> scratch;
+    for (uint64_t i = begin; i < end; ++i) coarse_of[i] = coarse_near.nearest(set.at(i), &scratch);
   }));
   std::vector<std::vector<size_t>> members(coarse_k);
-  for (size_t i = 0; i < n; ++i) members[coarse_of[i]].push_back(i);
-  // Fine clusters per coarse one, in proportion to its members (at least one each non-empty one).
-  std::vector<uint32_t> first(coarse_k + 1, 0), fine_k(coarse_k, 0);
+  for (size_t i = 0; i < m; ++i) members[coarse_of[i]].push_back(i);
+  // Fine clusters per coarse one (at least one each non-empty one), in proportion to the Gaussians it holds (the
+  // palette's error counts per Gaussian) but at most its distinct vectors: clusters of the fewest distinct vectors
+  // per Gaussian go first, and what they cannot use goes to the others.
+  std::vector<double> held(coarse_k, 0.0);
+  for (size_t i = 0; i < m; ++i) held[coarse_of[i]] += set.weight[i];
+  std::vector<std::pair<double, uint32_t>> order(coarse_k);  // (distinct per Gaussian, cluster), empty ones last
   for (uint32_t c = 0; c < coarse_k; ++c) {
+    const double density = static_cast<double>(members[c].size()) / held[c];
+    order[c] = {held[c] > 0 ? density : std::numeric_limits<double>::infinity(), c};
+  }
+  std::sort(order.begin(), order.end());
+  std::vector<uint32_t> first(coarse_k + 1, 0), fine_k(coarse_k, 0);
+  double spare = k - coarse_k, unserved = static_cast<double>(n);
+  for (const auto& [density, c] : order) {
     if (members[c].empty()) continue;
-    const double share = static_cast<double>(k - coarse_k) * static_cast<double>(members[c].size()) / static_cast<double>(n);
-    fine_k[c] = static_cast<uint32_t>(std::min<size_t>(members[c].size(), 1 + static_cast<size_t>(share)));
+    const auto share = static_cast<size_t>(spare * held[c] / unserved);
+    fine_k[c] = static_cast<uint32_t>(std::min<size_t>(members[c].size(), 1 + share));
+    spare -= fine_k[c] - 1;
+    unserved -= held[c];
   }
   for (uint32_t c = 0; c < coarse_k; ++c) first[c + 1] = first[c] + fine_k[c];
   palette->assign(size_t{first[coarse_k]} * dim, 0.0f);
-  for (uint32_t c = 0; c < coarse_k; ++c) {
-    if (fine_k[c] == 0) continue;
-    std::vector<float> fine;
-    RGS_RETURN_IF_ERROR(lloyd(set, sample(members[c], size_t{fine_k[c]} * kSamplesPerCentroid), fine_k[c],
-                              iterations, workers, &fine));
+  RGS_RETURN_IF_ERROR(parallel_items(coarse_k, workers, [&](unsigned, uint64_t c) {  // one thread a cluster
+    if (fine_k[c] == 0) return;
+    const std::vector<float> fine =
+        lloyd(set, sample(members[c], size_t{fine_k[c]} * kSamplesPerCentroid), fine_k[c], iterations);
     std::copy(fine.begin(), fine.end(), palette->begin() + size_t{first[c]} * dim);
+  }));
+  std::vector<Centroids> fine_near;
+  for (uint32_t c = 0; c < coarse_k; ++c) {
+    fine_near.emplace_back(palette->data() + size_t{first[c]} * dim, fine_k[c], dim);
   }
-  return parallel_slices(n, workers, [&](unsigned, uint64_t begin, uint64_t end) {
+  std::vector<uint32_t> label(m);
+  RGS_RETURN_IF_ERROR(parallel_slices(m, workers, [&](unsigned, uint64_t begin, uint64_t end) {
+    std::vector<float> scratch;
     for (uint64_t i = begin; i < end; ++i) {
-      const uint32_t c = coarse_of[i];
-      (*labels)[i] = first[c] + nearest_centroid(set.at(i), palette->data() + size_t{first[c]} * dim, fine_k[c], dim);
+      label[i] = first[coarse_of[i]] + fine_near[coarse_of[i]].nearest(set.at(i), &scratch);
     }
-  });
+  }));
+  for (size_t i = 0; i < n; ++i) (*labels)[i] = label[of[i]];
+  return Status();
 }
 
 }  // namespace rgs::converter::detail
