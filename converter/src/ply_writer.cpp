@@ -85,12 +85,11 @@ Status serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64
     out = put_f32_le(out, kept(0, o, detail::activate_opacity) ? raw[0] : opacity_logit(o));
     for (int a = 0; a < 3; ++a) {
       const float s = cloud.scales[i * 3 + a];
-      if (kept(1 + a, s, detail::activate_scale)) {
-        out = put_f32_le(out, raw[1 + a]);
-        continue;
-      }
-      if (s == 0.0f) ++report->zero_scales;
-      out = put_f32_le(out, s == 0.0f ? kZeroScaleLog : static_cast<float>(std::log(static_cast<double>(s))));
+      const bool as_read = kept(1 + a, s, detail::activate_scale);
+      if (s == 0.0f && !as_read) ++report->zero_scales;
+      out = put_f32_le(out, as_read ? raw[1 + a]
+                            : s == 0.0f ? kZeroScaleLog
+                                        : static_cast<float>(std::log(static_cast<double>(s))));
     }
     for (int a = 0; a < 4; ++a) out = put_f32_le(out, cloud.rotations[i * 4 + a]);
   }
