@@ -17,6 +17,7 @@
 #include <limits>
 #include <sstream>
 #include <string_view>
+#include <tuple>
 #include <utility>
 
 #include "rgs/converter/ply_reader.h"
@@ -161,6 +162,29 @@ void report_notes(const char* tool, const std::vector<std::string>& notes, bool 
   for (const std::string& note : notes) report_note(tool, note);
 }
 
+std::string nearest_option(const CLI::App& app, const std::string& arg) {
+  const std::string name = arg.substr(0, arg.find('='));
+  std::string best;
+  size_t best_distance = SIZE_MAX;
+  for (const CLI::Option* option : app.get_options()) {
+    for (const std::string& long_name : option->get_lnames()) {
+      const std::string candidate = "--" + long_name;
+      std::vector<size_t> row(candidate.size() + 1);  // Levenshtein distance, one row at a time
+      for (size_t j = 0; j < row.size(); ++j) row[j] = j;
+      for (size_t i = 1; i <= name.size(); ++i) {
+        size_t diagonal = row[0]++;
+        for (size_t j = 1; j < row.size(); ++j) {
+          const size_t up = row[j];
+          row[j] = std::min({up + 1, row[j - 1] + 1, diagonal + (name[i - 1] != candidate[j - 1])});
+          diagonal = up;
+        }
+      }
+      if (row.back() < best_distance) std::tie(best_distance, best) = std::tie(row.back(), candidate);
+    }
+  }
+  return !name.empty() && name[0] == '-' && best_distance * 3 <= name.size() ? best : "";
+}
+
 std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const char* tool,
                                       const std::function<std::string()>& check) {
   try {
@@ -169,7 +193,14 @@ std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, cons
     if (!problem.empty()) throw CLI::ValidationError(problem);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return finish(tool, app.exit(e) == 0 ? kExitOk : kExitUsage);
-    return finish(tool, report_usage_error(tool, Status(StatusCode::kInvalidArgument, e.what())));
+    std::string what = e.what();
+    if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr) {
+      for (const std::string& arg : app.remaining()) {
+        const std::string near = nearest_option(app, arg);
+        if (!near.empty()) what += "; " + arg + ": did you mean " + near + "?";
+      }
+    }
+    return finish(tool, report_usage_error(tool, Status(StatusCode::kInvalidArgument, what)));
   }
   return std::nullopt;
 }

@@ -290,10 +290,10 @@ int run(Options opt) {
 int main(int argc, char** argv) {
   Options opt;
   const bool oiio = rgs::tools::have_openimageio();
-  CLI::App app{std::string("Render a .rgs or PLY scene with the CPU reference renderer or the CUDA renderer "
-                           "(docs/RENDERER.md) from an INRIA cameras.json or an orbit around the scene, writing one "
-                           "8-bit image per view (3DGS rule floor(clamp(v,0,1)*255+0.5), no gamma) and optionally "
-                           "float images. This build ") +
+  CLI::App app{std::string("Render a scene (.rgs, PLY, SOG, SPZ, GLB: any format rgs-convert reads) with the CPU "
+                           "reference renderer or the CUDA renderer (docs/RENDERER.md) from an INRIA cameras.json or "
+                           "an orbit around the scene, writing one 8-bit image per view (3DGS rule "
+                           "floor(clamp(v,0,1)*255+0.5), no gamma) and optionally float images. This build ") +
                    (oiio ? "writes PNG/EXR (OpenImageIO) and PPM/PFM." : "has no OpenImageIO: PPM/PFM only.") +
                    (RGS_HAS_CUDA ? " CUDA: yes." : " CUDA: no (--backend cpu only)."),
                kTool};

@@ -9,6 +9,7 @@
 #include <tuple>
 #include <utility>
 
+#include "internal_interop.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/sh_rotation.h"
@@ -101,7 +102,7 @@ std::array<double, 9> quaternion_matrix(const double q[4]) {
 
 /// Where a filter's property lives in the cloud: an array, the component per Gaussian, and for SH the index.
 struct PropertyRef {
-  enum Array { kMeans, kOpacity, kScales, kRotations, kDc, kRest } array = kMeans;
+  enum Array { kMeans, kOpacity, kScales, kRotations, kDc, kColour, kRest } array = kMeans;
   uint32_t index = 0;
 };
 
@@ -122,9 +123,13 @@ Result<PropertyRef> find_property(const std::string& name) {
   if (int i = indexed("scale_", 3); i >= 0) return PropertyRef{PropertyRef::kScales, uint32_t(i)};
   if (int i = indexed("rot_", 4); i >= 0) return PropertyRef{PropertyRef::kRotations, uint32_t(i)};
   if (int i = indexed("f_dc_", 3); i >= 0) return PropertyRef{PropertyRef::kDc, uint32_t(i)};
+  for (uint32_t c = 0; c < 3; ++c) {
+    if (name == std::array{"red", "green", "blue"}[c]) return PropertyRef{PropertyRef::kColour, c};
+  }
   if (int i = indexed("f_rest_", kMaxRestIndex); i >= 0) return PropertyRef{PropertyRef::kRest, uint32_t(i)};
   return Status(StatusCode::kInvalidArgument,
-                "unknown property '" + name + "' (x, y, z, opacity, scale_0..2, rot_0..3, f_dc_0..2, f_rest_0..44)");
+                "unknown property '" + name +
+                    "' (x, y, z, opacity, scale_0..2, rot_0..3, f_dc_0..2, red, green, blue, f_rest_0..44)");
 }
 
 bool compare(float v, EditCompare op, float value) {
@@ -218,6 +223,7 @@ Result<uint64_t> filter_cloud(format::GaussianCloud* cloud, const EditAction& ac
       case PropertyRef::kScales: return cloud->scales[i * 3 + ref.index];
       case PropertyRef::kRotations: return cloud->rotations[i * 4 + ref.index];
       case PropertyRef::kDc: return cloud->sh[(i * k) * 3 + ref.index];
+      case PropertyRef::kColour: return float(0.5 + detail::kShC0 * cloud->sh[(i * k) * 3 + ref.index]);
       case PropertyRef::kRest: {
         const uint32_t channel = ref.index / (k - 1), coefficient = ref.index % (k - 1) + 1;
         return cloud->sh[(i * k + coefficient) * 3 + channel];

@@ -45,7 +45,8 @@ struct EditAction {
   std::vector<double> values;
   /// kFilter: the property compared, named as in an INRIA PLY but read from the cloud's activated values: x, y,
   /// z (means); opacity (after the sigmoid, in [0, 1]); scale_0..2 (after exp, linear); rot_0..3 (the normalized
-  /// quaternion w, x, y, z); f_dc_0..2 (SH coefficient 0 of R, G, B); f_rest_K (K = 0..44, channel-major as in the
+  /// quaternion w, x, y, z); f_dc_0..2 (SH coefficient 0 of R, G, B); red, green, blue (the DC colour 0.5 +
+  /// 0.28209479·f_dc, what splat-transform's -V f_dc_0..2 compares); f_rest_K (K = 0..44, channel-major as in the
   /// PLY: coefficient K mod (n-1) + 1 of channel K div (n-1), n = (degree+1)² of the scene at that point).
   std::string property;
   EditCompare compare = EditCompare::kLt;
