@@ -322,12 +322,8 @@ void summarize_and_scale(AuditResult* result, const std::vector<float>& worst_he
   }
 }
 
-}  // namespace
-
-const char* backend_name(Backend backend) { return backend == Backend::kCuda ? "cuda" : "cpu"; }
-
-Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditScene>& candidates,
-                              const std::vector<runtime::Camera>& cameras, const AuditOptions& options) {
+/// run_audit's arguments: a candidate, and views, each at least SSIM's window a side.
+Status check_audit(const std::vector<AuditScene>& candidates, const std::vector<runtime::Camera>& cameras) {
   RGS_RETURN_ERROR_IF(cameras.empty(), StatusCode::kInvalidArgument, "audit: no views selected");
   RGS_RETURN_ERROR_IF(candidates.empty(), StatusCode::kInvalidArgument, "audit: no candidate scene to compare");
   for (const runtime::Camera& cam : cameras) {
@@ -336,6 +332,16 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
                         "audit: view " + cam.name + " is " + std::to_string(cam.width) + "x" +
                             std::to_string(cam.height) + "; SSIM needs at least 11x11 pixels");
   }
+  return Status();
+}
+
+}  // namespace
+
+const char* backend_name(Backend backend) { return backend == Backend::kCuda ? "cuda" : "cpu"; }
+
+Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditScene>& candidates,
+                              const std::vector<runtime::Camera>& cameras, const AuditOptions& options) {
+  RGS_RETURN_IF_ERROR(check_audit(candidates, cameras));
   const auto t_start = Clock::now();
   AuditResult result;
   result.backend = options.backend;
