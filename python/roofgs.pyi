@@ -101,6 +101,7 @@ class Scene:
         copies; roofgs.Error for a CUDA scene."""
     device: str  # "cpu" or "cuda"
     def __len__(self) -> int: ...
+    # A ring around the scene's content (robust to floaters), as rgs-render --orbit places it.
     def orbit_cameras(self, count: int, width: int = 1920, height: int = 1080) -> List[Camera]: ...
     def render(self, camera: Camera, preset: str = "fastest", width: Optional[int] = None,
                height: Optional[int] = None, background: Sequence[float] = (0.0, 0.0, 0.0),

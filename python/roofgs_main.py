@@ -11,7 +11,7 @@ import sys
 import sysconfig
 
 TOOLS = {
-    "convert": "any scene to .rgs, PLY, SPZ or GLB (rate control, archive profile, LOD)",
+    "convert": "any scene to .rgs, PLY, SPZ, GLB or SOG (rate control, archive profile, LOD)",
     "info": "a scene's format, Gaussians, SH degree, bounds and size; a .rgs file's sections (--check)",
     "render": "render a scene's views to images on the CPU reference (or CUDA)",
     "audit": "compare conversions of a scene against the source, with an HTML report",

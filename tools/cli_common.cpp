@@ -16,6 +16,9 @@
 #include <filesystem>
 #include <limits>
 #include <sstream>
+#include <string_view>
+#include <tuple>
+#include <utility>
 
 #include "rgs/converter/ply_reader.h"
 #include "rgs/converter/scene_reader.h"
@@ -62,8 +65,20 @@ size_t decode_utf8(std::string_view text, size_t i, uint32_t* code_point) {
   return length;
 }
 
+/// `text` with the libraries' hints that name an API setting turned into the option that sets it.
+std::string with_options(std::string text) {
+  static const std::pair<std::string_view, std::string_view> kHints[] = {
+      {"spz frame as-stored", "--spz-frame as-stored"},
+      {"use device cpu", "use --backend cpu"},
+      {"LoadOptions::lod.enabled = false", "--no-lod"}};
+  for (const auto& [api_words, option] : kHints) {  // no option holds its API words: each loop ends
+    for (size_t at; (at = text.find(api_words)) != std::string::npos;) text.replace(at, api_words.size(), option);
+  }
+  return text;
+}
+
 void print_error_line(const char* tool, const Status& status) {
-  const std::string text = escape_text(status.to_string());
+  const std::string text = escape_text(with_options(status.to_string()));
   std::fprintf(stderr, "%s: error: %s\n", tool, text.c_str());
 }
 
@@ -139,12 +154,35 @@ int report_usage_error(const char* tool, const Status& status) {
 }
 
 void report_note(const char* tool, const std::string& note) {
-  std::fprintf(stderr, "%s: %s\n", tool, escape_text(note).c_str());
+  std::fprintf(stderr, "%s: %s\n", tool, escape_text(with_options(note)).c_str());
 }
 
 void report_notes(const char* tool, const std::vector<std::string>& notes, bool quiet) {
   if (quiet) return;
   for (const std::string& note : notes) report_note(tool, note);
+}
+
+std::string nearest_option(const CLI::App& app, const std::string& arg) {
+  const std::string name = arg.substr(0, arg.find('='));
+  std::string best;
+  size_t best_distance = SIZE_MAX;
+  for (const CLI::Option* option : app.get_options()) {
+    for (const std::string& long_name : option->get_lnames()) {
+      const std::string candidate = "--" + long_name;
+      std::vector<size_t> row(candidate.size() + 1);  // Levenshtein distance, one row at a time
+      for (size_t j = 0; j < row.size(); ++j) row[j] = j;
+      for (size_t i = 1; i <= name.size(); ++i) {
+        size_t diagonal = row[0]++;
+        for (size_t j = 1; j < row.size(); ++j) {
+          const size_t up = row[j];
+          row[j] = std::min({up + 1, row[j - 1] + 1, diagonal + (name[i - 1] != candidate[j - 1])});
+          diagonal = up;
+        }
+      }
+      if (row.back() < best_distance) std::tie(best_distance, best) = std::tie(row.back(), candidate);
+    }
+  }
+  return !name.empty() && name[0] == '-' && best_distance * 3 <= name.size() ? best : "";
 }
 
 std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const char* tool,
@@ -155,7 +193,14 @@ std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, cons
     if (!problem.empty()) throw CLI::ValidationError(problem);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return finish(tool, app.exit(e) == 0 ? kExitOk : kExitUsage);
-    return finish(tool, report_usage_error(tool, Status(StatusCode::kInvalidArgument, e.what())));
+    std::string what = e.what();
+    if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr) {
+      for (const std::string& arg : app.remaining()) {
+        const std::string near = nearest_option(app, arg);
+        if (!near.empty()) what += "; " + arg + ": did you mean " + near + "?";
+      }
+    }
+    return finish(tool, report_usage_error(tool, Status(StatusCode::kInvalidArgument, what)));
   }
   return std::nullopt;
 }
@@ -514,7 +559,7 @@ void add_camera_options(CLI::App& app, api::CameraChoice& choice, const std::str
   auto* path = app.add_option("--path", choice.path,
                               "Camera path of N views around the scene (runtime::path_cameras): two turns of a "
                               "spiral rising from 5 to 60 degrees, swinging between 0.3x and 1x the distance that "
-                              "frames its bounding sphere")
+                              "frames its content (as --orbit)")
                    ->check(CLI::Range(1, 100000))
                    ->excludes(cameras)
                    ->excludes(orbit);

@@ -40,7 +40,9 @@ inline constexpr int kExitUsage = 2;
 /// longer cuts the text short and escape sequences never reach the terminal.
 std::string escape_text(std::string_view text);
 
-/// Prints "<tool>: error: <message> [kCode]" (escaped) to stderr and returns kExitFailure.
+/// Prints "<tool>: error: <message> [kCode]" (escaped) to stderr and returns kExitFailure. Here and in the other
+/// report functions, a library's hint that names an API setting names the option instead ("spz frame as-stored":
+/// "--spz-frame as-stored"; "use device cpu": "use --backend cpu"; "LoadOptions::lod.enabled = false": "--no-lod").
 int report_error(const char* tool, const Status& status);
 
 /// Prints "<tool>: error: <message> [kCode]" (escaped) and a --help hint to stderr; returns kExitUsage.
@@ -52,10 +54,16 @@ void report_note(const char* tool, const std::string& note);
 /// Prints each of `notes` as "<tool>: <note>" (escaped) on stderr, unless `quiet`.
 void report_notes(const char* tool, const std::vector<std::string>& notes, bool quiet = false);
 
+/// The long option of `app` nearest to the unknown argument `arg` ("--filtr-nan", "--scael=2") by edit distance,
+/// when at most a third of `arg`'s name differs ("--filter-nan", "--scale"); "" otherwise, and for an argument
+/// that does not start with '-'.
+std::string nearest_option(const CLI::App& app, const std::string& arg);
+
 /// Parses the command line into `app`'s bindings, then runs `check`, which returns a usage error's message
 /// (empty: the command line is fine). @return std::nullopt to go on; else the exit code to return at once
 /// (after finish()): --help and --version print through the app and give kExitOk, a parse or `check` error
-/// prints "<tool>: error: <what>" and a --help hint to stderr and gives kExitUsage.
+/// prints "<tool>: error: <what>" and a --help hint to stderr and gives kExitUsage; an unknown option's error also
+/// names the nearest_option().
 std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const char* tool,
                                       const std::function<std::string()>& check = {});
 

@@ -308,7 +308,7 @@ Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction
     tools::report_notes(kTool, {found.note}, opt.quiet);
     cameras = std::move(found.cameras);
   } else {
-    RGS_ASSIGN_OR_RETURN(cameras, api::make_cameras(opt.cameras, source.bounds));
+    RGS_ASSIGN_OR_RETURN(cameras, api::make_cameras(opt.cameras, api::content_frame(source.cloud)));
   }
 
   std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,

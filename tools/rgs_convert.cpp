@@ -79,10 +79,14 @@ constexpr EditOption kEditOptions[] = {
      "counter-clockwise seen from the axis' positive end), or by a unit quaternion W,X,Y,Z (4 numbers; norm within "
      "1e-3 of 1). Means, Gaussian rotations (left-multiplied) and the SH colour (bands 1-3) turn together"},
     {"scale", "S", "Edit: scale uniformly about the origin by S > 0 (means and scales times S, log scales + ln S)"},
-    {"filter-nan", "", "Edit: drop the Gaussians with a non-finite value (reads the input as --sanitize does)"},
+    {"filter-nan", "",
+     "Edit: drop the Gaussians with a NaN or infinite mean, SH value or rotation, a zero-norm rotation, a NaN opacity "
+     "or a log scale that is NaN or overflows; +-inf opacity logits and -inf log scales are kept (reads the input as "
+     "--sanitize does)"},
     {"filter", "'NAME OP VALUE'",
      "Edit: keep the Gaussians whose property NAME compares true with VALUE; NAME: x, y, z, opacity (after the "
-     "sigmoid), scale_0..2 (after exp), rot_0..3, f_dc_0..2, f_rest_K; OP: lt le gt ge eq ne (or < <= > >= == !=)"},
+     "sigmoid), scale_0..2 (after exp), rot_0..3 (normalized, rot_0 = w), f_dc_0..2 (the SH coefficient), red, green, "
+     "blue (the colour 0.5 + 0.28209479 * f_dc_0..2), f_rest_K; OP: lt le gt ge eq ne (or < <= > >= == !=)"},
     {"crop-box", "MINX,MINY,MINZ,MAXX,MAXY,MAXZ",
      "Edit: keep the Gaussians whose mean is inside the box (bounds included)"},
     {"crop-box-outside", "MINX,MINY,MINZ,MAXX,MAXY,MAXZ", "Edit: keep the Gaussians whose mean is outside the box"},
@@ -383,7 +387,8 @@ int main(int argc, char** argv) {
   Options opt;
   CLI::App app{"Convert a trained 3DGS scene into the compact .rgs runtime format (INT8 SH with a scale per "
                "degree and channel, FP16 rotation/scale/opacity, FP32 means), a standard INRIA PLY, an SPZ v4 "
-               "file or a KHR_gaussian_splatting GLB. The input's format follows its content (a .rgs input is "
+               "file, a KHR_gaussian_splatting GLB or a PlayCanvas SOG (bundled .sog, meta.json folder or streamed "
+               "lod-meta.json). The input's format follows its content (a .rgs input is "
                "dequantized first); the output's follows --to, else its extension (.rgs, .ply, .spz, .glb, .sog). "
                "The edits (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere and their "
                "-outside forms, --decimate) may be repeated and act on the scene as read in the order given, before "

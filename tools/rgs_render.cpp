@@ -1,9 +1,10 @@
 // rgs-render: render a scene in any format from its cameras or an orbit through the front door (api::load,
-// api::Renderer), on the CPU reference renderer or the CUDA renderer.
+// api::Renderer), on the CUDA renderer when a device answers, else the CPU reference renderer (--backend).
 //
 //   rgs-render scene.rgs --cameras cameras.json -o out/      one PNG per camera, named after img_name
-//   rgs-render scene.ply --orbit 8 -o out/ --exr             orbit_000.png ... (+ float RGBA .exr)
-//   rgs-render scene.rgs --orbit 8 -o out/ --backend cuda    the same on the GPU (preset fastest)
+//   rgs-render model/point_cloud/iteration_30000/point_cloud.ply -o out/    model/cameras.json, found beside it
+//   rgs-render scene.ply --orbit 8 -o out/ --exr             orbit_000.png ... (+ float RGBA .exr), around the content
+//   rgs-render scene.rgs --orbit 8 -o out/ --backend cpu     the CPU reference: the same images on every machine
 //   rgs-render scene.rgs --orbit 8 -o out/ --format ppm --pfm    no OpenImageIO needed (GPU-host builds)
 //   rgs-render scene_lod.rgs --path 60 -o out/ --backend cuda --splat-budget 1000000 --memory-budget 1GiB
 //                                                            a level-of-detail .rgs under budgets (docs/LOD.md)
@@ -43,7 +44,7 @@ struct Options {
   std::string image_format;  ///< "png" or "ppm"; empty: png when the build has OpenImageIO, else ppm
   bool exr = false;
   bool pfm = false;
-  tools::RenderOptions render;  ///< --backend (cpu by default), --device, --preset, budgets
+  tools::RenderOptions render;  ///< --backend (auto by default), --device, --preset, budgets
 };
 
 /// One rendered view on the host.
@@ -194,6 +195,17 @@ int run(Options opt) {
   if (!background.ok()) return tools::report_usage_error(kTool, background.status());
   if (Status supported = check_outputs(opt); !supported.ok()) return tools::report_error(kTool, supported);
 
+  if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
+    auto found = api::find_scene_cameras(opt.input);
+    if (!found.ok()) return tools::report_error(kTool, found.status());
+    if (found->empty()) {
+      return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument,
+                                                     "one of --cameras, --orbit or --path is required: no "
+                                                     "cameras.json beside " + opt.input));
+    }
+    opt.cameras.cameras_path = *found;
+    tools::report_note(kTool, "views: the scene's own cameras, " + *found + " (found beside the scene)");
+  }
   // Inputs are checked without blocking (a FIFO is refused at once) and declared, so that no image replaces
   // them. The output directory is removed again if the run fails after creating it.
   format::OutputTransaction outputs;
@@ -207,7 +219,7 @@ int run(Options opt) {
   View& view_door = *opened;
   const api::SceneInfo& scene = view_door.scene.info();
   tools::report_notes(kTool, scene.notes);
-  auto cameras = api::make_cameras(opt.cameras, scene.bounds);
+  auto cameras = api::make_cameras(opt.cameras, scene.content);
   if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
   if (cameras->empty()) {
     return tools::report_error(kTool, Status(StatusCode::kInvalidArgument, "no views selected"));
@@ -278,10 +290,10 @@ int run(Options opt) {
 int main(int argc, char** argv) {
   Options opt;
   const bool oiio = rgs::tools::have_openimageio();
-  CLI::App app{std::string("Render a .rgs or PLY scene with the CPU reference renderer or the CUDA renderer "
-                           "(docs/RENDERER.md) from an INRIA cameras.json or an orbit around the scene, writing one "
-                           "8-bit image per view (3DGS rule floor(clamp(v,0,1)*255+0.5), no gamma) and optionally "
-                           "float images. This build ") +
+  CLI::App app{std::string("Render a scene (.rgs, PLY, SOG, SPZ, GLB: any format rgs-convert reads) with the CPU "
+                           "reference renderer or the CUDA renderer (docs/RENDERER.md) from an INRIA cameras.json or "
+                           "an orbit around the scene, writing one 8-bit image per view (3DGS rule "
+                           "floor(clamp(v,0,1)*255+0.5), no gamma) and optionally float images. This build ") +
                    (oiio ? "writes PNG/EXR (OpenImageIO) and PPM/PFM." : "has no OpenImageIO: PPM/PFM only.") +
                    (RGS_HAS_CUDA ? " CUDA: yes." : " CUDA: no (--backend cpu only)."),
                kTool};
@@ -290,7 +302,8 @@ int main(int argc, char** argv) {
                      "; a file other than .rgs is quantized in memory as rgs-convert writes it, so it renders as its .rgs does")
       ->required();
   rgs::tools::add_camera_options(app, opt.cameras, "INRIA cameras.json", "Render at most N views",
-                                 "Orbit of N cameras around the scene's bounding sphere (default size 1920x1080)");
+                                 "Orbit of N cameras around the scene's content (centred and sized on where its Gaussians "
+                                 "are, not on floaters; default size 1920x1080)");
   app.add_option("-o,--output", opt.output_dir, "Output directory (created if missing)")->required();
   app.add_option("--width", opt.cameras.width, "Image width; the field of view is kept (height follows the aspect "
                                                "ratio if not given)")->check(CLI::Range(1, 32768));
@@ -303,19 +316,12 @@ int main(int argc, char** argv) {
   app.add_flag("--exr", opt.exr, "Also write <view>.exr (float RGBA: linear RGB not clamped, alpha = 1 - T; needs "
                                  "OpenImageIO)");
   app.add_flag("--pfm", opt.pfm, "Also write <view>.pfm (float RGB PFM, linear, not clamped, no alpha)");
-  opt.render.backend = "cpu";  // the CPU reference unless told: the same images on every machine
   rgs::tools::add_render_options(app, opt.render,
                                  rgs::tools::kBackendOption | rgs::tools::kPresetOption |
                                      rgs::tools::kScratchBudgetOption | rgs::tools::kLodOptions);
   app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
-  const auto check = [&]() -> std::string {
-    if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
-      return "one of --cameras, --orbit or --path is required";
-    }
-    return {};
-  };
-  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool, check)) return *code;
+  if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool)) return *code;
   rgs::tools::install_interrupt_cleanup();
   return rgs::tools::finish(kTool, run(opt));
 }

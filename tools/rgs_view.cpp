@@ -55,11 +55,17 @@ int run(const Options& opt) {
   server.cuda_device = render.device;
   server.gpu_scratch_budget = render.scratch_budget;
   server.cpu_threads = render.cpu_threads;
-  if (!opt.cameras.empty()) {
-    if (const Status input = tools::check_input_file(opt.cameras); !input.ok()) return tools::report_error(kTool, input);
-    auto cameras = api::read_inria_cameras(opt.cameras);
+  // Without --cameras, those a trainer wrote beside the scene (api::find_scene_cameras).
+  auto cameras_path = opt.cameras.empty() ? api::find_scene_cameras(opt.scene) : Result<std::string>(opt.cameras);
+  if (!cameras_path.ok()) return tools::report_error(kTool, cameras_path.status());
+  if (!cameras_path->empty()) {
+    if (const Status input = tools::check_input_file(*cameras_path); !input.ok()) return tools::report_error(kTool, input);
+    auto cameras = api::read_inria_cameras(*cameras_path);
     if (!cameras.ok()) return tools::report_error(kTool, cameras.status());
     server.cameras = std::move(*cameras);
+    if (opt.cameras.empty() && !opt.quiet) {
+      tools::report_note(kTool, "cameras: " + *cameras_path + " (found beside the scene; --cameras names others)");
+    }
   }
   auto started = view::Server::start(std::move(scenes), server);
   if (!started.ok()) return tools::report_error(kTool, started.status());
@@ -98,7 +104,8 @@ int main(int argc, char** argv) {
                kTool};
   app.add_option("scene", opt.scene, "Scene in any format, " + tools::scene_formats_help())->required();
   app.add_option("scene2", opt.scene2, "Second scene: compare it with the first (same cameras)");
-  app.add_option("--cameras", opt.cameras, "INRIA cameras.json whose cameras the page can jump to");
+  app.add_option("--cameras", opt.cameras, "INRIA cameras.json whose cameras the page can jump to (default: the one a "
+                 "trainer wrote beside the scene, as rgs-audit finds it)");
   tools::add_render_options(app, opt.render,
                             tools::kBackendOption | tools::kPresetOption | tools::kScratchBudgetOption |
                                 tools::kLodOptions,

@@ -1,9 +1,11 @@
 // The views of a run: a CameraChoice (cameras.json, orbit, path, fly-through) turned into cameras.
 #include "rgs/api/camera.h"
 
+#include <algorithm>
+
 namespace rgs::api {
 
-Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds) {
+Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const ContentFrame& frame) {
   std::vector<runtime::Camera> cameras;
   RGS_RETURN_ERROR_IF(choice.fly > 0 && choice.cameras_path.empty(), StatusCode::kInvalidArgument,
                       "--fly " + std::to_string(choice.fly) +
@@ -18,8 +20,10 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
     RGS_RETURN_ERROR_IF(choice.orbit == 0 && choice.path == 0, StatusCode::kInvalidArgument,
                         "--orbit needs at least 1 camera");
     const auto [w, h] = runtime::keep_aspect(choice.width, choice.height, choice.orbit_width, choice.orbit_height);
-    RGS_ASSIGN_OR_RETURN(cameras, choice.path > 0 ? runtime::path_cameras(bounds, choice.path, w, h)
-                                                  : runtime::orbit_cameras(bounds, choice.orbit, w, h));
+    runtime::OrbitOptions orbit;
+    orbit.near_plane = float(std::min(double(orbit.near_plane), frame.frame_radius / 20));
+    RGS_ASSIGN_OR_RETURN(cameras, choice.path > 0 ? runtime::path_cameras(frame.sphere(), choice.path, w, h, {}, orbit)
+                                                  : runtime::orbit_cameras(frame.sphere(), choice.orbit, w, h, orbit));
   }
   if (choice.limit > 0 && cameras.size() > choice.limit) cameras.resize(choice.limit);
   if (choice.fly > 0) {  // through the file's cameras (checked above)

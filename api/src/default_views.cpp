@@ -1,5 +1,5 @@
 // default_views(): the scene's own cameras.json when the standard 3DGS layout puts one beside it, else views
-// guessed from where its content is (content_views).
+// guessed from where its content is (content_views, around content_frame: also what every orbit frames).
 #include "rgs/api/camera.h"
 
 #include <algorithm>
@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <system_error>
 #include <utility>
+
+#include "rgs/format/half.h"
 
 namespace rgs::api {
 
@@ -101,6 +103,10 @@ double weighted_quantile(const std::vector<std::pair<float, float>>& items, doub
   return items.back().first;
 }
 
+/// A Gaussian's weight: its opacity rounded to FP16, as a .rgs stores it, so that a scene and its .rgs weigh alike
+/// (the means are stored as they are) and every door frames the same content.
+float weight_of(float opacity) { return format::half_bits_to_float(format::float_to_half_bits(opacity)); }
+
 /// `cam` turned half a turn about its own y (down) axis, around its centre: it looks the other way, level if
 /// it looked level.
 runtime::Camera turned_around(runtime::Camera cam) {
@@ -124,6 +130,12 @@ Result<std::string> find_scene_cameras(const std::string& scene_path) {
     root = dir.parent_path().parent_path();
     candidates.push_back(root / "cameras.json");
   }
+  // A capture's cameras named after the scene: PREFIX_cameras.json for each PREFIX of its name that ends before a
+  // '_', longest first (mipnerf360_flowers_cameras.json beside mipnerf360_flowers_c3dgs.ply).
+  const std::string stem = scene.stem().string();
+  for (size_t cut = stem.rfind('_'); cut != std::string::npos && cut > 0; cut = stem.rfind('_', cut - 1)) {
+    candidates.push_back(dir / (stem.substr(0, cut) + "_cameras.json"));
+  }
   for (const fs::path& candidate : candidates) {
     Result<fs::path> found = check_candidate(candidate, root);
     if (!found.ok()) return Status(found.status()).prepend("a cameras.json beside the scene " + scene_path);
@@ -132,32 +144,44 @@ Result<std::string> find_scene_cameras(const std::string& scene_path) {
   return std::string();
 }
 
-Result<std::vector<runtime::Camera>> content_views(const format::GaussianCloud& cloud, uint32_t width,
-                                                   uint32_t height, ContentViewsInfo* info) {
-  RGS_RETURN_ERROR_IF(width < 11 || height < 11 || width > 32768 || height > 32768, StatusCode::kInvalidArgument,
-                      "guessed views: image size " + std::to_string(width) + "x" + std::to_string(height) +
-                          " outside [11, 32768]");
+format::SceneBounds ContentFrame::sphere() const {
+  format::SceneBounds sphere;
+  std::copy_n(target, 3, sphere.sphere_center);
+  sphere.sphere_radius = float(frame_radius);
+  return sphere;
+}
+
+ContentFrame ContentFrame::of_sphere(const format::SceneBounds& bounds) {
+  ContentFrame frame;
+  std::copy_n(bounds.sphere_center, 3, frame.centre);
+  std::copy_n(bounds.sphere_center, 3, frame.target);
+  if (bounds.sphere_radius > 0) frame.frame_radius = bounds.sphere_radius;
+  return frame;
+}
+
+ContentFrame content_frame(const format::GaussianCloud& cloud) {
   const size_t n = std::min(cloud.size(), cloud.opacities.size());
+  const size_t step = std::max<size_t>(1, (n + kContentFrameSamples - 1) / kContentFrameSamples);
   // Opacity weights; all ones when no Gaussian has any opacity.
   std::vector<size_t> used;
   double total = 0;
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = 0; i < n; i += step) {
     const float* m = &cloud.means[3 * i];
     if (!std::isfinite(m[0]) || !std::isfinite(m[1]) || !std::isfinite(m[2])) continue;
     used.push_back(i);
-    const float o = cloud.opacities[i];
+    const float o = weight_of(cloud.opacities[i]);
     if (std::isfinite(o) && o > 0) total += o;
   }
-  RGS_RETURN_ERROR_IF(used.empty(), StatusCode::kInvalidArgument,
-                      "guessed views: the scene has no Gaussian with a finite mean");
+  ContentFrame where;
+  where.weighed = used.size();
+  if (used.empty()) return where;
   const bool uniform = !(total > 0);
   auto weight = [&](size_t i) {
-    const float o = cloud.opacities[i];
+    const float o = weight_of(cloud.opacities[i]);
     return uniform ? 1.0f : std::isfinite(o) && o > 0 ? std::min(o, 1.0f) : 0.0f;
   };
   if (uniform) total = double(used.size());
 
-  ContentViewsInfo where;
   std::vector<std::pair<float, float>> items(used.size());
   double box_low[3], box_high[3];
   for (int a = 0; a < 3; ++a) {
@@ -176,7 +200,6 @@ Result<std::vector<runtime::Camera>> content_views(const format::GaussianCloud& 
   std::sort(items.begin(), items.end());
   where.radius_25 = weighted_quantile(items, total, 0.25);
   where.radius_50 = weighted_quantile(items, total, 0.5);
-  where.radius_90 = weighted_quantile(items, total, 0.9);
   where.surrounds = where.radius_50 > kSurroundRatio * where.radius_25;
   if (where.surrounds) {
     where.frame_radius = where.radius_25;
@@ -200,16 +223,25 @@ Result<std::vector<runtime::Camera>> content_views(const format::GaussianCloud& 
     }
     where.frame_radius = largest > 0 ? 3 * largest : 1.0;
   }
+  return where;
+}
 
+Result<std::vector<runtime::Camera>> content_views(const format::GaussianCloud& cloud, uint32_t width,
+                                                   uint32_t height, ContentViewsInfo* info) {
+  RGS_RETURN_ERROR_IF(width < 11 || height < 11 || width > 32768 || height > 32768, StatusCode::kInvalidArgument,
+                      "guessed views: image size " + std::to_string(width) + "x" + std::to_string(height) +
+                          " outside [11, 32768]");
+  ContentViewsInfo where;
+  static_cast<ContentFrame&>(where) = content_frame(cloud);
+  RGS_RETURN_ERROR_IF(where.weighed == 0, StatusCode::kInvalidArgument,
+                      "guessed views: the scene has no Gaussian with a finite mean");
   const double fov_y = kFovYDeg * kPi / 180;
   const double focal = runtime::focal_from_fov(fov_y, height);
   const double fov_x = runtime::fov_from_focal(focal, width);
   const double fov_min = std::min(fov_y, fov_x), fov_max = std::max(fov_y, fov_x);
   where.distance = where.frame_radius / std::sin(fov_min / 2);
   where.near_distance = where.surrounds ? where.frame_radius / std::sin(fov_max / 2) : where.distance;
-  format::SceneBounds ring;
-  std::copy_n(where.target, 3, ring.sphere_center);
-  ring.sphere_radius = float(where.frame_radius);
+  const format::SceneBounds ring = where.sphere();
   runtime::OrbitOptions orbit;
   orbit.fov_y_deg = kFovYDeg;
   orbit.near_plane = float(std::min(double(kNearPlane), where.near_distance / 20));

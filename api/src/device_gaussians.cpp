@@ -34,6 +34,7 @@ Result<Scene> load_device_gaussians(const DeviceGaussians& gaussians, const Devi
   info.path = options.name;
   info.device = Device::kCuda;
   info.bounds = gpu.bounds().value_or(format::SceneBounds{});
+  info.content = ContentFrame::of_sphere(info.bounds);  // the Gaussians never reach the host
   info.gaussians = gpu.size();
   info.sh_degree = gpu.sh_degree();
   info.antialiased = gpu.antialiased();

@@ -25,6 +25,8 @@ struct LoadScene {
   std::optional<converter::InputScene> input;
   /// The input quantized by quantize_for_load (LoadOptions::quantize_other_formats).
   std::optional<format::EncodedScene> encoded;
+  /// SceneInfo::content, set by load_content_frame before the sink.
+  ContentFrame content;
 };
 
 /// The source: `path` opened once. A .rgs (by its magic or extension, format::is_rgs_path) is opened with
@@ -36,6 +38,12 @@ Result<LoadScene> open_load_scene(const std::string& path, const LoadOptions& op
 /// what `rgs-convert in.ply out.rgs` writes), so that it renders as its .rgs would; nothing for a .rgs or when
 /// options.quantize_other_formats is false.
 Status quantize_for_load(LoadScene* scene, const LoadOptions& options);
+
+/// content_frame of the scene's Gaussians, on the CPU and the GPU alike: of the cloud read (before quantize_for_load,
+/// which keeps the means and whose FP16 opacities content_frame weighs alike), or of a .rgs file's full detail, its
+/// means and opacities alone decoded. Errors: those of RgsFile::decode_section (the sink checks the values),
+/// kOutOfMemory.
+Result<ContentFrame> load_content_frame(const LoadScene& scene);
 
 /// The host sink: the scene for the CPU reference renderer, the float Gaussians it renders (a .rgs dequantized,
 /// every level of a level-of-detail file when its levels are used).

@@ -65,6 +65,7 @@ Status check_lod_settings(const LodSettings& s, const std::string& path) {
 /// The pipeline of load() from the source on: the stage, then the sink of options.device.
 Result<Scene> load_scene(detail::LoadScene scene, const LoadOptions& options) {
   RGS_RETURN_IF_ERROR(detail::quantize_for_load(&scene, options));
+  RGS_ASSIGN_OR_RETURN(scene.content, detail::load_content_frame(scene));
   if (options.device == Device::kCpu) return detail::make_host_scene(std::move(scene), options);
   return detail::make_gpu_scene(std::move(scene), options);
 }

@@ -227,9 +227,10 @@ Result<CandidateResult> candidate_with_attributes(const AuditScene& source, cons
 /// The source as the conversion that wrote `cand` edited it (AuditScene::conversion_options): its recorded edits
 /// applied in order to a copy, --decimate left out (what decimation removed is part of what the conversion cost,
 /// as a coarser level's is). Unset when the conversion edited nothing else; `reference` says what was done
-/// (CandidateResult::reference).
+/// (CandidateResult::reference), and `cameras` (the audit's, in the source's frame) are moved with the edits, so
+/// that they see the edited source as they saw the source.
 Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const AuditScene& cand,
-                                                std::string* reference) {
+                                                std::string* reference, std::vector<runtime::Camera>* cameras) {
   auto recorded = converter::parse_recorded_edits(cand.conversion_options);
   if (!recorded.ok()) {
     *reference = "the whole source: its provenance's edits are not understood (" + recorded.status().message() + ")";
@@ -245,6 +246,8 @@ Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const 
     applied.push_back(converter::edit_action_text(edit));
   }
   if (applied.empty()) return std::optional<AuditScene>();
+  const converter::EditMotion m = converter::edit_motion(*recorded);
+  for (runtime::Camera& cam : *cameras) runtime::move_camera(&cam, m.rotation, m.scale, m.offset);
   out.bounds = converter::compute_bounds(out.cloud);
   out.info.gaussians = out.cloud.size();
   std::string chain;
@@ -256,14 +259,18 @@ Result<std::optional<AuditScene>> edited_source(const AuditScene& source, const 
 }
 
 /// Each candidate's result before the renders, its attribute errors measured against its reference: the source,
-/// or the source edited as the candidate's conversion was (appended to `edited`; reference[i] = k for edited[k − 1],
-/// 0 for the source).
-Status compare_attributes(const AuditScene& source, const std::vector<AuditScene>& candidates, size_t views,
-                          AuditResult* result, std::vector<AuditScene>* edited, std::vector<size_t>* reference) {
+/// or the source edited as the candidate's conversion was (appended to `edited`, with `cameras` moved by its edits
+/// to `moved`; reference[i] = k for edited[k − 1], 0 for the source).
+Status compare_attributes(const AuditScene& source, const std::vector<AuditScene>& candidates,
+                          const std::vector<runtime::Camera>& cameras, AuditResult* result,
+                          std::vector<AuditScene>* edited, std::vector<std::vector<runtime::Camera>>* moved,
+                          std::vector<size_t>* reference) {
   for (size_t i = 0; i < candidates.size(); ++i) {
     std::string described;
-    RGS_ASSIGN_OR_RETURN(std::optional<AuditScene> ref, edited_source(source, candidates[i], &described));
+    std::vector<runtime::Camera> cams = cameras;
+    RGS_ASSIGN_OR_RETURN(std::optional<AuditScene> ref, edited_source(source, candidates[i], &described, &cams));
     if (ref) {
+      moved->push_back(std::move(cams));
       edited->push_back(std::move(*ref));
       (*reference)[i] = edited->size();
     }
@@ -271,7 +278,7 @@ Status compare_attributes(const AuditScene& source, const std::vector<AuditScene
     RGS_ASSIGN_OR_RETURN(CandidateResult c, candidate_with_attributes(compared, candidates[i]));
     c.reference = described;
     c.reference_gaussians = compared.info.gaussians;
-    c.views.resize(views);
+    c.views.resize(cameras.size());
     result->candidates.push_back(std::move(c));
   }
   return Status();
@@ -336,8 +343,9 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   for (const runtime::Camera& cam : cameras) result.views.push_back(ViewInfo{cam.name, cam.width, cam.height});
 
   std::vector<AuditScene> edited;                       // the edited sources
+  std::vector<std::vector<runtime::Camera>> moved;      // the cameras moved with each one's edits
   std::vector<size_t> reference(candidates.size(), 0);  // 0: the source; k: edited[k − 1]
-  RGS_RETURN_IF_ERROR(compare_attributes(source, candidates, cameras.size(), &result, &edited, &reference));
+  RGS_RETURN_IF_ERROR(compare_attributes(source, candidates, cameras, &result, &edited, &moved, &reference));
 
   // The renders go through the front door (api::Renderer, the faithful preset, black background); the images
   // are compared where they are (runtime::compare_images on the host, runtime::GpuImageComparer on the device).
@@ -384,14 +392,16 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
     for (size_t i = 0; i < candidates.size(); ++i) {
       CandidateResult& c = result.candidates[i];
       const auto t_view = Clock::now();
-      const size_t k = reference[i];  // each edited source serves one candidate
+      const size_t k = reference[i];  // each edited source serves one candidate, seen by the moved cameras
+      const runtime::Camera& seen_by = k == 0 ? cam : moved[k - 1][v];
       if (k != 0) {
-        RGS_RETURN_IF_ERROR(render_into(renderer, scenes[candidates.size() + k], cam, settings, &edited_images[k - 1]));
+        RGS_RETURN_IF_ERROR(
+            render_into(renderer, scenes[candidates.size() + k], seen_by, settings, &edited_images[k - 1]));
       }
       const api::Image& reference_image = k == 0 ? *source_image : *edited_images[k - 1];
       std::vector<float>& reference_host = k == 0 ? source_host : edited_host;
       edited_host.clear();
-      RGS_RETURN_IF_ERROR(render_into(renderer, scenes[i + 1], cam, settings, &candidate_image));
+      RGS_RETURN_IF_ERROR(render_into(renderer, scenes[i + 1], seen_by, settings, &candidate_image));
 #if RGS_HAS_CUDA
       // The GPU render is asynchronous: wait for it so that render_seconds is the render's (the comparison
       // below waits for it anyway).

@@ -9,6 +9,7 @@
 #include <tuple>
 #include <utility>
 
+#include "internal_interop.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/sh_rotation.h"
@@ -101,7 +102,7 @@ std::array<double, 9> quaternion_matrix(const double q[4]) {
 
 /// Where a filter's property lives in the cloud: an array, the component per Gaussian, and for SH the index.
 struct PropertyRef {
-  enum Array { kMeans, kOpacity, kScales, kRotations, kDc, kRest } array = kMeans;
+  enum Array { kMeans, kOpacity, kScales, kRotations, kDc, kColour, kRest } array = kMeans;
   uint32_t index = 0;
 };
 
@@ -122,9 +123,13 @@ Result<PropertyRef> find_property(const std::string& name) {
   if (int i = indexed("scale_", 3); i >= 0) return PropertyRef{PropertyRef::kScales, uint32_t(i)};
   if (int i = indexed("rot_", 4); i >= 0) return PropertyRef{PropertyRef::kRotations, uint32_t(i)};
   if (int i = indexed("f_dc_", 3); i >= 0) return PropertyRef{PropertyRef::kDc, uint32_t(i)};
+  for (uint32_t c = 0; c < 3; ++c) {
+    if (name == std::array{"red", "green", "blue"}[c]) return PropertyRef{PropertyRef::kColour, c};
+  }
   if (int i = indexed("f_rest_", kMaxRestIndex); i >= 0) return PropertyRef{PropertyRef::kRest, uint32_t(i)};
   return Status(StatusCode::kInvalidArgument,
-                "unknown property '" + name + "' (x, y, z, opacity, scale_0..2, rot_0..3, f_dc_0..2, f_rest_0..44)");
+                "unknown property '" + name +
+                    "' (x, y, z, opacity, scale_0..2, rot_0..3, f_dc_0..2, red, green, blue, f_rest_0..44)");
 }
 
 bool compare(float v, EditCompare op, float value) {
@@ -180,11 +185,15 @@ bool all_finite(const float* v, size_t n) {
   return true;
 }
 
+/// A rotate edit's quaternion, normalized.
+std::array<double, 4> unit_quaternion(const std::vector<double>& q) {
+  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  return {q[0] / n, q[1] / n, q[2] / n, q[3] / n};
+}
+
 void rotate_cloud(format::GaussianCloud* cloud, const std::vector<double>& quaternion) {
-  const double n = std::sqrt(quaternion[0] * quaternion[0] + quaternion[1] * quaternion[1] +
-                             quaternion[2] * quaternion[2] + quaternion[3] * quaternion[3]);
-  const double r[4] = {quaternion[0] / n, quaternion[1] / n, quaternion[2] / n, quaternion[3] / n};
-  const std::array<double, 9> m = quaternion_matrix(r);
+  const std::array<double, 4> r = unit_quaternion(quaternion);
+  const std::array<double, 9> m = quaternion_matrix(r.data());
   for (size_t i = 0; i < cloud->size(); ++i) {
     float* p = &cloud->means[i * 3];
     const double x = p[0], y = p[1], z = p[2];
@@ -214,6 +223,7 @@ Result<uint64_t> filter_cloud(format::GaussianCloud* cloud, const EditAction& ac
       case PropertyRef::kScales: return cloud->scales[i * 3 + ref.index];
       case PropertyRef::kRotations: return cloud->rotations[i * 4 + ref.index];
       case PropertyRef::kDc: return cloud->sh[(i * k) * 3 + ref.index];
+      case PropertyRef::kColour: return float(0.5 + detail::kShC0 * cloud->sh[(i * k) * 3 + ref.index]);
       case PropertyRef::kRest: {
         const uint32_t channel = ref.index / (k - 1), coefficient = ref.index % (k - 1) + 1;
         return cloud->sh[(i * k + coefficient) * 3 + channel];
@@ -403,6 +413,30 @@ Result<std::vector<EditAction>> parse_recorded_edits(const std::string& options)
     if (options.compare(at, 2, "; ") != 0) return out;
     at += 2;
   }
+}
+
+EditMotion edit_motion(const std::vector<EditAction>& edits) {
+  EditMotion m;
+  for (const EditAction& edit : edits) {
+    const std::vector<double>& v = edit.values;
+    if (edit.kind == EditKind::kTranslate) {
+      for (int a = 0; a < 3; ++a) m.offset[a] += v[a];
+    } else if (edit.kind == EditKind::kScale) {
+      m.scale *= v[0];
+      for (double& o : m.offset) o *= v[0];
+    } else if (edit.kind == EditKind::kRotate) {
+      const std::array<double, 9> r = quaternion_matrix(unit_quaternion(v).data());
+      const EditMotion before = m;
+      for (int i = 0; i < 9; ++i) {
+        m.rotation[i] = 0;
+        for (int k = 0; k < 3; ++k) m.rotation[i] += r[i / 3 * 3 + k] * before.rotation[k * 3 + i % 3];
+      }
+      for (int i = 0; i < 3; ++i) {
+        m.offset[i] = r[i * 3] * before.offset[0] + r[i * 3 + 1] * before.offset[1] + r[i * 3 + 2] * before.offset[2];
+      }
+    }
+  }
+  return m;
 }
 
 Result<uint64_t> apply_edit(format::GaussianCloud* cloud, const EditAction& action) {

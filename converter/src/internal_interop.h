@@ -23,6 +23,14 @@ constexpr double kShC0 = 0.28209479177387814;
 /// logit(1 − 1e-6): readers of 8-bit alphas clamp opacities of exactly 0 or 1 to ±this (±13.8155).
 constexpr double kMaxOpacityLogit = 13.815509557963773;
 
+/// The INRIA load activations as every reader applies them, in double and rounded to float32: opacity =
+/// sigmoid(logit), ±inf giving exactly 1 and 0; scale = exp(log scale), +inf beyond float32's range.
+inline float activate_opacity(float logit) { return static_cast<float>(1.0 / (1.0 + std::exp(-double(logit)))); }
+inline float activate_scale(float log_scale) {
+  const double s = std::exp(double(log_scale));
+  return s > double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity() : float(s);
+}
+
 inline uint16_t le_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
 inline uint32_t le_u32(const uint8_t* p) {
   return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) | (static_cast<uint32_t>(p[2]) << 16) |

@@ -215,13 +215,14 @@ inline void activate_and_store(const RawGaussian& g, uint64_t i, uint32_t sh_val
   std::copy(g.mean, g.mean + 3, cloud->means.data() + i * 3);
   std::copy(g.sh, g.sh + sh_values, cloud->sh.data() + i * sh_values);
   std::copy(g.rot, g.rot + 4, cloud->rotations.data() + i * 4);
-  for (int a = 0; a < 3; ++a) {
-    // exp(-inf) = 0 is a valid (degenerate) scale, the PLY encoding of scale 0; exp overflow is not.
-    cloud->scales[i * 3 + a] = to_float(std::exp(static_cast<double>(g.scale[a])));
-  }
-  // sigmoid; ±inf give exactly 1 and 0, NaN stays NaN.
+  // exp(-inf) = 0 is a valid (degenerate) scale, the PLY encoding of scale 0; exp overflow is not.
+  for (int a = 0; a < 3; ++a) cloud->scales[i * 3 + a] = detail::activate_scale(g.scale[a]);
   counts->infinite_opacity_logits += std::isinf(g.opacity);
-  cloud->opacities[i] = static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(g.opacity))));
+  cloud->opacities[i] = detail::activate_opacity(g.opacity);  // NaN stays NaN
+  if (!cloud->pre_activation.empty()) {
+    cloud->pre_activation[i * 4] = g.opacity;
+    std::copy(g.scale, g.scale + 3, cloud->pre_activation.data() + i * 4 + 1);
+  }
   if (detail::check_gaussian(cloud, i, counts)) counts->invalid.push_back(i);
 }
 
@@ -700,6 +701,7 @@ Result<PlyScene> read_from_source(ByteSource* source, const PlyReadOptions& opti
   scene.declared_vertices = n;
   scene.cloud.sh_degree = layout.sh_degree;
   detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(n));
+  if (options.keep_pre_activation) detail::resize_huge(scene.cloud.pre_activation, static_cast<size_t>(n) * 4);
 
   std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> hash_state(nullptr, XXH64_freeState);
   if (options.hash_file) {

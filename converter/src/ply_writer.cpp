@@ -53,6 +53,7 @@ Status serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64
                       PlyWriteReport* report) {
   const uint32_t k_count = cloud.sh_coefficients();
   const uint64_t sh_values = uint64_t{k_count} * 3;
+  const bool pre_activation = cloud.pre_activation.size() == cloud.size() * 4;
   for (uint64_t i = first; i < first + n; ++i) {
     bool finite = true;
     for (int a = 0; a < 3; ++a) finite = finite && std::isfinite(cloud.means[i * 3 + a]);
@@ -75,11 +76,20 @@ Status serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64
     for (int c = 0; c < 3; ++c) {
       for (uint32_t k = 1; k < k_count; ++k) out = put_f32_le(out, sh[k * 3 + c]);
     }
-    out = put_f32_le(out, opacity_logit(cloud.opacities[i]));
+    // The source PLY's logit and log scales where they still activate to this Gaussian's values: bit for bit.
+    const float* raw = pre_activation ? &cloud.pre_activation[i * 4] : nullptr;
+    const auto kept = [raw](int j, float value, float (*activate)(float)) {
+      return raw != nullptr && std::isfinite(raw[j]) && activate(raw[j]) == value;
+    };
+    const float o = cloud.opacities[i];
+    out = put_f32_le(out, kept(0, o, detail::activate_opacity) ? raw[0] : opacity_logit(o));
     for (int a = 0; a < 3; ++a) {
       const float s = cloud.scales[i * 3 + a];
-      if (s == 0.0f) ++report->zero_scales;
-      out = put_f32_le(out, s == 0.0f ? kZeroScaleLog : static_cast<float>(std::log(static_cast<double>(s))));
+      const bool as_read = kept(1 + a, s, detail::activate_scale);
+      if (s == 0.0f && !as_read) ++report->zero_scales;
+      out = put_f32_le(out, as_read ? raw[1 + a]
+                            : s == 0.0f ? kZeroScaleLog
+                                        : static_cast<float>(std::log(static_cast<double>(s))));
     }
     for (int a = 0; a < 4; ++a) out = put_f32_le(out, cloud.rotations[i * 4 + a]);
   }

@@ -138,6 +138,7 @@ PlyReadOptions ply_read_options(const SceneReadOptions& options) {
   ply_options.invalid_policy = options.invalid_policy;
   ply_options.max_gaussians = options.max_gaussians;
   ply_options.hash_file = options.hash_file;
+  ply_options.keep_pre_activation = options.keep_pre_activation;
   return ply_options;
 }
 

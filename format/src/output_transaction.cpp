@@ -34,9 +34,19 @@ struct OutputKey {
   }
 };
 
-OutputKey output_key(const std::string& path) {
+/// The path an output will have once the folders a sink creates for it exist: its existing part with symbolic
+/// links resolved, the rest normalized ("out/new/../x" is "out/x" once "new" is a folder). The identity rules
+/// compare that path, so a spelling through a folder not made yet cannot name an input or another output unseen.
+std::string as_written(const std::string& path) {
+  std::error_code ec;
+  const std::filesystem::path resolved = std::filesystem::weakly_canonical(path, ec);
+  return ec || resolved.empty() ? path : resolved.string();
+}
+
+OutputKey output_key(const std::string& given) {
   OutputKey key;
   std::string dir;
+  const std::string path = as_written(given);
   std::tie(dir, key.name) = split_path(path);
   key.dir = file_id(dir);
   key.lexical = path;
@@ -154,7 +164,7 @@ Status OutputTransaction::add_output(const std::string& path) {
   out.path = path;
   std::tie(out.dir, out.name) = split_path(path);
   out.key = output_key(path);
-  out.id = file_id(path);
+  out.id = file_id(as_written(path));
   for (const State::Input& in : state_->inputs) {  // identities as recorded by add_input
     if (out.id == in.id) {
       return Status(StatusCode::kInvalidArgument, path + ": this output is the input file " + in.path + " (same file)");

@@ -160,6 +160,8 @@ struct CameraSet {
 };
 
 Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format::SceneBounds& bounds) {
+  // Orbits and paths on the bounding sphere, as the benchmark figures were measured (docs/BENCHMARKS.md).
+  const api::ContentFrame sphere = api::ContentFrame::of_sphere(bounds);
   std::vector<lab::Resolution> sizes;
   for (const std::string& text : opt.resolutions) {
     RGS_ASSIGN_OR_RETURN(lab::Resolution r, lab::parse_resolution(text));
@@ -167,7 +169,7 @@ Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format
   }
   std::vector<CameraSet> sets;
   if (!opt.cameras.cameras_path.empty()) {
-    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> native, api::make_cameras(opt.cameras, bounds));
+    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> native, api::make_cameras(opt.cameras, sphere));
     RGS_RETURN_ERROR_IF(native.empty(), StatusCode::kInvalidArgument,
                         opt.cameras.cameras_path + ": no views selected");
     if (sizes.empty()) {
@@ -186,7 +188,7 @@ Result<std::vector<CameraSet>> make_camera_sets(const Options& opt, const format
     api::CameraChoice choice = opt.cameras;
     choice.width = r.width;
     choice.height = r.height;
-    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> cams, api::make_cameras(choice, bounds));
+    RGS_ASSIGN_OR_RETURN(std::vector<runtime::Camera> cams, api::make_cameras(choice, sphere));
     sets.push_back({lab::resolution_string(r), std::move(cams)});
   }
   return sets;

@@ -252,18 +252,14 @@ Result<json> read_hello(websocket::stream<tcp::socket>& ws, beast::flat_buffer& 
   return hello;
 }
 
-/// The cameras of `choice`: the front door's, around the bounding sphere of the hello's `scene` for an orbit or
-/// a path.
+/// The cameras of `choice`: the front door's, around the hello's `scene` (its content's frame sphere) for an orbit
+/// or a path.
 Result<std::vector<api::Camera>> scene_cameras(const api::CameraChoice& choice, const json& scene) {
-  rgs::format::SceneBounds bounds;
+  rgs::format::SceneBounds sphere;
   const json& c = scene["center"];
-  for (int i = 0; i < 3; ++i) bounds.sphere_center[i] = c.is_array() && c.size() == 3 ? c[i].get<float>() : 0.f;
-  bounds.sphere_radius = scene.value("radius", 1.0f);
-  for (int i = 0; i < 3; ++i) {
-    bounds.aabb_min[i] = bounds.sphere_center[i] - bounds.sphere_radius;
-    bounds.aabb_max[i] = bounds.sphere_center[i] + bounds.sphere_radius;
-  }
-  return api::make_cameras(choice, bounds);
+  for (int i = 0; i < 3; ++i) sphere.sphere_center[i] = c.is_array() && c.size() == 3 ? c[i].get<float>() : 0.f;
+  sphere.sphere_radius = scene.value("radius", 1.0f);
+  return api::make_cameras(choice, api::ContentFrame::of_sphere(sphere));
 }
 
 /// What the measured loop saw: every frame counted, and the measurements of those after the warm-up.

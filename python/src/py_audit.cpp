@@ -80,7 +80,11 @@ void bind_audit(py::module_& m) {
               if (cameras) {
                 views = *cameras;
               } else if (orbit) {
-                RGS_ASSIGN_OR_RETURN(views, runtime::orbit_cameras(src.bounds, *orbit, width, height));
+                api::CameraChoice choice;
+                choice.orbit = *orbit;
+                choice.orbit_width = width;
+                choice.orbit_height = height;
+                RGS_ASSIGN_OR_RETURN(views, api::make_cameras(choice, api::content_frame(src.cloud)));
               } else {  // as rgs-audit: the scene's own cameras.json, else views guessed from its content
                 api::CameraChoice choice;
                 choice.width = width;

@@ -231,13 +231,15 @@ void bind_scenes(py::module_& m) {
       .def("orbit_cameras",
            [](const PyScene& s, const IntArg& count, const IntArg& width, const IntArg& height) {
              const char* fn = "orbit_cameras";
-             return unwrap(runtime::orbit_cameras(s.scene.info().bounds,
-                                                  int_arg<uint32_t>(count, fn, "count", 1, 100000),
-                                                  int_arg<uint32_t>(width, fn, "width", 1, kMaxImageSide),
-                                                  int_arg<uint32_t>(height, fn, "height", 1, kMaxImageSide)));
+             api::CameraChoice choice;
+             choice.orbit = int_arg<uint32_t>(count, fn, "count", 1, 100000);
+             choice.orbit_width = int_arg<uint32_t>(width, fn, "width", 1, kMaxImageSide);
+             choice.orbit_height = int_arg<uint32_t>(height, fn, "height", 1, kMaxImageSide);
+             return unwrap(api::make_cameras(choice, s.scene.info().content));
            },
            py::arg("count"), py::arg("width") = 1920, py::arg("height") = 1080,
-           "A ring of cameras around the scene's bounding sphere")
+           "A ring of cameras around the scene's content, as rgs-render --orbit places it: centred and sized on where the "
+           "Gaussians are (robust to floaters), not on the bounding sphere")
       .def("render", &PyScene::render, py::arg("camera"), py::arg("preset") = "fastest",
            py::arg("width") = py::none(), py::arg("height") = py::none(),
            py::arg("background") = std::array<float, 3>{0.f, 0.f, 0.f}, py::arg("format") = "rgba32f",

@@ -44,6 +44,23 @@ void set_pose(Camera* camera, const std::array<double, 9>& rows, const std::arra
   }
 }
 
+void move_camera(Camera* camera, const std::array<double, 9>& rotation, double scale,
+                 const std::array<double, 3>& offset) {
+  const std::array<float, 3> c = camera_centre(*camera);
+  std::array<double, 3> eye;
+  std::array<double, 9> rows;  // the camera's rotation times the motion's inverse (transposed) one
+  for (int i = 0; i < 3; ++i) {
+    eye[i] = offset[i] + scale * (rotation[i * 3] * c[0] + rotation[i * 3 + 1] * c[1] + rotation[i * 3 + 2] * c[2]);
+    for (int j = 0; j < 3; ++j) {
+      rows[i * 3 + j] = double(camera->rotation[i * 3]) * rotation[j * 3] +
+                        double(camera->rotation[i * 3 + 1]) * rotation[j * 3 + 1] +
+                        double(camera->rotation[i * 3 + 2]) * rotation[j * 3 + 2];
+    }
+  }
+  set_pose(camera, rows, eye);
+  camera->near_plane = float(camera->near_plane * scale);
+}
+
 std::array<uint32_t, 2> keep_aspect(uint32_t width, uint32_t height, uint32_t ref_width, uint32_t ref_height) {
   auto side = [](double v) { return uint32_t(std::clamp(std::round(v), 1.0, kMaxImageSide + 1.0)); };
   if (width == 0 && height == 0) return {ref_width, ref_height};

@@ -54,8 +54,8 @@ TEST_CASE("make_cameras: --fly flies through the file's cameras at the requested
   choice.cameras_path = path;
   choice.fly = 25;
   choice.width = 100;
-  format::SceneBounds bounds;
-  auto views = api::make_cameras(choice, bounds);
+  const api::ContentFrame frame;
+  auto views = api::make_cameras(choice, frame);
   REQUIRE_MESSAGE(views.ok(), views.status().to_string());
   REQUIRE(views->size() == 25);
   for (const runtime::Camera& v : *views) {
@@ -70,7 +70,7 @@ TEST_CASE("make_cameras: --fly flies through the file's cameras at the requested
   CHECK(last[0] == doctest::Approx(9.0).epsilon(1e-5));
   // Native size: the first camera's, the last one resized to it.
   choice.width = 0;
-  auto native = api::make_cameras(choice, bounds);
+  auto native = api::make_cameras(choice, frame);
   REQUIRE_MESSAGE(native.ok(), native.status().to_string());
   CHECK(native->back().width == 200);
   CHECK(native->back().height == 100);
@@ -78,21 +78,20 @@ TEST_CASE("make_cameras: --fly flies through the file's cameras at the requested
   CHECK(runtime::camera_centre(native->back())[0] == doctest::Approx(9.0).epsilon(1e-5));
   // --limit counts key cameras: two keys, so the flight ends at the second camera.
   choice.limit = 2;
-  auto two = api::make_cameras(choice, bounds);
+  auto two = api::make_cameras(choice, frame);
   REQUIRE_MESSAGE(two.ok(), two.status().to_string());
   CHECK(two->size() == 25);
   CHECK(runtime::camera_centre(two->back())[0] == doctest::Approx(3.0).epsilon(1e-5));
   // Too few keys left, and --fly without a cameras file.
   choice.limit = 1;
-  auto one = api::make_cameras(choice, bounds);
+  auto one = api::make_cameras(choice, frame);
   CHECK(one.status().code() == StatusCode::kInvalidArgument);
   CHECK(one.status().message().find("cameras.json") != std::string::npos);
   CHECK(one.status().message().find("at least 2 key cameras, got 1") != std::string::npos);
   api::CameraChoice orbit;
   orbit.path = 8;
   orbit.fly = 8;
-  bounds.sphere_radius = 1.f;
-  auto refused = api::make_cameras(orbit, bounds);
+  auto refused = api::make_cameras(orbit, frame);
   CHECK(refused.status().code() == StatusCode::kInvalidArgument);
   CHECK(refused.status().message().find("needs --cameras") != std::string::npos);
 }

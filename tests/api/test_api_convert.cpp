@@ -4,12 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include "rgs/api/convert.h"
+#include "rgs/converter/cloud_edits.h"
 #include "rgs/converter/scene_reader.h"
 #include "temp_dir.h"
 #include "test_data.h"
@@ -111,6 +114,52 @@ TEST_CASE("convert_scene: the bytes convert() writes, and no output onto a file 
   const auto onto_source = api::convert_scene(*scene, src, dir.file("./guitar.ply"), options);
   CHECK_FALSE(onto_source.ok());
   CHECK(test::slurp(src) == before);
+}
+
+/// The bytes of the float property `name` of every vertex of a binary little-endian all-float PLY.
+std::vector<uint32_t> ply_column(const std::string& bytes, const std::string& name) {
+  const size_t end = bytes.find("end_header\n") + 11;
+  std::vector<std::string> names;
+  for (size_t at = bytes.find("property float "); at < end; at = bytes.find("property float ", at + 1)) {
+    names.push_back(bytes.substr(at + 15, bytes.find('\n', at) - at - 15));
+  }
+  const size_t column = std::find(names.begin(), names.end(), name) - names.begin();
+  REQUIRE(column < names.size());
+  std::vector<uint32_t> out((bytes.size() - end) / (4 * names.size()));
+  for (size_t i = 0; i < out.size(); ++i) std::memcpy(&out[i], &bytes[end + (i * names.size() + column) * 4], 4);
+  return out;
+}
+
+TEST_CASE("convert: a PLY written from a PLY with no edit keeps its opacity logits and log scales bit for bit") {
+  test::TempDir dir;
+  // Logits at the 8-bit clamp (±13.8155, whose sigmoid float32 cannot invert) and beyond, scales from 2^-144 to
+  // 2^115: the float32 activations give none of them back.
+  std::string edge = test::slurp(test::repo_path("samples/guitar.ply"));
+  const float logits[] = {13.815509f, -13.815509f, 20.0f, -30.0f, 9.5f, 0.0f};
+  const float log_scales[] = {80.0f, -100.0f, 10.5f, -30.0f, 0.01f, -17.4f};
+  const size_t end = edge.find("end_header\n") + 11;
+  for (size_t i = 0; i < 6; ++i) {  // guitar.ply's rows: x y z nx ny nz f_dc×3 opacity scale×3 rot×4
+    std::memcpy(&edge[end + (i * 17 + 9) * 4], &logits[i], 4);
+    for (int a = 0; a < 3; ++a) std::memcpy(&edge[end + (i * 17 + 10 + a) * 4], &log_scales[(i + a) % 6], 4);
+  }
+  std::ofstream(dir.file("edge.ply"), std::ios::binary) << edge;
+  for (const std::string src : {test::repo_path("samples/guitar.ply"), dir.file("edge.ply")}) {
+    CAPTURE(src);
+    REQUIRE(api::convert(src, dir.file("out.ply"), {}).ok());
+    const std::string in = test::slurp(src), out = test::slurp(dir.file("out.ply"));
+    for (const std::string name : {"opacity", "scale_0", "scale_1", "scale_2"}) {
+      CAPTURE(name);
+      CHECK(ply_column(out, name) == ply_column(in, name));
+    }
+  }
+  // An edit that changes a value writes it from the activated one again: --scale 2 adds ln 2 to the log scales.
+  api::ConvertOptions scaled;
+  scaled.edits = {*converter::parse_edit_action("scale", "2")};
+  REQUIRE(api::convert(dir.file("edge.ply"), dir.file("scaled.ply"), scaled).ok());
+  uint32_t bits = ply_column(test::slurp(dir.file("scaled.ply")), "scale_0")[2];
+  float scale_0;
+  std::memcpy(&scale_0, &bits, 4);
+  CHECK(scale_0 == doctest::Approx(10.5 + std::log(2.0)));
 }
 
 }  // namespace

@@ -131,6 +131,31 @@ TEST_CASE("a cameras.json of the 3DGS output layout is found beside the scene, a
   }
 }
 
+TEST_CASE("a capture's cameras named after the scene are found beside it: PREFIX_cameras.json") {
+  // As mipnerf360_flowers_cameras.json lies beside mipnerf360_flowers_c3dgs.ply.
+  test::TempDir dir;
+  const fs::path ply = dir.path() / "capture_flowers_c3dgs.ply";
+  write_text(ply, "not read");
+  write_text(dir.path() / "flowers_cameras.json", "not a prefix of the scene's name: never read");
+  write_text(dir.path() / "capture_flowers_c3dgs_cameras.json", "the whole name is no prefix: never read");
+  auto found = api::find_scene_cameras(ply.string());
+  REQUIRE_MESSAGE(found.ok(), found.status().to_string());
+  CHECK(found->empty());
+  write_text(dir.path() / "capture_cameras.json", three_cameras_json());
+  found = api::find_scene_cameras(ply.string());
+  REQUIRE(found.ok());
+  CHECK(fs::equivalent(*found, dir.path() / "capture_cameras.json"));
+  // The longest prefix first; a cameras.json in the folder before either.
+  write_text(dir.path() / "capture_flowers_cameras.json", three_cameras_json());
+  found = api::find_scene_cameras(ply.string());
+  REQUIRE(found.ok());
+  CHECK(fs::equivalent(*found, dir.path() / "capture_flowers_cameras.json"));
+  write_text(dir.path() / "cameras.json", three_cameras_json());
+  found = api::find_scene_cameras(ply.string());
+  REQUIRE(found.ok());
+  CHECK(fs::equivalent(*found, dir.path() / "cameras.json"));
+}
+
 TEST_CASE("a cameras.json found beside the scene is hostile input: garbled, not a file, or a link out") {
   test::TempDir dir;
   const fs::path model = dir.path() / "model";
@@ -304,4 +329,59 @@ TEST_CASE("guessed views of one Gaussian, or of Gaussians without opacity, are s
   }
   cloud.means = {NAN, 0, 0};
   CHECK(api::content_views(cloud, 64, 64).status().code() == StatusCode::kInvalidArgument);
+}
+
+TEST_CASE("the default orbit of a 360 capture stands where its cameras stood, not outside its floaters") {
+  const std::string ply = test::shared_scene("mipnerf360_flowers_c3dgs.ply");
+  const std::string json = test::shared_scene("mipnerf360_flowers_cameras.json");
+  if (ply.empty() || json.empty()) return;
+  api::LoadOptions load;
+  load.device = api::Device::kCpu;
+  auto scene = api::load(ply, load);
+  REQUIRE_MESSAGE(scene.ok(), scene.status().to_string());
+  auto capture = runtime::load_inria_cameras(json);
+  REQUIRE_MESSAGE(capture.ok(), capture.status().to_string());
+  // The capture's cameras: their centroid, and how far from it they stand.
+  double centroid[3] = {0, 0, 0}, spread = 0;
+  for (const runtime::Camera& c : *capture) {
+    const auto p = runtime::camera_centre(c);
+    for (int a = 0; a < 3; ++a) centroid[a] += p[a] / double(capture->size());
+  }
+  const auto distance = [&](const runtime::Camera& c) {
+    const auto p = runtime::camera_centre(c);
+    return std::hypot(p[0] - centroid[0], p[1] - centroid[1], p[2] - centroid[2]);
+  };
+  for (const runtime::Camera& c : *capture) spread += distance(c) / double(capture->size());
+  // Fraction of the opacity-weighted means that a view sees in its image, in front of it.
+  const format::GaussianCloud* cloud = scene->cloud();
+  const auto seen = [&](const runtime::Camera& c) {
+    double in = 0, all = 0;
+    for (size_t i = 0; i < cloud->size(); ++i) {
+      const auto v = in_camera(c, &cloud->means[3 * i]);
+      const double x = c.fx * v[0] / v[2] + c.cx, y = c.fy * v[1] / v[2] + c.cy;
+      all += cloud->opacities[i];
+      if (v[2] > c.near_plane && x >= 0 && x < c.width && y >= 0 && y < c.height) in += cloud->opacities[i];
+    }
+    return in / all;
+  };
+  api::CameraChoice choice;
+  choice.orbit = 8;
+  auto orbit = api::make_cameras(choice, scene->info().content);
+  REQUIRE_MESSAGE(orbit.ok(), orbit.status().to_string());
+  auto sphere = api::make_cameras(choice, api::ContentFrame::of_sphere(scene->info().bounds));
+  REQUIRE(sphere.ok());
+  double capture_seen = 0;
+  for (const runtime::Camera& c : *capture) capture_seen += seen(c) / double(capture->size());
+  CHECK(spread == doctest::Approx(3.78).epsilon(0.01));
+  CHECK(capture_seen == doctest::Approx(0.45).epsilon(0.05));
+  for (size_t v = 0; v < 8; ++v) {
+    CAPTURE(v);
+    // Among the capture's cameras (2.4 units from their centroid), seeing as much of the content as they do
+    // (29-45 %); the bounding sphere's orbit stands 150-175 units out, where every Gaussian is a speck in view.
+    CHECK(distance((*orbit)[v]) < spread);
+    CHECK(seen((*orbit)[v]) > 0.5 * capture_seen);
+    CHECK(seen((*orbit)[v]) < 0.8);
+    CHECK(distance((*sphere)[v]) > 30 * spread);
+    CHECK(seen((*sphere)[v]) > 0.99);
+  }
 }

@@ -17,9 +17,9 @@
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
+#include "rgs/converter/cloud_edits.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/reader.h"
-#include "rgs/converter/scene_reader.h"
 #include "rgs/runtime/image_metrics.h"
 #include "sanitized.h"
 #include "temp_dir.h"
@@ -28,6 +28,7 @@
 namespace {
 
 using namespace rgs;
+namespace fs = std::filesystem;
 
 /// Two orbit views at 480x270: what the rate-control fits of the suite are measured on.
 api::CameraChoice small_orbit() {
@@ -39,10 +40,9 @@ api::CameraChoice small_orbit() {
 }
 
 /// The scene at `path` read as floats (a .rgs dequantized) and loaded for the CPU renderer.
-api::Scene load_floats(const std::string& path, format::SceneBounds* bounds = nullptr) {
+api::Scene load_floats(const std::string& path) {
   auto input = converter::read_scene(path);
   REQUIRE_MESSAGE(input.ok(), input.status().to_string());
-  if (bounds) *bounds = input->bounds;
   api::LoadOptions load;
   load.device = api::Device::kCpu;
   auto scene = api::load_cloud(std::move(input->cloud), input->bounds, path, load);
@@ -50,13 +50,11 @@ api::Scene load_floats(const std::string& path, format::SceneBounds* bounds = nu
   return std::move(scene).value();
 }
 
-/// Mean PSNR of `candidate`'s render against `source`'s on `choice`'s cameras: both read as floats, rendered with
-/// the faithful preset on a black background by the CPU reference and compared over the whole frame.
-double measured_psnr(const std::string& source, const std::string& candidate, const api::CameraChoice& choice) {
-  format::SceneBounds bounds;
-  const api::Scene src = load_floats(source, &bounds);
-  const api::Scene cand = load_floats(candidate);
-  auto cameras = api::make_cameras(choice, bounds);
+/// Mean PSNR of `cand`'s render against `src`'s on `choice`'s cameras (make_cameras on the source's content: rate
+/// control's frame), rendered with the faithful preset on a black background by the CPU reference and compared
+/// over the whole frame.
+double measured_psnr(const api::Scene& src, const api::Scene& cand, const api::CameraChoice& choice) {
+  auto cameras = api::make_cameras(choice, src.info().content);
   REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
   auto renderer = api::Renderer::create(api::Device::kCpu);
   REQUIRE_MESSAGE(renderer.ok(), renderer.status().to_string());
@@ -74,6 +72,12 @@ double measured_psnr(const std::string& source, const std::string& candidate, co
     sum += m->psnr_db;
   }
   return sum / double(cameras->size());
+}
+
+/// measured_psnr of the scenes at `source` and `candidate`, both read as floats.
+double measured_psnr(const std::string& source, const std::string& candidate, const api::CameraChoice& choice) {
+  const api::Scene src = load_floats(source);
+  return measured_psnr(src, load_floats(candidate), choice);
 }
 
 /// convert() options for a PSNR target on `views`.
@@ -365,4 +369,80 @@ TEST_CASE("rate control's progress: parts give back the steps they did not use, 
       CHECK(double(seen[i].first) / seen[i].second >= double(seen[i - 1].first) / seen[i - 1].second);
     }
   }
+}
+
+TEST_CASE("rate control's cameras of a file move with the edits that move the scene") {
+  // Cameras of a file are in the source's frame: an edit that moves the scene away from them left them looking at
+  // nothing, where every archive read +inf dB and the coarsest was written (a 3-bit file measuring 7.5 dB).
+  test::TempDir dir;
+  const std::string source = test::repo_path("samples/guitar.ply");
+  api::CameraChoice views;
+  views.cameras_path = test::repo_path("tests/data/guitar_cameras.json");
+  views.every = 2;  // its two views of the guitar
+  api::ConvertOptions options = psnr_target(35, views);
+  for (const auto& [name, value] : {std::pair{"translate", "1000,0,0"}, {"rotate", "0,90,0"}, {"scale", "2"}}) {
+    auto edit = converter::parse_edit_action(name, value);
+    REQUIRE_MESSAGE(edit.ok(), edit.status().to_string());
+    options.edits.push_back(*edit);
+  }
+  const std::string out = dir.file("moved.rgs");
+  auto fitted = api::convert(source, out, options);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  const double reported = fitted->rate_control->psnr_mean_db;
+  CHECK(reported >= 35);
+  CHECK(reported <= 35.5);
+  // The file moved back by the inverse edits reads what the fit reported, against the source on the file's views.
+  auto input = converter::read_scene(out);
+  REQUIRE_MESSAGE(input.ok(), input.status().to_string());
+  for (const auto& [name, value] : {std::pair{"scale", "0.5"}, {"rotate", "0,-90,0"}, {"translate", "-1000,0,0"}}) {
+    auto edit = converter::parse_edit_action(name, value);
+    REQUIRE(edit.ok());
+    REQUIRE(converter::apply_edit(&input->cloud, *edit).ok());
+  }
+  const api::Scene src = load_floats(source);
+  api::LoadOptions load;
+  load.device = api::Device::kCpu;
+  const format::SceneBounds moved_back = converter::compute_bounds(input->cloud);
+  auto back = api::load_cloud(std::move(input->cloud), moved_back, out, load);
+  REQUIRE_MESSAGE(back.ok(), back.status().to_string());
+  CHECK(measured_psnr(src, *back, views) == doctest::Approx(reported).epsilon(0.002));
+}
+
+TEST_CASE("rate control refuses views that see nothing of the scene, writing nothing") {
+  // Both renders of such a view are black: it read +inf dB whatever the archive, and so did the mean.
+  test::TempDir dir;
+  api::CameraChoice views;
+  views.cameras_path = test::repo_path("tests/data/guitar_cameras.json");  // its second view looks away
+  const std::string out = dir.file("never.rgs");
+  auto fitted = api::convert(test::repo_path("samples/guitar.ply"), out, psnr_target(35, views));
+  REQUIRE_FALSE(fitted.ok());
+  CHECK(fitted.status().code() == StatusCode::kInvalidArgument);
+  const std::string message = fitted.status().message();
+  CHECK_MESSAGE(message.find("view away sees nothing of the scene") != std::string::npos, message);
+  CHECK_MESSAGE(message.find("guitar.ply") != std::string::npos, message);
+  CHECK_FALSE(std::filesystem::exists(out));
+}
+
+TEST_CASE("rate control without views judges a scene on its capture's cameras named after it") {
+  // A fit on views guessed from the content is judged on the capture's cameras elsewhere: flowers' 40 dB fit on
+  // them read 39.71 dB on every 7th of its cameras, one aimed 0.5 dB higher 39.99 dB.
+  test::TempDir dir;
+  const fs::path scene = dir.path() / "guitar_c3dgs.ply";
+  fs::copy_file(test::repo_path("samples/guitar.ply"), scene);
+  fs::copy_file(test::repo_path("tests/data/guitar_cameras.json"), dir.path() / "guitar_cameras.json");
+  api::CameraChoice views;
+  views.limit = 2;  // every 2nd: its two views of the guitar
+  api::ConvertOptions options = psnr_target(35, views);
+  options.target.views = views;
+  const std::string out = dir.file("fitted.rgs");
+  auto fitted = api::convert(scene.string(), out, options);
+  REQUIRE_MESSAGE(fitted.ok(), fitted.status().to_string());
+  const std::string& note = fitted->rate_control->views_note;
+  CHECK_MESSAGE(note.find("guitar_cameras.json (found beside the scene): 2 of its 3") != std::string::npos, note);
+  api::CameraChoice judged;
+  judged.cameras_path = (dir.path() / "guitar_cameras.json").string();
+  judged.every = 2;
+  const double psnr = measured_psnr(scene.string(), out, judged);
+  CHECK(psnr >= 35);
+  CHECK(psnr == doctest::Approx(fitted->rate_control->psnr_mean_db).epsilon(1e-9));
 }

@@ -54,7 +54,7 @@ inline double measured_psnr(const std::string& source, const std::string& candid
                             audit::Backend backend = audit::Backend::kCpu) {
   const audit::AuditScene src = audit_scene(source);
   std::vector<audit::AuditScene> candidates = {audit_scene(candidate)};
-  auto cameras = api::make_cameras(choice, src.bounds);
+  auto cameras = api::make_cameras(choice, api::content_frame(src.cloud));
   REQUIRE_MESSAGE(cameras.ok(), cameras.status().to_string());
   audit::AuditOptions options;
   options.worst_views = 0;

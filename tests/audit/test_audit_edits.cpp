@@ -2,6 +2,7 @@
 // compares it with the source under the same edits (decimation apart), on the bundled guitar.
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -139,4 +140,26 @@ TEST_CASE("audit of a conversion whose edits left (almost) nothing: it lost its 
   CHECK(j["candidates"][0]["reference"]["description"].get<std::string>().find("crop-box") != std::string::npos);
   CHECK(j["candidates"][1]["verdict"]["content_lost"] == "it has no Gaussian");
   CHECK(j["candidates"][1]["verdict"]["passed"] == false);
+}
+
+TEST_CASE("audit of a moved conversion: the views move with its recorded edits and see the scene") {
+  // Translated far away and scaled, the scene leaves the source's views: seen from them, the candidate and the
+  // edited source both render black and compare as equal. Moved with the edits, the views see the scene again.
+  const std::string guitar = test::repo_path("samples/guitar.ply");
+  const audit::AuditScene source = test::audit_scene(guitar);
+  std::vector<audit::AuditScene> candidates;
+  candidates.push_back(edited_conversion(guitar, {edit("translate", "1000,0,0"), edit("rotate", "0,40,0"),
+                                                  edit("scale", "2")},
+                                         "rgs_test_audit_moved.rgs"));
+  auto cams = runtime::orbit_cameras(source.bounds, 3, 160, 90);
+  REQUIRE(cams.ok());
+  auto result = audit::run_audit(source, candidates, *cams, {});
+  REQUIRE_MESSAGE(result.ok(), result.status().to_string());
+  const audit::CandidateResult& c = result->candidates[0];
+  CHECK(c.reference.find("translate") != std::string::npos);
+  for (const audit::ViewMetrics& v : c.views) {
+    CHECK(v.foreground_fraction > 0.05);  // the scene is in view
+    CHECK(v.foreground_psnr_db > 45.0);   // and differs from the edited source by the quantization alone
+    CHECK(std::isfinite(v.foreground_psnr_db));
+  }
 }

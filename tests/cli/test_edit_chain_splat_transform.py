@@ -19,8 +19,9 @@ conjugated by diag(-1, -1, 1):
   threshold or crop boundary: BOUNDARY_MARGINS);
 - `-B` and `-S` take the box and sphere in the engine frame: `-B x0,y0,z0,x1,y1,z1` is `--crop-box
   -x1,-y1,z0,-x0,-y0,z1`, `-S x,y,z,r` is `--crop-sphere -x,-y,z,r` (its surface is outside, ours inside).
-- `-N` drops non-finite values except +inf opacity and -inf log scales, which rgs-convert's `--filter-nan` drops
-  too: the chain damages the scene only with NaN.
+- `-N` drops a Gaussian with a non-finite value in any column except +inf opacity and -inf log scales, which
+  rgs-convert's `--filter-nan` keeps too; it also drops -inf opacity (we keep it: opacity 0) and keeps zero-norm
+  rotations (we drop them): the chain damages the scene only with NaN in columns both tools read.
 Gaussians are matched by order (both tools keep the source's order). Tolerances, float precision: both tools
 compute from the same float32 inputs by different formulas (float32 or float64, their own SH rotation matrices),
 which measured differences of at most 2.4e-7; the bounds are positions 1e-5 · (1 + |x|) scene units, log scales

@@ -8,7 +8,7 @@ Usage: test_output_overlap.py RGS_CONVERT RGS_RENDER RGS_AUDIT SMALL_PLY SAMPLE_
 The inputs are made from SMALL_PLY (a few hundred Gaussians) by rgs-convert itself, plus a .splat and a .gltf
 with an external buffer written here: PLY (also one named like an image), .rgs, SPZ, GLB, glTF + .bin, .splat,
 SOG bundle, SOG folder, streamed SOG. SAMPLE_PLY, larger, is what the interrupted writes convert. Each output is aimed at each file an input reads (its entry and the files it
-names) through: the path as written, "./", "sub/..", a symbolic link to the file, a symbolic link to its
+names) through: the path as written, "./", "sub/..", "missing/.." (through a folder a sink creates), a symbolic link to the file, a symbolic link to its
 folder, a hard link, and a case variant (a different file on a case-sensitive file system: then the only
 requirement is that no input changes). Outputs: rgs-convert's .rgs, .ply, .spz, .glb, .sog, --json and the
 streamed SOG (lod-meta.json, whose chunk files are what collides); rgs-render's images (a camera named after
@@ -153,7 +153,8 @@ def spellings(path, scratch):
     hard = os.path.join(links, "hard_%s_%s" % (tag, name))
     os.link(path, hard)
     return [("as written", path), ("./", os.path.join(folder, ".", name)),
-            ("sub/..", os.path.join(folder, "sub", "..", name)), ("symbolic link", link),
+            ("sub/..", os.path.join(folder, "sub", "..", name)),
+            ("missing/..", os.path.join(folder, "missing_" + tag, "..", name)), ("symbolic link", link),
             ("linked folder", os.path.join(folder_link, name)), ("hard link", hard),
             ("case variant", os.path.join(folder, name.upper()))]
 

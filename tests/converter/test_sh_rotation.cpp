@@ -202,6 +202,11 @@ TEST_CASE("edits: translate and scale move means and scales, filters and crops k
       {"filter", "scale_1 <= 0.001", [](const format::GaussianCloud& c, size_t i) { return c.scales[i * 3 + 1] <= 0.001; }},
       {"filter", "rot_0 ge 0.9", [](const format::GaussianCloud& c, size_t i) { return c.rotations[i * 4] >= 0.9; }},
       {"filter", "f_dc_2 lt 0", [](const format::GaussianCloud& c, size_t i) { return c.sh[i * 16 * 3 + 2] < 0; }},
+      // The colour splat-transform's -V f_dc_0 compares: 0.5 + C0 · f_dc.
+      {"filter", "red gt 0.6",
+       [](const format::GaussianCloud& c, size_t i) { return 0.5 + 0.28209479177387814 * c.sh[i * 16 * 3] > 0.6; }},
+      {"filter", "blue le 0.3",
+       [](const format::GaussianCloud& c, size_t i) { return 0.5 + 0.28209479177387814 * c.sh[i * 16 * 3 + 2] <= 0.3; }},
       // f_rest_20: channel 20 / 15 = 1 (green), coefficient 20 % 15 + 1 = 6.
       {"filter", "f_rest_20 > 0.01", [](const format::GaussianCloud& c, size_t i) { return c.sh[(i * 16 + 6) * 3 + 1] > 0.01; }},
       {"filter", "y ge -4", [](const format::GaussianCloud& c, size_t i) { return c.means[i * 3 + 1] >= -4; }},

@@ -44,7 +44,7 @@ using runtime::GpuRenderOptions;
 std::vector<Camera> taebak_cameras(const GpuScenePair& scene, uint32_t width, uint32_t height) {
   api::CameraChoice choice;
   choice.cameras_path = scene.cameras_path;
-  auto native = api::make_cameras(choice, scene.bounds);
+  auto native = api::make_cameras(choice, api::ContentFrame::of_sphere(scene.bounds));
   REQUIRE_MESSAGE(native.ok(), native.status().to_string());
   REQUIRE(native->size() == 8);
   std::vector<Camera> cams;

@@ -3,6 +3,8 @@
 import math
 import pathlib
 import re
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -1014,3 +1016,11 @@ def test_an_array_too_large_to_copy_raises_memory_error(tmp_path):
     with pytest.raises(MemoryError):
         roofgs.save(str(tmp_path / "x.rgs"), TooLarge(), np.array([[1, 0, 0, 0]], np.float32), ok,
                     np.full(1, 0.5, np.float32), np.zeros((1, 1, 3), np.float32))
+
+
+def test_python_m_roofgs_names_every_output_format_of_convert():
+    listing = subprocess.run([sys.executable, str(SOURCE_DIR / "python" / "roofgs_main.py")], capture_output=True,
+                             text=True, check=True).stdout
+    convert = next(line for line in listing.splitlines() if line.strip().startswith("convert"))
+    for name in (".rgs", "PLY", "SPZ", "GLB", "SOG"):
+        assert name in convert

@@ -97,3 +97,38 @@ TEST_CASE("finite_number_in and whole_number_in: NaN, infinities and out-of-rang
   CHECK(whole(ok).empty());
   CHECK_FALSE(whole(negative).empty());
 }
+
+TEST_CASE("nearest_option and parse_command_line: an unknown option's error names the option it is nearest to") {
+  using rgs::tools::nearest_option;
+  CLI::App app("test");
+  bool filter_nan = false;
+  double scale = 1;
+  std::string levels;
+  app.add_flag("--filter-nan", filter_nan, "");
+  app.add_option("--scale", scale, "");
+  app.add_option("--lod-levels", levels, "");
+  CHECK(nearest_option(app, "--filtr-nan") == "--filter-nan");
+  CHECK(nearest_option(app, "-filter-nan") == "--filter-nan");
+  CHECK(nearest_option(app, "--scael=2") == "--scale");
+  CHECK(nearest_option(app, "--lod-level") == "--lod-levels");
+  CHECK(nearest_option(app, "--hlep") == "--help");
+  CHECK(nearest_option(app, "--colour").empty());  // nothing near it
+  CHECK(nearest_option(app, "scale").empty());     // not an option
+  std::FILE* capture = std::tmpfile();
+  REQUIRE(capture != nullptr);
+  std::fflush(stderr);
+  const int saved = ::dup(STDERR_FILENO);
+  REQUIRE(::dup2(::fileno(capture), STDERR_FILENO) >= 0);
+  const char* argv[] = {"rgs-test", "--scale", "2", "--filtr-nan"};
+  const auto code = rgs::tools::parse_command_line(app, 4, const_cast<char**>(argv), "rgs-test");
+  std::fflush(stderr);
+  ::dup2(saved, STDERR_FILENO);
+  ::close(saved);
+  std::rewind(capture);
+  char buffer[512] = {};
+  const size_t n = std::fread(buffer, 1, sizeof(buffer) - 1, capture);
+  std::fclose(capture);
+  CHECK(code == rgs::tools::kExitUsage);
+  CHECK_MESSAGE(std::string(buffer, n).find("--filtr-nan: did you mean --filter-nan?") != std::string::npos,
+                std::string(buffer, n));
+}

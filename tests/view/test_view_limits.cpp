@@ -180,6 +180,71 @@ TEST_CASE("server: idle TCP connections cannot lock clients out, and are closed 
   CHECK(read_frame(client).header["seq"] == 2);
 }
 
+TEST_CASE("server: connections that pipeline requests and never read the responses cannot lock clients out") {
+  view::Server server = start({guitar()});
+  const uint16_t port = server.port();
+  std::string requests;
+  for (int i = 0; i < 64; ++i) requests += "GET /app.js HTTP/1.1\r\nHost: " + own_host(port) + "\r\n\r\n";
+  // 16 connections from the client's own address (the bound of one address), each sending requests as fast as the
+  // server reads them and never reading a response; a closed one is opened again at once.
+  std::atomic<bool> done{false};
+  std::atomic<int> blocked{0}, reopened{0};
+  std::thread attackers([&] {
+    net::io_context ioc;
+    std::vector<std::unique_ptr<tcp::socket>> sockets(16);
+    while (!done) {
+      int full = 0;
+      for (auto& socket : sockets) {
+        beast::error_code ec;
+        if (socket == nullptr) {
+          socket = idle_connection(ioc, port);
+        } else {
+          socket->write_some(net::buffer(requests), ec);
+        }
+        if (ec == net::error::would_block) {
+          ++full;
+        } else if (ec) {
+          socket.reset();
+          ++reopened;
+        }
+      }
+      blocked = full;
+      std::this_thread::sleep_for(1ms);
+    }
+  });
+  // A client asking for the page is answered within a few seconds, well before the 30 s write timeout would free a
+  // place, each time the 16 have filled their sockets with responses again (the server stopped reading them).
+  int answered = 0, attacked = 0;
+  for (int request = 0; request < 5; ++request) {
+    const auto begin = std::chrono::steady_clock::now();
+    while (blocked < 16 && std::chrono::steady_clock::now() - begin < 30s) std::this_thread::sleep_for(10ms);
+    attacked += blocked == 16 ? 1 : 0;
+    const auto asked = std::chrono::steady_clock::now();
+    bool ok = false;
+    while (!ok && std::chrono::steady_clock::now() - asked < 5s) {
+      net::io_context ioc;
+      tcp::socket socket(ioc);
+      socket.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+      Watchdog watchdog(socket.native_handle(), 2000ms);
+      http::request<http::empty_body> get(http::verb::get, "/", 11);
+      get.set(http::field::host, own_host(port));
+      beast::error_code ec;
+      http::write(socket, get, ec);
+      beast::flat_buffer buffer;
+      http::response<http::string_body> response;
+      if (!ec) http::read(socket, buffer, response, ec);
+      ok = !ec && response.result_int() == 200;
+      if (!ok) std::this_thread::sleep_for(50ms);
+    }
+    answered += ok ? 1 : 0;
+  }
+  done = true;
+  attackers.join();
+  MESSAGE(answered << " of 5 requests answered; the attackers opened " << reopened.load() << " connections again");
+  CHECK(attacked == 5);
+  CHECK(answered == 5);
+}
+
 TEST_CASE("server: idle WebSocket clients lose their slot after the idle timeout, a client that pings keeps it") {
   view::ServerOptions options;
   options.idle_timeout_s = 1.0;

@@ -105,6 +105,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   void send(std::shared_ptr<http::response<http::string_body>> response) {
     const bool keep_alive = response->keep_alive();
+    // Until the client reads it, the connection waits for the client, and a newer one may take its place: a client
+    // that pipelines requests and never reads would otherwise hold its place until the write timeout.
+    ticket_.set_waiting(true);
     stream_.expires_after(kWriteTimeout);
     http::async_write(stream_, *response,
                       [self = shared_from_this(), response, keep_alive](beast::error_code ec, size_t) {

@@ -43,7 +43,7 @@ std::string build_hello(const ServerState& state, const std::string& device_name
   static const char* const kNames[] = {"a", "b"};
   for (size_t i = 0; i < state.scenes.size(); ++i) {
     const api::SceneInfo& info = state.scenes[i].info();
-    const auto& sphere = info.bounds;
+    const format::SceneBounds sphere = info.content.sphere();
     scenes.push_back({{"name", kNames[i]},
                       {"path_basename", std::filesystem::path(info.path).filename().string()},
                       {"gaussians", info.gaussians},
@@ -71,7 +71,7 @@ std::string build_hello(const ServerState& state, const std::string& device_name
     choice.orbit = 1;
     choice.orbit_width = width;
     choice.orbit_height = height;
-    auto orbit = api::make_cameras(choice, state.scenes.front().info().bounds);
+    auto orbit = api::make_cameras(choice, state.scenes.front().info().content);
     if (orbit.ok() && !orbit->empty()) home = camera_json(inria_from_camera(orbit->front()));
   }
   const json hello = {{"type", "hello"},

@@ -2,7 +2,6 @@
 // checked at the views' own size (fit_archive), and its progress in steps (FitProgress).
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,18 +17,6 @@
 namespace rgs::api::detail {
 
 namespace {
-
-/// One fit's measurer and search: the archives measured, their checks at the cameras' own size and the search's
-/// history, all of which steer later searches of the same fit.
-struct FitState {
-  FitState(const format::GaussianCloud& source, const format::SceneBounds& bounds, format::EncodedScene quantized,
-           const FitOptions& options, uint32_t sh_degree, format::ArchiveOptions anchor)
-      : measurer(source, bounds, std::move(quantized), options), search(measurer, options, sh_degree, std::move(anchor)) {}
-  Measurer measurer;
-  Search search;
-};
-/// Makes a fit's state anew, its measurer started on the views (the same for every fit of one conversion).
-using NewFitState = std::function<Result<std::unique_ptr<FitState>>()>;
 
 /// Progress steps of fit_psnr: the ladder's point and its check, and kMaxAttempts PSNR searches each followed by
 /// a check, the last by up to three.
@@ -173,12 +160,13 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
 /// the cameras' own size) at kBytesClimbDb above the choice, the step doubling after each that does not fit or
 /// reads no higher, until kMaxBytesClimbs have not; one whose file fits and reads higher is chosen, and the climb
 /// starts again from it, so the last choice's kBytesClimbDb fit was measured. Each climb is a fit of
-/// its own (`new_fit`): the checks and history of this search steer a search that shares them (a choice checked at
-/// the cameras' size reads at most that check on the search views), so the fit a climb makes is the one
-/// `--target-psnr` makes, and no PSNR target kBytesClimbDb above the result gives a file that fits. Sets
-/// result->chosen, result->report.search_psnr_db and, for a climb's choice, result->archive.
-Status fit_bytes(Measurer& measurer, Search& search, const NewFitState& new_fit, const runtime::Camera& first,
-                 uint64_t target, int file_zstd_level, bool file_xz, FitResult* result) {
+/// its own (a new Search, Measurer::begin_fit): the checks and history of this search would steer a search that
+/// shared them (a choice checked at the cameras' size reads at most that check on the search views), so the fit a
+/// climb makes is the one `--target-psnr` makes, and no PSNR target kBytesClimbDb above the result gives a file that
+/// fits; the archives it measures are those this search measured. Sets result->chosen,
+/// result->report.search_psnr_db and, for a climb's choice, result->archive.
+Status fit_bytes(Measurer& measurer, Search& search, const runtime::Camera& first, uint64_t target,
+                 int file_zstd_level, bool file_xz, FitResult* result) {
   uint64_t budget = target, fitting_budget = 0;
   std::optional<FitSteps> steps;
   steps.emplace(search.progress(), kMaxAttempts * kBytesSearchSteps);
@@ -219,21 +207,21 @@ Status fit_bytes(Measurer& measurer, Search& search, const NewFitState& new_fit,
   steps.emplace(search.progress(), kMaxBytesClimbs * kFitPsnrSteps);
   double step_db = kBytesClimbDb;
   for (int failed = 0; failed < kMaxBytesClimbs;) {
-    RGS_ASSIGN_OR_RETURN(const std::unique_ptr<FitState> fit, new_fit());
+    measurer.begin_fit();
+    Search climb = search.fresh();
     FitResult fitted;
-    const Status status = fit_psnr(fit->measurer, fit->search, first, chosen->psnr_mean_db + step_db, &fitted);
+    const Status status = fit_psnr(measurer, climb, first, chosen->psnr_mean_db + step_db, &fitted);
     if (!status.ok()) {
       if (status.code() != StatusCode::kInvalidArgument) return status;
       break;  // above what the finest archive reaches
     }
-    RGS_ASSIGN_OR_RETURN(const uint64_t file,
-                         fit->measurer.file_bytes(fitted.chosen.options, file_zstd_level, file_xz));
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(fitted.chosen.options, file_zstd_level, file_xz));
     search.report("fit for " + db_text(chosen->psnr_mean_db + step_db) + ": " +
                   db_text(fitted.chosen.psnr_mean_db) + ", " + group_digits(file) + " bytes in the file");
     if (file <= target && fitted.chosen.psnr_mean_db > chosen->psnr_mean_db) {
       chosen = fitted.chosen;
       chosen_search_db = fitted.report.search_psnr_db;
-      result->archive = fit->measurer.archive_with_points(chosen->options);
+      result->archive = measurer.archive_with_points(chosen->options);
       step_db = kBytesClimbDb;
     } else {
       step_db *= 2;
@@ -308,15 +296,10 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   resolved.start = anchor;
   const std::vector<runtime::Camera> search_cameras =
       reduced(cameras, search_max_side(options), options.target.search_max_views);
-  const NewFitState new_fit = [&]() -> Result<std::unique_ptr<FitState>> {
-    auto fit = std::make_unique<FitState>(source, bounds, quantized, resolved, sh_degree, anchor);
-    RGS_RETURN_IF_ERROR(fit->measurer.start(search_cameras, cameras));
-    RGS_RETURN_IF_ERROR(fit->measurer.measure_overhead());
-    return fit;
-  };
-  RGS_ASSIGN_OR_RETURN(const std::unique_ptr<FitState> fit, new_fit());
-  Measurer& measurer = fit->measurer;
-  Search& search = fit->search;
+  Measurer measurer(source, bounds, std::move(quantized), resolved);
+  RGS_RETURN_IF_ERROR(measurer.start(search_cameras, cameras));
+  RGS_RETURN_IF_ERROR(measurer.measure_overhead());
+  Search search(measurer, resolved, sh_degree, anchor);
 
   FitResult result;
   result.report.views = uint32_t(cameras.size());
@@ -327,8 +310,8 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   result.report.device = options.target.device;
 
   if (options.target.bytes) {
-    RGS_RETURN_IF_ERROR(fit_bytes(measurer, search, new_fit, cameras[0], *options.target.bytes, file_zstd_level,
-                                  file_xz, &result));
+    RGS_RETURN_IF_ERROR(
+        fit_bytes(measurer, search, cameras[0], *options.target.bytes, file_zstd_level, file_xz, &result));
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target.psnr_db.value_or(0), &result));
   }

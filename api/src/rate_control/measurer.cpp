@@ -33,19 +33,22 @@ Status Measurer::start(std::vector<runtime::Camera> search_cameras, std::vector<
     const bool comparable = std::all_of(set->cameras.begin(), set->cameras.end(), [](const runtime::Camera& cam) {
       return cam.width >= uint32_t(runtime::kSsimWindow) && cam.height >= uint32_t(runtime::kSsimWindow);
     });
-    if (device_ == api::Device::kCuda && source_bytes <= kDeviceSourceBytes && comparable) {
-      for (const runtime::Camera& cam : set->cameras) {
-        auto image = renderers_[0].render_image(scene, cam, settings_);
-        if (!image.ok()) return Status(image.status()).prepend("source, view " + cam.name);
-        set->source_images.push_back(std::move(image).value());
-      }
-      continue;
-    }
+    const bool on_device = device_ == api::Device::kCuda && source_bytes <= kDeviceSourceBytes && comparable;
     set->source.resize(set->cameras.size());
+    if (on_device) set->source_images.resize(set->cameras.size());
     RGS_RETURN_IF_ERROR(for_views(set->cameras, [&](api::Renderer& renderer, size_t v) -> Status {
-      RGS_ASSIGN_OR_RETURN(set->source[v], render_rgb(renderer, scene, set->cameras[v]));
+      const runtime::Camera& cam = set->cameras[v];
+      api::Image* kept = on_device ? &set->source_images[v] : nullptr;
+      RGS_ASSIGN_OR_RETURN(std::vector<float> rgb, render_rgb(renderer, scene, cam, kept));
+      // Both renders of a view that sees nothing are black: it reads +inf dB whatever the archive.
+      RGS_RETURN_ERROR_IF(std::none_of(rgb.begin(), rgb.end(), [](float c) { return c > 0; }),
+                          StatusCode::kInvalidArgument,
+                          "view " + cam.name + " sees nothing of the scene (its render of the source is black), so no "
+                          "PSNR can be measured there: choose views that look at the scene");
+      if (!on_device) set->source[v] = std::move(rgb);
       return Status();
     }));
+    if (on_device) set->source.clear();
   }
   return Status();
 }
@@ -78,16 +81,17 @@ Result<std::vector<FitPoint>> Measurer::measure(const std::vector<format::Archiv
     if (i % batch_ == 0) RGS_RETURN_IF_ERROR(encode_batch(list, i, std::min(list.size(), i + batch_)));
     const format::ArchiveOptions& o = list[i];
     RGS_ASSIGN_OR_RETURN(Entry * e, encode(o));
-    FitPoint p = e->point;
-    if (final || std::isnan(p.psnr_mean_db)) {
+    if (final ? std::isnan(e->checked_db) : std::isnan(e->point.psnr_mean_db)) {
       RGS_ASSIGN_OR_RETURN(const auto psnr, render(e, final ? final_ : search_));
-      p.psnr_mean_db = psnr.first;
-      p.psnr_min_db = psnr.second;
-      if (!final) e->point = p;
+      (final ? e->checked_db : e->point.psnr_mean_db) = psnr.first;
+      (final ? e->checked_min_db : e->point.psnr_min_db) = psnr.second;
     }
+    FitPoint p = e->point;
     if (final) {
-      e->checked_db = p.psnr_mean_db;
-    } else if (!std::isnan(e->checked_db)) {
+      p.psnr_mean_db = e->checked_db;
+      p.psnr_min_db = e->checked_min_db;
+      e->checked_in = fit_;
+    } else if (e->checked_in == fit_) {
       p.psnr_mean_db = std::min(p.psnr_mean_db, e->checked_db + search_offset_);
     }
     p.bytes += overhead_;
@@ -256,7 +260,7 @@ Result<double> Measurer::view_psnr(api::Renderer& renderer, const api::Scene& sc
 }
 
 Result<std::vector<float>> Measurer::render_rgb(api::Renderer& renderer, const api::Scene& scene,
-                                                const runtime::Camera& cam) {
+                                                const runtime::Camera& cam, api::Image* kept) {
   auto image = renderer.render_image(scene, cam, settings_);
   if (!image.ok()) return Status(image.status()).prepend(scene.info().path + ", view " + cam.name);
   const size_t pixels = size_t(cam.width) * cam.height;
@@ -269,6 +273,7 @@ Result<std::vector<float>> Measurer::render_rgb(api::Renderer& renderer, const a
   }
   std::vector<float> rgb(pixels * 3);
   for (size_t i = 0; i < pixels; ++i) std::copy_n(rgba + 4 * i, 3, rgb.data() + 3 * i);
+  if (kept) *kept = std::move(image).value();
   return rgb;
 }
 

@@ -62,8 +62,8 @@ class Measurer {
   /// Bytes of each archive (encoded when new).
   Result<std::vector<FitPoint>> bytes(const std::vector<format::ArchiveOptions>& list);
 
-  /// Bytes and PSNR on the search views (final: on the cameras at their own size, never cached). An archive
-  /// checked at the cameras' size before reads at most that check plus search_offset() on the search views: the
+  /// Bytes and PSNR on the search views (final: on the cameras at their own size). An archive checked at the
+  /// cameras' size before in this fit reads at most that check plus search_offset() on the search views: the
   /// two sizes differ by more for some knobs than for others, and a choice the check found below the target
   /// must not meet the search's target again.
   Result<std::vector<FitPoint>> measure(const std::vector<format::ArchiveOptions>& list, bool final = false);
@@ -90,6 +90,14 @@ class Measurer {
   /// How far the search's target lies above the target at the cameras' size (see measure).
   void set_search_offset(double db) { search_offset_ = db; }
 
+  /// Starts another fit on the archives measured: their bytes and PSNRs stay (they depend on the archive alone),
+  /// the checks of earlier fits no longer lower what measure() reports, and the search offset is 0, so the fit
+  /// makes the choices a fit on a new Measurer would make, without encoding or rendering anything again.
+  void begin_fit() {
+    ++fit_;
+    search_offset_ = 0;
+  }
+
   uint32_t encodings() const { return uint32_t(cache_.size()); }
   uint32_t renders() const { return renders_; }
   double encode_seconds() const { return encode_seconds_; }
@@ -98,7 +106,8 @@ class Measurer {
  private:
   struct Entry {
     FitPoint point;  ///< bytes: the sections only
-    double checked_db = kNaN;  ///< mean PSNR at the cameras' own size, once checked
+    double checked_db = kNaN, checked_min_db = kNaN;  ///< mean and lowest PSNR at the cameras' own size, once checked
+    uint32_t checked_in = 0;                            ///< the last fit (begin_fit) that checked it
     uint64_t sections = 0;
     std::shared_ptr<const format::ArchiveScene> archive;  ///< kept until it is rendered
   };
@@ -160,8 +169,9 @@ class Measurer {
   /// runtime::GpuImageComparer on the device (the same PSNR but for the order of its float64 sums).
   Result<double> view_psnr(api::Renderer& renderer, const api::Scene& scene, const ViewSet& set, size_t v);
 
-  /// A render's clamped-later RGB as [H, W, 3] floats on the host.
-  Result<std::vector<float>> render_rgb(api::Renderer& renderer, const api::Scene& scene, const runtime::Camera& cam);
+  /// A render's clamped-later RGB as [H, W, 3] floats on the host; the image itself into `kept` when not null.
+  Result<std::vector<float>> render_rgb(api::Renderer& renderer, const api::Scene& scene, const runtime::Camera& cam,
+                                        api::Image* kept = nullptr);
 
   /// Mean and lowest PSNR of the archive's renders against the source's on `set`; its decoded scene is
   /// freed (encoded again if it is rendered again).
@@ -188,6 +198,7 @@ class Measurer {
   size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
   double encode_seconds_ = 0, render_seconds_ = 0;
   double search_offset_ = 0;
+  uint32_t fit_ = 1;
   std::optional<uint64_t> budget_;
   std::optional<FitPoint> best_within_;
 };

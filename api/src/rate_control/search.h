@@ -29,6 +29,9 @@ class Search {
         anchor_(std::move(anchor)),
         sh_degree_(sh_degree) {}
 
+  /// A search of its own (no history) on the same measurer, options and anchor.
+  Search fresh() const { return Search(m_, options_, sh_degree_, anchor_); }
+
   /// Reports `what` to FitOptions::progress, with `steps` more steps done.
   void report(const std::string& what, uint32_t steps = 0);
   /// A part of the search of at most `most` progress steps (FitSteps on FitOptions::progress).

@@ -9,6 +9,7 @@
 #include "knobs.h"
 #include "rgs/api/camera.h"
 #include "rgs/api/convert.h"
+#include "rgs/converter/cloud_edits.h"
 
 namespace rgs::api {
 
@@ -38,19 +39,29 @@ namespace detail {
 
 namespace {
 
-/// The views of `target` for the scene read from `src_name`: make_cameras when it names a cameras file, an orbit
-/// or a path, else default_views (its note in `note`).
-Result<std::vector<runtime::Camera>> target_views(const ConvertTarget& target, const converter::InputScene& input,
+/// The views of `options.target` for the scene read from `src_name`, after `options.edits`: make_cameras when it
+/// names a cameras file, an orbit or a path, else default_views (its note in `note`). Cameras of a file are in
+/// the source's frame and move with the edits; an orbit, a path or guessed views are made on the edited scene.
+Result<std::vector<runtime::Camera>> target_views(const ConvertOptions& options, const converter::InputScene& input,
                                                   const std::string& src_name, std::string* note) {
-  const CameraChoice& views = target.views;
-  if (views.cameras_path.empty() && views.orbit == 0 && views.path == 0) {
+  const CameraChoice& views = options.target.views;
+  std::vector<runtime::Camera> cameras;
+  bool from_file = !views.cameras_path.empty();
+  if (!from_file && views.orbit == 0 && views.path == 0) {
     RGS_ASSIGN_OR_RETURN(DefaultViews found, default_views(src_name, input.cloud, views));
     *note = std::move(found.note);
-    return std::move(found.cameras);
+    cameras = std::move(found.cameras);
+    from_file = !found.cameras_path.empty();
+  } else {
+    auto made = make_cameras(views, content_frame(input.cloud));
+    if (!made.ok()) return Status(made.status()).prepend(src_name + ": rate control's views");
+    cameras = std::move(made).value();
   }
-  auto made = make_cameras(views, input.bounds);
-  if (!made.ok()) return Status(made.status()).prepend(src_name + ": rate control's views");
-  return made;
+  if (from_file) {  // in the source's frame: moved with the scene
+    const converter::EditMotion m = converter::edit_motion(options.edits);
+    for (runtime::Camera& cam : cameras) runtime::move_camera(&cam, m.rotation, m.scale, m.offset);
+  }
+  return cameras;
 }
 
 /// fit_archive's options for `options` (as convert() will write the archive) on the scene read from `src_name`.
@@ -78,7 +89,7 @@ FitOptions fit_options(const ConvertOptions& options, const converter::InputScen
 Result<RateControlReport> fit_target(const converter::InputScene& input, const std::string& src_name,
                                      ConvertOptions* options, const FitProgress::Sink& progress) {
   std::string note;
-  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, target_views(options->target, input, src_name, &note));
+  RGS_ASSIGN_OR_RETURN(const std::vector<runtime::Camera> views, target_views(*options, input, src_name, &note));
   FitOptions fit = fit_options(*options, input, src_name);
   FitProgress steps(progress);
   fit.progress = &steps;

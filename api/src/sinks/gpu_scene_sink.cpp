@@ -20,7 +20,8 @@ static_assert(LodSettings{}.splat_budget == runtime::LodStreamOptions{}.budget.m
               LodSettings{}.stream_bytes_per_frame == runtime::LodStreamOptions{}.stream_bytes_per_frame);
 
 /// A level-of-detail .rgs on the GPU: a LodStreamer with the coarsest level of every chunk uploaded.
-Result<Scene> load_cuda_lod(const format::RgsFile& file, const std::string& path, const LoadOptions& options) {
+Result<Scene> load_cuda_lod(const format::RgsFile& file, const std::string& path, const LoadOptions& options,
+                            const ContentFrame& content) {
   for (Preset p : options.presets) {
     RGS_RETURN_ERROR_IF(preset_reads_fp32(p) && !options.skip_unrenderable_presets, StatusCode::kInvalidArgument,
                         path + ": preset " + preset_name(p) +
@@ -43,6 +44,7 @@ Result<Scene> load_cuda_lod(const format::RgsFile& file, const std::string& path
   lod.frame_done.reset(event);
   SceneInfo& info = impl->info;
   info = lod_scene_info(file, path, options, Device::kCuda);
+  info.content = content;
   info.has_compact = true;
   info.memory_bytes = lod.streamer->device_bytes();
   info.runtime_section_bytes = info.gaussians * stored_gaussian_bytes(file);
@@ -83,7 +85,7 @@ Result<LoadedGpuScene> upload(LoadScene& scene, const runtime::GpuSceneOptions& 
 Result<Scene> make_gpu_scene(LoadScene scene, const LoadOptions& options) {
   RGS_RETURN_IF_ERROR(require_cuda_device(options.cuda_device));
   const std::string& path = scene.name;
-  if (scene.rgs && use_levels(*scene.rgs, options)) return load_cuda_lod(*scene.rgs, path, options);
+  if (scene.rgs && use_levels(*scene.rgs, options)) return load_cuda_lod(*scene.rgs, path, options, scene.content);
   runtime::GpuSceneOptions gpu_options;
   gpu_options.fp32_attributes = false;
   for (Preset p : options.presets) gpu_options.fp32_attributes |= preset_reads_fp32(p);
@@ -93,6 +95,7 @@ Result<Scene> make_gpu_scene(LoadScene scene, const LoadOptions& options) {
   info.device = Device::kCuda;
   info.path = path;
   info.bounds = loaded.bounds;
+  info.content = scene.content;
   info.source_is_rgs = loaded.is_rgs;
   info.file_bytes = loaded.file_bytes;
   info.notes = std::move(loaded.notes);

@@ -62,7 +62,8 @@ Result<format::EncodedScene> read_coarse_levels(const format::RgsFile& file) {
 
 /// A level-of-detail .rgs on the CPU: the full detail (read_scene: every section checked) and every coarser
 /// level (each range checked), dequantized; frames select from both (Renderer::render).
-Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path, const LoadOptions& options) {
+Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path, const LoadOptions& options,
+                           const ContentFrame& content) {
   auto impl = std::make_shared<Scene::Impl>();
   auto encoded = file.read_scene();
   if (!encoded.ok()) return naming(encoded.status(), path);
@@ -80,6 +81,7 @@ Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path,
   impl->lod->stored_bytes = file.gaussian_count() * stored_gaussian_bytes(file);
   SceneInfo& info = impl->info;
   info = lod_scene_info(file, path, options, Device::kCpu);
+  info.content = content;
   info.memory_bytes = cloud_bytes(impl->cloud) + cloud_bytes(impl->lod->coarse);
   info.runtime_section_bytes = runtime_bytes(info.gaussians, info.sh_degree);
   info.description = "RoofGS .rgs, dequantized, " + std::to_string(info.lod.chunks) + " chunks x " +
@@ -95,7 +97,7 @@ Result<Scene> load_cpu_lod(const format::RgsFile& file, const std::string& path,
 
 Result<Scene> make_host_scene(LoadScene scene, const LoadOptions& options) {
   const std::string& path = scene.name;
-  if (scene.rgs && use_levels(*scene.rgs, options)) return load_cpu_lod(*scene.rgs, path, options);
+  if (scene.rgs && use_levels(*scene.rgs, options)) return load_cpu_lod(*scene.rgs, path, options, scene.content);
   if (scene.rgs) {
     RGS_ASSIGN_OR_RETURN(scene.input, converter::rgs_file_scene(*scene.rgs, options.read_options));
   }
@@ -117,6 +119,7 @@ Result<Scene> make_host_scene(LoadScene scene, const LoadOptions& options) {
   }
   info.device = Device::kCpu;
   info.path = path;
+  info.content = scene.content;
   info.gaussians = impl->cloud.size();
   info.sh_degree = impl->cloud.sh_degree;
   info.antialiased = impl->cloud.antialiased;

@@ -1,5 +1,10 @@
-// What the host and GPU sinks of load() report alike about a scene: its sizes and its levels of detail.
+// What the host and GPU sinks of load() report alike about a scene: where its content is, its sizes and its levels
+// of detail.
+#include <algorithm>
+#include <new>
+
 #include "../internal_load.h"
+#include "rgs/format/half.h"
 
 namespace rgs::api::detail {
 
@@ -19,6 +24,27 @@ uint64_t stored_gaussian_bytes(const format::RgsFile& file) {
 Status naming(Status status, const std::string& path) {
   if (status.message().find(path) == std::string::npos) status.prepend(path);
   return status;
+}
+
+Result<ContentFrame> load_content_frame(const LoadScene& scene) {
+  if (!scene.rgs) return content_frame(scene.input->cloud);
+  const format::RgsFile& file = *scene.rgs;
+  format::GaussianCloud cloud;  // the means and opacities alone
+  std::vector<uint16_t> opacities;
+  try {
+    cloud.means.resize(3 * file.gaussian_count());
+    opacities.resize(file.gaussian_count());
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory,
+                  file.name() + ": cannot hold the means of " + std::to_string(file.gaussian_count()) + " Gaussians");
+  }
+  RGS_RETURN_IF_ERROR(file.decode_section(format::SectionId::kMeans, cloud.means.data(), 4 * cloud.means.size()));
+  RGS_RETURN_IF_ERROR(file.decode_section(format::SectionId::kOpacities, opacities.data(), 2 * opacities.size()));
+  cloud.means.resize(3 * file.full_detail_count());  // a level-of-detail file's coarser levels follow
+  opacities.resize(file.full_detail_count());
+  cloud.opacities.resize(opacities.size());
+  std::transform(opacities.begin(), opacities.end(), cloud.opacities.begin(), format::half_bits_to_float);
+  return content_frame(cloud);
 }
 
 bool use_levels(const format::RgsFile& file, const LoadOptions& options) {

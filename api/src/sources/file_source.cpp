@@ -49,10 +49,12 @@ Result<std::unique_ptr<converter::PlyStream>> open_batches(const std::vector<std
 /// Reads the scenes at `srcs` (named `name` together) whole, the Gaussians of the inputs before each one counted
 /// against options.read.max_gaussians (the merged scene's limit); with several, the merged scene's estimated memory
 /// checked, each input edited (ConvertOptions::input_edits, widened to the merge's SH degree first, as a batch is)
-/// and described in `*inputs`.
+/// and described in `*inputs`. For a PLY `output`, PLY inputs keep their opacity logits and log scales as read.
 Result<std::vector<converter::InputScene>> read_inputs(const std::vector<std::string>& srcs, const std::string& name,
-                                                      const ConvertOptions& options, std::vector<MergeInput>* inputs) {
+                                                      OutputFormat output, const ConvertOptions& options,
+                                                      std::vector<MergeInput>* inputs) {
   converter::SceneReadOptions read = scene_read_options(options);
+  read.keep_pre_activation = output == OutputFormat::kPly;  // an unedited PLY's logits and log scales bit for bit
   const uint64_t most = read.max_gaussians;
   uint64_t held = 0;
   uint32_t degree = 0;
@@ -104,7 +106,7 @@ Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, Outpu
   if (source.stream) return source;
   RGS_RETURN_IF_ERROR(check_convert_memory(source.name, estimate, options));
   RGS_ASSIGN_OR_RETURN(std::vector<converter::InputScene> scenes,
-                       read_inputs(srcs, source.name, options, &source.merge_inputs));
+                       read_inputs(srcs, source.name, output, options, &source.merge_inputs));
   RGS_ASSIGN_OR_RETURN(source.scene, converter::merge_scenes(std::move(scenes)));
   return source;
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "rgs/api/scene.h"
 #include "rgs/format/gaussian_cloud.h"
 #include "rgs/format/metadata.h"
 #include "rgs/format/status.h"
@@ -130,18 +131,22 @@ struct CameraChoice {
 
 /// Builds the cameras: runtime::load_inria_cameras (field of view kept on resize), flown through with
 /// runtime::fly_through_cameras when `fly` is set (keys whose sizes differ are first resized to the first key's
-/// size, field of view kept), runtime::path_cameras or runtime::orbit_cameras around `bounds`.
+/// size, field of view kept), or runtime::path_cameras or runtime::orbit_cameras around `frame`'s sphere (the
+/// robust guess of content_frame, e.g. SceneInfo::content; near plane min(0.2, frame_radius / 20)).
 /// Errors: those of the loaders and of fly_through_cameras (prefixed with the cameras path: e.g. fewer than 2
 /// cameras left after `every` and `limit`); kInvalidArgument for an orbit of 0 cameras or `fly` without
 /// cameras_path.
-Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const format::SceneBounds& bounds);
+Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, const ContentFrame& frame);
 
 // The views a scene is judged on when no camera option names them (default_views).
 
 /// The cameras.json the standard 3DGS output layout puts beside a model, for the scene file (or folder) at
 /// `scene_path`: `<dir>/cameras.json`, where `<dir>` is the scene's folder, and, when `<dir>` is
 /// `<model>/point_cloud/iteration_<digits>` (train.py's `point_cloud/iteration_N/point_cloud.ply`),
-/// `<model>/cameras.json`. Nothing else is looked at. A candidate that does not exist is skipped; one that exists
+/// `<model>/cameras.json`; then `<dir>/PREFIX_cameras.json` for each PREFIX of the scene's name (without its
+/// extension) that ends before a `_`, longest first (a capture's cameras named after it:
+/// `mipnerf360_flowers_cameras.json` beside `mipnerf360_flowers_c3dgs.ply`). Nothing else is looked at. The first
+/// that exists is taken. A candidate that does not exist is skipped; one that exists
 /// is treated as hostile: it must be a regular file (links followed) whose real path lies inside the scene's
 /// folder tree (`<model>`, else `<dir>`).
 /// @return the path found (absolute, as looked up), or an empty string when neither exists; kInvalidArgument for a
@@ -149,33 +154,14 @@ Result<std::vector<runtime::Camera>> make_cameras(const CameraChoice& choice, co
 ///         kIoError when a path cannot be examined.
 Result<std::string> find_scene_cameras(const std::string& scene_path);
 
-/// Where the guessed views (content_views) were placed, in world units.
-struct ContentViewsInfo {
-  /// Centre of the content: the opacity-weighted median of the means, per axis.
-  float centre[3] = {0, 0, 0};
-  /// Opacity-weighted quantiles of the means' distance from `centre`: a quarter, half and nine tenths of the
-  /// weight lies within these radii.
-  double radius_25 = 0, radius_50 = 0, radius_90 = 0;
-  /// Whether the content surrounds a central core (radius_50 > kSurroundRatio · radius_25: a capture whose
-  /// background spreads far beyond its subject) rather than forming one object.
-  bool surrounds = false;
-  /// Radius of the sphere the inward views frame: radius_25 when the content surrounds, else half the diagonal of
-  /// the box of the means' weighted 5th-95th percentiles per axis (around that box's centre, `target`); when that is
-  /// 0 (all the weight at one point), 3 times the largest scale of any Gaussian, else 1.
-  double frame_radius = 0;
-  float target[3] = {0, 0, 0};
-  /// Distance of the cameras from `target`: where the frame sphere just fits the narrower field of view, and (content
-  /// that surrounds a core; else the same) where it just fits the wider one.
+/// Where the guessed views (content_views) were placed, in world units: the content's frame, and the distance of the
+/// cameras from `target`: where the frame sphere just fits the narrower field of view, and (content that surrounds a
+/// core; else the same) where it just fits the wider one.
+struct ContentViewsInfo : ContentFrame {
   double distance = 0, near_distance = 0;
 };
 
-/// The content surrounds its core when half its weight lies more than this many times farther out than a quarter
-/// of it: a uniform ball gives 1.26, a disc 1.41, a rod 2; Mip-NeRF 360 flowers 4.5, guitar and biker 1.5.
-constexpr double kSurroundRatio = 3.0;
-
-/// Views guessed from where `cloud`'s content is, robust to floaters: each Gaussian weighs its opacity (means that
-/// are not finite are left out), the centre is the weighted median and the extent comes from weighted quantiles
-/// (ContentViewsInfo), so a few far Gaussians, however far, move nothing. Six views of width × height pixels,
+/// Views guessed from where `cloud`'s content is (content_frame: robust to floaters). Six views of width × height pixels,
 /// vertical field of view 50°, square pixels, up = −y (the scenes' convention, as runtime::orbit_cameras):
 /// - one object: a ring around the frame sphere at the distance where it just fits the narrower field of view,
 ///   azimuths 60° apart, elevations alternating 0° and 20° ("guess_in_000" ...);

@@ -117,6 +117,44 @@ struct SceneLodInfo {
   uint64_t pool_bytes = 0;
 };
 
+/// The content surrounds its core when half its weight lies more than this many times farther out than a quarter
+/// of it: a uniform ball gives 1.26, a disc 1.41, a rod 2; Mip-NeRF 360 flowers 4.5, guitar and biker 1.5.
+constexpr double kSurroundRatio = 3.0;
+/// content_frame() weighs at most this many Gaussians, evenly spaced in the scene's order (a quantile of 2^18
+/// samples moves by well under a percent of the extent), so that it costs every load the same few milliseconds.
+constexpr uint64_t kContentFrameSamples = uint64_t{1} << 18;
+
+/// Where a scene's content is, in world units, robust to floaters (content_frame): the sphere its orbits and first
+/// views frame (make_cameras, content_views, the viewer's first view).
+struct ContentFrame {
+  /// Gaussians weighed: those with a finite mean among the kContentFrameSamples spaced evenly; 0 when there is none.
+  uint64_t weighed = 0;
+  /// Centre of the content: the opacity-weighted median of the means, per axis.
+  float centre[3] = {0, 0, 0};
+  /// Opacity-weighted quantiles of the means' distance from `centre`: a quarter and half of the weight lies within
+  /// these radii.
+  double radius_25 = 0, radius_50 = 0;
+  /// Whether the content surrounds a central core (radius_50 > kSurroundRatio · radius_25: a capture whose
+  /// background spreads far beyond its subject) rather than forming one object.
+  bool surrounds = false;
+  /// Radius of the sphere the views frame, around `target`: radius_25 around `centre` when the content surrounds,
+  /// else half the diagonal of the box of the means' weighted 5th-95th percentiles per axis around that box's
+  /// centre; when that is 0 (all the weight at one point), 3 times the largest scale of any Gaussian, else 1.
+  double frame_radius = 1;
+  float target[3] = {0, 0, 0};
+  /// The frame sphere (`target`, `frame_radius`) as the orbit builders take it (runtime::orbit_cameras).
+  format::SceneBounds sphere() const;
+  /// The frame of `bounds`' sphere (centre and target its centre, frame_radius its radius, 1 when not > 0), for
+  /// Gaussians that never reach the host (load_device_gaussians) and for views that must stay on a given sphere.
+  static ContentFrame of_sphere(const format::SceneBounds& bounds);
+};
+
+/// Where `cloud`'s content is: each Gaussian weighs its opacity (all weigh 1 when none has any; means that are not
+/// finite are left out), the centre is the weighted median and the extent comes from weighted quantiles, so a few
+/// far Gaussians, however far, move nothing. Deterministic. A cloud without a finite mean gives the default frame
+/// (the unit sphere at the origin, `weighed` 0).
+ContentFrame content_frame(const format::GaussianCloud& cloud);
+
 /// What load() produced.
 struct SceneInfo {
   std::string path;
@@ -128,6 +166,9 @@ struct SceneInfo {
   bool antialiased = false;
   /// Scene AABB and bounding sphere (the .rgs metadata, or converter::compute_bounds of a PLY).
   format::SceneBounds bounds;
+  /// Where the content is (content_frame of the Gaussians the renderers draw, a level-of-detail scene's full detail;
+  /// of a scene from device arrays, load_device_gaussians, its bounding sphere): what orbits and first views frame.
+  ContentFrame content;
   /// True when the file was a .rgs (sniffed by magic or extension).
   bool source_is_rgs = false;
   /// The file's format in words ("RoofGS .rgs", "binary_little_endian PLY", "Niantic SPZ v4 ...").

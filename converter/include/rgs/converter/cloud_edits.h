@@ -4,6 +4,7 @@
 // them; apply_edit acts on a float cloud (docs/DESIGN.md#the-scene-pipeline, README "Editing on the way").
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -44,7 +45,8 @@ struct EditAction {
   std::vector<double> values;
   /// kFilter: the property compared, named as in an INRIA PLY but read from the cloud's activated values: x, y,
   /// z (means); opacity (after the sigmoid, in [0, 1]); scale_0..2 (after exp, linear); rot_0..3 (the normalized
-  /// quaternion w, x, y, z); f_dc_0..2 (SH coefficient 0 of R, G, B); f_rest_K (K = 0..44, channel-major as in the
+  /// quaternion w, x, y, z); f_dc_0..2 (SH coefficient 0 of R, G, B); red, green, blue (the DC colour 0.5 +
+  /// 0.28209479·f_dc, what splat-transform's -V f_dc_0..2 compares); f_rest_K (K = 0..44, channel-major as in the
   /// PLY: coefficient K mod (n-1) + 1 of channel K div (n-1), n = (degree+1)² of the scene at that point).
   std::string property;
   EditCompare compare = EditCompare::kLt;
@@ -85,6 +87,17 @@ Result<std::vector<EditAction>> parse_recorded_edits(const std::string& options)
 /// number finite, the quaternion's norm, s > 0, r > 0, min <= max, a known property.
 /// @return kInvalidArgument naming the action (its `text`, else its kind).
 Status check_edit_action(const EditAction& action);
+
+/// Where edits move the scene: p' = scale·rotation·p + offset.
+struct EditMotion {
+  std::array<double, 9> rotation = {1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< row-major
+  double scale = 1;
+  std::array<double, 3> offset = {0, 0, 0};  ///< scene units
+};
+
+/// The motion of `edits` (checked, as apply_edit takes them), in order: their translations, rotations and scales
+/// composed; the other kinds move nothing. What moves a view given in the source's frame with the scene.
+EditMotion edit_motion(const std::vector<EditAction>& edits);
 
 /// Applies `action` to `cloud` in place, keeping the order of the Gaussians it keeps. A rotation turns the means
 /// about the origin (p' = R·p, in double), left-multiplies each quaternion (q' = q_R·q, normalized) and rotates the

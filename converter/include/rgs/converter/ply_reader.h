@@ -44,6 +44,9 @@ struct PlyReadOptions {
   /// Also compute XXH64 (seed 0) of the whole file into PlyScene::file_xxh64 (provenance). Binary files
   /// are hashed in the reading pass, chunk by chunk in file order, so they are read only once.
   bool hash_file = false;
+  /// Also keep each Gaussian's opacity logit and log scales as read (GaussianCloud::pre_activation), so that a
+  /// PLY written from the cloud has them bit for bit.
+  bool keep_pre_activation = false;
 };
 
 /// A PLY scene and what was learned while reading it.

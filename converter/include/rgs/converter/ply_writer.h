@@ -27,7 +27,9 @@ struct PlyWriteReport {
 /// x y z nx ny nz f_dc_0..2 f_rest_0..(3K-4) opacity scale_0..2 rot_0..3, normals 0, f_rest channel-major.
 /// Every value written is finite. Inverse activations: opacity = logit(clamp(o, 1e-6, 1 - 1e-6)) (so
 /// opacity 1 from FP16 stays finite: ±13.8155), scale = log(s) with s = 0 written as kZeroScaleLog
-/// (counted in `report`), rotation as given.
+/// (counted in `report`), rotation as given; but where the cloud holds GaussianCloud::pre_activation, each of
+/// those that is finite and still activates to the Gaussian's opacity or scale is written as it is, so a PLY
+/// read and written again with no edit keeps its opacity logits and log scales bit for bit.
 /// Errors: kInvalidArgument when the cloud is inconsistent, or holds a non-finite or negative value
 /// (naming the Gaussian), kOutOfMemory.
 Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, PlyWriteReport* report = nullptr);

@@ -30,6 +30,8 @@ struct SceneReadOptions {
   uint32_t max_decompression_ratio = 8;
   /// Also compute InputScene::file_xxh64 (provenance).
   bool hash_file = false;
+  /// PLY inputs: PlyReadOptions::keep_pre_activation.
+  bool keep_pre_activation = false;
   /// .rgs inputs: also keep the scene as stored (InputScene::encoded), for callers that use the quantized
   /// sections themselves (replication, re-encoding without a second quantization).
   bool keep_encoded = false;

@@ -29,6 +29,10 @@ struct GaussianCloud {
   /// [N, K, 3] float32 SH coefficients, coefficient-major with the colour channel fastest:
   /// sh[(i*K + k)*3 + c]. k = 0 is the DC term (PLY f_dc_c); k >= 1 is PLY f_rest[c*(K-1) + k-1].
   std::vector<float> sh;
+  /// [N, 4] float32 or empty: each Gaussian's opacity logit and log scale_0..2 as a PLY file held them, kept when
+  /// asked (converter::PlyReadOptions::keep_pre_activation) because the float32 activations cannot give them back
+  /// (the sigmoid saturates). The PLY writer writes a value where it still activates to `opacities` or `scales`.
+  std::vector<float> pre_activation;
   /// Trained with the 2D Mip filter: renderers scale each opacity by its compensation (SceneMetadata::antialiased).
   bool antialiased = false;
 
@@ -48,6 +52,7 @@ struct GaussianCloud {
   void remove_gaussians(const std::vector<uint64_t>& indices) {
     const size_t n = size();
     const size_t sv = size_t{sh_coefficients()} * 3;
+    const bool pre = pre_activation.size() == n * 4;
     size_t out = 0, d = 0;
     for (size_t i = 0; i < n; ++i) {
       if (d < indices.size() && indices[d] == i) {
@@ -60,10 +65,12 @@ struct GaussianCloud {
         std::memmove(&scales[out * 3], &scales[i * 3], 3 * sizeof(float));
         opacities[out] = opacities[i];
         std::memmove(&sh[out * sv], &sh[i * sv], sv * sizeof(float));
+        if (pre) std::memmove(&pre_activation[out * 4], &pre_activation[i * 4], 4 * sizeof(float));
       }
       ++out;
     }
     resize(out);
+    if (pre) pre_activation.resize(out * 4);
   }
   /// True when every array has the length that size() and sh_degree imply.
   bool is_consistent() const {

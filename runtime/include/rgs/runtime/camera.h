@@ -49,6 +49,12 @@ std::array<float, 3> camera_centre(const Camera& camera);
 /// (world units): rotation = rows, translation = −rows·eye, both computed in double and rounded to float.
 void set_pose(Camera* camera, const std::array<double, 9>& rows, const std::array<double, 3>& eye);
 
+/// Moves `camera` with a scene moved by p' = scale·rotation·p + offset (`rotation` row-major [3, 3], orthonormal;
+/// scale > 0): its centre goes where the motion takes a point, its view turns with `rotation` and its near plane
+/// scales, so it sees the moved scene as it saw the scene before (an edit's motion: converter::edit_motion).
+void move_camera(Camera* camera, const std::array<double, 9>& rotation, double scale,
+                 const std::array<double, 3>& offset);
+
 /// The size of a view asked as `width` × `height` where 0 means "keep the aspect ratio of ref_width × ref_height":
 /// both given, as given; one 0, derived from the other (rounded, clamped to [1, 32769] so that validate_camera
 /// refuses what is too large); both 0, the reference size.
