@@ -81,8 +81,8 @@ Result<std::vector<uint8_t>> encode_webp_lossless(const RgbaImage& image, const 
   }
   config.lossless = 1;
   config.exact = 1;  // SOG images are data: RGB under a zero alpha is a value too
-  // Effort 1 of 6: SOG images are dense data, on which libwebp's deeper searches (method 4, quality 75) cost
-  // 4-14x the time for files within 0.5 % of the size, often smaller (docs/BENCHMARKS.md "SOG output").
+  // Low effort: SOG images are dense data, on which libwebp's deeper searches (method 4, quality 75) take 3-9x
+  // the time for files within 0.5 % of the size, often larger (docs/BENCHMARKS.md "SOG output").
   config.quality = 50;
   config.method = 1;
   picture.use_argb = 1;
