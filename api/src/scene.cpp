@@ -64,8 +64,9 @@ Status check_lod_settings(const LodSettings& s, const std::string& path) {
 
 /// The pipeline of load() from the source on: the stage, then the sink of options.device.
 Result<Scene> load_scene(detail::LoadScene scene, const LoadOptions& options) {
-  RGS_RETURN_IF_ERROR(detail::quantize_for_load(&scene, options));
+  // Before quantizing, which frees a float input's cloud: a PLY and its .rgs frame the same content.
   RGS_ASSIGN_OR_RETURN(scene.content, detail::load_content_frame(scene));
+  RGS_RETURN_IF_ERROR(detail::quantize_for_load(&scene, options));
   if (options.device == Device::kCpu) return detail::make_host_scene(std::move(scene), options);
   return detail::make_gpu_scene(std::move(scene), options);
 }

