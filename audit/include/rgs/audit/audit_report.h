@@ -45,7 +45,8 @@ VerdictMetric verdict_metric(const AuditResult& result);
 
 /// The smallest share of the source's Gaussians that a candidate compared with its edited source
 /// (CandidateResult::reference) may keep and still pass: below it, its PSNR against what is left says nothing of
-/// the source (a crop to one Gaussian reads 113 dB), so the candidate has lost its content and fails.
+/// the source (guitar cropped to one Gaussian reads 109 dB; docs/AUDITS.md), so the candidate has lost its content
+/// and fails.
 inline constexpr double kMinContentKept = 0.01;
 
 /// The report's first line for one candidate: pass or fail against a mean-PSNR threshold on verdict_metric,
