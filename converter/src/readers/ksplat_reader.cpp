@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "internal_interop.h"
+#include "../internal_interop.h"
 #include "rgs/format/half.h"
 
 namespace rgs::converter {

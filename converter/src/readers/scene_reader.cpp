@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "internal_input_file.h"
-#include "internal_interop.h"
-#include "internal_json.h"
+#include "../internal_input_file.h"
+#include "../internal_interop.h"
+#include "../internal_json.h"
 #include "internal_ply_header.h"
-#include "internal_zip.h"
+#include "../internal_zip.h"
 #include "rgs/converter/gltf.h"
 #include "rgs/converter/ksplat_reader.h"
 #include "rgs/converter/playcanvas_readers.h"

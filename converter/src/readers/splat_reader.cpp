@@ -6,7 +6,7 @@
 #include <cstring>
 #include <string>
 
-#include "internal_interop.h"
+#include "../internal_interop.h"
 
 namespace rgs::converter {
 

@@ -6,7 +6,7 @@
 #include <limits>
 #include <utility>
 
-#include "internal_parallel.h"
+#include "../internal_parallel.h"
 
 namespace rgs::converter::detail {
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "internal_interop.h"
-#include "internal_spz.h"
+#include "../internal_interop.h"
+#include "../internal_spz.h"
 #include "rgs/format/file_io.h"
 
 namespace rgs::converter {

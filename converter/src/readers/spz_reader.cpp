@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "internal_input_file.h"
-#include "internal_interop.h"
-#include "internal_spz.h"
+#include "../internal_input_file.h"
+#include "../internal_interop.h"
+#include "../internal_spz.h"
 
 namespace rgs::converter {
 

@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "internal_gltf.h"
-#include "internal_input_file.h"
-#include "internal_json.h"
-#include "internal_interop.h"
+#include "../internal_gltf.h"
+#include "../internal_input_file.h"
+#include "../internal_json.h"
+#include "../internal_interop.h"
 
 namespace rgs::converter {
 

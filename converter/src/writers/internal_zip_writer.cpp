@@ -5,7 +5,7 @@
 
 #include <cassert>
 
-#include "internal_zip.h"
+#include "../internal_zip.h"
 
 namespace rgs::converter::detail {
 

@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "internal_huge_pages.h"
-#include "internal_input_file.h"
-#include "internal_interop.h"
-#include "internal_parallel.h"
+#include "../internal_huge_pages.h"
+#include "../internal_input_file.h"
+#include "../internal_interop.h"
+#include "../internal_parallel.h"
 #include "internal_ply_header.h"
 #include "rgs/converter/playcanvas_readers.h"
 

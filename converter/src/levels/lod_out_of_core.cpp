@@ -35,7 +35,7 @@
 #include <vector>
 
 #include "internal_lod_chunks.h"
-#include "internal_parallel.h"
+#include "../internal_parallel.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/format/writer.h"
 

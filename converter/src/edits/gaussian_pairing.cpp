@@ -10,8 +10,8 @@
 #include <utility>
 #include <vector>
 
-#include "internal_error_accumulators.h"
-#include "internal_parallel.h"
+#include "../internal_error_accumulators.h"
+#include "../internal_parallel.h"
 
 namespace rgs::converter {
 

@@ -20,9 +20,9 @@
 #include <utility>
 #include <vector>
 
-#include "internal_huge_pages.h"
+#include "../internal_huge_pages.h"
 #include "internal_lod_chunks.h"
-#include "internal_parallel.h"
+#include "../internal_parallel.h"
 
 namespace rgs::converter {
 namespace {

@@ -13,8 +13,8 @@
 #include <utility>
 #include <vector>
 
-#include "internal_huge_pages.h"
-#include "internal_parallel.h"
+#include "../internal_huge_pages.h"
+#include "../internal_parallel.h"
 #include "rgs/format/half.h"
 #include "rgs/format/metadata.h"
 

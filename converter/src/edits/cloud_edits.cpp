@@ -9,7 +9,7 @@
 #include <tuple>
 #include <utility>
 
-#include "internal_interop.h"
+#include "../internal_interop.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/converter/sh_rotation.h"

@@ -7,7 +7,7 @@
 #include <new>
 #include <string>
 
-#include "internal_interop.h"
+#include "../internal_interop.h"
 #include "rgs/format/file_io.h"
 
 namespace rgs::converter {

@@ -31,10 +31,10 @@
 #include <unordered_map>
 #include <vector>
 
-#include "internal_huge_pages.h"
-#include "internal_input_file.h"
-#include "internal_interop.h"
-#include "internal_parallel.h"
+#include "../internal_huge_pages.h"
+#include "../internal_input_file.h"
+#include "../internal_interop.h"
+#include "../internal_parallel.h"
 #include "internal_ply_header.h"
 #include "rgs/converter/scene_reader.h"
 

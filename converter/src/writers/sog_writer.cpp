@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "internal_interop.h"
+#include "../internal_interop.h"
 #include "internal_kmeans.h"
-#include "internal_parallel.h"
-#include "internal_sog.h"
-#include "internal_webp.h"
-#include "internal_zip.h"
+#include "../internal_parallel.h"
+#include "../internal_sog.h"
+#include "../internal_webp.h"
+#include "../internal_zip.h"
 #include "rgs/converter/ply_writer.h"
 
 namespace rgs::converter {

@@ -21,14 +21,14 @@
 #include <string>
 #include <vector>
 
-#include "internal_huge_pages.h"
-#include "internal_input_file.h"
-#include "internal_interop.h"
-#include "internal_json.h"
-#include "internal_parallel.h"
-#include "internal_sog.h"
-#include "internal_webp.h"
-#include "internal_zip.h"
+#include "../internal_huge_pages.h"
+#include "../internal_input_file.h"
+#include "../internal_interop.h"
+#include "../internal_json.h"
+#include "../internal_parallel.h"
+#include "../internal_sog.h"
+#include "../internal_webp.h"
+#include "../internal_zip.h"
 #include "rgs/converter/playcanvas_readers.h"
 
 namespace rgs::converter {

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "internal_gltf.h"
-#include "internal_interop.h"
+#include "../internal_gltf.h"
+#include "../internal_interop.h"
 #include "rgs/format/file_io.h"
 
 namespace rgs::converter {
