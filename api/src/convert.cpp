@@ -288,11 +288,13 @@ Result<ConvertReport> convert(const std::vector<std::string>& srcs, const std::s
   RGS_RETURN_IF_ERROR(outputs.declare(dst, output, srcs));
   detail::ProgressReporter progress(options, output);
   progress.reading();
-  RGS_ASSIGN_OR_RETURN(detail::SceneSource source, detail::open_file_source(srcs, output, options));
+  RGS_ASSIGN_OR_RETURN(detail::SceneSource source, detail::open_file_source(srcs, dst, output, options));
   source.start = start;
   if (source.stream) {
-    return outputs.commit(
-        detail::convert_batches(std::move(source), dst, outputs.options(), *outputs.options().files, &progress));
+    const ConvertOptions& settings = outputs.options();
+    return outputs.commit(detail::convert_batches(std::move(source), dst, output, settings,
+                                                  *make_sink(dst, output, settings, &progress), *settings.files,
+                                                  &progress));
   }
   RGS_RETURN_IF_ERROR(outputs.declare(dst, output, source.scene->files));
   return outputs.commit(convert_whole(std::move(source), dst, output, outputs.options(), &progress));

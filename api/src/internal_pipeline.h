@@ -72,14 +72,18 @@ struct SceneSource {
   Clock::time_point start = Clock::now();
 };
 
-/// The files at `srcs` (one or more) as the source of a conversion to `output`, named by their names joined with
-/// " + ": in batches, file after file (converter::PlyStream of them all), when they are binary PLYs converted to a
-/// level-of-detail .rgs (runtime profile, no target) whose estimated peak when read whole together or when merged
-/// is above convert_memory_limit(options); else each read whole (converter::read_scene, after check_convert_memory
+/// Whether a conversion to `dst` in `output` writes levels of detail: a .rgs with ConvertOptions::lod_levels, or a
+/// streamed SOG (lod-meta.json).
+bool writes_levels(const std::string& dst, OutputFormat output, const ConvertOptions& options);
+
+/// The files at `srcs` (one or more) as the source of a conversion to `dst` in `output`, named by their names
+/// joined with " + ": in batches, file after file (converter::PlyStream of them all), when they are binary PLYs
+/// whose levels of detail are written (writes_levels; the runtime profile, no target) and whose estimated peak
+/// when read whole together or when merged is above convert_memory_limit(options); else each read whole (converter::read_scene, after check_convert_memory
 /// of their sum), the merged scene's estimate checked, each input edited (ConvertOptions::input_edits) and merged
 /// (converter::merge_scenes). Their Gaussians together are held to options.read.max_gaussians.
-Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, OutputFormat output,
-                                     const ConvertOptions& options);
+Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, const std::string& dst,
+                                     OutputFormat output, const ConvertOptions& options);
 
 /// The scene on its way from the stages to the sink: the float cloud as read (freed once quantized where nothing
 /// reads it again), its quantized form, its levels of detail, and the report filled as the work goes.
@@ -88,6 +92,8 @@ struct PipelineScene {
   std::string name, source_file;  ///< SceneSource's
   std::optional<format::EncodedScene> encoded;
   std::optional<converter::LodScene> lod;
+  /// The levels of detail as the sinks read them: `lod` held, or those of an out-of-core build.
+  std::unique_ptr<converter::Levels> levels;
   ConvertReport report;
   uint64_t edited_out = 0;  ///< Gaussians the edits removed (ConvertOptions::edits)
 };
@@ -142,15 +148,16 @@ std::unique_ptr<Sink> make_rgs_sink(const std::string& dst, const ConvertOptions
 std::unique_ptr<Sink> make_cloud_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
                                       ProgressReporter* progress);
 
-/// The streamed SOG sink (`dst` named lod-meta.json): the scene's `lod` written.
+/// The streamed SOG sink (`dst` named lod-meta.json): the scene's `levels` written.
 std::unique_ptr<Sink> make_sog_lod_sink(const std::string& dst, ProgressReporter* progress);
 
-/// A batched source converted to a level-of-detail .rgs out of core: the PLY scanned once for the statistics the
-/// quantizer takes, then quantized batch by batch into converter::build_lod_out_of_core, which writes `dst`
-/// through `files` (the stages and the .rgs sink of a whole scene, fused: the build spills to disk what a whole
-/// scene holds in memory).
-Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst, const ConvertOptions& options,
-                                      format::FileSink& files, ProgressReporter* progress);
+/// A batched source's levels of detail built out of core and written by `sink` through `files`: the PLY scanned
+/// once for the statistics the quantizer takes, then quantized batch by batch into
+/// converter::build_lod_out_of_core, whose levels (spilled beside `dst`) the sink reads as it reads a whole
+/// scene's.
+Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst, OutputFormat output,
+                                      const ConvertOptions& options, Sink& sink, format::FileSink& files,
+                                      ProgressReporter* progress);
 
 /// Forwards to another sink, reporting the "writing" stage when the first bytes reach the file (before that,
 /// the archive profile's encoder or the SPZ compressor is still running).
@@ -179,6 +186,9 @@ Result<format::WriteOptions> rgs_write_options(const ConvertOptions& options);
 /// How a .rgs conversion quantizes: scale encoding, SH clip percentile and DC bits (8 for the archive profile,
 /// which drops the DC residual: SPEC §4.8).
 converter::QuantizeOptions rgs_quantize_options(const ConvertOptions& options);
+
+/// How a streamed SOG's levels quantize: the runtime profile's values, the DC term with its residual.
+converter::QuantizeOptions sog_lod_quantize_options(const ConvertOptions& options);
 
 /// Adds a note to `report` when a written .rgs of `gaussians` (every level) is over the readers' default
 /// max_gaussians (format::ReadLimits): what to pass to read it.

@@ -8,6 +8,7 @@
 
 #include "internal_pipeline.h"
 #include "rgs/config.h"
+#include "rgs/converter/sog_writer.h"
 
 namespace rgs::api::detail {
 
@@ -179,6 +180,18 @@ converter::QuantizeOptions rgs_quantize_options(const ConvertOptions& options) {
   quantize.sh_clip_percentile = options.sh_clip_percentile;
   quantize.sh_dc_bits = options.profile == format::StorageProfile::kArchive ? 8 : options.sh_dc_bits;
   return quantize;
+}
+
+converter::QuantizeOptions sog_lod_quantize_options(const ConvertOptions& options) {
+  converter::QuantizeOptions quantize;
+  quantize.scale_encoding = options.scale_encoding;
+  quantize.sh_clip_percentile = options.sh_clip_percentile;
+  return quantize;
+}
+
+bool writes_levels(const std::string& dst, OutputFormat output, const ConvertOptions& options) {
+  return (output == OutputFormat::kRgs && options.lod_levels) ||
+         (output == OutputFormat::kSog && converter::is_sog_lod_path(dst));
 }
 
 }  // namespace rgs::api::detail

@@ -140,6 +140,47 @@ TEST_CASE("convert: a binary PLY over memory_limit converts out of core to the b
   CHECK(dir.entries().size() == 2);  // the temporary folder is gone
 }
 
+/// Every file under `root`, by path relative to it, with its bytes.
+std::vector<std::pair<std::string, std::string>> folder_files(const std::filesystem::path& root) {
+  std::vector<std::pair<std::string, std::string>> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(root)) {
+    if (entry.is_regular_file()) {
+      files.emplace_back(std::filesystem::relative(entry.path(), root).string(), read_bytes(entry.path().string()));
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+TEST_CASE("convert: a streamed SOG of a binary PLY over memory_limit is written out of core, the same files") {
+  test::TempDir dir;
+  const std::string src = test::repo_path(test::kGuitarSh3);
+  std::filesystem::create_directories(dir.path() / "memory");
+  std::filesystem::create_directories(dir.path() / "batches");
+  api::ConvertOptions options;
+  options.lod_chunk_gaussians = 512;
+  auto memory = api::convert(src, (dir.path() / "memory" / "lod-meta.json").string(), options);
+  REQUIRE_MESSAGE(memory.ok(), memory.status().to_string());
+  auto estimate = api::estimate_convert_memory(src);
+  REQUIRE(estimate.ok());
+  if (resident_bytes() + (uint64_t{40} << 20) > *estimate) {
+    MESSAGE("skipped: this process already holds " << resident_bytes() << " bytes, too many for a limit of "
+                                                   << *estimate - 1);
+    return;
+  }
+  options.memory_limit = *estimate - 1;
+  auto batched = api::convert(src, (dir.path() / "batches" / "lod-meta.json").string(), options);
+  REQUIRE_MESSAGE(batched.ok(), batched.status().to_string());
+  CHECK(batched->output_bytes == memory->output_bytes);
+  CHECK(batched->gaussians == memory->gaussians);
+  CHECK(std::find_if(batched->output_notes.begin(), batched->output_notes.end(), [](const std::string& note) {
+          return note.rfind("built out of core", 0) == 0;
+        }) != batched->output_notes.end());
+  const auto expected = folder_files(dir.path() / "memory");
+  CHECK(expected.size() > 8);  // lod-meta.json and the chunk folders of every level
+  CHECK(folder_files(dir.path() / "batches") == expected);
+}
+
 /// A version an input PLY is rewritten to while it is converted out of core: a new file renamed over it, or
 /// written in place (the same inode), then given back its modification time or not.
 struct Rewrite {

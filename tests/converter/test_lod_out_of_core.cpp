@@ -1,4 +1,4 @@
-// build_lod_out_of_core(): the same file as build_lod() written in memory, whatever the partitions the memory
+// build_lod_out_of_core(): the same levels and file as build_lod() written in memory, whatever the partitions the memory
 // limit cuts the scene into, with nothing left on disk after success or failure.
 #include <doctest/doctest.h>
 
@@ -111,26 +111,55 @@ std::vector<uint8_t> file_bytes(const std::filesystem::path& path) {
   return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-/// build_lod() of `scene` written in memory, and build_lod_out_of_core() of it in batches: the same bytes.
-void check_same_file(const format::EncodedScene& scene, const OutOfCoreLodOptions& options, uint32_t min_partitions) {
+/// `levels` written as a .rgs at `path`, their sections streamed (as the .rgs sink of a conversion writes them).
+Result<uint64_t> write_levels(const std::filesystem::path& path, const converter::Levels& levels,
+                              format::WriteOptions write) {
+  format::StreamedScene streamed;
+  streamed.metadata = levels.head().metadata;
+  streamed.provenance = levels.head().provenance;
+  streamed.count = levels.head().count;
+  streamed.sh_dc_residual = levels.sh_dc_residual();
+  streamed.produce = [&levels](format::SectionId id, const format::ChunkSink& sink) {
+    return levels.stream_section(id, sink);
+  };
+  write.lod = &levels.index();
+  return format::write_streamed_scene_file(path.string(), streamed, write);
+}
+
+/// build_lod() of `scene` written in memory, and build_lod_out_of_core() of it in batches: the same levels, read
+/// back range by range, and the same bytes once written.
+void check_same_file(const format::EncodedScene& scene, OutOfCoreLodOptions options, uint32_t min_partitions,
+                     const format::WriteOptions& write = {}) {
   auto built = converter::build_lod(scene, options.lod);
   REQUIRE_MESSAGE(built.ok(), built.status().to_string());
-  format::WriteOptions write = options.write;
-  write.lod = &built->index;
-  auto expected = format::serialize_scene(built->scene, write);
+  format::WriteOptions in_memory = write;
+  in_memory.lod = &built->index;
+  auto expected = format::serialize_scene(built->scene, in_memory);
   REQUIRE_MESSAGE(expected.ok(), expected.status().to_string());
 
   TempDir dir;
   const std::filesystem::path out = dir.path() / "out_of_core.rgs";
   SceneBatches batches(scene, 1000);
-  auto report = converter::build_lod_out_of_core(out.string(), batches, head_of(scene), options);
-  REQUIRE_MESSAGE(report.ok(), report.status().to_string());
-  CHECK(report->partitions >= min_partitions);
-  CHECK(report->bytes == expected->size());
-  CHECK(report->chunks == built->index.chunk_count);
-  CHECK(report->levels == built->index.level_count);
+  options.spill_folder = dir.path().string();
+  auto levels = converter::build_lod_out_of_core(batches, head_of(scene), options);
+  REQUIRE_MESSAGE(levels.ok(), levels.status().to_string());
+  CHECK(levels->partitions >= min_partitions);
+  CHECK(levels->levels->index().chunk_count == built->index.chunk_count);
+  CHECK(levels->levels->index().level_count == built->index.level_count);
   CHECK(batches.passes() == 2);
+  // A range across two levels reads what the in-memory build holds there.
+  const uint64_t first = built->index.at(0, built->index.chunk_count - 1).first;
+  const uint64_t count = std::min<uint64_t>(built->scene.count - first, 2 * built->index.at(0, 0).count + 1);
+  format::EncodedScene range;
+  REQUIRE(levels->levels->read(first, count, &range).ok());
+  CHECK(std::equal(range.means.begin(), range.means.end(), built->scene.means.begin() + first * 3));
+  CHECK(std::equal(range.sh.begin(), range.sh.end(), built->scene.sh.begin() + first * (range.sh.size() / count)));
+  CHECK(levels->levels->read(built->scene.count - 1, 2, &range).code() == StatusCode::kInvalidArgument);
+  auto bytes = write_levels(out, *levels->levels, write);
+  REQUIRE_MESSAGE(bytes.ok(), bytes.status().to_string());
+  CHECK(*bytes == expected->size());
   CHECK(file_bytes(out) == *expected);
+  levels->levels.reset();
   CHECK(dir.entries() == std::vector<std::string>{"out_of_core.rgs"});  // the partitions and spills are gone
   auto file = format::RgsFile::open(out.string());
   REQUIRE_MESSAGE(file.ok(), file.status().to_string());
@@ -164,9 +193,10 @@ TEST_CASE("build_lod_out_of_core: SH 3 with log scales, DC residuals and zstd me
   options.lod.threads = 2;
   options.sh_dc_residual = true;
   options.memory_limit = uint64_t{8} << 20;  // about 5,000 Gaussians a partition
-  options.write.codecs[format::SectionId::kMetadata] = format::Codec::kZstd;
-  options.write.codecs[format::SectionId::kProvenance] = format::Codec::kZstd;
-  check_same_file(scene, options, 2);
+  format::WriteOptions write;
+  write.codecs[format::SectionId::kMetadata] = format::Codec::kZstd;
+  write.codecs[format::SectionId::kProvenance] = format::Codec::kZstd;
+  check_same_file(scene, options, 2, write);
 }
 
 TEST_CASE("build_lod_out_of_core: the PlayCanvas flowers (542,104 Gaussians, SH 3) in several partitions") {
@@ -188,11 +218,11 @@ TEST_CASE("build_lod_out_of_core: failures leave nothing behind, and a limit too
   options.lod.threads = 2;
   options.memory_limit = uint64_t{9} << 20;
   TempDir dir;
-  const std::string out = (dir.path() / "failed.rgs").string();
+  options.spill_folder = dir.path().string();
 
   SUBCASE("an input that changes between passes") {
     SceneBatches changing(scene, 1000, 2);
-    auto r = converter::build_lod_out_of_core(out, changing, head_of(scene), options);
+    auto r = converter::build_lod_out_of_core(changing, head_of(scene), options);
     REQUIRE(!r.ok());
     CHECK(r.status().code() == StatusCode::kCorruptData);
     CHECK(r.status().message().find("did it change while it was read?") != std::string::npos);
@@ -200,15 +230,15 @@ TEST_CASE("build_lod_out_of_core: failures leave nothing behind, and a limit too
   SUBCASE("a memory limit below what one chunk needs") {
     options.memory_limit = uint64_t{1} << 20;
     SceneBatches batches(scene, 1000);
-    auto r = converter::build_lod_out_of_core(out, batches, head_of(scene), options);
+    auto r = converter::build_lod_out_of_core(batches, head_of(scene), options);
     REQUIRE(!r.ok());
     CHECK(r.status().code() == StatusCode::kLimitExceeded);
     CHECK(r.status().message().find("that chunks of 4096 Gaussians need") != std::string::npos);
   }
-  SUBCASE("an output folder that does not exist") {
+  SUBCASE("a spill folder that does not exist") {
     SceneBatches batches(scene, 1000);
-    auto r = converter::build_lod_out_of_core((dir.path() / "missing" / "x.rgs").string(), batches, head_of(scene),
-                                              options);
+    options.spill_folder = (dir.path() / "missing").string();
+    auto r = converter::build_lod_out_of_core(batches, head_of(scene), options);
     REQUIRE(!r.ok());
     CHECK(r.status().code() == StatusCode::kIoError);
   }
@@ -244,7 +274,7 @@ TEST_CASE("build_lod_out_of_core: a later pass's mean outside the box or in anot
   options.lod.threads = 2;
   options.memory_limit = uint64_t{9} << 20;  // several partitions
   TempDir dir;
-  const std::string out = (dir.path() / "failed.rgs").string();
+  options.spill_folder = dir.path().string();
   const auto& box = scene.metadata.bounds;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   // The Gaussian farthest from Gaussian 0: another octree node of the counts whatever their depth.
@@ -278,7 +308,7 @@ TEST_CASE("build_lod_out_of_core: a later pass's mean outside the box or in anot
       CAPTURE(std::string(c.what));
       SceneBatches changing(scene, 1000);
       changing.move_mean(0, c.mean, c.pass);
-      auto r = converter::build_lod_out_of_core(out, changing, head_of(scene), options);
+      auto r = converter::build_lod_out_of_core(changing, head_of(scene), options);
       REQUIRE(!r.ok());
       CHECK(r.status().code() == StatusCode::kCorruptData);
       CHECK_MESSAGE(r.status().message().find(c.message) != std::string::npos, r.status().message());

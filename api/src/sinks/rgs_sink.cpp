@@ -78,6 +78,7 @@ class RgsSink final : public Sink {
       : dst_(std::move(dst)), options_(options), progress_(progress) {}
 
   Status write(PipelineScene* scene, format::FileSink& files) override {
+    if (!scene->encoded) return write_levels(scene, files);
     RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options_));
     const bool archive = write.profile == format::StorageProfile::kArchive;
     ConvertReport& report = scene->report;
@@ -119,6 +120,32 @@ class RgsSink final : public Sink {
                                 : scene->lod ? "RoofGS .rgs, runtime profile with levels of detail"
                                              : "RoofGS .rgs, runtime profile";
     if (scene->lod) note_read_limit(scene->lod->scene.count, &report);
+    return Status();
+  }
+
+  /// The levels of an out-of-core build (no scene in memory), their sections streamed into the file.
+  Status write_levels(PipelineScene* scene, format::FileSink& files) {
+    const converter::Levels& levels = *scene->levels;
+    RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options_));
+    write.lod = &levels.index();
+    format::StreamedScene streamed;
+    streamed.metadata = levels.head().metadata;
+    streamed.provenance = levels.head().provenance;
+    streamed.count = levels.head().count;
+    streamed.sh_dc_residual = levels.sh_dc_residual();
+    streamed.produce = [&levels](format::SectionId id, const format::ChunkSink& sink) {
+      return levels.stream_section(id, sink);
+    };
+    ProgressSink progress_files(files, progress_);
+    const auto write_start = Clock::now();
+    ConvertReport& report = scene->report;
+    RGS_ASSIGN_OR_RETURN(report.output_bytes, format::write_streamed_scene_file(dst_, streamed, write, progress_files));
+    report.seconds.write = seconds_since(write_start);
+    report.rgs->lod_levels = levels.index().level_count;
+    report.rgs->lod_chunks = levels.index().chunk_count;
+    report.rgs->lod_gaussians = levels.head().count;
+    report.output_description = "RoofGS .rgs, runtime profile with levels of detail";
+    note_read_limit(levels.head().count, &report);
     return Status();
   }
 

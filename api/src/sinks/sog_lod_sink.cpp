@@ -15,7 +15,7 @@ class SogLodSink final : public Sink {
   Status write(PipelineScene* scene, format::FileSink& files) override {
     ProgressSink progress_files(files, progress_);
     const auto start = Clock::now();
-    RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog, converter::write_sog_lod(dst_, *scene->lod, {}, progress_files));
+    RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog, converter::write_sog_lod(dst_, *scene->levels, {}, progress_files));
     scene->report.seconds.write = seconds_since(start);
     scene->report.output_bytes = sog.bytes;
     scene->report.output_description = "PlayCanvas streamed SOG";

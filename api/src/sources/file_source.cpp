@@ -11,16 +11,17 @@ namespace rgs::api::detail {
 
 namespace {
 
-/// The PLYs at `srcs` opened as one stream when the conversion builds them out of core: a level-of-detail .rgs
-/// output (runtime profile, no target) of binary PLYs whose estimated peak read whole, `estimate` or for several
+/// The PLYs at `srcs` opened as one stream when the conversion builds them out of core: levels of detail written
+/// (writes_levels; runtime profile, no target) of binary PLYs whose estimated peak read whole, `estimate` or for several
 /// files that of their merged scene (estimate_merged_memory), is above the memory limit. Null otherwise (an ascii
 /// PLY or another format among them included). kLimitExceeded when the files hold more Gaussians together than
 /// max_gaussians.
 Result<std::unique_ptr<converter::PlyStream>> open_batches(const std::vector<std::string>& srcs,
                                                            const std::string& name, uint64_t estimate,
-                                                           OutputFormat output, const ConvertOptions& options) {
+                                                           const std::string& dst, OutputFormat output,
+                                                           const ConvertOptions& options) {
   std::unique_ptr<converter::PlyStream> none;
-  if (output != OutputFormat::kRgs || !options.lod_levels || options.target.active() ||
+  if (!writes_levels(dst, output, options) || options.target.active() ||
       options.profile != format::StorageProfile::kRuntime) {
     return none;
   }
@@ -90,7 +91,7 @@ Result<std::vector<converter::InputScene>> read_inputs(const std::vector<std::st
 
 }  // namespace
 
-Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, OutputFormat output,
+Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, const std::string& dst, OutputFormat output,
                                      const ConvertOptions& options) {
   SceneSource source;
   uint64_t estimate = 0;  // of reading every input whole, when there is a limit
@@ -102,7 +103,7 @@ Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, Outpu
     RGS_ASSIGN_OR_RETURN(const uint64_t bytes, estimate_convert_memory(src));
     estimate += bytes;
   }
-  RGS_ASSIGN_OR_RETURN(source.stream, open_batches(srcs, source.name, estimate, output, options));
+  RGS_ASSIGN_OR_RETURN(source.stream, open_batches(srcs, source.name, estimate, dst, output, options));
   if (source.stream) return source;
   RGS_RETURN_IF_ERROR(check_convert_memory(source.name, estimate, options));
   RGS_ASSIGN_OR_RETURN(std::vector<converter::InputScene> scenes,

@@ -1,6 +1,6 @@
-// The stages and the .rgs sink of a batched source: a binary PLY larger than its memory limit read in batches,
-// quantized batch by batch with the scene's own SH scales, its levels of detail built and written by
-// converter::build_lod_out_of_core (docs/LOD.md#scenes-larger-than-memory).
+// The stages of a batched source: a binary PLY larger than its memory limit read in batches, quantized batch by
+// batch with the scene's own SH scales, its levels of detail built by converter::build_lod_out_of_core and handed
+// to the output's sink, the .rgs or the streamed SOG (docs/LOD.md#scenes-larger-than-memory).
 #include <malloc.h>
 #include <unistd.h>
 
@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <string>
@@ -225,8 +226,9 @@ Result<SceneStatistics> scan(PlyBatches& batches, const converter::QuantizeOptio
 
 }  // namespace
 
-Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst, const ConvertOptions& options,
-                                      format::FileSink& files, ProgressReporter* progress) {
+Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst, OutputFormat output,
+                                      const ConvertOptions& options, Sink& sink, format::FileSink& files,
+                                      ProgressReporter* progress) {
   const auto start = source.start;
   const std::string& src = source.name;
   std::unique_ptr<converter::PlyStream>& stream = source.stream;
@@ -236,10 +238,11 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
                       src + ": decimate needs the whole scene (or input) in memory, and this conversion reads it in "
                             "batches (out of core: its estimated peak is above the memory limit); raise memory_limit "
                             "(--memory-limit) to read it whole");
+  const bool rgs_out = output == OutputFormat::kRgs;
   const uint64_t limit = convert_memory_limit(options);
   const uint64_t batch = std::clamp(limit / kBatchShareOfLimit / batch_bytes_per_gaussian(stream->sh_degree()),
                                     kMinBatchGaussians, kMaxBatchGaussians);
-  const converter::QuantizeOptions quantize = rgs_quantize_options(options);
+  const converter::QuantizeOptions quantize = rgs_out ? rgs_quantize_options(options) : sog_lod_quantize_options(options);
   PlyBatches batches(stream.get(), options, batch);
   auto scanned = scan(batches, quantize, *stream, progress);
   if (!scanned.ok()) return pass_error(scanned.status(), *stream, src);
@@ -253,9 +256,11 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
     edited_out += source.merge_inputs[f].gaussians - source.merge_inputs[f].kept;
   }
   if (stats.count == 0 && !options.allow_empty) return empty_scene_error(src, hygiene.dropped_gaussians, edited_out);
-  ConvertReport report;
+  PipelineScene scene;
+  scene.name = src;
+  ConvertReport& report = scene.report;
   report.seconds.read = seconds_since(start);
-  report.output_format = OutputFormat::kRgs;
+  report.output_format = output;
   report.input_format = "ply";
   report.input_storage = stream->storage_format();
   report.input_description = report.input_storage + " PLY";
@@ -272,7 +277,7 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   format::EncodedScene head;
   head.count = stats.count;
   head.metadata.sh_degree = stats.sh_degree;
-  head.metadata.scale_encoding = options.scale_encoding;
+  head.metadata.scale_encoding = quantize.scale_encoding;
   head.metadata.sh_quantization = stats.shq;
   head.metadata.antialiased = options.read.antialiased;
   for (int a = 0; a < 3; ++a) {
@@ -285,41 +290,39 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   RgsOutputReport rgs;
   QuantizedBatches quantized(&batches, quantize, stats.shq, &rgs);
   converter::OutOfCoreLodOptions lod;
-  lod.lod.levels = *options.lod_levels;
+  lod.lod.levels = options.lod_levels.value_or(0);
   lod.lod.max_chunk_gaussians = options.lod_chunk_gaussians;
   // The limit bounds the whole process: what it holds already, the batches and the reading threads' buffers and
   // stacks are not the build's.
   const uint64_t held = resident_bytes() + batch * batch_bytes_per_gaussian(stream->sh_degree()) + kReadSlackBytes +
                         uint64_t{parallel::available_cpus()} * kThreadBytes;
   lod.memory_limit = limit - std::min(limit, held);
-  lod.sh_dc_residual = options.sh_dc_bits == 16;
-  RGS_ASSIGN_OR_RETURN(lod.write, rgs_write_options(options));
+  lod.sh_dc_residual = quantize.sh_dc_bits == 16;
+  lod.spill_folder = std::filesystem::path(dst).parent_path().string();
   lod.progress = [&](const char* stage, double fraction) { progress->out_of_core(stage, fraction); };
   const auto build_start = Clock::now();
-  auto built = converter::build_lod_out_of_core(dst, quantized, head, lod, files);
+  auto built = converter::build_lod_out_of_core(quantized, head, lod);
   if (!built.ok()) return pass_error(built.status(), *stream, src);
   report.seconds.lod = seconds_since(build_start);
-  rgs.sh_quantization = stats.shq;
-  rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],
-                         double(stats.box_hi[2]) - stats.box_lo[2], 0.0});
-  rgs.lod_levels = built->levels;
-  rgs.lod_chunks = built->chunks;
-  rgs.lod_gaussians = built->gaussians;
-  report.rgs = std::move(rgs);
-  report.output_bytes = built->bytes;
-  report.output_description = "RoofGS .rgs, runtime profile with levels of detail";
-  report.rgs->out_of_core_partitions = built->partitions;
+  if (rgs_out) {
+    rgs.sh_quantization = stats.shq;
+    rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],
+                           double(stats.box_hi[2]) - stats.box_lo[2], 0.0});
+    rgs.out_of_core_partitions = built->partitions;
+    report.rgs = std::move(rgs);
+  }
+  scene.levels = std::move(built->levels);
+  RGS_RETURN_IF_ERROR(sink.write(&scene, files));
   report.output_notes.push_back(
       "built out of core: " + group_digits(built->partitions) + (built->partitions == 1 ? " partition" : " partitions") +
       " of at most " + group_digits(built->partition_capacity) + " Gaussians in a memory limit of " +
       group_digits(limit) + " bytes");
-  note_read_limit(built->gaussians, &report);
   report.gaussians = stats.count;
   report.sh_degree = stats.sh_degree;
   report.merge_inputs = std::move(source.merge_inputs);
   report.seconds.total = seconds_since(start);
   progress->done();
-  return report;
+  return std::move(report);
 }
 
 }  // namespace rgs::api::detail

@@ -73,12 +73,9 @@ Status quantize_rgs(PipelineScene* scene, const ConvertOptions& options, Progres
 
 /// Quantizes the cloud for a streamed SOG, which writes the runtime profile's values: no report, the cloud freed.
 Status quantize_sog_lod(PipelineScene* scene, const ConvertOptions& options, ProgressReporter* progress) {
-  converter::QuantizeOptions quantize;
-  quantize.scale_encoding = options.scale_encoding;
-  quantize.sh_clip_percentile = options.sh_clip_percentile;
   progress->quantizing();
   const auto start = Clock::now();
-  auto encoded = converter::quantize(scene->input.cloud, quantize);
+  auto encoded = converter::quantize(scene->input.cloud, sog_lod_quantize_options(options));
   if (!encoded.ok()) return Status(encoded.status()).prepend(scene->name);
   scene->report.seconds.quantize = seconds_since(start);
   scene->report.gaussians = scene->input.cloud.size();
@@ -98,6 +95,7 @@ Status build_levels(PipelineScene* scene, uint32_t levels, const ConvertOptions&
   auto built = converter::build_lod(*scene->encoded, lod);
   if (!built.ok()) return Status(built.status()).prepend(scene->name);
   scene->lod.emplace(std::move(built).value());
+  scene->levels = converter::held_levels(*scene->lod);
   scene->report.seconds.lod = seconds_since(start);
   return Status();
 }

@@ -1,21 +1,21 @@
 // Level-of-detail build of a scene larger than memory (lod_builder.h, build_lod_out_of_core): the chunks of
 // build_lod, found from counts instead of one sort of the whole scene, built bucket by bucket from partition
-// files on disk, their levels spilled per (level, section) and streamed into the file at the end.
+// files on disk, their levels spilled per (level, section), which a sink then reads (SpilledLevels).
 //
 // Passes over the input: (1) counts of the means on a grid of 8^D cells over the scene's cube (the octree of
 // counts), from which the octree nodes that build_lod would keep whole or split further follow; (2) every
 // Gaussian appended to the partition file of its node's bucket (consecutive nodes in Morton order, as many as
 // fit the memory limit). Then per bucket: its Gaussians sorted by Morton code (stable: the input order within a
 // bucket is the input order), its nodes cut into chunks exactly as build_lod cuts them, each chunk's levels
-// built by the same code, each level appended to its spill file. The file is level-major, so the spill files of
-// a section, level after level, are that section. Partition and spill files have no name (O_TMPFILE), so
+// built by the same code, each level appended to its spill file. The output is level-major, so the spill files
+// of a section, level after level, are that section. Partition and spill files have no name (O_TMPFILE), so
 // nothing is left on disk however the process ends.
 //
 // The passes must see the same Gaussians: every mean of a later pass is checked against the scene's box and the
 // counts' nodes before it indexes a count, a node or a partition, and a disagreement is kCorruptData, never a
 // write outside an array or a file built from two inputs.
 //
-// Same bytes as build_lod + write_scene_file: the chunks, their Gaussians' order and every level are the same;
+// The same levels as build_lod's: the chunks, their Gaussians' order and every level are the same;
 // levels are built up to the most the options allow and the count is chosen at the end (level l depends only on
 // level l - 1, so the levels kept do not depend on the ones built beyond them).
 #include <fcntl.h>
@@ -34,10 +34,10 @@
 #include <string>
 #include <vector>
 
+#include "internal_levels.h"
 #include "internal_lod_chunks.h"
 #include "../internal_parallel.h"
 #include "rgs/converter/lod_builder.h"
-#include "rgs/format/writer.h"
 
 namespace rgs::converter {
 namespace {
@@ -163,17 +163,6 @@ void get_record(const uint8_t* in, const RecordLayout& r, uint64_t i, format::En
   if (r.residual) std::memcpy(&s->sh_dc_residual[i * 3], in + 28 + r.sh, 3);
 }
 
-/// `s` sized for n Gaussians of the layout.
-void size_scene(const RecordLayout& r, uint64_t n, format::EncodedScene* s) {
-  s->count = n;
-  s->means.resize(n * 3);
-  s->rotations.resize(n * 4);
-  s->scales.resize(n * 3);
-  s->opacities.resize(n);
-  s->sh.resize(n * r.sh);
-  s->sh_dc_residual.resize(r.residual ? n * 3 : 0);
-}
-
 /// An octree node of the count grid that build_lod keeps whole (a chunk) or cuts further (`split`: a finest
 /// cell of the count grid holding more than a chunk), and the bucket it goes to.
 struct Node {
@@ -207,6 +196,66 @@ struct BuiltChunk {
   uint64_t checksum[format::kMaxLodLevels];
 };
 
+/// Levels held in the spill files of an out-of-core build: level l's section k in file l · 6 + k.
+class SpilledLevels final : public Levels {
+ public:
+  SpilledLevels(format::EncodedScene head, format::LodIndex index, std::vector<std::unique_ptr<SpillFile>> spills,
+                const RecordLayout& record)
+      : head_(std::move(head)), index_(std::move(index)), spills_(std::move(spills)), record_(record) {
+    uint64_t first = 0;
+    for (uint32_t l = 0; l < index_.level_count; ++l) {
+      level_first_.push_back(first);
+      first += spills_[l * kLevelSections]->size() / 12;
+    }
+    level_first_.push_back(head_.count);
+  }
+  const format::EncodedScene& head() const override { return head_; }
+  const format::LodIndex& index() const override { return index_; }
+  bool sh_dc_residual() const override { return record_.residual; }
+
+  Status read(uint64_t first, uint64_t count, format::EncodedScene* out) const override {
+    RGS_RETURN_ERROR_IF(first > head_.count || count > head_.count - first, StatusCode::kInvalidArgument,
+                        "levels: Gaussians [" + std::to_string(first) + ", +" + std::to_string(count) +
+                            ") outside the " + std::to_string(head_.count) + " built");
+    out->metadata = head_.metadata;
+    size_sections(out, count, record_.sh, record_.residual);
+    for (uint32_t l = 0; l < index_.level_count; ++l) {
+      const uint64_t lo = std::max(first, level_first_[l]), hi = std::min(first + count, level_first_[l + 1]);
+      for (int k = 0; lo < hi && k < sections(); ++k) {
+        const uint64_t width = section_width(k, record_.sh);
+        RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->read(
+            (lo - level_first_[l]) * width, section_bytes(out, k) + (lo - first) * width, (hi - lo) * width));
+      }
+    }
+    return Status();
+  }
+
+  Status stream_section(format::SectionId id, const format::ChunkSink& sink) const override {
+    const int k = level_section(id);
+    if (k < 0 || k >= sections()) return Status();
+    const uint64_t width = section_width(k, record_.sh);
+    std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / width) * width);
+    for (uint32_t l = 0; l < index_.level_count; ++l) {
+      const SpillFile& file = *spills_[l * kLevelSections + k];
+      for (uint64_t at = 0; at < file.size();) {
+        const size_t size = static_cast<size_t>(std::min<uint64_t>(piece.size(), file.size() - at));
+        RGS_RETURN_IF_ERROR(file.read(at, piece.data(), size));
+        RGS_RETURN_IF_ERROR(sink(piece.data(), size));
+        at += size;
+      }
+    }
+    return Status();
+  }
+
+ private:
+  int sections() const { return record_.residual ? kLevelSections : kLevelSections - 1; }
+  format::EncodedScene head_;
+  format::LodIndex index_;
+  std::vector<std::unique_ptr<SpillFile>> spills_;
+  RecordLayout record_;
+  std::vector<uint64_t> level_first_;  ///< where each level starts in the output order, then the count
+};
+
 /// The build: its options, the scene's layout, the files and what the chunks left.
 class OutOfCoreBuild {
  public:
@@ -220,14 +269,13 @@ class OutOfCoreBuild {
     format::set_sphere_center(&bounds, scene_center_);
   }
 
-  Result<OutOfCoreLodReport> run(const std::string& path, EncodedBatches& batches, format::FileSink& files) {
-    const std::filesystem::path out(path);
-    folder_ = out.has_parent_path() ? out.parent_path().string() : std::string(".");
+  Result<OutOfCoreLevels> run(EncodedBatches& batches) {
+    folder_ = options_.spill_folder.empty() ? std::string(".") : options_.spill_folder;
     RGS_RETURN_IF_ERROR(count_cells(batches));
     RGS_RETURN_IF_ERROR(plan_buckets());
     RGS_RETURN_IF_ERROR(partition(batches));
     for (uint32_t b = 0; b < bucket_count_; ++b) RGS_RETURN_IF_ERROR(build_bucket(b));
-    return write(path, files);
+    return finish();
   }
 
  private:
@@ -378,7 +426,7 @@ class OutOfCoreBuild {
     SpillFile& file = *buckets_[b];
     const uint64_t n = file.size() / record_.bytes();
     bucket_ = format::EncodedScene{};  // sized afresh: growing the last bucket's arrays would copy them
-    size_scene(record_, n, &bucket_);
+    size_sections(&bucket_, n, record_.sh, record_.residual);
     bucket_.metadata = head_.metadata;
     std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / record_.bytes()) * record_.bytes());
     for (uint64_t i = 0; i < n;) {
@@ -426,7 +474,7 @@ class OutOfCoreBuild {
           first[l] = total;
           total += chunk.plan.count[l];
         }
-        size_scene(record_, total, &outputs[k]);
+        size_sections(&outputs[k], total, record_.sh, record_.residual);
         double center[3];
         chunk_center(chunk.plan, chunk.center, center);
         chunk.reach = build_chunk(bucket_, order.index.data(), order.keys.data(), chunk.plan, first, planned_levels_,
@@ -440,7 +488,7 @@ class OutOfCoreBuild {
         chunks_.push_back(built[k]);
       }
       done_ += (plans[g1 - 1].end - plans[g0].begin);
-      report("building levels of detail", 0.5 + 0.4 * static_cast<double>(done_) / static_cast<double>(head_.count));
+      report("building levels of detail", 0.5 + 0.5 * static_cast<double>(done_) / static_cast<double>(head_.count));
     }
     return Status();
   }
@@ -460,36 +508,33 @@ class OutOfCoreBuild {
     return digest;
   }
 
-  static constexpr int kSections = 6;
-  SpillFile& spill_file(uint32_t level, int section) { return *spills_[level * kSections + section]; }
-
   /// Appends each level of a built chunk to the spill files of its sections.
-  Status spill(const format::EncodedScene& s, const ChunkPlan& plan) {
+  Status spill(format::EncodedScene& s, const ChunkPlan& plan) {
     if (spills_.empty()) {
-      spills_.resize(planned_levels_ * kSections);
+      spills_.resize(planned_levels_ * kLevelSections);
       for (size_t i = 0; i < spills_.size(); ++i) {
         spills_[i] = std::make_unique<SpillFile>();
-        RGS_RETURN_IF_ERROR(spills_[i]->open(
-            folder_, "level " + std::to_string(i / kSections) + " section " + std::to_string(i % kSections),
-            kSpillBufferBytes));
+        RGS_RETURN_IF_ERROR(spills_[i]->open(folder_,
+                                             "level " + std::to_string(i / kLevelSections) + " section " +
+                                                 std::to_string(i % kLevelSections),
+                                             kSpillBufferBytes));
       }
     }
+    const int sections = record_.residual ? kLevelSections : kLevelSections - 1;
     uint64_t first = 0;
     for (uint32_t l = 0; l < planned_levels_; ++l) {
-      const uint64_t n = plan.count[l];
-      RGS_RETURN_IF_ERROR(spill_file(l, 0).append(&s.means[first * 3], n * 12));
-      RGS_RETURN_IF_ERROR(spill_file(l, 1).append(&s.rotations[first * 4], n * 8));
-      RGS_RETURN_IF_ERROR(spill_file(l, 2).append(&s.scales[first * 3], n * 6));
-      RGS_RETURN_IF_ERROR(spill_file(l, 3).append(&s.opacities[first], n * 2));
-      RGS_RETURN_IF_ERROR(spill_file(l, 4).append(&s.sh[first * record_.sh], n * record_.sh));
-      if (record_.residual) RGS_RETURN_IF_ERROR(spill_file(l, 5).append(&s.sh_dc_residual[first * 3], n * 3));
-      first += n;
+      for (int k = 0; k < sections; ++k) {
+        const uint64_t width = section_width(k, record_.sh);
+        RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->append(section_bytes(&s, k) + first * width,
+                                                                    plan.count[l] * width));
+      }
+      first += plan.count[l];
     }
     return Status();
   }
 
-  /// The level count, the index and the metadata, then the file streamed from the spill files.
-  Result<OutOfCoreLodReport> write(const std::string& path, format::FileSink& files) {
+  /// The level count, the index and the metadata: the levels as the spill files hold them.
+  Result<OutOfCoreLevels> finish() {
     bucket_ = format::EncodedScene{};
     const auto chunk_count = static_cast<uint32_t>(chunks_.size());
     std::vector<ChunkPlan> plans;
@@ -501,57 +546,24 @@ class OutOfCoreBuild {
       reaches.push_back(c.reach);
     }
     RGS_ASSIGN_OR_RETURN(const LevelChoice choice, choose_levels(plans, planned_levels_, options_.lod, head_.count));
-    const uint32_t levels = choice.levels;
-    const uint64_t total = choice.total;
-    format::LodIndex index = lay_out_index(plans, levels);
+    format::LodIndex index = lay_out_index(plans, choice.levels);
     for (uint32_t c = 0; c < chunk_count; ++c) {
       std::copy_n(chunks_[c].center, 3, index.chunks[c].center);
-      for (uint32_t l = 0; l < levels; ++l) index.at(l, c).checksum = chunks_[c].checksum[l];
+      for (uint32_t l = 0; l < choice.levels; ++l) index.at(l, c).checksum = chunks_[c].checksum[l];
     }
-    RGS_ASSIGN_OR_RETURN(const float sphere_radius, set_chunk_radii(reaches, &index));
-    for (auto& s : spills_) RGS_RETURN_IF_ERROR(s->flush());
-
-    format::StreamedScene scene;
-    scene.metadata = head_.metadata;
+    format::EncodedScene head;
+    head.metadata = head_.metadata;
     double center[3];
-    format::set_sphere_center(&scene.metadata.bounds, center);
-    scene.metadata.bounds.sphere_radius = sphere_radius;
-    scene.provenance = head_.provenance;
-    scene.provenance.emplace_back("lod_levels", std::to_string(levels));
-    scene.provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
-    scene.count = total;
-    scene.sh_dc_residual = record_.residual;
-    uint64_t streamed = 0;
-    scene.produce = [&](format::SectionId id, const format::ChunkSink& sink) -> Status {
-      static constexpr format::SectionId kOrder[kSections] = {
-          format::SectionId::kMeans, format::SectionId::kRotations, format::SectionId::kScales,
-          format::SectionId::kOpacities, format::SectionId::kSh, format::SectionId::kShDcResidual};
-      const int section = static_cast<int>(std::find(kOrder, kOrder + kSections, id) - kOrder);
-      const uint64_t widths[kSections] = {12, 8, 6, 2, record_.sh, 3};  // bytes a Gaussian, as in kOrder
-      const uint64_t width = widths[section];
-      std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / width) * width);
-      for (uint32_t l = 0; l < levels; ++l) {
-        SpillFile& file = spill_file(l, section);
-        for (uint64_t at = 0; at < file.size();) {
-          const size_t size = static_cast<size_t>(std::min<uint64_t>(piece.size(), file.size() - at));
-          RGS_RETURN_IF_ERROR(file.read(at, piece.data(), size));
-          RGS_RETURN_IF_ERROR(sink(piece.data(), size));
-          at += size;
-          streamed += size;
-        }
-      }
-      report("writing", 0.9 + 0.1 * std::min(1.0, static_cast<double>(streamed) /
-                                                       static_cast<double>(total * record_.bytes())));
-      return Status();
-    };
-    format::WriteOptions write = options_.write;
-    write.lod = &index;
-    RGS_ASSIGN_OR_RETURN(const uint64_t bytes, format::write_streamed_scene_file(path, scene, write, files));
-    OutOfCoreLodReport result;
-    result.bytes = bytes;
-    result.chunks = chunk_count;
-    result.levels = levels;
-    result.gaussians = total;
+    format::set_sphere_center(&head.metadata.bounds, center);
+    RGS_ASSIGN_OR_RETURN(head.metadata.bounds.sphere_radius, set_chunk_radii(reaches, &index));
+    head.provenance = head_.provenance;
+    head.provenance.emplace_back("lod_levels", std::to_string(choice.levels));
+    head.provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
+    head.count = choice.total;
+    for (auto& file : spills_) RGS_RETURN_IF_ERROR(file->flush());
+    spills_.resize(uint64_t{choice.levels} * kLevelSections);  // the levels beyond the choice are dropped
+    OutOfCoreLevels result;
+    result.levels = std::make_unique<SpilledLevels>(std::move(head), std::move(index), std::move(spills_), record_);
     result.partitions = bucket_count_;
     result.partition_capacity = capacity_;
     return result;
@@ -586,13 +598,12 @@ Result<bool> EncodedBatches::next_means(std::vector<float>* means) {
   return more;
 }
 
-Result<OutOfCoreLodReport> build_lod_out_of_core(const std::string& path, EncodedBatches& batches,
-                                                 const format::EncodedScene& head, const OutOfCoreLodOptions& options,
-                                                 format::FileSink& files) {
+Result<OutOfCoreLevels> build_lod_out_of_core(EncodedBatches& batches, const format::EncodedScene& head,
+                                              const OutOfCoreLodOptions& options) {
   RGS_RETURN_IF_ERROR(check_lod_request(head.count, options.lod));
   try {
     OutOfCoreBuild build(head, options);
-    return build.run(path, batches, files);
+    return build.run(batches);
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory, "build_lod: out of memory building the levels of " +
                                                 std::to_string(head.count) + " Gaussians out of core");

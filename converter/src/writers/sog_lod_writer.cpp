@@ -64,8 +64,9 @@ json build_tree(std::vector<json> nodes) {
   return std::move(nodes[0]);
 }
 
-Status check_lod(const LodScene& lod) {
-  const format::LodIndex& index = lod.index;
+Status check_lod(const Levels& levels) {
+  const format::LodIndex& index = levels.index();
+  const uint64_t count = levels.head().count;
   RGS_RETURN_ERROR_IF(index.chunk_count == 0 || index.level_count == 0 ||
                           index.levels.size() != uint64_t{index.chunk_count} * index.level_count,
                       StatusCode::kCorruptData,
@@ -73,21 +74,28 @@ Status check_lod(const LodScene& lod) {
                           " records for " + std::to_string(index.chunk_count) + " chunks x " +
                           std::to_string(index.level_count) + " levels");
   for (const format::LodLevel& r : index.levels) {
-    RGS_RETURN_ERROR_IF(r.first + r.count > lod.scene.count || r.count == 0, StatusCode::kCorruptData,
+    RGS_RETURN_ERROR_IF(r.first + r.count > count || r.count == 0, StatusCode::kCorruptData,
                         "streamed SOG: a level-of-detail range [" + std::to_string(r.first) + ", +" +
-                            std::to_string(r.count) + ") is empty or outside the scene's " +
-                            std::to_string(lod.scene.count) + " Gaussians");
+                            std::to_string(r.count) + ") is empty or outside the scene's " + std::to_string(count) +
+                            " Gaussians");
   }
   return Status();
 }
 
+/// The Gaussians [first, first + count) of `levels` dequantized into `*cloud`.
+Status read_cloud(const Levels& levels, uint64_t first, uint64_t count, format::GaussianCloud* cloud) {
+  format::EncodedScene range;
+  RGS_RETURN_IF_ERROR(levels.read(first, count, &range));
+  return format::dequantize_range(range, 0, count, cloud);
+}
+
 /// The leaves: per chunk the AABB of its level-0 means and where each level lies in the files.
-Result<std::vector<json>> chunk_leaves(const LodScene& lod, const std::vector<LodFile>& files) {
-  const format::LodIndex& index = lod.index;
+Result<std::vector<json>> chunk_leaves(const Levels& levels, const std::vector<LodFile>& files) {
+  const format::LodIndex& index = levels.index();
   std::vector<json> leaves(index.chunk_count);
+  format::GaussianCloud level0;
   for (uint32_t c = 0; c < index.chunk_count; ++c) {
-    format::GaussianCloud level0;
-    RGS_RETURN_IF_ERROR(format::dequantize_range(lod.scene, index.at(0, c).first, index.at(0, c).count, &level0));
+    RGS_RETURN_IF_ERROR(read_cloud(levels, index.at(0, c).first, index.at(0, c).count, &level0));
     double lo[3], hi[3];
     for (int a = 0; a < 3; ++a) lo[a] = hi[a] = level0.means[a];
     for (size_t i = 0; i < level0.size(); ++i) {
@@ -109,20 +117,13 @@ Result<std::vector<json>> chunk_leaves(const LodScene& lod, const std::vector<Lo
   return leaves;
 }
 
-/// Dequantizes the chunks of `file` (their ranges of its level, in chunk order) into one cloud.
-Result<format::GaussianCloud> file_cloud(const LodScene& lod, const LodFile& file) {
+/// The chunks of `file` (their ranges of its level, consecutive in the level-major order) as one cloud.
+Result<format::GaussianCloud> file_cloud(const Levels& levels, const LodFile& file) {
+  const format::LodIndex& index = levels.index();
+  const format::LodLevel& first = index.at(file.level, file.first_chunk);
+  const format::LodLevel& last = index.at(file.level, file.end_chunk - 1);
   format::GaussianCloud cloud;
-  cloud.sh_degree = lod.scene.metadata.sh_degree;
-  for (uint32_t c = file.first_chunk; c < file.end_chunk; ++c) {
-    const format::LodLevel& r = lod.index.at(file.level, c);
-    format::GaussianCloud part;
-    RGS_RETURN_IF_ERROR(format::dequantize_range(lod.scene, r.first, r.count, &part));
-    cloud.means.insert(cloud.means.end(), part.means.begin(), part.means.end());
-    cloud.rotations.insert(cloud.rotations.end(), part.rotations.begin(), part.rotations.end());
-    cloud.scales.insert(cloud.scales.end(), part.scales.begin(), part.scales.end());
-    cloud.opacities.insert(cloud.opacities.end(), part.opacities.begin(), part.opacities.end());
-    cloud.sh.insert(cloud.sh.end(), part.sh.begin(), part.sh.end());
-  }
+  RGS_RETURN_IF_ERROR(read_cloud(levels, first.first, last.first + last.count - first.first, &cloud));
   return cloud;
 }
 
@@ -136,10 +137,16 @@ bool is_sog_lod_path(const std::string& path) {
 
 Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const LodScene& lod,
                                       const SogWriteOptions& options, format::FileSink& sink) {
-  RGS_RETURN_IF_ERROR(check_lod(lod));
+  return write_sog_lod(lod_meta_path, *held_levels(lod), options, sink);
+}
+
+Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Levels& levels,
+                                      const SogWriteOptions& options, format::FileSink& sink) {
+  RGS_RETURN_IF_ERROR(check_lod(levels));
+  const format::LodIndex& index = levels.index();
   const fs::path root = fs::path(lod_meta_path).parent_path();
-  const std::vector<LodFile> files = plan_files(lod.index);
-  RGS_ASSIGN_OR_RETURN(std::vector<json> leaves, chunk_leaves(lod, files));
+  const std::vector<LodFile> files = plan_files(index);
+  RGS_ASSIGN_OR_RETURN(std::vector<json> leaves, chunk_leaves(levels, files));
   // Every file is declared before the first is written: a sink that is a transaction refuses the set when one
   // of them is an input (an older streamed SOG in the same folder, say).
   std::vector<std::string> paths;
@@ -156,14 +163,14 @@ Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Lo
     names.push_back(file.name);
     const fs::path meta = root / file.name;
     RGS_RETURN_IF_ERROR(sink.create_folder(meta.parent_path().string()));
-    RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, file_cloud(lod, file));
+    RGS_ASSIGN_OR_RETURN(format::GaussianCloud cloud, file_cloud(levels, file));
     auto written = write_sog(meta.string(), cloud, folder, sink);
     if (!written.ok()) return written.status();
     summary.bytes += written->bytes;
     summary.sh_degree = written->sh_degree;
     summary.limitations = written->limitations;
   }
-  json meta = {{"lodLevels", lod.index.level_count},
+  json meta = {{"lodLevels", index.level_count},
                {"environment", nullptr},
                {"filenames", names},
                {"tree", build_tree(std::move(leaves))}};
@@ -171,8 +178,8 @@ Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Lo
   RGS_RETURN_IF_ERROR(sink.write(lod_meta_path, text.data(), text.size()));
   summary.bytes += text.size();
   summary.files = {lod_meta_path};
-  summary.limitations.push_back(std::to_string(lod.index.level_count) + " levels of detail over " +
-                                std::to_string(lod.index.chunk_count) + " chunks in " +
+  summary.limitations.push_back(std::to_string(index.level_count) + " levels of detail over " +
+                                std::to_string(index.chunk_count) + " chunks in " +
                                 std::to_string(files.size()) + " SOG files, from the runtime profile's values");
   return summary;
 }

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -104,6 +105,32 @@ class EncodedBatches {
   virtual Result<bool> next_means(std::vector<float>* means);
 };
 
+/// Levels of detail as built, level-major as LodScene (and a .rgs file) lays them out: held in arrays (an
+/// in-memory build, held_levels) or in unnamed spill files beside the output (build_lod_out_of_core). What the
+/// sinks of a conversion read, so that every output of levels (the .rgs, the streamed SOG) is written once for
+/// both memory modes.
+class Levels {
+ public:
+  virtual ~Levels() = default;
+  /// The scene without its arrays: count (every level's Gaussians), metadata (bounds over every level) and
+  /// provenance (with the lod entries), as LodScene::scene has them.
+  virtual const format::EncodedScene& head() const = 0;
+  /// The index over the Gaussians (SPEC §4.9): range checksums set out of core, 0 in held levels (whose
+  /// LodScene format::write_scene_file writes, computing them).
+  virtual const format::LodIndex& index() const = 0;
+  /// Whether the Gaussians have the DC residual (sh_dc_residual arrays).
+  virtual bool sh_dc_residual() const = 0;
+  /// Gaussians [first, first + count) in `*out`: arrays replaced, metadata the head's, count set.
+  /// kInvalidArgument outside [0, head().count); kIoError naming a spill file.
+  virtual Status read(uint64_t first, uint64_t count, format::EncodedScene* out) const = 0;
+  /// Section `id`'s bytes (means, rotations, scales, opacities, sh, sh_dc_residual) of every Gaussian in order,
+  /// in pieces of whole elements: format::StreamedScene::produce.
+  virtual Status stream_section(format::SectionId id, const format::ChunkSink& sink) const = 0;
+};
+
+/// `lod` seen as Levels (it must outlive them).
+std::unique_ptr<Levels> held_levels(const LodScene& lod);
+
 struct OutOfCoreLodOptions {
   /// As build_lod's (progress aside: see below).
   LodBuildOptions lod;
@@ -111,44 +138,40 @@ struct OutOfCoreLodOptions {
   uint64_t memory_limit = uint64_t{4} << 30;
   /// Whether the Gaussians carry the DC residual (sh_dc_residual arrays in the batches).
   bool sh_dc_residual = true;
-  /// How the file is written; `lod` is set by the build.
-  format::WriteOptions write;
-  /// Called with the stage ("counting", "partitioning", "building levels of detail", "writing") and the
-  /// fraction of the build done, non-decreasing, from the calling thread (may be empty).
+  /// Where the unnamed partition and spill files go: the output's folder, so that they share its file system.
+  std::string spill_folder = ".";
+  /// Called with the stage ("counting", "partitioning", "building levels of detail") and the fraction of the
+  /// build done, non-decreasing, from the calling thread (may be empty).
   std::function<void(const char* stage, double fraction)> progress;
 };
 
-/// What an out-of-core build did.
-struct OutOfCoreLodReport {
-  uint64_t bytes = 0;  ///< of the file written
-  uint32_t chunks = 0, levels = 0;
-  uint64_t gaussians = 0;  ///< every level's
+/// What an out-of-core build did: its levels, held in spill files until `levels` is destroyed.
+struct OutOfCoreLevels {
+  std::unique_ptr<Levels> levels;
   /// Partition files the scene was cut into, and the most Gaussians one held at once.
   uint32_t partitions = 0;
   uint64_t partition_capacity = 0;
 };
 
-/// Builds the levels of detail of a scene larger than memory and writes it as a .rgs at `path` through `files`:
-/// the same bytes as build_lod() of the whole scene written by format::write_scene_file() with its index.
+/// Builds the levels of detail of a scene larger than memory: the same levels, index and head as build_lod()
+/// of the whole scene, held in unnamed files in options.spill_folder for a sink to read (a .rgs written from
+/// them is byte for byte build_lod's written by format::write_scene_file()).
 /// `head`: the scene without its arrays: count N (the Gaussians every pass yields), metadata (SH degree and
-/// quantization, scale encoding, flags; bounds.aabb the box of every mean) and provenance as the file gets
+/// quantization, scale encoding, flags; bounds.aabb the box of every mean) and provenance as the output gets
 /// them (the build adds its bounds sphere and the lod entries).
 ///
 /// Two passes over `batches`: counts of the means on a grid of up to 256 cells per axis over the scene's cube,
 /// from which build_lod's octree chunks follow, then each Gaussian appended to a partition file (consecutive
 /// octree nodes, as many Gaussians as memory_limit holds). Each partition is then read, sorted and cut into
-/// chunks, their levels built in parallel and appended to spill files per (level, section), which are finally
-/// streamed into the file. These are unnamed files (O_TMPFILE) on the output's file system: nothing is left
-/// behind however the build or the process ends. Disk: the spill files hold the whole output until it is
-/// written, so about twice the output's size beside it.
+/// chunks, their levels built in parallel and appended to spill files per (level, section), which the levels
+/// read back. These are unnamed files (O_TMPFILE): nothing is left behind however the build or the process ends.
+/// Disk: the spill files hold the whole output, so about its size beside it while it is written.
 /// Errors: build_lod's; kLimitExceeded when memory_limit cannot hold a chunk's worth of the build, when more
 /// than one cell of the count grid's Gaussians would have to be held at once, or beyond 512 partitions;
 /// kCorruptData when the passes disagree (the input changed: another count, a mean outside head's box or NaN,
 /// a mean in an octree node that the counting pass found with fewer Gaussians), refused before the Gaussian
-/// indexes a count, node or partition; kIoError naming the temporary files; the writer's errors naming `path`;
-/// the errors of `batches`.
-Result<OutOfCoreLodReport> build_lod_out_of_core(const std::string& path, EncodedBatches& batches,
-                                                 const format::EncodedScene& head, const OutOfCoreLodOptions& options,
-                                                 format::FileSink& files = format::atomic_files());
+/// indexes a count, node or partition; kIoError naming the temporary files; the errors of `batches`.
+Result<OutOfCoreLevels> build_lod_out_of_core(EncodedBatches& batches, const format::EncodedScene& head,
+                                              const OutOfCoreLodOptions& options);
 
 }  // namespace rgs::converter

@@ -87,16 +87,21 @@ bool is_sog_lod_path(const std::string& path);
 /// Most Gaussians of one chunk file of a streamed SOG: consecutive chunks of a level share a file up to it.
 inline constexpr uint64_t kSogLodFileGaussians = 524288;
 
-/// Writes the levels of detail of `lod` (converter::build_lod's output) as a PlayCanvas streamed SOG:
+/// Writes the levels of detail `levels` (converter::build_lod's, or build_lod_out_of_core's: the same bytes) as a
+/// PlayCanvas streamed SOG, one file's Gaussians read at a time:
 /// `lod_meta_path` (lod-meta.json: `lodLevels`, `environment` null, `filenames` "L_K/meta.json", and a
 /// binary `tree` over the chunks in their Morton order, each node with its `bound` {min, max} of the chunk's
 /// level-0 means, each leaf with `lods` {level: {file, offset, count}}) and, next to it, one folder "L_K" per
 /// file: SOG v2 (encode_sog) of consecutive chunks of level L, up to kSogLodFileGaussians Gaussians. The
-/// Gaussians are the dequantized runtime-profile values of `lod.scene`. Every file is declared to `files`
+/// Gaussians are the dequantized runtime-profile values of `levels`. Every file is declared to `files`
 /// before the first is written, the folders are created through it (FileSink::create_folder), lod-meta.json
 /// is written last; given an output transaction, a failure or an interrupt leaves nothing new and changes
 /// nothing that existed. read_sog_lod reads level l back in chunk order. Errors: as encode_sog, kIoError naming the file
 /// or folder, kCorruptData (an inconsistent `lod`).
+Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Levels& levels,
+                                      const SogWriteOptions& options = {},
+                                      format::FileSink& files = format::atomic_files());
+/// write_sog_lod of build_lod's output held in memory (held_levels).
 Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const LodScene& lod,
                                       const SogWriteOptions& options = {},
                                       format::FileSink& files = format::atomic_files());
