@@ -254,7 +254,7 @@ std::pair<format::GaussianCloud, format::GaussianCloud> streamed_round_trip(cons
   auto lod = converter::build_lod(*encoded, lod_options);
   REQUIRE_MESSAGE(lod.ok(), lod.status().to_string());
   const std::string path = (dir / "lod-meta.json").string();
-  auto written = converter::write_sog_lod(path, *lod);
+  auto written = converter::write_sog_lod(path, *converter::held_levels(*lod));
   REQUIRE_MESSAGE(written.ok(), written.status().to_string());
   const format::LodIndex& index = lod->index;
   REQUIRE(index.chunk_count > 1);
@@ -308,7 +308,7 @@ TEST_CASE("Streamed SOG output that fails removes the folders it created") {
   REQUIRE(lod.ok());
   lod->index.at(0, 0).count = lod->scene.count + 1;  // a range outside the scene
   const fs::path dir = fresh_folder("streamed_fail");
-  auto r = converter::write_sog_lod((dir / "lod-meta.json").string(), *lod);
+  auto r = converter::write_sog_lod((dir / "lod-meta.json").string(), *converter::held_levels(*lod));
   CHECK(r.status().code() == StatusCode::kCorruptData);
   CHECK(fs::is_empty(dir));
   fs::remove_all(dir);

@@ -299,6 +299,7 @@ Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst
   lod.memory_limit = limit - std::min(limit, held);
   lod.sh_dc_residual = quantize.sh_dc_bits == 16;
   lod.spill_folder = std::filesystem::path(dst).parent_path().string();
+  if (lod.spill_folder.empty()) lod.spill_folder = ".";
   lod.progress = [&](const char* stage, double fraction) { progress->out_of_core(stage, fraction); };
   const auto build_start = Clock::now();
   auto built = converter::build_lod_out_of_core(quantized, head, lod);

@@ -1,9 +1,12 @@
-// The per-Gaussian sections of a runtime-profile scene as bytes, for the level stores (levels.cpp holds the
-// in-memory one, lod_out_of_core.cpp the spilled one): which sections, how wide, and where a scene keeps them.
+// The one level-of-detail builder's parts (lod_builder.cpp): where it takes the scene's partitions from (the
+// scene itself in memory, buckets of partition files out of core: lod_out_of_core.cpp), where it puts the levels
+// (arrays in memory: levels.cpp; spill files out of core), and the per-Gaussian sections both stores move.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 
+#include "internal_lod_chunks.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/spec.h"
 
@@ -29,5 +32,53 @@ inline uint8_t* section_bytes(format::EncodedScene* scene, int s) {
 
 /// `scene`'s arrays sized for n Gaussians with `sh_values` SH values each (and the DC residual when `residual`).
 void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, bool residual);
+
+/// Chunks built at once per worker before they are handed to the store in chunk order.
+inline constexpr uint32_t kChunksPerWorker = 2;
+
+/// A partition of the scene: its Gaussians, and their Morton order cut into the octree chunks (MortonOrder::leaves).
+struct Partition {
+  const format::EncodedScene* scene = nullptr;
+  MortonOrder order;
+};
+
+/// Where the builder takes the scene's partitions from, in Morton order.
+class PartitionSource {
+ public:
+  virtual ~PartitionSource() = default;
+  virtual uint32_t count() const = 0;
+  /// Partition b into `*out`, valid until the next load.
+  virtual Status load(uint32_t b, Partition* out) = 0;
+};
+
+/// Where the builder puts each chunk's levels, chunk after chunk.
+class LevelStore {
+ public:
+  virtual ~LevelStore() = default;
+  /// The index laid out (checksums 0) and the Gaussians of every level, given before the first chunk when the
+  /// builder knows them then (a scene of one partition, whose levels are chosen before they are built).
+  virtual Status reserve(const format::LodIndex& layout, uint64_t total) = 0;
+  /// Chunk c's levels [0, levels): level l's plan.count[l] Gaussians in `chunk`, after level l − 1's.
+  virtual Status add(uint32_t c, const format::EncodedScene& chunk, const ChunkPlan& plan, uint32_t levels) = 0;
+  /// Whether the index is to carry each range's checksum (SPEC §4.9) from the builder.
+  virtual bool needs_checksums() const = 0;
+};
+
+/// The index and the output's head (count, metadata with the bounds sphere, provenance with the lod entries).
+struct BuiltIndex {
+  format::LodIndex index;
+  format::EncodedScene head;
+};
+
+/// The builder: every partition of `source` planned into chunks, their levels built in parallel and handed to
+/// `store` in chunk order, then the level count chosen (before building with one partition), the index laid out
+/// with the chunks' centres, radii and (store.needs_checksums()) checksums. `head`: the scene without its arrays
+/// (count, metadata with bounds.aabb the box of every mean, provenance). `progress` counts 5/2 per Gaussian.
+/// Errors: choose_levels', set_chunk_radii's, the source's and the store's.
+Result<BuiltIndex> build_levels(PartitionSource& source, LevelStore& store, const format::EncodedScene& head,
+                                const LodBuildOptions& options, Progress* progress);
+
+/// The store of an in-memory build: the levels in `*out`'s arrays, each chunk's at its place in the index.
+std::unique_ptr<LevelStore> held_store(LodScene* out, const Layout& layout);
 
 }  // namespace rgs::converter::detail

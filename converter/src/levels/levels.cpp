@@ -1,9 +1,11 @@
-// Levels held in memory (lod_builder.h, held_levels), and the section table both level stores share.
+// Levels in memory: the store an in-memory build fills (held_store) and the view the sinks read (held_levels);
+// and the section table both level stores share.
 #include <algorithm>
 #include <cstring>
 #include <memory>
 #include <string>
 
+#include "../internal_huge_pages.h"
 #include "internal_levels.h"
 #include "rgs/converter/lod_builder.h"
 
@@ -40,6 +42,51 @@ void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, 
   scene->opacities.resize(n);
   scene->sh.resize(n * sh_values);
   scene->sh_dc_residual.resize(residual ? n * 3 : 0);
+}
+
+namespace {
+
+class HeldStore final : public LevelStore {
+ public:
+  HeldStore(LodScene* out, const Layout& layout) : out_(*out), layout_(layout) {}
+  Status reserve(const format::LodIndex& index, uint64_t total) override {
+    out_.index = index;
+    format::EncodedScene& s = out_.scene;
+    s.count = total;
+    resize_huge(s.means, total * 3);
+    resize_huge(s.rotations, total * 4);
+    resize_huge(s.scales, total * 3);
+    resize_huge(s.opacities, total);
+    resize_huge(s.sh, total * layout_.sh_values);
+    if (layout_.dc_residual) resize_huge(s.sh_dc_residual, total * 3);
+    return Status();
+  }
+  Status add(uint32_t c, const format::EncodedScene& chunk, const ChunkPlan& plan, uint32_t levels) override {
+    RGS_RETURN_ERROR_IF(c >= out_.index.chunk_count || levels != out_.index.level_count, StatusCode::kInvalidArgument,
+                        "build_lod: internal error: chunk " + std::to_string(c) + " outside the layout");
+    uint64_t from = 0;
+    for (uint32_t l = 0; l < levels; ++l) {
+      const uint64_t to = out_.index.at(l, c).first;
+      for (int k = 0; k < (layout_.dc_residual ? kLevelSections : kLevelSections - 1); ++k) {
+        const uint64_t width = section_width(k, layout_.sh_values);
+        std::memcpy(section_bytes(&out_.scene, k) + to * width, section_bytes(chunk, k) + from * width,
+                    plan.count[l] * width);
+      }
+      from += plan.count[l];
+    }
+    return Status();
+  }
+  bool needs_checksums() const override { return false; }  // format::write_scene_file computes them
+
+ private:
+  LodScene& out_;
+  Layout layout_;
+};
+
+}  // namespace
+
+std::unique_ptr<LevelStore> held_store(LodScene* out, const Layout& layout) {
+  return std::make_unique<HeldStore>(out, layout);
 }
 
 }  // namespace detail

@@ -1,33 +1,113 @@
-// Level-of-detail builder in memory (format/SPEC.md §4.9): octree chunks, nested grid levels, moment-matched
-// parents; the building blocks are internal_lod_chunks.h's.
+// The level-of-detail builder (format/SPEC.md §4.9, lod_builder.h): octree chunks, nested grid levels,
+// moment-matched parents; the building blocks are internal_lod_chunks.h's.
 //
-// Plan: (1) Morton-sort every mean on a grid over the scene's cube and cut the sorted order into octree
-// leaves (the chunks). (2) Per chunk, in parallel: re-sort its Gaussians by Morton code on a grid over the
-// chunk's own cube; one pass over adjacent codes gives the number of cells at every grid size, from which
-// each level's grid follows. (3) Choose L, lay out the level-major ranges and size the output once.
-// (4) Per chunk, in parallel: copy level 0, then merge each level's cells into the next level's parents,
-// reading the children back from the output (so parents are exactly the merge of the stored children).
+// One builder for both memory modes: the scene comes in partitions (the scene itself in memory; buckets of
+// partition files out of core, lod_out_of_core.cpp), each Morton-sorted and cut into octree chunks. Per chunk, in
+// parallel: its Gaussians re-sorted by Morton code on a grid over the chunk's own cube, one pass over adjacent
+// codes giving each level's grid; then level 0 copied and each further level merged from the one before as read
+// back from the chunk's buffer (so parents are exactly the merge of the stored children). Chunks are built a few
+// per worker at a time and handed to the level store in chunk order (arrays in memory, spill files out of core).
+// With one partition every chunk is planned before any is built, so the level count is chosen first and only
+// those levels are built; with several it is chosen at the end (level l depends only on level l − 1, so the levels
+// kept do not depend on the ones built beyond them).
 //
 // Determinism: every chunk's output depends only on its own Gaussians, and the only cross-chunk reductions
-// are integer sums and the bounds' min/max, so the bytes do not depend on the number of threads.
+// are integer sums and the bounds' min/max, so the bytes depend neither on the threads nor on the partitions.
 #include "rgs/converter/lod_builder.h"
 
+#include <xxhash.h>
+
 #include <algorithm>
-#include <cmath>
-#include <limits>
 #include <new>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "../internal_huge_pages.h"
-#include "internal_lod_chunks.h"
 #include "../internal_parallel.h"
+#include "internal_levels.h"
 
 namespace rgs::converter {
+namespace detail {
 namespace {
 
-using namespace detail;
+/// What is kept of a chunk once its levels are in the store.
+struct BuiltChunk {
+  ChunkPlan plan;
+  ChunkReach reach;
+  float center[3];
+  uint64_t checksum[format::kMaxLodLevels];
+};
+
+/// XXH64 of Gaussians [first, first + count) of `s` across its sections (SPEC §4.9 `checksum`).
+uint64_t range_checksum(const format::EncodedScene& s, uint64_t first, uint64_t count, const Layout& t) {
+  XXH64_state_t* state = XXH64_createState();
+  XXH64_reset(state, 0);
+  for (int k = 0; k < (t.dc_residual ? kLevelSections : kLevelSections - 1); ++k) {
+    const uint64_t width = section_width(k, t.sh_values);
+    XXH64_update(state, section_bytes(s, k) + first * width, count * width);
+  }
+  const uint64_t digest = XXH64_digest(state);
+  XXH64_freeState(state);
+  return digest;
+}
+
+/// The chunks of one partition built a group at a time, each group's handed to `store` in order.
+Status build_partition(const Partition& part, const std::vector<ChunkPlan>& plans, uint32_t levels,
+                       const double scene_center[3], unsigned workers, LevelStore& store,
+                       std::vector<Scratch>* scratch, std::vector<BuiltChunk>* chunks, Progress* progress) {
+  const Layout t = describe_layout(*part.scene);
+  const uint64_t group = uint64_t{workers} * kChunksPerWorker;
+  std::vector<format::EncodedScene> outputs(group);
+  std::vector<BuiltChunk> built(group);
+  for (uint64_t g0 = 0; g0 < plans.size(); g0 += group) {
+    const uint64_t g1 = std::min<uint64_t>(plans.size(), g0 + group);
+    RGS_RETURN_IF_ERROR(parallel_items(g1 - g0, workers, [&](unsigned worker, uint64_t k) {
+      BuiltChunk& chunk = built[k];
+      chunk.plan = plans[g0 + k];
+      uint64_t first[format::kMaxLodLevels], total = 0;
+      for (uint32_t l = 0; l < levels; ++l) {
+        first[l] = total;
+        total += chunk.plan.count[l];
+      }
+      size_sections(&outputs[k], total, t.sh_values, t.dc_residual);
+      double center[3];
+      chunk_center(chunk.plan, chunk.center, center);
+      chunk.reach = build_chunk(*part.scene, part.order.index.data(), part.order.keys.data(), chunk.plan, first, levels,
+                                t, center, scene_center, &(*scratch)[worker], &outputs[k]);
+      for (uint32_t l = 0; l < levels && store.needs_checksums(); ++l) {
+        chunk.checksum[l] = range_checksum(outputs[k], first[l], chunk.plan.count[l], t);
+      }
+    }));
+    for (uint64_t k = 0; k < g1 - g0; ++k) {
+      RGS_RETURN_IF_ERROR(store.add(static_cast<uint32_t>(chunks->size()), outputs[k], built[k].plan, levels));
+      chunks->push_back(built[k]);
+    }
+    progress->add(2 * (plans[g1 - 1].end - plans[g0].begin));
+    progress->report();
+  }
+  return Status();
+}
+
+/// The scene in memory as the one partition: Morton-sorted over its cube, cut into octree leaves.
+class WholeScene final : public PartitionSource {
+ public:
+  WholeScene(const format::EncodedScene& scene, const MortonGrid& grid, uint64_t max_chunk, unsigned workers)
+      : scene_(scene), grid_(grid), max_chunk_(max_chunk), workers_(workers) {}
+  uint32_t count() const override { return 1; }
+  Status load(uint32_t, Partition* out) override {
+    out->scene = &scene_;
+    RGS_RETURN_IF_ERROR(sort_by_morton(scene_, grid_, workers_, &out->order));
+    split_node(out->order.keys.data(), 0, scene_.count, 0, max_chunk_, &out->order.leaves);
+    return Status();
+  }
+
+ private:
+  const format::EncodedScene& scene_;
+  MortonGrid grid_;
+  uint64_t max_chunk_;
+  unsigned workers_;
+};
 
 Status check_inputs(const format::EncodedScene& scene, const LodBuildOptions& options) {
   RGS_RETURN_ERROR_IF(!scene.is_consistent(), StatusCode::kInvalidArgument,
@@ -40,97 +120,87 @@ Status check_inputs(const format::EncodedScene& scene, const LodBuildOptions& op
   return Status();
 }
 
-/// Step 1, the chunks: Morton sort over the scene's cube, octree leaves of at most max_chunk_gaussians.
-Result<MortonOrder> sort_into_chunks(const format::EncodedScene& in, uint64_t max_chunk_gaussians, unsigned workers) {
-  const uint64_t n0 = in.count;
-  MortonOrder order;
-  for (int a = 0; a < 3; ++a) order.box_lo[a] = order.box_hi[a] = in.means[static_cast<size_t>(a)];
-  for (uint64_t i = 0; i < n0; ++i) {
-    for (int a = 0; a < 3; ++a) {
-      order.box_lo[a] = std::min(order.box_lo[a], in.means[i * 3 + a]);
-      order.box_hi[a] = std::max(order.box_hi[a], in.means[i * 3 + a]);
-    }
-  }
-  RGS_RETURN_IF_ERROR(sort_by_morton(in, MortonGrid(order.box_lo, order.box_hi), workers, &order));
-  split_node(order.keys.data(), 0, n0, 0, max_chunk_gaussians, &order.leaves);
-  return order;
-}
-
-/// Step 3, the output scene's metadata and arrays of `total` Gaussians.
-void allocate_output(const format::EncodedScene& in, const Layout& t, uint32_t levels, uint32_t chunk_count,
-                     uint64_t total, format::EncodedScene* out) {
-  out->metadata = in.metadata;
-  out->provenance = in.provenance;
-  out->provenance.emplace_back("lod_levels", std::to_string(levels));
-  out->provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
-  out->count = total;
-  detail::resize_huge(out->means, total * 3);
-  detail::resize_huge(out->rotations, total * 4);
-  detail::resize_huge(out->scales, total * 3);
-  detail::resize_huge(out->opacities, total);
-  detail::resize_huge(out->sh, total * t.sh_values);
-  if (t.dc_residual) detail::resize_huge(out->sh_dc_residual, total * 3);
-}
-
-Result<LodScene> build(const format::EncodedScene& in, const LodBuildOptions& options) {
-  const uint64_t n0 = in.count;
-  const unsigned workers = parallel::thread_count(options.threads);
-  Progress progress(options.progress, 3 * n0);
-
-  RGS_ASSIGN_OR_RETURN(MortonOrder order, sort_into_chunks(in, options.max_chunk_gaussians, workers));
-  const auto chunk_count = static_cast<uint32_t>(order.leaves.size());
-  progress.add(n0 / 2);
-  progress.report();
-
-  const uint32_t planned_levels = options.levels == 0 ? kAutoMaxLevels : options.levels;
-  std::vector<Scratch> scratch(workers);
-  RGS_ASSIGN_OR_RETURN(std::vector<ChunkPlan> plans,
-                       plan_chunks(in, planned_levels, workers, &order, &scratch, &progress));
-
-  RGS_ASSIGN_OR_RETURN(const LevelChoice choice, choose_levels(plans, planned_levels, options, n0));
-  const uint32_t levels = choice.levels;
-  const Layout t = describe_layout(in);
-  LodScene result;
-  result.index = lay_out_index(plans, levels);
-  allocate_output(in, t, levels, chunk_count, choice.total, &result.scene);
-
-  // Scene bounds by compute_bounds()' rule over every output mean: parents are clamped into their chunk's
-  // AABB, so the AABB is the input means' (box_lo, box_hi); the sphere's centre follows from it and its
-  // radius from the largest distance, measured per chunk below.
-  format::SceneBounds& bounds = result.scene.metadata.bounds;
-  for (int a = 0; a < 3; ++a) {
-    bounds.aabb_min[a] = order.box_lo[a];
-    bounds.aabb_max[a] = order.box_hi[a];
-  }
-  double scene_center[3];
-  format::set_sphere_center(&bounds, scene_center);
-
-  // 4. Per chunk: level 0 copied, coarser levels merged, sphere.
-  std::vector<ChunkReach> reaches(chunk_count);
-  RGS_RETURN_IF_ERROR(detail::parallel_items(chunk_count, workers, [&](unsigned worker, uint64_t c) {
-    const ChunkPlan& plan = plans[c];
-    format::LodChunk& chunk = result.index.chunks[c];
-    double center[3];
-    chunk_center(plan, chunk.center, center);
-    uint64_t first[format::kMaxLodLevels];
-    for (uint32_t l = 0; l < levels; ++l) first[l] = result.index.at(l, static_cast<uint32_t>(c)).first;
-    reaches[c] = build_chunk(in, order.index.data(), order.keys.data(), plan, first, levels, t, center, scene_center,
-                             &scratch[worker], &result.scene);
-    progress.add(2 * (plan.end - plan.begin));
-    if (worker == 0) progress.report();
-  }));
-  // 5. Each chunk's bounding radius, and the scene's.
-  RGS_ASSIGN_OR_RETURN(bounds.sphere_radius, set_chunk_radii(reaches, &result.index));
-  progress.finish();
-  return result;
-}
-
 }  // namespace
 
+Result<BuiltIndex> build_levels(PartitionSource& source, LevelStore& store, const format::EncodedScene& head,
+                                const LodBuildOptions& options, Progress* progress) {
+  const unsigned workers = parallel::thread_count(options.threads);
+  const uint32_t planned = options.levels == 0 ? kAutoMaxLevels : options.levels;
+  BuiltIndex out;
+  out.head.metadata = head.metadata;
+  double scene_center[3];
+  format::set_sphere_center(&out.head.metadata.bounds, scene_center);
+  std::vector<Scratch> scratch(workers);
+  std::vector<BuiltChunk> chunks;
+  std::optional<LevelChoice> choice;
+  for (uint32_t b = 0; b < source.count(); ++b) {
+    Partition part;
+    RGS_RETURN_IF_ERROR(source.load(b, &part));
+    RGS_ASSIGN_OR_RETURN(std::vector<ChunkPlan> plans,
+                         plan_chunks(*part.scene, planned, workers, &part.order, &scratch, progress));
+    if (source.count() == 1) {  // every chunk is known: the levels are chosen before they are built
+      RGS_ASSIGN_OR_RETURN(choice, choose_levels(plans, planned, options, head.count));
+      out.index = lay_out_index(plans, choice->levels);
+      RGS_RETURN_IF_ERROR(store.reserve(out.index, choice->total));
+    }
+    RGS_RETURN_IF_ERROR(build_partition(part, plans, choice ? choice->levels : planned, scene_center, workers, store,
+                                        &scratch, &chunks, progress));
+  }
+  std::vector<ChunkPlan> plans;
+  std::vector<ChunkReach> reaches;
+  for (const BuiltChunk& c : chunks) {
+    plans.push_back(c.plan);
+    reaches.push_back(c.reach);
+  }
+  if (!choice) {
+    RGS_ASSIGN_OR_RETURN(choice, choose_levels(plans, planned, options, head.count));
+    out.index = lay_out_index(plans, choice->levels);
+  }
+  for (uint32_t c = 0; c < out.index.chunk_count; ++c) {
+    std::copy_n(chunks[c].center, 3, out.index.chunks[c].center);
+    for (uint32_t l = 0; l < choice->levels && store.needs_checksums(); ++l) {
+      out.index.at(l, c).checksum = chunks[c].checksum[l];
+    }
+  }
+  RGS_ASSIGN_OR_RETURN(out.head.metadata.bounds.sphere_radius, set_chunk_radii(reaches, &out.index));
+  out.head.provenance = head.provenance;
+  out.head.provenance.emplace_back("lod_levels", std::to_string(choice->levels));
+  out.head.provenance.emplace_back("lod_chunks", std::to_string(out.index.chunk_count));
+  out.head.count = choice->total;
+  return out;
+}
+
+}  // namespace detail
+
 Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOptions& options) {
+  using namespace detail;
   RGS_RETURN_IF_ERROR(check_inputs(scene, options));
   try {
-    return build(scene, options);
+    // The head: the scene's metadata with the box of its means (parents are clamped into their chunk's box, so
+    // it is also the box of every output mean, as compute_bounds() would find it).
+    format::EncodedScene head;
+    head.count = scene.count;
+    head.metadata = scene.metadata;
+    head.provenance = scene.provenance;
+    format::SceneBounds& bounds = head.metadata.bounds;
+    for (int a = 0; a < 3; ++a) bounds.aabb_min[a] = bounds.aabb_max[a] = scene.means[static_cast<size_t>(a)];
+    for (uint64_t i = 0; i < scene.count; ++i) {
+      for (int a = 0; a < 3; ++a) {
+        bounds.aabb_min[a] = std::min(bounds.aabb_min[a], scene.means[i * 3 + a]);
+        bounds.aabb_max[a] = std::max(bounds.aabb_max[a], scene.means[i * 3 + a]);
+      }
+    }
+    const unsigned workers = parallel::thread_count(options.threads);
+    WholeScene source(scene, MortonGrid(bounds.aabb_min, bounds.aabb_max), options.max_chunk_gaussians, workers);
+    LodScene result;
+    const std::unique_ptr<LevelStore> store = held_store(&result, describe_layout(scene));
+    Progress progress(options.progress, 5 * scene.count / 2);
+    RGS_ASSIGN_OR_RETURN(BuiltIndex built, build_levels(source, *store, head, options, &progress));
+    result.index = std::move(built.index);
+    result.scene.metadata = built.head.metadata;
+    result.scene.provenance = std::move(built.head.provenance);
+    progress.finish();
+    return result;
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory,
                   "build_lod: out of memory building the levels of " + std::to_string(scene.count) + " Gaussians");

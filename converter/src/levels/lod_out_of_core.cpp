@@ -1,23 +1,19 @@
-// Level-of-detail build of a scene larger than memory (lod_builder.h, build_lod_out_of_core): the chunks of
-// build_lod, found from counts instead of one sort of the whole scene, built bucket by bucket from partition
-// files on disk, their levels spilled per (level, section), which a sink then reads (SpilledLevels).
+// The out-of-core parts of the level-of-detail builder (lod_builder.h, build_lod_out_of_core): the scene's
+// partitions found from counts instead of one sort of the whole scene and kept in partition files on disk
+// (Buckets), and the levels spilled per (level, section) for the sinks to read back (SpillStore, SpilledLevels).
+// The builder itself is lod_builder.cpp's, the same as in memory.
 //
 // Passes over the input: (1) counts of the means on a grid of 8^D cells over the scene's cube (the octree of
-// counts), from which the octree nodes that build_lod would keep whole or split further follow; (2) every
+// counts), from which the octree nodes that the in-memory sort would keep whole or split further follow; (2) every
 // Gaussian appended to the partition file of its node's bucket (consecutive nodes in Morton order, as many as
-// fit the memory limit). Then per bucket: its Gaussians sorted by Morton code (stable: the input order within a
-// bucket is the input order), its nodes cut into chunks exactly as build_lod cuts them, each chunk's levels
-// built by the same code, each level appended to its spill file. The output is level-major, so the spill files
-// of a section, level after level, are that section. Partition and spill files have no name (O_TMPFILE), so
-// nothing is left on disk however the process ends.
+// fit the memory limit). A bucket loaded is sorted by Morton code (stable: the input order within a bucket is the
+// input order) and its nodes cut into chunks exactly as the whole scene's sort cuts them. The output is
+// level-major, so the spill files of a section, level after level, are that section. Partition and spill files
+// have no name (O_TMPFILE), so nothing is left on disk however the process ends.
 //
 // The passes must see the same Gaussians: every mean of a later pass is checked against the scene's box and the
 // counts' nodes before it indexes a count, a node or a partition, and a disagreement is kCorruptData, never a
 // write outside an array or a file built from two inputs.
-//
-// The same levels as build_lod's: the chunks, their Gaussians' order and every level are the same;
-// levels are built up to the most the options allow and the count is chosen at the end (level l depends only on
-// level l - 1, so the levels kept do not depend on the ones built beyond them).
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -60,8 +56,6 @@ constexpr size_t kSpillBufferBytes = size_t{64} << 10;
 constexpr uint64_t kSortBytesPerGaussian = 24;
 /// The allocator's slack and the small arrays (nodes, chunk records) beside the budgeted ones.
 constexpr uint64_t kSlackBytes = uint64_t{4} << 20;
-/// Chunks built at once per worker before their levels are spilled in order.
-constexpr uint32_t kChunksPerWorker = 2;
 /// A cell of the count grid in no node (the counts found it empty).
 constexpr uint32_t kNoNode = UINT32_MAX;
 
@@ -188,14 +182,6 @@ void collect_nodes(const std::vector<uint32_t>& prefix_counts, int count_depth, 
   }
 }
 
-/// What is kept of a chunk once its levels are spilled.
-struct BuiltChunk {
-  ChunkPlan plan;
-  ChunkReach reach;
-  float center[3];
-  uint64_t checksum[format::kMaxLodLevels];
-};
-
 /// Levels held in the spill files of an out-of-core build: level l's section k in file l · 6 + k.
 class SpilledLevels final : public Levels {
  public:
@@ -256,27 +242,29 @@ class SpilledLevels final : public Levels {
   std::vector<uint64_t> level_first_;  ///< where each level starts in the output order, then the count
 };
 
-/// The build: its options, the scene's layout, the files and what the chunks left.
-class OutOfCoreBuild {
+/// The scene's partitions out of core: the counting and partitioning passes over the batches, each partition
+/// (bucket) in a file of its own until it is loaded.
+class Buckets final : public PartitionSource {
  public:
-  OutOfCoreBuild(const format::EncodedScene& head, const OutOfCoreLodOptions& options)
-      : head_(head), options_(options), grid_(head.metadata.bounds.aabb_min, head.metadata.bounds.aabb_max) {
-    record_.sh = uint64_t{3} * format::sh_coefficient_count(head.metadata.sh_degree);
-    record_.residual = options.sh_dc_residual;
+  Buckets(const format::EncodedScene& head, const OutOfCoreLodOptions& options, const RecordLayout& record)
+      : head_(head), options_(options), grid_(head.metadata.bounds.aabb_min, head.metadata.bounds.aabb_max),
+        record_(record) {
     workers_ = parallel::thread_count(options.lod.threads);
     planned_levels_ = options.lod.levels == 0 ? kAutoMaxLevels : options.lod.levels;
-    format::SceneBounds bounds = head.metadata.bounds;
-    format::set_sphere_center(&bounds, scene_center_);
   }
 
-  Result<OutOfCoreLevels> run(EncodedBatches& batches) {
-    folder_ = options_.spill_folder.empty() ? std::string(".") : options_.spill_folder;
+  /// The two passes: counts, then every Gaussian into its bucket's file.
+  Status prepare(EncodedBatches& batches) {
     RGS_RETURN_IF_ERROR(count_cells(batches));
     RGS_RETURN_IF_ERROR(plan_buckets());
-    RGS_RETURN_IF_ERROR(partition(batches));
-    for (uint32_t b = 0; b < bucket_count_; ++b) RGS_RETURN_IF_ERROR(build_bucket(b));
-    return finish();
+    return partition(batches);
   }
+  uint32_t count() const override { return bucket_count_; }
+  Status load(uint32_t b, Partition* out) override {
+    out->scene = &bucket_;
+    return load_bucket(b, &out->order);
+  }
+  uint64_t capacity() const { return capacity_; }
 
  private:
   void report(const char* stage, double fraction) {
@@ -388,7 +376,7 @@ class OutOfCoreBuild {
                                              kMaxPartitionBufferBytes);
     for (uint32_t b = 0; b < bucket_count_; ++b) {
       buckets_[b] = std::make_unique<SpillFile>();
-      RGS_RETURN_IF_ERROR(buckets_[b]->open(folder_, "partition " + std::to_string(b), buffer));
+      RGS_RETURN_IF_ERROR(buckets_[b]->open(options_.spill_folder, "partition " + std::to_string(b), buffer));
     }
     report("partitioning", 0.25);
     RGS_RETURN_IF_ERROR(batches.rewind());
@@ -451,67 +439,31 @@ class OutOfCoreBuild {
     return Status();
   }
 
-  /// The chunks of bucket b: planned, built in groups on the workers, their levels spilled in chunk order.
-  Status build_bucket(uint32_t b) {
-    MortonOrder order;
-    RGS_RETURN_IF_ERROR(load_bucket(b, &order));
-    std::vector<Scratch> scratch(workers_);
-    const std::function<void(double)> silent;
-    Progress quiet(silent, 1);
-    RGS_ASSIGN_OR_RETURN(std::vector<ChunkPlan> plans,
-                         plan_chunks(bucket_, planned_levels_, workers_, &order, &scratch, &quiet));
-    const Layout t = describe_layout(bucket_);
-    const uint64_t group = uint64_t{workers_} * kChunksPerWorker;
-    std::vector<format::EncodedScene> outputs(group);
-    std::vector<BuiltChunk> built(group);
-    for (uint64_t g0 = 0; g0 < plans.size(); g0 += group) {
-      const uint64_t g1 = std::min<uint64_t>(plans.size(), g0 + group);
-      RGS_RETURN_IF_ERROR(parallel_items(g1 - g0, workers_, [&](unsigned worker, uint64_t k) {
-        BuiltChunk& chunk = built[k];
-        chunk.plan = plans[g0 + k];
-        uint64_t first[format::kMaxLodLevels], total = 0;
-        for (uint32_t l = 0; l < planned_levels_; ++l) {
-          first[l] = total;
-          total += chunk.plan.count[l];
-        }
-        size_sections(&outputs[k], total, record_.sh, record_.residual);
-        double center[3];
-        chunk_center(chunk.plan, chunk.center, center);
-        chunk.reach = build_chunk(bucket_, order.index.data(), order.keys.data(), chunk.plan, first, planned_levels_,
-                                  t, center, scene_center_, &scratch[worker], &outputs[k]);
-        for (uint32_t l = 0; l < planned_levels_; ++l) {
-          chunk.checksum[l] = range_checksum(outputs[k], first[l], chunk.plan.count[l]);
-        }
-      }));
-      for (uint64_t k = 0; k < g1 - g0; ++k) {
-        RGS_RETURN_IF_ERROR(spill(outputs[k], built[k].plan));
-        chunks_.push_back(built[k]);
-      }
-      done_ += (plans[g1 - 1].end - plans[g0].begin);
-      report("building levels of detail", 0.5 + 0.5 * static_cast<double>(done_) / static_cast<double>(head_.count));
-    }
-    return Status();
-  }
+  const format::EncodedScene& head_;
+  const OutOfCoreLodOptions& options_;
+  MortonGrid grid_;
+  RecordLayout record_;
+  unsigned workers_ = 1;
+  uint32_t planned_levels_ = 1;
+  int count_depth_ = 1;
+  std::vector<uint32_t> prefix_;  ///< counts per cell, their prefix sums, then the cell → node map
+  std::vector<Node> nodes_;
+  uint64_t capacity_ = 0;
+  uint32_t bucket_count_ = 0;
+  std::vector<std::unique_ptr<SpillFile>> buckets_;
+  format::EncodedScene bucket_;
+};
 
-  /// XXH64 of Gaussians [first, first + count) of `s` across its sections (SPEC §4.9 `checksum`).
-  uint64_t range_checksum(const format::EncodedScene& s, uint64_t first, uint64_t count) const {
-    XXH64_state_t* state = XXH64_createState();
-    XXH64_reset(state, 0);
-    XXH64_update(state, &s.means[first * 3], count * 12);
-    XXH64_update(state, &s.rotations[first * 4], count * 8);
-    XXH64_update(state, &s.scales[first * 3], count * 6);
-    XXH64_update(state, &s.opacities[first], count * 2);
-    XXH64_update(state, &s.sh[first * record_.sh], count * record_.sh);
-    if (record_.residual) XXH64_update(state, &s.sh_dc_residual[first * 3], count * 3);
-    const uint64_t digest = XXH64_digest(state);
-    XXH64_freeState(state);
-    return digest;
-  }
+/// The store of an out-of-core build: each level's sections appended to spill files, read back as SpilledLevels.
+class SpillStore final : public LevelStore {
+ public:
+  SpillStore(std::string folder, const RecordLayout& record) : folder_(std::move(folder)), record_(record) {}
+  Status reserve(const format::LodIndex&, uint64_t) override { return Status(); }
+  bool needs_checksums() const override { return true; }
 
-  /// Appends each level of a built chunk to the spill files of its sections.
-  Status spill(format::EncodedScene& s, const ChunkPlan& plan) {
+  Status add(uint32_t, const format::EncodedScene& s, const ChunkPlan& plan, uint32_t levels) override {
     if (spills_.empty()) {
-      spills_.resize(planned_levels_ * kLevelSections);
+      spills_.resize(uint64_t{levels} * kLevelSections);
       for (size_t i = 0; i < spills_.size(); ++i) {
         spills_[i] = std::make_unique<SpillFile>();
         RGS_RETURN_IF_ERROR(spills_[i]->open(folder_,
@@ -520,12 +472,11 @@ class OutOfCoreBuild {
                                              kSpillBufferBytes));
       }
     }
-    const int sections = record_.residual ? kLevelSections : kLevelSections - 1;
     uint64_t first = 0;
-    for (uint32_t l = 0; l < planned_levels_; ++l) {
-      for (int k = 0; k < sections; ++k) {
+    for (uint32_t l = 0; l < levels; ++l) {
+      for (int k = 0; k < (record_.residual ? kLevelSections : kLevelSections - 1); ++k) {
         const uint64_t width = section_width(k, record_.sh);
-        RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->append(section_bytes(&s, k) + first * width,
+        RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->append(section_bytes(s, k) + first * width,
                                                                     plan.count[l] * width));
       }
       first += plan.count[l];
@@ -533,60 +484,18 @@ class OutOfCoreBuild {
     return Status();
   }
 
-  /// The level count, the index and the metadata: the levels as the spill files hold them.
-  Result<OutOfCoreLevels> finish() {
-    bucket_ = format::EncodedScene{};
-    const auto chunk_count = static_cast<uint32_t>(chunks_.size());
-    std::vector<ChunkPlan> plans;
-    std::vector<ChunkReach> reaches;
-    plans.reserve(chunk_count);
-    reaches.reserve(chunk_count);
-    for (const BuiltChunk& c : chunks_) {
-      plans.push_back(c.plan);
-      reaches.push_back(c.reach);
-    }
-    RGS_ASSIGN_OR_RETURN(const LevelChoice choice, choose_levels(plans, planned_levels_, options_.lod, head_.count));
-    format::LodIndex index = lay_out_index(plans, choice.levels);
-    for (uint32_t c = 0; c < chunk_count; ++c) {
-      std::copy_n(chunks_[c].center, 3, index.chunks[c].center);
-      for (uint32_t l = 0; l < choice.levels; ++l) index.at(l, c).checksum = chunks_[c].checksum[l];
-    }
-    format::EncodedScene head;
-    head.metadata = head_.metadata;
-    double center[3];
-    format::set_sphere_center(&head.metadata.bounds, center);
-    RGS_ASSIGN_OR_RETURN(head.metadata.bounds.sphere_radius, set_chunk_radii(reaches, &index));
-    head.provenance = head_.provenance;
-    head.provenance.emplace_back("lod_levels", std::to_string(choice.levels));
-    head.provenance.emplace_back("lod_chunks", std::to_string(chunk_count));
-    head.count = choice.total;
+  /// The levels the build chose, as the spill files hold them (those beyond are dropped).
+  Result<std::unique_ptr<Levels>> finish(BuiltIndex built) {
     for (auto& file : spills_) RGS_RETURN_IF_ERROR(file->flush());
-    spills_.resize(uint64_t{choice.levels} * kLevelSections);  // the levels beyond the choice are dropped
-    OutOfCoreLevels result;
-    result.levels = std::make_unique<SpilledLevels>(std::move(head), std::move(index), std::move(spills_), record_);
-    result.partitions = bucket_count_;
-    result.partition_capacity = capacity_;
-    return result;
+    spills_.resize(uint64_t{built.index.level_count} * kLevelSections);
+    return std::unique_ptr<Levels>(std::make_unique<SpilledLevels>(std::move(built.head), std::move(built.index),
+                                                                   std::move(spills_), record_));
   }
 
-  const format::EncodedScene& head_;
-  const OutOfCoreLodOptions& options_;
-  MortonGrid grid_;
+ private:
+  std::string folder_;  ///< the output's, where the unnamed spill files are made
   RecordLayout record_;
-  unsigned workers_ = 1;
-  uint32_t planned_levels_ = 1;
-  double scene_center_[3] = {0, 0, 0};
-  std::string folder_;  ///< the output's, where the unnamed partition and spill files are made
-  int count_depth_ = 1;
-  std::vector<uint32_t> prefix_;  ///< counts per cell, their prefix sums, then the cell → node map
-  std::vector<Node> nodes_;
-  uint64_t capacity_ = 0;
-  uint32_t bucket_count_ = 0;
-  std::vector<std::unique_ptr<SpillFile>> buckets_;
-  format::EncodedScene bucket_;
   std::vector<std::unique_ptr<SpillFile>> spills_;
-  std::vector<BuiltChunk> chunks_;
-  uint64_t done_ = 0;
 };
 
 }  // namespace
@@ -602,8 +511,22 @@ Result<OutOfCoreLevels> build_lod_out_of_core(EncodedBatches& batches, const for
                                               const OutOfCoreLodOptions& options) {
   RGS_RETURN_IF_ERROR(check_lod_request(head.count, options.lod));
   try {
-    OutOfCoreBuild build(head, options);
-    return build.run(batches);
+    RecordLayout record;
+    record.sh = uint64_t{3} * format::sh_coefficient_count(head.metadata.sh_degree);
+    record.residual = options.sh_dc_residual;
+    Buckets buckets(head, options, record);
+    RGS_RETURN_IF_ERROR(buckets.prepare(batches));
+    SpillStore store(options.spill_folder, record);
+    const std::function<void(double)> building = [&](double f) {
+      if (options.progress) options.progress("building levels of detail", 0.5 + 0.5 * f);
+    };
+    Progress progress(building, 5 * head.count / 2);
+    RGS_ASSIGN_OR_RETURN(BuiltIndex built, build_levels(buckets, store, head, options.lod, &progress));
+    OutOfCoreLevels result;
+    result.partitions = buckets.count();
+    result.partition_capacity = buckets.capacity();
+    RGS_ASSIGN_OR_RETURN(result.levels, store.finish(std::move(built)));
+    return result;
   } catch (const std::bad_alloc&) {
     return Status(StatusCode::kOutOfMemory, "build_lod: out of memory building the levels of " +
                                                 std::to_string(head.count) + " Gaussians out of core");

@@ -135,11 +135,6 @@ bool is_sog_lod_path(const std::string& path) {
   return name == "lod-meta.json";
 }
 
-Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const LodScene& lod,
-                                      const SogWriteOptions& options, format::FileSink& sink) {
-  return write_sog_lod(lod_meta_path, *held_levels(lod), options, sink);
-}
-
 Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Levels& levels,
                                       const SogWriteOptions& options, format::FileSink& sink) {
   RGS_RETURN_IF_ERROR(check_lod(levels));

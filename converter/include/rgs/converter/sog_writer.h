@@ -101,9 +101,5 @@ inline constexpr uint64_t kSogLodFileGaussians = 524288;
 Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Levels& levels,
                                       const SogWriteOptions& options = {},
                                       format::FileSink& files = format::atomic_files());
-/// write_sog_lod of build_lod's output held in memory (held_levels).
-Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const LodScene& lod,
-                                      const SogWriteOptions& options = {},
-                                      format::FileSink& files = format::atomic_files());
 
 }  // namespace rgs::converter
