@@ -75,6 +75,15 @@ Result<uint64_t> estimate_convert_memory(const std::string& src) {
   return estimate_bytes(input_bytes, peak_per_input_byte(format_id));
 }
 
+Result<uint64_t> estimate_convert_memory(const std::vector<std::string>& srcs) {
+  uint64_t estimate = kBaseBytes;
+  for (const std::string& src : srcs) {
+    RGS_ASSIGN_OR_RETURN(const uint64_t one, estimate_convert_memory(src));
+    estimate += one - kBaseBytes;
+  }
+  return estimate;
+}
+
 uint64_t estimate_merged_memory(uint64_t gaussians, uint32_t sh_degree) {
   // An INRIA PLY holds 14 floats a Gaussian (normals included) and 3 per SH coefficient.
   const uint64_t ply_bytes = sizeof(float) * (14 + 3 * uint64_t{format::sh_coefficient_count(sh_degree)});

@@ -8,8 +8,8 @@
 
 namespace rgs::api::detail {
 
-/// kLimitExceeded naming `src`, `what` needs the estimate ("converting it": estimate_convert_memory of its inputs,
-/// summed; or a merged scene's) and the limit when `estimate` is above convert_memory_limit(options); no check when
+/// kLimitExceeded naming `src`, `what` needs the estimate ("converting it": estimate_convert_memory of its inputs
+/// together; or a merged scene's) and the limit when `estimate` is above convert_memory_limit(options); no check when
 /// the limit is 0 (unknown physical memory).
 Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options,
                             const std::string& what = "converting it");

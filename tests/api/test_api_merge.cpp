@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -219,8 +220,7 @@ TEST_CASE("merge: --max-gaussians and the memory limit hold for the merged scene
   const std::string big = dir.file("six.ply");
   REQUIRE(api::convert(std::vector<std::string>(6, sample), big).ok());
   const std::vector<std::string> srcs = {big, sh3};
-  uint64_t inputs = 0;
-  for (const std::string& src : srcs) inputs += api::estimate_convert_memory(src).value();
+  const uint64_t inputs = api::estimate_convert_memory(srcs).value();
   const uint64_t merged = api::estimate_merged_memory(6 * 90854 + 8000, 3);
   REQUIRE(merged > inputs);
   api::ConvertOptions limited;
@@ -233,6 +233,23 @@ TEST_CASE("merge: --max-gaussians and the memory limit hold for the merged scene
   CHECK_FALSE(std::filesystem::exists(dir.file("merged.ply")));
   limited.memory_limit = merged;
   CHECK(api::convert(srcs, dir.file("merged.ply"), limited).ok());
+}
+
+TEST_CASE("merge: the inputs' estimate counts the program's own memory once, not once an input") {
+  // Twelve copies of the SH-3 scene: a sum of their estimates would hold 12 x 64 MiB for the program alone, and
+  // a tiled capture of 200 parts 12.5 GiB.
+  const std::string sh3 = test::repo_path(test::kGuitarSh3);
+  const std::vector<std::string> srcs(12, sh3);
+  const uint64_t one = api::estimate_convert_memory(sh3).value();
+  const uint64_t together = api::estimate_convert_memory(srcs).value();
+  CHECK(together == one + 11 * (one - (uint64_t{64} << 20)));
+  api::ConvertOptions options;
+  options.memory_limit = std::max(together, api::estimate_merged_memory(12 * 8000, 3));
+  REQUIRE(options.memory_limit < 2 * one);
+  test::TempDir dir;
+  auto merged = api::convert(srcs, dir.file("twelve.ply"), options);
+  REQUIRE_MESSAGE(merged.ok(), merged.status().to_string());
+  CHECK(merged->gaussians == 12 * 8000);
 }
 
 TEST_CASE("merge: edits written for an input act on it alone, before the merge and the merged scene's edits") {
@@ -317,8 +334,7 @@ TEST_CASE("merge: an out-of-core merge of two PLYs gives the bytes of the merge 
   auto memory = api::convert(srcs, dir.file("in_memory.rgs"), options);
   REQUIRE_MESSAGE(memory.ok(), memory.status().to_string());
   CHECK(memory->rgs->out_of_core_partitions == 0);
-  uint64_t estimate = 0;
-  for (const std::string& src : srcs) estimate += api::estimate_convert_memory(src).value();
+  const uint64_t estimate = api::estimate_convert_memory(srcs).value();
   std::ifstream statm("/proc/self/statm");
   uint64_t size = 0, pages = 0;
   statm >> size >> pages;

@@ -94,14 +94,14 @@ Result<std::vector<converter::InputScene>> read_inputs(const std::vector<std::st
 Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, const std::string& dst, OutputFormat output,
                                      const ConvertOptions& options) {
   SceneSource source;
-  uint64_t estimate = 0;  // of reading every input whole, when there is a limit
   for (const std::string& src : srcs) {
     if (srcs.size() > 1) source.merge_inputs.emplace_back().path = src;
     source.name += (source.name.empty() ? "" : " + ") + src;
     source.source_file += (source.source_file.empty() ? "" : " + ") + std::filesystem::path(src).filename().string();
-    if (convert_memory_limit(options) == 0) continue;
-    RGS_ASSIGN_OR_RETURN(const uint64_t bytes, estimate_convert_memory(src));
-    estimate += bytes;
+  }
+  uint64_t estimate = 0;  // of reading every input whole, when there is a limit
+  if (convert_memory_limit(options) != 0) {
+    RGS_ASSIGN_OR_RETURN(estimate, estimate_convert_memory(srcs));
   }
   RGS_ASSIGN_OR_RETURN(source.stream, open_batches(srcs, source.name, estimate, dst, output, options));
   if (source.stream) return source;

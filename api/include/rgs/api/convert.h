@@ -260,6 +260,9 @@ uint64_t convert_memory_limit(const ConvertOptions& options);
 /// Errors: those of converter::detect_scene_format and converter::list_scene_files.
 Result<uint64_t> estimate_convert_memory(const std::string& src);
 
+/// The same for the inputs `srcs` read together (a merge): each input's share, and the 64 MiB once.
+Result<uint64_t> estimate_convert_memory(const std::vector<std::string>& srcs);
+
 /// The peak memory in bytes that convert() is estimated to need for a merged scene of `gaussians` at `sh_degree`
 /// (every input widened to the highest degree): estimate_convert_memory's for a float PLY holding it.
 uint64_t estimate_merged_memory(uint64_t gaussians, uint32_t sh_degree);
