@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "rgs/api/convert.h"
+#include "rgs/converter/cloud_edits.h"
 #include "temp_dir.h"
 #include "test_data.h"
 
@@ -179,6 +180,56 @@ TEST_CASE("convert: a streamed SOG of a binary PLY over memory_limit is written 
   const auto expected = folder_files(dir.path() / "memory");
   CHECK(expected.size() > 8);  // lod-meta.json and the chunk folders of every level
   CHECK(folder_files(dir.path() / "batches") == expected);
+}
+
+TEST_CASE("convert: every sink over memory_limit: levels of detail built out of core to the same files, others refused") {
+  // Every output format (--to) and container: those of levels of detail (a .rgs with levels, a streamed SOG) read a
+  // PLY over the limit in batches and write what the conversion in memory writes; every other sink needs the scene
+  // whole and is refused by name before it is read; --decimate, an edit of the whole scene, is refused in batches.
+  struct Sink {
+    const char* dst;
+    bool levels;
+  };
+  const Sink sinks[] = {{"out.rgs", true},  {"out.rgs", false},         {"out.ply", false}, {"out.spz", false},
+                        {"out.glb", false}, {"out.sog", false},         {"sog/meta.json", false},
+                        {"lod/lod-meta.json", true}};
+  const std::string src = test::repo_path(test::kGuitarSh3);
+  auto estimate = api::estimate_convert_memory(src);
+  REQUIRE(estimate.ok());
+  if (resident_bytes() + (uint64_t{40} << 20) > *estimate) {
+    MESSAGE("skipped: this process already holds " << resident_bytes() << " bytes");
+    return;
+  }
+  for (const Sink& sink : sinks) {
+    CAPTURE(std::string(sink.dst));
+    CAPTURE(sink.levels);
+    test::TempDir dir;
+    std::filesystem::create_directories(dir.path() / "memory" / "sog");
+    std::filesystem::create_directories(dir.path() / "memory" / "lod");
+    std::filesystem::create_directories(dir.path() / "batches" / "sog");
+    std::filesystem::create_directories(dir.path() / "batches" / "lod");
+    api::ConvertOptions options;
+    options.lod_chunk_gaussians = 1024;
+    if (sink.levels && std::string(sink.dst) == "out.rgs") options.lod_levels = 0;
+    REQUIRE(api::convert(src, (dir.path() / "memory" / sink.dst).string(), options).ok());
+    options.memory_limit = *estimate - 1;
+    const std::string dst = (dir.path() / "batches" / sink.dst).string();
+    auto batched = api::convert(src, dst, options);
+    if (!sink.levels) {
+      REQUIRE_FALSE(batched.ok());
+      CHECK(batched.status().code() == StatusCode::kLimitExceeded);
+      CHECK(batched.status().message().find("only a binary PLY converted with levels of detail is read in batches") !=
+            std::string::npos);
+      CHECK(folder_files(dir.path() / "batches").empty());
+      continue;
+    }
+    REQUIRE_MESSAGE(batched.ok(), batched.status().to_string());
+    CHECK(folder_files(dir.path() / "batches") == folder_files(dir.path() / "memory"));
+    options.edits.push_back(converter::parse_edit_action("decimate", "1000").value());
+    auto decimated = api::convert(src, dst, options);
+    REQUIRE_FALSE(decimated.ok());
+    CHECK(decimated.status().message().find("decimate needs the whole scene (or input) in memory") != std::string::npos);
+  }
 }
 
 /// A version an input PLY is rewritten to while it is converted out of core: a new file renamed over it, or
