@@ -114,16 +114,8 @@ std::vector<uint8_t> file_bytes(const std::filesystem::path& path) {
 /// `levels` written as a .rgs at `path`, their sections streamed (as the .rgs sink of a conversion writes them).
 Result<uint64_t> write_levels(const std::filesystem::path& path, const converter::Levels& levels,
                               format::WriteOptions write) {
-  format::StreamedScene streamed;
-  streamed.metadata = levels.head().metadata;
-  streamed.provenance = levels.head().provenance;
-  streamed.count = levels.head().count;
-  streamed.sh_dc_residual = levels.sh_dc_residual();
-  streamed.produce = [&levels](format::SectionId id, const format::ChunkSink& sink) {
-    return levels.stream_section(id, sink);
-  };
   write.lod = &levels.index();
-  return format::write_streamed_scene_file(path.string(), streamed, write);
+  return format::write_streamed_scene_file(path.string(), levels.streamed(), write);
 }
 
 /// build_lod() of `scene` written in memory, and build_lod_out_of_core() of it in batches: the same levels, read

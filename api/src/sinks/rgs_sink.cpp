@@ -128,18 +128,11 @@ class RgsSink final : public Sink {
     const converter::Levels& levels = *scene->levels;
     RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options_));
     write.lod = &levels.index();
-    format::StreamedScene streamed;
-    streamed.metadata = levels.head().metadata;
-    streamed.provenance = levels.head().provenance;
-    streamed.count = levels.head().count;
-    streamed.sh_dc_residual = levels.sh_dc_residual();
-    streamed.produce = [&levels](format::SectionId id, const format::ChunkSink& sink) {
-      return levels.stream_section(id, sink);
-    };
     ProgressSink progress_files(files, progress_);
     const auto write_start = Clock::now();
     ConvertReport& report = scene->report;
-    RGS_ASSIGN_OR_RETURN(report.output_bytes, format::write_streamed_scene_file(dst_, streamed, write, progress_files));
+    RGS_ASSIGN_OR_RETURN(report.output_bytes,
+                         format::write_streamed_scene_file(dst_, levels.streamed(), write, progress_files));
     report.seconds.write = seconds_since(write_start);
     report.rgs->lod_levels = levels.index().level_count;
     report.rgs->lod_chunks = levels.index().chunk_count;

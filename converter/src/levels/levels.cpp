@@ -144,6 +144,16 @@ class HeldLevels final : public Levels {
 
 }  // namespace
 
+format::StreamedScene Levels::streamed() const {
+  format::StreamedScene scene;
+  scene.metadata = head().metadata;
+  scene.provenance = head().provenance;
+  scene.count = head().count;
+  scene.sh_dc_residual = sh_dc_residual();
+  scene.produce = [this](format::SectionId id, const format::ChunkSink& sink) { return stream_section(id, sink); };
+  return scene;
+}
+
 std::unique_ptr<Levels> held_levels(const LodScene& lod) { return std::make_unique<HeldLevels>(lod); }
 
 }  // namespace rgs::converter

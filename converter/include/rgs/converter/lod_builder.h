@@ -126,6 +126,9 @@ class Levels {
   /// Section `id`'s bytes (means, rotations, scales, opacities, sh, sh_dc_residual) of every Gaussian in order,
   /// in pieces of whole elements: format::StreamedScene::produce.
   virtual Status stream_section(format::SectionId id, const format::ChunkSink& sink) const = 0;
+  /// The levels as format::write_streamed_scene_file takes them (these levels must outlive it); pass index() as
+  /// WriteOptions::lod.
+  format::StreamedScene streamed() const;
 };
 
 /// `lod` seen as Levels (it must outlive them).
