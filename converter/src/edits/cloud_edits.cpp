@@ -453,7 +453,14 @@ Result<uint64_t> apply_edit(format::GaussianCloud* cloud, const EditAction& acti
       return uint64_t{0};
     case EditKind::kScale:
       for (float& m : cloud->means) m = float(double(m) * v[0]);
-      for (float& s : cloud->scales) s = float(double(s) * v[0]);
+      for (size_t i = 0; i < cloud->scales.size(); ++i) {
+        const float before = cloud->scales[i];
+        cloud->scales[i] = float(double(before) * v[0]);
+        if (cloud->scales[i] == 0 && before != 0) {  // underflow: the scene would collapse to a point
+          return invalid(action, "takes Gaussian " + std::to_string(i / 3) + "'s scale " + std::to_string(before) +
+                                     " to 0, below float32's smallest positive value");
+        }
+      }
       return in_float_range(*cloud, action);
     case EditKind::kFilterNan: {
       const size_t sh = size_t{cloud->sh_coefficients()} * 3;

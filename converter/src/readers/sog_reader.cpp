@@ -365,7 +365,7 @@ inline float sigmoid_of_logit(double logit) {
 Status build_tables(const SogMeta& meta, const std::string& where, Tables* t) {
   for (int a = 0; a < 3; ++a) {
     const double lo = meta.means_min[a];
-    const double span = (meta.means_max[a] - meta.means_min[a]) != 0 ? meta.means_max[a] - meta.means_min[a] : 1.0;
+    const double span = meta.means_max[a] - meta.means_min[a];  // lerp(min, max, code / 65535), as PlayCanvas reads
     t->means[a].resize(65536);
     for (uint32_t v = 0; v < 65536; ++v) {
       t->means[a][v] = static_cast<float>(inverse_log_transform(lo + span * (static_cast<double>(v) / 65535.0)));
