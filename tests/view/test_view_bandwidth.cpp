@@ -219,9 +219,16 @@ TEST_CASE("bandwidth: a server's moving frames shrink under a tiny budget, and a
   const Frame unbudgeted = read_frame(other);
   CHECK(unbudgeted.header["width"] == 320);
   CHECK(unbudgeted.header["max_mbps"].is_null());
+  // The header's null sent back is no budget either, not a protocol violation.
+  own["seq"] = 4;
+  own["max_mbps"] = nullptr;
+  other.send(own.dump());
+  const Frame echoed = read_frame(other);
+  CHECK(echoed.header["width"] == 320);
+  CHECK(echoed.header["max_mbps"].is_null());
 
   // A bad budget is a protocol violation: error, then close (1008).
-  own["seq"] = 4;
+  own["seq"] = 5;
   own["max_mbps"] = -3;
   other.send(own.dump());
   const json error = other.read_json();

@@ -130,7 +130,7 @@ Status read_view(const json& message, const ProtocolLimits& limits, ViewRequest*
     if (!still->is_boolean()) return bad("\"still\" is not a boolean");
     view->still = still->get<bool>();
   }
-  if (message.contains("max_mbps")) {
+  if (message.contains("max_mbps") && !message["max_mbps"].is_null()) {  // null: none, as a frame's header says
     RGS_RETURN_IF_ERROR(read_number(message, "max_mbps", &view->max_mbps));
     if (view->max_mbps < 0 || view->max_mbps > kMaxMbps) return bad("\"max_mbps\" must be in [0, 100000]");
   }
