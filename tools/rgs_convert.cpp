@@ -300,9 +300,7 @@ int run(Options& opt) {
   if (!output_format.ok()) return tools::report_usage_error(kTool, output_format.status());
   opt.convert.to = *output_format;
   const api::CameraChoice& views = opt.convert.target.views;
-  const bool camera_option = !views.cameras_path.empty() || views.orbit || views.path || views.limit || views.width ||
-                             views.height;
-  // The target's rules in the terms of the command line (api::check_convert_options below has them too).
+  // The target's rules that only the command line can break (api::check_convert_options has the others).
   if (opt.rate_control()) {
     const char* flag = opt.convert.target.psnr_db ? "--target-psnr" : "--target-bytes";
     std::string why;
@@ -310,17 +308,8 @@ int run(Options& opt) {
     if (opt.input == "-") {
       why = std::string(flag) + " looks for the scene's own views beside the input: name a file, not standard input";
     }
-    if (opt.convert.lod_levels) {
-      why = std::string(flag) + " writes the archive profile, which has no levels of detail (--lod-levels needs "
-                                "the runtime profile)";
-    }
     if (!why.empty()) return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, why));
     opt.profile = "archive";
-  } else if (camera_option) {
-    return tools::report_usage_error(
-        kTool, Status(StatusCode::kInvalidArgument,
-                      "--cameras, --orbit, --path, --limit, --width and --height choose the views of --target-psnr "
-                      "or --target-bytes"));
   }
   opt.convert.scale_encoding = opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
   opt.convert.profile = opt.profile == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;

@@ -53,8 +53,8 @@ bool names_views(const CameraChoice& choice) {
 Status check_target(const ConvertOptions& options) {
   const ConvertTarget& target = options.target;
   RGS_RETURN_ERROR_IF(!target.active() && names_views(target.views), StatusCode::kInvalidArgument,
-                      "convert: views (cameras, every, limit, fly, orbit, path, width, height) are chosen only for "
-                      "a PSNR or byte target, and none is set");
+                      "convert: views (cameras, every, limit, fly, orbit, path, width, height) choose the views of "
+                      "a PSNR or byte target (--target-psnr, --target-bytes), and none is set");
   if (!target.active()) return Status();
   RGS_RETURN_ERROR_IF(target.psnr_db && target.bytes, StatusCode::kInvalidArgument,
                       "convert: a PSNR target and a byte target exclude each other");
@@ -65,8 +65,8 @@ Status check_target(const ConvertOptions& options) {
   RGS_RETURN_ERROR_IF(target.bytes && *target.bytes == 0, StatusCode::kInvalidArgument,
                       "convert: a target of 0 bytes");
   RGS_RETURN_ERROR_IF(options.lod_levels.has_value(), StatusCode::kInvalidArgument,
-                      "convert: a PSNR or byte target writes the archive profile, which has no levels of detail "
-                      "(they need the runtime profile)");
+                      "convert: a PSNR or byte target (--target-psnr, --target-bytes) writes the archive profile, "
+                      "which has no levels of detail (lod_levels, --lod-levels: they need the runtime profile)");
   RGS_RETURN_ERROR_IF(options.to && *options.to != OutputFormat::kRgs, StatusCode::kInvalidArgument,
                       std::string("convert: a PSNR or byte target chooses the archive profile of a .rgs output, not ") +
                           output_format_name(*options.to));
