@@ -292,7 +292,7 @@ int run(Options& opt) {
                                                    "the output cannot be standard output (-): name a .rgs, .ply, "
                                                    ".spz or .glb file (it is written atomically, by rename)"));
   }
-  if (!opt.to.empty()) opt.convert.to = *api::parse_output_format(opt.to);  // CLI11 checked the name
+  if (!opt.to.empty()) opt.convert.to = *api::parse_output_format(opt.to);  // --to's check parsed it
   if (!opt.lod_levels.empty()) {
     opt.convert.lod_levels = *rgs::tools::parse_lod_levels(opt.lod_levels);  // CLI11 checked it
   }
@@ -400,7 +400,10 @@ int main(int argc, char** argv) {
   app.add_option("--to", opt.to,
                  "Output format: rgs, ply (INRIA PLY), spz (SPZ v4), glb (KHR_gaussian_splatting) or sog (PlayCanvas "
                  "SOG v2); default: the output's extension. A name ending in another of these is a usage error")
-      ->check(CLI::IsMember({"rgs", "ply", "spz", "glb", "sog"}));
+      ->check([](const std::string& name) {  // the names of api's format table
+        auto format = rgs::api::parse_output_format(name);
+        return format.ok() ? std::string() : format.status().message();
+      });
   add_edit_options(app, &opt);
   app.add_option("--sh-degree", opt.convert.sh_degree,
                  "Drop the SH bands above this degree (0..3) before writing any output, after the edits")

@@ -34,6 +34,15 @@ const FormatName& entry(OutputFormat format) {
   return kFormatNames[0];
 }
 
+/// The formats' names, or their extensions as "*.rgs", comma-separated.
+std::string format_list(bool extensions) {
+  std::string list;
+  for (const FormatName& f : kFormatNames) {
+    list += (list.empty() ? "" : ", ") + (extensions ? "*" + std::string(f.extension) : std::string(f.name));
+  }
+  return list;
+}
+
 }  // namespace
 
 int zstd_level_for(const ConvertOptions& options) {
@@ -129,7 +138,7 @@ Result<OutputFormat> parse_output_format(const std::string& name) {
   for (const FormatName& f : kFormatNames) {
     if (name == f.name) return f.format;
   }
-  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use rgs, ply, spz, glb or sog)");
+  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use " + format_list(false) + ")");
 }
 
 std::vector<std::string> output_paths(const std::string& dst, OutputFormat output) {
@@ -149,10 +158,9 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   }
   if (!to) {
     RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
-                        dst + ": cannot tell the output format from this name; name the output *.rgs, *.ply, "
-                              "*.spz, *.glb, *.sog, meta.json (a SOG folder) or lod-meta.json (a streamed SOG), or "
-                              "choose the format with "
-                              "rgs-convert --to or Python's to= (rgs, ply, spz, glb, sog)");
+                        dst + ": cannot tell the output format from this name; name the output " +
+                            format_list(true) + ", meta.json (a SOG folder) or lod-meta.json (a streamed SOG), or "
+                            "choose the format with rgs-convert --to or Python's to= (" + format_list(false) + ")");
     return by_ext->format;
   }
   RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext->format != *to, StatusCode::kInvalidArgument,
