@@ -1,4 +1,4 @@
-// Loading a scene straight into GPU memory, shared by the tools and the front door. Available only with
+// Loading a scene straight into GPU memory, shared by the front door and the lab's rgs-bench. Available only with
 // RGS_WITH_CUDA (rgs/config.h: RGS_HAS_CUDA).
 #pragma once
 
