@@ -292,7 +292,7 @@ int run(Options& opt) {
                                                    "the output cannot be standard output (-): name a .rgs, .ply, "
                                                    ".spz or .glb file (it is written atomically, by rename)"));
   }
-  if (!opt.to.empty()) opt.convert.to = *api::parse_output_format(opt.to);  // CLI11 checked the name
+  if (!opt.to.empty()) opt.convert.to = *api::parse_output_format(opt.to);  // --to's check parsed it
   if (!opt.lod_levels.empty()) {
     opt.convert.lod_levels = *rgs::tools::parse_lod_levels(opt.lod_levels);  // CLI11 checked it
   }
@@ -300,9 +300,7 @@ int run(Options& opt) {
   if (!output_format.ok()) return tools::report_usage_error(kTool, output_format.status());
   opt.convert.to = *output_format;
   const api::CameraChoice& views = opt.convert.target.views;
-  const bool camera_option = !views.cameras_path.empty() || views.orbit || views.path || views.limit || views.width ||
-                             views.height;
-  // The target's rules in the terms of the command line (api::check_convert_options below has them too).
+  // The target's rules that only the command line can break (api::check_convert_options has the others).
   if (opt.rate_control()) {
     const char* flag = opt.convert.target.psnr_db ? "--target-psnr" : "--target-bytes";
     std::string why;
@@ -310,17 +308,8 @@ int run(Options& opt) {
     if (opt.input == "-") {
       why = std::string(flag) + " looks for the scene's own views beside the input: name a file, not standard input";
     }
-    if (opt.convert.lod_levels) {
-      why = std::string(flag) + " writes the archive profile, which has no levels of detail (--lod-levels needs "
-                                "the runtime profile)";
-    }
     if (!why.empty()) return tools::report_usage_error(kTool, Status(StatusCode::kInvalidArgument, why));
     opt.profile = "archive";
-  } else if (camera_option) {
-    return tools::report_usage_error(
-        kTool, Status(StatusCode::kInvalidArgument,
-                      "--cameras, --orbit, --path, --limit, --width and --height choose the views of --target-psnr "
-                      "or --target-bytes"));
   }
   opt.convert.scale_encoding = opt.scale_encoding == "log" ? format::ScaleEncoding::kLog : format::ScaleEncoding::kLinear;
   opt.convert.profile = opt.profile == "archive" ? format::StorageProfile::kArchive : format::StorageProfile::kRuntime;
@@ -411,7 +400,10 @@ int main(int argc, char** argv) {
   app.add_option("--to", opt.to,
                  "Output format: rgs, ply (INRIA PLY), spz (SPZ v4), glb (KHR_gaussian_splatting) or sog (PlayCanvas "
                  "SOG v2); default: the output's extension. A name ending in another of these is a usage error")
-      ->check(CLI::IsMember({"rgs", "ply", "spz", "glb", "sog"}));
+      ->check([](const std::string& name) {  // the names of api's format table
+        auto format = rgs::api::parse_output_format(name);
+        return format.ok() ? std::string() : format.status().message();
+      });
   add_edit_options(app, &opt);
   app.add_option("--sh-degree", opt.convert.sh_degree,
                  "Drop the SH bands above this degree (0..3) before writing any output, after the edits")

@@ -34,6 +34,15 @@ const FormatName& entry(OutputFormat format) {
   return kFormatNames[0];
 }
 
+/// The formats' names, or their extensions as "*.rgs", comma-separated.
+std::string format_list(bool extensions) {
+  std::string list;
+  for (const FormatName& f : kFormatNames) {
+    list += (list.empty() ? "" : ", ") + (extensions ? "*" + std::string(f.extension) : std::string(f.name));
+  }
+  return list;
+}
+
 }  // namespace
 
 int zstd_level_for(const ConvertOptions& options) {
@@ -53,8 +62,8 @@ bool names_views(const CameraChoice& choice) {
 Status check_target(const ConvertOptions& options) {
   const ConvertTarget& target = options.target;
   RGS_RETURN_ERROR_IF(!target.active() && names_views(target.views), StatusCode::kInvalidArgument,
-                      "convert: views (cameras, every, limit, fly, orbit, path, width, height) are chosen only for "
-                      "a PSNR or byte target, and none is set");
+                      "convert: views (cameras, every, limit, fly, orbit, path, width, height) choose the views of "
+                      "a PSNR or byte target (--target-psnr, --target-bytes), and none is set");
   if (!target.active()) return Status();
   RGS_RETURN_ERROR_IF(target.psnr_db && target.bytes, StatusCode::kInvalidArgument,
                       "convert: a PSNR target and a byte target exclude each other");
@@ -65,8 +74,8 @@ Status check_target(const ConvertOptions& options) {
   RGS_RETURN_ERROR_IF(target.bytes && *target.bytes == 0, StatusCode::kInvalidArgument,
                       "convert: a target of 0 bytes");
   RGS_RETURN_ERROR_IF(options.lod_levels.has_value(), StatusCode::kInvalidArgument,
-                      "convert: a PSNR or byte target writes the archive profile, which has no levels of detail "
-                      "(they need the runtime profile)");
+                      "convert: a PSNR or byte target (--target-psnr, --target-bytes) writes the archive profile, "
+                      "which has no levels of detail (lod_levels, --lod-levels: they need the runtime profile)");
   RGS_RETURN_ERROR_IF(options.to && *options.to != OutputFormat::kRgs, StatusCode::kInvalidArgument,
                       std::string("convert: a PSNR or byte target chooses the archive profile of a .rgs output, not ") +
                           output_format_name(*options.to));
@@ -129,7 +138,7 @@ Result<OutputFormat> parse_output_format(const std::string& name) {
   for (const FormatName& f : kFormatNames) {
     if (name == f.name) return f.format;
   }
-  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use rgs, ply, spz, glb or sog)");
+  return Status(StatusCode::kInvalidArgument, "unknown output format '" + name + "' (use " + format_list(false) + ")");
 }
 
 std::vector<std::string> output_paths(const std::string& dst, OutputFormat output) {
@@ -149,10 +158,9 @@ Result<OutputFormat> output_format_for(const std::string& dst, std::optional<Out
   }
   if (!to) {
     RGS_RETURN_ERROR_IF(by_ext == nullptr, StatusCode::kInvalidArgument,
-                        dst + ": cannot tell the output format from this name; name the output *.rgs, *.ply, "
-                              "*.spz, *.glb, *.sog, meta.json (a SOG folder) or lod-meta.json (a streamed SOG), or "
-                              "choose the format with "
-                              "rgs-convert --to or Python's to= (rgs, ply, spz, glb, sog)");
+                        dst + ": cannot tell the output format from this name; name the output " +
+                            format_list(true) + ", meta.json (a SOG folder) or lod-meta.json (a streamed SOG), or "
+                            "choose the format with rgs-convert --to or Python's to= (" + format_list(false) + ")");
     return by_ext->format;
   }
   RGS_RETURN_ERROR_IF(by_ext != nullptr && by_ext->format != *to, StatusCode::kInvalidArgument,

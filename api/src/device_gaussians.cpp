@@ -1,6 +1,7 @@
 // load_device_gaussians and write_planar: a caller's device arrays in, gsplat's planar outputs out.
 #include "rgs/api/device_gaussians.h"
 
+#include "internal_load.h"
 #include "internal_scene.h"
 
 #if RGS_HAS_CUDA
@@ -31,13 +32,10 @@ Result<Scene> load_device_gaussians(const DeviceGaussians& gaussians, const Devi
   RGS_ASSIGN_OR_RETURN(runtime::GpuScene gpu, runtime::GpuScene::from_device(source, import, options.stream, &dropped));
   auto impl = std::make_shared<Scene::Impl>();
   SceneInfo& info = impl->info;
-  info.path = options.name;
-  info.device = Device::kCuda;
-  info.bounds = gpu.bounds().value_or(format::SceneBounds{});
-  info.content = ContentFrame::of_sphere(info.bounds);  // the Gaussians never reach the host
-  info.gaussians = gpu.size();
-  info.sh_degree = gpu.sh_degree();
-  info.antialiased = gpu.antialiased();
+  const format::SceneBounds bounds = gpu.bounds().value_or(format::SceneBounds{});
+  // The content frame of the bounds: the Gaussians never reach the host.
+  info = detail::scene_info(options.name, Device::kCuda, bounds, ContentFrame::of_sphere(bounds), gpu.size(),
+                            gpu.sh_degree(), gpu.antialiased());
   info.description = "float Gaussians in device memory";
   info.has_fp32 = true;
   info.memory_bytes = gpu.device_bytes();

@@ -1,4 +1,4 @@
-// Loading a scene straight into GPU memory, shared by the tools and the front door. Available only with
+// Loading a scene straight into GPU memory, shared by the front door and the lab's rgs-bench. Available only with
 // RGS_WITH_CUDA (rgs/config.h: RGS_HAS_CUDA).
 #pragma once
 
@@ -32,25 +32,9 @@ struct LoadedGpuScene {
 /// is out of range; kCudaError from cudaSetDevice.
 Status require_cuda_device(int ordinal = 0);
 
-/// Loads `path` onto the current device: a .rgs file through format::RgsFile::open (with
-/// converter::rgs_read_options(read_options)) and runtime::GpuScene::from_rgs(options) (sections uploaded as
-/// stored, no host decode; FP32 arrays only with options.fp32_attributes), otherwise any format
-/// converter::read_scene(path, read_options) detects, through GpuScene::from_cloud (FP32 only).
-/// Synchronous on `stream`. Errors name `path`.
-Result<LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options = {},
-                                      cudaStream_t stream = nullptr,
-                                      const converter::SceneReadOptions& read_options = {});
-
-/// Uploads a complete .rgs file in memory onto the current device
-/// through format::RgsFile::from_bytes and GpuScene::from_rgs(options); `name` appears in errors. The bytes
-/// may be freed once this returns. is_rgs is true, file_bytes = `source_file_bytes`.
-Result<LoadedGpuScene> upload_rgs_bytes(const std::vector<uint8_t>& rgs_bytes, uint64_t source_file_bytes,
-                                        const std::string& name, const runtime::GpuSceneOptions& options = {},
-                                        cudaStream_t stream = nullptr);
-
-/// Uploads an opened .rgs file onto the current device through GpuScene::from_rgs(options) (what
-/// load_gpu_scene and upload_rgs_bytes do once the file is open); `name` appears in errors. is_rgs is true,
-/// file_bytes = `source_file_bytes`. Synchronous on `stream`.
+/// Uploads an opened .rgs file onto the current device through GpuScene::from_rgs(options) (sections uploaded
+/// as stored, no host decode; FP32 arrays only with options.fp32_attributes); `name` appears in errors. is_rgs
+/// is true, file_bytes = `source_file_bytes`. Synchronous on `stream`.
 Result<LoadedGpuScene> upload_rgs_file(const format::RgsFile& file, uint64_t source_file_bytes, const std::string& name,
                                        const runtime::GpuSceneOptions& options = {}, cudaStream_t stream = nullptr);
 

@@ -71,6 +71,10 @@ Status naming(Status status, const std::string& path);
 /// streamed-SOG level, read_options.lod, given for a .rgs loads the file whole).
 bool use_levels(const format::RgsFile& file, const LoadOptions& options);
 
+/// What every sink reports alike: the scene's name and device, its bounds and content, what its Gaussians hold.
+SceneInfo scene_info(const std::string& path, Device device, const format::SceneBounds& bounds,
+                     const ContentFrame& content, uint64_t gaussians, uint32_t sh_degree, bool antialiased);
+
 /// What every sink of a level-of-detail .rgs reports alike: the file, its full detail and its levels.
 SceneInfo lod_scene_info(const format::RgsFile& file, const std::string& path, const LoadOptions& options,
                          Device device);

@@ -42,6 +42,7 @@
 #include "bench_lod.h"
 #include "cli_common.h"
 #include "internal_gpu_scene_loading.h"
+#include "internal_load.h"
 #include "rgs/api/renderer.h"
 #include "rgs/api/scene.h"
 #include "rgs/api/camera.h"
@@ -555,14 +556,32 @@ std::pair<double, double> view_spread(const RunResult& r) {
   return {r.views.empty() ? 0.0 : lo, hi};
 }
 
-/// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`).
-/// The FP32 arrays are kept on the device only when `fp32` (a mode that reads them was asked for).
+/// Loads `path` onto the current device: a .rgs file's sections as stored (api::upload_rgs_file), any other
+/// format converter::read_scene detects as FP32 arrays (GpuScene::from_cloud). Errors name `path`.
+Result<api::LoadedGpuScene> load_gpu_scene(const std::string& path, const runtime::GpuSceneOptions& options) {
+  const converter::SceneReadOptions& read_options = tools::scene_read_options();
+  if (format::is_rgs_path(path)) {
+    RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::open(path, converter::rgs_read_options(read_options)));
+    return api::upload_rgs_file(file, file.file_size(), path, options);
+  }
+  RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
+  auto scene = runtime::GpuScene::from_cloud(input.cloud, input.bounds);
+  if (!scene.ok()) return api::detail::naming(scene.status(), path);
+  return api::LoadedGpuScene{std::move(scene).value(), input.bounds, false, input.file_bytes, input.description,
+                             std::move(input.notes)};
+}
+
+/// Loads the scene: as stored, or tiled opt.replicate times (host work done before, in `replicated`), uploaded
+/// from the bytes of its .rgs file. The FP32 arrays are kept on the device only when `fp32` (a mode that reads
+/// them was asked for).
 Result<api::LoadedGpuScene> load_bench_scene(const Options& opt, lab::ReplicatedScene* replicated, bool fp32) {
   runtime::GpuSceneOptions scene_options;
   scene_options.fp32_attributes = fp32;
-  if (opt.replicate <= 1) return api::load_gpu_scene(opt.input, scene_options, nullptr, tools::scene_read_options());
-  auto scene = api::upload_rgs_bytes(replicated->rgs_bytes, replicated->source_file_bytes,
-                                     opt.input + " x" + std::to_string(opt.replicate), scene_options);
+  if (opt.replicate <= 1) return load_gpu_scene(opt.input, scene_options);
+  const std::string name = opt.input + " x" + std::to_string(opt.replicate);
+  const std::vector<uint8_t>& bytes = replicated->rgs_bytes;
+  RGS_ASSIGN_OR_RETURN(format::RgsFile file, format::RgsFile::from_bytes(bytes.data(), bytes.size(), {}, name));
+  auto scene = api::upload_rgs_file(file, replicated->source_file_bytes, name, scene_options);
   replicated->rgs_bytes = std::vector<uint8_t>();  // uploaded: free the host copy
   return scene;
 }
@@ -914,7 +933,7 @@ Status bench(const Options& opt, format::OutputTransaction& outputs, Clock::time
     if (!opt.reference.empty()) {
       runtime::GpuSceneOptions fp32_arrays;
       fp32_arrays.fp32_attributes = true;
-      auto loaded = api::load_gpu_scene(opt.reference, fp32_arrays, nullptr, tools::scene_read_options());
+      auto loaded = load_gpu_scene(opt.reference, fp32_arrays);
       if (!loaded.ok()) return Status(loaded.status()).prepend("--reference");
       RGS_RETURN_ERROR_IF(loaded->scene.size() != scene.scene.size(), StatusCode::kInvalidArgument,
                           "--reference " + opt.reference + " holds " + std::to_string(loaded->scene.size()) +

@@ -103,26 +103,22 @@ Result<Scene> make_host_scene(LoadScene scene, const LoadOptions& options) {
   }
   converter::InputScene& input = *scene.input;
   auto impl = std::make_shared<Scene::Impl>();
-  SceneInfo& info = impl->info;
-  info.notes = std::move(input.notes);
-  info.description = input.description;
-  info.source_is_rgs = scene.rgs.has_value();
-  info.file_bytes = input.file_bytes;
+  format::SceneBounds bounds = input.bounds;
   if (scene.encoded) {
     auto cloud = format::dequantize(*scene.encoded);
     if (!cloud.ok()) return Status(cloud.status()).prepend(path);
     impl->cloud = std::move(cloud).value();
-    info.bounds = scene.encoded->metadata.bounds;
+    bounds = scene.encoded->metadata.bounds;
   } else {
     impl->cloud = std::move(input.cloud);
-    info.bounds = input.bounds;
   }
-  info.device = Device::kCpu;
-  info.path = path;
-  info.content = scene.content;
-  info.gaussians = impl->cloud.size();
-  info.sh_degree = impl->cloud.sh_degree;
-  info.antialiased = impl->cloud.antialiased;
+  const format::GaussianCloud& cloud = impl->cloud;
+  SceneInfo& info = impl->info;
+  info = scene_info(path, Device::kCpu, bounds, scene.content, cloud.size(), cloud.sh_degree, cloud.antialiased);
+  info.notes = std::move(input.notes);
+  info.description = input.description;
+  info.source_is_rgs = scene.rgs.has_value();
+  info.file_bytes = input.file_bytes;
   info.memory_bytes = cloud_bytes(impl->cloud);
   info.runtime_section_bytes = (scene.rgs || scene.encoded) ? runtime_bytes(info.gaussians, info.sh_degree) : 0;
   describe_unused_levels(path, options, &info, scene.rgs ? &*scene.rgs : nullptr);

@@ -51,17 +51,25 @@ bool use_levels(const format::RgsFile& file, const LoadOptions& options) {
   return options.lod.enabled && !options.read_options.lod.has_value() && file.lod() != nullptr;
 }
 
+SceneInfo scene_info(const std::string& path, Device device, const format::SceneBounds& bounds,
+                     const ContentFrame& content, uint64_t gaussians, uint32_t sh_degree, bool antialiased) {
+  SceneInfo info;
+  info.path = path;
+  info.device = device;
+  info.bounds = bounds;
+  info.content = content;
+  info.gaussians = gaussians;
+  info.sh_degree = sh_degree;
+  info.antialiased = antialiased;
+  return info;
+}
+
 SceneInfo lod_scene_info(const format::RgsFile& file, const std::string& path, const LoadOptions& options,
                          Device device) {
-  SceneInfo info;
-  info.device = device;
-  info.path = path;
-  info.bounds = file.metadata().bounds;
+  SceneInfo info = scene_info(path, device, file.metadata().bounds, {}, file.lod()->full_detail_count(),
+                              file.metadata().sh_degree, file.metadata().antialiased);
   info.source_is_rgs = true;
   info.file_bytes = file.file_size();
-  info.gaussians = file.lod()->full_detail_count();
-  info.sh_degree = file.metadata().sh_degree;
-  info.antialiased = file.metadata().antialiased;
   if (std::string note = converter::rgs_antialiased_note(file, options.read_options); !note.empty()) {
     info.notes.push_back(std::move(note));
   }

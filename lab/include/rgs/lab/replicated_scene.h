@@ -16,7 +16,7 @@ namespace rgs::lab {
 inline constexpr uint64_t kMaxGpuGaussians = 0x7fffffff;
 
 /// A scene tiled K times for benchmarks, as the bytes of a complete .rgs file so that the GPU loads it
-/// through the path of a file (format::RgsFile::from_bytes, runtime::GpuScene::from_rgs; api::upload_rgs_bytes).
+/// through the path of a file (format::RgsFile::from_bytes, runtime::GpuScene::from_rgs).
 struct ReplicatedScene {
   /// A .rgs file (SPEC v1.0), every section uncompressed; provenance gains "replicated" = K.
   std::vector<uint8_t> rgs_bytes;
