@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -69,6 +70,14 @@ Status encode_means(const format::GaussianCloud& cloud, Images* img, json* meta)
       lo[a] = std::min(lo[a], t);
       hi[a] = std::max(hi[a], t);
     }
+  }
+  for (int a = 0; a < 3; ++a) {  // readers decode sign(v)·(exp|v| − 1): a span below double's epsilon reads as one point
+    auto decoded = [](double v) { return std::copysign(std::exp(std::fabs(v)) - 1, v); };
+    char span[64];
+    std::snprintf(span, sizeof span, "[%g, %g]", lo[a], hi[a]);
+    RGS_RETURN_ERROR_IF(lo[a] != hi[a] && decoded(lo[a]) == decoded(hi[a]), StatusCode::kInvalidArgument,
+                        "means along axis " + std::to_string(a) + " span " + span +
+                            ", which SOG's log-encoded positions read back as one point");
   }
   uint8_t* l = img->image[kMeansLow].rgba.data();
   uint8_t* u = img->image[kMeansHigh].rgba.data();
