@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -71,7 +71,8 @@ Status encode_means(const format::GaussianCloud& cloud, Images* img, json* meta)
       hi[a] = std::max(hi[a], t);
     }
   }
-  for (int a = 0; a < 3; ++a) {  // readers decode sign(v)·(exp|v| − 1): a span below double's epsilon reads as one point
+  // Readers decode sign(v)·(exp|v| − 1): an axis whose span is below double's epsilon there reads as one point.
+  for (int a = 0; a < 3; ++a) {
     auto decoded = [](double v) { return std::copysign(std::exp(std::fabs(v)) - 1, v); };
     char span[64];
     std::snprintf(span, sizeof span, "[%g, %g]", lo[a], hi[a]);
