@@ -134,7 +134,8 @@ def convert(src: Union[_Path, Sequence[_Path]], dst: _Path, *, to: Optional[str]
             memory_limit: Optional[int] = None, max_gaussians: Optional[int] = None,
             max_decompression_ratio: Optional[int] = None,
             spz_frame: Optional[Union[str, Mapping[Union[str, os.PathLike], str]]] = None,
-            antialiased: bool = False, edits: Optional[Sequence[Tuple[str, str]]] = None) -> Dict[str, Any]:
+            antialiased: bool = False, edits: Optional[Sequence[Tuple[str, str]]] = None,
+            input_edits: Optional[Sequence[Optional[Sequence[Tuple[str, str]]]]] = None) -> Dict[str, Any]:
     """Every option of rgs-convert, by the snake_case of its long option (None: the tool's default), but the edits
     (--translate, --rotate, --scale, --filter-nan, --filter, --crop-box, --crop-sphere, -outside forms, --decimate),
     which act in the order given and so are one list, `edits`: (name, value) pairs in rgs-convert's spelling, e.g.

@@ -110,6 +110,10 @@ api::ConvertOptions convert_options(const char* fn, const py::kwargs& kwargs) {
       o.allow_empty = cast_arg<bool>(value, fn, "allow_empty", "a bool");
     } else if (key == "edits") {
       if (!value.is_none()) o.edits = edits_arg(value, fn);
+    } else if (key == "input_edits") {  // one list of edits a source, before the merge and `edits`
+      for (py::handle one : cast_arg<py::sequence>(value, fn, "input_edits", "a sequence of edit lists")) {
+        o.input_edits.push_back(one.is_none() ? std::vector<converter::EditAction>{} : edits_arg(one, fn));
+      }
     } else {
       const py::object accepted = py::module_::import("roofgs").attr("_keyword_options")(fn);
       throw py::type_error("unexpected keyword argument '" + key + "'; the options are " +
@@ -201,7 +205,7 @@ def convert(src, dst, *, to=None, sh_degree=None, scale_encoding=None, sh_clip_p
             every=None, limit=None, orbit=None, path=None, fly=None, width=None, height=None, zstd_level=None,
             sanitize=False, allow_empty=False, lod=None, lod_levels=None, lod_chunk=None, memory_limit=None,
             max_gaussians=None, max_decompression_ratio=None, spz_frame=None, antialiased=False, edits=None,
-            **unexpected):
+            input_edits=None, **unexpected):
     _refuse_unexpected("convert", unexpected)
     options = {k: v for k, v in locals().items() if k not in ("src", "dst", "unexpected") and v is not None}
     return _convert(src, dst, **options)
@@ -259,7 +263,9 @@ def save(path, means, quats, scales, opacities, sh, *, to=None, sh_degree=None, 
         "of detail's rule; refused out of core) "
         "(api::ConvertOptions::edits, converter::parse_edit_action); a bad one raises ValueError naming edits[i] "
         "and the rule. rgs-convert's --translate, --rotate, --scale, --filter-nan, --filter, --crop-box, "
-        "--crop-sphere, their -outside forms and --decimate are this one keyword, since their order matters");
+        "--crop-sphere, their -outside forms and --decimate are this one keyword, since their order matters. "
+        "input_edits: a merge's edits of each source before the merge, a list of such lists (None or [] for none; "
+        "rgs-convert's actions written after an input; api::ConvertOptions::input_edits)");
   m.attr("save").attr("__doc__") = py::str(
         "Write Gaussians held in arrays to `path` in any output format (.rgs, .ply, .spz, .glb, .sog or a SOG "
         "folder's meta.json), with convert()'s "

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
 """rgs-convert holds standard input whole, so it reads no more of it than --memory-limit allows a file of its
-format read whole: (64 MiB less than the limit) / 1.5 bytes of a PLY (api::max_whole_input_bytes). Streams that
+format read whole and held: (64 MiB less than the limit) / 2.5 bytes of a PLY (api::max_whole_input_bytes). Streams that
 never end are fed to `rgs-convert - out.rgs --memory-limit 96MiB`:
 
   - a binary PLY whose header declares 100,000,000 vertices (6.8 GB), under --max-gaussians;
   - a binary PLY of 10 vertices followed by an element of 4,000,000,000 rows with a list property (no bound a
     header can prove);
   - an ascii PLY declaring 10,000,000 vertices, rows of text without end;
-each must exit 1 within a bounded time with "standard input: more than 22,369,621 bytes, ... the memory limit
+each must exit 1 within a bounded time with "standard input: more than 13,421,773 bytes, ... the memory limit
 of 100,663,296 bytes (--memory-limit)", no output, and a peak resident memory below the limit. A PLY of 10
 vertices followed by endless bytes is converted from its 10 vertices (exit 0): what follows a PLY's last element
 is left unread.
@@ -23,7 +23,7 @@ import threading
 import time
 
 LIMIT = 96 << 20
-MOST = (LIMIT - (64 << 20)) * 2 // 3  # api::max_whole_input_bytes("ply"): (limit - 64 MiB) / 1.5
+MOST = ((LIMIT - (64 << 20)) * 2 + 1) // 5  # api::max_whole_input_bytes("ply"): n with floor(2.5 n) <= limit - 64 MiB
 TIMEOUT_S = 60
 PROPS = ["x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity", "scale_0", "scale_1", "scale_2",
          "rot_0", "rot_1", "rot_2", "rot_3"]

@@ -319,12 +319,13 @@ def test_audit_takes_one_path_and_gives_the_verdict(tmp_path):
 def test_an_unknown_convert_option_lists_every_option(tmp_path):
     """The TypeError of an unknown keyword names every option convert() and save() take."""
     src = str(SOURCE_DIR / "samples" / "guitar.ply")
-    for call, name in ((lambda **k: roofgs.convert(src, str(tmp_path / "x.rgs"), **k), "convert"),
-                       (lambda **k: roofgs.save(str(tmp_path / "x.rgs"), *read_ply_arrays(GUITAR), **k), "save")):
+    for call, name, count in ((lambda **k: roofgs.convert(src, str(tmp_path / "x.rgs"), **k), "convert", 31),
+                              (lambda **k: roofgs.save(str(tmp_path / "x.rgs"), *read_ply_arrays(GUITAR), **k), "save",
+                               30)):
         with pytest.raises(TypeError, match="bogus") as e:
             call(bogus=1)
         listed = str(e.value).split("the options are ")[1].split(", ")
-        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == 30
+        assert listed == _signature_keywords(getattr(roofgs, name)) and len(listed) == count
     with pytest.raises(TypeError, match="unexpected keyword argument 'bogus'; the options are to, sh_degree"):
         roofgs._convert(src, str(tmp_path / "x.rgs"), bogus=1)
 
@@ -938,7 +939,8 @@ def test_convert_and_save_take_every_option_of_rgs_convert():
     expected = {o.replace("-", "_") for o in options - EDIT_OPTIONS} | {"edits"}
     assert {"target_bytes", "lod_levels", "lod_chunk", "max_decompression_ratio"} <= expected
     # save()'s first parameter is the output's path: the tool's --path (a camera path) is camera_path there.
-    for name, keywords in (("convert", expected), ("save", expected - {"path"} | {"camera_path"})):
+    # convert()'s input_edits: the tool's edits written after each input (save() has one input: `edits`).
+    for name, keywords in (("convert", expected | {"input_edits"}), ("save", expected - {"path"} | {"camera_path"})):
         for where, names in (("roofgs." + name, _signature_keywords(getattr(roofgs, name))),
                              ("roofgs.pyi " + name, _stub_keywords(name))):
             assert set(names) == keywords, (where, sorted(keywords - set(names)), sorted(set(names) - keywords))
@@ -976,6 +978,21 @@ def test_convert_merges_a_list_of_inputs_and_decimates(tmp_path):
     roofgs.convert(sh3, str(tmp_path / "aa.rgs"), antialiased=True)
     with pytest.raises(roofgs.Error, match="aa.rgs is anti-aliased .* and .*guitar.ply is not"):
         roofgs.convert([str(tmp_path / "aa.rgs"), sh0], str(tmp_path / "mixed.rgs"))
+
+
+def test_convert_input_edits_act_on_their_source_before_the_merge(tmp_path):
+    sh0, sh3 = str(SOURCE_DIR / "samples" / "guitar.ply"), str(SOURCE_DIR / "tests" / "data" / "guitar_sh3.ply")
+    # rgs-convert guitar.ply --filter 'opacity gt 0.5' guitar_sh3.ply merged.ply: the filter keeps 31,311 of guitar's
+    # 90,854 Gaussians and every one of guitar_sh3's 8,000.
+    report = roofgs.convert([sh0, sh3], str(tmp_path / "merged.ply"), input_edits=[[("filter", "opacity gt 0.5")]])
+    assert report["gaussians"] == 31311 + 98854 - 90854
+    same = roofgs.convert([sh0, sh3], str(tmp_path / "same.ply"), input_edits=[None, []],
+                          edits=[("translate", "1,0,0")])
+    assert same["gaussians"] == 98854
+    with pytest.raises(ValueError, match=r"edits\[0\]: unknown edit 'spin'"):
+        roofgs.convert([sh0, sh3], str(tmp_path / "x.ply"), input_edits=[[], [("spin", "1")]])
+    with pytest.raises(roofgs.Error, match="the edits of 3 inputs for 2"):
+        roofgs.convert([sh0, sh3], str(tmp_path / "x.ply"), input_edits=[[], [], []])
 
 
 def test_option_values_out_of_range_raise_value_error(tmp_path):

@@ -190,6 +190,9 @@ TEST_CASE("server: a protocol violation closes that client only, with an error a
   std::string rest;
   CHECK_FALSE(bad.read(&rest));
   CHECK(bad.ws.reason().code == websocket::close_code::policy_error);
+  const auto& reason = bad.ws.reason().reason;  // the close frame says why too
+  CHECK(std::string(reason.data(), reason.size()).find("rotation") != std::string::npos);
+
 
   binary.ws.binary(true);
   binary.ws.write(net::buffer(std::string("\x01\x02")));

@@ -106,7 +106,7 @@ class FramePipeline {
   };
   /// What the render thread does next.
   struct Work {
-    bool stop = false, refine = false;
+    bool stop = false, refine = false, free_planes = false;
   };
 
   void render_loop();
@@ -114,10 +114,11 @@ class FramePipeline {
   /// Waits until there is a view to render (or render again) and room for another unsent frame; takes it into
   /// `current`. Drops the spare buffers after kSpareHold without work.
   Work next_work(std::optional<ViewRequest>* current, int* refinements, bool* refine_wanted);
-  /// The budget for a frame of `view`, with spare buffers of its size in `buffers` when the rest fits at once
-  /// (else it waits holding nothing); kLimitExceeded when the frame needs more than the whole budget; an empty
-  /// Charge when a newer view (or stop) came first.
-  Result<Charge> reserve(const ViewRequest& view, std::vector<std::vector<uint8_t>>* buffers);
+  /// The budget for a frame of `view`, with spare buffers of its size in `buffers` and the kept planes (planes_)
+  /// when the rest fits at once (else it calls `free_planes` and waits holding nothing); kLimitExceeded when the
+  /// frame needs more than the whole budget; an empty Charge when a newer view (or stop) came first.
+  Result<Charge> reserve(const ViewRequest& view, std::vector<std::vector<uint8_t>>* buffers,
+                         const std::function<void()>& free_planes);
   /// Renders `view`; with `gpu_jpeg` (GPU scenes) a JPEG view without compare is encoded on the GPU, else the
   /// images are read back into `buffers`.
   Result<RenderedFrame> render_view(api::Renderer& renderer, api::GpuJpegEncoder* gpu_jpeg, const ViewRequest& view,
@@ -128,6 +129,9 @@ class FramePipeline {
 
   /// Host image buffers kept between frames: two frames (one rendering, one encoding) of two images each.
   static constexpr size_t kSpareBuffers = 4;
+  /// The CPU renderer's planes (render_scratch_bytes) it keeps for its next frame, charged while it keeps them;
+  /// used by the render thread only.
+  Charge planes_;
   /// Frames rendered (or being rendered) and not yet sent, at most: one being sent while the next renders.
   static constexpr int kMaxUnsentFrames = 2;
   /// How long spare buffers are kept while the client asks for nothing.

@@ -87,10 +87,11 @@ FramePipeline::Work FramePipeline::next_work(std::optional<ViewRequest>* current
   const auto ready = [&] { return (pending_ || *refine_wanted) && unsent_frames_ < kMaxUnsentFrames; };
   while (!stopping_ && !ready()) {
     // Spare buffers are worth keeping while frames follow each other, not while the client is still or stuck.
-    if (spares_.empty()) {
+    if (spares_.empty() && planes_.bytes() == 0) {
       changed_.wait(lock);
     } else if (changed_.wait_for(lock, kSpareHold) == std::cv_status::timeout) {
       spares_.clear();
+      if (planes_.bytes() > 0) return Work{false, false, true};
     }
   }
   // A refinement waits for the view to stay still a moment: a newer view (the camera still moving) wins.
@@ -111,7 +112,8 @@ FramePipeline::Work FramePipeline::next_work(std::optional<ViewRequest>* current
   return work;
 }
 
-Result<Charge> FramePipeline::reserve(const ViewRequest& view, std::vector<std::vector<uint8_t>>* buffers) {
+Result<Charge> FramePipeline::reserve(const ViewRequest& view, std::vector<std::vector<uint8_t>>* buffers,
+                                      const std::function<void()>& free_planes) {
   const uint64_t need = frame_memory_bytes(view, state_.device);
   RGS_RETURN_ERROR_IF(need > budget_.capacity(), StatusCode::kLimitExceeded,
                       "a " + std::to_string(view.camera.width) + " x " + std::to_string(view.camera.height) + " " +
@@ -122,7 +124,9 @@ Result<Charge> FramePipeline::reserve(const ViewRequest& view, std::vector<std::
                           megabytes(budget_.capacity()) + " (rgs-view --frame-memory)");
   const size_t rgba_bytes = size_t(view.camera.width) * view.camera.height * 4;
   const size_t images = view.compare == CompareMode::kOff ? 1 : 2;
-  Charge charge;
+  if (planes_.bytes() > 0 && planes_.bytes() != render_scratch_bytes(view, state_.device)) free_planes();
+  const bool kept_planes = planes_.bytes() > 0;
+  Charge charge = std::move(planes_);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (SpareBuffer& spare : spares_) {
@@ -140,6 +144,7 @@ Result<Charge> FramePipeline::reserve(const ViewRequest& view, std::vector<std::
   }
   // A wait holds nothing: waiters holding bytes could keep each other waiting for good.
   buffers->clear();
+  if (kept_planes) free_planes();
   charge.reset();
   std::optional<Charge> all = budget_.acquire(need, interrupted_);
   return all ? std::move(*all) : Charge();  // empty when a newer view or stop() came first
@@ -233,12 +238,24 @@ void FramePipeline::render_loop() {
     }
     gpu_jpeg.emplace(std::move(*encoder));
   }
+  // The planes a CPU renderer keeps stay charged to it (planes_) until a frame of their size reuses them; they
+  // are freed, with the renderer, before a frame of another size, a wait for the budget, or kSpareHold idle.
+  const auto free_planes = [&] {
+    if (auto fresh = api::Renderer::create(state_.device, state_.options.cuda_device); fresh.ok()) {
+      renderer = std::move(fresh);
+    }
+    planes_.reset();
+  };
   std::optional<ViewRequest> current;
   int refinements = 0;
   bool refine_wanted = false;
   for (;;) {
     const Work work = next_work(&current, &refinements, &refine_wanted);
     if (work.stop) return;
+    if (work.free_planes) {
+      free_planes();
+      continue;
+    }
     const double mbps = effective_mbps(state_.options.max_mbps, current->max_mbps);
     RateChoice rate;
     {
@@ -247,7 +264,7 @@ void FramePipeline::render_loop() {
     }
     const ViewRequest view = apply_rate(*current, rate);
     std::vector<std::vector<uint8_t>> buffers;
-    auto charge = reserve(view, &buffers);
+    auto charge = reserve(view, &buffers, free_planes);
     if (!charge.ok()) {
       send_text_(error_json("render_failed", charge.status().message(), false));
       continue;
@@ -263,7 +280,7 @@ void FramePipeline::render_loop() {
       send_text_(error_json("render_failed", frame.status().message(), false));
       continue;
     }
-    charge->split(render_scratch_bytes(view, state_.device)).reset();
+    planes_ = charge->split(render_scratch_bytes(view, state_.device));
     frame->charge = std::move(*charge);
     frame->rate = rate;
     frame->max_mbps = mbps;

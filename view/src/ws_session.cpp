@@ -152,7 +152,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   void fail(const std::string& code, const std::string& why) {
     queue_text(error_json(code, why, true));
-    close_after_writes(websocket::close_code::policy_error);
+    close_after_writes(websocket::close_code::policy_error, why);
   }
 
   void queue_text(std::string text) {
@@ -196,10 +196,13 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   // Closes once what is queued has been written; a client that does not read it within kWriteTimeout (or does
   // not answer the close within kCloseTimeout) is cut off.
-  void close_after_writes(websocket::close_code code) {
+  // `why` is also the close frame's reason, cut to the 123 bytes a close frame holds and to whole UTF-8 characters.
+  void close_after_writes(websocket::close_code code, const std::string& why = {}) {
     if (closing_) return;
     closing_ = true;
-    close_code_ = code;
+    size_t n = std::min<size_t>(why.size(), 123);
+    while (n < why.size() && n > 0 && (static_cast<unsigned char>(why[n]) & 0xC0) == 0x80) --n;
+    close_reason_ = websocket::close_reason(code, beast::string_view(why.data(), n));
     release_slot();  // the next client need not wait for this one's close handshake
     if (pipeline_) pipeline_->stop();
     queue_.erase(std::remove_if(queue_.begin() + (queue_.empty() ? 0 : 1), queue_.end(),
@@ -214,7 +217,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   void start_close() {
     close_started_ = true;
-    ws_.async_close(websocket::close_reason(close_code_), [self = shared_from_this()](beast::error_code) {
+    ws_.async_close(close_reason_, [self = shared_from_this()](beast::error_code) {
       self->timer_.cancel();
     });
   }
@@ -230,7 +233,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   std::unique_ptr<FramePipeline> pipeline_;
   bool holds_slot_ = false;
   bool closing_ = false, close_started_ = false;
-  websocket::close_code close_code_ = websocket::close_code::normal;
+  websocket::close_reason close_reason_;
 };
 
 void serve_websocket(tcp::socket socket, Server::Impl& server, ConnectionTicket ticket,

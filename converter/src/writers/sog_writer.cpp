@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -69,6 +70,15 @@ Status encode_means(const format::GaussianCloud& cloud, Images* img, json* meta)
       lo[a] = std::min(lo[a], t);
       hi[a] = std::max(hi[a], t);
     }
+  }
+  // Readers decode sign(v)·(exp|v| − 1): an axis whose span is below double's epsilon there reads as one point.
+  for (int a = 0; a < 3; ++a) {
+    auto decoded = [](double v) { return std::copysign(std::exp(std::fabs(v)) - 1, v); };
+    char span[64];
+    std::snprintf(span, sizeof span, "[%g, %g]", lo[a], hi[a]);
+    RGS_RETURN_ERROR_IF(lo[a] != hi[a] && decoded(lo[a]) == decoded(hi[a]), StatusCode::kInvalidArgument,
+                        "means along axis " + std::to_string(a) + " span " + span +
+                            ", which SOG's log-encoded positions read back as one point");
   }
   uint8_t* l = img->image[kMeansLow].rgba.data();
   uint8_t* u = img->image[kMeansHigh].rgba.data();
