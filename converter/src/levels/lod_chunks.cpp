@@ -296,7 +296,7 @@ std::array<float, 8> look_of(const format::EncodedScene& out, uint64_t g, const 
 
 /// The appearance error of a level (lod_builder.h): over the full detail's Gaussians j, weighted by their
 /// coverage α_j · r_j², the root mean square of √(|μ_j − μ_p|² + (r_p − r_j)²) + |c_j − c_p| · r_p, p the
-/// Gaussian of the level that j was merged into (`ancestor`), in world units.
+/// Gaussian of the level that j was merged into (`ancestor`), in world units, at most float32's largest.
 double appearance_error(const std::vector<std::array<float, 8>>& base, const std::vector<std::array<float, 8>>& looks,
                         const std::vector<uint32_t>& ancestor) {
   double sum = 0, total = 0, plain = 0;
@@ -316,7 +316,8 @@ double appearance_error(const std::vector<std::array<float, 8>>& base, const std
     plain += e * e;
   }
   const double rms = total > 0 ? std::sqrt(sum / total) : std::sqrt(plain / double(base.size()));
-  return std::isfinite(rms) ? rms : std::numeric_limits<float>::max();
+  constexpr double kLargest = std::numeric_limits<float>::max();
+  return std::isfinite(rms) ? std::min(rms, kLargest) : kLargest;
 }
 
 /// Levels 1..levels−1 of a chunk from its sorted local codes: level l uses the finest grid coarser than
@@ -489,7 +490,7 @@ ChunkReach build_chunk(const format::EncodedScene& in, const uint32_t* sorted_in
     scratch->looks.resize(plan.count[l]);
     for (uint64_t g = 0; g < plan.count[l]; ++g) scratch->looks[g] = look_of(*out, first[l] + g, t);
     const double measured = appearance_error(scratch->base, scratch->looks, scratch->ancestor);
-    reach.error[l] = std::max(reach.error[l], round_up_float(std::min<double>(measured, std::numeric_limits<float>::max())));
+    reach.error[l] = std::max(reach.error[l], round_up_float(measured));
   }
   // Sphere radius per level of the chunk: |mean − centre| + 3 · largest linear scale, in double.
   for (uint32_t l = 0; l < levels; ++l) {
