@@ -14,10 +14,10 @@ namespace rgs::runtime {
 struct LodBudget {
   /// Most Gaussians (splats) a frame draws; 0: no limit.
   uint64_t max_splats = 0;
-  /// Largest projected error a level may show, in pixels (SPEC §4.9.1: error · f / d). The default is the largest
-  /// error whose frames stay within 1 dB of the full detail's against its supersampled render
-  /// (docs/LOD.md#measuring-quality).
-  float pixel_error = 4.0f;
+  /// Largest projected error a level may show, in pixels (SPEC §4.9.1: error · f / d): the floor of select_lod.
+  /// The default draws with the measured errors about what 4 px drew with the cell diagonals, the largest error
+  /// whose frames stayed within 1 dB of the full detail's against its supersampled render (docs/LOD.md).
+  float pixel_error = 1.5f;
 };
 
 /// One chunk a frame draws, at one level.
