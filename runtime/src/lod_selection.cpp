@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <queue>
 #include <tuple>
 
@@ -61,7 +63,8 @@ double projected_error(const Camera& camera, const format::LodChunk& chunk, floa
 LodSelection select_lod(const format::LodIndex& index, const Camera& camera, const LodBudget& budget) {
   LodSelection out;
   const uint32_t coarsest = index.level_count == 0 ? 0 : index.level_count - 1;
-  std::vector<double> scale;  // f / d per chosen chunk: projected error = error · scale
+  std::vector<double> scale;    // f / d per chosen chunk: projected error = error · scale
+  std::vector<uint32_t> floor;  // per chosen chunk, the coarsest level within the pixel threshold
   const std::array<float, 3> centre = camera_centre(camera);
   const double focal = std::max(camera.fx, camera.fy);
   const Frustum frustum(camera);
@@ -74,34 +77,50 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
     const double s = focal / chunk_distance(camera, centre, chunk);  // projected_error(camera, chunk, 1)
     uint32_t level = coarsest;
     while (level > 0 && index.at(level, c).error * s > budget.pixel_error) --level;
-    out.choices.push_back({c, level});
+    const bool limited = budget.max_splats != 0;
+    out.choices.push_back({c, limited ? coarsest : level});
     scale.push_back(s);
-    out.splats += index.at(level, c).count;
+    floor.push_back(level);
+    out.splats += index.at(out.choices.back().level, c).count;
   }
-  if (budget.max_splats == 0 || out.splats <= budget.max_splats) return out;
+  if (budget.max_splats == 0) return out;
+  out.within_budget = out.splats <= budget.max_splats;
 
-  // Coarsen the chunk whose next level shows the least error, one level at a time.
-  using Step = std::tuple<double, uint32_t>;  // (projected error of the next coarser level, choice index)
-  std::priority_queue<Step, std::vector<Step>, std::greater<Step>> next;
-  std::vector<uint32_t> from(out.choices.size());
-  auto push = [&](uint32_t i) {
+  // From the coarsest levels, refine the chunk whose step removes the most projected error per splat added,
+  // a step going to the finer level (down to the floor) of the best ratio, among those that fit the budget.
+  using Step = std::tuple<double, int64_t, uint32_t>;  // (error removed per splat, −choice index, to level)
+  std::priority_queue<Step> next;
+  auto best_step = [&](uint32_t i) -> std::optional<Step> {
     const LodChoice& ch = out.choices[i];
-    if (ch.level < coarsest) next.emplace(index.at(ch.level + 1, ch.chunk).error * scale[i], i);
+    std::optional<Step> best;
+    for (uint32_t k = ch.level; k-- > floor[i];) {
+      const double gain = (index.at(ch.level, ch.chunk).error - index.at(k, ch.chunk).error) * scale[i];
+      const uint64_t cost = index.at(k, ch.chunk).count - index.at(ch.level, ch.chunk).count;
+      if (!(gain > 0) || out.splats + cost > budget.max_splats) continue;
+      const double ratio = cost == 0 ? std::numeric_limits<double>::infinity() : gain / double(cost);
+      if (!best || ratio > std::get<0>(*best)) best = Step{ratio, -int64_t{i}, k};
+    }
+    return best;
   };
   for (uint32_t i = 0; i < out.choices.size(); ++i) {
-    from[i] = out.choices[i].level;
-    push(i);
+    if (auto step = best_step(i)) next.push(*step);
   }
-  while (out.splats > budget.max_splats && !next.empty()) {
-    const uint32_t i = std::get<1>(next.top());
+  while (!next.empty()) {
+    const Step top = next.top();
     next.pop();
+    const auto i = static_cast<uint32_t>(-std::get<1>(top));
+    const std::optional<Step> now = best_step(i);  // the budget left shrinks: a step may no longer fit
+    if (!now) continue;
+    if (*now != top) {
+      next.push(*now);
+      continue;
+    }
     LodChoice& ch = out.choices[i];
-    out.splats -= index.at(ch.level, ch.chunk).count - index.at(ch.level + 1, ch.chunk).count;
-    ++ch.level;
-    push(i);
+    out.splats += index.at(std::get<2>(top), ch.chunk).count - index.at(ch.level, ch.chunk).count;
+    ch.level = std::get<2>(top);
+    if (auto step = best_step(i)) next.push(*step);
   }
-  for (uint32_t i = 0; i < out.choices.size(); ++i) out.coarsened += out.choices[i].level != from[i] ? 1 : 0;
-  out.within_budget = out.splats <= budget.max_splats;
+  for (uint32_t i = 0; i < out.choices.size(); ++i) out.coarsened += out.choices[i].level != floor[i] ? 1 : 0;
   return out;
 }
 

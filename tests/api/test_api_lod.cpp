@@ -208,7 +208,7 @@ TEST_CASE("LOD CPU frames: no budget and no error is the full render bit for bit
   auto exact = api::load(path, cpu_options(0, 0.0f));
   REQUIRE(exact.ok());
   const uint64_t budget = n0 / 4;
-  auto budgeted = api::load(path, cpu_options(budget, 1.0f));
+  auto budgeted = api::load(path, cpu_options(budget, 0.0f));  // the budget alone chooses
   REQUIRE(budgeted.ok());
   auto renderer = api::Renderer::create(api::Device::kCpu);
   REQUIRE(renderer.ok());
@@ -233,7 +233,7 @@ TEST_CASE("LOD CPU frames: no budget and no error is the full render bit for bit
 
     // Under a quarter of the Gaussians: the selection's ranges, nothing else, and a different image.
     const Frame small = render(*renderer, *budgeted, camera);
-    const runtime::LodSelection selection = runtime::select_lod(index, camera, {budget, 1.0f});
+    const runtime::LodSelection selection = runtime::select_lod(index, camera, {budget, 0.0f});
     CHECK(small.stats.lod.splats == selection.splats);
     CHECK(small.stats.lod.splats <= budget);
     CHECK(small.stats.gaussians == small.stats.lod.splats);

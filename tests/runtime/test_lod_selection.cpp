@@ -1,5 +1,5 @@
 // Level-of-detail selection (runtime/lod_selection.h) on a hand-made index: frustum culling of chunk spheres, the
-// coarsest level under the pixel threshold, coarsening for the splat budget in order of least projected error.
+// coarsest level under the pixel threshold, the splat budget spent on the most projected error removed per splat.
 #include <doctest/doctest.h>
 
 #include "rgs/runtime/lod_selection.h"
@@ -56,17 +56,33 @@ TEST_CASE("LOD selection: culling, pixel threshold, splat budget") {
     CHECK(s.within_budget);
     CHECK(s.coarsened == 0);
   }
-  SUBCASE("a budget coarsens the chunk whose next level shows the least error first") {
+  SUBCASE("a budget refines, from the coarsest levels, the steps removing the most error per splat first") {
     const LodSelection s = select_lod(index, cam, {2000, 1.0f});
-    // From 2500: the next steps cost 40/39 = 1.03 px (chunk 3), 40/19 = 2.1 px (chunk 2), 10/9 = 1.1 px
-    // (chunk 1 to level 1), 2.5 px (chunk 0). Chunk 3 (-190), then chunk 1 (-750) reach 1560 <= 2000.
-    CHECK(s.choices[3].level == 2);
+    // Floors (1 px): levels 0, 0, 1, 1. From 4 x 60, pixels removed per splat added: chunk 0 to level 1
+    // 7.5 / 190, chunk 1 to 1 3.33 / 190, chunk 2 to 1 1.58 / 190, chunk 3 to 1 0.77 / 190, chunk 0 to 0
+    // 2.5 / 750, chunk 1 to 0 1.11 / 750: the last one no longer fits 2000.
+    CHECK(s.choices[0].level == 0);
     CHECK(s.choices[1].level == 1);
     CHECK(s.choices[2].level == 1);
-    CHECK(s.choices[0].level == 0);
-    CHECK(s.splats == 1000 + 250 + 250 + 60);
-    CHECK(s.coarsened == 2);
+    CHECK(s.choices[3].level == 1);
+    CHECK(s.splats == 1000 + 250 + 250 + 250);
+    CHECK(s.coarsened == 1);
     CHECK(s.within_budget);
+  }
+  SUBCASE("the budget goes to the chunk whose error drop per splat is largest") {
+    // Two chunks at the same distance: A loses 0.05 for 900 splats, B 0.04 for 200. Coarsening the least
+    // error first drew both at level 1; per splat, B's full detail is worth more.
+    format::LodIndex two;
+    two.chunk_count = 2;
+    two.level_count = 2;
+    two.chunks = {{{-1, 0, 10}, 1.0f}, {{1, 0, 10}, 1.0f}};
+    two.levels = {{0, 1000, 0, 0}, {1000, 1000, 0, 0}, {2000, 100, 0.05f, 0}, {2100, 800, 0.04f, 0}};
+    const LodSelection s = select_lod(two, cam, {1100, 0.0f});
+    REQUIRE(s.choices.size() == 2);
+    CHECK(s.choices[0].level == 1);
+    CHECK(s.choices[1].level == 0);
+    CHECK(s.splats == 1100);
+    CHECK(select_lod(two, cam, {1100, 0.0f}).choices[1].level == s.choices[1].level);
   }
   SUBCASE("a budget below the coarsest levels draws them all and says so") {
     const LodSelection s = select_lod(index, cam, {100, 1.0f});

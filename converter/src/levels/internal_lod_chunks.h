@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -86,6 +87,8 @@ struct ChunkPlan {
   float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   int shift[format::kMaxLodLevels] = {};  ///< grid shift of level l ≥ 1 (cells of 2^shift finest cells)
   uint64_t count[format::kMaxLodLevels] = {};
+  /// g(l) of lod_builder.h, the cell diagonal: the world size of the merge's pixel. The index's error is
+  /// measured instead (ChunkReach::error).
   float error[format::kMaxLodLevels] = {};
 };
 
@@ -118,12 +121,17 @@ struct Scratch {
   std::vector<uint32_t> tmp_values;
   std::vector<uint64_t> codes, next_codes;
   std::vector<ChildTerms> children;
+  std::vector<uint32_t> ancestor, parent_of;  ///< per level-0 Gaussian / per Gaussian of the level before
+  std::vector<std::array<float, 8>> base, looks;  ///< level 0's and the current level's look (appearance_error)
 };
 
 /// What build_chunk() measures per level of its chunk, in double: the chunk sphere's radius about its centre
 /// (+inf when a Gaussian's extent overflows) and the largest squared distance of a mean from the scene
-/// sphere's centre. A file keeps the levels [0, L) and measures over those.
+/// sphere's centre. A file keeps the levels [0, L) and measures over those. `error`: the level's measured
+/// appearance error in world units (lod_builder.h), non-decreasing over the levels, 0 at level 0; it becomes
+/// the index record's `error` (set_chunk_radii).
 struct ChunkReach {
+  float error[format::kMaxLodLevels] = {};
   double radius[format::kMaxLodLevels] = {};
   double scene_d2[format::kMaxLodLevels] = {};
   /// The radius over levels [0, levels), +inf when not finite.
@@ -214,13 +222,13 @@ Result<LevelChoice> choose_levels(const std::vector<ChunkPlan>& plans, uint32_t 
                                   const LodBuildOptions& options, uint64_t n0);
 
 /// An LOD index of `levels` levels over the chunks `plans` describes, its records' ranges laid out in the
-/// output's order (levels coarse after fine, chunks in order), each with its plan's count and error. Checksums,
+/// output's order (levels coarse after fine, chunks in order), each with its plan's count. Errors, checksums,
 /// chunk centres and radii are left 0 for the caller.
 format::LodIndex lay_out_index(const std::vector<ChunkPlan>& plans, uint32_t levels);
 
-/// Sets each chunk's radius in `index` (chunk_radius of reaches[c] over the index's levels) and returns the
-/// scene sphere's radius: sphere_radius_for the largest squared distance of a kept mean from the scene's
-/// centre. Errors: chunk_radius's, for the first chunk that fails.
+/// Sets each chunk's radius (chunk_radius of reaches[c] over the index's levels) and each record's error
+/// (reaches[c].error) in `index`, and returns the scene sphere's radius: sphere_radius_for the largest squared
+/// distance of a kept mean from the scene's centre. Errors: chunk_radius's, for the first chunk that fails.
 Result<float> set_chunk_radii(const std::vector<ChunkReach>& reaches, format::LodIndex* index);
 
 }  // namespace rgs::converter::detail

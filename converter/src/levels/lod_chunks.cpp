@@ -275,6 +275,51 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
   }
 }
 
+/// What appearance_error compares of Gaussian g of `out`: its mean, its RMS radius √(s₁² + s₂² + s₃²) (linear
+/// scales), its colour as the DC term draws it (0.5 + C₀ · dc) and its opacity.
+std::array<float, 8> look_of(const format::EncodedScene& out, uint64_t g, const Layout& t) {
+  std::array<float, 8> k;
+  double r2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    k[a] = out.means[g * 3 + a];
+    const double s = linear_scale(out.scales[g * 3 + a], t.log_scale);
+    r2 += s * s;
+    const int8_t q = out.sh[g * t.sh_values + a];
+    const float dc = t.dc_residual ? format::sh_dc_value(t.sh_scale[a], q, out.sh_dc_residual[g * 3 + a])
+                                   : t.sh_scale[a] * static_cast<float>(q);
+    k[4 + a] = static_cast<float>(0.5 + 0.28209479177387814 * dc);
+  }
+  k[3] = static_cast<float>(std::sqrt(r2));
+  k[7] = std::clamp(format::half_bits_to_float(out.opacities[g]), 0.0f, 1.0f);
+  return k;
+}
+
+/// The appearance error of a level (lod_builder.h): over the full detail's Gaussians j, weighted by their
+/// coverage α_j · r_j², the root mean square of √(|μ_j − μ_p|² + (r_p − r_j)²) + |c_j − c_p| · r_p, p the
+/// Gaussian of the level that j was merged into (`ancestor`), in world units, at most float32's largest.
+double appearance_error(const std::vector<std::array<float, 8>>& base, const std::vector<std::array<float, 8>>& looks,
+                        const std::vector<uint32_t>& ancestor) {
+  double sum = 0, total = 0, plain = 0;
+  for (size_t j = 0; j < base.size(); ++j) {
+    const std::array<float, 8>& c = base[j];
+    const std::array<float, 8>& p = looks[ancestor[j]];
+    double d2 = 0, colour2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      d2 += (double(c[a]) - p[a]) * (double(c[a]) - p[a]);
+      colour2 += (double(c[4 + a]) - p[4 + a]) * (double(c[4 + a]) - p[4 + a]);
+    }
+    const double dr = double(p[3]) - c[3];
+    const double e = std::sqrt(d2 + dr * dr) + std::sqrt(colour2) * p[3];
+    const double w = double(c[7]) * c[3] * c[3];
+    sum += w * e * e;
+    total += w;
+    plain += e * e;
+  }
+  const double rms = total > 0 ? std::sqrt(sum / total) : std::sqrt(plain / double(base.size()));
+  constexpr double kLargest = std::numeric_limits<float>::max();
+  return std::isfinite(rms) ? std::min(rms, kLargest) : kLargest;
+}
+
 /// Levels 1..levels−1 of a chunk from its sorted local codes: level l uses the finest grid coarser than
 /// level l − 1's with at most a quarter of its count of cells (or one cell).
 void plan_levels(const uint64_t* codes, uint64_t n, double cube_edge, uint32_t levels, ChunkPlan* plan) {
@@ -407,13 +452,20 @@ ChunkReach build_chunk(const format::EncodedScene& in, const uint32_t* sorted_in
   std::vector<uint64_t>& codes = scratch->codes;
   std::vector<uint64_t>& next = scratch->next_codes;
   codes.assign(sorted_codes + plan.begin, sorted_codes + plan.end);
+  ChunkReach reach;
+  scratch->base.resize(n);
+  for (uint64_t j = 0; j < n; ++j) scratch->base[j] = look_of(*out, first[0] + j, t);
+  scratch->ancestor.resize(n);
+  for (uint64_t j = 0; j < n; ++j) scratch->ancestor[j] = static_cast<uint32_t>(j);
   for (uint32_t l = 1; l < levels; ++l) {
     const uint64_t prev_first = first[l - 1];
     const uint64_t prev_count = plan.count[l - 1];
+    reach.error[l] = reach.error[l - 1];
     if (prev_count == 1) {
       copy_gaussian(*out, prev_first, out, first[l], t);
       continue;
     }
+    scratch->parent_of.resize(prev_count);
     const int shift = 3 * plan.shift[l];
     next.clear();
     uint64_t p = first[l];
@@ -421,6 +473,7 @@ ChunkReach build_chunk(const format::EncodedScene& in, const uint32_t* sorted_in
       const uint64_t cell = codes[g0] >> shift;
       uint64_t g1 = g0 + 1;
       while (g1 < prev_count && (codes[g1] >> shift) == cell) ++g1;
+      std::fill(scratch->parent_of.begin() + g0, scratch->parent_of.begin() + g1, static_cast<uint32_t>(p - first[l]));
       if (g1 - g0 == 1) {
         copy_gaussian(*out, prev_first + g0, out, p, t);
       } else {
@@ -433,9 +486,13 @@ ChunkReach build_chunk(const format::EncodedScene& in, const uint32_t* sorted_in
       g0 = g1;
     }
     std::swap(codes, next);
+    for (uint32_t& a : scratch->ancestor) a = scratch->parent_of[a];
+    scratch->looks.resize(plan.count[l]);
+    for (uint64_t g = 0; g < plan.count[l]; ++g) scratch->looks[g] = look_of(*out, first[l] + g, t);
+    const double measured = appearance_error(scratch->base, scratch->looks, scratch->ancestor);
+    reach.error[l] = std::max(reach.error[l], round_up_float(measured));
   }
   // Sphere radius per level of the chunk: |mean − centre| + 3 · largest linear scale, in double.
-  ChunkReach reach;
   for (uint32_t l = 0; l < levels; ++l) {
     double radius = 0, level_d2 = 0;
     for (uint64_t g = first[l]; g < first[l] + plan.count[l]; ++g) {
@@ -591,7 +648,6 @@ format::LodIndex lay_out_index(const std::vector<ChunkPlan>& plans, uint32_t lev
       format::LodLevel& level = index.at(l, c);
       level.first = first;
       level.count = plans[c].count[l];
-      level.error = plans[c].error[l];
       first += level.count;
     }
   }
@@ -602,6 +658,7 @@ Result<float> set_chunk_radii(const std::vector<ChunkReach>& reaches, format::Lo
   double scene_d2 = 0;
   for (uint32_t c = 0; c < index->chunk_count; ++c) {
     RGS_ASSIGN_OR_RETURN(index->chunks[c].radius, chunk_radius(reaches[c], index->level_count, c));
+    for (uint32_t l = 0; l < index->level_count; ++l) index->at(l, c).error = reaches[c].error[l];
     scene_d2 = std::max(scene_d2, reaches[c].scene_d2_over(index->level_count));
   }
   return format::sphere_radius_for(scene_d2);

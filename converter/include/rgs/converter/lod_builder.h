@@ -53,15 +53,19 @@ struct LodScene {
 /// finest grid coarser than level l − 1's that leaves at most a quarter of its count (or one cell), and
 /// merges each cell's Gaussians into one parent; a parent belongs to the cell it was merged in, so the
 /// levels nest. A cell holding one Gaussian keeps it bit for bit; a chunk down to one Gaussian repeats it.
-/// error(l, c) = √3 · cell edge of level l (the cell's diagonal: how far any full-detail mean is from its
-/// parent's), non-decreasing, 0 at level 0.
+/// Cell diagonal g(l, c) = √3 · cell edge of level l (how far any full-detail mean is from its parent's).
+/// error(l, c), measured once the level is built: over the chunk's full-detail Gaussians j, weighted by their
+/// coverage α_j · r_j², the root mean square of e_j = √(|μ_j − μ_p|² + (r_p − r_j)²) + |c_j − c_p| · r_p, p the
+/// level-l Gaussian j was merged into, r the RMS radius √(s1² + s2² + s3²) and c the RGB colour the DC term
+/// draws (0.5 + 0.28209479 · dc), all as stored; raised to the level before's (non-decreasing), 0 at level 0,
+/// float32 rounded up. Weights summing to 0 count every Gaussian alike.
 ///
 /// Merge rule (moment matching as Hierarchical 3D Gaussian Splatting, Kerbl et al., SIGGRAPH 2024, merges
 /// children into a parent), in double from the decoded children (linear scales s, activated opacities α,
 /// normalized quaternions w, x, y, z as 3DGS build_rotation). Areas are taken as the renderer draws the
-/// Gaussians where level l is first used, at the distance where its error is one pixel: the renderer's
+/// Gaussians where level l is first used, at the distance where g(l, c) is one pixel: the renderer's
 /// low-pass adds 0.3 px² to every projected covariance, so each scale s counts as sqrt(s² + δ²) with
-/// δ² = 0.3 · error(l, c)² (world units²), and S = s1 s2 + s1 s3 + s2 s3 of those (proportional to the
+/// δ² = 0.3 · g(l, c)² (world units²), and S = s1 s2 + s1 s3 + s2 s3 of those (proportional to the
 /// ellipsoid's area as drawn). Weights w_i = α_i · S_i, equal weights if they sum to 0; mean μ = Σ w_i μ_i /
 /// W; covariance Σ = Σ w_i (R_i diag(s_i²) R_iᵀ + (μ_i − μ)(μ_i − μ)ᵀ) / W (δ² I would be added on both sides
 /// and cancels); every SH coefficient and channel Σ w_i SH_i / W. Scales and rotation are the parent's

@@ -29,9 +29,8 @@ struct LodChunk {
 struct LodLevel {
   uint64_t first = 0;
   uint64_t count = 0;
-  /// World-space geometric error of this level against level 0 (0 for level 0): no feature of the level
-  /// moves by more than this, so at distance d a camera of focal length f pixels sees at most
-  /// error · f / d pixels of difference (§4.9.1).
+  /// World-space error of this level against level 0 (0 for level 0), as the writer measures it: at distance d
+  /// a camera of focal length f pixels sees it as error · f / d pixels (§4.9.1). Steers selection only.
   float error = 0;
   /// XXH64 of the range's raw bytes of means, rotations, scales, opacities, sh and (when present)
   /// sh_dc_residual, in that order as one stream: lets a reader verify one chunk without reading others.

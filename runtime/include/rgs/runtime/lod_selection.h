@@ -14,10 +14,10 @@ namespace rgs::runtime {
 struct LodBudget {
   /// Most Gaussians (splats) a frame draws; 0: no limit.
   uint64_t max_splats = 0;
-  /// Largest projected error a level may show, in pixels (SPEC §4.9.1: error · f / d). The default is the largest
-  /// error whose frames stay within 1 dB of the full detail's against its supersampled render
-  /// (docs/LOD.md#measuring-quality).
-  float pixel_error = 4.0f;
+  /// Largest projected error a level may show, in pixels (SPEC §4.9.1: error · f / d): the floor of select_lod.
+  /// The default draws with the measured errors about what 4 px drew with the cell diagonals, the largest error
+  /// whose frames stayed within 1 dB of the full detail's against its supersampled render (docs/LOD.md).
+  float pixel_error = 1.5f;
 };
 
 /// One chunk a frame draws, at one level.
@@ -34,7 +34,7 @@ struct LodSelection {
   uint64_t splats = 0;
   /// Chunks outside the frustum (not drawn).
   uint32_t culled = 0;
-  /// Chunks drawn coarser than the pixel threshold allows, to meet the splat budget.
+  /// Chunks drawn coarser than their floor (the pixel threshold's level), to meet the splat budget.
   uint32_t coarsened = 0;
   /// False when even the coarsest level of every visible chunk exceeds the budget (they are then all chosen).
   bool within_budget = true;
@@ -44,11 +44,13 @@ struct LodSelection {
 /// error · max(fx, fy) / max(near_plane, |camera centre − center| − radius).
 double projected_error(const Camera& camera, const format::LodChunk& chunk, float error);
 
-/// Chooses, per chunk in the frustum, the coarsest level whose projected error is at most
-/// budget.pixel_error; then, while the frame exceeds budget.max_splats, moves the chunk whose next coarser
-/// level has the smallest projected error one level coarser (ties: the lower chunk index). Pure and
-/// deterministic: the same index, camera and budget give the same selection. The camera must be valid
-/// (validate_camera).
+/// Chooses a level per chunk in the frustum. Its floor is the coarsest level whose projected error is at most
+/// budget.pixel_error (0: the full detail, or the coarsest level of error 0). With no splat budget every chunk
+/// takes its floor. With one, every chunk starts at its coarsest level and, while a step fits the budget, the
+/// chunk whose step removes the most projected error per splat added is refined: a step goes from level l to
+/// the finer level k ≥ floor of largest (error(l) − error(k)) · f / d / (count(k) − count(l)) among those
+/// that remove error and fit (ties: the coarser k, then the lower chunk index). Pure and deterministic: the
+/// same index, camera and budget give the same selection. The camera must be valid (validate_camera).
 LodSelection select_lod(const format::LodIndex& index, const Camera& camera, const LodBudget& budget);
 
 }  // namespace rgs::runtime
