@@ -144,14 +144,17 @@ TEST_CASE("convert: the archive's codes at zstd level 19 take fewer bytes than a
   }
   CHECK(sizes[1] < sizes[0]);
   CHECK(sizes[2] < sizes[1]);  // LZMA's coding wins on some of guitar's sections (SPEC §3.3.2)
-  // Below level 19 the conversion stays quick: zstd alone, whatever ArchiveOptions::xz says.
-  api::ConvertOptions quick;
-  quick.profile = format::StorageProfile::kArchive;
-  quick.zstd_level = 18;
-  REQUIRE(api::convert(source_path, dir.file("archive_18.rgs"), quick).ok());
-  auto file = format::RgsFile::open(dir.file("archive_18.rgs"));
-  REQUIRE(file.ok());
-  CHECK((file->header().required_flags & format::kRequiredFlagXzCodes) == 0);
+  // Below level 19 the .xz trials stay only for scenes under format::kArchiveDenseGaussians, such as this one.
+  for (bool xz : {false, true}) {
+    api::ConvertOptions quick;
+    quick.profile = format::StorageProfile::kArchive;
+    quick.zstd_level = 18;
+    quick.archive.xz = xz;
+    REQUIRE(api::convert(source_path, dir.file("archive_18.rgs"), quick).ok());
+    auto file = format::RgsFile::open(dir.file("archive_18.rgs"));
+    REQUIRE(file.ok());
+    CHECK(((file->header().required_flags & format::kRequiredFlagXzCodes) != 0) == xz);
+  }
   for (size_t i = 1; i < scenes.size(); ++i) {
     CHECK(scenes[0].means == scenes[i].means);
     CHECK(scenes[0].rotations == scenes[i].rotations);
