@@ -156,7 +156,7 @@ void print_rgs_errors(const Options& opt, const api::ConvertReport& r) {
     std::printf("  profile          archive: %s B/Gaussian, position step %s (%u bits, error <= %s of the extent "
                 "per coordinate); the errors below are the decoded archive's against the input\n",
                 tools::fixed(double(r.output_bytes) / double(std::max<uint64_t>(r.gaussians, 1)), 2).c_str(),
-                tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(opt.convert.archive.position_error).c_str());
+                tools::sci(q.position_step).c_str(), q.position_bits, tools::sci(q.extent > 0 ? q.position_step / (2 * q.extent) : 0).c_str());
     if (q.archive_omitted > 0) {
       const double floor = opt.convert.archive.opacity_floor;
       std::printf("  omitted          %s Gaussians whose opacity code is 0 (they decode to opacity 0, which no "
@@ -435,9 +435,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--position-error", opt.convert.archive.position_error,
                  "Archive profile: largest position error relative to the scene extent (longest AABB side); "
-                 "sets the Draco quantization bits")
-      ->check(rgs::tools::finite_number_in(1e-9, 0.5))
-      ->capture_default_str();
+                 "sets the Draco quantization bits. Default: 2^-17 (7.6e-6), or half SPZ's grid (2^-14 scene units) "
+                 "where that is larger")
+      ->check(rgs::tools::finite_number_in(1e-9, 0.5));
   auto* target_psnr =
       app.add_option("--target-psnr", opt.convert.target.psnr_db,
                      "Rate control: choose the archive profile's settings (bits and code steps of rotations, scales, opacities, SH "

@@ -760,8 +760,8 @@ SceneBounds bounds_of(const std::vector<float>& means) {
 }  // namespace
 
 Status check_archive_options(const ArchiveOptions& o) {
-  if (!(o.position_error > 0.0 && o.position_error <= 0.5)) {
-    return invalid("position error " + std::to_string(o.position_error) + " outside (0, 0.5]");
+  if (!(o.position_error >= 0.0 && o.position_error <= 0.5)) {
+    return invalid("position error " + std::to_string(o.position_error) + " outside (0, 0.5] (or 0: by scene)");
   }
   for (auto [name, bits] : {std::pair{"rotation", o.rotation_bits}, std::pair{"scale", o.scale_bits},
                             std::pair{"opacity", o.opacity_bits}}) {
@@ -776,9 +776,9 @@ Status check_archive_options(const ArchiveOptions& o) {
     }
   }
   for (size_t d = 0; d < 4; ++d) {
-    if (o.sh_step_multipliers[d] < 1 || o.sh_step_multipliers[d] > 127) {
+    if (o.sh_step_multipliers[d] > 127) {
       return invalid("SH step multiplier of degree " + dec(d) + " = " + dec(o.sh_step_multipliers[d]) +
-                     " outside 1..127");
+                     " outside 1..127 (or 0: by scene)");
     }
   }
   if (!(o.opacity_floor >= 0 && o.opacity_floor < 1)) {
@@ -793,12 +793,28 @@ Status check_archive_options(const ArchiveOptions& o) {
   return Status();
 }
 
-ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians) {
+ArchiveOptions resolve_archive_options(const ArchiveOptions& options, const EncodedScene& scene) {
   ArchiveOptions o = options;
-  const bool dense = gaussians >= kArchiveDenseGaussians;
+  const bool dense = scene.count >= kArchiveDenseGaussians;
   if (o.rotation_bits == 0) o.rotation_bits = dense ? 7 : 10;
   if (o.scale_bits == 0) o.scale_bits = dense ? 7 : 9;
   if (o.opacity_bits == 0) o.opacity_bits = dense ? 6 : 8;
+  o.xz = o.xz && (o.zstd_level >= kArchiveXzMinZstdLevel || !dense);
+  // Half SPZ's steps (archive.h): finer than these, the archive spends bytes where SPZ spends none.
+  if (o.position_error == 0) {
+    const SceneBounds& b = scene.metadata.bounds;
+    double extent = 0;
+    for (int a = 0; a < 3; ++a) extent = std::max(extent, double(b.aabb_max[a]) - double(b.aabb_min[a]));
+    const double spz = extent > 0 ? kSpzPositionStep / (4 * extent) : 0;
+    o.position_error = std::clamp(spz, kDefaultArchivePositionError, 0.5);
+  }
+  for (uint32_t d = 0; d < 4; ++d) {
+    if (o.sh_step_multipliers[d] != 0) continue;
+    const float* s = scene.metadata.sh_quantization.scales[d];
+    const double largest = std::max({s[0], s[1], s[2]});
+    const double spz = largest > 0 ? std::floor(kSpzShSteps[d] / 2 / largest) : 0;
+    o.sh_step_multipliers[d] = uint32_t(std::clamp(spz, double(kArchiveShMultipliers[d]), 127.0));
+  }
   return o;
 }
 
@@ -981,7 +997,7 @@ Status decode_sections(const EncodedScene& source, const ArchiveOptions& options
 Result<ArchiveScene> encode_archive(const EncodedScene& source, const ArchiveOptions& options_in,
                                     const ArchiveScene* earlier) {
   RGS_RETURN_IF_ERROR(check_archive_options(options_in));
-  const ArchiveOptions options = resolve_archive_options(options_in, source.count);
+  const ArchiveOptions options = resolve_archive_options(options_in, source);
   if (!source.is_consistent()) return invalid("encoded scene arrays do not match its count and SH degree");
   if (source.count > UINT32_MAX / 2)
     return invalid("Draco holds at most 2^31 points; the scene has " + dec(source.count));

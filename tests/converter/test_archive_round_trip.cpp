@@ -70,7 +70,7 @@ void check_archive_round_trip(const format::GaussianCloud& cloud, bool check_thr
   }
 
   // Per-attribute bounds against the runtime-profile scene (SPEC §3.3.1, §3.3.2).
-  const format::ArchiveOptions o = format::resolve_archive_options(write.archive, n);
+  const format::ArchiveOptions o = format::resolve_archive_options(write.archive, src);
   const format::EncodedScene& d = archive->decoded;
   const double pos_bound = 0.5 * archive->position.step * 1.05 + 1e-6 * archive->position.range;
   // A code step k rounds to a multiple of k, then to a code: within k/2 + 1/2 codes (k/2 for an integer k).

@@ -72,7 +72,8 @@ TEST_CASE("archive: sections lent by an earlier archive give the archive encoded
   variants[2].opacity_bits = 5;
   variants[3].sh_step_multipliers = {2, 4, 6, 8};
   variants[4] = {};
-  variants[5].position_error = base.position_error * 8;
+  variants[4].opacity_floor = 0;  // 8 bits leave out fewer than base's 7 (the default floor would match them)
+  variants[5].position_error = earlier->options.position_error * 8;
   variants[6].zstd_level = base.zstd_level + 3;
   variants[7].rotation_step = 1.5;
   variants[8].scale_step = 2;
@@ -134,7 +135,7 @@ TEST_CASE("archive: options out of range are refused, naming the option") {
     REQUIRE_FALSE(r.ok());
     CHECK(r.status().message().find("opacity floor") != std::string::npos);
   }
-  for (double bad : {0.0, 0.6, -1e-6, std::numeric_limits<double>::quiet_NaN(),
+  for (double bad : {0.6, -1e-6, std::numeric_limits<double>::quiet_NaN(),
                      std::numeric_limits<double>::infinity()}) {
     CAPTURE(bad);
     format::ArchiveOptions o;
@@ -231,7 +232,7 @@ TEST_CASE("archive: round trip within the per-attribute bounds, file decodes to 
           0.5 / 255 + 1e-3);
     const uint32_t values = 48;
     for (uint32_t c = 0; c < values; ++c) {
-      const int m = static_cast<int>(options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]);
+      const int m = static_cast<int>(archive->options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]);
       CHECK(std::abs(d.sh[i * values + c] - scene.sh[s * values + c]) <= m);
     }
   }

@@ -350,7 +350,7 @@ TEST_CASE("archive codebook: exact when the codebook holds every rest vector, fi
     for (uint32_t c = 0; c < values; ++c) {
       const int want = scene.sh[s * values + c], got = d.sh[i * values + c];
       // 50 patterns, 64 entries: every leaf holds one vector, so every value is transform 4's.
-      REQUIRE(got == transform4(want, options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]));
+      REQUIRE(got == transform4(want, archive->options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)]));
     }
   }
 }
@@ -369,7 +369,7 @@ TEST_CASE("archive codebook: the default codes repeated records once, decoding e
   for (uint64_t i = 0; i < archive->decoded.count; ++i) {
     const uint64_t s = archive->source_index[i];
     for (uint32_t c = 0; c < values; ++c) {
-      const uint32_t m = options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)];
+      const uint32_t m = archive->options.sh_step_multipliers[format::sh_degree_of_coefficient(c / 3)];
       REQUIRE(archive->decoded.sh[i * values + c] == transform4(scene.sh[s * values + c], m));
     }
   }

@@ -284,7 +284,7 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   quantize.sh_dc_bits = 8;  // the archive drops the DC residual (SPEC §4.8)
   RGS_ASSIGN_OR_RETURN(format::EncodedScene quantized, converter::quantize(*to_encode, quantize));
   const uint32_t sh_degree = quantized.metadata.sh_degree;
-  format::ArchiveOptions anchor = format::resolve_archive_options(options.start, quantized.count);
+  format::ArchiveOptions anchor = format::resolve_archive_options(options.start, quantized);
   // The zstd level and the .xz trial change a file's bytes, not what it decodes to: the search codes with zstd at
   // a quick level, the file is written as asked (FitOptions::start).
   const int file_zstd_level = anchor.zstd_level;

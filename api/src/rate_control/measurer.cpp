@@ -161,7 +161,7 @@ Result<std::shared_ptr<const format::ArchiveScene>> Measurer::encode_archive(con
 
 bool Measurer::same_points(const std::shared_ptr<const format::ArchiveScene>& a,
                            const format::ArchiveOptions& o) const {
-  const format::ArchiveOptions want = format::resolve_archive_options(o, quantized_.count);
+  const format::ArchiveOptions want = format::resolve_archive_options(o, quantized_);
   return a && a->options.position_error == want.position_error && a->options.draco_speed == want.draco_speed &&
          a->options.opacity_bits == want.opacity_bits && a->options.opacity_step == want.opacity_step &&
          a->options.opacity_floor == want.opacity_floor;

@@ -73,11 +73,10 @@ FitOptions fit_options(const ConvertOptions& options, const converter::InputScen
   fit.quantize.sh_clip_percentile = options.sh_clip_percentile;
   fit.sh_degree = options.sh_degree;
   fit.start = options.archive;
-  // As convert() codes the archive: at its zstd level, with .xz streams only from kArchiveXzMinZstdLevel on.
+  // As convert() codes the archive: at its zstd level (the .xz trials as format::resolve_archive_options keeps them).
   ConvertOptions archive = options;
   archive.profile = format::StorageProfile::kArchive;
   fit.start.zstd_level = zstd_level_for(archive);
-  fit.start.xz = options.archive.xz && fit.start.zstd_level >= kArchiveXzMinZstdLevel;
   // The provenance: the source's name and storage, the converter's name and the options' text.
   fit.provenance_bytes = 768 + std::filesystem::path(src_name).filename().string().size() +
                          input.storage_format.size() + options.converter_name.size();

@@ -160,7 +160,6 @@ Result<format::WriteOptions> rgs_write_options(const ConvertOptions& options) {
     write.profile = format::StorageProfile::kArchive;
     write.archive = options.archive;
     write.archive.zstd_level = level;
-    write.archive.xz = options.archive.xz && level >= kArchiveXzMinZstdLevel;
     write.archive_earlier = options.archive_earlier.get();
   }
   for (const std::string& name : options.zstd_sections) {

@@ -139,15 +139,14 @@ struct RateControlReport {
 /// options in words, SH multipliers up to `sh_degree`.
 std::string describe_archive_options(const format::ArchiveOptions& options, uint32_t sh_degree);
 
-/// The archive's quantized codes also try .xz streams (format::ArchiveOptions::xz) from this zstd level on: LZMA
-/// takes 2-5 % off the measured archives for about the time zstd takes at this level; a lower level asks for a
-/// quick conversion (docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes).
-inline constexpr int kArchiveXzMinZstdLevel = 19;
+/// The archive's quantized codes also try .xz streams from this zstd level on (format::kArchiveXzMinZstdLevel).
+inline constexpr int kArchiveXzMinZstdLevel = format::kArchiveXzMinZstdLevel;
 
 /// zstd level of ConvertOptions::zstd_sections when ConvertOptions::zstd_level is unset.
 inline constexpr int kDefaultZstdLevel = 19;
 
-/// zstd level of the archive profile when ConvertOptions::zstd_level is unset: quick, no .xz trials. Level 19 with
+/// zstd level of the archive profile when ConvertOptions::zstd_level is unset: quick, no .xz trials on scenes from
+/// format::kArchiveDenseGaussians on. Level 19 with
 /// the .xz trials (`--zstd-level 19`) codes the measured archives 2-7 % smaller in 5-21 times the time
 /// (docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes).
 inline constexpr int kArchiveDefaultZstdLevel = 9;
@@ -195,7 +194,8 @@ struct ConvertOptions {
   /// opacities, sh, sh_dc_residual. Empty: every section stored raw (the runtime copies it to the GPU as is).
   std::vector<std::string> zstd_sections;
   /// zstd level 1..22 of the zstd_sections and of the archive profile's coded sections; from
-  /// kArchiveXzMinZstdLevel on, the archive's codes also try .xz streams (format::ArchiveOptions::xz). Unset:
+  /// kArchiveXzMinZstdLevel on (and at any level for scenes under format::kArchiveDenseGaussians), the archive's
+  /// codes also try .xz streams (format::ArchiveOptions::xz). Unset:
   /// kArchiveDefaultZstdLevel for the archive profile, kDefaultZstdLevel otherwise (zstd_level_for).
   std::optional<int> zstd_level;
   /// kRuntime (lossless sections, mapped as is) or kArchive (Draco means and quantized attributes,
@@ -291,7 +291,8 @@ struct RgsOutputReport {
   converter::QuantizationReport quantization;
   /// The SH scale of each (degree, channel) stored in the metadata (SPEC §4.1.2).
   format::ShQuantization sh_quantization;
-  /// Archive profile: the position step and bits chosen for `archive.position_error` (0 for the runtime profile).
+  /// Archive profile: the position step and bits chosen for `archive.position_error` (0 for the runtime profile);
+  /// the largest position error relative to the extent is position_step / (2 * extent).
   double position_step = 0;
   uint32_t position_bits = 0;
   /// The scene extent (longest side of the source means' AABB, scene units), which `archive.position_error` and

@@ -15,12 +15,29 @@ namespace rgs::format {
 /// gives 17-bit Draco positions (measured in docs/AUDITS.md).
 inline constexpr double kDefaultArchivePositionError = 1.0 / 131072.0;
 
+/// SPZ v4's steps, which the archive's automatic settings stay one bit finer than (half the step) and no finer,
+/// so that the default archive is no larger than the scene's SPZ at no lower PSNR (docs/AUDITS.md#the-default-archive-against-spz):
+/// positions in scene units (24-bit fixed point, 12 fractional bits), and the SH coefficients of degrees 1..3
+/// (5 bits for degree 1, 4 for degrees 2 and 3, over [-1, 1]).
+inline constexpr double kSpzPositionStep = 1.0 / 4096.0;
+inline constexpr std::array<double, 4> kSpzShSteps = {0.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 8.0};
+
+/// Opacities below this never blend in any renderer (α <= opacity < 1/255, docs/DESIGN.md#blending-and-output):
+/// the default ArchiveOptions::opacity_floor, which leaves them out at no change to any render.
+inline constexpr double kInvisibleOpacity = 1.0 / 255.0;
+
+/// The archive's quantized codes also try .xz streams (ArchiveOptions::xz) from this zstd level on, and at any
+/// level for scenes under kArchiveDenseGaussians (where LZMA costs little time): LZMA takes 2-5 % off the measured
+/// archives for about the time zstd takes at this level (docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes).
+inline constexpr int kArchiveXzMinZstdLevel = 19;
+
 /// Choices of the archive profile (SPEC §3.3). The defaults are the measured ones of docs/AUDITS.md.
 struct ArchiveOptions {
   /// Largest |decoded - source| per mean component, relative to the extent (the longest AABB side), in
   /// (0, 0.5]. The Draco quantization bits are the fewest whose step is at most 2 * error * extent
-  /// (at most 30, Draco's limit).
-  double position_error = kDefaultArchivePositionError;
+  /// (at most 30, Draco's limit). 0 (default): kDefaultArchivePositionError, or the error of half SPZ's step
+  /// (kSpzPositionStep / 4 scene units) where that is larger (resolve_archive_options).
+  double position_error = 0;
   /// Bits per smallest-three quaternion component, 4..16 (§3.3.2 transform 1); 0 (default): by scene
   /// size, 10, or 7 from kArchiveDenseGaussians on (resolve_archive_options).
   uint32_t rotation_bits = 0;
@@ -40,12 +57,15 @@ struct ArchiveOptions {
   /// Spacing of the opacity codes the writer uses, in [1, 4096] (as rotation_step).
   double opacity_step = 1;
   /// Gaussians whose opacity (the stored binary16 value, activated, in [0, 1]) is below this are left out too,
-  /// in [0, 1): a rate-distortion choice of rate control, which steps it from 1/255 (Gaussians that never blend
-  /// in the source: α ≤ opacity < 1/255) upwards. 0 (default): only those of opacity code 0 are left out.
-  double opacity_floor = 0;
+  /// in [0, 1): a rate-distortion choice of rate control, which steps it upwards from the default,
+  /// kInvisibleOpacity (Gaussians that never blend in the source: α ≤ opacity < 1/255). 0: only those of opacity
+  /// code 0 are left out.
+  double opacity_floor = kInvisibleOpacity;
   /// Multiplier of the INT8 SH step per degree 0..3, 1..127 (§3.3.2 transform 4); 1 keeps the runtime's
-  /// INT8 values.
-  std::array<uint32_t, 4> sh_step_multipliers = {1, 3, 5, 6};
+  /// INT8 values. 0 (default): 1 for degree 0; for degree d >= 1 the larger of kArchiveShMultipliers[d] and the
+  /// most that keeps the step at most half SPZ's (kSpzShSteps[d] / 2 over the largest INT8 step of the degree's
+  /// channels), at most 127.
+  std::array<uint32_t, 4> sh_step_multipliers = {0, 0, 0, 0};
   /// SH codebook (§3.3.3, transform 5), for SH degree >= 1. 0 (default): each distinct record of rest
   /// codes is stored once (exact: the values of transform 4), when at most 3/4 of the records are
   /// distinct; otherwise transform 6 (transform 4's codes as colour differences, §3.3.2). 2..65536: a lossy
@@ -59,7 +79,8 @@ struct ArchiveOptions {
   /// zstd on their first MiB, and keep whichever of it and the zstd frame is smaller: 3-7 % off the quantized
   /// sections of the measured fits (docs/lab/AUDIT_RUNS.md#entropy-coding-of-the-codes), for about one more encoding of
   /// each section. It changes the bytes, not the decoded values; rate control's search codes without it
-  /// (faster) and writes with it; api::convert keeps it only from zstd level 19 on (api::kArchiveXzMinZstdLevel).
+  /// (faster) and writes with it; resolve_archive_options keeps it from kArchiveXzMinZstdLevel on, or for a scene
+  /// under kArchiveDenseGaussians.
   bool xz = true;
   /// Draco encoding speed 0..10 (0 = densest, 10 = fastest); it changes the bytes, not the decoded values.
   int draco_speed = 6;
@@ -78,8 +99,13 @@ inline constexpr uint64_t kArchiveDenseGaussians = uint64_t{1} << 18;
 /// scene is read. Errors: kInvalidArgument naming the option, its value and the range.
 Status check_archive_options(const ArchiveOptions& options);
 
-/// `options` with its automatic (0) bit counts replaced by the defaults for a scene of `gaussians`.
-ArchiveOptions resolve_archive_options(const ArchiveOptions& options, uint64_t gaussians);
+/// The SH step multipliers per degree below which the automatic ones (ArchiveOptions::sh_step_multipliers) go
+/// no finer, whatever the scene's SH scales.
+inline constexpr std::array<uint32_t, 4> kArchiveShMultipliers = {1, 3, 5, 6};
+
+/// `options` with its automatic (0) settings replaced by their values for `scene` (its count, extent and SH
+/// scales; see each field), and xz kept only where resolved to apply.
+ArchiveOptions resolve_archive_options(const ArchiveOptions& options, const EncodedScene& scene);
 
 /// Position quantization of the archive profile for a scene of the given AABB (SPEC §3.3.1).
 struct ArchivePositionQuantization {
