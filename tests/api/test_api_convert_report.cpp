@@ -164,7 +164,7 @@ TEST_CASE("convert: the archive's codes at zstd level 19 take fewer bytes than a
   }
 }
 
-TEST_CASE("convert: the default archive is the quick one (zstd level 9; .xz only under the dense size), level 19 "
+TEST_CASE("convert: the default archive is the quick one (zstd level 9, .xz only under the dense size), level 19 "
           "decodes to the same scene in no more bytes") {
   api::ConvertOptions runtime;
   CHECK(api::zstd_level_for(runtime) == api::kDefaultZstdLevel);
