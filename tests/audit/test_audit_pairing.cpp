@@ -101,6 +101,7 @@ TEST_CASE("reordered outputs: the audit's attribute errors are the converter's o
     const audit::AuditScene source = test::audit_scene(path);
     api::ConvertOptions archive;
     archive.profile = format::StorageProfile::kArchive;
+    archive.archive.opacity_floor = 0;  // every Gaussian kept (the default leaves out those that never blend)
     api::ConvertOptions floor = archive;  // leaves Gaussians out
     floor.archive.opacity_floor = 0.1;
     api::ConvertOptions lod;

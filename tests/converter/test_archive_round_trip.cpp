@@ -90,23 +90,27 @@ void check_archive_round_trip(const format::GaussianCloud& cloud, bool check_thr
     if (std::isfinite(v)) lo[i % 3] = std::min(lo[i % 3], v), hi[i % 3] = std::max(hi[i % 3], v);
   }
   // Omitted: exactly the Gaussians whose opacity code is 0 (value below half a code step of the writer's
-  // grid), each either kept once or omitted; every kept one decodes to a visible opacity.
+  // grid) or whose opacity is below the floor (none of them ever blends), each either kept once or omitted; every
+  // kept one decodes to a visible opacity.
   const double opacity_codes = static_cast<double>((1u << o.opacity_bits) - 1);
-  auto zero_code = [&](uint16_t h) { return std::floor(half(h) * opacity_codes / o.opacity_step + 0.5) == 0; };
+  auto zero_code = [&](uint16_t h) {
+    return std::floor(half(h) * opacity_codes / o.opacity_step + 0.5) == 0 || half(h) < o.opacity_floor;
+  };
   std::vector<int> times(n, 0);
   for (uint64_t s : archive->omitted) times[s] += 2;
   for (uint64_t s : archive->source_index) times[s] += 1;
   uint64_t wrong_omission = 0, visible_omitted = 0;
   for (uint64_t s = 0; s < n; ++s) {
     wrong_omission += times[s] == 2 ? !zero_code(src.opacities[s]) : times[s] != 1 || zero_code(src.opacities[s]);
-    visible_omitted += times[s] == 2 && half(src.opacities[s]) * opacity_codes >= 0.5 * o.opacity_step;
+    visible_omitted += times[s] == 2 && half(src.opacities[s]) * opacity_codes >= 0.5 * o.opacity_step &&
+                       half(src.opacities[s]) >= o.opacity_floor;
   }
   CHECK(archive->source_count == n);
   CHECK(d.count + archive->omitted.size() == n);
   CHECK(wrong_omission == 0);
   CHECK(visible_omitted == 0);
   CHECK(std::all_of(d.opacities.begin(), d.opacities.end(), [](uint16_t h) { return half(h) > 0; }));
-  MESSAGE(archive->omitted.size() << " of " << n << " Gaussians omitted (opacity code 0)");
+  MESSAGE(archive->omitted.size() << " of " << n << " Gaussians omitted (opacity code 0 or below the floor)");
 
   const uint32_t values = 3 * format::sh_coefficient_count(src.metadata.sh_degree);
   uint64_t bad_pos = 0, bad_rot = 0, bad_scale = 0, bad_opa = 0, bad_sh = 0;
