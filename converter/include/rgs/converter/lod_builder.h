@@ -85,8 +85,9 @@ struct LodScene {
 /// their chunk's AABB, so the AABB is the input's; the sphere may grow); metadata is otherwise the input's. Provenance: the input's, then ("lod_levels", L) and ("lod_chunks", C).
 ///
 /// Deterministic: the same bytes whatever options.threads. Memory: the input and the output (sized once),
-/// 12 bytes a full-detail Gaussian of sort keys (24 during the first sort), and per worker the buffers of
-/// one chunk; nothing is decoded beyond the cell being merged.
+/// 12 bytes a full-detail Gaussian of sort keys (24 during the first sort), and per worker the levels of two
+/// chunks being built (handed to the output in chunk order) and one chunk's sort buffers; nothing is decoded
+/// beyond the cell being merged. The builder is build_lod_out_of_core's, with the scene as its one partition.
 /// Errors: kInvalidArgument (inconsistent or empty scene, levels > 16, max_chunk_gaussians 0, a Gaussian
 /// whose 3σ extent overflows float32), kLimitExceeded (more than 2^31 − 1 Gaussians out), kOutOfMemory.
 Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOptions& options = {});
