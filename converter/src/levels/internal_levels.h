@@ -18,6 +18,9 @@ inline constexpr format::SectionId kLevelSectionIds[kLevelSections] = {
     format::SectionId::kMeans,     format::SectionId::kRotations, format::SectionId::kScales,
     format::SectionId::kOpacities, format::SectionId::kSh,        format::SectionId::kShDcResidual};
 
+/// The sections a scene holds: all of them with the DC residual, the last one (sh_dc_residual) left out without.
+inline int section_count(bool residual) { return residual ? kLevelSections : kLevelSections - 1; }
+
 /// Section `id`'s index in kLevelSectionIds, -1 for another section.
 int level_section(format::SectionId id);
 

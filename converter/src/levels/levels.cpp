@@ -67,7 +67,7 @@ class HeldStore final : public LevelStore {
     uint64_t from = 0;
     for (uint32_t l = 0; l < levels; ++l) {
       const uint64_t to = out_.index.at(l, c).first;
-      for (int k = 0; k < (layout_.dc_residual ? kLevelSections : kLevelSections - 1); ++k) {
+      for (int k = 0; k < section_count(layout_.dc_residual); ++k) {
         const uint64_t width = section_width(k, layout_.sh_values);
         std::memcpy(section_bytes(&out_.scene, k) + to * width, section_bytes(chunk, k) + from * width,
                     plan.count[l] * width);
@@ -116,9 +116,8 @@ class HeldLevels final : public Levels {
     const uint64_t sh_values = sh_values_of();
     out->metadata = head_.metadata;
     size_sections(out, count, sh_values, sh_dc_residual());
-    for (int s = 0; s < kLevelSections; ++s) {
+    for (int s = 0; s < section_count(sh_dc_residual()); ++s) {
       const uint64_t width = section_width(s, sh_values);
-      if (s == 5 && !sh_dc_residual()) continue;
       std::memcpy(section_bytes(out, s), section_bytes(lod_.scene, s) + first * width, count * width);
     }
     return Status();
@@ -126,7 +125,7 @@ class HeldLevels final : public Levels {
 
   Status stream_section(format::SectionId id, const format::ChunkSink& sink) const override {
     const int s = level_section(id);
-    if (s < 0 || (s == 5 && !sh_dc_residual())) return Status();
+    if (s < 0 || s >= section_count(sh_dc_residual())) return Status();
     const uint64_t width = section_width(s, sh_values_of());
     const uint8_t* bytes = section_bytes(lod_.scene, s);
     const uint64_t piece = std::max<uint64_t>(1, kPieceBytes / std::max<uint64_t>(width, 1)) * width;

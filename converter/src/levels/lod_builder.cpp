@@ -43,7 +43,7 @@ struct BuiltChunk {
 uint64_t range_checksum(const format::EncodedScene& s, uint64_t first, uint64_t count, const Layout& t) {
   XXH64_state_t* state = XXH64_createState();
   XXH64_reset(state, 0);
-  for (int k = 0; k < (t.dc_residual ? kLevelSections : kLevelSections - 1); ++k) {
+  for (int k = 0; k < section_count(t.dc_residual); ++k) {
     const uint64_t width = section_width(k, t.sh_values);
     XXH64_update(state, section_bytes(s, k) + first * width, count * width);
   }

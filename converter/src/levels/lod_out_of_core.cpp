@@ -207,7 +207,7 @@ class SpilledLevels final : public Levels {
     size_sections(out, count, record_.sh, record_.residual);
     for (uint32_t l = 0; l < index_.level_count; ++l) {
       const uint64_t lo = std::max(first, level_first_[l]), hi = std::min(first + count, level_first_[l + 1]);
-      for (int k = 0; lo < hi && k < sections(); ++k) {
+      for (int k = 0; lo < hi && k < section_count(record_.residual); ++k) {
         const uint64_t width = section_width(k, record_.sh);
         RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->read(
             (lo - level_first_[l]) * width, section_bytes(out, k) + (lo - first) * width, (hi - lo) * width));
@@ -218,7 +218,7 @@ class SpilledLevels final : public Levels {
 
   Status stream_section(format::SectionId id, const format::ChunkSink& sink) const override {
     const int k = level_section(id);
-    if (k < 0 || k >= sections()) return Status();
+    if (k < 0 || k >= section_count(record_.residual)) return Status();
     const uint64_t width = section_width(k, record_.sh);
     std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / width) * width);
     for (uint32_t l = 0; l < index_.level_count; ++l) {
@@ -234,7 +234,6 @@ class SpilledLevels final : public Levels {
   }
 
  private:
-  int sections() const { return record_.residual ? kLevelSections : kLevelSections - 1; }
   format::EncodedScene head_;
   format::LodIndex index_;
   std::vector<std::unique_ptr<SpillFile>> spills_;
@@ -474,7 +473,7 @@ class SpillStore final : public LevelStore {
     }
     uint64_t first = 0;
     for (uint32_t l = 0; l < levels; ++l) {
-      for (int k = 0; k < (record_.residual ? kLevelSections : kLevelSections - 1); ++k) {
+      for (int k = 0; k < section_count(record_.residual); ++k) {
         const uint64_t width = section_width(k, record_.sh);
         RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->append(section_bytes(s, k) + first * width,
                                                                     plan.count[l] * width));
