@@ -218,25 +218,36 @@ std::unique_ptr<detail::Sink> make_sink(const std::string& dst, OutputFormat out
   return detail::make_cloud_sink(dst, output, options, progress);
 }
 
-/// A whole scene through the conversion's stages into its sink (internal_pipeline.h); with a byte target, a file
-/// over it is kLimitExceeded (its provenance larger than the fit allowed for).
-Result<ConvertReport> convert_whole(detail::SceneSource source, const std::string& dst, OutputFormat output,
-                                    const ConvertOptions& options, detail::ProgressReporter* progress) {
+/// The conversion's one driver: `source`'s scene, whole or in batches, through the stages of a conversion to `dst`
+/// in `output` (conversion_stages) into its sink, within `options`' output transaction (internal_pipeline.h);
+/// with a byte target, a file over it is kLimitExceeded (its provenance larger than the fit allowed for).
+Result<ConvertReport> run(detail::SceneSource source, const std::string& dst, OutputFormat output,
+                          const ConvertOptions& options, detail::ProgressReporter* progress) {
   ConvertOptions settings = options;  // rate control writes its choice here
   detail::PipelineScene scene;
   scene.name = source.name;
   scene.source_file = source.source_file;
-  scene.input = std::move(*source.scene);
-  scene.report.merge_inputs = std::move(source.merge_inputs);
-  for (const MergeInput& input : scene.report.merge_inputs) scene.edited_out += input.gaussians - input.kept;
-  scene.report.output_format = output;
-  detail::describe_input(scene.input, &scene.report);
-  scene.report.seconds.read = detail::seconds_since(source.start);
+  scene.start = source.start;
+  scene.edits_removed.assign(options.edits.size(), 0);
+  ConvertReport& report = scene.report;
+  report.merge_inputs = std::move(source.merge_inputs);
+  report.output_format = output;
+  if (source.stream) {
+    scene.read_sh_degree = source.stream->sh_degree();
+    scene.batches = std::make_unique<detail::SceneBatches>(
+        std::move(source.stream), settings,
+        output == OutputFormat::kRgs ? detail::rgs_quantize_options(settings) : detail::sog_lod_quantize_options(settings));
+    scene.batches->describe(&report);
+  } else {
+    scene.input = std::move(*source.scene);
+    scene.read_sh_degree = scene.input.cloud.sh_degree;
+    detail::describe_input(scene.input, &report);
+    report.seconds.read = detail::seconds_since(source.start);
+  }
   for (const detail::Stage& stage : detail::conversion_stages(dst, output, &settings, progress)) {
-    RGS_RETURN_IF_ERROR(stage(&scene));
+    RGS_RETURN_IF_ERROR(detail::run_stage(stage, &scene));
   }
   RGS_RETURN_IF_ERROR(make_sink(dst, output, settings, progress)->write(&scene, *settings.files));
-  ConvertReport& report = scene.report;
   report.seconds.total = detail::seconds_since(source.start);
   if (options.target.bytes && report.output_bytes > *options.target.bytes) {
     return Status(StatusCode::kLimitExceeded,
@@ -259,7 +270,7 @@ Result<ConvertReport> convert_read(Result<converter::InputScene> input, const st
   source.source_file = std::filesystem::path(name).filename().string();
   source.scene.emplace(std::move(input).value());
   source.start = start;
-  return outputs->commit(convert_whole(std::move(source), dst, output, outputs->options(), progress));
+  return outputs->commit(run(std::move(source), dst, output, outputs->options(), progress));
 }
 
 /// convert_scene(), convert_bytes() and convert_cloud(): the output checked, then the whole scene `read` gives
@@ -298,14 +309,8 @@ Result<ConvertReport> convert(const std::vector<std::string>& srcs, const std::s
   progress.reading();
   RGS_ASSIGN_OR_RETURN(detail::SceneSource source, detail::open_file_source(srcs, dst, output, options));
   source.start = start;
-  if (source.stream) {
-    const ConvertOptions& settings = outputs.options();
-    return outputs.commit(detail::convert_batches(std::move(source), dst, output, settings,
-                                                  *make_sink(dst, output, settings, &progress), *settings.files,
-                                                  &progress));
-  }
-  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, source.scene->files));
-  return outputs.commit(convert_whole(std::move(source), dst, output, outputs.options(), &progress));
+  if (source.scene) RGS_RETURN_IF_ERROR(outputs.declare(dst, output, source.scene->files));
+  return outputs.commit(run(std::move(source), dst, output, outputs.options(), &progress));
 }
 
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,

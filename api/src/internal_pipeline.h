@@ -15,6 +15,7 @@
 #include "rgs/api/convert.h"
 #include "rgs/converter/lod_builder.h"
 #include "rgs/converter/ply_reader.h"
+#include "rgs/converter/quantize.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/output_transaction.h"
@@ -85,29 +86,116 @@ bool writes_levels(const std::string& dst, OutputFormat output, const ConvertOpt
 Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, const std::string& dst,
                                      OutputFormat output, const ConvertOptions& options);
 
+struct PipelineScene;
+
+/// A stage of the conversion, in the one list conversion_stages() gives (docs/DESIGN.md#the-scene-pipeline). A
+/// per-batch stage (`batch` set) acts on each Gaussian alone, so that batch after batch gives the whole scene's
+/// result: it runs on the cloud of a scene read whole, and on each batch of a scene read in batches as the batch is
+/// read. A whole-scene stage (`whole` set) needs every Gaussian at once: a scene read in batches refuses it by
+/// `name`, unless it `takes_batches` (the first pass's checks and the levels of detail, built out of core).
+struct Stage {
+  std::string name;
+  /// Acts on `batch`, adding to (*removed)[i] the Gaussians scene edit i (ConvertOptions::edits) removed.
+  std::function<Status(format::GaussianCloud* batch, std::vector<uint64_t>* removed)> batch;
+  std::function<Status(PipelineScene* scene)> whole;
+  bool takes_batches = false;
+};
+
+/// What the first pass over a scene read in batches learns, every value checked on the way: the count, the SH
+/// degree and scales (converter::QuantizeScan), the means' box.
+struct BatchStatistics {
+  uint64_t count = 0;
+  uint32_t sh_degree = 0;
+  float box_lo[3] = {0, 0, 0}, box_hi[3] = {0, 0, 0};
+  format::ShQuantization shq;
+};
+
+/// A scene read in batches, pass after pass (docs/LOD.md#scenes-larger-than-memory): binary PLYs as one
+/// converter::PlyStream, each batch edited by the edits of the file it comes from (ConvertOptions::input_edits),
+/// then by the per-batch stages added, in order, and given the anti-aliasing flag (ConvertOptions::read).
+class SceneBatches {
+ public:
+  /// `options` hold one list of input_edits per file of `stream` and must outlive this; the batch size follows
+  /// convert_memory_limit(options); the first pass scans as `quantize` will quantize.
+  SceneBatches(std::unique_ptr<converter::PlyStream> stream, const ConvertOptions& options,
+               const converter::QuantizeOptions& quantize);
+  void add(const Stage& stage) { stages_.push_back(stage); }
+  /// The next batch into `*batch`; false after the last. A batch that the edits emptied is skipped.
+  Result<bool> next(format::GaussianCloud* batch);
+  /// Back to the first batch; the counts of what the edits removed start again.
+  Status rewind();
+  /// The first pass, once (later calls give its result), reported as `progress`'s scanning; then removed(),
+  /// read() and input_removed() hold the whole scene's counts.
+  Result<const BatchStatistics*> scan(ProgressReporter* progress);
+  /// Since the last rewind: the Gaussians each scene edit removed; per file, those read and those each of its
+  /// edits removed.
+  const std::vector<uint64_t>& removed() const { return removed_; }
+  const std::vector<uint64_t>& read() const { return read_; }
+  const std::vector<std::vector<uint64_t>>& input_removed() const { return input_removed_; }
+  const converter::PlyStream& stream() const { return *stream_; }
+  /// The report's input fields (ConvertReport documents them) as the stream declares them.
+  void describe(ConvertReport* report) const;
+  /// Bytes a batch takes at most: its float cloud as read and its quantized copy.
+  uint64_t batch_bytes() const;
+  /// The error of a pass, naming the source `name` once (the stream's errors name it already, the build's do not);
+  /// a file that changed since the stream opened it is named as the cause of whatever the pass found.
+  Status pass_error(Status status, const std::string& name) const;
+
+ private:
+  void reset();
+  std::unique_ptr<converter::PlyStream> stream_;
+  const ConvertOptions& options_;
+  converter::QuantizeOptions quantize_;
+  uint64_t batch_;
+  std::vector<Stage> stages_;
+  std::vector<uint64_t> removed_, read_;
+  std::vector<std::vector<uint64_t>> input_removed_;
+  std::optional<BatchStatistics> statistics_;
+};
+
 /// The scene on its way from the stages to the sink: the float cloud as read (freed once quantized where nothing
-/// reads it again), its quantized form, its levels of detail, and the report filled as the work goes.
+/// reads it again), or its batches; its quantized form, its levels of detail, and the report filled as the work
+/// goes.
 struct PipelineScene {
   converter::InputScene input;
+  /// A scene read in batches (null for a whole one): its per-batch stages act as its batches are read.
+  std::unique_ptr<SceneBatches> batches;
   std::string name, source_file;  ///< SceneSource's
+  Clock::time_point start;        ///< SceneSource's
+  uint32_t read_sh_degree = 0;    ///< the SH degree as read, before the stages
   std::optional<format::EncodedScene> encoded;
   std::optional<converter::LodScene> lod;
   /// The levels of detail as the sinks read them: `lod` held, or those of an out-of-core build.
   std::unique_ptr<converter::Levels> levels;
   ConvertReport report;
-  uint64_t edited_out = 0;  ///< Gaussians the edits removed (ConvertOptions::edits)
+  /// Per scene edit (ConvertOptions::edits), the Gaussians it removed: once the first pass is done.
+  std::vector<uint64_t> edits_removed;
+  /// Gaussians the edits removed, the scene's and the merge inputs'.
+  uint64_t edited_out() const;
 };
 
-/// A stage: acts on the scene in place (reduce its SH bands, fit the archive to a target, quantize, build its
-/// levels of detail), reporting what it did in scene->report.
-using Stage = std::function<Status(PipelineScene* scene)>;
-
-/// The stages a conversion to `output` at `dst` runs on a whole scene, in order: the edits, rate control with a
-/// target, the empty-scene check, the SH reduction, then for a .rgs or a streamed SOG quantizing and levels of
-/// detail.
-/// `options` must outlive the stages (rate control changes `*options`' archive settings).
+/// The stages a conversion to `output` at `dst` runs, in order: the edits (per batch but for decimate), rate
+/// control with a target, the SH reduction (per batch), the first pass's notes and empty-scene check, then for a
+/// .rgs quantizing, and for a .rgs with levels of detail or a streamed SOG quantizing and building the levels (in
+/// memory, or out of core from a scene read in batches). `options` must outlive the stages (rate control changes
+/// `*options`' archive settings).
 std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output, ConvertOptions* options,
                                      ProgressReporter* progress);
+
+/// kInvalidArgument: `what` (a stage, an input's edit) needs the scene `name` whole, which is read in batches.
+Status needs_whole_scene(const std::string& name, const std::string& what);
+
+/// Runs `stage` on `scene`: a per-batch stage on a whole scene's cloud, or added to a scene read in batches (it acts
+/// as they are read); a whole-scene stage on the scene. kInvalidArgument naming the stage for a whole-scene stage
+/// on a scene read in batches (unless it takes batches).
+Status run_stage(const Stage& stage, PipelineScene* scene);
+
+/// The levels of detail of the scene, as converter::Levels in scene->levels: a whole scene's quantized form
+/// (scene->encoded) built in memory (converter::build_lod), or a scene read in batches quantized batch by batch with
+/// its scanned SH scales into converter::build_lod_out_of_core, spilling beside `dst`
+/// (docs/LOD.md#scenes-larger-than-memory).
+Status build_levels(PipelineScene* scene, const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                    ProgressReporter* progress);
 
 /// The error of a conversion whose scene is empty (refused unless ConvertOptions::allow_empty), naming `name` and
 /// why: the edits removed the rest (`edited_out`), sanitizing dropped every Gaussian (`sanitized`), or the input
@@ -150,14 +238,6 @@ std::unique_ptr<Sink> make_cloud_sink(const std::string& dst, OutputFormat outpu
 
 /// The streamed SOG sink (`dst` named lod-meta.json): the scene's `levels` written.
 std::unique_ptr<Sink> make_sog_lod_sink(const std::string& dst, ProgressReporter* progress);
-
-/// A batched source's levels of detail built out of core and written by `sink` through `files`: the PLY scanned
-/// once for the statistics the quantizer takes, then quantized batch by batch into
-/// converter::build_lod_out_of_core, whose levels (spilled beside `dst`) the sink reads as it reads a whole
-/// scene's.
-Result<ConvertReport> convert_batches(SceneSource source, const std::string& dst, OutputFormat output,
-                                      const ConvertOptions& options, Sink& sink, format::FileSink& files,
-                                      ProgressReporter* progress);
 
 /// Forwards to another sink, reporting the "writing" stage when the first bytes reach the file (before that,
 /// the archive profile's encoder or the SPZ compressor is still running).

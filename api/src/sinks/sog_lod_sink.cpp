@@ -19,7 +19,8 @@ class SogLodSink final : public Sink {
     scene->report.seconds.write = seconds_since(start);
     scene->report.output_bytes = sog.bytes;
     scene->report.output_description = "PlayCanvas streamed SOG";
-    scene->report.output_notes = sog.limitations;
+    std::vector<std::string>& notes = scene->report.output_notes;
+    notes.insert(notes.end(), sog.limitations.begin(), sog.limitations.end());
     return Status();
   }
 

@@ -104,7 +104,17 @@ Result<SceneSource> open_file_source(const std::vector<std::string>& srcs, const
     RGS_ASSIGN_OR_RETURN(estimate, estimate_convert_memory(srcs));
   }
   RGS_ASSIGN_OR_RETURN(source.stream, open_batches(srcs, source.name, estimate, dst, output, options));
-  if (source.stream) return source;
+  if (source.stream) {
+    RGS_RETURN_ERROR_IF(options.read.lod.has_value(), StatusCode::kInvalidArgument,
+                        source.name + ": a level of detail applies only to streamed SOG (lod-meta.json); this input "
+                                      "is a PLY file");
+    for (const auto& edits : options.input_edits) {
+      for (const converter::EditAction& edit : edits) {
+        if (edit.kind == converter::EditKind::kDecimate) return needs_whole_scene(source.name, "decimate");
+      }
+    }
+    return source;
+  }
   RGS_RETURN_IF_ERROR(check_convert_memory(source.name, estimate, options));
   RGS_ASSIGN_OR_RETURN(std::vector<converter::InputScene> scenes,
                        read_inputs(srcs, source.name, output, options, &source.merge_inputs));

@@ -25,29 +25,42 @@ Status fit(PipelineScene* scene, ConvertOptions* options, ProgressReporter* prog
   return Status();
 }
 
-Status check_not_empty(const PipelineScene& scene, const ConvertOptions& options) {
-  if (scene.input.cloud.size() > 0 || options.allow_empty) return Status();
-  return empty_scene_error(scene.name, scene.input.hygiene.dropped_gaussians, scene.edited_out);
-}
-
-/// The edits (ConvertOptions::edits) on the whole cloud, in order; the bounds follow the edited means.
-Status edit(PipelineScene* scene, const std::vector<converter::EditAction>& edits) {
-  std::vector<uint64_t> removed(edits.size(), 0);
-  Status applied = apply_edits(edits, &scene->input.cloud, &removed);
+/// A per-batch stage's `batch` on a whole scene's cloud, what it removed counted per scene edit; the bounds follow
+/// the edited means.
+Status apply_to_whole(const std::function<Status(format::GaussianCloud*, std::vector<uint64_t>*)>& batch,
+                      PipelineScene* scene) {
+  Status applied = batch(&scene->input.cloud, &scene->edits_removed);
   if (!applied.ok()) return applied.prepend(scene->name);
-  for (const uint64_t r : removed) scene->edited_out += r;
-  note_edits(edits, removed, &scene->report);
   scene->input.bounds = converter::compute_bounds(scene->input.cloud);
-  scene->input.encoded.reset();
   return Status();
 }
 
-Status reduce_sh(PipelineScene* scene, uint32_t degree) {
-  format::GaussianCloud& cloud = scene->input.cloud;
-  if (degree >= cloud.sh_degree) return Status();
-  scene->report.input_notes.push_back("SH degree " + std::to_string(cloud.sh_degree) + " reduced to " +
-                                      std::to_string(degree));
-  return converter::reduce_sh_degree(&cloud, degree);
+/// The first pass's end: a scene read in batches scanned (its counts, SH scales and box learned, its merge inputs
+/// described), then for either the notes of what the per-batch stages removed and reduced, and the empty-scene
+/// check.
+Status finish_first_pass(PipelineScene* scene, const ConvertOptions& options, ProgressReporter* progress) {
+  ConvertReport& report = scene->report;
+  uint64_t count = scene->input.cloud.size();
+  if (scene->batches) {
+    SceneBatches& batches = *scene->batches;
+    auto stats = batches.scan(progress);
+    if (!stats.ok()) return batches.pass_error(stats.status(), scene->name);
+    count = (*stats)->count;
+    report.seconds.read = seconds_since(scene->start);
+    report.hygiene = batches.stream().hygiene();
+    scene->edits_removed = batches.removed();
+    for (size_t f = 0; f < report.merge_inputs.size(); ++f) {
+      describe_merge_input(options.input_edits[f], batches.read()[f], batches.input_removed()[f],
+                           &report.merge_inputs[f]);
+    }
+  }
+  note_edits(options.edits, scene->edits_removed, &report);
+  if (options.sh_degree && *options.sh_degree < scene->read_sh_degree) {
+    report.input_notes.push_back("SH degree " + std::to_string(scene->read_sh_degree) + " reduced to " +
+                                 std::to_string(*options.sh_degree));
+  }
+  if (count > 0 || options.allow_empty) return Status();
+  return empty_scene_error(scene->name, report.hygiene.dropped_gaussians, scene->edited_out());
 }
 
 /// Quantizes the cloud for a .rgs: the quantization report and, for the runtime profile, its errors measured in
@@ -82,21 +95,6 @@ Status quantize_sog_lod(PipelineScene* scene, const ConvertOptions& options, Pro
   scene->report.sh_degree = scene->input.cloud.sh_degree;
   scene->input.cloud = {};
   scene->encoded.emplace(std::move(encoded).value());
-  return Status();
-}
-
-/// The levels of detail of the quantized scene (converter::build_lod): `levels` per chunk (0: auto).
-Status build_levels(PipelineScene* scene, uint32_t levels, const ConvertOptions& options, ProgressReporter* progress) {
-  progress->building_lod();
-  const auto start = Clock::now();
-  converter::LodBuildOptions lod;
-  lod.levels = levels;
-  lod.max_chunk_gaussians = options.lod_chunk_gaussians;
-  auto built = converter::build_lod(*scene->encoded, lod);
-  if (!built.ok()) return Status(built.status()).prepend(scene->name);
-  scene->lod.emplace(std::move(built).value());
-  scene->levels = converter::held_levels(*scene->lod);
-  scene->report.seconds.lod = seconds_since(start);
   return Status();
 }
 
@@ -168,29 +166,71 @@ std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output
                                      ProgressReporter* progress) {
   std::vector<Stage> stages;
   if (!options->edits.empty()) {
-    stages.push_back([options](PipelineScene* s) { return edit(s, options->edits); });
+    Stage& edits = stages.emplace_back();
+    edits.name = "the edits";
+    auto batch = [options](format::GaussianCloud* cloud, std::vector<uint64_t>* removed) {
+      return apply_edits(options->edits, cloud, removed);
+    };
+    if (has_edit(*options, converter::EditKind::kDecimate)) {
+      edits.name = "decimate";  // keeps a share of the whole scene's Gaussians, not one Gaussian at a time
+      edits.whole = [batch](PipelineScene* s) { return apply_to_whole(batch, s); };
+    } else {
+      edits.batch = batch;
+    }
   }
   if (options->target.active()) {
-    stages.push_back([options, progress](PipelineScene* s) { return fit(s, options, progress); });
+    stages.push_back({"rate control (target_psnr, target_bytes)", nullptr,
+                      [options, progress](PipelineScene* s) { return fit(s, options, progress); }});
   }
-  stages.push_back([options](PipelineScene* s) { return check_not_empty(*s, *options); });
   if (options->sh_degree) {
-    stages.push_back([degree = *options->sh_degree](PipelineScene* s) { return reduce_sh(s, degree); });
+    stages.push_back({"the SH reduction",
+                      [degree = *options->sh_degree](format::GaussianCloud* cloud, std::vector<uint64_t>*) {
+                        return degree < cloud->sh_degree ? converter::reduce_sh_degree(cloud, degree) : Status();
+                      },
+                      nullptr});
   }
-  if (output == OutputFormat::kRgs) {
-    stages.push_back([options, progress](PipelineScene* s) { return quantize_rgs(s, *options, progress); });
-    if (options->lod_levels) {
-      stages.push_back([options, progress](PipelineScene* s) {
-        return build_levels(s, *options->lod_levels, *options, progress);
-      });
-    }
-  } else if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) {
-    stages.push_back([options, progress](PipelineScene* s) { return quantize_sog_lod(s, *options, progress); });
-    stages.push_back([options, progress](PipelineScene* s) {
-      return build_levels(s, options->lod_levels.value_or(0), *options, progress);
-    });
+  stages.push_back({"the first pass", nullptr,
+                    [options, progress](PipelineScene* s) { return finish_first_pass(s, *options, progress); }, true});
+  if (writes_levels(dst, output, *options)) {
+    stages.push_back({"the levels of detail", nullptr,
+                      [dst, output, options, progress](PipelineScene* s) {
+                        if (!s->batches) {  // a scene read in batches is quantized batch by batch by the build
+                          RGS_RETURN_IF_ERROR(output == OutputFormat::kRgs ? quantize_rgs(s, *options, progress)
+                                                                           : quantize_sog_lod(s, *options, progress));
+                        }
+                        return build_levels(s, dst, output, *options, progress);
+                      },
+                      true});
+  } else if (output == OutputFormat::kRgs) {
+    stages.push_back({"quantizing", nullptr,
+                      [options, progress](PipelineScene* s) { return quantize_rgs(s, *options, progress); }});
   }
   return stages;
+}
+
+Status run_stage(const Stage& stage, PipelineScene* scene) {
+  if (stage.batch && scene->batches) {
+    scene->batches->add(stage);
+    return Status();
+  }
+  if (stage.batch) return apply_to_whole(stage.batch, scene);
+  if (scene->batches && !stage.takes_batches) return needs_whole_scene(scene->name, stage.name);
+  return stage.whole(scene);
+}
+
+Status needs_whole_scene(const std::string& name, const std::string& what) {
+  return Status(StatusCode::kInvalidArgument,
+                name + ": " + what +
+                    " needs the whole scene (or input) in memory, and this conversion reads it in batches (out of "
+                    "core: its estimated peak is above the memory limit); raise memory_limit (--memory-limit) to "
+                    "read it whole");
+}
+
+uint64_t PipelineScene::edited_out() const {
+  uint64_t out = 0;
+  for (const uint64_t r : edits_removed) out += r;
+  for (const MergeInput& merged : report.merge_inputs) out += merged.gaussians - merged.kept;
+  return out;
 }
 
 Status quantize_for_load(LoadScene* scene, const LoadOptions& options) {
