@@ -161,8 +161,11 @@ Status build_out_of_core(PipelineScene* scene, const std::string& dst, OutputFor
       resident_bytes() + batches.batch_bytes() + kReadSlackBytes + uint64_t{parallel::available_cpus()} * kThreadBytes;
   lod.memory_limit = limit - std::min(limit, held);
   lod.sh_dc_residual = quantize.sh_dc_bits == 16;
-  lod.spill_folder = std::filesystem::path(dst).parent_path().string();
-  if (lod.spill_folder.empty()) lod.spill_folder = ".";
+  // Beside the output, on its disk: its nearest folder that exists (the sink creates the rest only when it writes).
+  std::error_code ec;
+  std::filesystem::path spill = std::filesystem::absolute(dst, ec).lexically_normal().parent_path();
+  while (!std::filesystem::is_directory(spill, ec) && spill.has_relative_path()) spill = spill.parent_path();
+  lod.spill_folder = spill.string();
   lod.progress = [&](const char* stage, double fraction) { progress->out_of_core(stage, fraction); };
   const auto build_start = Clock::now();
   auto built = converter::build_lod_out_of_core(quantized, head, lod);
