@@ -40,6 +40,15 @@ LevelTotals level_totals(const format::LodIndex& lod, uint32_t level) {
   return t;
 }
 
+/// A streamed SOG's leaf error tables (InputScene::lod_errors): per level, the largest over the leaves.
+std::vector<double> level_max_errors(const std::vector<std::vector<double>>& tables) {
+  std::vector<double> max(tables.empty() ? 0 : tables[0].size(), 0.0);
+  for (const std::vector<double>& t : tables) {
+    for (size_t l = 0; l < t.size() && l < max.size(); ++l) max[l] = std::max(max[l], t[l]);
+  }
+  return max;
+}
+
 nlohmann::json bounds_json(const format::SceneBounds& b) {
   return {{"aabb_min", b.aabb_min}, {"aabb_max", b.aabb_max}, {"sphere_center", b.sphere_center},
           {"sphere_radius", b.sphere_radius}};
@@ -161,6 +170,9 @@ nlohmann::json to_json(const std::string& path, const converter::InputScene& sce
   j["sh_degree"] = scene.cloud.sh_degree;
   j["bounds"] = bounds_json(scene.bounds);
   j["notes"] = scene.notes;
+  if (!scene.lod_errors.empty()) {
+    j["lod"] = {{"leaves", scene.lod_errors.size()}, {"max_errors", level_max_errors(scene.lod_errors)}};
+  }
   return j;
 }
 
@@ -178,6 +190,11 @@ void print_text(const std::string& path, const converter::InputScene& scene) {
   std::printf("\n");
   print_bounds(scene.bounds);
   for (const std::string& note : scene.notes) std::printf("  note             %s\n", tools::escape_text(note).c_str());
+  if (scene.lod_errors.empty()) return;
+  std::printf("  levels of detail %s leaves with error tables (PlayCanvas's relative unit, docs/LOD.md)\n",
+              rgs::group_digits(scene.lod_errors.size()).c_str());
+  const std::vector<double> max = level_max_errors(scene.lod_errors);
+  for (size_t l = 0; l < max.size(); ++l) std::printf("    level %-2zu       error <= %s\n", l, tools::sci(max[l]).c_str());
 }
 
 /// Any scene the converter reads, through its reading door: a file or folder, or `data` (standard input).

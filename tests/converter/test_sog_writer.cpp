@@ -1,9 +1,12 @@
 // SOG output: our writer read back by our SOG reader (bundle and folder), the bounds of each attribute, SH
-// bands through the palette, the same bytes twice, and outputs that must fail without leaving anything behind.
+// bands through the palette, the same bytes twice, and outputs that must fail without leaving anything behind;
+// the streamed SOG's per-leaf error tables written, read back, and refused when malformed.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <utility>
@@ -297,6 +300,102 @@ TEST_CASE("Streamed SOG output of taebak (4.25M Gaussians, read from its streame
   const fs::path dir = fresh_folder("streamed_taebak");
   auto [written0, back0] = streamed_round_trip(read_cloud(path), dir);
   check_errors(written0, back0, {1.0, 0.02, 0.01, 0.1, 0});
+  fs::remove_all(dir);
+}
+
+/// The leaves of a lod-meta.json `tree`, in tree order (depth first, children in order).
+void collect_leaves(nlohmann::json& node, std::vector<nlohmann::json*>* out) {
+  if (node.contains("lods")) out->push_back(&node);
+  if (node.contains("children")) {
+    for (nlohmann::json& child : node["children"]) collect_leaves(child, out);
+  }
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST_CASE("Streamed SOG output carries every leaf's error table in PlayCanvas's unit, read back as written") {
+  auto encoded = converter::quantize(read_cloud(repo_path("samples/guitar.ply")), {});
+  REQUIRE(encoded.ok());
+  auto lod = converter::build_lod(*encoded, {});
+  REQUIRE(lod.ok());
+  const format::LodIndex& index = lod->index;
+  REQUIRE(index.chunk_count > 1);
+  REQUIRE(index.level_count > 2);
+  const fs::path dir = fresh_folder("streamed_errors");
+  const fs::path meta_path = dir / "lod-meta.json";
+  REQUIRE(converter::write_sog_lod(meta_path.string(), *converter::held_levels(*lod)).ok());
+  nlohmann::json meta = nlohmann::json::parse(read_text(meta_path));
+  CHECK(meta["lodErrors"] == true);
+  std::vector<nlohmann::json*> leaves;
+  collect_leaves(meta["tree"], &leaves);
+  REQUIRE(leaves.size() == index.chunk_count);  // one leaf per chunk, in the chunks' order
+  double largest = 0;
+  for (uint32_t c = 0; c < index.chunk_count; ++c) {
+    const nlohmann::json& leaf = *leaves[c];
+    REQUIRE(leaf["errors"].size() == index.level_count);
+    double half_squared = 0;  // half the bound's diagonal, squared
+    for (int a = 0; a < 3; ++a) {
+      const double d = leaf["bound"]["max"][a].get<double>() - leaf["bound"]["min"][a].get<double>();
+      half_squared += d * d / 4;
+    }
+    for (uint32_t l = 0; l < index.level_count; ++l) {
+      const double e = index.at(l, c).error;
+      CHECK(leaf["errors"][l].get<double>() == doctest::Approx(e * e / half_squared).epsilon(1e-9));
+      if (l > 0) CHECK(leaf["errors"][l].get<double>() >= leaf["errors"][l - 1].get<double>());
+      largest = std::max(largest, leaf["errors"][l].get<double>());
+    }
+    CHECK(leaf["errors"][0].get<double>() == 0);
+  }
+  CHECK(largest > 0);
+  auto back = converter::read_sog_lod(meta_path.string());
+  REQUIRE_MESSAGE(back.ok(), back.status().to_string());
+  REQUIRE(back->lod_errors.size() == leaves.size());
+  for (size_t k = 0; k < leaves.size(); ++k) {
+    CHECK(back->lod_errors[k] == (*leaves[k])["errors"].get<std::vector<double>>());  // exact: JSON keeps 17 digits
+  }
+
+  // Malformed tables are refused, naming the file and the leaf.
+  const nlohmann::json good = meta;
+  auto refused = [&](const char* what, const std::function<void(nlohmann::json&)>& damage, const char* expect) {
+    CAPTURE(what);
+    nlohmann::json bad = good;
+    damage(bad);
+    std::ofstream(meta_path, std::ios::binary | std::ios::trunc) << bad.dump();
+    auto r = converter::read_sog_lod(meta_path.string());
+    REQUIRE_FALSE(r.ok());
+    CHECK(r.status().code() == StatusCode::kCorruptData);
+    CHECK(r.status().message().find(meta_path.string()) != std::string::npos);
+    CHECK_MESSAGE(r.status().message().find(expect) != std::string::npos, r.status().message());
+  };
+  auto second_leaf = [](nlohmann::json& m) -> nlohmann::json& {
+    std::vector<nlohmann::json*> l;
+    collect_leaves(m["tree"], &l);
+    return *l[1];
+  };
+  refused("short", [&](nlohmann::json& m) { second_leaf(m)["errors"].erase(0); }, "tree leaf 1.errors' has");
+  refused("negative", [&](nlohmann::json& m) { second_leaf(m)["errors"][2] = -0.5; }, "errors[2]' is negative");
+  refused("not a number", [&](nlohmann::json& m) { second_leaf(m)["errors"][1] = "NaN"; }, "not a number");
+  refused("missing", [&](nlohmann::json& m) { second_leaf(m).erase("errors"); }, "missing field 'tree leaf 1.errors'");
+  refused("flag", [&](nlohmann::json& m) { m["lodErrors"] = "yes"; }, "'lodErrors' is not a boolean");
+  refused("undeclared", [&](nlohmann::json& m) {
+    m["lodErrors"] = false;
+    second_leaf(m)["errors"] = {0};
+  }, "tree leaf 1.errors' has 1 entries");
+  for (const char* token : {"NaN", "1e999"}) {  // JSON has no NaN, and the parser refuses an overflow
+    std::string text = good.dump();
+    const size_t open = text.find("\"errors\":[") + 10;
+    std::string table = "0";
+    for (uint32_t l = 2; l < index.level_count; ++l) table += ",0";
+    text.replace(open, text.find(']', open) - open, table + "," + token);
+    std::ofstream(meta_path, std::ios::binary | std::ios::trunc) << text;
+    auto r = converter::read_sog_lod(meta_path.string());
+    REQUIRE_FALSE(r.ok());
+    CHECK_MESSAGE(r.status().message().find(meta_path.string() + ": streamed SOG lod-meta.json: invalid JSON") == 0,
+                  r.status().message());
+  }
   fs::remove_all(dir);
 }
 

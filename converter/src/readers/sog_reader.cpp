@@ -751,9 +751,12 @@ struct LodReference {
   uint64_t file = 0, offset = 0, count = 0;
 };
 
+/// The references of level `lod` in `tree` into `out`; with `errors`, also every leaf's 'errors' table (the
+/// header declared 'lodErrors'), in tree order. A table holds `levels` finite non-negative numbers.
 Status collect_references(const json& tree, uint64_t levels, uint64_t files, uint32_t lod, const std::string& where,
-                          std::vector<LodReference>* out) {
+                          std::vector<LodReference>* out, std::vector<std::vector<double>>* errors) {
   std::vector<std::pair<const json*, size_t>> stack = {{&tree, 0}};
+  size_t leaves = 0;
   while (!stack.empty()) {
     const auto [node, depth] = stack.back();
     stack.pop_back();
@@ -762,6 +765,16 @@ Status collect_references(const json& tree, uint64_t levels, uint64_t files, uin
     auto lods = node->find("lods");
     if (lods != node->end()) {
       if (!lods->is_object()) return corrupt(where, "a node's 'lods' is a " + type_name(*lods) + ", not an object");
+      if (errors != nullptr || node->contains("errors")) {  // a table is checked even where it is not asked for
+        std::vector<double> table(levels);
+        const std::string leaf = "tree leaf " + std::to_string(leaves) + ".";
+        RGS_RETURN_IF_ERROR(number_array(*node, "errors", levels, where, leaf, table.data()));
+        for (size_t l = 0; l < levels; ++l) {
+          if (table[l] < 0) return corrupt(where, "field '" + leaf + "errors[" + std::to_string(l) + "]' is negative");
+        }
+        if (errors != nullptr) errors->push_back(std::move(table));
+      }
+      ++leaves;
       for (auto it = lods->begin(); it != lods->end(); ++it) {
         const std::string& key = it.key();
         uint64_t level = 0;
@@ -878,7 +891,11 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
   const auto& [levels, lod, names] = index;
   RGS_ASSIGN_OR_RETURN(const json* tree, member(root, "tree", path, ""));
   std::vector<LodReference> refs;
-  RGS_RETURN_IF_ERROR(collect_references(*tree, levels, names.size(), lod, path, &refs));
+  const auto flag = root.find("lodErrors");
+  if (flag != root.end() && !flag->is_boolean()) return corrupt(path, "'lodErrors' is not a boolean");
+  const bool with_errors = flag != root.end() && flag->get<bool>();
+  RGS_RETURN_IF_ERROR(
+      collect_references(*tree, levels, names.size(), lod, path, &refs, with_errors ? &scene.lod_errors : nullptr));
 
   // Group by file (ascending), ranges by offset; check totals before allocating anything for them.
   std::map<uint64_t, std::vector<LodReference>> by_file;

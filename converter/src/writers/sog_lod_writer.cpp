@@ -2,6 +2,7 @@
 // detail (converter::build_lod; docs/LOD.md "Streamed SOG out").
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -67,7 +68,7 @@ json build_tree(std::vector<json> nodes) {
 Status check_lod(const Levels& levels) {
   const format::LodIndex& index = levels.index();
   const uint64_t count = levels.head().count;
-  RGS_RETURN_ERROR_IF(index.chunk_count == 0 || index.level_count == 0 ||
+  RGS_RETURN_ERROR_IF(index.chunk_count == 0 || index.level_count == 0 || index.chunks.size() != index.chunk_count ||
                           index.levels.size() != uint64_t{index.chunk_count} * index.level_count,
                       StatusCode::kCorruptData,
                       "streamed SOG: the level-of-detail index has " + std::to_string(index.levels.size()) +
@@ -104,7 +105,22 @@ Result<std::vector<json>> chunk_leaves(const Levels& levels, const std::vector<L
         hi[a] = std::max(hi[a], static_cast<double>(level0.means[i * 3 + a]));
       }
     }
-    leaves[c] = {{"bound", {{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}}}, {"lods", json::object()}};
+    // PlayCanvas's error unit (docs/LOD.md "The error tables"): the level's error over the leaf's half
+    // diagonal, squared, so that the engine's screen coverage times it is the squared error in pixels.
+    const double half = 0.5 * std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                        (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    const double r = half > 0 ? half : index.chunks[c].radius;
+    json errors = json::array();
+    for (uint32_t l = 0; l < index.level_count; ++l) {
+      const double e = index.at(l, c).error;
+      errors.push_back(e > 0 ? (e / r) * (e / r) : 0.0);
+      RGS_RETURN_ERROR_IF(!std::isfinite(errors.back().get<double>()) || !(e >= 0), StatusCode::kCorruptData,
+                          "streamed SOG: chunk " + std::to_string(c) + " level " + std::to_string(l) + " has error " +
+                              std::to_string(e) + " over a chunk of radius " + std::to_string(r));
+    }
+    leaves[c] = {{"bound", {{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}}},
+                 {"lods", json::object()},
+                 {"errors", std::move(errors)}};
   }
   for (size_t f = 0; f < files.size(); ++f) {
     uint64_t offset = 0;
@@ -166,6 +182,7 @@ Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Le
     summary.limitations = written->limitations;
   }
   json meta = {{"lodLevels", index.level_count},
+               {"lodErrors", true},
                {"environment", nullptr},
                {"filenames", names},
                {"tree", build_tree(std::move(leaves))}};

@@ -53,12 +53,13 @@ Result<InputScene> read_sog(const std::string& path, const SceneReadOptions& opt
 
 /// Reads one level of detail (SceneReadOptions::lod, default 0) of a PlayCanvas streamed SOG: a
 /// lod-meta.json (`lodLevels`, `filenames`: chunk meta.json paths relative to it, `tree` of nodes whose
-/// `lods` map a level to {file, offset, count}; optional `version` 1 and per-level `counts`). Every chunk
+/// `lods` map a level to {file, offset, count}; optional `version` 1, per-level `counts`, and `lodErrors`
+/// with each leaf's `errors`: `lodLevels` finite non-negative numbers, into InputScene::lod_errors). Every chunk
 /// file the level references is read with the SOG rules above, in file-index order; within a chunk the
 /// referenced ranges are taken in offset order and must lie inside it without overlapping. Chunks are
 /// decoded in parallel (up to 16 threads, about 7 decoded images per thread in memory at once).
-/// Errors: those of read_sog, plus kInvalidArgument (lod ≥ lodLevels), kCorruptData (malformed tree or
-/// references, counts that disagree), kLimitExceeded (level total above max_gaussians).
+/// Errors: those of read_sog, plus kInvalidArgument (lod ≥ lodLevels), kCorruptData (malformed tree,
+/// references or error tables, counts that disagree), kLimitExceeded (level total above max_gaussians).
 Result<InputScene> read_sog_lod(const std::string& path, const SceneReadOptions& options = {});
 
 }  // namespace rgs::converter

@@ -97,6 +97,10 @@ struct InputScene {
   /// What the input said that the cloud cannot hold or that was ignored, and the frame conversion applied,
   /// one sentence each (SPZ, glTF, .ksplat, .splat: InteropScene::notes); empty for the other formats.
   std::vector<std::string> notes;
+  /// Streamed SOG inputs whose lod-meta.json declares 'lodErrors': each leaf's 'errors' table in tree order,
+  /// one value per level (PlayCanvas's dimensionless error against the leaf's finest level; docs/LOD.md
+  /// "The error tables"). Else empty.
+  std::vector<std::vector<double>> lod_errors;
 };
 
 /// Reads the scene at `path`, detecting its format from its content (magic bytes, PLY header elements,

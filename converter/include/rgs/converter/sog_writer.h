@@ -89,15 +89,17 @@ inline constexpr uint64_t kSogLodFileGaussians = 524288;
 
 /// Writes the levels of detail `levels` (converter::build_lod's, or build_lod_out_of_core's: the same bytes) as a
 /// PlayCanvas streamed SOG, one file's Gaussians read at a time:
-/// `lod_meta_path` (lod-meta.json: `lodLevels`, `environment` null, `filenames` "L_K/meta.json", and a
-/// binary `tree` over the chunks in their Morton order, each node with its `bound` {min, max} of the chunk's
-/// level-0 means, each leaf with `lods` {level: {file, offset, count}}) and, next to it, one folder "L_K" per
-/// file: SOG v2 (encode_sog) of consecutive chunks of level L, up to kSogLodFileGaussians Gaussians. The
-/// Gaussians are the dequantized runtime-profile values of `levels`. Every file is declared to `files`
-/// before the first is written, the folders are created through it (FileSink::create_folder), lod-meta.json
-/// is written last; given an output transaction, a failure or an interrupt leaves nothing new and changes
-/// nothing that existed. read_sog_lod reads level l back in chunk order. Errors: as encode_sog, kIoError naming the file
-/// or folder, kCorruptData (an inconsistent `lod`).
+/// `lod_meta_path` (lod-meta.json: `lodLevels`, `lodErrors` true, `environment` null, `filenames`
+/// "L_K/meta.json", and a binary `tree` over the chunks in their Morton order, each node with its `bound`
+/// {min, max} of the chunk's level-0 means, each leaf with `lods` {level: {file, offset, count}} and `errors`,
+/// one per level: (level error / half the bound's diagonal, or the chunk radius for a point bound)², docs/LOD.md)
+/// and, next to it, one folder "L_K" per file: SOG v2 (encode_sog) of consecutive chunks of level L, up to
+/// kSogLodFileGaussians Gaussians. The Gaussians are the dequantized runtime-profile values of `levels`.
+/// Every file is declared to `files` before the first is written, the folders are created through it
+/// (FileSink::create_folder), lod-meta.json is written last; given an output transaction, a failure or an
+/// interrupt leaves nothing new and changes nothing that existed. read_sog_lod reads level l back in chunk
+/// order. Errors: as encode_sog, kIoError naming the file or folder, kCorruptData (an inconsistent `lod`, or a
+/// level error that gives no finite table entry).
 Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Levels& levels,
                                       const SogWriteOptions& options = {},
                                       format::FileSink& files = format::atomic_files());
