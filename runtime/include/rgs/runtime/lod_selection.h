@@ -15,9 +15,9 @@ struct LodBudget {
   /// Most Gaussians (splats) a frame draws; 0: no limit.
   uint64_t max_splats = 0;
   /// Largest projected error a level may show, in pixels (SPEC §4.9.1: error · f / d): the floor of select_lod.
-  /// The default draws with the measured errors about what 4 px drew with the cell diagonals, the largest error
-  /// whose frames stayed within 1 dB of the full detail's against its supersampled render (docs/LOD.md).
-  float pixel_error = 1.5f;
+  /// The default is the largest error whose frames stay within 1 dB of the full detail's against its supersampled
+  /// render on every measured scene (docs/LOD.md#the-default-pixel-error).
+  float pixel_error = 2.0f;
 };
 
 /// One chunk a frame draws, at one level.
