@@ -68,22 +68,15 @@ void jacobi_eigen(double a[3][3], double values[3], double v[3][3]) {
       const double c = 1 / std::sqrt(t * t + 1);
       const double s = t * c;
       // a ← Jᵀ a J and v ← v J, J the identity with J[p][p] = J[q][q] = c, J[p][q] = s, J[q][p] = −s.
-      for (int k = 0; k < 3; ++k) {  // columns p, q
-        const double akp = a[k][p], akq = a[k][q];
-        a[k][p] = c * akp - s * akq;
-        a[k][q] = s * akp + c * akq;
-      }
-      for (int k = 0; k < 3; ++k) {  // rows p, q
-        const double apk = a[p][k], aqk = a[q][k];
-        a[p][k] = c * apk - s * aqk;
-        a[q][k] = s * apk + c * aqk;
-      }
+      const auto rotate = [c, s](double& x, double& y) {  // (x, y) ← (c x − s y, s x + c y)
+        const double x0 = x, y0 = y;
+        x = c * x0 - s * y0;
+        y = s * x0 + c * y0;
+      };
+      for (int k = 0; k < 3; ++k) rotate(a[k][p], a[k][q]);  // columns p, q
+      for (int k = 0; k < 3; ++k) rotate(a[p][k], a[q][k]);  // rows p, q
       a[p][q] = a[q][p] = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double vkp = v[k][p], vkq = v[k][q];
-        v[k][p] = c * vkp - s * vkq;
-        v[k][q] = s * vkp + c * vkq;
-      }
+      for (int k = 0; k < 3; ++k) rotate(v[k][p], v[k][q]);
     }
   }
   for (int i = 0; i < 3; ++i) values[i] = a[i][i];
