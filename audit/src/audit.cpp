@@ -488,16 +488,13 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
 }
 
 Result<AuditResult> audit_files(const AuditFiles& files, AuditOptions options) {
-  const auto notes = [&](const std::vector<std::string>& n) {
-    if (files.on_notes) files.on_notes(n);
-  };
   RGS_ASSIGN_OR_RETURN(const AuditScene source, load_audit_scene(files.source, "source", files.read));
-  notes(source.info.notes);
+  files.on_notes(source.info.notes);
   std::vector<AuditScene> candidates;
   for (size_t i = 0; i < files.candidates.size(); ++i) {
     const std::string label = i < files.labels.size() ? files.labels[i] : std::string();
     RGS_ASSIGN_OR_RETURN(AuditScene scene, load_audit_scene(files.candidates[i], label, files.read));
-    notes(scene.info.notes);
+    files.on_notes(scene.info.notes);
     candidates.push_back(std::move(scene));
   }
   for (size_t i = 0, n = files.attribution ? candidates.size() : 0; i < n; ++i) {
@@ -509,7 +506,7 @@ Result<AuditResult> audit_files(const AuditFiles& files, AuditOptions options) {
   const api::CameraChoice& v = files.views;
   if (!files.cameras && v.cameras_path.empty() && v.orbit == 0 && v.path == 0) {
     RGS_ASSIGN_OR_RETURN(api::DefaultViews found, api::default_views(files.source, source.cloud, v));
-    notes({found.note});
+    files.on_notes({found.note});
     cameras = std::move(found.cameras);
     views_note = std::move(found.note);
   } else if (!files.cameras) {

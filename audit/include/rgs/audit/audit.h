@@ -200,8 +200,8 @@ struct AuditFiles {
   std::optional<std::vector<runtime::Camera>> cameras;
   api::CameraChoice views;
   /// Called with each scene's reader notes as it is loaded (SceneInfo::notes), then with default_views' note
-  /// when it chose the views; may be empty.
-  std::function<void(const std::vector<std::string>& notes)> on_notes;
+  /// when it chose the views.
+  std::function<void(const std::vector<std::string>& notes)> on_notes = [](const std::vector<std::string>&) {};
   /// Called once the scenes are loaded and the views chosen, before the first render, with the candidates
   /// (attribution scenes included), the views and the options run_audit takes, which it may change (e.g. to set
   /// AuditOptions::on_render); may be empty. An error stops the audit with that error.
