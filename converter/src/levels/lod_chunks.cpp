@@ -126,6 +126,10 @@ double drawn_area(const double s[3], double dilation2) {
   return d[0] * d[1] + d[0] * d[2] + d[1] * d[2];
 }
 
+/// Row and column of the six entries of a symmetric 3x3 matrix's upper triangle, in merge_cell's moment order.
+constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
+constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
+
 /// Merges Gaussians [b, e) of `out` into Gaussian `p` of `out` (moment matching; lod_builder.h has the
 /// rule), clamping the mean into [lo, hi]. `dilation2`: the low-pass in world units² (δ² of lod_builder.h).
 void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, const Layout& t, const float lo[3],
@@ -178,8 +182,6 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
       const double s = linear_scale(out->scales[g * 3 + a], t.log_scale);
       s2[a] = s * s;
     }
-    static constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
-    static constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
     for (int u = 0; u < 6; ++u) {
       const int ra = kRow[u], cb = kCol[u];
       const double cov = r[ra][0] * r[cb][0] * s2[0] + r[ra][1] * r[cb][1] * s2[1] + r[ra][2] * r[cb][2] * s2[2];
@@ -200,13 +202,9 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
   double mean_offset[3];
   for (int a = 0; a < 3; ++a) mean_offset[a] = first[a] * inv_w;
   double cov[3][3];
-  {
-    static constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
-    static constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
-    for (int u = 0; u < 6; ++u) {
-      const int ra = kRow[u], cb = kCol[u];
-      cov[ra][cb] = cov[cb][ra] = second[u] * inv_w - mean_offset[ra] * mean_offset[cb];
-    }
+  for (int u = 0; u < 6; ++u) {
+    const int ra = kRow[u], cb = kCol[u];
+    cov[ra][cb] = cov[cb][ra] = second[u] * inv_w - mean_offset[ra] * mean_offset[cb];
   }
   double values[3], vectors[3][3];
   jacobi_eigen(cov, values, vectors);
