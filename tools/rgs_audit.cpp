@@ -267,9 +267,8 @@ Status save_render(const Options& opt, format::OutputTransaction& outputs, const
   return tools::write_image8(outputs, path, rgba.width, rgba.height, 3, runtime::to_8bit(rgb));
 }
 
-/// Loads the source (the first scene) and the candidates, their reader notes printed, and audits them on the
-/// backend --backend chooses: an explicit --backend cuda without a device fails before any loading. Every
-/// scene goes through audit::load_audit_scene, the one place that picks a reader.
+/// Audits the files (audit::audit_files, the one place that loads, pairs and chooses the views), their reader notes
+/// printed, on the backend --backend chooses: an explicit --backend cuda without a device fails before any loading.
 Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction& outputs) {
   audit::AuditOptions options;
   std::string why;
@@ -284,38 +283,14 @@ Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction
   options.keep_worst_heatmap = !opt.heatmap_path.empty();
   options.cpu_threads = opt.render.cpu_threads;
 
-  RGS_ASSIGN_OR_RETURN(const audit::AuditScene source,
-                       audit::load_audit_scene(opt.scenes[0], "source", tools::scene_read_options()));
-  tools::report_notes(kTool, source.info.notes, opt.quiet);
-  std::vector<audit::AuditScene> candidates;
-  for (size_t i = 1; i < opt.scenes.size(); ++i) {
-    const std::string label = i - 1 < opt.labels.size() ? opt.labels[i - 1] : std::string();
-    RGS_ASSIGN_OR_RETURN(audit::AuditScene scene,
-                         audit::load_audit_scene(opt.scenes[i], label, tools::scene_read_options()));
-    tools::report_notes(kTool, scene.info.notes, opt.quiet);
-    candidates.push_back(std::move(scene));
-  }
-  if (opt.attribution) {
-    const size_t files = candidates.size();
-    for (size_t i = 0; i < files; ++i) {
-      RGS_ASSIGN_OR_RETURN(std::vector<audit::AuditScene> hybrids, audit::attribution_scenes(source, candidates[i]));
-      for (audit::AuditScene& h : hybrids) candidates.push_back(std::move(h));
-    }
-  }
-  std::vector<runtime::Camera> cameras;
-  if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
-    RGS_ASSIGN_OR_RETURN(api::DefaultViews found, api::default_views(opt.scenes[0], source.cloud, opt.cameras));
-    tools::report_notes(kTool, {found.note}, opt.quiet);
-    cameras = std::move(found.cameras);
-  } else {
-    RGS_ASSIGN_OR_RETURN(cameras, api::make_cameras(opt.cameras, api::content_frame(source.cloud)));
-  }
-
-  std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
-               audit::backend_name(options.backend),
-               options.backend == audit::Backend::kCpu && opt.render.backend == "auto"
-                   ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
-               cameras.size(), candidates.size(), candidates.size() == 1 ? "" : "s");
+  audit::AuditFiles files;
+  files.source = opt.scenes[0];
+  files.candidates.assign(opt.scenes.begin() + 1, opt.scenes.end());
+  files.labels = opt.labels;
+  files.read = tools::scene_read_options();
+  files.attribution = opt.attribution;
+  files.views = opt.cameras;
+  files.on_notes = [&](const std::vector<std::string>& notes) { tools::report_notes(kTool, notes, opt.quiet); };
   auto last_print = Clock::now() - std::chrono::hours(1);
   options.progress = [&](const audit::AuditProgress& p) {
     const auto now = Clock::now();
@@ -328,15 +303,23 @@ Result<audit::AuditResult> measure(const Options& opt, format::OutputTransaction
                  tools::fixed(p.remaining_s, 0).c_str());
   };
   std::vector<std::string> folders, names;  // --save-renders: a folder per scene (the source's first), a name per view
-  if (!opt.renders_dir.empty()) {
+  files.before_render = [&](const std::vector<audit::AuditScene>& candidates,
+                            const std::vector<runtime::Camera>& cameras, audit::AuditOptions& run_options) -> Status {
+    std::fprintf(stderr, "%s: backend %s%s, %zu views x %zu candidate%s\n", kTool,
+                 audit::backend_name(run_options.backend),
+                 run_options.backend == audit::Backend::kCpu && opt.render.backend == "auto"
+                     ? (" (no CUDA device: " + tools::escape_text(why) + ")").c_str() : "",
+                 cameras.size(), candidates.size(), candidates.size() == 1 ? "" : "s");
+    if (opt.renders_dir.empty()) return Status();
     RGS_ASSIGN_OR_RETURN(folders, render_folders(opt, candidates, outputs));
     for (const runtime::Camera& camera : cameras) names.push_back(camera.name);
     names = tools::file_safe_names(names);
-    options.on_render = [&](size_t view, size_t scene, const runtime::ImageRef& rgba) {
+    run_options.on_render = [&](size_t view, size_t scene, const runtime::ImageRef& rgba) {
       return save_render(opt, outputs, (std::filesystem::path(folders[scene]) / names[view]).string(), rgba);
     };
-  }
-  return audit::run_audit(source, candidates, cameras, options);
+    return Status();
+  };
+  return audit::audit_files(files, std::move(options));
 }
 
 /// "foreground PSNR" or "whole-frame PSNR": what a verdict compares.

@@ -174,18 +174,16 @@ format::Provenance rgs_provenance(const std::string& source_file, const ConvertO
   };
 }
 
-converter::QuantizeOptions rgs_quantize_options(const ConvertOptions& options) {
-  converter::QuantizeOptions quantize;
-  quantize.scale_encoding = options.scale_encoding;
-  quantize.sh_clip_percentile = options.sh_clip_percentile;
-  quantize.sh_dc_bits = options.profile == format::StorageProfile::kArchive ? 8 : options.sh_dc_bits;
-  return quantize;
-}
-
 converter::QuantizeOptions sog_lod_quantize_options(const ConvertOptions& options) {
   converter::QuantizeOptions quantize;
   quantize.scale_encoding = options.scale_encoding;
   quantize.sh_clip_percentile = options.sh_clip_percentile;
+  return quantize;
+}
+
+converter::QuantizeOptions rgs_quantize_options(const ConvertOptions& options) {
+  converter::QuantizeOptions quantize = sog_lod_quantize_options(options);
+  quantize.sh_dc_bits = options.profile == format::StorageProfile::kArchive ? 8 : options.sh_dc_bits;
   return quantize;
 }
 

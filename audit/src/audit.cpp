@@ -487,4 +487,35 @@ Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditS
   return result;
 }
 
+Result<AuditResult> audit_files(const AuditFiles& files, AuditOptions options) {
+  RGS_ASSIGN_OR_RETURN(const AuditScene source, load_audit_scene(files.source, "source", files.read));
+  files.on_notes(source.info.notes);
+  std::vector<AuditScene> candidates;
+  for (size_t i = 0; i < files.candidates.size(); ++i) {
+    const std::string label = i < files.labels.size() ? files.labels[i] : std::string();
+    RGS_ASSIGN_OR_RETURN(AuditScene scene, load_audit_scene(files.candidates[i], label, files.read));
+    files.on_notes(scene.info.notes);
+    candidates.push_back(std::move(scene));
+  }
+  for (size_t i = 0, n = files.attribution ? candidates.size() : 0; i < n; ++i) {
+    RGS_ASSIGN_OR_RETURN(std::vector<AuditScene> hybrids, attribution_scenes(source, candidates[i]));
+    for (AuditScene& h : hybrids) candidates.push_back(std::move(h));
+  }
+  std::vector<runtime::Camera> cameras = files.cameras.value_or(std::vector<runtime::Camera>());
+  std::string views_note;
+  const api::CameraChoice& v = files.views;
+  if (!files.cameras && v.cameras_path.empty() && v.orbit == 0 && v.path == 0) {
+    RGS_ASSIGN_OR_RETURN(api::DefaultViews found, api::default_views(files.source, source.cloud, v));
+    files.on_notes({found.note});
+    cameras = std::move(found.cameras);
+    views_note = std::move(found.note);
+  } else if (!files.cameras) {
+    RGS_ASSIGN_OR_RETURN(cameras, api::make_cameras(v, api::content_frame(source.cloud)));
+  }
+  if (files.before_render) RGS_RETURN_IF_ERROR(files.before_render(candidates, cameras, options));
+  RGS_ASSIGN_OR_RETURN(AuditResult result, run_audit(source, candidates, cameras, options));
+  result.views_note = std::move(views_note);
+  return result;
+}
+
 }  // namespace rgs::audit

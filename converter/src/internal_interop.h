@@ -173,6 +173,15 @@ Result<T> guarded(const std::string& name, const char* activity, Fn&& fn) {
   }
 }
 
+/// guarded() over a reader's `size` bytes at `data`: kInvalidArgument for null data of non-zero size, else `fn`.
+template <typename T, typename Fn>
+Result<T> guarded_bytes(const uint8_t* data, size_t size, const std::string& name, const char* activity, Fn&& fn) {
+  return guarded<T>(name, activity, [&]() -> Result<T> {
+    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
+    return fn();
+  });
+}
+
 /// The SPZ and glTF writers' precondition: check_cloud_shape, and every value finite.
 /// Errors: kInvalidArgument.
 Status check_writable_cloud(const format::GaussianCloud& cloud);

@@ -60,49 +60,28 @@ void bind_audit(py::module_& m) {
               one ? std::vector<std::filesystem::path>{path_arg(candidates_in, fn, "candidates")}
                   : cast_arg<std::vector<std::filesystem::path>>(candidates_in, fn, "candidates",
                                                                   "a path (str or os.PathLike) or a sequence of them");
-          const converter::SceneReadOptions read = read_options(spz_frame);
           audit::AuditOptions options;
           options.worst_views = 0;
           const bool cuda = resolve_device(str_arg(device, fn, "device")) == api::Device::kCuda;
           options.backend = cuda ? audit::Backend::kCuda : audit::Backend::kCpu;
+          audit::AuditFiles files;  // as rgs-audit: the scene's own cameras.json, else views guessed from its content
+          files.source = source.string();
+          for (const auto& c : candidates) files.candidates.push_back(c.string());
+          files.read = read_options(spz_frame);
+          files.cameras = cameras;
+          files.views.orbit = orbit.value_or(0);
+          files.views.width = files.views.orbit_width = width;
+          files.views.height = files.views.orbit_height = height;
           Result<audit::AuditResult> result = Status(StatusCode::kInvalidArgument, "not audited");
-          std::string views_note;
           {
             py::gil_scoped_release release;
-            auto run = [&]() -> Result<audit::AuditResult> {
-              RGS_ASSIGN_OR_RETURN(audit::AuditScene src, audit::load_audit_scene(source.string(), "", read));
-              std::vector<audit::AuditScene> scenes;
-              for (const auto& c : candidates) {
-                RGS_ASSIGN_OR_RETURN(audit::AuditScene scene, audit::load_audit_scene(c.string(), "", read));
-                scenes.push_back(std::move(scene));
-              }
-              std::vector<api::Camera> views;
-              if (cameras) {
-                views = *cameras;
-              } else if (orbit) {
-                api::CameraChoice choice;
-                choice.orbit = *orbit;
-                choice.orbit_width = width;
-                choice.orbit_height = height;
-                RGS_ASSIGN_OR_RETURN(views, api::make_cameras(choice, api::content_frame(src.cloud)));
-              } else {  // as rgs-audit: the scene's own cameras.json, else views guessed from its content
-                api::CameraChoice choice;
-                choice.width = width;
-                choice.height = height;
-                RGS_ASSIGN_OR_RETURN(api::DefaultViews found,
-                                     api::default_views(source.string(), src.cloud, choice));
-                views = std::move(found.cameras);
-                views_note = std::move(found.note);
-              }
-              return audit::run_audit(src, scenes, views, options);
-            };
-            result = run();
+            result = audit::audit_files(files, options);
           }
           const audit::AuditResult r = unwrap(std::move(result));
           py::dict d;
           d["device"] = r.device;
           d["views"] = r.views.size();
-          if (!views_note.empty()) d["views_note"] = views_note;
+          if (!r.views_note.empty()) d["views_note"] = r.views_note;
           d["source"] = py::dict(py::arg("path") = r.source.path, py::arg("format") = r.source.format,
                                  py::arg("bytes") = r.source.file_bytes, py::arg("gaussians") = r.source.gaussians);
           py::list out;

@@ -126,6 +126,8 @@ class FramePipeline {
   /// `buffer` back to the spares with `bytes` of `charge`; beyond kSpareBuffers it is freed.
   void keep_spare(std::vector<uint8_t> buffer, Charge charge);
   void frame_dropped();
+  /// Runs `change` under mutex_, then wakes every thread waiting on changed_.
+  void update(const std::function<void()>& change);
 
   /// Host image buffers kept between frames: two frames (one rendering, one encoding) of two images each.
   static constexpr size_t kSpareBuffers = 4;

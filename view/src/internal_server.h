@@ -27,6 +27,12 @@
 
 namespace rgs::view {
 
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+
 namespace detail {
 
 class WsSession;
@@ -50,9 +56,9 @@ struct Server::Impl {
   detail::AdmissionPolicy admission;
   detail::FrameBudget budget;
   detail::ConnectionTable connections{detail::kMaxConnections, detail::kMaxConnectionsPerPeer};
-  std::unique_ptr<boost::asio::io_context> ioc;
-  std::unique_ptr<boost::asio::ip::tcp::acceptor> acceptor;
-  std::unique_ptr<boost::asio::steady_timer> accept_retry;
+  std::unique_ptr<net::io_context> ioc;
+  std::unique_ptr<tcp::acceptor> acceptor;
+  std::unique_ptr<net::steady_timer> accept_retry;
   std::vector<std::thread> threads;
   std::string token, url;
   uint16_t port = 0;
@@ -83,15 +89,15 @@ namespace detail {
 
 /// Serves a new TCP connection: admits it to `server.connections` (evicting an idle one when over a bound, or
 /// closing it when none can go) and reads its requests.
-void serve_connection(boost::asio::ip::tcp::socket socket, Server::Impl& server);
+void serve_connection(tcp::socket socket, Server::Impl& server);
 
 /// Completes the WebSocket upgrade `request` (admitted by admit_request) on `socket` and serves the client;
 /// `ticket` is its place among the connections until it takes a client slot.
-void serve_websocket(boost::asio::ip::tcp::socket socket, Server::Impl& server, ConnectionTicket ticket,
-                     boost::beast::http::request<boost::beast::http::empty_body> request);
+void serve_websocket(tcp::socket socket, Server::Impl& server, ConnectionTicket ticket,
+                     http::request<http::empty_body> request);
 
 /// Closes `session` with `code` after what it is writing (from any thread).
-void close_websocket(const std::shared_ptr<WsSession>& session, boost::beast::websocket::close_code code);
+void close_websocket(const std::shared_ptr<WsSession>& session, websocket::close_code code);
 
 }  // namespace detail
 

@@ -38,40 +38,36 @@ FramePipeline::~FramePipeline() {
   if (encode_thread_.joinable()) encode_thread_.join();
 }
 
-void FramePipeline::submit(const ViewRequest& view) {
+void FramePipeline::update(const std::function<void()>& change) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    pending_ = view;
-    interrupted_.store(true);
+    change();
   }
   changed_.notify_all();
+}
+
+void FramePipeline::submit(const ViewRequest& view) {
+  update([&] {
+    pending_ = view;
+    interrupted_.store(true);
+  });
   budget_.wake();
 }
 
 void FramePipeline::frame_sent() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
+  update([&] {
     frame_in_flight_ = false;
     --unsent_frames_;
-  }
-  changed_.notify_all();
+  });
 }
 
-void FramePipeline::frame_dropped() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    --unsent_frames_;
-  }
-  changed_.notify_all();
-}
+void FramePipeline::frame_dropped() { update([&] { --unsent_frames_; }); }
 
 void FramePipeline::stop() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
+  update([&] {
     stopping_ = true;
     interrupted_.store(true);
-  }
-  changed_.notify_all();
+  });
   budget_.wake();
 }
 

@@ -15,12 +15,6 @@
 
 namespace rgs::view {
 
-namespace beast = boost::beast;
-namespace http = beast::http;
-namespace websocket = beast::websocket;
-namespace net = boost::asio;
-using tcp = net::ip::tcp;
-
 namespace {
 
 // After an accept error other than the acceptor closing (out of file descriptors), the next try.

@@ -11,12 +11,6 @@
 
 namespace rgs::view::detail {
 
-namespace beast = boost::beast;
-namespace http = beast::http;
-namespace websocket = beast::websocket;
-namespace net = boost::asio;
-using tcp = net::ip::tcp;
-
 namespace {
 
 constexpr size_t kMaxQueuedTexts = 16;  // pongs and errors waiting to be written; more pongs are dropped

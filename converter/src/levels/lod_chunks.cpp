@@ -68,22 +68,15 @@ void jacobi_eigen(double a[3][3], double values[3], double v[3][3]) {
       const double c = 1 / std::sqrt(t * t + 1);
       const double s = t * c;
       // a ← Jᵀ a J and v ← v J, J the identity with J[p][p] = J[q][q] = c, J[p][q] = s, J[q][p] = −s.
-      for (int k = 0; k < 3; ++k) {  // columns p, q
-        const double akp = a[k][p], akq = a[k][q];
-        a[k][p] = c * akp - s * akq;
-        a[k][q] = s * akp + c * akq;
-      }
-      for (int k = 0; k < 3; ++k) {  // rows p, q
-        const double apk = a[p][k], aqk = a[q][k];
-        a[p][k] = c * apk - s * aqk;
-        a[q][k] = s * apk + c * aqk;
-      }
+      const auto rotate = [c, s](double& x, double& y) {  // (x, y) ← (c x − s y, s x + c y)
+        const double x0 = x, y0 = y;
+        x = c * x0 - s * y0;
+        y = s * x0 + c * y0;
+      };
+      for (int k = 0; k < 3; ++k) rotate(a[k][p], a[k][q]);  // columns p, q
+      for (int k = 0; k < 3; ++k) rotate(a[p][k], a[q][k]);  // rows p, q
       a[p][q] = a[q][p] = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double vkp = v[k][p], vkq = v[k][q];
-        v[k][p] = c * vkp - s * vkq;
-        v[k][q] = s * vkp + c * vkq;
-      }
+      for (int k = 0; k < 3; ++k) rotate(v[k][p], v[k][q]);
     }
   }
   for (int i = 0; i < 3; ++i) values[i] = a[i][i];
@@ -132,6 +125,10 @@ double drawn_area(const double s[3], double dilation2) {
   for (int a = 0; a < 3; ++a) d[a] = std::sqrt(s[a] * s[a] + dilation2);
   return d[0] * d[1] + d[0] * d[2] + d[1] * d[2];
 }
+
+/// Row and column of the six entries of a symmetric 3x3 matrix's upper triangle, in merge_cell's moment order.
+constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
+constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
 
 /// Merges Gaussians [b, e) of `out` into Gaussian `p` of `out` (moment matching; lod_builder.h has the
 /// rule), clamping the mean into [lo, hi]. `dilation2`: the low-pass in world units² (δ² of lod_builder.h).
@@ -185,8 +182,6 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
       const double s = linear_scale(out->scales[g * 3 + a], t.log_scale);
       s2[a] = s * s;
     }
-    static constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
-    static constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
     for (int u = 0; u < 6; ++u) {
       const int ra = kRow[u], cb = kCol[u];
       const double cov = r[ra][0] * r[cb][0] * s2[0] + r[ra][1] * r[cb][1] * s2[1] + r[ra][2] * r[cb][2] * s2[2];
@@ -207,13 +202,9 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
   double mean_offset[3];
   for (int a = 0; a < 3; ++a) mean_offset[a] = first[a] * inv_w;
   double cov[3][3];
-  {
-    static constexpr int kRow[6] = {0, 0, 0, 1, 1, 2};
-    static constexpr int kCol[6] = {0, 1, 2, 1, 2, 2};
-    for (int u = 0; u < 6; ++u) {
-      const int ra = kRow[u], cb = kCol[u];
-      cov[ra][cb] = cov[cb][ra] = second[u] * inv_w - mean_offset[ra] * mean_offset[cb];
-    }
+  for (int u = 0; u < 6; ++u) {
+    const int ra = kRow[u], cb = kCol[u];
+    cov[ra][cb] = cov[cb][ra] = second[u] * inv_w - mean_offset[ra] * mean_offset[cb];
   }
   double values[3], vectors[3][3];
   jacobi_eigen(cov, values, vectors);

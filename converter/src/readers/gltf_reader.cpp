@@ -832,10 +832,8 @@ Result<InteropScene> read_gltf(const std::string& path, const InteropReadOptions
 
 Result<InteropScene> read_gltf_bytes(const uint8_t* data, size_t size, const std::string& name,
                                      const InteropReadOptions& options) {
-  return detail::guarded<InteropScene>(name, "decoding the glTF file", [&]() -> Result<InteropScene> {
-    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
-    return read_document(data, size, nullptr, options);
-  });
+  return detail::guarded_bytes<InteropScene>(data, size, name, "decoding the glTF file",
+                                             [&] { return read_document(data, size, nullptr, options); });
 }
 
 namespace detail {

@@ -226,10 +226,8 @@ Result<InteropScene> read_ksplat(const std::string& path, const InteropReadOptio
 
 Result<InteropScene> read_ksplat_bytes(const uint8_t* data, size_t size, const std::string& name,
                                        const InteropReadOptions& options) {
-  return detail::guarded<InteropScene>(name, "decoding the .ksplat file", [&]() -> Result<InteropScene> {
-    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
-    return read_buffer(data, size, options);
-  });
+  return detail::guarded_bytes<InteropScene>(data, size, name, "decoding the .ksplat file",
+                                             [&] { return read_buffer(data, size, options); });
 }
 
 }  // namespace rgs::converter

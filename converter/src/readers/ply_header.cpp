@@ -46,22 +46,24 @@ Status header_error(size_t line, const std::string& what) {
   return Status(StatusCode::kCorruptData, "PLY header line " + std::to_string(line) + ": " + what);
 }
 
+/// Every PLY type name, the first of each type its canonical name (ply_type_name).
+struct PlyTypeName {
+  const char* name;
+  PlyType type;
+};
+constexpr PlyTypeName kPlyTypes[] = {
+    {"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
+    {"uint8", PlyType::kUint8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+    {"ushort", PlyType::kUint16},  {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
+    {"int32", PlyType::kInt32},    {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
+    {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+    {"float64", PlyType::kFloat64},
+};
+
 }  // namespace
 
 bool parse_ply_type(const std::string& name, PlyType* type) {
-  struct Entry {
-    const char* name;
-    PlyType type;
-  };
-  static const Entry kTypes[] = {
-      {"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
-      {"uint8", PlyType::kUint8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
-      {"ushort", PlyType::kUint16},  {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
-      {"int32", PlyType::kInt32},    {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
-      {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
-      {"float64", PlyType::kFloat64},
-  };
-  for (const Entry& e : kTypes) {
+  for (const PlyTypeName& e : kPlyTypes) {
     if (name == e.name) {
       *type = e.type;
       return true;
@@ -71,15 +73,8 @@ bool parse_ply_type(const std::string& name, PlyType* type) {
 }
 
 const char* ply_type_name(PlyType type) {
-  switch (type) {
-    case PlyType::kInt8: return "char";
-    case PlyType::kUint8: return "uchar";
-    case PlyType::kInt16: return "short";
-    case PlyType::kUint16: return "ushort";
-    case PlyType::kInt32: return "int";
-    case PlyType::kUint32: return "uint";
-    case PlyType::kFloat32: return "float";
-    case PlyType::kFloat64: return "double";
+  for (const PlyTypeName& e : kPlyTypes) {
+    if (type == e.type) return e.name;
   }
   return "?";
 }

@@ -743,8 +743,7 @@ Result<PlyScene> read_ply(const std::string& path, const PlyReadOptions& options
 
 Result<PlyScene> read_ply_bytes(const uint8_t* data, size_t size, const std::string& name,
                                 const PlyReadOptions& options) {
-  return detail::guarded<PlyScene>(name, "decoding the PLY", [&]() -> Result<PlyScene> {
-    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
+  return detail::guarded_bytes<PlyScene>(data, size, name, "decoding the PLY", [&]() -> Result<PlyScene> {
     MemorySource source(data, size);
     return read_from_source(&source, options);
   });

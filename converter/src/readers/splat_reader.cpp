@@ -113,10 +113,8 @@ Result<InteropScene> read_splat(const std::string& path, const InteropReadOption
 
 Result<InteropScene> read_splat_bytes(const uint8_t* data, size_t size, const std::string& name,
                                       const InteropReadOptions& options) {
-  return detail::guarded<InteropScene>(name, "decoding the .splat file", [&]() -> Result<InteropScene> {
-    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
-    return read_records(data, size, options);
-  });
+  return detail::guarded_bytes<InteropScene>(data, size, name, "decoding the .splat file",
+                                             [&] { return read_records(data, size, options); });
 }
 
 }  // namespace rgs::converter

@@ -519,10 +519,8 @@ Result<InteropScene> read_spz(const std::string& path, const InteropReadOptions&
 
 Result<InteropScene> read_spz_bytes(const uint8_t* data, size_t size, const std::string& name,
                                     const InteropReadOptions& options) {
-  return detail::guarded<InteropScene>(name, "decoding the SPZ file", [&]() -> Result<InteropScene> {
-    if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
-    return read_any(data, size, options);
-  });
+  return detail::guarded_bytes<InteropScene>(data, size, name, "decoding the SPZ file",
+                                             [&] { return read_any(data, size, options); });
 }
 
 }  // namespace rgs::converter

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "rgs/api/camera.h"
 #include "rgs/audit/audit_scene.h"
 #include "rgs/converter/attribute_errors.h"
 #include "rgs/format/metadata.h"
@@ -172,6 +173,8 @@ struct AuditResult {
   std::vector<ViewInfo> views;
   std::vector<CandidateResult> candidates;
   double render_seconds = 0;  ///< the per-view loop (uploads and CUDA set-up included)
+  /// audit_files: how default_views chose the views when no camera was named (DefaultViews::note); else empty.
+  std::string views_note;
 };
 
 /// Renders every camera for the source and every candidate, compares, and summarizes. The source is
@@ -182,5 +185,35 @@ struct AuditResult {
 ///         (naming the scene and the view), kCudaError / kOutOfMemory from the GPU.
 Result<AuditResult> run_audit(const AuditScene& source, const std::vector<AuditScene>& candidates,
                               const std::vector<runtime::Camera>& cameras, const AuditOptions& options);
+
+/// The files and views of one audit, as rgs-audit and roofgs.audit() name them (audit_files).
+struct AuditFiles {
+  std::string source;                   ///< the source scene's path; its label is "source"
+  std::vector<std::string> candidates;  ///< the candidate scenes' paths, at least one
+  /// Labels of the first candidates, in order; the others get load_audit_scene's default (the file name).
+  std::vector<std::string> labels;
+  converter::SceneReadOptions read;  ///< how every scene is read (load_audit_scene)
+  /// Also audit each candidate's attribution_scenes, after all the candidates.
+  bool attribution = false;
+  /// The views when set. Else api::make_cameras(views, content_frame of the source) when `views` names a
+  /// cameras file, an orbit or a path; else api::default_views(source, its cloud, views).
+  std::optional<std::vector<runtime::Camera>> cameras;
+  api::CameraChoice views;
+  /// Called with each scene's reader notes as it is loaded (SceneInfo::notes), then with default_views' note
+  /// when it chose the views.
+  std::function<void(const std::vector<std::string>& notes)> on_notes = [](const std::vector<std::string>&) {};
+  /// Called once the scenes are loaded and the views chosen, before the first render, with the candidates
+  /// (attribution scenes included), the views and the options run_audit takes, which it may change (e.g. to set
+  /// AuditOptions::on_render); may be empty. An error stops the audit with that error.
+  std::function<Status(const std::vector<AuditScene>& candidates, const std::vector<runtime::Camera>& cameras,
+                       AuditOptions& options)>
+      before_render;
+};
+
+/// The whole audit of files: loads the source and the candidates (load_audit_scene), adds the attribution
+/// scenes, chooses the views (AuditFiles::cameras) and runs run_audit with `options`; the result's views_note
+/// says how default_views chose the views. Errors: those of load_audit_scene, attribution_scenes,
+/// api::make_cameras, api::default_views, before_render and run_audit.
+Result<AuditResult> audit_files(const AuditFiles& files, AuditOptions options);
 
 }  // namespace rgs::audit
