@@ -259,35 +259,35 @@ Result<ConvertReport> run(detail::SceneSource source, const std::string& dst, Ou
   return std::move(report);
 }
 
-/// The conversion of a scene already in memory, read from `name`: its files are the inputs.
-Result<ConvertReport> convert_read(Result<converter::InputScene> input, const std::string& name, const std::string& dst,
-                                   OutputFormat output, ConversionOutputs* outputs, detail::ProgressReporter* progress,
-                                   detail::Clock::time_point start) {
+/// A whole source: the scene `input` read from `name` (its files the inputs).
+Result<detail::SceneSource> whole_source(Result<converter::InputScene> input, const std::string& name) {
   if (!input.ok()) return input.status();
-  RGS_RETURN_IF_ERROR(outputs->declare(dst, output, input->files));
   detail::SceneSource source;
   source.name = name;
   source.source_file = std::filesystem::path(name).filename().string();
   source.scene.emplace(std::move(input).value());
-  source.start = start;
-  return outputs->commit(run(std::move(source), dst, output, outputs->options(), progress));
+  return source;
 }
 
-/// convert_scene(), convert_bytes() and convert_cloud(): the output checked, then the whole scene `read` gives
-/// (named `name`) converted to `dst`. `reads` when `read` still has the reading to do: the output is declared
-/// before it, so that a refused output costs no read, and the "reading" stage is reported.
-Result<ConvertReport> convert_whole_source(const std::string& name, const std::string& dst,
-                                           const ConvertOptions& given, bool reads,
-                                           const std::function<Result<converter::InputScene>()>& read) {
+/// Every door of convert(): the options for `inputs` inputs, the output checked and declared, then the source
+/// `open` gives for them run into `dst`, a whole source's files declared as read. `reads` when `open` reads
+/// (`srcs`, or bytes): the output is declared before it, so that a refused output costs no read, and the
+/// "reading" stage is reported.
+Result<ConvertReport> convert_source(
+    const std::vector<std::string>& srcs, size_t inputs, const std::string& dst, const ConvertOptions& given,
+    bool reads, const std::function<Result<detail::SceneSource>(const ConvertOptions&, OutputFormat)>& open) {
   const auto start = detail::Clock::now();
-  RGS_ASSIGN_OR_RETURN(const ConvertOptions options, per_input(given, 1, dst));
+  RGS_ASSIGN_OR_RETURN(const ConvertOptions options, per_input(given, inputs, dst));
   RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
   RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
   ConversionOutputs outputs(options);
-  if (reads) RGS_RETURN_IF_ERROR(outputs.declare(dst, output, {}));
+  if (reads) RGS_RETURN_IF_ERROR(outputs.declare(dst, output, srcs));
   detail::ProgressReporter progress(options, output);
   if (reads) progress.reading();
-  return convert_read(read(), name, dst, output, &outputs, &progress, start);
+  RGS_ASSIGN_OR_RETURN(detail::SceneSource source, open(options, output));
+  source.start = start;
+  if (source.scene) RGS_RETURN_IF_ERROR(outputs.declare(dst, output, source.scene->files));
+  return outputs.commit(run(std::move(source), dst, output, outputs.options(), &progress));
 }
 
 }  // namespace
@@ -297,38 +297,30 @@ Result<ConvertReport> convert(const std::string& src, const std::string& dst, co
 }
 
 Result<ConvertReport> convert(const std::vector<std::string>& srcs, const std::string& dst,
-                              const ConvertOptions& given) {
-  const auto start = detail::Clock::now();
+                              const ConvertOptions& options) {
   RGS_RETURN_ERROR_IF(srcs.empty(), StatusCode::kInvalidArgument, dst + ": no input to convert");
-  RGS_ASSIGN_OR_RETURN(const ConvertOptions options, per_input(given, srcs.size(), dst));
-  RGS_ASSIGN_OR_RETURN(OutputFormat output, output_format_for(dst, options.to));
-  RGS_RETURN_IF_ERROR(check_convert_output(dst, output, options));
-  ConversionOutputs outputs(options);
-  RGS_RETURN_IF_ERROR(outputs.declare(dst, output, srcs));
-  detail::ProgressReporter progress(options, output);
-  progress.reading();
-  RGS_ASSIGN_OR_RETURN(detail::SceneSource source, detail::open_file_source(srcs, dst, output, options));
-  source.start = start;
-  if (source.scene) RGS_RETURN_IF_ERROR(outputs.declare(dst, output, source.scene->files));
-  return outputs.commit(run(std::move(source), dst, output, outputs.options(), &progress));
+  return convert_source(srcs, srcs.size(), dst, options, true, [&](const ConvertOptions& o, OutputFormat output) {
+    return detail::open_file_source(srcs, dst, output, o);
+  });
 }
 
 Result<ConvertReport> convert_scene(converter::InputScene input, const std::string& src, const std::string& dst,
                                     const ConvertOptions& options) {
-  return convert_whole_source(src, dst, options, false, [&] { return Result<converter::InputScene>(std::move(input)); });
+  return convert_source({}, 1, dst, options, false,
+                        [&](const ConvertOptions&, OutputFormat) { return whole_source(std::move(input), src); });
 }
 
 Result<ConvertReport> convert_bytes(const uint8_t* data, size_t size, const std::string& name,
                                     const std::string& dst, const ConvertOptions& options) {
-  return convert_whole_source(name, dst, options, true, [&] {
-    return converter::read_scene_bytes(data, size, name, scene_read_options(options));
+  return convert_source({}, 1, dst, options, true, [&](const ConvertOptions& o, OutputFormat) {
+    return whole_source(converter::read_scene_bytes(data, size, name, scene_read_options(o)), name);
   });
 }
 
 Result<ConvertReport> convert_cloud(format::GaussianCloud cloud, const std::string& name, const std::string& dst,
                                     const ConvertOptions& options) {
-  return convert_whole_source(name, dst, options, true, [&] {
-    return converter::scene_from_cloud(std::move(cloud), name, scene_read_options(options));
+  return convert_source({}, 1, dst, options, true, [&](const ConvertOptions& o, OutputFormat) {
+    return whole_source(converter::scene_from_cloud(std::move(cloud), name, scene_read_options(o)), name);
   });
 }
 
