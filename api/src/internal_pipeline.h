@@ -67,7 +67,7 @@ struct SceneSource {
   std::optional<converter::InputScene> scene;
   /// The batched PLY (null for a whole source).
   std::unique_ptr<converter::PlyStream> stream;
-  /// A merge's inputs (ConvertReport::merge_inputs); a batched source's counts are filled by its build.
+  /// A merge's inputs (ConvertReport::merge_inputs); a batched source's counts are filled by its first pass.
   std::vector<MergeInput> merge_inputs;
   /// When reading began (ConvertTimes::read).
   Clock::time_point start = Clock::now();
