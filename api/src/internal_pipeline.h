@@ -133,6 +133,8 @@ class SceneBatches {
   const std::vector<uint64_t>& read() const { return read_; }
   const std::vector<std::vector<uint64_t>>& input_removed() const { return input_removed_; }
   const converter::PlyStream& stream() const { return *stream_; }
+  /// How the batches quantize: the options the first pass scanned with.
+  const converter::QuantizeOptions& quantize() const { return quantize_; }
   /// The report's input fields (ConvertReport documents them) as the stream declares them.
   void describe(ConvertReport* report) const;
   /// Bytes a batch takes at most: its float cloud as read and its quantized copy.

@@ -21,7 +21,6 @@ namespace {
 constexpr uint64_t kThreadBytes = uint64_t{2} << 20;
 constexpr uint64_t kReadSlackBytes = uint64_t{16} << 20;
 
-
 /// The process's resident memory now (Linux /proc/self/statm), 0 when unknown: what the memory limit holds
 /// before the conversion's own arrays. The heap that earlier work freed goes back to the system first
 /// (malloc_trim), so that it is not counted as held.
@@ -132,8 +131,7 @@ Status build_out_of_core(PipelineScene* scene, const std::string& dst, OutputFor
   RGS_ASSIGN_OR_RETURN(const BatchStatistics* scanned, batches.scan(progress));
   const BatchStatistics& stats = *scanned;
   const converter::PlyStream& stream = batches.stream();
-  const bool rgs_out = output == OutputFormat::kRgs;
-  const converter::QuantizeOptions quantize = rgs_out ? rgs_quantize_options(options) : sog_lod_quantize_options(options);
+  const converter::QuantizeOptions& quantize = batches.quantize();  // as the first pass scanned
   ConvertReport& report = scene->report;
   // The scene as build_lod_out_of_core() needs it without its arrays: what quantize() of the whole cloud fills.
   format::EncodedScene head;
@@ -171,7 +169,7 @@ Status build_out_of_core(PipelineScene* scene, const std::string& dst, OutputFor
   auto built = converter::build_lod_out_of_core(quantized, head, lod);
   if (!built.ok()) return batches.pass_error(built.status(), scene->name);
   report.seconds.lod = seconds_since(build_start);
-  if (rgs_out) {
+  if (output == OutputFormat::kRgs) {
     rgs.sh_quantization = stats.shq;
     rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],
                            double(stats.box_hi[2]) - stats.box_lo[2], 0.0});
