@@ -25,12 +25,12 @@ note() { echo "$*" | tee -a "$summary"; }
 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.max.sm --format=csv >"$out/device.txt" 2>&1
 note "device: $(sed -n 2p "$out/device.txt")"
 
-# rgs-bench in streamed mode at 1080p, its JSON and log under OUT_DIR, a summary of each run.
+# rgs-bench (or $bench_exe) in streamed mode at 1080p, its JSON and log under OUT_DIR, a summary of each run.
 lod_bench() {  # NAME ARGS...
   local name="$1" t0 rc=0
   shift
   t0=$(date +%s)
-  /usr/bin/time -v "$bin/rgs-bench" "$@" --resolution 1920x1080 --json "$out/lod_$name.json" \
+  /usr/bin/time -v "${bench_exe:-$bin/rgs-bench}" "$@" --resolution 1920x1080 --json "$out/lod_$name.json" \
     >"$out/lod_$name.log" 2>&1 || rc=$?
   [ $rc -ne 0 ] && status=1
   note "lod_$name: exit $rc in $(( $(date +%s) - t0 )) s"
@@ -283,6 +283,14 @@ if [ "$what" = big ]; then
   budget=(--splat-budget 3000000 --memory-budget 3GiB --scratch-budget 1GiB --max-gaussians 300000000)
   lod_bench big_fly "$big_dir/taebak_x59_lod.rgs" --cameras "$taebak_cameras" --fly 120 "${budget[@]}"
   lod_bench big_spiral "$big_dir/taebak_x59_lod.rgs" --path 120 "${budget[@]}"
+  # With another build's rgs-bench staged (STAGE_DIR/ab/rgs-bench.xz), the same two paths by it, for the A/B of
+  # frame times on the same host.
+  if [ -f "$stage/ab/rgs-bench.xz" ]; then
+    xz -dkf "$stage/ab/rgs-bench.xz" && chmod +x "$stage/ab/rgs-bench"
+    bench_exe="$stage/ab/rgs-bench" lod_bench big_fly_a "$big_dir/taebak_x59_lod.rgs" --cameras "$taebak_cameras" \
+      --fly 120 "${budget[@]}"
+    bench_exe="$stage/ab/rgs-bench" lod_bench big_spiral_a "$big_dir/taebak_x59_lod.rgs" --path 120 "${budget[@]}"
+  fi
 fi
 if [ "$what" = floor ] || [ "$what" = all ]; then
   # The true floor (docs/lab/ROOFLINE.md#the-true-floor) and the pairs behind saturated tiles

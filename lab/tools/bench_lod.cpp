@@ -230,7 +230,10 @@ Status bench_lod(const LodBenchOptions& o,
   struct Frame {
     std::string name;
     double ms = 0, wait_ms = 0;
+    double prepare_ms = 0;  // host time of LodStreamer::prepare (select, stream, gather launch)
+    double select_ms = 0;   // runtime::select_lod alone, timed again after the frame (not part of ms)
     runtime::LodFrameStats stats;
+    runtime::GpuRenderStats render;
     ViewQuality quality;
   };
   std::vector<Frame> frames;
@@ -240,10 +243,14 @@ Status bench_lod(const LodBenchOptions& o,
   for (const runtime::Camera& cam : cameras) {
     const auto t0 = Clock::now();
     RGS_ASSIGN_OR_RETURN(runtime::LodFrameStats stats, streamer.prepare(cam));
+    const double prepare_ms = ms_since(t0);
     auto rendered = renderer.render(streamer.scene(), cam, options, &image);
     if (!rendered.ok()) return Status(rendered.status()).prepend("view " + cam.name);
     RGS_RETURN_IF_CUDA_ERROR(cudaDeviceSynchronize(), "view " + cam.name);
-    frames.push_back({cam.name, ms_since(t0), stats.wait_ms, stats, {}});
+    const double ms = ms_since(t0);
+    const auto t_select = Clock::now();
+    (void)runtime::select_lod(index, cam, o.stream.budget);
+    frames.push_back({cam.name, ms, stats.wait_ms, prepare_ms, ms_since(t_select), stats, *rendered, {}});
   }
 
   std::string quality_note;
@@ -332,6 +339,8 @@ Status bench_lod(const LodBenchOptions& o,
   nlohmann::json views = nlohmann::json::array();
   for (const Frame& f : frames) {
     views.push_back({{"view", f.name}, {"frame_ms", f.ms}, {"wait_ms", f.wait_ms}, {"read_ms", f.stats.read_ms},
+                     {"prepare_ms", f.prepare_ms}, {"select_ms", f.select_ms}, {"pairs", f.render.pairs},
+                     {"tile_groups", f.render.tile_groups},
                      {"splats", f.stats.splats},
                      {"chunks_drawn", f.stats.chunks_drawn}, {"chunks_coarsened", f.stats.chunks_coarsened},
                      {"chunks_not_resident", f.stats.chunks_not_resident},

@@ -68,6 +68,12 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
   const std::array<float, 3> centre = camera_centre(camera);
   const double focal = std::max(camera.fx, camera.fy);
   const Frustum frustum(camera);
+  out.choices.reserve(index.chunk_count);
+  scale.reserve(index.chunk_count);
+  floor.reserve(index.chunk_count);
+  // The most splats any choice between the floors and the coarsest levels can draw: when the budget holds it, no
+  // step is ever refused, so each chunk's steps do not depend on the others' and need no queue.
+  uint64_t most = 0;
   for (uint32_t c = 0; c < index.chunk_count; ++c) {
     const format::LodChunk& chunk = index.chunks[c];
     if (!frustum.holds(chunk.center, chunk.radius)) {
@@ -82,6 +88,9 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
     scale.push_back(s);
     floor.push_back(level);
     out.splats += index.at(out.choices.back().level, c).count;
+    uint64_t largest = 0;
+    for (uint32_t k = level; k <= coarsest; ++k) largest = std::max(largest, index.at(k, c).count);
+    most += largest;
   }
   if (budget.max_splats == 0) return out;
   out.within_budget = out.splats <= budget.max_splats;
@@ -89,7 +98,6 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
   // From the coarsest levels, refine the chunk whose step removes the most projected error per splat added,
   // a step going to the finer level (down to the floor) of the best ratio, among those that fit the budget.
   using Step = std::tuple<double, int64_t, uint32_t>;  // (error removed per splat, −choice index, to level)
-  std::priority_queue<Step> next;
   auto best_step = [&](uint32_t i) -> std::optional<Step> {
     const LodChoice& ch = out.choices[i];
     std::optional<Step> best;
@@ -102,9 +110,22 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
     }
     return best;
   };
+  auto take = [&](const Step& step) {
+    LodChoice& ch = out.choices[-std::get<1>(step)];
+    out.splats += index.at(std::get<2>(step), ch.chunk).count - index.at(ch.level, ch.chunk).count;
+    ch.level = std::get<2>(step);
+  };
+  const bool independent = most <= budget.max_splats;
+  std::vector<Step> first;  // each chunk's first step, when the budget can refuse steps
   for (uint32_t i = 0; i < out.choices.size(); ++i) {
-    if (auto step = best_step(i)) next.push(*step);
+    std::optional<Step> step = best_step(i);
+    if (!independent) {
+      if (step) first.push_back(*step);
+      continue;
+    }
+    for (; step; step = best_step(i)) take(*step);
   }
+  std::priority_queue<Step> next(std::less<Step>(), std::move(first));
   while (!next.empty()) {
     const Step top = next.top();
     next.pop();
@@ -115,9 +136,7 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
       next.push(*now);
       continue;
     }
-    LodChoice& ch = out.choices[i];
-    out.splats += index.at(std::get<2>(top), ch.chunk).count - index.at(ch.level, ch.chunk).count;
-    ch.level = std::get<2>(top);
+    take(top);
     if (auto step = best_step(i)) next.push(*step);
   }
   for (uint32_t i = 0; i < out.choices.size(); ++i) out.coarsened += out.choices[i].level != floor[i] ? 1 : 0;

@@ -2,6 +2,9 @@
 // coarsest level under the pixel threshold, the splat budget spent on the most projected error removed per splat.
 #include <doctest/doctest.h>
 
+#include <optional>
+#include <random>
+
 #include "rgs/runtime/lod_selection.h"
 
 namespace rgs::runtime {
@@ -106,6 +109,82 @@ TEST_CASE("LOD selection: culling, pixel threshold, splat budget") {
     CHECK_FALSE(has1);
     CHECK(has2);
   }
+}
+
+/// The budget's greedy of lod_selection.h read literally, one step per scan of every chunk: from the coarsest
+/// levels, the step of largest projected error removed per splat added among those that remove error and fit
+/// (ties: the coarser level, then the lower chunk), until none fits.
+std::vector<uint32_t> greedy_by_scans(const format::LodIndex& index, const Camera& cam, const LodBudget& budget,
+                                      const std::vector<LodChoice>& visible) {
+  std::vector<uint32_t> level(visible.size(), index.level_count - 1), floor(visible.size());
+  uint64_t splats = 0;
+  for (size_t i = 0; i < visible.size(); ++i) {
+    const uint32_t c = visible[i].chunk;
+    floor[i] = index.level_count - 1;
+    while (floor[i] > 0 && projected_error(cam, index.chunks[c], index.at(floor[i], c).error) > budget.pixel_error) {
+      --floor[i];
+    }
+    splats += index.at(level[i], c).count;
+  }
+  for (;;) {
+    std::optional<std::pair<double, std::pair<size_t, uint32_t>>> best;
+    for (size_t i = 0; i < visible.size(); ++i) {
+      const uint32_t c = visible[i].chunk;
+      for (uint32_t k = level[i]; k-- > floor[i];) {
+        const double gain = projected_error(cam, index.chunks[c], index.at(level[i], c).error) -
+                            projected_error(cam, index.chunks[c], index.at(k, c).error);
+        const uint64_t cost = index.at(k, c).count - index.at(level[i], c).count;
+        if (!(gain > 0) || splats + cost > budget.max_splats) continue;
+        const double ratio = cost == 0 ? 1e300 : gain / double(cost);
+        if (!best || ratio > best->first * (1 + 1e-12)) best = {{ratio, {i, k}}};
+      }
+    }
+    if (!best) return level;
+    const auto [i, k] = best->second;
+    splats += index.at(k, visible[i].chunk).count - index.at(level[i], visible[i].chunk).count;
+    level[i] = k;
+  }
+}
+
+TEST_CASE("LOD selection equals its greedy read literally, whether or not the budget binds") {
+  // Random chunks in front of the camera (some outside its frustum), with levels whose counts fall and errors
+  // rise, under budgets from below the coarsest levels to above every floor: both the queue and the
+  // chunk-by-chunk path (a budget that no step can overrun) must choose what the scan of every chunk per step
+  // chooses.
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> u(0, 1);
+  int refused = 0, unbounded = 0;  // selections that coarsened a chunk, and that no step could overrun
+  for (int trial = 0; trial < 60; ++trial) {
+    format::LodIndex index;
+    index.chunk_count = static_cast<uint32_t>(1 + rng() % 60);
+    index.level_count = static_cast<uint32_t>(1 + rng() % 4);
+    index.levels.resize(size_t(index.chunk_count) * index.level_count);
+    for (uint32_t c = 0; c < index.chunk_count; ++c) {
+      index.chunks.push_back({{u(rng) * 40 - 20, u(rng) * 40 - 20, 5 + u(rng) * 60}, 0.5f + u(rng)});
+      uint64_t count = 200 + rng() % 2000;
+      float error = 0;
+      for (uint32_t l = 0; l < index.level_count; ++l) {
+        index.at(l, c).count = count;
+        index.at(l, c).error = error;
+        count = count / 2 + rng() % 50;
+        error += 0.001f + u(rng) * 0.05f;
+      }
+    }
+    const uint64_t full = index.full_detail_count();
+    for (const double share : {0.02, 0.2, 0.5, 3.0}) {
+      const LodBudget budget{uint64_t(share * double(full)), 0.5f + 2 * u(rng)};
+      const LodSelection s = select_lod(index, camera(), budget);
+      CAPTURE(trial);
+      CAPTURE(share);
+      const std::vector<uint32_t> expected = greedy_by_scans(index, camera(), budget, s.choices);
+      REQUIRE(expected.size() == s.choices.size());
+      for (size_t i = 0; i < expected.size(); ++i) CHECK(s.choices[i].level == expected[i]);
+      refused += s.coarsened > 0 ? 1 : 0;
+      unbounded += budget.max_splats >= full ? 1 : 0;
+    }
+  }
+  CHECK(refused > 20);
+  CHECK(unbounded == 60);
 }
 
 }  // namespace
