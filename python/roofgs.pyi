@@ -107,7 +107,7 @@ class Scene:
                height: Optional[int] = None, background: Sequence[float] = (0.0, 0.0, 0.0),
                format: str = "rgba32f", depth: bool = False,
                stream: Optional[int] = None,
-               scratch_budget: int = 0) -> Union[_Image, Tuple[_Image, _Image]]: ...
+               scratch_budget: int = 0, settle: bool = False) -> Union[_Image, Tuple[_Image, _Image]]: ...
 
 
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),

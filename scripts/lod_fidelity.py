@@ -13,8 +13,8 @@ For each scene, every view of the camera path is rendered by rgs-render:
 - the floor: the plain full render at the width and height, scored against the reference;
 - the budget sweep: the levels at each splat budget B of --budgets with `--pixel-error 0` (the budget alone chooses);
 - the pixel-error sweep: the levels at each pixel error E of --pixel-errors with no budget (`--splat-budget 0`).
-With --backend cuda the level-of-detail frames are the streamer's, from a cold pool: a level comes two frames after
-a frame wants it, within --stream-bytes a frame (passed to rgs-render), so the first views draw coarser levels.
+With --backend cuda the level-of-detail frames are the streamer's, each settled by rgs-render (streamed before it is
+drawn, within --stream-bytes a request, passed to rgs-render), so each view draws its own selection.
 Each render gets PSNR (clamped RGB, peak 1) and SSIM (11x11 Gaussian window, sigma 1.5, valid windows, the
 definition of runtime::ssim_rgb) against the reference, mean and min over the views, and its popping: the mean over
 consecutive views of mean |I_t - I_(t-1)| (clamped RGB, all pixels and channels, 8-bit levels) minus the same of the

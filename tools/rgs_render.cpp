@@ -98,6 +98,7 @@ Result<View> open_view(const Options& opt, const std::array<float, 3>& backgroun
   RGS_ASSIGN_OR_RETURN(settings.preset, api::parse_preset(render.preset));
   settings.background = background;
   settings.gpu_scratch_budget = render.scratch_budget;
+  settings.lod_settle = true;  // each image shows its own selection (docs/LOD.md#a-frame-under-a-budget)
   api::LoadOptions load = tools::load_options(render, device);
   load.presets = {settings.preset};
   RGS_ASSIGN_OR_RETURN(api::Scene scene, api::load(opt.input, load));

@@ -325,6 +325,16 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
     RGS_RETURN_IF_CUDA_ERROR(cudaStreamWaitEvent(stream, state.frame_done.get(), 0),
                              "Renderer: wait for the previous level-of-detail frame");
     auto prepared = state.streamer->prepare(camera, stream);
+    // Settling: prepared again while a wanted level is on its way (requested by this call or the one before).
+    uint64_t streamed_bytes = 0;
+    uint32_t streamed_ranges = 0, quiet = 0;
+    for (int n = 1; prepared.ok(); ++n) {
+      streamed_bytes += prepared->bytes_streamed;
+      streamed_ranges += prepared->ranges_streamed;
+      quiet = prepared->ranges_streamed == 0 ? quiet + 1 : 0;
+      if (!settings.lod_settle || prepared->chunks_not_resident == 0 || quiet > 2 || n == kLodSettlePrepares) break;
+      prepared = state.streamer->prepare(camera, stream);
+    }
     if (!prepared.ok()) {
       Status status = prepared.status();
       if (status.message().find(info.path) == std::string::npos) status.prepend(info.path);
@@ -341,8 +351,8 @@ Result<FrameStats> Renderer::render(const Scene& scene, const Camera& camera, co
     stats.lod.chunks_culled = p.chunks_culled;
     stats.lod.chunks_coarsened = p.chunks_coarsened;
     stats.lod.chunks_not_resident = p.chunks_not_resident;
-    stats.lod.ranges_streamed = p.ranges_streamed;
-    stats.lod.bytes_streamed = p.bytes_streamed;
+    stats.lod.ranges_streamed = streamed_ranges;
+    stats.lod.bytes_streamed = streamed_bytes;
     stats.lod.bytes_resident = p.bytes_resident;
   } else {
     RGS_ASSIGN_OR_RETURN(gpu_stats, impl_->gpu->render(*scene.gpu_scene(), camera, options, out, stream));

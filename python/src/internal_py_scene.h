@@ -29,7 +29,7 @@ struct PyScene {
   /// Scene.render(): the arguments as bind_scenes() names them, converted and checked here.
   py::object render(const api::Camera& camera_in, const StrArg& preset, const std::optional<IntArg>& width_arg,
                     const std::optional<IntArg>& height_arg, const PointArg& background, const StrArg& format,
-                    bool depth, const py::object& stream, const IntArg& scratch_budget);
+                    bool depth, const py::object& stream, const IntArg& scratch_budget, bool settle);
 };
 
 }  // namespace rgs::python

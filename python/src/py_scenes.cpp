@@ -80,7 +80,7 @@ py::dict frame_stats_dict(const api::FrameStats& stats) {
 py::object PyScene::render(const api::Camera& camera_in, const StrArg& preset,
                            const std::optional<IntArg>& width_arg, const std::optional<IntArg>& height_arg,
                            const PointArg& background, const StrArg& format, bool depth,
-                           const py::object& stream, const IntArg& scratch_budget) {
+                           const py::object& stream, const IntArg& scratch_budget, bool settle) {
   const std::optional<uint32_t> width = int_arg<uint32_t>(width_arg, "render", "width", 1, kMaxImageSide);
   const std::optional<uint32_t> height = int_arg<uint32_t>(height_arg, "render", "height", 1, kMaxImageSide);
   const std::array<double, 3> rgb = arr<3>(background, "render", "background");
@@ -88,6 +88,7 @@ py::object PyScene::render(const api::Camera& camera_in, const StrArg& preset,
   settings.preset = unwrap(api::parse_preset(str_arg(preset, "render", "preset")));
   settings.background = {float(rgb[0]), float(rgb[1]), float(rgb[2])};
   settings.gpu_scratch_budget = int_arg<uint64_t>(scratch_budget, "render", "scratch_budget");
+  settings.lod_settle = settle;
   const api::PixelFormat pixel_format = unwrap(api::parse_pixel_format(str_arg(format, "render", "format")));
   const api::Stream s = stream.is_none() ? nullptr
                                          : reinterpret_cast<api::Stream>(static_cast<uintptr_t>(
@@ -244,11 +245,13 @@ void bind_scenes(py::module_& m) {
            py::arg("width") = py::none(), py::arg("height") = py::none(),
            py::arg("background") = std::array<float, 3>{0.f, 0.f, 0.f}, py::arg("format") = "rgba32f",
            py::arg("depth") = false, py::arg("stream") = py::none(), py::arg("scratch_budget") = 0,
+           py::arg("settle") = false,
            "Render from `camera` (resized to width x height if given). CPU: a NumPy array [H, W, 4]; CUDA: a "
            "DeviceImage (DLPack). depth=True returns (rgba, depth). `stream`: a CUDA stream handle (int, e.g. "
            "torch.cuda.current_stream().cuda_stream); the render is enqueued on it. `scratch_budget`: CUDA, bytes "
            "of renderer scratch memory at most (0: none); frames with more pairs render in groups of tile rows "
-           "with the same image");
+           "with the same image. `settle`: a CUDA level-of-detail scene streams the levels this view selects before "
+           "drawing it (an offline image, as rgs-render draws), instead of drawing them two frames later");
 }
 
 void bind_loading(py::module_& m) {

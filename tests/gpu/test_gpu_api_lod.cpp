@@ -42,9 +42,10 @@ struct ApiFrame {
 };
 
 ApiFrame render_api(api::Renderer& renderer, const api::Scene& scene, const api::Camera& camera,
-                    api::Preset preset = api::Preset::kFastest, cudaStream_t stream = nullptr) {
+                    api::Preset preset = api::Preset::kFastest, cudaStream_t stream = nullptr, bool settle = false) {
   api::RenderSettings settings;
   settings.preset = preset;
+  settings.lod_settle = settle;
   auto image = renderer.render_image(scene, camera, settings, api::PixelFormat::kRgba32f, true, stream);
   REQUIRE_MESSAGE(image.ok(), image.status().to_string());
   ApiFrame f;
@@ -174,6 +175,41 @@ TEST_CASE("API LOD GPU scene: resident frames agree with the CPU reference of th
         CHECK(psnr > 50);
       }
     }
+  }
+}
+
+TEST_CASE("API LOD GPU scene: a settled frame from a cold pool is the frame its still camera reaches") {
+  // RenderSettings::lod_settle (rgs-render's offline images): the first frame of a fresh scene draws what it
+  // selects, where a plain first frame draws the coarser levels resident at open and streams the rest.
+  if (!have_gpu()) return;
+  TempDir dir;
+  const std::string path = write_guitar_lod(dir);
+  auto file = format::RgsFile::open(path);
+  REQUIRE(file.ok());
+  const uint64_t n0 = file->lod()->full_detail_count();
+  // 4096 Gaussians a frame: a settled frame needs several requests.
+  const api::LoadOptions options = lod_options(api::Device::kCuda, n0 / 3, 1.0f, 0, 4096 * (12 + 8 + 6 + 2 + 3 + 3));
+  auto renderer = api::Renderer::create();
+  REQUIRE(renderer.ok());
+  auto cameras = runtime::orbit_cameras(file->metadata().bounds, 3, 320, 180);
+  REQUIRE(cameras.ok());
+  for (const runtime::Camera& camera : *cameras) {
+    CAPTURE(camera.name);
+    auto settled_scene = api::load(path, options);
+    REQUIRE_MESSAGE(settled_scene.ok(), settled_scene.status().to_string());
+    const ApiFrame settled = render_api(*renderer, *settled_scene, camera, api::Preset::kFastest, nullptr, true);
+    CHECK(settled.stats.lod.chunks_not_resident == 0);
+    CHECK(settled.stats.lod.bytes_streamed > 4096 * (12 + 8 + 6 + 2 + 3 + 3));
+    auto still_scene = api::load(path, options);
+    REQUIRE(still_scene.ok());
+    ApiFrame still = render_api(*renderer, *still_scene, camera);
+    CHECK(still.stats.lod.chunks_not_resident > 0);
+    for (int frame = 0; frame < 64 && still.stats.lod.chunks_not_resident > 0; ++frame) {
+      still = render_api(*renderer, *still_scene, camera);
+    }
+    REQUIRE(still.stats.lod.chunks_not_resident == 0);
+    CHECK(settled.stats.lod.splats == still.stats.lod.splats);
+    CHECK(settled.rgba == still.rgba);
   }
 }
 

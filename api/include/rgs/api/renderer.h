@@ -75,7 +75,17 @@ struct RenderSettings {
   /// per-Gaussian buffers, or for one tile row's pairs, fails with kLimitExceeded
   /// (docs/RENDERER.md#bounded-pair-memory). The CPU renderer ignores it.
   uint64_t gpu_scratch_budget = 0;
+  /// GPU level-of-detail scenes: stream what the frame selects before drawing it (LodStreamer::prepare again
+  /// while a wanted level is on its way, at most kLodSettlePrepares times), so the image shows its own
+  /// selection, as the CPU reference's does, instead of the coarser levels resident when the camera moved.
+  /// For offline images (rgs-render); real-time callers keep the default and let levels arrive two frames later.
+  /// A level the pool cannot hold is still drawn coarser (FrameStats::lod.chunks_not_resident). Ignored otherwise.
+  bool lod_settle = false;
 };
+
+/// Most LodStreamer::prepare calls of one settled frame (RenderSettings::lod_settle): a level is drawable on the
+/// second prepare after the one that requests it, and each requests at most LodSettings::stream_bytes_per_frame.
+inline constexpr int kLodSettlePrepares = 64;
 
 /// Level-of-detail counts of one frame of a level-of-detail scene (SceneInfo::lod.active; docs/LOD.md); all zero
 /// for other scenes. GPU: runtime::LodFrameStats of the frame's LodStreamer::prepare. CPU: every level is
@@ -86,8 +96,9 @@ struct LodFrameCounts {
   uint32_t chunks_culled = 0;        ///< chunks outside it (not drawn)
   uint32_t chunks_coarsened = 0;     ///< drawn coarser than the pixel threshold allows, for the splat budget
   uint32_t chunks_not_resident = 0;  ///< GPU: drawn at a coarser resident level while the wanted one streams in
-  uint32_t ranges_streamed = 0;      ///< GPU: levels requested this frame (drawable two frames later)
-  uint64_t bytes_streamed = 0;       ///< GPU: their bytes, read from the file and uploaded
+  /// GPU: levels requested this frame (drawable two frames later; settled frames: over all their prepares)
+  uint32_t ranges_streamed = 0;
+  uint64_t bytes_streamed = 0;  ///< GPU: their bytes, read from the file and uploaded
   /// Bytes of the levels held: GPU, those in the pool (requested ones included); CPU, every level as stored
   /// in the file (its runtime sections' bytes).
   uint64_t bytes_resident = 0;
@@ -208,7 +219,7 @@ class Renderer {
   /// `camera` under LoadOptions::lod. GPU: under the scene's mutex, runtime::LodStreamer::prepare(camera,
   /// `stream`) (after a GPU wait for the scene's previous frame, on any stream), then its frame is rendered on
   /// `stream`; the image depends on the frames rendered before (levels arrive two frames after they are
-  /// wanted). CPU: the chosen ranges of every level held in host memory, in chunk order, as the GPU gathers
+  /// wanted) unless RenderSettings::lod_settle. CPU: the chosen ranges of every level held in host memory, in chunk order, as the GPU gathers
   /// them: a GPU frame whose chunks are all resident (FrameStats::lod.chunks_not_resident 0) draws the same
   /// Gaussians.
   /// @return kInvalidArgument (scene on another device than the renderer, an invalid camera or target, a
