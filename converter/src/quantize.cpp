@@ -359,16 +359,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   // fail, so the pool's status is always ok.
   Box boxes[detail::kMaxWorkers];
   static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
-    Box box;
-    for (int a = 0; a < 3; ++a) box.lo[a] = box.hi[a] = cloud.means[begin * 3 + a];
-    for (uint64_t i = begin; i < end; ++i) {
-      for (int a = 0; a < 3; ++a) {
-        const float v = cloud.means[i * 3 + a];
-        box.lo[a] = std::min(box.lo[a], v);
-        box.hi[a] = std::max(box.hi[a], v);
-      }
-    }
-    boxes[t] = box;
+    format::box_of_means(&cloud.means[begin * 3], end - begin, boxes[t].lo, boxes[t].hi);
   }));
   for (int a = 0; a < 3; ++a) {
     b.aabb_min[a] = boxes[0].lo[a];
@@ -383,16 +374,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   format::set_sphere_center(&b, center);
   double r2s[detail::kMaxWorkers] = {};
   static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
-    double r2 = 0;
-    for (uint64_t i = begin; i < end; ++i) {
-      double d2 = 0;
-      for (int a = 0; a < 3; ++a) {
-        const double d = static_cast<double>(cloud.means[i * 3 + a]) - center[a];
-        d2 += d * d;
-      }
-      r2 = std::max(r2, d2);
-    }
-    r2s[t] = r2;
+    r2s[t] = format::max_squared_distance(&cloud.means[begin * 3], end - begin, center);
   }));
   b.sphere_radius = format::sphere_radius_for(*std::max_element(r2s, r2s + workers));
   return b;

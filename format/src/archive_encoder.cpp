@@ -735,25 +735,10 @@ SceneBounds bounds_of(const std::vector<float>& means) {
   SceneBounds b;
   const size_t n = means.size() / 3;
   if (n == 0) return b;
-  for (int a = 0; a < 3; ++a) b.aabb_min[a] = b.aabb_max[a] = means[a];
-  for (size_t i = 0; i < n; ++i) {
-    for (int a = 0; a < 3; ++a) {
-      b.aabb_min[a] = std::min(b.aabb_min[a], means[i * 3 + a]);
-      b.aabb_max[a] = std::max(b.aabb_max[a], means[i * 3 + a]);
-    }
-  }
+  box_of_means(means.data(), n, b.aabb_min, b.aabb_max);
   double center[3];
   set_sphere_center(&b, center);
-  double r2 = 0;
-  for (size_t i = 0; i < n; ++i) {
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double d = static_cast<double>(means[i * 3 + a]) - center[a];
-      d2 += d * d;
-    }
-    r2 = std::max(r2, d2);
-  }
-  b.sphere_radius = sphere_radius_for(r2);
+  b.sphere_radius = sphere_radius_for(max_squared_distance(means.data(), n, center));
   return b;
 }
 

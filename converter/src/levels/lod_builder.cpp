@@ -188,13 +188,7 @@ Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOpti
     // it is also the box of every output mean, as compute_bounds() would find it).
     format::EncodedScene head = head_of(scene);
     format::SceneBounds& bounds = head.metadata.bounds;
-    for (int a = 0; a < 3; ++a) bounds.aabb_min[a] = bounds.aabb_max[a] = scene.means[static_cast<size_t>(a)];
-    for (uint64_t i = 0; i < scene.count; ++i) {
-      for (int a = 0; a < 3; ++a) {
-        bounds.aabb_min[a] = std::min(bounds.aabb_min[a], scene.means[i * 3 + a]);
-        bounds.aabb_max[a] = std::max(bounds.aabb_max[a], scene.means[i * 3 + a]);
-      }
-    }
+    format::box_of_means(scene.means.data(), scene.count, bounds.aabb_min, bounds.aabb_max);
     const unsigned workers = parallel::thread_count(options.threads);
     WholeScene source(scene, MortonGrid(bounds.aabb_min, bounds.aabb_max), options.max_chunk_gaussians, workers);
     LodScene result;

@@ -13,6 +13,7 @@
 #include "../internal_gltf.h"
 #include "../internal_interop.h"
 #include "rgs/format/file_io.h"
+#include "rgs/format/metadata.h"
 
 namespace rgs::converter {
 
@@ -61,13 +62,7 @@ std::vector<Segment> attribute_segments(const format::GaussianCloud& cloud, bool
   segs.push_back(float_segment("POSITION", "VEC3", n, 3, [&](uint64_t i, int a) { return cloud.means[i * 3 + a]; }));
   if (n > 0) {
     float lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = hi[a] = cloud.means[a];
-      for (uint64_t i = 1; i < n; ++i) {
-        lo[a] = std::min(lo[a], cloud.means[i * 3 + a]);
-        hi[a] = std::max(hi[a], cloud.means[i * 3 + a]);
-      }
-    }
+    format::box_of_means(cloud.means.data(), n, lo, hi);
     segs.back().min = json::array({lo[0], lo[1], lo[2]});
     segs.back().max = json::array({hi[0], hi[1], hi[2]});
   }
