@@ -25,10 +25,22 @@ inline int section_count(bool residual) { return residual ? kLevelSections : kLe
 int level_section(format::SectionId id);
 
 /// Bytes one Gaussian takes in section s (an index into kLevelSectionIds) with `sh_values` SH values a Gaussian.
-uint64_t section_width(int s, uint64_t sh_values);
+inline uint64_t section_width(int s, uint64_t sh_values) {
+  static constexpr uint64_t kWidths[kLevelSections] = {12, 8, 6, 2, 0, 3};
+  return s == 4 ? sh_values : kWidths[s];
+}
 
 /// Where `scene` keeps section s: its first byte (the section's array of `scene`, sized by the caller).
-const uint8_t* section_bytes(const format::EncodedScene& scene, int s);
+inline const uint8_t* section_bytes(const format::EncodedScene& scene, int s) {
+  switch (s) {
+    case 0: return reinterpret_cast<const uint8_t*>(scene.means.data());
+    case 1: return reinterpret_cast<const uint8_t*>(scene.rotations.data());
+    case 2: return reinterpret_cast<const uint8_t*>(scene.scales.data());
+    case 3: return reinterpret_cast<const uint8_t*>(scene.opacities.data());
+    case 4: return reinterpret_cast<const uint8_t*>(scene.sh.data());
+    default: return reinterpret_cast<const uint8_t*>(scene.sh_dc_residual.data());
+  }
+}
 inline uint8_t* section_bytes(format::EncodedScene* scene, int s) {
   return const_cast<uint8_t*>(section_bytes(*scene, s));
 }

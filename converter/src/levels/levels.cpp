@@ -18,22 +18,6 @@ int level_section(format::SectionId id) {
   return at == kLevelSectionIds + kLevelSections ? -1 : static_cast<int>(at - kLevelSectionIds);
 }
 
-uint64_t section_width(int s, uint64_t sh_values) {
-  static constexpr uint64_t kWidths[kLevelSections] = {12, 8, 6, 2, 0, 3};
-  return s == 4 ? sh_values : kWidths[s];
-}
-
-const uint8_t* section_bytes(const format::EncodedScene& scene, int s) {
-  switch (s) {
-    case 0: return reinterpret_cast<const uint8_t*>(scene.means.data());
-    case 1: return reinterpret_cast<const uint8_t*>(scene.rotations.data());
-    case 2: return reinterpret_cast<const uint8_t*>(scene.scales.data());
-    case 3: return reinterpret_cast<const uint8_t*>(scene.opacities.data());
-    case 4: return reinterpret_cast<const uint8_t*>(scene.sh.data());
-    default: return reinterpret_cast<const uint8_t*>(scene.sh_dc_residual.data());
-  }
-}
-
 void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, bool residual) {
   scene->count = n;
   scene->means.resize(n * 3);
