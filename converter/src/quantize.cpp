@@ -411,14 +411,9 @@ Result<format::EncodedScene> encode_cloud(const format::GaussianCloud& cloud, co
   if (!format::is_valid_quantization(shq, degree, &why)) {
     return Status(StatusCode::kInvalidArgument, "computed SH quantization is invalid: " + why);
   }
-  detail::resize_huge(out.means, cloud.means.size());
-  if (!cloud.means.empty()) std::memcpy(out.means.data(), cloud.means.data(), cloud.means.size() * sizeof(float));
-  detail::resize_huge(out.rotations, n * 4);
-  detail::resize_huge(out.scales, n * 3);
-  detail::resize_huge(out.opacities, n);
-  detail::resize_huge(out.sh, n * k_count * 3);
   const bool dc_residual = options.sh_dc_bits == 16;
-  if (dc_residual) detail::resize_huge(out.sh_dc_residual, n * 3);
+  detail::size_sections(&out, n, uint64_t{k_count} * 3, dc_residual);
+  if (n > 0) std::memcpy(out.means.data(), cloud.means.data(), n * 3 * sizeof(float));
 
   // Pass 2: encode, in chunks of kErrorChunkGaussians taken by the workers in turn. Per chunk: clip and
   // FP16 counts (integers) and, when asked, the error accumulators of the dequantized values (merged in

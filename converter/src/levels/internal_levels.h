@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "../internal_huge_pages.h"
 #include "internal_lod_chunks.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/spec.h"
@@ -44,9 +45,6 @@ inline const uint8_t* section_bytes(const format::EncodedScene& scene, int s) {
 inline uint8_t* section_bytes(format::EncodedScene* scene, int s) {
   return const_cast<uint8_t*>(section_bytes(*scene, s));
 }
-
-/// `scene`'s arrays sized for n Gaussians with `sh_values` SH values each (and the DC residual when `residual`).
-void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, bool residual);
 
 /// Chunks built at once per worker before they are handed to the store in chunk order.
 inline constexpr uint32_t kChunksPerWorker = 2;

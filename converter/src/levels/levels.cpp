@@ -5,7 +5,6 @@
 #include <memory>
 #include <string>
 
-#include "../internal_huge_pages.h"
 #include "internal_levels.h"
 #include "rgs/converter/lod_builder.h"
 
@@ -18,16 +17,6 @@ int level_section(format::SectionId id) {
   return at == kLevelSectionIds + kLevelSections ? -1 : static_cast<int>(at - kLevelSectionIds);
 }
 
-void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, bool residual) {
-  scene->count = n;
-  scene->means.resize(n * 3);
-  scene->rotations.resize(n * 4);
-  scene->scales.resize(n * 3);
-  scene->opacities.resize(n);
-  scene->sh.resize(n * sh_values);
-  scene->sh_dc_residual.resize(residual ? n * 3 : 0);
-}
-
 namespace {
 
 class HeldStore final : public LevelStore {
@@ -35,14 +24,7 @@ class HeldStore final : public LevelStore {
   HeldStore(LodScene* out, const Layout& layout) : out_(*out), layout_(layout) {}
   Status reserve(const format::LodIndex& index, uint64_t total) override {
     out_.index = index;
-    format::EncodedScene& s = out_.scene;
-    s.count = total;
-    resize_huge(s.means, total * 3);
-    resize_huge(s.rotations, total * 4);
-    resize_huge(s.scales, total * 3);
-    resize_huge(s.opacities, total);
-    resize_huge(s.sh, total * layout_.sh_values);
-    if (layout_.dc_residual) resize_huge(s.sh_dc_residual, total * 3);
+    size_sections(&out_.scene, total, layout_.sh_values, layout_.dc_residual);
     return Status();
   }
   Status put(uint32_t c, uint32_t l, int k, const uint8_t* bytes, uint64_t size) override {
