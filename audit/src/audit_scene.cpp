@@ -12,6 +12,7 @@
 #include "rgs/converter/scene_reader.h"
 #include "rgs/converter/quantize.h"
 #include "rgs/format/encoded_scene.h"
+#include "rgs/format/metadata.h"
 #include "rgs/format/reader.h"
 #include "rgs/format/spec.h"
 
@@ -22,15 +23,9 @@ namespace {
 /// The longest side of the box of `cloud`'s means (0 without Gaussians).
 double means_extent(const format::GaussianCloud& cloud) {
   if (cloud.size() == 0) return 0;
-  double lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = cloud.means[size_t(a)];
-  for (uint64_t i = 1; i < cloud.size(); ++i) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], double(cloud.means[i * 3 + a]));
-      hi[a] = std::max(hi[a], double(cloud.means[i * 3 + a]));
-    }
-  }
-  return std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  float lo[3], hi[3];
+  format::box_of_means(cloud.means.data(), cloud.size(), lo, hi);
+  return std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2]});
 }
 
 Status naming(Status status, const std::string& path) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "rgs/format/encoded_scene.h"
 #include "rgs/format/gaussian_cloud.h"
 
 #if defined(__linux__)
@@ -39,6 +40,18 @@ inline void resize_cloud_huge(format::GaussianCloud* cloud, size_t n) {
   resize_huge(cloud->scales, n * 3);
   resize_huge(cloud->opacities, n);
   resize_huge(cloud->sh, n * cloud->sh_coefficients() * 3);
+}
+
+/// `scene`'s count and arrays sized for n Gaussians with `sh_values` SH values each (and the DC residual when
+/// `residual`) through resize_huge.
+inline void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, bool residual) {
+  scene->count = n;
+  resize_huge(scene->means, n * 3);
+  resize_huge(scene->rotations, n * 4);
+  resize_huge(scene->scales, n * 3);
+  resize_huge(scene->opacities, n);
+  resize_huge(scene->sh, n * sh_values);
+  resize_huge(scene->sh_dc_residual, residual ? n * 3 : 0);
 }
 
 }  // namespace rgs::converter::detail

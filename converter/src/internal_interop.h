@@ -1,4 +1,4 @@
-// Helpers shared by the scene readers and writers: byte order, frame flips, cloud checks and input hygiene
+// Helpers shared by the scene readers and writers: activations, frame flips, cloud checks and input hygiene
 // (private to rgs_converter).
 #pragma once
 
@@ -14,6 +14,7 @@
 #include "rgs/converter/interop.h"
 #include "rgs/format/file_io.h"
 #include "rgs/format/gaussian_cloud.h"
+#include "rgs/format/little_endian.h"
 #include "rgs/format/status.h"
 
 namespace rgs::converter::detail {
@@ -29,48 +30,6 @@ inline float activate_opacity(float logit) { return static_cast<float>(1.0 / (1.
 inline float activate_scale(float log_scale) {
   const double s = std::exp(double(log_scale));
   return s > double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity() : float(s);
-}
-
-inline uint16_t le_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
-inline uint32_t le_u32(const uint8_t* p) {
-  return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) | (static_cast<uint32_t>(p[2]) << 16) |
-         (static_cast<uint32_t>(p[3]) << 24);
-}
-inline uint64_t le_u64(const uint8_t* p) {
-  return static_cast<uint64_t>(le_u32(p)) | (static_cast<uint64_t>(le_u32(p + 4)) << 32);
-}
-inline float le_f32(const uint8_t* p) {
-  const uint32_t bits = le_u32(p);
-  float f;
-  std::memcpy(&f, &bits, 4);  // scalar bit cast
-  return f;
-}
-inline void put_u16(uint8_t* p, uint16_t v) {
-  p[0] = static_cast<uint8_t>(v);
-  p[1] = static_cast<uint8_t>(v >> 8);
-}
-inline void put_u32(uint8_t* p, uint32_t v) {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
-}
-inline void put_u64(uint8_t* p, uint64_t v) {
-  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
-}
-inline void put_f32(uint8_t* p, float v) {
-  uint32_t bits;
-  std::memcpy(&bits, &v, 4);
-  put_u32(p, bits);
-}
-
-/// a + b and a * b into *out; false when the result does not fit in 64 bits.
-[[nodiscard]] inline bool add_u64(uint64_t a, uint64_t b, uint64_t* out) {
-  if (a > UINT64_MAX - b) return false;
-  *out = a + b;
-  return true;
-}
-[[nodiscard]] inline bool mul_u64(uint64_t a, uint64_t b, uint64_t* out) {
-  if (a != 0 && b > UINT64_MAX / a) return false;
-  *out = a * b;
-  return true;
 }
 
 /// Axis signs taking one frame to another: x' = sx·x, y' = sy·y, z' = sz·z (each ±1).

@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <string>
 
+#include "rgs/format/little_endian.h"
+
 namespace rgs::converter::detail {
 
 constexpr uint32_t kSpzMagic = 0x5053474eu;  // "NGSP" in file order
@@ -74,8 +76,7 @@ inline void spz_decode_first_three(const uint8_t* r, float xyzw[4]) {
 /// non-negative and implied by unit norm; the other three follow in ascending index order from bit 29
 /// down, each 10 bits: sign (bit 9) and magnitude m (9 bits) with |q_i| = m/511 · sqrt(1/2).
 inline void spz_decode_smallest_three(const uint8_t* r, float xyzw[4]) {
-  uint32_t comp = static_cast<uint32_t>(r[0]) | (static_cast<uint32_t>(r[1]) << 8) |
-                  (static_cast<uint32_t>(r[2]) << 16) | (static_cast<uint32_t>(r[3]) << 24);
+  uint32_t comp = format::load_u32_le(r);
   const int largest = static_cast<int>(comp >> 30);
   double sum = 0;
   for (int i = 3; i >= 0; --i) {

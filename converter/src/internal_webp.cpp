@@ -16,7 +16,7 @@ Status read_webp_size(const uint8_t* data, size_t size, const std::string& name,
     return Status(StatusCode::kCorruptData,
                   name + ": not a WebP image (" + std::to_string(size) + " bytes, no RIFF/WEBP header)");
   }
-  const uint64_t riff_bytes = uint64_t{le_u32(data + 4)} + 8;
+  const uint64_t riff_bytes = uint64_t{format::load_u32_le(data + 4)} + 8;
   if (riff_bytes > size) {
     return Status(StatusCode::kCorruptData, name + ": WebP image is truncated: its RIFF header declares " +
                                                 std::to_string(riff_bytes) + " bytes, the file has " +
@@ -44,7 +44,7 @@ Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, c
                         RgbaImage* out) {
   uint32_t width = 0, height = 0;
   RGS_RETURN_IF_ERROR(read_webp_size(data, size, name, &width, &height));
-  const size_t riff_bytes = static_cast<size_t>(uint64_t{le_u32(data + 4)} + 8);
+  const size_t riff_bytes = static_cast<size_t>(uint64_t{format::load_u32_le(data + 4)} + 8);
   const uint64_t pixels = uint64_t{width} * height;
   const std::string dims = std::to_string(width) + " x " + std::to_string(height);
   if (pixels > max_pixels) {

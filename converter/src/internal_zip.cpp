@@ -48,7 +48,7 @@ Status zip_status(int code, const std::string& where) {
 
 bool has_zip_magic(const uint8_t* data, size_t size) {
   if (size < 4) return false;
-  const uint32_t sig = le_u32(data);
+  const uint32_t sig = format::load_u32_le(data);
   return sig == 0x04034b50 || sig == 0x06054b50;
 }
 

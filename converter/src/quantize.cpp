@@ -359,16 +359,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   // fail, so the pool's status is always ok.
   Box boxes[detail::kMaxWorkers];
   static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
-    Box box;
-    for (int a = 0; a < 3; ++a) box.lo[a] = box.hi[a] = cloud.means[begin * 3 + a];
-    for (uint64_t i = begin; i < end; ++i) {
-      for (int a = 0; a < 3; ++a) {
-        const float v = cloud.means[i * 3 + a];
-        box.lo[a] = std::min(box.lo[a], v);
-        box.hi[a] = std::max(box.hi[a], v);
-      }
-    }
-    boxes[t] = box;
+    format::box_of_means(&cloud.means[begin * 3], end - begin, boxes[t].lo, boxes[t].hi);
   }));
   for (int a = 0; a < 3; ++a) {
     b.aabb_min[a] = boxes[0].lo[a];
@@ -383,16 +374,7 @@ format::SceneBounds compute_bounds(const format::GaussianCloud& cloud) {
   format::set_sphere_center(&b, center);
   double r2s[detail::kMaxWorkers] = {};
   static_cast<void>(detail::parallel_slices(n, workers, [&](unsigned t, uint64_t begin, uint64_t end) {
-    double r2 = 0;
-    for (uint64_t i = begin; i < end; ++i) {
-      double d2 = 0;
-      for (int a = 0; a < 3; ++a) {
-        const double d = static_cast<double>(cloud.means[i * 3 + a]) - center[a];
-        d2 += d * d;
-      }
-      r2 = std::max(r2, d2);
-    }
-    r2s[t] = r2;
+    r2s[t] = format::max_squared_distance(&cloud.means[begin * 3], end - begin, center);
   }));
   b.sphere_radius = format::sphere_radius_for(*std::max_element(r2s, r2s + workers));
   return b;
@@ -429,14 +411,9 @@ Result<format::EncodedScene> encode_cloud(const format::GaussianCloud& cloud, co
   if (!format::is_valid_quantization(shq, degree, &why)) {
     return Status(StatusCode::kInvalidArgument, "computed SH quantization is invalid: " + why);
   }
-  detail::resize_huge(out.means, cloud.means.size());
-  if (!cloud.means.empty()) std::memcpy(out.means.data(), cloud.means.data(), cloud.means.size() * sizeof(float));
-  detail::resize_huge(out.rotations, n * 4);
-  detail::resize_huge(out.scales, n * 3);
-  detail::resize_huge(out.opacities, n);
-  detail::resize_huge(out.sh, n * k_count * 3);
   const bool dc_residual = options.sh_dc_bits == 16;
-  if (dc_residual) detail::resize_huge(out.sh_dc_residual, n * 3);
+  detail::size_sections(&out, n, uint64_t{k_count} * 3, dc_residual);
+  if (n > 0) std::memcpy(out.means.data(), cloud.means.data(), n * 3 * sizeof(float));
 
   // Pass 2: encode, in chunks of kErrorChunkGaussians taken by the workers in turn. Per chunk: clip and
   // FP16 counts (integers) and, when asked, the error accumulators of the dequantized values (merged in

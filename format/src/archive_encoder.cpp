@@ -97,10 +97,10 @@ Status finish_quantized(QuantizedTransform transform, uint32_t bits, uint32_t co
   out->assign(detail::quantized_header_bytes(params.size(), codebook), 0);
   (*out)[0] = static_cast<uint8_t>(transform);
   (*out)[1] = static_cast<uint8_t>(bits);
-  detail::store_u16_le(out->data() + 2, static_cast<uint16_t>(params.size()));
-  detail::store_u32_le(out->data() + 4, components);
-  for (size_t p = 0; p < params.size(); ++p) detail::store_f32_le(out->data() + 8 + 4 * p, params[p]);
-  if (codebook) detail::store_u32_le(out->data() + 8 + 4 * params.size(), codebook_size);
+  store_u16_le(out->data() + 2, static_cast<uint16_t>(params.size()));
+  store_u32_le(out->data() + 4, components);
+  for (size_t p = 0; p < params.size(); ++p) store_f32_le(out->data() + 8 + 4 * p, params[p]);
+  if (codebook) store_u32_le(out->data() + 8 + 4 * params.size(), codebook_size);
   if (!o.xz) return detail::compress_zstd_frame(codes.data(), codes.size(), o.zstd_level, o.threads, out);
   // The zstd frame and the .xz trial run at the same time (each on `o.threads` workers): neither waits for the
   // other's result.
@@ -735,25 +735,10 @@ SceneBounds bounds_of(const std::vector<float>& means) {
   SceneBounds b;
   const size_t n = means.size() / 3;
   if (n == 0) return b;
-  for (int a = 0; a < 3; ++a) b.aabb_min[a] = b.aabb_max[a] = means[a];
-  for (size_t i = 0; i < n; ++i) {
-    for (int a = 0; a < 3; ++a) {
-      b.aabb_min[a] = std::min(b.aabb_min[a], means[i * 3 + a]);
-      b.aabb_max[a] = std::max(b.aabb_max[a], means[i * 3 + a]);
-    }
-  }
+  box_of_means(means.data(), n, b.aabb_min, b.aabb_max);
   double center[3];
   set_sphere_center(&b, center);
-  double r2 = 0;
-  for (size_t i = 0; i < n; ++i) {
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double d = static_cast<double>(means[i * 3 + a]) - center[a];
-      d2 += d * d;
-    }
-    r2 = std::max(r2, d2);
-  }
-  b.sphere_radius = sphere_radius_for(r2);
+  b.sphere_radius = sphere_radius_for(max_squared_distance(means.data(), n, center));
   return b;
 }
 
@@ -986,7 +971,7 @@ Status decode_sections(const EncodedScene& source, const ArchiveOptions& options
   RGS_RETURN_IF_ERROR(detail::run_jobs(jobs, options.threads, "encoding the archive"));
   if constexpr (!detail::kHostLittleEndian) {
     for (auto* v : {&d.rotations, &d.scales, &d.opacities}) {
-      for (uint16_t& x : *v) x = detail::load_u16_le(reinterpret_cast<const uint8_t*>(&x));
+      for (uint16_t& x : *v) x = load_u16_le(reinterpret_cast<const uint8_t*>(&x));
     }
   }
   return Status();

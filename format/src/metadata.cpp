@@ -1,5 +1,6 @@
 #include "rgs/format/metadata.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -17,10 +18,34 @@ void set_sphere_center(SceneBounds* bounds, double center[3]) {
 }
 
 float sphere_radius_for(double max_squared_distance) {
-  const double r = std::sqrt(max_squared_distance) * (1.0 + 1e-6);
-  float rf = static_cast<float>(r);
-  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
-  return rf;
+  return round_up_float(std::sqrt(max_squared_distance) * (1.0 + 1e-6));
+}
+
+float round_up_float(double v) {
+  const volatile float rounded = static_cast<float>(v);  // volatile: see set_sphere_center()
+  float f = rounded;
+  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
+void box_of_means(const float* means, uint64_t n, float lo[3], float hi[3]) {
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = means[a];
+  for (uint64_t i = 1; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], means[i * 3 + a]);
+      hi[a] = std::max(hi[a], means[i * 3 + a]);
+    }
+  }
+}
+
+double max_squared_distance(const float* means, uint64_t n, const double center[3]) {
+  double r2 = 0;
+  for (uint64_t i = 0; i < n; ++i) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) d2 += (means[i * 3 + a] - center[a]) * (means[i * 3 + a] - center[a]);
+    r2 = std::max(r2, d2);
+  }
+  return r2;
 }
 
 bool is_valid_quantization(const ShQuantization& q, uint32_t sh_degree, std::string* why) {

@@ -410,7 +410,7 @@ Status RgsFileAccess::check_placement(const RgsFile& f) {
                             " (the first multiple of " + dec(kSectionAlignment) + " after the previous end " +
                             dec(prev_end) + ")");
     uint64_t end = 0;
-    RGS_RETURN_ERROR_IF(!detail::checked_add(e.offset, e.stored_size, &end), StatusCode::kCorruptData,
+    RGS_RETURN_ERROR_IF(!checked_add(e.offset, e.stored_size, &end), StatusCode::kCorruptData,
                         label + ": offset " + dec(e.offset) + " + stored_size " + dec(e.stored_size) +
                             " overflows 64 bits");
     RGS_RETURN_ERROR_IF(end > f.size_, StatusCode::kCorruptData,
@@ -448,8 +448,8 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
   const uint32_t type_size = element_type_size(e.element_type);
   if (type_size != 0) {
     uint64_t implied = 0;
-    const bool fits = detail::checked_mul(e.element_count, e.components, &implied) &&
-                      detail::checked_mul(implied, type_size, &implied);
+    const bool fits = checked_mul(e.element_count, e.components, &implied) &&
+                      checked_mul(implied, type_size, &implied);
     RGS_RETURN_ERROR_IF(!fits || implied != e.raw_size, StatusCode::kCorruptData,
                         label + ": raw_size " + dec(e.raw_size) + " != element_count " + dec(e.element_count) +
                             " x components " + dec(e.components) + " x " + dec(type_size) + " bytes" +
@@ -465,7 +465,7 @@ Status RgsFileAccess::check_entry(const RgsFile& f, size_t index) {
   } else if (e.codec == Codec::kZstd) {
     RGS_RETURN_IF_ERROR(require_version(f, kMinVersionForZstdCodec, label + ": zstd codec"));
     uint64_t max_raw = 0;
-    const bool bounded = detail::checked_mul(e.stored_size, detail::kZstdMaxExpansion, &max_raw);
+    const bool bounded = checked_mul(e.stored_size, detail::kZstdMaxExpansion, &max_raw);
     RGS_RETURN_ERROR_IF(bounded && e.raw_size > max_raw, StatusCode::kCorruptData,
                         label + ": raw_size " + dec(e.raw_size) + " cannot come from a " + dec(e.stored_size) +
                             "-byte zstd frame (at most " + dec(detail::kZstdMaxExpansion) + "x expansion)");
@@ -507,12 +507,12 @@ Status RgsFileAccess::check_decoded_total(const RgsFile& f) {
     // §5.5 Archive-coded sections count a fraction of their raw size (internal_archive.h).
     const bool archive = is_archive_codec(e.codec);
     const uint64_t counted = archive ? e.raw_size / detail::kArchiveRatioAllowance : e.raw_size;
-    if (!detail::checked_add(total, counted, &total)) total = UINT64_MAX;
+    if (!checked_add(total, counted, &total)) total = UINT64_MAX;
   }
   const ReadLimits& limits = f.options_.limits;
   const uint64_t basis = std::max<uint64_t>(f.size_, kDecompressionRatioMinBytes);
   uint64_t allowed = 0;
-  if (!detail::checked_mul(basis, limits.max_decompression_ratio, &allowed)) allowed = UINT64_MAX;
+  if (!checked_mul(basis, limits.max_decompression_ratio, &allowed)) allowed = UINT64_MAX;
   RGS_RETURN_ERROR_IF(total > allowed, StatusCode::kLimitExceeded,
                       "the sections decode to " + dec(total) + " bytes (archive sections counted at 1/" +
                           dec(detail::kArchiveRatioAllowance) + "), more than the decompression-ratio limit of " +
@@ -905,9 +905,9 @@ Status decode_array(const RgsFile& file, SectionId id, std::vector<T>* out) {
   if constexpr (!detail::kHostLittleEndian && sizeof(T) > 1) {
     for (size_t i = 0; i < out->size(); ++i) {
       if constexpr (sizeof(T) == 2) {
-        (*out)[i] = detail::load_u16_le(bytes + 2 * i);
+        (*out)[i] = load_u16_le(bytes + 2 * i);
       } else {
-        (*out)[i] = detail::load_f32_le(bytes + 4 * i);
+        (*out)[i] = load_f32_le(bytes + 4 * i);
       }
     }
   }

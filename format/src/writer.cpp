@@ -456,7 +456,7 @@ Status finish_plan(const WriteOptions& options, PlannedFile* file) {
   uint64_t end = file->table_end;
   for (PlannedSection& s : file->sections) {
     if (!detail::checked_align_up(end, kSectionAlignment, &s.offset) ||
-        !detail::checked_add(s.offset, s.stored_size(), &end)) {
+        !checked_add(s.offset, s.stored_size(), &end)) {
       return invalid("file size overflows 64 bits");
     }
   }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "../internal_huge_pages.h"
 #include "internal_lod_chunks.h"
 #include "rgs/format/encoded_scene.h"
 #include "rgs/format/spec.h"
@@ -25,16 +26,25 @@ inline int section_count(bool residual) { return residual ? kLevelSections : kLe
 int level_section(format::SectionId id);
 
 /// Bytes one Gaussian takes in section s (an index into kLevelSectionIds) with `sh_values` SH values a Gaussian.
-uint64_t section_width(int s, uint64_t sh_values);
+inline uint64_t section_width(int s, uint64_t sh_values) {
+  static constexpr uint64_t kWidths[kLevelSections] = {12, 8, 6, 2, 0, 3};
+  return s == 4 ? sh_values : kWidths[s];
+}
 
 /// Where `scene` keeps section s: its first byte (the section's array of `scene`, sized by the caller).
-const uint8_t* section_bytes(const format::EncodedScene& scene, int s);
+inline const uint8_t* section_bytes(const format::EncodedScene& scene, int s) {
+  switch (s) {
+    case 0: return reinterpret_cast<const uint8_t*>(scene.means.data());
+    case 1: return reinterpret_cast<const uint8_t*>(scene.rotations.data());
+    case 2: return reinterpret_cast<const uint8_t*>(scene.scales.data());
+    case 3: return reinterpret_cast<const uint8_t*>(scene.opacities.data());
+    case 4: return reinterpret_cast<const uint8_t*>(scene.sh.data());
+    default: return reinterpret_cast<const uint8_t*>(scene.sh_dc_residual.data());
+  }
+}
 inline uint8_t* section_bytes(format::EncodedScene* scene, int s) {
   return const_cast<uint8_t*>(section_bytes(*scene, s));
 }
-
-/// `scene`'s arrays sized for n Gaussians with `sh_values` SH values each (and the DC residual when `residual`).
-void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, bool residual);
 
 /// Chunks built at once per worker before they are handed to the store in chunk order.
 inline constexpr uint32_t kChunksPerWorker = 2;
@@ -61,10 +71,33 @@ class LevelStore {
   /// The index laid out (checksums 0) and the Gaussians of every level, given before the first chunk when the
   /// builder knows them then (a scene of one partition, whose levels are chosen before they are built).
   virtual Status reserve(const format::LodIndex& layout, uint64_t total) = 0;
-  /// Chunk c's levels [0, levels): level l's plan.count[l] Gaussians in `chunk`, after level l − 1's.
-  virtual Status add(uint32_t c, const format::EncodedScene& chunk, const ChunkPlan& plan, uint32_t levels) = 0;
+  /// Section k (an index into kLevelSectionIds) of chunk c's level l: `size` bytes, the chunks' in order.
+  virtual Status put(uint32_t c, uint32_t l, int k, const uint8_t* bytes, uint64_t size) = 0;
   /// Whether the index is to carry each range's checksum (SPEC §4.9) from the builder.
   virtual bool needs_checksums() const = 0;
+};
+
+/// `scene` without its arrays: count, metadata and provenance.
+format::EncodedScene head_of(const format::EncodedScene& scene);
+
+/// Levels laid out level-major whose sections are read in pieces: read() and stream_section() over
+/// read_section() of the store that holds them (arrays, spill files).
+class SectionLevels : public Levels {
+ public:
+  SectionLevels(format::EncodedScene head, format::LodIndex index, bool residual);
+  const format::EncodedScene& head() const final { return head_; }
+  const format::LodIndex& index() const final { return index_; }
+  bool sh_dc_residual() const final { return residual_; }
+  Status read(uint64_t first, uint64_t count, format::EncodedScene* out) const final;
+  Status stream_section(format::SectionId id, const format::ChunkSink& sink) const final;
+
+ protected:
+  /// Section k's bytes of Gaussians [first, first + count) of the output order into `out`.
+  virtual Status read_section(int k, uint64_t first, uint64_t count, uint8_t* out) const = 0;
+  format::EncodedScene head_;
+  format::LodIndex index_;
+  bool residual_;
+  uint64_t sh_values_;
 };
 
 /// The index and the output's head (count, metadata with the bounds sphere, provenance with the lod entries).

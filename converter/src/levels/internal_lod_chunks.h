@@ -92,9 +92,6 @@ struct ChunkPlan {
   float error[format::kMaxLodLevels] = {};
 };
 
-/// The float32 at or above v (v ≥ 0 finite).
-float round_up_float(double v);
-
 // ---------------------------------------------------------------------------------------------------------
 // Merging.
 

@@ -5,7 +5,6 @@
 #include <memory>
 #include <string>
 
-#include "../internal_huge_pages.h"
 #include "internal_levels.h"
 #include "rgs/converter/lod_builder.h"
 
@@ -18,32 +17,6 @@ int level_section(format::SectionId id) {
   return at == kLevelSectionIds + kLevelSections ? -1 : static_cast<int>(at - kLevelSectionIds);
 }
 
-uint64_t section_width(int s, uint64_t sh_values) {
-  static constexpr uint64_t kWidths[kLevelSections] = {12, 8, 6, 2, 0, 3};
-  return s == 4 ? sh_values : kWidths[s];
-}
-
-const uint8_t* section_bytes(const format::EncodedScene& scene, int s) {
-  switch (s) {
-    case 0: return reinterpret_cast<const uint8_t*>(scene.means.data());
-    case 1: return reinterpret_cast<const uint8_t*>(scene.rotations.data());
-    case 2: return reinterpret_cast<const uint8_t*>(scene.scales.data());
-    case 3: return reinterpret_cast<const uint8_t*>(scene.opacities.data());
-    case 4: return reinterpret_cast<const uint8_t*>(scene.sh.data());
-    default: return reinterpret_cast<const uint8_t*>(scene.sh_dc_residual.data());
-  }
-}
-
-void size_sections(format::EncodedScene* scene, uint64_t n, uint64_t sh_values, bool residual) {
-  scene->count = n;
-  scene->means.resize(n * 3);
-  scene->rotations.resize(n * 4);
-  scene->scales.resize(n * 3);
-  scene->opacities.resize(n);
-  scene->sh.resize(n * sh_values);
-  scene->sh_dc_residual.resize(residual ? n * 3 : 0);
-}
-
 namespace {
 
 class HeldStore final : public LevelStore {
@@ -51,29 +24,14 @@ class HeldStore final : public LevelStore {
   HeldStore(LodScene* out, const Layout& layout) : out_(*out), layout_(layout) {}
   Status reserve(const format::LodIndex& index, uint64_t total) override {
     out_.index = index;
-    format::EncodedScene& s = out_.scene;
-    s.count = total;
-    resize_huge(s.means, total * 3);
-    resize_huge(s.rotations, total * 4);
-    resize_huge(s.scales, total * 3);
-    resize_huge(s.opacities, total);
-    resize_huge(s.sh, total * layout_.sh_values);
-    if (layout_.dc_residual) resize_huge(s.sh_dc_residual, total * 3);
+    size_sections(&out_.scene, total, layout_.sh_values, layout_.dc_residual);
     return Status();
   }
-  Status add(uint32_t c, const format::EncodedScene& chunk, const ChunkPlan& plan, uint32_t levels) override {
-    RGS_RETURN_ERROR_IF(c >= out_.index.chunk_count || levels != out_.index.level_count, StatusCode::kInvalidArgument,
+  Status put(uint32_t c, uint32_t l, int k, const uint8_t* bytes, uint64_t size) override {
+    RGS_RETURN_ERROR_IF(c >= out_.index.chunk_count || l >= out_.index.level_count, StatusCode::kInvalidArgument,
                         "build_lod: internal error: chunk " + std::to_string(c) + " outside the layout");
-    uint64_t from = 0;
-    for (uint32_t l = 0; l < levels; ++l) {
-      const uint64_t to = out_.index.at(l, c).first;
-      for (int k = 0; k < section_count(layout_.dc_residual); ++k) {
-        const uint64_t width = section_width(k, layout_.sh_values);
-        std::memcpy(section_bytes(&out_.scene, k) + to * width, section_bytes(chunk, k) + from * width,
-                    plan.count[l] * width);
-      }
-      from += plan.count[l];
-    }
+    std::memcpy(section_bytes(&out_.scene, k) + out_.index.at(l, c).first * section_width(k, layout_.sh_values),
+                bytes, size);
     return Status();
   }
   bool needs_checksums() const override { return false; }  // format::write_scene_file computes them
@@ -89,56 +47,63 @@ std::unique_ptr<LevelStore> held_store(LodScene* out, const Layout& layout) {
   return std::make_unique<HeldStore>(out, layout);
 }
 
+format::EncodedScene head_of(const format::EncodedScene& scene) {
+  format::EncodedScene head;
+  head.count = scene.count;
+  head.metadata = scene.metadata;
+  head.provenance = scene.provenance;
+  return head;
+}
+
+SectionLevels::SectionLevels(format::EncodedScene head, format::LodIndex index, bool residual)
+    : head_(std::move(head)), index_(std::move(index)), residual_(residual),
+      sh_values_(uint64_t{3} * format::sh_coefficient_count(head_.metadata.sh_degree)) {}
+
+Status SectionLevels::read(uint64_t first, uint64_t count, format::EncodedScene* out) const {
+  RGS_RETURN_ERROR_IF(first > head_.count || count > head_.count - first, StatusCode::kInvalidArgument,
+                      "levels: Gaussians [" + std::to_string(first) + ", +" + std::to_string(count) +
+                          ") outside the " + std::to_string(head_.count) + " built");
+  out->metadata = head_.metadata;
+  size_sections(out, count, sh_values_, residual_);
+  for (int k = 0; k < section_count(residual_); ++k) {
+    RGS_RETURN_IF_ERROR(read_section(k, first, count, section_bytes(out, k)));
+  }
+  return Status();
+}
+
+Status SectionLevels::stream_section(format::SectionId id, const format::ChunkSink& sink) const {
+  const int k = level_section(id);
+  if (k < 0 || k >= section_count(residual_)) return Status();
+  const uint64_t width = section_width(k, sh_values_);
+  const uint64_t step = std::max<uint64_t>(1, (uint64_t{4} << 20) / std::max<uint64_t>(width, 1));
+  std::vector<uint8_t> piece(step * width);
+  for (uint64_t at = 0; at < head_.count; at += step) {
+    const uint64_t n = std::min(step, head_.count - at);
+    RGS_RETURN_IF_ERROR(read_section(k, at, n, piece.data()));
+    RGS_RETURN_IF_ERROR(sink(piece.data(), static_cast<size_t>(n * width)));
+  }
+  return Status();
+}
+
 }  // namespace detail
 
 namespace {
 
 using namespace detail;
 
-/// Pieces a section is streamed in.
-constexpr uint64_t kPieceBytes = uint64_t{4} << 20;
-
-class HeldLevels final : public Levels {
+/// Levels in the arrays of a LodScene (which outlives them).
+class HeldLevels final : public SectionLevels {
  public:
-  explicit HeldLevels(const LodScene& lod) : lod_(lod) {
-    head_.count = lod.scene.count;
-    head_.metadata = lod.scene.metadata;
-    head_.provenance = lod.scene.provenance;
-  }
-  const format::EncodedScene& head() const override { return head_; }
-  const format::LodIndex& index() const override { return lod_.index; }
-  bool sh_dc_residual() const override { return !lod_.scene.sh_dc_residual.empty(); }
-
-  Status read(uint64_t first, uint64_t count, format::EncodedScene* out) const override {
-    RGS_RETURN_ERROR_IF(first > head_.count || count > head_.count - first, StatusCode::kInvalidArgument,
-                        "levels: Gaussians [" + std::to_string(first) + ", +" + std::to_string(count) +
-                            ") outside the " + std::to_string(head_.count) + " built");
-    const uint64_t sh_values = sh_values_of();
-    out->metadata = head_.metadata;
-    size_sections(out, count, sh_values, sh_dc_residual());
-    for (int s = 0; s < section_count(sh_dc_residual()); ++s) {
-      const uint64_t width = section_width(s, sh_values);
-      std::memcpy(section_bytes(out, s), section_bytes(lod_.scene, s) + first * width, count * width);
-    }
-    return Status();
-  }
-
-  Status stream_section(format::SectionId id, const format::ChunkSink& sink) const override {
-    const int s = level_section(id);
-    if (s < 0 || s >= section_count(sh_dc_residual())) return Status();
-    const uint64_t width = section_width(s, sh_values_of());
-    const uint8_t* bytes = section_bytes(lod_.scene, s);
-    const uint64_t piece = std::max<uint64_t>(1, kPieceBytes / std::max<uint64_t>(width, 1)) * width;
-    for (uint64_t at = 0, size = head_.count * width; at < size; at += piece) {
-      RGS_RETURN_IF_ERROR(sink(bytes + at, static_cast<size_t>(std::min(piece, size - at))));
-    }
-    return Status();
-  }
+  explicit HeldLevels(const LodScene& lod)
+      : SectionLevels(head_of(lod.scene), lod.index, !lod.scene.sh_dc_residual.empty()), lod_(lod) {}
 
  private:
-  uint64_t sh_values_of() const { return uint64_t{3} * format::sh_coefficient_count(head_.metadata.sh_degree); }
+  Status read_section(int k, uint64_t first, uint64_t count, uint8_t* out) const override {
+    const uint64_t width = section_width(k, sh_values_);
+    std::memcpy(out, section_bytes(lod_.scene, k) + first * width, count * width);
+    return Status();
+  }
   const LodScene& lod_;
-  format::EncodedScene head_;
 };
 
 }  // namespace

@@ -80,7 +80,15 @@ Status build_partition(const Partition& part, const std::vector<ChunkPlan>& plan
       }
     }));
     for (uint64_t k = 0; k < g1 - g0; ++k) {
-      RGS_RETURN_IF_ERROR(store.add(static_cast<uint32_t>(chunks->size()), outputs[k], built[k].plan, levels));
+      const uint32_t c = static_cast<uint32_t>(chunks->size());
+      uint64_t from = 0;
+      for (uint32_t l = 0; l < levels; from += built[k].plan.count[l++]) {
+        for (int s = 0; s < section_count(t.dc_residual); ++s) {
+          const uint64_t width = section_width(s, t.sh_values);
+          RGS_RETURN_IF_ERROR(
+              store.put(c, l, s, section_bytes(outputs[k], s) + from * width, built[k].plan.count[l] * width));
+        }
+      }
       chunks->push_back(built[k]);
     }
     progress->add(2 * (plans[g1 - 1].end - plans[g0].begin));
@@ -178,18 +186,9 @@ Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOpti
   try {
     // The head: the scene's metadata with the box of its means (parents are clamped into their chunk's box, so
     // it is also the box of every output mean, as compute_bounds() would find it).
-    format::EncodedScene head;
-    head.count = scene.count;
-    head.metadata = scene.metadata;
-    head.provenance = scene.provenance;
+    format::EncodedScene head = head_of(scene);
     format::SceneBounds& bounds = head.metadata.bounds;
-    for (int a = 0; a < 3; ++a) bounds.aabb_min[a] = bounds.aabb_max[a] = scene.means[static_cast<size_t>(a)];
-    for (uint64_t i = 0; i < scene.count; ++i) {
-      for (int a = 0; a < 3; ++a) {
-        bounds.aabb_min[a] = std::min(bounds.aabb_min[a], scene.means[i * 3 + a]);
-        bounds.aabb_max[a] = std::max(bounds.aabb_max[a], scene.means[i * 3 + a]);
-      }
-    }
+    format::box_of_means(scene.means.data(), scene.count, bounds.aabb_min, bounds.aabb_max);
     const unsigned workers = parallel::thread_count(options.threads);
     WholeScene source(scene, MortonGrid(bounds.aabb_min, bounds.aabb_max), options.max_chunk_gaussians, workers);
     LodScene result;

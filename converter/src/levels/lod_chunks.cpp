@@ -343,7 +343,7 @@ void plan_levels(const uint64_t* codes, uint64_t n, double cube_edge, uint32_t l
     plan->shift[l] = k;
     plan->count[l] = cells[k];
     const double diagonal = std::sqrt(3.0) * cube_edge * std::ldexp(1.0, k - kGridBits);
-    plan->error[l] = std::max(plan->error[l - 1], round_up_float(diagonal));
+    plan->error[l] = std::max(plan->error[l - 1], format::round_up_float(diagonal));
     prev_shift = k;
   }
 }
@@ -413,14 +413,6 @@ void split_node(const uint64_t* keys, uint64_t begin, uint64_t end, int depth, u
   }
 }
 
-/// The float32 at or above v (v ≥ 0 finite).
-float round_up_float(double v) {
-  const volatile float rounded = static_cast<float>(v);  // volatile: see chunk_center()
-  float f = rounded;
-  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
-}
-
 /// The input's attribute layout that the merge needs: SH sizes and scales, scale and DC-residual encodings.
 Layout describe_layout(const format::EncodedScene& in) {
   Layout t;
@@ -481,7 +473,7 @@ ChunkReach build_chunk(const format::EncodedScene& in, const uint32_t* sorted_in
     scratch->looks.resize(plan.count[l]);
     for (uint64_t g = 0; g < plan.count[l]; ++g) scratch->looks[g] = look_of(*out, first[l] + g, t);
     const double measured = appearance_error(scratch->base, scratch->looks, scratch->ancestor);
-    reach.error[l] = std::max(reach.error[l], round_up_float(measured));
+    reach.error[l] = std::max(reach.error[l], format::round_up_float(measured));
   }
   // Sphere radius per level of the chunk: |mean − centre| + 3 · largest linear scale, in double.
   for (uint32_t l = 0; l < levels; ++l) {
@@ -522,7 +514,7 @@ double ChunkReach::scene_d2_over(uint32_t levels) const {
 }
 
 Result<float> chunk_radius(const ChunkReach& reach, uint32_t levels, uint32_t c) {
-  const float radius = round_up_float(reach.radius_over(levels) * (1 + 1e-6));
+  const float radius = format::round_up_float(reach.radius_over(levels) * (1 + 1e-6));
   RGS_RETURN_ERROR_IF(!std::isfinite(radius), StatusCode::kInvalidArgument,
                       "build_lod: chunk " + std::to_string(c) + " holds a Gaussian whose 3-sigma extent overflows float32");
   return radius;

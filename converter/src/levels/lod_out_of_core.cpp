@@ -139,22 +139,14 @@ struct RecordLayout {
   uint64_t bytes() const { return 12 + 8 + 6 + 2 + sh + (residual ? 3 : 0); }
 };
 
-void put_record(const format::EncodedScene& s, uint64_t i, const RecordLayout& r, uint8_t* out) {
-  std::memcpy(out, &s.means[i * 3], 12);
-  std::memcpy(out + 12, &s.rotations[i * 4], 8);
-  std::memcpy(out + 20, &s.scales[i * 3], 6);
-  std::memcpy(out + 26, &s.opacities[i], 2);
-  std::memcpy(out + 28, &s.sh[i * r.sh], r.sh);
-  if (r.residual) std::memcpy(out + 28 + r.sh, &s.sh_dc_residual[i * 3], 3);
-}
-
-void get_record(const uint8_t* in, const RecordLayout& r, uint64_t i, format::EncodedScene* s) {
-  std::memcpy(&s->means[i * 3], in, 12);
-  std::memcpy(&s->rotations[i * 4], in + 12, 8);
-  std::memcpy(&s->scales[i * 3], in + 20, 6);
-  std::memcpy(&s->opacities[i], in + 26, 2);
-  std::memcpy(&s->sh[i * r.sh], in + 28, r.sh);
-  if (r.residual) std::memcpy(&s->sh_dc_residual[i * 3], in + 28 + r.sh, 3);
+/// Copies Gaussian i of `s` into a record (`to_record`) or from one.
+void copy_record(format::EncodedScene* s, uint64_t i, const RecordLayout& r, uint8_t* record, bool to_record) {
+  for (int k = 0; k < section_count(r.residual); ++k) {
+    const uint64_t width = section_width(k, r.sh);
+    uint8_t* value = section_bytes(s, k) + i * width;
+    std::memcpy(to_record ? record : value, to_record ? value : record, width);
+    record += width;
+  }
 }
 
 /// An octree node of the count grid that build_lod keeps whole (a chunk) or cuts further (`split`: a finest
@@ -183,11 +175,11 @@ void collect_nodes(const std::vector<uint32_t>& prefix_counts, int count_depth, 
 }
 
 /// Levels held in the spill files of an out-of-core build: level l's section k in file l · 6 + k.
-class SpilledLevels final : public Levels {
+class SpilledLevels final : public SectionLevels {
  public:
   SpilledLevels(format::EncodedScene head, format::LodIndex index, std::vector<std::unique_ptr<SpillFile>> spills,
-                const RecordLayout& record)
-      : head_(std::move(head)), index_(std::move(index)), spills_(std::move(spills)), record_(record) {
+                bool residual)
+      : SectionLevels(std::move(head), std::move(index), residual), spills_(std::move(spills)) {
     uint64_t first = 0;
     for (uint32_t l = 0; l < index_.level_count; ++l) {
       level_first_.push_back(first);
@@ -195,49 +187,19 @@ class SpilledLevels final : public Levels {
     }
     level_first_.push_back(head_.count);
   }
-  const format::EncodedScene& head() const override { return head_; }
-  const format::LodIndex& index() const override { return index_; }
-  bool sh_dc_residual() const override { return record_.residual; }
-
-  Status read(uint64_t first, uint64_t count, format::EncodedScene* out) const override {
-    RGS_RETURN_ERROR_IF(first > head_.count || count > head_.count - first, StatusCode::kInvalidArgument,
-                        "levels: Gaussians [" + std::to_string(first) + ", +" + std::to_string(count) +
-                            ") outside the " + std::to_string(head_.count) + " built");
-    out->metadata = head_.metadata;
-    size_sections(out, count, record_.sh, record_.residual);
-    for (uint32_t l = 0; l < index_.level_count; ++l) {
-      const uint64_t lo = std::max(first, level_first_[l]), hi = std::min(first + count, level_first_[l + 1]);
-      for (int k = 0; lo < hi && k < section_count(record_.residual); ++k) {
-        const uint64_t width = section_width(k, record_.sh);
-        RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->read(
-            (lo - level_first_[l]) * width, section_bytes(out, k) + (lo - first) * width, (hi - lo) * width));
-      }
-    }
-    return Status();
-  }
-
-  Status stream_section(format::SectionId id, const format::ChunkSink& sink) const override {
-    const int k = level_section(id);
-    if (k < 0 || k >= section_count(record_.residual)) return Status();
-    const uint64_t width = section_width(k, record_.sh);
-    std::vector<uint8_t> piece(std::max<uint64_t>(1, (uint64_t{4} << 20) / width) * width);
-    for (uint32_t l = 0; l < index_.level_count; ++l) {
-      const SpillFile& file = *spills_[l * kLevelSections + k];
-      for (uint64_t at = 0; at < file.size();) {
-        const size_t size = static_cast<size_t>(std::min<uint64_t>(piece.size(), file.size() - at));
-        RGS_RETURN_IF_ERROR(file.read(at, piece.data(), size));
-        RGS_RETURN_IF_ERROR(sink(piece.data(), size));
-        at += size;
-      }
-    }
-    return Status();
-  }
 
  private:
-  format::EncodedScene head_;
-  format::LodIndex index_;
+  Status read_section(int k, uint64_t first, uint64_t count, uint8_t* out) const override {
+    const uint64_t width = section_width(k, sh_values_);
+    for (uint32_t l = 0; l < index_.level_count; ++l) {
+      const uint64_t lo = std::max(first, level_first_[l]), hi = std::min(first + count, level_first_[l + 1]);
+      if (lo >= hi) continue;
+      RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->read((lo - level_first_[l]) * width,
+                                                                out + (lo - first) * width, (hi - lo) * width));
+    }
+    return Status();
+  }
   std::vector<std::unique_ptr<SpillFile>> spills_;
-  RecordLayout record_;
   std::vector<uint64_t> level_first_;  ///< where each level starts in the output order, then the count
 };
 
@@ -394,7 +356,7 @@ class Buckets final : public PartitionSource {
         RGS_RETURN_IF_ERROR(check_inside_box(&batch.means[i * 3]));
         const uint32_t node = prefix_[cell_of(&batch.means[i * 3])];
         if (node == kNoNode || ++in_node[node] > nodes_[node].count) return changed;
-        put_record(batch, i, record_, record.data());
+        copy_record(&batch, i, record_, record.data(), true);
         RGS_RETURN_IF_ERROR(buckets_[nodes_[node].bucket]->append(record.data(), record.size()));
       }
       seen += batch.count;
@@ -419,7 +381,7 @@ class Buckets final : public PartitionSource {
     for (uint64_t i = 0; i < n;) {
       const uint64_t m = std::min<uint64_t>(n - i, piece.size() / record_.bytes());
       RGS_RETURN_IF_ERROR(file.read(i * record_.bytes(), piece.data(), static_cast<size_t>(m * record_.bytes())));
-      for (uint64_t j = 0; j < m; ++j) get_record(piece.data() + j * record_.bytes(), record_, i + j, &bucket_);
+      for (uint64_t j = 0; j < m; ++j) copy_record(&bucket_, i + j, record_, piece.data() + j * record_.bytes(), false);
       i += m;
     }
     file.close();  // its disk space goes back
@@ -460,41 +422,29 @@ class SpillStore final : public LevelStore {
   Status reserve(const format::LodIndex&, uint64_t) override { return Status(); }
   bool needs_checksums() const override { return true; }
 
-  Status add(uint32_t, const format::EncodedScene& s, const ChunkPlan& plan, uint32_t levels) override {
-    if (spills_.empty()) {
-      spills_.resize(uint64_t{levels} * kLevelSections);
-      for (size_t i = 0; i < spills_.size(); ++i) {
-        spills_[i] = std::make_unique<SpillFile>();
-        RGS_RETURN_IF_ERROR(spills_[i]->open(folder_,
-                                             "level " + std::to_string(i / kLevelSections) + " section " +
-                                                 std::to_string(i % kLevelSections),
-                                             kSpillBufferBytes));
-      }
+  Status put(uint32_t, uint32_t l, int k, const uint8_t* bytes, uint64_t size) override {
+    std::unique_ptr<SpillFile>& file = spills_[l * kLevelSections + k];
+    if (!file) {
+      file = std::make_unique<SpillFile>();
+      RGS_RETURN_IF_ERROR(file->open(folder_, "level " + std::to_string(l) + " section " + std::to_string(k),
+                                     kSpillBufferBytes));
     }
-    uint64_t first = 0;
-    for (uint32_t l = 0; l < levels; ++l) {
-      for (int k = 0; k < section_count(record_.residual); ++k) {
-        const uint64_t width = section_width(k, record_.sh);
-        RGS_RETURN_IF_ERROR(spills_[l * kLevelSections + k]->append(section_bytes(s, k) + first * width,
-                                                                    plan.count[l] * width));
-      }
-      first += plan.count[l];
-    }
-    return Status();
+    return file->append(bytes, size);
   }
 
   /// The levels the build chose, as the spill files hold them (those beyond are dropped).
   Result<std::unique_ptr<Levels>> finish(BuiltIndex built) {
-    for (auto& file : spills_) RGS_RETURN_IF_ERROR(file->flush());
     spills_.resize(uint64_t{built.index.level_count} * kLevelSections);
+    for (auto& file : spills_) RGS_RETURN_IF_ERROR(file ? file->flush() : Status());
     return std::unique_ptr<Levels>(std::make_unique<SpilledLevels>(std::move(built.head), std::move(built.index),
-                                                                   std::move(spills_), record_));
+                                                                   std::move(spills_), record_.residual));
   }
 
  private:
   std::string folder_;  ///< the output's, where the unnamed spill files are made
   RecordLayout record_;
-  std::vector<std::unique_ptr<SpillFile>> spills_;
+  std::vector<std::unique_ptr<SpillFile>> spills_ =
+      std::vector<std::unique_ptr<SpillFile>>(format::kMaxLodLevels * kLevelSections);
 };
 
 }  // namespace

@@ -186,7 +186,7 @@ Result<std::vector<ChunkBounds>> read_chunk_bounds(const uint8_t* data, const La
   for (uint64_t c = 0; c < layout.chunks; ++c) {
     const uint8_t* row = data + layout.chunk.offset + c * layout.chunk.stride;
     for (int f = 0; f < fields; ++f) {
-      const float v = detail::le_f32(row + layout.chunk_offsets[f]);
+      const float v = format::load_f32_le(row + layout.chunk_offsets[f]);
       const bool scale_field = f >= 6 && f < 12;
       const bool color_field = f >= 12;
       if (!std::isfinite(v) || (scale_field && std::exp(static_cast<double>(v)) > kFloatMax) ||
@@ -209,10 +209,10 @@ inline void decode_gaussian(const uint8_t* data, const Layout& layout, const Chu
   const uint32_t k_count = cloud->sh_coefficients();
   const uint32_t rest = k_count - 1;
   const uint8_t* row = data + layout.vertex.offset + i * layout.vertex.stride;
-  const uint32_t pos = detail::le_u32(row + layout.vertex_offsets[0]);
-  const uint32_t rot = detail::le_u32(row + layout.vertex_offsets[1]);
-  const uint32_t scl = detail::le_u32(row + layout.vertex_offsets[2]);
-  const uint32_t col = detail::le_u32(row + layout.vertex_offsets[3]);
+  const uint32_t pos = format::load_u32_le(row + layout.vertex_offsets[0]);
+  const uint32_t rot = format::load_u32_le(row + layout.vertex_offsets[1]);
+  const uint32_t scl = format::load_u32_le(row + layout.vertex_offsets[2]);
+  const uint32_t col = format::load_u32_le(row + layout.vertex_offsets[3]);
   // 11-10-11 unorm position and log scale within the chunk's bounds.
   const double unit[3] = {((pos >> 21) & 2047) / 2047.0, ((pos >> 11) & 1023) / 1023.0, (pos & 2047) / 2047.0};
   const double sunit[3] = {((scl >> 21) & 2047) / 2047.0, ((scl >> 11) & 1023) / 1023.0, (scl & 2047) / 2047.0};

@@ -75,21 +75,21 @@ struct Accessor {
     if (base == nullptr) return 0.0f;
     const uint8_t* p = base + i * stride;
     switch (component_type) {
-      case detail::kGltfFloat: return detail::le_f32(p + 4 * c);
+      case detail::kGltfFloat: return format::load_f32_le(p + 4 * c);
       case detail::kGltfByte: {
         const float v = static_cast<int8_t>(p[c]);
         return normalized ? std::max(v / 127.0f, -1.0f) : v;
       }
       case detail::kGltfUnsignedByte: return normalized ? p[c] / 255.0f : static_cast<float>(p[c]);
       case detail::kGltfShort: {
-        const float v = static_cast<int16_t>(detail::le_u16(p + 2 * c));
+        const float v = static_cast<int16_t>(format::load_u16_le(p + 2 * c));
         return normalized ? std::max(v / 32767.0f, -1.0f) : v;
       }
       case detail::kGltfUnsignedShort: {
-        const float v = detail::le_u16(p + 2 * c);
+        const float v = format::load_u16_le(p + 2 * c);
         return normalized ? v / 65535.0f : v;
       }
-      default: return static_cast<float>(detail::le_u32(p + 4 * c));
+      default: return static_cast<float>(format::load_u32_le(p + 4 * c));
     }
   }
 };
@@ -425,7 +425,7 @@ Status Reader::accessor(const json& attributes, const std::string& semantic, con
   out->base = nullptr;
   const uint64_t elem = uint64_t(component_bytes(out->component_type)) * components;
   uint64_t decoded = 0;
-  if (!detail::mul_u64(count, elem, &decoded) || !detail::add_u64(accessor_bytes_, decoded, &accessor_bytes_)) {
+  if (!format::checked_mul(count, elem, &decoded) || !format::checked_add(accessor_bytes_, decoded, &accessor_bytes_)) {
     accessor_bytes_ = UINT64_MAX;
   }
   if (!a.contains("bufferView")) return Status();  // all zeros, as glTF defines
@@ -451,14 +451,14 @@ Status Reader::accessor(const json& attributes, const std::string& semantic, con
   uint64_t size = 0;
   RGS_RETURN_IF_ERROR(buffer(buf, &data, &size));
   uint64_t vend = 0;
-  if (!detail::add_u64(voff, vlen, &vend) || vend > size) {
+  if (!format::checked_add(voff, vlen, &vend) || vend > size) {
     return corrupt(vwhere + " spans bytes " + std::to_string(voff) + "+" + std::to_string(vlen) +
                    ", beyond its buffer of " + std::to_string(size));
   }
   if (count > 0) {
     uint64_t last = 0, end = 0;
-    if (!detail::mul_u64(stride, count - 1, &last) || !detail::add_u64(last, offset, &end) ||
-        !detail::add_u64(end, elem, &end) || end > vlen) {
+    if (!format::checked_mul(stride, count - 1, &last) || !format::checked_add(last, offset, &end) ||
+        !format::checked_add(end, elem, &end) || end > vlen) {
       return corrupt(where + ": " + std::to_string(count) + " elements of " + std::to_string(elem) + " bytes every " +
                      std::to_string(stride) + " from offset " + std::to_string(offset) +
                      " do not fit bufferView " + std::to_string(view_index) + " of " + std::to_string(vlen) + " bytes");
@@ -749,17 +749,17 @@ struct Container {
 Status parse_container(const uint8_t* data, size_t size, Container* c, json* doc) {
   c->json_begin = data;
   c->json_size = size;
-  if (size >= 4 && detail::le_u32(data) == detail::kGlbMagic) {
+  if (size >= 4 && format::load_u32_le(data) == detail::kGlbMagic) {
     c->name = "glb";
     if (size < detail::kGlbHeaderBytes + 8) {
       return Status(StatusCode::kIoError, "GLB file of " + std::to_string(size) + " bytes ends inside its header");
     }
-    const uint32_t version = detail::le_u32(data + 4);
+    const uint32_t version = format::load_u32_le(data + 4);
     if (version != 2) {
       return Status(StatusCode::kUnsupportedVersion,
                     "GLB version " + std::to_string(version) + " is not supported (2)");
     }
-    const uint32_t length = detail::le_u32(data + 8);
+    const uint32_t length = format::load_u32_le(data + 8);
     if (length > size) {
       return Status(StatusCode::kIoError, "GLB header declares " + std::to_string(length) + " bytes but the file has " +
                                               std::to_string(size) + " (truncated file?)");
@@ -767,8 +767,8 @@ Status parse_container(const uint8_t* data, size_t size, Container* c, json* doc
     uint64_t at = detail::kGlbHeaderBytes;
     bool have_json = false;
     while (at + 8 <= length) {
-      const uint64_t chunk = detail::le_u32(data + at);
-      const uint32_t type = detail::le_u32(data + at + 4);
+      const uint64_t chunk = format::load_u32_le(data + at);
+      const uint32_t type = format::load_u32_le(data + at + 4);
       if (chunk > length - at - 8) {
         return Status(StatusCode::kIoError, "GLB chunk at byte " + std::to_string(at) + " declares " +
                                                 std::to_string(chunk) + " bytes, past the end at " +
@@ -811,7 +811,7 @@ Result<InteropScene> read_document(const uint8_t* data, size_t size, const detai
 
 bool looks_like_gltf(const uint8_t* head, size_t n) {
   if (head == nullptr) return false;
-  if (n >= 8 && detail::le_u32(head) == detail::kGlbMagic) return detail::le_u32(head + 4) == 2;
+  if (n >= 8 && format::load_u32_le(head) == detail::kGlbMagic) return format::load_u32_le(head + 4) == 2;
   size_t i = 0;
   if (n >= 3 && head[0] == 0xEF && head[1] == 0xBB && head[2] == 0xBF) i = 3;
   while (i < n && (head[i] == ' ' || head[i] == '\t' || head[i] == '\r' || head[i] == '\n')) ++i;

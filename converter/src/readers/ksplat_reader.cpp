@@ -13,9 +13,9 @@ namespace rgs::converter {
 
 namespace {
 
-using detail::le_f32;
-using detail::le_u16;
-using detail::le_u32;
+using format::load_f32_le;
+using format::load_u16_le;
+using format::load_u32_le;
 
 /// What SplatBuffer.js reads for a zero in the header's SH range (Constants.SphericalHarmonics8BitCompressionRange / 2)
 /// and in a section's position range (CompressionLevels[1 or 2].ScaleRange).
@@ -49,17 +49,17 @@ Status parse_sections(const uint8_t* d, uint64_t size, uint32_t level, uint64_t 
   for (size_t s = 0; s < count; ++s) {
     const uint8_t* h = d + kKsplatHeaderBytes + s * kKsplatSectionHeaderBytes;
     Section& c = (*out)[s];
-    c.count = le_u32(h + 4);
-    c.bucket_size = le_u32(h + 8);
-    c.buckets = le_u32(h + 12);
-    c.block_size = le_f32(h + 16);
-    const uint64_t bucket_bytes = le_u16(h + 20);
-    c.position_range = le_u32(h + 24) != 0 ? le_u32(h + 24) : kDefaultPositionRange;
-    c.full_buckets = le_u32(h + 32);
-    c.partial_buckets = le_u32(h + 36);
-    c.sh_degree = le_u16(h + 40);
-    RGS_RETURN_ERROR_IF(le_u32(h) != c.count, StatusCode::kCorruptData,
-                        section_error(s, std::to_string(le_u32(h)) + " of " + std::to_string(c.count) +
+    c.count = load_u32_le(h + 4);
+    c.bucket_size = load_u32_le(h + 8);
+    c.buckets = load_u32_le(h + 12);
+    c.block_size = load_f32_le(h + 16);
+    const uint64_t bucket_bytes = load_u16_le(h + 20);
+    c.position_range = load_u32_le(h + 24) != 0 ? load_u32_le(h + 24) : kDefaultPositionRange;
+    c.full_buckets = load_u32_le(h + 32);
+    c.partial_buckets = load_u32_le(h + 36);
+    c.sh_degree = load_u16_le(h + 40);
+    RGS_RETURN_ERROR_IF(load_u32_le(h) != c.count, StatusCode::kCorruptData,
+                        section_error(s, std::to_string(load_u32_le(h)) + " of " + std::to_string(c.count) +
                                              " Gaussians loaded (a partially written file)"));
     RGS_RETURN_ERROR_IF(c.sh_degree > 3, StatusCode::kUnsupportedFeature,
                         section_error(s, "SH degree " + std::to_string(c.sh_degree) + " (0..3 are read)"));
@@ -83,7 +83,7 @@ Status parse_sections(const uint8_t* d, uint64_t size, uint32_t level, uint64_t 
       RGS_RETURN_ERROR_IF(!(std::isfinite(c.block_size) && c.block_size > 0), StatusCode::kCorruptData,
                           section_error(s, "bucket block size " + std::to_string(c.block_size) + " (> 0 expected)"));
       uint64_t held = c.full_buckets * c.bucket_size;  // stops past the count: no sum wraps around
-      for (uint64_t b = 0; b < c.partial_buckets && held <= c.count; ++b) held += le_u32(d + c.base + 4 * b);
+      for (uint64_t b = 0; b < c.partial_buckets && held <= c.count; ++b) held += load_u32_le(d + c.base + 4 * b);
       RGS_RETURN_ERROR_IF(held != c.count, StatusCode::kCorruptData,
                           section_error(s, "its buckets hold " + std::to_string(held) + " Gaussians, not " +
                                                std::to_string(c.count)));
@@ -103,21 +103,22 @@ void decode_section(const uint8_t* d, const Section& c, uint32_t level, const fl
   // Float arithmetic: a huge block size or centre overflows to inf (refused as non-finite), never out of range.
   const float range = static_cast<float>(c.position_range), step = c.block_size / 2.0f / range;
   auto value = [level](const uint8_t* p, uint64_t i) -> float {  // float i of a record part at p
-    return level == 0 ? le_f32(p + 4 * i) : format::half_bits_to_float(le_u16(p + 2 * i));
+    return level == 0 ? load_f32_le(p + 4 * i) : format::half_bits_to_float(load_u16_le(p + 2 * i));
   };
   uint64_t j = 0;
   const uint64_t bucket_count = level == 0 ? 1 : c.buckets;
   for (uint64_t b = 0; b < bucket_count; ++b) {
     const uint64_t length = level == 0 ? c.count
                             : b < c.full_buckets ? c.bucket_size
-                                                 : le_u32(d + c.base + 4 * (b - c.full_buckets));
+                                                 : load_u32_le(d + c.base + 4 * (b - c.full_buckets));
     for (uint64_t e = 0; e < length; ++e, ++j) {
       const uint8_t* r = d + c.records + j * c.record_bytes;
       const uint64_t i = first + j;
       const uint8_t* part = r + (level == 0 ? 12 : 6);
       for (int a = 0; a < 3; ++a) {
-        const float offset = (le_u16(r + 2 * a) - range) * step;  // levels 1-2
-        cloud->means[i * 3 + a] = level == 0 ? le_f32(r + 4 * a) : offset + le_f32(d + c.centres + 12 * b + 4 * a);
+        const float offset = (load_u16_le(r + 2 * a) - range) * step;  // levels 1-2
+        cloud->means[i * 3 + a] =
+            level == 0 ? load_f32_le(r + 4 * a) : offset + load_f32_le(d + c.centres + 12 * b + 4 * a);
         cloud->scales[i * 3 + a] = value(part, a);
       }
       for (int a = 0; a < 4; ++a) cloud->rotations[i * 4 + a] = value(part, 3 + a);
@@ -154,13 +155,13 @@ Status parse_layout(const uint8_t* d, uint64_t size, const InteropReadOptions& o
                           "-byte header");
   RGS_RETURN_ERROR_IF(d[0] != 0 || d[1] != 1, StatusCode::kUnsupportedVersion,
                       "version " + std::to_string(d[0]) + "." + std::to_string(d[1]) + " (0.1 is read)");
-  out->level = le_u16(d + 20);
+  out->level = load_u16_le(d + 20);
   RGS_RETURN_ERROR_IF(out->level > 2, StatusCode::kUnsupportedFeature,
                       "compression level " + std::to_string(out->level) + " (0..2 are read)");
-  const uint64_t sections = le_u32(d + 4), declared = le_u32(d + 12);
-  RGS_RETURN_ERROR_IF(le_u32(d + 8) != sections || le_u32(d + 16) != declared, StatusCode::kCorruptData,
-                      std::to_string(le_u32(d + 8)) + " of " + std::to_string(sections) + " sections and " +
-                          std::to_string(le_u32(d + 16)) + " of " + std::to_string(declared) +
+  const uint64_t sections = load_u32_le(d + 4), declared = load_u32_le(d + 12);
+  RGS_RETURN_ERROR_IF(load_u32_le(d + 8) != sections || load_u32_le(d + 16) != declared, StatusCode::kCorruptData,
+                      std::to_string(load_u32_le(d + 8)) + " of " + std::to_string(sections) + " sections and " +
+                          std::to_string(load_u32_le(d + 16)) + " of " + std::to_string(declared) +
                           " Gaussians loaded (a partially written file)");
   RGS_RETURN_IF_ERROR(parse_sections(d, size, out->level, sections, &out->sections));
   for (const Section& c : out->sections) {
@@ -173,7 +174,7 @@ Status parse_layout(const uint8_t* d, uint64_t size, const InteropReadOptions& o
   RGS_RETURN_ERROR_IF(out->total > options.max_gaussians, StatusCode::kLimitExceeded,
                       "the file holds " + std::to_string(out->total) + " Gaussians, above the limit of " +
                           std::to_string(options.max_gaussians));
-  const float lo = le_f32(d + 36), hi = le_f32(d + 40);  // JS `x || default`: 0 and NaN take the default
+  const float lo = load_f32_le(d + 36), hi = load_f32_le(d + 40);  // JS `x || default`: 0 and NaN take the default
   out->sh_range[0] = lo != 0 && !std::isnan(lo) ? lo : -kDefaultShHalfRange;
   out->sh_range[1] = hi != 0 && !std::isnan(hi) ? hi : kDefaultShHalfRange;
   return Status();
@@ -215,8 +216,8 @@ Result<InteropScene> read_buffer(const uint8_t* d, uint64_t size, const InteropR
 bool looks_like_ksplat(const uint8_t* head, size_t n, uint64_t file_size) {
   if (head == nullptr || n < 24 || file_size < kKsplatHeaderBytes) return false;
   const bool version_0_1 = head[0] == 0 && head[1] == 1 && head[2] == 0 && head[3] == 0;
-  return version_0_1 && le_u16(head + 20) <= 2 && le_u16(head + 22) == 0 &&
-         kKsplatHeaderBytes + uint64_t{le_u32(head + 4)} * kKsplatSectionHeaderBytes <= file_size;
+  return version_0_1 && load_u16_le(head + 20) <= 2 && load_u16_le(head + 22) == 0 &&
+         kKsplatHeaderBytes + uint64_t{load_u32_le(head + 4)} * kKsplatSectionHeaderBytes <= file_size;
 }
 
 Result<InteropScene> read_ksplat(const std::string& path, const InteropReadOptions& options) {

@@ -43,8 +43,8 @@ Result<InteropScene> read_records(const uint8_t* data, size_t size, const Intero
   for (uint64_t i = 0; i < n; ++i) {
     const uint8_t* r = data + i * kSplatRecordBytes;
     for (int a = 0; a < 3; ++a) {
-      cloud.means[i * 3 + a] = detail::le_f32(r + 4 * a);
-      cloud.scales[i * 3 + a] = detail::le_f32(r + 12 + 4 * a);
+      cloud.means[i * 3 + a] = format::load_f32_le(r + 4 * a);
+      cloud.scales[i * 3 + a] = format::load_f32_le(r + 12 + 4 * a);
     }
     for (int c = 0; c < 3; ++c) {
       cloud.sh[i * 3 + c] = static_cast<float>((r[24 + c] / 255.0 - 0.5) / detail::kShC0);
@@ -92,8 +92,8 @@ bool looks_like_splat(const uint8_t* head, size_t n, uint64_t file_size) {
   for (size_t i = 0; i < records; ++i) {
     const uint8_t* r = head + i * kSplatRecordBytes;
     for (int a = 0; a < 3; ++a) {
-      const float p = detail::le_f32(r + 4 * a);
-      const float s = detail::le_f32(r + 12 + 4 * a);
+      const float p = format::load_f32_le(r + 4 * a);
+      const float s = format::load_f32_le(r + 12 + 4 * a);
       if (!(std::fabs(p) < 1e7f) || !(s >= 0.0f && s < 1e6f)) return false;
     }
     double n2 = 0;

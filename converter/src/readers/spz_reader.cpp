@@ -22,8 +22,8 @@ namespace rgs::converter {
 
 namespace {
 
-using detail::le_u32;
-using detail::le_u64;
+using format::load_u32_le;
+using format::load_u64_le;
 
 /// Above this, an SPZ version field is damage, not a version from the future (they count 1, 2, 3, 4, ...).
 constexpr uint32_t kMaxPlausibleSpzVersion = 255;
@@ -47,7 +47,7 @@ struct Header {
 
 /// The fields both containers' headers share, from byte 4 on: version, count, SH degree, fractional bits, flags.
 Header read_header(const uint8_t* p) {
-  return Header{le_u32(p + 4), le_u32(p + 8), p[12], p[13], p[14]};
+  return Header{load_u32_le(p + 4), load_u32_le(p + 8), p[12], p[13], p[14]};
 }
 
 /// Byte size of each attribute array, in file order.
@@ -97,8 +97,8 @@ Status parse_extensions(const uint8_t* p, uint64_t n, std::string* frame, bool* 
       return Status(StatusCode::kCorruptData, "SPZ extension block ends inside a record header (" +
                                                   std::to_string(n - pos) + " bytes left)");
     }
-    const uint32_t type = le_u32(p + pos);
-    const uint32_t length = le_u32(p + pos + 4);
+    const uint32_t type = load_u32_le(p + pos);
+    const uint32_t length = load_u32_le(p + pos + 4);
     pos += 8;
     if (length > n - pos) {
       return Status(StatusCode::kCorruptData, "SPZ extension 0x" + detail::hex32(type) + " declares " +
@@ -106,7 +106,7 @@ Status parse_extensions(const uint8_t* p, uint64_t n, std::string* frame, bool* 
                                                   " remain in the extension block");
     }
     if (type == detail::kSpzExtCoordinateSystem && length >= 4) {
-      const uint32_t value = le_u32(p + pos);
+      const uint32_t value = load_u32_le(p + pos);
       if (value >= 1 && value <= 8) {
         *frame = detail::spz_frame_name(value);
         *declared = true;
@@ -209,7 +209,7 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
   }
   const Header h = read_header(data);
   const uint32_t num_streams = data[15];
-  const uint32_t toc_offset = le_u32(data + 16);
+  const uint32_t toc_offset = load_u32_le(data + 16);
   StreamSizes sizes;
   RGS_RETURN_IF_ERROR(check_header(h, options, &sizes));
   if (h.version < kMinSpzVersionForZstd) {
@@ -262,8 +262,8 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
   for (uint32_t t = 0; t < num_streams; ++t) {
     const int s = present[t];
     const uint8_t* e = data + toc_offset + t * 16;
-    compressed[s] = le_u64(e);
-    const uint64_t raw = le_u64(e + 8);
+    compressed[s] = load_u64_le(e);
+    const uint64_t raw = load_u64_le(e + 8);
     const std::string name = stream_name(t);
     if (raw != sizes.bytes[s]) {
       return Status(StatusCode::kCorruptData, name + " holds " + std::to_string(raw) + " bytes; " +
@@ -271,13 +271,13 @@ Result<InteropScene> read_v4(const uint8_t* data, size_t size, const InteropRead
                                                   std::to_string(sizes.bytes[s]));
     }
     uint64_t end = 0;
-    if (!detail::add_u64(at, compressed[s], &end) || end > size) {
+    if (!format::checked_add(at, compressed[s], &end) || end > size) {
       return Status(StatusCode::kIoError, name + " ends at byte " +
                                               (end == 0 ? std::string("2^64+") : std::to_string(end)) +
                                               " > file size " + std::to_string(size) + " (truncated file?)");
     }
     uint64_t most = 0;
-    if (detail::mul_u64(compressed[s], kMaxZstdExpansion, &most) && raw > most) {
+    if (format::checked_mul(compressed[s], kMaxZstdExpansion, &most) && raw > most) {
       return Status(StatusCode::kCorruptData, name + ": " + std::to_string(compressed[s]) +
                                                   " zstd bytes cannot expand to " + std::to_string(raw));
     }
@@ -410,7 +410,7 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
     return Status(StatusCode::kCorruptData, "gzip stream inflates to " + std::to_string(got) +
                                                 " bytes, less than the 16-byte SPZ header");
   }
-  if (le_u32(head) != detail::kSpzMagic) {
+  if (load_u32_le(head) != detail::kSpzMagic) {
     return Status(StatusCode::kCorruptData, "gzip stream does not start with the SPZ magic 'NGSP'");
   }
   const Header h = read_header(head);
@@ -427,7 +427,7 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
   uint64_t payload = 0;
   for (uint64_t b : sizes.bytes) payload += b;  // < 2^32 · 64
   uint64_t most = 0;
-  if (detail::mul_u64(size, kMaxDeflateExpansion, &most) && payload > most + 1024) {
+  if (format::checked_mul(size, kMaxDeflateExpansion, &most) && payload > most + 1024) {
     return Status(StatusCode::kCorruptData, "SPZ declares " + std::to_string(h.num_points) + " Gaussians needing " +
                                                 std::to_string(payload) + " bytes, more than " +
                                                 std::to_string(size) + " gzip bytes can inflate to");
@@ -479,7 +479,7 @@ Result<InteropScene> read_legacy(const uint8_t* data, size_t size, const Interop
 }
 
 Result<InteropScene> read_any(const uint8_t* data, size_t size, const InteropReadOptions& options) {
-  if (size >= 4 && le_u32(data) == detail::kSpzMagic) return read_v4(data, size, options);
+  if (size >= 4 && load_u32_le(data) == detail::kSpzMagic) return read_v4(data, size, options);
   if (size >= 2 && data[0] == 0x1f && data[1] == 0x8b) {
     auto scene = read_legacy(data, size, options);
     if (!scene.ok()) return Status(scene.status()).prepend("gzip-wrapped SPZ (v2/v3)");
@@ -493,7 +493,7 @@ Result<InteropScene> read_any(const uint8_t* data, size_t size, const InteropRea
 bool looks_like_spz(const uint8_t* head, size_t n) {
   if (head == nullptr) return false;
   // The magic alone decides: a version this build does not read, or a damaged one, is read_spz's to name.
-  if (n >= 8 && le_u32(head) == detail::kSpzMagic) return true;
+  if (n >= 8 && load_u32_le(head) == detail::kSpzMagic) return true;
   if (n < 3 || head[0] != 0x1f || head[1] != 0x8b || head[2] != 0x08) return false;
   z_stream zs{};
   if (inflateInit2(&zs, 16 + MAX_WBITS) != Z_OK) return false;
@@ -506,7 +506,7 @@ bool looks_like_spz(const uint8_t* head, size_t n) {
   while (zs.avail_out > 0 && r == Z_OK) r = inflate(&zs, Z_NO_FLUSH);
   const size_t got = sizeof(out) - zs.avail_out;
   inflateEnd(&zs);
-  if (got == sizeof(out)) return le_u32(out) == detail::kSpzMagic;
+  if (got == sizeof(out)) return load_u32_le(out) == detail::kSpzMagic;
   // Could not inflate four bytes: a head too short to tell, or a member damaged before them, which read_spz
   // names (rather than "unsupported format"); only a whole member of fewer bytes is something else.
   return r != Z_STREAM_END;

@@ -13,6 +13,7 @@
 #include "../internal_gltf.h"
 #include "../internal_interop.h"
 #include "rgs/format/file_io.h"
+#include "rgs/format/metadata.h"
 
 namespace rgs::converter {
 
@@ -43,7 +44,7 @@ Segment float_segment(std::string semantic, const char* type, uint64_t count, in
   s.count = count;
   s.data.resize(static_cast<size_t>(count * width * 4));
   for (uint64_t i = 0; i < count; ++i) {
-    for (int a = 0; a < width; ++a) detail::put_f32(s.data.data() + (i * width + a) * 4, get(i, a));
+    for (int a = 0; a < width; ++a) format::store_f32_le(s.data.data() + (i * width + a) * 4, get(i, a));
   }
   return s;
 }
@@ -61,13 +62,7 @@ std::vector<Segment> attribute_segments(const format::GaussianCloud& cloud, bool
   segs.push_back(float_segment("POSITION", "VEC3", n, 3, [&](uint64_t i, int a) { return cloud.means[i * 3 + a]; }));
   if (n > 0) {
     float lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = hi[a] = cloud.means[a];
-      for (uint64_t i = 1; i < n; ++i) {
-        lo[a] = std::min(lo[a], cloud.means[i * 3 + a]);
-        hi[a] = std::max(hi[a], cloud.means[i * 3 + a]);
-      }
-    }
+    format::box_of_means(cloud.means.data(), n, lo, hi);
     segs.back().min = json::array({lo[0], lo[1], lo[2]});
     segs.back().max = json::array({hi[0], hi[1], hi[2]});
   }
@@ -161,15 +156,15 @@ Result<std::vector<uint8_t>> assemble_glb(const std::string& text, const std::ve
   }
   std::vector<uint8_t> bytes(static_cast<size_t>(total), 0);
   uint8_t* p = bytes.data();
-  detail::put_u32(p, detail::kGlbMagic);
-  detail::put_u32(p + 4, 2);
-  detail::put_u32(p + 8, static_cast<uint32_t>(total));
-  detail::put_u32(p + 12, static_cast<uint32_t>(text.size()));
-  detail::put_u32(p + 16, detail::kGlbChunkJson);
+  format::store_u32_le(p, detail::kGlbMagic);
+  format::store_u32_le(p + 4, 2);
+  format::store_u32_le(p + 8, static_cast<uint32_t>(total));
+  format::store_u32_le(p + 12, static_cast<uint32_t>(text.size()));
+  format::store_u32_le(p + 16, detail::kGlbChunkJson);
   std::memcpy(p + 20, text.data(), text.size());
   uint8_t* bin = p + 20 + text.size();
-  detail::put_u32(bin, static_cast<uint32_t>(bin_bytes));
-  detail::put_u32(bin + 4, detail::kGlbChunkBin);
+  format::store_u32_le(bin, static_cast<uint32_t>(bin_bytes));
+  format::store_u32_le(bin + 4, detail::kGlbChunkBin);
   uint64_t at = 8;
   for (const Segment& s : segs) {
     if (!s.data.empty()) std::memcpy(bin + at, s.data.data(), s.data.size());

@@ -36,7 +36,7 @@ std::string header_text(const format::GaussianCloud& cloud) {
 }
 
 inline uint8_t* put_f32_le(uint8_t* out, float v) {
-  detail::put_f32(out, v);
+  format::store_f32_le(out, v);
   return out + 4;
 }
 

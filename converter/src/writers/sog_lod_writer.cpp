@@ -97,14 +97,9 @@ Result<std::vector<json>> chunk_leaves(const Levels& levels, const std::vector<L
   format::GaussianCloud level0;
   for (uint32_t c = 0; c < index.chunk_count; ++c) {
     RGS_RETURN_IF_ERROR(read_cloud(levels, index.at(0, c).first, index.at(0, c).count, &level0));
-    double lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) lo[a] = hi[a] = level0.means[a];
-    for (size_t i = 0; i < level0.size(); ++i) {
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], static_cast<double>(level0.means[i * 3 + a]));
-        hi[a] = std::max(hi[a], static_cast<double>(level0.means[i * 3 + a]));
-      }
-    }
+    float box_lo[3], box_hi[3];
+    format::box_of_means(level0.means.data(), level0.size(), box_lo, box_hi);
+    const double lo[3] = {box_lo[0], box_lo[1], box_lo[2]}, hi[3] = {box_hi[0], box_hi[1], box_hi[2]};
     // PlayCanvas's error unit (docs/LOD.md "The error tables"): the level's error over the leaf's half
     // diagonal, squared, so that the engine's screen coverage times it is the squared error in pixels.
     const double half = 0.5 * std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +

@@ -59,9 +59,9 @@ struct Packed {
 
 /// The first 14 header bytes both containers share: magic, version, count, SH degree, fractional bits.
 void put_header(uint8_t* h, uint32_t version, const format::GaussianCloud& cloud, int fb) {
-  detail::put_u32(h, detail::kSpzMagic);
-  detail::put_u32(h + 4, version);
-  detail::put_u32(h + 8, static_cast<uint32_t>(cloud.size()));
+  format::store_u32_le(h, detail::kSpzMagic);
+  format::store_u32_le(h + 4, version);
+  format::store_u32_le(h + 8, static_cast<uint32_t>(cloud.size()));
   h[12] = static_cast<uint8_t>(cloud.sh_degree);
   h[13] = static_cast<uint8_t>(fb);
 }
@@ -159,7 +159,7 @@ Status pack(const format::GaussianCloud& cloud, const SpzWriteOptions& o, int fb
     double q[4] = {g[1] * inv * qs[0], g[2] * inv * qs[1], g[3] * inv * qs[2], g[0] * inv};
     if (n2 == 0) q[3] = 1.0;  // a zero quaternion has no rotation to keep; store the identity
     if (smallest_three) {
-      detail::put_u32(rot + i * 4, encode_smallest_three(q));
+      format::store_u32_le(rot + i * 4, encode_smallest_three(q));
     } else {
       const double w_sign = q[3] < 0 ? -1.0 : 1.0;  // w is implied non-negative
       for (int a = 0; a < 3; ++a) {
@@ -198,11 +198,11 @@ Result<std::vector<uint8_t>> wrap_v4(const SpzWriteOptions& o, const format::Gau
   put_header(h, 4, cloud, fb);
   h[14] = cloud.antialiased ? detail::kSpzFlagAntialiased : 0;  // flags: no extensions
   h[15] = static_cast<uint8_t>(streams.size());
-  detail::put_u32(h + 16, static_cast<uint32_t>(detail::kSpzV4HeaderBytes));
+  format::store_u32_le(h + 16, static_cast<uint32_t>(detail::kSpzV4HeaderBytes));
   size_t at = detail::kSpzV4HeaderBytes;
   for (size_t t = 0; t < streams.size(); ++t, at += 16) {
-    detail::put_u64(h + at, streams[t].size());
-    detail::put_u64(h + at + 8, raw_sizes[t]);
+    format::store_u64_le(h + at, streams[t].size());
+    format::store_u64_le(h + at + 8, raw_sizes[t]);
   }
   for (const auto& s : streams) {
     std::copy(s.begin(), s.end(), bytes.begin() + static_cast<std::ptrdiff_t>(at));

@@ -54,6 +54,16 @@ void set_sphere_center(SceneBounds* bounds, double center[3]);
 /// |mean − centre| ≤ radius also holds when a consumer evaluates the distance in float32.
 float sphere_radius_for(double max_squared_distance);
 
+/// The float32 at or above v (v ≥ 0 finite).
+float round_up_float(double v);
+
+/// The box of `n` ≥ 1 means ([n, 3] float32): lo[a] and hi[a] the smallest and largest coordinate on axis a.
+void box_of_means(const float* means, uint64_t n, float lo[3], float hi[3]);
+
+/// The largest squared distance, in double, of `n` means ([n, 3] float32) from `center` (sphere_radius_for's
+/// argument); 0 for none.
+double max_squared_distance(const float* means, uint64_t n, const double center[3]);
+
 /// Content of the metadata section.
 struct SceneMetadata {
   uint32_t sh_degree = 0;  ///< 0..3
