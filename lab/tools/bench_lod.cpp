@@ -204,6 +204,30 @@ Result<std::string> measure_quality(const format::RgsFile& file, const LodBenchO
   return std::string();
 }
 
+/// One timed frame of the fly-through.
+struct Frame {
+  std::string name;
+  double ms = 0, wait_ms = 0;
+  double prepare_ms = 0;  // host time of LodStreamer::prepare (select, stream, gather launch)
+  double select_ms = 0;   // runtime::select_lod alone, timed again after the frame (not part of ms)
+  runtime::LodFrameStats stats;
+  runtime::GpuRenderStats render;
+  ViewQuality quality;
+};
+
+nlohmann::json frame_json(const Frame& f) {
+  return {{"view", f.name}, {"frame_ms", f.ms}, {"wait_ms", f.wait_ms}, {"read_ms", f.stats.read_ms},
+          {"prepare_ms", f.prepare_ms}, {"select_ms", f.select_ms}, {"pairs", f.render.pairs},
+          {"tile_groups", f.render.tile_groups}, {"splats", f.stats.splats},
+          {"chunks_drawn", f.stats.chunks_drawn}, {"chunks_coarsened", f.stats.chunks_coarsened},
+          {"chunks_not_resident", f.stats.chunks_not_resident}, {"bytes_streamed", f.stats.bytes_streamed},
+          {"bytes_resident", f.stats.bytes_resident}, {"psnr_db", json_or_null(f.quality.psnr)},
+          {"ssim", json_or_null(f.quality.ssim)}, {"floor_psnr_db", json_or_null(f.quality.floor_psnr)},
+          {"floor_ssim", json_or_null(f.quality.floor_ssim)},
+          {"frame_change_8bit", json_or_null(255 * f.quality.change_lod)},
+          {"full_frame_change_8bit", json_or_null(255 * f.quality.change_full)}};
+}
+
 }  // namespace
 
 Status bench_lod(const LodBenchOptions& o,
@@ -227,15 +251,6 @@ Status bench_lod(const LodBenchOptions& o,
   RGS_ASSIGN_OR_RETURN(runtime::LodStreamer streamer, runtime::LodStreamer::open(file, o.stream));
   const double open_ms = ms_since(t_open);
 
-  struct Frame {
-    std::string name;
-    double ms = 0, wait_ms = 0;
-    double prepare_ms = 0;  // host time of LodStreamer::prepare (select, stream, gather launch)
-    double select_ms = 0;   // runtime::select_lod alone, timed again after the frame (not part of ms)
-    runtime::LodFrameStats stats;
-    runtime::GpuRenderStats render;
-    ViewQuality quality;
-  };
   std::vector<Frame> frames;
   runtime::DeviceImage image;
   std::fprintf(stderr, "fly-through: %zu views, splat budget %s, memory budget %s bytes ...\n", cameras.size(),
@@ -338,18 +353,7 @@ Status bench_lod(const LodBenchOptions& o,
   j["open_ms"] = open_ms;
   nlohmann::json views = nlohmann::json::array();
   for (const Frame& f : frames) {
-    views.push_back({{"view", f.name}, {"frame_ms", f.ms}, {"wait_ms", f.wait_ms}, {"read_ms", f.stats.read_ms},
-                     {"prepare_ms", f.prepare_ms}, {"select_ms", f.select_ms}, {"pairs", f.render.pairs},
-                     {"tile_groups", f.render.tile_groups},
-                     {"splats", f.stats.splats},
-                     {"chunks_drawn", f.stats.chunks_drawn}, {"chunks_coarsened", f.stats.chunks_coarsened},
-                     {"chunks_not_resident", f.stats.chunks_not_resident},
-                     {"bytes_streamed", f.stats.bytes_streamed}, {"bytes_resident", f.stats.bytes_resident},
-                     {"psnr_db", json_or_null(f.quality.psnr)}, {"ssim", json_or_null(f.quality.ssim)},
-                     {"floor_psnr_db", json_or_null(f.quality.floor_psnr)},
-                     {"floor_ssim", json_or_null(f.quality.floor_ssim)},
-                     {"frame_change_8bit", json_or_null(255 * f.quality.change_lod)},
-                     {"full_frame_change_8bit", json_or_null(255 * f.quality.change_full)}});
+    views.push_back(frame_json(f));
   }
   j["views"] = views;
   j["frame_ms"] = {{"median", percentile(ms, 50)}, {"p95", percentile(ms, 95)}, {"max", percentile(ms, 100)}};

@@ -71,9 +71,9 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
   out.choices.reserve(index.chunk_count);
   scale.reserve(index.chunk_count);
   floor.reserve(index.chunk_count);
-  // The most splats any choice between the floors and the coarsest levels can draw: when the budget holds it, no
-  // step is ever refused, so each chunk's steps do not depend on the others' and need no queue.
-  uint64_t most = 0;
+  // Whether each chunk's counts do not fall from its coarsest level to its floor: then no step frees splats.
+  bool counts_rise = true;
+  uint64_t most = 0;  // the splats of every chunk at its largest level between its floor and its coarsest
   for (uint32_t c = 0; c < index.chunk_count; ++c) {
     const format::LodChunk& chunk = index.chunks[c];
     if (!frustum.holds(chunk.center, chunk.radius)) {
@@ -88,9 +88,8 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
     scale.push_back(s);
     floor.push_back(level);
     out.splats += index.at(out.choices.back().level, c).count;
-    uint64_t largest = 0;
-    for (uint32_t k = level; k <= coarsest; ++k) largest = std::max(largest, index.at(k, c).count);
-    most += largest;
+    for (uint32_t k = level; k < coarsest; ++k) counts_rise = counts_rise && index.at(k, c).count >= index.at(k + 1, c).count;
+    most += index.at(level, c).count;  // the largest, when counts rise
   }
   if (budget.max_splats == 0) return out;
   out.within_budget = out.splats <= budget.max_splats;
@@ -98,13 +97,14 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
   // From the coarsest levels, refine the chunk whose step removes the most projected error per splat added,
   // a step going to the finer level (down to the floor) of the best ratio, among those that fit the budget.
   using Step = std::tuple<double, int64_t, uint32_t>;  // (error removed per splat, −choice index, to level)
-  auto best_step = [&](uint32_t i) -> std::optional<Step> {
-    const LodChoice& ch = out.choices[i];
+  // Choice i's best step from level `from`, among those that fit the budget when `bounded`.
+  auto best_step = [&](uint32_t i, uint32_t from, bool bounded) -> std::optional<Step> {
+    const uint32_t chunk = out.choices[i].chunk;
     std::optional<Step> best;
-    for (uint32_t k = ch.level; k-- > floor[i];) {
-      const double gain = (index.at(ch.level, ch.chunk).error - index.at(k, ch.chunk).error) * scale[i];
-      const uint64_t cost = index.at(k, ch.chunk).count - index.at(ch.level, ch.chunk).count;
-      if (!(gain > 0) || out.splats + cost > budget.max_splats) continue;
+    for (uint32_t k = from; k-- > floor[i];) {
+      const double gain = (index.at(from, chunk).error - index.at(k, chunk).error) * scale[i];
+      const uint64_t cost = index.at(k, chunk).count - index.at(from, chunk).count;
+      if (!(gain > 0) || (bounded && out.splats + cost > budget.max_splats)) continue;
       const double ratio = cost == 0 ? std::numeric_limits<double>::infinity() : gain / double(cost);
       if (!best || ratio > std::get<0>(*best)) best = Step{ratio, -int64_t{i}, k};
     }
@@ -115,29 +115,68 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
     out.splats += index.at(std::get<2>(step), ch.chunk).count - index.at(ch.level, ch.chunk).count;
     ch.level = std::get<2>(step);
   };
-  const bool independent = most <= budget.max_splats;
-  std::vector<Step> first;  // each chunk's first step, when the budget can refuse steps
-  for (uint32_t i = 0; i < out.choices.size(); ++i) {
-    std::optional<Step> step = best_step(i);
-    if (!independent) {
-      if (step) first.push_back(*step);
-      continue;
+
+  // Until the budget first refuses a step, the queue takes the steps of each chunk's walk (its best steps without
+  // the budget, one after another from the coarsest level) in the order of their ratios, but none before the steps
+  // ahead of it in its walk: so no sooner than the smallest ratio up to it. With counts that do not fall as levels
+  // get finer (the splats drawn only grow), every walk step whose smallest ratio so far lies in the top octaves is
+  // therefore taken before any refusal when their splats together fit what the budget leaves. Those are taken at
+  // once, and the queue does the rest (the same choice as the queue alone). When the budget holds every chunk at
+  // its floor, nothing is refused and each walk is taken as it is found.
+  constexpr int kLowOctave = -160, kHighOctave = 160;  // 2^-160 and below, 2^160 and above (+inf) share one
+  struct Walk {
+    int octave;  // of the smallest ratio up to this step
+    uint32_t level;
+  };
+  const bool walked = counts_rise && out.within_budget, independent = walked && most <= budget.max_splats;
+  std::vector<Walk> walks;
+  walks.reserve(walked ? out.choices.size() * coarsest : 0);
+  std::vector<size_t> walk_end(out.choices.size());
+  std::vector<uint64_t> splats_by_octave(kHighOctave - kLowOctave + 1);
+  for (uint32_t i = 0; i < out.choices.size() && walked; ++i) {
+    double smallest = std::numeric_limits<double>::infinity();
+    uint32_t from = out.choices[i].level;
+    while (const std::optional<Step> step = best_step(i, from, false)) {
+      const uint32_t to = std::get<2>(*step);
+      if (independent) {
+        take(*step);
+        from = to;
+        continue;
+      }
+      smallest = std::min(smallest, std::get<0>(*step));
+      walks.push_back({std::clamp(std::ilogb(smallest), kLowOctave, kHighOctave), to});
+      splats_by_octave[walks.back().octave - kLowOctave] +=
+          index.at(to, out.choices[i].chunk).count - index.at(from, out.choices[i].chunk).count;
+      from = to;
     }
-    for (; step; step = best_step(i)) take(*step);
+    walk_end[i] = walks.size();
+  }
+  int taken_from = kHighOctave + 1;  // the walk steps of octaves >= taken_from are taken
+  for (uint64_t taken = 0; walked && taken_from > kLowOctave &&
+                           taken + splats_by_octave[taken_from - 1 - kLowOctave] <= budget.max_splats - out.splats;) {
+    taken += splats_by_octave[--taken_from - kLowOctave];
+  }
+  std::vector<Step> first;  // each chunk's first step left; none when every walk was taken whole
+  for (uint32_t i = 0; i < out.choices.size(); ++i) {
+    for (size_t w = i == 0 ? 0 : walk_end[i - 1]; w < walk_end[i] && walks[w].octave >= taken_from; ++w) {
+      take(Step{0, -int64_t{i}, walks[w].level});
+    }
+    if (taken_from == kLowOctave) continue;
+    if (auto step = best_step(i, out.choices[i].level, true)) first.push_back(*step);
   }
   std::priority_queue<Step> next(std::less<Step>(), std::move(first));
   while (!next.empty()) {
     const Step top = next.top();
     next.pop();
     const auto i = static_cast<uint32_t>(-std::get<1>(top));
-    const std::optional<Step> now = best_step(i);  // the budget left shrinks: a step may no longer fit
+    const std::optional<Step> now = best_step(i, out.choices[i].level, true);  // the budget left shrinks
     if (!now) continue;
     if (*now != top) {
       next.push(*now);
       continue;
     }
     take(top);
-    if (auto step = best_step(i)) next.push(*step);
+    if (auto step = best_step(i, out.choices[i].level, true)) next.push(*step);
   }
   for (uint32_t i = 0; i < out.choices.size(); ++i) out.coarsened += out.choices[i].level != floor[i] ? 1 : 0;
   return out;
