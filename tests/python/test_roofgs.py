@@ -192,8 +192,10 @@ def test_cpu_render_returns_numpy(guitar_rgs):
     with pytest.raises(roofgs.Error) as e:
         scene.render(camera, preset="slowest")
     assert e.value.code_name == "kInvalidArgument"
-    # The GPU's scratch budget means nothing to the CPU renderer: the same frame.
+    # The GPU's scratch budget means nothing to the CPU renderer: the same frame; nor does settling, which waits
+    # for a GPU level-of-detail scene's levels.
     assert np.array_equal(scene.render(camera, scratch_budget=1), rgba)
+    assert np.array_equal(scene.render(camera, settle=True), rgba)
 
 
 def test_load_level_of_detail_keywords():
