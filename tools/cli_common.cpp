@@ -105,6 +105,11 @@ sigset_t termination_signals() {
   return set;
 }
 
+/// What --version prints: "<tool> <version> (commit <hash>)", the commit CMake was configured from.
+std::string version_line(const char* tool) {
+  return std::string(tool) + " " + RGS_VERSION_STRING + " (commit " + RGS_TOOL_COMMIT + ")";
+}
+
 }  // namespace
 
 std::string escape_text(std::string_view text) {
@@ -187,6 +192,7 @@ std::string nearest_option(const CLI::App& app, const std::string& arg) {
 
 std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const char* tool,
                                       const std::function<std::string()>& check) {
+  app.set_version_flag("--version", version_line(tool));
   try {
     app.parse(argc, argv);
     const std::string problem = check ? check() : std::string();
@@ -445,10 +451,6 @@ Result<std::array<float, 3>> parse_background(const std::string& text) {
   }
   RGS_RETURN_ERROR_IF(i != 3, StatusCode::kInvalidArgument, "--background: expected r,g,b, got '" + text + "'");
   return bg;
-}
-
-std::string version_line(const char* tool) {
-  return std::string(tool) + " " + RGS_VERSION_STRING + " (commit " + RGS_TOOL_COMMIT + ")";
 }
 
 std::vector<std::string> file_safe_names(const std::vector<std::string>& names) {

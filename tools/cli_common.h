@@ -59,7 +59,8 @@ void report_notes(const char* tool, const std::vector<std::string>& notes, bool 
 /// that does not start with '-'.
 std::string nearest_option(const CLI::App& app, const std::string& arg);
 
-/// Parses the command line into `app`'s bindings, then runs `check`, which returns a usage error's message
+/// Adds --version (the tool, its version and the commit CMake was configured from), parses the command line into
+/// `app`'s bindings, then runs `check`, which returns a usage error's message
 /// (empty: the command line is fine). @return std::nullopt to go on; else the exit code to return at once
 /// (after finish()): --help and --version print through the app and give kExitOk, a parse or `check` error
 /// prints "<tool>: error: <what>" and a --help hint to stderr and gives kExitUsage; an unknown option's error also
@@ -131,8 +132,6 @@ Result<std::vector<uint8_t>> read_standard_input(const api::ConvertOptions* conv
 /// @return kInvalidArgument quoting the text or the part that is not a number.
 Result<std::array<float, 3>> parse_background(const std::string& text);
 
-/// What --version prints: "<tool> <version> (commit <hash>)", the commit CMake was configured from.
-std::string version_line(const char* tool);
 /// `names` usable as file names, all different: in name i, '/', '\\' and control characters replaced by '_';
 /// "view_<i>" (three digits) if empty, "view_<i>" for "." and ".."; "_<i>" appended when an earlier name is the
 /// same. rgs-render's views and rgs-audit --save-renders' folders and views are named so.

@@ -559,7 +559,6 @@ int main(int argc, char** argv) {
                  "frame's; the exit status is --min-psnr's)")
       ->check(CLI::Range(-1000.0, 1000.0));
   app.add_flag("-q,--quiet", opt.quiet, "No table");
-  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   const auto check = [&]() -> std::string {
     if (!opt.report_from.empty() && !opt.scenes.empty()) {
       return "--report-from makes the HTML of an earlier run and takes no scenes";

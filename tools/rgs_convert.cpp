@@ -502,7 +502,6 @@ int main(int argc, char** argv) {
                "Print nothing on success: no summary, no notes, no progress line (which is drawn on stderr only "
                "when it is a terminal, for conversions over a second)");
   rgs::tools::add_scene_read_options(app);
-  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   const auto check = [&]() -> std::string {
     if (opt.inputs.empty()) return "input is required";
     if (opt.inputs.size() == 1) return "output is required";

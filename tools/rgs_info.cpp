@@ -272,7 +272,6 @@ int main(int argc, char** argv) {
                "Validate fully (a .rgs file's checksums, codecs and values; another scene read and decoded in "
                "full); exit 1 and name the first problem if the file is invalid");
   app.add_flag("--json", json, "Print JSON instead of text");
-  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   if (auto code = tools::parse_command_line(app, argc, argv, kTool)) return *code;
   return tools::finish(kTool, run(path, check, json));

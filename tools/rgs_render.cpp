@@ -320,7 +320,6 @@ int main(int argc, char** argv) {
   rgs::tools::add_render_options(app, opt.render,
                                  rgs::tools::kBackendOption | rgs::tools::kPresetOption |
                                      rgs::tools::kScratchBudgetOption | rgs::tools::kLodOptions);
-  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   if (auto code = rgs::tools::parse_command_line(app, argc, argv, kTool)) return *code;
   rgs::tools::install_interrupt_cleanup();

@@ -155,7 +155,6 @@ int main(int argc, char** argv) {
   app.add_flag_callback("--cpu-jpeg", [&opt] { opt.server.gpu_jpeg = false; },
                         "GPU backend: encode JPEG frames on the CPU even where nvJPEG is found");
   app.add_flag("-q,--quiet", opt.quiet, "Print only the URL line and errors");
-  app.set_version_flag("--version", tools::version_line(kTool));
   tools::add_scene_read_options(app);
   if (auto code = tools::parse_command_line(app, argc, argv, kTool)) return tools::finish(kTool, *code);
   return tools::finish(kTool, run(opt));

@@ -1,7 +1,6 @@
 // PlayCanvas streamed SOG writer: lod-meta.json over chunk folders of SOG v2, from the project's own levels of
 // detail (converter::build_lod; docs/LOD.md "Streamed SOG out").
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -139,12 +138,6 @@ Result<format::GaussianCloud> file_cloud(const Levels& levels, const LodFile& fi
 }
 
 }  // namespace
-
-bool is_sog_lod_path(const std::string& path) {
-  std::string name = fs::path(path).filename().string();
-  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return name == "lod-meta.json";
-}
 
 Result<SogWriteSummary> write_sog_lod(const std::string& lod_meta_path, const Levels& levels,
                                       const SogWriteOptions& options, format::FileSink& sink) {

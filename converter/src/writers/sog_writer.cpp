@@ -257,6 +257,13 @@ Result<std::vector<SogFile>> encode_sog_checked(const format::GaussianCloud& clo
   return files;
 }
 
+/// True when the last component of `path` is `entry` in any case (a SOG folder's or streamed SOG's entry file).
+bool names_entry(const std::string& path, const char* entry) {
+  std::string name = std::filesystem::path(path).filename().string();
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return name == entry;
+}
+
 }  // namespace
 
 Result<std::vector<SogFile>> encode_sog(const format::GaussianCloud& cloud, const SogWriteOptions& options,
@@ -271,11 +278,8 @@ std::vector<uint8_t> bundle_sog(const std::vector<SogFile>& files) {
   return detail::write_stored_zip(sources);
 }
 
-bool is_sog_folder_path(const std::string& path) {
-  std::string name = std::filesystem::path(path).filename().string();
-  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return name == "meta.json";
-}
+bool is_sog_folder_path(const std::string& path) { return names_entry(path, "meta.json"); }
+bool is_sog_lod_path(const std::string& path) { return names_entry(path, "lod-meta.json"); }
 
 std::vector<std::string> sog_folder_files(const std::string& meta_path) {
   const std::filesystem::path folder = std::filesystem::path(meta_path).parent_path();
