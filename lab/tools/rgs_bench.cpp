@@ -1095,7 +1095,6 @@ int main(int argc, char** argv) {
                "Also count every view with the CPU reference (what each pixel blends and tests in vain, the pairs "
                "the image needs per 16x16, 8x8 and 4x4 cell) and print each stage's true floor: the time the work "
                "the image needs takes at the measured roofs (docs/lab/ROOFLINE.md#the-true-floor; needs --replicate 1)");
-  app.set_version_flag("--version", rgs::tools::version_line(kTool));
   rgs::tools::add_scene_read_options(app);
   const auto check = [&]() -> std::string {
     if (opt.floor && opt.replicate > 1) return "--floor counts the scene as stored: it needs --replicate 1";

@@ -689,7 +689,6 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--json", opt.json_path, "Also write the report as JSON here");
   app.add_flag("-q,--quiet", opt.quiet, "No progress line on stderr");
-  app.set_version_flag("--version", tools::version_line(kTool));
   const auto check = [&]() -> std::string {
     if (opt.cameras.cameras_path.empty() && opt.cameras.orbit == 0 && opt.cameras.path == 0) {
       return "one of --cameras, --orbit or --path is required";
