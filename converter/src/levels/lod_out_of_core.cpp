@@ -139,14 +139,24 @@ struct RecordLayout {
   uint64_t bytes() const { return 12 + 8 + 6 + 2 + sh + (residual ? 3 : 0); }
 };
 
-/// Copies Gaussian i of `s` into a record (`to_record`) or from one.
-void copy_record(format::EncodedScene* s, uint64_t i, const RecordLayout& r, uint8_t* record, bool to_record) {
-  for (int k = 0; k < section_count(r.residual); ++k) {
-    const uint64_t width = section_width(k, r.sh);
-    uint8_t* value = section_bytes(s, k) + i * width;
-    std::memcpy(to_record ? record : value, to_record ? value : record, width);
-    record += width;
-  }
+// The record copies are the out-of-core build's inner loop (every Gaussian, in and out of a bucket): fixed-size
+// copies, not a loop over the section table.
+void put_record(const format::EncodedScene& s, uint64_t i, const RecordLayout& r, uint8_t* out) {
+  std::memcpy(out, &s.means[i * 3], 12);
+  std::memcpy(out + 12, &s.rotations[i * 4], 8);
+  std::memcpy(out + 20, &s.scales[i * 3], 6);
+  std::memcpy(out + 26, &s.opacities[i], 2);
+  std::memcpy(out + 28, &s.sh[i * r.sh], r.sh);
+  if (r.residual) std::memcpy(out + 28 + r.sh, &s.sh_dc_residual[i * 3], 3);
+}
+
+void get_record(const uint8_t* in, const RecordLayout& r, uint64_t i, format::EncodedScene* s) {
+  std::memcpy(&s->means[i * 3], in, 12);
+  std::memcpy(&s->rotations[i * 4], in + 12, 8);
+  std::memcpy(&s->scales[i * 3], in + 20, 6);
+  std::memcpy(&s->opacities[i], in + 26, 2);
+  std::memcpy(&s->sh[i * r.sh], in + 28, r.sh);
+  if (r.residual) std::memcpy(&s->sh_dc_residual[i * 3], in + 28 + r.sh, 3);
 }
 
 /// An octree node of the count grid that build_lod keeps whole (a chunk) or cuts further (`split`: a finest
@@ -356,7 +366,7 @@ class Buckets final : public PartitionSource {
         RGS_RETURN_IF_ERROR(check_inside_box(&batch.means[i * 3]));
         const uint32_t node = prefix_[cell_of(&batch.means[i * 3])];
         if (node == kNoNode || ++in_node[node] > nodes_[node].count) return changed;
-        copy_record(&batch, i, record_, record.data(), true);
+        put_record(batch, i, record_, record.data());
         RGS_RETURN_IF_ERROR(buckets_[nodes_[node].bucket]->append(record.data(), record.size()));
       }
       seen += batch.count;
@@ -381,7 +391,7 @@ class Buckets final : public PartitionSource {
     for (uint64_t i = 0; i < n;) {
       const uint64_t m = std::min<uint64_t>(n - i, piece.size() / record_.bytes());
       RGS_RETURN_IF_ERROR(file.read(i * record_.bytes(), piece.data(), static_cast<size_t>(m * record_.bytes())));
-      for (uint64_t j = 0; j < m; ++j) copy_record(&bucket_, i + j, record_, piece.data() + j * record_.bytes(), false);
+      for (uint64_t j = 0; j < m; ++j) get_record(piece.data() + j * record_.bytes(), record_, i + j, &bucket_);
       i += m;
     }
     file.close();  // its disk space goes back
