@@ -88,7 +88,7 @@ LodSelection select_lod(const format::LodIndex& index, const Camera& camera, con
     scale.push_back(s);
     floor.push_back(level);
     out.splats += index.at(out.choices.back().level, c).count;
-    for (uint32_t k = level; k < coarsest; ++k) counts_rise = counts_rise && index.at(k, c).count >= index.at(k + 1, c).count;
+    for (uint32_t k = level; k < coarsest; ++k) counts_rise &= index.at(k, c).count >= index.at(k + 1, c).count;
     most += index.at(level, c).count;  // the largest, when counts rise
   }
   if (budget.max_splats == 0) return out;

@@ -219,9 +219,9 @@ class Renderer {
   /// `camera` under LoadOptions::lod. GPU: under the scene's mutex, runtime::LodStreamer::prepare(camera,
   /// `stream`) (after a GPU wait for the scene's previous frame, on any stream), then its frame is rendered on
   /// `stream`; the image depends on the frames rendered before (levels arrive two frames after they are
-  /// wanted) unless RenderSettings::lod_settle. CPU: the chosen ranges of every level held in host memory, in chunk order, as the GPU gathers
-  /// them: a GPU frame whose chunks are all resident (FrameStats::lod.chunks_not_resident 0) draws the same
-  /// Gaussians.
+  /// wanted) unless RenderSettings::lod_settle. CPU: the chosen ranges of every level held in host memory, in
+  /// chunk order, as the GPU gathers them: a GPU frame whose chunks are all resident
+  /// (FrameStats::lod.chunks_not_resident 0) draws the same Gaussians.
   /// @return kInvalidArgument (scene on another device than the renderer, an invalid camera or target, a
   /// preset whose data the scene was loaded without: LoadOptions::presets; on a level-of-detail GPU scene a
   /// preset reading FP32), kLimitExceeded, kOutOfMemory, kCudaError; level-of-detail GPU scenes also the file's
