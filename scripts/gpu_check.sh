@@ -11,6 +11,8 @@ what="${3:-all}"
 mkdir -p "$out"
 bin="$stage/bin"
 if [ -f "$stage/bin.tar.xz" ]; then tar -C "$stage" -xJf "$stage/bin.tar.xz"; fi
+# Another build's binaries staged for an A/B (STAGE_DIR/ab) find libzip.so.4 beside them, through their $ORIGIN.
+if [ -d "$stage/ab" ] && [ -f "$bin/libzip.so.4" ]; then cp -n "$bin/libzip.so.4" "$stage/ab/"; fi
 export RGS_DATA_DIR="$stage/data"
 # The larger scenes travel in their own call (.device_scenes beside the stage folder; scripts/stage_gpu.sh).
 scenes="$(dirname "$stage")/.device_scenes"
