@@ -112,7 +112,7 @@ class Scene:
 
 def load(path: _Path, device: str = "auto", presets: Sequence[str] = ("fastest",),
          quantize_other_formats: bool = True, cuda_device: int = 0, spz_frame: Union[str, Mapping[Union[str, os.PathLike], str]] = "rub", *, lod: bool = True,
-         splat_budget: int = 3000000, pixel_error: float = 2.0, memory_budget: int = 0,
+         splat_budget: int = 3000000, pixel_error: float = 1.5, memory_budget: int = 0,
          stream_bytes: int = 33554432, antialiased: bool = False) -> Scene:
     """A scene in any format on device "cuda", "cpu" or "auto". A level-of-detail .rgs (docs/LOD.md) with
     lod=True draws each frame's selection of levels: at most splat_budget Gaussians (0: no limit), levels whose

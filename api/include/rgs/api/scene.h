@@ -62,7 +62,7 @@ struct LodSettings {
   /// Largest projected error a drawn level may show, in pixels (SPEC §4.9.1: world error · focal length /
   /// distance); finite and >= 0. 0 with no splat budget draws level 0 everywhere: the full detail. The default,
   /// runtime::LodBudget's, is chosen in docs/LOD.md#measuring-quality.
-  float pixel_error = 2.0f;
+  float pixel_error = 1.5f;
   /// GPU: device bytes for the level pool, the frame arrays (one Gaussian per splat of the budget) and the upload
   /// buffer together; 0: a pool that holds every level. Too small for the frame arrays and the coarsest level of
   /// every chunk: kLimitExceeded, the message giving the bytes needed. The renderer's own scratch is bounded

@@ -15,9 +15,9 @@ struct LodBudget {
   /// Most Gaussians (splats) a frame draws; 0: no limit.
   uint64_t max_splats = 0;
   /// Largest projected error a level may show, in pixels (SPEC §4.9.1: error · f / d): the floor of select_lod.
-  /// The default is the largest error whose frames stayed within 1 dB of the full detail's against its
-  /// supersampled render on the scenes where a pixel error could close the gap (docs/LOD.md#the-default-pixel-error).
-  float pixel_error = 2.0f;
+  /// The default is the largest swept error whose frames stayed within 1 dB of the full detail's against its
+  /// supersampled render on every measured scene (docs/LOD.md#the-default-pixel-error).
+  float pixel_error = 1.5f;
 };
 
 /// One chunk a frame draws, at one level.
