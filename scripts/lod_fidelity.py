@@ -214,23 +214,28 @@ def plot(results, path):
         import matplotlib.pyplot as plt
     except ImportError:
         return "matplotlib missing: no plot (rerun with --plot-from OUT/lod_quality.json where it is installed)"
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    # PSNR against each scene's own floor, so scenes whose floors lie tens of dB apart share one axis, and the rule's
+    # 1 dB is one line across them.
+    fig, ax = plt.subplots(figsize=(10, 4.5))
     for i, res in enumerate(results):
         colour = f"C{i}"
         name = os.path.basename(res["scene"])
-        curve = sorted((r["splats"], r["psnr_mean"]) for r in res["rows"] if r["kind"] == "budget" and r["value"] > 0)
+        floor = res["rows"][0]["psnr_mean"]
+        curve = sorted((r["splats"], r["psnr_mean"] - floor) for r in res["rows"]
+                       if r["kind"] == "budget" and r["value"] > 0)
         if curve:
             ax.plot([c[0] for c in curve], [c[1] for c in curve], "o-", color=colour, label=f"{name}: budget")
-        errors = sorted((r["splats"], r["psnr_mean"], r["value"]) for r in res["rows"] if r["kind"] == "error")
+        errors = sorted((r["splats"], r["psnr_mean"] - floor, r["value"]) for r in res["rows"] if r["kind"] == "error")
+        ax.plot([e[0] for e in errors], [e[1] for e in errors], "^:", color=colour, label=f"{name}: pixel error")
         for s, p, e in errors:
-            ax.plot(s, p, "^", color=colour)
             ax.annotate(f"{e:g} px", (s, p), textcoords="offset points", xytext=(4, -10), fontsize=7)
-        ax.axhline(res["rows"][0]["psnr_mean"], color=colour, linestyle="--", label=f"{name}: full render (floor)")
+    ax.axhline(0, color="black", linewidth=0.8, label="full render (floor)")
+    ax.axhline(-1, color="grey", linestyle="--", linewidth=0.8, label="1 dB below the floor (the rule)")
     ax.set_xscale("log")
     ax.set_xlabel("splats a view")
-    ax.set_ylabel("PSNR dB against the 2x2 supersampled full detail")
+    ax.set_ylabel("PSNR above the floor, dB")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return f"wrote {path}"
