@@ -230,7 +230,8 @@ class Sink {
   virtual Status write(PipelineScene* scene, format::FileSink& files) = 0;
 };
 
-/// The .rgs sink (runtime or archive profile, levels of detail): the scene's `encoded` (and `lod`) written.
+/// The .rgs sink (runtime or archive profile, levels of detail): the scene's `encoded` (and `lod`) written, or the
+/// `levels` of an out-of-core build streamed.
 std::unique_ptr<Sink> make_rgs_sink(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress);
 
 /// The sink of a float format, `output` kPly, kSpz, kGlb or kSog (a bundle, or a folder when `dst` is named

@@ -1,5 +1,6 @@
 // The .rgs sink: the quantized scene (with its levels of detail) written by format::write_scene_file in the
-// runtime or the archive profile; for the archive, what its codecs cost measured on what it decodes to.
+// runtime or the archive profile, or the levels of an out-of-core build streamed (format::write_streamed_scene_file);
+// for the archive, what its codecs cost measured on what it decodes to.
 #include <algorithm>
 
 #include "../internal_pipeline.h"
@@ -78,26 +79,34 @@ class RgsSink final : public Sink {
       : dst_(std::move(dst)), options_(options), progress_(progress) {}
 
   Status write(PipelineScene* scene, format::FileSink& files) override {
-    if (!scene->encoded) return write_levels(scene, files);
     RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options_));
     const bool archive = write.profile == format::StorageProfile::kArchive;
     ConvertReport& report = scene->report;
     RgsOutputReport& rgs = *report.rgs;
-    const format::EncodedScene& encoded = *scene->encoded;
-    if (scene->lod) {
-      write.lod = &scene->lod->index;
-      rgs.lod_levels = scene->lod->index.level_count;
-      rgs.lod_chunks = scene->lod->index.chunk_count;
-      rgs.lod_gaussians = scene->lod->scene.count;
+    const converter::Levels* levels = scene->levels.get();  // built in memory or out of core
+    if (levels != nullptr) {
+      write.lod = &levels->index();
+      rgs.lod_levels = levels->index().level_count;
+      rgs.lod_chunks = levels->index().chunk_count;
+      rgs.lod_gaussians = levels->head().count;
     }
     if (archive) progress_->encoding_archive();
     ProgressSink progress_files(files, progress_);
     format::ArchiveScene coded;
     const auto write_start = Clock::now();
+    // The levels of an out-of-core build (no scene in memory) have their sections streamed into the file.
     RGS_ASSIGN_OR_RETURN(report.output_bytes,
-                         format::write_scene_file(dst_, scene->lod ? scene->lod->scene : encoded, write, progress_files,
-                                                  archive ? &coded : nullptr));
+                         scene->encoded ? format::write_scene_file(dst_, scene->lod ? scene->lod->scene : *scene->encoded,
+                                                                   write, progress_files, archive ? &coded : nullptr)
+                                        : format::write_streamed_scene_file(dst_, levels->streamed(), write,
+                                                                            progress_files));
     report.seconds.write = seconds_since(write_start);
+    report.output_description = archive  ? "RoofGS .rgs, archive profile"
+                                : levels ? "RoofGS .rgs, runtime profile with levels of detail"
+                                         : "RoofGS .rgs, runtime profile";
+    if (levels != nullptr) note_read_limit(levels->head().count, &report);
+    if (!scene->encoded) return Status();  // the out-of-core build filled the rest
+    const format::EncodedScene& encoded = *scene->encoded;
     rgs.sh_quantization = encoded.metadata.sh_quantization;
     const format::SceneBounds& bounds = encoded.metadata.bounds;
     rgs.extent = std::max({double(bounds.aabb_max[0]) - bounds.aabb_min[0],
@@ -116,29 +125,6 @@ class RgsSink final : public Sink {
       rgs.errors = std::move(errors).value();
       report.seconds.quantize += seconds_since(measure_start);
     }
-    report.output_description = archive      ? "RoofGS .rgs, archive profile"
-                                : scene->lod ? "RoofGS .rgs, runtime profile with levels of detail"
-                                             : "RoofGS .rgs, runtime profile";
-    if (scene->lod) note_read_limit(scene->lod->scene.count, &report);
-    return Status();
-  }
-
-  /// The levels of an out-of-core build (no scene in memory), their sections streamed into the file.
-  Status write_levels(PipelineScene* scene, format::FileSink& files) {
-    const converter::Levels& levels = *scene->levels;
-    RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options_));
-    write.lod = &levels.index();
-    ProgressSink progress_files(files, progress_);
-    const auto write_start = Clock::now();
-    ConvertReport& report = scene->report;
-    RGS_ASSIGN_OR_RETURN(report.output_bytes,
-                         format::write_streamed_scene_file(dst_, levels.streamed(), write, progress_files));
-    report.seconds.write = seconds_since(write_start);
-    report.rgs->lod_levels = levels.index().level_count;
-    report.rgs->lod_chunks = levels.index().chunk_count;
-    report.rgs->lod_gaussians = levels.head().count;
-    report.output_description = "RoofGS .rgs, runtime profile with levels of detail";
-    note_read_limit(levels.head().count, &report);
     return Status();
   }
 
