@@ -50,7 +50,10 @@ class ProgressReporter {
   struct Shares {
     double quantize, encode, write;
   };
+  /// `stage` reported unless it is the one reported last (by content).
   void report(const char* stage, double fraction);
+  /// `stage` at `fraction` (or the fraction reached, if more), with rate control's `step` of `steps`.
+  void advance(const char* stage, double fraction, uint32_t step = 0, uint32_t steps = 0);
   const std::function<void(const ConvertProgress&)>& callback_;
   Shares shares_;
   std::string text_;  ///< rate control's stage text
