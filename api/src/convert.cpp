@@ -211,11 +211,15 @@ Result<ConvertOptions> per_input(ConvertOptions options, size_t inputs, const st
   return options;
 }
 
-std::unique_ptr<detail::Sink> make_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
-                                        detail::ProgressReporter* progress) {
-  if (output == OutputFormat::kRgs) return detail::make_rgs_sink(dst, options, progress);
-  if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) return detail::make_sog_lod_sink(dst, progress);
-  return detail::make_cloud_sink(dst, output, options, progress);
+/// The sink of `output` at `dst`: `scene` written through `options`' output transaction.
+Status write_output(const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                    detail::ProgressReporter* progress, detail::PipelineScene* scene) {
+  detail::ProgressSink files(*options.files, progress);
+  if (output == OutputFormat::kRgs) return detail::write_rgs_output(dst, options, progress, scene, files);
+  if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) {
+    return detail::write_sog_lod_output(dst, scene, files);
+  }
+  return detail::write_cloud_output(dst, output, options, progress, scene, files);
 }
 
 /// The conversion's one driver: `source`'s scene, whole or in batches, through the stages of a conversion to `dst`
@@ -247,7 +251,7 @@ Result<ConvertReport> run(detail::SceneSource source, const std::string& dst, Ou
   for (const detail::Stage& stage : detail::conversion_stages(dst, output, &settings, progress)) {
     RGS_RETURN_IF_ERROR(detail::run_stage(stage, &scene));
   }
-  RGS_RETURN_IF_ERROR(make_sink(dst, output, settings, progress)->write(&scene, *settings.files));
+  RGS_RETURN_IF_ERROR(write_output(dst, output, settings, progress, &scene));
   report.seconds.total = detail::seconds_since(source.start);
   if (options.target.bytes && report.output_bytes > *options.target.bytes) {
     return Status(StatusCode::kLimitExceeded,

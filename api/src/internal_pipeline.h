@@ -224,26 +224,21 @@ void note_edits(const std::vector<converter::EditAction>& edits, const std::vect
 void describe_merge_input(const std::vector<converter::EditAction>& edits, uint64_t read,
                           const std::vector<uint64_t>& removed, MergeInput* input);
 
-/// Writes a scene through the output transaction.
-class Sink {
- public:
-  virtual ~Sink() = default;
-  /// Writes `scene` (after the stages) to the sink's destination through `files`, filling scene->report's output
-  /// fields.
-  virtual Status write(PipelineScene* scene, format::FileSink& files) = 0;
-};
+// The sinks: each writes `scene` (after the stages) to `dst` through `files` (the output transaction, as a
+// ProgressSink), filling scene->report's output fields.
 
 /// The .rgs sink (runtime or archive profile, levels of detail): the scene's `encoded` (and `lod`) written, or the
 /// `levels` of an out-of-core build streamed.
-std::unique_ptr<Sink> make_rgs_sink(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress);
+Status write_rgs_output(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress,
+                        PipelineScene* scene, format::FileSink& files);
 
 /// The sink of a float format, `output` kPly, kSpz, kGlb or kSog (a bundle, or a folder when `dst` is named
-/// meta.json): the scene's cloud written. Null for kRgs.
-std::unique_ptr<Sink> make_cloud_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
-                                      ProgressReporter* progress);
+/// meta.json): the scene's cloud written.
+Status write_cloud_output(const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                          ProgressReporter* progress, PipelineScene* scene, format::FileSink& files);
 
 /// The streamed SOG sink (`dst` named lod-meta.json): the scene's `levels` written.
-std::unique_ptr<Sink> make_sog_lod_sink(const std::string& dst, ProgressReporter* progress);
+Status write_sog_lod_output(const std::string& dst, PipelineScene* scene, format::FileSink& files);
 
 /// Forwards to another sink, reporting the "writing" stage when the first bytes reach the file (before that,
 /// the archive profile's encoder or the SPZ compressor is still running).
