@@ -144,13 +144,13 @@ Status write_rgs_output(const std::string& dst, const ConvertOptions& options, P
                               : levels ? "RoofGS .rgs, runtime profile with levels of detail"
                                        : "RoofGS .rgs, runtime profile";
   if (levels != nullptr) note_read_limit(levels->head().count, &report);
-  if (!scene->encoded) return Status();  // the out-of-core build filled the rest
-  const format::EncodedScene& encoded = *scene->encoded;
-  rgs.sh_quantization = encoded.metadata.sh_quantization;
-  const format::SceneBounds& bounds = encoded.metadata.bounds;
+  const format::SceneMetadata& metadata = scene->encoded ? scene->encoded->metadata : levels->head().metadata;
+  rgs.sh_quantization = metadata.sh_quantization;
+  const format::SceneBounds& bounds = metadata.bounds;
   rgs.extent = std::max({double(bounds.aabb_max[0]) - bounds.aabb_min[0],
                          double(bounds.aabb_max[1]) - bounds.aabb_min[1],
                          double(bounds.aabb_max[2]) - bounds.aabb_min[2], 0.0});
+  if (!scene->encoded) return Status();  // the out-of-core build measured the rest
   if (archive) {
     rgs.position_step = coded.position.step;
     rgs.position_bits = coded.position.bits;

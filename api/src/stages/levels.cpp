@@ -165,13 +165,8 @@ Status build_out_of_core(PipelineScene* scene, const std::string& dst, OutputFor
   auto built = converter::build_lod_out_of_core(quantized, head, lod);
   if (!built.ok()) return batches.pass_error(built.status(), scene->name);
   report.seconds.lod = seconds_since(build_start);
-  if (output == OutputFormat::kRgs) {
-    rgs.sh_quantization = stats.shq;
-    rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],
-                           double(stats.box_hi[2]) - stats.box_lo[2], 0.0});
-    rgs.out_of_core_partitions = built->partitions;
-    report.rgs = std::move(rgs);
-  }
+  rgs.out_of_core_partitions = built->partitions;
+  if (output == OutputFormat::kRgs) report.rgs = std::move(rgs);
   scene->levels = std::move(built->levels);
   report.output_notes.push_back(
       "built out of core: " + group_digits(built->partitions) + (built->partitions == 1 ? " partition" : " partitions") +
