@@ -117,8 +117,7 @@ Status check_convert_output(const std::string& dst, OutputFormat output, const C
   RGS_RETURN_ERROR_IF(options.target.active() && output != OutputFormat::kRgs, StatusCode::kInvalidArgument,
                       dst + ": a PSNR or byte target chooses the archive profile of a .rgs output, not " +
                           output_format_name(output));
-  const bool levels_out = output == OutputFormat::kRgs || (output == OutputFormat::kSog && converter::is_sog_lod_path(dst));
-  RGS_RETURN_ERROR_IF(options.lod_levels && !levels_out, StatusCode::kInvalidArgument,
+  RGS_RETURN_ERROR_IF(options.lod_levels && !detail::writes_levels(dst, output, options), StatusCode::kInvalidArgument,
                       dst + ": levels of detail (lod_levels, --lod-levels) are written into a .rgs or a streamed SOG "
                             "(lod-meta.json), and a " + std::string(output_format_name(output)) +
                           " output has none");
