@@ -80,6 +80,13 @@ struct SceneSource {
 /// streamed SOG (lod-meta.json).
 bool writes_levels(const std::string& dst, OutputFormat output, const ConvertOptions& options);
 
+/// kLimitExceeded naming `src`, `what` needs the estimate ("converting it": estimate_convert_memory of its inputs
+/// together; or a merged scene's) and the limit when `estimate` is above convert_memory_limit(options); no check when
+/// the limit is 0 (unknown physical memory). The check convert() runs before it reads a file whole
+/// (convert_memory.cpp).
+Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options,
+                            const std::string& what = "converting it");
+
 /// The files at `srcs` (one or more) as the source of a conversion to `dst` in `output`, named by their names
 /// joined with " + ": in batches, file after file (converter::PlyStream of them all), when they are binary PLYs
 /// whose levels of detail are written (writes_levels; the runtime profile, no target) and whose estimated peak
