@@ -117,8 +117,7 @@ Status check_convert_output(const std::string& dst, OutputFormat output, const C
   RGS_RETURN_ERROR_IF(options.target.active() && output != OutputFormat::kRgs, StatusCode::kInvalidArgument,
                       dst + ": a PSNR or byte target chooses the archive profile of a .rgs output, not " +
                           output_format_name(output));
-  const bool levels_out = output == OutputFormat::kRgs || (output == OutputFormat::kSog && converter::is_sog_lod_path(dst));
-  RGS_RETURN_ERROR_IF(options.lod_levels && !levels_out, StatusCode::kInvalidArgument,
+  RGS_RETURN_ERROR_IF(options.lod_levels && !detail::writes_levels(dst, output, options), StatusCode::kInvalidArgument,
                       dst + ": levels of detail (lod_levels, --lod-levels) are written into a .rgs or a streamed SOG "
                             "(lod-meta.json), and a " + std::string(output_format_name(output)) +
                           " output has none");
@@ -211,11 +210,15 @@ Result<ConvertOptions> per_input(ConvertOptions options, size_t inputs, const st
   return options;
 }
 
-std::unique_ptr<detail::Sink> make_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
-                                        detail::ProgressReporter* progress) {
-  if (output == OutputFormat::kRgs) return detail::make_rgs_sink(dst, options, progress);
-  if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) return detail::make_sog_lod_sink(dst, progress);
-  return detail::make_cloud_sink(dst, output, options, progress);
+/// The sink of `output` at `dst`: `scene` written through `options`' output transaction.
+Status write_output(const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                    detail::ProgressReporter* progress, detail::PipelineScene* scene) {
+  detail::ProgressSink files(*options.files, progress);
+  if (output == OutputFormat::kRgs) return detail::write_rgs_output(dst, options, progress, scene, files);
+  if (output == OutputFormat::kSog && converter::is_sog_lod_path(dst)) {
+    return detail::write_sog_lod_output(dst, scene, files);
+  }
+  return detail::write_cloud_output(dst, output, options, progress, scene, files);
 }
 
 /// The conversion's one driver: `source`'s scene, whole or in batches, through the stages of a conversion to `dst`
@@ -247,7 +250,7 @@ Result<ConvertReport> run(detail::SceneSource source, const std::string& dst, Ou
   for (const detail::Stage& stage : detail::conversion_stages(dst, output, &settings, progress)) {
     RGS_RETURN_IF_ERROR(detail::run_stage(stage, &scene));
   }
-  RGS_RETURN_IF_ERROR(make_sink(dst, output, settings, progress)->write(&scene, *settings.files));
+  RGS_RETURN_IF_ERROR(write_output(dst, output, settings, progress, &scene));
   report.seconds.total = detail::seconds_since(source.start);
   if (options.target.bytes && report.output_bytes > *options.target.bytes) {
     return Status(StatusCode::kLimitExceeded,

@@ -9,7 +9,7 @@
 #include <system_error>
 #include <vector>
 
-#include "internal_convert_memory.h"
+#include "internal_pipeline.h"
 #include "rgs/api/convert.h"
 #include "rgs/converter/scene_reader.h"
 #include "rgs/format/gaussian_cloud.h"

@@ -50,7 +50,10 @@ class ProgressReporter {
   struct Shares {
     double quantize, encode, write;
   };
+  /// `stage` reported unless it is the one reported last (by content).
   void report(const char* stage, double fraction);
+  /// `stage` at `fraction` (or the fraction reached, if more), with rate control's `step` of `steps`.
+  void advance(const char* stage, double fraction, uint32_t step = 0, uint32_t steps = 0);
   const std::function<void(const ConvertProgress&)>& callback_;
   Shares shares_;
   std::string text_;  ///< rate control's stage text
@@ -76,6 +79,13 @@ struct SceneSource {
 /// Whether a conversion to `dst` in `output` writes levels of detail: a .rgs with ConvertOptions::lod_levels, or a
 /// streamed SOG (lod-meta.json).
 bool writes_levels(const std::string& dst, OutputFormat output, const ConvertOptions& options);
+
+/// kLimitExceeded naming `src`, `what` needs the estimate ("converting it": estimate_convert_memory of its inputs
+/// together; or a merged scene's) and the limit when `estimate` is above convert_memory_limit(options); no check when
+/// the limit is 0 (unknown physical memory). The check convert() runs before it reads a file whole
+/// (convert_memory.cpp).
+Status check_convert_memory(const std::string& src, uint64_t estimate, const ConvertOptions& options,
+                            const std::string& what = "converting it");
 
 /// The files at `srcs` (one or more) as the source of a conversion to `dst` in `output`, named by their names
 /// joined with " + ": in batches, file after file (converter::PlyStream of them all), when they are binary PLYs
@@ -221,25 +231,21 @@ void note_edits(const std::vector<converter::EditAction>& edits, const std::vect
 void describe_merge_input(const std::vector<converter::EditAction>& edits, uint64_t read,
                           const std::vector<uint64_t>& removed, MergeInput* input);
 
-/// Writes a scene through the output transaction.
-class Sink {
- public:
-  virtual ~Sink() = default;
-  /// Writes `scene` (after the stages) to the sink's destination through `files`, filling scene->report's output
-  /// fields.
-  virtual Status write(PipelineScene* scene, format::FileSink& files) = 0;
-};
+// The sinks: each writes `scene` (after the stages) to `dst` through `files` (the output transaction, as a
+// ProgressSink), filling scene->report's output fields.
 
-/// The .rgs sink (runtime or archive profile, levels of detail): the scene's `encoded` (and `lod`) written.
-std::unique_ptr<Sink> make_rgs_sink(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress);
+/// The .rgs sink (runtime or archive profile, levels of detail): the scene's `encoded` (and `lod`) written, or the
+/// `levels` of an out-of-core build streamed.
+Status write_rgs_output(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress,
+                        PipelineScene* scene, format::FileSink& files);
 
 /// The sink of a float format, `output` kPly, kSpz, kGlb or kSog (a bundle, or a folder when `dst` is named
-/// meta.json): the scene's cloud written. Null for kRgs.
-std::unique_ptr<Sink> make_cloud_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
-                                      ProgressReporter* progress);
+/// meta.json): the scene's cloud written.
+Status write_cloud_output(const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                          ProgressReporter* progress, PipelineScene* scene, format::FileSink& files);
 
 /// The streamed SOG sink (`dst` named lod-meta.json): the scene's `levels` written.
-std::unique_ptr<Sink> make_sog_lod_sink(const std::string& dst, ProgressReporter* progress);
+Status write_sog_lod_output(const std::string& dst, PipelineScene* scene, format::FileSink& files);
 
 /// Forwards to another sink, reporting the "writing" stage when the first bytes reach the file (before that,
 /// the archive profile's encoder or the SPZ compressor is still running).

@@ -43,37 +43,27 @@ ProgressReporter::ProgressReporter(const ConvertOptions& options, OutputFormat o
 }
 
 void ProgressReporter::fitting(const std::string& what, uint32_t done, uint32_t bound) {
-  if (!callback_) return;
   text_ = "rate control, step " + std::to_string(done) + " of <= " + std::to_string(bound) + ": " + what;
-  stage_ = text_.c_str();
   const double share = bound > 0 ? double(done) / double(bound) : 0.0;
-  fraction_ = std::max(fraction_, kFitStart + (kFitEnd - kFitStart) * share);
-  ConvertProgress p{stage_, fraction_};
-  p.step = done;
-  p.steps = bound;
-  callback_(p);
+  advance(text_.c_str(), kFitStart + (kFitEnd - kFitStart) * share, done, bound);
 }
 
-void ProgressReporter::scanning(double fraction) {
-  if (!callback_) return;
-  fraction_ = std::max(fraction_, kOutOfCoreStart * fraction);
-  stage_ = "reading";
-  callback_(ConvertProgress{stage_, fraction_});
-}
+void ProgressReporter::scanning(double fraction) { advance("reading", kOutOfCoreStart * fraction); }
 
 void ProgressReporter::out_of_core(const char* stage, double fraction) {
-  if (!callback_) return;
-  fraction_ = std::max(fraction_, kOutOfCoreStart + (1 - kOutOfCoreStart) * fraction);
-  stage_ = stage;
-  callback_(ConvertProgress{stage, fraction_});
+  advance(stage, kOutOfCoreStart + (1 - kOutOfCoreStart) * fraction);
 }
 
 void ProgressReporter::report(const char* stage, double fraction) {
   // By content: the same literal can have several addresses (inline copies in several files, sanitizers).
-  if (!callback_ || (stage_ != nullptr && std::strcmp(stage, stage_) == 0)) return;
+  if (stage_ == nullptr || std::strcmp(stage, stage_) != 0) advance(stage, fraction);
+}
+
+void ProgressReporter::advance(const char* stage, double fraction, uint32_t step, uint32_t steps) {
+  if (!callback_) return;
   stage_ = stage;
   fraction_ = std::max(fraction_, fraction);
-  callback_(ConvertProgress{stage, fraction_});
+  callback_(ConvertProgress{stage, fraction_, step, steps});
 }
 
 Status ProgressSink::write(const std::string& path, const format::ChunkProducer& produce) {

@@ -12,122 +12,90 @@ namespace rgs::api::detail {
 
 namespace {
 
-/// What every float sink does around its writer: the "writing" stage, the time, the counts, and the note that a
-/// format other than SPZ cannot say that the scene is anti-aliased.
-class CloudSink : public Sink {
- public:
-  CloudSink(std::string dst, const ConvertOptions& options, ProgressReporter* progress)
-      : dst_(std::move(dst)), options_(options), progress_(progress) {}
+/// Writes the cloud of `scene` to `dst` through `files`; fills the report's output bytes, description and notes.
+using CloudWriter = Status (*)(const std::string& dst, const ConvertOptions& options, const PipelineScene& scene,
+                               format::FileSink& files, ConvertReport* report);
 
-  Status write(PipelineScene* scene, format::FileSink& files) override {
-    progress_->writing();
-    ProgressSink progress_files(files, progress_);
-    const auto start = Clock::now();
-    const format::GaussianCloud& cloud = scene->input.cloud;
-    RGS_RETURN_IF_ERROR(write_cloud(*scene, progress_files, &scene->report));
-    if (cloud.antialiased && scene->report.output_format != OutputFormat::kSpz) {
-      // PLY and KHR_gaussian_splatting have no field for it; SPZ keeps it in its header flag.
-      scene->report.output_notes.push_back(
-          "anti-aliased scene (2D Mip filter): this format cannot say so; read the file back with --antialiased "
-          "(Python: antialiased=True) to render it as trained");
-    }
-    scene->report.seconds.write = seconds_since(start);
-    scene->report.gaussians = cloud.size();
-    scene->report.sh_degree = cloud.sh_degree;
-    return Status();
+Status write_ply_cloud(const std::string& dst, const ConvertOptions&, const PipelineScene& scene,
+                       format::FileSink& files, ConvertReport* report) {
+  converter::PlyWriteReport ply;
+  RGS_ASSIGN_OR_RETURN(report->output_bytes, converter::write_ply(dst, scene.input.cloud, &ply, files));
+  report->output_description = scene.input.format_id == "rgs" ? "INRIA PLY, dequantized" : "INRIA PLY";
+  report->zero_scales = ply.zero_scales;
+  if (ply.zero_scales > 0) {
+    char log_scale[32];
+    std::snprintf(log_scale, sizeof(log_scale), "%.4f", static_cast<double>(converter::kZeroScaleLog));
+    report->output_notes.push_back(std::to_string(ply.zero_scales) + " zero scales written as log-scale " +
+                                   log_scale + ", not -inf");
   }
+  return Status();
+}
 
- protected:
-  /// Writes the cloud of `scene` to dst_ through `files`; fills the report's output bytes, description and notes.
-  virtual Status write_cloud(const PipelineScene& scene, format::FileSink& files, ConvertReport* report) = 0;
-  std::string dst_;
-  const ConvertOptions& options_;
+Status write_spz_cloud(const std::string& dst, const ConvertOptions& options, const PipelineScene& scene,
+                       format::FileSink& files, ConvertReport* report) {
+  converter::SpzWriteOptions spz_options;
+  spz_options.frame = converter::spz_frame_for(options.read, dst);
+  RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz,
+                       converter::write_spz(dst, scene.input.cloud, spz_options, files));
+  report->output_bytes = spz.bytes;
+  report->output_description = "SPZ v" + std::to_string(spz.version);
+  report->output_notes = spz.limitations;
+  auto clamped = [&](uint64_t n, const char* what) {
+    if (n > 0) report->output_notes.push_back(std::to_string(n) + " " + what + " clamped to the SPZ range");
+  };
+  clamped(spz.scales_clamped, "scale values");
+  clamped(spz.colors_clamped, "DC colour values");
+  clamped(spz.sh_clamped, "SH rest values");
+  report->spz = std::move(spz);
+  return Status();
+}
 
- private:
-  ProgressReporter* progress_;
-};
+Status write_glb_cloud(const std::string& dst, const ConvertOptions&, const PipelineScene& scene,
+                       format::FileSink& files, ConvertReport* report) {
+  RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary glb, converter::write_glb(dst, scene.input.cloud, {}, files));
+  report->output_bytes = glb.bytes;
+  report->output_description = "KHR_gaussian_splatting GLB";
+  report->output_notes = glb.limitations;
+  return Status();
+}
 
-class PlySink final : public CloudSink {
-  using CloudSink::CloudSink;
-  Status write_cloud(const PipelineScene& scene, format::FileSink& files, ConvertReport* report) override {
-    converter::PlyWriteReport ply;
-    RGS_ASSIGN_OR_RETURN(report->output_bytes, converter::write_ply(dst_, scene.input.cloud, &ply, files));
-    report->output_description = scene.input.format_id == "rgs" ? "INRIA PLY, dequantized" : "INRIA PLY";
-    report->zero_scales = ply.zero_scales;
-    if (ply.zero_scales > 0) {
-      char log_scale[32];
-      std::snprintf(log_scale, sizeof(log_scale), "%.4f", static_cast<double>(converter::kZeroScaleLog));
-      report->output_notes.push_back(std::to_string(ply.zero_scales) + " zero scales written as log-scale " +
-                                     log_scale + ", not -inf");
-    }
-    return Status();
-  }
-};
-
-class SpzSink final : public CloudSink {
-  using CloudSink::CloudSink;
-  Status write_cloud(const PipelineScene& scene, format::FileSink& files, ConvertReport* report) override {
-    converter::SpzWriteOptions spz_options;
-    spz_options.frame = converter::spz_frame_for(options_.read, dst_);
-    RGS_ASSIGN_OR_RETURN(converter::SpzWriteSummary spz,
-                         converter::write_spz(dst_, scene.input.cloud, spz_options, files));
-    report->output_bytes = spz.bytes;
-    report->output_description = "SPZ v" + std::to_string(spz.version);
-    report->output_notes = spz.limitations;
-    auto clamped = [&](uint64_t n, const char* what) {
-      if (n > 0) report->output_notes.push_back(std::to_string(n) + " " + what + " clamped to the SPZ range");
-    };
-    clamped(spz.scales_clamped, "scale values");
-    clamped(spz.colors_clamped, "DC colour values");
-    clamped(spz.sh_clamped, "SH rest values");
-    report->spz = std::move(spz);
-    return Status();
-  }
-};
-
-class GlbSink final : public CloudSink {
-  using CloudSink::CloudSink;
-  Status write_cloud(const PipelineScene& scene, format::FileSink& files, ConvertReport* report) override {
-    RGS_ASSIGN_OR_RETURN(converter::GltfWriteSummary glb, converter::write_glb(dst_, scene.input.cloud, {}, files));
-    report->output_bytes = glb.bytes;
-    report->output_description = "KHR_gaussian_splatting GLB";
-    report->output_notes = glb.limitations;
-    return Status();
-  }
-};
-
-class SogSink final : public CloudSink {
-  using CloudSink::CloudSink;
-  Status write_cloud(const PipelineScene& scene, format::FileSink& files, ConvertReport* report) override {
-    converter::SogWriteOptions sog_options;
-    const bool folder = converter::is_sog_folder_path(dst_);
-    sog_options.container = folder ? converter::SogContainer::kFolder : converter::SogContainer::kBundle;
-    RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog,
-                         converter::write_sog(dst_, scene.input.cloud, sog_options, files));
-    report->output_bytes = sog.bytes;
-    report->output_description = folder ? "PlayCanvas SOG v2 folder" : "PlayCanvas SOG v2";
-    report->output_notes = sog.limitations;
-    return Status();
-  }
-};
+Status write_sog_cloud(const std::string& dst, const ConvertOptions&, const PipelineScene& scene,
+                       format::FileSink& files, ConvertReport* report) {
+  converter::SogWriteOptions sog_options;
+  const bool folder = converter::is_sog_folder_path(dst);
+  sog_options.container = folder ? converter::SogContainer::kFolder : converter::SogContainer::kBundle;
+  RGS_ASSIGN_OR_RETURN(converter::SogWriteSummary sog,
+                       converter::write_sog(dst, scene.input.cloud, sog_options, files));
+  report->output_bytes = sog.bytes;
+  report->output_description = folder ? "PlayCanvas SOG v2 folder" : "PlayCanvas SOG v2";
+  report->output_notes = sog.limitations;
+  return Status();
+}
 
 }  // namespace
 
-std::unique_ptr<Sink> make_cloud_sink(const std::string& dst, OutputFormat output, const ConvertOptions& options,
-                                      ProgressReporter* progress) {
-  switch (output) {
-    case OutputFormat::kPly:
-      return std::make_unique<PlySink>(dst, options, progress);
-    case OutputFormat::kSpz:
-      return std::make_unique<SpzSink>(dst, options, progress);
-    case OutputFormat::kGlb:
-      return std::make_unique<GlbSink>(dst, options, progress);
-    case OutputFormat::kSog:
-      return std::make_unique<SogSink>(dst, options, progress);
-    case OutputFormat::kRgs:
-      break;
+Status write_cloud_output(const std::string& dst, OutputFormat output, const ConvertOptions& options,
+                          ProgressReporter* progress, PipelineScene* scene, format::FileSink& files) {
+  const CloudWriter writer = output == OutputFormat::kPly   ? write_ply_cloud
+                             : output == OutputFormat::kSpz ? write_spz_cloud
+                             : output == OutputFormat::kGlb ? write_glb_cloud
+                                                            : write_sog_cloud;
+  // Around every writer: the "writing" stage, the time, the counts, and the note that a format other than SPZ
+  // cannot say that the scene is anti-aliased.
+  progress->writing();
+  const auto start = Clock::now();
+  const format::GaussianCloud& cloud = scene->input.cloud;
+  RGS_RETURN_IF_ERROR(writer(dst, options, *scene, files, &scene->report));
+  if (cloud.antialiased && output != OutputFormat::kSpz) {
+    // PLY and KHR_gaussian_splatting have no field for it; SPZ keeps it in its header flag.
+    scene->report.output_notes.push_back(
+        "anti-aliased scene (2D Mip filter): this format cannot say so; read the file back with --antialiased "
+        "(Python: antialiased=True) to render it as trained");
   }
-  return nullptr;
+  scene->report.seconds.write = seconds_since(start);
+  scene->report.gaussians = cloud.size();
+  scene->report.sh_degree = cloud.sh_degree;
+  return Status();
 }
 
 }  // namespace rgs::api::detail

@@ -1,5 +1,6 @@
 // The .rgs sink: the quantized scene (with its levels of detail) written by format::write_scene_file in the
-// runtime or the archive profile; for the archive, what its codecs cost measured on what it decodes to.
+// runtime or the archive profile, or the levels of an out-of-core build streamed (format::write_streamed_scene_file);
+// for the archive, what its codecs cost measured on what it decodes to.
 #include <algorithm>
 
 #include "../internal_pipeline.h"
@@ -72,82 +73,6 @@ Result<converter::AttributeErrors> archive_errors(format::GaussianCloud source, 
   return converter::measure_quantization_errors(source, in_order);
 }
 
-class RgsSink final : public Sink {
- public:
-  RgsSink(std::string dst, const ConvertOptions& options, ProgressReporter* progress)
-      : dst_(std::move(dst)), options_(options), progress_(progress) {}
-
-  Status write(PipelineScene* scene, format::FileSink& files) override {
-    if (!scene->encoded) return write_levels(scene, files);
-    RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options_));
-    const bool archive = write.profile == format::StorageProfile::kArchive;
-    ConvertReport& report = scene->report;
-    RgsOutputReport& rgs = *report.rgs;
-    const format::EncodedScene& encoded = *scene->encoded;
-    if (scene->lod) {
-      write.lod = &scene->lod->index;
-      rgs.lod_levels = scene->lod->index.level_count;
-      rgs.lod_chunks = scene->lod->index.chunk_count;
-      rgs.lod_gaussians = scene->lod->scene.count;
-    }
-    if (archive) progress_->encoding_archive();
-    ProgressSink progress_files(files, progress_);
-    format::ArchiveScene coded;
-    const auto write_start = Clock::now();
-    RGS_ASSIGN_OR_RETURN(report.output_bytes,
-                         format::write_scene_file(dst_, scene->lod ? scene->lod->scene : encoded, write, progress_files,
-                                                  archive ? &coded : nullptr));
-    report.seconds.write = seconds_since(write_start);
-    rgs.sh_quantization = encoded.metadata.sh_quantization;
-    const format::SceneBounds& bounds = encoded.metadata.bounds;
-    rgs.extent = std::max({double(bounds.aabb_max[0]) - bounds.aabb_min[0],
-                           double(bounds.aabb_max[1]) - bounds.aabb_min[1],
-                           double(bounds.aabb_max[2]) - bounds.aabb_min[2], 0.0});
-    report.gaussians = encoded.count;
-    report.sh_degree = encoded.metadata.sh_degree;
-    if (archive) {
-      rgs.position_step = coded.position.step;
-      rgs.position_bits = coded.position.bits;
-      scene->encoded.reset();  // freed before the archive's decoded scene is reordered (peak RSS)
-      const auto measure_start = Clock::now();
-      rgs.archive_omitted = coded.omitted.size();
-      auto errors = archive_errors(std::move(scene->input.cloud), std::move(coded));
-      if (!errors.ok()) return Status(errors.status()).prepend(dst_);
-      rgs.errors = std::move(errors).value();
-      report.seconds.quantize += seconds_since(measure_start);
-    }
-    report.output_description = archive      ? "RoofGS .rgs, archive profile"
-                                : scene->lod ? "RoofGS .rgs, runtime profile with levels of detail"
-                                             : "RoofGS .rgs, runtime profile";
-    if (scene->lod) note_read_limit(scene->lod->scene.count, &report);
-    return Status();
-  }
-
-  /// The levels of an out-of-core build (no scene in memory), their sections streamed into the file.
-  Status write_levels(PipelineScene* scene, format::FileSink& files) {
-    const converter::Levels& levels = *scene->levels;
-    RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options_));
-    write.lod = &levels.index();
-    ProgressSink progress_files(files, progress_);
-    const auto write_start = Clock::now();
-    ConvertReport& report = scene->report;
-    RGS_ASSIGN_OR_RETURN(report.output_bytes,
-                         format::write_streamed_scene_file(dst_, levels.streamed(), write, progress_files));
-    report.seconds.write = seconds_since(write_start);
-    report.rgs->lod_levels = levels.index().level_count;
-    report.rgs->lod_chunks = levels.index().chunk_count;
-    report.rgs->lod_gaussians = levels.head().count;
-    report.output_description = "RoofGS .rgs, runtime profile with levels of detail";
-    note_read_limit(levels.head().count, &report);
-    return Status();
-  }
-
- private:
-  std::string dst_;
-  const ConvertOptions& options_;
-  ProgressReporter* progress_;
-};
-
 }  // namespace
 
 Result<format::WriteOptions> rgs_write_options(const ConvertOptions& options) {
@@ -193,8 +118,51 @@ Result<format::WriteOptions> rgs_write_options(const ConvertOptions& options) {
   return write;
 }
 
-std::unique_ptr<Sink> make_rgs_sink(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress) {
-  return std::make_unique<RgsSink>(dst, options, progress);
+Status write_rgs_output(const std::string& dst, const ConvertOptions& options, ProgressReporter* progress,
+                        PipelineScene* scene, format::FileSink& files) {
+  RGS_ASSIGN_OR_RETURN(format::WriteOptions write, rgs_write_options(options));
+  const bool archive = write.profile == format::StorageProfile::kArchive;
+  ConvertReport& report = scene->report;
+  RgsOutputReport& rgs = *report.rgs;
+  const converter::Levels* levels = scene->levels.get();  // built in memory or out of core
+  if (levels != nullptr) {
+    write.lod = &levels->index();
+    rgs.lod_levels = levels->index().level_count;
+    rgs.lod_chunks = levels->index().chunk_count;
+    rgs.lod_gaussians = levels->head().count;
+  }
+  if (archive) progress->encoding_archive();
+  format::ArchiveScene coded;
+  const auto write_start = Clock::now();
+  // The levels of an out-of-core build (no scene in memory) have their sections streamed into the file.
+  RGS_ASSIGN_OR_RETURN(report.output_bytes,
+                       scene->encoded ? format::write_scene_file(dst, scene->lod ? scene->lod->scene : *scene->encoded,
+                                                                 write, files, archive ? &coded : nullptr)
+                                      : format::write_streamed_scene_file(dst, levels->streamed(), write, files));
+  report.seconds.write = seconds_since(write_start);
+  report.output_description = archive  ? "RoofGS .rgs, archive profile"
+                              : levels ? "RoofGS .rgs, runtime profile with levels of detail"
+                                       : "RoofGS .rgs, runtime profile";
+  if (levels != nullptr) note_read_limit(levels->head().count, &report);
+  const format::SceneMetadata& metadata = scene->encoded ? scene->encoded->metadata : levels->head().metadata;
+  rgs.sh_quantization = metadata.sh_quantization;
+  const format::SceneBounds& bounds = metadata.bounds;
+  rgs.extent = std::max({double(bounds.aabb_max[0]) - bounds.aabb_min[0],
+                         double(bounds.aabb_max[1]) - bounds.aabb_min[1],
+                         double(bounds.aabb_max[2]) - bounds.aabb_min[2], 0.0});
+  if (!scene->encoded) return Status();  // the out-of-core build measured the rest
+  if (archive) {
+    rgs.position_step = coded.position.step;
+    rgs.position_bits = coded.position.bits;
+    scene->encoded.reset();  // freed before the archive's decoded scene is reordered (peak RSS)
+    const auto measure_start = Clock::now();
+    rgs.archive_omitted = coded.omitted.size();
+    auto errors = archive_errors(std::move(scene->input.cloud), std::move(coded));
+    if (!errors.ok()) return Status(errors.status()).prepend(dst);
+    rgs.errors = std::move(errors).value();
+    report.seconds.quantize += seconds_since(measure_start);
+  }
+  return Status();
 }
 
 }  // namespace rgs::api::detail

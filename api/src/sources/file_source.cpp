@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "../internal_convert_memory.h"
 #include "../internal_pipeline.h"
 #include "rgs/converter/scene_reader.h"
 

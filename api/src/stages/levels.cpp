@@ -44,26 +44,25 @@ void merge_stats(const converter::ErrorStats& part, converter::ErrorStats* total
   total->samples = n;
 }
 
-/// Adds one batch's errors to the scene's (max and root-mean-square over every sample).
-void merge_errors(const converter::AttributeErrors& part, converter::AttributeErrors* total) {
+/// Adds one batch's quantization report and errors to the scene's (sums, maxima and root-mean-squares over every
+/// sample).
+void merge_measures(const converter::QuantizationReport& quantization, const converter::AttributeErrors& part,
+                    RgsOutputReport* report) {
+  converter::AttributeErrors* total = &report->errors;
   merge_stats(part.position, &total->position);
   merge_stats(part.rotation_deg, &total->rotation_deg);
   merge_stats(part.scale_relative, &total->scale_relative);
   merge_stats(part.scale_of_largest_axis, &total->scale_of_largest_axis);
   merge_stats(part.opacity, &total->opacity);
+  converter::QuantizationReport& q = report->quantization;
   for (int d = 0; d < 4; ++d) {
     merge_stats(part.sh[d], &total->sh[d]);
     for (int c = 0; c < 3; ++c) merge_stats(part.sh_channel[d][c], &total->sh_channel[d][c]);
+    for (int c = 0; c < 3; ++c) q.sh_clipped[d][c] += quantization.sh_clipped[d][c];
   }
-}
-
-void merge_quantization(const converter::QuantizationReport& part, converter::QuantizationReport* total) {
-  for (int d = 0; d < 4; ++d) {
-    for (int c = 0; c < 3; ++c) total->sh_clipped[d][c] += part.sh_clipped[d][c];
-  }
-  total->scales_subnormal += part.scales_subnormal;
-  total->scales_flushed_to_zero += part.scales_flushed_to_zero;
-  total->max_flushed_of_largest_axis = std::max(total->max_flushed_of_largest_axis, part.max_flushed_of_largest_axis);
+  q.scales_subnormal += quantization.scales_subnormal;
+  q.scales_flushed_to_zero += quantization.scales_flushed_to_zero;
+  q.max_flushed_of_largest_axis = std::max(q.max_flushed_of_largest_axis, quantization.max_flushed_of_largest_axis);
 }
 
 /// The quantized batches build_lod_out_of_core() reads in its passes (the pass that needs only the means skips
@@ -87,15 +86,12 @@ class QuantizedBatches final : public converter::EncodedBatches {
     RGS_ASSIGN_OR_RETURN(const bool more, batches_->next(&cloud_));
     if (!more) return false;
     if (measured_pass_ == 0) measured_pass_ = pass_;
-    if (pass_ != measured_pass_) {
-      RGS_ASSIGN_OR_RETURN(*batch, converter::quantize(cloud_, options_, shq_));
-      return true;
-    }
+    const bool measures = pass_ == measured_pass_;
     converter::QuantizationReport quantization;
     converter::AttributeErrors errors;
-    RGS_ASSIGN_OR_RETURN(*batch, converter::quantize(cloud_, options_, shq_, &quantization, &errors));
-    merge_quantization(quantization, &report_->quantization);
-    merge_errors(errors, &report_->errors);
+    RGS_ASSIGN_OR_RETURN(*batch, converter::quantize(cloud_, options_, shq_, measures ? &quantization : nullptr,
+                                                     measures ? &errors : nullptr));
+    if (measures) merge_measures(quantization, errors, report_);
     return true;
   }
 
@@ -169,13 +165,8 @@ Status build_out_of_core(PipelineScene* scene, const std::string& dst, OutputFor
   auto built = converter::build_lod_out_of_core(quantized, head, lod);
   if (!built.ok()) return batches.pass_error(built.status(), scene->name);
   report.seconds.lod = seconds_since(build_start);
-  if (output == OutputFormat::kRgs) {
-    rgs.sh_quantization = stats.shq;
-    rgs.extent = std::max({double(stats.box_hi[0]) - stats.box_lo[0], double(stats.box_hi[1]) - stats.box_lo[1],
-                           double(stats.box_hi[2]) - stats.box_lo[2], 0.0});
-    rgs.out_of_core_partitions = built->partitions;
-    report.rgs = std::move(rgs);
-  }
+  rgs.out_of_core_partitions = built->partitions;
+  if (output == OutputFormat::kRgs) report.rgs = std::move(rgs);
   scene->levels = std::move(built->levels);
   report.output_notes.push_back(
       "built out of core: " + group_digits(built->partitions) + (built->partitions == 1 ? " partition" : " partitions") +

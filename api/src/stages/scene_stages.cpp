@@ -63,37 +63,30 @@ Status finish_first_pass(PipelineScene* scene, const ConvertOptions& options, Pr
   return empty_scene_error(scene->name, report.hygiene.dropped_gaussians, scene->edited_out());
 }
 
-/// Quantizes the cloud for a .rgs: the quantization report and, for the runtime profile, its errors measured in
-/// the same pass (the archive's are measured on what it decodes to, by the sink); the provenance set. The cloud
-/// is freed unless the archive's sink measures against it.
-Status quantize_rgs(PipelineScene* scene, const ConvertOptions& options, ProgressReporter* progress) {
+/// Quantizes the cloud for `output`, a .rgs or a streamed SOG (which writes the runtime profile's values). For a .rgs,
+/// the quantization report and, for the runtime profile, its errors measured in the same pass (the archive's are
+/// measured on what it decodes to, by the sink); the provenance set. The cloud is freed unless the archive's sink
+/// measures against it.
+Status quantize_scene(PipelineScene* scene, OutputFormat output, const ConvertOptions& options,
+                      ProgressReporter* progress) {
   const bool archive = options.profile == format::StorageProfile::kArchive;
-  RgsOutputReport& rgs = scene->report.rgs.emplace();
+  RgsOutputReport* rgs = output == OutputFormat::kRgs ? &scene->report.rgs.emplace() : nullptr;
+  converter::InputScene& input = scene->input;
   progress->quantizing();
   const auto start = Clock::now();
-  auto encoded = converter::quantize(scene->input.cloud, rgs_quantize_options(options), &rgs.quantization,
-                                     archive ? nullptr : &rgs.errors);
+  auto encoded =
+      converter::quantize(input.cloud, rgs ? rgs_quantize_options(options) : sog_lod_quantize_options(options),
+                          rgs ? &rgs->quantization : nullptr, rgs && !archive ? &rgs->errors : nullptr);
   if (!encoded.ok()) return Status(encoded.status()).prepend(scene->name);
   scene->report.seconds.quantize = seconds_since(start);
-  // Not read again by the runtime profile: freed before the writer's buffers exist (peak RSS).
-  if (!archive) scene->input.cloud = {};
-  const converter::InputScene& input = scene->input;
-  encoded->provenance = rgs_provenance(scene->source_file, options, input.file_bytes, input.file_xxh64.value_or(0),
-                                       input.storage_format, input.hygiene.dropped_gaussians);
-  scene->encoded.emplace(std::move(encoded).value());
-  return Status();
-}
-
-/// Quantizes the cloud for a streamed SOG, which writes the runtime profile's values: no report, the cloud freed.
-Status quantize_sog_lod(PipelineScene* scene, const ConvertOptions& options, ProgressReporter* progress) {
-  progress->quantizing();
-  const auto start = Clock::now();
-  auto encoded = converter::quantize(scene->input.cloud, sog_lod_quantize_options(options));
-  if (!encoded.ok()) return Status(encoded.status()).prepend(scene->name);
-  scene->report.seconds.quantize = seconds_since(start);
-  scene->report.gaussians = scene->input.cloud.size();
-  scene->report.sh_degree = scene->input.cloud.sh_degree;
-  scene->input.cloud = {};
+  scene->report.gaussians = input.cloud.size();
+  scene->report.sh_degree = input.cloud.sh_degree;
+  // Not read again but by the archive's sink: freed before the writer's buffers exist (peak RSS).
+  if (!(rgs && archive)) input.cloud = {};
+  if (rgs) {
+    encoded->provenance = rgs_provenance(scene->source_file, options, input.file_bytes, input.file_xxh64.value_or(0),
+                                         input.storage_format, input.hygiene.dropped_gaussians);
+  }
   scene->encoded.emplace(std::move(encoded).value());
   return Status();
 }
@@ -191,19 +184,16 @@ std::vector<Stage> conversion_stages(const std::string& dst, OutputFormat output
   }
   stages.push_back({"the first pass", nullptr,
                     [options, progress](PipelineScene* s) { return finish_first_pass(s, *options, progress); }, true});
-  if (writes_levels(dst, output, *options)) {
-    stages.push_back({"the levels of detail", nullptr,
-                      [dst, output, options, progress](PipelineScene* s) {
+  const bool levels = writes_levels(dst, output, *options);
+  if (levels || output == OutputFormat::kRgs) {
+    stages.push_back({levels ? "the levels of detail" : "quantizing", nullptr,
+                      [dst, output, options, progress, levels](PipelineScene* s) {
                         if (!s->batches) {  // a scene read in batches is quantized batch by batch by the build
-                          RGS_RETURN_IF_ERROR(output == OutputFormat::kRgs ? quantize_rgs(s, *options, progress)
-                                                                           : quantize_sog_lod(s, *options, progress));
+                          RGS_RETURN_IF_ERROR(quantize_scene(s, output, *options, progress));
                         }
-                        return build_levels(s, dst, output, *options, progress);
+                        return levels ? build_levels(s, dst, output, *options, progress) : Status();
                       },
-                      true});
-  } else if (output == OutputFormat::kRgs) {
-    stages.push_back({"quantizing", nullptr,
-                      [options, progress](PipelineScene* s) { return quantize_rgs(s, *options, progress); }});
+                      levels});
   }
   return stages;
 }
