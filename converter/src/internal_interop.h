@@ -145,13 +145,24 @@ Result<T> guarded_bytes(const uint8_t* data, size_t size, const std::string& nam
 /// Errors: kInvalidArgument.
 Status check_writable_cloud(const format::GaussianCloud& cloud);
 
-/// The writers' file step: runs `encode` (returning Result<std::vector<uint8_t>>, the file's bytes) under
-/// guarded(path, activity) and writes its bytes to `path` through `files`.
-/// Errors: guarded's, then files.write's.
-template <typename Encode>
-Status write_encoded(const std::string& path, const char* activity, format::FileSink& files, Encode&& encode) {
-  RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, guarded<std::vector<uint8_t>>(path, activity, encode));
-  return files.write(path, bytes.data(), bytes.size());
+/// The SPZ and glTF writers' serialize_* step: runs `serialize(Summary*)` (returning Result<std::vector<uint8_t>>,
+/// the file's bytes) under guarded("", activity), filling `summary`, or a local one when it is null.
+template <typename Summary, typename Serialize>
+Result<std::vector<uint8_t>> serialize_guarded(const char* activity, Summary* summary, Serialize&& serialize) {
+  Summary local;
+  return guarded<std::vector<uint8_t>>("", activity, [&]() { return serialize(summary ? summary : &local); });
+}
+
+/// The SPZ and glTF writers' file step: runs `serialize(Summary*)` under guarded(path, activity) and writes the
+/// bytes it returns to `path` through `files`. Errors: guarded's, then files.write's.
+template <typename Summary, typename Serialize>
+Result<Summary> write_serialized(const std::string& path, const char* activity, format::FileSink& files,
+                                 Serialize&& serialize) {
+  Summary summary;
+  RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes,
+                       guarded<std::vector<uint8_t>>(path, activity, [&]() { return serialize(&summary); }));
+  RGS_RETURN_IF_ERROR(files.write(path, bytes.data(), bytes.size()));
+  return summary;
 }
 
 }  // namespace rgs::converter::detail
