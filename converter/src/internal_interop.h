@@ -2,6 +2,7 @@
 // (private to rgs_converter).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <cmath>
 #include <cstring>
@@ -139,6 +140,23 @@ Result<T> guarded_bytes(const uint8_t* data, size_t size, const std::string& nam
     if (data == nullptr && size != 0) return Status(StatusCode::kInvalidArgument, "null data with non-zero size");
     return fn();
   });
+}
+
+/// PlayCanvas's smallest-three quaternions (compressed PLY, SOG): the components other than `largest`, in
+/// w x y z order, are stored(0), stored(1), stored(2) (doubles); the largest is what makes the norm 1. Writes the
+/// quaternion, renormalized, to out[0..3].
+template <typename Stored>
+void decode_smallest_three(int largest, Stored&& stored, float* out) {
+  double q[4];
+  double sum = 0;
+  for (int c = 0, k = 0; c < 4; ++c) {
+    if (c == largest) continue;
+    q[c] = stored(k++);
+    sum += q[c] * q[c];
+  }
+  q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
+  const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
+  for (int c = 0; c < 4; ++c) out[c] = static_cast<float>(q[c] * inv);
 }
 
 /// The SPZ and glTF writers' precondition: check_cloud_shape, and every value finite.
