@@ -142,6 +142,21 @@ Result<T> guarded_bytes(const uint8_t* data, size_t size, const std::string& nam
   });
 }
 
+/// The InteropScene of a .splat or .ksplat file (`format`) of `file_bytes`, its cloud sized for `count` Gaussians of
+/// SH `degree`. The writers of both copy the PLY's axes: stored RDF, which convert_frame leaves as it is.
+inline InteropScene rdf_interop_scene(const char* format, uint64_t file_bytes, uint64_t count, uint32_t degree,
+                                      const InteropReadOptions& options) {
+  InteropScene scene;
+  scene.format = format;
+  scene.file_bytes = file_bytes;
+  scene.declared_gaussians = count;
+  scene.stored_frame = "RDF";
+  scene.frame_converted = options.convert_frame;  // RDF to RDF: nothing to do
+  scene.cloud.sh_degree = degree;
+  scene.cloud.resize(static_cast<size_t>(count));
+  return scene;
+}
+
 /// PlayCanvas's smallest-three quaternions (compressed PLY, SOG): the components other than `largest`, in
 /// w x y z order, are stored(0), stored(1), stored(2) (doubles); the largest is what makes the norm 1. Writes the
 /// quaternion, renormalized, to out[0..3].
