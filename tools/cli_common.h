@@ -144,9 +144,6 @@ std::string sci(double value);
 /// Seconds since `start`.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
-/// Lower-case file extension including the dot (".ply"), "" when none.
-std::string extension_of(const std::string& path);
-
 /// How this process reads scenes: converter::SceneReadOptions' defaults until the command line changes them
 /// (add_scene_read_options). Every tool's scene loading passes it to the library's loaders.
 converter::SceneReadOptions& scene_read_options();

@@ -96,7 +96,7 @@ Status write_pfm_rgb(format::FileSink& files, const std::string& path, uint32_t 
 }
 
 Status check_image8_path(const std::string& path, uint32_t channels) {
-  const std::string ext = extension_of(path);
+  const std::string ext = converter::extension_of(path);
   if (ext == ".png") return have_openimageio() ? Status::ok_status() : no_openimageio_error(path, "PNG output");
   if (ext == ".ppm") return Status::ok_status();
   if (ext == ".pgm") {
@@ -113,7 +113,7 @@ Status check_image8_path(const std::string& path, uint32_t channels) {
 Status write_image8(format::FileSink& files, const std::string& path, uint32_t width, uint32_t height,
                     uint32_t channels, const std::vector<uint8_t>& pixels) {
   RGS_RETURN_IF_ERROR(check_image8_path(path, channels));
-  const std::string ext = extension_of(path);
+  const std::string ext = converter::extension_of(path);
   if (ext == ".png") return write_png8(files, path, width, height, channels, pixels);
   if (ext == ".pgm" || channels == 3) return audit::write_netpbm(path, {width, height, channels, pixels}, files);
   // .ppm of a grey image: repeat the grey into RGB.

@@ -2,6 +2,7 @@
 // (private to rgs_converter).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <cmath>
 #include <cstring>
@@ -141,17 +142,60 @@ Result<T> guarded_bytes(const uint8_t* data, size_t size, const std::string& nam
   });
 }
 
+/// The InteropScene of a .splat or .ksplat file (`format`) of `file_bytes`, its cloud sized for `count` Gaussians of
+/// SH `degree`. The writers of both copy the PLY's axes: stored RDF, which convert_frame leaves as it is.
+inline InteropScene rdf_interop_scene(const char* format, uint64_t file_bytes, uint64_t count, uint32_t degree,
+                                      const InteropReadOptions& options) {
+  InteropScene scene;
+  scene.format = format;
+  scene.file_bytes = file_bytes;
+  scene.declared_gaussians = count;
+  scene.stored_frame = "RDF";
+  scene.frame_converted = options.convert_frame;  // RDF to RDF: nothing to do
+  scene.cloud.sh_degree = degree;
+  scene.cloud.resize(static_cast<size_t>(count));
+  return scene;
+}
+
+/// PlayCanvas's smallest-three quaternions (compressed PLY, SOG): the components other than `largest`, in
+/// w x y z order, are stored(0), stored(1), stored(2) (doubles); the largest is what makes the norm 1. Writes the
+/// quaternion, renormalized, to out[0..3].
+template <typename Stored>
+void decode_smallest_three(int largest, Stored&& stored, float* out) {
+  double q[4];
+  double sum = 0;
+  for (int c = 0, k = 0; c < 4; ++c) {
+    if (c == largest) continue;
+    q[c] = stored(k++);
+    sum += q[c] * q[c];
+  }
+  q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
+  const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
+  for (int c = 0; c < 4; ++c) out[c] = static_cast<float>(q[c] * inv);
+}
+
 /// The SPZ and glTF writers' precondition: check_cloud_shape, and every value finite.
 /// Errors: kInvalidArgument.
 Status check_writable_cloud(const format::GaussianCloud& cloud);
 
-/// The writers' file step: runs `encode` (returning Result<std::vector<uint8_t>>, the file's bytes) under
-/// guarded(path, activity) and writes its bytes to `path` through `files`.
-/// Errors: guarded's, then files.write's.
-template <typename Encode>
-Status write_encoded(const std::string& path, const char* activity, format::FileSink& files, Encode&& encode) {
-  RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, guarded<std::vector<uint8_t>>(path, activity, encode));
-  return files.write(path, bytes.data(), bytes.size());
+/// The SPZ and glTF writers' serialize_* step: runs `serialize(Summary*)` (returning Result<std::vector<uint8_t>>,
+/// the file's bytes) under guarded("", activity), filling `summary`, or a local one when it is null.
+template <typename Summary, typename Serialize>
+Result<std::vector<uint8_t>> serialize_guarded(const char* activity, Summary* summary, Serialize&& serialize) {
+  Summary local;
+  return guarded<std::vector<uint8_t>>("", activity, [&]() { return serialize(summary ? summary : &local); });
+}
+
+/// The SPZ and glTF writers' file step: runs `serialize(Summary*)` under guarded(path, activity) and writes the
+/// bytes it returns to `path` through `files`. Errors: guarded's, then files.write's.
+template <typename Summary, typename Serialize>
+Result<Summary> write_serialized(const std::string& path, const char* activity, format::FileSink& files,
+                                 Serialize&& serialize) {
+  Summary summary;
+  RGS_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes,
+                       guarded<std::vector<uint8_t>>(path, activity, [&]() { return serialize(&summary); }));
+  RGS_RETURN_IF_ERROR(files.write(path, bytes.data(), bytes.size()));
+  return summary;
 }
 
 }  // namespace rgs::converter::detail

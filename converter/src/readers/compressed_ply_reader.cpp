@@ -224,19 +224,9 @@ inline void decode_gaussian(const uint8_t* data, const Layout& layout, const Chu
   // Smallest three: 2-bit index of the largest component (0 = w), the others as 10-bit unorm of
   // ±1/√2, in w x y z order.
   const double kNorm = std::sqrt(2.0);
-  double q[4];
-  const int largest = static_cast<int>(rot >> 30);
-  double sum = 0;
-  int shift = 20;
-  for (int c = 0; c < 4; ++c) {
-    if (c == largest) continue;
-    q[c] = (((rot >> shift) & 1023) / 1023.0 - 0.5) * kNorm;
-    sum += q[c] * q[c];
-    shift -= 10;
-  }
-  q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
-  const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
-  for (int c = 0; c < 4; ++c) cloud->rotations[i * 4 + c] = static_cast<float>(q[c] * inv);
+  detail::decode_smallest_three(static_cast<int>(rot >> 30),
+                                [&](int k) { return (((rot >> (20 - 10 * k)) & 1023) / 1023.0 - 0.5) * kNorm; },
+                                &cloud->rotations[i * 4]);
   // Colour (8-8-8) and opacity (8): colour within the chunk's colour bounds when it has them.
   float* g_sh = cloud->sh.data() + i * k_count * 3;
   for (int c = 0; c < 3; ++c) {

@@ -184,15 +184,8 @@ Result<InteropScene> read_buffer(const uint8_t* d, uint64_t size, const InteropR
   Layout layout;
   Status parsed = parse_layout(d, size, options, &layout);
   if (!parsed.ok()) return parsed.prepend("GaussianSplats3D .ksplat");
-  InteropScene scene;
-  scene.format = "ksplat";
-  scene.file_bytes = size;
-  scene.declared_gaussians = layout.total;
-  scene.stored_frame = "RDF";
-  scene.frame_converted = options.convert_frame;  // RDF to RDF: nothing to do
+  InteropScene scene = detail::rdf_interop_scene("ksplat", size, layout.total, layout.sh_degree, options);
   format::GaussianCloud& cloud = scene.cloud;
-  cloud.sh_degree = layout.sh_degree;
-  cloud.resize(static_cast<size_t>(layout.total));
   uint64_t first = 0;
   for (const Section& c : layout.sections) {
     decode_section(d, c, layout.level, layout.sh_range, &cloud, first);

@@ -247,13 +247,6 @@ const SceneFormat kFormats[] = {
     {"splat", "antimatter15 .splat (32-byte records)", detect_splat, read_interop_scene<read_splat>},
 };
 
-/// The extension of `path` in lower case, with its dot ("" when none).
-std::string extension_of(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 std::string hex_bytes(const std::vector<uint8_t>& head, size_t n) {
   std::string s;
   char buf[4];
@@ -372,6 +365,12 @@ Result<const SceneFormat*> detect(const std::string& path, Probe* probe) {
 }
 
 }  // namespace
+
+std::string extension_of(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
 
 SpzFrame spz_frame_for(const SceneReadOptions& options, const std::string& path) {
   if (options.spz_frame_by_path.empty()) return options.spz_frame;

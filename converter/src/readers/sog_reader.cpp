@@ -474,19 +474,8 @@ Status expand_gaussians(const ChunkJob& job, const DecodedImages& img, const Tab
                        "Gaussian " + std::to_string(s) + " has quaternion tag " + std::to_string(tag) +
                            " (valid: 252..255, the index of the largest component + 252)");
       }
-      const int largest = tag - 252;
-      double q[4];
-      int next = 0;
-      double sum = 0;
-      for (int c = 0; c < 4; ++c) {
-        if (c == largest) continue;
-        q[c] = static_cast<double>(t.quat[qt[p + next]]);
-        sum += q[c] * q[c];
-        ++next;
-      }
-      q[largest] = std::sqrt(std::max(0.0, 1.0 - sum));
-      const double inv = 1.0 / std::sqrt(sum + q[largest] * q[largest]);
-      for (int c = 0; c < 4; ++c) rotations[d * 4 + c] = static_cast<float>(q[c] * inv);
+      detail::decode_smallest_three(
+          tag - 252, [&](int k) { return static_cast<double>(t.quat[qt[p + k]]); }, rotations + d * 4);
       for (int a = 0; a < 3; ++a) scales[d * 3 + a] = t.scales[a][sc[p + a]];
       float* g_sh = sh + d * k_count * 3;
       for (int c = 0; c < 3; ++c) g_sh[c] = t.dc[c][c0[p + c]];

@@ -30,16 +30,8 @@ Result<InteropScene> read_records(const uint8_t* data, size_t size, const Intero
                                                   " Gaussians, above the limit of " +
                                                   std::to_string(options.max_gaussians));
   }
-  InteropScene scene;
-  scene.format = "splat";
-  scene.format_version = 0;
-  scene.file_bytes = size;
-  scene.declared_gaussians = n;
-  scene.stored_frame = "RDF";
-  scene.frame_converted = options.convert_frame;  // RDF to RDF: nothing to do
+  InteropScene scene = detail::rdf_interop_scene("splat", size, n, 0, options);
   format::GaussianCloud& cloud = scene.cloud;
-  cloud.sh_degree = 0;
-  cloud.resize(static_cast<size_t>(n));
   for (uint64_t i = 0; i < n; ++i) {
     const uint8_t* r = data + i * kSplatRecordBytes;
     for (int a = 0; a < 3; ++a) {

@@ -204,19 +204,13 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
 
 Result<std::vector<uint8_t>> serialize_glb(const format::GaussianCloud& cloud, const GltfWriteOptions& options,
                                            GltfWriteSummary* summary) {
-  GltfWriteSummary local;
-  return detail::guarded<std::vector<uint8_t>>("", "encoding GLB", [&]() {
-    return serialize(cloud, options, summary ? summary : &local);
-  });
+  return detail::serialize_guarded("encoding GLB", summary, [&](auto* s) { return serialize(cloud, options, s); });
 }
 
 Result<GltfWriteSummary> write_glb(const std::string& path, const format::GaussianCloud& cloud,
                                    const GltfWriteOptions& options, format::FileSink& files) {
-  GltfWriteSummary summary;
-  RGS_RETURN_IF_ERROR(detail::write_encoded(path, "encoding GLB", files, [&]() {
-    return serialize(cloud, options, &summary);
-  }));
-  return summary;
+  return detail::write_serialized<GltfWriteSummary>(path, "encoding GLB", files,
+                                                    [&](auto* s) { return serialize(cloud, options, s); });
 }
 
 }  // namespace rgs::converter

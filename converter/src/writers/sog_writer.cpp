@@ -35,6 +35,15 @@ enum Image : size_t { kMeansLow, kMeansHigh, kQuats, kScales, kSh0, kCentroids, 
 const char* const kImageNames[kImages] = {"means_l.webp", "means_u.webp",       "quats.webp",     "scales.webp",
                                           "sh0.webp",     "shN_centroids.webp", "shN_labels.webp"};
 
+/// fn(i) for every Gaussian i in [0, n), in slices over the per-Gaussian passes' workers.
+template <typename Fn>
+Status for_each_gaussian(uint64_t n, Fn&& fn) {
+  return detail::parallel_slices(n, detail::worker_count(n, kMinGaussiansPerWorker),
+                                 [&](unsigned, uint64_t begin, uint64_t end) {
+                                   for (uint64_t i = begin; i < end; ++i) fn(i);
+                                 });
+}
+
 uint8_t to_byte(double v) { return static_cast<uint8_t>(std::lround(std::min(255.0, std::max(0.0, v)))); }
 
 /// sign(x)·ln(|x| + 1): SOG's transform of positions before their 16-bit quantization.
@@ -82,18 +91,15 @@ Status encode_means(const format::GaussianCloud& cloud, Images* img, json* meta)
   }
   uint8_t* l = img->image[kMeansLow].rgba.data();
   uint8_t* u = img->image[kMeansHigh].rgba.data();
-  RGS_RETURN_IF_ERROR(detail::parallel_slices(
-      n, detail::worker_count(n, kMinGaussiansPerWorker), [&](unsigned, uint64_t begin, uint64_t end) {
-        for (uint64_t i = begin; i < end; ++i) {
-          for (int a = 0; a < 3; ++a) {
-            const double span = hi[a] - lo[a];
-            const double unit = span > 0 ? (log_transform(cloud.means[i * 3 + a]) - lo[a]) / span : 0.0;
-            const auto q = static_cast<uint32_t>(std::lround(std::min(1.0, std::max(0.0, unit)) * 65535.0));
-            l[i * 4 + a] = static_cast<uint8_t>(q & 0xff);
-            u[i * 4 + a] = static_cast<uint8_t>(q >> 8);
-          }
-        }
-      }));
+  RGS_RETURN_IF_ERROR(for_each_gaussian(n, [&](uint64_t i) {
+    for (int a = 0; a < 3; ++a) {
+      const double span = hi[a] - lo[a];
+      const double unit = span > 0 ? (log_transform(cloud.means[i * 3 + a]) - lo[a]) / span : 0.0;
+      const auto q = static_cast<uint32_t>(std::lround(std::min(1.0, std::max(0.0, unit)) * 65535.0));
+      l[i * 4 + a] = static_cast<uint8_t>(q & 0xff);
+      u[i * 4 + a] = static_cast<uint8_t>(q >> 8);
+    }
+  }));
   (*meta)["means"] = {{"mins", {lo[0], lo[1], lo[2]}},
                       {"maxs", {hi[0], hi[1], hi[2]}},
                       {"files", {kImageNames[kMeansLow], kImageNames[kMeansHigh]}}};
@@ -104,28 +110,25 @@ Status encode_means(const format::GaussianCloud& cloud, Images* img, json* meta)
 Status encode_quats(const format::GaussianCloud& cloud, Images* img, json* meta) {
   const size_t n = cloud.size();
   uint8_t* px = img->image[kQuats].rgba.data();
-  RGS_RETURN_IF_ERROR(detail::parallel_slices(
-      n, detail::worker_count(n, kMinGaussiansPerWorker), [&](unsigned, uint64_t begin, uint64_t end) {
-        for (uint64_t i = begin; i < end; ++i) {
-          double q[4], norm = 0;
-          for (int c = 0; c < 4; ++c) {
-            q[c] = cloud.rotations[i * 4 + c];
-            norm += q[c] * q[c];
-          }
-          norm = norm > 0 ? std::sqrt(norm) : 1.0;
-          int largest = 0;
-          for (int c = 1; c < 4; ++c) {
-            if (std::fabs(q[c]) > std::fabs(q[largest])) largest = c;
-          }
-          const double sign = q[largest] < 0 ? -1.0 : 1.0;
-          int next = 0;
-          for (int c = 0; c < 4; ++c) {
-            if (c == largest) continue;
-            px[i * 4 + next++] = to_byte((sign * q[c] / norm * std::sqrt(2.0) * 0.5 + 0.5) * 255.0);
-          }
-          px[i * 4 + 3] = static_cast<uint8_t>(252 + largest);
-        }
-      }));
+  RGS_RETURN_IF_ERROR(for_each_gaussian(n, [&](uint64_t i) {
+    double q[4], norm = 0;
+    for (int c = 0; c < 4; ++c) {
+      q[c] = cloud.rotations[i * 4 + c];
+      norm += q[c] * q[c];
+    }
+    norm = norm > 0 ? std::sqrt(norm) : 1.0;
+    int largest = 0;
+    for (int c = 1; c < 4; ++c) {
+      if (std::fabs(q[c]) > std::fabs(q[largest])) largest = c;
+    }
+    const double sign = q[largest] < 0 ? -1.0 : 1.0;
+    int next = 0;
+    for (int c = 0; c < 4; ++c) {
+      if (c == largest) continue;
+      px[i * 4 + next++] = to_byte((sign * q[c] / norm * std::sqrt(2.0) * 0.5 + 0.5) * 255.0);
+    }
+    px[i * 4 + 3] = static_cast<uint8_t>(252 + largest);
+  }));
   (*meta)["quats"] = {{"files", {kImageNames[kQuats]}}};
   return Status();
 }
@@ -136,12 +139,9 @@ Result<std::vector<float>> encode_codebook(const std::vector<float>& values, siz
                                            uint32_t iterations, detail::RgbaImage* image) {
   std::vector<float> codebook = detail::kmeans_codebook(values.data(), values.size(), kCodebookSize, iterations);
   uint8_t* px = image->rgba.data();
-  RGS_RETURN_IF_ERROR(detail::parallel_slices(
-      n, detail::worker_count(n, kMinGaussiansPerWorker), [&](unsigned, uint64_t begin, uint64_t end) {
-        for (uint64_t i = begin; i < end; ++i) {
-          for (uint32_t c = 0; c < channels; ++c) px[i * 4 + c] = detail::nearest_code(codebook, values[i * channels + c]);
-        }
-      }));
+  RGS_RETURN_IF_ERROR(for_each_gaussian(n, [&](uint64_t i) {
+    for (uint32_t c = 0; c < channels; ++c) px[i * 4 + c] = detail::nearest_code(codebook, values[i * channels + c]);
+  }));
   return codebook;
 }
 

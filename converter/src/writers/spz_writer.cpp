@@ -290,19 +290,13 @@ Result<std::vector<uint8_t>> serialize(const format::GaussianCloud& cloud, const
 
 Result<std::vector<uint8_t>> serialize_spz(const format::GaussianCloud& cloud, const SpzWriteOptions& options,
                                            SpzWriteSummary* summary) {
-  SpzWriteSummary local;
-  return detail::guarded<std::vector<uint8_t>>("", "encoding SPZ", [&]() {
-    return serialize(cloud, options, summary ? summary : &local);
-  });
+  return detail::serialize_guarded("encoding SPZ", summary, [&](auto* s) { return serialize(cloud, options, s); });
 }
 
 Result<SpzWriteSummary> write_spz(const std::string& path, const format::GaussianCloud& cloud,
                                   const SpzWriteOptions& options, format::FileSink& files) {
-  SpzWriteSummary summary;
-  RGS_RETURN_IF_ERROR(detail::write_encoded(path, "encoding SPZ", files, [&]() {
-    return serialize(cloud, options, &summary);
-  }));
-  return summary;
+  return detail::write_serialized<SpzWriteSummary>(path, "encoding SPZ", files,
+                                                   [&](auto* s) { return serialize(cloud, options, s); });
 }
 
 }  // namespace rgs::converter

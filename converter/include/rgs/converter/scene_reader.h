@@ -57,6 +57,9 @@ struct SceneReadOptions {
 /// options.spz_frame.
 SpzFrame spz_frame_for(const SceneReadOptions& options, const std::string& path);
 
+/// The extension of `path` in lower case, with its dot (".ply"; "" when none).
+std::string extension_of(const std::string& path);
+
 /// format::ReadOptions carrying `options`' limits and checksum choice: what a .rgs file is opened with
 /// (format::RgsFile::open) by read_scene and by callers that map a .rgs themselves (the GPU upload).
 format::ReadOptions rgs_read_options(const SceneReadOptions& options);
