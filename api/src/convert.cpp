@@ -3,7 +3,6 @@
 #include "rgs/api/convert.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -146,8 +145,7 @@ std::vector<std::string> output_paths(const std::string& dst, OutputFormat outpu
 }
 
 Result<OutputFormat> output_format_for(const std::string& dst, std::optional<OutputFormat> to) {
-  std::string ext = std::filesystem::path(dst).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string ext = converter::extension_of(dst);
   const FormatName* by_ext = nullptr;
   for (const FormatName& f : kFormatNames) {
     // A SOG entry's name (meta.json, lod-meta.json) chooses SOG only when `to` does not choose: as a .json it
