@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <cmath>
 #include <cstring>
@@ -31,6 +32,14 @@ inline float activate_opacity(float logit) { return static_cast<float>(1.0 / (1.
 inline float activate_scale(float log_scale) {
   const double s = std::exp(double(log_scale));
   return s > double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity() : float(s);
+}
+
+/// The row-major rotation matrix of the unit quaternion q (w, x, y, z), as 3DGS builds a Gaussian's rotation.
+inline std::array<double, 9> quaternion_matrix(const double q[4]) {
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  return {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+          2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+          2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
 }
 
 /// Axis signs taking one frame to another: x' = sx·x, y' = sy·y, z' = sz·z (each ±1).

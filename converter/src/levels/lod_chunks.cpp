@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "../internal_huge_pages.h"
+#include "../internal_interop.h"
 #include "../internal_parallel.h"
 #include "rgs/format/half.h"
 #include "rgs/format/metadata.h"
@@ -173,10 +174,7 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
     } else {
       q[0] = 1, q[1] = q[2] = q[3] = 0;
     }
-    const double qw = q[0], x = q[1], y = q[2], z = q[3];
-    const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - qw * z), 2 * (x * z + qw * y)},
-                            {2 * (x * y + qw * z), 1 - 2 * (x * x + z * z), 2 * (y * z - qw * x)},
-                            {2 * (x * z - qw * y), 2 * (y * z + qw * x), 1 - 2 * (x * x + y * y)}};
+    const std::array<double, 9> r = quaternion_matrix(q);
     double s2[3];
     for (int a = 0; a < 3; ++a) {
       const double s = linear_scale(out->scales[g * 3 + a], t.log_scale);
@@ -184,7 +182,8 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
     }
     for (int u = 0; u < 6; ++u) {
       const int ra = kRow[u], cb = kCol[u];
-      const double cov = r[ra][0] * r[cb][0] * s2[0] + r[ra][1] * r[cb][1] * s2[1] + r[ra][2] * r[cb][2] * s2[2];
+      const double cov =
+          r[ra * 3] * r[cb * 3] * s2[0] + r[ra * 3 + 1] * r[cb * 3 + 1] * s2[1] + r[ra * 3 + 2] * r[cb * 3 + 2] * s2[2];
       second[u] += w * (cov + d[ra] * d[cb]);
     }
     for (int a = 0; a < 3; ++a) first[a] += w * d[a];

@@ -282,12 +282,10 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
     RGS_RETURN_IF_ERROR(numbers(node, "translation", 3, t, where));
     RGS_RETURN_IF_ERROR(numbers(node, "rotation", 4, q, where));
     RGS_RETURN_IF_ERROR(numbers(node, "scale", 3, s, where));
-    const double x = q[0], y = q[1], z = q[2], w = q[3];
-    const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + w * z),     2 * (x * z - w * y),
-                         2 * (x * y - w * z),     1 - 2 * (x * x + z * z), 2 * (y * z + w * x),
-                         2 * (x * z + w * y),     2 * (y * z - w * x),     1 - 2 * (x * x + y * y)};  // columns
+    const double wxyz[4] = {q[3], q[0], q[1], q[2]};  // glTF stores x, y, z, w
+    const std::array<double, 9> r = detail::quaternion_matrix(wxyz);
     for (int c = 0; c < 3; ++c) {
-      for (int row = 0; row < 3; ++row) local[c * 4 + row] = r[c * 3 + row] * s[c];
+      for (int row = 0; row < 3; ++row) local[c * 4 + row] = r[row * 3 + c] * s[c];
     }
     for (int a = 0; a < 3; ++a) local[12 + a] = t[a];
   }
