@@ -166,6 +166,19 @@ inline InteropScene rdf_interop_scene(const char* format, uint64_t file_bytes, u
   return scene;
 }
 
+/// Refuses the cloud of a .splat or .ksplat file (`format`, as messages name it) that holds a negative scale: their
+/// writers store exp of the log scale, so it is damage. Then applies the hygiene rules.
+inline Status finish_splat_scene(const std::string& format, const InteropReadOptions& options, InteropScene* scene) {
+  const std::vector<float>& scales = scene->cloud.scales;
+  const auto first = std::find_if(scales.begin(), scales.end(), [](float s) { return s < 0; });
+  RGS_RETURN_ERROR_IF(first != scales.end(), StatusCode::kCorruptData,
+                      format + ": Gaussian " + std::to_string((first - scales.begin()) / 3) +
+                          " has a negative scale (" + std::to_string(*first) + "; negative scale values: " +
+                          std::to_string(std::count_if(first, scales.end(), [](float s) { return s < 0; })) +
+                          " of " + std::to_string(scales.size()) + "): a damaged file, or another format");
+  return finish_hygiene(options.invalid_policy, "splat", &scene->cloud, &scene->hygiene);
+}
+
 /// PlayCanvas's smallest-three quaternions (compressed PLY, SOG): the components other than `largest`, in
 /// w x y z order, are stored(0), stored(1), stored(2) (doubles); the largest is what makes the norm 1. Writes the
 /// quaternion, renormalized, to out[0..3].
