@@ -42,6 +42,25 @@ inline std::array<double, 9> quaternion_matrix(const double q[4]) {
           2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
 }
 
+/// The quaternion (w, x, y, z) of the rotation matrix r, not normalized: the branch on the largest of the trace
+/// and the diagonal keeps the division well conditioned.
+inline void matrix_quaternion(const double r[3][3], double q[4]) {
+  const double tr = r[0][0] + r[1][1] + r[2][2];
+  if (tr > 0) {
+    const double u = std::sqrt(tr + 1.0) * 2;
+    q[0] = 0.25 * u, q[1] = (r[2][1] - r[1][2]) / u, q[2] = (r[0][2] - r[2][0]) / u, q[3] = (r[1][0] - r[0][1]) / u;
+  } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
+    const double u = std::sqrt(1.0 + r[0][0] - r[1][1] - r[2][2]) * 2;
+    q[0] = (r[2][1] - r[1][2]) / u, q[1] = 0.25 * u, q[2] = (r[0][1] + r[1][0]) / u, q[3] = (r[0][2] + r[2][0]) / u;
+  } else if (r[1][1] > r[2][2]) {
+    const double u = std::sqrt(1.0 + r[1][1] - r[0][0] - r[2][2]) * 2;
+    q[0] = (r[0][2] - r[2][0]) / u, q[1] = (r[0][1] + r[1][0]) / u, q[2] = 0.25 * u, q[3] = (r[1][2] + r[2][1]) / u;
+  } else {
+    const double u = std::sqrt(1.0 + r[2][2] - r[0][0] - r[1][1]) * 2;
+    q[0] = (r[1][0] - r[0][1]) / u, q[1] = (r[0][2] + r[2][0]) / u, q[2] = (r[1][2] + r[2][1]) / u, q[3] = 0.25 * u;
+  }
+}
+
 /// Axis signs taking one frame to another: x' = sx·x, y' = sy·y, z' = sz·z (each ±1).
 struct AxisFlip {
   float s[3] = {1, 1, 1};

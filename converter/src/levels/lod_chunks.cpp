@@ -83,39 +83,6 @@ void jacobi_eigen(double a[3][3], double values[3], double v[3][3]) {
   for (int i = 0; i < 3; ++i) values[i] = a[i][i];
 }
 
-/// Unit quaternion (w, x, y, z), w ≥ 0, of the rotation matrix r (r = 3DGS build_rotation(q)).
-void quaternion_of(const double r[3][3], double q[4]) {
-  const double trace = r[0][0] + r[1][1] + r[2][2];
-  if (trace > 0) {
-    const double s = 2 * std::sqrt(trace + 1);
-    q[0] = 0.25 * s;
-    q[1] = (r[2][1] - r[1][2]) / s;
-    q[2] = (r[0][2] - r[2][0]) / s;
-    q[3] = (r[1][0] - r[0][1]) / s;
-  } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
-    const double s = 2 * std::sqrt(1 + r[0][0] - r[1][1] - r[2][2]);
-    q[0] = (r[2][1] - r[1][2]) / s;
-    q[1] = 0.25 * s;
-    q[2] = (r[0][1] + r[1][0]) / s;
-    q[3] = (r[0][2] + r[2][0]) / s;
-  } else if (r[1][1] > r[2][2]) {
-    const double s = 2 * std::sqrt(1 + r[1][1] - r[0][0] - r[2][2]);
-    q[0] = (r[0][2] - r[2][0]) / s;
-    q[1] = (r[0][1] + r[1][0]) / s;
-    q[2] = 0.25 * s;
-    q[3] = (r[1][2] + r[2][1]) / s;
-  } else {
-    const double s = 2 * std::sqrt(1 + r[2][2] - r[0][0] - r[1][1]);
-    q[0] = (r[1][0] - r[0][1]) / s;
-    q[1] = (r[0][2] + r[2][0]) / s;
-    q[2] = (r[1][2] + r[2][1]) / s;
-    q[3] = 0.25 * s;
-  }
-  const double sign = q[0] < 0 ? -1.0 : 1.0;
-  const double inv = sign / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  for (int a = 0; a < 4; ++a) q[a] *= inv;
-}
-
 /// The renderer's low-pass in pixels² (cov2D + 0.3, docs/DESIGN.md#conventions): a level's merge sees its
 /// children as drawn where its error is one pixel.
 constexpr double kLowPassPixels2 = 0.3;
@@ -221,8 +188,11 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
   if (det < 0) {
     for (int r = 0; r < 3; ++r) rot[r][2] = -rot[r][2];
   }
-  double quat[4];
-  quaternion_of(rot, quat);
+  double quat[4];  // unit, w ≥ 0
+  matrix_quaternion(rot, quat);
+  const double inv = (quat[0] < 0 ? -1.0 : 1.0) / std::sqrt(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] +
+                                                            quat[3] * quat[3]);
+  for (double& c : quat) c *= inv;
 
   // Opacity: coverage of the children over the parent's area, both as drawn (our rule; lod_builder.h).
   const double parent_area = drawn_area(scale, dilation2);
