@@ -1,5 +1,5 @@
-// Helpers shared by the scene readers and writers: activations, frame flips, cloud checks and input hygiene
-// (private to rgs_converter).
+// Helpers shared by the scene readers and writers (and the edits and levels): activations, quaternion-matrix
+// conversions, frame flips, cloud checks and input hygiene (private to rgs_converter).
 #pragma once
 
 #include <algorithm>
@@ -34,7 +34,8 @@ inline float activate_scale(float log_scale) {
   return s > double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity() : float(s);
 }
 
-/// The row-major rotation matrix of the unit quaternion q (w, x, y, z), as 3DGS builds a Gaussian's rotation.
+/// The row-major matrix of the quaternion q (w, x, y, z) as 3DGS builds a Gaussian's rotation (a rotation when q is
+/// unit; the formula is applied as is).
 inline std::array<double, 9> quaternion_matrix(const double q[4]) {
   const double w = q[0], x = q[1], y = q[2], z = q[3];
   return {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
