@@ -1,8 +1,9 @@
-// Helpers shared by the scene readers and writers: activations, frame flips, cloud checks and input hygiene
-// (private to rgs_converter).
+// Helpers shared by the scene readers and writers (and the edits and levels): activations, quaternion-matrix
+// conversions, frame flips, cloud checks and input hygiene (private to rgs_converter).
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <cmath>
 #include <cstring>
@@ -31,6 +32,34 @@ inline float activate_opacity(float logit) { return static_cast<float>(1.0 / (1.
 inline float activate_scale(float log_scale) {
   const double s = std::exp(double(log_scale));
   return s > double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity() : float(s);
+}
+
+/// The row-major matrix of the quaternion q (w, x, y, z) as 3DGS builds a Gaussian's rotation (a rotation when q is
+/// unit; the formula is applied as is).
+inline std::array<double, 9> quaternion_matrix(const double q[4]) {
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  return {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+          2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+          2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+}
+
+/// The quaternion (w, x, y, z) of the rotation matrix r, not normalized: the branch on the largest of the trace
+/// and the diagonal keeps the division well conditioned.
+inline void matrix_quaternion(const double r[3][3], double q[4]) {
+  const double tr = r[0][0] + r[1][1] + r[2][2];
+  if (tr > 0) {
+    const double u = std::sqrt(tr + 1.0) * 2;
+    q[0] = 0.25 * u, q[1] = (r[2][1] - r[1][2]) / u, q[2] = (r[0][2] - r[2][0]) / u, q[3] = (r[1][0] - r[0][1]) / u;
+  } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
+    const double u = std::sqrt(1.0 + r[0][0] - r[1][1] - r[2][2]) * 2;
+    q[0] = (r[2][1] - r[1][2]) / u, q[1] = 0.25 * u, q[2] = (r[0][1] + r[1][0]) / u, q[3] = (r[0][2] + r[2][0]) / u;
+  } else if (r[1][1] > r[2][2]) {
+    const double u = std::sqrt(1.0 + r[1][1] - r[0][0] - r[2][2]) * 2;
+    q[0] = (r[0][2] - r[2][0]) / u, q[1] = (r[0][1] + r[1][0]) / u, q[2] = 0.25 * u, q[3] = (r[1][2] + r[2][1]) / u;
+  } else {
+    const double u = std::sqrt(1.0 + r[2][2] - r[0][0] - r[1][1]) * 2;
+    q[0] = (r[1][0] - r[0][1]) / u, q[1] = (r[0][2] + r[2][0]) / u, q[2] = (r[1][2] + r[2][1]) / u, q[3] = 0.25 * u;
+  }
 }
 
 /// Axis signs taking one frame to another: x' = sx·x, y' = sy·y, z' = sz·z (each ±1).
@@ -155,6 +184,19 @@ inline InteropScene rdf_interop_scene(const char* format, uint64_t file_bytes, u
   scene.cloud.sh_degree = degree;
   scene.cloud.resize(static_cast<size_t>(count));
   return scene;
+}
+
+/// Refuses the cloud of a .splat or .ksplat file (`format`, as messages name it) that holds a negative scale: their
+/// writers store exp of the log scale, so it is damage. Then applies the hygiene rules.
+inline Status finish_splat_scene(const std::string& format, const InteropReadOptions& options, InteropScene* scene) {
+  const std::vector<float>& scales = scene->cloud.scales;
+  const auto first = std::find_if(scales.begin(), scales.end(), [](float s) { return s < 0; });
+  RGS_RETURN_ERROR_IF(first != scales.end(), StatusCode::kCorruptData,
+                      format + ": Gaussian " + std::to_string((first - scales.begin()) / 3) +
+                          " has a negative scale (" + std::to_string(*first) + "; negative scale values: " +
+                          std::to_string(std::count_if(first, scales.end(), [](float s) { return s < 0; })) +
+                          " of " + std::to_string(scales.size()) + "): a damaged file, or another format");
+  return finish_hygiene(options.invalid_policy, "splat", &scene->cloud, &scene->hygiene);
 }
 
 /// PlayCanvas's smallest-three quaternions (compressed PLY, SOG): the components other than `largest`, in

@@ -92,14 +92,6 @@ std::vector<double> euler_quaternion(double x_deg, double y_deg, double z_deg) {
           sz * cy * cx - cz * sy * sx};
 }
 
-/// The row-major matrix of the unit quaternion q (w, x, y, z), as 3DGS builds a Gaussian's rotation.
-std::array<double, 9> quaternion_matrix(const double q[4]) {
-  const double w = q[0], x = q[1], y = q[2], z = q[3];
-  return {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
-          2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-          2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
-}
-
 /// Where a filter's property lives in the cloud: an array, the component per Gaussian, and for SH the index.
 struct PropertyRef {
   enum Array { kMeans, kOpacity, kScales, kRotations, kDc, kColour, kRest } array = kMeans;
@@ -193,7 +185,7 @@ std::array<double, 4> unit_quaternion(const std::vector<double>& q) {
 
 void rotate_cloud(format::GaussianCloud* cloud, const std::vector<double>& quaternion) {
   const std::array<double, 4> r = unit_quaternion(quaternion);
-  const std::array<double, 9> m = quaternion_matrix(r.data());
+  const std::array<double, 9> m = detail::quaternion_matrix(r.data());
   for (size_t i = 0; i < cloud->size(); ++i) {
     float* p = &cloud->means[i * 3];
     const double x = p[0], y = p[1], z = p[2];
@@ -425,7 +417,7 @@ EditMotion edit_motion(const std::vector<EditAction>& edits) {
       m.scale *= v[0];
       for (double& o : m.offset) o *= v[0];
     } else if (edit.kind == EditKind::kRotate) {
-      const std::array<double, 9> r = quaternion_matrix(unit_quaternion(v).data());
+      const std::array<double, 9> r = detail::quaternion_matrix(unit_quaternion(v).data());
       const EditMotion before = m;
       for (int i = 0; i < 9; ++i) {
         m.rotation[i] = 0;

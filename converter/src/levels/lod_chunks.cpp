@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "../internal_huge_pages.h"
+#include "../internal_interop.h"
 #include "../internal_parallel.h"
 #include "rgs/format/half.h"
 #include "rgs/format/metadata.h"
@@ -82,39 +83,6 @@ void jacobi_eigen(double a[3][3], double values[3], double v[3][3]) {
   for (int i = 0; i < 3; ++i) values[i] = a[i][i];
 }
 
-/// Unit quaternion (w, x, y, z), w ≥ 0, of the rotation matrix r (r = 3DGS build_rotation(q)).
-void quaternion_of(const double r[3][3], double q[4]) {
-  const double trace = r[0][0] + r[1][1] + r[2][2];
-  if (trace > 0) {
-    const double s = 2 * std::sqrt(trace + 1);
-    q[0] = 0.25 * s;
-    q[1] = (r[2][1] - r[1][2]) / s;
-    q[2] = (r[0][2] - r[2][0]) / s;
-    q[3] = (r[1][0] - r[0][1]) / s;
-  } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
-    const double s = 2 * std::sqrt(1 + r[0][0] - r[1][1] - r[2][2]);
-    q[0] = (r[2][1] - r[1][2]) / s;
-    q[1] = 0.25 * s;
-    q[2] = (r[0][1] + r[1][0]) / s;
-    q[3] = (r[0][2] + r[2][0]) / s;
-  } else if (r[1][1] > r[2][2]) {
-    const double s = 2 * std::sqrt(1 + r[1][1] - r[0][0] - r[2][2]);
-    q[0] = (r[0][2] - r[2][0]) / s;
-    q[1] = (r[0][1] + r[1][0]) / s;
-    q[2] = 0.25 * s;
-    q[3] = (r[1][2] + r[2][1]) / s;
-  } else {
-    const double s = 2 * std::sqrt(1 + r[2][2] - r[0][0] - r[1][1]);
-    q[0] = (r[1][0] - r[0][1]) / s;
-    q[1] = (r[0][2] + r[2][0]) / s;
-    q[2] = (r[1][2] + r[2][1]) / s;
-    q[3] = 0.25 * s;
-  }
-  const double sign = q[0] < 0 ? -1.0 : 1.0;
-  const double inv = sign / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  for (int a = 0; a < 4; ++a) q[a] *= inv;
-}
-
 /// The renderer's low-pass in pixels² (cov2D + 0.3, docs/DESIGN.md#conventions): a level's merge sees its
 /// children as drawn where its error is one pixel.
 constexpr double kLowPassPixels2 = 0.3;
@@ -173,10 +141,7 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
     } else {
       q[0] = 1, q[1] = q[2] = q[3] = 0;
     }
-    const double qw = q[0], x = q[1], y = q[2], z = q[3];
-    const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - qw * z), 2 * (x * z + qw * y)},
-                            {2 * (x * y + qw * z), 1 - 2 * (x * x + z * z), 2 * (y * z - qw * x)},
-                            {2 * (x * z - qw * y), 2 * (y * z + qw * x), 1 - 2 * (x * x + y * y)}};
+    const std::array<double, 9> r = quaternion_matrix(q);
     double s2[3];
     for (int a = 0; a < 3; ++a) {
       const double s = linear_scale(out->scales[g * 3 + a], t.log_scale);
@@ -184,7 +149,8 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
     }
     for (int u = 0; u < 6; ++u) {
       const int ra = kRow[u], cb = kCol[u];
-      const double cov = r[ra][0] * r[cb][0] * s2[0] + r[ra][1] * r[cb][1] * s2[1] + r[ra][2] * r[cb][2] * s2[2];
+      const double cov =
+          r[ra * 3] * r[cb * 3] * s2[0] + r[ra * 3 + 1] * r[cb * 3 + 1] * s2[1] + r[ra * 3 + 2] * r[cb * 3 + 2] * s2[2];
       second[u] += w * (cov + d[ra] * d[cb]);
     }
     for (int a = 0; a < 3; ++a) first[a] += w * d[a];
@@ -222,8 +188,11 @@ void merge_cell(format::EncodedScene* out, uint64_t b, uint64_t e, uint64_t p, c
   if (det < 0) {
     for (int r = 0; r < 3; ++r) rot[r][2] = -rot[r][2];
   }
-  double quat[4];
-  quaternion_of(rot, quat);
+  double quat[4];  // unit, w ≥ 0
+  matrix_quaternion(rot, quat);
+  const double inv = (quat[0] < 0 ? -1.0 : 1.0) / std::sqrt(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] +
+                                                            quat[3] * quat[3]);
+  for (double& c : quat) c *= inv;
 
   // Opacity: coverage of the children over the parent's area, both as drawn (our rule; lod_builder.h).
   const double parent_area = drawn_area(scale, dilation2);

@@ -282,12 +282,10 @@ Status Reader::visit(uint64_t index, const double parent[16], int depth) {
     RGS_RETURN_IF_ERROR(numbers(node, "translation", 3, t, where));
     RGS_RETURN_IF_ERROR(numbers(node, "rotation", 4, q, where));
     RGS_RETURN_IF_ERROR(numbers(node, "scale", 3, s, where));
-    const double x = q[0], y = q[1], z = q[2], w = q[3];
-    const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + w * z),     2 * (x * z - w * y),
-                         2 * (x * y - w * z),     1 - 2 * (x * x + z * z), 2 * (y * z + w * x),
-                         2 * (x * z + w * y),     2 * (y * z - w * x),     1 - 2 * (x * x + y * y)};  // columns
+    const double wxyz[4] = {q[3], q[0], q[1], q[2]};  // glTF stores x, y, z, w
+    const std::array<double, 9> r = detail::quaternion_matrix(wxyz);
     for (int c = 0; c < 3; ++c) {
-      for (int row = 0; row < 3; ++row) local[c * 4 + row] = r[c * 3 + row] * s[c];
+      for (int row = 0; row < 3; ++row) local[c * 4 + row] = r[row * 3 + c] * s[c];
     }
     for (int a = 0; a < 3; ++a) local[12 + a] = t[a];
   }
@@ -602,7 +600,6 @@ Status node_transform(const PrimitiveAccessors& d, size_t index, NodeTransform* 
   const double s = t->s = col[0];
   for (int i = 0; i < 16; ++i) t->identity = t->identity && std::fabs(m[i] - ((i % 5 == 0) ? 1.0 : 0.0)) < 1e-12;
   if (t->identity) return Status();
-  double* qr = t->qr;
   const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
                      m[8] * (m[1] * m[6] - m[5] * m[2]);
   if (!(s > 0) || std::fabs(col[1] - s) > 1e-6 * s || std::fabs(col[2] - s) > 1e-6 * s || det <= 0 ||
@@ -611,24 +608,11 @@ Status node_transform(const PrimitiveAccessors& d, size_t index, NodeTransform* 
                                                        " has a node transform that is not rotation + uniform "
                                                        "positive scale + translation");
   }
-  // Rotation matrix R = M / s (column-major), to a quaternion.
-  const double r00 = m[0] / s, r10 = m[1] / s, r20 = m[2] / s, r01 = m[4] / s, r11 = m[5] / s, r21 = m[6] / s,
-               r02 = m[8] / s, r12 = m[9] / s, r22 = m[10] / s;
-  const double tr = r00 + r11 + r22;
-  if (tr > 0) {
-    const double u = std::sqrt(tr + 1.0) * 2;
-    qr[0] = 0.25 * u, qr[1] = (r21 - r12) / u, qr[2] = (r02 - r20) / u, qr[3] = (r10 - r01) / u;
-  } else if (r00 > r11 && r00 > r22) {
-    const double u = std::sqrt(1.0 + r00 - r11 - r22) * 2;
-    qr[0] = (r21 - r12) / u, qr[1] = 0.25 * u, qr[2] = (r01 + r10) / u, qr[3] = (r02 + r20) / u;
-  } else if (r11 > r22) {
-    const double u = std::sqrt(1.0 + r11 - r00 - r22) * 2;
-    qr[0] = (r02 - r20) / u, qr[1] = (r01 + r10) / u, qr[2] = 0.25 * u, qr[3] = (r12 + r21) / u;
-  } else {
-    const double u = std::sqrt(1.0 + r22 - r00 - r11) * 2;
-    qr[0] = (r10 - r01) / u, qr[1] = (r02 + r20) / u, qr[2] = (r12 + r21) / u, qr[3] = 0.25 * u;
-  }
-  const bool rotates = std::fabs(std::fabs(qr[0]) - 1.0) > 1e-9;
+  // Rotation matrix R = M / s (M column-major), to a quaternion.
+  const double r[3][3] = {
+      {m[0] / s, m[4] / s, m[8] / s}, {m[1] / s, m[5] / s, m[9] / s}, {m[2] / s, m[6] / s, m[10] / s}};
+  detail::matrix_quaternion(r, t->qr);
+  const bool rotates = std::fabs(std::fabs(t->qr[0]) - 1.0) > 1e-9;
   if (rotates && d.degree > 0) {
     return Status(StatusCode::kUnsupportedFeature,
                   "glTF splat primitive " + std::to_string(index) + " is rotated by its node and has SH degree " +

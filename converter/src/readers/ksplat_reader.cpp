@@ -191,12 +191,7 @@ Result<InteropScene> read_buffer(const uint8_t* d, uint64_t size, const InteropR
     decode_section(d, c, layout.level, layout.sh_range, &cloud, first);
     first += c.count;
   }
-  for (size_t k = 0; k < cloud.scales.size(); ++k) {
-    RGS_RETURN_ERROR_IF(cloud.scales[k] < 0, StatusCode::kCorruptData,
-                        "GaussianSplats3D .ksplat: Gaussian " + std::to_string(k / 3) + " has a negative scale (" +
-                            std::to_string(cloud.scales[k]) + "): a damaged file");
-  }
-  RGS_RETURN_IF_ERROR(detail::finish_hygiene(options.invalid_policy, "splat", &cloud, &scene.hygiene));
+  RGS_RETURN_IF_ERROR(detail::finish_splat_scene("GaussianSplats3D .ksplat", options, &scene));
   const char* stored[] = {"float32", "float16 with positions as 16-bit offsets from bucket centres",
                           "float16 with positions as 16-bit offsets from bucket centres, SH rest as 8 bits"};
   scene.notes.push_back(".ksplat compression level " + std::to_string(layout.level) + ": " + stored[layout.level] +

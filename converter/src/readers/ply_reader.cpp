@@ -132,12 +132,7 @@ Status resolve_layout(const PlyElement& vertex, PlyStorage storage, VertexLayout
 
   // f_rest_0..M-1, M in {0, 9, 24, 45}; indices must be canonical decimal and contiguous.
   size_t rest_count = 0;
-  const PlyProperty* first_rest = nullptr;
-  for (const PlyProperty& prop : vertex.properties) {
-    if (prop.name.rfind("f_rest_", 0) != 0) continue;
-    ++rest_count;
-    if (first_rest == nullptr) first_rest = &prop;
-  }
+  for (const PlyProperty& prop : vertex.properties) rest_count += prop.name.rfind("f_rest_", 0) == 0;
   uint32_t degree = 0;
   if (!detail::sh_degree_of_rest_count(rest_count, &degree)) {
     return Status(StatusCode::kUnsupportedFeature,

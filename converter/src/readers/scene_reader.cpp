@@ -458,26 +458,42 @@ Result<std::vector<std::string>> list_scene_files(const std::string& path) {
   return std::vector<std::string>{probe.path};
 }
 
+namespace {
+
+/// reduce_sh_degree and raise_sh_degree of a consistent cloud: each Gaussian's SH values move in place to the
+/// stride of SH `degree`, the bands above it dropped (front to back: Gaussian i's values move to i * to, never
+/// after i * from) or those the cloud lacks zeroed (back to front, once the array has grown).
+Status resize_sh(format::GaussianCloud* cloud, uint32_t degree) {
+  const size_t n = cloud->size();
+  const size_t from = cloud->sh_coefficients() * 3;
+  const size_t to = format::sh_coefficient_count(degree) * 3;
+  for (size_t i = 1; to < from && i < n; ++i) {
+    std::memmove(cloud->sh.data() + i * to, cloud->sh.data() + i * from, to * sizeof(float));
+  }
+  try {
+    cloud->sh.resize(n * to);
+    if (to < from) cloud->sh.shrink_to_fit();
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, "no memory for the SH array of " + std::to_string(n) +
+                                                " Gaussians at SH degree " + std::to_string(degree));
+  }
+  float* sh = cloud->sh.data();
+  for (size_t i = n; to > from && i-- > 0;) {
+    std::memmove(sh + i * to, sh + i * from, from * sizeof(float));
+    std::fill(sh + i * to + from, sh + (i + 1) * to, 0.0f);
+  }
+  cloud->sh_degree = degree;
+  return Status();
+}
+
+}  // namespace
+
 Status reduce_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {
   RGS_RETURN_ERROR_IF(degree > 3, StatusCode::kInvalidArgument,
                       "SH degree " + std::to_string(degree) + " is above 3, the highest a cloud holds");
   RGS_RETURN_ERROR_IF(!cloud->is_consistent(), StatusCode::kInvalidArgument,
                       "reduce_sh_degree: the cloud's arrays disagree with its size and SH degree");
-  if (cloud->sh_degree <= degree) return Status();
-  const size_t n = cloud->size();
-  const size_t from = cloud->sh_coefficients() * 3;
-  const size_t to = format::sh_coefficient_count(degree) * 3;
-  // In place, front to back: Gaussian i's kept values move to i * to, which is never after i * from.
-  float* sh = cloud->sh.data();
-  for (size_t i = 1; i < n; ++i) std::memmove(sh + i * to, sh + i * from, to * sizeof(float));
-  try {
-    cloud->sh.resize(n * to);
-    cloud->sh.shrink_to_fit();
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "reduce_sh_degree: no memory for the smaller SH array");
-  }
-  cloud->sh_degree = degree;
-  return Status();
+  return cloud->sh_degree <= degree ? Status() : resize_sh(cloud, degree);
 }
 
 Result<InputScene> scene_from_cloud(format::GaussianCloud cloud, const std::string& name,
@@ -519,23 +535,7 @@ std::vector<std::string> supported_scene_formats() {
 Status raise_sh_degree(format::GaussianCloud* cloud, uint32_t degree) {
   RGS_RETURN_ERROR_IF(degree > 3 || !cloud->is_consistent(), StatusCode::kInvalidArgument,
                       "raise_sh_degree: SH degree " + std::to_string(degree) + " above 3 or an inconsistent cloud");
-  if (cloud->sh_degree >= degree) return Status();
-  const size_t n = cloud->size();
-  const size_t from = cloud->sh_coefficients() * 3;
-  const size_t to = format::sh_coefficient_count(degree) * 3;
-  try {
-    cloud->sh.resize(n * to);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "raise_sh_degree: no memory for the larger SH array");
-  }
-  // In place, back to front: Gaussian i's values move to i * to, never before i * from.
-  float* sh = cloud->sh.data();
-  for (size_t i = n; i-- > 0;) {
-    std::memmove(sh + i * to, sh + i * from, from * sizeof(float));
-    std::fill(sh + i * to + from, sh + (i + 1) * to, 0.0f);
-  }
-  cloud->sh_degree = degree;
-  return Status();
+  return cloud->sh_degree >= degree ? Status() : resize_sh(cloud, degree);
 }
 
 namespace {

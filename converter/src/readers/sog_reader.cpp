@@ -166,7 +166,9 @@ Result<json> parse_json(const std::vector<uint8_t>& bytes, const std::string& wh
   return detail::parse_scene_json(bytes.data(), bytes.size(), where + ": " + what);
 }
 
-Status parse_sog_meta(const json& root, const std::string& where, SogMeta* meta) {
+/// Parses the meta.json `bytes` (the file `where`, `what` in JSON errors) into `meta`.
+Status parse_sog_meta(const std::vector<uint8_t>& bytes, const std::string& where, const char* what, SogMeta* meta) {
+  RGS_ASSIGN_OR_RETURN(const json root, parse_json(bytes, where, what));
   if (!root.is_object()) return corrupt(where, "top level is a " + type_name(root) + ", not an object");
   auto version_it = root.find("version");
   if (version_it == root.end()) {
@@ -643,15 +645,15 @@ Status read_entry(const std::string& path, const char* entry_name, uint64_t max_
 /// `folder` has read, each counted once however many chunks or fields name it (SceneFolder::distinct_bytes),
 /// or, for a bundle (`folder` null), the archive's `file_bytes`, which holds its entries. The image bytes held
 /// until decoding (a file named again is held again) stay within the limit of the distinct files read so far.
-Status load_images(const std::vector<ChunkJob*>& jobs, const detail::SceneFolder* folder, uint64_t file_bytes,
+Status load_images(std::vector<ChunkJob>& jobs, const detail::SceneFolder* folder, uint64_t file_bytes,
                    const SceneReadOptions& options, const std::string& where) {
   const uint32_t ratio = options.max_decompression_ratio;
   auto basis = [&] { return folder != nullptr ? folder->distinct_bytes() : file_bytes; };
   uint64_t decoded = 0, held = 0;
-  for (ChunkJob* job : jobs) {
+  for (ChunkJob& job : jobs) {
     // Each image file is bounded by what may still be decoded: an image never decodes to less than its size.
-    RGS_RETURN_IF_ERROR(load_chunk_images(job, std::min(kMaxImageFileBytes, detail::decode_budget(basis(), ratio))));
-    held += job->bytes_read;
+    RGS_RETURN_IF_ERROR(load_chunk_images(&job, std::min(kMaxImageFileBytes, detail::decode_budget(basis(), ratio))));
+    held += job.bytes_read;
     if (held > detail::decode_budget(basis(), ratio)) {
       return Status(StatusCode::kLimitExceeded,
                     where + ": the chunks name " + std::to_string(held) + " bytes of images (a file named again " +
@@ -659,9 +661,39 @@ Status load_images(const std::vector<ChunkJob*>& jobs, const detail::SceneFolder
                         " x the " + std::to_string(basis()) + " bytes of distinct files read (files under 1 MiB " +
                         "count as 1 MiB; format/SPEC.md 5.5); raise --max-decompression-ratio to read it");
     }
-    decoded += job->decoded_bytes;
+    decoded += job.decoded_bytes;
   }
   return detail::check_decode_budget(decoded, basis(), ratio, where, "the WebP images (RGBA8)");
+}
+
+/// Reads the chunks' images (load_images), sizes `scene`'s cloud to `total` Gaussians of SH `degree` and decodes
+/// every chunk into it. With `folder` (null for a bundle), also the scene's files, their bytes and, after
+/// `hashes` (the meta files'), the XXH64 of every image in chunk order.
+Status decode_scene(std::vector<ChunkJob>& jobs, const detail::SceneFolder* folder, uint64_t file_bytes,
+                    const SceneReadOptions& options, const std::string& where, uint32_t degree, uint64_t total,
+                    std::vector<uint64_t> hashes, InputScene* scene) {
+  RGS_RETURN_IF_ERROR(load_images(jobs, folder, file_bytes, options, where));
+  scene->cloud.sh_degree = degree;
+  detail::resize_cloud_huge(&scene->cloud, static_cast<size_t>(total));
+  std::vector<Status> errors(jobs.size());
+  const unsigned threads = detail::worker_count(UINT64_MAX, 1);  // every CPU this process may use (≤ 16)
+  const unsigned workers = detail::worker_count(jobs.size(), 1);
+  // With fewer chunks than threads, each chunk also decodes its images and expands in parallel.
+  const unsigned busy = static_cast<unsigned>(std::max<size_t>(1, std::min<size_t>(jobs.size(), threads)));
+  const unsigned inner = std::max(1u, threads / busy);
+  RGS_RETURN_IF_ERROR(detail::parallel_items(jobs.size(), workers, [&](unsigned, uint64_t item) {
+    errors[item] = decode_chunk(&jobs[item], inner, &scene->cloud);
+  }));
+  for (Status& s : errors) RGS_RETURN_IF_ERROR(s);
+  if (folder == nullptr) return Status();
+  scene->file_bytes = folder->distinct_bytes();
+  scene->file_count = folder->distinct_files();
+  scene->files = folder->files();
+  if (options.hash_file) {
+    for (const ChunkJob& job : jobs) hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
+    scene->file_xxh64 = detail::combine_hashes(hashes);
+  }
+  return Status();
 }
 
 Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions& options) {
@@ -699,31 +731,20 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
     if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
   }
   const std::string meta_name = bundled ? entry.path + ":meta.json" : entry.path;
-  ChunkJob job;
+  std::vector<ChunkJob> jobs(1);
+  ChunkJob& job = jobs[0];
   job.meta_name = meta_name;
   job.files = files.get();
   job.hash = options.hash_file && !bundled;
-  RGS_ASSIGN_OR_RETURN(json root, parse_json(meta_bytes, meta_name, "SOG meta.json"));
-  RGS_RETURN_IF_ERROR(parse_sog_meta(root, meta_name, &job.meta));
+  RGS_RETURN_IF_ERROR(parse_sog_meta(meta_bytes, meta_name, "SOG meta.json", &job.meta));
   RGS_RETURN_ERROR_IF(job.meta.count > options.max_gaussians, StatusCode::kLimitExceeded,
                       meta_name + ": declares " + std::to_string(job.meta.count) + " Gaussians, above the limit of " +
                           std::to_string(options.max_gaussians));
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
   job.ranges.push_back(Range{0, job.meta.count, 0});
-  RGS_RETURN_IF_ERROR(load_images({&job}, bundled ? nullptr : entry.folder.get(), scene.file_bytes, options,
-                                  meta_name));
-  scene.cloud.sh_degree = declared_degree(job.meta);
-  detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(job.meta.count));
-  RGS_RETURN_IF_ERROR(decode_chunk(&job, detail::worker_count(UINT64_MAX, 1), &scene.cloud));
-  if (!bundled) {
-    scene.file_bytes = entry.folder->distinct_bytes();
-    scene.file_count = entry.folder->distinct_files();
-    if (options.hash_file) {
-      hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
-      scene.file_xxh64 = detail::combine_hashes(hashes);
-    }
-  }
-  scene.files = bundled ? std::vector<std::string>{entry.path} : entry.folder->files();
+  RGS_RETURN_IF_ERROR(decode_scene(jobs, bundled ? nullptr : entry.folder.get(), scene.file_bytes, options, meta_name,
+                                   declared_degree(job.meta), job.meta.count, std::move(hashes), &scene));
+  if (bundled) scene.files = {entry.path};
   scene.storage_format = scene.format_id;
   scene.declared_vertices = job.meta.count;
   const std::string layout = job.meta.version == 2 ? "v2" : "unversioned (v1)";
@@ -925,10 +946,9 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
                                     detail::bounded_text(names[file], 96) + "'"));
     }
     if (options.hash_file) hashes.push_back(XXH64(meta_bytes.data(), meta_bytes.size(), 0));
-    RGS_ASSIGN_OR_RETURN(json chunk_root, parse_json(meta_bytes, meta_path, "streamed SOG chunk meta.json"));
     ChunkJob job;
     job.meta_name = meta_path;
-    RGS_RETURN_IF_ERROR(parse_sog_meta(chunk_root, meta_path, &job.meta));
+    RGS_RETURN_IF_ERROR(parse_sog_meta(meta_bytes, meta_path, "streamed SOG chunk meta.json", &job.meta));
     const size_t slash = names[file].rfind('/');
     folders.push_back(std::make_unique<FolderFiles>(
         &folder, slash == std::string::npos ? std::string() : names[file].substr(0, slash), meta_path));
@@ -947,29 +967,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
     jobs.push_back(std::move(job));
   }
 
-  std::vector<ChunkJob*> job_pointers;
-  for (ChunkJob& job : jobs) job_pointers.push_back(&job);
-  RGS_RETURN_IF_ERROR(load_images(job_pointers, &folder, 0, options, path));
-  scene.cloud.sh_degree = degree;
-  detail::resize_cloud_huge(&scene.cloud, static_cast<size_t>(total));
-  std::vector<Status> errors(jobs.size());
-  const unsigned threads = detail::worker_count(UINT64_MAX, 1);  // every CPU this process may use (≤ 16)
-  const unsigned workers = detail::worker_count(jobs.size(), 1);
-  // With fewer chunks than threads, each chunk also decodes its images and expands in parallel.
-  const unsigned busy = static_cast<unsigned>(std::max<size_t>(1, std::min<size_t>(jobs.size(), threads)));
-  const unsigned inner = std::max(1u, threads / busy);
-  RGS_RETURN_IF_ERROR(detail::parallel_items(jobs.size(), workers, [&](unsigned, uint64_t item) {
-    errors[item] = decode_chunk(&jobs[item], inner, &scene.cloud);
-  }));
-  for (Status& s : errors) RGS_RETURN_IF_ERROR(s);
-  scene.file_bytes = folder.distinct_bytes();
-  scene.file_count = folder.distinct_files();
-  if (options.hash_file) {
-    // Meta files first (read above, in file order), then each chunk's images in file order.
-    for (const ChunkJob& job : jobs) hashes.insert(hashes.end(), job.file_hashes.begin(), job.file_hashes.end());
-    scene.file_xxh64 = detail::combine_hashes(hashes);
-  }
-  scene.files = folder.files();
+  // Hashed: the meta files first (read above, in file order), then each chunk's images in file order.
+  RGS_RETURN_IF_ERROR(decode_scene(jobs, &folder, 0, options, path, degree, total, std::move(hashes), &scene));
   scene.format_id = "sog_lod";
   scene.storage_format = scene.format_id;
   scene.declared_vertices = total;
@@ -982,9 +981,8 @@ Result<InputScene> read_sog_lod_impl(const std::string& named_path, const SceneR
 /// folder) to `out`, as read_sog would name them.
 Status list_meta_images(const std::vector<uint8_t>& bytes, const std::string& where,
                         const detail::SceneFolder& folder, const std::string& base, std::vector<std::string>* out) {
-  RGS_ASSIGN_OR_RETURN(json root, parse_json(bytes, where, "SOG meta.json"));
   SogMeta meta;
-  RGS_RETURN_IF_ERROR(parse_sog_meta(root, where, &meta));
+  RGS_RETURN_IF_ERROR(parse_sog_meta(bytes, where, "SOG meta.json", &meta));
   for (size_t slot : image_slots(meta)) {
     RGS_ASSIGN_OR_RETURN(std::string relative, folder.resolve(meta.files[slot], base, where, kSlotNames[slot]));
     out->push_back(folder.display(relative));

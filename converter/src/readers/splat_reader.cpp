@@ -47,22 +47,7 @@ Result<InteropScene> read_records(const uint8_t* data, size_t size, const Intero
     const bool no_direction = std::all_of(r + 28, r + 32, [](uint8_t b) { return b == 127 || b == 128; });
     for (int a = 0; a < 4; ++a) cloud.rotations[i * 4 + a] = no_direction ? 0.0f : rotation_component(r[28 + a]);
   }
-  // Negative scales have no meaning (the writer stores exp of the log scale).
-  uint64_t negative = 0;
-  size_t first = 0;
-  for (size_t k = cloud.scales.size(); k-- > 0;) {
-    if (cloud.scales[k] < 0) {
-      ++negative;
-      first = k / 3;
-    }
-  }
-  if (negative != 0) {
-    return Status(StatusCode::kCorruptData, "antimatter15 .splat: " + std::to_string(negative) +
-                                                " scale values are negative (the first in record " +
-                                                std::to_string(first) + " of " + std::to_string(n) +
-                                                "): a damaged file, or not a .splat file");
-  }
-  RGS_RETURN_IF_ERROR(detail::finish_hygiene(options.invalid_policy, "splat", &cloud, &scene.hygiene));
+  RGS_RETURN_IF_ERROR(detail::finish_splat_scene("antimatter15 .splat", options, &scene));
   scene.notes.push_back(".splat carries SH degree 0 only, colours and opacity as 8 bits");
   return scene;
 }
