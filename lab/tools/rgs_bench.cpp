@@ -566,7 +566,7 @@ Result<api::LoadedGpuScene> load_gpu_scene(const std::string& path, const runtim
   }
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
   auto scene = runtime::GpuScene::from_cloud(input.cloud, input.bounds);
-  if (!scene.ok()) return api::detail::naming(scene.status(), path);
+  if (!scene.ok()) return rgs::naming(scene.status(), path);
   return api::LoadedGpuScene{std::move(scene).value(), input.bounds, false, input.file_bytes, input.description,
                              std::move(input.notes)};
 }

@@ -54,6 +54,9 @@ class [[nodiscard]] Status {
   std::string message_;
 };
 
+/// `status` with `path` in front ("path: ...") unless its message names the file already.
+Status naming(Status status, const std::string& path);
+
 /// A value of type T, or the Status explaining why there is none.
 template <typename T>
 class [[nodiscard]] Result {
