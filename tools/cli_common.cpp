@@ -665,13 +665,13 @@ Result<uint64_t> parse_whole_number(const std::string& text, uint64_t min, uint6
   return value;
 }
 
+CLI::Validator status_check(std::function<Status(const std::string&)> check, const std::string& description) {
+  return CLI::Validator([check](std::string& text) { return check(text).message(); }, description);
+}
+
 CLI::Validator whole_number_in(uint64_t min, uint64_t max) {
-  return CLI::Validator(
-      [min, max](std::string& text) -> std::string {
-        auto parsed = parse_whole_number(text, min, max);
-        return parsed.ok() ? std::string() : parsed.status().message();
-      },
-      "UINT in " + std::to_string(min) + ".." + std::to_string(max));
+  return status_check([min, max](const std::string& text) { return parse_whole_number(text, min, max).status(); },
+                      "UINT in " + std::to_string(min) + ".." + std::to_string(max));
 }
 
 CLI::Validator finite_number_in(double min, double max) {
@@ -696,12 +696,7 @@ Result<uint32_t> parse_lod_levels(const std::string& text) {
 
 void add_lod_levels_option(CLI::App& app, std::string& levels, const std::string& help) {
   app.add_option("--lod-levels", levels, help)
-      ->check(CLI::Validator(
-          [](std::string& text) -> std::string {
-            auto parsed = parse_lod_levels(text);
-            return parsed.ok() ? std::string() : parsed.status().message();
-          },
-          "auto|1..16"));
+      ->check(status_check([](const std::string& text) { return parse_lod_levels(text).status(); }, "auto|1..16"));
 }
 
 }  // namespace rgs::tools

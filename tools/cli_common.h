@@ -203,6 +203,9 @@ format::ReadOptions read_options();
 /// "-1" or "2^64" must not wrap round to a huge value, "5e21" not saturate to the largest.
 /// @return kInvalidArgument naming `text` and the range.
 Result<uint64_t> parse_whole_number(const std::string& text, uint64_t min, uint64_t max);
+/// A CLI11 check (`description` shown in --help) that passes a value when check(value) is ok and else fails with
+/// its message.
+CLI::Validator status_check(std::function<Status(const std::string&)> check, const std::string& description);
 /// A CLI11 check that the option's value is a whole number parse_whole_number() accepts in [min, max].
 CLI::Validator whole_number_in(uint64_t min, uint64_t max);
 /// A CLI11 check that the option's value is a finite number in [min, max]: CLI::Range lets NaN through (every

@@ -400,10 +400,8 @@ int main(int argc, char** argv) {
   app.add_option("--to", opt.to,
                  "Output format: rgs, ply (INRIA PLY), spz (SPZ v4), glb (KHR_gaussian_splatting) or sog (PlayCanvas "
                  "SOG v2); default: the output's extension. A name ending in another of these is a usage error")
-      ->check([](const std::string& name) {  // the names of api's format table
-        auto format = rgs::api::parse_output_format(name);
-        return format.ok() ? std::string() : format.status().message();
-      });
+      ->check(rgs::tools::status_check(  // the names of api's format table
+          [](const std::string& name) { return rgs::api::parse_output_format(name).status(); }, ""));
   add_edit_options(app, &opt);
   app.add_option("--sh-degree", opt.convert.sh_degree,
                  "Drop the SH bands above this degree (0..3) before writing any output, after the edits")

@@ -20,7 +20,7 @@ Status require_cuda_device(int ordinal) {
 Result<LoadedGpuScene> upload_rgs_file(const format::RgsFile& file, uint64_t source_file_bytes, const std::string& name,
                                        const runtime::GpuSceneOptions& options, cudaStream_t stream) {
   auto scene = runtime::GpuScene::from_rgs(file, options, stream);  // checks checksums, frames and values first
-  if (!scene.ok()) return detail::naming(scene.status(), name);
+  if (!scene.ok()) return naming(scene.status(), name);
   return LoadedGpuScene{std::move(scene).value(), file.metadata().bounds, true, source_file_bytes, "RoofGS .rgs", {}};
 }
 

@@ -64,9 +64,6 @@ uint64_t cloud_bytes(const format::GaussianCloud& cloud);
 /// Bytes of one Gaussian in the runtime sections of `file`, the DC residual included.
 uint64_t stored_gaussian_bytes(const format::RgsFile& file);
 
-/// `status` with `path` in front unless its message names the file already.
-Status naming(Status status, const std::string& path);
-
 /// True when the levels of detail of `file` are to be used: the file has them and options.lod asks for them (a
 /// streamed-SOG level, read_options.lod, given for a .rgs loads the file whole).
 bool use_levels(const format::RgsFile& file, const LoadOptions& options);

@@ -106,12 +106,9 @@ Status gather_lod_frame(const format::GaussianCloud& full, const LodState& lod,
   for (const runtime::LodChoice& choice : selection.choices) total += lod.index.at(choice.level, choice.chunk).count;
   out.sh_degree = full.sh_degree;
   out.antialiased = full.antialiased;
-  try {
-    out.resize(total);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "level-of-detail frame: cannot hold " + std::to_string(total) +
-                                                " Gaussians");
-  }
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&] { out.resize(total); return Status(); }, [&] {
+    return "level-of-detail frame: cannot hold " + std::to_string(total) + " Gaussians";
+  }));
   size_t at = 0;
   for (const runtime::LodChoice& choice : selection.choices) {
     const format::LodLevel& range = lod.index.at(choice.level, choice.chunk);

@@ -43,48 +43,45 @@ uint32_t reduction_factor(uint32_t width, uint32_t height, uint32_t max_side) {
   return (side + max_side - 1) / max_side;
 }
 
-/// Box mean of the clamped RGB values over f × f blocks (the last partial row/column dropped).
-Image8 reduce_colour(const runtime::ImageRef& img, uint32_t f) {
-  Image8 out;
-  out.width = std::max(1u, img.width / f);
-  out.height = std::max(1u, img.height / f);
-  out.channels = 3;
-  out.pixels.resize(size_t(out.width) * out.height * 3);
-  for (uint32_t y = 0; y < out.height; ++y) {
-    for (uint32_t x = 0; x < out.width; ++x) {
-      double sum[3] = {0, 0, 0};
-      uint32_t n = 0;
-      for (uint32_t dy = 0; dy < f && y * f + dy < img.height; ++dy) {
-        for (uint32_t dx = 0; dx < f && x * f + dx < img.width; ++dx) {
-          const size_t p = size_t(y * f + dy) * img.width + (x * f + dx);
-          for (uint32_t c = 0; c < 3; ++c) sum[c] += clamp01(img.data[p * img.channels + c]);
-          ++n;
+/// Calls visit(b, p) for every pixel p (index in the [height, width] image) of every f × f block b (index in the
+/// [max(1, height / f), max(1, width / f)] blocks), block by block, each row by row; the last partial row/column
+/// of blocks is dropped, a block wider than the image cut to it.
+template <typename Visit>
+void for_each_block_pixel(uint32_t width, uint32_t height, uint32_t f, Visit visit) {
+  const uint32_t blocks_x = std::max(1u, width / f), blocks_y = std::max(1u, height / f);
+  for (uint32_t y = 0; y < blocks_y; ++y) {
+    for (uint32_t x = 0; x < blocks_x; ++x) {
+      for (uint32_t dy = 0; dy < f && y * f + dy < height; ++dy) {
+        for (uint32_t dx = 0; dx < f && x * f + dx < width; ++dx) {
+          visit(size_t(y) * blocks_x + x, size_t(y * f + dy) * width + (x * f + dx));
         }
       }
-      for (uint32_t c = 0; c < 3; ++c) out.pixels[(size_t(y) * out.width + x) * 3 + c] = to_byte(sum[c] / n);
     }
   }
+}
+
+/// Box mean of the clamped RGB values over f × f blocks (for_each_block_pixel's blocks).
+Image8 reduce_colour(const runtime::ImageRef& img, uint32_t f) {
+  Image8 out{std::max(1u, img.width / f), std::max(1u, img.height / f), 3, {}};
+  std::vector<double> sums(size_t(out.width) * out.height * 4, 0.0);  // R, G, B and the pixel count of each block
+  for_each_block_pixel(img.width, img.height, f, [&](size_t b, size_t p) {
+    for (uint32_t c = 0; c < 3; ++c) sums[b * 4 + c] += clamp01(img.data[p * img.channels + c]);
+    sums[b * 4 + 3] += 1;
+  });
+  out.pixels.resize(size_t(out.width) * out.height * 3);
+  for (size_t i = 0; i < out.pixels.size(); ++i) out.pixels[i] = to_byte(sums[i / 3 * 4 + i % 3] / sums[i / 3 * 4 + 3]);
   return out;
 }
 
 /// Per-pixel max over R, G, B of |Δ| of the clamped values, box maximum over f × f blocks: [H / f, W / f].
 std::vector<float> reduce_difference(const runtime::ImageRef& a, const runtime::ImageRef& b, uint32_t f) {
-  const uint32_t width = std::max(1u, a.width / f), height = std::max(1u, a.height / f);
-  std::vector<float> out(size_t(width) * height, 0.f);
-  for (uint32_t y = 0; y < height; ++y) {
-    for (uint32_t x = 0; x < width; ++x) {
-      float m = 0.f;
-      for (uint32_t dy = 0; dy < f && y * f + dy < a.height; ++dy) {
-        for (uint32_t dx = 0; dx < f && x * f + dx < a.width; ++dx) {
-          const size_t p = size_t(y * f + dy) * a.width + (x * f + dx);
-          for (uint32_t c = 0; c < 3; ++c) {
-            m = std::max(m, std::fabs(clamp01(a.data[p * a.channels + c]) - clamp01(b.data[p * b.channels + c])));
-          }
-        }
-      }
-      out[size_t(y) * width + x] = m;
+  std::vector<float> out(size_t(std::max(1u, a.width / f)) * std::max(1u, a.height / f), 0.f);
+  for_each_block_pixel(a.width, a.height, f, [&](size_t block, size_t p) {
+    for (uint32_t c = 0; c < 3; ++c) {
+      const float d = std::fabs(clamp01(a.data[p * a.channels + c]) - clamp01(b.data[p * b.channels + c]));
+      out[block] = std::max(out[block], d);
     }
-  }
+  });
   return out;
 }
 

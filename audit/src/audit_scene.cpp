@@ -28,11 +28,6 @@ double means_extent(const format::GaussianCloud& cloud) {
   return std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2]});
 }
 
-Status naming(Status status, const std::string& path) {
-  if (status.message().find(path) == std::string::npos) status.prepend(path);
-  return status;
-}
-
 /// The section table of a .rgs file: what each section stores and decodes to (header and table only).
 void list_sections(const format::RgsFile& file, AuditScene* scene) {
   uint64_t stored = 0;

@@ -83,7 +83,7 @@ Status decode_draco_means(const uint8_t* src, size_t size, uint64_t n, uint8_t* 
                       "means buffer of " + dec(raw_size) + " bytes for " + dec(n) + " Gaussians");
   // The point count is checked before Draco allocates anything from it.
   RGS_RETURN_IF_ERROR(check_draco_header(src, size, n));
-  try {
+  return catch_bad_alloc([&]() -> Status {
     draco::DecoderBuffer buffer;
     buffer.Init(reinterpret_cast<const char*>(src), size);
     draco::Decoder decoder;
@@ -107,10 +107,8 @@ Status decode_draco_means(const uint8_t* src, size_t size, uint64_t n, uint8_t* 
                           "Draco position " + dec(i) + " cannot be read as float32");
       for (int a = 0; a < 3; ++a) store_f32_le(dst + i * 12 + a * 4, xyz[a]);
     }
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory decoding " + dec(n) + " Draco positions");
-  }
-  return Status();
+    return Status();
+  }, [&] { return "out of memory decoding " + dec(n) + " Draco positions"; });
 }
 
 namespace {
@@ -407,11 +405,8 @@ Status decode_quantized(SectionId id, const SceneMetadata& metadata, const uint8
                       std::string(section_name(id)) + " buffer of " + dec(raw_size) + " bytes for " + dec(n) +
                           " Gaussians");
   QuantizedCodes q{h, {}, n, code_width(h.bits), (1u << h.bits) - 1};
-  try {
-    q.codes.resize(static_cast<size_t>(h.codes_size));
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory for " + dec(h.codes_size) + " bytes of codes");
-  }
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&] { q.codes.resize(static_cast<size_t>(h.codes_size)); return Status(); },
+                                      [&] { return "out of memory for " + dec(h.codes_size) + " bytes of codes"; }));
   {
     Status s = h.xz ? decode_xz_stream(h.frame, h.frame_size, q.codes.data(), q.codes.size())
                     : decode_zstd_frame(h.frame, h.frame_size, q.codes.data(), q.codes.size());

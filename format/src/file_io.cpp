@@ -237,12 +237,8 @@ Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& pa
   const size_t size = static_cast<size_t>(st.st_size);
 
   std::shared_ptr<MappedFile> file;
-  try {
-    file.reset(new MappedFile());
-    file->path_ = path;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, path + ": out of memory opening the file");
-  }
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&] { file.reset(new MappedFile()); file->path_ = path; return Status(); },
+                                      [&] { return path + ": out of memory opening the file"; }));
   if (size > 0) {
     void* p = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
     if (p == MAP_FAILED) {

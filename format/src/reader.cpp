@@ -848,7 +848,7 @@ Result<RgsFile> RgsFile::open(const std::string& path, const ReadOptions& option
 
 Result<RgsFile> RgsFile::from_bytes(const uint8_t* data, size_t size, const ReadOptions& options,
                                     const std::string& name) {
-  try {
+  return catch_bad_alloc([&]() -> Result<RgsFile> {
     RgsFile f;
     f.name_ = name;
     if (data == nullptr && size > 0) {
@@ -861,9 +861,7 @@ Result<RgsFile> RgsFile::from_bytes(const uint8_t* data, size_t size, const Read
     Status s = RgsFileAccess::parse(&f);
     if (!s.ok()) return s.prepend(name);
     return f;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, name + ": out of memory opening the file");
-  }
+  }, [&] { return name + ": out of memory opening the file"; });
 }
 
 const SectionEntry* RgsFile::find(SectionId id) const {
@@ -917,7 +915,7 @@ Status decode_array(const RgsFile& file, SectionId id, std::vector<T>* out) {
 }  // namespace
 
 Result<EncodedScene> RgsFile::read_scene() const {
-  try {
+  return catch_bad_alloc([&]() -> Result<EncodedScene> {
     EncodedScene scene;
     scene.metadata = metadata_;
     scene.provenance = provenance_;
@@ -966,10 +964,7 @@ Result<EncodedScene> RgsFile::read_scene() const {
       }
     }
     return scene;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  name_ + ": out of memory decoding " + dec(header_.gaussian_count) + " Gaussians");
-  }
+  }, [&] { return name_ + ": out of memory decoding " + dec(header_.gaussian_count) + " Gaussians"; });
 }
 
 namespace {
@@ -1016,15 +1011,12 @@ Status RgsFile::verify_section(SectionId id) const {
   size_t index = 0;
   Status s = RgsFileAccess::index_of(*this, id, &index);
   if (!s.ok()) return s.prepend(name_);
-  try {
-    return validate_section(*this, index);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, name_ + ": out of memory checking " + section_name(id));
-  }
+  return catch_bad_alloc([&] { return validate_section(*this, index); },
+                         [&] { return name_ + ": out of memory checking " + section_name(id); });
 }
 
 Status validate(const uint8_t* data, size_t size, const ReadLimits& limits, const std::string& name) {
-  try {
+  return catch_bad_alloc([&]() -> Status {
     ReadOptions options;
     options.limits = limits;
     options.verify_checksums = true;
@@ -1036,9 +1028,7 @@ Status validate(const uint8_t* data, size_t size, const ReadLimits& limits, cons
       }
     }
     return Status();
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, name + ": out of memory validating the file");
-  }
+  }, [&] { return name + ": out of memory validating the file"; });
 }
 
 bool is_rgs_path(const std::string& path) {

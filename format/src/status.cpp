@@ -33,4 +33,9 @@ Status& Status::prepend(const std::string& context) {
   return *this;
 }
 
+Status naming(Status status, const std::string& path) {
+  if (status.message().find(path) == std::string::npos) status.prepend(path);
+  return status;
+}
+
 }  // namespace rgs

@@ -566,7 +566,7 @@ Result<api::LoadedGpuScene> load_gpu_scene(const std::string& path, const runtim
   }
   RGS_ASSIGN_OR_RETURN(converter::InputScene input, converter::read_scene(path, read_options));
   auto scene = runtime::GpuScene::from_cloud(input.cloud, input.bounds);
-  if (!scene.ok()) return api::detail::naming(scene.status(), path);
+  if (!scene.ok()) return rgs::naming(scene.status(), path);
   return api::LoadedGpuScene{std::move(scene).value(), input.bounds, false, input.file_bytes, input.description,
                              std::move(input.notes)};
 }
@@ -1035,12 +1035,8 @@ int main(int argc, char** argv) {
   app.add_option("--resolution", opt.resolutions,
                  "WIDTHxHEIGHT or 720p/1080p/1440p/4k (repeatable). Cameras are resized keeping the field of view; "
                  "default: the cameras' own size, or 1920x1080 for --orbit")
-      ->check(CLI::Validator(
-          [](std::string& text) -> std::string {
-            auto r = lab::parse_resolution(text);
-            return r.ok() ? std::string() : r.status().message();
-          },
-          "RESOLUTION"));
+      ->check(rgs::tools::status_check([](const std::string& text) { return lab::parse_resolution(text).status(); },
+                                       "RESOLUTION"));
   app.add_option("--warmup", opt.warmup, "Warm-up frames per mode and resolution (views in turn), not timed")
       ->capture_default_str();
   app.add_option("--repeat", opt.repeat, "Timed repetitions of every view")->check(CLI::Range(1, 1000000))

@@ -570,12 +570,9 @@ Status bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, const Frame
 /// bin_and_sort() giving kOutOfMemory for any allocation that fails.
 Status bin_and_sort_into(const std::vector<ProjectedGaussian>& gaussians, const FrameSetup& frame,
                          const RenderOptions& options, CpuScratch& s) {
-  try {
-    return bin_and_sort(gaussians, frame, options, s);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  "render: out of memory binning " + std::to_string(gaussians.size()) + " Gaussians into tiles");
-  }
+  return catch_bad_alloc([&] { return bin_and_sort(gaussians, frame, options, s); }, [&] {
+    return "render: out of memory binning " + std::to_string(gaussians.size()) + " Gaussians into tiles";
+  });
 }
 
 /// blend_cpu() with one TileScratch per worker thread in `workers`.
@@ -661,12 +658,9 @@ Status blend_cpu(const std::vector<ProjectedGaussian>& gaussians, const TileBins
 
 Status render_cpu(const format::GaussianCloud& cloud, const Camera& camera, const RenderOptions& options,
                   CpuScratch* scratch) {
-  try {
-    return render(cloud, camera, options, *scratch);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  "render: out of memory rendering " + std::to_string(cloud.size()) + " Gaussians");
-  }
+  return catch_bad_alloc([&] { return render(cloud, camera, options, *scratch); }, [&] {
+    return "render: out of memory rendering " + std::to_string(cloud.size()) + " Gaussians";
+  });
 }
 
 Result<RenderResult> render_cpu(const format::GaussianCloud& cloud, const Camera& camera,

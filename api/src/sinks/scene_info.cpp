@@ -21,11 +21,6 @@ uint64_t stored_gaussian_bytes(const format::RgsFile& file) {
   return runtime_bytes(1, file.metadata().sh_degree) + (residual ? 3 : 0);
 }
 
-Status naming(Status status, const std::string& path) {
-  if (status.message().find(path) == std::string::npos) status.prepend(path);
-  return status;
-}
-
 Result<ContentFrame> load_content_frame(const LoadScene& scene) {
   if (!scene.rgs) return content_frame(scene.input->cloud);
   const format::RgsFile& file = *scene.rgs;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <new>
 #include <optional>
 #include <string>
 #include <utility>
@@ -53,6 +54,20 @@ class [[nodiscard]] Status {
   StatusCode code_ = StatusCode::kOk;
   std::string message_;
 };
+
+/// `status` with `path` in front ("path: ...") unless its message names the file already.
+Status naming(Status status, const std::string& path);
+
+/// fn() (a Status or Result), or kOutOfMemory with the message what() when it throws std::bad_alloc: the one
+/// place an allocation that fails (a size a file declares, an image asked for) becomes an error.
+template <typename Fn, typename What>
+auto catch_bad_alloc(Fn&& fn, What&& what) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+    return Status(StatusCode::kOutOfMemory, what());
+  }
+}
 
 /// A value of type T, or the Status explaining why there is none.
 template <typename T>
