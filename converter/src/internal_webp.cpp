@@ -53,12 +53,10 @@ Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, c
   }
   out->width = width;
   out->height = height;
-  try {
-    out->rgba.resize(static_cast<size_t>(pixels) * 4);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  name + ": cannot allocate " + std::to_string(pixels * 4) + " bytes for the decoded WebP image");
-  }
+  const uint64_t bytes = pixels * 4;
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&] { out->rgba.resize(static_cast<size_t>(bytes)); return Status(); }, [&] {
+    return name + ": cannot allocate " + std::to_string(bytes) + " bytes for the decoded WebP image";
+  }));
   const int stride = static_cast<int>(width) * 4;
   if (WebPDecodeRGBAInto(data, riff_bytes, out->rgba.data(), out->rgba.size(), stride) == nullptr) {
     return Status(StatusCode::kCorruptData, name + ": WebP image data is corrupt or truncated (" + dims + ", " +

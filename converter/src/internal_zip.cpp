@@ -126,12 +126,9 @@ Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vecto
                                                 (entry.method == ZIP_CM_STORE ? " stored" : " deflated") +
                                                 " bytes of a " + std::to_string(size_) + "-byte archive");
   }
-  try {
-    out->resize(static_cast<size_t>(entry.uncompressed_size));
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  where + ": cannot allocate " + std::to_string(entry.uncompressed_size) + " bytes");
-  }
+  const uint64_t bytes = entry.uncompressed_size;
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&] { out->resize(static_cast<size_t>(bytes)); return Status(); },
+                                      [&] { return where + ": cannot allocate " + std::to_string(bytes) + " bytes"; }));
   zip_file_t* file = zip_fopen_index(zip_.get(), entry.index, 0);
   if (file == nullptr) return zip_status(zip_get_error(zip_.get()), where);
   // Reading past the declared size ends the stream, where libzip checks the CRC-32 and the size (or reports

@@ -430,8 +430,9 @@ Result<format::EncodedScene> encode_cloud(const format::GaussianCloud& cloud, co
   return out;
 }
 
-Status out_of_memory(const format::GaussianCloud& cloud) {
-  return Status(StatusCode::kOutOfMemory, "out of memory quantizing " + std::to_string(cloud.size()) + " Gaussians");
+/// What a failed allocation while quantizing `cloud` says (catch_bad_alloc).
+auto out_of_memory(const format::GaussianCloud& cloud) {
+  return [&cloud] { return "out of memory quantizing " + std::to_string(cloud.size()) + " Gaussians"; };
 }
 
 }  // namespace
@@ -439,13 +440,11 @@ Status out_of_memory(const format::GaussianCloud& cloud) {
 Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const QuantizeOptions& options,
                                       QuantizationReport* report, AttributeErrors* errors) {
   RGS_RETURN_IF_ERROR(check_quantize_inputs(cloud, options));
-  try {
+  return catch_bad_alloc([&]() -> Result<format::EncodedScene> {
     float max_abs[4][3] = {};
     RGS_RETURN_IF_ERROR(scan_cloud(cloud, options, detail::worker_count(cloud.size(), kMinGaussiansPerWorker), max_abs));
     return encode_cloud(cloud, options, sh_quantization(cloud, options.sh_clip_percentile, max_abs), report, errors);
-  } catch (const std::bad_alloc&) {
-    return out_of_memory(cloud);
-  }
+  }, out_of_memory(cloud));
 }
 
 QuantizeScan::QuantizeScan(const QuantizeOptions& options) : options_(options) {}
@@ -456,12 +455,9 @@ Status QuantizeScan::add(const format::GaussianCloud& batch, uint64_t first) {
                       "an SH clip percentile needs every coefficient at once; a scene read in batches takes the "
                       "max rule (percentile 100)");
   float max_abs[4][3] = {};
-  try {
-    RGS_RETURN_IF_ERROR(
-        scan_cloud(batch, options_, detail::worker_count(batch.size(), kMinGaussiansPerWorker), max_abs, first));
-  } catch (const std::bad_alloc&) {
-    return out_of_memory(batch);
-  }
+  const unsigned workers = detail::worker_count(batch.size(), kMinGaussiansPerWorker);
+  RGS_RETURN_IF_ERROR(
+      catch_bad_alloc([&] { return scan_cloud(batch, options_, workers, max_abs, first); }, out_of_memory(batch)));
   for (int d = 0; d < 4; ++d) {
     for (int c = 0; c < 3; ++c) max_abs_[d][c] = std::max(max_abs_[d][c], max_abs[d][c]);
   }
@@ -478,11 +474,7 @@ Result<format::EncodedScene> quantize(const format::GaussianCloud& cloud, const 
                                       const format::ShQuantization& shq, QuantizationReport* report,
                                       AttributeErrors* errors) {
   RGS_RETURN_IF_ERROR(check_quantize_inputs(cloud, options));
-  try {
-    return encode_cloud(cloud, options, shq, report, errors);
-  } catch (const std::bad_alloc&) {
-    return out_of_memory(cloud);
-  }
+  return catch_bad_alloc([&] { return encode_cloud(cloud, options, shq, report, errors); }, out_of_memory(cloud));
 }
 
 }  // namespace rgs::converter

@@ -58,8 +58,9 @@ class [[nodiscard]] Status {
 /// `status` with `path` in front ("path: ...") unless its message names the file already.
 Status naming(Status status, const std::string& path);
 
-/// fn() (a Status or Result), or kOutOfMemory with the message what() when it throws std::bad_alloc: the one
-/// place an allocation that fails (a size a file declares, an image asked for) becomes an error.
+/// fn() (a Status or Result), or kOutOfMemory with the message what() when it throws std::bad_alloc: an allocation
+/// that fails (a size a file declares, an image asked for) becomes an error. Work that must also undo what it did
+/// when an allocation fails keeps its own try/catch.
 template <typename Fn, typename What>
 auto catch_bad_alloc(Fn&& fn, What&& what) -> decltype(fn()) {
   try {
