@@ -149,35 +149,35 @@ Status fit_psnr(Measurer& measurer, Search& search, const runtime::Camera& first
   return settle();
 }
 
-/// A byte target: Search::for_bytes on a budget of the search's bytes (zstd level kSearchZstdLevel, no .xz), then
-/// the bytes of its choice as the file codes it (`file_zstd_level`, `file_xz`), which are fewer: on a flat stretch
-/// of the rate-distortion curve a few per cent of bytes are several dB (guitar: 35 to 40 dB in 4 % more bytes), so
-/// the search runs again on the budget that puts the choice's file at `target` (the ratio of the two byte counts
-/// measured at the choice), at most kMaxAttempts searches, while the file is over the target or more than
+/// A byte target: the search codes its candidates at zstd level kSearchZstdLevel without .xz, the file at
+/// `file_zstd_level` (with .xz where `file_xz`), which is fewer bytes by a share that depends on the settings, so
+/// the search's budget is `target` over the ratio of the two codings: measured at the anchor for the descent
+/// (Search::descend), then where the descent ends for Search::for_bytes, and at its choice for another search (at
+/// most kMaxAttempts, trading only on the steps as measured), while the choice's file is over `target` or more than
 /// kBytesSlack below it. Of the archives within the largest budget whose choice's file fit, the kBytesFinalists of
 /// the highest search PSNR whose files fit are measured at the cameras' own size, where the search views rank
-/// close archives differently, and the highest is chosen. Then the climb: PSNR fits (fit_psnr, checked at
-/// the cameras' own size) at kBytesClimbDb above the choice, the step doubling after each that does not fit or
-/// reads no higher, until kMaxBytesClimbs have not; one whose file fits and reads higher is chosen, and the climb
-/// starts again from it, so the last choice's kBytesClimbDb fit was measured. Each climb is a fit of
-/// its own (a new Search, Measurer::begin_fit): the checks and history of this search would steer a search that
-/// shared them (a choice checked at the cameras' size reads at most that check on the search views), so the fit a
-/// climb makes is the one `--target-psnr` makes, and no PSNR target kBytesClimbDb above the result gives a file that
-/// fits; the archives it measures are those this search measured. Sets result->chosen,
-/// result->report.search_psnr_db and, for a climb's choice, result->archive.
-Status fit_bytes(Measurer& measurer, Search& search, const runtime::Camera& first, uint64_t target,
-                 int file_zstd_level, bool file_xz, FitResult* result) {
-  uint64_t budget = target, fitting_budget = 0;
-  std::optional<FitSteps> steps;
-  steps.emplace(search.progress(), kMaxAttempts * kBytesSearchSteps);
+/// close archives differently, and the highest is chosen. Sets result->chosen and result->report.search_psnr_db.
+Status fit_bytes(Measurer& measurer, Search& search, uint64_t target, int file_zstd_level, bool file_xz,
+                 FitResult* result) {
+  std::optional<FitSteps> steps(std::in_place, search.progress(), kMaxAttempts * kBytesSearchSteps);
+  // The search's budget for `target` in the file, by the ratio of the two codings at `at`.
+  const auto budget_at = [&](const FitPoint& at) -> Result<uint64_t> {
+    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(at.options, file_zstd_level, file_xz));
+    return uint64_t(double(target) * double(at.bytes) / double(std::max<uint64_t>(file, 1)));
+  };
+  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> anchor, measurer.bytes({search.anchor()}));
+  RGS_ASSIGN_OR_RETURN(uint64_t budget, budget_at(anchor[0]));
+  RGS_ASSIGN_OR_RETURN(const FitPoint descended, search.descend(budget));
+  RGS_ASSIGN_OR_RETURN(budget, budget_at(descended));
+  uint64_t fitting_budget = 0;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
-    RGS_ASSIGN_OR_RETURN(const FitPoint best, search.for_bytes(budget));
+    RGS_ASSIGN_OR_RETURN(const FitPoint best, search.for_bytes(budget, attempt == 0));
     RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(best.options, file_zstd_level, file_xz));
     search.report("search's choice within " + group_digits(budget) + " bytes: " + group_digits(best.bytes) +
                   " bytes there, " + group_digits(file) + " in the file");
     if (file <= target) fitting_budget = std::max(fitting_budget, budget);
     if (file <= target && double(target - file) <= kBytesSlack * double(target)) break;
-    const auto next = uint64_t(double(target) * double(best.bytes) / double(std::max<uint64_t>(file, 1)));
+    RGS_ASSIGN_OR_RETURN(const uint64_t next, budget_at(best));
     if (next == budget) break;
     budget = next;
   }
@@ -200,33 +200,6 @@ Status fit_bytes(Measurer& measurer, Search& search, const runtime::Camera& firs
   if (!chosen) {
     return Status(StatusCode::kLimitExceeded, "no archive the search measured codes into " + group_digits(target) +
                                                   " bytes at zstd level " + std::to_string(file_zstd_level));
-  }
-  // The climb: the searches' bytes are not monotonic in their target (guitar's 35 dB fit is smaller than its
-  // 33.11 dB one), so PSNR fits a little above the choice, at the cameras' own size, may still fit.
-  steps.reset();
-  steps.emplace(search.progress(), kMaxBytesClimbs * kFitPsnrSteps);
-  double step_db = kBytesClimbDb;
-  for (int failed = 0; failed < kMaxBytesClimbs;) {
-    measurer.begin_fit();
-    Search climb = search.fresh();
-    FitResult fitted;
-    const Status status = fit_psnr(measurer, climb, first, chosen->psnr_mean_db + step_db, &fitted);
-    if (!status.ok()) {
-      if (status.code() != StatusCode::kInvalidArgument) return status;
-      break;  // above what the finest archive reaches
-    }
-    RGS_ASSIGN_OR_RETURN(const uint64_t file, measurer.file_bytes(fitted.chosen.options, file_zstd_level, file_xz));
-    search.report("fit for " + db_text(chosen->psnr_mean_db + step_db) + ": " +
-                  db_text(fitted.chosen.psnr_mean_db) + ", " + group_digits(file) + " bytes in the file");
-    if (file <= target && fitted.chosen.psnr_mean_db > chosen->psnr_mean_db) {
-      chosen = fitted.chosen;
-      chosen_search_db = fitted.report.search_psnr_db;
-      result->archive = measurer.archive_with_points(chosen->options);
-      step_db = kBytesClimbDb;
-    } else {
-      step_db *= 2;
-      ++failed;
-    }
   }
   result->chosen = *chosen;
   result->report.search_psnr_db = chosen_search_db;
@@ -310,13 +283,12 @@ Result<FitResult> fit_archive(const format::GaussianCloud& source, const std::ve
   result.report.device = options.target.device;
 
   if (options.target.bytes) {
-    RGS_RETURN_IF_ERROR(
-        fit_bytes(measurer, search, cameras[0], *options.target.bytes, file_zstd_level, file_xz, &result));
+    RGS_RETURN_IF_ERROR(fit_bytes(measurer, search, *options.target.bytes, file_zstd_level, file_xz, &result));
   } else {
     RGS_RETURN_IF_ERROR(fit_psnr(measurer, search, cameras[0], options.target.psnr_db.value_or(0), &result));
   }
   result.finest = search.finest();
-  if (!result.archive) result.archive = measurer.archive_with_points(result.chosen.options);
+  result.archive = measurer.archive_with_points(result.chosen.options);
   auto as_asked = [&](format::ArchiveOptions* o) {
     o->zstd_level = file_zstd_level;
     o->xz = file_xz;

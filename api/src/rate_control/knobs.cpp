@@ -99,6 +99,22 @@ std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, 
   return o;
 }
 
+double knob_value(const format::ArchiveOptions& o, Knob knob) {
+  switch (knob) {
+    case Knob::kRotation: return o.rotation_bits;
+    case Knob::kScale: return o.scale_bits;
+    case Knob::kOpacity: return o.opacity_bits;
+    case Knob::kSh0: case Knob::kSh1: case Knob::kSh2: case Knob::kSh3:
+      return o.sh_step_multipliers[size_t(int(knob) - int(Knob::kSh0))];
+    case Knob::kPosition: return o.position_error;
+    case Knob::kOpacityFloor: return o.opacity_floor;
+    case Knob::kRotationStep: return o.rotation_step;
+    case Knob::kScaleStep: return o.scale_step;
+    case Knob::kOpacityStep: return o.opacity_step;
+  }
+  return kNaN;
+}
+
 Key key_of(const format::ArchiveOptions& o) {
   return {o.rotation_bits, o.rotation_step, o.scale_bits,    o.scale_step,          o.opacity_bits,
           o.opacity_step,  o.opacity_floor, o.sh_step_multipliers, o.position_error};

@@ -17,6 +17,7 @@
 namespace rgs::api::detail {
 
 inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// The mean squared error (peak 1) of a PSNR in dB.
 double mse_of(double psnr_db);
@@ -66,19 +67,18 @@ inline constexpr int kMaxExchanges = 4;
 inline constexpr double kExchangeMinSaving = 0.0025;
 /// Searches (each checked at the cameras' own size) before the choice is settled.
 inline constexpr int kMaxAttempts = 3;
-/// A byte target: the PSNR searches of its bisection over targets at most, and the width in dB at which it stops.
-inline constexpr int kMaxBytesSearches = 10;
-inline constexpr double kBytesTargetResolutionDb = 0.1;
-/// A byte target: the slope its search over targets assumes before it has measured one, dB per doubling of the bytes.
-inline constexpr double kDbPerDoubling = 6;
+/// A byte target's descent (Search::descend_for_bytes): it starts from the ladder's point of at most this many
+/// times the budget, takes a fresh step rated at least this share of the best rating, and ends after at most
+/// this many measurements.
+inline constexpr double kDescentRoom = 2;
+inline constexpr double kDescentTolerance = 0.8;
+inline constexpr int kMaxDescentMeasures = 200;
+/// A byte target: the combinations of steps of several knobs each trade measures (Search::trade_for_bytes).
+inline constexpr size_t kTradeCombinations = 4;
 /// A byte target: the share of the budget a file may leave unused before the search runs again on a larger one.
 inline constexpr double kBytesSlack = 0.005;
 /// A byte target: the archives of the highest search PSNR within the budget checked at the cameras' own size.
-inline constexpr size_t kBytesFinalists = 3;
-/// A byte target's climb (fit_bytes): PSNR fits this far above its choice first, and at most this many. The
-/// first step is the margin by which a byte target's file may read below a PSNR target's file of no more bytes.
-inline constexpr double kBytesClimbDb = 0.3;
-inline constexpr int kMaxBytesClimbs = 4;
+inline constexpr size_t kBytesFinalists = 2;
 /// The search target's margin over the measured difference between the search size and the cameras' size.
 inline constexpr double kCalibrationMarginDb = 0.15;
 
@@ -98,6 +98,9 @@ format::ArchiveOptions ladder(const format::ArchiveOptions& anchor, double q);
 
 /// `o` with `knob` one step coarser (`coarser`) or finer; nullopt at the end of its range.
 std::optional<format::ArchiveOptions> step(format::ArchiveOptions o, Knob knob, bool coarser);
+
+/// The value of one knob of `o` (bits, a code step, a multiplier, the floor or the position error).
+double knob_value(const format::ArchiveOptions& o, Knob knob);
 
 /// The knobs' values of an archive, as a key of the archives measured.
 using Key =

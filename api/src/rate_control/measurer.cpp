@@ -90,8 +90,7 @@ Result<std::vector<FitPoint>> Measurer::measure(const std::vector<format::Archiv
     if (final) {
       p.psnr_mean_db = e->checked_db;
       p.psnr_min_db = e->checked_min_db;
-      e->checked_in = fit_;
-    } else if (e->checked_in == fit_) {
+    } else if (!std::isnan(e->checked_db)) {
       p.psnr_mean_db = std::min(p.psnr_mean_db, e->checked_db + search_offset_);
     }
     p.bytes += overhead_;

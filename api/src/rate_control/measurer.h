@@ -63,7 +63,7 @@ class Measurer {
   Result<std::vector<FitPoint>> bytes(const std::vector<format::ArchiveOptions>& list);
 
   /// Bytes and PSNR on the search views (final: on the cameras at their own size). An archive checked at the
-  /// cameras' size before in this fit reads at most that check plus search_offset() on the search views: the
+  /// cameras' size before reads at most that check plus search_offset() on the search views: the
   /// two sizes differ by more for some knobs than for others, and a choice the check found below the target
   /// must not meet the search's target again.
   Result<std::vector<FitPoint>> measure(const std::vector<format::ArchiveOptions>& list, bool final = false);
@@ -90,14 +90,6 @@ class Measurer {
   /// How far the search's target lies above the target at the cameras' size (see measure).
   void set_search_offset(double db) { search_offset_ = db; }
 
-  /// Starts another fit on the archives measured: their bytes and PSNRs stay (they depend on the archive alone),
-  /// the checks of earlier fits no longer lower what measure() reports, and the search offset is 0, so the fit
-  /// makes the choices a fit on a new Measurer would make, without encoding or rendering anything again.
-  void begin_fit() {
-    ++fit_;
-    search_offset_ = 0;
-  }
-
   uint32_t encodings() const { return uint32_t(cache_.size()); }
   uint32_t renders() const { return renders_; }
   double encode_seconds() const { return encode_seconds_; }
@@ -107,7 +99,6 @@ class Measurer {
   struct Entry {
     FitPoint point;  ///< bytes: the sections only
     double checked_db = kNaN, checked_min_db = kNaN;  ///< mean and lowest PSNR at the cameras' own size, once checked
-    uint32_t checked_in = 0;                            ///< the last fit (begin_fit) that checked it
     uint64_t sections = 0;
     std::shared_ptr<const format::ArchiveScene> archive;  ///< kept until it is rendered
   };
@@ -198,7 +189,6 @@ class Measurer {
   size_t batch_ = 1;  ///< archives encoded at the same time (encode_batch)
   double encode_seconds_ = 0, render_seconds_ = 0;
   double search_offset_ = 0;
-  uint32_t fit_ = 1;
   std::optional<uint64_t> budget_;
   std::optional<FitPoint> best_within_;
 };

@@ -96,7 +96,7 @@ Status Search::refine_for_psnr(double target, std::vector<FitPoint>* path) {
     const FitPoint at = path->back();
     std::vector<format::ArchiveOptions> list;
     std::vector<size_t> knob_of;
-    next_steps(knobs_, at.options, true, &frozen, &list, &knob_of);
+    next_steps(knobs_, at.options, &frozen, &list, &knob_of);
     if (list.empty()) break;
     RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
     const std::vector<Move> moves = passing_moves(at, points, knob_of, target, &frozen);
@@ -232,7 +232,7 @@ Status Search::fill_for_psnr(double target, std::vector<FitPoint>* path) {
     if (!(at.psnr_mean_db > target + kMinSlackDb)) break;
     std::vector<format::ArchiveOptions> list;
     std::vector<size_t> knob_of;
-    next_steps(steps, at.options, true, &frozen, &list, &knob_of);
+    next_steps(steps, at.options, &frozen, &list, &knob_of);
     if (list.empty()) break;
     RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
     const std::vector<Move> moves = passing_moves(at, points, knob_of, target, &frozen);
@@ -243,142 +243,180 @@ Status Search::fill_for_psnr(double target, std::vector<FitPoint>* path) {
   return Status();
 }
 
-Result<FitPoint> Search::for_bytes(uint64_t budget) {
-  const FitSteps steps_of_search = part(kBytesSearchSteps);
+Result<FitPoint> Search::descend(uint64_t budget) {
   m_.watch_budget(budget);
-  // The ladder by bytes alone (no renders): bisect the finest q whose file fits.
-  double lo = kLadderFinest, hi = kLadderCoarsest;  // invariant: hi fits (checked), lo does not (or untested)
-  // The smallest archive the searches make: the ladder's coarsest with the coarsest opacity floor and code steps
-  // (knobs the ladder leaves alone, which the PSNR searches move).
-  format::ArchiveOptions smallest_options = ladder(anchor_, hi);
-  smallest_options.opacity_floor = kMaxOpacityFloor;
-  smallest_options.rotation_step = smallest_options.scale_step = smallest_options.opacity_step = kMaxCodeStep;
-  RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> coarsest, m_.bytes({ladder(anchor_, hi), smallest_options}));
+  if (!m_.best_within()) {
+    RGS_ASSIGN_OR_RETURN(const FitPoint start, ladder_for_bytes(budget));
+    report_step("ladder", start);
+    RGS_RETURN_IF_ERROR(descend_for_bytes(budget, start));
+    // The descent's measurements ran out above the budget: the smallest archive fits (ladder_for_bytes).
+    if (!m_.best_within()) RGS_RETURN_IF_ERROR(m_.measure({smallest_archive()}).status());
+  }
+  return *m_.best_within();
+}
+
+Result<FitPoint> Search::for_bytes(uint64_t budget, bool measure_all) {
+  const FitSteps steps_of_search = part(kBytesSearchSteps);
+  RGS_RETURN_IF_ERROR(descend(budget).status());
+  for (int round = 0; round < kMaxRounds; ++round) {
+    RGS_ASSIGN_OR_RETURN(const bool kept_steps_traded, trade_for_bytes(budget, false));
+    bool traded = kept_steps_traded;
+    if (!traded && measure_all) {
+      RGS_ASSIGN_OR_RETURN(traded, trade_for_bytes(budget, true));
+    }
+    report_step("trading", m_.best_within());
+    if (!traded) break;
+  }
+  return *m_.best_within();
+}
+
+format::ArchiveOptions Search::smallest_archive() const {
+  format::ArchiveOptions o = ladder(anchor_, kLadderCoarsest);
+  o.opacity_floor = kMaxOpacityFloor;
+  o.rotation_step = o.scale_step = o.opacity_step = kMaxCodeStep;
+  return o;
+}
+
+Result<FitPoint> Search::ladder_for_bytes(uint64_t budget) {
+  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> coarsest,
+                       m_.bytes({ladder(anchor_, kLadderCoarsest), smallest_archive()}));
   if (coarsest[1].bytes > budget) {
     return Status(StatusCode::kInvalidArgument,
                   group_digits(budget) + " bytes is below the smallest archive the search makes: " +
                       group_digits(coarsest[1].bytes) + " bytes at the coarsest settings (" +
                       describe_archive_options(coarsest[1].options, sh_degree_) + ")");
   }
-  FitPoint fit = coarsest[0].bytes <= budget ? coarsest[0] : coarsest[1];
-  RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> finest, m_.bytes({ladder(anchor_, lo)}));
-  if (finest[0].bytes <= budget) {
-    fit = finest[0];
-    hi = lo;
-  }
-  while (coarsest[0].bytes <= budget && hi - lo > 0.125) {
+  // Bisect the finest q whose archive fits the room, by bytes alone; the coarsest when none does.
+  const auto room = uint64_t(double(budget) * kDescentRoom);
+  double lo = kLadderFinest, hi = kLadderCoarsest;  // invariant: hi fits the room (or is the coarsest)
+  FitPoint start = coarsest[0];
+  while (coarsest[0].bytes <= room && hi - lo > 0.125) {
     const double mid = (lo + hi) / 2;
-    RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> p, m_.bytes({ladder(anchor_, mid)}));
-    if (p[0].bytes <= budget) {
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.bytes({ladder(anchor_, mid)}));
+    if (p[0].bytes <= room) {
       hi = mid;
-      fit = p[0];
+      start = p[0];
     } else {
       lo = mid;
     }
   }
-  RGS_ASSIGN_OR_RETURN(std::vector<FitPoint> start, m_.measure({fit.options}));
-  report_step("ladder", start[0]);
-  // The search over targets, in log2 of the bytes, from every PSNR search run so far (probes_, kept across
-  // budgets): `below` is the highest target whose search ended within the budget, `above` the lowest above it
-  // whose search ended over it or failed (bytes +inf). Between the two, the next target is interpolated where
-  // the bytes would meet the budget (kept off either end by a tenth of the bracket); above every search that
-  // fits, extrapolated along the slope of the two highest (kDbPerDoubling until there are two), by at least a
-  // step that doubles from 1 dB (on a flat stretch of the curve, a few per cent of bytes are several dB).
-  const double log_budget = std::log2(double(budget));
-  std::optional<Probe> below, above, below_before;
-  for (const Probe& p : probes_) {
-    if (p.bytes <= double(budget)) {
-      if (!below || p.target > below->target) below_before = below, below = p;
-    }
-  }
-  for (const Probe& p : probes_) {
-    if (p.bytes > double(budget) && (!below || p.target > below->target) && (!above || p.target < above->target)) {
-      above = p;
-    }
-  }
-  if (!below) below = Probe{start[0].psnr_mean_db, double(start[0].bytes), start[0].psnr_mean_db};
-  std::vector<FitPoint> previous;
-  double min_step = 1;
-  for (int search = 0; search < kMaxBytesSearches; ++search) {
-    double target = 0;
-    if (above) {
-      const double width = above->target - below->target;
-      if (width < kBytesTargetResolutionDb) break;
-      target = below->target + width / 2;
-      if (std::isfinite(above->bytes) && above->bytes > below->bytes) {
-        target = below->target + width * (log_budget - std::log2(below->bytes)) /
-                                     (std::log2(above->bytes) - std::log2(below->bytes));
-      }
-      target = std::clamp(target, below->target + width / 10, above->target - width / 10);
-    } else {
-      double slope = kDbPerDoubling;
-      if (below_before && below->bytes > below_before->bytes && below->psnr > below_before->psnr) {
-        slope = (below->psnr - below_before->psnr) / std::log2(below->bytes / below_before->bytes);
-      }
-      target = std::max(below->psnr, below->target) +
-               std::max(slope * (log_budget - std::log2(below->bytes)), min_step);
-      min_step *= 2;
-    }
-    Result<std::vector<FitPoint>> searched = for_psnr(target, previous);
-    Probe probe{target, std::numeric_limits<double>::infinity(), kNaN};  // failed: above what the finest reaches
-    if (!searched.ok()) {
-      if (searched.status().code() != StatusCode::kInvalidArgument) return std::move(searched).status();
-    } else {
-      previous = std::move(searched).value();
-      probe.bytes = double(previous.back().bytes);
-      probe.psnr = previous.back().psnr_mean_db;
-    }
-    probes_.push_back(probe);
-    if (probe.bytes <= double(budget)) {
-      below_before = below;
-      below = probe;
-    } else {
-      above = probe;
-    }
-    report_progress("searching", m_.best_within());
-  }
-  RGS_RETURN_IF_ERROR(fill_for_bytes(budget));
-  report_step("filled", m_.best_within());
-  return *m_.best_within();
+  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> measured, m_.measure({start.options}));
+  return measured[0];
 }
 
-Status Search::fill_for_bytes(uint64_t budget) {
-  std::vector<bool> frozen(knobs_.size(), false);
-  for (int round = 0; round < kMaxRounds; ++round) {
-    const FitPoint at = *m_.best_within();
-    std::vector<format::ArchiveOptions> list;
-    std::vector<size_t> knob_of;
-    next_steps(knobs_, at.options, false, &frozen, &list, &knob_of);
-    if (list.empty()) break;
-    // Bytes first: only the steps that fit are rendered.
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> sizes, m_.bytes(list));
-    std::vector<format::ArchiveOptions> fitting;
-    std::vector<size_t> fitting_knob;
-    for (size_t i = 0; i < sizes.size(); ++i) {
-      if (sizes[i].bytes <= budget) {
-        fitting.push_back(list[i]);
-        fitting_knob.push_back(knob_of[i]);
-      } else {
-        frozen[knob_of[i]] = true;
-      }
+Status Search::descend_for_bytes(uint64_t budget, FitPoint at) {
+  const std::vector<Knob>& knobs = byte_knobs_;
+  // Each knob's coarser step: its bytes saved per squared error added where it was last measured (+inf before it
+  // is, -inf when it saves nothing), and its archive while `at` is where it was measured (fresh).
+  std::vector<double> ratio(knobs.size(), kInf);
+  std::vector<std::optional<FitPoint>> fresh(knobs.size());
+  for (int measured = 0; at.bytes > budget && measured < kMaxDescentMeasures;) {
+    const size_t best = size_t(std::max_element(ratio.begin(), ratio.end()) - ratio.begin());
+    if (!(ratio[best] > -kInf)) break;  // no knob has a coarser step that saves bytes
+    std::optional<size_t> best_fresh;
+    for (size_t k = 0; k < knobs.size(); ++k) {
+      if (fresh[k] && (!best_fresh || ratio[k] > ratio[*best_fresh])) best_fresh = k;
     }
-    if (fitting.empty()) break;
-    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(fitting));
-    for (size_t i = 0; i < points.size(); ++i) {
-      if (!(points[i].psnr_mean_db > at.psnr_mean_db)) frozen[fitting_knob[i]] = true;  // no better for its bytes
+    if (best_fresh && ratio[*best_fresh] >= kDescentTolerance * ratio[best]) {
+      at = *fresh[*best_fresh];
+      for (auto& f : fresh) f.reset();
+      report_progress("descending", at);
+      continue;
     }
-    if (!(m_.best_within()->psnr_mean_db > at.psnr_mean_db)) break;
-    report_progress("refining", m_.best_within());
+    ++measured;
+    const std::optional<format::ArchiveOptions> o = step(at.options, knobs[best], true);
+    if (!o) {
+      ratio[best] = -kInf;
+      continue;
+    }
+    RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> p, m_.measure({*o}));
+    const double added = std::max(mse_of(p[0].psnr_mean_db) - mse_of(at.psnr_mean_db), 1e-30);
+    ratio[best] = p[0].bytes < at.bytes ? double(at.bytes - p[0].bytes) / added : -kInf;
+    fresh[best] = p[0];
   }
   return Status();
 }
 
-void Search::next_steps(const std::vector<Knob>& knobs, const format::ArchiveOptions& at, bool coarser,
-                        std::vector<bool>* frozen, std::vector<format::ArchiveOptions>* list,
-                        std::vector<size_t>* knob_of) {
+Result<bool> Search::trade_for_bytes(uint64_t budget, bool measure_all) {
+  const FitPoint at = *m_.best_within();
+  const double mse_at = mse_of(at.psnr_mean_db);
+  const std::vector<Knob>& knobs = byte_knobs_;
+  // The steps of a knob that moved since they were measured (all, with measure_all) are measured here, both ways;
+  // the others' are kept from where they were measured (steps of different knobs roughly add).
+  std::vector<format::ArchiveOptions> list;
+  for (size_t k = 0; k < knobs.size(); ++k) {
+    const double value = knob_value(at.options, knobs[k]);
+    const auto of_knob = [&](const TradeStep& t) { return t.knob == k; };
+    const bool kept = !measure_all && std::any_of(trade_steps_.begin(), trade_steps_.end(), [&](const TradeStep& t) {
+      return of_knob(t) && t.from == value;
+    });
+    if (kept) continue;
+    trade_steps_.erase(std::remove_if(trade_steps_.begin(), trade_steps_.end(), of_knob), trade_steps_.end());
+    for (bool coarser : {true, false}) {
+      if (auto o = step(at.options, knobs[k], coarser)) {
+        list.push_back(*o);
+        trade_steps_.push_back({k, coarser, value, 0, 0});
+      }
+    }
+  }
+  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> points, m_.measure(list));
+  const size_t first = trade_steps_.size() - points.size();  // the steps measured here, last
+  for (size_t i = 0; i < points.size(); ++i) {
+    trade_steps_[first + i].added_mse = mse_of(points[i].psnr_mean_db) - mse_at;
+    trade_steps_[first + i].added_bytes = double(points[i].bytes) - double(at.bytes);
+  }
+  // Of the combinations of at most one step a knob, the kTradeCombinations predicted lowest in error among those
+  // predicted within the budget (steps measured alone here are measured already).
+  std::vector<std::vector<const TradeStep*>> by_knob(knobs.size());
+  for (const TradeStep& t : trade_steps_) {
+    if (step(at.options, knobs[t.knob], t.coarser)) by_knob[t.knob].push_back(&t);
+  }
+  struct Combination {
+    double mse, bytes;
+    std::vector<const TradeStep*> steps;
+  };
+  std::vector<Combination> best;
+  Combination now{mse_at, double(at.bytes), {}};
+  const size_t fewest = first == 0 ? 2 : 1;
+  const auto enumerate = [&](const auto& self, size_t k) -> void {
+    if (k == knobs.size()) {
+      if (now.steps.size() < fewest || now.bytes > double(budget) || !(now.mse < mse_at)) return;
+      best.push_back(now);
+      std::stable_sort(best.begin(), best.end(), [](const auto& a, const auto& b) { return a.mse < b.mse; });
+      if (best.size() > kTradeCombinations) best.pop_back();
+      return;
+    }
+    self(self, k + 1);
+    for (const TradeStep* t : by_knob[k]) {
+      now.mse += t->added_mse, now.bytes += t->added_bytes;
+      now.steps.push_back(t);
+      self(self, k + 1);
+      now.mse -= t->added_mse, now.bytes -= t->added_bytes;
+      now.steps.pop_back();
+    }
+  };
+  enumerate(enumerate, 0);
+  list.clear();
+  for (const Combination& c : best) {
+    format::ArchiveOptions o = at.options;
+    for (const TradeStep* t : c.steps) o = *step(o, knobs[t->knob], t->coarser);
+    list.push_back(o);
+  }
+  // Bytes first: only the combinations that fit are rendered.
+  RGS_ASSIGN_OR_RETURN(const std::vector<FitPoint> sizes, m_.bytes(list));
+  std::vector<format::ArchiveOptions> fitting;
+  for (const FitPoint& p : sizes) {
+    if (p.bytes <= budget) fitting.push_back(p.options);
+  }
+  RGS_RETURN_IF_ERROR(m_.measure(fitting).status());
+  return m_.best_within()->psnr_mean_db > at.psnr_mean_db;
+}
+
+void Search::next_steps(const std::vector<Knob>& knobs, const format::ArchiveOptions& at, std::vector<bool>* frozen,
+                        std::vector<format::ArchiveOptions>* list, std::vector<size_t>* knob_of) {
   for (size_t k = 0; k < knobs.size(); ++k) {
     if ((*frozen)[k]) continue;
-    if (auto o = step(at, knobs[k], coarser)) {
+    if (auto o = step(at, knobs[k], true)) {
       list->push_back(*o);
       knob_of->push_back(k);
     } else {

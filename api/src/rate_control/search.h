@@ -1,5 +1,6 @@
 // Rate control's search (private to rgs_api): from the ladder's point, rounds of one-knob steps for a PSNR
-// target at the search size (for_psnr), and the search over PSNR targets for a byte budget (for_bytes).
+// target at the search size (for_psnr), and a greedy descent with trades between knobs for a byte budget
+// (for_bytes).
 #pragma once
 
 #include <optional>
@@ -16,9 +17,9 @@ namespace rgs::api::detail {
 /// Progress steps (FitProgress) of one PSNR search (Search::for_psnr): its ladder (or the earlier path it starts
 /// from), refining, scanning, exchanging and filling.
 inline constexpr uint32_t kPsnrSearchSteps = 5;
-/// Progress steps of a byte search at one budget (Search::for_bytes): its ladder, at most kMaxBytesSearches PSNR
-/// searches, and filling.
-inline constexpr uint32_t kBytesSearchSteps = 1 + kMaxBytesSearches * kPsnrSearchSteps + 1;
+/// Progress steps of a byte search at one budget (Search::for_bytes): its ladder and at most kMaxRounds rounds of
+/// trades.
+inline constexpr uint32_t kBytesSearchSteps = 1 + kMaxRounds;
 
 class Search {
  public:
@@ -27,10 +28,10 @@ class Search {
         options_(options),
         knobs_(knobs_for(sh_degree)),
         anchor_(std::move(anchor)),
-        sh_degree_(sh_degree) {}
-
-  /// A search of its own (no history) on the same measurer, options and anchor.
-  Search fresh() const { return Search(m_, options_, sh_degree_, anchor_); }
+        sh_degree_(sh_degree) {
+    byte_knobs_ = knobs_;
+    byte_knobs_.insert(byte_knobs_.end(), kCodeSteps.begin(), kCodeSteps.end());
+  }
 
   /// Reports `what` to FitOptions::progress, with `steps` more steps done.
   void report(const std::string& what, uint32_t steps = 0);
@@ -77,27 +78,59 @@ class Search {
   Status fill_for_psnr(double target, std::vector<FitPoint>* path);
 
   /// A byte budget at the search size: the archive of the highest mean PSNR within `budget` among every archive
-  /// the search measured (Measurer::watch_budget). The searches are PSNR searches (for_psnr), over the same
-  /// knobs and with the same rounds, scans, exchanges and code steps, so that no PSNR search finds a file of at
-  /// most these bytes that reads higher on these views: from the ladder's point that fits the budget, a search
-  /// over PSNR targets (secant steps in log bytes, bracketed) for the highest target whose search ends within it
-  /// (at most kMaxBytesSearches searches, to kBytesTargetResolutionDb; the searches of earlier budgets count). Then the finer steps of one knob at a time that still fit spend
-  /// what the budget leaves, the step with the most dB gained per byte added each round.
-  Result<FitPoint> for_bytes(uint64_t budget);
+  /// the search measured (Measurer::watch_budget). From the best one within it measured before, else from the
+  /// descent (descend), rounds of trades (trade_for_bytes) while a trade reads higher, at most kMaxRounds; a round
+  /// trades first on the steps as last measured, then (with `measure_all`) on every step measured again there.
+  Result<FitPoint> for_bytes(uint64_t budget, bool measure_all);
+
+  /// A byte budget's descent, when no archive within `budget` was measured before: from the ladder's point of
+  /// kDescentRoom times the budget (ladder_for_bytes), the knobs' coarser steps one at a time, the one with the
+  /// most bytes saved per squared error added first (descend_for_bytes), until the archive fits. Returns the best
+  /// archive within the budget measured.
+  Result<FitPoint> descend(uint64_t budget);
 
   const std::optional<FitPoint>& finest() const { return finest_; }
   uint32_t sh_degree() const { return sh_degree_; }
+  const format::ArchiveOptions& anchor() const { return anchor_; }
 
  private:
-  /// A byte budget's last stage, from the best archive within `budget` measured so far: each round, of the finer
-  /// steps of one knob that still fit, the one with the most dB gained per byte added (at most kMaxRounds).
-  Status fill_for_bytes(uint64_t budget);
+  /// The smallest archive the search makes: the ladder's coarsest with the coarsest opacity floor and code steps
+  /// (knobs the ladder leaves alone, which the descent and the trades move).
+  format::ArchiveOptions smallest_archive() const;
 
-  /// One step of every knob of `knobs` not yet frozen, coarser or finer, into `list` with its index in `knobs`
-  /// in `knob_of`; a knob that has no such step left is frozen.
-  static void next_steps(const std::vector<Knob>& knobs, const format::ArchiveOptions& at, bool coarser,
-                         std::vector<bool>* frozen, std::vector<format::ArchiveOptions>* list,
-                         std::vector<size_t>* knob_of);
+  /// A byte budget's start: the finest ladder point whose archive fits kDescentRoom times `budget`, bisected by
+  /// bytes alone to an eighth of a bit (the ladder's coarsest when none does), then rendered. kInvalidArgument
+  /// when even the smallest archive does not fit the budget.
+  Result<FitPoint> ladder_for_bytes(uint64_t budget);
+
+  /// A byte budget's descent from `at`: a lazy greedy path along the rate-distortion curve. Each knob's coarser
+  /// step is rated by its bytes saved per squared error added where it was last measured; the best fresh step
+  /// (measured at `at`) is taken while it rates at least kDescentTolerance of the best rating, else the best step
+  /// is measured again at `at`. Errors of different knobs roughly add, so a step measured before still rates
+  /// nearly as it did. Ends when the archive fits `budget`, or after kMaxDescentMeasures measurements.
+  Status descend_for_bytes(uint64_t budget, FitPoint at);
+
+  /// A byte budget's trade, from the best archive within `budget` measured so far: every knob (byte_knobs_) one
+  /// step coarser and one step finer, measured there when the knob moved since it was last measured (every knob
+  /// with `measure_all`), kept otherwise. Bytes and squared errors of steps of different knobs roughly add, so of
+  /// the combinations of at most one step a knob, the kTradeCombinations predicted lowest in error among those
+  /// predicted within the budget are measured (bytes first, those that fit rendered): steps coarser pay for steps
+  /// finer where they cost less error per byte, so the budget goes where it buys the most. Returns whether the
+  /// best archive within the budget now reads higher.
+  Result<bool> trade_for_bytes(uint64_t budget, bool measure_all);
+
+  /// A trade's step: a knob (its index in byte_knobs_) one step coarser or finer, the knob's value it steps from
+  /// (knob_value), and the squared error and bytes it added where it was measured.
+  struct TradeStep {
+    size_t knob;
+    bool coarser;
+    double from, added_mse, added_bytes;
+  };
+
+  /// One step coarser of every knob of `knobs` not yet frozen, into `list` with its index in `knobs` in `knob_of`;
+  /// a knob that has no such step left is frozen.
+  static void next_steps(const std::vector<Knob>& knobs, const format::ArchiveOptions& at, std::vector<bool>* frozen,
+                         std::vector<format::ArchiveOptions>* list, std::vector<size_t>* knob_of);
 
   /// A coarser step measured at `points[index]`: the squared error it adds and its bytes saved per unit of it.
   struct Move {
@@ -118,16 +151,11 @@ class Search {
   /// A stage of a search done: one progress step.
   void report_step(const char* stage, const std::optional<FitPoint>& best) { report_progress(stage, best, 1); }
 
-  /// A PSNR search of the bytes search: its target, and its choice's bytes (+inf when the target is above the
-  /// finest archive) and PSNR.
-  struct Probe {
-    double target, bytes, psnr;
-  };
-
   Measurer& m_;
   const FitOptions& options_;
-  std::vector<Probe> probes_;  ///< every PSNR search for_bytes ran, whatever its budget
   std::vector<Knob> knobs_;
+  std::vector<Knob> byte_knobs_;        ///< the knobs a byte budget moves: knobs_, then the code steps
+  std::vector<TradeStep> trade_steps_;  ///< the trades' steps, as last measured
   format::ArchiveOptions anchor_;
   uint32_t sh_degree_;
   std::optional<FitPoint> finest_;
