@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <new>
 #include <string>
 #include <vector>
 
@@ -75,14 +74,12 @@ Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& re
                       std::to_string(reference.sh_degree) + " with " + std::to_string(test.size()) +
                       " at SH degree " + std::to_string(test.sh_degree));
   }
-  try {
+  return catch_bad_alloc([&] {
     return accumulate_chunks(test.size(), [&](uint64_t first, uint64_t count, Accumulators* acc) {
       accumulate(reference, first, test, first, count, acc);
       return Status();
     });
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory measuring attribute errors");
-  }
+  }, [] { return "out of memory measuring attribute errors"; });
 }
 
 Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCloud& reference,
@@ -98,7 +95,7 @@ Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCl
                       " indices");
   }
   constexpr uint64_t kUnpaired = std::numeric_limits<uint64_t>::max();
-  try {
+  return catch_bad_alloc([&]() -> Result<AttributeErrors> {
     std::vector<uint64_t> test_of_reference(reference.size(), kUnpaired);
     for (uint64_t j = 0; j < test.size(); ++j) {
       const uint64_t i = reference_of_test[j];
@@ -116,9 +113,7 @@ Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCl
       }
       return Status();
     });
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory measuring paired attribute errors");
-  }
+  }, [] { return "out of memory measuring paired attribute errors"; });
 }
 
 Result<AttributeErrors> measure_quantization_errors(const format::GaussianCloud& reference,
@@ -130,20 +125,16 @@ Result<AttributeErrors> measure_quantization_errors(const format::GaussianCloud&
                       std::to_string(reference.sh_degree) + " with an encoded scene of " +
                       std::to_string(encoded.count) + " at SH degree " + std::to_string(encoded.metadata.sh_degree));
   }
-  try {
+  return catch_bad_alloc([&] {
     return accumulate_chunks(encoded.count, [&](uint64_t first, uint64_t count, Accumulators* acc) {
-      try {
+      return catch_bad_alloc([&]() -> Status {
         format::GaussianCloud chunk;  // one chunk per call: a worker holds at most one at a time
         RGS_RETURN_IF_ERROR(format::dequantize_range(encoded, first, count, &chunk));
         accumulate(reference, first, chunk, 0, count, acc);
         return Status();
-      } catch (const std::bad_alloc&) {
-        return Status(StatusCode::kOutOfMemory, "out of memory dequantizing a chunk for error measurement");
-      }
+      }, [] { return "out of memory dequantizing a chunk for error measurement"; });
     });
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory measuring quantization errors");
-  }
+  }, [] { return "out of memory measuring quantization errors"; });
 }
 
 }  // namespace rgs::converter
