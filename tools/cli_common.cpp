@@ -350,16 +350,14 @@ Result<bool> append_standard_input(std::vector<uint8_t>* bytes, uint64_t n) {
     if (errno == EINTR) return true;
     return Status(StatusCode::kIoError, std::string("-: cannot read standard input: ") + std::strerror(errno));
   }
-  try {
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&] {
     // Grow by an eighth, not the vector's doubling: what is held stays close to the bytes received, however
     // many the stream's header declares.
     const size_t need = bytes->size() + static_cast<size_t>(got);
     if (need > bytes->capacity()) bytes->reserve(std::max(need, bytes->size() + bytes->size() / 8 + (size_t{1} << 20)));
     bytes->insert(bytes->end(), buffer, buffer + got);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  "-: out of memory after " + std::to_string(bytes->size()) + " bytes of standard input");
-  }
+    return Status();
+  }, [&] { return "-: out of memory after " + std::to_string(bytes->size()) + " bytes of standard input"; }));
   return got > 0;
 }
 

@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <new>
 #include <string>
 #include <vector>
 
@@ -63,6 +62,16 @@ Result<AttributeErrors> accumulate_chunks(uint64_t n, ChunkFn&& chunk_fn) {
   return total.result();
 }
 
+/// kInvalidArgument "cannot compare N Gaussians at SH degree D with <what>M at SH degree E<tail>": the clouds'
+/// sizes or degrees disagree.
+Status cannot_compare(const format::GaussianCloud& reference, const std::string& what, uint64_t n, uint32_t degree,
+                      const std::string& tail = "") {
+  return Status(StatusCode::kInvalidArgument, "cannot compare " + std::to_string(reference.size()) +
+                                                  " Gaussians at SH degree " + std::to_string(reference.sh_degree) +
+                                                  " with " + what + std::to_string(n) + " at SH degree " +
+                                                  std::to_string(degree) + tail);
+}
+
 }  // namespace
 
 Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& reference,
@@ -70,19 +79,14 @@ Result<AttributeErrors> measure_attribute_errors(const format::GaussianCloud& re
   RGS_RETURN_IF_ERROR(detail::check_consistent(reference, "reference cloud"));
   RGS_RETURN_IF_ERROR(detail::check_consistent(test, "test cloud"));
   if (reference.size() != test.size() || reference.sh_degree != test.sh_degree) {
-    return Status(StatusCode::kInvalidArgument,
-                  "cannot compare " + std::to_string(reference.size()) + " Gaussians at SH degree " +
-                      std::to_string(reference.sh_degree) + " with " + std::to_string(test.size()) +
-                      " at SH degree " + std::to_string(test.sh_degree));
+    return cannot_compare(reference, "", test.size(), test.sh_degree);
   }
-  try {
+  return catch_bad_alloc([&] {
     return accumulate_chunks(test.size(), [&](uint64_t first, uint64_t count, Accumulators* acc) {
       accumulate(reference, first, test, first, count, acc);
       return Status();
     });
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory measuring attribute errors");
-  }
+  }, [] { return "out of memory measuring attribute errors"; });
 }
 
 Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCloud& reference,
@@ -91,14 +95,11 @@ Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCl
   RGS_RETURN_IF_ERROR(detail::check_consistent(reference, "reference cloud"));
   RGS_RETURN_IF_ERROR(detail::check_consistent(test, "test cloud"));
   if (reference.sh_degree != test.sh_degree || reference_of_test.size() != test.size()) {
-    return Status(StatusCode::kInvalidArgument,
-                  "cannot compare " + std::to_string(reference.size()) + " Gaussians at SH degree " +
-                      std::to_string(reference.sh_degree) + " with " + std::to_string(test.size()) + " at SH degree " +
-                      std::to_string(test.sh_degree) + " paired by " + std::to_string(reference_of_test.size()) +
-                      " indices");
+    return cannot_compare(reference, "", test.size(), test.sh_degree,
+                          " paired by " + std::to_string(reference_of_test.size()) + " indices");
   }
   constexpr uint64_t kUnpaired = std::numeric_limits<uint64_t>::max();
-  try {
+  return catch_bad_alloc([&]() -> Result<AttributeErrors> {
     std::vector<uint64_t> test_of_reference(reference.size(), kUnpaired);
     for (uint64_t j = 0; j < test.size(); ++j) {
       const uint64_t i = reference_of_test[j];
@@ -116,34 +117,25 @@ Result<AttributeErrors> measure_paired_attribute_errors(const format::GaussianCl
       }
       return Status();
     });
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory measuring paired attribute errors");
-  }
+  }, [] { return "out of memory measuring paired attribute errors"; });
 }
 
 Result<AttributeErrors> measure_quantization_errors(const format::GaussianCloud& reference,
                                                     const format::EncodedScene& encoded) {
   RGS_RETURN_IF_ERROR(detail::check_consistent(reference, "reference cloud"));
   if (reference.size() != encoded.count || reference.sh_degree != encoded.metadata.sh_degree) {
-    return Status(StatusCode::kInvalidArgument,
-                  "cannot compare " + std::to_string(reference.size()) + " Gaussians at SH degree " +
-                      std::to_string(reference.sh_degree) + " with an encoded scene of " +
-                      std::to_string(encoded.count) + " at SH degree " + std::to_string(encoded.metadata.sh_degree));
+    return cannot_compare(reference, "an encoded scene of ", encoded.count, encoded.metadata.sh_degree);
   }
-  try {
+  return catch_bad_alloc([&] {
     return accumulate_chunks(encoded.count, [&](uint64_t first, uint64_t count, Accumulators* acc) {
-      try {
+      return catch_bad_alloc([&]() -> Status {
         format::GaussianCloud chunk;  // one chunk per call: a worker holds at most one at a time
         RGS_RETURN_IF_ERROR(format::dequantize_range(encoded, first, count, &chunk));
         accumulate(reference, first, chunk, 0, count, acc);
         return Status();
-      } catch (const std::bad_alloc&) {
-        return Status(StatusCode::kOutOfMemory, "out of memory dequantizing a chunk for error measurement");
-      }
+      }, [] { return "out of memory dequantizing a chunk for error measurement"; });
     });
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory measuring quantization errors");
-  }
+  }, [] { return "out of memory measuring quantization errors"; });
 }
 
 }  // namespace rgs::converter

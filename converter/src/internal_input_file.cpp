@@ -9,7 +9,6 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
-#include <new>
 
 #include "rgs/format/reader.h"
 
@@ -77,13 +76,10 @@ namespace {
 
 /// Reads n bytes of `fd` from its start into `out`, allocated once the size is known; closes `fd`.
 Status read_and_close(int fd, const std::string& path, uint64_t n, std::vector<uint8_t>* out) {
-  Status s;
-  try {
+  const Status s = catch_bad_alloc([&] {
     out->resize(static_cast<size_t>(n));
-    s = read_exact(fd, path, out->data(), out->size());
-  } catch (const std::bad_alloc&) {
-    s = Status(StatusCode::kOutOfMemory, path + ": cannot allocate " + std::to_string(n) + " bytes");
-  }
+    return read_exact(fd, path, out->data(), out->size());
+  }, [&] { return path + ": cannot allocate " + std::to_string(n) + " bytes"; });
   ::close(fd);
   return s;
 }

@@ -140,6 +140,15 @@ uint64_t combine_hashes(const std::vector<uint64_t>& hashes);
 
 inline std::string prefix(const std::string& name) { return name.empty() ? std::string() : name + ": "; }
 
+/// kLimitExceeded "<head><count> <unit>, above the limit of <limit><tail>" when count > limit, else ok: the
+/// readers' one form of a refused size ("SPZ declares 5 Gaussians, above the limit of 4").
+inline Status check_limit(const std::string& head, uint64_t count, const char* unit, uint64_t limit,
+                          const char* tail = "") {
+  if (count <= limit) return Status();
+  return Status(StatusCode::kLimitExceeded, head + std::to_string(count) + " " + unit + ", above the limit of " +
+                                                std::to_string(limit) + tail);
+}
+
 /// Runs `fn` (returning Result<T>), prefixing errors with `name` and turning allocation failures and
 /// stray exceptions into statuses (libraries never throw across their API).
 template <typename T, typename Fn>

@@ -47,10 +47,7 @@ Status decode_webp_rgba(const uint8_t* data, size_t size, uint64_t max_pixels, c
   const size_t riff_bytes = static_cast<size_t>(uint64_t{format::load_u32_le(data + 4)} + 8);
   const uint64_t pixels = uint64_t{width} * height;
   const std::string dims = std::to_string(width) + " x " + std::to_string(height);
-  if (pixels > max_pixels) {
-    return Status(StatusCode::kLimitExceeded, name + ": WebP image is " + dims + " = " + std::to_string(pixels) +
-                                                  " pixels, above the limit of " + std::to_string(max_pixels));
-  }
+  RGS_RETURN_IF_ERROR(check_limit(name + ": WebP image is " + dims + " = ", pixels, "pixels", max_pixels));
   out->width = width;
   out->height = height;
   const uint64_t bytes = pixels * 4;

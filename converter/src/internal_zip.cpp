@@ -113,10 +113,7 @@ Status ZipArchive::extract(const ZipEntry& entry, uint64_t max_bytes, std::vecto
     return Status(StatusCode::kUnsupportedFeature, where + " uses compression method " + std::to_string(entry.method) +
                                                        " (supported: 0 stored, 8 deflate)");
   }
-  if (entry.uncompressed_size > max_bytes) {
-    return Status(StatusCode::kLimitExceeded, where + " is " + std::to_string(entry.uncompressed_size) +
-                                                  " bytes, above the limit of " + std::to_string(max_bytes));
-  }
+  RGS_RETURN_IF_ERROR(check_limit(where + " is ", entry.uncompressed_size, "bytes", max_bytes));
   // A stored entry is its bytes, and deflate expands at most 1032:1 (RFC 1951: a 258-byte match costs at
   // least 2 bits); neither holds more bytes than the archive.
   if (entry.compressed_size > size_ || (entry.method == ZIP_CM_STORE && entry.compressed_size != entry.uncompressed_size) ||

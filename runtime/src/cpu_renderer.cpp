@@ -524,15 +524,13 @@ Status bin_and_sort(const std::vector<ProjectedGaussian>& gaussians, const Frame
 
   TileBins& bins = s.bins;
   const uint64_t num_tiles = uint64_t(frame.tiles_x) * uint64_t(frame.tiles_y);
-  try {
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&] {
     s.pairs.resize(pairs);
     bins.keys.resize(pairs);
     bins.values.resize(pairs);
     bins.tile_begin.assign(num_tiles + 1, 0);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  "render: cannot allocate " + std::to_string(pairs) + " (tile, Gaussian) pairs");
-  }
+    return Status();
+  }, [&] { return "render: cannot allocate " + std::to_string(pairs) + " (tile, Gaussian) pairs"; }));
 
   // Duplicate with keys (3DGS duplicateWithKeys): the t-th emitted Gaussian writes (key, t) to
   // [offsets[t], offsets[t+1]).

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <new>
 #include <string>
 #include <utility>
 #include <vector>
@@ -368,8 +367,8 @@ Result<GaussianPairing> pair_gaussians(const format::GaussianCloud& reference, c
                       StatusCode::kInvalidArgument,
                       "pairing: the largest position distance must be finite and >= 0, not " +
                           std::to_string(options.max_position_distance));
-  GaussianPairing pairing;
-  try {
+  return catch_bad_alloc([&]() -> Result<GaussianPairing> {
+    GaussianPairing pairing;
     if (same_means_in_order(reference, test)) {
       pairing.reference_of_test.resize(test.size());
       for (uint64_t i = 0; i < test.size(); ++i) pairing.reference_of_test[i] = i;
@@ -401,10 +400,8 @@ Result<GaussianPairing> pair_gaussians(const format::GaussianCloud& reference, c
     pairing.reference_of_test.assign(matched.begin(), matched.end());
     pairing.unpaired_reference = reference.size() - test.size();  // every test Gaussian has a distinct partner
     return pairing;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory pairing " + std::to_string(test.size()) +
-                                                " Gaussians with " + std::to_string(reference.size()));
-  }
+  }, [&] { return "out of memory pairing " + std::to_string(test.size()) + " Gaussians with " +
+                  std::to_string(reference.size()); });
 }
 
 }  // namespace rgs::converter

@@ -18,7 +18,6 @@
 #include <xxhash.h>
 
 #include <algorithm>
-#include <new>
 #include <optional>
 #include <string>
 #include <utility>
@@ -183,7 +182,7 @@ Result<BuiltIndex> build_levels(PartitionSource& source, LevelStore& store, cons
 Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOptions& options) {
   using namespace detail;
   RGS_RETURN_IF_ERROR(check_inputs(scene, options));
-  try {
+  return catch_bad_alloc([&]() -> Result<LodScene> {
     // The head: the scene's metadata with the box of its means (parents are clamped into their chunk's box, so
     // it is also the box of every output mean, as compute_bounds() would find it).
     format::EncodedScene head = head_of(scene);
@@ -200,10 +199,7 @@ Result<LodScene> build_lod(const format::EncodedScene& scene, const LodBuildOpti
     result.scene.provenance = std::move(built.head.provenance);
     progress.finish();
     return result;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory,
-                  "build_lod: out of memory building the levels of " + std::to_string(scene.count) + " Gaussians");
-  }
+  }, [&] { return "build_lod: out of memory building the levels of " + std::to_string(scene.count) + " Gaussians"; });
 }
 
 }  // namespace rgs::converter

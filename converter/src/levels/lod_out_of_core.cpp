@@ -469,7 +469,7 @@ Result<bool> EncodedBatches::next_means(std::vector<float>* means) {
 Result<OutOfCoreLevels> build_lod_out_of_core(EncodedBatches& batches, const format::EncodedScene& head,
                                               const OutOfCoreLodOptions& options) {
   RGS_RETURN_IF_ERROR(check_lod_request(head.count, options.lod));
-  try {
+  return catch_bad_alloc([&]() -> Result<OutOfCoreLevels> {
     RecordLayout record;
     record.sh = uint64_t{3} * format::sh_coefficient_count(head.metadata.sh_degree);
     record.residual = options.sh_dc_residual;
@@ -486,10 +486,9 @@ Result<OutOfCoreLevels> build_lod_out_of_core(EncodedBatches& batches, const for
     result.partition_capacity = buckets.capacity();
     RGS_ASSIGN_OR_RETURN(result.levels, store.finish(std::move(built)));
     return result;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "build_lod: out of memory building the levels of " +
-                                                std::to_string(head.count) + " Gaussians out of core");
-  }
+  }, [&] {
+    return "build_lod: out of memory building the levels of " + std::to_string(head.count) + " Gaussians out of core";
+  });
 }
 
 }  // namespace rgs::converter

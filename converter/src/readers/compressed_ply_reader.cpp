@@ -108,10 +108,8 @@ Status locate_elements(const PlyHeader& header, size_t size, const SceneReadOpti
       return Status(StatusCode::kCorruptData, "PLY header line " + std::to_string(element.header_line) + ": second '" +
                                                   element.name + "' element");
     }
-    if (element.name == "vertex" && element.count > options.max_gaussians) {
-      return Status(StatusCode::kLimitExceeded, "PLY declares " + std::to_string(element.count) +
-                                                    " vertices, above the limit of " +
-                                                    std::to_string(options.max_gaussians));
+    if (element.name == "vertex") {
+      RGS_RETURN_IF_ERROR(detail::check_limit("PLY declares ", element.count, "vertices", options.max_gaussians));
     }
     if (stride != 0 && element.count > (size - std::min<uint64_t>(at, size)) / stride) {
       return Status(StatusCode::kIoError, "element '" + element.name + "' needs " + std::to_string(element.count) +

@@ -677,11 +677,7 @@ Result<InteropScene> Reader::read(const std::string& container, uint64_t file_by
                                                          ", primitive 0 has " + std::to_string(parts.front().degree));
     }
     total += d.pos.count;
-    if (total > options_.max_gaussians) {
-      return Status(StatusCode::kLimitExceeded, "glTF declares " + std::to_string(total) +
-                                                    " or more Gaussians, above the limit of " +
-                                                    std::to_string(options_.max_gaussians));
-    }
+    RGS_RETURN_IF_ERROR(detail::check_limit("glTF declares ", total, "or more Gaussians", options_.max_gaussians));
     parts.push_back(std::move(d));
     // Per primitive, so that many nodes drawing one mesh are refused before their parts pile up.
     RGS_RETURN_IF_ERROR(detail::check_decode_budget(accessor_bytes_, input_bytes(file_bytes),

@@ -171,9 +171,7 @@ Status parse_layout(const uint8_t* d, uint64_t size, const InteropReadOptions& o
   RGS_RETURN_ERROR_IF(out->total != declared, StatusCode::kCorruptData,
                       "the header declares " + std::to_string(declared) + " Gaussians, its sections hold " +
                           std::to_string(out->total));
-  RGS_RETURN_ERROR_IF(out->total > options.max_gaussians, StatusCode::kLimitExceeded,
-                      "the file holds " + std::to_string(out->total) + " Gaussians, above the limit of " +
-                          std::to_string(options.max_gaussians));
+  RGS_RETURN_IF_ERROR(detail::check_limit("the file holds ", out->total, "Gaussians", options.max_gaussians));
   const float lo = load_f32_le(d + 36), hi = load_f32_le(d + 40);  // JS `x || default`: 0 and NaN take the default
   out->sh_range[0] = lo != 0 && !std::isnan(lo) ? lo : -kDefaultShHalfRange;
   out->sh_range[1] = hi != 0 && !std::isnan(hi) ? hi : kDefaultShHalfRange;

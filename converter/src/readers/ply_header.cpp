@@ -4,6 +4,7 @@
 #include <string_view>
 #include <unordered_set>
 
+#include "../internal_interop.h"
 #include "internal_ply_header.h"
 #include "rgs/converter/ply_reader.h"
 
@@ -232,10 +233,9 @@ Result<uint64_t> ply_stream_bytes(const uint8_t* data, size_t size, uint64_t max
   constexpr uint64_t kValueBound = 64, kListRowBound = uint64_t{64} << 10;
   uint64_t total = header.data_offset;
   for (const detail::PlyElement& e : header.elements) {
-    if (e.name == "vertex" && e.count > max_gaussians) {
-      return Status(StatusCode::kLimitExceeded, "PLY declares " + std::to_string(e.count) +
-                                                    " vertices, above the limit of " + std::to_string(max_gaussians) +
-                                                    " (refused from its header, before its data is read)");
+    if (e.name == "vertex") {
+      RGS_RETURN_IF_ERROR(detail::check_limit("PLY declares ", e.count, "vertices", max_gaussians,
+                                              " (refused from its header, before its data is read)"));
     }
     uint64_t row = 0;
     for (const detail::PlyProperty& p : e.properties) {

@@ -654,10 +654,7 @@ Result<PlyBody> read_body(ByteSource* source, const PlyReadOptions& options) {
   RGS_RETURN_IF_ERROR(resolve_layout(*vertex, header.storage, &layout));
 
   const uint64_t n = vertex->count;
-  if (n > options.max_gaussians) {
-    return Status(StatusCode::kLimitExceeded, "PLY declares " + std::to_string(n) + " vertices, above the limit of " +
-                                                  std::to_string(options.max_gaussians));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_limit("PLY declares ", n, "vertices", options.max_gaussians));
   const uint64_t remaining = file_size - header.data_offset;
   if (header.storage == PlyStorage::kAscii) {
     // Each value takes at least one character and one separator.

@@ -569,7 +569,7 @@ Result<InputScene> merge_scenes(std::vector<InputScene> scenes) {
   size_t total = 0;
   for (const InputScene& s : scenes) total += s.cloud.size();
   const size_t to = c.sh_coefficients() * 3;
-  try {
+  RGS_RETURN_IF_ERROR(catch_bad_alloc([&]() -> Status {
     // Sized once and each input freed once copied: the peak is the merged scene and the inputs not yet copied
     // (each widened as it is copied, not in place).
     c.means.reserve(total * 3);
@@ -591,9 +591,8 @@ Result<InputScene> merge_scenes(std::vector<InputScene> scenes) {
       }
       s.cloud = format::GaussianCloud();
     }
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "merge_scenes: no memory for the merged scene");
-  }
+    return Status();
+  }, [] { return "merge_scenes: no memory for the merged scene"; }));
   for (InputScene& s : scenes) {
     detail::add_hygiene(s.hygiene, out.declared_vertices, &out.hygiene);
     join_distinct(s.format_id, &out.format_id);

@@ -721,10 +721,8 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
     scene.format_id = "sog_bundle";
     if (options.hash_file) scene.file_xxh64 = XXH64(entry.bytes.data(), entry.bytes.size(), 0);
   } else {
-    if (entry.bytes.size() > kMaxMetaBytes) {
-      return Status(StatusCode::kLimitExceeded, entry.path + ": meta file is " + std::to_string(entry.bytes.size()) +
-                                                    " bytes, above the limit of " + std::to_string(kMaxMetaBytes));
-    }
+    RGS_RETURN_IF_ERROR(
+        detail::check_limit(entry.path + ": meta file is ", entry.bytes.size(), "bytes", kMaxMetaBytes));
     meta_bytes = std::move(entry.bytes);
     files = std::make_unique<FolderFiles>(entry.folder.get(), "", entry.path);
     scene.format_id = "sog";
@@ -737,9 +735,8 @@ Result<InputScene> read_sog_impl(const std::string& path, const SceneReadOptions
   job.files = files.get();
   job.hash = options.hash_file && !bundled;
   RGS_RETURN_IF_ERROR(parse_sog_meta(meta_bytes, meta_name, "SOG meta.json", &job.meta));
-  RGS_RETURN_ERROR_IF(job.meta.count > options.max_gaussians, StatusCode::kLimitExceeded,
-                      meta_name + ": declares " + std::to_string(job.meta.count) + " Gaussians, above the limit of " +
-                          std::to_string(options.max_gaussians));
+  RGS_RETURN_IF_ERROR(
+      detail::check_limit(meta_name + ": declares ", job.meta.count, "Gaussians", options.max_gaussians));
   RGS_RETURN_IF_ERROR(resolve_earlier_bands(&job.meta, *files));
   job.ranges.push_back(Range{0, job.meta.count, 0});
   RGS_RETURN_IF_ERROR(decode_scene(jobs, bundled ? nullptr : entry.folder.get(), scene.file_bytes, options, meta_name,

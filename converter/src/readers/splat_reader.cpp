@@ -25,11 +25,7 @@ Result<InteropScene> read_records(const uint8_t* data, size_t size, const Intero
                                                 " left over: truncated, or not a .splat file)");
   }
   const uint64_t n = size / kSplatRecordBytes;
-  if (n > options.max_gaussians) {
-    return Status(StatusCode::kLimitExceeded, ".splat file holds " + std::to_string(n) +
-                                                  " Gaussians, above the limit of " +
-                                                  std::to_string(options.max_gaussians));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_limit(".splat file holds ", n, "Gaussians", options.max_gaussians));
   InteropScene scene = detail::rdf_interop_scene("splat", size, n, 0, options);
   format::GaussianCloud& cloud = scene.cloud;
   for (uint64_t i = 0; i < n; ++i) {

@@ -75,11 +75,7 @@ Status check_header(const Header& h, const InteropReadOptions& options, StreamSi
     return Status(StatusCode::kCorruptData, "SPZ fractionalBits " + std::to_string(h.fractional_bits) + " > " +
                                                 std::to_string(detail::kSpzMaxFractionalBits));
   }
-  if (h.num_points > options.max_gaussians) {
-    return Status(StatusCode::kLimitExceeded, "SPZ declares " + std::to_string(h.num_points) +
-                                                  " Gaussians, above the limit of " +
-                                                  std::to_string(options.max_gaussians));
-  }
+  RGS_RETURN_IF_ERROR(detail::check_limit("SPZ declares ", h.num_points, "Gaussians", options.max_gaussians));
   const uint64_t n = h.num_points;
   const uint64_t rot = h.version >= kMinSpzVersionForSmallestThree ? 4 : 3;
   const uint64_t per_point[detail::kSpzStreamCount] = {9, 1, 3, 3, rot, detail::spz_sh_bytes(h.sh_degree)};

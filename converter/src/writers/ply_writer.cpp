@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <new>
 #include <string>
 
 #include "../internal_interop.h"
@@ -100,7 +99,7 @@ Status serialize_rows(const format::GaussianCloud& cloud, uint64_t first, uint64
 
 Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, PlyWriteReport* report) {
   RGS_RETURN_IF_ERROR(detail::check_cloud_shape(cloud));
-  try {
+  return catch_bad_alloc([&]() -> Result<std::vector<uint8_t>> {
     const std::string header = header_text(cloud);
     const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
     std::vector<uint8_t> bytes(header.size() + cloud.size() * row_bytes);
@@ -109,10 +108,7 @@ Result<std::vector<uint8_t>> serialize_ply(const format::GaussianCloud& cloud, P
     RGS_RETURN_IF_ERROR(serialize_rows(cloud, 0, cloud.size(), bytes.data() + header.size(), &counts));
     if (report != nullptr) *report = counts;
     return bytes;
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, "out of memory serializing " + std::to_string(cloud.size()) +
-                                                " Gaussians to PLY");
-  }
+  }, [&] { return "out of memory serializing " + std::to_string(cloud.size()) + " Gaussians to PLY"; });
 }
 
 Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud& cloud, PlyWriteReport* report,
@@ -121,11 +117,11 @@ Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud&
   if (!valid.ok()) return std::move(valid.prepend(path));
   uint64_t written = 0;
   PlyWriteReport counts;
-  try {
+  const Status s = catch_bad_alloc([&] {
     const std::string header = header_text(cloud);
     const uint64_t row_bytes = row_floats(cloud.sh_coefficients()) * 4;
     std::vector<uint8_t> chunk(static_cast<size_t>(std::min<uint64_t>(cloud.size(), kRowsPerChunk) * row_bytes));
-    Status s = files.write(path, [&](const format::ChunkSink& sink) -> Status {
+    return files.write(path, [&](const format::ChunkSink& sink) -> Status {
       RGS_RETURN_IF_ERROR(sink(header.data(), header.size()));
       written = header.size();
       for (uint64_t first = 0; first < cloud.size(); first += kRowsPerChunk) {
@@ -137,10 +133,8 @@ Result<uint64_t> write_ply(const std::string& path, const format::GaussianCloud&
       }
       return Status();
     });
-    RGS_RETURN_IF_ERROR(s);
-  } catch (const std::bad_alloc&) {
-    return Status(StatusCode::kOutOfMemory, path + ": out of memory writing the PLY");
-  }
+  }, [&] { return path + ": out of memory writing the PLY"; });
+  RGS_RETURN_IF_ERROR(s);
   if (report != nullptr) *report = counts;
   return written;
 }
