@@ -34,7 +34,8 @@ inline constexpr double kMaxCodeStep = 16;
 inline constexpr double kMaxOpacityFloor = 32.0 / 255;
 /// The fine scan of an SH multiplier tries at most this many integers above it.
 inline constexpr uint32_t kFineMultipliers = 16;
-/// Rounds of one-knob steps after the ladder, and of code steps at the end: bounds on the search's time.
+/// Rounds of one-knob steps after the ladder (and of a byte budget's trades), and of code steps at the end: bounds
+/// on the search's time.
 inline constexpr int kMaxRounds = 10;
 inline constexpr int kMaxFillRounds = 24;
 inline constexpr uint32_t kMinBits = 4, kMaxBits = 16;
@@ -65,7 +66,8 @@ inline constexpr double kMinSlackDb = 0.15;
 inline constexpr size_t kExchangePairs = 4;
 inline constexpr int kMaxExchanges = 4;
 inline constexpr double kExchangeMinSaving = 0.0025;
-/// Searches (each checked at the cameras' own size) before the choice is settled.
+/// Searches before the choice is settled: a PSNR target's, each checked at the cameras' own size; a byte target's,
+/// each on a budget that puts the last choice's file at the target.
 inline constexpr int kMaxAttempts = 3;
 /// A byte target's descent (Search::descend_for_bytes): it starts from the ladder's point of at most this many
 /// times the budget, takes a fresh step rated at least this share of the best rating, and ends after at most

@@ -1,5 +1,5 @@
 // Rate control's search: the ladder, rounds of one-knob steps, scans, exchanges and code steps for a PSNR target,
-// and the search over PSNR targets for a byte budget (search.h).
+// and the descent and trades between knobs for a byte budget (search.h).
 #include <algorithm>
 #include <cmath>
 #include <limits>
